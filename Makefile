@@ -1,0 +1,39 @@
+# Two entry points for a fresh machine with Python 3.11+ (see README):
+#   make validate   install, then run the cross-validation report (`visviva validate`)
+#   make test       install, then lint and run the test suite
+# The environment is .venv, created by uv from the lockfile uv.lock (uv is installed with pip
+# when it is not on PATH).
+
+PYTHON ?= python3
+UV := $(shell command -v uv 2>/dev/null)
+ifeq ($(UV),)
+UV := $(PYTHON) -m uv
+endif
+
+.PHONY: install validate test test-slow lint bench docs clean
+
+.venv/.installed: pyproject.toml uv.lock
+	@command -v uv >/dev/null 2>&1 || $(PYTHON) -m uv --version >/dev/null 2>&1 || $(PYTHON) -m pip install --quiet uv
+	$(UV) sync --frozen --all-extras
+	@touch $@
+
+install: .venv/.installed
+
+validate: install
+	$(UV) run --frozen --no-sync visviva validate
+
+lint: install
+	$(UV) run --frozen --no-sync ruff check src tests validation benchmarks examples
+	$(UV) run --frozen --no-sync lint-imports
+
+test: lint
+	$(UV) run --frozen --no-sync pytest
+
+test-slow: install
+	$(UV) run --frozen --no-sync pytest -m "slow or live"
+
+bench: install
+	$(UV) run --frozen --no-sync python -m benchmarks
+
+clean:
+	rm -rf .venv .pytest_cache .ruff_cache

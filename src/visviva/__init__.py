@@ -1,0 +1,87 @@
+"""visviva: orbital mechanics you can trust.
+
+``import visviva as vv`` gives the public surface below. Submodules load on first use (PEP 562),
+so importing visviva is fast and compiles nothing; the first call of a compiled function compiles
+it once (or loads it from numba's on-disk cache).
+
+The expert layer of compiled kernels on plain float64 arrays is :mod:`visviva.core`.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+#: public name -> module that defines it. One table; ``__all__`` is built from it.
+_PUBLIC = {
+    # bodies and constants
+    "Body": "visviva.bodies",
+    "SUN": "visviva.bodies",
+    "MERCURY": "visviva.bodies",
+    "VENUS": "visviva.bodies",
+    "EARTH": "visviva.bodies",
+    "MOON": "visviva.bodies",
+    "MARS": "visviva.bodies",
+    "JUPITER": "visviva.bodies",
+    "SATURN": "visviva.bodies",
+    "URANUS": "visviva.bodies",
+    "NEPTUNE": "visviva.bodies",
+    "PLUTO": "visviva.bodies",
+    # errors
+    "VisvivaError": "visviva.errors",
+    "InvalidInputError": "visviva.errors",
+    "UnitsError": "visviva.errors",
+    "ShapeError": "visviva.errors",
+    "InvalidStateError": "visviva.errors",
+    "InvalidElementsError": "visviva.errors",
+    "ConvergenceError": "visviva.errors",
+    "DomainError": "visviva.errors",
+    "StepSizeError": "visviva.errors",
+    "Collision": "visviva.errors",
+    "Encounter": "visviva.errors",
+    "Escape": "visviva.errors",
+    # two-body core
+    "StateVectors": "visviva.states",
+    "KeplerianElements": "visviva.elements",
+    "ModifiedEquinoctialElements": "visviva.elements",
+    "solve_kepler": "visviva.anomalies",
+    "solve_kepler_hyperbolic": "visviva.anomalies",
+    "mean_to_true": "visviva.anomalies",
+    "true_to_mean": "visviva.anomalies",
+    # central force
+    "vis_viva": "visviva.central_force",
+    "effective_potential": "visviva.central_force",
+    "orbit_equation": "visviva.central_force",
+    # N-body
+    "Simulation": "visviva.nbody",
+    "solar_system": "visviva.nbody",
+    # satellites
+    "Satellite": "visviva.satellites",
+    "propagate_cowell": "visviva.satellites",
+    "J2": "visviva.satellites",
+    "Zonal": "visviva.satellites",
+    "AtmosphericDrag": "visviva.satellites",
+    "ThirdBody": "visviva.satellites",
+    "SolarRadiationPressure": "visviva.satellites",
+    "lambert": "visviva.satellites",
+}
+
+#: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors"}
+
+__all__ = sorted(_PUBLIC) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f"visviva.{name}")
+    raise AttributeError(f"module 'visviva' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__) | _SUBMODULES)

@@ -1,0 +1,148 @@
+"""The only module that converts units.
+
+Public functions take astropy ``Quantity`` objects; kernels take float64 arrays in the canonical
+units below. Conversion happens here, once per array, never inside a loop.
+
+=============  ==============  =====================================
+kind           canonical unit  notes
+=============  ==============  =====================================
+``length``     km
+``speed``      km / s
+``time``       s
+``angle``      rad             plain numbers are taken as radians
+``gm``         km3 / s2        a :class:`visviva.bodies.Body` gives its ``gm``
+``accel``      km / s2
+``mass``       kg
+``dimensionless``  1           plain numbers or dimensionless Quantities
+=============  ==============  =====================================
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from .errors import InvalidInputError, ShapeError, UnitsError
+
+__all__ = ["CANONICAL", "to_array", "to_vector", "to_quantity", "require_finite", "require_positive"]
+
+CANONICAL: dict[str, u.UnitBase] = {
+    "length": u.km,
+    "speed": u.km / u.s,
+    "time": u.s,
+    "angle": u.rad,
+    "gm": u.km**3 / u.s**2,
+    "accel": u.km / u.s**2,
+    "mass": u.kg,
+    "area_per_mass": u.m**2 / u.kg,
+    "dimensionless": u.dimensionless_unscaled,
+}
+
+_EXAMPLE = {
+    "length": "7000 * u.km",
+    "speed": "7.5 * u.km / u.s",
+    "time": "90 * u.min",
+    "angle": "30 * u.deg (or a plain float in radians)",
+    "gm": "vv.EARTH.gm or 398600.4418 * u.km**3 / u.s**2",
+    "accel": "1e-6 * u.km / u.s**2",
+    "mass": "1000 * u.kg",
+    "area_per_mass": "0.01 * u.m**2 / u.kg",
+    "dimensionless": "0.1",
+}
+
+
+def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: bool = True):
+    """Convert ``value`` to a float64 ndarray in the canonical unit of ``kind``.
+
+    Parameters
+    ----------
+    value : Quantity, Body, float or array_like
+        The input. Plain numbers are accepted for ``angle`` (radians) and ``dimensionless``, and
+        for any kind when ``allow_plain`` is true (then taken to be in the canonical unit already).
+    kind : str
+        One of the keys of :data:`CANONICAL`.
+    name : str
+        The argument's name, quoted in error messages.
+    allow_plain : bool
+        Accept plain numbers as canonical-unit values.
+    finite : bool
+        Reject NaN and infinity (default).
+
+    Returns
+    -------
+    ndarray of float64
+        A new array (never a view of the caller's data).
+
+    Raises
+    ------
+    UnitsError
+        Missing unit where one is required, or a unit of the wrong physical type.
+    InvalidInputError
+        NaN or infinite entries when ``finite`` is true.
+    """
+    unit = CANONICAL[kind]
+    if kind == "gm" and hasattr(value, "gm") and not isinstance(value, u.Quantity):
+        value = value.gm
+    if isinstance(value, u.Quantity):
+        try:
+            arr = value.to_value(unit)
+        except u.UnitConversionError as exc:
+            raise UnitsError(
+                f"{name} has unit '{value.unit}', which cannot be converted to {kind} "
+                f"('{unit}'). Pass e.g. {name}={_EXAMPLE[kind]}."
+            ) from exc
+        arr = np.array(arr, dtype=np.float64, copy=True)
+    else:
+        if not (allow_plain or kind in ("angle", "dimensionless")):
+            raise UnitsError(
+                f"{name} must be an astropy Quantity with a unit of {kind} ('{unit}'), "
+                f"got a plain {type(value).__name__}. Pass e.g. {name}={_EXAMPLE[kind]} "
+                "(with `from astropy import units as u`)."
+            )
+        try:
+            arr = np.array(value, dtype=np.float64, copy=True)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"{name} must be numeric, got {value!r}.") from exc
+    if finite:
+        require_finite(arr, name)
+    return arr
+
+
+def to_vector(value, kind: str, name: str, **kwargs):
+    """Like :func:`to_array`, and check that the last axis holds x, y, z (length 3)."""
+    arr = to_array(value, kind, name, **kwargs)
+    if arr.ndim == 0 or arr.shape[-1] != 3:
+        raise ShapeError(
+            f"{name} must have x, y, z on its last axis, shape (..., 3); got shape {arr.shape}. "
+            "For N vectors pass an (N, 3) array."
+        )
+    return arr
+
+
+def to_quantity(arr, kind: str):
+    """Wrap a canonical-unit float array as a Quantity (no copy)."""
+    return u.Quantity(arr, CANONICAL[kind], copy=False)
+
+
+def require_finite(arr, name: str) -> None:
+    """Raise :class:`InvalidInputError` if ``arr`` holds NaN or infinity."""
+    arr = np.asarray(arr)
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))
+        where = tuple(int(i) for i in bad[0]) if arr.ndim else ()
+        raise InvalidInputError(
+            f"{name} contains NaN or infinite values (first at index {where}, "
+            f"{len(bad) if arr.ndim else 1} in all). Remove or fill them before calling."
+        )
+
+
+def require_positive(arr, name: str, *, strict: bool = True) -> None:
+    """Raise :class:`InvalidInputError` unless every entry is > 0 (``>= 0`` if not strict)."""
+    arr = np.asarray(arr)
+    bad = ~(arr > 0) if strict else ~(arr >= 0)
+    if np.any(bad):
+        relation = "> 0" if strict else ">= 0"
+        raise InvalidInputError(
+            f"{name} must be {relation}; got {arr[bad].ravel()[0]!r}"
+            f"{' (and more)' if np.count_nonzero(bad) > 1 else ''}."
+        )

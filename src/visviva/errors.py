@@ -1,0 +1,211 @@
+"""Typed exceptions and the one table that maps kernel status codes to them.
+
+Kernels signal, wrappers raise: a compiled kernel writes an integer status per item (see
+:mod:`visviva.core.status`); the public wrapper calls :func:`raise_for_status` once on the whole
+status array, which raises the exception listed here for the first failing item, with a message
+that says what went wrong, where, and what to do instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy.units import UnitsError as _AstropyUnitsError
+
+from .core import status as _st
+
+__all__ = [
+    "VisvivaError",
+    "InvalidInputError",
+    "UnitsError",
+    "ShapeError",
+    "InvalidStateError",
+    "InvalidElementsError",
+    "ConvergenceError",
+    "DomainError",
+    "NBodyEvent",
+    "Collision",
+    "Encounter",
+    "Escape",
+    "StepSizeError",
+    "raise_for_status",
+]
+
+
+class VisvivaError(Exception):
+    """Base class of every error visviva raises on purpose."""
+
+
+class InvalidInputError(VisvivaError, ValueError):
+    """An argument has a value that cannot be used (NaN, inf, negative GM, e < 0, ...)."""
+
+
+class UnitsError(InvalidInputError, _AstropyUnitsError):
+    """A value is missing its unit or has a unit of the wrong physical type."""
+
+
+class ShapeError(InvalidInputError):
+    """Arrays have shapes that do not fit (xyz must be on the last axis, length 3)."""
+
+
+class InvalidStateError(InvalidInputError):
+    """A state vector cannot be converted (radial motion, body at the attractor, ...)."""
+
+
+class InvalidElementsError(InvalidInputError):
+    """A set of orbital elements is inconsistent or out of range."""
+
+
+class DomainError(InvalidInputError):
+    """An input lies outside the mathematical domain of the function."""
+
+
+class ConvergenceError(VisvivaError, ArithmeticError):
+    """An iterative solver did not converge to machine precision."""
+
+
+class StepSizeError(ConvergenceError):
+    """An adaptive integrator needed a step smaller than it can take."""
+
+
+class NBodyEvent(VisvivaError):
+    """Base class of the events that halt an N-body integration.
+
+    Attributes
+    ----------
+    t : float
+        Simulation time at which the event was detected.
+    particles : tuple of int
+        Indices of the particles involved.
+    """
+
+    def __init__(self, message: str, t: float = float("nan"), particles: tuple = ()):
+        super().__init__(message)
+        self.t = t
+        self.particles = tuple(particles)
+
+
+class Collision(NBodyEvent):
+    """Two particles touched (their radii overlap) and the collision mode is ``"halt"``."""
+
+
+class Encounter(NBodyEvent):
+    """Two particles came closer than the simulation's encounter distance."""
+
+
+class Escape(NBodyEvent):
+    """A particle went beyond the simulation's escape radius."""
+
+
+#: status code -> (exception class, what happened, what to do). The single table of the project.
+STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {
+    _st.NO_CONVERGENCE: (
+        ConvergenceError,
+        "the iterative solver did not reach machine precision",
+        "report the input values as a bug; they are printed above",
+    ),
+    _st.BAD_ECCENTRICITY: (
+        DomainError,
+        "the eccentricity is outside this solver's domain",
+        "use solve_kepler for 0 <= e < 1, solve_kepler_hyperbolic for e > 1, "
+        "and mean_to_true/true_to_mean for any e >= 0 (including e = 1)",
+    ),
+    _st.RADIAL_ORBIT: (
+        InvalidStateError,
+        "the angular momentum r x v is zero (radial, rectilinear motion), so the orbital plane "
+        "and the angles are undefined",
+        "propagate radial states with StateVectors.propagate, which handles them, or perturb v "
+        "off the radial direction",
+    ),
+    _st.NON_FINITE: (
+        InvalidInputError,
+        "a value is NaN or infinite",
+        "remove or fill the NaN/inf entries before calling",
+    ),
+    _st.ZERO_POSITION: (
+        InvalidStateError,
+        "the position vector has zero length (the body sits on the attractor)",
+        "give a non-zero position",
+    ),
+    _st.BAD_GM: (
+        InvalidInputError,
+        "the gravitational parameter GM is not strictly positive",
+        "pass GM > 0 (e.g. vv.EARTH.gm)",
+    ),
+    _st.BAD_SEMI_LATUS_RECTUM: (
+        InvalidElementsError,
+        "the semi-latus rectum p is not strictly positive",
+        "pass p > 0; a radial orbit (p = 0) has no classical elements",
+    ),
+    _st.UNREACHABLE_ANOMALY: (
+        InvalidElementsError,
+        "the true anomaly lies on or beyond the asymptote of the open orbit "
+        "(|nu| >= arccos(-1/e)), which no body reaches",
+        "choose |nu| < arccos(-1/e) for e >= 1",
+    ),
+    _st.HITS_ATTRACTOR: (
+        InvalidStateError,
+        "the requested time lies beyond the body's collision with the attractor on a radial orbit",
+        "propagate to times before the collision",
+    ),
+    _st.DOMAIN: (
+        DomainError,
+        "an input lies outside the function's domain",
+        "check the documented domain of each argument",
+    ),
+    _st.ENCOUNTER: (Encounter, "a close encounter occurred", "catch vv.Encounter to handle it"),
+    _st.ESCAPE: (Escape, "a particle escaped", "catch vv.Escape to handle it"),
+    _st.COLLISION: (
+        Collision,
+        "two particles collided",
+        "catch vv.Collision, or choose collision='merge' or 'bounce'",
+    ),
+    _st.STEP_TOO_SMALL: (
+        StepSizeError,
+        "the adaptive step size fell below its floor",
+        "check the force for a singularity or a collision, or soften the potential",
+    ),
+}
+
+
+def raise_for_status(status, context: str = "", **inputs) -> None:
+    """Raise the typed exception for the first non-OK entry of a kernel's status array.
+
+    Parameters
+    ----------
+    status : int or array_like of int
+        Status codes from a kernel, one per item (``0`` means OK).
+    context : str
+        What was being computed, e.g. ``"state vectors -> elements"``; starts the message.
+    **inputs : array_like
+        Arrays of the same shape as ``status`` (after broadcasting); the values at the first
+        failing index are quoted in the message so the user can find the bad item.
+
+    Raises
+    ------
+    VisvivaError
+        The subclass given by :data:`STATUS_TABLE` for the first failing status.
+    """
+    status = np.asarray(status)
+    if not status.any():
+        return
+    flat = status.ravel()
+    first = int(np.flatnonzero(flat)[0])
+    code = int(flat[first])
+    index = np.unravel_index(first, status.shape) if status.ndim else ()
+    n_bad = int(np.count_nonzero(flat))
+    exc, what, todo = STATUS_TABLE.get(
+        code, (VisvivaError, f"unknown status code {code}", "report this as a bug")
+    )
+    where = f" at index {tuple(int(i) for i in index)}" if status.ndim else ""
+    quoted = []
+    for name, arr in inputs.items():
+        arr = np.asarray(arr)
+        try:
+            value = np.broadcast_to(arr, status.shape + arr.shape[status.ndim :])[index]
+        except ValueError:
+            continue
+        quoted.append(f"{name}={np.array2string(np.asarray(value), precision=17)}")
+    more = f" ({n_bad} of {flat.size} items failed)" if flat.size > 1 else ""
+    prefix = f"{context}: " if context else ""
+    values = f" [{', '.join(quoted)}]" if quoted else ""
+    raise exc(f"{prefix}{what}{where}{more}{values}. To fix: {todo}.")

@@ -23,7 +23,7 @@ validate: install
 	$(UV) run --frozen --no-sync visviva validate
 
 lint: install
-	$(UV) run --frozen --no-sync ruff check src tests validation benchmarks examples
+	$(UV) run --frozen --no-sync ruff check .
 	$(UV) run --frozen --no-sync lint-imports
 
 test: lint

@@ -1,1 +1,51 @@
-"""(being written)"""
+"""Earth satellites: TLE/OMM through sgp4, frames through astropy, catalogue-scale batches, Dask,
+ground tracks; Cowell propagation with perturbations, events and mission design.
+
+Names load lazily (PEP 562) from the module listed in ``_EXPORTS``, so that importing
+``visviva.satellites`` neither imports sgp4/astropy/dask nor compiles anything, and a module that
+is being edited does not break the others. To add a public name: one line ``"Name": "module"``.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+#: public name -> submodule of visviva.satellites that defines it
+_EXPORTS = {
+    # TLE/OMM, frames, catalogue batches, Dask, ground tracks and plots:
+    "Satellite": "tle",
+    "SatelliteStates": "tle",
+    "TLEFormatError": "tle",
+    "SGP4Error": "tle",
+    "SatelliteDecayedError": "tle",
+    "teme_to_gcrs": "frames",
+    "teme_to_itrs": "frames",
+    "gcrs_to_itrs": "frames",
+    "itrs_to_geodetic": "frames",
+    "Catalog": "catalog",
+    "read_tle_file": "catalog",
+    "propagate_sgp4_batch": "catalog",
+    "propagate_kepler_batch": "catalog",
+    "propagate_j2_batch": "catalog",
+    "propagate_sgp4_dask": "dask_batch",
+    "ground_track": "groundtrack",
+    "plot_ground_track": "plots",
+    "plot_orbit_3d": "plots",
+    "plot_altitude_eclipse": "plots",
+    # Cowell, perturbations, events, mission design:
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        module = importlib.import_module(f"{__name__}.{_EXPORTS[name]}")
+        value = getattr(module, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

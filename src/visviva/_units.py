@@ -3,18 +3,19 @@
 Public functions take astropy ``Quantity`` objects; kernels take float64 arrays in the canonical
 units below. Conversion happens here, once per array, never inside a loop.
 
-=============  ==============  =====================================
-kind           canonical unit  notes
-=============  ==============  =====================================
-``length``     km
-``speed``      km / s
-``time``       s
-``angle``      rad             plain numbers are taken as radians
-``gm``         km3 / s2        a :class:`visviva.bodies.Body` gives its ``gm``
-``accel``      km / s2
-``mass``       kg
-``dimensionless``  1           plain numbers or dimensionless Quantities
-=============  ==============  =====================================
+Kinds and their canonical units:
+
+- ``length``: km
+- ``speed``: km / s
+- ``time``: s
+- ``angle``: rad (plain numbers are taken as radians)
+- ``gm``: km3 / s2 (a :class:`visviva.bodies.Body` gives its ``gm``)
+- ``accel``: km / s2
+- ``mass``: kg
+- ``area_per_mass``: m2 / kg (ballistic and radiation-pressure coefficients)
+- ``spec_angmom``: km2 / s (specific angular momentum)
+- ``spec_energy``: km2 / s2 (specific energy, potential per unit mass)
+- ``dimensionless``: plain numbers or dimensionless Quantities
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ CANONICAL: dict[str, u.UnitBase] = {
     "accel": u.km / u.s**2,
     "mass": u.kg,
     "area_per_mass": u.m**2 / u.kg,
+    "spec_angmom": u.km**2 / u.s,
+    "spec_energy": u.km**2 / u.s**2,
     "dimensionless": u.dimensionless_unscaled,
 }
 
@@ -47,6 +50,8 @@ _EXAMPLE = {
     "accel": "1e-6 * u.km / u.s**2",
     "mass": "1000 * u.kg",
     "area_per_mass": "0.01 * u.m**2 / u.kg",
+    "spec_angmom": "52000 * u.km**2 / u.s",
+    "spec_energy": "-30 * u.km**2 / u.s**2",
     "dimensionless": "0.1",
 }
 

@@ -25,7 +25,15 @@ from astropy import units as u
 
 from .errors import InvalidInputError, ShapeError, UnitsError
 
-__all__ = ["CANONICAL", "to_array", "to_vector", "to_quantity", "require_finite", "require_positive"]
+__all__ = [
+    "CANONICAL",
+    "to_array",
+    "to_vector",
+    "to_quantity",
+    "to_si",
+    "require_finite",
+    "require_positive",
+]
 
 CANONICAL: dict[str, u.UnitBase] = {
     "length": u.km,
@@ -151,3 +159,44 @@ def require_positive(arr, name: str, *, strict: bool = True) -> None:
             f"{name} must be {relation}; got {arr[bad].ravel()[0]!r}"
             f"{' (and more)' if np.count_nonzero(bad) > 1 else ''}."
         )
+
+
+def to_si(value, unit, name: str, *, finite: bool = True):
+    """Convert ``value`` to a float64 ndarray in the SI unit ``unit``; plain numbers pass through.
+
+    For APIs that accept plain numbers "in any consistent units" (``visviva.mechanics``) as well as
+    Quantities. A Quantity is converted to ``unit`` (e.g. ``u.kg``, ``u.m / u.s``); a plain number
+    is assumed to be in consistent units already and copied unchanged.
+
+    Returns
+    -------
+    (ndarray, bool)
+        The float64 array and whether ``value`` was a Quantity.
+
+    Raises
+    ------
+    UnitsError
+        A Quantity whose unit cannot be converted to ``unit``.
+    InvalidInputError
+        Non-numeric input, or NaN/inf when ``finite`` is true.
+    """
+    if isinstance(value, u.Quantity):
+        try:
+            arr = value.to_value(unit)
+        except u.UnitConversionError as exc:
+            raise UnitsError(
+                f"{name} has unit '{value.unit}', which cannot be converted to '{unit}'. "
+                f"Pass a Quantity in '{unit}' (or an equivalent unit), or a plain number in "
+                "consistent units."
+            ) from exc
+        arr = np.array(arr, dtype=np.float64, copy=True)
+        was_quantity = True
+    else:
+        try:
+            arr = np.array(value, dtype=np.float64, copy=True)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"{name} must be numeric, got {value!r}.") from exc
+        was_quantity = False
+    if finite:
+        require_finite(arr, name)
+    return arr, was_quantity

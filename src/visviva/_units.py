@@ -133,8 +133,8 @@ def to_vector(value, kind: str, name: str, **kwargs):
 
 
 def to_quantity(arr, kind: str):
-    """Wrap a canonical-unit float array as a Quantity (no copy)."""
-    return u.Quantity(arr, CANONICAL[kind], copy=False)
+    """Wrap a canonical-unit float array as a Quantity (no copy when ``arr`` is an ndarray)."""
+    return np.asarray(arr, dtype=np.float64) << CANONICAL[kind]
 
 
 def require_finite(arr, name: str) -> None:

@@ -1,0 +1,189 @@
+"""Central-force tools against closed forms, published values and the Binet equation."""
+
+import math
+
+import numpy as np
+import pytest
+from astropy import units as u
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import visviva as vv
+from visviva.central_force import (
+    apsides,
+    areal_velocity,
+    bertrand_apsidal_angle,
+    circular_speed,
+    effective_potential,
+    escape_speed,
+    kepler_potential,
+    mean_motion,
+    orbit_equation,
+    orbital_period,
+    power_law_force,
+    semi_major_axis_from_period,
+    specific_angular_momentum,
+    specific_energy,
+    turning_points,
+)
+
+MU = vv.EARTH.gm.to_value(u.km**3 / u.s**2)
+KM = u.km
+KMS = u.km / u.s
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    r=st.floats(6400.0, 1e6),
+    ecc=st.floats(0.0, 10.0).filter(lambda e: abs(e - 1.0) > 1e-6),
+)
+def test_vis_viva_is_the_energy_integral(r, ecc):
+    # choose a orbit through r: r_p <= r (and r <= r_a for ellipses)
+    r_p = r / (1.0 + ecc) if ecc < 1 else r / 2.0
+    a = r_p / (1.0 - ecc)
+    v = vv.vis_viva(r * KM, a * KM, vv.EARTH).to_value(KMS)
+    energy = specific_energy(r * KM, v * KMS, vv.EARTH).to_value(u.km**2 / u.s**2)
+    assert energy == pytest.approx(-MU / (2.0 * a), rel=1e-12, abs=1e-12 * MU / r)
+
+
+def test_vis_viva_special_cases():
+    r = np.array([7000.0, 8000.0]) * KM
+    np.testing.assert_allclose(vv.vis_viva(r, r, vv.EARTH), circular_speed(r, vv.EARTH), rtol=1e-15)
+    np.testing.assert_allclose(vv.vis_viva(r, np.inf * KM, vv.EARTH), escape_speed(r, vv.EARTH),
+                               rtol=1e-15)
+    # broadcasting over r and a
+    assert vv.vis_viva(r[:, None], [7000.0, 9000.0, -20000.0] * KM, vv.EARTH).shape == (2, 3)
+
+
+def test_published_values():
+    # Earth's sidereal year from Kepler's third law with the Sun's GM: 365.256 d (a = 1.000001 au)
+    year = orbital_period(1.00000102 * u.au, vv.SUN.gm + vv.EARTH.gm + vv.MOON.gm)
+    assert year.to_value(u.day) == pytest.approx(365.2564, abs=2e-3)
+    # geostationary radius 42,164 km (Vallado, sec. 2.2); sidereal day 86164.0905 s
+    assert semi_major_axis_from_period(86164.0905 * u.s, vv.EARTH).to_value(KM) == pytest.approx(
+        42164.17, abs=0.02
+    )
+    # escape speed at Earth's surface 11.18 km/s, circular LEO speed 7.9 km/s at the surface
+    assert escape_speed(vv.EARTH.radius, vv.EARTH).to_value(KMS) == pytest.approx(11.18, abs=5e-3)
+    assert circular_speed(vv.EARTH.radius, vv.EARTH).to_value(KMS) == pytest.approx(7.905, abs=5e-4)
+
+
+@settings(max_examples=100, deadline=None)
+@given(a=st.floats(1e3, 1e9), gm=st.floats(1.0, 1e12))
+def test_third_law_round_trip(a, gm):
+    T = orbital_period(a * KM, gm * u.km**3 / u.s**2)
+    a_back = semi_major_axis_from_period(T, gm * u.km**3 / u.s**2).to_value(KM)
+    assert a_back == pytest.approx(a, rel=4e-16 * 4)
+    n = mean_motion(a * KM, gm * u.km**3 / u.s**2)
+    assert (n * T).to_value(u.rad) == pytest.approx(2 * math.pi, rel=1e-15)
+
+
+def test_apsides():
+    r_p, r_a = apsides([7000.0, -7000.0] * KM, [0.1, 2.0])
+    np.testing.assert_allclose(r_p.to_value(KM), [6300.0, 7000.0], rtol=1e-15)
+    assert r_a[0].to_value(KM) == pytest.approx(7700.0, rel=1e-15) and np.isinf(r_a[1])
+    with pytest.raises(vv.DomainError, match="p / 2"):
+        apsides(7000 * KM, 1.0)
+    with pytest.raises(vv.InvalidInputError, match="a must be > 0 for e < 1"):
+        apsides(-7000 * KM, 0.5)
+
+
+def test_angular_momentum_and_areal_velocity():
+    r = [[7000.0, 0.0, 0.0], [0.0, 8000.0, 0.0]] * KM
+    v = [[0.0, 7.5, 0.0], [-1.0, 0.0, 2.0]] * KMS
+    h = specific_angular_momentum(r, v)
+    np.testing.assert_allclose(h.to_value(u.km**2 / u.s), [[0, 0, 52500.0], [16000.0, 0, 8000.0]])
+    np.testing.assert_allclose(areal_velocity(r, v).value, 0.5 * np.linalg.norm(h.value, axis=-1))
+
+
+def test_effective_potential_minimum_is_the_circular_orbit():
+    h = 52000.0 * u.km**2 / u.s
+    r = np.geomspace(3000, 3e5, 20001) * KM
+    veff = effective_potential(r, h, kepler_potential(vv.EARTH))
+    i = np.argmin(veff)
+    r_circ = (h**2 / vv.EARTH.gm).to(KM)
+    assert r[i].to_value(KM) == pytest.approx(r_circ.value, rel=1e-3)
+    assert veff[i].to_value(u.km**2 / u.s**2) == pytest.approx(
+        -(MU**2) / (2 * h.value**2), rel=1e-6
+    )
+    # plain numbers in consistent units
+    assert effective_potential(1.0, 1.0, kepler_potential(1.0)) == -0.5
+
+
+@pytest.mark.parametrize("ecc", [0.0001, 0.3, 0.9, 0.999])
+def test_turning_points_are_the_kepler_apsides(ecc):
+    a = 20000.0
+    p = a * (1 - ecc**2)
+    h = math.sqrt(MU * p)
+    energy = -MU / (2 * a)
+    roots = turning_points(energy * u.km**2 / u.s**2, h * u.km**2 / u.s, kepler_potential(vv.EARTH),
+                           1 * KM, 1e6 * KM)
+    # near a double root (e -> 0) V_eff - E cancels: the roots carry ~eps/e relative error
+    rtol = max(1e-12, 4 * np.finfo(float).eps / ecc)
+    np.testing.assert_allclose(roots.to_value(KM), [a * (1 - ecc), a * (1 + ecc)], rtol=rtol)
+
+
+def test_binet_gravity_gives_the_conic():
+    mu, h, r0 = 1.0, 0.8, 0.5  # start at periapsis: e = h^2/(mu r0) - 1
+    ecc = h * h / (mu * r0) - 1.0
+    orbit = orbit_equation(power_law_force(mu, -2), r0=r0, h=h, theta_max=6 * math.pi)
+    p = h * h / mu
+    np.testing.assert_allclose(orbit.r, p / (1 + ecc * np.cos(orbit.theta)), rtol=1e-10)
+    assert orbit.apsidal_angle == pytest.approx(math.pi, abs=1e-9)
+    assert orbit.is_closed()
+    np.testing.assert_allclose(orbit.apsis_r[::2], r0, rtol=1e-10)
+
+
+def test_binet_inverse_cube_term_has_the_exact_apsidal_angle():
+    # F = -mu/r^2 - lam/r^3 gives u'' + (1 - lam/h^2) u = mu/h^2: apsidal angle pi/sqrt(1 - lam/h^2)
+    mu, lam, h = 1.0, 0.05, 1.0
+    orbit = orbit_equation(lambda r: -mu / r**2 - lam / r**3, r0=0.6, h=h, theta_max=20.0)
+    exact = math.pi / math.sqrt(1.0 - lam / h**2)
+    assert orbit.apsidal_angle == pytest.approx(exact, rel=1e-9)
+    assert orbit.precession_per_orbit == pytest.approx(2 * exact - 2 * math.pi, rel=1e-8)
+    assert not orbit.is_closed(tol=1e-6)
+
+
+@pytest.mark.parametrize("n", [-2.0, 1.0])
+def test_bertrand_closed_orbits_at_large_amplitude(n):
+    # far from circular: the apsidal angle is still exactly pi (gravity) or pi/2 (Hooke)
+    orbit = orbit_equation(power_law_force(1.0, n), r0=0.4, h=0.8, theta_max=4 * math.pi)
+    assert orbit.apsidal_angle == pytest.approx(bertrand_apsidal_angle(n), rel=1e-9)
+    assert orbit.is_closed()
+
+
+@pytest.mark.parametrize("n", [-1.5, -0.5, 0.5, 2.0])
+def test_near_circular_apsidal_angle_follows_bertrand(n):
+    # circular radius for h: h^2 = k r^(n+3); start 1e-4 off it
+    h = 1.0
+    r_c = 1.0
+    orbit = orbit_equation(lambda r: -(h**2) * r**n, r0=r_c * (1 + 1e-4), h=h, theta_max=12.0)
+    assert orbit.apsidal_angle == pytest.approx(bertrand_apsidal_angle(n), rel=1e-3)
+    assert not orbit.is_closed(max_turns=6, tol=1e-5)
+
+
+def test_binet_with_quantities():
+    orbit = orbit_equation(lambda r: -MU / r**2, r0=7000 * KM, h=55000 * u.km**2 / u.s)
+    assert orbit.apsidal_angle == pytest.approx(math.pi, abs=1e-9)
+    assert orbit.apsis_r.min() == pytest.approx(7000.0, rel=1e-12)
+
+
+def test_bad_input_gets_clear_errors():
+    with pytest.raises(vv.UnitsError, match="u.km"):
+        vv.vis_viva(7000.0, 7000 * KM, vv.EARTH)
+    with pytest.raises(vv.InvalidInputError, match="gm must be > 0"):
+        circular_speed(7000 * KM, -1 * u.km**3 / u.s**2)
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        escape_speed([7000, np.nan] * KM, vv.EARTH)
+    with pytest.raises(vv.DomainError, match="beyond the apoapsis"):
+        vv.vis_viva(20000 * KM, 7000 * KM, vv.EARTH)
+    with pytest.raises(vv.DomainError, match="open"):
+        orbital_period(-7000 * KM, vv.EARTH)
+    with pytest.raises(vv.UnitsError, match="both as Quantities"):
+        effective_potential(7000 * KM, 50000.0, kepler_potential(vv.EARTH))
+    with pytest.raises(vv.DomainError, match="unbound"):
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=2.0, theta_max=10.0)
+    with pytest.raises(vv.InvalidInputError, match="h must be finite and > 0"):
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
+    with pytest.raises(vv.DomainError, match="n <= -3"):
+        bertrand_apsidal_angle(-3.5)

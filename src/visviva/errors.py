@@ -164,6 +164,12 @@ STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {
         "the adaptive step size fell below its floor",
         "check the force for a singularity or a collision, or soften the potential",
     ),
+    _st.EQUINOCTIAL_SINGULAR: (
+        DomainError,
+        "the modified equinoctial elements are singular for this orbit (h and k are infinite "
+        "at i = pi with the retrograde factor I = +1, and at i = 0 with I = -1)",
+        "use retrograde=True (I = -1) for retrograde orbits near i = pi, retrograde=False near i = 0",
+    ),
 }
 
 

@@ -34,3 +34,5 @@ ESCAPE = 12
 COLLISION = 13
 #: The adaptive step size fell below its floor.
 STEP_TOO_SMALL = 14
+#: Modified equinoctial elements are singular here (i = pi with I = +1, i = 0 with I = -1).
+EQUINOCTIAL_SINGULAR = 15

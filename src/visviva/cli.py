@@ -4,27 +4,84 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+
+def _validate_parser(sub) -> None:
+    p = sub.add_parser(
+        "validate",
+        help="run the cross-validation suite against REBOUND, Skyfield, astropy and sgp4",
+        description="Run every visviva.validation.checks_* module live against the installed "
+        "reference libraries; print one line per check (status, name, measured, tolerance, "
+        "metric); write a Markdown report with plots. Exit code 0 only when every check passes.")
+    p.add_argument("--full", action="store_true", help="include the long runs")
+    p.add_argument("--report", default="validation/report", metavar="DIR",
+                   help="folder for report.md, results.json and the plots "
+                        "(default: validation/report)")
+    p.add_argument("--no-report", action="store_true", help="write no report")
+    p.add_argument("--only", default=None, metavar="STR",
+                   help="comma-separated terms: run the modules whose topic matches, or else "
+                        "only the checks whose name matches (case-insensitive)")
+    p.add_argument("--json", default=None, metavar="PATH", dest="json_path",
+                   help="also write the results as JSON ('-' for stdout)")
+    p.add_argument("--strict", action="store_true", help="count skipped checks as failures")
+    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="time budget per module (default 150 s; none with --full)")
+    p.add_argument("--quiet", action="store_true", help="no progress display on stderr")
+    p.add_argument("--list", action="store_true", help="list the check modules and exit")
+
+
+def _bench_parser(sub) -> None:
+    p = sub.add_parser("bench", help="time visviva side by side with the reference libraries "
+                       "and write docs/performance.md (run from the repository root)")
+    p.add_argument("--quick", action="store_true", help="small problem sizes")
+    p.add_argument("--only", default=None, metavar="STR", help="modules whose name contains STR")
+    p.add_argument("--output", default=None, metavar="PATH",
+                   help="the page to write (default docs/performance.md)")
+    p.add_argument("--no-write", action="store_true", help="print only")
+
+
+def _import_benchmarks():
+    """Import the ``benchmarks`` package of the repository (cwd first, then the source tree)."""
+    candidates = [Path.cwd(), Path(__file__).resolve().parents[2]]
+    for root in candidates:
+        if (root / "benchmarks" / "__main__.py").is_file():
+            if str(root) not in sys.path:
+                sys.path.insert(0, str(root))
+            import benchmarks.__main__ as bench_main
+
+            return bench_main
+    raise SystemExit("visviva bench: no benchmarks/ folder found; run it from the repository root")
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="visviva", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    p_val = sub.add_parser("validate", help="run the cross-validation suite against REBOUND, "
-                           "Skyfield, astropy and sgp4 and write a report")
-    p_val.add_argument("--full", action="store_true", help="include the long runs")
-    p_val.add_argument("--report", default="validation-report", help="folder for the report")
-    p_val.add_argument("--only", default=None, help="run only checks whose name contains this")
-    sub.add_parser("bench", help="time visviva side by side with the reference libraries")
+    _validate_parser(sub)
+    _bench_parser(sub)
     args = parser.parse_args(argv)
     if args.command == "validate":
+        if args.list:
+            from .validation.runner import discover, short_name
+
+            for name in discover():
+                print(short_name(name))
+            return 0
         from .validation import run
 
-        return run(full=args.full, report_dir=args.report, only=args.only)
+        return run(full=args.full, report_dir=None if args.no_report else args.report,
+                   only=args.only, json_path=args.json_path, strict=args.strict,
+                   timeout_s=args.timeout, progress=not args.quiet)
     if args.command == "bench":
-        import runpy
-
-        runpy.run_module("benchmarks", run_name="__main__")
-        return 0
+        bench_main = _import_benchmarks()
+        bench_argv = ["--quick"] if args.quick else []
+        if args.only:
+            bench_argv += ["--only", args.only]
+        if args.output:
+            bench_argv += ["--output", args.output]
+        if args.no_write:
+            bench_argv += ["--no-write"]
+        return bench_main.main(bench_argv)
     return 2
 
 

@@ -10,8 +10,12 @@ from .base import Check
 __all__ = ["Check", "run"]
 
 
-def run(full: bool = False, report_dir: str = "validation-report", only: str | None = None) -> int:
-    """Run every check, print one line each, write the report; return the exit code."""
+def run(full: bool = False, report_dir: str | None = "validation/report", only: str | None = None,
+        **options) -> int:
+    """Run every check, print one line each, write the report; return the exit code.
+
+    ``options`` go to :func:`visviva.validation.runner.run` (``json_path``, ``strict``, ...).
+    """
     from .runner import run as _run
 
-    return _run(full=full, report_dir=report_dir, only=only)
+    return _run(full=full, report_dir=report_dir, only=only, **options)

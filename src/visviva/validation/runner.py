@@ -1,0 +1,418 @@
+"""The cross-validation runner behind ``visviva validate``.
+
+It finds every module ``visviva.validation.checks_<topic>`` and calls its
+``checks(full: bool = False) -> list[Check]``, which compares visviva LIVE against the installed
+reference libraries (REBOUND, Skyfield, astropy, sgp4). It prints one line per check
+(status, name, measured value, tolerance, metric), shows a progress counter on stderr, writes a
+Markdown report with plots (:mod:`visviva.validation.report`) and returns the exit code:
+0 only when every check passes.
+
+Robustness rules:
+
+* a module that fails to import, raises, or returns something other than a list of
+  :class:`~visviva.validation.base.Check` becomes one FAILED check carrying the error; the run
+  goes on with the other modules;
+* a check whose ``details`` holds ``{"skipped": "<reason>"}`` is reported as SKIP and does not
+  change the exit code (``--strict`` makes skips fail);
+* ``measured`` NaN fails (see :attr:`Check.passed`).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import os
+import pkgutil
+import signal
+import sys
+import time
+import traceback
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .base import Check
+
+__all__ = ["Outcome", "ModuleResult", "discover", "run_module", "run", "status_of"]
+
+PACKAGE = "visviva.validation"
+PREFIX = "checks_"
+
+#: Default per-module time budget (s) of the default run; ``--full`` has none.
+DEFAULT_MODULE_TIMEOUT_S = 150.0
+
+
+@dataclass
+class ModuleResult:
+    """The checks of one ``checks_<topic>`` module and how long they took."""
+
+    module: str
+    checks: list[Check]
+    elapsed_s: float
+    error: str | None = None
+
+
+@dataclass
+class Outcome:
+    """Everything one run produced (what the report and the JSON output are made of)."""
+
+    modules: list[ModuleResult] = field(default_factory=list)
+    full: bool = False
+    only: str | None = None
+    elapsed_s: float = 0.0
+    strict: bool = False
+
+    @property
+    def checks(self) -> list[tuple[str, Check]]:
+        return [(m.module, c) for m in self.modules for c in m.checks]
+
+    def counts(self) -> dict[str, int]:
+        out = {"PASS": 0, "FAIL": 0, "SKIP": 0}
+        for _, c in self.checks:
+            out[status_of(c)] += 1
+        return out
+
+    @property
+    def exit_code(self) -> int:
+        counts = self.counts()
+        if counts["FAIL"] or (self.strict and counts["SKIP"]):
+            return 1
+        if not self.checks:
+            return 1  # nothing was checked: never report success for an empty run
+        return 0
+
+
+def status_of(check: Check) -> str:
+    """``"PASS"``, ``"FAIL"`` or ``"SKIP"`` for one check."""
+    details = check.details if isinstance(check.details, dict) else {}
+    if details.get("skipped"):
+        return "SKIP"
+    try:
+        return "PASS" if check.passed else "FAIL"
+    except Exception:  # a measured value that cannot be compared
+        return "FAIL"
+
+
+def discover() -> list[str]:
+    """Full names of every ``visviva.validation.checks_*`` module, sorted."""
+    package = importlib.import_module(PACKAGE)
+    names = [m.name for m in pkgutil.iter_modules(package.__path__) if m.name.startswith(PREFIX)]
+    return [f"{PACKAGE}.{n}" for n in sorted(names)]
+
+
+def short_name(module: str) -> str:
+    """``visviva.validation.checks_nbody`` -> ``nbody``."""
+    leaf = module.rsplit(".", 1)[-1]
+    return leaf[len(PREFIX):] if leaf.startswith(PREFIX) else leaf
+
+
+def _error_check(module: str, stage: str, exc: BaseException) -> Check:
+    tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+    last = traceback.format_exception_only(type(exc), exc)[-1].strip()
+    return Check(
+        name=f"{short_name(module)}: {stage} failed ({last[:120]})",
+        metric="module error",
+        measured=math.nan,
+        tolerance=0.0,
+        reference="",
+        details={"error": last, "traceback": tb[-4000:]},
+    )
+
+
+class _ModuleTimeout(Exception):
+    pass
+
+
+@contextmanager
+def _time_limit(seconds: float | None):
+    """Raise :class:`_ModuleTimeout` after ``seconds`` (main thread on POSIX only)."""
+    usable = (seconds is not None and seconds > 0 and hasattr(signal, "SIGALRM")
+              and _in_main_thread())
+    if not usable:
+        yield
+        return
+
+    def _handler(signum, frame):
+        raise _ModuleTimeout(f"exceeded the time budget of {seconds:.0f} s")
+
+    previous = signal.signal(signal.SIGALRM, _handler)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _in_main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
+def run_module(module: str, full: bool = False, timeout_s: float | None = None) -> ModuleResult:
+    """Import ``module`` and call its ``checks(full)``; every failure becomes a failed check."""
+    t0 = time.perf_counter()
+    try:
+        mod = importlib.import_module(module)
+    except BaseException as exc:  # noqa: BLE001 - a module in progress must not crash the run
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        return ModuleResult(module, [_error_check(module, "import", exc)],
+                            time.perf_counter() - t0, error=str(exc))
+    fn = getattr(mod, "checks", None)
+    if not callable(fn):
+        exc = AttributeError(f"{module} defines no checks(full) function")
+        return ModuleResult(module, [_error_check(module, "import", exc)],
+                            time.perf_counter() - t0, error=str(exc))
+    try:
+        with _time_limit(timeout_s):
+            produced = fn(full=full)
+    except BaseException as exc:  # noqa: BLE001
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        return ModuleResult(module, [_error_check(module, "checks()", exc)],
+                            time.perf_counter() - t0, error=str(exc))
+    checks: list[Check] = []
+    try:
+        items = list(produced)
+    except TypeError as exc:
+        items = []
+        checks.append(_error_check(module, "checks() return value", exc))
+    for item in items:
+        if isinstance(item, Check):
+            checks.append(item)
+        else:
+            checks.append(_error_check(module, "checks() return value", TypeError(
+                f"expected a Check, got {type(item).__name__}: {item!r:.80}")))
+    if not checks:
+        checks.append(_error_check(module, "checks()", ValueError("returned no checks")))
+    return ModuleResult(module, checks, time.perf_counter() - t0)
+
+
+def _matches(text: str, only: str | None) -> bool:
+    if not only:
+        return True
+    terms = [t.strip().lower() for t in only.split(",") if t.strip()]
+    return any(t in text.lower() for t in terms)
+
+
+def _fmt(x) -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if math.isnan(x):
+        return "nan"
+    if x == 0:
+        return "0"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return f"{x:.3g}" if 1e-3 <= abs(x) < 1e4 else f"{x:.2e}"
+
+
+def format_line(check: Check, width: int = 64) -> str:
+    """One printed line: status, name, measured, tolerance, metric."""
+    status = status_of(check)
+    name = check.name if len(check.name) <= width else check.name[: width - 1] + "…"
+    if status == "SKIP":
+        return f"SKIP  {name:<{width}s}  ({check.details.get('skipped')})"
+    return (f"{status}  {name:<{width}s}  {_fmt(check.measured):>10s} <= {_fmt(check.tolerance):<9s}"
+            f"  {check.metric}")
+
+
+class _Progress:
+    """A one-line progress counter on stderr (a tqdm bar when stderr is a terminal)."""
+
+    def __init__(self, total: int, enabled: bool):
+        self.total = total
+        self.enabled = enabled
+        self.bar = None
+        if enabled and sys.stderr.isatty():
+            try:
+                from tqdm import tqdm
+
+                self.bar = tqdm(total=total, unit="module", file=sys.stderr, leave=False)
+            except Exception:  # pragma: no cover - tqdm is a dependency
+                self.bar = None
+
+    def start(self, i: int, module: str) -> None:
+        if not self.enabled:
+            return
+        if self.bar is not None:
+            self.bar.set_description(short_name(module))
+        else:
+            print(f"[{i}/{self.total}] {short_name(module)} ...", file=sys.stderr, flush=True)
+
+    def done(self, result: ModuleResult) -> None:
+        if not self.enabled:
+            return
+        if self.bar is not None:
+            self.bar.update(1)
+        else:
+            print(f"      {len(result.checks)} checks in {result.elapsed_s:.1f} s",
+                  file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _jsonable(value, max_len: int = 20000):
+    """Convert ``details`` values for JSON: arrays become lists (long ones are summarised)."""
+    try:
+        import numpy as np
+    except ImportError:  # pragma: no cover
+        np = None
+    if np is not None and isinstance(value, np.ndarray | np.generic):
+        arr = np.asarray(value)
+        if arr.dtype.kind in "fc" and arr.size > max_len:
+            finite = arr[np.isfinite(arr)]
+            return {"size": int(arr.size), "min": float(finite.min()) if finite.size else None,
+                    "max": float(finite.max()) if finite.size else None}
+        if arr.dtype.kind in "fiub":
+            return [_jsonable(v) for v in arr.tolist()] if arr.ndim else _jsonable(arr.item())
+        return str(arr.tolist())[:1000]
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, int | bool | str) or value is None:
+        return value
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        if len(value) > max_len:
+            return f"<{len(value)} items>"
+        return [_jsonable(v) for v in value]
+    return str(value)[:1000]
+
+
+def to_json(outcome: Outcome) -> dict:
+    """The run as a JSON-ready dict."""
+    counts = outcome.counts()
+    return {
+        "full": outcome.full,
+        "only": outcome.only,
+        "elapsed_s": outcome.elapsed_s,
+        "counts": counts,
+        "exit_code": outcome.exit_code,
+        "environment": environment(),
+        "modules": [{"module": m.module, "elapsed_s": m.elapsed_s, "error": m.error}
+                    for m in outcome.modules],
+        "checks": [{"module": short_name(mod), "name": c.name, "status": status_of(c),
+                    "metric": c.metric, "measured": _jsonable(_as_float(c.measured)),
+                    "tolerance": _jsonable(_as_float(c.tolerance)), "reference": c.reference,
+                    "details": _jsonable(c.details)} for mod, c in outcome.checks],
+    }
+
+
+def _as_float(x):
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def environment() -> dict[str, str]:
+    """Versions of visviva and of the reference libraries, and the machine."""
+    import platform
+    from importlib import metadata
+
+    out = {"python": platform.python_version(), "platform": platform.platform()}
+    for name in ("visviva", "numpy", "numba", "astropy", "scipy", "rebound", "skyfield", "sgp4"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    try:
+        out["cores"] = str(len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        out["cores"] = str(os.cpu_count())
+    return out
+
+
+def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/report",
+        only: str | None = None, json_path: str | os.PathLike | None = None,
+        progress: bool = True, strict: bool = False, timeout_s: float | None = None,
+        stream=None, modules: list[str] | None = None) -> int:
+    """Run the suite, print one line per check, write the report; return the exit code.
+
+    Parameters
+    ----------
+    full : bool
+        Include the long runs (passed on to every ``checks(full)``).
+    report_dir : path or None
+        Folder for ``report.md`` and its plots; ``None`` writes no report.
+    only : str, optional
+        Comma-separated, case-insensitive terms. Modules whose topic matches a term run whole;
+        when no topic matches, every module runs and only the checks whose name matches are kept.
+    json_path : path, optional
+        Also write the results as JSON (``-`` for stdout).
+    progress : bool
+        Show the progress counter on stderr.
+    strict : bool
+        Count skipped checks as failures.
+    timeout_s : float, optional
+        Time budget per module (s); default :data:`DEFAULT_MODULE_TIMEOUT_S`, none with ``full``.
+    stream : file, optional
+        Where the per-check lines go (default stdout).
+    modules : list of str, optional
+        Module names to run instead of :func:`discover` (used by the tests).
+
+    Returns
+    -------
+    int
+        0 when every check passed (and at least one ran), 1 otherwise.
+    """
+    out = stream if stream is not None else sys.stdout
+    t_start = time.perf_counter()
+    names = discover() if modules is None else list(modules)
+    filter_checks = False
+    if only:
+        by_topic = [n for n in names if _matches(short_name(n), only)]
+        if by_topic:
+            names = by_topic
+        else:
+            filter_checks = True
+    if timeout_s is None and not full:
+        timeout_s = DEFAULT_MODULE_TIMEOUT_S
+    outcome = Outcome(full=full, only=only, strict=strict)
+    bar = _Progress(len(names), progress)
+    print(f"visviva validate: {len(names)} check modules"
+          f"{' (full)' if full else ''}{f', only {only!r}' if only else ''}", file=out, flush=True)
+    try:
+        for i, name in enumerate(names, 1):
+            bar.start(i, name)
+            result = run_module(name, full=full, timeout_s=timeout_s)
+            if filter_checks:
+                result.checks = [c for c in result.checks
+                                 if _matches(c.name, only) or result.error is not None]
+            outcome.modules.append(result)
+            bar.done(result)
+            for check in result.checks:
+                print(format_line(check), file=out, flush=True)
+    finally:
+        bar.close()
+    outcome.elapsed_s = time.perf_counter() - t_start
+    counts = outcome.counts()
+    print(f"{counts['PASS']} passed, {counts['FAIL']} failed, {counts['SKIP']} skipped "
+          f"in {outcome.elapsed_s:.1f} s", file=out, flush=True)
+    if not outcome.checks:
+        print("no checks ran (nothing matched --only?)", file=out, flush=True)
+    if report_dir is not None:
+        try:
+            from .report import write_report
+
+            path = write_report(outcome, report_dir)
+            print(f"report: {path}", file=out, flush=True)
+        except Exception as exc:  # the verdict must survive a broken plot
+            print(f"report could not be written: {exc!r}", file=sys.stderr, flush=True)
+            traceback.print_exc()
+    if json_path is not None:
+        payload = json.dumps(to_json(outcome), indent=1, allow_nan=False)
+        if str(json_path) == "-":
+            print(payload, file=out)
+        else:
+            Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+            Path(json_path).write_text(payload, encoding="utf-8")
+    return outcome.exit_code

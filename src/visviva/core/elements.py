@@ -1,0 +1,536 @@
+"""State vectors <-> classical and modified equinoctial orbital elements (compiled kernels).
+
+Every conversion is written once as a scalar ``@kernel`` and vectorised by one ``prange`` loop
+(the ``*_array`` functions). All inputs are plain float64 values in any consistent units (visviva
+uses km, km/s, rad, km3/s2); every kernel returns an integer status from
+:mod:`visviva.core.status` instead of raising.
+
+Conventions (see ``docs/conventions.md``): the orbit orientation is
+R = Rz(raan) Rx(inc) Rz(argp); the semi-latus rectum ``p`` is used instead of ``a`` so that the
+exact parabola is representable; undefined angles are set (equatorial: raan = 0; circular:
+argp = 0, nu = argument of latitude / true longitude) and the next angle of the chain absorbs
+them, so that state -> elements -> state is exact to rounding for every conic and geometry.
+
+Numerical method
+----------------
+No ``arccos`` of a rounded dot product is used. With **h** = r x v:
+
+* inc = atan2(sqrt(hx^2 + hy^2), hz), raan = atan2(hx, -hy);
+* e cos(nu) = p/r - 1 and e sin(nu) = h (r . v)/(mu r), so nu = atan2(h (r . v)/mu, p - r) and
+  e = hypot(...)/r (Vallado 2013, eqs. 2-82/2-83 rearranged);
+* the argument of latitude u is obtained from the true longitude measured in the equinoctial
+  frame (f, g, w) of Walker, Ireland & Owens (1985), built from **h** with the Rodrigues formula
+  of the minimal rotation that takes z to h/|h| (prograde, hz >= 0) or to Rx(pi) h/|h|
+  (retrograde). That frame is well conditioned for every inclination, so u = l - raan (prograde)
+  or u = l_r + raan (retrograde) keeps full precision in the round trip even when raan itself is
+  ill conditioned (i -> 0 or i -> pi).
+
+References
+----------
+Vallado, D. A. (2013). *Fundamentals of Astrodynamics and Applications*, 4th ed., Algorithms 9
+(RV2COE) and 10 (COE2RV).
+Walker, M. J. H., Ireland, B. & Owens, J. (1985). A set of modified equinoctial orbit elements.
+*Celestial Mechanics* 36, 409-419.
+Broucke, R. A. & Cefola, P. J. (1972). On the equinoctial orbit elements. *Celestial Mechanics*
+5, 303-310 (the retrograde factor I).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import status as st
+from ._jit import inline_kernel, kernel, parallel_kernel, prange
+
+__all__ = [
+    "ECC_CIRCULAR",
+    "ECC_PARABOLIC",
+    "RADIAL_TOL",
+    "rv_to_coe",
+    "coe_to_rv",
+    "rv_to_mee",
+    "mee_to_rv",
+    "rv_to_coe_array",
+    "coe_to_rv_array",
+    "rv_to_mee_array",
+    "mee_to_rv_array",
+]
+
+_EPS = 2.220446049250313e-16
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+_NAN = math.nan
+
+#: Below this eccentricity the orbit is treated as circular: e = 0, argp = 0, nu = u.
+ECC_CIRCULAR = 16.0 * _EPS
+#: Within this distance of 1 the eccentricity is set to exactly 1 (parabola).
+ECC_PARABOLIC = 4.0 * _EPS
+#: |r x v| <= RADIAL_TOL |r| |v| is radial motion: the cross product is rounding noise.
+RADIAL_TOL = _EPS
+
+
+@inline_kernel
+def _wrap_2pi(x):
+    """Angle in [0, 2 pi), never -0.0; for |x| < 4 pi (sums of two wrapped angles)."""
+    y = x
+    if y < 0.0:
+        y += _TWO_PI
+        if y < 0.0:
+            y += _TWO_PI
+    if y >= _TWO_PI:
+        y -= _TWO_PI
+        if y >= _TWO_PI:
+            y -= _TWO_PI
+    return y + 0.0
+
+
+@inline_kernel
+def _wrap_pi(x):
+    """Angle in (-pi, pi], never -0.0."""
+    y = _wrap_2pi(x)
+    if y > _PI:
+        y -= _TWO_PI
+    return y + 0.0
+
+
+@inline_kernel
+def _sin_cos_inc(inc):
+    """sin and cos of the inclination, with float(pi) taken as exactly pi."""
+    if inc == _PI:
+        return 0.0, -1.0
+    return math.sin(inc), math.cos(inc)
+
+
+@kernel
+def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
+    """Classical elements of one state vector.
+
+    Parameters
+    ----------
+    rx, ry, rz : float
+        Position (km, or any length unit consistent with ``gm``).
+    vx, vy, vz : float
+        Velocity (km/s).
+    gm : float
+        Gravitational parameter mu (km3/s2), > 0.
+
+    Returns
+    -------
+    p, ecc, inc, raan, argp, nu : float
+        Semi-latus rectum (km), eccentricity, inclination in [0, pi], longitude of the ascending
+        node and argument of periapsis in [0, 2 pi), true anomaly in (-pi, pi] (rad).
+    status : int
+        ``OK``; ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION`` or ``RADIAL_ORBIT`` (then the
+        elements are NaN).
+
+    Notes
+    -----
+    h = r x v, p = h^2/mu, r e cos(nu) = p - r, r e sin(nu) = h (r . v)/mu,
+    i = atan2(|h_xy|, h_z), raan = atan2(h_x, -h_y); the argument of latitude comes from the true
+    longitude in the equinoctial frame (module docstring). Undefined angles follow
+    docs/conventions.md. Vallado (2013) Algorithm 9; Walker et al. (1985).
+    """
+    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+    if not (
+        math.isfinite(rx)
+        and math.isfinite(ry)
+        and math.isfinite(rz)
+        and math.isfinite(vx)
+        and math.isfinite(vy)
+        and math.isfinite(vz)
+        and math.isfinite(gm)
+    ):
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+    if not gm > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+    rm = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if rm == 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.ZERO_POSITION
+    vm = math.sqrt(vx * vx + vy * vy + vz * vz)
+    hx = ry * vz - rz * vy
+    hy = rz * vx - rx * vz
+    hz = rx * vy - ry * vx
+    hxy = math.sqrt(hx * hx + hy * hy)
+    hm = math.sqrt(hxy * hxy + hz * hz)
+    if hm <= RADIAL_TOL * rm * vm:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
+
+    p = hm * hm / gm
+    rdotv = rx * vx + ry * vy + rz * vz
+    ecos_r = p - rm  # r e cos(nu)
+    esin_r = hm * rdotv / gm + 0.0  # r e sin(nu); + 0.0 removes a negative zero
+    ecc = math.sqrt(ecos_r * ecos_r + esin_r * esin_r) / rm
+    circular = ecc < ECC_CIRCULAR
+    if circular:
+        ecc = 0.0
+    elif abs(ecc - 1.0) <= ECC_PARABOLIC:
+        ecc = 1.0
+
+    inc = math.atan2(hxy, hz)
+    if hxy == 0.0:
+        raan = 0.0  # equatorial: node undefined
+    else:
+        raan = _wrap_2pi(math.atan2(hx, -hy))
+
+    # True longitude in the equinoctial frame, scaled by |h| (no normalisation needed).
+    if hz >= 0.0:
+        d = hm + hz
+        fx = hm - hx * hx / d
+        fy = -hx * hy / d
+        fz = -hx
+        gx = fy
+        gy = hm - hy * hy / d
+        gz = -hy
+        lam = math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz)
+        u = _wrap_2pi(lam - raan)
+    else:
+        d = hm - hz
+        fx = hm - hx * hx / d
+        fy = -hx * hy / d
+        fz = hx
+        gx = -fy
+        gy = hy * hy / d - hm
+        gz = -hy
+        lam = math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz)
+        u = _wrap_2pi(lam + raan)
+
+    if circular:
+        argp = 0.0
+        nu = _wrap_pi(u)
+    else:
+        nu = _wrap_pi(math.atan2(esin_r, ecos_r))
+        argp = _wrap_2pi(u - nu)
+    return p, ecc, inc, raan, argp, nu, st.OK
+
+
+@kernel
+def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
+    """State vector of one set of classical elements.
+
+    Parameters
+    ----------
+    p : float
+        Semi-latus rectum (km), > 0.
+    ecc : float
+        Eccentricity, >= 0 (exactly 1 for a parabola).
+    inc, raan, argp, nu : float
+        Inclination, longitude of the ascending node, argument of periapsis, true anomaly (rad).
+        ``inc == numpy.pi`` is taken as exactly pi.
+    gm : float
+        Gravitational parameter mu (km3/s2), > 0.
+
+    Returns
+    -------
+    rx, ry, rz, vx, vy, vz : float
+        Position (km) and velocity (km/s).
+    status : int
+        ``OK``; ``NON_FINITE``, ``BAD_GM``, ``BAD_SEMI_LATUS_RECTUM``, ``BAD_ECCENTRICITY`` or
+        ``UNREACHABLE_ANOMALY`` (1 + e cos nu <= 0 on an open orbit); NaN outputs then.
+
+    Notes
+    -----
+    With u = argp + nu and r = p/(1 + e cos nu), in the node frame
+    r = r (cos u, sin u, 0), v = sqrt(mu/p) (-(sin u + e sin argp), cos u + e cos argp, 0),
+    rotated by Rz(raan) Rx(inc). Vallado (2013) Algorithm 10.
+    """
+    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+    if not (
+        math.isfinite(p)
+        and math.isfinite(ecc)
+        and math.isfinite(inc)
+        and math.isfinite(raan)
+        and math.isfinite(argp)
+        and math.isfinite(nu)
+        and math.isfinite(gm)
+    ):
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+    if not gm > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+    if not p > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_SEMI_LATUS_RECTUM
+    if ecc < 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_ECCENTRICITY
+    denom = 1.0 + ecc * math.cos(nu)
+    if not denom > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
+    rm = p / denom
+    si, ci = _sin_cos_inc(inc)
+    so = math.sin(raan)
+    co = math.cos(raan)
+    u = argp + nu
+    su = math.sin(u)
+    cu = math.cos(u)
+    sw = math.sin(argp)
+    cw = math.cos(argp)
+    rx = rm * (co * cu - so * su * ci)
+    ry = rm * (so * cu + co * su * ci)
+    rz = rm * su * si
+    k = math.sqrt(gm / p)
+    a1 = -k * (su + ecc * sw)
+    a2 = k * (cu + ecc * cw)
+    vx = a1 * co - a2 * so * ci
+    vy = a1 * so + a2 * co * ci
+    vz = a2 * si
+    return rx, ry, rz, vx, vy, vz, st.OK
+
+
+@inline_kernel
+def _equinoctial_frame(hh, kk, retro):
+    """Unit vectors f, g of the equinoctial frame from h, k and the retrograde factor I."""
+    h2 = hh * hh
+    k2 = kk * kk
+    s2 = 1.0 + h2 + k2
+    fx = (1.0 + h2 - k2) / s2
+    fy = 2.0 * hh * kk / s2
+    fz = -2.0 * retro * kk / s2
+    gx = 2.0 * retro * hh * kk / s2
+    gy = retro * (1.0 - h2 + k2) / s2
+    gz = 2.0 * hh / s2
+    return fx, fy, fz, gx, gy, gz
+
+
+@kernel
+def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
+    """Modified equinoctial elements of one state vector.
+
+    Parameters
+    ----------
+    rx, ry, rz, vx, vy, vz : float
+        Position (km) and velocity (km/s).
+    gm : float
+        Gravitational parameter mu (km3/s2), > 0.
+    retro : float
+        Retrograde factor I: +1.0 (standard set, singular at i = pi) or -1.0 (singular at i = 0).
+
+    Returns
+    -------
+    p, f, g, h, k, L : float
+        Semi-latus rectum (km), f = e cos(argp + I raan), g = e sin(argp + I raan),
+        h = tan^I(i/2) cos(raan), k = tan^I(i/2) sin(raan), true longitude
+        L = argp + I raan + nu in [0, 2 pi) (rad).
+    status : int
+        As :func:`rv_to_coe`, plus ``EQUINOCTIAL_SINGULAR`` when **h** is exactly anti-parallel to
+        I z (i = pi for I = +1, i = 0 for I = -1).
+
+    Notes
+    -----
+    The frame vectors are (Walker et al. 1985, eq. 2; Broucke & Cefola 1972)
+    f = (1 + h^2 - k^2, 2hk, -2Ik)/s^2, g = (2Ihk, I(1 - h^2 + k^2), 2h)/s^2 with
+    s^2 = 1 + h^2 + k^2; L = atan2(r . g, r . f), (f, g) = (e . f, e . g) with the eccentricity
+    vector e = ((v^2 - mu/r) r - (r . v) v)/mu. h = -h_y/d and k = h_x/d with
+    d = |h| + I h_z, evaluated without cancellation as (h_x^2 + h_y^2)/(|h| - I h_z) when I h_z < 0.
+    """
+    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+    if not (
+        math.isfinite(rx)
+        and math.isfinite(ry)
+        and math.isfinite(rz)
+        and math.isfinite(vx)
+        and math.isfinite(vy)
+        and math.isfinite(vz)
+        and math.isfinite(gm)
+    ):
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+    if not gm > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+    rm = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if rm == 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.ZERO_POSITION
+    v2 = vx * vx + vy * vy + vz * vz
+    hx = ry * vz - rz * vy
+    hy = rz * vx - rx * vz
+    hz = rx * vy - ry * vx
+    hxy2 = hx * hx + hy * hy
+    hm = math.sqrt(hxy2 + hz * hz)
+    if hm <= RADIAL_TOL * rm * math.sqrt(v2):
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
+    ihz = retro * hz
+    if ihz >= 0.0:
+        d = hm + ihz
+    else:
+        d = hxy2 / (hm - ihz)
+    if not d > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
+    kk = hx / d + 0.0
+    hh = -hy / d + 0.0
+    fx, fy, fz, gx, gy, gz = _equinoctial_frame(hh, kk, retro)
+    lam = _wrap_2pi(math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz))
+    rdotv = rx * vx + ry * vy + rz * vz
+    c1 = (v2 - gm / rm) / gm
+    c2 = rdotv / gm
+    ex = c1 * rx - c2 * vx
+    ey = c1 * ry - c2 * vy
+    ez = c1 * rz - c2 * vz
+    f = ex * fx + ey * fy + ez * fz + 0.0
+    g = ex * gx + ey * gy + ez * gz + 0.0
+    p = hm * hm / gm
+    return p, f, g, hh, kk, lam, st.OK
+
+
+@kernel
+def mee_to_rv(p, f, g, h, k, L, gm, retro):
+    """State vector of one set of modified equinoctial elements.
+
+    Parameters
+    ----------
+    p : float
+        Semi-latus rectum (km), > 0.
+    f, g, h, k : float
+        Equinoctial elements (dimensionless), see :func:`rv_to_mee`.
+    L : float
+        True longitude (rad).
+    gm : float
+        Gravitational parameter mu (km3/s2), > 0.
+    retro : float
+        Retrograde factor I, +1.0 or -1.0.
+
+    Returns
+    -------
+    rx, ry, rz, vx, vy, vz : float
+        Position (km) and velocity (km/s).
+    status : int
+        ``OK``, ``NON_FINITE``, ``BAD_GM``, ``BAD_SEMI_LATUS_RECTUM`` or ``UNREACHABLE_ANOMALY``
+        (1 + f cos L + g sin L <= 0).
+
+    Notes
+    -----
+    r = p/w with w = 1 + f cos L + g sin L; r = r (cos L f + sin L g),
+    v = sqrt(mu/p) (-(g + sin L) f + (f + cos L) g) (Walker et al. 1985, eqs. 3-4).
+    """
+    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+    if not (
+        math.isfinite(p)
+        and math.isfinite(f)
+        and math.isfinite(g)
+        and math.isfinite(h)
+        and math.isfinite(k)
+        and math.isfinite(L)
+        and math.isfinite(gm)
+    ):
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+    if not gm > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+    if not p > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_SEMI_LATUS_RECTUM
+    cl = math.cos(L)
+    sl = math.sin(L)
+    w = 1.0 + f * cl + g * sl
+    if not w > 0.0:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
+    rm = p / w
+    fx, fy, fz, gx, gy, gz = _equinoctial_frame(h, k, retro)
+    a = rm * cl
+    b = rm * sl
+    q = math.sqrt(gm / p)
+    c = -q * (g + sl)
+    e = q * (f + cl)
+    return (
+        a * fx + b * gx,
+        a * fy + b * gy,
+        a * fz + b * gz,
+        c * fx + e * gx,
+        c * fy + e * gy,
+        c * fz + e * gz,
+        st.OK,
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# Array versions: one prange loop each over flattened, broadcast inputs.
+# ----------------------------------------------------------------------------------------------
+
+
+@parallel_kernel
+def rv_to_coe_array(r, v, gm):
+    """:func:`rv_to_coe` over ``r``, ``v`` of shape (n, 3) and ``gm`` of shape (n,).
+
+    Returns ``(p, ecc, inc, raan, argp, nu, status)``, each of shape (n,); status is int8.
+    """
+    n = r.shape[0]
+    p = np.empty(n)
+    ecc = np.empty(n)
+    inc = np.empty(n)
+    raan = np.empty(n)
+    argp = np.empty(n)
+    nu = np.empty(n)
+    status = np.empty(n, dtype=np.int8)
+    for i in prange(n):
+        a0, a1, a2, a3, a4, a5, s = rv_to_coe(
+            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i]
+        )
+        p[i] = a0
+        ecc[i] = a1
+        inc[i] = a2
+        raan[i] = a3
+        argp[i] = a4
+        nu[i] = a5
+        status[i] = s
+    return p, ecc, inc, raan, argp, nu, status
+
+
+@parallel_kernel
+def coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm):
+    """:func:`coe_to_rv` over arrays of shape (n,). Returns ``(r, v, status)``, r, v (n, 3)."""
+    n = p.shape[0]
+    r = np.empty((n, 3))
+    v = np.empty((n, 3))
+    status = np.empty(n, dtype=np.int8)
+    for i in prange(n):
+        x, y, z, vx, vy, vz, s = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
+        r[i, 0] = x
+        r[i, 1] = y
+        r[i, 2] = z
+        v[i, 0] = vx
+        v[i, 1] = vy
+        v[i, 2] = vz
+        status[i] = s
+    return r, v, status
+
+
+@parallel_kernel
+def rv_to_mee_array(r, v, gm, retro):
+    """:func:`rv_to_mee` over ``r``, ``v`` (n, 3), ``gm`` (n,) and a scalar ``retro``.
+
+    Returns ``(p, f, g, h, k, L, status)``, each of shape (n,).
+    """
+    n = r.shape[0]
+    p = np.empty(n)
+    f = np.empty(n)
+    g = np.empty(n)
+    h = np.empty(n)
+    k = np.empty(n)
+    L = np.empty(n)
+    status = np.empty(n, dtype=np.int8)
+    for i in prange(n):
+        a0, a1, a2, a3, a4, a5, s = rv_to_mee(
+            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro
+        )
+        p[i] = a0
+        f[i] = a1
+        g[i] = a2
+        h[i] = a3
+        k[i] = a4
+        L[i] = a5
+        status[i] = s
+    return p, f, g, h, k, L, status
+
+
+@parallel_kernel
+def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
+    """:func:`mee_to_rv` over arrays of shape (n,) and a scalar ``retro``; returns (r, v, status)."""
+    n = p.shape[0]
+    r = np.empty((n, 3))
+    v = np.empty((n, 3))
+    status = np.empty(n, dtype=np.int8)
+    for i in prange(n):
+        x, y, z, vx, vy, vz, s = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
+        r[i, 0] = x
+        r[i, 1] = y
+        r[i, 2] = z
+        v[i, 0] = vx
+        v[i, 1] = vy
+        v[i, 2] = vz
+        status[i] = s
+    return r, v, status

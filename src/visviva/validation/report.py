@@ -153,7 +153,7 @@ def _draw(ax, check: Check, spec: dict) -> bool:
         ax.set_xlabel(_short(spec.get("xlabel") or (spec.get("x") or "index")))
         ax.set_ylabel(_short(spec.get("ylabel") or (check.metric or "")))
     if drawn:
-        ax.set_title(spec.get("title") or _short(check.name), fontsize=8)
+        ax.set_title(_short(spec.get("title") or check.name), fontsize=8)
         ax.legend(fontsize=6)
         ax.grid(True, alpha=0.3)
     return drawn

@@ -1,0 +1,182 @@
+"""Earth-centred frames for satellites: TEME, GCRS, ITRS and geodetic, through astropy.
+
+Every rotation is astropy's own (``astropy.coordinates.TEME``, ``GCRS``, ``ITRS`` with a
+``CartesianDifferential`` for the velocity), so visviva holds no copy of precession, nutation,
+sidereal time or polar motion.
+
+Earth-orientation data (UT1-UTC and polar motion) come **offline** from the files installed with
+astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` with its
+predictions, and EOP C04): inside these functions ``astropy.utils.iers.conf.auto_download`` is
+``False``, so no call goes to the network. For times beyond the predictions astropy falls back
+to UT1 = UTC and zero polar motion and warns (``iers_degraded_accuracy = "warn"``); the error
+then grows to ~0.9 s in UT1 (~400 m along track at the equator in ITRS) and ~0.3" of polar
+motion (~10 m). GCRS is insensitive to UT1 (TEME and GCRS are both inertial), to about 1 m.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+from astropy import units as u
+
+from .._units import to_quantity, to_vector
+from ..errors import InvalidInputError, ShapeError
+
+__all__ = [
+    "offline_iers",
+    "teme_to_gcrs",
+    "teme_to_itrs",
+    "gcrs_to_itrs",
+    "itrs_to_gcrs",
+    "itrs_to_geodetic",
+    "WGS84_A_KM",
+    "WGS84_F",
+]
+
+#: WGS-84 equatorial radius (km) and flattening (NIMA TR8350.2).
+WGS84_A_KM = 6378.137
+WGS84_F = 1.0 / 298.257223563
+
+
+@contextlib.contextmanager
+def offline_iers():
+    """Use the Earth-orientation data installed with astropy; never download.
+
+    Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False`` and times beyond the
+    table warn instead of raising (``iers_degraded_accuracy = "warn"``).
+    """
+    from astropy.utils import iers
+
+    with (
+        iers.conf.set_temp("auto_download", False),
+        iers.conf.set_temp("iers_degraded_accuracy", "warn"),
+    ):
+        yield
+
+
+def _raw(value, kind, name):
+    """Plain float64 array in canonical units from a Quantity or (already canonical) array."""
+    if isinstance(value, u.Quantity):
+        return to_vector(value, kind, name)
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0 or arr.shape[-1] != 3:
+        raise ShapeError(f"{name} must have shape (..., 3); got {arr.shape}.")
+    return arr
+
+
+def _transform(r, v, t, source, target):
+    from astropy.coordinates import GCRS, ITRS, TEME, CartesianDifferential, CartesianRepresentation
+    from astropy.time import Time
+
+    frames = {"teme": TEME, "gcrs": GCRS, "itrs": ITRS}
+    if not isinstance(t, Time):
+        raise InvalidInputError(
+            f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
+            f"(the rotation depends on the date); got {type(t).__name__}."
+        )
+    r_km = _raw(r, "length", "r")
+    v_km_s = _raw(v, "speed", "v")
+    try:
+        shape = np.broadcast_shapes(r_km.shape[:-1], v_km_s.shape[:-1], t.shape)
+    except ValueError as exc:
+        raise ShapeError(
+            f"r {r_km.shape}, v {v_km_s.shape} and t {t.shape} do not broadcast: {exc}"
+        ) from exc
+    r_km = np.broadcast_to(r_km, shape + (3,))
+    v_km_s = np.broadcast_to(v_km_s, shape + (3,))
+    rep = CartesianRepresentation(
+        np.moveaxis(r_km, -1, 0) * u.km,
+        differentials=CartesianDifferential(np.moveaxis(v_km_s, -1, 0) * (u.km / u.s)),
+        copy=False,
+    )
+    with offline_iers():
+        coord = frames[source](rep, obstime=t)
+        out = coord.transform_to(frames[target](obstime=t))
+        cart = out.cartesian
+        r_out = np.moveaxis(cart.xyz.to_value(u.km), 0, -1)
+        v_out = np.moveaxis(cart.differentials["s"].d_xyz.to_value(u.km / u.s), 0, -1)
+    return np.ascontiguousarray(r_out), np.ascontiguousarray(v_out)
+
+
+def _wrap(r, v, like):
+    if isinstance(like, u.Quantity):
+        return to_quantity(r, "length"), to_quantity(v, "speed")
+    return r, v
+
+
+def teme_to_gcrs(r, v, t):
+    """Rotate TEME positions and velocities to GCRS with astropy.
+
+    Parameters
+    ----------
+    r : Quantity (length) or ndarray (km), shape (..., 3)
+        TEME position.
+    v : Quantity (speed) or ndarray (km/s), shape (..., 3)
+        TEME velocity.
+    t : astropy Time, broadcastable to ``r.shape[:-1]``
+        Times of the states.
+
+    Returns
+    -------
+    r, v : Quantity or ndarray (same kind as ``r``)
+        GCRS position (km) and velocity (km/s).
+
+    Notes
+    -----
+    TEME (true equator, mean equinox; Vallado et al. 2006, AIAA 2006-6753) -> PEF by GMST
+    (IAU 1982) -> ITRS by polar motion -> GCRS by the IAU 2006/2000A CIO-based chain, all in
+    astropy/ERFA; velocities are transformed with astropy's finite differences in obstime.
+    """
+    ro, vo = _transform(r, v, t, "teme", "gcrs")
+    return _wrap(ro, vo, r)
+
+
+def teme_to_itrs(r, v, t):
+    """Rotate TEME positions and velocities to ITRS (Earth-fixed) with astropy.
+
+    Parameters and returns as in :func:`teme_to_gcrs`; the ITRS velocity is relative to the
+    rotating Earth.
+    """
+    ro, vo = _transform(r, v, t, "teme", "itrs")
+    return _wrap(ro, vo, r)
+
+
+def gcrs_to_itrs(r, v, t):
+    """Rotate GCRS positions and velocities to ITRS with astropy (see :func:`teme_to_gcrs`)."""
+    ro, vo = _transform(r, v, t, "gcrs", "itrs")
+    return _wrap(ro, vo, r)
+
+
+def itrs_to_gcrs(r, v, t):
+    """Rotate ITRS positions and velocities to GCRS with astropy (see :func:`teme_to_gcrs`)."""
+    ro, vo = _transform(r, v, t, "itrs", "gcrs")
+    return _wrap(ro, vo, r)
+
+
+def itrs_to_geodetic(r):
+    """Geodetic latitude, longitude and height above the WGS-84 ellipsoid.
+
+    Parameters
+    ----------
+    r : Quantity (length) or ndarray (km), shape (..., 3)
+        ITRS position.
+
+    Returns
+    -------
+    latitude, longitude, height : Quantity
+        Degrees, degrees in [-180, 180), km; shape ``r.shape[:-1]``.
+
+    Notes
+    -----
+    astropy's ``EarthLocation.to_geodetic("WGS84")`` (ERFA ``gc2gde``, Fukushima's method),
+    exact to well below a millimetre.
+    """
+    from astropy.coordinates import EarthLocation
+
+    r_km = _raw(r, "length", "r")
+    loc = EarthLocation.from_geocentric(r_km[..., 0], r_km[..., 1], r_km[..., 2], unit=u.km)
+    geo = loc.to_geodetic("WGS84")
+    lat = u.Quantity(geo.lat, u.deg)
+    lon = u.Quantity(geo.lon.wrap_at(180 * u.deg), u.deg)
+    return lat, lon, geo.height.to(u.km)

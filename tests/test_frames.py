@@ -1,0 +1,148 @@
+"""TEME -> GCRS -> ITRS -> geodetic through astropy, checked against astropy and Skyfield."""
+
+from __future__ import annotations
+
+import astropy_iers_data
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.coordinates import (
+    GCRS,
+    ITRS,
+    TEME,
+    CartesianDifferential,
+    CartesianRepresentation,
+)
+from astropy.time import Time
+from astropy.utils import iers
+
+import visviva as vv
+from visviva.satellites.frames import (
+    gcrs_to_itrs,
+    itrs_to_gcrs,
+    itrs_to_geodetic,
+    teme_to_gcrs,
+    teme_to_itrs,
+)
+
+ONE_MM = 1e-6  # km
+ONE_M = 1e-3  # km
+TEN_M = 1e-2  # km
+
+# ISS (ZARYA), a 2024 element set: inside the installed IERS tables (no extrapolation)
+ISS_1 = "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009"
+ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340"
+# a Molniya orbit (deep space, SDP4) from the SGP4 verification set
+MOLNIYA_1 = "1 08195U 75081A   24176.33215444  .00000099  00000-0  11873-3 0   813"
+MOLNIYA_2 = "2 08195  64.1586 279.0717 6877146 264.7651  20.2257  2.00491383225656"
+
+
+@pytest.fixture(scope="module")
+def sats():
+    return [
+        vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS"),
+        vv.Satellite.from_tle(MOLNIYA_1, MOLNIYA_2, name="MOLNIYA", verify_checksum=False),
+    ]
+
+
+@pytest.fixture(scope="module")
+def skyfield_ts():
+    from skyfield.api import load
+    from skyfield.data import iers as sky_iers
+
+    ts = load.timescale(builtin=True)
+    # the same offline Earth-orientation file astropy uses, for Skyfield's polar motion
+    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
+        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
+    return ts
+
+
+def _times(sat):
+    return sat.epoch + np.linspace(-0.5, 2.0, 11) * u.day
+
+
+def test_gcrs_and_itrs_agree_with_astropy_frames(sats):
+    for sat in sats:
+        t = _times(sat)
+        teme = sat.teme(t)
+        rep = CartesianRepresentation(
+            teme.r.T, differentials=CartesianDifferential(teme.v.T)
+        )
+        with iers.conf.set_temp("auto_download", False):
+            coord = TEME(rep, obstime=t)
+            g = coord.transform_to(GCRS(obstime=t))
+            i = coord.transform_to(ITRS(obstime=t))
+        ours_g, ours_i = sat.gcrs(t), sat.itrs(t)
+        assert np.abs((ours_g.r - g.cartesian.xyz.T).to_value(u.km)).max() < ONE_MM
+        assert np.abs((ours_g.v - g.velocity.d_xyz.T).to_value(u.km / u.s)).max() < 1e-9
+        assert np.abs((ours_i.r - i.cartesian.xyz.T).to_value(u.km)).max() < ONE_MM
+        assert np.abs((ours_i.v - i.velocity.d_xyz.T).to_value(u.km / u.s)).max() < 1e-9
+
+
+def test_agree_with_skyfield_earth_satellite(sats, skyfield_ts):
+    from skyfield.api import EarthSatellite
+    from skyfield.framelib import itrs
+
+    for sat, (l1, l2) in zip(sats, [(ISS_1, ISS_2), (MOLNIYA_1, MOLNIYA_2)], strict=True):
+        es = EarthSatellite(l1, l2, sat.name, skyfield_ts)
+        t = _times(sat)
+        at = es.at(skyfield_ts.from_astropy(t))
+        g = sat.gcrs(t)
+        assert np.abs(g.r.to_value(u.km) - at.position.km.T).max() < ONE_M
+        assert np.abs(g.v.to_value(u.km / u.s) - at.velocity.km_per_s.T).max() < 1e-6
+        r_itrs, v_itrs = at.frame_xyz_and_velocity(itrs)
+        i = sat.itrs(t)
+        assert np.abs(i.r.to_value(u.km) - r_itrs.km.T).max() < TEN_M
+        assert np.abs(i.v.to_value(u.km / u.s) - v_itrs.km_per_s.T).max() < 1e-5
+
+
+def test_geodetic_agrees_with_skyfield_wgs84(sats, skyfield_ts):
+    from skyfield.api import EarthSatellite, wgs84
+
+    sat = sats[0]
+    es = EarthSatellite(ISS_1, ISS_2, sat.name, skyfield_ts)
+    t = _times(sat)
+    where = wgs84.geographic_position_of(es.at(skyfield_ts.from_astropy(t)))
+    lat, lon, height = sat.geodetic(t)
+    # 10 m on the ground is 1e-4 deg
+    assert np.abs(lat.to_value(u.deg) - where.latitude.degrees).max() < 1e-4
+    dlon = (lon.to_value(u.deg) - where.longitude.degrees + 180) % 360 - 180
+    assert np.abs(dlon).max() < 1e-4
+    assert np.abs(height.to_value(u.km) - where.elevation.km).max() < TEN_M
+    assert lat.unit == u.deg and np.all(np.abs(lon.to_value(u.deg)) <= 180)
+
+
+def test_round_trips_and_norms():
+    rng = np.random.default_rng(1)
+    r = rng.normal(size=(4, 5, 3)) * 7000 * u.km
+    v = rng.normal(size=(4, 5, 3)) * u.km / u.s
+    t = Time("2020-03-01T00:00:00", scale="utc") + np.linspace(0, 1, 5) * u.day
+    rg, vg = teme_to_gcrs(r, v, t)
+    assert rg.shape == (4, 5, 3)
+    # rotations keep lengths
+    np.testing.assert_allclose(
+        np.linalg.norm(rg, axis=-1).to_value(u.km), np.linalg.norm(r, axis=-1).to_value(u.km),
+        rtol=1e-13,
+    )
+    ri, vi = gcrs_to_itrs(rg, vg, t)
+    rb, vb = itrs_to_gcrs(ri, vi, t)
+    assert np.abs((rb - rg).to_value(u.km)).max() < ONE_MM
+    assert np.abs((vb - vg).to_value(u.km / u.s)).max() < 1e-9
+    ri2, vi2 = teme_to_itrs(r, v, t)
+    assert np.abs((ri2 - ri).to_value(u.km)).max() < ONE_MM
+
+
+def test_geodetic_of_known_points():
+    a, f = 6378.137, 1 / 298.257223563
+    b = a * (1 - f)
+    r = np.array([[a + 1.0, 0, 0], [0, a, 0], [0, 0, b + 2.0], [-a, 0, 0]]) * u.km
+    lat, lon, h = itrs_to_geodetic(r)
+    np.testing.assert_allclose(lat.to_value(u.deg), [0, 0, 90, 0], atol=1e-12)
+    np.testing.assert_allclose(lon.to_value(u.deg)[:2], [0, 90], atol=1e-12)
+    assert abs(abs(lon.to_value(u.deg)[3]) - 180) < 1e-12
+    np.testing.assert_allclose(h.to_value(u.km), [1.0, 0.0, 2.0, 0.0], atol=1e-9)
+
+
+def test_frames_need_a_time():
+    with pytest.raises(vv.InvalidInputError, match="astropy Time"):
+        teme_to_gcrs(np.zeros(3) * u.km + 7000 * u.km, np.ones(3) * u.km / u.s, 0.0)

@@ -218,8 +218,12 @@ def format_line(check: Check, width: int = 64) -> str:
     name = check.name if len(check.name) <= width else check.name[: width - 1] + "…"
     if status == "SKIP":
         return f"SKIP  {name:<{width}s}  ({check.details.get('skipped')})"
-    return (f"{status}  {name:<{width}s}  {_fmt(check.measured):>10s} <= {_fmt(check.tolerance):<9s}"
-            f"  {check.metric}")
+    line = (f"{status}  {name:<{width}s}  {_fmt(check.measured):>10s} <= "
+            f"{_fmt(check.tolerance):<9s}  {check.metric}")
+    error = check.details.get("error") if isinstance(check.details, dict) else None
+    if status == "FAIL" and error:
+        line += f"\n      error: {str(error)[:300]}"
+    return line
 
 
 class _Progress:

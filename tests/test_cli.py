@@ -1,0 +1,220 @@
+"""The command line: ``visviva validate`` end to end and its exit codes; ``visviva bench``."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+
+from visviva import cli
+from visviva.validation import runner
+from visviva.validation.base import Check
+from visviva.validation.report import markdown_escape, plot_specs
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _fake_module(monkeypatch, name: str, fn) -> str:
+    """Register a fake ``checks_<name>`` module in sys.modules; return its full name."""
+    full = f"visviva.validation.checks_fake_{name}"
+    module = types.ModuleType(full)
+    if fn is not None:
+        module.checks = fn
+    monkeypatch.setitem(sys.modules, full, module)
+    return full
+
+
+def _passing(full=False):
+    t = np.linspace(1.0, 100.0, 50)
+    return [
+        Check("fake: round trip", "max |dr| (km)", 1e-9, 1e-6, "fake 1.0",
+              {"dr_km": np.abs(np.random.default_rng(0).normal(0, 1e-10, 100))}),
+        Check("fake: energy", "max |dE/E|", 1e-14, 1e-12, "fake 1.0",
+              {"t": t, "energy_error": 1e-16 * np.sqrt(t), "rebound_energy_error": 2e-16 * t,
+               "plot_group": "energy"}),
+    ]
+
+
+def _failing(full=False):
+    return [Check("fake: too far", "max |dr| (km)", 2.0, 1.0, "fake")]
+
+
+def _raising(full=False):
+    raise RuntimeError("half-written capability")
+
+
+def _skipping(full=False):
+    return [Check("fake: later", "x", math.nan, 1.0, details={"skipped": "not there yet"})]
+
+
+def test_cli_validate_units_end_to_end(tmp_path):
+    """The real command in a subprocess: runs the cheap units checks and writes the report."""
+    report = tmp_path / "report"
+    out_json = tmp_path / "out.json"
+    proc = subprocess.run(
+        [sys.executable, "-m", "visviva.cli", "validate", "--only", "units", "--report",
+         str(report), "--json", str(out_json), "--quiet"],
+        capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert "units: _units.to_array vs astropy" in proc.stdout, proc.stdout + proc.stderr
+    data = json.loads(out_json.read_text())
+    statuses = {c["status"] for c in data["checks"]}
+    assert statuses <= {"PASS", "SKIP", "FAIL"}
+    assert proc.returncode == (1 if "FAIL" in statuses else 0), proc.stdout
+    text = (report / "report.md").read_text()
+    assert "# visviva validation report" in text
+    assert "units: \\_units.to\\_array vs astropy" in text
+    assert (report / "results.json").is_file()
+    for line in proc.stdout.splitlines():
+        if line.startswith(("PASS", "FAIL")):
+            assert "<=" in line, line  # measured <= tolerance on every line
+
+
+def test_passing_module_exit_zero_and_report_with_plots(monkeypatch, tmp_path, capsys):
+    name = _fake_module(monkeypatch, "pass", _passing)
+    code = runner.run(modules=[name], report_dir=tmp_path, progress=False)
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "PASS  fake: round trip" in out and "2 passed, 0 failed" in out
+    pngs = sorted(p.name for p in tmp_path.glob("plot_*.png"))
+    assert len(pngs) == 2, pngs  # the histogram and the energy group
+    report = (tmp_path / "report.md").read_text()
+    for png in pngs:
+        assert f"]({png})" in report
+
+
+def test_failing_check_gives_nonzero_exit(monkeypatch, tmp_path, capsys):
+    good = _fake_module(monkeypatch, "pass", _passing)
+    bad = _fake_module(monkeypatch, "fail", _failing)
+    assert runner.run(modules=[good, bad], report_dir=tmp_path, progress=False) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  fake: too far" in out
+    assert "**FAIL**" in (tmp_path / "report.md").read_text()
+
+
+def test_broken_modules_become_failed_checks_not_crashes(monkeypatch, tmp_path, capsys):
+    raising = _fake_module(monkeypatch, "raise", _raising)
+    no_fn = _fake_module(monkeypatch, "nofn", None)
+    wrong = _fake_module(monkeypatch, "wrong", lambda full=False: [42])
+    missing = "visviva.validation.checks_does_not_exist_xyz"
+    good = _fake_module(monkeypatch, "pass", _passing)
+    code = runner.run(modules=[raising, no_fn, wrong, missing, good], report_dir=tmp_path,
+                      progress=False)
+    out = capsys.readouterr().out
+    assert code == 1
+    assert "half-written capability" in out
+    assert "defines no checks(full)" in out
+    assert "expected a Check" in out
+    assert "import failed" in out
+    assert "2 passed, 4 failed" in out  # the good module still ran
+
+
+def test_skips_do_not_fail_unless_strict(monkeypatch, tmp_path):
+    good = _fake_module(monkeypatch, "pass", _passing)
+    skip = _fake_module(monkeypatch, "skip", _skipping)
+    assert runner.run(modules=[good, skip], report_dir=None, progress=False) == 0
+    assert runner.run(modules=[good, skip], report_dir=None, progress=False, strict=True) == 1
+
+
+def test_empty_run_is_not_a_success(tmp_path):
+    assert runner.run(modules=[], report_dir=tmp_path, progress=False) == 1
+
+
+def test_only_selects_modules_then_check_names(monkeypatch, capsys):
+    good = _fake_module(monkeypatch, "pass", _passing)
+    bad = _fake_module(monkeypatch, "fail", _failing)
+    # a topic match runs the whole module
+    assert runner.run(modules=[good, bad], report_dir=None, progress=False, only="fake_pass") == 0
+    # no topic matches: filter by check name ("energy" is a check of the passing module)
+    assert runner.run(modules=[good, bad], report_dir=None, progress=False, only="ENERGY") == 0
+    out = capsys.readouterr().out
+    assert "too far" not in out and "fake: energy" in out
+
+
+def test_full_flag_reaches_the_module(monkeypatch):
+    seen = []
+
+    def record(full=False):
+        seen.append(full)
+        return _passing(full)
+
+    name = _fake_module(monkeypatch, "record", record)
+    runner.run(modules=[name], report_dir=None, progress=False, full=True)
+    assert seen == [True]
+
+
+def test_timeout_turns_into_failed_check(monkeypatch):
+    import time
+
+    def slow(full=False):
+        time.sleep(5)
+        return _passing()
+
+    name = _fake_module(monkeypatch, "slow", slow)
+    result = runner.run_module(name, timeout_s=0.2)
+    assert len(result.checks) == 1 and not result.checks[0].passed
+    assert "time budget" in result.checks[0].name
+
+
+def test_json_output_is_strict_json(monkeypatch, tmp_path):
+    good = _fake_module(monkeypatch, "pass", _passing)
+    raising = _fake_module(monkeypatch, "raise", _raising)
+    path = tmp_path / "r.json"
+    runner.run(modules=[good, raising], report_dir=None, progress=False, json_path=path)
+    data = json.loads(path.read_text())  # NaN would make this invalid JSON
+    assert data["counts"] == {"PASS": 2, "FAIL": 1, "SKIP": 0}
+    assert data["exit_code"] == 1
+    assert data["environment"]["numpy"] == np.__version__
+    assert isinstance(data["checks"][0]["details"]["dr_km"], list)
+
+
+def test_cli_main_in_process(monkeypatch, tmp_path, capsys):
+    bad = _fake_module(monkeypatch, "fail", _failing)
+    monkeypatch.setattr(runner, "discover", lambda: [bad])
+    assert cli.main(["validate", "--report", str(tmp_path), "--quiet"]) == 1
+    assert cli.main(["validate", "--list"]) == 0
+    assert "fake_fail" in capsys.readouterr().out
+
+
+def test_plot_specs_conventions():
+    t = np.arange(1.0, 11.0)
+    brouwer = Check("Brouwer's law, ias15", "rel energy error", 1.0, 2.0,
+                    details={"t": t, "energy_error": t**0.5})
+    assert plot_specs(brouwer)[0]["kind"] == "loglog"
+    hist = Check("x", "m", 0.0, 1.0, details={"dv_error": np.ones(10), "names": ["a"] * 10})
+    assert plot_specs(hist) == [{"kind": "hist", "y": "dv_error"}]
+    explicit = Check("x", "m", 0.0, 1.0, details={"plot": {"kind": "line", "x": "a", "y": "b"}})
+    assert plot_specs(explicit)[0]["x"] == "a"
+    assert plot_specs(Check("x", "m", 0.0, 1.0)) == []
+
+
+def test_markdown_escape():
+    assert markdown_escape("a|b *c* $x$ <y>") == "a\\|b \\*c\\* \\$x\\$ \\<y\\>"
+
+
+def test_bench_from_repo_root(tmp_path):
+    """``visviva bench`` finds the benchmarks package from the repository root."""
+    out = tmp_path / "perf.md"
+    proc = subprocess.run(
+        [sys.executable, "-m", "visviva.cli", "bench", "--only", "no_such_benchmark_xyz",
+         "--output", str(out)], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    text = out.read_text()
+    assert "# Performance" in text and "| numba |" in text and "| cpu |" in text
+
+
+def test_bench_page_marks_targets(tmp_path, monkeypatch):
+    sys.path.insert(0, str(ROOT))
+    try:
+        from benchmarks import __main__ as bench_main
+        from benchmarks.common import result
+    finally:
+        sys.path.remove(str(ROOT))
+    rows = [result("fast", 1.0, "ref", 2.0, target=1.0), result("slow", 3.0, "ref", 1.0, target=2.0)]
+    text = bench_main.markdown(rows, quick=True, elapsed_s=1.0)
+    assert "| fast |" in text and "| met |" in text and "| NOT met |" in text
+    assert "1 of 2 targets met" in text

@@ -1,0 +1,124 @@
+"""Inputs of :mod:`visviva.mechanics`: plain numbers in consistent units, or Quantities.
+
+Every dimensional argument goes through :func:`visviva._units.to_si` (the one module that
+converts units): a Quantity is converted to SI, a plain number is taken as it is. When any input of
+a call was a Quantity, the outputs are returned as SI Quantities; otherwise as plain arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._units import to_si
+from ..errors import DomainError, InvalidInputError, ShapeError
+
+__all__ = ["Inputs", "SI"]
+
+
+class _SIUnits:
+    """SI units, resolved lazily so that importing this module does not import astropy."""
+
+    _names = {
+        "m": "m",
+        "kg": "kg",
+        "s": "s",
+        "rad": "rad",
+        "speed": "m / s",
+        "accel": "m / s2",
+        "rate": "1 / s",
+        "force": "N",
+        "impulse": "N s",
+        "energy": "J",
+        "momentum": "kg m / s",
+        "inertia": "kg m2",
+        "angmom": "kg m2 / s",
+        "torque": "N m",
+        "stiffness": "N / m",
+        "drag_linear": "kg / s",
+        "drag_quadratic": "kg / m",
+        "one": "",
+    }
+
+    def __getattr__(self, key):
+        from astropy import units as u
+
+        if key not in self._names:
+            raise AttributeError(key)
+        return u.Unit(self._names[key]) if self._names[key] else u.dimensionless_unscaled
+
+
+SI = _SIUnits()
+
+
+class Inputs:
+    """Collects converted arguments of one call and remembers whether any was a Quantity.
+
+    Examples
+    --------
+    >>> ins = Inputs()
+    >>> m = ins.get(2.0, "kg", "m1", positive=True)
+    >>> float(m), ins.any_quantity
+    (2.0, False)
+    """
+
+    def __init__(self):
+        self.any_quantity = False
+
+    def get(
+        self,
+        value,
+        unit: str,
+        name: str,
+        *,
+        positive: bool = False,
+        nonnegative: bool = False,
+        finite: bool = True,
+    ) -> np.ndarray:
+        """Convert ``value`` (Quantity -> SI ``unit`` from :data:`SI`; plain number as is)."""
+        if value is None:
+            raise InvalidInputError(f"{name} is required; pass a number or a Quantity.")
+        arr, was_q = to_si(value, getattr(SI, unit), name, finite=finite)
+        self.any_quantity |= was_q
+        if positive and np.any(~(arr > 0)):
+            bad = arr[~(arr > 0)].ravel()[0] if arr.ndim else arr
+            raise DomainError(f"{name} must be > 0; got {float(bad)!r}. Pass a positive value.")
+        if nonnegative and np.any(~(arr >= 0)):
+            bad = arr[~(arr >= 0)].ravel()[0] if arr.ndim else arr
+            raise DomainError(f"{name} must be >= 0; got {float(bad)!r}. Pass a value >= 0.")
+        return arr
+
+    def vector(self, value, unit: str, name: str, *, dim: int | None = 3) -> np.ndarray:
+        """Like :meth:`get`, and check that the last axis has length ``dim`` (any if None)."""
+        arr = self.get(value, unit, name)
+        if arr.ndim == 0 or (dim is not None and arr.shape[-1] != dim):
+            want = f"({dim},) or (N, {dim})" if dim else "(d,) or (N, d)"
+            raise ShapeError(
+                f"{name} must have its components on the last axis, shape {want}; "
+                f"got shape {arr.shape}."
+            )
+        return arr
+
+    def out(self, arr, unit: str):
+        """Return ``arr`` as an SI Quantity if any input was a Quantity, else as an ndarray/float."""
+        arr = np.asarray(arr, dtype=np.float64)
+        if self.any_quantity:
+            from astropy import units as u
+
+            return u.Quantity(arr, getattr(SI, unit), copy=False)
+        return arr[()] if arr.ndim == 0 else arr
+
+
+def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
+    """A finite square (n, n) matrix, symmetric to rounding, as float64."""
+    arr = ins.get(value, unit, name)
+    if arr.ndim == 0:
+        arr = arr.reshape(1, 1)
+    if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
+        raise ShapeError(f"{name} must be a square (n, n) matrix; got shape {arr.shape}.")
+    scale = max(np.max(np.abs(arr)), np.finfo(float).tiny)
+    if np.max(np.abs(arr - arr.T)) > 1e-10 * scale:
+        raise InvalidInputError(
+            f"{name} must be symmetric; |{name} - {name}.T| reaches "
+            f"{np.max(np.abs(arr - arr.T)):.3g}. Pass (A + A.T) / 2 if the asymmetry is rounding."
+        )
+    return 0.5 * (arr + arr.T)

@@ -1,0 +1,226 @@
+"""Collisions: 1-D elastic, inelastic (restitution), perfectly inelastic and explosive; 3-D impulse
+along the line of centres.
+
+Everything is written in the centre-of-mass frame, v' = v_cm +/- (reduced-mass share) * u', so
+that momentum is conserved to rounding for any masses (the centre-of-mass velocity is computed
+once and never changed) and the relative velocity obeys u' = -e u exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import DomainError, InvalidStateError
+from ._inputs import Inputs
+
+__all__ = [
+    "elastic_collision_1d",
+    "inelastic_collision_1d",
+    "perfectly_inelastic_collision_1d",
+    "explosive_separation_1d",
+    "collision_impulse",
+    "kinetic_energy",
+]
+
+
+def _restitution(restitution, explosive: bool, ins: Inputs):
+    e = ins.get(restitution, "one", "restitution")
+    if np.any(e < 0):
+        raise DomainError(
+            f"restitution must be >= 0; got {float(np.min(e))!r}. Use 0 for a perfectly "
+            "inelastic collision, 1 for an elastic one."
+        )
+    if not explosive and np.any(e > 1):
+        raise DomainError(
+            f"restitution must lie in [0, 1]; got {float(np.max(e))!r}. A coefficient above 1 "
+            "adds kinetic energy: pass explosive=True if that is intended."
+        )
+    return e
+
+
+def _masses(m1, m2, ins: Inputs):
+    m1 = ins.get(m1, "kg", "m1", positive=True)
+    m2 = ins.get(m2, "kg", "m2", positive=True)
+    return m1, m2
+
+
+def inelastic_collision_1d(m1, v1, m2, v2, restitution, *, explosive: bool = False):
+    """Velocities after a head-on collision with coefficient of restitution e.
+
+    Parameters
+    ----------
+    m1, m2 : float, array_like or Quantity
+        Masses [kg], > 0.
+    v1, v2 : float, array_like or Quantity
+        Velocities before [m/s]; everything broadcasts.
+    restitution : float or array_like
+        e in [0, 1]: 1 elastic, 0 perfectly inelastic; e > 1 only with ``explosive=True``.
+    explosive : bool
+        Allow e > 1 (kinetic energy added by the collision).
+
+    Returns
+    -------
+    v1_after, v2_after : ndarray or Quantity
+        Velocities after [m/s].
+
+    Notes
+    -----
+    With M = m1 + m2, v_cm = (m1 v1 + m2 v2) / M and u = v1 - v2:
+    v1' = v_cm - e m2 u / M,  v2' = v_cm + e m1 u / M, so that v1' - v2' = -e u and
+    m1 v1' + m2 v2' = M v_cm. Kinetic energy lost: (1 - e^2) mu u^2 / 2 with mu = m1 m2 / M
+    (Taylor, *Classical Mechanics*, 2005, sec. 14.x; Goldstein 3rd ed. sec. 3.10).
+    """
+    ins = Inputs()
+    m1, m2 = _masses(m1, m2, ins)
+    v1 = ins.get(v1, "speed", "v1")
+    v2 = ins.get(v2, "speed", "v2")
+    e = _restitution(restitution, explosive, ins)
+    total = m1 + m2
+    v_cm = (m1 / total) * v1 + (m2 / total) * v2
+    u = v1 - v2
+    return ins.out(v_cm - e * (m2 / total) * u, "speed"), ins.out(
+        v_cm + e * (m1 / total) * u, "speed"
+    )
+
+
+def elastic_collision_1d(m1, v1, m2, v2):
+    """Velocities ``(v1', v2')`` after a 1-D elastic collision [m/s].
+
+    Parameters
+    ----------
+    m1, m2 : float, array_like or Quantity
+        Masses [kg], > 0.
+    v1, v2 : float, array_like or Quantity
+        Velocities before [m/s].
+
+    Notes
+    -----
+    v1' = 2 v_cm - v1, v2' = 2 v_cm - v2 with v_cm the centre-of-mass velocity: each velocity is
+    reflected in the centre-of-mass frame, conserving momentum and kinetic energy (Taylor 2005).
+
+    Examples
+    --------
+    >>> v1, v2 = elastic_collision_1d(1.0, 1.0, 1.0, 0.0)   # equal masses swap velocities
+    >>> print(f"{v1:.3f} {v2:.3f}")
+    0.000 1.000
+    """
+    return inelastic_collision_1d(m1, v1, m2, v2, 1.0)
+
+
+def perfectly_inelastic_collision_1d(m1, v1, m2, v2):
+    """Common velocity after the bodies stick together, v_cm = (m1 v1 + m2 v2)/(m1 + m2) [m/s]."""
+    return inelastic_collision_1d(m1, v1, m2, v2, 0.0)[0]
+
+
+def explosive_separation_1d(m1, v1, m2, v2, energy_released):
+    """Velocities after a 1-D collision (or explosion) that adds kinetic energy Q >= 0.
+
+    Parameters
+    ----------
+    m1, m2 : masses [kg]; v1, v2 : velocities before [m/s];
+    energy_released : float, array_like or Quantity
+        Q [J], >= 0, added to the kinetic energy.
+
+    Returns
+    -------
+    v1_after, v2_after : velocities after [m/s].
+
+    Notes
+    -----
+    Momentum fixes v_cm; the relative speed after is |u'| = sqrt(u^2 + 2 Q / mu). The bodies
+    separate afterwards with body 2 on the + side: u' = v1' - v2' = -sqrt(u^2 + 2 Q / mu) (an
+    approaching pair bounces back; a pair at rest relative to each other, as in an explosion,
+    flies apart with body 2 moving in the + direction relative to body 1).
+    """
+    ins = Inputs()
+    m1, m2 = _masses(m1, m2, ins)
+    v1 = ins.get(v1, "speed", "v1")
+    v2 = ins.get(v2, "speed", "v2")
+    Q = ins.get(energy_released, "energy", "energy_released", nonnegative=True)
+    total = m1 + m2
+    mu = m1 * m2 / total
+    v_cm = (m1 / total) * v1 + (m2 / total) * v2
+    u = v1 - v2
+    u_after = -np.sqrt(u * u + 2.0 * Q / mu)
+    return ins.out(v_cm + (m2 / total) * u_after, "speed"), ins.out(
+        v_cm - (m1 / total) * u_after, "speed"
+    )
+
+
+def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = False):
+    """3-D collision of two smooth spheres: impulse along the line of centres.
+
+    Parameters
+    ----------
+    m1, m2 : float, array_like or Quantity
+        Masses [kg], > 0, shape (...).
+    r1, r2 : array_like or Quantity, shape (..., 3)
+        Centres at contact [m]; only the direction n = (r2 - r1)/|r2 - r1| matters.
+    v1, v2 : array_like or Quantity, shape (..., 3)
+        Velocities before [m/s].
+    restitution : float or array_like
+        e in [0, 1] (e > 1 only with ``explosive=True``).
+    explosive : bool
+        Allow e > 1.
+
+    Returns
+    -------
+    J : ndarray or Quantity, shape (..., 3)
+        Impulse received by body 2 [N s] (body 1 receives -J). Zero when the bodies are already
+        separating, (v1 - v2).n <= 0: then no collision takes place.
+    v1_after, v2_after : ndarray or Quantity, shape (..., 3)
+        Velocities after [m/s]: v1' = v1 - J/m1, v2' = v2 + J/m2.
+
+    Raises
+    ------
+    InvalidStateError
+        Coincident centres (no line of centres).
+    DomainError
+        Non-positive mass or restitution outside [0, 1].
+
+    Notes
+    -----
+    Frictionless spheres exchange an impulse J = j n with j = (1 + e) mu (v1 - v2).n and
+    mu = m1 m2/(m1 + m2); tangential velocities are unchanged, the normal relative velocity
+    becomes -e times its old value, momentum is conserved exactly and the kinetic energy drops
+    by (1 - e^2) mu ((v1 - v2).n)^2 / 2 (Goldstein 3rd ed. sec. 3.10; Taylor 2005).
+    """
+    ins = Inputs()
+    m1, m2 = _masses(m1, m2, ins)
+    r1 = ins.vector(r1, "m", "r1")
+    r2 = ins.vector(r2, "m", "r2")
+    v1 = ins.vector(v1, "speed", "v1")
+    v2 = ins.vector(v2, "speed", "v2")
+    e = _restitution(restitution, explosive, ins)
+    d = r2 - r1
+    dist = np.linalg.norm(d, axis=-1, keepdims=True)
+    if np.any(dist == 0):
+        raise InvalidStateError(
+            "collision_impulse: r1 and r2 coincide, so the line of centres is undefined. Pass "
+            "the centres at the moment of contact (|r2 - r1| = sum of radii)."
+        )
+    n = d / dist
+    m1 = np.asarray(m1)[..., None]
+    m2 = np.asarray(m2)[..., None]
+    e = np.asarray(e)[..., None]
+    mu = m1 * m2 / (m1 + m2)
+    approach = np.sum((v1 - v2) * n, axis=-1, keepdims=True)
+    j = np.where(approach > 0, (1.0 + e) * mu * approach, 0.0)
+    J = j * n
+    return ins.out(J, "impulse"), ins.out(v1 - J / m1, "speed"), ins.out(v2 + J / m2, "speed")
+
+
+def kinetic_energy(m, v):
+    """Kinetic energy m |v|^2 / 2 [J].
+
+    ``v`` has the shape of ``m`` (1-D velocities) or one more axis holding the vector components
+    (then summed over the last axis).
+    """
+    ins = Inputs()
+    m = ins.get(m, "kg", "m", nonnegative=True)
+    v = ins.get(v, "speed", "v")
+    if v.ndim == m.ndim + 1:
+        v2 = np.sum(v * v, axis=-1)
+    else:
+        v2 = v * v
+    return ins.out(0.5 * m * v2, "energy")

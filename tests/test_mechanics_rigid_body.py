@@ -1,0 +1,163 @@
+"""Rigid bodies: inertia tensors, Euler angles vs scipy, Euler's equations with exact results."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from visviva import mechanics as mech
+from visviva.errors import DomainError, InvalidInputError, ShapeError
+
+
+def test_inertia_tensor_point_masses():
+    I = mech.inertia_tensor([1.0, 2.0], [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    expected = np.array([[4.0, 0.0, 0.0], [0.0, 3.0, -2.0], [0.0, -2.0, 3.0]])
+    np.testing.assert_allclose(I, expected)
+    I = mech.inertia_tensor(2 * u.kg, [0, 0, 100] * u.cm)
+    assert I.unit == u.kg * u.m**2
+    np.testing.assert_allclose(I.value, np.diag([2.0, 2.0, 0.0]))
+    with pytest.raises(DomainError):
+        mech.inertia_tensor([-1.0], [[1, 0, 0]])
+    with pytest.raises(ShapeError):
+        mech.inertia_tensor([1.0, 1.0], [[1, 0, 0]])
+    with pytest.raises(ShapeError):
+        mech.inertia_tensor([1.0], [[1, 0]])
+
+
+def test_solids_against_point_mass_sampling():
+    rng = np.random.default_rng(1)
+    n = 400_000
+    # box: uniform samples converge to the formula
+    pts = (rng.random((n, 3)) - 0.5) * [1.0, 2.0, 3.0]
+    I = mech.inertia_tensor(np.full(n, 6.0 / n), pts)
+    np.testing.assert_allclose(I, mech.inertia_box(6.0, 1.0, 2.0, 3.0), rtol=5e-3, atol=5e-3)
+    # rod, sphere, shell, cylinder closed forms
+    assert mech.inertia_thin_rod(3.0, 2.0)[0, 0] == pytest.approx(1.0)
+    assert mech.inertia_solid_sphere(5.0, 2.0)[2, 2] == pytest.approx(8.0)
+    assert mech.inertia_spherical_shell(3.0, 1.0)[1, 1] == pytest.approx(2.0)
+    c = mech.inertia_solid_cylinder(12.0, 1.0, 2.0)
+    np.testing.assert_allclose(np.diag(c), [7.0, 7.0, 6.0])
+
+
+def test_parallel_axis_equals_direct_sum():
+    rng = np.random.default_rng(2)
+    m = rng.random(10)
+    r = rng.normal(size=(10, 3))
+    com = m @ r / m.sum()
+    I_cm = mech.inertia_tensor(m, r, origin=com)
+    I_o = mech.inertia_tensor(m, r)
+    np.testing.assert_allclose(mech.parallel_axis(I_cm, m.sum(), com), I_o, atol=1e-13)
+
+
+def test_principal_axes_diagonalise():
+    R = Rotation.from_euler("ZXZ", [0.3, 0.8, -1.1]).as_matrix()
+    I = R @ np.diag([1.0, 2.0, 2.5]) @ R.T
+    moments, axes = mech.principal_axes(I)
+    np.testing.assert_allclose(moments, [1.0, 2.0, 2.5], rtol=1e-13)
+    np.testing.assert_allclose(axes.T @ I @ axes, np.diag(moments), atol=1e-13)
+    assert np.linalg.det(axes) == pytest.approx(1.0)
+
+
+angles = st.floats(-10, 10, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(angles, angles, angles)
+def test_rotation_matrix_313_is_scipy_zxz_and_round_trips(phi, theta, psi):
+    R = mech.rotation_matrix_313(phi, theta, psi)
+    np.testing.assert_allclose(
+        R, Rotation.from_euler("ZXZ", [phi, theta, psi]).as_matrix(), atol=1e-14
+    )
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-14)
+    assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-14)
+    back = mech.rotation_matrix_313(*mech.euler_angles_313(R))
+    np.testing.assert_allclose(back, R, atol=1e-12)
+
+
+def test_euler_angles_313_agree_with_scipy_and_gimbal_lock():
+    rng = np.random.default_rng(3)
+    rots = Rotation.random(100, random_state=4)
+    phi, theta, psi = mech.euler_angles_313(rots.as_matrix())
+    np.testing.assert_allclose(np.column_stack([phi, theta, psi]), rots.as_euler("ZXZ"), atol=1e-10)
+    assert rng is not None
+    for th in (0.0, np.pi):
+        R = mech.rotation_matrix_313(0.4, th, 0.3)
+        np.testing.assert_allclose(
+            mech.rotation_matrix_313(*mech.euler_angles_313(R)), R, atol=1e-14
+        )
+    assert mech.rotation_matrix_313([0.1, 0.2], 0.3, 0.4).shape == (2, 3, 3)
+    with pytest.raises(InvalidInputError, match="rotation"):
+        mech.euler_angles_313(2 * np.eye(3))
+
+
+def test_euler_equations_principal_form():
+    w = np.array([0.3, -0.5, 0.7])
+    I = np.array([1.0, 2.0, 3.0])
+    dw = mech.euler_equations(I, w)
+    expected = [
+        (I[1] - I[2]) * w[1] * w[2] / I[0],
+        (I[2] - I[0]) * w[2] * w[0] / I[1],
+        (I[0] - I[1]) * w[0] * w[1] / I[2],
+    ]
+    np.testing.assert_allclose(dw, expected, rtol=1e-14)
+    with pytest.raises(DomainError, match="triangle"):
+        mech.euler_equations([1.0, 1.0, 3.0], w)
+
+
+def test_torque_free_symmetric_body_precession():
+    I1, I3 = 2.0, 3.0
+    w0 = np.array([0.2, 0.0, 1.5])
+    t = np.linspace(0, 20, 401)
+    tr = mech.integrate_rigid_body([I1, I1, I3], w0, t)
+    Ob = mech.torque_free_precession_rate(I1, I3, w0[2])
+    # body frame: (w1, w2) rotates at (I3 - I1) w3 / I1 with w3 constant
+    np.testing.assert_allclose(tr.omega[:, 0], 0.2 * np.cos(Ob * t), atol=1e-9)
+    np.testing.assert_allclose(tr.omega[:, 1], 0.2 * np.sin(Ob * t), atol=1e-9)
+    # space frame: L fixed, symmetry axis cones about L at |L| / I1
+    L = tr.angular_momentum
+    np.testing.assert_allclose(L, np.broadcast_to(L[0], L.shape), atol=1e-9)
+    axis = tr.rotation_matrices[:, :, 2]
+    Lhat = L[0] / np.linalg.norm(L[0])
+    e1 = np.cross(Lhat, [0, 0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(Lhat, e1)
+    angle = np.unwrap(np.arctan2(axis @ e2, axis @ e1))
+    rate = np.polyfit(t, angle, 1)[0]
+    assert rate == pytest.approx(np.linalg.norm(L[0]) / I1, rel=1e-8)
+    assert np.ptp(tr.rotational_energy) < 1e-10
+
+
+def test_intermediate_axis_instability():
+    t = np.linspace(0, 40, 801)
+    I = [1.0, 2.0, 3.0]
+    mid = mech.integrate_rigid_body(I, [1e-3, 1.0, 1e-3], t)
+    assert mid.omega[:, 1].min() < -0.9  # the spin about the middle axis flips
+    for w0 in ([1.0, 1e-3, 1e-3], [1e-3, 1e-3, 1.0]):
+        stable = mech.integrate_rigid_body(I, w0, t)
+        big = int(np.argmax(np.abs(w0)))
+        assert stable.omega[:, big].min() > 0.99
+
+
+def test_heavy_top_steady_precession():
+    m, g, ell = 1.0, 9.81, 0.1
+    I1_cm, I3 = 2e-3, 3e-3
+    I1 = I1_cm + m * ell**2  # about the fixed point
+    theta, w3 = 0.6, 150.0
+    Omega = mech.heavy_top_precession_rate(I1, I3, m, g, ell, w3, theta)
+    assert Omega == pytest.approx(m * g * ell / (I3 * w3), rel=0.1)  # gyroscope limit
+    # start exactly on the steady precession: phi' = Omega, theta' = 0, psi' = w3 - Omega cos
+    R0 = mech.rotation_matrix_313(0.0, theta, 0.0)
+    w0 = [0.0, Omega * np.sin(theta), w3]
+    t = np.linspace(0, 2.0, 201)
+    tr = mech.integrate_rigid_body(
+        [I1, I1, I3], w0, t, attitude0=R0, torque=mech.heavy_top_torque(m, g, ell)
+    )
+    phi, th, psi = tr.euler_angles_313
+    assert np.max(np.abs(th - theta)) < 1e-8
+    np.testing.assert_allclose(phi, Omega * t, atol=1e-7)
+    fast = mech.heavy_top_precession_rate(I1, I3, m, g, ell, w3, theta, branch="fast")
+    assert fast * Omega == pytest.approx(m * g * ell / (I1 * np.cos(theta)), rel=1e-12)
+    with pytest.raises(DomainError, match="faster"):
+        mech.heavy_top_precession_rate(I1, I3, m, g, ell, 1.0, 0.1)

@@ -33,6 +33,23 @@ _EXPORTS = {
     "plot_orbit_3d": "plots",
     "plot_altitude_eclipse": "plots",
     # Cowell, perturbations, events, mission design:
+    "propagate_cowell": "cowell",
+    "CowellResult": "cowell",
+    "J2": "perturbations",
+    "Zonal": "perturbations",
+    "AtmosphericDrag": "perturbations",
+    "ThirdBody": "perturbations",
+    "SolarRadiationPressure": "perturbations",
+    "Eclipse": "events",
+    "ReEntry": "events",
+    "AltitudeCrossing": "events",
+    "AscendingNode": "events",
+    "DescendingNode": "events",
+    "Apsides": "events",
+    "EventRecord": "events",
+    "sun_position": "ephemeris",
+    "moon_position": "ephemeris",
+    "planet_heliocentric": "ephemeris",
 }
 
 __all__ = sorted(_EXPORTS)

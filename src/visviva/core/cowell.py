@@ -1,0 +1,458 @@
+"""Cowell's method: a compiled adaptive Dormand-Prince 8(5,3) integrator with dense output
+and event location, over the right-hand side :func:`visviva.core.perturbations.cowell_rhs`.
+
+The whole integration (steps, step-size control, dense output at the requested times, event
+detection and root finding) runs in one compiled call; nothing returns to Python per step.
+
+The Butcher tableau of DOP853 (Hairer, Norsett & Wanner 1993, Solving Ordinary Differential
+Equations I, sec. II.10; Fortran code DOP853 by Hairer & Wanner) is passed in as arrays
+``A`` (16, 16), ``B`` (12,), ``C`` (16,), ``E3``, ``E5`` (13,), ``D`` (4, 16): 12 stages for
+the step, one FSAL stage, three extra stages for the 7th-degree dense output. The step-size
+control follows Hairer's DOP853: the error estimate combines the 5th- and 3rd-order embedded
+estimates, err = |h| e5^2 / sqrt(n (e5^2 + 0.01 e3^2)), and the step changes by
+0.9 err^(-1/8), clipped to [0.2, 10].
+
+Event kinds (``ev_kind``), each with a parameter ``ev_param`` and a direction ``ev_dir``
+(+1: only rising zero crossings, -1: only falling, 0: both):
+
+====  =====================================================================
+0     altitude: g = h_geodetic(r) - param (km)
+1     cylindrical shadow: g = |r_perp| - R when r . s_hat < 0, else |r| (falls on entry)
+2     penumbra (conical): g = c - (a + b) (Montenbruck & Gill eq. 3.85), falls on entry
+3     umbra (conical): g = c - (b - a), falls on entry
+4     node crossing: g = z (rises at the ascending node)
+5     apsis: g = r . v (rises at periapsis, falls at apoapsis)
+====  =====================================================================
+
+Events are located on the dense output with the Illinois variant of regula falsi to
+``ev_tol`` seconds; ``ev_terminal`` events stop the integration at the event.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import status as st
+from ._jit import kernel
+from .perturbations import cowell_rhs, geodetic_altitude, hermite_position
+
+__all__ = ["integrate_cowell", "event_function", "dense_eval"]
+
+_SAFETY = 0.9
+_MIN_FACTOR = 0.2
+_MAX_FACTOR = 10.0
+_N_STAGES = 12
+
+
+@kernel
+def event_function(kind, param, t, y, force, eph_r, eph_v):
+    """Value of event function ``kind`` at (t, y); see the module docstring."""
+    x = y[0]
+    yy = y[1]
+    z = y[2]
+    if kind == 0:
+        return geodetic_altitude(x, yy, z, force[1], force[6]) - param
+    if kind == 4:
+        return z
+    if kind == 5:
+        return x * y[3] + yy * y[4] + z * y[5]
+    # shadow events need the Sun
+    sun = int(force[12])
+    if sun < 0:
+        return 1.0
+    s = np.empty(3)
+    hermite_position(t, sun, force, eph_r, eph_v, s)
+    r = math.sqrt(x * x + yy * yy + z * z)
+    radius = force[1]
+    if kind == 1:
+        sn = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
+        proj = (x * s[0] + yy * s[1] + z * s[2]) / sn
+        if proj >= 0.0:
+            return r
+        px = x - proj * s[0] / sn
+        py = yy - proj * s[1] / sn
+        pz = z - proj * s[2] / sn
+        return math.sqrt(px * px + py * py + pz * pz) - radius
+    dx = s[0] - x
+    dy = s[1] - yy
+    dz = s[2] - z
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    a = math.asin(min(1.0, force[10] / d))
+    b = math.asin(min(1.0, radius / r))
+    cosc = -(x * dx + yy * dy + z * dz) / (r * d)
+    c = math.acos(max(-1.0, min(1.0, cosc)))
+    if kind == 2:
+        return c - (a + b)
+    return c - (b - a)
+
+
+@kernel
+def dense_eval(t, t_old, h, y_old, F, out):
+    """Evaluate the DOP853 dense-output polynomial of the last step at time t."""
+    xx = (t - t_old) / h
+    n = y_old.shape[0]
+    for j in range(n):
+        acc = 0.0
+        for i in range(F.shape[0] - 1, -1, -1):
+            acc += F[i, j]
+            # the innermost coefficient (i = 6) is multiplied by x, then alternately 1-x, x ...
+            if (F.shape[0] - 1 - i) % 2 == 0:
+                acc *= xx
+            else:
+                acc *= 1.0 - xx
+        out[j] = y_old[j] + acc
+
+
+@kernel
+def _rms_norm(v, scale):
+    acc = 0.0
+    for i in range(v.shape[0]):
+        q = v[i] / scale[i]
+        acc += q * q
+    return math.sqrt(acc / v.shape[0])
+
+
+@kernel
+def integrate_cowell(
+    y0,
+    t_out,
+    t_end,
+    rtol,
+    atol,
+    h_max,
+    max_steps,
+    force,
+    zonal,
+    atm,
+    eph_r,
+    eph_v,
+    eph_gm,
+    ev_kind,
+    ev_param,
+    ev_dir,
+    ev_terminal,
+    ev_tol,
+    A,
+    B,
+    C,
+    E3,
+    E5,
+    D,
+    y_out,
+    ev_t,
+    ev_y,
+    ev_which,
+    info,
+):
+    """Integrate y' = cowell_rhs(t, y) from t = 0 to ``t_end`` (either sign).
+
+    Parameters
+    ----------
+    y0 : ndarray (6,)
+        Initial position (km) and velocity (km/s).
+    t_out : ndarray (T,)
+        Output times in s from the start, monotonic in the direction of integration,
+        within [0, t_end].
+    t_end : float
+        Final time, s.
+    rtol, atol : float
+        Relative and absolute tolerances (atol in km and km/s).
+    h_max : float
+        Largest step, s (inf for none).
+    max_steps : int
+        Step budget; exceeding it stops with ``STEP_TOO_SMALL``.
+    force, zonal, atm, eph_r, eph_v, eph_gm : ndarray
+        The force model (see :mod:`visviva.core.perturbations`).
+    ev_kind, ev_param, ev_dir, ev_terminal : ndarray (E,)
+        The events to detect (see the module docstring).
+    ev_tol : float
+        Time tolerance of the event root finding, s.
+    A, B, C, E3, E5, D : ndarray
+        The DOP853 tableau.
+    y_out : ndarray (T, 6)
+        Output: the states at ``t_out``.
+    ev_t, ev_y, ev_which : ndarray (M,), (M, 6), (M,)
+        Output: event times, states, and which event: +(index + 1) for a rising crossing of
+        event ``index``, -(index + 1) for a falling one.
+    info : ndarray (6,)
+        Output: [outputs written, events found (may exceed M: then rerun larger), steps,
+        rhs evaluations, final time reached, index of the terminal event or -1].
+
+    Returns
+    -------
+    int
+        Status code (``OK`` or ``STEP_TOO_SMALL``).
+    """
+    n = 6
+    n_ev = ev_kind.shape[0]
+    n_out = t_out.shape[0]
+    cap = ev_t.shape[0]
+    K = np.zeros((16, n))
+    F = np.zeros((7, n))
+    y = y0.copy()
+    y_new = np.empty(n)
+    y_tmp = np.empty(n)
+    f = np.empty(n)
+    scale = np.empty(n)
+    err5 = np.empty(n)
+    err3 = np.empty(n)
+    g_old = np.empty(n_ev)
+    g_new = np.empty(n_ev)
+    direction = 1.0 if t_end >= 0.0 else -1.0
+    t = 0.0
+    nfev = 0
+    n_steps = 0
+    n_found = 0
+    written = 0
+    terminal_index = -1
+    info[5] = -1.0
+
+    # outputs at the start time
+    while written < n_out and t_out[written] * direction <= 0.0:
+        for j in range(n):
+            y_out[written, j] = y[j]
+        written += 1
+
+    cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, f)
+    nfev += 1
+    for e in range(n_ev):
+        g_old[e] = event_function(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v)
+
+    interval = abs(t_end)
+    if interval == 0.0:
+        info[0] = written
+        info[1] = 0
+        info[2] = 0
+        info[3] = nfev
+        info[4] = 0.0
+        return st.OK
+
+    # initial step (Hairer, Norsett & Wanner, sec. II.4)
+    for j in range(n):
+        scale[j] = atol + abs(y[j]) * rtol
+    d0 = _rms_norm(y, scale)
+    d1 = _rms_norm(f, scale)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    for j in range(n):
+        y_tmp[j] = y[j] + h0 * direction * f[j]
+    cowell_rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, y_new)
+    nfev += 1
+    for j in range(n):
+        err5[j] = y_new[j] - f[j]
+    d2 = _rms_norm(err5, scale) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    h_abs = min(100.0 * h0, h1, interval, h_max)
+
+    status = st.OK
+    finished = False
+    while not finished:
+        if n_steps >= max_steps:
+            status = st.STEP_TOO_SMALL
+            break
+        min_step = 10.0 * abs(math.nextafter(t, direction * math.inf) - t)
+        if h_abs > h_max:
+            h_abs = h_max
+        if h_abs < min_step:
+            status = st.STEP_TOO_SMALL
+            break
+        accepted = False
+        rejected = False
+        h = 0.0
+        t_new = 0.0
+        while not accepted:
+            if h_abs < min_step:
+                break
+            h = h_abs * direction
+            t_new = t + h
+            if direction * (t_new - t_end) > 0.0:
+                t_new = t_end
+            h = t_new - t
+            h_abs = abs(h)
+            # stages
+            for j in range(n):
+                K[0, j] = f[j]
+            for s in range(1, _N_STAGES):
+                for j in range(n):
+                    acc = 0.0
+                    for m in range(s):
+                        acc += A[s, m] * K[m, j]
+                    y_tmp[j] = y[j] + h * acc
+                cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, K[s])
+            for j in range(n):
+                acc = 0.0
+                for m in range(_N_STAGES):
+                    acc += B[m] * K[m, j]
+                y_new[j] = y[j] + h * acc
+            cowell_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, K[_N_STAGES])
+            nfev += _N_STAGES
+            for j in range(n):
+                scale[j] = atol + max(abs(y[j]), abs(y_new[j])) * rtol
+                a5 = 0.0
+                a3 = 0.0
+                for m in range(_N_STAGES + 1):
+                    a5 += E5[m] * K[m, j]
+                    a3 += E3[m] * K[m, j]
+                err5[j] = a5 / scale[j]
+                err3[j] = a3 / scale[j]
+            e5 = 0.0
+            e3 = 0.0
+            for j in range(n):
+                e5 += err5[j] * err5[j]
+                e3 += err3[j] * err3[j]
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+            if err < 1.0:
+                if err == 0.0:
+                    factor = _MAX_FACTOR
+                else:
+                    factor = min(_MAX_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                accepted = True
+            else:
+                h_abs *= max(_MIN_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+                rejected = True
+        if not accepted:
+            status = st.STEP_TOO_SMALL
+            break
+        n_steps += 1
+
+        # dense output coefficients for [t, t + h]
+        for s in range(_N_STAGES + 1, 16):
+            for j in range(n):
+                acc = 0.0
+                for m in range(s):
+                    acc += A[s, m] * K[m, j]
+                y_tmp[j] = y[j] + h * acc
+            cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, K[s])
+        nfev += 3
+        for j in range(n):
+            dlt = y_new[j] - y[j]
+            F[0, j] = dlt
+            F[1, j] = h * K[0, j] - dlt
+            F[2, j] = 2.0 * dlt - h * (K[_N_STAGES, j] + K[0, j])
+            for i in range(4):
+                acc = 0.0
+                for m in range(16):
+                    acc += D[i, m] * K[m, j]
+                F[3 + i, j] = h * acc
+
+        # events in (t, t_new]
+        t_stop = t_new
+        for e in range(n_ev):
+            g_new[e] = event_function(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v)
+        # find all crossings in this step, ordered in time
+        while True:
+            best_t = t_stop
+            best_e = -1
+            best_sign = 0.0
+            for e in range(n_ev):
+                ga = g_old[e]
+                gb = g_new[e]
+                if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
+                    continue
+                rising = gb > ga
+                if ev_dir[e] > 0 and not rising:
+                    continue
+                if ev_dir[e] < 0 and rising:
+                    continue
+                # Illinois regula falsi on the dense output between t and t_stop
+                ta = t
+                tb = t_new
+                fa = ga
+                fb = gb
+                side = 0
+                tc = tb
+                for _ in range(200):
+                    if abs(tb - ta) <= ev_tol:
+                        break
+                    tc = (fa * tb - fb * ta) / (fa - fb)
+                    if not (min(ta, tb) < tc < max(ta, tb)):
+                        tc = 0.5 * (ta + tb)
+                    dense_eval(tc, t, h, y, F, y_tmp)
+                    fc = event_function(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v)
+                    if fc == 0.0:
+                        ta = tc
+                        tb = tc
+                        break
+                    if (fc < 0.0) == (fb < 0.0):
+                        tb = tc
+                        fb = fc
+                        if side == -1:
+                            fa *= 0.5
+                        side = -1
+                    else:
+                        ta = tc
+                        fa = fc
+                        if side == 1:
+                            fb *= 0.5
+                        side = 1
+                    if abs(tb - ta) <= ev_tol:
+                        break
+                # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
+                tc = 0.5 * (ta + tb)
+                if direction * (tc - best_t) < 0.0 or best_e < 0:
+                    if direction * (tc - t_stop) <= 0.0:
+                        best_t = tc
+                        best_e = e
+                        best_sign = 1.0 if rising else -1.0
+            if best_e < 0:
+                break
+            # record it
+            if n_found < cap:
+                ev_t[n_found] = best_t
+                dense_eval(best_t, t, h, y, F, y_tmp)
+                for j in range(n):
+                    ev_y[n_found, j] = y_tmp[j]
+                ev_which[n_found] = (best_e + 1) * best_sign
+            n_found += 1
+            # mark this event as done for this step
+            g_old[best_e] = g_new[best_e]
+            if ev_terminal[best_e] != 0:
+                t_stop = best_t
+                terminal_index = best_e
+                break
+            # other events before this one were already handled (each event at most once per
+            # step: the step is short compared with an orbit)
+        # outputs in (t, t_stop]
+        while written < n_out and direction * (t_out[written] - t_stop) <= 0.0:
+            if t_out[written] == t_new and terminal_index < 0:
+                for j in range(n):
+                    y_out[written, j] = y_new[j]
+            else:
+                dense_eval(t_out[written], t, h, y, F, y_tmp)
+                for j in range(n):
+                    y_out[written, j] = y_tmp[j]
+            written += 1
+        if terminal_index >= 0:
+            t = t_stop
+            info[5] = terminal_index
+            finished = True
+            break
+        for e in range(n_ev):
+            g_old[e] = g_new[e]
+        t = t_new
+        for j in range(n):
+            y[j] = y_new[j]
+            f[j] = K[_N_STAGES, j]
+        if direction * (t - t_end) >= 0.0:
+            finished = True
+
+    info[0] = written
+    info[1] = n_found
+    info[2] = n_steps
+    info[3] = nfev
+    info[4] = t
+    return status

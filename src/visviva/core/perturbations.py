@@ -1,0 +1,360 @@
+"""Perturbing accelerations for Cowell's method, as compiled scalar kernels.
+
+Every kernel works on plain float64 values in km, km/s, s and km^3/s^2, writes its acceleration
+*into* an output 3-vector (adding to what is there), and never raises. The single right-hand side
+:func:`cowell_rhs` sums the two-body term and every perturbation switched on in the ``force``
+parameter array, in a fixed order, so that one compiled call gives the full derivative.
+
+Layout of the ``force`` parameter array (all float64; flags are 0.0 / 1.0):
+
+====  =====================================================================
+0     GM of the central body, km^3/s^2
+1     reference (equatorial) radius of the central body, km
+2     highest zonal degree n_max (0: no zonal terms); ``zonal[n]`` holds J_n
+3     drag on/off
+4     ballistic coefficient Cd*A/m in km^2/kg
+5     rotation rate of the central body about +z, rad/s (co-rotating atmosphere)
+6     flattening f of the central body (geodetic altitude to first order in f)
+7     SRP on/off
+8     SRP coefficient P_sun(1 AU) * Cr * A/m, km/s^2
+9     shadow model: 0 none, 1 cylindrical, 2 conical (penumbra fraction)
+10    radius of the Sun, km
+11    astronomical unit, km
+12    row of the Sun in the ephemeris tables (-1: none)
+13    number of tabulated third bodies whose attraction is added
+14    ephemeris grid start, s from the propagation epoch
+15    ephemeris grid step, s
+16    number of ephemeris grid points
+====  =====================================================================
+
+``atm`` is the exponential atmosphere table, shape (K, 3): base altitude km, density at the
+base kg/m^3, scale height km (Vallado 2013, Table 8-4).
+``eph_r``/``eph_v``, shape (B, N, 3): positions (km) and velocities (km/s) of the tabulated
+bodies relative to the central body on a uniform time grid; ``eph_gm`` their GM. Positions in
+between come from cubic Hermite interpolation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import inline_kernel, kernel
+
+__all__ = [
+    "FORCE_SIZE",
+    "accel_two_body",
+    "accel_zonal",
+    "accel_drag",
+    "accel_third_body",
+    "accel_srp",
+    "shadow_fraction",
+    "exponential_density",
+    "geodetic_altitude",
+    "hermite_position",
+    "cowell_rhs",
+    "cowell_rhs_array",
+]
+
+FORCE_SIZE = 17
+
+#: Vallado (2013), Fundamentals of Astrodynamics and Applications, 4th ed., Table 8-4:
+#: base altitude (km), nominal density (kg/m^3), scale height (km).
+VALLADO_EXPONENTIAL_TABLE = np.array(
+    [
+        [0.0, 1.225, 7.249],
+        [25.0, 3.899e-2, 6.349],
+        [30.0, 1.774e-2, 6.682],
+        [40.0, 3.972e-3, 7.554],
+        [50.0, 1.057e-3, 8.382],
+        [60.0, 3.206e-4, 7.714],
+        [70.0, 8.770e-5, 6.549],
+        [80.0, 1.905e-5, 5.799],
+        [90.0, 3.396e-6, 5.382],
+        [100.0, 5.297e-7, 5.877],
+        [110.0, 9.661e-8, 7.263],
+        [120.0, 2.438e-8, 9.473],
+        [130.0, 8.484e-9, 12.636],
+        [140.0, 3.845e-9, 16.149],
+        [150.0, 2.070e-9, 22.523],
+        [180.0, 5.464e-10, 29.740],
+        [200.0, 2.789e-10, 37.105],
+        [250.0, 7.248e-11, 45.546],
+        [300.0, 2.418e-11, 53.628],
+        [350.0, 9.518e-12, 53.298],
+        [400.0, 3.725e-12, 58.515],
+        [450.0, 1.585e-12, 60.828],
+        [500.0, 6.967e-13, 63.822],
+        [600.0, 1.454e-13, 71.835],
+        [700.0, 3.614e-14, 88.667],
+        [800.0, 1.170e-14, 124.64],
+        [900.0, 5.245e-15, 181.05],
+        [1000.0, 3.019e-15, 268.00],
+    ]
+)
+
+
+@inline_kernel
+def accel_two_body(x, y, z, gm, out):
+    """Add the Keplerian acceleration -GM r / |r|^3 to ``out``."""
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    k = -gm / (r2 * r)
+    out[0] += k * x
+    out[1] += k * y
+    out[2] += k * z
+
+
+@kernel
+def accel_zonal(x, y, z, gm, radius, zonal, n_max, out):
+    """Add the acceleration of the zonal harmonics J_2 .. J_n_max to ``out``.
+
+    Notes
+    -----
+    With s = z/r and the potential U = -GM/r * sum_n J_n (R/r)^n P_n(s), the gradient is
+    (Vallado 2013, eq. 8-19, generalised to any degree)
+
+        a = GM J_n R^n / r^(n+2) * [((n+1) P_n(s) + s P_n'(s)) r_hat - P_n'(s) z_hat],
+
+    with the Legendre recursions n P_n = (2n-1) s P_{n-1} - (n-1) P_{n-2} and
+    P_n' = n P_{n-1} + s P_{n-1}'. For n = 2 this is the familiar J2 acceleration
+    a_x = -3/2 J2 GM R^2 x / r^5 (1 - 5 z^2/r^2), a_z = -3/2 J2 GM R^2 z / r^5 (3 - 5 z^2/r^2).
+    """
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    s = z / r
+    # P_0, P_1 and derivatives
+    p_nm2 = 1.0
+    p_nm1 = s
+    dp_nm1 = 1.0
+    ratio = radius / r
+    rn = ratio  # (R/r)^1
+    radial = 0.0
+    axial = 0.0
+    for n in range(2, n_max + 1):
+        p_n = ((2 * n - 1) * s * p_nm1 - (n - 1) * p_nm2) / n
+        dp_n = n * p_nm1 + s * dp_nm1
+        rn *= ratio
+        jn = zonal[n]
+        if jn != 0.0:
+            c = jn * rn
+            radial += c * ((n + 1) * p_n + s * dp_n)
+            axial += c * dp_n
+        p_nm2, p_nm1 = p_nm1, p_n
+        dp_nm1 = dp_n
+    k = gm / r2
+    out[0] += k * radial * x / r
+    out[1] += k * radial * y / r
+    out[2] += k * (radial * s - axial)
+
+
+@inline_kernel
+def geodetic_altitude(x, y, z, radius, flattening):
+    """Height above the oblate body to first order in the flattening f, km.
+
+    h = |r| - R (1 - f sin^2 phi), with phi the geocentric latitude (the ellipsoid radius to
+    first order in f; error below 0.1 km for the Earth).
+    """
+    r = math.sqrt(x * x + y * y + z * z)
+    s = z / r
+    return r - radius * (1.0 - flattening * s * s)
+
+
+@kernel
+def exponential_density(h, atm):
+    """Density in kg/m^3 at altitude ``h`` (km) from an exponential table (K, 3).
+
+    rho = rho_0 exp(-(h - h_0)/H) with the row whose base altitude h_0 is the largest one <= h
+    (Vallado 2013, eq. 8-33 and Table 8-4). Below the first base altitude the first row is used.
+    """
+    k = 0
+    n = atm.shape[0]
+    while k + 1 < n and h >= atm[k + 1, 0]:
+        k += 1
+    return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+
+
+@kernel
+def accel_drag(x, y, z, vx, vy, vz, bc_km2_kg, omega, radius, flattening, atm, out):
+    """Add atmospheric drag a = -1/2 rho (Cd A/m) |v_rel| v_rel to ``out``.
+
+    v_rel = v - omega x r is the velocity relative to an atmosphere co-rotating with the body
+    about +z (Vallado 2013, eq. 8-31). rho in kg/m^3 times Cd*A/m in km^2/kg is converted to
+    1/km with the factor 1e9.
+    """
+    h = geodetic_altitude(x, y, z, radius, flattening)
+    rho = exponential_density(h, atm) * 1e9  # kg/km^3
+    wx = vx + omega * y
+    wy = vy - omega * x
+    wz = vz
+    w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    k = -0.5 * rho * bc_km2_kg * w
+    out[0] += k * wx
+    out[1] += k * wy
+    out[2] += k * wz
+
+
+@inline_kernel
+def accel_third_body(x, y, z, bx, by, bz, gm_b, out):
+    """Add the third-body acceleration GM_b [(r_b - r)/|r_b - r|^3 - r_b/|r_b|^3] to ``out``.
+
+    (Vallado 2013, eq. 8-35; Montenbruck & Gill 2000, eq. 3.37.)
+    """
+    dx = bx - x
+    dy = by - y
+    dz = bz - z
+    d2 = dx * dx + dy * dy + dz * dz
+    d3 = d2 * math.sqrt(d2)
+    b2 = bx * bx + by * by + bz * bz
+    b3 = b2 * math.sqrt(b2)
+    out[0] += gm_b * (dx / d3 - bx / b3)
+    out[1] += gm_b * (dy / d3 - by / b3)
+    out[2] += gm_b * (dz / d3 - bz / b3)
+
+
+@kernel
+def shadow_fraction(x, y, z, sx, sy, sz, radius, sun_radius, model):
+    """Fraction of the solar disc seen from r (1: full Sun, 0: umbra).
+
+    model 1, cylindrical: 0 when r is behind the body (r . s_hat < 0) within the cylinder of the
+    body's radius, else 1. model 2, conical: the overlap of the apparent discs of Sun (radius a)
+    and body (radius b) at apparent separation c (Montenbruck & Gill 2000, sec. 3.4.2,
+    eqs. 3.85-3.87). model 0: always 1.
+    """
+    if model == 0:
+        return 1.0
+    if model == 1:
+        s = math.sqrt(sx * sx + sy * sy + sz * sz)
+        proj = (x * sx + y * sy + z * sz) / s
+        if proj >= 0.0:
+            return 1.0
+        px = x - proj * sx / s
+        py = y - proj * sy / s
+        pz = z - proj * sz / s
+        if math.sqrt(px * px + py * py + pz * pz) < radius:
+            return 0.0
+        return 1.0
+    r = math.sqrt(x * x + y * y + z * z)
+    dx = sx - x
+    dy = sy - y
+    dz = sz - z
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    a = math.asin(min(1.0, sun_radius / d))
+    b = math.asin(min(1.0, radius / r))
+    cosc = -(x * dx + y * dy + z * dz) / (r * d)
+    c = math.acos(max(-1.0, min(1.0, cosc)))
+    if c >= a + b:
+        return 1.0
+    if c <= b - a:
+        return 0.0
+    if c <= a - b:  # annular: the body's disc lies inside the Sun's
+        return 1.0 - (b * b) / (a * a)
+    xx = (c * c + a * a - b * b) / (2.0 * c)
+    yy = math.sqrt(max(0.0, a * a - xx * xx))
+    area = a * a * math.acos(max(-1.0, min(1.0, xx / a)))
+    area += b * b * math.acos(max(-1.0, min(1.0, (c - xx) / b))) - c * yy
+    return 1.0 - area / (math.pi * a * a)
+
+
+@kernel
+def accel_srp(x, y, z, sx, sy, sz, coef, au, nu, out):
+    """Add solar radiation pressure a = nu P (AU/d)^2 Cr A/m (r - r_sun)/d to ``out``.
+
+    ``coef`` = P(1 AU) Cr A/m in km/s^2, d = |r - r_sun|, nu the shadow fraction
+    (cannonball model; Montenbruck & Gill 2000, eq. 3.75).
+    """
+    if nu <= 0.0:
+        return
+    dx = x - sx
+    dy = y - sy
+    dz = z - sz
+    d2 = dx * dx + dy * dy + dz * dz
+    d = math.sqrt(d2)
+    k = nu * coef * au * au / (d2 * d)
+    out[0] += k * dx
+    out[1] += k * dy
+    out[2] += k * dz
+
+
+@kernel
+def hermite_position(t, body, force, eph_r, eph_v, out):
+    """Position of tabulated body ``body`` at time ``t`` by cubic Hermite interpolation.
+
+    Uses positions and velocities at the two grid points around ``t`` (clamped to the grid).
+    """
+    t0 = force[14]
+    dt = force[15]
+    n = int(force[16])
+    u = (t - t0) / dt
+    k = int(math.floor(u))
+    if k < 0:
+        k = 0
+    if k > n - 2:
+        k = n - 2
+    s = u - k
+    s2 = s * s
+    s3 = s2 * s
+    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
+    h10 = s3 - 2.0 * s2 + s
+    h01 = -2.0 * s3 + 3.0 * s2
+    h11 = s3 - s2
+    for i in range(3):
+        out[i] = (
+            h00 * eph_r[body, k, i]
+            + h10 * dt * eph_v[body, k, i]
+            + h01 * eph_r[body, k + 1, i]
+            + h11 * dt * eph_v[body, k + 1, i]
+        )
+
+
+@kernel
+def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, dy):
+    """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
+
+    Sums, in this fixed order: two-body, zonal harmonics, drag, third bodies, SRP.
+    """
+    x = y[0]
+    yy = y[1]
+    z = y[2]
+    dy[0] = y[3]
+    dy[1] = y[4]
+    dy[2] = y[5]
+    acc = np.zeros(3)
+    gm = force[0]
+    accel_two_body(x, yy, z, gm, acc)
+    n_max = int(force[2])
+    if n_max >= 2:
+        accel_zonal(x, yy, z, gm, force[1], zonal, n_max, acc)
+    if force[3] != 0.0:
+        accel_drag(x, yy, z, y[3], y[4], y[5], force[4], force[5], force[1], force[6], atm, acc)
+    n_third = int(force[13])
+    sun = int(force[12])
+    pos = np.empty(3)
+    sun_pos = np.empty(3)
+    for b in range(eph_r.shape[0]):
+        if b < n_third or b == sun:
+            hermite_position(t, b, force, eph_r, eph_v, pos)
+            if b < n_third:
+                accel_third_body(x, yy, z, pos[0], pos[1], pos[2], eph_gm[b], acc)
+            if b == sun:
+                sun_pos[0] = pos[0]
+                sun_pos[1] = pos[1]
+                sun_pos[2] = pos[2]
+    if force[7] != 0.0 and sun >= 0:
+        nu = shadow_fraction(
+            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[1], force[10], int(force[9])
+        )
+        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[8], force[11], nu, acc)
+    dy[3] = acc[0]
+    dy[4] = acc[1]
+    dy[5] = acc[2]
+
+
+@kernel
+def cowell_rhs_array(t, y, force, zonal, atm, eph_r, eph_v, eph_gm):
+    """Derivatives for many (t, y) pairs: t (N,), y (N, 6) -> (N, 6). For tests and plots."""
+    out = np.empty_like(y)
+    for i in range(y.shape[0]):
+        cowell_rhs(t[i], y[i], force, zonal, atm, eph_r, eph_v, eph_gm, out[i])
+    return out

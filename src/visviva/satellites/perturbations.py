@@ -1,0 +1,294 @@
+"""Perturbation objects for :func:`visviva.propagate_cowell`.
+
+Each object only validates and stores its parameters in canonical units; the force model is
+assembled into the flat arrays of :mod:`visviva.core.perturbations` by ``propagate_cowell``,
+which then runs one compiled right-hand side with every perturbation in it.
+
+>>> import visviva as vv
+>>> from astropy import units as u
+>>> forces = [vv.Zonal(vv.EARTH, 4), vv.ThirdBody(vv.MOON),
+...           vv.AtmosphericDrag(2.2 * 4.0 * u.m**2 / (500 * u.kg))]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from astropy import units as u
+
+from .. import constants as c
+from .._units import require_positive, to_array
+from ..bodies import BODIES, EARTH, Body
+from ..core.perturbations import VALLADO_EXPONENTIAL_TABLE
+from ..errors import InvalidInputError
+
+__all__ = [
+    "Perturbation",
+    "J2",
+    "Zonal",
+    "AtmosphericDrag",
+    "ThirdBody",
+    "SolarRadiationPressure",
+    "SOLAR_PRESSURE_1AU_N_M2",
+]
+
+#: Solar radiation pressure on an absorbing surface at 1 AU, N/m^2 (= W/m^2 / c with a solar
+#: flux of 1367 W/m^2; Montenbruck & Gill 2000, sec. 3.4).
+SOLAR_PRESSURE_1AU_N_M2 = 4.56e-6
+
+
+def _require_body(body, what: str) -> Body:
+    if isinstance(body, Body):
+        return body
+    if isinstance(body, str) and body.lower() in BODIES:
+        return BODIES[body.lower()]
+    raise InvalidInputError(
+        f"{what} needs a body such as vv.EARTH, vv.SUN or vv.MOON (or its name); got {body!r}. "
+        f"Known names: {', '.join(BODIES)}."
+    )
+
+
+class Perturbation:
+    """Base class of the perturbations :func:`visviva.propagate_cowell` accepts."""
+
+    #: the body whose radius, rotation and flattening define altitude and shadow, if any
+    central_body: Body | None = None
+
+
+@dataclass(frozen=True, repr=False)
+class Zonal(Perturbation):
+    """Zonal harmonics J_2 .. J_degree of ``body``'s gravity field.
+
+    Parameters
+    ----------
+    body : Body
+        A body with zonal harmonics, e.g. ``vv.EARTH`` (J2-J6 from EGM2008).
+    degree : int
+        Highest degree, 2 <= degree <= 1 + len(body.zonal).
+
+    Notes
+    -----
+    The acceleration is the gradient of U = -GM/r sum_n J_n (R/r)^n P_n(sin phi), evaluated with
+    the Legendre recursions (Vallado 2013, sec. 8.6.1; Montenbruck & Gill 2000, sec. 3.2).
+    """
+
+    body: Body = EARTH
+    degree: int = 2
+
+    def __post_init__(self):
+        body = _require_body(self.body, "Zonal")
+        object.__setattr__(self, "body", body)
+        nmax = 1 + len(body.zonal)
+        if not isinstance(self.degree, int | np.integer) or not 2 <= self.degree <= nmax:
+            raise InvalidInputError(
+                f"Zonal degree must be an integer in 2..{nmax} for {body.name} (J2..J{nmax} are "
+                f"known); got {self.degree!r}."
+                if body.zonal
+                else f"{body.name} has no zonal harmonics; build a Body with zonal=(J2, ...)."
+            )
+
+    @property
+    def central_body(self) -> Body:
+        return self.body
+
+    def coefficients(self) -> np.ndarray:
+        """J_n indexed by n (entries 0 and 1 are zero), dimensionless."""
+        j = np.zeros(self.degree + 1)
+        for n in range(2, self.degree + 1):
+            j[n] = self.body.jn(n)
+        return j
+
+    def __repr__(self):
+        return f"Zonal({self.body.name}, degree={self.degree})"
+
+
+class J2(Zonal):
+    """The J2 (oblateness) term of ``body`` alone: ``Zonal(body, 2)``."""
+
+    def __init__(self, body: Body = EARTH):
+        super().__init__(body, 2)
+
+    def __repr__(self):
+        return f"J2({self.body.name})"
+
+
+@dataclass(frozen=True, repr=False)
+class AtmosphericDrag(Perturbation):
+    """Drag in an exponential atmosphere that co-rotates with the central body.
+
+    Parameters
+    ----------
+    ballistic_coefficient : Quantity, m^2/kg
+        Cd * A / m (e.g. 2.2 * 1 m^2 / 100 kg = 0.022 m^2/kg).
+    body : Body
+        Central body (default Earth): its radius and flattening define the geodetic altitude,
+        its rotation rate the co-rotating atmosphere.
+    table : array_like (K, 3), optional
+        Base altitude (km), density at the base (kg/m^3), scale height (km). Default: Vallado
+        (2013), Table 8-4 (0 to 1000+ km).
+
+    Notes
+    -----
+    a = -1/2 rho(h) (Cd A / m) |v_rel| v_rel, v_rel = v - omega x r,
+    rho(h) = rho_0 exp(-(h - h_0)/H) (Vallado 2013, eqs. 8-29, 8-31, 8-33). The atmosphere
+    rotates about the z axis of the propagation frame (the GCRS pole differs from the
+    true pole by < 0.5 deg in 1950-2050, a negligible change of v_rel). The altitude is
+    h = |r| - R (1 - f sin^2 phi) (ellipsoid to first order in the flattening f).
+    """
+
+    ballistic_coefficient: u.Quantity = None
+    body: Body = EARTH
+    table: np.ndarray = field(default=None)
+
+    def __post_init__(self):
+        if self.ballistic_coefficient is None:
+            raise InvalidInputError(
+                "AtmosphericDrag needs ballistic_coefficient = Cd*A/m, e.g. "
+                "AtmosphericDrag(2.2 * 1.0 * u.m**2 / (100 * u.kg))."
+            )
+        bc = to_array(self.ballistic_coefficient, "area_per_mass", "ballistic_coefficient")
+        if bc.ndim != 0:
+            raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
+        require_positive(bc, "ballistic_coefficient")
+        object.__setattr__(self, "body", _require_body(self.body, "AtmosphericDrag"))
+        table = VALLADO_EXPONENTIAL_TABLE if self.table is None else self.table
+        table = np.ascontiguousarray(table, dtype=np.float64)
+        if table.ndim != 2 or table.shape[1] != 3 or not np.all(np.isfinite(table)):
+            raise InvalidInputError(
+                "table must be a finite (K, 3) array: base altitude km, density kg/m^3, "
+                "scale height km."
+            )
+        if np.any(np.diff(table[:, 0]) <= 0) or np.any(table[:, 1:] <= 0):
+            raise InvalidInputError(
+                "table base altitudes must increase and densities/scale heights be > 0."
+            )
+        object.__setattr__(self, "table", table)
+        object.__setattr__(self, "_bc_m2_kg", float(bc))
+
+    @property
+    def central_body(self) -> Body:
+        return self.body
+
+    @property
+    def ballistic_coefficient_km2_kg(self) -> float:
+        """Cd*A/m in km^2/kg."""
+        return self._bc_m2_kg * 1e-6
+
+    def density(self, altitude):
+        """Density (Quantity, kg/m^3) of the model at geodetic ``altitude`` (Quantity)."""
+        from ..core.perturbations import exponential_density
+
+        h = to_array(altitude, "length", "altitude")
+        rho = np.array([exponential_density(float(x), self.table) for x in h.ravel()])
+        return rho.reshape(h.shape) * (u.kg / u.m**3)
+
+    def __repr__(self):
+        return f"AtmosphericDrag({self._bc_m2_kg:g} m2 / kg, {self.body.name})"
+
+
+@dataclass(frozen=True, repr=False)
+class ThirdBody(Perturbation):
+    """The tidal attraction of a third body (Sun, Moon or a planet) from the offline ephemeris.
+
+    Parameters
+    ----------
+    body : Body or str
+        ``vv.SUN``, ``vv.MOON`` or a planet. Positions come from
+        :mod:`visviva.satellites.ephemeris` (JPL DE421 when installed).
+
+    Notes
+    -----
+    a = GM_b [(r_b - r)/|r_b - r|^3 - r_b/|r_b|^3] (Vallado 2013, eq. 8-35). The positions are
+    tabulated every hour over the propagation span and interpolated by cubic Hermite polynomials
+    (interpolation error below 1 cm for the Moon, 50 m out of 1 AU for the Sun).
+    """
+
+    body: Body = None
+
+    def __post_init__(self):
+        from .ephemeris import KNOWN_BODIES
+
+        body = _require_body(self.body, "ThirdBody")
+        if body.name not in KNOWN_BODIES or body.name == "earth":
+            raise InvalidInputError(
+                f"ThirdBody({body.name}) is not available; use vv.SUN, vv.MOON or a planet."
+            )
+        object.__setattr__(self, "body", body)
+
+    def __repr__(self):
+        return f"ThirdBody({self.body.name})"
+
+
+_SHADOWS = {None: 0, "none": 0, "cylindrical": 1, "conical": 2}
+
+
+@dataclass(frozen=True, repr=False)
+class SolarRadiationPressure(Perturbation):
+    """Solar radiation pressure on a cannonball, with the central body's shadow.
+
+    Parameters
+    ----------
+    area_to_mass : Quantity, m^2/kg
+        Illuminated area over mass, A/m.
+    reflectivity : float
+        Cr, 1 for a black body, up to 2 for a mirror (default 1.3).
+    shadow : {"conical", "cylindrical", None}
+        Shadow model: conical with penumbra (Montenbruck & Gill 2000, sec. 3.4.2), cylindrical
+        (Vallado 2013, Algorithm 34), or none.
+    body : Body
+        The occulting central body (default Earth).
+
+    Notes
+    -----
+    a = nu P_1AU Cr (A/m) (AU/d)^2 d_hat, with d = r - r_sun and nu the visible fraction of the
+    solar disc (Montenbruck & Gill 2000, eq. 3.75), P_1AU = 4.56e-6 N/m^2.
+    """
+
+    area_to_mass: u.Quantity = None
+    reflectivity: float = 1.3
+    shadow: str | None = "conical"
+    body: Body = EARTH
+
+    def __post_init__(self):
+        if self.area_to_mass is None:
+            raise InvalidInputError(
+                "SolarRadiationPressure needs area_to_mass, e.g. "
+                "SolarRadiationPressure(0.02 * u.m**2 / u.kg)."
+            )
+        am = to_array(self.area_to_mass, "area_per_mass", "area_to_mass")
+        require_positive(am, "area_to_mass")
+        cr = to_array(self.reflectivity, "dimensionless", "reflectivity")
+        if not 0.0 <= float(cr) <= 2.0:
+            raise InvalidInputError(f"reflectivity Cr must lie in [0, 2]; got {float(cr)}.")
+        if self.shadow not in _SHADOWS:
+            raise InvalidInputError(
+                f"shadow must be 'conical', 'cylindrical' or None; got {self.shadow!r}."
+            )
+        object.__setattr__(self, "body", _require_body(self.body, "SolarRadiationPressure"))
+        object.__setattr__(self, "_am_m2_kg", float(am))
+        object.__setattr__(self, "_cr", float(cr))
+
+    @property
+    def central_body(self) -> Body:
+        return self.body
+
+    @property
+    def coefficient_km_s2(self) -> float:
+        """P_1AU * Cr * A/m in km/s^2."""
+        return SOLAR_PRESSURE_1AU_N_M2 * self._cr * self._am_m2_kg * 1e-3
+
+    @property
+    def shadow_code(self) -> int:
+        return _SHADOWS[self.shadow]
+
+    def __repr__(self):
+        return (
+            f"SolarRadiationPressure({self._am_m2_kg:g} m2 / kg, Cr={self._cr:g}, "
+            f"shadow={self.shadow!r})"
+        )
+
+
+def flattening_of(body: Body) -> float:
+    """Flattening used for geodetic altitude (WGS-84 for the Earth, 0 otherwise)."""
+    return c.EARTH_FLATTENING if body.name == "earth" else 0.0

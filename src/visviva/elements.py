@@ -1,1 +1,626 @@
-"""(being written)"""
+"""Orbital elements: classical (Keplerian) and modified equinoctial.
+
+:class:`KeplerianElements` stores the semi-latus rectum ``p`` (not ``a``), so that the exact
+parabola is representable, plus e, i, raan, argp, nu and GM; every other element is a lazy,
+cached, long-named property. :class:`ModifiedEquinoctialElements` (Walker, Ireland & Owens 1985)
+are non-singular for circular and equatorial orbits. Symbols and the convention for undefined
+angles: ``docs/conventions.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import numpy as np
+
+from . import _units
+from .errors import InvalidElementsError, InvalidInputError, raise_for_status
+from .states import (
+    StateVectors,
+    _broadcast_shape,
+    _flat,
+    _gm_positive,
+    _index_epoch,
+    _normalise_key,
+)
+
+__all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
+
+_TWO_PI = 2.0 * math.pi
+#: inclinations up to this far above pi are rounding (e.g. 180 deg converted to rad) -> pi
+_INC_SLACK = 8.0 * np.finfo(float).eps
+
+
+def _wrap_2pi(x: np.ndarray) -> np.ndarray:
+    y = np.mod(x, _TWO_PI)
+    y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
+    return y + 0.0
+
+
+def _scalar_or_array(arr: np.ndarray):
+    """A 0-d array becomes a numpy scalar, anything else stays an array."""
+    return arr[()] if arr.ndim == 0 else arr
+
+
+def _first_bad(mask: np.ndarray) -> str:
+    mask = np.asarray(mask)
+    if mask.ndim == 0:
+        return ""
+    return f" at index {tuple(int(i) for i in np.argwhere(mask)[0])}"
+
+
+def _deg(x) -> str:
+    return f"{math.degrees(float(x)):.6f} deg"
+
+
+class KeplerianElements:
+    """Classical orbital elements of one or many two-body orbits.
+
+    Parameters
+    ----------
+    p : Quantity
+        Semi-latus rectum (unit of length, e.g. km), > 0. Stored instead of ``a`` so that the
+        parabola (e = 1, a infinite) is exact; use :meth:`from_semi_major_axis` to give ``a``.
+    ecc : float or array_like
+        Eccentricity (dimensionless), >= 0: 0 circle, < 1 ellipse, exactly 1 parabola, > 1
+        hyperbola.
+    inc : Quantity or float
+        Inclination in [0, pi] (angle; plain floats are radians).
+    raan : Quantity or float
+        Longitude of the ascending node (rad).
+    argp : Quantity or float
+        Argument of periapsis (rad).
+    nu : Quantity or float
+        True anomaly (rad); for e >= 1 it must satisfy 1 + e cos(nu) > 0 (inside the asymptotes).
+    gm : Quantity or Body
+        Gravitational parameter of the central body (km3/s2), > 0.
+    epoch : astropy.time.Time, optional
+        Epoch of the elements (carried along).
+
+    Raises
+    ------
+    UnitsError, ShapeError
+        Missing/wrong units or shapes that do not broadcast.
+    InvalidElementsError
+        p <= 0, e < 0, inclination outside [0, pi], or a true anomaly on/beyond the asymptote.
+    InvalidInputError
+        NaN/inf values or gm <= 0.
+
+    Notes
+    -----
+    Orientation R = Rz(raan) Rx(inc) Rz(argp); r = p/(1 + e cos nu). Undefined angles (raan of an
+    equatorial orbit, argp of a circular one) follow docs/conventions.md, so that
+    state -> elements -> state is exact to rounding. Vallado (2013), Sec. 2.5-2.6.
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> from astropy import units as u
+    >>> el = vv.KeplerianElements(7000 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH)
+    >>> print(el.to_state().r)
+    [7000.    0.    0.] km
+    """
+
+    def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
+        p_km = _units.to_array(p, "length", "p")
+        ecc = _units.to_array(ecc, "dimensionless", "ecc")
+        inc = _units.to_array(inc, "angle", "inc")
+        raan = _units.to_array(raan, "angle", "raan")
+        argp = _units.to_array(argp, "angle", "argp")
+        nu = _units.to_array(nu, "angle", "nu")
+        gm = _units.to_array(gm, "gm", "gm")
+        _gm_positive(gm)
+        shape = _broadcast_shape(
+            {
+                "p": p_km.shape,
+                "ecc": ecc.shape,
+                "inc": inc.shape,
+                "raan": raan.shape,
+                "argp": argp.shape,
+                "nu": nu.shape,
+                "gm": gm.shape,
+            },
+            "KeplerianElements",
+        )
+        if np.any(~(p_km > 0)):
+            raise InvalidElementsError(
+                f"p (semi-latus rectum) must be > 0{_first_bad(~(p_km > 0))}; got "
+                f"{p_km[~(p_km > 0)].ravel()[0]!r} km. A radial orbit (p = 0) has no classical "
+                "elements; for a given semi-major axis use "
+                "KeplerianElements.from_semi_major_axis."
+            )
+        if np.any(ecc < 0):
+            raise InvalidElementsError(
+                f"ecc (eccentricity) must be >= 0{_first_bad(ecc < 0)}; got "
+                f"{ecc[ecc < 0].ravel()[0]!r}. Flip the sign and add pi to argp if you meant the "
+                "opposite periapsis direction."
+            )
+        over = (inc > math.pi) & (inc <= math.pi + _INC_SLACK)
+        if np.any(over):
+            inc = np.where(over, math.pi, inc)
+        bad_inc = (inc < 0) | (inc > math.pi)
+        if np.any(bad_inc):
+            raise InvalidElementsError(
+                f"inc (inclination) must lie in [0, pi] rad = [0, 180] deg{_first_bad(bad_inc)}; "
+                f"got {inc[bad_inc].ravel()[0]!r} rad. Retrograde orbits have inc > pi/2; a "
+                "negative inclination is the same orbit with inc -> -inc and raan -> raan + pi."
+            )
+        with np.errstate(all="ignore"):
+            unreachable = np.broadcast_to(1.0 + ecc * np.cos(nu), shape) <= 0
+        if np.any(unreachable):
+            e_b = np.broadcast_to(ecc, shape)[unreachable].ravel()[0]
+            nu_b = np.broadcast_to(nu, shape)[unreachable].ravel()[0]
+            limit = math.degrees(math.acos(-1.0 / e_b))
+            raise InvalidElementsError(
+                f"nu = {math.degrees(nu_b):.6f} deg lies on or beyond the asymptote of the open "
+                f"orbit with e = {e_b!r}{_first_bad(unreachable)}: no body reaches it. Choose "
+                f"|nu| < arccos(-1/e) = {limit:.6f} deg."
+            )
+        self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
+
+    def _init_canonical(self, p, ecc, inc, raan, argp, nu, gm, epoch, shape):
+        self._shape = tuple(shape)
+        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
+        self._p, self._ecc, self._inc = b(p), b(ecc), b(inc)
+        self._raan, self._argp, self._nu = b(raan), b(argp), b(nu)
+        self._gm = np.asarray(gm, dtype=np.float64)
+        self._epoch = epoch
+
+    @classmethod
+    def _from_canonical(cls, p, ecc, inc, raan, argp, nu, gm, epoch=None):
+        """Wrap canonical float64 arrays (km, rad, km3/s2) without validation."""
+        obj = cls.__new__(cls)
+        shape = np.broadcast_shapes(*(np.shape(x) for x in (p, ecc, inc, raan, argp, nu, gm)))
+        obj._init_canonical(p, ecc, inc, raan, argp, nu, gm, epoch, shape)
+        return obj
+
+    @classmethod
+    def from_semi_major_axis(cls, a, ecc, inc, raan, argp, nu, gm, epoch=None):
+        """Elements from the semi-major axis instead of the semi-latus rectum.
+
+        Parameters
+        ----------
+        a : Quantity
+            Semi-major axis (length): > 0 for an ellipse (0 <= e < 1), < 0 for a hyperbola
+            (e > 1). A parabola (e = 1) has no finite a: give ``p`` to the constructor instead.
+        ecc, inc, raan, argp, nu, gm, epoch
+            As for :class:`KeplerianElements`.
+
+        Notes
+        -----
+        p = a (1 - e)(1 + e) (the product avoids the cancellation in 1 - e^2 near e = 1).
+        """
+        a_km = _units.to_array(a, "length", "a", finite=False)
+        e = _units.to_array(ecc, "dimensionless", "ecc")
+        if np.any(np.isnan(a_km)):
+            raise InvalidInputError("a contains NaN values. Remove or fill them before calling.")
+        if np.any(e == 1.0):
+            raise InvalidElementsError(
+                "a parabola (ecc = 1) has an infinite semi-major axis, so a cannot define it: "
+                "use KeplerianElements(p, 1.0, ...) with the semi-latus rectum p "
+                "(p = 2 q, twice the periapsis distance)."
+            )
+        shape = _broadcast_shape({"a": a_km.shape, "ecc": e.shape}, "from_semi_major_axis")
+        a_b, e_b = np.broadcast_to(a_km, shape), np.broadcast_to(e, shape)
+        bad_ell = (e_b < 1) & ~(a_b > 0)
+        if np.any(bad_ell):
+            raise InvalidElementsError(
+                f"a must be > 0 for an ellipse (ecc < 1){_first_bad(bad_ell)}; got "
+                f"{a_b[bad_ell].ravel()[0]!r} km with ecc = {e_b[bad_ell].ravel()[0]!r}."
+            )
+        bad_hyp = (e_b > 1) & ~(a_b < 0)
+        if np.any(bad_hyp):
+            raise InvalidElementsError(
+                f"a must be < 0 for a hyperbola (ecc > 1){_first_bad(bad_hyp)}; got "
+                f"{a_b[bad_hyp].ravel()[0]!r} km with ecc = {e_b[bad_hyp].ravel()[0]!r}. "
+                "Pass a = -|a|."
+            )
+        if np.any(~np.isfinite(a_b)):
+            raise InvalidInputError("a must be finite for ecc != 1.")
+        p = a_b * (1.0 - e_b) * (1.0 + e_b)
+        return cls(_units.to_quantity(p, "length"), e, inc, raan, argp, nu, gm, epoch)
+
+    # --- container protocol --------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple:
+        """Leading shape: one item per orbit."""
+        return self._shape
+
+    @property
+    def ndim(self) -> int:
+        return len(self._shape)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self._shape, dtype=np.int64))
+
+    @property
+    def epoch(self):
+        """Epoch (as given, or None)."""
+        return self._epoch
+
+    @cached_property
+    def gm(self):
+        """Gravitational parameter of the central body (Quantity, km3/s2)."""
+        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
+
+    def __len__(self) -> int:
+        if not self._shape:
+            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
+        return self._shape[0]
+
+    def __getitem__(self, key):
+        key = _normalise_key(key, self._shape, "KeplerianElements")
+        parts = [np.array(x[key]) for x in self._stored()]
+        gm = np.array(np.broadcast_to(self._gm, self._shape)[key])
+        return KeplerianElements._from_canonical(
+            *parts, gm, _index_epoch(self._epoch, key, self._shape)
+        )
+
+    def _stored(self):
+        return (self._p, self._ecc, self._inc, self._raan, self._argp, self._nu)
+
+    def __repr__(self) -> str:
+        gm = np.unique(self._gm)
+        gm_txt = f"{gm[0]:.10g} km3 / s2" if gm.size == 1 else f"{gm.size} values"
+        epoch = "" if self._epoch is None else f", epoch={self._epoch}"
+        if self.size == 1:
+            p, e, i, o, w, n = (float(x.reshape(-1)[0]) for x in self._stored())
+            return (
+                f"KeplerianElements(p={p:.9g} km, ecc={e:.12g}, inc={_deg(i)}, "
+                f"raan={_deg(o)}, argp={_deg(w)}, nu={_deg(n)}, gm={gm_txt}{epoch})"
+            )
+        return (
+            f"<KeplerianElements shape={self._shape}: {self.size} orbits, gm={gm_txt}{epoch}; "
+            f"ecc in [{self._ecc.min():.6g}, {self._ecc.max():.6g}], "
+            f"p in [{self._p.min():.6g}, {self._p.max():.6g}] km>"
+        )
+
+    # --- stored elements as Quantities ----------------------------------------------------------
+    @cached_property
+    def semi_latus_rectum(self):
+        """Semi-latus rectum p = h^2/mu (Quantity, km)."""
+        return _units.to_quantity(self._p, "length")
+
+    @cached_property
+    def eccentricity(self):
+        """Eccentricity e (dimensionless float or ndarray)."""
+        return _scalar_or_array(np.array(self._ecc))
+
+    @cached_property
+    def inclination(self):
+        """Inclination i in [0, pi] (Quantity, rad)."""
+        return _units.to_quantity(self._inc, "angle")
+
+    @cached_property
+    def longitude_of_ascending_node(self):
+        """Longitude of the ascending node raan (Quantity, rad); 0 for equatorial orbits."""
+        return _units.to_quantity(self._raan, "angle")
+
+    @cached_property
+    def argument_of_periapsis(self):
+        """Argument of periapsis argp (Quantity, rad); 0 for circular orbits."""
+        return _units.to_quantity(self._argp, "angle")
+
+    @cached_property
+    def true_anomaly(self):
+        """True anomaly nu (Quantity, rad)."""
+        return _units.to_quantity(self._nu, "angle")
+
+    # --- derived elements (lazy) ----------------------------------------------------------------
+    @cached_property
+    def _one_minus_e2(self):
+        return (1.0 - self._ecc) * (1.0 + self._ecc)
+
+    @cached_property
+    def _a_km(self):
+        with np.errstate(divide="ignore"):
+            return np.where(self._ecc == 1.0, np.inf, self._p / self._one_minus_e2)
+
+    @cached_property
+    def semi_major_axis(self):
+        """Semi-major axis a = p/(1 - e^2) (Quantity, km): inf for e = 1, < 0 for e > 1."""
+        return _units.to_quantity(self._a_km, "length")
+
+    @cached_property
+    def mean_anomaly(self):
+        """Mean anomaly M (Quantity, rad).
+
+        Ellipse E - e sin E, hyperbola e sinh F - F, parabola D + D^3/3 with D = tan(nu/2)
+        (Barker), each with the sign of nu; M = n (t - t_periapsis) with n = mean_motion.
+        Computed by :func:`visviva.core.kepler.true_to_mean_array`.
+        """
+        from .core.kepler import true_to_mean_array
+
+        nu = np.ascontiguousarray(self._nu).reshape(-1)
+        ecc = np.ascontiguousarray(self._ecc).reshape(-1)
+        M = np.empty(nu.shape[0])
+        status = np.empty(nu.shape[0], dtype=np.int8)
+        true_to_mean_array(nu, ecc, M, status)
+        raise_for_status(
+            status.reshape(self._shape), "true -> mean anomaly", nu=self._nu, ecc=self._ecc
+        )
+        return _units.to_quantity(M.reshape(self._shape), "angle")
+
+    @cached_property
+    def argument_of_latitude(self):
+        """Argument of latitude u = argp + nu in [0, 2 pi) (Quantity, rad)."""
+        return _units.to_quantity(_wrap_2pi(self._argp + self._nu), "angle")
+
+    @cached_property
+    def true_longitude(self):
+        """True longitude l = raan + argp + nu in [0, 2 pi) (Quantity, rad).
+
+        For i = pi it is measured from x in the direction of motion (clockwise seen from +z).
+        """
+        return _units.to_quantity(_wrap_2pi(self._raan + self._argp + self._nu), "angle")
+
+    @cached_property
+    def longitude_of_periapsis(self):
+        """Longitude of periapsis varpi = raan + argp in [0, 2 pi) (Quantity, rad)."""
+        return _units.to_quantity(_wrap_2pi(self._raan + self._argp), "angle")
+
+    @cached_property
+    def periapsis_distance(self):
+        """Periapsis distance q = p/(1 + e) (Quantity, km)."""
+        return _units.to_quantity(self._p / (1.0 + self._ecc), "length")
+
+    @cached_property
+    def apoapsis_distance(self):
+        """Apoapsis distance p/(1 - e) (Quantity, km); inf for e >= 1."""
+        with np.errstate(divide="ignore"):
+            Q = np.where(self._ecc < 1.0, self._p / (1.0 - self._ecc), np.inf)
+        return _units.to_quantity(Q, "length")
+
+    @cached_property
+    def _n_rad_s(self):
+        gm = np.broadcast_to(self._gm, self._shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = np.abs(self._a_km)
+            n = np.where(self._ecc == 1.0, 2.0 * np.sqrt(gm / self._p**3), np.sqrt(gm / a) / a)
+        return n
+
+    @cached_property
+    def mean_motion(self):
+        """Mean motion n (Quantity, rad/s): sqrt(mu/|a|^3); 2 sqrt(mu/p^3) for the parabola."""
+        from astropy import units as u
+
+        return u.Quantity(self._n_rad_s, u.rad / u.s, copy=False)
+
+    @cached_property
+    def period(self):
+        """Orbital period 2 pi/n (Quantity, s); inf for e >= 1."""
+        with np.errstate(divide="ignore"):
+            T = np.where(self._ecc < 1.0, _TWO_PI / self._n_rad_s, np.inf)
+        return _units.to_quantity(T, "time")
+
+    @cached_property
+    def specific_energy(self):
+        """Specific orbital energy -mu (1 - e^2)/(2 p) (Quantity, km2/s2); 0 for the parabola."""
+        gm = np.broadcast_to(self._gm, self._shape)
+        return _units.to_quantity(-0.5 * gm * self._one_minus_e2 / self._p, "spec_energy")
+
+    @cached_property
+    def specific_angular_momentum(self):
+        """Magnitude of the specific angular momentum sqrt(mu p) (Quantity, km2/s)."""
+        gm = np.broadcast_to(self._gm, self._shape)
+        return _units.to_quantity(np.sqrt(gm * self._p), "spec_angmom")
+
+    # --- conversions ----------------------------------------------------------------------------
+    def to_state(self):
+        """State vectors of every orbit at its true anomaly.
+
+        Returns
+        -------
+        StateVectors
+
+        Notes
+        -----
+        One call of :func:`visviva.core.elements.coe_to_rv_array` (Vallado 2013, Algorithm 10).
+        """
+        from .core.elements import coe_to_rv_array
+
+        shape = self._shape
+        flat = [_flat(x, shape) for x in self._stored()]
+        r, v, status = coe_to_rv_array(*flat, _flat(self._gm, shape))
+        raise_for_status(
+            status.reshape(shape),
+            "elements -> state vectors",
+            p=self._p,
+            ecc=self._ecc,
+            nu=self._nu,
+        )
+        return StateVectors._from_canonical(
+            r.reshape(shape + (3,)), v.reshape(shape + (3,)), self._gm, self._epoch
+        )
+
+    def to_equinoctial(self, retrograde: bool = False):
+        """Modified equinoctial elements (through the state vectors)."""
+        return self.to_state().to_equinoctial(retrograde=retrograde)
+
+
+class ModifiedEquinoctialElements:
+    """Modified equinoctial elements (Walker, Ireland & Owens 1985) of one or many orbits.
+
+    Parameters
+    ----------
+    p : Quantity
+        Semi-latus rectum (length), > 0.
+    f, g : float or array_like
+        e cos(argp + I raan), e sin(argp + I raan) (dimensionless).
+    h, k : float or array_like
+        tan^I(i/2) cos(raan), tan^I(i/2) sin(raan) (dimensionless).
+    L : Quantity or float
+        True longitude argp + I raan + nu (rad).
+    gm : Quantity or Body
+        Gravitational parameter (km3/s2), > 0.
+    epoch : astropy.time.Time, optional
+    retrograde : bool
+        The retrograde factor: False for I = +1 (standard; singular only at i = pi exactly),
+        True for I = -1 (singular only at i = 0). Use True for orbits at or near i = pi.
+
+    Notes
+    -----
+    Non-singular for circular and equatorial orbits and valid for every conic (e = f^2 + g^2
+    may be >= 1). r = p/(1 + f cos L + g sin L); the frame vectors and the velocity follow
+    Walker et al. (1985), eqs. 2-4, with the retrograde factor of Broucke & Cefola (1972).
+    """
+
+    def __init__(self, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
+        p_km = _units.to_array(p, "length", "p")
+        f = _units.to_array(f, "dimensionless", "f")
+        g = _units.to_array(g, "dimensionless", "g")
+        h = _units.to_array(h, "dimensionless", "h")
+        k = _units.to_array(k, "dimensionless", "k")
+        L = _units.to_array(L, "angle", "L")
+        gm = _units.to_array(gm, "gm", "gm")
+        _gm_positive(gm)
+        shape = _broadcast_shape(
+            {
+                "p": p_km.shape,
+                "f": f.shape,
+                "g": g.shape,
+                "h": h.shape,
+                "k": k.shape,
+                "L": L.shape,
+                "gm": gm.shape,
+            },
+            "ModifiedEquinoctialElements",
+        )
+        if np.any(~(p_km > 0)):
+            raise InvalidElementsError(
+                f"p (semi-latus rectum) must be > 0{_first_bad(~(p_km > 0))}; got "
+                f"{p_km[~(p_km > 0)].ravel()[0]!r} km."
+            )
+        w = np.broadcast_to(1.0 + f * np.cos(L) + g * np.sin(L), shape)
+        if np.any(w <= 0):
+            raise InvalidElementsError(
+                f"1 + f cos L + g sin L <= 0{_first_bad(w <= 0)}: the true longitude lies on or "
+                "beyond the asymptote of the open orbit. Choose L with "
+                "|L - atan2(g, f)| < arccos(-1/e), e = hypot(f, g)."
+            )
+        self._init_canonical(p_km, f, g, h, k, L, gm, epoch, bool(retrograde), shape)
+
+    def _init_canonical(self, p, f, g, h, k, L, gm, epoch, retrograde, shape):
+        self._shape = tuple(shape)
+        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
+        self._p, self._f, self._g, self._h, self._k, self._L = (b(x) for x in (p, f, g, h, k, L))
+        self._gm = np.asarray(gm, dtype=np.float64)
+        self._epoch = epoch
+        self._retrograde = bool(retrograde)
+
+    @classmethod
+    def _from_canonical(cls, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
+        obj = cls.__new__(cls)
+        shape = np.broadcast_shapes(*(np.shape(x) for x in (p, f, g, h, k, L, gm)))
+        obj._init_canonical(p, f, g, h, k, L, gm, epoch, retrograde, shape)
+        return obj
+
+    @property
+    def shape(self) -> tuple:
+        return self._shape
+
+    @property
+    def epoch(self):
+        return self._epoch
+
+    @property
+    def retrograde(self) -> bool:
+        """True when the retrograde factor I = -1 is used."""
+        return self._retrograde
+
+    @cached_property
+    def gm(self):
+        """Gravitational parameter (Quantity, km3/s2)."""
+        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
+
+    @cached_property
+    def semi_latus_rectum(self):
+        """p (Quantity, km)."""
+        return _units.to_quantity(self._p, "length")
+
+    @property
+    def p(self):
+        """Alias of :attr:`semi_latus_rectum`."""
+        return self.semi_latus_rectum
+
+    @cached_property
+    def f(self):
+        """f = e cos(argp + I raan) (dimensionless)."""
+        return _scalar_or_array(np.array(self._f))
+
+    @cached_property
+    def g(self):
+        """g = e sin(argp + I raan) (dimensionless)."""
+        return _scalar_or_array(np.array(self._g))
+
+    @cached_property
+    def h(self):
+        """h = tan^I(i/2) cos(raan) (dimensionless)."""
+        return _scalar_or_array(np.array(self._h))
+
+    @cached_property
+    def k(self):
+        """k = tan^I(i/2) sin(raan) (dimensionless)."""
+        return _scalar_or_array(np.array(self._k))
+
+    @cached_property
+    def true_longitude(self):
+        """L = argp + I raan + nu (Quantity, rad)."""
+        return _units.to_quantity(self._L, "angle")
+
+    @property
+    def L(self):
+        """Alias of :attr:`true_longitude`."""
+        return self.true_longitude
+
+    def __len__(self) -> int:
+        if not self._shape:
+            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
+        return self._shape[0]
+
+    def __getitem__(self, key):
+        key = _normalise_key(key, self._shape, "ModifiedEquinoctialElements")
+        parts = [np.array(x[key]) for x in (self._p, self._f, self._g, self._h, self._k, self._L)]
+        gm = np.array(np.broadcast_to(self._gm, self._shape)[key])
+        return ModifiedEquinoctialElements._from_canonical(
+            *parts, gm, _index_epoch(self._epoch, key, self._shape), self._retrograde
+        )
+
+    def __repr__(self) -> str:
+        I = -1 if self._retrograde else 1  # noqa: E741
+        if int(np.prod(self._shape)) == 1:
+            vals = [
+                float(x.reshape(-1)[0])
+                for x in (self._p, self._f, self._g, self._h, self._k, self._L)
+            ]
+            return (
+                f"ModifiedEquinoctialElements(p={vals[0]:.9g} km, f={vals[1]:.12g}, "
+                f"g={vals[2]:.12g}, h={vals[3]:.12g}, k={vals[4]:.12g}, L={_deg(vals[5])}, I={I})"
+            )
+        return f"<ModifiedEquinoctialElements shape={self._shape}, I={I}>"
+
+    def to_state(self):
+        """State vectors (Walker et al. 1985, eqs. 3-4). Returns :class:`StateVectors`."""
+        from .core.elements import mee_to_rv_array
+
+        shape = self._shape
+        flat = [_flat(x, shape) for x in (self._p, self._f, self._g, self._h, self._k, self._L)]
+        retro = -1.0 if self._retrograde else 1.0
+        r, v, status = mee_to_rv_array(*flat, _flat(self._gm, shape), retro)
+        raise_for_status(
+            status.reshape(shape),
+            "equinoctial elements -> state vectors",
+            p=self._p,
+            f=self._f,
+            g=self._g,
+            L=self._L,
+        )
+        return StateVectors._from_canonical(
+            r.reshape(shape + (3,)), v.reshape(shape + (3,)), self._gm, self._epoch
+        )
+
+    def to_keplerian(self):
+        """Classical elements (through the state vectors). Returns :class:`KeplerianElements`."""
+        return self.to_state().to_elements()

@@ -1,1 +1,375 @@
-"""(being written)"""
+"""Two-body state vectors: position and velocity relative to a central body.
+
+:class:`StateVectors` holds canonical float64 arrays (km, km/s, km3/s2) and wraps them in astropy
+Quantities only when asked. Every conversion calls one compiled kernel over the whole array
+(:mod:`visviva.core.elements`); the first call compiles it (or loads numba's on-disk cache).
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+
+from . import _units
+from .errors import InvalidInputError, InvalidStateError, ShapeError, raise_for_status
+
+__all__ = ["StateVectors"]
+
+
+# ----------------------------------------------------------------------------------------------
+# helpers shared with visviva.elements (private)
+# ----------------------------------------------------------------------------------------------
+
+
+def _broadcast_shape(named_shapes: dict[str, tuple], what: str) -> tuple:
+    """Common leading shape of the arguments, or a ShapeError naming them."""
+    try:
+        return np.broadcast_shapes(*named_shapes.values())
+    except ValueError:
+        listing = ", ".join(f"{k} {v}" for k, v in named_shapes.items())
+        raise ShapeError(
+            f"{what}: the leading shapes do not broadcast ({listing}). Give every argument the "
+            "same leading shape, e.g. (N,) per orbit and (N, 3) per vector, or use scalars "
+            "for values shared by all items."
+        ) from None
+
+
+def _gm_positive(gm: np.ndarray) -> None:
+    if not np.all(gm > 0):
+        bad = np.asarray(gm)[~(np.asarray(gm) > 0)].ravel()[0]
+        raise InvalidInputError(
+            f"gm must be > 0 (the gravitational parameter of the central body); got {bad!r} "
+            "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
+        )
+
+
+def _flat(arr: np.ndarray, shape: tuple) -> np.ndarray:
+    """``arr`` broadcast to ``shape`` and flattened to 1-D (a view where numpy allows)."""
+    return np.broadcast_to(arr, shape).reshape(-1)
+
+
+def _index_leading(arr: np.ndarray, key, shape: tuple, trailing: int = 0):
+    """Index the leading axes (of shape ``shape``) of ``arr`` broadcast to them."""
+    full = np.broadcast_to(arr, shape + arr.shape[arr.ndim - trailing :] if trailing else shape)
+    if trailing:
+        key = key + (slice(None),) * trailing
+    return full[key]
+
+
+def _normalise_key(key, shape: tuple, cls_name: str) -> tuple:
+    if shape == ():
+        raise TypeError(f"a scalar {cls_name} cannot be indexed (its shape is ())")
+    if not isinstance(key, tuple):
+        key = (key,)
+    n_index = sum(1 for k in key if k is not None and k is not Ellipsis)
+    if n_index > len(shape):
+        raise IndexError(
+            f"too many indices for {cls_name} of shape {shape}: index the leading axes only "
+            "(the xyz axis of r and v is not indexable here; use .r[..., 0] for x)"
+        )
+    return key
+
+
+def _index_epoch(epoch, key, shape):
+    if epoch is None:
+        return None
+    if np.shape(epoch) == shape and shape != ():
+        return epoch[key]
+    return epoch
+
+
+def _fmt_vec(arr: np.ndarray) -> str:
+    return np.array2string(arr, precision=9, separator=", ", max_line_width=200)
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+class StateVectors:
+    """Position and velocity of one or many bodies relative to a central body.
+
+    Parameters
+    ----------
+    r : Quantity, shape (..., 3)
+        Position relative to the central body, unit of length (e.g. km).
+    v : Quantity, shape (..., 3)
+        Velocity, unit of speed (e.g. km/s). Broadcasts against ``r`` over the leading axes.
+    gm : Quantity or Body
+        Gravitational parameter of the central body (km3/s2), > 0, scalar or broadcasting
+        against the leading shape; a :class:`visviva.bodies.Body` gives its ``gm``.
+    epoch : astropy.time.Time, optional
+        Epoch of the states; carried along, never used in the two-body conversions.
+
+    Attributes
+    ----------
+    r, v : Quantity
+        Position (km) and velocity (km/s), shape ``shape + (3,)``.
+    gm : Quantity
+        Gravitational parameter (km3/s2), broadcast to ``shape``.
+    shape : tuple
+        Leading shape (one item per state).
+
+    Raises
+    ------
+    UnitsError
+        A missing or wrong unit.
+    ShapeError
+        xyz not on the last axis, or leading shapes that do not broadcast.
+    InvalidInputError
+        NaN/inf values, or gm <= 0.
+    InvalidStateError
+        A zero position vector (the body sits on the attractor).
+
+    Notes
+    -----
+    The arrays are stored in canonical units (km, km/s, km3/s2) as float64; the Quantities and
+    the derived properties are computed on first access and cached. The two-body relations are
+    those of Vallado (2013), Ch. 2: specific energy v^2/2 - mu/r, h = r x v, eccentricity vector
+    e = ((v^2 - mu/r) r - (r . v) v)/mu.
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> from astropy import units as u
+    >>> s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH)
+    >>> print(f"{s.to_elements().eccentricity:.6f}")
+    0.004573
+    """
+
+    def __init__(self, r, v, gm, epoch=None):
+        r_km = _units.to_vector(r, "length", "r")
+        v_kms = _units.to_vector(v, "speed", "v")
+        gm_arr = _units.to_array(gm, "gm", "gm")
+        _gm_positive(gm_arr)
+        shape = _broadcast_shape(
+            {"r": r_km.shape[:-1], "v": v_kms.shape[:-1], "gm": gm_arr.shape}, "StateVectors"
+        )
+        r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
+        v_kms = np.ascontiguousarray(np.broadcast_to(v_kms, shape + (3,)))
+        zero = ~np.any(r_km != 0.0, axis=-1)
+        if np.any(zero):
+            where = tuple(int(i) for i in np.argwhere(zero)[0]) if shape else ()
+            raise InvalidStateError(
+                f"r has zero length at index {where} ({int(np.count_nonzero(zero))} state(s)): "
+                "the body would sit on the attractor, where the two-body problem is singular. "
+                "Give a non-zero position relative to the central body."
+            )
+        self._init_canonical(r_km, v_kms, gm_arr, epoch, shape)
+
+    def _init_canonical(self, r_km, v_kms, gm_km3_s2, epoch, shape):
+        self._r = r_km
+        self._v = v_kms
+        self._gm = np.asarray(gm_km3_s2, dtype=np.float64)
+        self._epoch = epoch
+        self._shape = tuple(shape)
+
+    @classmethod
+    def _from_canonical(cls, r_km, v_kms, gm_km3_s2, epoch=None):
+        """Wrap canonical float64 arrays without validation (for visviva's own results).
+
+        ``r_km``, ``v_kms`` have shape ``shape + (3,)``; ``gm_km3_s2`` broadcasts to ``shape``.
+        """
+        obj = cls.__new__(cls)
+        shape = np.shape(r_km)[:-1]
+        obj._init_canonical(
+            np.asarray(r_km, dtype=np.float64),
+            np.asarray(v_kms, dtype=np.float64),
+            gm_km3_s2,
+            epoch,
+            shape,
+        )
+        return obj
+
+    # --- stored values -------------------------------------------------------------------------
+    @cached_property
+    def r(self):
+        """Position (Quantity, km), shape ``shape + (3,)``."""
+        return _units.to_quantity(self._r, "length")
+
+    @cached_property
+    def v(self):
+        """Velocity (Quantity, km/s), shape ``shape + (3,)``."""
+        return _units.to_quantity(self._v, "speed")
+
+    @cached_property
+    def gm(self):
+        """Gravitational parameter of the central body (Quantity, km3/s2), shape ``shape``."""
+        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
+
+    @property
+    def epoch(self):
+        """Epoch of the states (as given, or None)."""
+        return self._epoch
+
+    @property
+    def shape(self) -> tuple:
+        """Leading shape: one item per state."""
+        return self._shape
+
+    @property
+    def ndim(self) -> int:
+        return len(self._shape)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self._shape, dtype=np.int64))
+
+    def __len__(self) -> int:
+        if not self._shape:
+            raise TypeError("a single state (shape ()) has no len(); check .shape instead")
+        return self._shape[0]
+
+    def __getitem__(self, key):
+        key = _normalise_key(key, self._shape, "StateVectors")
+        r = self._r[key + (slice(None),)]
+        v = self._v[key + (slice(None),)]
+        gm = np.broadcast_to(self._gm, self._shape)[key]
+        return StateVectors._from_canonical(
+            r, v, np.array(gm), _index_epoch(self._epoch, key, self._shape)
+        )
+
+    def __repr__(self) -> str:
+        gm = np.unique(self._gm)
+        gm_txt = f"{gm[0]:.10g} km3 / s2" if gm.size == 1 else f"{gm.size} values (km3 / s2)"
+        epoch = "" if self._epoch is None else f", epoch={self._epoch}"
+        if self.size <= 2:
+            return (
+                f"StateVectors(r={_fmt_vec(self._r)} km, v={_fmt_vec(self._v)} km / s, "
+                f"gm={gm_txt}{epoch})"
+            )
+        return (
+            f"<StateVectors shape={self._shape}: {self.size} states, gm={gm_txt}{epoch}; "
+            f"first r={_fmt_vec(self._r.reshape(-1, 3)[0])} km, "
+            f"v={_fmt_vec(self._v.reshape(-1, 3)[0])} km / s>"
+        )
+
+    # --- derived quantities (lazy, cached) ------------------------------------------------------
+    @cached_property
+    def radius(self):
+        """Distance from the central body \\|r\\| (Quantity, km), shape ``shape``."""
+        return _units.to_quantity(np.linalg.norm(self._r, axis=-1), "length")
+
+    @cached_property
+    def speed(self):
+        """Speed \\|v\\| (Quantity, km/s), shape ``shape``."""
+        return _units.to_quantity(np.linalg.norm(self._v, axis=-1), "speed")
+
+    @cached_property
+    def specific_energy(self):
+        """Specific orbital energy v^2/2 - mu/r (Quantity, km2/s2); < 0 bound, 0 parabolic."""
+        r = np.linalg.norm(self._r, axis=-1)
+        v2 = np.einsum("...i,...i->...", self._v, self._v)
+        return _units.to_quantity(0.5 * v2 - self._gm / r, "spec_energy")
+
+    @cached_property
+    def specific_angular_momentum(self):
+        """Specific angular momentum vector h = r x v (Quantity, km2/s), shape ``shape + (3,)``."""
+        return _units.to_quantity(np.cross(self._r, self._v), "spec_angmom")
+
+    @cached_property
+    def eccentricity_vector(self):
+        """Eccentricity vector ((v^2 - mu/r) r - (r . v) v)/mu (dimensionless ndarray, (..., 3)).
+
+        It points to periapsis and its length is the eccentricity (Vallado 2013, eq. 2-78).
+        """
+        r = np.linalg.norm(self._r, axis=-1)[..., None]
+        v2 = np.einsum("...i,...i->...", self._v, self._v)[..., None]
+        rv = np.einsum("...i,...i->...", self._r, self._v)[..., None]
+        gm = np.broadcast_to(self._gm, self._shape)[..., None]
+        return ((v2 - gm / r) * self._r - rv * self._v) / gm
+
+    # --- conversions ----------------------------------------------------------------------------
+    def _flat_inputs(self):
+        n = max(self.size, 1)
+        return self._r.reshape(n, 3), self._v.reshape(n, 3), _flat(self._gm, self._shape)
+
+    def to_elements(self):
+        """Classical (Keplerian) elements of every state.
+
+        Returns
+        -------
+        KeplerianElements
+            Same shape, gm and epoch. Undefined angles follow docs/conventions.md (equatorial:
+            raan = 0; circular: argp = 0 and nu = argument of latitude / true longitude).
+
+        Raises
+        ------
+        InvalidStateError
+            Radial motion (r x v = 0): the orbital plane is undefined.
+
+        Notes
+        -----
+        One call of :func:`visviva.core.elements.rv_to_coe_array`; Vallado (2013) Algorithm 9
+        rewritten with atan2 only (no arccos), see :mod:`visviva.core.elements`.
+        """
+        from .core.elements import rv_to_coe_array
+        from .elements import KeplerianElements
+
+        r, v, gm = self._flat_inputs()
+        p, ecc, inc, raan, argp, nu, status = rv_to_coe_array(r, v, gm)
+        shape = self._shape
+        raise_for_status(status.reshape(shape), "state vectors -> elements", r=self._r, v=self._v)
+        return KeplerianElements._from_canonical(
+            *(x.reshape(shape) for x in (p, ecc, inc, raan, argp, nu)),
+            self._gm,
+            self._epoch,
+        )
+
+    def to_equinoctial(self, retrograde: bool = False):
+        """Modified equinoctial elements (Walker, Ireland & Owens 1985) of every state.
+
+        Parameters
+        ----------
+        retrograde : bool
+            Use the retrograde factor I = -1 (singular only at i = 0) instead of I = +1
+            (singular only at i = pi). Choose True for orbits at or near i = pi.
+
+        Returns
+        -------
+        ModifiedEquinoctialElements
+
+        Raises
+        ------
+        DomainError
+            The orbit is exactly at the singularity of the chosen set.
+        InvalidStateError
+            Radial motion.
+        """
+        from .core.elements import rv_to_mee_array
+        from .elements import ModifiedEquinoctialElements
+
+        r, v, gm = self._flat_inputs()
+        retro = -1.0 if retrograde else 1.0
+        p, f, g, h, k, L, status = rv_to_mee_array(r, v, gm, retro)
+        shape = self._shape
+        raise_for_status(
+            status.reshape(shape), "state vectors -> equinoctial elements", r=self._r, v=self._v
+        )
+        return ModifiedEquinoctialElements._from_canonical(
+            *(x.reshape(shape) for x in (p, f, g, h, k, L)),
+            self._gm,
+            self._epoch,
+            bool(retrograde),
+        )
+
+    def propagate(self, dt):
+        """States after two-body (Kepler) motion for a time ``dt``.
+
+        Parameters
+        ----------
+        dt : Quantity
+            Time of flight (unit of time), broadcasting against the states; negative values
+            propagate backwards. Every conic is handled.
+
+        Returns
+        -------
+        StateVectors
+
+        Notes
+        -----
+        Delegates to :func:`visviva.propagation.propagate_kepler` (universal variables).
+        """
+        from .propagation import propagate_kepler
+
+        return propagate_kepler(self, dt)

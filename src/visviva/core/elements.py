@@ -264,15 +264,16 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     cu = math.cos(u)
     sw = math.sin(argp)
     cw = math.cos(argp)
-    rx = rm * (co * cu - so * su * ci)
-    ry = rm * (so * cu + co * su * ci)
-    rz = rm * su * si
+    # + 0.0: no negative zeros in the output (e.g. z of an equatorial orbit)
+    rx = rm * (co * cu - so * su * ci) + 0.0
+    ry = rm * (so * cu + co * su * ci) + 0.0
+    rz = rm * su * si + 0.0
     k = math.sqrt(gm / p)
     a1 = -k * (su + ecc * sw)
     a2 = k * (cu + ecc * cw)
-    vx = a1 * co - a2 * so * ci
-    vy = a1 * so + a2 * co * ci
-    vz = a2 * si
+    vx = a1 * co - a2 * so * ci + 0.0
+    vy = a1 * so + a2 * co * ci + 0.0
+    vz = a2 * si + 0.0
     return rx, ry, rz, vx, vy, vz, st.OK
 
 

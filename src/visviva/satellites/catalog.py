@@ -1,0 +1,471 @@
+"""Catalogue scale: many satellites at many times in one call.
+
+* :func:`read_tle_file` reads a file of two- or three-line element sets into a :class:`Catalog`
+  (a bad line raises :class:`~visviva.satellites.tle.TLEFormatError` naming its line number).
+* :func:`propagate_sgp4_batch` propagates N satellites to T times with one call of sgp4's
+  ``SatrecArray`` (C++), returning ``(N, T, 3)`` positions and velocities. It is a thin wrapper:
+  the arrays sgp4 writes are the arrays returned (no copy), and it agrees bit for bit with
+  :meth:`visviva.Satellite.teme` at the same times.
+* :func:`propagate_kepler_batch` propagates two-body states (universal variables,
+  :func:`visviva.core.universal.propagate_many`).
+* :func:`propagate_j2_batch` propagates mean elements with the secular J2 drift of the node,
+  perigee and mean anomaly (the kernel lives in :mod:`visviva.satellites.secular`).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from functools import cached_property
+
+import numpy as np
+from astropy.time import Time
+
+from .._units import to_array, to_quantity, to_vector
+from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
+from .tle import (
+    MINUTES_PER_DAY,
+    Satellite,
+    TLEFormatError,
+    raise_for_sgp4_status,
+    sgp4_times,
+)
+
+__all__ = [
+    "Catalog",
+    "BatchStates",
+    "read_tle_file",
+    "parse_tle_text",
+    "propagate_sgp4_batch",
+    "propagate_kepler_batch",
+    "propagate_j2_batch",
+]
+
+DAY_S = 86_400.0
+
+
+class BatchStates:
+    """States of N objects at T times.
+
+    Attributes
+    ----------
+    r : Quantity, shape (N, T, 3)
+        Positions, km (NaN where ``status`` is non-zero and errors were not raised).
+    v : Quantity, shape (N, T, 3)
+        Velocities, km/s.
+    t : astropy Time, shape (T,)
+        The times.
+    status : ndarray of uint8, shape (N, T)
+        0 where the propagation succeeded; otherwise sgp4's error code (1-6) for SGP4 or a
+        :mod:`visviva.core.status` code for the Kepler and J2 propagators.
+    names : list of str
+        The N object names.
+    frame : str
+        ``"teme"``, ``"gcrs"`` or ``"itrs"``.
+    """
+
+    __slots__ = ("r", "v", "t", "status", "names", "frame")
+
+    def __init__(self, r, v, t, status, names, frame):
+        self.r, self.v, self.t, self.status, self.names, self.frame = r, v, t, status, names, frame
+
+    @property
+    def shape(self):
+        return self.r.shape[:-1]
+
+    def to_frame(self, frame: str) -> BatchStates:
+        """The same states rotated to ``"gcrs"`` or ``"itrs"`` (from TEME) with astropy."""
+        from . import frames
+
+        if frame == self.frame:
+            return self
+        funcs = {
+            ("teme", "gcrs"): frames.teme_to_gcrs,
+            ("teme", "itrs"): frames.teme_to_itrs,
+            ("gcrs", "itrs"): frames.gcrs_to_itrs,
+            ("itrs", "gcrs"): frames.itrs_to_gcrs,
+        }
+        if (self.frame, frame) not in funcs:
+            raise InvalidInputError(
+                f"cannot convert {self.frame} to {frame}; choose 'gcrs' or 'itrs'."
+            )
+        r, v = funcs[(self.frame, frame)](self.r, self.v, self.t)
+        return BatchStates(r, v, self.t, self.status, self.names, frame)
+
+    def __repr__(self):
+        return f"BatchStates(frame={self.frame!r}, shape={self.shape})"
+
+
+class Catalog:
+    """A list of :class:`~visviva.Satellite` propagated together.
+
+    Parameters
+    ----------
+    satellites : iterable of Satellite
+        The objects, in order.
+
+    Examples
+    --------
+    >>> cat = read_tle_file("active.txt")                       # doctest: +SKIP
+    >>> states = cat.propagate(Time("2024-01-01") + np.arange(1440) * u.min)  # doctest: +SKIP
+    >>> states.r.shape                                          # doctest: +SKIP
+    (9000, 1440, 3)
+    """
+
+    def __init__(self, satellites):
+        self.satellites = list(satellites)
+        for s in self.satellites:
+            if not isinstance(s, Satellite):
+                raise InvalidInputError(
+                    f"a Catalog holds vv.Satellite objects, got {type(s).__name__}; build them "
+                    "with vv.Satellite.from_tle or from_omm."
+                )
+
+    @classmethod
+    def from_omm(cls, records):
+        """A catalogue from OMM records (e.g. ``json.load`` of CelesTrak GP data)."""
+        return cls(Satellite.from_omm(f) for f in records)
+
+    def __len__(self):
+        return len(self.satellites)
+
+    def __iter__(self):
+        return iter(self.satellites)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return Catalog(self.satellites[index])
+        if isinstance(index, str):
+            for s in self.satellites:
+                if s.name == index:
+                    return s
+            raise KeyError(index)
+        return self.satellites[index]
+
+    def __repr__(self):
+        return f"Catalog({len(self)} satellites)"
+
+    @property
+    def names(self) -> list[str]:
+        return [s.name for s in self.satellites]
+
+    @property
+    def satnums(self) -> np.ndarray:
+        return np.array([s.satnum for s in self.satellites], dtype=np.int64)
+
+    @cached_property
+    def satrec_array(self):
+        """sgp4's ``SatrecArray`` over the catalogue (built once)."""
+        from sgp4.api import SatrecArray
+
+        return SatrecArray([s.satrec for s in self.satellites])
+
+    @cached_property
+    def epochs(self) -> Time:
+        """Element-set epochs, UTC (shape (N,))."""
+        jd = np.array([s.satrec.jdsatepoch for s in self.satellites])
+        fr = np.array([s.satrec.jdsatepochF for s in self.satellites])
+        return Time(jd, fr, format="jd", scale="utc")
+
+    def propagate(self, t, method: str = "sgp4", frame: str = "teme", on_error: str = "raise"):
+        """Propagate every satellite to the times ``t``.
+
+        Parameters
+        ----------
+        t : astropy Time, shape (T,) or scalar
+            Absolute times.
+        method : {"sgp4", "j2", "kepler"}
+            SGP4 (sgp4's SatrecArray); secular J2 drift of the SGP4 mean elements; two-body
+            motion of the osculating TEME state at each epoch.
+        frame : {"teme", "gcrs", "itrs"}
+            Output frame (GCRS and ITRS through astropy).
+        on_error : {"raise", "nan"}
+            Raise the typed error of the first failure, or leave NaN and report ``status``.
+
+        Returns
+        -------
+        BatchStates
+            ``r`` (km) and ``v`` (km/s) of shape (N, T, 3).
+        """
+        funcs = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch,
+                 "kepler": propagate_kepler_batch}
+        if method not in funcs:
+            raise InvalidInputError(f"method must be one of {sorted(funcs)}, got {method!r}.")
+        out = funcs[method](self, t, on_error=on_error)
+        return out.to_frame(frame)
+
+
+# --------------------------------------------------------------------------------------------
+# Reading files
+# --------------------------------------------------------------------------------------------
+def parse_tle_text(text: str, *, source: str = "<text>", verify_checksum: bool = True) -> Catalog:
+    """Parse two-line or three-line element sets (names on their own line, ``0 `` optional).
+
+    Parameters
+    ----------
+    text : str
+        The file's contents.
+    source : str
+        How to name the text in messages (a file name).
+    verify_checksum : bool
+        Check every line's checksum (default).
+
+    Raises
+    ------
+    TLEFormatError
+        Naming the line number (1-based) and ``source`` of the first bad line.
+    """
+    lines = text.splitlines()
+    sats = []
+    name = None
+    i = 0
+    n = len(lines)
+    while i < n:
+        line = lines[i].rstrip()
+        if not line.strip():
+            i += 1
+            continue
+        nxt = lines[i + 1].rstrip() if i + 1 < n else ""
+        if line.startswith("1 ") and nxt.startswith("2 "):
+            where = (f"line {i + 1} of {source}", f"line {i + 2} of {source}")
+            sats.append(
+                Satellite.from_tle(line, nxt, name, verify_checksum=verify_checksum, where=where)
+            )
+            name = None
+            i += 2
+            continue
+        if line.startswith("1 "):
+            raise TLEFormatError(
+                f"line {i + 2} of {source} should be line 2 of the element set that starts on "
+                f"line {i + 1} (it must start with '2 '), got {nxt!r}."
+            )
+        if line.startswith("2 "):
+            raise TLEFormatError(
+                f"line {i + 1} of {source} is a TLE line 2 without its line 1: {line!r}."
+            )
+        if name is not None:
+            raise TLEFormatError(
+                f"line {i + 1} of {source}: expected TLE line 1 after the name line {name!r}, "
+                f"got {line!r}."
+            )
+        name = line[2:].strip() if line.startswith("0 ") else line.strip()
+        i += 1
+    if name is not None:
+        raise TLEFormatError(f"{source} ends with the name line {name!r} and no element set.")
+    return Catalog(sats)
+
+
+def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
+    """Read a file of two- or three-line element sets (e.g. CelesTrak's ``active.txt``).
+
+    Parameters
+    ----------
+    path : str, os.PathLike or text file object
+        The file.
+    verify_checksum : bool
+        Check every line's checksum (default).
+
+    Returns
+    -------
+    Catalog
+
+    Raises
+    ------
+    TLEFormatError
+        Naming the file and the line number of the first bad line.
+    """
+    if isinstance(path, io.TextIOBase) or hasattr(path, "read"):
+        text = path.read()
+        source = getattr(path, "name", "<file>")
+    else:
+        with open(os.fspath(path), encoding="ascii", errors="replace") as f:
+            text = f.read()
+        source = os.fspath(path)
+    return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
+
+
+# --------------------------------------------------------------------------------------------
+# Batch propagation
+# --------------------------------------------------------------------------------------------
+def _as_catalog(satellites) -> Catalog:
+    if isinstance(satellites, Catalog):
+        return satellites
+    if isinstance(satellites, Satellite):
+        return Catalog([satellites])
+    return Catalog(satellites)
+
+
+def _absolute_times(t, what: str) -> Time:
+    if not isinstance(t, Time):
+        raise UnitsError(
+            f"{what} needs absolute times (an astropy Time), shared by every satellite; got "
+            f"{type(t).__name__}. For offsets from one epoch use epoch + dt, e.g. "
+            "Time('2024-01-01') + np.arange(0, 1440, 10) * u.min."
+        )
+    if t.ndim > 1:
+        raise ShapeError(f"t must be a scalar or 1-D Time of T times; got shape {t.shape}.")
+    return t.reshape(-1) if t.ndim == 0 else t
+
+
+def _check_on_error(on_error):
+    if on_error not in ("raise", "nan"):
+        raise InvalidInputError(f"on_error must be 'raise' or 'nan', got {on_error!r}.")
+
+
+def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise") -> BatchStates:
+    """SGP4 for N satellites at T times in one call of sgp4's ``SatrecArray``.
+
+    Parameters
+    ----------
+    satellites : Catalog or sequence of Satellite
+        The N objects.
+    t : astropy Time, shape (T,) or scalar
+        Absolute times (any scale; converted to UTC Julian dates once).
+    on_error : {"raise", "nan"}
+        Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
+        (default), or return NaN there with sgp4's code in ``status``.
+
+    Returns
+    -------
+    BatchStates
+        TEME ``r`` (km) and ``v`` (km/s), shape (N, T, 3); identical bit for bit to
+        ``Satellite.teme(t)`` of each satellite.
+    """
+    _check_on_error(on_error)
+    cat = _as_catalog(satellites)
+    t = _absolute_times(t, "propagate_sgp4_batch")
+    jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
+    e, r, v = cat.satrec_array.sgp4(jd, fr)
+    if on_error == "raise" and e.any():
+        ep = cat.epochs
+        tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
+        raise_for_sgp4_status(e, cat.names, tsince, t)
+    return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), t, e, cat.names, "teme")
+
+
+def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
+    """(N, T) seconds from each epoch to each time (TAI differences: leap seconds counted)."""
+    e = epochs.tai
+    tt = t.tai
+    return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
+
+
+def propagate_kepler_batch(states, t, *, on_error: str = "raise") -> BatchStates:
+    """Two-body motion of N states to T times (universal variables, every conic).
+
+    Parameters
+    ----------
+    states : Catalog, sequence of Satellite, or StateVectors-like of shape (N,)
+        For satellites the osculating TEME state at each element-set epoch (from SGP4) with
+        sgp4's WGS-72 GM; otherwise any object with ``.r``, ``.v`` Quantities (N, 3), ``.gm`` and
+        ``.epoch`` (astropy Time, scalar or (N,)).
+    t : astropy Time, shape (T,) or scalar
+        Absolute times.
+    on_error : {"raise", "nan"}
+        As in :func:`propagate_sgp4_batch`.
+
+    Returns
+    -------
+    BatchStates
+        ``r`` (km), ``v`` (km/s), shape (N, T, 3), in the frame of the input states.
+
+    Notes
+    -----
+    Calls :func:`visviva.core.universal.propagate_many` once over the N*T pairs (Danby 1992,
+    sec. 6.9; Vallado 2013, Algorithm 8).
+    """
+    from ..core.universal import propagate_many
+
+    _check_on_error(on_error)
+    t = _absolute_times(t, "propagate_kepler_batch")
+    if isinstance(states, (Catalog, Satellite, list, tuple)):
+        cat = _as_catalog(states)
+        ep = cat.epochs
+        e, r0, v0 = cat.satrec_array.sgp4(ep.jd1, ep.jd2)
+        idx = np.arange(len(cat))
+        r0, v0 = r0[idx, idx], v0[idx, idx]
+        raise_for_sgp4_status(e[idx, idx][:, None], cat.names, 0.0)
+        gm = np.array([s.satrec.mu for s in cat.satellites])
+        names, frame = cat.names, "teme"
+    else:
+        r0 = to_vector(states.r, "length", "states.r").reshape(-1, 3)
+        v0 = to_vector(states.v, "speed", "states.v").reshape(-1, 3)
+        gm = np.broadcast_to(to_array(states.gm, "gm", "states.gm"), (r0.shape[0],))
+        ep = getattr(states, "epoch", None)
+        if not isinstance(ep, Time):
+            raise InvalidInputError("states needs an .epoch (astropy Time) for absolute times t.")
+        ep = ep.reshape(-1) if ep.ndim == 0 else ep
+        names = [str(i) for i in range(r0.shape[0])]
+        frame = getattr(states, "frame", "gcrs")
+    n, m = r0.shape[0], len(t)
+    dt = _offsets_s(ep, t)
+    dt = np.ascontiguousarray(np.broadcast_to(dt, (n, m))).reshape(-1)
+    r0f = np.ascontiguousarray(np.broadcast_to(r0[:, None, :], (n, m, 3))).reshape(-1, 3)
+    v0f = np.ascontiguousarray(np.broadcast_to(v0[:, None, :], (n, m, 3))).reshape(-1, 3)
+    gmf = np.ascontiguousarray(np.broadcast_to(np.asarray(gm, float)[:, None], (n, m))).reshape(-1)
+    r = np.empty((n * m, 3))
+    v = np.empty((n * m, 3))
+    status = np.empty(n * m, dtype=np.int64)
+    propagate_many(r0f, v0f, gmf, dt, r, v, status)
+    status = status.reshape(n, m)
+    if on_error == "raise":
+        raise_for_status(status, "Kepler batch propagation", dt_s=dt.reshape(n, m))
+    return BatchStates(
+        to_quantity(r.reshape(n, m, 3), "length"), to_quantity(v.reshape(n, m, 3), "speed"), t,
+        status.astype(np.uint8), names, frame,
+    )
+
+
+def _mean_elements(cat: Catalog):
+    """SGP4 mean elements at epoch as (N,) float arrays: a (km), e, i, raan, argp, M (rad)."""
+    s = cat.satellites
+    a = np.array([x.satrec.a for x in s]) * np.array([x.satrec.radiusearthkm for x in s])
+    ecc = np.array([x.satrec.ecco for x in s])
+    inc = np.array([x.satrec.inclo for x in s])
+    raan = np.array([x.satrec.nodeo for x in s])
+    argp = np.array([x.satrec.argpo for x in s])
+    M = np.array([x.satrec.mo for x in s])
+    return a, ecc, inc, raan, argp, M
+
+
+def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates:
+    """Secular J2 propagation of SGP4 mean elements for N satellites at T times.
+
+    The node, perigee and mean anomaly drift at the first-order secular J2 rates (Brouwer 1959;
+    Vallado 2013, eqs. 9-41 ff.) and the state is rebuilt by Kepler's equation; a, e, i stay
+    constant (no drag). Much faster than SGP4 and good to ~km over a day for LEO: a screening
+    propagator, not a replacement for SGP4.
+
+    Parameters
+    ----------
+    satellites : Catalog or sequence of Satellite
+    t : astropy Time, shape (T,) or scalar
+    on_error : {"raise", "nan"}
+
+    Returns
+    -------
+    BatchStates
+        TEME-like mean-of-date ``r`` (km), ``v`` (km/s), shape (N, T, 3).
+    """
+    from . import secular
+
+    _check_on_error(on_error)
+    cat = _as_catalog(satellites)
+    t = _absolute_times(t, "propagate_j2_batch")
+    a, ecc, inc, raan, argp, M = _mean_elements(cat)
+    s0 = cat.satellites[0].satrec if len(cat) else None
+    gm = s0.mu if s0 else 398600.8
+    re = s0.radiusearthkm if s0 else 6378.135
+    j2 = s0.j2 if s0 else 0.001082616
+    dt = _offsets_s(cat.epochs, t)
+    r, v, status = secular.propagate_secular_j2_batch(
+        a, ecc, inc, raan, argp, M, dt, gm, re, j2
+    )
+    if on_error == "raise":
+        raise_for_status(status, "secular J2 batch propagation", dt_s=dt)
+    return BatchStates(
+        to_quantity(r, "length"), to_quantity(v, "speed"), t, status.astype(np.uint8),
+        cat.names, "teme",
+    )
+
+

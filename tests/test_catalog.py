@@ -1,0 +1,139 @@
+"""Catalogue files and N x T batch propagation (SGP4 via SatrecArray, Kepler, secular J2)."""
+
+from __future__ import annotations
+
+import importlib.resources
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.satellites.catalog import (
+    Catalog,
+    parse_tle_text,
+    propagate_j2_batch,
+    propagate_kepler_batch,
+    propagate_sgp4_batch,
+    read_tle_file,
+)
+from visviva.satellites.tle import SGP4Error, TLEFormatError
+
+ONE_MM = 1e-6  # km
+
+ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
+ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
+
+
+def _verification_text():
+    """The SGP4 verification TLEs shipped with sgp4, without comments and extra columns."""
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] if ln.startswith("2 ") else ln for ln in text.splitlines()]
+    return "\n".join(ln for ln in lines if not ln.startswith("#"))
+
+
+@pytest.fixture(scope="module")
+def catalog():
+    return parse_tle_text(_verification_text(), verify_checksum=False)
+
+
+@pytest.fixture(scope="module")
+def times():
+    return Time("2006-06-25T00:00:00", scale="utc") + np.linspace(-0.3, 1.0, 17) * u.day
+
+
+def test_reads_two_and_three_line_files(tmp_path, catalog):
+    three = tmp_path / "three.txt"
+    three.write_text("ISS (ZARYA)\n" + ISS_1 + "\n" + ISS_2 + "\n\n0 SECOND ISS\n" + ISS_1
+                     + "\n" + ISS_2 + "\n")
+    cat = read_tle_file(three)
+    assert len(cat) == 2 and cat.names == ["ISS (ZARYA)", "SECOND ISS"]
+    assert cat["SECOND ISS"].satnum == 25544
+    assert len(catalog) == 33 and catalog.names[0] == "00005"
+    with open(three) as f:
+        assert len(read_tle_file(f)) == 2
+
+
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("NAME\n" + ISS_1 + "\n" + ISS_2[:-1] + "0\n", "line 3 of"),
+        (ISS_1 + "\n" + ISS_2 + "\n" + ISS_1 + "\nGARBAGE\n", "line 4 of"),
+        (ISS_1 + "\n" + ISS_2 + "\n" + ISS_2 + "\n", "line 3 of"),
+        ("A\nB\n" + ISS_1 + "\n" + ISS_2 + "\n", "line 2 of"),
+        (ISS_1[:50] + "\n" + ISS_2 + "\n", "line 1 of"),
+    ],
+)
+def test_bad_line_is_named_by_number(tmp_path, text, needle):
+    path = tmp_path / "bad.txt"
+    path.write_text(text)
+    with pytest.raises(TLEFormatError) as info:
+        read_tle_file(path)
+    assert needle in str(info.value) and "bad.txt" in str(info.value)
+
+
+def test_sgp4_batch_equals_per_satellite_bit_for_bit(catalog, times):
+    batch = propagate_sgp4_batch(catalog, times, on_error="nan")
+    assert batch.r.shape == (33, 17, 3) and batch.status.shape == (33, 17)
+    for i, sat in enumerate(catalog):
+        if batch.status[i].any():
+            with pytest.raises(SGP4Error):
+                sat.teme(times)
+            continue
+        one = sat.teme(times)
+        np.testing.assert_array_equal(batch.r[i].value, one.r.value)
+        np.testing.assert_array_equal(batch.v[i].value, one.v.value)
+
+
+def test_sgp4_batch_errors_raise_or_report(catalog, times):
+    with pytest.raises(SGP4Error) as info:
+        propagate_sgp4_batch(catalog, times)
+    assert info.value.satellite in catalog.names
+    assert info.value.satellite in str(info.value)
+    batch = propagate_sgp4_batch(catalog, times, on_error="nan")
+    bad = batch.status != 0
+    assert bad.any() and np.isnan(batch.r.value[bad]).all()
+    assert np.isfinite(batch.r.value[~bad]).all()
+
+
+def test_sgp4_batch_needs_absolute_times(catalog):
+    with pytest.raises(vv.UnitsError, match="absolute times"):
+        propagate_sgp4_batch(catalog, np.arange(3) * u.min)
+
+
+def test_catalog_gcrs_equals_satellite_gcrs(catalog, times):
+    cat = catalog[:3]
+    batch = cat.propagate(times, frame="gcrs")
+    for i, sat in enumerate(cat):
+        g = sat.gcrs(times)
+        assert np.abs((batch.r[i] - g.r).to_value(u.km)).max() < ONE_MM
+        assert np.abs((batch.v[i] - g.v).to_value(u.km / u.s)).max() < 1e-9
+
+
+def test_kepler_batch_conserves_energy_and_starts_at_sgp4(catalog):
+    cat = Catalog([catalog[i] for i in range(6)])
+    t = cat.epochs[0] + np.linspace(-2, 2, 9) * u.day
+    k = propagate_kepler_batch(cat, t)
+    r, v = k.r.to_value(u.km), k.v.to_value(u.km / u.s)
+    gm = np.array([s.satrec.mu for s in cat])[:, None]
+    energy = 0.5 * np.sum(v * v, -1) - gm / np.linalg.norm(r, axis=-1)
+    h = np.cross(r, v)
+    assert np.abs(energy / energy[:, :1] - 1).max() < 1e-12
+    assert np.abs(h - h[:, :1]).max() / np.abs(h).max() < 1e-12
+    # at each epoch the two-body state is the SGP4 (osculating TEME) state
+    for i, sat in enumerate(cat):
+        k0 = propagate_kepler_batch(cat[i : i + 1], sat.epoch)
+        np.testing.assert_allclose(k0.r[0, 0].value, sat.teme(0 * u.s).r.value, rtol=0,
+                                   atol=ONE_MM)
+
+
+def test_j2_batch_tracks_sgp4_for_a_day():
+    pytest.importorskip("visviva.satellites.secular")
+    cat = Catalog([vv.Satellite.from_tle(ISS_1, ISS_2)])
+    t = cat.epochs[0] + np.linspace(0, 1, 25) * u.day
+    j2 = propagate_j2_batch(cat, t)
+    sg = propagate_sgp4_batch(cat, t)
+    # mean vs osculating elements (~10 km) plus missing drag and higher terms over one day
+    assert np.linalg.norm((j2.r - sg.r).to_value(u.km), axis=-1).max() < 100.0
+    assert np.isfinite(j2.r.value).all()

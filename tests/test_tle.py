@@ -247,3 +247,14 @@ def test_mean_elements_exposed():
     assert abs(sat.inclination.to_value(u.deg) - 51.6416) < 1e-9
     assert abs(sat.eccentricity - 0.0006703) < 1e-15
     assert abs(sat.mean_motion.to_value(1 / u.day) - 15.72125391) < 1e-8
+
+
+def test_states_are_state_vectors_with_osculating_elements():
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    s = sat.teme(np.arange(3) * u.min)
+    assert isinstance(s, vv.StateVectors) and s.frame == "teme" and s.t.shape == (3,)
+    el = s.to_elements()
+    # osculating inclination within ~0.1 deg of the mean one for a near-circular LEO
+    assert np.abs(el.inclination.to_value(u.deg) - 51.6416).max() < 0.1
+    with pytest.raises(vv.InvalidInputError):
+        sat.itrs(0 * u.s).to_state_vectors()

@@ -20,8 +20,9 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
-from .._units import to_array, to_quantity
+from .._units import to_array
 from ..errors import InvalidInputError, UnitsError, VisvivaError
+from ..states import StateVectors
 
 __all__ = [
     "Satellite",
@@ -315,55 +316,51 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
 # --------------------------------------------------------------------------------------------
 # Results
 # --------------------------------------------------------------------------------------------
-class SatelliteStates:
+class SatelliteStates(StateVectors):
     """Positions and velocities of a satellite in one frame at an array of times.
+
+    A :class:`visviva.StateVectors` about the Earth (``gm`` = ``vv.EARTH.gm``) that also knows
+    its frame, so ``.to_elements()`` gives osculating elements in that frame (meaningful in the
+    quasi-inertial TEME and GCRS, not in the rotating ITRS).
 
     Attributes
     ----------
     r : Quantity, shape (..., 3)
         Position, km.
     v : Quantity, shape (..., 3)
-        Velocity, km/s.
+        Velocity, km/s (relative to the rotating Earth in ITRS).
     t : astropy Time, shape (...)
-        The times (UTC scale).
+        The times (same as ``epoch``).
     frame : str
         ``"teme"``, ``"gcrs"`` or ``"itrs"``.
     """
 
-    __slots__ = ("r", "v", "t", "frame")
+    frame = "teme"
 
-    def __init__(self, r, v, t, frame):
-        self.r = r
-        self.v = v
-        self.t = t
-        self.frame = frame
+    @classmethod
+    def _wrap(cls, r_km, v_km_s, times, frame):
+        from ..constants import GM_EARTH_KM3_S2
 
-    @property
-    def epoch(self):
-        """The times (alias of ``t``), as in :class:`visviva.StateVectors`."""
-        return self.t
+        obj = cls._from_canonical(r_km, v_km_s, np.float64(GM_EARTH_KM3_S2), times)
+        obj.frame = frame
+        return obj
 
     @property
-    def shape(self):
-        return self.r.shape[:-1]
+    def t(self):
+        """The times of the states (astropy Time)."""
+        return self.epoch
 
-    def to_state_vectors(self):
-        """These states as :class:`visviva.StateVectors` about the Earth (two-body layer).
-
-        Only meaningful for the quasi-inertial frames (TEME, GCRS); ITRS rotates with the Earth.
-        """
-        from ..bodies import EARTH
-        from ..states import StateVectors
-
+    def to_state_vectors(self) -> StateVectors:
+        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
         if self.frame == "itrs":
             raise InvalidInputError(
                 "ITRS rotates with the Earth, so its velocities are not inertial; convert "
                 "sat.gcrs(t) or sat.teme(t) instead."
             )
-        return StateVectors(self.r, self.v, EARTH, epoch=self.t)
+        return StateVectors._from_canonical(self._r, self._v, self._gm, self.epoch)
 
     def __repr__(self):
-        return f"SatelliteStates(frame={self.frame!r}, shape={self.shape})"
+        return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"
 
 
 # --------------------------------------------------------------------------------------------
@@ -583,7 +580,7 @@ class Satellite:
             satellite, the time and the reason.
         """
         r, v, times = self._sgp4(t)
-        return SatelliteStates(to_quantity(r, "length"), to_quantity(v, "speed"), times, "teme")
+        return SatelliteStates._wrap(r, v, times, "teme")
 
     def gcrs(self, t) -> SatelliteStates:
         """Position and velocity in GCRS (geocentric, ICRS-aligned axes), via astropy.
@@ -602,7 +599,7 @@ class Satellite:
 
         r, v, times = self._sgp4(t)
         rg, vg = teme_to_gcrs(r, v, times)
-        return SatelliteStates(to_quantity(rg, "length"), to_quantity(vg, "speed"), times, "gcrs")
+        return SatelliteStates._wrap(rg, vg, times, "gcrs")
 
     def itrs(self, t) -> SatelliteStates:
         """Position and velocity in ITRS (Earth-fixed; velocity relative to the rotating Earth).
@@ -616,7 +613,7 @@ class Satellite:
 
         r, v, times = self._sgp4(t)
         ri, vi = teme_to_itrs(r, v, times)
-        return SatelliteStates(to_quantity(ri, "length"), to_quantity(vi, "speed"), times, "itrs")
+        return SatelliteStates._wrap(ri, vi, times, "itrs")
 
     def geodetic(self, t):
         """Geodetic latitude, longitude and height above the WGS-84 ellipsoid.

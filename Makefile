@@ -26,8 +26,12 @@ lint: install
 	$(UV) run --frozen --no-sync ruff check .
 	$(UV) run --frozen --no-sync lint-imports
 
-test: lint
+test: lint docs
 	$(UV) run --frozen --no-sync pytest
+
+# the documentation site; warnings fail the build (see docs/conf.py)
+docs: install
+	$(UV) run --frozen --no-sync sphinx-build -W --keep-going -q -b html docs docs/_build/html
 
 test-slow: install
 	$(UV) run --frozen --no-sync pytest -m "slow or live"

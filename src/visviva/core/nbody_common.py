@@ -1,0 +1,181 @@
+"""Pieces shared by the compiled N-body integrators: state layout, forces, events, outputs.
+
+Every integrator kernel (:mod:`.nbody_leapfrog`, :mod:`.nbody_ias15`, :mod:`.nbody_whfast`) has the
+same signature, :data:`RUN_SIGNATURE`::
+
+    run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
+        t_out, out_x, out_v) -> status
+
+and advances the state in place through every requested output time in ONE compiled call.
+
+``x, v`` (N, 3)
+    positions and velocities, updated in place.
+``m`` (N,), ``massive`` (N_massive,) int64, ``radius`` (N,)
+    masses (0 = test particle), ascending indices of the massive ones, collision radii.
+``fstate`` float64 (:data:`N_FSTATE`,) and ``istate`` int64 (:data:`N_ISTATE`,)
+    the scalar state; the slots are named by the ``F_*`` and ``I_*`` constants below.
+``buf`` (K, N, 3)
+    the integrator's own arrays (IAS15's b and e, WHFast's Jacobi state, ...).
+``gwork`` (7, N)
+    scratch of the parallel gravity kernel.
+``force``, ``params``
+    the additional force ``force(t, x, v, m, params, acc)`` (a first-class compiled function that
+    ADDS to ``acc``) and its float64 parameter array.
+``t_out`` (T,), ``out_x``, ``out_v`` (T, N, 3)
+    absolute output times (monotonic in the direction of integration) and the snapshots written
+    there. ``istate[I_NOUT]`` counts the outputs written, so a run interrupted by an event
+    (collision, encounter, escape) can be resumed from where it stopped.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import types
+
+from ._jit import kernel
+from .gravity import gravity
+from .status import COLLISION, ENCOUNTER, ESCAPE, OK
+
+__all__ = [
+    "RUN_SIGNATURE",
+    "FORCE_SIGNATURE",
+    "FORCE_TYPE",
+    "accelerations",
+    "check_events",
+    "N_FSTATE",
+    "N_ISTATE",
+]
+
+# ---- scalar state slots ------------------------------------------------------------------------
+F_T = 0  #: simulation time
+F_DT = 1  #: (next) time step
+F_DT_LAST = 2  #: last step actually done
+F_EPSILON = 3  #: IAS15 accuracy parameter (1e-9)
+F_MIN_DT = 4  #: smallest step an adaptive integrator may take
+F_SOFT2 = 5  #: softening length squared
+F_G = 6  #: gravitational constant
+F_ENCOUNTER = 7  #: encounter distance (0 = off)
+F_EXIT = 8  #: escape radius from the origin (0 = off)
+F_T_COMP = 9  #: reserved
+N_FSTATE = 16
+
+I_NOUT = 0  #: outputs written in this run
+I_STEPS = 1  #: steps done (total)
+I_PARALLEL = 2  #: 1: parallel gravity kernel
+I_COLLISIONS = 3  #: 1: detect collisions by radius
+I_EVENT_A = 4  #: first particle of the last event
+I_EVENT_B = 5  #: second particle (or -1)
+I_ITERATIONS = 6  #: IAS15 predictor-corrector iterations (total)
+I_REJECTED = 7  #: IAS15 rejected steps (total)
+I_CORRECTOR = 8  #: WHFast symplectic corrector order (0 = none)
+I_FRESH = 9  #: 1: the integrator's internal state must be (re)initialised
+I_STOP_AT_STEP = 10  #: > 0: pause (return PAUSED) once istate[I_STEPS] reaches this count
+N_ISTATE = 16
+
+#: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.
+PAUSED = -1
+
+_f64 = types.float64
+_a1 = types.Array(_f64, 1, "C")
+_a2 = types.Array(_f64, 2, "C")
+_a3 = types.Array(_f64, 3, "C")
+_i1 = types.Array(types.int64, 1, "C")
+
+#: Signature every additional force has: ``force(t, x, v, m, params, acc) -> None``.
+FORCE_SIGNATURE = types.void(_f64, _a2, _a2, _a1, _a1, _a2)
+#: The numba type of a compiled force passed as a first-class function.
+FORCE_TYPE = types.FunctionType(FORCE_SIGNATURE)
+#: Signature of every integrator kernel (see the module docstring).
+RUN_SIGNATURE = types.int64(
+    _a2, _a2, _a1, _i1, _a1, _a1, _i1, _a3, _a2, FORCE_TYPE, _a1, _a1, _a3, _a3
+)
+
+
+@kernel
+def accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc):
+    """Gravity (direct summation) plus the additional force, written into ``acc``."""
+    gravity(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork, istate[I_PARALLEL] != 0)
+    force(t, x, v, m, params, acc)
+
+
+@kernel
+def check_events(x, v, radius, fstate, istate):
+    """Collision (radii overlap while approaching), encounter and escape checks after a step.
+
+    Returns ``OK`` or ``COLLISION``/``ENCOUNTER``/``ESCAPE`` with the particles involved in
+    ``istate[I_EVENT_A]``, ``istate[I_EVENT_B]``. Costs O(N**2) when collisions or encounters
+    are switched on, nothing otherwise.
+    """
+    n = x.shape[0]
+    exit_r = fstate[F_EXIT]
+    if exit_r > 0.0:
+        e2 = exit_r * exit_r
+        for i in range(n):
+            r2 = x[i, 0] * x[i, 0] + x[i, 1] * x[i, 1] + x[i, 2] * x[i, 2]
+            if r2 > e2:
+                istate[I_EVENT_A] = i
+                istate[I_EVENT_B] = -1
+                return ESCAPE
+    coll = istate[I_COLLISIONS] != 0
+    enc = fstate[F_ENCOUNTER]
+    if not coll and enc <= 0.0:
+        return OK
+    enc2 = enc * enc
+    for i in range(n):
+        for j in range(i + 1, n):
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            r2 = dx * dx + dy * dy + dz * dz
+            if coll:
+                rs = radius[i] + radius[j]
+                if r2 < rs * rs:
+                    dvx = v[j, 0] - v[i, 0]
+                    dvy = v[j, 1] - v[i, 1]
+                    dvz = v[j, 2] - v[i, 2]
+                    if dx * dvx + dy * dvy + dz * dvz < 0.0:  # approaching
+                        istate[I_EVENT_A] = i
+                        istate[I_EVENT_B] = j
+                        return COLLISION
+            if r2 < enc2:
+                istate[I_EVENT_A] = i
+                istate[I_EVENT_B] = j
+                return ENCOUNTER
+    return OK
+
+
+@kernel
+def should_pause(istate):
+    """True when the step budget of this call is used up (progress bars resume the run)."""
+    stop = istate[I_STOP_AT_STEP]
+    return stop > 0 and istate[I_STEPS] >= stop
+
+
+@kernel
+def write_output(k, x, v, out_x, out_v):
+    """Copy the state into snapshot ``k``."""
+    for i in range(x.shape[0]):
+        for c in range(3):
+            out_x[k, i, c] = x[i, c]
+            out_v[k, i, c] = v[i, c]
+
+
+@kernel
+def next_fixed_step(t, target, dt):
+    """The step a fixed-step integrator takes from ``t`` towards ``target``.
+
+    Returns ``(h, last)``: a full step ``h = +-|dt|`` in the direction of ``target``, or the
+    remainder when it is shorter than ``|dt|`` (within a relative 1e-9, a full step is taken and
+    ``last`` is true so that the caller snaps ``t`` to ``target``); ``h = 0`` when ``t`` is there.
+    """
+    rem = target - t
+    adt = abs(dt)
+    if rem == 0.0 or abs(rem) <= 1e-12 * adt:
+        return 0.0, True
+    h = math.copysign(adt, rem)
+    if abs(rem) <= adt * (1.0 + 1e-9):
+        if abs(rem) >= adt * (1.0 - 1e-9):
+            return h, True
+        return rem, True
+    return h, False

@@ -1,0 +1,430 @@
+"""IAS15: 15th-order Gauss-Radau integrator with adaptive steps, the compiled N-body kernel.
+
+Written from Everhart (1985) and Rein & Spiegel (2015). Within a step of length ``dt`` the
+acceleration is expanded in the step fraction ``h`` in [0, 1]::
+
+    a(h) = a0 + b0 h + b1 h**2 + ... + b6 h**7
+         = a0 + g1 h + g2 h (h - h1) + ... + g7 h (h - h1) ... (h - h6)
+
+with the Gauss-Radau spacings ``h1 ... h7``; integrating twice gives the predictor::
+
+    v(h) = v0 + dt h (a0 + h (b0/2 + h (b1/3 + ... + h b6/8)))
+    x(h) = x0 + dt h v0 + dt**2 h**2 (a0/2 + h (b0/6 + h (b1/12 + ... + h b6/72)))
+
+Predictor-corrector: at each substep ``h_n`` the force gives ``g_n`` by divided differences and
+the change of ``g_n`` updates ``b_0 ... b_{n-1}``; the sweep over the 7 substeps is repeated until
+the change of ``b6`` relative to the acceleration is below 1e-16 or stops decreasing (at most 12
+sweeps). The step-size control (Rein & Spiegel 2015, sec. 2.6, their eq. 11 "global" form)::
+
+    err = max_i |b6_i| / max_i |a_i|,     dt_new = dt (epsilon / err)**(1/7),  epsilon = 1e-9
+
+rejects a step when ``dt_new < dt / 4`` (safety factor 0.25) and never grows the step by more than
+a factor 4. Positions and velocities are updated with compensated (Kahan) summation. The next
+step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
+(Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
+
+References
+----------
+Everhart, E. (1985), "An efficient integrator that uses Gauss-Radau spacings", in *Dynamics of
+Comets: Their Origin and Evolution*, IAU Colloq. 83, 185-202.
+Rein, H. & Spiegel, D. S. (2015), "IAS15: a fast, adaptive, high-order integrator for
+gravitational dynamics, accurate to machine precision over a billion orbits", MNRAS 446, 1424.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import kernel
+from .nbody_common import (
+    F_DT,
+    F_DT_LAST,
+    F_EPSILON,
+    F_MIN_DT,
+    F_T,
+    I_FRESH,
+    I_ITERATIONS,
+    I_NOUT,
+    I_REJECTED,
+    I_STEPS,
+    PAUSED,
+    accelerations,
+    check_events,
+    should_pause,
+    write_output,
+)
+from .status import NON_FINITE, OK, STEP_TOO_SMALL
+
+__all__ = ["ias15_run", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS"]
+
+#: Gauss-Radau spacings on [0, 1] (h0 = 0 and the 7 roots; Everhart 1985, table 1).
+H = np.array(
+    [
+        0.0,
+        0.0562625605369221464656521910318,
+        0.180240691736892364987579942780,
+        0.352624717113169637373907769648,
+        0.547153626330555383001448554766,
+        0.734210177215410531523210605558,
+        0.885320946839095768090359771030,
+        0.977520613561287501891174488626,
+    ]
+)
+
+
+def _g_to_b():
+    """CB[n, k]: coefficient of h**(k+1) in prod_{i<n} (h - H_i), n = 1..7 (row 0 unused)."""
+    cb = np.zeros((8, 7))
+    for n in range(1, 8):
+        poly = np.array([1.0])  # ascending powers
+        for i in range(n):
+            poly = np.convolve(poly, np.array([-H[i], 1.0]))
+        cb[n, : n] = poly[1 : n + 1]
+    return cb
+
+
+#: b_k = sum_n g_n CB[n, k]
+CB = _g_to_b()
+#: g_n = sum_k b_k BG[k, n]  (inverse of the triangular map above)
+BG = np.zeros((7, 8))
+BG[:, 1:] = np.linalg.inv(CB[1:, :])
+#: divided-difference denominators 1 / (H_n - H_k)
+RINV = np.zeros((8, 8))
+for _n in range(8):
+    for _k in range(_n):
+        RINV[_n, _k] = 1.0 / (H[_n] - H[_k])
+
+SAFETY = 0.25
+MAX_ITERATIONS = 12
+
+# slots of buf (each (N, 3))
+_B = 0
+_E = 7
+_BL = 14  # converged b of the last accepted step
+_EL = 21  # the prediction e that step started from
+_G = 28
+_CSX = 35
+_CSV = 36
+_A0 = 37
+_XP = 38
+_VP = 39
+_F = 40
+#: Number of (N, 3) slots in ``buf``.
+N_BUF = 41
+
+
+@kernel
+def _predict(buf, n, dtq, src_b, src_e):
+    """Re-expand the converged b (slots src_b) for a step ``dtq`` times as long (Everhart 2.10).
+
+    Writes e (the pure prediction) and b = e + (b_converged - e_old) into slots _E and _B.
+    """
+    q1 = dtq
+    q2 = q1 * q1
+    q3 = q2 * q1
+    q4 = q2 * q2
+    q5 = q3 * q2
+    q6 = q3 * q3
+    q7 = q4 * q3
+    for i in range(n):
+        for c in range(3):
+            b0 = buf[src_b + 0, i, c]
+            b1 = buf[src_b + 1, i, c]
+            b2 = buf[src_b + 2, i, c]
+            b3 = buf[src_b + 3, i, c]
+            b4 = buf[src_b + 4, i, c]
+            b5 = buf[src_b + 5, i, c]
+            b6 = buf[src_b + 6, i, c]
+            e0 = q1 * (b6 * 7.0 + b5 * 6.0 + b4 * 5.0 + b3 * 4.0 + b2 * 3.0 + b1 * 2.0 + b0)
+            e1 = q2 * (b6 * 21.0 + b5 * 15.0 + b4 * 10.0 + b3 * 6.0 + b2 * 3.0 + b1)
+            e2 = q3 * (b6 * 35.0 + b5 * 20.0 + b4 * 10.0 + b3 * 4.0 + b2)
+            e3 = q4 * (b6 * 35.0 + b5 * 15.0 + b4 * 5.0 + b3)
+            e4 = q5 * (b6 * 21.0 + b5 * 6.0 + b4)
+            e5 = q6 * (b6 * 7.0 + b5)
+            e6 = q7 * b6
+            d0 = b0 - buf[src_e + 0, i, c]
+            d1 = b1 - buf[src_e + 1, i, c]
+            d2 = b2 - buf[src_e + 2, i, c]
+            d3 = b3 - buf[src_e + 3, i, c]
+            d4 = b4 - buf[src_e + 4, i, c]
+            d5 = b5 - buf[src_e + 5, i, c]
+            d6 = b6 - buf[src_e + 6, i, c]
+            buf[_E + 0, i, c] = e0
+            buf[_E + 1, i, c] = e1
+            buf[_E + 2, i, c] = e2
+            buf[_E + 3, i, c] = e3
+            buf[_E + 4, i, c] = e4
+            buf[_E + 5, i, c] = e5
+            buf[_E + 6, i, c] = e6
+            buf[_B + 0, i, c] = e0 + d0
+            buf[_B + 1, i, c] = e1 + d1
+            buf[_B + 2, i, c] = e2 + d2
+            buf[_B + 3, i, c] = e3 + d3
+            buf[_B + 4, i, c] = e4 + d4
+            buf[_B + 5, i, c] = e5 + d5
+            buf[_B + 6, i, c] = e6 + d6
+
+
+@kernel
+def _zero_predictor(buf, n):
+    for s in range(_B, _G):
+        for i in range(n):
+            for c in range(3):
+                buf[s, i, c] = 0.0
+
+
+@kernel
+def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt):
+    """Try one step of length ``dt``. Returns (status, accepted, dt_new)."""
+    n = x.shape[0]
+    t = fstate[F_T]
+    a0 = buf[_A0]
+    xp = buf[_XP]
+    vp = buf[_VP]
+    F = buf[_F]
+    csx = buf[_CSX]
+    csv = buf[_CSV]
+    accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
+    # g from the predicted b
+    for i in range(n):
+        for c in range(3):
+            for k in range(1, 8):
+                s = 0.0
+                for j in range(k - 1, 7):
+                    s += buf[_B + j, i, c] * BG[j, k]
+                buf[_G + k - 1, i, c] = s
+    pc_last = 2.0
+    for it in range(MAX_ITERATIONS):
+        pc_err = 0.0
+        for sub in range(1, 8):
+            h = H[sub]
+            for i in range(n):
+                for c in range(3):
+                    b0 = buf[_B + 0, i, c]
+                    b1 = buf[_B + 1, i, c]
+                    b2 = buf[_B + 2, i, c]
+                    b3 = buf[_B + 3, i, c]
+                    b4 = buf[_B + 4, i, c]
+                    b5 = buf[_B + 5, i, c]
+                    b6 = buf[_B + 6, i, c]
+                    ac = a0[i, c]
+                    xp[i, c] = (
+                        -csx[i, c]
+                        + (
+                            (
+                                (
+                                    (
+                                        (
+                                            (
+                                                (
+                                                    (b6 * 7.0 * h / 9.0 + b5) * 3.0 * h / 4.0
+                                                    + b4
+                                                )
+                                                * 5.0 * h / 7.0
+                                                + b3
+                                            )
+                                            * 2.0 * h / 3.0
+                                            + b2
+                                        )
+                                        * 3.0 * h / 5.0
+                                        + b1
+                                    )
+                                    * h / 2.0
+                                    + b0
+                                )
+                                * h / 3.0
+                                + ac
+                            )
+                            * dt * h / 2.0
+                            + v[i, c]
+                        )
+                        * dt * h
+                        + x[i, c]
+                    )
+                    vp[i, c] = (
+                        -csv[i, c]
+                        + (
+                            (
+                                (
+                                    (
+                                        (
+                                            (((b6 * 7.0 * h / 8.0 + b5) * 6.0 * h / 7.0 + b4)
+                                             * 5.0 * h / 6.0 + b3)
+                                            * 4.0 * h / 5.0
+                                            + b2
+                                        )
+                                        * 3.0 * h / 4.0
+                                        + b1
+                                    )
+                                    * 2.0 * h / 3.0
+                                    + b0
+                                )
+                                * h / 2.0
+                                + ac
+                            )
+                            * dt * h
+                        )
+                        + v[i, c]
+                    )
+            accelerations(t + h * dt, xp, vp, m, massive, fstate, istate, gwork, force, params, F)
+            maxa = 0.0
+            maxdb6 = 0.0
+            for i in range(n):
+                for c in range(3):
+                    # new g_sub by divided differences, then its change updates b_0 .. b_{sub-1}
+                    gk = (F[i, c] - a0[i, c]) * RINV[sub, 0]
+                    for k in range(1, sub):
+                        gk = (gk - buf[_G + k - 1, i, c]) * RINV[sub, k]
+                    dg = gk - buf[_G + sub - 1, i, c]
+                    buf[_G + sub - 1, i, c] = gk
+                    for k in range(sub):
+                        buf[_B + k, i, c] += dg * CB[sub, k]
+                    if sub == 7:
+                        ad = abs(dg)
+                        if ad > maxdb6:
+                            maxdb6 = ad
+                        af = abs(F[i, c])
+                        if af > maxa:
+                            maxa = af
+            if sub == 7:
+                pc_err = maxdb6 / maxa if maxa > 0.0 else 0.0
+        istate[I_ITERATIONS] += 1
+        if not (pc_err == pc_err):
+            return NON_FINITE, False, dt
+        if pc_err < 1e-16:
+            break
+        if it >= 2 and pc_err >= pc_last:
+            break
+        pc_last = pc_err
+    # step-size control (Rein & Spiegel 2015, global error estimate)
+    maxa = 0.0
+    maxb6 = 0.0
+    for i in range(n):
+        for c in range(3):
+            aa = abs(a0[i, c])
+            if aa > maxa:
+                maxa = aa
+            bb = abs(buf[_B + 6, i, c])
+            if bb > maxb6:
+                maxb6 = bb
+    err = maxb6 / maxa if maxa > 0.0 else 0.0
+    if err > 0.0 and math.isfinite(err):
+        dt_new = dt * (fstate[F_EPSILON] / err) ** (1.0 / 7.0)
+    else:
+        dt_new = dt / SAFETY
+    if not math.isfinite(dt_new):
+        return NON_FINITE, False, dt
+    if abs(dt_new) < SAFETY * abs(dt):
+        return OK, False, dt_new  # reject
+    if abs(dt_new) > abs(dt) / SAFETY:
+        dt_new = dt / SAFETY
+    # accept: x += dt v0 + dt^2 (a0/2 + b0/6 + ... + b6/72), compensated summation
+    for i in range(n):
+        for c in range(3):
+            b0 = buf[_B + 0, i, c]
+            b1 = buf[_B + 1, i, c]
+            b2 = buf[_B + 2, i, c]
+            b3 = buf[_B + 3, i, c]
+            b4 = buf[_B + 4, i, c]
+            b5 = buf[_B + 5, i, c]
+            b6 = buf[_B + 6, i, c]
+            ac = a0[i, c]
+            dx = (
+                b6 / 72.0 + b5 / 56.0 + b4 / 42.0 + b3 / 30.0 + b2 / 20.0 + b1 / 12.0 + b0 / 6.0
+                + ac / 2.0
+            ) * dt * dt + v[i, c] * dt
+            dv = (b6 / 8.0 + b5 / 7.0 + b4 / 6.0 + b3 / 5.0 + b2 / 4.0 + b1 / 3.0 + b0 / 2.0
+                  + ac) * dt
+            y = dx - csx[i, c]
+            s = x[i, c] + y
+            csx[i, c] = (s - x[i, c]) - y
+            x[i, c] = s
+            y = dv - csv[i, c]
+            s = v[i, c] + y
+            csv[i, c] = (s - v[i, c]) - y
+            v[i, c] = s
+    return OK, True, dt_new
+
+
+@kernel
+def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+              out_x, out_v):
+    """Advance through every output time with IAS15 (see the module docstring).
+
+    Each output time is reached exactly by shortening the step that would pass it; the step
+    after that starts again from the step size the error control had chosen.
+    Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
+    """
+    n = x.shape[0]
+    if istate[I_FRESH] != 0:
+        _zero_predictor(buf, n)
+        for i in range(n):
+            for c in range(3):
+                buf[_CSX, i, c] = 0.0
+                buf[_CSV, i, c] = 0.0
+        fstate[F_DT_LAST] = 0.0
+        istate[I_FRESH] = 0
+    for k in range(istate[I_NOUT], t_out.shape[0]):
+        target = t_out[k]
+        while True:
+            t = fstate[F_T]
+            rem = target - t
+            if rem == 0.0:
+                break
+            dt = fstate[F_DT]
+            if dt == 0.0 or (dt > 0.0) != (rem > 0.0):
+                # first step, or a change of direction: start small and restart the predictor
+                dt = math.copysign(abs(dt) if dt != 0.0 else abs(rem), rem)
+                _zero_predictor(buf, n)
+                fstate[F_DT_LAST] = 0.0
+                fstate[F_DT] = dt
+            last = False
+            if abs(dt) >= abs(rem):
+                dt = rem
+                last = True
+            status, accepted, dt_new = _step(
+                x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt
+            )
+            if status != OK:
+                return status
+            if abs(dt_new) < fstate[F_MIN_DT] or dt_new == 0.0:
+                return STEP_TOO_SMALL
+            if not accepted:
+                istate[I_REJECTED] += 1
+                fstate[F_DT] = dt_new
+                dl = fstate[F_DT_LAST]
+                if dl != 0.0:
+                    _predict(buf, n, dt_new / dl, _BL, _EL)
+                else:
+                    _zero_predictor(buf, n)
+                continue
+            fstate[F_T] = target if last else t + dt
+            istate[I_STEPS] += 1
+            # remember the converged b and its prediction e, then predict the next step
+            for s in range(7):
+                for i in range(n):
+                    for c in range(3):
+                        buf[_BL + s, i, c] = buf[_B + s, i, c]
+                        buf[_EL + s, i, c] = buf[_E + s, i, c]
+            dt_next = dt_new
+            if last and abs(fstate[F_DT]) > abs(dt_next):
+                dt_next = fstate[F_DT]  # the step was shortened to land on the output time
+            ratio = dt_next / dt
+            if abs(ratio) > 20.0:
+                _zero_predictor(buf, n)
+            else:
+                _predict(buf, n, ratio, _BL, _EL)
+            fstate[F_DT_LAST] = dt
+            fstate[F_DT] = dt_next
+            status = check_events(x, v, radius, fstate, istate)
+            if status != OK:
+                return status
+            if last:
+                break
+            if should_pause(istate):
+                return PAUSED
+        write_output(k, x, v, out_x, out_v)
+        istate[I_NOUT] = k + 1
+    return OK

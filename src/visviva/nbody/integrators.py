@@ -1,0 +1,118 @@
+"""The registry of N-body integrators and what each can do.
+
+Each entry names a compiled kernel with the common signature of
+:mod:`visviva.core.nbody_common` and declares its capabilities; tests are parametrized over the
+registry and select integrators by capability.
+
+=============  ==========  ========  =========================  =====================================
+name           symplectic  adaptive  velocity-dependent forces  reference
+=============  ==========  ========  =========================  =====================================
+``leapfrog``   yes         no        no                         Stoermer-Verlet, drift-kick-drift
+``whfast``     yes         no        no                         Wisdom & Holman 1991; Rein & Tamayo 2015
+``ias15``      no          yes       yes                        Everhart 1985; Rein & Spiegel 2015
+=============  ==========  ========  =========================  =====================================
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from ..errors import InvalidInputError
+
+__all__ = ["Integrator", "INTEGRATORS", "get_integrator"]
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """One integrator: its compiled kernel and its capabilities.
+
+    Attributes
+    ----------
+    name : str
+        Registry key.
+    module, kernel_name : str
+        Where the compiled ``run`` kernel lives.
+    symplectic : bool
+        Conserves a shadow Hamiltonian: bounded energy error, no secular drift.
+    adaptive : bool
+        Chooses its own step size (``dt`` is only the first guess).
+    velocity_dependent_forces : bool
+        Accepts additional forces that depend on the velocities.
+    time_reversible : bool
+        Stepping forward then backward returns home to round-off.
+    needs_dt : bool
+        A step size must be given.
+    order : int
+        Order of accuracy.
+    """
+
+    name: str
+    module: str
+    kernel_name: str
+    symplectic: bool
+    adaptive: bool
+    velocity_dependent_forces: bool
+    time_reversible: bool
+    needs_dt: bool
+    order: int
+    description: str = ""
+
+    @property
+    def core(self):
+        return importlib.import_module(self.module)
+
+    @property
+    def n_buf(self) -> int:
+        return int(self.core.N_BUF)
+
+    def kernel(self):
+        """The compiled kernel (compiled or loaded from numba's cache on first use)."""
+        return _compiled(self.module, self.kernel_name)
+
+
+_CACHE: dict = {}
+
+
+def _compiled(module: str, name: str):
+    key = (module, name)
+    if key not in _CACHE:
+        from ..core.nbody_common import RUN_SIGNATURE
+
+        fn = getattr(importlib.import_module(module), name)
+        # One signature with the force as a first-class function type: one machine code for
+        # every user force (cached on disk), the force is called through a function pointer.
+        fn.compile(RUN_SIGNATURE)
+        fn.disable_compile()
+        _CACHE[key] = fn
+    return _CACHE[key]
+
+
+INTEGRATORS: dict[str, Integrator] = {
+    "leapfrog": Integrator(
+        "leapfrog", "visviva.core.nbody_leapfrog", "leapfrog_run",
+        symplectic=True, adaptive=False, velocity_dependent_forces=False, time_reversible=True,
+        needs_dt=True, order=2, description="drift-kick-drift Stoermer-Verlet",
+    ),
+    "ias15": Integrator(
+        "ias15", "visviva.core.nbody_ias15", "ias15_run",
+        symplectic=False, adaptive=True, velocity_dependent_forces=True, time_reversible=False,
+        needs_dt=False, order=15, description="15th-order Gauss-Radau, adaptive (Rein & Spiegel 2015)",
+    ),
+    "whfast": Integrator(
+        "whfast", "visviva.core.nbody_whfast", "whfast_run",
+        symplectic=True, adaptive=False, velocity_dependent_forces=False, time_reversible=True,
+        needs_dt=True, order=2,
+        description="Wisdom-Holman in Jacobi coordinates, universal-variable Kepler drift",
+    ),
+}
+
+
+def get_integrator(name: str) -> Integrator:
+    """Look up an integrator by name (case-insensitive)."""
+    key = str(name).lower()
+    if key not in INTEGRATORS:
+        raise InvalidInputError(
+            f"unknown integrator {name!r}; choose one of {sorted(INTEGRATORS)}."
+        )
+    return INTEGRATORS[key]

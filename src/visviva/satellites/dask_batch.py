@@ -1,0 +1,218 @@
+"""The catalogue batch on Dask: the same call chunked over objects and times.
+
+:func:`propagate_dask` builds dask arrays whose blocks are calls of the in-memory batch functions
+of :mod:`visviva.satellites.catalog` (SGP4 through sgp4's ``SatrecArray``, secular J2, Kepler)
+on one chunk of satellites and one chunk of times, so every block equals the corresponding slice
+of the in-memory result bit for bit. :meth:`DaskBatch.compute` runs the graph on a
+``dask.distributed`` cluster: a ``LocalCluster`` started on first use by default, or any
+scheduler given its address (``"tcp://host:8786"``).
+
+Satellites travel to remote workers as their element sets (sgp4's ``Satrec`` does not pickle);
+each worker rebuilds its chunk's ``SatrecArray`` once per task.
+
+Requires the ``scale`` extra (``pip install visviva[scale]``: dask[array,distributed]).
+"""
+
+from __future__ import annotations
+
+import uuid
+
+import numpy as np
+from astropy.time import Time
+
+from .._units import to_quantity
+from ..errors import InvalidInputError
+from .catalog import (
+    BatchStates,
+    Catalog,
+    _absolute_times,
+    _as_catalog,
+    _check_on_error,
+    propagate_j2_batch,
+    propagate_kepler_batch,
+    propagate_sgp4_batch,
+)
+
+__all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "close_local_cluster"]
+
+_METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
+_LOCAL = {}
+
+
+def _require_dask():
+    try:
+        import dask.array  # noqa: F401
+        import distributed  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - the scale extra is installed in CI
+        raise ImportError(
+            "the Dask batch needs dask[array,distributed]: pip install 'visviva[scale]'"
+        ) from exc
+
+
+def get_client(address: str | None = None, *, n_workers: int = 2, processes: bool = False,
+               threads_per_worker: int = 1):
+    """A ``dask.distributed.Client``: to ``address`` if given, else the current client, else a
+    ``LocalCluster`` started once and reused.
+
+    Parameters
+    ----------
+    address : str, optional
+        Scheduler address of an existing cluster, e.g. ``"tcp://10.0.0.5:8786"``.
+    n_workers, processes, threads_per_worker
+        Settings of the LocalCluster started when no address is given and no client exists.
+        ``processes=False`` (threads in this process) avoids moving the result arrays between
+        processes; sgp4's C++ loop holds the GIL, so ``processes=True`` gives real parallelism
+        at the price of sending the results back.
+    """
+    _require_dask()
+    from distributed import Client, LocalCluster
+
+    if address is not None:
+        key = ("address", address)
+        if key not in _LOCAL or _LOCAL[key].status == "closed":
+            _LOCAL[key] = Client(address)
+        return _LOCAL[key]
+    try:
+        from distributed import get_client as current
+
+        return current()
+    except ValueError:
+        pass
+    key = ("local", n_workers, processes, threads_per_worker)
+    client = _LOCAL.get(key)
+    if client is None or client.status == "closed":
+        cluster = LocalCluster(
+            n_workers=n_workers, processes=processes, threads_per_worker=threads_per_worker,
+            dashboard_address=None,
+        )
+        client = Client(cluster)
+        _LOCAL[key] = client
+    return client
+
+
+def close_local_cluster() -> None:
+    """Close the clients (and LocalClusters) this module started."""
+    for client in list(_LOCAL.values()):
+        cluster = client.cluster
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    _LOCAL.clear()
+
+
+def _block(cat: Catalog, t: Time, method: str, on_error: str):
+    out = _METHODS[method](cat, t, on_error=on_error)
+    return out.r.value, out.v.value, out.status
+
+
+class DaskBatch:
+    """Lazy N x T states as dask arrays.
+
+    Attributes
+    ----------
+    r, v : dask.array.Array, shape (N, T, 3)
+        Positions (km) and velocities (km/s) as plain float64 dask arrays.
+    status : dask.array.Array, shape (N, T)
+        Error codes as in :class:`~visviva.satellites.catalog.BatchStates`.
+    t : astropy Time, shape (T,)
+    names : list of str
+    """
+
+    def __init__(self, r, v, status, t, names, frame):
+        self.r, self.v, self.status, self.t, self.names, self.frame = r, v, status, t, names, frame
+
+    @property
+    def shape(self):
+        return self.r.shape[:-1]
+
+    def compute(self, client=None, address: str | None = None) -> BatchStates:
+        """Run the graph on ``client`` (or the cluster at ``address``, or a LocalCluster).
+
+        Returns
+        -------
+        BatchStates
+            In-memory results, equal to the in-memory batch call.
+        """
+        if client is None:
+            client = get_client(address)
+        r, v, status = client.compute([self.r, self.v, self.status], sync=True)
+        return BatchStates(
+            to_quantity(r, "length"), to_quantity(v, "speed"), self.t, status, self.names,
+            self.frame,
+        )
+
+    def __repr__(self):
+        return f"DaskBatch(shape={self.shape}, chunks={self.r.chunks[:2]})"
+
+
+def _splits(n: int, size: int):
+    size = max(int(size), 1)
+    return [(a, min(a + size, n)) for a in range(0, n, size)]
+
+
+def propagate_dask(satellites, t, *, method: str = "sgp4", chunks=(1000, 1000),
+                   on_error: str = "raise") -> DaskBatch:
+    """Build the N x T batch as dask arrays chunked over objects and times.
+
+    Parameters
+    ----------
+    satellites : Catalog or sequence of Satellite
+        The N objects.
+    t : astropy Time, shape (T,)
+        Absolute times.
+    method : {"sgp4", "j2", "kepler"}
+        The in-memory batch function each block calls.
+    chunks : (int, int)
+        Objects and times per block.
+    on_error : {"raise", "nan"}
+        As in :func:`~visviva.satellites.catalog.propagate_sgp4_batch`; with ``"raise"`` the
+        typed error surfaces from ``compute()``.
+
+    Returns
+    -------
+    DaskBatch
+        Lazy ``r``, ``v`` and ``status``; call ``.compute()`` to run on a cluster.
+    """
+    _require_dask()
+    import dask
+    import dask.array as da
+
+    if method not in _METHODS:
+        raise InvalidInputError(f"method must be one of {sorted(_METHODS)}, got {method!r}.")
+    _check_on_error(on_error)
+    cat = _as_catalog(satellites)
+    t = _absolute_times(t, "propagate_dask")
+    try:
+        n_chunk, t_chunk = chunks
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"chunks must be (objects, times), got {chunks!r}.") from exc
+    rows_r, rows_v, rows_s = [], [], []
+    tag = uuid.uuid4().hex
+    for a, b in _splits(len(cat), n_chunk):
+        part = dask.delayed(cat[a:b], name=f"visviva-catalog-{tag}-{a}")
+        cols_r, cols_v, cols_s = [], [], []
+        for c, d in _splits(len(t), t_chunk):
+            blk = dask.delayed(_block, pure=False, nout=3)(part, t[c:d], method, on_error)
+            n, m = b - a, d - c
+            cols_r.append(da.from_delayed(blk[0], (n, m, 3), dtype=np.float64))
+            cols_v.append(da.from_delayed(blk[1], (n, m, 3), dtype=np.float64))
+            cols_s.append(da.from_delayed(blk[2], (n, m), dtype=np.uint8))
+        rows_r.append(da.concatenate(cols_r, axis=1))
+        rows_v.append(da.concatenate(cols_v, axis=1))
+        rows_s.append(da.concatenate(cols_s, axis=1))
+    return DaskBatch(
+        da.concatenate(rows_r, axis=0), da.concatenate(rows_v, axis=0),
+        da.concatenate(rows_s, axis=0), t, cat.names, "teme",
+    )
+
+
+def propagate_sgp4_dask(satellites, t, *, chunks=(1000, 1000), on_error: str = "raise",
+                        compute: bool = False, client=None, address: str | None = None):
+    """SGP4 for N satellites at T times on Dask (see :func:`propagate_dask`).
+
+    With ``compute=True`` the graph runs at once on ``client`` / ``address`` / a LocalCluster and
+    a :class:`~visviva.satellites.catalog.BatchStates` is returned; otherwise a
+    :class:`DaskBatch`.
+    """
+    lazy = propagate_dask(satellites, t, method="sgp4", chunks=chunks, on_error=on_error)
+    return lazy.compute(client=client, address=address) if compute else lazy

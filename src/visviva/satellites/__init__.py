@@ -50,6 +50,7 @@ _EXPORTS = {
     "sun_position": "ephemeris",
     "moon_position": "ephemeris",
     "planet_heliocentric": "ephemeris",
+    "lambert": "lambert",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -1,0 +1,392 @@
+"""Lambert's problem: the orbit through two positions in a given time of flight.
+
+Two independent solvers, each written once as a scalar kernel with a ``prange`` array version:
+
+* :func:`izzo_one`: Izzo (2015), "Revisiting Lambert's problem", Celest. Mech. Dyn. Astron.
+  121, 1-15. One non-dimensional variable x, Lancaster-Blanchard time of flight (Battin's
+  hypergeometric series near x = 1, Lagrange's form near it), Householder (3rd-order) iterations
+  from Izzo's starters; for M >= 1 revolutions, the minimum time T_min(M) by Halley iterations,
+  and the two solutions on either side of it: the **left** branch (x < x_Tmin, started from
+  x0 = ((M pi + pi)/(8T))^(2/3) mapped to (-1, 1)) and the **right** branch (x > x_Tmin).
+* :func:`universal_one`: the universal-variable method of Bate, Mueller & White (1971, sec. 5.3)
+  as in Vallado (2013), Algorithm 58, solved by bisection in psi (robust, slower); for M >= 1
+  psi is confined to (4 M^2 pi^2, 4 (M+1)^2 pi^2), where t(psi) has one minimum: golden-section
+  search finds it, then bisection on the high-psi side (Izzo's left branch) or the low-psi side
+  (right branch).
+
+Both return status ``OK``, ``DOMAIN`` (no solution with M revolutions in this time, or r1, r2
+collinear so the transfer plane is undefined), ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION``
+or ``NO_CONVERGENCE``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import status as st
+from ._jit import inline_kernel, kernel, parallel_kernel, prange
+
+__all__ = ["izzo_one", "izzo_many", "universal_one", "universal_many", "izzo_tof"]
+
+_PI = math.pi
+
+
+@inline_kernel
+def _hyp2f1b(z):
+    """Battin's hypergeometric series 2F1(3, 1; 5/2; z) to machine precision (|z| < 1)."""
+    s = 1.0
+    cj = 1.0
+    j = 0
+    while j < 1000:
+        cj = cj * (3.0 + j) * (1.0 + j) / (2.5 + j) * z / (j + 1.0)
+        s += cj
+        if abs(cj) < 1e-16 * abs(s):
+            break
+        j += 1
+    return s
+
+
+@kernel
+def izzo_tof(x, lam, M):
+    """Non-dimensional time of flight T(x) of Izzo (2015), eqs. 18-20 and Battin's series."""
+    dist = abs(x - 1.0)
+    if 0.01 < dist < 0.2:
+        # Lagrange's form
+        a = 1.0 / (1.0 - x * x)
+        if a > 0.0:
+            alfa = 2.0 * math.acos(max(-1.0, min(1.0, x)))
+            beta = 2.0 * math.asin(min(1.0, math.sqrt(lam * lam / a)))
+            if lam < 0.0:
+                beta = -beta
+            return a * math.sqrt(a) * ((alfa - math.sin(alfa)) - (beta - math.sin(beta))
+                                       + 2.0 * _PI * M) / 2.0  # fmt: skip
+        alfa = 2.0 * math.acosh(x)
+        beta = 2.0 * math.asinh(math.sqrt(-lam * lam / a))
+        if lam < 0.0:
+            beta = -beta
+        return -a * math.sqrt(-a) * ((beta - math.sinh(beta)) - (alfa - math.sinh(alfa))) / 2.0
+    K = lam * lam
+    E = x * x - 1.0
+    rho = abs(E)
+    z = math.sqrt(1.0 + K * E)
+    if dist < 0.01:
+        # Battin's series
+        eta = z - lam * x
+        S1 = 0.5 * (1.0 - lam - x * eta)
+        Q = 4.0 / 3.0 * _hyp2f1b(S1)
+        return (eta * eta * eta * Q + 4.0 * lam * eta) / 2.0 + M * _PI / rho**1.5
+    # Lancaster's form
+    y = math.sqrt(rho)
+    g = x * z - lam * E
+    if E < 0.0:
+        d = M * _PI + math.acos(max(-1.0, min(1.0, g)))
+    else:
+        f = y * (z - lam * x)
+        d = math.log(f + g)
+    return (x - lam * z - d / y) / E
+
+
+@inline_kernel
+def _dtdx(x, T, lam):
+    """First three derivatives of T(x) (Izzo 2015, eq. 22)."""
+    l2 = lam * lam
+    l3 = l2 * lam
+    umx2 = 1.0 - x * x
+    y = math.sqrt(1.0 - l2 * umx2)
+    y2 = y * y
+    y3 = y2 * y
+    d1 = (3.0 * T * x - 2.0 + 2.0 * l3 * x / y) / umx2
+    d2 = (3.0 * T + 5.0 * x * d1 + 2.0 * (1.0 - l2) * l3 / y3) / umx2
+    d3 = (7.0 * x * d2 + 8.0 * d1 - 6.0 * (1.0 - l2) * l2 * l3 * x / y3 / y2) / umx2
+    return d1, d2, d3
+
+
+@kernel
+def _householder(T, x0, lam, M):
+    """Solve T(x) = T by Householder's 3rd-order iteration; returns (x, converged)."""
+    x = x0
+    for _ in range(60):
+        tof = izzo_tof(x, lam, M)
+        d1, d2, d3 = _dtdx(x, tof, lam)
+        delta = tof - T
+        d1sq = d1 * d1
+        den = d1 * (d1sq - delta * d2) + d3 * delta * delta / 6.0
+        if den == 0.0 or not math.isfinite(den):
+            break
+        xn = x - delta * (d1sq - delta * d2 / 2.0) / den
+        if not math.isfinite(xn):
+            break
+        # keep x in the domain (-1, inf): halve towards the old x if needed
+        if xn <= -1.0:
+            xn = 0.5 * (x - 1.0)
+        err = abs(xn - x)
+        x = xn
+        if err < 1e-14 * max(1.0, abs(x)):
+            return x, True
+    tof = izzo_tof(x, lam, M)
+    return x, abs(tof - T) <= 1e-11 * max(1.0, T)
+
+
+@kernel
+def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
+    """Izzo's Lambert solver for one problem (see the module docstring).
+
+    Parameters
+    ----------
+    r1, r2 : ndarray (3,)
+        Initial and final positions (length).
+    tof : float
+        Time of flight (time), > 0.
+    gm : float
+        Gravitational parameter (length^3/time^2), > 0.
+    M : int
+        Number of complete revolutions, >= 0.
+    prograde : bool
+        True: the transfer moves counter-clockwise about +z (h_z > 0).
+    right : bool
+        For M >= 1, the right branch (else the left); ignored for M = 0.
+    v1, v2 : ndarray (3,)
+        Output velocities at r1 and r2 (NaN on failure).
+
+    Returns
+    -------
+    int
+        Status code.
+    """
+    for i in range(3):
+        v1[i] = math.nan
+        v2[i] = math.nan
+    for i in range(3):
+        if not (math.isfinite(r1[i]) and math.isfinite(r2[i])):
+            return st.NON_FINITE
+    if not (math.isfinite(tof) and math.isfinite(gm)):
+        return st.NON_FINITE
+    if not gm > 0.0:
+        return st.BAD_GM
+    if not tof > 0.0 or M < 0:
+        return st.DOMAIN
+    R1 = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
+    R2 = math.sqrt(r2[0] ** 2 + r2[1] ** 2 + r2[2] ** 2)
+    if R1 == 0.0 or R2 == 0.0:
+        return st.ZERO_POSITION
+    cx = r2[0] - r1[0]
+    cy = r2[1] - r1[1]
+    cz = r2[2] - r1[2]
+    c = math.sqrt(cx * cx + cy * cy + cz * cz)
+    s = 0.5 * (R1 + R2 + c)
+    ir1 = (r1[0] / R1, r1[1] / R1, r1[2] / R1)
+    ir2 = (r2[0] / R2, r2[1] / R2, r2[2] / R2)
+    hx = ir1[1] * ir2[2] - ir1[2] * ir2[1]
+    hy = ir1[2] * ir2[0] - ir1[0] * ir2[2]
+    hz = ir1[0] * ir2[1] - ir1[1] * ir2[0]
+    hn = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if hn < 1e-12:
+        return st.DOMAIN
+    ih = (hx / hn, hy / hn, hz / hn)
+    lam2 = 1.0 - c / s
+    lam = math.sqrt(max(0.0, lam2))
+    # tangential unit vectors, in the direction of motion
+    sign = 1.0
+    if ih[2] < 0.0:
+        lam = -lam
+        sign = -1.0
+    if not prograde:
+        lam = -lam
+        sign = -sign
+    it1 = (
+        sign * (ih[1] * ir1[2] - ih[2] * ir1[1]),
+        sign * (ih[2] * ir1[0] - ih[0] * ir1[2]),
+        sign * (ih[0] * ir1[1] - ih[1] * ir1[0]),
+    )
+    it2 = (
+        sign * (ih[1] * ir2[2] - ih[2] * ir2[1]),
+        sign * (ih[2] * ir2[0] - ih[0] * ir2[2]),
+        sign * (ih[0] * ir2[1] - ih[1] * ir2[0]),
+    )
+    T = math.sqrt(2.0 * gm / (s * s * s)) * tof
+
+    # number of revolutions possible
+    lam2 = lam * lam
+    lam3 = lam2 * lam
+    T00 = math.acos(lam) + lam * math.sqrt(1.0 - lam2)
+    T1 = 2.0 / 3.0 * (1.0 - lam3)
+    if M > 0:
+        T0M = T00 + M * _PI
+        if T < T0M:
+            # minimum time of flight for M revolutions by Halley iterations from x = 0
+            x_old = 0.0
+            T_min = T0M
+            for _ in range(50):
+                d1, d2, d3 = _dtdx(x_old, T_min, lam)
+                if d1 == 0.0:
+                    break
+                x_new = x_old - d1 * d2 / (d2 * d2 - d1 * d3 / 2.0)
+                if abs(x_new - x_old) < 1e-13:
+                    x_old = x_new
+                    T_min = izzo_tof(x_new, lam, M)
+                    break
+                x_old = x_new
+                T_min = izzo_tof(x_new, lam, M)
+            if T_min > T:
+                return st.DOMAIN
+        if right:
+            tmp = (8.0 * T / (M * _PI)) ** (2.0 / 3.0)
+        else:
+            tmp = ((M * _PI + _PI) / (8.0 * T)) ** (2.0 / 3.0)
+        x0 = (tmp - 1.0) / (tmp + 1.0)
+    else:
+        if T >= T00:
+            x0 = -(T - T00) / (T - T00 + 4.0)
+        elif T <= T1:
+            x0 = T1 * (T1 - T) / (2.0 / 5.0 * (1.0 - lam2 * lam3) * T) + 1.0
+        else:
+            x0 = (T / T00) ** (0.69314718055994529 / math.log(T1 / T00)) - 1.0
+    x, ok = _householder(T, x0, lam, M)
+    if not ok:
+        return st.NO_CONVERGENCE
+
+    gamma = math.sqrt(gm * s / 2.0)
+    rho = (R1 - R2) / c
+    sigma = math.sqrt(max(0.0, 1.0 - rho * rho))
+    y = math.sqrt(1.0 - lam2 + lam2 * x * x)
+    vr1 = gamma * ((lam * y - x) - rho * (lam * y + x)) / R1
+    vr2 = -gamma * ((lam * y - x) + rho * (lam * y + x)) / R2
+    vt = gamma * sigma * (y + lam * x)
+    vt1 = vt / R1
+    vt2 = vt / R2
+    for i in range(3):
+        v1[i] = vr1 * ir1[i] + vt1 * it1[i]
+        v2[i] = vr2 * ir2[i] + vt2 * it2[i]
+    return st.OK
+
+
+@inline_kernel
+def _c2c3(psi):
+    """Stumpff functions c2, c3 (Vallado 2013, Algorithm 1), series near 0."""
+    if psi > 1e-6:
+        sp = math.sqrt(psi)
+        return (1.0 - math.cos(sp)) / psi, (sp - math.sin(sp)) / (sp * psi)
+    if psi < -1e-6:
+        sp = math.sqrt(-psi)
+        return (1.0 - math.cosh(sp)) / psi, (math.sinh(sp) - sp) / (sp * -psi)
+    return (
+        0.5 - psi / 24.0 + psi * psi / 720.0,
+        1.0 / 6.0 - psi / 120.0 + psi * psi / 5040.0,
+    )
+
+
+@inline_kernel
+def _uv_tof(psi, r1n, r2n, A, gm):
+    """Time of flight t(psi) and y(psi) of the universal-variable formulation; -inf if y < 0."""
+    c2, c3 = _c2c3(psi)
+    y = r1n + r2n + A * (psi * c3 - 1.0) / math.sqrt(c2)
+    if y < 0.0:
+        return -math.inf, y
+    chi = math.sqrt(y / c2)
+    return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm), y
+
+
+@kernel
+def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
+    """Universal-variable Lambert solver (Vallado 2013, Algorithm 58) by bisection in psi.
+
+    Same arguments and statuses as :func:`izzo_one`. For M >= 1 Izzo's "right" branch is the
+    low-psi side of the minimum of t(psi), the "left" one the high-psi side.
+    """
+    for i in range(3):
+        v1[i] = math.nan
+        v2[i] = math.nan
+    for i in range(3):
+        if not (math.isfinite(r1[i]) and math.isfinite(r2[i])):
+            return st.NON_FINITE
+    if not (math.isfinite(tof) and math.isfinite(gm)):
+        return st.NON_FINITE
+    if not gm > 0.0:
+        return st.BAD_GM
+    if not tof > 0.0 or M < 0:
+        return st.DOMAIN
+    r1n = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
+    r2n = math.sqrt(r2[0] ** 2 + r2[1] ** 2 + r2[2] ** 2)
+    if r1n == 0.0 or r2n == 0.0:
+        return st.ZERO_POSITION
+    cosdnu = (r1[0] * r2[0] + r1[1] * r2[1] + r1[2] * r2[2]) / (r1n * r2n)
+    cosdnu = max(-1.0, min(1.0, cosdnu))
+    hz = r1[0] * r2[1] - r1[1] * r2[0]
+    hx = r1[1] * r2[2] - r1[2] * r2[1]
+    hy = r1[2] * r2[0] - r1[0] * r2[2]
+    if math.sqrt(hx * hx + hy * hy + hz * hz) < 1e-12 * r1n * r2n:
+        return st.DOMAIN
+    short = hz >= 0.0
+    if not prograde:
+        short = not short
+    tm = 1.0 if short else -1.0
+    A = tm * math.sqrt(r1n * r2n * (1.0 + cosdnu))
+    if A == 0.0:
+        return st.DOMAIN
+    two_pi2 = 4.0 * _PI * _PI
+    if M == 0:
+        lo = -400.0 * two_pi2
+        hi = two_pi2 * (1.0 - 1e-12)
+    else:
+        lo = two_pi2 * M * M * (1.0 + 1e-12)
+        hi = two_pi2 * (M + 1) * (M + 1) * (1.0 - 1e-12)
+        # golden-section search for the minimum of t(psi)
+        a = lo
+        b = hi
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        for _ in range(200):
+            c1 = b - g * (b - a)
+            c2 = a + g * (b - a)
+            t1, _y1 = _uv_tof(c1, r1n, r2n, A, gm)
+            t2, _y2 = _uv_tof(c2, r1n, r2n, A, gm)
+            if t1 < t2:
+                b = c2
+            else:
+                a = c1
+            if b - a < 1e-13 * hi:
+                break
+        psi_min = 0.5 * (a + b)
+        t_min, _y = _uv_tof(psi_min, r1n, r2n, A, gm)
+        if t_min > tof:
+            return st.DOMAIN
+        if right:
+            hi = psi_min
+        else:
+            lo = psi_min
+    # bisection; t(psi) increases on [lo, hi] except on the right multi-rev branch (decreases)
+    increasing = M == 0 or not right
+    psi = 0.5 * (lo + hi)
+    y = 0.0
+    for _ in range(400):
+        psi = 0.5 * (lo + hi)
+        t, y = _uv_tof(psi, r1n, r2n, A, gm)
+        if (t < tof) == increasing:
+            lo = psi
+        else:
+            hi = psi
+        if hi - lo <= 4e-16 * max(1.0, abs(psi)):
+            break
+    t, y = _uv_tof(psi, r1n, r2n, A, gm)
+    if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
+        return st.NO_CONVERGENCE
+    f = 1.0 - y / r1n
+    gdot = 1.0 - y / r2n
+    g = A * math.sqrt(y / gm)
+    for i in range(3):
+        v1[i] = (r2[i] - f * r1[i]) / g
+        v2[i] = (gdot * r2[i] - r1[i]) / g
+    return st.OK
+
+
+@parallel_kernel
+def izzo_many(r1, r2, tof, gm, M, prograde, right, v1, v2, status):
+    """:func:`izzo_one` over N flattened, broadcast problems (r1, r2 (N, 3); tof, gm (N,))."""
+    for k in prange(r1.shape[0]):
+        status[k] = izzo_one(r1[k], r2[k], tof[k], gm[k], M, prograde, right, v1[k], v2[k])
+
+
+@parallel_kernel
+def universal_many(r1, r2, tof, gm, M, prograde, right, v1, v2, status):
+    """:func:`universal_one` over N flattened, broadcast problems."""
+    for k in prange(r1.shape[0]):
+        status[k] = universal_one(r1[k], r2[k], tof[k], gm[k], M, prograde, right, v1[k], v2[k])

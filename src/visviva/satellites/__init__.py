@@ -51,6 +51,11 @@ _EXPORTS = {
     "moon_position": "ephemeris",
     "planet_heliocentric": "ephemeris",
     "lambert": "lambert",
+    "j2_secular_rates": "secular",
+    "propagate_j2_secular": "secular",
+    "sun_synchronous_inclination": "secular",
+    "sun_synchronous_semi_major_axis": "secular",
+    "frozen_eccentricity": "secular",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -1,0 +1,184 @@
+"""Analytic secular J2 theory: node and perigee drift, sun-synchronous and frozen orbits.
+
+The first-order secular rates of a J2 field (Vallado 2013, eqs. 9-41; Brouwer 1959), for mean
+elements a, e, i with n = sqrt(mu/a^3), p = a (1 - e^2):
+
+    dRAAN/dt = -3/2 n J2 (R/p)^2 cos i
+    dargp/dt =  3/4 n J2 (R/p)^2 (5 cos^2 i - 1)
+    dM/dt    =  n [1 + 3/4 J2 (R/p)^2 sqrt(1 - e^2) (3 cos^2 i - 1)]
+
+>>> import visviva as vv
+>>> from astropy import units as u
+>>> inc = vv.satellites.sun_synchronous_inclination(7078.137 * u.km)
+>>> print(f"{inc.to_value(u.deg):.3f}")
+98.188
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from .. import constants as c
+from .._units import to_array, to_quantity
+from ..bodies import EARTH
+from ..errors import DomainError, InvalidInputError
+
+__all__ = [
+    "j2_secular_rates",
+    "propagate_j2_secular",
+    "sun_synchronous_inclination",
+    "sun_synchronous_semi_major_axis",
+    "frozen_eccentricity",
+    "CRITICAL_INCLINATION",
+    "SUN_SYNCHRONOUS_RATE",
+]
+
+#: Mean motion of the Sun in right ascension: 360 deg per tropical year (365.2421897 d).
+SUN_SYNCHRONOUS_RATE = (2 * np.pi / (365.2421897 * c.DAY_S)) * u.rad / u.s
+#: The inclination where the perigee does not drift under J2: arccos(1/sqrt(5)).
+CRITICAL_INCLINATION = np.arccos(1 / np.sqrt(5)) * u.rad
+
+
+def _body_consts(body):
+    try:
+        j2 = body.j2
+    except AttributeError as exc:
+        raise InvalidInputError(f"{body!r} has no J2; use a body with zonal harmonics.") from exc
+    return body.gm_km3_s2, body.radius_km, j2
+
+
+def j2_secular_rates(a, ecc, inc, body=EARTH):
+    """Secular rates of RAAN, argument of periapsis and mean anomaly under J2.
+
+    Parameters
+    ----------
+    a : Quantity, length
+        Mean semi-major axis (> 0; elliptic orbits, 0 <= e < 1).
+    ecc : float or array_like
+        Mean eccentricity.
+    inc : Quantity or float
+        Mean inclination (rad for plain floats).
+    body : Body
+        Central body with J2 (default Earth).
+
+    Returns
+    -------
+    raan_rate, argp_rate, mean_anomaly_rate : Quantity, rad/s
+        Broadcast over the inputs.
+
+    Notes
+    -----
+    Vallado (2013), eqs. 9-41 (first-order secular J2 theory; Brouwer 1959, Kozai 1959).
+    """
+    a_km = to_array(a, "length", "a")
+    e = to_array(ecc, "dimensionless", "ecc")
+    i = to_array(inc, "angle", "inc")
+    if np.any(a_km <= 0):
+        raise InvalidInputError("a must be > 0 (elliptic orbits).")
+    if np.any((e < 0) | (e >= 1)):
+        raise DomainError("secular J2 rates need 0 <= e < 1 (bound orbits).")
+    gm, R, j2 = _body_consts(body)
+    n = np.sqrt(gm / a_km**3)
+    p = a_km * (1 - e**2)
+    k = n * j2 * (R / p) ** 2
+    ci = np.cos(i)
+    raan_rate = -1.5 * k * ci
+    argp_rate = 0.75 * k * (5 * ci**2 - 1)
+    m_rate = n + 0.75 * k * np.sqrt(1 - e**2) * (3 * ci**2 - 1)
+    q = u.rad / u.s
+    return raan_rate * q, argp_rate * q, m_rate * q
+
+
+def propagate_j2_secular(elements, dt, body=EARTH):
+    """Advance mean Keplerian elements by ``dt`` with the secular J2 rates.
+
+    Parameters
+    ----------
+    elements : KeplerianElements
+        Mean elements (elliptic), any shape.
+    dt : Quantity, time
+        Broadcasts against the elements' shape.
+    body : Body
+        Central body with J2.
+
+    Returns
+    -------
+    KeplerianElements
+        a, e, i unchanged; RAAN, argp and mean anomaly advanced linearly, true anomaly from the
+        new mean anomaly (Kepler's equation).
+    """
+    from ..anomalies import mean_to_true
+    from ..elements import KeplerianElements
+
+    dt_s = to_array(dt, "time", "dt")
+    a = elements.semi_major_axis
+    e = np.asarray(elements.eccentricity, dtype=float)
+    inc = elements.inclination
+    raan_rate, argp_rate, m_rate = j2_secular_rates(a, e, inc, body)
+    raan = elements.longitude_of_ascending_node.to_value(u.rad) + raan_rate.value * dt_s
+    argp = elements.argument_of_periapsis.to_value(u.rad) + argp_rate.value * dt_s
+    M = elements.mean_anomaly.to_value(u.rad) + m_rate.value * dt_s
+    M = np.mod(M + np.pi, 2 * np.pi) - np.pi
+    nu = mean_to_true(M, np.broadcast_to(e, np.shape(M)))
+    nu = nu.to_value(u.rad) if hasattr(nu, "unit") else np.asarray(nu)
+    shape = np.shape(M)
+    return KeplerianElements.from_semi_major_axis(
+        np.broadcast_to(a, shape),
+        np.broadcast_to(e, shape),
+        np.broadcast_to(inc, shape),
+        np.mod(raan, 2 * np.pi),
+        np.mod(argp, 2 * np.pi),
+        nu,
+        elements.gm,
+        epoch=None if elements.epoch is None else elements.epoch + dt_s * u.s,
+    )
+
+
+def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):
+    """Inclination that makes the node precess at the Sun's mean rate (360 deg / year).
+
+    cos i = -2 Omega_dot_sun a^(7/2) (1 - e^2)^2 / (3 J2 R^2 sqrt(mu)) (Vallado 2013,
+    eq. 11-11). Raises DomainError when |cos i| > 1 (a above ~12 350 km for the Earth).
+    """
+    a_km = to_array(a, "length", "a")
+    e = to_array(ecc, "dimensionless", "ecc")
+    if np.any(a_km <= 0) or np.any((e < 0) | (e >= 1)):
+        raise InvalidInputError("need a > 0 and 0 <= e < 1.")
+    gm, R, j2 = _body_consts(body)
+    rate = SUN_SYNCHRONOUS_RATE.to_value(u.rad / u.s)
+    cos_i = -2 * rate * a_km**3.5 * (1 - e**2) ** 2 / (3 * j2 * R**2 * np.sqrt(gm))
+    if np.any(np.abs(cos_i) > 1):
+        raise DomainError(
+            "no sun-synchronous inclination exists for this a and e (|cos i| > 1): the orbit is "
+            "too high for J2 to turn the node fast enough; choose a lower orbit."
+        )
+    return to_quantity(np.arccos(cos_i), "angle")
+
+
+def sun_synchronous_semi_major_axis(inc, ecc=0.0, body=EARTH):
+    """Semi-major axis at which an orbit of inclination ``inc`` (> 90 deg) is sun-synchronous."""
+    i = to_array(inc, "angle", "inc")
+    e = to_array(ecc, "dimensionless", "ecc")
+    if np.any(np.cos(i) >= 0):
+        raise DomainError("sun-synchronous orbits are retrograde: give inc > 90 deg.")
+    gm, R, j2 = _body_consts(body)
+    rate = SUN_SYNCHRONOUS_RATE.to_value(u.rad / u.s)
+    a = (-3 * j2 * R**2 * np.sqrt(gm) * np.cos(i) / (2 * rate * (1 - e**2) ** 2)) ** (2 / 7)
+    return to_quantity(a, "length")
+
+
+def frozen_eccentricity(a, inc, body=EARTH):
+    """Eccentricity of the frozen orbit (argument of periapsis 90 deg) under J2 and J3.
+
+    e_f = -(J3 / (2 J2)) (R / a) sin i, with argp = 90 deg: the J3 long-period drift of e and
+    argp vanishes to first order (Vallado 2013, sec. 11.4.3; Cook 1966). About 0.001 for
+    the Earth in LEO.
+    """
+    a_km = to_array(a, "length", "a")
+    i = to_array(inc, "angle", "inc")
+    if np.any(a_km <= 0):
+        raise InvalidInputError("a must be > 0.")
+    j2 = body.jn(2)
+    j3 = body.jn(3)
+    return -(j3 / (2 * j2)) * (body.radius_km / a_km) * np.sin(i)

@@ -134,7 +134,7 @@ class StateVectors:
     >>> from astropy import units as u
     >>> s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH)
     >>> print(f"{s.to_elements().eccentricity:.6f}")
-    0.004573
+    0.012169
     """
 
     def __init__(self, r, v, gm, epoch=None):

@@ -356,6 +356,8 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
     kk = hx / d + 0.0
     hh = -hy / d + 0.0
+    if not math.isfinite(hh * hh + kk * kk):  # tan^I(i/2) ~ 1e154 or more: overflow
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
     fx, fy, fz, gx, gy, gz = _equinoctial_frame(hh, kk, retro)
     lam = _wrap_2pi(math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz))
     rdotv = rx * vx + ry * vy + rz * vz

@@ -1,0 +1,165 @@
+"""StateVectors: validation, broadcasting, indexing, derived quantities, conversions."""
+
+import math
+
+import numpy as np
+import pytest
+from astropy import units as u
+
+import visviva as vv
+
+MU = 398600.4418 * u.km**3 / u.s**2
+KM = u.km
+KMS = u.km / u.s
+ONE_MM = 1e-6  # km
+
+
+def leo(shape=()):
+    rng = np.random.default_rng(42)
+    r = rng.normal(size=shape + (3,)) * 3000 + np.array([7000.0, 0, 0])
+    v = rng.normal(size=shape + (3,)) * 0.5 + np.array([0, 7.5, 1.0])
+    return vv.StateVectors(r * KM, v * KMS, MU)
+
+
+def test_attributes_units_and_repr():
+    s = vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0] * KMS, vv.EARTH)
+    assert s.r.unit == KM and s.v.unit == KMS
+    assert s.gm.to_value(u.km**3 / u.s**2) == pytest.approx(vv.EARTH.gm_km3_s2)
+    assert s.shape == () and s.epoch is None
+    text = repr(s)
+    assert "StateVectors" in text and "7000" in text and "km3 / s2" in text
+    with pytest.raises(TypeError, match="len"):
+        len(s)
+    with pytest.raises(TypeError, match="cannot be indexed"):
+        s[0]
+    # other units are converted once
+    s2 = vv.StateVectors(
+        [7e6, 0, 0] * u.m, [0, 7500.0, 0] * u.m / u.s, 3.986004418e14 * u.m**3 / u.s**2
+    )
+    assert np.allclose(s2.r.value, [7000.0, 0, 0]) and s2.gm.value == pytest.approx(398600.4418)
+    big = leo((5,))
+    assert "5 states" in repr(big)
+
+
+def test_broadcasting_shapes():
+    for shape in [(), (3,), (4, 3), (2, 4, 3)]:
+        r = np.broadcast_to([7000.0, 100.0, 0.0], shape + (3,)) * KM
+        s = vv.StateVectors(r, [0, 7.5, 0.1] * KMS, MU)
+        assert s.shape == shape
+        assert s.r.shape == shape + (3,) and s.v.shape == shape + (3,)
+        assert s.radius.shape == shape and s.specific_energy.shape == shape
+        el = s.to_elements()
+        assert el.shape == shape and el.semi_latus_rectum.shape == shape
+        back = el.to_state()
+        assert back.shape == shape
+        assert np.abs((back.r - s.r).to_value(KM)).max() < ONE_MM
+    # gm per item
+    s = vv.StateVectors(
+        [[7000.0, 0, 0], [0, 7000.0, 0]] * KM,
+        [0, 0, 7.5] * KMS,
+        [398600.4418, 1.0] * u.km**3 / u.s**2,
+    )
+    assert s.gm.shape == (2,)
+    # (T, N, 3) with r (N, 3) against v (T, 1, 3)
+    r = leo((5,)).r
+    v = np.array([[[0, 7.5, 0]], [[0, 7.6, 0]]]) * KMS
+    s = vv.StateVectors(r, v, MU)
+    assert s.shape == (2, 5)
+
+
+def test_indexing_and_len():
+    s = leo((4, 5))
+    assert len(s) == 4
+    assert s[1].shape == (5,)
+    assert s[1, 2].shape == ()
+    assert s[..., 3].shape == (4,)
+    assert s[:, 1:3].shape == (4, 2)
+    assert np.array_equal(s[1, 2].r.value, s.r.value[1, 2])
+    el = s.to_elements()
+    assert el[1, 2].semi_latus_rectum.value == el.semi_latus_rectum.value[1, 2]
+    with pytest.raises(IndexError, match="leading axes"):
+        s[0, 0, 0]
+
+
+def test_derived_quantities():
+    s = leo((50,))
+    r = s.r.to_value(KM)
+    v = s.v.to_value(KMS)
+    mu = MU.value
+    rm = np.linalg.norm(r, axis=-1)
+    assert np.allclose(s.radius.to_value(KM), rm, rtol=1e-15)
+    assert np.allclose(s.speed.to_value(KMS), np.linalg.norm(v, axis=-1), rtol=1e-15)
+    assert s.specific_energy.unit == u.km**2 / u.s**2
+    assert np.allclose(s.specific_energy.value, 0.5 * (v**2).sum(-1) - mu / rm, rtol=1e-14)
+    h = s.specific_angular_momentum
+    assert h.unit == u.km**2 / u.s and h.shape == (50, 3)
+    el = s.to_elements()
+    assert np.allclose(
+        np.linalg.norm(h.value, axis=-1), el.specific_angular_momentum.value, rtol=1e-14
+    )
+    ev = s.eccentricity_vector
+    assert np.allclose(np.linalg.norm(ev, axis=-1), el.eccentricity, rtol=1e-12, atol=1e-15)
+    # the eccentricity vector points to periapsis: along the state at nu = 0
+    assert np.allclose(el.specific_energy.value, s.specific_energy.value, rtol=1e-12)
+    # cached: same object on the second access
+    assert s.radius is s.radius
+
+
+def test_validation_messages():
+    r = [7000.0, 0, 0] * KM
+    v = [0, 7.5, 0] * KMS
+    with pytest.raises(vv.UnitsError, match="u.km"):
+        vv.StateVectors([7000.0, 0, 0], v, MU)
+    with pytest.raises(vv.UnitsError, match="cannot be converted"):
+        vv.StateVectors(r, [0, 7.5, 0] * KM, MU)
+    with pytest.raises(vv.UnitsError):
+        vv.StateVectors(r, v, 398600.4418)
+    with pytest.raises(vv.ShapeError, match=r"\(\.\.\., 3\)"):
+        vv.StateVectors([7000.0, 0] * KM, v, MU)
+    with pytest.raises(vv.ShapeError, match="broadcast"):
+        vv.StateVectors(np.ones((4, 3)) * KM, np.ones((5, 3)) * KMS, MU)
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        vv.StateVectors([np.nan, 0, 0] * KM, v, MU)
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        vv.StateVectors(r, [0, np.inf, 0] * KMS, MU)
+    with pytest.raises(vv.InvalidInputError, match="gm must be > 0"):
+        vv.StateVectors(r, v, -MU)
+    with pytest.raises(vv.InvalidInputError, match="gm must be > 0"):
+        vv.StateVectors(r, v, 0 * MU)
+    with pytest.raises(vv.InvalidStateError, match="zero length"):
+        vv.StateVectors([[7000.0, 0, 0], [0.0, -0.0, 0.0]] * KM, v, MU)
+
+
+def test_radial_state_cannot_give_elements():
+    s = vv.StateVectors([[7000.0, 0, 0], [7000.0, 0, 0]] * KM, [[0, 7.5, 0], [3.0, 0, 0]] * KMS, MU)
+    with pytest.raises(vv.InvalidStateError, match=r"radial.*index \(1,\)"):
+        s.to_elements()
+    with pytest.raises(vv.InvalidStateError, match="radial"):
+        s.to_equinoctial()
+
+
+def test_to_equinoctial_round_trip_and_retrograde():
+    s = leo((20,))
+    for retro in (False, True):
+        m = s.to_equinoctial(retrograde=retro)
+        assert m.retrograde is retro and m.shape == (20,)
+        back = m.to_state()
+        assert np.abs((back.r - s.r).to_value(KM)).max() < ONE_MM * 1e-3
+        k = m.to_keplerian()
+        assert np.allclose(k.eccentricity, s.to_elements().eccentricity, rtol=1e-12)
+    vc = math.sqrt(MU.value / 7000.0)
+    retro_eq = vv.StateVectors([7000.0, 0, 0] * KM, [0, -vc, 0] * KMS, MU)
+    with pytest.raises(vv.DomainError, match="retrograde=True"):
+        retro_eq.to_equinoctial()
+    m = retro_eq.to_equinoctial(retrograde=True)
+    assert m.h == 0.0 and m.k == 0.0
+    assert np.abs((m.to_state().r - retro_eq.r).to_value(KM)).max() < 1e-12
+
+
+def test_propagate_delegates_to_kepler_propagation():
+    pytest.importorskip("visviva.propagation")
+    s = vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0] * KMS, MU)
+    el = s.to_elements()
+    back = s.propagate(el.period)
+    assert isinstance(back, vv.StateVectors)
+    assert np.abs((back.r - s.r).to_value(KM)).max() < ONE_MM

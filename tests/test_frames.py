@@ -146,3 +146,49 @@ def test_geodetic_of_known_points():
 def test_frames_need_a_time():
     with pytest.raises(vv.InvalidInputError, match="astropy Time"):
         teme_to_gcrs(np.zeros(3) * u.km + 7000 * u.km, np.ones(3) * u.km / u.s, 0.0)
+
+
+def test_ground_track_segments_and_plots(sats, tmp_path):
+    from visviva.satellites.groundtrack import eclipse_fraction, ground_track
+    from visviva.satellites.plots import plot_altitude_eclipse, plot_ground_track, plot_orbit_3d
+
+    sat = sats[0]
+    t = np.linspace(0, 190, 240) * u.min
+    track = ground_track(sat, t)
+    lon = track.longitude.to_value(u.deg)
+    for seg in track.segments():
+        assert np.all(np.abs(np.diff(lon[seg])) < 180)
+    # the ISS never goes beyond its inclination in latitude
+    assert np.abs(track.latitude.to_value(u.deg)).max() < 51.6416 + 0.2
+    frac = eclipse_fraction(sat, t)
+    assert frac.shape == (240,) and np.all((frac >= 0) & (frac <= 1))
+    # a low orbit spends ~35 % of each revolution in the Earth's shadow
+    assert 0.25 < np.mean(frac < 1) < 0.45
+    for k, fig in enumerate(
+        [plot_ground_track(sat, t), plot_orbit_3d(sat, t), plot_altitude_eclipse(sat, t)]
+    ):
+        assert fig.axes and fig.axes[0].lines
+        path = tmp_path / f"p{k}.png"
+        fig.savefig(path)
+        assert path.stat().st_size > 10_000
+
+
+def test_eclipse_agrees_with_a_cylindrical_shadow_from_astropy_sun(sats):
+    from astropy.coordinates import get_body
+
+    from visviva.satellites.groundtrack import eclipse_fraction
+
+    sat = sats[0]
+    t = sat.epoch + np.linspace(0, 190, 380) * u.min
+    with iers.conf.set_temp("auto_download", False):
+        sun = get_body("sun", t).cartesian.xyz.to_value(u.km).T
+    r = sat.gcrs(t).r.to_value(u.km)
+    s_hat = sun / np.linalg.norm(sun, axis=-1, keepdims=True)
+    along = np.sum(r * s_hat, axis=-1)
+    perp = np.linalg.norm(r - along[:, None] * s_hat, axis=-1)
+    in_cylinder = (along < 0) & (perp < vv.EARTH.radius.to_value(u.km))
+    frac = eclipse_fraction(sat, t)
+    # conical and cylindrical shadows differ only within ~10 s of the shadow edges
+    clear = (frac == 0) | (frac == 1)
+    assert clear.mean() > 0.95
+    assert np.mean((frac[clear] == 0) == in_cylinder[clear]) > 0.98

@@ -1,0 +1,119 @@
+"""Ground tracks and eclipses of a satellite: the numbers behind :mod:`visviva.satellites.plots`.
+
+* :func:`ground_track`: geodetic latitude, longitude (WGS-84) and height along the orbit, with
+  the track split where it crosses the antimeridian (for drawing).
+* :func:`eclipse_fraction`: the fraction of the solar disc visible from the satellite (1 in
+  sunlight, 0 in the umbra), conical shadow model of Montenbruck & Gill (2000), sec. 3.4.2,
+  through the ``shadow_fraction`` kernel of :mod:`visviva.core.perturbations`, with the Sun from
+  :mod:`visviva.satellites.ephemeris`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from astropy import units as u
+from astropy.time import Time
+
+from ..constants import R_EARTH_KM, R_SUN_KM
+from ..core._jit import parallel_kernel, prange
+from ..core.perturbations import shadow_fraction
+
+__all__ = ["GroundTrack", "ground_track", "eclipse_fraction", "eclipse_intervals"]
+
+
+@dataclass
+class GroundTrack:
+    """Sub-satellite points.
+
+    Attributes
+    ----------
+    t : astropy Time, shape (T,)
+    latitude, longitude : Quantity, deg, shape (T,)
+        Geodetic (WGS-84); longitude in [-180, 180).
+    height : Quantity, km, shape (T,)
+        Height above the WGS-84 ellipsoid.
+    """
+
+    t: Time
+    latitude: u.Quantity
+    longitude: u.Quantity
+    height: u.Quantity
+
+    def segments(self):
+        """Index slices of the pieces between antimeridian crossings (for line plots)."""
+        lon = self.longitude.to_value(u.deg)
+        breaks = np.flatnonzero(np.abs(np.diff(lon)) > 180.0) + 1
+        edges = np.concatenate([[0], breaks, [lon.size]])
+        return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def _times(sat, t) -> Time:
+    if isinstance(t, Time):
+        return t
+    return sat.epoch + t
+
+
+def ground_track(sat, t) -> GroundTrack:
+    """Geodetic sub-satellite track.
+
+    Parameters
+    ----------
+    sat : Satellite
+    t : astropy Time or Quantity (time offsets from ``sat.epoch``), 1-D
+
+    Returns
+    -------
+    GroundTrack
+    """
+    times = _times(sat, t)
+    lat, lon, h = sat.geodetic(times)
+    return GroundTrack(times, lat, lon, h)
+
+
+@parallel_kernel
+def _shadow_many(r, s, radius, sun_radius, out):
+    for i in prange(r.shape[0]):
+        out[i] = shadow_fraction(
+            r[i, 0], r[i, 1], r[i, 2], s[i, 0], s[i, 1], s[i, 2], radius, sun_radius, 2
+        )
+
+
+def eclipse_fraction(sat, t) -> np.ndarray:
+    """Fraction of the Sun's disc visible from the satellite.
+
+    Parameters
+    ----------
+    sat : Satellite
+    t : astropy Time or Quantity (offsets from ``sat.epoch``)
+
+    Returns
+    -------
+    ndarray, shape of ``t``
+        1 in full sunlight, 0 in the umbra, in between in the penumbra.
+
+    Notes
+    -----
+    Conical shadow of a spherical Earth (radius ``R_EARTH_KM``) and Sun (Montenbruck & Gill
+    2000, eqs. 3.85-3.87), GCRS positions of the satellite (SGP4 -> astropy) and the Sun.
+    """
+    from .ephemeris import sun_position
+
+    times = _times(sat, t)
+    r = sat.gcrs(times).r.to_value(u.km).reshape(-1, 3)
+    s = sun_position(times.ravel()).to_value(u.km).reshape(-1, 3)
+    out = np.empty(r.shape[0])
+    _shadow_many(np.ascontiguousarray(r), np.ascontiguousarray(s), R_EARTH_KM, R_SUN_KM, out)
+    return out.reshape(times.shape)
+
+
+def eclipse_intervals(t: Time, fraction: np.ndarray, threshold: float = 1.0):
+    """(start, end) Time pairs of the runs where ``fraction < threshold`` (sampled, no root
+    finding: the edges are good to one sample step; use the Cowell ``Eclipse`` event for exact
+    times)."""
+    shaded = np.asarray(fraction) < threshold
+    edges = np.diff(np.concatenate([[0], shaded.astype(np.int8), [0]]))
+    starts = np.flatnonzero(edges == 1)
+    ends = np.flatnonzero(edges == -1) - 1
+    return [(t[a], t[b]) for a, b in zip(starts, ends, strict=True)]

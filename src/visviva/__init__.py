@@ -58,6 +58,11 @@ _PUBLIC = {
     "solar_system": "visviva.nbody",
     # satellites
     "Satellite": "visviva.satellites",
+    "Catalog": "visviva.satellites",
+    "read_tle_file": "visviva.satellites",
+    "TLEFormatError": "visviva.satellites",
+    "SGP4Error": "visviva.satellites",
+    "SatelliteDecayedError": "visviva.satellites",
     "propagate_cowell": "visviva.satellites",
     "J2": "visviva.satellites",
     "Zonal": "visviva.satellites",

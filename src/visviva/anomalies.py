@@ -1,1 +1,282 @@
-"""(being written)"""
+"""Kepler's equation and the anomalies of every conic: the units-aware public layer.
+
+Array in, array out: every function broadcasts its arguments against each other and makes one
+call of a compiled kernel (:mod:`visviva.core.kepler`) over all the items.
+
+Angles are plain numbers in radians or astropy Quantities of any angle unit. The result has the
+broadcast shape of the inputs; it is an astropy ``Quantity`` in ``rad`` when the angle argument was
+a Quantity, else a plain ``ndarray`` (a NumPy float for scalar input). Eccentricities are plain
+numbers (or dimensionless Quantities).
+
+Mean-anomaly conventions (M = n t, t the time since periapsis; see ``docs/anomalies.md``):
+
+==========  =======================  ===========================  =========================
+regime      anomaly                  mean anomaly                 mean motion n
+==========  =======================  ===========================  =========================
+0 <= e < 1  eccentric E              M = E - e sin E              sqrt(mu / a^3)
+e = 1       D = tan(nu / 2)          M = D + D^3 / 3 (Barker)     2 sqrt(mu / p^3)
+e > 1       hyperbolic F             M = e sinh F - F             sqrt(mu / (-a)^3)
+==========  =======================  ===========================  =========================
+
+The first call of each function compiles its kernel (or loads it from numba's cache).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from . import _units
+from .core import kepler as _k
+from .errors import ShapeError, raise_for_status
+
+__all__ = [
+    "solve_kepler",
+    "solve_kepler_hyperbolic",
+    "solve_barker",
+    "mean_to_true",
+    "true_to_mean",
+    "eccentric_to_true",
+    "true_to_eccentric",
+    "hyperbolic_to_true",
+    "true_to_hyperbolic",
+    "parabolic_to_true",
+    "true_to_parabolic",
+    "eccentric_to_mean",
+    "hyperbolic_to_mean",
+]
+
+
+def _run(kernel, context, angle, angle_name, ecc=None):
+    """Convert, broadcast, call ``kernel(angle, [ecc,] out, status)`` once, raise, wrap."""
+    was_quantity = isinstance(angle, u.Quantity)
+    x = _units.to_array(angle, "angle", angle_name)
+    inputs = {angle_name: x}
+    if ecc is None:
+        shape = x.shape
+        args = (np.ascontiguousarray(x).ravel(),)
+    else:
+        e = _units.to_array(ecc, "dimensionless", "ecc")
+        try:
+            x, e = np.broadcast_arrays(x, e)
+        except ValueError as exc:
+            raise ShapeError(
+                f"{angle_name} with shape {np.shape(x)} and ecc with shape {np.shape(e)} do not "
+                "broadcast against each other; give arrays of the same shape, or a scalar."
+            ) from exc
+        shape = x.shape
+        inputs["ecc"] = e
+        args = (np.ascontiguousarray(x).ravel(), np.ascontiguousarray(e).ravel())
+    out = np.empty(args[0].shape[0], dtype=np.float64)
+    status = np.empty(args[0].shape[0], dtype=np.int8)
+    kernel(*args, out, status)
+    status = status.reshape(shape)
+    raise_for_status(status, context, **inputs)
+    out = out.reshape(shape)
+    if was_quantity:
+        return _units.to_quantity(out, "angle")
+    return out if shape else out[()]
+
+
+def solve_kepler(M, ecc):
+    """Eccentric anomaly E from the mean anomaly M of an ellipse (Kepler's equation).
+
+    Parameters
+    ----------
+    M : float, array_like or Quantity (angle)
+        Mean anomaly, any real value (rad if plain). Whole revolutions are kept:
+        ``solve_kepler(M + 2 pi k, e) = solve_kepler(M, e) + 2 pi k``.
+    ecc : float or array_like
+        Eccentricity, 0 <= e < 1. Broadcasts against ``M``.
+
+    Returns
+    -------
+    E : ndarray, float or Quantity (rad)
+        Eccentric anomaly, with ``E - e sin E = M`` to within ``2e-15 max(1, |M|)``.
+
+    Raises
+    ------
+    DomainError
+        If some e < 0 or e >= 1 (use :func:`solve_kepler_hyperbolic` or :func:`mean_to_true`).
+    InvalidInputError
+        NaN or infinite input.
+
+    Notes
+    -----
+    Solves M = E - e sin E. Markley's (1995) cubic starter with one fifth-order correction;
+    where ``1 - e cos E < 0.3`` (e -> 1, small M), Newton iterations on the residual
+    ``(1 - e) E + e (E - sin E) - M`` with ``E - sin E`` from its series, so that E has full
+    relative precision also there (Farnocchia et al. 2013).
+
+    References: F. L. Markley, Celest. Mech. Dyn. Astron. 63, 101 (1995); D. Farnocchia,
+    D. Bracali Cioci, A. Milani, Celest. Mech. Dyn. Astron. 116, 21 (2013); Vallado,
+    Fundamentals of Astrodynamics and Applications, 4th ed., Algorithm 2.
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> print(f"{vv.solve_kepler(0.5, 0.1):.12f}")
+    0.552479986907
+    """
+    return _run(_k.solve_kepler_array, "solve_kepler (elliptic, 0 <= e < 1)", M, "M", ecc)
+
+
+def solve_kepler_hyperbolic(M, ecc):
+    """Hyperbolic anomaly F from the hyperbolic mean anomaly M = e sinh F - F (e > 1).
+
+    Parameters
+    ----------
+    M : float, array_like or Quantity (angle)
+        Hyperbolic mean anomaly (rad if plain), any real value.
+    ecc : float or array_like
+        Eccentricity, e > 1.
+
+    Returns
+    -------
+    F : ndarray, float or Quantity (rad)
+        Hyperbolic anomaly (same sign as M).
+
+    Raises
+    ------
+    DomainError
+        If some e <= 1 (use :func:`solve_kepler`, or :func:`mean_to_true` for any e).
+
+    Notes
+    -----
+    Newton iterations on ``(e - 1) F + e (sinh F - F) - M`` (series for ``sinh F - F`` when
+    ``|F| < 2``) from an upper bound (the root of ``(e - 1) F + e F^3 / 6 = M``, improved by
+    ``F <- asinh((M + F) / e)``), so they decrease monotonically; for F > 20 the equation
+    ``F = log(2 / e) + log(M + F)`` is solved instead (no overflow up to M ~ 1e308).
+    Reference: Vallado (2013), Algorithm 4; Farnocchia et al. (2013).
+    """
+    return _run(_k.solve_kepler_hyperbolic_array, "solve_kepler_hyperbolic (e > 1)", M, "M", ecc)
+
+
+def solve_barker(M):
+    """Parabolic anomaly D = tan(nu / 2) from the parabolic mean anomaly M = D + D^3 / 3.
+
+    Parameters
+    ----------
+    M : float, array_like or Quantity (angle)
+        Parabolic mean anomaly M = 2 sqrt(mu / p^3) t (rad if plain).
+
+    Returns
+    -------
+    D : ndarray or float
+        tan(nu / 2) (dimensionless; a plain array also for Quantity input).
+
+    Notes
+    -----
+    Barker's equation, solved in closed form (Cardano, written without cancellation).
+    Reference: Vallado (2013), Algorithm 3.
+    """
+    D = _run(_k.parabolic_anomaly_array, "solve_barker (e = 1)", M, "M")
+    return D.value if isinstance(D, u.Quantity) else D
+
+
+def mean_to_true(M, ecc):
+    """True anomaly nu from the mean anomaly M, for every eccentricity e >= 0.
+
+    Parameters
+    ----------
+    M : float, array_like or Quantity (angle)
+        Mean anomaly in the convention of the regime (module docstring): elliptic
+        ``E - e sin E`` (any real; revolutions kept), parabolic ``D + D^3 / 3``, hyperbolic
+        ``e sinh F - F``.
+    ecc : float or array_like
+        Eccentricity, e >= 0 (exactly 1 is the parabola).
+
+    Returns
+    -------
+    nu : ndarray, float or Quantity (rad)
+        True anomaly; for e >= 1, |nu| < arccos(-1 / e).
+
+    Notes
+    -----
+    Continuous through e = 1 at fixed time since periapsis: ``mean_to_true(n(e) t, e)`` tends to
+    the parabolic value as e -> 1 from either side (n from the module docstring), and stays
+    accurate in the near-parabolic band (see :func:`solve_kepler`).
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> print(f"{vv.mean_to_true(0.0, 0.7):.1f}")
+    0.0
+    """
+    return _run(_k.mean_to_true_array, "mean_to_true", M, "M", ecc)
+
+
+def true_to_mean(nu, ecc):
+    """Mean anomaly M from the true anomaly nu, for every eccentricity e >= 0.
+
+    Parameters
+    ----------
+    nu : float, array_like or Quantity (angle)
+        True anomaly. For e < 1 any real (revolutions kept); for e >= 1 it must satisfy
+        |nu| < arccos(-1 / e) (the asymptote), else :class:`InvalidElementsError`.
+    ecc : float or array_like
+        Eccentricity, e >= 0.
+
+    Returns
+    -------
+    M : ndarray, float or Quantity (rad)
+        Mean anomaly in the convention of the regime (module docstring).
+
+    Notes
+    -----
+    E (or F, or D = tan(nu/2)) from nu, then ``M = (1 - e) E + e (E - sin E)`` (or
+    ``(e - 1) F + e (sinh F - F)``, or ``D + D^3 / 3``) with the series of ``E - sin E`` and
+    ``sinh F - F`` for small arguments, so M keeps full relative precision near e = 1.
+    """
+    return _run(_k.true_to_mean_array, "true_to_mean", nu, "nu", ecc)
+
+
+def eccentric_to_true(E, ecc):
+    """True anomaly nu from the eccentric anomaly E (0 <= e < 1; revolutions kept).
+
+    tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2) (Vallado 2013, eq. 2-9).
+    """
+    return _run(_k.true_from_eccentric_array, "eccentric_to_true (0 <= e < 1)", E, "E", ecc)
+
+
+def true_to_eccentric(nu, ecc):
+    """Eccentric anomaly E from the true anomaly nu (0 <= e < 1; revolutions kept).
+
+    tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2) (Vallado 2013, eq. 2-9).
+    """
+    return _run(_k.eccentric_from_true_array, "true_to_eccentric (0 <= e < 1)", nu, "nu", ecc)
+
+
+def hyperbolic_to_true(F, ecc):
+    """True anomaly nu from the hyperbolic anomaly F (e > 1).
+
+    tan(nu / 2) = sqrt((e + 1) / (e - 1)) tanh(F / 2) (Vallado 2013, eq. 2-35).
+    """
+    return _run(_k.true_from_hyperbolic_array, "hyperbolic_to_true (e > 1)", F, "F", ecc)
+
+
+def true_to_hyperbolic(nu, ecc):
+    """Hyperbolic anomaly F from the true anomaly nu (e > 1, |nu| < arccos(-1/e))."""
+    return _run(_k.hyperbolic_from_true_array, "true_to_hyperbolic (e > 1)", nu, "nu", ecc)
+
+
+def parabolic_to_true(D):
+    """True anomaly nu = 2 arctan(D) from the parabolic anomaly D = tan(nu / 2)."""
+    D = _units.to_array(D, "dimensionless", "D")
+    return _run(_k.true_from_parabolic_array, "parabolic_to_true", D, "D")
+
+
+def true_to_parabolic(nu):
+    """Parabolic anomaly D = tan(nu / 2) from the true anomaly nu (|nu| < pi); plain array."""
+    D = _run(_k.parabolic_from_true_array, "true_to_parabolic (e = 1)", nu, "nu")
+    return D.value if isinstance(D, u.Quantity) else D
+
+
+def eccentric_to_mean(E, ecc):
+    """Mean anomaly M = E - e sin E from the eccentric anomaly E (0 <= e < 1)."""
+    return _run(_k.mean_from_eccentric_array, "eccentric_to_mean (0 <= e < 1)", E, "E", ecc)
+
+
+def hyperbolic_to_mean(F, ecc):
+    """Hyperbolic mean anomaly M = e sinh F - F from the hyperbolic anomaly F (e > 1)."""
+    return _run(_k.mean_from_hyperbolic_array, "hyperbolic_to_mean (e > 1)", F, "F", ecc)

@@ -29,6 +29,7 @@ class _SIUnits:
         "force": "N",
         "impulse": "N s",
         "energy": "J",
+        "energy_length": "J m",
         "momentum": "kg m / s",
         "inertia": "kg m2",
         "angmom": "kg m2 / s",

@@ -1,0 +1,128 @@
+"""Newtonian particles, work and energy: exact solutions and conservation laws."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+
+from visviva import mechanics as mech
+from visviva.errors import DomainError, InvalidInputError, ShapeError
+
+
+def test_projectile_linear_drag_exact_vs_integration():
+    t = np.linspace(0, 3, 61)
+    k = 0.7
+    tr = mech.projectile([0.0, 0.0, 1.0], [10.0, 2.0, 10.0], t, drag="linear", k=k)
+    r, v = mech.projectile_linear_drag([0.0, 0.0, 1.0], [10.0, 2.0, 10.0], t, k)
+    np.testing.assert_allclose(tr.r, r, atol=1e-8)
+    np.testing.assert_allclose(tr.v, v, atol=1e-8)
+    # terminal velocity reached
+    _, v_late = mech.projectile_linear_drag([0, 0], [5.0, 5.0], [100.0], 0.5)
+    np.testing.assert_allclose(v_late[0], [0.0, -9.81 / 0.5], atol=1e-12)
+
+
+def test_projectile_linear_drag_vacuum_limit_is_smooth():
+    t = np.linspace(0, 2, 5)
+    r0, v0 = mech.projectile_linear_drag([0, 0], [3.0, 4.0], t, 0.0)
+    np.testing.assert_allclose(r0[:, 1], 4 * t - 0.5 * 9.81 * t**2, rtol=1e-15, atol=1e-15)
+    for k in (1e-12, 1e-8, 1e-4):
+        r, v = mech.projectile_linear_drag([0, 0], [3.0, 4.0], t, k)
+        assert np.max(np.abs(r - r0)) < 10 * k
+    r, v = mech.projectile_linear_drag([0, 0] * u.m, [3, 4] * u.m / u.s, t * u.s, 0.1 / u.s)
+    assert r.unit == u.m and v.unit == u.m / u.s
+
+
+def test_quadratic_drag_fall_tanh():
+    t = np.linspace(0, 5, 51)
+    k = 0.2
+    tr = mech.projectile([0.0], [0.0], t, drag="quadratic", k=k)
+    vt = np.sqrt(9.81 / k)
+    np.testing.assert_allclose(tr.v[:, 0], -vt * np.tanh(9.81 * t / vt), atol=1e-8)
+    np.testing.assert_allclose(
+        tr.r[:, 0], -(vt**2 / 9.81) * np.log(np.cosh(9.81 * t / vt)), atol=1e-8
+    )
+
+
+def test_many_particles_spring_and_momentum():
+    # two particles joined by a spring: centre of mass moves uniformly, relative motion is SHM
+    m = np.array([1.0, 3.0])
+    k = 12.0
+
+    def force(t, r, v):
+        d = r[1] - r[0]
+        return np.array([k * d, -k * d])
+
+    t = np.linspace(0, 4, 81)
+    tr = mech.solve_particles(force, m, [[0.0, 0, 0], [1.0, 0, 0]], [[0.0, 1, 0], [0.0, 0, 0]], t)
+    assert tr.r.shape == (81, 2, 3)
+    mu = m.prod() / m.sum()
+    w = np.sqrt(k / mu)
+    sep = tr.r[:, 1, 0] - tr.r[:, 0, 0]
+    np.testing.assert_allclose(sep, np.cos(w * t), atol=1e-8)
+    rep = mech.conservation_report(tr, lambda r: 0.5 * k * np.sum((r[1] - r[0]) ** 2))
+    assert rep["energy"] < 1e-9 and rep["momentum"] < 1e-12
+
+
+def test_solve_particles_errors():
+    f = mech.uniform_gravity(1.0)
+    with pytest.raises(DomainError):
+        mech.solve_particles(f, -1.0, [0.0, 0.0], [0.0, 0.0], [0, 1])
+    with pytest.raises(ShapeError):
+        mech.solve_particles(f, 1.0, [0.0, 0.0], [0.0, 0.0, 0.0], [0, 1])
+    with pytest.raises(InvalidInputError, match="increasing"):
+        mech.solve_particles(f, 1.0, [0.0, 0.0], [0.0, 0.0], [1, 0])
+    with pytest.raises(ShapeError, match="force returned"):
+        mech.solve_particles(lambda t, r, v: np.zeros(5), 1.0, [0.0, 0.0], [0.0, 0.0], [0, 1])
+
+
+def test_potentials_are_minus_gradient():
+    rng = np.random.default_rng(0)
+    fields = [
+        mech.UniformGravity(2.0),
+        mech.Spring(3.0, [0.1, 0.2, 0.3], 0.5),
+        mech.InverseSquare(4.0),
+        mech.Coulomb(1e-6, -2e-6),
+    ]
+    for fld in fields:
+        for _ in range(5):
+            r = rng.normal(size=3) + [2.0, 0, 0]
+            grad = np.zeros(3)
+            for j in range(3):
+                e = np.zeros(3)
+                e[j] = 1e-6
+                grad[j] = (fld.potential(r + e) - fld.potential(r - e)) / 2e-6
+            np.testing.assert_allclose(
+                fld.force(r), -grad, rtol=1e-6, atol=1e-8 * np.abs(grad).max()
+            )
+    # Coulomb attraction between opposite charges
+    assert mech.Coulomb(1.0, -1.0).force(np.array([1.0, 0, 0]))[0] < 0
+
+
+def test_work_energy_theorem_with_drag_and_gravity():
+    t = np.linspace(0, 2, 401)
+    k = 0.3
+    drag = mech.linear_drag(k)
+    grav = mech.UniformGravity(1.0, 9.81)
+    tr = mech.solve_particles(
+        lambda t, r, v: drag(t, r, v) + grav.force(r), 1.0, [0.0, 0.0, 0.0], [4.0, 0.0, 6.0], t
+    )
+    W_total = mech.work(lambda t, r, v: drag(t, r, v) + grav.force(r), tr)
+    dK = tr.kinetic_energy[-1] - tr.kinetic_energy[0]
+    assert W_total == pytest.approx(dK, rel=1e-9)
+    # gravity's work is minus the change of its potential energy
+    W_g = mech.work(grav, tr)
+    assert W_g == pytest.approx(-(grav.potential(tr.r[-1]) - grav.potential(tr.r[0])), rel=1e-9)
+    cw = mech.cumulative_work(grav, tr)
+    np.testing.assert_allclose(cw, -(grav.potential(tr.r) - grav.potential(tr.r[0])), atol=1e-8)
+
+
+def test_conservation_for_different_masses_inverse_square():
+    m = np.array([5.0, 1.0, 0.01])
+    pairs = mech.InverseSquarePairs(m, G=1.0)
+    r0 = np.array([[0.0, 0, 0], [1.0, 0, 0], [0, 2.0, 0.1]])
+    v0 = np.array([[0.0, -0.45, 0], [0.0, 2.2, 0], [-1.6, 0.0, 0]])
+    t = np.linspace(0, 5, 201)
+    tr = mech.solve_particles(pairs, m, r0, v0, t, rtol=1e-12, atol=1e-14)
+    rep = mech.conservation_report(tr, pairs.potential)
+    assert rep["energy"] < 1e-9
+    assert rep["momentum"] < 1e-11
+    assert rep["angular_momentum"] < 1e-10

@@ -77,7 +77,13 @@ _CACHE: dict = {}
 def _compiled(module: str, name: str):
     key = (module, name)
     if key not in _CACHE:
+        from numba.np.ufunc import parallel as _numba_parallel
+
         from ..core.nbody_common import RUN_SIGNATURE
+
+        # the kernels call the parallel gravity kernel: numba's thread pool must be up before
+        # machine code that refers to it is loaded from the cache
+        _numba_parallel._launch_threads()
 
         fn = getattr(importlib.import_module(module), name)
         # One signature with the force as a first-class function type: one machine code for

@@ -1,0 +1,196 @@
+"""WHFast: the Wisdom-Holman map in Jacobi coordinates, the compiled N-body kernel.
+
+Written from Wisdom & Holman (1991) and Rein & Tamayo (2015). With ``eta_i = m_0 + ... + m_i``,
+the Jacobi coordinates are
+
+    x'_i = x_i - X_{i-1},   X_{i-1} = (m_0 x_0 + ... + m_{i-1} x_{i-1}) / eta_{i-1}   (i >= 1)
+
+and ``x'_0`` = the centre of mass (the same for velocities and accelerations). The motion of
+``x'_i`` is split into a Kepler problem with ``GM_i = G eta_i`` plus the interaction
+
+    dv'_i/dt = a'_i + G eta_i x'_i / |x'_i|**3
+
+which depends on positions only (``a'_i`` is the Jacobi transform of the full accelerations,
+gravity plus position-dependent additional forces). One step of length ``h`` is drift-kick-drift::
+
+    Kepler(h/2) -> interaction kick(h) -> Kepler(h/2)
+
+with every Kepler drift solved exactly by the universal-variable kernel
+:func:`visviva.core.universal.propagate_scalar` (any conic), and the centre of mass moving on a
+straight line. The state is synchronised (back to inertial coordinates) after every step, so runs
+can be stopped, saved and resumed bit for bit. For two bodies the interaction vanishes and the map
+is exact to round-off at any step size. Second order, symplectic, time-reversible.
+
+References
+----------
+Wisdom, J. & Holman, M. (1991), "Symplectic maps for the N-body problem", AJ 102, 1528.
+Rein, H. & Tamayo, D. (2015), "WHFAST: a fast and unbiased implementation of a symplectic
+Wisdom-Holman integrator for long-term gravitational simulations", MNRAS 452, 376.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import kernel
+from .nbody_common import (
+    F_DT,
+    F_DT_LAST,
+    F_G,
+    F_T,
+    I_NOUT,
+    I_STEPS,
+    PAUSED,
+    accelerations,
+    check_events,
+    next_fixed_step,
+    should_pause,
+    write_output,
+)
+from .status import OK
+from .universal import propagate_scalar
+
+__all__ = ["whfast_run", "to_jacobi", "from_jacobi", "N_BUF"]
+
+# slots of buf: Jacobi positions, Jacobi velocities, inertial accelerations, Jacobi accelerations,
+# and (slot 4, column 0) the cumulative masses eta_i
+_XJ = 0
+_VJ = 1
+_ACC = 2
+_AJ = 3
+_ETA = 4
+#: Number of (N, 3) slots in ``buf``.
+N_BUF = 5
+
+
+@kernel
+def to_jacobi(x, m, eta, xj):
+    """Inertial -> Jacobi (positions, velocities or accelerations alike); ``xj[0]`` = COM."""
+    n = x.shape[0]
+    sx = m[0] * x[0, 0]
+    sy = m[0] * x[0, 1]
+    sz = m[0] * x[0, 2]
+    for i in range(1, n):
+        e = eta[i - 1]
+        xj[i, 0] = x[i, 0] - sx / e
+        xj[i, 1] = x[i, 1] - sy / e
+        xj[i, 2] = x[i, 2] - sz / e
+        sx += m[i] * x[i, 0]
+        sy += m[i] * x[i, 1]
+        sz += m[i] * x[i, 2]
+    e = eta[n - 1]
+    xj[0, 0] = sx / e
+    xj[0, 1] = sy / e
+    xj[0, 2] = sz / e
+
+
+@kernel
+def from_jacobi(xj, m, eta, x):
+    """Jacobi -> inertial: ``x_i = X_i + (eta_{i-1}/eta_i) x'_i``, ``X_{i-1} = X_i - (m_i/eta_i) x'_i``."""
+    n = x.shape[0]
+    Xx = xj[0, 0]
+    Xy = xj[0, 1]
+    Xz = xj[0, 2]
+    for i in range(n - 1, 0, -1):
+        f = eta[i - 1] / eta[i]
+        g = m[i] / eta[i]
+        x[i, 0] = Xx + f * xj[i, 0]
+        x[i, 1] = Xy + f * xj[i, 1]
+        x[i, 2] = Xz + f * xj[i, 2]
+        Xx -= g * xj[i, 0]
+        Xy -= g * xj[i, 1]
+        Xz -= g * xj[i, 2]
+    x[0, 0] = Xx
+    x[0, 1] = Xy
+    x[0, 2] = Xz
+
+
+@kernel
+def _kepler_drift(xj, vj, eta, G, h):
+    n = xj.shape[0]
+    for c in range(3):
+        xj[0, c] += vj[0, c] * h
+    for i in range(1, n):
+        st, x, y, z, vx, vy, vz = propagate_scalar(
+            xj[i, 0], xj[i, 1], xj[i, 2], vj[i, 0], vj[i, 1], vj[i, 2], G * eta[i], h
+        )
+        if st != OK:
+            return st
+        xj[i, 0] = x
+        xj[i, 1] = y
+        xj[i, 2] = z
+        vj[i, 0] = vx
+        vj[i, 1] = vy
+        vj[i, 2] = vz
+    return OK
+
+
+@kernel
+def _interaction_kick(xj, vj, aj, eta, G, h):
+    n = xj.shape[0]
+    for c in range(3):
+        vj[0, c] += aj[0, c] * h
+    for i in range(1, n):
+        r2 = xj[i, 0] * xj[i, 0] + xj[i, 1] * xj[i, 1] + xj[i, 2] * xj[i, 2]
+        k = G * eta[i] / (r2 * math.sqrt(r2))
+        for c in range(3):
+            vj[i, c] += (aj[i, c] + k * xj[i, c]) * h
+
+
+@kernel
+def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+               out_x, out_v):
+    """Advance through every output time with Wisdom-Holman steps (see the module docstring).
+
+    Particle 0 must have mass (the central body). Output times that are not a whole number of
+    steps away are reached with one shortened step. Arguments as in
+    :mod:`visviva.core.nbody_common`; returns a status code.
+    """
+    n = x.shape[0]
+    G = fstate[F_G]
+    xj = buf[_XJ]
+    vj = buf[_VJ]
+    acc = buf[_ACC]
+    aj = buf[_AJ]
+    eta = buf[_ETA, :, 0]
+    s = 0.0
+    for i in range(n):
+        s += m[i]
+        eta[i] = s
+    dt = fstate[F_DT]
+    for k in range(istate[I_NOUT], t_out.shape[0]):
+        target = t_out[k]
+        while True:
+            t = fstate[F_T]
+            h, last = next_fixed_step(t, target, dt)
+            if h == 0.0:
+                fstate[F_T] = target
+                break
+            half = 0.5 * h
+            to_jacobi(x, m, eta, xj)
+            to_jacobi(v, m, eta, vj)
+            st = _kepler_drift(xj, vj, eta, G, half)
+            if st != OK:
+                return st
+            from_jacobi(xj, m, eta, x)
+            accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+            to_jacobi(acc, m, eta, aj)
+            _interaction_kick(xj, vj, aj, eta, G, h)
+            st = _kepler_drift(xj, vj, eta, G, half)
+            if st != OK:
+                return st
+            from_jacobi(xj, m, eta, x)
+            from_jacobi(vj, m, eta, v)
+            fstate[F_T] = target if last else t + h
+            fstate[F_DT_LAST] = h
+            istate[I_STEPS] += 1
+            status = check_events(x, v, radius, fstate, istate)
+            if status != OK:
+                return status
+            if last:
+                break
+            if should_pause(istate):
+                return PAUSED
+        write_output(k, x, v, out_x, out_v)
+        istate[I_NOUT] = k + 1
+    return OK

@@ -1,0 +1,120 @@
+"""The solar system as an N-body simulation: Sun, planets (system barycentres), optionally Pluto.
+
+At J2000 (the default) the states come from ``visviva/data/solar_system_j2000.json`` (JPL DE421
+evaluated with jplephem; GM from DE440), barycentric ICRF. For another epoch, the states are read
+from DE421 with jplephem when the ``de421`` and ``jplephem`` packages are installed (the ``ephem``
+extra); the positions then carry DE421's accuracy (sub-km for the planets over 1900-2050), and
+otherwise astropy's built-in ephemeris (VSOP87-based, ~ a few arcseconds ~ 1e-5 relative) is used.
+"""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+
+import numpy as np
+
+from ..constants import AU_KM, J2000_JD, JULIAN_YEAR_S
+from ..errors import InvalidInputError
+
+__all__ = ["solar_system", "PLANETS"]
+
+#: Bodies in the order they are added (keys of the data file and their GM keys).
+PLANETS = (
+    ("sun", "sun"),
+    ("mercury", "mercury_sys"),
+    ("venus", "venus_sys"),
+    ("earthmoon", "earth_moon_bary"),
+    ("mars", "mars_sys"),
+    ("jupiter", "jupiter_sys"),
+    ("saturn", "saturn_sys"),
+    ("uranus", "uranus_sys"),
+    ("neptune", "neptune_sys"),
+    ("pluto", "pluto_sys"),
+)
+
+
+def _load():
+    text = resources.files("visviva.data").joinpath("solar_system_j2000.json").read_text()
+    return json.loads(text)
+
+
+def _states_at(epoch, names):
+    """Barycentric states (km, km/s) of ``names`` at an astropy Time other than J2000.
+
+    DE421 through jplephem when installed (sub-km for the planets), else astropy's built-in
+    ephemeris (VSOP87-based: about 1e-5 relative in position).
+    """
+    jd = _jd(epoch)
+    try:
+        import de421
+        from jplephem import Ephemeris
+
+        eph = Ephemeris(de421)
+        out = {}
+        for name in names:
+            r, v = eph.position_and_velocity(name, jd)
+            out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / 86400.0)
+        return out
+    except ImportError:
+        pass
+    from astropy.coordinates import get_body_barycentric_posvel
+
+    astro = {"earthmoon": "earth-moon-barycenter"}
+    out = {}
+    for name in names:
+        pos, vel = get_body_barycentric_posvel(astro.get(name, name), epoch, ephemeris="builtin")
+        out[name] = (pos.xyz.to_value("km"), vel.xyz.to_value("km/s"))
+    return out
+
+
+def solar_system(epoch=None, *, integrator="whfast", dt=None, pluto=False, units=("au", "yr", "Msun")):
+    """A :class:`visviva.Simulation` of the Sun and the planets (system barycentres).
+
+    Parameters
+    ----------
+    epoch : astropy Time, optional
+        Epoch of the states; J2000 (TDB) by default, from the bundled DE421 table.
+    integrator : str
+        Integrator of the new simulation (``"whfast"`` by default).
+    dt : float, optional
+        Step in years; default 4.4 days (1/20 of Mercury's period) for the fixed-step ones.
+    pluto : bool
+        Add Pluto (system barycentre) as a tenth body.
+    units : tuple
+        ``("au", "yr", "Msun")``; G is set to ``GM_sun`` in these units (DE440), and each mass
+        to ``GM / GM_sun``, so the gravitational parameters are exactly DE440's.
+
+    Returns
+    -------
+    Simulation
+        Barycentric ICRF positions (au) and velocities (au/yr), t = 0 at ``epoch``.
+    """
+    from .simulation import Simulation
+
+    if tuple(units) != ("au", "yr", "Msun"):
+        raise InvalidInputError("solar_system() builds the system in units ('au', 'yr', 'Msun').")
+    data = _load()
+    gms = data["gm_km3_s2_system_barycentres"]
+    bodies = [b for b in PLANETS if pluto or b[0] != "pluto"]
+    if epoch is None or abs(_jd(epoch) - J2000_JD) < 1e-9:
+        states = {name: (np.array(data["states_km_km_s"][name]["r"]),
+                         np.array(data["states_km_km_s"][name]["v"])) for name, _ in bodies}
+    else:
+        states = _states_at(epoch, [name for name, _ in bodies])
+    gm_sun = gms["sun"]
+    G = gm_sun * JULIAN_YEAR_S**2 / AU_KM**3
+    if dt is None and integrator != "ias15":
+        dt = 4.4 / 365.25
+    sim = Simulation(integrator, G=G, dt=dt)
+    sim.units = None
+    speed = AU_KM / JULIAN_YEAR_S
+    for name, gm_key in bodies:
+        r, v = states[name]
+        sim.add(gms[gm_key] / gm_sun, np.asarray(r) / AU_KM, np.asarray(v) / speed)
+    sim.names = [name for name, _ in bodies]
+    return sim
+
+
+def _jd(epoch):
+    return float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)

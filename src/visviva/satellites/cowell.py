@@ -69,6 +69,12 @@ class ForceModel:
         self.zonal = np.zeros(3)
         self.atm = VALLADO_EXPONENTIAL_TABLE.copy()
         perturbations = list(perturbations)
+        for p in perturbations:
+            if not isinstance(p, Perturbation):
+                raise InvalidInputError(
+                    f"{p!r} is not a perturbation; use vv.J2, vv.Zonal, vv.AtmosphericDrag, "
+                    "vv.ThirdBody or vv.SolarRadiationPressure."
+                )
         centrals = {p.central_body.name for p in perturbations if p.central_body is not None}
         if len(centrals) > 1:
             raise InvalidInputError(
@@ -108,12 +114,6 @@ class ForceModel:
         srps = [p for p in perturbations if isinstance(p, SolarRadiationPressure)]
         if len(srps) > 1:
             raise InvalidInputError("give at most one SolarRadiationPressure.")
-        for p in perturbations:
-            if not isinstance(p, Perturbation):
-                raise InvalidInputError(
-                    f"{p!r} is not a perturbation; use vv.J2, vv.Zonal, vv.AtmosphericDrag, "
-                    "vv.ThirdBody or vv.SolarRadiationPressure."
-                )
         gms = [b.gm_km3_s2 for b in third]
         table_names = list(names)
         need_sun = bool(srps) or any(getattr(e, "needs_sun", False) for e in events)

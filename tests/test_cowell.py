@@ -1,0 +1,211 @@
+"""Cowell propagation: agreement with Kepler, invariants, output handling and bad inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as hs
+
+import visviva as vv
+from visviva.errors import InvalidInputError, ShapeError, UnitsError
+from visviva.satellites import propagate_cowell
+
+ONE_MM = 1e-6  # km
+ONE_M = 1e-3  # km
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+
+
+def leo(epoch=None):
+    return vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 5.0, 5.8] * u.km / u.s, vv.EARTH, epoch)
+
+
+def test_no_perturbation_matches_kepler_within_1_mm_after_one_day():
+    state = leo()
+    t = np.linspace(0.0, 1.0, 97) * u.day
+    out = propagate_cowell(state, t, [])
+    kepler = state.propagate(t)
+    err = np.linalg.norm((out.r - kepler.r).to_value(u.km), axis=-1)
+    assert err.max() < ONE_MM
+    verr = np.linalg.norm((out.v - kepler.v).to_value(u.km / u.s), axis=-1)
+    assert verr.max() < 1e-9
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    rp=hs.floats(6600.0, 20000.0),
+    ecc=hs.floats(0.0, 0.8),
+    inc=hs.floats(0.0, np.pi),
+    raan=hs.floats(0.0, 2 * np.pi),
+    argp=hs.floats(0.0, 2 * np.pi),
+    nu=hs.floats(-np.pi, np.pi),
+)
+def test_no_perturbation_matches_kepler_over_elliptic_orbits(rp, ecc, inc, raan, argp, nu):
+    el = vv.KeplerianElements(rp * (1 + ecc) * u.km, ecc, inc, raan, argp, nu, vv.EARTH)
+    state = el.to_state()
+    a = rp / (1 - ecc)
+    period = 2 * np.pi * np.sqrt(a**3 / vv.EARTH.gm_km3_s2)
+    t = np.linspace(0.0, 3 * period, 7) * u.s
+    out = propagate_cowell(state, t, [])
+    kepler = state.propagate(t)
+    err = np.linalg.norm((out.r - kepler.r).to_value(u.km), axis=-1)
+    assert err.max() < 10 * ONE_MM * max(1.0, a / 7000.0)
+
+
+def test_forward_then_backward_returns_home():
+    state = leo()
+    out = propagate_cowell(state, 1 * u.day, [vv.Zonal(vv.EARTH, 6)])
+    back = propagate_cowell(
+        vv.StateVectors(out.r, out.v, vv.EARTH), -1 * u.day, [vv.Zonal(vv.EARTH, 6)]
+    )
+    assert np.linalg.norm((back.r - state.r).to_value(u.km)) < ONE_MM
+
+
+def test_negative_and_positive_times_in_one_call():
+    state = leo()
+    t = np.array([-3000.0, -10.0, 0.0, 500.0, 4000.0]) * u.s
+    out = propagate_cowell(state, t, [])
+    kepler = state.propagate(t)
+    assert out.r.shape == (5, 3)
+    assert np.allclose(out.t.to_value(u.s), t.to_value(u.s))
+    assert np.abs((out.r - kepler.r).to_value(u.km)).max() < ONE_MM
+
+
+def test_outputs_from_one_integration_match_separate_runs():
+    state = leo()
+    t = np.array([600.0, 4321.0, 20000.0]) * u.s
+    many = propagate_cowell(state, t, [vv.J2(vv.EARTH)])
+    for k in range(3):
+        one = propagate_cowell(state, t[k], [vv.J2(vv.EARTH)])
+        assert one.r.shape == (3,)
+        # dense output versus step end: both well inside the integration tolerance
+        assert np.linalg.norm((one.r - many.r[k]).to_value(u.km)) < ONE_MM
+
+
+def test_time_array_input_equals_offsets():
+    state = leo(EPOCH)
+    offsets = np.linspace(0, 6, 4) * u.hour
+    a = propagate_cowell(state, offsets, [vv.J2(vv.EARTH)])
+    b = propagate_cowell(state, EPOCH + offsets, [vv.J2(vv.EARTH)])
+    assert np.abs((a.r - b.r).to_value(u.km)).max() < 1e-9
+    assert np.all(np.abs((b.times - (EPOCH + offsets)).to_value(u.s)) < 1e-6)
+
+
+def test_axisymmetric_field_conserves_energy_and_hz():
+    """Zonal harmonics: the energy with the zonal potential and h_z are constants of motion."""
+    state = leo()
+    t = np.linspace(0, 1, 50) * u.day
+    out = propagate_cowell(state, t, [vv.J2(vv.EARTH)])
+    r = out.r.to_value(u.km)
+    v = out.v.to_value(u.km / u.s)
+    hz = r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0]
+    assert np.ptp(hz) / abs(hz[0]) < 1e-11
+    gm, R, j2 = vv.EARTH.gm_km3_s2, vv.EARTH.radius_km, vv.EARTH.j2
+    rn = np.linalg.norm(r, axis=1)
+    s = r[:, 2] / rn
+    energy = 0.5 * (v**2).sum(1) - gm / rn + gm * j2 * R**2 / rn**3 * (1.5 * s**2 - 0.5)
+    assert np.ptp(energy) / abs(energy[0]) < 1e-11
+
+
+def test_j2_drifts_node_westward_for_prograde_orbit():
+    state = leo()
+    out = propagate_cowell(state, [0.0, 1.0] * u.day, [vv.J2(vv.EARTH)])
+    el = vv.StateVectors(out.r, out.v, vv.EARTH).to_elements()
+    d = np.angle(np.exp(1j * np.diff(el.longitude_of_ascending_node.to_value(u.rad))))
+    assert d[0] < 0
+
+
+def test_third_bodies_and_srp_run_and_move_the_orbit_a_little():
+    state = leo(EPOCH)
+    t = np.linspace(0, 1, 5) * u.day
+    base = propagate_cowell(state, t, [])
+    full = propagate_cowell(
+        state,
+        t,
+        [
+            vv.ThirdBody(vv.SUN),
+            vv.ThirdBody(vv.MOON),
+            vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow="conical"),
+        ],
+    )
+    d = np.linalg.norm((full.r - base.r).to_value(u.km), axis=1)
+    # luni-solar effects after one LEO day: tens of metres to a few km, never zero
+    assert 1e-3 < d[-1] < 20.0
+
+
+def test_result_repr_and_states():
+    out = propagate_cowell(leo(EPOCH), np.linspace(0, 1, 3) * u.hour, [vv.J2(vv.EARTH)])
+    assert "3 times" in repr(out)
+    states = out.to_states()
+    assert states.r.shape == (3, 3)
+
+
+# ---------------------------------------------------------------------------- bad inputs
+
+
+def test_times_out_of_order_raise():
+    with pytest.raises(InvalidInputError, match="strictly increasing"):
+        propagate_cowell(leo(), [0.0, 100.0, 50.0] * u.s, [])
+
+
+def test_missing_time_unit_raises():
+    with pytest.raises(UnitsError, match="time"):
+        propagate_cowell(leo(), [0.0, 100.0], [])
+
+
+def test_nan_time_raises():
+    with pytest.raises(InvalidInputError, match="NaN"):
+        propagate_cowell(leo(), [0.0, np.nan] * u.s, [])
+
+
+def test_nan_state_raises():
+    bad = type("S", (), {})()
+    bad.r = [np.nan, 0, 0] * u.km
+    bad.v = [0, 7.5, 0] * u.km / u.s
+    bad.gm = vv.EARTH.gm
+    with pytest.raises(InvalidInputError, match="NaN"):
+        propagate_cowell(bad, 1 * u.s, [])
+
+
+def test_batch_state_raises_shape_error():
+    state = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * u.km / u.s, vv.EARTH)
+    with pytest.raises(ShapeError, match="one state"):
+        propagate_cowell(state, 1 * u.s, [])
+
+
+def test_unknown_body_raises():
+    with pytest.raises(InvalidInputError, match="vv.EARTH"):
+        vv.ThirdBody("vulcan")
+    with pytest.raises(InvalidInputError, match="degree"):
+        vv.Zonal(vv.EARTH, 9)
+    with pytest.raises(InvalidInputError, match="zonal"):
+        vv.J2(vv.MARS)
+
+
+def test_not_a_perturbation_raises():
+    with pytest.raises(InvalidInputError, match="not a perturbation"):
+        propagate_cowell(leo(), 1 * u.s, ["J2"])
+
+
+def test_third_body_without_epoch_raises():
+    with pytest.raises(InvalidInputError, match="epoch"):
+        propagate_cowell(leo(), 1 * u.s, [vv.ThirdBody(vv.SUN)])
+
+
+def test_absolute_times_without_epoch_raise():
+    with pytest.raises(InvalidInputError, match="epoch"):
+        propagate_cowell(leo(), EPOCH, [])
+
+
+def test_drag_needs_units():
+    with pytest.raises(UnitsError):
+        vv.AtmosphericDrag(0.01)
+    with pytest.raises(InvalidInputError):
+        vv.AtmosphericDrag(-0.01 * u.m**2 / u.kg)
+
+
+def test_double_zonal_raises():
+    with pytest.raises(InvalidInputError, match="one zonal"):
+        propagate_cowell(leo(), 1 * u.s, [vv.J2(vv.EARTH), vv.Zonal(vv.EARTH, 4)])

@@ -58,7 +58,8 @@ def lambert(
         M = 0.
     method : {"izzo", "universal"}
         Izzo (2015), Householder iterations (default); or the universal-variable method of
-        Bate, Mueller & White / Vallado Algorithm 58 with bisection (independent check).
+        Bate, Mueller & White / Vallado Algorithm 58 with bisection (independent check; it
+        loses a few digits within ~0.01 deg of a 180 deg transfer, where g -> 0).
 
     Returns
     -------

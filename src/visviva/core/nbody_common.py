@@ -4,7 +4,7 @@ Every integrator kernel (:mod:`.nbody_leapfrog`, :mod:`.nbody_ias15`, :mod:`.nbo
 same signature, :data:`RUN_SIGNATURE`::
 
     run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
-        t_out, out_x, out_v) -> status
+        t_out, out_t, out_x, out_v) -> status
 
 and advances the state in place through every requested output time in ONE compiled call.
 
@@ -21,9 +21,9 @@ and advances the state in place through every requested output time in ONE compi
 ``force``, ``params``
     the additional force ``force(t, x, v, m, params, acc)`` (a first-class compiled function that
     ADDS to ``acc``) and its float64 parameter array.
-``t_out`` (T,), ``out_x``, ``out_v`` (T, N, 3)
-    absolute output times (monotonic in the direction of integration) and the snapshots written
-    there. ``istate[I_NOUT]`` counts the outputs written, so a run interrupted by an event
+``t_out`` (T,), ``out_t`` (T,), ``out_x``, ``out_v`` (T, N, 3)
+    absolute output times (monotonic in the direction of integration), the times actually
+    reached (equal to ``t_out`` unless ``istate[I_EXACT_FINISH]`` is 0) and the snapshots. ``istate[I_NOUT]`` counts the outputs written, so a run interrupted by an event
     (collision, encounter, escape) can be resumed from where it stopped.
 """
 
@@ -71,6 +71,7 @@ I_REJECTED = 7  #: IAS15 rejected steps (total)
 I_CORRECTOR = 8  #: WHFast symplectic corrector order (0 = none)
 I_FRESH = 9  #: 1: the integrator's internal state must be (re)initialised
 I_STOP_AT_STEP = 10  #: > 0: pause (return PAUSED) once istate[I_STEPS] reaches this count
+I_EXACT_FINISH = 11  #: 1: land exactly on output times; 0: stop at the first step at or past them
 N_ISTATE = 16
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.
@@ -88,7 +89,7 @@ FORCE_SIGNATURE = types.void(_f64, _a2, _a2, _a1, _a1, _a2)
 FORCE_TYPE = types.FunctionType(FORCE_SIGNATURE)
 #: Signature of every integrator kernel (see the module docstring).
 RUN_SIGNATURE = types.int64(
-    _a2, _a2, _a1, _i1, _a1, _a1, _i1, _a3, _a2, FORCE_TYPE, _a1, _a1, _a3, _a3
+    _a2, _a2, _a1, _i1, _a1, _a1, _i1, _a3, _a2, FORCE_TYPE, _a1, _a1, _a1, _a3, _a3
 )
 
 
@@ -153,8 +154,17 @@ def should_pause(istate):
 
 
 @kernel
-def write_output(k, x, v, out_x, out_v):
+def run_direction(t, t_out):
+    """+1 when the last output time lies ahead of ``t`` (or at it), -1 when behind."""
+    if t_out.shape[0] == 0:
+        return 1.0
+    return 1.0 if t_out[t_out.shape[0] - 1] >= t else -1.0
+
+
+@kernel
+def write_output(k, t, x, v, out_t, out_x, out_v):
     """Copy the state into snapshot ``k``."""
+    out_t[k] = t
     for i in range(x.shape[0]):
         for c in range(3):
             out_x[k, i, c] = x[i, c]
@@ -162,18 +172,24 @@ def write_output(k, x, v, out_x, out_v):
 
 
 @kernel
-def next_fixed_step(t, target, dt):
+def next_fixed_step(t, target, dt, exact, direction):
     """The step a fixed-step integrator takes from ``t`` towards ``target``.
 
     Returns ``(h, last)``: a full step ``h = +-|dt|`` in the direction of ``target``, or the
     remainder when it is shorter than ``|dt|`` (within a relative 1e-9, a full step is taken and
     ``last`` is true so that the caller snaps ``t`` to ``target``); ``h = 0`` when ``t`` is there.
+    With ``exact`` false only full steps are taken (the last one may pass ``target``; nothing is
+    done once ``t`` is at or past ``target`` in the ``direction`` of integration, +1 or -1).
     """
     rem = target - t
     adt = abs(dt)
     if rem == 0.0 or abs(rem) <= 1e-12 * adt:
         return 0.0, True
     h = math.copysign(adt, rem)
+    if not exact:
+        if rem * direction <= 0.0:
+            return 0.0, True
+        return h, abs(rem) <= adt * (1.0 + 1e-9)
     if abs(rem) <= adt * (1.0 + 1e-9):
         if abs(rem) >= adt * (1.0 - 1e-9):
             return h, True

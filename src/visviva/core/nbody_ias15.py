@@ -44,6 +44,7 @@ from .nbody_common import (
     F_EPSILON,
     F_MIN_DT,
     F_T,
+    I_EXACT_FINISH,
     I_FRESH,
     I_ITERATIONS,
     I_NOUT,
@@ -52,6 +53,7 @@ from .nbody_common import (
     PAUSED,
     accelerations,
     check_events,
+    run_direction,
     should_pause,
     write_output,
 )
@@ -350,7 +352,7 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, d
 
 @kernel
 def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-              out_x, out_v):
+              out_t, out_x, out_v):
     """Advance through every output time with IAS15 (see the module docstring).
 
     Each output time is reached exactly by shortening the step that would pass it; the step
@@ -366,12 +368,14 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 buf[_CSV, i, c] = 0.0
         fstate[F_DT_LAST] = 0.0
         istate[I_FRESH] = 0
+    exact = istate[I_EXACT_FINISH] != 0
+    direction = run_direction(fstate[F_T], t_out)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
             t = fstate[F_T]
             rem = target - t
-            if rem == 0.0:
+            if rem == 0.0 or (not exact and rem * direction <= 0.0):
                 break
             dt = fstate[F_DT]
             if dt == 0.0 or (dt > 0.0) != (rem > 0.0):
@@ -382,8 +386,9 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 fstate[F_DT] = dt
             last = False
             if abs(dt) >= abs(rem):
-                dt = rem
                 last = True
+                if exact:
+                    dt = rem
             status, accepted, dt_new = _step(
                 x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt
             )
@@ -400,7 +405,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 else:
                     _zero_predictor(buf, n)
                 continue
-            fstate[F_T] = target if last else t + dt
+            fstate[F_T] = target if (last and exact) else t + dt
             istate[I_STEPS] += 1
             # remember the converged b and its prediction e, then predict the next step
             for s in range(7):
@@ -409,7 +414,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                         buf[_BL + s, i, c] = buf[_B + s, i, c]
                         buf[_EL + s, i, c] = buf[_E + s, i, c]
             dt_next = dt_new
-            if last and abs(fstate[F_DT]) > abs(dt_next):
+            if last and exact and abs(fstate[F_DT]) > abs(dt_next):
                 dt_next = fstate[F_DT]  # the step was shortened to land on the output time
             ratio = dt_next / dt
             if abs(ratio) > 20.0:
@@ -425,6 +430,6 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 break
             if should_pause(istate):
                 return PAUSED
-        write_output(k, x, v, out_x, out_v)
+        write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

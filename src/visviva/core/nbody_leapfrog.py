@@ -21,12 +21,14 @@ from .nbody_common import (
     F_DT,
     F_DT_LAST,
     F_T,
+    I_EXACT_FINISH,
     I_NOUT,
     I_STEPS,
     PAUSED,
     accelerations,
     check_events,
     next_fixed_step,
+    run_direction,
     should_pause,
     write_output,
 )
@@ -40,7 +42,7 @@ N_BUF = 1
 
 @kernel
 def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                 out_x, out_v):
+                 out_t, out_x, out_v):
     """Advance through every output time with drift-kick-drift steps (see the module docstring).
 
     Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
@@ -48,13 +50,16 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
     n = x.shape[0]
     acc = buf[0]
     dt = fstate[F_DT]
+    exact = istate[I_EXACT_FINISH] != 0
+    direction = run_direction(fstate[F_T], t_out)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
             t = fstate[F_T]
-            h, last = next_fixed_step(t, target, dt)
+            h, last = next_fixed_step(t, target, dt, exact, direction)
             if h == 0.0:
-                fstate[F_T] = target
+                if exact:
+                    fstate[F_T] = target
                 break
             half = 0.5 * h
             for i in range(n):
@@ -65,7 +70,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                 for c in range(3):
                     v[i, c] += acc[i, c] * h
                     x[i, c] += v[i, c] * half
-            fstate[F_T] = target if last else t + h
+            fstate[F_T] = target if (last and exact) else t + h
             fstate[F_DT_LAST] = h
             istate[I_STEPS] += 1
             status = check_events(x, v, radius, fstate, istate)
@@ -75,6 +80,6 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                 break
             if should_pause(istate):
                 return PAUSED
-        write_output(k, x, v, out_x, out_v)
+        write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

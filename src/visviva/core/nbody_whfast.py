@@ -38,12 +38,14 @@ from .nbody_common import (
     F_DT_LAST,
     F_G,
     F_T,
+    I_EXACT_FINISH,
     I_NOUT,
     I_STEPS,
     PAUSED,
     accelerations,
     check_events,
     next_fixed_step,
+    run_direction,
     should_pause,
     write_output,
 )
@@ -139,7 +141,7 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
 
 @kernel
 def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-               out_x, out_v):
+               out_t, out_x, out_v):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
     Particle 0 must have mass (the central body). Output times that are not a whole number of
@@ -158,13 +160,16 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
         s += m[i]
         eta[i] = s
     dt = fstate[F_DT]
+    exact = istate[I_EXACT_FINISH] != 0
+    direction = run_direction(fstate[F_T], t_out)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
             t = fstate[F_T]
-            h, last = next_fixed_step(t, target, dt)
+            h, last = next_fixed_step(t, target, dt, exact, direction)
             if h == 0.0:
-                fstate[F_T] = target
+                if exact:
+                    fstate[F_T] = target
                 break
             half = 0.5 * h
             to_jacobi(x, m, eta, xj)
@@ -181,7 +186,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 return st
             from_jacobi(xj, m, eta, x)
             from_jacobi(vj, m, eta, v)
-            fstate[F_T] = target if last else t + h
+            fstate[F_T] = target if (last and exact) else t + h
             fstate[F_DT_LAST] = h
             istate[I_STEPS] += 1
             status = check_events(x, v, radius, fstate, istate)
@@ -191,6 +196,6 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 break
             if should_pause(istate):
                 return PAUSED
-        write_output(k, x, v, out_x, out_v)
+        write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

@@ -102,6 +102,10 @@ class Simulation:
         IAS15 accuracy parameter (Rein & Spiegel 2015), 1e-9.
     min_dt : float
         Smallest step IAS15 may take; below it :class:`visviva.StepSizeError` is raised.
+    corrector : int
+        WHFast symplectic corrector order (0: none).
+    exact_finish_time : bool
+        Land exactly on requested times (default) or stop at the first step past them.
 
     Examples
     --------
@@ -132,6 +136,7 @@ class Simulation:
         epsilon: float = 1e-9,
         min_dt: float = 0.0,
         corrector: int = 0,
+        exact_finish_time: bool = True,
     ):
         self.units = None if units is None else SimulationUnits.parse(units)
         self._x = np.zeros((0, 3))
@@ -159,6 +164,7 @@ class Simulation:
         self.encounter_distance = encounter_distance
         self.exit_max_distance = exit_max_distance
         self.corrector = corrector
+        self.exact_finish_time = exact_finish_time
 
     # ---- configuration -------------------------------------------------------------------------
     @property
@@ -276,6 +282,16 @@ class Simulation:
             raise InvalidInputError(f"corrector must be 0, 3, 5, 7, 11 or 17; got {order!r}.")
         self._istate[_nc.I_CORRECTOR] = order
         self._istate[_nc.I_FRESH] = 1
+
+    @property
+    def exact_finish_time(self) -> bool:
+        """True (default): land exactly on every requested time. False: stop at the first step
+        at or past it (the trajectory is then independent of where a run is split)."""
+        return bool(self._istate[_nc.I_EXACT_FINISH])
+
+    @exact_finish_time.setter
+    def exact_finish_time(self, value: bool) -> None:
+        self._istate[_nc.I_EXACT_FINISH] = 1 if value else 0
 
     # ---- unit helpers ----------------------------------------------------------------------------
     def _convert(self, value, kind, name):
@@ -558,7 +574,7 @@ class Simulation:
         StepSizeError
             When IAS15's step falls below ``min_dt``.
         """
-        scalar = np.ndim(t) == 0 and not (hasattr(t, "shape") and np.ndim(t) > 0)
+        scalar = np.ndim(t) == 0
         times = np.ascontiguousarray(np.atleast_1d(self._time(t, "t")).astype(np.float64))
         if times.ndim != 1:
             raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
@@ -592,6 +608,12 @@ class Simulation:
             t_start = self.t
         chunk_x = np.empty((T, self.N, 3))
         chunk_v = np.empty((T, self.N, 3))
+        out_t = times.copy()
+        if info.name == "whfast" and self._m[0] <= 0:
+            raise InvalidInputError(
+                "WHFast needs particle 0 to be the massive central body (Jacobi coordinates): "
+                "add the star first."
+            )
         try:
             while True:
                 self._ensure_buf()
@@ -605,7 +627,7 @@ class Simulation:
                 done0 = int(self._istate[_nc.I_NOUT])
                 status = int(info.kernel()(
                     self._x, self._v, self._m, self._massive, self._radius, self._fstate,
-                    self._istate, self._buf, self._gwork(), fn, params, times, chunk_x, chunk_v,
+                    self._istate, self._buf, self._gwork(), fn, params, times, out_t, chunk_x, chunk_v,
                 ))
                 done = int(self._istate[_nc.I_NOUT])
                 if done > done0:
@@ -636,7 +658,7 @@ class Simulation:
                 bar.close()
         if scalar:
             return None
-        return Trajectory(times, out_x, out_v, masses0, self.G, self.softening)
+        return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
 
     def _gwork(self):
         w = getattr(self, "_gwork_arr", None)

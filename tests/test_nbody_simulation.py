@@ -1,0 +1,233 @@
+"""Simulation API: particles, units, elements, test particles, diagnostics, gravity kernels."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from astropy import units as u
+
+import visviva as vv
+from visviva.core import gravity as g
+
+DATA = Path(__file__).parent / "data"
+
+
+def figure_eight(integrator="ias15", dt=None):
+    d = json.loads((DATA / "figure_eight.json").read_text())
+    sim = vv.Simulation(integrator, G=d["G"], dt=dt)
+    for m, r, v in zip(d["masses"], d["positions"], d["velocities"], strict=True):
+        sim.add(m, r, v)
+    return sim, d
+
+
+def test_add_returns_index_and_plain_arrays():
+    sim = vv.Simulation()
+    assert sim.add(1.0) == 0
+    assert sim.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0]) == 1
+    assert sim.positions.shape == (2, 3) and sim.velocities.shape == (2, 3)
+    assert sim.masses.shape == (2,)
+    assert isinstance(sim.positions, np.ndarray) and isinstance(sim.t, float)
+    assert sim.G == 1.0
+
+
+def test_units_set_G_and_accept_quantities():
+    sim = vv.Simulation(units=("au", "yr", "Msun"))
+    # G in au^3 / (Msun yr^2) is close to 4 pi^2 (Gaussian constant)
+    assert sim.G == pytest.approx(4 * math.pi**2, rel=1e-4)
+    sim.add(1 * u.Msun)
+    i = sim.add(5.972e24 * u.kg, r=[1.0, 0, 0] * u.au, v=[0, 29.78, 0] * u.km / u.s)
+    assert sim.positions[i, 0] == pytest.approx(1.0)
+    assert sim.velocities[i, 1] == pytest.approx(29.78 * 365.25 * 86400 / 149597870.7, rel=1e-3)
+    assert sim.masses[1] == pytest.approx(3.0e-6, rel=1e-2)
+
+
+def test_quantity_without_units_is_refused():
+    sim = vv.Simulation()
+    with pytest.raises(vv.UnitsError, match="units="):
+        sim.add(1.0, r=[1, 0, 0] * u.km)
+
+
+def test_bad_input_raises_typed_errors():
+    sim = vv.Simulation()
+    with pytest.raises(vv.InvalidInputError):
+        sim.add(-1.0)
+    with pytest.raises(vv.ShapeError):
+        sim.add(1.0, r=[1.0, 2.0])
+    with pytest.raises(vv.InvalidInputError):
+        sim.add(1.0, r=[np.nan, 0, 0])
+    with pytest.raises(vv.InvalidInputError, match="unknown integrator"):
+        vv.Simulation("rk4")
+    with pytest.raises(vv.InvalidInputError, match="needs a time step"):
+        s = vv.Simulation("leapfrog")
+        s.add(1.0)
+        s.integrate(1.0)
+
+
+def test_add_by_elements_circular_orbit():
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(0.0, a=2.0, e=0.0, primary=0)
+    r = np.linalg.norm(sim.positions[1])
+    v = np.linalg.norm(sim.velocities[1])
+    assert r == pytest.approx(2.0, rel=1e-15)
+    assert v == pytest.approx(math.sqrt(1.0 / 2.0), rel=1e-15)
+
+
+def test_add_by_elements_mean_anomaly_energy_and_inclination():
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, M=1.2, primary=0)
+    d = sim.positions[1] - sim.positions[0]
+    w = sim.velocities[1] - sim.velocities[0]
+    gm = sim.G * (1.0 + 1e-3)
+    energy = 0.5 * w @ w - gm / np.linalg.norm(d)
+    assert -gm / (2 * energy) == pytest.approx(1.5, rel=1e-13)
+    h = np.cross(d, w)
+    assert math.acos(h[2] / np.linalg.norm(h)) == pytest.approx(0.4, rel=1e-13)
+
+
+def test_centre_of_mass_and_momentum():
+    sim, _ = figure_eight()
+    sim.add(0.5, r=[3.0, 1.0, 0.2], v=[0.1, -0.2, 0.3])
+    sim.move_to_com()
+    xc, vc = sim.center_of_mass()
+    assert np.abs(xc).max() < 1e-15 and np.abs(vc).max() < 1e-15
+    assert np.abs(sim.momentum()).max() < 1e-15
+
+
+def test_energy_and_angular_momentum_of_figure_eight():
+    sim, d = figure_eight()
+    assert sim.energy() == pytest.approx(d["computed"]["energy"], rel=1e-14)
+    assert np.abs(sim.angular_momentum()).max() < 1e-8
+
+
+def test_test_particles_feel_but_do_not_pull():
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(0.0, r=[1.0, 0, 0], v=[0, 1.0, 0])
+    sim.add(0.0, r=[0, 2.0, 0], v=[-0.7, 0, 0])
+    assert sim.N_active == 1
+    sim.integrate(10.0)
+    # the star never moves: nothing pulls on it
+    assert np.all(sim.positions[0] == 0.0) and np.all(sim.velocities[0] == 0.0)
+    # the circular test particle stays on its circle
+    assert np.linalg.norm(sim.positions[1]) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_integrate_many_times_returns_snapshots():
+    sim, d = figure_eight()
+    times = np.linspace(0.5, d["period"], 20)
+    traj = sim.integrate(times)
+    assert traj.positions.shape == (20, 3, 3) and traj.velocities.shape == (20, 3, 3)
+    assert np.array_equal(traj.t, times)
+    assert sim.t == d["period"]
+    np.testing.assert_array_equal(traj.positions[-1], sim.positions)
+    E = traj.energy()
+    assert np.abs(E / d["computed"]["energy"] - 1).max() < 1e-13
+    # the same as successive integrate calls (every output time is landed on exactly)
+    sim2, _ = figure_eight()
+    for t in times[:5]:
+        sim2.integrate(t)
+    np.testing.assert_array_equal(sim2.positions, traj.positions[4])
+
+
+def test_integrate_rejects_unsorted_times():
+    sim, _ = figure_eight()
+    with pytest.raises(vv.InvalidInputError, match="monotonic"):
+        sim.integrate([1.0, 0.5])
+
+
+@pytest.mark.parametrize("n", [7, 300, 1100])
+def test_gravity_serial_and_parallel_give_identical_bits(n):
+    rng = np.random.default_rng(n)
+    x = rng.normal(size=(n, 3))
+    m = rng.uniform(size=n)
+    m[::5] = 0.0  # test particles
+    massive = g.massive_indices(m)
+    a1 = np.empty((n, 3))
+    a2 = np.empty((n, 3))
+    g.gravity_serial(x, m, 1.0, 1e-6, massive, a1)
+    g.gravity_parallel(x, m, 1.0, 1e-6, massive, a2, np.empty((7, n)))
+    np.testing.assert_array_equal(a1, a2)
+
+
+def test_gravity_matches_slow_reference_and_thread_count():
+    import numba
+
+    rng = np.random.default_rng(3)
+    n = 600
+    x = rng.normal(size=(n, 3))
+    m = rng.uniform(size=n)
+    massive = g.massive_indices(m)
+    d = x[None, :, :] - x[:, None, :]
+    r2 = (d**2).sum(-1) + 0.01**2
+    np.fill_diagonal(r2, np.inf)
+    ref = (m[None, :, None] * d / r2[..., None] ** 1.5).sum(1)
+    a = np.empty((n, 3))
+    g.gravity_parallel(x, m, 1.0, 0.01**2, massive, a, np.empty((7, n)))
+    np.testing.assert_allclose(a, ref, rtol=1e-12, atol=1e-12)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        b = np.empty((n, 3))
+        g.gravity_parallel(x, m, 1.0, 0.01**2, massive, b, np.empty((7, n)))
+    finally:
+        numba.set_num_threads(old)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_parallel_flag_does_not_change_the_trajectory():
+    runs = []
+    for parallel in (False, True):
+        sim, d = figure_eight()
+        sim.parallel = parallel
+        sim.integrate(1.0)
+        runs.append(sim.positions)
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_softening_lowers_the_potential_depth():
+    sim = vv.Simulation(softening=0.1)
+    sim.add(1.0)
+    sim.add(1.0, r=[1.0, 0, 0])
+    assert sim.energy() == pytest.approx(-1.0 / math.sqrt(1.01), rel=1e-15)
+
+
+def test_solar_system_j2000():
+    sim = vv.solar_system()
+    assert sim.N == 9 and sim.integrator == "whfast"
+    assert sim.masses[0] == 1.0
+    # the Sun-Earth distance is ~1 au, the Earth's speed ~ 2 pi au/yr
+    r = np.linalg.norm(sim.positions[3] - sim.positions[0])
+    assert 0.98 < r < 1.02
+    assert np.linalg.norm(sim.velocities[3]) == pytest.approx(2 * math.pi, rel=0.03)
+    # barycentric
+    xc, vc = sim.center_of_mass()
+    assert np.linalg.norm(xc) < 1e-6 and np.linalg.norm(vc) < 1e-6
+
+
+def test_solar_system_other_epoch_from_de421():
+    from astropy.time import Time
+
+    sim = vv.solar_system(Time("2000-01-11 12:00", scale="tdb"))
+    ref = vv.solar_system()
+    ref.integrator = "ias15"
+    ref.integrate(10.0 / 365.25)
+    # DE421 vs 10 days of point-mass dynamics: agreement to ~1e-6 au (the Moon, asteroids, ...)
+    assert np.abs(sim.positions - ref.positions).max() < 1e-5
+
+
+def test_rebound_round_trip():
+    pytest.importorskip("rebound")
+    sim = vv.solar_system(integrator="ias15")
+    r = sim.to_rebound()
+    assert r.N == 9 and r.G == sim.G and r.integrator == "ias15"
+    back = vv.Simulation.from_rebound(r)
+    np.testing.assert_array_equal(back.positions, sim.positions)
+    np.testing.assert_array_equal(back.velocities, sim.velocities)
+    np.testing.assert_array_equal(back.masses, sim.masses)
+    assert back.integrator == "ias15"

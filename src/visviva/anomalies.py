@@ -146,7 +146,7 @@ def solve_kepler_hyperbolic(M, ecc):
     Newton iterations on ``(e - 1) F + e (sinh F - F) - M`` (series for ``sinh F - F`` when
     ``|F| < 2``) from an upper bound (the root of ``(e - 1) F + e F^3 / 6 = M``, improved by
     ``F <- asinh((M + F) / e)``), so they decrease monotonically; for F > 20 the equation
-    ``F = log(2 / e) + log(M + F)`` is solved instead (no overflow up to M ~ 1e308).
+    ``F = log((M + F) / e) + log 2`` is solved instead (no overflow up to M ~ 1e308).
     Reference: Vallado (2013), Algorithm 4; Farnocchia et al. (2013).
     """
     return _run(_k.solve_kepler_hyperbolic_array, "solve_kepler_hyperbolic (e > 1)", M, "M", ecc)

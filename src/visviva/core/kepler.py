@@ -84,6 +84,7 @@ _1P6PI = 1.6 * math.pi
 _SIXTH = 1.0 / 6.0
 _TWENTYFOURTH = 1.0 / 24.0
 _HALF_PI = 0.5 * math.pi
+_LN2 = math.log(2.0)
 #: Taylor coefficients (-1)^k / (2k+1)! and (-1)^k / (2k)! for the inline sin/cos
 (_S0, _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8, _S9, _S10, _S11) = (
     (-1.0) ** k / math.factorial(2 * k + 1) for k in range(12)
@@ -389,11 +390,12 @@ def _hyperbolic_reduced(M, ecc):
         return 0.0, OK
     Fl = math.asinh(M / ecc)  # lower bound: e sinh F = M + F >= M
     if Fl > _F_LARGE:
-        # sinh F = exp(F) / 2 to double precision: F = log(2 / e) + log(M + F)
-        log2e = math.log(2.0 / ecc)
+        # sinh F = exp(F) / 2 to double precision: F = log((M + F) / e) + log 2; the ratio
+        # (M + F) / e = exp(F) / 2 is representable, and one log of it avoids the cancellation
+        # of log M - log e when both are huge
         F = Fl
         for _ in range(_MAX_ITER):
-            g = F - log2e - math.log(M + F)
+            g = F - _LN2 - math.log((M + F) / ecc)
             step = g / (1.0 - 1.0 / (M + F))
             F -= step
             if abs(step) <= _STEP_TOL * F:
@@ -451,7 +453,7 @@ def parabolic_anomaly(M):
     if not math.isfinite(M):
         return NAN, NON_FINITE
     x = abs(M)
-    if x > 1e100:
+    if x > 1e300:
         c = np.cbrt(3.0) * np.cbrt(x)  # D^3 + 3D = 3M with D = c - 1/c + O(c^-5)
         D = c - 1.0 / c
     else:

@@ -124,9 +124,9 @@ def propagate_j2_secular(elements, dt, body=EARTH):
     nu = nu.to_value(u.rad) if hasattr(nu, "unit") else np.asarray(nu)
     shape = np.shape(M)
     return KeplerianElements.from_semi_major_axis(
-        np.broadcast_to(a, shape),
+        np.broadcast_to(a.to_value(u.km), shape) * u.km,
         np.broadcast_to(e, shape),
-        np.broadcast_to(inc, shape),
+        np.broadcast_to(inc.to_value(u.rad), shape),
         np.mod(raan, 2 * np.pi),
         np.mod(argp, 2 * np.pi),
         nu,

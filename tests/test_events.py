@@ -1,0 +1,152 @@
+"""Events during Cowell propagation: eclipses, re-entry, nodes and apsides."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.errors import InvalidInputError
+from visviva.satellites import (
+    AltitudeCrossing,
+    Apsides,
+    AscendingNode,
+    DescendingNode,
+    Eclipse,
+    ReEntry,
+    propagate_cowell,
+)
+from visviva.satellites.ephemeris import sun_position
+
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+R_E = vv.EARTH.radius_km
+
+
+def circular(alt_km, inc_deg, epoch=EPOCH, raan_deg=30.0):
+    return vv.KeplerianElements.from_semi_major_axis(
+        (R_E + alt_km) * u.km, 0.0, inc_deg * u.deg, raan_deg * u.deg, 0.0, 0.0, vv.EARTH, epoch
+    ).to_state()
+
+
+def test_cylindrical_eclipse_times_match_brute_force_within_1_s():
+    state = circular(500.0, 51.6)
+    span = 0.5 * 86400.0
+    out = propagate_cowell(state, span * u.s, [vv.J2(vv.EARTH)], events=[Eclipse()])
+    # brute force: every second, the shadow test with the Sun straight from the ephemeris
+    t = np.arange(0.0, span + 1.0, 1.0)
+    fine = propagate_cowell(state, t * u.s, [vv.J2(vv.EARTH)])
+    r = fine.r.to_value(u.km)
+    s = sun_position(EPOCH + t * u.s).to_value(u.km)
+    s_hat = s / np.linalg.norm(s, axis=1)[:, None]
+    proj = (r * s_hat).sum(1)
+    perp = np.linalg.norm(r - proj[:, None] * s_hat, axis=1)
+    dark = (proj < 0) & (perp < R_E)
+    flips = np.flatnonzero(np.diff(dark.astype(int)))
+    brute_entries = t[flips[dark[flips + 1]]]
+    brute_exits = t[flips[~dark[flips + 1]]]
+    entries = np.array([e.t.to_value(u.s) for e in out.events_named("eclipse", "entry")])
+    exits = np.array([e.t.to_value(u.s) for e in out.events_named("eclipse", "exit")])
+    assert len(entries) == len(brute_entries) >= 7
+    assert len(exits) == len(brute_exits)
+    # the brute-force flip lies within the 1 s sample before the event
+    assert np.all(np.abs(entries - (brute_entries + 0.5)) <= 1.0)
+    assert np.all(np.abs(exits - (brute_exits + 0.5)) <= 1.0)
+    # eclipses of a 500 km orbit last about 35 minutes
+    n = min(len(entries), len(exits))
+    durations = exits[exits > entries[0]][: n - 1] - entries[: n - 1]
+    assert np.all((30 * 60 < durations) & (durations < 40 * 60))
+
+
+def test_conical_penumbra_brackets_umbra_and_cylinder():
+    state = circular(500.0, 51.6)
+    out = propagate_cowell(
+        state,
+        0.2 * u.day,
+        [],
+        events=[Eclipse("conical"), Eclipse("conical", umbra=True), Eclipse("cylindrical")],
+    )
+    pen = [e.t.value for e in out.events_named("penumbra", "entry")]
+    umb = [e.t.value for e in out.events_named("umbra", "entry")]
+    cyl = [e.t.value for e in out.events_named("eclipse", "entry")]
+    assert len(pen) == len(umb) == len(cyl) >= 2
+    for p, c, m in zip(pen, cyl, umb, strict=True):
+        assert p < c < m  # penumbra first, then the cylinder's edge, then full shadow
+        assert m - p < 20.0  # the penumbral passage of a LEO orbit takes ~10 s
+
+
+def test_drag_decay_from_300_km_is_monotonic_and_ends_in_reentry():
+    state = circular(300.0, 51.6, epoch=None)
+    t = np.arange(0.0, 30 * 86400.0, 600.0) * u.s
+    out = propagate_cowell(
+        state, t, [vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)], events=[ReEntry(100 * u.km)]
+    )
+    assert out.terminated
+    last = out.events[-1]
+    assert last.name == "reentry" and last.what == "descending" and last.terminal
+    assert np.all(out.t <= last.t)
+    assert len(out.t) < len(t)
+    r = np.linalg.norm(out.r.to_value(u.km), axis=1)
+    v = np.linalg.norm(out.v.to_value(u.km / u.s), axis=1)
+    energy = 0.5 * v**2 - vv.EARTH.gm_km3_s2 / r
+    assert np.all(np.diff(energy) < 0)  # drag only removes energy
+    a = -vv.EARTH.gm_km3_s2 / (2 * energy)
+    assert np.all(np.diff(a) < 0)  # so the (mean) altitude falls monotonically
+    # the altitude at the event is the requested one
+    rr = last.r.to_value(u.km)
+    s = rr[2] / np.linalg.norm(rr)
+    h = np.linalg.norm(rr) - R_E * (1 - vv.constants.EARTH_FLATTENING * s * s)
+    assert abs(h - 100.0) < 1e-3
+    assert 0.5 * 86400 < last.t.to_value(u.s) < 30 * 86400
+
+
+def test_nodes_and_apsides():
+    el = vv.KeplerianElements.from_semi_major_axis(8000 * u.km, 0.1, 0.7, 0.2, 0.4, -1.0, vv.EARTH)
+    period = 2 * np.pi * np.sqrt(8000.0**3 / vv.EARTH.gm_km3_s2)
+    out = propagate_cowell(
+        el.to_state(),
+        3 * period * u.s,
+        [],
+        events=[AscendingNode(), DescendingNode(), Apsides()],
+    )
+    asc = out.events_named("ascending node")
+    desc = out.events_named("descending node")
+    peri = out.events_named("apsis", "periapsis")
+    apo = out.events_named("apsis", "apoapsis")
+    assert len(asc) == len(desc) == len(peri) == len(apo) == 3
+    for e in asc:
+        assert abs(e.r[2].to_value(u.km)) < 1e-6 and e.v[2] > 0
+    for e in desc:
+        assert abs(e.r[2].to_value(u.km)) < 1e-6 and e.v[2] < 0
+    for e in peri:
+        assert abs(np.linalg.norm(e.r.value) - 8000 * 0.9) < 1e-6
+    for e in apo:
+        assert abs(np.linalg.norm(e.r.value) - 8000 * 1.1) < 1e-6
+    # successive periapsis passages one period apart (two-body)
+    tp = np.array([e.t.value for e in peri])
+    assert np.allclose(np.diff(tp), period, atol=1e-3)
+
+
+def test_altitude_crossing_both_ways():
+    el = vv.KeplerianElements.from_semi_major_axis(
+        (R_E + 1000) * u.km, 0.05, 0.3, 0.0, 0.0, 0.0, vv.EARTH
+    )
+    out = propagate_cowell(el.to_state(), 2 * u.hour, [], events=[AltitudeCrossing(1000 * u.km)])
+    whats = [e.what for e in out.events]
+    assert "ascending" in whats and "descending" in whats
+    assert not out.terminated
+
+
+def test_eclipse_without_epoch_raises():
+    with pytest.raises(InvalidInputError, match="epoch"):
+        propagate_cowell(circular(500, 50, epoch=None), 1 * u.hour, [], events=[Eclipse()])
+
+
+def test_bad_event_arguments():
+    with pytest.raises(InvalidInputError, match="cylindrical"):
+        Eclipse("round")
+    with pytest.raises(InvalidInputError, match="direction"):
+        AltitudeCrossing(100 * u.km, direction=2)
+    with pytest.raises(InvalidInputError, match="not an event"):
+        propagate_cowell(circular(500, 50), 1 * u.hour, [], events=["eclipse"])

@@ -1,0 +1,180 @@
+"""Perturbing accelerations: closed forms, potential gradients, models and the ephemeris."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.core.perturbations import (
+    VALLADO_EXPONENTIAL_TABLE,
+    accel_drag,
+    accel_srp,
+    accel_third_body,
+    accel_zonal,
+    exponential_density,
+    shadow_fraction,
+)
+from visviva.satellites import ephemeris
+from visviva.satellites.cowell import ForceModel
+from visviva.satellites.perturbations import SOLAR_PRESSURE_1AU_N_M2
+
+GM = vv.EARTH.gm_km3_s2
+R = vv.EARTH.radius_km
+AU = vv.constants.AU_KM
+EPOCH = Time("2024-06-01T00:00:00", scale="utc")
+
+
+def zonal_potential(r, degree):
+    """U = -GM/r sum J_n (R/r)^n P_n(z/r) with numpy's Legendre polynomials."""
+    x, y, z = r
+    rn = np.sqrt(x * x + y * y + z * z)
+    s = z / rn
+    total = 0.0
+    for n in range(2, degree + 1):
+        c = np.zeros(n + 1)
+        c[n] = 1.0
+        total += vv.EARTH.jn(n) * (R / rn) ** n * np.polynomial.legendre.legval(s, c)
+    return GM / rn * total  # perturbing potential (sign: a = grad of this)
+
+
+def test_j2_matches_closed_form():
+    r = np.array([4000.0, -3000.0, 5000.0])
+    a = np.zeros(3)
+    zonal = np.array([0.0, 0.0, vv.EARTH.j2])
+    accel_zonal(*r, GM, R, zonal, 2, a)
+    x, y, z = r
+    rn = np.linalg.norm(r)
+    k = -1.5 * vv.EARTH.j2 * GM * R**2 / rn**5
+    expect = k * np.array([x * (1 - 5 * z**2 / rn**2), y * (1 - 5 * z**2 / rn**2),
+                           z * (3 - 5 * z**2 / rn**2)])  # fmt: skip
+    assert np.allclose(a, expect, rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("degree", [3, 4, 6])
+def test_zonal_is_the_gradient_of_its_potential(degree):
+    r = np.array([-5200.0, 2100.0, 4300.0])
+    zonal = np.array([0.0, 0.0] + [vv.EARTH.jn(n) for n in range(2, degree + 1)])
+    a = np.zeros(3)
+    accel_zonal(*r, GM, R, zonal, degree, a)
+    h = 1e-3
+    grad = np.array(
+        [
+            (zonal_potential(r + h * e, degree) - zonal_potential(r - h * e, degree)) / (2 * h)
+            for e in np.eye(3)
+        ]
+    )
+    # U here is +GM/r sum J_n ... P_n; the acceleration is -grad of that
+    assert np.allclose(a, -grad, rtol=1e-6, atol=1e-15)
+
+
+def test_exponential_table_values():
+    for h0, rho0, _ in VALLADO_EXPONENTIAL_TABLE:
+        assert exponential_density(h0, VALLADO_EXPONENTIAL_TABLE) == pytest.approx(rho0)
+    # continuity is not guaranteed by the table, but neighbouring layers stay within 20 %
+    for h0 in VALLADO_EXPONENTIAL_TABLE[1:, 0]:
+        lo = exponential_density(h0 - 1e-9, VALLADO_EXPONENTIAL_TABLE)
+        hi = exponential_density(h0, VALLADO_EXPONENTIAL_TABLE)
+        assert abs(lo / hi - 1) < 0.2
+    drag = vv.AtmosphericDrag(0.01 * u.m**2 / u.kg)
+    assert drag.density(300 * u.km).to_value(u.kg / u.m**3) == pytest.approx(2.418e-11)
+
+
+def test_drag_opposes_relative_velocity_with_textbook_magnitude():
+    r = np.array([R + 400.0, 0.0, 0.0])
+    v = np.array([0.0, 7.67, 0.0])
+    omega = 7.292115e-5
+    bc = 0.01e-6  # km^2/kg
+    a = np.zeros(3)
+    accel_drag(*r, *v, bc, omega, R, 0.0, VALLADO_EXPONENTIAL_TABLE, a)
+    w = v - np.cross([0, 0, omega], r)
+    rho = 3.725e-12 * 1e9  # kg/km^3 at 400 km
+    expect = -0.5 * rho * bc * np.linalg.norm(w) * w
+    assert np.allclose(a, expect, rtol=1e-12)
+
+
+def test_third_body_tidal_formula_and_symmetry():
+    a = np.zeros(3)
+    b = np.array([384400.0, 0.0, 0.0])
+    gm_m = vv.MOON.gm_km3_s2
+    accel_third_body(0.0, 0.0, 0.0, *b, gm_m, a)
+    assert np.allclose(a, 0.0, atol=1e-20)  # at the centre the tidal term vanishes
+    a = np.zeros(3)
+    accel_third_body(7000.0, 0.0, 0.0, *b, gm_m, a)
+    # tidal approximation along the line of centres: 2 GM d / D^3
+    assert a[0] == pytest.approx(2 * gm_m * 7000.0 / 384400.0**3, rel=0.06)
+
+
+def test_srp_magnitude_at_one_au_and_shadow():
+    a = np.zeros(3)
+    coef = SOLAR_PRESSURE_1AU_N_M2 * 1.0 * 1.0 * 1e-3
+    accel_srp(AU, 0.0, 0.0, 0.0, 0.0, 0.0, coef, AU, 1.0, a)
+    assert np.allclose(a, [coef, 0, 0], rtol=1e-14)
+    sun = np.array([AU, 0.0, 0.0])
+    assert shadow_fraction(7000.0, 0.0, 0.0, *sun, R, 695700.0, 2) == 1.0
+    assert shadow_fraction(-7000.0, 0.0, 0.0, *sun, R, 695700.0, 2) == 0.0
+    assert shadow_fraction(-7000.0, 0.0, 0.0, *sun, R, 695700.0, 1) == 0.0
+    # across the penumbra the visible fraction goes from 0 to 1 monotonically
+    ys = np.linspace(R - 60, R + 60, 61)
+    nus = [shadow_fraction(-7000.0, y, 0.0, *sun, R, 695700.0, 2) for y in ys]
+    assert nus[0] == 0.0 and nus[-1] == 1.0
+    assert np.all(np.diff(nus) >= 0)
+    assert any(0 < n < 1 for n in nus)
+
+
+def test_force_model_total_acceleration():
+    state = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, EPOCH)
+    model = ForceModel(GM, [vv.ThirdBody(vv.SUN), vv.ThirdBody(vv.MOON)], (), EPOCH, (0, 3600))
+    acc = model.acceleration(1800.0, state.r.value[None], state.v.value[None])[0]
+    kepler = -GM * state.r.value / 7000.0**3
+    pert = acc - kepler
+    # luni-solar tidal accelerations in LEO: 1e-10 .. 1e-8 km/s^2
+    assert 1e-10 < np.linalg.norm(pert) < 1e-8
+    sun = ephemeris.sun_position(EPOCH + 1800 * u.s).to_value(u.km)
+    moon = ephemeris.moon_position(EPOCH + 1800 * u.s).to_value(u.km)
+    expect = np.zeros(3)
+    accel_third_body(*state.r.value, *sun, vv.SUN.gm_km3_s2, expect)
+    accel_third_body(*state.r.value, *moon, vv.MOON.gm_km3_s2, expect)
+    # Hermite interpolation of the hourly table: relative error far below 1e-6
+    assert np.allclose(pert, expect, rtol=1e-6, atol=1e-18)
+
+
+def test_ephemeris_agrees_with_astropy_builtin():
+    """DE421 (jplephem) against astropy's built-in ERFA ephemeris: a few km."""
+    from astropy.coordinates import get_body_barycentric, solar_system_ephemeris
+
+    t = EPOCH + np.arange(4) * 30 * u.day
+    with solar_system_ephemeris.set("builtin"):
+        earth = get_body_barycentric("earth", t)
+        s2 = (get_body_barycentric("sun", t) - earth).xyz.to_value(u.km).T
+        m2 = (get_body_barycentric("moon", t) - earth).xyz.to_value(u.km).T
+    assert np.linalg.norm(ephemeris.sun_position(t).to_value(u.km) - s2, axis=1).max() < 20
+    assert np.linalg.norm(ephemeris.moon_position(t).to_value(u.km) - m2, axis=1).max() < 50
+    r, v = ephemeris.planet_heliocentric("mars", EPOCH)
+    assert 1.3 < np.linalg.norm(r.to_value(u.km)) / AU < 1.7
+    assert 20 < np.linalg.norm(v.to_value(u.km / u.s)) < 27
+
+
+def test_ephemeris_errors():
+    with pytest.raises(vv.InvalidInputError, match="unknown body"):
+        ephemeris.sun_position  # noqa: B018
+        ephemeris.position_velocity("vulcan", EPOCH)
+    with pytest.raises(vv.InvalidInputError, match="astropy Time"):
+        ephemeris.sun_position(2451545.0)
+
+
+def test_perturbation_reprs_and_bad_inputs():
+    assert "J2(earth)" == repr(vv.J2(vv.EARTH))
+    assert "degree=4" in repr(vv.Zonal(vv.EARTH, 4))
+    assert "moon" in repr(vv.ThirdBody(vv.MOON))
+    assert "Cr=1.3" in repr(vv.SolarRadiationPressure(0.01 * u.m**2 / u.kg))
+    with pytest.raises(vv.InvalidInputError, match="shadow"):
+        vv.SolarRadiationPressure(0.01 * u.m**2 / u.kg, shadow="square")
+    with pytest.raises(vv.InvalidInputError, match="Cr"):
+        vv.SolarRadiationPressure(0.01 * u.m**2 / u.kg, reflectivity=3.0)
+    with pytest.raises(vv.InvalidInputError, match="area_to_mass"):
+        vv.SolarRadiationPressure()
+    with pytest.raises(vv.InvalidInputError, match="ThirdBody"):
+        vv.ThirdBody(vv.EARTH)

@@ -1,0 +1,109 @@
+"""Hamiltonian mechanics: Legendre transform, symplectic orders, phase portraits, sections."""
+
+import numpy as np
+import pytest
+
+sp = pytest.importorskip("sympy")
+from sympy.physics.mechanics import dynamicsymbols  # noqa: E402
+
+from visviva import mechanics as mech  # noqa: E402
+from visviva.errors import InvalidInputError, ShapeError  # noqa: E402
+
+
+def test_legendre_transform_textbook():
+    x = dynamicsymbols("x")
+    m, k = sp.symbols("m k", positive=True)
+    H, (p,) = mech.legendre_transform(m * x.diff() ** 2 / 2 - k * x**2 / 2, [x])
+    assert sp.simplify(H - (p**2 / (2 * m) + k * x**2 / 2)) == 0
+    # polar coordinates: H = p_r^2/2m + p_phi^2/(2 m r^2) + V
+    r, ph = dynamicsymbols("r phi")
+    L = m * (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 + k / r
+    H, (pr, pphi) = mech.legendre_transform(L, [r, ph])
+    assert sp.simplify(H - (pr**2 / (2 * m) + pphi**2 / (2 * m * r**2) - k / r)) == 0
+
+
+def _oscillator():
+    q, p = sp.symbols("q p")
+    return mech.HamiltonianSystem(p**2 / 2 + 4 * q**2 / 2, [q], [p])
+
+
+@pytest.mark.parametrize(("method", "order"), [("leapfrog", 2), ("yoshida4", 4)])
+def test_symplectic_convergence_order(method, order):
+    sys = _oscillator()
+    assert sys.is_separable
+    errors = []
+    for dt in (0.02, 0.01):
+        tr = sys.symplectic([1.0], [0.0], dt, int(round(5 / dt)), method=method)
+        errors.append(np.max(np.abs(tr.q[:, 0] - np.cos(2 * tr.t))))
+    assert np.log2(errors[0] / errors[1]) == pytest.approx(order, abs=0.15)
+
+
+def test_symplectic_energy_bounded_no_drift():
+    # pendulum H = p^2/2 - cos q, 20000 steps of yoshida4: energy error bounded, no trend
+    dT = lambda p: p  # noqa: E731
+    dV = lambda q: np.sin(q)  # noqa: E731
+    tr = mech.symplectic_integrate(dT, dV, [2.0], [0.0], 0.05, 20000, save_every=10)
+    E = tr.p[:, 0] ** 2 / 2 - np.cos(tr.q[:, 0])
+    err = np.abs(E - E[0])
+    assert err.max() < 1e-5
+    first, last = err[: len(err) // 2].max(), err[len(err) // 2 :].max()
+    assert last < 2 * first
+    # forward then backward returns home
+    back = mech.symplectic_integrate(dT, dV, tr.q[-1], tr.p[-1], -0.05, 20000)
+    assert back.q[-1, 0] == pytest.approx(2.0, abs=1e-9)
+
+
+def test_from_lagrangian_and_solve_ivp_agree():
+    pend = mech.pendulum(length=1.0, g=9.81)
+    hs = mech.HamiltonianSystem.from_lagrangian(pend.lagrangian, pend.coordinates, pend.parameters)
+    t = np.linspace(0, 3, 31)
+    a = hs.simulate([1.0], [0.0], t)
+    b = pend.simulate([1.0], [0.0], t)
+    np.testing.assert_allclose(a.q[:, 0], b.q[:, 0], atol=1e-9)
+    sym = hs.symplectic([1.0], [0.0], 0.001, 3000, save_every=100)
+    np.testing.assert_allclose(sym.q[:, 0], b.q[:, 0], atol=1e-9)
+
+
+def test_phase_portrait_levels():
+    pend = mech.pendulum(length=1.0, g=1.0)
+    hs = mech.HamiltonianSystem.from_lagrangian(pend.lagrangian, pend.coordinates, pend.parameters)
+    Q, P, E = mech.phase_portrait(hs, (-np.pi, np.pi), (-3, 3), (41, 31))
+    assert E.shape == (31, 41)
+    np.testing.assert_allclose(E, P**2 / 2 - np.cos(Q), atol=1e-14)
+    Q, P, E = mech.phase_portrait(lambda q, p: p**2 + q**2, (-1, 1), (-1, 1), 5)
+    assert E[2, 2] == 0.0
+    two = mech.HamiltonianSystem(sp.Symbol("a") ** 2 + sp.Symbol("b") ** 2, ["x", "y"], ["a", "b"])
+    with pytest.raises(ShapeError):
+        mech.phase_portrait(two, (-1, 1), (-1, 1))
+
+
+def test_poincare_section_integrable_and_henon_heiles():
+    x, y, px, py = sp.symbols("x y p_x p_y")
+    # uncoupled oscillators: every crossing of x = 0 upward has p_x = sqrt(2 E_x)
+    sys = mech.HamiltonianSystem((px**2 + x**2) / 2 + (py**2 + 2 * y**2) / 2, [x, y], [px, py])
+    t, pts = mech.poincare_section(sys, [0.5, 0.3, 0.0, 0.1], 60.0, 0)
+    assert len(t) == 9
+    np.testing.assert_allclose(pts[:, 2], 0.5, rtol=1e-9)
+    np.testing.assert_allclose(np.diff(t), 2 * np.pi, rtol=1e-9)
+    # Henon-Heiles: the crossings stay on the energy surface
+    hh = mech.HamiltonianSystem(
+        (px**2 + py**2) / 2 + (x**2 + y**2) / 2 + x**2 * y - y**3 / 3, [x, y], [px, py]
+    )
+    y0 = np.array([0.0, 0.1, 0.35, 0.0])
+    t, pts = mech.poincare_section(hh, y0, 300.0, 0, max_points=30)
+    assert len(t) == 30
+    np.testing.assert_allclose(pts[:, 0], 0.0, atol=1e-10)
+    E = hh.energy(pts[:, :2], pts[:, 2:])
+    assert np.max(np.abs(E - hh.energy(y0[:2], y0[2:]))) < 1e-9
+
+
+def test_bad_inputs():
+    with pytest.raises(InvalidInputError):
+        mech.symplectic_integrate(lambda p: p, lambda q: q, [1.0], [0.0], 0.1, 10, method="rk4")
+    with pytest.raises(ShapeError):
+        mech.symplectic_integrate(lambda p: p, lambda q: q, [1.0], [0.0, 1.0], 0.1, 10)
+    q, p = sp.symbols("q p")
+    nonsep = mech.HamiltonianSystem(p**2 * (1 + q**2) / 2, [q], [p])
+    assert not nonsep.is_separable
+    with pytest.raises(InvalidInputError, match="not separable"):
+        nonsep.symplectic([1.0], [0.0], 0.1, 10)

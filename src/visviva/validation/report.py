@@ -24,6 +24,10 @@ Automatic plots (when there is no ``plot`` key)
 Grouping
     Checks with the same ``details["plot_group"]`` share one figure, one panel per check
     (e.g. the energy error of every integrator, each beside REBOUND's).
+
+Tolerance reasons
+    ``details["why"]`` (or ``tolerance_reason``, ``rationale``): one sentence on why the tolerance
+    is what it is; listed in the report's "Why these tolerances" section.
 """
 
 from __future__ import annotations
@@ -225,6 +229,18 @@ def _render(title: str, panels: list[tuple[Check, dict]], path: Path) -> bool:
     return True
 
 
+#: keys of ``details`` that explain a tolerance; shown in the report's "Why these tolerances"
+REASON_KEYS = ("why", "tolerance_reason", "rationale")
+
+
+def _reason(check: Check) -> str | None:
+    details = check.details if isinstance(check.details, dict) else {}
+    for key in REASON_KEYS:
+        if isinstance(details.get(key), str) and details[key].strip():
+            return details[key].strip()
+    return None
+
+
 def _fmt(x) -> str:
     from .runner import _fmt as fmt
 
@@ -277,6 +293,11 @@ def write_report(outcome, folder) -> Path:
             c.details.get("skipped"))
         lines.append(f"| {shown} | {markdown_escape(c.name)} | {measured} | {_fmt(c.tolerance)} "
                      f"| {markdown_escape(c.metric)} | {markdown_escape(c.reference)} |")
+    reasons = [(c, _reason(c)) for _m, c in outcome.checks if _reason(c)]
+    if reasons:
+        lines += ["", "## Why these tolerances", ""]
+        lines += [f"- {markdown_escape(c.name)} (tolerance {_fmt(c.tolerance)}): "
+                  f"{markdown_escape(why)}" for c, why in reasons]
     failures = [(m, c) for m, c in outcome.checks if status_of(c) == "FAIL"]
     if failures:
         lines += ["", "## Failures", ""]

@@ -1,0 +1,131 @@
+"""Catalogue-scale SGP4, secular J2 and Dask, timed against sgp4's SatrecArray in one process.
+
+Rows (ratio = visviva time / reference time; below 1 visviva is faster):
+
+* ``sgp4 batch``: :func:`visviva.satellites.catalog.propagate_sgp4_batch` (Time in, Quantities
+  out, error check) vs a bare ``SatrecArray.sgp4(jd, fr)`` on prepared Julian dates. Target:
+  at least 0.95x the throughput, i.e. ratio <= 1/0.95.
+* ``secular J2 batch``: :func:`propagate_j2_batch` vs ``SatrecArray``. Target: 3x faster.
+* ``dask batch``: :func:`propagate_dask` on a LocalCluster of 2 workers vs visviva's in-memory
+  batch, 10^4 satellites x 10^3 times (quick: 2000 x 500). Target: ratio <= 1.5.
+
+Run: ``python -m benchmarks`` (all) or ``python -m benchmarks.bench_sgp4``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+try:  # as part of the package (python -m benchmarks) or as a script
+    from .common import compile_time, quick_from_env, result, skipped, time_call
+except ImportError:  # pragma: no cover
+    from common import compile_time, quick_from_env, result, skipped, time_call
+
+
+def synthetic_catalog(n: int, seed: int = 0):
+    """``n`` LEO-to-MEO element sets (OMM records) with spread-out angles and drag terms."""
+    from visviva.satellites.catalog import Catalog
+    from visviva.satellites.tle import Satellite
+
+    rng = np.random.default_rng(seed)
+    records = []
+    for k in range(n):
+        records.append({
+            "OBJECT_NAME": f"SYN-{k:05d}",
+            "NORAD_CAT_ID": 10000 + k,
+            "EPOCH": "2024-01-01T00:00:00.000000",
+            "MEAN_MOTION": float(rng.uniform(11.0, 15.6)),
+            "ECCENTRICITY": float(rng.uniform(1e-4, 0.02)),
+            "INCLINATION": float(rng.uniform(0.0, 110.0)),
+            "RA_OF_ASC_NODE": float(rng.uniform(0.0, 360.0)),
+            "ARG_OF_PERICENTER": float(rng.uniform(0.0, 360.0)),
+            "MEAN_ANOMALY": float(rng.uniform(0.0, 360.0)),
+            "BSTAR": float(rng.uniform(0.0, 2e-4)),
+            "MEAN_MOTION_DOT": 0.0,
+            "MEAN_MOTION_DDOT": 0.0,
+        })
+    return Catalog([Satellite.from_omm(r) for r in records])
+
+
+def _times(m: int):
+    from astropy import units as u
+    from astropy.time import Time
+
+    return Time("2024-01-01T00:00:00", scale="utc") + np.linspace(0.0, 1.0, m) * u.day
+
+
+def run(quick: bool = False) -> list[dict]:
+    from visviva.satellites import catalog as vcat
+
+    quick = quick or quick_from_env()
+    rows = []
+    n, m = (300, 300) if quick else (1000, 1000)
+    cat = synthetic_catalog(n)
+    t = _times(m)
+    tu = t.utc
+    jd, fr = np.ascontiguousarray(tu.jd1), np.ascontiguousarray(tu.jd2)
+    sa = cat.satrec_array
+
+    ref = time_call(sa.sgp4, jd, fr, repeat=5)
+    first = compile_time(vcat.propagate_sgp4_batch, cat, t)
+    ours = time_call(vcat.propagate_sgp4_batch, cat, t, repeat=5)
+    rows.append(result(
+        f"sgp4 batch, {n} satellites x {m} times", ours, f"sgp4 SatrecArray.sgp4 ({n * m / ref.median / 1e6:.2f} M/s)",
+        ref, target=1 / 0.95, compile_s=first,
+        notes=f"visviva {n * m / ours.median / 1e6:.2f} M propagations/s; 1 thread (sgp4 C++)",
+    ))
+
+    try:
+        first = compile_time(vcat.propagate_j2_batch, cat, t)
+        j2 = time_call(vcat.propagate_j2_batch, cat, t, repeat=5)
+        rows.append(result(
+            f"secular J2 batch, {n} x {m}", j2, "sgp4 SatrecArray.sgp4", ref, target=1 / 3.0,
+            compile_s=first, notes=f"{n * m / j2.median / 1e6:.2f} M propagations/s",
+        ))
+    except ImportError as exc:
+        rows.append(skipped(f"secular J2 batch, {n} x {m}", f"not available: {exc}",
+                            "sgp4 SatrecArray.sgp4"))
+
+    rows.append(_dask_row(quick))
+    return rows
+
+
+def _dask_row(quick: bool) -> dict:
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        return skipped("dask batch", "dask.distributed not installed")
+    from visviva.satellites import catalog as vcat
+    from visviva.satellites.dask_batch import propagate_dask
+
+    n, m = (2000, 500) if quick else (10_000, 1000)
+    chunks = (n // 4, m)
+    cat = synthetic_catalog(n, seed=1)
+    t = _times(m)
+    _ = cat.satrec_array
+    mem = time_call(vcat.propagate_sgp4_batch, cat, t, repeat=3, number=1)
+    with LocalCluster(n_workers=2, processes=False, threads_per_worker=1,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        lazy = propagate_dask(cat, t, chunks=chunks)
+        t0 = time.perf_counter()
+        lazy.compute(client=client)
+        first = time.perf_counter() - t0
+
+        def go():
+            propagate_dask(cat, t, chunks=chunks).compute(client=client)
+
+        dk = time_call(go, repeat=3, number=1, warmup=0)
+    return result(
+        f"dask batch (LocalCluster 2 workers, threads), {n} x {m}", dk,
+        "visviva in-memory propagate_sgp4_batch", mem, target=1.5, compile_s=first,
+        notes=f"chunks {chunks}; sgp4 holds the GIL, so thread workers add no parallelism",
+    )
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    for row in run(quick="--quick" in sys.argv):
+        print(row)

@@ -241,6 +241,55 @@ def _satellite_time_scales(n: int):
     return worst, {"samples": n, "max_dr_km_by_time_scale": per}
 
 
+def _lambert_units(n: int):
+    from astropy import units as u
+
+    (lambert,) = _public("lambert")
+    import visviva as vv
+
+    rng = _rng(6)
+    r1 = rng.normal(0.0, 1.0, (n, 3))
+    r1 = r1 / np.linalg.norm(r1, axis=-1, keepdims=True) * rng.uniform(7000.0, 42000.0, (n, 1))
+    r2 = rng.normal(0.0, 1.0, (n, 3))
+    r2 = r2 / np.linalg.norm(r2, axis=-1, keepdims=True) * rng.uniform(7000.0, 42000.0, (n, 1))
+    tof_s = rng.uniform(1800.0, 86400.0, n)
+    v1, v2 = lambert(r1 * u.km, r2 * u.km, tof_s * u.s, vv.EARTH)
+    base = np.concatenate([v1.to_value(u.km / u.s), v2.to_value(u.km / u.s)], axis=-1)
+    per = {}
+    for label, args in (
+        ("au, day", ((r1 * u.km).to(u.au), (r2 * u.km).to(u.au), (tof_s * u.s).to(u.day),
+                     vv.EARTH)),
+        ("m, min, m3/s2", ((r1 * u.km).to(u.m), (r2 * u.km).to(u.m), (tof_s * u.s).to(u.min),
+                           vv.EARTH.gm.to(u.m**3 / u.s**2))),
+    ):
+        w1, w2 = lambert(*args)
+        other = np.concatenate([w1.to_value(u.km / u.s), w2.to_value(u.km / u.s)], axis=-1)
+        per[label] = float(np.max(np.abs(other - base)))
+    return max(per.values()), {"samples": n, "max_dv_km_s_by_units": per}
+
+
+def _cowell_time_scales():
+    from astropy import units as u
+    from astropy.time import Time
+
+    propagate_cowell, StateVectors, J2 = _public("propagate_cowell", "StateVectors", "J2")
+    import visviva as vv
+
+    epoch = Time("2024-03-20T12:00:00", scale="utc")
+    state = StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 5.0, 5.6] * u.km / u.s, vv.EARTH,
+                         epoch=epoch)
+    offsets_min = np.linspace(10.0, 600.0, 8)
+    base = propagate_cowell(state, offsets_min * u.min, [J2(vv.EARTH)])
+    per = {}
+    for label, t in (("s", (offsets_min * u.min).to(u.s)), ("day", (offsets_min * u.min).to(u.day)),
+                     ("Time utc", epoch + offsets_min * u.min),
+                     ("Time tt", (epoch + offsets_min * u.min).tt),
+                     ("Time tdb", (epoch + offsets_min * u.min).tdb)):
+        other = propagate_cowell(state, t, [J2(vv.EARTH)])
+        per[label] = float(np.max(np.linalg.norm((other.r - base.r).to_value(u.km), axis=-1)))
+    return max(per.values()), {"outputs": len(offsets_min), "max_dr_km_by_time_input": per}
+
+
 def checks(full: bool = False) -> list[Check]:
     """Units and time-scale invariance of visviva (cheap: well under a second when compiled)."""
     n = 20000 if full else 2000
@@ -266,4 +315,12 @@ def checks(full: bool = False) -> list[Check]:
                  "max |dr| (km)", ONE_MM_KM, lambda: _satellite_time_scales(200 if full else 50),
                  "astropy converts the instant between scales to ~1 ns or better (a LEO moves "
                  "8 um in 1 ns); 1 mm is the budget for SGP4 evaluated at the same instant"),
+        _guarded("units: lambert with r in km / au / m, tof in s / day / min",
+                 "max |dv| (km/s)", 1e-9, lambda: _lambert_units(200 if full else 50),
+                 "the same geometry and time of flight up to unit round-off; the iteration "
+                 "converges to ~1e-14 relative, so 1 um/s is a generous bound"),
+        _guarded("time scales: propagate_cowell (J2) with t in min / s / day / Time utc, tt, tdb",
+                 "max |dr| (km)", ONE_MM_KM, _cowell_time_scales,
+                 "the same output instants expressed differently: the adaptive integrator takes "
+                 "the same steps, so the results differ by round-off of the last step (<< 1 mm)"),
     ]

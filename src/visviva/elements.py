@@ -146,8 +146,11 @@ class KeplerianElements:
                 f"got {inc[bad_inc].ravel()[0]!r} rad. Retrograde orbits have inc > pi/2; a "
                 "negative inclination is the same orbit with inc -> -inc and raan -> raan + pi."
             )
-        with np.errstate(all="ignore"):
-            unreachable = np.broadcast_to(1.0 + ecc * np.cos(nu), shape) <= 0
+        unreachable = np.zeros(shape, dtype=bool)
+        if np.any(ecc >= 1.0):  # only open orbits have an asymptote: test those alone
+            e_b, nu_b = np.broadcast_to(ecc, shape), np.broadcast_to(nu, shape)
+            is_open = e_b >= 1.0
+            unreachable[is_open] = 1.0 + e_b[is_open] * np.cos(nu_b[is_open]) <= 0
         if np.any(unreachable):
             e_b = np.broadcast_to(ecc, shape)[unreachable].ravel()[0]
             nu_b = np.broadcast_to(nu, shape)[unreachable].ravel()[0]

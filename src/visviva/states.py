@@ -147,11 +147,13 @@ class StateVectors:
         )
         r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
         v_kms = np.ascontiguousarray(np.broadcast_to(v_kms, shape + (3,)))
-        zero = ~np.any(r_km != 0.0, axis=-1)
-        if np.any(zero):
-            where = tuple(int(i) for i in np.argwhere(zero)[0]) if shape else ()
+        from .core.elements import first_zero_vector
+
+        first, count = first_zero_vector(r_km.reshape(-1, 3))
+        if count:
+            where = tuple(int(i) for i in np.unravel_index(first, shape)) if shape else ()
             raise InvalidStateError(
-                f"r has zero length at index {where} ({int(np.count_nonzero(zero))} state(s)): "
+                f"r has zero length at index {where} ({count} state(s)): "
                 "the body would sit on the attractor, where the two-body problem is singular. "
                 "Give a non-zero position relative to the central body."
             )

@@ -56,6 +56,7 @@ __all__ = [
     "coe_to_rv_array",
     "rv_to_mee_array",
     "mee_to_rv_array",
+    "first_zero_vector",
 ]
 
 _EPS = 2.220446049250313e-16
@@ -252,18 +253,20 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_SEMI_LATUS_RECTUM
     if ecc < 0.0:
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_ECCENTRICITY
-    denom = 1.0 + ecc * math.cos(nu)
+    cn = math.cos(nu)
+    denom = 1.0 + ecc * cn
     if not denom > 0.0:
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
     rm = p / denom
     si, ci = _sin_cos_inc(inc)
     so = math.sin(raan)
     co = math.cos(raan)
-    u = argp + nu
-    su = math.sin(u)
-    cu = math.cos(u)
+    sn = math.sin(nu)
     sw = math.sin(argp)
     cw = math.cos(argp)
+    # u = argp + nu by the addition formulas (one sin/cos pair fewer; error ~ 2 ulp either way)
+    su = sw * cn + cw * sn
+    cu = cw * cn - sw * sn
     # + 0.0: no negative zeros in the output (e.g. z of an equatorial orbit)
     rx = rm * (co * cu - so * su * ci) + 0.0
     ry = rm * (so * cu + co * su * ci) + 0.0
@@ -537,3 +540,23 @@ def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
         v[i, 2] = vz
         status[i] = s
     return r, v, status
+
+
+@parallel_kernel
+def first_zero_vector(r):
+    """Index of the first row of ``r`` (n, 3) that is exactly (0, 0, 0) (signed zeros too), or -1.
+
+    Also returns the number of such rows. Used to validate positions in one pass.
+    """
+    n = r.shape[0]
+    zero = np.zeros(n, dtype=np.bool_)
+    for i in prange(n):
+        zero[i] = r[i, 0] == 0.0 and r[i, 1] == 0.0 and r[i, 2] == 0.0
+    count = 0
+    first = -1
+    for i in range(n):
+        if zero[i]:
+            if first < 0:
+                first = i
+            count += 1
+    return first, count

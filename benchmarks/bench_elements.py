@@ -1,0 +1,125 @@
+"""State vectors <-> classical elements, timed against Skyfield in one process.
+
+Rows (ratio = visviva time / reference time; below 1 visviva is faster; target 0.2 = 5x faster):
+
+* ``states -> elements``: ``vv.StateVectors(r, v, gm).to_elements()`` from Quantities, plus
+  reading p, e, i, raan, argp, nu as Quantities, vs Skyfield's
+  ``elementslib.OsculatingElements(Distance, Velocity, None, mu)`` reading the same six
+  elements (its properties are lazy too).
+* ``elements -> states``: ``vv.KeplerianElements(p, e, i, raan, argp, nu, gm).to_state()`` from
+  Quantities (with its validation), reading ``.r`` and ``.v``, vs Skyfield's
+  ``keplerlib.ele_to_vec`` (which also validates its input).
+* the same two with the bare compiled kernels (``visviva.core.elements.*_array``) on float64
+  arrays, to show the cost of the public layer.
+
+Random non-degenerate orbits (ellipses and hyperbolas, all inclinations), 10^6 of them
+(quick: 10^5). Run: ``python -m benchmarks --only elements`` or
+``python -m benchmarks.bench_elements``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+try:  # as part of the package (python -m benchmarks) or as a script
+    from .common import compile_time, quick_from_env, result, skipped, time_call
+except ImportError:  # pragma: no cover
+    from common import compile_time, quick_from_env, result, skipped, time_call
+
+MU = 398600.4418
+TARGET = 0.2  # at least 5x faster than Skyfield
+
+
+def _orbits(n: int, seed: int = 1):
+    rng = np.random.default_rng(seed)
+    r = rng.normal(size=(n, 3)) * 10000.0
+    v = rng.normal(size=(n, 3)) * 3.0
+    return r, v
+
+
+def run(quick: bool = False) -> list[dict]:
+    quick = quick or quick_from_env()
+    n = 100_000 if quick else 1_000_000
+    try:
+        from astropy import units as u
+
+        import visviva as vv
+        from visviva.core.elements import coe_to_rv_array, rv_to_coe_array
+    except Exception as exc:  # pragma: no cover
+        return [skipped("states -> elements", f"visviva not importable: {exc}")]
+    try:
+        import skyfield
+        from skyfield.elementslib import OsculatingElements
+        from skyfield.keplerlib import ele_to_vec
+        from skyfield.units import Distance, Velocity
+    except ImportError as exc:  # pragma: no cover
+        return [skipped("states -> elements", f"skyfield missing: {exc}", "skyfield")]
+
+    r, v = _orbits(n)
+    gm_q = MU * u.km**3 / u.s**2
+    r_q, v_q = r * u.km, v * u.km / u.s
+    gm_flat = np.full(n, MU)
+    sky_ref = f"skyfield {skyfield.__version__}"
+    rows = []
+
+    # --- states -> elements -------------------------------------------------------------------
+    def vv_rv2coe():
+        el = vv.StateVectors(r_q, v_q, gm_q).to_elements()
+        return (el.semi_latus_rectum, el.eccentricity, el.inclination,
+                el.longitude_of_ascending_node, el.argument_of_periapsis, el.true_anomaly)
+
+    def sky_rv2coe():
+        el = OsculatingElements(Distance(km=r.T), Velocity(km_per_s=v.T), None, MU)
+        return (el.semi_latus_rectum, el.eccentricity, el.inclination,
+                el.longitude_of_ascending_node, el.argument_of_periapsis, el.true_anomaly)
+
+    def kernel_rv2coe():
+        return rv_to_coe_array(r, v, gm_flat)
+
+    c1 = compile_time(kernel_rv2coe)
+    t_vv = time_call(vv_rv2coe, repeat=5)
+    t_k = time_call(kernel_rv2coe, repeat=5)
+    t_sky = time_call(sky_rv2coe, repeat=3)
+    note = f"{n:.0e} random ellipses/hyperbolas; {n / t_vv.median / 1e6:.1f} M states/s"
+    rows.append(result(f"states -> elements, {n:.0e} states (public API, Quantities)",
+                       t_vv, sky_ref + " OsculatingElements", t_sky, TARGET,
+                       notes=note + f"; skyfield {n / t_sky.median / 1e6:.2f} M/s",
+                       compile_s=c1))
+    rows.append(result(f"states -> elements, {n:.0e} states (kernel rv_to_coe_array)",
+                       t_k, sky_ref + " OsculatingElements", t_sky, TARGET,
+                       notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
+
+    # --- elements -> states -------------------------------------------------------------------
+    p, e, i, raan, argp, nu, _ = rv_to_coe_array(r, v, gm_flat)
+    p_q = p * u.km
+
+    def vv_coe2rv():
+        s = vv.KeplerianElements(p_q, e, i, raan, argp, nu, gm_q).to_state()
+        return s.r, s.v
+
+    def sky_coe2rv():
+        return ele_to_vec(p, e, i, raan, argp, nu, MU)
+
+    def kernel_coe2rv():
+        return coe_to_rv_array(p, e, i, raan, argp, nu, gm_flat)
+
+    c2 = compile_time(kernel_coe2rv)
+    t_vv = time_call(vv_coe2rv, repeat=5)
+    t_k = time_call(kernel_coe2rv, repeat=5)
+    t_sky = time_call(sky_coe2rv, repeat=3)
+    note = f"{n / t_vv.median / 1e6:.1f} M states/s"
+    rows.append(result(f"elements -> states, {n:.0e} orbits (public API, Quantities)",
+                       t_vv, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,
+                       notes=note + f"; skyfield {n / t_sky.median / 1e6:.2f} M/s",
+                       compile_s=c2))
+    rows.append(result(f"elements -> states, {n:.0e} orbits (kernel coe_to_rv_array)",
+                       t_k, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,
+                       notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    for row in run(quick="--quick" in sys.argv):
+        print(row)

@@ -55,7 +55,8 @@ DATA_FILES = sorted(p.name for p in DATA.glob("*.json"))
 
 
 def test_there_is_reference_data():
-    assert {"rebound_orbits.json", "sgp4_astropy.json", "rebound_nbody.json"} <= set(DATA_FILES)
+    assert {"rebound_orbits.json", "sgp4_astropy.json", "rebound_nbody.json",
+            "kepler_mpmath.json"} <= set(DATA_FILES)
 
 
 @pytest.mark.parametrize("name", DATA_FILES)
@@ -68,7 +69,8 @@ def test_provenance_header(name):
     script = ROOT / head["generator"]
     assert script.is_file(), f"{name}: generator {script} does not exist"
     assert "python" in head["libraries"] and "numpy" in head["libraries"]
-    assert any(lib in head["libraries"] for lib in ("rebound", "sgp4", "astropy", "skyfield"))
+    assert any(lib in head["libraries"] for lib in ("rebound", "sgp4", "astropy", "skyfield",
+                                                    "mpmath"))
     dt.datetime.strptime(head["generated_utc"], "%Y-%m-%dT%H:%M:%SZ")
     assert data["cases"], f"{name} holds no cases"
     assert name in (VALIDATION / "README.md").read_text(), "list the file in validation/README.md"
@@ -133,6 +135,40 @@ def test_propagation_vs_rebound_all_regimes():
                                                                c["propagated"]]), axis=-1)
         worst[c["regime"]] = max(worst.get(c["regime"], 0.0), float(dr.max()))
     assert max(worst.values()) < ONE_MM, worst
+
+
+# --------------------------------------------------------------------------------------------
+# Kepler's equation: mpmath at 60 digits
+
+EPS = np.finfo(float).eps
+
+
+def _kepler(regime):
+    cases = [c for c in _data("kepler_mpmath.json")["cases"] if c["regime"] == regime]
+    return {k: np.array([c[k] for c in cases]) for k in ("M", "ecc", "anomaly", "nu", "dnu_dM")}
+
+
+@pytest.mark.parametrize(("regime", "solver"), [("elliptic", "solve_kepler"),
+                                                ("hyperbolic", "solve_kepler_hyperbolic")])
+def test_kepler_anomaly_vs_mpmath(regime, solver):
+    """E and F to 4 ulp, relative: the solvers are as good as the rounding of the answer."""
+    solve = _public(solver)
+    c = _kepler(regime)
+    got = np.asarray(solve(c["M"], c["ecc"]), dtype=float)
+    err = np.abs(got - c["anomaly"])
+    assert np.all(err <= 4 * EPS * np.abs(c["anomaly"])), np.max(err / (EPS * np.abs(c["anomaly"])
+                                                                        + 1e-300))
+
+
+@pytest.mark.parametrize("regime", ["elliptic", "hyperbolic", "parabolic"])
+def test_mean_to_true_vs_mpmath(regime):
+    """nu within 4 roundings of its condition: 4 eps (|nu| + |M| dnu/dM)."""
+    mean_to_true = _public("mean_to_true")
+    c = _kepler(regime)
+    got = np.asarray(mean_to_true(c["M"], c["ecc"]), dtype=float)
+    err = _angle_diff(got, c["nu"])
+    bound = 4 * EPS * (np.abs(c["nu"]) + np.abs(c["M"]) * c["dnu_dM"])
+    assert np.all(err <= bound), np.max(err / np.maximum(bound, 1e-300))
 
 
 # --------------------------------------------------------------------------------------------
@@ -235,6 +271,15 @@ def test_live_rebound_nbody_regenerate():
     for new, old in zip(fresh["cases"], committed["cases"], strict=True):
         last_new, last_old = new["snapshots"][-1], old["snapshots"][-1]
         assert _max_abs_diff(last_new["positions"], last_old["positions"]) < 1e-3
+
+
+@pytest.mark.live
+def test_live_kepler_mpmath_regenerate():
+    pytest.importorskip("mpmath")
+    fresh = _load_script("generate_kepler_mpmath").generate()
+    committed = _data("kepler_mpmath.json")
+    for new, old in zip(fresh["cases"], committed["cases"], strict=True):
+        assert new["anomaly"] == old["anomaly"] and new["nu"] == old["nu"]
 
 
 @pytest.mark.live

@@ -49,9 +49,13 @@ __all__ = [
 MAX_ITERATIONS = 60
 
 _EPS = 2.220446049250313e-16
+#: A Laguerre step below this fraction of s is taken as the last one (cubic convergence).
+_ACCEPT = 1e-6
 _TWO_PI = 2.0 * math.pi
 #: |psi| below which the Stumpff functions come from their Taylor series (no cancellation).
 _SERIES_LIMIT = 4.0
+#: Cancellation factor of g = r0 G1 + eta G2 above which the perifocal form takes over.
+_SWITCH = 16.0
 #: |r x v| <= _RADIAL_TOL |r| |v| counts as radial (rectilinear) motion.
 _RADIAL_TOL = 4.0 * _EPS
 
@@ -326,7 +330,9 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
         delta = 5.0 * F / denom
         s_new = s - delta
         noise = 4.0 * _EPS * (abs(t_r0) + abs(t_eta) + abs(t_gm) + abs(tau)) / dF
-        if abs(delta) <= 2.0 * _EPS * abs(s) + noise:
+        # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
+        # below 1e-17, so the step is taken and the loop ends without another evaluation.
+        if abs(delta) <= _ACCEPT * abs(s) + noise:
             if lo < s_new < hi:
                 s = s_new
             converged = True
@@ -353,8 +359,15 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
     G0 = c0
     G1 = s * c1
     G2 = s * s * c2
+    t_r0 = r0 * G1
+    t_eta = eta * G2
+    g = t_r0 + t_eta
+    if abs(t_r0) + abs(t_eta) > _SWITCH * abs(g) or abs(t_r0) + abs(t_eta) > _SWITCH * abs(tau):
+        # the increment form cancels (a far start falling in): use the periapsis form
+        out = _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s)
+        if out[0] == OK:
+            return out
     f = 1.0 - gm * G2 / r0
-    g = r0 * G1 + eta * G2
     rx = f * x + g * vx
     ry = f * y + g * vy
     rz = f * z + g * vz
@@ -371,6 +384,96 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
         fdot * x + gdot * vx,
         fdot * y + gdot * vy,
         fdot * z + gdot * vz,
+    )
+
+
+@inline_kernel
+def _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s_guess):
+    """Propagation in the perifocal frame with the universal anomaly counted from periapsis.
+
+    Used when the increment form cancels (the start is far from the attractor and the path
+    falls in: ``|r0 G1| + |eta G2| >> |g|``). From periapsis every term has one sign:
+    ``t(sigma) = q sigma + gm e G3``, ``r = q + gm e G2``, ``r.v = gm e G1`` and, in the
+    perifocal frame (P toward periapsis, Q = h x P / h),
+    ``r = (q - gm G2) P + h G1 Q``, ``v = -(gm/r) G1 P + (h/r) G0 Q``
+    (Danby 1992 sec. 6.9 with eta = 0 at periapsis). The starting anomaly sigma0 follows from
+    ``G1(sigma0) = eta / (gm e)`` and ``G2(sigma0) = (r0 - q) / (gm e)``. Returns a non-OK
+    status when the orbit is too close to circular for the frame (never the case when the
+    increment form cancels) or the iteration fails; the caller then keeps the increment form.
+    """
+    nan = math.nan
+    hx = y * vz - z * vy
+    hy = z * vx - x * vz
+    hz = x * vy - y * vx
+    h2 = hx * hx + hy * hy + hz * hz
+    h = math.sqrt(h2)
+    # e = v x h / gm - r / r0 (no large cancellation far from the attractor)
+    ex = (vy * hz - vz * hy) / gm - x / r0
+    ey = (vz * hx - vx * hz) / gm - y / r0
+    ez = (vx * hy - vy * hx) / gm - z / r0
+    ecc = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if not ecc > 1e-3:
+        return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
+    px = ex / ecc
+    py = ey / ecc
+    pz = ez / ecc
+    if h > 0.0:
+        qx = (hy * pz - hz * py) / h
+        qy = (hz * px - hx * pz) / h
+        qz = (hx * py - hy * px) / h
+    else:
+        qx = qy = qz = 0.0
+    q = h2 / (gm * (1.0 + ecc))
+    mue = gm * ecc
+    g1 = eta / mue
+    if beta > 0.0:
+        kb = math.sqrt(beta)
+        sigma0 = math.atan2(kb * g1, 1.0 - beta * (r0 - q) / mue) / kb
+    elif beta < 0.0:
+        kb = math.sqrt(-beta)
+        sigma0 = math.asinh(kb * g1) / kb
+    else:
+        sigma0 = g1
+    c0, c1, c2, c3 = _stumpff_all(beta * sigma0 * sigma0)
+    T1 = q * sigma0 + mue * sigma0 * sigma0 * sigma0 * c3 + tau
+    sigma = sigma0 + s_guess
+    converged = False
+    for _ in range(12):
+        c0, c1, c2, c3 = _stumpff_all(beta * sigma * sigma)
+        t_q = q * sigma
+        t_e = mue * sigma * sigma * sigma * c3
+        F = t_q + t_e - T1
+        dF = q + mue * sigma * sigma * c2
+        ddF = mue * sigma * c1
+        if F == 0.0:
+            converged = True
+            break
+        delta = 5.0 * F / (dF + math.sqrt(abs(16.0 * dF * dF - 20.0 * F * ddF)))
+        noise = 4.0 * _EPS * (abs(t_q) + abs(t_e) + abs(T1)) / dF
+        sigma -= delta
+        if abs(delta) <= _ACCEPT * abs(sigma) + noise:
+            converged = True
+            break
+    if not converged or not math.isfinite(sigma):
+        return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
+    c0, c1, c2, c3 = _stumpff_all(beta * sigma * sigma)
+    G1 = sigma * c1
+    G2 = sigma * sigma * c2
+    r = q + mue * G2
+    if not r > 0.0:
+        return HITS_ATTRACTOR, nan, nan, nan, nan, nan, nan
+    X = q - gm * G2
+    Y = h * G1
+    VX = -gm * G1 / r
+    VY = h * c0 / r
+    return (
+        OK,
+        X * px + Y * qx,
+        X * py + Y * qy,
+        X * pz + Y * qz,
+        VX * px + VY * qx,
+        VX * py + VY * qy,
+        VX * pz + VY * qz,
     )
 
 

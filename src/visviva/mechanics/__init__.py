@@ -71,6 +71,7 @@ _PUBLIC = {
     "conservation_report": "energy",
     # Lagrangian and Hamiltonian
     "LagrangianSystem": "lagrangian",
+    "LagrangianTrajectory": "lagrangian",
     "pendulum": "lagrangian",
     "double_pendulum": "lagrangian",
     "spring_pendulum": "lagrangian",
@@ -80,6 +81,7 @@ _PUBLIC = {
     "leapfrog": "hamiltonian",
     "yoshida4": "hamiltonian",
     "symplectic_integrate": "hamiltonian",
+    "SymplecticTrajectory": "hamiltonian",
     "phase_portrait": "hamiltonian",
     "poincare_section": "hamiltonian",
 }

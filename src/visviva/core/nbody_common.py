@@ -57,7 +57,8 @@ F_SOFT2 = 5  #: softening length squared
 F_G = 6  #: gravitational constant
 F_ENCOUNTER = 7  #: encounter distance (0 = off)
 F_EXIT = 8  #: escape radius from the origin (0 = off)
-F_T_COMP = 9  #: reserved
+F_T0 = 9  #: fixed-step integrators: time origin, t = t0 + k |dt| (no accumulated round-off)
+F_DT_REF = 10  #: the |dt| that origin was set with (0 forces a new origin)
 N_FSTATE = 16
 
 I_NOUT = 0  #: outputs written in this run
@@ -72,6 +73,7 @@ I_CORRECTOR = 8  #: WHFast symplectic corrector order (0 = none)
 I_FRESH = 9  #: 1: the integrator's internal state must be (re)initialised
 I_STOP_AT_STEP = 10  #: > 0: pause (return PAUSED) once istate[I_STEPS] reaches this count
 I_EXACT_FINISH = 11  #: 1: land exactly on output times; 0: stop at the first step at or past them
+I_K = 12  #: fixed-step integrators: signed number of whole steps since the time origin F_T0
 N_ISTATE = 16
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.
@@ -151,6 +153,34 @@ def should_pause(istate):
     """True when the step budget of this call is used up (progress bars resume the run)."""
     stop = istate[I_STOP_AT_STEP]
     return stop > 0 and istate[I_STEPS] >= stop
+
+
+@kernel
+def start_clock(fstate, istate):
+    """Fixed-step integrators: keep the time origin unless ``|dt|`` changed (then restart it)."""
+    adt = abs(fstate[F_DT])
+    if fstate[F_DT_REF] != adt:
+        fstate[F_T0] = fstate[F_T]
+        fstate[F_DT_REF] = adt
+        istate[I_K] = 0
+
+
+@kernel
+def advance_clock(fstate, istate, h, last, exact, target):
+    """Time after a fixed step ``h``: ``t0 + k |dt|`` for whole steps (no accumulated round-off
+    over millions of steps), ``target`` exactly when landing on it (which restarts the origin)."""
+    adt = fstate[F_DT_REF]
+    if last and exact:
+        fstate[F_T] = target
+        fstate[F_T0] = target
+        istate[I_K] = 0
+    elif abs(h) == adt:
+        istate[I_K] += 1 if h > 0.0 else -1
+        fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
+    else:
+        fstate[F_T] = fstate[F_T] + h
+        fstate[F_T0] = fstate[F_T]
+        istate[I_K] = 0
 
 
 @kernel

@@ -26,10 +26,12 @@ from .nbody_common import (
     I_STEPS,
     PAUSED,
     accelerations,
+    advance_clock,
     check_events,
     next_fixed_step,
     run_direction,
     should_pause,
+    start_clock,
     write_output,
 )
 from .status import OK
@@ -51,6 +53,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
     acc = buf[0]
     dt = fstate[F_DT]
     exact = istate[I_EXACT_FINISH] != 0
+    start_clock(fstate, istate)
     direction = run_direction(fstate[F_T], t_out)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
@@ -58,8 +61,8 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
             t = fstate[F_T]
             h, last = next_fixed_step(t, target, dt, exact, direction)
             if h == 0.0:
-                if exact:
-                    fstate[F_T] = target
+                if exact and fstate[F_T] != target:
+                    advance_clock(fstate, istate, 0.0, True, True, target)
                 break
             half = 0.5 * h
             for i in range(n):
@@ -70,7 +73,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                 for c in range(3):
                     v[i, c] += acc[i, c] * h
                     x[i, c] += v[i, c] * half
-            fstate[F_T] = target if (last and exact) else t + h
+            advance_clock(fstate, istate, h, last, exact, target)
             fstate[F_DT_LAST] = h
             istate[I_STEPS] += 1
             status = check_events(x, v, radius, fstate, istate)

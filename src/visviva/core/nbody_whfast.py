@@ -43,10 +43,12 @@ from .nbody_common import (
     I_STEPS,
     PAUSED,
     accelerations,
+    advance_clock,
     check_events,
     next_fixed_step,
     run_direction,
     should_pause,
+    start_clock,
     write_output,
 )
 from .status import OK
@@ -67,41 +69,49 @@ N_BUF = 5
 
 @kernel
 def to_jacobi(x, m, eta, xj):
-    """Inertial -> Jacobi (positions, velocities or accelerations alike); ``xj[0]`` = COM."""
+    """Inertial -> Jacobi (positions, velocities or accelerations alike); ``xj[0]`` = COM.
+
+    With ``X_0 = x_0``: ``x'_i = x_i - X_{i-1}``, ``X_i = X_{i-1} + (m_i / eta_i) x'_i``. The
+    inverse :func:`from_jacobi` undoes the same operations in reverse order, so the round trip is
+    free of a systematic scale error (two separately rounded factors ``eta_{i-1}/eta_i`` and
+    ``m_i/eta_i`` whose sum is not exactly 1 would shrink or stretch the relative motion every
+    step and make the energy drift).
+    """
     n = x.shape[0]
-    sx = m[0] * x[0, 0]
-    sy = m[0] * x[0, 1]
-    sz = m[0] * x[0, 2]
+    Xx = x[0, 0]
+    Xy = x[0, 1]
+    Xz = x[0, 2]
     for i in range(1, n):
-        e = eta[i - 1]
-        xj[i, 0] = x[i, 0] - sx / e
-        xj[i, 1] = x[i, 1] - sy / e
-        xj[i, 2] = x[i, 2] - sz / e
-        sx += m[i] * x[i, 0]
-        sy += m[i] * x[i, 1]
-        sz += m[i] * x[i, 2]
-    e = eta[n - 1]
-    xj[0, 0] = sx / e
-    xj[0, 1] = sy / e
-    xj[0, 2] = sz / e
+        dx = x[i, 0] - Xx
+        dy = x[i, 1] - Xy
+        dz = x[i, 2] - Xz
+        xj[i, 0] = dx
+        xj[i, 1] = dy
+        xj[i, 2] = dz
+        q = m[i] / eta[i]
+        Xx += q * dx
+        Xy += q * dy
+        Xz += q * dz
+    xj[0, 0] = Xx
+    xj[0, 1] = Xy
+    xj[0, 2] = Xz
 
 
 @kernel
 def from_jacobi(xj, m, eta, x):
-    """Jacobi -> inertial: ``x_i = X_i + (eta_{i-1}/eta_i) x'_i``, ``X_{i-1} = X_i - (m_i/eta_i) x'_i``."""
+    """Jacobi -> inertial: ``X_{i-1} = X_i - (m_i / eta_i) x'_i``, ``x_i = X_{i-1} + x'_i``."""
     n = x.shape[0]
     Xx = xj[0, 0]
     Xy = xj[0, 1]
     Xz = xj[0, 2]
     for i in range(n - 1, 0, -1):
-        f = eta[i - 1] / eta[i]
-        g = m[i] / eta[i]
-        x[i, 0] = Xx + f * xj[i, 0]
-        x[i, 1] = Xy + f * xj[i, 1]
-        x[i, 2] = Xz + f * xj[i, 2]
-        Xx -= g * xj[i, 0]
-        Xy -= g * xj[i, 1]
-        Xz -= g * xj[i, 2]
+        q = m[i] / eta[i]
+        Xx -= q * xj[i, 0]
+        Xy -= q * xj[i, 1]
+        Xz -= q * xj[i, 2]
+        x[i, 0] = Xx + xj[i, 0]
+        x[i, 1] = Xy + xj[i, 1]
+        x[i, 2] = Xz + xj[i, 2]
     x[0, 0] = Xx
     x[0, 1] = Xy
     x[0, 2] = Xz
@@ -161,6 +171,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
         eta[i] = s
     dt = fstate[F_DT]
     exact = istate[I_EXACT_FINISH] != 0
+    start_clock(fstate, istate)
     direction = run_direction(fstate[F_T], t_out)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
@@ -168,8 +179,8 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             t = fstate[F_T]
             h, last = next_fixed_step(t, target, dt, exact, direction)
             if h == 0.0:
-                if exact:
-                    fstate[F_T] = target
+                if exact and fstate[F_T] != target:
+                    advance_clock(fstate, istate, 0.0, True, True, target)
                 break
             half = 0.5 * h
             to_jacobi(x, m, eta, xj)
@@ -186,7 +197,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 return st
             from_jacobi(xj, m, eta, x)
             from_jacobi(vj, m, eta, v)
-            fstate[F_T] = target if (last and exact) else t + h
+            advance_clock(fstate, istate, h, last, exact, target)
             fstate[F_DT_LAST] = h
             istate[I_STEPS] += 1
             status = check_events(x, v, radius, fstate, istate)

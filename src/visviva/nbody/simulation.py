@@ -196,6 +196,7 @@ class Simulation:
     @t.setter
     def t(self, value) -> None:
         self._fstate[_nc.F_T] = self._time(value, "t")
+        self._fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
 
     @property
     def dt(self) -> float:

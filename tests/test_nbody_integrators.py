@@ -1,0 +1,241 @@
+"""Every integrator of the registry: accuracy, symmetry, restart bit for bit, REBOUND agreement."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import visviva as vv
+from visviva.nbody.integrators import INTEGRATORS
+
+DATA = Path(__file__).parent / "data"
+ALL = sorted(INTEGRATORS)
+SYMPLECTIC = [k for k, i in INTEGRATORS.items() if i.symplectic]
+REVERSIBLE = [k for k, i in INTEGRATORS.items() if i.time_reversible]
+ADAPTIVE = [k for k, i in INTEGRATORS.items() if i.adaptive]
+
+
+def kepler_pair(integrator, e=0.5, dt=None):
+    sim = vv.Simulation(integrator, dt=dt)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, e=e, primary=0)
+    sim.move_to_com()
+    return sim
+
+
+def outer_solar_system(integrator, dt=None):
+    """Sun + Jupiter..Neptune at J2000 (au, yr, Msun)."""
+    full = vv.solar_system(integrator=integrator)
+    sim = vv.Simulation(integrator, G=full.G, dt=dt)
+    for k in (0, 5, 6, 7, 8):
+        sim.add(full.masses[k], full.positions[k], full.velocities[k])
+    sim.move_to_com()
+    return sim
+
+
+def test_registry_flags():
+    assert set(ALL) >= {"leapfrog", "whfast", "ias15"}
+    assert INTEGRATORS["ias15"].adaptive and not INTEGRATORS["ias15"].symplectic
+    assert INTEGRATORS["whfast"].symplectic and INTEGRATORS["leapfrog"].symplectic
+    assert INTEGRATORS["ias15"].velocity_dependent_forces
+    assert not INTEGRATORS["whfast"].velocity_dependent_forces
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_two_body_energy_and_angular_momentum(name):
+    sim = kepler_pair(name, e=0.3, dt=None if name == "ias15" else 2 * math.pi / 400)
+    E0, L0 = sim.energy(), sim.angular_momentum()
+    sim.integrate(20 * 2 * math.pi)
+    tol = 1e-13 if name in ("ias15", "whfast") else 1e-3
+    assert abs(sim.energy() / E0 - 1) < tol
+    assert np.abs(sim.angular_momentum() - L0).max() < 1e-13
+    assert np.abs(sim.momentum()).max() < 1e-15
+
+
+def test_ias15_figure_eight_returns_after_one_period():
+    d = json.loads((DATA / "figure_eight.json").read_text())
+    sim = vv.Simulation("ias15")
+    for m, r, v in zip(d["masses"], d["positions"], d["velocities"], strict=True):
+        sim.add(m, r, v)
+    x0, v0 = sim.positions, sim.velocities
+    sim.integrate(d["period"])
+    assert np.abs(sim.positions - x0).max() < 1e-7
+    assert np.abs(sim.velocities - v0).max() < 1e-7
+    assert abs(sim.energy() / d["computed"]["energy"] - 1) < 1e-14
+
+
+def test_ias15_two_body_agrees_with_kepler():
+    sim = kepler_pair("ias15", e=0.9)
+    rel0 = sim.positions[1] - sim.positions[0]
+    sim.integrate(10 * 2 * math.pi / math.sqrt(1.001))  # ten periods of the relative orbit
+    rel = sim.positions[1] - sim.positions[0]
+    assert np.abs(rel - rel0).max() < 1e-10
+
+
+@pytest.mark.parametrize(
+    "dt", [pytest.param(0.001, marks=pytest.mark.slow), 0.01, 0.05, 0.7, 3.0]
+)
+def test_whfast_is_exact_for_two_bodies_at_any_dt(dt):
+    sim = kepler_pair("whfast", e=0.6, dt=dt)
+    rel0 = sim.positions[1] - sim.positions[0]
+    vrel0 = sim.velocities[1] - sim.velocities[0]
+    period = 2 * math.pi / math.sqrt(sim.G * 1.001)
+    sim.exact_finish_time = True
+    sim.integrate(1000 * period)
+    rel = sim.positions[1] - sim.positions[0]
+    vrel = sim.velocities[1] - sim.velocities[0]
+    # 1,000 orbits: phase error from round-off only (REBOUND 5.2: ~1e-7 here)
+    assert np.abs(rel - rel0).max() < 5e-8
+    assert np.abs(vrel - vrel0).max() < 5e-8
+
+
+def test_whfast_hyperbolic_flyby_is_exact():
+    sim = vv.Simulation("whfast", dt=0.37)
+    sim.add(1.0)
+    sim.add(0.0, r=[-20.0, 1.0, 0.0], v=[1.2, 0.0, 0.0])
+    def specific_energy(s):
+        d, w = s.positions[1] - s.positions[0], s.velocities[1] - s.velocities[0]
+        return 0.5 * w @ w - 1.0 / np.linalg.norm(d)
+
+    E0 = specific_energy(sim)
+    sim.integrate(40.0)
+    assert abs(specific_energy(sim) / E0 - 1) < 1e-13
+    back = sim.copy()
+    back.integrate(0.0)
+    np.testing.assert_allclose(back.positions[1], [-20.0, 1.0, 0.0], atol=1e-11)
+
+
+@pytest.mark.parametrize("name", REVERSIBLE)
+def test_forward_then_backward_returns_home(name):
+    sim = outer_solar_system(name, dt=0.5)
+    x0, v0 = sim.positions, sim.velocities
+    sim.integrate(500.0)
+    sim.integrate(0.0)
+    assert sim.t == 0.0
+    assert np.abs(sim.positions - x0).max() < 1e-11
+    assert np.abs(sim.velocities - v0).max() < 1e-11
+
+
+@pytest.mark.parametrize("name", SYMPLECTIC)
+def test_symplectic_energy_error_is_bounded(name):
+    sim = outer_solar_system(name, dt=0.5)
+    E0 = sim.energy()
+    traj = sim.integrate(np.linspace(100.0, 5000.0, 50))
+    err = np.abs(traj.energy() / E0 - 1)
+    # no secular drift: the late errors are no larger than the early ones
+    assert err[25:].max() < 2.0 * err[:25].max() + 1e-12
+    # 24 steps per Jupiter orbit: leapfrog ~1e-3, WHFast ~1e-6 (errors O(dt^2) and O(eps dt^2))
+    assert err.max() < (1e-2 if name == "leapfrog" else 1e-5)
+
+
+def test_ias15_outer_solar_system_energy_short():
+    sim = outer_solar_system("ias15")
+    E0 = sim.energy()
+    sim.integrate(1200.0)  # 100 Jupiter orbits
+    assert abs(sim.energy() / E0 - 1) < 1e-14
+
+
+@pytest.mark.slow
+def test_ias15_outer_solar_system_energy_1000_orbits():
+    sim = outer_solar_system("ias15")
+    E0 = sim.energy()
+    sim.integrate(11862.0)  # 1,000 Jupiter orbits
+    assert abs(sim.energy() / E0 - 1) < 1e-14
+
+
+@pytest.mark.slow
+def test_whfast_outer_solar_system_no_drift_1e5_steps():
+    sim = outer_solar_system("whfast", dt=0.5)
+    E0 = sim.energy()
+    traj = sim.integrate(np.linspace(500.0, 50000.0, 100))
+    err = np.abs(traj.energy() / E0 - 1)
+    assert err[50:].max() < 2.0 * err[:50].max()
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_restart_in_a_fresh_process_is_bit_for_bit(name, tmp_path):
+    def make():
+        sim = outer_solar_system(name, dt=None if name == "ias15" else 0.3)
+        sim.exact_finish_time = False
+        return sim
+
+    one_go = make()
+    one_go.integrate(60.0)
+    first = make()
+    first.integrate(30.0)
+    path = tmp_path / f"{name}.npz"
+    first.save(path)
+    out = tmp_path / "out.npy"
+    code = textwrap.dedent(f"""
+        import numpy as np, visviva as vv
+        sim = vv.Simulation.load({str(path)!r})
+        sim.integrate(60.0)
+        np.save({str(out)!r}, np.concatenate([sim.positions, sim.velocities, [[sim.t] * 3]]))
+    """)
+    subprocess.run([sys.executable, "-c", code], check=True)
+    res = np.load(out)
+    np.testing.assert_array_equal(res[:5], one_go.positions)
+    np.testing.assert_array_equal(res[5:10], one_go.velocities)
+    assert res[10, 0] == one_go.t
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_save_load_in_process_keeps_every_bit(name, tmp_path):
+    sim = outer_solar_system(name, dt=None if name == "ias15" else 0.3)
+    sim.integrate(10.0)
+    sim.save(tmp_path / "a.npz")
+    back = vv.Simulation.load(tmp_path / "a.npz")
+    for a, b in ((sim._x, back._x), (sim._v, back._v), (sim._fstate, back._fstate),
+                 (sim._istate, back._istate), (sim._buf, back._buf)):
+        np.testing.assert_array_equal(a, b)
+    sim.integrate(20.0)
+    back.integrate(20.0)
+    np.testing.assert_array_equal(sim.positions, back.positions)
+
+
+def test_load_rejects_other_files(tmp_path):
+    np.savez(tmp_path / "x.npz", a=np.zeros(3))
+    with pytest.raises(vv.InvalidInputError, match="not a"):
+        vv.Simulation.load(tmp_path / "x.npz")
+
+
+def _rebound_copy(sim, integrator):
+    rebound = pytest.importorskip("rebound")
+    r = rebound.Simulation()
+    r.G = sim.G
+    for m, x, v in zip(sim.masses, sim.positions, sim.velocities, strict=True):
+        r.add(m=m, x=x[0], y=x[1], z=x[2], vx=v[0], vy=v[1], vz=v[2])
+    r.integrator = integrator
+    return r
+
+
+def test_whfast_agrees_with_rebound_whfast():
+    sim = vv.solar_system(integrator="whfast")
+    r = _rebound_copy(sim, "whfast")
+    r.dt = sim.dt
+    r.exact_finish_time = 0
+    r.integrate(100.0)
+    sim.integrate(r.t)
+    xr = np.array([[p.x, p.y, p.z] for p in r.particles])
+    rel = np.linalg.norm(sim.positions - xr, axis=1) / np.linalg.norm(xr, axis=1)
+    # the same map: differences are round-off, growing like t^2 through the mean motions
+    assert rel.max() < 1e-9
+    assert abs(sim.energy() / r.energy() - 1) < 1e-11
+
+
+@pytest.mark.slow
+def test_ias15_agrees_with_rebound_ias15_1000_years():
+    sim = vv.solar_system(integrator="ias15")
+    r = _rebound_copy(sim, "ias15")
+    r.integrate(1000.0)
+    sim.integrate(1000.0)
+    xr = np.array([[p.x, p.y, p.z] for p in r.particles])
+    rel = np.linalg.norm(sim.positions - xr, axis=1) / np.linalg.norm(xr, axis=1)
+    assert rel.max() < 1e-9

@@ -218,3 +218,17 @@ def test_bench_page_marks_targets(tmp_path, monkeypatch):
     text = bench_main.markdown(rows, quick=True, elapsed_s=1.0)
     assert "| fast |" in text and "| met |" in text and "| NOT met |" in text
     assert "1 of 2 targets met" in text
+
+
+def test_warnings_are_recorded_not_printed(monkeypatch, tmp_path, capsys):
+    import warnings
+
+    def noisy(full=False):
+        warnings.warn("IERS table is old", UserWarning, stacklevel=1)
+        return _passing()
+
+    name = _fake_module(monkeypatch, "noisy", noisy)
+    assert runner.run(modules=[name], report_dir=tmp_path, progress=False) == 0
+    captured = capsys.readouterr()
+    assert "IERS table is old" not in captured.out + captured.err
+    assert "UserWarning: IERS table is old" in (tmp_path / "report.md").read_text()

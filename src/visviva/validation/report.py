@@ -308,6 +308,12 @@ def write_report(outcome, folder) -> Path:
             if err:
                 tail = "\n".join(str(err).strip().splitlines()[-12:]).replace("```", "'''")
                 lines += ["", "  ```text", *["  " + t for t in tail.splitlines()], "  ```", ""]
+    warned = [m for m in outcome.modules if m.warnings]
+    if warned:
+        lines += ["", "## Warnings raised during the checks", ""]
+        for m in warned:
+            lines += [f"- {markdown_escape(short_name(m.module))}: {markdown_escape(w)}"
+                      for w in m.warnings[:20]]
     plot_lines: list[str] = []
     for i, (title, panels) in enumerate(_figures(outcome), 1):
         name = f"plot_{i:02d}_{_slug(title)}.png"

@@ -28,6 +28,7 @@ import signal
 import sys
 import time
 import traceback
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +52,7 @@ class ModuleResult:
     checks: list[Check]
     elapsed_s: float
     error: str | None = None
+    warnings: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -152,7 +154,23 @@ def _in_main_thread() -> bool:
 
 
 def run_module(module: str, full: bool = False, timeout_s: float | None = None) -> ModuleResult:
-    """Import ``module`` and call its ``checks(full)``; every failure becomes a failed check."""
+    """Import ``module`` and call its ``checks(full)``; every failure becomes a failed check.
+
+    Python warnings raised meanwhile are recorded in :attr:`ModuleResult.warnings` (and listed in
+    the report) instead of being printed between the result lines.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        result = _run_module(module, full, timeout_s)
+    seen: dict[str, int] = {}
+    for w in caught:
+        text = f"{w.category.__name__}: {str(w.message).splitlines()[0][:200]}"
+        seen[text] = seen.get(text, 0) + 1
+    result.warnings = [f"{t} (x{n})" if n > 1 else t for t, n in seen.items()]
+    return result
+
+
+def _run_module(module: str, full: bool, timeout_s: float | None) -> ModuleResult:
     t0 = time.perf_counter()
     try:
         mod = importlib.import_module(module)
@@ -301,8 +319,8 @@ def to_json(outcome: Outcome) -> dict:
         "counts": counts,
         "exit_code": outcome.exit_code,
         "environment": environment(),
-        "modules": [{"module": m.module, "elapsed_s": m.elapsed_s, "error": m.error}
-                    for m in outcome.modules],
+        "modules": [{"module": m.module, "elapsed_s": m.elapsed_s, "error": m.error,
+                     "warnings": m.warnings} for m in outcome.modules],
         "checks": [{"module": short_name(mod), "name": c.name, "status": status_of(c),
                     "metric": c.metric, "measured": _jsonable(_as_float(c.measured)),
                     "tolerance": _jsonable(_as_float(c.tolerance)), "reference": c.reference,

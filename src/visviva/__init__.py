@@ -58,6 +58,7 @@ _PUBLIC = {
     "true_to_parabolic": "visviva.anomalies",
     "eccentric_to_mean": "visviva.anomalies",
     "hyperbolic_to_mean": "visviva.anomalies",
+    "propagate_kepler": "visviva.propagation",
     # central force
     "vis_viva": "visviva.central_force",
     "effective_potential": "visviva.central_force",

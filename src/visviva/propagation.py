@@ -1,0 +1,117 @@
+"""Two-body (Kepler) propagation of state vectors with universal variables.
+
+:func:`propagate_kepler` is the public wrapper: it checks units and shapes, broadcasts the states
+against the times once, makes ONE call of the compiled kernel
+:func:`visviva.core.universal.propagate_many` over the flattened items and raises through
+:func:`visviva.errors.raise_for_status`. ``StateVectors.propagate(dt)`` calls it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _units
+from .errors import InvalidInputError, ShapeError, raise_for_status
+
+__all__ = ["propagate_kepler"]
+
+
+def propagate_kepler(state, dt):
+    """States after two-body (Kepler) motion for a time ``dt``, on every conic.
+
+    Parameters
+    ----------
+    state : StateVectors
+        Initial states, leading shape ``S`` (``()`` for one state), each with its central body's
+        GM.
+    dt : Quantity
+        Time of flight (unit of time, e.g. ``u.s``, ``u.day``); negative values propagate
+        backwards and ``0`` returns the input exactly. Plain numbers are refused: the unit is
+        required. ``dt`` broadcasts against ``S`` with numpy's rules: for ``N`` states
+        (``S = (N,)``) a ``dt`` of shape ``(N,)`` gives one time per state, ``(T, 1)`` gives every
+        state at every time (result shape ``(T, N)``), and a scalar moves them all by the same
+        time.
+
+    Returns
+    -------
+    StateVectors
+        Shape ``np.broadcast_shapes(S, dt.shape)``. Same GM; the epoch, when set, advances by
+        ``dt`` (``epoch + dt`` as an astropy ``Time``, broadcast to the result's shape when
+        either is an array).
+
+    Raises
+    ------
+    UnitsError
+        ``dt`` without a unit of time.
+    ShapeError
+        ``dt`` does not broadcast against the states' shape.
+    InvalidInputError
+        NaN or infinite ``dt``; ``state`` is not a ``StateVectors``.
+    InvalidStateError
+        A radial orbit (``r x v = 0``) would reach the attractor (``r = 0``) within ``dt``.
+    ConvergenceError
+        The bounded iteration failed (never observed; report the quoted inputs).
+
+    Notes
+    -----
+    Universal variables (Danby 1992 sec. 6.9; Vallado 2013 Algorithm 8; Battin 1999 ch. 4): with
+    ``beta = 2 mu / r0 - v0^2`` and the Stumpff-Danby functions ``G_k(beta, s)`` the universal
+    Kepler equation ``dt = r0 G1 + (r0 . v0) G2 + mu G3`` is solved for ``s`` by safeguarded
+    Laguerre-Conway iteration, and Lagrange's coefficients give
+    ``r = f r0 + g v0``, ``v = fdot r0 + gdot v0``. Elliptic ``dt`` is reduced modulo the period
+    first, so many revolutions keep full accuracy. The first call compiles the kernel (or loads
+    it from numba's cache).
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> from astropy import units as u
+    >>> s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH)
+    >>> later = propagate_kepler(s, [0, 10, 20] * u.min)
+    >>> later.shape
+    (3,)
+    """
+    from .core.universal import propagate_many
+    from .states import StateVectors
+
+    if not isinstance(state, StateVectors):
+        raise InvalidInputError(
+            f"state must be a visviva.StateVectors, got {type(state).__name__}. Build one with "
+            "vv.StateVectors(r, v, gm) from Quantities r (km) and v (km/s)."
+        )
+    dt_s = _units.to_array(dt, "time", "dt")
+    try:
+        shape = np.broadcast_shapes(state.shape, dt_s.shape)
+    except ValueError:
+        raise ShapeError(
+            f"dt of shape {dt_s.shape} does not broadcast against the states' shape "
+            f"{state.shape}. For every state at every time give dt the shape (T, 1) with N "
+            "states of shape (N,); for one time per state give dt the states' shape."
+        ) from None
+
+    n = int(np.prod(shape, dtype=np.int64))
+    r0 = np.ascontiguousarray(np.broadcast_to(state._r, shape + (3,))).reshape(n, 3)
+    v0 = np.ascontiguousarray(np.broadcast_to(state._v, shape + (3,))).reshape(n, 3)
+    gm = np.ascontiguousarray(np.broadcast_to(state._gm, shape)).reshape(n)
+    dt_flat = np.ascontiguousarray(np.broadcast_to(dt_s, shape)).reshape(n)
+    r_out = np.empty((n, 3))
+    v_out = np.empty((n, 3))
+    status = np.empty(n, dtype=np.int64)
+    propagate_many(r0, v0, gm, dt_flat, r_out, v_out, status)
+    raise_for_status(
+        status.reshape(shape),
+        "Kepler propagation",
+        r_km=r0.reshape(shape + (3,)),
+        v_km_s=v0.reshape(shape + (3,)),
+        dt_s=dt_flat.reshape(shape),
+    )
+
+    epoch = state.epoch
+    if epoch is not None:
+        epoch = epoch + _units.to_quantity(dt_s, "time")
+        if epoch.shape not in ((), shape):
+            epoch = np.broadcast_to(epoch, shape, subok=True)
+    gm_out = state._gm if np.ndim(state._gm) == 0 else gm.reshape(shape)
+    return StateVectors._from_canonical(
+        r_out.reshape(shape + (3,)), v_out.reshape(shape + (3,)), gm_out, epoch
+    )

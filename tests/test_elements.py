@@ -327,6 +327,14 @@ def test_validation_errors():
     # 180 deg converts to a float a hair above or at pi: accepted as pi
     el = make(inc=180 * u.deg)
     assert el.inclination.value == PI
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        vv.KeplerianElements.from_semi_major_axis(np.nan * KM, 0.5, 0, 0, 0, 0, MU)
+    with pytest.raises(vv.InvalidElementsError, match="p .* must be > 0"):
+        vv.ModifiedEquinoctialElements(-1 * KM, 0.0, 0.0, 0.0, 0.0, 0.0, MU)
+    with pytest.raises(vv.InvalidInputError, match="gm must be > 0"):
+        vv.ModifiedEquinoctialElements(7000 * KM, 0.0, 0.0, 0.0, 0.0, 0.0, -MU)
+    with pytest.raises(vv.UnitsError):
+        vv.ModifiedEquinoctialElements(7000.0, 0.0, 0.0, 0.0, 0.0, 0.0, MU)
     # an equinoctial set beyond the asymptote
     with pytest.raises(vv.InvalidElementsError, match="asymptote"):
         vv.ModifiedEquinoctialElements(7000 * KM, 2.0, 0.0, 0.0, 0.0, PI, MU)

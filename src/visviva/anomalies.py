@@ -23,6 +23,7 @@ The first call of each function compiles its kernel (or loads it from numba's ca
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from astropy import units as u
 
@@ -46,6 +47,9 @@ __all__ = [
     "hyperbolic_to_mean",
 ]
 
+#: below this many items the kernels run on the calling thread only
+_PARALLEL_MIN_ITEMS = 4096
+
 
 def _run(kernel, context, angle, angle_name, ecc=None):
     """Convert, broadcast, call ``kernel(angle, [ecc,] out, status)`` once, raise, wrap."""
@@ -67,9 +71,20 @@ def _run(kernel, context, angle, angle_name, ecc=None):
         shape = x.shape
         inputs["ecc"] = e
         args = (np.ascontiguousarray(x).ravel(), np.ascontiguousarray(e).ravel())
-    out = np.empty(args[0].shape[0], dtype=np.float64)
-    status = np.empty(args[0].shape[0], dtype=np.int8)
-    kernel(*args, out, status)
+    n = args[0].shape[0]
+    out = np.empty(n, dtype=np.float64)
+    status = np.empty(n, dtype=np.int8)
+    if n < _PARALLEL_MIN_ITEMS:
+        # waking numba's worker threads costs ~0.1-5 ms (far more on a busy machine) while a
+        # few thousand solves take microseconds: run small batches on the calling thread
+        threads = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            kernel(*args, out, status)
+        finally:
+            numba.set_num_threads(threads)
+    else:
+        kernel(*args, out, status)
     status = status.reshape(shape)
     raise_for_status(status, context, **inputs)
     out = out.reshape(shape)

@@ -188,6 +188,8 @@ def _cubic_root(a, b, c):
 @inline_kernel
 def _mean_elliptic(E, ecc):
     """E - e sin E, accurate to a few ulp relative also for e -> 1, E -> 0."""
+    if E == 0.0:
+        return E  # keeps the sign of zero
     if ecc > 0.5 and abs(E) < 2.0:
         return (1.0 - ecc) * E + ecc * _x_minus_sin(E)
     return E - ecc * math.sin(E)
@@ -196,6 +198,8 @@ def _mean_elliptic(E, ecc):
 @inline_kernel
 def _mean_hyperbolic(F, ecc):
     """e sinh F - F, accurate to a few ulp relative also for e -> 1, F -> 0."""
+    if F == 0.0:
+        return F
     if ecc < 2.0 and abs(F) < 2.0:
         return (ecc - 1.0) * F + ecc * _sinh_minus_x(F)
     return ecc * math.sinh(F) - F

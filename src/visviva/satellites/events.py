@@ -7,7 +7,8 @@ inside the 1 ms the docs promise, and records the time and state. A terminal eve
 stops the propagation there.
 
 >>> import visviva as vv
->>> events = [vv.Eclipse(), vv.ReEntry(), vv.AscendingNode(), vv.Apsides()]
+>>> sat = vv.satellites
+>>> events = [sat.Eclipse(), sat.ReEntry(), sat.AscendingNode(), sat.Apsides()]
 """
 
 from __future__ import annotations

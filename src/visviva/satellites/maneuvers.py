@@ -1,0 +1,242 @@
+"""Impulsive manoeuvres: Hohmann, bi-elliptic, plane change and Lambert transfers.
+
+A :class:`Maneuver` is a sequence of impulses (time after the start, Δv vector); ``apply``
+coasts on the two-body conic between impulses and returns the state just after the last one.
+
+>>> import visviva as vv
+>>> from astropy import units as u
+>>> leo = vv.StateVectors([6678.0, 0, 0] * u.km, [0, 7.7258, 0] * u.km / u.s, vv.EARTH)
+>>> man = vv.satellites.Maneuver.hohmann(leo, 42164 * u.km)
+>>> print(f"{man.total_delta_v.to_value(u.km / u.s):.3f} km/s in {man.duration.to(u.h):.2f}")
+3.893 km/s in 5.28 h
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from astropy import units as u
+
+from .._units import to_array, to_quantity, to_vector
+from ..errors import InvalidInputError, InvalidStateError
+
+__all__ = [
+    "Impulse",
+    "Maneuver",
+    "hohmann_delta_v",
+    "bielliptic_delta_v",
+    "plane_change_delta_v",
+]
+
+
+def hohmann_delta_v(r1, r2, gm):
+    """Δv of the two burns and the transfer time of a Hohmann transfer between circles.
+
+    Δv1 = sqrt(mu/r1) (sqrt(2 r2/(r1 + r2)) - 1), Δv2 = sqrt(mu/r2) (1 - sqrt(2 r1/(r1 + r2))),
+    t = pi sqrt((r1 + r2)^3 / (8 mu)) (Vallado 2013, Algorithm 36; Curtis 2014, sec. 6.2).
+    Signed: negative burns slow down (for r2 < r1).
+
+    Returns
+    -------
+    dv1, dv2 : Quantity, km/s
+    tof : Quantity, s
+    """
+    a = to_array(r1, "length", "r1")
+    b = to_array(r2, "length", "r2")
+    mu = to_array(gm, "gm", "gm")
+    if np.any(a <= 0) or np.any(b <= 0) or np.any(mu <= 0):
+        raise InvalidInputError("r1, r2 and gm must be > 0.")
+    dv1 = np.sqrt(mu / a) * (np.sqrt(2 * b / (a + b)) - 1)
+    dv2 = np.sqrt(mu / b) * (1 - np.sqrt(2 * a / (a + b)))
+    tof = np.pi * np.sqrt((a + b) ** 3 / (8 * mu))
+    return to_quantity(dv1, "speed"), to_quantity(dv2, "speed"), to_quantity(tof, "time")
+
+
+def bielliptic_delta_v(r1, rb, r2, gm):
+    """Δv of the three burns and the total time of a bi-elliptic transfer via radius ``rb``.
+
+    Two Hohmann half-ellipses r1 -> rb and rb -> r2 (Vallado 2013, Algorithm 37).
+
+    Returns
+    -------
+    dv1, dv2, dv3 : Quantity, km/s (signed along the velocity)
+    tof : Quantity, s
+    """
+    a = to_array(r1, "length", "r1")
+    m = to_array(rb, "length", "rb")
+    b = to_array(r2, "length", "r2")
+    mu = to_array(gm, "gm", "gm")
+    if np.any(m < np.maximum(a, b)):
+        raise InvalidInputError("the intermediate radius rb must be >= r1 and r2.")
+    a1 = 0.5 * (a + m)
+    a2 = 0.5 * (m + b)
+    dv1 = np.sqrt(2 * mu / a - mu / a1) - np.sqrt(mu / a)
+    dv2 = np.sqrt(2 * mu / m - mu / a2) - np.sqrt(2 * mu / m - mu / a1)
+    dv3 = np.sqrt(mu / b) - np.sqrt(2 * mu / b - mu / a2)
+    tof = np.pi * (np.sqrt(a1**3 / mu) + np.sqrt(a2**3 / mu))
+    q = lambda x: to_quantity(x, "speed")  # noqa: E731
+    return q(dv1), q(dv2), q(dv3), to_quantity(tof, "time")
+
+
+def plane_change_delta_v(speed, delta_inc):
+    """Δv = 2 v sin(Δi/2) of a pure plane change at speed v (Vallado 2013, eq. 6-23)."""
+    v = to_array(speed, "speed", "speed")
+    di = to_array(delta_inc, "angle", "delta_inc")
+    return to_quantity(2 * np.abs(v) * np.abs(np.sin(di / 2)), "speed")
+
+
+@dataclass(frozen=True)
+class Impulse:
+    """One impulsive burn: ``t`` after the start of the manoeuvre, ``dv`` (3,) inertial."""
+
+    t: u.Quantity
+    dv: u.Quantity
+
+
+class Maneuver:
+    """A sequence of impulses applied to a state, with two-body coasts in between.
+
+    Parameters
+    ----------
+    impulses : list of Impulse or (t, dv) pairs
+        Times from the start (non-decreasing Quantities) and Δv vectors (Quantity (3,), km/s).
+    """
+
+    def __init__(self, impulses):
+        items = []
+        for imp in impulses:
+            t, dv = (imp.t, imp.dv) if isinstance(imp, Impulse) else imp
+            t_s = float(to_array(t, "time", "impulse time"))
+            dv_v = to_vector(dv, "speed", "impulse dv")
+            if dv_v.shape != (3,):
+                raise InvalidInputError("each impulse dv must be one (3,) vector.")
+            items.append((t_s, dv_v))
+        if not items:
+            raise InvalidInputError("a manoeuvre needs at least one impulse.")
+        times = [t for t, _ in items]
+        if any(b < a for a, b in zip(times, times[1:], strict=False)) or times[0] < 0:
+            raise InvalidInputError("impulse times must be >= 0 and non-decreasing.")
+        self._items = items
+
+    @property
+    def impulses(self) -> list:
+        return [Impulse(t * u.s, to_quantity(dv, "speed")) for t, dv in self._items]
+
+    @property
+    def total_delta_v(self):
+        """Sum of the impulse magnitudes, km/s."""
+        return sum(np.linalg.norm(dv) for _, dv in self._items) * (u.km / u.s)
+
+    @property
+    def duration(self):
+        """Time from the first to the last impulse, s."""
+        return (self._items[-1][0] - self._items[0][0]) * u.s
+
+    def apply(self, state):
+        """Coast and burn through the impulses; the state just after the last impulse.
+
+        The returned state's epoch (if any) is advanced to the time of the last impulse.
+        """
+        from ..states import StateVectors
+
+        t_prev = 0.0
+        cur = state
+        for t, dv in self._items:
+            if t > t_prev:
+                cur = cur.propagate((t - t_prev) * u.s)
+            cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
+            t_prev = t
+        return cur
+
+    def __repr__(self):
+        return (
+            f"Maneuver({len(self._items)} impulses, {self.total_delta_v:.6f}, {self.duration:.1f})"
+        )
+
+    # ------------------------------------------------------------------ constructors
+
+    @staticmethod
+    def _circular(state, what):
+        r = to_vector(state.r, "length", "state.r")
+        v = to_vector(state.v, "speed", "state.v")
+        if r.shape != (3,):
+            raise InvalidInputError(f"{what} takes one state (shape (3,)).")
+        mu = float(to_array(state.gm, "gm", "state.gm"))
+        rn = np.linalg.norm(r)
+        if (
+            abs(np.dot(r, v)) > 1e-3 * rn * np.linalg.norm(v)
+            or abs(np.dot(v, v) - mu / rn) > 2e-3 * mu / rn
+        ):
+            raise InvalidStateError(
+                f"{what} starts from a circular orbit; this state is not circular to 1e-3 "
+                "(|r.v| or |v^2 - mu/r| too large). Use Maneuver.lambert for general transfers."
+            )
+        return r, v, mu, rn
+
+    @classmethod
+    def hohmann(cls, state, r_final):
+        """Hohmann transfer from the circular orbit of ``state`` to radius ``r_final``."""
+        r, v, mu, r1 = cls._circular(state, "Maneuver.hohmann")
+        r2 = float(to_array(r_final, "length", "r_final"))
+        dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, mu * u.km**3 / u.s**2)
+        v_hat = v / np.linalg.norm(v)
+        # the first burn starts from the actual speed (exact for a nearly circular start)
+        dv1 = (np.sqrt(mu / r1) + dv1.value - np.linalg.norm(v)) * (u.km / u.s)
+        # at the far apsis the velocity is antiparallel to the initial one
+        return cls(
+            [
+                (0 * u.s, dv1.value * v_hat * (u.km / u.s)),
+                (tof, -dv2.value * v_hat * (u.km / u.s)),
+            ]
+        )
+
+    @classmethod
+    def bielliptic(cls, state, r_intermediate, r_final):
+        """Bi-elliptic transfer via ``r_intermediate`` from a circular orbit to ``r_final``."""
+        r, v, mu, r1 = cls._circular(state, "Maneuver.bielliptic")
+        rb = float(to_array(r_intermediate, "length", "r_intermediate"))
+        r2 = float(to_array(r_final, "length", "r_final"))
+        gm = mu * u.km**3 / u.s**2
+        dv1, dv2, dv3, _ = bielliptic_delta_v(r1 * u.km, rb * u.km, r2 * u.km, gm)
+        t1 = np.pi * np.sqrt((0.5 * (r1 + rb)) ** 3 / mu)
+        t2 = np.pi * np.sqrt((0.5 * (rb + r2)) ** 3 / mu)
+        v_hat = v / np.linalg.norm(v)
+        kms = u.km / u.s
+        return cls(
+            [
+                (0 * u.s, dv1.value * v_hat * kms),
+                (t1 * u.s, -dv2.value * v_hat * kms),
+                ((t1 + t2) * u.s, dv3.value * v_hat * kms),
+            ]
+        )
+
+    @classmethod
+    def plane_change(cls, state, delta_inc):
+        """Rotate the velocity about the position vector by ``delta_inc`` (now).
+
+        Applied at a node this changes the inclination by ``delta_inc`` at the cost
+        2 v sin(Δi/2) for a horizontal velocity.
+        """
+        r = to_vector(state.r, "length", "state.r")
+        v = to_vector(state.v, "speed", "state.v")
+        di = float(to_array(delta_inc, "angle", "delta_inc"))
+        k = r / np.linalg.norm(r)
+        # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
+        # so at the ascending node a positive di raises the inclination
+        th = di
+        v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
+        return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])
+
+    @classmethod
+    def lambert(cls, state_from, state_to, tof, **lambert_kwargs):
+        """Two-impulse rendezvous: leave ``state_from`` now, meet ``state_to`` after ``tof``.
+
+        ``state_to`` is the target's state at the start; it is propagated by ``tof`` on its
+        own conic. Extra keywords go to :func:`visviva.lambert` (revolutions, prograde, ...).
+        """
+        from .lambert_solvers import lambert
+
+        target = state_to.propagate(tof)
+        v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
+        return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])

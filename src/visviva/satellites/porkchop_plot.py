@@ -1,0 +1,154 @@
+"""Porkchop plots: launch energy and arrival speed over a grid of departure and arrival dates.
+
+Planet states come from the offline ephemeris (:mod:`visviva.satellites.ephemeris`, DE421 when
+installed); every grid point is one zero-revolution prograde Lambert problem about the Sun, all
+solved in one vectorised call.
+
+>>> import numpy as np
+>>> from astropy import units as u
+>>> from astropy.time import Time
+>>> from visviva.satellites.porkchop_plot import porkchop
+>>> dep = Time("2005-06-20", scale="tdb") + np.arange(0, 120, 10) * u.day
+>>> arr = Time("2005-12-01", scale="tdb") + np.arange(0, 240, 10) * u.day
+>>> pc = porkchop("earth", "mars", dep, arr)
+>>> print(f"{pc.c3.to_value(u.km**2 / u.s**2)[np.isfinite(pc.c3)].min():.0f}")
+16
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from astropy import units as u
+
+from ..bodies import SUN
+from ..errors import DomainError, InvalidInputError
+from .ephemeris import planet_heliocentric
+
+__all__ = ["porkchop", "Porkchop"]
+
+
+@dataclass
+class Porkchop:
+    """Porkchop grid. Arrays have shape (N_departure, N_arrival); NaN where tof <= 0 or no
+    solution.
+
+    Attributes
+    ----------
+    departure, arrival : astropy Time (N,), (M,)
+    tof : Quantity, days
+    c3 : Quantity, km^2/s^2
+        Launch energy |v1 - v_departure_planet|^2.
+    v_inf_arrival : Quantity, km/s
+        Hyperbolic excess speed at arrival |v2 - v_arrival_planet|.
+    delta_v : Quantity, km/s
+        v_inf departure + v_inf arrival (both patched-conic excess speeds).
+    """
+
+    departure: object
+    arrival: object
+    tof: u.Quantity
+    c3: u.Quantity
+    v_inf_arrival: u.Quantity
+    delta_v: u.Quantity
+    names: tuple
+
+    def best(self):
+        """(departure, arrival, delta_v) at the minimum total excess speed."""
+        dv = self.delta_v.to_value(u.km / u.s)
+        if not np.any(np.isfinite(dv)):
+            raise DomainError("no transfer on this grid; widen the date ranges.")
+        i, j = np.unravel_index(np.nanargmin(dv), dv.shape)
+        return self.departure[i], self.arrival[j], self.delta_v[i, j]
+
+    def plot(self, ax=None, levels=None, path=None):
+        """Contour plot of C3 (filled) and the time of flight (lines); returns the Figure.
+
+        Uses the Agg backend unless a figure already exists; ``path`` saves it to a file.
+        """
+        import matplotlib
+
+        if ax is None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(7, 5.5))
+        else:
+            fig = ax.figure
+        x = (self.departure - self.departure[0]).to_value(u.day)
+        y = (self.arrival - self.arrival[0]).to_value(u.day)
+        c3 = self.c3.to_value(u.km**2 / u.s**2).T
+        if levels is None:
+            finite = c3[np.isfinite(c3)]
+            lo = np.nanmin(finite) if finite.size else 0.0
+            levels = lo + np.array([0, 1, 2, 4, 8, 16, 32, 64])
+        cs = ax.contourf(x, y, c3, levels=levels, cmap="viridis", extend="max")
+        fig.colorbar(cs, ax=ax, label="C3 (km$^2$/s$^2$)")
+        ct = ax.contour(x, y, self.tof.to_value(u.day).T, colors="white", linewidths=0.6)
+        ax.clabel(ct, fmt="%d d", fontsize=7)
+        ax.set_xlabel(f"departure, days after {self.departure[0].iso[:10]}")
+        ax.set_ylabel(f"arrival, days after {self.arrival[0].iso[:10]}")
+        ax.set_title(f"{self.names[0].title()} to {self.names[1].title()}")
+        if path is not None:
+            fig.savefig(path, dpi=100)
+        return fig
+
+
+def porkchop(departure_body, arrival_body, departure_times, arrival_times):
+    """Lambert transfers between two planets over a grid of dates.
+
+    Parameters
+    ----------
+    departure_body, arrival_body : str or Body
+        Planet names (``"earth"``, ``"mars"``, ...) or ``vv.MARS`` etc.
+    departure_times, arrival_times : astropy Time, 1-D
+        The grid axes.
+
+    Returns
+    -------
+    Porkchop
+        C3, arrival v_inf, total excess speed and time of flight on the grid.
+
+    Notes
+    -----
+    Patched conics: heliocentric zero-revolution prograde Lambert arcs (Izzo 2015) between
+    the planets' positions; C3 = |v1 - v_p1|^2, v_inf = |v2 - v_p2| (Vallado 2013, sec. 12.6;
+    Curtis 2014, sec. 8.10).
+    """
+    from astropy.time import Time
+
+    from .lambert_solvers import lambert
+
+    for name, t in (("departure_times", departure_times), ("arrival_times", arrival_times)):
+        if not isinstance(t, Time) or t.ndim != 1:
+            raise InvalidInputError(f"{name} must be a 1-D astropy Time array.")
+    dname = str(getattr(departure_body, "name", departure_body)).lower()
+    aname = str(getattr(arrival_body, "name", arrival_body)).lower()
+    r1, v1p = planet_heliocentric(dname, departure_times)
+    r2, v2p = planet_heliocentric(aname, arrival_times)
+    tof = (arrival_times[None, :] - departure_times[:, None]).to(u.s)
+    valid = tof.value > 0
+    tof_safe = np.where(valid, tof.value, 1.0) * u.s
+    R1 = np.broadcast_to(r1.to_value(u.km)[:, None, :], tof.shape + (3,))
+    R2 = np.broadcast_to(r2.to_value(u.km)[None, :, :], tof.shape + (3,))
+    # collinear geometries (transfer angle 180 deg) have no defined plane: nudge them
+    cross = np.linalg.norm(np.cross(R1, R2), axis=-1)
+    bad = cross <= 1e-9 * np.linalg.norm(R1, axis=-1) * np.linalg.norm(R2, axis=-1)
+    R2 = np.where(bad[..., None], R2 + np.array([0.0, 0.0, 1.0]), R2)
+    v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm)
+    kms = u.km / u.s
+    dv1 = np.linalg.norm(v1.to_value(kms) - v1p.to_value(kms)[:, None, :], axis=-1)
+    dv2 = np.linalg.norm(v2.to_value(kms) - v2p.to_value(kms)[None, :, :], axis=-1)
+    dv1[~valid] = np.nan
+    dv2[~valid] = np.nan
+    return Porkchop(
+        departure_times,
+        arrival_times,
+        np.where(valid, tof.to_value(u.day), np.nan) * u.day,
+        dv1**2 * kms**2,
+        dv2 * kms,
+        (dv1 + dv2) * kms,
+        (dname, aname),
+    )

@@ -1,0 +1,123 @@
+"""Impulsive manoeuvres and porkchop plots."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.errors import InvalidInputError, InvalidStateError
+from visviva.satellites.maneuvers import (
+    Maneuver,
+    bielliptic_delta_v,
+    hohmann_delta_v,
+    plane_change_delta_v,
+)
+from visviva.satellites.porkchop_plot import porkchop
+
+KMS = u.km / u.s
+MU = 398600.4418
+GM = MU * u.km**3 / u.s**2
+
+
+def circular_state(r, inc=0.0):
+    return vv.KeplerianElements.from_semi_major_axis(
+        r * u.km, 0.0, inc, 0.0, 0.0, 0.0, GM
+    ).to_state()
+
+
+def test_hohmann_closed_form_and_vallado_example_6_1():
+    """Vallado (2013), Example 6-1: 191.344 km to 35 781.349 km altitude."""
+    r1, r2 = 6378.137 + 191.34411, 6378.137 + 35781.34857
+    dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, GM)
+    assert dv1.to_value(KMS) == pytest.approx(2.457038, abs=2e-6)
+    assert dv2.to_value(KMS) == pytest.approx(1.478187, abs=2e-6)
+    assert (dv1 + dv2).to_value(KMS) == pytest.approx(3.935224, abs=2e-6)
+    assert tof.to_value(u.h) == pytest.approx(5.256713, abs=2e-6)
+    # closed form
+    assert dv1.to_value(KMS) == pytest.approx(np.sqrt(MU / r1) * (np.sqrt(2 * r2 / (r1 + r2)) - 1))
+    assert dv2.to_value(KMS) == pytest.approx(np.sqrt(MU / r2) * (1 - np.sqrt(2 * r1 / (r1 + r2))))
+
+
+@pytest.mark.parametrize("r2", [42164.0, 6578.0])
+def test_hohmann_applied_to_a_state_arrives_on_the_target_circle(r2):
+    state = circular_state(7000.0)
+    man = Maneuver.hohmann(state, r2 * u.km)
+    dv1, dv2, tof = hohmann_delta_v(7000 * u.km, r2 * u.km, GM)
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(abs(dv1.value) + abs(dv2.value))
+    assert man.duration.to_value(u.s) == pytest.approx(tof.value)
+    final = man.apply(state)
+    r = np.linalg.norm(final.r.to_value(u.km))
+    assert abs(r - r2) < 1e-6
+    el = final.to_elements()
+    assert el.eccentricity < 1e-9
+
+
+def test_bielliptic_beats_hohmann_for_large_ratio():
+    r1, r2, rb = 7000.0, 7000.0 * 20, 7000.0 * 60
+    h = hohmann_delta_v(r1 * u.km, r2 * u.km, GM)
+    b = bielliptic_delta_v(r1 * u.km, rb * u.km, r2 * u.km, GM)
+    total_h = abs(h[0].value) + abs(h[1].value)
+    total_b = sum(abs(x.value) for x in b[:3])
+    assert total_b < total_h  # ratio 20 > 15.58 (Vallado 2013, Fig. 6-7)
+    state = circular_state(r1)
+    final = Maneuver.bielliptic(state, rb * u.km, r2 * u.km).apply(state)
+    assert abs(np.linalg.norm(final.r.value) - r2) < 1e-5
+    assert final.to_elements().eccentricity < 1e-9
+
+
+def test_plane_change_cost_and_effect():
+    state = circular_state(7000.0, inc=0.5)  # at the ascending node (argp = nu = 0)
+    man = Maneuver.plane_change(state, 10 * u.deg)
+    v = np.linalg.norm(state.v.value)
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(
+        plane_change_delta_v(v * KMS, 10 * u.deg).value, rel=1e-12
+    )
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(2 * v * np.sin(np.radians(5)))
+    new = man.apply(state).to_elements()
+    assert new.inclination.to_value(u.rad) == pytest.approx(0.5 + np.radians(10), abs=1e-12)
+
+
+def test_lambert_rendezvous():
+    chaser = circular_state(7000.0)
+    target = vv.KeplerianElements.from_semi_major_axis(
+        7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.0, GM
+    ).to_state()
+    tof = 2500 * u.s
+    man = Maneuver.lambert(chaser, target, tof)
+    final = man.apply(chaser)
+    target_then = target.propagate(tof)
+    assert np.linalg.norm((final.r - target_then.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((final.v - target_then.v).to_value(KMS)) < 1e-9
+
+
+def test_bad_maneuver_inputs():
+    ecc = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.1, 0.0, 0.0, 0.0, 1.0, GM
+    ).to_state()
+    with pytest.raises(InvalidStateError, match="circular"):
+        Maneuver.hohmann(ecc, 8000 * u.km)
+    with pytest.raises(InvalidInputError, match="non-decreasing"):
+        Maneuver([(10 * u.s, [0, 0, 1] * KMS), (5 * u.s, [0, 0, 1] * KMS)])
+    with pytest.raises(InvalidInputError, match="rb"):
+        bielliptic_delta_v(7000 * u.km, 8000 * u.km, 9000 * u.km, GM)
+
+
+def test_porkchop_earth_mars_2005(tmp_path):
+    dep = Time("2005-06-20", scale="tdb") + np.arange(0, 120, 10) * u.day
+    arr = Time("2005-12-01", scale="tdb") + np.arange(0, 240, 15) * u.day
+    pc = porkchop("earth", vv.MARS, dep, arr)
+    assert pc.c3.shape == (12, 16)
+    c3 = pc.c3.to_value(u.km**2 / u.s**2)
+    # the 2005 opportunity: minimum C3 near 16 km^2/s^2 (Curtis 2014, sec. 8.10; NASA
+    # Mars Reconnaissance Orbiter launched Aug 2005 with C3 = 16.4 km^2/s^2)
+    assert 12 < np.nanmin(c3) < 20
+    d, a, dv = pc.best()
+    assert Time("2005-07-01") < d < Time("2005-10-15")
+    fig = pc.plot(path=tmp_path / "porkchop.png")
+    assert (tmp_path / "porkchop.png").stat().st_size > 10_000
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

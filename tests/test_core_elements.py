@@ -331,3 +331,25 @@ def test_scalar_kernels_match_array_kernels():
     assert np.array_equal(np.array(sc[:6]), np.array([x[0] for x in arr[:6]]))
     sc2 = K.coe_to_rv(*sc[:6], MU)
     assert np.array_equal(np.array(sc2[:3]), r[0]) or np.allclose(sc2[:3], r[0], rtol=1e-15)
+
+
+COMP = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-2e4, 2e4))
+VCOMP = st.one_of(st.sampled_from([0.0, -0.0]), st.floats(-15.0, 15.0))
+
+
+@settings(max_examples=300, deadline=None)
+@given(r=st.tuples(COMP, COMP, COMP), v=st.tuples(VCOMP, VCOMP, VCOMP))
+def test_raw_state_round_trip_with_signed_zeros(r, v):
+    """Arbitrary states (components 0, -0.0 or random): the round trip error is at most the
+    conditioning limit of (p, e, nu), max(1e-12, 16 eps r/p) relative."""
+    r = np.array(r)
+    v = np.array(v)
+    rm, vm = np.linalg.norm(r), np.linalg.norm(v)
+    assume(rm > 1.0 and vm > 1e-3)
+    h = np.linalg.norm(np.cross(r, v))
+    assume(h > 1e-6 * rm * vm)  # not radial
+    er, ev, out = state_round_trip_error(r, v)
+    p = out[0][0]
+    bound = max(RT_TOL, 16 * np.finfo(float).eps * rm / p)
+    assert er <= bound
+    assert ev <= max(RT_TOL, 16 * np.finfo(float).eps * rm / p)

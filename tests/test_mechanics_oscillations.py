@@ -78,6 +78,9 @@ def test_simple_harmonic_and_units():
     assert x.value == pytest.approx(mech.damped_oscillator(0.1, 0.0, 2.0, 0.1, 1.0))
     with pytest.raises(UnitsError):
         mech.damped_oscillator(1 * u.kg, 0, 1, 0.1, 1)
+    # angular frequencies in rad/s are accepted (radians are dimensionless)
+    x = mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, 2 * u.rad / u.s, 0.1 / u.s, 1 * u.min)
+    assert x.value == pytest.approx(mech.damped_oscillator(1.0, 0.0, 2.0, 0.1, 60.0), abs=1e-15)
 
 
 def test_damped_oscillator_bad_input():

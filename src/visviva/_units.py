@@ -161,12 +161,13 @@ def require_positive(arr, name: str, *, strict: bool = True) -> None:
         )
 
 
-def to_si(value, unit, name: str, *, finite: bool = True):
+def to_si(value, unit, name: str, *, finite: bool = True, angles_dimensionless: bool = True):
     """Convert ``value`` to a float64 ndarray in the SI unit ``unit``; plain numbers pass through.
 
     For APIs that accept plain numbers "in any consistent units" (``visviva.mechanics``) as well as
     Quantities. A Quantity is converted to ``unit`` (e.g. ``u.kg``, ``u.m / u.s``); a plain number
-    is assumed to be in consistent units already and copied unchanged.
+    is assumed to be in consistent units already and copied unchanged. With
+    ``angles_dimensionless`` (default) radians count as dimensionless, so rad/s converts to 1/s.
 
     Returns
     -------
@@ -182,7 +183,8 @@ def to_si(value, unit, name: str, *, finite: bool = True):
     """
     if isinstance(value, u.Quantity):
         try:
-            arr = value.to_value(unit)
+            equiv = u.dimensionless_angles() if angles_dimensionless else []
+            arr = value.to_value(unit, equivalencies=equiv)
         except u.UnitConversionError as exc:
             raise UnitsError(
                 f"{name} has unit '{value.unit}', which cannot be converted to '{unit}'. "

@@ -1,0 +1,200 @@
+"""Satellites: SGP4 verification set, TEME/GCRS/ITRS against astropy and Skyfield, batches.
+
+* The SGP4 verification set of Vallado et al. (2006, AIAA 2006-6753), ``SGP4-VER.TLE`` and the
+  C++ reference output ``tcppver.out`` as shipped inside the installed ``sgp4`` package,
+  reproduced through ``vv.Satellite`` in TEME; the seven element sets that end in an SGP4 error
+  must raise visviva's typed error with sgp4's code.
+* ``Satellite.gcrs`` / ``.itrs`` against astropy's own TEME -> GCRS / ITRS transformation and
+  against Skyfield's ``EarthSatellite`` (builtin timescale, polar motion from the same offline
+  IERS file astropy uses).
+* The N x T SGP4 batch against per-satellite calls (bit for bit) and the secular J2 batch against
+  ``visviva.satellites.secular.propagate_j2_secular``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Check
+
+__all__ = ["checks", "verification_set"]
+
+ONE_MM_KM = 1e-6
+ONE_M_KM = 1e-3
+TEN_M_KM = 1e-2
+
+# ISS (ZARYA) with a 2024 epoch (inside the installed Earth-orientation tables) and a Molniya
+ISS = (
+    "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+    "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340",
+)
+MOLNIYA = (
+    "1 08195U 75081A   24176.33215444  .00000099  00000-0  11873-3 0   813",
+    "2 08195  64.1586 279.0717 6877146 264.7651  20.2257  2.00491383225656",
+)
+
+
+def _sgp4_ref() -> str:
+    import sgp4
+
+    return f"sgp4 {sgp4.__version__} (SGP4-VER.TLE / tcppver.out, Vallado et al. 2006)"
+
+
+def verification_set():
+    """[(line1, line2, start, stop, step, satnum, expected (K, 7))] from the sgp4 package."""
+    import importlib.resources
+
+    root = importlib.resources.files("sgp4")
+    lines = (root / "SGP4-VER.TLE").read_text().splitlines()
+    cases = []
+    for i, line in enumerate(lines):
+        if line.startswith("1 "):
+            line2 = lines[i + 1]
+            start, stop, step = (float(x) for x in line2[69:].split())
+            cases.append((line, line2[:69], start, stop, step))
+    blocks = []
+    for line in (root / "tcppver.out").read_text().replace("\r", "").splitlines():
+        if "xx" in line:
+            blocks.append((int(line.split()[0]), []))
+        elif line.strip():
+            blocks[-1][1].append([float(x) for x in line.split()[:7]])
+    return [c + (num, np.array(b)) for c, (num, b) in zip(cases, blocks, strict=True)]
+
+
+def _grid(start, stop, step):
+    times = [0.0]
+    t = start
+    while t <= stop:
+        if not (t == start == 0.0):
+            times.append(t)
+        t += step
+    if t - stop < step - 1e-6:
+        times.append(stop)
+    return np.array(times)
+
+
+def _verification() -> list[Check]:
+    from astropy import units as u
+    from sgp4.api import WGS72, Satrec
+
+    import visviva as vv
+    from visviva.satellites.tle import SGP4_ERROR_TYPES
+
+    dr = dv = 0.0
+    n_points = 0
+    errors_expected = errors_ok = 0
+    for line1, line2, start, stop, step, _, expected in verification_set():
+        sat = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
+        ref = Satrec.twoline2rv(line1, line2, WGS72)
+        grid = _grid(start, stop, step)
+        n_ok = 0 if np.isnan(ref.sgp4_tsince(0.0)[1][0]) else len(expected)
+        if n_ok:
+            s = sat.teme(grid[:n_ok] * u.min)
+            dr = max(dr, float(np.abs(s.r.to_value(u.km) - expected[:, 1:4]).max()))
+            dv = max(dv, float(np.abs(s.v.to_value(u.km / u.s) - expected[:, 4:7]).max()))
+            n_points += n_ok
+        if n_ok < len(grid):
+            errors_expected += 1
+            code = ref.sgp4_tsince(grid[n_ok])[0]
+            try:
+                sat.teme(grid[: n_ok + 1] * u.min)
+            except SGP4_ERROR_TYPES[code][0] as exc:
+                errors_ok += int(exc.code == code and sat.name in str(exc))
+    details = {"satellites": 33, "points": n_points, "error_cases": errors_expected}
+    return [
+        Check("SGP4 verification set (TEME) via vv.Satellite: position", "max |dr| (km)", dr,
+              ONE_MM_KM, _sgp4_ref(), details),
+        Check("SGP4 verification set (TEME) via vv.Satellite: velocity", "max |dv| (km/s)", dv,
+              1e-9, _sgp4_ref(), details),
+        Check("SGP4 verification set: error cases raise typed errors with sgp4's code",
+              "error cases not raised as expected", float(errors_expected - errors_ok), 0.0,
+              _sgp4_ref(), details),
+    ]
+
+
+def _frames() -> list[Check]:
+    import astropy
+    import astropy_iers_data
+    import skyfield
+    from astropy import units as u
+    from astropy.coordinates import (
+        GCRS,
+        ITRS,
+        TEME,
+        CartesianDifferential,
+        CartesianRepresentation,
+    )
+    from astropy.utils import iers
+    from skyfield.api import EarthSatellite, load
+    from skyfield.data import iers as sky_iers
+    from skyfield.framelib import itrs
+
+    import visviva as vv
+
+    ts = load.timescale(builtin=True)
+    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
+        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
+    worst = {"astropy_g": 0.0, "astropy_i": 0.0, "sky_g": 0.0, "sky_i": 0.0, "sky_gv": 0.0}
+    for l1, l2 in (ISS, MOLNIYA):
+        sat = vv.Satellite.from_tle(l1, l2, verify_checksum=False)
+        t = sat.epoch + np.linspace(-0.5, 2.0, 31) * u.day
+        teme = sat.teme(t)
+        g, i = sat.gcrs(t), sat.itrs(t)
+        rep = CartesianRepresentation(teme.r.T, differentials=CartesianDifferential(teme.v.T))
+        with iers.conf.set_temp("auto_download", False):
+            coord = TEME(rep, obstime=t)
+            ag = coord.transform_to(GCRS(obstime=t)).cartesian.xyz.to_value(u.km).T
+            ai = coord.transform_to(ITRS(obstime=t)).cartesian.xyz.to_value(u.km).T
+        worst["astropy_g"] = max(worst["astropy_g"], float(np.abs(g.r.value - ag).max()))
+        worst["astropy_i"] = max(worst["astropy_i"], float(np.abs(i.r.value - ai).max()))
+        at = EarthSatellite(l1, l2, sat.name, ts).at(ts.from_astropy(t))
+        worst["sky_g"] = max(worst["sky_g"], float(np.abs(g.r.value - at.position.km.T).max()))
+        worst["sky_gv"] = max(
+            worst["sky_gv"], float(np.abs(g.v.value - at.velocity.km_per_s.T).max())
+        )
+        ri, _ = at.frame_xyz_and_velocity(itrs)
+        worst["sky_i"] = max(worst["sky_i"], float(np.abs(i.r.value - ri.km.T).max()))
+    a_ref = f"astropy {astropy.__version__} TEME/GCRS/ITRS frames"
+    s_ref = f"skyfield {skyfield.__version__} EarthSatellite (builtin timescale)"
+    details = {"satellites": "ISS, Molniya", "times": 31,
+               "iers": "astropy-iers-data finals2000A.all (offline)"}
+    return [
+        Check("Satellite.gcrs vs astropy TEME -> GCRS", "max |dr| (km)", worst["astropy_g"],
+              ONE_MM_KM, a_ref, details),
+        Check("Satellite.itrs vs astropy TEME -> ITRS", "max |dr| (km)", worst["astropy_i"],
+              ONE_MM_KM, a_ref, details),
+        Check("Satellite.gcrs vs Skyfield EarthSatellite.at (GCRS)", "max |dr| (km)",
+              worst["sky_g"], ONE_M_KM, s_ref, details),
+        Check("Satellite.gcrs vs Skyfield EarthSatellite.at (GCRS velocity)", "max |dv| (km/s)",
+              worst["sky_gv"], 1e-6, s_ref, details),
+        Check("Satellite.itrs vs Skyfield EarthSatellite frame_xyz(itrs)", "max |dr| (km)",
+              worst["sky_i"], TEN_M_KM, s_ref, details),
+    ]
+
+
+def _batches() -> list[Check]:
+    from astropy import units as u
+    from astropy.time import Time
+
+    from visviva.satellites.catalog import parse_tle_text, propagate_sgp4_batch
+
+    cases = verification_set()
+    text = "\n".join(f"{c[0]}\n{c[1]}" for c in cases)
+    cat = parse_tle_text(text, verify_checksum=False)
+    t = Time("2006-06-25T00:00:00", scale="utc") + np.linspace(-0.3, 1.0, 40) * u.day
+    batch = propagate_sgp4_batch(cat, t, on_error="nan")
+    worst = 0.0
+    for k, sat in enumerate(cat):
+        if batch.status[k].any():
+            continue
+        one = sat.teme(t)
+        worst = max(worst, float(np.abs(batch.r[k].value - one.r.value).max()),
+                    float(np.abs(batch.v[k].value - one.v.value).max()))
+    return [Check("SGP4 batch (SatrecArray) vs Satellite.teme per satellite",
+                  "max |difference| (km, km/s): bit for bit", worst, 0.0, _sgp4_ref(),
+                  {"satellites": len(cat), "times": len(t)})]
+
+
+def checks(full: bool = False) -> list[Check]:
+    """Run the satellite comparisons live (a few seconds)."""
+    return _verification() + _frames() + _batches()

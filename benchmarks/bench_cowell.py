@@ -1,0 +1,129 @@
+"""Cowell propagation with J2, timed against scipy's DOP853 with a pure-Python right-hand side.
+
+Rows (ratio = visviva time / reference time; target: visviva <= 20 ms per run, and faster
+than the reference):
+
+* ``J2, one day of LEO``: a 7000 km, 51.6 deg orbit propagated for one day with J2, 1441
+  output times (one per minute) from one integration. visviva: ``vv.propagate_cowell`` (the
+  compiled DOP853 + compiled force model, public API with Quantities). Reference:
+  ``scipy.integrate.solve_ivp(method="DOP853", dense_output=False, t_eval=...)`` with the same
+  tolerances and a Python/numpy right-hand side (two-body + J2). The notes give both libraries'
+  errors against a tight-tolerance visviva run (1 m accuracy is the requirement).
+* ``J2..J6 + Sun + Moon + drag + SRP, one day``: the full force model (visviva only, to show what
+  the extra perturbations cost).
+
+Run: ``python -m benchmarks --only cowell`` or ``python -m benchmarks.bench_cowell``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+try:  # as part of the package (python -m benchmarks) or as a script
+    from .common import compile_time, quick_from_env, result, skipped, time_call
+except ImportError:  # pragma: no cover
+    from common import compile_time, quick_from_env, result, skipped, time_call
+
+TARGET_S = 0.020
+
+
+def _python_rhs(gm, R, j2):
+    def rhs(t, y):
+        x, yy, z = y[0], y[1], y[2]
+        r2 = x * x + yy * yy + z * z
+        r = np.sqrt(r2)
+        k = -gm / (r2 * r)
+        f = 1.5 * j2 * gm * R * R / (r2 * r2 * r)
+        s = 5.0 * z * z / r2
+        return np.array(
+            [y[3], y[4], y[5], k * x + f * x * (s - 1), k * yy + f * yy * (s - 1),
+             k * z + f * z * (s - 3)]
+        )  # fmt: skip
+
+    return rhs
+
+
+def run(quick: bool = False) -> list[dict]:
+    quick = quick or quick_from_env()
+    try:
+        from astropy import units as u
+        from astropy.time import Time
+
+        import visviva as vv
+        from visviva.satellites import propagate_cowell
+        from visviva.satellites.cowell import DEFAULT_ATOL, DEFAULT_RTOL
+    except Exception as exc:  # pragma: no cover
+        return [skipped("Cowell J2", f"visviva not importable: {exc}")]
+    import scipy
+    from scipy.integrate import solve_ivp
+
+    el = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH
+    )
+    state = el.to_state()
+    t_s = np.linspace(0.0, 86400.0, 1441)
+    t = t_s * u.s
+    forces = [vv.J2(vv.EARTH)]
+    rtol, atol = DEFAULT_RTOL, DEFAULT_ATOL
+    first = compile_time(propagate_cowell, state, t, forces)
+    tv = time_call(propagate_cowell, state, t, forces, repeat=3 if quick else 7)
+    out = propagate_cowell(state, t, forces)
+    truth = propagate_cowell(state, t, forces, rtol=1e-14, atol=1e-15)
+    err_vv = np.abs((out.r - truth.r).to_value(u.km)).max() * 1e3
+
+    gm, R, j2 = vv.EARTH.gm_km3_s2, vv.EARTH.radius_km, vv.EARTH.j2
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(u.km / u.s)])
+    rhs = _python_rhs(gm, R, j2)
+
+    def reference():
+        return solve_ivp(rhs, (0.0, 86400.0), y0, method="DOP853", t_eval=t_s, rtol=rtol,
+                         atol=atol)  # fmt: skip
+
+    tr = time_call(reference, repeat=3, warmup=0 if quick else 1, max_total_s=10.0)
+    ref = reference()
+    err_ref = np.abs(ref.y[:3].T - truth.r.to_value(u.km)).max() * 1e3
+    rows = [
+        result(
+            "Cowell J2, 1 day LEO, 1441 outputs",
+            tv,
+            f"scipy {scipy.__version__} solve_ivp DOP853, Python rhs",
+            tr,
+            target=None,
+            notes=(
+                f"rtol={rtol:g}, atol={atol:g} km; max error vs rtol=1e-14 run: visviva "
+                f"{err_vv:.2g} m, scipy {err_ref:.2g} m; {out.n_steps} steps; target "
+                f"<= {TARGET_S * 1e3:.0f} ms: {'met' if float(tv) <= TARGET_S else 'NOT met'}"
+            ),
+            compile_s=first,
+        )
+    ]
+    rows[0]["target"] = TARGET_S / float(tr) if tr else None
+    rows[0]["met"] = bool(float(tv) <= TARGET_S)
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    state_e = vv.StateVectors(state.r, state.v, vv.EARTH, epoch=epoch)
+    full = [
+        vv.Zonal(vv.EARTH, 6),
+        vv.ThirdBody(vv.SUN),
+        vv.ThirdBody(vv.MOON),
+        vv.AtmosphericDrag(0.01 * u.m**2 / u.kg),
+        vv.SolarRadiationPressure(0.01 * u.m**2 / u.kg),
+    ]
+    first_full = compile_time(propagate_cowell, state_e, t, full)
+    tf = time_call(propagate_cowell, state_e, t, full, repeat=3 if quick else 5)
+    rows.append(
+        result(
+            "Cowell J2-J6 + Sun + Moon + drag + SRP, 1 day LEO",
+            tf,
+            "none (visviva only)",
+            None,
+            notes="includes tabulating DE421 Sun/Moon positions (hourly) for the run",
+            compile_s=first_full,
+        )
+    )
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for row in run():
+        print(row)

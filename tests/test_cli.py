@@ -232,3 +232,28 @@ def test_warnings_are_recorded_not_printed(monkeypatch, tmp_path, capsys):
     captured = capsys.readouterr()
     assert "IERS table is old" not in captured.out + captured.err
     assert "UserWarning: IERS table is old" in (tmp_path / "report.md").read_text()
+
+
+def test_worker_processes_keep_order_and_survive_a_crash(monkeypatch, tmp_path, capsys):
+    """--jobs 2: modules run in spawned workers; a hard crash (os._exit) is a failed check."""
+    (tmp_path / "vvfake_ok.py").write_text(
+        "from visviva.validation.base import Check\n"
+        "def checks(full=False):\n"
+        "    return [Check('worker ok', 'x', 0.0, 1.0)]\n")
+    (tmp_path / "vvfake_crash.py").write_text(
+        "import os\n"
+        "def checks(full=False):\n"
+        "    os._exit(3)\n")
+    (tmp_path / "vvfake_fail.py").write_text(
+        "from visviva.validation.base import Check\n"
+        "def checks(full=False):\n"
+        "    return [Check('worker fail', 'x', 2.0, 1.0)]\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    code = runner.run(modules=["vvfake_ok", "vvfake_crash", "vvfake_fail"], report_dir=None,
+                      progress=False, jobs=2)
+    out = capsys.readouterr().out
+    assert code == 1
+    lines = [ln for ln in out.splitlines() if ln.startswith(("PASS", "FAIL"))]
+    assert lines[0].startswith("PASS  worker ok")
+    assert "worker failed" in lines[1] and "exit code 3" in out
+    assert lines[2].startswith("FAIL  worker fail")

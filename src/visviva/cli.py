@@ -27,6 +27,9 @@ def _validate_parser(sub) -> None:
     p.add_argument("--strict", action="store_true", help="count skipped checks as failures")
     p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
                    help="time budget per module (default 150 s; none with --full)")
+    p.add_argument("--jobs", "-j", type=int, default=None, metavar="N",
+                   help="worker processes running check modules side by side "
+                        "(default: the usable cores, at most 2; 1 runs everything in-process)")
     p.add_argument("--quiet", action="store_true", help="no progress display on stderr")
     p.add_argument("--list", action="store_true", help="list the check modules and exit")
 
@@ -68,8 +71,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(short_name(name))
             return 0
         from .validation import run
+        from .validation.runner import default_jobs
 
-        return run(full=args.full, report_dir=None if args.no_report else args.report,
+        return run(jobs=default_jobs() if args.jobs is None else args.jobs,full=args.full, report_dir=None if args.no_report else args.report,
                    only=args.only, json_path=args.json_path, strict=args.strict,
                    timeout_s=args.timeout, progress=not args.quiet)
     if args.command == "bench":

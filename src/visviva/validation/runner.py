@@ -353,10 +353,93 @@ def environment() -> dict[str, str]:
     return out
 
 
+def _child_main(name: str, full: bool, timeout_s: float | None, conn) -> None:
+    """Entry point of a worker process: run one module, send back its (picklable) result."""
+    import pickle
+
+    result = run_module(name, full=full, timeout_s=timeout_s)
+    try:
+        pickle.dumps(result)
+    except Exception:  # noqa: BLE001 - details holding something unpicklable
+        for check in result.checks:
+            check.details = _jsonable(check.details)
+    conn.send(result)
+    conn.close()
+
+
+def _iter_results(names: list[str], full: bool, timeout_s: float | None, jobs: int, bar):
+    """Yield one :class:`ModuleResult` per name, in order; ``jobs > 1`` runs worker processes.
+
+    Each worker is a fresh (spawned) process, so a module that crashes the interpreter
+    (a segfault) becomes a failed check too. Numba compilation, the bulk of a cold run,
+    proceeds in parallel.
+    """
+    if jobs <= 1 or len(names) <= 1:
+        for i, name in enumerate(names, 1):
+            bar.start(i, name)
+            yield run_module(name, full=full, timeout_s=timeout_s)
+        return
+    import multiprocessing as mp
+    from multiprocessing.connection import wait
+
+    ctx = mp.get_context("spawn")
+    pending = list(enumerate(names))
+    running: dict = {}  # sentinel -> (index, name, process, connection, start time)
+    done: dict[int, ModuleResult] = {}
+    next_out = 0
+    try:
+        while next_out < len(names):
+            while pending and len(running) < jobs:
+                index, name = pending.pop(0)
+                parent, child = ctx.Pipe(duplex=False)
+                proc = ctx.Process(target=_child_main, args=(name, full, timeout_s, child),
+                                   daemon=True)
+                proc.start()
+                child.close()
+                running[proc.sentinel] = (index, name, proc, parent, time.perf_counter())
+            ready_conns = wait([r[3] for r in running.values()] + list(running), timeout=1.0)
+            for key, (index, name, proc, conn, t0) in list(running.items()):
+                if conn not in ready_conns and key not in ready_conns:
+                    continue
+                result = None
+                try:
+                    if conn.poll():
+                        result = conn.recv()
+                except (EOFError, OSError):
+                    result = None
+                if result is None and proc.is_alive():
+                    continue  # sentinel not ready and nothing sent yet
+                proc.join(timeout=5)
+                if result is None:
+                    exc = RuntimeError(f"worker process died (exit code {proc.exitcode})")
+                    result = ModuleResult(name, [_error_check(name, "worker", exc)],
+                                          time.perf_counter() - t0, error=str(exc))
+                conn.close()
+                del running[key]
+                done[index] = result
+            while next_out in done:
+                bar.start(next_out + 1, names[next_out])
+                yield done.pop(next_out)
+                next_out += 1
+    finally:
+        for _index, _name, proc, conn, _t0 in running.values():
+            proc.kill()
+            conn.close()
+
+
+def default_jobs() -> int:
+    """Worker processes for ``visviva validate``: the usable cores, at most 2."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(2, cores))
+
+
 def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/report",
         only: str | None = None, json_path: str | os.PathLike | None = None,
         progress: bool = True, strict: bool = False, timeout_s: float | None = None,
-        stream=None, modules: list[str] | None = None) -> int:
+        stream=None, modules: list[str] | None = None, jobs: int = 1) -> int:
     """Run the suite, print one line per check, write the report; return the exit code.
 
     Parameters
@@ -380,6 +463,8 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/r
         Where the per-check lines go (default stdout).
     modules : list of str, optional
         Module names to run instead of :func:`discover` (used by the tests).
+    jobs : int
+        Number of worker processes (1: in this process, in order).
 
     Returns
     -------
@@ -403,9 +488,7 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/r
     print(f"visviva validate: {len(names)} check modules"
           f"{' (full)' if full else ''}{f', only {only!r}' if only else ''}", file=out, flush=True)
     try:
-        for i, name in enumerate(names, 1):
-            bar.start(i, name)
-            result = run_module(name, full=full, timeout_s=timeout_s)
+        for result in _iter_results(names, full, timeout_s, jobs, bar):
             if filter_checks:
                 result.checks = [c for c in result.checks
                                  if _matches(c.name, only) or result.error is not None]

@@ -172,3 +172,24 @@ def test_beats_identity():
     x, env = mech.beats(0.5, 10.0, 10.6, t)
     np.testing.assert_allclose(x, 0.5 * np.cos(10 * t) + 0.5 * np.cos(10.6 * t), atol=1e-13)
     assert np.all(np.abs(x) <= env + 1e-15)
+
+
+def test_damped_oscillator_against_50_digit_reference():
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 50
+
+    def exact(x0, v0, w0, g, t):
+        x0, v0, w0, g, t = map(mp.mpf, (x0, v0, w0, g, t))
+        wd2 = w0**2 - g**2
+        if wd2 > 0:
+            w = mp.sqrt(wd2)
+            return mp.e ** (-g * t) * (x0 * mp.cos(w * t) + (v0 + g * x0) * mp.sin(w * t) / w)
+        if wd2 < 0:
+            w = mp.sqrt(-wd2)
+            return mp.e ** (-g * t) * (x0 * mp.cosh(w * t) + (v0 + g * x0) * mp.sinh(w * t) / w)
+        return mp.e ** (-g * t) * (x0 + (v0 + g * x0) * t)
+
+    for g in (2 * (1 - 1e-3), 2 * (1 - 1e-8), 2.0, 2 * (1 + 1e-8), 2 * (1 + 1e-3), 0.5, 3.0):
+        for t in (0.01, 0.3, 1.0, 2.7, 10.0):
+            ref = float(exact(0.7, -1.3, 2.0, g, t))
+            assert mech.damped_oscillator(0.7, -1.3, 2.0, g, t) == pytest.approx(ref, rel=1e-13)

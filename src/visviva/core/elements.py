@@ -542,20 +542,15 @@ def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
     return r, v, status
 
 
-@parallel_kernel
+@kernel
 def first_zero_vector(r):
-    """Index of the first row of ``r`` (n, 3) that is exactly (0, 0, 0) (signed zeros too), or -1.
-
-    Also returns the number of such rows. Used to validate positions in one pass.
-    """
-    n = r.shape[0]
-    zero = np.zeros(n, dtype=np.bool_)
-    for i in prange(n):
-        zero[i] = r[i, 0] == 0.0 and r[i, 1] == 0.0 and r[i, 2] == 0.0
+    """Index of the first row of ``r`` (n, 3) that is exactly (0, 0, 0) (signed zeros too), or -1,
+    and the number of such rows. Serial: one compare per row is memory bound, and a parallel
+    region would cost more than it saves."""
     count = 0
     first = -1
-    for i in range(n):
-        if zero[i]:
+    for i in range(r.shape[0]):
+        if r[i, 0] == 0.0 and r[i, 1] == 0.0 and r[i, 2] == 0.0:
             if first < 0:
                 first = i
             count += 1

@@ -53,10 +53,10 @@ def test_elliptic_array_equals_scalar_kernel():
     """The two-pass SIMD array kernel gives bit-identical results to the scalar kernel."""
     rng = np.random.default_rng(7)
     n = 20_000
-    M = np.concatenate([rng.uniform(-4, 4, n), rng.uniform(-1e-3, 1e-3, n)])
+    M = np.concatenate([rng.uniform(-7, 7, n), rng.uniform(-1e-3, 1e-3, n)])
     ecc = np.concatenate([rng.uniform(0, 1, n), 1 - 10.0 ** rng.uniform(-16, 0, n)])
     E, status = run(k.solve_kepler_array, M, ecc)
-    for i in range(0, 2 * n, 97):
+    for i in range(0, 2 * n, 37):
         Ei, si = k.eccentric_anomaly(M[i], ecc[i])
         assert si == status[i] == st.OK
         assert Ei == E[i] or (np.isnan(Ei) and np.isnan(E[i]))

@@ -635,11 +635,15 @@ def _markley_pass(M, ecc, E_out, status_out):
         m = M[i]
         e = ecc[i]
         x = abs(m)
-        E = _markley_starter(x, e)
+        wrap = x > PI  # pi < |M| <= 2 pi: solve for 2 pi - |M| (exact) and reflect
+        xr = TWO_PI - x if wrap else x
+        E = _markley_starter(xr, e)
         sE, cE = _sincos_0_pi(E)
-        E, f1 = _markley_correction(E, x, e, sE, cE)
+        E, f1 = _markley_correction(E, xr, e, sE, cE)
+        E = TWO_PI - E if wrap else E
         E_out[i] = math.copysign(E, m)
-        good = (x <= PI) & (x >= _SMALL_M) & (e > 0.0) & (e < 1.0) & (f1 >= _NEAR_PARABOLIC)
+        good = (x <= TWO_PI) & (xr >= _SMALL_M) & (e > 0.0) & (e < 1.0)
+        good = good & (f1 >= _NEAR_PARABOLIC)
         status_out[i] = OK if good else NO_CONVERGENCE
 
 
@@ -657,7 +661,7 @@ def solve_kepler_array(M, ecc, E_out, status_out):
 
     Two parallel passes over the items: a branch-free pass applies Markley's solver to every item
     (the compiler turns it into SIMD code, ~2.5x faster than the branchy scalar kernel) and marks
-    the items it cannot take (|M| > pi or < 0.25, e = 0, the near-parabolic corner, bad input); the second
+    the items it cannot take (|M| > 2 pi, |M| mod 2 pi < 0.25, e = 0, the near-parabolic corner, bad input); the second
     pass sends just those through :func:`eccentric_anomaly`. The results are those of the scalar
     kernel. (Two separate kernels, because numba would fuse two loops in one into a branchy one.)
     """

@@ -175,7 +175,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default=None, help="run only modules whose name contains this")
     parser.add_argument("--output", default=str(DEFAULT_OUTPUT), help="the Markdown page to write")
     parser.add_argument("--no-write", action="store_true", help="print only; write no page")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="numba threads for the whole run (default: every core)")
     args = parser.parse_args(argv)
+    if args.threads:
+        import numba
+
+        numba.set_num_threads(max(1, min(args.threads, numba.config.NUMBA_NUM_THREADS)))
 
     names = [n for n in discover() if args.only is None or args.only in n]
     t_start = time.perf_counter()
@@ -191,6 +197,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{_fmt_met(r['met'])}", flush=True)
         print(f"  ({dt:.1f} s)", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - t_start
+    with_target = [r for r in rows if r.get("met") is not None]
+    print(f"{sum(1 for r in with_target if r['met'])} of {len(with_target)} targets met "
+          f"in {elapsed:.0f} s", flush=True)
     if not args.no_write:
         out = Path(args.output)
         out.parent.mkdir(parents=True, exist_ok=True)

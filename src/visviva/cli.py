@@ -42,6 +42,7 @@ def _bench_parser(sub) -> None:
     p.add_argument("--output", default=None, metavar="PATH",
                    help="the page to write (default docs/performance.md)")
     p.add_argument("--no-write", action="store_true", help="print only")
+    p.add_argument("--threads", type=int, default=None, help="numba threads for the whole run")
 
 
 def _import_benchmarks():
@@ -85,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
             bench_argv += ["--output", args.output]
         if args.no_write:
             bench_argv += ["--no-write"]
+        if args.threads:
+            bench_argv += ["--threads", str(args.threads)]
         return bench_main.main(bench_argv)
     return 2
 

@@ -193,3 +193,27 @@ def test_damped_oscillator_against_50_digit_reference():
         for t in (0.01, 0.3, 1.0, 2.7, 10.0):
             ref = float(exact(0.7, -1.3, 2.0, g, t))
             assert mech.damped_oscillator(0.7, -1.3, 2.0, g, t) == pytest.approx(ref, rel=1e-13)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.floats(-10, 10),
+    st.floats(-10, 10),
+    st.floats(0.01, 10),
+    st.floats(0, 20),
+    st.floats(0.0, 5.0),
+)
+def test_damped_oscillator_solves_its_equation_property(x0, v0, w0, g, t):
+    x = mech.damped_oscillator(x0, v0, w0, g, t)
+    v = mech.damped_oscillator_velocity(x0, v0, w0, g, t)
+    h = 1e-5
+    a = (
+        mech.damped_oscillator_velocity(x0, v0, w0, g, t + h)
+        - mech.damped_oscillator_velocity(x0, v0, w0, g, t - h)
+    ) / (2 * h)
+    xdot = (
+        mech.damped_oscillator(x0, v0, w0, g, t + h) - mech.damped_oscillator(x0, v0, w0, g, t - h)
+    ) / (2 * h)
+    scale = (abs(x0) + abs(v0) + 1.0) * (1 + w0**2 + g**2)
+    assert xdot == pytest.approx(v, abs=1e-6 * scale)
+    assert a + 2 * g * v + w0**2 * x == pytest.approx(0.0, abs=1e-6 * scale)

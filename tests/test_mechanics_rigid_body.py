@@ -161,3 +161,20 @@ def test_heavy_top_steady_precession():
     assert fast * Omega == pytest.approx(m * g * ell / (I1 * np.cos(theta)), rel=1e-12)
     with pytest.raises(DomainError, match="faster"):
         mech.heavy_top_precession_rate(I1, I3, m, g, ell, 1.0, 0.1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_inertia_tensor_rotates_as_a_tensor_and_obeys_triangle(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 12))
+    m = rng.uniform(0.1, 5.0, n)
+    r = rng.normal(size=(n, 3))
+    R = Rotation.random(random_state=seed).as_matrix()
+    I = mech.inertia_tensor(m, r)
+    np.testing.assert_allclose(
+        mech.inertia_tensor(m, r @ R.T), R @ I @ R.T, atol=1e-12 * np.abs(I).max()
+    )
+    moments, axes = mech.principal_axes(I)
+    assert moments[0] >= -1e-12 and moments[2] <= moments[0] + moments[1] + 1e-12 * moments[2]
+    np.testing.assert_allclose(axes.T @ I @ axes, np.diag(moments), atol=1e-12 * moments[2])

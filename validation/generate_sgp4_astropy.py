@@ -7,7 +7,8 @@ lines are exactly what sgp4 parses. For each TLE the file holds TEME position an
 offsets from the epoch and the same states rotated to GCRS by astropy (``TEME`` -> ``GCRS``).
 
 Run ``python validation/generate_sgp4_astropy.py`` to rewrite
-``validation/data/sgp4_astropy.json``.
+``validation/data/sgp4_astropy.json``. Skyfield's own GCRS states of the same TLEs (its
+TEME -> GCRS chain, independent of astropy) are stored beside astropy's.
 """
 
 from __future__ import annotations
@@ -48,6 +49,18 @@ def _built_tles() -> dict[str, tuple[str, str]]:
     return out
 
 
+def _skyfield_gcrs(line1: str, line2: str, t):
+    """Skyfield's GCRS position and velocity of the same TLE at the same UTC instants."""
+    from skyfield.api import EarthSatellite, load
+
+    ts = load.timescale(builtin=True)
+    sat = EarthSatellite(line1, line2, ts=ts)
+    utc = t.utc
+    tt = ts.tt_jd(utc.tt.jd1, utc.tt.jd2)
+    at = sat.at(tt)
+    return at.position.km.T, at.velocity.km_per_s.T
+
+
 def generate() -> dict:
     """Build the whole data set (no file written)."""
     from astropy import units as u
@@ -67,6 +80,7 @@ def generate() -> dict:
                                       differentials=CartesianDifferential(v.T * u.km / u.s))
         gcrs = TEME(rep, obstime=t).transform_to(GCRS(obstime=t))
         cart = gcrs.cartesian
+        sky_r, sky_v = _skyfield_gcrs(line1, line2, t)
         cases.append({
             "name": name,
             "line1": line1,
@@ -78,15 +92,18 @@ def generate() -> dict:
             "teme_v_km_s": v,
             "gcrs_r_km": cart.xyz.to_value(u.km).T,
             "gcrs_v_km_s": cart.differentials["s"].d_xyz.to_value(u.km / u.s).T,
+            "skyfield_gcrs_r_km": sky_r,
+            "skyfield_gcrs_v_km_s": sky_v,
         })
     settings = {"gravity_model": "WGS72 (sgp4 default for twoline2rv)",
                 "opsmode": "i", "offsets_min": OFFSETS_MIN,
                 "time_scale": "epoch and offsets in UTC; offsets are in minutes from the TLE epoch",
-                "astropy": "TEME(obstime=t) -> GCRS(obstime=t), astropy's default IERS handling"}
+                "astropy": "TEME(obstime=t) -> GCRS(obstime=t), astropy's default IERS handling",
+                "skyfield": "EarthSatellite(line1, line2).at(t): GCRS, builtin timescale"}
     head = _provenance.header(
-        __file__, ("sgp4", "astropy"), settings,
+        __file__, ("sgp4", "astropy", "skyfield"), settings,
         "SGP4/SDP4 states in TEME for a LEO, a Molniya and a GEO TLE, and the same states in "
-        "GCRS through astropy.",
+        "GCRS through astropy and through Skyfield.",
         {"teme_r_km": "km", "teme_v_km_s": "km/s", "gcrs_r_km": "km", "gcrs_v_km_s": "km/s",
          "offsets_min": "min"})
     return {"provenance": head, "cases": cases}

@@ -529,6 +529,14 @@ class ModifiedEquinoctialElements:
         return self._epoch
 
     @property
+    def ndim(self) -> int:
+        return len(self._shape)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self._shape, dtype=np.int64))
+
+    @property
     def retrograde(self) -> bool:
         """True when the retrograde factor I = -1 is used."""
         return self._retrograde

@@ -49,14 +49,6 @@ def _flat(arr: np.ndarray, shape: tuple) -> np.ndarray:
     return np.broadcast_to(arr, shape).reshape(-1)
 
 
-def _index_leading(arr: np.ndarray, key, shape: tuple, trailing: int = 0):
-    """Index the leading axes (of shape ``shape``) of ``arr`` broadcast to them."""
-    full = np.broadcast_to(arr, shape + arr.shape[arr.ndim - trailing :] if trailing else shape)
-    if trailing:
-        key = key + (slice(None),) * trailing
-    return full[key]
-
-
 def _normalise_key(key, shape: tuple, cls_name: str) -> tuple:
     if shape == ():
         raise TypeError(f"a scalar {cls_name} cannot be indexed (its shape is ())")

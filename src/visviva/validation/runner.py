@@ -452,7 +452,8 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/r
         Comma-separated, case-insensitive terms. Modules whose topic matches a term run whole;
         when no topic matches, every module runs and only the checks whose name matches are kept.
     json_path : path, optional
-        Also write the results as JSON (``-`` for stdout).
+        Also write the results as JSON (``-`` for stdout; the per-check lines then go to
+        stderr).
     progress : bool
         Show the progress counter on stderr.
     strict : bool
@@ -472,6 +473,9 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/r
         0 when every check passed (and at least one ran), 1 otherwise.
     """
     out = stream if stream is not None else sys.stdout
+    json_out = out
+    if json_path is not None and str(json_path) == "-" and stream is None:
+        out = sys.stderr  # keep stdout valid JSON
     t_start = time.perf_counter()
     names = discover() if modules is None else list(modules)
     filter_checks = False
@@ -516,7 +520,7 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/r
     if json_path is not None:
         payload = json.dumps(to_json(outcome), indent=1, allow_nan=False)
         if str(json_path) == "-":
-            print(payload, file=out)
+            print(payload, file=json_out, flush=True)
         else:
             Path(json_path).parent.mkdir(parents=True, exist_ok=True)
             Path(json_path).write_text(payload, encoding="utf-8")

@@ -59,6 +59,7 @@ F_ENCOUNTER = 7  #: encounter distance (0 = off)
 F_EXIT = 8  #: escape radius from the origin (0 = off)
 F_T0 = 9  #: fixed-step integrators: time origin, t = t0 + k |dt| (no accumulated round-off)
 F_DT_REF = 10  #: the |dt| that origin was set with (0 forces a new origin)
+F_WH_H = 11  #: WHFast: the signed step its unsynchronised internal state was built with
 N_FSTATE = 16
 
 I_NOUT = 0  #: outputs written in this run
@@ -74,6 +75,7 @@ I_FRESH = 9  #: 1: the integrator's internal state must be (re)initialised
 I_STOP_AT_STEP = 10  #: > 0: pause (return PAUSED) once istate[I_STEPS] reaches this count
 I_EXACT_FINISH = 11  #: 1: land exactly on output times; 0: stop at the first step at or past them
 I_K = 12  #: fixed-step integrators: signed number of whole steps since the time origin F_T0
+I_WH_VALID = 13  #: WHFast: 1 when buf holds a valid unsynchronised internal state
 N_ISTATE = 16
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.

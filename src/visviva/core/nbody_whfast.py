@@ -17,8 +17,9 @@ gravity plus position-dependent additional forces). One step of length ``h`` is 
 
 with every Kepler drift solved exactly by the universal-variable kernel
 :func:`visviva.core.universal.propagate_scalar` (any conic), and the centre of mass moving on a
-straight line. The state is synchronised (back to inertial coordinates) after every step, so runs
-can be stopped, saved and resumed bit for bit. For two bodies the interaction vanishes and the map
+straight line. Between outputs the half drifts of consecutive steps are fused (one Kepler
+solve per body per step); the internal state is saved with the simulation, so runs can be
+stopped, saved and resumed bit for bit. For two bodies the interaction vanishes and the map
 is exact to round-off at any step size. Second order, symplectic, time-reversible.
 
 References
@@ -36,11 +37,17 @@ from ._jit import kernel
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
+    F_ENCOUNTER,
+    F_EXIT,
     F_G,
     F_T,
+    F_WH_H,
+    I_COLLISIONS,
     I_EXACT_FINISH,
+    I_FRESH,
     I_NOUT,
     I_STEPS,
+    I_WH_VALID,
     PAUSED,
     accelerations,
     advance_clock,
@@ -57,14 +64,16 @@ from .universal import propagate_scalar
 __all__ = ["whfast_run", "to_jacobi", "from_jacobi", "N_BUF"]
 
 # slots of buf: Jacobi positions, Jacobi velocities, inertial accelerations, Jacobi accelerations,
-# and (slot 4, column 0) the cumulative masses eta_i
+# (slot 4, column 0) the cumulative masses eta_i, and scratch copies for synchronising
 _XJ = 0
 _VJ = 1
 _ACC = 2
 _AJ = 3
 _ETA = 4
+_XS = 5
+_VS = 6
 #: Number of (N, 3) slots in ``buf``.
-N_BUF = 5
+N_BUF = 7
 
 
 @kernel
@@ -150,13 +159,34 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
 
 
 @kernel
+def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v):
+    """Inertial ``x, v`` from the internal state: a copy drifted by the last half step."""
+    n = xj.shape[0]
+    for i in range(n):
+        for c in range(3):
+            xs[i, c] = xj[i, c]
+            vs[i, c] = vj[i, c]
+    st = _kepler_drift(xs, vs, eta, G, half)
+    from_jacobi(xs, m, eta, x)
+    from_jacobi(vs, m, eta, v)
+    return st
+
+
+@kernel
 def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
                out_t, out_x, out_v):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
     Particle 0 must have mass (the central body). Output times that are not a whole number of
-    steps away are reached with one shortened step. Arguments as in
-    :mod:`visviva.core.nbody_common`; returns a status code.
+    steps away are reached with one shortened (synchronised) step.
+
+    Without event detection the half drifts of consecutive steps are fused: the internal state
+    ``P`` (Jacobi coordinates just after a kick, kept in ``buf``) advances by
+    ``P <- Kick(h) Kepler(h) P``, and the inertial ``x, v`` at an output are a synchronised COPY,
+    ``Kepler(h/2) P``. The internal trajectory therefore does not depend on the output times,
+    and saving ``buf`` lets a loaded run continue bit for bit. With collisions, encounters or an
+    escape radius every step is synchronised (events are checked on the true state).
+    Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
     """
     n = x.shape[0]
     G = fstate[F_G]
@@ -164,15 +194,22 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     vj = buf[_VJ]
     acc = buf[_ACC]
     aj = buf[_AJ]
+    xs = buf[_XS]
+    vs = buf[_VS]
     eta = buf[_ETA, :, 0]
     s = 0.0
     for i in range(n):
         s += m[i]
         eta[i] = s
     dt = fstate[F_DT]
+    adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
     start_clock(fstate, istate)
     direction = run_direction(fstate[F_T], t_out)
+    fast = istate[I_COLLISIONS] == 0 and fstate[F_ENCOUNTER] <= 0.0 and fstate[F_EXIT] <= 0.0
+    valid = istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0
+    istate[I_FRESH] = 0
+    need_sync = False
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
@@ -183,30 +220,72 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                     advance_clock(fstate, istate, 0.0, True, True, target)
                 break
             half = 0.5 * h
-            to_jacobi(x, m, eta, xj)
-            to_jacobi(v, m, eta, vj)
-            st = _kepler_drift(xj, vj, eta, G, half)
-            if st != OK:
-                return st
-            from_jacobi(xj, m, eta, x)
-            accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
-            to_jacobi(acc, m, eta, aj)
-            _interaction_kick(xj, vj, aj, eta, G, h)
-            st = _kepler_drift(xj, vj, eta, G, half)
-            if st != OK:
-                return st
-            from_jacobi(xj, m, eta, x)
-            from_jacobi(vj, m, eta, v)
+            if fast and abs(h) == adt:
+                if valid and fstate[F_WH_H] == h:
+                    st = _kepler_drift(xj, vj, eta, G, h)
+                else:
+                    if need_sync:  # (direction changed) synchronise before rebuilding
+                        st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
+                        if st != OK:
+                            return st
+                    to_jacobi(x, m, eta, xj)
+                    to_jacobi(v, m, eta, vj)
+                    st = _kepler_drift(xj, vj, eta, G, half)
+                    fstate[F_WH_H] = h
+                    valid = True
+                if st != OK:
+                    return st
+                from_jacobi(xj, m, eta, x)  # mid-step positions (x is scratch until synced)
+                accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params,
+                              acc)
+                to_jacobi(acc, m, eta, aj)
+                _interaction_kick(xj, vj, aj, eta, G, h)
+                need_sync = True
+            else:
+                if need_sync:
+                    st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
+                    if st != OK:
+                        return st
+                    need_sync = False
+                valid = False
+                to_jacobi(x, m, eta, xj)
+                to_jacobi(v, m, eta, vj)
+                st = _kepler_drift(xj, vj, eta, G, half)
+                if st != OK:
+                    return st
+                from_jacobi(xj, m, eta, x)
+                accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params,
+                              acc)
+                to_jacobi(acc, m, eta, aj)
+                _interaction_kick(xj, vj, aj, eta, G, h)
+                st = _kepler_drift(xj, vj, eta, G, half)
+                if st != OK:
+                    return st
+                from_jacobi(xj, m, eta, x)
+                from_jacobi(vj, m, eta, v)
             advance_clock(fstate, istate, h, last, exact, target)
             fstate[F_DT_LAST] = h
             istate[I_STEPS] += 1
-            status = check_events(x, v, radius, fstate, istate)
-            if status != OK:
-                return status
+            if not fast:
+                status = check_events(x, v, radius, fstate, istate)
+                if status != OK:
+                    istate[I_WH_VALID] = 0
+                    return status
             if last:
                 break
             if should_pause(istate):
+                if need_sync:
+                    st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
+                    if st != OK:
+                        return st
+                istate[I_WH_VALID] = 1 if valid else 0
                 return PAUSED
+        if need_sync:
+            st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
+            if st != OK:
+                return st
+            need_sync = False
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
+    istate[I_WH_VALID] = 1 if valid else 0
     return OK

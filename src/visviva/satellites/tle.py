@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from datetime import datetime
 from functools import cached_property
 
@@ -156,7 +157,9 @@ def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:
     when = f"{tsince:.6f} min from its epoch"
     if times is not None:
         try:
-            when = f"{times.ravel()[index[-1]].utc.isot} UTC, {when}"
+            with warnings.catch_warnings():  # far-future dates: ERFA's "dubious year"
+                warnings.simplefilter("ignore")
+                when = f"{times.ravel()[index[-1]].utc.isot} UTC, {when}"
         except (IndexError, ValueError):
             pass
     more = f" ({flat.size} of {status.size} propagations failed)" if status.size > 1 else ""
@@ -554,7 +557,8 @@ class Satellite:
         e, r, v = s.sgp4_array(jd, fr)
         if e.any():
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
-            raise_for_sgp4_status(e, [self.name], tsince, times)
+            when = times if times is not None else Time(jd, fr, format="jd", scale="utc")
+            raise_for_sgp4_status(e, [self.name], tsince, when)
         if times is None:
             times = Time(jd, fr, format="jd", scale="utc").reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times

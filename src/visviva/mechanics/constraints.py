@@ -150,7 +150,11 @@ class _Constraint:
 
 def _solve_gram(A, b):
     """Solve (J W J^T) x = b, refusing a rank-deficient constraint Jacobian."""
-    if A.shape[0] and np.linalg.cond(A) > 1e12:
+    if A.shape[0] == 1:
+        singular = not A[0, 0] > 0
+    else:
+        singular = np.linalg.cond(A) > 1e12
+    if singular:
         raise InvalidInputError(
             "the constraint Jacobian is rank deficient (redundant or degenerate constraints, "
             "e.g. a zero gradient); drop the redundant constraints or write them so that their "

@@ -482,7 +482,15 @@ def integrate_rigid_body(
         )
         tau = 0.0
         if torque is not None:
-            tau = np.asarray(torque(time, Rotation.from_quat(q).as_matrix(), w), dtype=float)
+            # attitude matrix of the unit quaternion (x, y, z, w) = (x, yq, z, s)
+            R = np.array(
+                [
+                    [1 - 2 * (yq * yq + z * z), 2 * (x * yq - z * s), 2 * (x * z + yq * s)],
+                    [2 * (x * yq + z * s), 1 - 2 * (x * x + z * z), 2 * (yq * z - x * s)],
+                    [2 * (x * z - yq * s), 2 * (yq * z + x * s), 1 - 2 * (x * x + yq * yq)],
+                ]
+            )
+            tau = np.asarray(torque(time, R, w), dtype=float)
         dw = I_inv @ (tau - np.cross(w, Ib @ w))
         return np.concatenate([dq, dw])
 

@@ -177,22 +177,22 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
 
     # True longitude in the equinoctial frame, scaled by |h| (no normalisation needed).
     if hz >= 0.0:
-        d = hm + hz
-        fx = hm - hx * hx / d
-        fy = -hx * hy / d
+        inv_d = 1.0 / (hm + hz)
+        fx = hm - hx * hx * inv_d
+        fy = -hx * hy * inv_d
         fz = -hx
         gx = fy
-        gy = hm - hy * hy / d
+        gy = hm - hy * hy * inv_d
         gz = -hy
         lam = math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz)
         u = _wrap_2pi(lam - raan)
     else:
-        d = hm - hz
-        fx = hm - hx * hx / d
-        fy = -hx * hy / d
+        inv_d = 1.0 / (hm - hz)
+        fx = hm - hx * hx * inv_d
+        fy = -hx * hy * inv_d
         fz = hx
         gx = -fy
-        gy = hy * hy / d - hm
+        gy = hy * hy * inv_d - hm
         gz = -hy
         lam = math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz)
         u = _wrap_2pi(lam + raan)

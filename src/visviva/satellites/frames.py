@@ -5,12 +5,13 @@ Every rotation is astropy's own (``astropy.coordinates.TEME``, ``GCRS``, ``ITRS`
 sidereal time or polar motion.
 
 Earth-orientation data (UT1-UTC and polar motion) come **offline** from the files installed with
-astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` with its
+astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` with a year of
 predictions, and EOP C04): inside these functions ``astropy.utils.iers.conf.auto_download`` is
-``False``, so no call goes to the network. For times beyond the predictions astropy falls back
-to UT1 = UTC and zero polar motion and warns (``iers_degraded_accuracy = "warn"``); the error
-then grows to ~0.9 s in UT1 (~400 m along track at the equator in ITRS) and ~0.3" of polar
-motion (~10 m). GCRS is insensitive to UT1 (TEME and GCRS are both inertial), to about 1 m.
+``False``, so no call goes to the network. Observed values are good to ~0.1 ms in UT1 and
+~0.1 mas in polar motion; predictions degrade to ~20 ms and ~0.08" after a year (Bulletin A's
+error model). Beyond the table astropy falls back to UT1 = UTC and zero polar motion and warns
+(``iers_degraded_accuracy = "warn"``): up to 0.9 s in UT1 (~400 m along the equator in ITRS).
+GCRS is insensitive to these data (TEME and GCRS are both inertial). See docs/satellites.md.
 """
 
 from __future__ import annotations

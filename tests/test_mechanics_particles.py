@@ -126,3 +126,30 @@ def test_conservation_for_different_masses_inverse_square():
     assert rep["energy"] < 1e-9
     assert rep["momentum"] < 1e-11
     assert rep["angular_momentum"] < 1e-10
+
+
+def test_work_along_curve_path_independence_and_circulation():
+    field = mech.InverseSquare(2.0)
+    V = field.potential
+
+    def straight(s):
+        return np.array([1.0 + s, 0.5 * s, 0.0])
+
+    def wiggly(s):
+        return np.array([1.0 + s, 0.5 * s + 0.3 * np.sin(np.pi * s), 0.2 * np.sin(2 * np.pi * s)])
+
+    expected = V(straight(0.0)) - V(straight(1.0))
+    for path in (straight, wiggly):
+        assert mech.work_along_curve(field.force, path, (0, 1)) == pytest.approx(
+            expected, rel=1e-10
+        )
+    # a non-conservative field F = (-y, x, 0) has circulation 2 pi around the unit circle
+    swirl = lambda r: np.array([-r[1], r[0], 0.0])  # noqa: E731
+    circle = lambda s: np.array([np.cos(s), np.sin(s), 0.0])  # noqa: E731
+    tangent = lambda s: np.array([-np.sin(s), np.cos(s), 0.0])  # noqa: E731
+    assert mech.work_along_curve(swirl, circle, (0, 2 * np.pi)) == pytest.approx(
+        2 * np.pi, rel=1e-10
+    )
+    assert mech.work_along_curve(swirl, circle, (0, 2 * np.pi), tangent) == pytest.approx(
+        2 * np.pi, rel=1e-12
+    )

@@ -68,6 +68,7 @@ _PUBLIC = {
     "InverseSquarePairs": "energy",
     "work": "energy",
     "cumulative_work": "energy",
+    "work_along_curve": "energy",
     "conservation_report": "energy",
     # Lagrangian and Hamiltonian
     "LagrangianSystem": "lagrangian",

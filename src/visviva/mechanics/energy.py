@@ -22,6 +22,7 @@ __all__ = [
     "InverseSquarePairs",
     "work",
     "cumulative_work",
+    "work_along_curve",
     "conservation_report",
 ]
 
@@ -258,6 +259,59 @@ def work(force, trajectory):
     if P.size < 3:
         raise InvalidInputError("work needs at least 3 samples of the trajectory.")
     return float(simpson(P, x=trajectory.t))
+
+
+def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
+    """Line integral W = int F(r) . dr of a static force field along a parametrised curve.
+
+    Parameters
+    ----------
+    field : callable
+        ``field(r) -> F`` for one point r of shape (d,) [N] (a conservative object's ``force``
+        works).
+    curve : callable
+        ``curve(s) -> r`` of shape (d,) [m].
+    s_range : (float, float)
+        Parameter interval [s0, s1] (the direction of travel is from s0 to s1).
+    tangent : callable, optional
+        ``tangent(s) -> dr/ds``; if omitted it is computed from ``curve`` by central differences
+        with Ridders' extrapolation.
+    rtol : float
+        Relative tolerance of the adaptive quadrature.
+
+    Returns
+    -------
+    float
+        W [J]. For a conservative field W = V(r(s0)) - V(r(s1)) whatever the path; around a
+        closed loop it is the circulation of F.
+
+    Notes
+    -----
+    W = int_{s0}^{s1} F(r(s)) . r'(s) ds by :func:`scipy.integrate.quad` (adaptive Gauss-Kronrod).
+    """
+    from scipy.integrate import quad
+
+    from .constraints import _extrapolate
+
+    s0, s1 = (float(s) for s in s_range)
+    if not (np.isfinite(s0) and np.isfinite(s1)):
+        raise InvalidInputError("s_range must be two finite numbers.")
+
+    def dr_ds(s):
+        if tangent is not None:
+            return np.asarray(tangent(s), dtype=float)
+
+        def central(h):
+            return (np.asarray(curve(s + h), float) - np.asarray(curve(s - h), float)) / (2 * h)
+
+        return _extrapolate(central, 1e-3 * max(1.0, abs(s1 - s0)))
+
+    def integrand(s):
+        F = np.asarray(field(np.asarray(curve(s), dtype=float)), dtype=float)
+        return float(np.dot(F, dr_ds(s)))
+
+    value, _ = quad(integrand, s0, s1, epsabs=0.0, epsrel=rtol, limit=200)
+    return value
 
 
 def conservation_report(trajectory, potential=None):

@@ -80,6 +80,18 @@ _PUBLIC = {
     "ThirdBody": "visviva.satellites",
     "SolarRadiationPressure": "visviva.satellites",
     "lambert": "visviva.satellites",
+    "Maneuver": "visviva.satellites",
+    "hohmann_delta_v": "visviva.satellites",
+    "porkchop": "visviva.satellites",
+    "Eclipse": "visviva.satellites",
+    "ReEntry": "visviva.satellites",
+    "AltitudeCrossing": "visviva.satellites",
+    "AscendingNode": "visviva.satellites",
+    "DescendingNode": "visviva.satellites",
+    "Apsides": "visviva.satellites",
+    "j2_secular_rates": "visviva.satellites",
+    "propagate_j2_secular": "visviva.satellites",
+    "sun_synchronous_inclination": "visviva.satellites",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...

@@ -119,8 +119,8 @@ def _draw(ax, check: Check, spec: dict) -> bool:
         tol = _finite(check.tolerance)
         if drawn and spec.get("tolerance_line", True) and tol is not None and tol > 0:
             ax.axvline(math.log10(tol), color="crimson", linestyle="--", label="tolerance")
-        ax.set_xlabel(_short(spec.get("xlabel") or f"log10 |{', '.join(map(str, ys))}|"
-                             + (f"  ({check.metric})" if check.metric else ""), 80))
+        ax.set_xlabel(_short(spec.get("xlabel") or f"log10 of {check.metric or ', '.join(ys)}",
+                             55))
         ax.set_ylabel(_short(spec.get("ylabel") or "count"))
     else:
         x = _array(details.get(spec.get("x"))) if spec.get("x") else None
@@ -184,6 +184,8 @@ def _slug(text: str) -> str:
 
 def _figures(outcome) -> list[tuple[str, list[tuple[Check, dict]]]]:
     """Group (check, spec) pairs into figures: one per ``plot_group``, else one per check."""
+    from .runner import short_name
+
     groups: dict[str, list[tuple[Check, dict]]] = {}
     order: list[str] = []
     for module, check in outcome.checks:
@@ -193,7 +195,8 @@ def _figures(outcome) -> list[tuple[str, list[tuple[Check, dict]]]]:
         except Exception:  # noqa: BLE001 - a malformed details dict must not stop the report
             specs = []
         for spec in specs:
-            key = details.get("plot_group") or spec.get("group") or f"{module}: {check.name}"
+            key = (details.get("plot_group") or spec.get("group")
+                   or f"{short_name(module)}: {check.name}")
             if key not in groups:
                 groups[key] = []
                 order.append(key)

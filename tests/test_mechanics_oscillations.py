@@ -217,3 +217,11 @@ def test_damped_oscillator_solves_its_equation_property(x0, v0, w0, g, t):
     scale = (abs(x0) + abs(v0) + 1.0) * (1 + w0**2 + g**2)
     assert xdot == pytest.approx(v, abs=1e-6 * scale)
     assert a + 2 * g * v + w0**2 * x == pytest.approx(0.0, abs=1e-6 * scale)
+
+
+def test_normal_modes_accepts_mass_vector():
+    M, K = mech.chain_matrices([1.0, 2.0, 3.0], [1.0, 2.0, 3.0, 4.0])
+    w1, m1 = mech.normal_modes(M, K)
+    w2, m2 = mech.normal_modes([1.0, 2.0, 3.0], K)
+    np.testing.assert_array_equal(w1, w2)
+    np.testing.assert_array_equal(m1, m2)

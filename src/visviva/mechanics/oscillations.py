@@ -292,7 +292,8 @@ def normal_modes(M, K):
     Parameters
     ----------
     M : (n, n) array_like or Quantity
-        Symmetric positive-definite mass matrix [kg] (any consistent units).
+        Symmetric positive-definite mass matrix [kg] (any consistent units); a 1-D array of n
+        masses stands for the diagonal matrix.
     K : (n, n) array_like or Quantity
         Symmetric positive-semidefinite stiffness matrix [N/m].
 
@@ -329,6 +330,9 @@ def normal_modes(M, K):
     from scipy import linalg
 
     ins = Inputs()
+    if np.ndim(M) == 1:  # a vector of masses: the diagonal mass matrix
+        M = ins.get(M, "kg", "M")
+        M = np.diag(M)
     M = square_matrix(M, "M", ins, "kg")
     K = square_matrix(K, "K", ins, "stiffness")
     if M.shape != K.shape:

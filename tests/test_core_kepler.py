@@ -324,3 +324,14 @@ def test_mean_to_true_sweeps_through_parabolic_smoothly():
     nu_p = nus[60]
     dev = np.abs(nus - nu_p)
     assert np.all(dev <= 2.0 * np.abs(ecc - 1.0) + 1e-13)
+
+
+def test_huge_mean_anomaly_stays_finite_and_consistent():
+    """Past 2^53 the revolution is lost in rounding, but E stays finite with a tiny residual."""
+    for M in (1e300, -1e20, 1e16, 2.0**60):
+        for e in (0.0, 0.3, 0.999):
+            E, s = k.eccentric_anomaly(M, e)
+            assert s == st.OK and math.isfinite(E)
+            assert abs(E - e * math.sin(E) - M) <= 2e-15 * abs(M)
+            nu, s = k.mean_to_true_anomaly(M, e)
+            assert s == st.OK and math.isfinite(nu) and abs(nu - M) <= 2e-15 * abs(M) + 4.0

@@ -349,6 +349,20 @@ def _eccentric_reduced(M, ecc):
     return _eccentric_near_parabolic(M, ecc)
 
 
+@inline_kernel
+def _revolutions(x):
+    """(x - r, r): r = x mod 2 pi in [-pi, pi], exact (fmod, then one exact subtraction), and
+    the whole revolutions x - r; (0, x) untouched if |x| <= pi."""
+    if abs(x) <= PI:
+        return 0.0, x
+    r = np.fmod(x, TWO_PI)
+    if r > PI:
+        r -= TWO_PI
+    elif r < -PI:
+        r += TWO_PI
+    return x - r, r
+
+
 @kernel
 def eccentric_anomaly(M, ecc):
     """Eccentric anomaly E (rad) from the mean anomaly M (rad), 0 <= e < 1.
@@ -369,18 +383,14 @@ def eccentric_anomaly(M, ecc):
         return NAN, BAD_ECCENTRICITY
     if ecc == 0.0:
         return M, OK
-    k = 0.0
-    Mr = M
-    if abs(M) > PI:
-        k = math.floor(M / TWO_PI + 0.5)
-        Mr = M - k * TWO_PI
+    base, Mr = _revolutions(M)
     if Mr < 0.0 or (Mr == 0.0 and math.copysign(1.0, Mr) < 0.0):
         E, st = _eccentric_reduced(-Mr, ecc)
         E = -E
     else:
         E, st = _eccentric_reduced(Mr, ecc)
-    if k != 0.0:
-        E += k * TWO_PI
+    if base != 0.0:
+        E = base + E
     return E, st
 
 
@@ -470,15 +480,6 @@ def parabolic_anomaly(M):
 # ---------------------------------------------------------------------------------------------
 # Direct conversions
 # ---------------------------------------------------------------------------------------------
-@inline_kernel
-def _revolutions(x):
-    """(k, x - 2 pi k) with the remainder in [-pi, pi]; k = 0 and x untouched if |x| <= pi."""
-    if abs(x) <= PI:
-        return 0.0, x
-    k = math.floor(x / TWO_PI + 0.5)
-    return k, x - k * TWO_PI
-
-
 @kernel
 def true_from_eccentric(E, ecc):
     """True anomaly nu (rad) from the eccentric anomaly E (rad), 0 <= e < 1.
@@ -490,12 +491,12 @@ def true_from_eccentric(E, ecc):
         return NAN, NON_FINITE
     if not (0.0 <= ecc < 1.0):
         return NAN, BAD_ECCENTRICITY
-    k, Er = _revolutions(E)
+    base, Er = _revolutions(E)
     nu = 2.0 * math.atan2(
         math.sqrt(1.0 + ecc) * math.sin(0.5 * Er), math.sqrt(1.0 - ecc) * math.cos(0.5 * Er)
     )
-    if k != 0.0:
-        nu += k * TWO_PI
+    if base != 0.0:
+        nu = base + nu
     return nu, OK
 
 
@@ -506,12 +507,12 @@ def eccentric_from_true(nu, ecc):
         return NAN, NON_FINITE
     if not (0.0 <= ecc < 1.0):
         return NAN, BAD_ECCENTRICITY
-    k, nur = _revolutions(nu)
+    base, nur = _revolutions(nu)
     E = 2.0 * math.atan2(
         math.sqrt(1.0 - ecc) * math.sin(0.5 * nur), math.sqrt(1.0 + ecc) * math.cos(0.5 * nur)
     )
-    if k != 0.0:
-        E += k * TWO_PI
+    if base != 0.0:
+        E = base + E
     return E, OK
 
 
@@ -609,10 +610,10 @@ def true_to_mean_anomaly(nu, ecc):
         E, st = eccentric_from_true(nu, ecc)
         if st != OK:
             return NAN, st
-        k, Er = _revolutions(E)
+        base, Er = _revolutions(E)
         M = _mean_elliptic(Er, ecc)
-        if k != 0.0:
-            M += k * TWO_PI
+        if base != 0.0:
+            M = base + M
         return M, OK
     if ecc == 1.0:
         D, st = parabolic_from_true(nu)

@@ -153,6 +153,9 @@ def test_gravity_serial_and_parallel_give_identical_bits(n):
     g.gravity_serial(x, m, 1.0, 1e-6, massive, a1)
     g.gravity_parallel(x, m, 1.0, 1e-6, massive, a2, np.empty((7, n)))
     np.testing.assert_array_equal(a1, a2)
+    a3 = np.empty((n, 3))
+    g.gravity_blocked(x, m, 1.0, 1e-6, massive, a3, np.empty((7, n)))
+    np.testing.assert_array_equal(a1, a3)
 
 
 def test_gravity_matches_slow_reference_and_thread_count():

@@ -34,6 +34,7 @@ from ._jit import kernel, parallel_kernel, prange
 __all__ = [
     "gravity_serial",
     "gravity_parallel",
+    "gravity_blocked",
     "gravity",
     "energy",
     "kinetic_energy",
@@ -45,8 +46,10 @@ __all__ = [
 
 #: Number of particles ``i`` per block of the parallel kernel (the block's accumulators stay in L1).
 BLOCK = 256
-#: Below this many particles :func:`gravity` uses the serial pairwise kernel.
+#: From this many particles on, the simulation uses the multi-threaded kernel by default.
 PARALLEL_MIN_N = 512
+#: Below this many particles :func:`gravity` uses the pairwise kernel (Newton's third law).
+BLOCKED_MIN_N = 64
 
 
 @kernel
@@ -97,7 +100,10 @@ def gravity_serial(x, m, G, soft2, massive, acc):
             dy = x[j, 1] - yi
             dz = x[j, 2] - zi
             r2 = dx * dx + dy * dy + dz * dz + soft2
-            inv_r3 = 1.0 / (r2 * math.sqrt(r2))
+            if r2 > 0.0:
+                inv_r3 = 1.0 / (r2 * math.sqrt(r2))
+            else:
+                inv_r3 = 0.0  # coincident particles without softening: no force, like _row
             sj = G * m[j] * inv_r3
             si = gmi * inv_r3
             axi += dx * sj
@@ -126,7 +132,7 @@ def gravity_serial(x, m, G, soft2, massive, acc):
                 dy = x[j, 1] - yi
                 dz = x[j, 2] - zi
                 r2 = dx * dx + dy * dy + dz * dz + soft2
-                inv_r3 = 1.0 / (r2 * math.sqrt(r2))
+                inv_r3 = 1.0 / (r2 * math.sqrt(r2)) if r2 > 0.0 else 0.0
                 sj = G * m[j] * inv_r3
                 axi += dx * sj
                 ayi += dy * sj
@@ -137,37 +143,36 @@ def gravity_serial(x, m, G, soft2, massive, acc):
 
 
 @kernel
+def _row(nb, xj, yj, zj, gmj, soft2, bx, by, bz, bax, bay, baz):
+    # one source j on a block of targets i (zero-based views, branch-free: vectorises);
+    # r2 = 0 (the particle itself, or a coincident one without softening) adds exactly +0
+    for i in range(nb):
+        dx = xj - bx[i]
+        dy = yj - by[i]
+        dz = zj - bz[i]
+        r2 = dx * dx + dy * dy + dz * dz + soft2
+        s = gmj * (1.0 / (r2 * math.sqrt(r2))) if r2 > 0.0 else 0.0
+        bax[i] += dx * s
+        bay[i] += dy * s
+        baz[i] += dz * s
+
+
+@kernel
 def _block(lo, hi, xs, ys, zs, gm, soft2, massive, ax, ay, az):
-    for i in range(lo, hi):
-        ax[i] = 0.0
-        ay[i] = 0.0
-        az[i] = 0.0
+    bx = xs[lo:hi]
+    by = ys[lo:hi]
+    bz = zs[lo:hi]
+    bax = ax[lo:hi]
+    bay = ay[lo:hi]
+    baz = az[lo:hi]
+    nb = hi - lo
+    for i in range(nb):
+        bax[i] = 0.0
+        bay[i] = 0.0
+        baz[i] = 0.0
     for b in range(massive.shape[0]):
         j = massive[b]
-        xj = xs[j]
-        yj = ys[j]
-        zj = zs[j]
-        gmj = gm[j]
-        top = min(hi, j)
-        for i in range(lo, top):
-            dx = xj - xs[i]
-            dy = yj - ys[i]
-            dz = zj - zs[i]
-            r2 = dx * dx + dy * dy + dz * dz + soft2
-            s = gmj * (1.0 / (r2 * math.sqrt(r2)))
-            ax[i] += dx * s
-            ay[i] += dy * s
-            az[i] += dz * s
-        bottom = max(lo, j + 1)
-        for i in range(bottom, hi):
-            dx = xj - xs[i]
-            dy = yj - ys[i]
-            dz = zj - zs[i]
-            r2 = dx * dx + dy * dy + dz * dz + soft2
-            s = gmj * (1.0 / (r2 * math.sqrt(r2)))
-            ax[i] += dx * s
-            ay[i] += dy * s
-            az[i] += dz * s
+        _row(nb, xs[j], ys[j], zs[j], gm[j], soft2, bx, by, bz, bax, bay, baz)
 
 
 @parallel_kernel
@@ -204,10 +209,41 @@ def gravity_parallel(x, m, G, soft2, massive, acc, work):
 
 
 @kernel
+def gravity_blocked(x, m, G, soft2, massive, acc, work):
+    """:func:`gravity_parallel` on one thread without the thread pool (same bits)."""
+    n = x.shape[0]
+    xs = work[0]
+    ys = work[1]
+    zs = work[2]
+    gm = work[3]
+    ax = work[4]
+    ay = work[5]
+    az = work[6]
+    for i in range(n):
+        xs[i] = x[i, 0]
+        ys[i] = x[i, 1]
+        zs[i] = x[i, 2]
+        gm[i] = G * m[i]
+    nblocks = (n + BLOCK - 1) // BLOCK
+    for k in range(nblocks):
+        lo = k * BLOCK
+        hi = min(n, lo + BLOCK)
+        _block(lo, hi, xs, ys, zs, gm, soft2, massive, ax, ay, az)
+    for i in range(n):
+        acc[i, 0] = ax[i]
+        acc[i, 1] = ay[i]
+        acc[i, 2] = az[i]
+
+
+@kernel
 def gravity(x, m, G, soft2, massive, acc, work, parallel):
-    """Dispatch to :func:`gravity_parallel` (``parallel`` true) or :func:`gravity_serial`."""
+    """Dispatch: :func:`gravity_parallel` when ``parallel``, else the vectorised
+    :func:`gravity_blocked` for N >= :data:`BLOCKED_MIN_N`, else the pairwise
+    :func:`gravity_serial`. All three give the same bits."""
     if parallel:
         gravity_parallel(x, m, G, soft2, massive, acc, work)
+    elif x.shape[0] >= BLOCKED_MIN_N:
+        gravity_blocked(x, m, G, soft2, massive, acc, work)
     else:
         gravity_serial(x, m, G, soft2, massive, acc)
 

@@ -1,0 +1,160 @@
+"""N-body: visviva's compiled integrators side by side with REBOUND (same process, same input).
+
+Rows
+----
+* WHFast, Sun + 8 planets, 1,000 years, dt = 4.4 d (target <= 1.0x REBOUND's WHFast).
+* IAS15, Sun + 8 planets, 1,000 years (target <= 1.0x REBOUND's IAS15 at equal energy error:
+  both relative energy errors are reported in the notes).
+* Direct summation, one leapfrog step at N = 4,000 on every core (target >= 10x faster than
+  REBOUND's leapfrog with gravity "basic", i.e. ratio <= 0.1).
+* A compiled user force (no-op) inside WHFast (target <= 1.2x the run without it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from benchmarks.common import compile_time, result, skipped, threads, time_call
+
+NAME = "nbody"
+
+
+def _rebound():
+    try:
+        import rebound
+
+        return rebound
+    except ImportError:
+        return None
+
+
+def _solar(integrator):
+    import visviva as vv
+
+    return vv.solar_system(integrator=integrator)
+
+
+def _run_vv(integrator, years):
+    sim = _solar(integrator)
+    sim.integrate(years)
+    return sim
+
+
+def _run_rb(integrator, years):
+    r = _solar(integrator).to_rebound()
+    r.integrate(years)
+    return r
+
+
+def _cluster(n, seed=1):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(n, 3))
+    v = 0.1 * rng.normal(size=(n, 3))
+    m = np.full(n, 1.0 / n)
+    return x, v, m
+
+
+def run(quick: bool = False) -> list[dict]:
+    import numba
+
+    import visviva as vv
+
+    rows = []
+    rebound = _rebound()
+    years = 100.0 if quick else 1000.0
+    repeat = 3 if quick else 5
+
+    # -- WHFast -------------------------------------------------------------------------------
+    c = compile_time(_run_vv, "whfast", 1.0)
+    t_vv = time_call(_run_vv, "whfast", years, repeat=repeat, number=1)
+    if rebound is None:
+        rows.append(skipped("whfast solar system", "rebound not installed"))
+    else:
+        t_rb = time_call(_run_rb, "whfast", years, repeat=repeat, number=1)
+        s, r = _run_vv("whfast", years), _run_rb("whfast", years)
+        e_vv = abs(s.energy() / _solar("whfast").energy() - 1)
+        e_rb = abs(r.energy() / _solar("whfast").to_rebound().energy() - 1)
+        rows.append(result(
+            f"whfast, Sun + 8 planets, {years:g} yr, dt 4.4 d", t_vv, f"rebound {rebound.__version__} whfast",
+            t_rb, target=1.0, compile_s=c,
+            notes=f"|dE/E| visviva {e_vv:.1e}, rebound {e_rb:.1e}; both synchronise only at the end",
+        ))
+
+    # -- IAS15 --------------------------------------------------------------------------------
+    c = compile_time(_run_vv, "ias15", 1.0)
+    t_vv = time_call(_run_vv, "ias15", years, repeat=max(3, repeat - 2), number=1)
+    if rebound is None:
+        rows.append(skipped("ias15 solar system", "rebound not installed"))
+    else:
+        t_rb = time_call(_run_rb, "ias15", years, repeat=max(3, repeat - 2), number=1)
+        s, r = _run_vv("ias15", years), _run_rb("ias15", years)
+        e_vv = abs(s.energy() / _solar("ias15").energy() - 1)
+        e_rb = abs(r.energy() / _solar("ias15").to_rebound().energy() - 1)
+        rows.append(result(
+            f"ias15, Sun + 8 planets, {years:g} yr", t_vv, f"rebound {rebound.__version__} ias15", t_rb,
+            target=1.0, compile_s=c,
+            notes=(f"|dE/E| visviva {e_vv:.1e} ({s._istate[1]} steps, epsilon 1e-9, RS15 global "
+                   f"step control), rebound {e_rb:.1e} ({r.steps_done} steps, default control)"),
+        ))
+
+    # -- direct summation -----------------------------------------------------------------------
+    n = 1000 if quick else 4000
+    x, v, m = _cluster(n)
+    sim = vv.Simulation("leapfrog", dt=1e-3, softening=0.01, parallel=True)
+    for k in range(n):
+        sim.add(m[k], x[k], v[k])
+    nsteps = 3
+
+    def step_vv():
+        sim.integrate(sim.t + nsteps * 1e-3)
+
+    with threads(None) as nth:
+        c = compile_time(step_vv)
+        t_vv = time_call(step_vv, repeat=repeat, number=1)
+    if rebound is None:
+        rows.append(skipped(f"direct summation N={n}", "rebound not installed"))
+    else:
+        r = rebound.Simulation()
+        r.G = 1.0
+        r.softening = 0.01
+        for k in range(n):
+            r.add(m=m[k], x=x[k, 0], y=x[k, 1], z=x[k, 2], vx=v[k, 0], vy=v[k, 1], vz=v[k, 2])
+        r.integrator = "leapfrog"
+        r.gravity = "basic"
+        r.dt = 1e-3
+
+        def step_rb():
+            r.steps(nsteps)
+
+        t_rb = time_call(step_rb, repeat=3, number=1)
+        rows.append(result(
+            f"leapfrog + direct summation, N={n}, {nsteps} steps", t_vv,
+            f"rebound {rebound.__version__} leapfrog, gravity basic", t_rb, target=0.1,
+            compile_s=c, notes=f"{nth} thread(s), deterministic blocked kernel",
+        ))
+
+    # -- user force cost ----------------------------------------------------------------------
+    @numba.njit
+    def nothing(t, x, v, m, params, acc):
+        acc[0, 0] += params[0]
+
+    def with_force():
+        s = _solar("whfast")
+        s.add_force(nothing, params=[0.0])
+        s.integrate(years)
+
+    c = compile_time(with_force)
+    t_f = time_call(with_force, repeat=repeat, number=1)
+    t_0 = time_call(_run_vv, "whfast", years, repeat=repeat, number=1)
+    rows.append(result(
+        f"whfast + compiled user force, {years:g} yr", t_f, "visviva whfast without the force", t_0,
+        target=1.2, compile_s=c, notes="force called through a first-class function pointer",
+    ))
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    for row in run(quick="--quick" in sys.argv):
+        print(row)

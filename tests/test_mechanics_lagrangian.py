@@ -117,3 +117,16 @@ def test_missing_parameters_and_damping_forces():
     np.testing.assert_allclose(
         tr.q[:, 0], mech.damped_oscillator(1.0, 0.5, 2.0, 0.3, t), atol=1e-10
     )
+
+
+def test_parameters_may_be_quantities():
+    import astropy.units as u
+
+    x = dynamicsymbols("x")
+    m, k = sp.symbols("m k")
+    sys = mech.LagrangianSystem(
+        m * x.diff() ** 2 / 2 - k * x**2 / 2, [x], {m: 500 * u.g, k: 2 * u.N / u.m}
+    )
+    assert sys.parameters[m] == pytest.approx(0.5) and sys.parameters[k] == pytest.approx(2.0)
+    tr = sys.simulate([1.0], [0.0], [0.0, np.pi])
+    assert tr.q[-1, 0] == pytest.approx(1.0, abs=1e-9)

@@ -168,6 +168,7 @@ def to_si(value, unit, name: str, *, finite: bool = True, angles_dimensionless: 
     Quantities. A Quantity is converted to ``unit`` (e.g. ``u.kg``, ``u.m / u.s``); a plain number
     is assumed to be in consistent units already and copied unchanged. With
     ``angles_dimensionless`` (default) radians count as dimensionless, so rad/s converts to 1/s.
+    ``unit=None`` converts a Quantity to its SI form, whatever its physical type.
 
     Returns
     -------
@@ -184,7 +185,7 @@ def to_si(value, unit, name: str, *, finite: bool = True, angles_dimensionless: 
     if isinstance(value, u.Quantity):
         try:
             equiv = u.dimensionless_angles() if angles_dimensionless else []
-            arr = value.to_value(unit, equivalencies=equiv)
+            arr = value.si.value if unit is None else value.to_value(unit, equivalencies=equiv)
         except u.UnitConversionError as exc:
             raise UnitsError(
                 f"{name} has unit '{value.unit}', which cannot be converted to '{unit}'. "

@@ -36,6 +36,15 @@ def _sympy():
     return sympy, mechanics
 
 
+def _si_value(value, name):
+    """A parameter value: Quantities are converted to SI (through visviva._units), else as is."""
+    if hasattr(value, "unit"):
+        from .._units import to_si
+
+        return float(to_si(value, None, name)[0])
+    return value
+
+
 @dataclass(frozen=True)
 class LagrangianTrajectory:
     """Generalised coordinates and velocities at output times.
@@ -71,8 +80,8 @@ class LagrangianSystem:
     coordinates : sequence of sympy dynamicsymbols
         The generalised coordinates q_1 ... q_n.
     parameters : dict, optional
-        Numerical values for every other symbol in L, ``{symbol: value}``; values in any
-        consistent units.
+        Numerical values for every other symbol in L, ``{symbol: value}``; plain numbers in any
+        consistent units, or Quantities (converted to SI).
     forces : callable, optional
         Generalised non-conservative forces ``Q(t, q, qdot) -> (n,)`` added to the right-hand
         side: d/dt dL/dq' - dL/dq = Q.
@@ -110,7 +119,9 @@ class LagrangianSystem:
         self.coordinates = list(coordinates)
         if not self.coordinates:
             raise InvalidInputError("coordinates must list at least one generalised coordinate.")
-        self.parameters = dict(parameters or {})
+        self.parameters = {
+            key: _si_value(value, str(key)) for key, value in dict(parameters or {}).items()
+        }
         self.forces = forces
         self.time = me.dynamicsymbols._t
         self.dof = len(self.coordinates)

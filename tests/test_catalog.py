@@ -157,3 +157,32 @@ def test_j2_batch_equals_the_secular_theory_of_visviva_satellites_secular(catalo
         ours = propagate_j2_batch(cat[i : i + 1], sat.epoch + dt * u.s)
         assert np.abs((ours.r[0] - ref.r).to_value(u.km)).max() < ONE_MM
         assert np.abs((ours.v[0] - ref.v).to_value(u.km / u.s)).max() < 1e-9
+
+
+def test_read_omm_json_and_csv_equal_the_tles(tmp_path, catalog):
+    import csv
+    import json
+
+    from sgp4.exporter import export_omm
+
+    from visviva.satellites.catalog import read_omm_file
+
+    sats = [catalog[i] for i in (0, 2, 3)]
+    records = [export_omm(s.satrec, s.name) for s in sats]
+    (tmp_path / "gp.json").write_text(json.dumps(records))
+    with open(tmp_path / "gp.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(records[0]))
+        writer.writeheader()
+        writer.writerows(records)
+    t = Time("2006-06-25T00:00:00", scale="utc") + np.linspace(0, 1, 5) * u.day
+    ref = propagate_sgp4_batch(Catalog(sats), t)
+    for name in ("gp.json", "gp.csv"):
+        cat = read_omm_file(tmp_path / name)
+        assert cat.names == [s.name for s in sats]
+        out = propagate_sgp4_batch(cat, t)
+        # OMM epochs are written to the microsecond: agree to well below a metre
+        assert np.abs((out.r - ref.r).to_value(u.km)).max() < 1e-3
+    records[1].pop("MEAN_MOTION")
+    (tmp_path / "bad.json").write_text(json.dumps(records))
+    with pytest.raises(vv.InvalidInputError, match="record 2 of"):
+        read_omm_file(tmp_path / "bad.json")

@@ -24,6 +24,7 @@ _EXPORTS = {
     "itrs_to_geodetic": "frames",
     "Catalog": "catalog",
     "read_tle_file": "catalog",
+    "read_omm_file": "catalog",
     "propagate_sgp4_batch": "catalog",
     "propagate_kepler_batch": "catalog",
     "propagate_j2_batch": "catalog",

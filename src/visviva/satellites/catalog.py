@@ -40,6 +40,7 @@ __all__ = [
     "Catalog",
     "BatchStates",
     "read_tle_file",
+    "read_omm_file",
     "parse_tle_text",
     "propagate_sgp4_batch",
     "propagate_kepler_batch",
@@ -125,6 +126,13 @@ class Catalog:
                     f"a Catalog holds vv.Satellite objects, got {type(s).__name__}; build them "
                     "with vv.Satellite.from_tle or from_omm."
                 )
+
+    def __getstate__(self):
+        # the SatrecArray and other caches do not pickle: workers rebuild them
+        return {"satellites": self.satellites}
+
+    def __setstate__(self, state):
+        self.satellites = state["satellites"]
 
     @classmethod
     def from_omm(cls, records):
@@ -287,6 +295,49 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
             text = f.read()
         source = os.fspath(path)
     return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
+
+
+def read_omm_file(path, *, format: str | None = None) -> Catalog:
+    """Read OMM records (CelesTrak GP data) from a JSON, CSV or XML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    format : {"json", "csv", "xml"}, optional
+        Taken from the file extension when not given.
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the file and the record number (1-based) of the first bad record.
+    """
+    from sgp4 import omm
+
+    path = os.fspath(path)
+    fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
+    with open(path, encoding="utf-8") as f:
+        if fmt == "json":
+            import json
+
+            records = json.load(f)
+            if isinstance(records, dict):
+                records = [records]
+        elif fmt == "csv":
+            records = list(omm.parse_csv(f))
+        elif fmt == "xml":
+            records = list(omm.parse_xml(f))
+        else:
+            raise InvalidInputError(
+                f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
+            )
+    sats = []
+    for k, rec in enumerate(records, start=1):
+        try:
+            sats.append(Satellite.from_omm(rec))
+        except InvalidInputError as exc:
+            raise type(exc)(f"record {k} of {path}: {exc}") from exc
+    return Catalog(sats)
 
 
 # --------------------------------------------------------------------------------------------

@@ -145,6 +145,14 @@ class DaskBatch:
         return f"DaskBatch(shape={self.shape}, chunks={self.r.chunks[:2]})"
 
 
+def _slice(cat: Catalog, a: int, b: int) -> Catalog:
+    """``cat[a:b]``, kept on ``cat`` so repeated graphs reuse its SatrecArray (threads)."""
+    cache = cat.__dict__.setdefault("_dask_slices", {})
+    if (a, b) not in cache:
+        cache[(a, b)] = cat[a:b]
+    return cache[(a, b)]
+
+
 def _splits(n: int, size: int):
     size = max(int(size), 1)
     return [(a, min(a + size, n)) for a in range(0, n, size)]
@@ -189,7 +197,7 @@ def propagate_dask(satellites, t, *, method: str = "sgp4", chunks=(1000, 1000),
     rows_r, rows_v, rows_s = [], [], []
     tag = uuid.uuid4().hex
     for a, b in _splits(len(cat), n_chunk):
-        part = dask.delayed(cat[a:b], name=f"visviva-catalog-{tag}-{a}")
+        part = dask.delayed(_slice(cat, a, b), name=f"visviva-catalog-{tag}-{a}")
         cols_r, cols_v, cols_s = [], [], []
         for c, d in _splits(len(t), t_chunk):
             blk = dask.delayed(_block, pure=False, nout=3)(part, t[c:d], method, on_error)

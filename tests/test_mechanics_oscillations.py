@@ -225,3 +225,8 @@ def test_normal_modes_accepts_mass_vector():
     w2, m2 = mech.normal_modes([1.0, 2.0, 3.0], K)
     np.testing.assert_array_equal(w1, w2)
     np.testing.assert_array_equal(m1, m2)
+
+
+def test_overflow_is_a_typed_error_not_inf():
+    with pytest.raises(DomainError, match="overflows"):
+        mech.damped_oscillator(1.0, 0.0, 1.0, 1000.0, -10.0)

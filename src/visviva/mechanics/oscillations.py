@@ -72,6 +72,18 @@ def _propagator(omega0, gamma, t):
 
     x(t) = x0 * c + (v0 + gamma x0) * s,   with c = e^{-g t} C(s), s = e^{-g t} t S(s).
     """
+    with np.errstate(over="ignore", invalid="ignore"):
+        c, s, wd2 = _propagator_raw(omega0, gamma, t)
+    if not (np.all(np.isfinite(c)) and np.all(np.isfinite(s))):
+        raise DomainError(
+            "the oscillator's solution overflows float64 at these times (|gamma t| or "
+            "|omega t| beyond ~700, reachable only for t < 0 with damping): integrate over a "
+            "shorter time span."
+        )
+    return c, s, wd2
+
+
+def _propagator_raw(omega0, gamma, t):
     omega0, gamma, t = np.broadcast_arrays(omega0, gamma, t)
     # w_d^2 = (w0 - g)(w0 + g): no cancellation as gamma -> omega0
     wd2 = (omega0 - gamma) * (omega0 + gamma)

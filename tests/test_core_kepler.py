@@ -62,6 +62,19 @@ def test_elliptic_array_equals_scalar_kernel():
         assert Ei == E[i] or (np.isnan(Ei) and np.isnan(E[i]))
 
 
+def test_mean_to_true_array_equals_scalar_kernel():
+    rng = np.random.default_rng(8)
+    n = 20_000
+    M = np.concatenate([rng.uniform(-7, 7, n), rng.uniform(-1e-3, 1e-3, n), [np.nan, 1.0]])
+    ecc = np.concatenate([rng.uniform(0, 2, n), 1 - 10.0 ** rng.uniform(-16, 0, n), [0.5, -1]])
+    nu, status = run(k.mean_to_true_array, M, ecc)
+    for i in list(range(0, 2 * n, 37)) + [2 * n, 2 * n + 1]:
+        nui, si = k.mean_to_true_anomaly(M[i], ecc[i])
+        assert si == status[i]
+        assert nui == nu[i] or (np.isnan(nui) and np.isnan(nu[i]))
+    assert status[-2] == st.NON_FINITE and status[-1] == st.BAD_ECCENTRICITY
+
+
 def test_hyperbolic_residual():
     """Hyperbolic residual within 2e-15 of max(1, |M|) plus the spacing of F itself."""
     rng = np.random.default_rng(11)

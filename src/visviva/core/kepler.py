@@ -685,10 +685,32 @@ def parabolic_anomaly_array(M, D_out, status_out):
 
 
 @parallel_kernel
-def mean_to_true_array(M, ecc, nu_out, status_out):
-    """nu_out[i], status_out[i] = mean_to_true_anomaly(M[i], ecc[i]) for 1-D arrays."""
+def _true_from_eccentric_ok_pass(E_nu, ecc, status_out):
+    """Overwrite E_nu[i] (an eccentric anomaly) with the true anomaly where status is OK."""
+    for i in prange(E_nu.shape[0]):
+        if status_out[i] == OK:
+            E_nu[i], status_out[i] = true_from_eccentric(E_nu[i], ecc[i])
+
+
+@parallel_kernel
+def _mean_to_true_fixup_pass(M, ecc, nu_out, status_out):
+    """Run :func:`mean_to_true_anomaly` on the items whose status is not OK."""
     for i in prange(M.shape[0]):
-        nu_out[i], status_out[i] = mean_to_true_anomaly(M[i], ecc[i])
+        if status_out[i] != OK:
+            nu_out[i], status_out[i] = mean_to_true_anomaly(M[i], ecc[i])
+
+
+@kernel
+def mean_to_true_array(M, ecc, nu_out, status_out):
+    """nu_out[i], status_out[i] = mean_to_true_anomaly(M[i], ecc[i]) for 1-D arrays.
+
+    Elliptic items take the SIMD Markley pass of :func:`solve_kepler_array` and then
+    :func:`true_from_eccentric`; the rest (open orbits, the near-parabolic corner, ...) go through
+    the scalar :func:`mean_to_true_anomaly`. Bit-identical to the scalar kernel.
+    """
+    _markley_pass(M, ecc, nu_out, status_out)
+    _true_from_eccentric_ok_pass(nu_out, ecc, status_out)
+    _mean_to_true_fixup_pass(M, ecc, nu_out, status_out)
 
 
 @parallel_kernel

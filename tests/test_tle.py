@@ -300,3 +300,12 @@ def test_every_exported_tle_is_accepted_and_matches_sgp4(
     s = sat.teme(minutes * u.min)
     np.testing.assert_array_equal(s.r.to_value(u.km), r)
     np.testing.assert_array_equal(s.v.to_value(u.km / u.s), v)
+
+
+def test_omm_alpha5_catalogue_number():
+    fields = _omm_of(ISS_1, ISS_2)
+    fields["NORAD_CAT_ID"] = "A0001"
+    sat = vv.Satellite.from_omm(fields)
+    assert sat.satnum == 100001
+    ref = vv.Satellite.from_omm(_omm_of(ISS_1, ISS_2))
+    np.testing.assert_array_equal(sat.teme(10 * u.min).r, ref.teme(10 * u.min).r)

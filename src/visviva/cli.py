@@ -26,7 +26,7 @@ def _validate_parser(sub) -> None:
                    help="also write the results as JSON ('-' for stdout)")
     p.add_argument("--strict", action="store_true", help="count skipped checks as failures")
     p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
-                   help="time budget per module (default 150 s; none with --full)")
+                   help="time budget per module (default 600 s; none with --full)")
     p.add_argument("--jobs", "-j", type=int, default=None, metavar="N",
                    help="worker processes running check modules side by side "
                         "(default: the usable cores, at most 2; 1 runs everything in-process)")

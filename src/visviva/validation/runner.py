@@ -40,8 +40,9 @@ __all__ = ["Outcome", "ModuleResult", "discover", "run_module", "run", "status_o
 PACKAGE = "visviva.validation"
 PREFIX = "checks_"
 
-#: Default per-module time budget (s) of the default run; ``--full`` has none.
-DEFAULT_MODULE_TIMEOUT_S = 150.0
+#: Per-module time budget (s) of the default run, against hangs (a cold numba cache can make
+#: a module take minutes); ``--full`` has none.
+DEFAULT_MODULE_TIMEOUT_S = 600.0
 
 
 @dataclass

@@ -103,14 +103,17 @@ class KeplerianElements:
     """
 
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
-        p_km = _units.to_array(p, "length", "p")
-        ecc = _units.to_array(ecc, "dimensionless", "ecc")
-        inc = _units.to_array(inc, "angle", "inc")
-        raan = _units.to_array(raan, "angle", "raan")
-        argp = _units.to_array(argp, "angle", "argp")
-        nu = _units.to_array(nu, "angle", "nu")
-        gm = _units.to_array(gm, "gm", "gm")
-        _gm_positive(gm)
+        from .core.elements import scan_coe
+
+        # finite=False: one compiled pass below checks finiteness and every range at once;
+        # the numpy checks after it only run to word the error message.
+        p_km = _units.to_array(p, "length", "p", finite=False)
+        ecc = _units.to_array(ecc, "dimensionless", "ecc", finite=False)
+        inc = _units.to_array(inc, "angle", "inc", finite=False)
+        raan = _units.to_array(raan, "angle", "raan", finite=False)
+        argp = _units.to_array(argp, "angle", "argp", finite=False)
+        nu = _units.to_array(nu, "angle", "nu", finite=False)
+        gm = _units.to_array(gm, "gm", "gm", finite=False)
         shape = _broadcast_shape(
             {
                 "p": p_km.shape,
@@ -123,6 +126,29 @@ class KeplerianElements:
             },
             "KeplerianElements",
         )
+        first, _ = scan_coe(
+            *(_flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
+        )
+        if first >= 0:
+            self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
+        if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
+            inc = np.minimum(inc, math.pi)
+        self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
+
+    @staticmethod
+    def _raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape):
+        """Word the error for the first invalid input (slow path, only on failure)."""
+        for name, arr in (
+            ("p", p_km),
+            ("ecc", ecc),
+            ("inc", inc),
+            ("raan", raan),
+            ("argp", argp),
+            ("nu", nu),
+            ("gm", gm),
+        ):
+            _units.require_finite(arr, name)
+        _gm_positive(gm)
         if np.any(~(p_km > 0)):
             raise InvalidElementsError(
                 f"p (semi-latus rectum) must be > 0{_first_bad(~(p_km > 0))}; got "
@@ -136,10 +162,7 @@ class KeplerianElements:
                 f"{ecc[ecc < 0].ravel()[0]!r}. Flip the sign and add pi to argp if you meant the "
                 "opposite periapsis direction."
             )
-        over = (inc > math.pi) & (inc <= math.pi + _INC_SLACK)
-        if np.any(over):
-            inc = np.where(over, math.pi, inc)
-        bad_inc = (inc < 0) | (inc > math.pi)
+        bad_inc = (inc < 0) | (inc > math.pi + _INC_SLACK)
         if np.any(bad_inc):
             raise InvalidElementsError(
                 f"inc (inclination) must lie in [0, pi] rad = [0, 180] deg{_first_bad(bad_inc)}; "
@@ -160,7 +183,7 @@ class KeplerianElements:
                 f"orbit with e = {e_b!r}{_first_bad(unreachable)}: no body reaches it. Choose "
                 f"|nu| < arccos(-1/e) = {limit:.6f} deg."
             )
-        self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
+        raise InvalidElementsError("invalid elements (no specific check matched); report this")
 
     def _init_canonical(self, p, ecc, inc, raan, argp, nu, gm, epoch, shape):
         self._shape = tuple(shape)

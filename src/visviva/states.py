@@ -130,8 +130,12 @@ class StateVectors:
     """
 
     def __init__(self, r, v, gm, epoch=None):
-        r_km = _units.to_vector(r, "length", "r")
-        v_kms = _units.to_vector(v, "speed", "v")
+        from .core.elements import scan_states
+        from .core.status import NON_FINITE
+
+        # finiteness is checked below in the same pass as the zero-position test
+        r_km = _units.to_vector(r, "length", "r", finite=False)
+        v_kms = _units.to_vector(v, "speed", "v", finite=False)
         gm_arr = _units.to_array(gm, "gm", "gm")
         _gm_positive(gm_arr)
         shape = _broadcast_shape(
@@ -139,13 +143,14 @@ class StateVectors:
         )
         r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
         v_kms = np.ascontiguousarray(np.broadcast_to(v_kms, shape + (3,)))
-        from .core.elements import first_zero_vector
-
-        first, count = first_zero_vector(r_km.reshape(-1, 3))
-        if count:
+        first, code = scan_states(r_km.reshape(-1, 3), v_kms.reshape(-1, 3))
+        if first >= 0:
+            if code == NON_FINITE:
+                _units.require_finite(r_km, "r")
+                _units.require_finite(v_kms, "v")
             where = tuple(int(i) for i in np.unravel_index(first, shape)) if shape else ()
             raise InvalidStateError(
-                f"r has zero length at index {where} ({count} state(s)): "
+                f"r has zero length at index {where}: "
                 "the body would sit on the attractor, where the two-body problem is singular. "
                 "Give a non-zero position relative to the central body."
             )

@@ -56,7 +56,8 @@ __all__ = [
     "coe_to_rv_array",
     "rv_to_mee_array",
     "mee_to_rv_array",
-    "first_zero_vector",
+    "scan_states",
+    "scan_coe",
 ]
 
 _EPS = 2.220446049250313e-16
@@ -542,16 +543,54 @@ def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
     return r, v, status
 
 
+# ----------------------------------------------------------------------------------------------
+# One-pass input scans for the public constructors (serial: memory bound, no parallel region).
+# ----------------------------------------------------------------------------------------------
+
+
 @kernel
-def first_zero_vector(r):
-    """Index of the first row of ``r`` (n, 3) that is exactly (0, 0, 0) (signed zeros too), or -1,
-    and the number of such rows. Serial: one compare per row is memory bound, and a parallel
-    region would cost more than it saves."""
-    count = 0
-    first = -1
+def scan_states(r, v):
+    """First invalid row of positions ``r`` and velocities ``v`` (both (n, 3)).
+
+    Returns ``(index, status)``: ``NON_FINITE`` for NaN/inf, ``ZERO_POSITION`` for r = (0, 0, 0)
+    (signed zeros too); ``(-1, OK)`` when every row is valid.
+    """
     for i in range(r.shape[0]):
+        for j in range(3):
+            if not (math.isfinite(r[i, j]) and math.isfinite(v[i, j])):
+                return i, st.NON_FINITE
         if r[i, 0] == 0.0 and r[i, 1] == 0.0 and r[i, 2] == 0.0:
-            if first < 0:
-                first = i
-            count += 1
-    return first, count
+            return i, st.ZERO_POSITION
+    return -1, st.OK
+
+
+@kernel
+def scan_coe(p, ecc, inc, raan, argp, nu, gm, inc_slack):
+    """First invalid item of flat, broadcast classical elements, as ``(index, status)``.
+
+    ``NON_FINITE``, ``BAD_GM`` (gm <= 0), ``BAD_SEMI_LATUS_RECTUM`` (p <= 0),
+    ``BAD_ECCENTRICITY`` (e < 0), ``DOMAIN`` (inclination outside [0, pi + inc_slack]) or
+    ``UNREACHABLE_ANOMALY`` (1 + e cos nu <= 0); ``(-1, OK)`` when all are valid.
+    """
+    for i in range(p.shape[0]):
+        if not (
+            math.isfinite(p[i])
+            and math.isfinite(ecc[i])
+            and math.isfinite(inc[i])
+            and math.isfinite(raan[i])
+            and math.isfinite(argp[i])
+            and math.isfinite(nu[i])
+            and math.isfinite(gm[i])
+        ):
+            return i, st.NON_FINITE
+        if not gm[i] > 0.0:
+            return i, st.BAD_GM
+        if not p[i] > 0.0:
+            return i, st.BAD_SEMI_LATUS_RECTUM
+        if ecc[i] < 0.0:
+            return i, st.BAD_ECCENTRICITY
+        if inc[i] < 0.0 or inc[i] > _PI + inc_slack:
+            return i, st.DOMAIN
+        if ecc[i] >= 1.0 and not 1.0 + ecc[i] * math.cos(nu[i]) > 0.0:
+            return i, st.UNREACHABLE_ANOMALY
+    return -1, st.OK

@@ -56,6 +56,8 @@ _TWO_PI = 2.0 * math.pi
 _SERIES_LIMIT = 4.0
 #: Cancellation factor of g = r0 G1 + eta G2 above which the perifocal form takes over.
 _SWITCH = 16.0
+#: Beyond this cancellation factor the increment form carries no digit: fail rather than guess.
+_GIVE_UP = 1e12
 #: |r x v| <= _RADIAL_TOL |r| |v| counts as radial (rectilinear) motion.
 _RADIAL_TOL = 4.0 * _EPS
 
@@ -185,6 +187,89 @@ def _time_to_collision(r0, eta, beta, gm):
     return gm * s * s * s * c3
 
 
+@inline_kernel
+def _solve_universal(A, B, C, beta, tau, s_start):
+    """Solve ``A G1(s) + B G2(s) + C G3(s) = tau`` for s; returns ``(converged, s)``.
+
+    With ``(A, B, C) = (r0, r0.v0, gm)`` this is the universal Kepler equation from the initial
+    state; with ``(q, 0, gm)`` the one from periapsis. The left side is monotonic
+    (its derivative ``A G0 + B G1 + C G2`` is the distance r >= 0), so safeguarded
+    Laguerre-Conway steps (n = 5) with bisection inside a bracket always converge. For an ellipse
+    the caller has reduced ``|tau|`` to at most one period: ``|s| < 2 pi / sqrt(beta)``.
+    ``s_start`` (NaN: none) replaces the starter when it lies inside the bracket.
+    """
+    sgn = 1.0 if tau > 0.0 else -1.0
+    if beta > 0.0:
+        # t(+-2 pi / sqrt(beta)) = +-P >= |tau|: the root lies inside
+        s_max = _TWO_PI / math.sqrt(beta)
+        s0 = beta * tau / C  # mean motion guess, Vallado Algorithm 8
+    else:
+        s_max = math.inf
+        s0 = tau / A if A > 0.0 else math.inf
+        if beta < 0.0:
+            # Vallado Algorithm 8 hyperbolic starter (chi0 / sqrt(gm))
+            a = C / beta
+            arg = -2.0 * C * tau / (a * (B + sgn * math.sqrt(-C * a) * (1.0 - A / a)))
+            if arg > 1.0:
+                s0 = sgn * math.sqrt(-a) * math.log(arg) / math.sqrt(C)
+        # cube-root (parabolic, r0 -> 0) guess bounds the linear one when the flight is long
+        s_cub = sgn * (6.0 * abs(tau) / C) ** (1.0 / 3.0)
+        if abs(s_cub) < abs(s0):
+            s0 = s_cub
+    if sgn > 0.0:
+        lo = 0.0
+        hi = s_max
+    else:
+        lo = -s_max
+        hi = 0.0
+    if lo < s_start < hi:
+        s0 = s_start
+    if not (lo < s0 < hi) or s0 == 0.0:
+        s0 = 0.5 * sgn * min(abs(tau) / A if A > 0.0 else 1.0, s_max)
+        if s0 == 0.0:
+            s0 = sgn * 1e-300
+
+    s = s0
+    for _ in range(MAX_ITERATIONS):
+        c0, c1, c2, c3 = _stumpff_all(beta * s * s)
+        G1 = s * c1
+        G2 = s * s * c2
+        t_A = A * G1
+        t_B = B * G2
+        t_C = C * s * s * s * c3
+        F = t_A + t_B + t_C - tau
+        dF = A * c0 + B * G1 + C * G2
+        ddF = B * c0 + (C - beta * A) * G1
+        if F < 0.0:
+            lo = s
+        else:
+            hi = s  # also for F = NaN (overflow far out): too far
+        if F == 0.0:
+            return True, s
+        delta = 5.0 * F / (dF + math.sqrt(abs(16.0 * dF * dF - 20.0 * F * ddF)))
+        s_new = s - delta
+        noise = 4.0 * _EPS * (abs(t_A) + abs(t_B) + abs(t_C) + abs(tau)) / dF
+        # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
+        # below 1e-17, so the step is taken and the loop ends without another evaluation.
+        if abs(delta) <= _ACCEPT * abs(s) + noise:
+            if lo < s_new < hi:
+                return True, s_new
+            return True, s
+        if not (lo < s_new < hi):
+            # step left the bracket (or was NaN): bisect, or expand an open bracket
+            if math.isinf(hi):
+                s_new = 2.0 * s if s > lo else lo + 2.0 * abs(lo) + 1e-300
+            elif math.isinf(lo):
+                s_new = 2.0 * s if s < hi else hi - 2.0 * abs(hi) - 1e-300
+            else:
+                s_new = 0.5 * (lo + hi)
+        width = hi - lo
+        if s_new == s or (math.isfinite(width) and width <= 2.0 * _EPS * max(abs(lo), abs(hi))):
+            return True, s
+        s = s_new
+    return False, s
+
+
 @kernel
 def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
     """Two-body propagation of one state given as scalars (the core of every wrapper).
@@ -258,12 +343,10 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
             ):
                 return HITS_ATTRACTOR, nan, nan, nan, nan, nan, nan
 
-    # --- bracket and starter ---------------------------------------------------------------
+    # --- reduce whole revolutions, then solve the universal Kepler equation ----------------
     tau = dt
-    sgn = 1.0 if dt > 0.0 else -1.0
     if beta > 0.0:
-        sqrt_beta = math.sqrt(beta)
-        period = _TWO_PI * gm / (beta * sqrt_beta)
+        period = _TWO_PI * gm / (beta * math.sqrt(beta))
         if abs(tau) > 0.5 * period:
             # whole revolutions change nothing: reduce to |tau| <= P/2 (fmod is exact)
             tau = np.fmod(tau, period)
@@ -273,99 +356,25 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
                 tau += period
             if tau == 0.0:
                 return OK, x, y, z, vx, vy, vz
-            sgn = 1.0 if tau > 0.0 else -1.0
-        # F(+-2 pi / sqrt(beta)) = +-P: the root lies inside
-        s_max = _TWO_PI / sqrt_beta
-        s0 = beta * tau / gm  # mean motion guess, Vallado Algorithm 8
-    else:
-        s_max = math.inf
-        s0 = tau / r0
-        if beta < 0.0:
-            # Vallado Algorithm 8 hyperbolic starter (chi0 / sqrt(gm))
-            a = gm / beta
-            arg = -2.0 * gm * tau / (a * (eta + sgn * math.sqrt(-gm * a) * (1.0 - r0 / a)))
-            if arg > 1.0:
-                s0 = sgn * math.sqrt(-a) * math.log(arg) / math.sqrt(gm)
-    # cube-root (parabolic, r0 -> 0) guess bounds the linear one when the flight is long
-    s_cub = sgn * (6.0 * abs(tau) / gm) ** (1.0 / 3.0)
-    if abs(s_cub) < abs(s0) and beta <= 0.0:
-        s0 = s_cub
-    if sgn > 0.0:
-        lo = 0.0
-        hi = s_max
-    else:
-        lo = -s_max
-        hi = 0.0
-    if not (lo < s0 < hi) or s0 == 0.0:
-        s0 = 0.5 * sgn * min(abs(tau) / r0, s_max)
-        if s0 == 0.0:
-            s0 = sgn * 1e-300
+    converged, s = _solve_universal(r0, eta, gm, beta, tau, nan)
 
-    # --- safeguarded Laguerre iteration (n = 5) on t(s) - tau ------------------------------
-    s = s0
-    converged = False
-    G0 = G1 = G2 = G3 = 0.0
-    for _ in range(MAX_ITERATIONS):
-        psi = beta * s * s
-        c0, c1, c2, c3 = _stumpff_all(psi)
+    # --- f and g (Danby's G-function form) -------------------------------------------------
+    G0 = G1 = G2 = g = nan
+    cancel = math.inf
+    if converged:
+        c0, c1, c2, c3 = _stumpff_all(beta * s * s)
         G0 = c0
         G1 = s * c1
         G2 = s * s * c2
-        G3 = s * s * s * c3
         t_r0 = r0 * G1
         t_eta = eta * G2
-        t_gm = gm * G3
-        F = t_r0 + t_eta + t_gm - tau
-        dF = r0 * G0 + eta * G1 + gm * G2
-        ddF = eta * G0 + (gm - beta * r0) * G1
-        if F < 0.0:
-            lo = s
-        else:
-            hi = s  # also for F = NaN (overflow far out): too far
-        if F == 0.0:
-            converged = True
-            break
-        disc = abs(16.0 * dF * dF - 20.0 * F * ddF)
-        denom = dF + math.sqrt(disc)
-        delta = 5.0 * F / denom
-        s_new = s - delta
-        noise = 4.0 * _EPS * (abs(t_r0) + abs(t_eta) + abs(t_gm) + abs(tau)) / dF
-        # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
-        # below 1e-17, so the step is taken and the loop ends without another evaluation.
-        if abs(delta) <= _ACCEPT * abs(s) + noise:
-            if lo < s_new < hi:
-                s = s_new
-            converged = True
-            break
-        if not (lo < s_new < hi):
-            # step left the bracket (or was NaN): bisect, or expand an open bracket
-            if math.isinf(hi):
-                s_new = 2.0 * s if s > lo else lo + 2.0 * abs(lo) + 1e-300
-            elif math.isinf(lo):
-                s_new = 2.0 * s if s < hi else hi - 2.0 * abs(hi) - 1e-300
-            else:
-                s_new = 0.5 * (lo + hi)
-        width = hi - lo
-        if s_new == s or (math.isfinite(width) and width <= 2.0 * _EPS * max(abs(lo), abs(hi))):
-            converged = True
-            break
-        s = s_new
-    if not converged:
-        return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
-
-    # --- f and g (Danby's G-function form) -------------------------------------------------
-    psi = beta * s * s
-    c0, c1, c2, c3 = _stumpff_all(psi)
-    G0 = c0
-    G1 = s * c1
-    G2 = s * s * c2
-    t_r0 = r0 * G1
-    t_eta = eta * G2
-    g = t_r0 + t_eta
-    if abs(t_r0) + abs(t_eta) > _SWITCH * abs(g) or abs(t_r0) + abs(t_eta) > _SWITCH * abs(tau):
-        # the increment form cancels (a far start falling in): use the periapsis form
+        g = t_r0 + t_eta
+        cancel = (abs(t_r0) + abs(t_eta)) / min(abs(g), abs(tau))
+    if not cancel <= _SWITCH:
+        # the increment form cancels (a far start falling in, or a deep periapsis passage
+        # of a fast hyperbola) or failed: count the anomaly from periapsis instead
         out = _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s)
-        if out[0] == OK:
+        if out[0] == OK or not cancel < _GIVE_UP:
             return out
     f = 1.0 - gm * G2 / r0
     rx = f * x + g * vx
@@ -373,7 +382,7 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
     rz = f * z + g * vz
     r = r0 * G0 + eta * G1 + gm * G2
     if not r > 0.0:
-        return HITS_ATTRACTOR, nan, nan, nan, nan, nan, nan
+        return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
     fdot = -gm * G1 / (r * r0)
     gdot = 1.0 - gm * G2 / r
     return (
@@ -436,24 +445,10 @@ def _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s_guess):
         sigma0 = g1
     c0, c1, c2, c3 = _stumpff_all(beta * sigma0 * sigma0)
     T1 = q * sigma0 + mue * sigma0 * sigma0 * sigma0 * c3 + tau
-    sigma = sigma0 + s_guess
-    converged = False
-    for _ in range(12):
-        c0, c1, c2, c3 = _stumpff_all(beta * sigma * sigma)
-        t_q = q * sigma
-        t_e = mue * sigma * sigma * sigma * c3
-        F = t_q + t_e - T1
-        dF = q + mue * sigma * sigma * c2
-        ddF = mue * sigma * c1
-        if F == 0.0:
-            converged = True
-            break
-        delta = 5.0 * F / (dF + math.sqrt(abs(16.0 * dF * dF - 20.0 * F * ddF)))
-        noise = 4.0 * _EPS * (abs(t_q) + abs(t_e) + abs(T1)) / dF
-        sigma -= delta
-        if abs(delta) <= _ACCEPT * abs(sigma) + noise:
-            converged = True
-            break
+    # t(sigma) = q G1 + gm G3 = q sigma + gm e G3: the universal equation from periapsis
+    converged, sigma = _solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)
+    if not converged:
+        converged, sigma = _solve_universal(q, 0.0, gm, beta, T1, nan)
     if not converged or not math.isfinite(sigma):
         return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
     c0, c1, c2, c3 = _stumpff_all(beta * sigma * sigma)

@@ -22,9 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped, time_call
+    from .common import compile_time, quick_from_env, result, skipped, threads, time_call
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped, time_call
+    from common import compile_time, quick_from_env, result, skipped, threads, time_call
 
 MU = 398600.4418
 TARGET = 0.2  # at least 5x faster than Skyfield
@@ -88,6 +88,11 @@ def run(quick: bool = False) -> list[dict]:
     rows.append(result(f"states -> elements, {n:.0e} states (kernel rv_to_coe_array)",
                        t_k, sky_ref + " OsculatingElements", t_sky, TARGET,
                        notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
+    with threads(1):
+        t_k1 = time_call(kernel_rv2coe, repeat=5)
+    rows.append(result(f"states -> elements, {n:.0e} states (kernel, 1 thread)",
+                       t_k1, sky_ref + " OsculatingElements", t_sky, None,
+                       notes=f"1 thread; {n / t_k1.median / 1e6:.1f} M states/s; informational"))
 
     # --- elements -> states -------------------------------------------------------------------
     p, e, i, raan, argp, nu, _ = rv_to_coe_array(r, v, gm_flat)
@@ -115,6 +120,11 @@ def run(quick: bool = False) -> list[dict]:
     rows.append(result(f"elements -> states, {n:.0e} orbits (kernel coe_to_rv_array)",
                        t_k, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,
                        notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
+    with threads(1):
+        t_k1 = time_call(kernel_coe2rv, repeat=5)
+    rows.append(result(f"elements -> states, {n:.0e} orbits (kernel, 1 thread)",
+                       t_k1, sky_ref + " keplerlib.ele_to_vec", t_sky, None,
+                       notes=f"1 thread; {n / t_k1.median / 1e6:.1f} M states/s; informational"))
     return rows
 
 

@@ -127,7 +127,7 @@ def explosive_separation_1d(m1, v1, m2, v2, energy_released):
 
     Notes
     -----
-    Momentum fixes v_cm; the relative speed after is |u'| = sqrt(u^2 + 2 Q / mu). The bodies
+    Momentum fixes v_cm; the relative speed after is abs(u') = sqrt(u^2 + 2 Q / mu). The bodies
     separate afterwards with body 2 on the + side: u' = v1' - v2' = -sqrt(u^2 + 2 Q / mu) (an
     approaching pair bounces back; a pair at rest relative to each other, as in an explosion,
     flies apart with body 2 moving in the + direction relative to body 1).
@@ -155,7 +155,7 @@ def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = 
     m1, m2 : float, array_like or Quantity
         Masses [kg], > 0, shape (...).
     r1, r2 : array_like or Quantity, shape (..., 3)
-        Centres at contact [m]; only the direction n = (r2 - r1)/|r2 - r1| matters.
+        Centres at contact [m]; only the direction n = (r2 - r1)/‖r2 - r1‖ matters.
     v1, v2 : array_like or Quantity, shape (..., 3)
         Velocities before [m/s].
     restitution : float or array_like
@@ -211,7 +211,7 @@ def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = 
 
 
 def kinetic_energy(m, v):
-    """Kinetic energy m |v|^2 / 2 [J].
+    """Kinetic energy m ‖v‖^2 / 2 [J].
 
     ``v`` has the shape of ``m`` (1-D velocities) or one more axis holding the vector components
     (then summed over the last axis).

@@ -332,7 +332,7 @@ def solve_constrained(
 def pendulum_constraint(length, pivot=None):
     """Constraint and Jacobian of a particle on a rigid massless rod of length L from a pivot.
 
-    f(r) = (|r - p|^2 - L^2) / (2 L), with gradient (r - p)^T / L (a unit vector on the
+    f(r) = (‖r - p‖^2 - L^2) / (2 L), with gradient (r - p)^T / L (a unit vector on the
     constraint), so the multiplier is a force: the rod pulls with J^T lambda = lambda (r - p)/L,
     i.e. the tension is T = -lambda (checked against m (g cos theta + L theta'^2)).
 

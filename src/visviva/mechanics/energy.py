@@ -71,7 +71,7 @@ class UniformGravity(_Conservative):
 
 
 class Spring(_Conservative):
-    """Hooke spring from a fixed anchor: V = k (|r - a| - L0)^2 / 2.
+    """Hooke spring from a fixed anchor: V = k (‖r - a‖ - L0)^2 / 2.
 
     Parameters
     ----------
@@ -327,8 +327,8 @@ def conservation_report(trajectory, potential=None):
     Returns
     -------
     dict
-        ``energy``: max |E - E0| / max(|E0|, max |T|, tiny); ``momentum``: max |P - P0| /
-        max(sum m |v|); ``angular_momentum`` (3-D only): the same for L about the origin. Each is
+        ``energy``: max abs(E - E0) / max(abs(E0), max T, tiny); ``momentum``: max ‖P - P0‖ /
+        max(sum m ‖v‖); ``angular_momentum`` (3-D only): the same for L about the origin. Each is
         a relative drift, ~ the integrator tolerance when the quantity is conserved.
     """
     T = trajectory.kinetic_energy

@@ -114,7 +114,7 @@ def symplectic_integrate(
     Returns
     -------
     SymplecticTrajectory
-        t (m,), q and p (m, *shape).
+        t (m,), q and p of shape (m,) + the shape of q0.
     """
     if method not in _STEPPERS:
         raise InvalidInputError(f"method must be one of {sorted(_STEPPERS)}; got {method!r}.")

@@ -162,7 +162,7 @@ def damped_oscillator(x0, v0, omega0, gamma, t):
 
     which is cos/sin for under-damping, cosh/sinh for over-damping (s < 0) and 1, t at critical
     damping (Taylor, *Classical Mechanics*, 2005, sec. 5.4). C and S are entire functions of s,
-    evaluated by their Taylor series for |s| < 1, so the solution is smooth and accurate to
+    evaluated by their Taylor series for abs(s) < 1, so the solution is smooth and accurate to
     rounding through critical damping; w_d^2 is formed as (omega0 - gamma)(omega0 + gamma) to
     avoid cancellation. Over-damped exponentials use gamma - w = omega0^2 / (gamma + w).
 
@@ -403,8 +403,8 @@ def beats(amplitude, omega1, omega2, t):
     """Superposition of two equal-amplitude oscillations and its beat envelope.
 
     Returns ``(x, envelope)`` with x = a cos(w1 t) + a cos(w2 t)
-    = 2 a cos((w1 - w2) t / 2) cos((w1 + w2) t / 2) and envelope = 2 a |cos((w1 - w2) t / 2)| [m].
-    The beat period is 2 pi / |w1 - w2| (Taylor 2005, problem 5.x; French, *Vibrations and Waves*).
+    = 2 a cos((w1 - w2) t / 2) cos((w1 + w2) t / 2) and envelope = 2 a abs(cos((w1 - w2) t / 2)) [m].
+    The beat period is 2 pi / abs(w1 - w2) (Taylor 2005, problem 5.x; French, *Vibrations and Waves*).
     """
     ins = Inputs()
     a = ins.get(amplitude, "m", "amplitude")

@@ -53,7 +53,7 @@ class Trajectory:
 
     @cached_property
     def kinetic_energy(self) -> np.ndarray:
-        """(n,) total kinetic energy sum m |v|^2 / 2 [J]."""
+        """(n,) total kinetic energy sum m ‖v‖^2 / 2 [J]."""
         k = 0.5 * self._m * self.v**2
         return k.reshape(k.shape[0], -1).sum(axis=1)
 
@@ -230,7 +230,7 @@ def linear_drag(b, g=0.0, masses=1.0):
 
 
 def quadratic_drag(c, g=0.0, masses=1.0):
-    """Force callable F = -c |v| v - m g e_last (quadratic/Newton drag, optional gravity) [N].
+    """Force callable F = -c ‖v‖ v - m g e_last (quadratic/Newton drag, optional gravity) [N].
 
     ``c`` [kg/m] is a scalar or (N, 1) per particle.
     """
@@ -296,7 +296,7 @@ def projectile(r0, v0, t, *, drag: str | None = None, k: float = 0.0, g: float =
     """Projectile trajectory by integration: no drag, linear (k = b/m) or quadratic (k = c/m).
 
     Returns the :class:`Trajectory` of a unit-mass particle with r'' = -g e_last - k v
-    (``drag="linear"``) or - k |v| v (``drag="quadratic"``). Extra keywords go to
+    (``drag="linear"``) or - k ‖v‖ v (``drag="quadratic"``). Extra keywords go to
     :func:`solve_particles`. For linear drag the exact answer is :func:`projectile_linear_drag`;
     for quadratic drag from rest, v(t) = v_T tanh(g t / v_T) with v_T = sqrt(g / k).
     """

@@ -56,7 +56,7 @@ def inertia_tensor(masses, positions, origin=None):
     Returns
     -------
     I : (3, 3) ndarray or Quantity
-        I_jk = sum_i m_i (|r_i|^2 delta_jk - r_ij r_ik) [kg m^2], symmetric.
+        I_jk = sum_i m_i (‖r_i‖^2 delta_jk - r_ij r_ik) [kg m^2], symmetric.
 
     Raises
     ------
@@ -161,7 +161,7 @@ def parallel_axis(I_cm, mass, displacement):
     Returns
     -------
     (3, 3) ndarray or Quantity
-        I = I_cm + m (|d|^2 1 - d d^T) [kg m^2] (Goldstein 3rd ed. eq. 5.17).
+        I = I_cm + m (‖d‖^2 1 - d d^T) [kg m^2] (Goldstein 3rd ed. eq. 5.17).
     """
     ins = Inputs()
     I = ins.get(I_cm, "inertia", "I_cm")
@@ -272,7 +272,7 @@ def euler_angles_313(R):
     ShapeError
         Not (..., 3, 3).
     InvalidInputError
-        R not a proper rotation (|R^T R - 1| > 1e-9 or det < 0).
+        R not a proper rotation (max abs(R^T R - 1) > 1e-9 or det < 0).
 
     Notes
     -----
@@ -525,7 +525,7 @@ def torque_free_precession_rate(I1, I3, omega3):
     Notes
     -----
     Goldstein 3rd ed. sec. 5.6. In the reference frame the symmetry axis cones about the fixed
-    angular momentum L at the rate |L| / I1.
+    angular momentum L at the rate ‖L‖ / I1.
     """
     ins = Inputs()
     I1 = ins.get(I1, "inertia", "I1", positive=True)

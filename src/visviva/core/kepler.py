@@ -638,12 +638,15 @@ def _markley_pass(M, ecc, E_out, status_out):
         x = abs(m)
         wrap = x > PI  # pi < |M| <= 2 pi: solve for 2 pi - |M| (exact) and reflect
         xr = TWO_PI - x if wrap else x
-        E = _markley_starter(xr, e)
+        good = (x <= TWO_PI) & (xr >= _SMALL_M) & (e > 0.0) & (e < 1.0)
+        # harmless stand-ins for the items left to the scalar kernel (no NaN/inf arithmetic)
+        xs = xr if good else 1.0
+        es = e if good else 0.5
+        E = _markley_starter(xs, es)
         sE, cE = _sincos_0_pi(E)
-        E, f1 = _markley_correction(E, xr, e, sE, cE)
+        E, f1 = _markley_correction(E, xs, es, sE, cE)
         E = TWO_PI - E if wrap else E
         E_out[i] = math.copysign(E, m)
-        good = (x <= TWO_PI) & (xr >= _SMALL_M) & (e > 0.0) & (e < 1.0)
         good = good & (f1 >= _NEAR_PARABOLIC)
         status_out[i] = OK if good else NO_CONVERGENCE
 

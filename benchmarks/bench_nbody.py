@@ -97,6 +97,23 @@ def run(quick: bool = False) -> list[dict]:
                    f"step control), rebound {e_rb:.1e} ({r.steps_done} steps, default control)"),
         ))
 
+        # at equal energy error: both at the round-off floor with epsilon = 1e-8
+        def run_eps():
+            sim = _solar("ias15")
+            sim.epsilon = 1e-8
+            sim.integrate(years)
+            return sim
+
+        t_e = time_call(run_eps, repeat=max(3, repeat - 2), number=1)
+        s = run_eps()
+        e_e = abs(s.energy() / _solar("ias15").energy() - 1)
+        rows.append(result(
+            f"ias15 (epsilon 1e-8), Sun + 8 planets, {years:g} yr", t_e,
+            f"rebound {rebound.__version__} ias15", t_rb, target=1.0,
+            notes=(f"equal energy error: |dE/E| visviva {e_e:.1e} ({s._istate[1]} steps), "
+                   f"rebound {e_rb:.1e}"),
+        ))
+
     # -- direct summation -----------------------------------------------------------------------
     n = 1000 if quick else 4000
     x, v, m = _cluster(n)

@@ -76,6 +76,7 @@ I_STOP_AT_STEP = 10  #: > 0: pause (return PAUSED) once istate[I_STEPS] reaches 
 I_EXACT_FINISH = 11  #: 1: land exactly on output times; 0: stop at the first step at or past them
 I_K = 12  #: fixed-step integrators: signed number of whole steps since the time origin F_T0
 I_WH_VALID = 13  #: WHFast: 1 when buf holds a valid unsynchronised internal state
+I_VELOCITY_DEPENDENT = 14  #: 1 when an additional force reads the velocities
 N_ISTATE = 16
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.

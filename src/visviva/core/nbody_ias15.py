@@ -50,6 +50,7 @@ from .nbody_common import (
     I_NOUT,
     I_REJECTED,
     I_STEPS,
+    I_VELOCITY_DEPENDENT,
     PAUSED,
     accelerations,
     check_events,
@@ -179,117 +180,104 @@ def _zero_predictor(buf, n):
 
 @kernel
 def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt):
-    """Try one step of length ``dt``. Returns (status, accepted, dt_new)."""
+    """Try one step of length ``dt``. Returns (status, accepted, dt_new).
+
+    The (N, 3) arrays are processed as flat vectors of length 3N (one loop, no inner xyz loop).
+    Velocities are predicted at the substeps only when a velocity-dependent force is present.
+    """
     n = x.shape[0]
+    n3 = 3 * n
     t = fstate[F_T]
     a0 = buf[_A0]
     xp = buf[_XP]
     vp = buf[_VP]
     F = buf[_F]
-    csx = buf[_CSX]
-    csv = buf[_CSV]
+    bf = buf.reshape((buf.shape[0], n3))
+    xf = x.reshape(n3)
+    vf = v.reshape(n3)
+    a0f = bf[_A0]
+    xpf = bf[_XP]
+    vpf = bf[_VP]
+    Ff = bf[_F]
+    csx = bf[_CSX]
+    csv = bf[_CSV]
+    vel_dep = istate[I_VELOCITY_DEPENDENT] != 0
     accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
+    if not vel_dep:
+        for q in range(n3):
+            vpf[q] = vf[q]
     # g from the predicted b
-    for i in range(n):
-        for c in range(3):
-            for k in range(1, 8):
-                s = 0.0
-                for j in range(k - 1, 7):
-                    s += buf[_B + j, i, c] * BG[j, k]
-                buf[_G + k - 1, i, c] = s
+    for q in range(n3):
+        for k in range(1, 8):
+            acc_g = 0.0
+            for j in range(k - 1, 7):
+                acc_g += bf[_B + j, q] * BG[j, k]
+            bf[_G + k - 1, q] = acc_g
     pc_last = 2.0
     for it in range(MAX_ITERATIONS):
         pc_err = 0.0
         for sub in range(1, 8):
             h = H[sub]
-            for i in range(n):
-                for c in range(3):
-                    b0 = buf[_B + 0, i, c]
-                    b1 = buf[_B + 1, i, c]
-                    b2 = buf[_B + 2, i, c]
-                    b3 = buf[_B + 3, i, c]
-                    b4 = buf[_B + 4, i, c]
-                    b5 = buf[_B + 5, i, c]
-                    b6 = buf[_B + 6, i, c]
-                    ac = a0[i, c]
-                    xp[i, c] = (
-                        -csx[i, c]
-                        + (
-                            (
-                                (
-                                    (
-                                        (
-                                            (
-                                                (
-                                                    (b6 * 7.0 * h / 9.0 + b5) * 3.0 * h / 4.0
-                                                    + b4
-                                                )
-                                                * 5.0 * h / 7.0
-                                                + b3
-                                            )
-                                            * 2.0 * h / 3.0
-                                            + b2
-                                        )
-                                        * 3.0 * h / 5.0
-                                        + b1
-                                    )
-                                    * h / 2.0
-                                    + b0
-                                )
-                                * h / 3.0
-                                + ac
-                            )
-                            * dt * h / 2.0
-                            + v[i, c]
-                        )
-                        * dt * h
-                        + x[i, c]
-                    )
-                    vp[i, c] = (
-                        -csv[i, c]
-                        + (
-                            (
-                                (
-                                    (
-                                        (
-                                            (((b6 * 7.0 * h / 8.0 + b5) * 6.0 * h / 7.0 + b4)
-                                             * 5.0 * h / 6.0 + b3)
-                                            * 4.0 * h / 5.0
-                                            + b2
-                                        )
-                                        * 3.0 * h / 4.0
-                                        + b1
-                                    )
-                                    * 2.0 * h / 3.0
-                                    + b0
-                                )
-                                * h / 2.0
-                                + ac
-                            )
-                            * dt * h
-                        )
-                        + v[i, c]
-                    )
+            cx7 = 7.0 * h / 9.0
+            cx6 = 3.0 * h / 4.0
+            cx5 = 5.0 * h / 7.0
+            cx4 = 2.0 * h / 3.0
+            cx3 = 3.0 * h / 5.0
+            cx2 = h / 2.0
+            cx1 = h / 3.0
+            dth2 = dt * h / 2.0
+            dth = dt * h
+            for q in range(n3):
+                b0 = bf[_B + 0, q]
+                b1 = bf[_B + 1, q]
+                b2 = bf[_B + 2, q]
+                b3 = bf[_B + 3, q]
+                b4 = bf[_B + 4, q]
+                b5 = bf[_B + 5, q]
+                b6 = bf[_B + 6, q]
+                xpf[q] = -csx[q] + (
+                    (((((((b6 * cx7 + b5) * cx6 + b4) * cx5 + b3) * cx4 + b2) * cx3 + b1) * cx2
+                      + b0) * cx1 + a0f[q]) * dth2 + vf[q]
+                ) * dth + xf[q]
+            if vel_dep:
+                cv7 = 7.0 * h / 8.0
+                cv6 = 6.0 * h / 7.0
+                cv5 = 5.0 * h / 6.0
+                cv4 = 4.0 * h / 5.0
+                cv3 = 3.0 * h / 4.0
+                cv2 = 2.0 * h / 3.0
+                cv1 = h / 2.0
+                for q in range(n3):
+                    b0 = bf[_B + 0, q]
+                    b1 = bf[_B + 1, q]
+                    b2 = bf[_B + 2, q]
+                    b3 = bf[_B + 3, q]
+                    b4 = bf[_B + 4, q]
+                    b5 = bf[_B + 5, q]
+                    b6 = bf[_B + 6, q]
+                    vpf[q] = -csv[q] + (
+                        (((((((b6 * cv7 + b5) * cv6 + b4) * cv5 + b3) * cv4 + b2) * cv3 + b1)
+                          * cv2 + b0) * cv1 + a0f[q]) * dth
+                    ) + vf[q]
             accelerations(t + h * dt, xp, vp, m, massive, fstate, istate, gwork, force, params, F)
             maxa = 0.0
             maxdb6 = 0.0
-            for i in range(n):
-                for c in range(3):
-                    # new g_sub by divided differences, then its change updates b_0 .. b_{sub-1}
-                    gk = (F[i, c] - a0[i, c]) * RINV[sub, 0]
-                    for k in range(1, sub):
-                        gk = (gk - buf[_G + k - 1, i, c]) * RINV[sub, k]
-                    dg = gk - buf[_G + sub - 1, i, c]
-                    buf[_G + sub - 1, i, c] = gk
-                    for k in range(sub):
-                        buf[_B + k, i, c] += dg * CB[sub, k]
-                    if sub == 7:
-                        ad = abs(dg)
-                        if ad > maxdb6:
-                            maxdb6 = ad
-                        af = abs(F[i, c])
-                        if af > maxa:
-                            maxa = af
+            for q in range(n3):
+                # new g_sub by divided differences, then its change updates b_0 .. b_{sub-1}
+                gk = (Ff[q] - a0f[q]) * RINV[sub, 0]
+                for k in range(1, sub):
+                    gk = (gk - bf[_G + k - 1, q]) * RINV[sub, k]
+                dg = gk - bf[_G + sub - 1, q]
+                bf[_G + sub - 1, q] = gk
+                for k in range(sub):
+                    bf[_B + k, q] += dg * CB[sub, k]
+                if sub == 7:
+                    ad = abs(dg)
+                    if ad > maxdb6:
+                        maxdb6 = ad
+                    af = abs(Ff[q])
+                    if af > maxa:
+                        maxa = af
             if sub == 7:
                 pc_err = maxdb6 / maxa if maxa > 0.0 else 0.0
         istate[I_ITERATIONS] += 1
@@ -303,14 +291,13 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, d
     # step-size control (Rein & Spiegel 2015, global error estimate)
     maxa = 0.0
     maxb6 = 0.0
-    for i in range(n):
-        for c in range(3):
-            aa = abs(a0[i, c])
-            if aa > maxa:
-                maxa = aa
-            bb = abs(buf[_B + 6, i, c])
-            if bb > maxb6:
-                maxb6 = bb
+    for q in range(n3):
+        aa = abs(a0f[q])
+        if aa > maxa:
+            maxa = aa
+        bb = abs(bf[_B + 6, q])
+        if bb > maxb6:
+            maxb6 = bb
     err = maxb6 / maxa if maxa > 0.0 else 0.0
     if err > 0.0 and math.isfinite(err):
         dt_new = dt * (fstate[F_EPSILON] / err) ** (1.0 / 7.0)
@@ -323,30 +310,29 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, d
     if abs(dt_new) > abs(dt) / SAFETY:
         dt_new = dt / SAFETY
     # accept: x += dt v0 + dt^2 (a0/2 + b0/6 + ... + b6/72), compensated summation
-    for i in range(n):
-        for c in range(3):
-            b0 = buf[_B + 0, i, c]
-            b1 = buf[_B + 1, i, c]
-            b2 = buf[_B + 2, i, c]
-            b3 = buf[_B + 3, i, c]
-            b4 = buf[_B + 4, i, c]
-            b5 = buf[_B + 5, i, c]
-            b6 = buf[_B + 6, i, c]
-            ac = a0[i, c]
-            dx = (
-                b6 / 72.0 + b5 / 56.0 + b4 / 42.0 + b3 / 30.0 + b2 / 20.0 + b1 / 12.0 + b0 / 6.0
-                + ac / 2.0
-            ) * dt * dt + v[i, c] * dt
-            dv = (b6 / 8.0 + b5 / 7.0 + b4 / 6.0 + b3 / 5.0 + b2 / 4.0 + b1 / 3.0 + b0 / 2.0
-                  + ac) * dt
-            y = dx - csx[i, c]
-            s = x[i, c] + y
-            csx[i, c] = (s - x[i, c]) - y
-            x[i, c] = s
-            y = dv - csv[i, c]
-            s = v[i, c] + y
-            csv[i, c] = (s - v[i, c]) - y
-            v[i, c] = s
+    for q in range(n3):
+        b0 = bf[_B + 0, q]
+        b1 = bf[_B + 1, q]
+        b2 = bf[_B + 2, q]
+        b3 = bf[_B + 3, q]
+        b4 = bf[_B + 4, q]
+        b5 = bf[_B + 5, q]
+        b6 = bf[_B + 6, q]
+        ac = a0f[q]
+        dx = (
+            b6 / 72.0 + b5 / 56.0 + b4 / 42.0 + b3 / 30.0 + b2 / 20.0 + b1 / 12.0 + b0 / 6.0
+            + ac / 2.0
+        ) * dt * dt + vf[q] * dt
+        dv = (b6 / 8.0 + b5 / 7.0 + b4 / 6.0 + b3 / 5.0 + b2 / 4.0 + b1 / 3.0 + b0 / 2.0
+              + ac) * dt
+        y = dx - csx[q]
+        sm = xf[q] + y
+        csx[q] = (sm - xf[q]) - y
+        xf[q] = sm
+        y = dv - csv[q]
+        sm = vf[q] + y
+        csv[q] = (sm - vf[q]) - y
+        vf[q] = sm
     return OK, True, dt_new
 
 

@@ -620,6 +620,9 @@ class Simulation:
                 self._ensure_buf()
                 fn, params = self._force_args()
                 self._istate[_nc.I_PARALLEL] = 1 if self._use_parallel() else 0
+                self._istate[_nc.I_VELOCITY_DEPENDENT] = int(
+                    any(f.velocity_dependent for f in self._forces)
+                )
                 self._massive = _gravity.massive_indices(self._m)
                 if progress:
                     self._istate[_nc.I_STOP_AT_STEP] = self._istate[_nc.I_STEPS] + 2000

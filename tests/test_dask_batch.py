@@ -70,6 +70,17 @@ def test_kepler_dask_equals_in_memory(cluster, catalog, times):
     np.testing.assert_array_equal(out.v.value, mem.v.value)
 
 
+def test_j2_dask_equals_in_memory(cluster, catalog, times):
+    from visviva.satellites.catalog import propagate_j2_batch
+
+    _, client = cluster
+    good = catalog[:6]
+    mem = propagate_j2_batch(good, times)
+    out = propagate_dask(good, times, method="j2", chunks=(4, 7)).compute(client=client)
+    np.testing.assert_array_equal(out.r.value, mem.r.value)
+    np.testing.assert_array_equal(out.v.value, mem.v.value)
+
+
 def test_errors_surface_from_compute(cluster, catalog, times):
     _, client = cluster
     with pytest.raises(SGP4Error):

@@ -485,8 +485,8 @@ def _mean_elements(cat: Catalog):
 
 
 @kernel
-def _secular_grid(a, ecc, inc, raan0, argp0, M0, raan_dot, argp_dot, M_dot, dt, gm,
-                  r_out, v_out, status):
+def _secular_grid(a, ecc, inc, raan0, argp0, M0, raan_dot, argp_dot, M_dot, ep1, ep2, t1, t2,
+                  gm, r_out, v_out, status):
     n = a.shape[0]
     sq = np.empty(n)
     kv = np.empty(n)
@@ -497,13 +497,13 @@ def _secular_grid(a, ecc, inc, raan0, argp0, M0, raan_dot, argp_dot, M_dot, dt, 
         kv[i] = math.sqrt(gm * a[i])
         si[i] = math.sin(inc[i])
         ci[i] = math.cos(inc[i])
-    _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot, dt,
-                   r_out, v_out, status)
+    _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot,
+                   ep1, ep2, t1, t2, r_out, v_out, status)
 
 
 @parallel_kernel
-def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot, dt,
-                   r_out, v_out, status):
+def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot,
+                   ep1, ep2, t1, t2, r_out, v_out, status):
     """States of N mean-element sets at N x T offsets dt (s) with linear secular drift.
 
     Per pair: M = M0 + Mdot dt, E from Kepler's equation (the core solver), then the state
@@ -512,40 +512,48 @@ def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot,
         ydot = sqrt(mu a) sqrt(1 - e^2) cos E / r,  r = a (1 - e cos E),
     rotated by R3(-raan) R1(-inc) R3(-argp) (Montenbruck & Gill 2000, eqs. 2.43 and 2.46).
     Going through E rather than the true anomaly saves an atan2 and two sin/cos per state.
+    ``prange`` over the satellites (per-satellite constants stay in registers); each item is
+    independent, so any chunking gives the same bits. dt = ((t1 - ep1) + (t2 - ep2)) * 86400 s
+    from two-part TAI Julian dates, as in :func:`_offsets_s`.
     """
-    n, m = dt.shape
-    for k in prange(n * m):
-        i = k // m
-        j = k - i * m
+    n = a.shape[0]
+    m = t1.shape[0]
+    for i in prange(n):
         e = ecc[i]
-        E, st = eccentric_anomaly(M0[i] + M_dot[i] * dt[i, j], e)
-        sE = math.sin(E)
-        cE = math.cos(E)
-        r = a[i] * (1.0 - e * cE)
-        x = a[i] * (cE - e)
-        y = a[i] * sq[i] * sE
-        k_v = kv[i] / r
-        xd = -k_v * sE
-        yd = k_v * sq[i] * cE
-        raan = raan0[i] + raan_dot[i] * dt[i, j]
-        argp = argp0[i] + argp_dot[i] * dt[i, j]
-        sO = math.sin(raan)
-        cO = math.cos(raan)
-        sw = math.sin(argp)
-        cw = math.cos(argp)
-        px = cO * cw - sO * sw * ci[i]
-        py = sO * cw + cO * sw * ci[i]
-        pz = sw * si[i]
-        qx = -cO * sw - sO * cw * ci[i]
-        qy = -sO * sw + cO * cw * ci[i]
-        qz = cw * si[i]
-        r_out[i, j, 0] = x * px + y * qx
-        r_out[i, j, 1] = x * py + y * qy
-        r_out[i, j, 2] = x * pz + y * qz
-        v_out[i, j, 0] = xd * px + yd * qx
-        v_out[i, j, 1] = xd * py + yd * qy
-        v_out[i, j, 2] = xd * pz + yd * qz
-        status[i, j] = st
+        ai = a[i]
+        sqi = sq[i]
+        kvi = kv[i]
+        sii = si[i]
+        cii = ci[i]
+        for j in range(m):
+            d = ((t1[j] - ep1[i]) + (t2[j] - ep2[i])) * 86400.0
+            E, st = eccentric_anomaly(M0[i] + M_dot[i] * d, e)
+            sE = math.sin(E)
+            cE = math.cos(E)
+            x = ai * (cE - e)
+            y = ai * sqi * sE
+            k_v = kvi / (ai * (1.0 - e * cE))
+            xd = -k_v * sE
+            yd = k_v * sqi * cE
+            raan = raan0[i] + raan_dot[i] * d
+            argp = argp0[i] + argp_dot[i] * d
+            sO = math.sin(raan)
+            cO = math.cos(raan)
+            sw = math.sin(argp)
+            cw = math.cos(argp)
+            px = cO * cw - sO * sw * cii
+            py = sO * cw + cO * sw * cii
+            pz = sw * sii
+            qx = -cO * sw - sO * cw * cii
+            qy = -sO * sw + cO * cw * cii
+            qz = cw * sii
+            r_out[i, j, 0] = x * px + y * qx
+            r_out[i, j, 1] = x * py + y * qy
+            r_out[i, j, 2] = x * pz + y * qz
+            v_out[i, j, 0] = xd * px + yd * qx
+            v_out[i, j, 1] = xd * py + yd * qy
+            v_out[i, j, 2] = xd * pz + yd * qz
+            status[i, j] = st
 
 
 def _wgs72_body(satrec):
@@ -597,15 +605,16 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     raan_dot, argp_dot, M_dot = (
         q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
     )
-    dt = np.ascontiguousarray(_offsets_s(cat.epochs, t))
-    n, m = dt.shape
+    ep, tt = cat.epochs.tai, t.tai
+    n, m = len(cat), len(t)
     r = np.empty((n, m, 3))
     v = np.empty((n, m, 3))
     status = np.empty((n, m), dtype=np.int64)
-    _secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, dt,
+    _secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot,
+                  *(np.ascontiguousarray(x, dtype=np.float64) for x in (ep.jd1, ep.jd2, tt.jd1, tt.jd2)),
                   body.gm_km3_s2, r, v, status)
-    if on_error == "raise":
-        raise_for_status(status, "secular J2 batch propagation", dt_s=dt)
+    if on_error == "raise" and status.any():
+        raise_for_status(status, "secular J2 batch propagation", dt_s=_offsets_s(cat.epochs, t))
     return BatchStates(
         to_quantity(r, "length"), to_quantity(v, "speed"), t, status.astype(np.uint8),
         cat.names, "teme",

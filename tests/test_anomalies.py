@@ -251,3 +251,22 @@ def test_mean_to_true_continuous_through_parabola(Mp, log_d):
         nu = vv.mean_to_true(M, ecc)
         # |d nu / d e| is O(1) at fixed t (from the series of Farnocchia et al. 2013, eq. 17)
         assert abs(nu - nu_p) <= 4 * d * (1.0 + abs(Mp)) ** (2.0 / 3.0) + 1e-12
+
+
+REGIMES = [0.0, 1e-12, 0.5, 0.9, 0.99, 0.999, 0.9999, 0.99999, 1 - 1e-10, 1.0, 1 + 1e-10,
+           1.0001, 1.001, 1.01, 1.1, 2.0, 10.0, 1e4]  # fmt: skip
+
+
+@pytest.mark.parametrize("ecc", REGIMES)
+def test_regime_sweep_round_trip(ecc):
+    """Dense sweep of M in every regime (vectorised): M -> nu -> M within the conditioning."""
+    M = np.concatenate([-np.logspace(4, -300, 3000), [0.0], np.logspace(-300, 4, 3000)])
+    nu = vv.mean_to_true(M, ecc)
+    assert np.all(np.isfinite(nu)) and np.all(np.diff(nu) >= 0)  # monotonic in time
+    if ecc >= 1:
+        keep = np.abs(nu) < math.acos(-1.0 / ecc) - 1e-9
+        M, nu = M[keep], nu[keep]
+    M2 = vv.true_to_mean(nu, ecc)
+    slope = np.array([_dM_dnu(m, ecc) for m in M])
+    tol = 16 * EPS * (np.abs(M) + slope * np.abs(nu)) + 4 * TINY * max(1.0, ecc)
+    assert np.all(np.abs(M2 - M) <= tol)

@@ -178,3 +178,123 @@ def test_perturbation_reprs_and_bad_inputs():
         vv.SolarRadiationPressure()
     with pytest.raises(vv.InvalidInputError, match="ThirdBody"):
         vv.ThirdBody(vv.EARTH)
+
+
+# ------------------------------------------------------------------ spherical harmonics
+
+from visviva.core.perturbations import accel_harmonics  # noqa: E402
+
+GFC_HEADER = """product_type gravity_field
+modelname test_field_from_egm2008_low_degree
+earth_gravity_constant 3.986004415E+14
+radius 6378136.3
+max_degree 4
+norm fully_normalized
+tide_system tide_free
+key n m C S sigmaC sigmaS
+end_of_head
+"""
+# fully normalised coefficients, rounded from EGM2008 (Pavlis et al. 2012)
+GFC_ROWS = [
+    (0, 0, 1.0, 0.0),
+    (2, 0, -4.84165143790815e-04, 0.0),
+    (2, 1, -2.06615509074176e-10, 1.38441389137979e-09),
+    (2, 2, 2.43938357328313e-06, -1.40027370385934e-06),
+    (3, 0, 9.57161207093473e-07, 0.0),
+    (3, 1, 2.03046201047864e-06, 2.48200415856872e-07),
+    (3, 2, 9.04787894809528e-07, -6.19005475177618e-07),
+    (3, 3, 7.21321757121568e-07, 1.41434926192941e-06),
+    (4, 0, 5.39965866638991e-07, 0.0),
+    (4, 1, -5.36157389388867e-07, -4.73567346518086e-07),
+    (4, 2, 3.50501623962649e-07, 6.62480026275829e-07),
+    (4, 3, 9.90856766672321e-07, -2.00956723567452e-07),
+    (4, 4, -1.88519633023033e-07, 3.08803882149194e-07),
+]
+
+
+@pytest.fixture
+def gfc_file(tmp_path):
+    path = tmp_path / "field.gfc"
+    lines = [f"gfc {n} {m} {c:.15e} {s:.15e} 0 0" for n, m, c, s in GFC_ROWS]
+    path.write_text(GFC_HEADER + "\n".join(lines) + "\n")
+    return path
+
+
+def test_gfc_reading_and_normalisation(gfc_file):
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    field = SphericalHarmonics(gfc_file)
+    assert field.degree == 4
+    # unnormalised C20 = -J2 = sqrt(5) * C20bar
+    assert field.coefficients[0, 2, 0] == pytest.approx(np.sqrt(5) * -4.84165143790815e-4)
+    # C22 = sqrt(2 * 5 * 0! / 4!) C22bar
+    assert field.coefficients[0, 2, 2] == pytest.approx(np.sqrt(10 / 24) * 2.43938357328313e-6)
+    assert SphericalHarmonics(gfc_file, degree=3).coefficients.shape == (2, 5, 5)
+    with pytest.raises(vv.InvalidInputError, match="degree"):
+        SphericalHarmonics(gfc_file, degree=7)
+
+
+def test_bad_gfc_file(tmp_path):
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    bad = tmp_path / "bad.gfc"
+    bad.write_text("hello\n")
+    with pytest.raises(vv.InvalidInputError, match="ICGEM"):
+        SphericalHarmonics(bad)
+    with pytest.raises(vv.InvalidInputError, match="cannot read"):
+        SphericalHarmonics(tmp_path / "missing.gfc")
+
+
+def test_harmonics_zonal_part_equals_zonal_kernel():
+    sh = np.zeros((2, 6, 6))
+    for n in range(2, 5):
+        sh[0, n, 0] = -vv.EARTH.jn(n)
+    r = np.array([-5200.0, 2100.0, 4300.0])
+    a = np.zeros(3)
+    accel_harmonics(*r, GM, R, sh, 4, a)
+    b = np.zeros(3)
+    accel_zonal(*r, GM, R, np.array([0, 0] + [vv.EARTH.jn(n) for n in range(2, 5)]), 4, b)
+    assert np.allclose(a, b, rtol=1e-12, atol=1e-20)
+
+
+def test_harmonics_are_the_gradient_of_the_potential(gfc_file):
+    from scipy.special import lpmv
+
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    sh = SphericalHarmonics(gfc_file).scaled(GM, R)
+
+    def potential(p):
+        x, y, z = p
+        r = np.sqrt(x * x + y * y + z * z)
+        lon = np.arctan2(y, x)
+        s = z / r
+        total = 0.0
+        for n in range(2, 5):
+            for m in range(n + 1):
+                pnm = (-1) ** m * lpmv(m, n, s)  # remove the Condon-Shortley phase
+                total += (R / r) ** n * pnm * (sh[0, n, m] * np.cos(m * lon)
+                                                + sh[1, n, m] * np.sin(m * lon))  # fmt: skip
+        return GM / r * total
+
+    p = np.array([3100.0, -4700.0, 4200.0])
+    a = np.zeros(3)
+    accel_harmonics(*p, GM, R, sh, 4, a)
+    h = 1e-2
+    grad = np.array([(potential(p + h * e) - potential(p - h * e)) / (2 * h) for e in np.eye(3)])
+    assert np.allclose(a, grad, rtol=1e-6, atol=1e-16)
+
+
+def test_cowell_with_gfc_field(gfc_file):
+    from visviva.satellites import propagate_cowell
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    state = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 5.0, 5.8] * u.km / u.s, vv.EARTH, EPOCH)
+    t = np.linspace(0, 1, 5) * u.day
+    field = propagate_cowell(state, t, [SphericalHarmonics(gfc_file)])
+    zonal = propagate_cowell(state, t, [vv.Zonal(vv.EARTH, 4)])
+    d = np.linalg.norm((field.r - zonal.r).to_value(u.km), axis=1)
+    # tesseral terms and the true pole (precession since J2000) move the orbit by metres to km
+    assert 1e-3 < d[-1] < 20.0
+    with pytest.raises(vv.InvalidInputError, match="one gravity field"):
+        propagate_cowell(state, t, [SphericalHarmonics(gfc_file), vv.J2(vv.EARTH)])

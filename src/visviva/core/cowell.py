@@ -129,6 +129,7 @@ def integrate_cowell(
     eph_r,
     eph_v,
     eph_gm,
+    sh,
     ev_kind,
     ev_param,
     ev_dir,
@@ -163,7 +164,7 @@ def integrate_cowell(
         Largest step, s (inf for none).
     max_steps : int
         Step budget; exceeding it stops with ``STEP_TOO_SMALL``.
-    force, zonal, atm, eph_r, eph_v, eph_gm : ndarray
+    force, zonal, atm, eph_r, eph_v, eph_gm, sh : ndarray
         The force model (see :mod:`visviva.core.perturbations`).
     ev_kind, ev_param, ev_dir, ev_terminal : ndarray (E,)
         The events to detect (see the module docstring).
@@ -215,7 +216,7 @@ def integrate_cowell(
             y_out[written, j] = y[j]
         written += 1
 
-    cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, f)
+    cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f)
     nfev += 1
     for e in range(n_ev):
         g_old[e] = event_function(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v)
@@ -241,7 +242,7 @@ def integrate_cowell(
     h0 = min(h0, interval)
     for j in range(n):
         y_tmp[j] = y[j] + h0 * direction * f[j]
-    cowell_rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, y_new)
+    cowell_rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new)
     nfev += 1
     for j in range(n):
         err5[j] = y_new[j] - f[j]
@@ -286,13 +287,13 @@ def integrate_cowell(
                     for m in range(s):
                         acc += A[s, m] * K[m, j]
                     y_tmp[j] = y[j] + h * acc
-                cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, K[s])
+                cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
             for j in range(n):
                 acc = 0.0
                 for m in range(_N_STAGES):
                     acc += B[m] * K[m, j]
                 y_new[j] = y[j] + h * acc
-            cowell_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, K[_N_STAGES])
+            cowell_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES])
             nfev += _N_STAGES
             for j in range(n):
                 scale[j] = atol + max(abs(y[j]), abs(y_new[j])) * rtol
@@ -336,7 +337,7 @@ def integrate_cowell(
                 for m in range(s):
                     acc += A[s, m] * K[m, j]
                 y_tmp[j] = y[j] + h * acc
-            cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, K[s])
+            cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
         nfev += 3
         for j in range(n):
             dlt = y_new[j] - y[j]

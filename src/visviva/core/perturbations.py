@@ -25,7 +25,13 @@ Layout of the ``force`` parameter array (all float64; flags are 0.0 / 1.0):
 14    ephemeris grid start, s from the propagation epoch
 15    ephemeris grid step, s
 16    number of ephemeris grid points
+17    degree N of the full spherical-harmonic field (0: none)
+18-26 the 3x3 matrix (row-major) from the propagation frame to the body-fixed frame at t = 0;
+      the body then turns about its z axis at the rate in slot 5
 ====  =====================================================================
+
+``sh``, shape (2, N+2, N+2): unnormalised C_nm and S_nm of the spherical-harmonic field
+(Montenbruck & Gill 2000, eq. 3.13), used when slot 17 is > 0.
 
 ``atm`` is the exponential atmosphere table, shape (K, 3): base altitude km, density at the
 base kg/m^3, scale height km (Vallado 2013, Table 8-4).
@@ -46,6 +52,7 @@ __all__ = [
     "FORCE_SIZE",
     "accel_two_body",
     "accel_zonal",
+    "accel_harmonics",
     "accel_drag",
     "accel_third_body",
     "accel_srp",
@@ -57,7 +64,7 @@ __all__ = [
     "cowell_rhs_array",
 ]
 
-FORCE_SIZE = 17
+FORCE_SIZE = 27
 
 #: Vallado (2013), Fundamentals of Astrodynamics and Applications, 4th ed., Table 8-4:
 #: base altitude (km), nominal density (kg/m^3), scale height (km).
@@ -147,6 +154,89 @@ def accel_zonal(x, y, z, gm, radius, zonal, n_max, out):
     out[0] += k * radial * x / r
     out[1] += k * radial * y / r
     out[2] += k * (radial * s - axial)
+
+
+@kernel
+def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
+    """Add the acceleration of a spherical-harmonic field of degree and order ``n_max``.
+
+    Body-fixed coordinates in, body-fixed acceleration added to ``out``. Terms of degree 0 and
+    1 are skipped (the central term is the two-body one).
+
+    Notes
+    -----
+    The V_nm, W_nm recursions and the acceleration sums of Montenbruck & Gill (2000),
+    eqs. 3.29-3.33, with unnormalised C_nm = sh[0, n, m], S_nm = sh[1, n, m]
+    (Cunningham 1970).
+    """
+    r2 = x * x + y * y + z * z
+    rr = radius * radius / r2
+    x0 = radius * x / r2
+    y0 = radius * y / r2
+    z0 = radius * z / r2
+    N = n_max + 2
+    V = np.zeros((N, N))
+    W = np.zeros((N, N))
+    V[0, 0] = radius / math.sqrt(r2)
+    W[0, 0] = 0.0
+    for m in range(N):
+        if m > 0:
+            V[m, m] = (2 * m - 1) * (x0 * V[m - 1, m - 1] - y0 * W[m - 1, m - 1])
+            W[m, m] = (2 * m - 1) * (x0 * W[m - 1, m - 1] + y0 * V[m - 1, m - 1])
+        if m + 1 < N:
+            V[m + 1, m] = (2 * m + 1) * z0 * V[m, m]
+            W[m + 1, m] = (2 * m + 1) * z0 * W[m, m]
+        for n in range(m + 2, N):
+            V[n, m] = ((2 * n - 1) * z0 * V[n - 1, m] - (n + m - 1) * rr * V[n - 2, m]) / (n - m)
+            W[n, m] = ((2 * n - 1) * z0 * W[n - 1, m] - (n + m - 1) * rr * W[n - 2, m]) / (n - m)
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for m in range(n_max + 1):
+        for n in range(max(m, 2), n_max + 1):
+            C = sh[0, n, m]
+            S = sh[1, n, m]
+            if m == 0:
+                ax -= C * V[n + 1, 1]
+                ay -= C * W[n + 1, 1]
+                az -= (n + 1) * C * V[n + 1, 0]
+            else:
+                fac = 1.0
+                for k in range(n - m + 1, n - m + 3):
+                    fac *= k  # (n-m+2)! / (n-m)!
+                ax += 0.5 * ((-C * V[n + 1, m + 1] - S * W[n + 1, m + 1])
+                             + fac * (C * V[n + 1, m - 1] + S * W[n + 1, m - 1]))  # fmt: skip
+                ay += 0.5 * ((-C * W[n + 1, m + 1] + S * V[n + 1, m + 1])
+                             + fac * (-C * W[n + 1, m - 1] + S * V[n + 1, m - 1]))  # fmt: skip
+                az += (n - m + 1) * (-C * V[n + 1, m] - S * W[n + 1, m])
+    k = gm / (radius * radius)
+    out[0] += k * ax
+    out[1] += k * ay
+    out[2] += k * az
+
+
+@kernel
+def _accel_harmonics_inertial(t, x, y, z, force, sh, out):
+    """Rotate r to the body frame at time t, add the harmonic acceleration rotated back."""
+    th = force[5] * t
+    c = math.cos(th)
+    s = math.sin(th)
+    # r_bf = Rz(th) M0 r, with Rz the frame rotation [[c, s, 0], [-s, c, 0], [0, 0, 1]]
+    m = force[18:27]
+    px = m[0] * x + m[1] * y + m[2] * z
+    py = m[3] * x + m[4] * y + m[5] * z
+    pz = m[6] * x + m[7] * y + m[8] * z
+    bx = c * px + s * py
+    by = -s * px + c * py
+    a = np.zeros(3)
+    accel_harmonics(bx, by, pz, force[0], force[1], sh, int(force[17]), a)
+    # back: a_in = M0^T Rz(th)^T a
+    qx = c * a[0] - s * a[1]
+    qy = s * a[0] + c * a[1]
+    qz = a[2]
+    out[0] += m[0] * qx + m[3] * qy + m[6] * qz
+    out[1] += m[1] * qx + m[4] * qy + m[7] * qz
+    out[2] += m[2] * qx + m[5] * qy + m[8] * qz
 
 
 @inline_kernel
@@ -309,10 +399,11 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
 
 
 @kernel
-def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, dy):
+def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
-    Sums, in this fixed order: two-body, zonal harmonics, drag, third bodies, SRP.
+    Sums, in this fixed order: two-body, zonal harmonics, full spherical harmonics, drag,
+    third bodies, SRP.
     """
     x = y[0]
     yy = y[1]
@@ -326,6 +417,8 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, dy):
     n_max = int(force[2])
     if n_max >= 2:
         accel_zonal(x, yy, z, gm, force[1], zonal, n_max, acc)
+    if force[17] >= 2.0:
+        _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     if force[3] != 0.0:
         accel_drag(x, yy, z, y[3], y[4], y[5], force[4], force[5], force[1], force[6], atm, acc)
     n_third = int(force[13])
@@ -352,9 +445,9 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, dy):
 
 
 @kernel
-def cowell_rhs_array(t, y, force, zonal, atm, eph_r, eph_v, eph_gm):
+def cowell_rhs_array(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh):
     """Derivatives for many (t, y) pairs: t (N,), y (N, 6) -> (N, 6). For tests and plots."""
     out = np.empty_like(y)
     for i in range(y.shape[0]):
-        cowell_rhs(t[i], y[i], force, zonal, atm, eph_r, eph_v, eph_gm, out[i])
+        cowell_rhs(t[i], y[i], force, zonal, atm, eph_r, eph_v, eph_gm, sh, out[i])
     return out

@@ -45,6 +45,7 @@ _EXPORTS = {
     "AtmosphericDrag": "perturbations",
     "ThirdBody": "perturbations",
     "SolarRadiationPressure": "perturbations",
+    "SphericalHarmonics": "perturbations",
     "Eclipse": "events",
     "ReEntry": "events",
     "AltitudeCrossing": "events",

@@ -29,6 +29,7 @@ from .perturbations import (
     AtmosphericDrag,
     Perturbation,
     SolarRadiationPressure,
+    SphericalHarmonics,
     ThirdBody,
     Zonal,
     flattening_of,
@@ -98,6 +99,26 @@ class ForceModel:
         if zonals:
             self.zonal = zonals[0].coefficients()
             self.force[2] = zonals[0].degree
+        self.sh = np.zeros((2, 3, 3))
+        harmonics = [p for p in perturbations if isinstance(p, SphericalHarmonics)]
+        if harmonics and (zonals or len(harmonics) > 1):
+            raise InvalidInputError(
+                "give one gravity field: SphericalHarmonics already includes the zonal terms, "
+                "so do not add J2 or Zonal to it."
+            )
+        if harmonics:
+            if epoch is None:
+                raise InvalidInputError(
+                    "SphericalHarmonics needs the state's epoch (to orient the Earth): build the "
+                    "state with epoch=Time(...)."
+                )
+            from .frames import gcrs_to_itrs
+
+            basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), epoch)
+            m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes
+            self.force[17] = harmonics[0].degree
+            self.force[18:27] = m0.ravel()
+            self.sh = harmonics[0].scaled(gm_km3_s2, central.radius_km)
         drags = [p for p in perturbations if isinstance(p, AtmosphericDrag)]
         if len(drags) > 1:
             raise InvalidInputError("give at most one AtmosphericDrag.")
@@ -156,7 +177,7 @@ class ForceModel:
         self.zonal = np.ascontiguousarray(self.zonal, dtype=np.float64)
 
     def arrays(self):
-        return self.force, self.zonal, self.atm, self.eph_r, self.eph_v, self.eph_gm
+        return self.force, self.zonal, self.atm, self.eph_r, self.eph_v, self.eph_gm, self.sh
 
     def acceleration(self, t_s, r_km, v_km_s):
         """Total acceleration (km/s^2) at times ``t_s`` for states (N, 3): for tests and plots."""

@@ -30,6 +30,7 @@ __all__ = [
     "AtmosphericDrag",
     "ThirdBody",
     "SolarRadiationPressure",
+    "SphericalHarmonics",
     "SOLAR_PRESSURE_1AU_N_M2",
 ]
 
@@ -287,6 +288,123 @@ class SolarRadiationPressure(Perturbation):
             f"SolarRadiationPressure({self._am_m2_kg:g} m2 / kg, Cr={self._cr:g}, "
             f"shadow={self.shadow!r})"
         )
+
+
+class SphericalHarmonics(Perturbation):
+    """Full degree-and-order gravity field read from an ICGEM ``.gfc`` file.
+
+    Parameters
+    ----------
+    path : str or Path
+        An ICGEM gravity-field file (``gfc`` lines ``gfc n m C S [sigmaC sigmaS]`` after
+        ``end_of_head``; header keys ``earth_gravity_constant`` (m^3/s^2), ``radius`` (m),
+        ``norm`` (``fully_normalized`` or ``unnormalized``)), e.g. EGM2008 or EIGEN-6C4
+        truncated to the degree you need.
+    degree : int, optional
+        Truncation degree N (default: the file's maximum), 2 <= N <= 80 (unnormalised
+        recursion; higher degrees underflow).
+    body : Body
+        The central body (the Earth: the field rotates with the ITRS).
+
+    Notes
+    -----
+    The acceleration is the gradient of
+    U = GM/r sum_n sum_m (R/r)^n P_nm(sin phi) (C_nm cos m lambda + S_nm sin m lambda),
+    evaluated with the V_nm/W_nm recursions of Cunningham (1970) as in Montenbruck & Gill (2000),
+    sec. 3.2.4-3.2.5, in the body-fixed frame. The GCRS -> ITRS rotation (precession, nutation,
+    Earth rotation, polar motion; astropy, offline IERS data) is computed once at the state's
+    epoch; during the run the Earth turns about the ITRS z axis at its nominal rate (precession
+    and nutation change by < 1 arcsec per day, negligible over a few days). Coefficients are
+    rescaled to the state's GM and the body's radius, and degrees 0 and 1 are dropped.
+    Do not combine with :class:`Zonal` (the zonal terms are included).
+    """
+
+    def __init__(self, path, degree: int | None = None, body: Body = EARTH):
+        body = _require_body(body, "SphericalHarmonics")
+        if body.name != "earth":
+            raise InvalidInputError("SphericalHarmonics is implemented for the Earth (ITRS) only.")
+        self.body = body
+        self.path = str(path)
+        gm, radius, norm, rows = _read_gfc(self.path)
+        n_file = max(int(n) for n, _, _, _ in rows)
+        n_max = n_file if degree is None else degree
+        if not isinstance(n_max, int | np.integer) or not 2 <= n_max <= min(n_file, 80):
+            raise InvalidInputError(
+                f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; "
+                f"got {degree!r}."
+            )
+        self.degree = int(n_max)
+        self.gm_km3_s2 = gm * 1e-9
+        self.radius_km = radius * 1e-3
+        sh = np.zeros((2, n_max + 2, n_max + 2))
+        from math import exp, lgamma, log
+
+        for n, m, c_nm, s_nm in rows:
+            n, m = int(n), int(m)
+            if n > n_max or n < 2:
+                continue
+            if norm:
+                # P_nm normalisation: sqrt((2 - delta_m0)(2n + 1)(n - m)!/(n + m)!)
+                f = exp(
+                    0.5
+                    * (log((2.0 - (m == 0)) * (2 * n + 1)) + lgamma(n - m + 1) - lgamma(n + m + 1))
+                )
+            else:
+                f = 1.0
+            sh[0, n, m] = c_nm * f
+            sh[1, n, m] = s_nm * f
+        self.coefficients = sh
+
+    @property
+    def central_body(self) -> Body:
+        return self.body
+
+    def scaled(self, gm_km3_s2: float, radius_km: float) -> np.ndarray:
+        """Unnormalised (C, S) rescaled to another GM and reference radius."""
+        n = np.arange(self.coefficients.shape[1])
+        factor = (self.gm_km3_s2 / gm_km3_s2) * (self.radius_km / radius_km) ** n
+        return np.ascontiguousarray(self.coefficients * factor[None, :, None])
+
+    def __repr__(self):
+        return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
+
+
+def _read_gfc(path):
+    """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...])."""
+    gm = radius = None
+    norm = True
+    rows = []
+    in_head = True
+    try:
+        text = open(path, encoding="utf-8", errors="replace").read().splitlines()
+    except OSError as exc:
+        raise InvalidInputError(f"cannot read the gravity-field file {path!r}: {exc}") from exc
+    for line in text:
+        parts = line.replace("D", "E").replace("d", "e").split() if not in_head else line.split()
+        if not parts:
+            continue
+        if in_head:
+            key = parts[0].lower()
+            if key == "end_of_head":
+                in_head = False
+            elif key == "earth_gravity_constant" and len(parts) > 1:
+                gm = float(parts[1].replace("D", "E"))
+            elif key == "radius" and len(parts) > 1:
+                radius = float(parts[1].replace("D", "E"))
+            elif key == "norm" and len(parts) > 1:
+                norm = parts[1].lower() != "unnormalized"
+            continue
+        if parts[0].lower() == "gfc":
+            try:
+                rows.append((int(parts[1]), int(parts[2]), float(parts[3]), float(parts[4])))
+            except (IndexError, ValueError) as exc:
+                raise InvalidInputError(f"bad gfc line in {path!r}: {line!r}") from exc
+    if gm is None or radius is None or not rows or in_head:
+        raise InvalidInputError(
+            f"{path!r} is not an ICGEM .gfc file: it needs earth_gravity_constant, radius and "
+            "end_of_head in the header and 'gfc n m C S' lines after it."
+        )
+    return gm, radius, norm, rows
 
 
 def flattening_of(body: Body) -> float:

@@ -437,10 +437,12 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise") -> BatchStates
     if isinstance(states, (Catalog, Satellite, list, tuple)):
         cat = _as_catalog(states)
         ep = cat.epochs
-        e, r0, v0 = cat.satrec_array.sgp4(ep.jd1, ep.jd2)
-        idx = np.arange(len(cat))
-        r0, v0 = r0[idx, idx], v0[idx, idx]
-        raise_for_sgp4_status(e[idx, idx][:, None], cat.names, 0.0)
+        # each satellite at its own epoch (one sgp4 call per element set, not per step)
+        out = [s.satrec.sgp4(s.satrec.jdsatepoch, s.satrec.jdsatepochF) for s in cat]
+        e = np.array([o[0] for o in out], dtype=np.uint8)
+        r0 = np.array([o[1] for o in out], dtype=np.float64).reshape(-1, 3)
+        v0 = np.array([o[2] for o in out], dtype=np.float64).reshape(-1, 3)
+        raise_for_sgp4_status(e[:, None], cat.names, 0.0)
         gm = np.array([s.satrec.mu for s in cat.satellites])
         names, frame = cat.names, "teme"
     else:

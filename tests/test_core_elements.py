@@ -353,3 +353,43 @@ def test_raw_state_round_trip_with_signed_zeros(r, v):
     bound = max(RT_TOL, 16 * np.finfo(float).eps * rm / p)
     assert er <= bound
     assert ev <= max(RT_TOL, 16 * np.finfo(float).eps * rm / p)
+
+
+def test_vectorised_sweep_every_regime():
+    """2 x 10^4 orbits mixing every regime at once (one kernel call each way)."""
+    rng = np.random.default_rng(11)
+    n = 20000
+    ecc = rng.choice(
+        np.array([0.0, 1e-15, 1e-12, 1e-6, 0.3, 0.9, 1 - 1e-10, 1.0, 1 + 1e-10, 2.0, 10.0]), n
+    )
+    ecc = np.where(rng.random(n) < 0.3, rng.uniform(0, 10, n), ecc)
+    inc = rng.choice(np.array([0.0, -0.0, 1e-12, PI / 2, PI - 1e-12, PI]), n)
+    inc = np.where(rng.random(n) < 0.3, rng.uniform(0, PI, n), inc)
+    raan = np.where(rng.random(n) < 0.2, -0.0, rng.uniform(-TWO_PI, TWO_PI, n))
+    argp = np.where(rng.random(n) < 0.2, 0.0, rng.uniform(-TWO_PI, TWO_PI, n))
+    nu = rng.uniform(-PI, PI, n)
+    keep = 1 + ecc * np.cos(nu) >= 1e-3
+    ecc, inc, raan, argp, nu = ecc[keep], inc[keep], raan[keep], argp[keep], nu[keep]
+    m = ecc.size
+    p = rng.uniform(100.0, 1e6, m)
+    gm = np.full(m, MU)
+    r, v, status = K.coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm)
+    assert (status == S.OK).all()
+    out = K.rv_to_coe_array(r, v, gm)
+    assert (out[-1] == S.OK).all()
+    r2, v2, _ = K.coe_to_rv_array(*out[:6], gm)
+    er = np.linalg.norm(r2 - r, axis=-1) / np.linalg.norm(r, axis=-1)
+    ev = np.linalg.norm(v2 - v, axis=-1) / np.linalg.norm(v, axis=-1)
+    assert er.max() <= RT_TOL and ev.max() <= RT_TOL
+    # and through the equinoctial elements, choosing I by the sense of rotation
+    hz = np.cross(r, v)[:, 2]
+    for retro, sel in ((1.0, hz >= 0), (-1.0, hz < 0)):
+        mee = K.rv_to_mee_array(r[sel], v[sel], gm[sel], retro)
+        assert (mee[-1] == S.OK).all()
+        r3, v3, _ = K.mee_to_rv_array(*mee[:6], gm[sel], retro)
+        assert (
+            np.linalg.norm(r3 - r[sel], axis=-1) / np.linalg.norm(r[sel], axis=-1)
+        ).max() <= RT_TOL
+        assert (
+            np.linalg.norm(v3 - v[sel], axis=-1) / np.linalg.norm(v[sel], axis=-1)
+        ).max() <= RT_TOL

@@ -323,8 +323,10 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     -----
     The frame vectors are (Walker et al. 1985, eq. 2; Broucke & Cefola 1972)
     f = (1 + h^2 - k^2, 2hk, -2Ik)/s^2, g = (2Ihk, I(1 - h^2 + k^2), 2h)/s^2 with
-    s^2 = 1 + h^2 + k^2; L = atan2(r . g, r . f), (f, g) = (e . f, e . g) with the eccentricity
-    vector e = ((v^2 - mu/r) r - (r . v) v)/mu. h = -h_y/d and k = h_x/d with
+    s^2 = 1 + h^2 + k^2; L = atan2(r . g, r . f); f = e cos(L - nu) and g = e sin(L - nu) from
+    r e cos(nu) = p - r, r e sin(nu) = h (r . v)/mu and cos L = (r . f)/r, sin L = (r . g)/r, which
+    avoids the cancellation of the eccentricity-vector formula far out on open orbits (and makes
+    1 + f cos L + g sin L = p/r consistent to rounding). h = -h_y/d and k = h_x/d with
     d = |h| + I h_z, evaluated without cancellation as (h_x^2 + h_y^2)/(|h| - I h_z) when I h_z < 0.
     """
     n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
@@ -363,16 +365,19 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     if not math.isfinite(hh * hh + kk * kk):  # tan^I(i/2) ~ 1e154 or more: overflow
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
     fx, fy, fz, gx, gy, gz = _equinoctial_frame(hh, kk, retro)
-    lam = _wrap_2pi(math.atan2(rx * gx + ry * gy + rz * gz + 0.0, rx * fx + ry * fy + rz * fz))
-    rdotv = rx * vx + ry * vy + rz * vz
-    c1 = (v2 - gm / rm) / gm
-    c2 = rdotv / gm
-    ex = c1 * rx - c2 * vx
-    ey = c1 * ry - c2 * vy
-    ez = c1 * rz - c2 * vz
-    f = ex * fx + ey * fy + ez * fz + 0.0
-    g = ex * gx + ey * gy + ez * gz + 0.0
+    rf = rx * fx + ry * fy + rz * fz  # r cos L
+    rg = rx * gx + ry * gy + rz * gz + 0.0  # r sin L
+    lam = _wrap_2pi(math.atan2(rg, rf))
+    # f = e cos(L - nu), g = e sin(L - nu) from r e cos(nu) = p - r and r e sin(nu) = h (r.v)/mu
+    # (not from the eccentricity vector, whose terms cancel far out on open orbits)
     p = hm * hm / gm
+    rdotv = rx * vx + ry * vy + rz * vz
+    ec = (p - rm) / rm
+    es = hm * rdotv / (gm * rm)
+    cl = rf / rm
+    sl = rg / rm
+    f = ec * cl + es * sl + 0.0
+    g = ec * sl - es * cl + 0.0
     return p, f, g, hh, kk, lam, st.OK
 
 

@@ -268,15 +268,31 @@ class StateVectors:
 
     @cached_property
     def eccentricity_vector(self):
-        """Eccentricity vector ((v^2 - mu/r) r - (r . v) v)/mu (dimensionless ndarray, (..., 3)).
+        """Eccentricity vector (dimensionless ndarray, shape ``shape + (3,)``).
 
-        It points to periapsis and its length is the eccentricity (Vallado 2013, eq. 2-78).
+        It points to periapsis and its length is the eccentricity. Evaluated as
+        e = (p/r - 1) r_hat - (h (r . v)/(mu r)) theta_hat with theta_hat = h_hat x r_hat, which
+        equals ((v^2 - mu/r) r - (r . v) v)/mu (Vallado 2013, eq. 2-78) without that formula's
+        cancellation far out on open orbits; radial states (h = 0) use eq. 2-78.
         """
-        r = np.linalg.norm(self._r, axis=-1)[..., None]
-        v2 = np.einsum("...i,...i->...", self._v, self._v)[..., None]
-        rv = np.einsum("...i,...i->...", self._r, self._v)[..., None]
+        r = self._r
+        v = self._v
         gm = np.broadcast_to(self._gm, self._shape)[..., None]
-        return ((v2 - gm / r) * self._r - rv * self._v) / gm
+        rm = np.linalg.norm(r, axis=-1)[..., None]
+        h = np.cross(r, v)
+        hm = np.linalg.norm(h, axis=-1)[..., None]
+        rv = np.einsum("...i,...i->...", r, v)[..., None]
+        radial = hm == 0.0
+        safe_hm = np.where(radial, 1.0, hm)
+        ec = (hm * hm / gm - rm) / rm
+        es = hm * rv / (gm * rm)
+        theta_hat = np.cross(h, r) / (safe_hm * rm)
+        e_vec = ec * r / rm - es * theta_hat
+        if np.any(radial):
+            v2 = np.einsum("...i,...i->...", v, v)[..., None]
+            classic = ((v2 - gm / rm) * r - rv * v) / gm
+            e_vec = np.where(radial, classic, e_vec)
+        return e_vec
 
     # --- conversions ----------------------------------------------------------------------------
     def _flat_inputs(self):

@@ -196,7 +196,8 @@ def _solve_universal(A, B, C, beta, tau, s_start):
     (its derivative ``A G0 + B G1 + C G2`` is the distance r >= 0), so safeguarded
     Laguerre-Conway steps (n = 5) with bisection inside a bracket always converge. For an ellipse
     the caller has reduced ``|tau|`` to at most one period: ``|s| < 2 pi / sqrt(beta)``.
-    ``s_start`` (NaN: none) replaces the starter when it lies inside the bracket.
+    ``s_start`` (NaN: none) replaces the starter when it lies inside the bracket. Returns
+    ``(converged, s, G0, G1, G2)`` at the root.
     """
     sgn = 1.0 if tau > 0.0 else -1.0
     if beta > 0.0:
@@ -245,16 +246,29 @@ def _solve_universal(A, B, C, beta, tau, s_start):
         else:
             hi = s  # also for F = NaN (overflow far out): too far
         if F == 0.0:
-            return True, s
+            return True, s, c0, G1, G2
         delta = 5.0 * F / (dF + math.sqrt(abs(16.0 * dF * dF - 20.0 * F * ddF)))
         s_new = s - delta
         noise = 4.0 * _EPS * (abs(t_A) + abs(t_B) + abs(t_C) + abs(tau)) / dF
         # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
         # below 1e-17, so the step is taken and the loop ends without another evaluation.
         if abs(delta) <= _ACCEPT * abs(s) + noise:
-            if lo < s_new < hi:
-                return True, s_new
-            return True, s
+            if not lo < s_new < hi:
+                return True, s, c0, G1, G2
+            d = -delta
+            bd2 = beta * d * d
+            if abs(bd2) < 1e-9 and abs(d) <= _ACCEPT * abs(s):
+                # third-order Taylor step of G0, G1, G2 (G0' = -beta G1, G1' = G0, G2' = G1):
+                # the fourth-order term is below (beta d^2)^2 / 24 < 1e-19
+                return (
+                    True,
+                    s_new,
+                    c0 - beta * G1 * d - 0.5 * bd2 * c0 + bd2 * beta * G1 * d / 6.0,
+                    G1 + c0 * d - 0.5 * bd2 * G1 - bd2 * c0 * d / 6.0,
+                    G2 + G1 * d + 0.5 * c0 * d * d - bd2 * G1 * d / 6.0,
+                )
+            c0, c1, c2, c3 = _stumpff_all(beta * s_new * s_new)
+            return True, s_new, c0, s_new * c1, s_new * s_new * c2
         if not (lo < s_new < hi):
             # step left the bracket (or was NaN): bisect, or expand an open bracket
             if math.isinf(hi):
@@ -265,9 +279,9 @@ def _solve_universal(A, B, C, beta, tau, s_start):
                 s_new = 0.5 * (lo + hi)
         width = hi - lo
         if s_new == s or (math.isfinite(width) and width <= 2.0 * _EPS * max(abs(lo), abs(hi))):
-            return True, s
+            return True, s, c0, G1, G2
         s = s_new
-    return False, s
+    return False, s, math.nan, math.nan, math.nan
 
 
 @kernel
@@ -356,16 +370,12 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
                 tau += period
             if tau == 0.0:
                 return OK, x, y, z, vx, vy, vz
-    converged, s = _solve_universal(r0, eta, gm, beta, tau, nan)
+    converged, s, G0, G1, G2 = _solve_universal(r0, eta, gm, beta, tau, nan)
 
     # --- f and g (Danby's G-function form) -------------------------------------------------
-    G0 = G1 = G2 = g = nan
+    g = nan
     cancel = math.inf
     if converged:
-        c0, c1, c2, c3 = _stumpff_all(beta * s * s)
-        G0 = c0
-        G1 = s * c1
-        G2 = s * s * c2
         t_r0 = r0 * G1
         t_eta = eta * G2
         g = t_r0 + t_eta
@@ -446,21 +456,18 @@ def _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s_guess):
     c0, c1, c2, c3 = _stumpff_all(beta * sigma0 * sigma0)
     T1 = q * sigma0 + mue * sigma0 * sigma0 * sigma0 * c3 + tau
     # t(sigma) = q G1 + gm G3 = q sigma + gm e G3: the universal equation from periapsis
-    converged, sigma = _solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)
+    converged, sigma, G0, G1, G2 = _solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)
     if not converged:
-        converged, sigma = _solve_universal(q, 0.0, gm, beta, T1, nan)
+        converged, sigma, G0, G1, G2 = _solve_universal(q, 0.0, gm, beta, T1, nan)
     if not converged or not math.isfinite(sigma):
         return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
-    c0, c1, c2, c3 = _stumpff_all(beta * sigma * sigma)
-    G1 = sigma * c1
-    G2 = sigma * sigma * c2
     r = q + mue * G2
     if not r > 0.0:
         return HITS_ATTRACTOR, nan, nan, nan, nan, nan, nan
     X = q - gm * G2
     Y = h * G1
     VX = -gm * G1 / r
-    VY = h * c0 / r
+    VY = h * G0 / r
     return (
         OK,
         X * px + Y * qx,

@@ -6,8 +6,9 @@
 * IAS15 vs REBOUND's IAS15 on the same system: relative position difference and energy errors.
 * IAS15 relative energy error on the outer solar system: 100 Jupiter orbits (1,000 with ``full``).
 * The figure-eight choreography returns to its start after one period (IAS15).
-* With ``full``: Brouwer's law for IAS15, the RMS energy error over an ensemble of perturbed outer
-  solar systems grows like t**alpha with alpha close to 0.5 (Rein & Spiegel 2015, fig. 4).
+* With ``full``: Brouwer's law for IAS15, the RMS energy error over an ensemble of 4 perturbed
+  outer solar systems grows like t**alpha with alpha close to 0.5 between 500 and 1e5 years
+  (Rein & Spiegel 2015, fig. 4); measured alpha = 0.50 (about 40 s).
 """
 
 from __future__ import annotations
@@ -78,7 +79,7 @@ def _vs_rebound(integrator, years, rebound, samples=50):
     return rel.max(), abs(sim.energy() / r.energy() - 1), e_vv.max(), details
 
 
-def _brouwer_slope(n_members=6, t_end=2000.0, samples=24):
+def _brouwer_slope(n_members=4, t_end=1e5, samples=12):
     """Least-squares slope of log RMS |dE/E| vs log t over an ensemble (IAS15)."""
     rng = np.random.default_rng(42)
     times = np.geomspace(t_end / 200, t_end, samples)
@@ -140,7 +141,7 @@ def checks(full: bool = False) -> list[Check]:
     if full:
         slope, times, rms = _brouwer_slope()
         out.append(Check("nbody ias15: Brouwer's law (RMS energy error ~ t^0.5)",
-                         "|slope - 0.5|", abs(slope - 0.5), 0.25,
+                         "|slope - 0.5|", abs(slope - 0.5), 0.15,
                          "Brouwer (1937); Rein & Spiegel (2015) fig. 4",
                          {"slope": slope, "times_yr": times, "rms_energy_error": rms}))
     return out

@@ -54,13 +54,14 @@ _PARALLEL_MIN_ITEMS = 4096
 def _run(kernel, context, angle, angle_name, ecc=None):
     """Convert, broadcast, call ``kernel(angle, [ecc,] out, status)`` once, raise, wrap."""
     was_quantity = isinstance(angle, u.Quantity)
-    x = _units.to_array(angle, "angle", angle_name)
+    # NaN and inf are caught by the kernels (status NON_FINITE), so no separate pass here
+    x = _units.to_array(angle, "angle", angle_name, finite=False)
     inputs = {angle_name: x}
     if ecc is None:
         shape = x.shape
         args = (np.ascontiguousarray(x).ravel(),)
     else:
-        e = _units.to_array(ecc, "dimensionless", "ecc")
+        e = _units.to_array(ecc, "dimensionless", "ecc", finite=False)
         try:
             x, e = np.broadcast_arrays(x, e)
         except ValueError as exc:

@@ -103,7 +103,7 @@ class Simulation:
     min_dt : float
         Smallest step IAS15 may take; below it :class:`visviva.StepSizeError` is raised.
     corrector : int
-        WHFast symplectic corrector order (0: none).
+        WHFast symplectic corrector order; only 0 (none) so far.
     exact_finish_time : bool
         Land exactly on requested times (default) or stop at the first step past them.
 
@@ -273,14 +273,17 @@ class Simulation:
 
     @property
     def corrector(self) -> int:
-        """WHFast symplectic corrector order (0 = none, or 3, 5, 7, 11, 17)."""
+        """WHFast symplectic corrector order; only 0 (none) is implemented so far."""
         return int(self._istate[_nc.I_CORRECTOR])
 
     @corrector.setter
     def corrector(self, order: int) -> None:
         order = int(order)
-        if order not in (0, 3, 5, 7, 11, 17):
-            raise InvalidInputError(f"corrector must be 0, 3, 5, 7, 11 or 17; got {order!r}.")
+        if order != 0:
+            raise NotImplementedError(
+                "WHFast symplectic correctors (Wisdom, Holman & Touma 1996) are not implemented "
+                "yet: use corrector=0, a smaller dt, or IAS15 for machine-precision accuracy."
+            )
         self._istate[_nc.I_CORRECTOR] = order
         self._istate[_nc.I_FRESH] = 1
 

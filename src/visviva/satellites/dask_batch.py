@@ -15,6 +15,7 @@ Requires the ``scale`` extra (``pip install visviva[scale]``: dask[array,distrib
 
 from __future__ import annotations
 
+import threading
 import uuid
 
 import numpy as np
@@ -100,8 +101,17 @@ def close_local_cluster() -> None:
     _LOCAL.clear()
 
 
+#: numba's parallel kernels (J2, Kepler) already use every core, and numba's "workqueue"
+#: threading layer must not be entered from two threads at once: one block at a time per process.
+_NUMBA_LOCK = threading.Lock()
+
+
 def _block(cat: Catalog, t: Time, method: str, on_error: str):
-    out = _METHODS[method](cat, t, on_error=on_error)
+    if method == "sgp4":
+        out = _METHODS[method](cat, t, on_error=on_error)
+    else:
+        with _NUMBA_LOCK:
+            out = _METHODS[method](cat, t, on_error=on_error)
     return out.r.value, out.v.value, out.status
 
 

@@ -248,51 +248,171 @@ def true_to_mean(nu, ecc):
 
 
 def eccentric_to_true(E, ecc):
-    """True anomaly nu from the eccentric anomaly E (0 <= e < 1; revolutions kept).
+    """True anomaly nu from the eccentric anomaly E of an ellipse.
 
-    tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2) (Vallado 2013, eq. 2-9).
+    Parameters
+    ----------
+    E : float, array_like or Quantity (angle)
+        Eccentric anomaly (rad if plain), any real value; whole revolutions are kept.
+    ecc : float or array_like
+        Eccentricity, 0 <= e < 1.
+
+    Returns
+    -------
+    nu : ndarray, float or Quantity (rad)
+
+    Notes
+    -----
+    tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2), evaluated as
+    nu = 2 atan2(sqrt(1 + e) sin(E / 2), sqrt(1 - e) cos(E / 2)), exact at E = +-pi
+    (Vallado 2013, Sec. 2.2).
     """
     return _run(_k.true_from_eccentric_array, "eccentric_to_true (0 <= e < 1)", E, "E", ecc)
 
 
 def true_to_eccentric(nu, ecc):
-    """Eccentric anomaly E from the true anomaly nu (0 <= e < 1; revolutions kept).
+    """Eccentric anomaly E from the true anomaly nu of an ellipse.
 
-    tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2) (Vallado 2013, eq. 2-9).
+    Parameters
+    ----------
+    nu : float, array_like or Quantity (angle)
+        True anomaly (rad if plain), any real value; whole revolutions are kept.
+    ecc : float or array_like
+        Eccentricity, 0 <= e < 1.
+
+    Returns
+    -------
+    E : ndarray, float or Quantity (rad)
+
+    Notes
+    -----
+    tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2), evaluated with atan2 (Vallado 2013,
+    Sec. 2.2).
     """
     return _run(_k.eccentric_from_true_array, "true_to_eccentric (0 <= e < 1)", nu, "nu", ecc)
 
 
 def hyperbolic_to_true(F, ecc):
-    """True anomaly nu from the hyperbolic anomaly F (e > 1).
+    """True anomaly nu from the hyperbolic anomaly F of a hyperbola.
 
-    tan(nu / 2) = sqrt((e + 1) / (e - 1)) tanh(F / 2) (Vallado 2013, eq. 2-35).
+    Parameters
+    ----------
+    F : float, array_like or Quantity (angle)
+        Hyperbolic anomaly (rad if plain).
+    ecc : float or array_like
+        Eccentricity, e > 1.
+
+    Returns
+    -------
+    nu : ndarray, float or Quantity (rad)
+        |nu| < arccos(-1 / e).
+
+    Notes
+    -----
+    tan(nu / 2) = sqrt((e + 1) / (e - 1)) tanh(F / 2) (Vallado 2013, Sec. 2.2).
     """
     return _run(_k.true_from_hyperbolic_array, "hyperbolic_to_true (e > 1)", F, "F", ecc)
 
 
 def true_to_hyperbolic(nu, ecc):
-    """Hyperbolic anomaly F from the true anomaly nu (e > 1, |nu| < arccos(-1/e))."""
+    """Hyperbolic anomaly F from the true anomaly nu of a hyperbola.
+
+    Parameters
+    ----------
+    nu : float, array_like or Quantity (angle)
+        True anomaly (rad if plain), |nu| < arccos(-1 / e).
+    ecc : float or array_like
+        Eccentricity, e > 1.
+
+    Returns
+    -------
+    F : ndarray, float or Quantity (rad)
+
+    Raises
+    ------
+    InvalidElementsError
+        For |nu| >= arccos(-1 / e) (on or beyond the asymptote).
+
+    Notes
+    -----
+    tanh(F / 2) = sqrt((e - 1) / (e + 1)) tan(nu / 2) (Vallado 2013, Sec. 2.2).
+    """
     return _run(_k.hyperbolic_from_true_array, "true_to_hyperbolic (e > 1)", nu, "nu", ecc)
 
 
 def parabolic_to_true(D):
-    """True anomaly nu = 2 arctan(D) from the parabolic anomaly D = tan(nu / 2)."""
-    D = _units.to_array(D, "dimensionless", "D")
+    """True anomaly nu = 2 arctan(D) from the parabolic anomaly D = tan(nu / 2).
+
+    Parameters
+    ----------
+    D : float or array_like
+        Parabolic anomaly (dimensionless).
+
+    Returns
+    -------
+    nu : ndarray or float
+        True anomaly (rad), |nu| < pi.
+    """
+    D = _units.to_array(D, "dimensionless", "D", finite=False)
     return _run(_k.true_from_parabolic_array, "parabolic_to_true", D, "D")
 
 
 def true_to_parabolic(nu):
-    """Parabolic anomaly D = tan(nu / 2) from the true anomaly nu (|nu| < pi); plain array."""
+    """Parabolic anomaly D = tan(nu / 2) from the true anomaly nu of a parabola.
+
+    Parameters
+    ----------
+    nu : float, array_like or Quantity (angle)
+        True anomaly (rad if plain), |nu| < pi.
+
+    Returns
+    -------
+    D : ndarray or float
+        Dimensionless (a plain array also for Quantity input).
+    """
     D = _run(_k.parabolic_from_true_array, "true_to_parabolic (e = 1)", nu, "nu")
     return D.value if isinstance(D, u.Quantity) else D
 
 
 def eccentric_to_mean(E, ecc):
-    """Mean anomaly M = E - e sin E from the eccentric anomaly E (0 <= e < 1)."""
+    """Mean anomaly M = E - e sin E from the eccentric anomaly E (Kepler's equation).
+
+    Parameters
+    ----------
+    E : float, array_like or Quantity (angle)
+        Eccentric anomaly (rad if plain), any real value.
+    ecc : float or array_like
+        Eccentricity, 0 <= e < 1.
+
+    Returns
+    -------
+    M : ndarray, float or Quantity (rad)
+
+    Notes
+    -----
+    Evaluated as (1 - e) E + e (E - sin E) with the series of E - sin E for e > 0.5 and
+    |E| < 2, so M has full relative precision near e = 1 (Farnocchia et al. 2013).
+    """
     return _run(_k.mean_from_eccentric_array, "eccentric_to_mean (0 <= e < 1)", E, "E", ecc)
 
 
 def hyperbolic_to_mean(F, ecc):
-    """Hyperbolic mean anomaly M = e sinh F - F from the hyperbolic anomaly F (e > 1)."""
+    """Hyperbolic mean anomaly M = e sinh F - F from the hyperbolic anomaly F.
+
+    Parameters
+    ----------
+    F : float, array_like or Quantity (angle)
+        Hyperbolic anomaly (rad if plain).
+    ecc : float or array_like
+        Eccentricity, e > 1.
+
+    Returns
+    -------
+    M : ndarray, float or Quantity (rad)
+
+    Notes
+    -----
+    Evaluated as (e - 1) F + e (sinh F - F) with the series of sinh F - F for e < 2 and |F| < 2
+    (Farnocchia et al. 2013).
+    """
     return _run(_k.mean_from_hyperbolic_array, "hyperbolic_to_mean (e > 1)", F, "F", ecc)

@@ -309,3 +309,17 @@ def test_omm_alpha5_catalogue_number():
     assert sat.satnum == 100001
     ref = vv.Satellite.from_omm(_omm_of(ISS_1, ISS_2))
     np.testing.assert_array_equal(sat.teme(10 * u.min).r, ref.teme(10 * u.min).r)
+
+
+@settings(max_examples=200, deadline=None)
+@given(which=st.sampled_from([0, 1]), col=st.integers(0, 67), digit=st.integers(0, 9))
+def test_any_changed_digit_is_caught(which, col, digit):
+    """Property: changing one digit of a valid TLE (any column, either line) raises
+    TLEFormatError naming that line: the checksum or the column checks catch it."""
+    lines = [ISS_1, ISS_2]
+    old = lines[which][col]
+    if not old.isdigit() or int(old) == digit:
+        return
+    lines[which] = lines[which][:col] + str(digit) + lines[which][col + 1 :]
+    with pytest.raises(TLEFormatError, match=f"TLE line {which + 1}"):
+        vv.Satellite.from_tle(*lines)

@@ -298,3 +298,54 @@ def test_cowell_with_gfc_field(gfc_file):
     assert 1e-3 < d[-1] < 20.0
     with pytest.raises(vv.InvalidInputError, match="one gravity field"):
         propagate_cowell(state, t, [SphericalHarmonics(gfc_file), vv.J2(vv.EARTH)])
+
+
+# ------------------------------------------------------------------ NRLMSIS drag
+
+
+def test_nrlmsis_grid_matches_pymsis_and_decays():
+    pytest.importorskip("pymsis")
+    from pymsis import msis
+
+    from visviva.core.perturbations import grid_density
+    from visviva.satellites import propagate_cowell
+    from visviva.satellites.frames import gcrs_to_itrs
+
+    drag = vv.AtmosphericDrag(
+        0.02 * u.m**2 / u.kg, model="nrlmsis", f107=150.0, f107a=150.0, ap=4.0
+    )
+    model = ForceModel(GM, [drag], (), EPOCH, (0.0, 3600.0))
+    sun = ephemeris.sun_position(EPOCH).to_value(u.km)
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        r = rng.normal(size=3)
+        r *= (R + rng.uniform(200.0, 900.0)) / np.linalg.norm(r)
+        ri, _ = gcrs_to_itrs(r, np.zeros(3), EPOCH)
+        lon = np.degrees(np.arctan2(ri[1], ri[0]))
+        lat = np.arcsin(r[2] / np.linalg.norm(r))
+        h = np.linalg.norm(r) - R * (1 - vv.constants.EARTH_FLATTENING * np.sin(lat) ** 2)
+        ref = msis.run(
+            np.array([np.datetime64(EPOCH.utc.isot[:19])]), [lon], [np.degrees(lat)], [h],
+            f107s=[150.0], f107as=[150.0], aps=[[4.0] * 7],
+        )[..., 0].ravel()[0]  # fmt: skip
+        ha = np.arctan2(r[1], r[0]) - np.arctan2(sun[1], sun[0])
+        ha = (ha + np.pi) % (2 * np.pi) - np.pi
+        rho = grid_density(h, lat, ha, model.force, model.atm)
+        assert abs(rho / ref - 1) < 0.03  # trilinear interpolation in ln(rho)
+    state = vv.KeplerianElements.from_semi_major_axis(
+        (R + 400) * u.km, 0.0, 51.6 * u.deg, 0, 0, 0, vv.EARTH, epoch=EPOCH
+    ).to_state()
+    out = propagate_cowell(state, np.linspace(0, 1, 25) * u.day, [drag])
+    r = np.linalg.norm(out.r.to_value(u.km), axis=1)
+    v = np.linalg.norm(out.v.to_value(u.km / u.s), axis=1)
+    energy = 0.5 * v**2 - GM / r
+    assert np.all(np.diff(energy) < 0)
+    da = -GM / (2 * energy[-1]) + GM / (2 * energy[0])
+    assert -2.0 < da < -0.05  # km per day at 400 km, moderate activity
+
+
+def test_nrlmsis_needs_indices():
+    with pytest.raises(vv.InvalidInputError, match="space-weather"):
+        vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="nrlmsis")
+    with pytest.raises(vv.InvalidInputError, match="model"):
+        vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="jacchia")

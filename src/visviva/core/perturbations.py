@@ -28,7 +28,15 @@ Layout of the ``force`` parameter array (all float64; flags are 0.0 / 1.0):
 17    degree N of the full spherical-harmonic field (0: none)
 18-26 the 3x3 matrix (row-major) from the propagation frame to the body-fixed frame at t = 0;
       the body then turns about its z axis at the rate in slot 5
+27    density model: 0 exponential table, 1 gridded log-density (NRLMSIS tabulated at the epoch)
+28-33 grid: first altitude km, altitude step km, first latitude rad, latitude step rad,
+      first solar hour angle rad, hour-angle step rad
+34-36 grid sizes: altitudes, latitudes, hour angles
 ====  =====================================================================
+
+With density model 1, ``atm`` has shape (n_hour_angle * n_latitude, n_altitude) and holds
+ln(rho / (kg/m^3)) at (hour angle from the Sun, geocentric latitude, geodetic altitude), read by
+trilinear interpolation (:func:`grid_density`).
 
 ``sh``, shape (2, N+2, N+2): unnormalised C_nm and S_nm of the spherical-harmonic field
 (Montenbruck & Gill 2000, eq. 3.13), used when slot 17 is > 0.
@@ -58,13 +66,14 @@ __all__ = [
     "accel_srp",
     "shadow_fraction",
     "exponential_density",
+    "grid_density",
     "geodetic_altitude",
     "hermite_position",
     "cowell_rhs",
     "cowell_rhs_array",
 ]
 
-FORCE_SIZE = 27
+FORCE_SIZE = 37
 
 #: Vallado (2013), Fundamentals of Astrodynamics and Applications, 4th ed., Table 8-4:
 #: base altitude (km), nominal density (kg/m^3), scale height (km).
@@ -266,6 +275,48 @@ def exponential_density(h, atm):
 
 
 @kernel
+def grid_density(h, lat, hour_angle, force, atm):
+    """Density (kg/m^3) by trilinear interpolation of the gridded ln(rho), clamped at the edges."""
+    na = int(force[34])
+    nl = int(force[35])
+    nh = int(force[36])
+    fa = (h - force[28]) / force[29]
+    fl = (lat - force[30]) / force[31]
+    # hour angle wraps: the grid covers [-pi, pi] with both ends stored
+    fh = (hour_angle - force[32]) / force[33]
+    ia = min(max(int(math.floor(fa)), 0), na - 2)
+    il = min(max(int(math.floor(fl)), 0), nl - 2)
+    ih = min(max(int(math.floor(fh)), 0), nh - 2)
+    ta = fa - ia  # log-linear (exponential) extrapolation beyond the altitude grid
+    tl = min(max(fl - il, 0.0), 1.0)
+    th = min(max(fh - ih, 0.0), 1.0)
+    acc = 0.0
+    for dh in range(2):
+        wh = th if dh == 1 else 1.0 - th
+        for dl in range(2):
+            wl = tl if dl == 1 else 1.0 - tl
+            row = (ih + dh) * nl + (il + dl)
+            lo = atm[row, ia]
+            hi = atm[row, ia + 1]
+            acc += wh * wl * (lo + ta * (hi - lo))
+    return math.exp(acc)
+
+
+@kernel
+def accel_drag_rho(x, y, z, vx, vy, vz, rho_kg_m3, bc_km2_kg, omega, out):
+    """Add drag for a given density (kg/m^3): a = -1/2 rho (Cd A/m) |v_rel| v_rel."""
+    rho = rho_kg_m3 * 1e9  # kg/km^3
+    wx = vx + omega * y
+    wy = vy - omega * x
+    wz = vz
+    w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    k = -0.5 * rho * bc_km2_kg * w
+    out[0] += k * wx
+    out[1] += k * wy
+    out[2] += k * wz
+
+
+@kernel
 def accel_drag(x, y, z, vx, vy, vz, bc_km2_kg, omega, radius, flattening, atm, out):
     """Add atmospheric drag a = -1/2 rho (Cd A/m) |v_rel| v_rel to ``out``.
 
@@ -419,21 +470,31 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         accel_zonal(x, yy, z, gm, force[1], zonal, n_max, acc)
     if force[17] >= 2.0:
         _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
-    if force[3] != 0.0:
-        accel_drag(x, yy, z, y[3], y[4], y[5], force[4], force[5], force[1], force[6], atm, acc)
     n_third = int(force[13])
     sun = int(force[12])
     pos = np.empty(3)
     sun_pos = np.empty(3)
-    for b in range(eph_r.shape[0]):
-        if b < n_third or b == sun:
+    if sun >= 0:
+        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    if force[3] != 0.0:
+        if force[27] == 1.0 and sun >= 0:
+            h = geodetic_altitude(x, yy, z, force[1], force[6])
+            lat = math.asin(z / math.sqrt(x * x + yy * yy + z * z))
+            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
+            if ha > math.pi:
+                ha -= 2.0 * math.pi
+            elif ha < -math.pi:
+                ha += 2.0 * math.pi
+            rho = grid_density(h, lat, ha, force, atm)
+            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[4], force[5], acc)
+        else:
+            accel_drag(x, yy, z, y[3], y[4], y[5], force[4], force[5], force[1], force[6], atm, acc)
+    for b in range(n_third):
+        if b == sun:
+            accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)
+        else:
             hermite_position(t, b, force, eph_r, eph_v, pos)
-            if b < n_third:
-                accel_third_body(x, yy, z, pos[0], pos[1], pos[2], eph_gm[b], acc)
-            if b == sun:
-                sun_pos[0] = pos[0]
-                sun_pos[1] = pos[1]
-                sun_pos[2] = pos[2]
+            accel_third_body(x, yy, z, pos[0], pos[1], pos[2], eph_gm[b], acc)
     if force[7] != 0.0 and sun >= 0:
         nu = shadow_fraction(
             x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[1], force[10], int(force[9])

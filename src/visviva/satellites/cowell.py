@@ -122,6 +122,7 @@ class ForceModel:
         drags = [p for p in perturbations if isinstance(p, AtmosphericDrag)]
         if len(drags) > 1:
             raise InvalidInputError("give at most one AtmosphericDrag.")
+        msis = bool(drags) and drags[0].model == "nrlmsis"
         if drags:
             self.force[3] = 1.0
             self.force[4] = drags[0].ballistic_coefficient_km2_kg
@@ -137,7 +138,7 @@ class ForceModel:
             raise InvalidInputError("give at most one SolarRadiationPressure.")
         gms = [b.gm_km3_s2 for b in third]
         table_names = list(names)
-        need_sun = bool(srps) or any(getattr(e, "needs_sun", False) for e in events)
+        need_sun = bool(srps) or msis or any(getattr(e, "needs_sun", False) for e in events)
         if need_sun:
             if "sun" not in table_names:
                 table_names.append("sun")
@@ -151,7 +152,8 @@ class ForceModel:
         if table_names:
             if epoch is None:
                 raise InvalidInputError(
-                    "third bodies, solar radiation pressure and eclipse events need the state's "
+                    "third bodies, solar radiation pressure, NRLMSIS drag and eclipse events need the "
+                    "state's "
                     "epoch: build the state with epoch=Time('2024-01-01T00:00:00', scale='utc')."
                 )
             if central.name not in ("earth", "moon", "sun"):
@@ -168,6 +170,16 @@ class ForceModel:
             self.force[15] = step
             self.force[16] = er.shape[1]
             self.eph_r, self.eph_v = er, ev
+            if msis:
+                from .ephemeris import sun_position
+                from .frames import gcrs_to_itrs
+
+                sun0 = sun_position(epoch).to_value(u.km)
+                s_itrs, _ = gcrs_to_itrs(sun0, np.zeros(3), epoch)
+                table, meta = drags[0].msis_grid(epoch, np.arctan2(s_itrs[1], s_itrs[0]))
+                self.atm = table
+                self.force[27] = 1.0
+                self.force[28:37] = meta
         else:
             self.force[15] = 1.0
             self.force[16] = 2

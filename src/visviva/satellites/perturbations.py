@@ -136,13 +136,46 @@ class AtmosphericDrag(Perturbation):
     rotates about the z axis of the propagation frame (the GCRS pole differs from the
     true pole by < 0.5 deg in 1950-2050, a negligible change of v_rel). The altitude is
     h = |r| - R (1 - f sin^2 phi) (ellipsoid to first order in the flattening f).
+
+    ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
+    space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
+    ``ap``: daily Ap; never downloaded). The density is tabulated once at the state's epoch on a
+    grid of geodetic altitude (80-1000 km, 10 km), geocentric latitude (5 deg) and hour angle
+    from the Sun (15 deg), and interpolated trilinearly in ln(rho) during the run; the bulge
+    follows the Sun, but the seasonal and space-weather variation over the run is ignored
+    (valid for runs of days; split longer runs).
     """
 
     ballistic_coefficient: u.Quantity = None
     body: Body = EARTH
     table: np.ndarray = field(default=None)
+    model: str = "exponential"
+    f107: float | None = None
+    f107a: float | None = None
+    ap: float | None = None
 
     def __post_init__(self):
+        if self.model not in ("exponential", "nrlmsis"):
+            raise InvalidInputError(
+                f"model must be 'exponential' or 'nrlmsis'; got {self.model!r}."
+            )
+        if self.model == "nrlmsis":
+            if self.f107 is None or self.f107a is None or self.ap is None:
+                raise InvalidInputError(
+                    "the NRLMSIS model needs the space-weather indices (no download is made): "
+                    "AtmosphericDrag(bc, model='nrlmsis', f107=150, f107a=150, ap=4)."
+                )
+            for name in ("f107", "f107a", "ap"):
+                val = float(to_array(getattr(self, name), "dimensionless", name))
+                if not (np.isfinite(val) and val >= 0):
+                    raise InvalidInputError(f"{name} must be a finite number >= 0.")
+                object.__setattr__(self, name, val)
+            try:
+                import pymsis  # noqa: F401
+            except ImportError as exc:
+                raise InvalidInputError(
+                    "model='nrlmsis' needs pymsis: pip install visviva[ephem]."
+                ) from exc
         if self.ballistic_coefficient is None:
             raise InvalidInputError(
                 "AtmosphericDrag needs ballistic_coefficient = Cd*A/m, e.g. "
@@ -171,6 +204,31 @@ class AtmosphericDrag(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
+    def msis_grid(self, epoch, sun_longitude_rad):
+        """ln(rho) on the (hour angle, latitude, altitude) grid from NRLMSIS 2.1 at ``epoch``.
+
+        Returns ``(table, meta)``: table (n_h * n_lat, n_alt) of ln(rho / (kg/m^3)); meta the
+        grid starts/steps and sizes for slots 28-36 of the force array.
+        """
+        from pymsis import msis
+
+        alts = np.arange(80.0, 1000.0 + 1e-9, 10.0)
+        lats = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+        hours = np.arange(-180.0, 180.0 + 1e-9, 15.0)
+        lons = np.mod(np.degrees(sun_longitude_rad) + hours + 180.0, 360.0) - 180.0
+        date = np.array([np.datetime64(epoch.utc.isot[:19])], dtype="datetime64[s]")
+        out = msis.run(date, lons, lats, alts, f107s=[self.f107], f107as=[self.f107a],
+                       aps=[[self.ap] * 7], version=2.1)  # fmt: skip
+        rho = np.asarray(out[0, ..., 0], dtype=np.float64)  # (hours, lats, alts)
+        if not np.all(np.isfinite(rho)) or np.any(rho <= 0):
+            raise InvalidInputError("NRLMSIS returned invalid densities for these indices.")
+        table = np.ascontiguousarray(np.log(rho).reshape(len(hours) * len(lats), len(alts)))
+        meta = np.array(
+            [alts[0], 10.0, np.radians(lats[0]), np.radians(5.0), np.radians(hours[0]),
+             np.radians(15.0), len(alts), len(lats), len(hours)]
+        )  # fmt: skip
+        return table, meta
+
     @property
     def ballistic_coefficient_km2_kg(self) -> float:
         """Cd*A/m in km^2/kg."""
@@ -185,7 +243,7 @@ class AtmosphericDrag(Perturbation):
         return rho.reshape(h.shape) * (u.kg / u.m**3)
 
     def __repr__(self):
-        return f"AtmosphericDrag({self._bc_m2_kg:g} m2 / kg, {self.body.name})"
+        return f"AtmosphericDrag({self._bc_m2_kg:g} m2 / kg, {self.body.name}, {self.model})"
 
 
 @dataclass(frozen=True, repr=False)

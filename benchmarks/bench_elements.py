@@ -22,9 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped, threads, time_call
+    from .common import Timing, compile_time, quick_from_env, result, skipped, threads, time_call
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped, threads, time_call
+    from common import Timing, compile_time, quick_from_env, result, skipped, threads, time_call
 
 MU = 398600.4418
 TARGET = 0.2  # at least 5x faster than Skyfield
@@ -35,6 +35,21 @@ def _orbits(n: int, seed: int = 1):
     r = rng.normal(size=(n, 3)) * 10000.0
     v = rng.normal(size=(n, 3)) * 3.0
     return r, v
+
+
+def _interleaved(fns, rounds: int = 5):
+    """Median per-call times of ``fns``, timed in alternation round by round, so that a change
+    of machine load hits visviva and the reference alike (each warmed up first)."""
+    import statistics
+
+    samples = [[] for _ in fns]
+    for fn in fns:
+        fn()
+    for _ in range(rounds):
+        for k, fn in enumerate(fns):
+            samples[k].append(time_call(fn, repeat=1, number=1, warmup=0).median)
+    return [Timing(median=statistics.median(x), best=min(x), repeat=rounds, number=1, samples=x)
+            for x in samples]
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -77,9 +92,7 @@ def run(quick: bool = False) -> list[dict]:
         return rv_to_coe_array(r, v, gm_flat)
 
     c1 = compile_time(kernel_rv2coe)
-    t_vv = time_call(vv_rv2coe, repeat=5)
-    t_k = time_call(kernel_rv2coe, repeat=5)
-    t_sky = time_call(sky_rv2coe, repeat=3)
+    t_vv, t_k, t_sky = _interleaved([vv_rv2coe, kernel_rv2coe, sky_rv2coe])
     note = f"{n:.0e} random ellipses/hyperbolas; {n / t_vv.median / 1e6:.1f} M states/s"
     rows.append(result(f"states -> elements, {n:.0e} states (public API, Quantities)",
                        t_vv, sky_ref + " OsculatingElements", t_sky, TARGET,
@@ -109,9 +122,7 @@ def run(quick: bool = False) -> list[dict]:
         return coe_to_rv_array(p, e, i, raan, argp, nu, gm_flat)
 
     c2 = compile_time(kernel_coe2rv)
-    t_vv = time_call(vv_coe2rv, repeat=5)
-    t_k = time_call(kernel_coe2rv, repeat=5)
-    t_sky = time_call(sky_coe2rv, repeat=3)
+    t_vv, t_k, t_sky = _interleaved([vv_coe2rv, kernel_coe2rv, sky_coe2rv])
     note = f"{n / t_vv.median / 1e6:.1f} M states/s"
     rows.append(result(f"elements -> states, {n:.0e} orbits (public API, Quantities)",
                        t_vv, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,

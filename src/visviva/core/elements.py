@@ -100,9 +100,12 @@ def _wrap_pi(x):
 @inline_kernel
 def _sin_cos_inc(inc):
     """sin and cos of the inclination, with float(pi) taken as exactly pi."""
+    si = math.sin(inc)  # sin and cos side by side: LLVM fuses them into one sincos call
+    ci = math.cos(inc)
     if inc == _PI:
-        return 0.0, -1.0
-    return math.sin(inc), math.cos(inc)
+        si = 0.0
+        ci = -1.0
+    return si, ci
 
 
 @kernel
@@ -255,6 +258,7 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     if ecc < 0.0:
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_ECCENTRICITY
     cn = math.cos(nu)
+    sn = math.sin(nu)
     denom = 1.0 + ecc * cn
     if not denom > 0.0:
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
@@ -262,7 +266,6 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     si, ci = _sin_cos_inc(inc)
     so = math.sin(raan)
     co = math.cos(raan)
-    sn = math.sin(nu)
     sw = math.sin(argp)
     cw = math.cos(argp)
     # u = argp + nu by the addition formulas (one sin/cos pair fewer; error ~ 2 ulp either way)

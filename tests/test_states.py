@@ -163,3 +163,18 @@ def test_propagate_delegates_to_kepler_propagation():
     back = s.propagate(el.period)
     assert isinstance(back, vv.StateVectors)
     assert np.abs((back.r - s.r).to_value(KM)).max() < ONE_MM
+
+
+def test_epoch_is_carried_and_indexed():
+    from astropy.time import Time
+
+    t = Time("2024-01-01T00:00:00", scale="utc") + np.arange(3) * u.h
+    s = vv.StateVectors([[7000.0, 0, 0]] * 3 * KM, [0, 7.5, 0] * KMS, MU, epoch=t)
+    assert s.epoch is t
+    el = s.to_elements()
+    assert el.epoch is t
+    assert el[1].epoch == t[1] and s[2].epoch == t[2]
+    assert el.to_state().epoch is t
+    assert s.to_equinoctial().epoch is t
+    scalar_epoch = vv.StateVectors([[7000.0, 0, 0]] * 3 * KM, [0, 7.5, 0] * KMS, MU, epoch=t[0])
+    assert scalar_epoch[1].epoch == t[0]

@@ -192,3 +192,18 @@ def test_eclipse_agrees_with_a_cylindrical_shadow_from_astropy_sun(sats):
     clear = (frac == 0) | (frac == 1)
     assert clear.mean() > 0.95
     assert np.mean((frac[clear] == 0) == in_cylinder[clear]) > 0.98
+
+
+@pytest.mark.parametrize("source, target", [("teme", "gcrs"), ("teme", "itrs"),
+                                            ("gcrs", "itrs"), ("itrs", "gcrs")])
+def test_batch_transform_equals_astropy_per_state(source, target):
+    from visviva.satellites.frames import _transform, transform_batch
+
+    rng = np.random.default_rng(3)
+    t = Time("2024-03-01T00:00:00", scale="utc") + np.linspace(0, 2, 7) * u.day
+    r = rng.normal(size=(9, 7, 3)) * 7000.0
+    v = rng.normal(size=(9, 7, 3)) * 5.0
+    rb, vb = transform_batch(r, v, t, source, target)
+    rd, vd = _transform(r, v, t, source, target)
+    assert np.abs(rb - rd).max() < 1e-9  # km
+    assert np.abs(vb - vd).max() < 1e-9  # km/s

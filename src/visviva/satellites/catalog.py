@@ -80,23 +80,25 @@ class BatchStates:
         return self.r.shape[:-1]
 
     def to_frame(self, frame: str) -> BatchStates:
-        """The same states rotated to ``"gcrs"`` or ``"itrs"`` (from TEME) with astropy."""
-        from . import frames
+        """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"``, with astropy's frames.
+
+        astropy transforms six basis states per time; the N objects then share each time's
+        6 x 6 map (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every
+        state with astropy to ~1e-11 km and ~1e-10 km/s.
+        """
+        from .frames import transform_batch
 
         if frame == self.frame:
             return self
-        funcs = {
-            ("teme", "gcrs"): frames.teme_to_gcrs,
-            ("teme", "itrs"): frames.teme_to_itrs,
-            ("gcrs", "itrs"): frames.gcrs_to_itrs,
-            ("itrs", "gcrs"): frames.itrs_to_gcrs,
-        }
-        if (self.frame, frame) not in funcs:
+        known = ("teme", "gcrs", "itrs")
+        if frame not in known or frame == "teme":
             raise InvalidInputError(
-                f"cannot convert {self.frame} to {frame}; choose 'gcrs' or 'itrs'."
+                f"cannot convert {self.frame} to {frame!r}; choose 'gcrs' or 'itrs'."
             )
-        r, v = funcs[(self.frame, frame)](self.r, self.v, self.t)
-        return BatchStates(r, v, self.t, self.status, self.names, frame)
+        r, v = transform_batch(self.r.to_value("km"), self.v.to_value("km/s"), self.t,
+                               self.frame, frame)
+        return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), self.t,
+                           self.status, self.names, frame)
 
     def __repr__(self):
         return f"BatchStates(frame={self.frame!r}, shape={self.shape})"

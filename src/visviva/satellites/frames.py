@@ -32,6 +32,8 @@ __all__ = [
     "gcrs_to_itrs",
     "itrs_to_gcrs",
     "itrs_to_geodetic",
+    "transform_matrices",
+    "transform_batch",
     "WGS84_A_KM",
     "WGS84_F",
 ]
@@ -99,6 +101,59 @@ def _transform(r, v, t, source, target):
         r_out = np.moveaxis(cart.xyz.to_value(u.km), 0, -1)
         v_out = np.moveaxis(cart.differentials["s"].d_xyz.to_value(u.km / u.s), 0, -1)
     return np.ascontiguousarray(r_out), np.ascontiguousarray(v_out)
+
+
+def transform_matrices(t, source: str, target: str) -> np.ndarray:
+    """6 x 6 matrices taking (r, v) in ``source`` to (r, v) in ``target`` at each time.
+
+    The frame changes between TEME, GCRS and ITRS are linear in (r, v) at a fixed time
+    (rotations, plus the rotation rate times r in the velocity; all three are geocentric), so
+    astropy's transformation of six basis states per time gives the whole map. Applying it to
+    N objects costs one small matrix product instead of N astropy transformations per time.
+
+    Parameters
+    ----------
+    t : astropy Time, shape (T,)
+    source, target : {"teme", "gcrs", "itrs"}
+
+    Returns
+    -------
+    ndarray, shape (T, 6, 6)
+        ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
+    """
+    scale = 7000.0  # km: a basis of satellite-like size keeps astropy's finite differences sane
+    T = t.shape[0]
+    r = np.zeros((6, T, 3))
+    v = np.zeros((6, T, 3))
+    for k in range(3):
+        r[k, :, k] = scale
+        r[3 + k, :, 0] = scale
+        v[3 + k, :, k] = 1.0
+    ro, vo = _transform(r, v, t, source, target)
+    out = np.concatenate([ro, vo], axis=-1)  # (6, T, 6)
+    m = np.empty((T, 6, 6))
+    for k in range(3):
+        m[:, :, k] = out[k] / scale
+        m[:, :, 3 + k] = out[3 + k] - out[0]
+    return m
+
+
+def transform_batch(r, v, t, source: str, target: str):
+    """Frame change of (N, T, 3) states at T shared times through :func:`transform_matrices`.
+
+    Parameters
+    ----------
+    r, v : ndarray (km, km/s), shape (N, T, 3)
+    t : astropy Time, shape (T,)
+
+    Returns
+    -------
+    r, v : ndarray, shape (N, T, 3)
+    """
+    m = transform_matrices(t, source, target)  # (T, 6, 6)
+    y = np.concatenate([r, v], axis=-1).transpose(1, 0, 2)  # (T, N, 6)
+    out = np.matmul(y, m.transpose(0, 2, 1)).transpose(1, 0, 2)  # (N, T, 6)
+    return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3:])
 
 
 def _wrap(r, v, like):

@@ -94,7 +94,7 @@ def _stumpff_all(psi):
         c3 = (x - sin_x) / (x * psi)
     elif psi < -_SERIES_LIMIT:
         x = math.sqrt(-psi)
-        eh = math.exp(0.5 * x)
+        eh = math.exp(0.5 * x) if x < 1418.0 else math.inf  # overflow -> inf, never an error
         ieh = 1.0 / eh
         sh = 0.5 * (eh - ieh)
         ch = 0.5 * (eh + ieh)
@@ -210,7 +210,8 @@ def _solve_universal(A, B, C, beta, tau, s_start):
         if beta < 0.0:
             # Vallado Algorithm 8 hyperbolic starter (chi0 / sqrt(gm))
             a = C / beta
-            arg = -2.0 * C * tau / (a * (B + sgn * math.sqrt(-C * a) * (1.0 - A / a)))
+            den = a * (B + sgn * math.sqrt(-C * a) * (1.0 - A / a))
+            arg = -2.0 * C * tau / den if den != 0.0 else 0.0
             if arg > 1.0:
                 s0 = sgn * math.sqrt(-a) * math.log(arg) / math.sqrt(C)
         # cube-root (parabolic, r0 -> 0) guess bounds the linear one when the flight is long
@@ -233,6 +234,15 @@ def _solve_universal(A, B, C, beta, tau, s_start):
     s = s0
     for _ in range(MAX_ITERATIONS):
         c0, c1, c2, c3 = _stumpff_all(beta * s * s)
+        if abs(c0) > 1e200:
+            # cosh(x) > 1e200: t(s) is astronomically beyond any tau; bisect toward the start
+            # (this also keeps inf - inf from ever forming)
+            if s > 0.0:
+                hi = s
+            else:
+                lo = s
+            s = 0.5 * (lo + hi)
+            continue
         G1 = s * c1
         G2 = s * s * c2
         t_A = A * G1
@@ -247,9 +257,15 @@ def _solve_universal(A, B, C, beta, tau, s_start):
             hi = s  # also for F = NaN (overflow far out): too far
         if F == 0.0:
             return True, s, c0, G1, G2
-        delta = 5.0 * F / (dF + math.sqrt(abs(16.0 * dF * dF - 20.0 * F * ddF)))
+        # Laguerre (n = 5): 5 F / (F' + sqrt|16 F'^2 - 20 F F''|), scaled by F' (no overflow)
+        delta = math.nan  # F' = 0 (at r = 0): bisect below
+        if dF > 0.0:
+            f_d = F / dF
+            delta = 5.0 * f_d / (1.0 + math.sqrt(abs(16.0 - 20.0 * f_d * (ddF / dF))))
         s_new = s - delta
-        noise = 4.0 * _EPS * (abs(t_A) + abs(t_B) + abs(t_C) + abs(tau)) / dF
+        noise = 0.0
+        if dF > 0.0:
+            noise = 4.0 * _EPS * (abs(t_A) + abs(t_B) + abs(t_C) + abs(tau)) / dF
         # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
         # below 1e-17, so the step is taken and the loop ends without another evaluation.
         if abs(delta) <= _ACCEPT * abs(s) + noise:
@@ -379,7 +395,8 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
         t_r0 = r0 * G1
         t_eta = eta * G2
         g = t_r0 + t_eta
-        cancel = (abs(t_r0) + abs(t_eta)) / min(abs(g), abs(tau))
+        small = min(abs(g), abs(tau))
+        cancel = (abs(t_r0) + abs(t_eta)) / small if small > 0.0 else math.inf
     if not cancel <= _SWITCH:
         # the increment form cancels (a far start falling in, or a deep periapsis passage
         # of a fast hyperbola) or failed: count the anomaly from periapsis instead

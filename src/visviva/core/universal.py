@@ -532,6 +532,11 @@ def propagate_one(r0, v0, gm, dt, r_out, v_out):
     ``f = 1 - gm G2/r0``, ``g = r0 G1 + eta G2``, ``fdot = -gm G1/(r r0)``,
     ``gdot = 1 - gm G2/r``: the direct formula for gdot (not ``(1 + g fdot)/f``) because it does
     not divide by ``f``, which vanishes at quarter turns.
+    When the increment form cancels (``|r0 G1| + |eta G2| > 16 min(|g|, |dt|)``: a start far
+    from the attractor falling in, or a fast hyperbola through a deep periapsis) the same
+    solver runs on the equation counted from periapsis, ``q G1(sigma) + gm G3(sigma)``, whose
+    terms all have one sign, and the state is built in the perifocal frame
+    (:func:`_from_periapsis`); the error then stays at the conditioning of the problem.
     Radial motion (``|r x v| <= 4 eps |r||v|``) is followed exactly until the body reaches
     ``r = 0``; asking for a time at or beyond that returns ``HITS_ATTRACTOR``.
     """

@@ -11,6 +11,7 @@ than the reference):
   errors against a tight-tolerance visviva run (1 m accuracy is the requirement).
 * ``J2..J6 + Sun + Moon + drag + SRP, one day``: the full force model (visviva only, to show what
   the extra perturbations cost).
+* ``Lambert (Izzo)``: throughput of the vectorised solver on random Earth transfers.
 
 Run: ``python -m benchmarks --only cowell`` or ``python -m benchmarks.bench_cowell``.
 """
@@ -119,6 +120,28 @@ def run(quick: bool = False) -> list[dict]:
             None,
             notes="includes tabulating DE421 Sun/Moon positions (hourly) for the run",
             compile_s=first_full,
+        )
+    )
+    # Lambert throughput: 10^5 random Earth transfers in one vectorised call (visviva only;
+    # no Lambert solver is installed among the reference libraries)
+    n = 10_000 if quick else 100_000
+    rng = np.random.default_rng(5)
+    r1 = rng.normal(size=(n, 3)) * 10000.0
+    r2 = rng.normal(size=(n, 3)) * 10000.0
+    r1 *= np.maximum(1.0, 7000.0 / np.linalg.norm(r1, axis=1))[:, None]
+    r2 *= np.maximum(1.0, 7000.0 / np.linalg.norm(r2, axis=1))[:, None]
+    tof = rng.uniform(1000.0, 50000.0, n)
+    args = (r1 * u.km, r2 * u.km, tof * u.s, vv.EARTH.gm)
+    first_l = compile_time(vv.lambert, *args)
+    tl = time_call(vv.lambert, *args, repeat=3 if quick else 5)
+    rows.append(
+        result(
+            f"Lambert (Izzo), {n} transfers",
+            tl,
+            "none (visviva only)",
+            None,
+            notes=f"{float(tl) / n * 1e9:.0f} ns per transfer",
+            compile_s=first_l,
         )
     )
     return rows

@@ -209,3 +209,18 @@ def test_drag_needs_units():
 def test_double_zonal_raises():
     with pytest.raises(InvalidInputError, match="one zonal"):
         propagate_cowell(leo(), 1 * u.s, [vv.J2(vv.EARTH), vv.Zonal(vv.EARTH, 4)])
+
+
+@pytest.mark.parametrize(("year", "lo", "hi"), [("2006", 0.88, 1.0), ("2015", 0.70, 0.82)])
+def test_geostationary_inclination_growth_from_sun_and_moon(year, lo, hi):
+    """A GEO satellite starting at i = 0 gains 0.75-0.95 deg of inclination per year from the
+    Sun and Moon, the most near 2006 (lunar orbit at 28.6 deg to the equator) and the least
+    near 2015 (18.3 deg) (Soop 1994, Handbook of Geostationary Orbits, sec. 4.3)."""
+    epoch = Time(f"{year}-01-01T00:00:00", scale="utc")
+    geo = vv.KeplerianElements.from_semi_major_axis(
+        42164.17 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH, epoch=epoch
+    ).to_state()
+    forces = [vv.J2(vv.EARTH), vv.ThirdBody(vv.SUN), vv.ThirdBody(vv.MOON)]
+    out = propagate_cowell(geo, [0.0, 365.25] * u.day, forces, rtol=1e-10)
+    inc = vv.StateVectors(out.r, out.v, vv.EARTH).to_elements().inclination.to_value(u.deg)
+    assert lo < inc[-1] < hi

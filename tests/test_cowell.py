@@ -215,7 +215,7 @@ def test_double_zonal_raises():
 def test_geostationary_inclination_growth_from_sun_and_moon(year, lo, hi):
     """A GEO satellite starting at i = 0 gains 0.75-0.95 deg of inclination per year from the
     Sun and Moon, the most near 2006 (lunar orbit at 28.6 deg to the equator) and the least
-    near 2015 (18.3 deg) (Soop 1994, Handbook of Geostationary Orbits, sec. 4.3)."""
+    near 2015 (18.3 deg) (Soop 1994, Handbook of Geostationary Orbits)."""
     epoch = Time(f"{year}-01-01T00:00:00", scale="utc")
     geo = vv.KeplerianElements.from_semi_major_axis(
         42164.17 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH, epoch=epoch

@@ -257,3 +257,15 @@ def test_worker_processes_keep_order_and_survive_a_crash(monkeypatch, tmp_path, 
     assert lines[0].startswith("PASS  worker ok")
     assert "worker failed" in lines[1] and "exit code 3" in out
     assert lines[2].startswith("FAIL  worker fail")
+
+
+def test_energy_histories_share_one_figure_and_reference_is_dashed():
+    from visviva.validation.report import _is_reference
+
+    t = np.linspace(1, 100, 20)
+    a = Check("nbody whfast vs rebound", "m", 0.0, 1.0,
+              details={"times_yr": t, "energy_error_visviva": t * 1e-16,
+                       "energy_error_rebound": t * 2e-16})
+    (spec,) = plot_specs(a)
+    assert spec["x"] == "times_yr" and spec["group"] == "energy error against time"
+    assert _is_reference("energy_error_rebound") and not _is_reference("energy_error_visviva")

@@ -14,10 +14,12 @@ Explicit plots
       e.g. 0.5 for Brouwer's law), ``tolerance_line`` (default true for ``hist``).
 
 Automatic plots (when there is no ``plot`` key)
-    - a time array (``t``, ``time``, ``times``, ``t_s``, ``t_days``, ``t_years``, ``t_orbits``,
-      ``orbits``) plus other 1-D arrays of the same length: ``|series|`` against time on a log
-      scale (log-log with a ``t**0.5`` guide when the check name mentions Brouwer);
-      keys starting with ``rebound``/``reference``/``ref_`` are drawn dashed, beside visviva's;
+    - a time array (``t``, ``time``, ``times``, ``t_s``, ``t_days``, ``t_years``, ``times_yr``,
+      ..., or any key starting with ``t_``/``time``) plus other 1-D arrays of the same length:
+      ``|series|`` against time on a log scale (log-log with a ``t**0.5`` guide when the check
+      name mentions Brouwer); series of reference libraries (keys starting with or containing
+      ``rebound``, ``reference``, ``skyfield``, ...) are drawn dashed, beside visviva's; energy
+      histories of different checks share one figure ("energy error against time");
     - otherwise every 1-D numeric array whose key mentions ``err``, ``diff``, ``delta``,
       ``residual``, ``dr`` or ``dv`` with at least 8 values: a histogram of ``log10 |x|``.
 
@@ -44,7 +46,8 @@ from .base import Check
 
 __all__ = ["write_report", "plot_specs", "markdown_escape"]
 
-TIME_KEYS = ("t", "time", "times", "t_s", "t_days", "t_years", "t_orbits", "orbits", "t_yr")
+TIME_KEYS = ("t", "time", "times", "t_s", "t_days", "t_years", "t_orbits", "orbits", "t_yr",
+             "times_yr", "times_s", "times_days", "time_yr", "time_s", "time_days")
 ERROR_HINTS = ("err", "diff", "delta", "residual", "dr", "dv")
 REFERENCE_PREFIXES = ("rebound", "reference", "ref_", "skyfield", "astropy", "sgp4")
 
@@ -77,14 +80,17 @@ def plot_specs(check: Check) -> list[dict]:
         specs = explicit if isinstance(explicit, list) else [explicit]
         return [dict(s) for s in specs if isinstance(s, dict)]
     arrays = {k: a for k, a in ((k, _array(v)) for k, v in details.items()) if a is not None}
-    time_key = next((k for k in TIME_KEYS if k in arrays), None)
+    time_key = _time_key(arrays)
     if time_key is not None:
         n = arrays[time_key].size
         series = [k for k, a in arrays.items() if k != time_key and a.size == n]
         if series:
             brouwer = "brouwer" in check.name.lower() or bool(details.get("brouwer"))
-            return [{"kind": "loglog" if brouwer else "semilogy", "x": time_key, "y": series,
-                     "guide_slope": 0.5 if brouwer else None}]
+            spec = {"kind": "loglog" if brouwer else "semilogy", "x": time_key, "y": series,
+                    "guide_slope": 0.5 if brouwer else None}
+            if not brouwer and any("energy" in k.lower() for k in series):
+                spec["group"] = "energy error against time"
+            return [spec]
     specs = []
     for k, a in arrays.items():
         if a.size >= 8 and any(h in k.lower() for h in ERROR_HINTS):
@@ -93,7 +99,17 @@ def plot_specs(check: Check) -> list[dict]:
 
 
 def _is_reference(key: str) -> bool:
-    return key.lower().startswith(REFERENCE_PREFIXES)
+    key = key.lower()
+    return key.startswith(REFERENCE_PREFIXES) or any(
+        f"_{name}" in key for name in ("rebound", "reference", "skyfield", "astropy", "sgp4"))
+
+
+def _time_key(arrays: dict) -> str | None:
+    """The abscissa among the arrays: a known time key, else one starting with t_/time."""
+    key = next((k for k in TIME_KEYS if k in arrays), None)
+    if key is None:
+        key = next((k for k in arrays if k.lower().startswith(("t_", "time"))), None)
+    return key
 
 
 def _draw(ax, check: Check, spec: dict) -> bool:

@@ -224,3 +224,24 @@ def test_geostationary_inclination_growth_from_sun_and_moon(year, lo, hi):
     out = propagate_cowell(geo, [0.0, 365.25] * u.day, forces, rtol=1e-10)
     inc = vv.StateVectors(out.r, out.v, vv.EARTH).to_elements().inclination.to_value(u.deg)
     assert lo < inc[-1] < hi
+
+
+def test_srp_eccentricity_growth_matches_gauss_equations():
+    """Constant in-plane SRP on a circular orbit grows |e| at 3/2 F cos(dec) / v (Gauss's
+    equations averaged over an orbit; Montenbruck & Gill 2000, sec. 3.4; Vallado 2013, 9.6)."""
+    from visviva.satellites.ephemeris import sun_position
+
+    epoch = Time("2024-06-10T00:00:00", scale="utc")  # no GEO eclipses in June
+    geo = vv.KeplerianElements.from_semi_major_axis(
+        42164.17 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH, epoch=epoch
+    ).to_state()
+    span = 2 * 86400.0
+    srp = vv.SolarRadiationPressure(1.0 * u.m**2 / u.kg, reflectivity=1.0, shadow=None)
+    out = propagate_cowell(geo, [0.0, span] * u.s, [srp])
+    ev = np.asarray(vv.StateVectors(out.r, out.v, vv.EARTH).eccentricity_vector)
+    de = np.linalg.norm(ev[-1] - ev[0])
+    s = sun_position(epoch + span / 2 * u.s).to_value(u.km)
+    d = np.linalg.norm(s)
+    force = 4.56e-6 * 1e-3 * (vv.constants.AU_KM / d) ** 2
+    expect = 1.5 * force * np.cos(np.arcsin(s[2] / d)) * span / np.linalg.norm(geo.v.value)
+    assert abs(de / expect - 1) < 5e-3

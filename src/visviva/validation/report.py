@@ -88,8 +88,10 @@ def plot_specs(check: Check) -> list[dict]:
             brouwer = "brouwer" in check.name.lower() or bool(details.get("brouwer"))
             spec = {"kind": "loglog" if brouwer else "semilogy", "x": time_key, "y": series,
                     "guide_slope": 0.5 if brouwer else None}
-            if not brouwer and any("energy" in k.lower() for k in series):
-                spec["group"] = "energy error against time"
+            if all("energy" in k.lower() for k in series):
+                spec["ylabel"] = "|relative energy error|"
+                if not brouwer:
+                    spec["group"] = "energy error against time"
             return [spec]
     specs = []
     for k, a in arrays.items():

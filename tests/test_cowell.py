@@ -245,3 +245,25 @@ def test_srp_eccentricity_growth_matches_gauss_equations():
     force = 4.56e-6 * 1e-3 * (vv.constants.AU_KM / d) ** 2
     expect = 1.5 * force * np.cos(np.arcsin(s[2] / d)) * span / np.linalg.norm(geo.v.value)
     assert abs(de / expect - 1) < 5e-3
+
+
+def test_drag_decay_rate_matches_analytic_with_corotation():
+    """Equatorial circular orbit: da/dt = -(a^2/mu) rho B (v - omega a)^2 v (King-Hele 1987,
+    with the co-rotating atmosphere; Vallado 2013, eq. 9-25 for omega = 0)."""
+    from visviva.core.perturbations import VALLADO_EXPONENTIAL_TABLE, exponential_density
+
+    R, mu = vv.EARTH.radius_km, vv.EARTH.gm_km3_s2
+    omega = vv.constants.EARTH_ROTATION_RAD_S
+    state = vv.KeplerianElements.from_semi_major_axis(
+        (R + 420.0) * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH
+    ).to_state()
+    B = 0.02  # m^2/kg
+    out = propagate_cowell(state, [0.0, 86400.0] * u.s, [vv.AtmosphericDrag(B * u.m**2 / u.kg)])
+    r = np.linalg.norm(out.r.to_value(u.km), axis=1)
+    v = np.linalg.norm(out.v.to_value(u.km / u.s), axis=1)
+    a = -mu / (2 * (v**2 / 2 - mu / r))
+    a_mid = a.mean()
+    rho = exponential_density(a_mid - R, VALLADO_EXPONENTIAL_TABLE) * 1e9  # kg/km^3
+    vc = np.sqrt(mu / a_mid)
+    expect = -(a_mid**2 / mu) * rho * B * 1e-6 * (vc - omega * a_mid) ** 2 * vc * 86400.0
+    assert abs((a[-1] - a[0]) / expect - 1) < 1e-3

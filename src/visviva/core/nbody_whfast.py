@@ -33,18 +33,24 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._jit import kernel
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
+    F_DT_REF,
     F_ENCOUNTER,
     F_EXIT,
     F_G,
     F_T,
+    F_T0,
     F_WH_H,
     I_COLLISIONS,
+    I_CORRECTOR,
     I_EXACT_FINISH,
     I_FRESH,
+    I_K,
     I_NOUT,
     I_STEPS,
     I_WH_VALID,
@@ -74,6 +80,44 @@ _XS = 5
 _VS = 6
 #: Number of (N, 3) slots in ``buf``.
 N_BUF = 7
+
+#: Bernoulli numbers B_2 .. B_12.
+_BERNOULLI = (1.0 / 6.0, -1.0 / 30.0, 1.0 / 42.0, -1.0 / 30.0, 5.0 / 66.0, -691.0 / 2730.0)
+
+
+def _corrector_table(m):
+    """Drift fractions a_j = j/m and kick weights b_j of an m-pair symplectic corrector.
+
+    To first order in the interaction, the drift-kick-drift map differs from the exact flow by
+    the factor ``x / sin x`` (``x = omega h / 2``) on each Fourier mode of the interaction along
+    the Kepler flow; the conjugating corrector ``C`` has the generator
+    ``chi_k = (h / 2i) (1/sin x - 1/x)``. A pair of kicks ``b h`` at Kepler phases ``+-a h``
+    contributes ``2 i h b sin(2 a x)``, so the weights solve
+    ``sum_j b_j sin(2 a_j x) = -(1/4) (1/sin x - 1/x)`` order by order in ``x`` (the first m odd
+    powers), with ``1/sin x - 1/x = sum_n (-1)^(n+1) 2 (2^(2n-1) - 1) B_2n x^(2n-1) / (2n)!``.
+    The first equation, ``2 sum a_j b_j = -1/24``, is Wisdom, Holman & Touma's (1996) condition.
+    """
+    a = np.array([(j + 1) / m for j in range(m)])
+    A = np.zeros((m, m))
+    rhs = np.zeros(m)
+    for n in range(m):
+        k = n + 1
+        coeff = (-1.0) ** (k + 1) * 2.0 * (2.0 ** (2 * k - 1) - 1.0) * _BERNOULLI[k - 1]
+        rhs[n] = -0.25 * coeff / math.factorial(2 * k)
+        for j in range(m):
+            A[n, j] = (-1.0) ** n * (2.0 * a[j]) ** (2 * n + 1) / math.factorial(2 * n + 1)
+    return a, np.linalg.solve(A, rhs)
+
+
+#: Supported corrector orders -> number of kick pairs (orders of the removed O(eps h^k) terms).
+CORRECTOR_PAIRS = {3: 1, 5: 2, 7: 3}
+#: Rows: corrector order; columns: a_j (drift fractions) and b_j (kick weights), zero-padded.
+CORRECTOR_A = np.zeros((8, 3))
+CORRECTOR_B = np.zeros((8, 3))
+for _order, _m in CORRECTOR_PAIRS.items():
+    _a, _b = _corrector_table(_m)
+    CORRECTOR_A[_order, :_m] = _a
+    CORRECTOR_B[_order, :_m] = _b
 
 
 @kernel
@@ -159,17 +203,108 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
 
 
 @kernel
-def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v):
-    """Inertial ``x, v`` from the internal state: a copy drifted by the last half step."""
+def _phase_kick(xj, vj, m, eta, G, ah, bh, t, x, v, massive, fstate, istate, gwork, force,
+                params, acc, aj):
+    """Kepler drift by ``ah``, interaction kick ``bh``, Kepler drift back by ``-ah``."""
+    st = _kepler_drift(xj, vj, eta, G, ah)
+    if st != OK:
+        return st
+    from_jacobi(xj, m, eta, x)
+    accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+    to_jacobi(acc, m, eta, aj)
+    _interaction_kick(xj, vj, aj, eta, G, bh)
+    return _kepler_drift(xj, vj, eta, G, -ah)
+
+
+@kernel
+def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate, gwork,
+               force, params, acc, aj):
+    """Apply the symplectic corrector C (``inverse`` false) or its inverse to Jacobi ``xj, vj``.
+
+    ``C = prod_j Y(a_j, b_j) Y(-a_j, -b_j)`` with ``Y(a, b)`` = drift ``a h``, kick ``b h``,
+    drift ``-a h``; the inverse applies ``Y(a, -b)`` in reverse order.
+    """
+    npairs = 0
+    for j in range(CORRECTOR_A.shape[1]):
+        if CORRECTOR_A[order, j] != 0.0:
+            npairs = j + 1
+    for jj in range(npairs):
+        j = npairs - 1 - jj if inverse else jj
+        a = CORRECTOR_A[order, j] * h
+        b = CORRECTOR_B[order, j] * h
+        if inverse:
+            st = _phase_kick(xj, vj, m, eta, G, -a, b, t, x, v, massive, fstate, istate, gwork,
+                             force, params, acc, aj)
+            if st != OK:
+                return st
+            st = _phase_kick(xj, vj, m, eta, G, a, -b, t, x, v, massive, fstate, istate, gwork,
+                             force, params, acc, aj)
+        else:
+            st = _phase_kick(xj, vj, m, eta, G, a, b, t, x, v, massive, fstate, istate, gwork,
+                             force, params, acc, aj)
+            if st != OK:
+                return st
+            st = _phase_kick(xj, vj, m, eta, G, -a, -b, t, x, v, massive, fstate, istate, gwork,
+                             force, params, acc, aj)
+        if st != OK:
+            return st
+    return OK
+
+
+@kernel
+def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstate, istate,
+                 gwork, force, params, acc, aj):
+    """Inertial ``x, v`` from the internal state: a copy drifted by the last half step (and
+    taken back through the inverse corrector when one is used)."""
     n = xj.shape[0]
     for i in range(n):
         for c in range(3):
             xs[i, c] = xj[i, c]
             vs[i, c] = vj[i, c]
     st = _kepler_drift(xs, vs, eta, G, half)
+    if st != OK:
+        return st
+    if order > 0:
+        st = _corrector(order, True, 2.0 * half, xs, vs, m, eta, G, t, x, v, massive, fstate,
+                        istate, gwork, force, params, acc, aj)
+        if st != OK:
+            return st
     from_jacobi(xs, m, eta, x)
     from_jacobi(vs, m, eta, v)
-    return st
+    return OK
+
+
+@kernel
+def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
+              acc, aj, order):
+    """One synchronised drift-kick-drift step of ``x, v`` (inertial in, inertial out),
+    conjugated by the corrector for this step length when ``order > 0``."""
+    half = 0.5 * h
+    to_jacobi(x, m, eta, xj)
+    to_jacobi(v, m, eta, vj)
+    if order > 0:
+        st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate,
+                        gwork, force, params, acc, aj)
+        if st != OK:
+            return st
+    st = _kepler_drift(xj, vj, eta, G, half)
+    if st != OK:
+        return st
+    from_jacobi(xj, m, eta, x)
+    accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+    to_jacobi(acc, m, eta, aj)
+    _interaction_kick(xj, vj, aj, eta, G, h)
+    st = _kepler_drift(xj, vj, eta, G, half)
+    if st != OK:
+        return st
+    if order > 0:
+        st = _corrector(order, True, h, xj, vj, m, eta, G, t + h, x, v, massive, fstate, istate,
+                        gwork, force, params, acc, aj)
+        if st != OK:
+            return st
+    from_jacobi(xj, m, eta, x)
+    from_jacobi(vj, m, eta, v)
+    return OK
 
 
 @kernel
@@ -177,16 +312,18 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                out_t, out_x, out_v):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
-    Particle 0 must have mass (the central body). Output times that are not a whole number of
-    steps away are reached with one shortened (synchronised) step.
+    Particle 0 must have mass (the central body).
 
-    Without event detection the half drifts of consecutive steps are fused: the internal state
-    ``P`` (Jacobi coordinates just after a kick, kept in ``buf``) advances by
-    ``P <- Kick(h) Kepler(h) P``, and the inertial ``x, v`` at an output are a synchronised COPY,
-    ``Kepler(h/2) P``. The internal trajectory therefore does not depend on the output times,
-    and saving ``buf`` lets a loaded run continue bit for bit. With collisions, encounters or an
-    escape radius every step is synchronised (events are checked on the true state).
-    Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
+    Without event detection (the usual case) the half drifts of consecutive steps are fused:
+    the internal state ``P`` (Jacobi coordinates just after a kick, kept in ``buf``) advances on
+    the grid ``t0 + k |dt|`` by ``P <- Kick(h) Kepler(h) P``, and the inertial ``x, v`` at an
+    output are a COPY: ``C^-1 Kepler(h/2) P`` (``C`` the optional symplectic corrector), followed,
+    for an output time between grid points, by one shortened drift-kick-drift step of the copy.
+    The internal trajectory therefore never depends on the output times, and saving ``buf`` lets
+    a loaded run continue bit for bit. With collisions, encounters or an escape radius every step
+    is synchronised (events are checked on the true state) and an output between grid points is
+    reached with a shortened step. Arguments as in :mod:`visviva.core.nbody_common`; returns a
+    status code.
     """
     n = x.shape[0]
     G = fstate[F_G]
@@ -204,88 +341,115 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     dt = fstate[F_DT]
     adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
-    start_clock(fstate, istate)
     direction = run_direction(fstate[F_T], t_out)
     fast = istate[I_COLLISIONS] == 0 and fstate[F_ENCOUNTER] <= 0.0 and fstate[F_EXIT] <= 0.0
-    valid = istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0
+    h = math.copysign(adt, direction)
+    if fast:
+        order = istate[I_CORRECTOR]
+        valid = (istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_WH_H] == h
+                 and fstate[F_DT_REF] == adt)
+        istate[I_FRESH] = 0
+        if not valid:
+            # build P from the state at the exposed time, which becomes the grid origin
+            fstate[F_T0] = fstate[F_T]
+            fstate[F_DT_REF] = adt
+            istate[I_K] = 0
+            t = fstate[F_T]
+            to_jacobi(x, m, eta, xj)
+            to_jacobi(v, m, eta, vj)
+            if order > 0:
+                st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate,
+                                istate, gwork, force, params, acc, aj)
+                if st != OK:
+                    return st
+            st = _kepler_drift(xj, vj, eta, G, 0.5 * h)
+            if st != OK:
+                return st
+            from_jacobi(xj, m, eta, x)
+            accelerations(t + 0.5 * h, x, v, m, massive, fstate, istate, gwork, force, params,
+                          acc)
+            to_jacobi(acc, m, eta, aj)
+            _interaction_kick(xj, vj, aj, eta, G, h)
+            # P now belongs to the grid point t0 + h: count that step
+            istate[I_K] = 1 if h > 0.0 else -1
+            istate[I_STEPS] += 1
+            fstate[F_WH_H] = h
+            istate[I_WH_VALID] = 1
+        for k in range(istate[I_NOUT], t_out.shape[0]):
+            target = t_out[k]
+            while True:
+                t_grid = fstate[F_T0] + istate[I_K] * adt
+                rem = target - t_grid
+                if rem * direction <= 1e-9 * adt:
+                    break  # the grid point is at or past the target
+                if (not exact) or rem * direction >= adt * (1.0 - 1e-9):
+                    st = _kepler_drift(xj, vj, eta, G, h)
+                    if st != OK:
+                        return st
+                    from_jacobi(xj, m, eta, x)
+                    accelerations(t_grid + 0.5 * h, x, v, m, massive, fstate, istate, gwork,
+                                  force, params, acc)
+                    to_jacobi(acc, m, eta, aj)
+                    _interaction_kick(xj, vj, aj, eta, G, h)
+                    istate[I_K] += 1 if h > 0.0 else -1
+                    istate[I_STEPS] += 1
+                    fstate[F_DT_LAST] = h
+                    if should_pause(istate):
+                        st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order,
+                                          t_grid + h, massive, fstate, istate, gwork, force,
+                                          params, acc, aj)
+                        if st != OK:
+                            return st
+                        fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
+                        return PAUSED
+                else:
+                    break  # less than a step to go: the output comes from a copy
+            # the synchronised state at the last grid point is P's (t_grid - h)... P belongs
+            # to grid point t_grid: synchronise a copy there
+            t_grid = fstate[F_T0] + istate[I_K] * adt
+            st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order, t_grid, massive,
+                              fstate, istate, gwork, force, params, acc, aj)
+            if st != OK:
+                return st
+            rem = target - t_grid
+            if exact and rem * direction > 1e-9 * adt:
+                # a shortened step of the copy lands on the output time; P is untouched
+                st = _dkd_step(x, v, m, eta, G, rem, t_grid, xs, vs, massive, fstate, istate,
+                               gwork, force, params, acc, aj, order)
+                if st != OK:
+                    return st
+            fstate[F_T] = target if exact else t_grid
+            write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
+            istate[I_NOUT] = k + 1
+        return OK
+
+    # ---- with event detection: every step synchronised --------------------------------------
+    istate[I_WH_VALID] = 0
     istate[I_FRESH] = 0
-    need_sync = False
+    start_clock(fstate, istate)
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
             t = fstate[F_T]
-            h, last = next_fixed_step(t, target, dt, exact, direction)
-            if h == 0.0:
+            hh, last = next_fixed_step(t, target, dt, exact, direction)
+            if hh == 0.0:
                 if exact and fstate[F_T] != target:
                     advance_clock(fstate, istate, 0.0, True, True, target)
                 break
-            half = 0.5 * h
-            if fast and abs(h) == adt:
-                if valid and fstate[F_WH_H] == h:
-                    st = _kepler_drift(xj, vj, eta, G, h)
-                else:
-                    if need_sync:  # (direction changed) synchronise before rebuilding
-                        st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
-                        if st != OK:
-                            return st
-                    to_jacobi(x, m, eta, xj)
-                    to_jacobi(v, m, eta, vj)
-                    st = _kepler_drift(xj, vj, eta, G, half)
-                    fstate[F_WH_H] = h
-                    valid = True
-                if st != OK:
-                    return st
-                from_jacobi(xj, m, eta, x)  # mid-step positions (x is scratch until synced)
-                accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params,
-                              acc)
-                to_jacobi(acc, m, eta, aj)
-                _interaction_kick(xj, vj, aj, eta, G, h)
-                need_sync = True
-            else:
-                if need_sync:
-                    st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
-                    if st != OK:
-                        return st
-                    need_sync = False
-                valid = False
-                to_jacobi(x, m, eta, xj)
-                to_jacobi(v, m, eta, vj)
-                st = _kepler_drift(xj, vj, eta, G, half)
-                if st != OK:
-                    return st
-                from_jacobi(xj, m, eta, x)
-                accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params,
-                              acc)
-                to_jacobi(acc, m, eta, aj)
-                _interaction_kick(xj, vj, aj, eta, G, h)
-                st = _kepler_drift(xj, vj, eta, G, half)
-                if st != OK:
-                    return st
-                from_jacobi(xj, m, eta, x)
-                from_jacobi(vj, m, eta, v)
-            advance_clock(fstate, istate, h, last, exact, target)
-            fstate[F_DT_LAST] = h
+            st = _dkd_step(x, v, m, eta, G, hh, t, xj, vj, massive, fstate, istate, gwork,
+                           force, params, acc, aj, 0)
+            if st != OK:
+                return st
+            advance_clock(fstate, istate, hh, last, exact, target)
+            fstate[F_DT_LAST] = hh
             istate[I_STEPS] += 1
-            if not fast:
-                status = check_events(x, v, radius, fstate, istate)
-                if status != OK:
-                    istate[I_WH_VALID] = 0
-                    return status
+            status = check_events(x, v, radius, fstate, istate)
+            if status != OK:
+                return status
             if last:
                 break
             if should_pause(istate):
-                if need_sync:
-                    st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
-                    if st != OK:
-                        return st
-                istate[I_WH_VALID] = 1 if valid else 0
                 return PAUSED
-        if need_sync:
-            st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * fstate[F_WH_H], x, v)
-            if st != OK:
-                return st
-            need_sync = False
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
-    istate[I_WH_VALID] = 1 if valid else 0
     return OK

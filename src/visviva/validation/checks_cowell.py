@@ -8,6 +8,10 @@
   one-orbit averaging) against the analytic secular rate: relative difference, 1e-3.
 * Lambert (Izzo) round trip through the Kepler propagator over random geometries, M = 0..2:
   max miss distance (km), 1 mm; and Izzo against the universal-variable solver.
+* Drag: one-day decay of a 420 km equatorial circular orbit against the analytic
+  da/dt = -(a^2/mu) rho B (v - omega a)^2 v (relative, 1e-3).
+* SRP: eccentricity growth of a GEO orbit over two days against Gauss's averaged equations,
+  |de/dt| = 3/2 F cos(dec) / v (relative, 5e-3).
 * Curtis (2014) Example 5.2 published velocities: max |dv| (km/s), 1e-4 (printed digits).
 * Sun and Moon geocentric positions from the offline ephemeris (DE421 via jplephem) against
   astropy's built-in ERFA ephemeris and against Skyfield with the same DE421 data when
@@ -174,6 +178,53 @@ def _curtis_5_2():
     return max(e1, e2), {}
 
 
+def _drag_decay():
+    from astropy import units as u
+
+    import visviva as vv
+    from visviva.core.perturbations import VALLADO_EXPONENTIAL_TABLE, exponential_density
+    from visviva.satellites import propagate_cowell
+
+    R, mu = vv.EARTH.radius_km, vv.EARTH.gm_km3_s2
+    omega = vv.constants.EARTH_ROTATION_RAD_S
+    st = vv.KeplerianElements.from_semi_major_axis((R + 420.0) * u.km, 0, 0, 0, 0, 0, vv.EARTH)
+    B = 0.02
+    out = propagate_cowell(st.to_state(), [0.0, 86400.0] * u.s,
+                           [vv.AtmosphericDrag(B * u.m**2 / u.kg)])  # fmt: skip
+    r = np.linalg.norm(out.r.to_value(u.km), axis=1)
+    v = np.linalg.norm(out.v.to_value(u.km / u.s), axis=1)
+    a = -mu / (2 * (v**2 / 2 - mu / r))
+    am = a.mean()
+    rho = exponential_density(am - R, VALLADO_EXPONENTIAL_TABLE) * 1e9
+    vc = np.sqrt(mu / am)
+    expect = -(am**2 / mu) * rho * B * 1e-6 * (vc - omega * am) ** 2 * vc * 86400.0
+    return abs((a[-1] - a[0]) / expect - 1), {"da_km": a[-1] - a[0], "analytic_km": expect}
+
+
+def _srp_growth():
+    from astropy import units as u
+    from astropy.time import Time
+
+    import visviva as vv
+    from visviva.satellites import propagate_cowell
+    from visviva.satellites.ephemeris import sun_position
+
+    epoch = Time("2024-06-10T00:00:00", scale="utc")
+    geo = vv.KeplerianElements.from_semi_major_axis(
+        42164.17 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH, epoch=epoch
+    ).to_state()
+    span = 2 * 86400.0
+    srp = vv.SolarRadiationPressure(1.0 * u.m**2 / u.kg, reflectivity=1.0, shadow=None)
+    out = propagate_cowell(geo, [0.0, span] * u.s, [srp])
+    ev = np.asarray(vv.StateVectors(out.r, out.v, vv.EARTH).eccentricity_vector)
+    de = float(np.linalg.norm(ev[-1] - ev[0]))
+    s = sun_position(epoch + span / 2 * u.s).to_value(u.km)
+    d = np.linalg.norm(s)
+    force = 4.56e-6 * 1e-3 * (vv.constants.AU_KM / d) ** 2
+    expect = 1.5 * force * np.cos(np.arcsin(s[2] / d)) * span / np.linalg.norm(geo.v.value)
+    return abs(de / expect - 1), {"de": de, "analytic": float(expect)}
+
+
 def _times():
     from astropy import units as u
     from astropy.time import Time
@@ -232,6 +283,10 @@ def checks(full: bool = False) -> list[Check]:
              sci, _cowell_j2_vs_scipy),
         _run("cowell: SSO RAAN rate vs analytic secular J2 (10 d)", "relative difference",
              1e-3, "Vallado 2013 eq. 9-41", _sso_raan_rate),
+        _run("cowell: drag decay vs analytic (co-rotating, 420 km)", "relative difference",
+             1e-3, "King-Hele 1987 / Vallado 2013 eq. 9-25", _drag_decay),
+        _run("cowell: SRP eccentricity growth vs Gauss equations (GEO)",
+             "relative difference", 5e-3, "Montenbruck & Gill 2000 sec. 3.4", _srp_growth),
         _run("lambert: Izzo round trip through Kepler, M=0..2", "max miss (km)", ONE_MM_KM,
              "visviva universal-variable Kepler", _lambert_round_trip),
         _run("lambert: Izzo vs universal-variable solver", "max |dv1| (km/s)", 1e-8,

@@ -213,8 +213,10 @@ def _figures(outcome) -> list[tuple[str, list[tuple[Check, dict]]]]:
         except Exception:  # noqa: BLE001 - a malformed details dict must not stop the report
             specs = []
         for spec in specs:
-            key = (details.get("plot_group") or spec.get("group")
-                   or f"{short_name(module)}: {check.name}")
+            topic = short_name(module)
+            default = check.name if check.name.lower().startswith(topic) else (
+                f"{topic}: {check.name}")
+            key = details.get("plot_group") or spec.get("group") or default
             if key not in groups:
                 groups[key] = []
                 order.append(key)

@@ -67,3 +67,11 @@ def test_every_status_code_has_one_exception():
         raise_for_status(np.array([0, status.NO_CONVERGENCE]), "Kepler", M=np.array([0.1, 0.5]))
     with pytest.raises(ValueError):  # our input errors are ValueErrors too
         raise_for_status(status.BAD_GM)
+
+
+def test_time_deltas_are_times():
+    from astropy.time import TimeDelta
+
+    assert _units.to_array(TimeDelta(1.5, format="jd"), "time", "dt") == 1.5 * 86400.0
+    dt = _units.to_array(TimeDelta([1.0, 2.0] * u.min), "time", "dt")
+    np.testing.assert_allclose(dt, [60.0, 120.0], rtol=1e-15)

@@ -96,6 +96,8 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     unit = CANONICAL[kind]
     if kind == "gm" and hasattr(value, "gm") and not isinstance(value, u.Quantity):
         value = value.gm
+    if kind == "time" and type(value).__name__ == "TimeDelta":  # astropy.time.TimeDelta
+        value = value.to(u.s)
     if isinstance(value, u.Quantity):
         try:
             arr = value.to_value(unit)

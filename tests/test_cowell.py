@@ -169,10 +169,35 @@ def test_nan_state_raises():
         propagate_cowell(bad, 1 * u.s, [])
 
 
-def test_batch_state_raises_shape_error():
-    state = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * u.km / u.s, vv.EARTH)
-    with pytest.raises(ShapeError, match="one state"):
-        propagate_cowell(state, 1 * u.s, [])
+def test_batch_of_states_equals_single_runs():
+    el = vv.KeplerianElements.from_semi_major_axis(
+        [7000.0, 8000.0, 26000.0] * u.km, [0.001, 0.05, 0.7], [0.9, 0.1, 1.1], 0.3, 0.2,
+        [0.1, 2.0, -1.0], vv.EARTH, epoch=EPOCH,
+    )  # fmt: skip
+    states = el.to_state()
+    t = np.array([-600.0, 0.0, 3000.0, 20000.0]) * u.s
+    forces = [vv.Zonal(vv.EARTH, 4), vv.ThirdBody(vv.MOON)]
+    batch = propagate_cowell(states, t, forces)
+    assert batch.r.shape == (3, 4, 3) and batch.v.shape == (3, 4, 3)
+    for k in range(3):
+        one = propagate_cowell(states[k], t, forces)
+        assert np.array_equal(one.r.value, batch.r[k].value)
+    scalar = propagate_cowell(states, 3000 * u.s, forces)
+    assert scalar.r.shape == (3, 3)
+    # (the Moon table starts at another grid point: equal to well below a millimetre)
+    assert np.allclose(scalar.r.value, batch.r[:, 2].value, rtol=0, atol=ONE_MM)
+
+
+def test_batch_shape_and_event_errors():
+    r = np.full((2, 2, 3), 7000.0) * u.km
+    v = np.full((2, 2, 3), 1.0) * u.km / u.s
+    with pytest.raises(ShapeError, match=r"\(N, 3\)"):
+        propagate_cowell(vv.StateVectors(r, v, vv.EARTH), 1 * u.s, [])
+    two = vv.StateVectors(r[0], v[0], vv.EARTH)
+    from visviva.satellites import Apsides
+
+    with pytest.raises(InvalidInputError, match="one state at a time"):
+        propagate_cowell(two, 1 * u.s, [], events=[Apsides()])
 
 
 def test_unknown_body_raises():

@@ -35,10 +35,10 @@ import math
 import numpy as np
 
 from . import status as st
-from ._jit import kernel
+from ._jit import kernel, parallel_kernel, prange
 from .perturbations import cowell_rhs, geodetic_altitude, hermite_position
 
-__all__ = ["integrate_cowell", "event_function", "dense_eval"]
+__all__ = ["integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
 
 _SAFETY = 0.9
 _MIN_FACTOR = 0.2
@@ -457,3 +457,25 @@ def integrate_cowell(
     info[3] = nfev
     info[4] = t
     return status
+
+
+@parallel_kernel
+def integrate_cowell_many(
+    y0, t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
+    A, B, C, E3, E5, D, y_out, status, info,
+):  # fmt: skip
+    """:func:`integrate_cowell` for N initial states (rows of ``y0``) in parallel, no events.
+
+    ``y_out`` (N, T, 6), ``status`` (N,), ``info`` (N, 6) are written per state.
+    """
+    for k in prange(y0.shape[0]):
+        ev_kind = np.zeros(0, dtype=np.int64)
+        ev_param = np.zeros(0)
+        ev_t = np.zeros(1)
+        ev_y = np.zeros((1, 6))
+        ev_which = np.zeros(1)
+        status[k] = integrate_cowell(
+            y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v,
+            eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
+            y_out[k], ev_t, ev_y, ev_which, info[k],
+        )  # fmt: skip

@@ -208,7 +208,8 @@ class CowellResult:
     t : Quantity (T,)
         Output times from the initial epoch, s (only those reached before a terminal event).
     r, v : Quantity (T, 3)
-        Positions (km) and velocities (km/s); shape (3,) for a scalar time.
+        Positions (km) and velocities (km/s); shape (3,) for a scalar time; (N, T, 3) for N
+        states.
     epoch : astropy Time or None
         The initial epoch.
     events : list of EventRecord
@@ -297,6 +298,53 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
     return status, y_out[:written], ev_t[:n_found], ev_y[:n_found], ev_which[:n_found], info
 
 
+def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
+                     max_steps):  # fmt: skip
+    """N states through the parallel kernel; results (N, T, 3)."""
+    from ..core.cowell import integrate_cowell_many
+
+    A, B, C, E3, E5, D = _dop853_tableau()
+    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
+    n = y0.shape[0]
+    pieces = []
+    n_steps = nfev = 0
+    back = offsets[offsets < 0][::-1]
+    fwd = offsets[offsets >= 0]
+    for part, t_end in ((back, span[0]), (fwd, span[1])):
+        if part.size == 0:
+            continue
+        y_out = np.zeros((n, part.size, 6))
+        status = np.zeros(n, dtype=np.int64)
+        info = np.zeros((n, 6))
+        integrate_cowell_many(
+            y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
+            A, B, C, E3, E5, D, y_out, status, info,
+        )  # fmt: skip
+        raise_for_status(status, "Cowell propagation (batch)", t_reached_s=info[:, 4])
+        n_steps += int(info[:, 2].sum())
+        nfev += int(info[:, 3].sum())
+        pieces.append(y_out[:, ::-1] if t_end < 0 else y_out)
+    y_all = np.concatenate(pieces, axis=1)
+    r = y_all[..., :3]
+    v = y_all[..., 3:]
+    t_all = offsets
+    if scalar:
+        r, v, t_all = r[:, 0], v[:, 0], offsets[0]
+    return CowellResult(
+        to_quantity(t_all, "time"),
+        to_quantity(np.ascontiguousarray(r), "length"),
+        to_quantity(np.ascontiguousarray(v), "speed"),
+        gm,
+        epoch,
+        [],
+        False,
+        float(offsets[-1] if offsets[-1] > 0 else 0.0) * u.s,
+        n_steps,
+        nfev,
+        scalar,
+    )
+
+
 def propagate_cowell(
     state,
     t,
@@ -313,8 +361,10 @@ def propagate_cowell(
     Parameters
     ----------
     state : StateVectors
-        One initial state (``r``, ``v`` of shape (3,)) about the central body; ``state.gm`` is
-        the central GM. Its ``epoch`` is needed for third bodies, SRP and eclipses.
+        One initial state (``r``, ``v`` of shape (3,)) or N states sharing GM and epoch
+        (shape (N, 3): integrated in parallel, results of shape (N, T, 3), no events) about the
+        central body; ``state.gm`` is the central GM. Its ``epoch`` is needed for third bodies,
+        SRP, NRLMSIS drag, spherical harmonics and eclipses.
     t : Quantity or astropy Time
         Output times: offsets from the state's epoch (time Quantity, scalar or 1-D, strictly
         increasing, any sign) or absolute astropy Times.
@@ -354,18 +404,27 @@ def propagate_cowell(
         )
     r0 = to_vector(state.r, "length", "state.r")
     v0 = to_vector(state.v, "speed", "state.v")
-    if r0.shape != (3,) or v0.shape != (3,):
+    if r0.shape != v0.shape or r0.ndim > 2:
         raise ShapeError(
-            f"propagate_cowell takes one state (r and v of shape (3,)); got {r0.shape} and "
-            f"{v0.shape}. Loop over states, or index one: state[i]."
+            f"propagate_cowell takes one state (r and v of shape (3,)) or N states (N, 3); got "
+            f"{r0.shape} and {v0.shape}. Reshape the states to (N, 3)."
         )
-    gm = to_array(state.gm, "gm", "state.gm")
-    gm = float(np.ravel(gm)[0]) if gm.size else float("nan")
-    if not gm > 0:
-        raise InvalidInputError("the state's GM must be > 0 (e.g. vv.EARTH.gm).")
-    if np.linalg.norm(r0) == 0:
-        raise InvalidInputError("the initial position is zero; give a non-zero position.")
+    batch = r0.ndim == 2
+    gm_all = np.ravel(to_array(state.gm, "gm", "state.gm"))
+    gm = float(gm_all[0]) if gm_all.size else float("nan")
+    if not gm > 0 or np.any(gm_all != gm):
+        raise InvalidInputError(
+            "the states' GM must be > 0 and the same for every state (e.g. vv.EARTH.gm)."
+        )
+    if np.any(np.linalg.norm(r0, axis=-1) == 0):
+        raise InvalidInputError("an initial position is zero; give non-zero positions.")
     epoch = getattr(state, "epoch", None)
+    if epoch is not None and not epoch.isscalar:
+        if np.any((epoch - epoch.ravel()[0]).to_value(u.s) != 0):
+            raise InvalidInputError(
+                "a batch of states must share one epoch; propagate groups with equal epochs."
+            )
+        epoch = epoch.ravel()[0]
     offsets = _offsets_s(t, epoch)
     scalar = offsets.ndim == 0
     offsets = np.atleast_1d(offsets)
@@ -393,7 +452,16 @@ def propagate_cowell(
                 "AltitudeCrossing(...), AscendingNode(), Apsides()."
             )
     span = (min(0.0, offsets[0]), max(0.0, offsets[-1]))
+    if batch and events:
+        raise InvalidInputError(
+            "events are found for one state at a time; loop over the states (state[i]) to get "
+            "their events, or drop events=... for the batch."
+        )
     model = ForceModel(gm, perturbations, events, epoch, span)
+    if batch:
+        return _propagate_batch(
+            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps
+        )
     ev = (
         np.array([e.kind for e in events], dtype=np.int64),
         np.array([e.param for e in events], dtype=np.float64),

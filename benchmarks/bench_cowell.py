@@ -122,6 +122,25 @@ def run(quick: bool = False) -> list[dict]:
             compile_s=first_full,
         )
     )
+    # many states in parallel
+    n_sat = 100 if quick else 1000
+    fleet = vv.KeplerianElements.from_semi_major_axis(
+        np.linspace(6800.0, 8000.0, n_sat) * u.km, 0.001, np.linspace(0.1, 1.7, n_sat), 0.3,
+        0.2, 0.1, vv.EARTH,
+    ).to_state()  # fmt: skip
+    first_b = compile_time(propagate_cowell, fleet[:2], 1 * u.day, forces)
+    tb = time_call(propagate_cowell, fleet, 1 * u.day, forces, repeat=3)
+    rows.append(
+        result(
+            f"Cowell J2, {n_sat} LEO states x 1 day (parallel)",
+            tb,
+            "none (visviva only)",
+            None,
+            notes=f"{float(tb) / n_sat * 1e3:.2f} ms per satellite-day",
+            compile_s=first_b,
+        )
+    )
+
     # Lambert throughput: 10^5 random Earth transfers in one vectorised call (visviva only;
     # no Lambert solver is installed among the reference libraries)
     n = 10_000 if quick else 100_000

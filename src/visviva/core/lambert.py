@@ -187,7 +187,9 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     lam = math.sqrt(max(0.0, lam2))
     # tangential unit vectors, in the direction of motion
     sign = 1.0
-    if ih[2] < 0.0:
+    # the same test as universal_one, on the raw cross product: h_z = 0 (a transfer plane
+    # containing the z axis) counts as prograde for the short way
+    if r1[0] * r2[1] - r1[1] * r2[0] < 0.0:
         lam = -lam
         sign = -1.0
     if not prograde:

@@ -49,7 +49,8 @@ def lambert(
     prograde : bool
         True (default): the transfer orbit turns counter-clockwise about +z (angular momentum
         h_z > 0), which picks the short way when r1 x r2 points to +z and the long way
-        otherwise; False gives the other way.
+        otherwise; False gives the other way. When (r1 x r2)_z = 0 exactly (a transfer plane
+        containing the z axis) True gives the short way.
     branch : {"left", "right"}
         For ``revolutions >= 1`` there are two solutions (or none if ``tof`` is below the
         minimum time for M revolutions): Izzo's left branch (x < x_Tmin) and right branch

@@ -158,24 +158,26 @@ def test_whfast_outer_solar_system_no_drift_1e5_steps():
     assert err[50:].max() < 2.0 * err[:50].max()
 
 
+@pytest.mark.parametrize("exact", [True, False])
 @pytest.mark.parametrize("name", ALL)
-def test_restart_in_a_fresh_process_is_bit_for_bit(name, tmp_path):
+def test_restart_in_a_fresh_process_is_bit_for_bit(name, exact, tmp_path):
     def make():
         sim = outer_solar_system(name, dt=None if name == "ias15" else 0.3)
-        sim.exact_finish_time = False
+        sim.exact_finish_time = exact
         return sim
 
+    t1, t2 = 30.05, 60.1  # not on the step grid
     one_go = make()
-    one_go.integrate(60.0)
+    one_go.integrate(t2)
     first = make()
-    first.integrate(30.0)
+    first.integrate(t1)
     path = tmp_path / f"{name}.npz"
     first.save(path)
     out = tmp_path / "out.npy"
     code = textwrap.dedent(f"""
         import numpy as np, visviva as vv
         sim = vv.Simulation.load({str(path)!r})
-        sim.integrate(60.0)
+        sim.integrate({t2!r})
         np.save({str(out)!r}, np.concatenate([sim.positions, sim.velocities, [[sim.t] * 3]]))
     """)
     subprocess.run([sys.executable, "-c", code], check=True)
@@ -183,6 +185,19 @@ def test_restart_in_a_fresh_process_is_bit_for_bit(name, tmp_path):
     np.testing.assert_array_equal(res[:5], one_go.positions)
     np.testing.assert_array_equal(res[5:10], one_go.velocities)
     assert res[10, 0] == one_go.t
+    if exact:
+        assert one_go.t == t2
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_output_times_do_not_perturb_the_trajectory(name):
+    one_go = outer_solar_system(name, dt=None if name == "ias15" else 0.3)
+    sampled = one_go.copy()
+    one_go.integrate(61.7)
+    traj = sampled.integrate(np.array([0.01, 3.33, 17.05, 30.1, 44.4, 61.7]))
+    np.testing.assert_array_equal(traj.t, [0.01, 3.33, 17.05, 30.1, 44.4, 61.7])
+    np.testing.assert_array_equal(sampled.positions, one_go.positions)
+    np.testing.assert_array_equal(sampled.velocities, one_go.velocities)
 
 
 @pytest.mark.parametrize("name", ALL)

@@ -60,6 +60,7 @@ F_EXIT = 8  #: escape radius from the origin (0 = off)
 F_T0 = 9  #: fixed-step integrators: time origin, t = t0 + k |dt| (no accumulated round-off)
 F_DT_REF = 10  #: the |dt| that origin was set with (0 forces a new origin)
 F_WH_H = 11  #: WHFast: the signed step its unsynchronised internal state was built with
+F_T_INT = 12  #: IAS15: time of the internal state (outputs are reached on copies)
 N_FSTATE = 16
 
 I_NOUT = 0  #: outputs written in this run
@@ -77,6 +78,7 @@ I_EXACT_FINISH = 11  #: 1: land exactly on output times; 0: stop at the first st
 I_K = 12  #: fixed-step integrators: signed number of whole steps since the time origin F_T0
 I_WH_VALID = 13  #: WHFast: 1 when buf holds a valid unsynchronised internal state
 I_VELOCITY_DEPENDENT = 14  #: 1 when an additional force reads the velocities
+I_INT_VALID = 15  #: leapfrog/IAS15: 1 when buf holds the internal state (on its own step grid)
 N_ISTATE = 16
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.

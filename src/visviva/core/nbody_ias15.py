@@ -41,15 +41,21 @@ from ._jit import kernel
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
+    F_ENCOUNTER,
     F_EPSILON,
+    F_EXIT,
     F_MIN_DT,
     F_T,
+    F_T_INT,
+    I_COLLISIONS,
     I_EXACT_FINISH,
     I_FRESH,
+    I_INT_VALID,
     I_ITERATIONS,
     I_NOUT,
     I_REJECTED,
     I_STEPS,
+    I_STOP_AT_STEP,
     I_VELOCITY_DEPENDENT,
     PAUSED,
     accelerations,
@@ -114,8 +120,12 @@ _A0 = 37
 _XP = 38
 _VP = 39
 _F = 40
+_XI = 41  # internal positions and velocities (the integrator's own state at F_T_INT)
+_VI = 42
+_BK = 43  # backup of slots _B.._EL+6, _CSX, _CSV, _XI, _VI while an output is computed
+_N_BK = 32
 #: Number of (N, 3) slots in ``buf``.
-N_BUF = 41
+N_BUF = 75
 
 
 @kernel
@@ -179,7 +189,7 @@ def _zero_predictor(buf, n):
 
 
 @kernel
-def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt):
+def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt):
     """Try one step of length ``dt``. Returns (status, accepted, dt_new).
 
     The (N, 3) arrays are processed as flat vectors of length 3N (one loop, no inner xyz loop).
@@ -187,7 +197,6 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, d
     """
     n = x.shape[0]
     n3 = 3 * n
-    t = fstate[F_T]
     a0 = buf[_A0]
     xp = buf[_XP]
     vp = buf[_VP]
@@ -337,85 +346,162 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, d
 
 
 @kernel
+def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, target,
+             direction, mode, events):
+    """Adaptive steps of the internal state towards ``target``.
+
+    ``mode`` 0: stop before a step would pass ``target``; 1: land exactly on it (the last step
+    shortened); 2: stop at the first step at or past it. Returns a status code.
+    """
+    n = xi.shape[0]
+    while True:
+        t = fstate[F_T_INT]
+        rem = target - t
+        if rem == 0.0 or rem * direction < 0.0:
+            return OK
+        dt = fstate[F_DT]
+        if dt == 0.0 or (dt > 0.0) != (direction > 0.0):
+            # first step, or a change of direction: start small and restart the predictor
+            dt = math.copysign(abs(dt) if dt != 0.0 else abs(rem), direction)
+            _zero_predictor(buf, n)
+            fstate[F_DT_LAST] = 0.0
+            fstate[F_DT] = dt
+        last = False
+        if abs(dt) >= abs(rem):
+            if mode == 0:
+                return OK
+            last = True
+            if mode == 1:
+                dt = rem
+        status, accepted, dt_new = _step(
+            xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt
+        )
+        if status != OK:
+            return status
+        if abs(dt_new) < fstate[F_MIN_DT] or dt_new == 0.0:
+            return STEP_TOO_SMALL
+        if not accepted:
+            istate[I_REJECTED] += 1
+            fstate[F_DT] = dt_new
+            dl = fstate[F_DT_LAST]
+            if dl != 0.0:
+                _predict(buf, n, dt_new / dl, _BL, _EL)
+            else:
+                _zero_predictor(buf, n)
+            continue
+        fstate[F_T_INT] = target if (last and mode == 1) else t + dt
+        istate[I_STEPS] += 1
+        # remember the converged b and its prediction e, then predict the next step
+        for sl in range(7):
+            for i in range(n):
+                for c in range(3):
+                    buf[_BL + sl, i, c] = buf[_B + sl, i, c]
+                    buf[_EL + sl, i, c] = buf[_E + sl, i, c]
+        dt_next = dt_new
+        if last and mode == 1 and abs(fstate[F_DT]) > abs(dt_next):
+            dt_next = fstate[F_DT]  # the step was shortened to land on the output time
+        ratio = dt_next / dt
+        if abs(ratio) > 20.0:
+            _zero_predictor(buf, n)
+        else:
+            _predict(buf, n, ratio, _BL, _EL)
+        fstate[F_DT_LAST] = dt
+        fstate[F_DT] = dt_next
+        if events:
+            status = check_events(xi, vi, radius, fstate, istate)
+            if status != OK:
+                return status
+        if last:
+            return OK
+        if should_pause(istate):
+            return PAUSED
+
+
+@kernel
+def _backup(buf, restore):
+    n = buf.shape[1]
+    for s in range(_N_BK):
+        src = s if s < 28 else (_CSX, _CSV, _XI, _VI)[s - 28]
+        for i in range(n):
+            for c in range(3):
+                if restore:
+                    buf[src, i, c] = buf[_BK + s, i, c]
+                else:
+                    buf[_BK + s, i, c] = buf[src, i, c]
+
+
+@kernel
+def _expose(xi, vi, x, v):
+    for i in range(x.shape[0]):
+        for c in range(3):
+            x[i, c] = xi[i, c]
+            v[i, c] = vi[i, c]
+
+
+@kernel
 def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
               out_t, out_x, out_v):
     """Advance through every output time with IAS15 (see the module docstring).
 
-    Each output time is reached exactly by shortening the step that would pass it; the step
-    after that starts again from the step size the error control had chosen.
+    The integrator's own state (``buf``: positions, velocities, b and e arrays, compensated
+    summation terms) takes its natural adaptive steps. An output time is reached by a shortened
+    step of a COPY of that state (restored afterwards), so output times never change the
+    trajectory and a saved run continues bit for bit. With ``exact_finish_time`` off the output
+    is the state after the first step at or past the time. ``x, v`` hold the last output.
     Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
     """
     n = x.shape[0]
-    if istate[I_FRESH] != 0:
+    xi = buf[_XI]
+    vi = buf[_VI]
+    exact = istate[I_EXACT_FINISH] != 0
+    events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
+    if istate[I_FRESH] != 0 or istate[I_INT_VALID] == 0:
         _zero_predictor(buf, n)
         for i in range(n):
             for c in range(3):
                 buf[_CSX, i, c] = 0.0
                 buf[_CSV, i, c] = 0.0
+        _expose(x, v, xi, vi)
+        fstate[F_T_INT] = fstate[F_T]
         fstate[F_DT_LAST] = 0.0
         istate[I_FRESH] = 0
-    exact = istate[I_EXACT_FINISH] != 0
-    direction = run_direction(fstate[F_T], t_out)
+        istate[I_INT_VALID] = 1
+    direction = run_direction(fstate[F_T_INT], t_out)
+    fsave = fstate.copy()
+    isave = istate.copy()
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
-        while True:
-            t = fstate[F_T]
-            rem = target - t
-            if rem == 0.0 or (not exact and rem * direction <= 0.0):
-                break
-            dt = fstate[F_DT]
-            if dt == 0.0 or (dt > 0.0) != (rem > 0.0):
-                # first step, or a change of direction: start small and restart the predictor
-                dt = math.copysign(abs(dt) if dt != 0.0 else abs(rem), rem)
-                _zero_predictor(buf, n)
-                fstate[F_DT_LAST] = 0.0
-                fstate[F_DT] = dt
-            last = False
-            if abs(dt) >= abs(rem):
-                last = True
-                if exact:
-                    dt = rem
-            status, accepted, dt_new = _step(
-                x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, dt
-            )
-            if status != OK:
+        mode = 0 if exact else 2
+        status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params,
+                          target, direction, mode, events)
+        if status != OK:
+            _expose(xi, vi, x, v)
+            fstate[F_T] = fstate[F_T_INT]
+            if status != PAUSED:
+                istate[I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
+            return status
+        if exact and fstate[F_T_INT] != target:
+            # land on the output time with a copy, then restore the integrator's own state
+            _backup(buf, False)
+            for q in range(fstate.shape[0]):
+                fsave[q] = fstate[q]
+            for q in range(istate.shape[0]):
+                isave[q] = istate[q]
+            istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
+            status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
+                              params, target, direction, 1, False)
+            _expose(xi, vi, x, v)
+            _backup(buf, True)
+            for q in range(fstate.shape[0]):
+                fstate[q] = fsave[q]
+            for q in range(istate.shape[0]):
+                istate[q] = isave[q]
+            if status != OK and status != PAUSED:
                 return status
-            if abs(dt_new) < fstate[F_MIN_DT] or dt_new == 0.0:
-                return STEP_TOO_SMALL
-            if not accepted:
-                istate[I_REJECTED] += 1
-                fstate[F_DT] = dt_new
-                dl = fstate[F_DT_LAST]
-                if dl != 0.0:
-                    _predict(buf, n, dt_new / dl, _BL, _EL)
-                else:
-                    _zero_predictor(buf, n)
-                continue
-            fstate[F_T] = target if (last and exact) else t + dt
-            istate[I_STEPS] += 1
-            # remember the converged b and its prediction e, then predict the next step
-            for s in range(7):
-                for i in range(n):
-                    for c in range(3):
-                        buf[_BL + s, i, c] = buf[_B + s, i, c]
-                        buf[_EL + s, i, c] = buf[_E + s, i, c]
-            dt_next = dt_new
-            if last and exact and abs(fstate[F_DT]) > abs(dt_next):
-                dt_next = fstate[F_DT]  # the step was shortened to land on the output time
-            ratio = dt_next / dt
-            if abs(ratio) > 20.0:
-                _zero_predictor(buf, n)
-            else:
-                _predict(buf, n, ratio, _BL, _EL)
-            fstate[F_DT_LAST] = dt
-            fstate[F_DT] = dt_next
-            status = check_events(x, v, radius, fstate, istate)
-            if status != OK:
-                return status
-            if last:
-                break
-            if should_pause(istate):
-                return PAUSED
+            fstate[F_T] = target
+        else:
+            _expose(xi, vi, x, v)
+            fstate[F_T] = fstate[F_T_INT]
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

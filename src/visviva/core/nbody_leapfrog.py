@@ -16,30 +16,55 @@ sec. I.3.1 (Stoermer-Verlet).
 
 from __future__ import annotations
 
+import math
+
 from ._jit import kernel
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
+    F_DT_REF,
+    F_ENCOUNTER,
+    F_EXIT,
     F_T,
+    F_T0,
+    I_COLLISIONS,
     I_EXACT_FINISH,
+    I_FRESH,
+    I_INT_VALID,
+    I_K,
     I_NOUT,
     I_STEPS,
     PAUSED,
     accelerations,
-    advance_clock,
     check_events,
-    next_fixed_step,
     run_direction,
     should_pause,
-    start_clock,
     write_output,
 )
 from .status import OK
 
 __all__ = ["leapfrog_run", "N_BUF"]
 
-#: Slots of ``buf``: 0 = acceleration.
-N_BUF = 1
+# slots of buf: acceleration, internal positions and velocities (on the step grid)
+_ACC = 0
+_XI = 1
+_VI = 2
+#: Number of (N, 3) slots in ``buf``.
+N_BUF = 3
+
+
+@kernel
+def _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t, h):
+    n = x.shape[0]
+    half = 0.5 * h
+    for i in range(n):
+        for c in range(3):
+            x[i, c] += v[i, c] * half
+    accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+    for i in range(n):
+        for c in range(3):
+            v[i, c] += acc[i, c] * h
+            x[i, c] += v[i, c] * half
 
 
 @kernel
@@ -47,42 +72,71 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                  out_t, out_x, out_v):
     """Advance through every output time with drift-kick-drift steps (see the module docstring).
 
-    Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
+    The integrator's own state (``buf``) advances on the grid ``t0 + k |dt|``; an output time
+    between grid points is reached by one shortened step of a COPY, so output times never change
+    the trajectory (and a saved run continues bit for bit). ``x, v`` hold the state at the last
+    output. Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
     """
     n = x.shape[0]
-    acc = buf[0]
+    acc = buf[_ACC]
+    xi = buf[_XI]
+    vi = buf[_VI]
     dt = fstate[F_DT]
+    adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
-    start_clock(fstate, istate)
     direction = run_direction(fstate[F_T], t_out)
+    h = math.copysign(adt, direction)
+    events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
+    valid = istate[I_INT_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_DT_REF] == adt
+    istate[I_FRESH] = 0
+    if not valid:
+        for i in range(n):
+            for c in range(3):
+                xi[i, c] = x[i, c]
+                vi[i, c] = v[i, c]
+        fstate[F_T0] = fstate[F_T]
+        fstate[F_DT_REF] = adt
+        istate[I_K] = 0
+        istate[I_INT_VALID] = 1
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         while True:
-            t = fstate[F_T]
-            h, last = next_fixed_step(t, target, dt, exact, direction)
-            if h == 0.0:
-                if exact and fstate[F_T] != target:
-                    advance_clock(fstate, istate, 0.0, True, True, target)
+            t_grid = fstate[F_T0] + istate[I_K] * adt
+            rem = target - t_grid
+            if rem * direction <= 1e-9 * adt:
                 break
-            half = 0.5 * h
-            for i in range(n):
-                for c in range(3):
-                    x[i, c] += v[i, c] * half
-            accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
-            for i in range(n):
-                for c in range(3):
-                    v[i, c] += acc[i, c] * h
-                    x[i, c] += v[i, c] * half
-            advance_clock(fstate, istate, h, last, exact, target)
-            fstate[F_DT_LAST] = h
+            if exact and rem * direction < adt * (1.0 - 1e-9):
+                break  # less than a step to go: the output comes from a copy
+            _dkd(xi, vi, m, massive, fstate, istate, gwork, force, params, acc, t_grid, h)
+            istate[I_K] += 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
-            status = check_events(x, v, radius, fstate, istate)
-            if status != OK:
-                return status
-            if last:
-                break
+            fstate[F_DT_LAST] = h
+            if events:
+                status = check_events(xi, vi, radius, fstate, istate)
+                if status != OK:
+                    for i in range(n):
+                        for c in range(3):
+                            x[i, c] = xi[i, c]
+                            v[i, c] = vi[i, c]
+                    fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
+                    istate[I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
+                    return status
             if should_pause(istate):
+                for i in range(n):
+                    for c in range(3):
+                        x[i, c] = xi[i, c]
+                        v[i, c] = vi[i, c]
+                fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
                 return PAUSED
+        t_grid = fstate[F_T0] + istate[I_K] * adt
+        for i in range(n):
+            for c in range(3):
+                x[i, c] = xi[i, c]
+                v[i, c] = vi[i, c]
+        rem = target - t_grid
+        if exact and rem * direction > 1e-9 * adt:
+            _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t_grid, rem)
+        fstate[F_T] = target if exact else t_grid
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

@@ -106,7 +106,8 @@ class Simulation:
         WHFast symplectic corrector order (0: none, 3, 5, 7), applied at the start and
         (inverted) at every output; not used while collisions/encounters/escapes are checked.
     exact_finish_time : bool
-        Land exactly on requested times (default) or stop at the first step past them.
+        Land exactly on requested times (default) or return the first step past them. Either
+        way the integrator's own trajectory does not depend on the output times.
 
     Examples
     --------
@@ -287,8 +288,9 @@ class Simulation:
 
     @property
     def exact_finish_time(self) -> bool:
-        """True (default): land exactly on every requested time. False: stop at the first step
-        at or past it (the trajectory is then independent of where a run is split)."""
+        """True (default): land exactly on every requested time (with a shortened step of a copy
+        of the integrator's state, so the trajectory never depends on the output times). False:
+        return the state after the first step at or past each time."""
         return bool(self._istate[_nc.I_EXACT_FINISH])
 
     @exact_finish_time.setter

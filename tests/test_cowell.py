@@ -292,3 +292,15 @@ def test_drag_decay_rate_matches_analytic_with_corotation():
     vc = np.sqrt(mu / a_mid)
     expect = -(a_mid**2 / mu) * rho * B * 1e-6 * (vc - omega * a_mid) ** 2 * vc * 86400.0
     assert abs((a[-1] - a[0]) / expect - 1) < 1e-3
+
+
+@pytest.mark.parametrize("ecc", [0.95, 1.0, 1.5, 4.0])
+def test_open_and_highly_eccentric_orbits_match_kepler(ecc):
+    el = vv.KeplerianElements(10000.0 * u.km, ecc, 0.5, 0.2, 0.3, -0.5, vv.EARTH)
+    state = el.to_state()
+    t = np.linspace(0.0, 6.0, 7) * u.hour
+    out = propagate_cowell(state, t, [])
+    kepler = state.propagate(t)
+    scale = np.linalg.norm(kepler.r.to_value(u.km), axis=-1)
+    err = np.linalg.norm((out.r - kepler.r).to_value(u.km), axis=-1)
+    assert np.all(err < 1e-11 * scale * 100 + ONE_MM)

@@ -107,7 +107,11 @@ def solar_system(epoch=None, *, integrator="whfast", dt=None, pluto=False, units
     if dt is None and integrator != "ias15":
         dt = 4.4 / 365.25
     sim = Simulation(integrator, G=G, dt=dt)
-    sim.units = None
+    # the unit system (au, yr, Msun) for Quantities and the speed of light; G stays DE440's
+    # GM_sun in these units rather than CODATA G times the IAU solar mass (5e-6 apart)
+    from .units import SimulationUnits
+
+    sim.units = SimulationUnits.parse(units)
     speed = AU_KM / JULIAN_YEAR_S
     for name, gm_key in bodies:
         r, v = states[name]

@@ -163,12 +163,12 @@ def test_restart_in_a_fresh_process_is_bit_for_bit(tmp_path):
     for name in ALL:
         outs[name] = _restart_case(name, True, tmp_path)
     code = ["import numpy as np, visviva as vv"]
-    for name, (path, out, t2, _) in outs.items():
+    for path, out, t2, _ in outs.values():
         code.append(f"sim = vv.Simulation.load({str(path)!r}); sim.integrate({t2!r})")
         code.append(f"np.save({str(out)!r}, np.concatenate([sim.positions, sim.velocities, "
                     "[[sim.t] * 3]]))")
     subprocess.run([sys.executable, "-c", "\n".join(code)], check=True)
-    for name, (path, out, t2, one_go) in outs.items():
+    for name, (_path, out, t2, one_go) in outs.items():
         res = np.load(out)
         np.testing.assert_array_equal(res[:5], one_go.positions, err_msg=name)
         np.testing.assert_array_equal(res[5:10], one_go.velocities, err_msg=name)

@@ -316,3 +316,30 @@ def test_whfast_outputs_between_grid_points_do_not_perturb_the_trajectory(tmp_pa
     back.integrate(61.7)
     np.testing.assert_array_equal(back.positions, one_go.positions)
     np.testing.assert_array_equal(back.velocities, one_go.velocities)
+
+
+def test_ias15_prs23_step_control():
+    steps = {}
+    for mode in ("global", "prs23"):
+        sim = outer_solar_system("ias15")
+        sim.adaptive_mode = mode
+        E0 = sim.energy()
+        sim.integrate(1200.0)
+        assert abs(sim.energy() / E0 - 1) < 1e-14
+        steps[mode] = int(sim._istate[1])
+    assert steps["prs23"] < steps["global"]
+    with pytest.raises(vv.InvalidInputError, match="adaptive_mode"):
+        vv.Simulation(adaptive_mode="fast")
+
+
+def test_ias15_prs23_takes_the_same_steps_as_rebound():
+    rebound = pytest.importorskip("rebound")
+    sim = vv.solar_system(integrator="ias15")
+    sim.adaptive_mode = "prs23"
+    r = sim.to_rebound()
+    assert "5." in rebound.__version__ or "4." in rebound.__version__
+    sim.integrate(20.0)
+    r.integrate(20.0)
+    assert abs(int(sim._istate[1]) - r.steps_done) <= 2
+    xr = np.array([[p.x, p.y, p.z] for p in r.particles])
+    assert np.abs(sim.positions - xr).max() < 1e-12

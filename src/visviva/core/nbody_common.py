@@ -61,7 +61,7 @@ F_T0 = 9  #: fixed-step integrators: time origin, t = t0 + k |dt| (no accumulate
 F_DT_REF = 10  #: the |dt| that origin was set with (0 forces a new origin)
 F_WH_H = 11  #: WHFast: the signed step its unsynchronised internal state was built with
 F_T_INT = 12  #: IAS15: time of the internal state (outputs are reached on copies)
-N_FSTATE = 16
+N_FSTATE = 32
 
 I_NOUT = 0  #: outputs written in this run
 I_STEPS = 1  #: steps done (total)
@@ -79,7 +79,8 @@ I_K = 12  #: fixed-step integrators: signed number of whole steps since the time
 I_WH_VALID = 13  #: WHFast: 1 when buf holds a valid unsynchronised internal state
 I_VELOCITY_DEPENDENT = 14  #: 1 when an additional force reads the velocities
 I_INT_VALID = 15  #: leapfrog/IAS15: 1 when buf holds the internal state (on its own step grid)
-N_ISTATE = 16
+I_ADAPTIVE_MODE = 16  #: IAS15 step-size control: 0 = Rein & Spiegel 2015 global, 1 = PRS23
+N_ISTATE = 32
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.
 PAUSED = -1

@@ -19,7 +19,10 @@ sweeps). The step-size control (Rein & Spiegel 2015, sec. 2.6, their eq. 11 "glo
     err = max_i |b6_i| / max_i |a_i|,     dt_new = dt (epsilon / err)**(1/7),  epsilon = 1e-9
 
 rejects a step when ``dt_new < dt / 4`` (safety factor 0.25) and never grows the step by more than
-a factor 4. Positions and velocities are updated with compensated (Kahan) summation. The next
+a factor 4. Optionally (``adaptive_mode="prs23"``) the criterion of Pham, Rein & Spiegel (2024):
+``dt_new = (7! epsilon)**(1/7) min_i tau_i``, ``tau_i**2 = 2 |a|**2 / (|a'|**2 + |a| |a''|)``
+with the acceleration and its first two time derivatives taken from the step's polynomial at
+its end (REBOUND's default since version 4). Positions and velocities are updated with compensated (Kahan) summation. The next
 step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
 (Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
 
@@ -29,6 +32,8 @@ Everhart, E. (1985), "An efficient integrator that uses Gauss-Radau spacings", i
 Comets: Their Origin and Evolution*, IAU Colloq. 83, 185-202.
 Rein, H. & Spiegel, D. S. (2015), "IAS15: a fast, adaptive, high-order integrator for
 gravitational dynamics, accurate to machine precision over a billion orbits", MNRAS 446, 1424.
+Pham, D., Rein, H. & Spiegel, D. S. (2024), "Solving the N-body problem with IAS15: a new
+timestep criterion", Open Journal of Astrophysics 7.
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ from .nbody_common import (
     F_MIN_DT,
     F_T,
     F_T_INT,
+    I_ADAPTIVE_MODE,
     I_COLLISIONS,
     I_EXACT_FINISH,
     I_FRESH,
@@ -297,21 +303,54 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
         if it >= 2 and pc_err >= pc_last:
             break
         pc_last = pc_err
-    # step-size control (Rein & Spiegel 2015, global error estimate)
-    maxa = 0.0
-    maxb6 = 0.0
-    for q in range(n3):
-        aa = abs(a0f[q])
-        if aa > maxa:
-            maxa = aa
-        bb = abs(bf[_B + 6, q])
-        if bb > maxb6:
-            maxb6 = bb
-    err = maxb6 / maxa if maxa > 0.0 else 0.0
-    if err > 0.0 and math.isfinite(err):
-        dt_new = dt * (fstate[F_EPSILON] / err) ** (1.0 / 7.0)
+    if istate[I_ADAPTIVE_MODE] == 1:
+        # Pham, Rein & Spiegel (2024): dt = (7! epsilon)^(1/7) min_i tau_i with
+        # tau_i^2 = 2 |a|^2 / (|a'|^2 + |a| |a''|) from the step's polynomial at its end
+        tau2_min = math.inf
+        for i in range(n):
+            y2 = 0.0
+            y3 = 0.0
+            y4 = 0.0
+            for c in range(3):
+                q = 3 * i + c
+                b0 = bf[_B + 0, q]
+                b1 = bf[_B + 1, q]
+                b2 = bf[_B + 2, q]
+                b3 = bf[_B + 3, q]
+                b4 = bf[_B + 4, q]
+                b5 = bf[_B + 5, q]
+                b6 = bf[_B + 6, q]
+                a1 = a0f[q] + b0 + b1 + b2 + b3 + b4 + b5 + b6
+                j1 = b0 + 2.0 * b1 + 3.0 * b2 + 4.0 * b3 + 5.0 * b4 + 6.0 * b5 + 7.0 * b6
+                s1 = 2.0 * b1 + 6.0 * b2 + 12.0 * b3 + 20.0 * b4 + 30.0 * b5 + 42.0 * b6
+                y2 += a1 * a1
+                y3 += j1 * j1
+                y4 += s1 * s1
+            den = y3 + math.sqrt(y2 * y4)
+            if den > 0.0:
+                tau2 = 2.0 * y2 / den  # in units of dt^2
+                if tau2 < tau2_min:
+                    tau2_min = tau2
+        if math.isfinite(tau2_min) and tau2_min > 0.0:
+            dt_new = dt * math.sqrt(tau2_min) * (5040.0 * fstate[F_EPSILON]) ** (1.0 / 7.0)
+        else:
+            dt_new = dt / SAFETY
     else:
-        dt_new = dt / SAFETY
+        # Rein & Spiegel (2015), global error estimate
+        maxa = 0.0
+        maxb6 = 0.0
+        for q in range(n3):
+            aa = abs(a0f[q])
+            if aa > maxa:
+                maxa = aa
+            bb = abs(bf[_B + 6, q])
+            if bb > maxb6:
+                maxb6 = bb
+        err = maxb6 / maxa if maxa > 0.0 else 0.0
+        if err > 0.0 and math.isfinite(err):
+            dt_new = dt * (fstate[F_EPSILON] / err) ** (1.0 / 7.0)
+        else:
+            dt_new = dt / SAFETY
     if not math.isfinite(dt_new):
         return NON_FINITE, False, dt
     if abs(dt_new) < SAFETY * abs(dt):

@@ -105,6 +105,8 @@ class Simulation:
     corrector : int
         WHFast symplectic corrector order (0: none, 3, 5, 7), applied at the start and
         (inverted) at every output; not used while collisions/encounters/escapes are checked.
+    adaptive_mode : str
+        IAS15 step-size control, ``"global"`` (Rein & Spiegel 2015) or ``"prs23"``.
     exact_finish_time : bool
         Land exactly on requested times (default) or return the first step past them. Either
         way the integrator's own trajectory does not depend on the output times.
@@ -139,6 +141,7 @@ class Simulation:
         min_dt: float = 0.0,
         corrector: int = 0,
         exact_finish_time: bool = True,
+        adaptive_mode: str = "global",
     ):
         self.units = None if units is None else SimulationUnits.parse(units)
         self._x = np.zeros((0, 3))
@@ -167,6 +170,7 @@ class Simulation:
         self.exit_max_distance = exit_max_distance
         self.corrector = corrector
         self.exact_finish_time = exact_finish_time
+        self.adaptive_mode = adaptive_mode
 
     # ---- configuration -------------------------------------------------------------------------
     @property
@@ -285,6 +289,19 @@ class Simulation:
             raise InvalidInputError(f"corrector must be 0, 3, 5 or 7; got {order!r}.")
         self._istate[_nc.I_CORRECTOR] = order
         self._istate[_nc.I_FRESH] = 1
+
+    @property
+    def adaptive_mode(self) -> str:
+        """IAS15 step-size control: ``"global"`` (Rein & Spiegel 2015, default) or ``"prs23"``
+        (Pham, Rein & Spiegel 2024; REBOUND's default, about half the steps on planetary
+        systems at the same round-off energy error)."""
+        return ("global", "prs23")[int(self._istate[_nc.I_ADAPTIVE_MODE])]
+
+    @adaptive_mode.setter
+    def adaptive_mode(self, mode: str) -> None:
+        if mode not in ("global", "prs23"):
+            raise InvalidInputError(f"adaptive_mode must be 'global' or 'prs23'; got {mode!r}.")
+        self._istate[_nc.I_ADAPTIVE_MODE] = 0 if mode == "global" else 1
 
     @property
     def exact_finish_time(self) -> bool:

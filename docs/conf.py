@@ -133,6 +133,7 @@ EXTRA_MODULES = [
     "visviva.nbody",
     "visviva.satellites",
     "visviva.mechanics",
+    "visviva.validation",
 ]
 
 

@@ -15,6 +15,7 @@ import importlib
 import inspect
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -240,7 +241,43 @@ def _setup_docstring_filter(app):
     app.connect("build-finished", report)
 
 
+# --------------------------------------------------------------------------------------------
+# Docstrings write norms as |r| and |v2 - v1|: in reStructuredText that is a substitution
+# reference (an error). Escape such bars outside code, math and tables so they print as written.
+
+_SPANS = re.compile(r"(``.+?``|:[a-z:]+:`[^`]*`|`[^`]*`)")
+
+
+def _escape_bars(line: str) -> str:
+    stripped = line.strip()
+    if "|" not in line or stripped.startswith((">>>", "...", "+-", "+=")):
+        return line
+    if stripped.startswith("|") and stripped.endswith("|") and " | " in stripped:
+        return line  # a grid-table row
+    parts = _SPANS.split(line)
+    for i in range(0, len(parts), 2):  # even parts are outside backtick spans
+        parts[i] = re.sub(r"(?<!\\)\|", r"\\|", parts[i])
+    return "".join(parts)
+
+
+def _escape_docstring_bars(app, what, name, obj, options, lines):
+    literal_indent = None
+    for i, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None:
+            if line.strip() and indent <= literal_indent:
+                literal_indent = None
+            else:
+                continue
+        if line.rstrip().endswith("::") or line.strip().startswith(".. math::"):
+            literal_indent = indent
+            lines[i] = _escape_bars(line)
+            continue
+        lines[i] = _escape_bars(line)
+
+
 def setup(app):
     _setup_api_directive(app)
     _setup_docstring_filter(app)
+    app.connect("autodoc-process-docstring", _escape_docstring_bars, priority=600)
     return {"parallel_read_safe": True}

@@ -141,7 +141,6 @@ def test_ias15_outer_solar_system_energy_short():
     assert abs(sim.energy() / E0 - 1) < 1e-14
 
 
-@pytest.mark.slow
 def test_ias15_outer_solar_system_energy_1000_orbits():
     sim = outer_solar_system("ias15")
     E0 = sim.energy()

@@ -241,6 +241,29 @@ def _elements_to_state_units(n: int):
     return float(np.max(dr)), {"samples": n, "max_dv_km_s": float(np.max(dv)), "dr_km": dr}
 
 
+def _simulation_units(years: float):
+    """Sun, Jupiter, Earth set up with Quantities, integrated in three unit systems."""
+    from astropy import units as u
+
+    (Simulation,) = _public("Simulation")
+
+    def final_positions_km(units):
+        sim = Simulation("ias15", units=units)
+        sim.add(1 * u.Msun, [0, 0, 0] * u.km, [0, 0, 0] * u.km / u.s)
+        sim.add(1 * u.Mjup, [5.2, 0, 0] * u.au, [0, 13.07, 0.3] * u.km / u.s)
+        sim.add(1 * u.Mearth, [0, 1.0, 0.01] * u.au, [-29.78, 0, 0] * u.km / u.s)
+        sim.integrate(years * u.yr)
+        return sim.positions * sim.units.length_km
+
+    base = final_positions_km(("au", "yr", "Msun"))
+    scale = float(np.abs(base).max())
+    per = {}
+    for units in (("km", "s", "kg"), ("m", "day", "Mearth")):
+        per[", ".join(units)] = float(np.abs(final_positions_km(units) - base).max() / scale)
+    return max(per.values()), {"years": years, "bodies": "Sun, Jupiter, Earth",
+                               "max_rel_dr_vs_au_yr_Msun": per}
+
+
 # --------------------------------------------------------------------------------------------
 # time scales
 
@@ -347,6 +370,11 @@ def checks(full: bool = False) -> list[Check]:
                  "max |dr| (km)", ONE_MM_KM, lambda: _satellite_time_scales(200 if full else 50),
                  "astropy converts the instant between scales to ~1 ns or better (a LEO moves "
                  "8 um in 1 ns); 1 mm is the budget for SGP4 evaluated at the same instant"),
+        _guarded("units: Simulation (IAS15) in au/yr/Msun, km/s/kg, m/day/Mearth",
+                 "max |dr| / max |r| (20 yr; 100 yr with --full)", 1e-11,
+                 lambda: _simulation_units(100.0 if full else 20.0),
+                 "IAS15's step control is dimensionless, so the three runs take the same steps "
+                 "and differ by round-off growing over ~20 orbits (measured ~1e-13)"),
         _guarded("units: lambert with r in km / au / m, tof in s / day / min",
                  "max |dv| (km/s)", 1e-9, lambda: _lambert_units(200 if full else 50),
                  "the same geometry and time of flight up to unit round-off; the iteration "

@@ -94,7 +94,7 @@ def run(quick: bool = False) -> list[dict]:
         rows.append(result(
             f"ias15, Sun + 8 planets, {years:g} yr", t_vv, f"rebound {rebound.__version__} ias15", t_rb,
             target=1.0, compile_s=c,
-            notes=(f"|dE/E| visviva {e_vv:.1e} ({s._istate[1]} steps, epsilon 1e-9, RS15 global "
+            notes=(f"|dE/E| visviva {e_vv:.1e} ({s.steps_done} steps, epsilon 1e-9, RS15 global "
                    f"step control), rebound {e_rb:.1e} ({r.steps_done} steps, default control)"),
         ))
 
@@ -112,7 +112,7 @@ def run(quick: bool = False) -> list[dict]:
             f"ias15 (adaptive_mode prs23), Sun + 8 planets, {years:g} yr", t_e,
             f"rebound {rebound.__version__} ias15", t_rb, target=1.0,
             notes=(f"same criterion as rebound's default: |dE/E| visviva {e_e:.1e} "
-                   f"({s._istate[1]} steps), rebound {e_rb:.1e} ({r.steps_done} steps)"),
+                   f"({s.steps_done} steps), rebound {e_rb:.1e} ({r.steps_done} steps)"),
         ))
 
     # -- direct summation -----------------------------------------------------------------------

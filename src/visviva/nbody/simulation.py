@@ -205,6 +205,11 @@ class Simulation:
         self._fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
 
     @property
+    def steps_done(self) -> int:
+        """Number of steps taken so far (accepted steps for IAS15)."""
+        return int(self._istate[_nc.I_STEPS])
+
+    @property
     def dt(self) -> float:
         """Time step (next step for IAS15)."""
         return float(self._fstate[_nc.F_DT])

@@ -127,7 +127,7 @@ def checks(full: bool = False) -> list[Check]:
     sim.integrate(11.862 * orbits)
     out.append(Check(f"nbody ias15: outer solar system, {orbits} Jupiter orbits",
                      "relative energy error", abs(sim.energy() / E0 - 1), 1e-14,
-                     "Rein & Spiegel (2015): machine precision", {"steps": int(sim._istate[1])}))
+                     "Rein & Spiegel (2015): machine precision", {"steps": sim.steps_done}))
     d = _figure_eight_data()
     if d is not None:
         sim = vv.Simulation("ias15", G=d["G"])

@@ -148,3 +148,17 @@ def test_user_force_cost_is_small():
     ratio = min(run(True) for _ in range(3)) / min(run(False) for _ in range(3))
     # a sanity bound on a shared machine; the 1.2x target is measured by benchmarks/bench_nbody.py
     assert ratio < 2.5
+
+
+@numba.njit
+def returns_something(t, x, v, m, params, acc):
+    return x[0, 0] + "text"
+
+
+def test_force_with_a_wrong_signature_is_explained():
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(0.0, r=[1.0, 0, 0], v=[0, 1.0, 0])
+    sim.add_force(returns_something)
+    with pytest.raises(vv.InvalidInputError, match="do not compile"):
+        sim.integrate(1.0)

@@ -548,7 +548,18 @@ class Simulation:
             self._check_force(f)
         params = [np.ascontiguousarray(f.parameters(self), dtype=np.float64) for f in self._forces]
         if getattr(self, "_fused", None) is None:
-            self._fused = _forces.combine([f.fn for f in self._forces], [len(p) for p in params])
+            fused = _forces.combine([f.fn for f in self._forces], [len(p) for p in params])
+            try:
+                fused.compile(_nc.FORCE_SIGNATURE)
+            except Exception as exc:  # numba's typing errors, reported with what to do
+                names = ", ".join(f.name for f in self._forces)
+                raise InvalidInputError(
+                    f"the additional force(s) {names} do not compile for the signature "
+                    "fn(t: float, positions: (N,3) array, velocities: (N,3) array, masses: (N,) "
+                    "array, params: (k,) array, acc: (N,3) array) -> None (add to acc in "
+                    f"place, return nothing). numba said: {exc}"
+                ) from exc
+            self._fused = fused
         flat = np.ascontiguousarray(np.concatenate(params + [np.zeros(1)]))
         return self._fused, flat
 

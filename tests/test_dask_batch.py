@@ -98,3 +98,18 @@ def test_cluster_by_address_and_default_client(cluster, catalog, times):
     assert get_client() is not None
     default = propagate_sgp4_dask(catalog[:4], times, chunks=(3, 5), compute=True)
     np.testing.assert_array_equal(default.v.value, mem.v.value)
+
+
+def test_dask_graph_and_in_place_paths_agree(cluster, catalog, times):
+    """compute() on an in-process cluster writes blocks into one result (whole rows go straight
+    from sgp4); the dask arrays themselves stay usable on any cluster. Both equal in-memory."""
+    _, client = cluster
+    mem = propagate_sgp4_batch(catalog, times, on_error="nan")
+    for chunks in [(8, 1000), (5, 7)]:
+        lazy = propagate_dask(catalog, times, chunks=chunks, on_error="nan")
+        in_place = lazy.compute(client=client)
+        r_graph, v_graph = client.compute([lazy.r, lazy.v], sync=True)
+        for r, v in [(in_place.r.value, in_place.v.value), (r_graph, v_graph)]:
+            np.testing.assert_array_equal(r, mem.r.value)
+            np.testing.assert_array_equal(v, mem.v.value)
+        np.testing.assert_array_equal(in_place.status, mem.status)

@@ -370,7 +370,7 @@ def _check_on_error(on_error):
         raise InvalidInputError(f"on_error must be 'raise' or 'nan', got {on_error!r}.")
 
 
-def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise") -> BatchStates:
+def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) -> BatchStates:
     """SGP4 for N satellites at T times in one call of sgp4's ``SatrecArray``.
 
     Parameters
@@ -382,6 +382,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise") -> BatchStat
     on_error : {"raise", "nan"}
         Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
         (default), or return NaN there with sgp4's code in ``status``.
+    out : (status, r, v), optional
+        C-contiguous arrays of shapes (N, T) uint8, (N, T, 3) and (N, T, 3) float64 that sgp4
+        writes into (e.g. slices of a larger result); the returned states wrap them.
 
     Returns
     -------
@@ -393,7 +396,19 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise") -> BatchStat
     cat = _as_catalog(satellites)
     t = _absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
-    e, r, v = cat.satrec_array.sgp4(jd, fr)
+    if out is None:
+        e, r, v = cat.satrec_array.sgp4(jd, fr)
+    else:
+        e, r, v = out
+        shapes = ((len(cat), len(t)), (len(cat), len(t), 3), (len(cat), len(t), 3))
+        for arr, shape, dtype in zip(out, shapes, (np.uint8, np.float64, np.float64),
+                                     strict=True):
+            if arr.shape != shape or arr.dtype != dtype or not arr.flags.c_contiguous:
+                raise ShapeError(
+                    f"out arrays must be C-contiguous {shapes} of uint8, float64, float64; got "
+                    f"{[(a.shape, str(a.dtype)) for a in out]}."
+                )
+        cat.satrec_array._sgp4(jd, fr, e, r, v)
     if on_error == "raise" and e.any():
         ep = cat.epochs
         tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY

@@ -115,6 +115,44 @@ def _block(cat: Catalog, t: Time, method: str, on_error: str):
     return out.r.value, out.v.value, out.status
 
 
+#: result arrays of in-process computations, by key: blocks running in this process write
+#: straight into them (no second copy of the N x T x 6 result)
+_SHARED: dict = {}
+
+
+def _block_into(key, a, b, c, d, method: str, on_error: str):
+    status, r, v, full_cat, full_t = _SHARED[key]
+    cat, t = _slice(full_cat, a, b), full_t[c:d]
+    if method == "sgp4" and c == 0 and d == r.shape[1]:
+        # whole rows: contiguous slices, sgp4 writes its output in place
+        propagate_sgp4_batch(cat, t, on_error=on_error, out=(status[a:b], r[a:b], v[a:b]))
+        return None
+    rr, vv, ss = _block(cat, t, method, on_error)
+    r[a:b, c:d] = rr
+    v[a:b, c:d] = vv
+    status[a:b, c:d] = ss
+    return None
+
+
+def _in_process(client) -> bool:
+    """True when every worker of ``client`` runs in this process (a threads LocalCluster)."""
+    import os
+
+    cached = getattr(client, "_visviva_in_process", None)
+    if cached is None:
+        pid = os.getpid()
+        try:
+            pids = client.run(os.getpid)
+            cached = bool(pids) and all(p == pid for p in pids.values())
+        except Exception:  # pragma: no cover - exotic clusters
+            cached = False
+        try:
+            client._visviva_in_process = cached
+        except AttributeError:  # pragma: no cover
+            pass
+    return cached
+
+
 class DaskBatch:
     """Lazy N x T states as dask arrays.
 
@@ -128,8 +166,9 @@ class DaskBatch:
     names : list of str
     """
 
-    def __init__(self, r, v, status, t, names, frame):
+    def __init__(self, r, v, status, t, names, frame, plan=None):
         self.r, self.v, self.status, self.t, self.names, self.frame = r, v, status, t, names, frame
+        self._plan = plan  # (catalog, method, row splits, column splits, on_error)
 
     @property
     def shape(self):
@@ -145,11 +184,36 @@ class DaskBatch:
         """
         if client is None:
             client = get_client(address)
-        r, v, status = client.compute([self.r, self.v, self.status], sync=True)
+        if self._plan is not None and _in_process(client):
+            r, v, status = self._compute_in_place(client)
+        else:
+            r, v, status = client.compute([self.r, self.v, self.status], sync=True)
         return BatchStates(
             to_quantity(r, "length"), to_quantity(v, "speed"), self.t, status, self.names,
             self.frame,
         )
+
+    def _compute_in_place(self, client):
+        """Same blocks as the dask arrays, run as tasks that write into one preallocated result
+        (workers share this process), so the result is not assembled by a second copy."""
+        cat, method, rows, cols, on_error = self._plan
+        n, m = self.shape
+        out = (np.empty((n, m), np.uint8), np.empty((n, m, 3)), np.empty((n, m, 3)))
+        key = uuid.uuid4().hex
+        # tasks carry only the key and indices: the catalogue (with its cached SatrecArrays)
+        # and the times are looked up in this process, never pickled
+        _SHARED[key] = out + (cat, self.t)
+        try:
+            futures = [
+                client.submit(_block_into, key, a, b, c, d, method, on_error, pure=False)
+                for a, b in rows
+                for c, d in cols
+            ]
+            client.gather(futures)
+        finally:
+            _SHARED.pop(key, None)
+        status, r, v = out
+        return r, v, status
 
     def __repr__(self):
         return f"DaskBatch(shape={self.shape}, chunks={self.r.chunks[:2]})"
@@ -218,9 +282,10 @@ def propagate_dask(satellites, t, *, method: str = "sgp4", chunks=(1000, 1000),
         rows_r.append(da.concatenate(cols_r, axis=1))
         rows_v.append(da.concatenate(cols_v, axis=1))
         rows_s.append(da.concatenate(cols_s, axis=1))
+    plan = (cat, method, _splits(len(cat), n_chunk), _splits(len(t), t_chunk), on_error)
     return DaskBatch(
         da.concatenate(rows_r, axis=0), da.concatenate(rows_v, axis=0),
-        da.concatenate(rows_s, axis=0), t, cat.names, "teme",
+        da.concatenate(rows_s, axis=0), t, cat.names, "teme", plan,
     )
 
 

@@ -186,3 +186,17 @@ def test_read_omm_json_and_csv_equal_the_tles(tmp_path, catalog):
     (tmp_path / "bad.json").write_text(json.dumps(records))
     with pytest.raises(vv.InvalidInputError, match="record 2 of"):
         read_omm_file(tmp_path / "bad.json")
+
+
+def test_sgp4_batch_writes_into_given_arrays(catalog, times):
+    cat = catalog[:3]
+    ref = propagate_sgp4_batch(cat, times)
+    status = np.empty((3, 17), np.uint8)
+    r = np.empty((3, 17, 3))
+    v = np.empty((3, 17, 3))
+    out = propagate_sgp4_batch(cat, times, out=(status, r, v))
+    assert np.shares_memory(out.r.value, r)
+    np.testing.assert_array_equal(r, ref.r.value)
+    np.testing.assert_array_equal(v, ref.v.value)
+    with pytest.raises(vv.ShapeError):
+        propagate_sgp4_batch(cat, times, out=(status, r[:, ::2], v))

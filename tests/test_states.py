@@ -178,3 +178,12 @@ def test_epoch_is_carried_and_indexed():
     assert s.to_equinoctial().epoch is t
     scalar_epoch = vv.StateVectors([[7000.0, 0, 0]] * 3 * KM, [0, 7.5, 0] * KMS, MU, epoch=t[0])
     assert scalar_epoch[1].epoch == t[0]
+
+
+def test_empty_arrays():
+    s = vv.StateVectors(np.empty((0, 3)) * KM, np.empty((0, 3)) * KMS, MU)
+    assert s.shape == (0,) and len(s) == 0 and "no states" in repr(s)
+    el = s.to_elements()
+    assert el.shape == (0,) and "no orbits" in repr(el)
+    assert el.to_state().shape == (0,) and el.mean_anomaly.shape == (0,)
+    assert s.to_equinoctial().to_state().shape == (0,)

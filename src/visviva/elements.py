@@ -297,6 +297,8 @@ class KeplerianElements:
                 f"KeplerianElements(p={p:.9g} km, ecc={e:.12g}, inc={_deg(i)}, "
                 f"raan={_deg(o)}, argp={_deg(w)}, nu={_deg(n)}, gm={gm_txt}{epoch})"
             )
+        if self.size == 0:
+            return f"<KeplerianElements shape={self._shape}: no orbits>"
         return (
             f"<KeplerianElements shape={self._shape}: {self.size} orbits, gm={gm_txt}{epoch}; "
             f"ecc in [{self._ecc.min():.6g}, {self._ecc.max():.6g}], "

@@ -229,6 +229,8 @@ class StateVectors:
         )
 
     def __repr__(self) -> str:
+        if self.size == 0:
+            return f"<StateVectors shape={self._shape}: no states>"
         gm = np.unique(self._gm)
         gm_txt = f"{gm[0]:.10g} km3 / s2" if gm.size == 1 else f"{gm.size} values (km3 / s2)"
         epoch = "" if self._epoch is None else f", epoch={self._epoch}"
@@ -296,8 +298,7 @@ class StateVectors:
 
     # --- conversions ----------------------------------------------------------------------------
     def _flat_inputs(self):
-        n = max(self.size, 1)
-        return self._r.reshape(n, 3), self._v.reshape(n, 3), _flat(self._gm, self._shape)
+        return self._r.reshape(-1, 3), self._v.reshape(-1, 3), _flat(self._gm, self._shape)
 
     def to_elements(self):
         """Classical (Keplerian) elements of every state.

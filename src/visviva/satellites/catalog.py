@@ -612,26 +612,34 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     _check_on_error(on_error)
     cat = _as_catalog(satellites)
     t = _absolute_times(t, "propagate_j2_batch")
-    a, ecc, inc, raan, argp, M = _mean_elements(cat)
-    body = _wgs72_body(cat.satellites[0].satrec)
-    bad = (a <= 0) | ~((ecc >= 0) & (ecc < 1))
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise InvalidInputError(
-            f"satellite {cat.names[k]!r} has mean a = {a[k]:.6g} km, e = {ecc[k]:.6g}: the "
-            "secular J2 theory needs a bound orbit (a > 0, 0 <= e < 1); use method='sgp4'."
+    setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
+    if setup is None:
+        a, ecc, inc, raan, argp, M = _mean_elements(cat)
+        body = _wgs72_body(cat.satellites[0].satrec)
+        bad = (a <= 0) | ~((ecc >= 0) & (ecc < 1))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise InvalidInputError(
+                f"satellite {cat.names[k]!r} has mean a = {a[k]:.6g} km, e = {ecc[k]:.6g}: the "
+                "secular J2 theory needs a bound orbit (a > 0, 0 <= e < 1); use method='sgp4'."
+            )
+        rates = tuple(
+            q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
         )
-    raan_dot, argp_dot, M_dot = (
-        q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
-    )
-    ep, tt = cat.epochs.tai, t.tai
+        ep = cat.epochs.tai
+        setup = ((a, ecc, inc, raan, argp, M), rates, body.gm_km3_s2,
+                 np.ascontiguousarray(ep.jd1, dtype=np.float64),
+                 np.ascontiguousarray(ep.jd2, dtype=np.float64))
+        cat.__dict__["_j2_setup"] = setup
+    (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
+    tt = t.tai
     n, m = len(cat), len(t)
     r = np.empty((n, m, 3))
     v = np.empty((n, m, 3))
     status = np.empty((n, m), dtype=np.int64)
-    _secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot,
-                  *(np.ascontiguousarray(x, dtype=np.float64) for x in (ep.jd1, ep.jd2, tt.jd1, tt.jd2)),
-                  body.gm_km3_s2, r, v, status)
+    _secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, ep1, ep2,
+                  np.ascontiguousarray(tt.jd1, dtype=np.float64),
+                  np.ascontiguousarray(tt.jd2, dtype=np.float64), gm, r, v, status)
     if on_error == "raise" and status.any():
         raise_for_status(status, "secular J2 batch propagation", dt_s=_offsets_s(cat.epochs, t))
     return BatchStates(

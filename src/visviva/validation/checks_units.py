@@ -338,7 +338,15 @@ def _cowell_time_scales():
                      ("Time tdb", (epoch + offsets_min * u.min).tdb)):
         other = propagate_cowell(state, t, [J2(vv.EARTH)])
         per[label] = float(np.max(np.linalg.norm((other.r - base.r).to_value(u.km), axis=-1)))
-    return max(per.values()), {"outputs": len(offsets_min), "max_dr_km_by_time_input": per}
+    details = {"outputs": len(offsets_min), "max_dr_km_by_time_input": per}
+    if max(per.values()) > ONE_MM_KM:
+        worst = max(per, key=per.get)
+        details["hint"] = (
+            f"worst with t as {worst}: the same instants give different states. A time "
+            "difference taken in TDB (t - epoch with t in TDB) is in TDB seconds; TDB - TT "
+            "swings by +-1.7 ms over a year, so TDB seconds differ from the SI seconds of "
+            "geocentric motion by up to ~3e-10; subtract in TT instead: (t.tt - epoch.tt)")
+    return max(per.values()), details
 
 
 def checks(full: bool = False) -> list[Check]:

@@ -327,6 +327,9 @@ def write_report(outcome, folder) -> Path:
         for module, c in failures:
             lines += [f"- {markdown_escape(short_name(module))}: {markdown_escape(c.name)}: "
                       f"measured {_fmt(c.measured)}, tolerance {_fmt(c.tolerance)}"]
+            hint = c.details.get("hint") if isinstance(c.details, dict) else None
+            if hint:
+                lines += [f"  hint: {markdown_escape(hint)}"]
             err = c.details.get("traceback") if isinstance(c.details, dict) else None
             if err:
                 tail = "\n".join(str(err).strip().splitlines()[-12:]).replace("```", "'''")

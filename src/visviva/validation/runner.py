@@ -239,9 +239,11 @@ def format_line(check: Check, width: int = 64) -> str:
         return f"SKIP  {name:<{width}s}  ({check.details.get('skipped')})"
     line = (f"{status}  {name:<{width}s}  {_fmt(check.measured):>10s} <= "
             f"{_fmt(check.tolerance):<9s}  {check.metric}")
-    error = check.details.get("error") if isinstance(check.details, dict) else None
-    if status == "FAIL" and error:
-        line += f"\n      error: {str(error)[:300]}"
+    details = check.details if isinstance(check.details, dict) else {}
+    if status == "FAIL":
+        for key in ("error", "hint"):
+            if details.get(key):
+                line += f"\n      {key}: {str(details[key])[:300]}"
     return line
 
 

@@ -27,9 +27,10 @@ Grouping
     Checks with the same ``details["plot_group"]`` share one figure, one panel per check
     (e.g. the energy error of every integrator, each beside REBOUND's).
 
-Tolerance reasons
+Tolerance reasons and hints
     ``details["why"]`` (or ``tolerance_reason``, ``rationale``): one sentence on why the tolerance
-    is what it is; listed in the report's "Why these tolerances" section.
+    is what it is; listed in the report's "Why these tolerances" section. ``details["hint"]``:
+    the likely cause of a failure, printed under a FAIL line and in the "Failures" section.
 """
 
 from __future__ import annotations

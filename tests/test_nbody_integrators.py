@@ -331,7 +331,7 @@ def test_ias15_prs23_step_control():
         vv.Simulation(adaptive_mode="fast")
 
 
-def test_ias15_prs23_takes_the_same_steps_as_rebound():
+def test_ias15_prs23_takes_about_the_steps_of_rebound():
     rebound = pytest.importorskip("rebound")
     sim = vv.solar_system(integrator="ias15")
     sim.adaptive_mode = "prs23"
@@ -339,6 +339,19 @@ def test_ias15_prs23_takes_the_same_steps_as_rebound():
     assert "5." in rebound.__version__ or "4." in rebound.__version__
     sim.integrate(20.0)
     r.integrate(20.0)
-    assert abs(int(sim._istate[1]) - r.steps_done) <= 2
+    # a global timescale (sums over particles) instead of the minimum over particles: within a
+    # few per cent of REBOUND's step count, and no stall at a zero of one particle's acceleration
+    assert abs(sim.steps_done / r.steps_done - 1) < 0.05
     xr = np.array([[p.x, p.y, p.z] for p in r.particles])
     assert np.abs(sim.positions - xr).max() < 1e-12
+
+
+def test_ias15_prs23_crosses_a_zero_of_the_acceleration():
+    d = json.loads((DATA / "figure_eight.json").read_text())
+    sim = vv.Simulation("ias15", adaptive_mode="prs23")
+    for m, r, v in zip(d["masses"], d["positions"], d["velocities"], strict=True):
+        sim.add(m, r, v)
+    x0 = sim.positions
+    sim.integrate(d["period"])  # the third body starts where its acceleration is zero
+    assert sim.steps_done < 1000
+    assert np.abs(sim.positions - x0).max() < 1e-7

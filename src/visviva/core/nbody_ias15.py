@@ -20,9 +20,10 @@ sweeps). The step-size control (Rein & Spiegel 2015, sec. 2.6, their eq. 11 "glo
 
 rejects a step when ``dt_new < dt / 4`` (safety factor 0.25) and never grows the step by more than
 a factor 4. Optionally (``adaptive_mode="prs23"``) the criterion of Pham, Rein & Spiegel (2024):
-``dt_new = (7! epsilon)**(1/7) min_i tau_i``, ``tau_i**2 = 2 |a|**2 / (|a'|**2 + |a| |a''|)``
-with the acceleration and its first two time derivatives taken from the step's polynomial at
-its end (REBOUND's default since version 4). Positions and velocities are updated with compensated (Kahan) summation. The next
+``dt_new = (7! epsilon)**(1/7) tau``, ``tau**2 = 2 y2 / (y3 + sqrt(y2 y4))`` with ``y2, y3, y4``
+the squared acceleration, jerk and snap from the step's polynomial at its end, summed over all
+particles (REBOUND's default criterion; the paper's minimum over particles stalls when one
+particle's acceleration passes through zero). Positions and velocities are updated with compensated (Kahan) summation. The next
 step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
 (Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
 
@@ -304,13 +305,13 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
             break
         pc_last = pc_err
     if istate[I_ADAPTIVE_MODE] == 1:
-        # Pham, Rein & Spiegel (2024): dt = (7! epsilon)^(1/7) min_i tau_i with
-        # tau_i^2 = 2 |a|^2 / (|a'|^2 + |a| |a''|) from the step's polynomial at its end
+        # Pham, Rein & Spiegel (2024): dt = (7! epsilon)^(1/7) tau with
+        # tau^2 = 2 |a|^2 / (|a'|^2 + |a| |a''|) from the step's polynomial at its end
         tau2_min = math.inf
+        y2 = 0.0
+        y3 = 0.0
+        y4 = 0.0
         for i in range(n):
-            y2 = 0.0
-            y3 = 0.0
-            y4 = 0.0
             for c in range(3):
                 q = 3 * i + c
                 b0 = bf[_B + 0, q]
@@ -326,11 +327,11 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
                 y2 += a1 * a1
                 y3 += j1 * j1
                 y4 += s1 * s1
-            den = y3 + math.sqrt(y2 * y4)
-            if den > 0.0:
-                tau2 = 2.0 * y2 / den  # in units of dt^2
-                if tau2 < tau2_min:
-                    tau2_min = tau2
+        # sums over all particles: a single particle passing through a zero of its acceleration
+        # (the figure-eight's crossing) would otherwise shrink the steps geometrically (Zeno)
+        den = y3 + math.sqrt(y2 * y4)
+        if den > 0.0:
+            tau2_min = 2.0 * y2 / den  # in units of dt^2
         if math.isfinite(tau2_min) and tau2_min > 0.0:
             dt_new = dt * math.sqrt(tau2_min) * (5040.0 * fstate[F_EPSILON]) ** (1.0 / 7.0)
         else:

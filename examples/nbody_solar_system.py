@@ -17,6 +17,8 @@ import visviva as vv
 
 def energy_history(integrator: str, years: float, samples: int = 200):
     sim = vv.solar_system(integrator=integrator)
+    if integrator == "ias15":
+        sim.adaptive_mode = "prs23"  # REBOUND's default criterion: half the steps
     E0 = sim.energy()
     times = np.linspace(years / samples, years, samples)
     t0 = time.perf_counter()

@@ -48,6 +48,7 @@ __all__ = [
     "ECC_CIRCULAR",
     "ECC_PARABOLIC",
     "RADIAL_TOL",
+    "P_OVER_R_MIN",
     "rv_to_coe",
     "coe_to_rv",
     "rv_to_mee",
@@ -71,6 +72,9 @@ ECC_CIRCULAR = 16.0 * _EPS
 ECC_PARABOLIC = 4.0 * _EPS
 #: |r x v| <= RADIAL_TOL |r| |v| is radial motion: the cross product is rounding noise.
 RADIAL_TOL = _EPS
+#: p <= P_OVER_R_MIN r is numerically radial too: 1 + e cos(nu) = p/r would round to zero, so the
+#: elements could not give the state back (slow, nearly radial falls).
+P_OVER_R_MIN = 4.0 * _EPS
 
 
 @inline_kernel
@@ -128,7 +132,8 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
         node and argument of periapsis in [0, 2 pi), true anomaly in (-pi, pi] (rad).
     status : int
         ``OK``; ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION`` or ``RADIAL_ORBIT`` (then the
-        elements are NaN).
+        elements are NaN). ``RADIAL_ORBIT`` means |r x v| <= eps |r| |v|, or p <= 4 eps r (a
+        nearly radial fall whose 1 + e cos(nu) = p/r rounds to zero).
 
     Notes
     -----
@@ -163,6 +168,8 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
 
     p = hm * hm / gm
+    if p <= P_OVER_R_MIN * rm:
+        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
     rdotv = rx * vx + ry * vy + rz * vz
     ecos_r = p - rm  # r e cos(nu)
     esin_r = hm * rdotv / gm + 0.0  # r e sin(nu); + 0.0 removes a negative zero
@@ -354,7 +361,7 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     hz = rx * vy - ry * vx
     hxy2 = hx * hx + hy * hy
     hm = math.sqrt(hxy2 + hz * hz)
-    if hm <= RADIAL_TOL * rm * math.sqrt(v2):
+    if hm <= RADIAL_TOL * rm * math.sqrt(v2) or hm * hm / gm <= P_OVER_R_MIN * rm:
         return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
     ihz = retro * hz
     if ihz >= 0.0:

@@ -355,3 +355,19 @@ def test_ias15_prs23_crosses_a_zero_of_the_acceleration():
     sim.integrate(d["period"])  # the third body starts where its acceleration is zero
     assert sim.steps_done < 1000
     assert np.abs(sim.positions - x0).max() < 1e-7
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_outputs_within_the_first_step_and_at_the_current_time(name):
+    dt = None if name == "ias15" else 0.3
+    sim = kepler_pair(name, e=0.2, dt=dt)
+    x0 = sim.positions
+    sim.integrate(0.0)  # nothing to do
+    np.testing.assert_array_equal(sim.positions, x0)
+    ref = kepler_pair("ias15", e=0.2)
+    ref.integrate(0.1)
+    traj = sim.integrate(np.array([0.0, 0.1]))  # 0.1 lies inside the first step
+    np.testing.assert_array_equal(traj.positions[0], x0)
+    tol = 1e-3 if name == "leapfrog" else 1e-12  # one leapfrog step of 0.1: O(h^3)
+    np.testing.assert_allclose(traj.positions[1], ref.positions, atol=tol)
+    assert sim.t == 0.1

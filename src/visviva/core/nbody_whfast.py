@@ -349,6 +349,13 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
         valid = (istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_WH_H] == h
                  and fstate[F_DT_REF] == adt)
         istate[I_FRESH] = 0
+        while not valid and istate[I_NOUT] < t_out.shape[0] and t_out[istate[I_NOUT]] == fstate[F_T]:
+            # outputs at the current time need no step (and no internal state yet)
+            k0 = istate[I_NOUT]
+            write_output(k0, fstate[F_T], x, v, out_t, out_x, out_v)
+            istate[I_NOUT] = k0 + 1
+        if not valid and istate[I_NOUT] >= t_out.shape[0]:
+            return OK
         if not valid:
             # build P from the state at the exposed time, which becomes the grid origin
             fstate[F_T0] = fstate[F_T]
@@ -412,8 +419,9 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             if st != OK:
                 return st
             rem = target - t_grid
-            if exact and rem * direction > 1e-9 * adt:
-                # a shortened step of the copy lands on the output time; P is untouched
+            if exact and abs(rem) > 1e-9 * adt:
+                # a shortened step of the copy lands on the output time (backwards when the
+                # target lies within the first step, which P has already taken); P is untouched
                 st = _dkd_step(x, v, m, eta, G, rem, t_grid, xs, vs, massive, fstate, istate,
                                gwork, force, params, acc, aj, order)
                 if st != OK:

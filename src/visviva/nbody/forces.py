@@ -107,8 +107,14 @@ class Force:
 
 
 def combine(fns, sizes):
-    """Fuse several compiled forces into one compiled function with concatenated parameters."""
+    """Fuse several compiled forces into one compiled function with concatenated parameters.
+
+    The fused function is a closure over the forces, compiled with visviva's numba flags except
+    the on-disk cache (closures cannot be cached; compiling it takes a fraction of a second).
+    """
     import numba
+
+    from ..core._jit import _FLAGS
 
     if len(fns) == 1:
         return fns[0]
@@ -119,7 +125,7 @@ def combine(fns, sizes):
         head(t, x, v, m, params[:split], acc)
         rest(t, x, v, m, params[split:], acc)
 
-    return numba.njit(both)
+    return numba.njit(**{**_FLAGS, "cache": False})(both)
 
 
 # ---- built-in forces -----------------------------------------------------------------------------

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core import elements as _elements
 from ..core import gravity as _gravity
+from ..core import kepler as _kepler
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..errors import (
@@ -468,30 +470,13 @@ class Simulation:
             else:
                 if e >= 1:
                     raise InvalidInputError("give nu (not M) for open orbits.")
-                Mv = float(M)
-                E = Mv if e < 0.8 else math.pi
-                for _ in range(100):
-                    dE = (E - e * math.sin(E) - Mv) / (1 - e * math.cos(E))
-                    E -= dE
-                    if abs(dE) < 1e-16:
-                        break
-                nu = 2.0 * math.atan2(math.sqrt(1 + e) * math.sin(E / 2),
-                                      math.sqrt(1 - e) * math.cos(E / 2))
-        nu, inc, raan, argp = float(nu), float(inc), float(raan), float(argp)
-        # perifocal state, rotated by R3(-raan) R1(-inc) R3(-argp)  (Vallado 2013, Algorithm 10)
-        rmag = p / (1.0 + e * math.cos(nu))
-        r_pqw = np.array([rmag * math.cos(nu), rmag * math.sin(nu), 0.0])
-        s = math.sqrt(gm / p)
-        v_pqw = np.array([-s * math.sin(nu), s * (e + math.cos(nu)), 0.0])
-        cO, sO = math.cos(raan), math.sin(raan)
-        ci, si = math.cos(inc), math.sin(inc)
-        cw, sw = math.cos(argp), math.sin(argp)
-        R = np.array([
-            [cO * cw - sO * sw * ci, -cO * sw - sO * cw * ci, sO * si],
-            [sO * cw + cO * sw * ci, -sO * sw + cO * cw * ci, -cO * si],
-            [sw * si, cw * si, ci],
-        ])
-        return xp + R @ r_pqw, vp + R @ v_pqw
+                nu, status = _kepler.mean_to_true_anomaly(float(M), e)
+                raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
+        *state, status = _elements.coe_to_rv(
+            p, e, float(inc), float(raan), float(argp), float(nu), gm
+        )
+        raise_for_status(np.array([status]), "orbital elements to state", p=p, e=e, nu=nu)
+        return xp + np.array(state[:3]), vp + np.array(state[3:])
 
     def remove(self, index: int) -> None:
         """Remove particle ``index`` (later indices shift down by one)."""

@@ -318,23 +318,24 @@ def test_whfast_outputs_between_grid_points_do_not_perturb_the_trajectory(tmp_pa
 
 
 def test_ias15_prs23_step_control():
+    assert vv.Simulation().adaptive_mode == "prs23"  # the default, as in REBOUND
+    assert vv.Simulation(adaptive_mode="global").adaptive_mode == "rs15"  # alias
     steps = {}
-    for mode in ("global", "prs23"):
+    for mode in ("rs15", "prs23"):
         sim = outer_solar_system("ias15")
         sim.adaptive_mode = mode
         E0 = sim.energy()
         sim.integrate(1200.0)
         assert abs(sim.energy() / E0 - 1) < 1e-14
         steps[mode] = int(sim._istate[1])
-    assert steps["prs23"] < steps["global"]
+    assert steps["prs23"] < steps["rs15"]
     with pytest.raises(vv.InvalidInputError, match="adaptive_mode"):
         vv.Simulation(adaptive_mode="fast")
 
 
 def test_ias15_prs23_takes_about_the_steps_of_rebound():
     rebound = pytest.importorskip("rebound")
-    sim = vv.solar_system(integrator="ias15")
-    sim.adaptive_mode = "prs23"
+    sim = vv.solar_system(integrator="ias15")  # adaptive_mode="prs23" by default
     r = sim.to_rebound()
     assert "5." in rebound.__version__ or "4." in rebound.__version__
     sim.integrate(20.0)

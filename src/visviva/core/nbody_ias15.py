@@ -14,16 +14,21 @@ with the Gauss-Radau spacings ``h1 ... h7``; integrating twice gives the predict
 Predictor-corrector: at each substep ``h_n`` the force gives ``g_n`` by divided differences and
 the change of ``g_n`` updates ``b_0 ... b_{n-1}``; the sweep over the 7 substeps is repeated until
 the change of ``b6`` relative to the acceleration is below 1e-16 or stops decreasing (at most 12
-sweeps). The step-size control (Rein & Spiegel 2015, sec. 2.6, their eq. 11 "global" form)::
+sweeps). The default step-size control (``adaptive_mode="prs23"``, ``istate[I_ADAPTIVE_MODE] = 1``)
+is the criterion of Pham, Rein & Spiegel (2024), REBOUND's default::
 
-    err = max_i |b6_i| / max_i |a_i|,     dt_new = dt (epsilon / err)**(1/7),  epsilon = 1e-9
+    dt_new = (7! epsilon)**(1/7) tau,     tau**2 = 2 y2 / (y3 + sqrt(y2 y4)),  epsilon = 1e-9
 
-rejects a step when ``dt_new < dt / 4`` (safety factor 0.25) and never grows the step by more than
-a factor 4. Optionally (``adaptive_mode="prs23"``) the criterion of Pham, Rein & Spiegel (2024):
-``dt_new = (7! epsilon)**(1/7) tau``, ``tau**2 = 2 y2 / (y3 + sqrt(y2 y4))`` with ``y2, y3, y4``
-the squared acceleration, jerk and snap from the step's polynomial at its end, summed over all
-particles (REBOUND's default criterion; the paper's minimum over particles stalls when one
-particle's acceleration passes through zero). Positions and velocities are updated with compensated (Kahan) summation. The next
+with ``y2, y3, y4`` the squared acceleration, jerk and snap from the step's polynomial at its end,
+summed over all particles (the paper's minimum over particles stalls when one particle's
+acceleration passes through zero). ``adaptive_mode="rs15"`` (``I_ADAPTIVE_MODE = 0``) selects
+Rein & Spiegel (2015, sec. 2.6, their eq. 11 "global" form), about twice the steps::
+
+    err = max_i |b6_i| / max_i |a_i|,     dt_new = dt (epsilon / err)**(1/7)
+
+Either way a step is rejected when ``dt_new < dt / 4`` (safety factor 0.25) and the step never
+grows by more than a factor 4. Positions and velocities are updated with compensated (Kahan)
+summation. The next
 step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
 (Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
 

@@ -74,7 +74,7 @@ ECC_PARABOLIC = 4.0 * _EPS
 RADIAL_TOL = _EPS
 #: p <= P_OVER_R_MIN r is numerically radial too: 1 + e cos(nu) = p/r would round to zero, so the
 #: elements could not give the state back (slow, nearly radial falls).
-P_OVER_R_MIN = 4.0 * _EPS
+P_OVER_R_MIN = 16.0 * _EPS  # > ECC_PARABOLIC plus rounding, so snapping e to 1 keeps p/r > 0
 
 
 @inline_kernel
@@ -132,7 +132,7 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
         node and argument of periapsis in [0, 2 pi), true anomaly in (-pi, pi] (rad).
     status : int
         ``OK``; ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION`` or ``RADIAL_ORBIT`` (then the
-        elements are NaN). ``RADIAL_ORBIT`` means |r x v| <= eps |r| |v|, or p <= 4 eps r (a
+        elements are NaN). ``RADIAL_ORBIT`` means |r x v| <= eps |r| |v|, or p <= 16 eps r (a
         nearly radial fall whose 1 + e cos(nu) = p/r rounds to zero).
 
     Notes

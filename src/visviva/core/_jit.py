@@ -7,7 +7,15 @@ one of the decorators below, so that caching, the error model and threading are 
 * ``error_model="numpy"``: a division by zero gives ``inf``/``nan`` instead of raising inside the
   kernel; kernels check degenerate cases explicitly and return a status code instead
   (see :mod:`visviva.core.status`).
-* ``fastmath`` is never used: iterative solvers rely on IEEE semantics.
+* ``fastmath`` is never used, except by :data:`simd_kernel`: iterative solvers rely on IEEE
+  semantics.
+* :data:`simd_kernel` (added for the N-body gravity sum) allows only ``reassoc`` and ``contract``:
+  a floating-point reduction (``s += f(j)``) vectorises only when the compiler may reassociate
+  the sum, and ``contract`` allows fused multiply-adds. No ``nnan``/``ninf``/``arcp``: NaN, inf and
+  comparisons keep IEEE meaning. The result is deterministic for a given compiled function (the
+  order of the partial sums is fixed by the code, not by the data or the threads) but differs in
+  the last bits from a strict left-to-right sum. Use it only for a reduction in a leaf function;
+  never for iterative solvers (Newton, Kepler, predictor-corrector loops).
 * Nothing is compiled at import: no eager signatures are given, so the first call compiles
   (or loads from the cache).
 """
@@ -16,7 +24,7 @@ from __future__ import annotations
 
 import numba
 
-__all__ = ["kernel", "parallel_kernel", "prange", "inline_kernel"]
+__all__ = ["kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel"]
 
 _FLAGS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": False}
 
@@ -25,6 +33,11 @@ kernel = numba.njit(**_FLAGS)
 
 #: Decorator for a kernel whose outer loop uses :func:`prange` over independent items.
 parallel_kernel = numba.njit(parallel=True, **_FLAGS)
+
+
+#: Decorator for a serial leaf kernel whose float reduction must vectorise (see above): the
+#: flags of :data:`kernel` plus ``fastmath={"reassoc", "contract"}``.
+simd_kernel = numba.njit(**{**_FLAGS, "fastmath": {"reassoc", "contract"}})
 
 
 def inline_kernel(fn):

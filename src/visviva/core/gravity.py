@@ -7,14 +7,18 @@ The acceleration of particle ``i`` is
 where ``eps`` is the (optional) Plummer softening length. Test particles (``m = 0``) feel the
 massive ones and pull on nothing, so a step costs O(N * N_massive).
 
-Determinism
------------
-Every kernel here adds the terms of ``a_i`` in ONE fixed order: over the massive particles ``j`` in
-increasing index order, starting from zero, each term evaluated as
-``d * (G m_j * inv_r3)`` with ``inv_r3 = 1 / (r2 * sqrt(r2))``. The serial pairwise kernel (which
-uses Newton's third law, ``d_ji = -d_ij`` exactly in IEEE arithmetic) and the parallel blocked
-kernel (``j`` outer, a block of ``i`` inner, blocks spread over threads) therefore return the same
-bits, whatever the number of threads.
+Layout and determinism
+----------------------
+The massive particles are first copied into contiguous structure-of-arrays rows ``x_j, y_j, z_j,
+G m_j`` (the scratch ``work``). One row kernel, :func:`row_acceleration`, sums the terms of one
+``a_i`` over all of them in a branch-free loop (the self term and coincident particles without
+softening are masked arithmetically: ``r2 == 0`` is replaced by 1 and the term is ``0 * ...``),
+with the three sums in local scalars. It is compiled with :data:`visviva.core._jit.simd_kernel`
+(reassociation allowed for this reduction only), so LLVM vectorises it: the partial sums live in
+SIMD lanes and are combined in an order fixed by the compiled code, not by the data or the threads.
+Every path (serial, multi-threaded with ``prange`` over ``i``) calls the same row kernel, so they
+return the same bits whatever the number of threads. (The sum is not the strict left-to-right sum:
+it differs from it in the last bits.)
 
 All inputs are plain float64 arrays in any consistent units (``G`` in the same units).
 
@@ -29,27 +33,23 @@ import math
 
 import numpy as np
 
-from ._jit import kernel, parallel_kernel, prange
+from ._jit import kernel, parallel_kernel, prange, simd_kernel
 
 __all__ = [
+    "row_acceleration",
+    "pack_massive",
     "gravity_serial",
     "gravity_parallel",
-    "gravity_blocked",
     "gravity",
     "energy",
     "kinetic_energy",
     "potential_energy",
     "no_force",
-    "BLOCK",
     "PARALLEL_MIN_N",
 ]
 
-#: Number of particles ``i`` per block of the parallel kernel (the block's accumulators stay in L1).
-BLOCK = 256
 #: From this many particles on, the simulation uses the multi-threaded kernel by default.
 PARALLEL_MIN_N = 512
-#: Below this many particles :func:`gravity` uses the pairwise kernel (Newton's third law).
-BLOCKED_MIN_N = 64
 
 
 @kernel
@@ -58,16 +58,72 @@ def no_force(t, x, v, m, params, acc):
     return
 
 
+@simd_kernel
+def row_acceleration(xi, yi, zi, xm, ym, zm, gmm, soft2):
+    """Acceleration of one particle from all massive ones (a vectorised reduction).
+
+    Parameters
+    ----------
+    xi, yi, zi : float
+        Position of the particle (length).
+    xm, ym, zm : ndarray of float64, shape (N_massive,)
+        Positions of the massive particles, contiguous (length).
+    gmm : ndarray of float64, shape (N_massive,)
+        ``G m_j`` of the massive particles (length**3 / time**2).
+    soft2 : float
+        Square of the Plummer softening length (length**2); 0 for none.
+
+    Returns
+    -------
+    ax, ay, az : float
+        ``sum_j G m_j d / (|d|**2 + eps**2)**(3/2)`` with ``d = x_j - x_i`` (length / time**2).
+
+    Notes
+    -----
+    Branch-free: a zero ``r2`` (the particle itself, or a coincident one without softening,
+    where ``d = 0`` exactly) is replaced by 1, so its term is exactly ``0``. Compiled with
+    ``fastmath={"reassoc", "contract"}`` so that the three sums vectorise.
+    """
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for b in range(xm.shape[0]):
+        dx = xm[b] - xi
+        dy = ym[b] - yi
+        dz = zm[b] - zi
+        r2 = dx * dx + dy * dy + dz * dz + soft2
+        r2 += 1.0 if r2 == 0.0 else 0.0
+        s = gmm[b] / (r2 * math.sqrt(r2))
+        ax += dx * s
+        ay += dy * s
+        az += dz * s
+    return ax, ay, az
+
+
 @kernel
-def gravity_serial(x, m, G, soft2, massive, acc):
-    """Accelerations by direct summation, serial, pairwise (Newton's third law).
+def pack_massive(x, m, G, massive, work):
+    """Copy the massive particles into ``work[0:4, :N_massive]`` as ``x, y, z, G m``; return
+    ``N_massive``."""
+    nm = massive.shape[0]
+    for b in range(nm):
+        j = massive[b]
+        work[0, b] = x[j, 0]
+        work[1, b] = x[j, 1]
+        work[2, b] = x[j, 2]
+        work[3, b] = G * m[j]
+    return nm
+
+
+@kernel
+def gravity_serial(x, m, G, soft2, massive, acc, work):
+    """Accelerations by direct summation on one thread.
 
     Parameters
     ----------
     x : ndarray of float64, shape (N, 3)
         Positions (length).
     m : ndarray of float64, shape (N,)
-        Masses (mass); zero for test particles.
+        Masses (mass); zero for test particles (they feel the others and pull on nothing).
     G : float
         Gravitational constant (length**3 / (mass time**2)).
     soft2 : float
@@ -76,176 +132,48 @@ def gravity_serial(x, m, G, soft2, massive, acc):
         Indices of the particles with m > 0, ascending.
     acc : ndarray of float64, shape (N, 3)
         Overwritten with the accelerations (length / time**2).
+    work : ndarray of float64, shape (>= 4, >= N_massive)
+        Scratch (the massive particles as structure of arrays).
     """
-    n = x.shape[0]
-    nm = massive.shape[0]
-    for i in range(n):
-        acc[i, 0] = 0.0
-        acc[i, 1] = 0.0
-        acc[i, 2] = 0.0
-    # massive-massive pairs: row a adds its terms to every later partner, so each a_i still
-    # receives its terms in increasing j order (the canonical order)
-    for a in range(nm):
-        i = massive[a]
-        gmi = G * m[i]
-        xi = x[i, 0]
-        yi = x[i, 1]
-        zi = x[i, 2]
-        axi = acc[i, 0]
-        ayi = acc[i, 1]
-        azi = acc[i, 2]
-        for b in range(a + 1, nm):
-            j = massive[b]
-            dx = x[j, 0] - xi
-            dy = x[j, 1] - yi
-            dz = x[j, 2] - zi
-            r2 = dx * dx + dy * dy + dz * dz + soft2
-            if r2 > 0.0:
-                inv_r3 = 1.0 / (r2 * math.sqrt(r2))
-            else:
-                inv_r3 = 0.0  # coincident particles without softening: no force, like _row
-            sj = G * m[j] * inv_r3
-            si = gmi * inv_r3
-            axi += dx * sj
-            ayi += dy * sj
-            azi += dz * sj
-            acc[j, 0] += (-dx) * si
-            acc[j, 1] += (-dy) * si
-            acc[j, 2] += (-dz) * si
-        acc[i, 0] = axi
-        acc[i, 1] = ayi
-        acc[i, 2] = azi
-    # test particles: feel every massive particle, in increasing j order
-    if nm < n:
-        for i in range(n):
-            if m[i] != 0.0:
-                continue
-            xi = x[i, 0]
-            yi = x[i, 1]
-            zi = x[i, 2]
-            axi = 0.0
-            ayi = 0.0
-            azi = 0.0
-            for b in range(nm):
-                j = massive[b]
-                dx = x[j, 0] - xi
-                dy = x[j, 1] - yi
-                dz = x[j, 2] - zi
-                r2 = dx * dx + dy * dy + dz * dz + soft2
-                inv_r3 = 1.0 / (r2 * math.sqrt(r2)) if r2 > 0.0 else 0.0
-                sj = G * m[j] * inv_r3
-                axi += dx * sj
-                ayi += dy * sj
-                azi += dz * sj
-            acc[i, 0] = axi
-            acc[i, 1] = ayi
-            acc[i, 2] = azi
-
-
-@kernel
-def _row(nb, xj, yj, zj, gmj, soft2, bx, by, bz, bax, bay, baz):
-    # one source j on a block of targets i (zero-based views, branch-free: vectorises);
-    # r2 = 0 (the particle itself, or a coincident one without softening) adds exactly +0
-    for i in range(nb):
-        dx = xj - bx[i]
-        dy = yj - by[i]
-        dz = zj - bz[i]
-        r2 = dx * dx + dy * dy + dz * dz + soft2
-        s = gmj * (1.0 / (r2 * math.sqrt(r2))) if r2 > 0.0 else 0.0
-        bax[i] += dx * s
-        bay[i] += dy * s
-        baz[i] += dz * s
-
-
-@kernel
-def _block(lo, hi, xs, ys, zs, gm, soft2, massive, ax, ay, az):
-    bx = xs[lo:hi]
-    by = ys[lo:hi]
-    bz = zs[lo:hi]
-    bax = ax[lo:hi]
-    bay = ay[lo:hi]
-    baz = az[lo:hi]
-    nb = hi - lo
-    for i in range(nb):
-        bax[i] = 0.0
-        bay[i] = 0.0
-        baz[i] = 0.0
-    for b in range(massive.shape[0]):
-        j = massive[b]
-        _row(nb, xs[j], ys[j], zs[j], gm[j], soft2, bx, by, bz, bax, bay, baz)
+    nm = pack_massive(x, m, G, massive, work)
+    xm = work[0, :nm]
+    ym = work[1, :nm]
+    zm = work[2, :nm]
+    gmm = work[3, :nm]
+    for i in range(x.shape[0]):
+        ax, ay, az = row_acceleration(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
 
 
 @parallel_kernel
 def gravity_parallel(x, m, G, soft2, massive, acc, work):
-    """Accelerations by direct summation, blocks of particles spread over threads.
+    """:func:`gravity_serial` with the particles ``i`` spread over threads (``prange``).
 
-    Same arguments and the same bits as :func:`gravity_serial`; ``work`` is a scratch array of
-    shape (7, N). Each block of :data:`BLOCK` particles ``i`` loops over the massive ``j`` (outer)
-    and its own ``i`` (inner, contiguous structure-of-arrays, vectorisable), so blocks are
-    independent and the result does not depend on the number of threads.
+    Same arguments and the same bits as :func:`gravity_serial`, for any number of threads: each
+    row is summed by the same :func:`row_acceleration`.
     """
-    n = x.shape[0]
-    xs = work[0]
-    ys = work[1]
-    zs = work[2]
-    gm = work[3]
-    ax = work[4]
-    ay = work[5]
-    az = work[6]
-    for i in range(n):
-        xs[i] = x[i, 0]
-        ys[i] = x[i, 1]
-        zs[i] = x[i, 2]
-        gm[i] = G * m[i]
-    nblocks = (n + BLOCK - 1) // BLOCK
-    for k in prange(nblocks):
-        lo = k * BLOCK
-        hi = min(n, lo + BLOCK)
-        _block(lo, hi, xs, ys, zs, gm, soft2, massive, ax, ay, az)
-    for i in range(n):
-        acc[i, 0] = ax[i]
-        acc[i, 1] = ay[i]
-        acc[i, 2] = az[i]
-
-
-@kernel
-def gravity_blocked(x, m, G, soft2, massive, acc, work):
-    """:func:`gravity_parallel` on one thread without the thread pool (same bits)."""
-    n = x.shape[0]
-    xs = work[0]
-    ys = work[1]
-    zs = work[2]
-    gm = work[3]
-    ax = work[4]
-    ay = work[5]
-    az = work[6]
-    for i in range(n):
-        xs[i] = x[i, 0]
-        ys[i] = x[i, 1]
-        zs[i] = x[i, 2]
-        gm[i] = G * m[i]
-    nblocks = (n + BLOCK - 1) // BLOCK
-    for k in range(nblocks):
-        lo = k * BLOCK
-        hi = min(n, lo + BLOCK)
-        _block(lo, hi, xs, ys, zs, gm, soft2, massive, ax, ay, az)
-    for i in range(n):
-        acc[i, 0] = ax[i]
-        acc[i, 1] = ay[i]
-        acc[i, 2] = az[i]
+    nm = pack_massive(x, m, G, massive, work)
+    xm = work[0, :nm]
+    ym = work[1, :nm]
+    zm = work[2, :nm]
+    gmm = work[3, :nm]
+    for i in prange(x.shape[0]):
+        ax, ay, az = row_acceleration(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
 
 
 @kernel
 def gravity(x, m, G, soft2, massive, acc, work, parallel):
-    """Dispatch: :func:`gravity_parallel` when ``parallel``, else the vectorised
-    :func:`gravity_blocked` for N >= :data:`BLOCKED_MIN_N`, else the pairwise
-    :func:`gravity_serial`. All three give the same bits."""
+    """Dispatch: :func:`gravity_parallel` when ``parallel``, else :func:`gravity_serial`
+    (same bits)."""
     if parallel:
         gravity_parallel(x, m, G, soft2, massive, acc, work)
-    elif x.shape[0] >= BLOCKED_MIN_N:
-        gravity_blocked(x, m, G, soft2, massive, acc, work)
     else:
-        gravity_serial(x, m, G, soft2, massive, acc)
+        gravity_serial(x, m, G, soft2, massive, acc, work)
 
 
 @kernel

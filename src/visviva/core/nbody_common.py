@@ -17,7 +17,7 @@ and advances the state in place through every requested output time in ONE compi
 ``buf`` (K, N, 3)
     the integrator's own arrays (IAS15's b and e, WHFast's Jacobi state, ...).
 ``gwork`` (7, N)
-    scratch of the parallel gravity kernel.
+    scratch of the gravity kernels (rows 0-3: the massive particles as structure of arrays).
 ``force``, ``params``
     the additional force ``force(t, x, v, m, params, acc)`` (a first-class compiled function that
     ADDS to ``acc``) and its float64 parameter array.

@@ -288,6 +288,14 @@ def test_every_exported_tle_is_accepted_and_matches_sgp4(
     rec.sgp4init(WGS72, "i", satnum, epoch_days, bstar, 0.0, 0.0, ecc, argp, inc, mo,
                  rev_per_day * 2 * np.pi / 1440.0, raan)
     line1, line2 = export_tle(rec)
+    from sgp4.alpha5 import to_alpha5
+
+    if line1[2:7] != to_alpha5(satnum).rjust(5):
+        # sgp4's exporter writes 'I' and 'O' for 180000-189999 and 240000-249999, letters the
+        # alpha-5 scheme leaves out (J0000 = 180000): visviva rejects those lines, naming the field
+        with pytest.raises(TLEFormatError, match="catalogue number"):
+            vv.Satellite.from_tle(line1, line2)
+        return
     sat = vv.Satellite.from_tle(line1, line2)
     assert sat.satnum == satnum
     ref = Satrec.twoline2rv(line1, line2, WGS72)
@@ -323,3 +331,10 @@ def test_any_changed_digit_is_caught(which, col, digit):
     lines[which] = lines[which][:col] + str(digit) + lines[which][col + 1 :]
     with pytest.raises(TLEFormatError, match=f"TLE line {which + 1}"):
         vv.Satellite.from_tle(*lines)
+
+
+def test_alpha5_letters_i_and_o_are_rejected_with_the_field_named():
+    line1 = "1 I0000U          99103.00000000  .00000000  00000-0  00000+0 0    04"
+    line2 = "2 I0000   0.0000   0.0000 0000000   0.0000   0.0000  1.00000000    00"
+    with pytest.raises(TLEFormatError, match="catalogue number"):
+        vv.Satellite.from_tle(line1, line2)

@@ -11,6 +11,7 @@ import argparse
 import time
 
 import numpy as np
+from _output import figure_path
 
 import visviva as vv
 
@@ -30,13 +31,16 @@ def energy_history(integrator: str, years: float, samples: int = 200):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--years", type=float, default=1000.0)
-    parser.add_argument("--plot", default=None, help="write the figure to this file")
+    parser.add_argument("--plot", default=str(figure_path("nbody_solar_system.png")),
+                        help="write the figure to this file")
     args = parser.parse_args(argv)
     results = {}
     for integrator in ("whfast", "ias15"):
         t, err, elapsed = energy_history(integrator, args.years)
         results[integrator] = (t, err)
         print(f"{integrator:7s} {args.years:g} yr in {elapsed:.2f} s: max |dE/E| = {err.max():.1e}")
+    assert results["whfast"][1].max() < 1e-7, "WHFast's energy error stays bounded"
+    assert results["ias15"][1].max() < 1e-13, "IAS15 stays at round-off"
     if args.plot:
         import matplotlib
 

@@ -118,8 +118,9 @@ def test_forward_then_backward_returns_home(name):
     sim.integrate(500.0)
     sim.integrate(0.0)
     assert sim.t == 0.0
-    assert np.abs(sim.positions - x0).max() < 1e-11
-    assert np.abs(sim.velocities - v0).max() < 1e-11
+    # 2,000 steps of round-off (the vectorised gravity sum is reassociated): ~1e-11 au, 1.5 m
+    assert np.abs(sim.positions - x0).max() < 5e-11
+    assert np.abs(sim.velocities - v0).max() < 5e-11
 
 
 @pytest.mark.parametrize("name", SYMPLECTIC)

@@ -253,3 +253,22 @@ def test_rebound_round_trip():
     np.testing.assert_array_equal(back.velocities, sim.velocities)
     np.testing.assert_array_equal(back.masses, sim.masses)
     assert back.integrator == "ias15"
+
+
+def test_add_by_elements_uses_the_elements_kernels():
+    from visviva.core.elements import coe_to_rv
+    from visviva.core.kepler import mean_to_true_anomaly
+    from visviva.errors import InvalidElementsError
+
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, M=1.2, primary=0)
+    nu, status = mean_to_true_anomaly(1.2, 0.3)
+    *state, status = coe_to_rv(1.5 * (1 - 0.3**2), 0.3, 0.4, 1.0, 2.0, nu, 1.001)
+    np.testing.assert_array_equal(sim.positions[1], state[:3])
+    np.testing.assert_array_equal(sim.velocities[1], state[3:])
+    # a true anomaly beyond the asymptote of a hyperbola is refused (no body reaches it)
+    with pytest.raises(InvalidElementsError, match="asymptote"):
+        sim.add(0.0, p=1.0, e=3.0, nu=2.0, primary=0)
+    with pytest.raises(vv.InvalidInputError, match="nu"):
+        sim.add(0.0, p=1.0, e=1.5, M=0.3, primary=0)

@@ -50,6 +50,8 @@ __all__ = [
 
 #: From this many particles on, the simulation uses the multi-threaded kernel by default.
 PARALLEL_MIN_N = 512
+#: Particles ``i`` per work item of the multi-threaded kernel.
+CHUNK = 64
 
 
 @kernel
@@ -115,6 +117,16 @@ def pack_massive(x, m, G, massive, work):
 
 
 @kernel
+def _rows(lo, hi, x, xm, ym, zm, gmm, soft2, acc):
+    # the accelerations of particles lo <= i < hi, one row kernel call each
+    for i in range(lo, hi):
+        ax, ay, az = row_acceleration(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
+
+
+@kernel
 def gravity_serial(x, m, G, soft2, massive, acc, work):
     """Accelerations by direct summation on one thread.
 
@@ -136,34 +148,22 @@ def gravity_serial(x, m, G, soft2, massive, acc, work):
         Scratch (the massive particles as structure of arrays).
     """
     nm = pack_massive(x, m, G, massive, work)
-    xm = work[0, :nm]
-    ym = work[1, :nm]
-    zm = work[2, :nm]
-    gmm = work[3, :nm]
-    for i in range(x.shape[0]):
-        ax, ay, az = row_acceleration(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
-        acc[i, 0] = ax
-        acc[i, 1] = ay
-        acc[i, 2] = az
+    _rows(0, x.shape[0], x, work[0, :nm], work[1, :nm], work[2, :nm], work[3, :nm], soft2, acc)
 
 
 @parallel_kernel
 def gravity_parallel(x, m, G, soft2, massive, acc, work):
-    """:func:`gravity_serial` with the particles ``i`` spread over threads (``prange``).
+    """:func:`gravity_serial` with chunks of :data:`CHUNK` particles ``i`` spread over threads.
 
     Same arguments and the same bits as :func:`gravity_serial`, for any number of threads: each
     row is summed by the same :func:`row_acceleration`.
     """
     nm = pack_massive(x, m, G, massive, work)
-    xm = work[0, :nm]
-    ym = work[1, :nm]
-    zm = work[2, :nm]
-    gmm = work[3, :nm]
-    for i in prange(x.shape[0]):
-        ax, ay, az = row_acceleration(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
-        acc[i, 0] = ax
-        acc[i, 1] = ay
-        acc[i, 2] = az
+    n = x.shape[0]
+    for k in prange((n + CHUNK - 1) // CHUNK):
+        lo = k * CHUNK
+        _rows(lo, min(n, lo + CHUNK), x, work[0, :nm], work[1, :nm], work[2, :nm], work[3, :nm],
+              soft2, acc)
 
 
 @kernel

@@ -103,7 +103,7 @@ INTEGRATORS: dict[str, Integrator] = {
     "ias15": Integrator(
         "ias15", "visviva.core.nbody_ias15", "ias15_run",
         symplectic=False, adaptive=True, velocity_dependent_forces=True, time_reversible=False,
-        needs_dt=False, order=15, description="15th-order Gauss-Radau, adaptive (Rein & Spiegel 2015)",
+        needs_dt=False, order=15, description="15th-order Gauss-Radau, adaptive (Rein & Spiegel 2015; PRS23 step control)",
     ),
     "whfast": Integrator(
         "whfast", "visviva.core.nbody_whfast", "whfast_run",

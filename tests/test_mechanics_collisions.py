@@ -33,8 +33,8 @@ def test_collisions_conserve_momentum_and_obey_restitution(m1, v1, m2, v2, e):
     k1 = 0.5 * m1 * a**2 + 0.5 * m2 * b**2
     mu = m1 * m2 / (m1 + m2)
     assert k0 - k1 == pytest.approx(
-        0.5 * (1 - e**2) * mu * (v1 - v2) ** 2, rel=1e-9, abs=1e-12 * k0
-    )
+        0.5 * (1 - e**2) * mu * (v1 - v2) ** 2, rel=1e-9, abs=1e-12 * k0 + 1e-300
+    )  # + 1e-300: energies in the subnormal range (v ~ 1e-159) have few significant bits
 
 
 @settings(max_examples=100, deadline=None)

@@ -29,7 +29,7 @@ import numpy as np
 from astropy import units as u
 
 from ._units import to_array, to_quantity, to_vector
-from .errors import DomainError, InvalidInputError, UnitsError
+from .errors import DomainError, InvalidInputError, ShapeError, UnitsError
 
 __all__ = [
     "vis_viva",
@@ -60,6 +60,47 @@ def _positive(arr, name):
 
 def _gm(gm):
     return _positive(to_array(gm, "gm", "gm"), "gm")
+
+
+def _broadcast(context, **arrays):
+    """Raise ShapeError unless the arrays broadcast together (vectors: pass their leading shape)."""
+    try:
+        return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
+        raise ShapeError(
+            f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of one "
+            "shape, or scalars."
+        ) from None
+
+
+def _finite_result(arr, context):
+    """Raise DomainError if a result overflowed (or underflowed into a division by zero)."""
+    if not np.all(np.isfinite(arr)):
+        raise DomainError(
+            f"{context}: the result is not representable in float64 (|x| > 1.8e308): the inputs "
+            "are too extreme in magnitude. Rescale them (other units, or G = M = 1)."
+        )
+    return arr
+
+
+def _real(value, name):
+    """A finite Python float from a plain number (for callables built from parameters)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be a real number; got {value!r}.") from exc
+    if not math.isfinite(x):
+        raise InvalidInputError(f"{name} must be finite; got {x!r}.")
+    return x
+
+
+def _callable(fn, name):
+    if not callable(fn):
+        raise InvalidInputError(
+            f"{name} must be a callable, e.g. kepler_potential(gm) or lambda r: -1.0 / r; got "
+            f"{type(fn).__name__}."
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -107,13 +148,17 @@ def vis_viva(r, a, gm):
     if np.any(a == 0):
         raise InvalidInputError("a = 0 is not an orbit; a is inf for a parabola, < 0 for hyperbolas.")
     gm = _gm(gm)
-    v2_over_gm = 2.0 / r - 1.0 / a
+    _broadcast("vis_viva", r=r, a=a, gm=gm)
+    with np.errstate(over="ignore", divide="ignore"):
+        v2_over_gm = 2.0 / r - 1.0 / a
     if np.any(v2_over_gm < 0):
         raise DomainError(
             "r lies beyond the apoapsis 2a of this ellipse (2/r < 1/a), where the orbit never "
             "goes; check that r <= a (1 + e) <= 2a."
         )
-    return to_quantity(np.sqrt(gm * v2_over_gm), "speed")
+    with np.errstate(over="ignore", invalid="ignore"):
+        v = np.sqrt(gm * v2_over_gm)
+    return to_quantity(_finite_result(v, "vis_viva"), "speed")
 
 
 def circular_speed(r, gm):
@@ -127,7 +172,11 @@ def circular_speed(r, gm):
         Gravitational parameter.
     """
     r = _positive(to_array(r, "length", "r"), "r")
-    return to_quantity(np.sqrt(_gm(gm) / r), "speed")
+    gm = _gm(gm)
+    _broadcast("circular_speed", r=r, gm=gm)
+    with np.errstate(over="ignore"):
+        v = np.sqrt(gm / r)
+    return to_quantity(_finite_result(v, "circular_speed"), "speed")
 
 
 def escape_speed(r, gm):
@@ -148,7 +197,11 @@ def escape_speed(r, gm):
     11.180 km / s
     """
     r = _positive(to_array(r, "length", "r"), "r")
-    return to_quantity(np.sqrt(2.0 * _gm(gm) / r), "speed")
+    gm = _gm(gm)
+    _broadcast("escape_speed", r=r, gm=gm)
+    with np.errstate(over="ignore"):
+        v = np.sqrt(2.0 * gm / r)
+    return to_quantity(_finite_result(v, "escape_speed"), "speed")
 
 
 def orbital_period(a, gm):
@@ -174,7 +227,11 @@ def orbital_period(a, gm):
             "orbital_period needs a > 0: parabolic and hyperbolic orbits (a = inf or a < 0) are "
             "open and have no period."
         )
-    return to_quantity(2.0 * np.pi * np.sqrt(a**3 / _gm(gm)), "time")
+    gm = _gm(gm)
+    _broadcast("orbital_period", a=a, gm=gm)
+    with np.errstate(over="ignore"):
+        period = 2.0 * np.pi * a * np.sqrt(a / gm)  # a sqrt(a): no overflow of a**3
+    return to_quantity(_finite_result(period, "orbital_period"), "time")
 
 
 def mean_motion(a, gm):
@@ -191,7 +248,11 @@ def mean_motion(a, gm):
     a = to_array(a, "length", "a")
     if np.any(a == 0):
         raise InvalidInputError("a must be non-zero.")
-    return np.sqrt(_gm(gm) / np.abs(a) ** 3) * (u.rad / u.s)
+    gm = _gm(gm)
+    _broadcast("mean_motion", a=a, gm=gm)
+    with np.errstate(over="ignore", divide="ignore", under="ignore"):
+        n = np.sqrt(gm / np.abs(a)) / np.abs(a)  # no overflow/underflow of |a|**3
+    return _finite_result(n, "mean_motion") * (u.rad / u.s)
 
 
 def semi_major_axis_from_period(period, gm):
@@ -212,7 +273,12 @@ def semi_major_axis_from_period(period, gm):
     42164.2 km
     """
     period = _positive(to_array(period, "time", "period"), "period")
-    return to_quantity(np.cbrt(_gm(gm) * (period / (2.0 * np.pi)) ** 2), "length")
+    gm = _gm(gm)
+    _broadcast("semi_major_axis_from_period", period=period, gm=gm)
+    with np.errstate(over="ignore"):
+        # cbrt(gm) cbrt(T/2pi)^2: no overflow of gm T^2 for large T
+        a = np.cbrt(gm) * np.cbrt(period / (2.0 * np.pi)) ** 2
+    return to_quantity(_finite_result(a, "semi_major_axis_from_period"), "length")
 
 
 def apsides(a, ecc):
@@ -232,14 +298,19 @@ def apsides(a, ecc):
     """
     a = to_array(a, "length", "a")
     ecc = to_array(ecc, "dimensionless", "ecc")
+    _broadcast("apsides", a=a, ecc=ecc)
     if np.any(ecc < 0):
         raise InvalidInputError("ecc must be >= 0.")
     if np.any(ecc == 1):
         raise DomainError("a is infinite on the parabola: give p and use r_p = p / 2.")
     if np.any((ecc < 1) != (a > 0)):
         raise InvalidInputError("a must be > 0 for e < 1 and < 0 for e > 1.")
-    r_p = a * (1.0 - ecc)
-    r_a = np.where(ecc < 1, a * (1.0 + ecc), np.inf)
+    with np.errstate(over="ignore"):
+        r_p = a * (1.0 - ecc)
+        r_a_ellipse = a * (1.0 + ecc)
+    _finite_result(r_p, "apsides")
+    _finite_result(np.where(ecc < 1, r_a_ellipse, 0.0), "apsides")
+    r_a = np.where(ecc < 1, r_a_ellipse, np.inf)  # documented: inf for hyperbolas
     return to_quantity(r_p, "length"), to_quantity(r_a, "length")
 
 
@@ -257,7 +328,11 @@ def specific_energy(r, v, gm):
     """
     r = _positive(to_array(r, "length", "r"), "r")
     v = to_array(v, "speed", "v")
-    return to_quantity(0.5 * v * v - _gm(gm) / r, "spec_energy")
+    gm = _gm(gm)
+    _broadcast("specific_energy", r=r, v=v, gm=gm)
+    with np.errstate(over="ignore", invalid="ignore"):
+        energy = 0.5 * v * v - gm / r
+    return to_quantity(_finite_result(energy, "specific_energy"), "spec_energy")
 
 
 def specific_angular_momentum(r, v):
@@ -270,8 +345,12 @@ def specific_angular_momentum(r, v):
     v : Quantity, speed, shape (..., 3)
         Velocity vectors.
     """
-    return to_quantity(np.cross(to_vector(r, "length", "r"), to_vector(v, "speed", "v")),
-                       "spec_angmom")
+    r = to_vector(r, "length", "r")
+    v = to_vector(v, "speed", "v")
+    _broadcast("specific_angular_momentum", r=r[..., 0], v=v[..., 0])
+    with np.errstate(over="ignore", invalid="ignore"):
+        h = np.cross(r, v)
+    return to_quantity(_finite_result(h, "specific_angular_momentum"), "spec_angmom")
 
 
 def areal_velocity(r, v):
@@ -287,7 +366,9 @@ def areal_velocity(r, v):
         Velocity vectors.
     """
     h = specific_angular_momentum(r, v)
-    return 0.5 * np.linalg.norm(h.value, axis=-1) * h.unit
+    with np.errstate(over="ignore"):
+        rate = 0.5 * np.linalg.norm(h.value, axis=-1)
+    return _finite_result(rate, "areal_velocity") * h.unit
 
 
 # --------------------------------------------------------------------------------------------
@@ -306,7 +387,7 @@ def kepler_potential(gm):
     if isinstance(gm, u.Quantity) or hasattr(gm, "gm"):
         gm_q = to_quantity(_gm(gm), "gm")
         return lambda r: -gm_q / r
-    gm = float(gm)
+    gm = _real(gm, "gm")
     if not gm > 0:
         raise InvalidInputError("gm must be > 0.")
     return lambda r: -gm / r
@@ -325,7 +406,7 @@ def power_law_force(k, n):
     n : float
         Exponent.
     """
-    k, n = float(k), float(n)
+    k, n = _real(k, "k"), _real(n, "n")
     return lambda r: -k * r**n
 
 
@@ -370,15 +451,22 @@ def effective_potential(r, h, potential):
     >>> print(effective_potential(1.0, 1.0, kepler_potential(1.0)))  # minimum of V_eff at r = h^2/mu
     -0.5
     """
+    _callable(potential, "potential")
     if _split_units(r, h):
         r_km = _positive(to_array(r, "length", "r"), "r")
         h_c = to_array(h, "spec_angmom", "h")
         V = to_array(potential(to_quantity(r_km, "length")), "spec_energy", "potential(r)")
-        return to_quantity(h_c**2 / (2.0 * r_km**2) + V, "spec_energy")
+        _broadcast("effective_potential", r=r_km, h=h_c, V=V)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            out = h_c**2 / (2.0 * r_km**2) + V
+        return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
     V = to_array(potential(r), "length", "potential(r)", allow_plain=True)
-    out = h**2 / (2.0 * r**2) + V
+    _broadcast("effective_potential", r=r, h=h, V=V)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        out = h**2 / (2.0 * r**2) + V
+    _finite_result(out, "effective_potential")
     return out if out.ndim else float(out)
 
 
@@ -407,6 +495,9 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
     """
     from scipy.optimize import brentq, minimize_scalar
 
+    _callable(potential, "potential")
+    if isinstance(n_grid, bool) or not isinstance(n_grid, int | np.integer) or n_grid < 2:
+        raise InvalidInputError(f"n_grid must be an integer >= 2; got {n_grid!r}.")
     quantity = isinstance(energy, u.Quantity)
     if quantity:
         E = float(to_array(energy, "spec_energy", "energy"))
@@ -417,8 +508,10 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
             r = to_quantity(np.asarray(r, dtype=float), "length")
             return to_array(effective_potential(r, h_q, potential), "spec_energy", "V_eff") - E
     else:
-        E = float(energy)
-        lo, hi = float(r_min), float(r_max)
+        E = _real(energy, "energy")
+        lo, hi = float(to_array(r_min, "length", "r_min", allow_plain=True, finite=False)), float(
+            to_array(r_max, "length", "r_max", allow_plain=True, finite=False)
+        )
 
         def f(r):
             return np.asarray(effective_potential(np.asarray(r, dtype=float), h, potential)) - E
@@ -463,7 +556,7 @@ def bertrand_apsidal_angle(n):
     n : float
         Exponent of the force law.
     """
-    n = np.asarray(n, dtype=float)
+    n = to_array(n, "dimensionless", "n")
     if np.any(n <= -3):
         raise DomainError("circular orbits are unstable for n <= -3: there is no apsidal angle.")
     return np.pi / np.sqrt(n + 3.0)
@@ -499,7 +592,9 @@ class BinetOrbit:
         if self.apsis_theta.size < 2:
             raise DomainError(
                 "fewer than two apsides were found: integrate further (larger theta_max), or the "
-                "orbit is circular or unbound."
+                "orbit is circular to the integration tolerance (r constant: apsides undefined; "
+                "for the apsidal angle of nearly circular orbits use bertrand_apsidal_angle) or "
+                "unbound."
             )
         return float(np.mean(np.diff(self.apsis_theta)))
 
@@ -563,25 +658,57 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     """
     from scipy.integrate import solve_ivp
 
+    _callable(force, "force")
     quantity = _split_units(r0, h)
+
+    def scalar(value, kind, name, allow_plain):
+        arr = to_array(value, kind, name, allow_plain=allow_plain)
+        if arr.ndim != 0:
+            raise ShapeError(
+                f"orbit_equation integrates one orbit: {name} must be a scalar; got shape "
+                f"{arr.shape}. Call it once per orbit."
+            )
+        return float(arr)
+
     if quantity:
-        r0 = float(to_array(r0, "length", "r0"))
-        h = float(to_array(h, "spec_angmom", "h"))
-        dr_dtheta0 = float(to_array(dr_dtheta0, "length", "dr_dtheta0", allow_plain=dr_dtheta0 == 0))
+        r0 = scalar(r0, "length", "r0", False)
+        h = scalar(h, "spec_angmom", "h", False)
+        plain_zero = not isinstance(dr_dtheta0, u.Quantity) and np.all(np.asarray(dr_dtheta0) == 0)
+        dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", plain_zero)
     else:
-        r0, h, dr_dtheta0 = float(r0), float(h), float(dr_dtheta0)
+        r0 = scalar(r0, "length", "r0", True)
+        h = scalar(h, "length", "h", True)
+        dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", True)
     for name, val in (("r0", r0), ("h", h)):
-        if not (math.isfinite(val) and val > 0):
+        if not val > 0:
             raise InvalidInputError(f"{name} must be finite and > 0; got {val!r}.")
+    theta_max = float(to_array(theta_max, "angle", "theta_max", finite=False))
     if not (math.isfinite(theta_max) and theta_max > 0):
         raise InvalidInputError("theta_max must be finite and > 0 (rad).")
+    if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or n_points < 2:
+        raise InvalidInputError(f"n_points must be an integer >= 2; got {n_points!r}.")
+    if not (isinstance(rtol, float | int) and math.isfinite(rtol) and 0 < rtol < 1):
+        raise InvalidInputError(f"rtol must be a float in (0, 1); got {rtol!r}.")
     h2 = h * h
 
     def rhs(_theta, y):
         uu, du = y
         if uu <= 0:
             return [du, 0.0]
-        return [du, -uu - force(1.0 / uu) / (h2 * uu * uu)]
+        F = force(1.0 / uu)
+        try:
+            F = float(F)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                "force(r) must return one float (the radial force per unit mass, in km/s2 when "
+                f"the inputs are Quantities); got {F!r}."
+            ) from exc
+        if not math.isfinite(F):
+            raise InvalidInputError(
+                f"force(r) returned {F!r} at r = {1.0 / uu!r}: the force must be finite along "
+                "the orbit. Check the force law (and its units)."
+            )
+        return [du, -uu - F / (h2 * uu * uu)]
 
     def apsis(_theta, y):
         return y[1]
@@ -607,5 +734,9 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     # an apsis exactly at theta = 0 (dr/dtheta0 = 0) is not reported as an event: add it
     if du0 == 0.0:
         apsis_theta = np.concatenate([[0.0], apsis_theta[apsis_theta > 0]])
+    # a circular orbit (r constant to the integration tolerance) has no apsides: the events
+    # found are zero crossings of rounding noise in du/dtheta, at meaningless angles
+    if np.ptp(u_s) <= 1e3 * rtol * np.max(u_s):
+        apsis_theta = np.empty(0)
     apsis_r = 1.0 / sol.sol(apsis_theta)[0] if apsis_theta.size else np.empty(0)
     return BinetOrbit(theta=sol.t, r=1.0 / u_s, apsis_theta=apsis_theta, apsis_r=apsis_r, h=h)

@@ -99,6 +99,26 @@ class Inputs:
             )
         return arr
 
+    def broadcast(self, context: str, **arrays) -> tuple:
+        """The common shape of ``arrays``; :class:`ShapeError` if they do not broadcast."""
+        try:
+            return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
+        except ValueError:
+            shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
+            raise ShapeError(
+                f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of "
+                "one shape, or scalars."
+            ) from None
+
+    def finite(self, arr, context: str):
+        """Return ``arr``; :class:`DomainError` if the computation overflowed to inf/NaN."""
+        if not np.all(np.isfinite(arr)):
+            raise DomainError(
+                f"{context}: the result overflows float64 (|x| > 1.8e308): the inputs are too "
+                "extreme in magnitude. Rescale them (e.g. other units)."
+            )
+        return arr
+
     def out(self, arr, unit: str):
         """Return ``arr`` as an SI Quantity if any input was a Quantity, else as an ndarray/float."""
         arr = np.asarray(arr, dtype=np.float64)
@@ -114,8 +134,10 @@ def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     arr = ins.get(value, unit, name)
     if arr.ndim == 0:
         arr = arr.reshape(1, 1)
-    if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
-        raise ShapeError(f"{name} must be a square (n, n) matrix; got shape {arr.shape}.")
+    if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or arr.shape[0] == 0:
+        raise ShapeError(
+            f"{name} must be a square (n, n) matrix with n >= 1; got shape {arr.shape}."
+        )
     scale = max(np.max(np.abs(arr)), np.finfo(float).tiny)
     if np.max(np.abs(arr - arr.T)) > 1e-10 * scale:
         raise InvalidInputError(

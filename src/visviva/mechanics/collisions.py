@@ -75,11 +75,19 @@ def inelastic_collision_1d(m1, v1, m2, v2, restitution, *, explosive: bool = Fal
     v1 = ins.get(v1, "speed", "v1")
     v2 = ins.get(v2, "speed", "v2")
     e = _restitution(restitution, explosive, ins)
-    total = m1 + m2
-    v_cm = (m1 / total) * v1 + (m2 / total) * v2
-    u = v1 - v2
-    return ins.out(v_cm - e * (m2 / total) * u, "speed"), ins.out(
-        v_cm + e * (m1 / total) * u, "speed"
+    ins.broadcast("inelastic_collision_1d", m1=m1, v1=v1, m2=m2, v2=v2, restitution=e)
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = m1 + m2
+        w1, w2 = m1 / total, m2 / total
+        if not np.all(np.isfinite(total)):  # m1 + m2 overflowed
+            w1 = 1.0 / (1.0 + m2 / m1)
+            w2 = 1.0 / (1.0 + m1 / m2)
+        # v1' = v_cm - e w2 (v1 - v2) = (w1 - e w2) v1 + (1 + e) w2 v2 (and symmetrically):
+        # coefficients of size <= 2, so no intermediate overflow for |v| up to ~1e308
+        v1_after = (w1 - e * w2) * v1 + ((1.0 + e) * w2) * v2
+        v2_after = ((1.0 + e) * w1) * v1 + (w2 - e * w1) * v2
+    return ins.out(ins.finite(v1_after, "inelastic_collision_1d"), "speed"), ins.out(
+        ins.finite(v2_after, "inelastic_collision_1d"), "speed"
     )
 
 
@@ -137,13 +145,17 @@ def explosive_separation_1d(m1, v1, m2, v2, energy_released):
     v1 = ins.get(v1, "speed", "v1")
     v2 = ins.get(v2, "speed", "v2")
     Q = ins.get(energy_released, "energy", "energy_released", nonnegative=True)
+    ins.broadcast("explosive_separation_1d", m1=m1, v1=v1, m2=m2, v2=v2, energy_released=Q)
     total = m1 + m2
     mu = m1 * m2 / total
     v_cm = (m1 / total) * v1 + (m2 / total) * v2
     u = v1 - v2
-    u_after = -np.sqrt(u * u + 2.0 * Q / mu)
-    return ins.out(v_cm + (m2 / total) * u_after, "speed"), ins.out(
-        v_cm - (m1 / total) * u_after, "speed"
+    with np.errstate(over="ignore", invalid="ignore"):
+        u_after = -np.sqrt(u * u + 2.0 * Q / mu)
+        v1_after = v_cm + (m2 / total) * u_after
+        v2_after = v_cm - (m1 / total) * u_after
+    return ins.out(ins.finite(v1_after, "explosive_separation_1d"), "speed"), ins.out(
+        ins.finite(v2_after, "explosive_separation_1d"), "speed"
     )
 
 
@@ -192,14 +204,20 @@ def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = 
     v1 = ins.vector(v1, "speed", "v1")
     v2 = ins.vector(v2, "speed", "v2")
     e = _restitution(restitution, explosive, ins)
+    ins.broadcast(
+        "collision_impulse", m1=m1, m2=m2, r1=r1[..., 0], r2=r2[..., 0], v1=v1[..., 0],
+        v2=v2[..., 0], restitution=e,
+    )
     d = r2 - r1
-    dist = np.linalg.norm(d, axis=-1, keepdims=True)
-    if np.any(dist == 0):
+    # scale before the norm: |d| ~ 1e-300 must not underflow to "coincident"
+    scale = np.max(np.abs(d), axis=-1, keepdims=True)
+    if np.any(scale == 0):
         raise InvalidStateError(
             "collision_impulse: r1 and r2 coincide, so the line of centres is undefined. Pass "
             "the centres at the moment of contact (|r2 - r1| = sum of radii)."
         )
-    n = d / dist
+    d = d / scale
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
     m1 = np.asarray(m1)[..., None]
     m2 = np.asarray(m2)[..., None]
     e = np.asarray(e)[..., None]
@@ -207,7 +225,10 @@ def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = 
     approach = np.sum((v1 - v2) * n, axis=-1, keepdims=True)
     j = np.where(approach > 0, (1.0 + e) * mu * approach, 0.0)
     J = j * n
-    return ins.out(J, "impulse"), ins.out(v1 - J / m1, "speed"), ins.out(v2 + J / m2, "speed")
+    v1_after, v2_after = v1 - J / m1, v2 + J / m2
+    for arr in (J, v1_after, v2_after):
+        ins.finite(arr, "collision_impulse")
+    return ins.out(J, "impulse"), ins.out(v1_after, "speed"), ins.out(v2_after, "speed")
 
 
 def kinetic_energy(m, v):

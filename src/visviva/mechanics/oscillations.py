@@ -76,18 +76,20 @@ def _propagator(omega0, gamma, t):
         c, s, wd2 = _propagator_raw(omega0, gamma, t)
     if not (np.all(np.isfinite(c)) and np.all(np.isfinite(s))):
         raise DomainError(
-            "the oscillator's solution overflows float64 at these times (|gamma t| or "
-            "|omega t| beyond ~700, reachable only for t < 0 with damping): integrate over a "
-            "shorter time span."
+            "the oscillator's solution overflows float64 at these times (e^{-gamma t} beyond "
+            "1e308, reachable only for t < 0 with damping, or inputs of extreme magnitude): "
+            "integrate over a shorter time span or rescale the inputs."
         )
     return c, s, wd2
 
 
 def _propagator_raw(omega0, gamma, t):
     omega0, gamma, t = np.broadcast_arrays(omega0, gamma, t)
-    # w_d^2 = (w0 - g)(w0 + g): no cancellation as gamma -> omega0
+    # w_d^2 = (w0 - g)(w0 + g): no cancellation as gamma -> omega0. |w_d| is formed as
+    # sqrt|w0 - g| sqrt(w0 + g) and z2 = +-(|w_d| t)^2, so huge omega0 or gamma do not overflow
     wd2 = (omega0 - gamma) * (omega0 + gamma)
-    z2 = wd2 * t * t
+    root = np.sqrt(np.abs(omega0 - gamma)) * np.sqrt(omega0 + gamma)
+    z2 = np.copysign((root * t) ** 2, omega0 - gamma)
     c = np.empty(z2.shape)
     s = np.empty(z2.shape)
     small = np.abs(z2) < 1.0
@@ -97,7 +99,7 @@ def _propagator_raw(omega0, gamma, t):
     c[small] = damp * _series(_C_SERIES, z2[small])
     s[small] = damp * t[small] * _series(_S_SERIES, z2[small])
     if np.any(under):
-        wd = np.sqrt(wd2[under])
+        wd = root[under]
         tu = t[under]
         damp = np.exp(-gamma[under] * tu)
         c[under] = damp * np.cos(wd * tu)
@@ -105,10 +107,10 @@ def _propagator_raw(omega0, gamma, t):
     if np.any(over):
         # e^{-g t} cosh(w t) = (e^{-(g-w) t} + e^{-(g+w) t}) / 2, with g - w = w0^2 / (g + w):
         # no overflow for large t and no cancellation for g >> w0.
-        w = np.sqrt(-wd2[over])
+        w = root[over]
         to = t[over]
         g = gamma[over]
-        slow = np.exp(-(omega0[over] ** 2 / (g + w)) * to)
+        slow = np.exp(-(omega0[over] * (omega0[over] / (g + w))) * to)
         fast = np.exp(-(g + w) * to)
         c[over] = 0.5 * (slow + fast)
         s[over] = 0.5 * (slow - fast) / w
@@ -122,6 +124,7 @@ def _oscillator_inputs(x0, v0, omega0, gamma, t):
     omega0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
     gamma = ins.get(gamma, "rate", "gamma", nonnegative=True)
     t = ins.get(t, "s", "t")
+    ins.broadcast("damped oscillator", x0=x0, v0=v0, omega0=omega0, gamma=gamma, t=t)
     return ins, x0, v0, omega0, gamma, t
 
 
@@ -174,7 +177,9 @@ def damped_oscillator(x0, v0, omega0, gamma, t):
     """
     ins, x0, v0, omega0, gamma, t = _oscillator_inputs(x0, v0, omega0, gamma, t)
     c, s, _ = _propagator(omega0, gamma, t)
-    return ins.out(x0 * c + (v0 + gamma * x0) * s, "m")
+    with np.errstate(over="ignore", invalid="ignore"):
+        x = x0 * c + (v0 + gamma * x0) * s
+    return ins.out(ins.finite(x, "damped_oscillator"), "m")
 
 
 def damped_oscillator_velocity(x0, v0, omega0, gamma, t):
@@ -188,7 +193,9 @@ def damped_oscillator_velocity(x0, v0, omega0, gamma, t):
     """
     ins, x0, v0, omega0, gamma, t = _oscillator_inputs(x0, v0, omega0, gamma, t)
     c, s, _ = _propagator(omega0, gamma, t)
-    return ins.out(v0 * c - (omega0**2 * x0 + gamma * v0) * s, "speed")
+    with np.errstate(over="ignore", invalid="ignore"):
+        v = v0 * c - (omega0 * (omega0 * x0) + gamma * v0) * s
+    return ins.out(ins.finite(v, "damped_oscillator_velocity"), "speed")
 
 
 def damping_regime(omega0, gamma) -> str:
@@ -273,13 +280,27 @@ def driven_oscillator(x0, v0, omega0, gamma, f0, omega, t):
     """Full motion of x'' + 2 gamma x' + omega0^2 x = f0 cos(omega t), from x0, v0 at t = 0.
 
     Parameters are those of :func:`damped_oscillator` plus ``f0`` [m/s^2] and the driving
-    frequency ``omega`` [1/s]. Returns x(t) [m].
+    frequency ``omega`` [1/s]. Returns x(t) [m]. Every regime works, including undamped driving
+    exactly at resonance (the amplitude then grows linearly, x = f0 t sin(omega0 t) / (2 omega0)
+    from rest).
 
     Notes
     -----
-    x = A cos(omega t - delta) + transient, where the transient is :func:`damped_oscillator`
-    started from x0 - A cos(delta) and v0 - A omega sin(delta), so that the initial conditions
-    hold exactly (Taylor 2005, sec. 5.5). Needs a steady state (see :func:`driven_response`).
+    x = (free motion from x0, v0, :func:`damped_oscillator`) + f0 x_f(t), where x_f is the
+    response from rest to cos(omega t) (Taylor 2005, sec. 5.5). With the roots lambda_1, lambda_2
+    of z^2 + 2 gamma z + omega0^2 and lambda = i omega, the response from rest to e^{lambda t} is
+    the divided difference of z -> e^{z t} at (lambda, lambda_1, lambda_2) (residues of the
+    Laplace transform), evaluated as
+
+        x_f = Re[(e[lambda, lambda_1] - e[lambda_1, lambda_2]) / (lambda - lambda_2)],
+
+    with lambda_1 the root nearest lambda; e[lambda_1, lambda_2] is the propagator
+    e^{-gamma t} sin(w_d t) / w_d of :func:`damped_oscillator` and e[lambda, lambda_1] uses expm1
+    when (lambda - lambda_1) t is small. Near resonance this avoids the cancellation between the
+    steady state A cos(omega t - delta), whose amplitude diverges, and the transient (which lost
+    up to 12 digits at omega - omega0 = 1e-12 omega0). When all three nodes times t lie within
+    the unit disc, the Taylor series sum_k h_k(lambda t, lambda_1 t, lambda_2 t) t^2 / (k + 2)!
+    (h_k the complete homogeneous symmetric polynomials) is used instead.
     """
     ins = Inputs()
     x0 = ins.get(x0, "m", "x0")
@@ -289,13 +310,91 @@ def driven_oscillator(x0, v0, omega0, gamma, f0, omega, t):
     f0 = ins.get(f0, "accel", "f0")
     w = ins.get(omega, "rate", "omega", nonnegative=True)
     t = ins.get(t, "s", "t")
-    A, delta = driven_response(w, w0, g, f0)
-    A = np.asarray(A)
-    xs0 = A * np.cos(delta)
-    vs0 = A * w * np.sin(delta)
+    _broadcast("driven_oscillator", x0=x0, v0=v0, omega0=w0, gamma=g, f0=f0, omega=w, t=t)
     c, s, _ = _propagator(w0, g, t)
-    transient = (x0 - xs0) * c + ((v0 - vs0) + g * (x0 - xs0)) * s
-    return ins.out(A * np.cos(w * t - delta) + transient, "m")
+    with np.errstate(over="ignore", invalid="ignore"):
+        x = x0 * c + (v0 + g * x0) * s + f0 * _forced_from_rest(w0, g, w, t, s)
+    if not np.all(np.isfinite(x)):
+        raise DomainError(
+            "driven_oscillator: the solution overflows float64 at these times (reachable only "
+            "for t < 0 with damping, or for extreme f0): use a shorter time span."
+        )
+    return ins.out(x, "m")
+
+
+_DD_TERMS = 30  # Taylor terms of the divided-difference series (all |node t| <= ~1.5)
+_DD_FACT = [1.0 / math.factorial(k + 2) for k in range(_DD_TERMS)]
+
+
+def _expm1_complex(z):
+    """e^z - 1 for complex z without cancellation: expm1(x) cos y - 2 sin^2(y/2) + i e^x sin y."""
+    x, y = z.real, z.imag
+    return (np.expm1(x) * np.cos(y) - 2.0 * np.sin(0.5 * y) ** 2) + 1j * (np.exp(x) * np.sin(y))
+
+
+def _cdiv(a, b):
+    """a / b for complex arrays, scaled so that |b| near the underflow threshold stays exact."""
+    scale = np.maximum(np.abs(b.real), np.abs(b.imag))
+    scale = np.where(scale > 0, scale, 1.0)
+    a = np.asarray(a, dtype=complex)
+    b = np.asarray(b, dtype=complex)
+    # scale the parts as reals: complex / real would be promoted to a complex division again
+    a_n = (a.real / scale) + 1j * (a.imag / scale)
+    b_n = (b.real / scale) + 1j * (b.imag / scale)
+    return a_n / b_n
+
+
+def _forced_from_rest(omega0, gamma, omega, t, s):
+    """Response x_f(t) to cos(omega t) from x = x' = 0 (see :func:`driven_oscillator`).
+
+    ``s`` is the propagator e[lambda_1, lambda_2] from :func:`_propagator` (same broadcast).
+    """
+    omega0, gamma, omega, t = np.broadcast_arrays(omega0, gamma, omega, t)
+    wd2 = (omega0 - gamma) * (omega0 + gamma)
+    under = wd2 >= 0
+    root = np.sqrt(np.abs(wd2))  # w_d (under-damped) or w (over-damped)
+    lam = 1j * omega
+    # lambda_1: the root nearest i omega; lambda_2 the other one
+    lam1 = np.where(under, -gamma + 1j * root, -omega0 * (omega0 / np.where(under, 1.0, gamma + root)))
+    lam2 = np.where(under, -gamma - 1j * root, -(gamma + root) + 0j)
+    z = (lam - lam1) * t
+    small = np.abs(z) <= 1.0
+    e_lam1 = np.exp(lam1 * t)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi1 = np.where(z == 0, 1.0 + 0j, _cdiv(_expm1_complex(z), np.where(z == 0, 1.0, z)))
+        direct = _cdiv(np.exp(lam * t) - e_lam1, np.where(small, 1.0, lam - lam1))
+    dd1 = np.where(small, e_lam1 * t * phi1, direct)
+    d2 = lam - lam2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pair = _cdiv(dd1 - s, np.where(d2 == 0, 1.0, d2))
+    series_mask = np.abs(d2 * t) < 1.0
+    out = pair
+    if np.any(series_mask):
+        a, b, cc, tt = (x[series_mask] for x in (lam * t, lam1 * t, lam2 * t, t))
+        ha = np.ones_like(a)
+        hab = np.ones_like(a)
+        habc = np.ones_like(a)
+        total = habc * _DD_FACT[0]
+        for k in range(1, _DD_TERMS):
+            ha = ha * a
+            hab = ha + b * hab
+            habc = hab + cc * habc
+            total = total + habc * _DD_FACT[k]
+        out = np.array(pair, copy=True)
+        out[series_mask] = total * tt * tt
+    return np.real(out)
+
+
+def _broadcast(context, **arrays):
+    """Raise ShapeError unless the arrays broadcast together."""
+    try:
+        return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
+        raise ShapeError(
+            f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of one "
+            "shape, or scalars."
+        ) from None
 
 
 def normal_modes(M, K):

@@ -89,9 +89,10 @@ def inertia_tensor(masses, positions, origin=None):
         )
     if origin is not None:
         r = r - ins.vector(origin, "m", "origin")
-    r2 = np.einsum("i,ij,ij->", m, r, r)
-    I = r2 * np.eye(3) - np.einsum("i,ij,ik->jk", m, r, r)
-    return ins.out(0.5 * (I + I.T), "inertia")
+    with np.errstate(over="ignore", invalid="ignore"):
+        r2 = np.einsum("i,ij,ij->", m, r, r)
+        I = r2 * np.eye(3) - np.einsum("i,ij,ik->jk", m, r, r)
+    return ins.out(ins.finite(0.5 * (I + I.T), "inertia_tensor"), "inertia")
 
 
 def _solid(values, names, ins):
@@ -235,6 +236,7 @@ def rotation_matrix_313(phi, theta, psi):
     phi = ins.get(phi, "rad", "phi")
     theta = ins.get(theta, "rad", "theta")
     psi = ins.get(psi, "rad", "psi")
+    ins.broadcast("rotation_matrix_313", phi=phi, theta=theta, psi=psi)
     phi, theta, psi = np.broadcast_arrays(phi, theta, psi)
     c1, s1 = np.cos(phi), np.sin(phi)
     c2, s2 = np.cos(theta), np.sin(theta)
@@ -464,7 +466,21 @@ def integrate_rigid_body(
     elif isinstance(attitude0, Rotation):
         q0 = attitude0.as_quat()
     else:
-        q0 = Rotation.from_matrix(np.asarray(attitude0, dtype=float)).as_quat()
+        R0 = ins.get(attitude0, "one", "attitude0")
+        if R0.shape != (3, 3):
+            raise ShapeError(f"attitude0 must be a (3, 3) rotation matrix; got shape {R0.shape}.")
+        if not (np.allclose(R0 @ R0.T, np.eye(3), atol=1e-9) and np.linalg.det(R0) > 0):
+            raise InvalidInputError(
+                "attitude0 must be a proper rotation matrix (R R^T = I, det R = +1 to 1e-9); "
+                "build it with rotation_matrix_313(phi, theta, psi) or pass a scipy Rotation."
+            )
+        q0 = Rotation.from_matrix(R0).as_quat()
+    _methods = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+    if method not in _methods:
+        raise InvalidInputError(f"method must be one of {_methods}; got {method!r}.")
+    for name, tol in (("rtol", rtol), ("atol", atol)):
+        if not (isinstance(tol, float | int) and np.isfinite(tol) and tol > 0):
+            raise InvalidInputError(f"{name} must be a finite float > 0; got {tol!r}.")
     I_inv = np.linalg.inv(Ib)
 
     def rhs(time, y):

@@ -683,3 +683,7 @@ def test_simulation_integrate_bad_times(integrator):
     s.integrate(1.0)
     s.integrate(0.5)  # backwards is allowed
     assert_finite(s.positions, s.velocities, s.energy())
+
+
+def test_central_force_module_reachable_as_attribute():
+    assert vv.central_force.circular_speed is cf.circular_speed

@@ -95,7 +95,7 @@ _PUBLIC = {
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

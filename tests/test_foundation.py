@@ -75,3 +75,10 @@ def test_time_deltas_are_times():
     assert _units.to_array(TimeDelta(1.5, format="jd"), "time", "dt") == 1.5 * 86400.0
     dt = _units.to_array(TimeDelta([1.0, 2.0] * u.min), "time", "dt")
     np.testing.assert_allclose(dt, [60.0, 120.0], rtol=1e-15)
+
+
+def test_complex_input_is_refused_not_truncated():
+    with pytest.raises(vv.InvalidInputError, match="complex"):
+        _units.to_vector(np.array([7000 + 1j, 0, 0]) * u.km, "length", "r")
+    with pytest.raises(vv.InvalidInputError, match="complex"):
+        _units.to_array(0.5 + 0j, "angle", "inc")

@@ -98,6 +98,11 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
         value = value.gm
     if kind == "time" and type(value).__name__ == "TimeDelta":  # astropy.time.TimeDelta
         value = value.to(u.s)
+    if np.iscomplexobj(getattr(value, "value", value)):
+        raise InvalidInputError(
+            f"{name} is complex; visviva works with real numbers. Pass the real part explicitly "
+            f"(np.real) if that is what you mean."
+        )
     if isinstance(value, u.Quantity):
         try:
             arr = value.to_value(unit)

@@ -61,6 +61,8 @@ F_T0 = 9  #: fixed-step integrators: time origin, t = t0 + k |dt| (no accumulate
 F_DT_REF = 10  #: the |dt| that origin was set with (0 forces a new origin)
 F_WH_H = 11  #: WHFast: the signed step its unsynchronised internal state was built with
 F_T_INT = 12  #: IAS15: time of the internal state (outputs are reached on copies)
+F_DT_FLOOR = 13  #: IAS15: the step floor that was hit (set with STEP_TOO_SMALL)
+F_DT_FAILED = 14  #: IAS15: the proposed step that fell below it
 N_FSTATE = 32
 
 I_NOUT = 0  #: outputs written in this run

@@ -51,6 +51,8 @@ import numpy as np
 from ._jit import kernel
 from .nbody_common import (
     F_DT,
+    F_DT_FAILED,
+    F_DT_FLOOR,
     F_DT_LAST,
     F_ENCOUNTER,
     F_EPSILON,
@@ -78,7 +80,7 @@ from .nbody_common import (
 )
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
-__all__ = ["ias15_run", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS"]
+__all__ = ["ias15_run", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
 
 #: Gauss-Radau spacings on [0, 1] (h0 = 0 and the 7 roots; Everhart 1985, table 1).
 H = np.array(
@@ -119,6 +121,9 @@ for _n in range(8):
 
 SAFETY = 0.25
 MAX_ITERATIONS = 12
+#: Relative step floor: a proposed step below ``DT_FLOOR_REL * max(|t|, time span of the run)``
+#: raises ``STEP_TOO_SMALL`` (the run would need more than ~1e15 steps, or ``t + dt == t``).
+DT_FLOOR_REL = 1e-15
 
 # slots of buf (each (N, 3))
 _B = 0
@@ -392,11 +397,12 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
 
 @kernel
 def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, target,
-             direction, mode, events):
+             direction, mode, events, span):
     """Adaptive steps of the internal state towards ``target``.
 
     ``mode`` 0: stop before a step would pass ``target``; 1: land exactly on it (the last step
-    shortened); 2: stop at the first step at or past it. Returns a status code.
+    shortened); 2: stop at the first step at or past it. ``span`` is the time span of the run
+    (for the relative step floor :data:`DT_FLOOR_REL`). Returns a status code.
     """
     n = xi.shape[0]
     while True:
@@ -423,8 +429,16 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
         )
         if status != OK:
             return status
-        if abs(dt_new) < fstate[F_MIN_DT] or dt_new == 0.0:
-            return STEP_TOO_SMALL
+        # the step floor: min_dt, and a relative floor (below it the run could never finish,
+        # or t + dt == t; a singular configuration such as coincident particles ends here
+        # instead of looping forever). Not checked after a step shortened to land on target.
+        if not (accepted and last and mode == 1):
+            # (the relative floor only while the step shrinks: a tiny first guess may grow)
+            floor = DT_FLOOR_REL * max(abs(t), span) if abs(dt_new) < abs(dt) else 0.0
+            if abs(dt_new) < fstate[F_MIN_DT] or abs(dt_new) < floor or dt_new == 0.0:
+                fstate[F_DT_FLOOR] = max(fstate[F_MIN_DT], floor)
+                fstate[F_DT_FAILED] = dt_new
+                return STEP_TOO_SMALL
         if not accepted:
             istate[I_REJECTED] += 1
             fstate[F_DT] = dt_new
@@ -512,13 +526,14 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
         istate[I_FRESH] = 0
         istate[I_INT_VALID] = 1
     direction = run_direction(fstate[F_T_INT], t_out)
+    span = abs(t_out[t_out.shape[0] - 1] - fstate[F_T_INT]) if t_out.shape[0] > 0 else 0.0
     fsave = fstate.copy()
     isave = istate.copy()
     for k in range(istate[I_NOUT], t_out.shape[0]):
         target = t_out[k]
         mode = 0 if exact else 2
         status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params,
-                          target, direction, mode, events)
+                          target, direction, mode, events, span)
         if status != OK:
             _expose(xi, vi, x, v)
             fstate[F_T] = fstate[F_T_INT]
@@ -534,7 +549,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 isave[q] = istate[q]
             istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
             status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
-                              params, target, direction, 1, False)
+                              params, target, direction, 1, False, span)
             _expose(xi, vi, x, v)
             _backup(buf, True)
             for q in range(fstate.shape[0]):

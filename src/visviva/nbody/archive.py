@@ -145,9 +145,29 @@ def _check_format(data, fmt, version, path):
 
 def load_simulation(cls, path, forces=None):
     """Read a simulation written by :func:`save_simulation`."""
-    with np.load(os.fspath(path), allow_pickle=False) as data:
+    data = _open_npz(path)
+    with data:
         _check_format(data, FORMAT, FORMAT_VERSION, path)
         return _build(cls, lambda k: data[k] if k in data else None, forces)
+
+
+def _open_npz(path):
+    """``np.load`` of an archive, with a typed error for a file that is not one."""
+    try:
+        data = np.load(os.fspath(path), allow_pickle=False)
+    except FileNotFoundError:
+        raise
+    except (ValueError, OSError, EOFError) as exc:
+        raise InvalidInputError(
+            f"{path!r} is not a visviva simulation file (numpy .npz written by Simulation.save or "
+            f"Archive.record): {exc}. Pass the path of such a file."
+        ) from exc
+    if not hasattr(data, "files"):
+        raise InvalidInputError(
+            f"{path!r} is a single numpy array, not a visviva simulation file (.npz written by "
+            "Simulation.save or Archive.record)."
+        )
+    return data
 
 
 class Archive:
@@ -175,7 +195,7 @@ class Archive:
         self._snapshots: list[dict] = []
         self._times: list[float] = []
         if os.path.exists(self.path):
-            with np.load(self.path, allow_pickle=False) as data:
+            with _open_npz(self.path) as data:
                 _check_format(data, ARCHIVE_FORMAT, ARCHIVE_VERSION, self.path)
                 n = int(data["count"])
                 keys = [k for k in data.files if k.startswith("s")]

@@ -47,6 +47,10 @@ def to_rebound(sim):
 
 def from_rebound(cls, rsim, integrator=None):
     """A visviva :class:`Simulation` from a ``rebound.Simulation``."""
+    if not all(hasattr(rsim, a) for a in ("particles", "G", "integrator", "t", "dt")):
+        raise InvalidInputError(
+            f"from_rebound expects a rebound.Simulation; got {type(rsim).__name__} {rsim!r:.80}."
+        )
     name = integrator or str(rsim.integrator)
     if name not in ("leapfrog", "whfast", "ias15"):
         raise InvalidInputError(

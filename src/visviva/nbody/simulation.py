@@ -20,7 +20,9 @@ from ..core import status as _st
 from ..errors import (
     Collision,
     InvalidInputError,
+    InvalidStateError,
     ShapeError,
+    StepSizeError,
     raise_for_status,
 )
 from . import forces as _forces
@@ -33,6 +35,44 @@ __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
 COLLISION_MODES = ("none", "halt", "merge", "bounce")
 
 _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
+
+
+def _scalar(arr, name) -> float:
+    """A single float from a converted value, or a ShapeError saying what to pass."""
+    arr = np.asarray(arr)
+    if arr.size != 1:
+        raise ShapeError(f"{name} must be a single number; got an array of shape {arr.shape}.")
+    return float(arr.reshape(()))
+
+
+def _positive_float(value, name, hint) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.") from exc
+    if not (math.isfinite(x) and x > 0):
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.")
+    return x
+
+
+def coincident_pairs(x, m, soft2, limit: int = 3) -> list:
+    """Pairs ``(i, j)`` of particles at exactly the same position where at least one is massive
+    and there is no softening (the point-mass force is infinite there); at most ``limit``."""
+    if soft2 > 0 or x.shape[0] < 2:
+        return []
+    _, first, inverse = np.unique(x, axis=0, return_index=True, return_inverse=True)
+    inverse = np.asarray(inverse).reshape(-1)
+    pairs = []
+    if len(first) == x.shape[0]:
+        return pairs
+    for g in np.flatnonzero(np.bincount(inverse) > 1):
+        idx = np.flatnonzero(inverse == g)
+        if np.count_nonzero(m[idx]) == 0:
+            continue  # test particles only: they do not attract each other
+        pairs.append((int(idx[0]), int(idx[1])))
+        if len(pairs) >= limit:
+            break
+    return pairs
 
 
 @dataclass
@@ -164,8 +204,8 @@ class Simulation:
         if not (math.isfinite(G_value) and G_value > 0):
             raise InvalidInputError(f"G must be a finite number > 0; got {G!r}.")
         self._fstate[_nc.F_G] = G_value
-        self._fstate[_nc.F_EPSILON] = float(epsilon)
-        self._fstate[_nc.F_MIN_DT] = float(min_dt)
+        self.epsilon = epsilon
+        self.min_dt = min_dt
         self.softening = softening
         self.dt = 0.0 if dt is None else dt
         self.collision = collision
@@ -205,7 +245,7 @@ class Simulation:
 
     @t.setter
     def t(self, value) -> None:
-        self._fstate[_nc.F_T] = self._time(value, "t")
+        self._fstate[_nc.F_T] = _scalar(self._time(value, "t"), "t")
         self._fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
 
     @property
@@ -220,7 +260,7 @@ class Simulation:
 
     @dt.setter
     def dt(self, value) -> None:
-        dt = float(self._time(value, "dt"))
+        dt = _scalar(self._time(value, "dt"), "dt")
         if not math.isfinite(dt):
             raise InvalidInputError(f"dt must be finite; got {dt!r}.")
         self._fstate[_nc.F_DT] = dt
@@ -242,7 +282,20 @@ class Simulation:
 
     @epsilon.setter
     def epsilon(self, value) -> None:
-        self._fstate[_nc.F_EPSILON] = float(value)
+        eps = _positive_float(value, "epsilon", "(IAS15's accuracy parameter; e.g. 1e-9)")
+        self._fstate[_nc.F_EPSILON] = eps
+
+    @property
+    def min_dt(self) -> float:
+        """Smallest step IAS15 may take (0: only the relative floor applies)."""
+        return float(self._fstate[_nc.F_MIN_DT])
+
+    @min_dt.setter
+    def min_dt(self, value) -> None:
+        dt = _scalar(self._time(value, "min_dt"), "min_dt")
+        if not (math.isfinite(dt) and dt >= 0):
+            raise InvalidInputError(f"min_dt must be a finite number >= 0; got {value!r}.")
+        self._fstate[_nc.F_MIN_DT] = dt
 
     @property
     def collision(self) -> str:
@@ -275,7 +328,9 @@ class Simulation:
 
     @encounter_distance.setter
     def encounter_distance(self, value) -> None:
-        self._fstate[_nc.F_ENCOUNTER] = 0.0 if value is None else self._length(value, "distance")
+        self._fstate[_nc.F_ENCOUNTER] = (
+            0.0 if value is None else self._distance(value, "encounter_distance", allow_zero=True)
+        )
 
     @property
     def exit_max_distance(self):
@@ -284,7 +339,19 @@ class Simulation:
 
     @exit_max_distance.setter
     def exit_max_distance(self, value) -> None:
-        self._fstate[_nc.F_EXIT] = 0.0 if value is None else self._length(value, "distance")
+        self._fstate[_nc.F_EXIT] = (
+            0.0 if value is None else self._distance(value, "exit_max_distance", allow_zero=False)
+        )
+
+    def _distance(self, value, name, allow_zero):
+        d = self._length(value, name)
+        if not (d > 0 or (allow_zero and d == 0)):
+            bound = ">= 0" if allow_zero else "> 0"
+            raise InvalidInputError(
+                f"{name} must be a distance {bound} (or None to switch the check off); "
+                f"got {value!r}."
+            )
+        return d
 
     @property
     def corrector(self) -> int:
@@ -337,13 +404,19 @@ class Simulation:
                     "units=('au', 'yr', 'Msun') (any length, time, mass), or pass plain floats."
                 )
             return getattr(self.units, f"{kind}_value")(value, name)
-        arr = np.array(value, dtype=np.float64)
+        try:
+            arr = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                f"{name} must be a number or an array of numbers (simulation units, or a Quantity "
+                f"when the simulation has units); got {value!r}."
+            ) from exc
         if not np.all(np.isfinite(arr)):
             raise InvalidInputError(f"{name} contains NaN or infinite values.")
         return arr
 
     def _length(self, value, name):
-        return float(self._convert(value, "length", name))
+        return _scalar(self._convert(value, "length", name), name)
 
     def _time(self, value, name):
         return self._convert(value, "time", name)
@@ -420,7 +493,7 @@ class Simulation:
         int
             The index of the new particle.
         """
-        m_val = float(self._convert(m, "mass", "m"))
+        m_val = _scalar(self._convert(m, "mass", "m"), "m")
         if not m_val >= 0:
             raise InvalidInputError(f"mass must be >= 0; got {m!r}.")
         if a is not None or p is not None:
@@ -607,6 +680,7 @@ class Simulation:
             raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
         if self.N == 0:
             raise InvalidInputError("the simulation has no particles: add some with sim.add(...).")
+        self._check_not_coincident("integrate")
         steps = np.diff(np.concatenate([[self.t], times]))
         if not (np.all(steps >= 0) or np.all(steps <= 0)):
             raise InvalidInputError(
@@ -667,6 +741,14 @@ class Simulation:
                     bar.n = abs(self.t - t_start)
                     bar.refresh()
                 if status == _st.OK:
+                    if not (np.all(np.isfinite(self._x)) and np.all(np.isfinite(self._v))):
+                        self._check_not_coincident(f"{info.name} integration")
+                        raise InvalidStateError(
+                            f"the {info.name} integration produced NaN or infinite positions or "
+                            f"velocities (by t = {self.t!r}): a force overflowed or was singular. "
+                            "Check the additional forces, use a smaller dt, softening > 0, or "
+                            "collision detection (radius=..., collision='merge')."
+                        )
                     break
                 if status == _nc.PAUSED:
                     continue
@@ -690,6 +772,17 @@ class Simulation:
             return None
         return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
 
+    def _check_not_coincident(self, what):
+        """Raise InvalidStateError when massive particles share a position without softening."""
+        pairs = coincident_pairs(self._x, self._m, self._fstate[_nc.F_SOFT2])
+        if pairs:
+            raise InvalidStateError(
+                f"{what}: particles {pairs[0]} are at exactly the same position "
+                f"{self._x[pairs[0][0]].tolist()} at t = {self.t!r}, where the point-mass "
+                "gravity (and the potential energy) is infinite. To fix: separate them, set "
+                "softening > 0, or give them radii with collision='merge'."
+            )
+
     def _gwork(self):
         w = getattr(self, "_gwork_arr", None)
         if w is None or w.shape[1] != self.N:
@@ -706,6 +799,21 @@ class Simulation:
             parts = (a,) if b < 0 else (a, b)
             raise cls(f"{what} at t = {self.t!r}: particles {parts}. The simulation stopped "
                       "there and can be continued.", t=self.t, particles=parts)
+        if status == _st.STEP_TOO_SMALL:
+            self._check_not_coincident(f"{self.integrator} integration")
+            floor = float(self._fstate[_nc.F_DT_FLOOR])
+            failed = float(self._fstate[_nc.F_DT_FAILED])
+            detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
+            raise StepSizeError(
+                f"{self.integrator} integration stopped at t = {self.t!r}: the adaptive step fell "
+                f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "
+                "span): the run could not finish. Particles are probably (nearly) colliding or a "
+                "force is singular. To fix: give the particles radii and collision='merge' or "
+                "'bounce' (or 'halt'), set softening > 0, separate the particles, or integrate a "
+                "shorter span."
+            )
+        if status == _st.NON_FINITE:
+            self._check_not_coincident(f"{self.integrator} integration")
         raise_for_status(np.array([status]), f"{self.integrator} integration to t")
 
     # ---- diagnostics -----------------------------------------------------------------------------
@@ -715,6 +823,7 @@ class Simulation:
         With ``include_offset`` the energy removed by mergers and inelastic bounces
         (``energy_offset``) is added back, so that the sum stays constant.
         """
+        self._check_not_coincident("energy")
         E = float(_gravity.energy(self._x, self._v, self._m, self.G, self._fstate[_nc.F_SOFT2]))
         return E + (self.energy_offset if include_offset else 0.0)
 

@@ -121,4 +121,13 @@ def solar_system(epoch=None, *, integrator="whfast", dt=None, pluto=False, units
 
 
 def _jd(epoch):
-    return float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)
+    try:
+        jd = float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(
+            f"epoch must be an astropy Time (e.g. Time('2025-01-01', scale='tdb')) or a TDB "
+            f"Julian date; got {epoch!r}."
+        ) from exc
+    if not np.isfinite(jd):
+        raise InvalidInputError(f"epoch must be a finite Julian date; got {epoch!r}.")
+    return jd

@@ -1,0 +1,146 @@
+"""Robustness of the N-body API: singular configurations, step floors and bad input raise typed
+errors (never a hang, a silent NaN/-inf, or a raw numpy/Python exception)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import visviva as vv
+from visviva.errors import InvalidInputError, InvalidStateError, ShapeError, StepSizeError
+
+
+def _pair(dx, integrator="ias15", **kw):
+    s = vv.Simulation(integrator, **kw)
+    s.add(1.0, [0, 0, 0], [0, 0, 0])
+    s.add(1.0, [dx, 0, 0], [0, 0, 0])
+    return s
+
+
+# ---- #8: IAS15 never loops forever -----------------------------------------------------------
+def test_ias15_near_coincident_pair_raises_step_size_error():
+    s = _pair(1e-12)
+    with pytest.raises(StepSizeError, match="softening|collision"):
+        s.integrate(1.0)
+    assert s.t < 1e-15  # stopped where the step collapsed, and can be inspected
+
+
+def test_ias15_tight_binary_over_long_span_raises_instead_of_1e18_steps():
+    s = vv.Simulation()
+    s.add(1.0, [0, 0, 0], [0, 0, 0])
+    s.add(1.0, [1e-12, 1e-14, 0], [0, 0, 0])
+    with pytest.raises(StepSizeError):
+        s.integrate(1.0)
+
+
+def test_ias15_min_dt_still_honoured_and_softening_avoids_the_floor():
+    with pytest.raises(StepSizeError):
+        _pair(1e-3, min_dt=1e-3).integrate(1.0)
+    # (rs15: PRS23's criterion collapses when every acceleration passes through zero at once,
+    # as in this symmetric head-on pass through a softened core)
+    s = _pair(1e-12, softening=1e-3, adaptive_mode="rs15")
+    s.integrate(0.01)
+    assert np.all(np.isfinite(s.positions))
+    assert math.isclose(s.t, 0.01)
+
+
+def test_ias15_close_but_finite_flyby_is_unaffected():
+    s = vv.Simulation()
+    s.add(1.0)
+    s.add(1e-3, [1e-4, -2.0, 0], [0, 1.5, 0])
+    E0 = s.energy()
+    s.integrate(4.0)  # periapsis ~1e-8: thousands of steps, no StepSizeError
+    assert abs((s.energy() - E0) / E0) < 1e-4
+    assert s.steps_done < 10_000
+
+
+def test_ias15_tiny_first_guess_may_grow():
+    s = vv.Simulation(dt=1e-30)
+    s.add(1.0)
+    s.add(1e-3, [1.0, 0, 0], [0, 1.0, 0])
+    s.integrate(2 * math.pi)
+    assert np.allclose(s.positions[1], [1.0, 0, 0], atol=0.05)
+
+
+# ---- #7: coincident massive particles ---------------------------------------------------------
+@pytest.mark.parametrize("integrator", ["ias15", "leapfrog", "whfast"])
+def test_coincident_massive_particles_raise_invalid_state(integrator):
+    s = _pair(0.0, integrator, dt=0.01)
+    with pytest.raises(InvalidStateError, match="same position.*softening"):
+        s.integrate(1.0)
+    with pytest.raises(InvalidStateError, match="separate"):
+        s.energy()
+
+
+def test_coincident_test_particles_and_softened_pairs_are_fine():
+    s = vv.Simulation(softening=0.1)
+    s.add(1.0)
+    s.add(1.0)
+    assert math.isfinite(s.energy())
+    s.integrate(0.1)
+    t = vv.Simulation()
+    t.add(1.0)
+    t.add(0.0, [1, 0, 0], [0, 1, 0])
+    t.add(0.0, [1, 0, 0], [0, 1, 0])
+    t.integrate(1.0)
+    assert np.allclose(t.positions[1], t.positions[2])
+
+
+def test_leapfrog_non_finite_state_raises():
+
+    s = vv.Simulation("leapfrog", dt=0.1)
+    s.add(1.0)
+    s.add(1e-3, [1.0, 0, 0], [0, 1.7e308, 0])  # the drift overflows to inf, gravity to NaN
+    with pytest.raises(InvalidStateError, match="NaN or infinite"):
+        s.integrate(100.0)
+
+
+# ---- #13: raw exceptions become typed errors --------------------------------------------------
+def test_bad_values_raise_typed_errors(tmp_path):
+    s = _pair(1.0)
+    with pytest.raises(InvalidInputError, match="number"):
+        s.integrate("x")
+    with pytest.raises(InvalidInputError, match="number"):
+        s.add(1, "abc", [0, 0, 0])
+    with pytest.raises(ShapeError, match="single number"):
+        s.add([1.0, 2.0], [0, 0, 0], [0, 0, 0])
+    with pytest.raises(InvalidInputError, match="rebound.Simulation"):
+        vv.Simulation.from_rebound("x")
+    with pytest.raises(InvalidInputError, match="astropy Time"):
+        vv.solar_system(epoch="yesterday")
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"this is not a simulation")
+    with pytest.raises(InvalidInputError, match="not a visviva simulation file"):
+        vv.Simulation.load(junk)
+    arr = tmp_path / "arr.npy"
+    np.save(arr, np.zeros(3))
+    with pytest.raises(InvalidInputError, match="single numpy array"):
+        vv.Simulation.load(arr)
+
+
+# ---- #17: constructor arguments --------------------------------------------------------------
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"epsilon": float("nan")},
+        {"epsilon": -1.0},
+        {"epsilon": 0.0},
+        {"epsilon": "big"},
+        {"min_dt": -1.0},
+        {"min_dt": float("nan")},
+        {"encounter_distance": -1.0},
+        {"exit_max_distance": 0.0},
+        {"exit_max_distance": -5.0},
+    ],
+)
+def test_bad_constructor_arguments(kw):
+    with pytest.raises(InvalidInputError):
+        vv.Simulation(**kw)
+
+
+def test_good_constructor_arguments_round_trip():
+    s = vv.Simulation(epsilon=1e-8, min_dt=1e-9, encounter_distance=0.0, exit_max_distance=10.0)
+    assert s.epsilon == 1e-8 and s.min_dt == 1e-9
+    assert s.encounter_distance is None and s.exit_max_distance == 10.0

@@ -304,3 +304,30 @@ def test_open_and_highly_eccentric_orbits_match_kepler(ecc):
     scale = np.linalg.norm(kepler.r.to_value(u.km), axis=-1)
     err = np.linalg.norm((out.r - kepler.r).to_value(u.km), axis=-1)
     assert np.all(err < 1e-11 * scale * 100 + ONE_MM)
+
+
+# --- robustness regressions (ROBUSTNESS_BUGS #9, #16) ---------------------------------------
+
+
+def test_empty_times_and_single_perturbation():
+    state = leo()
+    with pytest.raises(InvalidInputError, match="at least one output time"):
+        propagate_cowell(state, np.zeros(0) * u.s)
+    t = [0.0, 600.0] * u.s
+    single = propagate_cowell(state, t, vv.J2(vv.EARTH))
+    listed = propagate_cowell(state, t, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((single.r - listed.r).to_value(u.km)) == 0.0
+    with pytest.raises(InvalidInputError, match="list of perturbations"):
+        propagate_cowell(state, t, 3.0)
+
+
+def test_step_budget_exhausted_says_so():
+    state = leo()
+    with pytest.raises(vv.StepSizeError, match="step budget.*raise max_steps"):
+        propagate_cowell(state, [0.0, 1e5] * u.s, max_steps=10)
+    batch = vv.StateVectors(np.tile(state.r, (2, 1)), np.tile(state.v, (2, 1)), vv.EARTH)
+    with pytest.raises(vv.StepSizeError, match="step budget"):
+        propagate_cowell(batch, [0.0, 1e5] * u.s, max_steps=10)
+    for bad in (0, -5, 2.5):
+        with pytest.raises(InvalidInputError, match="max_steps must be an integer > 0"):
+            propagate_cowell(state, 100 * u.s, max_steps=bad)

@@ -169,3 +169,59 @@ def test_bad_inputs():
         vv.lambert(r1, r2, 3000 * u.s, GM, 1, branch="middle")
     with pytest.raises(InvalidInputError, match="revolutions"):
         vv.lambert(r1, r2, 3000 * u.s, GM, -1)
+
+
+# --- robustness regressions (ROBUSTNESS_BUGS #11, #20, #22) ---------------------------------
+
+
+def test_lambert_shapes_that_do_not_broadcast_raise_shape_error():
+    with pytest.raises(vv.ShapeError, match="do not broadcast"):
+        vv.lambert(np.ones((2, 3)) * 7e3 * u.km, np.ones((3, 3)) * 8e3 * u.km, 3000 * u.s, GM)
+
+
+def test_lambert_prograde_must_be_a_bool():
+    with pytest.raises(InvalidInputError, match="prograde must be True or False"):
+        vv.lambert([7000.0, 0, 0] * u.km, [0, 7000.0, 0] * u.km, 3000 * u.s, GM, prograde="no")
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+@pytest.mark.parametrize("scale", [1e-200, 1e-30, 1e30, 1e200])
+def test_lambert_is_scale_free_at_extreme_magnitudes(method, scale):
+    # r -> s r, tof -> s^(3/2) tof  =>  v -> v / sqrt(s): the same transfer in other units
+    r1 = np.array([5000.0, 10000.0, 2100.0])
+    r2 = np.array([-14600.0, 2500.0, 7000.0])
+    v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, 3600 * u.s, GM, method=method)
+    w1, w2 = vv.lambert(
+        r1 * scale * u.km, r2 * scale * u.km, 3600 * scale**1.5 * u.s, GM, method=method
+    )
+    np.testing.assert_allclose(w1.to_value(KMS) * np.sqrt(scale), v1.to_value(KMS), rtol=1e-9)
+    np.testing.assert_allclose(w2.to_value(KMS) * np.sqrt(scale), v2.to_value(KMS), rtol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+def test_lambert_extreme_inputs_get_the_right_message(method):
+    r1 = [7000.0, 0, 0] * u.km
+    r2 = [0, 7000.0, 0] * u.km
+    with pytest.raises(DomainError, match="too short"):
+        vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
+    with pytest.raises(DomainError, match="too short"):  # not "collinear"
+        vv.lambert([1e200, 0, 0] * u.km, [0, 1e200, 0] * u.km, 3000 * u.s, GM, method=method)
+    with pytest.raises(DomainError, match="too long"):  # not "zero length"
+        vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM, method=method)
+
+
+def test_lambert_long_zero_rev_transfer_agrees_between_methods():
+    # Householder used to stall at x = -1 for long M = 0 transfers and return the tof -> inf
+    # limit instead of the solution (1e-3 relative error at 1e5 time units)
+    r1 = np.array([7000.0, 1400.0, 700.0])
+    r2 = np.array([700.0, 3500.0, -1400.0])
+    time_unit = np.sqrt(7000.0**3 / MU_EARTH)
+    for tn in (3e4, 1e5):
+        tof = tn * time_unit * u.s
+        v_izzo, _ = vv.lambert(r1 * u.km, r2 * u.km, tof, GM)
+        v_univ, _ = vv.lambert(r1 * u.km, r2 * u.km, tof, GM, method="universal")
+        np.testing.assert_allclose(v_izzo.to_value(KMS), v_univ.to_value(KMS), rtol=1e-7)
+    # far beyond: the velocities tend to the limit of an infinitely long transfer
+    v_long, _ = vv.lambert(r1 * u.km, r2 * u.km, 1e12 * time_unit * u.s, GM)
+    v_longer, _ = vv.lambert(r1 * u.km, r2 * u.km, 1e15 * time_unit * u.s, GM)
+    np.testing.assert_allclose(v_long.to_value(KMS), v_longer.to_value(KMS), rtol=1e-6)

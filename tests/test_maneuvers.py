@@ -121,3 +121,12 @@ def test_porkchop_earth_mars_2005(tmp_path):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_maneuver_rejects_what_is_not_a_list_of_impulses():  # ROBUSTNESS_BUGS #14
+    with pytest.raises(InvalidInputError, match="a Maneuver takes"):
+        vv.Maneuver("x")
+    with pytest.raises(InvalidInputError, match="a Maneuver takes"):
+        vv.Maneuver([1, 2, 3])
+    single = vv.Maneuver([(0 * u.s, [0, 0.1, 0] * KMS)])
+    assert single.total_delta_v.to_value(KMS) == pytest.approx(0.1, rel=1e-15)

@@ -155,3 +155,31 @@ def test_frozen_eccentricity_value_and_cowell():
 def test_rates_reject_open_orbits():
     with pytest.raises(DomainError):
         j2_secular_rates(7000 * u.km, 1.2, 0.5)
+
+
+# --- robustness regressions (ROBUSTNESS_BUGS #12, #19, #22) ---------------------------------
+
+
+def test_propagate_j2_secular_accepts_state_vectors():
+    state = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 1.0] * u.km / u.s, EARTH)
+    from_state = vv.propagate_j2_secular(state, 100 * u.s)
+    from_elements = vv.propagate_j2_secular(state.to_elements(), 100 * u.s)
+    assert from_state.semi_major_axis.to_value(u.km) == pytest.approx(
+        from_elements.semi_major_axis.to_value(u.km), rel=1e-14
+    )
+    with pytest.raises(vv.InvalidInputError, match="KeplerianElements"):
+        vv.propagate_j2_secular("orbit", 100 * u.s)
+
+
+def test_propagate_j2_secular_on_open_orbit_says_closed_orbit():
+    v_esc = np.sqrt(2 * EARTH.gm_km3_s2 / 7000.0)
+    parabola = vv.StateVectors([7000.0, 0, 0] * u.km, [0, v_esc, 0] * u.km / u.s, EARTH)
+    with pytest.raises(DomainError, match="closed orbit"):
+        vv.propagate_j2_secular(parabola.to_elements(), 100 * u.s)
+
+
+def test_secular_domain_checks():
+    with pytest.raises(DomainError, match=r"\[0, pi\]"):
+        j2_secular_rates(7000 * u.km, 0.01, -1.0)
+    with pytest.raises(DomainError, match="below the surface"):
+        sun_synchronous_inclination(6000 * u.km)

@@ -122,9 +122,40 @@ def _householder(T, x0, lam, M):
         err = abs(xn - x)
         x = xn
         if err < 1e-14 * max(1.0, abs(x)):
-            return x, True
+            # tiny steps also happen when the iteration is pinned against x = -1: check T(x)
+            return x, abs(izzo_tof(x, lam, M) - T) <= 1e-9 * max(1.0, T)
     tof = izzo_tof(x, lam, M)
     return x, abs(tof - T) <= 1e-11 * max(1.0, T)
+
+
+@kernel
+def _bisect_zero_rev(T, lam):
+    """Solve T(x) = T for M = 0 by bisection (T decreases from inf at x = -1 to 0 at inf).
+
+    The fallback when Householder's iteration fails, which happens for very long times of
+    flight (x -> -1, where T ~ pi / (2 (1 + x))^(3/2)).
+    """
+    lo = -1.0
+    hi = 0.0
+    for _ in range(2100):
+        if izzo_tof(hi, lam, 0) <= T:
+            break
+        hi = 2.0 * hi + 1.0
+    x = 0.5 * (lo + hi)
+    for _ in range(2200):
+        x = 0.5 * (lo + hi)
+        if x <= lo or x >= hi:
+            break
+        if izzo_tof(x, lam, 0) > T:
+            lo = x
+        else:
+            hi = x
+    tof = izzo_tof(x, lam, 0)
+    # near x = -1 the spacing of doubles limits T(x) ~ (1 + x)^(-3/2) to a relative precision
+    # of ~1.5 eps / (1 + x); the velocities stay accurate (they are smooth in x there)
+    if not (x > -1.0 and math.isfinite(tof)):
+        return x, False
+    return x, abs(tof - T) <= (1e-10 + 8.0 * 2.220446049250313e-16 / (1.0 + x)) * max(1.0, T)
 
 
 @kernel
@@ -244,6 +275,8 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         else:
             x0 = (T / T00) ** (0.69314718055994529 / math.log(T1 / T00)) - 1.0
     x, ok = _householder(T, x0, lam, M)
+    if not ok and M == 0:
+        x, ok = _bisect_zero_rev(T, lam)
     if not ok:
         return st.NO_CONVERGENCE
 

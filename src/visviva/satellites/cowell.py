@@ -23,7 +23,7 @@ from .._units import require_finite, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
 from ..core.cowell import integrate_cowell
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
-from ..errors import InvalidInputError, ShapeError, raise_for_status
+from ..errors import InvalidInputError, ShapeError, StepSizeError, raise_for_status
 from .events import Event, EventRecord
 from .perturbations import (
     AtmosphericDrag,
@@ -271,8 +271,18 @@ def _offsets_s(t, epoch):
                 "t is an astropy Time but the state has no epoch; build the state with "
                 "epoch=..., or pass t as offsets from the initial state (e.g. 3600 * u.s)."
             )
-        return np.asarray((t - epoch).to_value(u.s), dtype=np.float64)
+        # differences in TT: SI seconds of geocentric motion, whatever scales t and epoch are in
+        # (a TDB difference is in TDB seconds, which drift from SI seconds by ~1.7 ms a year)
+        return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
     return to_array(t, "time", "t")
+
+
+def _raise_budget(max_steps, t_reached_s, where):
+    raise StepSizeError(
+        f"Cowell propagation used its whole step budget (max_steps={max_steps}){where} and "
+        f"stopped at t = {t_reached_s:.6f} s before the last output time. To fix: raise "
+        "max_steps, loosen rtol/atol, or propagate a shorter span."
+    )
 
 
 def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
@@ -320,6 +330,9 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
             y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             A, B, C, E3, E5, D, y_out, status, info,
         )  # fmt: skip
+        if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
+            k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])
+            _raise_budget(max_steps, info[k, 4], f" for state {k}")
         raise_for_status(status, "Cowell propagation (batch)", t_reached_s=info[:, 4])
         n_steps += int(info[:, 2].sum())
         nfev += int(info[:, 3].sum())
@@ -430,6 +443,21 @@ def propagate_cowell(
     offsets = np.atleast_1d(offsets)
     if offsets.ndim != 1:
         raise ShapeError(f"t must be a scalar or a 1-D array of times; got shape {offsets.shape}.")
+    if offsets.size == 0:
+        raise InvalidInputError(
+            "t is empty: give at least one output time (e.g. np.linspace(0, 1, 10) * u.day)."
+        )
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
+        raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
+    if isinstance(perturbations, Perturbation):
+        perturbations = [perturbations]
+    elif isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):
+        raise InvalidInputError(
+            f"perturbations must be a list of perturbations, e.g. [vv.J2(vv.EARTH)]; got "
+            f"{perturbations!r}."
+        )
+    if isinstance(events, Event):
+        events = [events]
     require_finite(offsets, "t")
     if offsets.size > 1 and np.any(np.diff(offsets) <= 0):
         i = int(np.flatnonzero(np.diff(offsets) <= 0)[0])
@@ -483,6 +511,8 @@ def propagate_cowell(
         status, y_out, ev_t, ev_y, ev_which, info = _run(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )
+        if status != 0 and int(info[2]) >= max_steps:
+            _raise_budget(max_steps, info[4], "")
         raise_for_status(
             np.int64(status),
             f"Cowell propagation stopped at t = {info[4]:.6f} s after {int(info[2])} steps",

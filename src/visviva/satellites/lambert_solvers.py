@@ -16,9 +16,15 @@ import numpy as np
 from .._units import to_array, to_quantity, to_vector
 from ..core import status as st
 from ..core.lambert import izzo_many, universal_many
-from ..errors import DomainError, InvalidInputError, raise_for_status
+from ..errors import DomainError, InvalidInputError, ShapeError, raise_for_status
 
 __all__ = ["lambert", "LAMBERT_METHODS"]
+
+#: Non-dimensional time of flight (tof / sqrt(L^3/GM), L = max|r|) below which a solver that
+#: fails to converge is reporting a too-short tof (a straight-line, gravity-free transfer).
+TOF_TOO_SHORT = 1e-2
+#: Non-dimensional time of flight above which a failure to converge means a too-long tof.
+TOF_TOO_LONG = 1e3
 
 #: The solvers and what they handle (every conic; M >= 0 revolutions; both branches).
 LAMBERT_METHODS = {
@@ -85,7 +91,13 @@ def lambert(
     R2 = to_vector(r2, "length", "r2")
     T = to_array(tof, "time", "tof")
     mu = to_array(gm, "gm", "gm")
-    if not isinstance(revolutions, int | np.integer) or revolutions < 0:
+    if not isinstance(prograde, bool | np.bool_):
+        raise InvalidInputError(f"prograde must be True or False; got {prograde!r}.")
+    if (
+        isinstance(revolutions, bool)
+        or not isinstance(revolutions, int | np.integer)
+        or revolutions < 0
+    ):
         raise InvalidInputError(f"revolutions must be an integer >= 0; got {revolutions!r}.")
     if branch not in ("left", "right"):
         raise InvalidInputError(f"branch must be 'left' or 'right'; got {branch!r}.")
@@ -95,22 +107,73 @@ def lambert(
         raise DomainError("tof must be > 0; for a backward arc swap r1 and r2.")
     if np.any(mu <= 0):
         raise InvalidInputError("gm must be > 0 (e.g. vv.SUN.gm).")
-    shape = np.broadcast_shapes(R1.shape[:-1], R2.shape[:-1], T.shape, mu.shape)
+    try:
+        shape = np.broadcast_shapes(R1.shape[:-1], R2.shape[:-1], T.shape, mu.shape)
+    except ValueError:
+        raise ShapeError(
+            f"r1 {R1.shape}, r2 {R2.shape}, tof {T.shape} and gm {mu.shape} do not broadcast "
+            "together: give positions of shape (..., 3) with matching leading shapes (or one "
+            "side a single (3,) vector) and tof, gm broadcasting against those leading shapes."
+        ) from None
     n = int(np.prod(shape))
     r1f = np.ascontiguousarray(np.broadcast_to(R1, shape + (3,)).reshape(n, 3))
     r2f = np.ascontiguousarray(np.broadcast_to(R2, shape + (3,)).reshape(n, 3))
     tf = np.ascontiguousarray(np.broadcast_to(T, shape).reshape(n))
     mf = np.ascontiguousarray(np.broadcast_to(mu, shape).reshape(n))
+    # Lambert's problem is scale-free: solve it in units where max|r| = 1 and GM = 1 so that
+    # positions of 1e-200 or 1e200 km neither underflow nor overflow (r**2 in the kernels).
+    with np.errstate(all="ignore"):
+        length = np.maximum(np.abs(r1f).max(axis=1), np.abs(r2f).max(axis=1))
+        length = np.where((length > 0) & np.isfinite(length), length, 1.0)
+        speed = np.sqrt(mf / length)  # km/s per unit non-dimensional speed
+        time_unit = length / speed
+        r1n = np.ascontiguousarray(r1f / length[:, None])
+        r2n = np.ascontiguousarray(r2f / length[:, None])
+        tn = np.ascontiguousarray(tf / time_unit)
+    scaled = np.isfinite(speed) & (speed > 0) & np.isfinite(tn)
+    # rescale only where squares could overflow or underflow: ordinary inputs go through the
+    # kernels unchanged (bit for bit)
+    extreme = (length < 1e-60) | (length > 1e60) | (mf < 1e-60) | (mf > 1e60)
+    rescale = scaled & extreme
+    k1 = np.where(rescale[:, None], r1n, r1f)
+    k2 = np.where(rescale[:, None], r2n, r2f)
+    kt = np.where(rescale, tn, tf)
+    km = np.where(rescale, 1.0, mf)
     v1 = np.empty((n, 3))
     v2 = np.empty((n, 3))
     status = np.zeros(n, dtype=np.int64)
     LAMBERT_METHODS[method]["kernel"](
-        r1f, r2f, tf, mf, int(revolutions), bool(prograde), branch == "right", v1, v2, status
-    )
+        np.ascontiguousarray(k1), np.ascontiguousarray(k2), np.ascontiguousarray(kt),
+        np.ascontiguousarray(km), int(revolutions), bool(prograde), branch == "right", v1, v2,
+        status,
+    )  # fmt: skip
+    v1 = np.where(rescale[:, None], v1 * speed[:, None], v1)
+    v2 = np.where(rescale[:, None], v2 * speed[:, None], v2)
+    short = (status == st.NO_CONVERGENCE) & scaled & (tn < TOF_TOO_SHORT)
+    if np.any(short):
+        k = int(np.flatnonzero(short)[0])
+        raise DomainError(
+            f"tof = {tf[k]} s at index {k} is too short for this geometry: it is "
+            f"{tn[k]:.3g} times the time unit sqrt(L^3/GM) = {time_unit[k]:.6g} s of the "
+            f"problem (L = {length[k]:.6g} km), so the transfer is a straight line at "
+            f"~{np.linalg.norm(r2n[k] - r1n[k]) * length[k] / tf[k]:.3g} km/s and the solver "
+            "cannot resolve the conic. Give a longer tof (a tof above "
+            f"~{TOF_TOO_SHORT * time_unit[k]:.3g} s always works)."
+        )
+    long = (status == st.NO_CONVERGENCE) & scaled & (tn > TOF_TOO_LONG)
+    if np.any(long):
+        k = int(np.flatnonzero(long)[0])
+        raise DomainError(
+            f"tof = {tf[k]} s at index {k} is too long for a {revolutions}-revolution transfer "
+            f"in this geometry: it is {tn[k]:.3g} times the time unit sqrt(L^3/GM) = "
+            f"{time_unit[k]:.6g} s of the problem (L = {length[k]:.6g} km), so the transfer "
+            "orbit is a nearly parabolic ellipse that double precision cannot resolve. Allow "
+            "more revolutions or give a shorter tof."
+        )
     if np.any(status == st.DOMAIN):
         k = int(np.flatnonzero(status == st.DOMAIN)[0])
-        cross = np.linalg.norm(np.cross(r1f[k], r2f[k]))
-        if cross <= 1e-12 * np.linalg.norm(r1f[k]) * np.linalg.norm(r2f[k]):
+        cross = np.linalg.norm(np.cross(r1n[k], r2n[k]))
+        if cross <= 1e-12 * np.linalg.norm(r1n[k]) * np.linalg.norm(r2n[k]):
             raise DomainError(
                 f"r1 and r2 are collinear (transfer angle 0 or 180 deg) at index {k}: the "
                 "transfer plane is undefined. Offset one position slightly out of the line."

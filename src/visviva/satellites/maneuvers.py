@@ -105,8 +105,21 @@ class Maneuver:
 
     def __init__(self, impulses):
         items = []
+        usage = (
+            "a Maneuver takes a list of vv.satellites.Impulse(t, dv) or (t, dv) pairs, e.g. "
+            "Maneuver([(0 * u.s, [0, 0.1, 0] * u.km / u.s)])"
+        )
+        if isinstance(impulses, Impulse):
+            impulses = [impulses]
+        if isinstance(impulses, str | bytes) or not hasattr(impulses, "__iter__"):
+            raise InvalidInputError(f"{usage}; got {impulses!r}.")
         for imp in impulses:
-            t, dv = (imp.t, imp.dv) if isinstance(imp, Impulse) else imp
+            if isinstance(imp, Impulse):
+                t, dv = imp.t, imp.dv
+            else:
+                if isinstance(imp, str | bytes) or not hasattr(imp, "__len__") or len(imp) != 2:
+                    raise InvalidInputError(f"{usage}; got the item {imp!r}.")
+                t, dv = imp
             t_s = float(to_array(t, "time", "impulse time"))
             dv_v = to_vector(dv, "speed", "impulse dv")
             if dv_v.shape != (3,):

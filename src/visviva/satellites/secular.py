@@ -74,10 +74,17 @@ def j2_secular_rates(a, ecc, inc, body=EARTH):
     a_km = to_array(a, "length", "a")
     e = to_array(ecc, "dimensionless", "ecc")
     i = to_array(inc, "angle", "inc")
+    if np.any(~np.isfinite(a_km)) or np.any(~np.isfinite(e)) or np.any(~np.isfinite(i)):
+        raise InvalidInputError("a, ecc and inc must be finite (no NaN or inf).")
     if np.any(a_km <= 0):
         raise InvalidInputError("a must be > 0 (elliptic orbits).")
     if np.any((e < 0) | (e >= 1)):
-        raise DomainError("secular J2 rates need 0 <= e < 1 (bound orbits).")
+        raise DomainError(
+            "secular J2 rates need a closed orbit, 0 <= e < 1; parabolic and hyperbolic orbits "
+            "have no secular drift (propagate them with vv.propagate_cowell)."
+        )
+    if np.any((i < 0) | (i > np.pi)):
+        raise DomainError("inc must lie in [0, pi] rad (0 to 180 deg); got values outside.")
     gm, R, j2 = _body_consts(body)
     n = np.sqrt(gm / a_km**3)
     p = a_km * (1 - e**2)
@@ -111,9 +118,26 @@ def propagate_j2_secular(elements, dt, body=EARTH):
     from ..anomalies import mean_to_true
     from ..elements import KeplerianElements
 
+    if not isinstance(elements, KeplerianElements):
+        if hasattr(elements, "to_elements"):
+            elements = elements.to_elements()
+        else:
+            raise InvalidInputError(
+                f"propagate_j2_secular takes vv.KeplerianElements (or vv.StateVectors, converted "
+                f"with .to_elements()); got {type(elements).__name__}."
+            )
+        if not isinstance(elements, KeplerianElements):
+            raise InvalidInputError(
+                "propagate_j2_secular takes vv.KeplerianElements; convert with .to_elements()."
+            )
     dt_s = to_array(dt, "time", "dt")
-    a = elements.semi_major_axis
     e = np.asarray(elements.eccentricity, dtype=float)
+    if np.any(~(e < 1)):
+        raise DomainError(
+            "secular J2 propagation needs a closed orbit (e < 1); parabolic and hyperbolic "
+            f"orbits (here e = {np.max(e)}) have no secular drift: use vv.propagate_cowell."
+        )
+    a = elements.semi_major_axis
     inc = elements.inclination
     raan_rate, argp_rate, m_rate = j2_secular_rates(a, e, inc, body)
     raan = elements.longitude_of_ascending_node.to_value(u.rad) + raan_rate.value * dt_s
@@ -146,6 +170,11 @@ def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):
     if np.any(a_km <= 0) or np.any((e < 0) | (e >= 1)):
         raise InvalidInputError("need a > 0 and 0 <= e < 1.")
     gm, R, j2 = _body_consts(body)
+    if np.any(a_km * (1 - e) < R):
+        raise DomainError(
+            f"the periapsis a (1 - e) lies below the surface of {getattr(body, 'name', 'the body')}"
+            f" (radius {R} km); give a with a (1 - e) >= {R} km."
+        )
     rate = SUN_SYNCHRONOUS_RATE.to_value(u.rad / u.s)
     cos_i = -2 * rate * a_km**3.5 * (1 - e**2) ** 2 / (3 * j2 * R**2 * np.sqrt(gm))
     if np.any(np.abs(cos_i) > 1):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 import pytest
 
@@ -144,3 +145,20 @@ def test_good_constructor_arguments_round_trip():
     s = vv.Simulation(epsilon=1e-8, min_dt=1e-9, encounter_distance=0.0, exit_max_distance=10.0)
     assert s.epsilon == 1e-8 and s.min_dt == 1e-9
     assert s.encounter_distance is None and s.exit_max_distance == 10.0
+
+
+@numba.njit
+def _nan_force(t, x, v, m, params, acc):
+    if t > params[0]:
+        acc[0, 0] += math.nan
+
+
+@pytest.mark.parametrize("integrator", ["ias15", "leapfrog"])
+def test_nan_force_is_reported_not_propagated(integrator):
+    s = vv.Simulation(integrator, dt=0.01)
+    s.add(1.0)
+    s.add(1e-3, [1.0, 0, 0], [0, 1.0, 0])
+    s.add_force(_nan_force, params=[0.5])
+    with pytest.raises(InvalidStateError, match="force"):
+        s.integrate(np.linspace(0.1, 50.0, 500))
+    assert s.t < 1.0  # stopped at the first output (leapfrog) or step (IAS15) after t = 0.5

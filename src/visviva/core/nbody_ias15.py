@@ -229,6 +229,9 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
     csv = bf[_CSV]
     vel_dep = istate[I_VELOCITY_DEPENDENT] != 0
     accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
+    for q in range(n3):
+        if not math.isfinite(a0f[q]):
+            return NON_FINITE, False, dt  # a singular or overflowing force: report it
     if not vel_dep:
         for q in range(n3):
             vpf[q] = vf[q]

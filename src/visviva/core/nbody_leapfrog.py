@@ -41,7 +41,7 @@ from .nbody_common import (
     should_pause,
     write_output,
 )
-from .status import OK
+from .status import NON_FINITE, OK
 
 __all__ = ["leapfrog_run", "N_BUF"]
 
@@ -137,6 +137,11 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
         if exact and rem * direction > 1e-9 * adt:
             _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t_grid, rem)
         fstate[F_T] = target if exact else t_grid
+        for i in range(n):
+            for c in range(3):
+                if not (math.isfinite(x[i, c]) and math.isfinite(v[i, c])):
+                    istate[I_INT_VALID] = 0
+                    return NON_FINITE  # overflow or a singular force: report, never continue
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
     return OK

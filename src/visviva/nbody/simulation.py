@@ -742,13 +742,7 @@ class Simulation:
                     bar.refresh()
                 if status == _st.OK:
                     if not (np.all(np.isfinite(self._x)) and np.all(np.isfinite(self._v))):
-                        self._check_not_coincident(f"{info.name} integration")
-                        raise InvalidStateError(
-                            f"the {info.name} integration produced NaN or infinite positions or "
-                            f"velocities (by t = {self.t!r}): a force overflowed or was singular. "
-                            "Check the additional forces, use a smaller dt, softening > 0, or "
-                            "collision detection (radius=..., collision='merge')."
-                        )
+                        self._raise_non_finite()
                     break
                 if status == _nc.PAUSED:
                     continue
@@ -771,6 +765,15 @@ class Simulation:
         if scalar:
             return None
         return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
+
+    def _raise_non_finite(self):
+        self._check_not_coincident(f"{self.integrator} integration")
+        raise InvalidStateError(
+            f"the {self.integrator} integration produced NaN or infinite accelerations, "
+            f"positions or velocities (by t = {self.t!r}): a force overflowed or was singular. "
+            "To fix: check the additional forces, use a smaller dt, softening > 0, or collision "
+            "detection (radius=..., collision='merge')."
+        )
 
     def _check_not_coincident(self, what):
         """Raise InvalidStateError when massive particles share a position without softening."""
@@ -813,7 +816,7 @@ class Simulation:
                 "shorter span."
             )
         if status == _st.NON_FINITE:
-            self._check_not_coincident(f"{self.integrator} integration")
+            self._raise_non_finite()
         raise_for_status(np.array([status]), f"{self.integrator} integration to t")
 
     # ---- diagnostics -----------------------------------------------------------------------------

@@ -141,9 +141,12 @@ class Simulation:
         Raise :class:`visviva.Encounter` when two particles come closer than the first, and
         :class:`visviva.Escape` when a particle goes farther from the origin than the second.
     epsilon : float
-        IAS15 accuracy parameter (Rein & Spiegel 2015), 1e-9.
+        IAS15 accuracy parameter (Rein & Spiegel 2015), 1e-9; finite and > 0.
     min_dt : float
-        Smallest step IAS15 may take; below it :class:`visviva.StepSizeError` is raised.
+        Smallest step IAS15 may take (>= 0); below it :class:`visviva.StepSizeError` is raised.
+        A relative floor always applies too: a shrinking step below ``1e-15 max(|t|, time span
+        of the integrate call)`` raises StepSizeError (a collapsing pair or a singular force
+        would otherwise need ~forever), so a run never loops without end.
     corrector : int
         WHFast symplectic corrector order (0: none, 3, 5, 7), applied at the start and
         (inverted) at every output; not used while collisions/encounters/escapes are checked.
@@ -672,7 +675,10 @@ class Simulation:
             When the corresponding event is switched on and happens; the simulation stays at
             the time of the event and can be continued.
         StepSizeError
-            When IAS15's step falls below ``min_dt``.
+            When IAS15's step falls below ``min_dt`` or the relative floor (see the class).
+        InvalidStateError
+            When massive particles sit at exactly the same position without softening, or a
+            force gives NaN/infinite accelerations.
         """
         scalar = np.ndim(t) == 0
         times = np.ascontiguousarray(np.atleast_1d(self._time(t, "t")).astype(np.float64))

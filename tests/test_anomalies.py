@@ -270,3 +270,19 @@ def test_regime_sweep_round_trip(ecc):
     slope = np.array([_dM_dnu(m, ecc) for m in M])
     tol = 16 * EPS * (np.abs(M) + slope * np.abs(nu)) + 4 * TINY * max(1.0, ecc)
     assert np.all(np.abs(M2 - M) <= tol)
+
+
+# --- robustness regressions (ROBUSTNESS_BUGS.md #15, #18) --------------------------------------
+@pytest.mark.parametrize("M", [5e-324, 2.2250738585e-313, -1e-310, 1e-300])
+@pytest.mark.parametrize("ecc", [1.0 + 1e-9, 1.5, 8.625763021194716])
+def test_hyperbolic_tiny_and_subnormal_mean_anomaly(M, ecc):
+    F = vv.solve_kepler_hyperbolic(M, ecc)
+    assert F == pytest.approx(M / (ecc - 1.0), rel=4 * EPS, abs=1e-323)
+    nu = vv.mean_to_true(M, ecc)
+    gain = math.sqrt((ecc + 1) / (ecc - 1))  # nu ~ gain F; a subnormal F has fewer bits
+    assert nu == pytest.approx(gain * F, rel=8 * EPS, abs=1e-322 * gain)
+
+
+def test_hyperbolic_to_mean_overflow_is_named():
+    with pytest.raises(vv.errors.DomainError, match="overflows float64"):
+        vv.hyperbolic_to_mean(1e300, 2.0)

@@ -369,3 +369,16 @@ def test_modified_equinoctial_container():
     assert back.argument_of_periapsis.value == pytest.approx(0.6)
     assert np.abs((m2.to_state().r - el.to_state().r).value).max() < 1e-11
     assert "ModifiedEquinoctialElements(p=9000 km" in repr(m2)
+
+
+# --- robustness regression (ROBUSTNESS_BUGS.md #2) ---------------------------------------------
+@pytest.mark.parametrize("h", [1e154, 1e155, 1e300])
+def test_mee_huge_h_gives_finite_state(h):
+    """h -> inf is i -> pi: h^2 must not overflow; the state matches the i = pi limit."""
+    s = vv.ModifiedEquinoctialElements(7000 * KM, 0.1, 0, h, 0, 0.5, MU).to_state()
+    r, v = s.r.to_value(KM), s.v.to_value(KMS)
+    assert np.all(np.isfinite(r)) and np.all(np.isfinite(v))
+    ref = vv.ModifiedEquinoctialElements(7000 * KM, 0.1, 0, 1e150, 0, 0.5, MU).to_state()
+    np.testing.assert_allclose(r[:2], ref.r.to_value(KM)[:2], rtol=1e-14)
+    np.testing.assert_allclose(v[:2], ref.v.to_value(KMS)[:2], rtol=1e-14)
+    assert abs(r[2]) < 1e-100

@@ -188,3 +188,16 @@ def test_every_conic_conserves_energy_and_angular_momentum():
         out.radius.to_value(KM) * np.linalg.norm(out.v.to_value(KMS), axis=-1),
     )
     assert np.all(np.linalg.norm(h1 - h0, axis=-1) <= 1e-13 * h_scale)
+
+
+# --- robustness regression (ROBUSTNESS_BUGS.md #20) --------------------------------------------
+@pytest.mark.parametrize("k", [490, -500])
+def test_extreme_gm_propagates_like_rescaled_earth_orbit(k):
+    """gm = 4e300 or 4e-296 km3/s2 is an Earth orbit in another time unit (exact power of 2)."""
+    r = [7000.0, 0, 0] * KM
+    v = np.array([0.0, 8.5, 0.3])
+    lam = math.ldexp(1.0, k)
+    ref = vv.StateVectors(r, v * KMS, GM_EARTH).propagate(1234.0 * u.s)
+    out = vv.StateVectors(r, v * lam * KMS, GM_EARTH * lam * lam).propagate(1234.0 / lam * u.s)
+    np.testing.assert_allclose(out.r.to_value(KM), ref.r.to_value(KM), rtol=1e-14, atol=ONE_MM)
+    np.testing.assert_allclose(out.v.to_value(KMS) / lam, ref.v.to_value(KMS), rtol=1e-14)

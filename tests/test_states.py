@@ -187,3 +187,25 @@ def test_empty_arrays():
     assert el.shape == (0,) and "no orbits" in repr(el)
     assert el.to_state().shape == (0,) and el.mean_anomaly.shape == (0,)
     assert s.to_equinoctial().to_state().shape == (0,)
+
+
+# --- robustness regressions (ROBUSTNESS_BUGS.md #6, #22) ---------------------------------------
+def test_overflowing_energy_raises_domain_error_not_inf():
+    s = vv.StateVectors([7000.0, 0, 0] * KM, [0, 1e200, 0] * KMS, MU)
+    assert s.speed.value == pytest.approx(1e200, rel=1e-15)  # the norm itself must not overflow
+    with pytest.raises(vv.errors.DomainError, match="overflows float64"):
+        _ = s.specific_energy
+    with pytest.raises(vv.errors.DomainError, match="overflows float64"):
+        _ = s.eccentricity_vector
+
+
+def test_tiny_gm_elements_raise_instead_of_inf():
+    s = vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0] * KMS, 1e-300 * u.km**3 / u.s**2)
+    with pytest.raises(vv.errors.DomainError, match="overflows float64"):
+        s.to_elements()
+
+
+@pytest.mark.parametrize("epoch", ["yesterday", 2451545.0])
+def test_epoch_must_be_time(epoch):
+    with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):
+        vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0] * KMS, MU, epoch=epoch)

@@ -29,6 +29,7 @@ from astropy import units as u
 
 from . import _units
 from .core import kepler as _k
+from .core.status import OK, OVERFLOW
 from .errors import ShapeError, raise_for_status
 
 __all__ = [
@@ -89,6 +90,9 @@ def _run(kernel, context, angle, angle_name, ecc=None):
     status = status.reshape(shape)
     raise_for_status(status, context, **inputs)
     out = out.reshape(shape)
+    if not np.all(np.isfinite(out)):
+        # a kernel reported OK but its value is not finite: never hand out NaN/inf silently
+        raise_for_status(np.where(np.isfinite(out), OK, OVERFLOW), context, **inputs)
     if was_quantity:
         return _units.to_quantity(out, "angle")
     return out if shape else out[()]

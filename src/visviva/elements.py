@@ -23,6 +23,7 @@ from .states import (
     _gm_positive,
     _index_epoch,
     _normalise_key,
+    _require_finite_result,
 )
 
 __all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
@@ -369,6 +370,9 @@ class KeplerianElements:
         raise_for_status(
             status.reshape(self._shape), "true -> mean anomaly", nu=self._nu, ecc=self._ecc
         )
+        _require_finite_result(
+            "true -> mean anomaly", [M.reshape(self._shape)], self._shape, nu=self._nu
+        )
         return _units.to_quantity(M.reshape(self._shape), "angle")
 
     @cached_property
@@ -455,6 +459,14 @@ class KeplerianElements:
         raise_for_status(
             status.reshape(shape),
             "elements -> state vectors",
+            p=self._p,
+            ecc=self._ecc,
+            nu=self._nu,
+        )
+        _require_finite_result(
+            "elements -> state vectors",
+            [r.reshape(shape + (3,)), v.reshape(shape + (3,))],
+            shape,
             p=self._p,
             ecc=self._ecc,
             nu=self._nu,
@@ -652,6 +664,14 @@ class ModifiedEquinoctialElements:
             f=self._f,
             g=self._g,
             L=self._L,
+        )
+        _require_finite_result(
+            "equinoctial elements -> state vectors",
+            [r.reshape(shape + (3,)), v.reshape(shape + (3,))],
+            shape,
+            p=self._p,
+            h=self._h,
+            k=self._k,
         )
         return StateVectors._from_canonical(
             r.reshape(shape + (3,)), v.reshape(shape + (3,)), self._gm, self._epoch

@@ -170,6 +170,12 @@ STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {
         "at i = pi with the retrograde factor I = +1, and at i = 0 with I = -1)",
         "use retrograde=True (I = -1) for retrograde orbits near i = pi, retrograde=False near i = 0",
     ),
+    _st.OVERFLOW: (
+        DomainError,
+        "the result overflows float64 (its magnitude would exceed ~1.8e308) although the inputs "
+        "are finite",
+        "use inputs of smaller magnitude (e.g. other units, or a smaller anomaly / speed)",
+    ),
 }
 
 

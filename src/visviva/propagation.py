@@ -72,7 +72,7 @@ def propagate_kepler(state, dt):
     (3,)
     """
     from .core.universal import propagate_many
-    from .states import StateVectors
+    from .states import StateVectors, _require_finite_result
 
     if not isinstance(state, StateVectors):
         raise InvalidInputError(
@@ -101,6 +101,14 @@ def propagate_kepler(state, dt):
     raise_for_status(
         status.reshape(shape),
         "Kepler propagation",
+        r_km=r0.reshape(shape + (3,)),
+        v_km_s=v0.reshape(shape + (3,)),
+        dt_s=dt_flat.reshape(shape),
+    )
+    _require_finite_result(
+        "Kepler propagation",
+        [r_out.reshape(shape + (3,)), v_out.reshape(shape + (3,))],
+        shape,
         r_km=r0.reshape(shape + (3,)),
         v_km_s=v0.reshape(shape + (3,)),
         dt_s=dt_flat.reshape(shape),

@@ -44,6 +44,43 @@ def _gm_positive(gm: np.ndarray) -> None:
         )
 
 
+def _require_finite_result(context: str, outputs, shape: tuple, **inputs) -> None:
+    """Raise DomainError (status OVERFLOW) where a computed output is NaN or infinite.
+
+    ``outputs`` are arrays of shape ``shape`` or ``shape + (3,)``; ``inputs`` are quoted in the
+    message. Called after the kernels reported OK, so a non-finite value here means float64
+    overflow of a finite input (kernels and wrappers never hand out NaN/inf silently).
+    """
+    bad = None
+    for out in outputs:
+        out = np.asarray(out)
+        if np.all(np.isfinite(out)):
+            continue
+        nf = ~np.isfinite(out)
+        while nf.ndim > len(shape):
+            nf = nf.any(axis=-1)
+        nf = np.broadcast_to(nf, shape)
+        bad = nf if bad is None else (bad | nf)
+    if bad is None:
+        return
+    from .core.status import OK, OVERFLOW
+
+    raise_for_status(np.where(bad, OVERFLOW, OK), context, **inputs)
+
+
+def _validate_epoch(epoch):
+    if epoch is None:
+        return None
+    from astropy.time import Time
+
+    if not isinstance(epoch, Time):
+        raise InvalidInputError(
+            f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
+            f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
+        )
+    return epoch
+
+
 def _flat(arr: np.ndarray, shape: tuple) -> np.ndarray:
     """``arr`` broadcast to ``shape`` and flattened to 1-D (a view where numpy allows)."""
     return np.broadcast_to(arr, shape).reshape(-1)
@@ -69,6 +106,13 @@ def _index_epoch(epoch, key, shape):
     if np.shape(epoch) == shape and shape != ():
         return epoch[key]
     return epoch
+
+
+def _norm(x: np.ndarray) -> np.ndarray:
+    """Euclidean norm over the last axis, scaled so that squares cannot overflow."""
+    scale = np.max(np.abs(x), axis=-1)
+    safe = np.where(scale > 0, scale, 1.0)
+    return scale * np.sqrt(np.einsum("...i,...i->...", x / safe[..., None], x / safe[..., None]))
 
 
 def _fmt_vec(arr: np.ndarray) -> str:
@@ -133,6 +177,7 @@ class StateVectors:
         from .core.elements import scan_states
         from .core.status import NON_FINITE
 
+        epoch = _validate_epoch(epoch)
         # finiteness is checked below in the same pass as the zero-position test
         r_km = _units.to_vector(r, "length", "r", finite=False)
         v_kms = _units.to_vector(v, "speed", "v", finite=False)
@@ -249,24 +294,30 @@ class StateVectors:
     @cached_property
     def radius(self):
         """Distance from the central body \\|r\\| (Quantity, km), shape ``shape``."""
-        return _units.to_quantity(np.linalg.norm(self._r, axis=-1), "length")
+        return _units.to_quantity(_norm(self._r), "length")
 
     @cached_property
     def speed(self):
         """Speed \\|v\\| (Quantity, km/s), shape ``shape``."""
-        return _units.to_quantity(np.linalg.norm(self._v, axis=-1), "speed")
+        return _units.to_quantity(_norm(self._v), "speed")
 
     @cached_property
     def specific_energy(self):
         """Specific orbital energy v^2/2 - mu/r (Quantity, km2/s2); < 0 bound, 0 parabolic."""
-        r = np.linalg.norm(self._r, axis=-1)
+        r = _norm(self._r)
         v2 = np.einsum("...i,...i->...", self._v, self._v)
-        return _units.to_quantity(0.5 * v2 - self._gm / r, "spec_energy")
+        with np.errstate(over="ignore", invalid="ignore"):
+            eps = 0.5 * v2 - self._gm / r
+        self._check_finite("specific energy", eps)
+        return _units.to_quantity(eps, "spec_energy")
 
     @cached_property
     def specific_angular_momentum(self):
         """Specific angular momentum vector h = r x v (Quantity, km2/s), shape ``shape + (3,)``."""
-        return _units.to_quantity(np.cross(self._r, self._v), "spec_angmom")
+        with np.errstate(over="ignore", invalid="ignore"):
+            h = np.cross(self._r, self._v)
+        self._check_finite("specific angular momentum", h)
+        return _units.to_quantity(h, "spec_angmom")
 
     @cached_property
     def eccentricity_vector(self):
@@ -277,6 +328,15 @@ class StateVectors:
         equals ((v^2 - mu/r) r - (r . v) v)/mu (Vallado 2013, eq. 2-78) without that formula's
         cancellation far out on open orbits; radial states (h = 0) use eq. 2-78.
         """
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            e_vec = self._eccentricity_vector()
+        self._check_finite("eccentricity vector", e_vec)
+        return e_vec
+
+    def _check_finite(self, what: str, *outputs) -> None:
+        _require_finite_result(f"StateVectors.{what}", outputs, self._shape, r=self._r, v=self._v)
+
+    def _eccentricity_vector(self):
         r = self._r
         v = self._v
         gm = np.broadcast_to(self._gm, self._shape)[..., None]
@@ -326,6 +386,13 @@ class StateVectors:
         p, ecc, inc, raan, argp, nu, status = rv_to_coe_array(r, v, gm)
         shape = self._shape
         raise_for_status(status.reshape(shape), "state vectors -> elements", r=self._r, v=self._v)
+        _require_finite_result(
+            "state vectors -> elements (scale r, v and gm to other units)",
+            [x.reshape(shape) for x in (p, ecc, inc, raan, argp, nu)],
+            shape,
+            r=self._r,
+            v=self._v,
+        )
         return KeplerianElements._from_canonical(
             *(x.reshape(shape) for x in (p, ecc, inc, raan, argp, nu)),
             self._gm,
@@ -361,6 +428,13 @@ class StateVectors:
         shape = self._shape
         raise_for_status(
             status.reshape(shape), "state vectors -> equinoctial elements", r=self._r, v=self._v
+        )
+        _require_finite_result(
+            "state vectors -> equinoctial elements",
+            [x.reshape(shape) for x in (p, f, g, h, k, L)],
+            shape,
+            r=self._r,
+            v=self._v,
         )
         return ModifiedEquinoctialElements._from_canonical(
             *(x.reshape(shape) for x in (p, f, g, h, k, L)),

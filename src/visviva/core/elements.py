@@ -293,16 +293,24 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
 
 @inline_kernel
 def _equinoctial_frame(hh, kk, retro):
-    """Unit vectors f, g of the equinoctial frame from h, k and the retrograde factor I."""
+    """Unit vectors f, g of the equinoctial frame from h, k and the retrograde factor I.
+
+    h and k are divided by m = max(1, |h|, |k|) first (every ratio is homogeneous of degree 0),
+    so h^2 and k^2 cannot overflow near the singular inclination; for m = 1 nothing changes.
+    """
+    m = max(1.0, abs(hh), abs(kk))
+    hh = hh / m
+    kk = kk / m
+    one = 1.0 / m / m
     h2 = hh * hh
     k2 = kk * kk
-    s2 = 1.0 + h2 + k2
-    fx = (1.0 + h2 - k2) / s2
+    s2 = one + h2 + k2
+    fx = (one + h2 - k2) / s2
     fy = 2.0 * hh * kk / s2
-    fz = -2.0 * retro * kk / s2
+    fz = -2.0 * retro * kk / (m * s2)
     gx = 2.0 * retro * hh * kk / s2
-    gy = retro * (1.0 - h2 + k2) / s2
-    gz = 2.0 * hh / s2
+    gy = retro * (one - h2 + k2) / s2
+    gz = 2.0 * hh / (m * s2)
     return fx, fy, fz, gx, gy, gz
 
 

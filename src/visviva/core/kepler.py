@@ -42,7 +42,14 @@ import math
 import numpy as np
 
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
-from .status import BAD_ECCENTRICITY, NO_CONVERGENCE, NON_FINITE, OK, UNREACHABLE_ANOMALY
+from .status import (
+    BAD_ECCENTRICITY,
+    NO_CONVERGENCE,
+    NON_FINITE,
+    OK,
+    OVERFLOW,
+    UNREACHABLE_ANOMALY,
+)
 
 __all__ = [
     "eccentric_anomaly",
@@ -227,7 +234,7 @@ def mean_from_hyperbolic(F, ecc):
         return NAN, BAD_ECCENTRICITY
     M = _mean_hyperbolic(F, ecc)
     if not math.isfinite(M):
-        return M, NON_FINITE
+        return M, OVERFLOW
     return M, OK
 
 
@@ -238,7 +245,7 @@ def mean_from_parabolic(D):
         return NAN, NON_FINITE
     M = D + D * D * D / 3.0
     if not math.isfinite(M):
-        return M, NON_FINITE
+        return M, OVERFLOW
     return M, OK
 
 
@@ -402,6 +409,12 @@ def _hyperbolic_reduced(M, ecc):
     """F >= 0 for M >= 0, e > 1. Returns (F, status)."""
     if M == 0.0:
         return 0.0, OK
+    # tiny M (down to subnormals): M = (e - 1) F + e F^3 / 6 + ..., so F = M / (e - 1) to full
+    # precision once the cubic term is below half an ulp; Newton's relative step test cannot
+    # be met with subnormal iterates
+    F0 = M / (ecc - 1.0)
+    if F0 < 1e-10 and ecc * F0 * F0 <= 1e-16 * (ecc - 1.0):
+        return F0, OK
     Fl = math.asinh(M / ecc)  # lower bound: e sinh F = M + F >= M
     if Fl > _F_LARGE:
         # sinh F = exp(F) / 2 to double precision: F = log((M + F) / e) + log 2; the ratio

@@ -36,3 +36,5 @@ COLLISION = 13
 STEP_TOO_SMALL = 14
 #: Modified equinoctial elements are singular here (i = pi with I = +1, i = 0 with I = -1).
 EQUINOCTIAL_SINGULAR = 15
+#: The result is too large for float64 (|x| > ~1.8e308) although every input is finite.
+OVERFLOW = 16

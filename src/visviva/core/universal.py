@@ -324,6 +324,75 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
 
     Notes
     -----
+    See :func:`propagate_one`. When the solver fails at extreme magnitudes (gm = 1e300 or
+    1e-300 km3/s2, say) it is run again in units where |r0| ~ 1 and gm ~ 1: length unit
+    L = 2^a (a even) near |r0|, time unit T = 2^b with gm T^2 / L^3 ~ 1. Powers of two scale
+    every float operation exactly, so this changes nothing but the exponent range.
+    """
+    out = _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt)
+    if out[0] != NO_CONVERGENCE:
+        return out
+    rmax = max(abs(x), abs(y), abs(z))
+    if not (rmax > 0.0 and gm > 0.0):
+        return out
+    a = math.frexp(rmax)[1]
+    a -= a % 2
+    b = (3 * a - math.frexp(gm)[1]) // 2
+    av = b - a  # velocity scale exponent: v' = v T / L
+    st, xs, ys, zs, vxs, vys, vzs = _propagate_unscaled(
+        math.ldexp(x, -a),
+        math.ldexp(y, -a),
+        math.ldexp(z, -a),
+        math.ldexp(vx, av),
+        math.ldexp(vy, av),
+        math.ldexp(vz, av),
+        math.ldexp(gm, 2 * b - 3 * a),
+        math.ldexp(dt, -b),
+    )
+    if st != OK:
+        return out
+    rx = math.ldexp(xs, a)
+    ry = math.ldexp(ys, a)
+    rz = math.ldexp(zs, a)
+    ux = math.ldexp(vxs, -av)
+    uy = math.ldexp(vys, -av)
+    uz = math.ldexp(vzs, -av)
+    if not (
+        math.isfinite(rx)
+        and math.isfinite(ry)
+        and math.isfinite(rz)
+        and math.isfinite(ux)
+        and math.isfinite(uy)
+        and math.isfinite(uz)
+    ):
+        return out
+    return OK, rx, ry, rz, ux, uy, uz
+
+
+@kernel
+def _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt):
+    """Two-body propagation of one state in the caller's units (see :func:`propagate_scalar`).
+
+    Parameters
+    ----------
+    x, y, z : float
+        Position (length, e.g. km).
+    vx, vy, vz : float
+        Velocity (length / time, e.g. km/s).
+    gm : float
+        Gravitational parameter (length**3 / time**2), > 0.
+    dt : float
+        Time of flight (time), any sign.
+
+    Returns
+    -------
+    status : int
+        ``OK`` or a code from :mod:`visviva.core.status`; on failure the six outputs are NaN.
+    x, y, z, vx, vy, vz : float
+        The state after ``dt``.
+
+    Notes
+    -----
     See :func:`propagate_one`.
     """
     nan = math.nan

@@ -201,3 +201,23 @@ def test_extreme_gm_propagates_like_rescaled_earth_orbit(k):
     out = vv.StateVectors(r, v * lam * KMS, GM_EARTH * lam * lam).propagate(1234.0 / lam * u.s)
     np.testing.assert_allclose(out.r.to_value(KM), ref.r.to_value(KM), rtol=1e-14, atol=ONE_MM)
     np.testing.assert_allclose(out.v.to_value(KMS) / lam, ref.v.to_value(KMS), rtol=1e-14)
+
+
+def test_tiny_position_propagates_in_rescaled_units():
+    """|r0| = 1e-200 km: r0^2 underflows, yet the orbit is an exactly rescaled Earth orbit."""
+    lam = math.ldexp(1.0, -600)  # length unit; time unit tau: gm unchanged for lam^3 = tau^2
+    tau = math.ldexp(1.0, -900)
+    r = np.array([7000.0, 0, 0])
+    v = np.array([0.0, 8.5, 0.3])
+    ref = vv.StateVectors(r * KM, v * KMS, GM_EARTH).propagate(1234.0 * u.s)
+    out = vv.StateVectors(r * lam * KM, v * (lam / tau) * KMS, GM_EARTH).propagate(
+        1234.0 * tau * u.s
+    )
+    np.testing.assert_allclose(out.r.to_value(KM) / lam, ref.r.to_value(KM), rtol=1e-14, atol=1e-9)
+    np.testing.assert_allclose(out.v.to_value(KMS) * tau / lam, ref.v.to_value(KMS), rtol=1e-14)
+
+
+def test_out_of_range_magnitudes_say_so():
+    s = vv.StateVectors([1.0, 0, 0] * KM, [0, 1e200, 1e199] * KMS, 1e-300 * u.km**3 / u.s**2)
+    with pytest.raises(vv.errors.DomainError, match="out of float64's range"):
+        s.propagate(1000.0 * u.s)

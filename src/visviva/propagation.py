@@ -98,6 +98,7 @@ def propagate_kepler(state, dt):
     v_out = np.empty((n, 3))
     status = np.empty(n, dtype=np.int64)
     propagate_many(r0, v0, gm, dt_flat, r_out, v_out, status)
+    _explain_extreme_magnitudes(status, r0, v0, gm, dt_flat, shape)
     raise_for_status(
         status.reshape(shape),
         "Kepler propagation",
@@ -122,4 +123,30 @@ def propagate_kepler(state, dt):
     gm_out = state._gm if np.ndim(state._gm) == 0 else gm.reshape(shape)
     return StateVectors._from_canonical(
         r_out.reshape(shape + (3,)), v_out.reshape(shape + (3,)), gm_out, epoch
+    )
+
+
+def _explain_extreme_magnitudes(status, r0, v0, gm, dt_s, shape) -> None:
+    """A DomainError naming the magnitudes when the solver failed even in rescaled units.
+
+    The kernel retries a failed item in units where |r0| and the larger of |v0| and the
+    circular speed are ~1 (exact powers of two); a failure after that (or a position whose
+    squared length underflows) means the problem does not fit float64 at all.
+    """
+    from .core.status import NO_CONVERGENCE, ZERO_POSITION
+    from .errors import DomainError
+
+    bad = (status == NO_CONVERGENCE) | (status == ZERO_POSITION)
+    if not bad.any():
+        return
+    i = int(np.flatnonzero(bad)[0])
+    where = tuple(int(j) for j in np.unravel_index(i, shape)) if shape else ()
+    rm = float(np.max(np.abs(r0[i])))
+    vm = float(np.max(np.abs(v0[i])))
+    raise DomainError(
+        f"Kepler propagation at index {where}: the magnitudes are out of float64's range for "
+        f"two-body propagation (|r0| ~ {rm:.3g} km, |v0| ~ {vm:.3g} km/s, gm = {gm[i]:.3g} "
+        f"km3/s2, dt = {dt_s[i]:.3g} s): even in rescaled units the speed ratio "
+        "|v0| / sqrt(gm / |r0|) or the flight time in dynamical units exceeds ~1e150. "
+        "To fix: check the units of r, v, gm and dt; choose values whose ratios are physical."
     )

@@ -325,19 +325,29 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
     Notes
     -----
     See :func:`propagate_one`. When the solver fails at extreme magnitudes (gm = 1e300 or
-    1e-300 km3/s2, say) it is run again in units where |r0| ~ 1 and gm ~ 1: length unit
-    L = 2^a (a even) near |r0|, time unit T = 2^b with gm T^2 / L^3 ~ 1. Powers of two scale
+    1e-300 km3/s2, say, or a tiny r0) it is run again in units where |r0| ~ 1 and the larger
+    of |v0| and the circular speed ~ 1: length unit L = 2^a (a even) near |r0|, time unit
+    T = 2^b with L / T near max(|v0|, sqrt(gm / r0)). Powers of two scale
     every float operation exactly, so this changes nothing but the exponent range.
     """
-    out = _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt)
-    if out[0] != NO_CONVERGENCE:
-        return out
     rmax = max(abs(x), abs(y), abs(z))
-    if not (rmax > 0.0 and gm > 0.0):
+    vmax = max(abs(vx), abs(vy), abs(vz))
+    # squares of r and v cannot over- or underflow in this range: the caller's units are used
+    ordinary = 1e-140 < rmax < 1e140 and vmax < 1e140 and (vmax == 0.0 or vmax > 1e-140)
+    out = _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt)
+    if ordinary and out[0] != NO_CONVERGENCE and out[0] != ZERO_POSITION:
+        return out
+    if not (rmax > 0.0 and gm > 0.0 and math.isfinite(rmax) and math.isfinite(gm)):
+        return out
+    if not (math.isfinite(vmax) and math.isfinite(dt)):
         return out
     a = math.frexp(rmax)[1]
     a -= a % 2
-    b = (3 * a - math.frexp(gm)[1]) // 2
+    # speed unit: the larger of |v| and the circular speed sqrt(gm / r0), as exponents of 2
+    c = (math.frexp(gm)[1] - a) // 2
+    if vmax > 0.0:
+        c = max(c, math.frexp(vmax)[1])
+    b = a - c
     av = b - a  # velocity scale exponent: v' = v T / L
     st, xs, ys, zs, vxs, vys, vzs = _propagate_unscaled(
         math.ldexp(x, -a),

@@ -133,10 +133,19 @@ def _explain_extreme_magnitudes(status, r0, v0, gm, dt_s, shape) -> None:
     circular speed are ~1 (exact powers of two); a failure after that (or a position whose
     squared length underflows) means the problem does not fit float64 at all.
     """
-    from .core.status import NO_CONVERGENCE, ZERO_POSITION
+    from .core.status import HITS_ATTRACTOR, NO_CONVERGENCE, ZERO_POSITION
     from .errors import DomainError
 
     bad = (status == NO_CONVERGENCE) | (status == ZERO_POSITION)
+    hit = status == HITS_ATTRACTOR
+    if hit.any():
+        # a "collision" of a state that is not radial comes from |r x v| overflowing
+        with np.errstate(all="ignore"):
+            r_hat = r0 / np.max(np.abs(r0), axis=-1, keepdims=True)
+            v_hat = v0 / np.maximum(np.max(np.abs(v0), axis=-1, keepdims=True), 1e-300)
+            h_hat = np.linalg.norm(np.cross(r_hat, v_hat), axis=-1)
+            scale = np.linalg.norm(r_hat, axis=-1) * np.linalg.norm(v_hat, axis=-1)
+        bad |= hit & (h_hat > 1e-12 * scale)
     if not bad.any():
         return
     i = int(np.flatnonzero(bad)[0])

@@ -338,3 +338,99 @@ def test_alpha5_letters_i_and_o_are_rejected_with_the_field_named():
     line2 = "2 I0000   0.0000   0.0000 0000000   0.0000   0.0000  1.00000000    00"
     with pytest.raises(TLEFormatError, match="catalogue number"):
         vv.Satellite.from_tle(line1, line2)
+
+
+# ---------------------------------------------------------------------------------------------
+# Ranges of the mean elements and the epoch (ROBUSTNESS_BUGS #1, #3, #4, #21)
+
+
+def _put(line, first, last, text):
+    """Replace 1-based columns first..last and fix the checksum."""
+    assert len(text) == last - first + 1
+    return _with_checksum(line[: first - 1] + text + line[last:])
+
+
+@pytest.mark.parametrize(
+    "line1, line2, needle",
+    [
+        (_put(ISS_1, 21, 23, "400"), ISS_2, "epoch day of year"),
+        (_put(ISS_1, 21, 23, "000"), ISS_2, "epoch day of year"),
+        (_put(_put(ISS_1, 19, 20, "09"), 21, 23, "366"), ISS_2, "2009 must be in [1, 366)"),
+        (ISS_1, _put(ISS_2, 9, 16, "200.0000"), "inclination (columns 9-16)"),
+        (ISS_1, _put(ISS_2, 18, 25, "400.0000"), "right ascension"),
+        (ISS_1, _put(ISS_2, 35, 42, "360.0001"), "argument of perigee"),
+        (ISS_1, _put(ISS_2, 44, 51, "999.9999"), "mean anomaly"),
+        (ISS_1, _put(ISS_2, 53, 63, "00.00000000"), "mean motion (columns 53-63) is 0 rev/day"),
+    ],
+)
+def test_tle_fields_out_of_range_raise_naming_the_field(line1, line2, needle):
+    with pytest.raises(TLEFormatError) as info:
+        vv.Satellite.from_tle(line1, line2)
+    assert needle in str(info.value)
+
+
+def test_tle_range_edges_are_accepted():
+    leap_last_day = _put(ISS_1, 21, 32, "366.50000000")  # 2008 is a leap year
+    edges = _put(_put(ISS_2, 9, 16, "180.0000"), 18, 25, "360.0000")
+    sat = vv.Satellite.from_tle(leap_last_day, edges)
+    assert sat.epoch.utc.isot.startswith("2008-12-31T12:00")
+    assert np.isfinite(sat.teme([0, 10] * u.min).r.to_value(u.km)).all()
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("MEAN_MOTION", -15.7),
+        ("MEAN_MOTION", 0.0),
+        ("ECCENTRICITY", 1.0),
+        ("ECCENTRICITY", -0.1),
+        ("INCLINATION", 200.0),
+        ("INCLINATION", -1.0),
+        ("RA_OF_ASC_NODE", 361.0),
+        ("ARG_OF_PERICENTER", -5.0),
+        ("MEAN_ANOMALY", 720.0),
+    ],
+)
+def test_omm_elements_out_of_range_raise_naming_the_field(key, value):
+    fields = {**_omm_of(ISS_1, ISS_2), key: value}
+    with pytest.raises(vv.InvalidElementsError, match=key):
+        vv.Satellite.from_omm(fields)
+
+
+@pytest.mark.parametrize("key", ["MEAN_MOTION", "INCLINATION", "BSTAR", "MEAN_ANOMALY"])
+@pytest.mark.parametrize("value", [np.nan, np.inf, "abc"])
+def test_omm_non_numbers_raise_naming_the_field(key, value):
+    with pytest.raises(vv.InvalidInputError, match=key if value != "abc" else "bad value"):
+        vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), key: value})
+
+
+def test_omm_bad_epoch_raises():
+    with pytest.raises(vv.InvalidInputError, match="EPOCH"):
+        vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "EPOCH": "2008-13-45T00:00:00"})
+
+
+def test_mean_motion_error_message_says_it_must_be_positive():
+    reason = SGP4_ERROR_TYPES[2][1]
+    assert "> 0" in reason and "less than zero" not in reason
+
+
+def test_no_nan_leaves_any_frame():
+    """Every path either returns finite states or raises a typed error (here code 3)."""
+    sat = vv.Satellite.from_tle(ISS_1, _put(ISS_2, 53, 63, "00.00000001"))
+    for method in ("teme", "gcrs", "itrs", "geodetic"):
+        with pytest.raises(SGP4Error):
+            getattr(sat, method)([0, 10] * u.min)
+
+
+@pytest.mark.parametrize("method", ["teme", "gcrs", "itrs"])
+@pytest.mark.parametrize("shape", [(0,), (2, 0)])
+def test_empty_times_give_empty_states(method, shape):
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    s = getattr(sat, method)(np.zeros(shape) * u.min)
+    assert s.r.shape == s.v.shape == shape + (3,)
+
+
+def test_empty_times_give_empty_geodetic():
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    lat, lon, h = sat.geodetic(np.zeros(0) * u.min)
+    assert lat.shape == lon.shape == h.shape == (0,)

@@ -23,7 +23,7 @@ import numpy as np
 from astropy import units as u
 
 from .._units import to_quantity, to_vector
-from ..errors import InvalidInputError, ShapeError
+from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = [
     "offline_iers",
@@ -89,6 +89,8 @@ def _transform(r, v, t, source, target):
         ) from exc
     r_km = np.broadcast_to(r_km, shape + (3,))
     v_km_s = np.broadcast_to(v_km_s, shape + (3,))
+    if r_km.size == 0:  # empty in, empty out (astropy drops the differentials of empty data)
+        return np.empty(shape + (3,)), np.empty(shape + (3,))
     rep = CartesianRepresentation(
         np.moveaxis(r_km, -1, 0) * u.km,
         differentials=CartesianDifferential(np.moveaxis(v_km_s, -1, 0) * (u.km / u.s)),
@@ -100,6 +102,14 @@ def _transform(r, v, t, source, target):
         cart = out.cartesian
         r_out = np.moveaxis(cart.xyz.to_value(u.km), 0, -1)
         v_out = np.moveaxis(cart.differentials["s"].d_xyz.to_value(u.km / u.s), 0, -1)
+    finite_in = np.isfinite(r_km).all(-1) & np.isfinite(v_km_s).all(-1)
+    finite_out = np.isfinite(r_out).all(-1) & np.isfinite(v_out).all(-1)
+    if (finite_in & ~finite_out).any():
+        raise DomainError(
+            f"the {source.upper()} -> {target.upper()} conversion gave a non-finite state "
+            f"(astropy/ERFA) for {int((finite_in & ~finite_out).sum())} of {finite_out.size} "
+            "finite inputs; use times within astropy's supported range (years -4712 to 9999)."
+        )
     return np.ascontiguousarray(r_out), np.ascontiguousarray(v_out)
 
 

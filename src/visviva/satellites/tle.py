@@ -22,7 +22,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._units import to_array
-from ..errors import InvalidInputError, UnitsError, VisvivaError
+from ..errors import InvalidElementsError, InvalidInputError, UnitsError, VisvivaError
 from ..states import StateVectors
 
 __all__ = [
@@ -101,7 +101,8 @@ SGP4_ERROR_TYPES: dict[int, tuple[type[SGP4Error], str, str]] = {
     ),
     2: (
         SGP4MeanMotionError,
-        "mean motion is less than zero",
+        "mean motion fell to zero or below (it must stay > 0)",
+        "the element set's drag terms (ndot, B*) drive the mean motion to zero by this time: "
         "propagate to times nearer the element-set epoch or use a newer element set",
     ),
     3: (
@@ -279,6 +280,77 @@ def check_tle_lines(
 
 
 # --------------------------------------------------------------------------------------------
+# Ranges of the mean elements (TLE and OMM)
+# --------------------------------------------------------------------------------------------
+#: field -> (low, high, high inclusive, unit) for the SGP4 mean elements
+_ELEMENT_RANGES = {
+    "mean motion": (0.0, math.inf, False, "rev/day"),
+    "eccentricity": (0.0, 1.0, False, ""),
+    "inclination": (0.0, 180.0, True, "deg"),
+    "right ascension of the ascending node": (0.0, 360.0, True, "deg"),
+    "argument of perigee": (0.0, 360.0, True, "deg"),
+    "mean anomaly": (0.0, 360.0, True, "deg"),
+}
+_TLE_COLUMNS = {
+    "mean motion": "columns 53-63",
+    "eccentricity": "columns 27-33",
+    "inclination": "columns 9-16",
+    "right ascension of the ascending node": "columns 18-25",
+    "argument of perigee": "columns 35-42",
+    "mean anomaly": "columns 44-51",
+}
+_OMM_KEYS = {
+    "mean motion": "MEAN_MOTION",
+    "eccentricity": "ECCENTRICITY",
+    "inclination": "INCLINATION",
+    "right ascension of the ascending node": "RA_OF_ASC_NODE",
+    "argument of perigee": "ARG_OF_PERICENTER",
+    "mean anomaly": "MEAN_ANOMALY",
+}
+_ANGLE_TOL_DEG = 1e-9  # degrees -> radians -> degrees round trip of sgp4's parser
+
+
+def _check_element_ranges(
+    values: dict, where: str, exc: type[InvalidInputError], labels: dict
+) -> None:
+    """Raise ``exc`` naming the first mean element outside its range.
+
+    ``values`` maps the names of :data:`_ELEMENT_RANGES` to floats (rev/day, deg); ``labels``
+    maps the same names to where the value sits (TLE columns, OMM keyword).
+    """
+    for field, value in values.items():
+        lo, hi, hi_inclusive, unit = _ELEMENT_RANGES[field]
+        tol = _ANGLE_TOL_DEG if unit == "deg" else 0.0
+        ok = math.isfinite(value) and lo - tol <= value and (
+            value <= hi + tol if hi_inclusive else value < hi
+        )
+        if field == "mean motion":
+            ok = math.isfinite(value) and value > 0.0
+        if not ok:
+            interval = (
+                "> 0" if field == "mean motion"
+                else f"in [{lo:g}, {hi:g}{']' if hi_inclusive else ')'}"
+            )
+            raise exc(
+                f"{where}: {field} ({labels[field]}) is {value:.10g}{' ' + unit if unit else ''}; it must be "
+                f"{interval}. Check the element set (a corrupted or hand-made record)."
+            )
+
+
+def _check_tle_epoch(line1: str, epochyr: int, epochdays: float, where: str) -> None:
+    """Day of year of a TLE epoch in [1, 366) (or [1, 367) in leap years)."""
+    year = epochyr + (1900 if epochyr >= 57 else 2000)
+    leap = year % 4 == 0 and (year % 100 != 0 or year % 400 == 0)
+    end = 367.0 if leap else 366.0
+    if not (1.0 <= epochdays < end):
+        raise TLEFormatError(
+            f"{where}: columns 21-32 (epoch day of year) hold {line1[20:32]!r} = {epochdays!r}; "
+            f"the day of year of {year} must be in [1, {end:g}) (1.0 = 1 January 00:00 UTC): "
+            f"{line1!r}."
+        )
+
+
+# --------------------------------------------------------------------------------------------
 # Time conversion (one array operation per call)
 # --------------------------------------------------------------------------------------------
 def sgp4_times(t, jd_epoch: float, fr_epoch: float):
@@ -443,7 +515,9 @@ class Satellite:
         Raises
         ------
         TLEFormatError
-            A line is malformed; the message names the line and the field.
+            A line is malformed, or a field is out of range (epoch day of year outside
+            [1, 366) or [1, 367) in leap years, mean motion <= 0, inclination > 180 deg, an
+            angle > 360 deg); the message names the line and the field.
 
         Element sets that sgp4 cannot initialise (e.g. eccentricity out of range) are accepted
         here; propagating them raises the typed :class:`SGP4Error`.
@@ -457,6 +531,22 @@ class Satellite:
 
         line1, line2 = check_tle_lines(line1, line2, verify_checksum=verify_checksum, where=where)
         satrec = Satrec.twoline2rv(line1, line2, WGS72)
+        where = where or ("TLE line 1", "TLE line 2")
+        _check_tle_epoch(line1, int(satrec.epochyr), float(satrec.epochdays), where[0])
+        deg = 180.0 / math.pi
+        _check_element_ranges(
+            {
+                "mean motion": satrec.no_kozai * MINUTES_PER_DAY / (2 * math.pi),
+                "eccentricity": float(satrec.ecco),
+                "inclination": satrec.inclo * deg,
+                "right ascension of the ascending node": satrec.nodeo * deg,
+                "argument of perigee": satrec.argpo * deg,
+                "mean anomaly": satrec.mo * deg,
+            },
+            where[1],
+            TLEFormatError,
+            _TLE_COLUMNS,
+        )
         return cls(satrec, name, ("tle", line1, line2))
 
     @classmethod
@@ -477,6 +567,9 @@ class Satellite:
         ------
         InvalidInputError
             A required keyword is missing or a value is not a number.
+        InvalidElementsError
+            A mean element is out of range (mean motion <= 0, eccentricity outside [0, 1),
+            inclination outside [0, 180] deg, an angle outside [0, 360] deg).
         """
         from sgp4 import omm
         from sgp4.api import WGS72, Satrec
@@ -508,6 +601,24 @@ class Satellite:
                 if not math.isfinite(clean[k]):
                     raise ValueError(f"{k} is not finite")
             satrec = Satrec()
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                f"OMM record {fields.get('OBJECT_NAME', '')!r} has a bad value: {exc}."
+            ) from exc
+        _check_element_ranges(
+            {
+                "mean motion": clean["MEAN_MOTION"],
+                "eccentricity": clean["ECCENTRICITY"],
+                "inclination": clean["INCLINATION"],
+                "right ascension of the ascending node": clean["RA_OF_ASC_NODE"],
+                "argument of perigee": clean["ARG_OF_PERICENTER"],
+                "mean anomaly": clean["MEAN_ANOMALY"],
+            },
+            f"OMM record {fields.get('OBJECT_NAME', '')!r}",
+            InvalidElementsError,
+            _OMM_KEYS,
+        )
+        try:
             omm.initialize(satrec, clean, WGS72)
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(
@@ -559,6 +670,15 @@ class Satellite:
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
             when = times if times is not None else Time(jd, fr, format="jd", scale="utc")
             raise_for_sgp4_status(e, [self.name], tsince, when)
+        if not (np.isfinite(r).all() and np.isfinite(v).all()):
+            tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
+            k = int(np.flatnonzero(~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)))[0])
+            raise SGP4Error(
+                f"SGP4 returned a non-finite state for satellite {self.name!r} at "
+                f"{tsince[k]:.6f} min from its epoch without an error code. To fix: propagate "
+                "to times nearer the element-set epoch or check the element set.",
+                satellite=self.name, reason="non-finite state", tsince_min=float(tsince[k]),
+            )
         if times is None:
             times = Time(jd, fr, format="jd", scale="utc").reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times

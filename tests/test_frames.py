@@ -207,3 +207,17 @@ def test_batch_transform_equals_astropy_per_state(source, target):
     rd, vd = _transform(r, v, t, source, target)
     assert np.abs(rb - rd).max() < 1e-9  # km
     assert np.abs(vb - vd).max() < 1e-9  # km/s
+
+
+@pytest.mark.parametrize("shape", [(0,), (4, 0)])
+def test_empty_states_convert_to_empty_states(shape):
+    from visviva.satellites.frames import itrs_to_geodetic, teme_to_gcrs, teme_to_itrs
+
+    t = Time("2024-03-01T00:00:00", scale="utc") + np.zeros(shape) * u.s
+    r = np.zeros(shape + (3,)) * u.km
+    v = np.zeros(shape + (3,)) * (u.km / u.s)
+    for convert in (teme_to_gcrs, teme_to_itrs):
+        ro, vo = convert(r, v, t)
+        assert ro.shape == vo.shape == shape + (3,) and ro.unit == u.km
+    lat, lon, h = itrs_to_geodetic(r)
+    assert lat.shape == h.shape == shape

@@ -434,3 +434,17 @@ def test_empty_times_give_empty_geodetic():
     sat = vv.Satellite.from_tle(ISS_1, ISS_2)
     lat, lon, h = sat.geodetic(np.zeros(0) * u.min)
     assert lat.shape == lon.shape == h.shape == (0,)
+
+
+def test_times_centuries_from_the_epoch_are_refused_not_hung():
+    """sgp4's deep-space integrator steps 720 min from the epoch: 1e12 days would run for hours."""
+    from visviva.satellites.catalog import propagate_sgp4_batch
+
+    geo_2 = _put(ISS_2, 53, 63, " 1.00270000")
+    sat = vv.Satellite.from_tle(ISS_1, geo_2)
+    for t in (1e12 * u.day, np.array([0.0, -2e5]) * u.day, sat.epoch + 5e5 * u.day):
+        with pytest.raises(vv.DomainError, match="days from the element-set epoch"):
+            sat.teme(t)
+    with pytest.raises(vv.DomainError, match="days from the element-set epoch"):
+        propagate_sgp4_batch([sat], sat.epoch + [0.0, 3e5] * u.day)
+    assert np.isfinite(sat.teme(30 * u.day).r.to_value(u.km)).all()

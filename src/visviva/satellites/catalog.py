@@ -32,6 +32,7 @@ from .tle import (
     MINUTES_PER_DAY,
     Satellite,
     TLEFormatError,
+    check_tsince,
     raise_for_sgp4_status,
     sgp4_times,
 )
@@ -396,6 +397,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     cat = _as_catalog(satellites)
     t = _absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
+    ep = cat.epochs
+    tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
+    check_tsince(tsince, cat.names)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
     else:
@@ -410,8 +414,6 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
                 )
         cat.satrec_array._sgp4(jd, fr, e, r, v)
     if on_error == "raise" and e.any():
-        ep = cat.epochs
-        tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
         raise_for_sgp4_status(e, cat.names, tsince, t)
     return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), t, e, cat.names, "teme")
 

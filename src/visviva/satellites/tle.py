@@ -22,7 +22,13 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._units import to_array
-from ..errors import InvalidElementsError, InvalidInputError, UnitsError, VisvivaError
+from ..errors import (
+    DomainError,
+    InvalidElementsError,
+    InvalidInputError,
+    UnitsError,
+    VisvivaError,
+)
 from ..states import StateVectors
 
 __all__ = [
@@ -42,6 +48,9 @@ __all__ = [
 
 MINUTES_PER_DAY = 1440.0
 DAY_S = 86_400.0
+#: Largest |t - epoch| SGP4 is asked for (days, ~270 years): sgp4's deep-space integrator steps
+#: 720 min at a time from the epoch, so far larger offsets would run for hours.
+MAX_TSINCE_DAYS = 100_000.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -353,6 +362,21 @@ def _check_tle_epoch(line1: str, epochyr: int, epochdays: float, where: str) -> 
 # --------------------------------------------------------------------------------------------
 # Time conversion (one array operation per call)
 # --------------------------------------------------------------------------------------------
+def check_tsince(tsince_min, names) -> None:
+    """Raise DomainError when a time is more than :data:`MAX_TSINCE_DAYS` from its epoch."""
+    tsince_min = np.asarray(tsince_min, dtype=np.float64)
+    far = ~(np.abs(tsince_min) <= MAX_TSINCE_DAYS * MINUTES_PER_DAY)
+    if far.any():
+        index = np.unravel_index(int(np.flatnonzero(far.ravel())[0]), far.shape)
+        name = names[index[0]] if far.ndim == 2 else names[0]
+        raise DomainError(
+            f"satellite {name!r}: a requested time is {tsince_min[index] / MINUTES_PER_DAY:.6g} "
+            f"days from the element-set epoch; SGP4 is meaningful for days to weeks around it "
+            f"and visviva refuses offsets beyond {MAX_TSINCE_DAYS:g} days. Use times near the "
+            "epoch (or a newer element set)."
+        )
+
+
 def sgp4_times(t, jd_epoch: float, fr_epoch: float):
     """Convert a time argument to the (jd, fr) pair of UTC Julian dates sgp4 takes.
 
@@ -373,7 +397,15 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
         ``t`` as a Time when it was given as one.
     """
     if isinstance(t, Time):
-        tu = t.utc
+        from erfa import ErfaError
+
+        try:
+            tu = t.utc
+        except (ErfaError, ValueError) as exc:
+            raise DomainError(
+                f"t cannot be converted to UTC ({exc}); use dates within astropy's supported "
+                "range, near the element-set epoch."
+            ) from exc
         jd = np.ascontiguousarray(tu.jd1, dtype=np.float64).ravel()
         fr = np.ascontiguousarray(tu.jd2, dtype=np.float64).ravel()
         return jd, fr, t.shape, t
@@ -665,6 +697,7 @@ class Satellite:
         """One sgp4 array call: TEME r (km), v (km/s) of shape t.shape + (3,), and times."""
         s = self.satrec
         jd, fr, shape, times = sgp4_times(t, s.jdsatepoch, s.jdsatepochF)
+        check_tsince(((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY, [self.name])
         e, r, v = s.sgp4_array(jd, fr)
         if e.any():
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY

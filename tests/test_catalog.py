@@ -200,3 +200,26 @@ def test_sgp4_batch_writes_into_given_arrays(catalog, times):
     np.testing.assert_array_equal(v, ref.v.value)
     with pytest.raises(vv.ShapeError):
         propagate_sgp4_batch(cat, times, out=(status, r[:, ::2], v))
+
+
+def test_out_of_range_elements_in_files_name_the_line_or_record(tmp_path):
+    """ROBUSTNESS_BUGS #3/#4: a valid checksum does not make a day 400 or a 200 deg inclination."""
+    import json
+
+    from sgp4.exporter import export_omm
+
+    from visviva.satellites.catalog import read_omm_file
+
+    def checksum(line):
+        return line[:68] + str(sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10)
+
+    bad_2 = checksum(ISS_2[:8] + "200.0000" + ISS_2[16:])
+    with pytest.raises(TLEFormatError, match="line 4 of .*inclination"):
+        parse_tle_text(ISS_1 + "\n" + ISS_2 + "\n" + ISS_1 + "\n" + bad_2 + "\n")
+    bad_1 = checksum(ISS_1[:20] + "400" + ISS_1[23:])
+    with pytest.raises(TLEFormatError, match="line 1 of .*day of year"):
+        parse_tle_text(bad_1 + "\n" + ISS_2 + "\n")
+    good = export_omm(vv.Satellite.from_tle(ISS_1, ISS_2).satrec, "ISS")
+    (tmp_path / "gp.json").write_text(json.dumps([good, {**good, "MEAN_MOTION": -15.7}]))
+    with pytest.raises(vv.InvalidElementsError, match="record 2 of .*MEAN_MOTION"):
+        read_omm_file(tmp_path / "gp.json")

@@ -31,6 +31,7 @@ from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
 from .tle import (
     MINUTES_PER_DAY,
     Satellite,
+    SGP4Error,
     TLEFormatError,
     check_tsince,
     raise_for_sgp4_status,
@@ -415,6 +416,15 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         cat.satrec_array._sgp4(jd, fr, e, r, v)
     if on_error == "raise" and e.any():
         raise_for_sgp4_status(e, cat.names, tsince, t)
+    bad = ~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)) & (e == 0)
+    if bad.any():  # never seen from sgp4, but no NaN leaves without a reason
+        i, j = np.unravel_index(int(np.flatnonzero(bad)[0]), bad.shape)
+        raise SGP4Error(
+            f"SGP4 returned a non-finite state without an error code for satellite "
+            f"{cat.names[i]!r} at {tsince[i, j]:.6f} min from its epoch. To fix: propagate to "
+            "times nearer the element-set epoch or check the element set.",
+            satellite=cat.names[i], reason="non-finite state", tsince_min=float(tsince[i, j]),
+        )
     return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), t, e, cat.names, "teme")
 
 

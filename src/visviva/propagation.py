@@ -145,7 +145,14 @@ def _explain_extreme_magnitudes(status, r0, v0, gm, dt_s, shape) -> None:
             v_hat = v0 / np.maximum(np.max(np.abs(v0), axis=-1, keepdims=True), 1e-300)
             h_hat = np.linalg.norm(np.cross(r_hat, v_hat), axis=-1)
             scale = np.linalg.norm(r_hat, axis=-1) * np.linalg.norm(v_hat, axis=-1)
-        bad |= hit & (h_hat > 1e-12 * scale)
+            # radial to float64 means p = |r x v|^2 / gm below the rounding of |r| (as in
+            # core.elements); p / |r| = |r| |v|^2 sin^2(angle) / gm, taken in logarithms
+            rm_all = np.max(np.abs(r0), axis=-1)
+            vm_all = np.max(np.abs(v0), axis=-1)
+            log_p_over_r = (np.log(rm_all) + 2 * np.log(vm_all)
+                            + 2 * np.log(h_hat / scale) - np.log(gm))
+        not_radial = (h_hat > 1e-12 * scale) & (log_p_over_r > np.log(16 * np.finfo(float).eps))
+        bad |= hit & not_radial
     if not bad.any():
         return
     i = int(np.flatnonzero(bad)[0])

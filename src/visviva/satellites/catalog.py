@@ -416,8 +416,10 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         cat.satrec_array._sgp4(jd, fr, e, r, v)
     if on_error == "raise" and e.any():
         raise_for_sgp4_status(e, cat.names, tsince, t)
-    bad = ~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)) & (e == 0)
-    if bad.any():  # never seen from sgp4, but no NaN leaves without a reason
+    # fast path: one summation each (NaN and inf propagate); the full mask only when it fails
+    clean = np.isfinite(np.add.reduce(r, axis=None)) and np.isfinite(np.add.reduce(v, axis=None))
+    bad = None if clean else ~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)) & (e == 0)
+    if bad is not None and bad.any():  # never seen from sgp4, but no NaN leaves without a reason
         i, j = np.unravel_index(int(np.flatnonzero(bad)[0]), bad.shape)
         raise SGP4Error(
             f"SGP4 returned a non-finite state without an error code for satellite "

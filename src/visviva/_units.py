@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
-from .errors import InvalidInputError, ShapeError, UnitsError
+from .errors import DomainError, InvalidInputError, ShapeError, UnitsError
 
 __all__ = [
     "CANONICAL",
@@ -154,6 +154,54 @@ def require_finite(arr, name: str) -> None:
             f"{name} contains NaN or infinite values (first at index {where}, "
             f"{len(bad) if arr.ndim else 1} in all). Remove or fill them before calling."
         )
+
+
+def broadcast_or_raise(context: str, **arrays) -> tuple:
+    """Return the common broadcast shape of ``arrays``; :class:`ShapeError` if there is none.
+
+    Parameters
+    ----------
+    context : str
+        Name of the calling function, put at the start of the error message.
+    **arrays : array_like
+        The arguments by name (for vectors pass their leading shape, e.g. ``r[..., 0]``).
+
+    Returns
+    -------
+    tuple of int
+        ``np.broadcast_shapes`` of the arrays' shapes.
+    """
+    try:
+        return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
+        raise ShapeError(
+            f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of one "
+            "shape, or scalars."
+        ) from None
+
+
+def require_finite_result(arr, context: str, *, remedy: str = "Rescale them (e.g. other units)."):
+    """Return ``arr``; :class:`DomainError` if a computed result overflowed to inf or NaN.
+
+    For results (not inputs: see :func:`require_finite`) that left float64 because the finite
+    inputs were too extreme in magnitude.
+
+    Parameters
+    ----------
+    arr : array_like
+        The computed result.
+    context : str
+        Name of the calling function, put at the start of the error message.
+    remedy : str, optional
+        The sentence telling the user what to do, appended to the message.
+    """
+    if not np.all(np.isfinite(arr)):
+        raise DomainError(
+            f"{context}: the result overflows float64 (|x| > 1.8e308): the inputs are too "
+            f"extreme in magnitude. {remedy}"
+        )
+    return arr
 
 
 def require_positive(arr, name: str, *, strict: bool = True) -> None:

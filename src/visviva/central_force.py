@@ -28,7 +28,13 @@ from functools import cached_property
 import numpy as np
 from astropy import units as u
 
-from ._units import to_array, to_quantity, to_vector
+from ._units import (
+    broadcast_or_raise,
+    require_finite_result,
+    to_array,
+    to_quantity,
+    to_vector,
+)
 from .errors import DomainError, InvalidInputError, ShapeError, UnitsError
 
 __all__ = [
@@ -62,26 +68,12 @@ def _gm(gm):
     return _positive(to_array(gm, "gm", "gm"), "gm")
 
 
-def _broadcast(context, **arrays):
-    """Raise ShapeError unless the arrays broadcast together (vectors: pass their leading shape)."""
-    try:
-        return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
-    except ValueError:
-        shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
-        raise ShapeError(
-            f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of one "
-            "shape, or scalars."
-        ) from None
+_broadcast = broadcast_or_raise  # ShapeError unless the arguments broadcast together
 
 
 def _finite_result(arr, context):
     """Raise DomainError if a result overflowed (or underflowed into a division by zero)."""
-    if not np.all(np.isfinite(arr)):
-        raise DomainError(
-            f"{context}: the result is not representable in float64 (|x| > 1.8e308): the inputs "
-            "are too extreme in magnitude. Rescale them (other units, or G = M = 1)."
-        )
-    return arr
+    return require_finite_result(arr, context, remedy="Rescale them (other units, or G = M = 1).")
 
 
 def _real(value, name):

@@ -381,25 +381,10 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
 
 @kernel
 def _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt):
-    """Two-body propagation of one state in the caller's units (see :func:`propagate_scalar`).
+    """Two-body propagation of one state in the caller's units, without rescaling.
 
-    Parameters
-    ----------
-    x, y, z : float
-        Position (length, e.g. km).
-    vx, vy, vz : float
-        Velocity (length / time, e.g. km/s).
-    gm : float
-        Gravitational parameter (length**3 / time**2), > 0.
-    dt : float
-        Time of flight (time), any sign.
-
-    Returns
-    -------
-    status : int
-        ``OK`` or a code from :mod:`visviva.core.status`; on failure the six outputs are NaN.
-    x, y, z, vx, vy, vz : float
-        The state after ``dt``.
+    Parameters, returns and units are those of :func:`propagate_scalar`, which calls this
+    once, and again in power-of-two units when the magnitudes are extreme.
 
     Notes
     -----

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._units import to_si
+from .._units import broadcast_or_raise, require_finite_result, to_si
 from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["Inputs", "SI"]
@@ -101,23 +101,11 @@ class Inputs:
 
     def broadcast(self, context: str, **arrays) -> tuple:
         """The common shape of ``arrays``; :class:`ShapeError` if they do not broadcast."""
-        try:
-            return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
-        except ValueError:
-            shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
-            raise ShapeError(
-                f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of "
-                "one shape, or scalars."
-            ) from None
+        return broadcast_or_raise(context, **arrays)
 
     def finite(self, arr, context: str):
         """Return ``arr``; :class:`DomainError` if the computation overflowed to inf/NaN."""
-        if not np.all(np.isfinite(arr)):
-            raise DomainError(
-                f"{context}: the result overflows float64 (|x| > 1.8e308): the inputs are too "
-                "extreme in magnitude. Rescale them (e.g. other units)."
-            )
-        return arr
+        return require_finite_result(arr, context)
 
     def out(self, arr, unit: str):
         """Return ``arr`` as an SI Quantity if any input was a Quantity, else as an ndarray/float."""

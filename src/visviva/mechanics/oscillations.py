@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from .._units import broadcast_or_raise
 from ..errors import DomainError, InvalidInputError, ShapeError
 from ._inputs import Inputs, square_matrix
 
@@ -385,16 +386,7 @@ def _forced_from_rest(omega0, gamma, omega, t, s):
     return np.real(out)
 
 
-def _broadcast(context, **arrays):
-    """Raise ShapeError unless the arrays broadcast together."""
-    try:
-        return np.broadcast_shapes(*(np.shape(a) for a in arrays.values()))
-    except ValueError:
-        shapes = ", ".join(f"{k} {np.shape(a)}" for k, a in arrays.items())
-        raise ShapeError(
-            f"{context}: the arguments do not broadcast together ({shapes}). Give arrays of one "
-            "shape, or scalars."
-        ) from None
+_broadcast = broadcast_or_raise  # ShapeError unless the arguments broadcast together
 
 
 def normal_modes(M, K):

@@ -22,6 +22,8 @@ from visviva.core.universal import (
     stumpff_c0123,
     stumpff_c2c3,
 )
+from visviva.validation.checks_propagation import conic_state
+from visviva.validation.checks_propagation import mp_propagate as _mp_propagate
 
 DATA = Path(__file__).parent / "data" / "textbook_examples.json"
 ONE_MM = 1e-6  # km
@@ -30,30 +32,6 @@ ONE_MM = 1e-6  # km
 # ----------------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------------
-def conic_state(ecc, nu, q=1.0, gm=1.0, inc=0.4, raan=0.3, argp=1.1):
-    """Perifocal state of a conic with periapsis q, rotated by (raan, inc, argp)."""
-    p = q * (1.0 + ecc)
-    r = p / (1.0 + ecc * math.cos(nu))
-    rp = np.array([r * math.cos(nu), r * math.sin(nu), 0.0])
-    vp = math.sqrt(gm / p) * np.array([-math.sin(nu), ecc + math.cos(nu), 0.0])
-    cO, sO, ci, si, cw, sw = (
-        math.cos(raan),
-        math.sin(raan),
-        math.cos(inc),
-        math.sin(inc),
-        math.cos(argp),
-        math.sin(argp),
-    )
-    rot = np.array(
-        [
-            [cO * cw - sO * sw * ci, -cO * sw - sO * cw * ci, sO * si],
-            [sO * cw + cO * sw * ci, -sO * sw + cO * cw * ci, -cO * si],
-            [sw * si, cw * si, ci],
-        ]
-    )
-    return rot @ rp, rot @ vp
-
-
 def rebound_propagate(r0, v0, gm, dt):
     """IAS15 (adaptive, machine-precision setting) for a test particle around a point mass."""
     rebound = pytest.importorskip("rebound")
@@ -71,48 +49,9 @@ def rebound_propagate(r0, v0, gm, dt):
 
 
 def mp_propagate(r0, v0, gm, dt, digits=40):
-    """Slow obvious reference: the same universal-variable equations in 40-digit arithmetic,
-    solved by bisection (no cancellation can matter at this precision)."""
-    mp = pytest.importorskip("mpmath").mp
-    mp.dps = digits
-    r0 = [mp.mpf(float(c)) for c in r0]
-    v0 = [mp.mpf(float(c)) for c in v0]
-    gm, dt = mp.mpf(float(gm)), mp.mpf(float(dt))
-    rr = mp.sqrt(sum(c * c for c in r0))
-    eta = sum(a * b for a, b in zip(r0, v0, strict=True))
-    beta = 2 * gm / rr - sum(c * c for c in v0)
-
-    def gfun(s):
-        psi = beta * s * s
-        if psi > 0:
-            x = mp.sqrt(psi)
-            c = (mp.cos(x), mp.sin(x) / x, (1 - mp.cos(x)) / psi, (x - mp.sin(x)) / (x * psi))
-        elif psi < 0:
-            x = mp.sqrt(-psi)
-            c = (mp.cosh(x), mp.sinh(x) / x, (mp.cosh(x) - 1) / -psi, (mp.sinh(x) - x) / (-x * psi))
-        else:
-            c = (1, 1, mp.mpf(1) / 2, mp.mpf(1) / 6)
-        return c[0], s * c[1], s * s * c[2], s**3 * c[3]
-
-    def F(s):
-        _, G1, G2, G3 = gfun(s)
-        return rr * G1 + eta * G2 + gm * G3 - dt
-
-    lo, hi = mp.mpf(0), dt / rr
-    while (F(hi) < 0) == (dt > 0):
-        lo, hi = hi, 2 * hi
-    a, b = min(lo, hi), max(lo, hi)
-    for _ in range(3 * digits + 40):
-        m = (a + b) / 2
-        a, b = (m, b) if F(m) < 0 else (a, m)
-    G0, G1, G2, _ = gfun((a + b) / 2)
-    r = rr * G0 + eta * G1 + gm * G2
-    f, g = 1 - gm * G2 / rr, rr * G1 + eta * G2
-    fd, gd = -gm * G1 / (r * rr), 1 - gm * G2 / r
-    return (
-        np.array([float(f * a + g * b) for a, b in zip(r0, v0, strict=True)]),
-        np.array([float(fd * a + gd * b) for a, b in zip(r0, v0, strict=True)]),
-    )
+    """Slow obvious reference (40-digit universal variables; see checks_propagation)."""
+    pytest.importorskip("mpmath")
+    return _mp_propagate(r0, v0, gm, dt, digits)
 
 
 def prop(r0, v0, gm, dt):

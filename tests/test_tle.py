@@ -6,7 +6,6 @@ reference output tcppver.out) is shipped inside the installed sgp4 package and r
 
 from __future__ import annotations
 
-import importlib.resources
 import pickle
 
 import numpy as np
@@ -22,6 +21,7 @@ from visviva.satellites.tle import (
     SGP4Error,
     TLEFormatError,
 )
+from visviva.validation.checks_satellites import verification_set, verification_times
 
 ONE_MM = 1e-6  # km
 ONE_UM_S = 1e-9  # km/s
@@ -34,40 +34,8 @@ def _with_checksum(line):
     return line[:68] + str(sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10)
 
 
-def _verification_set():
-    """(line1, line2, tstart, tstop, tstep) per satellite, and tcppver.out blocks by satnum."""
-    root = importlib.resources.files("sgp4")
-    lines = (root / "SGP4-VER.TLE").read_text().splitlines()
-    cases = []
-    for i, line in enumerate(lines):
-        if line.startswith("1 "):
-            line2 = lines[i + 1]
-            start, stop, step = (float(x) for x in line2[69:].split())
-            cases.append((line, line2[:69], start, stop, step))
-    blocks = []  # in file order (one catalogue number appears twice)
-    for line in (root / "tcppver.out").read_text().replace("\r", "").splitlines():
-        if "xx" in line:
-            blocks.append((int(line.split()[0]), []))
-        elif line.strip():
-            blocks[-1][1].append([float(x) for x in line.split()[:7]])
-    assert len(blocks) == len(cases) == 33
-    return [c + (num, np.array(b)) for c, (num, b) in zip(cases, blocks, strict=True)]
-
-
-CASES = _verification_set()
-
-
-def _grid(start, stop, step):
-    """The times tcppver.out prints: 0, then start..stop by step (stop always included)."""
-    times = [0.0]
-    t = start
-    while t <= stop:
-        if not (t == start == 0.0):
-            times.append(t)
-        t += step
-    if t - stop < step - 1e-6:
-        times.append(stop)
-    return np.array(times)
+CASES = verification_set()
+assert len(CASES) == 33  # one catalogue number appears twice in tcppver.out
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0][2:7] for c in CASES])
@@ -76,7 +44,7 @@ def test_sgp4_verification_set(case):
     # five of the 33 verification TLEs carry wrong checksums on purpose (hand-made cases)
     sat = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
     assert sat.satnum == satnum
-    grid = _grid(start, stop, step)
+    grid = verification_times(start, stop, step)
     n_ok = len(expected)
     if np.isnan(Satrec.twoline2rv(line1, line2, WGS72).sgp4_tsince(0.0)[1][0]):
         n_ok = 0  # tcppver.out repeats the previous satellite's line: fails at t = 0
@@ -101,7 +69,7 @@ def test_verification_set_error_codes_are_those_of_the_cpp_run():
     for line1, line2, start, stop, step, _, _ in CASES:
         sat = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
         try:
-            sat.teme(_grid(start, stop, step) * u.min)
+            sat.teme(verification_times(start, stop, step) * u.min)
         except SGP4Error as exc:
             codes.append(exc.code)
     # the sgp4 package's own test lists these codes for the same run of tcppver.out

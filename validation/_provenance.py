@@ -46,6 +46,19 @@ def header(script: str, libraries: tuple[str, ...], settings: dict, description:
     }
 
 
+def document(script: str, libraries: tuple[str, ...], settings: dict, description: str,
+             units: dict, cases: list) -> dict:
+    """One data file's content: ``{"provenance": header(...), "cases": cases}``."""
+    return {"provenance": header(script, libraries, settings, description, units),
+            "cases": cases}
+
+
+def main(name: str, generate) -> None:
+    """Command-line entry of a generator: write ``validation/data/<name>`` from ``generate()``."""
+    path = write(name, generate())
+    print(f"wrote {path}")
+
+
 def _clean(value):
     if hasattr(value, "tolist") and not isinstance(value, list | tuple | dict):
         value = value.tolist()  # numpy scalars and arrays to Python floats and lists

@@ -120,18 +120,12 @@ def generate() -> dict:
                 "conventions": {"elliptic": "M = E - e sin E", "hyperbolic": "M = e sinh F - F",
                                 "parabolic": "M = D + D^3/3, D = tan(nu/2)"},
                 "rounding": "inputs are float64 values taken exactly; outputs rounded to float64"}
-    head = _provenance.header(
+    return _provenance.document(
         __file__, ("mpmath",), settings,
         "Kepler's equation solved to 60 digits for elliptic, near-parabolic, parabolic and "
         "hyperbolic orbits: eccentric/hyperbolic/parabolic anomaly, true anomaly and dnu/dM.",
-        {"M": "rad", "anomaly": "rad (E, F or D = tan(nu/2))", "nu": "rad", "dnu_dM": "1"})
-    return {"provenance": head, "cases": cases}
-
-
-def main() -> None:
-    path = _provenance.write(NAME, generate())
-    print(f"wrote {path}")
+        {"M": "rad", "anomaly": "rad (E, F or D = tan(nu/2))", "nu": "rad", "dnu_dM": "1"}, cases)
 
 
 if __name__ == "__main__":
-    main()
+    _provenance.main(NAME, generate)

@@ -88,18 +88,12 @@ def generate() -> dict:
                 "exact_finish_time": 1, "solar_system_years": SOLAR_SYSTEM_YEARS,
                 "solar_system_snapshots": SNAPSHOTS, "julian_year_s": JULIAN_YEAR_S,
                 "frame": "ICRF axes, solar-system barycentre origin at J2000 (TDB)"}
-    head = _provenance.header(
+    return _provenance.document(
         __file__, ("rebound",), settings,
         "REBOUND IAS15 integrations of the Sun + planets (20 years) and of the figure-eight "
         "choreography (one period): snapshots of positions, velocities and energy error.",
-        {"solar_system": "km, km/s, s, GM km3/s2 with G = 1", "figure_eight": "G = 1 units"})
-    return {"provenance": head, "cases": cases}
-
-
-def main() -> None:
-    path = _provenance.write(NAME, generate())
-    print(f"wrote {path}")
+        {"solar_system": "km, km/s, s, GM km3/s2 with G = 1", "figure_eight": "G = 1 units"}, cases)
 
 
 if __name__ == "__main__":
-    main()
+    _provenance.main(NAME, generate)

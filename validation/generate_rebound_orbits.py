@@ -90,18 +90,12 @@ def generate() -> dict:
     settings = {"gm_km3_s2": GM_EARTH_KM3_S2, "seed": SEED, "dt_fractions": DT_FRACTIONS,
                 "rebound": "G = 1, primary mass = GM (km3/s2), test particle m = 0; "
                            "propagation with WHFast, dt = interval / 8, exact_finish_time=1"}
-    head = _provenance.header(
+    return _provenance.document(
         __file__, ("rebound",), settings,
         "State vectors from classical elements and two-body propagation computed by REBOUND, "
         "for near-circular, elliptic, highly elliptic and hyperbolic orbits.",
-        {"a_km": "km", "r_km": "km", "v_km_s": "km/s", "angles": "rad", "dt_s": "s"})
-    return {"provenance": head, "cases": out}
-
-
-def main() -> None:
-    path = _provenance.write(NAME, generate())
-    print(f"wrote {path}")
+        {"a_km": "km", "r_km": "km", "v_km_s": "km/s", "angles": "rad", "dt_s": "s"}, out)
 
 
 if __name__ == "__main__":
-    main()
+    _provenance.main(NAME, generate)

@@ -100,19 +100,13 @@ def generate() -> dict:
                 "time_scale": "epoch and offsets in UTC; offsets are in minutes from the TLE epoch",
                 "astropy": "TEME(obstime=t) -> GCRS(obstime=t), astropy's default IERS handling",
                 "skyfield": "EarthSatellite(line1, line2).at(t): GCRS, builtin timescale"}
-    head = _provenance.header(
+    return _provenance.document(
         __file__, ("sgp4", "astropy", "skyfield"), settings,
         "SGP4/SDP4 states in TEME for a LEO, a Molniya and a GEO TLE, and the same states in "
         "GCRS through astropy and through Skyfield.",
         {"teme_r_km": "km", "teme_v_km_s": "km/s", "gcrs_r_km": "km", "gcrs_v_km_s": "km/s",
-         "offsets_min": "min"})
-    return {"provenance": head, "cases": cases}
-
-
-def main() -> None:
-    path = _provenance.write(NAME, generate())
-    print(f"wrote {path}")
+         "offsets_min": "min"}, cases)
 
 
 if __name__ == "__main__":
-    main()
+    _provenance.main(NAME, generate)

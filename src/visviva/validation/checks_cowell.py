@@ -201,7 +201,12 @@ def _drag_decay():
     return abs((a[-1] - a[0]) / expect - 1), {"da_km": a[-1] - a[0], "analytic_km": expect}
 
 
-def _srp_growth():
+def srp_eccentricity_growth():
+    """GEO under constant in-plane SRP for 2 days: |de| against 3/2 F cos(dec) span / v.
+
+    Returns ``(relative error, details)`` (Gauss's equations averaged over an orbit;
+    Montenbruck & Gill 2000, sec. 3.4). Shared with ``tests/test_cowell.py``.
+    """
     from astropy import units as u
     from astropy.time import Time
 
@@ -209,7 +214,7 @@ def _srp_growth():
     from visviva.satellites import propagate_cowell
     from visviva.satellites.ephemeris import sun_position
 
-    epoch = Time("2024-06-10T00:00:00", scale="utc")
+    epoch = Time("2024-06-10T00:00:00", scale="utc")  # no GEO eclipses in June
     geo = vv.KeplerianElements.from_semi_major_axis(
         42164.17 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0, vv.EARTH, epoch=epoch
     ).to_state()
@@ -286,7 +291,7 @@ def checks(full: bool = False) -> list[Check]:
         _run("cowell: drag decay vs analytic (co-rotating, 420 km)", "relative difference",
              1e-3, "King-Hele 1987 / Vallado 2013 eq. 9-25", _drag_decay),
         _run("cowell: SRP eccentricity growth vs Gauss equations (GEO)",
-             "relative difference", 5e-3, "Montenbruck & Gill 2000 sec. 3.4", _srp_growth),
+             "relative difference", 5e-3, "Montenbruck & Gill 2000 sec. 3.4", srp_eccentricity_growth),
         _run("lambert: Izzo round trip through Kepler, M=0..2", "max miss (km)", ONE_MM_KM,
              "visviva universal-variable Kepler", _lambert_round_trip),
         _run("lambert: Izzo vs universal-variable solver", "max |dv1| (km/s)", 1e-8,

@@ -40,7 +40,11 @@ REGIMES = {
 }
 
 
-def _conic_state(ecc, nu, q=1.0, gm=1.0, inc=0.4, raan=0.3, argp=1.1):
+def conic_state(ecc, nu, q=1.0, gm=1.0, inc=0.4, raan=0.3, argp=1.1):
+    """Perifocal state of a conic with periapsis q, rotated by (raan, inc, argp).
+
+    Shared with ``tests/test_core_universal.py``.
+    """
     p = q * (1.0 + ecc)
     r = p / (1.0 + ecc * math.cos(nu))
     rp = np.array([r * math.cos(nu), r * math.sin(nu), 0.0])
@@ -63,7 +67,7 @@ def _cases(ecc):
     for nu in (-1.2, 0.0, 0.7, 2.0):
         if ecc >= 1.0 and abs(nu) >= math.acos(-1.0 / ecc) - 0.3:
             continue
-        r0, v0 = _conic_state(ecc, nu)
+        r0, v0 = conic_state(ecc, nu)
         for dt in (0.05, 1.7, -3.3, 25.0):
             out.append((r0, v0, dt))
     return out
@@ -120,7 +124,7 @@ def _vs_rebound() -> list[Check]:
     ref = f"rebound {rebound.__version__} IAS15 (adaptive, default epsilon)"
     groups = {name: _cases(ecc) for name, ecc in REGIMES.items()}
     groups.update(_radial_cases())
-    r0, v0 = _conic_state(0.5, 0.3)
+    r0, v0 = conic_state(0.5, 0.3)
     groups["e = 0.5, 20.3 revolutions"] = [(r0, v0, 20.3 * 2 * math.pi * 2.0**1.5)]
     out = []
     for name, cases in groups.items():
@@ -159,7 +163,12 @@ def _vs_skyfield() -> list[Check]:
                   {"n_cases": n, "worst": where})]
 
 
-def _mp_propagate(r0, v0, gm, dt, digits=40):
+def mp_propagate(r0, v0, gm, dt, digits=40):
+    """Slow obvious reference: the universal-variable equations in ``digits``-digit arithmetic
+    (mpmath), solved by bisection, so no cancellation can matter at this precision.
+
+    Shared with ``tests/test_core_universal.py``.
+    """
     import mpmath
 
     mp = mpmath.mp
@@ -213,11 +222,11 @@ def _vs_exact() -> list[Check]:
     cases = [(3.0, -1.91, 1590.0), (3.0, -1.91, 3150.0), (10.0, -1.66, 33.8),
              (10.0, -1.66, 66.9), (0.99999, -3.1, 5.23e4), (1.0, -3.1, 5.3e4),
              (1.00001, -3.1, 1.06e5), (1.5, -2.25, 100.0), (0.5, 2.0, 7.7)]
-    states = [(*_conic_state(e, nu), dt) for e, nu, dt in cases]
+    states = [(*conic_state(e, nu), dt) for e, nu, dt in cases]
     r, v = _visviva(states)
     worst, where = 0.0, ""
     for (r0, v0, dt), ri, vi, case in zip(states, r, v, cases, strict=True):
-        r_ex, v_ex = _mp_propagate(r0, v0, 1.0, dt)
+        r_ex, v_ex = mp_propagate(r0, v0, 1.0, dt)
         err = max(_rel(ri, r_ex), _rel(vi, v_ex))
         if err > worst:
             worst, where = err, f"e = {case[0]}, nu0 = {case[1]}, dt = {case[2]}"

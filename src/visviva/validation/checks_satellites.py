@@ -17,7 +17,7 @@ import numpy as np
 
 from .base import Check
 
-__all__ = ["checks", "verification_set"]
+__all__ = ["checks", "verification_set", "verification_times"]
 
 ONE_MM_KM = 1e-6
 ONE_M_KM = 1e-3
@@ -61,7 +61,8 @@ def verification_set():
     return [c + (num, np.array(b)) for c, (num, b) in zip(cases, blocks, strict=True)]
 
 
-def _grid(start, stop, step):
+def verification_times(start, stop, step):
+    """The times tcppver.out prints: 0, then start..stop by step (stop always included)."""
     times = [0.0]
     t = start
     while t <= stop:
@@ -86,7 +87,7 @@ def _verification() -> list[Check]:
     for line1, line2, start, stop, step, _, expected in verification_set():
         sat = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
         ref = Satrec.twoline2rv(line1, line2, WGS72)
-        grid = _grid(start, stop, step)
+        grid = verification_times(start, stop, step)
         n_ok = 0 if np.isnan(ref.sgp4_tsince(0.0)[1][0]) else len(expected)
         if n_ok:
             s = sat.teme(grid[:n_ok] * u.min)

@@ -24,6 +24,7 @@ from visviva.core.universal import (
 )
 from visviva.validation.checks_propagation import conic_state
 from visviva.validation.checks_propagation import mp_propagate as _mp_propagate
+from visviva.validation.checks_propagation import rebound_propagate as _rebound_propagate
 
 DATA = Path(__file__).parent / "data" / "textbook_examples.json"
 ONE_MM = 1e-6  # km
@@ -33,19 +34,9 @@ ONE_MM = 1e-6  # km
 # helpers
 # ----------------------------------------------------------------------------------------------
 def rebound_propagate(r0, v0, gm, dt):
-    """IAS15 (adaptive, machine-precision setting) for a test particle around a point mass."""
-    rebound = pytest.importorskip("rebound")
-    sim = rebound.Simulation()
-    sim.G = 1.0
-    sim.integrator = "ias15"
-    sim.add(m=gm)
-    sim.add(m=0.0, x=r0[0], y=r0[1], z=r0[2], vx=v0[0], vy=v0[1], vz=v0[2])
-    sim.integrate(dt, exact_finish_time=1)
-    c, b = sim.particles[0], sim.particles[1]
-    return (
-        np.array([b.x - c.x, b.y - c.y, b.z - c.z]),
-        np.array([b.vx - c.vx, b.vy - c.vy, b.vz - c.vz]),
-    )
+    """REBOUND IAS15 reference (see checks_propagation)."""
+    pytest.importorskip("rebound")
+    return _rebound_propagate(r0, v0, gm, dt)
 
 
 def mp_propagate(r0, v0, gm, dt, digits=40):

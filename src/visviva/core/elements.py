@@ -112,6 +112,30 @@ def _sin_cos_inc(inc):
     return si, ci
 
 
+
+@inline_kernel
+def _check_state(rx, ry, rz, vx, vy, vz, gm):
+    """Status of a state given to rv_to_coe / rv_to_mee, and |r| when it is usable.
+
+    NON_FINITE for NaN or inf, BAD_GM for gm <= 0, ZERO_POSITION for r = 0, else OK.
+    """
+    if not (
+        math.isfinite(rx)
+        and math.isfinite(ry)
+        and math.isfinite(rz)
+        and math.isfinite(vx)
+        and math.isfinite(vy)
+        and math.isfinite(vz)
+        and math.isfinite(gm)
+    ):
+        return st.NON_FINITE, 0.0
+    if not gm > 0.0:
+        return st.BAD_GM, 0.0
+    rm = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if rm == 0.0:
+        return st.ZERO_POSITION, 0.0
+    return st.OK, rm
+
 @kernel
 def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     """Classical elements of one state vector.
@@ -142,22 +166,9 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     longitude in the equinoctial frame (module docstring). Undefined angles follow
     docs/conventions.md. Vallado (2013) Algorithm 9; Walker et al. (1985).
     """
-    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-    if not (
-        math.isfinite(rx)
-        and math.isfinite(ry)
-        and math.isfinite(rz)
-        and math.isfinite(vx)
-        and math.isfinite(vy)
-        and math.isfinite(vz)
-        and math.isfinite(gm)
-    ):
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
-    if not gm > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
-    rm = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if rm == 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.ZERO_POSITION
+    code, rm = _check_state(rx, ry, rz, vx, vy, vz, gm)
+    if code != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, code
     vm = math.sqrt(vx * vx + vy * vy + vz * vz)
     hx = ry * vz - rz * vy
     hy = rz * vx - rx * vz
@@ -165,11 +176,11 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     hxy = math.sqrt(hx * hx + hy * hy)
     hm = math.sqrt(hxy * hxy + hz * hz)
     if hm <= RADIAL_TOL * rm * vm:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.RADIAL_ORBIT
 
     p = hm * hm / gm
     if p <= P_OVER_R_MIN * rm:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.RADIAL_ORBIT
     rdotv = rx * vx + ry * vy + rz * vz
     ecos_r = p - rm  # r e cos(nu)
     esin_r = hm * rdotv / gm + 0.0  # r e sin(nu); + 0.0 removes a negative zero
@@ -247,7 +258,6 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     r = r (cos u, sin u, 0), v = sqrt(mu/p) (-(sin u + e sin argp), cos u + e cos argp, 0),
     rotated by Rz(raan) Rx(inc). Vallado (2013) Algorithm 10.
     """
-    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
     if not (
         math.isfinite(p)
         and math.isfinite(ecc)
@@ -257,18 +267,18 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
         and math.isfinite(nu)
         and math.isfinite(gm)
     ):
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
     if not gm > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
     if not p > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_SEMI_LATUS_RECTUM
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
     if ecc < 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_ECCENTRICITY
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_ECCENTRICITY
     cn = math.cos(nu)
     sn = math.sin(nu)
     denom = 1.0 + ecc * cn
     if not denom > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.UNREACHABLE_ANOMALY
     rm = p / denom
     si, ci = _sin_cos_inc(inc)
     so = math.sin(raan)
@@ -347,22 +357,9 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     1 + f cos L + g sin L = p/r consistent to rounding). h = -h_y/d and k = h_x/d with
     d = |h| + I h_z, evaluated without cancellation as (h_x^2 + h_y^2)/(|h| - I h_z) when I h_z < 0.
     """
-    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-    if not (
-        math.isfinite(rx)
-        and math.isfinite(ry)
-        and math.isfinite(rz)
-        and math.isfinite(vx)
-        and math.isfinite(vy)
-        and math.isfinite(vz)
-        and math.isfinite(gm)
-    ):
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
-    if not gm > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
-    rm = math.sqrt(rx * rx + ry * ry + rz * rz)
-    if rm == 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.ZERO_POSITION
+    code, rm = _check_state(rx, ry, rz, vx, vy, vz, gm)
+    if code != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, code
     v2 = vx * vx + vy * vy + vz * vz
     hx = ry * vz - rz * vy
     hy = rz * vx - rx * vz
@@ -370,18 +367,18 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     hxy2 = hx * hx + hy * hy
     hm = math.sqrt(hxy2 + hz * hz)
     if hm <= RADIAL_TOL * rm * math.sqrt(v2) or hm * hm / gm <= P_OVER_R_MIN * rm:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.RADIAL_ORBIT
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.RADIAL_ORBIT
     ihz = retro * hz
     if ihz >= 0.0:
         d = hm + ihz
     else:
         d = hxy2 / (hm - ihz)
     if not d > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.EQUINOCTIAL_SINGULAR
     kk = hx / d + 0.0
     hh = -hy / d + 0.0
     if not math.isfinite(hh * hh + kk * kk):  # tan^I(i/2) ~ 1e154 or more: overflow
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.EQUINOCTIAL_SINGULAR
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.EQUINOCTIAL_SINGULAR
     fx, fy, fz, gx, gy, gz = _equinoctial_frame(hh, kk, retro)
     rf = rx * fx + ry * fy + rz * fz  # r cos L
     rg = rx * gx + ry * gy + rz * gz + 0.0  # r sin L
@@ -429,7 +426,6 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
     r = p/w with w = 1 + f cos L + g sin L; r = r (cos L f + sin L g),
     v = sqrt(mu/p) (-(g + sin L) f + (f + cos L) g) (Walker et al. 1985, eqs. 3-4).
     """
-    n6 = (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
     if not (
         math.isfinite(p)
         and math.isfinite(f)
@@ -439,16 +435,16 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
         and math.isfinite(L)
         and math.isfinite(gm)
     ):
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.NON_FINITE
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
     if not gm > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_GM
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
     if not p > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.BAD_SEMI_LATUS_RECTUM
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
     cl = math.cos(L)
     sl = math.sin(L)
     w = 1.0 + f * cl + g * sl
     if not w > 0.0:
-        return n6[0], n6[1], n6[2], n6[3], n6[4], n6[5], st.UNREACHABLE_ANOMALY
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.UNREACHABLE_ANOMALY
     rm = p / w
     fx, fy, fz, gx, gy, gz = _equinoctial_frame(h, k, retro)
     a = rm * cl

@@ -22,6 +22,32 @@ def test_import_is_lazy_and_compiles_nothing():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
+def test_plain_number_calls_do_not_import_astropy():
+    # astropy.units costs ~0.1 s of the first call; plain numbers never need it
+    code = (
+        "import sys, math, visviva as vv; "
+        "E = vv.solve_kepler(1.0, 0.5); "
+        "assert abs(E - 0.5 * math.sin(E) - 1.0) < 1e-15; "
+        "assert 'astropy' not in sys.modules, 'astropy imported'"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_units_error_is_astropys_and_pickles():
+    import pickle
+
+    from astropy.units import UnitsError as AstropyUnitsError
+
+    assert issubclass(vv.UnitsError, AstropyUnitsError)
+    assert issubclass(vv.UnitsError, vv.InvalidInputError)
+    assert vv.UnitsError is vv.errors.UnitsError
+    with pytest.raises(AstropyUnitsError, match="astropy Quantity"):
+        vv.StateVectors([7000.0, 0, 0], [0, 7.5, 0] * u.km / u.s, vv.EARTH.gm)
+    err = pickle.loads(pickle.dumps(vv.UnitsError("no unit")))
+    assert type(err) is vv.UnitsError and str(err) == "no unit"
+    assert set(_units.CANONICAL) >= {"length", "speed", "time", "gm"}
+
+
 def test_public_names_resolve():
     for name in ("EARTH", "SUN", "MOON", "MERCURY", "NEPTUNE", "VisvivaError", "UnitsError"):
         assert getattr(vv, name) is not None

@@ -16,17 +16,25 @@ Kinds and their canonical units:
 - ``spec_angmom``: km2 / s (specific angular momentum)
 - ``spec_energy``: km2 / s2 (specific energy, potential per unit mass)
 - ``dimensionless``: plain numbers or dimensionless Quantities
+
+astropy.units is imported on first need, not with this module: it costs about 0.1 s, and a call
+with plain numbers (``vv.solve_kepler(1.0, 0.5)``) never needs it. A value can only be a
+Quantity if astropy is already imported, so :func:`is_quantity` asks ``sys.modules`` first.
 """
 
 from __future__ import annotations
 
-import numpy as np
-from astropy import units as u
+import functools
+import sys
 
-from .errors import DomainError, InvalidInputError, ShapeError, UnitsError
+import numpy as np
+
+from . import errors as _errors
+from .errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = [
-    "CANONICAL",
+    "CANONICAL",  # noqa: F822 (module __getattr__)
+    "is_quantity",
     "to_array",
     "to_vector",
     "to_quantity",
@@ -35,19 +43,48 @@ __all__ = [
     "require_positive",
 ]
 
-CANONICAL: dict[str, u.UnitBase] = {
-    "length": u.km,
-    "speed": u.km / u.s,
-    "time": u.s,
-    "angle": u.rad,
-    "gm": u.km**3 / u.s**2,
-    "accel": u.km / u.s**2,
-    "mass": u.kg,
-    "area_per_mass": u.m**2 / u.kg,
-    "spec_angmom": u.km**2 / u.s,
-    "spec_energy": u.km**2 / u.s**2,
-    "dimensionless": u.dimensionless_unscaled,
-}
+
+
+def _astropy_units():
+    """The ``astropy.units`` module, imported on first use."""
+    from astropy import units
+
+    return units
+
+
+@functools.cache
+def _canonical() -> dict:
+    """The canonical unit of each kind (see the module docstring)."""
+    u = _astropy_units()
+    return {
+        "length": u.km,
+        "speed": u.km / u.s,
+        "time": u.s,
+        "angle": u.rad,
+        "gm": u.km**3 / u.s**2,
+        "accel": u.km / u.s**2,
+        "mass": u.kg,
+        "area_per_mass": u.m**2 / u.kg,
+        "spec_angmom": u.km**2 / u.s,
+        "spec_energy": u.km**2 / u.s**2,
+        "dimensionless": u.dimensionless_unscaled,
+    }
+
+
+def __getattr__(name):
+    # PEP 562: CANONICAL (kind -> astropy unit) is built on first access
+    if name == "CANONICAL":
+        return _canonical()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def is_quantity(value) -> bool:
+    """Whether ``value`` is an astropy ``Quantity``, without importing astropy.
+
+    If astropy.units has not been imported, no Quantity can exist, so the answer is no.
+    """
+    units = sys.modules.get("astropy.units")
+    return units is not None and isinstance(value, units.Quantity)
 
 _EXAMPLE = {
     "length": "7000 * u.km",
@@ -93,29 +130,32 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     InvalidInputError
         NaN or infinite entries when ``finite`` is true.
     """
-    unit = CANONICAL[kind]
-    if kind == "gm" and hasattr(value, "gm") and not isinstance(value, u.Quantity):
+    quantity = is_quantity(value)
+    if kind == "gm" and hasattr(value, "gm") and not quantity:
         value = value.gm
+        quantity = is_quantity(value)
     if kind == "time" and type(value).__name__ == "TimeDelta":  # astropy.time.TimeDelta
-        value = value.to(u.s)
+        value = value.to(_astropy_units().s)
+        quantity = True
     if np.iscomplexobj(getattr(value, "value", value)):
         raise InvalidInputError(
             f"{name} is complex; visviva works with real numbers. Pass the real part explicitly "
             f"(np.real) if that is what you mean."
         )
-    if isinstance(value, u.Quantity):
+    if quantity:
+        unit = _canonical()[kind]
         try:
             arr = value.to_value(unit)
-        except u.UnitConversionError as exc:
-            raise UnitsError(
+        except _astropy_units().UnitConversionError as exc:
+            raise _errors.UnitsError(
                 f"{name} has unit '{value.unit}', which cannot be converted to {kind} "
                 f"('{unit}'). Pass e.g. {name}={_EXAMPLE[kind]}."
             ) from exc
         arr = np.array(arr, dtype=np.float64, copy=True)
     else:
         if not (allow_plain or kind in ("angle", "dimensionless")):
-            raise UnitsError(
-                f"{name} must be an astropy Quantity with a unit of {kind} ('{unit}'), "
+            raise _errors.UnitsError(
+                f"{name} must be an astropy Quantity with a unit of {kind} ('{_canonical()[kind]}'), "
                 f"got a plain {type(value).__name__}. Pass e.g. {name}={_EXAMPLE[kind]} "
                 "(with `from astropy import units as u`)."
             )
@@ -141,7 +181,7 @@ def to_vector(value, kind: str, name: str, **kwargs):
 
 def to_quantity(arr, kind: str):
     """Wrap a canonical-unit float array as a Quantity (no copy when ``arr`` is an ndarray)."""
-    return np.asarray(arr, dtype=np.float64) << CANONICAL[kind]
+    return np.asarray(arr, dtype=np.float64) << _canonical()[kind]
 
 
 def require_finite(arr, name: str) -> None:
@@ -237,12 +277,13 @@ def to_si(value, unit, name: str, *, finite: bool = True, angles_dimensionless: 
     InvalidInputError
         Non-numeric input, or NaN/inf when ``finite`` is true.
     """
-    if isinstance(value, u.Quantity):
+    if is_quantity(value):
+        u = _astropy_units()
         try:
             equiv = u.dimensionless_angles() if angles_dimensionless else []
             arr = value.si.value if unit is None else value.to_value(unit, equivalencies=equiv)
         except u.UnitConversionError as exc:
-            raise UnitsError(
+            raise _errors.UnitsError(
                 f"{name} has unit '{value.unit}', which cannot be converted to '{unit}'. "
                 f"Pass a Quantity in '{unit}' (or an equivalent unit), or a plain number in "
                 "consistent units."

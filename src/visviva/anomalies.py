@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from astropy import units as u
 
 from . import _units
 from .core import kepler as _k
@@ -54,7 +53,7 @@ _PARALLEL_MIN_ITEMS = 4096
 
 def _run(kernel, context, angle, angle_name, ecc=None):
     """Convert, broadcast, call ``kernel(angle, [ecc,] out, status)`` once, raise, wrap."""
-    was_quantity = isinstance(angle, u.Quantity)
+    was_quantity = _units.is_quantity(angle)
     # NaN and inf are caught by the kernels (status NON_FINITE), so no separate pass here
     x = _units.to_array(angle, "angle", angle_name, finite=False)
     inputs = {angle_name: x}
@@ -191,7 +190,7 @@ def solve_barker(M):
     Reference: Vallado (2013), Algorithm 3.
     """
     D = _run(_k.parabolic_anomaly_array, "solve_barker (e = 1)", M, "M")
-    return D.value if isinstance(D, u.Quantity) else D
+    return D.value if _units.is_quantity(D) else D
 
 
 def mean_to_true(M, ecc):
@@ -375,7 +374,7 @@ def true_to_parabolic(nu):
         Dimensionless (a plain array also for Quantity input).
     """
     D = _run(_k.parabolic_from_true_array, "true_to_parabolic (e = 1)", nu, "nu")
-    return D.value if isinstance(D, u.Quantity) else D
+    return D.value if _units.is_quantity(D) else D
 
 
 def eccentric_to_mean(E, ecc):

@@ -8,15 +8,16 @@ that says what went wrong, where, and what to do instead.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
-from astropy.units import UnitsError as _AstropyUnitsError
 
 from .core import status as _st
 
 __all__ = [
     "VisvivaError",
     "InvalidInputError",
-    "UnitsError",
+    "UnitsError",  # noqa: F822 (module __getattr__)
     "ShapeError",
     "InvalidStateError",
     "InvalidElementsError",
@@ -39,8 +40,33 @@ class InvalidInputError(VisvivaError, ValueError):
     """An argument has a value that cannot be used (NaN, inf, negative GM, e < 0, ...)."""
 
 
-class UnitsError(InvalidInputError, _AstropyUnitsError):
-    """A value is missing its unit or has a unit of the wrong physical type."""
+def _define_units_error():
+    # astropy.units costs ~0.1 s to import, and calls with plain numbers never need it: the class
+    # is defined on first access (module __getattr__ below), deriving from astropy's UnitsError
+    from astropy.units import UnitsError as _AstropyUnitsError
+
+    class UnitsError(InvalidInputError, _AstropyUnitsError):
+        """A value is missing its unit or has a unit of the wrong physical type.
+
+        Also an ``astropy.units.UnitsError``, so ``except u.UnitsError`` catches it.
+        """
+
+    UnitsError.__qualname__ = "UnitsError"
+    UnitsError.__module__ = __name__
+    return UnitsError
+
+
+_UNITS_ERROR_LOCK = threading.Lock()
+
+
+def __getattr__(name):
+    # PEP 562: UnitsError is created on first access (see _define_units_error)
+    if name == "UnitsError":
+        with _UNITS_ERROR_LOCK:
+            if "UnitsError" not in globals():
+                globals()["UnitsError"] = _define_units_error()
+        return globals()["UnitsError"]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class ShapeError(InvalidInputError):

@@ -162,3 +162,24 @@ def test_nan_force_is_reported_not_propagated(integrator):
     with pytest.raises(InvalidStateError, match="force"):
         s.integrate(np.linspace(0.1, 50.0, 500))
     assert s.t < 1.0  # stopped at the first output (leapfrog) or step (IAS15) after t = 0.5
+
+
+def test_trajectory_energy_raises_on_coincident_or_merged_snapshots():
+    from visviva.nbody.simulation import Trajectory
+
+    x = np.array([[[0.0, 0, 0], [1.0, 0, 0]], [[0.5, 0, 0], [0.5, 0, 0]]])
+    v = np.zeros_like(x)
+    v[:, 1, 1] = 1.0
+    traj = Trajectory(np.array([0.0, 1.0]), x, v, np.array([1.0, 1e-3]))
+    with pytest.raises(InvalidStateError, match=r"snapshot 1 .*particles \(0, 1\) share"):
+        traj.energy()
+    softened = Trajectory(traj.t, x, v, traj.masses, softening=0.1)
+    E = softened.energy()
+    assert np.all(np.isfinite(E))
+    # the softened potential of the pair at distance 1: -G m1 m2 / sqrt(1 + eps^2)
+    assert E[0] == pytest.approx(0.5e-3 - 1e-3 / math.sqrt(1.01), rel=1e-14)
+    x_merged = x.copy()
+    x_merged[1, 1] = np.nan  # what a merger leaves behind
+    merged = Trajectory(traj.t, x_merged, v, traj.masses)
+    with pytest.raises(InvalidStateError, match=r"\[1\] had been removed by a merger"):
+        merged.energy()

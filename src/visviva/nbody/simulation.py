@@ -97,7 +97,14 @@ class Trajectory:
     softening: float = 0.0
 
     def energy(self) -> np.ndarray:
-        """Total energy at each snapshot (valid while no particle was removed)."""
+        """Total energy at each snapshot, shape (T,) (simulation units).
+
+        Raises
+        ------
+        InvalidStateError
+            A snapshot where the energy is not finite: two massive particles at the same
+            position without softening, or a particle removed by a merger.
+        """
         out = np.empty(len(self.t))
         _gravity.energy_history(
             np.ascontiguousarray(self.positions),
@@ -107,6 +114,25 @@ class Trajectory:
             float(self.softening) ** 2,
             out,
         )
+        bad = np.flatnonzero(~np.isfinite(out))
+        if bad.size:
+            k = int(bad[0])
+            context = f"Trajectory.energy: at snapshot {k} (t = {self.t[k]!r})"
+            removed = np.flatnonzero(np.isnan(self.positions[k]).any(axis=1))
+            if removed.size:
+                raise InvalidStateError(
+                    f"{context} particle(s) {removed.tolist()} had been removed by a merger, so "
+                    "the total energy of the snapshot is undefined. Use Simulation.energy(), "
+                    "which tracks the energy lost in mergers (energy_offset), or sample the "
+                    "trajectory before the merger."
+                )
+            pairs = coincident_pairs(self.positions[k], self.masses, float(self.softening) ** 2)
+            where = f"particles {pairs[0]} share a position" if pairs else "the energy overflows"
+            raise InvalidStateError(
+                f"{context} {where}, so the potential energy is not finite ({bad.size} "
+                "snapshot(s) in all). To fix: run with softening > 0, or give the particles "
+                "radii with collision='merge'."
+            )
         return out
 
 

@@ -20,11 +20,40 @@ Every path (serial, multi-threaded with ``prange`` over ``i``) calls the same ro
 return the same bits whatever the number of threads. (The sum is not the strict left-to-right sum:
 it differs from it in the last bits.)
 
+Large N: each pair once, fixed work items
+----------------------------------------
+From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel that is about
+3x faster per interaction (measured at N = 4,000):
+
+* each massive pair is evaluated once (Newton's third law: ``a_i += G m_j d r**-3`` and
+  ``a_j -= G m_i d r**-3``), which halves the work;
+* ``r**-3`` comes without a divide or square root (the double-precision divide/sqrt unit bounds
+  the small-N kernel): a bit-level first guess of ``1/sqrt(r2)`` (:func:`inv_r3`), one third-order
+  Householder step and a final third-order step folded into the cube, all multiply-adds, accurate
+  to about one ulp (max relative error 2.6e-16 over random inputs, tested);
+* the loop is compiled for the widest vectors the CPU has (:func:`prefer_wide_vectors`: 512-bit
+  on AVX-512, where LLVM's default is 256).
+
+Determinism: the triangle of pairs is split into blocks of :data:`PAIR_ROW_BLOCK` rows ``i`` that
+are dealt to :data:`PAIR_ITEMS` work items, a number fixed in advance (not the thread count). Each
+item accumulates into its own buffer in a fixed order; the buffers are then summed per particle in
+item order. Threads only choose which item runs where, so the bits do not depend on the number of
+threads (serial and parallel agree too). Test particles still cost O(N_massive) each: they use a
+one-sided row kernel with the same ``r**-3``. The large-N path gives different bits from the
+small-N one (a different summation order, and ``r**-3`` within about one ulp of the correctly
+rounded ``1 / (r2 sqrt(r2))``); systems below :data:`PAIR_MIN_N` massive particles (planetary
+systems compared with REBOUND bit for bit-sensitive tolerances) keep the small-N kernel unchanged.
+Separations outside ``1e-100 .. 1e100`` (in the units used) may overflow differently in the two
+paths; a coincident pair without softening still contributes exactly 0 in both.
+
 All inputs are plain float64 arrays in any consistent units (``G`` in the same units).
 
 References
 ----------
 Aarseth, S. J., *Gravitational N-Body Simulations*, Cambridge University Press 2003, ch. 1-2.
+Lomont, C., *Fast inverse square root*, Purdue University tech. report, 2003 (the magic constant).
+Householder, A. S., *The Numerical Treatment of a Single Nonlinear Equation*, McGraw-Hill 1970
+(higher-order iterations).
 """
 
 from __future__ import annotations
@@ -32,8 +61,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
+from numba.extending import intrinsic
 
-from ._jit import kernel, parallel_kernel, prange, simd_kernel
+from ._jit import inline_kernel, kernel, parallel_kernel, prange, simd_kernel
 
 __all__ = [
     "row_acceleration",
@@ -46,12 +77,24 @@ __all__ = [
     "potential_energy",
     "no_force",
     "PARALLEL_MIN_N",
+    "PAIR_MIN_N",
+    "inv_r3",
 ]
 
 #: From this many particles on, the simulation uses the multi-threaded kernel by default.
 PARALLEL_MIN_N = 512
 #: Particles ``i`` per work item of the multi-threaded kernel.
 CHUNK = 64
+#: From this many massive particles on, gravity evaluates each pair once (large-N kernel).
+PAIR_MIN_N = 256
+#: Work items of the large-N kernel: fixed, so that the bits do not depend on the thread count.
+PAIR_ITEMS = 16
+#: Rows ``i`` per block of the large-N kernel (blocks ``p`` and ``nb - 1 - p`` go together).
+PAIR_ROW_BLOCK = 64
+#: Columns ``j`` per tile of the large-N kernel (seven arrays of this length stay in cache).
+PAIR_COL_BLOCK = 4096
+#: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003).
+_RSQRT_MAGIC = 0x5FE6EB50C7B537A9
 
 
 @kernel
@@ -126,6 +169,272 @@ def _rows(lo, hi, x, xm, ym, zm, gmm, soft2, acc):
         acc[i, 2] = az
 
 
+# ---- large-N kernel: each pair once, r**-3 without divide or square root -----------------------
+@intrinsic
+def prefer_wide_vectors(typingctx):
+    """Compile the calling function for the widest SIMD registers the CPU has (no-op call).
+
+    LLVM's default on AVX-512 CPUs is to vectorise with 256-bit registers; this sets the function
+    attribute ``"prefer-vector-width"="512"`` on the caller, so its loops use 512-bit ones (8
+    doubles). Targets without such registers ignore it.
+    """
+    def codegen(context, builder, signature, args):
+        # llvmlite knows only a fixed list of function attributes: add the string one directly
+        set.add(builder.function.attributes, '"prefer-vector-width"="512"')
+        return context.get_dummy_value()
+
+    return types.none(), codegen
+
+
+@intrinsic
+def _bits(typingctx, x):
+    """The IEEE-754 bits of a float64 as an int64."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.int64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, n):
+    """The float64 whose IEEE-754 bits are the int64 ``n``."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.float64))
+
+    return types.float64(types.int64), codegen
+
+
+@inline_kernel
+def inv_r3(r2):
+    """``r2**-1.5`` with multiply-adds only (no divide, no square root), within about one ulp.
+
+    Parameters
+    ----------
+    r2 : float
+        Squared distance, positive and normal (length**2).
+
+    Returns
+    -------
+    float
+        ``1 / (r2 sqrt(r2))`` (length**-3).
+
+    Notes
+    -----
+    A first guess ``y0`` of ``1/sqrt(r2)`` from the bits (``0x5FE6EB50C7B537A9 - bits(r2) / 2``,
+    Lomont 2003; relative error below 3.5 %), then with ``e = 1 - r2 y**2`` (so that
+    ``1/sqrt(r2) = y (1 - e)**-1/2``) one third-order step
+    ``y1 = y0 (1 + e/2 + 3 e**2/8 + 5 e**3/16)`` (error ~ 35/128 e**4 < 1e-5), and a final step
+    folded into the cube, ``r2**-1.5 = y1**3 (1 + 3e/2 + 15 e**2/8 + 35 e**3/16)`` (truncation
+    < 1e-19). Vectorises (integer and float multiply-adds only). Measured max relative error
+    against the correctly rounded value: 2.6e-16.
+    """
+    y = _from_bits(_RSQRT_MAGIC - (_bits(r2) >> 1))
+    e = 1.0 - r2 * (y * y)
+    y = y + y * (e * (0.5 + e * (0.375 + e * 0.3125)))
+    y2 = y * y
+    e = 1.0 - r2 * y2
+    y3 = y2 * y
+    return y3 + y3 * (e * (1.5 + e * (1.875 + e * 2.1875)))
+
+
+@simd_kernel
+def pair_row(xi, yi, zi, gmi, xm, ym, zm, gmm, lo, hi, soft2, bx, by, bz):
+    """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)``: returns the sum on ``i`` and subtracts
+    the reaction from ``bx, by, bz[j]``.
+
+    Parameters
+    ----------
+    xi, yi, zi : float
+        Position of particle ``i`` (length).
+    gmi : float
+        Its ``G m_i`` (length**3 / time**2).
+    xm, ym, zm, gmm : ndarray of float64, shape (N_massive,)
+        The massive particles (structure of arrays), as in :func:`row_acceleration`.
+    lo, hi : int
+        The range of ``j`` (``0 <= lo``, ``i`` not in it).
+    soft2 : float
+        Square of the softening length (length**2).
+    bx, by, bz : ndarray of float64, shape (N_massive,)
+        Accumulators of the accelerations of the ``j``: ``G m_i d / r**3`` is subtracted.
+
+    Returns
+    -------
+    ax, ay, az : float
+        ``sum_j G m_j d / r**3`` with ``d = x_j - x_i`` (length / time**2).
+
+    Notes
+    -----
+    With softening ``r2 >= soft2 > 0``; without it, a coincident pair (``r2 == 0``) is given
+    ``r2 = 1`` so its term is exactly 0. ``r**-3`` from :func:`inv_r3`. The loop runs over an
+    unsigned index (no negative-index wraparound, so it vectorises) with 512-bit vectors where
+    available.
+    """
+    prefer_wide_vectors()
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    if soft2 > 0.0:
+        for j in range(np.uint64(lo), np.uint64(hi)):
+            dx = xm[j] - xi
+            dy = ym[j] - yi
+            dz = zm[j] - zi
+            r3 = inv_r3(dx * dx + dy * dy + dz * dz + soft2)
+            si = gmm[j] * r3
+            sj = gmi * r3
+            ax += dx * si
+            ay += dy * si
+            az += dz * si
+            bx[j] -= dx * sj
+            by[j] -= dy * sj
+            bz[j] -= dz * sj
+    else:
+        for j in range(np.uint64(lo), np.uint64(hi)):
+            dx = xm[j] - xi
+            dy = ym[j] - yi
+            dz = zm[j] - zi
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 == 0.0:
+                r2 = 1.0
+            r3 = inv_r3(r2)
+            si = gmm[j] * r3
+            sj = gmi * r3
+            ax += dx * si
+            ay += dy * si
+            az += dz * si
+            bx[j] -= dx * sj
+            by[j] -= dy * sj
+            bz[j] -= dz * sj
+    return ax, ay, az
+
+
+@simd_kernel
+def row_acceleration_fast(xi, yi, zi, xm, ym, zm, gmm, soft2):
+    """:func:`row_acceleration` with ``r**-3`` from :func:`inv_r3` and wide vectors (large-N
+    kernel, for test particles); same arguments and result to about one ulp per term."""
+    prefer_wide_vectors()
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for b in range(xm.shape[0]):
+        dx = xm[b] - xi
+        dy = ym[b] - yi
+        dz = zm[b] - zi
+        r2 = dx * dx + dy * dy + dz * dz + soft2
+        if r2 == 0.0:
+            r2 = 1.0
+        s = gmm[b] * inv_r3(r2)
+        ax += dx * s
+        ay += dy * s
+        az += dz * s
+    return ax, ay, az
+
+
+@kernel
+def _pair_block(blk, xm, ym, zm, gmm, soft2, bx, by, bz):
+    # the pairs (i, j > i) of the rows i of block blk, column tile by column tile
+    nm = xm.shape[0]
+    lo = blk * PAIR_ROW_BLOCK
+    hi = min(nm, lo + PAIR_ROW_BLOCK)
+    for jlo in range(lo, nm, PAIR_COL_BLOCK):
+        jhi = min(nm, jlo + PAIR_COL_BLOCK)
+        for i in range(lo, hi):
+            j0 = max(jlo, i + 1)
+            if j0 < jhi:
+                ax, ay, az = pair_row(xm[i], ym[i], zm[i], gmm[i], xm, ym, zm, gmm, j0, jhi,
+                                      soft2, bx, by, bz)
+                bx[i] += ax
+                by[i] += ay
+                bz[i] += az
+
+
+@kernel
+def _pair_item(k, xm, ym, zm, gmm, soft2, buf):
+    # work item k of PAIR_ITEMS: zero its buffer, then the row blocks p and nb - 1 - p for
+    # p = k, k + PAIR_ITEMS, ... (pairs of blocks of about equal total work)
+    nm = xm.shape[0]
+    bx = buf[k, 0]
+    by = buf[k, 1]
+    bz = buf[k, 2]
+    for b in range(nm):
+        bx[b] = 0.0
+        by[b] = 0.0
+        bz[b] = 0.0
+    nb = (nm + PAIR_ROW_BLOCK - 1) // PAIR_ROW_BLOCK
+    for p in range(k, (nb + 1) // 2, PAIR_ITEMS):
+        _pair_block(p, xm, ym, zm, gmm, soft2, bx, by, bz)
+        if nb - 1 - p != p:
+            _pair_block(nb - 1 - p, xm, ym, zm, gmm, soft2, bx, by, bz)
+
+
+@kernel
+def _pair_reduce(lo, hi, buf, massive, acc):
+    # acc of the massive particles lo <= b < hi: the item buffers summed in item order
+    for b in range(lo, hi):
+        ax = 0.0
+        ay = 0.0
+        az = 0.0
+        for k in range(buf.shape[0]):
+            ax += buf[k, 0, b]
+            ay += buf[k, 1, b]
+            az += buf[k, 2, b]
+        i = massive[b]
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
+
+
+@kernel
+def _test_indices(n, massive):
+    # the particles not in massive (ascending), i.e. the test particles
+    tests = np.empty(n - massive.shape[0], dtype=np.int64)
+    b = 0
+    t = 0
+    for i in range(n):
+        if b < massive.shape[0] and massive[b] == i:
+            b += 1
+        else:
+            tests[t] = i
+            t += 1
+    return tests
+
+
+@kernel
+def _test_rows(lo, hi, tests, x, xm, ym, zm, gmm, soft2, acc):
+    for t in range(lo, hi):
+        i = tests[t]
+        ax, ay, az = row_acceleration_fast(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
+
+
+@kernel
+def _gravity_pairs_serial(x, soft2, massive, acc, xm, ym, zm, gmm):
+    # the large-N kernel on one thread: the same items, in the same order, as the parallel one
+    nm = xm.shape[0]
+    buf = np.empty((PAIR_ITEMS, 3, nm))
+    for k in range(PAIR_ITEMS):
+        _pair_item(k, xm, ym, zm, gmm, soft2, buf)
+    _pair_reduce(0, nm, buf, massive, acc)
+    tests = _test_indices(x.shape[0], massive)
+    _test_rows(0, tests.shape[0], tests, x, xm, ym, zm, gmm, soft2, acc)
+
+
+@parallel_kernel
+def _gravity_pairs_parallel(x, soft2, massive, acc, xm, ym, zm, gmm):
+    # the large-N kernel: work items over threads, then the sums and the test particles
+    nm = xm.shape[0]
+    buf = np.empty((PAIR_ITEMS, 3, nm))
+    for k in prange(PAIR_ITEMS):
+        _pair_item(k, xm, ym, zm, gmm, soft2, buf)
+    for c in prange((nm + CHUNK - 1) // CHUNK):
+        _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
+    tests = _test_indices(x.shape[0], massive)
+    nt = tests.shape[0]
+    for c in prange((nt + CHUNK - 1) // CHUNK):
+        _test_rows(c * CHUNK, min(nt, (c + 1) * CHUNK), tests, x, xm, ym, zm, gmm, soft2, acc)
+
+
 @kernel
 def gravity_serial(x, m, G, soft2, massive, acc, work):
     """Accelerations by direct summation on one thread.
@@ -146,8 +455,18 @@ def gravity_serial(x, m, G, soft2, massive, acc, work):
         Overwritten with the accelerations (length / time**2).
     work : ndarray of float64, shape (>= 4, >= N_massive)
         Scratch (the massive particles as structure of arrays).
+
+    Notes
+    -----
+    Below :data:`PAIR_MIN_N` massive particles, one :func:`row_acceleration` per particle; from
+    there on, the large-N kernel (each pair once, see the module docstring), which allocates
+    ``PAIR_ITEMS * 3 * N_massive`` doubles of scratch per call.
     """
     nm = pack_massive(x, m, G, massive, work)
+    if nm >= PAIR_MIN_N:
+        _gravity_pairs_serial(x, soft2, massive, acc, work[0, :nm], work[1, :nm], work[2, :nm],
+                              work[3, :nm])
+        return
     _rows(0, x.shape[0], x, work[0, :nm], work[1, :nm], work[2, :nm], work[3, :nm], soft2, acc)
 
 
@@ -156,9 +475,15 @@ def gravity_parallel(x, m, G, soft2, massive, acc, work):
     """:func:`gravity_serial` with chunks of :data:`CHUNK` particles ``i`` spread over threads.
 
     Same arguments and the same bits as :func:`gravity_serial`, for any number of threads: each
-    row is summed by the same :func:`row_acceleration`.
+    row is summed by the same :func:`row_acceleration`. From :data:`PAIR_MIN_N` massive particles
+    on, the :data:`PAIR_ITEMS` fixed work items of the large-N kernel are spread over threads
+    instead (same bits as its serial run).
     """
     nm = pack_massive(x, m, G, massive, work)
+    if nm >= PAIR_MIN_N:
+        _gravity_pairs_parallel(x, soft2, massive, acc, work[0, :nm], work[1, :nm], work[2, :nm],
+                                work[3, :nm])
+        return
     n = x.shape[0]
     for k in prange((n + CHUNK - 1) // CHUNK):
         lo = k * CHUNK

@@ -1,0 +1,147 @@
+"""The large-N direct-summation kernel (each pair once, r**-3 without divide or square root):
+accuracy against an extended-precision sum, the same bits for every thread count and for the
+serial path, coincident particles, and the small-N path left unchanged below PAIR_MIN_N."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+from visviva.core import gravity as g
+
+ULP = np.finfo(float).eps  # 2.2e-16
+
+
+@numba.njit(cache=True)
+def _inv_r3_array(r2, out):
+    for k in range(r2.shape[0]):
+        out[k] = g.inv_r3(r2[k])
+
+
+def _cluster(n, seed, frac_test=0.2, coincident=0):
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(n, 3))
+    m = rng.uniform(0.5, 1.5, size=n) / n
+    m[rng.uniform(size=n) < frac_test] = 0.0  # test particles
+    for k in range(coincident):  # exact copies of other particles' positions
+        x[n - 1 - k] = x[k]
+    return x, m
+
+
+def _reference(x, m, soft2):
+    """Accelerations in extended precision (80-bit long double) and sum_j |term_ij| per i."""
+    xl = x.astype(np.longdouble)
+    ml = m.astype(np.longdouble)
+    acc = np.zeros(x.shape, np.longdouble)
+    scale = np.zeros(x.shape[0], np.longdouble)
+    for i in range(x.shape[0]):
+        d = xl - xl[i]
+        r2 = (d * d).sum(1) + soft2
+        zero = r2 == 0
+        r2[zero] = 1
+        f = ml / (r2 * np.sqrt(r2))
+        f[zero] = 0
+        acc[i] = (d * f[:, None]).sum(0)
+        scale[i] = (np.abs(d) * f[:, None]).sum()
+    return acc.astype(float), scale.astype(float)
+
+
+def test_inv_r3_within_one_ulp_over_the_whole_range():
+    rng = np.random.default_rng(0)
+    # log-uniform over 200 decades, plus exact powers of 2 and 4 (the guess's worst cases
+    # sit at mantissa boundaries) and their neighbours
+    r2 = np.concatenate([
+        10.0 ** rng.uniform(-100, 100, 400_000),
+        np.ldexp(1.0, np.arange(-300, 301)),
+        np.nextafter(np.ldexp(1.0, np.arange(-300, 301)), 0),
+        1.0 + rng.uniform(0, 3, 100_000),
+    ])
+    out = np.empty_like(r2)
+    _inv_r3_array(r2, out)
+    rl = r2.astype(np.longdouble)
+    exact = 1 / (rl * np.sqrt(rl))
+    rel = np.abs((out - exact) / exact).astype(float)
+    # measured 3.3e-16 (1.5 eps); 1 / (r2 sqrt(r2)) in float64 itself: 2.7e-16
+    assert rel.max() <= 2 * ULP, rel.max()
+
+
+@pytest.mark.parametrize("soft", [0.0, 0.01])
+def test_large_n_kernel_matches_extended_precision_sum(soft):
+    n = 1200
+    x, m = _cluster(n, seed=11, coincident=2 if soft == 0 else 0)
+    assert g.massive_indices(m).shape[0] >= g.PAIR_MIN_N
+    ref, scale = _reference(x, m, soft**2)
+    a = np.empty((n, 3))
+    g.gravity_parallel(x, m, 1.0, soft**2, g.massive_indices(m), a, np.empty((7, n)))
+    assert np.isfinite(a).all()
+    # error of each component relative to the sum of the magnitudes of its terms: the round-off
+    # floor of any summation order (the small-N kernel: 3e-16 here)
+    err = np.abs(a - ref).max(1) / scale
+    assert err.max() <= 1e-15, err.max()  # measured 2.3e-16 .. 3.1e-16
+    # and relative to |a| itself (cancellation makes this larger for a few particles)
+    rel = np.linalg.norm(a - ref, axis=1) / np.linalg.norm(ref, axis=1)
+    assert rel.max() <= 1e-13, rel.max()
+
+
+@pytest.mark.parametrize("soft", [0.0, 0.01])
+def test_large_n_kernel_same_bits_for_every_thread_count_and_serial(soft):
+    n = 1500  # about 1,200 massive particles and 300 test particles
+    x, m = _cluster(n, seed=5, coincident=3)
+    massive = g.massive_indices(m)
+    assert massive.shape[0] >= g.PAIR_MIN_N and massive.shape[0] < n
+    ref = np.empty((n, 3))
+    g.gravity_serial(x, m, 1.0, soft**2, massive, ref, np.empty((4, n)))
+    assert np.isfinite(ref).all()
+    old = numba.get_num_threads()
+    try:
+        for nt in sorted({1, 2, old}):
+            if nt > numba.config.NUMBA_NUM_THREADS:
+                continue
+            numba.set_num_threads(nt)
+            a = np.full((n, 3), np.nan)
+            g.gravity_parallel(x, m, 1.0, soft**2, massive, a, np.empty((7, n)))
+            np.testing.assert_array_equal(a, ref)
+            b = np.full((n, 3), np.nan)
+            g.gravity(x, m, 1.0, soft**2, massive, b, np.empty((7, n)), True)
+            np.testing.assert_array_equal(b, ref)
+    finally:
+        numba.set_num_threads(old)
+
+
+def test_large_n_kernel_conserves_momentum_and_coincident_pairs_pull_nothing():
+    n = 600
+    x, m = _cluster(n, seed=2, frac_test=0.0)
+    x[1] = x[0]  # a coincident massive pair, no softening
+    a = np.empty((n, 3))
+    g.gravity_serial(x, m, 1.0, 0.0, g.massive_indices(m), a, np.empty((4, n)))
+    assert np.isfinite(a).all()
+    # each pair once: the momentum balance holds to the round-off of the final sums
+    p = (m[:, None] * a).sum(0)
+    assert np.abs(p).max() <= 1e-14 * np.abs(m[:, None] * a).sum()
+    # the coincident pair feels the same (finite) pull from the rest
+    np.testing.assert_allclose(a[0], a[1], rtol=1e-12)
+
+
+def test_small_n_path_unchanged_below_pair_min_n():
+    # below PAIR_MIN_N massive particles gravity is exactly the row kernel of each particle
+    # (the bits that planetary runs compared with REBOUND rely on); at PAIR_MIN_N it switches
+    for nm, same in ((g.PAIR_MIN_N - 1, True), (g.PAIR_MIN_N, False)):
+        n = nm + 40
+        rng = np.random.default_rng(nm)
+        x = rng.normal(size=(n, 3))
+        m = np.zeros(n)
+        m[rng.permutation(n)[:nm]] = rng.uniform(size=nm)
+        massive = g.massive_indices(m)
+        xm, ym, zm = (np.ascontiguousarray(x[massive, k]) for k in range(3))
+        rows = np.empty((n, 3))
+        g._rows(0, n, x, xm, ym, zm, m[massive].copy(), 1e-6, rows)
+        a = np.empty((n, 3))
+        g.gravity_serial(x, m, 1.0, 1e-6, massive, a, np.empty((4, n)))
+        b = np.empty((n, 3))
+        g.gravity_parallel(x, m, 1.0, 1e-6, massive, b, np.empty((4, n)))
+        np.testing.assert_array_equal(a, b)
+        if same:
+            np.testing.assert_array_equal(a, rows)
+        else:
+            np.testing.assert_allclose(a, rows, rtol=1e-12, atol=1e-14 * np.abs(rows).max())

@@ -92,6 +92,9 @@ PAIR_MIN_N = 256
 PAIR_ITEMS = 16
 #: Columns ``j`` per tile of the large-N kernel (seven arrays of this length stay in cache).
 PAIR_COL_BLOCK = 4096
+#: The large-N kernel's rows are padded to a multiple of this many columns (8-double vectors,
+#: unrolled twice by LLVM) with massless far-away dummies, so no scalar remainder loop runs.
+PAIR_PAD = 16
 #: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003).
 _RSQRT_MAGIC = 0x5FE6EB50C7B537A9
 
@@ -237,9 +240,9 @@ def inv_r3(r2):
 
 
 @simd_kernel
-def pair_row(xi, yi, zi, gmi, xm, ym, zm, gmm, lo, hi, soft2, bx, by, bz):
+def pair_row(xi, yi, zi, gmi, p, lo, hi, soft2, b):
     """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)``: returns the sum on ``i`` and subtracts
-    the reaction from ``bx, by, bz[j]``.
+    the reaction from ``b[:, j]``.
 
     Parameters
     ----------
@@ -247,13 +250,13 @@ def pair_row(xi, yi, zi, gmi, xm, ym, zm, gmm, lo, hi, soft2, bx, by, bz):
         Position of particle ``i`` (length).
     gmi : float
         Its ``G m_i`` (length**3 / time**2).
-    xm, ym, zm, gmm : ndarray of float64, shape (N_massive,)
-        The massive particles (structure of arrays), as in :func:`row_acceleration`.
+    p : ndarray of float64, shape (4, >= hi)
+        The massive particles as rows ``x, y, z, G m`` (length; length**3 / time**2).
     lo, hi : int
         The range of ``j`` (``0 <= lo``, ``i`` not in it).
     soft2 : float
         Square of the softening length (length**2).
-    bx, by, bz : ndarray of float64, shape (N_massive,)
+    b : ndarray of float64, shape (3, >= hi)
         Accumulators of the accelerations of the ``j``: ``G m_i d / r**3`` is subtracted.
 
     Returns
@@ -266,7 +269,8 @@ def pair_row(xi, yi, zi, gmi, xm, ym, zm, gmm, lo, hi, soft2, bx, by, bz):
     With softening ``r2 >= soft2 > 0``; without it, a coincident pair (``r2 == 0``) is given
     ``r2 = 1`` so its term is exactly 0. ``r**-3`` from :func:`inv_r3`. The loop runs over an
     unsigned index (no negative-index wraparound, so it vectorises) with 512-bit vectors where
-    available.
+    available. Two 2-d arguments rather than seven 1-d ones: numba then prunes the reference
+    counting of the arguments, which otherwise costs ~75 ns per call.
     """
     prefer_wide_vectors()
     ax = 0.0
@@ -274,54 +278,55 @@ def pair_row(xi, yi, zi, gmi, xm, ym, zm, gmm, lo, hi, soft2, bx, by, bz):
     az = 0.0
     if soft2 > 0.0:
         for j in range(np.uint64(lo), np.uint64(hi)):
-            dx = xm[j] - xi
-            dy = ym[j] - yi
-            dz = zm[j] - zi
+            dx = p[0, j] - xi
+            dy = p[1, j] - yi
+            dz = p[2, j] - zi
             r3 = inv_r3(dx * dx + dy * dy + dz * dz + soft2)
-            si = gmm[j] * r3
+            si = p[3, j] * r3
             sj = gmi * r3
             ax += dx * si
             ay += dy * si
             az += dz * si
-            bx[j] -= dx * sj
-            by[j] -= dy * sj
-            bz[j] -= dz * sj
+            b[0, j] -= dx * sj
+            b[1, j] -= dy * sj
+            b[2, j] -= dz * sj
     else:
         for j in range(np.uint64(lo), np.uint64(hi)):
-            dx = xm[j] - xi
-            dy = ym[j] - yi
-            dz = zm[j] - zi
+            dx = p[0, j] - xi
+            dy = p[1, j] - yi
+            dz = p[2, j] - zi
             r2 = dx * dx + dy * dy + dz * dz
             if r2 == 0.0:
                 r2 = 1.0
             r3 = inv_r3(r2)
-            si = gmm[j] * r3
+            si = p[3, j] * r3
             sj = gmi * r3
             ax += dx * si
             ay += dy * si
             az += dz * si
-            bx[j] -= dx * sj
-            by[j] -= dy * sj
-            bz[j] -= dz * sj
+            b[0, j] -= dx * sj
+            b[1, j] -= dy * sj
+            b[2, j] -= dz * sj
     return ax, ay, az
 
 
 @simd_kernel
-def row_acceleration_fast(xi, yi, zi, xm, ym, zm, gmm, soft2):
-    """:func:`row_acceleration` with ``r**-3`` from :func:`inv_r3` and wide vectors (large-N
-    kernel, for test particles); same arguments and result to about one ulp per term."""
+def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
+    """:func:`row_acceleration` over the first ``nm`` columns of ``p`` (rows ``x, y, z, G m``)
+    with ``r**-3`` from :func:`inv_r3` and wide vectors (large-N kernel, for test particles);
+    the same result to about one ulp per term."""
     prefer_wide_vectors()
     ax = 0.0
     ay = 0.0
     az = 0.0
-    for b in range(xm.shape[0]):
-        dx = xm[b] - xi
-        dy = ym[b] - yi
-        dz = zm[b] - zi
+    for j in range(np.uint64(nm)):
+        dx = p[0, j] - xi
+        dy = p[1, j] - yi
+        dz = p[2, j] - zi
         r2 = dx * dx + dy * dy + dz * dz + soft2
         if r2 == 0.0:
             r2 = 1.0
-        s = gmm[b] * inv_r3(r2)
+        s = p[3, j] * inv_r3(r2)
         ax += dx * s
         ay += dy * s
         az += dz * s
@@ -329,40 +334,77 @@ def row_acceleration_fast(xi, yi, zi, xm, ym, zm, gmm, soft2):
 
 
 @kernel
-def _pair_block(lo, hi, xm, ym, zm, gmm, soft2, bx, by, bz):
-    # the pairs (i, j > i) of the rows lo <= i < hi, column tile by column tile
-    nm = xm.shape[0]
-    for jlo in range(lo, nm, PAIR_COL_BLOCK):
-        jhi = min(nm, jlo + PAIR_COL_BLOCK)
-        for i in range(lo, hi):
-            j0 = max(jlo, i + 1)
-            if j0 < jhi:
-                ax, ay, az = pair_row(xm[i], ym[i], zm[i], gmm[i], xm, ym, zm, gmm, j0, jhi,
-                                      soft2, bx, by, bz)
-                bx[i] += ax
-                by[i] += ay
-                bz[i] += az
+def _aligned_rows(k, n):
+    # an uninitialised (k, n) array whose rows start on 64-byte boundaries when n is a multiple of 8
+    # (a 512-bit load that straddles two cache lines costs about 20 % here)
+    raw = np.empty(k * n + 8)
+    off = (8 - (raw.ctypes.data // 8) % 8) % 8
+    return raw[off:off + k * n].reshape((k, n))
 
 
 @kernel
-def _pair_item(k, xm, ym, zm, gmm, soft2, buf):
-    # work item k of PAIR_ITEMS: zero its buffer, then the row blocks k and nb - 1 - k of the
-    # nb <= 2 PAIR_ITEMS blocks (together about 1 / PAIR_ITEMS of the pairs)
-    nm = xm.shape[0]
-    bx = buf[k, 0]
-    by = buf[k, 1]
-    bz = buf[k, 2]
+def _pad_massive(x, m, G, massive):
+    # the massive particles as rows x, y, z, G m, then massless dummies at (D, D, D),
+    # D = 2 max|x| + 1, up to a multiple of PAIR_PAD with at least PAIR_PAD of them: every row
+    # can then end on a multiple of PAIR_PAD columns past its aligned start. The dummies are at
+    # least 1 away from every particle in each coordinate, so their r**-3 stays finite and their
+    # terms on the real particles are exactly 0 (their own accumulators are ignored).
+    nm = massive.shape[0]
+    p = _aligned_rows(4, (nm + 2 * PAIR_PAD - 1) // PAIR_PAD * PAIR_PAD)
+    big = 0.0
     for b in range(nm):
-        bx[b] = 0.0
-        by[b] = 0.0
-        bz[b] = 0.0
+        j = massive[b]
+        p[0, b] = x[j, 0]
+        p[1, b] = x[j, 1]
+        p[2, b] = x[j, 2]
+        p[3, b] = G * m[j]
+        big = max(big, abs(x[j, 0]), abs(x[j, 1]), abs(x[j, 2]))
+    for b in range(nm, p.shape[1]):
+        p[0, b] = 2.0 * big + 1.0
+        p[1, b] = 2.0 * big + 1.0
+        p[2, b] = 2.0 * big + 1.0
+        p[3, b] = 0.0
+    return p
+
+
+@kernel
+def _pair_block(lo, hi, nm, p, soft2, b):
+    # the pairs (i, j > i) of the rows lo <= i < hi. Row i: first the j below the next multiple
+    # s_i of 8 (a short loop), then from s_i on (64-byte aligned loads) in tiles of
+    # PAIR_COL_BLOCK columns, the last one padded to a multiple of PAIR_PAD (dummies)
+    for i in range(lo, hi):
+        a = min(nm, (i + 8) // 8 * 8)
+        ax, ay, az = pair_row(p[0, i], p[1, i], p[2, i], p[3, i], p, i + 1, a, soft2, b)
+        b[0, i] += ax
+        b[1, i] += ay
+        b[2, i] += az
+    for t in range(0, nm - (lo + 8) // 8 * 8, PAIR_COL_BLOCK):
+        for i in range(lo, hi):
+            j0 = (i + 8) // 8 * 8 + t
+            if j0 >= nm:
+                break
+            j1 = j0 + PAIR_COL_BLOCK
+            if j1 > nm:
+                j1 = j0 + (nm - j0 + PAIR_PAD - 1) // PAIR_PAD * PAIR_PAD
+            ax, ay, az = pair_row(p[0, i], p[1, i], p[2, i], p[3, i], p, j0, j1, soft2, b)
+            b[0, i] += ax
+            b[1, i] += ay
+            b[2, i] += az
+
+
+@kernel
+def _pair_item(k, nm, p, soft2, buf):
+    # work item k of PAIR_ITEMS: zero its buffer, then the row blocks k and nb - 1 - k of the
+    # nb <= 2 PAIR_ITEMS blocks (together about 1 / PAIR_ITEMS of the pairs); p from _pad_massive
+    b = buf[k]
+    b[:, :] = 0.0
     rows = (nm + 2 * PAIR_ITEMS - 1) // (2 * PAIR_ITEMS)
     nb = (nm + rows - 1) // rows
     q = nb - 1 - k
     if k <= q:
-        _pair_block(k * rows, min(nm, (k + 1) * rows), xm, ym, zm, gmm, soft2, bx, by, bz)
+        _pair_block(k * rows, min(nm, (k + 1) * rows), nm, p, soft2, b)
     if k < q:
-        _pair_block(q * rows, min(nm, (q + 1) * rows), xm, ym, zm, gmm, soft2, bx, by, bz)
+        _pair_block(q * rows, min(nm, (q + 1) * rows), nm, p, soft2, b)
 
 
 @kernel
@@ -398,40 +440,43 @@ def _test_indices(n, massive):
 
 
 @kernel
-def _test_rows(lo, hi, tests, x, xm, ym, zm, gmm, soft2, acc):
+def _test_rows(lo, hi, tests, x, p, nm, soft2, acc):
+    # the test particles tests[lo:hi], one-sided rows over the massive ones
     for t in range(lo, hi):
         i = tests[t]
-        ax, ay, az = row_acceleration_fast(x[i, 0], x[i, 1], x[i, 2], xm, ym, zm, gmm, soft2)
+        ax, ay, az = row_acceleration_fast(x[i, 0], x[i, 1], x[i, 2], p, nm, soft2)
         acc[i, 0] = ax
         acc[i, 1] = ay
         acc[i, 2] = az
 
 
 @kernel
-def _gravity_pairs_serial(x, soft2, massive, acc, xm, ym, zm, gmm):
+def _gravity_pairs_serial(x, m, G, soft2, massive, acc):
     # the large-N kernel on one thread: the same items, in the same order, as the parallel one
-    nm = xm.shape[0]
-    buf = np.empty((PAIR_ITEMS, 3, nm))
+    nm = massive.shape[0]
+    p = _pad_massive(x, m, G, massive)
+    buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     for k in range(PAIR_ITEMS):
-        _pair_item(k, xm, ym, zm, gmm, soft2, buf)
+        _pair_item(k, nm, p, soft2, buf)
     _pair_reduce(0, nm, buf, massive, acc)
     tests = _test_indices(x.shape[0], massive)
-    _test_rows(0, tests.shape[0], tests, x, xm, ym, zm, gmm, soft2, acc)
+    _test_rows(0, tests.shape[0], tests, x, p, nm, soft2, acc)
 
 
 @parallel_kernel
-def _gravity_pairs_parallel(x, soft2, massive, acc, xm, ym, zm, gmm):
+def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
     # the large-N kernel: work items over threads, then the sums and the test particles
-    nm = xm.shape[0]
-    buf = np.empty((PAIR_ITEMS, 3, nm))
+    nm = massive.shape[0]
+    p = _pad_massive(x, m, G, massive)
+    buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     for k in prange(PAIR_ITEMS):
-        _pair_item(k, xm, ym, zm, gmm, soft2, buf)
+        _pair_item(k, nm, p, soft2, buf)
     for c in prange((nm + CHUNK - 1) // CHUNK):
         _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
     tests = _test_indices(x.shape[0], massive)
     nt = tests.shape[0]
     for c in prange((nt + CHUNK - 1) // CHUNK):
-        _test_rows(c * CHUNK, min(nt, (c + 1) * CHUNK), tests, x, xm, ym, zm, gmm, soft2, acc)
+        _test_rows(c * CHUNK, min(nt, (c + 1) * CHUNK), tests, x, p, nm, soft2, acc)
 
 
 @kernel
@@ -459,13 +504,13 @@ def gravity_serial(x, m, G, soft2, massive, acc, work):
     -----
     Below :data:`PAIR_MIN_N` massive particles, one :func:`row_acceleration` per particle; from
     there on, the large-N kernel (each pair once, see the module docstring), which allocates
-    ``PAIR_ITEMS * 3 * N_massive`` doubles of scratch per call.
+    ``(3 PAIR_ITEMS + 4) (N_massive + 16..31)`` doubles of scratch per call (``work`` is not
+    used).
     """
-    nm = pack_massive(x, m, G, massive, work)
-    if nm >= PAIR_MIN_N:
-        _gravity_pairs_serial(x, soft2, massive, acc, work[0, :nm], work[1, :nm], work[2, :nm],
-                              work[3, :nm])
+    if massive.shape[0] >= PAIR_MIN_N:
+        _gravity_pairs_serial(x, m, G, soft2, massive, acc)
         return
+    nm = pack_massive(x, m, G, massive, work)
     _rows(0, x.shape[0], x, work[0, :nm], work[1, :nm], work[2, :nm], work[3, :nm], soft2, acc)
 
 
@@ -478,11 +523,10 @@ def gravity_parallel(x, m, G, soft2, massive, acc, work):
     on, the :data:`PAIR_ITEMS` fixed work items of the large-N kernel are spread over threads
     instead (same bits as its serial run).
     """
-    nm = pack_massive(x, m, G, massive, work)
-    if nm >= PAIR_MIN_N:
-        _gravity_pairs_parallel(x, soft2, massive, acc, work[0, :nm], work[1, :nm], work[2, :nm],
-                                work[3, :nm])
+    if massive.shape[0] >= PAIR_MIN_N:
+        _gravity_pairs_parallel(x, m, G, soft2, massive, acc)
         return
+    nm = pack_massive(x, m, G, massive, work)
     n = x.shape[0]
     for k in prange((n + CHUNK - 1) // CHUNK):
         lo = k * CHUNK

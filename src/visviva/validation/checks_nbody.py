@@ -1,8 +1,12 @@
 """N-body integrators, checked live against REBOUND and against physics.
 
-* WHFast vs REBOUND's WHFast: Sun + 8 planets (DE421 at J2000), the same dt = 4.4 d, Jacobi
-  coordinates, no correctors; relative position and energy differences, and both energy-error
-  histories (in ``details`` for plots). 100 years by default, 1,000 years with ``full``.
+* WHFast vs REBOUND's WHFast (the same dt = 4.4 d, Jacobi coordinates, no correctors, both
+  advanced by the same number of steps): the outer solar system (Sun + Jupiter..Neptune) over
+  1,000 years to 1e-10 relative in every position (measured 5e-11), and Sun + 8 planets
+  (DE421 at J2000; 100 years by default, 1,000 years with ``full``; Mercury dominates, 3e-9 at
+  1,000 years); relative position and energy differences, and both energy-error histories (in
+  ``details`` for plots). See :func:`whfast_vs_rebound` for why the two codes are compared after
+  the same number of steps rather than at REBOUND's ``t``.
 * IAS15 vs REBOUND's IAS15 on the same system: relative position difference and energy errors.
 * IAS15 relative energy error on the outer solar system: 100 Jupiter orbits (1,000 with ``full``).
 * The figure-eight choreography returns to its start after one period (IAS15).
@@ -19,7 +23,7 @@ import numpy as np
 
 from .base import Check
 
-__all__ = ["checks"]
+__all__ = ["checks", "whfast_vs_rebound"]
 
 
 def _rebound():
@@ -35,15 +39,80 @@ def _positions(r):
     return np.array([[p.x, p.y, p.z] for p in r.particles])
 
 
-def _outer(integrator):
+def _outer(integrator, dt=None):
     import visviva as vv
 
     full = vv.solar_system(integrator=integrator)
-    sim = vv.Simulation(integrator, G=full.G)
+    sim = vv.Simulation(integrator, G=full.G, dt=dt)
     for k in (0, 5, 6, 7, 8):
         sim.add(full.masses[k], full.positions[k], full.velocities[k])
     sim.move_to_com()
     return sim
+
+
+def whfast_vs_rebound(sim, years, samples=50):
+    """Run ``sim`` (WHFast) and REBOUND's WHFast from the same state for ``years``; compare.
+
+    REBOUND gets the same particles, G and dt (``sim.to_rebound()``; its WHFast defaults are
+    Jacobi coordinates, no correctors, ``safe_mode=1``: every step drift-kick-drift and
+    synchronised, the same map as visviva's fused half drifts). Both codes advance by the same
+    number of steps ``K = round(years / dt)`` (REBOUND with ``exact_finish_time=0``, so no step is
+    shortened; visviva to ``t0 + K dt``, one of its grid points), and positions are compared
+    there. Comparing at REBOUND's ``t`` instead would not compare the same instant: REBOUND's
+    clock is a running sum ``t += dt`` whose round-off reaches +2.5e-10 yr after 83,011 steps of
+    4.4 d (visviva's is ``t0 + K dt``, exact to one rounding), and Mercury moves 7e-9 of its
+    distance in that time, which was the previous "7e-9 after 1,000 years" (see docs/nbody.md).
+
+    Returns
+    -------
+    rel : ndarray
+        Relative position difference ``|x_vv - x_rb| / |x_rb|`` of bodies 1.. (the planets;
+        barycentric positions) after ``K`` steps.
+    dE : float
+        Relative difference of the two total energies after ``K`` steps.
+    e_max : float
+        Largest relative energy error of visviva over the samples.
+    details : dict
+        Energy-error histories of both codes, ``rel`` per planet, ``K``, REBOUND's clock offset
+        ``t_rebound - K dt`` and the position difference visviva would show at REBOUND's ``t``.
+    """
+    rebound = _rebound()
+    dt = sim.dt
+    t0 = sim.t
+    r = sim.to_rebound()
+    E0, Er0 = sim.energy(), r.energy()
+    steps = np.unique(np.round(np.linspace(years / dt / samples, years / dt, samples)))
+    steps = steps.astype(np.int64)
+    traj = sim.integrate(t0 + steps * dt)
+    e_vv = np.abs(traj.energy() / E0 - 1)
+    e_rb = []
+    for k in steps:
+        r.integrate(t0 + (k - 0.5) * dt, exact_finish_time=0)
+        if r.steps_done != k:  # pragma: no cover - would mean REBOUND stepped differently
+            raise RuntimeError(f"REBOUND took {r.steps_done} steps, expected {k}")
+        e_rb.append(abs(r.energy() / Er0 - 1))
+    xr = _positions(r)
+    # planets only: the Sun sits ~0.005 au from the barycentre, so its relative difference
+    # says little (its absolute difference is in details)
+    rel = np.linalg.norm(sim.positions - xr, axis=1)[1:] / np.linalg.norm(xr, axis=1)[1:]
+    at_clock = sim.copy()
+    at_clock.integrate(r.t)  # a synchronised copy moved to REBOUND's clock reading
+    d_clock = np.linalg.norm(at_clock.positions - xr, axis=1)[1:]
+    rel_clock = d_clock / np.linalg.norm(xr, axis=1)[1:]
+    details = {
+        "times_yr": (t0 + steps * dt).tolist(),
+        "energy_error_visviva": e_vv.tolist(),
+        "energy_error_rebound": e_rb,
+        "relative_position_difference_per_planet": rel.tolist(),
+        "central_body_position_difference": float(np.linalg.norm(sim.positions[0] - xr[0])),
+        "years": years,
+        "steps": int(steps[-1]),
+        "dt_days": dt * 365.25,
+        "rebound_clock_minus_steps_times_dt_yr": float(r.t - (t0 + steps[-1] * dt)),
+        "relative_position_difference_at_rebound_clock": rel_clock.tolist(),
+        "rebound": f"{rebound.__version__} {r.integrator!r}",
+    }
+    return rel, abs(sim.energy() / r.energy() - 1), e_vv.max(), details
 
 
 def _vs_rebound(integrator, years, rebound, samples=50):
@@ -51,8 +120,6 @@ def _vs_rebound(integrator, years, rebound, samples=50):
 
     sim = vv.solar_system(integrator=integrator)
     r = sim.to_rebound()
-    if integrator == "whfast":
-        r.exact_finish_time = 1
     E0, Er0 = sim.energy(), r.energy()
     times = np.linspace(years / samples, years, samples)
     traj = sim.integrate(times)
@@ -74,7 +141,6 @@ def _vs_rebound(integrator, years, rebound, samples=50):
         "energy_error_rebound": e_rb,
         "relative_position_difference_per_body": rel.tolist(),
         "years": years,
-        "dt_days": sim.dt * 365.25 if integrator == "whfast" else None,
     }
     return rel.max(), abs(sim.energy() / r.energy() - 1), e_vv.max(), details
 
@@ -106,13 +172,27 @@ def checks(full: bool = False) -> list[Check]:
     years = 1000.0 if full else 100.0
     if rebound is not None:
         ref = f"rebound {rebound.__version__}"
-        rel, dE, e_max, det = _vs_rebound("whfast", years, rebound)
-        # round-off drifts the mean longitudes in both codes (t^2); REBOUND's own two-body phase
-        # error is ~20x visviva's (tests/test_nbody_integrators.py), so 1e-10 is out of reach
+        # the issue's requirement: the outer solar system, same dt (4.4 d, 83,011 steps),
+        # Jacobi, no correctors, 1,000 years: measured 5.2e-11 (Jupiter), 1.9e-11, 6.4e-12,
+        # 1.2e-12; the same map in 64-bit-mantissa arithmetic is 2-3e-11 from either code
+        rel, dE, e_max, det = whfast_vs_rebound(_outer("whfast", dt=4.4 / 365.25), 1000.0)
+        out.append(Check("nbody whfast vs rebound whfast: outer solar system 1000 yr, positions",
+                         "max relative |dr|", float(rel.max()), 1e-10,
+                         ref + " whfast (same dt, Jacobi, no correctors)", det))
+        out.append(Check("nbody whfast vs rebound whfast: outer solar system 1000 yr, energy",
+                         "relative energy difference", dE, 1e-13, ref + " whfast", {}))
+        sim = vv.solar_system(integrator="whfast")
+        rel, dE, e_max, det = whfast_vs_rebound(sim, years)
+        # Sun + 8 planets: Mercury dominates, 3.1e-9 after 1,000 years (8.6e-11 after 100;
+        # the others <= 2.1e-10): round-off of the same map. Against the map in 64-bit-mantissa
+        # arithmetic visviva's Mercury is off by 2.8e-9 (its universal Kepler drift changes the
+        # energy by -0.01 eps per step on average: a secular drift, phase ~ t^2) and REBOUND's by
+        # 3.2e-10; Venus 4.7e-10 vs 6.8e-10. 1e-10 is out of reach here even for REBOUND against
+        # its own exact-arithmetic map; the tolerance is ~3x the measured value (docs/nbody.md).
         tol_x = 1e-8 if full else 1e-9
         out.append(Check(f"nbody whfast vs rebound whfast: solar system {years:g} yr, positions",
-                         "max relative |dr|", rel, tol_x, ref + " whfast (same dt, no correctors)",
-                         det))
+                         "max relative |dr|", float(rel.max()), tol_x,
+                         ref + " whfast (same dt, Jacobi, no correctors)", det))
         out.append(Check(f"nbody whfast vs rebound whfast: solar system {years:g} yr, energy",
                          "relative energy difference", dE, 1e-12, ref + " whfast", {}))
         rel, dE, e_max, det = _vs_rebound("ias15", years, rebound, samples=10)

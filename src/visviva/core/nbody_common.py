@@ -82,6 +82,7 @@ I_WH_VALID = 13  #: WHFast: 1 when buf holds a valid unsynchronised internal sta
 I_VELOCITY_DEPENDENT = 14  #: 1 when an additional force reads the velocities
 I_INT_VALID = 15  #: leapfrog/IAS15: 1 when buf holds the internal state (on its own step grid)
 I_ADAPTIVE_MODE = 16  #: IAS15 step-size control: 0 = Rein & Spiegel 2015 global, 1 = PRS23
+I_WH_COORDINATES = 17  #: WHFast splitting: 0 = Jacobi, 1 = democratic heliocentric
 N_ISTATE = 32
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.

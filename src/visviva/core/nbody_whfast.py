@@ -22,11 +22,31 @@ solve per body per step); the internal state is saved with the simulation, so ru
 stopped, saved and resumed bit for bit. For two bodies the interaction vanishes and the map
 is exact to round-off at any step size. Second order, symplectic, time-reversible.
 
+Democratic heliocentric coordinates (``istate[I_WH_COORDINATES] = 1``; Duncan, Levison & Lee
+1998): heliocentric positions ``Q_i = x_i - x_0`` and barycentric velocities
+``V_i = v_i - V_cm`` (``i >= 1``; row 0 holds the centre of mass), in which
+
+    H = sum_i [ p_i**2 / (2 m_i) - G m_0 m_i / |Q_i| ]        Kepler, GM = G m_0 for every body
+      + |sum_i p_i|**2 / (2 m_0)                             jump: dQ_i/dt = sum_j m_j V_j / m_0
+      - sum_{0<i<j} G m_i m_j / |Q_i - Q_j|                  interaction: planets only
+
+and one step is ``Kepler(h/2) Jump(h/2) Interaction(h) Jump(h/2) Kepler(h/2)`` (the order REBOUND
+5.2 uses for ``coordinates="democraticheliocentric"``; fused between outputs into
+``Interaction(h) Jump(h/2) Kepler(h) Jump(h/2)``). The interaction kick adds the additional
+(position-dependent) force minus its barycentric mean, which also moves the centre of mass. The
+jump term does not vanish for one planet, so the two-body map is NOT exact: its energy error is
+bounded, O((m_1/m_0) (h/P)**2), without drift. The symplectic correctors are derived for the
+two-part Jacobi splitting and are not used with these coordinates.
+
 References
 ----------
 Wisdom, J. & Holman, M. (1991), "Symplectic maps for the N-body problem", AJ 102, 1528.
 Rein, H. & Tamayo, D. (2015), "WHFAST: a fast and unbiased implementation of a symplectic
 Wisdom-Holman integrator for long-term gravitational simulations", MNRAS 452, 376.
+Duncan, M. J., Levison, H. F. & Lee, M. H. (1998), "A multiple time step symplectic algorithm
+for integrating close encounters", AJ 116, 2067.
+Rein, H., Tamayo, D. & Brown, G. (2019), "High-order symplectic integrators for planetary
+dynamics and their implementation in REBOUND", MNRAS 489, 4632.
 """
 
 from __future__ import annotations
@@ -36,6 +56,7 @@ import math
 import numpy as np
 
 from ._jit import kernel
+from .gravity import gravity
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
@@ -43,6 +64,7 @@ from .nbody_common import (
     F_ENCOUNTER,
     F_EXIT,
     F_G,
+    F_SOFT2,
     F_T,
     F_T0,
     F_WH_H,
@@ -52,7 +74,9 @@ from .nbody_common import (
     I_FRESH,
     I_K,
     I_NOUT,
+    I_PARALLEL,
     I_STEPS,
+    I_WH_COORDINATES,
     I_WH_VALID,
     PAUSED,
     accelerations,
@@ -67,10 +91,24 @@ from .nbody_common import (
 from .status import OK
 from .universal import propagate_scalar
 
-__all__ = ["whfast_run", "to_jacobi", "from_jacobi", "N_BUF"]
+__all__ = [
+    "whfast_run",
+    "to_jacobi",
+    "from_jacobi",
+    "to_democratic_heliocentric",
+    "from_democratic_heliocentric",
+    "N_BUF",
+    "JACOBI",
+    "DEMOCRATIC_HELIOCENTRIC",
+]
+
+#: Values of ``istate[I_WH_COORDINATES]``.
+JACOBI = 0
+DEMOCRATIC_HELIOCENTRIC = 1
 
 # slots of buf: Jacobi positions, Jacobi velocities, inertial accelerations, Jacobi accelerations,
-# (slot 4, column 0) the cumulative masses eta_i, and scratch copies for synchronising
+# (slot 4, column 0) the cumulative masses eta_i, and scratch copies for synchronising. In
+# democratic heliocentric coordinates slots 0/1 hold Q, V and slot 3 the additional force.
 _XJ = 0
 _VJ = 1
 _ACC = 2
@@ -171,13 +209,82 @@ def from_jacobi(xj, m, eta, x):
 
 
 @kernel
-def _kepler_drift(xj, vj, eta, G, h):
+def to_democratic_heliocentric(x, m, eta, q, barycentric):
+    """Inertial -> democratic heliocentric, one array (positions or velocities).
+
+    ``q[0]`` = the centre of mass ``sum m_i x_i / M`` (``M = eta[-1]``); for ``i >= 1``
+    ``q_i = x_i - x_0`` (positions: heliocentric) or, with ``barycentric``, ``q_i = x_i - q_0``
+    (velocities: barycentric, i.e. the canonical momenta divided by the masses).
+    """
+    n = x.shape[0]
+    M = eta[n - 1]
+    for c in range(3):
+        s = 0.0
+        for i in range(n):
+            s += m[i] * x[i, c]
+        X = s / M
+        origin = X if barycentric else x[0, c]
+        for i in range(1, n):
+            q[i, c] = x[i, c] - origin
+        q[0, c] = X
+
+
+@kernel
+def from_democratic_heliocentric(q, m, eta, x, barycentric):
+    """Democratic heliocentric -> inertial, the inverse of :func:`to_democratic_heliocentric`.
+
+    Positions: ``x_0 = q_0 - sum_{i>=1} m_i q_i / M``, ``x_i = q_i + x_0``. Velocities
+    (``barycentric``): ``v_0 = q_0 - sum_{i>=1} m_i q_i / m_0``, ``v_i = q_i + q_0``.
+    """
+    n = x.shape[0]
+    M = eta[n - 1]
+    for c in range(3):
+        s = 0.0
+        for i in range(1, n):
+            s += m[i] * q[i, c]
+        if barycentric:
+            x[0, c] = q[0, c] - s / m[0]
+            origin = q[0, c]
+        else:
+            origin = q[0, c] - s / M
+            x[0, c] = origin
+        for i in range(1, n):
+            x[i, c] = q[i, c] + origin
+
+
+@kernel
+def _to_internal(x, v, m, eta, xj, vj, dh):
+    """Inertial ``x, v`` -> the internal coordinates (Jacobi, or democratic heliocentric)."""
+    if dh:
+        to_democratic_heliocentric(x, m, eta, xj, False)
+        to_democratic_heliocentric(v, m, eta, vj, True)
+    else:
+        to_jacobi(x, m, eta, xj)
+        to_jacobi(v, m, eta, vj)
+
+
+@kernel
+def _from_internal(xj, vj, m, eta, x, v, dh):
+    """The internal coordinates -> inertial ``x, v``."""
+    if dh:
+        from_democratic_heliocentric(xj, m, eta, x, False)
+        from_democratic_heliocentric(vj, m, eta, v, True)
+    else:
+        from_jacobi(xj, m, eta, x)
+        from_jacobi(vj, m, eta, v)
+
+
+@kernel
+def _kepler_drift(xj, vj, eta, G, h, dh):
+    """Every body on its Kepler orbit for ``h`` (GM = ``G eta_i``, or ``G m_0`` with ``dh``);
+    the centre of mass (row 0) on a straight line."""
     n = xj.shape[0]
     for c in range(3):
         xj[0, c] += vj[0, c] * h
     for i in range(1, n):
+        gm = G * eta[0] if dh else G * eta[i]
         st, x, y, z, vx, vy, vz = propagate_scalar(
-            xj[i, 0], xj[i, 1], xj[i, 2], vj[i, 0], vj[i, 1], vj[i, 2], G * eta[i], h
+            xj[i, 0], xj[i, 1], xj[i, 2], vj[i, 0], vj[i, 1], vj[i, 2], gm, h
         )
         if st != OK:
             return st
@@ -187,6 +294,38 @@ def _kepler_drift(xj, vj, eta, G, h):
         vj[i, 0] = vx
         vj[i, 1] = vy
         vj[i, 2] = vz
+    return OK
+
+
+@kernel
+def _jump(q, vb, m, h):
+    """The democratic heliocentric jump: every ``Q_i += h sum_{j>=1} m_j V_j / m_0``."""
+    n = q.shape[0]
+    px = 0.0
+    py = 0.0
+    pz = 0.0
+    for i in range(1, n):
+        px += m[i] * vb[i, 0]
+        py += m[i] * vb[i, 1]
+        pz += m[i] * vb[i, 2]
+    k = h / m[0]
+    for i in range(1, n):
+        q[i, 0] += k * px
+        q[i, 1] += k * py
+        q[i, 2] += k * pz
+
+
+@kernel
+def _drift(xj, vj, m, eta, G, h, jump_before, jump_after, dh):
+    """The part of a step between kicks: Kepler drift ``h``, with ``dh`` between the jumps
+    ``jump_before`` and ``jump_after`` (step lengths; 0 for none)."""
+    if dh and jump_before != 0.0:
+        _jump(xj, vj, m, jump_before)
+    st = _kepler_drift(xj, vj, eta, G, h, dh)
+    if st != OK:
+        return st
+    if dh and jump_after != 0.0:
+        _jump(xj, vj, m, jump_after)
     return OK
 
 
@@ -203,17 +342,50 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
 
 
 @kernel
+def _kick(t, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, params, acc, aj,
+          dh):
+    """Interaction kick ``h`` of the internal velocities with the forces at time ``t``.
+
+    Jacobi: the Jacobi transform of the full accelerations minus each body's Kepler term.
+    Democratic heliocentric: the gravity of the massive bodies other than the central one
+    (``massive[1:]``; the central body is ``massive[0] = 0``) plus the additional force minus
+    its mass-weighted mean ``a_cm``, which kicks the centre-of-mass velocity (row 0) instead.
+    ``x`` receives the inertial positions the forces were evaluated at.
+    """
+    if dh:
+        from_democratic_heliocentric(xj, m, eta, x, False)
+        gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, istate[I_PARALLEL] != 0)
+        n = x.shape[0]
+        for i in range(n):
+            for c in range(3):
+                aj[i, c] = 0.0
+        force(t, x, v, m, params, aj)
+        M = eta[n - 1]
+        for c in range(3):
+            s = 0.0
+            for i in range(n):
+                s += m[i] * aj[i, c]
+            a_cm = s / M
+            vj[0, c] += a_cm * h
+            for i in range(1, n):
+                vj[i, c] += (acc[i, c] + (aj[i, c] - a_cm)) * h
+    else:
+        from_jacobi(xj, m, eta, x)
+        accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+        to_jacobi(acc, m, eta, aj)
+        _interaction_kick(xj, vj, aj, eta, G, h)
+
+
+@kernel
 def _phase_kick(xj, vj, m, eta, G, ah, bh, t, x, v, massive, fstate, istate, gwork, force,
                 params, acc, aj):
-    """Kepler drift by ``ah``, interaction kick ``bh``, Kepler drift back by ``-ah``."""
-    st = _kepler_drift(xj, vj, eta, G, ah)
+    """Kepler drift by ``ah``, interaction kick ``bh``, Kepler drift back by ``-ah`` (Jacobi)."""
+    st = _kepler_drift(xj, vj, eta, G, ah, False)
     if st != OK:
         return st
-    from_jacobi(xj, m, eta, x)
-    accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc)
-    to_jacobi(acc, m, eta, aj)
-    _interaction_kick(xj, vj, aj, eta, G, bh)
-    return _kepler_drift(xj, vj, eta, G, -ah)
+    _kick(t, xj, vj, m, eta, G, bh, x, v, massive, fstate, istate, gwork, force, params, acc, aj,
+          False)
+    return _kepler_drift(xj, vj, eta, G, -ah, False)
 
 
 @kernel
@@ -253,7 +425,7 @@ def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, i
 
 @kernel
 def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstate, istate,
-                 gwork, force, params, acc, aj):
+                 gwork, force, params, acc, aj, dh):
     """Inertial ``x, v`` from the internal state: a copy drifted by the last half step (and
     taken back through the inverse corrector when one is used)."""
     n = xj.shape[0]
@@ -261,7 +433,7 @@ def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstat
         for c in range(3):
             xs[i, c] = xj[i, c]
             vs[i, c] = vj[i, c]
-    st = _kepler_drift(xs, vs, eta, G, half)
+    st = _drift(xs, vs, m, eta, G, half, half, 0.0, dh)
     if st != OK:
         return st
     if order > 0:
@@ -269,32 +441,41 @@ def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstat
                         istate, gwork, force, params, acc, aj)
         if st != OK:
             return st
-    from_jacobi(xs, m, eta, x)
-    from_jacobi(vs, m, eta, v)
+    _from_internal(xs, vs, m, eta, x, v, dh)
     return OK
 
 
 @kernel
-def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
-              acc, aj, order):
-    """One synchronised drift-kick-drift step of ``x, v`` (inertial in, inertial out),
-    conjugated by the corrector for this step length when ``order > 0``."""
+def _first_half(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
+                acc, aj, order, dh):
+    """Internal state from inertial ``x, v`` at ``t``, through the first kick of a step ``h``:
+    (corrector,) drift ``h/2`` (then jump ``h/2``), kick ``h``."""
     half = 0.5 * h
-    to_jacobi(x, m, eta, xj)
-    to_jacobi(v, m, eta, vj)
+    _to_internal(x, v, m, eta, xj, vj, dh)
     if order > 0:
         st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate,
                         gwork, force, params, acc, aj)
         if st != OK:
             return st
-    st = _kepler_drift(xj, vj, eta, G, half)
+    st = _drift(xj, vj, m, eta, G, half, 0.0, half, dh)
     if st != OK:
         return st
-    from_jacobi(xj, m, eta, x)
-    accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
-    to_jacobi(acc, m, eta, aj)
-    _interaction_kick(xj, vj, aj, eta, G, h)
-    st = _kepler_drift(xj, vj, eta, G, half)
+    _kick(t + half, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, params,
+          acc, aj, dh)
+    return OK
+
+
+@kernel
+def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
+              acc, aj, order, dh):
+    """One synchronised drift-kick-drift step of ``x, v`` (inertial in, inertial out),
+    conjugated by the corrector for this step length when ``order > 0``."""
+    half = 0.5 * h
+    st = _first_half(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force,
+                     params, acc, aj, order, dh)
+    if st != OK:
+        return st
+    st = _drift(xj, vj, m, eta, G, half, half, 0.0, dh)
     if st != OK:
         return st
     if order > 0:
@@ -302,8 +483,7 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
                         gwork, force, params, acc, aj)
         if st != OK:
             return st
-    from_jacobi(xj, m, eta, x)
-    from_jacobi(vj, m, eta, v)
+    _from_internal(xj, vj, m, eta, x, v, dh)
     return OK
 
 
@@ -312,11 +492,13 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                out_t, out_x, out_v):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
-    Particle 0 must have mass (the central body).
+    Particle 0 must have mass (the central body). ``istate[I_WH_COORDINATES]`` chooses Jacobi
+    (0) or democratic heliocentric (1) coordinates; the corrector is used with Jacobi only.
 
     Without event detection (the usual case) the half drifts of consecutive steps are fused:
-    the internal state ``P`` (Jacobi coordinates just after a kick, kept in ``buf``) advances on
-    the grid ``t0 + k |dt|`` by ``P <- Kick(h) Kepler(h) P``, and the inertial ``x, v`` at an
+    the internal state ``P`` (internal coordinates just after a kick, kept in ``buf``) advances
+    on the grid ``t0 + k |dt|`` by ``P <- Kick(h) Drift(h) P`` (``Drift`` = Kepler, or
+    jump-Kepler-jump), and the inertial ``x, v`` at an
     output are a COPY: ``C^-1 Kepler(h/2) P`` (``C`` the optional symplectic corrector), followed,
     for an output time between grid points, by one shortened drift-kick-drift step of the copy.
     The internal trajectory therefore never depends on the output times, and saving ``buf`` lets
@@ -338,6 +520,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     for i in range(n):
         s += m[i]
         eta[i] = s
+    dh = istate[I_WH_COORDINATES] == DEMOCRATIC_HELIOCENTRIC
     dt = fstate[F_DT]
     adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
@@ -345,7 +528,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     fast = istate[I_COLLISIONS] == 0 and fstate[F_ENCOUNTER] <= 0.0 and fstate[F_EXIT] <= 0.0
     h = math.copysign(adt, direction)
     if fast:
-        order = istate[I_CORRECTOR]
+        order = 0 if dh else istate[I_CORRECTOR]
         valid = (istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_WH_H] == h
                  and fstate[F_DT_REF] == adt)
         istate[I_FRESH] = 0
@@ -361,22 +544,10 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             fstate[F_T0] = fstate[F_T]
             fstate[F_DT_REF] = adt
             istate[I_K] = 0
-            t = fstate[F_T]
-            to_jacobi(x, m, eta, xj)
-            to_jacobi(v, m, eta, vj)
-            if order > 0:
-                st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate,
-                                istate, gwork, force, params, acc, aj)
-                if st != OK:
-                    return st
-            st = _kepler_drift(xj, vj, eta, G, 0.5 * h)
+            st = _first_half(x, v, m, eta, G, h, fstate[F_T], xj, vj, massive, fstate, istate,
+                             gwork, force, params, acc, aj, order, dh)
             if st != OK:
                 return st
-            from_jacobi(xj, m, eta, x)
-            accelerations(t + 0.5 * h, x, v, m, massive, fstate, istate, gwork, force, params,
-                          acc)
-            to_jacobi(acc, m, eta, aj)
-            _interaction_kick(xj, vj, aj, eta, G, h)
             # P now belongs to the grid point t0 + h: count that step
             istate[I_K] = 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
@@ -390,32 +561,28 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 if rem * direction <= 1e-9 * adt:
                     break  # the grid point is at or past the target
                 if (not exact) or rem * direction >= adt * (1.0 - 1e-9):
-                    st = _kepler_drift(xj, vj, eta, G, h)
+                    st = _drift(xj, vj, m, eta, G, h, 0.5 * h, 0.5 * h, dh)
                     if st != OK:
                         return st
-                    from_jacobi(xj, m, eta, x)
-                    accelerations(t_grid + 0.5 * h, x, v, m, massive, fstate, istate, gwork,
-                                  force, params, acc)
-                    to_jacobi(acc, m, eta, aj)
-                    _interaction_kick(xj, vj, aj, eta, G, h)
+                    _kick(t_grid + 0.5 * h, xj, vj, m, eta, G, h, x, v, massive, fstate, istate,
+                          gwork, force, params, acc, aj, dh)
                     istate[I_K] += 1 if h > 0.0 else -1
                     istate[I_STEPS] += 1
                     fstate[F_DT_LAST] = h
                     if should_pause(istate):
                         st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order,
                                           t_grid + h, massive, fstate, istate, gwork, force,
-                                          params, acc, aj)
+                                          params, acc, aj, dh)
                         if st != OK:
                             return st
                         fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
                         return PAUSED
                 else:
                     break  # less than a step to go: the output comes from a copy
-            # the synchronised state at the last grid point is P's (t_grid - h)... P belongs
-            # to grid point t_grid: synchronise a copy there
+            # P belongs to grid point t_grid: synchronise a copy there
             t_grid = fstate[F_T0] + istate[I_K] * adt
             st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order, t_grid, massive,
-                              fstate, istate, gwork, force, params, acc, aj)
+                              fstate, istate, gwork, force, params, acc, aj, dh)
             if st != OK:
                 return st
             rem = target - t_grid
@@ -423,7 +590,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 # a shortened step of the copy lands on the output time (backwards when the
                 # target lies within the first step, which P has already taken); P is untouched
                 st = _dkd_step(x, v, m, eta, G, rem, t_grid, xs, vs, massive, fstate, istate,
-                               gwork, force, params, acc, aj, order)
+                               gwork, force, params, acc, aj, order, dh)
                 if st != OK:
                     return st
             fstate[F_T] = target if exact else t_grid
@@ -445,7 +612,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                     advance_clock(fstate, istate, 0.0, True, True, target)
                 break
             st = _dkd_step(x, v, m, eta, G, hh, t, xj, vj, massive, fstate, istate, gwork,
-                           force, params, acc, aj, 0)
+                           force, params, acc, aj, 0, dh)
             if st != OK:
                 return st
             advance_clock(fstate, istate, hh, last, exact, target)

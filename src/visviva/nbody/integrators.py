@@ -11,6 +11,11 @@ name           symplectic  adaptive  velocity-dependent forces  reference
 ``whfast``     yes         no        no                         Wisdom & Holman 1991; Rein & Tamayo 2015
 ``ias15``      no          yes       yes                        Everhart 1985; Rein & Spiegel 2015
 =============  ==========  ========  =========================  =====================================
+
+WHFast splits the Hamiltonian in one of two coordinate systems (``Simulation(...,
+coordinates=...)``): ``"jacobi"`` (the default; Wisdom & Holman 1991) or
+``"democratic_heliocentric"`` (heliocentric positions, barycentric velocities; Duncan, Levison &
+Lee 1998; REBOUND's spelling ``"democraticheliocentric"`` is accepted). See docs/nbody.md.
 """
 
 from __future__ import annotations
@@ -20,7 +25,12 @@ from dataclasses import dataclass
 
 from ..errors import InvalidInputError
 
-__all__ = ["Integrator", "INTEGRATORS", "get_integrator"]
+__all__ = ["Integrator", "INTEGRATORS", "get_integrator", "COORDINATES", "parse_coordinates"]
+
+#: Coordinate systems of the Wisdom-Holman splitting -> ``istate[I_WH_COORDINATES]``.
+COORDINATES = {"jacobi": 0, "democratic_heliocentric": 1}
+#: Other accepted spellings (REBOUND's first).
+_COORDINATE_ALIASES = {"democraticheliocentric": "democratic_heliocentric"}
 
 
 @dataclass(frozen=True)
@@ -45,6 +55,9 @@ class Integrator:
         A step size must be given.
     order : int
         Order of accuracy.
+    coordinates : tuple of str
+        The coordinate systems its splitting can use (keys of :data:`COORDINATES`), the default
+        first; empty when the integrator has no such choice.
     """
 
     name: str
@@ -57,6 +70,7 @@ class Integrator:
     needs_dt: bool
     order: int
     description: str = ""
+    coordinates: tuple = ()
 
     @property
     def core(self):
@@ -109,7 +123,9 @@ INTEGRATORS: dict[str, Integrator] = {
         "whfast", "visviva.core.nbody_whfast", "whfast_run",
         symplectic=True, adaptive=False, velocity_dependent_forces=False, time_reversible=True,
         needs_dt=True, order=2,
-        description="Wisdom-Holman in Jacobi coordinates, universal-variable Kepler drift",
+        description="Wisdom-Holman in Jacobi or democratic heliocentric coordinates, "
+        "universal-variable Kepler drift",
+        coordinates=("jacobi", "democratic_heliocentric"),
     ),
 }
 
@@ -122,3 +138,23 @@ def get_integrator(name: str) -> Integrator:
             f"unknown integrator {name!r}; choose one of {sorted(INTEGRATORS)}."
         )
     return INTEGRATORS[key]
+
+
+def parse_coordinates(name: str, integrator: Integrator) -> str:
+    """The canonical name of the coordinate system ``name`` (case-insensitive; aliases such as
+    REBOUND's ``"democraticheliocentric"`` accepted), checked against ``integrator``."""
+    key = str(name).lower()
+    key = _COORDINATE_ALIASES.get(key, key)
+    allowed = integrator.coordinates or ("jacobi",)
+    if key not in allowed:
+        if not integrator.coordinates:
+            raise InvalidInputError(
+                f"coordinates={name!r}: the {integrator.name!r} integrator has no choice of "
+                "coordinates (only WHFast does); leave coordinates at 'jacobi' or use "
+                "integrator='whfast'."
+            )
+        raise InvalidInputError(
+            f"unknown coordinates {name!r} for {integrator.name!r}; choose one of "
+            f"{list(allowed)} (REBOUND's 'democraticheliocentric' is accepted too)."
+        )
+    return key

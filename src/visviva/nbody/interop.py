@@ -1,9 +1,11 @@
 """Conversion to and from REBOUND (``pip install rebound``; tested with REBOUND 5.2).
 
 Particles (mass, position, velocity, radius), ``G``, ``t`` and ``dt`` are copied exactly (the
-same float64 values). The integrator is mapped by name (``leapfrog``, ``whfast``, ``ias15``);
-integrator internals (IAS15's b arrays, ...) are not transferred: the first step in the other code
-starts fresh.
+same float64 values). The integrator is mapped by name (``leapfrog``, ``whfast``, ``ias15``), and
+WHFast's coordinates with it (visviva's ``"jacobi"`` / ``"democratic_heliocentric"`` <-> REBOUND's
+``"jacobi"`` / ``"democraticheliocentric"``; REBOUND's WHDS and barycentric WHFast have no visviva
+counterpart and are refused); integrator internals (IAS15's b arrays, ...) are not transferred:
+the first step in the other code starts fresh.
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ import numpy as np
 from ..errors import InvalidInputError
 
 __all__ = ["to_rebound", "from_rebound"]
+
+#: visviva's WHFast coordinates -> REBOUND's ``integrator.coordinates``.
+_REBOUND_COORDINATES = {"jacobi": "jacobi", "democratic_heliocentric": "democraticheliocentric"}
 
 
 def _rebound():
@@ -36,6 +41,8 @@ def to_rebound(sim):
               vx=float(v[0]), vy=float(v[1]), vz=float(v[2]), r=float(sim._radius[k]))
     r.t = sim.t
     r.integrator = sim.integrator
+    if sim.integrator == "whfast":
+        r.integrator.coordinates = _REBOUND_COORDINATES[sim.coordinates]
     if sim.dt != 0.0:
         r.dt = sim.dt
     if sim.softening > 0:
@@ -57,7 +64,17 @@ def from_rebound(cls, rsim, integrator=None):
             f"REBOUND integrator {name!r} has no visviva counterpart; pass integrator='ias15', "
             "'whfast' or 'leapfrog'."
         )
-    sim = cls(name, G=float(rsim.G))
+    coordinates = "jacobi"
+    if name == "whfast" and str(rsim.integrator) == "whfast":
+        rebound_coordinates = str(rsim.integrator.coordinates).lower()
+        back = {v: k for k, v in _REBOUND_COORDINATES.items()}
+        if rebound_coordinates not in back:
+            raise InvalidInputError(
+                f"REBOUND's WHFast coordinates {rebound_coordinates!r} have no visviva "
+                f"counterpart; set rsim.integrator.coordinates to one of {sorted(back)} first."
+            )
+        coordinates = back[rebound_coordinates]
+    sim = cls(name, G=float(rsim.G), coordinates=coordinates)
     sim.softening = float(rsim.softening)
     n_active = rsim.N_active if rsim.N_active >= 0 else rsim.N
     for k, p in enumerate(rsim.particles):

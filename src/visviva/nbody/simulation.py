@@ -26,7 +26,7 @@ from ..errors import (
     raise_for_status,
 )
 from . import forces as _forces
-from .integrators import INTEGRATORS, get_integrator
+from .integrators import COORDINATES, INTEGRATORS, get_integrator, parse_coordinates
 from .units import SimulationUnits
 
 __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
@@ -176,6 +176,12 @@ class Simulation:
     corrector : int
         WHFast symplectic corrector order (0: none, 3, 5, 7), applied at the start and
         (inverted) at every output; not used while collisions/encounters/escapes are checked.
+        Jacobi coordinates only.
+    coordinates : str
+        WHFast's splitting: ``"jacobi"`` (default; best for hierarchical systems) or
+        ``"democratic_heliocentric"`` (heliocentric positions, barycentric velocities; Duncan,
+        Levison & Lee 1998; REBOUND's ``"democraticheliocentric"`` is accepted too): see
+        docs/nbody.md for when to use which.
     adaptive_mode : str
         IAS15 step-size control: ``"prs23"`` (default; Pham, Rein & Spiegel 2024, REBOUND's
         default) or ``"rs15"`` (Rein & Spiegel 2015's global criterion; ``"global"`` is an
@@ -213,6 +219,7 @@ class Simulation:
         epsilon: float = 1e-9,
         min_dt: float = 0.0,
         corrector: int = 0,
+        coordinates: str = "jacobi",
         exact_finish_time: bool = True,
         adaptive_mode: str = "prs23",
     ):
@@ -242,6 +249,7 @@ class Simulation:
         self.encounter_distance = encounter_distance
         self.exit_max_distance = exit_max_distance
         self.corrector = corrector
+        self.coordinates = coordinates
         self.exact_finish_time = exact_finish_time
         self.adaptive_mode = adaptive_mode
 
@@ -392,7 +400,31 @@ class Simulation:
         order = int(order)
         if order not in (0, 3, 5, 7):
             raise InvalidInputError(f"corrector must be 0, 3, 5 or 7; got {order!r}.")
+        if order != 0 and self.coordinates != "jacobi":
+            raise InvalidInputError(
+                f"corrector={order}: the symplectic correctors are derived for the Jacobi "
+                f"splitting (Kepler + interaction) and do not apply to {self.coordinates!r} "
+                "coordinates; use corrector=0, or coordinates='jacobi'."
+            )
         self._istate[_nc.I_CORRECTOR] = order
+        self._istate[_nc.I_FRESH] = 1
+
+    @property
+    def coordinates(self) -> str:
+        """WHFast's coordinates: ``"jacobi"`` or ``"democratic_heliocentric"``; assigning resets
+        the integrator's internal state (REBOUND's ``"democraticheliocentric"`` is accepted)."""
+        code = int(self._istate[_nc.I_WH_COORDINATES])
+        return next(k for k, v in COORDINATES.items() if v == code)
+
+    @coordinates.setter
+    def coordinates(self, name: str) -> None:
+        key = parse_coordinates(name, self._integrator)
+        if key != "jacobi" and self.corrector != 0:
+            raise InvalidInputError(
+                f"coordinates={name!r} with corrector={self.corrector}: the symplectic "
+                "correctors apply to Jacobi coordinates only; set corrector=0 first."
+            )
+        self._istate[_nc.I_WH_COORDINATES] = COORDINATES[key]
         self._istate[_nc.I_FRESH] = 1
 
     @property
@@ -744,8 +776,8 @@ class Simulation:
         out_t = times.copy()
         if info.name == "whfast" and self._m[0] <= 0:
             raise InvalidInputError(
-                "WHFast needs particle 0 to be the massive central body (Jacobi coordinates): "
-                "add the star first."
+                f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
+                "coordinates): add the star first."
             )
         try:
             while True:

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import types
 from numba.extending import intrinsic
@@ -208,6 +209,17 @@ def _from_bits(typingctx, n):
         return builder.bitcast(args[0], context.get_value_type(types.float64))
 
     return types.float64(types.int64), codegen
+
+
+if numba.config.DISABLE_JIT:  # pure Python (coverage runs): the intrinsics' plain equivalents
+    def prefer_wide_vectors():  # noqa: F811
+        return None
+
+    def _bits(x):  # noqa: F811
+        return int(np.float64(x).view(np.int64))
+
+    def _from_bits(n):  # noqa: F811
+        return float(np.int64(n).view(np.float64))
 
 
 @inline_kernel

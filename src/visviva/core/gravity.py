@@ -526,10 +526,11 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
         _pair_item(k, nm, p, soft2, buf)
     for c in prange((nm + CHUNK - 1) // CHUNK):
         _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
-    tests = _test_indices(x.shape[0], massive)
-    nt = tests.shape[0]
-    for c in prange((nt + CHUNK - 1) // CHUNK):
-        _test_rows(c * CHUNK, min(nt, (c + 1) * CHUNK), tests, x, p, nm, soft2, acc)
+    if x.shape[0] > nm:  # test particles (no parallel region when there are none)
+        tests = _test_indices(x.shape[0], massive)
+        nt = tests.shape[0]
+        for c in prange((nt + CHUNK - 1) // CHUNK):
+            _test_rows(c * CHUNK, min(nt, (c + 1) * CHUNK), tests, x, p, nm, soft2, acc)
 
 
 @kernel

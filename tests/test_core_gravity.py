@@ -164,3 +164,18 @@ def test_large_n_kernel_at_any_length_scale(scale):
         g.gravity_parallel(x, m, 1.0, s2, massive, a, np.empty((4, n)))
         assert np.isfinite(a).all()
         np.testing.assert_allclose(a, rows, rtol=0, atol=1e-13 * np.abs(rows).max())
+
+
+def test_large_n_kernel_with_a_subset_of_the_massive_particles():
+    # callers may pass a subset of the massive indices (WHFast's democratic heliocentric kick
+    # passes massive[1:]): the particles left out feel the subset and pull on nothing, as in the
+    # small-N kernel
+    n = 600
+    x, m = _cluster(n, seed=3, frac_test=0.1)
+    massive = g.massive_indices(m)[1:]
+    xm, ym, zm = (np.ascontiguousarray(x[massive, k]) for k in range(3))
+    rows = np.empty((n, 3))
+    g._rows(0, n, x, xm, ym, zm, m[massive].copy(), 0.0, rows)
+    a = np.empty((n, 3))
+    g.gravity(x, m, 1.0, 0.0, massive, a, np.empty((7, n)), True)
+    np.testing.assert_allclose(a, rows, rtol=0, atol=1e-13 * np.abs(rows).max())

@@ -163,6 +163,9 @@ def test_restart_in_a_fresh_process_is_bit_for_bit(tmp_path):
     outs = {}
     for name in ALL:
         outs[name] = _restart_case(name, True, tmp_path)
+    # WHFast in its other coordinate system (the choice travels in the file)
+    outs["whfast democratic_heliocentric"] = _restart_case(
+        "whfast", True, tmp_path, coordinates="democratic_heliocentric")
     code = ["import numpy as np, visviva as vv"]
     for path, out, t2, _ in outs.values():
         code.append(f"sim = vv.Simulation.load({str(path)!r}); sim.integrate({t2!r})")
@@ -186,10 +189,11 @@ def test_restart_without_exact_finish_is_bit_for_bit(name, tmp_path):
     assert sim.t == one_go.t
 
 
-def _restart_case(name, exact, tmp_path):
+def _restart_case(name, exact, tmp_path, coordinates="jacobi"):
     def make():
         sim = outer_solar_system(name, dt=None if name == "ias15" else 0.3)
         sim.exact_finish_time = exact
+        sim.coordinates = coordinates
         return sim
 
     t1, t2 = 30.05, 60.1  # not on the step grid
@@ -197,9 +201,9 @@ def _restart_case(name, exact, tmp_path):
     one_go.integrate(t2)
     first = make()
     first.integrate(t1)
-    path = tmp_path / f"{name}.npz"
+    path = tmp_path / f"{name}_{coordinates}.npz"
     first.save(path)
-    return path, tmp_path / f"{name}.npy", t2, one_go
+    return path, tmp_path / f"{name}_{coordinates}.npy", t2, one_go
 
 
 @pytest.mark.parametrize("name", ALL)

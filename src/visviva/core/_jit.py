@@ -16,6 +16,9 @@ one of the decorators below, so that caching, the error model and threading are 
   order of the partial sums is fixed by the code, not by the data or the threads) but differs in
   the last bits from a strict left-to-right sum. Use it only for a reduction in a leaf function;
   never for iterative solvers (Newton, Kepler, predictor-corrector loops).
+* :func:`prefer_wide_vectors` (called first thing in the large-N gravity loops) makes LLVM use
+  the CPU's widest SIMD registers for the calling function (512-bit on AVX-512, where LLVM's
+  default is 256): the one per-function code-generation flag, so it lives here too.
 * Nothing is compiled at import: no eager signatures are given, so the first call compiles
   (or loads from the cache).
 """
@@ -23,8 +26,11 @@ one of the decorators below, so that caching, the error model and threading are 
 from __future__ import annotations
 
 import numba
+from numba import types
+from numba.extending import intrinsic
 
-__all__ = ["kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel"]
+__all__ = ["kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel",
+           "prefer_wide_vectors"]
 
 _FLAGS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": False}
 
@@ -46,3 +52,24 @@ def inline_kernel(fn):
 
 
 prange = numba.prange
+
+
+@intrinsic
+def prefer_wide_vectors(typingctx):
+    """Compile the calling function for the widest SIMD registers the CPU has (no-op call).
+
+    LLVM's default on AVX-512 CPUs is to vectorise with 256-bit registers; this sets the function
+    attribute ``"prefer-vector-width"="512"`` on the caller, so its loops use 512-bit ones (8
+    doubles). Targets without such registers ignore it.
+    """
+    def codegen(context, builder, signature, args):
+        # llvmlite knows only a fixed list of function attributes: add the string one directly
+        set.add(builder.function.attributes, '"prefer-vector-width"="512"')
+        return context.get_dummy_value()
+
+    return types.none(), codegen
+
+
+if numba.config.DISABLE_JIT:  # pure Python (coverage runs): the intrinsic is a plain no-op
+    def prefer_wide_vectors():  # noqa: F811
+        return None

@@ -32,7 +32,7 @@ faster per interaction on one thread (0.33 against 1.2 ns at N = 4,000 on an AVX
   Householder step and a final third-order step folded into the cube, all multiply-adds, accurate
   to about one ulp (max relative error 3.3e-16 over random inputs, tested; the correctly rounded
   ``1 / (r2 sqrt(r2))`` in float64 itself has 2.7e-16);
-* the loop is compiled for the widest vectors the CPU has (:func:`prefer_wide_vectors`: 512-bit
+* the loop is compiled for the widest vectors the CPU has (:func:`visviva.core._jit.prefer_wide_vectors`: 512-bit
   on AVX-512, where LLVM's default is 256), over a private copy of the massive particles as rows
   ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a multiple
   of 8 columns and is padded at the end to a multiple of 16 with massless dummies placed far from
@@ -70,7 +70,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from ._jit import inline_kernel, kernel, parallel_kernel, prange, simd_kernel
+from ._jit import inline_kernel, kernel, parallel_kernel, prange, prefer_wide_vectors, simd_kernel
 
 __all__ = [
     "row_acceleration",
@@ -178,22 +178,6 @@ def _rows(lo, hi, x, xm, ym, zm, gmm, soft2, acc):
 
 # ---- large-N kernel: each pair once, r**-3 without divide or square root -----------------------
 @intrinsic
-def prefer_wide_vectors(typingctx):
-    """Compile the calling function for the widest SIMD registers the CPU has (no-op call).
-
-    LLVM's default on AVX-512 CPUs is to vectorise with 256-bit registers; this sets the function
-    attribute ``"prefer-vector-width"="512"`` on the caller, so its loops use 512-bit ones (8
-    doubles). Targets without such registers ignore it.
-    """
-    def codegen(context, builder, signature, args):
-        # llvmlite knows only a fixed list of function attributes: add the string one directly
-        set.add(builder.function.attributes, '"prefer-vector-width"="512"')
-        return context.get_dummy_value()
-
-    return types.none(), codegen
-
-
-@intrinsic
 def _bits(typingctx, x):
     """The IEEE-754 bits of a float64 as an int64."""
     def codegen(context, builder, signature, args):
@@ -212,9 +196,6 @@ def _from_bits(typingctx, n):
 
 
 if numba.config.DISABLE_JIT:  # pure Python (coverage runs): the intrinsics' plain equivalents
-    def prefer_wide_vectors():  # noqa: F811
-        return None
-
     def _bits(x):  # noqa: F811
         return int(np.float64(x).view(np.int64))
 

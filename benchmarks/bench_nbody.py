@@ -3,6 +3,8 @@
 Rows
 ----
 * WHFast, Sun + 8 planets, 1,000 years, dt = 4.4 d (target <= 1.0x REBOUND's WHFast).
+* The same in democratic heliocentric coordinates (target <= 1.0x REBOUND's WHFast with
+  ``coordinates="democraticheliocentric"``).
 * IAS15, Sun + 8 planets, 1,000 years (target <= 1.0x REBOUND's IAS15 at equal energy error:
   both relative energy errors are reported in the notes), with visviva's default step control
   (PRS23, REBOUND's default criterion) and with Rein & Spiegel (2015)'s (``adaptive_mode="rs15"``).
@@ -79,6 +81,39 @@ def run(quick: bool = False) -> list[dict]:
             f"whfast, Sun + 8 planets, {years:g} yr, dt 4.4 d", t_vv, f"rebound {rebound.__version__} whfast",
             t_rb, target=1.0, compile_s=c,
             notes=f"|dE/E| visviva {e_vv:.1e}, rebound {e_rb:.1e}; both synchronise only at the end",
+        ))
+
+    # -- WHFast, democratic heliocentric coordinates --------------------------------------------
+    def dh_solar():
+        sim = _solar("whfast")
+        sim.coordinates = "democratic_heliocentric"
+        return sim
+
+    def dh_vv():
+        sim = dh_solar()
+        sim.integrate(years)
+        return sim
+
+    def dh_rb():
+        r = dh_solar().to_rebound()  # carries coordinates="democraticheliocentric"
+        r.integrate(years)
+        return r
+
+    c = compile_time(lambda: dh_solar().integrate(1.0))
+    t_vv = time_call(dh_vv, repeat=repeat, number=1)
+    if rebound is None:
+        rows.append(skipped("whfast democratic heliocentric solar system", "rebound not installed"))
+    else:
+        t_rb = time_call(dh_rb, repeat=repeat, number=1)
+        s, r = dh_vv(), dh_rb()
+        e_vv = abs(s.energy() / dh_solar().energy() - 1)
+        e_rb = abs(r.energy() / dh_solar().to_rebound().energy() - 1)
+        rows.append(result(
+            f"whfast democratic heliocentric, Sun + 8 planets, {years:g} yr, dt 4.4 d", t_vv,
+            f"rebound {rebound.__version__} whfast democraticheliocentric", t_rb, target=1.0,
+            compile_s=c,
+            notes=(f"|dE/E| visviva {e_vv:.1e}, rebound {e_rb:.1e}; same kernel as the Jacobi "
+                   "row (compiled there)"),
         ))
 
     # -- IAS15 --------------------------------------------------------------------------------

@@ -54,7 +54,6 @@ MAX_ITERATIONS = 60
 _EPS = 2.220446049250313e-16
 #: A Laguerre step below this fraction of s is taken as the last one (cubic convergence).
 _ACCEPT = 1e-6
-_TINY = 4.0 * _EPS
 _TWO_PI = 2.0 * math.pi
 #: |psi| below which the Stumpff functions come from their Taylor series (no cancellation).
 _SERIES_LIMIT = 4.0
@@ -321,7 +320,7 @@ def _solve_universal(A, B, C, beta, tau, s_start):
         # Laguerre converges cubically: once a step is below 1e-6 of s, the next one would be
         # below 1e-17, so the step is taken and the loop ends without another evaluation.
         if abs(delta) <= _ACCEPT * abs(s) + noise:
-            if not lo < s_new < hi or abs(delta) <= _TINY * abs(s):
+            if not lo < s_new < hi:
                 return True, s, c0, G1, G2
             c0, c1, c2, c3 = _stumpff_all(beta * s_new * s_new)
             return True, s_new, c0, s_new * c1, s_new * s_new * c2
@@ -515,12 +514,12 @@ def _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt):
     gdm1 = -gm * G2 / r
     return (
         OK,
-        x + (fm1 * x + g * vx),
-        y + (fm1 * y + g * vy),
-        z + (fm1 * z + g * vz),
-        vx + (fdot * x + gdm1 * vx),
-        vy + (fdot * y + gdm1 * vy),
-        vz + (fdot * z + gdm1 * vz),
+        x + _fma(fm1, x, g * vx),
+        y + _fma(fm1, y, g * vy),
+        z + _fma(fm1, z, g * vz),
+        vx + _fma(fdot, x, gdm1 * vx),
+        vy + _fma(fdot, y, gdm1 * vy),
+        vz + _fma(fdot, z, gdm1 * vz),
     )
 
 

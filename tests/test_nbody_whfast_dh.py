@@ -310,3 +310,13 @@ def test_merge_conserves_mass_momentum_and_tracked_energy():
     assert sim.N == 1 and sim.masses[0] == 3.0
     np.testing.assert_allclose(sim.momentum(), p0, rtol=0, atol=1e-13)
     assert sim.energy() == pytest.approx(E0, rel=1e-12)
+
+
+def test_progress_bar_pauses_do_not_change_the_trajectory():
+    a = outer_solar_system(dt=0.01)
+    b = a.copy()
+    a.integrate(50.0)
+    b.integrate(50.0, progress=True)  # paused every 2,000 steps and resumed
+    assert b.steps_done > 2000
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.velocities, b.velocities)

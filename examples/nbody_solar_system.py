@@ -1,6 +1,7 @@
-"""The solar system for 1,000 years with WHFast and IAS15: relative energy error against time.
+"""The solar system for 10,000 years with WHFast and IAS15: relative energy error against time.
 
-Run: ``python examples/nbody_solar_system.py [--years 10000] [--plot energy.png]``.
+Run: ``python examples/nbody_solar_system.py [--years 10000] [--plot energy.png]`` (about 25 s,
+nearly all of it IAS15's 1.5 million steps).
 WHFast (dt = 4.4 days) keeps a bounded, oscillating error of ~1e-9 with no drift; IAS15 stays at
 round-off (~1e-15), growing like t**0.5 (Brouwer's law).
 """
@@ -18,8 +19,6 @@ import visviva as vv
 
 def energy_history(integrator: str, years: float, samples: int = 200):
     sim = vv.solar_system(integrator=integrator)
-    if integrator == "ias15":
-        sim.adaptive_mode = "prs23"  # REBOUND's default criterion: half the steps
     E0 = sim.energy()
     times = np.linspace(years / samples, years, samples)
     t0 = time.perf_counter()
@@ -30,7 +29,7 @@ def energy_history(integrator: str, years: float, samples: int = 200):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--years", type=float, default=1000.0)
+    parser.add_argument("--years", type=float, default=10_000.0)
     parser.add_argument("--plot", default=str(figure_path("nbody_solar_system.png")),
                         help="write the figure to this file")
     args = parser.parse_args(argv)

@@ -543,6 +543,9 @@ class Satellite:
             Object name (e.g. line 0 of a three-line element set).
         verify_checksum : bool
             Check each line's modulo-10 checksum (default).
+        where : tuple of str, optional
+            How error messages name the two lines (default ``("TLE line 1", "TLE line 2")``;
+            a catalogue reader passes the file and line numbers).
 
         Raises
         ------
@@ -551,13 +554,12 @@ class Satellite:
             [1, 366) or [1, 367) in leap years, mean motion <= 0, inclination > 180 deg, an
             angle > 360 deg); the message names the line and the field.
 
-        Element sets that sgp4 cannot initialise (e.g. eccentricity out of range) are accepted
-        here; propagating them raises the typed :class:`SGP4Error`.
-
         Notes
         -----
         The elements are SGP4 mean elements (Hoots & Roehrich 1980, Spacetrack Report #3;
-        Vallado et al. 2006, AIAA 2006-6753), initialised with WGS-72 constants.
+        Vallado et al. 2006, AIAA 2006-6753), initialised with WGS-72 constants. Element sets
+        that sgp4 cannot initialise (e.g. eccentricity out of range) are accepted here;
+        propagating them raises the typed :class:`SGP4Error`.
         """
         from sgp4.api import WGS72, Satrec
 

@@ -34,7 +34,7 @@ import math
 import numpy as np
 
 from ..constants import C_KM_S
-from ..core._jit import kernel
+from ..core._jit import inline_kernel, kernel
 from ..errors import InvalidInputError
 
 __all__ = [
@@ -131,27 +131,36 @@ def combine(fns, sizes):
 # ---- built-in forces -----------------------------------------------------------------------------
 
 
-@kernel
-def j2_force(t, x, v, m, params, acc):
-    """J2 of particle ``params[1]`` (pole along z): params = [G, index, J2, R]."""
-    G = params[0]
-    p = int(params[1])
-    j2 = params[2]
-    R = params[3]
-    gm = G * m[p]
+@inline_kernel
+def _about_primary(pair, x, v, m, p, acc, c0, c1, c2):
+    """Add a force of the primary ``p`` on every other particle, and its reaction on ``p``.
+
+    Parameters
+    ----------
+    pair : compiled function
+        ``pair(dx, dy, dz, dvx, dvy, dvz, c0, c1, c2) -> (ax, ay, az)``: the acceleration of a
+        particle at relative position ``d`` and relative velocity ``dv`` (simulation units).
+    x, v : ndarray, shape (N, 3)
+        Positions and velocities (simulation units).
+    m : ndarray, shape (N,)
+        Masses (simulation units).
+    p : int
+        Index of the primary.
+    acc : ndarray, shape (N, 3)
+        Accelerations (simulation units), updated in place.
+    c0, c1, c2 : float
+        Constants handed to ``pair``.
+
+    Notes
+    -----
+    ``acc[i] += a_i`` and ``acc[p] -= (m_i / m_p) a_i`` for ``i != p``, so that the total momentum
+    is conserved (Newton's third law); a massless primary feels nothing.
+    """
     for i in range(x.shape[0]):
         if i == p:
             continue
-        dx = x[i, 0] - x[p, 0]
-        dy = x[i, 1] - x[p, 1]
-        dz = x[i, 2] - x[p, 2]
-        r2 = dx * dx + dy * dy + dz * dz
-        r = math.sqrt(r2)
-        k = -1.5 * j2 * gm * R * R / (r2 * r2 * r)
-        z2 = 5.0 * dz * dz / r2
-        ax = k * dx * (1.0 - z2)
-        ay = k * dy * (1.0 - z2)
-        az = k * dz * (3.0 - z2)
+        ax, ay, az = pair(x[i, 0] - x[p, 0], x[i, 1] - x[p, 1], x[i, 2] - x[p, 2],
+                          v[i, 0] - v[p, 0], v[i, 1] - v[p, 1], v[i, 2] - v[p, 2], c0, c1, c2)
         acc[i, 0] += ax
         acc[i, 1] += ay
         acc[i, 2] += az
@@ -160,69 +169,59 @@ def j2_force(t, x, v, m, params, acc):
             acc[p, 0] -= q * ax
             acc[p, 1] -= q * ay
             acc[p, 2] -= q * az
+
+
+@inline_kernel
+def _j2_pair(dx, dy, dz, dvx, dvy, dvz, j2, gm, R):
+    """J2 acceleration at ``d`` from a primary of ``gm``, radius ``R`` (see :class:`J2`)."""
+    r2 = dx * dx + dy * dy + dz * dz
+    r = math.sqrt(r2)
+    k = -1.5 * j2 * gm * R * R / (r2 * r2 * r)
+    z2 = 5.0 * dz * dz / r2
+    return k * dx * (1.0 - z2), k * dy * (1.0 - z2), k * dz * (3.0 - z2)
+
+
+@kernel
+def j2_force(t, x, v, m, params, acc):
+    """J2 of particle ``params[1]`` (pole along z): params = [G, index, J2, R]."""
+    p = int(params[1])
+    _about_primary(_j2_pair, x, v, m, p, acc, params[2], params[0] * m[p], params[3])
+
+
+@inline_kernel
+def _gr_pair(dx, dy, dz, dvx, dvy, dvz, mu, c2, unused):
+    """1PN acceleration at ``d``, ``dv`` (see :class:`GeneralRelativity`); ``c2 = c**2``."""
+    r2 = dx * dx + dy * dy + dz * dz
+    r = math.sqrt(r2)
+    v2 = dvx * dvx + dvy * dvy + dvz * dvz
+    rv = dx * dvx + dy * dvy + dz * dvz
+    k = mu / (c2 * r2 * r)
+    fr = 4.0 * mu / r - v2
+    return (k * (fr * dx + 4.0 * rv * dvx), k * (fr * dy + 4.0 * rv * dvy),
+            k * (fr * dz + 4.0 * rv * dvz))
 
 
 @kernel
 def gr_force(t, x, v, m, params, acc):
     """1PN correction of a dominant mass ``params[1]``: params = [G, index, c]."""
-    G = params[0]
     p = int(params[1])
-    c2 = params[2] * params[2]
-    mu = G * m[p]
-    for i in range(x.shape[0]):
-        if i == p:
-            continue
-        dx = x[i, 0] - x[p, 0]
-        dy = x[i, 1] - x[p, 1]
-        dz = x[i, 2] - x[p, 2]
-        dvx = v[i, 0] - v[p, 0]
-        dvy = v[i, 1] - v[p, 1]
-        dvz = v[i, 2] - v[p, 2]
-        r2 = dx * dx + dy * dy + dz * dz
-        r = math.sqrt(r2)
-        v2 = dvx * dvx + dvy * dvy + dvz * dvz
-        rv = dx * dvx + dy * dvy + dz * dvz
-        k = mu / (c2 * r2 * r)
-        fr = 4.0 * mu / r - v2
-        ax = k * (fr * dx + 4.0 * rv * dvx)
-        ay = k * (fr * dy + 4.0 * rv * dvy)
-        az = k * (fr * dz + 4.0 * rv * dvz)
-        acc[i, 0] += ax
-        acc[i, 1] += ay
-        acc[i, 2] += az
-        if m[p] != 0.0:
-            q = m[i] / m[p]
-            acc[p, 0] -= q * ax
-            acc[p, 1] -= q * ay
-            acc[p, 2] -= q * az
+    _about_primary(_gr_pair, x, v, m, p, acc, params[0] * m[p], params[2] * params[2], 0.0)
+
+
+@inline_kernel
+def _gr_potential_pair(dx, dy, dz, dvx, dvy, dvz, mu, c2, unused):
+    """Nobili-Roxburgh acceleration ``-6 mu**2 d / (c2 r**4)`` at ``d``; ``c2 = c**2``."""
+    r2 = dx * dx + dy * dy + dz * dz
+    k = -6.0 * mu * mu / (c2 * r2 * r2)
+    return k * dx, k * dy, k * dz
 
 
 @kernel
 def gr_potential_force(t, x, v, m, params, acc):
     """Nobili-Roxburgh potential -3 (G M)**2 / (c r)**2 of mass ``params[1]``: [G, index, c]."""
-    G = params[0]
     p = int(params[1])
-    c2 = params[2] * params[2]
-    mu = G * m[p]
-    for i in range(x.shape[0]):
-        if i == p:
-            continue
-        dx = x[i, 0] - x[p, 0]
-        dy = x[i, 1] - x[p, 1]
-        dz = x[i, 2] - x[p, 2]
-        r2 = dx * dx + dy * dy + dz * dz
-        k = -6.0 * mu * mu / (c2 * r2 * r2)
-        ax = k * dx
-        ay = k * dy
-        az = k * dz
-        acc[i, 0] += ax
-        acc[i, 1] += ay
-        acc[i, 2] += az
-        if m[p] != 0.0:
-            q = m[i] / m[p]
-            acc[p, 0] -= q * ax
-            acc[p, 1] -= q * ay
-            acc[p, 2] -= q * az
+    _about_primary(_gr_potential_pair, x, v, m, p, acc, params[0] * m[p], params[2] * params[2],
+                   0.0)
 
 
 @kernel

@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from .errors import InvalidElementsError, InvalidInputError, raise_for_status
+from .errors import InvalidElementsError, InvalidInputError
 from .states import (
     StateVectors,
     _broadcast_shape,
@@ -23,7 +23,7 @@ from .states import (
     _gm_positive,
     _index_epoch,
     _normalise_key,
-    _require_finite_result,
+    _raise_for_result,
 )
 
 __all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
@@ -53,6 +53,66 @@ def _first_bad(mask: np.ndarray) -> str:
 
 def _deg(x) -> str:
     return f"{math.degrees(float(x)):.6f} deg"
+
+
+def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
+    """Raise InvalidElementsError unless every semi-latus rectum is > 0 (and not NaN).
+
+    Parameters
+    ----------
+    p_km : ndarray
+        Semi-latus rectum (km).
+    advice : str
+        Appended to the message (starting with a space), e.g. what to give instead.
+    """
+    bad = ~(p_km > 0)
+    if np.any(bad):
+        raise InvalidElementsError(
+            f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
+            f"{p_km[bad].ravel()[0]!r} km.{advice}"
+        )
+
+
+def _index_elements(elements, key, cls_name: str):
+    """The stored arrays, gm and epoch of an element set indexed by ``key``.
+
+    Parameters
+    ----------
+    elements : KeplerianElements or ModifiedEquinoctialElements
+        The element set (its ``_stored()`` arrays have its leading shape).
+    key : index
+        Any numpy index of the leading axes.
+    cls_name : str
+        Class name for the messages of :func:`visviva.states._normalise_key`.
+
+    Returns
+    -------
+    parts : list of ndarray
+        The stored elements, indexed (canonical units).
+    gm : ndarray
+        gm (km3/s2), indexed.
+    epoch : astropy.time.Time or None
+        The epoch, indexed where it has the leading shape.
+    """
+    shape = elements._shape
+    key = _normalise_key(key, shape, cls_name)
+    parts = [np.array(x[key]) for x in elements._stored()]
+    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
+    return parts, gm, _index_epoch(elements._epoch, key, shape)
+
+
+def _states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
+    """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
+
+    Raises through :func:`visviva.states._raise_for_result` (``inputs`` and ``result_inputs``
+    are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
+    ``elements``.
+    """
+    shape = elements._shape
+    r = r.reshape(shape + (3,))
+    v = v.reshape(shape + (3,))
+    _raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
+    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)
 
 
 class KeplerianElements:
@@ -150,13 +210,11 @@ class KeplerianElements:
         ):
             _units.require_finite(arr, name)
         _gm_positive(gm)
-        if np.any(~(p_km > 0)):
-            raise InvalidElementsError(
-                f"p (semi-latus rectum) must be > 0{_first_bad(~(p_km > 0))}; got "
-                f"{p_km[~(p_km > 0)].ravel()[0]!r} km. A radial orbit (p = 0) has no classical "
-                "elements; for a given semi-major axis use "
-                "KeplerianElements.from_semi_major_axis."
-            )
+        _require_positive_p(
+            p_km,
+            " A radial orbit (p = 0) has no classical elements; for a given semi-major axis use "
+            "KeplerianElements.from_semi_major_axis.",
+        )
         if np.any(ecc < 0):
             raise InvalidElementsError(
                 f"ecc (eccentricity) must be >= 0{_first_bad(ecc < 0)}; got "
@@ -278,12 +336,8 @@ class KeplerianElements:
         return self._shape[0]
 
     def __getitem__(self, key):
-        key = _normalise_key(key, self._shape, "KeplerianElements")
-        parts = [np.array(x[key]) for x in self._stored()]
-        gm = np.array(np.broadcast_to(self._gm, self._shape)[key])
-        return KeplerianElements._from_canonical(
-            *parts, gm, _index_epoch(self._epoch, key, self._shape)
-        )
+        parts, gm, epoch = _index_elements(self, key, "KeplerianElements")
+        return KeplerianElements._from_canonical(*parts, gm, epoch)
 
     def _stored(self):
         return (self._p, self._ecc, self._inc, self._raan, self._argp, self._nu)
@@ -367,13 +421,16 @@ class KeplerianElements:
         M = np.empty(nu.shape[0])
         status = np.empty(nu.shape[0], dtype=np.int8)
         true_to_mean_array(nu, ecc, M, status)
-        raise_for_status(
-            status.reshape(self._shape), "true -> mean anomaly", nu=self._nu, ecc=self._ecc
+        M = M.reshape(self._shape)
+        _raise_for_result(
+            "true -> mean anomaly",
+            status,
+            [M],
+            self._shape,
+            {"nu": self._nu, "ecc": self._ecc},
+            result_inputs={"nu": self._nu},
         )
-        _require_finite_result(
-            "true -> mean anomaly", [M.reshape(self._shape)], self._shape, nu=self._nu
-        )
-        return _units.to_quantity(M.reshape(self._shape), "angle")
+        return _units.to_quantity(M, "angle")
 
     @cached_property
     def argument_of_latitude(self):
@@ -456,24 +513,8 @@ class KeplerianElements:
         shape = self._shape
         flat = [_flat(x, shape) for x in self._stored()]
         r, v, status = coe_to_rv_array(*flat, _flat(self._gm, shape))
-        raise_for_status(
-            status.reshape(shape),
-            "elements -> state vectors",
-            p=self._p,
-            ecc=self._ecc,
-            nu=self._nu,
-        )
-        _require_finite_result(
-            "elements -> state vectors",
-            [r.reshape(shape + (3,)), v.reshape(shape + (3,))],
-            shape,
-            p=self._p,
-            ecc=self._ecc,
-            nu=self._nu,
-        )
-        return StateVectors._from_canonical(
-            r.reshape(shape + (3,)), v.reshape(shape + (3,)), self._gm, self._epoch
-        )
+        inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
+        return _states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 
     def to_equinoctial(self, retrograde: bool = False):
         """Modified equinoctial elements (through the state vectors)."""
@@ -528,11 +569,7 @@ class ModifiedEquinoctialElements:
             },
             "ModifiedEquinoctialElements",
         )
-        if np.any(~(p_km > 0)):
-            raise InvalidElementsError(
-                f"p (semi-latus rectum) must be > 0{_first_bad(~(p_km > 0))}; got "
-                f"{p_km[~(p_km > 0)].ravel()[0]!r} km."
-            )
+        _require_positive_p(p_km)
         w = np.broadcast_to(1.0 + f * np.cos(L) + g * np.sin(L), shape)
         if np.any(w <= 0):
             raise InvalidElementsError(
@@ -629,20 +666,16 @@ class ModifiedEquinoctialElements:
         return self._shape[0]
 
     def __getitem__(self, key):
-        key = _normalise_key(key, self._shape, "ModifiedEquinoctialElements")
-        parts = [np.array(x[key]) for x in (self._p, self._f, self._g, self._h, self._k, self._L)]
-        gm = np.array(np.broadcast_to(self._gm, self._shape)[key])
-        return ModifiedEquinoctialElements._from_canonical(
-            *parts, gm, _index_epoch(self._epoch, key, self._shape), self._retrograde
-        )
+        parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")
+        return ModifiedEquinoctialElements._from_canonical(*parts, gm, epoch, self._retrograde)
+
+    def _stored(self):
+        return (self._p, self._f, self._g, self._h, self._k, self._L)
 
     def __repr__(self) -> str:
         I = -1 if self._retrograde else 1  # noqa: E741
         if int(np.prod(self._shape)) == 1:
-            vals = [
-                float(x.reshape(-1)[0])
-                for x in (self._p, self._f, self._g, self._h, self._k, self._L)
-            ]
+            vals = [float(x.reshape(-1)[0]) for x in self._stored()]
             return (
                 f"ModifiedEquinoctialElements(p={vals[0]:.9g} km, f={vals[1]:.12g}, "
                 f"g={vals[2]:.12g}, h={vals[3]:.12g}, k={vals[4]:.12g}, L={_deg(vals[5])}, I={I})"
@@ -654,27 +687,17 @@ class ModifiedEquinoctialElements:
         from .core.elements import mee_to_rv_array
 
         shape = self._shape
-        flat = [_flat(x, shape) for x in (self._p, self._f, self._g, self._h, self._k, self._L)]
+        flat = [_flat(x, shape) for x in self._stored()]
         retro = -1.0 if self._retrograde else 1.0
         r, v, status = mee_to_rv_array(*flat, _flat(self._gm, shape), retro)
-        raise_for_status(
-            status.reshape(shape),
+        return _states_from_kernel(
+            self,
+            r,
+            v,
+            status,
             "equinoctial elements -> state vectors",
-            p=self._p,
-            f=self._f,
-            g=self._g,
-            L=self._L,
-        )
-        _require_finite_result(
-            "equinoctial elements -> state vectors",
-            [r.reshape(shape + (3,)), v.reshape(shape + (3,))],
-            shape,
-            p=self._p,
-            h=self._h,
-            k=self._k,
-        )
-        return StateVectors._from_canonical(
-            r.reshape(shape + (3,)), v.reshape(shape + (3,)), self._gm, self._epoch
+            {"p": self._p, "f": self._f, "g": self._g, "L": self._L},
+            result_inputs={"p": self._p, "h": self._h, "k": self._k},
         )
 
     def to_keplerian(self):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _units
-from .errors import InvalidInputError, ShapeError, raise_for_status
+from .errors import InvalidInputError, ShapeError
 
 __all__ = ["propagate_kepler"]
 
@@ -72,7 +72,7 @@ def propagate_kepler(state, dt):
     (3,)
     """
     from .core.universal import propagate_many
-    from .states import StateVectors, _require_finite_result
+    from .states import StateVectors, _raise_for_result
 
     if not isinstance(state, StateVectors):
         raise InvalidInputError(
@@ -99,21 +99,14 @@ def propagate_kepler(state, dt):
     status = np.empty(n, dtype=np.int64)
     propagate_many(r0, v0, gm, dt_flat, r_out, v_out, status)
     _explain_extreme_magnitudes(status, r0, v0, gm, dt_flat, shape)
-    raise_for_status(
-        status.reshape(shape),
-        "Kepler propagation",
-        r_km=r0.reshape(shape + (3,)),
-        v_km_s=v0.reshape(shape + (3,)),
-        dt_s=dt_flat.reshape(shape),
-    )
-    _require_finite_result(
-        "Kepler propagation",
-        [r_out.reshape(shape + (3,)), v_out.reshape(shape + (3,))],
-        shape,
-        r_km=r0.reshape(shape + (3,)),
-        v_km_s=v0.reshape(shape + (3,)),
-        dt_s=dt_flat.reshape(shape),
-    )
+    r_out = r_out.reshape(shape + (3,))
+    v_out = v_out.reshape(shape + (3,))
+    inputs = {
+        "r_km": r0.reshape(shape + (3,)),
+        "v_km_s": v0.reshape(shape + (3,)),
+        "dt_s": dt_flat.reshape(shape),
+    }
+    _raise_for_result("Kepler propagation", status, [r_out, v_out], shape, inputs)
 
     epoch = state.epoch
     if epoch is not None:
@@ -121,9 +114,7 @@ def propagate_kepler(state, dt):
         if epoch.shape not in ((), shape):
             epoch = np.broadcast_to(epoch, shape, subok=True)
     gm_out = state._gm if np.ndim(state._gm) == 0 else gm.reshape(shape)
-    return StateVectors._from_canonical(
-        r_out.reshape(shape + (3,)), v_out.reshape(shape + (3,)), gm_out, epoch
-    )
+    return StateVectors._from_canonical(r_out, v_out, gm_out, epoch)
 
 
 def _explain_extreme_magnitudes(status, r0, v0, gm, dt_s, shape) -> None:

@@ -70,6 +70,44 @@ def _require_finite_result(context: str, outputs, shape: tuple, **inputs) -> Non
     raise_for_status(np.where(bad, OVERFLOW, OK), context, **inputs)
 
 
+def _raise_for_result(
+    context: str,
+    status: np.ndarray,
+    outputs,
+    shape: tuple,
+    inputs: dict,
+    result_context: str | None = None,
+    result_inputs: dict | None = None,
+) -> None:
+    """Raise for a kernel's status array, then for non-finite outputs.
+
+    The two checks every conversion makes after its one kernel call: :func:`raise_for_status`
+    on ``status`` (reshaped to ``shape``), then :func:`_require_finite_result` on ``outputs``.
+
+    Parameters
+    ----------
+    context : str
+        What was computed, quoted in the error message.
+    status : ndarray of int
+        The kernel's status codes, ``shape`` items (flat or shaped).
+    outputs : sequence of ndarray
+        The kernel's results, each of shape ``shape`` or ``shape + (3,)``.
+    shape : tuple
+        Leading shape of the batch.
+    inputs : dict of str to ndarray
+        Inputs quoted in the messages (canonical units: km, km/s, s, rad).
+    result_context, result_inputs : str or dict, optional
+        Other context or inputs for the message about non-finite outputs (default: the same).
+    """
+    raise_for_status(status.reshape(shape), context, **inputs)
+    _require_finite_result(
+        context if result_context is None else result_context,
+        outputs,
+        shape,
+        **(inputs if result_inputs is None else result_inputs),
+    )
+
+
 def _validate_epoch(epoch):
     if epoch is None:
         return None
@@ -362,6 +400,19 @@ class StateVectors:
     def _flat_inputs(self):
         return self._r.reshape(-1, 3), self._v.reshape(-1, 3), _flat(self._gm, self._shape)
 
+    def _checked_results(self, outputs, status, context, result_context=None):
+        """The flat kernel ``outputs`` reshaped to ``shape``, after :func:`_raise_for_result`."""
+        outputs = [x.reshape(self._shape) for x in outputs]
+        _raise_for_result(
+            context,
+            status,
+            outputs,
+            self._shape,
+            {"r": self._r, "v": self._v},
+            result_context=result_context,
+        )
+        return outputs
+
     def to_elements(self):
         """Classical (Keplerian) elements of every state.
 
@@ -384,22 +435,14 @@ class StateVectors:
         from .core.elements import rv_to_coe_array
         from .elements import KeplerianElements
 
-        r, v, gm = self._flat_inputs()
-        p, ecc, inc, raan, argp, nu, status = rv_to_coe_array(r, v, gm)
-        shape = self._shape
-        raise_for_status(status.reshape(shape), "state vectors -> elements", r=self._r, v=self._v)
-        _require_finite_result(
+        *elements, status = rv_to_coe_array(*self._flat_inputs())
+        elements = self._checked_results(
+            elements,
+            status,
+            "state vectors -> elements",
             "state vectors -> elements (scale r, v and gm to other units)",
-            [x.reshape(shape) for x in (p, ecc, inc, raan, argp, nu)],
-            shape,
-            r=self._r,
-            v=self._v,
         )
-        return KeplerianElements._from_canonical(
-            *(x.reshape(shape) for x in (p, ecc, inc, raan, argp, nu)),
-            self._gm,
-            self._epoch,
-        )
+        return KeplerianElements._from_canonical(*elements, self._gm, self._epoch)
 
     def to_equinoctial(self, retrograde: bool = False):
         """Modified equinoctial elements (Walker, Ireland & Owens 1985) of every state.
@@ -424,25 +467,11 @@ class StateVectors:
         from .core.elements import rv_to_mee_array
         from .elements import ModifiedEquinoctialElements
 
-        r, v, gm = self._flat_inputs()
         retro = -1.0 if retrograde else 1.0
-        p, f, g, h, k, L, status = rv_to_mee_array(r, v, gm, retro)
-        shape = self._shape
-        raise_for_status(
-            status.reshape(shape), "state vectors -> equinoctial elements", r=self._r, v=self._v
-        )
-        _require_finite_result(
-            "state vectors -> equinoctial elements",
-            [x.reshape(shape) for x in (p, f, g, h, k, L)],
-            shape,
-            r=self._r,
-            v=self._v,
-        )
+        *elements, status = rv_to_mee_array(*self._flat_inputs(), retro)
+        elements = self._checked_results(elements, status, "state vectors -> equinoctial elements")
         return ModifiedEquinoctialElements._from_canonical(
-            *(x.reshape(shape) for x in (p, f, g, h, k, L)),
-            self._gm,
-            self._epoch,
-            bool(retrograde),
+            *elements, self._gm, self._epoch, bool(retrograde)
         )
 
     def propagate(self, dt):

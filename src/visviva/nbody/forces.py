@@ -269,36 +269,46 @@ class J2(Force):
         return np.array([sim.G, self.primary, self.j2, _length(sim, self.radius, "radius")])
 
 
-class GeneralRelativity(Force):
+class _Relativistic(Force):
+    """A relativistic correction of the mass ``primary``; ``c`` in simulation units or None.
+
+    Parameters
+    ----------
+    primary : int
+        Index of the dominant mass.
+    c : float, optional
+        Speed of light in simulation units; derived from the simulation's units when None.
+    """
+
+    _kernel = _velocity_dependent = _label = None  # set by each subclass
+
+    def __init__(self, primary=0, c=None):
+        super().__init__(type(self)._kernel, (), self._velocity_dependent, self._label)
+        self._init = {"primary": int(primary), "c": c}
+        self.primary, self.c = int(primary), c
+
+    def parameters(self, sim):
+        return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
+
+
+class GeneralRelativity(_Relativistic):
     """First post-Newtonian correction of a dominant mass (velocity-dependent; IAS15 only).
 
     ``a = G M / (c**2 r**3) [(4 G M / r - v**2) r + 4 (r . v) v]`` with ``r, v`` relative to the
     primary (Anderson et al. 1975; the single-body 1PN approximation used for Mercury's 43"/cy).
     """
 
-    def __init__(self, primary=0, c=None):
-        super().__init__(gr_force, (), True, "GR (1PN)")
-        self._init = {"primary": int(primary), "c": c}
-        self.primary, self.c = int(primary), c
-
-    def parameters(self, sim):
-        return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
+    _kernel, _velocity_dependent, _label = gr_force, True, "GR (1PN)"
 
 
-class GeneralRelativityPotential(Force):
+class GeneralRelativityPotential(_Relativistic):
     """Nobili & Roxburgh (1986) potential ``-3 (G M)**2 / (c r)**2``: positions only.
 
     Reproduces the 1PN perihelion precession ``6 pi G M / (c**2 a (1 - e**2))`` per orbit and is
     usable with the symplectic integrators.
     """
 
-    def __init__(self, primary=0, c=None):
-        super().__init__(gr_potential_force, (), False, "GR potential")
-        self._init = {"primary": int(primary), "c": c}
-        self.primary, self.c = int(primary), c
-
-    def parameters(self, sim):
-        return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
+    _kernel, _velocity_dependent, _label = gr_potential_force, False, "GR potential"
 
 
 class LinearDrag(Force):

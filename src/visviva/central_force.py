@@ -64,11 +64,38 @@ def _positive(arr, name):
     return arr
 
 
+def _positive_array(value, kind, name):
+    """``value`` converted by :func:`visviva._units.to_array` (unit ``kind``) and checked > 0."""
+    return _positive(to_array(value, kind, name), name)
+
+
 def _gm(gm):
-    return _positive(to_array(gm, "gm", "gm"), "gm")
+    return _positive_array(gm, "gm", "gm")
 
 
 _broadcast = broadcast_or_raise  # ShapeError unless the arguments broadcast together
+
+
+def _gm_broadcast(context, gm, **arrays):
+    """The gravitational parameter (km3 / s2, > 0), checked to broadcast against ``arrays``.
+
+    Parameters
+    ----------
+    context : str
+        The calling function, named in the ShapeError.
+    gm : Quantity (km3 / s2) or Body
+        Gravitational parameter.
+    **arrays : ndarray
+        The other converted arguments, in the order of the call's signature.
+
+    Returns
+    -------
+    ndarray
+        gm in km3 / s2.
+    """
+    gm = _gm(gm)
+    _broadcast(context, **arrays, gm=gm)
+    return gm
 
 
 def _finite_result(arr, context):
@@ -133,14 +160,13 @@ def vis_viva(r, a, gm):
     >>> print(f"{vv.vis_viva(6778 * u.km, 6778 * u.km, vv.EARTH):.4f}")
     7.6686 km / s
     """
-    r = _positive(to_array(r, "length", "r"), "r")
+    r = _positive_array(r, "length", "r")
     a = to_array(a, "length", "a", finite=False)
     if np.any(np.isnan(a)):
         raise InvalidInputError("a contains NaN; give inf for a parabola, not NaN.")
     if np.any(a == 0):
         raise InvalidInputError("a = 0 is not an orbit; a is inf for a parabola, < 0 for hyperbolas.")
-    gm = _gm(gm)
-    _broadcast("vis_viva", r=r, a=a, gm=gm)
+    gm = _gm_broadcast("vis_viva", gm, r=r, a=a)
     with np.errstate(over="ignore", divide="ignore"):
         v2_over_gm = 2.0 / r - 1.0 / a
     if np.any(v2_over_gm < 0):
@@ -163,9 +189,8 @@ def circular_speed(r, gm):
     gm : Quantity (km3 / s2) or Body
         Gravitational parameter.
     """
-    r = _positive(to_array(r, "length", "r"), "r")
-    gm = _gm(gm)
-    _broadcast("circular_speed", r=r, gm=gm)
+    r = _positive_array(r, "length", "r")
+    gm = _gm_broadcast("circular_speed", gm, r=r)
     with np.errstate(over="ignore"):
         v = np.sqrt(gm / r)
     return to_quantity(_finite_result(v, "circular_speed"), "speed")
@@ -188,9 +213,8 @@ def escape_speed(r, gm):
     >>> print(f"{escape_speed(vv.EARTH.radius, vv.EARTH):.3f}")
     11.180 km / s
     """
-    r = _positive(to_array(r, "length", "r"), "r")
-    gm = _gm(gm)
-    _broadcast("escape_speed", r=r, gm=gm)
+    r = _positive_array(r, "length", "r")
+    gm = _gm_broadcast("escape_speed", gm, r=r)
     with np.errstate(over="ignore"):
         v = np.sqrt(2.0 * gm / r)
     return to_quantity(_finite_result(v, "escape_speed"), "speed")
@@ -219,8 +243,7 @@ def orbital_period(a, gm):
             "orbital_period needs a > 0: parabolic and hyperbolic orbits (a = inf or a < 0) are "
             "open and have no period."
         )
-    gm = _gm(gm)
-    _broadcast("orbital_period", a=a, gm=gm)
+    gm = _gm_broadcast("orbital_period", gm, a=a)
     with np.errstate(over="ignore"):
         period = 2.0 * np.pi * a * np.sqrt(a / gm)  # a sqrt(a): no overflow of a**3
     return to_quantity(_finite_result(period, "orbital_period"), "time")
@@ -240,8 +263,7 @@ def mean_motion(a, gm):
     a = to_array(a, "length", "a")
     if np.any(a == 0):
         raise InvalidInputError("a must be non-zero.")
-    gm = _gm(gm)
-    _broadcast("mean_motion", a=a, gm=gm)
+    gm = _gm_broadcast("mean_motion", gm, a=a)
     with np.errstate(over="ignore", divide="ignore", under="ignore"):
         n = np.sqrt(gm / np.abs(a)) / np.abs(a)  # no overflow/underflow of |a|**3
     return _finite_result(n, "mean_motion") * (u.rad / u.s)
@@ -264,9 +286,8 @@ def semi_major_axis_from_period(period, gm):
     >>> print(f"{semi_major_axis_from_period(1 * u.sday, vv.EARTH):.1f}")  # geostationary
     42164.2 km
     """
-    period = _positive(to_array(period, "time", "period"), "period")
-    gm = _gm(gm)
-    _broadcast("semi_major_axis_from_period", period=period, gm=gm)
+    period = _positive_array(period, "time", "period")
+    gm = _gm_broadcast("semi_major_axis_from_period", gm, period=period)
     with np.errstate(over="ignore"):
         # cbrt(gm) cbrt(T/2pi)^2: no overflow of gm T^2 for large T
         a = np.cbrt(gm) * np.cbrt(period / (2.0 * np.pi)) ** 2
@@ -318,10 +339,9 @@ def specific_energy(r, v, gm):
     gm : Quantity (km3 / s2) or Body
         Gravitational parameter.
     """
-    r = _positive(to_array(r, "length", "r"), "r")
+    r = _positive_array(r, "length", "r")
     v = to_array(v, "speed", "v")
-    gm = _gm(gm)
-    _broadcast("specific_energy", r=r, v=v, gm=gm)
+    gm = _gm_broadcast("specific_energy", gm, r=r, v=v)
     with np.errstate(over="ignore", invalid="ignore"):
         energy = 0.5 * v * v - gm / r
     return to_quantity(_finite_result(energy, "specific_energy"), "spec_energy")
@@ -445,7 +465,7 @@ def effective_potential(r, h, potential):
     """
     _callable(potential, "potential")
     if _split_units(r, h):
-        r_km = _positive(to_array(r, "length", "r"), "r")
+        r_km = _positive_array(r, "length", "r")
         h_c = to_array(h, "spec_angmom", "h")
         V = to_array(potential(to_quantity(r_km, "length")), "spec_energy", "potential(r)")
         _broadcast("effective_potential", r=r_km, h=h_c, V=V)

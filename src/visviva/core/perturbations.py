@@ -325,15 +325,7 @@ def accel_drag(x, y, z, vx, vy, vz, bc_km2_kg, omega, radius, flattening, atm, o
     1/km with the factor 1e9.
     """
     h = geodetic_altitude(x, y, z, radius, flattening)
-    rho = exponential_density(h, atm) * 1e9  # kg/km^3
-    wx = vx + omega * y
-    wy = vy - omega * x
-    wz = vz
-    w = math.sqrt(wx * wx + wy * wy + wz * wz)
-    k = -0.5 * rho * bc_km2_kg * w
-    out[0] += k * wx
-    out[1] += k * wy
-    out[2] += k * wz
+    accel_drag_rho(x, y, z, vx, vy, vz, exponential_density(h, atm), bc_km2_kg, omega, out)
 
 
 @inline_kernel

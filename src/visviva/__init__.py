@@ -9,7 +9,7 @@ The expert layer of compiled kernels on plain float64 arrays is :mod:`visviva.co
 
 from __future__ import annotations
 
-import importlib
+from . import _lazy
 
 __version__ = "0.1.0"
 
@@ -100,15 +100,4 @@ _SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies"
 __all__ = sorted(_PUBLIC) + ["__version__"]
 
 
-def __getattr__(name: str):
-    if name in _PUBLIC:
-        value = getattr(importlib.import_module(_PUBLIC[name]), name)
-        globals()[name] = value
-        return value
-    if name in _SUBMODULES:
-        return importlib.import_module(f"visviva.{name}")
-    raise AttributeError(f"module 'visviva' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__) | _SUBMODULES)
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _PUBLIC, _SUBMODULES)

@@ -9,7 +9,7 @@ Hamiltonian tools. See docs/mechanics.md.
 
 from __future__ import annotations
 
-import importlib
+from .. import _lazy
 
 #: public name -> submodule of visviva.mechanics that defines it
 _PUBLIC = {
@@ -101,15 +101,4 @@ _SUBMODULES = {
 __all__ = sorted(_PUBLIC)
 
 
-def __getattr__(name: str):
-    if name in _PUBLIC:
-        value = getattr(importlib.import_module(f"{__name__}.{_PUBLIC[name]}"), name)
-        globals()[name] = value
-        return value
-    if name in _SUBMODULES:
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__) | _SUBMODULES)
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _PUBLIC, _SUBMODULES, prefix=f"{__name__}.")

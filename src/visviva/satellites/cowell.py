@@ -235,6 +235,40 @@ class CowellResult:
         self.n_evaluations = nfev
         self._scalar = scalar
 
+    @classmethod
+    def _from_arrays(cls, t_s, y, gm, epoch, events, terminated, t_final_s, n_steps, nfev,
+                     scalar):
+        """Wrap the integrator's raw output in Quantities.
+
+        Parameters
+        ----------
+        t_s : float or ndarray (T,)
+            Output times from the epoch, s.
+        y : ndarray (..., 6)
+            States at those times: position (km) then velocity (km/s) on the last axis.
+        gm, epoch, events, terminated, n_steps, nfev, scalar
+            As in the constructor.
+        t_final_s : float
+            The last time integrated to, s.
+
+        Returns
+        -------
+        CowellResult
+        """
+        return cls(
+            to_quantity(t_s, "time"),
+            to_quantity(np.ascontiguousarray(y[..., :3]), "length"),
+            to_quantity(np.ascontiguousarray(y[..., 3:]), "speed"),
+            gm,
+            epoch,
+            events,
+            terminated,
+            t_final_s * u.s,
+            n_steps,
+            nfev,
+            scalar,
+        )
+
     @property
     def times(self):
         """Absolute output times (astropy Time), or None when the state had no epoch."""
@@ -338,23 +372,12 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
         nfev += int(info[:, 3].sum())
         pieces.append(y_out[:, ::-1] if t_end < 0 else y_out)
     y_all = np.concatenate(pieces, axis=1)
-    r = y_all[..., :3]
-    v = y_all[..., 3:]
     t_all = offsets
     if scalar:
-        r, v, t_all = r[:, 0], v[:, 0], offsets[0]
-    return CowellResult(
-        to_quantity(t_all, "time"),
-        to_quantity(np.ascontiguousarray(r), "length"),
-        to_quantity(np.ascontiguousarray(v), "speed"),
-        gm,
-        epoch,
-        [],
-        False,
-        float(offsets[-1] if offsets[-1] > 0 else 0.0) * u.s,
-        n_steps,
-        nfev,
-        scalar,
+        y_all, t_all = y_all[:, 0], offsets[0]
+    t_final = float(offsets[-1] if offsets[-1] > 0 else 0.0)
+    return CowellResult._from_arrays(
+        t_all, y_all, gm, epoch, [], False, t_final, n_steps, nfev, scalar
     )
 
 
@@ -547,20 +570,8 @@ def propagate_cowell(
     y_all = np.concatenate(pieces_y) if pieces_y else np.zeros((0, 6))
     t_all = np.concatenate(pieces_t) if pieces_t else np.zeros(0)
     records.sort(key=lambda rec: rec.t.value)
-    r = y_all[:, :3]
-    v = y_all[:, 3:]
     if scalar and len(t_all) == 1:
-        r, v, t_all = r[0], v[0], t_all[0]
-    return CowellResult(
-        to_quantity(t_all, "time"),
-        to_quantity(np.ascontiguousarray(r), "length"),
-        to_quantity(np.ascontiguousarray(v), "speed"),
-        gm,
-        epoch,
-        records,
-        terminated,
-        t_final * u.s,
-        n_steps,
-        nfev,
-        scalar,
+        y_all, t_all = y_all[0], t_all[0]
+    return CowellResult._from_arrays(
+        t_all, y_all, gm, epoch, records, terminated, t_final, n_steps, nfev, scalar
     )

@@ -482,6 +482,29 @@ class Simulation:
     def _time(self, value, name):
         return self._convert(value, "time", name)
 
+    def _replace_state(self, attr, value, kind, name):
+        """Replace the state array ``attr`` (``"_x"`` or ``"_v"``) by ``value`` of the same shape.
+
+        Parameters
+        ----------
+        attr : str
+            The attribute holding the array, shape (N, 3).
+        value : array_like or Quantity
+            The new values (simulation units, or a Quantity of ``kind`` with units).
+        kind : str
+            ``"length"`` or ``"speed"``: the conversion :meth:`_convert` applies.
+        name : str
+            The public name, for messages.
+
+        The integrator restarts from the new state (its internal state is marked fresh).
+        """
+        current = getattr(self, attr)
+        arr = np.ascontiguousarray(self._convert(value, kind, name), dtype=np.float64)
+        if arr.shape != current.shape:
+            raise ShapeError(f"{name} must have shape {current.shape}; got {arr.shape}.")
+        setattr(self, attr, arr)
+        self._istate[_nc.I_FRESH] = 1
+
     # ---- particles --------------------------------------------------------------------------------
     @property
     def N(self) -> int:
@@ -500,11 +523,7 @@ class Simulation:
 
     @positions.setter
     def positions(self, value) -> None:
-        arr = np.ascontiguousarray(self._convert(value, "length", "positions"), dtype=np.float64)
-        if arr.shape != self._x.shape:
-            raise ShapeError(f"positions must have shape {self._x.shape}; got {arr.shape}.")
-        self._x = arr
-        self._istate[_nc.I_FRESH] = 1
+        self._replace_state("_x", value, "length", "positions")
 
     @property
     def velocities(self) -> np.ndarray:
@@ -513,11 +532,7 @@ class Simulation:
 
     @velocities.setter
     def velocities(self, value) -> None:
-        arr = np.ascontiguousarray(self._convert(value, "speed", "velocities"), dtype=np.float64)
-        if arr.shape != self._v.shape:
-            raise ShapeError(f"velocities must have shape {self._v.shape}; got {arr.shape}.")
-        self._v = arr
-        self._istate[_nc.I_FRESH] = 1
+        self._replace_state("_v", value, "speed", "velocities")
 
     @property
     def masses(self) -> np.ndarray:

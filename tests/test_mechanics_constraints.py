@@ -84,36 +84,17 @@ def test_drift_is_stabilised_without_projection():
     t = np.linspace(0, 10, 51)
     f, jac = mech.pendulum_constraint(1.0)
     grav = lambda t, r, v: np.array([0.0, -G])  # noqa: E731
-    tr = mech.solve_constrained(
-        1.0, [1.0, 0.0], [0.0, 0.0], t, f, jac, grav, project=False, rtol=1e-6, atol=1e-8
-    )
-    free = mech.solve_constrained(
-        1.0,
-        [1.0, 0.0],
-        [0.0, 0.0],
-        t,
-        f,
-        jac,
-        grav,
-        project=False,
-        baumgarte=0.0,
-        rtol=1e-6,
-        atol=1e-8,
-    )
+
+    def pendulum(**baumgarte):
+        tol = {"rtol": 1e-6, "atol": 1e-8}
+        return mech.solve_constrained(
+            1.0, [1.0, 0.0], [0.0, 0.0], t, f, jac, grav, project=False, **tol, **baumgarte
+        )
+
+    tr = pendulum()
+    free = pendulum(baumgarte=0.0)
     assert np.max(np.abs(tr.violation)) < 0.1 * np.max(np.abs(free.violation))
-    stiff = mech.solve_constrained(
-        1.0,
-        [1.0, 0.0],
-        [0.0, 0.0],
-        t,
-        f,
-        jac,
-        grav,
-        project=False,
-        baumgarte=10.0,
-        rtol=1e-6,
-        atol=1e-8,
-    )
+    stiff = pendulum(baumgarte=10.0)
     late = slice(len(t) // 2, None)
     assert np.max(np.abs(stiff.violation[late])) < 1e-2 * np.max(np.abs(free.violation[late]))
 

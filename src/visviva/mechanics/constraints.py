@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ._inputs import Inputs
-from .particles import Trajectory, _check_times
+from .particles import Trajectory, _check_times, _particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
 
@@ -241,23 +241,9 @@ def solve_constrained(
     from scipy.integrate import solve_ivp
 
     ins = Inputs()
-    r0 = ins.vector(r0, "m", "r0", dim=None)
-    v0 = ins.vector(v0, "speed", "v0", dim=None)
-    if r0.shape != v0.shape or r0.ndim > 2:
-        raise ShapeError(
-            f"r0 and v0 must have the same shape (d,) or (N, d); got {r0.shape}, {v0.shape}."
-        )
-    m = ins.get(masses, "kg", "masses", positive=True)
+    r0, v0, m = _particle_inputs(ins, masses, r0, v0)
     shape = r0.shape
-    if r0.ndim == 2:
-        m = np.broadcast_to(m, (shape[0],)) if m.ndim == 0 else m
-        if m.shape != (shape[0],):
-            raise ShapeError(f"masses must have shape ({shape[0]},); got {m.shape}.")
-        w = np.repeat(1.0 / m, shape[1])
-    else:
-        if m.ndim:
-            raise ShapeError("a single particle (r0 of shape (d,)) needs a scalar mass.")
-        w = np.full(r0.size, 1.0 / m)
+    w = np.repeat(1.0 / m, shape[1]) if r0.ndim == 2 else np.full(r0.size, 1.0 / m)
     t = _check_times(ins.get(t, "s", "t"))
     con = _Constraint(constraint, jacobian, shape, time_dependent)
     rate = 10.0 / (t[-1] - t[0]) if baumgarte is None else float(baumgarte)

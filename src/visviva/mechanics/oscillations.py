@@ -118,12 +118,34 @@ def _propagator_raw(omega0, gamma, t):
     return c, s, wd2
 
 
+def _rates(ins, omega0, gamma):
+    """The natural angular frequency and the damping rate [1/s], both >= 0, through ``ins``.
+
+    Parameters
+    ----------
+    ins : Inputs
+        The call's collector of converted arguments.
+    omega0, gamma : float, array_like or Quantity
+        omega0 [rad/s or 1/s] and gamma [1/s] of x'' + 2 gamma x' + omega0^2 x = 0.
+
+    Returns
+    -------
+    omega0, gamma : ndarray
+        In 1/s.
+    """
+    omega0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
+    return omega0, ins.get(gamma, "rate", "gamma", nonnegative=True)
+
+
+def _initial_state(ins, x0, v0):
+    """Initial displacement [m] and velocity [m/s] of an oscillator, converted through ``ins``."""
+    return ins.get(x0, "m", "x0"), ins.get(v0, "speed", "v0")
+
+
 def _oscillator_inputs(x0, v0, omega0, gamma, t):
     ins = Inputs()
-    x0 = ins.get(x0, "m", "x0")
-    v0 = ins.get(v0, "speed", "v0")
-    omega0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
-    gamma = ins.get(gamma, "rate", "gamma", nonnegative=True)
+    x0, v0 = _initial_state(ins, x0, v0)
+    omega0, gamma = _rates(ins, omega0, gamma)
     t = ins.get(t, "s", "t")
     ins.broadcast("damped oscillator", x0=x0, v0=v0, omega0=omega0, gamma=gamma, t=t)
     return ins, x0, v0, omega0, gamma, t
@@ -202,8 +224,7 @@ def damped_oscillator_velocity(x0, v0, omega0, gamma, t):
 def damping_regime(omega0, gamma) -> str:
     """``"undamped"``, ``"underdamped"``, ``"critical"`` or ``"overdamped"`` (scalars) [1/s]."""
     ins = Inputs()
-    w0 = float(ins.get(omega0, "rate", "omega0", nonnegative=True))
-    g = float(ins.get(gamma, "rate", "gamma", nonnegative=True))
+    w0, g = (float(x) for x in _rates(ins, omega0, gamma))
     if g == 0:
         return "undamped"
     if g < w0:
@@ -244,8 +265,7 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     """
     ins = Inputs()
     w = ins.get(omega, "rate", "omega", nonnegative=True)
-    w0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
-    g = ins.get(gamma, "rate", "gamma", nonnegative=True)
+    w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
     detuning = (w0 - w) * (w0 + w)
     denom = np.hypot(detuning, 2.0 * g * w)
@@ -266,8 +286,7 @@ def amplitude_resonance_frequency(omega0, gamma):
     amplitude falls monotonically from omega = 0).
     """
     ins = Inputs()
-    w0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
-    g = ins.get(gamma, "rate", "gamma", nonnegative=True)
+    w0, g = _rates(ins, omega0, gamma)
     arg = w0**2 - 2.0 * g**2
     if np.any(arg <= 0):
         raise DomainError(
@@ -304,10 +323,8 @@ def driven_oscillator(x0, v0, omega0, gamma, f0, omega, t):
     (h_k the complete homogeneous symmetric polynomials) is used instead.
     """
     ins = Inputs()
-    x0 = ins.get(x0, "m", "x0")
-    v0 = ins.get(v0, "speed", "v0")
-    w0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
-    g = ins.get(gamma, "rate", "gamma", nonnegative=True)
+    x0, v0 = _initial_state(ins, x0, v0)
+    w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
     w = ins.get(omega, "rate", "omega", nonnegative=True)
     t = ins.get(t, "s", "t")

@@ -82,6 +82,47 @@ def _check_times(t):
     return t
 
 
+def _particle_inputs(ins: Inputs, masses, r0, v0):
+    """Initial positions, velocities and masses of one or many particles, converted and checked.
+
+    Parameters
+    ----------
+    ins : Inputs
+        The call's collector of converted arguments.
+    masses : float or (N,) array_like or Quantity
+        Masses [kg], > 0; a scalar is shared by all N particles.
+    r0, v0 : (d,) or (N, d) array_like or Quantity
+        Initial positions [m] and velocities [m/s], of the same shape.
+
+    Returns
+    -------
+    r0, v0 : ndarray
+        Shape (d,) or (N, d), SI.
+    m : ndarray
+        Shape () for one particle (r0 of shape (d,)), else (N,).
+
+    Raises
+    ------
+    ShapeError
+        Shapes of r0, v0 and masses that do not fit together.
+    """
+    r0 = ins.vector(r0, "m", "r0", dim=None)
+    v0 = ins.vector(v0, "speed", "v0", dim=None)
+    if r0.shape != v0.shape or r0.ndim > 2:
+        raise ShapeError(
+            f"r0 and v0 must both have shape (d,) or (N, d); got {r0.shape} and {v0.shape}."
+        )
+    m = ins.get(masses, "kg", "masses", positive=True)
+    if r0.ndim == 2:
+        n_particles = r0.shape[0]
+        m = np.broadcast_to(m, (n_particles,)) if m.ndim == 0 else m
+        if m.shape != (n_particles,):
+            raise ShapeError(f"masses must have shape ({n_particles},); got {m.shape}.")
+    elif m.ndim != 0:
+        raise ShapeError("a single particle (r0 of shape (d,)) needs a scalar mass.")
+    return r0, v0, m
+
+
 def solve_particles(
     force,
     masses,
@@ -142,20 +183,7 @@ def solve_particles(
     from scipy.integrate import solve_ivp
 
     ins = Inputs()
-    r0 = ins.vector(r0, "m", "r0", dim=None)
-    v0 = ins.vector(v0, "speed", "v0", dim=None)
-    if r0.shape != v0.shape or r0.ndim > 2:
-        raise ShapeError(
-            f"r0 and v0 must both have shape (d,) or (N, d); got {r0.shape} and {v0.shape}."
-        )
-    m = ins.get(masses, "kg", "masses", positive=True)
-    n_particles = 1 if r0.ndim == 1 else r0.shape[0]
-    if r0.ndim == 2:
-        m = np.broadcast_to(m, (n_particles,)) if m.ndim == 0 else m
-        if m.shape != (n_particles,):
-            raise ShapeError(f"masses must have shape ({n_particles},); got {m.shape}.")
-    elif m.ndim != 0:
-        raise ShapeError("a single particle (r0 of shape (d,)) needs a scalar mass.")
+    r0, v0, m = _particle_inputs(ins, masses, r0, v0)
     t = _check_times(ins.get(t, "s", "t"))
     shape = r0.shape
     size = r0.size

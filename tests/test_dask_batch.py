@@ -13,6 +13,7 @@ pytest.importorskip("distributed")
 
 from visviva.satellites.catalog import (  # noqa: E402
     parse_tle_text,
+    propagate_j2_batch,
     propagate_kepler_batch,
     propagate_sgp4_batch,
 )
@@ -61,22 +62,14 @@ def test_sgp4_dask_equals_in_memory(cluster, catalog, times):
     np.testing.assert_array_equal(out.status, mem.status)
 
 
-def test_kepler_dask_equals_in_memory(cluster, catalog, times):
+@pytest.mark.parametrize(
+    ("method", "in_memory"), [("kepler", propagate_kepler_batch), ("j2", propagate_j2_batch)]
+)
+def test_analytic_dask_equals_in_memory(cluster, catalog, times, method, in_memory):
     _, client = cluster
     good = catalog[:6]
-    mem = propagate_kepler_batch(good, times)
-    out = propagate_dask(good, times, method="kepler", chunks=(4, 7)).compute(client=client)
-    np.testing.assert_array_equal(out.r.value, mem.r.value)
-    np.testing.assert_array_equal(out.v.value, mem.v.value)
-
-
-def test_j2_dask_equals_in_memory(cluster, catalog, times):
-    from visviva.satellites.catalog import propagate_j2_batch
-
-    _, client = cluster
-    good = catalog[:6]
-    mem = propagate_j2_batch(good, times)
-    out = propagate_dask(good, times, method="j2", chunks=(4, 7)).compute(client=client)
+    mem = in_memory(good, times)
+    out = propagate_dask(good, times, method=method, chunks=(4, 7)).compute(client=client)
     np.testing.assert_array_equal(out.r.value, mem.r.value)
     np.testing.assert_array_equal(out.v.value, mem.v.value)
 

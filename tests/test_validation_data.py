@@ -189,23 +189,25 @@ def test_tle_teme_vs_sgp4(case):
     assert np.max(np.abs(teme.v.to_value(u.km / u.s) - case["teme_v_km_s"])) < ONE_UM_S
 
 
-@pytest.mark.parametrize("case", _tle_cases(), ids=lambda c: c["name"])
-def test_tle_gcrs_vs_astropy(case):
+def _assert_gcrs_matches(case, prefix):
+    """visviva's GCRS states of ``case`` within 1 m and 1 mm/s of ``case[prefix + "_r_km"]``
+    and ``case[prefix + "_v_km_s"]``."""
     Satellite = _public("Satellite")
     sat = Satellite.from_tle(case["line1"], case["line2"])
     gcrs = sat.gcrs(np.array(case["offsets_min"]) * u.min)
-    assert np.max(np.abs(gcrs.r.to_value(u.km) - case["gcrs_r_km"])) < ONE_M
-    assert np.max(np.abs(gcrs.v.to_value(u.km / u.s) - case["gcrs_v_km_s"])) < 1e-6
+    assert np.max(np.abs(gcrs.r.to_value(u.km) - case[f"{prefix}_r_km"])) < ONE_M
+    assert np.max(np.abs(gcrs.v.to_value(u.km / u.s) - case[f"{prefix}_v_km_s"])) < 1e-6
+
+
+@pytest.mark.parametrize("case", _tle_cases(), ids=lambda c: c["name"])
+def test_tle_gcrs_vs_astropy(case):
+    _assert_gcrs_matches(case, "gcrs")
 
 
 @pytest.mark.parametrize("case", _tle_cases(), ids=lambda c: c["name"])
 def test_tle_gcrs_vs_skyfield(case):
     """Skyfield's independent TEME -> GCRS chain (measured 2 mm from astropy at GEO)."""
-    Satellite = _public("Satellite")
-    sat = Satellite.from_tle(case["line1"], case["line2"])
-    gcrs = sat.gcrs(np.array(case["offsets_min"]) * u.min)
-    assert np.max(np.abs(gcrs.r.to_value(u.km) - case["skyfield_gcrs_r_km"])) < ONE_M
-    assert np.max(np.abs(gcrs.v.to_value(u.km / u.s) - case["skyfield_gcrs_v_km_s"])) < 1e-6
+    _assert_gcrs_matches(case, "skyfield_gcrs")
 
 
 # --------------------------------------------------------------------------------------------
@@ -250,12 +252,18 @@ def _max_abs_diff(a, b):
     return float(np.max(np.abs(np.asarray(a, float) - np.asarray(b, float))))
 
 
+def _regenerated_cases(package, script, data_file):
+    """Pairs (fresh case, committed case): validation/<script>.py re-run against the installed
+    ``package`` (skip when it is missing), zipped with the cases of data/<data_file>."""
+    pytest.importorskip(package)
+    fresh = _load_script(script).generate()
+    committed = _data(data_file)
+    return zip(fresh["cases"], committed["cases"], strict=True)
+
+
 @pytest.mark.live
 def test_live_rebound_orbits_regenerate():
-    pytest.importorskip("rebound")
-    fresh = _load_script("generate_rebound_orbits").generate()
-    committed = _data("rebound_orbits.json")
-    for new, old in zip(fresh["cases"], committed["cases"], strict=True):
+    for new, old in _regenerated_cases("rebound", "generate_rebound_orbits", "rebound_orbits.json"):
         assert _max_abs_diff(new["r_km"], old["r_km"]) < 1e-9
         for p_new, p_old in zip(new["propagated"], old["propagated"], strict=True):
             assert _max_abs_diff(p_new["r_km"], p_old["r_km"]) < 1e-9
@@ -263,10 +271,7 @@ def test_live_rebound_orbits_regenerate():
 
 @pytest.mark.live
 def test_live_sgp4_astropy_regenerate():
-    pytest.importorskip("sgp4")
-    fresh = _load_script("generate_sgp4_astropy").generate()
-    committed = _data("sgp4_astropy.json")
-    for new, old in zip(fresh["cases"], committed["cases"], strict=True):
+    for new, old in _regenerated_cases("sgp4", "generate_sgp4_astropy", "sgp4_astropy.json"):
         assert new["line1"] == old["line1"] and new["line2"] == old["line2"]
         assert _max_abs_diff(new["teme_r_km"], old["teme_r_km"]) < 1e-9
         # astropy's Earth-orientation tables may be updated: allow 1 m
@@ -275,20 +280,14 @@ def test_live_sgp4_astropy_regenerate():
 
 @pytest.mark.live
 def test_live_rebound_nbody_regenerate():
-    pytest.importorskip("rebound")
-    fresh = _load_script("generate_rebound_nbody").generate()
-    committed = _data("rebound_nbody.json")
-    for new, old in zip(fresh["cases"], committed["cases"], strict=True):
+    for new, old in _regenerated_cases("rebound", "generate_rebound_nbody", "rebound_nbody.json"):
         last_new, last_old = new["snapshots"][-1], old["snapshots"][-1]
         assert _max_abs_diff(last_new["positions"], last_old["positions"]) < 1e-3
 
 
 @pytest.mark.live
 def test_live_kepler_mpmath_regenerate():
-    pytest.importorskip("mpmath")
-    fresh = _load_script("generate_kepler_mpmath").generate()
-    committed = _data("kepler_mpmath.json")
-    for new, old in zip(fresh["cases"], committed["cases"], strict=True):
+    for new, old in _regenerated_cases("mpmath", "generate_kepler_mpmath", "kepler_mpmath.json"):
         assert new["anomaly"] == old["anomaly"] and new["nu"] == old["nu"]
 
 

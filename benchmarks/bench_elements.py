@@ -52,6 +52,45 @@ def _interleaved(fns, rounds: int = 5):
             for x in samples]
 
 
+def _direction_rows(label, kernel_name, reference, public, kernel, ref_fn, n, note_prefix=""):
+    """The three rows of one conversion: public API, bare kernel, and the kernel on one thread.
+
+    Parameters
+    ----------
+    label : str
+        Start of the row names, e.g. ``"states -> elements, 1e+06 states"``.
+    kernel_name : str
+        Name of the compiled kernel, shown in the second row's name.
+    reference : str
+        The reference library and function.
+    public, kernel, ref_fn : callable
+        The public-API call, the bare kernel call and the reference call (no arguments).
+    n : int
+        Number of orbits per call (for the throughput notes).
+    note_prefix : str
+        Text put before the first row's notes.
+
+    Returns
+    -------
+    list of dict
+        The rows, timed in the order compile, interleaved (public, kernel, reference), 1 thread.
+    """
+    compile_s = compile_time(kernel)
+    t_vv, t_k, t_ref = _interleaved([public, kernel, ref_fn])
+    note = f"{note_prefix}{n / t_vv.median / 1e6:.1f} M states/s"
+    rows = [
+        result(f"{label} (public API, Quantities)", t_vv, reference, t_ref, TARGET,
+               notes=note + f"; skyfield {n / t_ref.median / 1e6:.2f} M/s", compile_s=compile_s),
+        result(f"{label} (kernel {kernel_name})", t_k, reference, t_ref, TARGET,
+               notes=f"{n / t_k.median / 1e6:.1f} M states/s"),
+    ]
+    with threads(1):
+        t_k1 = time_call(kernel, repeat=5)
+    rows.append(result(f"{label} (kernel, 1 thread)", t_k1, reference, t_ref, None,
+                       notes=f"1 thread; {n / t_k1.median / 1e6:.1f} M states/s; informational"))
+    return rows
+
+
 def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     n = 100_000 if quick else 1_000_000
@@ -91,21 +130,9 @@ def run(quick: bool = False) -> list[dict]:
     def kernel_rv2coe():
         return rv_to_coe_array(r, v, gm_flat)
 
-    c1 = compile_time(kernel_rv2coe)
-    t_vv, t_k, t_sky = _interleaved([vv_rv2coe, kernel_rv2coe, sky_rv2coe])
-    note = f"{n:.0e} random ellipses/hyperbolas; {n / t_vv.median / 1e6:.1f} M states/s"
-    rows.append(result(f"states -> elements, {n:.0e} states (public API, Quantities)",
-                       t_vv, sky_ref + " OsculatingElements", t_sky, TARGET,
-                       notes=note + f"; skyfield {n / t_sky.median / 1e6:.2f} M/s",
-                       compile_s=c1))
-    rows.append(result(f"states -> elements, {n:.0e} states (kernel rv_to_coe_array)",
-                       t_k, sky_ref + " OsculatingElements", t_sky, TARGET,
-                       notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
-    with threads(1):
-        t_k1 = time_call(kernel_rv2coe, repeat=5)
-    rows.append(result(f"states -> elements, {n:.0e} states (kernel, 1 thread)",
-                       t_k1, sky_ref + " OsculatingElements", t_sky, None,
-                       notes=f"1 thread; {n / t_k1.median / 1e6:.1f} M states/s; informational"))
+    rows += _direction_rows(f"states -> elements, {n:.0e} states", "rv_to_coe_array",
+                            sky_ref + " OsculatingElements", vv_rv2coe, kernel_rv2coe,
+                            sky_rv2coe, n, note_prefix=f"{n:.0e} random ellipses/hyperbolas; ")
 
     # --- elements -> states -------------------------------------------------------------------
     p, e, i, raan, argp, nu, _ = rv_to_coe_array(r, v, gm_flat)
@@ -121,21 +148,9 @@ def run(quick: bool = False) -> list[dict]:
     def kernel_coe2rv():
         return coe_to_rv_array(p, e, i, raan, argp, nu, gm_flat)
 
-    c2 = compile_time(kernel_coe2rv)
-    t_vv, t_k, t_sky = _interleaved([vv_coe2rv, kernel_coe2rv, sky_coe2rv])
-    note = f"{n / t_vv.median / 1e6:.1f} M states/s"
-    rows.append(result(f"elements -> states, {n:.0e} orbits (public API, Quantities)",
-                       t_vv, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,
-                       notes=note + f"; skyfield {n / t_sky.median / 1e6:.2f} M/s",
-                       compile_s=c2))
-    rows.append(result(f"elements -> states, {n:.0e} orbits (kernel coe_to_rv_array)",
-                       t_k, sky_ref + " keplerlib.ele_to_vec", t_sky, TARGET,
-                       notes=f"{n / t_k.median / 1e6:.1f} M states/s"))
-    with threads(1):
-        t_k1 = time_call(kernel_coe2rv, repeat=5)
-    rows.append(result(f"elements -> states, {n:.0e} orbits (kernel, 1 thread)",
-                       t_k1, sky_ref + " keplerlib.ele_to_vec", t_sky, None,
-                       notes=f"1 thread; {n / t_k1.median / 1e6:.1f} M states/s; informational"))
+    rows += _direction_rows(f"elements -> states, {n:.0e} orbits", "coe_to_rv_array",
+                            sky_ref + " keplerlib.ele_to_vec", vv_coe2rv, kernel_coe2rv,
+                            sky_coe2rv, n)
     return rows
 
 

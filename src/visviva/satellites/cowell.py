@@ -60,6 +60,32 @@ def _dop853_tableau():
     return (arr(dc.A), arr(dc.B), arr(dc.C), arr(dc.E3), arr(dc.E5), arr(dc.D))
 
 
+def _all_instances(items, cls, what, hint):
+    """``items`` as a list, after checking that each is a ``cls``.
+
+    Parameters
+    ----------
+    items : iterable
+        The user's perturbations or events.
+    cls : type
+        The class each must be an instance of.
+    what : str
+        What one item is called in the message (``"a perturbation"``).
+    hint : str
+        The classes to use instead, for the message.
+
+    Raises
+    ------
+    InvalidInputError
+        On the first item that is not a ``cls``.
+    """
+    items = list(items)
+    for item in items:
+        if not isinstance(item, cls):
+            raise InvalidInputError(f"{item!r} is not {what}; use {hint}.")
+    return items
+
+
 class ForceModel:
     """The perturbations assembled into the flat arrays of :mod:`visviva.core.perturbations`."""
 
@@ -69,13 +95,10 @@ class ForceModel:
         self.force[12] = -1.0
         self.zonal = np.zeros(3)
         self.atm = VALLADO_EXPONENTIAL_TABLE.copy()
-        perturbations = list(perturbations)
-        for p in perturbations:
-            if not isinstance(p, Perturbation):
-                raise InvalidInputError(
-                    f"{p!r} is not a perturbation; use vv.J2, vv.Zonal, vv.AtmosphericDrag, "
-                    "vv.ThirdBody or vv.SolarRadiationPressure."
-                )
+        perturbations = _all_instances(
+            perturbations, Perturbation, "a perturbation",
+            "vv.J2, vv.Zonal, vv.AtmosphericDrag, vv.ThirdBody or vv.SolarRadiationPressure",
+        )
         centrals = {p.central_body.name for p in perturbations if p.central_body is not None}
         if len(centrals) > 1:
             raise InvalidInputError(
@@ -495,13 +518,10 @@ def propagate_cowell(
         h_max = float(to_array(max_step, "time", "max_step"))
         if not h_max > 0:
             raise InvalidInputError("max_step must be > 0.")
-    events = list(events)
-    for e in events:
-        if not isinstance(e, Event):
-            raise InvalidInputError(
-                f"{e!r} is not an event; use vv.satellites.Eclipse(), ReEntry(), "
-                "AltitudeCrossing(...), AscendingNode(), Apsides()."
-            )
+    events = _all_instances(
+        events, Event, "an event",
+        "vv.satellites.Eclipse(), ReEntry(), AltitudeCrossing(...), AscendingNode(), Apsides()",
+    )
     span = (min(0.0, offsets[0]), max(0.0, offsets[-1]))
     if batch and events:
         raise InvalidInputError(

@@ -1,15 +1,16 @@
 """visviva: orbital mechanics you can trust.
 
 ``import visviva as vv`` gives the public surface below. Submodules load on first use (PEP 562),
-so importing visviva is fast and compiles nothing; the first call of a compiled function compiles
-it once (or loads it from numba's on-disk cache).
+so importing visviva compiles nothing (it imports numba's modules ahead of the first call: see
+:mod:`visviva._startup`); the first call of a compiled function compiles it once (or loads it
+from numba's on-disk cache).
 
 The expert layer of compiled kernels on plain float64 arrays is :mod:`visviva.core`.
 """
 
 from __future__ import annotations
 
-from . import _lazy
+from . import _lazy, _startup  # noqa: F401  (_startup: numba's modules, see its docstring)
 
 __version__ = "0.1.0"
 

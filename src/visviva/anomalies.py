@@ -63,13 +63,16 @@ def _run(kernel, context, angle, angle_name, ecc=None):
     else:
         e = _units.to_array(ecc, "dimensionless", "ecc", finite=False)
         try:
-            x, e = np.broadcast_arrays(x, e)
+            shape = np.broadcast_shapes(x.shape, e.shape)
         except ValueError as exc:
             raise ShapeError(
                 f"{angle_name} with shape {np.shape(x)} and ecc with shape {np.shape(e)} do not "
                 "broadcast against each other; give arrays of the same shape, or a scalar."
             ) from exc
-        shape = x.shape
+        # writable contiguous copies where broadcasting repeats items (to_array's arrays are
+        # our own; broadcast_arrays views would make numba warn about their writeable flag)
+        x, e = (a if a.shape == shape else np.ascontiguousarray(np.broadcast_to(a, shape))
+                for a in (x, e))
         inputs["ecc"] = e
         args = (np.ascontiguousarray(x).ravel(), np.ascontiguousarray(e).ravel())
     n = args[0].shape[0]

@@ -65,11 +65,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
-from numba import types
-from numba.extending import intrinsic
 
+from ._intrinsics import float_bits as _bits
+from ._intrinsics import float_from_bits as _from_bits
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, prefer_wide_vectors, simd_kernel
 
 __all__ = [
@@ -177,32 +176,6 @@ def _rows(lo, hi, x, xm, ym, zm, gmm, soft2, acc):
 
 
 # ---- large-N kernel: each pair once, r**-3 without divide or square root -----------------------
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE-754 bits of a float64 as an int64."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], context.get_value_type(types.int64))
-
-    return types.int64(types.float64), codegen
-
-
-@intrinsic
-def _from_bits(typingctx, n):
-    """The float64 whose IEEE-754 bits are the int64 ``n``."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], context.get_value_type(types.float64))
-
-    return types.float64(types.int64), codegen
-
-
-if numba.config.DISABLE_JIT:  # pure Python (coverage runs): the intrinsics' plain equivalents
-    def _bits(x):  # noqa: F811
-        return int(np.float64(x).view(np.int64))
-
-    def _from_bits(n):  # noqa: F811
-        return float(np.int64(n).view(np.float64))
-
-
 @inline_kernel
 def inv_r3(r2):
     """``r2**-1.5`` with multiply-adds only (no divide, no square root), within about one ulp.

@@ -342,13 +342,6 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
 
 
 @kernel
-def _zero(a):
-    for i in range(a.shape[0]):
-        for c in range(3):
-            a[i, c] = 0.0
-
-
-@kernel
 def _dh_interaction_kick(vj, acc, fa, m, eta, h):
     """Democratic heliocentric kick ``h``: ``V_i += (g_i + f_i - a_cm) h`` with ``g`` the gravity
     of the bodies other than the central one, ``f`` the additional force and ``a_cm`` its
@@ -379,7 +372,7 @@ def _kick(t, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, 
     if dh:
         from_democratic_heliocentric(xj, m, eta, x, False)
         gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, istate[I_PARALLEL] != 0)
-        _zero(aj)
+        aj[:, :] = 0.0
         force(t, x, v, m, params, aj)
         _dh_interaction_kick(vj, acc, aj, m, eta, h)
     else:
@@ -402,7 +395,7 @@ def _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, for
     _jump(xj, vj, m, 0.5 * h)
     from_democratic_heliocentric(xj, m, eta, x, False)
     gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, istate[I_PARALLEL] != 0)
-    _zero(fa)
+    fa[:, :] = 0.0
     force(tk, x, v, m, params, fa)
     _dh_interaction_kick(vj, acc, fa, m, eta, h)
     return OK

@@ -49,7 +49,7 @@ The causes found, and what replaced them:
 
 The fused multiply-add ``fma(a, b, c) = fl(a b + c)`` is the error-free product transformation
 of Ogita, Rump & Oishi (2005); numba has none, so ``llvm.fma`` is called through an intrinsic
-(one instruction on CPUs with FMA, a correctly rounded library call otherwise, exact rational
+(:mod:`visviva.core._intrinsics`; one instruction on CPUs with FMA, a correctly rounded library call otherwise, exact rational
 arithmetic under ``NUMBA_DISABLE_JIT``); the results are the same bits everywhere.
 ``tests/test_core_universal.py`` asserts the absence of the bias (mean energy change over 10^5
 drifts) and of any bias of the series.
@@ -72,11 +72,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
-from numba import types
-from numba.extending import intrinsic
 
+from ._intrinsics import fma as _fma
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .status import BAD_GM, HITS_ATTRACTOR, NO_CONVERGENCE, NON_FINITE, OK, ZERO_POSITION
 
@@ -104,27 +102,6 @@ _SWITCH = 16.0
 _GIVE_UP = 1e12
 #: |r x v| <= _RADIAL_TOL |r| |v| counts as radial (rectilinear) motion.
 _RADIAL_TOL = 4.0 * _EPS
-
-
-@intrinsic
-def _fma(typingctx, a, b, c):
-    """``a * b + c`` with one rounding (IEEE fused multiply-add; llvm.fma, hardware when present)."""
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return types.float64(types.float64, types.float64, types.float64), codegen
-
-
-if numba.config.DISABLE_JIT:  # pure Python (coverage runs): exact rational arithmetic instead
-
-    def _fma(a, b, c):  # noqa: F811
-        a, b, c = float(a), float(b), float(c)
-        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
-            return a * b + c
-        pa, qa = a.as_integer_ratio()
-        pb, qb = b.as_integer_ratio()
-        pc, qc = c.as_integer_ratio()
-        return (pa * pb * qc + pc * qa * qb) / (qa * qb * qc)  # int / int: correctly rounded
 
 
 #: 1/(2k+2)! and 1/(2k+3)!, k = 0..12: Taylor coefficients of c2 and c3 in (-psi).

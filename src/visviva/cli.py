@@ -1,4 +1,5 @@
-"""Command line: ``visviva validate`` (the cross-validation report) and ``visviva bench``."""
+"""Command line: ``visviva validate`` (the cross-validation report), ``visviva bench``, and the
+commands registered in ``_COMMANDS``."""
 
 from __future__ import annotations
 
@@ -58,12 +59,25 @@ def _import_benchmarks():
     raise SystemExit("visviva bench: no benchmarks/ folder found; run it from the repository root")
 
 
+#: More commands, one line each: command name -> module that defines ``add_parser(sub)`` (adds
+#: the sub-parser named like the command) and ``run(args) -> int`` (the exit code). The module is
+#: imported when the parser is built, so it must import nothing heavy at module level.
+_COMMANDS: dict[str, str] = {}
+
+
 def main(argv: list[str] | None = None) -> int:
+    import importlib
+
     parser = argparse.ArgumentParser(prog="visviva", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     _validate_parser(sub)
     _bench_parser(sub)
+    commands = {name: importlib.import_module(module) for name, module in _COMMANDS.items()}
+    for module in commands.values():
+        module.add_parser(sub)
     args = parser.parse_args(argv)
+    if args.command in commands:
+        return int(commands[args.command].run(args))
     if args.command == "validate":
         if args.list:
             from .validation.runner import discover, short_name

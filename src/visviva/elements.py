@@ -15,16 +15,9 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from .errors import InvalidElementsError, InvalidInputError
-from .states import (
-    StateVectors,
-    _broadcast_shape,
-    _flat,
-    _gm_positive,
-    _index_epoch,
-    _normalise_key,
-    _raise_for_result,
-)
+from ._containers import broadcast_shape, flat, gm_positive, index_epoch, normalise_key
+from .errors import InvalidElementsError, InvalidInputError, raise_for_result
+from .states import StateVectors
 
 __all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
 
@@ -83,7 +76,7 @@ def _index_elements(elements, key, cls_name: str):
     key : index
         Any numpy index of the leading axes.
     cls_name : str
-        Class name for the messages of :func:`visviva.states._normalise_key`.
+        Class name for the messages of :func:`visviva._containers.normalise_key`.
 
     Returns
     -------
@@ -95,23 +88,23 @@ def _index_elements(elements, key, cls_name: str):
         The epoch, indexed where it has the leading shape.
     """
     shape = elements._shape
-    key = _normalise_key(key, shape, cls_name)
+    key = normalise_key(key, shape, cls_name)
     parts = [np.array(x[key]) for x in elements._stored()]
     gm = np.array(np.broadcast_to(elements._gm, shape)[key])
-    return parts, gm, _index_epoch(elements._epoch, key, shape)
+    return parts, gm, index_epoch(elements._epoch, key, shape)
 
 
 def _states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
     """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
 
-    Raises through :func:`visviva.states._raise_for_result` (``inputs`` and ``result_inputs``
+    Raises through :func:`visviva.errors.raise_for_result` (``inputs`` and ``result_inputs``
     are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
     ``elements``.
     """
     shape = elements._shape
     r = r.reshape(shape + (3,))
     v = v.reshape(shape + (3,))
-    _raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
+    raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
     return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)
 
 
@@ -175,7 +168,7 @@ class KeplerianElements:
         argp = _units.to_array(argp, "angle", "argp", finite=False)
         nu = _units.to_array(nu, "angle", "nu", finite=False)
         gm = _units.to_array(gm, "gm", "gm", finite=False)
-        shape = _broadcast_shape(
+        shape = broadcast_shape(
             {
                 "p": p_km.shape,
                 "ecc": ecc.shape,
@@ -188,7 +181,7 @@ class KeplerianElements:
             "KeplerianElements",
         )
         first, _ = scan_coe(
-            *(_flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
+            *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
         )
         if first >= 0:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
@@ -209,7 +202,7 @@ class KeplerianElements:
             ("gm", gm),
         ):
             _units.require_finite(arr, name)
-        _gm_positive(gm)
+        gm_positive(gm)
         _require_positive_p(
             p_km,
             " A radial orbit (p = 0) has no classical elements; for a given semi-major axis use "
@@ -286,7 +279,7 @@ class KeplerianElements:
                 "use KeplerianElements(p, 1.0, ...) with the semi-latus rectum p "
                 "(p = 2 q, twice the periapsis distance)."
             )
-        shape = _broadcast_shape({"a": a_km.shape, "ecc": e.shape}, "from_semi_major_axis")
+        shape = broadcast_shape({"a": a_km.shape, "ecc": e.shape}, "from_semi_major_axis")
         a_b, e_b = np.broadcast_to(a_km, shape), np.broadcast_to(e, shape)
         bad_ell = (e_b < 1) & ~(a_b > 0)
         if np.any(bad_ell):
@@ -422,7 +415,7 @@ class KeplerianElements:
         status = np.empty(nu.shape[0], dtype=np.int8)
         true_to_mean_array(nu, ecc, M, status)
         M = M.reshape(self._shape)
-        _raise_for_result(
+        raise_for_result(
             "true -> mean anomaly",
             status,
             [M],
@@ -511,8 +504,8 @@ class KeplerianElements:
         from .core.elements import coe_to_rv_array
 
         shape = self._shape
-        flat = [_flat(x, shape) for x in self._stored()]
-        r, v, status = coe_to_rv_array(*flat, _flat(self._gm, shape))
+        flat_parts = [flat(x, shape) for x in self._stored()]
+        r, v, status = coe_to_rv_array(*flat_parts, flat(self._gm, shape))
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
         return _states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 
@@ -556,8 +549,8 @@ class ModifiedEquinoctialElements:
         k = _units.to_array(k, "dimensionless", "k")
         L = _units.to_array(L, "angle", "L")
         gm = _units.to_array(gm, "gm", "gm")
-        _gm_positive(gm)
-        shape = _broadcast_shape(
+        gm_positive(gm)
+        shape = broadcast_shape(
             {
                 "p": p_km.shape,
                 "f": f.shape,
@@ -687,9 +680,9 @@ class ModifiedEquinoctialElements:
         from .core.elements import mee_to_rv_array
 
         shape = self._shape
-        flat = [_flat(x, shape) for x in self._stored()]
+        flat_parts = [flat(x, shape) for x in self._stored()]
         retro = -1.0 if self._retrograde else 1.0
-        r, v, status = mee_to_rv_array(*flat, _flat(self._gm, shape), retro)
+        r, v, status = mee_to_rv_array(*flat_parts, flat(self._gm, shape), retro)
         return _states_from_kernel(
             self,
             r,

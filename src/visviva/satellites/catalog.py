@@ -84,9 +84,9 @@ class BatchStates:
     def to_frame(self, frame: str) -> BatchStates:
         """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"``, with astropy's frames.
 
-        astropy transforms six basis states per time; the N objects then share each time's
-        6 x 6 map (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every
-        state with astropy to ~1e-11 km and ~1e-10 km/s.
+        One 6 x 6 map per time from astropy's rotation matrices, shared by the N objects
+        (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every state
+        with astropy's frame graph to ~1e-11 km and ~1e-10 km/s.
         """
         from .frames import transform_batch
 

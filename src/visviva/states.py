@@ -12,7 +12,7 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from .errors import InvalidInputError, InvalidStateError, ShapeError, raise_for_status
+from .errors import InvalidInputError, InvalidStateError, ShapeError, fmt_number, raise_for_status
 
 __all__ = ["StateVectors"]
 
@@ -39,7 +39,7 @@ def _gm_positive(gm: np.ndarray) -> None:
     if not np.all(gm > 0):
         bad = np.asarray(gm)[~(np.asarray(gm) > 0)].ravel()[0]
         raise InvalidInputError(
-            f"gm must be > 0 (the gravitational parameter of the central body); got {bad!r} "
+            f"gm must be > 0 (the gravitational parameter of the central body); got {fmt_number(bad)} "
             "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
         )
 

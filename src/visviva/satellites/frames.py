@@ -37,6 +37,7 @@ __all__ = [
     "gcrs_to_itrs",
     "itrs_to_gcrs",
     "itrs_to_geodetic",
+    "altitude_km",
     "transform_matrices",
     "transform_batch",
     "WGS84_A_KM",
@@ -399,6 +400,27 @@ def itrs_to_gcrs(r, v, t):
     """Rotate ITRS positions and velocities to GCRS with astropy (see :func:`teme_to_gcrs`)."""
     ro, vo = _convert(r, v, t, "itrs", "gcrs")
     return _wrap(ro, vo, r)
+
+
+def altitude_km(r_km, v_km_s, t, frame: str) -> np.ndarray:
+    """Height (km) above the WGS-84 ellipsoid of states in ``frame`` at the times ``t``.
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray, shape (..., 3)
+        Positions (km) and velocities (km/s).
+    t : astropy Time, broadcastable to ``r_km.shape[:-1]``
+        The times (unused for ITRS states).
+    frame : {"teme", "gcrs", "itrs"}
+        The frame of the states.
+
+    Returns
+    -------
+    ndarray, shape ``r_km.shape[:-1]``
+    """
+    if frame != "itrs":
+        r_km, _ = _convert(r_km, v_km_s, t, frame, "itrs")
+    return itrs_to_geodetic(r_km)[2].to_value(u.km)
 
 
 def itrs_to_geodetic(r):

@@ -66,6 +66,10 @@ _PUBLIC = {
     "orbit_equation": "visviva.central_force",
     # N-body
     "Simulation": "visviva.nbody",
+    # animation
+    "animate_orbit": "visviva.animation",
+    "animate_simulation": "visviva.animation",
+    "save_animation": "visviva.animation",
     "solar_system": "visviva.nbody",
     # satellites
     "Satellite": "visviva.satellites",

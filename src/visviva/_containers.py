@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import InvalidInputError, ShapeError
+from .errors import InvalidInputError, ShapeError, fmt_number
 
 __all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch"]
 
@@ -30,7 +30,7 @@ def gm_positive(gm: np.ndarray) -> None:
     if not np.all(gm > 0):
         bad = np.asarray(gm)[~(np.asarray(gm) > 0)].ravel()[0]
         raise InvalidInputError(
-            f"gm must be > 0 (the gravitational parameter of the central body); got {bad!r} "
+            f"gm must be > 0 (the gravitational parameter of the central body); got {fmt_number(bad)} "
             "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
         )
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _units
 from ._containers import broadcast_shape, flat, gm_positive, index_epoch, normalise_key
-from .errors import InvalidElementsError, InvalidInputError, raise_for_result
+from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
 from .states import StateVectors
 
 __all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
@@ -30,6 +30,26 @@ def _wrap_2pi(x: np.ndarray) -> np.ndarray:
     y = np.mod(x, _TWO_PI)
     y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
     return y + 0.0
+
+
+def _wrap_pi(x: np.ndarray) -> np.ndarray:
+    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero)."""
+    return math.pi - _wrap_2pi(math.pi - np.asarray(x)) + 0.0
+
+
+def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
+    """Warn once per call when a plain-number angle looks like degrees (|x| > 2 pi)."""
+    if _units.is_quantity(value) or not np.any(np.abs(arr) > _TWO_PI):
+        return
+    import warnings
+
+    big = float(arr[np.abs(arr) > _TWO_PI].ravel()[0])
+    warnings.warn(
+        f"{name} = {fmt_number(big)} is a plain number, so it is taken in radians "
+        f"(= {fmt_number(math.degrees(big) % 360.0)} deg after wrapping). If you meant "
+        f"degrees pass {name}={fmt_number(big)} * u.deg.",
+        UserWarning, stacklevel=3,
+    )
 
 
 def _scalar_or_array(arr: np.ndarray):
@@ -62,7 +82,7 @@ def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
     if np.any(bad):
         raise InvalidElementsError(
             f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
-            f"{p_km[bad].ravel()[0]!r} km.{advice}"
+            f"{fmt_number(p_km[bad].ravel()[0])} km.{advice}"
         )
 
 
@@ -159,6 +179,7 @@ class KeplerianElements:
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
         from .core.elements import scan_coe
 
+        raan_in, argp_in, nu_in = raan, argp, nu
         # finite=False: one compiled pass below checks finiteness and every range at once;
         # the numpy checks after it only run to word the error message.
         p_km = _units.to_array(p, "length", "p", finite=False)
@@ -187,6 +208,10 @@ class KeplerianElements:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
             inc = np.minimum(inc, math.pi)
+        # docs/conventions.md: raan, argp in [0, 2 pi), nu in (-pi, pi], from any input
+        for value, arr, name in ((raan_in, raan, "raan"), (argp_in, argp, "argp"), (nu_in, nu, "nu")):
+            _warn_if_degrees(value, arr, name)
+        raan, argp, nu = _wrap_2pi(raan), _wrap_2pi(argp), _wrap_pi(nu)
         self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
 
     @staticmethod
@@ -211,14 +236,14 @@ class KeplerianElements:
         if np.any(ecc < 0):
             raise InvalidElementsError(
                 f"ecc (eccentricity) must be >= 0{_first_bad(ecc < 0)}; got "
-                f"{ecc[ecc < 0].ravel()[0]!r}. Flip the sign and add pi to argp if you meant the "
+                f"{fmt_number(ecc[ecc < 0].ravel()[0])}. Flip the sign and add pi to argp if you meant the "
                 "opposite periapsis direction."
             )
         bad_inc = (inc < 0) | (inc > math.pi + _INC_SLACK)
         if np.any(bad_inc):
             raise InvalidElementsError(
                 f"inc (inclination) must lie in [0, pi] rad = [0, 180] deg{_first_bad(bad_inc)}; "
-                f"got {inc[bad_inc].ravel()[0]!r} rad. Retrograde orbits have inc > pi/2; a "
+                f"got {fmt_number(inc[bad_inc].ravel()[0])} rad. Retrograde orbits have inc > pi/2; a "
                 "negative inclination is the same orbit with inc -> -inc and raan -> raan + pi."
             )
         unreachable = np.zeros(shape, dtype=bool)
@@ -232,7 +257,7 @@ class KeplerianElements:
             limit = math.degrees(math.acos(-1.0 / e_b))
             raise InvalidElementsError(
                 f"nu = {math.degrees(nu_b):.6f} deg lies on or beyond the asymptote of the open "
-                f"orbit with e = {e_b!r}{_first_bad(unreachable)}: no body reaches it. Choose "
+                f"orbit with e = {fmt_number(e_b)}{_first_bad(unreachable)}: no body reaches it. Choose "
                 f"|nu| < arccos(-1/e) = {limit:.6f} deg."
             )
         raise InvalidElementsError("invalid elements (no specific check matched); report this")
@@ -285,13 +310,13 @@ class KeplerianElements:
         if np.any(bad_ell):
             raise InvalidElementsError(
                 f"a must be > 0 for an ellipse (ecc < 1){_first_bad(bad_ell)}; got "
-                f"{a_b[bad_ell].ravel()[0]!r} km with ecc = {e_b[bad_ell].ravel()[0]!r}."
+                f"{fmt_number(a_b[bad_ell].ravel()[0])} km with ecc = {fmt_number(e_b[bad_ell].ravel()[0])}."
             )
         bad_hyp = (e_b > 1) & ~(a_b < 0)
         if np.any(bad_hyp):
             raise InvalidElementsError(
                 f"a must be < 0 for a hyperbola (ecc > 1){_first_bad(bad_hyp)}; got "
-                f"{a_b[bad_hyp].ravel()[0]!r} km with ecc = {e_b[bad_hyp].ravel()[0]!r}. "
+                f"{fmt_number(a_b[bad_hyp].ravel()[0])} km with ecc = {fmt_number(e_b[bad_hyp].ravel()[0])}. "
                 "Pass a = -|a|."
             )
         if np.any(~np.isfinite(a_b)):

@@ -31,7 +31,37 @@ __all__ = [
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
+    "fmt_number",
 ]
+
+
+def fmt_number(x) -> str:
+    """A number (or array) as a person writes it, for error messages.
+
+    numpy scalars print as the number (``7000.0``, ``-0.1``, ``nan``), never as
+    ``np.float64(7000.0)``; 0-d arrays likewise; arrays as a list; anything else as ``repr``.
+
+    Parameters
+    ----------
+    x : number, numpy scalar or array_like
+        The value to show.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(x, (bool, np.bool_)):
+        return repr(bool(x))
+    try:
+        arr = np.asarray(x)
+    except Exception:  # pragma: no cover - exotic objects
+        return repr(x)
+    if arr.dtype.kind not in "biufc":
+        return repr(x)
+    if arr.ndim == 0:
+        return repr(arr.item())
+    return repr(arr.tolist()) if arr.size <= 6 else np.array2string(arr, separator=", ",
+                                                                      threshold=6)
 
 
 class VisvivaError(Exception):

@@ -11,12 +11,12 @@ from .._units import (
     require_finite_result,
     to_array,
 )
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
 
 
 def _positive(arr, name):
     if np.any(arr <= 0):
-        raise InvalidInputError(f"{name} must be > 0; got {np.min(arr)!r}.")
+        raise InvalidInputError(f"{name} must be > 0; got {fmt_number(np.min(arr))}.")
     return arr
 
 
@@ -63,9 +63,9 @@ def _real(value, name):
     try:
         x = float(value)
     except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be a real number; got {value!r}.") from exc
+        raise InvalidInputError(f"{name} must be a real number; got {fmt_number(value)}.") from exc
     if not math.isfinite(x):
-        raise InvalidInputError(f"{name} must be finite; got {x!r}.")
+        raise InvalidInputError(f"{name} must be finite; got {fmt_number(x)}.")
     return x
 
 

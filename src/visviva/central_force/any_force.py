@@ -18,7 +18,7 @@ from .._units import (
     to_array,
     to_quantity,
 )
-from ..errors import DomainError, InvalidInputError, ShapeError, UnitsError
+from ..errors import DomainError, InvalidInputError, ShapeError, UnitsError, fmt_number
 from ._inputs import (
     _callable,
     _finite_result,
@@ -151,7 +151,7 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
 
     _callable(potential, "potential")
     if isinstance(n_grid, bool) or not isinstance(n_grid, int | np.integer) or n_grid < 2:
-        raise InvalidInputError(f"n_grid must be an integer >= 2; got {n_grid!r}.")
+        raise InvalidInputError(f"n_grid must be an integer >= 2; got {fmt_number(n_grid)}.")
     quantity = isinstance(energy, u.Quantity)
     if quantity:
         E = float(to_array(energy, "spec_energy", "energy"))
@@ -335,14 +335,14 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", True)
     for name, val in (("r0", r0), ("h", h)):
         if not val > 0:
-            raise InvalidInputError(f"{name} must be finite and > 0; got {val!r}.")
+            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.")
     theta_max = float(to_array(theta_max, "angle", "theta_max", finite=False))
     if not (math.isfinite(theta_max) and theta_max > 0):
         raise InvalidInputError("theta_max must be finite and > 0 (rad).")
     if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or n_points < 2:
-        raise InvalidInputError(f"n_points must be an integer >= 2; got {n_points!r}.")
+        raise InvalidInputError(f"n_points must be an integer >= 2; got {fmt_number(n_points)}.")
     if not (isinstance(rtol, float | int) and math.isfinite(rtol) and 0 < rtol < 1):
-        raise InvalidInputError(f"rtol must be a float in (0, 1); got {rtol!r}.")
+        raise InvalidInputError(f"rtol must be a float in (0, 1); got {fmt_number(rtol)}.")
     h2 = h * h
 
     def rhs(_theta, y):
@@ -359,7 +359,8 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
             ) from exc
         if not math.isfinite(F):
             raise InvalidInputError(
-                f"force(r) returned {F!r} at r = {1.0 / uu!r}: the force must be finite along "
+                f"force(r) returned {fmt_number(F)} at r = {fmt_number(1.0 / uu)}: the force must be "
+                "finite along "
                 "the orbit. Check the force law (and its units)."
             )
         return [du, -uu - F / (h2 * uu * uu)]

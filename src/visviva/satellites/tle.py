@@ -457,6 +457,17 @@ class SatelliteStates(StateVectors):
         """The times of the states (astropy Time)."""
         return self.epoch
 
+    @property
+    def altitude(self):
+        """Height above the WGS-84 ellipsoid (Quantity, km; shape of the states).
+
+        The geodetic height of :func:`visviva.satellites.frames.itrs_to_geodetic`, after a
+        rotation to ITRS at :attr:`t` (astropy's matrices) when the states are in TEME or GCRS.
+        """
+        from .frames import altitude_km
+
+        return altitude_km(self._r, self._v, self.epoch, self.frame) << u.km
+
     def to_state_vectors(self) -> StateVectors:
         """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
         if self.frame == "itrs":

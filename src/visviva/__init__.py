@@ -45,7 +45,7 @@ _PUBLIC = {
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",
-    "ModifiedEquinoctialElements": "visviva.elements",
+    "ModifiedEquinoctialElements": "visviva.equinoctial",
     "solve_kepler": "visviva.anomalies",
     "solve_kepler_hyperbolic": "visviva.anomalies",
     "mean_to_true": "visviva.anomalies",

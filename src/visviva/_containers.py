@@ -6,9 +6,12 @@ typed exceptions of :mod:`visviva.errors` with a message that says what to do.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .errors import InvalidInputError, ShapeError, fmt_number
+from . import _units
+from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
 __all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch"]
 
@@ -73,3 +76,99 @@ def index_epoch(epoch, key, shape):
     if np.shape(epoch) == shape and shape != ():
         return epoch[key]
     return epoch
+
+
+# ----------------------------------------------------------------------------------------------
+# element sets (visviva.elements, visviva.equinoctial)
+
+_TWO_PI = 2.0 * math.pi
+#: inclinations up to this far above pi are rounding (e.g. 180 deg converted to rad) -> pi
+_INC_SLACK = 8.0 * np.finfo(float).eps
+
+
+def _wrap_2pi(x: np.ndarray) -> np.ndarray:
+    y = np.mod(x, _TWO_PI)
+    y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
+    return y + 0.0
+
+
+def _wrap_pi(x: np.ndarray) -> np.ndarray:
+    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero)."""
+    return math.pi - _wrap_2pi(math.pi - np.asarray(x)) + 0.0
+
+
+def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
+    """Warn once per call when a plain-number angle looks like degrees (|x| > 2 pi)."""
+    if _units.is_quantity(value) or not np.any(np.abs(arr) > _TWO_PI):
+        return
+    import warnings
+
+    big = float(arr[np.abs(arr) > _TWO_PI].ravel()[0])
+    warnings.warn(
+        f"{name} = {fmt_number(big)} is a plain number, so it is taken in radians "
+        f"(= {fmt_number(math.degrees(big) % 360.0)} deg after wrapping). If you meant "
+        f"degrees pass {name}={fmt_number(big)} * u.deg.",
+        UserWarning, stacklevel=3,
+    )
+
+
+def _scalar_or_array(arr: np.ndarray):
+    """A 0-d array becomes a numpy scalar, anything else stays an array."""
+    return arr[()] if arr.ndim == 0 else arr
+
+
+def _first_bad(mask: np.ndarray) -> str:
+    mask = np.asarray(mask)
+    if mask.ndim == 0:
+        return ""
+    return f" at index {tuple(int(i) for i in np.argwhere(mask)[0])}"
+
+
+def _deg(x) -> str:
+    return f"{math.degrees(float(x)):.6f} deg"
+
+
+def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
+    """Raise InvalidElementsError unless every semi-latus rectum is > 0 (and not NaN).
+
+    Parameters
+    ----------
+    p_km : ndarray
+        Semi-latus rectum (km).
+    advice : str
+        Appended to the message (starting with a space), e.g. what to give instead.
+    """
+    bad = ~(p_km > 0)
+    if np.any(bad):
+        raise InvalidElementsError(
+            f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
+            f"{fmt_number(p_km[bad].ravel()[0])} km.{advice}"
+        )
+
+
+def _index_elements(elements, key, cls_name: str):
+    """The stored arrays, gm and epoch of an element set indexed by ``key``.
+
+    Parameters
+    ----------
+    elements : KeplerianElements or ModifiedEquinoctialElements
+        The element set (its ``_stored()`` arrays have its leading shape).
+    key : index
+        Any numpy index of the leading axes.
+    cls_name : str
+        Class name for the messages of :func:`visviva._containers.normalise_key`.
+
+    Returns
+    -------
+    parts : list of ndarray
+        The stored elements, indexed (canonical units).
+    gm : ndarray
+        gm (km3/s2), indexed.
+    epoch : astropy.time.Time or None
+        The epoch, indexed where it has the leading shape.
+    """
+    shape = elements._shape
+    key = normalise_key(key, shape, cls_name)
+    parts = [np.array(x[key]) for x in elements._stored()]
+    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
+    return parts, gm, index_epoch(elements._epoch, key, shape)

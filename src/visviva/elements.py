@@ -1,10 +1,10 @@
-"""Orbital elements: classical (Keplerian) and modified equinoctial.
+"""Classical (Keplerian) orbital elements.
 
 :class:`KeplerianElements` stores the semi-latus rectum ``p`` (not ``a``), so that the exact
 parabola is representable, plus e, i, raan, argp, nu and GM; every other element is a lazy,
-cached, long-named property. :class:`ModifiedEquinoctialElements` (Walker, Ireland & Owens 1985)
-are non-singular for circular and equatorial orbits. Symbols and the convention for undefined
-angles: ``docs/conventions.md``.
+cached, long-named property. The non-singular set is
+:class:`visviva.equinoctial.ModifiedEquinoctialElements`. Symbols and the convention for
+undefined angles: ``docs/conventions.md``.
 """
 
 from __future__ import annotations
@@ -15,118 +15,25 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from ._containers import broadcast_shape, flat, gm_positive, index_epoch, normalise_key
+from ._containers import (
+    _INC_SLACK,
+    _TWO_PI,
+    _deg,
+    _first_bad,
+    _index_elements,
+    _require_positive_p,
+    _scalar_or_array,
+    _warn_if_degrees,
+    _wrap_2pi,
+    _wrap_pi,
+    broadcast_shape,
+    flat,
+    gm_positive,
+)
 from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
-from .states import StateVectors
+from .states import states_from_kernel
 
-__all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
-
-_TWO_PI = 2.0 * math.pi
-#: inclinations up to this far above pi are rounding (e.g. 180 deg converted to rad) -> pi
-_INC_SLACK = 8.0 * np.finfo(float).eps
-
-
-def _wrap_2pi(x: np.ndarray) -> np.ndarray:
-    y = np.mod(x, _TWO_PI)
-    y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
-    return y + 0.0
-
-
-def _wrap_pi(x: np.ndarray) -> np.ndarray:
-    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero)."""
-    return math.pi - _wrap_2pi(math.pi - np.asarray(x)) + 0.0
-
-
-def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
-    """Warn once per call when a plain-number angle looks like degrees (|x| > 2 pi)."""
-    if _units.is_quantity(value) or not np.any(np.abs(arr) > _TWO_PI):
-        return
-    import warnings
-
-    big = float(arr[np.abs(arr) > _TWO_PI].ravel()[0])
-    warnings.warn(
-        f"{name} = {fmt_number(big)} is a plain number, so it is taken in radians "
-        f"(= {fmt_number(math.degrees(big) % 360.0)} deg after wrapping). If you meant "
-        f"degrees pass {name}={fmt_number(big)} * u.deg.",
-        UserWarning, stacklevel=3,
-    )
-
-
-def _scalar_or_array(arr: np.ndarray):
-    """A 0-d array becomes a numpy scalar, anything else stays an array."""
-    return arr[()] if arr.ndim == 0 else arr
-
-
-def _first_bad(mask: np.ndarray) -> str:
-    mask = np.asarray(mask)
-    if mask.ndim == 0:
-        return ""
-    return f" at index {tuple(int(i) for i in np.argwhere(mask)[0])}"
-
-
-def _deg(x) -> str:
-    return f"{math.degrees(float(x)):.6f} deg"
-
-
-def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
-    """Raise InvalidElementsError unless every semi-latus rectum is > 0 (and not NaN).
-
-    Parameters
-    ----------
-    p_km : ndarray
-        Semi-latus rectum (km).
-    advice : str
-        Appended to the message (starting with a space), e.g. what to give instead.
-    """
-    bad = ~(p_km > 0)
-    if np.any(bad):
-        raise InvalidElementsError(
-            f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
-            f"{fmt_number(p_km[bad].ravel()[0])} km.{advice}"
-        )
-
-
-def _index_elements(elements, key, cls_name: str):
-    """The stored arrays, gm and epoch of an element set indexed by ``key``.
-
-    Parameters
-    ----------
-    elements : KeplerianElements or ModifiedEquinoctialElements
-        The element set (its ``_stored()`` arrays have its leading shape).
-    key : index
-        Any numpy index of the leading axes.
-    cls_name : str
-        Class name for the messages of :func:`visviva._containers.normalise_key`.
-
-    Returns
-    -------
-    parts : list of ndarray
-        The stored elements, indexed (canonical units).
-    gm : ndarray
-        gm (km3/s2), indexed.
-    epoch : astropy.time.Time or None
-        The epoch, indexed where it has the leading shape.
-    """
-    shape = elements._shape
-    key = normalise_key(key, shape, cls_name)
-    parts = [np.array(x[key]) for x in elements._stored()]
-    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
-    return parts, gm, index_epoch(elements._epoch, key, shape)
-
-
-def _states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
-    """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
-
-    Raises through :func:`visviva.errors.raise_for_result` (``inputs`` and ``result_inputs``
-    are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
-    ``elements``.
-    """
-    shape = elements._shape
-    r = r.reshape(shape + (3,))
-    v = v.reshape(shape + (3,))
-    raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
-    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)
-
+__all__ = ["KeplerianElements"]
 
 class KeplerianElements:
     """Classical orbital elements of one or many two-body orbits.
@@ -532,192 +439,8 @@ class KeplerianElements:
         flat_parts = [flat(x, shape) for x in self._stored()]
         r, v, status = coe_to_rv_array(*flat_parts, flat(self._gm, shape))
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
-        return _states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
+        return states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 
     def to_equinoctial(self, retrograde: bool = False):
         """Modified equinoctial elements (through the state vectors)."""
         return self.to_state().to_equinoctial(retrograde=retrograde)
-
-
-class ModifiedEquinoctialElements:
-    """Modified equinoctial elements (Walker, Ireland & Owens 1985) of one or many orbits.
-
-    Parameters
-    ----------
-    p : Quantity
-        Semi-latus rectum (length), > 0.
-    f, g : float or array_like
-        e cos(argp + I raan), e sin(argp + I raan) (dimensionless).
-    h, k : float or array_like
-        tan^I(i/2) cos(raan), tan^I(i/2) sin(raan) (dimensionless).
-    L : Quantity or float
-        True longitude argp + I raan + nu (rad).
-    gm : Quantity or Body
-        Gravitational parameter (km3/s2), > 0.
-    epoch : astropy.time.Time, optional
-    retrograde : bool
-        The retrograde factor: False for I = +1 (standard; singular only at i = pi exactly),
-        True for I = -1 (singular only at i = 0). Use True for orbits at or near i = pi.
-
-    Notes
-    -----
-    Non-singular for circular and equatorial orbits and valid for every conic (e = f^2 + g^2
-    may be >= 1). r = p/(1 + f cos L + g sin L); the frame vectors and the velocity follow
-    Walker et al. (1985), eqs. 2-4, with the retrograde factor of Broucke & Cefola (1972).
-    """
-
-    def __init__(self, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
-        p_km = _units.to_array(p, "length", "p")
-        f = _units.to_array(f, "dimensionless", "f")
-        g = _units.to_array(g, "dimensionless", "g")
-        h = _units.to_array(h, "dimensionless", "h")
-        k = _units.to_array(k, "dimensionless", "k")
-        L = _units.to_array(L, "angle", "L")
-        gm = _units.to_array(gm, "gm", "gm")
-        gm_positive(gm)
-        shape = broadcast_shape(
-            {
-                "p": p_km.shape,
-                "f": f.shape,
-                "g": g.shape,
-                "h": h.shape,
-                "k": k.shape,
-                "L": L.shape,
-                "gm": gm.shape,
-            },
-            "ModifiedEquinoctialElements",
-        )
-        _require_positive_p(p_km)
-        w = np.broadcast_to(1.0 + f * np.cos(L) + g * np.sin(L), shape)
-        if np.any(w <= 0):
-            raise InvalidElementsError(
-                f"1 + f cos L + g sin L <= 0{_first_bad(w <= 0)}: the true longitude lies on or "
-                "beyond the asymptote of the open orbit. Choose L with "
-                "|L - atan2(g, f)| < arccos(-1/e), e = hypot(f, g)."
-            )
-        self._init_canonical(p_km, f, g, h, k, L, gm, epoch, bool(retrograde), shape)
-
-    def _init_canonical(self, p, f, g, h, k, L, gm, epoch, retrograde, shape):
-        self._shape = tuple(shape)
-        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
-        self._p, self._f, self._g, self._h, self._k, self._L = (b(x) for x in (p, f, g, h, k, L))
-        self._gm = np.asarray(gm, dtype=np.float64)
-        self._epoch = epoch
-        self._retrograde = bool(retrograde)
-
-    @classmethod
-    def _from_canonical(cls, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
-        obj = cls.__new__(cls)
-        shape = np.broadcast_shapes(*(np.shape(x) for x in (p, f, g, h, k, L, gm)))
-        obj._init_canonical(p, f, g, h, k, L, gm, epoch, retrograde, shape)
-        return obj
-
-    @property
-    def shape(self) -> tuple:
-        return self._shape
-
-    @property
-    def epoch(self):
-        return self._epoch
-
-    @property
-    def ndim(self) -> int:
-        return len(self._shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self._shape, dtype=np.int64))
-
-    @property
-    def retrograde(self) -> bool:
-        """True when the retrograde factor I = -1 is used."""
-        return self._retrograde
-
-    @cached_property
-    def gm(self):
-        """Gravitational parameter (Quantity, km3/s2)."""
-        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
-
-    @cached_property
-    def semi_latus_rectum(self):
-        """p (Quantity, km)."""
-        return _units.to_quantity(self._p, "length")
-
-    @property
-    def p(self):
-        """Alias of :attr:`semi_latus_rectum`."""
-        return self.semi_latus_rectum
-
-    @cached_property
-    def f(self):
-        """f = e cos(argp + I raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._f))
-
-    @cached_property
-    def g(self):
-        """g = e sin(argp + I raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._g))
-
-    @cached_property
-    def h(self):
-        """h = tan^I(i/2) cos(raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._h))
-
-    @cached_property
-    def k(self):
-        """k = tan^I(i/2) sin(raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._k))
-
-    @cached_property
-    def true_longitude(self):
-        """L = argp + I raan + nu (Quantity, rad)."""
-        return _units.to_quantity(self._L, "angle")
-
-    @property
-    def L(self):
-        """Alias of :attr:`true_longitude`."""
-        return self.true_longitude
-
-    def __len__(self) -> int:
-        if not self._shape:
-            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
-        return self._shape[0]
-
-    def __getitem__(self, key):
-        parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")
-        return ModifiedEquinoctialElements._from_canonical(*parts, gm, epoch, self._retrograde)
-
-    def _stored(self):
-        return (self._p, self._f, self._g, self._h, self._k, self._L)
-
-    def __repr__(self) -> str:
-        I = -1 if self._retrograde else 1  # noqa: E741
-        if int(np.prod(self._shape)) == 1:
-            vals = [float(x.reshape(-1)[0]) for x in self._stored()]
-            return (
-                f"ModifiedEquinoctialElements(p={vals[0]:.9g} km, f={vals[1]:.12g}, "
-                f"g={vals[2]:.12g}, h={vals[3]:.12g}, k={vals[4]:.12g}, L={_deg(vals[5])}, I={I})"
-            )
-        return f"<ModifiedEquinoctialElements shape={self._shape}, I={I}>"
-
-    def to_state(self):
-        """State vectors (Walker et al. 1985, eqs. 3-4). Returns :class:`StateVectors`."""
-        from .core.elements import mee_to_rv_array
-
-        shape = self._shape
-        flat_parts = [flat(x, shape) for x in self._stored()]
-        retro = -1.0 if self._retrograde else 1.0
-        r, v, status = mee_to_rv_array(*flat_parts, flat(self._gm, shape), retro)
-        return _states_from_kernel(
-            self,
-            r,
-            v,
-            status,
-            "equinoctial elements -> state vectors",
-            {"p": self._p, "f": self._f, "g": self._g, "L": self._L},
-            result_inputs={"p": self._p, "h": self._h, "k": self._k},
-        )
-
-    def to_keplerian(self):
-        """Classical elements (through the state vectors). Returns :class:`KeplerianElements`."""
-        return self.to_state().to_elements()

@@ -346,7 +346,7 @@ class StateVectors:
             Radial motion.
         """
         from .core.elements import rv_to_mee_array
-        from .elements import ModifiedEquinoctialElements
+        from .equinoctial import ModifiedEquinoctialElements
 
         retro = -1.0 if retrograde else 1.0
         *elements, status = rv_to_mee_array(*self._flat_inputs(), retro)
@@ -382,3 +382,17 @@ class StateVectors:
             if epoch.shape not in ((), shape):
                 epoch = np.broadcast_to(epoch, shape, subok=True)
         return StateVectors._from_canonical(r, v, gm, epoch)
+
+
+def states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
+    """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
+
+    Raises through :func:`visviva.errors.raise_for_result` (``inputs`` and ``result_inputs``
+    are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
+    ``elements``.
+    """
+    shape = elements._shape
+    r = r.reshape(shape + (3,))
+    v = v.reshape(shape + (3,))
+    raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
+    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)

@@ -16,6 +16,7 @@ from .ndmxml import XMLNode, add_text, looks_like_xml, new_root, parse, to_text
 __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
     "write_kvn_section", "write_xml_section", "write_message", "xml_child", "read_text",
+    "with_version",
 ]
 
 
@@ -67,7 +68,7 @@ def check_mandatory(record: Record, section: Section, source: str) -> None:
             line=record.line, source=source)
 
 
-def read_kvn_section(cursor: KVNCursor, section: Section) -> Record | None:
+def read_kvn_section(cursor: KVNCursor, section: Section, check: bool = True) -> Record | None:
     """Read the keywords of one section at the cursor (with the comments before them).
 
     Reading stops at the first line that is not a keyword of the section, or, for a repeated
@@ -79,6 +80,8 @@ def read_kvn_section(cursor: KVNCursor, section: Section) -> Record | None:
         Positioned at the section's first line (comments included).
     section : Section
         What to read.
+    check : bool
+        Check the mandatory keywords (else the caller calls :func:`check_mandatory`).
 
     Returns
     -------
@@ -112,7 +115,8 @@ def read_kvn_section(cursor: KVNCursor, section: Section) -> Record | None:
     if not record.values:
         cursor.pos = start
         return None
-    check_mandatory(record, section, cursor.source)
+    if check:
+        check_mandatory(record, section, cursor.source)
     return record
 
 
@@ -309,7 +313,7 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
                     raise CCSDSFormatError(f"<{root_tag}> lacks its version attribute",
                                            line=root.line, source=name)
                 header = read_xml_section(
-                    _with_version(nodes[0], version_key, version), section, name)
+                    with_version(nodes[0], version_key, version), section, name)
                 parsed[section.name] = header
                 continue
             if not nodes:
@@ -366,7 +370,22 @@ def _unexpected(cursor: KVNCursor, sections: tuple, root_tag: str) -> None:
                            f"{root_tag.upper()} message (check its spelling)")
 
 
-def _with_version(node: XMLNode, key: str, version: str) -> XMLNode:
+def with_version(node: XMLNode, key: str, version: str) -> XMLNode:
+    """A copy of an XML ``<header>`` with the root's version as its first keyword element.
+
+    Parameters
+    ----------
+    node : XMLNode
+        The header element.
+    key : str
+        The version keyword (``"CCSDS_OEM_VERS"``).
+    version : str
+        The root's ``version`` attribute.
+
+    Returns
+    -------
+    XMLNode
+    """
     version_node = XMLNode(key, {}, node.line, version)
     return XMLNode(node.tag, node.attrib, node.line, node.text, [version_node, *node.children])
 

@@ -97,6 +97,10 @@ _PUBLIC = {
     "CCSDSFormatError": "visviva.ccsds.grammar",
     "read_oem": "visviva.ccsds.oem_io",
     "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...

@@ -57,7 +57,11 @@ def test_tle_to_oem_samples_sgp4(tle_file, tmp_path, frame):
 
 def test_errors(tle_file, tmp_path, capsys):
     two = tmp_path / "two.tle"
-    two.write_text("\n".join(ISS) + "\n" + "\n".join(ISS).replace("25544", "25545") + "\n")
+    from visviva.satellites.tle_export import tle_checksum
+
+    other = [s.replace("25544", "25545")[:68] for s in ISS[1:]]
+    other = [s + str(tle_checksum(s)) for s in other]
+    two.write_text("\n".join(ISS) + "\nOTHER\n" + "\n".join(other) + "\n")
     with pytest.raises(SystemExit, match="holds 2 satellites"):
         cli.main(["convert", str(two), str(tmp_path / "x.omm"), "--to", "omm"])
     with pytest.raises(SystemExit, match="cannot tell the output kind"):

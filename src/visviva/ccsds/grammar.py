@@ -42,9 +42,8 @@ class CCSDSFormatError(InvalidInputError):
 _NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")
 _INT_RE = re.compile(r"^[+-]?\d+$")
 #: CCSDS epoch: calendar (YYYY-MM-DD) or ordinal (YYYY-DDD) date, 'T', time, optional 'Z'
-_EPOCH_RE = re.compile(
-    r"^\d{4}-(\d{2}-\d{2}|\d{3})T\d{2}:\d{2}:\d{2}(\.\d*)?Z?$"
-)
+EPOCH_PATTERN = r"\d{4}-(?:\d{2}-\d{2}|\d{3})T\d{2}:\d{2}:\d{2}(?:\.\d*)?Z?"
+_EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
 
 #: value types a keyword may have
 TYPES = ("text", "float", "int", "epoch")

@@ -19,7 +19,7 @@ brackets).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from .grammar import CCSDSFormatError, format_float
 
@@ -27,11 +27,11 @@ __all__ = ["KVNLine", "tokenize", "KVNCursor", "KVNWriter", "format_float"]
 
 _KEYWORD_RE = re.compile(r"^([A-Z][A-Z0-9_]*)\s*=\s*(.*?)\s*$")
 _UNIT_RE = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]$")
+_DATA_START = frozenset("0123456789+-.")
 _MARKER_RE = re.compile(r"^([A-Z][A-Z0-9_]*_(START|STOP))$")
 
 
-@dataclass(frozen=True)
-class KVNLine:
+class KVNLine(NamedTuple):
     """One non-blank line of a KVN message.
 
     Attributes
@@ -82,9 +82,13 @@ def tokenize(text: str, source: str = "<text>") -> list[KVNLine]:
         A keyword line without a value, or a unit bracket left open.
     """
     out = []
+    append = out.append
     for number, raw in enumerate(text.splitlines(), start=1):
         stripped = raw.strip()
         if not stripped:
+            continue
+        if stripped[0] in _DATA_START:  # fast path: keywords and markers start with a letter
+            append(KVNLine("data", number, "", stripped))
             continue
         if stripped == "COMMENT" or stripped.startswith(("COMMENT ", "COMMENT\t")):
             out.append(KVNLine("comment", number, "COMMENT", stripped[7:].strip()))

@@ -24,7 +24,7 @@ _XSI = "http://www.w3.org/2001/XMLSchema-instance"
 _SCHEMA = "https://sanaregistry.org/r/ndmxml_unqualified/ndmxml-3.0.0-master-3.0.xsd"
 
 
-@dataclass
+@dataclass(slots=True)
 class XMLNode:
     """One XML element: tag, attributes, stripped text, children and its 1-based line.
 
@@ -106,27 +106,33 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
         The XML is not well formed (the message names the line and column).
     """
     parser = expat.ParserCreate()
+    parser.buffer_text = True
     stack: list[XMLNode] = []
-    texts: list[list[str]] = []
     root: list[XMLNode] = []
+    names: dict[str, str] = {}
+
+    def local(name):
+        out = names.get(name)
+        if out is None:
+            out = names[name] = _local(name)
+        return out
 
     def start(name, attrs):
-        node = XMLNode(_local(name), {_local(k): v for k, v in attrs.items()},
+        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()} if attrs else {},
                        parser.CurrentLineNumber)
         if stack:
             stack[-1].children.append(node)
         else:
             root.append(node)
         stack.append(node)
-        texts.append([])
 
     def end(name):
         node = stack.pop()
-        node.text = "".join(texts.pop()).strip()
+        node.text = node.text.strip()
 
     def chars(data):
-        if texts:
-            texts[-1].append(data)
+        if stack:
+            stack[-1].text += data
 
     parser.StartElementHandler = start
     parser.EndElementHandler = end

@@ -12,7 +12,7 @@ from .covariance import (
     matrix_from_values,
     values_from_matrix,
 )
-from .grammar import CCSDSFormatError, Record, Section, format_float, parse_float
+from .grammar import EPOCH_PATTERN, CCSDSFormatError, Section, format_float, parse_float
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
 from .layout import (
@@ -25,12 +25,13 @@ from .layout import (
     write_xml_section,
     xml_child,
 )
-from .ndmxml import add_text, looks_like_xml, new_root, parse, to_text
+from .ndmxml import looks_like_xml, new_root, parse, to_text
 from .oem import COVARIANCE_META, HEADER, METADATA, Ephemeris, OEMCovariance, OEMSegment
 
 __all__ = ["read_oem", "write_oem"]
 
-_EPOCH_RE = re.compile(r"^\d{4}-(\d{2}-\d{2}|\d{3})T\d{2}:\d{2}:\d{2}(\.\d*)?Z?$")
+_EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
+_EPOCHS_RE = re.compile(f"(?:{EPOCH_PATTERN}\n)*{EPOCH_PATTERN}")  # many epochs, one per line, in one scan
 _STATE_KEYS = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT", "X_DDOT", "Y_DDOT", "Z_DDOT")
 _STATE_UNITS = ("km",) * 3 + ("km/s",) * 3 + ("km/s**2",) * 3
 STATE_VECTOR = Section("state_vector", (K("EPOCH", "epoch", None, True),) + tuple(
@@ -137,6 +138,39 @@ def _read_kvn(text: str, name: str) -> Ephemeris:
 
 
 def _state_lines(rows, name):
+    """Epochs and numbers of a segment's state lines: one split, one regex, one conversion.
+
+    Anything unusual (a wrong count, a bad epoch or number) falls back to the line-by-line
+    check, which names the line.
+    """
+    n = len(rows)
+    width = len(rows[0].value.split())
+    blob = " ".join([r.value for r in rows])
+    parts = blob.split()
+    # float() would also take '1_000' and 'nan': the first is refused here, the second below
+    if "_" not in blob:
+        fast = _table(parts, n, width)
+        if fast is not None:
+            return fast
+    return _state_lines_checked(rows, name)
+
+
+def _table(parts: list, n: int, width: int):
+    """(epochs, numbers) from n rows of ``width`` tokens, or None when anything is off."""
+    if width not in (7, 10) or len(parts) != n * width:
+        return None
+    table = np.array(parts, dtype=object).reshape(n, width)
+    epochs = table[:, 0].tolist()
+    if not _EPOCHS_RE.fullmatch("\n".join(epochs)):
+        return None
+    try:
+        numbers = table[:, 1:].astype(np.float64)
+    except ValueError:
+        return None
+    return (epochs, numbers) if np.isfinite(numbers).all() else None
+
+
+def _state_lines_checked(rows, name):
     tokens = [r.tokens for r in rows]
     width = len(tokens[0])
     for row, tok in zip(rows, tokens, strict=True):
@@ -149,14 +183,8 @@ def _state_lines(rows, name):
             raise CCSDSFormatError(f"{tok[0]!r} is not a CCSDS epoch like "
                                    "2024-01-31T12:00:00.000", line=row.line, source=name)
     epochs = [tok[0] for tok in tokens]
-    try:
-        numbers = np.array([tok[1:] for tok in tokens], dtype=np.float64)
-        ok = np.isfinite(numbers).all()
-    except ValueError:
-        ok = False
-    if not ok:  # find the line, with the grammar's number rule (also accepts 1.0D+03)
-        numbers = np.array([[parse_float(x, "a state value", row.line, name) for x in tok[1:]]
-                            for row, tok in zip(rows, tokens, strict=True)])
+    numbers = np.array([[parse_float(x, "a state value", row.line, name) for x in tok[1:]]
+                        for row, tok in zip(rows, tokens, strict=True)])
     return epochs, numbers
 
 
@@ -237,15 +265,12 @@ def _read_xml(text: str, name: str) -> Ephemeris:
             raise CCSDSFormatError("a <segment> needs <metadata> and <data>", line=node.line,
                                    source=name)
         meta = read_xml_section(meta_node, METADATA, name)
-        comments, epochs, rows, lines, covariances = [], [], [], [], []
+        comments, state_nodes, covariances = [], [], []
         for child in data_node.children:
             if child.tag == "COMMENT":
                 comments.append(child.text)
             elif child.tag == "stateVector":
-                rec = read_xml_section(child, STATE_VECTOR, name)
-                epochs.append(rec["EPOCH"])
-                rows.append([rec.get(k) for k in _STATE_KEYS])
-                lines.append(child.line)
+                state_nodes.append(child)
             elif child.tag == "covarianceMatrix":
                 rec = read_xml_section(child, COVARIANCE_XML, name)
                 covariances.append(OEMCovariance(rec["EPOCH"], matrix_from_values(rec.values),
@@ -253,22 +278,60 @@ def _read_xml(text: str, name: str) -> Ephemeris:
             else:
                 raise CCSDSFormatError(f"<{child.tag}> does not belong in an OEM <data>",
                                        line=child.line, source=name)
-        if not rows:
+        if not state_nodes:
             raise CCSDSFormatError("the segment's <data> has no <stateVector>",
                                    line=data_node.line, source=name)
-        has_acc = [r[6] is not None for r in rows]
-        if any(has_acc) and not all(has_acc):
-            k = has_acc.index(not has_acc[0])
-            raise CCSDSFormatError("either every <stateVector> of a segment has accelerations "
-                                   "or none", line=lines[k], source=name)
-        numbers = np.array([r if has_acc[0] else r[:6] for r in rows], dtype=np.float64)
+        epochs, numbers = _xml_states(state_nodes, name)
+        acc = numbers.shape[1] == 9
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
-                         numbers[:, 6:9] if has_acc[0] else None, covariances, comments)
-        _check_segment(seg, lines, meta_node.line, name)
+                         numbers[:, 6:9] if acc else None, covariances, comments)
+        _check_segment(seg, [n.line for n in state_nodes], meta_node.line, name)
         segments.append(seg)
     if not segments:
         raise CCSDSFormatError("the OEM has no <segment>", line=root.line, source=name)
     return Ephemeris(segments, header)
+
+
+def _xml_states(nodes, name):
+    """Epochs and numbers of the ``<stateVector>`` elements of a segment.
+
+    The fast path takes the elements in the schema's order with the schema's units (or none);
+    anything else goes through the grammar element by element, which names the line.
+    """
+    width = len(nodes[0].children)
+    keys = ("EPOCH",) + _STATE_KEYS[:width - 1]
+    units = (None,) + _STATE_UNITS[:width - 1]
+    texts = []
+    fast = width in (7, 10)
+    if fast:
+        for node in nodes:
+            children = node.children
+            if len(children) != width:
+                fast = False
+                break
+            for child, key, unit in zip(children, keys, units, strict=True):
+                if child.tag != key or child.attrib.get("units", unit) != unit:
+                    fast = False
+                    break
+                texts.append(child.text)
+            if not fast:
+                break
+    if fast and not any("_" in t for t in texts):
+        table = _table(texts, len(nodes), width)
+        if table is not None:
+            return table
+    rows, lines = [], []
+    for node in nodes:
+        rec = read_xml_section(node, STATE_VECTOR, name)
+        rows.append([rec["EPOCH"]] + [rec.get(k) for k in _STATE_KEYS])
+        lines.append(node.line)
+    has_acc = [r[7] is not None for r in rows]
+    if any(has_acc) and not all(has_acc):
+        k = has_acc.index(not has_acc[0])
+        raise CCSDSFormatError("either every <stateVector> of a segment has accelerations "
+                               "or none", line=lines[k], source=name)
+    numbers = np.array([r[1:] if has_acc[0] else r[1:7] for r in rows], dtype=np.float64)
+    return [r[0] for r in rows], numbers
 
 
 # ---- writing -----------------------------------------------------------------------------
@@ -348,27 +411,52 @@ def _write_kvn(eph: Ephemeris) -> str:
 
 
 def _write_xml(eph: Ephemeris) -> str:
+    """NDM/XML: header and metadata through ElementTree, the (long) data blocks as text."""
+    import xml.etree.ElementTree as ET
+
     header = eph.header
     root = new_root("oem", "CCSDS_OEM_VERS", header.values["CCSDS_OEM_VERS"])
     write_xml_section(root, HEADER, header, skip=("CCSDS_OEM_VERS",))
     body = xml_child(root, "body")
-    import xml.etree.ElementTree as ET
-
-    for seg in eph.segments:
+    blocks = []
+    for k, seg in enumerate(eph.segments):
         segment = ET.SubElement(body, "segment")
         write_xml_section(segment, METADATA, seg.metadata)
-        data = ET.SubElement(segment, "data")
-        for text in seg.data_comments:
-            add_text(data, "COMMENT", text)
-        width = 9 if seg.a_km_s2 is not None else 6
-        for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True):
-            sv = ET.SubElement(data, "stateVector")
-            add_text(sv, "EPOCH", epoch)
-            for key, unit, value in zip(_STATE_KEYS[:width], _STATE_UNITS[:width], row, strict=True):
-                add_text(sv, key, format_float(value), unit)
-        for cov in seg.covariances:
-            values = {"EPOCH": cov.epoch, **values_from_matrix(cov.matrix)}
-            if cov.frame is not None:
-                values["COV_REF_FRAME"] = cov.frame
-            write_xml_section(data, COVARIANCE_XML, Record(values=values, comments=cov.comments))
-    return to_text(root)
+        ET.SubElement(segment, "data").text = f"@@DATA{k}@@"
+        blocks.append(_xml_data_block(seg))
+    text = to_text(root)
+    for k, block in enumerate(blocks):
+        text = text.replace(f"<data>@@DATA{k}@@</data>", f"<data>\n{block}\n      </data>", 1)
+    return text
+
+
+def _xml_element(tag: str, text: str, units: str | None, indent: str) -> str:
+    from xml.sax.saxutils import escape
+
+    attr = f' units="{units}"' if units else ""
+    return f"{indent}<{tag}{attr}>{escape(str(text))}</{tag}>"
+
+
+def _xml_data_block(seg: OEMSegment) -> str:
+    pad, pad2 = " " * 8, " " * 10
+    lines = [_xml_element("COMMENT", c, None, pad) for c in seg.data_comments]
+    width = 9 if seg.a_km_s2 is not None else 6
+    template = "\n".join(
+        [f"{pad}<stateVector>", f"{pad2}<EPOCH>{{}}</EPOCH>"]
+        + [f'{pad2}<{k} units="{unit}">{{}}</{k}>'
+           for k, unit in zip(_STATE_KEYS[:width], _STATE_UNITS[:width], strict=True)]
+        + [f"{pad}</stateVector>"])
+    fmt = format_float
+    lines += [template.format(epoch, *map(fmt, row))
+              for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True)]
+    for cov in seg.covariances:
+        lines.append(f"{pad}<covarianceMatrix>")
+        lines += [_xml_element("COMMENT", c, None, pad2) for c in cov.comments]
+        lines.append(_xml_element("EPOCH", cov.epoch, None, pad2))
+        if cov.frame is not None:
+            lines.append(_xml_element("COV_REF_FRAME", cov.frame, None, pad2))
+        for key, value in values_from_matrix(cov.matrix).items():
+            unit = next(k.unit for k in COVARIANCE_KEYWORDS if k.name == key)
+            lines.append(_xml_element(key, fmt(value), unit, pad2))
+        lines.append(f"{pad}</covarianceMatrix>")
+    return "\n".join(lines)

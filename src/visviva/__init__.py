@@ -97,10 +97,19 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # CCSDS orbit data messages
+    "CCSDSFormatError": "visviva.ccsds.grammar",
+    "read_oem": "visviva.ccsds.oem_io",
+    "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
+               "ccsds"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -16,9 +16,9 @@ def _validate_parser(sub) -> None:
         "reference libraries; print one line per check (status, name, measured, tolerance, "
         "metric); write a Markdown report with plots. Exit code 0 only when every check passes.")
     p.add_argument("--full", action="store_true", help="include the long runs")
-    p.add_argument("--report", default="validation/report", metavar="DIR",
+    p.add_argument("--report", default="reference/report", metavar="DIR",
                    help="folder for report.md, results.json and the plots "
-                        "(default: validation/report)")
+                        "(default: reference/report)")
     p.add_argument("--no-report", action="store_true", help="write no report")
     p.add_argument("--only", default=None, metavar="STR",
                    help="comma-separated terms: run the modules whose topic matches, or else "

@@ -16,6 +16,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._units import to_array
+from ..constants import DAY_S
 from ..errors import (
     DomainError,
     InvalidInputError,
@@ -38,7 +39,6 @@ __all__ = [
 ]
 
 MINUTES_PER_DAY = 1440.0
-DAY_S = 86_400.0
 #: Largest |t - epoch| SGP4 is asked for (days, ~270 years): sgp4's deep-space integrator steps
 #: 720 min at a time from the epoch, so far larger offsets would run for hours.
 MAX_TSINCE_DAYS = 100_000.0

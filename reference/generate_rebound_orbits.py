@@ -5,8 +5,8 @@ low to retrograde inclinations) REBOUND converts classical elements to state vec
 (``rebound.Particle(primary=..., a, e, inc, Omega, omega, f)``) and propagates them with WHFast,
 whose Kepler drift is exact for a test particle around a single mass (no interaction kicks).
 
-Run ``python validation/generate_rebound_orbits.py`` to rewrite
-``validation/data/rebound_orbits.json``.
+Run ``python reference/generate_rebound_orbits.py`` to rewrite
+``reference/data/rebound_orbits.json``.
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ For float64 inputs (M, e) taken exactly, the file holds the correctly rounded fl
 plus the condition number dnu/dM, which bounds how much an error of one rounding in M moves nu.
 Regimes include e -> 1 from both sides, tiny and huge |M| and e = 0.
 
-Run ``python validation/generate_kepler_mpmath.py`` to rewrite
-``validation/data/kepler_mpmath.json``.
+Run ``python reference/generate_kepler_mpmath.py`` to rewrite
+``reference/data/kepler_mpmath.json``.
 """
 
 from __future__ import annotations

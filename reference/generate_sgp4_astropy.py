@@ -6,8 +6,8 @@ sets are built with ``Satrec.sgp4init`` and written out with ``sgp4.exporter.exp
 lines are exactly what sgp4 parses. For each TLE the file holds TEME position and velocity at
 offsets from the epoch and the same states rotated to GCRS by astropy (``TEME`` -> ``GCRS``).
 
-Run ``python validation/generate_sgp4_astropy.py`` to rewrite
-``validation/data/sgp4_astropy.json``. Skyfield's own GCRS states of the same TLEs (its
+Run ``python reference/generate_sgp4_astropy.py`` to rewrite
+``reference/data/sgp4_astropy.json``. Skyfield's own GCRS states of the same TLEs (its
 TEME -> GCRS chain, independent of astropy) are stored beside astropy's.
 """
 

@@ -1,6 +1,6 @@
 """Provenance headers for the reference data written by the ``generate_*.py`` scripts.
 
-Every file in ``validation/data/`` is JSON with two top-level keys: ``provenance`` (what made it:
+Every file in ``reference/data/`` is JSON with two top-level keys: ``provenance`` (what made it:
 the generating script, the library versions, the settings, the date) and ``cases`` (the data).
 """
 
@@ -36,8 +36,8 @@ def header(script: str, libraries: tuple[str, ...], settings: dict, description:
            units: dict) -> dict:
     """The provenance header of one data file."""
     return {
-        "generator": f"validation/{Path(script).name}",
-        "command": f"python validation/{Path(script).name}",
+        "generator": f"reference/{Path(script).name}",
+        "command": f"python reference/{Path(script).name}",
         "generated_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "libraries": versions(*libraries),
         "settings": settings,
@@ -54,7 +54,7 @@ def document(script: str, libraries: tuple[str, ...], settings: dict, descriptio
 
 
 def main(name: str, generate) -> None:
-    """Command-line entry of a generator: write ``validation/data/<name>`` from ``generate()``."""
+    """Command-line entry of a generator: write ``reference/data/<name>`` from ``generate()``."""
     path = write(name, generate())
     print(f"wrote {path}")
 
@@ -72,7 +72,7 @@ def _clean(value):
 
 
 def write(name: str, payload: dict) -> Path:
-    """Write ``validation/data/<name>`` (full float precision, strict JSON)."""
+    """Write ``reference/data/<name>`` (full float precision, strict JSON)."""
     DATA.mkdir(parents=True, exist_ok=True)
     path = DATA / name
     path.write_text(json.dumps(_clean(payload), indent=1, allow_nan=False) + "\n",
@@ -81,5 +81,5 @@ def write(name: str, payload: dict) -> Path:
 
 
 def read(name: str) -> dict:
-    """Read ``validation/data/<name>``."""
+    """Read ``reference/data/<name>``."""
     return json.loads((DATA / name).read_text(encoding="utf-8"))

@@ -9,8 +9,8 @@
 IAS15 is accurate to round-off, so any correct high-order integrator must reproduce these final
 states up to the chaotic growth of round-off (tolerances in tests/test_validation_data.py).
 
-Run ``python validation/generate_rebound_nbody.py`` to rewrite
-``validation/data/rebound_nbody.json``.
+Run ``python reference/generate_rebound_nbody.py`` to rewrite
+``reference/data/rebound_nbody.json``.
 """
 
 from __future__ import annotations

@@ -370,6 +370,16 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     for k, seg in enumerate(ephemeris.segments):
         seg.check(f"segment {k + 1}")
+    header = ephemeris.header
+    if "CREATION_DATE" not in header:  # the one keyword a writer may add (on a copy)
+        from astropy.time import Time
+
+        header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
+                        header.comments, header.lines, header.line)
+        ephemeris = Ephemeris(ephemeris.segments, header)
+    missing = [k for k in ("CCSDS_OEM_VERS", "ORIGINATOR") if k not in header]
+    if missing:
+        raise CCSDSFormatError(f"the ephemeris header lacks {', '.join(missing)}")
     text = _write_kvn(ephemeris) if format == "kvn" else _write_xml(ephemeris)
     if path is not None:
         with open(path, "w", encoding="utf-8") as handle:

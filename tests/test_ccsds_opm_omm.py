@@ -318,3 +318,12 @@ def test_hypothesis_omm_round_trip(values, fmt):
     back = vv.read_omm(vv.write_omm(omm, format=fmt))
     assert dict(back) == omm
     vv.Satellite.from_omm(back)  # what the OMM is for
+
+
+def test_omm_inside_an_ndm_wrapper():
+    xml = vv.write_omm(vv.read_omm(OMM_KVN), format="xml")
+    body = xml.split("\n", 1)[1]
+    wrapped = f'<?xml version="1.0" encoding="UTF-8"?>\n<ndm>\n{body}</ndm>\n'
+    assert dict(vv.read_omm(wrapped)) == dict(vv.read_omm(OMM_KVN))
+    with pytest.raises(vv.CCSDSFormatError, match="holds 2 <omm> messages"):
+        vv.read_omm(f"<ndm>\n{body}{body}</ndm>\n")

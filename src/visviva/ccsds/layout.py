@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .grammar import CCSDSFormatError, Record, Section, format_value, parse_value
 from .kvn import KVNCursor, KVNWriter
-from .ndmxml import XMLNode, add_text, looks_like_xml, new_root, parse, to_text
+from .ndmxml import XMLNode, add_text, looks_like_xml, message_root, new_root, parse, to_text
 
 __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
@@ -300,10 +300,7 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
     """
     text, name = read_text(source)
     if looks_like_xml(text):
-        root = parse(text, name)
-        if root.tag != root_tag:
-            raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{root_tag}>",
-                                   line=root.line, source=name)
+        root = message_root(parse(text, name), root_tag, name)
         parsed = {}
         for section in sections:
             nodes = root.path(section.xml_path)

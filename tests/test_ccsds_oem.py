@@ -257,3 +257,16 @@ def test_hypothesis_round_trip_bit_for_bit(r_v, n, fmt, with_cov):
     assert np.abs((back.times - t).to_value(u.s)).max() < 1e-9
     if with_cov:
         np.testing.assert_array_equal(back.covariances[0].matrix, seg.covariances[0].matrix)
+
+
+@pytest.mark.parametrize("method", ["LAGRANGE", "HERMITE"])
+def test_interpolation_in_blocks_equals_one_pass(method, monkeypatch):
+    from visviva.ccsds import interpolation
+
+    seg, _, t0 = _two_body_segment(method, 5)
+    t = t0 + np.linspace(0, 59 * 60.0, 101) * u.s
+    whole = seg.interpolate(t)
+    monkeypatch.setattr(interpolation, "_CHUNK", 7)
+    blocks = seg.interpolate(t)
+    np.testing.assert_array_equal(blocks.r.to_value(u.km), whole.r.to_value(u.km))
+    np.testing.assert_array_equal(blocks.v.to_value(u.km / u.s), whole.v.to_value(u.km / u.s))

@@ -327,3 +327,13 @@ def test_omm_inside_an_ndm_wrapper():
     assert dict(vv.read_omm(wrapped)) == dict(vv.read_omm(OMM_KVN))
     with pytest.raises(vv.CCSDSFormatError, match="holds 2 <omm> messages"):
         vv.read_omm(f"<ndm>\n{body}{body}</ndm>\n")
+
+
+def test_xml_unknown_elements_name_the_line():
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml")
+    lines = xml.splitlines()
+    k = next(i for i, s in enumerate(lines) if "<stateVector>" in s)
+    bad = "\n".join(lines[:k] + ["<orbitStuff>1</orbitStuff>"] + lines[k:])
+    with pytest.raises(vv.CCSDSFormatError, match="<orbitStuff> does not belong in <data>") as e:
+        vv.read_opm(bad)
+    assert e.value.line == k + 1

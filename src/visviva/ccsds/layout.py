@@ -301,6 +301,7 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
     text, name = read_text(source)
     if looks_like_xml(text):
         root = message_root(parse(text, name), root_tag, name)
+        _check_xml_elements(root, sections, name)
         parsed = {}
         for section in sections:
             nodes = root.path(section.xml_path)
@@ -349,6 +350,29 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
         raise cursor.error(f"unexpected {_describe(cursor.peek())} here: out of order (the "
                            "sections go header, metadata, data in the CCSDS order)")
     return parsed, "kvn", name
+
+
+def _check_xml_elements(root: XMLNode, sections: tuple, source: str) -> None:
+    """Raise on an element that no section of the message expects (naming its line)."""
+    expected: dict[str, set] = {}
+    for section in sections:
+        parts = section.xml_path.split("/")
+        for depth in range(len(parts)):
+            expected.setdefault("/".join(parts[:depth]), set()).add(parts[depth])
+
+    def walk(node: XMLNode, path: str) -> None:
+        allowed = expected.get(path)
+        if allowed is None:
+            return  # a section element: its keywords are checked by read_xml_section
+        for child in node.children:
+            if child.tag not in allowed and child.tag != "COMMENT":
+                where = f"<{node.tag}>"
+                raise CCSDSFormatError(f"<{child.tag}> does not belong in {where} (expected "
+                                       f"{', '.join(f'<{t}>' for t in sorted(allowed))})",
+                                       line=child.line, source=source)
+            walk(child, f"{path}/{child.tag}" if path else child.tag)
+
+    walk(root, "")
 
 
 def _describe(line) -> str:

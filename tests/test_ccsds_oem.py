@@ -270,3 +270,14 @@ def test_interpolation_in_blocks_equals_one_pass(method, monkeypatch):
     blocks = seg.interpolate(t)
     np.testing.assert_array_equal(blocks.r.to_value(u.km), whole.r.to_value(u.km))
     np.testing.assert_array_equal(blocks.v.to_value(u.km / u.s), whole.v.to_value(u.km / u.s))
+
+
+def test_default_interpolation_when_the_file_names_none():
+    text = OEM_KVN.replace("INTERPOLATION = HERMITE\nINTERPOLATION_DEGREE = 1\n", "")
+    text = text.replace("INTERPOLATION = LAGRANGE\n", "")
+    first, second = vv.read_oem(text).segments
+    assert first.interpolation == ("LAGRANGE", 3)  # 4 states
+    assert second.interpolation == ("LAGRANGE", 2)  # degree named, method not
+    seg, _, _ = _two_body_segment("HERMITE", 5)
+    del seg.metadata.values["INTERPOLATION"], seg.metadata.values["INTERPOLATION_DEGREE"]
+    assert seg.interpolation == ("LAGRANGE", 7)

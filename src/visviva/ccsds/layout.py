@@ -26,7 +26,8 @@ def read_text(source) -> tuple[str, str]:
     Parameters
     ----------
     source : str or os.PathLike
-        A file name, or the message text (anything containing a newline or starting with ``<``).
+        A file name, or the message text (anything containing a newline or ``=``, or starting
+        with ``<``).
 
     Returns
     -------
@@ -37,7 +38,8 @@ def read_text(source) -> tuple[str, str]:
     import os
 
     if isinstance(source, os.PathLike) or (
-            isinstance(source, str) and "\n" not in source and not source.lstrip().startswith("<")):
+            isinstance(source, str) and "\n" not in source and "=" not in source
+            and not source.lstrip().startswith("<")):
         path = os.fspath(source)
         if not os.path.exists(path):
             raise CCSDSFormatError(f"no such file {path!r}; pass a path or the message text")

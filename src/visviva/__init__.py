@@ -93,10 +93,16 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # conjunctions
+    "screen_conjunctions": "visviva.conjunctions",
+    "collision_probability": "visviva.conjunctions",
+    "max_collision_probability": "visviva.conjunctions",
+    "monte_carlo_probability": "visviva.conjunctions",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
+               "conjunctions"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -25,8 +25,10 @@ from .probability import (
     max_collision_probability,
     monte_carlo_probability,
 )
+from .screening import screen_conjunctions
 
 __all__ = [
+    "screen_conjunctions",
     "collision_probability",
     "max_collision_probability",
     "monte_carlo_probability",

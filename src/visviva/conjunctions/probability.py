@@ -348,10 +348,9 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
 
 def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     """The 3-D flux integral (see collision_probability); inputs in m, m/s."""
-    from ..core import collision as kern
+    from .._units import to_array
     from ..core.stm import two_body_stm
     from ..core.universal import propagate_one
-    from .._units import to_array
 
     if hbr == 0:
         return -math.inf
@@ -433,5 +432,4 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     top = float(np.max(logs))
     if top == -math.inf:
         return -math.inf
-    del kern
     return top + math.log(float(np.sum(np.exp(logs - top))))

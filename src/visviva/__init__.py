@@ -98,11 +98,19 @@ _PUBLIC = {
     "collision_probability": "visviva.conjunctions",
     "max_collision_probability": "visviva.conjunctions",
     "monte_carlo_probability": "visviva.conjunctions",
+    # CCSDS orbit data messages
+    "CCSDSFormatError": "visviva.ccsds.grammar",
+    "read_oem": "visviva.ccsds.oem_io",
+    "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
 _SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
-               "conjunctions"}
+               "conjunctions", "ccsds"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -106,6 +106,9 @@ _PUBLIC = {
     "write_opm": "visviva.ccsds.opm",
     "read_omm": "visviva.ccsds.omm",
     "write_omm": "visviva.ccsds.omm",
+    "read_cdm": "visviva.ccsds.cdm",
+    "write_cdm": "visviva.ccsds.cdm",
+    "ConjunctionDataMessage": "visviva.ccsds.cdm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...

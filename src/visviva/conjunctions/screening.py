@@ -38,6 +38,9 @@ SCREEN_COLUMNS = {
 #: distance added to the apogee/perigee and sampling filters (km): covers the difference between
 #: SGP4's mean-element perigee/apogee and its osculating radius (short-period J2, ~10 km in LEO)
 FILTER_MARGIN_KM = 60.0
+#: distance added to the Hermite minimum (km) at a 60 s step: the cubic Hermite model of the
+#: relative motion errs by ~1e-3 km there (its error grows as step^4)
+HERMITE_MARGIN_KM = 2.0
 _DAY_S = 86400.0
 
 
@@ -129,9 +132,12 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
         r2, v2 = (r1, v1) if self_mode else _propagate(cat2, jd, fr)
         q1, Q1 = _shells(cat1)
         q2, Q2 = (q1, Q1) if self_mode else _shells(cat2)
+        speeds = [np.nanmax(np.linalg.norm(v, axis=-1), initial=0.0) for v in (v1, v2)]
         cache.clear()
-        cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2))
+        cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
+                     speed=1.01 * (speeds[0] + speeds[1]) + 1e-3)
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
+    speed_bound = cache["speed"]
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     cap = 64
     while True:
@@ -139,8 +145,10 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
         out_k = np.empty((rows.size, cap), dtype=np.int64)
         out_d = np.empty((rows.size, cap))
         counts = np.zeros(rows.size, dtype=np.int64)
+        fine = HERMITE_MARGIN_KM * max(1.0, (step_s / 60.0) ** 4)
         screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, bool(self_mode), float(step_s),
-                    float(threshold_km), FILTER_MARGIN_KM, out_j, out_k, out_d, counts)
+                    float(threshold_km), FILTER_MARGIN_KM, fine, speed_bound, out_j, out_k, out_d,
+                    counts)
         if counts.max(initial=0) <= cap:
             break
         cap = int(counts.max()) + 16
@@ -223,8 +231,8 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     Adv. Space Res. 34 (2004) 1120): apogee/perigee shells widened by ``threshold`` + 60 km, then
     the sampled range rate ``rho . rho_dot`` (SGP4 positions and velocities every ``step``): a
     change of sign from - to + brackets each local minimum of the distance, so none is skipped,
-    and a cubic Hermite model of the relative motion (error ~1 m at 60 s) rejects those far
-    above the threshold. Survivors are refined on SGP4 itself: TCA by Brent's method on
+    and a cubic Hermite model of the relative motion (error ~1 m at 60 s; margin 2 km, growing
+    as ``step^4``) rejects those above the threshold. Survivors are refined on SGP4 itself: TCA by Brent's method on
     ``rho . rho_dot`` to 1e-5 s. Positions are TEME; the RTN components of ``r2 - r1`` use the
     primary's TEME position and velocity. Minima at the edges of the window are reported at the
     edge.

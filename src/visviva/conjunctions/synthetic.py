@@ -37,10 +37,11 @@ def synthetic_catalog(n, *, seed=0, epoch="2024-01-01T00:00:00", crossing_pairs=
     Returns
     -------
     Catalog
-        Satellites named ``SYN<satnum>``, with satnums 10000+ (random) and 60000+ (pairs).
+        Built from TLE lines (sgp4's exporter), so that it pickles; satellites named ``SYN<satnum>``, with satnums 10000+ (random) and 60000+ (pairs).
     """
     from astropy.time import Time
     from sgp4.api import WGS72, Satrec
+    from sgp4.exporter import export_tle
 
     from ..satellites.catalog import Catalog
     from ..satellites.tle import Satellite
@@ -54,7 +55,9 @@ def synthetic_catalog(n, *, seed=0, epoch="2024-01-01T00:00:00", crossing_pairs=
         s = Satrec()
         s.sgp4init(WGS72, "i", satnum, days, bstar, 0.0, 0.0, ecc, argp, inc, mo, no_kozai,
                    node)
-        return Satellite(s, name=f"SYN{satnum}")
+        # through the TLE text, so that the satellites pickle (Dask workers rebuild them)
+        line1, line2 = export_tle(s)
+        return Satellite.from_tle(line1, line2, f"SYN{satnum}")
 
     sats = []
     for k in range(int(n)):

@@ -40,6 +40,8 @@ def _legendre(n):
 #: rule; their difference is the error estimate of the adaptive integration.
 GAUSS_LO = _legendre(10)
 GAUSS_HI = _legendre(21)
+#: uniform pieces of theta in [-pi/2, pi/2] before adaptive bisection
+_GRID = 8
 
 
 @inline_kernel
@@ -144,7 +146,7 @@ def log_pc_circle(xm, zm, sx, sz, hbr, lo_rule, hi_rule, rtol):
     # break points: the theta where x = 0 (peak of the x Gaussian) and where the half chord
     # equals |zm| (the z factor changes fastest there), plus a uniform grid
     nb = 0
-    brk = np.empty(48)
+    brk = np.empty(64)
     brk[nb] = -half_pi
     nb += 1
     brk[nb] = half_pi
@@ -158,33 +160,59 @@ def log_pc_circle(xm, zm, sx, sz, hbr, lo_rule, hi_rule, rtol):
         nb += 1
         brk[nb] = -t
         nb += 1
-    for k in range(1, 33):
-        brk[nb] = -half_pi + math.pi * k / 33.0
+    for k in range(1, _GRID):
+        brk[nb] = -half_pi + math.pi * k / _GRID
         nb += 1
-    b = np.sort(brk[:nb])
     # scale: the largest log-integrand on the break points, refined by golden-section search
     shift = -math.inf
     best = 0.0
     for k in range(nb):
-        L = _log_integrand(b[k], xm, zm, sx, sz, hbr)
+        L = _log_integrand(brk[k], xm, zm, sx, sz, hbr)
         if L > shift:
             shift = L
-            best = b[k]
-    lo_t = max(-half_pi, best - math.pi / 33.0)
-    hi_t = min(half_pi, best + math.pi / 33.0)
+            best = brk[k]
+    lo_t = max(-half_pi, best - math.pi / _GRID)
+    hi_t = min(half_pi, best + math.pi / _GRID)
     g = 0.5 * (math.sqrt(5.0) - 1.0)
-    for _ in range(80):
+    for _ in range(60):
         t1 = hi_t - g * (hi_t - lo_t)
         t2 = lo_t + g * (hi_t - lo_t)
         if _log_integrand(t1, xm, zm, sx, sz, hbr) > _log_integrand(t2, xm, zm, sx, sz, hbr):
             hi_t = t2
         else:
             lo_t = t1
-    L = _log_integrand(0.5 * (lo_t + hi_t), xm, zm, sx, sz, hbr)
+    peak = 0.5 * (lo_t + hi_t)
+    L = _log_integrand(peak, xm, zm, sx, sz, hbr)
     if L > shift:
         shift = L
+    else:
+        peak = best
     if shift == -math.inf:
         return -math.inf, 0
+    # width of the peak from the drop of the log-integrand, then break points at geometrically
+    # growing distances around it, so that a very narrow peak is resolved from the start
+    delta = math.pi / _GRID
+    drop = 0.0
+    for _ in range(60):
+        la = _log_integrand(max(-half_pi, peak - delta), xm, zm, sx, sz, hbr)
+        lb = _log_integrand(min(half_pi, peak + delta), xm, zm, sx, sz, hbr)
+        drop = shift - 0.5 * (la + lb)
+        if drop <= 8.0 or delta < 1e-15:
+            break
+        delta *= 0.25
+    width = delta / math.sqrt(2.0 * drop) if drop > 0.0 else delta
+    brk[nb] = peak
+    nb += 1
+    w = width
+    for _ in range(14):
+        if peak - w > -half_pi:
+            brk[nb] = peak - w
+            nb += 1
+        if peak + w < half_pi:
+            brk[nb] = peak + w
+            nb += 1
+        w *= 4.0
+    b = np.sort(brk[:nb])
     # when ln(Pc) is huge and negative, the log-integrand carries an absolute rounding error of
     # ~eps |shift|, which bounds the relative accuracy of Pc itself (still exact in ln Pc)
     rtol = max(rtol, 16.0 * 2.220446049250313e-16 * abs(shift))

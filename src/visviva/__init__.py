@@ -97,6 +97,11 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # conjunctions
+    "screen_conjunctions": "visviva.conjunctions",
+    "collision_probability": "visviva.conjunctions",
+    "max_collision_probability": "visviva.conjunctions",
+    "monte_carlo_probability": "visviva.conjunctions",
     # CCSDS orbit data messages
     "CCSDSFormatError": "visviva.ccsds.grammar",
     "read_oem": "visviva.ccsds.oem_io",
@@ -105,11 +110,14 @@ _PUBLIC = {
     "write_opm": "visviva.ccsds.opm",
     "read_omm": "visviva.ccsds.omm",
     "write_omm": "visviva.ccsds.omm",
+    "read_cdm": "visviva.ccsds.cdm",
+    "write_cdm": "visviva.ccsds.cdm",
+    "ConjunctionDataMessage": "visviva.ccsds.cdm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
 _SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
-               "ccsds"}
+               "conjunctions", "ccsds"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

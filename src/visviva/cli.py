@@ -63,6 +63,7 @@ def _import_benchmarks():
 #: the sub-parser named like the command) and ``run(args) -> int`` (the exit code). The module is
 #: imported when the parser is built, so it must import nothing heavy at module level.
 _COMMANDS: dict[str, str] = {
+    "screen": "visviva.conjunctions.cli",
     "convert": "visviva.ccsds.convert",
 }
 

@@ -95,6 +95,7 @@ _PUBLIC = {
     "sun_synchronous_inclination": "visviva.satellites",
     # ground stations and passes
     "GroundStation": "visviva.ground",
+    "find_passes": "visviva.ground",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...

@@ -12,6 +12,13 @@ import importlib
 #: public name -> submodule of visviva.ground that defines it
 _EXPORTS = {
     "GroundStation": "station",
+    "find_passes": "passes",
+    "write_passes": "passes",
+    "visual_magnitude": "visibility",
+    "LookAngles": "look",
+    "refraction_deg": "look",
+    "doppler_shift": "doppler",
+    "twilight": "visibility",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -28,12 +28,14 @@ import numpy as np
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 
 __all__ = ["razel", "razel_many", "scan_passes", "elevation_rate_many", "RISE", "CULMINATION",
-           "SET", "PAIR_OK", "PAIR_NON_FINITE", "PAIR_OVERFLOW"]
+           "SET", "NEAR_MAXIMUM", "PAIR_OK", "PAIR_NON_FINITE", "PAIR_OVERFLOW"]
 
 #: event kinds (Skyfield's convention)
 RISE = 0
 CULMINATION = 1
 SET = 2
+#: a maximum just below the threshold on the interpolating polynomial (a candidate)
+NEAR_MAXIMUM = 5
 
 #: per-pair status of :func:`scan_passes`
 PAIR_OK = 0
@@ -159,7 +161,8 @@ def _f_at(r, v, i, t, h, nodes, sx, sy, sz, ux, uy, uz, sin_min):
 
 
 @kernel
-def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, out_t, out_k, out_f, cap):
+def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, out_k, out_f,
+                 cap):
     """Stream the samples of one pair; write its events; return how many there are."""
     nodes = r.shape[1]
     sx, sy, sz = site[0], site[1], site[2]
@@ -251,10 +254,10 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, out_t, out_k,
                     out_k[count] = RISE if ef > bf else SET
                     out_f[count] = 0.0
                 count += 1
-            if is_ext and ext_max and ef > 0.0:
+            if is_ext and ext_max and ef > -near:
                 if count < cap:
                     out_t[count] = et
-                    out_k[count] = CULMINATION
+                    out_k[count] = CULMINATION if ef > 0.0 else NEAR_MAXIMUM
                     out_f[count] = ef
                 count += 1
             bt = et
@@ -267,8 +270,8 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, out_t, out_k,
 
 
 @parallel_kernel
-def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, out_t, out_k, out_f, count,
-                status, f_ends):
+def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, out_k, out_f,
+                count, status, f_ends):
     """Rise, culmination and set of every (satellite, site) pair on Hermite-joined nodes.
 
     Parameters
@@ -287,9 +290,13 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, out_t, out_k, o
         Site positions (km) and up unit vectors, Earth-fixed.
     sin_min : float
         Sine of the minimum elevation.
+    near : float
+        Maxima with ``-near < f <= 0`` on the polynomial are reported as
+        :data:`NEAR_MAXIMUM`: the caller checks them on the exact trajectory (grazing passes
+        the polynomial's error could hide).
     out_t, out_k, out_f : ndarray (N * S, cap)
-        Event times (grid s), kinds (:data:`RISE`, :data:`CULMINATION`, :data:`SET`) and, for
-        culminations, ``sin(el) - sin_min`` there. Pair ``p = i * S + s``.
+        Event times (grid s), kinds (:data:`RISE`, :data:`CULMINATION`, :data:`SET`,
+        :data:`NEAR_MAXIMUM`) and, for maxima, ``f`` there. Pair ``p = i * S + s``.
     count : ndarray (N * S,) int64
         Events found per pair (may exceed ``cap``: then status is :data:`PAIR_OVERFLOW`).
     status : ndarray (N * S,) int64
@@ -318,8 +325,8 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, out_t, out_k, o
                              u[2], sin_min)
         f_ends[p, 1] = _f_at(r, v, i, te, h, r.shape[1], st[0], st[1], st[2], u[0], u[1],
                              u[2], sin_min)
-        c = _pair_events(r, v, i, h, ts, te, m, st, u, sin_min, out_t[p], out_k[p], out_f[p],
-                         cap)
+        c = _pair_events(r, v, i, h, ts, te, m, st, u, sin_min, near, out_t[p], out_k[p],
+                         out_f[p], cap)
         count[p] = c
         status[p] = PAIR_OVERFLOW if c > cap else PAIR_OK
 

@@ -40,6 +40,9 @@ __all__ = ["EventSet", "search_events", "check_window", "min_elevation_rad", "WI
 _BASE_STEP_S = 75.0
 _SAMPLES = 6
 _CHUNK_PAIRS = 4096
+#: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.11 deg, far above
+#: the polynomial's error (~0.01 deg in LEO)
+_NEAR = 2e-3
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
@@ -175,7 +178,7 @@ def _coarse_scan(cat, idx, h, t_ref, span_s, pad_s, earth, sites, ups, sin_min):
         while True:
             ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
             _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], _SAMPLES, sites, ups,
-                              sin_min, ot, ok, of, cnt, st, fe)
+                              sin_min, _NEAR, ot, ok, of, cnt, st, fe)
             if not (st == _topo.PAIR_OVERFLOW).any():
                 break
             cap = int(cnt.max()) + 8
@@ -251,43 +254,86 @@ def _evaluate(sats, sat_i, sta_i, t_s, t_ref, earth, sites, ups, sin_min):
 
 
 def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_min, span_s):
-    """Newton (crossings) and secant on f' (culminations) steps on SGP4; drop grazing fakes."""
+    """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
+
+    1. Maxima (culminations and near-maxima) move to the vertex of the parabola through ``f``
+       at ``t - 1 s``, ``t``, ``t + 1 s`` (twice). Positions only: SGP4's velocity is not
+       exactly the derivative of its position (it leaves out the rates of some periodic
+       terms: ~1 cm/s in LEO, more with the deep-space terms), which would move a flat
+       culmination by seconds.
+    2. A maximum below the threshold on SGP4 is dropped. A maximum above it by less than
+       ``_NEAR`` is a grazing pass: its rise and set are re-seeded from the parabola,
+       ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, which the polynomial's crossings (if
+       any) could not resolve.
+    3. Rises and sets take three Newton steps on ``f`` (``f' `` from SGP4's velocity is only
+       the slope; the converged root ``f = 0`` is a property of the positions).
+    """
     t = t_s.copy()
-    cross = (kind == _topo.RISE) | (kind == _topo.SET)
-    culm = kind == _topo.CULMINATION
-    dt_fd = 0.5  # s, for the secant on f'
-    for _ in range(2):
-        if t.size == 0:
-            break
-        # one evaluation at every event, one more 'dt_fd' later at each culmination
-        ci = np.flatnonzero(culm)
-        all_sat = np.concatenate([sat_i, sat_i[ci]])
-        all_sta = np.concatenate([sta_i, sta_i[ci]])
-        all_t = np.concatenate([t, t[ci] + dt_fd])
-        _, _, _, fd, err = _evaluate(sats, all_sat, all_sta, all_t, t_ref, earth, sites, ups,
-                                     sin_min)
-        f, fp = fd[: t.size, 0], fd[: t.size, 1]
-        ok = err[: t.size] == 0
-        step = np.zeros_like(t)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step[cross] = -f[cross] / fp[cross]
-            fp2 = fd[t.size:, 1]
-            step[ci] = -fp[ci] * dt_fd / (fp2 - fp[ci])
-        step = np.where(ok & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
-        t = np.clip(t + step, 0.0, span_s)
-    _, ri, vi, fd, _ = _evaluate(sats, sat_i, sta_i, t, t_ref, earth, sites, ups, sin_min)
+    kind = kind.copy()
     keep = np.ones(t.size, dtype=bool)
-    # a culmination that SGP4 puts below the threshold: drop it (and its rise/set when it was
-    # the only culmination between them)
-    low = culm & (fd[:, 0] <= 0.0)
-    if low.any():
-        keep &= ~low
-        keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
+    delta = 1.0  # s, half-width of the parabola
+    mi = np.flatnonzero((kind == _topo.CULMINATION) | (kind == _topo.NEAR_MAXIMUM))
+    f_c = np.empty(mi.size)
+    k_c = np.empty(mi.size)
+    for it in range(3):
+        if mi.size == 0:
+            break
+        tt = np.concatenate([t[mi], t[mi] - delta, t[mi] + delta])
+        _, _, _, fd, err = _evaluate(sats, np.tile(sat_i[mi], 3), np.tile(sta_i[mi], 3), tt,
+                                     t_ref, earth, sites, ups, sin_min)
+        f0, fm, fp = np.split(fd[:, 0], 3)
+        ok = (err.reshape(3, -1) == 0).all(axis=0)
+        curv = fm - 2.0 * f0 + fp
+        f_c = np.where(ok, f0, -1.0)
+        k_c = -curv / delta**2
+        if it == 2:
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
+        step = np.where(ok & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
+        t[mi] = np.clip(t[mi] + step, 0.0, span_s)
+    if mi.size:
+        keep[mi[f_c <= 0.0]] = False
+        kind[mi[f_c > 0.0]] = _topo.CULMINATION
+        graze = np.flatnonzero((f_c > 0.0) & (f_c < _NEAR) & (k_c > 0.0))
+        new_sat, new_sta, new_t, new_k = [], [], [], []
+        cross = (kind == _topo.RISE) | (kind == _topo.SET)
+        for g in graze:
+            e = mi[g]
+            half = float(np.sqrt(2.0 * f_c[g] / k_c[g]))
+            near = (cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
+                    & (np.abs(t - t[e]) < half + 120.0))
+            keep[near] = False
+            for when, kk in ((t[e] - half, _topo.RISE), (t[e] + half, _topo.SET)):
+                if 0.0 < when < span_s:
+                    new_sat.append(sat_i[e])
+                    new_sta.append(sta_i[e])
+                    new_t.append(when)
+                    new_k.append(kk)
+        if new_t:
+            sat_i = np.concatenate([sat_i, new_sat])
+            sta_i = np.concatenate([sta_i, new_sta])
+            t = np.concatenate([t, new_t])
+            kind = np.concatenate([kind, np.asarray(new_k, dtype=np.int64)])
+            keep = np.concatenate([keep, np.ones(len(new_t), dtype=bool)])
+    cross = np.flatnonzero(((kind == _topo.RISE) | (kind == _topo.SET)) & keep)
+    for _ in range(3):
+        if cross.size == 0:
+            break
+        _, _, _, fd, err = _evaluate(sats, sat_i[cross], sta_i[cross], t[cross], t_ref, earth,
+                                     sites, ups, sin_min)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = -fd[:, 0] / fd[:, 1]
+        step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
+        t[cross] = np.clip(t[cross] + step, 0.0, span_s)
+    keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
+    sel = np.flatnonzero(keep)
+    sat_i, sta_i, t, kind = sat_i[sel], sta_i[sel], t[sel], kind[sel]
+    _, ri, vi, _, _ = _evaluate(sats, sat_i, sta_i, t, t_ref, earth, sites, ups, sin_min)
     rho = ri - sites[sta_i]
     res = np.empty((t.size, 6))
     _topo.razel_many(np.ascontiguousarray(rho), np.ascontiguousarray(vi), enu, sta_i, res)
     order = np.lexsort((kind, t, sta_i, sat_i))
-    order = order[keep[order]]
     return EventSet(sat=sat_i[order], station=sta_i[order], kind=kind[order], t_s=t[order],
                     t_ref=t_ref, rng=res[order, 0], az=res[order, 1], el=res[order, 2],
                     rng_rate=res[order, 3], r_itrs=ri[order])
@@ -296,10 +342,11 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
 def _orphans(sat_i, sta_i, t, kind, keep) -> np.ndarray:
     """Rises and sets left with no culmination between them after grazing culminations went."""
     out = np.zeros(t.size, dtype=bool)
-    order = np.lexsort((t, sta_i, sat_i))
+    order = np.lexsort((kind, t, sta_i, sat_i))
     o = order[keep[order]]
-    for a, b in zip(o[:-1], o[1:], strict=False):
-        if (sat_i[a], sta_i[a]) == (sat_i[b], sta_i[b]) and kind[a] == _topo.RISE \
-                and kind[b] == _topo.SET:
-            out[a] = out[b] = True
+    a, b = o[:-1], o[1:]
+    pair = ((sat_i[a] == sat_i[b]) & (sta_i[a] == sta_i[b]) & (kind[a] == _topo.RISE)
+            & (kind[b] == _topo.SET))
+    out[a[pair]] = True
+    out[b[pair]] = True
     return out

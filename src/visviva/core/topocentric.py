@@ -28,7 +28,7 @@ import numpy as np
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 
 __all__ = ["razel", "razel_many", "scan_passes", "elevation_rate_many", "RISE", "CULMINATION",
-           "SET", "NEAR_MAXIMUM", "PAIR_OK", "PAIR_NON_FINITE", "PAIR_OVERFLOW"]
+           "SET", "NEAR_MAXIMUM", "teme_to_itrs_anchored", "PAIR_OK", "PAIR_NON_FINITE", "PAIR_OVERFLOW"]
 
 #: event kinds (Skyfield's convention)
 RISE = 0
@@ -88,7 +88,7 @@ def razel(px, py, pz, vx, vy, vz, east, north, up):
     return rng, az, el, rng_rate, az_rate, el_rate
 
 
-@parallel_kernel
+@kernel
 def razel_many(rho, rho_dot, enu, site_index, out):
     """:func:`razel` for M vectors; ``out[k]`` = (range, az, el, range rate, az rate, el rate).
 
@@ -102,7 +102,7 @@ def razel_many(rho, rho_dot, enu, site_index, out):
         The site of each vector.
     out : ndarray (M, 6)
     """
-    for k in prange(rho.shape[0]):
+    for k in range(rho.shape[0]):
         m = enu[site_index[k]]
         res = razel(rho[k, 0], rho[k, 1], rho[k, 2], rho_dot[k, 0], rho_dot[k, 1],
                     rho_dot[k, 2], m[0], m[1], m[2])
@@ -110,7 +110,7 @@ def razel_many(rho, rho_dot, enu, site_index, out):
             out[k, c] = res[c]
 
 
-@parallel_kernel
+@kernel
 def elevation_rate_many(r, v, sites, ups, site_index, sin_min, out):
     """``f = sin(el) - sin_min`` and ``df/dt`` for M exact Earth-fixed states.
 
@@ -126,7 +126,7 @@ def elevation_rate_many(r, v, sites, ups, site_index, sin_min, out):
     sin_min : float
     out : ndarray (M, 2)
     """
-    for k in prange(r.shape[0]):
+    for k in range(r.shape[0]):
         s = site_index[k]
         px = r[k, 0] - sites[s, 0]
         py = r[k, 1] - sites[s, 1]
@@ -203,7 +203,7 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
             x2 = hi - _GOLDEN * (hi - lo)
             g1 = sgn * _f_at(r, v, i, x1, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
             g2 = sgn * _f_at(r, v, i, x2, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
-            while hi - lo > 1e-4:
+            while hi - lo > 1e-2:
                 if g1 > g2:
                     hi = x2
                     x2 = x1
@@ -247,7 +247,7 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
                         if side == 1:
                             flo *= 0.5
                         side = 1
-                    if hi - lo < 1e-6:
+                    if hi - lo < 1e-3:
                         break
                 if count < cap:
                     out_t[count] = 0.5 * (lo + hi)
@@ -329,6 +329,51 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, ou
                          out_f[p], cap)
         count[p] = c
         status[p] = PAIR_OVERFLOW if c > cap else PAIR_OK
+
+
+@kernel
+def teme_to_itrs_anchored(r, v, t_s, t_first, anchor_s, mats, omega, r_out, v_out):
+    """TEME -> ITRS states from 6 x 6 anchor maps and the sidereal rotation in between.
+
+    ``y = (R3(theta) r, R3(theta) v)`` with ``theta = omega (t - t_k)`` and ``t_k`` the nearest
+    anchor; the result is ``mats[k] @ y`` (see :mod:`visviva.ground.earthfixed`).
+
+    Parameters
+    ----------
+    r, v : ndarray (M, 3)
+        TEME states, km and km/s.
+    t_s : ndarray (M,)
+        Times, s on the anchors' axis.
+    t_first, anchor_s : float
+        Time of the first anchor and the spacing, s.
+    mats : ndarray (A, 6, 6)
+        The anchors' TEME -> ITRS state maps.
+    omega : float
+        Rate of the sidereal angle, rad/s.
+    r_out, v_out : ndarray (M, 3)
+    """
+    na = mats.shape[0]
+    for k in range(r.shape[0]):
+        a = int(math.floor((t_s[k] - t_first) / anchor_s + 0.5))
+        if a < 0:
+            a = 0
+        if a > na - 1:
+            a = na - 1
+        th = omega * (t_s[k] - (t_first + a * anchor_s))
+        c = math.cos(th)
+        s = math.sin(th)
+        y0 = c * r[k, 0] + s * r[k, 1]
+        y1 = -s * r[k, 0] + c * r[k, 1]
+        y2 = r[k, 2]
+        y3 = c * v[k, 0] + s * v[k, 1]
+        y4 = -s * v[k, 0] + c * v[k, 1]
+        y5 = v[k, 2]
+        m = mats[a]
+        for i in range(3):
+            r_out[k, i] = (m[i, 0] * y0 + m[i, 1] * y1 + m[i, 2] * y2 + m[i, 3] * y3
+                           + m[i, 4] * y4 + m[i, 5] * y5)
+            v_out[k, i] = (m[3 + i, 0] * y0 + m[3 + i, 1] * y1 + m[3 + i, 2] * y2
+                           + m[3 + i, 3] * y3 + m[3 + i, 4] * y4 + m[3 + i, 5] * y5)
 
 
 def empty_outputs(pairs: int, cap: int):

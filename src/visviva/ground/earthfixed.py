@@ -25,26 +25,64 @@ GMST_RATE_RAD_S = 1.00273790935 * 2.0 * np.pi / 86400.0
 
 
 class EarthFixedMap:
-    """TEME -> ITRS for any times in ``[t_ref, t_ref + span_s]`` (s after ``t_ref``).
+    """TEME -> ITRS for any times in ``[t_ref + start_s, t_ref + end_s]``.
 
     Parameters
     ----------
     t_ref : astropy Time
-        Scalar reference time (seconds are counted from it, SI seconds).
-    span_s : float
-        Length of the interval to cover, s.
+        Scalar reference time (times are counted from it in SI seconds).
+    start_s, end_s : float
+        The interval to cover, s after ``t_ref``.
     anchor_s : float
         Spacing of the astropy anchors, s (default 3600).
     """
 
-    def __init__(self, t_ref, span_s: float, anchor_s: float = 3600.0):
+    def __init__(self, t_ref, start_s: float, end_s: float, anchor_s: float = 3600.0):
         from ..satellites.frames import transform_matrices
 
         self.t_ref = t_ref
         self.anchor_s = float(anchor_s)
-        k = int(np.ceil(max(span_s, 0.0) / anchor_s)) + 1
-        self.anchor_times_s = np.arange(k) * self.anchor_s
-        self.matrices = transform_matrices(t_ref + self.anchor_times_s * u.s, "teme", "itrs")
+        k = int(np.ceil(max(end_s - start_s, 0.0) / anchor_s)) + 1
+        self.anchor_times_s = start_s + np.arange(k) * self.anchor_s
+        anchors = t_ref + self.anchor_times_s * u.s
+        self.matrices = np.ascontiguousarray(transform_matrices(anchors, "teme", "itrs"))
+        self._anchors = anchors
+
+    @property
+    def gcrs_to_teme(self):
+        """GCRS -> TEME rotations at the anchors, (A, 3, 3): ``R3(eqeq) N P B``.
+
+        IAU 2006/2000A bias-precession-nutation and equation of the equinoxes from ERFA
+        (astropy's library), equal to astropy's GCRS -> TEME to ~3e-7 rad; used for slowly
+        moving directions (the Sun), where it saves an astropy transformation.
+        """
+        import erfa
+
+        if "_gcrs_to_teme" not in self.__dict__:
+            tt = self._anchors.tt
+            npb = erfa.pnm06a(tt.jd1, tt.jd2)
+            ee = erfa.ee06a(tt.jd1, tt.jd2)
+            c, s = np.cos(ee), np.sin(ee)
+            r3 = np.zeros((len(ee), 3, 3))
+            r3[:, 0, 0] = c
+            r3[:, 0, 1] = s
+            r3[:, 1, 0] = -s
+            r3[:, 1, 1] = c
+            r3[:, 2, 2] = 1.0
+            self.__dict__["_gcrs_to_teme"] = r3 @ npb
+        return self.__dict__["_gcrs_to_teme"]
+
+    def _anchor(self, t_s):
+        t_s = np.asarray(t_s, dtype=np.float64)
+        k = np.rint((t_s - self.anchor_times_s[0]) / self.anchor_s).astype(np.int64)
+        return t_s, np.clip(k, 0, len(self.anchor_times_s) - 1)
+
+    def gcrs_positions_to_itrs(self, p, t_s):
+        """Geocentric GCRS positions (km, (..., 3)) at ``t_s`` -> ITRS (e.g. the Sun)."""
+        t_s, k = self._anchor(t_s)
+        p_teme = np.einsum("...ij,...j->...i", self.gcrs_to_teme[k], p)
+        r, _ = self.apply(p_teme, np.zeros_like(p_teme), t_s)
+        return r
 
     def apply(self, r, v, t_s):
         """ITRS states from TEME states at seconds ``t_s`` after ``t_ref``.
@@ -61,21 +99,15 @@ class EarthFixedMap:
         r, v : ndarray (..., 3)
             ITRS position and velocity (relative to the rotating Earth).
         """
-        t_s = np.asarray(t_s, dtype=np.float64)
-        k = np.clip(np.rint(t_s / self.anchor_s).astype(np.int64), 0, len(self.anchor_times_s) - 1)
-        theta = GMST_RATE_RAD_S * (t_s - self.anchor_times_s[k])
-        c, s = np.cos(theta), np.sin(theta)
-        shape = np.broadcast_shapes(r.shape[:-1], t_s.shape)
-        r = np.broadcast_to(r, shape + (3,))
-        v = np.broadcast_to(v, shape + (3,))
-        # R3(theta) x = (c x + s y, -s x + c y, z)
-        y = np.empty(shape + (6,))
-        y[..., 0] = c * r[..., 0] + s * r[..., 1]
-        y[..., 1] = -s * r[..., 0] + c * r[..., 1]
-        y[..., 2] = r[..., 2]
-        y[..., 3] = c * v[..., 0] + s * v[..., 1]
-        y[..., 4] = -s * v[..., 0] + c * v[..., 1]
-        y[..., 5] = v[..., 2]
-        m = np.broadcast_to(self.matrices[k], shape + (6, 6))
-        out = np.einsum("...ij,...j->...i", m, y)
-        return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3:])
+        from ..core.topocentric import teme_to_itrs_anchored
+
+        shape = np.broadcast_shapes(np.shape(r)[:-1], np.shape(t_s))
+        rf = np.ascontiguousarray(np.broadcast_to(r, shape + (3,)), dtype=np.float64)
+        vf = np.ascontiguousarray(np.broadcast_to(v, shape + (3,)), dtype=np.float64)
+        tf = np.ascontiguousarray(np.broadcast_to(t_s, shape), dtype=np.float64).reshape(-1)
+        r_out = np.empty(shape + (3,))
+        v_out = np.empty(shape + (3,))
+        teme_to_itrs_anchored(rf.reshape(-1, 3), vf.reshape(-1, 3), tf,
+                              float(self.anchor_times_s[0]), self.anchor_s, self.matrices,
+                              GMST_RATE_RAD_S, r_out.reshape(-1, 3), v_out.reshape(-1, 3))
+        return r_out, v_out

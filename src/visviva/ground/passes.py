@@ -157,7 +157,7 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
     culm_ok = kind[top] == _topo.CULMINATION
 
     times = ev.times()
-    sun = sun_itrs_km(times[top]) if npass else np.empty((0, 3))
+    sun = sun_itrs_km(ev.t_ref, ev.t_s[top], ev.earth)
     frac = sun_fraction(ev.r_itrs[top], sun) if npass else np.empty(0)
     site = np.array([s.itrs_km for s in sts])[ev.station[top]]
     up = np.array([s.enu_matrix[2] for s in sts])[ev.station[top]]

@@ -91,7 +91,7 @@ def node_step_s(satrecs) -> np.ndarray:
     n = np.array([s.no_kozai for s in satrecs]) / 60.0  # rad/s
     e = np.clip(np.array([s.ecco for s in satrecs]), 0.0, 0.99)
     rate = n * (1.0 + e) ** 2 / (1.0 - e * e) ** 1.5
-    target = 2.0 * np.pi / (16.0 * rate)
+    target = 2.0 * np.pi / (8.0 * rate)
     k = np.floor(np.log2(np.maximum(target / _BASE_STEP_S, 1.0)))
     return _BASE_STEP_S * 2.0 ** np.clip(k, 0, 6)
 
@@ -124,10 +124,34 @@ class EventSet:
         return (self.t_ref + t * u.s).utc
 
 
-def _sgp4_teme(sats, sat_idx, times: Time):
-    """TEME states of ``sats[sat_idx[k]]`` at ``times[k]``; status per event (0 = OK)."""
-    jd = np.ascontiguousarray(times.utc.jd1, dtype=np.float64)
-    fr = np.ascontiguousarray(times.utc.jd2, dtype=np.float64)
+def _utc_parts(t_ref, t_s):
+    """sgp4's (jd, fr) UTC Julian-date parts of ``t_ref + t_s`` seconds.
+
+    Straight arithmetic on ``t_ref``'s UTC date when no leap second falls in between (the
+    usual case, checked at the extremes); astropy's conversion otherwise.
+    """
+    t_s = np.ascontiguousarray(t_s, dtype=np.float64)
+    base = t_ref.utc
+    jd = np.full(t_s.shape, float(base.jd1))
+    fr = float(base.jd2) + t_s / 86400.0
+    if t_s.size:
+        lo, hi = float(t_s.min()), float(t_s.max())
+        edges = (t_ref + np.array([lo, hi]) * u.s).utc
+        exact = (edges.jd1 - base.jd1) + (edges.jd2 - base.jd2)
+        if np.abs(exact * 86400.0 - np.array([lo, hi])).max() > 1e-3:  # a leap second
+            tu = (t_ref + t_s * u.s).utc
+            return (np.ascontiguousarray(tu.jd1, dtype=np.float64),
+                    np.ascontiguousarray(tu.jd2, dtype=np.float64))
+    return jd, fr
+
+
+def _sgp4_teme(sats, sat_idx, t_ref, t_s):
+    """TEME states of ``sats[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 = OK).
+
+    One ``sgp4_array`` call per satellite with events (the sgp4 library takes per-satellite
+    time lists no other way).
+    """
+    jd, fr = _utc_parts(t_ref, t_s)
     r = np.empty((len(sat_idx), 3))
     v = np.empty((len(sat_idx), 3))
     err = np.zeros(len(sat_idx), dtype=np.int64)
@@ -149,10 +173,8 @@ def _coarse_scan(cat, idx, h, t_ref, span_s, pad_s, earth, sites, ups, sin_min):
 
     nodes = int(math.ceil((span_s + 2 * pad_s) / h)) + 1
     grid_s = np.arange(nodes) * h  # s after t_ref - pad
-    times = t_ref + (grid_s - pad_s) * u.s
-    sub = Catalog([cat.satellites[int(i)] for i in idx])
-    e, r, v = sub.satrec_array.sgp4(
-        np.ascontiguousarray(times.utc.jd1), np.ascontiguousarray(times.utc.jd2))
+    sub = cat if len(idx) == len(cat) else Catalog([cat.satellites[int(i)] for i in idx])
+    e, r, v = sub.satrec_array.sgp4(*_utc_parts(t_ref, grid_s - pad_s))
     bad = (e != 0) | ~np.isfinite(r).all(-1) | ~np.isfinite(v).all(-1)
     r[bad] = 0.0  # never read: each satellite's window stops before its first failed node
     v[bad] = 0.0
@@ -207,19 +229,14 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     span_s = float((t1 - t0).to_value(u.s))
     steps = node_step_s([s.satrec for s in sats])
     pad_max = float(steps.max())
-    earth = EarthFixedMap(t_ref - pad_max * u.s, span_s + 2 * pad_max + 1.0)
-
-    class _Shifted:  # the map with times counted from t_ref
-        @staticmethod
-        def apply(r, v, t_s):
-            return earth.apply(r, v, np.asarray(t_s) + pad_max)
+    earth = EarthFixedMap(t_ref, -pad_max, span_s + pad_max + 1.0)
 
     parts = []
     skipped = []
     for h in np.unique(steps):
         idx = np.flatnonzero(steps == h)
         s_i, s_s, s_t, s_k, f_ends, t_end, cut = _coarse_scan(
-            cat, idx, float(h), t_ref, span_s, float(h), _Shifted, sites, ups, sin_min)
+            cat, idx, float(h), t_ref, span_s, float(h), earth, sites, ups, sin_min)
         parts.append((s_i, s_s, s_t, s_k))
         skipped.extend((int(i), float(te)) for i, te in zip(idx[cut], t_end[cut], strict=True))
         # pairs above the threshold at t0 or at the end: pseudo-events WINDOW_START / _END
@@ -238,101 +255,118 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
             f"SGP4 failed inside the window for {len(skipped)} satellite(s) ({names}"
             f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets; their "
             "events stop there.", RuntimeWarning, stacklevel=3)
-    ev = _correct(sats, sat_i, sta_i, t_s, kind, t_ref, _Shifted, sites, ups, enu, sin_min,
+    ev = _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_min,
                   span_s)
+    ev.earth = earth
     ev.skipped = skipped
     return ev
 
 
 def _evaluate(sats, sat_i, sta_i, t_s, t_ref, earth, sites, ups, sin_min):
     """SGP4 -> Earth-fixed state, and f, f' at the given events."""
-    r, v, err = _sgp4_teme(sats, sat_i, t_ref + t_s * u.s)
+    r, v, err = _sgp4_teme(sats, sat_i, t_ref, t_s)
     ri, vi = earth.apply(r, v, t_s)
     fd = np.empty((len(t_s), 2))
-    _topo.elevation_rate_many(ri, vi, sites, ups, sta_i, sin_min, fd)
+    _topo.elevation_rate_many(ri, vi, sites, ups,
+                              np.ascontiguousarray(sta_i, dtype=np.int64), sin_min, fd)
     return r, ri, vi, fd, err
 
 
 def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_min, span_s):
     """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
 
-    1. Maxima (culminations and near-maxima) move to the vertex of the parabola through ``f``
-       at ``t - 1 s``, ``t``, ``t + 1 s`` (twice). Positions only: SGP4's velocity is not
-       exactly the derivative of its position (it leaves out the rates of some periodic
-       terms: ~1 cm/s in LEO, more with the deep-space terms), which would move a flat
-       culmination by seconds.
-    2. A maximum below the threshold on SGP4 is dropped. A maximum above it by less than
-       ``_NEAR`` is a grazing pass: its rise and set are re-seeded from the parabola,
-       ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, which the polynomial's crossings (if
-       any) could not resolve.
-    3. Rises and sets take three Newton steps on ``f`` (``f' `` from SGP4's velocity is only
-       the slope; the converged root ``f = 0`` is a property of the positions).
+    Three rounds, each one SGP4 evaluation of all events together:
+
+    * maxima (culminations and near-maxima) move to the vertex of the parabola through ``f``
+      at ``t - 1 s``, ``t``, ``t + 1 s``. Positions only: SGP4's velocity is not exactly the
+      derivative of its position (it leaves out the rates of some periodic terms: ~1 cm/s in
+      LEO, more with the deep-space terms), which would move a flat culmination by seconds;
+    * rises and sets take a Newton step on ``f`` (``f'`` from SGP4's velocity is only the
+      slope; the root ``f = 0`` is a property of the positions).
+
+    Then a maximum below the threshold on SGP4 is dropped (with its rise and set), and one
+    above it by less than ``_NEAR`` is a grazing pass: its rise and set are re-seeded from
+    the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
     """
     t = t_s.copy()
     kind = kind.copy()
-    keep = np.ones(t.size, dtype=bool)
     delta = 1.0  # s, half-width of the parabola
     mi = np.flatnonzero((kind == _topo.CULMINATION) | (kind == _topo.NEAR_MAXIMUM))
-    f_c = np.empty(mi.size)
-    k_c = np.empty(mi.size)
+    xi = np.flatnonzero((kind == _topo.RISE) | (kind == _topo.SET))
+    fixed = np.flatnonzero(kind >= WINDOW_START)
+    fixed = fixed[(kind[fixed] == WINDOW_START) | (kind[fixed] == WINDOW_END)]
+    nm, nx = mi.size, xi.size
+    f_c = np.empty(nm)
+    k_c = np.empty(nm)
+    state_r = np.empty((t.size, 3))
+    state_v = np.empty((t.size, 3))
     for it in range(3):
-        if mi.size == 0:
-            break
-        tt = np.concatenate([t[mi], t[mi] - delta, t[mi] + delta])
-        _, _, _, fd, err = _evaluate(sats, np.tile(sat_i[mi], 3), np.tile(sta_i[mi], 3), tt,
-                                     t_ref, earth, sites, ups, sin_min)
-        f0, fm, fp = np.split(fd[:, 0], 3)
-        ok = (err.reshape(3, -1) == 0).all(axis=0)
+        last = it == 2
+        idx = np.concatenate([mi, xi] + ([fixed] if last else []))
+        tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else [])
+                            + [t[mi] - delta, t[mi] + delta])
+        ii = np.concatenate([idx, mi, mi])
+        _, ri, vi, fd, err = _evaluate(sats, sat_i[ii], sta_i[ii], tt, t_ref, earth, sites,
+                                       ups, sin_min)
+        n0 = idx.size
+        state_r[idx] = ri[:n0]
+        state_v[idx] = vi[:n0]
+        f0 = fd[:nm, 0]
+        fm = fd[n0:n0 + nm, 0]
+        fp = fd[n0 + nm:, 0]
+        ok_m = (err[:nm] == 0) & (err[n0:n0 + nm] == 0) & (err[n0 + nm:] == 0)
         curv = fm - 2.0 * f0 + fp
-        f_c = np.where(ok, f0, -1.0)
+        f_c = np.where(ok_m, f0, -1.0)
         k_c = -curv / delta**2
-        if it == 2:
-            break
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
-        step = np.where(ok & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
-        t[mi] = np.clip(t[mi] + step, 0.0, span_s)
-    if mi.size:
-        keep[mi[f_c <= 0.0]] = False
-        kind[mi[f_c > 0.0]] = _topo.CULMINATION
-        graze = np.flatnonzero((f_c > 0.0) & (f_c < _NEAR) & (k_c > 0.0))
-        new_sat, new_sta, new_t, new_k = [], [], [], []
+            step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
+            step_x = -fd[nm:nm + nx, 0] / fd[nm:nm + nx, 1]
+        if not last:
+            step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
+            t[mi] = np.clip(t[mi] + step_m, 0.0, span_s)
+        ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)
+        t[xi] = np.clip(t[xi] + np.where(ok_x, np.clip(step_x, -30.0, 30.0), 0.0), 0.0, span_s)
+    keep = np.ones(t.size, dtype=bool)
+    keep[mi[f_c <= 0.0]] = False
+    kind[mi[f_c > 0.0]] = _topo.CULMINATION
+    graze = np.flatnonzero((f_c > 0.0) & (f_c < _NEAR) & (k_c > 0.0))
+    if graze.size:
+        new = []
         cross = (kind == _topo.RISE) | (kind == _topo.SET)
-        for g in graze:
+        for g in graze:  # few: maxima within ~0.1 deg of the threshold
             e = mi[g]
             half = float(np.sqrt(2.0 * f_c[g] / k_c[g]))
-            near = (cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
-                    & (np.abs(t - t[e]) < half + 120.0))
-            keep[near] = False
-            for when, kk in ((t[e] - half, _topo.RISE), (t[e] + half, _topo.SET)):
-                if 0.0 < when < span_s:
-                    new_sat.append(sat_i[e])
-                    new_sta.append(sta_i[e])
-                    new_t.append(when)
-                    new_k.append(kk)
-        if new_t:
-            sat_i = np.concatenate([sat_i, new_sat])
-            sta_i = np.concatenate([sta_i, new_sta])
-            t = np.concatenate([t, new_t])
-            kind = np.concatenate([kind, np.asarray(new_k, dtype=np.int64)])
-            keep = np.concatenate([keep, np.ones(len(new_t), dtype=bool)])
-    cross = np.flatnonzero(((kind == _topo.RISE) | (kind == _topo.SET)) & keep)
-    for _ in range(3):
-        if cross.size == 0:
-            break
-        _, _, _, fd, err = _evaluate(sats, sat_i[cross], sta_i[cross], t[cross], t_ref, earth,
-                                     sites, ups, sin_min)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = -fd[:, 0] / fd[:, 1]
-        step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
-        t[cross] = np.clip(t[cross] + step, 0.0, span_s)
+            keep[cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
+                 & (np.abs(t - t[e]) < half + 120.0)] = False
+            new += [(sat_i[e], sta_i[e], when, kk)
+                    for when, kk in ((t[e] - half, _topo.RISE), (t[e] + half, _topo.SET))
+                    if 0.0 < when < span_s]
+        if new:
+            ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
+            nw_ = nw_.astype(np.float64)
+            for _ in range(3):
+                _, ri, vi, fd, err = _evaluate(sats, ns_, nt_, nw_, t_ref, earth, sites, ups,
+                                               sin_min)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    step = -fd[:, 0] / fd[:, 1]
+                nw_ = np.clip(nw_ + np.where((err == 0) & np.isfinite(step),
+                                             np.clip(step, -30.0, 30.0), 0.0), 0.0, span_s)
+            sat_i = np.concatenate([sat_i, ns_])
+            sta_i = np.concatenate([sta_i, nt_])
+            t = np.concatenate([t, nw_])
+            kind = np.concatenate([kind, nk_.astype(np.int64)])
+            keep = np.concatenate([keep, np.ones(nw_.size, dtype=bool)])
+            state_r = np.concatenate([state_r, ri])
+            state_v = np.concatenate([state_v, vi])
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
+    keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)
     sel = np.flatnonzero(keep)
     sat_i, sta_i, t, kind = sat_i[sel], sta_i[sel], t[sel], kind[sel]
-    _, ri, vi, _, _ = _evaluate(sats, sat_i, sta_i, t, t_ref, earth, sites, ups, sin_min)
+    ri, vi = state_r[sel], state_v[sel]
     rho = ri - sites[sta_i]
     res = np.empty((t.size, 6))
-    _topo.razel_many(np.ascontiguousarray(rho), np.ascontiguousarray(vi), enu, sta_i, res)
+    _topo.razel_many(np.ascontiguousarray(rho), np.ascontiguousarray(vi), enu,
+                     np.ascontiguousarray(sta_i, dtype=np.int64), res)
     order = np.lexsort((kind, t, sta_i, sat_i))
     return EventSet(sat=sat_i[order], station=sta_i[order], kind=kind[order], t_s=t[order],
                     t_ref=t_ref, rng=res[order, 0], az=res[order, 1], el=res[order, 2],

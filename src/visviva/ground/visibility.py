@@ -29,15 +29,25 @@ __all__ = ["DARK_SUN_ELEVATION_DEG", "sun_fraction", "sun_itrs_km", "sun_elevati
 DARK_SUN_ELEVATION_DEG = -6.0
 
 
-def sun_itrs_km(t) -> np.ndarray:
-    """Geocentric Sun position in the Earth-fixed frame at times ``t`` (km, shape (..., 3))."""
-    from ..satellites.ephemeris import sun_position
-    from ..satellites.frames import gcrs_to_itrs
+def sun_itrs_km(t_ref, t_s, earth) -> np.ndarray:
+    """Geocentric Sun position in the Earth-fixed frame (km, shape ``t_s.shape + (3,)``).
 
-    flat = t.ravel()
-    s = sun_position(flat).to_value("km").reshape(-1, 3)
-    si, _ = gcrs_to_itrs(s, np.zeros_like(s), flat)
-    return si.reshape(t.shape + (3,))
+    The Sun moves ~1 deg per day in GCRS: its position is tabulated every 10 min over the
+    times (one ephemeris call), interpolated linearly (error < 1e-7 of the distance) and
+    rotated to ITRS with ``earth`` (:class:`~visviva.ground.earthfixed.EarthFixedMap`).
+    """
+    from astropy import units as u
+
+    from ..satellites.ephemeris import sun_position
+
+    t_s = np.asarray(t_s, dtype=np.float64)
+    if t_s.size == 0:
+        return np.empty(t_s.shape + (3,))
+    lo, hi = float(t_s.min()), float(t_s.max())
+    grid = lo + np.arange(int(np.ceil((hi - lo) / 600.0)) + 2) * 600.0
+    s = np.atleast_2d(sun_position(t_ref + grid * u.s).to_value("km"))
+    sg = np.stack([np.interp(t_s, grid, s[:, c]) for c in range(3)], axis=-1)
+    return earth.gcrs_positions_to_itrs(sg, t_s)
 
 
 def sun_fraction(r_km, sun_km) -> np.ndarray:

@@ -18,6 +18,7 @@ _EXPORTS = {
     "LookAngles": "look",
     "refraction_deg": "look",
     "doppler_shift": "doppler",
+    "plot_sky_track": "plots",
     "twilight": "visibility",
 }
 

@@ -96,4 +96,4 @@ def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarra
     with np.errstate(divide="ignore"):
         return (np.asarray(standard_magnitude, dtype=np.float64)
                 + 5.0 * np.log10(np.asarray(range_km) / 1000.0)
-                - 2.5 * np.log10(np.maximum(f, 0.0)))
+                - 2.5 * np.log10(np.where(f > 1e-12, f, 0.0)))

@@ -203,7 +203,7 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
             x2 = hi - _GOLDEN * (hi - lo)
             g1 = sgn * _f_at(r, v, i, x1, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
             g2 = sgn * _f_at(r, v, i, x2, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
-            while hi - lo > 1e-2:
+            while hi - lo > 0.5:
                 if g1 > g2:
                     hi = x2
                     x2 = x1
@@ -247,7 +247,7 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
                         if side == 1:
                             flo *= 0.5
                         side = 1
-                    if hi - lo < 1e-3:
+                    if hi - lo < 1e-2:
                         break
                 if count < cap:
                     out_t[count] = 0.5 * (lo + hi)

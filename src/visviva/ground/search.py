@@ -40,9 +40,9 @@ __all__ = ["EventSet", "search_events", "check_window", "min_elevation_rad", "WI
 _BASE_STEP_S = 75.0
 _SAMPLES = 6
 _CHUNK_PAIRS = 4096
-#: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.11 deg, far above
-#: the polynomial's error (~0.01 deg in LEO)
-_NEAR = 2e-3
+#: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.3 deg, far above
+#: the polynomial's error (~0.05 deg in LEO with 600 s nodes)
+_NEAR = 5e-3
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
@@ -124,57 +124,73 @@ class EventSet:
         return (self.t_ref + t * u.s).utc
 
 
-def _utc_parts(t_ref, t_s):
-    """sgp4's (jd, fr) UTC Julian-date parts of ``t_ref + t_s`` seconds.
+class _Clock:
+    """Seconds after ``t_ref`` -> sgp4's (jd, fr) UTC Julian-date parts, for one window.
 
-    Straight arithmetic on ``t_ref``'s UTC date when no leap second falls in between (the
-    usual case, checked at the extremes); astropy's conversion otherwise.
+    Straight arithmetic on ``t_ref``'s UTC date when no leap second falls in
+    ``[lo_s, hi_s]`` (checked once: the usual case); astropy's conversion otherwise.
     """
-    t_s = np.ascontiguousarray(t_s, dtype=np.float64)
-    base = t_ref.utc
-    jd = np.full(t_s.shape, float(base.jd1))
-    fr = float(base.jd2) + t_s / 86400.0
-    if t_s.size:
-        lo, hi = float(t_s.min()), float(t_s.max())
-        edges = (t_ref + np.array([lo, hi]) * u.s).utc
-        exact = (edges.jd1 - base.jd1) + (edges.jd2 - base.jd2)
-        if np.abs(exact * 86400.0 - np.array([lo, hi])).max() > 1e-3:  # a leap second
-            tu = (t_ref + t_s * u.s).utc
-            return (np.ascontiguousarray(tu.jd1, dtype=np.float64),
-                    np.ascontiguousarray(tu.jd2, dtype=np.float64))
-    return jd, fr
+
+    def __init__(self, t_ref, lo_s: float, hi_s: float):
+        self.t_ref = t_ref
+        base = t_ref.utc
+        self.jd1 = float(base.jd1)
+        self.jd2 = float(base.jd2)
+        edges = (t_ref + np.array([lo_s, hi_s]) * u.s).utc
+        exact = ((edges.jd1 - self.jd1) + (edges.jd2 - self.jd2)) * 86400.0
+        self.leap_free = bool(np.abs(exact - np.array([lo_s, hi_s])).max() < 1e-3)
+
+    def parts(self, t_s):
+        t_s = np.ascontiguousarray(t_s, dtype=np.float64)
+        if self.leap_free:
+            return np.full(t_s.shape, self.jd1), self.jd2 + t_s / 86400.0
+        tu = (self.t_ref + t_s * u.s).utc
+        return (np.ascontiguousarray(tu.jd1, dtype=np.float64),
+                np.ascontiguousarray(tu.jd2, dtype=np.float64))
 
 
-def _sgp4_teme(sats, sat_idx, t_ref, t_s):
-    """TEME states of ``sats[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 = OK).
+def _sgp4_teme(satrecs, sat_idx, clock, t_s):
+    """TEME states of ``satrecs[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 OK).
 
     One ``sgp4_array`` call per satellite with events (the sgp4 library takes per-satellite
-    time lists no other way).
+    time lists no other way), on contiguous slices of the events sorted by satellite.
     """
-    jd, fr = _utc_parts(t_ref, t_s)
-    r = np.empty((len(sat_idx), 3))
-    v = np.empty((len(sat_idx), 3))
-    err = np.zeros(len(sat_idx), dtype=np.int64)
+    n = len(sat_idx)
+    if n == 0:
+        return np.empty((0, 3)), np.empty((0, 3)), np.empty(0, dtype=np.int64)
+    jd, fr = clock.parts(t_s)
     order = np.argsort(sat_idx, kind="stable")
-    bounds = np.flatnonzero(np.diff(sat_idx[order])) + 1
-    for group in np.split(order, bounds):
-        if group.size == 0:
-            continue
-        e, rr, vv = sats[int(sat_idx[group[0]])].satrec.sgp4_array(jd[group], fr[group])
-        r[group] = rr
-        v[group] = vv
-        err[group] = e
+    ss = sat_idx[order]
+    jd_s = np.ascontiguousarray(jd[order])
+    fr_s = np.ascontiguousarray(fr[order])
+    starts = np.flatnonzero(np.r_[True, ss[1:] != ss[:-1]])
+    ends = np.r_[starts[1:], n]
+    r_s = np.empty((n, 3))
+    v_s = np.empty((n, 3))
+    e_s = np.empty(n, dtype=np.int64)
+    first = ss[starts].tolist()
+    for k, a, b in zip(first, starts.tolist(), ends.tolist(), strict=True):
+        e, rr, vv = satrecs[k].sgp4_array(jd_s[a:b], fr_s[a:b])
+        r_s[a:b] = rr
+        v_s[a:b] = vv
+        e_s[a:b] = e
+    r = np.empty((n, 3))
+    v = np.empty((n, 3))
+    err = np.empty(n, dtype=np.int64)
+    r[order] = r_s
+    v[order] = v_s
+    err[order] = e_s
     return r, v, err
 
 
-def _coarse_scan(cat, idx, h, t_ref, span_s, pad_s, earth, sites, ups, sin_min):
+def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min):
     """Scan satellites ``idx`` (one node spacing ``h``) against all sites; raw events."""
     from ..satellites.catalog import Catalog
 
     nodes = int(math.ceil((span_s + 2 * pad_s) / h)) + 1
     grid_s = np.arange(nodes) * h  # s after t_ref - pad
     sub = cat if len(idx) == len(cat) else Catalog([cat.satellites[int(i)] for i in idx])
-    e, r, v = sub.satrec_array.sgp4(*_utc_parts(t_ref, grid_s - pad_s))
+    e, r, v = sub.satrec_array.sgp4(*clock.parts(grid_s - pad_s))
     bad = (e != 0) | ~np.isfinite(r).all(-1) | ~np.isfinite(v).all(-1)
     r[bad] = 0.0  # never read: each satellite's window stops before its first failed node
     v[bad] = 0.0
@@ -219,7 +235,12 @@ def _coarse_scan(cat, idx, h, t_ref, span_s, pad_s, earth, sites, ups, sin_min):
 
 def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1]."""
-    sats = cat.satellites
+    setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
+    if setup is None:
+        satrecs = [s.satrec for s in cat.satellites]
+        setup = (satrecs, node_step_s(satrecs))
+        cat.__dict__["_pass_setup"] = setup
+    satrecs, steps = setup
     ns = len(stations)
     sites = np.ascontiguousarray([s.itrs_km for s in stations], dtype=np.float64)
     enu = np.ascontiguousarray([s.enu_matrix for s in stations], dtype=np.float64)
@@ -227,16 +248,16 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     sin_min = math.sin(min_el_rad)
     t_ref = t0.tai
     span_s = float((t1 - t0).to_value(u.s))
-    steps = node_step_s([s.satrec for s in sats])
     pad_max = float(steps.max())
     earth = EarthFixedMap(t_ref, -pad_max, span_s + pad_max + 1.0)
+    clock = _Clock(t_ref, -pad_max, span_s + pad_max + 1.0)
 
     parts = []
     skipped = []
     for h in np.unique(steps):
         idx = np.flatnonzero(steps == h)
         s_i, s_s, s_t, s_k, f_ends, t_end, cut = _coarse_scan(
-            cat, idx, float(h), t_ref, span_s, float(h), earth, sites, ups, sin_min)
+            cat, idx, float(h), clock, span_s, float(h), earth, sites, ups, sin_min)
         parts.append((s_i, s_s, s_t, s_k))
         skipped.extend((int(i), float(te)) for i, te in zip(idx[cut], t_end[cut], strict=True))
         # pairs above the threshold at t0 or at the end: pseudo-events WINDOW_START / _END
@@ -255,16 +276,16 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
             f"SGP4 failed inside the window for {len(skipped)} satellite(s) ({names}"
             f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets; their "
             "events stop there.", RuntimeWarning, stacklevel=3)
-    ev = _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_min,
+    ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min,
                   span_s)
     ev.earth = earth
     ev.skipped = skipped
     return ev
 
 
-def _evaluate(sats, sat_i, sta_i, t_s, t_ref, earth, sites, ups, sin_min):
+def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, sin_min):
     """SGP4 -> Earth-fixed state, and f, f' at the given events."""
-    r, v, err = _sgp4_teme(sats, sat_i, t_ref, t_s)
+    r, v, err = _sgp4_teme(satrecs, sat_i, clock, t_s)
     ri, vi = earth.apply(r, v, t_s)
     fd = np.empty((len(t_s), 2))
     _topo.elevation_rate_many(ri, vi, sites, ups,
@@ -272,7 +293,7 @@ def _evaluate(sats, sat_i, sta_i, t_s, t_ref, earth, sites, ups, sin_min):
     return r, ri, vi, fd, err
 
 
-def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_min, span_s):
+def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min, span_s):
     """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
 
     Three rounds, each one SGP4 evaluation of all events together:
@@ -306,7 +327,7 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
         tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else [])
                             + [t[mi] - delta, t[mi] + delta])
         ii = np.concatenate([idx, mi, mi])
-        _, ri, vi, fd, err = _evaluate(sats, sat_i[ii], sta_i[ii], tt, t_ref, earth, sites,
+        _, ri, vi, fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites,
                                        ups, sin_min)
         n0 = idx.size
         state_r[idx] = ri[:n0]
@@ -325,7 +346,22 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
             step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
             t[mi] = np.clip(t[mi] + step_m, 0.0, span_s)
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)
-        t[xi] = np.clip(t[xi] + np.where(ok_x, np.clip(step_x, -30.0, 30.0), 0.0), 0.0, span_s)
+        step_x = np.where(ok_x, np.clip(step_x, -30.0, 30.0), 0.0)
+        t[xi] = np.clip(t[xi] + step_x, 0.0, span_s)
+    # crossings of shallow passes (small f') may need a few more Newton steps
+    pending = xi[np.abs(step_x) > 1e-4] if nx else xi
+    for _ in range(6):
+        if pending.size == 0:
+            break
+        _, ri, vi, fd, err = _evaluate(satrecs, sat_i[pending], sta_i[pending], t[pending],
+                                       clock, earth, sites, ups, sin_min)
+        state_r[pending] = ri
+        state_v[pending] = vi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = -fd[:, 0] / fd[:, 1]
+        step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
+        t[pending] = np.clip(t[pending] + step, 0.0, span_s)
+        pending = pending[np.abs(step) > 1e-4]
     keep = np.ones(t.size, dtype=bool)
     keep[mi[f_c <= 0.0]] = False
     kind[mi[f_c > 0.0]] = _topo.CULMINATION
@@ -333,7 +369,7 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
     if graze.size:
         new = []
         cross = (kind == _topo.RISE) | (kind == _topo.SET)
-        for g in graze:  # few: maxima within ~0.1 deg of the threshold
+        for g in graze:  # few: maxima within ~0.3 deg of the threshold
             e = mi[g]
             half = float(np.sqrt(2.0 * f_c[g] / k_c[g]))
             keep[cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
@@ -344,8 +380,8 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
         if new:
             ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
             nw_ = nw_.astype(np.float64)
-            for _ in range(3):
-                _, ri, vi, fd, err = _evaluate(sats, ns_, nt_, nw_, t_ref, earth, sites, ups,
+            for _ in range(5):
+                _, ri, vi, fd, err = _evaluate(satrecs, ns_, nt_, nw_, clock, earth, sites, ups,
                                                sin_min)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     step = -fd[:, 0] / fd[:, 1]
@@ -369,7 +405,7 @@ def _correct(sats, sat_i, sta_i, t_s, kind, t_ref, earth, sites, ups, enu, sin_m
                      np.ascontiguousarray(sta_i, dtype=np.int64), res)
     order = np.lexsort((kind, t, sta_i, sat_i))
     return EventSet(sat=sat_i[order], station=sta_i[order], kind=kind[order], t_s=t[order],
-                    t_ref=t_ref, rng=res[order, 0], az=res[order, 1], el=res[order, 2],
+                    t_ref=clock.t_ref, rng=res[order, 0], az=res[order, 1], el=res[order, 2],
                     rng_rate=res[order, 3], r_itrs=ri[order])
 
 

@@ -193,3 +193,16 @@ def test_shallow_pass_crossings_converge():
     times, kinds = site.find_events(iss, t0, t0 + 12 * u.hour, 8 * u.deg)
     look = site.look(iss, times[kinds != 1])
     np.testing.assert_allclose(look.elevation.to_value(u.deg), 8.0, atol=1e-6)
+
+
+def test_decaying_satellite_gives_events_up_to_the_failure_and_warns():
+    l1, l2 = TLES["28350"]  # SGP4 fails on 2006-06-17 near 05:46 UTC (decay)
+    sat = vv.Satellite.from_tle(l1, l2, name="28350")
+    site = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 100 * u.m)
+    t0 = sat.epoch + 0.3 * u.day
+    with pytest.warns(RuntimeWarning, match="SGP4 failed inside the window"):
+        times, kinds = site.find_events(sat, t0, t0 + 2 * u.day)
+    assert len(kinds) >= 3
+    assert times[-1] < Time("2006-06-17T05:50:00", scale="utc")
+    look = site.look(sat, times[kinds != 1])
+    np.testing.assert_allclose(look.elevation.to_value(u.deg), 0.0, atol=1e-6)

@@ -290,8 +290,8 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, ou
         Site positions (km) and up unit vectors, Earth-fixed.
     sin_min : float
         Sine of the minimum elevation.
-    near : float
-        Maxima with ``-near < f <= 0`` on the polynomial are reported as
+    near : ndarray (N,)
+        Per satellite: maxima with ``-near < f <= 0`` on the polynomial are reported as
         :data:`NEAR_MAXIMUM`: the caller checks them on the exact trajectory (grazing passes
         the polynomial's error could hide).
     out_t, out_k, out_f : ndarray (N * S, cap)
@@ -325,7 +325,7 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, ou
                              u[2], sin_min)
         f_ends[p, 1] = _f_at(r, v, i, te, h, r.shape[1], st[0], st[1], st[2], u[0], u[1],
                              u[2], sin_min)
-        c = _pair_events(r, v, i, h, ts, te, m, st, u, sin_min, near, out_t[p], out_k[p],
+        c = _pair_events(r, v, i, h, ts, te, m, st, u, sin_min, near[i], out_t[p], out_k[p],
                          out_f[p], cap)
         count[p] = c
         status[p] = PAIR_OVERFLOW if c > cap else PAIR_OK

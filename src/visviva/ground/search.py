@@ -183,18 +183,72 @@ def _sgp4_teme(satrecs, sat_idx, clock, t_s):
     return r, v, err
 
 
-def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min):
-    """Scan satellites ``idx`` (one node spacing ``h``) against all sites; raw events."""
-    from ..satellites.catalog import Catalog
+def _slant_range_km(satrecs, el_rad: float) -> np.ndarray:
+    """Range at elevation ``el`` to a satellite at its perigee altitude (spherical Earth)."""
+    re = 6378.137
+    hp = np.array([s.a * s.radiusearthkm * (1.0 - s.ecco) for s in satrecs]) - re
+    hp = np.maximum(hp, 100.0)
+    se = math.sin(el_rad)
+    return -re * se + np.sqrt((re * se) ** 2 + 2.0 * re * hp + hp * hp)
+
+
+def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
+    """TEME node states of satellites ``idx`` and each one's near-threshold margin in f.
+
+    Near-Earth satellites (``secular``) take the secular J2 model of their SGP4 mean elements
+    (:func:`visviva.satellites.catalog.propagate_j2_batch`, a compiled loop, ~20x cheaper than
+    SGP4), checked against SGP4 at the first, middle and last node: the margin is
+    ``(2 eps + 15 km) / rho_min`` with ``eps`` the largest difference there, so a maximum that
+    SGP4 might put above the threshold is always settled on SGP4. A satellite whose secular
+    states are off by more than 50 km, or whose SGP4 fails at a check node, and every
+    deep-space satellite, take SGP4 at every node.
+    """
+    from ..satellites.catalog import Catalog, propagate_j2_batch
 
     nodes = int(math.ceil((span_s + 2 * pad_s) / h)) + 1
-    grid_s = np.arange(nodes) * h  # s after t_ref - pad
-    sub = cat if len(idx) == len(cat) else Catalog([cat.satellites[int(i)] for i in idx])
-    e, r, v = sub.satrec_array.sgp4(*clock.parts(grid_s - pad_s))
+    times_s = np.arange(nodes) * h - pad_s
+    jd, fr = clock.parts(times_s)
+    n = len(idx)
+    r = np.empty((n, nodes, 3))
+    v = np.empty((n, nodes, 3))
+    e = np.zeros((n, nodes), dtype=np.uint8)
+    near = np.full(n, _NEAR)
+    exact = ~secular[idx]
+    js = np.flatnonzero(~exact)
+    if js.size:
+        sub = Catalog([cat.satellites[int(i)] for i in idx[js]])
+        try:
+            b = propagate_j2_batch(sub, clock.t_ref + times_s * u.s, on_error="nan")
+            r_sec = b.r.to_value(u.km)
+            v_sec = b.v.to_value(u.km / u.s)
+            k3 = np.array([0, nodes // 2, nodes - 1])
+            e3, r3, _ = sub.satrec_array.sgp4(jd[k3], fr[k3])
+            eps = np.linalg.norm(r3 - r_sec[:, k3], axis=-1).max(axis=1)
+            good = (e3 == 0).all(axis=1) & (b.status == 0).all(axis=1) & (eps < 50.0)
+        except Exception:  # noqa: BLE001 (an orbit outside the secular theory: use SGP4)
+            good = np.zeros(js.size, dtype=bool)
+        ok = js[good]
+        r[ok] = r_sec[good]
+        v[ok] = v_sec[good]
+        near[ok] = np.maximum(_NEAR, (2.0 * eps[good] + 15.0) / rho_min[idx[ok]])
+        exact[js[~good]] = True
+    je = np.flatnonzero(exact)
+    if je.size:
+        sub = cat if je.size == len(cat) else Catalog([cat.satellites[int(i)] for i in idx[je]])
+        ee, rr, vv = sub.satrec_array.sgp4(jd, fr)
+        r[je], v[je], e[je] = rr, vv, ee
+    return r, v, e, near, times_s
+
+
+def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min, secular,
+                 rho_min):
+    """Scan satellites ``idx`` (one node spacing ``h``) against all sites; raw events."""
+    r, v, e, near, times_s = _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min)
+    nodes = times_s.size
     bad = (e != 0) | ~np.isfinite(r).all(-1) | ~np.isfinite(v).all(-1)
     r[bad] = 0.0  # never read: each satellite's window stops before its first failed node
     v[bad] = 0.0
-    r, v = earth.apply(r, v, grid_s - pad_s)
+    r, v = earth.apply(r, v, times_s)
     t_lo = np.full(len(idx), pad_s)
     t_hi = np.full(len(idx), pad_s + span_s)
     if bad.any():
@@ -204,10 +258,7 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min):
     else:
         cut = np.zeros(len(idx), dtype=bool)
     ns = len(sites)
-    pairs = len(idx) * ns
     out_sat, out_sta, out_t, out_k = [], [], [], []
-    status = np.empty(pairs, dtype=np.int64)
-    f_ends = np.empty((pairs, 2))
     cap = max(8, int(3 * span_s / h / 4) + 8)
     for lo in range(0, len(idx), max(1, _CHUNK_PAIRS // ns)):
         hi = min(len(idx), lo + max(1, _CHUNK_PAIRS // ns))
@@ -216,11 +267,11 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min):
         while True:
             ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
             _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], _SAMPLES, sites, ups,
-                              sin_min, _NEAR, ot, ok, of, cnt, st, fe)
+                              sin_min, np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st,
+                              fe)
             if not (st == _topo.PAIR_OVERFLOW).any():
                 break
             cap = int(cnt.max()) + 8
-        status[lo * ns:hi * ns] = st
         sel = np.arange(ot.shape[1])[None, :] < cnt[:, None]
         p_local, col = np.nonzero(sel)
         p = p_local + lo * ns
@@ -228,9 +279,31 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min):
         out_sta.append(p % ns)
         out_t.append(ot[p_local, col] - pad_s)
         out_k.append(ok[p_local, col].astype(np.int64))
-        f_ends[lo * ns:hi * ns] = fe
     return (np.concatenate(out_sat), np.concatenate(out_sta), np.concatenate(out_t),
-            np.concatenate(out_k), f_ends, t_hi - pad_s, cut)
+            np.concatenate(out_k), near, t_hi - pad_s, cut)
+
+
+def _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end):
+    """``f`` on SGP4 at the window's start and at each satellite's end, (N, S, 2)."""
+    n = len(cat)
+    jd, fr = clock.parts(np.array([0.0, span_s]))
+    e, r, v = cat.satrec_array.sgp4(jd, fr)
+    if (t_end < span_s).any():  # decayed inside the window: its own end
+        cut = np.flatnonzero(t_end < span_s)
+        r2, v2, e2 = _sgp4_teme(cat.__dict__["_pass_setup"][0], cut, clock, t_end[cut])
+        e[cut, 1], r[cut, 1], v[cut, 1] = e2, r2, v2
+    ri, vi = earth.apply(r, v, np.array([0.0, span_s])[None, :].repeat(n, 0)
+                        if not (t_end < span_s).any()
+                        else np.stack([np.zeros(n), t_end], axis=1))
+    ns = len(sites)
+    out = np.empty((n, ns, 2))
+    fd = np.empty((n * 2, 2))
+    for s in range(ns):
+        _topo.elevation_rate_many(ri.reshape(-1, 3), vi.reshape(-1, 3), sites, ups,
+                                  np.full(n * 2, s, dtype=np.int64), sin_min, fd)
+        out[:, s, :] = fd[:, 0].reshape(n, 2)
+    out[(e != 0)[:, None, :].repeat(ns, 1)] = -1.0
+    return out
 
 
 def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
@@ -238,10 +311,11 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]
-        setup = (satrecs, node_step_s(satrecs))
+        secular = np.array([s.method == "n" and s.ecco < 0.2 for s in satrecs], dtype=bool)
+        setup = (satrecs, node_step_s(satrecs), secular)
         cat.__dict__["_pass_setup"] = setup
-    satrecs, steps = setup
-    ns = len(stations)
+    satrecs, steps, secular = setup
+    rho_min = _slant_range_km(satrecs, min_el_rad)
     sites = np.ascontiguousarray([s.itrs_km for s in stations], dtype=np.float64)
     enu = np.ascontiguousarray([s.enu_matrix for s in stations], dtype=np.float64)
     ups = np.ascontiguousarray(enu[:, 2])
@@ -254,17 +328,23 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
 
     parts = []
     skipped = []
+    near_sat = np.full(len(cat), _NEAR)
+    t_end = np.full(len(cat), span_s)
     for h in np.unique(steps):
         idx = np.flatnonzero(steps == h)
-        s_i, s_s, s_t, s_k, f_ends, t_end, cut = _coarse_scan(
-            cat, idx, float(h), clock, span_s, float(h), earth, sites, ups, sin_min)
+        s_i, s_s, s_t, s_k, near, t_e, cut = _coarse_scan(
+            cat, idx, float(h), clock, span_s, float(h), earth, sites, ups, sin_min, secular,
+            rho_min)
         parts.append((s_i, s_s, s_t, s_k))
-        skipped.extend((int(i), float(te)) for i, te in zip(idx[cut], t_end[cut], strict=True))
-        # pairs above the threshold at t0 or at the end: pseudo-events WINDOW_START / _END
-        for col, kind in ((0, WINDOW_START), (1, WINDOW_END)):
-            p = np.flatnonzero(f_ends[:, col] > 0.0)
-            when = np.zeros(p.size) if col == 0 else t_end[p // ns]
-            parts.append((idx[p // ns], p % ns, when, np.full(p.size, kind, dtype=np.int64)))
+        near_sat[idx] = near
+        t_end[idx] = t_e
+        skipped.extend((int(i), float(te)) for i, te in zip(idx[cut], t_e[cut], strict=True))
+    # pairs above the threshold at t0 or at the end (on SGP4): WINDOW_START / WINDOW_END
+    f_edge = _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end)
+    for col, kind in ((0, WINDOW_START), (1, WINDOW_END)):
+        i_s, s_s = np.nonzero(f_edge[:, :, col] > 0.0)
+        when = np.zeros(i_s.size) if col == 0 else t_end[i_s]
+        parts.append((i_s, s_s, when, np.full(i_s.size, kind, dtype=np.int64)))
     sat_i = np.concatenate([p[0] for p in parts])
     sta_i = np.concatenate([p[1] for p in parts])
     t_s = np.concatenate([p[2] for p in parts])
@@ -277,7 +357,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
             f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets; their "
             "events stop there.", RuntimeWarning, stacklevel=3)
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min,
-                  span_s)
+                  span_s, near_sat)
     ev.earth = earth
     ev.skipped = skipped
     return ev
@@ -293,7 +373,8 @@ def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, sin_min):
     return r, ri, vi, fd, err
 
 
-def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min, span_s):
+def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min, span_s,
+             near_sat):
     """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
 
     Three rounds, each one SGP4 evaluation of all events together:
@@ -362,10 +443,13 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
         step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
         t[pending] = np.clip(t[pending] + step, 0.0, span_s)
         pending = pending[np.abs(step) > 1e-4]
+    # a crossing pushed to the window's edge is not one (the edge pseudo-events tell that)
+    edge_x = xi[(t[xi] <= 0.0) | (t[xi] >= span_s)]
     keep = np.ones(t.size, dtype=bool)
+    keep[edge_x] = False
     keep[mi[f_c <= 0.0]] = False
     kind[mi[f_c > 0.0]] = _topo.CULMINATION
-    graze = np.flatnonzero((f_c > 0.0) & (f_c < _NEAR) & (k_c > 0.0))
+    graze = np.flatnonzero((f_c > 0.0) & (f_c < near_sat[sat_i[mi]]) & (k_c > 0.0))
     if graze.size:
         new = []
         cross = (kind == _topo.RISE) | (kind == _topo.SET)

@@ -19,6 +19,7 @@ _EXPORTS = {
     "refraction_deg": "look",
     "doppler_shift": "doppler",
     "plot_sky_track": "plots",
+    "find_passes_dask": "dask_passes",
     "twilight": "visibility",
 }
 

@@ -113,11 +113,16 @@ _PUBLIC = {
     "read_cdm": "visviva.ccsds.cdm",
     "write_cdm": "visviva.ccsds.cdm",
     "ConjunctionDataMessage": "visviva.ccsds.cdm",
+    # ground stations and passes
+    "GroundStation": "visviva.ground",
+    "find_passes": "visviva.ground",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
-               "conjunctions", "ccsds"}
+_SUBMODULES = {
+    "core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
+    "conjunctions", "ccsds", "ground", "od",
+}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -65,6 +65,7 @@ def _import_benchmarks():
 _COMMANDS: dict[str, str] = {
     "screen": "visviva.conjunctions.cli",
     "convert": "visviva.ccsds.convert",
+    "passes": "visviva.ground.cli",
 }
 
 

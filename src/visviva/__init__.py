@@ -93,10 +93,12 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # ground stations and passes
+    "GroundStation": "visviva.ground",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force", "ground"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -95,10 +95,17 @@ _PUBLIC = {
     "sun_synchronous_inclination": "visviva.satellites",
     # ground stations and passes
     "GroundStation": "visviva.ground",
+    # orbit determination
+    "gibbs": "visviva.od",
+    "herrick_gibbs": "visviva.od",
+    "gauss_angles": "visviva.od",
+    "Observations": "visviva.od",
+    "fit_orbit": "visviva.od",
+    "fit_tle": "visviva.od",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force", "ground"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "od", "constants", "bodies", "errors", "central_force", "ground"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -305,7 +305,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         h = 0.0
         landing = False
         while not accepted:
-            if h_abs < 1e-9 * max(1.0, abs(t)):
+            if h_abs < 1e-14 * max(1.0, abs(t)):
                 break
             h = min(h_abs, h_max) * direction
             landing = direction * (t + h - target) >= 0.0

@@ -142,8 +142,9 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         Converged when the relative change of the RMS between iterations is below ``tol``
         (and the set of rejected rows stays the same).
     outlier_sigma : float or None
-        Rows with a normalised residual above ``outlier_sigma`` times max(1, previous RMS) are
-        left out of the next iteration (re-admitted when they fit again); None keeps every row.
+        From the second iteration on, rows with a normalised residual above ``outlier_sigma``
+        times max(1, s) are left out (re-admitted when they fit again), s = 1.4826 x the
+        median absolute normalised residual (a robust RMS); None keeps every row.
     rtol, atol : float, optional
         Integration tolerances of the variational equations (default 1e-11).
 
@@ -168,8 +169,9 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     Gauss-Newton steps dx = (A^T A)^-1 A^T b with A_i = H_i Phi(t_i, t0) / sigma_i and
     b_i = (y_i - h_i) / sigma_i; the covariance is P = (A^T A)^-1 at the solution (Tapley,
     Schutz & Born 2004, eqs. 4.3.25-4.3.31). Phi comes from the variational equations
-    (:mod:`visviva.core.variational`), never from finite differences. Outlier editing follows
-    the usual k-sigma rule on the previous iteration's RMS (Tapley et al., sec. 4.16).
+    (:mod:`visviva.core.variational`), never from finite differences. Outlier editing is the
+    usual k-sigma rule (Tapley et al., sec. 4.16) on a robust scale (the median absolute
+    deviation), so that a few gross errors cannot hide behind the RMS they inflate.
     With correct sigmas the normalised estimation error (x0 - x_true)^T P^-1 (x0 - x_true)
     follows a chi-square law with 6 degrees of freedom and ``rms`` is close to 1 (tested over
     many noise seeds).
@@ -220,7 +222,10 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if outlier_sigma is not None and rms_prev is not None:
-            limit = outlier_sigma * max(1.0, rms_prev)
+            # a robust scale (1.4826 x the median absolute normalised residual) that a minority
+            # of outliers cannot inflate; large while the estimate is still far off
+            scale = 1.4826 * float(np.median(np.abs(zn[comp_mask])))
+            limit = outlier_sigma * max(1.0, scale)
             new_rejected = np.max(np.abs(zn), axis=1) > limit
         else:
             new_rejected = np.zeros_like(rejected)

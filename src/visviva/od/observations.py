@@ -114,19 +114,19 @@ class Observations:
                 f"observation times must not go backwards: row {i} ({times[i].isot}) comes before "
                 f"row {i - 1} ({times[i - 1].isot}). Sort the observations by time."
             )
-        if n > 1 and all(k == kinds[0] for k in kinds) and (
-            is_quantity(value) or isinstance(value, np.ndarray)
-        ):
-            rows = [value[i] for i in range(n)] if np.ndim(value) > 1 or KINDS[kinds[0]][0] == 1 \
-                else None  # fmt: skip
-            if rows is None:
-                raise ShapeError(f"value has shape {np.shape(value)} for {n} rows.")
-        elif isinstance(value, list | tuple):
+        if isinstance(value, list | tuple):
             rows = list(value)
+        elif (is_quantity(value) or isinstance(value, np.ndarray)) and np.ndim(value) >= 1 and (
+            len(value) == n and (np.ndim(value) > 1 or all(KINDS[k][0] == 1 for k in kinds))
+        ):
+            rows = [value[i] for i in range(n)]
         elif n == 1:
             rows = [value]
         else:
-            raise ShapeError("value must give one entry per row (an (N, k) array or a list).")
+            raise ShapeError(
+                f"value has shape {np.shape(value)} for {n} rows; give an (N, k) array or a list "
+                "with one value per row."
+            )
         if len(rows) != n:
             raise ShapeError(f"value has {len(rows)} rows for {n} times; give one per row.")
         vals = np.zeros((n, 3))

@@ -102,10 +102,19 @@ _PUBLIC = {
     "Observations": "visviva.od",
     "fit_orbit": "visviva.od",
     "fit_tle": "visviva.od",
+    # CCSDS orbit data messages
+    "CCSDSFormatError": "visviva.ccsds.grammar",
+    "read_oem": "visviva.ccsds.oem_io",
+    "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "od", "constants", "bodies", "errors", "central_force", "ground"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "od", "constants", "bodies", "errors",
+               "central_force", "ground", "ccsds"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -694,6 +694,37 @@ class Satellite:
     def __repr__(self):
         return f"Satellite({self.name!r}, satnum={self.satnum}, epoch={self.epoch.utc.isot})"
 
+    # -- export ------------------------------------------------------------------------------
+    def to_tle(self) -> tuple[str, str]:
+        """The two TLE lines (checksums; alpha-5 catalogue numbers above 99999).
+
+        Returns
+        -------
+        line1, line2 : str
+            69 characters each; :meth:`from_tle` on them gives back this satellite's record
+            (to the TLE's column precision for a record that did not come from a TLE).
+
+        Raises
+        ------
+        InvalidInputError
+            A value that does not fit the TLE's columns (use :meth:`to_omm` instead).
+        """
+        from .tle_export import to_tle
+
+        return to_tle(self.satrec)
+
+    def to_omm(self) -> dict:
+        """The CCSDS OMM fields (the keys of ``sgp4.exporter.export_omm``), full precision.
+
+        Returns
+        -------
+        dict
+            For :meth:`from_omm` or :func:`visviva.write_omm` (with ``originator=``).
+        """
+        from .tle_export import to_omm
+
+        return to_omm(self.satrec, self.name)
+
     # -- propagation -------------------------------------------------------------------------
     def _sgp4(self, t):
         """One sgp4 array call: TEME r (km), v (km/s) of shape t.shape + (3,), and times."""

@@ -64,6 +64,7 @@ def _import_benchmarks():
 #: imported when the parser is built, so it must import nothing heavy at module level.
 _COMMANDS: dict[str, str] = {
     "convert": "visviva.ccsds.convert",
+    "fit-tle": "visviva.od.cli",
 }
 
 

@@ -74,7 +74,11 @@ def _states_and_times(states, times, frame):
             rs.append(to_vector(st.r, "length", "segment.states.r"))
             vs.append(to_vector(st.v, "speed", "segment.states.v"))
             ts.append(seg.times)
-            frames.add(str(getattr(seg, "frame", "GCRS")).upper())
+            vf = getattr(seg, "visviva_frame", None)
+            name = str(getattr(seg, "frame", "GCRS")).upper()
+            if vf is None:
+                vf = "teme" if "TEME" in name else "itrs" if "ITR" in name else "gcrs"
+            frames.add(vf)
         if not rs:
             raise InvalidInputError("the ephemeris has no segments; nothing to fit.")
         if len(frames) > 1:
@@ -84,9 +88,7 @@ def _states_and_times(states, times, frame):
         t_all = _T(np.concatenate([t.utc.jd1 for t in ts]), np.concatenate([t.utc.jd2 for t in ts]),
                    format="jd", scale="utc")  # fmt: skip
         r, v = np.concatenate(rs), np.concatenate(vs)
-        frame = frames.pop()
-        frame = "teme" if "TEME" in frame else "itrs" if "ITR" in frame else "gcrs"
-        return r, v, t_all, frame
+        return r, v, t_all, frames.pop()
     if hasattr(src, "to_states") and hasattr(src, "t"):  # a CowellResult
         if src.epoch is None:
             raise InvalidInputError(
@@ -114,7 +116,7 @@ def _states_and_times(states, times, frame):
     return r, v, times, frame
 
 
-def _elements_to_fields(p, epoch_str, satnum, name):
+def _elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN"):
     n_rad_min, ex, ey, inc, raan, lam, bstar = p
     ecc = math.hypot(ex, ey)
     argp = math.atan2(ey, ex) if ecc > 0 else 0.0
@@ -122,7 +124,7 @@ def _elements_to_fields(p, epoch_str, satnum, name):
     deg = 180.0 / math.pi
     return {
         "OBJECT_NAME": name or f"FIT {satnum}",
-        "OBJECT_ID": "UNKNOWN",
+        "OBJECT_ID": object_id,
         "EPOCH": epoch_str,
         "MEAN_MOTION": n_rad_min * 720.0 / math.pi,
         "ECCENTRICITY": ecc,
@@ -191,7 +193,8 @@ def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
 
 
 def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
-            frame="gcrs", name=None, max_iterations=50, tol=1e-10):  # fmt: skip
+            frame="gcrs", name=None, object_id=None, max_iterations=50,
+            tol=1e-10):  # fmt: skip
     """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
 
     Parameters
@@ -216,6 +219,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         Frame of a ``StateVectors`` input.
     name : str, optional
         Object name of the new element set.
+    object_id : str, optional
+        International designator (``"1998-067A"``); blank in the TLE when not given.
     max_iterations : int
         Differential-correction iterations allowed.
     tol : float
@@ -369,8 +374,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         )
         err.history = history
         raise err
-    fields = _elements_to_fields(p, epoch_str, satnum, name)
+    fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
     sat = Satellite.from_omm(fields)
+    if not object_id:
+        sat.satrec.intldesg = ""
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(

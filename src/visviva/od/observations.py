@@ -7,7 +7,7 @@
 >>> obs = vv.Observations(time=t, kind="position",
 ...                       value=[[7000, 0, 0], [6990, 450, 0], [6960, 900, 0]] * u.km,
 ...                       sigma=0.01 * u.km)
->>> len(obs), obs.kinds[0]
+>>> len(obs), str(obs.kinds[0])
 (3, 'position')
 """
 

@@ -9,8 +9,8 @@ squares on the TEME positions and velocities over the whole arc (Vallado & Crawf
 >>> import numpy as np, visviva as vv
 >>> from astropy import units as u
 >>> iss = vv.Satellite.from_tle(
-...     "1 25544U 98067A   24001.50000000  .00016717  00000-0  30000-3 0  9993",
-...     "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.50000000    09")
+...     "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+...     "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
 >>> states = iss.gcrs(np.linspace(0, 1, 50) * u.day).to_state_vectors()
 >>> fitted = vv.fit_tle(states, satnum=25544)
 >>> print(f"{fitted.fit.rms_position_km * 1e3 < 1.0}")

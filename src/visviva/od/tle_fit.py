@@ -143,17 +143,30 @@ def _elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN"):
     }
 
 
-def _sgp4_states(p, epoch_str, satnum, jd, fr):
+def _epoch_days(epoch_str):
+    """Days since 1949-12-31 00:00 UTC of an OMM epoch string, as sgp4's OMM reader computes."""
+    from datetime import datetime
+
+    from sgp4.omm import _epoch0
+
+    when = datetime.strptime(epoch_str, "%Y-%m-%dT%H:%M:%S.%f")
+    return (when - _epoch0).total_seconds() / 86400.0
+
+
+def _sgp4_states(p, epoch_days, satnum, jd, fr):
     """TEME r, v (N, 3) of the element vector p, or None if SGP4 fails."""
-    from sgp4 import omm
     from sgp4.api import WGS72, Satrec
 
-    if not (0.0 <= math.hypot(p[1], p[2]) < 0.99 and p[0] > 0 and 0 <= p[3] <= math.pi):
+    ecc = math.hypot(p[1], p[2])
+    if not (0.0 <= ecc < 0.99 and p[0] > 0 and 0 <= p[3] <= math.pi):
         return None
+    argp = math.atan2(p[2], p[1]) if ecc > 0 else 0.0
     sat = Satrec()
-    omm.initialize(sat, _elements_to_fields(p, epoch_str, satnum, None), WGS72)
+    sat.sgp4init(WGS72, "i", int(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
+                 argp % (2 * math.pi), p[3], (p[5] - argp) % (2 * math.pi), p[0],
+                 p[4] % (2 * math.pi))  # fmt: skip
     e, r, v = sat.sgp4_array(jd, fr)
-    if np.any(e != 0) or not np.all(np.isfinite(r)):
+    if e.any() or not np.isfinite(r).all():
         return None
     return r, v
 
@@ -194,7 +207,7 @@ def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
 
 def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
             frame="gcrs", name=None, object_id=None, max_iterations=50,
-            tol=1e-10):  # fmt: skip
+            tol=1e-8):  # fmt: skip
     """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
 
     Parameters
@@ -224,7 +237,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     max_iterations : int
         Differential-correction iterations allowed.
     tol : float
-        Converged when the relative change of the weighted RMS falls below ``tol``.
+        Converged when a step lowers the weighted sum of squares by less than this fraction,
+        or the position RMS is below 0.1 mm.
 
     Returns
     -------
@@ -246,7 +260,7 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     guess is the osculating state at the epoch (the "naive" TLE). Each Levenberg-Marquardt
     step solves the weighted least-squares problem on the TEME position and velocity
     differences (velocities weighted by 1/n, so that both count in km) with partials from
-    central differences of SGP4 itself (SGP4 has no variational equations;
+    forward differences of SGP4 itself (SGP4 has no variational equations;
     Vallado & Crawford 2008). GCRS states are rotated to TEME with astropy
     (:func:`visviva.satellites.frames.transform_matrices`). On states that SGP4 itself
     generated, the fit recovers the trajectory to well below a metre.
@@ -266,7 +280,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
             f"{n} state(s) cannot fix {6 + bool(fit_bstar)} mean elements; give at least {need} "
             "states spread over at least one orbit."
         )
-    secs = (t.tt - t[0].tt).sec
+    tt = t.tt
+    secs = (tt.jd1 - tt.jd1[0]) * 86400.0 + (tt.jd2 - tt.jd2[0]) * 86400.0
     if np.any(np.diff(secs) <= 0):
         i = int(np.flatnonzero(np.diff(secs) <= 0)[0]) + 1
         raise InvalidInputError(
@@ -288,11 +303,14 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     head, frac = epoch_str.split(".")
     epoch_str = f"{head}.{(frac + '000000')[:6]}"
     ep_exact = Time(epoch_str, scale="utc")
-    jd, fr = t.utc.jd1, t.utc.jd2
+    tu = t.utc
+    jd, fr = tu.jd1, tu.jd2
     # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc
-    k = int(np.argmin(np.abs((t.tt - ep_exact.tt).sec)))
+    ep_tt = ep_exact.tt
+    from_epoch = (tt.jd1 - ep_tt.jd1) * 86400.0 + (tt.jd2 - ep_tt.jd2) * 86400.0
+    k = int(np.argmin(np.abs(from_epoch)))
     r0, v0 = r[k], v[k]
-    dt = float((ep_exact.tt - t[k].tt).sec)
+    dt = -float(from_epoch[k])
     if dt != 0.0:
         from ..core.universal import propagate_scalar
 
@@ -303,8 +321,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     w_v = 1.0 / (p[0] / 60.0)  # s: velocity residuals weighted by 1/n
     target = np.concatenate([r, v * w_v], axis=1).ravel()
 
+    epoch_days = _epoch_days(epoch_str)
+
     def resid(pp):
-        out = _sgp4_states(pp, epoch_str, satnum, jd, fr)
+        out = _sgp4_states(pp, epoch_days, satnum, jd, fr)
         if out is None:
             return None
         return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()
@@ -324,18 +344,14 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         J = np.empty((z.size, free.size))
         for c, j in enumerate(free):
             h = steps[j] * (max(abs(p[j]), 1e-3) if j in (0, 6) else 1.0)
-            pp, pm = p.copy(), p.copy()
+            pp = p.copy()
             pp[j] += h
-            pm[j] -= h
-            zp, zm = resid(pp), resid(pm)
-            if zp is not None and zm is not None:
-                J[:, c] = (zp - zm) / (2 * h)
-            elif zp is not None:
-                J[:, c] = (zp - z) / h
-            elif zm is not None:
-                J[:, c] = (z - zm) / h
-            else:
-                J[:, c] = 0.0
+            zp = resid(pp)
+            if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
+                pp[j] -= 2 * h
+                zp = resid(pp)
+                h = -h
+            J[:, c] = 0.0 if zp is None else (zp - z) / h
         g = J.T @ z
         N = J.T @ J
         improved = False
@@ -353,7 +369,6 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
                 improved = True
                 break
             lam *= 10
-        rms = math.sqrt(cost / z.size)
         rms_pos = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
         history.append({"iteration": it, "rms_position_km": rms_pos, "damping": lam})
         if not improved:
@@ -363,7 +378,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         rel = (cost - new_cost) / max(cost, 1e-300)
         p, z, cost = trial, zt, new_cost
         lam = max(lam / 10, 1e-9)
-        if rel < tol or math.sqrt(cost / z.size) < 1e-9 * max(rms, 1e-300) + 1e-12:
+        rms_new = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+        if rel < tol or rms_new < 1e-7:
             converged = True
             break
     if not converged:

@@ -133,3 +133,18 @@ def test_fit_tle_command(iss, tmp_path, capsys):
     assert back.satrec.bstar == 0.0
     assert main(["fit-tle", str(tmp_path / "missing.oem")]) == 1
     assert "fit-tle" in capsys.readouterr().err
+
+
+def test_fit_tle_batch_serial_and_on_dask(iss):
+    distributed = pytest.importorskip("distributed")
+    days = [iss.gcrs(np.linspace(k, k + 1, 25) * u.day).to_state_vectors() for k in range(4)]
+    serial = vv.od.fit_tle_batch(days, satnums=[25544] * 4)
+    assert all(s.fit.max_position_km < ONE_METER for s in serial)
+    with distributed.LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        remote = vv.od.fit_tle_batch(days, satnums=[25544] * 4, client=client, chunks=2)
+    for a, b in zip(serial, remote, strict=True):
+        assert a.fit.fields == b.fit.fields  # the same fit wherever it runs
+    with pytest.raises(vv.InvalidInputError, match="satnums"):
+        vv.od.fit_tle_batch(days, satnums=[1, 2])

@@ -21,6 +21,7 @@ _EXPORTS = {
     "OrbitFit": "batch",
     "fit_tle": "tle_fit",
     "TLEFit": "tle_fit",
+    "fit_tle_batch": "tle_batch",
     "simulate_observations": "simulate",
 }
 

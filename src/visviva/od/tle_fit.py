@@ -49,6 +49,9 @@ class TLEFit:
         Per iteration: ``iteration``, ``rms_position_km``, ``damping``.
     n_states : int
         Number of states fitted.
+    fields : dict
+        The fitted element set as OMM fields at full float precision (what
+        :meth:`~visviva.Satellite.from_omm` takes).
     """
 
     def __init__(self, **kw):
@@ -199,6 +202,17 @@ def _initial_elements(r, v, bstar):
     return np.array([n_rad_min, ecc * math.cos(w), ecc * math.sin(w), inc, raan, w + M, bstar])
 
 
+def _satellite_from_fields(fields):
+    """A Satellite from fitted OMM fields (a blank OBJECT_ID leaves the designator blank)."""
+    from ..satellites.tle import Satellite
+
+    blank = not fields.get("OBJECT_ID")
+    sat = Satellite.from_omm({**fields, "OBJECT_ID": fields.get("OBJECT_ID") or "UNKNOWN"})
+    if blank:
+        sat.satrec.intldesg = ""
+    return sat
+
+
 def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
     """OMM fields made directly from an osculating TEME state: the naive TLE, for comparison."""
     p = _initial_elements(np.asarray(r_teme), np.asarray(v_teme), bstar)
@@ -268,7 +282,6 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     from astropy.time import Time
 
     from ..satellites.frames import transform_matrices
-    from ..satellites.tle import Satellite
 
     if frame not in ("gcrs", "teme"):
         raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
@@ -391,9 +404,9 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         err.history = history
         raise err
     fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
-    sat = Satellite.from_omm(fields)
     if not object_id:
-        sat.satrec.intldesg = ""
+        fields["OBJECT_ID"] = ""
+    sat = _satellite_from_fields(fields)
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(
@@ -403,5 +416,6 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         iterations=len(history),
         history=history,
         n_states=n,
+        fields=fields,
     )
     return sat

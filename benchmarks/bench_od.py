@@ -42,16 +42,7 @@ def _campaign(hours: float):
                 vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km),
                 vv.GroundStation(15 * u.deg, 150 * u.deg, 0.0 * u.km)]
     grid = epoch + np.arange(0, hours * 3600, 30) * u.s
-    rows = []
-    for s in stations:
-        look = vv.od.simulate_observations(truth, grid, "azel", 1e-9, s, forces, seed=False)
-        for i in np.flatnonzero(look.values[:, 1] > np.radians(10)):
-            rows += [(i, "range", 0.010, s), (i, "range_rate", 1e-5, s),
-                     (i, "azel", np.radians(0.01), s)]
-    rows.sort(key=lambda row: row[0])
-    idx, kinds, sigmas, sites = zip(*rows, strict=True)
-    obs = vv.od.simulate_observations(truth, grid[list(idx)], kinds, sigmas, sites, forces,
-                                      seed=3)
+    obs = vv.od.simulate_tracking(truth, stations, grid, forces, seed=3)
     obs.sites()  # station geometry once, outside the timings
     guess = vv.StateVectors(truth.r + [1.0, -1.0, 0.5] * u.km,
                             truth.v + [1e-3, 0.0, -1e-3] * u.km / u.s, vv.EARTH, epoch=epoch)
@@ -199,7 +190,7 @@ def _dask_row(cases, serial_per_fit):
     satnums = [s for *_, s in cases]
     n = len(cases)
     with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         vv.od.fit_tle_batch(histories[:4], satnums[:4], client=client, frame="teme")  # warm
         t0 = time.perf_counter()
         sats = vv.od.fit_tle_batch(histories, satnums, client=client, frame="teme")

@@ -32,15 +32,7 @@ stations = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km, name="Colorad
 
 # -- the campaign -------------------------------------------------------------------------------
 grid = epoch + np.arange(0, 4 * 3600, 30) * u.s
-rows = []
-for s in stations:
-    look = vv.od.simulate_observations(truth, grid, "azel", 1e-9, s, forces, seed=False)
-    for i in np.flatnonzero(look.values[:, 1] > np.radians(10)):
-        rows += [(i, "range", 0.010, s), (i, "range_rate", 1e-5, s),
-                 (i, "azel", np.radians(0.01), s)]
-rows.sort(key=lambda row: row[0])
-idx, kinds, sigmas, sites = zip(*rows, strict=True)
-obs = vv.od.simulate_observations(truth, grid[list(idx)], kinds, sigmas, sites, forces, seed=7)
+obs = vv.od.simulate_tracking(truth, stations, grid, forces, seed=7)
 print(obs)
 
 # -- the fit from a poor guess ------------------------------------------------------------------

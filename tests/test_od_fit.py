@@ -257,3 +257,16 @@ def test_azel_and_range_against_an_earth_fixed_computation(tracking):
             np.testing.assert_allclose(obs.values[i, :2], [az, el], atol=1e-8)
         elif obs.kinds[i] == "range":
             assert obs.values[i, 0] == pytest.approx(np.linalg.norm(local), abs=1e-6)
+
+
+def test_simulate_tracking_sees_what_the_stations_see(tracking):
+    t, kinds, sigmas, stations = tracking
+    grid = EPOCH + np.arange(0, 6 * 3600, 20) * u.s
+    obs = vv.od.simulate_tracking(
+        TRUTH, STATIONS, grid, [vv.J2(vv.EARTH)], seed=False)
+    # the same visible samples as the Earth-fixed elevation computed in the fixture
+    assert len(obs) == len(t)
+    assert list(obs.kinds) == list(kinds)
+    assert np.all(obs.values[obs.kinds == "azel", 1] > np.radians(10))
+    with pytest.raises(vv.InvalidInputError, match="no station sees"):
+        vv.od.simulate_tracking(TRUTH, STATIONS[:1], grid[:2], seed=False)

@@ -141,7 +141,7 @@ def test_fit_tle_batch_serial_and_on_dask(iss):
     serial = vv.od.fit_tle_batch(days, satnums=[25544] * 4)
     assert all(s.fit.max_position_km < ONE_METER for s in serial)
     with distributed.LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address=":0") as cluster, \
             distributed.Client(cluster) as client:
         remote = vv.od.fit_tle_batch(days, satnums=[25544] * 4, client=client, chunks=2)
     for a, b in zip(serial, remote, strict=True):

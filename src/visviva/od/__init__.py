@@ -8,7 +8,7 @@ Names load lazily (PEP 562): importing ``visviva.od`` compiles nothing.
 
 from __future__ import annotations
 
-import importlib
+from .. import _lazy
 
 #: public name -> submodule of visviva.od that defines it
 _EXPORTS = {
@@ -23,19 +23,10 @@ _EXPORTS = {
     "TLEFit": "tle_fit",
     "fit_tle_batch": "tle_batch",
     "simulate_observations": "simulate",
+    "simulate_tracking": "simulate",
 }
 
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        module = importlib.import_module(f"{__name__}.{_EXPORTS[name]}")
-        value = getattr(module, name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, prefix=f"{__name__}.")

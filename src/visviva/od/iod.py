@@ -233,11 +233,9 @@ def _lagrange_fg(r2, v2, gm, tau):
     return float(fg[0]), float(fg[1])
 
 
-def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
-    """Gauss's method from a guess of |r2|, refined with exact f and g until the ranges settle."""
+def _gauss_determinants(los, sites):
+    """D0 = L1 . (L2 x L3) and D_ij = R_i . p_j with p1 = L2 x L3, p2 = L1 x L3, p3 = L1 x L2."""
     L1, L2, L3 = los
-    R1, R2, R3 = sites
-    tau1, tau3 = taus[0], taus[2]
     p1, p2, p3 = np.cross(L2, L3), np.cross(L1, L3), np.cross(L1, L2)
     D0 = float(L1 @ p1)
     if abs(D0) < 1e-12:
@@ -245,7 +243,15 @@ def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
             "the three lines of sight are coplanar (D0 = 0): Gauss's method cannot separate the "
             "ranges; use observations spread further apart or double_r."
         )
-    D = np.array([[R @ p for p in (p1, p2, p3)] for R in (R1, R2, R3)])
+    return D0, np.array([[R @ p for p in (p1, p2, p3)] for R in sites])
+
+
+def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
+    """Gauss's method from a guess of |r2|, refined with exact f and g until the ranges settle."""
+    L1, L2, L3 = los
+    R1, R2, R3 = sites
+    tau1, tau3 = taus[0], taus[2]
+    D0, D = _gauss_determinants(los, sites)
     r2m = r2_guess
     f1 = 1.0 - gm * tau1**2 / (2 * r2m**3)
     g1 = tau1 - gm * tau1**3 / (6 * r2m**3)
@@ -344,20 +350,12 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12):
     los, taus, sites, epoch = _angles_inputs(ra, dec, t, site_positions)
     tau1, tau3 = taus[0], taus[2]
     tau = tau3 - tau1
-    L1, L2, L3 = los
-    p1, p2, p3 = np.cross(L2, L3), np.cross(L1, L3), np.cross(L1, L2)
-    D0 = float(L1 @ p1)
-    if abs(D0) < 1e-12:
-        raise DomainError(
-            "the three lines of sight are coplanar (D0 = 0): Gauss's method cannot separate the "
-            "ranges; use observations spread further apart or double_r."
-        )
-    D = np.array([[R @ p for p in (p1, p2, p3)] for R in sites])
+    D0, D = _gauss_determinants(los, sites)
     A = (-D[0, 1] * tau3 / tau + D[1, 1] + D[2, 1] * tau1 / tau) / D0
     B = (D[0, 1] * (tau3**2 - tau**2) * tau3 / tau + D[2, 1] * (tau**2 - tau1**2) * tau1 / tau) / (
         6 * D0
     )
-    E = float(L2 @ sites[1])
+    E = float(los[1] @ sites[1])
     R2sq = float(sites[1] @ sites[1])
     a = -(A * A + 2 * A * E + R2sq)
     b = -2 * g * B * (A + E)

@@ -20,7 +20,12 @@ from ..errors import InvalidInputError
 from .measurements import predict
 from .observations import KINDS, Observations
 
-__all__ = ["simulate_observations"]
+__all__ = ["simulate_observations", "simulate_tracking"]
+
+#: default tracking: range 1 cm, range rate 10 um/s, azimuth/elevation 0.01 deg
+DEFAULT_TRACKING = (("range", 0.010), ("range_rate", 1e-5), ("azel", np.radians(0.01)))
+#: default elevation mask, rad (10 deg)
+MIN_ELEVATION_RAD = np.radians(10.0)
 
 
 def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
@@ -86,3 +91,55 @@ def _placeholder(kind, n):
     return [np.zeros(KINDS[k][0]) if k in KINDS else 0.0 for k in kinds]
 
 
+
+
+def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
+                      min_elevation=MIN_ELEVATION_RAD, seed=None):  # fmt: skip
+    """A tracking campaign: every station measures whenever the satellite is high enough.
+
+    Parameters
+    ----------
+    state : StateVectors
+        The true GCRS state, with an epoch.
+    stations : sequence of GroundStation
+        The stations.
+    times : astropy Time (T,)
+        Candidate measurement times (increasing), e.g. every 30 s.
+    perturbations : list of Perturbation or None
+        Dynamics of the truth (None: two-body).
+    measurements : sequence of (kind, sigma)
+        What each station measures at each visible time, with the noise standard deviation in
+        km, km/s or rad (default: range 1 cm, range rate 10 um/s, az/el 0.01 deg).
+    min_elevation : Quantity (angle) or float (rad)
+        Elevation above which a station sees the satellite (default 10 deg).
+    seed : int, numpy Generator or False, optional
+        Noise seed (False: no noise).
+
+    Returns
+    -------
+    Observations
+        Rows sorted by time (at one time: stations in the given order, then ``measurements``
+        in order).
+
+    Raises
+    ------
+    InvalidInputError
+        No station sees the satellite at any of the times.
+    """
+    from .._units import to_array
+
+    el_min = float(to_array(min_elevation, "angle", "min_elevation"))
+    rows = []
+    for order, s in enumerate(stations):
+        look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False)
+        for i in np.flatnonzero(look.values[:, 1] > el_min):
+            rows += [(i, order, k, sigma, s) for k, sigma in measurements]
+    if not rows:
+        raise InvalidInputError(
+            "no station sees the satellite above min_elevation at any of the times; extend the "
+            "times or lower min_elevation."
+        )
+    rows.sort(key=lambda row: (row[0], row[1]))
+    idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
+    return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
+                                 perturbations, seed=seed)  # fmt: skip

@@ -270,3 +270,24 @@ def test_simulate_tracking_sees_what_the_stations_see(tracking):
     assert np.all(obs.values[obs.kinds == "azel", 1] > np.radians(10))
     with pytest.raises(vv.InvalidInputError, match="no station sees"):
         vv.od.simulate_tracking(TRUTH, STATIONS[:1], grid[:2], seed=False)
+
+
+def test_fit_without_initial_guess_uses_iod(tracking):
+    """initial=None: Gibbs on range + az/el fixes of the first pass, then the fit."""
+    t, kinds, sigmas, stations = tracking
+    obs = simulate_observations(TRUTH, t, kinds, sigmas, stations, [vv.J2(vv.EARTH)], seed=9)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_then = vv.propagate_cowell(TRUTH, first.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((first.r - true_then.r).to_value(u.km)) < 1.0
+    fit = vv.fit_orbit(obs, None, [vv.J2(vv.EARTH)])
+    assert fit.state.epoch == first.epoch
+    true_fit = vv.propagate_cowell(TRUTH, fit.state.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((fit.state.r - true_fit.r).to_value(u.km)) < 0.02
+    guess = vv.od.initial_orbit(_position_obs(4), vv.EARTH)
+    true_then = vv.propagate_cowell(TRUTH, guess.epoch)
+    assert np.linalg.norm((guess.r - true_then.r).to_value(u.km)) < 0.5
+    assert np.linalg.norm((guess.v - true_then.v).to_value(u.km / u.s)) < 5e-3  # 50 m noise
+    only_rr = vv.Observations(time=t[:3], kind="range_rate", value=[1e-3] * 3 * u.km / u.s,
+                              sigma=1e-5 * u.km / u.s, station=stations[0])
+    with pytest.raises(vv.InvalidInputError, match="first orbit"):
+        vv.od.initial_orbit(only_rr, vv.EARTH)

@@ -16,6 +16,7 @@ _EXPORTS = {
     "herrick_gibbs": "iod",
     "gauss_angles": "iod",
     "double_r": "iod",
+    "initial_orbit": "iod",
     "Observations": "observations",
     "fit_orbit": "batch",
     "OrbitFit": "batch",

@@ -129,9 +129,12 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     ----------
     observations : Observations
         The measurements (positions, ranges, range rates, az/el, RA/Dec).
-    initial : StateVectors
+    initial : StateVectors or None
         First guess of the GCRS state, with an ``epoch`` (the estimate's epoch); e.g. from
         :func:`~visviva.gauss_angles`, :func:`~visviva.gibbs` or :func:`~visviva.herrick_gibbs`.
+        None: an Earth orbit from the observations themselves
+        (:func:`visviva.od.initial_orbit`: Gibbs or Herrick-Gibbs on three position fixes of
+        the first pass, or Gauss on three RA/Dec).
     perturbations : list of Perturbation or None
         Dynamics: None or [] for two-body motion, or Cowell perturbations
         (``[vv.J2(vv.EARTH)]``, ``vv.Zonal``, ``vv.AtmosphericDrag``, ``vv.ThirdBody``,
@@ -184,6 +187,11 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             "observations must be a vv.Observations table; build one with "
             "vv.Observations(time=..., kind=..., value=..., sigma=..., station=...)."
         )
+    if initial is None:
+        from ..bodies import EARTH
+        from .iod import initial_orbit
+
+        initial = initial_orbit(observations, EARTH)
     x, gm, epoch = _check_initial(initial)
     if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
         raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")

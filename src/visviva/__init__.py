@@ -102,6 +102,13 @@ _PUBLIC = {
     "collision_probability": "visviva.conjunctions",
     "max_collision_probability": "visviva.conjunctions",
     "monte_carlo_probability": "visviva.conjunctions",
+    # orbit determination
+    "gibbs": "visviva.od",
+    "herrick_gibbs": "visviva.od",
+    "gauss_angles": "visviva.od",
+    "Observations": "visviva.od",
+    "fit_orbit": "visviva.od",
+    "fit_tle": "visviva.od",
     # CCSDS orbit data messages
     "CCSDSFormatError": "visviva.ccsds.grammar",
     "read_oem": "visviva.ccsds.oem_io",

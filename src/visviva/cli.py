@@ -66,6 +66,7 @@ _COMMANDS: dict[str, str] = {
     "screen": "visviva.conjunctions.cli",
     "convert": "visviva.ccsds.convert",
     "passes": "visviva.ground.cli",
+    "fit-tle": "visviva.od.cli",
 }
 
 

@@ -43,8 +43,7 @@ def doppler_shift(frequency, range_rate):
 
     Examples
     --------
-    >>> import numpy as np
-from astropy import units as u
+    >>> from astropy import units as u
     >>> from visviva.ground import doppler_shift
     >>> print(f"{doppler_shift(437.8 * u.MHz, -7.0 * u.km / u.s).to(u.kHz):.3f}")
     10.222 kHz

@@ -209,7 +209,7 @@ _COMPILED = {
 }
 
 
-def _tle_checksum(line: str) -> int:
+def tle_checksum(line: str) -> int:
     """Modulo-10 sum of the digits of the first 68 columns, minus signs counting 1."""
     return sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10
 
@@ -263,7 +263,7 @@ def check_tle_lines(
                     f"value: {line!r}."
                 )
         if verify_checksum:
-            expected = _tle_checksum(line)
+            expected = tle_checksum(line)
             if int(line[68]) != expected:
                 raise TLEFormatError(
                     f"{name}: checksum mismatch, column 69 says {line[68]} but the line sums to "

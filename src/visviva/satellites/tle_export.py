@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InvalidInputError
-from .tle import _tle_checksum as tle_checksum  # the one checksum rule (read and write)
+from .tle_checks import tle_checksum  # the one checksum rule (read and write)
 
 __all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent"]
 

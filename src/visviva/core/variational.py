@@ -15,10 +15,12 @@ the trajectory is the one ``propagate_cowell`` computes, to the integration tole
 Partials included, each exact for its force term:
 
 * two-body: da/dr = -GM/r^3 (I - 3 r r^T / r^2);
-* J2 (zonal degree 2): the Hessian of the J2 potential; higher zonal degrees and the
-  spherical-harmonic field are left out of the Jacobian (their partials are below 1e-3 of
-  J2's in low orbit: they slow the convergence of a fit by nothing measurable and do not
-  change its solution, which is set by the residuals computed with the full force model);
+* zonal harmonics J_2 .. J_n: the Hessian of the zonal potential of any degree
+  (:func:`_add_zonal_gradient`); for a full spherical-harmonic field its zonal part
+  (J_n = -C_n0) about the propagation z axis, the tesseral terms being left out of the
+  Jacobian (below 1e-3 of J2's partials in low orbit: they slow the convergence of a fit by
+  nothing measurable and do not change its solution, which is set by the residuals computed
+  with the full force model);
 * drag: da/dv = -rho B/2 (|w| I + w w^T/|w|), w = v - omega x r, and da/dr from the
   co-rotation and from the altitude gradient of the density, d ln rho / dh = -1/H
   (exponential table) or the slope of the tabulated ln rho along altitude (NRLMSIS grid);
@@ -59,7 +61,11 @@ _N_STAGES = 12
 
 @kernel
 def _add_point_mass_gradient(dx, dy, dz, k, G):
-    """G += k (3 d d^T / |d|^5 - I / |d|^3): the gradient of k d/|d|^3 with respect to d."""
+    """G += k (3 d d^T / |d|^5 - I / |d|^3), which is -k times the gradient of d / |d|^3.
+
+    The tidal (gravity-gradient) matrix of a point mass: with k = GM and d the vector from
+    the mass, it is the gradient of the attraction -GM d / |d|^3.
+    """
     d2 = dx * dx + dy * dy + dz * dz
     d = math.sqrt(d2)
     inv3 = 1.0 / (d2 * d)
@@ -72,33 +78,67 @@ def _add_point_mass_gradient(dx, dy, dz, k, G):
 
 
 @kernel
-def _add_j2_gradient(x, y, z, gm, radius, j2, G):
-    """G += d a_J2 / d r (the Hessian of the J2 potential U = GM J2 R^2 P2(z/r) / r^3)."""
+def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, G):
+    """G += d a_zonal / d r for the zonal terms J_2 .. J_n_max (``zonal[n]`` = J_n).
+
+    With s = z/r, c_n = J_n R^n, alpha_n = (n+1) P_n + s P_n', the acceleration of
+    :func:`visviva.core.perturbations.accel_zonal` is a = GM [A r / r^3 - B z_hat / r^2] with
+    A = sum c_n r^-n alpha_n(s), B = sum c_n r^-n P_n'(s). Its gradient is
+
+        GM [r (f_r r_hat + f_s grad s)^T + f I - z_hat (g_r r_hat + g_s grad s)^T],
+
+    f = A/r^3, g = B/r^2, grad s = (z_hat - s r_hat)/r, with the radial and s-derivatives
+    from the Legendre recursions P_n'' = (n+1) P_{n-1}' + s P_{n-1}''.
+    """
     r2 = x * x + y * y + z * z
     r = math.sqrt(r2)
-    k = -1.5 * gm * j2 * radius * radius
-    r5 = r2 * r2 * r
-    r7 = r5 * r2
-    z2 = z * z
-    # a_x = k x / r^5 (1 - 5 z^2/r^2), a_y likewise, a_z = k z / r^5 (3 - 5 z^2/r^2)
-    # write a_x = k x (r^-5 - 5 z^2 r^-7)
-    pxy = 1.0 / r5 - 5.0 * z2 / r7  # a_x = k x pxy, a_y = k y pxy
-    # d pxy / d x_i = -5 x_i / r^7 + 35 z^2 x_i / r^9 - (10 z / r^7 if i == z)
-    r9 = r7 * r2
-    q = -5.0 / r7 + 35.0 * z2 / r9
+    s = z / r
+    p_nm2 = 1.0
+    p_nm1 = s
+    dp_nm1 = 1.0
+    ddp_nm1 = 0.0
+    ratio = radius / r
+    rn = ratio
+    A = 0.0
+    A_r = 0.0
+    A_s = 0.0
+    B = 0.0
+    B_r = 0.0
+    B_s = 0.0
+    for n in range(2, n_max + 1):
+        p_n = ((2 * n - 1) * s * p_nm1 - (n - 1) * p_nm2) / n
+        dp_n = n * p_nm1 + s * dp_nm1
+        ddp_n = (n + 1) * dp_nm1 + s * ddp_nm1
+        rn *= ratio
+        jn = zonal[n]
+        if jn != 0.0:
+            c = jn * rn  # J_n (R/r)^n
+            alpha = (n + 1) * p_n + s * dp_n
+            A += c * alpha
+            A_r -= n * c * alpha / r
+            A_s += c * ((n + 2) * dp_n + s * ddp_n)
+            B += c * dp_n
+            B_r -= n * c * dp_n / r
+            B_s += c * ddp_n
+        p_nm2, p_nm1 = p_nm1, p_n
+        dp_nm1 = dp_n
+        ddp_nm1 = ddp_n
+    r3 = r2 * r
+    f = A / r3
+    f_r = A_r / r3 - 3.0 * A / (r3 * r)
+    f_s = A_s / r3
+    g_r = B_r / r2 - 2.0 * B / r3
+    g_s = B_s / r2
     pos = (x, y, z)
-    for i in range(2):
-        for j in range(3):
-            dp = q * pos[j]
-            if j == 2:
-                dp -= 10.0 * z / r7
-            G[i, j] += k * (pos[i] * dp + (pxy if i == j else 0.0))
-    # a_z = k (3 z / r^5 - 5 z^3 / r^7)
     for j in range(3):
-        dp = -15.0 * z * pos[j] / r7 + 35.0 * z2 * z * pos[j] / r9
-        if j == 2:
-            dp += 3.0 / r5 - 15.0 * z2 / r7
-        G[2, j] += k * dp
+        rhat_j = pos[j] / r
+        grad_s_j = ((1.0 if j == 2 else 0.0) - s * rhat_j) / r
+        df_j = f_r * rhat_j + f_s * grad_s_j
+        dg_j = g_r * rhat_j + g_s * grad_s_j
+        for i in range(3):
+            G[i, j] += gm * pos[i] * df_j
+        G[j, j] += gm * f
+        G[2, j] -= gm * dg_j
 
 
 @kernel
@@ -126,14 +166,18 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             dadr[i, j] = 0.0
             dadv[i, j] = 0.0
     gm = force[0]
-    # two-body: the gradient of -gm r / r^3 is gm (3 r r^T/r^5 - I/r^3) evaluated at d = r
-    # with a sign change (a = -gm r/r^3 = +gm d/d^3 with d = -r)
-    _add_point_mass_gradient(-x, -yy, -z, gm, dadr)
-    if int(force[2]) >= 2 and zonal[2] != 0.0:
-        _add_j2_gradient(x, yy, z, gm, force[1], zonal[2], dadr)
-    elif force[17] >= 2.0 and sh.shape[1] > 2:
-        # the field's C20 = -J2 (unnormalised) carries the dominant partial; see module notes
-        _add_j2_gradient(x, yy, z, gm, force[1], -sh[0, 2, 0], dadr)
+    # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
+    _add_point_mass_gradient(x, yy, z, gm, dadr)
+    if int(force[2]) >= 2:
+        _add_zonal_gradient(x, yy, z, gm, force[1], zonal, int(force[2]), dadr)
+    elif force[17] >= 2.0:
+        # the field's zonal part, J_n = -C_n0 (unnormalised), about the propagation z axis;
+        # the tesseral terms are left out of the partials (see the module notes)
+        n_sh = int(force[17])
+        jn = np.zeros(n_sh + 1)
+        for n in range(2, n_sh + 1):
+            jn[n] = -sh[0, n, 0]
+        _add_zonal_gradient(x, yy, z, gm, force[1], jn, n_sh, dadr)
     sun = int(force[12])
     sun_pos = np.empty(3)
     pos = np.empty(3)
@@ -197,7 +241,8 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             hermite_position(t, b, force, eph_r, eph_v, pos)
             bx, by, bz = pos[0], pos[1], pos[2]
         # a = gm_b (d / |d|^3 - ...), d = r_b - r: d a / d r = -gm_b grad_d (d / |d|^3)
-        _add_point_mass_gradient(bx - x, by - yy, bz - z, -eph_gm[b], dadr)
+        # = gm_b (3 d d^T / d^5 - I / d^3)
+        _add_point_mass_gradient(bx - x, by - yy, bz - z, eph_gm[b], dadr)
     if force[7] != 0.0 and sun >= 0:
         from_sun_x = x - sun_pos[0]
         from_sun_y = yy - sun_pos[1]

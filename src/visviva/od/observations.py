@@ -176,7 +176,7 @@ class Observations:
             if KINDS[k][2] and (s is None or not hasattr(s, "gcrs_position_velocity")):
                 raise InvalidInputError(
                     f"observation {i} ({k}) needs the observing station: pass "
-                    "station=vv.ground.GroundStation(lat, lon, height) (one, or one per row)."
+                    "station=vv.GroundStation(lat, lon, height) (one, or one per row)."
                 )
             if k == "azel" and not hasattr(s, "enu_matrix"):
                 raise InvalidInputError(

@@ -46,8 +46,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         Station per row (needed by every kind but ``"position"``).
     perturbations : list of Perturbation or None
         Dynamics of the truth (None: two-body).
-    seed : int or numpy Generator, optional
-        Random seed (0 noise when ``sigma`` rows are wanted noise-free: use ``seed=False``).
+    seed : int, numpy Generator or False, optional
+        Random seed or generator of the noise; ``False`` gives the exact values (the sigmas
+        are still recorded).
 
     Returns
     -------

@@ -281,3 +281,19 @@ def test_default_interpolation_when_the_file_names_none():
     seg, _, _ = _two_body_segment("HERMITE", 5)
     del seg.metadata.values["INTERPOLATION"], seg.metadata.values["INTERPOLATION_DEGREE"]
     assert seg.interpolation == ("LAGRANGE", 7)
+
+
+def test_states_in_other_frames_match_astropy_via_satellite():
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+    t = sat.epoch + np.arange(0, 3600, 600.0) * u.s
+    teme = sat.teme(t)
+    seg = OEMSegment.from_states(t, teme.r.to_value(u.km), teme.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame="TEME")
+    for frame, ref in (("gcrs", sat.gcrs(t)), ("itrs", sat.itrs(t))):
+        got = seg.states_in(frame)
+        assert np.abs(got.r.to_value(u.km) - ref.r.to_value(u.km)).max() < 1e-6  # 1 mm
+        assert np.abs(got.v.to_value(u.km / u.s) - ref.v.to_value(u.km / u.s)).max() < 1e-9
+    with pytest.raises(vv.InvalidInputError, match="not supported"):
+        seg.states_in("icrs")

@@ -193,6 +193,38 @@ class OEMSegment:
 
         return StateVectors._from_canonical(self.r_km, self.v_km_s, self._gm(), self.times)
 
+    def states_in(self, frame: str):
+        """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
+
+        Parameters
+        ----------
+        frame : {"gcrs", "teme", "itrs"}
+            Target frame; the segment's ``REF_FRAME`` must map to one of them too.
+
+        Returns
+        -------
+        StateVectors
+            Positions (km) and velocities (km/s) in ``frame``, at :attr:`times`.
+
+        Notes
+        -----
+        The rotation is astropy's (:func:`visviva.satellites.frames.transform_batch`), with the
+        Earth-orientation data installed with astropy; EME2000/ICRF/GCRF are taken as the GCRS.
+        """
+        from ..satellites.frames import transform_batch
+        from ..states import StateVectors
+
+        source = self.visviva_frame
+        if source is None or frame not in ("gcrs", "teme", "itrs"):
+            raise InvalidInputError(
+                f"states_in: from REF_FRAME {self.frame} to {frame!r} is not supported; "
+                "visviva rotates between 'gcrs' (EME2000/ICRF/GCRF), 'teme' and 'itrs' (ITRF)")
+        if frame == source:
+            return self.states
+        r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
+                               frame)
+        return StateVectors._from_canonical(r[0], v[0], self._gm(), self.times)
+
     def _gm(self) -> float:
         body = center_body(self.center)
         if body is None:

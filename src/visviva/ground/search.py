@@ -120,7 +120,12 @@ class EventSet:
         self.__dict__.update(fields)
 
     def times(self, index=None) -> Time:
+        """The event times (UTC), all or ``t_s[index]``."""
         t = self.t_s if index is None else self.t_s[index]
+        clock = self.__dict__.get("clock")
+        if clock is not None and clock.leap_free:
+            jd1, jd2 = clock.parts(t)
+            return Time(jd1, jd2, format="jd", scale="utc", precision=3).copy(format="isot")
         return (self.t_ref + t * u.s).utc
 
 
@@ -359,6 +364,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min,
                   span_s, near_sat)
     ev.earth = earth
+    ev.clock = clock
     ev.skipped = skipped
     return ev
 

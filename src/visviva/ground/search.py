@@ -221,7 +221,8 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
     exact = ~secular[idx]
     js = np.flatnonzero(~exact)
     if js.size:
-        sub = Catalog([cat.satellites[int(i)] for i in idx[js]])
+        whole = js.size == len(cat)  # the usual LEO catalogue: its cached secular setup
+        sub = cat if whole else Catalog([cat.satellites[int(i)] for i in idx[js]])
         try:
             b = propagate_j2_batch(sub, clock.t_ref + times_s * u.s, on_error="nan")
             r_sec = b.r.to_value(u.km)

@@ -387,7 +387,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     Three rounds, each one SGP4 evaluation of all events together:
 
     * maxima (culminations and near-maxima) move to the vertex of the parabola through ``f``
-      at ``t - 1 s``, ``t``, ``t + 1 s``. Positions only: SGP4's velocity is not exactly the
+      at ``t - 1 s``, ``t``, ``t + 1 s`` (in the first two rounds; the third evaluates ``f``
+      at the vertex). Positions only: SGP4's velocity is not exactly the
       derivative of its position (it leaves out the rates of some periodic terms: ~1 cm/s in
       LEO, more with the deep-space terms), which would move a flat culmination by seconds;
     * rises and sets take a Newton step on ``f`` (``f'`` from SGP4's velocity is only the
@@ -409,28 +410,31 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     k_c = np.empty(nm)
     state_r = np.empty((t.size, 3))
     state_v = np.empty((t.size, 3))
+    ok_m = np.ones(nm, dtype=bool)
     for it in range(3):
-        last = it == 2
+        last = it == 2  # the last round needs f at the vertex only (k from the round before)
         idx = np.concatenate([mi, xi] + ([fixed] if last else []))
-        tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else [])
-                            + [t[mi] - delta, t[mi] + delta])
-        ii = np.concatenate([idx, mi, mi])
+        side = [] if last else [t[mi] - delta, t[mi] + delta]
+        tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else []) + side)
+        ii = np.concatenate([idx] + ([] if last else [mi, mi]))
         _, ri, vi, fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites,
                                        ups, sin_min)
         n0 = idx.size
         state_r[idx] = ri[:n0]
         state_v[idx] = vi[:n0]
         f0 = fd[:nm, 0]
-        fm = fd[n0:n0 + nm, 0]
-        fp = fd[n0 + nm:, 0]
-        ok_m = (err[:nm] == 0) & (err[n0:n0 + nm] == 0) & (err[n0 + nm:] == 0)
-        curv = fm - 2.0 * f0 + fp
-        f_c = np.where(ok_m, f0, -1.0)
-        k_c = -curv / delta**2
         with np.errstate(divide="ignore", invalid="ignore"):
-            step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
             step_x = -fd[nm:nm + nx, 0] / fd[nm:nm + nx, 1]
-        if not last:
+        if last:
+            f_c = np.where(ok_m & (err[:nm] == 0), f0, -1.0)
+        else:
+            fm = fd[n0:n0 + nm, 0]
+            fp = fd[n0 + nm:, 0]
+            ok_m = (err[:nm] == 0) & (err[n0:n0 + nm] == 0) & (err[n0 + nm:] == 0)
+            curv = fm - 2.0 * f0 + fp
+            k_c = -curv / delta**2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
             step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
             t[mi] = np.clip(t[mi] + step_m, 0.0, span_s)
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)

@@ -453,7 +453,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
             step = -fd[:, 0] / fd[:, 1]
         step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
         t[pending] = np.clip(t[pending] + step, 0.0, span_s)
-        pending = pending[np.abs(step) > 1e-4]
+        moving = (np.abs(step) > 1e-4) & (t[pending] > 0.0) & (t[pending] < span_s)
+        pending = pending[moving]  # converged, or pushed to the window's edge (dropped below)
     # a crossing pushed to the window's edge is not one (the edge pseudo-events tell that)
     edge_x = xi[(t[xi] <= 0.0) | (t[xi] >= span_s)]
     keep = np.ones(t.size, dtype=bool)

@@ -1,23 +1,24 @@
-"""The event search behind ``find_events`` and ``find_passes``: coarse SGP4 nodes shared by all
+"""The event search behind ``find_events`` and ``find_passes``: coarse node states shared by all
 stations, a compiled scan of every (satellite, station) pair, and a final correction on SGP4.
 
 1. **Nodes.** The satellites are grouped by the node spacing their orbit needs: ``h`` about
-   1/16 of the time the satellite takes to sweep one radian at perigee,
-   ``h ~ 2 pi / (16 n (1 + e)^2 / (1 - e^2)^(3/2))`` rounded down to 75 s x 2^k
-   (LEO: 300 s; GTO and Molniya: 300 s, their perigee being as fast as LEO; GEO: 4800 s). One
-   ``SatrecArray`` call per group gives the TEME states at the nodes, and one set of astropy
-   anchors (:class:`~visviva.ground.earthfixed.EarthFixedMap`) turns them Earth-fixed. This is
-   all the SGP4 work of the coarse search; every station shares it.
+   1/8 of the time the satellite takes to sweep one radian at perigee,
+   ``h ~ 2 pi / (8 n (1 + e)^2 / (1 - e^2)^(3/2))`` rounded down to 75 s x 2^k (LEO: 600 s;
+   GTO and Molniya about the same, their perigee being as fast as LEO; GEO: 4800 s).
+   Near-Earth satellites take SGP4's secular J2 theory at the nodes (checked against SGP4 at
+   three nodes, see :func:`_nodes`), deep-space ones one ``SatrecArray`` call; one set of
+   astropy anchors (:class:`~visviva.ground.earthfixed.EarthFixedMap`) turns the states
+   Earth-fixed. Every station shares them.
 2. **Scan.** :func:`visviva.core.topocentric.scan_passes` samples ``sin(el)`` on the cubic
    Hermite polynomials through the nodes (``m`` = 6 samples per interval), refines every
-   extremum and every crossing of ``min_elevation`` on the polynomial, for all pairs at once.
-3. **Correction.** The polynomial is off SGP4 by up to ~0.3 km in LEO (0.05 s in a rise time
-   at worst), so each event is corrected on SGP4 itself: two Newton steps on
-   ``f = sin(el) - sin(el_min)`` for rises and sets, two secant steps on ``df/dt`` for
-   culminations; SGP4 runs only at the event times (one ``sgp4_array`` call per satellite with
-   events per round: the sgp4 library takes per-satellite time lists no other way).
-   Culminations whose corrected elevation is below the threshold (grazing passes the
-   polynomial put a hair above it) are dropped with their rise and set.
+   extremum and every crossing of ``min_elevation`` on the polynomial, for all pairs at once;
+   maxima a little below the threshold come out as candidates.
+3. **Correction** (:func:`_correct`). Each event is corrected on SGP4 itself: Newton steps on
+   ``f = sin(el) - sin(el_min)`` for rises and sets, parabola vertices through SGP4 positions
+   for culminations; candidates and grazing passes are settled on SGP4 (their rise and set
+   re-seeded from the parabola), fakes dropped. SGP4 runs only at the event times: one
+   ``sgp4_array`` call per satellite with events per round (the sgp4 library takes
+   per-satellite time lists no other way). The states at the window's edges come from SGP4.
 """
 
 from __future__ import annotations

@@ -147,3 +147,25 @@ def test_bad_targets(iss, site, times):
         site.look(vv.Catalog([]), times)
     with pytest.raises(vv.InvalidInputError, match="epoch"):
         site.look(vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH))
+
+
+def test_razel_against_vallados_rv2razel():
+    # Vallado's RAZEL (Algorithm 27) as run by his own rv2razel for an Earth-fixed state seen
+    # from the site of his Example 7-1 (39.007 deg N, 104.883 deg W, 2.102 km); the values are
+    # the reference outputs in the tests of the valladopy port of his software
+    # (tests/astro/twobody/test_frame_conversions.py, TestAzEl). His site uses R = 6378.1363 km
+    # (WGS-84 here: 0.7 m apart), hence the tolerances.
+    from visviva.core.topocentric import razel_many
+
+    site = vv.GroundStation(39.007 * u.deg, -104.883 * u.deg, 2.102 * u.km)
+    r = np.array([[-5225.545532658024, -3070.9865969614993, 3501.8159870845006]])
+    v = np.array([[-5.373672578283977, -3.3021038634286506, 4.020523711114683]])
+    out = np.empty((1, 6))
+    razel_many(r - site.itrs_km, v, site.enu_matrix[None], np.zeros(1, dtype=np.int64), out)
+    rng, az, el, rdot, azdot, eldot = out[0]
+    assert rng == pytest.approx(4339.444884044615, abs=2e-3)
+    assert az == pytest.approx(2 * np.pi - 1.5639427896150881, abs=1e-6)
+    assert el == pytest.approx(-0.18973540227923288, abs=1e-6)
+    assert rdot == pytest.approx(3.1216042513457634, abs=3e-6)
+    assert azdot == pytest.approx(5.093097833129788e-05, rel=1e-4)
+    assert eldot == pytest.approx(0.0015655515448868324, rel=1e-5)

@@ -179,3 +179,29 @@ def test_bad_input(iss, sites):
         vv.find_passes(iss, sites, T0, T0 - 1 * u.hour)
     with pytest.raises(vv.DomainError):
         vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, -91 * u.deg)
+
+
+def _omm(epoch):
+    return vv.Satellite.from_omm({
+        "OBJECT_NAME": "X", "NORAD_CAT_ID": 1, "EPOCH": epoch, "MEAN_MOTION": 15.5,
+        "ECCENTRICITY": 0.001, "INCLINATION": 51.6, "RA_OF_ASC_NODE": 10.0,
+        "ARG_OF_PERICENTER": 0.0, "MEAN_ANOMALY": 0.0, "BSTAR": 0.0001,
+        "MEAN_MOTION_DOT": 0.0, "MEAN_MOTION_DDOT": 0.0})
+
+
+def test_offline_earth_orientation_for_recent_and_far_future_dates():
+    from astropy.utils import iers
+    from astropy.utils.exceptions import AstropyWarning
+
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg)
+    # the installed IERS-A predictions are used however old the file is (no download)
+    recent = Time.now().utc
+    sat = _omm(recent.isot[:10] + "T00:00:00")
+    tab = vv.find_passes(sat, site, recent, recent + 12 * u.hour)
+    assert len(tab) >= 1
+    assert iers.conf.auto_download  # only switched off inside visviva's calls
+    # beyond the table: a warning, not an error and not a download
+    far = Time("2040-01-01T06:00:00", scale="utc")
+    with pytest.warns(AstropyWarning, match="IERS"):
+        tab = vv.find_passes(_omm("2040-01-01T00:00:00"), site, far, far + 6 * u.hour)
+    assert len(tab) >= 1

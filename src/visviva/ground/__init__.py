@@ -7,7 +7,7 @@ nor sgp4, and compiles nothing.
 
 from __future__ import annotations
 
-import importlib
+from .. import _lazy
 
 #: public name -> submodule of visviva.ground that defines it
 _EXPORTS = {
@@ -25,15 +25,9 @@ _EXPORTS = {
 
 __all__ = sorted(_EXPORTS)
 
+#: submodules reachable as attributes (``vv.ground.search``, ...)
+_SUBMODULES = {"station", "look", "doppler", "search", "passes", "visibility", "plots",
+               "earthfixed", "dask_passes", "cli"}
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        module = importlib.import_module(f"{__name__}.{_EXPORTS[name]}")
-        value = getattr(module, name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, _SUBMODULES,
+                                             prefix="visviva.ground.")

@@ -50,25 +50,21 @@ class EarthFixedMap:
 
     @property
     def gcrs_to_teme(self):
-        """GCRS -> TEME rotations at the anchors, (A, 3, 3): ``R3(eqeq) N P B``.
+        """GCRS -> TEME rotation at the middle anchor, (3, 3): ``R3(eqeq) N P B``.
 
         IAU 2006/2000A bias-precession-nutation and equation of the equinoxes from ERFA
-        (astropy's library), equal to astropy's GCRS -> TEME to ~3e-7 rad; used for slowly
-        moving directions (the Sun), where it saves an astropy transformation.
+        (astropy's library), equal to astropy's GCRS -> TEME to ~3e-7 rad. Precession and
+        nutation move it by ~0.15 arcsec per day, so one matrix serves a window of days for
+        slowly moving directions (the Sun), where it saves an astropy transformation.
         """
         import erfa
 
         if "_gcrs_to_teme" not in self.__dict__:
-            tt = self._anchors.tt
+            tt = self._anchors[len(self._anchors) // 2].tt
             npb = erfa.pnm06a(tt.jd1, tt.jd2)
-            ee = erfa.ee06a(tt.jd1, tt.jd2)
+            ee = float(erfa.ee06a(tt.jd1, tt.jd2))
             c, s = np.cos(ee), np.sin(ee)
-            r3 = np.zeros((len(ee), 3, 3))
-            r3[:, 0, 0] = c
-            r3[:, 0, 1] = s
-            r3[:, 1, 0] = -s
-            r3[:, 1, 1] = c
-            r3[:, 2, 2] = 1.0
+            r3 = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
             self.__dict__["_gcrs_to_teme"] = r3 @ npb
         return self.__dict__["_gcrs_to_teme"]
 
@@ -79,8 +75,8 @@ class EarthFixedMap:
 
     def gcrs_positions_to_itrs(self, p, t_s):
         """Geocentric GCRS positions (km, (..., 3)) at ``t_s`` -> ITRS (e.g. the Sun)."""
-        t_s, k = self._anchor(t_s)
-        p_teme = np.einsum("...ij,...j->...i", self.gcrs_to_teme[k], p)
+        t_s = np.asarray(t_s, dtype=np.float64)
+        p_teme = np.einsum("ij,...j->...i", self.gcrs_to_teme, p)
         r, _ = self.apply(p_teme, np.zeros_like(p_teme), t_s)
         return r
 

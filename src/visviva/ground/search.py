@@ -1,23 +1,24 @@
-"""The event search behind ``find_events`` and ``find_passes``: coarse SGP4 nodes shared by all
+"""The event search behind ``find_events`` and ``find_passes``: coarse node states shared by all
 stations, a compiled scan of every (satellite, station) pair, and a final correction on SGP4.
 
 1. **Nodes.** The satellites are grouped by the node spacing their orbit needs: ``h`` about
-   1/16 of the time the satellite takes to sweep one radian at perigee,
-   ``h ~ 2 pi / (16 n (1 + e)^2 / (1 - e^2)^(3/2))`` rounded down to 75 s x 2^k
-   (LEO: 300 s; GTO and Molniya: 300 s, their perigee being as fast as LEO; GEO: 4800 s). One
-   ``SatrecArray`` call per group gives the TEME states at the nodes, and one set of astropy
-   anchors (:class:`~visviva.ground.earthfixed.EarthFixedMap`) turns them Earth-fixed. This is
-   all the SGP4 work of the coarse search; every station shares it.
+   1/8 of the time the satellite takes to sweep one radian at perigee,
+   ``h ~ 2 pi / (8 n (1 + e)^2 / (1 - e^2)^(3/2))`` rounded down to 75 s x 2^k (LEO: 600 s;
+   GTO and Molniya about the same, their perigee being as fast as LEO; GEO: 4800 s).
+   Near-Earth satellites take SGP4's secular J2 theory at the nodes (checked against SGP4 at
+   three nodes, see :func:`_nodes`), deep-space ones one ``SatrecArray`` call; one set of
+   astropy anchors (:class:`~visviva.ground.earthfixed.EarthFixedMap`) turns the states
+   Earth-fixed. Every station shares them.
 2. **Scan.** :func:`visviva.core.topocentric.scan_passes` samples ``sin(el)`` on the cubic
    Hermite polynomials through the nodes (``m`` = 6 samples per interval), refines every
-   extremum and every crossing of ``min_elevation`` on the polynomial, for all pairs at once.
-3. **Correction.** The polynomial is off SGP4 by up to ~0.3 km in LEO (0.05 s in a rise time
-   at worst), so each event is corrected on SGP4 itself: two Newton steps on
-   ``f = sin(el) - sin(el_min)`` for rises and sets, two secant steps on ``df/dt`` for
-   culminations; SGP4 runs only at the event times (one ``sgp4_array`` call per satellite with
-   events per round: the sgp4 library takes per-satellite time lists no other way).
-   Culminations whose corrected elevation is below the threshold (grazing passes the
-   polynomial put a hair above it) are dropped with their rise and set.
+   extremum and every crossing of ``min_elevation`` on the polynomial, for all pairs at once;
+   maxima a little below the threshold come out as candidates.
+3. **Correction** (:func:`_correct`). Each event is corrected on SGP4 itself: Newton steps on
+   ``f = sin(el) - sin(el_min)`` for rises and sets, parabola vertices through SGP4 positions
+   for culminations; candidates and grazing passes are settled on SGP4 (their rise and set
+   re-seeded from the parabola), fakes dropped. SGP4 runs only at the event times: one
+   ``sgp4_array`` call per satellite with events per round (the sgp4 library takes
+   per-satellite time lists no other way). The states at the window's edges come from SGP4.
 """
 
 from __future__ import annotations
@@ -120,7 +121,12 @@ class EventSet:
         self.__dict__.update(fields)
 
     def times(self, index=None) -> Time:
+        """The event times (UTC), all or ``t_s[index]``."""
         t = self.t_s if index is None else self.t_s[index]
+        clock = self.__dict__.get("clock")
+        if clock is not None and clock.leap_free:
+            jd1, jd2 = clock.parts(t)
+            return Time(jd1, jd2, format="jd", scale="utc", precision=3).copy(format="isot")
         return (self.t_ref + t * u.s).utc
 
 
@@ -216,7 +222,8 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
     exact = ~secular[idx]
     js = np.flatnonzero(~exact)
     if js.size:
-        sub = Catalog([cat.satellites[int(i)] for i in idx[js]])
+        whole = js.size == len(cat)  # the usual LEO catalogue: its cached secular setup
+        sub = cat if whole else Catalog([cat.satellites[int(i)] for i in idx[js]])
         try:
             b = propagate_j2_batch(sub, clock.t_ref + times_s * u.s, on_error="nan")
             r_sec = b.r.to_value(u.km)
@@ -359,6 +366,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min,
                   span_s, near_sat)
     ev.earth = earth
+    ev.clock = clock
     ev.skipped = skipped
     return ev
 
@@ -380,7 +388,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     Three rounds, each one SGP4 evaluation of all events together:
 
     * maxima (culminations and near-maxima) move to the vertex of the parabola through ``f``
-      at ``t - 1 s``, ``t``, ``t + 1 s``. Positions only: SGP4's velocity is not exactly the
+      at ``t - 1 s``, ``t``, ``t + 1 s`` (in the first two rounds; the third evaluates ``f``
+      at the vertex). Positions only: SGP4's velocity is not exactly the
       derivative of its position (it leaves out the rates of some periodic terms: ~1 cm/s in
       LEO, more with the deep-space terms), which would move a flat culmination by seconds;
     * rises and sets take a Newton step on ``f`` (``f'`` from SGP4's velocity is only the
@@ -402,28 +411,31 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     k_c = np.empty(nm)
     state_r = np.empty((t.size, 3))
     state_v = np.empty((t.size, 3))
+    ok_m = np.ones(nm, dtype=bool)
     for it in range(3):
-        last = it == 2
+        last = it == 2  # the last round needs f at the vertex only (k from the round before)
         idx = np.concatenate([mi, xi] + ([fixed] if last else []))
-        tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else [])
-                            + [t[mi] - delta, t[mi] + delta])
-        ii = np.concatenate([idx, mi, mi])
+        side = [] if last else [t[mi] - delta, t[mi] + delta]
+        tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else []) + side)
+        ii = np.concatenate([idx] + ([] if last else [mi, mi]))
         _, ri, vi, fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites,
                                        ups, sin_min)
         n0 = idx.size
         state_r[idx] = ri[:n0]
         state_v[idx] = vi[:n0]
         f0 = fd[:nm, 0]
-        fm = fd[n0:n0 + nm, 0]
-        fp = fd[n0 + nm:, 0]
-        ok_m = (err[:nm] == 0) & (err[n0:n0 + nm] == 0) & (err[n0 + nm:] == 0)
-        curv = fm - 2.0 * f0 + fp
-        f_c = np.where(ok_m, f0, -1.0)
-        k_c = -curv / delta**2
         with np.errstate(divide="ignore", invalid="ignore"):
-            step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
             step_x = -fd[nm:nm + nx, 0] / fd[nm:nm + nx, 1]
-        if not last:
+        if last:
+            f_c = np.where(ok_m & (err[:nm] == 0), f0, -1.0)
+        else:
+            fm = fd[n0:n0 + nm, 0]
+            fp = fd[n0 + nm:, 0]
+            ok_m = (err[:nm] == 0) & (err[n0:n0 + nm] == 0) & (err[n0 + nm:] == 0)
+            curv = fm - 2.0 * f0 + fp
+            k_c = -curv / delta**2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
             step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
             t[mi] = np.clip(t[mi] + step_m, 0.0, span_s)
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)
@@ -442,7 +454,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
             step = -fd[:, 0] / fd[:, 1]
         step = np.where((err == 0) & np.isfinite(step), np.clip(step, -30.0, 30.0), 0.0)
         t[pending] = np.clip(t[pending] + step, 0.0, span_s)
-        pending = pending[np.abs(step) > 1e-4]
+        moving = (np.abs(step) > 1e-4) & (t[pending] > 0.0) & (t[pending] < span_s)
+        pending = pending[moving]  # converged, or pushed to the window's edge (dropped below)
     # a crossing pushed to the window's edge is not one (the edge pseudo-events tell that)
     edge_x = xi[(t[xi] <= 0.0) | (t[xi] >= span_s)]
     keep = np.ones(t.size, dtype=bool)

@@ -53,13 +53,18 @@ WGS84_F = 1.0 / 298.257223563
 def offline_iers():
     """Use the Earth-orientation data installed with astropy; never download.
 
-    Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False`` and times beyond the
-    table warn instead of raising (``iers_degraded_accuracy = "warn"``).
+    Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
+    predictions are used however old the installed file is (``auto_max_age = None``), and
+    times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``).
     """
     from astropy.utils import iers
 
     with (
         iers.conf.set_temp("auto_download", False),
+        # the installed table's predictions are used however old the file is (without this,
+        # astropy refuses predictions from a file more than 30 days old: it expects to
+        # download a newer one)
+        iers.conf.set_temp("auto_max_age", None),
         iers.conf.set_temp("iers_degraded_accuracy", "warn"),
     ):
         yield

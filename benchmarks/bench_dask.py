@@ -130,9 +130,9 @@ def run(quick: bool = False) -> list[dict]:
                 f"{_load()} (2 cores shared)",
             ))
         # -- Cowell batch -----------------------------------------------------------------------
-        n_c = 32 if quick else 96
+        n_c = 256 if quick else 1024
         states = _leo_states(n_c)
-        tc = np.linspace(0, 0.5 if quick else 1.0, 49) * u.day
+        tc = np.linspace(0, 1.0, 97) * u.day
         perts = [vv.J2(vv.EARTH)]
         with threads(1):
             mem = vv.propagate_cowell(states, tc, perts)

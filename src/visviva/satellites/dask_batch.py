@@ -46,7 +46,7 @@ __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "
 
 _METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
 #: objects per Cowell block when ``chunks`` is not given: several blocks per worker
-_COWELL_CHUNK = 64
+_COWELL_CHUNK = 256
 _LOCAL = {}
 
 
@@ -191,6 +191,25 @@ def _in_process(client) -> bool:
     return cached
 
 
+def _gather_blocks(client, arrays):
+    """Compute dask arrays block by block and assemble each into one preallocated ndarray.
+
+    Gathering the blocks themselves (instead of computing the concatenated arrays) spares the
+    workers a concatenation and a copy of the whole result before it is sent.
+    """
+    keys, where = [], []
+    for k, arr in enumerate(arrays):
+        offsets = [np.concatenate([[0], np.cumsum(c)]) for c in arr.chunks]
+        for idx, block in np.ndenumerate(arr.to_delayed()):
+            keys.append(block)
+            where.append((k, tuple(slice(int(o[i]), int(o[i + 1]))
+                                   for o, i in zip(offsets, idx, strict=True))))
+    outs = [np.empty(arr.shape, dtype=arr.dtype) for arr in arrays]
+    for (k, index), block in zip(where, client.gather(client.compute(keys)), strict=True):
+        outs[k][index] = block
+    return outs
+
+
 class DaskBatch:
     """Lazy N x T states as dask arrays.
 
@@ -240,7 +259,7 @@ class DaskBatch:
         if self._plan is not None and _in_process(client):
             r, v, status = self._compute_in_place(client)
         else:
-            r, v, status = client.compute([self.r, self.v, self.status], sync=True)
+            r, v, status = _gather_blocks(client, (self.r, self.v, self.status))
         return BatchStates(
             to_quantity(r, "length"), to_quantity(v, "speed"), self.t, status, self.names,
             self.frame,

@@ -92,8 +92,12 @@ def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     rows = []
     load0 = _load()
-    with LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None,
-                      env={"NUMBA_NUM_THREADS": "1"}) as cluster, \
+    import dask
+
+    # as visviva.satellites.dask_batch.get_client starts its LocalCluster
+    with dask.config.set({"distributed.worker.profile.enabled": False}), \
+            LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                         dashboard_address=None, env={"NUMBA_NUM_THREADS": "1"}) as cluster, \
             Client(cluster, set_as_default=False) as client:
         # -- SGP4 catalogue ---------------------------------------------------------------------
         n, m = (2000, 720) if quick else (6000, 1440)

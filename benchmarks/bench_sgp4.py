@@ -6,8 +6,8 @@ Rows (ratio = visviva time / reference time; below 1 visviva is faster):
   out, error check) vs a bare ``SatrecArray.sgp4(jd, fr)`` on prepared Julian dates. Target:
   at least 0.95x the throughput, i.e. ratio <= 1/0.95.
 * ``secular J2 batch``: :func:`propagate_j2_batch` vs ``SatrecArray``. Target: 3x faster.
-* ``dask batch``: :func:`propagate_dask` on a LocalCluster of 2 workers vs visviva's in-memory
-  batch, 10^4 satellites x 10^3 times (quick: 2000 x 500). Target: ratio <= 1.5.
+
+Dask scale-out (process workers) is timed in ``benchmarks/bench_dask.py``.
 
 Run: ``python -m benchmarks`` (all) or ``python -m benchmarks.bench_sgp4``.
 """
@@ -125,40 +125,7 @@ def run(quick: bool = False) -> list[dict]:
         rows.append(skipped(f"secular J2 batch, {n} x {m}", f"not available: {exc}",
                             "sgp4 SatrecArray.sgp4"))
 
-    rows.append(_dask_row(quick))
     return rows
-
-
-def _dask_row(quick: bool) -> dict:
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        return skipped("dask batch", "dask.distributed not installed")
-    from visviva.satellites import catalog as vcat
-    from visviva.satellites.dask_batch import propagate_dask
-
-    n, m = (2000, 500) if quick else (10_000, 1000)
-    chunks = (n // 4, m)
-    cat = synthetic_catalog(n, seed=1)
-    t = _times(m)
-    _ = cat.satrec_array
-    vcat.propagate_sgp4_batch(cat, t)
-    with LocalCluster(n_workers=2, processes=False, threads_per_worker=1,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        lazy = propagate_dask(cat, t, chunks=chunks)
-        t0 = time.perf_counter()
-        lazy.compute(client=client)
-        first = time.perf_counter() - t0
-
-        def go():
-            propagate_dask(cat, t, chunks=chunks).compute(client=client)
-
-        dk, mem = interleaved(go, lambda: vcat.propagate_sgp4_batch(cat, t), rounds=3)
-    return result(
-        f"dask batch (LocalCluster 2 workers, threads), {n} x {m}", dk,
-        "visviva in-memory propagate_sgp4_batch", mem, target=1.5, compile_s=first,
-        notes=f"chunks {chunks}; sgp4 holds the GIL, so thread workers add no parallelism",
-    )
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -223,3 +223,26 @@ def test_out_of_range_elements_in_files_name_the_line_or_record(tmp_path):
     (tmp_path / "gp.json").write_text(json.dumps([good, {**good, "MEAN_MOTION": -15.7}]))
     with pytest.raises(vv.InvalidElementsError, match="record 2 of .*MEAN_MOTION"):
         read_omm_file(tmp_path / "gp.json")
+
+
+def test_a_catalogue_travels_once_per_process():
+    """Pickled catalogues (Dask tasks) carry one payload and a content token: a process that
+    has unpickled the same content reuses that catalogue and its SatrecArray."""
+    import pickle
+
+    from visviva.satellites.catalog import _UNPICKLED, Catalog
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    cat = Catalog([iss, iss])
+    _UNPICKLED.clear()
+    first = pickle.loads(pickle.dumps(cat))
+    arr = first.satrec_array
+    again = pickle.loads(pickle.dumps(Catalog([iss, iss])))  # equal content, new object
+    assert again is first and again.satrec_array is arr
+    assert first.names == ["ISS", "ISS"] and first is not cat
+    other = pickle.loads(pickle.dumps(Catalog([iss])))
+    assert other is not first and len(other) == 1
+    t = iss.epoch + np.arange(3) * u.min
+    np.testing.assert_array_equal(first.propagate(t).r.value, cat.propagate(t).r.value)

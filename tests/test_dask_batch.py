@@ -1,4 +1,5 @@
-"""The Dask batch equals the in-memory batch, on a LocalCluster of 2 workers."""
+"""The Dask batch equals the in-memory batch, on a LocalCluster of 2 process workers (the
+default for CPU-bound work), 1 thread each; one test uses an in-process threads cluster."""
 
 from __future__ import annotations
 
@@ -31,8 +32,9 @@ from visviva.satellites.tle import SGP4Error  # noqa: E402
 def cluster():
     from distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=2, processes=False, threads_per_worker=1,
-                      dashboard_address=None) as cl, Client(cl) as client:
+    with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                      dashboard_address=None, env={"NUMBA_NUM_THREADS": "1"}) as cl, \
+            Client(cl) as client:
         yield cl, client
         close_local_cluster()  # the client opened by address below
 
@@ -93,11 +95,19 @@ def test_cluster_by_address_and_default_client(cluster, catalog, times):
     np.testing.assert_array_equal(default.v.value, mem.v.value)
 
 
-def test_dask_graph_and_in_place_paths_agree(cluster, catalog, times):
-    """compute() on an in-process cluster writes blocks into one result (whole rows go straight
-    from sgp4); the dask arrays themselves stay usable on any cluster. Both equal in-memory."""
-    _, client = cluster
+def test_dask_graph_and_in_place_paths_agree(catalog, times):
+    """compute() on an in-process (threads) cluster writes blocks into one result (whole rows go
+    straight from sgp4); the dask arrays themselves stay usable on any cluster. Both equal
+    in-memory."""
+    from distributed import Client, LocalCluster
+
     mem = propagate_sgp4_batch(catalog, times, on_error="nan")
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=2,
+                      dashboard_address=None) as cl, Client(cl, set_as_default=False) as client:
+        _graph_and_in_place(client, catalog, times, mem)
+
+
+def _graph_and_in_place(client, catalog, times, mem):
     for chunks in [(8, 1000), (5, 7)]:
         lazy = propagate_dask(catalog, times, chunks=chunks, on_error="nan")
         in_place = lazy.compute(client=client)
@@ -106,3 +116,86 @@ def test_dask_graph_and_in_place_paths_agree(cluster, catalog, times):
             np.testing.assert_array_equal(r, mem.r.value)
             np.testing.assert_array_equal(v, mem.v.value)
         np.testing.assert_array_equal(in_place.status, mem.status)
+
+
+def test_workers_are_processes_by_default(cluster):
+    import inspect
+    import os
+
+    _, client = cluster
+    assert inspect.signature(get_client).parameters["processes"].default is True
+    pids = client.run(os.getpid)
+    assert len(pids) == 2 and os.getpid() not in pids.values()
+    threads = client.run(lambda: __import__("numba").config.NUMBA_NUM_THREADS)
+    assert set(threads.values()) == {1}  # no oversubscription: one numba thread per worker
+
+
+@pytest.fixture(scope="module")
+def leo_states():
+    import visviva as vv
+
+    rng = np.random.default_rng(7)
+    n = 7
+    el = vv.KeplerianElements.from_semi_major_axis(
+        (6778.0 + rng.uniform(0, 800, n)) * u.km, rng.uniform(0, 0.02, n),
+        rng.uniform(0.1, 1.7, n) * u.rad, rng.uniform(0, 6, n) * u.rad,
+        rng.uniform(0, 6, n) * u.rad, rng.uniform(-3, 3, n) * u.rad, vv.EARTH,
+        epoch=Time("2024-03-01T00:00:00", scale="utc"))
+    return el.to_state()
+
+
+def test_cowell_batch_on_dask_equals_in_memory(cluster, leo_states):
+    import visviva as vv
+
+    _, client = cluster
+    perts = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.01 * u.m**2 / u.kg)]
+    t = np.linspace(0, 6, 9) * u.hour
+    mem = vv.propagate_cowell(leo_states, t, perts)
+    lazy = vv.satellites.propagate_dask(leo_states, t, method="cowell", perturbations=perts,
+                                        chunks=3, client=client)
+    assert lazy.r.shape == (7, 9, 3) and lazy.r.numblocks == (3, 1, 1)
+    out = lazy.compute()  # on the client given to propagate_dask
+    np.testing.assert_array_equal(out.r.value, mem.r.value)
+    np.testing.assert_array_equal(out.v.value, mem.v.value)
+    assert not out.status.any()
+    assert (out.t - leo_states.epoch).to_value(u.hour)[-1] == pytest.approx(6.0)
+    # drag lowers every orbit a little: the physics is the in-memory physics
+    assert np.all(out.altitude[:, -1] < out.altitude[:, 0] + 100 * u.km)
+
+
+def test_large_results_stay_distributed(cluster, catalog, times, leo_states, tmp_path):
+    import dask.array as da
+    import zarr
+
+    import visviva as vv
+
+    _, client = cluster
+    good = catalog[:6]
+    mem = propagate_sgp4_batch(good, times)
+    kept = propagate_dask(good, times, chunks=(2, 8), client=client).persist()
+    assert isinstance(kept.r, da.Array)
+    np.testing.assert_array_equal(kept.r.max().compute(), mem.r.value.max())
+    group = kept.to_zarr(tmp_path / "batch.zarr")
+    np.testing.assert_array_equal(zarr.open_group(tmp_path / "batch.zarr")["r"][...],
+                                  mem.r.value)
+    assert group.attrs["names"] == mem.names and group.attrs["frame"] == "teme"
+    assert len(group.attrs["t_utc"]) == len(times)
+    t = np.linspace(0, 1, 4) * u.hour
+    cow = vv.satellites.propagate_dask(leo_states, t, method="cowell", chunks=4)
+    cow.to_zarr(tmp_path / "cowell.zarr", client=client)
+    ref = vv.propagate_cowell(leo_states, t)
+    np.testing.assert_array_equal(zarr.open_group(tmp_path / "cowell.zarr")["v"][...],
+                                  ref.v.value)
+
+
+def test_cowell_dask_refuses_what_it_cannot_do(catalog, leo_states, times):
+    import visviva as vv
+
+    with pytest.raises(vv.InvalidInputError, match="method='sgp4'"):
+        propagate_dask(catalog, times, method="cowell")
+    with pytest.raises(vv.InvalidInputError, match="apply to method='cowell' only"):
+        propagate_dask(catalog, times, perturbations=[vv.J2(vv.EARTH)])
+    with pytest.raises(vv.InvalidInputError, match="unknown Cowell options"):
+        propagate_dask(leo_states, np.arange(3) * u.min, method="cowell", tolerance=1e-9)
+    with pytest.raises(vv.InvalidInputError, match="method must be one of"):
+        propagate_dask(catalog, times, method="rk4")

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 matplotlib.use("Agg")
 
@@ -186,3 +188,17 @@ def test_plots_take_a_catalog_a_label_and_show(iss, catalog, tmp_path):
             fig.show()
         fig.savefig(tmp_path / f"{plot.__name__}.png")
         assert (tmp_path / f"{plot.__name__}.png").stat().st_size > 10_000
+
+
+@settings(max_examples=60, deadline=None)
+@given(raan=st.floats(-1e4, 1e4), argp=st.floats(-1e4, 1e4), nu=st.floats(-1e4, 1e4))
+def test_wrapped_angles_are_in_range_and_give_the_same_orbit(raan, argp, nu):
+    el = vv.KeplerianElements(8000 * u.km, 0.2, 0.7 * u.rad, raan * u.deg, argp * u.deg,
+                              nu * u.deg, vv.EARTH)
+    o = el.longitude_of_ascending_node.to_value(u.rad)
+    w = el.argument_of_periapsis.to_value(u.rad)
+    f = el.true_anomaly.to_value(u.rad)
+    assert 0 <= o < 2 * math.pi and 0 <= w < 2 * math.pi and -math.pi < f <= math.pi
+    for got, given_deg in ((o, raan), (w, argp), (f, nu)):
+        d = got - math.radians(given_deg)
+        assert abs(math.remainder(d, 2 * math.pi)) < 1e-12

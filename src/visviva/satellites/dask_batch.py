@@ -1,11 +1,19 @@
-"""The catalogue batch on Dask: the same call chunked over objects and times.
+"""Batches on Dask: the same call chunked over objects (and times), run on process workers.
 
 :func:`propagate_dask` builds dask arrays whose blocks are calls of the in-memory batch functions
-of :mod:`visviva.satellites.catalog` (SGP4 through sgp4's ``SatrecArray``, secular J2, Kepler)
-on one chunk of satellites and one chunk of times, so every block equals the corresponding slice
-of the in-memory result bit for bit. :meth:`DaskBatch.compute` runs the graph on a
-``dask.distributed`` cluster: a ``LocalCluster`` started on first use by default, or any
-scheduler given its address (``"tcp://host:8786"``).
+on one chunk of objects (and, for the analytic methods, one chunk of times): for a catalogue
+SGP4 through sgp4's ``SatrecArray``, secular J2 or Kepler (:mod:`visviva.satellites.catalog`);
+for N state vectors a batch of Cowell propagations with perturbations
+(:func:`visviva.propagate_cowell`). Every block equals the corresponding slice of the in-memory
+result bit for bit. :meth:`DaskBatch.compute` runs the graph on a ``dask.distributed`` cluster
+and gathers the result; :meth:`DaskBatch.persist` and :meth:`DaskBatch.to_zarr` keep large
+results distributed (in the workers' memory, or written by the workers to a Zarr store).
+
+The default cluster is a ``LocalCluster`` of **process** workers (one numba thread each),
+started on first use: sgp4's C++ loop holds the GIL, so threads cannot run it in parallel, and
+processes give real parallelism to the compiled Cowell integrator too. Any scheduler can be
+given instead, by its address (``"tcp://host:8786"``) or as a ``Client``: a dask-jobqueue
+(SLURM, PBS) or dask-kubernetes cluster runs the same graph (docs/satellites.md).
 
 Satellites travel to remote workers as their element sets (sgp4's ``Satrec`` does not pickle);
 each worker rebuilds its chunk's ``SatrecArray`` once per task.
@@ -37,6 +45,8 @@ from .catalog import (
 __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "close_local_cluster"]
 
 _METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
+#: objects per Cowell block when ``chunks`` is not given: several blocks per worker
+_COWELL_CHUNK = 256
 _LOCAL = {}
 
 
@@ -50,8 +60,8 @@ def _require_dask():
         ) from exc
 
 
-def get_client(address: str | None = None, *, n_workers: int = 2, processes: bool = False,
-               threads_per_worker: int = 1):
+def get_client(address: str | None = None, *, n_workers: int | None = None,
+               processes: bool = True, threads_per_worker: int = 1):
     """A ``dask.distributed.Client``: to ``address`` if given, else the current client, else a
     ``LocalCluster`` started once and reused.
 
@@ -59,11 +69,20 @@ def get_client(address: str | None = None, *, n_workers: int = 2, processes: boo
     ----------
     address : str, optional
         Scheduler address of an existing cluster, e.g. ``"tcp://10.0.0.5:8786"``.
-    n_workers, processes, threads_per_worker
-        Settings of the LocalCluster started when no address is given and no client exists.
-        ``processes=False`` (threads in this process) avoids moving the result arrays between
-        processes; sgp4's C++ loop holds the GIL, so ``processes=True`` gives real parallelism
-        at the price of sending the results back.
+    n_workers : int, optional
+        Workers of the LocalCluster started when no address is given and no client exists
+        (default: one per CPU core available to this process).
+    processes : bool
+        Process workers (default): real parallelism for sgp4's C++ loop (which holds the GIL)
+        and the compiled integrators, at the price of sending results between processes.
+        ``False`` runs thread workers in this process (no copies, no parallel sgp4).
+    threads_per_worker : int
+        Threads per worker; each process worker's numba uses as many
+        (``NUMBA_NUM_THREADS``), so workers do not oversubscribe the cores.
+
+    Returns
+    -------
+    distributed.Client
     """
     _require_dask()
     from distributed import Client, LocalCluster
@@ -79,13 +98,23 @@ def get_client(address: str | None = None, *, n_workers: int = 2, processes: boo
         return current()
     except ValueError:
         pass
+    if n_workers is None:
+        import os
+
+        n_workers = max(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                        else (os.cpu_count() or 1), 1)
     key = ("local", n_workers, processes, threads_per_worker)
     client = _LOCAL.get(key)
     if client is None or client.status == "closed":
-        cluster = LocalCluster(
-            n_workers=n_workers, processes=processes, threads_per_worker=threads_per_worker,
-            dashboard_address=None,
-        )
+        import dask
+
+        extra = {"env": {"NUMBA_NUM_THREADS": str(threads_per_worker)}} if processes else {}
+        # the workers' statistical profiler samples every 10 ms: CPU the compute could use
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = LocalCluster(
+                n_workers=n_workers, processes=processes, threads_per_worker=threads_per_worker,
+                dashboard_address=None, **extra,
+            )
         client = Client(cluster)
         _LOCAL[key] = client
     return client
@@ -113,6 +142,19 @@ def _block(cat: Catalog, t: Time, method: str, on_error: str):
         with _NUMBA_LOCK:
             out = _METHODS[method](cat, t, on_error=on_error)
     return out.r.value, out.v.value, out.status
+
+
+def _cowell_block(r0, v0, gm, epoch, t, perturbations, options):
+    """One chunk of the Cowell batch: (n, T, 3) positions and velocities and zero status."""
+    from ..states import StateVectors
+    from .cowell import propagate_cowell
+
+    state = StateVectors._from_canonical(r0, v0, gm, epoch)
+    with _NUMBA_LOCK:
+        out = propagate_cowell(state, t, perturbations, **options)
+    r = np.ascontiguousarray(out.r.to_value("km"))
+    v = np.ascontiguousarray(out.v.to_value("km/s"))
+    return r, v, np.zeros(r.shape[:-1], dtype=np.uint8)
 
 
 #: result arrays of in-process computations, by key: blocks running in this process write
@@ -153,6 +195,25 @@ def _in_process(client) -> bool:
     return cached
 
 
+def _gather_blocks(client, arrays):
+    """Compute dask arrays block by block and assemble each into one preallocated ndarray.
+
+    Gathering the blocks themselves (instead of computing the concatenated arrays) spares the
+    workers a concatenation and a copy of the whole result before it is sent.
+    """
+    keys, where = [], []
+    for k, arr in enumerate(arrays):
+        offsets = [np.concatenate([[0], np.cumsum(c)]) for c in arr.chunks]
+        for idx, block in np.ndenumerate(arr.to_delayed(optimize_graph=False)):
+            keys.append(block)
+            where.append((k, tuple(slice(int(o[i]), int(o[i + 1]))
+                                   for o, i in zip(offsets, idx, strict=True))))
+    outs = [np.empty(arr.shape, dtype=arr.dtype) for arr in arrays]
+    for (k, index), block in zip(where, client.gather(client.compute(keys)), strict=True):
+        outs[k][index] = block
+    return outs
+
+
 class DaskBatch:
     """Lazy N x T states as dask arrays.
 
@@ -166,9 +227,17 @@ class DaskBatch:
     names : list of str
     """
 
-    def __init__(self, r, v, status, t, names, frame, plan=None):
+    def __init__(self, r, v, status, t, names, frame, plan=None, client=None):
         self.r, self.v, self.status, self.t, self.names, self.frame = r, v, status, t, names, frame
         self._plan = plan  # (catalog, method, row splits, column splits, on_error)
+        self._client = client
+
+    def _resolve(self, client=None, address=None):
+        if client is not None:
+            return client
+        if address is None and self._client is not None:
+            return self._client
+        return get_client(address)
 
     @property
     def shape(self):
@@ -177,21 +246,87 @@ class DaskBatch:
     def compute(self, client=None, address: str | None = None) -> BatchStates:
         """Run the graph on ``client`` (or the cluster at ``address``, or a LocalCluster).
 
+        Parameters
+        ----------
+        client : distributed.Client, optional
+            Where to run (default: the client given to :func:`propagate_dask`, else the one at
+            ``address``, else the current one, else a process LocalCluster).
+        address : str, optional
+            Scheduler address, e.g. ``"tcp://10.0.0.5:8786"``.
+
         Returns
         -------
         BatchStates
             In-memory results, equal to the in-memory batch call.
         """
-        if client is None:
-            client = get_client(address)
+        client = self._resolve(client, address)
         if self._plan is not None and _in_process(client):
             r, v, status = self._compute_in_place(client)
         else:
-            r, v, status = client.compute([self.r, self.v, self.status], sync=True)
+            r, v, status = _gather_blocks(client, (self.r, self.v, self.status))
         return BatchStates(
             to_quantity(r, "length"), to_quantity(v, "speed"), self.t, status, self.names,
             self.frame,
         )
+
+    def persist(self, client=None, address: str | None = None) -> DaskBatch:
+        """Compute every block and keep it in the workers' memory (nothing is gathered).
+
+        Returns
+        -------
+        DaskBatch
+            The same arrays backed by the computed blocks on the cluster: reductions such as
+            ``batch.r[..., 2].max().compute()`` then move only their result.
+        """
+        client = self._resolve(client, address)
+        r, v, status = client.persist([self.r, self.v, self.status])
+        return DaskBatch(r, v, status, self.t, self.names, self.frame, client=client)
+
+    def to_zarr(self, store, client=None, address: str | None = None, *, overwrite=False):
+        """Write ``r``, ``v`` and ``status`` to a Zarr store, block by block on the workers.
+
+        Parameters
+        ----------
+        store : str or os.PathLike
+            A directory (or any URL Zarr understands, e.g. ``s3://...`` with fsspec), reachable
+            by every worker.
+        client, address
+            As in :meth:`compute`.
+        overwrite : bool
+            Replace existing arrays.
+
+        Returns
+        -------
+        zarr.Group
+            Arrays ``r`` (km), ``v`` (km/s), ``status`` and attributes ``names``, ``frame``
+            and the times ``t_utc`` (ISO strings) or ``t_s`` (seconds).
+
+        Notes
+        -----
+        Requires ``zarr`` (in the ``scale`` extra). The result never passes through this
+        process: each worker writes its own blocks.
+        """
+        import os
+
+        import dask.array as da
+        import zarr
+
+        client = self._resolve(client, address)
+        store = os.fspath(store)
+        writes = [
+            da.to_zarr(arr, store, component=name, overwrite=overwrite, compute=False)
+            for name, arr in (("r", self.r), ("v", self.v), ("status", self.status))
+        ]
+        client.compute(writes, sync=True)
+        group = zarr.open_group(store, mode="r+")
+        group.attrs["names"] = list(self.names)
+        group.attrs["frame"] = self.frame
+        if isinstance(self.t, Time):
+            group.attrs["t_utc"] = [str(x) for x in self.t.utc.isot]
+        else:
+            group.attrs["t_s"] = [float(x) for x in np.ravel(self.t.to_value("s"))]
+        group.attrs["units"] = {"r": "km", "v": "km/s"}
+        return group
 
     def _compute_in_place(self, client):
         """Same blocks as the dask arrays, run as tasks that write into one preallocated result
@@ -232,38 +367,70 @@ def _splits(n: int, size: int):
     return [(a, min(a + size, n)) for a in range(0, n, size)]
 
 
-def propagate_dask(satellites, t, *, method: str = "sgp4", chunks=(1000, 1000),
-                   on_error: str = "raise") -> DaskBatch:
-    """Build the N x T batch as dask arrays chunked over objects and times.
+def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=None,
+                   on_error: str = "raise", client=None, **cowell_options) -> DaskBatch:
+    """Build a batch of propagations as dask arrays chunked over objects (and times).
 
     Parameters
     ----------
-    satellites : Catalog or sequence of Satellite
-        The N objects.
-    t : astropy Time, shape (T,)
-        Absolute times.
-    method : {"sgp4", "j2", "kepler"}
-        The in-memory batch function each block calls.
-    chunks : (int, int)
-        Objects and times per block.
+    states : Catalog, sequence of Satellite, or StateVectors of shape (N,)
+        A catalogue for ``"sgp4"``, ``"j2"`` and ``"kepler"``; N state vectors sharing GM and
+        epoch for ``"cowell"``.
+    t : astropy Time, shape (T,), or Quantity (Cowell: offsets from the states' epoch)
+        Output times.
+    method : {"sgp4", "j2", "kepler", "cowell"}
+        The in-memory batch function each block calls (:func:`propagate_sgp4_batch`,
+        :func:`propagate_j2_batch`, :func:`propagate_kepler_batch`, or
+        :func:`visviva.propagate_cowell` on a slice of the states).
+    perturbations : list of Perturbation
+        Cowell only: e.g. ``[vv.J2(vv.EARTH), vv.AtmosphericDrag(...)]``.
+    chunks : int or (int, int), optional
+        Objects (and times) per block. Default ``(1000, 1000)`` for the catalogue methods and
+        64 objects (all times) for Cowell, whose blocks always hold every time.
     on_error : {"raise", "nan"}
-        As in :func:`~visviva.satellites.catalog.propagate_sgp4_batch`; with ``"raise"`` the
-        typed error surfaces from ``compute()``.
+        Catalogue methods: as in :func:`~visviva.satellites.catalog.propagate_sgp4_batch`; with
+        ``"raise"`` the typed error surfaces from ``compute()``. Cowell always raises.
+    client : distributed.Client, optional
+        The cluster that :meth:`DaskBatch.compute`, ``persist`` and ``to_zarr`` use by default;
+        ``None``: the current client, else a process-based ``LocalCluster`` started on first
+        use (:func:`get_client`).
+    **cowell_options
+        Cowell only: ``rtol``, ``atol``, ``max_step``, ``max_steps`` of
+        :func:`visviva.propagate_cowell`.
 
     Returns
     -------
     DaskBatch
-        Lazy ``r``, ``v`` and ``status``; call ``.compute()`` to run on a cluster.
+        Lazy ``r``, ``v`` and ``status``; ``.compute()`` gathers a
+        :class:`~visviva.satellites.catalog.BatchStates` equal to the in-memory batch.
+
+    Examples
+    --------
+    >>> import numpy as np, visviva as vv                                 # doctest: +SKIP
+    >>> from astropy import units as u                                    # doctest: +SKIP
+    >>> lazy = vv.satellites.propagate_dask(states, np.linspace(0, 1, 97) * u.day,
+    ...                                     method="cowell", perturbations=[vv.J2(vv.EARTH)])
+    >>> out = lazy.compute()                                              # doctest: +SKIP
     """
     _require_dask()
+    if method == "cowell":
+        return _cowell_dask(states, t, perturbations, chunks, client, cowell_options)
+    if method not in _METHODS:
+        raise InvalidInputError(
+            f"method must be one of {sorted(_METHODS) + ['cowell']}, got {method!r}."
+        )
+    if perturbations or cowell_options:
+        raise InvalidInputError(
+            "perturbations and integrator options apply to method='cowell' only; the catalogue "
+            f"method {method!r} takes the element sets' own force model."
+        )
     import dask
     import dask.array as da
 
-    if method not in _METHODS:
-        raise InvalidInputError(f"method must be one of {sorted(_METHODS)}, got {method!r}.")
     _check_on_error(on_error)
-    cat = _as_catalog(satellites)
+    cat = _as_catalog(states)
     t = _absolute_times(t, "propagate_dask")
+    chunks = (1000, 1000) if chunks is None else chunks
     try:
         n_chunk, t_chunk = chunks
     except (TypeError, ValueError) as exc:
@@ -285,7 +452,69 @@ def propagate_dask(satellites, t, *, method: str = "sgp4", chunks=(1000, 1000),
     plan = (cat, method, _splits(len(cat), n_chunk), _splits(len(t), t_chunk), on_error)
     return DaskBatch(
         da.concatenate(rows_r, axis=0), da.concatenate(rows_v, axis=0),
-        da.concatenate(rows_s, axis=0), t, cat.names, "teme", plan,
+        da.concatenate(rows_s, axis=0), t, cat.names, "teme", plan, client=client,
+    )
+
+
+def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch:
+    """The Cowell batch as dask arrays: blocks of objects, each with every output time."""
+    import dask
+    import dask.array as da
+    from astropy import units as u
+
+    from .._units import to_array, to_vector
+
+    if not all(hasattr(states, k) for k in ("r", "v", "gm")):
+        raise InvalidInputError(
+            "method='cowell' takes N state vectors (vv.StateVectors of shape (N,)); got "
+            f"{type(states).__name__}. For a catalogue use method='sgp4'."
+        )
+    unknown = set(options) - {"rtol", "atol", "max_step", "max_steps"}
+    if unknown:
+        raise InvalidInputError(
+            f"unknown Cowell options {sorted(unknown)}; use rtol, atol, max_step, max_steps."
+        )
+    r0 = to_vector(states.r, "length", "states.r").reshape(-1, 3)
+    v0 = to_vector(states.v, "speed", "states.v").reshape(-1, 3)
+    gm = np.ravel(to_array(states.gm, "gm", "states.gm"))
+    if r0.shape != v0.shape or gm.size not in (1, r0.shape[0]) or np.any(gm != gm[0]):
+        raise InvalidInputError(
+            "method='cowell' needs N states with r, v of shape (N, 3) and one GM for all."
+        )
+    epoch = getattr(states, "epoch", None)
+    if isinstance(t, Time):
+        if epoch is None:
+            raise InvalidInputError(
+                "t is an astropy Time but the states have no epoch; give them epoch=... or "
+                "pass t as offsets (e.g. np.linspace(0, 1, 97) * u.day)."
+            )
+        if t.ndim != 1:
+            raise InvalidInputError(f"t must be 1-D; got shape {t.shape}.")
+        times = t
+    else:
+        dt = to_array(t, "time", "t")
+        if dt.ndim != 1:
+            raise InvalidInputError(f"t must be a 1-D array of times; got shape {dt.shape}.")
+        times = t if epoch is None else epoch.ravel()[0] + dt * u.s
+    if isinstance(chunks, (tuple, list)):
+        chunks = chunks[0]
+    n_chunk = _COWELL_CHUNK if chunks is None else int(chunks)
+    g = float(gm[0])
+    m = len(t)
+    blocks_r, blocks_v, blocks_s = [], [], []
+    perturbations = list(perturbations)
+    for a, b in _splits(r0.shape[0], n_chunk):
+        blk = dask.delayed(_cowell_block, pure=False, nout=3)(
+            r0[a:b], v0[a:b], g, epoch, t, perturbations, dict(options))
+        n = b - a
+        blocks_r.append(da.from_delayed(blk[0], (n, m, 3), dtype=np.float64))
+        blocks_v.append(da.from_delayed(blk[1], (n, m, 3), dtype=np.float64))
+        blocks_s.append(da.from_delayed(blk[2], (n, m), dtype=np.uint8))
+    names = [str(i) for i in range(r0.shape[0])]
+    frame = getattr(states, "frame", "gcrs")
+    return DaskBatch(
+        da.concatenate(blocks_r, axis=0), da.concatenate(blocks_v, axis=0),
+        da.concatenate(blocks_s, axis=0), times, names, frame, client=client,
     )
 
 
@@ -297,5 +526,6 @@ def propagate_sgp4_dask(satellites, t, *, chunks=(1000, 1000), on_error: str = "
     a :class:`~visviva.satellites.catalog.BatchStates` is returned; otherwise a
     :class:`DaskBatch`.
     """
-    lazy = propagate_dask(satellites, t, method="sgp4", chunks=chunks, on_error=on_error)
+    lazy = propagate_dask(satellites, t, method="sgp4", chunks=chunks, on_error=on_error,
+                          client=client)
     return lazy.compute(client=client, address=address) if compute else lazy

@@ -42,6 +42,7 @@ _PUBLIC = {
     "Collision": "visviva.errors",
     "Encounter": "visviva.errors",
     "Escape": "visviva.errors",
+    "BackendUnavailableError": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",
@@ -67,6 +68,7 @@ _PUBLIC = {
     # N-body
     "Simulation": "visviva.nbody",
     "solar_system": "visviva.nbody",
+    "Ensemble": "visviva.nbody",
     # satellites
     "Satellite": "visviva.satellites",
     "Catalog": "visviva.satellites",

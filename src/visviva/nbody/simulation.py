@@ -14,25 +14,22 @@ import math
 
 import numpy as np
 
-from ..core import elements as _elements
 from ..core import gravity as _gravity
-from ..core import kepler as _kepler
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..errors import (
-    Collision,
     InvalidInputError,
-    InvalidStateError,
     ShapeError,
-    StepSizeError,
-    raise_for_status,
 )
+from . import events as _events
 from . import forces as _forces
 from . import settings as _s
+from .gpu import check_backend
 from .integrators import INTEGRATORS, get_integrator
+from .placement import elements_to_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
-from .trajectory import Trajectory, coincident_pairs
+from .trajectory import Trajectory
 from .units import SimulationUnits
 
 __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
@@ -93,6 +90,10 @@ class Simulation:
     exact_finish_time : bool
         Land exactly on requested times (default) or return the first step past them. Either
         way the integrator's own trajectory does not depend on the output times.
+    backend : str
+        ``"cpu"`` (default) or ``"cuda"``: the leapfrog's direct summation on an NVIDIA GPU
+        (:mod:`visviva.nbody.gpu`; raises :class:`visviva.errors.BackendUnavailableError`
+        saying what is missing without a GPU or numba-cuda).
 
     Examples
     --------
@@ -126,13 +127,16 @@ class Simulation:
         coordinates: str = "jacobi",
         exact_finish_time: bool = True,
         adaptive_mode: str = "prs23",
+        backend: str = "cpu",
     ):
         self.units = None if units is None else SimulationUnits.parse(units)
         self._state = SimulationState.empty()
         self._forces: list = []
         self._fused = None
+        self._removed = None
         self.parallel = parallel
         self._integrator = get_integrator(integrator)
+        self.backend = check_backend(backend, self._integrator.name)
         G_value = self.units.G if self.units is not None else float(G)
         if not (math.isfinite(G_value) and G_value > 0):
             raise InvalidInputError(f"G must be a finite number > 0; got {G!r}.")
@@ -153,28 +157,13 @@ class Simulation:
     @classmethod
     def from_state(cls, state, integrator: str, *, units=None, parallel=None,
                    forces=()) -> Simulation:
-        """A simulation that owns ``state`` (the friend constructor of the archive and ensembles).
-
-        Parameters
-        ----------
-        state : visviva.nbody.state.SimulationState
-            Arrays and settings (simulation units); taken over, not copied.
-        integrator : str
-            Name of the integrator the state belongs to.
-        units : visviva.nbody.units.SimulationUnits, optional
-            The simulation's units (None: plain numbers).
-        parallel : bool, optional
-            As in the constructor.
-        forces : sequence of visviva.nbody.forces.Force
-            The additional forces.
-
-        Returns
-        -------
-        Simulation
-            A simulation that continues from ``state`` bit for bit.
-        """
+        """A simulation that owns ``state`` (a :class:`~visviva.nbody.state.SimulationState`,
+        taken over, not copied), for ``integrator`` with ``units`` (a
+        :class:`~visviva.nbody.units.SimulationUnits` or None), ``parallel`` and ``forces`` as in
+        the constructor: the friend constructor of the archive and ensembles. It continues from
+        ``state`` bit for bit."""
         sim = cls.__new__(cls)
-        Simulation.__init__(sim, integrator)
+        Simulation.__init__(sim, integrator)  # a CPU simulation: set sim.backend to change
         sim.units = units
         sim.parallel = parallel
         sim._state = state
@@ -254,7 +243,7 @@ class Simulation:
 
     @t.setter
     def t(self, value) -> None:
-        self._state.fstate[_nc.F_T] = _s.scalar(self._time(value, "t"), "t")
+        self._state.fstate[_nc.F_T] = _s.scalar(_s.convert(self, value, "time", "t"), "t")
         self._state.fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
 
     @property
@@ -272,37 +261,16 @@ class Simulation:
         self._state.istate[_nc.I_COLLISIONS] = 0 if mode == "none" else 1
 
     # ---- unit helpers ----------------------------------------------------------------------------
-    def _convert(self, value, kind, name):
-        return _s.convert(self, value, kind, name)
-
-    def _length(self, value, name):
-        return _s.length(self, value, name)
-
-    def _time(self, value, name):
-        return self._convert(value, "time", name)
-
     def time_value(self, value, name: str = "t") -> float:
-        """One time in simulation units.
-
-        Parameters
-        ----------
-        value : float or Quantity
-            A time (simulation units, or a Quantity of time when the simulation has units).
-        name : str
-            What the value is, for the error message.
-
-        Returns
-        -------
-        float
-            The time in simulation units.
-        """
-        return _s.scalar(self._time(value, name), name)
+        """One time (a float in simulation units, or a Quantity of time when the simulation has
+        units) as a float in simulation units; ``name`` says what it is in error messages."""
+        return _s.scalar(_s.convert(self, value, "time", name), name)
 
     def _replace_state(self, key, value, kind, name):
         """Replace ``x`` or ``v`` (``key``) by ``value`` (simulation units or a Quantity of
         ``kind``) of the same shape; the integrator restarts from the new state."""
         current = getattr(self._state, key)
-        arr = np.ascontiguousarray(self._convert(value, kind, name), dtype=np.float64)
+        arr = np.ascontiguousarray(_s.convert(self, value, kind, name), dtype=np.float64)
         if arr.shape != current.shape:
             raise ShapeError(f"{name} must have shape {current.shape}; got {arr.shape}.")
         self._state.replace(key, arr)
@@ -371,87 +339,34 @@ class Simulation:
         int
             The index of the new particle.
         """
-        m_val = _s.scalar(self._convert(m, "mass", "m"), "m")
+        m_val = _s.scalar(_s.convert(self, m, "mass", "m"), "m")
         if not m_val >= 0:
             raise InvalidInputError(f"mass must be >= 0; got {m!r}.")
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
-            rr, vv = self._from_elements(m_val, primary, a, e, inc, raan, argp, nu, M, p)
+            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu, M, p)
         else:
-            rr = np.zeros(3) if r is None else self._convert(r, "length", "r")
-            vv = np.zeros(3) if v is None else self._convert(v, "speed", "v")
+            rr = np.zeros(3) if r is None else _s.convert(self, r, "length", "r")
+            vv = np.zeros(3) if v is None else _s.convert(self, v, "speed", "v")
         rr = np.asarray(rr, dtype=np.float64).reshape(-1)
         vv = np.asarray(vv, dtype=np.float64).reshape(-1)
         if rr.shape != (3,) or vv.shape != (3,):
             raise ShapeError(f"r and v must have shape (3,); got {rr.shape} and {vv.shape}.")
-        rad = self._length(radius, "radius")
+        rad = _s.length(self, radius, "radius")
         if not rad >= 0:
             raise InvalidInputError(f"radius must be >= 0; got {radius!r}.")
         self._state.append(rr, vv, m_val, rad)
         return self.N - 1
-
-    def _from_elements(self, m, primary, a, e, inc, raan, argp, nu, M, p):
-        if self.N == 0:
-            raise InvalidInputError("add a primary (a particle with mass) before adding by elements.")
-        if primary is None or (isinstance(primary, str) and primary == "com"):
-            mp = self._state.m.sum()
-            xp = (self._state.m[:, None] * self._state.x).sum(0) / mp if mp > 0 else self._state.x.mean(0)
-            vp = (self._state.m[:, None] * self._state.v).sum(0) / mp if mp > 0 else self._state.v.mean(0)
-        else:
-            i = int(primary)
-            mp, xp, vp = self._state.m[i], self._state.x[i], self._state.v[i]
-        gm = self.G * (mp + m)
-        if not gm > 0:
-            raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
-        e = float(e)
-        if e < 0:
-            raise InvalidInputError(f"e must be >= 0; got {e!r}.")
-        if p is None:
-            a = float(self._length(a, "a"))
-            if e == 1.0:
-                raise InvalidInputError("a parabola has no semi-major axis: give p instead of a.")
-            p = a * (1.0 - e * e)
-        else:
-            p = float(self._length(p, "p"))
-        if not p > 0:
-            raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {p!r}.")
-        if nu is None:
-            if M is None:
-                nu = 0.0
-            else:
-                if e >= 1:
-                    raise InvalidInputError("give nu (not M) for open orbits.")
-                nu, status = _kepler.mean_to_true_anomaly(float(M), e)
-                raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
-        *state, status = _elements.coe_to_rv(
-            p, e, float(inc), float(raan), float(argp), float(nu), gm
-        )
-        raise_for_status(np.array([status]), "orbital elements to state", p=p, e=e, nu=nu)
-        return xp + np.array(state[:3]), vp + np.array(state[3:])
 
     def remove(self, index: int) -> None:
         """Remove particle ``index`` (later indices shift down by one)."""
         self._state.remove(index)
 
     def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
-        """Change the mass, position, velocity or radius of one particle in place.
-
-        Parameters
-        ----------
-        index : int
-            The particle.
-        m : float, optional
-            New mass (simulation units, >= 0).
-        r, v : array_like (3,), optional
-            New position and velocity (simulation units).
-        radius : float, optional
-            New collision radius (>= 0).
-
-        Notes
-        -----
-        The integrator restarts from the changed state (as after a collision).
-        """
+        """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision
+        ``radius`` of particle ``index`` in place (simulation units); the integrator restarts
+        from the changed state (as after a collision)."""
         self._state.set_particle(int(index), m=m, r=r, v=v, radius=radius)
 
     # ---- forces ---------------------------------------------------------------------------------
@@ -532,12 +447,12 @@ class Simulation:
 
         Shared with :class:`visviva.Ensemble`, which runs every member's kernel itself.
         """
-        times = np.ascontiguousarray(np.atleast_1d(self._time(t, "t")).astype(np.float64))
+        times = np.ascontiguousarray(np.atleast_1d(_s.convert(self, t, "time", "t")).astype(np.float64))
         if times.ndim != 1:
             raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
         if self.N == 0:
             raise InvalidInputError("the simulation has no particles: add some with sim.add(...).")
-        self._check_not_coincident("integrate")
+        _events.check_not_coincident(self._state, "integrate")
         steps = np.diff(np.concatenate([[self.t], times]))
         if not (np.all(steps >= 0) or np.all(steps <= 0)):
             raise InvalidInputError(
@@ -561,7 +476,8 @@ class Simulation:
         return times
 
     def _kernel_inputs(self, parallel: bool | None = None):
-        """Make the state ready for one kernel call; returns the force and its parameters.
+        """Make the state ready for one kernel call; returns the force, its parameters and the
+        indices of the massive particles.
 
         ``parallel`` overrides the simulation's choice of gravity kernel (both give the same
         bits). Shared with :class:`visviva.Ensemble`.
@@ -574,7 +490,7 @@ class Simulation:
         st.istate[_nc.I_VELOCITY_DEPENDENT] = int(any(f.velocity_dependent for f in self._forces))
         st.massive = _gravity.massive_indices(st.m)
         st.work()
-        return fn, params
+        return fn, params, st.massive
 
     def _after_kernel(self, status: int) -> bool:
         """Act on a kernel's status: True when the run is done, False to call it again (after a
@@ -582,7 +498,7 @@ class Simulation:
         st = self._state
         if status == _st.OK:
             if not (np.all(np.isfinite(st.x)) and np.all(np.isfinite(st.v))):
-                self._raise_non_finite()
+                _events.raise_non_finite(self._state, self.integrator)
             return True
         if status == _nc.PAUSED:
             return False
@@ -593,7 +509,7 @@ class Simulation:
             self._removed = resolve(self, i, j)
             st.mark_fresh()
             return False
-        self._raise_event(status)
+        _events.raise_event(self._state, status, self.integrator)
 
     def integrate(self, t, *, progress: bool = False):
         """Integrate to the absolute time ``t`` (or through an array of output times).
@@ -623,6 +539,10 @@ class Simulation:
             When massive particles sit at exactly the same position without softening, or a
             force gives NaN/infinite accelerations.
         """
+        if self.backend == "cuda":
+            from .gpu import integrate_simulation
+
+            return integrate_simulation(self, t)
         scalar = np.ndim(t) == 0
         times = self._begin_run(t)
         st = self._state
@@ -643,7 +563,7 @@ class Simulation:
         out_t = times.copy()
         try:
             while True:
-                fn, params = self._kernel_inputs()
+                fn, params, _ = self._kernel_inputs()
                 stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
                 st.istate[_nc.I_STOP_AT_STEP] = stop
                 done0 = int(st.istate[_nc.I_NOUT])
@@ -673,53 +593,6 @@ class Simulation:
             return None
         return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
 
-    def _raise_non_finite(self):
-        self._check_not_coincident(f"{self.integrator} integration")
-        raise InvalidStateError(
-            f"the {self.integrator} integration produced NaN or infinite accelerations, "
-            f"positions or velocities (by t = {self.t!r}): a force overflowed or was singular. "
-            "To fix: check the additional forces, use a smaller dt, softening > 0, or collision "
-            "detection (radius=..., collision='merge')."
-        )
-
-    def _check_not_coincident(self, what):
-        """Raise InvalidStateError when massive particles share a position without softening."""
-        pairs = coincident_pairs(self._state.x, self._state.m, self._state.fstate[_nc.F_SOFT2])
-        if pairs:
-            raise InvalidStateError(
-                f"{what}: particles {pairs[0]} are at exactly the same position "
-                f"{self._state.x[pairs[0][0]].tolist()} at t = {self.t!r}, where the point-mass "
-                "gravity (and the potential energy) is infinite. To fix: separate them, set "
-                "softening > 0, or give them radii with collision='merge'."
-            )
-
-    def _raise_event(self, status):
-        from ..errors import STATUS_TABLE, Encounter, Escape
-
-        a, b = int(self._state.istate[_nc.I_EVENT_A]), int(self._state.istate[_nc.I_EVENT_B])
-        if status in (_st.COLLISION, _st.ENCOUNTER, _st.ESCAPE):
-            cls = {_st.COLLISION: Collision, _st.ENCOUNTER: Encounter, _st.ESCAPE: Escape}[status]
-            what = STATUS_TABLE[status][1]
-            parts = (a,) if b < 0 else (a, b)
-            raise cls(f"{what} at t = {self.t!r}: particles {parts}. The simulation stopped "
-                      "there and can be continued.", t=self.t, particles=parts)
-        if status == _st.STEP_TOO_SMALL:
-            self._check_not_coincident(f"{self.integrator} integration")
-            floor = float(self._state.fstate[_nc.F_DT_FLOOR])
-            failed = float(self._state.fstate[_nc.F_DT_FAILED])
-            detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
-            raise StepSizeError(
-                f"{self.integrator} integration stopped at t = {self.t!r}: the adaptive step fell "
-                f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "
-                "span): the run could not finish. Particles are probably (nearly) colliding or a "
-                "force is singular. To fix: give the particles radii and collision='merge' or "
-                "'bounce' (or 'halt'), set softening > 0, separate the particles, or integrate a "
-                "shorter span."
-            )
-        if status == _st.NON_FINITE:
-            self._raise_non_finite()
-        raise_for_status(np.array([status]), f"{self.integrator} integration to t")
-
     # ---- diagnostics -----------------------------------------------------------------------------
     def energy(self, include_offset: bool = True) -> float:
         """Total energy (kinetic plus potential, simulation units).
@@ -727,7 +600,7 @@ class Simulation:
         With ``include_offset`` the energy removed by mergers and inelastic bounces
         (``energy_offset``) is added back, so that the sum stays constant.
         """
-        self._check_not_coincident("energy")
+        _events.check_not_coincident(self._state, "energy")
         E = float(_gravity.energy(self._state.x, self._state.v, self._state.m, self.G, self._state.fstate[_nc.F_SOFT2]))
         return E + (self.energy_offset if include_offset else 0.0)
 
@@ -760,6 +633,11 @@ class Simulation:
         new._state = self._state.copy()
         new._forces = list(self._forces)
         return new
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_fused"] = None  # a compiled closure: rebuilt on first use after unpickling
+        return state
 
     def __repr__(self) -> str:
         return (f"<Simulation {self.integrator} N={self.N} (active {self.N_active}) "

@@ -21,6 +21,8 @@ import uuid
 import numpy as np
 from astropy.time import Time
 
+from .._dask import close_local_cluster, get_client
+from .._dask import require_dask as _require_dask
 from .._units import to_quantity
 from ..errors import InvalidInputError
 from .catalog import (
@@ -37,70 +39,6 @@ from .catalog import (
 __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "close_local_cluster"]
 
 _METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
-_LOCAL = {}
-
-
-def _require_dask():
-    try:
-        import dask.array  # noqa: F401
-        import distributed  # noqa: F401
-    except ImportError as exc:  # pragma: no cover - the scale extra is installed in CI
-        raise ImportError(
-            "the Dask batch needs dask[array,distributed]: pip install 'visviva[scale]'"
-        ) from exc
-
-
-def get_client(address: str | None = None, *, n_workers: int = 2, processes: bool = False,
-               threads_per_worker: int = 1):
-    """A ``dask.distributed.Client``: to ``address`` if given, else the current client, else a
-    ``LocalCluster`` started once and reused.
-
-    Parameters
-    ----------
-    address : str, optional
-        Scheduler address of an existing cluster, e.g. ``"tcp://10.0.0.5:8786"``.
-    n_workers, processes, threads_per_worker
-        Settings of the LocalCluster started when no address is given and no client exists.
-        ``processes=False`` (threads in this process) avoids moving the result arrays between
-        processes; sgp4's C++ loop holds the GIL, so ``processes=True`` gives real parallelism
-        at the price of sending the results back.
-    """
-    _require_dask()
-    from distributed import Client, LocalCluster
-
-    if address is not None:
-        key = ("address", address)
-        if key not in _LOCAL or _LOCAL[key].status == "closed":
-            _LOCAL[key] = Client(address)
-        return _LOCAL[key]
-    try:
-        from distributed import get_client as current
-
-        return current()
-    except ValueError:
-        pass
-    key = ("local", n_workers, processes, threads_per_worker)
-    client = _LOCAL.get(key)
-    if client is None or client.status == "closed":
-        cluster = LocalCluster(
-            n_workers=n_workers, processes=processes, threads_per_worker=threads_per_worker,
-            dashboard_address=None,
-        )
-        client = Client(cluster)
-        _LOCAL[key] = client
-    return client
-
-
-def close_local_cluster() -> None:
-    """Close the clients (and LocalClusters) this module started."""
-    for client in list(_LOCAL.values()):
-        cluster = client.cluster
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    _LOCAL.clear()
-
-
 #: numba's parallel kernels (J2, Kepler) already use every core, and numba's "workqueue"
 #: threading layer must not be entered from two threads at once: one block at a time per process.
 _NUMBA_LOCK = threading.Lock()

@@ -14,7 +14,7 @@ A member that meets an event (collision, encounter, escape) is handled as
 :meth:`visviva.Simulation.integrate` handles it: mergers and bounces are resolved and the member
 continues; ``"halt"``, encounters and escapes stop that member at the event while the others
 finish, and the first such exception is raised afterwards with the member's index in
-``exc.member`` (and in its notes).
+``exc.member`` (the indices of every member that stopped in ``exc.members``, and in its notes).
 """
 
 from __future__ import annotations
@@ -66,8 +66,7 @@ class Ensemble:
     >>> sims = []
     >>> for a in (1.0, 1.5, 2.0):
     ...     sim = vv.Simulation("whfast", dt=0.01)
-    ...     sim.add(1.0)
-    ...     sim.add(1e-3, a=a, primary=0)
+    ...     indices = [sim.add(1.0), sim.add(1e-3, a=a, primary=0)]
     ...     sims.append(sim)
     >>> ens = vv.Ensemble.from_simulations(sims)
     >>> ens.integrate(10.0)
@@ -345,6 +344,7 @@ def _raise_first(errors) -> None:
     others = [j for j, _ in errors]
     try:
         exc.member = k
+        exc.members = others
     except AttributeError:  # pragma: no cover - exceptions without a __dict__
         pass
     exc.add_note(

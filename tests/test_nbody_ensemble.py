@@ -137,6 +137,28 @@ def test_cuda_backend_without_a_gpu_says_what_is_missing(monkeypatch):
         vv.Ensemble.from_simulations([planets("leapfrog")], backend="cuda")
     with pytest.raises(BackendUnavailableError, match="no NVIDIA GPU"):
         vv.Simulation("leapfrog", dt=0.01, backend="cuda")
+    from visviva.satellites.catalog import propagate_kepler_batch
+
+    with pytest.raises(BackendUnavailableError, match="no NVIDIA GPU"):
+        propagate_kepler_batch(None, None, backend="cuda")  # checked before anything else
+
+
+def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
+    from visviva.core import cuda as vcuda
+
+    monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
+    with pytest.raises(InvalidInputError, match="leapfrog"):
+        vv.Simulation("whfast", dt=0.01, backend="cuda")
+    with pytest.raises(InvalidInputError, match="leapfrog"):
+        vv.Ensemble.from_simulations([planets("ias15")], backend="cuda")
+    sim = planets("leapfrog", collision="merge")
+    sim.backend = "cuda"
+    with pytest.raises(InvalidInputError, match="backend='cpu'"):
+        sim.integrate(1.0)
+    sim = planets("leapfrog")
+    sim.backend = "cuda"
+    with pytest.raises(ShapeError, match="one time"):
+        sim.integrate([1.0, 2.0])
 
 
 def test_dask_process_workers_give_identical_results():
@@ -148,7 +170,7 @@ def test_dask_process_workers_give_identical_results():
     there = vv.Ensemble.from_simulations(sims)
     here.integrate(20.0)
     with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         there.integrate(20.0, client=client)
         assert there.t.tolist() == [20.0] * 5
         np.testing.assert_array_equal(there.positions, here.positions)

@@ -30,10 +30,14 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "1"})
     # after several steps (off the step grid: the shortened last step too), relative to the
     # largest position/velocity: <= 1e-12 as the brief asks; in practice ~1e-15
-    for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc"):
+    for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc",
+                "kepler_pos", "kepler_vel", "conics_pos"):
         assert float(out[key]) <= 1e-12, (key, out[key])
     assert out["steps_equal"] == "True" and out["times_equal"] == "True"
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
+    # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
+    assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
+    assert int(out["conics_hyperbolic"]) > 20  # open orbits exercised too
 
 
 def _has_gpu():
@@ -49,7 +53,8 @@ def _has_gpu():
 @pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
 def test_cuda_backend_on_a_real_gpu_matches_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "0"})
-    for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc"):
+    for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc",
+                "kepler_pos", "kepler_vel", "conics_pos"):
         assert float(out[key]) <= 1e-12, (key, out[key])
 
 

@@ -19,13 +19,12 @@ import math
 
 import numpy as np
 
+from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
-from ..errors import BackendUnavailableError, InvalidInputError, InvalidStateError, ShapeError
+from ..errors import InvalidInputError, InvalidStateError, ShapeError
 
-__all__ = ["check_backend", "BACKENDS", "integrate_simulation", "integrate_ensemble"]
+__all__ = ["check_backend", "integrate_simulation", "integrate_ensemble"]
 
-#: The backends a Simulation and an Ensemble can run on.
-BACKENDS = ("cpu", "cuda")
 #: Integrators with a GPU implementation.
 GPU_INTEGRATORS = ("leapfrog",)
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
@@ -33,29 +32,14 @@ _XI, _VI = 1, 2
 
 
 def check_backend(backend: str, integrator: str | None = None) -> str:
-    """The canonical backend name; raises when it cannot run here.
-
-    Raises
-    ------
-    InvalidInputError
-        An unknown backend, or an integrator the backend does not run.
-    BackendUnavailableError
-        ``"cuda"`` without numba-cuda or without a usable GPU (the message says which).
-    """
-    name = str(backend).lower()
-    if name not in BACKENDS:
-        raise InvalidInputError(f"backend must be one of {BACKENDS}; got {backend!r}.")
-    if name == "cuda":
-        from ..core import cuda
-
-        problem = cuda.missing()
-        if problem is not None:
-            raise BackendUnavailableError(f"backend='cuda' cannot run: {problem}.")
-        if integrator is not None and integrator not in GPU_INTEGRATORS:
-            raise InvalidInputError(
-                f"backend='cuda' runs the {GPU_INTEGRATORS} integrator(s) so far, not "
-                f"{integrator!r}; use backend='cpu' (or integrator='leapfrog')."
-            )
+    """The canonical backend name (:func:`visviva._backends.check_backend`), and for ``"cuda"``
+    an :class:`~visviva.errors.InvalidInputError` when ``integrator`` has no GPU version."""
+    name = _check(backend)
+    if name == "cuda" and integrator is not None and integrator not in GPU_INTEGRATORS:
+        raise InvalidInputError(
+            f"backend='cuda' runs the {GPU_INTEGRATORS} integrator(s) so far, not "
+            f"{integrator!r}; use backend='cpu' (or integrator='leapfrog')."
+        )
     return name
 
 
@@ -143,7 +127,8 @@ def _finish(sim, state, n, h, t_final) -> None:
 
 def _begin(sim, t):
     if np.ndim(t) != 0:
-        raise ShapeError("backend='cuda' integrates to one time per call; got an array of times.")
+        raise ShapeError("backend='cuda' integrates to one time per call; got an array of "
+                         "times (call integrate once per output time).")
     _check_supported(sim)
     target = float(sim._begin_run(t)[0])
     _, _, massive = sim._kernel_inputs(parallel=False)

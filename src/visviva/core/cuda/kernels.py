@@ -20,7 +20,7 @@ from numba import cuda
 
 from . import arith
 
-__all__ = ["accelerations", "drift", "kick_drift", "ensemble_leapfrog", "THREADS"]
+__all__ = ["accelerations", "drift", "kick_drift", "ensemble_leapfrog", "propagate_many", "THREADS"]
 
 #: Threads per block of every kernel.
 THREADS = 128
@@ -83,3 +83,47 @@ def ensemble_leapfrog(xi, vi, x, v, gm, massive, moff, poff, soft2, acc, nsteps,
 def blocks(n: int) -> int:
     """Blocks of :data:`THREADS` threads that cover ``n`` items."""
     return max(1, (n + THREADS - 1) // THREADS)
+
+
+# ---- batch two-body propagation ------------------------------------------------------------------
+def _kepler_kernel():
+    from ..universal import propagate_scalar
+    from .twins import device_twin
+
+    propagate = device_twin(propagate_scalar)
+
+    @cuda.jit
+    def propagate_many(r0, v0, gm, dt, r_out, v_out, status):
+        """One thread per item: :func:`visviva.core.universal.propagate_scalar` compiled for the
+        GPU from the same source (the twin of :func:`visviva.core.universal.propagate_many`)."""
+        i = cuda.grid(1)
+        if i < r0.shape[0]:
+            st, x, y, z, vx, vy, vz = propagate(r0[i, 0], r0[i, 1], r0[i, 2], v0[i, 0],
+                                                v0[i, 1], v0[i, 2], gm[i], dt[i])
+            r_out[i, 0] = x
+            r_out[i, 1] = y
+            r_out[i, 2] = z
+            v_out[i, 0] = vx
+            v_out[i, 1] = vy
+            v_out[i, 2] = vz
+            status[i] = st
+
+    return propagate_many
+
+
+_KEPLER = []
+
+
+def propagate_many(r0, v0, gm, dt, r_out, v_out, status):
+    """The GPU twin of :func:`visviva.core.universal.propagate_many` on host arrays (same
+    arguments and outputs; the kernel is built on first use)."""
+    if not _KEPLER:
+        _KEPLER.append(_kepler_kernel())
+    n = r0.shape[0]
+    d_r, d_v, d_s = cuda.device_array((n, 3)), cuda.device_array((n, 3)), cuda.device_array(
+        n, dtype=status.dtype)
+    _KEPLER[0][blocks(n), THREADS](cuda.to_device(r0), cuda.to_device(v0), cuda.to_device(gm),
+                                   cuda.to_device(dt), d_r, d_v, d_s)
+    r_out[:] = d_r.copy_to_host()
+    v_out[:] = d_v.copy_to_host()
+    status[:] = d_s.copy_to_host()

@@ -100,12 +100,8 @@ def _kepler_kernel():
         if i < r0.shape[0]:
             st, x, y, z, vx, vy, vz = propagate(r0[i, 0], r0[i, 1], r0[i, 2], v0[i, 0],
                                                 v0[i, 1], v0[i, 2], gm[i], dt[i])
-            r_out[i, 0] = x
-            r_out[i, 1] = y
-            r_out[i, 2] = z
-            v_out[i, 0] = vx
-            v_out[i, 1] = vy
-            v_out[i, 2] = vz
+            r_out[i, 0], r_out[i, 1], r_out[i, 2] = x, y, z
+            v_out[i, 0], v_out[i, 1], v_out[i, 2] = vx, vy, vz
             status[i] = st
 
     return propagate_many

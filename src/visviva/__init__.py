@@ -46,7 +46,7 @@ _PUBLIC = {
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",
-    "ModifiedEquinoctialElements": "visviva.elements",
+    "ModifiedEquinoctialElements": "visviva.equinoctial",
     "solve_kepler": "visviva.anomalies",
     "solve_kepler_hyperbolic": "visviva.anomalies",
     "mean_to_true": "visviva.anomalies",
@@ -67,6 +67,10 @@ _PUBLIC = {
     "orbit_equation": "visviva.central_force",
     # N-body
     "Simulation": "visviva.nbody",
+    # animation
+    "animate_orbit": "visviva.animation",
+    "animate_simulation": "visviva.animation",
+    "save_animation": "visviva.animation",
     "solar_system": "visviva.nbody",
     "Ensemble": "visviva.nbody",
     # satellites
@@ -95,10 +99,19 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # CCSDS orbit data messages
+    "CCSDSFormatError": "visviva.ccsds.grammar",
+    "read_oem": "visviva.ccsds.oem_io",
+    "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
+_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
+               "ccsds"}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

@@ -17,6 +17,7 @@ from ..errors import (
     Escape,
     InvalidStateError,
     StepSizeError,
+    fmt_number,
     raise_for_status,
 )
 from .trajectory import coincident_pairs
@@ -30,7 +31,7 @@ def raise_non_finite(state, integrator: str):
     check_not_coincident(state, f"{integrator} integration")
     raise InvalidStateError(
         f"the {integrator} integration produced NaN or infinite accelerations, "
-        f"positions or velocities (by t = {t!r}): a force overflowed or was singular. "
+        f"positions or velocities (by t = {fmt_number(t)}): a force overflowed or was singular. "
         "To fix: check the additional forces, use a smaller dt, softening > 0, or collision "
         "detection (radius=..., collision='merge')."
     )
@@ -43,7 +44,7 @@ def check_not_coincident(state, what: str):
     if pairs:
         raise InvalidStateError(
             f"{what}: particles {pairs[0]} are at exactly the same position "
-            f"{state.x[pairs[0][0]].tolist()} at t = {t!r}, where the point-mass "
+            f"{state.x[pairs[0][0]].tolist()} at t = {fmt_number(t)}, where the point-mass "
             "gravity (and the potential energy) is infinite. To fix: separate them, set "
             "softening > 0, or give them radii with collision='merge'."
         )
@@ -57,7 +58,7 @@ def raise_event(state, status: int, integrator: str):
         cls = {_st.COLLISION: Collision, _st.ENCOUNTER: Encounter, _st.ESCAPE: Escape}[status]
         what = STATUS_TABLE[status][1]
         parts = (a,) if b < 0 else (a, b)
-        raise cls(f"{what} at t = {t!r}: particles {parts}. The simulation stopped "
+        raise cls(f"{what} at t = {fmt_number(t)}: particles {parts}. The simulation stopped "
                   "there and can be continued.", t=t, particles=parts)
     if status == _st.STEP_TOO_SMALL:
         check_not_coincident(state, f"{integrator} integration")
@@ -65,7 +66,7 @@ def raise_event(state, status: int, integrator: str):
         failed = float(state.fstate[_nc.F_DT_FAILED])
         detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
         raise StepSizeError(
-            f"{integrator} integration stopped at t = {t!r}: the adaptive step fell "
+            f"{integrator} integration stopped at t = {fmt_number(t)}: the adaptive step fell "
             f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "
             "span): the run could not finish. Particles are probably (nearly) colliding or a "
             "force is singular. To fix: give the particles radii and collision='merge' or "

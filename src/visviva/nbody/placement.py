@@ -6,7 +6,7 @@ import numpy as np
 
 from ..core import elements as _elements
 from ..core import kepler as _kepler
-from ..errors import InvalidInputError, raise_for_status
+from ..errors import InvalidInputError, fmt_number, raise_for_status
 from .settings import length
 
 __all__ = ["elements_to_state"]
@@ -31,7 +31,7 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
         raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
     e = float(e)
     if e < 0:
-        raise InvalidInputError(f"e must be >= 0; got {e!r}.")
+        raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
     if p is None:
         a = float(length(sim, a, "a"))
         if e == 1.0:
@@ -40,7 +40,7 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
     else:
         p = float(length(sim, p, "p"))
     if not p > 0:
-        raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {p!r}.")
+        raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {fmt_number(p)}.")
     if nu is None:
         if M is None:
             nu = 0.0

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..errors import InvalidInputError, ShapeError
+from ..errors import InvalidInputError, ShapeError, fmt_number
 from .integrators import COORDINATES, parse_coordinates
 
 __all__ = ["Setting", "convert", "length", "scalar", "COLLISION_MODES"]
@@ -49,7 +49,7 @@ def convert(sim, value, kind, name):
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(
             f"{name} must be a number or an array of numbers (simulation units, or a Quantity "
-            f"when the simulation has units); got {value!r}."
+            f"when the simulation has units); got {fmt_number(value)}."
         ) from exc
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} contains NaN or infinite values.")
@@ -119,21 +119,21 @@ def time_scalar(sim, value, name) -> float:
     """A finite time (or time step) in simulation units."""
     dt = scalar(convert(sim, value, "time", name), name)
     if not math.isfinite(dt):
-        raise InvalidInputError(f"{name} must be finite; got {dt!r}.")
+        raise InvalidInputError(f"{name} must be finite; got {fmt_number(dt)}.")
     return dt
 
 
 def nonnegative_time(sim, value, name) -> float:
     dt = time_scalar(sim, value, name)
     if not dt >= 0:
-        raise InvalidInputError(f"{name} must be a finite number >= 0; got {value!r}.")
+        raise InvalidInputError(f"{name} must be a finite number >= 0; got {fmt_number(value)}.")
     return dt
 
 
 def softening_squared(sim, value, name) -> float:
     s = float(length(sim, value, name))
     if not (math.isfinite(s) and s >= 0):
-        raise InvalidInputError(f"{name} must be >= 0; got {value!r}.")
+        raise InvalidInputError(f"{name} must be >= 0; got {fmt_number(value)}.")
     return s * s
 
 
@@ -142,9 +142,9 @@ def epsilon(sim, value, name) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.") from exc
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.") from exc
     if not (math.isfinite(x) and x > 0):
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.")
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.")
     return x
 
 
@@ -155,7 +155,7 @@ def _distance(sim, value, name, allow_zero):
     if not (d > 0 or (allow_zero and d == 0)):
         bound = ">= 0" if allow_zero else "> 0"
         raise InvalidInputError(
-            f"{name} must be a distance {bound} (or None to switch the check off); got {value!r}."
+            f"{name} must be a distance {bound} (or None to switch the check off); got {fmt_number(value)}."
         )
     return d
 
@@ -177,7 +177,7 @@ def off_when_zero(d):
 def restitution(sim, value, name) -> float:
     value = float(value)
     if not 0.0 <= value <= 1.0:
-        raise InvalidInputError(f"{name} must be in [0, 1]; got {value!r}.")
+        raise InvalidInputError(f"{name} must be in [0, 1]; got {fmt_number(value)}.")
     return value
 
 

@@ -17,10 +17,7 @@ import numpy as np
 from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
 from ..core import status as _st
-from ..errors import (
-    InvalidInputError,
-    ShapeError,
-)
+from ..errors import InvalidInputError, ShapeError, fmt_number
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
@@ -139,7 +136,7 @@ class Simulation:
         self.backend = check_backend(backend, self._integrator.name)
         G_value = self.units.G if self.units is not None else float(G)
         if not (math.isfinite(G_value) and G_value > 0):
-            raise InvalidInputError(f"G must be a finite number > 0; got {G!r}.")
+            raise InvalidInputError(f"G must be a finite number > 0; got {fmt_number(G)}.")
         self._state.fstate[_nc.F_G] = G_value
         self.epsilon = epsilon
         self.min_dt = min_dt
@@ -341,7 +338,7 @@ class Simulation:
         """
         m_val = _s.scalar(_s.convert(self, m, "mass", "m"), "m")
         if not m_val >= 0:
-            raise InvalidInputError(f"mass must be >= 0; got {m!r}.")
+            raise InvalidInputError(f"mass must be >= 0; got {fmt_number(m)}.")
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
@@ -355,7 +352,7 @@ class Simulation:
             raise ShapeError(f"r and v must have shape (3,); got {rr.shape} and {vv.shape}.")
         rad = _s.length(self, radius, "radius")
         if not rad >= 0:
-            raise InvalidInputError(f"radius must be >= 0; got {radius!r}.")
+            raise InvalidInputError(f"radius must be >= 0; got {fmt_number(radius)}.")
         self._state.append(rr, vv, m_val, rad)
         return self.N - 1
 
@@ -457,7 +454,7 @@ class Simulation:
         if not (np.all(steps >= 0) or np.all(steps <= 0)):
             raise InvalidInputError(
                 "output times must be monotonic in one direction from the current time "
-                f"t = {self.t!r}; sort them (or integrate backwards in a separate call)."
+                f"t = {fmt_number(self.t)}; sort them (or integrate backwards in a separate call)."
             )
         info = self._integrator
         if info.needs_dt and self.dt == 0.0:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import gravity as _gravity
-from ..errors import InvalidStateError
+from ..errors import InvalidStateError, fmt_number
 
 __all__ = ["Trajectory", "coincident_pairs"]
 
@@ -78,7 +78,7 @@ class Trajectory:
         bad = np.flatnonzero(~np.isfinite(out))
         if bad.size:
             k = int(bad[0])
-            context = f"Trajectory.energy: at snapshot {k} (t = {self.t[k]!r})"
+            context = f"Trajectory.energy: at snapshot {k} (t = {fmt_number(self.t[k])})"
             removed = np.flatnonzero(np.isnan(self.positions[k]).any(axis=1))
             if removed.size:
                 raise InvalidStateError(

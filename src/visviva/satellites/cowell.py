@@ -23,7 +23,7 @@ from .._units import require_finite, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
 from ..core.cowell import integrate_cowell
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
-from ..errors import InvalidInputError, ShapeError, StepSizeError, raise_for_status
+from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
 from .events import Event, EventRecord
 from .perturbations import (
     AtmosphericDrag,
@@ -494,7 +494,7 @@ def propagate_cowell(
             "t is empty: give at least one output time (e.g. np.linspace(0, 1, 10) * u.day)."
         )
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
-        raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
+        raise InvalidInputError(f"max_steps must be an integer > 0; got {fmt_number(max_steps)}.")
     if isinstance(perturbations, Perturbation):
         perturbations = [perturbations]
     elif isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):

@@ -457,6 +457,17 @@ class SatelliteStates(StateVectors):
         """The times of the states (astropy Time)."""
         return self.epoch
 
+    @property
+    def altitude(self):
+        """Height above the WGS-84 ellipsoid (Quantity, km; shape of the states).
+
+        The geodetic height of :func:`visviva.satellites.frames.itrs_to_geodetic`, after a
+        rotation to ITRS at :attr:`t` (astropy's matrices) when the states are in TEME or GCRS.
+        """
+        from .frames import altitude_km
+
+        return altitude_km(self._r, self._v, self.epoch, self.frame) << u.km
+
     def to_state_vectors(self) -> StateVectors:
         """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
         if self.frame == "itrs":
@@ -693,6 +704,37 @@ class Satellite:
 
     def __repr__(self):
         return f"Satellite({self.name!r}, satnum={self.satnum}, epoch={self.epoch.utc.isot})"
+
+    # -- export ------------------------------------------------------------------------------
+    def to_tle(self) -> tuple[str, str]:
+        """The two TLE lines (checksums; alpha-5 catalogue numbers above 99999).
+
+        Returns
+        -------
+        line1, line2 : str
+            69 characters each; :meth:`from_tle` on them gives back this satellite's record
+            (to the TLE's column precision for a record that did not come from a TLE).
+
+        Raises
+        ------
+        InvalidInputError
+            A value that does not fit the TLE's columns (use :meth:`to_omm` instead).
+        """
+        from .tle_export import to_tle
+
+        return to_tle(self.satrec)
+
+    def to_omm(self) -> dict:
+        """The CCSDS OMM fields (the keys of ``sgp4.exporter.export_omm``), full precision.
+
+        Returns
+        -------
+        dict
+            For :meth:`from_omm` or :func:`visviva.write_omm` (with ``originator=``).
+        """
+        from .tle_export import to_omm
+
+        return to_omm(self.satrec, self.name)
 
     # -- propagation -------------------------------------------------------------------------
     def _sgp4(self, t):

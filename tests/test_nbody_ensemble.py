@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.errors import BackendUnavailableError, Collision, InvalidInputError, ShapeError
@@ -182,3 +184,26 @@ def test_dask_process_workers_give_identical_results():
     from visviva._dask import close_local_cluster
 
     close_local_cluster()
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    sizes=st.lists(st.integers(min_value=1, max_value=6), min_size=1, max_size=6),
+    t=st.floats(min_value=0.0, max_value=3.0),
+    seed=st.integers(min_value=0, max_value=2**16),
+)
+def test_property_any_ragged_ensemble_equals_its_members_alone(sizes, t, seed):
+    rng = np.random.default_rng(seed)
+    sims = []
+    for n in sizes:
+        sim = vv.Simulation("leapfrog", dt=0.013, softening=0.05)
+        for _ in range(n):
+            sim.add(float(rng.choice([0.0, rng.uniform(0.01, 1.0)])), rng.normal(size=3),
+                    0.3 * rng.normal(size=3))
+        sims.append(sim)
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(t)
+    for k, sim in enumerate(sims):
+        sim.integrate(t)
+        np.testing.assert_array_equal(ens[k].positions, sim.positions)
+        np.testing.assert_array_equal(ens[k].velocities, sim.velocities)

@@ -13,6 +13,11 @@ from .forces import J2, Force, GeneralRelativity, GeneralRelativityPotential, Li
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .simulation import COLLISION_MODES, Simulation, Trajectory
 
+# solar_system is bound eagerly (light imports): a lazy binding was lost to the submodule of the
+# same name as soon as anything imported ``visviva.nbody.solar_system`` (pytest's
+# --doctest-modules collection does), after which ``vv.solar_system`` was the module
+from .solar_system import solar_system
+
 __all__ = [
     "Simulation",
     "Ensemble",
@@ -32,10 +37,6 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name == "solar_system":
-        from .solar_system import solar_system
-
-        return solar_system
     if name == "Archive":
         from .archive import Archive
 

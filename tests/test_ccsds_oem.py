@@ -257,3 +257,27 @@ def test_hypothesis_round_trip_bit_for_bit(r_v, n, fmt, with_cov):
     assert np.abs((back.times - t).to_value(u.s)).max() < 1e-9
     if with_cov:
         np.testing.assert_array_equal(back.covariances[0].matrix, seg.covariances[0].matrix)
+
+
+@pytest.mark.parametrize("method", ["LAGRANGE", "HERMITE"])
+def test_interpolation_in_blocks_equals_one_pass(method, monkeypatch):
+    from visviva.ccsds import interpolation
+
+    seg, _, t0 = _two_body_segment(method, 5)
+    t = t0 + np.linspace(0, 59 * 60.0, 101) * u.s
+    whole = seg.interpolate(t)
+    monkeypatch.setattr(interpolation, "_CHUNK", 7)
+    blocks = seg.interpolate(t)
+    np.testing.assert_array_equal(blocks.r.to_value(u.km), whole.r.to_value(u.km))
+    np.testing.assert_array_equal(blocks.v.to_value(u.km / u.s), whole.v.to_value(u.km / u.s))
+
+
+def test_default_interpolation_when_the_file_names_none():
+    text = OEM_KVN.replace("INTERPOLATION = HERMITE\nINTERPOLATION_DEGREE = 1\n", "")
+    text = text.replace("INTERPOLATION = LAGRANGE\n", "")
+    first, second = vv.read_oem(text).segments
+    assert first.interpolation == ("LAGRANGE", 3)  # 4 states
+    assert second.interpolation == ("LAGRANGE", 2)  # degree named, method not
+    seg, _, _ = _two_body_segment("HERMITE", 5)
+    del seg.metadata.values["INTERPOLATION"], seg.metadata.values["INTERPOLATION_DEGREE"]
+    assert seg.interpolation == ("LAGRANGE", 7)

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import visviva as vv
+from visviva.ccsds.opm import OPM
 
 OPM_KVN = """CCSDS_OPM_VERS = 3.0
 COMMENT written for the visviva tests, in the layout of CCSDS 502.0-B-3 annex G
@@ -268,3 +269,71 @@ def test_hypothesis_tle_and_omm_round_trip_through_sgp4(n, e, i, raan, argp, m, 
     # the OMM epoch is rounded to the microsecond: within 0.5 us (5.8e-12 day)
     dt_day = (again.jdsatepoch - ref.jdsatepoch) + (again.jdsatepochF - ref.jdsatepochF)
     assert abs(dt_day) * 86400e6 <= 0.5 + 1e-3
+
+
+_finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=30, deadline=None)
+@given(r=st.lists(st.floats(-5e4, 5e4).filter(lambda x: abs(x) > 1.0), min_size=3, max_size=3),
+       v=st.lists(_finite.map(lambda x: x * 1e-5), min_size=3, max_size=3),
+       dv=st.lists(_finite.map(lambda x: x * 1e-8), min_size=3, max_size=3),
+       fmt=st.sampled_from(["kvn", "xml"]), with_cov=st.booleans(),
+       seconds=st.floats(0, 86400 * 365))
+def test_hypothesis_opm_round_trip(r, v, dv, fmt, with_cov, seconds):
+    from visviva.ccsds.opm import Maneuver
+
+    epoch = Time("2025-01-01T00:00:00", scale="utc") + seconds * u.s
+    state = vv.StateVectors(r * u.km, v * u.km / u.s, vv.EARTH, epoch=epoch)
+    burn = Maneuver(epoch + 60 * u.s, 12.5 * u.s, -0.25 * u.kg, "RTN", dv * (u.km / u.s))
+    a = np.arange(36.0).reshape(6, 6)
+    opm = OPM.from_state(state, object_name="H", maneuvers=[burn],
+                         covariance=a @ a.T if with_cov else None)
+    back = vv.read_opm(vv.write_opm(opm, format=fmt))
+    np.testing.assert_array_equal(back.state.r.to_value(u.km), r)
+    np.testing.assert_array_equal(back.state.v.to_value(u.km / u.s), v)
+    assert abs((back.epoch - epoch).to_value(u.s)) < 1e-9
+    np.testing.assert_array_equal(back.maneuvers[0].delta_v.to_value(u.km / u.s), dv)
+    if with_cov:
+        np.testing.assert_array_equal(back.covariance, a @ a.T)
+    for name, record in back.sections.items():
+        if name != "maneuvers":  # everything as given, plus the CREATION_DATE the writer added
+            added = {"CREATION_DATE"} if name == "header" else set()
+            assert set(record.values) == set(opm.sections[name].values) | added
+            assert all(record[k] == v for k, v in opm.sections[name].values.items())
+    assert back.sections["maneuvers"][0].values == opm.sections["maneuvers"][0].values
+
+
+@settings(max_examples=30, deadline=None)
+@given(values=st.fixed_dictionaries({
+    "MEAN_MOTION": st.floats(0.5, 17.0), "ECCENTRICITY": st.floats(0.0, 0.99),
+    "INCLINATION": st.floats(0.0, 180.0), "RA_OF_ASC_NODE": st.floats(0.0, 360.0),
+    "ARG_OF_PERICENTER": st.floats(0.0, 360.0), "MEAN_ANOMALY": st.floats(0.0, 360.0),
+    "BSTAR": st.floats(-1.0, 1.0), "NORAD_CAT_ID": st.integers(1, 339999),
+    "MEAN_MOTION_DOT": st.floats(-1.0, 1.0), "MEAN_MOTION_DDOT": st.floats(-1.0, 1.0)}),
+    fmt=st.sampled_from(["kvn", "xml"]))
+def test_hypothesis_omm_round_trip(values, fmt):
+    omm = dict(vv.read_omm(OMM_KVN))
+    omm.update(values)
+    back = vv.read_omm(vv.write_omm(omm, format=fmt))
+    assert dict(back) == omm
+    vv.Satellite.from_omm(back)  # what the OMM is for
+
+
+def test_omm_inside_an_ndm_wrapper():
+    xml = vv.write_omm(vv.read_omm(OMM_KVN), format="xml")
+    body = xml.split("\n", 1)[1]
+    wrapped = f'<?xml version="1.0" encoding="UTF-8"?>\n<ndm>\n{body}</ndm>\n'
+    assert dict(vv.read_omm(wrapped)) == dict(vv.read_omm(OMM_KVN))
+    with pytest.raises(vv.CCSDSFormatError, match="holds 2 <omm> messages"):
+        vv.read_omm(f"<ndm>\n{body}{body}</ndm>\n")
+
+
+def test_xml_unknown_elements_name_the_line():
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml")
+    lines = xml.splitlines()
+    k = next(i for i, s in enumerate(lines) if "<stateVector>" in s)
+    bad = "\n".join(lines[:k] + ["<orbitStuff>1</orbitStuff>"] + lines[k:])
+    with pytest.raises(vv.CCSDSFormatError, match="<orbitStuff> does not belong in <data>") as e:
+        vv.read_opm(bad)
+    assert e.value.line == k + 1

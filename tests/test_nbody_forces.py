@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import visviva as vv
-from visviva.nbody import J2, GeneralRelativity, GeneralRelativityPotential, LinearDrag
+from visviva.nbody import GeneralRelativity, GeneralRelativityPotential, J2Force, LinearDrag
 
 
 @numba.njit
@@ -99,7 +99,7 @@ def test_j2_precesses_the_node_at_the_textbook_rate():
     sim = vv.Simulation("ias15")
     sim.add(1.0)
     sim.add(0.0, a=a, e=0.0, inc=inc, primary=0)
-    sim.add_force(J2(primary=0, j2=j2, radius=R))
+    sim.add_force(J2Force(primary=0, j2=j2, radius=R))
     n = math.sqrt(1.0 / a**3)
     T = 200 * 2 * math.pi / n
     sim.integrate(T)
@@ -162,3 +162,33 @@ def test_force_with_a_wrong_signature_is_explained():
     sim.add_force(returns_something)
     with pytest.raises(vv.InvalidInputError, match="do not compile"):
         sim.integrate(1.0)
+
+
+def test_j2_force_has_its_own_name_and_the_old_one_is_deprecated():
+    import visviva.nbody as nb
+    from visviva.nbody import forces
+
+    assert nb.J2Force is forces.J2Force
+    assert vv.J2 is not nb.J2Force  # the Cowell perturbation keeps the short name
+    with pytest.warns(DeprecationWarning, match="J2Force"):
+        old = nb.J2
+    assert old is nb.J2Force
+    with pytest.warns(DeprecationWarning, match="J2Force"):
+        assert forces.J2 is forces.J2Force  # files saved with the old class name still load
+    assert "J2" not in nb.__all__
+
+
+def test_add_mean_anomaly_and_its_deprecated_alias_M():
+    sims = []
+    for kw in ({"mean_anomaly": 1.2}, {"M": 1.2}):
+        sim = vv.Simulation()
+        sim.add(1.0)
+        if "M" in kw:
+            with pytest.warns(DeprecationWarning, match="mean_anomaly"):
+                sim.add(1e-3, a=1.5, e=0.3, primary=0, **kw)
+        else:
+            sim.add(1e-3, a=1.5, e=0.3, primary=0, **kw)
+        sims.append(sim)
+    np.testing.assert_array_equal(sims[0].positions, sims[1].positions)
+    with pytest.warns(DeprecationWarning), pytest.raises(vv.InvalidInputError, match="mean_anomaly"):
+        vv.Simulation().add(1.0, M=1.0, mean_anomaly=1.0)

@@ -66,7 +66,7 @@ def test_whfast_two_body_matches_kepler_on_every_conic(e, inc, nu, steps_per_orb
 def test_add_by_elements_gives_the_elements_back(a, e, inc, M, m):
     sim = vv.Simulation()
     sim.add(1.0)
-    sim.add(m, a=a, e=e, inc=inc, raan=0.4, argp=0.9, M=M, primary=0)
+    sim.add(m, a=a, e=e, inc=inc, raan=0.4, argp=0.9, mean_anomaly=M, primary=0)
     d = sim.positions[1] - sim.positions[0]
     w = sim.velocities[1] - sim.velocities[0]
     gm = 1.0 + m

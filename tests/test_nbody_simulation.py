@@ -80,7 +80,7 @@ def test_add_by_elements_circular_orbit():
 def test_add_by_elements_mean_anomaly_energy_and_inclination():
     sim = vv.Simulation()
     sim.add(1.0)
-    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, M=1.2, primary=0)
+    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, mean_anomaly=1.2, primary=0)
     d = sim.positions[1] - sim.positions[0]
     w = sim.velocities[1] - sim.velocities[0]
     gm = sim.G * (1.0 + 1e-3)
@@ -263,7 +263,7 @@ def test_add_by_elements_uses_the_elements_kernels():
 
     sim = vv.Simulation()
     sim.add(1.0)
-    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, M=1.2, primary=0)
+    sim.add(1e-3, a=1.5, e=0.3, inc=0.4, raan=1.0, argp=2.0, mean_anomaly=1.2, primary=0)
     nu, status = mean_to_true_anomaly(1.2, 0.3)
     *state, status = coe_to_rv(1.5 * (1 - 0.3**2), 0.3, 0.4, 1.0, 2.0, nu, 1.001)
     np.testing.assert_array_equal(sim.positions[1], state[:3])
@@ -272,4 +272,4 @@ def test_add_by_elements_uses_the_elements_kernels():
     with pytest.raises(InvalidElementsError, match="asymptote"):
         sim.add(0.0, p=1.0, e=3.0, nu=2.0, primary=0)
     with pytest.raises(vv.InvalidInputError, match="nu"):
-        sim.add(0.0, p=1.0, e=1.5, M=0.3, primary=0)
+        sim.add(0.0, p=1.0, e=1.5, mean_anomaly=0.3, primary=0)

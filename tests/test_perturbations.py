@@ -348,3 +348,45 @@ def test_nrlmsis_needs_indices():
         vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="nrlmsis")
     with pytest.raises(vv.InvalidInputError, match="model"):
         vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="jacchia")
+
+
+def test_force_block_layout_tiles_the_block_and_every_slot_has_one_writer():
+    from visviva.core import force_block as fb
+    from visviva.satellites import perturbations as pm
+    from visviva.satellites.cowell import ForceModel
+
+    covered = []
+    for name, first, size, unit, meaning in fb.LAYOUT:
+        assert getattr(fb, name) == first and size >= 1 and meaning and isinstance(unit, str)
+        covered.extend(range(first, first + size))
+    assert covered == list(range(fb.FORCE_SIZE))  # in order, no gap, no overlap
+    classes = [pm.Zonal, pm.AtmosphericDrag, pm.ThirdBody, pm.SolarRadiationPressure,
+               pm.SphericalHarmonics]
+    writers = list(ForceModel.SHARED_PARAMETERS)
+    for cls in classes:
+        assert cls.PARAMETERS, cls
+        assert [row[0] for row in cls.parameters()] == list(cls.PARAMETERS)
+        writers.extend(cls.PARAMETERS)
+    assert sorted(writers) == sorted(row[0] for row in fb.LAYOUT)
+    assert pm.J2.PARAMETERS == pm.Zonal.PARAMETERS
+
+
+def test_each_perturbation_writes_only_its_own_slots():
+    from visviva.core import force_block as fb
+    from visviva.satellites.cowell import ForceModel
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    base = ForceModel(vv.EARTH.gm_km3_s2, [], epoch=epoch).force
+    rows = {row[0]: row for row in fb.LAYOUT}
+    for p in (vv.Zonal(vv.EARTH, 4), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg),
+              vv.SolarRadiationPressure(area_to_mass=0.02 * u.m**2 / u.kg)):
+        force = ForceModel(vv.EARTH.gm_km3_s2, [p], epoch=epoch, span_s=(0.0, 600.0)).force
+        own = set()
+        for name in type(p).PARAMETERS:
+            own.update(range(rows[name][1], rows[name][1] + rows[name][2]))
+        shared = set()
+        for name in ForceModel.SHARED_PARAMETERS:
+            shared.update(range(rows[name][1], rows[name][1] + rows[name][2]))
+        changed = {int(i) for i in np.flatnonzero(force != base)}
+        assert changed - shared <= own, (p, changed)
+        assert changed & own, p

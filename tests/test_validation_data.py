@@ -1,4 +1,4 @@
-"""visviva against the committed reference data of validation/data (REBOUND, sgp4, astropy).
+"""visviva against the committed reference data of reference/data (REBOUND, sgp4, astropy).
 
 The default tests read the JSON files only, so they pass without the reference libraries.
 ``pytest -m live`` re-runs the generators against the installed libraries and checks that they
@@ -19,7 +19,7 @@ from astropy import units as u
 import visviva as vv
 
 ROOT = Path(__file__).resolve().parent.parent
-VALIDATION = ROOT / "validation"
+VALIDATION = ROOT / "reference"
 DATA = VALIDATION / "data"
 
 ONE_MM = 1e-6  # km
@@ -28,7 +28,7 @@ ONE_M = 1e-3  # km
 
 
 def _load_script(name: str):
-    """Import validation/<name>.py under a private module name."""
+    """Import reference/<name>.py under a private module name."""
     spec = importlib.util.spec_from_file_location(f"_vv_validation_{name}", VALIDATION / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -73,7 +73,7 @@ def test_provenance_header(name):
                                                     "mpmath"))
     dt.datetime.strptime(head["generated_utc"], "%Y-%m-%dT%H:%M:%SZ")
     assert data["cases"], f"{name} holds no cases"
-    assert name in (VALIDATION / "README.md").read_text(), "list the file in validation/README.md"
+    assert name in (VALIDATION / "README.md").read_text(), "list the file in reference/README.md"
 
 
 # --------------------------------------------------------------------------------------------
@@ -253,7 +253,7 @@ def _max_abs_diff(a, b):
 
 
 def _regenerated_cases(package, script, data_file):
-    """Pairs (fresh case, committed case): validation/<script>.py re-run against the installed
+    """Pairs (fresh case, committed case): reference/<script>.py re-run against the installed
     ``package`` (skip when it is missing), zipped with the cases of data/<data_file>."""
     pytest.importorskip(package)
     fresh = _load_script(script).generate()

@@ -16,9 +16,9 @@ def _validate_parser(sub) -> None:
         "reference libraries; print one line per check (status, name, measured, tolerance, "
         "metric); write a Markdown report with plots. Exit code 0 only when every check passes.")
     p.add_argument("--full", action="store_true", help="include the long runs")
-    p.add_argument("--report", default="validation/report", metavar="DIR",
+    p.add_argument("--report", default="reference/report", metavar="DIR",
                    help="folder for report.md, results.json and the plots "
-                        "(default: validation/report)")
+                        "(default: reference/report)")
     p.add_argument("--no-report", action="store_true", help="write no report")
     p.add_argument("--only", default=None, metavar="STR",
                    help="comma-separated terms: run the modules whose topic matches, or else "
@@ -63,7 +63,10 @@ def _import_benchmarks():
 #: the sub-parser named like the command) and ``run(args) -> int`` (the exit code). The module is
 #: imported when the parser is built, so it must import nothing heavy at module level.
 _COMMANDS: dict[str, str] = {
+    "screen": "visviva.conjunctions.cli",
     "convert": "visviva.ccsds.convert",
+    "passes": "visviva.ground.cli",
+    "fit-tle": "visviva.od.cli",
 }
 
 

@@ -17,7 +17,11 @@ The modules, bottom up:
   (``read_kvn_section``/``write_kvn_section``) and XML (``read_xml_section``/
   ``write_xml_section``), and whole flat messages (``read_message``/``write_message``);
 * :mod:`~visviva.ccsds.timeframes` -- epochs and ``TIME_SYSTEM`` to astropy ``Time``,
-  ``REF_FRAME`` to visviva's frames, ``CENTER_NAME`` to bodies.
+  ``REF_FRAME`` to visviva's frames, ``CENTER_NAME`` to bodies;
+* the messages: :mod:`~visviva.ccsds.oem` (``Ephemeris``, ``OEMSegment``, interpolation in
+  :mod:`~visviva.ccsds.interpolation`) with :mod:`~visviva.ccsds.oem_io`,
+  :mod:`~visviva.ccsds.opm`, :mod:`~visviva.ccsds.omm`; ``visviva convert`` in
+  :mod:`~visviva.ccsds.convert`.
 
 How a message is described and read (the pattern the OPM, OMM and CDM modules follow)::
 
@@ -43,5 +47,11 @@ with ``source, line N: what is wrong``.
 """
 
 from .grammar import CCSDSFormatError, Keyword, Record, Section
+from .oem import Ephemeris, OEMCovariance, OEMSegment
+from .oem_io import read_oem, write_oem
+from .omm import OMM, read_omm, write_omm
+from .opm import OPM, Maneuver, read_opm, write_opm
 
-__all__ = ["CCSDSFormatError", "Keyword", "Record", "Section"]
+__all__ = ["CCSDSFormatError", "Keyword", "Record", "Section", "Ephemeris", "OEMSegment",
+           "OEMCovariance", "OPM", "Maneuver", "OMM", "read_oem", "write_oem", "read_opm",
+           "write_opm", "read_omm", "write_omm"]

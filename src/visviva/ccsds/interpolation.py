@@ -74,6 +74,20 @@ def _scaled(t_nodes, t_query, idx):
     return (x_nodes - centre[:, None]) / scale[:, None], (t_query - centre) / scale, scale
 
 
+_CHUNK = 32768  # queries per pass: bounds the (M, K, K) work arrays to a few MB
+
+
+def _chunked(fn, t_query, *args):
+    """Run ``fn`` over blocks of the query times and join the results."""
+    if t_query.size <= _CHUNK:
+        return fn(t_query, *args)
+    parts = [fn(t_query[i:i + _CHUNK], *args) for i in range(0, t_query.size, _CHUNK)]
+    if isinstance(parts[0], tuple):
+        return tuple(None if p[0] is None else np.concatenate(p) for p in zip(*parts,
+                                                                             strict=True))
+    return np.concatenate(parts)
+
+
 def lagrange(t_nodes, y_nodes, t_query, degree: int):
     """Lagrange interpolation of degree ``degree`` (values only).
 
@@ -97,10 +111,13 @@ def lagrange(t_nodes, y_nodes, t_query, degree: int):
     :math:`p(t) = \\sum_j y_j \\prod_{k \\ne j} (t - t_k)/(t_j - t_k)` over the n + 1 nodes nearest
     ``t`` (Press et al., Numerical Recipes, 3rd ed., sec. 3.2).
     """
-    idx = windows(t_nodes, t_query, degree + 1)
-    x_nodes, x, _ = _scaled(t_nodes, t_query, idx)
-    value, _ = _basis(x_nodes, x)
-    return np.einsum("mk,mkd->md", value, y_nodes[idx])
+    def block(tq):
+        idx = windows(t_nodes, tq, degree + 1)
+        x_nodes, x, _ = _scaled(t_nodes, tq, idx)
+        value, _ = _basis(x_nodes, x)
+        return np.einsum("mk,mkd->md", value, y_nodes[idx])
+
+    return _chunked(block, np.asarray(t_query, dtype=np.float64))
 
 
 def hermite(t_nodes, y_nodes, dy_nodes, t_query, degree: int, want_derivative: bool = True):
@@ -131,6 +148,11 @@ def hermite(t_nodes, y_nodes, dy_nodes, t_query, degree: int, want_derivative: b
     :math:`H(t) = \\sum_j [y_j (1 - 2 L_j'(t_j)(t - t_j)) + y'_j (t - t_j)] L_j(t)^2` with
     :math:`L_j` the Lagrange basis (Burden & Faires, Numerical Analysis, sec. 3.4).
     """
+    return _chunked(_hermite_block, np.asarray(t_query, dtype=np.float64), t_nodes, y_nodes,
+                    dy_nodes, degree, want_derivative)
+
+
+def _hermite_block(t_query, t_nodes, y_nodes, dy_nodes, degree, want_derivative):
     idx = windows(t_nodes, t_query, degree + 1)
     x_nodes, x, scale = _scaled(t_nodes, t_query, idx)
     value, deriv = _basis(x_nodes, x)

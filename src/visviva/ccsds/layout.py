@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .grammar import CCSDSFormatError, Record, Section, format_value, parse_value
 from .kvn import KVNCursor, KVNWriter
-from .ndmxml import XMLNode, add_text, looks_like_xml, new_root, parse, to_text
+from .ndmxml import XMLNode, add_text, looks_like_xml, message_root, new_root, parse, to_text
 
 __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
@@ -26,7 +26,8 @@ def read_text(source) -> tuple[str, str]:
     Parameters
     ----------
     source : str or os.PathLike
-        A file name, or the message text (anything containing a newline or starting with ``<``).
+        A file name, or the message text (anything containing a newline or ``=``, or starting
+        with ``<``).
 
     Returns
     -------
@@ -37,7 +38,8 @@ def read_text(source) -> tuple[str, str]:
     import os
 
     if isinstance(source, os.PathLike) or (
-            isinstance(source, str) and "\n" not in source and not source.lstrip().startswith("<")):
+            isinstance(source, str) and "\n" not in source and "=" not in source
+            and not source.lstrip().startswith("<")):
         path = os.fspath(source)
         if not os.path.exists(path):
             raise CCSDSFormatError(f"no such file {path!r}; pass a path or the message text")
@@ -300,10 +302,8 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
     """
     text, name = read_text(source)
     if looks_like_xml(text):
-        root = parse(text, name)
-        if root.tag != root_tag:
-            raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{root_tag}>",
-                                   line=root.line, source=name)
+        root = message_root(parse(text, name), root_tag, name)
+        _check_xml_elements(root, sections, name)
         parsed = {}
         for section in sections:
             nodes = root.path(section.xml_path)
@@ -352,6 +352,29 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
         raise cursor.error(f"unexpected {_describe(cursor.peek())} here: out of order (the "
                            "sections go header, metadata, data in the CCSDS order)")
     return parsed, "kvn", name
+
+
+def _check_xml_elements(root: XMLNode, sections: tuple, source: str) -> None:
+    """Raise on an element that no section of the message expects (naming its line)."""
+    expected: dict[str, set] = {}
+    for section in sections:
+        parts = section.xml_path.split("/")
+        for depth in range(len(parts)):
+            expected.setdefault("/".join(parts[:depth]), set()).add(parts[depth])
+
+    def walk(node: XMLNode, path: str) -> None:
+        allowed = expected.get(path)
+        if allowed is None:
+            return  # a section element: its keywords are checked by read_xml_section
+        for child in node.children:
+            if child.tag not in allowed and child.tag != "COMMENT":
+                where = f"<{node.tag}>"
+                raise CCSDSFormatError(f"<{child.tag}> does not belong in {where} (expected "
+                                       f"{', '.join(f'<{t}>' for t in sorted(allowed))})",
+                                       line=child.line, source=source)
+            walk(child, f"{path}/{child.tag}" if path else child.tag)
+
+    walk(root, "")
 
 
 def _describe(line) -> str:

@@ -18,7 +18,8 @@ from xml.parsers import expat
 
 from .grammar import CCSDSFormatError
 
-__all__ = ["XMLNode", "parse", "looks_like_xml", "new_root", "add_text", "to_text"]
+__all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "add_text",
+           "to_text"]
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
 _SCHEMA = "https://sanaregistry.org/r/ndmxml_unqualified/ndmxml-3.0.0-master-3.0.xsd"
@@ -144,6 +145,35 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
             f"the XML is not well formed: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",
             line=exc.lineno, source=source) from None
     return root[0]
+
+
+def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
+    """The ``<tag>`` message element: the root itself, or the one inside an ``<ndm>`` wrapper.
+
+    Parameters
+    ----------
+    root : XMLNode
+        The document's root element.
+    tag : str
+        ``"oem"``, ``"opm"``, ``"omm"``, ``"cdm"``.
+    source : str
+        File name, for error messages.
+
+    Returns
+    -------
+    XMLNode
+    """
+    if root.tag == "ndm":  # a combined instantiation (505.0-B, 3.4), e.g. CelesTrak's OMM XML
+        inner = root.findall(tag)
+        if len(inner) != 1:
+            raise CCSDSFormatError(
+                f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
+                "OMMs use visviva.satellites.read_omm_file)", line=root.line, source=source)
+        return inner[0]
+    if root.tag != tag:
+        raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",
+                               line=root.line, source=source)
+    return root
 
 
 def new_root(tag: str, version_key: str, version: str) -> ET.Element:

@@ -33,8 +33,11 @@ METADATA = Section("metadata", (
 COVARIANCE_META = Section("covariance", (
     K("EPOCH", "epoch", None, True), K("COV_REF_FRAME")), "covarianceMatrix")
 
-#: default interpolation when the file names none (CCSDS leaves it to the user)
-DEFAULT_INTERPOLATION = ("HERMITE", 5)
+#: default interpolation when the file names none (CCSDS leaves it to the user): Lagrange
+#: assumes nothing about how the velocities relate to the positions (SGP4's do not match the
+#: derivative of its positions, and Hermite then degrades with the degree; see
+#: examples/ccsds_oem_interpolation.py)
+DEFAULT_INTERPOLATION = ("LAGRANGE", 7)
 
 
 @dataclass
@@ -160,12 +163,16 @@ class OEMSegment:
 
     @property
     def interpolation(self) -> tuple[str, int]:
-        """(method, degree) from the metadata; HERMITE of degree 5 when the file names none."""
-        method = self.metadata.get("INTERPOLATION")
+        """(method, degree) from the metadata.
+
+        LAGRANGE when the file names no method, degree 7 when it names no degree (fewer on a
+        segment of fewer than 8 states).
+        """
+        method = self.metadata.get("INTERPOLATION") or DEFAULT_INTERPOLATION[0]
         degree = self.metadata.get("INTERPOLATION_DEGREE")
-        if method is None:
-            return DEFAULT_INTERPOLATION[0], degree or DEFAULT_INTERPOLATION[1]
-        return method.upper(), degree if degree is not None else DEFAULT_INTERPOLATION[1]
+        if degree is None:  # not named: the default, or less on a short segment
+            degree = max(1, min(DEFAULT_INTERPOLATION[1], len(self) - 1))
+        return method.upper(), degree
 
     # ---- states --------------------------------------------------------------------------
     @property

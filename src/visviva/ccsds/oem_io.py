@@ -12,7 +12,7 @@ from .covariance import (
     matrix_from_values,
     values_from_matrix,
 )
-from .grammar import EPOCH_PATTERN, CCSDSFormatError, Section, format_float, parse_float
+from .grammar import EPOCH_PATTERN, CCSDSFormatError, Record, Section, format_float, parse_float
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
 from .layout import (
@@ -25,7 +25,7 @@ from .layout import (
     write_xml_section,
     xml_child,
 )
-from .ndmxml import looks_like_xml, new_root, parse, to_text
+from .ndmxml import looks_like_xml, message_root, new_root, parse, to_text
 from .oem import COVARIANCE_META, HEADER, METADATA, Ephemeris, OEMCovariance, OEMSegment
 
 __all__ = ["read_oem", "write_oem"]
@@ -248,10 +248,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
 
 # ---- XML ---------------------------------------------------------------------------------
 def _read_xml(text: str, name: str) -> Ephemeris:
-    root = parse(text, name)
-    if root.tag != "oem":
-        raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <oem>",
-                               line=root.line, source=name)
+    root = message_root(parse(text, name), "oem", name)
     header_node = root.find("header")
     if header_node is None or not root.attrib.get("version"):
         raise CCSDSFormatError("<oem> needs a version attribute and a <header>",
@@ -370,6 +367,16 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     for k, seg in enumerate(ephemeris.segments):
         seg.check(f"segment {k + 1}")
+    header = ephemeris.header
+    if "CREATION_DATE" not in header:  # the one keyword a writer may add (on a copy)
+        from astropy.time import Time
+
+        header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
+                        header.comments, header.lines, header.line)
+        ephemeris = Ephemeris(ephemeris.segments, header)
+    missing = [k for k in ("CCSDS_OEM_VERS", "ORIGINATOR") if k not in header]
+    if missing:
+        raise CCSDSFormatError(f"the ephemeris header lacks {', '.join(missing)}")
     text = _write_kvn(ephemeris) if format == "kvn" else _write_xml(ephemeris)
     if path is not None:
         with open(path, "w", encoding="utf-8") as handle:

@@ -122,6 +122,69 @@ class OPM:
             if name not in self.sections:
                 raise InvalidInputError(f"an OPM needs a {name.replace('_', ' ')} section")
 
+    @classmethod
+    def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
+                   center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+                   maneuvers=(), covariance=None, originator: str = "VISVIVA"):
+        """An OPM for one state computed in visviva.
+
+        Parameters
+        ----------
+        state : StateVectors
+            One state (shape ``()``) with its ``epoch``, in ``frame``.
+        object_name : str
+            ``OBJECT_NAME``.
+        object_id : str
+            ``OBJECT_ID`` (international designator).
+        center : str
+            ``CENTER_NAME``.
+        frame : str
+            ``REF_FRAME`` of the state (CCSDS name).
+        time_system : str
+            ``TIME_SYSTEM`` the epochs are written in.
+        maneuvers : iterable of Maneuver
+            Manoeuvres (``epoch`` a Time, ``duration`` s, ``delta_mass`` kg, ``frame``,
+            ``delta_v`` km/s Quantities).
+        covariance : array_like, shape (6, 6), optional
+            Covariance in km and km/s.
+        originator : str
+            ``ORIGINATOR``.
+
+        Returns
+        -------
+        OPM
+        """
+        from astropy import units as u
+
+        from .covariance import values_from_matrix
+        from .timeframes import time_to_epochs
+
+        if getattr(state, "shape", None) != () or state.epoch is None:
+            raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
+        r = state.r.to_value(u.km)
+        v = state.v.to_value(u.km / u.s)
+        sections = {
+            "header": {"CCSDS_OPM_VERS": "3.0", "ORIGINATOR": originator},
+            "metadata": {"OBJECT_NAME": object_name, "OBJECT_ID": object_id,
+                         "CENTER_NAME": center, "REF_FRAME": frame, "TIME_SYSTEM": time_system},
+            "state_vector": {"EPOCH": time_to_epochs(state.epoch, time_system)[0],
+                             **dict(zip(("X", "Y", "Z"), map(float, r), strict=True)),
+                             **dict(zip(("X_DOT", "Y_DOT", "Z_DOT"), map(float, v),
+                                        strict=True))},
+        }
+        if covariance is not None:
+            sections["covariance"] = values_from_matrix(covariance)
+        if maneuvers:
+            sections["maneuvers"] = [{
+                "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system)[0],
+                "MAN_DURATION": float(u.Quantity(m.duration).to_value(u.s)),
+                "MAN_DELTA_MASS": float(u.Quantity(m.delta_mass).to_value(u.kg)),
+                "MAN_REF_FRAME": m.frame,
+                **dict(zip(("MAN_DV_1", "MAN_DV_2", "MAN_DV_3"),
+                           map(float, u.Quantity(m.delta_v).to_value(u.km / u.s)), strict=True)),
+            } for m in maneuvers]
+        return cls(sections)
+
     def __repr__(self) -> str:
         meta = self.sections["metadata"]
         return (f"<OPM {meta.get('OBJECT_NAME')!r} {self.frame}/{self.center} at "
@@ -263,10 +326,12 @@ def _write(sections, table, root, version_key, path, format):  # noqa: A002
     if format is None:
         format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
     header = sections["header"]
-    if "CREATION_DATE" not in header:
+    if "CREATION_DATE" not in header:  # the one keyword a writer may add (on a copy)
         from astropy.time import Time
 
-        header.values["CREATION_DATE"] = Time.now().utc.isot
+        header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
+                        header.comments, header.lines, header.line)
+        sections = {**sections, "header": header}
     text = write_message(sections, table, root, version_key, fmt=format)
     if path is not None:
         with open(path, "w", encoding="utf-8") as handle:

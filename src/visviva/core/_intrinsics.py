@@ -24,7 +24,11 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["fma", "float_bits", "float_from_bits", "fma_py", "float_bits_py", "float_from_bits_py"]
+__all__ = ["fma", "float_bits", "float_from_bits", "fma_py", "float_bits_py", "float_from_bits_py",
+           "EPS"]
+
+#: Machine epsilon of float64, ``2**-52`` (the one definition the kernels share).
+EPS = 2.220446049250313e-16
 
 
 @intrinsic

@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from . import force_block as fb
 from . import status as st
 from ._jit import kernel, parallel_kernel, prange
 from .perturbations import cowell_rhs, geodetic_altitude, hermite_position
@@ -53,19 +54,19 @@ def event_function(kind, param, t, y, force, eph_r, eph_v):
     yy = y[1]
     z = y[2]
     if kind == 0:
-        return geodetic_altitude(x, yy, z, force[1], force[6]) - param
+        return geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING]) - param
     if kind == 4:
         return z
     if kind == 5:
         return x * y[3] + yy * y[4] + z * y[5]
     # shadow events need the Sun
-    sun = int(force[12])
+    sun = int(force[fb.SUN_ROW])
     if sun < 0:
         return 1.0
     s = np.empty(3)
     hermite_position(t, sun, force, eph_r, eph_v, s)
     r = math.sqrt(x * x + yy * yy + z * z)
-    radius = force[1]
+    radius = force[fb.RADIUS]
     if kind == 1:
         sn = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
         proj = (x * s[0] + yy * s[1] + z * s[2]) / sn
@@ -79,7 +80,7 @@ def event_function(kind, param, t, y, force, eph_r, eph_v):
     dy = s[1] - yy
     dz = s[2] - z
     d = math.sqrt(dx * dx + dy * dy + dz * dz)
-    a = math.asin(min(1.0, force[10] / d))
+    a = math.asin(min(1.0, force[fb.SUN_RADIUS] / d))
     b = math.asin(min(1.0, radius / r))
     cosc = -(x * dx + yy * dy + z * dz) / (r * d)
     c = math.acos(max(-1.0, min(1.0, cosc)))

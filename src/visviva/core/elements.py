@@ -42,6 +42,7 @@ import math
 import numpy as np
 
 from . import status as st
+from ._intrinsics import EPS as _EPS
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 
 __all__ = [
@@ -61,7 +62,6 @@ __all__ = [
     "scan_coe",
 ]
 
-_EPS = 2.220446049250313e-16
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 _NAN = math.nan

@@ -25,6 +25,7 @@ import math
 
 from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
+from .universal import stumpff_c2c3
 
 __all__ = ["izzo_one", "izzo_many", "universal_one", "universal_many", "izzo_tof"]
 
@@ -296,24 +297,9 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
 
 
 @inline_kernel
-def _c2c3(psi):
-    """Stumpff functions c2, c3 (Vallado 2013, Algorithm 1), series near 0."""
-    if psi > 1e-6:
-        sp = math.sqrt(psi)
-        return (1.0 - math.cos(sp)) / psi, (sp - math.sin(sp)) / (sp * psi)
-    if psi < -1e-6:
-        sp = math.sqrt(-psi)
-        return (1.0 - math.cosh(sp)) / psi, (math.sinh(sp) - sp) / (sp * -psi)
-    return (
-        0.5 - psi / 24.0 + psi * psi / 720.0,
-        1.0 / 6.0 - psi / 120.0 + psi * psi / 5040.0,
-    )
-
-
-@inline_kernel
 def _uv_tof(psi, r1n, r2n, A, gm):
     """Time of flight t(psi) and y(psi) of the universal-variable formulation; -inf if y < 0."""
-    c2, c3 = _c2c3(psi)
+    c2, c3 = stumpff_c2c3(psi)
     y = r1n + r2n + A * (psi * c3 - 1.0) / math.sqrt(c2)
     if y < 0.0:
         return -math.inf, y

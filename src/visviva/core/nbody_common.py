@@ -34,7 +34,7 @@ import math
 from numba import types
 
 from ._jit import kernel
-from .gravity import gravity
+from .gravity import gravity, gravity_split
 from .status import COLLISION, ENCOUNTER, ESCAPE, OK
 
 __all__ = [
@@ -42,6 +42,7 @@ __all__ = [
     "FORCE_SIGNATURE",
     "FORCE_TYPE",
     "accelerations",
+    "accelerations_split",
     "check_events",
     "N_FSTATE",
     "N_ISTATE",
@@ -108,6 +109,17 @@ RUN_SIGNATURE = types.int64(
 def accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc):
     """Gravity (direct summation) plus the additional force, written into ``acc``."""
     gravity(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork, istate[I_PARALLEL] != 0)
+    force(t, x, v, m, params, acc)
+
+
+@kernel
+def accelerations_split(t, x, xlo, v, m, massive, fstate, istate, gwork, force, params, acc):
+    """:func:`accelerations` with positions in two parts ``x + xlo`` for gravity (IAS15).
+
+    The additional force sees ``x`` (the high parts) only.
+    """
+    gravity_split(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork,
+                  istate[I_PARALLEL] != 0)
     force(t, x, v, m, params, acc)
 
 

@@ -28,7 +28,12 @@ Rein & Spiegel (2015, sec. 2.6, their eq. 11 "global" form), about twice the ste
 
 Either way a step is rejected when ``dt_new < dt / 4`` (safety factor 0.25) and the step never
 grows by more than a factor 4. Positions and velocities are updated with compensated (Kahan)
-summation. The next
+summation, so the state is ``x - csx`` in two parts. When a particle and a massive one are closer
+than ``1 / SPLIT_RATIO`` of their distance from the origin (:func:`_tight_pair`, once per step),
+the step evaluates gravity on those two-part positions
+(:func:`visviva.core.gravity.gravity_split`): a tight, eccentric binary far from the origin then
+keeps the relative precision of its separation (REBOUND's IAS15 rounds the positions; see
+docs/nbody.md, "IAS15 on close encounters"). Other steps are unchanged, bit for bit. The next
 step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
 (Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
 
@@ -49,6 +54,7 @@ import math
 import numpy as np
 
 from ._jit import kernel
+from .gravity import PAIR_MIN_N
 from .nbody_common import (
     F_DT,
     F_DT_FAILED,
@@ -73,6 +79,7 @@ from .nbody_common import (
     I_VELOCITY_DEPENDENT,
     PAUSED,
     accelerations,
+    accelerations_split,
     check_events,
     run_direction,
     should_pause,
@@ -120,6 +127,9 @@ for _n in range(8):
         RINV[_n, _k] = 1.0 / (H[_n] - H[_k])
 
 SAFETY = 0.25
+#: A step evaluates gravity on two-part positions (hi + lo) when a pair is closer than
+#: ``1 / SPLIT_RATIO`` of its distance from the origin (see :func:`_tight_pair`).
+SPLIT_RATIO = 8.0
 MAX_ITERATIONS = 12
 #: Relative step floor: a proposed step below ``DT_FLOOR_REL * max(|t|, time span of the run)``
 #: raises ``STEP_TOO_SMALL`` (the run would need more than ~1e15 steps, or ``t + dt == t``).
@@ -141,8 +151,9 @@ _XI = 41  # internal positions and velocities (the integrator's own state at F_T
 _VI = 42
 _BK = 43  # backup of slots _B.._EL+6, _CSX, _CSV, _XI, _VI while an output is computed
 _N_BK = 32
+_XL = 75  # low parts of the positions the forces are evaluated at (x = hi + lo)
 #: Number of (N, 3) slots in ``buf``.
-N_BUF = 75
+N_BUF = 76
 
 
 @kernel
@@ -206,6 +217,34 @@ def _zero_predictor(buf, n):
 
 
 @kernel
+def _tight_pair(x, massive):
+    """True when a particle and a massive one are closer than ``1 / SPLIT_RATIO`` of their
+    distance from the origin (and fewer than ``PAIR_MIN_N`` particles are massive).
+
+    Rounded to doubles, such a pair's separation would carry the round-off of its absolute
+    positions (``eps |x|`` instead of ``eps |d|``); the step then evaluates gravity on the
+    two-part positions ``x - csx`` (:func:`visviva.core.gravity.gravity_split`).
+    """
+    nm = massive.shape[0]
+    if nm >= PAIR_MIN_N:
+        return False
+    k2 = SPLIT_RATIO * SPLIT_RATIO
+    for i in range(x.shape[0]):
+        ri2 = x[i, 0] * x[i, 0] + x[i, 1] * x[i, 1] + x[i, 2] * x[i, 2]
+        for b in range(nm):
+            j = massive[b]
+            if j == i:
+                continue
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            rj2 = x[j, 0] * x[j, 0] + x[j, 1] * x[j, 1] + x[j, 2] * x[j, 2]
+            if max(ri2, rj2) > k2 * (dx * dx + dy * dy + dz * dz):
+                return True
+    return False
+
+
+@kernel
 def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt):
     """Try one step of length ``dt``. Returns (status, accepted, dt_new).
 
@@ -227,8 +266,18 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
     Ff = bf[_F]
     csx = bf[_CSX]
     csv = bf[_CSV]
+    xl = buf[_XL]
+    xlf = bf[_XL]
     vel_dep = istate[I_VELOCITY_DEPENDENT] != 0
-    accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
+    # the state is x - csx; with a tight pair far from the origin, gravity sees both parts so
+    # that the pair keeps its relative precision (decided once per step)
+    split = _tight_pair(x, massive)
+    if split:
+        for q in range(n3):
+            xlf[q] = -csx[q]
+        accelerations_split(t, x, xl, v, m, massive, fstate, istate, gwork, force, params, a0)
+    else:
+        accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
     for q in range(n3):
         if not math.isfinite(a0f[q]):
             return NON_FINITE, False, dt  # a singular or overflowing force: report it
@@ -264,10 +313,17 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
                 b4 = bf[_B + 4, q]
                 b5 = bf[_B + 5, q]
                 b6 = bf[_B + 6, q]
-                xpf[q] = -csx[q] + (
+                dxq = -csx[q] + (
                     (((((((b6 * cx7 + b5) * cx6 + b4) * cx5 + b3) * cx4 + b2) * cx3 + b1) * cx2
                       + b0) * cx1 + a0f[q]) * dth2 + vf[q]
-                ) * dth + xf[q]
+                ) * dth
+                xpf[q] = dxq + xf[q]
+                xlf[q] = dxq
+            if split:
+                for q in range(n3):
+                    # the rounding error of xp = dx + x, exactly (Knuth's two-sum)
+                    bb = xpf[q] - xf[q]
+                    xlf[q] = (xf[q] - (xpf[q] - bb)) + (xlf[q] - bb)
             if vel_dep:
                 cv7 = 7.0 * h / 8.0
                 cv6 = 6.0 * h / 7.0
@@ -288,7 +344,12 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
                         (((((((b6 * cv7 + b5) * cv6 + b4) * cv5 + b3) * cv4 + b2) * cv3 + b1)
                           * cv2 + b0) * cv1 + a0f[q]) * dth
                     ) + vf[q]
-            accelerations(t + h * dt, xp, vp, m, massive, fstate, istate, gwork, force, params, F)
+            if split:
+                accelerations_split(t + h * dt, xp, xl, vp, m, massive, fstate, istate, gwork,
+                                    force, params, F)
+            else:
+                accelerations(t + h * dt, xp, vp, m, massive, fstate, istate, gwork, force, params,
+                              F)
             maxa = 0.0
             maxdb6 = 0.0
             for q in range(n3):

@@ -5,41 +5,17 @@ Every kernel works on plain float64 values in km, km/s, s and km^3/s^2, writes i
 :func:`cowell_rhs` sums the two-body term and every perturbation switched on in the ``force``
 parameter array, in a fixed order, so that one compiled call gives the full derivative.
 
-Layout of the ``force`` parameter array (all float64; flags are 0.0 / 1.0):
-
-====  =====================================================================
-0     GM of the central body, km^3/s^2
-1     reference (equatorial) radius of the central body, km
-2     highest zonal degree n_max (0: no zonal terms); ``zonal[n]`` holds J_n
-3     drag on/off
-4     ballistic coefficient Cd*A/m in km^2/kg
-5     rotation rate of the central body about +z, rad/s (co-rotating atmosphere)
-6     flattening f of the central body (geodetic altitude to first order in f)
-7     SRP on/off
-8     SRP coefficient P_sun(1 AU) * Cr * A/m, km/s^2
-9     shadow model: 0 none, 1 cylindrical, 2 conical (penumbra fraction)
-10    radius of the Sun, km
-11    astronomical unit, km
-12    row of the Sun in the ephemeris tables (-1: none)
-13    number of tabulated third bodies whose attraction is added
-14    ephemeris grid start, s from the propagation epoch
-15    ephemeris grid step, s
-16    number of ephemeris grid points
-17    degree N of the full spherical-harmonic field (0: none)
-18-26 the 3x3 matrix (row-major) from the propagation frame to the body-fixed frame at t = 0;
-      the body then turns about its z axis at the rate in slot 5
-27    density model: 0 exponential table, 1 gridded log-density (NRLMSIS tabulated at the epoch)
-28-33 grid: first altitude km, altitude step km, first latitude rad, latitude step rad,
-      first solar hour angle rad, hour-angle step rad
-34-36 grid sizes: altitudes, latitudes, hour angles
-====  =====================================================================
+The ``force`` parameter array (float64, :data:`FORCE_SIZE` values) is laid out in
+:mod:`visviva.core.force_block`, which names every slot (``fb.GM``, ``fb.DRAG_ON``, ...): the
+kernels below read it by those names only, and each perturbation class of
+:mod:`visviva.satellites.perturbations` writes its own slots.
 
 With density model 1, ``atm`` has shape (n_hour_angle * n_latitude, n_altitude) and holds
 ln(rho / (kg/m^3)) at (hour angle from the Sun, geocentric latitude, geodetic altitude), read by
 trilinear interpolation (:func:`grid_density`).
 
 ``sh``, shape (2, N+2, N+2): unnormalised C_nm and S_nm of the spherical-harmonic field
-(Montenbruck & Gill 2000, eq. 3.13), used when slot 17 is > 0.
+(Montenbruck & Gill 2000, eq. 3.13), used when ``force[fb.HARMONICS_DEGREE]`` is > 0.
 
 ``atm`` is the exponential atmosphere table, shape (K, 3): base altitude km, density at the
 base kg/m^3, scale height km (Vallado 2013, Table 8-4).
@@ -54,7 +30,9 @@ import math
 
 import numpy as np
 
+from . import force_block as fb
 from ._jit import inline_kernel, kernel
+from .force_block import FORCE_SIZE
 
 __all__ = [
     "FORCE_SIZE",
@@ -73,7 +51,6 @@ __all__ = [
     "cowell_rhs_array",
 ]
 
-FORCE_SIZE = 37
 
 #: Vallado (2013), Fundamentals of Astrodynamics and Applications, 4th ed., Table 8-4:
 #: base altitude (km), nominal density (kg/m^3), scale height (km).
@@ -227,18 +204,18 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
 @kernel
 def _accel_harmonics_inertial(t, x, y, z, force, sh, out):
     """Rotate r to the body frame at time t, add the harmonic acceleration rotated back."""
-    th = force[5] * t
+    th = force[fb.ROTATION_RATE] * t
     c = math.cos(th)
     s = math.sin(th)
     # r_bf = Rz(th) M0 r, with Rz the frame rotation [[c, s, 0], [-s, c, 0], [0, 0, 1]]
-    m = force[18:27]
+    m = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
     px = m[0] * x + m[1] * y + m[2] * z
     py = m[3] * x + m[4] * y + m[5] * z
     pz = m[6] * x + m[7] * y + m[8] * z
     bx = c * px + s * py
     by = -s * px + c * py
     a = np.zeros(3)
-    accel_harmonics(bx, by, pz, force[0], force[1], sh, int(force[17]), a)
+    accel_harmonics(bx, by, pz, force[fb.GM], force[fb.RADIUS], sh, int(force[fb.HARMONICS_DEGREE]), a)
     # back: a_in = M0^T Rz(th)^T a
     qx = c * a[0] - s * a[1]
     qy = s * a[0] + c * a[1]
@@ -277,13 +254,13 @@ def exponential_density(h, atm):
 @kernel
 def grid_density(h, lat, hour_angle, force, atm):
     """Density (kg/m^3) by trilinear interpolation of the gridded ln(rho), clamped at the edges."""
-    na = int(force[34])
-    nl = int(force[35])
-    nh = int(force[36])
-    fa = (h - force[28]) / force[29]
-    fl = (lat - force[30]) / force[31]
+    na = int(force[fb.DENSITY_GRID_SIZES])
+    nl = int(force[fb.DENSITY_GRID_SIZES + 1])
+    nh = int(force[fb.DENSITY_GRID_SIZES + 2])
+    fa = (h - force[fb.DENSITY_GRID]) / force[fb.DENSITY_GRID + 1]
+    fl = (lat - force[fb.DENSITY_GRID + 2]) / force[fb.DENSITY_GRID + 3]
     # hour angle wraps: the grid covers [-pi, pi] with both ends stored
-    fh = (hour_angle - force[32]) / force[33]
+    fh = (hour_angle - force[fb.DENSITY_GRID + 4]) / force[fb.DENSITY_GRID + 5]
     ia = min(max(int(math.floor(fa)), 0), na - 2)
     il = min(max(int(math.floor(fl)), 0), nl - 2)
     ih = min(max(int(math.floor(fh)), 0), nh - 2)
@@ -416,9 +393,9 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
 
     Uses positions and velocities at the two grid points around ``t`` (clamped to the grid).
     """
-    t0 = force[14]
-    dt = force[15]
-    n = int(force[16])
+    t0 = force[fb.EPH_T0]
+    dt = force[fb.EPH_STEP]
+    n = int(force[fb.EPH_N])
     u = (t - t0) / dt
     k = int(math.floor(u))
     if k < 0:
@@ -455,22 +432,22 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     dy[1] = y[4]
     dy[2] = y[5]
     acc = np.zeros(3)
-    gm = force[0]
+    gm = force[fb.GM]
     accel_two_body(x, yy, z, gm, acc)
-    n_max = int(force[2])
+    n_max = int(force[fb.ZONAL_DEGREE])
     if n_max >= 2:
-        accel_zonal(x, yy, z, gm, force[1], zonal, n_max, acc)
-    if force[17] >= 2.0:
+        accel_zonal(x, yy, z, gm, force[fb.RADIUS], zonal, n_max, acc)
+    if force[fb.HARMONICS_DEGREE] >= 2.0:
         _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
-    n_third = int(force[13])
-    sun = int(force[12])
+    n_third = int(force[fb.N_THIRD_BODIES])
+    sun = int(force[fb.SUN_ROW])
     pos = np.empty(3)
     sun_pos = np.empty(3)
     if sun >= 0:
         hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
-    if force[3] != 0.0:
-        if force[27] == 1.0 and sun >= 0:
-            h = geodetic_altitude(x, yy, z, force[1], force[6])
+    if force[fb.DRAG_ON] != 0.0:
+        if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
+            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
             lat = math.asin(z / math.sqrt(x * x + yy * yy + z * z))
             ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
             if ha > math.pi:
@@ -478,20 +455,20 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
             elif ha < -math.pi:
                 ha += 2.0 * math.pi
             rho = grid_density(h, lat, ha, force, atm)
-            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[4], force[5], acc)
+            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC], force[fb.ROTATION_RATE], acc)
         else:
-            accel_drag(x, yy, z, y[3], y[4], y[5], force[4], force[5], force[1], force[6], atm, acc)
+            accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC], force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)
         else:
             hermite_position(t, b, force, eph_r, eph_v, pos)
             accel_third_body(x, yy, z, pos[0], pos[1], pos[2], eph_gm[b], acc)
-    if force[7] != 0.0 and sun >= 0:
+    if force[fb.SRP_ON] != 0.0 and sun >= 0:
         nu = shadow_fraction(
-            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[1], force[10], int(force[9])
+            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
         )
-        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[8], force[11], nu, acc)
+        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.SRP_COEFFICIENT], force[fb.AU], nu, acc)
     dy[3] = acc[0]
     dy[4] = acc[1]
     dy[5] = acc[2]

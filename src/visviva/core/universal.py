@@ -74,6 +74,7 @@ import math
 
 import numpy as np
 
+from ._intrinsics import EPS as _EPS
 from ._intrinsics import fma as _fma
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .status import BAD_GM, HITS_ATTRACTOR, NO_CONVERGENCE, NON_FINITE, OK, ZERO_POSITION
@@ -90,7 +91,6 @@ __all__ = [
 #: Bounded number of safeguarded Laguerre iterations on the universal Kepler equation.
 MAX_ITERATIONS = 60
 
-_EPS = 2.220446049250313e-16
 #: A Laguerre step below this fraction of s is taken as the last one (cubic convergence).
 _ACCEPT = 1e-6
 _TWO_PI = 2.0 * math.pi

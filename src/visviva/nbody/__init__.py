@@ -9,7 +9,7 @@ Integrators: ``leapfrog``, ``whfast``, ``ias15`` (see :mod:`visviva.nbody.integr
 from __future__ import annotations
 
 from .ensemble import Ensemble
-from .forces import J2, Force, GeneralRelativity, GeneralRelativityPotential, LinearDrag
+from .forces import Force, GeneralRelativity, GeneralRelativityPotential, J2Force, LinearDrag
 from .integrators import INTEGRATORS, Integrator, get_integrator
 from .simulation import COLLISION_MODES, Simulation, Trajectory
 
@@ -25,7 +25,7 @@ __all__ = [
     "solar_system",
     "Archive",
     "Force",
-    "J2",
+    "J2Force",
     "GeneralRelativity",
     "GeneralRelativityPotential",
     "LinearDrag",
@@ -41,4 +41,8 @@ def __getattr__(name):
         from .archive import Archive
 
         return Archive
+    if name == "J2":
+        from . import forces
+
+        return forces.J2
     raise AttributeError(f"module 'visviva.nbody' has no attribute {name!r}")

@@ -20,7 +20,7 @@ force, cached on disk), so no Python runs per step. Several forces are fused int
 function. Integrators that cannot take velocity-dependent forces (``leapfrog``, ``whfast``) refuse
 them with a message naming the ones that can.
 
-Built-in forces written the same way: :class:`J2` (oblateness of a primary),
+Built-in forces written the same way: :class:`J2Force` (oblateness of a primary),
 :class:`GeneralRelativity` (1PN, single dominant mass, velocity-dependent),
 :class:`GeneralRelativityPotential` (the position-only Nobili-Roxburgh potential, usable with
 symplectic integrators) and :class:`LinearDrag`.
@@ -39,7 +39,7 @@ from ..errors import InvalidInputError
 
 __all__ = [
     "Force",
-    "J2",
+    "J2Force",
     "GeneralRelativity",
     "GeneralRelativityPotential",
     "LinearDrag",
@@ -173,7 +173,7 @@ def _about_primary(pair, x, v, m, p, acc, c0, c1, c2):
 
 @inline_kernel
 def _j2_pair(dx, dy, dz, dvx, dvy, dvz, j2, gm, R):
-    """J2 acceleration at ``d`` from a primary of ``gm``, radius ``R`` (see :class:`J2`)."""
+    """J2 acceleration at ``d`` from a primary of ``gm``, radius ``R`` (see :class:`J2Force`)."""
     r2 = dx * dx + dy * dy + dz * dz
     r = math.sqrt(r2)
     k = -1.5 * j2 * gm * R * R / (r2 * r2 * r)
@@ -251,8 +251,11 @@ def _speed_of_light(sim, c):
     return C_KM_S / (sim.units.length_km / sim.units.time_s)
 
 
-class J2(Force):
-    """Oblateness (J2) of particle ``primary``, pole along the z axis.
+class J2Force(Force):
+    """Oblateness (J2) of particle ``primary``, pole along the z axis (an N-body force).
+
+    Not to be confused with :class:`visviva.J2`, the Cowell perturbation of a satellite's orbit.
+    ``visviva.nbody.J2`` is a deprecated alias of this class (one release).
 
     ``a = -(3/2) J2 G M R**2 / r**5 [x (1 - 5 z**2/r**2), y (1 - 5 z**2/r**2),
     z (3 - 5 z**2/r**2)]`` relative to the primary; the primary feels the reaction (momentum is
@@ -317,3 +320,12 @@ class LinearDrag(Force):
     def __init__(self, gamma):
         super().__init__(linear_drag_force, (float(gamma),), True, "linear drag")
         self._init = {"gamma": float(gamma)}
+
+
+def __getattr__(name):
+    # the old name, kept for one release (and for files saved with it)
+    if name == "J2":
+        from .._deprecation import deprecated_alias
+
+        return deprecated_alias("visviva.nbody.J2", "visviva.nbody.J2Force", J2Force)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -46,7 +46,7 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
             nu = 0.0
         else:
             if e >= 1:
-                raise InvalidInputError("give nu (not M) for open orbits.")
+                raise InvalidInputError("give nu (not mean_anomaly) for open orbits.")
             nu, status = _kepler.mean_to_true_anomaly(float(M), e)
             raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
     *state, status = _elements.coe_to_rv(

@@ -312,7 +312,7 @@ class Simulation:
         return self._state.radius.copy()
 
     def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=0.0, inc=0.0,
-            raan=0.0, argp=0.0, nu=None, M=None, p=None):
+            raan=0.0, argp=0.0, nu=None, mean_anomaly=None, p=None, M=None):
         """Add a particle from a state, or from orbital elements about a primary.
 
         Parameters
@@ -326,23 +326,34 @@ class Simulation:
         primary : int or "com", optional
             With elements: the particle index to orbit, or ``"com"``/``None`` for the centre of
             mass of all particles added so far (Jacobi-like, the default).
-        a, e, inc, raan, argp, nu, M, p : float
+        a, e, inc, raan, argp, nu, mean_anomaly, p : float
             Semi-major axis (or semi-latus rectum ``p``), eccentricity, inclination, longitude of
             the ascending node, argument of periapsis (radians) and the true anomaly ``nu`` or
-            mean anomaly ``M`` (elliptic orbits). ``G (m_primary + m)`` is the two-body GM.
+            ``mean_anomaly`` (radians; elliptic orbits). ``G (m_primary + m)`` is the two-body GM.
+        M : float, optional
+            Deprecated alias of ``mean_anomaly`` (it differed from the mass ``m`` only by case);
+            removed in the next release.
 
         Returns
         -------
         int
             The index of the new particle.
         """
+        if M is not None:
+            from .._deprecation import warn_renamed
+
+            warn_renamed("Simulation.add(M=...)", "Simulation.add(mean_anomaly=...)")
+            if mean_anomaly is not None:
+                raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
+            mean_anomaly = M
         m_val = _s.scalar(_s.convert(self, m, "mass", "m"), "m")
         if not m_val >= 0:
             raise InvalidInputError(f"mass must be >= 0; got {fmt_number(m)}.")
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
-            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu, M, p)
+            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
+                                       mean_anomaly, p)
         else:
             rr = np.zeros(3) if r is None else _s.convert(self, r, "length", "r")
             vv = np.zeros(3) if v is None else _s.convert(self, v, "speed", "v")
@@ -376,7 +387,7 @@ class Simulation:
         """Add a compiled force ``fn(t, positions, velocities, masses, params, acc)``.
 
         ``force`` is an ``@numba.njit`` function (with ``params`` and ``velocity_dependent``) or
-        a :class:`visviva.nbody.forces.Force` (e.g. ``J2``, ``GeneralRelativity``).
+        a :class:`visviva.nbody.forces.Force` (e.g. ``J2Force``, ``GeneralRelativity``).
         """
         if not isinstance(force, _forces.Force):
             force = _forces.Force(force, params, velocity_dependent)

@@ -14,7 +14,7 @@ from importlib import resources
 
 import numpy as np
 
-from ..constants import AU_KM, J2000_JD, JULIAN_YEAR_S
+from ..constants import AU_KM, DAY_S, J2000_JD, JULIAN_YEAR_S
 from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["solar_system", "PLANETS"]
@@ -54,7 +54,7 @@ def _states_at(epoch, names):
         out = {}
         for name in names:
             r, v = eph.position_and_velocity(name, jd)
-            out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / 86400.0)
+            out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / DAY_S)
         return out
     except ImportError:
         pass

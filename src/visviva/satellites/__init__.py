@@ -15,10 +15,10 @@ from .. import _lazy
 _EXPORTS = {
     # TLE/OMM, frames, catalogue batches, Dask, ground tracks and plots:
     "Satellite": "tle",
-    "SatelliteStates": "tle",
-    "TLEFormatError": "tle",
-    "SGP4Error": "tle",
-    "SatelliteDecayedError": "tle",
+    "SatelliteStates": "satellite_states",
+    "TLEFormatError": "tle_checks",
+    "SGP4Error": "tle_checks",
+    "SatelliteDecayedError": "tle_checks",
     "teme_to_gcrs": "frames",
     "teme_to_itrs": "frames",
     "gcrs_to_itrs": "frames",

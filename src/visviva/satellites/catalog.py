@@ -25,6 +25,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._units import to_array, to_quantity, to_vector
+from ..constants import DAY_S
 from ..core._jit import kernel, parallel_kernel, prange
 from ..core.kepler import eccentric_anomaly
 from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
@@ -48,8 +49,6 @@ __all__ = [
     "propagate_kepler_batch",
     "propagate_j2_batch",
 ]
-
-DAY_S = 86_400.0
 
 
 class BatchStates:
@@ -589,7 +588,7 @@ def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot,
         sii = si[i]
         cii = ci[i]
         for j in range(m):
-            d = ((t1[j] - ep1[i]) + (t2[j] - ep2[i])) * 86400.0
+            d = ((t1[j] - ep1[i]) + (t2[j] - ep2[i])) * DAY_S
             E, st = eccentric_anomaly(M0[i] + M_dot[i] * d, e)
             sE = math.sin(E)
             cE = math.cos(E)

@@ -21,6 +21,7 @@ from astropy import units as u
 from .. import constants as c
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
+from ..core import force_block as fb
 from ..core.cowell import integrate_cowell
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
@@ -86,15 +87,53 @@ def _all_instances(items, cls, what, hint):
     return items
 
 
+def _check_combination(perturbations, central):
+    """Refuse combinations the force block cannot hold (one gravity field, one drag, one SRP,
+    each third body once and not the central body)."""
+    zonals = [p for p in perturbations if isinstance(p, Zonal)]
+    if len(zonals) > 1:
+        raise InvalidInputError(
+            f"give one zonal model, not {zonals}: Zonal(body, n) already includes J2..Jn."
+        )
+    harmonics = [p for p in perturbations if isinstance(p, SphericalHarmonics)]
+    if harmonics and (zonals or len(harmonics) > 1):
+        raise InvalidInputError(
+            "give one gravity field: SphericalHarmonics already includes the zonal terms, "
+            "so do not add J2 or Zonal to it."
+        )
+    if sum(isinstance(p, AtmosphericDrag) for p in perturbations) > 1:
+        raise InvalidInputError("give at most one AtmosphericDrag.")
+    names = [p.body.name for p in perturbations if isinstance(p, ThirdBody)]
+    if len(set(names)) != len(names):
+        raise InvalidInputError(f"a third body is listed twice: {names}.")
+    if central.name in names:
+        raise InvalidInputError(f"{central.name} is the central body, not a third body.")
+    if sum(isinstance(p, SolarRadiationPressure) for p in perturbations) > 1:
+        raise InvalidInputError("give at most one SolarRadiationPressure.")
+
+
 class ForceModel:
-    """The perturbations assembled into the flat arrays of :mod:`visviva.core.perturbations`."""
+    """The perturbations assembled into the flat arrays of :mod:`visviva.core.perturbations`.
+
+    The model writes the slots of the central body and of the shared ephemeris tables
+    (:data:`SHARED_PARAMETERS`); every perturbation writes its own slots
+    (:meth:`~visviva.satellites.perturbations.Perturbation.pack`). The layout of the block is
+    :mod:`visviva.core.force_block`.
+    """
+
+    #: slots written here, not by a perturbation
+    SHARED_PARAMETERS = ("GM", "RADIUS", "ROTATION_RATE", "FLATTENING", "SUN_RADIUS", "AU",
+                         "SUN_ROW", "EPH_T0", "EPH_STEP", "EPH_N")
 
     def __init__(self, gm_km3_s2, perturbations, events=(), epoch=None, span_s=(0.0, 0.0)):
+        self.gm_km3_s2 = gm_km3_s2
+        self.epoch = epoch
         self.force = np.zeros(FORCE_SIZE)
-        self.force[0] = gm_km3_s2
-        self.force[12] = -1.0
+        self.force[fb.GM] = gm_km3_s2
+        self.force[fb.SUN_ROW] = -1.0
         self.zonal = np.zeros(3)
         self.atm = VALLADO_EXPONENTIAL_TABLE.copy()
+        self.sh = np.zeros((2, 3, 3))
         perturbations = _all_instances(
             perturbations, Perturbation, "a perturbation",
             "vv.J2, vv.Zonal, vv.AtmosphericDrag, vv.ThirdBody or vv.SolarRadiationPressure",
@@ -107,71 +146,26 @@ class ForceModel:
             )
         central = next((p.central_body for p in perturbations if p.central_body is not None), EARTH)
         self.central_body = central
-        self.force[1] = central.radius_km
-        self.force[6] = flattening_of(central)
+        self.force[fb.RADIUS] = central.radius_km
+        self.force[fb.FLATTENING] = flattening_of(central)
         rot = central.rotation_rate
-        self.force[5] = 0.0 if rot is None else float(rot.to_value(u.rad / u.s))
-        self.force[10] = SUN.radius_km
-        self.force[11] = c.AU_KM
+        self.force[fb.ROTATION_RATE] = 0.0 if rot is None else float(rot.to_value(u.rad / u.s))
+        self.force[fb.SUN_RADIUS] = SUN.radius_km
+        self.force[fb.AU] = c.AU_KM
+        _check_combination(perturbations, central)
 
-        zonals = [p for p in perturbations if isinstance(p, Zonal)]
-        if len(zonals) > 1:
-            raise InvalidInputError(
-                f"give one zonal model, not {zonals}: Zonal(body, n) already includes J2..Jn."
-            )
-        if zonals:
-            self.zonal = zonals[0].coefficients()
-            self.force[2] = zonals[0].degree
-        self.sh = np.zeros((2, 3, 3))
-        harmonics = [p for p in perturbations if isinstance(p, SphericalHarmonics)]
-        if harmonics and (zonals or len(harmonics) > 1):
-            raise InvalidInputError(
-                "give one gravity field: SphericalHarmonics already includes the zonal terms, "
-                "so do not add J2 or Zonal to it."
-            )
-        if harmonics:
-            if epoch is None:
-                raise InvalidInputError(
-                    "SphericalHarmonics needs the state's epoch (to orient the Earth): build the "
-                    "state with epoch=Time(...)."
-                )
-            from .frames import gcrs_to_itrs
-
-            basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), epoch)
-            m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes
-            self.force[17] = harmonics[0].degree
-            self.force[18:27] = m0.ravel()
-            self.sh = harmonics[0].scaled(gm_km3_s2, central.radius_km)
-        drags = [p for p in perturbations if isinstance(p, AtmosphericDrag)]
-        if len(drags) > 1:
-            raise InvalidInputError("give at most one AtmosphericDrag.")
-        msis = bool(drags) and drags[0].model == "nrlmsis"
-        if drags:
-            self.force[3] = 1.0
-            self.force[4] = drags[0].ballistic_coefficient_km2_kg
-            self.atm = drags[0].table
         third = [p.body for p in perturbations if isinstance(p, ThirdBody)]
         names = [b.name for b in third]
-        if len(set(names)) != len(names):
-            raise InvalidInputError(f"a third body is listed twice: {names}.")
-        if central.name in names:
-            raise InvalidInputError(f"{central.name} is the central body, not a third body.")
-        srps = [p for p in perturbations if isinstance(p, SolarRadiationPressure)]
-        if len(srps) > 1:
-            raise InvalidInputError("give at most one SolarRadiationPressure.")
         gms = [b.gm_km3_s2 for b in third]
         table_names = list(names)
-        need_sun = bool(srps) or msis or any(getattr(e, "needs_sun", False) for e in events)
+        need_sun = any(getattr(p, "needs_sun", False) for p in perturbations) or any(
+            getattr(e, "needs_sun", False) for e in events
+        )
         if need_sun:
             if "sun" not in table_names:
                 table_names.append("sun")
                 gms.append(SUN.gm_km3_s2)
-            self.force[12] = table_names.index("sun")
-        if srps:
-            self.force[7] = 1.0
-            self.force[8] = srps[0].coefficient_km_s2
-            self.force[9] = srps[0].shadow_code
-        self.force[13] = len(third)
+            self.force[fb.SUN_ROW] = table_names.index("sun")
         if table_names:
             if epoch is None:
                 raise InvalidInputError(
@@ -189,25 +183,17 @@ class ForceModel:
             t0, step, er, ev = tabulate(
                 table_names, epoch, span_s[0], span_s[1], EPHEMERIS_STEP_S, central.name
             )
-            self.force[14] = t0
-            self.force[15] = step
-            self.force[16] = er.shape[1]
+            self.force[fb.EPH_T0] = t0
+            self.force[fb.EPH_STEP] = step
+            self.force[fb.EPH_N] = er.shape[1]
             self.eph_r, self.eph_v = er, ev
-            if msis:
-                from .ephemeris import sun_position
-                from .frames import gcrs_to_itrs
-
-                sun0 = sun_position(epoch).to_value(u.km)
-                s_itrs, _ = gcrs_to_itrs(sun0, np.zeros(3), epoch)
-                table, meta = drags[0].msis_grid(epoch, np.arctan2(s_itrs[1], s_itrs[0]))
-                self.atm = table
-                self.force[27] = 1.0
-                self.force[28:37] = meta
         else:
-            self.force[15] = 1.0
-            self.force[16] = 2
+            self.force[fb.EPH_STEP] = 1.0
+            self.force[fb.EPH_N] = 2
             self.eph_r = np.zeros((0, 2, 3))
             self.eph_v = np.zeros((0, 2, 3))
+        for p in perturbations:
+            p.pack(self)
         self.eph_gm = np.asarray(gms, dtype=np.float64)
         self.zonal = np.ascontiguousarray(self.zonal, dtype=np.float64)
 

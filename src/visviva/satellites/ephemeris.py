@@ -20,6 +20,7 @@ import functools
 import numpy as np
 
 from .._units import to_quantity
+from ..constants import DAY_S
 from ..errors import InvalidInputError
 
 __all__ = [
@@ -46,8 +47,6 @@ KNOWN_BODIES = (
     "neptune",
     "pluto",
 )
-
-_DAY_S = 86400.0
 
 
 @functools.lru_cache(maxsize=1)
@@ -82,7 +81,7 @@ def _barycentric_de421(eph, key, jd1, jd2):
 
     def pv(name):
         p, v = eph.position_and_velocity(name, jd1, jd2)
-        return np.asarray(p).T, np.asarray(v).T / _DAY_S
+        return np.asarray(p).T, np.asarray(v).T / DAY_S
 
     if key in ("earth", "moon", "earth-moon-barycenter"):
         emb_r, emb_v = pv("earthmoon")

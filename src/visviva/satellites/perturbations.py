@@ -1,8 +1,12 @@
 """Perturbation objects for :func:`visviva.propagate_cowell`.
 
-Each object only validates and stores its parameters in canonical units; the force model is
-assembled into the flat arrays of :mod:`visviva.core.perturbations` by ``propagate_cowell``,
-which then runs one compiled right-hand side with every perturbation in it.
+Each object validates and stores its parameters in canonical units, declares the slots of the
+kernel's parameter block it owns (:attr:`Perturbation.PARAMETERS`, names from
+:mod:`visviva.core.force_block`) and writes them itself (:meth:`Perturbation.pack`);
+``propagate_cowell`` assembles the block from the central body's slots plus every perturbation's
+``pack`` and runs one compiled right-hand side with every perturbation in it. Adding a
+perturbation is one class here (its slots, its ``pack``) plus its term in
+:func:`visviva.core.perturbations.cowell_rhs`.
 
 >>> import visviva as vv
 >>> from astropy import units as u
@@ -20,6 +24,7 @@ from astropy import units as u
 from .. import constants as c
 from .._units import require_positive, to_array
 from ..bodies import BODIES, EARTH, Body
+from ..core import force_block as fb
 from ..core.perturbations import VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, fmt_number
 
@@ -55,6 +60,31 @@ class Perturbation:
 
     #: the body whose radius, rotation and flattening define altitude and shadow, if any
     central_body: Body | None = None
+    #: names (:mod:`visviva.core.force_block`) of the parameter-block slots this class writes
+    PARAMETERS: tuple = ()
+
+    @classmethod
+    def parameters(cls) -> list:
+        """The slots this perturbation writes, as ``(name, first index, size, unit, meaning)``.
+
+        Returns
+        -------
+        list of tuple
+            Rows of :data:`visviva.core.force_block.LAYOUT`, in the order of ``PARAMETERS``.
+        """
+        rows = {row[0]: row for row in fb.LAYOUT}
+        return [rows[name] for name in cls.PARAMETERS]
+
+    def pack(self, model) -> None:
+        """Write this perturbation's slots of ``model.force`` (and its tables) in place.
+
+        Parameters
+        ----------
+        model : visviva.satellites.cowell.ForceModel
+            The force model being assembled: ``force`` (the parameter block, float64), the
+            tables ``zonal``, ``atm``, ``sh``, and the context ``gm_km3_s2`` (km^3/s^2),
+            ``central_body``, ``epoch``.
+        """
 
 
 @dataclass(frozen=True, repr=False)
@@ -92,6 +122,12 @@ class Zonal(Perturbation):
     @property
     def central_body(self) -> Body:
         return self.body
+
+    PARAMETERS = ("ZONAL_DEGREE",)
+
+    def pack(self, model) -> None:
+        model.zonal = self.coefficients()
+        model.force[fb.ZONAL_DEGREE] = self.degree
 
     def coefficients(self) -> np.ndarray:
         """J_n indexed by n (entries 0 and 1 are zero), dimensionless."""
@@ -204,11 +240,34 @@ class AtmosphericDrag(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
+    PARAMETERS = ("DRAG_ON", "BALLISTIC", "DENSITY_MODEL", "DENSITY_GRID", "DENSITY_GRID_SIZES")
+
+    #: the NRLMSIS model needs the Sun (its row in the ephemeris tables)
+    @property
+    def needs_sun(self) -> bool:
+        return self.model == "nrlmsis"
+
+    def pack(self, model) -> None:
+        model.force[fb.DRAG_ON] = 1.0
+        model.force[fb.BALLISTIC] = self.ballistic_coefficient_km2_kg
+        model.atm = self.table
+        if self.needs_sun:
+            from .ephemeris import sun_position
+            from .frames import gcrs_to_itrs
+
+            sun0 = sun_position(model.epoch).to_value(u.km)
+            s_itrs, _ = gcrs_to_itrs(sun0, np.zeros(3), model.epoch)
+            table, meta = self.msis_grid(model.epoch, np.arctan2(s_itrs[1], s_itrs[0]))
+            model.atm = table
+            model.force[fb.DENSITY_MODEL] = 1.0
+            model.force[fb.DENSITY_GRID:fb.DENSITY_GRID_SIZES + 3] = meta
+
     def msis_grid(self, epoch, sun_longitude_rad):
         """ln(rho) on the (hour angle, latitude, altitude) grid from NRLMSIS 2.1 at ``epoch``.
 
         Returns ``(table, meta)``: table (n_h * n_lat, n_alt) of ln(rho / (kg/m^3)); meta the
-        grid starts/steps and sizes for slots 28-36 of the force array.
+        grid starts/steps and sizes for the slots ``DENSITY_GRID`` and ``DENSITY_GRID_SIZES`` of
+        the force block.
         """
         from pymsis import msis
 
@@ -275,6 +334,12 @@ class ThirdBody(Perturbation):
             )
         object.__setattr__(self, "body", body)
 
+    PARAMETERS = ("N_THIRD_BODIES",)
+
+    def pack(self, model) -> None:
+        # the body's row and GM are in the shared ephemeris tables (ForceModel): count it
+        model.force[fb.N_THIRD_BODIES] += 1.0
+
     def __repr__(self):
         return f"ThirdBody({self.body.name})"
 
@@ -331,6 +396,14 @@ class SolarRadiationPressure(Perturbation):
     @property
     def central_body(self) -> Body:
         return self.body
+
+    PARAMETERS = ("SRP_ON", "SRP_COEFFICIENT", "SHADOW_MODEL")
+    needs_sun = True
+
+    def pack(self, model) -> None:
+        model.force[fb.SRP_ON] = 1.0
+        model.force[fb.SRP_COEFFICIENT] = self.coefficient_km_s2
+        model.force[fb.SHADOW_MODEL] = self.shadow_code
 
     @property
     def coefficient_km_s2(self) -> float:
@@ -416,6 +489,22 @@ class SphericalHarmonics(Perturbation):
     @property
     def central_body(self) -> Body:
         return self.body
+
+    PARAMETERS = ("HARMONICS_DEGREE", "FRAME_MATRIX")
+
+    def pack(self, model) -> None:
+        if model.epoch is None:
+            raise InvalidInputError(
+                "SphericalHarmonics needs the state's epoch (to orient the Earth): build the "
+                "state with epoch=Time(...)."
+            )
+        from .frames import gcrs_to_itrs
+
+        basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), model.epoch)
+        m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes
+        model.force[fb.HARMONICS_DEGREE] = self.degree
+        model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = m0.ravel()
+        model.sh = self.scaled(model.gm_km3_s2, model.central_body.radius_km)
 
     def scaled(self, gm_km3_s2: float, radius_km: float) -> np.ndarray:
         """Unnormalised (C, S) rescaled to another GM and reference radius."""

@@ -12,25 +12,11 @@ from __future__ import annotations
 import math
 
 from ..errors import InvalidInputError
+from .tle_checks import tle_checksum  # the one checksum rule (read and write)
 
 __all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent"]
 
 _XPDOTP = 1440.0 / (2.0 * math.pi)  # rad/min -> rev/day
-
-
-def tle_checksum(line: str) -> int:
-    """Modulo-10 checksum of the first 68 columns (digits count, '-' counts 1).
-
-    Parameters
-    ----------
-    line : str
-        A TLE line (68 or 69 characters).
-
-    Returns
-    -------
-    int
-    """
-    return sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10
 
 
 def format_exponent(value: float, what: str, zero_sign: str = "+") -> str:

@@ -10,7 +10,7 @@ from .base import Check
 __all__ = ["Check", "run"]
 
 
-def run(full: bool = False, report_dir: str | None = "validation/report", only: str | None = None,
+def run(full: bool = False, report_dir: str | None = "reference/report", only: str | None = None,
         **options) -> int:
     """Run every check, print one line each, write the report; return the exit code.
 

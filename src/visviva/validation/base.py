@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+#: Tolerances in physical units (km), shared by the check modules.
+ONE_MM_KM = 1e-6
+ONE_M_KM = 1e-3
+TEN_M_KM = 1e-2
+
 
 @dataclass
 class Check:

@@ -25,12 +25,10 @@ import math
 
 import numpy as np
 
-from .base import Check
+from .base import ONE_M_KM, ONE_MM_KM, Check
 
 __all__ = ["checks"]
 
-ONE_MM_KM = 1e-6
-ONE_M_KM = 1e-3
 
 
 def _run(name, metric, tolerance, reference, fn):

@@ -23,7 +23,6 @@ from .base import Check
 
 __all__ = ["checks"]
 
-ONE_MM_KM = 1e-6
 REL_SKYFIELD = 1e-10  # relative, lengths
 ANG_SKYFIELD = 1e-10  # rad
 REL_ROUND_TRIP = 1e-12

@@ -15,13 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Check
+from .base import ONE_M_KM, ONE_MM_KM, TEN_M_KM, Check
 
 __all__ = ["checks", "verification_set", "verification_times"]
 
-ONE_MM_KM = 1e-6
-ONE_M_KM = 1e-3
-TEN_M_KM = 1e-2
 
 # ISS (ZARYA) with a 2024 epoch (inside the installed Earth-orientation tables) and a Molniya
 ISS = (

@@ -14,13 +14,12 @@ import math
 
 import numpy as np
 
-from .base import Check
+from .base import ONE_MM_KM, Check
 
 __all__ = ["checks"]
 
 #: relative tolerance for the same value through two unit paths (a few ulp of float64)
 REL_ROUNDING = 1e-14
-ONE_MM_KM = 1e-6  # km
 ONE_UM_PER_S_KM_S = 1e-9  # km/s
 
 

@@ -439,7 +439,7 @@ def default_jobs() -> int:
     return max(1, min(2, cores))
 
 
-def run(full: bool = False, report_dir: str | os.PathLike | None = "validation/report",
+def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/report",
         only: str | None = None, json_path: str | os.PathLike | None = None,
         progress: bool = True, strict: bool = False, timeout_s: float | None = None,
         stream=None, modules: list[str] | None = None, jobs: int = 1) -> int:

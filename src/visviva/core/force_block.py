@@ -1,0 +1,119 @@
+"""The layout of the Cowell force parameter block: one name per slot, used by both sides.
+
+:func:`visviva.core.perturbations.cowell_rhs` (and the event functions of
+:mod:`visviva.core.cowell`) read a flat float64 array ``force`` of :data:`FORCE_SIZE` values; the
+perturbation classes of :mod:`visviva.satellites.perturbations` write it (each its own slots,
+:meth:`~visviva.satellites.perturbations.Perturbation.pack`). The indices below are the only
+place the layout is written down; kernels and classes use the names, never bare numbers. Flags
+are 0.0 / 1.0. Module-level integers are compile-time constants for numba.
+
+:data:`LAYOUT` lists every slot as ``(name, first index, size, unit, meaning)``; a test checks
+that the slots tile the block and that each has exactly one writer (a perturbation class or the
+force model's shared slots).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FORCE_SIZE",
+    "LAYOUT",
+    "GM",
+    "RADIUS",
+    "ZONAL_DEGREE",
+    "DRAG_ON",
+    "BALLISTIC",
+    "ROTATION_RATE",
+    "FLATTENING",
+    "SRP_ON",
+    "SRP_COEFFICIENT",
+    "SHADOW_MODEL",
+    "SUN_RADIUS",
+    "AU",
+    "SUN_ROW",
+    "N_THIRD_BODIES",
+    "EPH_T0",
+    "EPH_STEP",
+    "EPH_N",
+    "HARMONICS_DEGREE",
+    "FRAME_MATRIX",
+    "DENSITY_MODEL",
+    "DENSITY_GRID",
+    "DENSITY_GRID_SIZES",
+]
+
+#: GM of the central body, km^3/s^2.
+GM = 0
+#: Reference (equatorial) radius of the central body, km.
+RADIUS = 1
+#: Highest zonal degree n_max (0: no zonal terms); ``zonal[n]`` holds J_n.
+ZONAL_DEGREE = 2
+#: Drag on/off.
+DRAG_ON = 3
+#: Ballistic coefficient Cd A / m, km^2/kg.
+BALLISTIC = 4
+#: Rotation rate of the central body about +z, rad/s (co-rotating atmosphere, body-fixed frame).
+ROTATION_RATE = 5
+#: Flattening f of the central body (geodetic altitude to first order in f).
+FLATTENING = 6
+#: Solar radiation pressure on/off.
+SRP_ON = 7
+#: SRP coefficient P_sun(1 AU) Cr A / m, km/s^2.
+SRP_COEFFICIENT = 8
+#: Shadow model: 0 none, 1 cylindrical, 2 conical (penumbra fraction).
+SHADOW_MODEL = 9
+#: Radius of the Sun, km.
+SUN_RADIUS = 10
+#: Astronomical unit, km.
+AU = 11
+#: Row of the Sun in the ephemeris tables (-1: none).
+SUN_ROW = 12
+#: Number of tabulated third bodies whose attraction is added.
+N_THIRD_BODIES = 13
+#: Ephemeris grid start, s from the propagation epoch.
+EPH_T0 = 14
+#: Ephemeris grid step, s.
+EPH_STEP = 15
+#: Number of ephemeris grid points.
+EPH_N = 16
+#: Degree N of the full spherical-harmonic field (0: none).
+HARMONICS_DEGREE = 17
+#: First of 9 slots: the 3x3 matrix (row-major) from the propagation frame to the body-fixed
+#: frame at t = 0 (the body then turns about z at :data:`ROTATION_RATE`).
+FRAME_MATRIX = 18
+#: Density model: 0 exponential table, 1 gridded log-density (NRLMSIS tabulated at the epoch).
+DENSITY_MODEL = 27
+#: First of 6 slots: first altitude km, altitude step km, first latitude rad, latitude step rad,
+#: first solar hour angle rad, hour-angle step rad.
+DENSITY_GRID = 28
+#: First of 3 slots: grid sizes (altitudes, latitudes, hour angles).
+DENSITY_GRID_SIZES = 34
+#: Length of the block.
+FORCE_SIZE = 37
+
+#: ``(name, first index, size, unit, meaning)`` of every slot, in index order.
+LAYOUT = (
+    ("GM", GM, 1, "km3/s2", "GM of the central body"),
+    ("RADIUS", RADIUS, 1, "km", "reference (equatorial) radius of the central body"),
+    ("ZONAL_DEGREE", ZONAL_DEGREE, 1, "", "highest zonal degree (0: none)"),
+    ("DRAG_ON", DRAG_ON, 1, "flag", "drag on/off"),
+    ("BALLISTIC", BALLISTIC, 1, "km2/kg", "ballistic coefficient Cd A / m"),
+    ("ROTATION_RATE", ROTATION_RATE, 1, "rad/s", "rotation rate of the central body"),
+    ("FLATTENING", FLATTENING, 1, "", "flattening of the central body"),
+    ("SRP_ON", SRP_ON, 1, "flag", "solar radiation pressure on/off"),
+    ("SRP_COEFFICIENT", SRP_COEFFICIENT, 1, "km/s2", "P_sun(1 AU) Cr A / m"),
+    ("SHADOW_MODEL", SHADOW_MODEL, 1, "", "0 none, 1 cylindrical, 2 conical"),
+    ("SUN_RADIUS", SUN_RADIUS, 1, "km", "radius of the Sun"),
+    ("AU", AU, 1, "km", "astronomical unit"),
+    ("SUN_ROW", SUN_ROW, 1, "", "row of the Sun in the ephemeris tables (-1: none)"),
+    ("N_THIRD_BODIES", N_THIRD_BODIES, 1, "", "number of attracting tabulated bodies"),
+    ("EPH_T0", EPH_T0, 1, "s", "ephemeris grid start from the epoch"),
+    ("EPH_STEP", EPH_STEP, 1, "s", "ephemeris grid step"),
+    ("EPH_N", EPH_N, 1, "", "number of ephemeris grid points"),
+    ("HARMONICS_DEGREE", HARMONICS_DEGREE, 1, "", "degree of the spherical-harmonic field"),
+    ("FRAME_MATRIX", FRAME_MATRIX, 9, "", "propagation frame to body-fixed frame at t = 0"),
+    ("DENSITY_MODEL", DENSITY_MODEL, 1, "", "0 exponential table, 1 NRLMSIS grid"),
+    ("DENSITY_GRID", DENSITY_GRID, 6, "km, rad", "grid starts and steps (altitude, latitude, "
+     "hour angle)"),
+    ("DENSITY_GRID_SIZES", DENSITY_GRID_SIZES, 3, "", "grid sizes (altitude, latitude, "
+     "hour angle)"),
+)

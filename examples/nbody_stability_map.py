@@ -26,7 +26,7 @@ def system(a2, m2):
     sim = vv.Simulation("whfast", dt=2 * np.pi / 40, exit_max_distance=10.0)
     sim.add(1.0)
     sim.add(M1, a=1.0, primary=0)
-    sim.add(m2, a=a2, M=np.pi, inc=0.01, primary=None)
+    sim.add(m2, a=a2, mean_anomaly=np.pi, inc=0.01, primary=None)
     sim.move_to_com()
     return sim
 

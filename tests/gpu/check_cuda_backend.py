@@ -19,7 +19,7 @@ def system(backend, n=6, seed=0, softening=0.0):
     sim.add(1.0)
     for k in range(1, n):
         sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.4 * k, e=0.05 * rng.uniform(),
-                inc=0.05 * rng.uniform(), M=rng.uniform(0, 6.28), primary=0)
+                inc=0.05 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=0)
     sim.add(0.0, a=0.7, e=0.1, primary=0)  # a test particle
     sim.move_to_com()
     return sim

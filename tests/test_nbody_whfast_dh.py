@@ -185,7 +185,7 @@ def test_save_load_in_process_and_in_a_fresh_process_bit_for_bit(tmp_path):
     first.save(path)
     back = vv.Simulation.load(path)
     assert back.coordinates == DH
-    np.testing.assert_array_equal(first._buf, back._buf)  # the unsynchronised DH state
+    np.testing.assert_array_equal(first.state_arrays()["buf"], back.state_arrays()["buf"])  # the unsynchronised DH state
     back.integrate(60.1)
     np.testing.assert_array_equal(back.positions, one_go.positions)
     out = tmp_path / "dh.npy"

@@ -42,6 +42,7 @@ _PUBLIC = {
     "Collision": "visviva.errors",
     "Encounter": "visviva.errors",
     "Escape": "visviva.errors",
+    "BackendUnavailableError": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",
@@ -71,6 +72,7 @@ _PUBLIC = {
     "animate_simulation": "visviva.animation",
     "save_animation": "visviva.animation",
     "solar_system": "visviva.nbody",
+    "Ensemble": "visviva.nbody",
     # satellites
     "Satellite": "visviva.satellites",
     "Catalog": "visviva.satellites",

@@ -28,6 +28,7 @@ __all__ = [
     "Encounter",
     "Escape",
     "StepSizeError",
+    "BackendUnavailableError",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -123,6 +124,12 @@ class ConvergenceError(VisvivaError, ArithmeticError):
 
 class StepSizeError(ConvergenceError):
     """An adaptive integrator needed a step smaller than it can take."""
+
+
+class BackendUnavailableError(VisvivaError, RuntimeError):
+    """A compute backend was asked for that this machine or installation cannot provide (for
+    example ``backend="cuda"`` without an NVIDIA GPU or without numba-cuda); the message says
+    what is missing."""
 
 
 class NBodyEvent(VisvivaError):

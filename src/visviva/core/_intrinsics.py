@@ -24,7 +24,8 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["fma", "float_bits", "float_from_bits", "EPS"]
+__all__ = ["fma", "float_bits", "float_from_bits", "fma_py", "float_bits_py", "float_from_bits_py",
+           "EPS"]
 
 #: Machine epsilon of float64, ``2**-52`` (the one definition the kernels share).
 EPS = 2.220446049250313e-16
@@ -57,19 +58,28 @@ def float_from_bits(typingctx, n):
     return types.float64(types.int64), codegen
 
 
+def fma_py(a, b, c):
+    """``fl(a b + c)`` correctly rounded, in pure Python (exact rational arithmetic)."""
+    a, b, c = float(a), float(b), float(c)
+    if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
+        return a * b + c
+    pa, qa = a.as_integer_ratio()
+    pb, qb = b.as_integer_ratio()
+    pc, qc = c.as_integer_ratio()
+    return (pa * pb * qc + pc * qa * qb) / (qa * qb * qc)  # int / int: correctly rounded
+
+
+def float_bits_py(x):
+    """The bits of the double ``x`` as an int64, in pure Python."""
+    return int(np.float64(x).view(np.int64))
+
+
+def float_from_bits_py(n):
+    """The double whose bits are the int64 ``n``, in pure Python."""
+    return float(np.int64(n).view(np.float64))
+
+
 if numba.config.DISABLE_JIT:  # pure Python: the same bits by other means
-
-    def fma(a, b, c):  # noqa: F811
-        a, b, c = float(a), float(b), float(c)
-        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
-            return a * b + c
-        pa, qa = a.as_integer_ratio()
-        pb, qb = b.as_integer_ratio()
-        pc, qc = c.as_integer_ratio()
-        return (pa * pb * qc + pc * qa * qb) / (qa * qb * qc)  # int / int: correctly rounded
-
-    def float_bits(x):  # noqa: F811
-        return int(np.float64(x).view(np.int64))
-
-    def float_from_bits(n):  # noqa: F811
-        return float(np.int64(n).view(np.float64))
+    fma = fma_py  # noqa: F811
+    float_bits = float_bits_py  # noqa: F811
+    float_from_bits = float_from_bits_py  # noqa: F811

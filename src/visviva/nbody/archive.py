@@ -57,17 +57,8 @@ def _state(sim) -> dict:
         "forces": [f.spec() for f in sim.forces],
         "names": getattr(sim, "names", None),
     }
-    out = {
-        "meta": np.array(json.dumps(meta)),
-        "x": sim._x,
-        "v": sim._v,
-        "m": sim._m,
-        "radius": sim._radius,
-        "fstate": sim._fstate,
-        "istate": sim._istate,
-    }
-    if sim._buf is not None:
-        out["buf"] = sim._buf
+    out = {"meta": np.array(json.dumps(meta))}
+    out.update(sim.state_arrays())
     return out
 
 
@@ -96,40 +87,34 @@ def save_simulation(sim, path) -> None:
 
 def _build(cls, get, forces=None):
     from .forces import Force
+    from .state import SimulationState
     from .units import SimulationUnits
 
     meta = json.loads(str(get("meta")))
-    sim = cls.__new__(cls)
-    cls.__init__(sim, meta["integrator"])
-    sim.units = None if meta["units"] is None else SimulationUnits.parse(meta["units"])
-    sim._x = np.ascontiguousarray(get("x"))
-    sim._v = np.ascontiguousarray(get("v"))
-    sim._m = np.ascontiguousarray(get("m"))
-    sim._radius = np.ascontiguousarray(get("radius"))
-    sim._fstate = np.ascontiguousarray(get("fstate"))
-    sim._istate = np.ascontiguousarray(get("istate"))
-    buf = get("buf")
-    sim._buf = None if buf is None else np.ascontiguousarray(buf)
-    sim._collision = meta["collision"]
-    sim._restitution = meta["restitution"]
-    sim.parallel = meta["parallel"]
-    sim.energy_offset = float.fromhex(meta["energy_offset"])
-    if meta.get("names") is not None:
-        sim.names = meta["names"]
+    state = SimulationState.from_arrays(
+        get,
+        collision=meta["collision"],
+        restitution=meta["restitution"],
+        energy_offset=float.fromhex(meta["energy_offset"]),
+    )
+    units = None if meta["units"] is None else SimulationUnits.parse(meta["units"])
     if forces is not None:
-        sim._forces = [f if isinstance(f, Force) else Force(f) for f in forces]
+        forces = [f if isinstance(f, Force) else Force(f) for f in forces]
     else:
-        sim._forces = []
+        forces = []
         for spec in meta["forces"]:
             try:
-                sim._forces.append(Force.from_spec(spec))
+                forces.append(Force.from_spec(spec))
             except (ImportError, AttributeError, KeyError, TypeError) as exc:
                 raise InvalidInputError(
                     f"the saved simulation used the force {spec['fn']!r}, which cannot be "
                     "re-imported (defined in __main__ or a closure): pass it again with "
                     "Simulation.load(path, forces=[...])."
                 ) from exc
-    sim._fused = None
+    sim = cls.from_state(state, meta["integrator"], units=units, parallel=meta["parallel"],
+                         forces=forces)
+    if meta.get("names") is not None:
+        sim.names = meta["names"]
     return sim
 
 
@@ -234,8 +219,8 @@ class Archive:
         One compiled call per interval; the file is rewritten atomically every ``flush_every``
         snapshots and at the end.
         """
-        interval = float(sim._time(interval, "interval"))
-        t_end = float(sim._time(t_end, "t_end"))
+        interval = sim.time_value(interval, "interval")
+        t_end = sim.time_value(t_end, "t_end")
         if not interval > 0:
             raise InvalidInputError(f"interval must be > 0; got {fmt_number(interval)}.")
         archive = cls(path)

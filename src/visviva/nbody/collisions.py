@@ -30,18 +30,16 @@ def merge(sim, i: int, j: int) -> int:
     """Merge particles ``i`` and ``j`` into ``min(i, j)``; returns the removed index."""
     i, j = min(i, j), max(i, j)
     E0 = sim.energy(include_offset=False)
-    mi, mj = sim._m[i], sim._m[j]
+    m, x, v, radius = sim.masses, sim.positions, sim.velocities, sim.radii
+    mi, mj = m[i], m[j]
     M = mi + mj
     if M > 0:
-        x = (mi * sim._x[i] + mj * sim._x[j]) / M
-        v = (mi * sim._v[i] + mj * sim._v[j]) / M
+        xm = (mi * x[i] + mj * x[j]) / M
+        vm = (mi * v[i] + mj * v[j]) / M
     else:
-        x = 0.5 * (sim._x[i] + sim._x[j])
-        v = 0.5 * (sim._v[i] + sim._v[j])
-    sim._x[i] = x
-    sim._v[i] = v
-    sim._m[i] = M
-    sim._radius[i] = np.cbrt(sim._radius[i] ** 3 + sim._radius[j] ** 3)
+        xm = 0.5 * (x[i] + x[j])
+        vm = 0.5 * (v[i] + v[j])
+    sim.set_particle(i, m=M, r=xm, v=vm, radius=np.cbrt(radius[i] ** 3 + radius[j] ** 3))
     sim.remove(j)
     sim.energy_offset += E0 - sim.energy(include_offset=False)
     return j
@@ -50,23 +48,27 @@ def merge(sim, i: int, j: int) -> int:
 def bounce(sim, i: int, j: int) -> None:
     """Hard-sphere bounce of ``i`` and ``j`` with the simulation's restitution."""
     e = sim.restitution
-    d = sim._x[j] - sim._x[i]
+    m, x, v = sim.masses, sim.positions, sim.velocities
+    d = x[j] - x[i]
     n = d / np.linalg.norm(d)
-    mi, mj = sim._m[i], sim._m[j]
-    vn = float(np.dot(sim._v[j] - sim._v[i], n))  # < 0: approaching
+    mi, mj = m[i], m[j]
+    vn = float(np.dot(v[j] - v[i], n))  # < 0: approaching
     E0 = sim.energy(include_offset=False)
+    vi, vj = v[i].copy(), v[j].copy()
     if mi > 0 and mj > 0:
         mu = mi * mj / (mi + mj)
         J = -(1.0 + e) * mu * vn
-        sim._v[i] -= (J / mi) * n
-        sim._v[j] += (J / mj) * n
+        vi -= (J / mi) * n
+        vj += (J / mj) * n
     elif mi > 0:  # j is a test particle: reflects off i
-        sim._v[j] -= (1.0 + e) * vn * n
+        vj -= (1.0 + e) * vn * n
     elif mj > 0:
-        sim._v[i] += (1.0 + e) * vn * n
+        vi += (1.0 + e) * vn * n
     else:  # two test particles: equal masses
-        sim._v[i] += 0.5 * (1.0 + e) * vn * n
-        sim._v[j] -= 0.5 * (1.0 + e) * vn * n
+        vi += 0.5 * (1.0 + e) * vn * n
+        vj -= 0.5 * (1.0 + e) * vn * n
+    sim.set_particle(i, v=vi)
+    sim.set_particle(j, v=vj)
     sim.energy_offset += E0 - sim.energy(include_offset=False)
 
 

@@ -88,7 +88,9 @@ class Integrator:
 _CACHE: dict = {}
 
 
-def _compiled(module: str, name: str):
+def _compiled(module: str, name: str, signature=None):
+    """The kernel ``module.name`` compiled for ``signature`` (default: the integrators' common
+    :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process."""
     key = (module, name)
     if key not in _CACHE:
         from numba.np.ufunc import parallel as _numba_parallel
@@ -102,7 +104,7 @@ def _compiled(module: str, name: str):
         fn = getattr(importlib.import_module(module), name)
         # One signature with the force as a first-class function type: one machine code for
         # every user force (cached on disk), the force is called through a function pointer.
-        fn.compile(RUN_SIGNATURE)
+        fn.compile(RUN_SIGNATURE if signature is None else signature)
         fn.disable_compile()
         _CACHE[key] = fn
     return _CACHE[key]

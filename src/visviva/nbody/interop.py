@@ -35,10 +35,11 @@ def to_rebound(sim):
     rebound = _rebound()
     r = rebound.Simulation()
     r.G = sim.G
+    m, xs, vs, radii = sim.masses, sim.positions, sim.velocities, sim.radii
     for k in range(sim.N):
-        x, v = sim._x[k], sim._v[k]
-        r.add(m=float(sim._m[k]), x=float(x[0]), y=float(x[1]), z=float(x[2]),
-              vx=float(v[0]), vy=float(v[1]), vz=float(v[2]), r=float(sim._radius[k]))
+        x, v = xs[k], vs[k]
+        r.add(m=float(m[k]), x=float(x[0]), y=float(x[1]), z=float(x[2]),
+              vx=float(v[0]), vy=float(v[1]), vz=float(v[2]), r=float(radii[k]))
     r.t = sim.t
     r.integrator = sim.integrator
     if sim.integrator == "whfast":
@@ -47,7 +48,7 @@ def to_rebound(sim):
         r.dt = sim.dt
     if sim.softening > 0:
         r.softening = sim.softening
-    if sim.N_active < sim.N and np.all(sim._m[: sim.N_active] != 0):
+    if sim.N_active < sim.N and np.all(m[: sim.N_active] != 0):
         r.N_active = sim.N_active
     return r
 
@@ -80,6 +81,6 @@ def from_rebound(cls, rsim, integrator=None):
     for k, p in enumerate(rsim.particles):
         m = float(p.m) if k < n_active else 0.0
         sim.add(m, [p.x, p.y, p.z], [p.vx, p.vy, p.vz], radius=float(p.r))
-    sim._fstate[0] = float(rsim.t)
+    sim.t = float(rsim.t)
     sim.dt = float(rsim.dt)
     return sim

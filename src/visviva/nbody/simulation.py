@@ -1,140 +1,37 @@
 """The N-body :class:`Simulation`: particles, an integrator, and ``integrate(t)``.
 
-The state lives in plain float64 arrays; :meth:`Simulation.integrate` hands them to ONE compiled
-kernel call that takes every step between the current time and the last requested output time
-(no Python per step). Output snapshots at many times come back as ``(T, N, 3)`` arrays.
+The state lives in plain float64 arrays owned by one
+:class:`~visviva.nbody.state.SimulationState`; :meth:`Simulation.integrate` hands them to ONE
+compiled kernel call that takes every step between the current time and the last requested output
+time (no Python per step). Output snapshots at many times come back as ``(T, N, 3)`` arrays
+(:class:`~visviva.nbody.trajectory.Trajectory`). The settings are
+:class:`~visviva.nbody.settings.Setting` descriptors, one line each in the class body.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..core import elements as _elements
 from ..core import gravity as _gravity
-from ..core import kepler as _kepler
 from ..core import nbody_common as _nc
 from ..core import status as _st
-from ..errors import (
-    Collision,
-    InvalidInputError,
-    InvalidStateError,
-    ShapeError,
-    StepSizeError,
-    fmt_number,
-    raise_for_status,
-)
+from ..errors import InvalidInputError, ShapeError, fmt_number
+from . import events as _events
 from . import forces as _forces
-from .integrators import COORDINATES, INTEGRATORS, get_integrator, parse_coordinates
+from . import settings as _s
+from .gpu import check_backend
+from .integrators import INTEGRATORS, get_integrator
+from .placement import elements_to_state
+from .settings import COLLISION_MODES, Setting
+from .state import SimulationState
+from .trajectory import Trajectory
 from .units import SimulationUnits
 
 __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
 
-#: What happens when two particles touch (their radii overlap while approaching).
-COLLISION_MODES = ("none", "halt", "merge", "bounce")
-
 _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
-
-
-def _scalar(arr, name) -> float:
-    """A single float from a converted value, or a ShapeError saying what to pass."""
-    arr = np.asarray(arr)
-    if arr.size != 1:
-        raise ShapeError(f"{name} must be a single number; got an array of shape {arr.shape}.")
-    return float(arr.reshape(()))
-
-
-def _positive_float(value, name, hint) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.") from exc
-    if not (math.isfinite(x) and x > 0):
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.")
-    return x
-
-
-def coincident_pairs(x, m, soft2, limit: int = 3) -> list:
-    """Pairs ``(i, j)`` of particles at exactly the same position where at least one is massive
-    and there is no softening (the point-mass force is infinite there); at most ``limit``."""
-    if soft2 > 0 or x.shape[0] < 2:
-        return []
-    _, first, inverse = np.unique(x, axis=0, return_index=True, return_inverse=True)
-    inverse = np.asarray(inverse).reshape(-1)
-    pairs = []
-    if len(first) == x.shape[0]:
-        return pairs
-    for g in np.flatnonzero(np.bincount(inverse) > 1):
-        idx = np.flatnonzero(inverse == g)
-        if np.count_nonzero(m[idx]) == 0:
-            continue  # test particles only: they do not attract each other
-        pairs.append((int(idx[0]), int(idx[1])))
-        if len(pairs) >= limit:
-            break
-    return pairs
-
-
-@dataclass
-class Trajectory:
-    """Snapshots returned by :meth:`Simulation.integrate` for an array of output times.
-
-    Attributes
-    ----------
-    t : ndarray, shape (T,)
-        Output times (simulation units).
-    positions, velocities : ndarray, shape (T, N, 3)
-        Snapshots (simulation units). Particles removed by a merger are NaN afterwards.
-    masses : ndarray, shape (N,)
-        Masses at the start of the run.
-    """
-
-    t: np.ndarray
-    positions: np.ndarray
-    velocities: np.ndarray
-    masses: np.ndarray
-    G: float = 1.0
-    softening: float = 0.0
-
-    def energy(self) -> np.ndarray:
-        """Total energy at each snapshot, shape (T,) (simulation units).
-
-        Raises
-        ------
-        InvalidStateError
-            A snapshot where the energy is not finite: two massive particles at the same
-            position without softening, or a particle removed by a merger.
-        """
-        out = np.empty(len(self.t))
-        _gravity.energy_history(
-            np.ascontiguousarray(self.positions),
-            np.ascontiguousarray(self.velocities),
-            self.masses,
-            float(self.G),
-            float(self.softening) ** 2,
-            out,
-        )
-        bad = np.flatnonzero(~np.isfinite(out))
-        if bad.size:
-            k = int(bad[0])
-            context = f"Trajectory.energy: at snapshot {k} (t = {fmt_number(self.t[k])})"
-            removed = np.flatnonzero(np.isnan(self.positions[k]).any(axis=1))
-            if removed.size:
-                raise InvalidStateError(
-                    f"{context} particle(s) {removed.tolist()} had been removed by a merger, so "
-                    "the total energy of the snapshot is undefined. Use Simulation.energy(), "
-                    "which tracks the energy lost in mergers (energy_offset), or sample the "
-                    "trajectory before the merger."
-                )
-            pairs = coincident_pairs(self.positions[k], self.masses, float(self.softening) ** 2)
-            where = f"particles {pairs[0]} share a position" if pairs else "the energy overflows"
-            raise InvalidStateError(
-                f"{context} {where}, so the potential energy is not finite ({bad.size} "
-                "snapshot(s) in all). To fix: run with softening > 0, or give the particles "
-                "radii with collision='merge'."
-            )
-        return out
 
 
 class Simulation:
@@ -190,6 +87,10 @@ class Simulation:
     exact_finish_time : bool
         Land exactly on requested times (default) or return the first step past them. Either
         way the integrator's own trajectory does not depend on the output times.
+    backend : str
+        ``"cpu"`` (default) or ``"cuda"``: the leapfrog's direct summation on an NVIDIA GPU
+        (:mod:`visviva.nbody.gpu`; raises :class:`visviva.errors.BackendUnavailableError`
+        saying what is missing without a GPU or numba-cuda).
 
     Examples
     --------
@@ -223,24 +124,20 @@ class Simulation:
         coordinates: str = "jacobi",
         exact_finish_time: bool = True,
         adaptive_mode: str = "prs23",
+        backend: str = "cpu",
     ):
         self.units = None if units is None else SimulationUnits.parse(units)
-        self._x = np.zeros((0, 3))
-        self._v = np.zeros((0, 3))
-        self._m = np.zeros(0)
-        self._radius = np.zeros(0)
-        self._fstate = np.zeros(_nc.N_FSTATE)
-        self._istate = np.zeros(_nc.N_ISTATE, dtype=np.int64)
-        self._istate[_nc.I_FRESH] = 1
-        self._buf = None
+        self._state = SimulationState.empty()
         self._forces: list = []
-        self.energy_offset = 0.0
+        self._fused = None
+        self._removed = None
         self.parallel = parallel
         self._integrator = get_integrator(integrator)
+        self.backend = check_backend(backend, self._integrator.name)
         G_value = self.units.G if self.units is not None else float(G)
         if not (math.isfinite(G_value) and G_value > 0):
             raise InvalidInputError(f"G must be a finite number > 0; got {fmt_number(G)}.")
-        self._fstate[_nc.F_G] = G_value
+        self._state.fstate[_nc.F_G] = G_value
         self.epsilon = epsilon
         self.min_dt = min_dt
         self.softening = softening
@@ -254,7 +151,73 @@ class Simulation:
         self.exact_finish_time = exact_finish_time
         self.adaptive_mode = adaptive_mode
 
-    # ---- configuration -------------------------------------------------------------------------
+    @classmethod
+    def from_state(cls, state, integrator: str, *, units=None, parallel=None,
+                   forces=()) -> Simulation:
+        """A simulation that owns ``state`` (a :class:`~visviva.nbody.state.SimulationState`,
+        taken over, not copied), for ``integrator`` with ``units`` (a
+        :class:`~visviva.nbody.units.SimulationUnits` or None), ``parallel`` and ``forces`` as in
+        the constructor: the friend constructor of the archive and ensembles. It continues from
+        ``state`` bit for bit."""
+        sim = cls.__new__(cls)
+        Simulation.__init__(sim, integrator)  # a CPU simulation: set sim.backend to change
+        sim.units = units
+        sim.parallel = parallel
+        sim._state = state
+        sim._forces = list(forces)
+        return sim
+
+    def state_arrays(self) -> dict:
+        """The state's arrays under their archive keys (``x, v, m, radius, fstate, istate`` and
+        ``buf`` once integrated): the live arrays, not copies (see :mod:`visviva.nbody.archive`)."""
+        return self._state.arrays()
+
+    # ---- settings: each one slot of the state (see visviva.nbody.settings) ------------------------
+    G = Setting("fstate", _nc.F_G, decode=float,
+                doc="Gravitational constant in simulation units (read-only).")
+    steps_done = Setting("istate", _nc.I_STEPS, decode=int,
+                         doc="Number of steps taken so far (accepted steps for IAS15).")
+    dt = Setting("fstate", _nc.F_DT, decode=float, encode=_s.time_scalar,
+                 doc="Time step (next step for IAS15).")
+    softening = Setting("fstate", _nc.F_SOFT2, decode=math.sqrt, encode=_s.softening_squared,
+                        doc="Plummer softening length (simulation units); 0 for none.")
+    epsilon = Setting("fstate", _nc.F_EPSILON, decode=float, encode=_s.epsilon,
+                      doc="IAS15 accuracy parameter (Rein & Spiegel 2015), finite and > 0.")
+    min_dt = Setting("fstate", _nc.F_MIN_DT, decode=float, encode=_s.nonnegative_time,
+                     doc="Smallest step IAS15 may take (0: only the relative floor applies).")
+    restitution = Setting("restitution", encode=_s.restitution,
+                          doc="Coefficient of restitution of a bounce (1 = elastic), in [0, 1].")
+    energy_offset = Setting("energy_offset", encode=_s.energy_offset,
+                            doc="Energy removed by mergers and inelastic bounces (added back by "
+                            ":meth:`energy`).")
+    encounter_distance = Setting(
+        "fstate", _nc.F_ENCOUNTER, decode=_s.off_when_zero, encode=_s.distance_or_off,
+        doc="Raise :class:`visviva.Encounter` when two particles come closer (None: off).")
+    exit_max_distance = Setting(
+        "fstate", _nc.F_EXIT, decode=_s.off_when_zero, encode=_s.positive_distance_or_off,
+        doc="Raise :class:`visviva.Escape` when a particle goes farther from the origin "
+        "(None: off).")
+    corrector = Setting("istate", _nc.I_CORRECTOR, decode=int, encode=_s.corrector, fresh=True,
+                        doc="WHFast symplectic corrector order: 0 (none), 3, 5 or 7.")
+    coordinates = Setting(
+        "istate", _nc.I_WH_COORDINATES, decode=_s.coordinates_name, encode=_s.coordinates,
+        fresh=True,
+        doc="WHFast's coordinates: ``\"jacobi\"`` or ``\"democratic_heliocentric\"``; assigning "
+        "resets the integrator's internal state (REBOUND's ``\"democraticheliocentric\"`` is "
+        "accepted).")
+    adaptive_mode = Setting(
+        "istate", _nc.I_ADAPTIVE_MODE, decode=lambda c: ("rs15", "prs23")[int(c)],
+        encode=_s.adaptive_mode,
+        doc="IAS15 step-size control: ``\"prs23\"`` (Pham, Rein & Spiegel 2024; the default, as "
+        "in REBOUND: about half the steps of ``\"rs15\"`` on planetary systems at the same "
+        "round-off energy error) or ``\"rs15\"`` (Rein & Spiegel 2015's global "
+        "``max|b6| / max|a|``; ``\"global\"`` is accepted as an alias).")
+    exact_finish_time = Setting(
+        "istate", _nc.I_EXACT_FINISH, decode=bool, encode=_s.flag,
+        doc="True (default): land exactly on every requested time (with a shortened step of a "
+        "copy of the integrator's state, so the trajectory never depends on the output times). "
+        "False: return the state after the first step at or past each time.")
+
     @property
     def integrator(self) -> str:
         """Name of the integrator; assigning a new name resets its internal state."""
@@ -263,8 +226,7 @@ class Simulation:
     @integrator.setter
     def integrator(self, name: str) -> None:
         self._integrator = get_integrator(name)
-        self._buf = None
-        self._istate[_nc.I_FRESH] = 1
+        self._state.particles_changed()
 
     @property
     def integrator_info(self):
@@ -272,72 +234,19 @@ class Simulation:
         return self._integrator
 
     @property
-    def G(self) -> float:
-        """Gravitational constant in simulation units."""
-        return float(self._fstate[_nc.F_G])
-
-    @property
     def t(self) -> float:
         """Simulation time (simulation units)."""
-        return float(self._fstate[_nc.F_T])
+        return float(self._state.fstate[_nc.F_T])
 
     @t.setter
     def t(self, value) -> None:
-        self._fstate[_nc.F_T] = _scalar(self._time(value, "t"), "t")
-        self._fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
-
-    @property
-    def steps_done(self) -> int:
-        """Number of steps taken so far (accepted steps for IAS15)."""
-        return int(self._istate[_nc.I_STEPS])
-
-    @property
-    def dt(self) -> float:
-        """Time step (next step for IAS15)."""
-        return float(self._fstate[_nc.F_DT])
-
-    @dt.setter
-    def dt(self, value) -> None:
-        dt = _scalar(self._time(value, "dt"), "dt")
-        if not math.isfinite(dt):
-            raise InvalidInputError(f"dt must be finite; got {fmt_number(dt)}.")
-        self._fstate[_nc.F_DT] = dt
-
-    @property
-    def softening(self) -> float:
-        return math.sqrt(self._fstate[_nc.F_SOFT2])
-
-    @softening.setter
-    def softening(self, value) -> None:
-        s = float(self._length(value, "softening"))
-        if not (math.isfinite(s) and s >= 0):
-            raise InvalidInputError(f"softening must be >= 0; got {fmt_number(value)}.")
-        self._fstate[_nc.F_SOFT2] = s * s
-
-    @property
-    def epsilon(self) -> float:
-        return float(self._fstate[_nc.F_EPSILON])
-
-    @epsilon.setter
-    def epsilon(self, value) -> None:
-        eps = _positive_float(value, "epsilon", "(IAS15's accuracy parameter; e.g. 1e-9)")
-        self._fstate[_nc.F_EPSILON] = eps
-
-    @property
-    def min_dt(self) -> float:
-        """Smallest step IAS15 may take (0: only the relative floor applies)."""
-        return float(self._fstate[_nc.F_MIN_DT])
-
-    @min_dt.setter
-    def min_dt(self, value) -> None:
-        dt = _scalar(self._time(value, "min_dt"), "min_dt")
-        if not (math.isfinite(dt) and dt >= 0):
-            raise InvalidInputError(f"min_dt must be a finite number >= 0; got {fmt_number(value)}.")
-        self._fstate[_nc.F_MIN_DT] = dt
+        self._state.fstate[_nc.F_T] = _s.scalar(_s.convert(self, value, "time", "t"), "t")
+        self._state.fstate[_nc.F_DT_REF] = 0.0  # restart the fixed-step clock here
 
     @property
     def collision(self) -> str:
-        return self._collision
+        """Collision mode: one of :data:`COLLISION_MODES`."""
+        return self._state.collision
 
     @collision.setter
     def collision(self, mode: str) -> None:
@@ -345,205 +254,62 @@ class Simulation:
             mode = "none"
         if mode not in COLLISION_MODES:
             raise InvalidInputError(f"collision must be one of {COLLISION_MODES}; got {mode!r}.")
-        self._collision = mode
-        self._istate[_nc.I_COLLISIONS] = 0 if mode == "none" else 1
-
-    @property
-    def restitution(self) -> float:
-        return self._restitution
-
-    @restitution.setter
-    def restitution(self, value) -> None:
-        value = float(value)
-        if not 0.0 <= value <= 1.0:
-            raise InvalidInputError(f"restitution must be in [0, 1]; got {fmt_number(value)}.")
-        self._restitution = value
-
-    @property
-    def encounter_distance(self):
-        d = self._fstate[_nc.F_ENCOUNTER]
-        return None if d <= 0 else float(d)
-
-    @encounter_distance.setter
-    def encounter_distance(self, value) -> None:
-        self._fstate[_nc.F_ENCOUNTER] = (
-            0.0 if value is None else self._distance(value, "encounter_distance", allow_zero=True)
-        )
-
-    @property
-    def exit_max_distance(self):
-        d = self._fstate[_nc.F_EXIT]
-        return None if d <= 0 else float(d)
-
-    @exit_max_distance.setter
-    def exit_max_distance(self, value) -> None:
-        self._fstate[_nc.F_EXIT] = (
-            0.0 if value is None else self._distance(value, "exit_max_distance", allow_zero=False)
-        )
-
-    def _distance(self, value, name, allow_zero):
-        d = self._length(value, name)
-        if not (d > 0 or (allow_zero and d == 0)):
-            bound = ">= 0" if allow_zero else "> 0"
-            raise InvalidInputError(
-                f"{name} must be a distance {bound} (or None to switch the check off); "
-                f"got {fmt_number(value)}."
-            )
-        return d
-
-    @property
-    def corrector(self) -> int:
-        """WHFast symplectic corrector order: 0 (none), 3, 5 or 7."""
-        return int(self._istate[_nc.I_CORRECTOR])
-
-    @corrector.setter
-    def corrector(self, order: int) -> None:
-        order = int(order)
-        if order not in (0, 3, 5, 7):
-            raise InvalidInputError(f"corrector must be 0, 3, 5 or 7; got {order!r}.")
-        if order != 0 and self.coordinates != "jacobi":
-            raise InvalidInputError(
-                f"corrector={order}: the symplectic correctors are derived for the Jacobi "
-                f"splitting (Kepler + interaction) and do not apply to {self.coordinates!r} "
-                "coordinates; use corrector=0, or coordinates='jacobi'."
-            )
-        self._istate[_nc.I_CORRECTOR] = order
-        self._istate[_nc.I_FRESH] = 1
-
-    @property
-    def coordinates(self) -> str:
-        """WHFast's coordinates: ``"jacobi"`` or ``"democratic_heliocentric"``; assigning resets
-        the integrator's internal state (REBOUND's ``"democraticheliocentric"`` is accepted)."""
-        code = int(self._istate[_nc.I_WH_COORDINATES])
-        return next(k for k, v in COORDINATES.items() if v == code)
-
-    @coordinates.setter
-    def coordinates(self, name: str) -> None:
-        key = parse_coordinates(name, self._integrator)
-        if key != "jacobi" and self.corrector != 0:
-            raise InvalidInputError(
-                f"coordinates={name!r} with corrector={self.corrector}: the symplectic "
-                "correctors apply to Jacobi coordinates only; set corrector=0 first."
-            )
-        self._istate[_nc.I_WH_COORDINATES] = COORDINATES[key]
-        self._istate[_nc.I_FRESH] = 1
-
-    @property
-    def adaptive_mode(self) -> str:
-        """IAS15 step-size control: ``"prs23"`` (Pham, Rein & Spiegel 2024; the default, as in
-        REBOUND: about half the steps of ``"rs15"`` on planetary systems at the same round-off
-        energy error) or ``"rs15"`` (Rein & Spiegel 2015's global ``max|b6| / max|a|``;
-        ``"global"`` is accepted as an alias)."""
-        return ("rs15", "prs23")[int(self._istate[_nc.I_ADAPTIVE_MODE])]
-
-    @adaptive_mode.setter
-    def adaptive_mode(self, mode: str) -> None:
-        if mode not in ("prs23", "rs15", "global"):
-            raise InvalidInputError(
-                f"adaptive_mode must be 'prs23' (default) or 'rs15' (alias 'global'); got {mode!r}."
-            )
-        self._istate[_nc.I_ADAPTIVE_MODE] = 1 if mode == "prs23" else 0
-
-    @property
-    def exact_finish_time(self) -> bool:
-        """True (default): land exactly on every requested time (with a shortened step of a copy
-        of the integrator's state, so the trajectory never depends on the output times). False:
-        return the state after the first step at or past each time."""
-        return bool(self._istate[_nc.I_EXACT_FINISH])
-
-    @exact_finish_time.setter
-    def exact_finish_time(self, value: bool) -> None:
-        self._istate[_nc.I_EXACT_FINISH] = 1 if value else 0
+        self._state.collision = mode
+        self._state.istate[_nc.I_COLLISIONS] = 0 if mode == "none" else 1
 
     # ---- unit helpers ----------------------------------------------------------------------------
-    def _convert(self, value, kind, name):
-        if hasattr(value, "unit"):
-            if self.units is None:
-                from ..errors import UnitsError
+    def time_value(self, value, name: str = "t") -> float:
+        """One time (a float in simulation units, or a Quantity of time when the simulation has
+        units) as a float in simulation units; ``name`` says what it is in error messages."""
+        return _s.scalar(_s.convert(self, value, "time", name), name)
 
-                raise UnitsError(
-                    f"{name} is a Quantity but the simulation has no units: create it with "
-                    "units=('au', 'yr', 'Msun') (any length, time, mass), or pass plain floats."
-                )
-            return getattr(self.units, f"{kind}_value")(value, name)
-        try:
-            arr = np.array(value, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InvalidInputError(
-                f"{name} must be a number or an array of numbers (simulation units, or a Quantity "
-                f"when the simulation has units); got {fmt_number(value)}."
-            ) from exc
-        if not np.all(np.isfinite(arr)):
-            raise InvalidInputError(f"{name} contains NaN or infinite values.")
-        return arr
-
-    def _length(self, value, name):
-        return _scalar(self._convert(value, "length", name), name)
-
-    def _time(self, value, name):
-        return self._convert(value, "time", name)
-
-    def _replace_state(self, attr, value, kind, name):
-        """Replace the state array ``attr`` (``"_x"`` or ``"_v"``) by ``value`` of the same shape.
-
-        Parameters
-        ----------
-        attr : str
-            The attribute holding the array, shape (N, 3).
-        value : array_like or Quantity
-            The new values (simulation units, or a Quantity of ``kind`` with units).
-        kind : str
-            ``"length"`` or ``"speed"``: the conversion :meth:`_convert` applies.
-        name : str
-            The public name, for messages.
-
-        The integrator restarts from the new state (its internal state is marked fresh).
-        """
-        current = getattr(self, attr)
-        arr = np.ascontiguousarray(self._convert(value, kind, name), dtype=np.float64)
+    def _replace_state(self, key, value, kind, name):
+        """Replace ``x`` or ``v`` (``key``) by ``value`` (simulation units or a Quantity of
+        ``kind``) of the same shape; the integrator restarts from the new state."""
+        current = getattr(self._state, key)
+        arr = np.ascontiguousarray(_s.convert(self, value, kind, name), dtype=np.float64)
         if arr.shape != current.shape:
             raise ShapeError(f"{name} must have shape {current.shape}; got {arr.shape}.")
-        setattr(self, attr, arr)
-        self._istate[_nc.I_FRESH] = 1
+        self._state.replace(key, arr)
 
     # ---- particles --------------------------------------------------------------------------------
     @property
     def N(self) -> int:
         """Number of particles."""
-        return int(self._m.shape[0])
+        return int(self._state.m.shape[0])
 
     @property
     def N_active(self) -> int:
         """Number of massive particles (the others are test particles)."""
-        return int(np.count_nonzero(self._m))
+        return int(np.count_nonzero(self._state.m))
 
     @property
     def positions(self) -> np.ndarray:
         """Positions, shape (N, 3), simulation units (a copy)."""
-        return self._x.copy()
+        return self._state.x.copy()
 
     @positions.setter
     def positions(self, value) -> None:
-        self._replace_state("_x", value, "length", "positions")
+        self._replace_state("x", value, "length", "positions")
 
     @property
     def velocities(self) -> np.ndarray:
         """Velocities, shape (N, 3), simulation units (a copy)."""
-        return self._v.copy()
+        return self._state.v.copy()
 
     @velocities.setter
     def velocities(self, value) -> None:
-        self._replace_state("_v", value, "speed", "velocities")
+        self._replace_state("v", value, "speed", "velocities")
 
     @property
     def masses(self) -> np.ndarray:
         """Masses, shape (N,), simulation units (a copy)."""
-        return self._m.copy()
+        return self._state.m.copy()
 
     @property
     def radii(self) -> np.ndarray:
         """Collision radii, shape (N,)."""
-        return self._radius.copy()
+        return self._state.radius.copy()
 
     def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=0.0, inc=0.0,
             raan=0.0, argp=0.0, nu=None, mean_anomaly=None, p=None, M=None):
@@ -580,82 +346,36 @@ class Simulation:
             if mean_anomaly is not None:
                 raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
             mean_anomaly = M
-        m_val = _scalar(self._convert(m, "mass", "m"), "m")
+        m_val = _s.scalar(_s.convert(self, m, "mass", "m"), "m")
         if not m_val >= 0:
             raise InvalidInputError(f"mass must be >= 0; got {fmt_number(m)}.")
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
-            rr, vv = self._from_elements(m_val, primary, a, e, inc, raan, argp, nu, mean_anomaly, p)
+            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
+                                       mean_anomaly, p)
         else:
-            rr = np.zeros(3) if r is None else self._convert(r, "length", "r")
-            vv = np.zeros(3) if v is None else self._convert(v, "speed", "v")
+            rr = np.zeros(3) if r is None else _s.convert(self, r, "length", "r")
+            vv = np.zeros(3) if v is None else _s.convert(self, v, "speed", "v")
         rr = np.asarray(rr, dtype=np.float64).reshape(-1)
         vv = np.asarray(vv, dtype=np.float64).reshape(-1)
         if rr.shape != (3,) or vv.shape != (3,):
             raise ShapeError(f"r and v must have shape (3,); got {rr.shape} and {vv.shape}.")
-        rad = self._length(radius, "radius")
+        rad = _s.length(self, radius, "radius")
         if not rad >= 0:
             raise InvalidInputError(f"radius must be >= 0; got {fmt_number(radius)}.")
-        self._x = np.ascontiguousarray(np.vstack([self._x, rr]))
-        self._v = np.ascontiguousarray(np.vstack([self._v, vv]))
-        self._m = np.append(self._m, m_val)
-        self._radius = np.append(self._radius, rad)
-        self._particles_changed()
+        self._state.append(rr, vv, m_val, rad)
         return self.N - 1
-
-    def _from_elements(self, m, primary, a, e, inc, raan, argp, nu, M, p):
-        if self.N == 0:
-            raise InvalidInputError("add a primary (a particle with mass) before adding by elements.")
-        if primary is None or (isinstance(primary, str) and primary == "com"):
-            mp = self._m.sum()
-            xp = (self._m[:, None] * self._x).sum(0) / mp if mp > 0 else self._x.mean(0)
-            vp = (self._m[:, None] * self._v).sum(0) / mp if mp > 0 else self._v.mean(0)
-        else:
-            i = int(primary)
-            mp, xp, vp = self._m[i], self._x[i], self._v[i]
-        gm = self.G * (mp + m)
-        if not gm > 0:
-            raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
-        e = float(e)
-        if e < 0:
-            raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
-        if p is None:
-            a = float(self._length(a, "a"))
-            if e == 1.0:
-                raise InvalidInputError("a parabola has no semi-major axis: give p instead of a.")
-            p = a * (1.0 - e * e)
-        else:
-            p = float(self._length(p, "p"))
-        if not p > 0:
-            raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {fmt_number(p)}.")
-        if nu is None:
-            if M is None:
-                nu = 0.0
-            else:
-                if e >= 1:
-                    raise InvalidInputError("give nu (not mean_anomaly) for open orbits.")
-                nu, status = _kepler.mean_to_true_anomaly(float(M), e)
-                raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
-        *state, status = _elements.coe_to_rv(
-            p, e, float(inc), float(raan), float(argp), float(nu), gm
-        )
-        raise_for_status(np.array([status]), "orbital elements to state", p=p, e=e, nu=nu)
-        return xp + np.array(state[:3]), vp + np.array(state[3:])
 
     def remove(self, index: int) -> None:
         """Remove particle ``index`` (later indices shift down by one)."""
-        keep = np.ones(self.N, bool)
-        keep[int(index)] = False
-        self._x = np.ascontiguousarray(self._x[keep])
-        self._v = np.ascontiguousarray(self._v[keep])
-        self._m = self._m[keep].copy()
-        self._radius = self._radius[keep].copy()
-        self._particles_changed()
+        self._state.remove(index)
 
-    def _particles_changed(self):
-        self._buf = None
-        self._istate[_nc.I_FRESH] = 1
+    def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
+        """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision
+        ``radius`` of particle ``index`` in place (simulation units); the integrator restarts
+        from the changed state (as after a collision)."""
+        self._state.set_particle(int(index), m=m, r=r, v=v, radius=radius)
 
     # ---- forces ---------------------------------------------------------------------------------
     @property
@@ -714,27 +434,90 @@ class Simulation:
         return self._fused, flat
 
     # ---- integration -----------------------------------------------------------------------------
-    def _ensure_buf(self):
-        n_buf = self._integrator.n_buf
-        if self._buf is None or self._buf.shape != (n_buf, self.N, 3):
-            self._buf = np.zeros((n_buf, self.N, 3))
-            self._istate[_nc.I_FRESH] = 1
-
     def _use_parallel(self) -> bool:
         return bool(self.parallel) if self.parallel is not None else self.N >= _PARALLEL_AUTO_N
 
     def _initial_dt(self) -> float:
         """A first guess for IAS15 when no dt was given: 1e-3 of the shortest two-body time."""
-        mi = np.flatnonzero(self._m)
+        x, m = self._state.x, self._state.m
+        mi = np.flatnonzero(m)
         if len(mi) == 0:
             return 0.0
-        x = self._x[:300]  # a sample keeps this cheap for large N
-        d = np.linalg.norm(x[:, None, :] - self._x[None, mi[:300], :], axis=-1)
-        msum = self._m[:300, None] + self._m[None, mi[:300]]
+        d = np.linalg.norm(x[:300, None, :] - x[None, mi[:300], :], axis=-1)  # a sample: cheap
+        msum = m[:300, None] + m[None, mi[:300]]
         with np.errstate(divide="ignore", invalid="ignore"):
             tau = np.sqrt(d**3 / (self.G * msum))
         tau = tau[np.isfinite(tau) & (tau > 0)]
         return 1e-3 * float(tau.min()) if tau.size else 0.0
+
+    def _begin_run(self, t) -> np.ndarray:
+        """Check a run to ``t`` can start and set up what it needs once; the output times.
+
+        Shared with :class:`visviva.Ensemble`, which runs every member's kernel itself.
+        """
+        times = np.ascontiguousarray(np.atleast_1d(_s.convert(self, t, "time", "t")).astype(np.float64))
+        if times.ndim != 1:
+            raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
+        if self.N == 0:
+            raise InvalidInputError("the simulation has no particles: add some with sim.add(...).")
+        _events.check_not_coincident(self._state, "integrate")
+        steps = np.diff(np.concatenate([[self.t], times]))
+        if not (np.all(steps >= 0) or np.all(steps <= 0)):
+            raise InvalidInputError(
+                "output times must be monotonic in one direction from the current time "
+                f"t = {fmt_number(self.t)}; sort them (or integrate backwards in a separate call)."
+            )
+        info = self._integrator
+        if info.needs_dt and self.dt == 0.0:
+            raise InvalidInputError(
+                f"the {info.name!r} integrator needs a time step: Simulation(..., dt=...) or "
+                "sim.dt = ... (e.g. 1/20 of the shortest orbital period)."
+            )
+        if info.name == "whfast" and self._state.m[0] <= 0:
+            raise InvalidInputError(
+                f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
+                "coordinates): add the star first."
+            )
+        if info.adaptive and self.dt == 0.0:
+            self._state.fstate[_nc.F_DT] = self._initial_dt()
+        self._state.istate[_nc.I_NOUT] = 0
+        return times
+
+    def _kernel_inputs(self, parallel: bool | None = None):
+        """Make the state ready for one kernel call; returns the force, its parameters and the
+        indices of the massive particles.
+
+        ``parallel`` overrides the simulation's choice of gravity kernel (both give the same
+        bits). Shared with :class:`visviva.Ensemble`.
+        """
+        st = self._state
+        st.ensure_buf(self._integrator.n_buf)
+        fn, params = self._force_args()
+        use_parallel = self._use_parallel() if parallel is None else parallel
+        st.istate[_nc.I_PARALLEL] = 1 if use_parallel else 0
+        st.istate[_nc.I_VELOCITY_DEPENDENT] = int(any(f.velocity_dependent for f in self._forces))
+        st.massive = _gravity.massive_indices(st.m)
+        st.work()
+        return fn, params, st.massive
+
+    def _after_kernel(self, status: int) -> bool:
+        """Act on a kernel's status: True when the run is done, False to call it again (after a
+        pause or a resolved merger/bounce); raises on events. Shared with the ensembles."""
+        st = self._state
+        if status == _st.OK:
+            if not (np.all(np.isfinite(st.x)) and np.all(np.isfinite(st.v))):
+                _events.raise_non_finite(self._state, self.integrator)
+            return True
+        if status == _nc.PAUSED:
+            return False
+        if status == _st.COLLISION and self.collision in ("merge", "bounce"):
+            from .collisions import resolve
+
+            i, j = int(st.istate[_nc.I_EVENT_A]), int(st.istate[_nc.I_EVENT_B])
+            self._removed = resolve(self, i, j)
+            st.mark_fresh()
+            return False
+        _events.raise_event(self._state, status, self.integrator)
 
     def integrate(self, t, *, progress: bool = False):
         """Integrate to the absolute time ``t`` (or through an array of output times).
@@ -764,33 +547,19 @@ class Simulation:
             When massive particles sit at exactly the same position without softening, or a
             force gives NaN/infinite accelerations.
         """
+        if self.backend == "cuda":
+            from .gpu import integrate_simulation
+
+            return integrate_simulation(self, t)
         scalar = np.ndim(t) == 0
-        times = np.ascontiguousarray(np.atleast_1d(self._time(t, "t")).astype(np.float64))
-        if times.ndim != 1:
-            raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
-        if self.N == 0:
-            raise InvalidInputError("the simulation has no particles: add some with sim.add(...).")
-        self._check_not_coincident("integrate")
-        steps = np.diff(np.concatenate([[self.t], times]))
-        if not (np.all(steps >= 0) or np.all(steps <= 0)):
-            raise InvalidInputError(
-                "output times must be monotonic in one direction from the current time "
-                f"t = {fmt_number(self.t)}; sort them (or integrate backwards in a separate call)."
-            )
+        times = self._begin_run(t)
+        st = self._state
         info = self._integrator
-        if info.needs_dt and self.dt == 0.0:
-            raise InvalidInputError(
-                f"the {info.name!r} integrator needs a time step: Simulation(..., dt=...) or "
-                "sim.dt = ... (e.g. 1/20 of the shortest orbital period)."
-            )
-        if info.adaptive and self.dt == 0.0:
-            self._fstate[_nc.F_DT] = self._initial_dt()
         T = len(times)
         out_x = np.full((T, self.N, 3), np.nan)
         out_v = np.full((T, self.N, 3), np.nan)
-        masses0 = self._m.copy()
+        masses0 = st.m.copy()
         alive = np.arange(self.N)  # original index of each current particle
-        self._istate[_nc.I_NOUT] = 0
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -800,114 +569,37 @@ class Simulation:
         chunk_x = np.empty((T, self.N, 3))
         chunk_v = np.empty((T, self.N, 3))
         out_t = times.copy()
-        if info.name == "whfast" and self._m[0] <= 0:
-            raise InvalidInputError(
-                f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
-                "coordinates): add the star first."
-            )
         try:
             while True:
-                self._ensure_buf()
-                fn, params = self._force_args()
-                self._istate[_nc.I_PARALLEL] = 1 if self._use_parallel() else 0
-                self._istate[_nc.I_VELOCITY_DEPENDENT] = int(
-                    any(f.velocity_dependent for f in self._forces)
-                )
-                self._massive = _gravity.massive_indices(self._m)
-                if progress:
-                    self._istate[_nc.I_STOP_AT_STEP] = self._istate[_nc.I_STEPS] + 2000
-                else:
-                    self._istate[_nc.I_STOP_AT_STEP] = 0
-                done0 = int(self._istate[_nc.I_NOUT])
+                fn, params, _ = self._kernel_inputs()
+                stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
+                st.istate[_nc.I_STOP_AT_STEP] = stop
+                done0 = int(st.istate[_nc.I_NOUT])
                 status = int(info.kernel()(
-                    self._x, self._v, self._m, self._massive, self._radius, self._fstate,
-                    self._istate, self._buf, self._gwork(), fn, params, times, out_t, chunk_x, chunk_v,
+                    st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
+                    st.gwork, fn, params, times, out_t, chunk_x, chunk_v,
                 ))
-                done = int(self._istate[_nc.I_NOUT])
+                done = int(st.istate[_nc.I_NOUT])
                 if done > done0:
                     out_x[done0:done, alive] = chunk_x[done0:done]
                     out_v[done0:done, alive] = chunk_v[done0:done]
                 if bar is not None:
                     bar.n = abs(self.t - t_start)
                     bar.refresh()
-                if status == _st.OK:
-                    if not (np.all(np.isfinite(self._x)) and np.all(np.isfinite(self._v))):
-                        self._raise_non_finite()
+                self._removed = None
+                if self._after_kernel(status):
                     break
-                if status == _nc.PAUSED:
-                    continue
-                if status == _st.COLLISION and self.collision in ("merge", "bounce"):
-                    i, j = int(self._istate[_nc.I_EVENT_A]), int(self._istate[_nc.I_EVENT_B])
-                    from .collisions import resolve
-
-                    removed = resolve(self, i, j)
-                    if removed is not None:
-                        alive = np.delete(alive, removed)
-                        chunk_x = np.empty((T, self.N, 3))
-                        chunk_v = np.empty((T, self.N, 3))
-                    self._istate[_nc.I_FRESH] = 1
-                    continue
-                self._raise_event(status)
+                if self._removed is not None:
+                    alive = np.delete(alive, self._removed)
+                    chunk_x = np.empty((T, self.N, 3))
+                    chunk_v = np.empty((T, self.N, 3))
         finally:
-            self._istate[_nc.I_STOP_AT_STEP] = 0
+            st.istate[_nc.I_STOP_AT_STEP] = 0
             if bar is not None:
                 bar.close()
         if scalar:
             return None
         return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
-
-    def _raise_non_finite(self):
-        self._check_not_coincident(f"{self.integrator} integration")
-        raise InvalidStateError(
-            f"the {self.integrator} integration produced NaN or infinite accelerations, "
-            f"positions or velocities (by t = {fmt_number(self.t)}): a force overflowed or was singular. "
-            "To fix: check the additional forces, use a smaller dt, softening > 0, or collision "
-            "detection (radius=..., collision='merge')."
-        )
-
-    def _check_not_coincident(self, what):
-        """Raise InvalidStateError when massive particles share a position without softening."""
-        pairs = coincident_pairs(self._x, self._m, self._fstate[_nc.F_SOFT2])
-        if pairs:
-            raise InvalidStateError(
-                f"{what}: particles {pairs[0]} are at exactly the same position "
-                f"{self._x[pairs[0][0]].tolist()} at t = {fmt_number(self.t)}, where the point-mass "
-                "gravity (and the potential energy) is infinite. To fix: separate them, set "
-                "softening > 0, or give them radii with collision='merge'."
-            )
-
-    def _gwork(self):
-        w = getattr(self, "_gwork_arr", None)
-        if w is None or w.shape[1] != self.N:
-            w = self._gwork_arr = np.zeros((7, self.N))
-        return w
-
-    def _raise_event(self, status):
-        from ..errors import STATUS_TABLE, Encounter, Escape
-
-        a, b = int(self._istate[_nc.I_EVENT_A]), int(self._istate[_nc.I_EVENT_B])
-        if status in (_st.COLLISION, _st.ENCOUNTER, _st.ESCAPE):
-            cls = {_st.COLLISION: Collision, _st.ENCOUNTER: Encounter, _st.ESCAPE: Escape}[status]
-            what = STATUS_TABLE[status][1]
-            parts = (a,) if b < 0 else (a, b)
-            raise cls(f"{what} at t = {fmt_number(self.t)}: particles {parts}. The simulation stopped "
-                      "there and can be continued.", t=self.t, particles=parts)
-        if status == _st.STEP_TOO_SMALL:
-            self._check_not_coincident(f"{self.integrator} integration")
-            floor = float(self._fstate[_nc.F_DT_FLOOR])
-            failed = float(self._fstate[_nc.F_DT_FAILED])
-            detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
-            raise StepSizeError(
-                f"{self.integrator} integration stopped at t = {fmt_number(self.t)}: the adaptive step fell "
-                f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "
-                "span): the run could not finish. Particles are probably (nearly) colliding or a "
-                "force is singular. To fix: give the particles radii and collision='merge' or "
-                "'bounce' (or 'halt'), set softening > 0, separate the particles, or integrate a "
-                "shorter span."
-            )
-        if status == _st.NON_FINITE:
-            self._raise_non_finite()
-        raise_for_status(np.array([status]), f"{self.integrator} integration to t")
 
     # ---- diagnostics -----------------------------------------------------------------------------
     def energy(self, include_offset: bool = True) -> float:
@@ -916,43 +608,44 @@ class Simulation:
         With ``include_offset`` the energy removed by mergers and inelastic bounces
         (``energy_offset``) is added back, so that the sum stays constant.
         """
-        self._check_not_coincident("energy")
-        E = float(_gravity.energy(self._x, self._v, self._m, self.G, self._fstate[_nc.F_SOFT2]))
+        _events.check_not_coincident(self._state, "energy")
+        E = float(_gravity.energy(self._state.x, self._state.v, self._state.m, self.G, self._state.fstate[_nc.F_SOFT2]))
         return E + (self.energy_offset if include_offset else 0.0)
 
     def angular_momentum(self) -> np.ndarray:
         """Total angular momentum ``sum m r x v`` about the origin, shape (3,)."""
-        return (self._m[:, None] * np.cross(self._x, self._v)).sum(0)
+        return (self._state.m[:, None] * np.cross(self._state.x, self._state.v)).sum(0)
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum ``sum m v``, shape (3,)."""
-        return (self._m[:, None] * self._v).sum(0)
+        return (self._state.m[:, None] * self._state.v).sum(0)
 
     def center_of_mass(self) -> tuple[np.ndarray, np.ndarray]:
         """Position and velocity of the centre of mass, each shape (3,)."""
-        M = self._m.sum()
+        M = self._state.m.sum()
         if M == 0:
             raise InvalidInputError("the particles have no mass: the centre of mass is undefined.")
-        return (self._m[:, None] * self._x).sum(0) / M, (self._m[:, None] * self._v).sum(0) / M
+        return (self._state.m[:, None] * self._state.x).sum(0) / M, (self._state.m[:, None] * self._state.v).sum(0) / M
 
     def move_to_com(self) -> None:
         """Shift to the centre-of-mass frame (position and velocity of the COM become zero)."""
         xc, vc = self.center_of_mass()
-        self._x = np.ascontiguousarray(self._x - xc)
-        self._v = np.ascontiguousarray(self._v - vc)
-        self._istate[_nc.I_FRESH] = 1
+        self._state.replace("x", self._state.x - xc)
+        self._state.replace("v", self._state.v - vc)
 
     def copy(self) -> Simulation:
         """A deep copy (same state, same integrator internals)."""
         import copy
 
         new = copy.copy(self)
-        for name in ("_x", "_v", "_m", "_radius", "_fstate", "_istate"):
-            setattr(new, name, getattr(self, name).copy())
-        new._buf = None if self._buf is None else self._buf.copy()
+        new._state = self._state.copy()
         new._forces = list(self._forces)
-        new._gwork_arr = None
         return new
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_fused"] = None  # a compiled closure: rebuilt on first use after unpickling
+        return state
 
     def __repr__(self) -> str:
         return (f"<Simulation {self.integrator} N={self.N} (active {self.N_active}) "

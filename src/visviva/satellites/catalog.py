@@ -484,7 +484,8 @@ def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
     return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
 
 
-def propagate_kepler_batch(states, t, *, on_error: str = "raise") -> BatchStates:
+def propagate_kepler_batch(states, t, *, on_error: str = "raise",
+                           backend: str = "cpu") -> BatchStates:
     """Two-body motion of N states to T times (universal variables, every conic).
 
     Parameters
@@ -497,6 +498,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise") -> BatchStates
         Absolute times.
     on_error : {"raise", "nan"}
         As in :func:`propagate_sgp4_batch`.
+    backend : {"cpu", "cuda"}
+        ``"cuda"``: the same solver compiled for an NVIDIA GPU from the same source
+        (:mod:`visviva.core.cuda.twins`; extra ``visviva[gpu]``), one thread per pair; raises
+        :class:`visviva.errors.BackendUnavailableError` saying what is missing without one.
 
     Returns
     -------
@@ -508,8 +513,12 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise") -> BatchStates
     Calls :func:`visviva.core.universal.propagate_many` once over the N*T pairs (Danby 1992,
     sec. 6.9; Vallado 2013, Algorithm 8).
     """
-    from ..core.universal import propagate_many
+    from .._backends import check_backend
 
+    if check_backend(backend) == "cuda":
+        from ..core.cuda.kernels import propagate_many
+    else:
+        from ..core.universal import propagate_many
     _check_on_error(on_error)
     t = _absolute_times(t, "propagate_kepler_batch")
     if isinstance(states, (Catalog, Satellite, list, tuple)):

@@ -29,6 +29,8 @@ import uuid
 import numpy as np
 from astropy.time import Time
 
+from .._dask import close_local_cluster, get_client
+from .._dask import require_dask as _require_dask
 from .._units import to_quantity
 from ..errors import InvalidInputError
 from .catalog import (
@@ -47,87 +49,6 @@ __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "
 _METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
 #: objects per Cowell block when ``chunks`` is not given: several blocks per worker
 _COWELL_CHUNK = 256
-_LOCAL = {}
-
-
-def _require_dask():
-    try:
-        import dask.array  # noqa: F401
-        import distributed  # noqa: F401
-    except ImportError as exc:  # pragma: no cover - the scale extra is installed in CI
-        raise ImportError(
-            "the Dask batch needs dask[array,distributed]: pip install 'visviva[scale]'"
-        ) from exc
-
-
-def get_client(address: str | None = None, *, n_workers: int | None = None,
-               processes: bool = True, threads_per_worker: int = 1):
-    """A ``dask.distributed.Client``: to ``address`` if given, else the current client, else a
-    ``LocalCluster`` started once and reused.
-
-    Parameters
-    ----------
-    address : str, optional
-        Scheduler address of an existing cluster, e.g. ``"tcp://10.0.0.5:8786"``.
-    n_workers : int, optional
-        Workers of the LocalCluster started when no address is given and no client exists
-        (default: one per CPU core available to this process).
-    processes : bool
-        Process workers (default): real parallelism for sgp4's C++ loop (which holds the GIL)
-        and the compiled integrators, at the price of sending results between processes.
-        ``False`` runs thread workers in this process (no copies, no parallel sgp4).
-    threads_per_worker : int
-        Threads per worker; each process worker's numba uses as many
-        (``NUMBA_NUM_THREADS``), so workers do not oversubscribe the cores.
-
-    Returns
-    -------
-    distributed.Client
-    """
-    _require_dask()
-    from distributed import Client, LocalCluster
-
-    if address is not None:
-        key = ("address", address)
-        if key not in _LOCAL or _LOCAL[key].status == "closed":
-            _LOCAL[key] = Client(address)
-        return _LOCAL[key]
-    try:
-        from distributed import get_client as current
-
-        return current()
-    except ValueError:
-        pass
-    if n_workers is None:
-        import os
-
-        n_workers = max(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                        else (os.cpu_count() or 1), 1)
-    key = ("local", n_workers, processes, threads_per_worker)
-    client = _LOCAL.get(key)
-    if client is None or client.status == "closed":
-        import dask
-
-        extra = {"env": {"NUMBA_NUM_THREADS": str(threads_per_worker)}} if processes else {}
-        # the workers' statistical profiler samples every 10 ms: CPU the compute could use
-        with dask.config.set({"distributed.worker.profile.enabled": False}):
-            cluster = LocalCluster(
-                n_workers=n_workers, processes=processes, threads_per_worker=threads_per_worker,
-                dashboard_address=None, **extra,
-            )
-        client = Client(cluster)
-        _LOCAL[key] = client
-    return client
-
-
-def close_local_cluster() -> None:
-    """Close the clients (and LocalClusters) this module started."""
-    for client in list(_LOCAL.values()):
-        cluster = client.cluster
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    _LOCAL.clear()
 
 
 #: numba's parallel kernels (J2, Kepler) already use every core, and numba's "workqueue"

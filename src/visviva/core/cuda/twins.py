@@ -1,0 +1,60 @@
+"""Device twins of the CPU's scalar kernels: the same Python source compiled for the GPU.
+
+:func:`device_twin` takes a compiled scalar kernel (a numba dispatcher whose helpers are other
+dispatchers) and returns ``numba.cuda.jit(device=True)`` of the same source, with every helper it
+calls replaced by its own device twin (recursively, each built once) and the fused multiply-add
+intrinsic by libdevice's ``fma``. The arithmetic is then written once: the CPU keeps its kernels
+as they are, the GPU compiles the same functions.
+"""
+
+from __future__ import annotations
+
+import types
+
+from numba import cuda
+from numba.core.registry import CPUDispatcher
+
+from .. import _intrinsics
+
+__all__ = ["device_twin"]
+
+_TWINS: dict = {}
+
+
+def _fma():
+    """The device's fused multiply-add: libdevice's on a GPU; under the simulator (device code
+    runs as Python) the exact pure-Python one."""
+    from . import simulator
+
+    if simulator():
+        return _intrinsics.fma_py
+    from numba.cuda import libdevice
+
+    return libdevice.fma
+
+
+def _names(code):
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _names(const)
+    return names
+
+
+def device_twin(dispatcher):
+    """``cuda.jit(device=True)`` of ``dispatcher``'s Python source, helpers rebound to twins."""
+    key = id(dispatcher)
+    if key in _TWINS:
+        return _TWINS[key]
+    fn = dispatcher.py_func
+    scope = dict(fn.__globals__)
+    for name in _names(fn.__code__):
+        value = scope.get(name)
+        if value is _intrinsics.fma:
+            scope[name] = _fma()
+        elif isinstance(value, CPUDispatcher):
+            scope[name] = device_twin(value)
+    source = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
+    twin = cuda.jit(device=True)(source)
+    _TWINS[key] = twin
+    return twin

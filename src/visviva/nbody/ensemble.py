@@ -1,0 +1,355 @@
+"""Many independent simulations advanced together: :class:`Ensemble`.
+
+Stability maps, Monte Carlo over uncertain masses and orbits, and clone studies run thousands of
+small systems. ``vv.Ensemble.from_simulations(sims)`` takes any number of
+:class:`~visviva.Simulation` objects with the same integrator (any N per member: the members are
+packed one after another, ragged) and :meth:`Ensemble.integrate` advances all of them to the same
+absolute time in ONE compiled call, in parallel over the members
+(:func:`visviva.core.nbody_ensemble.ensemble_run`). Each member runs the very kernel a lone
+:class:`~visviva.Simulation` runs, on the same numbers, so its result equals running it alone
+bit for bit. With ``client=`` the members are cut into blocks that run on Dask workers (processes),
+with identical results.
+
+A member that meets an event (collision, encounter, escape) is handled as
+:meth:`visviva.Simulation.integrate` handles it: mergers and bounces are resolved and the member
+continues; ``"halt"``, encounters and escapes stop that member at the event while the others
+finish, and the first such exception is raised afterwards with the member's index in
+``exc.member`` (the indices of every member that stopped in ``exc.members``, and in its notes).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+from ..errors import InvalidInputError, ShapeError
+from .gpu import check_backend
+from .integrators import _compiled
+from .simulation import Simulation
+
+__all__ = ["Ensemble"]
+
+ENSEMBLE_FORMAT = "visviva.nbody.ensemble"
+ENSEMBLE_VERSION = 1
+
+
+def _ensemble_kernel():
+    from ..core.nbody_ensemble import ENSEMBLE_SIGNATURE
+
+    return _compiled("visviva.core.nbody_ensemble", "ensemble_run", ENSEMBLE_SIGNATURE)
+
+
+def _force_key(sim) -> tuple:
+    """Members whose additional forces are the same compiled functions share one kernel call."""
+    return tuple(id(f.fn) for f in sim.forces)
+
+
+class Ensemble:
+    """Many independent N-body simulations with the same integrator, advanced together.
+
+    Build one with :meth:`from_simulations`. The ensemble owns copies of the simulations it was
+    given; ``ens[i]`` and :meth:`to_simulations` return copies again.
+
+    Parameters
+    ----------
+    members : list of Simulation
+        The members (taken over, not copied: use :meth:`from_simulations`).
+    backend : str
+        ``"cpu"`` (numba threads over the members) or ``"cuda"`` (one GPU thread per member;
+        leapfrog only so far, see :mod:`visviva.nbody.gpu`).
+
+    Examples
+    --------
+    >>> import visviva as vv
+    >>> sims = []
+    >>> for a in (1.0, 1.5, 2.0):
+    ...     sim = vv.Simulation("whfast", dt=0.01)
+    ...     indices = [sim.add(1.0), sim.add(1e-3, a=a, primary=0)]
+    ...     sims.append(sim)
+    >>> ens = vv.Ensemble.from_simulations(sims)
+    >>> ens.integrate(10.0)
+    >>> len(ens), ens.t.tolist()
+    (3, [10.0, 10.0, 10.0])
+    >>> alone = sims[1].copy()
+    >>> alone.integrate(10.0)
+    >>> bool((ens[1].positions == alone.positions).all())
+    True
+    """
+
+    def __init__(self, members, backend: str = "cpu"):
+        self._members = list(members)
+        self.backend = backend
+
+    @classmethod
+    def from_simulations(cls, sims, backend: str = "cpu") -> Ensemble:
+        """An ensemble of copies of ``sims``.
+
+        Parameters
+        ----------
+        sims : sequence of Simulation
+            At least one; all with the same integrator; any number of particles each.
+        backend : str
+            ``"cpu"`` (default) or ``"cuda"`` (leapfrog members; see :mod:`visviva.nbody.gpu`);
+            ``"cuda"`` raises :class:`visviva.errors.BackendUnavailableError` saying what is
+            missing when there is no usable GPU or numba-cuda is not installed.
+
+        Returns
+        -------
+        Ensemble
+        """
+        sims = list(sims)
+        if not sims:
+            raise InvalidInputError("an Ensemble needs at least one Simulation.")
+        for k, sim in enumerate(sims):
+            if not isinstance(sim, Simulation):
+                raise InvalidInputError(
+                    f"member {k} is a {type(sim).__name__}, not a visviva.Simulation."
+                )
+            if sim.N == 0:
+                raise InvalidInputError(f"member {k} has no particles: add some first.")
+        names = sorted({s.integrator for s in sims})
+        if len(names) > 1:
+            raise InvalidInputError(
+                f"the members use different integrators {names}: an ensemble advances members "
+                "of one integrator; make one ensemble per integrator."
+            )
+        backend = check_backend(backend, names[0])
+        return cls([s.copy() for s in sims], backend)
+
+    # ---- members ---------------------------------------------------------------------------------
+    def __len__(self) -> int:
+        return len(self._members)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return Ensemble([s.copy() for s in self._members[index]], self.backend)
+        return self._members[int(index)].copy()
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    def to_simulations(self) -> list:
+        """Copies of the members as :class:`~visviva.Simulation` objects, in order."""
+        return [s.copy() for s in self._members]
+
+    def __repr__(self) -> str:
+        n = self.n_particles
+        return (f"<Ensemble {len(self)} x {self.integrator} N={n.min()}..{n.max()} "
+                f"backend={self.backend}>")
+
+    @property
+    def integrator(self) -> str:
+        """The members' integrator."""
+        return self._members[0].integrator
+
+    @property
+    def t(self) -> np.ndarray:
+        """Time of each member, shape (M,) (simulation units)."""
+        return np.array([s.t for s in self._members])
+
+    @property
+    def n_particles(self) -> np.ndarray:
+        """Number of particles of each member, shape (M,)."""
+        return np.array([s.N for s in self._members], dtype=np.int64)
+
+    def _padded(self, name, width):
+        n = self.n_particles
+        out = np.full((len(self), int(n.max())) + width, np.nan)
+        for k, s in enumerate(self._members):
+            out[k, : n[k]] = getattr(s, name)
+        return out
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Positions, shape (M, N_max, 3) (simulation units); rows past a member's N are NaN."""
+        return self._padded("positions", (3,))
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Velocities, shape (M, N_max, 3) (simulation units); rows past a member's N are NaN."""
+        return self._padded("velocities", (3,))
+
+    @property
+    def masses(self) -> np.ndarray:
+        """Masses, shape (M, N_max) (simulation units); entries past a member's N are NaN."""
+        return self._padded("masses", ())
+
+    def energy(self, include_offset: bool = True) -> np.ndarray:
+        """Total energy of each member, shape (M,) (simulation units; see
+        :meth:`visviva.Simulation.energy`)."""
+        return np.array([s.energy(include_offset) for s in self._members])
+
+    # ---- integration -----------------------------------------------------------------------------
+    def integrate(self, t, client=None) -> None:
+        """Integrate every member to the absolute time ``t``.
+
+        Parameters
+        ----------
+        t : float or Quantity
+            Absolute time (simulation units, or a Quantity for members with units).
+        client : dask.distributed.Client, str or True, optional
+            Spread blocks of members over Dask workers: a client, a scheduler address
+            (``"tcp://host:8786"``), or ``True``/``"local"`` for a ``LocalCluster`` of two
+            process workers (started once and reused). Each worker advances its block as an
+            ensemble with as many numba threads as the worker has threads. The results are
+            identical to ``client=None`` (this process, numba threads over the members).
+
+        Raises
+        ------
+        Collision, Encounter, Escape, StepSizeError, InvalidStateError
+            As :meth:`visviva.Simulation.integrate`, for the first member that met one (its index
+            in ``exc.member``); the other members have reached ``t``.
+        """
+        if np.ndim(t) != 0:
+            raise ShapeError(
+                f"Ensemble.integrate takes one time for every member; got shape {np.shape(t)}. "
+                "For snapshots, call it once per output time."
+            )
+        if client is not None:
+            from .ensemble_dask import integrate_on_dask
+
+            errors = integrate_on_dask(self, t, client)
+        else:
+            errors = self._integrate_here(t)
+        _raise_first(errors)
+
+    def _integrate_here(self, t) -> list:
+        """Advance every member in this process; returns ``[(member, exception), ...]``."""
+        if self.backend == "cuda":
+            from .gpu import integrate_ensemble
+
+            return integrate_ensemble(self, t)
+        errors = []
+        groups: dict = {}
+        for k, sim in enumerate(self._members):
+            try:
+                times = sim._begin_run(t)
+            except Exception as exc:
+                errors.append((k, exc))
+                continue
+            groups.setdefault((_force_key(sim), times.tobytes()), []).append(k)
+        for (_, times_bytes), ks in groups.items():
+            times = np.frombuffer(times_bytes, dtype=np.float64).copy()
+            status = self._run_group(ks, times)
+            for k, code in zip(ks, status.tolist(), strict=True):
+                sim = self._members[k]
+                try:
+                    if not sim._after_kernel(int(code)):
+                        sim.integrate(t)  # a merger or bounce was resolved: finish alone
+                except Exception as exc:
+                    errors.append((k, exc))
+        return sorted(errors, key=lambda e: e[0])
+
+    def _run_group(self, ks, times) -> np.ndarray:
+        """One compiled call over the members ``ks`` (same forces, same output times)."""
+        members = [self._members[k] for k in ks]
+        info = members[0].integrator_info
+        n_buf = info.n_buf
+        inputs = [s._kernel_inputs(parallel=False) for s in members]
+        arrays = [s.state_arrays() for s in members]
+        n = np.array([s.N for s in members], dtype=np.int64)
+        poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
+        moff = np.concatenate([[0], np.cumsum([len(i[2]) for i in inputs])]).astype(np.int64)
+        qoff = np.concatenate([[0], np.cumsum([len(i[1]) for i in inputs])]).astype(np.int64)
+
+        def cat(key):
+            return np.ascontiguousarray(np.concatenate([a[key] for a in arrays]))
+
+        x, v, m, radius = cat("x"), cat("v"), cat("m"), cat("radius")
+        fstate = np.ascontiguousarray(np.stack([a["fstate"] for a in arrays]))
+        istate = np.ascontiguousarray(np.stack([a["istate"] for a in arrays]))
+        buf = np.concatenate([a["buf"].reshape(-1) for a in arrays])
+        massive = np.ascontiguousarray(np.concatenate([i[2] for i in inputs]), dtype=np.int64)
+        params = np.ascontiguousarray(np.concatenate([i[1] for i in inputs]))
+        T = len(times)
+        total = int(poff[-1])
+        gwork = np.zeros(7 * total)
+        out_t = np.zeros((len(ks), T))
+        out_x = np.zeros(T * total * 3)
+        out_v = np.zeros(T * total * 3)
+        status = np.zeros(len(ks), dtype=np.int64)
+        _ensemble_kernel()(
+            info.kernel(), n_buf, x, v, m, massive, moff, radius, fstate, istate, buf, gwork,
+            inputs[0][0], params, qoff, times, out_t, out_x, out_v, poff, status,
+        )
+        for j, a in enumerate(arrays):
+            lo, hi = poff[j], poff[j + 1]
+            a["x"][:] = x[lo:hi]
+            a["v"][:] = v[lo:hi]
+            a["fstate"][:] = fstate[j]
+            a["istate"][:] = istate[j]
+            a["buf"][:] = buf[n_buf * lo * 3:n_buf * hi * 3].reshape(a["buf"].shape)
+        return status
+
+    # ---- files -----------------------------------------------------------------------------------
+    def save(self, path) -> None:
+        """Write every member's complete state atomically to ``path`` (an ``.npz`` file).
+
+        :meth:`load` returns an ensemble whose members continue bit for bit. Format
+        ``visviva.nbody.ensemble`` version 1: ``count``, ``backend`` and each member as in
+        :mod:`visviva.nbody.archive` under the keys ``e<k>_<key>``.
+        """
+        from .archive import _atomic_savez, _state
+
+        arrays = {
+            "format": np.array(ENSEMBLE_FORMAT),
+            "format_version": np.array(ENSEMBLE_VERSION),
+            "count": np.array(len(self)),
+            "backend": np.array(json.dumps(self.backend)),
+        }
+        for k, sim in enumerate(self._members):
+            for key, value in _state(sim).items():
+                arrays[f"e{k}_{key}"] = value
+        _atomic_savez(path, arrays)
+
+    @classmethod
+    def load(cls, path, forces=None, backend: str | None = None) -> Ensemble:
+        """Read an ensemble written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file.
+        forces : sequence, optional
+            As in :meth:`visviva.Simulation.load`, for every member.
+        backend : str, optional
+            Override the saved backend (``"cpu"`` or ``"cuda"``).
+
+        Returns
+        -------
+        Ensemble
+        """
+        from .archive import _build, _check_format, _open_npz
+
+        with _open_npz(path) as data:
+            _check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))
+            count = int(data["count"])
+            saved_backend = json.loads(str(data["backend"]))
+            members = []
+            for k in range(count):
+                prefix = f"e{k}_"
+                snap = {key[len(prefix):]: data[key] for key in data.files
+                        if key.startswith(prefix)}
+                members.append(_build(Simulation, snap.get, forces))
+        return cls(members, check_backend(backend or saved_backend, members[0].integrator))
+
+
+def _raise_first(errors) -> None:
+    if not errors:
+        return
+    k, exc = errors[0]
+    others = [j for j, _ in errors]
+    try:
+        exc.member = k
+        exc.members = others
+    except AttributeError:  # pragma: no cover - exceptions without a __dict__
+        pass
+    exc.add_note(
+        f"in ensemble member {k}; {len(others)} member(s) stopped early: {others[:20]}"
+        + (" ..." if len(others) > 20 else "")
+        + ". The other members reached the requested time."
+    )
+    raise exc

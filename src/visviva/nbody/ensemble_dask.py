@@ -1,0 +1,74 @@
+"""An :class:`~visviva.Ensemble` spread over Dask workers (``Ensemble.integrate(t, client=...)``).
+
+The members are cut into contiguous blocks, one per worker thread slot (so that a block's compiled
+call keeps one core busy); each block travels to a worker as its simulations (pickled: the
+complete state, integrator internals included), runs there as an ensemble of its own with as many
+numba threads as the worker has threads, and comes back. Every member runs the same kernel on the
+same numbers as in this process, so the results are identical. Requires the ``scale`` extra.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["integrate_on_dask", "resolve_client"]
+
+
+def resolve_client(client):
+    """A ``dask.distributed.Client`` from what :meth:`Ensemble.integrate` accepts.
+
+    ``True`` or ``"local"``: a LocalCluster of two process workers with one thread each (started
+    once, reused; see :func:`visviva._dask.get_client`); a string: the scheduler at that address;
+    a client: itself.
+    """
+    from .._dask import get_client, require_dask
+
+    require_dask()
+    if client is True or (isinstance(client, str) and client == "local"):
+        return get_client(n_workers=2, processes=True, threads_per_worker=1)
+    if isinstance(client, str):
+        return get_client(client)
+    if not hasattr(client, "submit"):
+        raise InvalidInputError(
+            f"client must be a dask.distributed.Client, a scheduler address such as "
+            f"'tcp://host:8786', or True/'local' for a local cluster; got {client!r}."
+        )
+    return client
+
+
+def _run_block(members, t, backend):
+    """Worker side: advance a block of members as an ensemble; returns them and the errors."""
+    import numba
+
+    from .ensemble import Ensemble
+
+    threads = 1
+    try:
+        from distributed import get_worker
+
+        threads = max(1, int(get_worker().state.nthreads))
+    except (ImportError, ValueError, AttributeError):  # pragma: no cover - outside a worker
+        pass
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    ens = Ensemble(members, backend)
+    errors = ens._integrate_here(t)
+    return ens._members, errors
+
+
+def integrate_on_dask(ensemble, t, client) -> list:
+    """Advance ``ensemble``'s members on the workers of ``client``; returns the errors."""
+    client = resolve_client(client)
+    workers = client.scheduler_info().get("workers", {})
+    slots = sum(int(w.get("nthreads", 1)) for w in workers.values()) or 1
+    members = ensemble._members
+    n_blocks = min(len(members), slots)
+    bounds = np.linspace(0, len(members), n_blocks + 1).round().astype(int)
+    blocks = [members[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    futures = client.map(_run_block, blocks, t=t, backend=ensemble.backend, pure=False)
+    errors = []
+    for a, (done, block_errors) in zip(bounds[:-1], client.gather(futures), strict=True):
+        members[a:a + len(done)] = done
+        errors.extend((a + k, exc) for k, exc in block_errors)
+    return errors

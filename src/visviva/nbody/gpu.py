@@ -1,0 +1,226 @@
+"""The ``backend="cuda"`` runs of :class:`visviva.Simulation` and :class:`visviva.Ensemble`.
+
+What runs on the GPU today: the leapfrog integrator (drift-kick-drift) with direct-summation
+gravity, for one large simulation (one thread per particle per kernel, the state kept on the device
+between steps) and for ensembles (one thread per member, :mod:`visviva.core.cuda.kernels`).
+The step grid, the time origin and the shortened last step to an output time follow the CPU
+kernel (:mod:`visviva.core.nbody_leapfrog`) exactly, and the state (``buf`` included) is stored as
+the CPU backend stores it, so a run can be saved, loaded and continued on either backend. Results
+agree with the CPU backend to round-off (the gravity sums are added in another order).
+
+Not on the GPU (yet): WHFast and IAS15, additional forces, collision/encounter/escape checks,
+arrays of output times; these raise :class:`visviva.errors.InvalidInputError` saying to use
+``backend="cpu"``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._backends import check_backend as _check
+from ..core import nbody_common as _nc
+from ..errors import InvalidInputError, InvalidStateError, ShapeError
+
+__all__ = ["check_backend", "integrate_simulation", "integrate_ensemble"]
+
+#: Integrators with a GPU implementation.
+GPU_INTEGRATORS = ("leapfrog",)
+# slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
+_XI, _VI = 1, 2
+
+
+def check_backend(backend: str, integrator: str | None = None) -> str:
+    """The canonical backend name (:func:`visviva._backends.check_backend`), and for ``"cuda"``
+    an :class:`~visviva.errors.InvalidInputError` when ``integrator`` has no GPU version."""
+    name = _check(backend)
+    if name == "cuda" and integrator is not None and integrator not in GPU_INTEGRATORS:
+        raise InvalidInputError(
+            f"backend='cuda' runs the {GPU_INTEGRATORS} integrator(s) so far, not "
+            f"{integrator!r}; use backend='cpu' (or integrator='leapfrog')."
+        )
+    return name
+
+
+def _check_supported(sim) -> None:
+    if sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance:
+        raise InvalidInputError(
+            "backend='cuda' integrates gravity only: additional forces and collision, encounter "
+            "or escape checks run on backend='cpu'."
+        )
+    check_backend("cuda", sim.integrator)
+
+
+def plan(state: dict, target: float):
+    """Prepare the leapfrog's internal state and count the steps to ``target``, exactly as
+    :func:`visviva.core.nbody_leapfrog.leapfrog_run` does.
+
+    Parameters
+    ----------
+    state : dict
+        The simulation's live arrays (:meth:`visviva.Simulation.state_arrays`); ``fstate``,
+        ``istate`` and (when the internal state restarts) ``buf`` are updated.
+    target : float
+        Absolute output time (simulation units).
+
+    Returns
+    -------
+    n : int
+        Full steps of the internal state.
+    h : float
+        Their signed length (time).
+    rem : float
+        Length of the shortened last step of the output copy (0: none).
+    t_final : float
+        The time reached.
+    """
+    fstate, istate, buf = state["fstate"], state["istate"], state["buf"]
+    adt = abs(float(fstate[_nc.F_DT]))
+    exact = istate[_nc.I_EXACT_FINISH] != 0
+    direction = 1.0 if target >= fstate[_nc.F_T] else -1.0
+    h = math.copysign(adt, direction)
+    valid = (istate[_nc.I_INT_VALID] != 0 and istate[_nc.I_FRESH] == 0
+             and fstate[_nc.F_DT_REF] == adt)
+    istate[_nc.I_FRESH] = 0
+    if not valid:
+        buf[_XI] = state["x"]
+        buf[_VI] = state["v"]
+        fstate[_nc.F_T0] = fstate[_nc.F_T]
+        fstate[_nc.F_DT_REF] = adt
+        istate[_nc.I_K] = 0
+        istate[_nc.I_INT_VALID] = 1
+    t0, k0 = float(fstate[_nc.F_T0]), int(istate[_nc.I_K])
+    sign = 1 if h > 0.0 else -1
+
+    def stops(j):
+        rem = target - (t0 + (k0 + sign * j) * adt)
+        return rem * direction <= 1e-9 * adt or (exact and rem * direction < adt * (1.0 - 1e-9))
+
+    n = max(0, int((target - (t0 + k0 * adt)) * direction / adt) - 2)
+    while n > 0 and stops(n - 1):
+        n -= 1
+    while not stops(n):
+        n += 1
+    t_grid = t0 + (k0 + sign * n) * adt
+    rem = target - t_grid
+    rem = rem if exact and rem * direction > 1e-9 * adt else 0.0
+    return n, h, rem, (target if exact else t_grid)
+
+
+def _finish(sim, state, n, h, t_final) -> None:
+    """Clock and counters after a GPU run, as the CPU kernel leaves them."""
+    fstate, istate = state["fstate"], state["istate"]
+    istate[_nc.I_K] += n if h > 0.0 else -n
+    istate[_nc.I_STEPS] += n
+    if n:
+        fstate[_nc.F_DT_LAST] = h
+    fstate[_nc.F_T] = t_final
+    istate[_nc.I_NOUT] = 1
+    if not (np.all(np.isfinite(state["x"])) and np.all(np.isfinite(state["v"]))):
+        istate[_nc.I_INT_VALID] = 0
+        raise InvalidStateError(
+            f"the GPU leapfrog produced NaN or infinite positions or velocities by t = "
+            f"{t_final!r}: use a smaller dt or softening > 0."
+        )
+
+
+def _begin(sim, t):
+    if np.ndim(t) != 0:
+        raise ShapeError("backend='cuda' integrates to one time per call; got an array of "
+                         "times (call integrate once per output time).")
+    _check_supported(sim)
+    target = float(sim._begin_run(t)[0])
+    _, _, massive = sim._kernel_inputs(parallel=False)
+    return target, massive
+
+
+def integrate_simulation(sim, t) -> None:
+    """Integrate one simulation to ``t`` on the GPU (the state stays on the device between
+    steps; N threads per kernel)."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+
+    target, massive = _begin(sim, t)
+    state = sim.state_arrays()
+    n, h, rem, t_final = plan(state, target)
+    N = sim.N
+    grid = K.blocks(N)
+    gm = cuda.to_device(sim.G * state["m"])
+    massive_d = cuda.to_device(massive)
+    soft2 = float(state["fstate"][_nc.F_SOFT2])
+    acc = cuda.device_array((N, 3))
+
+    def dkd(x, v, step):
+        K.drift[grid, K.THREADS](x, v, 0.5 * step)
+        K.accelerations[grid, K.THREADS](x, gm, massive_d, soft2, acc)
+        K.kick_drift[grid, K.THREADS](x, v, acc, step, 0.5 * step)
+
+    xi = cuda.to_device(np.ascontiguousarray(state["buf"][_XI]))
+    vi = cuda.to_device(np.ascontiguousarray(state["buf"][_VI]))
+    for _ in range(n):
+        dkd(xi, vi, h)
+    state["buf"][_XI] = xi.copy_to_host()
+    state["buf"][_VI] = vi.copy_to_host()
+    state["x"][:] = state["buf"][_XI]
+    state["v"][:] = state["buf"][_VI]
+    if rem != 0.0:
+        dkd(xi, vi, rem)  # the output copy (the internal state is already saved)
+        state["x"][:] = xi.copy_to_host()
+        state["v"][:] = vi.copy_to_host()
+    _finish(sim, state, n, h, t_final)
+
+
+def integrate_ensemble(ensemble, t) -> list:
+    """Advance every member of ``ensemble`` to ``t`` on the GPU, one thread per member; returns
+    ``[(member, exception), ...]`` as the CPU path does."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+
+    errors, ks, plans, states, massives = [], [], [], [], []
+    for k, sim in enumerate(ensemble._members):
+        try:
+            target, massive = _begin(sim, t)
+            state = sim.state_arrays()
+            plans.append(plan(state, target))
+        except Exception as exc:
+            errors.append((k, exc))
+            continue
+        ks.append(k)
+        states.append(state)
+        massives.append(massive)
+    if not ks:
+        return errors
+    sims = [ensemble._members[k] for k in ks]
+    n = np.array([s.N for s in sims], dtype=np.int64)
+    poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
+    moff = np.concatenate([[0], np.cumsum([len(m) for m in massives])]).astype(np.int64)
+    massive = np.concatenate([m + poff[j] for j, m in enumerate(massives)]).astype(np.int64)
+    gm = np.concatenate([s.G * st["m"] for s, st in zip(sims, states, strict=True)])
+    soft2 = np.array([st["fstate"][_nc.F_SOFT2] for st in states])
+    d = {name: cuda.to_device(np.ascontiguousarray(np.concatenate(parts))) for name, parts in (
+        ("xi", [st["buf"][_XI] for st in states]), ("vi", [st["buf"][_VI] for st in states]),
+        ("x", [st["x"] for st in states]), ("v", [st["v"] for st in states]))}
+    nsteps = np.array([p[0] for p in plans], dtype=np.int64)
+    h = np.array([p[1] for p in plans])
+    rem = np.array([p[2] for p in plans])
+    acc = cuda.device_array((int(poff[-1]), 3))
+    K.ensemble_leapfrog[K.blocks(len(ks)), K.THREADS](
+        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
+        cuda.to_device(moff), cuda.to_device(poff), cuda.to_device(soft2), acc,
+        cuda.to_device(nsteps), cuda.to_device(h), cuda.to_device(rem),
+    )
+    host = {name: arr.copy_to_host() for name, arr in d.items()}
+    for j, (k, state, p) in enumerate(zip(ks, states, plans, strict=True)):
+        lo, hi = poff[j], poff[j + 1]
+        state["buf"][_XI] = host["xi"][lo:hi]
+        state["buf"][_VI] = host["vi"][lo:hi]
+        state["x"][:] = host["x"][lo:hi]
+        state["v"][:] = host["v"][lo:hi]
+        try:
+            _finish(sims[j], state, p[0], p[1], p[3])
+        except Exception as exc:
+            errors.append((k, exc))
+    return sorted(errors, key=lambda e: e[0])

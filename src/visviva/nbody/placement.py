@@ -1,0 +1,57 @@
+"""Placing a particle from orbital elements about a primary (for :meth:`visviva.Simulation.add`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import elements as _elements
+from ..core import kepler as _kepler
+from ..errors import InvalidInputError, fmt_number, raise_for_status
+from .settings import length
+
+__all__ = ["elements_to_state"]
+
+
+def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
+    """Position and velocity (simulation units) of a particle of mass ``m`` on the orbit given
+    by the elements about ``primary`` (an index, or None/"com" for the centre of mass of the
+    particles added so far); arguments as in :meth:`visviva.Simulation.add`."""
+    masses, x, v = sim.masses, sim.positions, sim.velocities
+    if sim.N == 0:
+        raise InvalidInputError("add a primary (a particle with mass) before adding by elements.")
+    if primary is None or (isinstance(primary, str) and primary == "com"):
+        mp = masses.sum()
+        xp = (masses[:, None] * x).sum(0) / mp if mp > 0 else x.mean(0)
+        vp = (masses[:, None] * v).sum(0) / mp if mp > 0 else v.mean(0)
+    else:
+        i = int(primary)
+        mp, xp, vp = masses[i], x[i], v[i]
+    gm = sim.G * (mp + m)
+    if not gm > 0:
+        raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
+    e = float(e)
+    if e < 0:
+        raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
+    if p is None:
+        a = float(length(sim, a, "a"))
+        if e == 1.0:
+            raise InvalidInputError("a parabola has no semi-major axis: give p instead of a.")
+        p = a * (1.0 - e * e)
+    else:
+        p = float(length(sim, p, "p"))
+    if not p > 0:
+        raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {fmt_number(p)}.")
+    if nu is None:
+        if M is None:
+            nu = 0.0
+        else:
+            if e >= 1:
+                raise InvalidInputError("give nu (not mean_anomaly) for open orbits.")
+            nu, status = _kepler.mean_to_true_anomaly(float(M), e)
+            raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
+    *state, status = _elements.coe_to_rv(
+        p, e, float(inc), float(raan), float(argp), float(nu), gm
+    )
+    raise_for_status(np.array([status]), "orbital elements to state", p=p, e=e, nu=nu)
+    return xp + np.array(state[:3]), vp + np.array(state[3:])
+

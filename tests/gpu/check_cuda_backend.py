@@ -1,0 +1,122 @@
+"""Run the CUDA backend (a GPU, or numba's simulator when NUMBA_ENABLE_CUDASIM=1) beside the CPU
+backend and print ``key=value`` lines with the largest relative differences."""
+
+from __future__ import annotations
+
+import importlib.resources
+import os
+import tempfile
+
+import numpy as np
+from astropy import units as u
+
+import visviva as vv
+
+
+def system(backend, n=6, seed=0, softening=0.0):
+    rng = np.random.default_rng(seed)
+    sim = vv.Simulation("leapfrog", dt=0.01, backend=backend, softening=softening)
+    sim.add(1.0)
+    for k in range(1, n):
+        sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.4 * k, e=0.05 * rng.uniform(),
+                inc=0.05 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=0)
+    sim.add(0.0, a=0.7, e=0.1, primary=0)  # a test particle
+    sim.move_to_com()
+    return sim
+
+
+def rel(a, b):
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def main():
+    # numba.cuda is imported here, in the subprocess that set NUMBA_ENABLE_CUDASIM
+    from numba import cuda
+
+    from visviva.core import universal
+    from visviva.core.cuda import arith, kernels
+    from visviva.satellites.catalog import Catalog, parse_tle_text, propagate_kepler_batch
+
+    cpu, gpu = system("cpu"), system("cuda")
+    for t in (0.237, 0.5):  # off the grid, then on it: 23 + 27 steps and a shortened step
+        cpu.integrate(t)
+        gpu.integrate(t)
+    print(f"sim_pos={rel(gpu.positions, cpu.positions)!r}")
+    print(f"sim_vel={rel(gpu.velocities, cpu.velocities)!r}")
+    print(f"steps_equal={(gpu.steps_done == cpu.steps_done)!r}")
+    print(f"times_equal={(gpu.t == cpu.t)!r}")
+
+    # restart: the GPU state saved and continued on the CPU
+
+    path = os.path.join(tempfile.mkdtemp(), "g.npz")
+    gpu.save(path)
+    back = vv.Simulation.load(path)  # a CPU simulation with the GPU run's internal state
+    back.integrate(0.8)
+    cpu.integrate(0.8)
+    print(f"restart_pos={rel(back.positions, cpu.positions)!r}")
+
+    # ensembles: ragged members, one GPU thread each
+    members = [system("cpu", n=3 + k % 3, seed=k, softening=0.01 * (k % 2)) for k in range(5)]
+    ens_cpu = vv.Ensemble.from_simulations(members)
+    ens_gpu = vv.Ensemble.from_simulations(members, backend="cuda")
+    for t in (0.113, 0.3):
+        ens_cpu.integrate(t)
+        ens_gpu.integrate(t)
+    print(f"ens_pos={rel(np.nan_to_num(ens_gpu.positions), np.nan_to_num(ens_cpu.positions))!r}")
+    print(f"ens_vel={rel(np.nan_to_num(ens_gpu.velocities), np.nan_to_num(ens_cpu.velocities))!r}")
+    alone = members[2].copy()
+    alone.backend = "cuda"
+    alone.integrate(0.113)
+    alone.integrate(0.3)
+    print(f"ens_bits_vs_sim={bool((ens_gpu[2].positions == alone.positions).all())!r}")
+
+    # the device arithmetic's CPU twin against the device kernel, one evaluation
+
+
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(50, 3))
+    gm = rng.uniform(0.1, 1.0, 50)
+    massive = np.arange(50, dtype=np.int64)
+    acc_d = cuda.device_array((50, 3))
+    kernels.accelerations[kernels.blocks(50), kernels.THREADS](
+        cuda.to_device(x), cuda.to_device(gm), cuda.to_device(massive), 0.0, acc_d)
+    twin = np.zeros((50, 3))
+    arith.member_accelerations_cpu(x, gm, massive, 0, 50, 0, 50, 0.0, twin)
+    print(f"twin_acc={rel(acc_d.copy_to_host(), twin)!r}")
+
+    # batch two-body propagation: the universal-variable solver's device twin against the CPU
+
+
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] if ln.startswith("2 ") else ln for ln in text.splitlines()]
+    cat = parse_tle_text("\n".join(ln for ln in lines if ln[:2] in ("1 ", "2 ")),
+                         verify_checksum=False)
+    cat = Catalog([cat[i] for i in range(6)])  # as tests/test_catalog.py
+    when = cat.epochs[0] + np.linspace(-3, 3, 7) * u.day
+    kc = propagate_kepler_batch(cat, when, on_error="nan")
+    kg = propagate_kepler_batch(cat, when, on_error="nan", backend="cuda")
+    print(f"kepler_status_equal={bool((kc.status == kg.status).all())!r}")
+    print(f"kepler_pos={rel(np.nan_to_num(kg.r.value), np.nan_to_num(kc.r.value))!r}")
+    print(f"kepler_vel={rel(np.nan_to_num(kg.v.value), np.nan_to_num(kc.v.value))!r}")
+
+    # random conics (elliptic and hyperbolic, forwards and backwards): the kernels directly
+
+    rng = np.random.default_rng(7)
+    n = 200
+    r0 = rng.normal(size=(n, 3)) * 9000.0
+    v0 = rng.normal(size=(n, 3)) * 5.0
+    gm = np.full(n, 398600.4418)
+    dt = rng.uniform(-2e4, 2e4, n)
+    out_c = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, np.int64))
+    out_g = (np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, np.int64))
+    universal.propagate_many(r0, v0, gm, dt, *out_c)
+    kernels.propagate_many(r0, v0, gm, dt, *out_g)
+    energy = 0.5 * np.sum(v0 * v0, -1) - gm / np.linalg.norm(r0, axis=-1)
+    print(f"conics_hyperbolic={int((energy > 0).sum())!r}")
+    print(f"conics_status_equal={bool((out_c[2] == out_g[2]).all())!r}")
+    print(f"conics_pos={rel(out_g[0], out_c[0])!r}")
+
+
+if __name__ == "__main__":
+    main()

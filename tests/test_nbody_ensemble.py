@@ -1,0 +1,209 @@
+"""Ensembles: many simulations advanced together equal each run alone, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import visviva as vv
+from visviva.errors import BackendUnavailableError, Collision, InvalidInputError, ShapeError
+
+
+def planets(integrator, a=1.0, extra=0, **kw):
+    sim = vv.Simulation(integrator, dt=0.01, **kw)
+    sim.add(1.0, radius=0.005)
+    sim.add(1e-3, a=a, e=0.05, primary=0)
+    sim.add(1e-4, a=1.6 * a, e=0.02, inc=0.02, primary=None)
+    for j in range(extra):  # ragged: test particles
+        sim.add(0.0, a=3.0 + 0.1 * j, primary=0)
+    sim.move_to_com()
+    return sim
+
+
+@pytest.mark.parametrize("integrator", ["leapfrog", "whfast", "ias15"])
+def test_every_member_equals_running_it_alone_bit_for_bit(integrator):
+    sims = [planets(integrator, a=1.0 + 0.07 * k, extra=k % 3) for k in range(7)]
+    ens = vv.Ensemble.from_simulations(sims)
+    assert len(ens) == 7 and ens.integrator == integrator
+    for t in (12.3, 30.0):  # off and on the step grid; two calls continue the same trajectory
+        ens.integrate(t)
+        for k, sim in enumerate(sims):
+            sim.integrate(t)
+            member = ens[k]
+            np.testing.assert_array_equal(member.positions, sim.positions)
+            np.testing.assert_array_equal(member.velocities, sim.velocities)
+            assert member.steps_done == sim.steps_done and member.t == sim.t == t
+    np.testing.assert_array_equal(ens.t, np.full(7, 30.0))
+    np.testing.assert_array_equal(ens.energy(), [s.energy() for s in sims])
+
+
+def test_ragged_members_are_padded_with_nan():
+    sims = [planets("whfast", extra=k) for k in range(3)]
+    ens = vv.Ensemble.from_simulations(sims)
+    assert ens.n_particles.tolist() == [3, 4, 5]
+    pos = ens.positions
+    assert pos.shape == (3, 5, 3)
+    assert np.isnan(pos[0, 3:]).all() and np.isfinite(pos[2]).all()
+    np.testing.assert_array_equal(ens.masses[1, :4], sims[1].masses)
+    np.testing.assert_array_equal(ens.velocities[2], sims[2].velocities)
+
+
+def test_energy_is_conserved_per_member_like_rebound_would():
+    # WHFast on a two-planet system: bounded energy error, per member
+    sims = [planets("whfast", a=a) for a in np.linspace(1.0, 2.0, 5)]
+    ens = vv.Ensemble.from_simulations(sims)
+    e0 = ens.energy()
+    ens.integrate(100.0)
+    rel = np.abs(ens.energy() / e0 - 1)
+    assert rel.max() < 1e-5
+
+
+def test_members_are_copies_and_conversion_back():
+    sim = planets("leapfrog")
+    ens = vv.Ensemble.from_simulations([sim, sim])
+    ens.integrate(1.0)
+    assert sim.t == 0.0  # the ensemble owns copies
+    back = ens.to_simulations()
+    assert [s.t for s in back] == [1.0, 1.0]
+    back[0].integrate(2.0)
+    assert ens.t.tolist() == [1.0, 1.0]
+    assert len(ens[0:1]) == 1 and ens[-1].t == 1.0
+
+
+def test_save_and_load_restart_exactly(tmp_path):
+    sims = [planets("ias15", a=1.0 + 0.1 * k, extra=k) for k in range(3)]
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(5.5)
+    path = tmp_path / "ens.npz"
+    ens.save(path)
+    back = vv.Ensemble.load(path)
+    assert len(back) == 3 and back.integrator == "ias15"
+    ens.integrate(9.0)
+    back.integrate(9.0)
+    np.testing.assert_array_equal(back.positions, ens.positions)
+    np.testing.assert_array_equal(back.velocities, ens.velocities)
+    with pytest.raises(InvalidInputError, match="not a visviva.nbody.simulation file"):
+        vv.Simulation.load(path)
+    ens.integrate(10.0)
+    ens.save(path)  # overwritten atomically
+    assert vv.Ensemble.load(path).t.tolist() == [10.0] * 3
+
+
+def test_mergers_are_resolved_per_member_as_alone():
+    def crash(merge):
+        sim = vv.Simulation("ias15", collision="merge" if merge else "halt")
+        sim.add(1.0, radius=0.1)
+        sim.add(1.0, r=[1.0, 0, 0], v=[-0.2, 0, 0], radius=0.1)
+        return sim
+
+    sims = [crash(True), planets("ias15"), crash(True)]
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(3.0)
+    for k, sim in enumerate(sims):
+        sim.integrate(3.0)
+        np.testing.assert_array_equal(ens[k].positions, sim.positions)
+    assert ens.n_particles.tolist() == [1, 3, 1]
+    np.testing.assert_allclose(ens.energy()[0], sims[0].energy(), rtol=0, atol=0)
+    halting = vv.Ensemble.from_simulations([planets("ias15"), crash(False)])
+    with pytest.raises(Collision) as info:
+        halting.integrate(3.0)
+    assert info.value.member == 1
+    assert halting.t[0] == 3.0 and halting.t[1] < 3.0  # the others finish
+
+
+def test_bad_input_says_what_to_do():
+    with pytest.raises(InvalidInputError, match="at least one"):
+        vv.Ensemble.from_simulations([])
+    with pytest.raises(InvalidInputError, match="different integrators"):
+        vv.Ensemble.from_simulations([planets("whfast"), planets("ias15")])
+    with pytest.raises(InvalidInputError, match="not a visviva.Simulation"):
+        vv.Ensemble.from_simulations([planets("whfast"), "x"])
+    with pytest.raises(InvalidInputError, match="no particles"):
+        vv.Ensemble.from_simulations([vv.Simulation()])
+    with pytest.raises(InvalidInputError, match="backend"):
+        vv.Ensemble.from_simulations([planets("whfast")], backend="tpu")
+    ens = vv.Ensemble.from_simulations([planets("whfast")])
+    with pytest.raises(ShapeError, match="one time"):
+        ens.integrate([1.0, 2.0])
+    with pytest.raises(InvalidInputError, match="client"):
+        ens.integrate(1.0, client=42)
+
+
+def test_cuda_backend_without_a_gpu_says_what_is_missing(monkeypatch):
+    from visviva.core import cuda as vcuda
+
+    monkeypatch.setattr(vcuda, "missing", lambda: "no NVIDIA GPU was found (test)")
+    with pytest.raises(BackendUnavailableError, match="no NVIDIA GPU"):
+        vv.Ensemble.from_simulations([planets("leapfrog")], backend="cuda")
+    with pytest.raises(BackendUnavailableError, match="no NVIDIA GPU"):
+        vv.Simulation("leapfrog", dt=0.01, backend="cuda")
+    from visviva.satellites.catalog import propagate_kepler_batch
+
+    with pytest.raises(BackendUnavailableError, match="no NVIDIA GPU"):
+        propagate_kepler_batch(None, None, backend="cuda")  # checked before anything else
+
+
+def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
+    from visviva.core import cuda as vcuda
+
+    monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
+    with pytest.raises(InvalidInputError, match="leapfrog"):
+        vv.Simulation("whfast", dt=0.01, backend="cuda")
+    with pytest.raises(InvalidInputError, match="leapfrog"):
+        vv.Ensemble.from_simulations([planets("ias15")], backend="cuda")
+    sim = planets("leapfrog", collision="merge")
+    sim.backend = "cuda"
+    with pytest.raises(InvalidInputError, match="backend='cpu'"):
+        sim.integrate(1.0)
+    sim = planets("leapfrog")
+    sim.backend = "cuda"
+    with pytest.raises(ShapeError, match="one time"):
+        sim.integrate([1.0, 2.0])
+
+
+def test_dask_process_workers_give_identical_results():
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    sims = [planets("whfast", a=1.0 + 0.05 * k, extra=k % 2) for k in range(5)]
+    here = vv.Ensemble.from_simulations(sims)
+    there = vv.Ensemble.from_simulations(sims)
+    here.integrate(20.0)
+    with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
+        there.integrate(20.0, client=client)
+        assert there.t.tolist() == [20.0] * 5
+        np.testing.assert_array_equal(there.positions, here.positions)
+        np.testing.assert_array_equal(there.velocities, here.velocities)
+        # by scheduler address too
+        there.integrate(25.0, client=cluster.scheduler_address)
+    here.integrate(25.0)
+    np.testing.assert_array_equal(there.positions, here.positions)
+    from visviva._dask import close_local_cluster
+
+    close_local_cluster()
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    sizes=st.lists(st.integers(min_value=1, max_value=6), min_size=1, max_size=6),
+    t=st.floats(min_value=0.0, max_value=3.0),
+    seed=st.integers(min_value=0, max_value=2**16),
+)
+def test_property_any_ragged_ensemble_equals_its_members_alone(sizes, t, seed):
+    rng = np.random.default_rng(seed)
+    sims = []
+    for n in sizes:
+        sim = vv.Simulation("leapfrog", dt=0.013, softening=0.05)
+        for _ in range(n):
+            sim.add(float(rng.choice([0.0, rng.uniform(0.01, 1.0)])), rng.normal(size=3),
+                    0.3 * rng.normal(size=3))
+        sims.append(sim)
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(t)
+    for k, sim in enumerate(sims):
+        sim.integrate(t)
+        np.testing.assert_array_equal(ens[k].positions, sim.positions)
+        np.testing.assert_array_equal(ens[k].velocities, sim.velocities)

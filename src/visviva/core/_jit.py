@@ -75,7 +75,9 @@ class _Kernel(CPUDispatcher):
 
 #: A call from Python that is still compiling after this many seconds says so on stderr.
 COMPILE_NOTICE_S = 2.0
-#: Set to False (``visviva warmup`` does, it has its own progress bar) to print nothing.
+#: ``enabled``: set to False to print nothing (``visviva warmup`` does: its bar says what is
+#: compiling); ``write``: an optional function that prints the line instead of stderr (``visviva
+#: validate`` routes it through its progress bar).
 notices = {"enabled": True, "said": set(), "depth": 0}
 
 
@@ -83,11 +85,13 @@ def _say(name: str, t0: float) -> None:
     if not notices["enabled"] or name in notices["said"]:
         return
     notices["said"].add(name)
-    sys.stderr.write(
+    write = notices.get("write") or sys.stderr.write
+    write(
         f"visviva: compiling {name} for its first use ({time.perf_counter() - t0:.0f} s so "
         "far; numba's cache was empty). This happens once: the machine code is cached on disk. "
         "Run `visviva warmup` after installing to compile every kernel ahead.\n")
-    sys.stderr.flush()
+    if write is sys.stderr.write:
+        sys.stderr.flush()
 
 
 @contextlib.contextmanager

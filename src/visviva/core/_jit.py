@@ -82,8 +82,8 @@ notices = {"enabled": True, "said": set(), "depth": 0}
 
 
 def _say(name: str, t0: float) -> None:
-    if not notices["enabled"] or name in notices["said"]:
-        return
+    if not notices["enabled"] or notices["said"]:
+        return  # one line per process: the first long compilation says it for all
     notices["said"].add(name)
     write = notices.get("write") or sys.stderr.write
     write(
@@ -98,7 +98,8 @@ def _say(name: str, t0: float) -> None:
 def compile_notice(name: str):
     """Print one line on stderr if the block (a kernel's compilation) runs past COMPILE_NOTICE_S.
 
-    The line names the kernel and says that the compilation happens once. Loading the machine
+    The line names the kernel and says that the compilation happens once; it is printed once
+    per process (the first kernel to compile for long speaks for the ones after it). Loading the machine
     code from numba's cache takes milliseconds and prints nothing. Nested compilations
     (a kernel's callees) happen inside the outer block and add no line.
     """

@@ -66,3 +66,20 @@ def test_compile_notice_silent_when_fast_or_disabled(monkeypatch, capsys):
     with _jit.compile_notice("quiet_kernel"):
         time.sleep(0.2)
     assert capsys.readouterr().err == ""
+
+
+def test_gravity_paths_share_one_compiled_pair_item():
+    from visviva.core import gravity
+
+    rng = np.random.default_rng(3)
+    n = 40
+    x = rng.normal(size=(n, 3))
+    m = np.full(n, 1.0 / n)
+    massive = np.arange(n)
+    acc_serial = np.zeros((n, 3))
+    acc_parallel = np.zeros((n, 3))
+    gravity._gravity_pairs_serial(x, m, 1.0, 1e-4, massive, acc_serial)
+    gravity._gravity_pairs_parallel(x, m, 1.0, 1e-4, massive, acc_parallel)
+    np.testing.assert_array_equal(acc_serial, acc_parallel)  # same items, same order, same bits
+    for fn in (gravity._pair_item, gravity._pair_reduce, gravity._test_rows):
+        assert len(fn.signatures) == 1, (fn, fn.signatures)

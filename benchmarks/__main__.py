@@ -166,6 +166,10 @@ def markdown(rows: list[dict], quick: bool, elapsed_s: float) -> str:
     if not rows:
         lines.append("| (no benchmark modules found) | | | | | | | |")
     lines.append("")
+    # the hand-measured cold-start section (before/after and per-kernel figures) stays on the page
+    cold = Path(__file__).with_name("cold_start.md")
+    if cold.is_file():
+        lines += ["", cold.read_text(encoding="utf-8").rstrip(), ""]
     return "\n".join(lines)
 
 

@@ -22,9 +22,25 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import Timing, compile_time, quick_from_env, result, skipped, threads, time_call
+    from .common import (
+        compile_time,
+        interleaved,
+        quick_from_env,
+        result,
+        skipped,
+        threads,
+        time_call,
+    )
 except ImportError:  # pragma: no cover
-    from common import Timing, compile_time, quick_from_env, result, skipped, threads, time_call
+    from common import (
+        compile_time,
+        interleaved,
+        quick_from_env,
+        result,
+        skipped,
+        threads,
+        time_call,
+    )
 
 MU = 398600.4418
 TARGET = 0.2  # at least 5x faster than Skyfield
@@ -35,21 +51,6 @@ def _orbits(n: int, seed: int = 1):
     r = rng.normal(size=(n, 3)) * 10000.0
     v = rng.normal(size=(n, 3)) * 3.0
     return r, v
-
-
-def _interleaved(fns, rounds: int = 5):
-    """Median per-call times of ``fns``, timed in alternation round by round, so that a change
-    of machine load hits visviva and the reference alike (each warmed up first)."""
-    import statistics
-
-    samples = [[] for _ in fns]
-    for fn in fns:
-        fn()
-    for _ in range(rounds):
-        for k, fn in enumerate(fns):
-            samples[k].append(time_call(fn, repeat=1, number=1, warmup=0).median)
-    return [Timing(median=statistics.median(x), best=min(x), repeat=rounds, number=1, samples=x)
-            for x in samples]
 
 
 def _direction_rows(label, kernel_name, reference, public, kernel, ref_fn, n, note_prefix=""):
@@ -76,7 +77,7 @@ def _direction_rows(label, kernel_name, reference, public, kernel, ref_fn, n, no
         The rows, timed in the order compile, interleaved (public, kernel, reference), 1 thread.
     """
     compile_s = compile_time(kernel)
-    t_vv, t_k, t_ref = _interleaved([public, kernel, ref_fn])
+    t_vv, t_k, t_ref = interleaved([public, kernel, ref_fn])
     note = f"{note_prefix}{n / t_vv.median / 1e6:.1f} M states/s"
     rows = [
         result(f"{label} (public API, Quantities)", t_vv, reference, t_ref, TARGET,

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 __all__ = [
     "Timing",
     "time_call",
+    "interleaved",
     "compile_time",
     "threads",
     "result",
@@ -164,6 +165,26 @@ def threads(n: int | None) -> Iterator[int]:
         yield wanted
     finally:
         numba.set_num_threads(previous)
+
+
+def interleaved(fns, rounds: int = 5) -> list[Timing]:
+    """Per-call times of ``fns`` timed in alternation, one call each per round.
+
+    Each function is called once untimed first (compilation, caches). Alternating round by
+    round makes a change of machine load (other processes taking a core for a while) hit every
+    function alike; the ``best`` of the rounds is the least disturbed figure, the ``median`` the
+    typical one. Returns one :class:`Timing` per function.
+    """
+    samples = [[] for _ in fns]
+    for fn in fns:
+        fn()
+    for _ in range(rounds):
+        for k, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            fn()
+            samples[k].append(time.perf_counter() - t0)
+    return [Timing(median=statistics.median(x), best=min(x), repeat=rounds, number=1, samples=x)
+            for x in samples]
 
 
 def result(name: str, visviva_s: float | None, reference: str, reference_s: float | None,

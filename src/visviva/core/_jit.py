@@ -25,30 +25,133 @@ one of the decorators below, so that caching, the error model and threading are 
 
 from __future__ import annotations
 
+import contextlib
+import sys
+import threading
+import time
+
 import numba
 from numba import types
+from numba.core.registry import CPUDispatcher
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel",
+__all__ = ["compile_notice", "kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel",
            "prefer_wide_vectors"]
 
 _FLAGS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": False}
 
+
+class _Kernel(CPUDispatcher):
+    """numba's CPU dispatcher, except that a call from compiled code never specialises on literals.
+
+    A constant argument in compiled code (``_corrector(0, False, ...)``) is typed by numba as
+    ``Literal[int](0)`` / ``Literal[bool](False)``, and a plain dispatcher compiles one more
+    specialisation of the callee, with all its callees linked in, for every literal value and
+    again for the non-literal type: WHFast's ``_corrector`` was compiled four times and
+    ``_kepler_drift`` three. This dispatcher types such calls with the plain types
+    (``int64``, ``bool``), so each kernel is compiled once per array layout. No kernel in visviva
+    dispatches on a literal value (none uses ``numba.literally``).
+    """
+
+    def get_call_template(self, args, kws):
+        args = tuple(types.unliteral(a) for a in args)
+        kws = {k: types.unliteral(a) for k, a in kws.items()}
+        return super().get_call_template(args, kws)
+
+    def compile(self, sig):
+        # no compiled version in memory: load it from numba's on-disk cache (milliseconds) or
+        # compile it (seconds to a minute with an empty cache); say so when it takes longer
+        # than COMPILE_NOTICE_S. Only the outermost compilation is announced: the callees a
+        # kernel compiles on the way are part of it.
+        if notices["depth"] or sig in self.overloads:
+            return super().compile(sig)
+        notices["depth"] += 1
+        try:
+            with compile_notice(self.py_func.__name__):
+                return super().compile(sig)
+        finally:
+            notices["depth"] -= 1
+
+
+#: A call from Python that is still compiling after this many seconds says so on stderr.
+COMPILE_NOTICE_S = 2.0
+#: ``enabled``: set to False to print nothing (``visviva warmup`` does: its bar says what is
+#: compiling); ``write``: an optional function that prints the line instead of stderr (``visviva
+#: validate`` routes it through its progress bar).
+notices = {"enabled": True, "said": set(), "depth": 0}
+
+
+def _say(name: str, t0: float) -> None:
+    if not notices["enabled"] or notices["said"]:
+        return  # one line per process: the first long compilation says it for all
+    notices["said"].add(name)
+    write = notices.get("write") or sys.stderr.write
+    write(
+        f"visviva: compiling {name} for its first use ({time.perf_counter() - t0:.0f} s so "
+        "far; numba's cache was empty). This happens once: the machine code is cached on disk. "
+        "Run `visviva warmup` after installing to compile every kernel ahead.\n")
+    if write is sys.stderr.write:
+        sys.stderr.flush()
+
+
+@contextlib.contextmanager
+def compile_notice(name: str):
+    """Print one line on stderr if the block (a kernel's compilation) runs past COMPILE_NOTICE_S.
+
+    The line names the kernel and says that the compilation happens once; it is printed once
+    per process (the first kernel to compile for long speaks for the ones after it). Loading the machine
+    code from numba's cache takes milliseconds and prints nothing. Nested compilations
+    (a kernel's callees) happen inside the outer block and add no line.
+    """
+    t0 = time.perf_counter()
+    timer = threading.Timer(COMPILE_NOTICE_S, _say, (name, t0))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+
+
+def _njit(**flags):
+    """A decorator like ``numba.njit(**flags)`` that builds a :class:`_Kernel`."""
+    options = {k: v for k, v in flags.items() if k != "cache"}
+    options.update(nopython=True, boundscheck=None)
+
+    def decorate(fn):
+        if numba.config.DISABLE_JIT:
+            return fn
+        disp = _Kernel(py_func=fn, locals={}, targetoptions=dict(options))
+        if flags.get("cache"):
+            disp.enable_caching()
+        return disp
+
+    return decorate
+
+
 #: Decorator for a serial compiled kernel (scalar or array).
-kernel = numba.njit(**_FLAGS)
+kernel = _njit(**_FLAGS)
 
 #: Decorator for a kernel whose outer loop uses :func:`prange` over independent items.
-parallel_kernel = numba.njit(parallel=True, **_FLAGS)
+parallel_kernel = _njit(parallel=True, **_FLAGS)
 
 
 #: Decorator for a serial leaf kernel whose float reduction must vectorise (see above): the
 #: flags of :data:`kernel` plus ``fastmath={"reassoc", "contract"}``.
-simd_kernel = numba.njit(**{**_FLAGS, "fastmath": {"reassoc", "contract"}})
+simd_kernel = _njit(**{**_FLAGS, "fastmath": {"reassoc", "contract"}})
 
 
 def inline_kernel(fn):
-    """Decorator for a small scalar helper that numba always inlines into its callers."""
-    return numba.njit(inline="always", **_FLAGS)(fn)
+    """Decorator for a small scalar helper that LLVM always inlines into its callers.
+
+    ``forceinline=True`` sets LLVM's ``alwaysinline`` attribute; the helper is compiled once as
+    its own function and LLVM inlines its machine-independent code into every caller. numba's
+    own ``inline="always"`` (which inlines numba IR and types the result again in every caller)
+    gave the same machine code but took 41 s of CPU to compile ``_propagate_unscaled``, which
+    inlines the universal-variable solver three times; with ``forceinline`` it takes 2 s
+    (docs/design.md, "Compile time").
+    """
+    return _njit(forceinline=True, **_FLAGS)(fn)
 
 
 prange = numba.prange

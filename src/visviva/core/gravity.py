@@ -479,7 +479,7 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
     p = _pad_massive(x, m, G, massive)
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     for k in prange(PAIR_ITEMS):
-        _pair_item(k, nm, p, soft2, buf)
+        _pair_item(np.int64(k), nm, p, soft2, buf)  # int64 as in the serial loop: one compile
     for c in prange((nm + CHUNK - 1) // CHUNK):
         _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
     if x.shape[0] > nm:  # test particles (no parallel region when there are none)

@@ -248,40 +248,99 @@ def format_line(check: Check, width: int = 64) -> str:
 
 
 class _Progress:
-    """A one-line progress counter on stderr (a tqdm bar when stderr is a terminal)."""
+    """Progress on stderr that never garbles the result lines.
+
+    On a terminal: a tqdm bar over the modules whose description names the module(s) running
+    now and for how long, refreshed every half second by a small thread (a module that compiles
+    for a minute shows its clock ticking instead of a frozen bar). Result lines go through
+    :meth:`write` (``tqdm.write``: the bar is cleared, the line printed, the bar redrawn).
+    Elsewhere (a pipe, CI): one ``[i/n] module ...`` line per module on stderr.
+    """
 
     def __init__(self, total: int, enabled: bool):
         self.total = total
         self.enabled = enabled
         self.bar = None
+        self.running: dict[str, float] = {}
+        self._stop = None
         if enabled and sys.stderr.isatty():
             try:
                 from tqdm import tqdm
 
-                self.bar = tqdm(total=total, unit="module", file=sys.stderr, leave=False)
+                self.bar = tqdm(total=total, unit="module", file=sys.stderr, leave=False,
+                                bar_format="{n_fmt}/{total_fmt} |{bar:20}| {elapsed} {desc}")
             except Exception:  # pragma: no cover - tqdm is a dependency
                 self.bar = None
+        if self.bar is not None:
+            import threading
+
+            self._stop = threading.Event()
+            threading.Thread(target=self._tick, daemon=True).start()
+
+    def _describe(self) -> str:
+        now = time.perf_counter()
+        items = [f"{short_name(m)} ({now - t0:.0f} s)" for m, t0 in list(self.running.items())]
+        return "running: " + ", ".join(items) if items else ""
+
+    def _tick(self) -> None:
+        while not self._stop.wait(0.5):
+            self.bar.set_description_str(self._describe(), refresh=True)
 
     def start(self, i: int, module: str) -> None:
+        """``module`` (the i-th of ``total``) has started."""
         if not self.enabled:
             return
+        self.running.setdefault(module, time.perf_counter())
         if self.bar is not None:
-            self.bar.set_description(short_name(module))
+            self.bar.set_description_str(self._describe(), refresh=True)
         else:
             print(f"[{i}/{self.total}] {short_name(module)} ...", file=sys.stderr, flush=True)
 
     def done(self, result: ModuleResult) -> None:
+        """``result.module`` has finished."""
+        self.running.pop(result.module, None)
         if not self.enabled:
             return
         if self.bar is not None:
             self.bar.update(1)
         else:
-            print(f"      {len(result.checks)} checks in {result.elapsed_s:.1f} s",
+            print(f"      {short_name(result.module)}: {len(result.checks)} checks in "
+                  f"{result.elapsed_s:.1f} s",
                   file=sys.stderr, flush=True)
 
+    def write(self, line: str, file) -> None:
+        """Print ``line`` to ``file`` without breaking the bar."""
+        if self.bar is not None:
+            self.bar.write(line, file=file)
+            file.flush()
+        else:
+            print(line, file=file, flush=True)
+
     def close(self) -> None:
+        if self._stop is not None:
+            self._stop.set()
         if self.bar is not None:
             self.bar.close()
+
+
+def summary_table(outcome: Outcome) -> str:
+    """The end-of-run table: one row per module (checks passed, failed, skipped, time)."""
+    rows = [("module", "checks", "pass", "fail", "skip", "time (s)")]
+    for m in outcome.modules:
+        st = [status_of(c) for c in m.checks]
+        rows.append((short_name(m.module), str(len(st)), str(st.count("PASS")),
+                     str(st.count("FAIL")), str(st.count("SKIP")), f"{m.elapsed_s:.1f}"))
+    counts = outcome.counts()
+    rows.append(("total", str(sum(counts.values())), str(counts["PASS"]), str(counts["FAIL"]),
+                 str(counts["SKIP"]), f"{outcome.elapsed_s:.1f}"))
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
+
+    def fmt(row):
+        return "  ".join(c.ljust(w) if k == 0 else c.rjust(w)
+                         for k, (c, w) in enumerate(zip(row, widths, strict=True)))
+
+    rule = "  ".join("-" * w for w in widths)
+    return "\n".join([fmt(rows[0]), rule, *map(fmt, rows[1:-1]), rule, fmt(rows[-1])])
 
 
 def _jsonable(value, max_len: int = 20000):
@@ -360,6 +419,9 @@ def _child_main(name: str, full: bool, timeout_s: float | None, conn) -> None:
     """Entry point of a worker process: run one module, send back its (picklable) result."""
     import pickle
 
+    from ..core import _jit
+
+    _jit.notices["enabled"] = False  # the parent's bar names the running module
     result = run_module(name, full=full, timeout_s=timeout_s)
     try:
         pickle.dumps(result)
@@ -400,6 +462,7 @@ def _iter_results(names: list[str], full: bool, timeout_s: float | None, jobs: i
                 proc.start()
                 child.close()
                 running[proc.sentinel] = (index, name, proc, parent, time.perf_counter())
+                bar.start(index + 1, name)
             ready_conns = wait([r[3] for r in running.values()] + list(running), timeout=1.0)
             for key, (index, name, proc, conn, t0) in list(running.items()):
                 if conn not in ready_conns and key not in ready_conns:
@@ -421,7 +484,6 @@ def _iter_results(names: list[str], full: bool, timeout_s: float | None, jobs: i
                 del running[key]
                 done[index] = result
             while next_out in done:
-                bar.start(next_out + 1, names[next_out])
                 yield done.pop(next_out)
                 next_out += 1
     finally:
@@ -492,6 +554,10 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
         timeout_s = DEFAULT_MODULE_TIMEOUT_S
     outcome = Outcome(full=full, only=only, strict=strict)
     bar = _Progress(len(names), progress)
+    from ..core import _jit
+
+    # a compile notice (a cold numba cache) goes through the bar too, not across it
+    _jit.notices["write"] = lambda text: bar.write(text.rstrip("\n"), file=sys.stderr)
     print(f"visviva validate: {len(names)} check modules"
           f"{' (full)' if full else ''}{f', only {only!r}' if only else ''}", file=out, flush=True)
     try:
@@ -502,11 +568,13 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
             outcome.modules.append(result)
             bar.done(result)
             for check in result.checks:
-                print(format_line(check), file=out, flush=True)
+                bar.write(format_line(check), file=out)
     finally:
         bar.close()
+        _jit.notices.pop("write", None)
     outcome.elapsed_s = time.perf_counter() - t_start
     counts = outcome.counts()
+    print("\n" + summary_table(outcome), file=out, flush=True)
     print(f"{counts['PASS']} passed, {counts['FAIL']} failed, {counts['SKIP']} skipped "
           f"in {outcome.elapsed_s:.1f} s", file=out, flush=True)
     if not outcome.checks:

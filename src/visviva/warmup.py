@@ -1,0 +1,185 @@
+"""``visviva warmup``: compile every numba kernel once, with a progress bar, right after install.
+
+numba compiles a kernel on its first call and caches the machine code on disk (next to the
+installed sources, or in numba's user cache directory when that is read-only; ``NUMBA_CACHE_DIR``
+overrides both). With an empty cache the first call of an N-body integrator takes tens of
+seconds (docs/performance.md, "Cold start"); after ``visviva warmup`` every process loads the
+machine code from the cache in milliseconds. Each task below is one small public call that
+compiles one family of kernels with the argument types the public API passes (float64,
+C-contiguous: :mod:`visviva._units` normalises every input), so the cache holds exactly the
+versions later calls need.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+
+def _states():
+    from astropy import units as u
+
+    import visviva as vv
+
+    r = [[7000.0, 0.0, 0.0], [0.0, 42164.0, 0.0], [8000.0, 0.0, 100.0]] * u.km
+    v = [[0.0, 7.5, 1.0], [-3.07, 0.0, 0.0], [0.0, 11.0, 0.5]] * u.km / u.s
+    return vv.StateVectors(r, v, vv.EARTH)
+
+
+def _elements():
+    elements = _states().to_elements()
+    elements.mean_anomaly.to_value()
+    elements.to_state()
+
+
+def _anomalies():
+    import numpy as np
+
+    import visviva as vv
+
+    M = np.linspace(0.1, 3.0, 4)
+    vv.solve_kepler(M, 0.3)
+    vv.solve_kepler_hyperbolic(M, 1.5)
+    vv.mean_to_true(M, np.array([0.0, 0.5, 1.0, 2.0]))
+    vv.true_to_mean(M / 2.0, np.array([0.0, 0.5, 1.0, 2.0]))
+
+
+def _propagation():
+    from astropy import units as u
+
+    _states().propagate([60.0, 3600.0, -600.0] * u.s)
+
+
+def _lambert():
+    from astropy import units as u
+
+    import visviva as vv
+
+    vv.lambert([7000.0, 0.0, 0.0] * u.km, [0.0, 8000.0, 0.0] * u.km, 3000 * u.s, vv.EARTH)
+
+
+def _cowell():
+    import numpy as np
+    from astropy import units as u
+
+    import visviva as vv
+
+    state = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+    vv.propagate_cowell(state, np.linspace(0.0, 600.0, 3) * u.s,
+                        perturbations=[vv.J2(vv.EARTH)])
+
+
+def _simulation(integrator, **kw):
+    def run():
+        import visviva as vv
+
+        sim = vv.Simulation(integrator=integrator, G=1.0, **kw)
+        sim.add(1.0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+        sim.add(1e-3, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+        sim.add(1e-3, [2.0, 0.0, 0.0], [0.0, 0.7, 0.0])
+        sim.integrate(0.1)
+        sim.energy()
+
+    return run
+
+
+def _satellite():
+    import numpy as np
+    from astropy import units as u
+
+    import visviva as vv
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+        "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482")
+    sat.gcrs(np.linspace(0.0, 600.0, 3) * u.s)
+
+
+#: (label, function): what ``visviva warmup`` runs, in order.
+TASKS = (
+    ("states <-> elements", _elements),
+    ("anomalies (Kepler's equation)", _anomalies),
+    ("two-body propagation", _propagation),
+    ("Lambert", _lambert),
+    ("Cowell propagation", _cowell),
+    ("N-body: IAS15", _simulation("ias15")),
+    ("N-body: WHFast", _simulation("whfast", dt=0.01)),
+    ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
+    ("satellites: SGP4 and frames", _satellite),
+)
+
+
+def warmup(tasks=TASKS, progress: bool = True, stream=None) -> list[tuple[str, float, str | None]]:
+    """Run every warm-up task once; return ``(label, seconds, error or None)`` per task.
+
+    Parameters
+    ----------
+    tasks : sequence of (str, callable)
+        What to run (default :data:`TASKS`).
+    progress : bool
+        Show a tqdm progress bar naming the running task (on ``stream``).
+    stream : file, optional
+        Where the bar and the per-task lines go (default ``sys.stderr``).
+
+    Returns
+    -------
+    list of (str, float, str or None)
+        Label, wall time (s) and the error message of a task that raised.
+
+    Notes
+    -----
+    The per-kernel compile notice (:func:`visviva.core._jit.compile_notice`) is switched off
+    while this runs: the bar says what is compiling.
+    """
+    from tqdm import tqdm
+
+    from .core import _jit
+
+    stream = sys.stderr if stream is None else stream
+    out = []
+    enabled = _jit.notices["enabled"]
+    _jit.notices["enabled"] = False
+    try:
+        bar = tqdm(tasks, desc="visviva warmup", unit="task", file=stream, disable=not progress,
+                   bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} {postfix}")
+        for label, fn in bar:
+            bar.set_postfix_str(label)
+            t0 = time.perf_counter()
+            error = None
+            try:
+                fn()
+            except Exception as exc:  # report and go on with the other kernels
+                error = f"{type(exc).__name__}: {exc}"
+            dt = time.perf_counter() - t0
+            out.append((label, dt, error))
+            msg = f"  {label:<32s} {dt:7.1f} s" + (f"  FAILED: {error}" if error else "")
+            if progress:
+                bar.write(msg, file=stream)
+            else:
+                print(msg, file=stream)
+    finally:
+        _jit.notices["enabled"] = enabled
+    return out
+
+
+def add_parser(sub) -> None:
+    """Register ``visviva warmup``."""
+    p = sub.add_parser(
+        "warmup", help="compile every numba kernel once (run after installing)",
+        description="Compile visviva's numba kernels and fill numba's on-disk cache, so that "
+        "the first call in every later process loads machine code instead of compiling "
+        "(about 1-2 minutes of CPU once; later first calls take about 0.1 s).")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, one line per task")
+
+
+def run(args) -> int:
+    """Run :func:`warmup`; exit code 1 if a task failed."""
+    import numba
+
+    t0 = time.perf_counter()
+    results = warmup(progress=not args.quiet)
+    failed = [r for r in results if r[2]]
+    where = numba.config.CACHE_DIR or "__pycache__ next to visviva's sources"
+    print(f"visviva warmup: {len(results) - len(failed)} of {len(results)} kernel families "
+          f"compiled in {time.perf_counter() - t0:.0f} s; cached in {where}")
+    return 1 if failed else 0

@@ -715,6 +715,12 @@ class Simulation:
     # ---- integration -----------------------------------------------------------------------------
     def _ensure_buf(self):
         n_buf = self._integrator.n_buf
+        buf = self._buf
+        if (buf is not None and self._integrator.name == "ias15" and buf.shape[0] == 75
+                and buf.shape[1:] == (self.N, 3)):
+            # saved before IAS15's scratch slot for the low parts of positions (slot 75) was
+            # added: the slots in use are the same, so the run continues bit for bit
+            self._buf = np.concatenate([buf, np.zeros((n_buf - 75, self.N, 3))])
         if self._buf is None or self._buf.shape != (n_buf, self.N, 3):
             self._buf = np.zeros((n_buf, self.N, 3))
             self._istate[_nc.I_FRESH] = 1

@@ -46,10 +46,12 @@ assert abs(precessing.precession_per_orbit / first_order - 1) < 0.05
 
 fig, axes = plt.subplots(1, 4, figsize=(14, 3.8))
 for ax, (name, orbit) in zip(axes, cases.items(), strict=True):
-    ax.plot(orbit.xy[:, 0], orbit.xy[:, 1], lw=0.8)
-    ax.plot(0, 0, "k*")
+    ax.plot(orbit.xy[:, 0], orbit.xy[:, 1], lw=0.8, label="orbit")
+    ax.plot(0, 0, "k*", label="centre of force")
     ax.set_title(f"{name}\napsidal angle {orbit.apsidal_angle / math.pi:.4f} pi", fontsize=9)
     ax.set_aspect("equal")
-    ax.axis("off")
+    ax.set(xlabel="x (model units)", ylabel="y (model units)")
+axes[0].legend(loc="lower left", fontsize="x-small")
+fig.suptitle("Bertrand's theorem: only F ~ -1/r^2 and F ~ r give closed bound orbits", fontsize=10)
 fig.tight_layout()
 fig.savefig(figure_path("bertrand_precession.png"), dpi=120)

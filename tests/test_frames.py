@@ -221,3 +221,31 @@ def test_empty_states_convert_to_empty_states(shape):
         assert ro.shape == vo.shape == shape + (3,) and ro.unit == u.km
     lat, lon, h = itrs_to_geodetic(r)
     assert lat.shape == h.shape == shape
+
+
+@pytest.mark.parametrize("step_min", [1.0, 7.0, 600.0, 2880.0])
+def test_dense_and_sparse_times_agree_with_astropy_frames(sats, step_min):
+    """Dense times use the interpolated precession-nutation matrix, sparse ones astropy's own at
+    every time: both equal astropy's frame graph (GCRS, ITRS, GCRS <-> ITRS)."""
+    sat = sats[0]
+    t = sat.epoch + np.arange(40) * step_min * u.min
+    teme = sat.teme(t)
+    rep = CartesianRepresentation(teme.r.T, differentials=CartesianDifferential(teme.v.T))
+    with iers.conf.set_temp("auto_download", False):
+        g = TEME(rep, obstime=t).transform_to(GCRS(obstime=t))
+        i = g.transform_to(ITRS(obstime=t))
+    ours_g = sat.gcrs(t)
+    ours_i = gcrs_to_itrs(ours_g.r, ours_g.v, t)
+    back = itrs_to_gcrs(*ours_i, t)
+    for (r, v), ref in (((ours_g.r, ours_g.v), g), (ours_i, i), (back, g)):
+        assert np.abs((r - ref.cartesian.xyz.T).to_value(u.km)).max() < 1e-9  # 1 micrometre
+        assert np.abs((v - ref.velocity.d_xyz.T).to_value(u.km / u.s)).max() < 1e-10
+
+
+def test_catalog_gcrs_equals_each_satellite(sats):
+    t = sats[0].epoch + np.arange(0, 1441, 30) * u.min
+    cat = vv.Catalog([sats[0], sats[0]])
+    batch = cat.propagate(t, frame="gcrs")
+    one = sats[0].gcrs(t)
+    np.testing.assert_allclose(batch.r.value[1], one.r.value, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(batch.v.value[1], one.v.value, rtol=0, atol=1e-12)

@@ -45,7 +45,7 @@ _PUBLIC = {
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",
-    "ModifiedEquinoctialElements": "visviva.elements",
+    "ModifiedEquinoctialElements": "visviva.equinoctial",
     "solve_kepler": "visviva.anomalies",
     "solve_kepler_hyperbolic": "visviva.anomalies",
     "mean_to_true": "visviva.anomalies",
@@ -66,6 +66,10 @@ _PUBLIC = {
     "orbit_equation": "visviva.central_force",
     # N-body
     "Simulation": "visviva.nbody",
+    # animation
+    "animate_orbit": "visviva.animation",
+    "animate_simulation": "visviva.animation",
+    "save_animation": "visviva.animation",
     "solar_system": "visviva.nbody",
     # satellites
     "Satellite": "visviva.satellites",
@@ -93,10 +97,39 @@ _PUBLIC = {
     "j2_secular_rates": "visviva.satellites",
     "propagate_j2_secular": "visviva.satellites",
     "sun_synchronous_inclination": "visviva.satellites",
+    # conjunctions
+    "screen_conjunctions": "visviva.conjunctions",
+    "collision_probability": "visviva.conjunctions",
+    "max_collision_probability": "visviva.conjunctions",
+    "monte_carlo_probability": "visviva.conjunctions",
+    # orbit determination
+    "gibbs": "visviva.od",
+    "herrick_gibbs": "visviva.od",
+    "gauss_angles": "visviva.od",
+    "Observations": "visviva.od",
+    "fit_orbit": "visviva.od",
+    "fit_tle": "visviva.od",
+    # CCSDS orbit data messages
+    "CCSDSFormatError": "visviva.ccsds.grammar",
+    "read_oem": "visviva.ccsds.oem_io",
+    "write_oem": "visviva.ccsds.oem_io",
+    "read_opm": "visviva.ccsds.opm",
+    "write_opm": "visviva.ccsds.opm",
+    "read_omm": "visviva.ccsds.omm",
+    "write_omm": "visviva.ccsds.omm",
+    "read_cdm": "visviva.ccsds.cdm",
+    "write_cdm": "visviva.ccsds.cdm",
+    "ConjunctionDataMessage": "visviva.ccsds.cdm",
+    # ground stations and passes
+    "GroundStation": "visviva.ground",
+    "find_passes": "visviva.ground",
 }
 
 #: subpackages reachable as attributes: ``vv.mechanics``, ``vv.core``, ...
-_SUBMODULES = {"core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force"}
+_SUBMODULES = {
+    "core", "mechanics", "nbody", "satellites", "constants", "bodies", "errors", "central_force",
+    "conjunctions", "ccsds", "ground", "od",
+}
 
 __all__ = sorted(_PUBLIC) + ["__version__"]
 

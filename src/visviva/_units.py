@@ -131,6 +131,9 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
         NaN or infinite entries when ``finite`` is true.
     """
     quantity = is_quantity(value)
+    if not quantity and isinstance(value, (list, tuple)) and _holds_quantity(value):
+        value = _list_to_quantity(value, kind, name)
+        quantity = True
     if kind == "gm" and hasattr(value, "gm") and not quantity:
         value = value.gm
         quantity = is_quantity(value)
@@ -166,6 +169,26 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     if finite:
         require_finite(arr, name)
     return arr
+
+
+def _holds_quantity(seq) -> bool:
+    """Whether a (nested) list or tuple holds a Quantity anywhere."""
+    return any(
+        is_quantity(v) or (isinstance(v, (list, tuple)) and _holds_quantity(v)) for v in seq
+    )
+
+
+def _list_to_quantity(seq, kind: str, name: str):
+    """One Quantity from a list of Quantities (``[7000 * u.km, 0 * u.km, 0 * u.km]``)."""
+    units = _astropy_units()
+    try:
+        return units.Quantity(seq)
+    except (units.UnitsError, TypeError, ValueError) as exc:
+        why = "it mixes Quantities and plain numbers" if isinstance(exc, TypeError) else str(exc)
+        raise _errors.UnitsError(
+            f"{name} is a list whose entries do not share one unit of {kind} ({why}). Give every "
+            f"entry a unit of {kind}, or pass one Quantity, e.g. {name}={_EXAMPLE[kind]}."
+        ) from exc
 
 
 def to_vector(value, kind: str, name: str, **kwargs):
@@ -251,7 +274,7 @@ def require_positive(arr, name: str, *, strict: bool = True) -> None:
     if np.any(bad):
         relation = "> 0" if strict else ">= 0"
         raise InvalidInputError(
-            f"{name} must be {relation}; got {arr[bad].ravel()[0]!r}"
+            f"{name} must be {relation}; got {_errors.fmt_number(arr[bad].ravel()[0])}"
             f"{' (and more)' if np.count_nonzero(bad) > 1 else ''}."
         )
 

@@ -62,7 +62,12 @@ def _import_benchmarks():
 #: More commands, one line each: command name -> module that defines ``add_parser(sub)`` (adds
 #: the sub-parser named like the command) and ``run(args) -> int`` (the exit code). The module is
 #: imported when the parser is built, so it must import nothing heavy at module level.
-_COMMANDS: dict[str, str] = {}
+_COMMANDS: dict[str, str] = {
+    "screen": "visviva.conjunctions.cli",
+    "convert": "visviva.ccsds.convert",
+    "passes": "visviva.ground.cli",
+    "fit-tle": "visviva.od.cli",
+}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,10 +1,10 @@
-"""Orbital elements: classical (Keplerian) and modified equinoctial.
+"""Classical (Keplerian) orbital elements.
 
 :class:`KeplerianElements` stores the semi-latus rectum ``p`` (not ``a``), so that the exact
 parabola is representable, plus e, i, raan, argp, nu and GM; every other element is a lazy,
-cached, long-named property. :class:`ModifiedEquinoctialElements` (Walker, Ireland & Owens 1985)
-are non-singular for circular and equatorial orbits. Symbols and the convention for undefined
-angles: ``docs/conventions.md``.
+cached, long-named property. The non-singular set is
+:class:`visviva.equinoctial.ModifiedEquinoctialElements`. Symbols and the convention for
+undefined angles: ``docs/conventions.md``.
 """
 
 from __future__ import annotations
@@ -15,105 +15,25 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from .errors import InvalidElementsError, InvalidInputError
-from .states import (
-    StateVectors,
-    _broadcast_shape,
-    _flat,
-    _gm_positive,
-    _index_epoch,
-    _normalise_key,
-    _raise_for_result,
+from ._containers import (
+    _INC_SLACK,
+    _TWO_PI,
+    _deg,
+    _first_bad,
+    _index_elements,
+    _require_positive_p,
+    _scalar_or_array,
+    _warn_if_degrees,
+    _wrap_2pi,
+    _wrap_pi,
+    broadcast_shape,
+    flat,
+    gm_positive,
 )
+from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
+from .states import states_from_kernel
 
-__all__ = ["KeplerianElements", "ModifiedEquinoctialElements"]
-
-_TWO_PI = 2.0 * math.pi
-#: inclinations up to this far above pi are rounding (e.g. 180 deg converted to rad) -> pi
-_INC_SLACK = 8.0 * np.finfo(float).eps
-
-
-def _wrap_2pi(x: np.ndarray) -> np.ndarray:
-    y = np.mod(x, _TWO_PI)
-    y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
-    return y + 0.0
-
-
-def _scalar_or_array(arr: np.ndarray):
-    """A 0-d array becomes a numpy scalar, anything else stays an array."""
-    return arr[()] if arr.ndim == 0 else arr
-
-
-def _first_bad(mask: np.ndarray) -> str:
-    mask = np.asarray(mask)
-    if mask.ndim == 0:
-        return ""
-    return f" at index {tuple(int(i) for i in np.argwhere(mask)[0])}"
-
-
-def _deg(x) -> str:
-    return f"{math.degrees(float(x)):.6f} deg"
-
-
-def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
-    """Raise InvalidElementsError unless every semi-latus rectum is > 0 (and not NaN).
-
-    Parameters
-    ----------
-    p_km : ndarray
-        Semi-latus rectum (km).
-    advice : str
-        Appended to the message (starting with a space), e.g. what to give instead.
-    """
-    bad = ~(p_km > 0)
-    if np.any(bad):
-        raise InvalidElementsError(
-            f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
-            f"{p_km[bad].ravel()[0]!r} km.{advice}"
-        )
-
-
-def _index_elements(elements, key, cls_name: str):
-    """The stored arrays, gm and epoch of an element set indexed by ``key``.
-
-    Parameters
-    ----------
-    elements : KeplerianElements or ModifiedEquinoctialElements
-        The element set (its ``_stored()`` arrays have its leading shape).
-    key : index
-        Any numpy index of the leading axes.
-    cls_name : str
-        Class name for the messages of :func:`visviva.states._normalise_key`.
-
-    Returns
-    -------
-    parts : list of ndarray
-        The stored elements, indexed (canonical units).
-    gm : ndarray
-        gm (km3/s2), indexed.
-    epoch : astropy.time.Time or None
-        The epoch, indexed where it has the leading shape.
-    """
-    shape = elements._shape
-    key = _normalise_key(key, shape, cls_name)
-    parts = [np.array(x[key]) for x in elements._stored()]
-    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
-    return parts, gm, _index_epoch(elements._epoch, key, shape)
-
-
-def _states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
-    """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
-
-    Raises through :func:`visviva.states._raise_for_result` (``inputs`` and ``result_inputs``
-    are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
-    ``elements``.
-    """
-    shape = elements._shape
-    r = r.reshape(shape + (3,))
-    v = v.reshape(shape + (3,))
-    _raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
-    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)
-
+__all__ = ["KeplerianElements"]
 
 class KeplerianElements:
     """Classical orbital elements of one or many two-body orbits.
@@ -166,6 +86,7 @@ class KeplerianElements:
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
         from .core.elements import scan_coe
 
+        raan_in, argp_in, nu_in = raan, argp, nu
         # finite=False: one compiled pass below checks finiteness and every range at once;
         # the numpy checks after it only run to word the error message.
         p_km = _units.to_array(p, "length", "p", finite=False)
@@ -175,7 +96,7 @@ class KeplerianElements:
         argp = _units.to_array(argp, "angle", "argp", finite=False)
         nu = _units.to_array(nu, "angle", "nu", finite=False)
         gm = _units.to_array(gm, "gm", "gm", finite=False)
-        shape = _broadcast_shape(
+        shape = broadcast_shape(
             {
                 "p": p_km.shape,
                 "ecc": ecc.shape,
@@ -188,12 +109,16 @@ class KeplerianElements:
             "KeplerianElements",
         )
         first, _ = scan_coe(
-            *(_flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
+            *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
         )
         if first >= 0:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
             inc = np.minimum(inc, math.pi)
+        # docs/conventions.md: raan, argp in [0, 2 pi), nu in (-pi, pi], from any input
+        for value, arr, name in ((raan_in, raan, "raan"), (argp_in, argp, "argp"), (nu_in, nu, "nu")):
+            _warn_if_degrees(value, arr, name)
+        raan, argp, nu = _wrap_2pi(raan), _wrap_2pi(argp), _wrap_pi(nu)
         self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
 
     @staticmethod
@@ -209,7 +134,7 @@ class KeplerianElements:
             ("gm", gm),
         ):
             _units.require_finite(arr, name)
-        _gm_positive(gm)
+        gm_positive(gm)
         _require_positive_p(
             p_km,
             " A radial orbit (p = 0) has no classical elements; for a given semi-major axis use "
@@ -218,14 +143,14 @@ class KeplerianElements:
         if np.any(ecc < 0):
             raise InvalidElementsError(
                 f"ecc (eccentricity) must be >= 0{_first_bad(ecc < 0)}; got "
-                f"{ecc[ecc < 0].ravel()[0]!r}. Flip the sign and add pi to argp if you meant the "
+                f"{fmt_number(ecc[ecc < 0].ravel()[0])}. Flip the sign and add pi to argp if you meant the "
                 "opposite periapsis direction."
             )
         bad_inc = (inc < 0) | (inc > math.pi + _INC_SLACK)
         if np.any(bad_inc):
             raise InvalidElementsError(
                 f"inc (inclination) must lie in [0, pi] rad = [0, 180] deg{_first_bad(bad_inc)}; "
-                f"got {inc[bad_inc].ravel()[0]!r} rad. Retrograde orbits have inc > pi/2; a "
+                f"got {fmt_number(inc[bad_inc].ravel()[0])} rad. Retrograde orbits have inc > pi/2; a "
                 "negative inclination is the same orbit with inc -> -inc and raan -> raan + pi."
             )
         unreachable = np.zeros(shape, dtype=bool)
@@ -239,7 +164,7 @@ class KeplerianElements:
             limit = math.degrees(math.acos(-1.0 / e_b))
             raise InvalidElementsError(
                 f"nu = {math.degrees(nu_b):.6f} deg lies on or beyond the asymptote of the open "
-                f"orbit with e = {e_b!r}{_first_bad(unreachable)}: no body reaches it. Choose "
+                f"orbit with e = {fmt_number(e_b)}{_first_bad(unreachable)}: no body reaches it. Choose "
                 f"|nu| < arccos(-1/e) = {limit:.6f} deg."
             )
         raise InvalidElementsError("invalid elements (no specific check matched); report this")
@@ -286,19 +211,19 @@ class KeplerianElements:
                 "use KeplerianElements(p, 1.0, ...) with the semi-latus rectum p "
                 "(p = 2 q, twice the periapsis distance)."
             )
-        shape = _broadcast_shape({"a": a_km.shape, "ecc": e.shape}, "from_semi_major_axis")
+        shape = broadcast_shape({"a": a_km.shape, "ecc": e.shape}, "from_semi_major_axis")
         a_b, e_b = np.broadcast_to(a_km, shape), np.broadcast_to(e, shape)
         bad_ell = (e_b < 1) & ~(a_b > 0)
         if np.any(bad_ell):
             raise InvalidElementsError(
                 f"a must be > 0 for an ellipse (ecc < 1){_first_bad(bad_ell)}; got "
-                f"{a_b[bad_ell].ravel()[0]!r} km with ecc = {e_b[bad_ell].ravel()[0]!r}."
+                f"{fmt_number(a_b[bad_ell].ravel()[0])} km with ecc = {fmt_number(e_b[bad_ell].ravel()[0])}."
             )
         bad_hyp = (e_b > 1) & ~(a_b < 0)
         if np.any(bad_hyp):
             raise InvalidElementsError(
                 f"a must be < 0 for a hyperbola (ecc > 1){_first_bad(bad_hyp)}; got "
-                f"{a_b[bad_hyp].ravel()[0]!r} km with ecc = {e_b[bad_hyp].ravel()[0]!r}. "
+                f"{fmt_number(a_b[bad_hyp].ravel()[0])} km with ecc = {fmt_number(e_b[bad_hyp].ravel()[0])}. "
                 "Pass a = -|a|."
             )
         if np.any(~np.isfinite(a_b)):
@@ -422,7 +347,7 @@ class KeplerianElements:
         status = np.empty(nu.shape[0], dtype=np.int8)
         true_to_mean_array(nu, ecc, M, status)
         M = M.reshape(self._shape)
-        _raise_for_result(
+        raise_for_result(
             "true -> mean anomaly",
             status,
             [M],
@@ -511,195 +436,11 @@ class KeplerianElements:
         from .core.elements import coe_to_rv_array
 
         shape = self._shape
-        flat = [_flat(x, shape) for x in self._stored()]
-        r, v, status = coe_to_rv_array(*flat, _flat(self._gm, shape))
+        flat_parts = [flat(x, shape) for x in self._stored()]
+        r, v, status = coe_to_rv_array(*flat_parts, flat(self._gm, shape))
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
-        return _states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
+        return states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 
     def to_equinoctial(self, retrograde: bool = False):
         """Modified equinoctial elements (through the state vectors)."""
         return self.to_state().to_equinoctial(retrograde=retrograde)
-
-
-class ModifiedEquinoctialElements:
-    """Modified equinoctial elements (Walker, Ireland & Owens 1985) of one or many orbits.
-
-    Parameters
-    ----------
-    p : Quantity
-        Semi-latus rectum (length), > 0.
-    f, g : float or array_like
-        e cos(argp + I raan), e sin(argp + I raan) (dimensionless).
-    h, k : float or array_like
-        tan^I(i/2) cos(raan), tan^I(i/2) sin(raan) (dimensionless).
-    L : Quantity or float
-        True longitude argp + I raan + nu (rad).
-    gm : Quantity or Body
-        Gravitational parameter (km3/s2), > 0.
-    epoch : astropy.time.Time, optional
-    retrograde : bool
-        The retrograde factor: False for I = +1 (standard; singular only at i = pi exactly),
-        True for I = -1 (singular only at i = 0). Use True for orbits at or near i = pi.
-
-    Notes
-    -----
-    Non-singular for circular and equatorial orbits and valid for every conic (e = f^2 + g^2
-    may be >= 1). r = p/(1 + f cos L + g sin L); the frame vectors and the velocity follow
-    Walker et al. (1985), eqs. 2-4, with the retrograde factor of Broucke & Cefola (1972).
-    """
-
-    def __init__(self, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
-        p_km = _units.to_array(p, "length", "p")
-        f = _units.to_array(f, "dimensionless", "f")
-        g = _units.to_array(g, "dimensionless", "g")
-        h = _units.to_array(h, "dimensionless", "h")
-        k = _units.to_array(k, "dimensionless", "k")
-        L = _units.to_array(L, "angle", "L")
-        gm = _units.to_array(gm, "gm", "gm")
-        _gm_positive(gm)
-        shape = _broadcast_shape(
-            {
-                "p": p_km.shape,
-                "f": f.shape,
-                "g": g.shape,
-                "h": h.shape,
-                "k": k.shape,
-                "L": L.shape,
-                "gm": gm.shape,
-            },
-            "ModifiedEquinoctialElements",
-        )
-        _require_positive_p(p_km)
-        w = np.broadcast_to(1.0 + f * np.cos(L) + g * np.sin(L), shape)
-        if np.any(w <= 0):
-            raise InvalidElementsError(
-                f"1 + f cos L + g sin L <= 0{_first_bad(w <= 0)}: the true longitude lies on or "
-                "beyond the asymptote of the open orbit. Choose L with "
-                "|L - atan2(g, f)| < arccos(-1/e), e = hypot(f, g)."
-            )
-        self._init_canonical(p_km, f, g, h, k, L, gm, epoch, bool(retrograde), shape)
-
-    def _init_canonical(self, p, f, g, h, k, L, gm, epoch, retrograde, shape):
-        self._shape = tuple(shape)
-        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
-        self._p, self._f, self._g, self._h, self._k, self._L = (b(x) for x in (p, f, g, h, k, L))
-        self._gm = np.asarray(gm, dtype=np.float64)
-        self._epoch = epoch
-        self._retrograde = bool(retrograde)
-
-    @classmethod
-    def _from_canonical(cls, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
-        obj = cls.__new__(cls)
-        shape = np.broadcast_shapes(*(np.shape(x) for x in (p, f, g, h, k, L, gm)))
-        obj._init_canonical(p, f, g, h, k, L, gm, epoch, retrograde, shape)
-        return obj
-
-    @property
-    def shape(self) -> tuple:
-        return self._shape
-
-    @property
-    def epoch(self):
-        return self._epoch
-
-    @property
-    def ndim(self) -> int:
-        return len(self._shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self._shape, dtype=np.int64))
-
-    @property
-    def retrograde(self) -> bool:
-        """True when the retrograde factor I = -1 is used."""
-        return self._retrograde
-
-    @cached_property
-    def gm(self):
-        """Gravitational parameter (Quantity, km3/s2)."""
-        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
-
-    @cached_property
-    def semi_latus_rectum(self):
-        """p (Quantity, km)."""
-        return _units.to_quantity(self._p, "length")
-
-    @property
-    def p(self):
-        """Alias of :attr:`semi_latus_rectum`."""
-        return self.semi_latus_rectum
-
-    @cached_property
-    def f(self):
-        """f = e cos(argp + I raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._f))
-
-    @cached_property
-    def g(self):
-        """g = e sin(argp + I raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._g))
-
-    @cached_property
-    def h(self):
-        """h = tan^I(i/2) cos(raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._h))
-
-    @cached_property
-    def k(self):
-        """k = tan^I(i/2) sin(raan) (dimensionless)."""
-        return _scalar_or_array(np.array(self._k))
-
-    @cached_property
-    def true_longitude(self):
-        """L = argp + I raan + nu (Quantity, rad)."""
-        return _units.to_quantity(self._L, "angle")
-
-    @property
-    def L(self):
-        """Alias of :attr:`true_longitude`."""
-        return self.true_longitude
-
-    def __len__(self) -> int:
-        if not self._shape:
-            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
-        return self._shape[0]
-
-    def __getitem__(self, key):
-        parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")
-        return ModifiedEquinoctialElements._from_canonical(*parts, gm, epoch, self._retrograde)
-
-    def _stored(self):
-        return (self._p, self._f, self._g, self._h, self._k, self._L)
-
-    def __repr__(self) -> str:
-        I = -1 if self._retrograde else 1  # noqa: E741
-        if int(np.prod(self._shape)) == 1:
-            vals = [float(x.reshape(-1)[0]) for x in self._stored()]
-            return (
-                f"ModifiedEquinoctialElements(p={vals[0]:.9g} km, f={vals[1]:.12g}, "
-                f"g={vals[2]:.12g}, h={vals[3]:.12g}, k={vals[4]:.12g}, L={_deg(vals[5])}, I={I})"
-            )
-        return f"<ModifiedEquinoctialElements shape={self._shape}, I={I}>"
-
-    def to_state(self):
-        """State vectors (Walker et al. 1985, eqs. 3-4). Returns :class:`StateVectors`."""
-        from .core.elements import mee_to_rv_array
-
-        shape = self._shape
-        flat = [_flat(x, shape) for x in self._stored()]
-        retro = -1.0 if self._retrograde else 1.0
-        r, v, status = mee_to_rv_array(*flat, _flat(self._gm, shape), retro)
-        return _states_from_kernel(
-            self,
-            r,
-            v,
-            status,
-            "equinoctial elements -> state vectors",
-            {"p": self._p, "f": self._f, "g": self._g, "L": self._L},
-            result_inputs={"p": self._p, "h": self._h, "k": self._k},
-        )
-
-    def to_keplerian(self):
-        """Classical elements (through the state vectors). Returns :class:`KeplerianElements`."""
-        return self.to_state().to_elements()

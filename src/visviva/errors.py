@@ -29,7 +29,39 @@ __all__ = [
     "Escape",
     "StepSizeError",
     "raise_for_status",
+    "raise_for_result",
+    "require_finite_result",
+    "fmt_number",
 ]
+
+
+def fmt_number(x) -> str:
+    """A number (or array) as a person writes it, for error messages.
+
+    numpy scalars print as the number (``7000.0``, ``-0.1``, ``nan``), never as
+    ``np.float64(7000.0)``; 0-d arrays likewise; arrays as a list; anything else as ``repr``.
+
+    Parameters
+    ----------
+    x : number, numpy scalar or array_like
+        The value to show.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(x, (bool, np.bool_)):
+        return repr(bool(x))
+    try:
+        arr = np.asarray(x)
+    except Exception:  # pragma: no cover - exotic objects
+        return repr(x)
+    if arr.dtype.kind not in "biufc":
+        return repr(x)
+    if arr.ndim == 0:
+        return repr(arr.item())
+    return repr(arr.tolist()) if arr.size <= 6 else np.array2string(arr, separator=", ",
+                                                                      threshold=6)
 
 
 class VisvivaError(Exception):
@@ -247,3 +279,65 @@ def raise_for_status(status, context: str = "", **inputs) -> None:
     prefix = f"{context}: " if context else ""
     values = f" [{', '.join(quoted)}]" if quoted else ""
     raise exc(f"{prefix}{what}{where}{more}{values}. To fix: {todo}.")
+
+
+def require_finite_result(context: str, outputs, shape: tuple, **inputs) -> None:
+    """Raise DomainError (status OVERFLOW) where a computed output is NaN or infinite.
+
+    ``outputs`` are arrays of shape ``shape`` or ``shape + (3,)``; ``inputs`` are quoted in the
+    message. Called after the kernels reported OK, so a non-finite value here means float64
+    overflow of a finite input (kernels and wrappers never hand out NaN/inf silently).
+    """
+    bad = None
+    for out in outputs:
+        out = np.asarray(out)
+        # fast pass: one NaN or inf makes the sum non-finite (a finite sum proves all finite);
+        # only a sum that overflowed or a real non-finite value takes the elementwise pass
+        if np.isfinite(np.sum(out)) or np.all(np.isfinite(out)):
+            continue
+        nf = ~np.isfinite(out)
+        while nf.ndim > len(shape):
+            nf = nf.any(axis=-1)
+        nf = np.broadcast_to(nf, shape)
+        bad = nf if bad is None else (bad | nf)
+    if bad is None:
+        return
+    raise_for_status(np.where(bad, _st.OVERFLOW, _st.OK), context, **inputs)
+
+
+def raise_for_result(
+    context: str,
+    status: np.ndarray,
+    outputs,
+    shape: tuple,
+    inputs: dict,
+    result_context: str | None = None,
+    result_inputs: dict | None = None,
+) -> None:
+    """Raise for a kernel's status array, then for non-finite outputs.
+
+    The two checks every conversion makes after its one kernel call: :func:`raise_for_status`
+    on ``status`` (reshaped to ``shape``), then :func:`require_finite_result` on ``outputs``.
+
+    Parameters
+    ----------
+    context : str
+        What was computed, quoted in the error message.
+    status : ndarray of int
+        The kernel's status codes, ``shape`` items (flat or shaped).
+    outputs : sequence of ndarray
+        The kernel's results, each of shape ``shape`` or ``shape + (3,)``.
+    shape : tuple
+        Leading shape of the batch.
+    inputs : dict of str to ndarray
+        Inputs quoted in the messages (canonical units: km, km/s, s, rad).
+    result_context, result_inputs : str or dict, optional
+        Other context or inputs for the message about non-finite outputs (default: the same).
+    """
+    raise_for_status(status.reshape(shape), context, **inputs)
+    require_finite_result(
+        context if result_context is None else result_context,
+        outputs,
+        shape,
+        **(inputs if result_inputs is None else result_inputs),
+    )

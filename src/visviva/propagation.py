@@ -1,9 +1,11 @@
 """Two-body (Kepler) propagation of state vectors with universal variables.
 
-:func:`propagate_kepler` is the public wrapper: it checks units and shapes, broadcasts the states
-against the times once, makes ONE call of the compiled kernel
+:func:`propagate_kepler` is the public function; it calls ``StateVectors.propagate(dt)``, which
+hands its canonical arrays to :func:`propagate_canonical`: that checks units and shapes,
+broadcasts the states against the times once, makes ONE call of the compiled kernel
 :func:`visviva.core.universal.propagate_many` over the flattened items and raises through
-:func:`visviva.errors.raise_for_status`. ``StateVectors.propagate(dt)`` calls it.
+:func:`visviva.errors.raise_for_status`. This module imports no container (the two-body layer
+imports downward only: states -> propagation).
 """
 
 from __future__ import annotations
@@ -11,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import _units
-from .errors import InvalidInputError, ShapeError
+from .errors import InvalidInputError, ShapeError, raise_for_result
 
-__all__ = ["propagate_kepler"]
+__all__ = ["propagate_kepler", "propagate_canonical"]
 
 
 def propagate_kepler(state, dt):
@@ -71,28 +73,61 @@ def propagate_kepler(state, dt):
     >>> later.shape
     (3,)
     """
-    from .core.universal import propagate_many
-    from .states import StateVectors, _raise_for_result
-
-    if not isinstance(state, StateVectors):
+    propagate = getattr(state, "propagate", None)
+    if not callable(propagate) or not hasattr(state, "to_elements"):
         raise InvalidInputError(
             f"state must be a visviva.StateVectors, got {type(state).__name__}. Build one with "
             "vv.StateVectors(r, v, gm) from Quantities r (km) and v (km/s)."
         )
+    return propagate(dt)
+
+
+def propagate_canonical(r_km, v_km_s, gm_km3_s2, state_shape: tuple, dt):
+    """Two-body propagation of canonical arrays: the work behind :func:`propagate_kepler`.
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray, shape ``state_shape + (3,)``
+        Positions (km) and velocities (km/s).
+    gm_km3_s2 : ndarray
+        Gravitational parameters (km3/s2), scalar or of shape ``state_shape``.
+    state_shape : tuple
+        Leading shape of the states.
+    dt : Quantity
+        Times of flight (unit of time), broadcasting against ``state_shape``.
+
+    Returns
+    -------
+    r_out, v_out : ndarray, shape ``shape + (3,)``
+        Propagated positions (km) and velocities (km/s).
+    gm_out : ndarray
+        ``gm_km3_s2`` as given when scalar, else broadcast to ``shape``.
+    dt_s : ndarray
+        The times of flight in seconds, as given (not broadcast).
+    shape : tuple
+        ``np.broadcast_shapes(state_shape, dt.shape)``.
+
+    Raises
+    ------
+    UnitsError, ShapeError, InvalidInputError, InvalidStateError, ConvergenceError, DomainError
+        As listed for :func:`propagate_kepler`.
+    """
+    from .core.universal import propagate_many
+
     dt_s = _units.to_array(dt, "time", "dt")
     try:
-        shape = np.broadcast_shapes(state.shape, dt_s.shape)
+        shape = np.broadcast_shapes(state_shape, dt_s.shape)
     except ValueError:
         raise ShapeError(
             f"dt of shape {dt_s.shape} does not broadcast against the states' shape "
-            f"{state.shape}. For every state at every time give dt the shape (T, 1) with N "
+            f"{state_shape}. For every state at every time give dt the shape (T, 1) with N "
             "states of shape (N,); for one time per state give dt the states' shape."
         ) from None
 
     n = int(np.prod(shape, dtype=np.int64))
-    r0 = np.ascontiguousarray(np.broadcast_to(state._r, shape + (3,))).reshape(n, 3)
-    v0 = np.ascontiguousarray(np.broadcast_to(state._v, shape + (3,))).reshape(n, 3)
-    gm = np.ascontiguousarray(np.broadcast_to(state._gm, shape)).reshape(n)
+    r0 = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,))).reshape(n, 3)
+    v0 = np.ascontiguousarray(np.broadcast_to(v_km_s, shape + (3,))).reshape(n, 3)
+    gm = np.ascontiguousarray(np.broadcast_to(gm_km3_s2, shape)).reshape(n)
     dt_flat = np.ascontiguousarray(np.broadcast_to(dt_s, shape)).reshape(n)
     r_out = np.empty((n, 3))
     v_out = np.empty((n, 3))
@@ -106,15 +141,9 @@ def propagate_kepler(state, dt):
         "v_km_s": v0.reshape(shape + (3,)),
         "dt_s": dt_flat.reshape(shape),
     }
-    _raise_for_result("Kepler propagation", status, [r_out, v_out], shape, inputs)
-
-    epoch = state.epoch
-    if epoch is not None:
-        epoch = epoch + _units.to_quantity(dt_s, "time")
-        if epoch.shape not in ((), shape):
-            epoch = np.broadcast_to(epoch, shape, subok=True)
-    gm_out = state._gm if np.ndim(state._gm) == 0 else gm.reshape(shape)
-    return StateVectors._from_canonical(r_out, v_out, gm_out, epoch)
+    raise_for_result("Kepler propagation", status, [r_out, v_out], shape, inputs)
+    gm_out = gm_km3_s2 if np.ndim(gm_km3_s2) == 0 else gm.reshape(shape)
+    return r_out, v_out, gm_out, dt_s, shape
 
 
 def _explain_extreme_magnitudes(status, r0, v0, gm, dt_s, shape) -> None:

@@ -12,140 +12,21 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
-from .errors import InvalidInputError, InvalidStateError, ShapeError, raise_for_status
+from ._containers import (
+    broadcast_shape,
+    flat,
+    gm_positive,
+    index_epoch,
+    normalise_key,
+    validate_epoch,
+)
+from .errors import (
+    InvalidStateError,
+    raise_for_result,
+    require_finite_result,
+)
 
 __all__ = ["StateVectors"]
-
-
-# ----------------------------------------------------------------------------------------------
-# helpers shared with visviva.elements (private)
-# ----------------------------------------------------------------------------------------------
-
-
-def _broadcast_shape(named_shapes: dict[str, tuple], what: str) -> tuple:
-    """Common leading shape of the arguments, or a ShapeError naming them."""
-    try:
-        return np.broadcast_shapes(*named_shapes.values())
-    except ValueError:
-        listing = ", ".join(f"{k} {v}" for k, v in named_shapes.items())
-        raise ShapeError(
-            f"{what}: the leading shapes do not broadcast ({listing}). Give every argument the "
-            "same leading shape, e.g. (N,) per orbit and (N, 3) per vector, or use scalars "
-            "for values shared by all items."
-        ) from None
-
-
-def _gm_positive(gm: np.ndarray) -> None:
-    if not np.all(gm > 0):
-        bad = np.asarray(gm)[~(np.asarray(gm) > 0)].ravel()[0]
-        raise InvalidInputError(
-            f"gm must be > 0 (the gravitational parameter of the central body); got {bad!r} "
-            "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
-        )
-
-
-def _require_finite_result(context: str, outputs, shape: tuple, **inputs) -> None:
-    """Raise DomainError (status OVERFLOW) where a computed output is NaN or infinite.
-
-    ``outputs`` are arrays of shape ``shape`` or ``shape + (3,)``; ``inputs`` are quoted in the
-    message. Called after the kernels reported OK, so a non-finite value here means float64
-    overflow of a finite input (kernels and wrappers never hand out NaN/inf silently).
-    """
-    bad = None
-    for out in outputs:
-        out = np.asarray(out)
-        # fast pass: one NaN or inf makes the sum non-finite (a finite sum proves all finite);
-        # only a sum that overflowed or a real non-finite value takes the elementwise pass
-        if np.isfinite(np.sum(out)) or np.all(np.isfinite(out)):
-            continue
-        nf = ~np.isfinite(out)
-        while nf.ndim > len(shape):
-            nf = nf.any(axis=-1)
-        nf = np.broadcast_to(nf, shape)
-        bad = nf if bad is None else (bad | nf)
-    if bad is None:
-        return
-    from .core.status import OK, OVERFLOW
-
-    raise_for_status(np.where(bad, OVERFLOW, OK), context, **inputs)
-
-
-def _raise_for_result(
-    context: str,
-    status: np.ndarray,
-    outputs,
-    shape: tuple,
-    inputs: dict,
-    result_context: str | None = None,
-    result_inputs: dict | None = None,
-) -> None:
-    """Raise for a kernel's status array, then for non-finite outputs.
-
-    The two checks every conversion makes after its one kernel call: :func:`raise_for_status`
-    on ``status`` (reshaped to ``shape``), then :func:`_require_finite_result` on ``outputs``.
-
-    Parameters
-    ----------
-    context : str
-        What was computed, quoted in the error message.
-    status : ndarray of int
-        The kernel's status codes, ``shape`` items (flat or shaped).
-    outputs : sequence of ndarray
-        The kernel's results, each of shape ``shape`` or ``shape + (3,)``.
-    shape : tuple
-        Leading shape of the batch.
-    inputs : dict of str to ndarray
-        Inputs quoted in the messages (canonical units: km, km/s, s, rad).
-    result_context, result_inputs : str or dict, optional
-        Other context or inputs for the message about non-finite outputs (default: the same).
-    """
-    raise_for_status(status.reshape(shape), context, **inputs)
-    _require_finite_result(
-        context if result_context is None else result_context,
-        outputs,
-        shape,
-        **(inputs if result_inputs is None else result_inputs),
-    )
-
-
-def _validate_epoch(epoch):
-    if epoch is None:
-        return None
-    from astropy.time import Time
-
-    if not isinstance(epoch, Time):
-        raise InvalidInputError(
-            f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
-            f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
-        )
-    return epoch
-
-
-def _flat(arr: np.ndarray, shape: tuple) -> np.ndarray:
-    """``arr`` broadcast to ``shape`` and flattened to 1-D (a view where numpy allows)."""
-    return np.broadcast_to(arr, shape).reshape(-1)
-
-
-def _normalise_key(key, shape: tuple, cls_name: str) -> tuple:
-    if shape == ():
-        raise TypeError(f"a scalar {cls_name} cannot be indexed (its shape is ())")
-    if not isinstance(key, tuple):
-        key = (key,)
-    n_index = sum(1 for k in key if k is not None and k is not Ellipsis)
-    if n_index > len(shape):
-        raise IndexError(
-            f"too many indices for {cls_name} of shape {shape}: index the leading axes only "
-            "(the xyz axis of r and v is not indexable here; use .r[..., 0] for x)"
-        )
-    return key
-
-
-def _index_epoch(epoch, key, shape):
-    if epoch is None:
-        return None
-    if np.shape(epoch) == shape and shape != ():
-        return epoch[key]
-    return epoch
 
 
 def _norm(x: np.ndarray) -> np.ndarray:
@@ -217,13 +98,13 @@ class StateVectors:
         from .core.elements import scan_states
         from .core.status import NON_FINITE
 
-        epoch = _validate_epoch(epoch)
+        epoch = validate_epoch(epoch)
         # finiteness is checked below in the same pass as the zero-position test
         r_km = _units.to_vector(r, "length", "r", finite=False)
         v_kms = _units.to_vector(v, "speed", "v", finite=False)
         gm_arr = _units.to_array(gm, "gm", "gm")
-        _gm_positive(gm_arr)
-        shape = _broadcast_shape(
+        gm_positive(gm_arr)
+        shape = broadcast_shape(
             {"r": r_km.shape[:-1], "v": v_kms.shape[:-1], "gm": gm_arr.shape}, "StateVectors"
         )
         r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
@@ -305,12 +186,12 @@ class StateVectors:
         return self._shape[0]
 
     def __getitem__(self, key):
-        key = _normalise_key(key, self._shape, "StateVectors")
+        key = normalise_key(key, self._shape, "StateVectors")
         r = self._r[key + (slice(None),)]
         v = self._v[key + (slice(None),)]
         gm = np.broadcast_to(self._gm, self._shape)[key]
         return StateVectors._from_canonical(
-            r, v, np.array(gm), _index_epoch(self._epoch, key, self._shape)
+            r, v, np.array(gm), index_epoch(self._epoch, key, self._shape)
         )
 
     def __repr__(self) -> str:
@@ -374,7 +255,7 @@ class StateVectors:
         return e_vec
 
     def _check_finite(self, what: str, *outputs) -> None:
-        _require_finite_result(f"StateVectors.{what}", outputs, self._shape, r=self._r, v=self._v)
+        require_finite_result(f"StateVectors.{what}", outputs, self._shape, r=self._r, v=self._v)
 
     def _eccentricity_vector(self):
         r = self._r
@@ -398,12 +279,12 @@ class StateVectors:
 
     # --- conversions ----------------------------------------------------------------------------
     def _flat_inputs(self):
-        return self._r.reshape(-1, 3), self._v.reshape(-1, 3), _flat(self._gm, self._shape)
+        return self._r.reshape(-1, 3), self._v.reshape(-1, 3), flat(self._gm, self._shape)
 
     def _checked_results(self, outputs, status, context, result_context=None):
-        """The flat kernel ``outputs`` reshaped to ``shape``, after :func:`_raise_for_result`."""
+        """The flat kernel ``outputs`` reshaped to ``shape``, after :func:`raise_for_result`."""
         outputs = [x.reshape(self._shape) for x in outputs]
-        _raise_for_result(
+        raise_for_result(
             context,
             status,
             outputs,
@@ -465,7 +346,7 @@ class StateVectors:
             Radial motion.
         """
         from .core.elements import rv_to_mee_array
-        from .elements import ModifiedEquinoctialElements
+        from .equinoctial import ModifiedEquinoctialElements
 
         retro = -1.0 if retrograde else 1.0
         *elements, status = rv_to_mee_array(*self._flat_inputs(), retro)
@@ -489,8 +370,29 @@ class StateVectors:
 
         Notes
         -----
-        Delegates to :func:`visviva.propagation.propagate_kepler` (universal variables).
+        Universal variables: :func:`visviva.propagation.propagate_canonical` does the work
+        (:func:`visviva.propagation.propagate_kepler` is the same as a function).
         """
-        from .propagation import propagate_kepler
+        from .propagation import propagate_canonical
 
-        return propagate_kepler(self, dt)
+        r, v, gm, dt_s, shape = propagate_canonical(self._r, self._v, self._gm, self._shape, dt)
+        epoch = self.epoch
+        if epoch is not None:
+            epoch = epoch + _units.to_quantity(dt_s, "time")
+            if epoch.shape not in ((), shape):
+                epoch = np.broadcast_to(epoch, shape, subok=True)
+        return StateVectors._from_canonical(r, v, gm, epoch)
+
+
+def states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):
+    """Check one elements -> state kernel call and wrap its flat ``r``, ``v`` (km, km/s).
+
+    Raises through :func:`visviva.errors.raise_for_result` (``inputs`` and ``result_inputs``
+    are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
+    ``elements``.
+    """
+    shape = elements._shape
+    r = r.reshape(shape + (3,))
+    v = v.reshape(shape + (3,))
+    raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
+    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)

@@ -16,7 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import DomainError, InvalidInputError, ShapeError
+from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
 from ._inputs import Inputs
 
 __all__ = [
@@ -480,7 +480,7 @@ def integrate_rigid_body(
         raise InvalidInputError(f"method must be one of {_methods}; got {method!r}.")
     for name, tol in (("rtol", rtol), ("atol", atol)):
         if not (isinstance(tol, float | int) and np.isfinite(tol) and tol > 0):
-            raise InvalidInputError(f"{name} must be a finite float > 0; got {tol!r}.")
+            raise InvalidInputError(f"{name} must be a finite float > 0; got {fmt_number(tol)}.")
     I_inv = np.linalg.inv(Ib)
 
     def rhs(time, y):

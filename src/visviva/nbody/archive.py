@@ -36,7 +36,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["save_simulation", "load_simulation", "Archive", "FORMAT", "FORMAT_VERSION"]
 
@@ -237,7 +237,7 @@ class Archive:
         interval = float(sim._time(interval, "interval"))
         t_end = float(sim._time(t_end, "t_end"))
         if not interval > 0:
-            raise InvalidInputError(f"interval must be > 0; got {interval!r}.")
+            raise InvalidInputError(f"interval must be > 0; got {fmt_number(interval)}.")
         archive = cls(path)
         t0 = sim.t
         sign = 1.0 if t_end >= t0 else -1.0

@@ -23,6 +23,7 @@ from ..errors import (
     InvalidStateError,
     ShapeError,
     StepSizeError,
+    fmt_number,
     raise_for_status,
 )
 from . import forces as _forces
@@ -49,9 +50,9 @@ def _positive_float(value, name, hint) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.") from exc
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.") from exc
     if not (math.isfinite(x) and x > 0):
-        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {value!r}.")
+        raise InvalidInputError(f"{name} must be a finite number > 0 {hint}; got {fmt_number(value)}.")
     return x
 
 
@@ -117,7 +118,7 @@ class Trajectory:
         bad = np.flatnonzero(~np.isfinite(out))
         if bad.size:
             k = int(bad[0])
-            context = f"Trajectory.energy: at snapshot {k} (t = {self.t[k]!r})"
+            context = f"Trajectory.energy: at snapshot {k} (t = {fmt_number(self.t[k])})"
             removed = np.flatnonzero(np.isnan(self.positions[k]).any(axis=1))
             if removed.size:
                 raise InvalidStateError(
@@ -238,7 +239,7 @@ class Simulation:
         self._integrator = get_integrator(integrator)
         G_value = self.units.G if self.units is not None else float(G)
         if not (math.isfinite(G_value) and G_value > 0):
-            raise InvalidInputError(f"G must be a finite number > 0; got {G!r}.")
+            raise InvalidInputError(f"G must be a finite number > 0; got {fmt_number(G)}.")
         self._fstate[_nc.F_G] = G_value
         self.epsilon = epsilon
         self.min_dt = min_dt
@@ -299,7 +300,7 @@ class Simulation:
     def dt(self, value) -> None:
         dt = _scalar(self._time(value, "dt"), "dt")
         if not math.isfinite(dt):
-            raise InvalidInputError(f"dt must be finite; got {dt!r}.")
+            raise InvalidInputError(f"dt must be finite; got {fmt_number(dt)}.")
         self._fstate[_nc.F_DT] = dt
 
     @property
@@ -310,7 +311,7 @@ class Simulation:
     def softening(self, value) -> None:
         s = float(self._length(value, "softening"))
         if not (math.isfinite(s) and s >= 0):
-            raise InvalidInputError(f"softening must be >= 0; got {value!r}.")
+            raise InvalidInputError(f"softening must be >= 0; got {fmt_number(value)}.")
         self._fstate[_nc.F_SOFT2] = s * s
 
     @property
@@ -331,7 +332,7 @@ class Simulation:
     def min_dt(self, value) -> None:
         dt = _scalar(self._time(value, "min_dt"), "min_dt")
         if not (math.isfinite(dt) and dt >= 0):
-            raise InvalidInputError(f"min_dt must be a finite number >= 0; got {value!r}.")
+            raise InvalidInputError(f"min_dt must be a finite number >= 0; got {fmt_number(value)}.")
         self._fstate[_nc.F_MIN_DT] = dt
 
     @property
@@ -355,7 +356,7 @@ class Simulation:
     def restitution(self, value) -> None:
         value = float(value)
         if not 0.0 <= value <= 1.0:
-            raise InvalidInputError(f"restitution must be in [0, 1]; got {value!r}.")
+            raise InvalidInputError(f"restitution must be in [0, 1]; got {fmt_number(value)}.")
         self._restitution = value
 
     @property
@@ -386,7 +387,7 @@ class Simulation:
             bound = ">= 0" if allow_zero else "> 0"
             raise InvalidInputError(
                 f"{name} must be a distance {bound} (or None to switch the check off); "
-                f"got {value!r}."
+                f"got {fmt_number(value)}."
             )
         return d
 
@@ -470,7 +471,7 @@ class Simulation:
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(
                 f"{name} must be a number or an array of numbers (simulation units, or a Quantity "
-                f"when the simulation has units); got {value!r}."
+                f"when the simulation has units); got {fmt_number(value)}."
             ) from exc
         if not np.all(np.isfinite(arr)):
             raise InvalidInputError(f"{name} contains NaN or infinite values.")
@@ -581,7 +582,7 @@ class Simulation:
             mean_anomaly = M
         m_val = _scalar(self._convert(m, "mass", "m"), "m")
         if not m_val >= 0:
-            raise InvalidInputError(f"mass must be >= 0; got {m!r}.")
+            raise InvalidInputError(f"mass must be >= 0; got {fmt_number(m)}.")
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
@@ -595,7 +596,7 @@ class Simulation:
             raise ShapeError(f"r and v must have shape (3,); got {rr.shape} and {vv.shape}.")
         rad = self._length(radius, "radius")
         if not rad >= 0:
-            raise InvalidInputError(f"radius must be >= 0; got {radius!r}.")
+            raise InvalidInputError(f"radius must be >= 0; got {fmt_number(radius)}.")
         self._x = np.ascontiguousarray(np.vstack([self._x, rr]))
         self._v = np.ascontiguousarray(np.vstack([self._v, vv]))
         self._m = np.append(self._m, m_val)
@@ -618,7 +619,7 @@ class Simulation:
             raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
         e = float(e)
         if e < 0:
-            raise InvalidInputError(f"e must be >= 0; got {e!r}.")
+            raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
         if p is None:
             a = float(self._length(a, "a"))
             if e == 1.0:
@@ -627,7 +628,7 @@ class Simulation:
         else:
             p = float(self._length(p, "p"))
         if not p > 0:
-            raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {p!r}.")
+            raise InvalidInputError(f"the semi-latus rectum must be > 0 (a(1-e^2) > 0); got {fmt_number(p)}.")
         if nu is None:
             if M is None:
                 nu = 0.0
@@ -780,7 +781,7 @@ class Simulation:
         if not (np.all(steps >= 0) or np.all(steps <= 0)):
             raise InvalidInputError(
                 "output times must be monotonic in one direction from the current time "
-                f"t = {self.t!r}; sort them (or integrate backwards in a separate call)."
+                f"t = {fmt_number(self.t)}; sort them (or integrate backwards in a separate call)."
             )
         info = self._integrator
         if info.needs_dt and self.dt == 0.0:
@@ -865,7 +866,7 @@ class Simulation:
         self._check_not_coincident(f"{self.integrator} integration")
         raise InvalidStateError(
             f"the {self.integrator} integration produced NaN or infinite accelerations, "
-            f"positions or velocities (by t = {self.t!r}): a force overflowed or was singular. "
+            f"positions or velocities (by t = {fmt_number(self.t)}): a force overflowed or was singular. "
             "To fix: check the additional forces, use a smaller dt, softening > 0, or collision "
             "detection (radius=..., collision='merge')."
         )
@@ -876,7 +877,7 @@ class Simulation:
         if pairs:
             raise InvalidStateError(
                 f"{what}: particles {pairs[0]} are at exactly the same position "
-                f"{self._x[pairs[0][0]].tolist()} at t = {self.t!r}, where the point-mass "
+                f"{self._x[pairs[0][0]].tolist()} at t = {fmt_number(self.t)}, where the point-mass "
                 "gravity (and the potential energy) is infinite. To fix: separate them, set "
                 "softening > 0, or give them radii with collision='merge'."
             )
@@ -895,7 +896,7 @@ class Simulation:
             cls = {_st.COLLISION: Collision, _st.ENCOUNTER: Encounter, _st.ESCAPE: Escape}[status]
             what = STATUS_TABLE[status][1]
             parts = (a,) if b < 0 else (a, b)
-            raise cls(f"{what} at t = {self.t!r}: particles {parts}. The simulation stopped "
+            raise cls(f"{what} at t = {fmt_number(self.t)}: particles {parts}. The simulation stopped "
                       "there and can be continued.", t=self.t, particles=parts)
         if status == _st.STEP_TOO_SMALL:
             self._check_not_coincident(f"{self.integrator} integration")
@@ -903,7 +904,7 @@ class Simulation:
             failed = float(self._fstate[_nc.F_DT_FAILED])
             detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
             raise StepSizeError(
-                f"{self.integrator} integration stopped at t = {self.t!r}: the adaptive step fell "
+                f"{self.integrator} integration stopped at t = {fmt_number(self.t)}: the adaptive step fell "
                 f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "
                 "span): the run could not finish. Particles are probably (nearly) colliding or a "
                 "force is singular. To fix: give the particles radii and collision='merge' or "

@@ -15,7 +15,7 @@ from importlib import resources
 import numpy as np
 
 from ..constants import AU_KM, DAY_S, J2000_JD, JULIAN_YEAR_S
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["solar_system", "PLANETS"]
 
@@ -126,8 +126,8 @@ def _jd(epoch):
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(
             f"epoch must be an astropy Time (e.g. Time('2025-01-01', scale='tdb')) or a TDB "
-            f"Julian date; got {epoch!r}."
+            f"Julian date; got {fmt_number(epoch)}."
         ) from exc
     if not np.isfinite(jd):
-        raise InvalidInputError(f"epoch must be a finite Julian date; got {epoch!r}.")
+        raise InvalidInputError(f"epoch must be a finite Julian date; got {fmt_number(epoch)}.")
     return jd

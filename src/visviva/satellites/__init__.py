@@ -3,21 +3,22 @@ ground tracks; Cowell propagation with perturbations, events and mission design.
 
 Names load lazily (PEP 562) from the module listed in ``_EXPORTS``, so that importing
 ``visviva.satellites`` neither imports sgp4/astropy/dask nor compiles anything, and a module that
-is being edited does not break the others. To add a public name: one line ``"Name": "module"``.
+is being edited does not break the others (one mechanism for every package:
+:func:`visviva._lazy.lazy_attributes`). To add a public name: one line ``"Name": "module"``.
 """
 
 from __future__ import annotations
 
-import importlib
+from .. import _lazy
 
 #: public name -> submodule of visviva.satellites that defines it
 _EXPORTS = {
     # TLE/OMM, frames, catalogue batches, Dask, ground tracks and plots:
     "Satellite": "tle",
-    "SatelliteStates": "tle",
-    "TLEFormatError": "tle",
-    "SGP4Error": "tle",
-    "SatelliteDecayedError": "tle",
+    "SatelliteStates": "satellite_states",
+    "TLEFormatError": "tle_checks",
+    "SGP4Error": "tle_checks",
+    "SatelliteDecayedError": "tle_checks",
     "teme_to_gcrs": "frames",
     "teme_to_itrs": "frames",
     "gcrs_to_itrs": "frames",
@@ -74,14 +75,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        module = importlib.import_module(f"{__name__}.{_EXPORTS[name]}")
-        value = getattr(module, name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, prefix=f"{__name__}.")

@@ -78,14 +78,35 @@ class BatchStates:
 
     @property
     def shape(self):
+        """(N, T): objects and times."""
         return self.r.shape[:-1]
+
+    @property
+    def altitude(self):
+        """Height above the WGS-84 ellipsoid (Quantity, km, shape (N, T)).
+
+        From one rotation to ITRS per time shared by all objects (see :meth:`to_frame`), then
+        astropy's geodetic conversion; NaN where a state is NaN (``status`` non-zero).
+        """
+        from .frames import altitude_km
+
+        r = self.r.to_value(u.km)
+        v = self.v.to_value(u.km / u.s)
+        good = np.isfinite(r).all(-1) & np.isfinite(v).all(-1)
+        out = np.full(self.shape, np.nan)
+        if good.all():
+            out[...] = altitude_km(r, v, self.t, self.frame)
+        elif good.any():
+            rr, vv = np.where(good[..., None], r, 7000.0), np.where(good[..., None], v, 0.0)
+            out[good] = altitude_km(rr, vv, self.t, self.frame)[good]
+        return out << u.km
 
     def to_frame(self, frame: str) -> BatchStates:
         """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"``, with astropy's frames.
 
-        astropy transforms six basis states per time; the N objects then share each time's
-        6 x 6 map (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every
-        state with astropy to ~1e-11 km and ~1e-10 km/s.
+        One 6 x 6 map per time from astropy's rotation matrices, shared by the N objects
+        (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every state
+        with astropy's frame graph to ~1e-11 km and ~1e-10 km/s.
         """
         from .frames import transform_batch
 

@@ -24,7 +24,7 @@ from ..bodies import EARTH, SUN
 from ..core import force_block as fb
 from ..core.cowell import integrate_cowell
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
-from ..errors import InvalidInputError, ShapeError, StepSizeError, raise_for_status
+from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
 from .events import Event, EventRecord
 from .perturbations import (
     AtmosphericDrag,
@@ -480,7 +480,7 @@ def propagate_cowell(
             "t is empty: give at least one output time (e.g. np.linspace(0, 1, 10) * u.day)."
         )
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
-        raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
+        raise InvalidInputError(f"max_steps must be an integer > 0; got {fmt_number(max_steps)}.")
     if isinstance(perturbations, Perturbation):
         perturbations = [perturbations]
     elif isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):

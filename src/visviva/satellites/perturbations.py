@@ -26,7 +26,7 @@ from .._units import require_positive, to_array
 from ..bodies import BODIES, EARTH, Body
 from ..core import force_block as fb
 from ..core.perturbations import VALLADO_EXPONENTIAL_TABLE
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
 
 __all__ = [
     "Perturbation",
@@ -114,7 +114,7 @@ class Zonal(Perturbation):
         if not isinstance(self.degree, int | np.integer) or not 2 <= self.degree <= nmax:
             raise InvalidInputError(
                 f"Zonal degree must be an integer in 2..{nmax} for {body.name} (J2..J{nmax} are "
-                f"known); got {self.degree!r}."
+                f"known); got {fmt_number(self.degree)}."
                 if body.zonal
                 else f"{body.name} has no zonal harmonics; build a Body with zonal=(J2, ...)."
             )
@@ -462,7 +462,7 @@ class SphericalHarmonics(Perturbation):
         if not isinstance(n_max, int | np.integer) or not 2 <= n_max <= min(n_file, 80):
             raise InvalidInputError(
                 f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; "
-                f"got {degree!r}."
+                f"got {fmt_number(degree)}."
             )
         self.degree = int(n_max)
         self.gm_km3_s2 = gm * 1e-9

@@ -1,9 +1,14 @@
 """Satellite plots with matplotlib: ground track, 3-D orbit, altitude and eclipse timeline.
 
-Each function draws into ``ax`` when given one; otherwise it makes a new
-``matplotlib.figure.Figure`` with an Agg canvas (no pyplot, no display, safe on servers) and
-returns it, so ``fig.savefig("track.png")`` works anywhere. The map is a plain
-longitude-latitude (equirectangular) grid: no coastlines are bundled.
+Each function draws into ``ax`` when given one; otherwise it makes a new figure through
+``matplotlib.pyplot`` and returns it, so the figure behaves as every matplotlib user expects:
+it shows itself in a notebook, ``fig.show()`` / ``plt.show()`` open a window in a script with an
+interactive backend, and ``fig.savefig("track.png")`` works anywhere (on a server without a
+display pyplot picks the Agg backend by itself). Close figures you no longer need with
+``plt.close(fig)``. Each function takes a :class:`~visviva.Satellite` or a
+:class:`~visviva.Catalog` (one line per satellite, labelled with its name; the times must then be
+an absolute astropy ``Time``). The map is a plain longitude-latitude (equirectangular) grid: no
+coastlines are bundled.
 """
 
 from __future__ import annotations
@@ -12,19 +17,35 @@ import numpy as np
 from astropy import units as u
 
 from ..constants import R_EARTH_KM
-from .groundtrack import eclipse_fraction, eclipse_intervals, ground_track
+from .groundtrack import _is_catalog, eclipse_fraction, eclipse_intervals, ground_track
 
-__all__ = ["plot_ground_track", "plot_orbit_3d", "plot_altitude_eclipse"]
+__all__ = ["plot_ground_track", "plot_orbit_3d", "plot_altitude_eclipse", "new_figure"]
 
 
-def _new_axes(projection=None, figsize=(8, 4.5)):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+def new_figure(projection=None, figsize=(8, 4.5)):
+    """A new pyplot-managed figure with one axes (``projection="3d"`` for 3-D).
 
-    fig = Figure(figsize=figsize)
-    FigureCanvasAgg(fig)
+    Parameters
+    ----------
+    projection : str, optional
+        Passed to ``fig.add_subplot``.
+    figsize : (float, float)
+        Width and height, inches.
+
+    Returns
+    -------
+    (matplotlib.figure.Figure, matplotlib.axes.Axes)
+    """
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=figsize)
     ax = fig.add_subplot(1, 1, 1, projection=projection)
     return fig, ax
+
+
+def _members(sat):
+    """The satellites to draw: a catalogue's, or the one."""
+    return list(sat) if _is_catalog(sat) else [sat]
 
 
 def plot_ground_track(sat, t, ax=None, **line_kwargs):
@@ -32,25 +53,32 @@ def plot_ground_track(sat, t, ax=None, **line_kwargs):
 
     Parameters
     ----------
-    sat : Satellite
+    sat : Satellite or Catalog
+        The satellite(s); a catalogue draws one track per satellite.
     t : astropy Time or Quantity (offsets from ``sat.epoch``), 1-D
+        The times (absolute for a catalogue).
     ax : matplotlib Axes, optional
+        Draw here instead of in a new figure.
     **line_kwargs
-        Passed to ``ax.plot``.
+        Passed to ``ax.plot`` (e.g. ``color``, ``lw``, ``label``; the label defaults to the
+        satellite's name).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = (ax.figure, ax) if ax is not None else _new_axes()
-    track = ground_track(sat, t)
-    lon = track.longitude.to_value(u.deg)
-    lat = track.latitude.to_value(u.deg)
-    style = {"color": "C0", "lw": 1.2}
-    style.update(line_kwargs)
-    for k, seg in enumerate(track.segments()):
-        ax.plot(lon[seg], lat[seg], label=sat.name if k == 0 else None, **style)
-    ax.plot(lon[0], lat[0], "o", color=style["color"], ms=5)
+    fig, ax = (ax.figure, ax) if ax is not None else new_figure()
+    tracks = ground_track(sat, t)
+    tracks = tracks if isinstance(tracks, list) else [tracks]
+    for n, track in enumerate(tracks):
+        lon = track.longitude.to_value(u.deg)
+        lat = track.latitude.to_value(u.deg)
+        style = {"color": f"C{n % 10}", "lw": 1.2, "label": track.name}
+        style.update(line_kwargs)
+        label = style.pop("label")
+        for k, seg in enumerate(track.segments()):
+            ax.plot(lon[seg], lat[seg], label=label if k == 0 else None, **style)
+        ax.plot(lon[0], lat[0], "o", color=style["color"], ms=5)
     ax.set_xlim(-180, 180)
     ax.set_ylim(-90, 90)
     ax.set_xticks(np.arange(-180, 181, 60))
@@ -59,7 +87,10 @@ def plot_ground_track(sat, t, ax=None, **line_kwargs):
     ax.set_ylabel("geodetic latitude (deg)")
     ax.grid(True, lw=0.5, alpha=0.5)
     ax.set_aspect("equal")
-    ax.set_title(f"Ground track of {sat.name} from {track.t[0].utc.isot[:19]} UTC")
+    who = tracks[0].name if len(tracks) == 1 else f"{len(tracks)} satellites"
+    ax.set_title(f"Ground track of {who} from {tracks[0].t[0].utc.isot[:19]} UTC (dot: start)")
+    if len(tracks) > 1 or "label" in line_kwargs:
+        ax.legend(loc="lower left", fontsize="small")
     return fig
 
 
@@ -68,21 +99,41 @@ def plot_orbit_3d(sat, t, ax=None, frame: str = "gcrs", **line_kwargs):
 
     Parameters
     ----------
-    sat : Satellite
+    sat : Satellite or Catalog
+        The satellite(s); a catalogue draws one orbit per satellite.
     t : astropy Time or Quantity (offsets from ``sat.epoch``)
+        The times (absolute for a catalogue).
     ax : mpl_toolkits.mplot3d Axes3D, optional
+        Draw here instead of in a new figure.
     frame : {"gcrs", "teme", "itrs"}
+        The frame of the coordinates drawn.
+    **line_kwargs
+        Passed to ``ax.plot`` (the label defaults to the satellite's name).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
-    fig, ax = (ax.figure, ax) if ax is not None else _new_axes("3d", figsize=(6, 6))
-    states = getattr(sat, frame)(t)
-    r = states.r.to_value(u.km).reshape(-1, 3)
-    ax.plot(r[:, 0], r[:, 1], r[:, 2], label=sat.name, **line_kwargs)
+    fig, ax = (ax.figure, ax) if ax is not None else new_figure("3d", figsize=(6, 6))
+    if _is_catalog(sat):
+        from .catalog import _absolute_times
+
+        states = sat.propagate(_absolute_times(t, "plot_orbit_3d of a Catalog"), frame=frame)
+        paths = list(zip(states.names, states.r.to_value(u.km), strict=True))
+    else:
+        paths = [(sat.name, getattr(sat, frame)(t).r.to_value(u.km).reshape(-1, 3))]
+    lim = R_EARTH_KM
+    for name, r in paths:
+        style = {"label": name}
+        style.update(line_kwargs)
+        ax.plot(r[:, 0], r[:, 1], r[:, 2], **style)
+        lim = max(lim, np.abs(r).max())
     uu, vv = np.mgrid[0 : 2 * np.pi : 25j, 0 : np.pi : 13j]
     ax.plot_wireframe(
         R_EARTH_KM * np.cos(uu) * np.sin(vv), R_EARTH_KM * np.sin(uu) * np.sin(vv),
         R_EARTH_KM * np.cos(vv), color="0.6", lw=0.4,
     )
-    lim = max(np.abs(r).max(), R_EARTH_KM) * 1.05
+    lim *= 1.05
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.set_zlim(-lim, lim)
@@ -90,7 +141,9 @@ def plot_orbit_3d(sat, t, ax=None, frame: str = "gcrs", **line_kwargs):
     ax.set_xlabel(f"x {frame.upper()} (km)")
     ax.set_ylabel(f"y {frame.upper()} (km)")
     ax.set_zlabel(f"z {frame.upper()} (km)")
-    ax.set_title(f"{sat.name} ({frame.upper()})")
+    who = paths[0][0] if len(paths) == 1 else f"{len(paths)} satellites"
+    ax.set_title(f"{who} ({frame.upper()})")
+    ax.legend(loc="upper left", fontsize="small")
     return fig
 
 
@@ -98,21 +151,41 @@ def plot_altitude_eclipse(sat, t, ax=None):
     """Height above the WGS-84 ellipsoid against time, with eclipses shaded.
 
     Umbra (no Sun) is dark grey, penumbra light grey (conical shadow model; see
-    :func:`visviva.satellites.groundtrack.eclipse_fraction`).
+    :func:`visviva.satellites.groundtrack.eclipse_fraction`). A catalogue draws every
+    satellite's height; the shading is then that of its first satellite.
+
+    Parameters
+    ----------
+    sat : Satellite or Catalog
+        The satellite(s).
+    t : astropy Time or Quantity (offsets from ``sat.epoch``)
+        The times (absolute for a catalogue).
+    ax : matplotlib Axes, optional
+        Draw here instead of in a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
-    fig, ax = (ax.figure, ax) if ax is not None else _new_axes()
-    track = ground_track(sat, t)
-    hours = (track.t - track.t[0]).to_value(u.h)
-    ax.plot(hours, track.height.to_value(u.km), color="C0", label="height")
-    frac = eclipse_fraction(sat, track.t)
+    fig, ax = (ax.figure, ax) if ax is not None else new_figure()
+    tracks = ground_track(sat, t)
+    tracks = tracks if isinstance(tracks, list) else [tracks]
+    times = tracks[0].t
+    hours = (times - times[0]).to_value(u.h)
+    for n, track in enumerate(tracks):
+        ax.plot(hours, track.height.to_value(u.km), color=f"C{n % 10}",
+                label=f"height of {track.name}")
+    first = _members(sat)[0]
+    frac = eclipse_fraction(first, times)
     step = hours[1] - hours[0] if hours.size > 1 else 0.0
     for threshold, color, label in ((1.0, "0.85", "penumbra"), (1e-12, "0.55", "umbra")):
-        for k, (a, b) in enumerate(eclipse_intervals(track.t, frac, threshold)):
-            x0 = (a - track.t[0]).to_value(u.h)
-            x1 = (b - track.t[0]).to_value(u.h) + step
+        for k, (a, b) in enumerate(eclipse_intervals(times, frac, threshold)):
+            x0 = (a - times[0]).to_value(u.h)
+            x1 = (b - times[0]).to_value(u.h) + step
             ax.axvspan(x0, x1, color=color, lw=0, label=label if k == 0 else None)
-    ax.set_xlabel(f"hours from {track.t[0].utc.isot[:19]} UTC")
+    ax.set_xlabel(f"hours from {times[0].utc.isot[:19]} UTC")
     ax.set_ylabel("height above WGS-84 (km)")
-    ax.set_title(f"{sat.name}: height and eclipses")
+    who = tracks[0].name if len(tracks) == 1 else f"{len(tracks)} satellites"
+    ax.set_title(f"{who}: height and eclipses")
     ax.legend(loc="best", fontsize="small")
     return fig

@@ -1,22 +1,7 @@
-"""Central-force tools: vis-viva, energy, apsides, Kepler's laws, effective potential and Binet.
+"""Any central force: potentials, effective potential, turning points, Bertrand and Binet.
 
-Two kinds of functions live here:
-
-* **Kepler-problem formulas** (``vis_viva``, ``circular_speed``, ``escape_speed``,
-  ``orbital_period``, ``mean_motion``, ``semi_major_axis_from_period``, ``apsides``,
-  ``specific_energy``, ``specific_angular_momentum``, ``areal_velocity``): astropy Quantities in,
-  Quantities out, broadcasting over any shape.
-* **Any central force** (``effective_potential``, ``turning_points``, ``orbit_equation``): the
-  potential V(r) or the force F(r) per unit mass is a Python callable. They work either with
-  Quantities (then the callable receives and returns Quantities for ``effective_potential`` and
-  ``turning_points``, and plain floats in km and km/s2 inside the ODE of ``orbit_equation``) or
-  with plain numbers in any consistent units (e.g. G = M = 1 for teaching).
-
-References
-----------
-.. [1] H. Goldstein, C. Poole, J. Safko, *Classical Mechanics*, 3rd ed., ch. 3 (the equivalent
-   one-body problem, effective potential, Binet's equation, Bertrand's theorem).
-.. [2] D. A. Vallado, *Fundamentals of Astrodynamics and Applications*, 4th ed., sec. 1.3 and 2.3.
+The potential V(r) or the force F(r) per unit mass is a Python callable (see
+:mod:`visviva.central_force`).
 """
 
 from __future__ import annotations
@@ -28,363 +13,20 @@ from functools import cached_property
 import numpy as np
 from astropy import units as u
 
-from ._units import (
+from .._units import (
     broadcast_or_raise,
-    require_finite_result,
     to_array,
     to_quantity,
-    to_vector,
 )
-from .errors import DomainError, InvalidInputError, ShapeError, UnitsError
-
-__all__ = [
-    "vis_viva",
-    "circular_speed",
-    "escape_speed",
-    "orbital_period",
-    "mean_motion",
-    "semi_major_axis_from_period",
-    "apsides",
-    "specific_energy",
-    "specific_angular_momentum",
-    "areal_velocity",
-    "kepler_potential",
-    "power_law_force",
-    "effective_potential",
-    "turning_points",
-    "orbit_equation",
-    "BinetOrbit",
-    "bertrand_apsidal_angle",
-]
-
-
-def _positive(arr, name):
-    if np.any(arr <= 0):
-        raise InvalidInputError(f"{name} must be > 0; got {np.min(arr)!r}.")
-    return arr
-
-
-def _positive_array(value, kind, name):
-    """``value`` converted by :func:`visviva._units.to_array` (unit ``kind``) and checked > 0."""
-    return _positive(to_array(value, kind, name), name)
-
-
-def _gm(gm):
-    return _positive_array(gm, "gm", "gm")
-
-
-_broadcast = broadcast_or_raise  # ShapeError unless the arguments broadcast together
-
-
-def _gm_broadcast(context, gm, **arrays):
-    """The gravitational parameter (km3 / s2, > 0), checked to broadcast against ``arrays``.
-
-    Parameters
-    ----------
-    context : str
-        The calling function, named in the ShapeError.
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-    **arrays : ndarray
-        The other converted arguments, in the order of the call's signature.
-
-    Returns
-    -------
-    ndarray
-        gm in km3 / s2.
-    """
-    gm = _gm(gm)
-    _broadcast(context, **arrays, gm=gm)
-    return gm
-
-
-def _finite_result(arr, context):
-    """Raise DomainError if a result overflowed (or underflowed into a division by zero)."""
-    return require_finite_result(arr, context, remedy="Rescale them (other units, or G = M = 1).")
-
-
-def _real(value, name):
-    """A finite Python float from a plain number (for callables built from parameters)."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be a real number; got {value!r}.") from exc
-    if not math.isfinite(x):
-        raise InvalidInputError(f"{name} must be finite; got {x!r}.")
-    return x
-
-
-def _callable(fn, name):
-    if not callable(fn):
-        raise InvalidInputError(
-            f"{name} must be a callable, e.g. kepler_potential(gm) or lambda r: -1.0 / r; got "
-            f"{type(fn).__name__}."
-        )
-
-
-# --------------------------------------------------------------------------------------------
-# The Kepler problem
-
-
-def vis_viva(r, a, gm):
-    """Speed on a Keplerian orbit at distance ``r``: the vis-viva equation.
-
-    Parameters
-    ----------
-    r : Quantity, length
-        Distance from the attractor's centre (> 0).
-    a : Quantity, length
-        Semi-major axis: positive for ellipses, ``inf`` for the parabola, negative for hyperbolas.
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter of the attractor.
-
-    Returns
-    -------
-    Quantity, km / s
-        Speed, broadcast over ``r``, ``a`` and ``gm``.
-
-    Raises
-    ------
-    DomainError
-        If ``r`` lies beyond the apoapsis (``2/r < 1/a``), where no Keplerian orbit reaches.
-
-    Notes
-    -----
-    .. math:: v^2 = \\mu \\left(\\frac{2}{r} - \\frac{1}{a}\\right)
-
-    which is the energy integral :math:`v^2/2 - \\mu/r = -\\mu/(2a)` (Vallado, eq. 1-31).
-
-    Examples
-    --------
-    >>> import astropy.units as u, visviva as vv
-    >>> print(f"{vv.vis_viva(6778 * u.km, 6778 * u.km, vv.EARTH):.4f}")
-    7.6686 km / s
-    """
-    r = _positive_array(r, "length", "r")
-    a = to_array(a, "length", "a", finite=False)
-    if np.any(np.isnan(a)):
-        raise InvalidInputError("a contains NaN; give inf for a parabola, not NaN.")
-    if np.any(a == 0):
-        raise InvalidInputError("a = 0 is not an orbit; a is inf for a parabola, < 0 for hyperbolas.")
-    gm = _gm_broadcast("vis_viva", gm, r=r, a=a)
-    with np.errstate(over="ignore", divide="ignore"):
-        v2_over_gm = 2.0 / r - 1.0 / a
-    if np.any(v2_over_gm < 0):
-        raise DomainError(
-            "r lies beyond the apoapsis 2a of this ellipse (2/r < 1/a), where the orbit never "
-            "goes; check that r <= a (1 + e) <= 2a."
-        )
-    with np.errstate(over="ignore", invalid="ignore"):
-        v = np.sqrt(gm * v2_over_gm)
-    return to_quantity(_finite_result(v, "vis_viva"), "speed")
-
-
-def circular_speed(r, gm):
-    """Speed of a circular orbit of radius ``r``: :math:`v_c = \\sqrt{\\mu / r}` (km / s).
-
-    Parameters
-    ----------
-    r : Quantity, length
-        Orbit radius (> 0).
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-    """
-    r = _positive_array(r, "length", "r")
-    gm = _gm_broadcast("circular_speed", gm, r=r)
-    with np.errstate(over="ignore"):
-        v = np.sqrt(gm / r)
-    return to_quantity(_finite_result(v, "circular_speed"), "speed")
-
-
-def escape_speed(r, gm):
-    """Escape speed at distance ``r``: :math:`v_e = \\sqrt{2 \\mu / r}` (km / s), the parabolic speed.
-
-    Parameters
-    ----------
-    r : Quantity, length
-        Distance from the attractor's centre (> 0).
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-
-    Examples
-    --------
-    >>> import astropy.units as u, visviva as vv
-    >>> from visviva.central_force import escape_speed
-    >>> print(f"{escape_speed(vv.EARTH.radius, vv.EARTH):.3f}")
-    11.180 km / s
-    """
-    r = _positive_array(r, "length", "r")
-    gm = _gm_broadcast("escape_speed", gm, r=r)
-    with np.errstate(over="ignore"):
-        v = np.sqrt(2.0 * gm / r)
-    return to_quantity(_finite_result(v, "escape_speed"), "speed")
-
-
-def orbital_period(a, gm):
-    """Period of an elliptic orbit, Kepler's third law :math:`T = 2\\pi\\sqrt{a^3/\\mu}` (s).
-
-    Parameters
-    ----------
-    a : Quantity, length
-        Semi-major axis (> 0; open orbits have no period).
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter (of the two bodies together, :math:`G(m_1 + m_2)`).
-
-    Examples
-    --------
-    >>> import astropy.units as u, visviva as vv
-    >>> from visviva.central_force import orbital_period
-    >>> print(f"{orbital_period(1 * u.au, vv.SUN).to(u.day):.3f}")
-    365.257 d
-    """
-    a = to_array(a, "length", "a")
-    if np.any(a <= 0):
-        raise DomainError(
-            "orbital_period needs a > 0: parabolic and hyperbolic orbits (a = inf or a < 0) are "
-            "open and have no period."
-        )
-    gm = _gm_broadcast("orbital_period", gm, a=a)
-    with np.errstate(over="ignore"):
-        period = 2.0 * np.pi * a * np.sqrt(a / gm)  # a sqrt(a): no overflow of a**3
-    return to_quantity(_finite_result(period, "orbital_period"), "time")
-
-
-def mean_motion(a, gm):
-    """Mean motion :math:`n = \\sqrt{\\mu/|a|^3}` (rad / s) of an elliptic or hyperbolic orbit.
-
-    Parameters
-    ----------
-    a : Quantity, length
-        Semi-major axis, positive (ellipse) or negative (hyperbola); not infinite (for the
-        parabola use ``KeplerianElements.mean_motion``, which is :math:`2\\sqrt{\\mu/p^3}`).
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-    """
-    a = to_array(a, "length", "a")
-    if np.any(a == 0):
-        raise InvalidInputError("a must be non-zero.")
-    gm = _gm_broadcast("mean_motion", gm, a=a)
-    with np.errstate(over="ignore", divide="ignore", under="ignore"):
-        n = np.sqrt(gm / np.abs(a)) / np.abs(a)  # no overflow/underflow of |a|**3
-    return _finite_result(n, "mean_motion") * (u.rad / u.s)
-
-
-def semi_major_axis_from_period(period, gm):
-    """Semi-major axis of the ellipse with the given period, :math:`a = (\\mu T^2/4\\pi^2)^{1/3}` (km).
-
-    Parameters
-    ----------
-    period : Quantity, time
-        Orbital period (> 0).
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-
-    Examples
-    --------
-    >>> import astropy.units as u, visviva as vv
-    >>> from visviva.central_force import semi_major_axis_from_period
-    >>> print(f"{semi_major_axis_from_period(1 * u.sday, vv.EARTH):.1f}")  # geostationary
-    42164.2 km
-    """
-    period = _positive_array(period, "time", "period")
-    gm = _gm_broadcast("semi_major_axis_from_period", gm, period=period)
-    with np.errstate(over="ignore"):
-        # cbrt(gm) cbrt(T/2pi)^2: no overflow of gm T^2 for large T
-        a = np.cbrt(gm) * np.cbrt(period / (2.0 * np.pi)) ** 2
-    return to_quantity(_finite_result(a, "semi_major_axis_from_period"), "length")
-
-
-def apsides(a, ecc):
-    """Periapsis and apoapsis distances :math:`r_p = a(1-e)`, :math:`r_a = a(1+e)` (km).
-
-    Parameters
-    ----------
-    a : Quantity, length
-        Semi-major axis (> 0 for ellipses, < 0 for hyperbolas).
-    ecc : float or array_like
-        Eccentricity (>= 0, != 1: for the parabola use ``r_p = p / 2``).
-
-    Returns
-    -------
-    r_p, r_a : Quantity, km
-        ``r_a`` is ``inf`` for hyperbolas (the body never turns back).
-    """
-    a = to_array(a, "length", "a")
-    ecc = to_array(ecc, "dimensionless", "ecc")
-    _broadcast("apsides", a=a, ecc=ecc)
-    if np.any(ecc < 0):
-        raise InvalidInputError("ecc must be >= 0.")
-    if np.any(ecc == 1):
-        raise DomainError("a is infinite on the parabola: give p and use r_p = p / 2.")
-    if np.any((ecc < 1) != (a > 0)):
-        raise InvalidInputError("a must be > 0 for e < 1 and < 0 for e > 1.")
-    with np.errstate(over="ignore"):
-        r_p = a * (1.0 - ecc)
-        r_a_ellipse = a * (1.0 + ecc)
-    _finite_result(r_p, "apsides")
-    _finite_result(np.where(ecc < 1, r_a_ellipse, 0.0), "apsides")
-    r_a = np.where(ecc < 1, r_a_ellipse, np.inf)  # documented: inf for hyperbolas
-    return to_quantity(r_p, "length"), to_quantity(r_a, "length")
-
-
-def specific_energy(r, v, gm):
-    """Specific orbital energy :math:`\\varepsilon = v^2/2 - \\mu/r` (km2 / s2).
-
-    Parameters
-    ----------
-    r : Quantity, length
-        Distance from the attractor (> 0): a magnitude, not a vector.
-    v : Quantity, speed
-        Speed: a magnitude.
-    gm : Quantity (km3 / s2) or Body
-        Gravitational parameter.
-    """
-    r = _positive_array(r, "length", "r")
-    v = to_array(v, "speed", "v")
-    gm = _gm_broadcast("specific_energy", gm, r=r, v=v)
-    with np.errstate(over="ignore", invalid="ignore"):
-        energy = 0.5 * v * v - gm / r
-    return to_quantity(_finite_result(energy, "specific_energy"), "spec_energy")
-
-
-def specific_angular_momentum(r, v):
-    """Specific angular momentum vector :math:`\\mathbf h = \\mathbf r \\times \\mathbf v` (km2 / s).
-
-    Parameters
-    ----------
-    r : Quantity, length, shape (..., 3)
-        Position vectors.
-    v : Quantity, speed, shape (..., 3)
-        Velocity vectors.
-    """
-    r = to_vector(r, "length", "r")
-    v = to_vector(v, "speed", "v")
-    _broadcast("specific_angular_momentum", r=r[..., 0], v=v[..., 0])
-    with np.errstate(over="ignore", invalid="ignore"):
-        h = np.cross(r, v)
-    return to_quantity(_finite_result(h, "specific_angular_momentum"), "spec_angmom")
-
-
-def areal_velocity(r, v):
-    """Rate at which the radius vector sweeps area, :math:`dA/dt = |\\mathbf r \\times \\mathbf v|/2`.
-
-    Kepler's second law: constant along any central-force orbit (km2 / s).
-
-    Parameters
-    ----------
-    r : Quantity, length, shape (..., 3)
-        Position vectors.
-    v : Quantity, speed, shape (..., 3)
-        Velocity vectors.
-    """
-    h = specific_angular_momentum(r, v)
-    with np.errstate(over="ignore"):
-        rate = 0.5 * np.linalg.norm(h.value, axis=-1)
-    return _finite_result(rate, "areal_velocity") * h.unit
-
-
-# --------------------------------------------------------------------------------------------
-# Any central force
+from ..errors import DomainError, InvalidInputError, ShapeError, UnitsError, fmt_number
+from ._inputs import (
+    _callable,
+    _finite_result,
+    _gm,
+    _positive,
+    _positive_array,
+    _real,
+)
 
 
 def kepler_potential(gm):
@@ -468,14 +110,14 @@ def effective_potential(r, h, potential):
         r_km = _positive_array(r, "length", "r")
         h_c = to_array(h, "spec_angmom", "h")
         V = to_array(potential(to_quantity(r_km, "length")), "spec_energy", "potential(r)")
-        _broadcast("effective_potential", r=r_km, h=h_c, V=V)
+        broadcast_or_raise("effective_potential", r=r_km, h=h_c, V=V)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             out = h_c**2 / (2.0 * r_km**2) + V
         return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
     V = to_array(potential(r), "length", "potential(r)", allow_plain=True)
-    _broadcast("effective_potential", r=r, h=h, V=V)
+    broadcast_or_raise("effective_potential", r=r, h=h, V=V)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         out = h**2 / (2.0 * r**2) + V
     _finite_result(out, "effective_potential")
@@ -509,7 +151,7 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
 
     _callable(potential, "potential")
     if isinstance(n_grid, bool) or not isinstance(n_grid, int | np.integer) or n_grid < 2:
-        raise InvalidInputError(f"n_grid must be an integer >= 2; got {n_grid!r}.")
+        raise InvalidInputError(f"n_grid must be an integer >= 2; got {fmt_number(n_grid)}.")
     quantity = isinstance(energy, u.Quantity)
     if quantity:
         E = float(to_array(energy, "spec_energy", "energy"))
@@ -693,14 +335,14 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", True)
     for name, val in (("r0", r0), ("h", h)):
         if not val > 0:
-            raise InvalidInputError(f"{name} must be finite and > 0; got {val!r}.")
+            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.")
     theta_max = float(to_array(theta_max, "angle", "theta_max", finite=False))
     if not (math.isfinite(theta_max) and theta_max > 0):
         raise InvalidInputError("theta_max must be finite and > 0 (rad).")
     if isinstance(n_points, bool) or not isinstance(n_points, int | np.integer) or n_points < 2:
-        raise InvalidInputError(f"n_points must be an integer >= 2; got {n_points!r}.")
+        raise InvalidInputError(f"n_points must be an integer >= 2; got {fmt_number(n_points)}.")
     if not (isinstance(rtol, float | int) and math.isfinite(rtol) and 0 < rtol < 1):
-        raise InvalidInputError(f"rtol must be a float in (0, 1); got {rtol!r}.")
+        raise InvalidInputError(f"rtol must be a float in (0, 1); got {fmt_number(rtol)}.")
     h2 = h * h
 
     def rhs(_theta, y):
@@ -717,7 +359,8 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
             ) from exc
         if not math.isfinite(F):
             raise InvalidInputError(
-                f"force(r) returned {F!r} at r = {1.0 / uu!r}: the force must be finite along "
+                f"force(r) returned {fmt_number(F)} at r = {fmt_number(1.0 / uu)}: the force must be "
+                "finite along "
                 "the orbit. Check the force law (and its units)."
             )
         return [du, -uu - F / (h2 * uu * uu)]

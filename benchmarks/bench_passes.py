@@ -1,0 +1,128 @@
+"""Passes of a LEO catalogue over ground stations: visviva vs a loop of Skyfield's find_events.
+
+Rows (ratio = visviva time / Skyfield time per satellite-station-day; below 1 visviva is faster):
+
+* ``passes, N LEO satellites x 1 station x 1 day``: :func:`visviva.find_passes` (events, the
+  pass table, sunlight and twilight columns) for the whole catalogue vs Skyfield's
+  ``EarthSatellite.find_events`` looped over a subset of the same satellites (events only),
+  both per satellite. Target: 20x faster (ratio <= 0.05), aim 50x.
+* ``passes, N x 10 stations``: the same catalogue over ten stations (the SGP4 work is shared by
+  all stations) vs Skyfield per satellite-station pair.
+
+The two sides are timed alternately (A B A B ...) so that load changes hit both alike.
+
+Run: ``python -m benchmarks`` (all) or ``python -m benchmarks.bench_passes``.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+try:  # as part of the package (python -m benchmarks) or as a script
+    from .common import compile_time, quick_from_env, result, skipped
+except ImportError:  # pragma: no cover
+    from common import compile_time, quick_from_env, result, skipped
+
+
+def leo_catalog(n: int, seed: int = 1):
+    """``n`` LEO element sets (OMM records: 14-15.6 rev/day, inclinations 30-100 deg)."""
+    from visviva.satellites.catalog import Catalog
+    from visviva.satellites.tle import Satellite
+
+    rng = np.random.default_rng(seed)
+    records = [{
+        "OBJECT_NAME": f"LEO-{k:05d}", "NORAD_CAT_ID": 20000 + k,
+        "EPOCH": "2024-03-01T00:00:00.000000",
+        "MEAN_MOTION": float(rng.uniform(14.0, 15.6)),
+        "ECCENTRICITY": float(rng.uniform(1e-4, 0.01)),
+        "INCLINATION": float(rng.uniform(30.0, 100.0)),
+        "RA_OF_ASC_NODE": float(rng.uniform(0.0, 360.0)),
+        "ARG_OF_PERICENTER": float(rng.uniform(0.0, 360.0)),
+        "MEAN_ANOMALY": float(rng.uniform(0.0, 360.0)),
+        "BSTAR": float(rng.uniform(0.0, 2e-4)),
+        "MEAN_MOTION_DOT": 0.0, "MEAN_MOTION_DDOT": 0.0,
+    } for k in range(n)]
+    return Catalog([Satellite.from_omm(r) for r in records])
+
+
+def _stations(k: int):
+    from astropy import units as u
+
+    import visviva as vv
+
+    rng = np.random.default_rng(7)
+    return [vv.GroundStation(float(lat) * u.deg, float(lon) * u.deg, 100 * u.m, name=f"GS{i}")
+            for i, (lat, lon) in enumerate(zip(rng.uniform(-60, 60, k), rng.uniform(-180, 180, k),
+                                               strict=True))]
+
+
+def _alternate(fa, fb, rounds):
+    ta, tb = [], []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        fa()
+        ta.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        fb()
+        tb.append(time.perf_counter() - t0)
+    return statistics.median(ta), statistics.median(tb)
+
+
+def run(quick: bool = False) -> list[dict]:
+    try:
+        from skyfield.api import EarthSatellite, load, wgs84
+    except ImportError as exc:  # pragma: no cover
+        return [skipped("passes", f"skyfield not installed: {exc}")]
+    from astropy import units as u
+    from astropy.time import Time
+
+    import visviva as vv
+
+    quick = quick or quick_from_env()
+    n, n_sky = (200, 20) if quick else (400, 40)
+    cat = leo_catalog(n)
+    t0 = Time("2024-03-01T06:00:00", scale="utc")
+    t1 = t0 + 1 * u.day
+    ts = load.timescale()
+    a, b = ts.from_astropy(t0), ts.from_astropy(t1)
+    rows = []
+    for n_st in (1, 10):
+        stations = _stations(n_st)
+        sky_sats = [EarthSatellite.from_satrec(s.satrec, ts) for s in cat.satellites[:n_sky]]
+        sky_sites = [wgs84.latlon(s.lat.value, s.lon.value, s.height.to_value(u.m))
+                     for s in stations]
+        if n_st > 1:  # Skyfield per pair: a few pairs suffice
+            sky_sats = sky_sats[: max(4, n_sky // n_st)]
+
+        def sky(sky_sats=sky_sats, sky_sites=sky_sites):
+            for es in sky_sats:
+                for site in sky_sites:
+                    es.find_events(site, a, b)
+
+        def ours(stations=stations):
+            vv.find_passes(cat, stations, t0, t1)
+
+        first = compile_time(ours)
+        sky_s, ours_s = _alternate(sky, ours, rounds=3 if quick else 5)
+        per_sky = sky_s / (len(sky_sats) * n_st)
+        per_ours = ours_s / (n * n_st)
+        rows.append(result(
+            f"passes, {n} LEO satellites x {n_st} station{'s' if n_st > 1 else ''} x 1 day",
+            per_ours, f"skyfield find_events loop ({per_sky * 1e3:.2f} ms per satellite-station-"
+            "day)", per_sky, target=1 / 20.0, compile_s=first,
+            notes=f"per satellite-station-day; visviva {per_ours * 1e6:.0f} us (whole "
+            f"catalogue in one call, with the pass table and sunlight/twilight columns), "
+            f"speed-up {per_sky / per_ours:.0f}x; Skyfield timed on {len(sky_sats)} of the "
+            "satellites; alternating rounds",
+        ))
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    for row in run(quick="--quick" in sys.argv):
+        print(row)

@@ -1,0 +1,174 @@
+"""Helpers shared by the two-body containers (:mod:`visviva.states`, :mod:`visviva.elements`).
+
+Shapes, the gravitational parameter, epochs and indexing: each check written once, raising the
+typed exceptions of :mod:`visviva.errors` with a message that says what to do.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import _units
+from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
+
+__all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch"]
+
+
+def broadcast_shape(named_shapes: dict[str, tuple], what: str) -> tuple:
+    """Common leading shape of the arguments, or a ShapeError naming them."""
+    try:
+        return np.broadcast_shapes(*named_shapes.values())
+    except ValueError:
+        listing = ", ".join(f"{k} {v}" for k, v in named_shapes.items())
+        raise ShapeError(
+            f"{what}: the leading shapes do not broadcast ({listing}). Give every argument the "
+            "same leading shape, e.g. (N,) per orbit and (N, 3) per vector, or use scalars "
+            "for values shared by all items."
+        ) from None
+
+
+def gm_positive(gm: np.ndarray) -> None:
+    if not np.all(gm > 0):
+        bad = np.asarray(gm)[~(np.asarray(gm) > 0)].ravel()[0]
+        raise InvalidInputError(
+            f"gm must be > 0 (the gravitational parameter of the central body); got {fmt_number(bad)} "
+            "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
+        )
+
+
+def validate_epoch(epoch):
+    if epoch is None:
+        return None
+    from astropy.time import Time
+
+    if not isinstance(epoch, Time):
+        raise InvalidInputError(
+            f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
+            f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
+        )
+    return epoch
+
+
+def flat(arr: np.ndarray, shape: tuple) -> np.ndarray:
+    """``arr`` broadcast to ``shape`` and flattened to 1-D (a view where numpy allows)."""
+    return np.broadcast_to(arr, shape).reshape(-1)
+
+
+def normalise_key(key, shape: tuple, cls_name: str) -> tuple:
+    if shape == ():
+        raise TypeError(f"a scalar {cls_name} cannot be indexed (its shape is ())")
+    if not isinstance(key, tuple):
+        key = (key,)
+    n_index = sum(1 for k in key if k is not None and k is not Ellipsis)
+    if n_index > len(shape):
+        raise IndexError(
+            f"too many indices for {cls_name} of shape {shape}: index the leading axes only "
+            "(the xyz axis of r and v is not indexable here; use .r[..., 0] for x)"
+        )
+    return key
+
+
+def index_epoch(epoch, key, shape):
+    if epoch is None:
+        return None
+    if np.shape(epoch) == shape and shape != ():
+        return epoch[key]
+    return epoch
+
+
+# ----------------------------------------------------------------------------------------------
+# element sets (visviva.elements, visviva.equinoctial)
+
+_TWO_PI = 2.0 * math.pi
+#: inclinations up to this far above pi are rounding (e.g. 180 deg converted to rad) -> pi
+_INC_SLACK = 8.0 * np.finfo(float).eps
+
+
+def _wrap_2pi(x: np.ndarray) -> np.ndarray:
+    y = np.mod(x, _TWO_PI)
+    y = np.where(y >= _TWO_PI, y - _TWO_PI, y)
+    return y + 0.0
+
+
+def _wrap_pi(x: np.ndarray) -> np.ndarray:
+    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero)."""
+    return math.pi - _wrap_2pi(math.pi - np.asarray(x)) + 0.0
+
+
+def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
+    """Warn once per call when a plain-number angle looks like degrees (|x| > 2 pi)."""
+    if _units.is_quantity(value) or not np.any(np.abs(arr) > _TWO_PI):
+        return
+    import warnings
+
+    big = float(arr[np.abs(arr) > _TWO_PI].ravel()[0])
+    warnings.warn(
+        f"{name} = {fmt_number(big)} is a plain number, so it is taken in radians "
+        f"(= {fmt_number(math.degrees(big) % 360.0)} deg after wrapping). If you meant "
+        f"degrees pass {name}={fmt_number(big)} * u.deg.",
+        UserWarning, stacklevel=3,
+    )
+
+
+def _scalar_or_array(arr: np.ndarray):
+    """A 0-d array becomes a numpy scalar, anything else stays an array."""
+    return arr[()] if arr.ndim == 0 else arr
+
+
+def _first_bad(mask: np.ndarray) -> str:
+    mask = np.asarray(mask)
+    if mask.ndim == 0:
+        return ""
+    return f" at index {tuple(int(i) for i in np.argwhere(mask)[0])}"
+
+
+def _deg(x) -> str:
+    return f"{math.degrees(float(x)):.6f} deg"
+
+
+def _require_positive_p(p_km: np.ndarray, advice: str = "") -> None:
+    """Raise InvalidElementsError unless every semi-latus rectum is > 0 (and not NaN).
+
+    Parameters
+    ----------
+    p_km : ndarray
+        Semi-latus rectum (km).
+    advice : str
+        Appended to the message (starting with a space), e.g. what to give instead.
+    """
+    bad = ~(p_km > 0)
+    if np.any(bad):
+        raise InvalidElementsError(
+            f"p (semi-latus rectum) must be > 0{_first_bad(bad)}; got "
+            f"{fmt_number(p_km[bad].ravel()[0])} km.{advice}"
+        )
+
+
+def _index_elements(elements, key, cls_name: str):
+    """The stored arrays, gm and epoch of an element set indexed by ``key``.
+
+    Parameters
+    ----------
+    elements : KeplerianElements or ModifiedEquinoctialElements
+        The element set (its ``_stored()`` arrays have its leading shape).
+    key : index
+        Any numpy index of the leading axes.
+    cls_name : str
+        Class name for the messages of :func:`visviva._containers.normalise_key`.
+
+    Returns
+    -------
+    parts : list of ndarray
+        The stored elements, indexed (canonical units).
+    gm : ndarray
+        gm (km3/s2), indexed.
+    epoch : astropy.time.Time or None
+        The epoch, indexed where it has the leading shape.
+    """
+    shape = elements._shape
+    key = normalise_key(key, shape, cls_name)
+    parts = [np.array(x[key]) for x in elements._stored()]
+    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
+    return parts, gm, index_epoch(elements._epoch, key, shape)

@@ -1,0 +1,449 @@
+"""The Conjunction Data Message (CDM, CCSDS 508.0-B-1): keyword tables on the shared grammar.
+
+A CDM is a header, the relative metadata/data of the conjunction (TCA, miss distance, relative
+state, screening volume, Pc), then one segment per object (metadata, OD parameters, additional
+parameters, state vector, RTN covariance). The sections below describe every keyword with its
+unit and mandatory flag; :mod:`visviva.ccsds.layout` reads and writes them in KVN and XML. Read
+with :func:`read_cdm`, write with :meth:`ConjunctionDataMessage.to_kvn` / ``to_xml`` or
+:func:`write_cdm`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .grammar import CCSDSFormatError, Record, Section
+from .grammar import Keyword as K
+from .kvn import KVNCursor, KVNWriter
+from .layout import (
+    read_kvn_section,
+    read_text,
+    read_xml_section,
+    write_kvn_section,
+    write_xml_section,
+    xml_child,
+)
+from .ndmxml import XMLNode, looks_like_xml, new_root, parse, to_text
+
+__all__ = ["ConjunctionDataMessage", "CDMObject", "read_cdm", "write_cdm", "HEADER", "RELATIVE",
+           "SEGMENT_SECTIONS"]
+
+HEADER = Section("header", (
+    K("CCSDS_CDM_VERS", "text", None, True), K("CREATION_DATE", "epoch", None, True),
+    K("ORIGINATOR", "text", None, True), K("MESSAGE_FOR"), K("MESSAGE_ID", "text", None, True)),
+    "header")
+
+#: keywords of the relative state, nested in <relativeStateVector> in XML
+_RELATIVE_STATE = ("RELATIVE_POSITION_R", "RELATIVE_POSITION_T", "RELATIVE_POSITION_N",
+                   "RELATIVE_VELOCITY_R", "RELATIVE_VELOCITY_T", "RELATIVE_VELOCITY_N")
+RELATIVE = Section("relative", (
+    K("TCA", "epoch", None, True), K("MISS_DISTANCE", "float", "m", True),
+    K("RELATIVE_SPEED", "float", "m/s"),
+    K("RELATIVE_POSITION_R", "float", "m"), K("RELATIVE_POSITION_T", "float", "m"),
+    K("RELATIVE_POSITION_N", "float", "m"), K("RELATIVE_VELOCITY_R", "float", "m/s"),
+    K("RELATIVE_VELOCITY_T", "float", "m/s"), K("RELATIVE_VELOCITY_N", "float", "m/s"),
+    K("START_SCREEN_PERIOD", "epoch"), K("STOP_SCREEN_PERIOD", "epoch"),
+    K("SCREEN_VOLUME_FRAME"), K("SCREEN_VOLUME_SHAPE"), K("SCREEN_VOLUME_X", "float", "m"),
+    K("SCREEN_VOLUME_Y", "float", "m"), K("SCREEN_VOLUME_Z", "float", "m"),
+    K("SCREEN_ENTRY_TIME", "epoch"), K("SCREEN_EXIT_TIME", "epoch"),
+    K("COLLISION_PROBABILITY", "float"), K("COLLISION_PROBABILITY_METHOD")),
+    "body/relativeMetadataData")
+
+METADATA = Section("metadata", (
+    K("OBJECT", "text", None, True), K("OBJECT_DESIGNATOR", "text", None, True),
+    K("CATALOG_NAME", "text", None, True), K("OBJECT_NAME", "text", None, True),
+    K("INTERNATIONAL_DESIGNATOR", "text", None, True), K("OBJECT_TYPE"),
+    K("OPERATOR_CONTACT_POSITION"), K("OPERATOR_ORGANIZATION"), K("OPERATOR_PHONE"),
+    K("OPERATOR_EMAIL"), K("EPHEMERIS_NAME", "text", None, True),
+    K("COVARIANCE_METHOD", "text", None, True), K("MANEUVERABLE", "text", None, True),
+    K("ORBIT_CENTER"), K("REF_FRAME", "text", None, True), K("GRAVITY_MODEL"),
+    K("ATMOSPHERIC_MODEL"), K("N_BODY_PERTURBATIONS"), K("SOLAR_RAD_PRESSURE"),
+    K("EARTH_TIDES"), K("INTRACK_THRUST")), "metadata")
+OD_PARAMETERS = Section("od_parameters", (
+    K("TIME_LASTOB_START", "epoch"), K("TIME_LASTOB_END", "epoch"),
+    K("RECOMMENDED_OD_SPAN", "float", "d"), K("ACTUAL_OD_SPAN", "float", "d"),
+    K("OBS_AVAILABLE", "int"), K("OBS_USED", "int"), K("TRACKS_AVAILABLE", "int"),
+    K("TRACKS_USED", "int"), K("RESIDUALS_ACCEPTED", "float", "%"), K("WEIGHTED_RMS", "float")),
+    "data/odParameters", optional=True)
+ADDITIONAL = Section("additional_parameters", (
+    K("AREA_PC", "float", "m**2"), K("AREA_DRG", "float", "m**2"),
+    K("AREA_SRP", "float", "m**2"), K("MASS", "float", "kg"),
+    K("CD_AREA_OVER_MASS", "float", "m**2/kg"), K("CR_AREA_OVER_MASS", "float", "m**2/kg"),
+    K("THRUST_ACCELERATION", "float", "m/s**2"), K("SEDR", "float", "W/kg")),
+    "data/additionalParameters", optional=True)
+STATE = Section("state_vector", (
+    K("X", "float", "km", True), K("Y", "float", "km", True), K("Z", "float", "km", True),
+    K("X_DOT", "float", "km/s", True), K("Y_DOT", "float", "km/s", True),
+    K("Z_DOT", "float", "km/s", True)), "data/stateVector")
+
+#: the lower triangle of the 6x6 RTN covariance, row by row (508.0-B-1 table 3-5)
+_RTN = ("R", "T", "N", "RDOT", "TDOT", "NDOT")
+_COV6 = tuple((f"C{_RTN[i]}_{_RTN[j]}", i, j) for i in range(6) for j in range(i + 1))
+
+
+def _cov_unit(i, j):
+    return "m**2" if i < 3 and j < 3 else ("m**2/s**2" if i >= 3 and j >= 3 else "m**2/s")
+
+
+_EXTRA_ROWS = (
+    ("CDRG", ("m**3/kg",) * 3 + ("m**3/(kg*s)",) * 3 + ("m**4/kg**2",)),
+    ("CSRP", ("m**3/kg",) * 3 + ("m**3/(kg*s)",) * 3 + ("m**4/kg**2",) * 2),
+    ("CTHR", ("m**2/s**2",) * 3 + ("m**2/s**3",) * 3 + ("m**3/(kg*s**2)",) * 2
+     + ("m**2/s**4",)),
+)
+_EXTRA_COLS = _RTN + ("DRG", "SRP", "THR")
+COVARIANCE = Section("covariance", tuple(
+    K(name, "float", _cov_unit(i, j), True) for name, i, j in _COV6) + tuple(
+    K(f"{row}_{_EXTRA_COLS[k]}", "float", unit) for row, units in _EXTRA_ROWS
+    for k, unit in enumerate(units)), "data/covarianceMatrix")
+
+#: the sections of one object's segment, in KVN order
+SEGMENT_SECTIONS = (METADATA, OD_PARAMETERS, ADDITIONAL, STATE, COVARIANCE)
+
+
+class CDMObject:
+    """One object of a CDM: its metadata and state at TCA, with the covariance.
+
+    Attributes
+    ----------
+    sections : dict
+        Section name -> Record (``metadata``, ``od_parameters``, ``additional_parameters``,
+        ``state_vector``, ``covariance``).
+    """
+
+    def __init__(self, sections: dict):
+        self.sections = {k: (v if isinstance(v, Record) else Record(values=dict(v)))
+                         for k, v in sections.items()}
+
+    @property
+    def name(self) -> str:
+        """``OBJECT_NAME``."""
+        return self.sections["metadata"]["OBJECT_NAME"]
+
+    @property
+    def designator(self) -> str:
+        """``OBJECT_DESIGNATOR`` (the catalogue number)."""
+        return self.sections["metadata"]["OBJECT_DESIGNATOR"]
+
+    @property
+    def frame(self) -> str:
+        """``REF_FRAME`` of the state vector (e.g. ``"EME2000"``, ``"GCRF"``, ``"ITRF"``)."""
+        return self.sections["metadata"]["REF_FRAME"]
+
+    @property
+    def r(self):
+        """Position at TCA (Quantity, km) in :attr:`frame`."""
+        from astropy import units as u
+
+        s = self.sections["state_vector"]
+        return np.array([s["X"], s["Y"], s["Z"]]) * u.km
+
+    @property
+    def v(self):
+        """Velocity at TCA (Quantity, km/s) in :attr:`frame`."""
+        from astropy import units as u
+
+        s = self.sections["state_vector"]
+        return np.array([s["X_DOT"], s["Y_DOT"], s["Z_DOT"]]) * u.km / u.s
+
+    @property
+    def covariance_rtn(self) -> np.ndarray:
+        """The 6x6 position-velocity covariance in the object's RTN frame (m, m/s)."""
+        c = self.sections["covariance"]
+        out = np.empty((6, 6))
+        for name, i, j in _COV6:
+            out[i, j] = out[j, i] = c[name]
+        return out
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The 6x6 covariance rotated to :attr:`frame` (m, m/s), via the RTN axes of (r, v)."""
+        from ..conjunctions.covariance import rtn_to_inertial
+
+        return rtn_to_inertial(self.covariance_rtn, self.r, self.v)
+
+    def __repr__(self):
+        return f"CDMObject({self.name!r}, {self.frame})"
+
+
+class ConjunctionDataMessage:
+    """A CCSDS Conjunction Data Message.
+
+    Parameters
+    ----------
+    sections : dict
+        ``"header"`` and ``"relative"`` -> Record (or dict of keyword values),
+        ``"object1"`` and ``"object2"`` -> dict of the segment's section records.
+    source : str
+        Where it was read from.
+    """
+
+    def __init__(self, sections: dict, source: str = "<text>"):
+        self.header = _rec(sections["header"])
+        self.relative = _rec(sections["relative"])
+        self.object1 = sections["object1"] if isinstance(sections["object1"], CDMObject) \
+            else CDMObject(sections["object1"])
+        self.object2 = sections["object2"] if isinstance(sections["object2"], CDMObject) \
+            else CDMObject(sections["object2"])
+        self.source = source
+
+    @property
+    def tca(self):
+        """Time of closest approach (astropy Time, UTC)."""
+        from .timeframes import epochs_to_time
+
+        return epochs_to_time(self.relative["TCA"], "UTC", self.relative.line_of("TCA"),
+                              self.source)
+
+    @property
+    def miss_distance(self):
+        """``MISS_DISTANCE`` (Quantity, m)."""
+        from astropy import units as u
+
+        return self.relative["MISS_DISTANCE"] * u.m
+
+    @property
+    def relative_speed(self):
+        """``RELATIVE_SPEED`` (Quantity, m/s), or None when the message has none."""
+        from astropy import units as u
+
+        value = self.relative.get("RELATIVE_SPEED")
+        return None if value is None else value * u.m / u.s
+
+    @property
+    def collision_probability(self):
+        """The message's own ``COLLISION_PROBABILITY`` (float), or None."""
+        return self.relative.get("COLLISION_PROBABILITY")
+
+    def sections(self) -> dict:
+        """Every section as a dict of records (what the constructor takes)."""
+        return {"header": self.header, "relative": self.relative,
+                "object1": self.object1.sections, "object2": self.object2.sections}
+
+    def to_kvn(self) -> str:
+        """The message as KVN text."""
+        writer = KVNWriter(width=34)
+        write_kvn_section(writer, HEADER, self.header)
+        writer.blank()
+        write_kvn_section(writer, RELATIVE, self.relative)
+        writer.blank()
+        for obj in (self.object1, self.object2):
+            for section in SEGMENT_SECTIONS:
+                if section.name in obj.sections:
+                    write_kvn_section(writer, section, obj.sections[section.name])
+            writer.blank()
+        return writer.text()
+
+    def to_xml(self) -> str:
+        """The message as NDM/XML text (``<cdm>``)."""
+        root = new_root("cdm", "CCSDS_CDM_VERS", self.header["CCSDS_CDM_VERS"])
+        write_xml_section(root, HEADER, self.header, skip=("CCSDS_CDM_VERS",))
+        body = xml_child(root, "body")
+        rel = write_xml_section(body, RELATIVE, self.relative)
+        # the relative state sits in its own element, after RELATIVE_SPEED
+        moved = [e for e in list(rel) if e.tag in _RELATIVE_STATE]
+        if moved:
+            import xml.etree.ElementTree as ET
+
+            for e in moved:
+                rel.remove(e)
+            tags = [e.tag for e in rel]
+            at = tags.index("RELATIVE_SPEED") + 1 if "RELATIVE_SPEED" in tags else \
+                tags.index("MISS_DISTANCE") + 1
+            vec = ET.Element("relativeStateVector")
+            vec.extend(moved)
+            rel.insert(at, vec)
+        for obj in (self.object1, self.object2):
+            seg = ET_sub(body, "segment")
+            for section in SEGMENT_SECTIONS:
+                if section.name in obj.sections:
+                    parent = seg
+                    for tag in section.xml_path.split("/")[:-1]:
+                        parent = xml_child(parent, tag)
+                    write_xml_section(parent, section, obj.sections[section.name])
+        return to_text(root)
+
+    def __eq__(self, other):
+        if not isinstance(other, ConjunctionDataMessage):
+            return NotImplemented
+        return _values(self.sections()) == _values(other.sections())
+
+    def __repr__(self):
+        return (f"ConjunctionDataMessage(TCA {self.relative['TCA']}, "
+                f"{self.object1.name!r} x {self.object2.name!r}, "
+                f"miss {self.relative['MISS_DISTANCE']} m)")
+
+
+def ET_sub(parent, tag):  # noqa: N802
+    """Append an empty child element ``tag`` to ``parent`` and return it."""
+    import xml.etree.ElementTree as ET
+
+    return ET.SubElement(parent, tag)
+
+
+def _rec(value):
+    return value if isinstance(value, Record) else Record(values=dict(value))
+
+
+def _values(sections: dict):
+    out = {}
+    for key, value in sections.items():
+        if isinstance(value, dict):
+            out[key] = _values(value)
+        else:
+            out[key] = (dict(value.values), list(value.comments))
+    return out
+
+
+def read_cdm(source) -> ConjunctionDataMessage:
+    """Read a CCSDS Conjunction Data Message (508.0-B-1), KVN or XML.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A path, or the message text.
+
+    Returns
+    -------
+    ConjunctionDataMessage
+        ``.tca``, ``.miss_distance``, ``.relative_speed``, ``.collision_probability``,
+        ``.object1`` / ``.object2`` (:class:`CDMObject` with ``.name``, ``.r``, ``.v``,
+        ``.covariance_rtn``, ``.covariance``).
+
+    Raises
+    ------
+    CCSDSFormatError
+        A malformed message: missing mandatory keyword, wrong unit, bad number or epoch, a
+        keyword out of place, a missing object; the message names the line.
+    """
+    text, name = read_text(source)
+    if looks_like_xml(text):
+        return _read_xml(text, name)
+    cursor = KVNCursor(text, name)
+    if cursor.at_end():
+        raise CCSDSFormatError("the message is empty", source=name)
+    first = cursor.peek()
+    if first.kind != "keyword" or first.key != "CCSDS_CDM_VERS":
+        raise cursor.error("a CDM starts with CCSDS_CDM_VERS = <version>")
+    sections = {}
+    for section in (HEADER, RELATIVE):
+        record = _read_checked(cursor, section)
+        if record is None:
+            raise cursor.error(f"the {section.name} section is missing (found "
+                               f"{_describe(cursor.peek())})")
+        sections[section.name] = record
+    for label in ("OBJECT1", "OBJECT2"):
+        seg = {}
+        for section in SEGMENT_SECTIONS:
+            record = _read_checked(cursor, section)
+            if record is None:
+                if section.optional:
+                    continue
+                raise cursor.error(f"{label}: the {section.name.replace('_', ' ')} section is "
+                                   f"missing (found {_describe(cursor.peek())})")
+            seg[section.name] = record
+        if seg["metadata"]["OBJECT"] != label:
+            raise CCSDSFormatError(f"expected OBJECT = {label}, found "
+                                   f"{seg['metadata']['OBJECT']!r}",
+                                   line=seg["metadata"].line_of("OBJECT"), source=name)
+        sections[label.lower()] = seg
+    if not cursor.at_end():
+        raise cursor.error(f"unexpected {_describe(cursor.peek())} after the two objects "
+                           "(misspelt or out-of-order keyword)")
+    return ConjunctionDataMessage(sections, name)
+
+
+_ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS
+
+
+def _read_checked(cursor, section):
+    """Read a section; an unknown keyword right after it is reported as such."""
+    from .layout import check_mandatory
+
+    record = read_kvn_section(cursor, section, check=False)
+    line = cursor.peek()
+    if line is not None and line.kind == "keyword" and not any(s.owns(line.key) for s in _ALL):
+        raise cursor.error(f"unexpected {line.key}: not a keyword of a CDM (check its spelling)",
+                           line=line.line)
+    if record is not None:
+        check_mandatory(record, section, cursor.source)
+    return record
+
+
+def _describe(line) -> str:
+    if line is None:
+        return "the end of the message"
+    return line.key if line.kind == "keyword" else f"'{line.value[:40]}'"
+
+
+def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
+    from .layout import with_version
+
+    root = parse(text, name)
+    if root.tag != "cdm":
+        raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <cdm>",
+                               line=root.line, source=name)
+    version = root.attrib.get("version")
+    header = root.path("header")
+    if not version or not header:
+        raise CCSDSFormatError("<cdm> needs a version attribute and a <header>", line=root.line,
+                               source=name)
+    sections = {"header": read_xml_section(with_version(header[0], "CCSDS_CDM_VERS", version),
+                                           HEADER, name)}
+    rel = root.path("body/relativeMetadataData")
+    if not rel:
+        raise CCSDSFormatError("<body><relativeMetadataData> is missing", line=root.line,
+                               source=name)
+    children = []
+    for child in rel[0].children:
+        children.extend(child.children if child.tag == "relativeStateVector" else [child])
+    flat = XMLNode(rel[0].tag, rel[0].attrib, rel[0].line, rel[0].text, children)
+    sections["relative"] = read_xml_section(flat, RELATIVE, name)
+    segments = root.path("body/segment")
+    if len(segments) != 2:
+        raise CCSDSFormatError(f"a CDM has two <segment> elements, found {len(segments)}",
+                               line=rel[0].line, source=name)
+    for label, node in zip(("OBJECT1", "OBJECT2"), segments, strict=True):
+        seg = {}
+        for section in SEGMENT_SECTIONS:
+            nodes = node.path(section.xml_path)
+            if not nodes:
+                if section.optional:
+                    continue
+                raise CCSDSFormatError(f"{label}: <{section.xml_path}> is missing",
+                                       line=node.line, source=name)
+            seg[section.name] = read_xml_section(nodes[0], section, name)
+        if seg["metadata"]["OBJECT"] != label:
+            raise CCSDSFormatError(f"expected OBJECT = {label}, found "
+                                   f"{seg['metadata']['OBJECT']!r}",
+                                   line=seg["metadata"].line_of("OBJECT"), source=name)
+        sections[label.lower()] = seg
+    return ConjunctionDataMessage(sections, name)
+
+
+def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -> str:  # noqa: A002
+    """Write a CDM as KVN or XML text, to ``path`` when given.
+
+    Parameters
+    ----------
+    message : ConjunctionDataMessage
+        The message.
+    path : str or os.PathLike, optional
+        File to write.
+    format : {"kvn", "xml"}
+        Output format.
+
+    Returns
+    -------
+    str
+        The text.
+    """
+    if format not in ("kvn", "xml"):
+        raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
+    text = message.to_kvn() if format == "kvn" else message.to_xml()
+    if path is not None:
+        import os
+
+        with open(os.fspath(path), "w", encoding="utf-8") as handle:
+            handle.write(text)
+    return text

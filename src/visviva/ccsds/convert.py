@@ -1,0 +1,177 @@
+"""``visviva convert``: between TLE, OMM and OEM (an OEM from a TLE or OMM by SGP4 sampling).
+
+Input kinds are recognised from the content (``CCSDS_OMM_VERS`` / ``<omm>``, ``CCSDS_OEM_VERS``
+/ ``<oem>``, else TLE lines); the output kind from ``--to`` or the output's suffix (``.tle``,
+``.txt``, ``.omm``, ``.oem``); KVN or XML from ``--format`` or a ``.xml`` suffix.
+"""
+
+from __future__ import annotations
+
+_KINDS = ("tle", "omm", "oem")
+_SUFFIX = {".tle": "tle", ".txt": "tle", ".3le": "tle", ".omm": "omm", ".oem": "oem"}
+
+
+def add_parser(sub) -> None:
+    """Add the ``convert`` sub-command to an argparse sub-parser group.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The group.
+    """
+    p = sub.add_parser(
+        "convert", help="convert between TLE, CCSDS OMM and CCSDS OEM (KVN or XML)",
+        description="Convert orbit data: TLE <-> OMM (exact SGP4 mean elements), TLE or OMM -> "
+        "OEM (SGP4 sampled every --step seconds for --hours from --start), OEM/OMM KVN <-> XML.")
+    p.add_argument("input", help="TLE file (2 or 3 lines per satellite), OMM or OEM (KVN/XML)")
+    p.add_argument("output", help="file to write ('-' for standard output)")
+    p.add_argument("--to", choices=_KINDS, default=None,
+                   help="output kind (default: from the output's suffix)")
+    p.add_argument("--format", choices=("kvn", "xml"), default=None,
+                   help="CCSDS encoding (default: xml for a .xml output, else kvn)")
+    p.add_argument("--satnum", type=int, default=None,
+                   help="catalogue number to take from a TLE file with several satellites")
+    p.add_argument("--start", default=None, metavar="ISO",
+                   help="OEM start, UTC (default: the element set's epoch)")
+    p.add_argument("--hours", type=float, default=24.0, help="OEM span in hours (default 24)")
+    p.add_argument("--step", type=float, default=60.0, help="OEM step in seconds (default 60)")
+    p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default="GCRF",
+                   help="OEM reference frame (default GCRF; EME2000 is written from the same "
+                        "GCRS states, which differ from it by the 23 mas frame bias)")
+    p.add_argument("--originator", default="VISVIVA",
+                   help="ORIGINATOR of a new OMM or OEM (default VISVIVA)")
+
+
+def _kind_of_text(text: str) -> str:
+    head = text.lstrip()[:2000]
+    for kind in ("omm", "oem"):
+        if f"CCSDS_{kind.upper()}_VERS" in head or f"<{kind}" in head:
+            return kind
+    if "CCSDS_OPM_VERS" in head or "<opm" in head:
+        raise SystemExit("visviva convert: OPM input is not converted (it holds one state); "
+                         "read it with visviva.read_opm")
+    return "tle"
+
+
+def _output_kind(args) -> str:
+    import os
+
+    if args.to:
+        return args.to
+    suffix = os.path.splitext(args.output)[1].lower()
+    if suffix in _SUFFIX:
+        return _SUFFIX[suffix]
+    raise SystemExit(f"visviva convert: cannot tell the output kind from {args.output!r}; "
+                     "pass --to tle, omm or oem")
+
+
+def _format(args) -> str:
+    if args.format:
+        return args.format
+    return "xml" if args.output.lower().endswith(".xml") else "kvn"
+
+
+def _satellite(args, text: str, kind: str):
+    from ..satellites import Satellite
+    from ..satellites.catalog import parse_tle_text
+    from .omm import read_omm
+
+    if kind == "omm":
+        return Satellite.from_omm(read_omm(text))
+    catalog = parse_tle_text(text, source=args.input)
+    sats = list(catalog.satellites)
+    if args.satnum is not None:
+        sats = [s for s in sats if s.satnum == args.satnum]
+        if not sats:
+            raise SystemExit(f"visviva convert: no satellite {args.satnum} in {args.input}")
+    if len(sats) != 1:
+        numbers = ", ".join(str(s.satnum) for s in sats[:10])
+        raise SystemExit(f"visviva convert: {args.input} holds {len(sats)} satellites "
+                         f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with --satnum")
+    return sats[0]
+
+
+def _sample_oem(sat, args):
+    import numpy as np
+    from astropy import units as u
+    from astropy.time import Time
+
+    from .oem import Ephemeris, OEMSegment
+
+    start = Time(args.start, scale="utc") if args.start else sat.epoch.utc
+    if not (args.hours > 0 and args.step > 0):
+        raise SystemExit("visviva convert: --hours and --step must be positive")
+    n = int(np.floor(args.hours * 3600.0 / args.step + 1e-9)) + 1
+    if n < 2:
+        raise SystemExit("visviva convert: --hours must span at least two --step")
+    t = start + (np.arange(n) * args.step) * u.s
+    states = {"GCRF": sat.gcrs, "EME2000": sat.gcrs, "TEME": sat.teme, "ITRF": sat.itrs}[
+        args.frame](t)
+    omm = sat.to_omm()
+    seg = OEMSegment.from_states(
+        t, states.r.to_value(u.km), states.v.to_value(u.km / u.s), object_name=sat.name,
+        object_id=omm["OBJECT_ID"] or "UNKNOWN", frame=args.frame, interpolation="LAGRANGE",
+        degree=min(7, n - 1))
+    seg.data_comments.append(f"SGP4 states of NORAD {sat.satnum}, element set epoch "
+                             f"{omm['EPOCH']} UTC, sampled every {args.step:g} s")
+    header = {"CCSDS_OEM_VERS": "3.0", "CREATION_DATE": Time.now().utc.isot,
+              "ORIGINATOR": args.originator}
+    return Ephemeris([seg], header)
+
+
+def run(args) -> int:
+    """Run ``visviva convert`` with parsed arguments; return the exit code.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        From :func:`add_parser`'s parser.
+
+    Returns
+    -------
+    int
+        0 on success.
+    """
+    import sys
+
+    from ..errors import VisvivaError
+    from .layout import read_text
+
+    try:
+        text, _ = read_text(args.input)
+        source = _kind_of_text(text)
+        target = _output_kind(args)
+        fmt = _format(args)
+        out = _convert(args, text, source, target, fmt)
+    except VisvivaError as exc:
+        print(f"visviva convert: {exc}", file=sys.stderr)
+        return 1
+    if args.output == "-":
+        sys.stdout.write(out)
+    else:
+        with open(args.output, "w", encoding="utf-8") as handle:
+            handle.write(out)
+    return 0
+
+
+def _convert(args, text, source, target, fmt) -> str:
+    from .oem_io import read_oem, write_oem
+    from .omm import read_omm, write_omm
+
+    if source == "oem":
+        if target != "oem":
+            raise SystemExit("visviva convert: an OEM becomes a TLE or OMM only by a fit; use "
+                             "visviva.fit_tle on the ephemeris")
+        return write_oem(read_oem(text), format=fmt)
+    if source == "omm" and target == "omm":
+        return write_omm(read_omm(text), format=fmt, originator=args.originator)
+    sat = _satellite(args, text, source)
+    if target == "tle":
+        line1, line2 = sat.to_tle()
+        return f"{sat.name}\n{line1}\n{line2}\n"
+    if target == "omm":
+        fields = sat.to_omm()
+        if not fields["OBJECT_ID"]:
+            fields["OBJECT_ID"] = "UNKNOWN"
+        return write_omm(fields, format=fmt, originator=args.originator)
+    return write_oem(_sample_oem(sat, args), format=fmt)

@@ -1,0 +1,283 @@
+"""The declarative description of CCSDS messages: keywords, sections, records.
+
+Each message is described once, as data: a :class:`Section` is a tuple of :class:`Keyword`
+(name, type, unit, mandatory flag) plus where the section sits in the XML layout; a message is a
+tuple of sections. The readers in :mod:`visviva.ccsds.layout` fill one :class:`Record` per
+section from either KVN or XML, checking the types, the units and the mandatory keywords, and
+the writers write the records back.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+from ..errors import InvalidInputError
+
+__all__ = [
+    "CCSDSFormatError", "Keyword", "Section", "Record", "parse_value", "parse_float",
+    "format_value", "format_float", "normalise_unit",
+]
+
+
+class CCSDSFormatError(InvalidInputError):
+    """A CCSDS message (OEM, OPM, OMM, CDM) is malformed; the message names the line.
+
+    Attributes
+    ----------
+    line : int or None
+        1-based line number in the source (None when the error concerns the whole message).
+    source : str
+        File name or ``"<text>"``.
+    """
+
+    def __init__(self, message: str, line: int | None = None, source: str = "<text>"):
+        where = f"{source}, line {line}: " if line is not None else f"{source}: "
+        super().__init__(where + message)
+        self.line = line
+        self.source = source
+
+
+_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")
+_INT_RE = re.compile(r"^[+-]?\d+$")
+#: CCSDS epoch: calendar (YYYY-MM-DD) or ordinal (YYYY-DDD) date, 'T', time, optional 'Z'
+EPOCH_PATTERN = r"\d{4}-(?:\d{2}-\d{2}|\d{3})T\d{2}:\d{2}:\d{2}(?:\.\d*)?Z?"
+_EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
+
+#: value types a keyword may have
+TYPES = ("text", "float", "int", "epoch")
+
+
+@dataclass(frozen=True)
+class Keyword:
+    """One keyword of a CCSDS message.
+
+    Parameters
+    ----------
+    name : str
+        The keyword as written in KVN and as the XML element name (``"SEMI_MAJOR_AXIS"``).
+    type : str
+        ``"text"``, ``"float"``, ``"int"`` or ``"epoch"`` (a CCSDS date-time, kept as text).
+    unit : str or None
+        The CCSDS unit (``"km"``, ``"km/s"``, ``"km**2"``, ``"deg"``, ``"rev/day"``), or None for
+        dimensionless keywords. A unit written in the message must match it.
+    mandatory : bool
+        Whether the section is incomplete without it.
+    """
+
+    name: str
+    type: str = "text"
+    unit: str | None = None
+    mandatory: bool = False
+
+    def __post_init__(self):
+        if self.type not in TYPES:
+            raise ValueError(f"Keyword {self.name}: type must be one of {TYPES}")
+
+
+@dataclass(frozen=True)
+class Section:
+    """A group of keywords read together (a header, a metadata block, a state vector, ...).
+
+    Parameters
+    ----------
+    name : str
+        Name of the section in the parsed message (``"state_vector"``).
+    keywords : tuple of Keyword
+        The keywords, in the order writers write them.
+    xml_path : str
+        Path of the section's element below the root element, e.g.
+        ``"body/segment/data/stateVector"``.
+    optional : bool
+        Whether the whole section may be absent. Its mandatory keywords are then mandatory only
+        when the section is present.
+    repeat : bool
+        Whether the section may occur several times (manoeuvres); then its first keyword starts
+        each occurrence and the parsed message holds a list of records.
+    user_defined : bool
+        ``USER_DEFINED_x = value`` lines in KVN, ``<USER_DEFINED parameter="x">`` in XML; the
+        record maps each ``x`` to its text.
+    """
+
+    name: str
+    keywords: tuple
+    xml_path: str
+    optional: bool = False
+    repeat: bool = False
+    user_defined: bool = False
+    by_name: dict = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "by_name", {k.name: k for k in self.keywords})
+
+    def owns(self, key: str) -> bool:
+        """Whether a KVN keyword belongs to this section."""
+        if self.user_defined:
+            return key.startswith("USER_DEFINED_")
+        return key in self.by_name
+
+
+@dataclass
+class Record:
+    """The keywords of one section as read: values, units, comments and line numbers.
+
+    Attributes
+    ----------
+    values : dict
+        Keyword -> value (``str`` for text and epochs, ``float``, ``int``), in reading order.
+    comments : list of str
+        The COMMENT lines at the start of the section.
+    lines : dict
+        Keyword -> 1-based line number where it was read (absent for records built in code).
+    line : int or None
+        Line where the section starts.
+    """
+
+    values: dict = field(default_factory=dict)
+    comments: list = field(default_factory=list)
+    lines: dict = field(default_factory=dict)
+    line: int | None = None
+
+    def __getitem__(self, key):
+        return self.values[key]
+
+    def __contains__(self, key) -> bool:
+        return key in self.values
+
+    def get(self, key, default=None):
+        """The value of ``key``, or ``default`` when absent."""
+        return self.values.get(key, default)
+
+    def line_of(self, key) -> int | None:
+        """Line where ``key`` was read (the section's first line when it is absent)."""
+        return self.lines.get(key, self.line)
+
+
+def normalise_unit(unit: str) -> str:
+    """A unit in one canonical spelling: lower case, no blanks, ``^`` written ``**``.
+
+    Parameters
+    ----------
+    unit : str
+        A CCSDS unit, e.g. ``"KM**2/S"``.
+
+    Returns
+    -------
+    str
+    """
+    return unit.replace(" ", "").replace("^", "**").lower()
+
+
+def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str):
+    """Convert the text of one keyword to its type, checking its unit.
+
+    Parameters
+    ----------
+    keyword : Keyword
+        What the value should be.
+    text : str
+        The value as written (no unit).
+    unit : str or None
+        The unit as written (KVN brackets, XML ``units`` attribute), or None.
+    line : int or None
+        Line number, for the error message.
+    source : str
+        File name, for the error message.
+
+    Returns
+    -------
+    str, float or int
+
+    Raises
+    ------
+    CCSDSFormatError
+        Wrong unit, a number that does not parse or is not finite, a malformed epoch.
+    """
+    if unit is not None and unit.strip() not in ("", "n/a"):
+        expected = keyword.unit
+        if expected is None:
+            raise CCSDSFormatError(f"{keyword.name} takes no unit, but has [{unit}]",
+                                   line=line, source=source)
+        if normalise_unit(unit) != normalise_unit(expected):
+            raise CCSDSFormatError(
+                f"{keyword.name} must be in [{expected}], not [{unit}]; convert the value",
+                line=line, source=source)
+    text = text.strip()
+    if keyword.type == "text":
+        return text
+    if keyword.type == "epoch":
+        if not _EPOCH_RE.match(text):
+            raise CCSDSFormatError(
+                f"{keyword.name} = {text!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000 "
+                "or 2024-031T12:00:00", line=line, source=source)
+        return text
+    if keyword.type == "int":
+        if not _INT_RE.match(text):
+            raise CCSDSFormatError(f"{keyword.name} = {text!r} is not an integer",
+                                   line=line, source=source)
+        return int(text)
+    return parse_float(text, keyword.name, line, source)
+
+
+def parse_float(text: str, what: str, line, source: str) -> float:
+    """Parse a CCSDS real number (``1.5``, ``-2.E-3``, ``.5``; no NaN or infinity).
+
+    Parameters
+    ----------
+    text : str
+        The number as written.
+    what : str
+        Name of the value, quoted in the error message.
+    line : int or None
+        Line number, for the error message.
+    source : str
+        File name, for the error message.
+
+    Returns
+    -------
+    float
+    """
+    if not _NUMBER_RE.match(text):
+        raise CCSDSFormatError(f"{what} = {text!r} is not a number", line=line, source=source)
+    value = float(text.replace("d", "e").replace("D", "e"))
+    if not math.isfinite(value):
+        raise CCSDSFormatError(f"{what} = {text!r} overflows float64", line=line, source=source)
+    return value
+
+
+def format_value(keyword: Keyword, value) -> str:
+    """The text a writer puts for a value (floats shortest round-trip, in E notation).
+
+    Parameters
+    ----------
+    keyword : Keyword
+        What the value is.
+    value : str, float or int
+        The value.
+
+    Returns
+    -------
+    str
+    """
+    if keyword.type == "float":
+        return format_float(value)
+    if keyword.type == "int":
+        return str(int(value))
+    return str(value)
+
+
+def format_float(value: float) -> str:
+    """Shortest text that reads back to the same float64 (Python's ``repr``), in E notation.
+
+    Parameters
+    ----------
+    value : float
+        Any finite number.
+
+    Returns
+    -------
+    str
+    """
+    text = repr(float(value))
+    return text.replace("e", "E") if "e" in text else text

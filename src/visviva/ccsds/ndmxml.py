@@ -1,0 +1,235 @@
+"""The NDM/XML side of the grammar: a small element tree that keeps line numbers, and a writer.
+
+CCSDS 505.0-B (NDM/XML) lays each message out as ``<oem id="CCSDS_OEM_VERS" version="3.0">``
+holding ``<header>`` and ``<body>``; the body holds one or more ``<segment>`` with
+``<metadata>`` and ``<data>``; every keyword is an element of the same name with an optional
+``units`` attribute (``<X units="km">6655.99</X>``), comments are ``<COMMENT>`` elements.
+
+:func:`parse` reads the text with :mod:`xml.parsers.expat` (the standard library's parser) into
+:class:`XMLNode` objects that remember their line, so errors name the line as in KVN.
+:func:`new_root` and :func:`to_text` write with :mod:`xml.etree.ElementTree`.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from xml.parsers import expat
+
+from .grammar import CCSDSFormatError
+
+__all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "add_text",
+           "to_text"]
+
+_XSI = "http://www.w3.org/2001/XMLSchema-instance"
+_SCHEMA = "https://sanaregistry.org/r/ndmxml_unqualified/ndmxml-3.0.0-master-3.0.xsd"
+
+
+@dataclass(slots=True)
+class XMLNode:
+    """One XML element: tag, attributes, stripped text, children and its 1-based line.
+
+    Attributes
+    ----------
+    tag : str
+        Element name with any namespace prefix removed.
+    attrib : dict
+        Attributes (names without prefixes).
+    text : str
+        The element's own character data, stripped.
+    children : list of XMLNode
+        Child elements in document order.
+    line : int
+        Line of the start tag.
+    """
+
+    tag: str
+    attrib: dict
+    line: int
+    text: str = ""
+    children: list = field(default_factory=list)
+
+    def find(self, tag: str) -> XMLNode | None:
+        """First child with this tag, or None."""
+        for child in self.children:
+            if child.tag == tag:
+                return child
+        return None
+
+    def findall(self, tag: str) -> list[XMLNode]:
+        """Every child with this tag."""
+        return [c for c in self.children if c.tag == tag]
+
+    def path(self, path: str) -> list[XMLNode]:
+        """Every descendant along a slash-separated path of tags (``"body/segment"``)."""
+        nodes = [self]
+        for tag in path.split("/"):
+            nodes = [c for n in nodes for c in n.findall(tag)]
+        return nodes
+
+
+def _local(name: str) -> str:
+    return name.rsplit(":", 1)[-1].rsplit("}", 1)[-1]
+
+
+def looks_like_xml(text: str) -> bool:
+    """Whether a message is XML (its first non-blank character is ``<``).
+
+    Parameters
+    ----------
+    text : str
+        The message.
+
+    Returns
+    -------
+    bool
+    """
+    return text.lstrip().startswith("<")
+
+
+def parse(text: str, source: str = "<text>") -> XMLNode:
+    """Parse XML text into :class:`XMLNode` objects; the root node is returned.
+
+    Parameters
+    ----------
+    text : str
+        The XML document.
+    source : str
+        Name of the file, quoted in error messages.
+
+    Returns
+    -------
+    XMLNode
+
+    Raises
+    ------
+    CCSDSFormatError
+        The XML is not well formed (the message names the line and column).
+    """
+    parser = expat.ParserCreate()
+    parser.buffer_text = True
+    stack: list[XMLNode] = []
+    root: list[XMLNode] = []
+    names: dict[str, str] = {}
+
+    def local(name):
+        out = names.get(name)
+        if out is None:
+            out = names[name] = _local(name)
+        return out
+
+    def start(name, attrs):
+        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()} if attrs else {},
+                       parser.CurrentLineNumber)
+        if stack:
+            stack[-1].children.append(node)
+        else:
+            root.append(node)
+        stack.append(node)
+
+    def end(name):
+        node = stack.pop()
+        node.text = node.text.strip()
+
+    def chars(data):
+        if stack:
+            stack[-1].text += data
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = chars
+    try:
+        parser.Parse(text.encode("utf-8") if isinstance(text, str) else text, True)
+    except expat.ExpatError as exc:
+        raise CCSDSFormatError(
+            f"the XML is not well formed: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",
+            line=exc.lineno, source=source) from None
+    return root[0]
+
+
+def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
+    """The ``<tag>`` message element: the root itself, or the one inside an ``<ndm>`` wrapper.
+
+    Parameters
+    ----------
+    root : XMLNode
+        The document's root element.
+    tag : str
+        ``"oem"``, ``"opm"``, ``"omm"``, ``"cdm"``.
+    source : str
+        File name, for error messages.
+
+    Returns
+    -------
+    XMLNode
+    """
+    if root.tag == "ndm":  # a combined instantiation (505.0-B, 3.4), e.g. CelesTrak's OMM XML
+        inner = root.findall(tag)
+        if len(inner) != 1:
+            raise CCSDSFormatError(
+                f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
+                "OMMs use visviva.satellites.read_omm_file)", line=root.line, source=source)
+        return inner[0]
+    if root.tag != tag:
+        raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",
+                               line=root.line, source=source)
+    return root
+
+
+def new_root(tag: str, version_key: str, version: str) -> ET.Element:
+    """The root element of an NDM/XML message, e.g. ``<opm id="CCSDS_OPM_VERS" version="3.0">``.
+
+    Parameters
+    ----------
+    tag : str
+        ``"oem"``, ``"opm"``, ``"omm"``, ``"cdm"``.
+    version_key : str
+        ``"CCSDS_OPM_VERS"`` and the like.
+    version : str
+        The version number as text.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+    """
+    return ET.Element(tag, {"xmlns:xsi": _XSI, "xsi:noNamespaceSchemaLocation": _SCHEMA,
+                            "id": version_key, "version": str(version)})
+
+
+def add_text(parent: ET.Element, tag: str, text: str, units: str | None = None) -> ET.Element:
+    """Append ``<tag units="...">text</tag>`` to ``parent``.
+
+    Parameters
+    ----------
+    parent : xml.etree.ElementTree.Element
+        Where to append.
+    tag : str
+        Element name.
+    text : str
+        Its text.
+    units : str or None
+        The ``units`` attribute, if any.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+    """
+    element = ET.SubElement(parent, tag, {"units": units} if units else {})
+    element.text = text
+    return element
+
+
+def to_text(root: ET.Element) -> str:
+    """Serialise an element tree with an XML declaration and two-space indentation.
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The root element.
+
+    Returns
+    -------
+    str
+    """
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

@@ -1,0 +1,419 @@
+"""The Orbit Ephemeris Message (OEM): an ephemeris of segments that interpolates.
+
+:class:`Ephemeris` holds the header and a list of :class:`OEMSegment`; each segment its metadata,
+its states (and optional accelerations), its covariance matrices, and the interpolation named in
+the file. Reading and writing are in :mod:`visviva.ccsds.oem_io`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from .grammar import Keyword as K
+from .grammar import Record, Section
+from .interpolation import check_degree, hermite, lagrange
+from .timeframes import center_body, epochs_to_time, time_to_epochs, visviva_frame
+
+__all__ = ["Ephemeris", "OEMSegment", "OEMCovariance", "HEADER", "METADATA", "COVARIANCE_META"]
+
+HEADER = Section("header", (
+    K("CCSDS_OEM_VERS", "text", None, True), K("CLASSIFICATION"),
+    K("CREATION_DATE", "epoch", None, True), K("ORIGINATOR", "text", None, True),
+    K("MESSAGE_ID")), "header")
+METADATA = Section("metadata", (
+    K("OBJECT_NAME", "text", None, True), K("OBJECT_ID", "text", None, True),
+    K("CENTER_NAME", "text", None, True), K("REF_FRAME", "text", None, True),
+    K("REF_FRAME_EPOCH", "epoch"), K("TIME_SYSTEM", "text", None, True),
+    K("START_TIME", "epoch", None, True), K("USEABLE_START_TIME", "epoch"),
+    K("USEABLE_STOP_TIME", "epoch"), K("STOP_TIME", "epoch", None, True),
+    K("INTERPOLATION"), K("INTERPOLATION_DEGREE", "int")), "body/segment/metadata")
+COVARIANCE_META = Section("covariance", (
+    K("EPOCH", "epoch", None, True), K("COV_REF_FRAME")), "covarianceMatrix")
+
+#: default interpolation when the file names none (CCSDS leaves it to the user): Lagrange
+#: assumes nothing about how the velocities relate to the positions (SGP4's do not match the
+#: derivative of its positions, and Hermite then degrades with the degree; see
+#: examples/ccsds_oem_interpolation.py)
+DEFAULT_INTERPOLATION = ("LAGRANGE", 7)
+
+
+@dataclass
+class OEMCovariance:
+    """One covariance matrix of an OEM segment.
+
+    Attributes
+    ----------
+    epoch : str
+        Its epoch as written (in the segment's time system).
+    matrix : ndarray, shape (6, 6)
+        Symmetric covariance of (x, y, z, vx, vy, vz) in km and km/s (km**2, km**2/s, km**2/s**2).
+    frame : str or None
+        ``COV_REF_FRAME`` (None: the segment's ``REF_FRAME``).
+    comments : list of str
+        Its COMMENT lines.
+    """
+
+    epoch: str
+    matrix: np.ndarray
+    frame: str | None = None
+    comments: list = field(default_factory=list)
+
+
+class OEMSegment:
+    """One segment of an OEM: metadata, states at increasing epochs, covariances.
+
+    Parameters
+    ----------
+    metadata : Record or dict
+        The metadata keywords (``OBJECT_NAME``, ``CENTER_NAME``, ``REF_FRAME``, ``TIME_SYSTEM``,
+        ``START_TIME``, ``STOP_TIME``, ``INTERPOLATION``, ...).
+    epochs : list of str
+        The epochs as written (CCSDS format, in ``TIME_SYSTEM``).
+    r_km : ndarray, shape (N, 3)
+        Positions (km).
+    v_km_s : ndarray, shape (N, 3)
+        Velocities (km/s).
+    a_km_s2 : ndarray, shape (N, 3), optional
+        Accelerations (km/s**2), when the file gives them.
+    covariances : list of OEMCovariance, optional
+        The covariance matrices.
+    data_comments : list of str, optional
+        COMMENT lines at the start of the data.
+    """
+
+    def __init__(self, metadata, epochs, r_km, v_km_s, a_km_s2=None, covariances=(),
+                 data_comments=()):
+        self.metadata = metadata if isinstance(metadata, Record) else Record(values=dict(metadata))
+        self.epochs = list(epochs)
+        self.r_km = np.asarray(r_km, dtype=np.float64).reshape(-1, 3)
+        self.v_km_s = np.asarray(v_km_s, dtype=np.float64).reshape(-1, 3)
+        self.a_km_s2 = None if a_km_s2 is None else np.asarray(a_km_s2, np.float64).reshape(-1, 3)
+        self.covariances = list(covariances)
+        self.data_comments = list(data_comments)
+        self._times = None
+        self._seconds = None
+
+    @classmethod
+    def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
+                    center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+                    interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None):
+        """A segment from arrays (what a writer needs to make an OEM from computed states).
+
+        Parameters
+        ----------
+        times : astropy.time.Time, shape (N,)
+            Increasing epochs.
+        r_km : array_like, shape (N, 3)
+            Positions (km) in ``frame``.
+        v_km_s : array_like, shape (N, 3)
+            Velocities (km/s).
+        object_name : str
+            ``OBJECT_NAME``.
+        object_id : str
+            ``OBJECT_ID`` (international designator, e.g. ``"1998-067A"``).
+        center : str
+            ``CENTER_NAME``.
+        frame : str
+            ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
+        time_system : str
+            ``TIME_SYSTEM`` the epochs are written in.
+        interpolation : {"HERMITE", "LAGRANGE"}
+            ``INTERPOLATION``.
+        degree : int
+            ``INTERPOLATION_DEGREE``.
+        a_km_s2 : array_like, shape (N, 3), optional
+            Accelerations (km/s**2).
+
+        Returns
+        -------
+        OEMSegment
+        """
+        epochs = time_to_epochs(times, time_system)
+        meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
+                "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
+                "STOP_TIME": epochs[-1], "INTERPOLATION": interpolation,
+                "INTERPOLATION_DEGREE": int(degree)}
+        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2)
+        seg.check()
+        return seg
+
+    # ---- metadata ------------------------------------------------------------------------
+    @property
+    def frame(self) -> str:
+        """``REF_FRAME`` as written (``"EME2000"``, ``"GCRF"``, ``"TEME"``, ``"ITRF"`` ...)."""
+        return self.metadata["REF_FRAME"]
+
+    @property
+    def visviva_frame(self) -> str | None:
+        """The visviva frame of ``REF_FRAME`` (``"gcrs"``, ``"teme"``, ``"itrs"``) or None."""
+        return visviva_frame(self.frame)
+
+    @property
+    def center(self) -> str:
+        """``CENTER_NAME`` as written."""
+        return self.metadata["CENTER_NAME"]
+
+    @property
+    def time_system(self) -> str:
+        """``TIME_SYSTEM`` as written."""
+        return self.metadata["TIME_SYSTEM"]
+
+    @property
+    def interpolation(self) -> tuple[str, int]:
+        """(method, degree) from the metadata.
+
+        LAGRANGE when the file names no method, degree 7 when it names no degree (fewer on a
+        segment of fewer than 8 states).
+        """
+        method = self.metadata.get("INTERPOLATION") or DEFAULT_INTERPOLATION[0]
+        degree = self.metadata.get("INTERPOLATION_DEGREE")
+        if degree is None:  # not named: the default, or less on a short segment
+            degree = max(1, min(DEFAULT_INTERPOLATION[1], len(self) - 1))
+        return method.upper(), degree
+
+    # ---- states --------------------------------------------------------------------------
+    @property
+    def times(self):
+        """The epochs as an astropy ``Time`` (in the segment's time system)."""
+        if self._times is None:
+            self._times = epochs_to_time(self.epochs, self.time_system,
+                                         line=self.metadata.line_of("TIME_SYSTEM"))
+        return self._times
+
+    def _seconds_since(self, t0) -> np.ndarray:
+        return (self.times - t0).to_value("s")
+
+    @property
+    def states(self):
+        """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``)."""
+        from ..states import StateVectors
+
+        return StateVectors._from_canonical(self.r_km, self.v_km_s, self._gm(), self.times)
+
+    def states_in(self, frame: str):
+        """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
+
+        Parameters
+        ----------
+        frame : {"gcrs", "teme", "itrs"}
+            Target frame; the segment's ``REF_FRAME`` must map to one of them too.
+
+        Returns
+        -------
+        StateVectors
+            Positions (km) and velocities (km/s) in ``frame``, at :attr:`times`.
+
+        Notes
+        -----
+        The rotation is astropy's (:func:`visviva.satellites.frames.transform_batch`), with the
+        Earth-orientation data installed with astropy; EME2000/ICRF/GCRF are taken as the GCRS.
+        """
+        from ..satellites.frames import transform_batch
+        from ..states import StateVectors
+
+        source = self.visviva_frame
+        if source is None or frame not in ("gcrs", "teme", "itrs"):
+            raise InvalidInputError(
+                f"states_in: from REF_FRAME {self.frame} to {frame!r} is not supported; "
+                "visviva rotates between 'gcrs' (EME2000/ICRF/GCRF), 'teme' and 'itrs' (ITRF)")
+        if frame == source:
+            return self.states
+        r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
+                               frame)
+        return StateVectors._from_canonical(r[0], v[0], self._gm(), self.times)
+
+    def _gm(self) -> float:
+        body = center_body(self.center)
+        if body is None:
+            raise InvalidInputError(
+                f"CENTER_NAME = {self.center} is not a body visviva knows, so the states have "
+                "no GM; use .r_km and .v_km_s, or a centre such as EARTH, MOON, SUN, MARS.")
+        return body.gm_km3_s2
+
+    @property
+    def start(self):
+        """``USEABLE_START_TIME`` (else ``START_TIME``) as a Time."""
+        text = self.metadata.get("USEABLE_START_TIME") or self.metadata["START_TIME"]
+        return epochs_to_time(text, self.time_system)
+
+    @property
+    def stop(self):
+        """``USEABLE_STOP_TIME`` (else ``STOP_TIME``) as a Time."""
+        text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
+        return epochs_to_time(text, self.time_system)
+
+    def __len__(self) -> int:
+        return len(self.epochs)
+
+    def __repr__(self) -> str:
+        return (f"<OEMSegment {self.metadata.get('OBJECT_NAME')!r} {self.frame}/{self.center} "
+                f"{len(self)} states {self.epochs[0] if self.epochs else ''} .. "
+                f"{self.epochs[-1] if self.epochs else ''}>")
+
+    def check(self, where: str = "OEM segment") -> None:
+        """Raise unless the arrays agree in length, are finite and the times increase.
+
+        Parameters
+        ----------
+        where : str
+            Which segment, for the message.
+        """
+        n = len(self.epochs)
+        arrays = [("r_km", self.r_km), ("v_km_s", self.v_km_s)]
+        if self.a_km_s2 is not None:
+            arrays.append(("a_km_s2", self.a_km_s2))
+        for name, arr in arrays:
+            if arr.shape != (n, 3):
+                raise InvalidInputError(f"{where}: {name} has shape {arr.shape}, expected ({n}, 3)")
+            if not np.isfinite(arr).all():
+                raise InvalidInputError(f"{where}: {name} holds NaN or infinite values")
+        if n == 0:
+            raise InvalidInputError(f"{where} has no states")
+        steps = np.diff(self._seconds_since(self.times[0]))
+        if (steps <= 0).any():
+            k = int(np.flatnonzero(steps <= 0)[0])
+            raise InvalidInputError(f"{where}: the epochs must increase; {self.epochs[k + 1]} "
+                                    f"follows {self.epochs[k]}")
+
+    def interpolate(self, t):
+        """States at times ``t`` by the interpolation named in the segment's metadata.
+
+        Parameters
+        ----------
+        t : astropy.time.Time
+            Scalar or array of times within the segment's useable span.
+
+        Returns
+        -------
+        StateVectors
+            Positions (km) and velocities (km/s) in the segment's frame, shape of ``t``.
+
+        Raises
+        ------
+        InvalidInputError
+            A time outside the segment, an unsupported method, or too few states for the degree.
+        """
+        from ..states import StateVectors
+
+        r, v = self._interpolate_raw(t)
+        return StateVectors._from_canonical(r.reshape(t.shape + (3,)),
+                                            v.reshape(t.shape + (3,)), self._gm(), t)
+
+    def _interpolate_raw(self, t):
+        from astropy.time import Time
+
+        if not isinstance(t, Time):
+            raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
+        t0 = self.times[0]
+        nodes = self._seconds_since(t0)
+        query = np.atleast_1d((t - t0).to_value("s")).ravel()
+        lo = (self.start - t0).to_value("s")
+        hi = (self.stop - t0).to_value("s")
+        tol = 1e-6  # s: epochs written to the microsecond
+        outside = (query < lo - tol) | (query > hi + tol)
+        if outside.any():
+            bad = np.atleast_1d(t.ravel())[int(np.flatnonzero(outside)[0])]
+            raise InvalidInputError(
+                f"{bad.isot} lies outside the segment ({self.start.isot} .. {self.stop.isot}, "
+                f"{self.time_system}); interpolate only within it.")
+        method, degree = self.interpolation
+        if method == "LINEAR":
+            method, degree = "LAGRANGE", 1
+        check_degree(method, degree, len(self), f"segment {self.metadata.get('OBJECT_NAME')!r}")
+        if method == "LAGRANGE":
+            out = lagrange(nodes, np.hstack([self.r_km, self.v_km_s]), query, degree)
+            return out[:, :3], out[:, 3:]
+        r, v = hermite(nodes, self.r_km, self.v_km_s, query, degree,
+                       want_derivative=self.a_km_s2 is None)
+        if self.a_km_s2 is not None:
+            v, _ = hermite(nodes, self.v_km_s, self.a_km_s2, query, degree, False)
+        return r, v
+
+
+class Ephemeris:
+    """An OEM: a header and one or more segments; interpolates across them.
+
+    Parameters
+    ----------
+    segments : list of OEMSegment
+        In time order.
+    header : Record or dict, optional
+        ``CCSDS_OEM_VERS``, ``CREATION_DATE``, ``ORIGINATOR`` and optional ``MESSAGE_ID``;
+        written by :func:`~visviva.ccsds.oem_io.write_oem` (version 3.0, now, visviva) when
+        absent.
+    """
+
+    def __init__(self, segments, header=None):
+        self.segments = list(segments)
+        if not self.segments:
+            raise InvalidInputError("an OEM needs at least one segment")
+        if header is None:
+            from astropy.time import Time
+
+            header = {"CCSDS_OEM_VERS": "3.0", "CREATION_DATE": Time.now().utc.isot,
+                      "ORIGINATOR": "visviva"}
+        self.header = header if isinstance(header, Record) else Record(values=dict(header))
+
+    def __repr__(self) -> str:
+        return f"<Ephemeris {len(self.segments)} segment(s), {sum(map(len, self.segments))} states>"
+
+    @property
+    def frame(self) -> str:
+        """The ``REF_FRAME`` shared by the segments (raises when they differ)."""
+        return self._shared("frame")
+
+    @property
+    def center(self) -> str:
+        """The ``CENTER_NAME`` shared by the segments (raises when they differ)."""
+        return self._shared("center")
+
+    def _shared(self, attr):
+        values = {getattr(s, attr) for s in self.segments}
+        if len(values) > 1:
+            raise InvalidInputError(f"the segments differ in {attr} ({sorted(values)}); use "
+                                    "the segments one by one")
+        return values.pop()
+
+    def interpolate(self, t):
+        """States at times ``t``, each from the segment that covers it.
+
+        Where two segments meet (a manoeuvre), a time on the boundary takes the later segment.
+
+        Parameters
+        ----------
+        t : astropy.time.Time
+            Times within the span of the segments.
+
+        Returns
+        -------
+        StateVectors
+            Positions (km) and velocities (km/s) in the shared frame, shape of ``t``.
+        """
+        from astropy.time import Time
+
+        from ..states import StateVectors
+
+        if not isinstance(t, Time):
+            raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
+        frame, center = self.frame, self.center  # noqa: F841  (checks they agree)
+        flat = t.reshape(-1) if t.ndim else t.reshape(1)
+        which = np.full(flat.shape, -1)
+        for k, seg in enumerate(self.segments):
+            inside = ((flat - seg.start).to_value("s") >= -1e-6) & (
+                (flat - seg.stop).to_value("s") <= 1e-6)
+            which[inside] = k
+        if (which < 0).any():
+            bad = flat[int(np.flatnonzero(which < 0)[0])]
+            spans = ", ".join(f"{s.start.isot} .. {s.stop.isot}" for s in self.segments)
+            raise InvalidInputError(f"{bad.isot} is covered by no segment ({spans}).")
+        r = np.empty(flat.shape + (3,))
+        v = np.empty(flat.shape + (3,))
+        for k in np.unique(which):
+            sel = which == k
+            r[sel], v[sel] = self.segments[k]._interpolate_raw(flat[sel])
+        gm = self.segments[0]._gm()
+        return StateVectors._from_canonical(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
+                                            gm, t)

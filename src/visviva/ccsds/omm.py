@@ -1,0 +1,195 @@
+"""The Orbit Mean-Elements Message (OMM): mean elements (SGP4 and others) with TLE parameters.
+
+CCSDS 502.0-B-3, section 4. :func:`read_omm` gives an :class:`OMM`, a ``dict`` of every keyword
+(what :meth:`visviva.Satellite.from_omm` takes), which also keeps the comments per section for
+:func:`write_omm`.
+"""
+
+from __future__ import annotations
+
+from ..errors import InvalidInputError
+from .covariance import COVARIANCE_KEYWORDS
+from .grammar import Keyword as K
+from .grammar import Record, Section
+from .layout import read_message
+from .opm import _write, header_section
+
+__all__ = ["OMM", "read_omm", "write_omm", "SECTIONS"]
+
+_DATA = "body/segment/data/"
+SECTIONS = (
+    header_section("OMM"),
+    Section("metadata", (
+        K("OBJECT_NAME", "text", None, True), K("OBJECT_ID", "text", None, True),
+        K("CENTER_NAME", "text", None, True), K("REF_FRAME", "text", None, True),
+        K("REF_FRAME_EPOCH", "epoch"), K("TIME_SYSTEM", "text", None, True),
+        K("MEAN_ELEMENT_THEORY", "text", None, True)), "body/segment/metadata"),
+    Section("mean_elements", (
+        K("EPOCH", "epoch", None, True), K("SEMI_MAJOR_AXIS", "float", "km"),
+        K("MEAN_MOTION", "float", "rev/day"), K("ECCENTRICITY", "float", None, True),
+        K("INCLINATION", "float", "deg", True), K("RA_OF_ASC_NODE", "float", "deg", True),
+        K("ARG_OF_PERICENTER", "float", "deg", True), K("MEAN_ANOMALY", "float", "deg", True),
+        K("GM", "float", "km**3/s**2")), _DATA + "meanElements"),
+    Section("spacecraft_parameters", (
+        K("MASS", "float", "kg"), K("SOLAR_RAD_AREA", "float", "m**2"),
+        K("SOLAR_RAD_COEFF", "float"), K("DRAG_AREA", "float", "m**2"),
+        K("DRAG_COEFF", "float")), _DATA + "spacecraftParameters", optional=True),
+    Section("tle_parameters", (
+        K("EPHEMERIS_TYPE", "int"), K("CLASSIFICATION_TYPE"), K("NORAD_CAT_ID", "int"),
+        K("ELEMENT_SET_NO", "int"), K("REV_AT_EPOCH", "int"), K("BSTAR", "float", "1/ER"),
+        K("BTERM", "float", "m**2/kg"), K("MEAN_MOTION_DOT", "float", "rev/day**2"),
+        K("MEAN_MOTION_DDOT", "float", "rev/day**3"), K("AGOM", "float", "m**2/kg")),
+        _DATA + "tleParameters", optional=True),
+    Section("covariance", (K("COV_REF_FRAME"),) + COVARIANCE_KEYWORDS,
+            _DATA + "covarianceMatrix", optional=True),
+    Section("user_defined", (), _DATA + "userDefinedParameters", optional=True,
+            user_defined=True),
+)
+_USER = "USER_DEFINED_"
+
+
+class OMM(dict):
+    """An OMM as a mapping of its keywords (``OBJECT_NAME``, ``EPOCH``, ``MEAN_MOTION``, ...).
+
+    User-defined parameters appear as ``USER_DEFINED_<name>``. Pass it to
+    :meth:`visviva.Satellite.from_omm` or :func:`write_omm`; ``.comments`` maps each section
+    name to its COMMENT lines, ``.lines`` each keyword to the line it was read from.
+    """
+
+    comments: dict
+    lines: dict
+    source: str
+
+    @classmethod
+    def _from_sections(cls, sections: dict, source: str) -> OMM:
+        out = cls()
+        out.comments, out.lines, out.source = {}, {}, source
+        for name, record in sections.items():
+            prefix = _USER if name == "user_defined" else ""
+            for key, value in record.values.items():
+                out[prefix + key] = value
+                out.lines[prefix + key] = record.lines.get(key)
+            out.comments[name] = list(record.comments)
+        return out
+
+
+def read_omm(source) -> OMM:
+    """Read a CCSDS Orbit Mean-Elements Message (KVN or XML, detected).
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A path, or the message text.
+
+    Returns
+    -------
+    OMM
+        A ``dict`` of every keyword (floats, ints, text; epochs as written), ready for
+        :meth:`visviva.Satellite.from_omm`.
+
+    Raises
+    ------
+    CCSDSFormatError
+        Malformed input; the message names the line.
+    """
+    from .grammar import CCSDSFormatError
+
+    sections, _, name = read_message(source, SECTIONS, "omm", "CCSDS_OMM_VERS")
+    mean = sections["mean_elements"]
+    if ("SEMI_MAJOR_AXIS" in mean) == ("MEAN_MOTION" in mean):
+        raise CCSDSFormatError("the mean elements need exactly one of SEMI_MAJOR_AXIS and "
+                               "MEAN_MOTION", line=mean.line, source=name)
+    return OMM._from_sections(sections, name)
+
+
+def write_omm(omm, path=None, format: str | None = None, *, originator: str | None = None,  # noqa: A002
+              version: str = "3.0") -> str:
+    """Write an OMM (KVN or XML) from a mapping of its keywords.
+
+    Parameters
+    ----------
+    omm : OMM or dict
+        The keywords (as :func:`read_omm` or :meth:`visviva.Satellite.to_omm` give them).
+    path : str or os.PathLike, optional
+        File to write; nothing is written when None.
+    format : {"kvn", "xml"}, optional
+        Default: ``"xml"`` for a path ending in ``.xml``, else ``"kvn"``.
+    originator : str, optional
+        ``ORIGINATOR`` for a mapping that lacks it (``Satellite.to_omm()`` has no header).
+    version : str
+        ``CCSDS_OMM_VERS`` for a mapping that lacks it.
+
+    Returns
+    -------
+    str
+        The message text.
+
+    Raises
+    ------
+    InvalidInputError
+        A keyword that is not an OMM keyword, or a mandatory one missing.
+    """
+    from .layout import check_mandatory
+
+    if not hasattr(omm, "items"):
+        raise InvalidInputError(f"write_omm needs a mapping of OMM keywords, got "
+                                f"{type(omm).__name__}")
+    comments = getattr(omm, "comments", {}) or {}
+    records = {s.name: Record(comments=list(comments.get(s.name, []))) for s in SECTIONS}
+    for key, value in omm.items():
+        if key == "COMMENT":
+            records["header"].comments.append(str(value))
+            continue
+        if key.startswith(_USER):
+            records["user_defined"].values[key[len(_USER):]] = value
+            continue
+        owner = next((s for s in SECTIONS if key in s.by_name), None)
+        if owner is None:
+            raise InvalidInputError(f"{key} is not an OMM keyword; remove it or write it as "
+                                    f"{_USER}{key}")
+        records[owner.name].values[key] = _coerce(owner.by_name[key], value)
+    header = records["header"].values
+    header.setdefault("CCSDS_OMM_VERS", version)
+    if originator is not None:
+        header.setdefault("ORIGINATOR", originator)
+    parsed = {}
+    for section in SECTIONS:
+        record = records[section.name]
+        if not record.values and section.optional:
+            continue
+        if section.name != "header":
+            check_mandatory(record, section, "<mapping>")
+        parsed[section.name] = record
+    if "ORIGINATOR" not in header:
+        raise InvalidInputError("the OMM has no ORIGINATOR; pass originator='...'")
+    return _write(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS", path, format)
+
+
+def _coerce(keyword, value):
+    """A value from a mapping checked and converted to the keyword's type."""
+    import math
+
+    from .grammar import parse_value
+
+    try:
+        if keyword.type == "float":
+            value = float(value)
+            if not math.isfinite(value):
+                raise ValueError("not finite")
+            return value
+        if keyword.type == "int":
+            if isinstance(value, str) and value.strip()[:1].isalpha():
+                from sgp4.alpha5 import from_alpha5
+
+                return from_alpha5(value.strip())
+            if isinstance(value, float) and not value.is_integer():
+                raise ValueError("not an integer")
+            return int(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{keyword.name} = {value!r} is not a valid "
+                                f"{keyword.type}: {exc}") from None
+    text = str(value).strip()
+    if not text:
+        raise InvalidInputError(f"{keyword.name} is empty; give it a value (OBJECT_ID: the "
+                                "international designator such as 1998-067A, or UNKNOWN)")
+    return parse_value(keyword, text, None, None, "<mapping>")

@@ -1,0 +1,339 @@
+"""The Orbit Parameter Message (OPM): one state, optional elements, spacecraft, covariance, burns.
+
+CCSDS 502.0-B-3, section 3. Read with :func:`read_opm` (KVN or XML), write with
+:func:`write_opm`; the sections are the tables below.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from .covariance import COVARIANCE_KEYWORDS, matrix_from_values
+from .grammar import CCSDSFormatError, Record, Section
+from .grammar import Keyword as K
+from .layout import read_message, write_message
+from .timeframes import center_body, epochs_to_time, visviva_frame
+
+__all__ = ["OPM", "Maneuver", "read_opm", "write_opm", "SECTIONS", "header_section"]
+
+
+def header_section(kind: str) -> Section:
+    """The header of an ODM (``CCSDS_<KIND>_VERS``, ``CREATION_DATE``, ``ORIGINATOR``, ...).
+
+    Parameters
+    ----------
+    kind : str
+        ``"OPM"``, ``"OMM"``, ``"OEM"``, ``"CDM"``.
+
+    Returns
+    -------
+    Section
+    """
+    return Section("header", (
+        K(f"CCSDS_{kind}_VERS", "text", None, True), K("CLASSIFICATION"),
+        K("CREATION_DATE", "epoch", None, True), K("ORIGINATOR", "text", None, True),
+        K("MESSAGE_ID")), "header")
+
+
+_DATA = "body/segment/data/"
+METADATA = Section("metadata", (
+    K("OBJECT_NAME", "text", None, True), K("OBJECT_ID", "text", None, True),
+    K("CENTER_NAME", "text", None, True), K("REF_FRAME", "text", None, True),
+    K("REF_FRAME_EPOCH", "epoch"), K("TIME_SYSTEM", "text", None, True)),
+    "body/segment/metadata")
+STATE_VECTOR = Section("state_vector", (
+    K("EPOCH", "epoch", None, True), K("X", "float", "km", True), K("Y", "float", "km", True),
+    K("Z", "float", "km", True), K("X_DOT", "float", "km/s", True),
+    K("Y_DOT", "float", "km/s", True), K("Z_DOT", "float", "km/s", True)),
+    _DATA + "stateVector")
+KEPLERIAN = Section("keplerian_elements", (
+    K("SEMI_MAJOR_AXIS", "float", "km", True), K("ECCENTRICITY", "float", None, True),
+    K("INCLINATION", "float", "deg", True), K("RA_OF_ASC_NODE", "float", "deg", True),
+    K("ARG_OF_PERICENTER", "float", "deg", True), K("TRUE_ANOMALY", "float", "deg"),
+    K("MEAN_ANOMALY", "float", "deg"), K("GM", "float", "km**3/s**2", True)),
+    _DATA + "keplerianElements", optional=True)
+SPACECRAFT = Section("spacecraft_parameters", (
+    K("MASS", "float", "kg"), K("SOLAR_RAD_AREA", "float", "m**2"),
+    K("SOLAR_RAD_COEFF", "float"), K("DRAG_AREA", "float", "m**2"), K("DRAG_COEFF", "float")),
+    _DATA + "spacecraftParameters", optional=True)
+COVARIANCE = Section("covariance", (K("COV_REF_FRAME"),) + COVARIANCE_KEYWORDS,
+                     _DATA + "covarianceMatrix", optional=True)
+MANEUVER = Section("maneuvers", (
+    K("MAN_EPOCH_IGNITION", "epoch", None, True), K("MAN_DURATION", "float", "s", True),
+    K("MAN_DELTA_MASS", "float", "kg", True), K("MAN_REF_FRAME", "text", None, True),
+    K("MAN_DV_1", "float", "km/s", True), K("MAN_DV_2", "float", "km/s", True),
+    K("MAN_DV_3", "float", "km/s", True)), _DATA + "maneuverParameters", optional=True,
+    repeat=True)
+USER_DEFINED = Section("user_defined", (), _DATA + "userDefinedParameters", optional=True,
+                       user_defined=True)
+SECTIONS = (header_section("OPM"), METADATA, STATE_VECTOR, KEPLERIAN, SPACECRAFT, COVARIANCE,
+            MANEUVER, USER_DEFINED)
+
+
+@dataclass(frozen=True)
+class Maneuver:
+    """One manoeuvre of an OPM.
+
+    Attributes
+    ----------
+    epoch : astropy.time.Time
+        Ignition epoch.
+    duration : Quantity
+        Burn duration (s); 0 for an impulse.
+    delta_mass : Quantity
+        Mass change (kg), zero or negative.
+    frame : str
+        ``MAN_REF_FRAME`` of the delta-v (``"RTN"``, ``"TNW"``, ``"EME2000"``, ...).
+    delta_v : Quantity, shape (3,)
+        Delta-v (km/s) in ``frame``.
+    """
+
+    epoch: object
+    duration: object
+    delta_mass: object
+    frame: str
+    delta_v: object
+
+
+class OPM:
+    """An Orbit Parameter Message as read: every section, plus the physics as visviva objects.
+
+    Parameters
+    ----------
+    sections : dict
+        Section name (``"header"``, ``"metadata"``, ``"state_vector"``,
+        ``"keplerian_elements"``, ``"spacecraft_parameters"``, ``"covariance"``,
+        ``"maneuvers"`` (a list), ``"user_defined"``) -> Record or dict of keyword values.
+    source : str
+        Where it was read from.
+    """
+
+    def __init__(self, sections: dict, source: str = "<text>"):
+        self.sections = {k: (v if isinstance(v, Record | list) else Record(values=dict(v)))
+                         for k, v in sections.items()}
+        if "maneuvers" in self.sections:
+            self.sections["maneuvers"] = [m if isinstance(m, Record) else Record(values=dict(m))
+                                          for m in self.sections["maneuvers"]]
+        self.source = source
+        for name in ("header", "metadata", "state_vector"):
+            if name not in self.sections:
+                raise InvalidInputError(f"an OPM needs a {name.replace('_', ' ')} section")
+
+    @classmethod
+    def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
+                   center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+                   maneuvers=(), covariance=None, originator: str = "VISVIVA"):
+        """An OPM for one state computed in visviva.
+
+        Parameters
+        ----------
+        state : StateVectors
+            One state (shape ``()``) with its ``epoch``, in ``frame``.
+        object_name : str
+            ``OBJECT_NAME``.
+        object_id : str
+            ``OBJECT_ID`` (international designator).
+        center : str
+            ``CENTER_NAME``.
+        frame : str
+            ``REF_FRAME`` of the state (CCSDS name).
+        time_system : str
+            ``TIME_SYSTEM`` the epochs are written in.
+        maneuvers : iterable of Maneuver
+            Manoeuvres (``epoch`` a Time, ``duration`` s, ``delta_mass`` kg, ``frame``,
+            ``delta_v`` km/s Quantities).
+        covariance : array_like, shape (6, 6), optional
+            Covariance in km and km/s.
+        originator : str
+            ``ORIGINATOR``.
+
+        Returns
+        -------
+        OPM
+        """
+        from astropy import units as u
+
+        from .covariance import values_from_matrix
+        from .timeframes import time_to_epochs
+
+        if getattr(state, "shape", None) != () or state.epoch is None:
+            raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
+        r = state.r.to_value(u.km)
+        v = state.v.to_value(u.km / u.s)
+        sections = {
+            "header": {"CCSDS_OPM_VERS": "3.0", "ORIGINATOR": originator},
+            "metadata": {"OBJECT_NAME": object_name, "OBJECT_ID": object_id,
+                         "CENTER_NAME": center, "REF_FRAME": frame, "TIME_SYSTEM": time_system},
+            "state_vector": {"EPOCH": time_to_epochs(state.epoch, time_system)[0],
+                             **dict(zip(("X", "Y", "Z"), map(float, r), strict=True)),
+                             **dict(zip(("X_DOT", "Y_DOT", "Z_DOT"), map(float, v),
+                                        strict=True))},
+        }
+        if covariance is not None:
+            sections["covariance"] = values_from_matrix(covariance)
+        if maneuvers:
+            sections["maneuvers"] = [{
+                "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system)[0],
+                "MAN_DURATION": float(u.Quantity(m.duration).to_value(u.s)),
+                "MAN_DELTA_MASS": float(u.Quantity(m.delta_mass).to_value(u.kg)),
+                "MAN_REF_FRAME": m.frame,
+                **dict(zip(("MAN_DV_1", "MAN_DV_2", "MAN_DV_3"),
+                           map(float, u.Quantity(m.delta_v).to_value(u.km / u.s)), strict=True)),
+            } for m in maneuvers]
+        return cls(sections)
+
+    def __repr__(self) -> str:
+        meta = self.sections["metadata"]
+        return (f"<OPM {meta.get('OBJECT_NAME')!r} {self.frame}/{self.center} at "
+                f"{self.sections['state_vector'].get('EPOCH')}, {len(self.maneuvers)} manoeuvre(s)>")
+
+    @property
+    def header(self) -> Record:
+        """The header keywords."""
+        return self.sections["header"]
+
+    @property
+    def metadata(self) -> Record:
+        """The metadata keywords."""
+        return self.sections["metadata"]
+
+    @property
+    def frame(self) -> str:
+        """``REF_FRAME`` as written."""
+        return self.metadata["REF_FRAME"]
+
+    @property
+    def visviva_frame(self) -> str | None:
+        """visviva's frame for ``REF_FRAME`` (``"gcrs"``, ``"teme"``, ``"itrs"``) or None."""
+        return visviva_frame(self.frame)
+
+    @property
+    def center(self) -> str:
+        """``CENTER_NAME`` as written."""
+        return self.metadata["CENTER_NAME"]
+
+    def _time(self, text, key):
+        record = self.metadata
+        return epochs_to_time(text, record["TIME_SYSTEM"], record.line_of("TIME_SYSTEM"),
+                              self.source)
+
+    @property
+    def epoch(self):
+        """The state's ``EPOCH`` as an astropy ``Time`` (in ``TIME_SYSTEM``)."""
+        return self._time(self.sections["state_vector"]["EPOCH"], "EPOCH")
+
+    @property
+    def gm(self) -> float:
+        """GM (km**3/s**2): the message's own (Keplerian section) else that of ``CENTER_NAME``."""
+        kep = self.sections.get("keplerian_elements")
+        if kep is not None and "GM" in kep:
+            return float(kep["GM"])
+        body = center_body(self.center)
+        if body is None:
+            raise InvalidInputError(f"CENTER_NAME = {self.center} is not a body visviva knows "
+                                    "and the OPM gives no GM")
+        return body.gm_km3_s2
+
+    @property
+    def state(self):
+        """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch)."""
+        from astropy import units as u
+
+        from ..states import StateVectors
+
+        sv = self.sections["state_vector"]
+        r = [sv["X"], sv["Y"], sv["Z"]] * u.km
+        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]] * u.km / u.s
+        return StateVectors(r, v, self.gm * u.km**3 / u.s**2, epoch=self.epoch)
+
+    @property
+    def covariance(self) -> np.ndarray | None:
+        """The 6 x 6 covariance (km, km/s) or None."""
+        cov = self.sections.get("covariance")
+        return None if cov is None else matrix_from_values(cov.values)
+
+    @property
+    def maneuvers(self) -> list[Maneuver]:
+        """The manoeuvres in the order of the message."""
+        from astropy import units as u
+
+        out = []
+        for m in self.sections.get("maneuvers", []):
+            out.append(Maneuver(
+                self._time(m["MAN_EPOCH_IGNITION"], "MAN_EPOCH_IGNITION"),
+                m["MAN_DURATION"] * u.s, m["MAN_DELTA_MASS"] * u.kg, m["MAN_REF_FRAME"],
+                [m["MAN_DV_1"], m["MAN_DV_2"], m["MAN_DV_3"]] * (u.km / u.s)))
+        return out
+
+
+def read_opm(source) -> OPM:
+    """Read a CCSDS Orbit Parameter Message (KVN or XML, detected).
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A path, or the message text.
+
+    Returns
+    -------
+    OPM
+        With ``.epoch``, ``.state``, ``.frame``, ``.center``, ``.maneuvers``, ``.covariance``
+        and every section's keywords in ``.sections``.
+
+    Raises
+    ------
+    CCSDSFormatError
+        Malformed input; the message names the line.
+    """
+    sections, _, name = read_message(source, SECTIONS, "opm", "CCSDS_OPM_VERS")
+    kep = sections.get("keplerian_elements")
+    if kep is not None and ("TRUE_ANOMALY" in kep) == ("MEAN_ANOMALY" in kep):
+        raise CCSDSFormatError("the Keplerian elements need exactly one of TRUE_ANOMALY and "
+                               "MEAN_ANOMALY", line=kep.line, source=name)
+    opm = OPM(sections, name)
+    opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
+    return opm
+
+
+def write_opm(opm: OPM, path=None, format: str | None = None) -> str:  # noqa: A002
+    """Write an OPM (KVN or XML) with every keyword it holds.
+
+    Parameters
+    ----------
+    opm : OPM
+        The message (as read, or built from section dicts).
+    path : str or os.PathLike, optional
+        File to write; nothing is written when None.
+    format : {"kvn", "xml"}, optional
+        Default: ``"xml"`` for a path ending in ``.xml``, else ``"kvn"``.
+
+    Returns
+    -------
+    str
+        The message text.
+    """
+    if not isinstance(opm, OPM):
+        raise InvalidInputError(f"write_opm needs an OPM, got {type(opm).__name__}")
+    return _write(opm.sections, SECTIONS, "opm", "CCSDS_OPM_VERS", path, format)
+
+
+def _write(sections, table, root, version_key, path, format):  # noqa: A002
+    import os
+
+    if format is None:
+        format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
+    header = sections["header"]
+    if "CREATION_DATE" not in header:  # the one keyword a writer may add (on a copy)
+        from astropy.time import Time
+
+        header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
+                        header.comments, header.lines, header.line)
+        sections = {**sections, "header": header}
+    text = write_message(sections, table, root, version_key, fmt=format)
+    if path is not None:
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
+    return text

@@ -1,0 +1,435 @@
+"""Collision probability of a conjunction: Foster, Chan, Alfano's maximum, 3-D, Monte Carlo.
+
+All methods take the two objects' states at the time of closest approach (TCA) in one inertial
+frame, their covariances and the combined hard-body radius (HBR). Positions, velocities and the
+HBR may be Quantities; plain numbers are SI (m, m/s), like plain covariances (m^2, m^2/s, m^2/s^2,
+the CCSDS CDM convention). Internally everything is in metres and seconds.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._units import is_quantity
+from ..errors import InvalidInputError, ShapeError
+from .covariance import as_covariance, encounter_plane, principal_axes
+
+__all__ = [
+    "collision_probability",
+    "max_collision_probability",
+    "monte_carlo_probability",
+    "MonteCarloResult",
+    "CovarianceRepairWarning",
+    "METHODS",
+]
+
+#: method name -> one-line description (the docs and tests iterate it)
+METHODS = {
+    "foster": "2-D encounter-plane integral over the hard-body circle (CARA PcCircle, 1e-10)",
+    "chan": "Chan's series (equivalent-area Rician approximation)",
+    "3d": "time integral of the probability flux through the hard-body cross-section along "
+          "two-body relative motion, covariances propagated by the STM",
+    "monte_carlo": "sampling of the relative position in the encounter plane",
+}
+
+_RTOL = 1e-13
+
+
+class CovarianceRepairWarning(UserWarning):
+    """A covariance was not positive semi-definite and was repaired by eigenvalue clipping."""
+
+
+def _si(value, unit: str, name: str) -> np.ndarray:
+    if is_quantity(value):
+        from astropy import units as u
+
+        from ..errors import UnitsError
+
+        try:
+            arr = value.to_value(u.Unit(unit))
+        except u.UnitConversionError as exc:
+            raise UnitsError(f"{name} has unit '{value.unit}', which is not convertible to "
+                             f"'{unit}'.") from exc
+    else:
+        arr = value
+    try:
+        arr = np.array(arr, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be numeric, got {value!r}.") from exc
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInputError(f"{name} contains NaN or infinite values: {arr}.")
+    return arr
+
+
+def _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
+    vecs = []
+    for val, unit, name in ((r1, "m", "r1"), (v1, "m/s", "v1"), (r2, "m", "r2"),
+                            (v2, "m/s", "v2")):
+        arr = _si(val, unit, name)
+        if arr.shape != (3,):
+            raise ShapeError(f"{name} must be one 3-vector; got shape {arr.shape}.")
+        vecs.append(arr)
+    c1 = as_covariance(cov1, "cov1")
+    c2 = as_covariance(cov2, "cov2")
+    for c, name in ((c1, "cov1"), (c2, "cov2")):
+        if c.ndim != 2:
+            raise ShapeError(f"{name} must be a single 6x6 or 3x3 matrix; got {c.shape}.")
+    if is_quantity(hard_body_radius):
+        hbr = float(_si(hard_body_radius, "m", "hard_body_radius"))
+    else:
+        try:
+            hbr = float(hard_body_radius)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError("hard_body_radius must be a length.") from exc
+        if math.isnan(hbr):
+            raise InvalidInputError("hard_body_radius is NaN.")
+    if hbr < 0:
+        raise InvalidInputError(f"hard_body_radius must be >= 0, got {hbr} m.")
+    return vecs[0], vecs[1], c1, vecs[2], vecs[3], c2, hbr
+
+
+def _check_psd(c, name):
+    w = np.linalg.eigvalsh(c[:3, :3])
+    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
+        return True
+    return False
+
+
+def _warn_repair(what):
+    warnings.warn(
+        f"{what} is not positive semi-definite; repaired as NASA CARA does (eigenvalues of the "
+        "encounter-plane covariance clipped to (1e-4 HBR)^2). Check the covariance source.",
+        CovarianceRepairWarning, stacklevel=3)
+
+
+def _log_pc_2d(xm, zm, sx, sz, hbr, method):
+    from ..core import collision as kern
+
+    if method == "chan":
+        return float(kern.log_pc_chan(xm, zm, sx, sz, hbr))
+    lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, _RTOL)
+    if status:
+        from ..errors import ConvergenceError
+
+        raise ConvergenceError(
+            f"the Foster integral did not reach {_RTOL:g} relative accuracy "
+            f"(miss {xm:g}, {zm:g} m, sigma {sx:g}, {sz:g} m, HBR {hbr:g} m); report this case."
+        )
+    return float(lp)
+
+
+def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,
+                          samples=1_000_000, seed=None, gm=None, log=False):
+    """Probability that two objects come within ``hard_body_radius`` of each other.
+
+    Parameters
+    ----------
+    r1, r2 : Quantity, shape (3,)
+        Positions at TCA in one inertial frame (plain numbers: m).
+    v1, v2 : Quantity, shape (3,)
+        Velocities at TCA (plain numbers: m/s).
+    cov1, cov2 : array_like, shape (6, 6) or (3, 3)
+        Position-velocity (or position) covariances in that frame; plain arrays in m^2, m^2/s,
+        m^2/s^2, or an area Quantity (see :func:`~visviva.conjunctions.covariance.as_covariance`).
+    hard_body_radius : Quantity or float
+        Radius of the sphere enclosing both objects (plain numbers: m); 0 gives 0, ``inf`` 1.
+    method : {"foster", "chan", "3d", "monte_carlo"}
+        See :data:`METHODS`.
+    samples : int
+        Number of Monte Carlo samples (``method="monte_carlo"``).
+    seed : int, optional
+        Seed of the Monte Carlo generator.
+    gm : Quantity or Body, optional
+        Attractor for ``method="3d"`` (default: the Earth).
+    log : bool
+        Return the natural logarithm of Pc instead (represents values below 1e-308).
+
+    Returns
+    -------
+    float
+        Pc (dimensionless), or ``ln Pc``.
+
+    Warns
+    -----
+    CovarianceRepairWarning
+        A covariance (or the combined one on the encounter plane) is not positive semi-definite
+        and was repaired by eigenvalue clipping.
+
+    Raises
+    ------
+    InvalidInputError
+        NaN input, negative HBR, zero relative velocity (for the 2-D methods), unknown method.
+
+    Notes
+    -----
+    ``"foster"``: the combined covariance ``C1 + C2`` is projected on the plane normal to the
+    relative velocity and the 2-D Gaussian integrated over the HBR circle (Foster & Estes 1992;
+    Alfano 2005),
+    ``Pc = (1 / (2 pi sx sz)) \\iint_{x^2 + z^2 < R^2} exp(-(x - xm)^2/(2 sx^2) - (z - zm)^2/(2 sz^2))``,
+    as a 1-D integral along the major axis with the normal CDF across it, adaptively to 1e-13
+    relative in log space (no underflow: Pc = 1e-300 keeps all its digits). Conventions of NASA
+    CARA's ``PcCircle``: ``r = r1 - r2``, the full miss distance on the encounter-frame ``x`` axis,
+    eigenvalues clipped at ``(1e-4 HBR)^2``.
+    ``"chan"``: Chan (2008) eq. 5.40 summed to convergence.
+    ``"3d"``: ``Pc = \\int |u(t)| p_y(0; t) P_2D(t) dt`` over the encounter, where both mean states
+    follow two-body motion, the covariances follow ``Phi C Phi^T`` (position and velocity
+    uncertainty), ``p_y`` is the density of the relative position along the relative velocity
+    ``u`` at the hard-body cross-section, and ``P_2D`` the Foster integral of the conditional
+    in-plane Gaussian (Coppola 2012; the idea of Hall's 3D-Nc, 2021). For rectilinear motion it
+    equals ``"foster"``.
+    ``"monte_carlo"``: the estimate of :func:`monte_carlo_probability`.
+    """
+    if method not in METHODS:
+        raise InvalidInputError(f"method must be one of {sorted(METHODS)}, got {method!r}.")
+    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    if method == "monte_carlo":
+        res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, hbr, samples=samples, seed=seed)
+        return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
+    if method == "3d":
+        lp = _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm)
+        return lp if log else math.exp(lp)
+    if hbr == 0:
+        return -math.inf if log else 0.0
+    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    if math.isinf(hbr):
+        return 0.0 if log else 1.0
+    if npd_in or plane.non_positive_definite:
+        _warn_repair("the combined covariance" if not npd_in else "an input covariance")
+    xm, zm = plane.principal_miss
+    sx, sz = plane.sigma
+    lp = _log_pc_2d(xm, zm, sx, sz, hbr, method)
+    return lp if log else math.exp(lp)
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """A Monte Carlo estimate of Pc with its confidence interval.
+
+    Attributes
+    ----------
+    pc : float
+        ``hits / samples``.
+    low, high : float
+        Clopper-Pearson interval at ``confidence``.
+    hits, samples : int
+        Counts.
+    confidence : float
+        Confidence level of the interval (e.g. 0.95).
+    """
+
+    pc: float
+    low: float
+    high: float
+    hits: int
+    samples: int
+    confidence: float
+
+
+def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
+                            samples=1_000_000, seed=None, confidence=0.95) -> MonteCarloResult:
+    """Monte Carlo Pc in the encounter plane, with a Clopper-Pearson confidence interval.
+
+    Parameters
+    ----------
+    r1, r2 : Quantity, shape (3,)
+        Positions at TCA (plain numbers: m).
+    v1, v2 : Quantity, shape (3,)
+        Velocities at TCA (plain numbers: m/s).
+    cov1, cov2 : array_like, shape (6, 6) or (3, 3)
+        Covariances (m^2 ...).
+    hard_body_radius : Quantity or float
+        Combined radius (plain: m).
+    samples : int
+        Number of samples (drawn in blocks of 1e6).
+    seed : int, optional
+        Generator seed (numpy's PCG64).
+    confidence : float
+        Level of the interval.
+
+    Returns
+    -------
+    MonteCarloResult
+
+    Notes
+    -----
+    Draws the relative position on the encounter plane from ``N(miss, A_2D)`` (the repaired
+    projection used by ``"foster"``) and counts the draws inside the HBR circle; the interval is
+    the exact binomial (Clopper-Pearson) one.
+    """
+    from scipy import stats
+
+    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    samples = int(samples)
+    if samples < 1:
+        raise InvalidInputError(f"samples must be >= 1, got {samples}.")
+    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    sx, sz = plane.sigma
+    xm, zm = plane.principal_miss
+    rng = np.random.default_rng(seed)
+    hits = 0
+    left = samples
+    r2lim = hbr * hbr
+    while left > 0:
+        n = min(left, 1_000_000)
+        x = rng.standard_normal(n) * sx + xm
+        z = rng.standard_normal(n) * sz + zm
+        hits += int(np.count_nonzero(x * x + z * z < r2lim))
+        left -= n
+    alpha = 1.0 - confidence
+    low = 0.0 if hits == 0 else float(stats.beta.ppf(alpha / 2, hits, samples - hits + 1))
+    high = 1.0 if hits == samples else float(stats.beta.ppf(1 - alpha / 2, hits + 1,
+                                                             samples - hits))
+    return MonteCarloResult(hits / samples, low, high, hits, samples, confidence)
+
+
+def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=None, *,
+                              log=False):
+    """Alfano's maximum Pc over an unknown covariance size.
+
+    Parameters
+    ----------
+    r1, r2 : Quantity, shape (3,)
+        Positions at TCA (plain: m).
+    v1, v2 : Quantity, shape (3,)
+        Velocities at TCA (plain: m/s).
+    hard_body_radius : Quantity or float
+        Combined radius (plain: m).
+    cov1, cov2 : array_like, optional
+        Covariances giving the shape (orientation and aspect ratio) of the combined covariance;
+        their size is the unknown. Without them the encounter-plane covariance is taken circular.
+    log : bool
+        Return ``ln Pc_max``.
+
+    Returns
+    -------
+    float
+        ``max_k Pc(k^2 A)`` over the scale ``k > 0`` of the combined covariance ``A``.
+
+    Notes
+    -----
+    Alfano, "Relating position uncertainty to maximum conjunction probability", J. Astronaut.
+    Sci. 53 (2005) 193. For a circular covariance and a small HBR the maximum is
+    ``R^2 / (e d^2)`` at ``sigma^2 = d^2 / 2``; here the exact Foster integral is maximised over
+    ``log k`` (bounded Brent search), which also holds when ``R`` is not small.
+    """
+    from scipy.optimize import minimize_scalar
+
+    eye = np.eye(3)
+    c1 = eye if cov1 is None else cov1
+    c2 = eye if cov2 is None else cov2
+    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, c1, r2, v2, c2, hard_body_radius)
+    if hbr == 0:
+        return -math.inf if log else 0.0
+    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    if cov1 is None and cov2 is None:
+        s0 = np.array([1.0, 1.0])
+        pm = np.array([float(np.hypot(*plane.principal_miss)), 0.0])
+    else:
+        s0 = plane.sigma
+        pm = plane.principal_miss
+    d = max(float(np.hypot(*pm)), hbr)
+
+    def neg(logk):
+        k = math.exp(logk)
+        return -_log_pc_2d(pm[0], pm[1], k * s0[0], k * s0[1], hbr, "foster")
+
+    # the optimum scale puts the sigmas near the miss distance: bracket generously around it
+    centre = math.log(d / math.sqrt(s0[0] * s0[1]))
+    res = minimize_scalar(neg, bounds=(centre - 12.0, centre + 12.0), method="bounded",
+                          options={"xatol": 1e-10})
+    lp = -float(res.fun)
+    return lp if log else math.exp(lp)
+
+
+def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
+    """The 3-D flux integral (see collision_probability); inputs in m, m/s."""
+    from .._units import to_array
+    from ..core.stm import two_body_stm
+    from ..core.universal import propagate_one
+
+    if hbr == 0:
+        return -math.inf
+    if math.isinf(hbr):
+        return 0.0
+    if gm is None:
+        from ..bodies import EARTH
+
+        gm = EARTH.gm
+    gm_km = float(to_array(gm, "gm", "gm", allow_plain=True))
+    npd = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    if npd:
+        _warn_repair("an input covariance")
+    a0 = c1[:3, :3] + c2[:3, :3]
+    u0 = v1 - v2
+    un = float(np.linalg.norm(u0))
+    lam = float(np.max(np.linalg.eigvalsh(a0)))
+    if un == 0:
+        raise InvalidInputError("zero relative velocity at TCA: the 3-D flux method needs the "
+                                "objects to move relative to each other.")
+    r1k, v1k, r2k, v2k = r1 / 1e3, v1 / 1e3, r2 / 1e3, v2 / 1e3
+    period = 2 * math.pi * math.sqrt(
+        (1.0 / (2.0 / np.linalg.norm(r1k) - np.dot(v1k, v1k) / gm_km)) ** 3 / gm_km)
+    half = min(10.0 * (math.sqrt(lam) + hbr + float(np.linalg.norm(r1 - r2))) / un,
+               0.25 * period)
+
+    def full6(c):
+        if c.shape == (6, 6):
+            return c
+        out = np.zeros((6, 6))
+        out[:3, :3] = c
+        return out
+
+    c1f, c2f = full6(c1), full6(c2)
+    phi = np.empty((6, 6))
+    rr = np.empty(3)
+    vv = np.empty(3)
+
+    def log_rate(t):
+        states = []
+        cov = np.zeros((3, 3))
+        for r0, v0, cf in ((r1k, v1k, c1f), (r2k, v2k, c2f)):
+            propagate_one(r0, v0, gm_km, t, rr, vv)
+            two_body_stm(r0, v0, gm_km, t, phi)
+            states.append((rr.copy() * 1e3, vv.copy() * 1e3))
+            cov += (phi @ cf @ phi.T)[:3, :3]
+        mu = states[0][0] - states[1][0]
+        u = states[0][1] - states[1][1]
+        speed = float(np.linalg.norm(u))
+        y = u / speed
+        trial = np.eye(3)[int(np.argmin(np.abs(y)))]
+        x = np.cross(y, trial)
+        x /= np.linalg.norm(x)
+        z = np.cross(x, y)
+        b = np.stack([x, y, z])
+        m = b @ mu
+        a = b @ cov @ b.T
+        ayy = a[1, 1]
+        if not ayy > 0:
+            return -math.inf
+        apy = np.array([a[0, 1], a[2, 1]])
+        mean_p = np.array([m[0], m[2]]) - apy * (m[1] / ayy)
+        cov_p = np.array([[a[0, 0], a[0, 2]], [a[2, 0], a[2, 2]]]) - np.outer(apy, apy) / ayy
+        sigma, pm, _, _, _ = principal_axes(mean_p, cov_p, hbr)
+        lp2 = _log_pc_2d(pm[0], pm[1], sigma[0], sigma[1], hbr, "foster")
+        log_py = -0.5 * m[1] ** 2 / ayy - 0.5 * math.log(2 * math.pi * ayy)
+        return math.log(speed) + log_py + lp2
+
+    # composite Gauss-Legendre over the window, in log space
+    nodes, weights = np.polynomial.legendre.leggauss(8)
+    panels = 96
+    edges = np.linspace(-half, half, panels + 1)
+    logs = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        for xk, wk in zip(nodes, weights, strict=True):
+            t = 0.5 * (a + b) + 0.5 * (b - a) * xk
+            logs.append(math.log(0.5 * (b - a) * wk) + log_rate(t))
+    logs = np.array(logs)
+    top = float(np.max(logs))
+    if top == -math.inf:
+        return -math.inf
+    return top + math.log(float(np.sum(np.exp(logs - top))))

@@ -1,0 +1,310 @@
+"""Catalogue screening for close approaches (SGP4), single process or on Dask workers.
+
+:func:`screen_conjunctions` runs the classic filter chain on whole arrays: apogee/perigee, then the
+sampled relative motion (a sign change of the range rate brackets every local minimum of the
+distance, a Hermite model estimates it), all in one compiled kernel
+(:func:`visviva.core.screening.screen_rows`); then each surviving candidate is refined with SGP4
+itself: the time of closest approach is the root of ``rho . rho_dot`` (Brent, 1e-5 s), and the
+miss vector is expressed in the primary's RTN frame.
+
+Blocks of primaries are independent, so the same function runs them on Dask process workers
+(``client=``): each worker propagates the catalogue once and screens its rows.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
+
+#: output columns and their meaning
+SCREEN_COLUMNS = {
+    "object1": "name of the primary",
+    "object2": "name of the secondary",
+    "tca": "time of closest approach (UTC), within 1 ms",
+    "miss_distance": "distance at TCA, km (within 1 m of SGP4)",
+    "relative_speed": "|v2 - v1| at TCA, km/s",
+    "radial": "R component of r2 - r1 in the primary's RTN frame, km",
+    "in_track": "T component, km",
+    "cross_track": "N component, km",
+    "index1": "index of the primary in its catalogue",
+    "index2": "index of the secondary in its catalogue",
+}
+
+#: distance added to the apogee/perigee and sampling filters (km): covers the difference between
+#: SGP4's mean-element perigee/apogee and its osculating radius (short-period J2, ~10 km in LEO)
+FILTER_MARGIN_KM = 60.0
+#: distance added to the Hermite minimum (km) at a 60 s step: the cubic Hermite model of the
+#: relative motion errs by ~1e-3 km there (its error grows as step^4)
+HERMITE_MARGIN_KM = 2.0
+_DAY_S = 86400.0
+
+
+def _shells(cat):
+    sat = [s.satrec for s in cat]
+    re = np.array([s.radiusearthkm for s in sat])
+    q = (1.0 + np.array([s.altp for s in sat])) * re
+    Q = (1.0 + np.array([s.alta for s in sat])) * re
+    return q, Q
+
+
+def _propagate(cat, jd, fr):
+    e, r, v = cat.satrec_array.sgp4(jd, fr)
+    bad = e != 0
+    if bad.any():
+        r[bad] = np.nan
+        v[bad] = np.nan
+    return np.ascontiguousarray(r), np.ascontiguousarray(v)
+
+
+def _state(satrec, jd, fr):
+    e, r, v = satrec.sgp4(jd, fr)
+    if e:
+        return None, None
+    return np.array(r), np.array(v)
+
+
+def _refine(sat1, sat2, jd0, fr0, t_lo, t_hi, window):
+    """TCA in [t_lo, t_hi] (s from jd0 + fr0) by Brent on rho . rho_dot; exact SGP4 states."""
+    from scipy.optimize import brentq
+
+    def f(ts):
+        r1, v1 = _state(sat1, jd0, fr0 + ts / _DAY_S)
+        r2, v2 = _state(sat2, jd0, fr0 + ts / _DAY_S)
+        if r1 is None or r2 is None:
+            return math.nan
+        return float(np.dot(r2 - r1, v2 - v1))
+
+    lo, hi = max(t_lo, 0.0), min(t_hi, window)
+    fa, fb = f(lo), f(hi)
+    if not (math.isfinite(fa) and math.isfinite(fb)):
+        return None
+    if fa >= 0.0:
+        tca = lo  # receding at the start of the window
+    elif fb <= 0.0:
+        tca = hi  # approaching at the end
+    else:
+        tca = brentq(f, lo, hi, xtol=1e-5, rtol=4 * np.finfo(float).eps, maxiter=200)
+    return tca
+
+
+def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows,
+                 cache=None):
+    """Screen the primaries ``rows`` of ``cat1`` against ``cat2``: the unit of parallel work.
+
+    Parameters
+    ----------
+    cat1, cat2 : Catalog
+        Primaries and secondaries (the same object when ``self_mode``).
+    self_mode : bool
+        Screen the catalogue against itself (pairs ``j > i``).
+    jd0, fr0 : float
+        Start of the window (UTC Julian date, two parts).
+    step_s : float
+        Sampling step, s.
+    n_steps : int
+        Number of samples (window ``(n_steps - 1) step_s``).
+    threshold_km : float
+        Reporting distance, km.
+    rows : array_like of int
+        Primary indices.
+    cache : dict, optional
+        Holds the sampled ephemerides between calls (per process).
+
+    Returns
+    -------
+    list of tuple
+        ``(i, j, tca_s, miss_km, speed_km_s, radial, in_track, cross_track)`` per conjunction.
+    """
+    from ..core.screening import screen_rows
+
+    cache = {} if cache is None else cache
+    key = (id(cat1), id(cat2), jd0, fr0, step_s, n_steps)
+    if cache.get("key") != key:
+        ts = np.arange(n_steps) * step_s
+        jd = np.full(n_steps, jd0)
+        fr = fr0 + ts / _DAY_S
+        r1, v1 = _propagate(cat1, jd, fr)
+        r2, v2 = (r1, v1) if self_mode else _propagate(cat2, jd, fr)
+        q1, Q1 = _shells(cat1)
+        q2, Q2 = (q1, Q1) if self_mode else _shells(cat2)
+        speeds = [np.nanmax(np.linalg.norm(v, axis=-1), initial=0.0) for v in (v1, v2)]
+        cache.clear()
+        cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
+                     speed=1.01 * (speeds[0] + speeds[1]) + 1e-3)
+    r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
+    speed_bound = cache["speed"]
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    cap = 64
+    while True:
+        out_j = np.empty((rows.size, cap), dtype=np.int64)
+        out_k = np.empty((rows.size, cap), dtype=np.int64)
+        out_d = np.empty((rows.size, cap))
+        counts = np.zeros(rows.size, dtype=np.int64)
+        fine = HERMITE_MARGIN_KM * max(1.0, (step_s / 60.0) ** 4)
+        screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, bool(self_mode), float(step_s),
+                    float(threshold_km), FILTER_MARGIN_KM, fine, speed_bound, out_j, out_k, out_d,
+                    counts)
+        if counts.max(initial=0) <= cap:
+            break
+        cap = int(counts.max()) + 16
+    window = (n_steps - 1) * step_s
+    found = []
+    for a, i in enumerate(rows):
+        for c in range(int(counts[a])):
+            j, k = int(out_j[a, c]), int(out_k[a, c])
+            s1, s2 = cat1[int(i)].satrec, cat2[j].satrec
+            if k < 0:
+                lo, hi = 0.0, step_s
+            elif k >= n_steps - 1:
+                lo, hi = window - step_s, window
+            else:
+                lo, hi = k * step_s, (k + 1) * step_s
+            tca = _refine(s1, s2, jd0, fr0, lo, hi, window)
+            if tca is None:
+                continue
+            ra, va = _state(s1, jd0, fr0 + tca / _DAY_S)
+            rb, vb = _state(s2, jd0, fr0 + tca / _DAY_S)
+            d = rb - ra
+            miss = float(np.linalg.norm(d))
+            if miss >= threshold_km:
+                continue
+            h = np.cross(ra, va)
+            R = ra / np.linalg.norm(ra)
+            N = h / np.linalg.norm(h)
+            T = np.cross(N, R)
+            found.append((int(i), j, tca, miss, float(np.linalg.norm(vb - va)),
+                          float(d @ R), float(d @ T), float(d @ N)))
+    return found
+
+
+_WORKER_CACHE: dict = {}
+
+
+def _worker_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows):
+    return screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows,
+                        cache=_WORKER_CACHE)
+
+
+def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold=None, *,
+                        step=None, client=None, blocks=None, progress=False):
+    """Find every close approach below ``threshold`` between ``t0`` and ``t1`` (SGP4).
+
+    Parameters
+    ----------
+    primaries : Satellite or Catalog
+        The objects to protect.
+    secondaries : Satellite or Catalog, optional
+        The objects screened against them; ``None`` screens ``primaries`` against itself.
+    t0, t1 : astropy Time
+        The window.
+    threshold : Quantity
+        Reporting distance (default 5 km).
+    step : Quantity
+        Sampling step of the filter stage (default 60 s); every local minimum is bracketed
+        whatever the step, which only sets the cost balance.
+    client : dask.distributed.Client, optional
+        Screen blocks of primaries on its workers (process workers propagate the catalogue once
+        each); ``None`` runs in this process.
+    blocks : int, optional
+        Number of blocks of primaries (default: 4 per worker, or 32 in process).
+    progress : bool
+        Show a tqdm progress bar over the blocks.
+
+    Returns
+    -------
+    astropy.table.QTable
+        One row per close approach, sorted by TCA; columns in :data:`SCREEN_COLUMNS`.
+
+    Raises
+    ------
+    InvalidInputError
+        ``t1 <= t0``, non-positive threshold or step.
+
+    Notes
+    -----
+    Filters (Hoots, Crawford & Roehrich, Celest. Mech. 33 (1984) 143; Alarcon-Rodriguez et al.,
+    Adv. Space Res. 34 (2004) 1120): apogee/perigee shells widened by ``threshold`` + 60 km, then
+    the sampled range rate ``rho . rho_dot`` (SGP4 positions and velocities every ``step``): a
+    change of sign from - to + brackets each local minimum of the distance, so none is skipped,
+    and a cubic Hermite model of the relative motion (error ~1 m at 60 s; margin 2 km, growing
+    as ``step^4``) rejects those above the threshold. Survivors are refined on SGP4 itself: TCA by Brent's method on
+    ``rho . rho_dot`` to 1e-5 s. Positions are TEME; the RTN components of ``r2 - r1`` use the
+    primary's TEME position and velocity. Minima at the edges of the window are reported at the
+    edge.
+    """
+    from astropy import units as u
+    from astropy.table import QTable
+    from astropy.time import Time
+
+    from ..satellites.catalog import Catalog, _as_catalog
+
+    if not isinstance(t0, Time) or not isinstance(t1, Time):
+        raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    threshold = 5 * u.km if threshold is None else threshold
+    step = 60 * u.s if step is None else step
+    thr = float(u.Quantity(threshold).to_value(u.km))
+    step_s = float(u.Quantity(step).to_value(u.s))
+    if not thr > 0 or not step_s > 0:
+        raise InvalidInputError("threshold and step must be positive.")
+    span = float((t1 - t0).to_value(u.s))
+    if not span > 0:
+        raise InvalidInputError(f"t1 must be after t0; got a window of {span} s.")
+    cat1 = _as_catalog(primaries)
+    self_mode = secondaries is None
+    cat2 = cat1 if self_mode else _as_catalog(secondaries)
+    if not isinstance(cat1, Catalog):
+        raise InvalidInputError("primaries must be a Satellite or a Catalog.")
+    n_steps = int(math.ceil(span / step_s)) + 1
+    step_s = span / (n_steps - 1)
+    tu = t0.utc
+    jd0, fr0 = float(tu.jd1), float(tu.jd2)
+    n1 = len(cat1)
+    if blocks is None:
+        blocks = 32 if client is None else 4 * max(1, len(client.scheduler_info()["workers"]))
+    blocks = max(1, min(int(blocks), n1))
+    # interleaved rows balance the triangular work of a self-screen
+    row_sets = [np.arange(b, n1, blocks) for b in range(blocks)]
+    found = []
+    if client is None:
+        cache: dict = {}
+        it = row_sets
+        if progress:
+            from tqdm.auto import tqdm
+
+            it = tqdm(row_sets, desc="screening", unit="block")
+        for rows in it:
+            found.extend(screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, thr,
+                                      rows, cache=cache))
+    else:
+        c1 = client.scatter(cat1, broadcast=True)
+        c2 = c1 if self_mode else client.scatter(cat2, broadcast=True)
+        futures = [client.submit(_worker_block, c1, c2, self_mode, jd0, fr0, step_s, n_steps,
+                                 thr, rows, pure=False) for rows in row_sets]
+        if progress:
+            from dask.distributed import progress as dask_progress
+
+            dask_progress(futures)
+        for part in client.gather(futures):
+            found.extend(part)
+    found.sort(key=lambda row: (row[2], row[0], row[1]))
+    arr = np.array([f[2:] for f in found], dtype=np.float64).reshape(-1, 6)
+    names1, names2 = cat1.names, cat2.names
+    tab = QTable()
+    tab["object1"] = [names1[f[0]] for f in found]
+    tab["object2"] = [names2[f[1]] for f in found]
+    tca = Time(np.full(len(found), jd0), fr0 + arr[:, 0] / _DAY_S, format="jd", scale="utc")
+    tca.format = "isot"
+    tab["tca"] = tca
+    tab["miss_distance"] = arr[:, 1] * u.km
+    tab["relative_speed"] = arr[:, 2] * u.km / u.s
+    tab["radial"] = arr[:, 3] * u.km
+    tab["in_track"] = arr[:, 4] * u.km
+    tab["cross_track"] = arr[:, 5] * u.km
+    tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
+    tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
+    return tab

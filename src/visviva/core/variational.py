@@ -1,0 +1,414 @@
+"""State and state-transition matrix of Cowell's force model, by the variational equations.
+
+The state y = (r, v) and its state-transition matrix Phi(t, t0) = d y(t) / d y(t0) are
+integrated together (42 components):
+
+    y' = f(t, y),    Phi' = F(t, y) Phi,    Phi(t0) = I,
+
+with F = [[0, I], [da/dr, da/dv]] the Jacobian of the right-hand side
+:func:`visviva.core.perturbations.cowell_rhs`, evaluated analytically
+(:func:`acceleration_partials`; Montenbruck & Gill 2000, sec. 7.2, eqs. 7.42-7.45;
+Vallado 2013, sec. 10.4). The force model is the same flat parameter block that
+:func:`visviva.core.cowell.integrate_cowell` reads (see :mod:`visviva.core.perturbations`), so
+the trajectory is the one ``propagate_cowell`` computes, to the integration tolerance.
+
+Partials included, each exact for its force term:
+
+* two-body: da/dr = -GM/r^3 (I - 3 r r^T / r^2);
+* zonal harmonics J_2 .. J_n: the Hessian of the zonal potential of any degree
+  (:func:`_add_zonal_gradient`); for a full spherical-harmonic field its zonal part
+  (J_n = -C_n0) about the propagation z axis, the tesseral terms being left out of the
+  Jacobian (below 1e-3 of J2's partials in low orbit: they slow the convergence of a fit by
+  nothing measurable and do not change its solution, which is set by the residuals computed
+  with the full force model);
+* drag: da/dv = -rho B/2 (|w| I + w w^T/|w|), w = v - omega x r, and da/dr from the
+  co-rotation and from the altitude gradient of the density, d ln rho / dh = -1/H
+  (exponential table) or the slope of the tabulated ln rho along altitude (NRLMSIS grid);
+* third bodies: da/dr = GM_b (3 d d^T / d^5 - I / d^3), d = r_b - r;
+* SRP (cannonball, shadow fraction held fixed over the step): da/dr = k (I/d^3 - 3 d d^T/d^5).
+
+Integration is DOP853 (the tableau of :mod:`visviva.core.cowell`) with the step-size control
+on the six state components only; each step is shortened to land on the next output time, so
+no dense output is needed and the STM at every output is that of the integrated trajectory.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import status as st
+from ._jit import kernel
+from .perturbations import (
+    cowell_rhs,
+    exponential_density,
+    geodetic_altitude,
+    grid_density,
+    hermite_position,
+    shadow_fraction,
+)
+
+__all__ = ["acceleration_partials", "variational_rhs", "integrate_variational", "N_VAR"]
+
+#: components of the augmented state: 6 (r, v) + 36 (Phi, row-major)
+N_VAR = 42
+_SAFETY = 0.9
+_MIN_FACTOR = 0.2
+_MAX_FACTOR = 10.0
+_N_STAGES = 12
+
+
+@kernel
+def _add_point_mass_gradient(dx, dy, dz, k, G):
+    """G += k (3 d d^T / |d|^5 - I / |d|^3), which is -k times the gradient of d / |d|^3.
+
+    The tidal (gravity-gradient) matrix of a point mass: with k = GM and d the vector from
+    the mass, it is the gradient of the attraction -GM d / |d|^3.
+    """
+    d2 = dx * dx + dy * dy + dz * dz
+    d = math.sqrt(d2)
+    inv3 = 1.0 / (d2 * d)
+    inv5 = 3.0 * inv3 / d2
+    dv = (dx, dy, dz)
+    for i in range(3):
+        for j in range(3):
+            G[i, j] += k * inv5 * dv[i] * dv[j]
+        G[i, i] -= k * inv3
+
+
+@kernel
+def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, G):
+    """G += d a_zonal / d r for the zonal terms J_2 .. J_n_max (``zonal[n]`` = J_n).
+
+    With s = z/r, c_n = J_n R^n, alpha_n = (n+1) P_n + s P_n', the acceleration of
+    :func:`visviva.core.perturbations.accel_zonal` is a = GM [A r / r^3 - B z_hat / r^2] with
+    A = sum c_n r^-n alpha_n(s), B = sum c_n r^-n P_n'(s). Its gradient is
+
+        GM [r (f_r r_hat + f_s grad s)^T + f I - z_hat (g_r r_hat + g_s grad s)^T],
+
+    f = A/r^3, g = B/r^2, grad s = (z_hat - s r_hat)/r, with the radial and s-derivatives
+    from the Legendre recursions P_n'' = (n+1) P_{n-1}' + s P_{n-1}''.
+    """
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    s = z / r
+    p_nm2 = 1.0
+    p_nm1 = s
+    dp_nm1 = 1.0
+    ddp_nm1 = 0.0
+    ratio = radius / r
+    rn = ratio
+    A = 0.0
+    A_r = 0.0
+    A_s = 0.0
+    B = 0.0
+    B_r = 0.0
+    B_s = 0.0
+    for n in range(2, n_max + 1):
+        p_n = ((2 * n - 1) * s * p_nm1 - (n - 1) * p_nm2) / n
+        dp_n = n * p_nm1 + s * dp_nm1
+        ddp_n = (n + 1) * dp_nm1 + s * ddp_nm1
+        rn *= ratio
+        jn = zonal[n]
+        if jn != 0.0:
+            c = jn * rn  # J_n (R/r)^n
+            alpha = (n + 1) * p_n + s * dp_n
+            A += c * alpha
+            A_r -= n * c * alpha / r
+            A_s += c * ((n + 2) * dp_n + s * ddp_n)
+            B += c * dp_n
+            B_r -= n * c * dp_n / r
+            B_s += c * ddp_n
+        p_nm2, p_nm1 = p_nm1, p_n
+        dp_nm1 = dp_n
+        ddp_nm1 = ddp_n
+    r3 = r2 * r
+    f = A / r3
+    f_r = A_r / r3 - 3.0 * A / (r3 * r)
+    f_s = A_s / r3
+    g_r = B_r / r2 - 2.0 * B / r3
+    g_s = B_s / r2
+    pos = (x, y, z)
+    for j in range(3):
+        rhat_j = pos[j] / r
+        grad_s_j = ((1.0 if j == 2 else 0.0) - s * rhat_j) / r
+        df_j = f_r * rhat_j + f_s * grad_s_j
+        dg_j = g_r * rhat_j + g_s * grad_s_j
+        for i in range(3):
+            G[i, j] += gm * pos[i] * df_j
+        G[j, j] += gm * f
+        G[2, j] -= gm * dg_j
+
+
+@kernel
+def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv):
+    """Write the partial derivatives of the Cowell acceleration into ``dadr``, ``dadv`` (3, 3).
+
+    Parameters
+    ----------
+    t : float
+        Time from the epoch, s.
+    y : ndarray (6,)
+        Position (km) and velocity (km/s).
+    force, zonal, atm, eph_r, eph_v, eph_gm, sh : ndarray
+        The force model of :mod:`visviva.core.perturbations`.
+    dadr : ndarray (3, 3)
+        Output: d a / d r, 1/s^2.
+    dadv : ndarray (3, 3)
+        Output: d a / d v, 1/s.
+    """
+    x = y[0]
+    yy = y[1]
+    z = y[2]
+    for i in range(3):
+        for j in range(3):
+            dadr[i, j] = 0.0
+            dadv[i, j] = 0.0
+    gm = force[0]
+    # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
+    _add_point_mass_gradient(x, yy, z, gm, dadr)
+    if int(force[2]) >= 2:
+        _add_zonal_gradient(x, yy, z, gm, force[1], zonal, int(force[2]), dadr)
+    elif force[17] >= 2.0:
+        # the field's zonal part, J_n = -C_n0 (unnormalised), about the propagation z axis;
+        # the tesseral terms are left out of the partials (see the module notes)
+        n_sh = int(force[17])
+        jn = np.zeros(n_sh + 1)
+        for n in range(2, n_sh + 1):
+            jn[n] = -sh[0, n, 0]
+        _add_zonal_gradient(x, yy, z, gm, force[1], jn, n_sh, dadr)
+    sun = int(force[12])
+    sun_pos = np.empty(3)
+    pos = np.empty(3)
+    if sun >= 0:
+        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    if force[3] != 0.0:
+        omega = force[5]
+        bc = force[4]
+        wx = y[3] + omega * yy
+        wy = y[4] - omega * x
+        wz = y[5]
+        w = math.sqrt(wx * wx + wy * wy + wz * wz)
+        h = geodetic_altitude(x, yy, z, force[1], force[6])
+        r = math.sqrt(x * x + yy * yy + z * z)
+        if force[27] == 1.0 and sun >= 0:
+            lat = math.asin(z / r)
+            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
+            if ha > math.pi:
+                ha -= 2.0 * math.pi
+            elif ha < -math.pi:
+                ha += 2.0 * math.pi
+            rho = grid_density(h, lat, ha, force, atm)
+            # slope of the tabulated ln(rho) along altitude at this point
+            step = force[29]
+            up = grid_density(h + 0.5 * step, lat, ha, force, atm)
+            down = grid_density(h - 0.5 * step, lat, ha, force, atm)
+            dlnrho_dh = (math.log(up) - math.log(down)) / step
+        else:
+            rho = exponential_density(h, atm)
+            k = 0
+            n = atm.shape[0]
+            while k + 1 < n and h >= atm[k + 1, 0]:
+                k += 1
+            dlnrho_dh = -1.0 / atm[k, 2]
+        rho_km = rho * 1e9
+        c = -0.5 * rho_km * bc
+        wv = (wx, wy, wz)
+        for i in range(3):
+            for j in range(3):
+                dadv[i, j] += c * wv[i] * wv[j] / w
+            dadv[i, i] += c * w
+        # d w / d r = [[0, omega, 0], [-omega, 0, 0], [0, 0, 0]]
+        for i in range(3):
+            dadr[i, 0] += dadv[i, 1] * (-omega)
+            dadr[i, 1] += dadv[i, 0] * omega
+        # density gradient: d h / d r = r_hat + R f d(s^2)/d r, s = z / r
+        s = z / r
+        fr = force[1] * force[6]
+        posv = (x, yy, z)
+        for j in range(3):
+            dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
+            if j == 2:
+                dh += fr * 2.0 * s / r
+            for i in range(3):
+                dadr[i, j] += c * w * wv[i] * dlnrho_dh * dh
+    n_third = int(force[13])
+    for b in range(n_third):
+        if b == sun:
+            bx, by, bz = sun_pos[0], sun_pos[1], sun_pos[2]
+        else:
+            hermite_position(t, b, force, eph_r, eph_v, pos)
+            bx, by, bz = pos[0], pos[1], pos[2]
+        # a = gm_b (d / |d|^3 - ...), d = r_b - r: d a / d r = -gm_b grad_d (d / |d|^3)
+        # = gm_b (3 d d^T / d^5 - I / d^3)
+        _add_point_mass_gradient(bx - x, by - yy, bz - z, eph_gm[b], dadr)
+    if force[7] != 0.0 and sun >= 0:
+        from_sun_x = x - sun_pos[0]
+        from_sun_y = yy - sun_pos[1]
+        from_sun_z = z - sun_pos[2]
+        # the shadow fraction of this point, held fixed
+        nu = shadow_fraction(
+            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[1], force[10], int(force[9])
+        )
+        if nu > 0.0:
+            k = nu * force[8] * force[11] * force[11]
+            # a = k d / |d|^3 with d = r - r_sun: d a / d r = k (I/d^3 - 3 d d^T/d^5)
+            _add_point_mass_gradient(from_sun_x, from_sun_y, from_sun_z, -k, dadr)
+
+
+@kernel
+def variational_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, dadr, dadv):
+    """Derivative of the augmented state (r, v, Phi): 42 components, Phi row-major."""
+    cowell_rhs(t, y[:6], force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy[:6])
+    acceleration_partials(t, y[:6], force, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv)
+    # Phi' = F Phi with F = [[0, I], [dadr, dadv]]
+    for j in range(6):
+        for i in range(3):
+            dy[6 + i * 6 + j] = y[6 + (i + 3) * 6 + j]
+        for i in range(3):
+            acc = 0.0
+            for m in range(3):
+                acc += dadr[i, m] * y[6 + m * 6 + j] + dadv[i, m] * y[6 + (m + 3) * 6 + j]
+            dy[6 + (i + 3) * 6 + j] = acc
+
+
+@kernel
+def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r,
+                          eph_v, eph_gm, sh, A, B, C, E3, E5, y_out, phi_out, info):  # fmt: skip
+    """Integrate the state and its STM from t = 0 to each of the output times ``t_out``.
+
+    Parameters
+    ----------
+    y0 : ndarray (6,)
+        State at t = 0: position (km), velocity (km/s).
+    t_out : ndarray (T,)
+        Output times, s, monotonic (all >= 0 increasing, or all <= 0 decreasing).
+    rtol, atol : float
+        Tolerances of the state's local error (atol in km and km/s).
+    h_max : float
+        Largest step, s.
+    max_steps : int
+        Step budget; beyond it the status is ``STEP_TOO_SMALL``.
+    force, zonal, atm, eph_r, eph_v, eph_gm, sh : ndarray
+        The force model (:mod:`visviva.core.perturbations`).
+    A, B, C, E3, E5 : ndarray
+        The DOP853 tableau.
+    y_out : ndarray (T, 6)
+        Output: states at ``t_out``.
+    phi_out : ndarray (T, 6, 6)
+        Output: Phi(t_out, 0).
+    info : ndarray (3,)
+        Output: [outputs written, steps, right-hand-side evaluations].
+
+    Returns
+    -------
+    int
+        ``OK`` or ``STEP_TOO_SMALL``.
+    """
+    n = N_VAR
+    n_out = t_out.shape[0]
+    y = np.zeros(n)
+    for j in range(6):
+        y[j] = y0[j]
+        y[6 + j * 6 + j] = 1.0
+    K = np.zeros((_N_STAGES + 1, n))
+    y_new = np.empty(n)
+    y_tmp = np.empty(n)
+    f = np.empty(n)
+    dadr = np.empty((3, 3))
+    dadv = np.empty((3, 3))
+    direction = 1.0
+    for k in range(n_out):
+        if t_out[k] < 0.0:
+            direction = -1.0
+    t = 0.0
+    written = 0
+    n_steps = 0
+    nfev = 0
+    status = st.OK
+    variational_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+    nfev += 1
+    # a first step of 1/200 of the orbital period-ish: |r|/|v| / 20
+    rr = math.sqrt(y[0] ** 2 + y[1] ** 2 + y[2] ** 2)
+    vv = math.sqrt(y[3] ** 2 + y[4] ** 2 + y[5] ** 2)
+    h_abs = min(h_max, 0.05 * rr / max(vv, 1e-12))
+    while written < n_out:
+        target = t_out[written]
+        if direction * (target - t) <= 0.0:
+            for j in range(6):
+                y_out[written, j] = y[j]
+                for m in range(6):
+                    phi_out[written, j, m] = y[6 + j * 6 + m]
+            written += 1
+            continue
+        if n_steps >= max_steps:
+            status = st.STEP_TOO_SMALL
+            break
+        accepted = False
+        rejected = False
+        h = 0.0
+        landing = False
+        while not accepted:
+            if h_abs < 1e-14 * max(1.0, abs(t)):
+                break
+            h = min(h_abs, h_max) * direction
+            landing = direction * (t + h - target) >= 0.0
+            if landing:
+                h = target - t
+            for j in range(n):
+                K[0, j] = f[j]
+            for s in range(1, _N_STAGES):
+                for j in range(n):
+                    acc = 0.0
+                    for m in range(s):
+                        acc += A[s, m] * K[m, j]
+                    y_tmp[j] = y[j] + h * acc
+                variational_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm,
+                                sh, K[s], dadr, dadv)  # fmt: skip
+            for j in range(n):
+                acc = 0.0
+                for m in range(_N_STAGES):
+                    acc += B[m] * K[m, j]
+                y_new[j] = y[j] + h * acc
+            variational_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
+                            K[_N_STAGES], dadr, dadv)  # fmt: skip
+            nfev += _N_STAGES
+            e5 = 0.0
+            e3 = 0.0
+            for j in range(6):
+                scale = atol + max(abs(y[j]), abs(y_new[j])) * rtol
+                a5 = 0.0
+                a3 = 0.0
+                for m in range(_N_STAGES + 1):
+                    a5 += E5[m] * K[m, j]
+                    a3 += E3[m] * K[m, j]
+                e5 += (a5 / scale) ** 2
+                e3 += (a3 / scale) ** 2
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 6)
+            if err < 1.0:
+                factor = _MAX_FACTOR if err == 0.0 else min(_MAX_FACTOR,
+                                                            _SAFETY * err ** (-1.0 / 8.0))
+                if rejected:
+                    factor = min(1.0, factor)
+                if not landing or factor < 1.0:
+                    h_abs = abs(h) * factor
+                accepted = True
+            else:
+                h_abs = abs(h) * max(_MIN_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+                rejected = True
+        if not accepted:
+            status = st.STEP_TOO_SMALL
+            break
+        n_steps += 1
+        t = target if landing else t + h
+        for j in range(n):
+            y[j] = y_new[j]
+            f[j] = K[_N_STAGES, j]
+    info[0] = written
+    info[1] = n_steps
+    info[2] = nfev
+    return status

@@ -1,0 +1,103 @@
+"""``visviva passes``: the passes of every satellite in a TLE file over one site.
+
+Example::
+
+    visviva passes stations.tle --lat 52.2 --lon 0.12 --start 2024-05-01T18:00 --hours 12 \\
+        --min-elevation 10 --csv passes.csv
+
+prints one line per pass (rise, culmination, set in UTC, maximum elevation, azimuths, sunlit,
+station dark) sorted by rise time; ``--csv`` / ``--ecsv`` also write the full table.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "passes", help="passes of the satellites of a TLE file over a ground site",
+        description="Rise, culmination and set of every satellite of a TLE file over one site, "
+        "with maximum elevation, azimuths and visibility (sunlit satellite, dark site).")
+    p.add_argument("tle_file", metavar="TLE_FILE", help="two- or three-line element file")
+    p.add_argument("--lat", type=float, required=True, metavar="DEG",
+                   help="geodetic latitude, degrees north")
+    p.add_argument("--lon", type=float, required=True, metavar="DEG",
+                   help="longitude, degrees east")
+    p.add_argument("--height", type=float, default=0.0, metavar="M",
+                   help="height above the WGS-84 ellipsoid, metres (default 0)")
+    p.add_argument("--start", required=True, metavar="ISO",
+                   help="start of the window, ISO time in UTC (e.g. 2024-05-01T18:00)")
+    p.add_argument("--hours", type=float, default=24.0, metavar="H",
+                   help="length of the window, hours (default 24)")
+    p.add_argument("--min-elevation", type=float, default=0.0, metavar="DEG",
+                   help="minimum elevation, degrees (default 0)")
+    p.add_argument("--visible", action="store_true",
+                   help="only passes with the satellite sunlit and the site dark")
+    p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
+    p.add_argument("--ecsv", default=None, metavar="PATH",
+                   help="also write the table as ECSV (keeps units and masks)")
+
+
+def _fmt_time(t) -> str:
+    return "--" if getattr(t, "mask", False) else t.utc.strftime("%Y-%m-%d %H:%M:%S")
+
+
+def format_table(table) -> str:
+    """The pass table as aligned text lines (a header and one line per pass)."""
+    import numpy as np
+
+    head = (f"{'satellite':<24} {'rise (UTC)':<19} {'culmination':<19} {'set':<19} "
+            f"{'max el':>7} {'az rise':>7} {'az set':>7} {'sunlit':>6} {'dark':>5}")
+    lines = [head, "-" * len(head)]
+    for row in table:
+        az_r = row["rise_azimuth"]
+        az_s = row["set_azimuth"]
+        lines.append(
+            f"{str(row['satellite'])[:24]:<24} {_fmt_time(row['rise_time']):<19} "
+            f"{_fmt_time(row['culmination_time']):<19} {_fmt_time(row['set_time']):<19} "
+            f"{row['max_elevation'].to_value('deg'):7.1f} "
+            f"{'--' if np.ma.is_masked(az_r.value) else format(az_r.to_value('deg'), '.1f'):>7} "
+            f"{'--' if np.ma.is_masked(az_s.value) else format(az_s.to_value('deg'), '.1f'):>7} "
+            f"{'yes' if row['sunlit'] else 'no':>6} {'yes' if row['station_dark'] else 'no':>5}")
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    from astropy import units as u
+    from astropy.time import Time
+
+    from ..errors import VisvivaError
+    from ..satellites.catalog import read_tle_file
+    from .passes import find_passes, write_passes
+    from .station import GroundStation
+
+    try:
+        try:
+            t0 = Time(args.start, scale="utc")
+        except ValueError as exc:
+            print(f"visviva passes: --start {args.start!r} is not an ISO time ({exc}); use e.g. "
+                  "2024-05-01T18:00:00", file=sys.stderr)
+            return 2
+        if not args.hours > 0:
+            print(f"visviva passes: --hours must be positive, got {args.hours}", file=sys.stderr)
+            return 2
+        cat = read_tle_file(args.tle_file)
+        site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
+                             name=f"{args.lat:g}, {args.lon:g}")
+        table = find_passes(cat, site, t0, t0 + args.hours * u.hour,
+                            args.min_elevation * u.deg)
+        if args.visible:
+            table = table[table["visible"]]
+        print(format_table(table))
+        print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
+              f"{args.min_elevation:g} deg between {t0.isot} and "
+              f"{(t0 + args.hours * u.hour).isot} UTC")
+        if args.csv:
+            write_passes(table, args.csv, format="csv")
+        if args.ecsv:
+            write_passes(table, args.ecsv, format="ecsv")
+    except (VisvivaError, OSError) as exc:
+        print(f"visviva passes: {exc}", file=sys.stderr)
+        return 1
+    return 0

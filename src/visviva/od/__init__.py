@@ -1,0 +1,33 @@
+"""Orbit determination: initial orbits, measurement models, batch least squares, TLE fitting.
+
+``import visviva as vv`` gives :func:`~visviva.gibbs`, :func:`~visviva.herrick_gibbs`,
+:func:`~visviva.gauss_angles`, :class:`~visviva.Observations`, :func:`~visviva.fit_orbit` and
+:func:`~visviva.fit_tle`; the rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
+Names load lazily (PEP 562): importing ``visviva.od`` compiles nothing.
+"""
+
+from __future__ import annotations
+
+from .. import _lazy
+
+#: public name -> submodule of visviva.od that defines it
+_EXPORTS = {
+    "gibbs": "iod",
+    "herrick_gibbs": "iod",
+    "gauss_angles": "iod",
+    "double_r": "iod",
+    "initial_orbit": "iod",
+    "Observations": "observations",
+    "fit_orbit": "batch",
+    "OrbitFit": "batch",
+    "fit_tle": "tle_fit",
+    "TLEFit": "tle_fit",
+    "fit_tle_batch": "tle_batch",
+    "simulate_observations": "simulate",
+    "simulate_tracking": "simulate",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+__getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, prefix=f"{__name__}.")

@@ -1,0 +1,298 @@
+"""Batch weighted least squares: the orbit that best explains a table of observations.
+
+The estimate is the epoch state x0 = (r0, v0). Each iteration integrates the trajectory and
+its state-transition matrix Phi(t_i, t0) once over the whole arc
+(:class:`visviva.od.dynamics.Dynamics`), forms the residuals z_i = y_i - h(x(t_i)) and the
+rows H_i Phi(t_i, t0), and solves the weighted normal equations for the correction
+(Tapley, Schutz & Born 2004, sec. 4.3; Montenbruck & Gill 2000, sec. 8.1). The system is
+solved by SVD of the whitened, column-scaled design matrix rather than by forming the normal
+matrix, which keeps the full precision of km-sized positions next to mm/s velocities.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConvergenceError, InvalidInputError, VisvivaError
+from .measurements import predict, residuals
+from .observations import KINDS, Observations
+
+__all__ = ["fit_orbit", "OrbitFit"]
+
+
+class OrbitFit:
+    """The outcome of :func:`fit_orbit`.
+
+    Attributes
+    ----------
+    state : StateVectors
+        Estimated GCRS state at ``epoch`` (km, km/s).
+    covariance : ndarray (6, 6)
+        Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz).
+    residuals : ndarray (N, 3)
+        Observed minus computed for each observation at the estimate (km, km/s, rad; the
+        components beyond a row's own are zero).
+    normalized_residuals : ndarray (N, 3)
+        Residuals divided by the row's sigma.
+    rejected : ndarray of bool (N,)
+        Rows left out as outliers.
+    rms : float
+        Root mean square of the normalised residuals of the accepted rows (about 1 when the
+        sigmas are right and the model fits).
+    rms_by_kind : dict
+        The same, per observation kind.
+    converged : bool
+        Always True for a returned fit (a failed one raises :class:`~visviva.ConvergenceError`).
+    iterations : int
+        Iterations used.
+    history : list of dict
+        Per iteration: ``iteration``, ``rms``, ``n_rejected``, ``correction`` (the step's size
+        relative to the covariance, sqrt(dx^T P^-1 dx / 6)).
+    chi2 : float
+        Sum of squared normalised residuals of the accepted rows.
+    dof : int
+        Accepted measurement components minus 6.
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    @property
+    def sigma_position_km(self) -> np.ndarray:
+        """Formal 1-sigma of x, y, z (km)."""
+        return np.sqrt(np.diag(self.covariance)[:3])
+
+    @property
+    def sigma_velocity_km_s(self) -> np.ndarray:
+        """Formal 1-sigma of vx, vy, vz (km/s)."""
+        return np.sqrt(np.diag(self.covariance)[3:])
+
+    def __repr__(self):
+        return (
+            f"OrbitFit(rms={self.rms:.3f}, {self.iterations} iterations, "
+            f"{int(self.rejected.sum())} rejected of {len(self.rejected)}, "
+            f"sigma_r={np.linalg.norm(self.sigma_position_km) * 1e3:.3g} m)"
+        )
+
+
+def _check_initial(initial):
+    from .._units import to_array, to_vector
+
+    if not (hasattr(initial, "r") and hasattr(initial, "v") and hasattr(initial, "gm")):
+        raise InvalidInputError(
+            "initial must be a vv.StateVectors first guess (e.g. from vv.gauss_angles or "
+            "vv.gibbs); got " + type(initial).__name__ + "."
+        )
+    r0 = to_vector(initial.r, "length", "initial.r")
+    v0 = to_vector(initial.v, "speed", "initial.v")
+    if r0.shape != (3,) or v0.shape != (3,):
+        raise InvalidInputError(f"initial must be one state (r shape (3,)); got {r0.shape}.")
+    gm = float(np.ravel(to_array(initial.gm, "gm", "initial.gm"))[0])
+    epoch = getattr(initial, "epoch", None)
+    if epoch is None:
+        raise InvalidInputError(
+            "initial has no epoch: build it with epoch=Time(...) (the estimate is the state at "
+            "that epoch)."
+        )
+    if not epoch.isscalar:
+        epoch = epoch.ravel()[0]
+    return np.concatenate([r0, v0]), gm, epoch
+
+
+def _solve(A, b):
+    """Least-squares step and covariance of the whitened system A dx = b (SVD, scaled)."""
+    scale = np.linalg.norm(A, axis=0)
+    if np.any(scale == 0):
+        raise InvalidInputError(
+            "the observations carry no information on some state component; add observations "
+            "of other kinds, from other stations or over a longer arc."
+        )
+    As = A / scale
+    U, s, Vt = np.linalg.svd(As, full_matrices=False)
+    if s[-1] <= s[0] * 1e-13:
+        raise InvalidInputError(
+            f"the observations do not determine the orbit (condition number "
+            f"{s[0] / max(s[-1], 1e-300):.2e}): add observations of other kinds, from other "
+            "stations or over a longer arc."
+        )
+    dx = (Vt.T @ ((U.T @ b) / s)) / scale
+    Vs = Vt.T / s
+    P = (Vs @ Vs.T) / np.outer(scale, scale)
+    return dx, P
+
+
+def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, tol=1e-5,
+              outlier_sigma=4.0, rtol=None, atol=None):  # fmt: skip
+    """Estimate an orbit from observations by batch weighted least squares.
+
+    Parameters
+    ----------
+    observations : Observations
+        The measurements (positions, ranges, range rates, az/el, RA/Dec).
+    initial : StateVectors or None
+        First guess of the GCRS state, with an ``epoch`` (the estimate's epoch); e.g. from
+        :func:`~visviva.gauss_angles`, :func:`~visviva.gibbs` or :func:`~visviva.herrick_gibbs`.
+        None: an Earth orbit from the observations themselves
+        (:func:`visviva.od.initial_orbit`: Gibbs or Herrick-Gibbs on three position fixes of
+        the first pass, or Gauss on three RA/Dec).
+    perturbations : list of Perturbation or None
+        Dynamics: None or [] for two-body motion, or Cowell perturbations
+        (``[vv.J2(vv.EARTH)]``, ``vv.Zonal``, ``vv.AtmosphericDrag``, ``vv.ThirdBody``,
+        ``vv.SolarRadiationPressure``).
+    max_iterations : int
+        Iterations allowed before :class:`~visviva.ConvergenceError` is raised.
+    tol : float
+        Converged when the relative change of the RMS between iterations is below ``tol``
+        (and the set of rejected rows stays the same).
+    outlier_sigma : float or None
+        From the second iteration on, rows with a normalised residual above ``outlier_sigma``
+        times max(1, s) are left out (re-admitted when they fit again), s = 1.4826 x the
+        median absolute normalised residual (a robust RMS); None keeps every row.
+    rtol, atol : float, optional
+        Integration tolerances of the variational equations (default 1e-11).
+
+    Returns
+    -------
+    OrbitFit
+        ``.state``, ``.covariance``, ``.residuals``, ``.rms``, ``.converged``,
+        ``.iterations``, ``.history``, ``.rejected``.
+
+    Raises
+    ------
+    ConvergenceError
+        The iteration diverged or did not settle within ``max_iterations``; the exception's
+        ``history`` attribute holds the per-iteration report.
+    InvalidInputError
+        Fewer measurement components than the 6 unknowns, observations that do not determine
+        the orbit, or bad arguments.
+
+    Notes
+    -----
+    Minimises chi^2 = sum_i (y_i - h_i(x0))^2 / sigma_i^2 over the epoch state x0 by
+    Gauss-Newton steps dx = (A^T A)^-1 A^T b with A_i = H_i Phi(t_i, t0) / sigma_i and
+    b_i = (y_i - h_i) / sigma_i; the covariance is P = (A^T A)^-1 at the solution (Tapley,
+    Schutz & Born 2004, eqs. 4.3.25-4.3.31). Phi comes from the variational equations
+    (:mod:`visviva.core.variational`), never from finite differences. Outlier editing is the
+    usual k-sigma rule (Tapley et al., sec. 4.16) on a robust scale (the median absolute
+    deviation), so that a few gross errors cannot hide behind the RMS they inflate.
+    With correct sigmas the normalised estimation error (x0 - x_true)^T P^-1 (x0 - x_true)
+    follows a chi-square law with 6 degrees of freedom and ``rms`` is close to 1 (tested over
+    many noise seeds).
+    """
+    from ..states import StateVectors
+    from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
+
+    if not isinstance(observations, Observations):
+        raise InvalidInputError(
+            "observations must be a vv.Observations table; build one with "
+            "vv.Observations(time=..., kind=..., value=..., sigma=..., station=...)."
+        )
+    if initial is None:
+        from ..bodies import EARTH
+        from .iod import initial_orbit
+
+        initial = initial_orbit(observations, EARTH)
+    x, gm, epoch = _check_initial(initial)
+    if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
+        raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")
+    if outlier_sigma is not None and not outlier_sigma > 0:
+        raise InvalidInputError(f"outlier_sigma must be > 0 or None; got {outlier_sigma!r}.")
+    n_comp = int(observations.dims.sum())
+    if n_comp < 6:
+        raise InvalidInputError(
+            f"{len(observations)} observation(s) give {n_comp} measurement components, fewer than "
+            "the 6 unknowns of the state; add observations."
+        )
+    offsets = observations.offsets_s(epoch)
+    dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
+                   DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol)
+    site_r, site_v, enu = observations.sites()
+    kinds = observations.kinds
+    dims = observations.dims
+    comp_mask = np.arange(3)[None, :] < dims[:, None]  # (N, 3) components in use
+    sig = observations.sigmas[:, None]
+    rejected = np.zeros(len(observations), dtype=bool)
+    history = []
+    rms_prev = None
+    converged = False
+    for it in range(1, max_iterations + 1):
+        try:
+            y, phi = dyn.propagate(x, offsets)
+        except VisvivaError as exc:
+            err = ConvergenceError(
+                f"the orbit fit diverged at iteration {it}: the estimate's trajectory cannot be "
+                f"integrated ({exc}). Start from a better initial state (IOD) or fit a shorter "
+                "arc."
+            )
+            err.history = history
+            raise err from exc
+        h, H = predict(kinds, y, site_r, site_v, enu)
+        z = residuals(kinds, observations.values, h)
+        zn = np.where(comp_mask, z / sig, 0.0)
+        if outlier_sigma is not None and rms_prev is not None:
+            # a robust scale (1.4826 x the median absolute normalised residual) that a minority
+            # of outliers cannot inflate; large while the estimate is still far off
+            scale = 1.4826 * float(np.median(np.abs(zn[comp_mask])))
+            limit = outlier_sigma * max(1.0, scale)
+            new_rejected = np.max(np.abs(zn), axis=1) > limit
+        else:
+            new_rejected = np.zeros_like(rejected)
+        use = comp_mask & ~new_rejected[:, None]
+        if use.sum() < 6:
+            err = ConvergenceError(
+                f"the orbit fit diverged at iteration {it}: outlier editing left "
+                f"{int(use.sum())} measurement components for 6 unknowns. Check the data and "
+                "sigmas, or pass outlier_sigma=None."
+            )
+            err.history = history
+            raise err
+        rms = float(np.sqrt(np.mean(zn[use] ** 2)))
+        if not np.isfinite(rms):
+            err = ConvergenceError(f"the orbit fit diverged at iteration {it} (RMS not finite).")
+            err.history = history
+            raise err
+        A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
+        b = zn[use]
+        dx, P = _solve(A, b)
+        step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / 6.0))
+        history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
+                        "correction": step})  # fmt: skip
+        settled = rms_prev is not None and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300)
+        if (settled or step < 1e-4) and np.array_equal(new_rejected, rejected) and it > 1:
+            converged = True
+            break
+        if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history) and it > 3:
+            break
+        rejected = new_rejected
+        rms_prev = rms
+        x = x + dx
+    if not converged:
+        lines = "; ".join(f"{hh['iteration']}: rms {hh['rms']:.4g}" for hh in history)
+        err = ConvergenceError(
+            f"the orbit fit did not converge in {len(history)} iterations (RMS by iteration: "
+            f"{lines}). Start from a better initial state (IOD), check the sigmas and the "
+            "station of each row, raise max_iterations, or choose dynamics closer to the data."
+        )
+        err.history = history
+        raise err
+    rms_by_kind = {}
+    for k in KINDS:
+        m = (kinds == k)[:, None] & use
+        if m.any():
+            rms_by_kind[k] = float(np.sqrt(np.mean(zn[m] ** 2)))
+    state = StateVectors._from_canonical(x[:3].copy(), x[3:].copy(), np.float64(gm), epoch)
+    return OrbitFit(
+        state=state,
+        covariance=P,
+        residuals=np.where(comp_mask, z, 0.0),
+        normalized_residuals=zn,
+        rejected=new_rejected,
+        rms=rms,
+        rms_by_kind=rms_by_kind,
+        converged=True,
+        iterations=len(history),
+        history=history,
+        chi2=float(np.sum(zn[use] ** 2)),
+        dof=int(use.sum()) - 6,
+        perturbations=dyn.perturbations,
+    )

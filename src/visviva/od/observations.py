@@ -1,0 +1,227 @@
+"""Observations for orbit determination: one row per measurement, validated once.
+
+>>> import visviva as vv
+>>> from astropy import units as u
+>>> from astropy.time import Time
+>>> t = Time("2024-01-01T00:00:00", scale="utc") + [0, 60, 120] * u.s
+>>> obs = vv.Observations(time=t, kind="position",
+...                       value=[[7000, 0, 0], [6990, 450, 0], [6960, 900, 0]] * u.km,
+...                       sigma=0.01 * u.km)
+>>> len(obs), str(obs.kinds[0])
+(3, 'position')
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._units import is_quantity, to_array
+from ..errors import InvalidInputError, ShapeError
+
+__all__ = ["Observations", "KINDS"]
+
+#: kind -> (number of components, physical kind of value and sigma, needs a station)
+KINDS = {
+    "position": (3, "length", False),
+    "range": (1, "length", True),
+    "range_rate": (1, "speed", True),
+    "azel": (2, "angle", True),
+    "radec": (2, "angle", True),
+}
+
+_UNITS_TEXT = {"length": "km", "speed": "km/s", "angle": "rad"}
+
+
+def _row_value(value, kind, i):
+    dim, phys, _ = KINDS[kind]
+    arr = to_array(value, phys, f"value[{i}]", allow_plain=True)
+    if arr.size != dim or (dim > 1 and arr.shape != (dim,)):
+        raise ShapeError(
+            f"observation {i} of kind {kind!r} needs a value of {dim} component(s) "
+            f"({_UNITS_TEXT[phys]}); got shape {arr.shape}."
+        )
+    return arr.reshape(dim)
+
+
+class Observations:
+    """A table of observations of one object: times, kinds, values, sigmas and stations.
+
+    Parameters
+    ----------
+    time : astropy Time, shape (N,)
+        Observation times (non-decreasing).
+    kind : str or sequence of str
+        One per row (or one for all): ``"position"`` (GCRS, 3 components, km), ``"range"``
+        (km), ``"range_rate"`` (km/s), ``"azel"`` (azimuth from north through east and
+        elevation, rad or angle Quantity), ``"radec"`` (topocentric right ascension and
+        declination in GCRS axes, rad or angle Quantity).
+    value : Quantity or array_like or sequence
+        One value per row: a Quantity array (N, k) when every row has the same kind, or a list
+        of per-row values (Quantities or numbers in km, km/s, rad).
+    sigma : Quantity or float or sequence
+        One standard deviation per row (or one for all), in the value's units; > 0. It applies
+        to each component of the row (both angles of an azel row, each axis of a position).
+    station : GroundStation or sequence, optional
+        The observing station of each row (one for all, or a list with None for position rows);
+        needs ``gcrs_position_velocity(t)`` and, for azel, ``enu_matrix`` (ITRS).
+
+    Attributes
+    ----------
+    times : astropy Time (N,)
+    kinds : ndarray of str (N,)
+    values : ndarray (N, 3)
+        Canonical values (km, km/s, rad), padded with zeros after the row's components.
+    dims : ndarray of int (N,)
+        Components per row.
+    sigmas : ndarray (N,)
+        Canonical sigmas.
+    stations : list
+        Station of each row (None for positions).
+
+    Raises
+    ------
+    InvalidInputError
+        No observations, an unknown kind, a non-positive or non-finite sigma, a row needing a
+        station without one, times that go backwards, or a time that is not an astropy Time.
+    ShapeError
+        A value with the wrong number of components.
+    """
+
+    def __init__(self, time, kind, value, sigma, station=None):
+        from astropy.time import Time
+
+        if not isinstance(time, Time):
+            raise InvalidInputError(
+                f"time must be an astropy Time array (stations and the force model need dates); "
+                f"got {type(time).__name__}."
+            )
+        times = time.reshape(-1) if time.ndim else time.reshape(1)
+        n = len(times)
+        if n == 0:
+            raise InvalidInputError("there are no observations: give at least one row.")
+        kinds = [kind] * n if isinstance(kind, str) else list(kind)
+        if len(kinds) != n:
+            raise ShapeError(f"kind has {len(kinds)} entries for {n} times; give one per row.")
+        for i, k in enumerate(kinds):
+            if k not in KINDS:
+                raise InvalidInputError(
+                    f"observation {i} has unknown kind {k!r}; use one of {', '.join(KINDS)}."
+                )
+        dt = np.diff((times.tt - times[0].tt).sec) if n > 1 else np.zeros(0)
+        if np.any(dt < 0):
+            i = int(np.flatnonzero(dt < 0)[0]) + 1
+            raise InvalidInputError(
+                f"observation times must not go backwards: row {i} ({times[i].isot}) comes before "
+                f"row {i - 1} ({times[i - 1].isot}). Sort the observations by time."
+            )
+        if isinstance(value, list | tuple):
+            rows = list(value)
+        elif (is_quantity(value) or isinstance(value, np.ndarray)) and np.ndim(value) >= 1 and (
+            len(value) == n and (np.ndim(value) > 1 or all(KINDS[k][0] == 1 for k in kinds))
+        ):
+            rows = [value[i] for i in range(n)]
+        elif n == 1:
+            rows = [value]
+        else:
+            raise ShapeError(
+                f"value has shape {np.shape(value)} for {n} rows; give an (N, k) array or a list "
+                "with one value per row."
+            )
+        if len(rows) != n:
+            raise ShapeError(f"value has {len(rows)} rows for {n} times; give one per row.")
+        vals = np.zeros((n, 3))
+        dims = np.zeros(n, dtype=np.int64)
+        for i, (k, v) in enumerate(zip(kinds, rows, strict=True)):
+            arr = _row_value(v, k, i)
+            vals[i, : arr.size] = arr
+            dims[i] = arr.size
+        sig = self._sigmas(sigma, kinds, n)
+        stations = self._stations(station, kinds, n)
+        self.times = times
+        self.kinds = np.array(kinds)
+        self.values = vals
+        self.dims = dims
+        self.sigmas = sig
+        self.stations = stations
+        self._cache = {}
+
+    @staticmethod
+    def _sigmas(sigma, kinds, n):
+        if is_quantity(sigma) and np.ndim(sigma) == 0 or np.isscalar(sigma):
+            items = [sigma] * n
+        else:
+            items = list(sigma)
+        if len(items) != n:
+            raise ShapeError(f"sigma has {len(items)} entries for {n} rows; give one per row.")
+        out = np.empty(n)
+        for i, (k, s) in enumerate(zip(kinds, items, strict=True)):
+            val = to_array(s, KINDS[k][1], f"sigma[{i}]", allow_plain=True, finite=False)
+            if val.size != 1 or not np.isfinite(val).all() or not float(val.ravel()[0]) > 0:
+                raise InvalidInputError(
+                    f"sigma[{i}] must be one finite number > 0 ({_UNITS_TEXT[KINDS[k][1]]}); "
+                    f"got {s!r}. A sigma is the measurement's standard deviation."
+                )
+            out[i] = float(val.ravel()[0])
+        return out
+
+    @staticmethod
+    def _stations(station, kinds, n):
+        if station is None or not isinstance(station, list | tuple | np.ndarray):
+            stations = [station] * n
+        else:
+            stations = list(station)
+        if len(stations) != n:
+            raise ShapeError(f"station has {len(stations)} entries for {n} rows.")
+        for i, (k, s) in enumerate(zip(kinds, stations, strict=True)):
+            if KINDS[k][2] and (s is None or not hasattr(s, "gcrs_position_velocity")):
+                raise InvalidInputError(
+                    f"observation {i} ({k}) needs the observing station: pass "
+                    "station=vv.GroundStation(lat, lon, height) (one, or one per row)."
+                )
+            if k == "azel" and not hasattr(s, "enu_matrix"):
+                raise InvalidInputError(
+                    f"observation {i} (azel) needs a station with an enu_matrix (a GroundStation)."
+                )
+            if not KINDS[k][2]:
+                stations[i] = None
+        return stations
+
+    def __len__(self):
+        return len(self.times)
+
+    def __repr__(self):
+        counts = {k: int(np.sum(self.kinds == k)) for k in KINDS if np.any(self.kinds == k)}
+        span = (self.times[-1].tt - self.times[0].tt).sec
+        return f"Observations({len(self)} rows {counts}, span {span:.1f} s)"
+
+    def offsets_s(self, epoch):
+        """Times as seconds from ``epoch`` (differences in TT)."""
+        return np.asarray((self.times.tt - epoch.tt).sec, dtype=np.float64)
+
+    def sites(self):
+        """GCRS site position (km), velocity (km/s) and GCRS->ENU rows, each (N, 3[, 3]).
+
+        Rows without a station get zeros. Computed once per table and cached.
+        """
+        if "sites" in self._cache:
+            return self._cache["sites"]
+        n = len(self)
+        r = np.zeros((n, 3))
+        v = np.zeros((n, 3))
+        enu = np.zeros((n, 3, 3))
+        groups = {}
+        for i, s in enumerate(self.stations):
+            if s is not None:
+                groups.setdefault(id(s), (s, []))[1].append(i)
+        for s, idx in groups.values():
+            idx = np.asarray(idx)
+            ri, vi = s.gcrs_position_velocity(self.times[idx])
+            r[idx] = ri
+            v[idx] = vi
+            if np.any(self.kinds[idx] == "azel"):
+                from ..satellites.frames import transform_matrices
+
+                m = transform_matrices(self.times[idx], "gcrs", "itrs")[:, :3, :3]
+                enu[idx] = np.asarray(s.enu_matrix) @ m
+        self._cache["sites"] = (r, v, enu)
+        return r, v, enu

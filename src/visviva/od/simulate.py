@@ -1,0 +1,146 @@
+"""Simulated tracking: observations of a known orbit with Gaussian noise (for tests, docs, study).
+
+>>> import numpy as np, visviva as vv
+>>> from astropy import units as u
+>>> from astropy.time import Time
+>>> epoch = Time("2024-01-01T00:00:00", scale="utc")
+>>> truth = vv.StateVectors([7000, 0, 0] * u.km, [0, 5.3, 5.3] * u.km / u.s, vv.EARTH,
+...                         epoch=epoch)
+>>> obs = vv.od.simulate_observations(truth, epoch + np.arange(10) * 60 * u.s, "position",
+...                                   0.01 * u.km, seed=1)
+>>> len(obs)
+10
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from .measurements import predict
+from .observations import KINDS, Observations
+
+__all__ = ["simulate_observations", "simulate_tracking"]
+
+#: default tracking: range 1 cm, range rate 10 um/s, azimuth/elevation 0.01 deg
+DEFAULT_TRACKING = (("range", 0.010), ("range_rate", 1e-5), ("azel", np.radians(0.01)))
+#: default elevation mask, rad (10 deg)
+MIN_ELEVATION_RAD = np.radians(10.0)
+
+
+def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
+                          seed=None):  # fmt: skip
+    """Observations of the orbit through ``state``, with Gaussian noise of standard deviation sigma.
+
+    Parameters
+    ----------
+    state : StateVectors
+        The true GCRS state, with an epoch.
+    times : astropy Time (N,)
+        Observation times (non-decreasing).
+    kind : str or sequence of str
+        Measurement kind per row (see :class:`~visviva.Observations`).
+    sigma : Quantity or float or sequence
+        Noise standard deviation per row (km, km/s, rad).
+    station : GroundStation or sequence, optional
+        Station per row (needed by every kind but ``"position"``).
+    perturbations : list of Perturbation or None
+        Dynamics of the truth (None: two-body).
+    seed : int, numpy Generator or False, optional
+        Random seed or generator of the noise; ``False`` gives the exact values (the sigmas
+        are still recorded).
+
+    Returns
+    -------
+    Observations
+        The noisy table (angles wrapped into range).
+
+    Notes
+    -----
+    The truth is integrated with the same variational integrator as the fit
+    (:class:`visviva.od.dynamics.Dynamics`), so a fit with the same dynamics has no model error.
+    """
+    from .dynamics import Dynamics
+
+    exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
+                         sigma=sigma, station=station)  # fmt: skip
+    from .batch import _check_initial
+
+    x, gm, epoch = _check_initial(state)
+    offsets = exact.offsets_s(epoch)
+    dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13)
+    y, _ = dyn.propagate(x, offsets)
+    site_r, site_v, enu = exact.sites()
+    h, _ = predict(exact.kinds, y, site_r, site_v, enu)
+    if seed is False:
+        noise = np.zeros_like(h)
+    else:
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        noise = rng.standard_normal(h.shape) * exact.sigmas[:, None]
+    values = h + noise
+    ang = np.isin(exact.kinds, ["azel", "radec"])
+    values[ang, 0] = np.mod(values[ang, 0], 2 * np.pi)
+    rows = [values[i, : exact.dims[i]] for i in range(len(exact))]
+    if np.any(exact.kinds == "azel") and np.any(np.abs(values[exact.kinds == "azel", 1]) > np.pi / 2):
+        raise InvalidInputError("an elevation left [-90, 90] deg; lower the angle noise.")
+    return Observations(time=exact.times, kind=list(exact.kinds), value=rows,
+                        sigma=list(exact.sigmas), station=exact.stations)  # fmt: skip
+
+
+def _placeholder(kind, n):
+    kinds = [kind] * n if isinstance(kind, str) else list(kind)
+    return [np.zeros(KINDS[k][0]) if k in KINDS else 0.0 for k in kinds]
+
+
+
+
+def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
+                      min_elevation=MIN_ELEVATION_RAD, seed=None):  # fmt: skip
+    """A tracking campaign: every station measures whenever the satellite is high enough.
+
+    Parameters
+    ----------
+    state : StateVectors
+        The true GCRS state, with an epoch.
+    stations : sequence of GroundStation
+        The stations.
+    times : astropy Time (T,)
+        Candidate measurement times (increasing), e.g. every 30 s.
+    perturbations : list of Perturbation or None
+        Dynamics of the truth (None: two-body).
+    measurements : sequence of (kind, sigma)
+        What each station measures at each visible time, with the noise standard deviation in
+        km, km/s or rad (default: range 1 cm, range rate 10 um/s, az/el 0.01 deg).
+    min_elevation : Quantity (angle) or float (rad)
+        Elevation above which a station sees the satellite (default 10 deg).
+    seed : int, numpy Generator or False, optional
+        Noise seed (False: no noise).
+
+    Returns
+    -------
+    Observations
+        Rows sorted by time (at one time: stations in the given order, then ``measurements``
+        in order).
+
+    Raises
+    ------
+    InvalidInputError
+        No station sees the satellite at any of the times.
+    """
+    from .._units import to_array
+
+    el_min = float(to_array(min_elevation, "angle", "min_elevation"))
+    rows = []
+    for order, s in enumerate(stations):
+        look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False)
+        for i in np.flatnonzero(look.values[:, 1] > el_min):
+            rows += [(i, order, k, sigma, s) for k, sigma in measurements]
+    if not rows:
+        raise InvalidInputError(
+            "no station sees the satellite above min_elevation at any of the times; extend the "
+            "times or lower min_elevation."
+        )
+    rows.sort(key=lambda row: (row[0], row[1]))
+    idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
+    return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
+                                 perturbations, seed=seed)  # fmt: skip

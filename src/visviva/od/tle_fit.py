@@ -1,0 +1,421 @@
+"""Fit SGP4 mean elements (a TLE / OMM) to a state history by differential correction.
+
+A TLE holds *mean* elements that only SGP4 turns into positions; the osculating elements of a
+state are not them (the J2 short-period terms alone move a LEO position by kilometres). The
+elements that make SGP4 reproduce a given trajectory best are found here by weighted least
+squares on the TEME positions and velocities over the whole arc (Vallado & Crawford 2008,
+"SGP4 orbit determination", AIAA 2008-6770).
+
+>>> import numpy as np, visviva as vv
+>>> from astropy import units as u
+>>> iss = vv.Satellite.from_tle(
+...     "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+...     "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+>>> states = iss.gcrs(np.linspace(0, 1, 50) * u.day).to_state_vectors()
+>>> fitted = vv.fit_tle(states, satnum=25544)
+>>> print(f"{fitted.fit.rms_position_km * 1e3 < 1.0}")
+True
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ConvergenceError, InvalidInputError, ShapeError
+
+__all__ = ["fit_tle", "TLEFit"]
+
+_MIN_PER_DAY = 1440.0
+#: WGS-72 GM (km^3/s^2), the constant SGP4 uses
+_GM_WGS72 = 398600.8
+
+
+class TLEFit:
+    """Diagnostics of :func:`fit_tle`, attached to the returned satellite as ``.fit``.
+
+    Attributes
+    ----------
+    rms_position_km : float
+        RMS of the position differences between SGP4 and the given states, km.
+    max_position_km : float
+        Largest position difference, km.
+    rms_velocity_km_s : float
+        RMS of the velocity differences, km/s.
+    iterations : int
+        Differential-correction iterations used.
+    history : list of dict
+        Per iteration: ``iteration``, ``rms_position_km``, ``damping``.
+    n_states : int
+        Number of states fitted.
+    fields : dict
+        The fitted element set as OMM fields at full float precision (what
+        :meth:`~visviva.Satellite.from_omm` takes).
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    def __repr__(self):
+        return (f"TLEFit(rms {self.rms_position_km * 1e3:.3g} m, max "
+                f"{self.max_position_km * 1e3:.3g} m, {self.iterations} iterations)")  # fmt: skip
+
+
+def _states_and_times(states, times, frame):
+    """(r km (N, 3), v km/s (N, 3), Time (N,), frame name) from any supported source."""
+    from astropy.time import Time
+
+    from .._units import to_vector
+
+    src = states
+    if hasattr(src, "segments"):  # an OEM ephemeris (duck-typed)
+        rs, vs, ts = [], [], []
+        frames = set()
+        for seg in src.segments:
+            st = seg.states
+            rs.append(to_vector(st.r, "length", "segment.states.r"))
+            vs.append(to_vector(st.v, "speed", "segment.states.v"))
+            ts.append(seg.times)
+            vf = getattr(seg, "visviva_frame", None)
+            name = str(getattr(seg, "frame", "GCRS")).upper()
+            if vf is None:
+                vf = "teme" if "TEME" in name else "itrs" if "ITR" in name else "gcrs"
+            frames.add(vf)
+        if not rs:
+            raise InvalidInputError("the ephemeris has no segments; nothing to fit.")
+        if len(frames) > 1:
+            raise InvalidInputError(f"the ephemeris mixes frames {sorted(frames)}; fit one frame.")
+        from astropy.time import Time as _T
+
+        t_all = _T(np.concatenate([t.utc.jd1 for t in ts]), np.concatenate([t.utc.jd2 for t in ts]),
+                   format="jd", scale="utc")  # fmt: skip
+        r, v = np.concatenate(rs), np.concatenate(vs)
+        return r, v, t_all, frames.pop()
+    if hasattr(src, "to_states") and hasattr(src, "t"):  # a CowellResult
+        if src.epoch is None:
+            raise InvalidInputError(
+                "the CowellResult has no epoch: propagate a state built with epoch=Time(...)."
+            )
+        src = src.to_states()
+    if not (hasattr(src, "r") and hasattr(src, "v")):
+        raise InvalidInputError(
+            "states must be a vv.StateVectors (GCRS, epoch array = times), a CowellResult or an "
+            f"OEM ephemeris with .segments; got {type(states).__name__}."
+        )
+    r = to_vector(src.r, "length", "states.r")
+    v = to_vector(src.v, "speed", "states.v")
+    if r.ndim != 2:
+        raise ShapeError(f"states must be a history of shape (N, 3); got {r.shape}.")
+    if times is None:
+        times = getattr(src, "epoch", None)
+        if times is None or times.isscalar:
+            raise InvalidInputError(
+                "the states' times are unknown: give StateVectors whose epoch is a Time array "
+                "(one per state), or pass times=Time([...])."
+            )
+    if not isinstance(times, Time) or times.shape != (r.shape[0],):
+        raise ShapeError(f"times must be an astropy Time of shape ({r.shape[0]},).")
+    return r, v, times, frame
+
+
+def _elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN"):
+    n_rad_min, ex, ey, inc, raan, lam, bstar = p
+    ecc = math.hypot(ex, ey)
+    argp = math.atan2(ey, ex) if ecc > 0 else 0.0
+    mean = lam - argp
+    deg = 180.0 / math.pi
+    return {
+        "OBJECT_NAME": name or f"FIT {satnum}",
+        "OBJECT_ID": object_id,
+        "EPOCH": epoch_str,
+        "MEAN_MOTION": n_rad_min * 720.0 / math.pi,
+        "ECCENTRICITY": ecc,
+        "INCLINATION": inc * deg,
+        "RA_OF_ASC_NODE": (raan * deg) % 360.0,
+        "ARG_OF_PERICENTER": (argp * deg) % 360.0,
+        "MEAN_ANOMALY": (mean * deg) % 360.0,
+        "EPHEMERIS_TYPE": 0,
+        "CLASSIFICATION_TYPE": "U",
+        "NORAD_CAT_ID": int(satnum),
+        "ELEMENT_SET_NO": 999,
+        "REV_AT_EPOCH": 0,
+        "BSTAR": bstar,
+        "MEAN_MOTION_DOT": 0.0,
+        "MEAN_MOTION_DDOT": 0.0,
+    }
+
+
+def _epoch_days(epoch_str):
+    """Days since 1949-12-31 00:00 UTC of an OMM epoch string, as sgp4's OMM reader computes."""
+    from datetime import datetime
+
+    from sgp4.omm import _epoch0
+
+    when = datetime.strptime(epoch_str, "%Y-%m-%dT%H:%M:%S.%f")
+    return (when - _epoch0).total_seconds() / 86400.0
+
+
+def _sgp4_states(p, epoch_days, satnum, jd, fr):
+    """TEME r, v (N, 3) of the element vector p, or None if SGP4 fails."""
+    from sgp4.api import WGS72, Satrec
+
+    ecc = math.hypot(p[1], p[2])
+    if not (0.0 <= ecc < 0.99 and p[0] > 0 and 0 <= p[3] <= math.pi):
+        return None
+    argp = math.atan2(p[2], p[1]) if ecc > 0 else 0.0
+    sat = Satrec()
+    sat.sgp4init(WGS72, "i", int(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
+                 argp % (2 * math.pi), p[3], (p[5] - argp) % (2 * math.pi), p[0],
+                 p[4] % (2 * math.pi))  # fmt: skip
+    e, r, v = sat.sgp4_array(jd, fr)
+    if e.any() or not np.isfinite(r).all():
+        return None
+    return r, v
+
+
+def _initial_elements(r, v, bstar):
+    """Element vector p from an osculating TEME state (the naive TLE)."""
+    gm = _GM_WGS72
+    h = np.cross(r, v)
+    rn = np.linalg.norm(r)
+    e_vec = np.cross(v, h) / gm - r / rn
+    ecc = float(np.linalg.norm(e_vec))
+    energy = float(v @ v) / 2 - gm / rn
+    if energy >= 0 or ecc >= 1:
+        raise InvalidInputError("the states are not on a bound orbit (e >= 1); SGP4 needs e < 1.")
+    a = -gm / (2 * energy)
+    inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
+    node = np.array([-h[1], h[0], 0.0])
+    nn = np.linalg.norm(node)
+    raan = math.atan2(node[1], node[0]) if nn > 1e-12 else 0.0
+    n_hat = node / nn if nn > 1e-12 else np.array([1.0, 0.0, 0.0])
+    h_hat = h / np.linalg.norm(h)
+    m_hat = np.cross(h_hat, n_hat)
+    # argument of latitude u and argument of perigee w, measured from the node
+    u_lat = math.atan2(float(r @ m_hat), float(r @ n_hat))
+    w = math.atan2(float(e_vec @ m_hat), float(e_vec @ n_hat)) if ecc > 1e-12 else 0.0
+    nu = u_lat - w
+    E = 2 * math.atan2(math.sqrt(1 - ecc) * math.sin(nu / 2), math.sqrt(1 + ecc) * math.cos(nu / 2))
+    M = E - ecc * math.sin(E)
+    n_rad_min = math.sqrt(gm / a**3) * 60.0
+    return np.array([n_rad_min, ecc * math.cos(w), ecc * math.sin(w), inc, raan, w + M, bstar])
+
+
+def _satellite_from_fields(fields):
+    """A Satellite from fitted OMM fields (a blank OBJECT_ID leaves the designator blank)."""
+    from ..satellites.tle import Satellite
+
+    blank = not fields.get("OBJECT_ID")
+    sat = Satellite.from_omm({**fields, "OBJECT_ID": fields.get("OBJECT_ID") or "UNKNOWN"})
+    if blank:
+        sat.satrec.intldesg = ""
+    return sat
+
+
+def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
+    """OMM fields made directly from an osculating TEME state: the naive TLE, for comparison."""
+    p = _initial_elements(np.asarray(r_teme), np.asarray(v_teme), bstar)
+    return _elements_to_fields(p, epoch_str, satnum, None)
+
+
+def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
+            frame="gcrs", name=None, object_id=None, max_iterations=50,
+            tol=1e-8):  # fmt: skip
+    """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
+
+    Parameters
+    ----------
+    states : StateVectors, CowellResult or OEM ephemeris
+        The states to fit: a :class:`~visviva.StateVectors` of shape (N,) whose ``epoch`` is
+        the Time array of the states (taken as GCRS unless ``frame="teme"``), a
+        :class:`~visviva.satellites.CowellResult` (GCRS), or an ephemeris with ``.segments``
+        (each with ``.times``, ``.states`` and ``.frame``; TEME, ITRF or GCRS/EME2000/ICRF).
+    times : astropy Time (N,), optional
+        Times of the states, when ``states`` carries none.
+    satnum : int
+        Catalogue number of the new element set (alpha-5 is used above 99999 on output).
+    fit_bstar : bool
+        Fit the drag term B* too (default); otherwise it is held at ``bstar``.
+    bstar : float
+        B* in 1/earth radii: the held value, or the first guess when fitted.
+    epoch : astropy Time, optional
+        Epoch of the element set (default: the first state's time), rounded to the
+        microsecond as an OMM stores it.
+    frame : {"gcrs", "teme"}
+        Frame of a ``StateVectors`` input.
+    name : str, optional
+        Object name of the new element set.
+    object_id : str, optional
+        International designator (``"1998-067A"``); blank in the TLE when not given.
+    max_iterations : int
+        Differential-correction iterations allowed.
+    tol : float
+        Converged when a step lowers the weighted sum of squares by less than this fraction,
+        or the position RMS is below 0.1 mm.
+
+    Returns
+    -------
+    Satellite
+        Built from the fitted OMM fields (full float precision; ``to_tle()`` rounds to the
+        TLE's columns); its ``fit`` attribute is a :class:`TLEFit` with the residuals.
+
+    Raises
+    ------
+    InvalidInputError
+        Fewer than 4 states (7 with B*), times not strictly increasing, an unbound orbit.
+    ConvergenceError
+        The correction did not converge (``history`` attribute holds the iterations).
+
+    Notes
+    -----
+    The unknowns are the mean motion n, the eccentricity vector (e cos w, e sin w), i, the
+    node and the mean argument of latitude M + w (non-singular at e = 0), and B*. The first
+    guess is the osculating state at the epoch (the "naive" TLE). Each Levenberg-Marquardt
+    step solves the weighted least-squares problem on the TEME position and velocity
+    differences (velocities weighted by 1/n, so that both count in km) with partials from
+    forward differences of SGP4 itself (SGP4 has no variational equations;
+    Vallado & Crawford 2008). GCRS states are rotated to TEME with astropy
+    (:func:`visviva.satellites.frames.transform_matrices`). On states that SGP4 itself
+    generated, the fit recovers the trajectory to well below a metre.
+    """
+    from astropy.time import Time
+
+    from ..satellites.frames import transform_matrices
+
+    if frame not in ("gcrs", "teme"):
+        raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
+    r, v, t, frame = _states_and_times(states, times, frame)
+    n = r.shape[0]
+    need = 4 if not fit_bstar else 7
+    if n < need:
+        raise InvalidInputError(
+            f"{n} state(s) cannot fix {6 + bool(fit_bstar)} mean elements; give at least {need} "
+            "states spread over at least one orbit."
+        )
+    tt = t.tt
+    secs = (tt.jd1 - tt.jd1[0]) * 86400.0 + (tt.jd2 - tt.jd2[0]) * 86400.0
+    if np.any(np.diff(secs) <= 0):
+        i = int(np.flatnonzero(np.diff(secs) <= 0)[0]) + 1
+        raise InvalidInputError(
+            f"the state times must increase strictly; state {i} is not after state {i - 1}. Sort "
+            "them and remove duplicates."
+        )
+    if not (isinstance(satnum, int | np.integer) and 0 < satnum < 340000):
+        raise InvalidInputError(f"satnum must be an integer in 1..339999; got {satnum!r}.")
+    if frame != "teme":
+        m = transform_matrices(t, frame, "teme")
+        y = np.einsum("nij,nj->ni", m, np.concatenate([r, v], axis=1))
+        r, v = y[:, :3], y[:, 3:]
+    ep = t[0] if epoch is None else epoch
+    if not isinstance(ep, Time) or not ep.isscalar:
+        raise InvalidInputError("epoch must be one astropy Time.")
+    epoch_str = ep.utc.isot
+    if "." not in epoch_str:
+        epoch_str += ".000000"
+    head, frac = epoch_str.split(".")
+    epoch_str = f"{head}.{(frac + '000000')[:6]}"
+    ep_exact = Time(epoch_str, scale="utc")
+    tu = t.utc
+    jd, fr = tu.jd1, tu.jd2
+    # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc
+    ep_tt = ep_exact.tt
+    from_epoch = (tt.jd1 - ep_tt.jd1) * 86400.0 + (tt.jd2 - ep_tt.jd2) * 86400.0
+    k = int(np.argmin(np.abs(from_epoch)))
+    r0, v0 = r[k], v[k]
+    dt = -float(from_epoch[k])
+    if dt != 0.0:
+        from ..core.universal import propagate_scalar
+
+        out = propagate_scalar(*r0, *v0, _GM_WGS72, dt)
+        r0, v0 = np.array(out[1:4]), np.array(out[4:7])
+    p = _initial_elements(r0, v0, float(bstar))
+    free = np.arange(7 if fit_bstar else 6)
+    w_v = 1.0 / (p[0] / 60.0)  # s: velocity residuals weighted by 1/n
+    target = np.concatenate([r, v * w_v], axis=1).ravel()
+
+    epoch_days = _epoch_days(epoch_str)
+
+    def resid(pp):
+        out = _sgp4_states(pp, epoch_days, satnum, jd, fr)
+        if out is None:
+            return None
+        return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()
+
+    steps = np.array([1e-9, 1e-7, 1e-7, 1e-7, 1e-7, 1e-7, 1e-6])
+    z = resid(p)
+    if z is None:
+        raise InvalidInputError(
+            "SGP4 cannot propagate the first guess over the given times (a decaying or "
+            "deep-space orbit out of SGP4's range?)."
+        )
+    cost = float(z @ z)
+    lam = 1e-3
+    history = []
+    converged = False
+    for it in range(1, max_iterations + 1):
+        J = np.empty((z.size, free.size))
+        for c, j in enumerate(free):
+            h = steps[j] * (max(abs(p[j]), 1e-3) if j in (0, 6) else 1.0)
+            pp = p.copy()
+            pp[j] += h
+            zp = resid(pp)
+            if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
+                pp[j] -= 2 * h
+                zp = resid(pp)
+                h = -h
+            J[:, c] = 0.0 if zp is None else (zp - z) / h
+        g = J.T @ z
+        N = J.T @ J
+        improved = False
+        while lam < 1e12:
+            D = np.diag(np.diag(N))
+            try:
+                dp = np.linalg.solve(N + lam * D, -g)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            trial = p.copy()
+            trial[free] += dp
+            zt = resid(trial)
+            if zt is not None and float(zt @ zt) <= cost:
+                improved = True
+                break
+            lam *= 10
+        rms_pos = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+        history.append({"iteration": it, "rms_position_km": rms_pos, "damping": lam})
+        if not improved:
+            converged = True  # no downhill step left: at the minimum to rounding
+            break
+        new_cost = float(zt @ zt)
+        rel = (cost - new_cost) / max(cost, 1e-300)
+        p, z, cost = trial, zt, new_cost
+        lam = max(lam / 10, 1e-9)
+        rms_new = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+        if rel < tol or rms_new < 1e-7:
+            converged = True
+            break
+    if not converged:
+        err = ConvergenceError(
+            f"the TLE fit did not converge in {max_iterations} iterations (position RMS "
+            f"{history[-1]['rms_position_km']:.4g} km). Fit a shorter arc, give an epoch inside "
+            "the arc, or raise max_iterations."
+        )
+        err.history = history
+        raise err
+    fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
+    if not object_id:
+        fields["OBJECT_ID"] = ""
+    sat = _satellite_from_fields(fields)
+    dr = z.reshape(n, 6)[:, :3]
+    dv = z.reshape(n, 6)[:, 3:] / w_v
+    sat.fit = TLEFit(
+        rms_position_km=float(np.sqrt(np.mean(np.sum(dr**2, axis=1)))),
+        max_position_km=float(np.max(np.linalg.norm(dr, axis=1))),
+        rms_velocity_km_s=float(np.sqrt(np.mean(np.sum(dv**2, axis=1)))),
+        iterations=len(history),
+        history=history,
+        n_states=n,
+        fields=fields,
+    )
+    return sat

@@ -1,0 +1,74 @@
+"""Satellite states: :class:`SatelliteStates`, state vectors about the Earth that know their frame."""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from ..errors import (
+    InvalidInputError,
+)
+from ..states import StateVectors
+
+__all__ = ["SatelliteStates"]
+
+
+# --------------------------------------------------------------------------------------------
+# Results
+# --------------------------------------------------------------------------------------------
+class SatelliteStates(StateVectors):
+    """Positions and velocities of a satellite in one frame at an array of times.
+
+    A :class:`visviva.StateVectors` about the Earth (``gm`` = ``vv.EARTH.gm``) that also knows
+    its frame, so ``.to_elements()`` gives osculating elements in that frame (meaningful in the
+    quasi-inertial TEME and GCRS, not in the rotating ITRS).
+
+    Attributes
+    ----------
+    r : Quantity, shape (..., 3)
+        Position, km.
+    v : Quantity, shape (..., 3)
+        Velocity, km/s (relative to the rotating Earth in ITRS).
+    t : astropy Time, shape (...)
+        The times (same as ``epoch``).
+    frame : str
+        ``"teme"``, ``"gcrs"`` or ``"itrs"``.
+    """
+
+    frame = "teme"
+
+    @classmethod
+    def _wrap(cls, r_km, v_km_s, times, frame):
+        from ..constants import GM_EARTH_KM3_S2
+
+        obj = cls._from_canonical(r_km, v_km_s, np.float64(GM_EARTH_KM3_S2), times)
+        obj.frame = frame
+        return obj
+
+    @property
+    def t(self):
+        """The times of the states (astropy Time)."""
+        return self.epoch
+
+    @property
+    def altitude(self):
+        """Height above the WGS-84 ellipsoid (Quantity, km; shape of the states).
+
+        The geodetic height of :func:`visviva.satellites.frames.itrs_to_geodetic`, after a
+        rotation to ITRS at :attr:`t` (astropy's matrices) when the states are in TEME or GCRS.
+        """
+        from .frames import altitude_km
+
+        return altitude_km(self._r, self._v, self.epoch, self.frame) << u.km
+
+    def to_state_vectors(self) -> StateVectors:
+        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
+        if self.frame == "itrs":
+            raise InvalidInputError(
+                "ITRS rotates with the Earth, so its velocities are not inertial; convert "
+                "sat.gcrs(t) or sat.teme(t) instead."
+            )
+        return StateVectors._from_canonical(self._r, self._v, self._gm, self.epoch)
+
+    def __repr__(self):
+        return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"

@@ -1,0 +1,411 @@
+"""TLE and OMM element sets: their checks, SGP4's times, and SGP4's errors as typed exceptions.
+
+Every check of a two-line element set (columns, checksums, ranges, epoch) and of the times handed
+to SGP4, and the one table from sgp4's error codes to the exceptions below, which name the
+satellite and the reason. :mod:`visviva.satellites.tle` builds :class:`Satellite` on them.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+
+import numpy as np
+from astropy import units as u
+from astropy.time import Time
+
+from .._units import to_array
+from ..constants import DAY_S
+from ..errors import (
+    DomainError,
+    InvalidInputError,
+    UnitsError,
+    VisvivaError,
+)
+
+__all__ = [
+    "TLEFormatError",
+    "SGP4Error",
+    "SGP4EccentricityError",
+    "SGP4MeanMotionError",
+    "SGP4SemiLatusRectumError",
+    "SatelliteDecayedError",
+    "SGP4_ERROR_TYPES",
+    "check_tle_lines",
+    "check_tsince",
+    "sgp4_times",
+    "raise_for_sgp4_status",
+]
+
+MINUTES_PER_DAY = 1440.0
+#: Largest |t - epoch| SGP4 is asked for (days, ~270 years): sgp4's deep-space integrator steps
+#: 720 min at a time from the epoch, so far larger offsets would run for hours.
+MAX_TSINCE_DAYS = 100_000.0
+
+
+# --------------------------------------------------------------------------------------------
+# Errors
+# --------------------------------------------------------------------------------------------
+class TLEFormatError(InvalidInputError):
+    """A TLE line is malformed: wrong length, bad checksum, a field in the wrong columns, or the
+    two lines name different satellites. The message names the line (and its number in a file)."""
+
+
+class SGP4Error(VisvivaError, ArithmeticError):
+    """SGP4 could not propagate a satellite (one of sgp4's error codes 1-6).
+
+    Attributes
+    ----------
+    code : int
+        sgp4's error code.
+    satellite : str
+        Name (or catalogue number) of the satellite.
+    reason : str
+        sgp4's description of the code.
+    tsince_min : float
+        Minutes from the element-set epoch at which propagation failed.
+    """
+
+    def __init__(self, message, code=0, satellite="", reason="", tsince_min=float("nan")):
+        super().__init__(message)
+        self.code = code
+        self.satellite = satellite
+        self.reason = reason
+        self.tsince_min = tsince_min
+
+
+class SGP4EccentricityError(SGP4Error):
+    """Mean (code 1) or perturbed (code 3) eccentricity left the range 0 <= e < 1."""
+
+
+class SGP4MeanMotionError(SGP4Error):
+    """The mean motion became negative (code 2)."""
+
+
+class SGP4SemiLatusRectumError(SGP4Error):
+    """The semi-latus rectum became negative (code 4)."""
+
+
+class SatelliteDecayedError(SGP4Error):
+    """The orbit decayed: the mean radius fell below one Earth radius (code 6, or the retired
+    code 5, 'below the surface')."""
+
+
+#: sgp4 error code -> (exception class, reason, what to do)
+SGP4_ERROR_TYPES: dict[int, tuple[type[SGP4Error], str, str]] = {
+    1: (
+        SGP4EccentricityError,
+        "mean eccentricity is outside the range 0 <= e < 1",
+        "check the element set (the eccentricity field, or drag terms that drive it out of range)",
+    ),
+    2: (
+        SGP4MeanMotionError,
+        "mean motion fell to zero or below (it must stay > 0)",
+        "the element set's drag terms (ndot, B*) drive the mean motion to zero by this time: "
+        "propagate to times nearer the element-set epoch or use a newer element set",
+    ),
+    3: (
+        SGP4EccentricityError,
+        "perturbed eccentricity is outside the range 0 <= e <= 1",
+        "propagate to times nearer the element-set epoch or use a newer element set",
+    ),
+    4: (
+        SGP4SemiLatusRectumError,
+        "semi-latus rectum is less than zero",
+        "propagate to times nearer the element-set epoch or use a newer element set",
+    ),
+    5: (
+        SatelliteDecayedError,
+        "the satellite is below the Earth's surface",
+        "the object has re-entered; use a newer element set",
+    ),
+    6: (
+        SatelliteDecayedError,
+        "mean radius is less than one Earth radius: the satellite has decayed",
+        "the object has re-entered by this time; propagate to earlier times or use a newer "
+        "element set",
+    ),
+}
+
+
+def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:
+    """Raise the typed :class:`SGP4Error` for the first non-zero sgp4 error code.
+
+    Parameters
+    ----------
+    status : ndarray of uint8, shape (N, T) or (T,)
+        sgp4's error codes (0 = OK).
+    names : sequence of str
+        Satellite names, one per row (N) or a single name.
+    tsince_min : ndarray, broadcastable to ``status``
+        Minutes since each element-set epoch.
+    times : astropy Time, optional
+        The requested times (length T), quoted in the message.
+    """
+    status = np.asarray(status)
+    if not status.any():
+        return
+    flat = np.flatnonzero(status.ravel())
+    first = int(flat[0])
+    index = np.unravel_index(first, status.shape)
+    code = int(status[index])
+    name = names[index[0]] if status.ndim == 2 else names[0]
+    tsince = float(np.broadcast_to(tsince_min, status.shape)[index])
+    exc, reason, todo = SGP4_ERROR_TYPES.get(
+        code, (SGP4Error, f"unknown sgp4 error code {code}", "report this as a bug")
+    )
+    when = f"{tsince:.6f} min from its epoch"
+    if times is not None:
+        try:
+            with warnings.catch_warnings():  # far-future dates: ERFA's "dubious year"
+                warnings.simplefilter("ignore")
+                when = f"{times.ravel()[index[-1]].utc.isot} UTC, {when}"
+        except (IndexError, ValueError):
+            pass
+    more = f" ({flat.size} of {status.size} propagations failed)" if status.size > 1 else ""
+    raise exc(
+        f"SGP4 error {code} for satellite {name!r} at {when}: {reason}{more}. To fix: {todo}.",
+        code=code,
+        satellite=name,
+        reason=reason,
+        tsince_min=tsince,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# TLE line checks
+# --------------------------------------------------------------------------------------------
+_SATNUM = r"[0-9A-HJ-NP-Z ][0-9 ]{4}"
+#: (first column, last column (1-based, inclusive), field name, regular expression)
+_LINE1_FIELDS = (
+    (1, 1, "line number", r"1"),
+    (3, 7, "catalogue number", _SATNUM),
+    (8, 8, "classification", r"[ A-Z]"),
+    (19, 32, "epoch (YYDDD.DDDDDDDD)", r"[ 0-9]{5}\.[ 0-9]{8}"),
+    (34, 43, "first derivative of mean motion", r"[ +-]\.[ 0-9]{8}"),
+    (45, 52, "second derivative of mean motion", r"[ +-][ 0-9]{5}[ +-][ 0-9]"),
+    (54, 61, "BSTAR drag term", r"[ +-][ 0-9]{5}[ +-][ 0-9]"),
+    (63, 63, "ephemeris type", r"[ 0-9]"),
+    (65, 68, "element set number", r"[ 0-9]{4}"),
+    (69, 69, "checksum", r"[0-9]"),
+)
+_LINE2_FIELDS = (
+    (1, 1, "line number", r"2"),
+    (3, 7, "catalogue number", _SATNUM),
+    (9, 16, "inclination (deg)", r"[ 0-9]{3}\.[ 0-9]{4}"),
+    (18, 25, "right ascension of the ascending node (deg)", r"[ 0-9]{3}\.[ 0-9]{4}"),
+    (27, 33, "eccentricity (decimal point assumed)", r"[ 0-9]{7}"),
+    (35, 42, "argument of perigee (deg)", r"[ 0-9]{3}\.[ 0-9]{4}"),
+    (44, 51, "mean anomaly (deg)", r"[ 0-9]{3}\.[ 0-9]{4}"),
+    (53, 63, "mean motion (rev/day)", r"[ 0-9]{2}\.[ 0-9 ]{8}"),
+    (64, 68, "revolution number at epoch", r"[ 0-9]{5}"),
+    (69, 69, "checksum", r"[0-9]"),
+)
+_BLANKS = {1: (2, 9, 18, 33, 44, 53, 62, 64), 2: (2, 8, 17, 26, 34, 43, 52)}
+_COMPILED = {
+    1: [(a, b, n, re.compile(p)) for a, b, n, p in _LINE1_FIELDS],
+    2: [(a, b, n, re.compile(p)) for a, b, n, p in _LINE2_FIELDS],
+}
+
+
+def tle_checksum(line: str) -> int:
+    """Modulo-10 sum of the digits of the first 68 columns, minus signs counting 1."""
+    return sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10
+
+
+def check_tle_lines(
+    line1: str, line2: str, *, verify_checksum: bool = True, where: tuple[str, str] | None = None
+) -> tuple[str, str]:
+    """Check the format of a TLE pair and return the two 69-column lines.
+
+    Parameters
+    ----------
+    line1, line2 : str
+        The two lines (a trailing newline or trailing blanks are ignored).
+    verify_checksum : bool
+        Check column 69 against the modulo-10 checksum (default).
+    where : (str, str), optional
+        How to name the lines in messages, e.g. ``("line 7 of cat.txt", "line 8 of cat.txt")``.
+
+    Raises
+    ------
+    TLEFormatError
+        The message names the line, the columns and the field that are wrong.
+    """
+    where = where or ("TLE line 1", "TLE line 2")
+    lines = []
+    for number, line, name in ((1, line1, where[0]), (2, line2, where[1])):
+        if not isinstance(line, str):
+            raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
+        line = line.rstrip("\r\n ")
+        if len(line) != 69:
+            raise TLEFormatError(
+                f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
+                "Check that the line was not wrapped, truncated or padded."
+            )
+        if line[0] != str(number):
+            raise TLEFormatError(
+                f"{name} must start with '{number}', got {line[0]!r}: {line!r}. "
+                "Pass the two lines in order (line 1, then line 2)."
+            )
+        for col in _BLANKS[number]:
+            if line[col - 1] != " ":
+                raise TLEFormatError(
+                    f"{name}: column {col} must be blank, got {line[col - 1]!r}: {line!r}. "
+                    "The fields of a TLE sit in fixed columns; check for shifted fields."
+                )
+        for a, b, field, pattern in _COMPILED[number]:
+            text = line[a - 1 : b]
+            if not pattern.fullmatch(text):
+                raise TLEFormatError(
+                    f"{name}: columns {a}-{b} ({field}) hold {text!r}, which is not a valid "
+                    f"value: {line!r}."
+                )
+        if verify_checksum:
+            expected = tle_checksum(line)
+            if int(line[68]) != expected:
+                raise TLEFormatError(
+                    f"{name}: checksum mismatch, column 69 says {line[68]} but the line sums to "
+                    f"{expected}: {line!r}. The line is corrupted (or pass "
+                    "verify_checksum=False for hand-made element sets)."
+                )
+        lines.append(line)
+    if lines[0][2:7] != lines[1][2:7]:
+        raise TLEFormatError(
+            f"{where[0]} and {where[1]} name different satellites "
+            f"({lines[0][2:7]!r} and {lines[1][2:7]!r}); pass the two lines of one element set."
+        )
+    return lines[0], lines[1]
+
+
+# --------------------------------------------------------------------------------------------
+# Ranges of the mean elements (TLE and OMM)
+# --------------------------------------------------------------------------------------------
+#: field -> (low, high, high inclusive, unit) for the SGP4 mean elements
+_ELEMENT_RANGES = {
+    "mean motion": (0.0, math.inf, False, "rev/day"),
+    "eccentricity": (0.0, 1.0, False, ""),
+    "inclination": (0.0, 180.0, True, "deg"),
+    "right ascension of the ascending node": (0.0, 360.0, True, "deg"),
+    "argument of perigee": (0.0, 360.0, True, "deg"),
+    "mean anomaly": (0.0, 360.0, True, "deg"),
+}
+TLE_COLUMNS = {
+    "mean motion": "columns 53-63",
+    "eccentricity": "columns 27-33",
+    "inclination": "columns 9-16",
+    "right ascension of the ascending node": "columns 18-25",
+    "argument of perigee": "columns 35-42",
+    "mean anomaly": "columns 44-51",
+}
+OMM_KEYS = {
+    "mean motion": "MEAN_MOTION",
+    "eccentricity": "ECCENTRICITY",
+    "inclination": "INCLINATION",
+    "right ascension of the ascending node": "RA_OF_ASC_NODE",
+    "argument of perigee": "ARG_OF_PERICENTER",
+    "mean anomaly": "MEAN_ANOMALY",
+}
+_ANGLE_TOL_DEG = 1e-9  # degrees -> radians -> degrees round trip of sgp4's parser
+
+
+def check_element_ranges(
+    values: dict, where: str, exc: type[InvalidInputError], labels: dict
+) -> None:
+    """Raise ``exc`` naming the first mean element outside its range.
+
+    ``values`` maps the names of :data:`_ELEMENT_RANGES` to floats (rev/day, deg); ``labels``
+    maps the same names to where the value sits (TLE columns, OMM keyword).
+    """
+    for field, value in values.items():
+        lo, hi, hi_inclusive, unit = _ELEMENT_RANGES[field]
+        tol = _ANGLE_TOL_DEG if unit == "deg" else 0.0
+        ok = math.isfinite(value) and lo - tol <= value and (
+            value <= hi + tol if hi_inclusive else value < hi
+        )
+        if field == "mean motion":
+            ok = math.isfinite(value) and value > 0.0
+        if not ok:
+            interval = (
+                "> 0" if field == "mean motion"
+                else f"in [{lo:g}, {hi:g}{']' if hi_inclusive else ')'}"
+            )
+            raise exc(
+                f"{where}: {field} ({labels[field]}) is {value:.10g}{' ' + unit if unit else ''}; it must be "
+                f"{interval}. Check the element set (a corrupted or hand-made record)."
+            )
+
+
+def check_tle_epoch(line1: str, epochyr: int, epochdays: float, where: str) -> None:
+    """Day of year of a TLE epoch in [1, 366) (or [1, 367) in leap years)."""
+    year = epochyr + (1900 if epochyr >= 57 else 2000)
+    leap = year % 4 == 0 and (year % 100 != 0 or year % 400 == 0)
+    end = 367.0 if leap else 366.0
+    if not (1.0 <= epochdays < end):
+        raise TLEFormatError(
+            f"{where}: columns 21-32 (epoch day of year) hold {line1[20:32]!r} = {epochdays!r}; "
+            f"the day of year of {year} must be in [1, {end:g}) (1.0 = 1 January 00:00 UTC): "
+            f"{line1!r}."
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# Time conversion (one array operation per call)
+# --------------------------------------------------------------------------------------------
+def check_tsince(tsince_min, names) -> None:
+    """Raise DomainError when a time is more than :data:`MAX_TSINCE_DAYS` from its epoch."""
+    tsince_min = np.asarray(tsince_min, dtype=np.float64)
+    far = ~(np.abs(tsince_min) <= MAX_TSINCE_DAYS * MINUTES_PER_DAY)
+    if far.any():
+        index = np.unravel_index(int(np.flatnonzero(far.ravel())[0]), far.shape)
+        name = names[index[0]] if far.ndim == 2 else names[0]
+        raise DomainError(
+            f"satellite {name!r}: a requested time is {tsince_min[index] / MINUTES_PER_DAY:.6g} "
+            f"days from the element-set epoch; SGP4 is meaningful for days to weeks around it "
+            f"and visviva refuses offsets beyond {MAX_TSINCE_DAYS:g} days. Use times near the "
+            "epoch (or a newer element set)."
+        )
+
+
+def sgp4_times(t, jd_epoch: float, fr_epoch: float):
+    """Convert a time argument to the (jd, fr) pair of UTC Julian dates sgp4 takes.
+
+    Parameters
+    ----------
+    t : astropy Time or Quantity (time)
+        Absolute times, or offsets from the epoch ``jd_epoch + fr_epoch``.
+    jd_epoch, fr_epoch : float
+        Whole and fractional parts of the epoch's UTC Julian date (days).
+
+    Returns
+    -------
+    jd, fr : ndarray of float64, flat
+        Parts of the UTC Julian dates (days).
+    shape : tuple
+        Shape of ``t``.
+    times : Time or None
+        ``t`` as a Time when it was given as one.
+    """
+    if isinstance(t, Time):
+        from erfa import ErfaError
+
+        try:
+            tu = t.utc
+        except (ErfaError, ValueError) as exc:
+            raise DomainError(
+                f"t cannot be converted to UTC ({exc}); use dates within astropy's supported "
+                "range, near the element-set epoch."
+            ) from exc
+        jd = np.ascontiguousarray(tu.jd1, dtype=np.float64).ravel()
+        fr = np.ascontiguousarray(tu.jd2, dtype=np.float64).ravel()
+        return jd, fr, t.shape, t
+    if isinstance(t, u.Quantity):
+        dt_s = to_array(t, "time", "t")
+        jd = np.full(dt_s.size, jd_epoch)
+        fr = fr_epoch + dt_s.ravel() / DAY_S
+        return jd, fr, dt_s.shape, None
+    raise UnitsError(
+        f"t must be an astropy Time (absolute UTC/TT/... times) or a time Quantity (offset from "
+        f"the element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {type(t).__name__}."
+    )

@@ -1,0 +1,102 @@
+"""CCSDS Conjunction Data Message: reading, writing (KVN and XML), errors naming the line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from astropy import units as u
+
+import visviva as vv
+from visviva.ccsds.cdm import COVARIANCE, read_cdm, write_cdm
+
+SAMPLE = Path(__file__).parent / "data" / "sample_cdm.kvn"
+
+
+@pytest.fixture(scope="module")
+def msg():
+    return read_cdm(SAMPLE)
+
+
+def test_fields(msg):
+    assert msg.tca.isot.startswith("2010-03-13T22:37:52.618")
+    assert msg.tca.scale == "utc"
+    assert msg.miss_distance == 715 * u.m
+    assert msg.relative_speed == 14762 * u.m / u.s
+    assert msg.collision_probability == pytest.approx(4.835e-05)
+    assert msg.object1.name == "SATELLITE A" and msg.object2.name == "FENGYUN 1C DEB"
+    assert msg.object1.frame == "EME2000"
+    assert msg.object2.r[0] == 2569.540800 * u.km
+    assert msg.object1.v[2] == -3.526774282 * u.km / u.s
+    c = msg.object1.covariance_rtn
+    assert c.shape == (6, 6) and np.allclose(c, c.T)
+    assert c[1, 1] == 2533.0 and c[5, 3] == -3.004e-06 and c[3, 5] == -3.004e-06
+    assert isinstance(msg, vv.ConjunctionDataMessage) and vv.read_cdm is read_cdm
+
+
+def test_inertial_covariance_is_the_rotated_rtn_one(msg):
+    o = msg.object1
+    rhat = o.r.value / np.linalg.norm(o.r.value)
+    # radial variance is r^T C r in the inertial frame
+    assert rhat @ o.covariance[:3, :3] @ rhat == pytest.approx(o.covariance_rtn[0, 0], rel=1e-12)
+    assert np.trace(o.covariance) == pytest.approx(np.trace(o.covariance_rtn), rel=1e-12)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_round_trip_reproduces_every_field(msg, fmt, tmp_path):
+    path = tmp_path / f"m.{fmt}"
+    text = write_cdm(msg, path, format=fmt)
+    back = read_cdm(path)
+    assert back == msg
+    assert read_cdm(text) == msg
+    assert back.object1.sections["state_vector"].comments == ["state at TCA"]
+    assert np.array_equal(back.object2.covariance_rtn, msg.object2.covariance_rtn)
+
+
+def test_xml_nests_the_relative_state(msg):
+    text = msg.to_xml()
+    assert "<relativeStateVector>" in text and text.count("<segment>") == 2
+
+
+def test_pc_from_the_message(msg):
+    o1, o2 = msg.object1, msg.object2
+    lp = vv.collision_probability(o1.r, o1.v, o1.covariance, o2.r, o2.v, o2.covariance,
+                                  10 * u.m, log=True)
+    # the same conjunction given in RTN-rotated form directly
+    lp2 = vv.collision_probability(o1.r, o1.v, vv.conjunctions.rtn_to_inertial(
+        o1.covariance_rtn, o1.r, o1.v), o2.r, o2.v, vv.conjunctions.rtn_to_inertial(
+        o2.covariance_rtn, o2.r, o2.v), 10 * u.m, log=True)
+    assert np.isfinite(lp) and lp == lp2
+
+
+def _broken(old, new):
+    text = SAMPLE.read_text()
+    assert old in text
+    return text.replace(old, new, 1)
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ("MISS_DISTANCE                      = 715 [m]", "MISS_DISTANCE = 715 [km]", r"line 8:.*\[m\]"),
+    ("X                                  = 2570.097065 [km]", "X = abc [km]", "not a number"),
+    ("OBJECT_NAME                        = SATELLITE A\n", "", "OBJECT_NAME"),
+    ("CT_T                               = 2.533E+03 [m**2]\n", "", "CT_T"),
+    ("MANEUVERABLE                       = YES", "MANOEUVRABLE = YES", "MANOEUVRABLE"),
+    ("OBJECT                             = OBJECT2", "OBJECT = OBJECT3", "OBJECT2"),
+])
+def test_malformed_messages_name_the_line(old, new, match):
+    with pytest.raises(vv.CCSDSFormatError, match=match) as info:
+        read_cdm(_broken(old, new))
+    assert info.value.line is not None
+
+
+def test_truncated_message_is_an_error():
+    text = SAMPLE.read_text()
+    cut = text[: text.index("OBJECT                             = OBJECT2")]
+    with pytest.raises(vv.CCSDSFormatError, match="OBJECT2"):
+        read_cdm(cut)
+
+
+def test_covariance_table_has_the_21_mandatory_keywords():
+    assert sum(k.mandatory for k in COVARIANCE.keywords) == 21
+    assert len(COVARIANCE.keywords) == 21 + 7 + 8 + 9

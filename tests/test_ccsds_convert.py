@@ -1,0 +1,72 @@
+"""``visviva convert`` between TLE, OMM and OEM, checked against sgp4 directly."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from sgp4.api import Satrec
+
+import visviva as vv
+from visviva import cli
+
+ISS = ("ISS (ZARYA)",
+       "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+       "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+
+
+@pytest.fixture
+def tle_file(tmp_path):
+    path = tmp_path / "iss.tle"
+    path.write_text("\n".join(ISS) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".omm", ".xml"])
+def test_tle_to_omm_to_tle_is_the_same_text(tle_file, tmp_path, suffix):
+    omm_path = tmp_path / f"iss{suffix}"
+    extra = ["--to", "omm"] if suffix == ".xml" else []
+    assert cli.main(["convert", str(tle_file), str(omm_path), *extra]) == 0
+    omm = vv.read_omm(omm_path)
+    assert omm["ORIGINATOR"] == "VISVIVA" and omm["NORAD_CAT_ID"] == 25544
+    back = tmp_path / "back.tle"
+    assert cli.main(["convert", str(omm_path), str(back)]) == 0
+    assert back.read_text().splitlines() == list(ISS)
+
+
+@pytest.mark.parametrize("frame", ["TEME", "GCRF"])
+def test_tle_to_oem_samples_sgp4(tle_file, tmp_path, frame):
+    out = tmp_path / "iss.oem"
+    assert cli.main(["convert", str(tle_file), str(out), "--hours", "2", "--step", "60",
+                     "--frame", frame]) == 0
+    seg = vv.read_oem(out).segments[0]
+    assert len(seg) == 121 and seg.frame == frame and seg.interpolation == ("LAGRANGE", 7)
+    if frame == "TEME":  # the states are sgp4's own (to the split of the Julian dates: 1 um)
+        sat = Satrec.twoline2rv(ISS[1], ISS[2])
+        jd = seg.times.utc.jd1
+        fr = seg.times.utc.jd2
+        err, r, v = sat.sgp4_array(jd, fr)
+        assert not err.any()
+        np.testing.assert_allclose(seg.r_km, r, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(seg.v_km_s, v, rtol=0, atol=1e-12)
+    # between the samples the file's interpolation stays within a metre of SGP4
+    t = seg.times[0] + np.arange(30, 7000, 97.0) * u.s
+    sat = vv.Satellite.from_tle(*ISS[1:])
+    ref = sat.teme(t) if frame == "TEME" else sat.gcrs(t)
+    got = seg.interpolate(t)
+    assert np.abs(got.r.to_value(u.km) - ref.r.to_value(u.km)).max() < 1e-3
+
+
+def test_errors(tle_file, tmp_path, capsys):
+    two = tmp_path / "two.tle"
+    from visviva.satellites.tle_export import tle_checksum
+
+    other = [s.replace("25544", "25545")[:68] for s in ISS[1:]]
+    other = [s + str(tle_checksum(s)) for s in other]
+    two.write_text("\n".join(ISS) + "\nOTHER\n" + "\n".join(other) + "\n")
+    with pytest.raises(SystemExit, match="holds 2 satellites"):
+        cli.main(["convert", str(two), str(tmp_path / "x.omm"), "--to", "omm"])
+    with pytest.raises(SystemExit, match="cannot tell the output kind"):
+        cli.main(["convert", str(tle_file), str(tmp_path / "x.dat")])
+    bad = tmp_path / "bad.omm"
+    bad.write_text("CCSDS_OMM_VERS = 3.0\nCREATION_DATE = 2024\n")
+    assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 1
+    assert "line 2" in capsys.readouterr().err

@@ -1,0 +1,299 @@
+"""OEM: reading and writing KVN and XML, interpolation, covariance, malformed files naming the line.
+
+The example messages are written here by hand in the layout of CCSDS 502.0-B-3 (annex G
+examples): two segments around a manoeuvre, accelerations, covariance matrices, comments.
+"""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import visviva as vv
+from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+ONE_MM = 1e-6  # km
+
+OEM_KVN = """CCSDS_OEM_VERS = 3.0
+COMMENT  example written for the visviva tests
+CREATION_DATE = 2024-01-31T00:00:00
+ORIGINATOR = VISVIVA TESTS
+MESSAGE_ID = OEM-0001
+
+META_START
+COMMENT first segment, before the burn
+OBJECT_NAME = TESTSAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = EME2000
+TIME_SYSTEM = UTC
+START_TIME = 2024-01-31T00:00:00
+USEABLE_START_TIME = 2024-01-31T00:00:00
+USEABLE_STOP_TIME = 2024-01-31T00:03:00
+STOP_TIME = 2024-01-31T00:03:00
+INTERPOLATION = HERMITE
+INTERPOLATION_DEGREE = 1
+META_STOP
+
+COMMENT states in km and km/s
+2024-01-31T00:00:00 7000.0 0.0 0.0 0.0 7.5 0.0
+2024-01-31T00:01:00 6995.1 449.9 0.1 -0.163 7.49 0.001
+2024-01-31T00:02:00 6980.4 898.6 0.2 -0.326 7.47 0.002
+2024-01-31T00:03:00 6956.0 1345.0 0.3 -0.489 7.44 0.003
+
+COVARIANCE_START
+EPOCH = 2024-01-31T00:00:00
+COV_REF_FRAME = RTN
+ 1.0E-3
+ 2.0E-5  4.0E-3
+ 3.0E-6  5.0E-7  9.0E-4
+ 1.0E-8  2.0E-9  3.0E-10 1.0E-7
+ 4.0E-9  5.0E-10 6.0E-11 7.0E-12 2.0E-7
+ 8.0E-10 9.0E-11 1.0E-12 2.0E-13 3.0E-14 3.0E-7
+COMMENT a second matrix, in the segment's frame
+EPOCH = 2024-01-31T00:03:00
+ 1
+ 0 1
+ 0 0 1
+ 0 0 0 1
+ 0 0 0 0 1
+ 0 0 0 0 0 1
+COVARIANCE_STOP
+
+META_START
+OBJECT_NAME = TESTSAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = EME2000
+TIME_SYSTEM = UTC
+START_TIME = 2024-032T00:03:00
+STOP_TIME = 2024-032T00:05:00
+INTERPOLATION = LAGRANGE
+INTERPOLATION_DEGREE = 2
+META_STOP
+2024-032T00:03:00 6956.0 1345.0 0.3 -0.489 7.54 0.003 -0.0080 -0.0015 0.0
+2024-032T00:04:00 6921.8 1796.9 0.4 -0.652 7.51 0.004 -0.0079 -0.0020 0.0
+2024-032T00:05:00 6878.0 2246.2 0.5 -0.815 7.47 0.005 -0.0078 -0.0025 0.0
+"""
+
+
+def test_read_kvn_example_every_field():
+    oem = vv.read_oem(OEM_KVN)
+    assert oem.header["MESSAGE_ID"] == "OEM-0001"
+    assert oem.header.comments == ["example written for the visviva tests"]
+    first, second = oem.segments
+    assert (first.frame, first.center, first.visviva_frame) == ("EME2000", "EARTH", "gcrs")
+    assert first.metadata.comments == ["first segment, before the burn"]
+    assert first.data_comments == ["states in km and km/s"]
+    assert first.interpolation == ("HERMITE", 1) and second.interpolation == ("LAGRANGE", 2)
+    assert len(first) == 4 and len(second) == 3 and first.a_km_s2 is None
+    np.testing.assert_array_equal(second.a_km_s2[:, 0], [-0.0080, -0.0079, -0.0078])
+    assert first.times.scale == "utc"
+    assert abs((second.times[0] - Time("2024-02-01T00:03:00", scale="utc")).sec) < 1e-9
+    states = first.states
+    assert isinstance(states, vv.StateVectors) and states.shape == (4,)
+    np.testing.assert_array_equal(states.r[1].to_value(u.km), [6995.1, 449.9, 0.1])
+    assert abs(states.gm[0].to_value(u.km**3 / u.s**2) - vv.EARTH.gm_km3_s2) == 0
+    cov0, cov1 = first.covariances
+    assert cov0.frame == "RTN" and cov1.frame is None and cov1.comments == [
+        "a second matrix, in the segment's frame"]
+    assert cov0.matrix[1, 0] == cov0.matrix[0, 1] == 2.0e-5 and cov0.matrix[5, 5] == 3.0e-7
+    np.testing.assert_array_equal(cov1.matrix, np.eye(6))
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_round_trip_reproduces_every_field(fmt, tmp_path):
+    oem = vv.read_oem(OEM_KVN)
+    path = tmp_path / f"x.{fmt}"
+    text = vv.write_oem(oem, path, format=fmt)
+    assert path.read_text() == text and text.lstrip().startswith("<" if fmt == "xml" else "C")
+    back = vv.read_oem(path)
+    assert back.header.values == oem.header.values
+    assert back.header.comments == oem.header.comments
+    for a, b in zip(oem.segments, back.segments, strict=True):
+        assert a.metadata.values == b.metadata.values
+        assert a.metadata.comments == b.metadata.comments and a.data_comments == b.data_comments
+        assert a.epochs == b.epochs
+        for name in ("r_km", "v_km_s", "a_km_s2"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None and y is None) or np.array_equal(x, y)
+        assert len(a.covariances) == len(b.covariances)
+        for ca, cb in zip(a.covariances, b.covariances, strict=True):
+            assert (ca.epoch, ca.frame, ca.comments) == (cb.epoch, cb.frame, cb.comments)
+            np.testing.assert_array_equal(ca.matrix, cb.matrix)
+    # the writer adds no keyword: the second write is identical to the first
+    assert vv.write_oem(back, format=fmt) == text
+
+
+def _two_body_segment(method, degree, step_s=60.0, n=60, with_acc=False):
+    s0 = vv.StateVectors([7000.0, 0.0, 1000.0] * u.km, [0.0, 7.2, 1.5] * u.km / u.s, vv.EARTH)
+    t0 = Time("2024-01-31T00:00:00", scale="utc")
+    dt = np.arange(n) * step_s
+    states = s0.propagate(dt * u.s)
+    r, v = states.r.to_value(u.km), states.v.to_value(u.km / u.s)
+    acc = -vv.EARTH.gm_km3_s2 * r / np.linalg.norm(r, axis=-1, keepdims=True) ** 3
+    seg = OEMSegment.from_states(t0 + dt * u.s, r, v, object_name="KEPLER", degree=degree,
+                                 interpolation=method, a_km_s2=acc if with_acc else None)
+    return seg, s0, t0
+
+
+@pytest.mark.parametrize("method, degree, tol_r, tol_v", [
+    ("LAGRANGE", 8, 10 * ONE_MM, 1e-8),
+    ("HERMITE", 4, 1 * ONE_MM, 1e-9),
+    ("HERMITE", 2, 1e3 * ONE_MM, 1e-6),
+])
+def test_interpolation_matches_kepler_between_nodes(method, degree, tol_r, tol_v):
+    seg, s0, t0 = _two_body_segment(method, degree)
+    dt = np.linspace(0, 59 * 60.0, 401)
+    exact = s0.propagate(dt * u.s)
+    got = seg.interpolate(t0 + dt * u.s)
+    err_r = np.abs(got.r.to_value(u.km) - exact.r.to_value(u.km)).max()
+    err_v = np.abs(got.v.to_value(u.km / u.s) - exact.v.to_value(u.km / u.s)).max()
+    assert err_r < tol_r and err_v < tol_v, (err_r, err_v)
+    # at the nodes the interpolant is the table
+    nodes = seg.interpolate(seg.times)
+    np.testing.assert_allclose(nodes.r.to_value(u.km), seg.r_km, rtol=0, atol=1e-9)
+
+
+def test_hermite_uses_accelerations_for_velocity():
+    seg, s0, t0 = _two_body_segment("HERMITE", 3, with_acc=True)
+    dt = np.linspace(0, 59 * 60.0, 101)
+    exact = s0.propagate(dt * u.s)
+    got = seg.interpolate(t0 + dt * u.s)
+    assert np.abs(got.v.to_value(u.km / u.s) - exact.v.to_value(u.km / u.s)).max() < 1e-9
+
+
+def test_ephemeris_interpolates_across_segments_and_refuses_gaps():
+    oem = vv.read_oem(OEM_KVN)
+    t = Time(["2024-01-31T00:01:30", "2024-02-01T00:03:30", "2024-02-01T00:03:00"], scale="utc")
+    states = oem.interpolate(t)
+    assert states.shape == (3,)
+    np.testing.assert_allclose(states.r[1].to_value(u.km),
+                               oem.segments[1].interpolate(t[1]).r.to_value(u.km), rtol=0, atol=0)
+    # the boundary belongs to the later segment: its first state
+    np.testing.assert_array_equal(states.v[2].to_value(u.km / u.s), oem.segments[1].v_km_s[0])
+    with pytest.raises(vv.InvalidInputError, match="covered by no segment"):
+        oem.interpolate(Time("2024-01-31T12:00:00", scale="utc"))
+    with pytest.raises(vv.InvalidInputError, match="outside the segment"):
+        oem.segments[0].interpolate(Time("2024-01-31T00:03:01", scale="utc"))
+    with pytest.raises(vv.InvalidInputError, match="needs 4 states, the segment has 3"):
+        oem.segments[1].metadata.values["INTERPOLATION_DEGREE"] = 3
+        oem.segments[1].interpolate(t[1])
+
+
+@pytest.mark.parametrize("edit, line, words", [
+    (("7000.0 0.0 0.0 0.0 7.5 0.0", "7000.0 0.0 0.0 0.0 7.5"), 23, "has 5"),
+    (("6995.1 449.9", "6995.1 4x9.9"), 24, "not a number"),
+    (("2024-01-31T00:02:00 6980.4", "2024-01-31T00:00:30 6980.4"), 25, "must increase"),
+    (("2024-01-31T00:03:00 6956.0", "2024-01-31T00:04:00 6956.0"), 26, "outside START_TIME"),
+    (("REF_FRAME = EME2000\nTIME", "REF_FRAME = EME2000\nFRAME = X\nTIME"), 13,
+     "FRAME is not an OEM metadata keyword"),
+    (("CENTER_NAME = EARTH\nREF_FRAME = EME2000\nTIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31",
+      "CENTER_NAME = EARTH\nTIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31"), 9,
+     "lacks the mandatory keyword REF_FRAME"),
+    ((" 2.0E-5  4.0E-3\n", " 2.0E-5\n"), 32, "row 2 of the covariance"),
+    (("COVARIANCE_STOP\n", ""), 46, "expected EPOCH"),
+    (("INTERPOLATION = HERMITE", "INTERPOLATION = SPLINE"), 18, "INTERPOLATION = SPLINE"),
+    (("MESSAGE_ID = OEM-0001", "MESSAGE_ID = OEM-0001\nOBJECT_NAME = X"), 6,
+     "expected META_START"),
+    (("TIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31", "TIME_SYSTEM = MET\nSTART_TIME = 2024-01-31"),
+     13, "TIME_SYSTEM 'MET' is not supported"),
+])
+def test_malformed_kvn_names_the_line(edit, line, words):
+    assert edit[0] in OEM_KVN
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_oem(OEM_KVN.replace(edit[0], edit[1], 1))
+    assert info.value.line == line, str(info.value)
+    assert f"line {line}" in str(info.value)
+
+
+def test_malformed_xml_names_the_line():
+    text = vv.write_oem(vv.read_oem(OEM_KVN), format="xml")
+    lines = text.splitlines()
+    k = next(i for i, s in enumerate(lines) if "<Y_DOT" in s)
+    bad = "\n".join(lines[:k] + [lines[k].replace('units="km/s"', 'units="m/s"')] + lines[k + 1:])
+    with pytest.raises(vv.CCSDSFormatError, match=r"Y_DOT must be in \[km/s\]") as info:
+        vv.read_oem(bad)
+    assert info.value.line == k + 1
+    k = next(i for i, s in enumerate(lines) if "<Z>" in s or "<Z " in s)
+    bad = "\n".join(lines[:k] + lines[k + 1:])
+    with pytest.raises(vv.CCSDSFormatError, match="lacks the mandatory keyword Z") as info:
+        vv.read_oem(bad)
+    with pytest.raises(vv.CCSDSFormatError, match="not well formed"):
+        vv.read_oem(text[:-20])
+
+
+def test_paths_errors_and_empty():
+    with pytest.raises(vv.CCSDSFormatError, match="no such file"):
+        vv.read_oem("/nonexistent/file.oem")
+    with pytest.raises(vv.CCSDSFormatError, match="empty"):
+        vv.read_oem("\n\n")
+    with pytest.raises(vv.CCSDSFormatError, match="starts with CCSDS_OEM_VERS"):
+        vv.read_oem("CCSDS_OPM_VERS = 3.0\n")
+    with pytest.raises(vv.CCSDSFormatError, match="no segment"):
+        vv.read_oem("CCSDS_OEM_VERS = 3.0\nCREATION_DATE = 2024-01-01T00:00:00\nORIGINATOR = X\n")
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(-1e5, 1e5, allow_nan=False), min_size=6, max_size=6),
+       st.integers(2, 6), st.sampled_from(["kvn", "xml"]), st.booleans())
+def test_hypothesis_round_trip_bit_for_bit(r_v, n, fmt, with_cov):
+    t = Time("2030-06-30T23:59:58.5", scale="tai") + np.arange(n) * 7.25 * u.s
+    rng = np.random.default_rng(n)
+    r = np.asarray(r_v[:3]) + rng.normal(size=(n, 3)) * 1e3
+    v = np.asarray(r_v[3:]) * 1e-5 + rng.normal(size=(n, 3))
+    seg = OEMSegment.from_states(t, r, v, object_name="H", time_system="TAI", frame="ITRF",
+                                 interpolation="LAGRANGE", degree=1)
+    if with_cov:
+        a = rng.normal(size=(6, 6))
+        from visviva.ccsds.oem import OEMCovariance
+
+        seg.covariances.append(OEMCovariance(seg.epochs[0], a @ a.T, "RSW", ["c"]))
+    back = vv.read_oem(vv.write_oem(Ephemeris([seg]), format=fmt)).segments[0]
+    assert np.array_equal(back.r_km, seg.r_km) and np.array_equal(back.v_km_s, seg.v_km_s)
+    assert back.epochs == seg.epochs and back.metadata.values == seg.metadata.values
+    assert np.abs((back.times - t).to_value(u.s)).max() < 1e-9
+    if with_cov:
+        np.testing.assert_array_equal(back.covariances[0].matrix, seg.covariances[0].matrix)
+
+
+@pytest.mark.parametrize("method", ["LAGRANGE", "HERMITE"])
+def test_interpolation_in_blocks_equals_one_pass(method, monkeypatch):
+    from visviva.ccsds import interpolation
+
+    seg, _, t0 = _two_body_segment(method, 5)
+    t = t0 + np.linspace(0, 59 * 60.0, 101) * u.s
+    whole = seg.interpolate(t)
+    monkeypatch.setattr(interpolation, "_CHUNK", 7)
+    blocks = seg.interpolate(t)
+    np.testing.assert_array_equal(blocks.r.to_value(u.km), whole.r.to_value(u.km))
+    np.testing.assert_array_equal(blocks.v.to_value(u.km / u.s), whole.v.to_value(u.km / u.s))
+
+
+def test_default_interpolation_when_the_file_names_none():
+    text = OEM_KVN.replace("INTERPOLATION = HERMITE\nINTERPOLATION_DEGREE = 1\n", "")
+    text = text.replace("INTERPOLATION = LAGRANGE\n", "")
+    first, second = vv.read_oem(text).segments
+    assert first.interpolation == ("LAGRANGE", 3)  # 4 states
+    assert second.interpolation == ("LAGRANGE", 2)  # degree named, method not
+    seg, _, _ = _two_body_segment("HERMITE", 5)
+    del seg.metadata.values["INTERPOLATION"], seg.metadata.values["INTERPOLATION_DEGREE"]
+    assert seg.interpolation == ("LAGRANGE", 7)
+
+
+def test_states_in_other_frames_match_astropy_via_satellite():
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+    t = sat.epoch + np.arange(0, 3600, 600.0) * u.s
+    teme = sat.teme(t)
+    seg = OEMSegment.from_states(t, teme.r.to_value(u.km), teme.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame="TEME")
+    for frame, ref in (("gcrs", sat.gcrs(t)), ("itrs", sat.itrs(t))):
+        got = seg.states_in(frame)
+        assert np.abs(got.r.to_value(u.km) - ref.r.to_value(u.km)).max() < 1e-6  # 1 mm
+        assert np.abs(got.v.to_value(u.km / u.s) - ref.v.to_value(u.km / u.s)).max() < 1e-9
+    with pytest.raises(vv.InvalidInputError, match="not supported"):
+        seg.states_in("icrs")

@@ -1,0 +1,339 @@
+"""OPM and OMM: reading, writing (KVN and XML), the physics objects, errors naming the line."""
+
+import math
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import visviva as vv
+from visviva.ccsds.opm import OPM
+
+OPM_KVN = """CCSDS_OPM_VERS = 3.0
+COMMENT written for the visviva tests, in the layout of CCSDS 502.0-B-3 annex G
+CREATION_DATE = 2024-03-01T10:00:00
+ORIGINATOR = VISVIVA TESTS
+
+COMMENT metadata
+OBJECT_NAME = TESTSAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = GCRF
+TIME_SYSTEM = UTC
+
+COMMENT state vector
+EPOCH = 2024-03-01T00:00:00.000
+X = 6503.514000 [km]
+Y = 1239.647000 [km]
+Z = -717.490000 [km]
+X_DOT = -0.873160 [km/s]
+Y_DOT = 8.740420 [km/s]
+Z_DOT = -4.191076 [km/s]
+
+SEMI_MAJOR_AXIS = 7800.0 [km]
+ECCENTRICITY = 0.1
+INCLINATION = 30.0 [deg]
+RA_OF_ASC_NODE = 10.0 [deg]
+ARG_OF_PERICENTER = 20.0 [deg]
+TRUE_ANOMALY = 40.0 [deg]
+GM = 398600.4415 [km**3/s**2]
+
+MASS = 3000.0 [kg]
+SOLAR_RAD_AREA = 18.77 [m**2]
+SOLAR_RAD_COEFF = 1.0
+DRAG_AREA = 18.77 [m**2]
+DRAG_COEFF = 2.5
+
+COV_REF_FRAME = RTN
+CX_X = 3.331349476038534e-04 [km**2]
+CY_X = 4.618927349220216e-04 [km**2]
+CY_Y = 6.782421679971363e-04 [km**2]
+CZ_X = -3.070007847730449e-04 [km**2]
+CZ_Y = -4.221234189514228e-04 [km**2]
+CZ_Z = 3.231931992380369e-04 [km**2]
+CX_DOT_X = -3.349365033922630e-07 [km**2/s]
+CX_DOT_Y = -4.686084221046758e-07 [km**2/s]
+CX_DOT_Z = 2.484949578400095e-07 [km**2/s]
+CX_DOT_X_DOT = 4.296022805587290e-10 [km**2/s**2]
+CY_DOT_X = -2.211832501084875e-07 [km**2/s]
+CY_DOT_Y = -2.864186892102733e-07 [km**2/s]
+CY_DOT_Z = 1.798098699846038e-07 [km**2/s]
+CY_DOT_X_DOT = 2.608899201686016e-10 [km**2/s**2]
+CY_DOT_Y_DOT = 1.767514756338532e-10 [km**2/s**2]
+CZ_DOT_X = -3.041346050686871e-07 [km**2/s]
+CZ_DOT_Y = -4.989496988610662e-07 [km**2/s]
+CZ_DOT_Z = 3.540310904497689e-07 [km**2/s]
+CZ_DOT_X_DOT = 1.869263192954590e-10 [km**2/s**2]
+CZ_DOT_Y_DOT = 1.008862586240695e-10 [km**2/s**2]
+CZ_DOT_Z_DOT = 6.224444338635500e-10 [km**2/s**2]
+
+COMMENT first burn
+MAN_EPOCH_IGNITION = 2024-03-01T09:00:34.1
+MAN_DURATION = 132.60 [s]
+MAN_DELTA_MASS = -18.418 [kg]
+MAN_REF_FRAME = EME2000
+MAN_DV_1 = -0.02325700 [km/s]
+MAN_DV_2 = 0.01683160 [km/s]
+MAN_DV_3 = -0.00893444 [km/s]
+
+COMMENT second burn
+MAN_EPOCH_IGNITION = 2024-03-02T09:00:34.1
+MAN_DURATION = 0.0 [s]
+MAN_DELTA_MASS = 0.0 [kg]
+MAN_REF_FRAME = RTN
+MAN_DV_1 = 0.001 [km/s]
+MAN_DV_2 = 0.0 [km/s]
+MAN_DV_3 = 0.0 [km/s]
+USER_DEFINED_EARTH_MODEL = WGS-84
+"""
+
+OMM_KVN = """CCSDS_OMM_VERS = 3.0
+CREATION_DATE = 2024-01-02T00:00:00
+ORIGINATOR = VISVIVA TESTS
+OBJECT_NAME = ISS (ZARYA)
+OBJECT_ID = 1998-067A
+CENTER_NAME = EARTH
+REF_FRAME = TEME
+TIME_SYSTEM = UTC
+MEAN_ELEMENT_THEORY = SGP4
+COMMENT mean elements
+EPOCH = 2024-01-01T12:00:00.000000
+MEAN_MOTION = 15.49815350 [rev/day]
+ECCENTRICITY = 0.0006703
+INCLINATION = 51.6416 [deg]
+RA_OF_ASC_NODE = 247.4627 [deg]
+ARG_OF_PERICENTER = 130.5360 [deg]
+MEAN_ANOMALY = 325.0288 [deg]
+EPHEMERIS_TYPE = 0
+CLASSIFICATION_TYPE = U
+NORAD_CAT_ID = 25544
+ELEMENT_SET_NO = 900
+REV_AT_EPOCH = 1000
+BSTAR = 0.00010270 [1/ER]
+MEAN_MOTION_DOT = 0.00016717 [rev/day**2]
+MEAN_MOTION_DDOT = 0.0 [rev/day**3]
+"""
+ISS = ("1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+       "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+
+
+def test_opm_physics_objects():
+    opm = vv.read_opm(OPM_KVN)
+    assert (opm.frame, opm.center, opm.visviva_frame) == ("GCRF", "EARTH", "gcrs")
+    assert abs((opm.epoch - Time("2024-03-01T00:00:00", scale="utc")).sec) < 1e-9
+    s = opm.state
+    assert isinstance(s, vv.StateVectors) and s.gm.to_value(u.km**3 / u.s**2) == 398600.4415
+    np.testing.assert_array_equal(s.v.to_value(u.km / u.s), [-0.873160, 8.740420, -4.191076])
+    first, second = opm.maneuvers
+    assert first.frame == "EME2000" and first.duration == 132.6 * u.s
+    assert first.delta_mass == -18.418 * u.kg
+    np.testing.assert_array_equal(first.delta_v.to_value(u.km / u.s), [-0.023257, 0.0168316, -0.00893444])
+    assert abs((second.epoch - first.epoch).to_value(u.day) - 1) < 1e-12
+    cov = opm.covariance
+    assert cov.shape == (6, 6) and np.array_equal(cov, cov.T)
+    assert cov[3, 0] == -3.349365033922630e-07 and cov[5, 4] == 1.008862586240695e-10
+    assert opm.sections["user_defined"]["EARTH_MODEL"] == "WGS-84"
+    assert opm.sections["maneuvers"][1].comments == ["second burn"]
+    assert opm.sections["spacecraft_parameters"]["DRAG_COEFF"] == 2.5
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_opm_round_trip_every_field(fmt, tmp_path):
+    opm = vv.read_opm(OPM_KVN)
+    text = vv.write_opm(opm, tmp_path / f"m.{fmt}")
+    assert text.lstrip().startswith("<" if fmt == "xml" else "CCSDS_OPM_VERS")
+    back = vv.read_opm(tmp_path / f"m.{fmt}")
+    for name, record in opm.sections.items():
+        other = back.sections[name]
+        if isinstance(record, list):
+            assert [r.values for r in record] == [r.values for r in other]
+            assert [r.comments for r in record] == [r.comments for r in other]
+        else:
+            assert record.values == other.values and record.comments == other.comments
+    assert vv.write_opm(back, format=fmt) == text
+
+
+@pytest.mark.parametrize("edit, marker, words", [
+    (("X_DOT = -0.873160 [km/s]", "X_DOT = -0.873160 [m/s]"), "X_DOT", r"X_DOT must be in \[km/s\]"),
+    (("Z = -717.490000 [km]\n", ""), "EPOCH =", "lacks the mandatory keyword Z"),
+    (("TRUE_ANOMALY = 40.0 [deg]", "MEAN_ANOMALY = 40.0 [deg]\nTRUE_ANOMALY = 40.0 [deg]"),
+     "SEMI_MAJOR", "exactly one of TRUE_ANOMALY and MEAN_ANOMALY"),
+    (("MAN_DV_2 = 0.0 [km/s]\n", ""), "MAN_EPOCH_IGNITION = 2024-03-02",
+     "lacks the mandatory keyword MAN_DV_2"),
+    (("DRAG_COEFF = 2.5", "DRAG_COEF = 2.5"), "DRAG_COEF ", "DRAG_COEF: not a keyword of a OPM"),
+    (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-03-01 00:00"), "EPOCH =",
+     "not a CCSDS epoch"),
+    (("MASS = 3000.0 [kg]\n", "MASS = 3000.0 [kg]\nMASS = 1 [kg]\n"), "MASS = 1 ",
+     r"given twice .*\(first on line 30\)"),
+])
+def test_opm_errors_name_the_line(edit, marker, words):
+    assert edit[0] in OPM_KVN
+    text = OPM_KVN.replace(edit[0], edit[1], 1)
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith(marker))
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_opm(text)
+    assert info.value.line == line, str(info.value)
+
+
+def test_omm_reads_into_satellite_like_the_tle():
+    omm = vv.read_omm(OMM_KVN)
+    assert isinstance(omm, dict) and omm["NORAD_CAT_ID"] == 25544 and omm["BSTAR"] == 1.027e-4
+    assert omm.comments["mean_elements"] == ["mean elements"] and omm.lines["BSTAR"] == 23
+    from_omm = vv.Satellite.from_omm(omm)
+    from_tle = vv.Satellite.from_tle(*ISS)
+    t = from_tle.epoch + np.linspace(0, 1, 5) * u.day
+    np.testing.assert_allclose(from_omm.teme(t).r.to_value(u.km), from_tle.teme(t).r.to_value(u.km),
+                               rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_omm_round_trip(fmt):
+    omm = vv.read_omm(OMM_KVN)
+    back = vv.read_omm(vv.write_omm(omm, format=fmt))
+    assert dict(back) == dict(omm) and back.comments == omm.comments
+
+
+def test_omm_errors():
+    with pytest.raises(vv.CCSDSFormatError, match=r"line 12: MEAN_MOTION must be in \[rev/day\]"):
+        vv.read_omm(OMM_KVN.replace("15.49815350 [rev/day]", "15.49815350 [rev/s]"))
+    with pytest.raises(vv.CCSDSFormatError, match="exactly one of SEMI_MAJOR_AXIS and MEAN_MOTION"):
+        vv.read_omm(OMM_KVN.replace("MEAN_MOTION = 15.49815350 [rev/day]\n", ""))
+    with pytest.raises(vv.InvalidInputError, match="FOO is not an OMM keyword"):
+        vv.write_omm({**vv.read_omm(OMM_KVN), "FOO": 1})
+    with pytest.raises(vv.InvalidInputError, match="no ORIGINATOR"):
+        vv.write_omm(vv.Satellite.from_tle(*ISS).to_omm())
+    with pytest.raises(vv.InvalidInputError, match="BSTAR = 'x' is not a valid float"):
+        vv.write_omm({**vv.read_omm(OMM_KVN), "BSTAR": "x"})
+
+
+def test_to_tle_reproduces_the_lines_and_sgp4_exporter():
+    from sgp4.exporter import export_omm, export_tle
+
+    sat = vv.Satellite.from_tle(*ISS)
+    assert sat.to_tle() == ISS == export_tle(sat.satrec)
+    ours, theirs = sat.to_omm(), export_omm(sat.satrec, sat.name)
+    assert ours.keys() == theirs.keys()
+    for key, value in theirs.items():
+        if key == "EPOCH":  # rounded here, truncated by sgp4: within a microsecond
+            assert abs((Time(ours[key]) - Time(value)).to_value(u.us)) <= 1.0
+        else:
+            assert ours[key] == value or abs(ours[key] - value) <= 4e-16 * abs(value), key
+
+
+def test_alpha5_and_checksums():
+    from sgp4.api import Satrec
+
+    l1 = "1 A0001U 24001A   24001.50000000 -.00000112  00000-0 -14157-3 0  9990"
+    l2 = "2 A0001  98.7000  10.0000 0012000  90.0000 270.0000 14.20000000    10"
+    sat = vv.Satellite.from_tle(l1, l2, verify_checksum=False)
+    assert sat.satnum == 100001
+    line1, line2 = sat.to_tle()
+    assert line1[2:7] == "A0001" == line2[2:7]
+    assert len(line1) == len(line2) == 69
+    for line in (line1, line2):  # the checksum is the sum of digits with '-' as 1, modulo 10
+        assert int(line[68]) == sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10
+    ref = Satrec.twoline2rv(line1, line2)
+    assert ref.satnum == 100001 and ref.bstar == sat.satrec.bstar
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.floats(1.0, 16.5), e=st.floats(0.0, 0.9), i=st.floats(0.0, 180.0),
+       raan=st.floats(0.0, 359.9999), argp=st.floats(0.0, 359.9999), m=st.floats(0.0, 359.9999),
+       bstar=st.floats(-1e-2, 1e-2), satnum=st.integers(1, 339999),
+       ndot=st.floats(-0.5, 0.5), day=st.floats(1.0, 365.9))
+def test_hypothesis_tle_and_omm_round_trip_through_sgp4(n, e, i, raan, argp, m, bstar, satnum,
+                                                        ndot, day):
+    """TLE text -> Satrec -> to_tle gives the same text; to_omm -> from_omm the same record."""
+    from sgp4.alpha5 import to_alpha5
+    from sgp4.api import Satrec
+
+    from visviva.satellites.tle_export import format_exponent, tle_checksum
+
+    num = to_alpha5(satnum) if satnum > 99999 else f"{satnum:05d}"
+    l1 = (f"1 {num}U 24001A   24{day:012.8f} {f'{ndot: .8f}'.replace('0.', '.', 1)} "
+          f"{format_exponent(0.0, 'x', '-')} {format_exponent(bstar, 'B*')} 0  999")
+    l2 = (f"2 {num} {i:8.4f} {raan:8.4f} {f'{e:.7f}'[2:]} {argp:8.4f} {m:8.4f} {n:11.8f}12345")
+    l1, l2 = l1 + str(tle_checksum(l1)), l2 + str(tle_checksum(l2))
+    sat = vv.Satellite.from_tle(l1, l2)
+    assert sat.to_tle() == (l1, l2)
+    again = vv.Satellite.from_omm(sat.to_omm()).satrec
+    ref = Satrec.twoline2rv(l1, l2)
+    for key in ("no_kozai", "ecco", "inclo", "nodeo", "argpo", "mo", "bstar", "ndot", "satnum"):
+        # exact, except where sgp4's OMM reader (one multiplication) cannot hit the TLE's value:
+        # then the nearest float it can reach, one unit in the last place away
+        a, b = getattr(again, key), getattr(ref, key)
+        assert abs(a - b) <= math.ulp(b), key
+    # the OMM epoch is rounded to the microsecond: within 0.5 us (5.8e-12 day)
+    dt_day = (again.jdsatepoch - ref.jdsatepoch) + (again.jdsatepochF - ref.jdsatepochF)
+    assert abs(dt_day) * 86400e6 <= 0.5 + 1e-3
+
+
+_finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=30, deadline=None)
+@given(r=st.lists(st.floats(-5e4, 5e4).filter(lambda x: abs(x) > 1.0), min_size=3, max_size=3),
+       v=st.lists(_finite.map(lambda x: x * 1e-5), min_size=3, max_size=3),
+       dv=st.lists(_finite.map(lambda x: x * 1e-8), min_size=3, max_size=3),
+       fmt=st.sampled_from(["kvn", "xml"]), with_cov=st.booleans(),
+       seconds=st.floats(0, 86400 * 365))
+def test_hypothesis_opm_round_trip(r, v, dv, fmt, with_cov, seconds):
+    from visviva.ccsds.opm import Maneuver
+
+    epoch = Time("2025-01-01T00:00:00", scale="utc") + seconds * u.s
+    state = vv.StateVectors(r * u.km, v * u.km / u.s, vv.EARTH, epoch=epoch)
+    burn = Maneuver(epoch + 60 * u.s, 12.5 * u.s, -0.25 * u.kg, "RTN", dv * (u.km / u.s))
+    a = np.arange(36.0).reshape(6, 6)
+    opm = OPM.from_state(state, object_name="H", maneuvers=[burn],
+                         covariance=a @ a.T if with_cov else None)
+    back = vv.read_opm(vv.write_opm(opm, format=fmt))
+    np.testing.assert_array_equal(back.state.r.to_value(u.km), r)
+    np.testing.assert_array_equal(back.state.v.to_value(u.km / u.s), v)
+    assert abs((back.epoch - epoch).to_value(u.s)) < 1e-9
+    np.testing.assert_array_equal(back.maneuvers[0].delta_v.to_value(u.km / u.s), dv)
+    if with_cov:
+        np.testing.assert_array_equal(back.covariance, a @ a.T)
+    for name, record in back.sections.items():
+        if name != "maneuvers":  # everything as given, plus the CREATION_DATE the writer added
+            added = {"CREATION_DATE"} if name == "header" else set()
+            assert set(record.values) == set(opm.sections[name].values) | added
+            assert all(record[k] == v for k, v in opm.sections[name].values.items())
+    assert back.sections["maneuvers"][0].values == opm.sections["maneuvers"][0].values
+
+
+@settings(max_examples=30, deadline=None)
+@given(values=st.fixed_dictionaries({
+    "MEAN_MOTION": st.floats(0.5, 17.0), "ECCENTRICITY": st.floats(0.0, 0.99),
+    "INCLINATION": st.floats(0.0, 180.0), "RA_OF_ASC_NODE": st.floats(0.0, 360.0),
+    "ARG_OF_PERICENTER": st.floats(0.0, 360.0), "MEAN_ANOMALY": st.floats(0.0, 360.0),
+    "BSTAR": st.floats(-1.0, 1.0), "NORAD_CAT_ID": st.integers(1, 339999),
+    "MEAN_MOTION_DOT": st.floats(-1.0, 1.0), "MEAN_MOTION_DDOT": st.floats(-1.0, 1.0)}),
+    fmt=st.sampled_from(["kvn", "xml"]))
+def test_hypothesis_omm_round_trip(values, fmt):
+    omm = dict(vv.read_omm(OMM_KVN))
+    omm.update(values)
+    back = vv.read_omm(vv.write_omm(omm, format=fmt))
+    assert dict(back) == omm
+    vv.Satellite.from_omm(back)  # what the OMM is for
+
+
+def test_omm_inside_an_ndm_wrapper():
+    xml = vv.write_omm(vv.read_omm(OMM_KVN), format="xml")
+    body = xml.split("\n", 1)[1]
+    wrapped = f'<?xml version="1.0" encoding="UTF-8"?>\n<ndm>\n{body}</ndm>\n'
+    assert dict(vv.read_omm(wrapped)) == dict(vv.read_omm(OMM_KVN))
+    with pytest.raises(vv.CCSDSFormatError, match="holds 2 <omm> messages"):
+        vv.read_omm(f"<ndm>\n{body}{body}</ndm>\n")
+
+
+def test_xml_unknown_elements_name_the_line():
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml")
+    lines = xml.splitlines()
+    k = next(i for i, s in enumerate(lines) if "<stateVector>" in s)
+    bad = "\n".join(lines[:k] + ["<orbitStuff>1</orbitStuff>"] + lines[k:])
+    with pytest.raises(vv.CCSDSFormatError, match="<orbitStuff> does not belong in <data>") as e:
+        vv.read_opm(bad)
+    assert e.value.line == k + 1

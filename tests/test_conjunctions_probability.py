@@ -1,0 +1,303 @@
+"""Collision probability against published reference values.
+
+References (numbers copied from the public test files, not code):
+
+* NASA CARA Analysis Tools, ``DistributedMatlab/ProbabilityOfCollision/UnitTests/
+  PcCircle_UnitTest.m`` (github.com/nasa/CARA_Analysis_Tools): the Omitron cases and the
+  multiple-HBR case, asserted there to 1e-10 relative; ``Pc2D_Foster_UnitTest.m`` (same cases).
+* Alfano (2009) test cases 3 and 5 and Chan's (2008, table 5.1) cases as 2-D encounter-plane
+  data, with the reference values of Orekit's ``Laas2015Test.java`` (Serra et al. 2016 method,
+  an exact series with error bounds) and ``Chan1997Test.java`` (github.com/CS-SI/Orekit).
+* CARA's Alfano 2009 table, ``Pc3D_Hall_Utils/Output_AlfanoTestCases_Pc3D/
+  A09TestCases_01_12_Distributed.csv``: 2-D Pc of case 3 = 0.100351017066071, case 5 =
+  0.044492344523551 (used for the encounter-plane data above at its 7-digit rounding).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from astropy import units as u
+from scipy import integrate, stats
+
+import visviva as vv
+from visviva.conjunctions import (
+    CovarianceRepairWarning,
+    collision_probability,
+    max_collision_probability,
+    monte_carlo_probability,
+)
+from visviva.core import collision as kern
+from visviva.errors import InvalidInputError, ShapeError
+
+# --- CARA PcCircle_UnitTest: Omitron case 1 (km, km^2; HBR 0.020 km) -------------------------
+OM_R1 = np.array([378.39559, 4305.721887, 5752.767554])
+OM_V1 = np.array([2.360800244, 5.580331936, -4.322349039])
+OM_C1 = np.array([[44.5757544811362, 81.6751751052616, -67.8687662707124],
+                  [81.6751751052616, 158.453402956163, -128.616921644857],
+                  [-67.8687662707124, -128.616921644858, 105.490542562701]])
+OM_R2 = np.array([374.5180598, 4307.560983, 5751.130418])
+OM_V2 = np.array([-5.388125081, -3.946827739, 3.322820358])
+OM_C2 = np.array([[2.31067077720423, 1.69905293875632, -1.4170164577661],
+                  [1.69905293875632, 1.24957388457206, -1.04174164279599],
+                  [-1.4170164577661, -1.04174164279599, 0.869260558223714]])
+OM_PC = 2.706023476569787e-05
+
+# --- Omitron case 2 ----------------------------------------------------------------------------
+C2_R1 = np.array([-3239.128337196251, 2404.575152356222, 5703.228541709001])
+C2_V1 = np.array([-3.745768373154199, 5.012339015927846, -4.231864565717194])
+C2_R2 = np.array([-3239.138264917246, 2404.568320465936, 5703.235605231182])
+C2_V2 = np.array([6.110192790100711, -1.767321407894830, 4.140369261741708])
+C2_C1 = np.array([[0.342072996423899, -0.412677096778269, 0.371500417511149],
+                  [-0.412677096778269, 0.609905946319294, -0.540401385544286],
+                  [0.371500417511149, -0.540401385544286, 0.521238634755377]]) * 1e-3
+C2_C2 = np.array([[0.028351300975134, -0.008204103437377, 0.019253747960155],
+                  [-0.008204103437377, 0.002404377774847, -0.005586512197914],
+                  [0.019253747960155, -0.005586512197914, 0.013289250260317]])
+
+# --- multiple-HBR case (m, m^2) ----------------------------------------------------------------
+MH_R1 = np.array([-6.227006552549310e+06, -3.000839638747010e+06, -1.932569099062626e+05])
+MH_V1 = np.array([2.983983865443772e+03, -5.973188938878403e+03, -3.622262843716804e+03])
+MH_C1 = np.array([[2.329248149898317e+04, -4.624097512511387e+04, -2.810352472705708e+04],
+                  [-4.624097512511387e+04, 9.189373058443272e+04, 5.583858286675660e+04],
+                  [-2.810352472705708e+04, 5.583858286675660e+04, 3.396506000245927e+04]])
+MH_R2 = np.array([-6.231009268962734e+06, -2.993196148130401e+06, -1.761401651747054e+05])
+MH_V2 = np.array([-3.255968208692156e+02, 9.946514541875586e+02, -7.507340539210305e+03])
+MH_C2 = np.array([[3.689149893147051e+07, -1.200669748208798e+08, 9.002535247181211e+08],
+                  [-1.200669748208798e+08, 3.907735722225543e+08, -2.929990982074453e+09],
+                  [9.002535247181211e+08, -2.929990982074453e+09, 2.196888928197153e+10]])
+MH_HBR = [0.0, 1e1, 1e2, 1e3, 3e3, 1e4, 3e4, math.inf]
+MH_PC = [0.0, 2.514939701718358e-15, 1.232312816404174e-05, 6.343318773183237e-03,
+         1.917884657463699e-02, 6.389821634646267e-02, 1.900663422510684e-01, 1.0]
+
+
+def _km_to_m(r1, v1, c1, r2, v2, c2):
+    return r1 * 1e3, v1 * 1e3, c1 * 1e6, r2 * 1e3, v2 * 1e3, c2 * 1e6
+
+
+def test_cara_omitron_case1_to_1e10():
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    assert collision_probability(*args, 20.0) == pytest.approx(OM_PC, rel=1e-10)
+
+
+def test_quantities_give_the_same_number():
+    pc = collision_probability(OM_R1 * u.km, OM_V1 * u.km / u.s, OM_C1 * u.km**2,
+                               OM_R2 * u.km, OM_V2 * u.km / u.s, OM_C2 * u.km**2, 20 * u.m)
+    assert pc == pytest.approx(OM_PC, rel=1e-10)
+    assert vv.collision_probability is collision_probability
+
+
+def test_cara_omitron_case2_to_1e10():
+    pc = collision_probability(*_km_to_m(C2_R1, C2_V1, C2_C1, C2_R2, C2_V2, C2_C2), 20.0)
+    assert pc == pytest.approx(1.807363058494765e-01, rel=1e-10)
+
+
+@pytest.mark.parametrize("hbr, expected", list(zip(MH_HBR, MH_PC, strict=True)))
+def test_cara_multiple_hbr(hbr, expected):
+    pc = collision_probability(MH_R1, MH_V1, MH_C1, MH_R2, MH_V2, MH_C2, hbr)
+    if expected in (0.0, 1.0):
+        assert pc == expected
+    elif hbr <= 100:
+        assert pc == pytest.approx(expected, rel=1e-10)
+    else:
+        # HBR >> minor sigma (18.6 m): CARA's 64-point Gauss-Chebyshev rule is ~1e-4 off here;
+        # our value is checked against the integral taken in the other order (over the minor
+        # axis, the major one by the normal CDF) with scipy's adaptive quad
+        assert pc == pytest.approx(expected, rel=4e-4)
+        plane = vv.conjunctions.encounter_plane(MH_R1, MH_V1, MH_C1, MH_R2, MH_V2, MH_C2, hbr)
+        (xm, zm), (sx, sz) = plane.principal_miss, plane.sigma
+
+        def g(z):
+            w = math.sqrt(max(hbr * hbr - (z - zm) ** 2, 0.0))
+            return stats.norm.pdf(z, 0, sz) * (stats.norm.cdf((xm + w) / sx)
+                                               - stats.norm.cdf((xm - w) / sx))
+
+        lo, hi = max(zm - hbr, -60 * sz), min(zm + hbr, 60 * sz)
+        ref = integrate.quad(g, lo, hi, epsabs=0, epsrel=1e-13, limit=500,
+                             points=[0.0] if lo < 0 < hi else None)[0]
+        assert pc == pytest.approx(ref, rel=1e-10)
+
+
+def test_cara_npd_case_warns_and_is_zero():
+    r1 = np.array([-6711923.276204407, 2115987.639388162, 596903.033311516])
+    v1 = np.array([-3633.024009735033, -8343.876216289187, 1529.269073307224])
+    r2 = np.array([-6703689.997789211, 2066645.266249834, 601175.621383896])
+    v2 = np.array([-499.951545210059, -8271.763735723972, -3673.287518932014])
+    c1 = np.array([[10651.06865424844, 25162.51806981900, -4653.47179860534],
+                   [25162.51806981901, 61873.55078822979, -11370.63814221593],
+                   [-4653.47179860534, -11370.63814221593, 2108.71780971058]])
+    c2 = np.array([[38324418857.201, 409236977944.646, 182366534533.406],
+                   [409236977944.646, 4369926131386.673, 1947351616381.380],
+                   [182366534533.406, 1947351616381.380, 867790027954.990]])
+    with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
+        pc = collision_probability(r1, v1, c1, r2, v2, c2, 52.84)
+    assert pc == 0.0  # CARA: 0 (underflow); here ln Pc ~ -9.8e12 is still available:
+    with pytest.warns(CovarianceRepairWarning):
+        lp = collision_probability(r1, v1, c1, r2, v2, c2, 52.84, log=True)
+    assert -1e13 < lp < -9e12
+
+
+# --- encounter-plane (2-D) reference cases -----------------------------------------------------
+# (xm, zm, sx, sz, R, Laas2015 value, its absolute tolerance, Chan1997 value, its tolerance)
+PLANE_CASES = [
+    (0, 10, 25, 50, 5, 9.742e-3, 1e-6, 9.754e-3, 1e-6),
+    (10, 0, 25, 50, 5, 9.181e-3, 1e-6, 9.189e-3, 1e-6),
+    (0, 10, 25, 75, 5, 6.571e-3, 1e-6, 6.586e-3, 1e-6),
+    (10, 0, 25, 75, 5, 6.125e-3, 1e-6, 6.135e-3, 1e-6),
+    (0, 1000, 1000, 3000, 10, 1.577e-5, 1e-8, 1.577e-5, 1e-8),
+    (1000, 0, 1000, 3000, 10, 1.011e-5, 1e-8, 1.011e-5, 1e-8),
+    (0, 10000, 1000, 3000, 10, 6.443e-8, 1e-11, 6.443e-8, 1e-11),
+    (10000, 0, 1000, 3000, 10, 3.219e-27, 1e-30, 3.216e-27, 1e-30),
+    (0, 10000, 1000, 10000, 10, 3.033e-6, 1e-9, 3.033e-6, 1e-9),
+    (10000, 0, 1000, 10000, 10, 9.656e-28, 1e-31, 9.645e-28, 1e-31),
+    (0, 5000, 1000, 3000, 50, 1.039e-4, 1e-7, 1.039e-4, 1e-7),
+    (5000, 0, 1000, 3000, 50, 1.564e-9, 1e-12, 1.556e-9, 1e-12),
+    (84.875546, 60.583685, 57.918666, 152.8814468, 10.3, 1.9002e-3, 1e-7, 1.8934e-3, 1e-7),
+    (-81.618369, 115.055899, 15.988242, 5756.840725, 1.3, 2.0553e-11, 1e-15, 2.0135e-11, 1e-15),
+    (102.177247, 693.405893, 94.230921, 643.409272, 5.3, 7.2003e-5, 1e-9, 7.2000e-5, 1e-9),
+    (-752.672701, 644.939441, 445.859950, 6095.858688, 3.5, 5.3904e-7, 1e-11, 5.3903e-7, 1e-11),
+    (-692.362272, 4475.456261, 193.454603, 562.027293, 13.2, 2.2796e-20, 1e-24, 2.2880e-20,
+     1e-24),
+    # Alfano (2009) case 3 in its encounter plane (CARA 2-D: 0.100351017)
+    (-3.8872073, 0.1591646, 1.4101830, 114.2585190, 15, 1.0038e-1, 1e-5, 3.1264e-2, 1e-6),
+]
+
+
+def _foster(xm, zm, sx, sz, r):
+    lp, status = kern.log_pc_circle(abs(xm), abs(zm), sx, sz, r, kern.GAUSS_LO, kern.GAUSS_HI,
+                                    1e-13)
+    assert status == 0
+    return math.exp(lp)
+
+
+@pytest.mark.parametrize("case", PLANE_CASES)
+def test_foster_kernel_matches_laas_and_chan_matches_orekit(case):
+    xm, zm, sx, sz, r, laas, laas_tol, chan, chan_tol = case
+    assert _foster(xm, zm, sx, sz, r) == pytest.approx(laas, abs=laas_tol)
+    assert math.exp(kern.log_pc_chan(abs(xm), abs(zm), sx, sz, r)) == pytest.approx(
+        chan, abs=chan_tol)
+
+
+def test_alfano_case5_plane_and_chan_series_converged():
+    # Alfano (2009) case 5: Laas2015 reference 4.4507e-2 (CARA 2-D 0.0444923)
+    assert _foster(1.2217895, 2.1230067, 0.0373279, 177.8109003, 10) == pytest.approx(
+        4.4507e-2, abs=3e-6)
+    # Chan's series summed to convergence: 8.76184970762617e-184 (mpmath, 60 digits); Orekit's
+    # 1.7346e-202 stops the series early
+    lp = kern.log_pc_chan(1.2217895, 2.1230067, 0.0373279, 177.8109003, 10)
+    assert math.exp(lp) == pytest.approx(8.76184970762617e-184, rel=1e-10)
+
+
+def test_foster_against_adaptive_dblquad_random_geometries():
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        sx, sz = rng.uniform(1, 300, 2)
+        xm, zm = rng.uniform(0, 400, 2)
+        r = rng.uniform(1, 100)
+
+        def f(z, x, sx=sx, sz=sz):
+            return stats.norm.pdf(x, 0, sx) * stats.norm.pdf(z, 0, sz)
+
+        def half(x, r=r, xm=xm):
+            return math.sqrt(max(r * r - (x - xm) ** 2, 0.0))
+
+        ref = integrate.dblquad(f, xm - r, xm + r, lambda x, zm=zm, half=half: zm - half(x),
+                                lambda x, zm=zm, half=half: zm + half(x), epsabs=0,
+                                epsrel=1e-12)[0]
+        assert _foster(xm, zm, sx, sz, r) == pytest.approx(ref, rel=1e-10)
+
+
+def test_tiny_probability_keeps_relative_accuracy():
+    # circular covariance: Pc = int_0^R (rho/s^2) exp(-(rho^2 + d^2)/(2 s^2)) I0(rho d/s^2) drho
+    # (the Rice distribution), with mpmath at 40 digits
+    mpmath = pytest.importorskip("mpmath")
+    mpmath.mp.dps = 40
+    for d in (300.0, 370.0, 420.0):
+        s, r = 10.0, 1.0
+        exact = float(mpmath.log(mpmath.quad(
+            lambda x, d=d, s=s: x / s**2 * mpmath.exp(-(x * x + d * d) / (2 * s * s))
+            * mpmath.besseli(0, x * d / s**2), [0, r])))
+        lp, status = kern.log_pc_circle(d, 0.0, s, s, r, kern.GAUSS_LO, kern.GAUSS_HI, 1e-13)
+        assert status == 0
+        assert lp == pytest.approx(exact, rel=1e-9)
+    # ~1e-300 as a float: not underflowed, not zero
+    lp, _ = kern.log_pc_circle(370.0, 0.0, 10.0, 10.0, 1.0, kern.GAUSS_LO, kern.GAUSS_HI, 1e-13)
+    assert 1e-310 < math.exp(lp) < 1e-290
+
+
+def test_monte_carlo_interval_covers_foster():
+    args = _km_to_m(C2_R1, C2_V1, C2_C1, C2_R2, C2_V2, C2_C2)
+    res = monte_carlo_probability(*args, 20.0, samples=400_000, seed=7)
+    assert res.low <= 1.807363058494765e-01 <= res.high
+    assert res.high - res.low < 0.01
+    est = collision_probability(*args, 20.0, method="monte_carlo", samples=200_000, seed=1)
+    assert est == pytest.approx(0.1807, abs=0.005)
+
+
+def test_chan_close_to_foster_for_cara_case():
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    assert collision_probability(*args, 20.0, method="chan") == pytest.approx(OM_PC, rel=1e-3)
+
+
+def test_3d_equals_foster_for_a_fast_encounter():
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    p3 = collision_probability(*args, 20.0, method="3d")
+    assert p3 == pytest.approx(OM_PC, rel=1e-4)
+
+
+def test_alfano_max_probability_circular_limit():
+    # circular covariance, R << d: Pc_max = R^2 / (e d^2) (Alfano 2005)
+    r1, v1 = np.array([7e6, 0, 0.0]), np.array([0, 7.5e3, 0.0])
+    r2, v2 = np.array([7e6 + 500.0, 0, 0]), np.array([0, 0, 7.5e3])
+    pmax = max_collision_probability(r1, v1, r2, v2, 2.0)
+    assert pmax == pytest.approx(4.0 / (math.e * 500.0**2), rel=1e-4)
+    # and no covariance size gives more
+    for s in (100.0, 353.55, 1000.0):
+        c = np.eye(3) * s**2
+        assert collision_probability(r1, v1, c, r2, v2, c * 0, 2.0) <= pmax * (1 + 1e-9)
+
+
+def test_hbr_zero_and_infinite():
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    assert collision_probability(*args, 0.0) == 0.0
+    assert collision_probability(*args, math.inf) == 1.0
+
+
+def test_bad_inputs_raise_clear_errors():
+    args = list(_km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2))
+    with pytest.raises(InvalidInputError, match="method"):
+        collision_probability(*args, 20.0, method="foo")
+    with pytest.raises(InvalidInputError, match=">= 0"):
+        collision_probability(*args, -1.0)
+    bad = list(args)
+    bad[0] = np.array([np.nan, 0, 0])
+    with pytest.raises(InvalidInputError, match="NaN"):
+        collision_probability(*bad, 20.0)
+    bad = list(args)
+    bad[2] = np.ones((4, 4))
+    with pytest.raises(ShapeError, match="6x6 or 3x3"):
+        collision_probability(*bad, 20.0)
+    bad = list(args)
+    bad[2] = np.array([[1.0, 2, 0], [0, 1, 0], [0, 0, 1]])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        collision_probability(*bad, 20.0)
+    same = list(args)
+    same[4] = same[1]
+    with pytest.raises(InvalidInputError, match="relative velocity is zero"):
+        collision_probability(*same, 20.0)
+    with pytest.raises(u.UnitsError):
+        collision_probability(OM_R1 * u.s, *args[1:], 20.0)
+
+
+def test_six_by_six_uses_position_block():
+    args = list(_km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2))
+    for k in (2, 5):
+        c6 = np.eye(6) * 1e-2
+        c6[:3, :3] = args[k]
+        args[k] = c6
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert collision_probability(*args, 20.0) == pytest.approx(OM_PC, rel=1e-10)

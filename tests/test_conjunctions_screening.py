@@ -1,0 +1,161 @@
+"""Screening against brute-force one-second sampling with sgp4, covariance tools, CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+
+import visviva as vv
+from visviva.cli import main
+from visviva.conjunctions import (
+    inertial_to_rtn,
+    propagate_covariance,
+    rtn_to_inertial,
+    state_transition_matrix,
+)
+from visviva.conjunctions.synthetic import synthetic_catalog
+from visviva.core.universal import propagate_one
+
+ONE_METER = 1e-3  # km
+
+
+@pytest.fixture(scope="module")
+def catalog():
+    return synthetic_catalog(120, seed=4, crossing_pairs=4)
+
+
+@pytest.fixture(scope="module")
+def screened(catalog):
+    t0 = catalog.epochs[0]
+    return vv.screen_conjunctions(catalog, None, t0, t0 + 3 * u.hour, threshold=20 * u.km)
+
+
+def test_screening_misses_nothing_one_second_sampling_finds(catalog, screened):
+    t0 = catalog.epochs[0]
+    ts = np.arange(0.0, 3 * 3600 + 1)
+    jd = np.full(ts.size, t0.utc.jd1)
+    fr = t0.utc.jd2 + ts / 86400.0
+    _, r, _ = catalog.satrec_array.sgp4(jd, fr)
+    brute = []
+    for i in range(len(catalog)):
+        d = np.linalg.norm(r[i + 1:] - r[i], axis=-1)
+        for jj in np.flatnonzero(d.min(axis=1) < 20.0):
+            dd = d[jj]
+            left = np.r_[True, dd[1:] <= dd[:-1]]
+            right = np.r_[dd[:-1] < dd[1:], True]
+            for k in np.flatnonzero((dd < 20.0) & left & right):
+                brute.append((i, i + 1 + jj, ts[k], dd[k]))
+    assert len(brute) >= 4  # the crossing pairs meet
+    tca_s = (screened["tca"] - t0).to_value(u.s)
+    miss = screened["miss_distance"].to_value(u.km)
+    for i, j, t, dmin in brute:
+        sel = (screened["index1"] == i) & (screened["index2"] == j) & (np.abs(tca_s - t) <= 1.0)
+        assert sel.sum() == 1, (i, j, t, dmin)
+        # the refined miss is the true minimum: never above a sampled distance
+        assert miss[sel][0] <= dmin + ONE_METER
+    assert len(screened) == len(brute)
+
+
+def test_tca_is_a_minimum_to_a_millisecond_and_rtn_is_consistent(catalog, screened):
+    for row in screened[:5]:
+        s1, s2 = catalog[int(row["index1"])], catalog[int(row["index2"])]
+        t = row["tca"] + np.array([-1e-3, 0.0, 1e-3]) * u.s
+        a, b = s1.teme(t), s2.teme(t)
+        d = np.linalg.norm((b.r - a.r).to_value(u.km), axis=-1)
+        assert d[1] <= d[0] + 1e-9 and d[1] <= d[2] + 1e-9
+        assert d[1] == pytest.approx(row["miss_distance"].to_value(u.km), abs=ONE_METER)
+        rtn = np.array([row["radial"].to_value(u.km), row["in_track"].to_value(u.km),
+                        row["cross_track"].to_value(u.km)])
+        assert np.linalg.norm(rtn) == pytest.approx(d[1], abs=1e-9)
+
+
+def test_primary_against_catalog_finds_its_rows(catalog, screened):
+    t0 = catalog.epochs[0]
+    k = int(screened["index1"][0])
+    rest = vv.Catalog([s for n, s in enumerate(catalog) if n != k])
+    tab = vv.screen_conjunctions(catalog[k], rest, t0, t0 + 3 * u.hour, threshold=20 * u.km)
+    expect = screened[(screened["index1"] == k) | (screened["index2"] == k)]
+    assert len(tab) == len(expect)
+    assert np.allclose(np.sort(tab["miss_distance"].value), np.sort(expect["miss_distance"].value))
+
+
+def test_screen_rejects_bad_windows(catalog):
+    t0 = catalog.epochs[0]
+    with pytest.raises(vv.InvalidInputError, match="after t0"):
+        vv.screen_conjunctions(catalog, None, t0, t0 - 1 * u.hour)
+    with pytest.raises(vv.InvalidInputError, match="Time"):
+        vv.screen_conjunctions(catalog, None, 0, 1)
+
+
+def test_cli_screen(tmp_path, capsys):
+    from sgp4.exporter import export_tle
+
+    cat = synthetic_catalog(0, crossing_pairs=2, seed=1)
+    lines = []
+    for s in cat:
+        l1, l2 = export_tle(s.satrec)
+        lines += [s.name, l1, l2]
+    path = tmp_path / "cat.tle"
+    path.write_text("\n".join(lines) + "\n")
+    out_csv = tmp_path / "out.csv"
+    code = main(["screen", str(path), "--threshold", "20", "--start", "2024-01-01T00:00:00",
+                 "--hours", "2", "--csv", str(out_csv), "--quiet"])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "close approaches below 20 km" in text and "SYN60000" in text
+    assert out_csv.read_text().startswith("object1,object2,tca")
+    assert main(["screen", str(tmp_path / "none.tle"), "--start", "2024-01-01",
+                 "--hours", "1"]) == 2
+
+
+# --- covariance tools ------------------------------------------------------------------------
+R0 = np.array([6778.0, 120.0, -40.0])
+V0 = np.array([0.1, 7.2, 2.5])
+GM = 398600.4418
+
+
+def test_rtn_round_trip_and_radial_axis():
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(6, 6))
+    c = a @ a.T
+    back = inertial_to_rtn(rtn_to_inertial(c, R0 * u.km, V0 * u.km / u.s), R0, V0)
+    assert np.allclose(back, c, rtol=1e-12, atol=1e-12)
+    # a pure radial variance lies along r in the inertial frame
+    crtn = np.zeros((3, 3))
+    crtn[0, 0] = 1.0
+    ci = rtn_to_inertial(crtn, R0, V0)
+    rhat = R0 / np.linalg.norm(R0)
+    assert np.allclose(ci, np.outer(rhat, rhat), atol=1e-15)
+
+
+def test_stm_matches_finite_differences_of_the_universal_propagator():
+    dt = 2400.0
+    phi, r1, v1 = state_transition_matrix(R0 * u.km, V0 * u.km / u.s, dt * u.s, GM)
+    ro, vo = np.empty(3), np.empty(3)
+    propagate_one(R0, V0, GM, dt, ro, vo)
+    assert np.allclose(r1, ro, atol=1e-6) and np.allclose(v1, vo, atol=1e-9)
+    x0 = np.r_[R0, V0]
+    fd = np.empty((6, 6))
+    for k in range(6):
+        h = 1e-3 if k < 3 else 1e-6
+        cols = []
+        for sgn in (1, -1):
+            x = x0.copy()
+            x[k] += sgn * h
+            propagate_one(x[:3].copy(), x[3:].copy(), GM, dt, ro, vo)
+            cols.append(np.r_[ro, vo])
+        fd[:, k] = (cols[0] - cols[1]) / (2 * h)
+    assert np.allclose(phi, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max())
+    # symplectic: Phi^T J Phi = J
+    j = np.block([[np.zeros((3, 3)), np.eye(3)], [-np.eye(3), np.zeros((3, 3))]])
+    assert np.allclose(phi.T @ j @ phi, j, atol=1e-8)
+
+
+def test_propagated_covariance_grows_along_track():
+    c = np.diag([100.0, 100.0, 100.0, 1e-4, 1e-4, 1e-4])  # m, m/s
+    later = propagate_covariance(c, R0, V0, 3000 * u.s, vv.EARTH)
+    phi, r1, v1 = state_transition_matrix(R0, V0, 3000.0, vv.EARTH)
+    rtn = inertial_to_rtn(later, r1, v1)
+    assert rtn[1, 1] > 10 * rtn[0, 0]
+    assert np.all(np.linalg.eigvalsh(later) > 0)

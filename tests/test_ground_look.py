@@ -1,0 +1,149 @@
+"""Look angles against astropy's AltAz and Skyfield; rates against finite differences; Doppler
+and refraction against their formulas."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.coordinates import ITRS, AltAz, CartesianRepresentation
+from astropy.time import Time
+
+import visviva as vv
+from visviva.ground import doppler_shift, refraction_deg
+
+ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
+ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
+ONE_METER = 1e-3  # km
+
+
+@pytest.fixture(scope="module")
+def iss():
+    return vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+
+
+@pytest.fixture(scope="module")
+def site():
+    return vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 50 * u.m, name="PHL")
+
+
+@pytest.fixture(scope="module")
+def times():
+    # a pass of the ISS over Philadelphia (rise 22:51:52 UTC), and some time below the horizon
+    return Time("2008-09-20T22:49:00", scale="utc") + np.arange(0, 600, 20) * u.s
+
+
+def test_angles_equal_astropy_altaz(iss, site, times):
+    la = site.look(iss, times)
+    it = iss.itrs(times).r
+    rel = it - site.location.get_itrs().cartesian.xyz.T
+    topo = ITRS(CartesianRepresentation(rel.T), obstime=times, location=site.location)
+    aa = topo.transform_to(AltAz(obstime=times, location=site.location))  # no refraction
+    np.testing.assert_allclose(la.elevation.to_value(u.deg), aa.alt.deg, atol=1e-8)
+    daz = (la.azimuth.to_value(u.deg) - aa.az.deg + 180) % 360 - 180
+    np.testing.assert_allclose(daz, 0, atol=1e-8)
+    np.testing.assert_allclose(la.range.to_value(u.km), aa.distance.km, atol=ONE_METER * 1e-3)
+    assert la.azimuth.min() >= 0 * u.deg and la.azimuth.max() < 360 * u.deg
+
+
+def test_angles_and_radec_agree_with_skyfield(iss, site, times):
+    from skyfield.api import EarthSatellite, load, wgs84
+
+    ts = load.timescale()
+    es = EarthSatellite(ISS_1, ISS_2, "ISS", ts)
+    topos = wgs84.latlon(40.0, -75.0, 50)
+    pos = (es - topos).at(ts.from_astropy(times))
+    alt, az, dist = pos.altaz()
+    ra, dec, _ = pos.radec()  # ICRF axes, geometric
+    la = site.look(iss, times)
+    # Skyfield leaves out polar motion (~10 m at the site): 1e-3 deg at these ranges
+    np.testing.assert_allclose(la.elevation.to_value(u.deg), alt.degrees, atol=1e-3)
+    np.testing.assert_allclose(la.range.to_value(u.km), dist.km, atol=0.02)
+    dra = (la.ra.to_value(u.deg) - ra._degrees + 180) % 360 - 180
+    np.testing.assert_allclose(dra * np.cos(np.radians(dec.degrees)), 0, atol=2e-3)
+    np.testing.assert_allclose(la.dec.to_value(u.deg), dec.degrees, atol=2e-3)
+    rr = pos.frame_latlon_and_rates(topos)[5]  # range rate
+    np.testing.assert_allclose(la.range_rate.to_value(u.km / u.s), rr.km_per_s, atol=1e-4)
+
+
+def test_rates_are_derivatives(iss, site, times):
+    # SGP4's velocity is not exactly the derivative of its position (it leaves out the rates of
+    # some short-period terms): ~1 cm/s in LEO, the tolerance below
+    la = site.look(iss, times)
+    half = 0.05 * u.s
+    lp = site.look(iss, times + half)
+    lm = site.look(iss, times - half)
+    span = 2 * half.to_value(u.s)
+    np.testing.assert_allclose((lp.range - lm.range).to_value(u.km) / span,
+                               la.range_rate.to_value(u.km / u.s), atol=2e-5)
+    np.testing.assert_allclose((lp.elevation - lm.elevation).to_value(u.deg) / span,
+                               la.elevation_rate.to_value(u.deg / u.s), atol=1e-5)
+    daz = ((lp.azimuth - lm.azimuth).to_value(u.deg) + 180) % 360 - 180
+    np.testing.assert_allclose(daz / span, la.azimuth_rate.to_value(u.deg / u.s), atol=1e-5)
+
+
+def test_targets_and_shapes(iss, site, times):
+    la = site.look(iss, times)
+    gc = site.look(iss.gcrs(times))  # GCRS states: t defaults to their epoch
+    np.testing.assert_allclose(gc.elevation.value, la.elevation.value, atol=1e-10)
+    np.testing.assert_allclose(gc.ra.value, la.ra.value, atol=1e-10)
+    cat = vv.Catalog([iss, iss])
+    lc = site.look(cat, times.reshape(3, 10))
+    assert lc.shape == (2, 3, 10)
+    np.testing.assert_allclose(lc.elevation[1].ravel().value, la.elevation.value, atol=1e-10)
+    one = site.look(iss, times[3])
+    assert one.shape == () and "LookAngles" in repr(one)
+    assert one.elevation.value == pytest.approx(la.elevation[3].value, abs=1e-10)
+
+
+def test_light_time_moves_the_satellite_back_by_range_over_c(iss, site, times):
+    geo = site.look(iss, times)
+    lt = site.look(iss, times, light_time=True)
+    tau = geo.range.to_value(u.km) / 299792.458
+    # to first order the range changes by -(d range/dt) * tau plus the site's motion term
+    # (Earth rotation during tau): check against the states at t - tau directly
+    back = site.look(iss.gcrs(times - tau * u.s).to_state_vectors(), times)
+    np.testing.assert_allclose(lt.range.to_value(u.km), back.range.to_value(u.km),
+                               atol=ONE_METER)
+    assert np.abs(lt.range - geo.range).max() > 5 * ONE_METER * u.km
+
+
+def test_doppler_known_value_and_sign(iss, site, times):
+    f = 437.8 * u.MHz
+    shift = doppler_shift(f, -7.0 * u.km / u.s)
+    assert shift.to_value(u.Hz) == pytest.approx(437.8e6 * 7.0 / 299792.458, rel=1e-12)
+    la = site.look(iss, times, frequency=f)
+    np.testing.assert_allclose(la.doppler.to_value(u.Hz),
+                               -437.8e6 * la.range_rate.to_value(u.km / u.s) / 299792.458)
+    assert la.doppler[0] > 0 * u.Hz > la.doppler[-1]  # approaching high, receding low
+    with pytest.raises(vv.UnitsError):
+        doppler_shift(437.8e6, 1 * u.km / u.s)
+    with pytest.raises(vv.DomainError):
+        doppler_shift(-1 * u.MHz, 1 * u.km / u.s)
+
+
+def test_refraction_saemundsson_against_bennett():
+    h = np.array([0.0, 1.0, 5.0, 15.0, 45.0, 89.0])
+    r = refraction_deg(h)
+    # Bennett's formula (apparent altitude in, refraction out), Meeus eq. 16.3
+    ha = h + r
+    bennett = 1.0 / np.tan(np.radians(ha + 7.31 / (ha + 4.4))) / 60.0
+    np.testing.assert_allclose(r, bennett, atol=0.1 / 60)
+    assert r[0] == pytest.approx(0.483, abs=0.005)  # ~29' at the horizon
+    assert refraction_deg(-5.0) == 0.0
+
+
+def test_refracted_elevation(iss, site, times):
+    geo = site.look(iss, times)
+    app = site.look(iss, times, refraction=True)
+    d = (app.elevation - geo.elevation).to_value(u.deg)
+    np.testing.assert_allclose(d, refraction_deg(geo.elevation.to_value(u.deg)))
+
+
+def test_bad_targets(iss, site, times):
+    with pytest.raises(vv.InvalidInputError, match="astropy Time"):
+        site.look(iss, 0.0)
+    with pytest.raises(vv.InvalidInputError, match="Satellite, a Catalog or StateVectors"):
+        site.look("ISS", times)
+    with pytest.raises(vv.InvalidInputError, match="empty"):
+        site.look(vv.Catalog([]), times)
+    with pytest.raises(vv.InvalidInputError, match="epoch"):
+        site.look(vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH))

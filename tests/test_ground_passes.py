@@ -1,0 +1,181 @@
+"""Pass tables: columns, masks at the window's edges, visibility against astropy's Sun and the
+eclipse function of visviva.satellites, CSV/ECSV export, the command line and the sky plot."""
+
+import importlib.resources
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.coordinates import AltAz, get_body
+from astropy.table import QTable
+from astropy.time import Time
+
+import visviva as vv
+from visviva.cli import main
+from visviva.ground import plot_sky_track, twilight, visual_magnitude, write_passes
+
+ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
+ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
+T0 = Time("2008-09-20T12:00:00", scale="utc")
+
+
+@pytest.fixture(scope="module")
+def iss():
+    return vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+
+
+@pytest.fixture(scope="module")
+def sites():
+    return [vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 50 * u.m, name="PHL"),
+            vv.GroundStation(52.2 * u.deg, 0.12 * u.deg, 30 * u.m, name="CAM"),
+            vv.GroundStation(-33.9 * u.deg, 18.4 * u.deg, name="CPT")]
+
+
+@pytest.fixture(scope="module")
+def table(iss, sites):
+    return vv.find_passes(iss, sites, T0, T0 + 1 * u.day, 10 * u.deg, standard_magnitude=-1.8)
+
+
+def test_table_matches_find_events_per_station(iss, sites, table):
+    assert isinstance(table, QTable)
+    for name in ("satellite", "station", "rise_time", "culmination_time", "set_time",
+                 "max_elevation", "rise_azimuth", "set_azimuth", "sunlit", "station_dark"):
+        assert name in table.colnames
+    assert np.all(np.diff(table["rise_time"].jd) >= 0)  # sorted by rise
+    for site in sites:
+        times, kinds = site.find_events(iss, T0, T0 + 1 * u.day, 10 * u.deg)
+        rows = table[table["station"] == site.name]
+        assert len(rows) == (kinds == 0).sum()
+        np.testing.assert_allclose(rows["rise_time"].jd, times[kinds == 0].jd, atol=1e-9)
+        np.testing.assert_allclose(rows["set_time"].jd, times[kinds == 2].jd, atol=1e-9)
+        look = site.look(iss, rows["culmination_time"])
+        np.testing.assert_allclose(rows["max_elevation"].to_value(u.deg),
+                                   look.elevation.to_value(u.deg), atol=1e-8)
+        rise = site.look(iss, rows["rise_time"])
+        np.testing.assert_allclose(rows["rise_azimuth"].to_value(u.deg),
+                                   rise.azimuth.to_value(u.deg), atol=1e-8)
+    dur = (table["set_time"] - table["rise_time"]).to_value(u.s)
+    np.testing.assert_allclose(table["duration"].to_value(u.s), dur, atol=1e-3)
+
+
+def test_sunlight_and_darkness_against_astropy_and_the_eclipse_function(iss, sites, table):
+    from visviva.satellites.groundtrack import eclipse_fraction
+
+    tc = table["culmination_time"]
+    frac = eclipse_fraction(iss, tc)
+    np.testing.assert_allclose(table["sun_fraction"], frac, atol=1e-3)
+    np.testing.assert_array_equal(table["sunlit"], frac > 0)
+    assert table["sunlit"].any() and not table["sunlit"].all()
+    by_name = {s.name: s for s in sites}
+    for row in table:
+        site = by_name[row["station"]]
+        sun = get_body("sun", row["culmination_time"], location=site.location)
+        alt = sun.transform_to(AltAz(obstime=row["culmination_time"], location=site.location)).alt
+        assert row["sun_elevation"].to_value(u.deg) == pytest.approx(alt.deg, abs=0.05)
+        assert row["station_dark"] == (alt.deg < -6)
+    np.testing.assert_array_equal(table["visible"], table["sunlit"] & table["station_dark"])
+    lit = table["sunlit"]
+    assert np.all(np.isfinite(table["magnitude"][lit].value))
+    assert np.all(table["magnitude"].mask[~lit])
+
+
+def test_window_cutting_a_pass_masks_its_edges(iss, sites, table):
+    row = table[np.argmax(table["max_elevation"])]
+    site = next(s for s in sites if s.name == row["station"])
+    mid = row["culmination_time"]
+    before = vv.find_passes(iss, site, mid - 3 * u.hour, mid, 10 * u.deg)
+    last = before[-1]
+    assert last["set_time"].mask and not last["rise_time"].mask
+    assert np.ma.is_masked(last["set_azimuth"].value) and np.ma.is_masked(last["duration"].value)
+    assert abs((last["rise_time"] - row["rise_time"]).to_value(u.s)) < 0.01
+    after = vv.find_passes(iss, site, mid + 1 * u.s, mid + 3 * u.hour, 10 * u.deg)
+    first = after[0]
+    assert first["rise_time"].mask and not first["set_time"].mask
+    assert first["culmination_time"].mask  # the highest point is the window's start
+    assert abs((first["set_time"] - row["set_time"]).to_value(u.s)) < 0.01
+
+
+def test_geostationary_satellite_is_up_all_window():
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] for ln in text.splitlines() if ln[:2] in ("1 ", "2 ")]
+    pairs = {a[2:7]: (a, b) for a, b in zip(lines[::2], lines[1::2], strict=True)}
+    geo = vv.Satellite.from_tle(*pairs["28626"], name="GEO")  # 0.0019 deg inclination
+    sub = geo.geodetic(geo.epoch)[1]
+    site = vv.GroundStation(10 * u.deg, sub, name="under")
+    tab = vv.find_passes(geo, site, geo.epoch, geo.epoch + 12 * u.hour)
+    assert len(tab) == 1
+    assert tab["rise_time"].mask[0] and tab["set_time"].mask[0]
+    assert tab["max_elevation"][0] > 70 * u.deg
+
+
+def test_catalogue_and_multiple_stations_equal_single_runs(iss, sites):
+    cat = vv.Catalog([iss, vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS-2")])
+    both = vv.find_passes(cat, sites[:2], T0, T0 + 6 * u.hour)
+    one = vv.find_passes(iss, sites[1], T0, T0 + 6 * u.hour)
+    sub = both[(both["satellite"] == "ISS-2") & (both["station"] == sites[1].name)]
+    np.testing.assert_allclose(sub["rise_time"].jd, one["rise_time"].jd, atol=1e-12)
+
+
+def test_visual_magnitude_and_twilight():
+    assert visual_magnitude(-1.8, 1000.0, np.pi / 2) == pytest.approx(-1.8)
+    assert visual_magnitude(-1.8, 2000.0, np.pi / 2) == pytest.approx(-1.8 + 5 * np.log10(2))
+    assert visual_magnitude(0.0, 1000.0, 0.0) == pytest.approx(-2.5 * np.log10(np.pi))
+    assert np.isinf(visual_magnitude(0.0, 1000.0, np.pi))
+    np.testing.assert_array_equal(twilight([10, -3, -8, -15, -30]),
+                                  ["day", "civil", "nautical", "astronomical", "night"])
+
+
+def test_export_csv_and_ecsv(table, tmp_path):
+    write_passes(table, tmp_path / "p.ecsv")
+    back = QTable.read(tmp_path / "p.ecsv")
+    np.testing.assert_allclose(back["max_elevation"].to_value(u.deg),
+                               table["max_elevation"].to_value(u.deg))
+    write_passes(table, tmp_path / "p.csv")
+    text = (tmp_path / "p.csv").read_text().splitlines()
+    assert text[0].startswith("satellite,") and len(text) == len(table) + 1
+    with pytest.raises(vv.InvalidInputError, match="csv"):
+        write_passes(table, tmp_path / "p.txt")
+
+
+def test_command_line(tmp_path, capsys):
+    tle = tmp_path / "iss.tle"
+    tle.write_text(f"ISS (ZARYA)\n{ISS_1}\n{ISS_2}\n")
+    out_csv = tmp_path / "passes.csv"
+    rc = main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--height", "50",
+               "--start", "2008-09-20T12:00:00", "--hours", "24", "--min-elevation", "10",
+               "--csv", str(out_csv)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "2008-09-20 22:51:52" in out and "5 pass(es)" in out
+    assert len(out_csv.read_text().splitlines()) == 6
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start", "nonsense"]) == 2
+    assert main(["passes", str(tmp_path / "missing.tle"), "--lat", "40", "--lon", "-75",
+                 "--start", "2008-09-20T12:00:00"]) == 1
+    assert main(["passes", str(tle), "--lat", "95", "--lon", "-75",
+                 "--start", "2008-09-20T12:00:00"]) == 1
+    assert "outside [-90, 90]" in capsys.readouterr().err
+
+
+def test_sky_plot(iss, sites, table):
+    row = table[0]
+    site = next(s for s in sites if s.name == row["station"])
+    fig = plot_sky_track(site, iss, row["rise_time"] - 1 * u.min, row["set_time"] + 1 * u.min,
+                         min_elevation=10 * u.deg)
+    ax = fig.axes[0]
+    assert ax.name == "polar"
+    r = ax.lines[0].get_ydata()
+    assert np.nanmax(r) <= 80 + 1e-6 and np.nanmin(r) == pytest.approx(
+        90 - row["max_elevation"].to_value(u.deg), abs=0.5)
+
+
+def test_bad_input(iss, sites):
+    with pytest.raises(vv.InvalidInputError, match="empty"):
+        vv.find_passes(vv.Catalog([]), sites, T0, T0 + 1 * u.hour)
+    with pytest.raises(vv.InvalidInputError, match="empty"):
+        vv.find_passes(iss, [], T0, T0 + 1 * u.hour)
+    with pytest.raises(vv.InvalidInputError, match="GroundStation"):
+        vv.find_passes(iss, ["PHL"], T0, T0 + 1 * u.hour)
+    with pytest.raises(vv.InvalidInputError, match="later than t0"):
+        vv.find_passes(iss, sites, T0, T0 - 1 * u.hour)
+    with pytest.raises(vv.DomainError):
+        vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, -91 * u.deg)

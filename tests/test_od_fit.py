@@ -1,0 +1,335 @@
+"""Batch least squares: round trips, statistical honesty, outliers, divergence, bad input;
+the variational STM against finite differences of propagate_cowell; measurement partials."""
+
+import copy
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from scipy import stats
+
+import visviva as vv
+from visviva.od import simulate_observations
+from visviva.od.dynamics import Dynamics
+from visviva.od.measurements import predict
+from visviva.satellites.frames import gcrs_to_itrs
+
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+KMS = u.km / u.s
+TRUTH = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                        epoch=EPOCH)
+GUESS = vv.StateVectors([6810.0, 90.0, 310.0] * u.km, [-0.11, 5.01, 5.69] * KMS, vv.EARTH,
+                        epoch=EPOCH)
+Y_TRUE = np.r_[TRUTH.r.to_value(u.km), TRUTH.v.to_value(KMS)]
+STATIONS = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km),
+            vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km),
+            vv.GroundStation(15 * u.deg, 150 * u.deg, 0.0 * u.km)]
+
+
+def _nees(fit):
+    e = np.r_[fit.state.r.to_value(u.km), fit.state.v.to_value(KMS)] - Y_TRUE
+    return float(e @ np.linalg.solve(fit.covariance, e))
+
+
+def _position_obs(seed, n=30, sigma=0.05):
+    t = EPOCH + np.linspace(0, 5400, n) * u.s
+    return simulate_observations(TRUTH, t, "position", sigma * u.km, seed=seed)
+
+
+@pytest.fixture(scope="module")
+def tracking():
+    """Visible times (elevation > 10 deg) of the three stations over 6 hours, J2 truth."""
+    T = EPOCH + np.arange(0, 6 * 3600, 20) * u.s
+    y, _ = Dynamics(vv.EARTH.gm_km3_s2, [vv.J2(vv.EARTH)], EPOCH, (0, 6 * 3600)).propagate(
+        Y_TRUE, (T - EPOCH).sec)
+    rows = []
+    for s in STATIONS:
+        r_itrs, _ = gcrs_to_itrs(y[:, :3], np.zeros_like(y[:, :3]), T)
+        d = r_itrs - s.itrs_km
+        el = np.arcsin(np.sum(d * s.enu_matrix[2], -1) / np.linalg.norm(d, axis=-1))
+        rows += [(i, s) for i in np.flatnonzero(el > np.radians(10))]
+    rows.sort(key=lambda x: x[0])
+    idx = [i for i, _ in rows for _k in range(3)]
+    stations = [s for _, s in rows for _k in range(3)]
+    kinds = ["range", "range_rate", "azel"] * len(rows)
+    sigmas = [0.01, 1e-5, np.radians(0.01)] * len(rows)
+    return T[np.array(idx)], kinds, sigmas, stations
+
+
+def test_fit_positions_two_body_round_trip():
+    fit = vv.fit_orbit(_position_obs(3), GUESS)
+    assert fit.converged and 2 <= fit.iterations <= 8
+    assert fit.state.epoch == EPOCH
+    assert 0.8 < fit.rms < 1.2
+    assert _nees(fit) < stats.chi2.ppf(0.999, 6)
+    assert fit.covariance.shape == (6, 6)
+    np.testing.assert_allclose(fit.covariance, fit.covariance.T, rtol=1e-10, atol=1e-20)
+    assert np.all(np.linalg.eigvalsh(fit.covariance) > 0)
+    assert fit.residuals.shape == (30, 3) and not fit.rejected.any()
+    assert [h["iteration"] for h in fit.history] == list(range(1, fit.iterations + 1))
+    assert "OrbitFit" in repr(fit)
+
+
+def test_statistical_honesty_chi_square_over_noise_seeds():
+    """Normalised estimation errors follow chi-square(6); residual RMS / sigma is 1."""
+    nees, rms = [], []
+    for seed in range(200):
+        fit = vv.fit_orbit(_position_obs(seed, n=20), GUESS, outlier_sigma=None)
+        nees.append(_nees(fit))
+        rms.append(fit.rms)
+    nees = np.array(nees)
+    # mean of chi2(6) is 6 with variance 12: the mean of 200 has standard error 0.245
+    assert abs(nees.mean() - 6.0) < 4 * np.sqrt(12 / 200)
+    assert stats.kstest(nees, stats.chi2(6).cdf).pvalue > 1e-3
+    # E[chi2 / (n - 6)] = 1 with n = 60 components: the RMS over seeds is near 1
+    assert abs(np.mean(np.square(rms)) * 60 / 54 - 1.0) < 0.03
+
+
+def test_fit_ground_tracking_with_j2_and_stations(tracking):
+    t, kinds, sigmas, stations = tracking
+    obs = simulate_observations(TRUTH, t, kinds, sigmas, stations, [vv.J2(vv.EARTH)], seed=5)
+    fit = vv.fit_orbit(obs, GUESS, [vv.J2(vv.EARTH)])
+    assert set(fit.rms_by_kind) == {"range", "range_rate", "azel"}
+    assert all(0.8 < v < 1.2 for v in fit.rms_by_kind.values())
+    assert _nees(fit) < stats.chi2.ppf(0.999, 6)
+    # metres-level orbit from cm ranges
+    assert np.linalg.norm(fit.state.r.to_value(u.km) - Y_TRUE[:3]) < 0.02
+
+
+def test_tracking_honesty_over_seeds(tracking):
+    t, kinds, sigmas, stations = tracking
+    sel = slice(0, len(t) // 2)  # the first three hours keep it quick
+    exact = simulate_observations(TRUTH, t[sel], kinds[sel], sigmas[sel], stations[sel],
+                                  [vv.J2(vv.EARTH)], seed=False)
+    rng = np.random.default_rng(100)
+    nees = []
+    for _ in range(25):
+        obs = copy.copy(exact)  # shares the station geometry; new noise below
+        obs.values = exact.values + rng.standard_normal(exact.values.shape) * exact.sigmas[:, None]
+        fit = vv.fit_orbit(obs, TRUTH, [vv.J2(vv.EARTH)])
+        nees.append(_nees(fit))
+    nees = np.array(nees)
+    # 25 draws of chi2(6): the mean has standard error 0.69
+    assert abs(nees.mean() - 6.0) < 4 * 0.69
+    assert stats.kstest(nees, stats.chi2(6).cdf).pvalue > 1e-3
+
+
+def test_outliers_are_rejected():
+    obs = _position_obs(11)
+    bad = [4, 17, 25]
+    obs.values[bad] += 5.0  # 100 sigma
+    fit = vv.fit_orbit(obs, GUESS)
+    assert sorted(np.flatnonzero(fit.rejected)) == bad
+    assert 0.8 < fit.rms < 1.25
+    assert _nees(fit) < stats.chi2.ppf(0.999, 6)
+    kept = vv.fit_orbit(obs, GUESS, outlier_sigma=None)
+    assert not kept.rejected.any() and kept.rms > 10
+
+
+def test_diverging_fit_raises_with_history():
+    far = vv.StateVectors([-6800.0, 0, 0] * u.km, [0, -7.6, 0.5] * KMS, vv.EARTH, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError) as info:
+        vv.fit_orbit(_position_obs(2), far, max_iterations=3)
+    hist = info.value.history
+    assert isinstance(hist, list) and 1 <= len(hist) <= 3
+    assert {"iteration", "rms", "n_rejected", "correction"} <= set(hist[0])
+    assert "did not converge" in str(info.value) or "diverged" in str(info.value)
+
+
+def test_observations_bad_input():
+    t = EPOCH + np.arange(3) * 60 * u.s
+    pos = [[7000, 0, 0], [6990, 450, 0], [6960, 900, 0]] * u.km
+    with pytest.raises(vv.InvalidInputError, match="no observations"):
+        vv.Observations(time=t[:0], kind="position", value=[], sigma=[])
+    with pytest.raises(vv.InvalidInputError, match="unknown kind 'angle'"):
+        vv.Observations(time=t, kind="angle", value=pos, sigma=0.1 * u.km)
+    with pytest.raises(vv.InvalidInputError, match=r"sigma\[1\]"):
+        vv.Observations(time=t, kind="position", value=pos, sigma=[0.1, 0.0, 0.1] * u.km)
+    with pytest.raises(vv.InvalidInputError, match=r"sigma\[0\]"):
+        vv.Observations(time=t, kind="position", value=pos, sigma=-1 * u.km)
+    with pytest.raises(vv.InvalidInputError, match="go backwards: row 2"):
+        vv.Observations(time=t[[0, 2, 1]], kind="position", value=pos, sigma=0.1 * u.km)
+    with pytest.raises(vv.InvalidInputError, match="needs the observing station"):
+        vv.Observations(time=t, kind="range", value=[1000, 1001, 1002] * u.km, sigma=0.01 * u.km)
+    with pytest.raises(vv.ShapeError, match="3 component"):
+        vv.Observations(time=t, kind="position", value=[[1, 2], [3, 4], [5, 6]] * u.km,
+                        sigma=0.1 * u.km)
+    with pytest.raises(vv.UnitsError):
+        vv.Observations(time=t, kind="position", value=pos, sigma=0.1 * u.s)
+    with pytest.raises(vv.InvalidInputError, match="astropy Time"):
+        vv.Observations(time=[0, 1, 2] * u.s, kind="position", value=pos, sigma=0.1 * u.km)
+    # quantities in any unit are converted (angles in deg, sigma in arcsec)
+    obs = vv.Observations(time=t[:1], kind="radec", value=[[10, 20] * u.deg], sigma=[1 * u.arcsec],
+                          station=STATIONS[0])
+    np.testing.assert_allclose(obs.values[0, :2], np.radians([10, 20]))
+    assert obs.sigmas[0] == pytest.approx(np.radians(1 / 3600))
+
+
+def test_fit_orbit_bad_input():
+    obs = _position_obs(1, n=30)
+    few = vv.Observations(time=obs.times[:1], kind="position", value=obs.values[:1, :3] * u.km,
+                          sigma=0.05 * u.km)
+    with pytest.raises(vv.InvalidInputError, match="fewer than the 6 unknowns"):
+        vv.fit_orbit(few, GUESS)
+    no_epoch = vv.StateVectors(GUESS.r, GUESS.v, vv.EARTH)
+    with pytest.raises(vv.InvalidInputError, match="no epoch"):
+        vv.fit_orbit(obs, no_epoch)
+    with pytest.raises(vv.InvalidInputError, match="vv.Observations"):
+        vv.fit_orbit([1, 2, 3], GUESS)
+    with pytest.raises(vv.InvalidInputError, match="perturbations"):
+        vv.fit_orbit(obs, GUESS, perturbations="J2")
+    # two range rows from one station cannot fix six unknowns: caught, not a silent answer
+    t = EPOCH + np.arange(6) * u.s
+    rng = vv.Observations(time=t, kind="range", value=[1000.0] * 6 * u.km, sigma=0.01 * u.km,
+                          station=STATIONS[0])
+    with pytest.raises(vv.VisvivaError):
+        vv.fit_orbit(rng, GUESS, max_iterations=5)
+
+
+def _fd_stm(forces, t):
+    fd = np.empty((t.size, 6, 6))
+    for j in range(6):
+        d = 1e-3 if j < 3 else 1e-6
+        ys = []
+        for sign in (1, -1):
+            y0 = Y_TRUE.copy()
+            y0[j] += sign * d
+            s0 = vv.StateVectors(y0[:3] * u.km, y0[3:] * KMS, vv.EARTH, epoch=EPOCH)
+            res = vv.propagate_cowell(s0, t * u.s, forces, rtol=1e-13, atol=1e-13)
+            ys.append(np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=1))
+        fd[:, :, j] = (ys[0] - ys[1]) / (2 * d)
+    return fd
+
+
+@pytest.mark.parametrize("forces, tol", [
+    ([vv.Zonal(vv.EARTH, 6), vv.ThirdBody(vv.MOON), vv.ThirdBody(vv.SUN),
+      vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow=None)], 5e-6),
+    # the exponential table's density is discontinuous at its base altitudes, which limits
+    # what central differences can confirm; the conical shadow's edge is held fixed (see
+    # visviva.core.variational)
+    ([vv.J2(vv.EARTH), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg), vv.ThirdBody(vv.MOON),
+      vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg)], 1e-3),
+], ids=["gravity+srp", "with-drag"])
+def test_variational_stm_matches_finite_differences_of_cowell(forces, tol):
+    """Phi from the variational equations against central differences of propagate_cowell."""
+    t = np.array([-1200.0, 2000.0, 6000.0])
+    dyn = Dynamics(vv.EARTH.gm_km3_s2, forces, EPOCH, (t.min(), t.max()))
+    y, phi = dyn.propagate(Y_TRUE, t)
+    ref = vv.propagate_cowell(TRUTH, t * u.s, forces)
+    assert np.abs(ref.r.to_value(u.km) - y[:, :3]).max() < 1e-3  # same trajectory, < 1 m
+    fd = _fd_stm(forces, t)
+    rel = np.abs(fd - phi).max(axis=(1, 2)) / np.abs(fd).max(axis=(1, 2))
+    assert rel.max() < tol
+
+
+@pytest.mark.parametrize("forces, gm", [
+    ([vv.Zonal(vv.EARTH, 6)], vv.EARTH.gm_km3_s2),
+    ([vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)], vv.EARTH.gm_km3_s2),
+    ([vv.ThirdBody(vv.MOON), vv.ThirdBody(vv.SUN)], vv.EARTH.gm_km3_s2),
+    # SRP's gradient (1e-18 /s^2) is below the rounding of the Earth's pull: a tiny central GM
+    # keeps the two-body term out of the differences
+    ([vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow=None)], 1.0),
+], ids=["zonal6", "drag", "third-bodies", "srp"])
+def test_acceleration_partials_match_finite_differences(forces, gm):
+    """The perturbation's d a / d r and d a / d v against central differences of cowell_rhs
+    (the two-body part is subtracted on both sides, so each term is checked at its own scale)."""
+    from visviva.core.variational import acceleration_partials
+    from visviva.satellites.cowell import ForceModel
+
+    model = ForceModel(gm, forces, (), EPOCH, (0.0, 7200.0))
+    kepler = ForceModel(gm, [], (), EPOCH, (0.0, 7200.0))
+
+    def accel(y):
+        return (model.acceleration(1000.0, y[None, :3], y[None, 3:])[0]
+                - kepler.acceleration(1000.0, y[None, :3], y[None, 3:])[0])
+
+    # altitudes 431 km and 282 km: inside one band of the exponential table (its density
+    # jumps at the band edges)
+    for y in (np.r_[6800.0, 300.0, 200.0, -0.3, 5.5, 5.0],
+              np.r_[-4000.0, 3500.0, -4000.0, 4.5, 2.0, -2.5]):
+        dadr, dadv = np.empty((3, 3)), np.empty((3, 3))
+        acceleration_partials(1000.0, y, *model.arrays(), dadr, dadv)
+        dadr_k, dadv_k = np.empty((3, 3)), np.empty((3, 3))
+        acceleration_partials(1000.0, y, *kepler.arrays(), dadr_k, dadv_k)
+        fd = np.empty((3, 6))
+        for j in range(6):
+            d = 0.1 if j < 3 else 1e-3
+            yp, ym = y.copy(), y.copy()
+            yp[j] += d
+            ym[j] -= d
+            fd[:, j] = (accel(yp) - accel(ym)) / (2 * d)
+        np.testing.assert_allclose(dadr - dadr_k, fd[:, :3], rtol=0,
+                                   atol=1e-4 * np.abs(fd[:, :3]).max())
+        np.testing.assert_allclose(dadv, fd[:, 3:], rtol=0,
+                                   atol=1e-5 * max(np.abs(fd[:, 3:]).max(), 1e-300))
+
+
+def test_measurement_partials_match_finite_differences(tracking):
+    t, kinds, sigmas, stations = tracking
+    obs = simulate_observations(TRUTH, t[:9], kinds[:9], sigmas[:9], stations[:9], seed=1)
+    site_r, site_v, enu = obs.sites()
+    y, _ = Dynamics(vv.EARTH.gm_km3_s2, [], EPOCH, (0, 1e4)).propagate(Y_TRUE,
+                                                                      obs.offsets_s(EPOCH))
+    h, H = predict(obs.kinds, y, site_r, site_v, enu)
+    for j in range(6):
+        d = 1e-4 if j < 3 else 1e-7
+        yp, ym = y.copy(), y.copy()
+        yp[:, j] += d
+        ym[:, j] -= d
+        fd = (predict(obs.kinds, yp, site_r, site_v, enu)[0]
+              - predict(obs.kinds, ym, site_r, site_v, enu)[0]) / (2 * d)
+        np.testing.assert_allclose(H[:, :, j], fd, rtol=1e-5, atol=1e-9)
+
+
+def test_azel_and_range_against_an_earth_fixed_computation(tracking):
+    """Predicted az/el/range against the ITRS topocentric vector (astropy's GCRS -> ITRS)."""
+    t, kinds, sigmas, stations = tracking
+    obs = simulate_observations(TRUTH, t[:12], kinds[:12], sigmas[:12], stations[:12],
+                                seed=False)
+    y, _ = Dynamics(vv.EARTH.gm_km3_s2, [], EPOCH, (0, 1e4)).propagate(Y_TRUE,
+                                                                      obs.offsets_s(EPOCH))
+    r_itrs, _ = gcrs_to_itrs(y[:, :3], y[:, 3:], obs.times)
+    for i in range(12):
+        s = obs.stations[i]
+        local = s.enu_matrix @ (r_itrs[i] - s.itrs_km)
+        if obs.kinds[i] == "azel":
+            az = np.mod(np.arctan2(local[0], local[1]), 2 * np.pi)
+            el = np.arcsin(local[2] / np.linalg.norm(local))
+            np.testing.assert_allclose(obs.values[i, :2], [az, el], atol=1e-8)
+        elif obs.kinds[i] == "range":
+            assert obs.values[i, 0] == pytest.approx(np.linalg.norm(local), abs=1e-6)
+
+
+def test_simulate_tracking_sees_what_the_stations_see(tracking):
+    t, kinds, sigmas, stations = tracking
+    grid = EPOCH + np.arange(0, 6 * 3600, 20) * u.s
+    obs = vv.od.simulate_tracking(
+        TRUTH, STATIONS, grid, [vv.J2(vv.EARTH)], seed=False)
+    # the same visible samples as the Earth-fixed elevation computed in the fixture
+    assert len(obs) == len(t)
+    assert list(obs.kinds) == list(kinds)
+    assert np.all(obs.values[obs.kinds == "azel", 1] > np.radians(10))
+    with pytest.raises(vv.InvalidInputError, match="no station sees"):
+        vv.od.simulate_tracking(TRUTH, STATIONS[:1], grid[:2], seed=False)
+
+
+def test_fit_without_initial_guess_uses_iod(tracking):
+    """initial=None: Gibbs on range + az/el fixes of the first pass, then the fit."""
+    t, kinds, sigmas, stations = tracking
+    obs = simulate_observations(TRUTH, t, kinds, sigmas, stations, [vv.J2(vv.EARTH)], seed=9)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_then = vv.propagate_cowell(TRUTH, first.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((first.r - true_then.r).to_value(u.km)) < 1.0
+    fit = vv.fit_orbit(obs, None, [vv.J2(vv.EARTH)])
+    assert fit.state.epoch == first.epoch
+    true_fit = vv.propagate_cowell(TRUTH, fit.state.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((fit.state.r - true_fit.r).to_value(u.km)) < 0.02
+    guess = vv.od.initial_orbit(_position_obs(4), vv.EARTH)
+    true_then = vv.propagate_cowell(TRUTH, guess.epoch)
+    assert np.linalg.norm((guess.r - true_then.r).to_value(u.km)) < 0.5
+    assert np.linalg.norm((guess.v - true_then.v).to_value(u.km / u.s)) < 5e-3  # 50 m noise
+    only_rr = vv.Observations(time=t[:3], kind="range_rate", value=[1e-3] * 3 * u.km / u.s,
+                              sigma=1e-5 * u.km / u.s, station=stations[0])
+    with pytest.raises(vv.InvalidInputError, match="first orbit"):
+        vv.od.initial_orbit(only_rr, vv.EARTH)

@@ -8,6 +8,8 @@ Rows
 * IAS15, Sun + 8 planets, 1,000 years (target <= 1.0x REBOUND's IAS15 at equal energy error:
   both relative energy errors are reported in the notes), with visviva's default step control
   (PRS23, REBOUND's default criterion) and with Rein & Spiegel (2015)'s (``adaptive_mode="rs15"``).
+* IAS15 on the Pythagorean three-body problem to t = 100 (close encounters, then an e ~ 0.99
+  binary; no target: the time ratio, and both energy errors in the notes).
 * Direct summation, one leapfrog step at N = 4,000 on every core (target >= 10x faster than
   REBOUND's leapfrog with gravity "basic", i.e. ratio <= 0.1).
 * A compiled user force (no-op) inside WHFast (target <= 1.2x the run without it).
@@ -47,6 +49,10 @@ def _run_rb(integrator, years):
     r = _solar(integrator).to_rebound()
     r.integrate(years)
     return r
+
+
+#: Burrau's problem: masses 3, 4, 5 at rest at the corners of a 3-4-5 triangle (G = 1).
+_PYTHAGOREAN = ([3.0, 4.0, 5.0], [[1.0, 3.0, 0.0], [-2.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
 
 
 def _cluster(n, seed=1):
@@ -205,6 +211,37 @@ def run(quick: bool = False) -> list[dict]:
             f"rebound {rebound.__version__} ias15", t_rb, target=None,
             notes=(f"Rein & Spiegel (2015) criterion, for reference: |dE/E| visviva {e_e:.1e} "
                    f"({s.steps_done} steps), rebound {e_rb:.1e} ({r.steps_done} steps)"),
+        ))
+
+        # close encounters and an e ~ 0.99 binary: the Pythagorean three-body problem
+        def pyth_vv():
+            sim = vv.Simulation("ias15")
+            for mass, pos in zip(*_PYTHAGOREAN, strict=True):
+                sim.add(mass, r=pos)
+            e0 = sim.energy()
+            sim.integrate(20.0)
+            sim.integrate(100.0)
+            return sim, abs(sim.energy() / e0 - 1)
+
+        def pyth_rb():
+            r = rebound.Simulation()
+            r.integrator = "ias15"
+            for mass, pos in zip(*_PYTHAGOREAN, strict=True):
+                r.add(m=mass, x=pos[0], y=pos[1], z=pos[2])
+            e0 = r.energy()
+            r.integrate(20.0)
+            r.integrate(100.0)
+            return r, abs(r.energy() / e0 - 1)
+
+        c = compile_time(pyth_vv)
+        t_p = time_call(pyth_vv, repeat=repeat, number=1)
+        t_pr = time_call(pyth_rb, repeat=repeat, number=1)
+        (s, e_p), (r, e_pr) = pyth_vv(), pyth_rb()
+        rows.append(result(
+            "ias15, Pythagorean three-body problem to t = 100", t_p,
+            f"rebound {rebound.__version__} ias15", t_pr, target=None, compile_s=c,
+            notes=(f"|dE/E| visviva {e_p:.1e} ({s.steps_done} steps; gravity on two-part positions "
+                   f"while a pair is tight), rebound {e_pr:.1e} ({r.steps_done} steps)"),
         ))
 
     rows += _direct_sum_rows(vv, rebound, quick, repeat)

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from ..constants import DAY_S
 from ..errors import InvalidInputError
 
 __all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
@@ -41,7 +42,6 @@ FILTER_MARGIN_KM = 60.0
 #: distance added to the Hermite minimum (km) at a 60 s step: the cubic Hermite model of the
 #: relative motion errs by ~1e-3 km there (its error grows as step^4)
 HERMITE_MARGIN_KM = 2.0
-_DAY_S = 86400.0
 
 
 def _shells(cat):
@@ -73,8 +73,8 @@ def _refine(sat1, sat2, jd0, fr0, t_lo, t_hi, window):
     from scipy.optimize import brentq
 
     def f(ts):
-        r1, v1 = _state(sat1, jd0, fr0 + ts / _DAY_S)
-        r2, v2 = _state(sat2, jd0, fr0 + ts / _DAY_S)
+        r1, v1 = _state(sat1, jd0, fr0 + ts / DAY_S)
+        r2, v2 = _state(sat2, jd0, fr0 + ts / DAY_S)
         if r1 is None or r2 is None:
             return math.nan
         return float(np.dot(r2 - r1, v2 - v1))
@@ -127,7 +127,7 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
     if cache.get("key") != key:
         ts = np.arange(n_steps) * step_s
         jd = np.full(n_steps, jd0)
-        fr = fr0 + ts / _DAY_S
+        fr = fr0 + ts / DAY_S
         r1, v1 = _propagate(cat1, jd, fr)
         r2, v2 = (r1, v1) if self_mode else _propagate(cat2, jd, fr)
         q1, Q1 = _shells(cat1)
@@ -167,8 +167,8 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
             tca = _refine(s1, s2, jd0, fr0, lo, hi, window)
             if tca is None:
                 continue
-            ra, va = _state(s1, jd0, fr0 + tca / _DAY_S)
-            rb, vb = _state(s2, jd0, fr0 + tca / _DAY_S)
+            ra, va = _state(s1, jd0, fr0 + tca / DAY_S)
+            rb, vb = _state(s2, jd0, fr0 + tca / DAY_S)
             d = rb - ra
             miss = float(np.linalg.norm(d))
             if miss >= threshold_km:
@@ -297,7 +297,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab = QTable()
     tab["object1"] = [names1[f[0]] for f in found]
     tab["object2"] = [names2[f[1]] for f in found]
-    tca = Time(np.full(len(found), jd0), fr0 + arr[:, 0] / _DAY_S, format="jd", scale="utc")
+    tca = Time(np.full(len(found), jd0), fr0 + arr[:, 0] / DAY_S, format="jd", scale="utc")
     tca.format = "isot"
     tab["tca"] = tca
     tab["miss_distance"] = arr[:, 1] * u.km

@@ -116,7 +116,9 @@ def accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc
 def accelerations_split(t, x, xlo, v, m, massive, fstate, istate, gwork, force, params, acc):
     """:func:`accelerations` with positions in two parts ``x + xlo`` for gravity (IAS15).
 
-    The additional force sees ``x`` (the high parts) only.
+    The additional force sees ``x`` (the high parts) only. (Numba's cache checks only the
+    stamp of the defining file: after editing :func:`visviva.core.gravity.gravity_split`, touch
+    this file and :mod:`.nbody_ias15`.)
     """
     gravity_split(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork,
                   istate[I_PARALLEL] != 0)

@@ -33,7 +33,9 @@ than ``1 / SPLIT_RATIO`` of their distance from the origin (:func:`_tight_pair`,
 the step evaluates gravity on those two-part positions
 (:func:`visviva.core.gravity.gravity_split`): a tight, eccentric binary far from the origin then
 keeps the relative precision of its separation (REBOUND's IAS15 rounds the positions; see
-docs/nbody.md, "IAS15 on close encounters"). Other steps are unchanged, bit for bit. The next
+docs/nbody.md, "IAS15 on close encounters"); with fewer than seven massive particles that
+gravity is a plain pair loop, faster than the packed kernel. Other steps are unchanged, bit for
+bit. The next
 step's ``b`` is predicted by re-expanding the converged polynomial about the new step start
 (Everhart 1985 eq. 2.10) plus the correction the last prediction needed.
 

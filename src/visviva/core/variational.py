@@ -38,6 +38,7 @@ import math
 
 import numpy as np
 
+from . import force_block as fb
 from . import status as st
 from ._jit import kernel
 from .perturbations import (
@@ -165,34 +166,34 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         for j in range(3):
             dadr[i, j] = 0.0
             dadv[i, j] = 0.0
-    gm = force[0]
+    gm = force[fb.GM]
     # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
     _add_point_mass_gradient(x, yy, z, gm, dadr)
-    if int(force[2]) >= 2:
-        _add_zonal_gradient(x, yy, z, gm, force[1], zonal, int(force[2]), dadr)
-    elif force[17] >= 2.0:
+    if int(force[fb.ZONAL_DEGREE]) >= 2:
+        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]), dadr)
+    elif force[fb.HARMONICS_DEGREE] >= 2.0:
         # the field's zonal part, J_n = -C_n0 (unnormalised), about the propagation z axis;
         # the tesseral terms are left out of the partials (see the module notes)
-        n_sh = int(force[17])
+        n_sh = int(force[fb.HARMONICS_DEGREE])
         jn = np.zeros(n_sh + 1)
         for n in range(2, n_sh + 1):
             jn[n] = -sh[0, n, 0]
-        _add_zonal_gradient(x, yy, z, gm, force[1], jn, n_sh, dadr)
-    sun = int(force[12])
+        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], jn, n_sh, dadr)
+    sun = int(force[fb.SUN_ROW])
     sun_pos = np.empty(3)
     pos = np.empty(3)
     if sun >= 0:
         hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
-    if force[3] != 0.0:
-        omega = force[5]
-        bc = force[4]
+    if force[fb.DRAG_ON] != 0.0:
+        omega = force[fb.ROTATION_RATE]
+        bc = force[fb.BALLISTIC]
         wx = y[3] + omega * yy
         wy = y[4] - omega * x
         wz = y[5]
         w = math.sqrt(wx * wx + wy * wy + wz * wz)
-        h = geodetic_altitude(x, yy, z, force[1], force[6])
+        h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
         r = math.sqrt(x * x + yy * yy + z * z)
-        if force[27] == 1.0 and sun >= 0:
+        if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
             lat = math.asin(z / r)
             ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
             if ha > math.pi:
@@ -201,7 +202,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
                 ha += 2.0 * math.pi
             rho = grid_density(h, lat, ha, force, atm)
             # slope of the tabulated ln(rho) along altitude at this point
-            step = force[29]
+            step = force[fb.DENSITY_GRID + 1]
             up = grid_density(h + 0.5 * step, lat, ha, force, atm)
             down = grid_density(h - 0.5 * step, lat, ha, force, atm)
             dlnrho_dh = (math.log(up) - math.log(down)) / step
@@ -225,7 +226,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             dadr[i, 1] += dadv[i, 0] * omega
         # density gradient: d h / d r = r_hat + R f d(s^2)/d r, s = z / r
         s = z / r
-        fr = force[1] * force[6]
+        fr = force[fb.RADIUS] * force[fb.FLATTENING]
         posv = (x, yy, z)
         for j in range(3):
             dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
@@ -233,7 +234,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
                 dh += fr * 2.0 * s / r
             for i in range(3):
                 dadr[i, j] += c * w * wv[i] * dlnrho_dh * dh
-    n_third = int(force[13])
+    n_third = int(force[fb.N_THIRD_BODIES])
     for b in range(n_third):
         if b == sun:
             bx, by, bz = sun_pos[0], sun_pos[1], sun_pos[2]
@@ -243,16 +244,16 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         # a = gm_b (d / |d|^3 - ...), d = r_b - r: d a / d r = -gm_b grad_d (d / |d|^3)
         # = gm_b (3 d d^T / d^5 - I / d^3)
         _add_point_mass_gradient(bx - x, by - yy, bz - z, eph_gm[b], dadr)
-    if force[7] != 0.0 and sun >= 0:
+    if force[fb.SRP_ON] != 0.0 and sun >= 0:
         from_sun_x = x - sun_pos[0]
         from_sun_y = yy - sun_pos[1]
         from_sun_z = z - sun_pos[2]
         # the shadow fraction of this point, held fixed
         nu = shadow_fraction(
-            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[1], force[10], int(force[9])
+            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
         )
         if nu > 0.0:
-            k = nu * force[8] * force[11] * force[11]
+            k = nu * force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU]
             # a = k d / |d|^3 with d = r - r_sun: d a / d r = k (I/d^3 - 3 d d^T/d^5)
             _add_point_mass_gradient(from_sun_x, from_sun_y, from_sun_z, -k, dadr)
 

@@ -122,6 +122,10 @@ class SimulationState:
     # ---- kernel scratch --------------------------------------------------------------------------
     def ensure_buf(self, n_buf: int) -> None:
         """Allocate the integrator's arrays when missing or of another shape (restart then)."""
+        if (self.buf is not None and n_buf == 76 and self.buf.shape == (75, self.N, 3)):
+            # an IAS15 state saved before its scratch slot for the low parts of positions (slot
+            # 75) was added: the slots in use are the same, so the run continues bit for bit
+            self.buf = np.concatenate([self.buf, np.zeros((1, self.N, 3))])
         if self.buf is None or self.buf.shape != (n_buf, self.N, 3):
             self.buf = np.zeros((n_buf, self.N, 3))
             self.mark_fresh()

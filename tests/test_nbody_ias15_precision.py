@@ -171,7 +171,7 @@ def test_state_saved_before_the_low_part_slot_continues_bit_for_bit():
     a = vv.solar_system(integrator="ias15")
     a.integrate(3.0)
     b = a.copy()
-    b._buf = np.ascontiguousarray(b._buf[:75])
+    b._state.buf = np.ascontiguousarray(b._state.buf[:75])
     a.integrate(6.0)
     b.integrate(6.0)
     assert np.array_equal(a.positions, b.positions)

@@ -17,15 +17,12 @@ Run: ``python -m benchmarks`` (all) or ``python -m benchmarks.bench_passes``.
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped
+    from .common import compile_time, interleaved, quick_from_env, result, skipped
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped
+    from common import compile_time, interleaved, quick_from_env, result, skipped
 
 
 def leo_catalog(n: int, seed: int = 1):
@@ -58,18 +55,6 @@ def _stations(k: int):
     return [vv.GroundStation(float(lat) * u.deg, float(lon) * u.deg, 100 * u.m, name=f"GS{i}")
             for i, (lat, lon) in enumerate(zip(rng.uniform(-60, 60, k), rng.uniform(-180, 180, k),
                                                strict=True))]
-
-
-def _alternate(fa, fb, rounds):
-    ta, tb = [], []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fa()
-        ta.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        fb()
-        tb.append(time.perf_counter() - t0)
-    return statistics.median(ta), statistics.median(tb)
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -107,7 +92,7 @@ def run(quick: bool = False) -> list[dict]:
             vv.find_passes(cat, stations, t0, t1)
 
         first = compile_time(ours)
-        sky_s, ours_s = _alternate(sky, ours, rounds=3 if quick else 5)
+        sky_s, ours_s = interleaved(sky, ours, rounds=3 if quick else 5)
         per_sky = sky_s / (len(sky_sats) * n_st)
         per_ours = ours_s / (n * n_st)
         rows.append(result(
@@ -130,8 +115,8 @@ def run(quick: bool = False) -> list[dict]:
         for es in sky_sats:
             es.find_events(site, a, b)
 
-    sky_s, ev_s = _alternate(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
-                             rounds=3 if quick else 5)
+    sky_s, ev_s = interleaved(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
+                              rounds=3 if quick else 5)
     per_sky, per_ev = sky_s / len(sky_sats), ev_s / n
     rows.append(result(
         f"events only (visviva.ground.search.search_events), {n} LEO x 1 station x 1 day",

@@ -19,9 +19,9 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped, time_call
+    from .common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped, time_call
+    from common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 
 
 def synthetic_catalog(n: int, seed: int = 0):
@@ -54,22 +54,6 @@ def _times(m: int):
     from astropy.time import Time
 
     return Time("2024-01-01T00:00:00", scale="utc") + np.linspace(0.0, 1.0, m) * u.day
-
-
-def interleaved(fa, fb, rounds: int = 7):
-    """Median per-call times of ``fa()`` and ``fb()`` measured alternately (A B A B ...), so
-    that a change of machine load hits both alike. Returns (Timing-like a, b) as floats."""
-    import statistics
-
-    ta, tb = [], []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fa()
-        ta.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        fb()
-        tb.append(time.perf_counter() - t0)
-    return statistics.median(ta), statistics.median(tb)
 
 
 def _cpu_seconds(fn, rounds: int = 3) -> float:

@@ -468,6 +468,30 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
 # ----------------------------------------------------------------------------------------------
 
 
+@inline_kernel
+def _put_elements(e0, e1, e2, e3, e4, e5, status, i, res):
+    """Store item ``i`` of a 7-tuple ``res`` (six elements, then the status) into the outputs."""
+    e0[i] = res[0]
+    e1[i] = res[1]
+    e2[i] = res[2]
+    e3[i] = res[3]
+    e4[i] = res[4]
+    e5[i] = res[5]
+    status[i] = res[6]
+
+
+@inline_kernel
+def _put_state(r, v, status, i, res):
+    """Store item ``i`` of a 7-tuple ``res`` (x, y, z, vx, vy, vz, status) into ``r``, ``v``."""
+    r[i, 0] = res[0]
+    r[i, 1] = res[1]
+    r[i, 2] = res[2]
+    v[i, 0] = res[3]
+    v[i, 1] = res[4]
+    v[i, 2] = res[5]
+    status[i] = res[6]
+
+
 @parallel_kernel
 def rv_to_coe_array(r, v, gm):
     """:func:`rv_to_coe` over ``r``, ``v`` of shape (n, 3) and ``gm`` of shape (n,).
@@ -483,16 +507,8 @@ def rv_to_coe_array(r, v, gm):
     nu = np.empty(n)
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        a0, a1, a2, a3, a4, a5, s = rv_to_coe(
-            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i]
-        )
-        p[i] = a0
-        ecc[i] = a1
-        inc[i] = a2
-        raan[i] = a3
-        argp[i] = a4
-        nu[i] = a5
-        status[i] = s
+        res = rv_to_coe(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i])
+        _put_elements(p, ecc, inc, raan, argp, nu, status, i, res)
     return p, ecc, inc, raan, argp, nu, status
 
 
@@ -504,14 +520,8 @@ def coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm):
     v = np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        x, y, z, vx, vy, vz, s = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
-        r[i, 0] = x
-        r[i, 1] = y
-        r[i, 2] = z
-        v[i, 0] = vx
-        v[i, 1] = vy
-        v[i, 2] = vz
-        status[i] = s
+        res = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
+        _put_state(r, v, status, i, res)
     return r, v, status
 
 
@@ -530,16 +540,8 @@ def rv_to_mee_array(r, v, gm, retro):
     L = np.empty(n)
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        a0, a1, a2, a3, a4, a5, s = rv_to_mee(
-            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro
-        )
-        p[i] = a0
-        f[i] = a1
-        g[i] = a2
-        h[i] = a3
-        k[i] = a4
-        L[i] = a5
-        status[i] = s
+        res = rv_to_mee(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro)
+        _put_elements(p, f, g, h, k, L, status, i, res)
     return p, f, g, h, k, L, status
 
 
@@ -551,14 +553,8 @@ def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
     v = np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        x, y, z, vx, vy, vz, s = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
-        r[i, 0] = x
-        r[i, 1] = y
-        r[i, 2] = z
-        v[i, 0] = vx
-        v[i, 1] = vy
-        v[i, 2] = vz
-        status[i] = s
+        res = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
+        _put_state(r, v, status, i, res)
     return r, v, status
 
 

@@ -20,30 +20,18 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
+    from .bench_sgp4 import synthetic_catalog
     from .common import compile_time, interleaved, quick_from_env, result, skipped
 except ImportError:  # pragma: no cover
+    from bench_sgp4 import synthetic_catalog
     from common import compile_time, interleaved, quick_from_env, result, skipped
 
 
 def leo_catalog(n: int, seed: int = 1):
     """``n`` LEO element sets (OMM records: 14-15.6 rev/day, inclinations 30-100 deg)."""
-    from visviva.satellites.catalog import Catalog
-    from visviva.satellites.tle import Satellite
-
-    rng = np.random.default_rng(seed)
-    records = [{
-        "OBJECT_NAME": f"LEO-{k:05d}", "NORAD_CAT_ID": 20000 + k,
-        "EPOCH": "2024-03-01T00:00:00.000000",
-        "MEAN_MOTION": float(rng.uniform(14.0, 15.6)),
-        "ECCENTRICITY": float(rng.uniform(1e-4, 0.01)),
-        "INCLINATION": float(rng.uniform(30.0, 100.0)),
-        "RA_OF_ASC_NODE": float(rng.uniform(0.0, 360.0)),
-        "ARG_OF_PERICENTER": float(rng.uniform(0.0, 360.0)),
-        "MEAN_ANOMALY": float(rng.uniform(0.0, 360.0)),
-        "BSTAR": float(rng.uniform(0.0, 2e-4)),
-        "MEAN_MOTION_DOT": 0.0, "MEAN_MOTION_DDOT": 0.0,
-    } for k in range(n)]
-    return Catalog([Satellite.from_omm(r) for r in records])
+    return synthetic_catalog(n, seed, prefix="LEO", first_id=20000,
+                             epoch="2024-03-01T00:00:00.000000", mean_motion=(14.0, 15.6),
+                             eccentricity=(1e-4, 0.01), inclination=(30.0, 100.0))
 
 
 def _stations(k: int):

@@ -228,6 +228,29 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     return p, ecc, inc, raan, argp, nu, st.OK
 
 
+@inline_kernel
+def _element_set_status(p, e1, e2, e3, e4, e5, gm):
+    """``NON_FINITE``, ``BAD_GM`` (gm <= 0), ``BAD_SEMI_LATUS_RECTUM`` (p <= 0) or ``OK``.
+
+    The checks every element set shares, in this order: ``p`` first, five more elements, ``gm``.
+    """
+    if not (
+        math.isfinite(p)
+        and math.isfinite(e1)
+        and math.isfinite(e2)
+        and math.isfinite(e3)
+        and math.isfinite(e4)
+        and math.isfinite(e5)
+        and math.isfinite(gm)
+    ):
+        return st.NON_FINITE
+    if not gm > 0.0:
+        return st.BAD_GM
+    if not p > 0.0:
+        return st.BAD_SEMI_LATUS_RECTUM
+    return st.OK
+
+
 @kernel
 def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     """State vector of one set of classical elements.
@@ -258,22 +281,11 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     r = r (cos u, sin u, 0), v = sqrt(mu/p) (-(sin u + e sin argp), cos u + e cos argp, 0),
     rotated by Rz(raan) Rx(inc). Vallado (2013) Algorithm 10.
     """
-    if not (
-        math.isfinite(p)
-        and math.isfinite(ecc)
-        and math.isfinite(inc)
-        and math.isfinite(raan)
-        and math.isfinite(argp)
-        and math.isfinite(nu)
-        and math.isfinite(gm)
-    ):
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
-    if not gm > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
-    if not p > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
-    if ecc < 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_ECCENTRICITY
+    s = _element_set_status(p, ecc, inc, raan, argp, nu, gm)
+    if s == st.OK and ecc < 0.0:
+        s = st.BAD_ECCENTRICITY
+    if s != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, s
     cn = math.cos(nu)
     sn = math.sin(nu)
     denom = 1.0 + ecc * cn
@@ -426,20 +438,9 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
     r = p/w with w = 1 + f cos L + g sin L; r = r (cos L f + sin L g),
     v = sqrt(mu/p) (-(g + sin L) f + (f + cos L) g) (Walker et al. 1985, eqs. 3-4).
     """
-    if not (
-        math.isfinite(p)
-        and math.isfinite(f)
-        and math.isfinite(g)
-        and math.isfinite(h)
-        and math.isfinite(k)
-        and math.isfinite(L)
-        and math.isfinite(gm)
-    ):
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
-    if not gm > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
-    if not p > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
+    s = _element_set_status(p, f, g, h, k, L, gm)
+    if s != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, s
     cl = math.cos(L)
     sl = math.sin(L)
     w = 1.0 + f * cl + g * sl
@@ -588,20 +589,9 @@ def scan_coe(p, ecc, inc, raan, argp, nu, gm, inc_slack):
     ``UNREACHABLE_ANOMALY`` (1 + e cos nu <= 0); ``(-1, OK)`` when all are valid.
     """
     for i in range(p.shape[0]):
-        if not (
-            math.isfinite(p[i])
-            and math.isfinite(ecc[i])
-            and math.isfinite(inc[i])
-            and math.isfinite(raan[i])
-            and math.isfinite(argp[i])
-            and math.isfinite(nu[i])
-            and math.isfinite(gm[i])
-        ):
-            return i, st.NON_FINITE
-        if not gm[i] > 0.0:
-            return i, st.BAD_GM
-        if not p[i] > 0.0:
-            return i, st.BAD_SEMI_LATUS_RECTUM
+        s = _element_set_status(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
+        if s != st.OK:
+            return i, s
         if ecc[i] < 0.0:
             return i, st.BAD_ECCENTRICITY
         if inc[i] < 0.0 or inc[i] > _PI + inc_slack:

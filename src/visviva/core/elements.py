@@ -470,6 +470,13 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
 
 
 @inline_kernel
+def _empty_elements(n):
+    """Six float64 outputs of shape (n,) and an int8 status array, for an element set."""
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+            np.empty(n, dtype=np.int8))
+
+
+@inline_kernel
 def _put_elements(e0, e1, e2, e3, e4, e5, status, i, res):
     """Store item ``i`` of a 7-tuple ``res`` (six elements, then the status) into the outputs."""
     e0[i] = res[0]
@@ -500,13 +507,7 @@ def rv_to_coe_array(r, v, gm):
     Returns ``(p, ecc, inc, raan, argp, nu, status)``, each of shape (n,); status is int8.
     """
     n = r.shape[0]
-    p = np.empty(n)
-    ecc = np.empty(n)
-    inc = np.empty(n)
-    raan = np.empty(n)
-    argp = np.empty(n)
-    nu = np.empty(n)
-    status = np.empty(n, dtype=np.int8)
+    p, ecc, inc, raan, argp, nu, status = _empty_elements(n)
     for i in prange(n):
         res = rv_to_coe(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i])
         _put_elements(p, ecc, inc, raan, argp, nu, status, i, res)
@@ -533,13 +534,7 @@ def rv_to_mee_array(r, v, gm, retro):
     Returns ``(p, f, g, h, k, L, status)``, each of shape (n,).
     """
     n = r.shape[0]
-    p = np.empty(n)
-    f = np.empty(n)
-    g = np.empty(n)
-    h = np.empty(n)
-    k = np.empty(n)
-    L = np.empty(n)
-    status = np.empty(n, dtype=np.int8)
+    p, f, g, h, k, L, status = _empty_elements(n)
     for i in prange(n):
         res = rv_to_mee(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro)
         _put_elements(p, f, g, h, k, L, status, i, res)

@@ -17,36 +17,21 @@ Run: ``python -m benchmarks`` (all) or ``python -m benchmarks.bench_passes``.
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped
+    from .bench_sgp4 import synthetic_catalog
+    from .common import compile_time, interleaved, quick_from_env, result, skipped
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped
+    from bench_sgp4 import synthetic_catalog
+    from common import compile_time, interleaved, quick_from_env, result, skipped
 
 
 def leo_catalog(n: int, seed: int = 1):
     """``n`` LEO element sets (OMM records: 14-15.6 rev/day, inclinations 30-100 deg)."""
-    from visviva.satellites.catalog import Catalog
-    from visviva.satellites.tle import Satellite
-
-    rng = np.random.default_rng(seed)
-    records = [{
-        "OBJECT_NAME": f"LEO-{k:05d}", "NORAD_CAT_ID": 20000 + k,
-        "EPOCH": "2024-03-01T00:00:00.000000",
-        "MEAN_MOTION": float(rng.uniform(14.0, 15.6)),
-        "ECCENTRICITY": float(rng.uniform(1e-4, 0.01)),
-        "INCLINATION": float(rng.uniform(30.0, 100.0)),
-        "RA_OF_ASC_NODE": float(rng.uniform(0.0, 360.0)),
-        "ARG_OF_PERICENTER": float(rng.uniform(0.0, 360.0)),
-        "MEAN_ANOMALY": float(rng.uniform(0.0, 360.0)),
-        "BSTAR": float(rng.uniform(0.0, 2e-4)),
-        "MEAN_MOTION_DOT": 0.0, "MEAN_MOTION_DDOT": 0.0,
-    } for k in range(n)]
-    return Catalog([Satellite.from_omm(r) for r in records])
+    return synthetic_catalog(n, seed, prefix="LEO", first_id=20000,
+                             epoch="2024-03-01T00:00:00.000000", mean_motion=(14.0, 15.6),
+                             eccentricity=(1e-4, 0.01), inclination=(30.0, 100.0))
 
 
 def _stations(k: int):
@@ -58,18 +43,6 @@ def _stations(k: int):
     return [vv.GroundStation(float(lat) * u.deg, float(lon) * u.deg, 100 * u.m, name=f"GS{i}")
             for i, (lat, lon) in enumerate(zip(rng.uniform(-60, 60, k), rng.uniform(-180, 180, k),
                                                strict=True))]
-
-
-def _alternate(fa, fb, rounds):
-    ta, tb = [], []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fa()
-        ta.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        fb()
-        tb.append(time.perf_counter() - t0)
-    return statistics.median(ta), statistics.median(tb)
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -107,7 +80,7 @@ def run(quick: bool = False) -> list[dict]:
             vv.find_passes(cat, stations, t0, t1)
 
         first = compile_time(ours)
-        sky_s, ours_s = _alternate(sky, ours, rounds=3 if quick else 5)
+        sky_s, ours_s = interleaved(sky, ours, rounds=3 if quick else 5)
         per_sky = sky_s / (len(sky_sats) * n_st)
         per_ours = ours_s / (n * n_st)
         rows.append(result(
@@ -130,8 +103,8 @@ def run(quick: bool = False) -> list[dict]:
         for es in sky_sats:
             es.find_events(site, a, b)
 
-    sky_s, ev_s = _alternate(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
-                             rounds=3 if quick else 5)
+    sky_s, ev_s = interleaved(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
+                              rounds=3 if quick else 5)
     per_sky, per_ev = sky_s / len(sky_sats), ev_s / n
     rows.append(result(
         f"events only (visviva.ground.search.search_events), {n} LEO x 1 station x 1 day",

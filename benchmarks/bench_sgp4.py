@@ -19,13 +19,36 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped, time_call
+    from .common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped, time_call
+    from common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 
 
-def synthetic_catalog(n: int, seed: int = 0):
-    """``n`` LEO-to-MEO element sets (OMM records) with spread-out angles and drag terms."""
+def synthetic_catalog(n: int, seed: int = 0, *, prefix: str = "SYN", first_id: int = 10000,
+                      epoch: str = "2024-01-01T00:00:00.000000",
+                      mean_motion: tuple = (11.0, 15.6), eccentricity: tuple = (1e-4, 0.02),
+                      inclination: tuple = (0.0, 110.0)):
+    """``n`` element sets (OMM records) with spread-out angles and drag terms, as a Catalog.
+
+    The defaults span LEO to MEO; the keywords narrow a population (e.g. LEO only).
+
+    Parameters
+    ----------
+    n : int
+        Number of satellites.
+    seed : int
+        Seed of the random generator (same seed and keywords, same catalog).
+    prefix : str
+        ``OBJECT_NAME`` is ``f"{prefix}-{k:05d}"``.
+    first_id : int
+        ``NORAD_CAT_ID`` of the first satellite; the others count up.
+    epoch : str
+        ``EPOCH`` of every element set (ISO, UTC).
+    mean_motion, eccentricity, inclination : (float, float)
+        Uniform ranges of the mean motion (rev/day), the eccentricity and the inclination
+        (deg). Node, argument of perigee and mean anomaly are uniform in [0, 360) deg, B* in
+        [0, 2e-4) 1/earth radii.
+    """
     from visviva.satellites.catalog import Catalog
     from visviva.satellites.tle import Satellite
 
@@ -33,12 +56,12 @@ def synthetic_catalog(n: int, seed: int = 0):
     records = []
     for k in range(n):
         records.append({
-            "OBJECT_NAME": f"SYN-{k:05d}",
-            "NORAD_CAT_ID": 10000 + k,
-            "EPOCH": "2024-01-01T00:00:00.000000",
-            "MEAN_MOTION": float(rng.uniform(11.0, 15.6)),
-            "ECCENTRICITY": float(rng.uniform(1e-4, 0.02)),
-            "INCLINATION": float(rng.uniform(0.0, 110.0)),
+            "OBJECT_NAME": f"{prefix}-{k:05d}",
+            "NORAD_CAT_ID": first_id + k,
+            "EPOCH": epoch,
+            "MEAN_MOTION": float(rng.uniform(*mean_motion)),
+            "ECCENTRICITY": float(rng.uniform(*eccentricity)),
+            "INCLINATION": float(rng.uniform(*inclination)),
             "RA_OF_ASC_NODE": float(rng.uniform(0.0, 360.0)),
             "ARG_OF_PERICENTER": float(rng.uniform(0.0, 360.0)),
             "MEAN_ANOMALY": float(rng.uniform(0.0, 360.0)),
@@ -54,22 +77,6 @@ def _times(m: int):
     from astropy.time import Time
 
     return Time("2024-01-01T00:00:00", scale="utc") + np.linspace(0.0, 1.0, m) * u.day
-
-
-def interleaved(fa, fb, rounds: int = 7):
-    """Median per-call times of ``fa()`` and ``fb()`` measured alternately (A B A B ...), so
-    that a change of machine load hits both alike. Returns (Timing-like a, b) as floats."""
-    import statistics
-
-    ta, tb = [], []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fa()
-        ta.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        fb()
-        tb.append(time.perf_counter() - t0)
-    return statistics.median(ta), statistics.median(tb)
 
 
 def _cpu_seconds(fn, rounds: int = 3) -> float:

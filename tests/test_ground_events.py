@@ -70,14 +70,20 @@ def _sat(key):
     return l1, l2, vv.Satellite.from_tle(l1, l2, name=key)
 
 
-@pytest.mark.parametrize("key, lat, lon, el_min", CASES)
-def test_same_events_as_skyfield_and_within_a_tenth_of_a_second(key, lat, lon, el_min):
+def _events_and_skyfield(key, lat, lon, el_min, start_day, span_day):
+    """Our events of satellite ``key`` over a site 100 m up, and Skyfield's objects for it."""
     l1, l2, sat = _sat(key)
     site = vv.GroundStation(lat * u.deg, lon * u.deg, 100 * u.m)
-    t0 = sat.epoch + 0.25 * u.day
-    t1 = t0 + 1.5 * u.day
+    t0 = sat.epoch + start_day * u.day
+    t1 = t0 + span_day * u.day
     times, kinds = site.find_events(sat, t0, t1, el_min * u.deg)
-    ts, es, topos = _skyfield(l1, l2, lat, lon, 100)
+    return t0, t1, times, kinds, _skyfield(l1, l2, lat, lon, 100)
+
+
+@pytest.mark.parametrize("key, lat, lon, el_min", CASES)
+def test_same_events_as_skyfield_and_within_a_tenth_of_a_second(key, lat, lon, el_min):
+    t0, t1, times, kinds, (ts, es, topos) = _events_and_skyfield(key, lat, lon, el_min,
+                                                                 0.25, 1.5)
     t_sky, k_sky = es.find_events(topos, ts.from_astropy(t0), ts.from_astropy(t1),
                                   altitude_degrees=el_min)
     assert len(kinds) > 3
@@ -109,12 +115,7 @@ def test_same_events_as_skyfield_and_within_a_tenth_of_a_second(key, lat, lon, e
 def test_eccentric_and_high_orbits_against_a_dense_scan(key, lat, lon, el_min):
     # Skyfield's find_events misses passes of these (its coarse step assumes near-circular
     # orbits), so the reference is Skyfield's altitude sampled every 10 s
-    l1, l2, sat = _sat(key)
-    site = vv.GroundStation(lat * u.deg, lon * u.deg, 100 * u.m)
-    t0 = sat.epoch + 0.3 * u.day
-    t1 = t0 + 2 * u.day
-    times, kinds = site.find_events(sat, t0, t1, el_min * u.deg)
-    ts, es, topos = _skyfield(l1, l2, lat, lon, 100)
+    t0, _, times, kinds, (ts, es, topos) = _events_and_skyfield(key, lat, lon, el_min, 0.3, 2)
     grid = t0 + np.arange(0, 2 * 86400 + 1, 10) * u.s
     alt = (es - topos).at(ts.from_astropy(grid)).altaz()[0].degrees - el_min
     sign_change = np.flatnonzero(np.diff(np.sign(alt)) != 0)

@@ -13,7 +13,8 @@ import numpy as np
 from . import _units
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
-__all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch"]
+__all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
+           "canonical_arrays", "flat_elements"]
 
 
 def broadcast_shape(named_shapes: dict[str, tuple], what: str) -> tuple:
@@ -172,3 +173,38 @@ def _index_elements(elements, key, cls_name: str):
     parts = [np.array(x[key]) for x in elements._stored()]
     gm = np.array(np.broadcast_to(elements._gm, shape)[key])
     return parts, gm, index_epoch(elements._epoch, key, shape)
+
+
+def canonical_arrays(shape: tuple, *arrays) -> tuple:
+    """Each of ``arrays`` as float64, broadcast to ``shape`` (read-only views where numpy allows).
+
+    Parameters
+    ----------
+    shape : tuple
+        The element set's leading shape.
+    *arrays : array_like
+        Stored elements in canonical units (km, rad, dimensionless).
+
+    Returns
+    -------
+    tuple of ndarray
+    """
+    return tuple(np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in arrays)
+
+
+def flat_elements(elements) -> list:
+    """The stored elements and gm of an element set, each broadcast and flattened (the kernel's
+    arguments).
+
+    Parameters
+    ----------
+    elements : KeplerianElements or ModifiedEquinoctialElements
+        The element set (its ``_stored()`` arrays and ``_gm``).
+
+    Returns
+    -------
+    list of ndarray
+        The six elements then gm (km3/s2), each of shape ``(elements.size,)``.
+    """
+    shape = elements._shape
+    return [flat(x, shape) for x in (*elements._stored(), elements._gm)]

@@ -27,7 +27,9 @@ from ._containers import (
     _wrap_2pi,
     _wrap_pi,
     broadcast_shape,
+    canonical_arrays,
     flat,
+    flat_elements,
     gm_positive,
 )
 from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
@@ -171,9 +173,9 @@ class KeplerianElements:
 
     def _init_canonical(self, p, ecc, inc, raan, argp, nu, gm, epoch, shape):
         self._shape = tuple(shape)
-        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
-        self._p, self._ecc, self._inc = b(p), b(ecc), b(inc)
-        self._raan, self._argp, self._nu = b(raan), b(argp), b(nu)
+        self._p, self._ecc, self._inc, self._raan, self._argp, self._nu = canonical_arrays(
+            self._shape, p, ecc, inc, raan, argp, nu
+        )
         self._gm = np.asarray(gm, dtype=np.float64)
         self._epoch = epoch
 
@@ -435,9 +437,7 @@ class KeplerianElements:
         """
         from .core.elements import coe_to_rv_array
 
-        shape = self._shape
-        flat_parts = [flat(x, shape) for x in self._stored()]
-        r, v, status = coe_to_rv_array(*flat_parts, flat(self._gm, shape))
+        r, v, status = coe_to_rv_array(*flat_elements(self))
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
         return states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 

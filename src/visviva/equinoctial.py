@@ -18,7 +18,8 @@ from ._containers import (
     _require_positive_p,
     _scalar_or_array,
     broadcast_shape,
-    flat,
+    canonical_arrays,
+    flat_elements,
     gm_positive,
 )
 from .errors import InvalidElementsError
@@ -87,8 +88,9 @@ class ModifiedEquinoctialElements:
 
     def _init_canonical(self, p, f, g, h, k, L, gm, epoch, retrograde, shape):
         self._shape = tuple(shape)
-        b = lambda x: np.broadcast_to(np.asarray(x, dtype=np.float64), self._shape)  # noqa: E731
-        self._p, self._f, self._g, self._h, self._k, self._L = (b(x) for x in (p, f, g, h, k, L))
+        self._p, self._f, self._g, self._h, self._k, self._L = canonical_arrays(
+            self._shape, p, f, g, h, k, L
+        )
         self._gm = np.asarray(gm, dtype=np.float64)
         self._epoch = epoch
         self._retrograde = bool(retrograde)
@@ -192,10 +194,8 @@ class ModifiedEquinoctialElements:
         """State vectors (Walker et al. 1985, eqs. 3-4). Returns :class:`StateVectors`."""
         from .core.elements import mee_to_rv_array
 
-        shape = self._shape
-        flat_parts = [flat(x, shape) for x in self._stored()]
         retro = -1.0 if self._retrograde else 1.0
-        r, v, status = mee_to_rv_array(*flat_parts, flat(self._gm, shape), retro)
+        r, v, status = mee_to_rv_array(*flat_elements(self), retro)
         return states_from_kernel(
             self,
             r,

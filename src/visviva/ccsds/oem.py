@@ -15,7 +15,7 @@ from ..errors import InvalidInputError
 from .grammar import Keyword as K
 from .grammar import Record, Section
 from .interpolation import check_degree, hermite, lagrange
-from .timeframes import center_body, epochs_to_time, time_to_epochs, visviva_frame
+from .timeframes import FrameCenterMetadata, center_body, epochs_to_time, time_to_epochs
 
 __all__ = ["Ephemeris", "OEMSegment", "OEMCovariance", "HEADER", "METADATA", "COVARIANCE_META"]
 
@@ -62,7 +62,7 @@ class OEMCovariance:
     comments: list = field(default_factory=list)
 
 
-class OEMSegment:
+class OEMSegment(FrameCenterMetadata):
     """One segment of an OEM: metadata, states at increasing epochs, covariances.
 
     Parameters
@@ -140,22 +140,7 @@ class OEMSegment:
         seg.check()
         return seg
 
-    # ---- metadata ------------------------------------------------------------------------
-    @property
-    def frame(self) -> str:
-        """``REF_FRAME`` as written (``"EME2000"``, ``"GCRF"``, ``"TEME"``, ``"ITRF"`` ...)."""
-        return self.metadata["REF_FRAME"]
-
-    @property
-    def visviva_frame(self) -> str | None:
-        """The visviva frame of ``REF_FRAME`` (``"gcrs"``, ``"teme"``, ``"itrs"``) or None."""
-        return visviva_frame(self.frame)
-
-    @property
-    def center(self) -> str:
-        """``CENTER_NAME`` as written."""
-        return self.metadata["CENTER_NAME"]
-
+    # ---- metadata (frame, visviva_frame, center: FrameCenterMetadata) --------------------
     @property
     def time_system(self) -> str:
         """``TIME_SYSTEM`` as written."""

@@ -15,7 +15,7 @@ from .covariance import COVARIANCE_KEYWORDS, matrix_from_values
 from .grammar import CCSDSFormatError, Record, Section
 from .grammar import Keyword as K
 from .layout import read_message, write_message
-from .timeframes import center_body, epochs_to_time, visviva_frame
+from .timeframes import FrameCenterMetadata, center_body, epochs_to_time
 
 __all__ = ["OPM", "Maneuver", "read_opm", "write_opm", "SECTIONS", "header_section"]
 
@@ -98,7 +98,7 @@ class Maneuver:
     delta_v: object
 
 
-class OPM:
+class OPM(FrameCenterMetadata):
     """An Orbit Parameter Message as read: every section, plus the physics as visviva objects.
 
     Parameters
@@ -199,21 +199,6 @@ class OPM:
     def metadata(self) -> Record:
         """The metadata keywords."""
         return self.sections["metadata"]
-
-    @property
-    def frame(self) -> str:
-        """``REF_FRAME`` as written."""
-        return self.metadata["REF_FRAME"]
-
-    @property
-    def visviva_frame(self) -> str | None:
-        """visviva's frame for ``REF_FRAME`` (``"gcrs"``, ``"teme"``, ``"itrs"``) or None."""
-        return visviva_frame(self.frame)
-
-    @property
-    def center(self) -> str:
-        """``CENTER_NAME`` as written."""
-        return self.metadata["CENTER_NAME"]
 
     def _time(self, text, key):
         record = self.metadata

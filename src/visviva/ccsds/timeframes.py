@@ -21,7 +21,8 @@ import numpy as np
 
 from .grammar import CCSDSFormatError
 
-__all__ = ["TIME_SCALES", "epochs_to_time", "time_to_epochs", "visviva_frame", "center_body"]
+__all__ = ["TIME_SCALES", "epochs_to_time", "time_to_epochs", "visviva_frame", "center_body",
+           "FrameCenterMetadata"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -142,6 +143,30 @@ def visviva_frame(name: str) -> str | None:
         None for frames visviva has no transformation for.
     """
     return _FRAMES.get(name.strip().upper())
+
+
+class FrameCenterMetadata:
+    """Mixin for a message part with a ``metadata`` record: its frame and its centre.
+
+    The class that uses it sets ``self.metadata`` (a :class:`~visviva.ccsds.grammar.Record` or
+    a dict with ``REF_FRAME`` and ``CENTER_NAME``), as :class:`~visviva.ccsds.oem.OEMSegment`
+    and :class:`~visviva.ccsds.opm.OPM` do.
+    """
+
+    @property
+    def frame(self) -> str:
+        """``REF_FRAME`` as written (``"EME2000"``, ``"GCRF"``, ``"TEME"``, ``"ITRF"`` ...)."""
+        return self.metadata["REF_FRAME"]
+
+    @property
+    def visviva_frame(self) -> str | None:
+        """The visviva frame of ``REF_FRAME`` (``"gcrs"``, ``"teme"``, ``"itrs"``) or None."""
+        return visviva_frame(self.frame)
+
+    @property
+    def center(self) -> str:
+        """``CENTER_NAME`` as written."""
+        return self.metadata["CENTER_NAME"]
 
 
 def center_body(name: str):

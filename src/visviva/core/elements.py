@@ -228,6 +228,29 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     return p, ecc, inc, raan, argp, nu, st.OK
 
 
+@inline_kernel
+def _element_set_status(p, e1, e2, e3, e4, e5, gm):
+    """``NON_FINITE``, ``BAD_GM`` (gm <= 0), ``BAD_SEMI_LATUS_RECTUM`` (p <= 0) or ``OK``.
+
+    The checks every element set shares, in this order: ``p`` first, five more elements, ``gm``.
+    """
+    if not (
+        math.isfinite(p)
+        and math.isfinite(e1)
+        and math.isfinite(e2)
+        and math.isfinite(e3)
+        and math.isfinite(e4)
+        and math.isfinite(e5)
+        and math.isfinite(gm)
+    ):
+        return st.NON_FINITE
+    if not gm > 0.0:
+        return st.BAD_GM
+    if not p > 0.0:
+        return st.BAD_SEMI_LATUS_RECTUM
+    return st.OK
+
+
 @kernel
 def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     """State vector of one set of classical elements.
@@ -258,22 +281,11 @@ def coe_to_rv(p, ecc, inc, raan, argp, nu, gm):
     r = r (cos u, sin u, 0), v = sqrt(mu/p) (-(sin u + e sin argp), cos u + e cos argp, 0),
     rotated by Rz(raan) Rx(inc). Vallado (2013) Algorithm 10.
     """
-    if not (
-        math.isfinite(p)
-        and math.isfinite(ecc)
-        and math.isfinite(inc)
-        and math.isfinite(raan)
-        and math.isfinite(argp)
-        and math.isfinite(nu)
-        and math.isfinite(gm)
-    ):
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
-    if not gm > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
-    if not p > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
-    if ecc < 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_ECCENTRICITY
+    s = _element_set_status(p, ecc, inc, raan, argp, nu, gm)
+    if s == st.OK and ecc < 0.0:
+        s = st.BAD_ECCENTRICITY
+    if s != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, s
     cn = math.cos(nu)
     sn = math.sin(nu)
     denom = 1.0 + ecc * cn
@@ -426,20 +438,9 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
     r = p/w with w = 1 + f cos L + g sin L; r = r (cos L f + sin L g),
     v = sqrt(mu/p) (-(g + sin L) f + (f + cos L) g) (Walker et al. 1985, eqs. 3-4).
     """
-    if not (
-        math.isfinite(p)
-        and math.isfinite(f)
-        and math.isfinite(g)
-        and math.isfinite(h)
-        and math.isfinite(k)
-        and math.isfinite(L)
-        and math.isfinite(gm)
-    ):
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.NON_FINITE
-    if not gm > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_GM
-    if not p > 0.0:
-        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.BAD_SEMI_LATUS_RECTUM
+    s = _element_set_status(p, f, g, h, k, L, gm)
+    if s != st.OK:
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, s
     cl = math.cos(L)
     sl = math.sin(L)
     w = 1.0 + f * cl + g * sl
@@ -468,6 +469,37 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
 # ----------------------------------------------------------------------------------------------
 
 
+@inline_kernel
+def _empty_elements(n):
+    """Six float64 outputs of shape (n,) and an int8 status array, for an element set."""
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+            np.empty(n, dtype=np.int8))
+
+
+@inline_kernel
+def _put_elements(e0, e1, e2, e3, e4, e5, status, i, res):
+    """Store item ``i`` of a 7-tuple ``res`` (six elements, then the status) into the outputs."""
+    e0[i] = res[0]
+    e1[i] = res[1]
+    e2[i] = res[2]
+    e3[i] = res[3]
+    e4[i] = res[4]
+    e5[i] = res[5]
+    status[i] = res[6]
+
+
+@inline_kernel
+def _put_state(r, v, status, i, res):
+    """Store item ``i`` of a 7-tuple ``res`` (x, y, z, vx, vy, vz, status) into ``r``, ``v``."""
+    r[i, 0] = res[0]
+    r[i, 1] = res[1]
+    r[i, 2] = res[2]
+    v[i, 0] = res[3]
+    v[i, 1] = res[4]
+    v[i, 2] = res[5]
+    status[i] = res[6]
+
+
 @parallel_kernel
 def rv_to_coe_array(r, v, gm):
     """:func:`rv_to_coe` over ``r``, ``v`` of shape (n, 3) and ``gm`` of shape (n,).
@@ -475,24 +507,10 @@ def rv_to_coe_array(r, v, gm):
     Returns ``(p, ecc, inc, raan, argp, nu, status)``, each of shape (n,); status is int8.
     """
     n = r.shape[0]
-    p = np.empty(n)
-    ecc = np.empty(n)
-    inc = np.empty(n)
-    raan = np.empty(n)
-    argp = np.empty(n)
-    nu = np.empty(n)
-    status = np.empty(n, dtype=np.int8)
+    p, ecc, inc, raan, argp, nu, status = _empty_elements(n)
     for i in prange(n):
-        a0, a1, a2, a3, a4, a5, s = rv_to_coe(
-            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i]
-        )
-        p[i] = a0
-        ecc[i] = a1
-        inc[i] = a2
-        raan[i] = a3
-        argp[i] = a4
-        nu[i] = a5
-        status[i] = s
+        res = rv_to_coe(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i])
+        _put_elements(p, ecc, inc, raan, argp, nu, status, i, res)
     return p, ecc, inc, raan, argp, nu, status
 
 
@@ -504,14 +522,8 @@ def coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm):
     v = np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        x, y, z, vx, vy, vz, s = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
-        r[i, 0] = x
-        r[i, 1] = y
-        r[i, 2] = z
-        v[i, 0] = vx
-        v[i, 1] = vy
-        v[i, 2] = vz
-        status[i] = s
+        res = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
+        _put_state(r, v, status, i, res)
     return r, v, status
 
 
@@ -522,24 +534,10 @@ def rv_to_mee_array(r, v, gm, retro):
     Returns ``(p, f, g, h, k, L, status)``, each of shape (n,).
     """
     n = r.shape[0]
-    p = np.empty(n)
-    f = np.empty(n)
-    g = np.empty(n)
-    h = np.empty(n)
-    k = np.empty(n)
-    L = np.empty(n)
-    status = np.empty(n, dtype=np.int8)
+    p, f, g, h, k, L, status = _empty_elements(n)
     for i in prange(n):
-        a0, a1, a2, a3, a4, a5, s = rv_to_mee(
-            r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro
-        )
-        p[i] = a0
-        f[i] = a1
-        g[i] = a2
-        h[i] = a3
-        k[i] = a4
-        L[i] = a5
-        status[i] = s
+        res = rv_to_mee(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro)
+        _put_elements(p, f, g, h, k, L, status, i, res)
     return p, f, g, h, k, L, status
 
 
@@ -551,14 +549,8 @@ def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
     v = np.empty((n, 3))
     status = np.empty(n, dtype=np.int8)
     for i in prange(n):
-        x, y, z, vx, vy, vz, s = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
-        r[i, 0] = x
-        r[i, 1] = y
-        r[i, 2] = z
-        v[i, 0] = vx
-        v[i, 1] = vy
-        v[i, 2] = vz
-        status[i] = s
+        res = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
+        _put_state(r, v, status, i, res)
     return r, v, status
 
 
@@ -592,20 +584,9 @@ def scan_coe(p, ecc, inc, raan, argp, nu, gm, inc_slack):
     ``UNREACHABLE_ANOMALY`` (1 + e cos nu <= 0); ``(-1, OK)`` when all are valid.
     """
     for i in range(p.shape[0]):
-        if not (
-            math.isfinite(p[i])
-            and math.isfinite(ecc[i])
-            and math.isfinite(inc[i])
-            and math.isfinite(raan[i])
-            and math.isfinite(argp[i])
-            and math.isfinite(nu[i])
-            and math.isfinite(gm[i])
-        ):
-            return i, st.NON_FINITE
-        if not gm[i] > 0.0:
-            return i, st.BAD_GM
-        if not p[i] > 0.0:
-            return i, st.BAD_SEMI_LATUS_RECTUM
+        s = _element_set_status(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
+        if s != st.OK:
+            return i, s
         if ecc[i] < 0.0:
             return i, st.BAD_ECCENTRICITY
         if inc[i] < 0.0 or inc[i] > _PI + inc_slack:

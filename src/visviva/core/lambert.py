@@ -159,6 +159,32 @@ def _bisect_zero_rev(T, lam):
     return x, abs(tof - T) <= (1e-10 + 8.0 * 2.220446049250313e-16 / (1.0 + x)) * max(1.0, T)
 
 
+@inline_kernel
+def _check_problem(r1, r2, tof, gm, M, v1, v2):
+    """Common prologue of the solvers: NaN into ``v1``, ``v2``, then the input checks.
+
+    Returns ``(status, |r1|, |r2|)``; status is ``OK`` when the problem can be solved
+    (finite inputs, gm > 0, tof > 0, M >= 0, neither position zero).
+    """
+    for i in range(3):
+        v1[i] = math.nan
+        v2[i] = math.nan
+    for i in range(3):
+        if not (math.isfinite(r1[i]) and math.isfinite(r2[i])):
+            return st.NON_FINITE, 0.0, 0.0
+    if not (math.isfinite(tof) and math.isfinite(gm)):
+        return st.NON_FINITE, 0.0, 0.0
+    if not gm > 0.0:
+        return st.BAD_GM, 0.0, 0.0
+    if not tof > 0.0 or M < 0:
+        return st.DOMAIN, 0.0, 0.0
+    R1 = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
+    R2 = math.sqrt(r2[0] ** 2 + r2[1] ** 2 + r2[2] ** 2)
+    if R1 == 0.0 or R2 == 0.0:
+        return st.ZERO_POSITION, R1, R2
+    return st.OK, R1, R2
+
+
 @kernel
 def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     """Izzo's Lambert solver for one problem (see the module docstring).
@@ -185,22 +211,9 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     int
         Status code.
     """
-    for i in range(3):
-        v1[i] = math.nan
-        v2[i] = math.nan
-    for i in range(3):
-        if not (math.isfinite(r1[i]) and math.isfinite(r2[i])):
-            return st.NON_FINITE
-    if not (math.isfinite(tof) and math.isfinite(gm)):
-        return st.NON_FINITE
-    if not gm > 0.0:
-        return st.BAD_GM
-    if not tof > 0.0 or M < 0:
-        return st.DOMAIN
-    R1 = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
-    R2 = math.sqrt(r2[0] ** 2 + r2[1] ** 2 + r2[2] ** 2)
-    if R1 == 0.0 or R2 == 0.0:
-        return st.ZERO_POSITION
+    status, R1, R2 = _check_problem(r1, r2, tof, gm, M, v1, v2)
+    if status != st.OK:
+        return status
     cx = r2[0] - r1[0]
     cy = r2[1] - r1[1]
     cz = r2[2] - r1[2]
@@ -314,22 +327,9 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     Same arguments and statuses as :func:`izzo_one`. For M >= 1 Izzo's "right" branch is the
     low-psi side of the minimum of t(psi), the "left" one the high-psi side.
     """
-    for i in range(3):
-        v1[i] = math.nan
-        v2[i] = math.nan
-    for i in range(3):
-        if not (math.isfinite(r1[i]) and math.isfinite(r2[i])):
-            return st.NON_FINITE
-    if not (math.isfinite(tof) and math.isfinite(gm)):
-        return st.NON_FINITE
-    if not gm > 0.0:
-        return st.BAD_GM
-    if not tof > 0.0 or M < 0:
-        return st.DOMAIN
-    r1n = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
-    r2n = math.sqrt(r2[0] ** 2 + r2[1] ** 2 + r2[2] ** 2)
-    if r1n == 0.0 or r2n == 0.0:
-        return st.ZERO_POSITION
+    status, r1n, r2n = _check_problem(r1, r2, tof, gm, M, v1, v2)
+    if status != st.OK:
+        return status
     cosdnu = (r1[0] * r2[0] + r1[1] * r2[1] + r1[2] * r2[2]) / (r1n * r2n)
     cosdnu = max(-1.0, min(1.0, cosdnu))
     hz = r1[0] * r2[1] - r1[1] * r2[0]

@@ -39,19 +39,9 @@ class Dynamics:
 
     def __init__(self, gm_km3_s2, perturbations, epoch, span_s, rtol=DEFAULT_RTOL,
                  atol=DEFAULT_ATOL):  # fmt: skip
-        from ..satellites.cowell import ForceModel
-        from ..satellites.perturbations import Perturbation
+        from ..satellites.cowell import ForceModel, perturbation_list
 
-        if perturbations is None:
-            perturbations = []
-        if isinstance(perturbations, Perturbation):
-            perturbations = [perturbations]
-        if isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):
-            raise InvalidInputError(
-                f"perturbations must be None, [] or a list such as [vv.J2(vv.EARTH)]; got "
-                f"{perturbations!r}."
-            )
-        self.perturbations = list(perturbations)
+        self.perturbations = list(perturbation_list(perturbations, allow_none=True))
         span = (min(0.0, float(span_s[0])) - 60.0, max(0.0, float(span_s[1])) + 60.0)
         self.model = ForceModel(gm_km3_s2, self.perturbations, (), epoch, span)
         self.gm = float(gm_km3_s2)

@@ -87,6 +87,34 @@ def _all_instances(items, cls, what, hint):
     return items
 
 
+def perturbation_list(perturbations, *, allow_none: bool = False):
+    """The ``perturbations`` argument as an iterable of perturbations, or an InvalidInputError.
+
+    Parameters
+    ----------
+    perturbations : Perturbation, list of Perturbation or None
+        One perturbation (wrapped in a list), or an iterable of them (returned as given);
+        None only where ``allow_none`` (then ``[]``).
+    allow_none : bool
+        Whether None means "no perturbations" (the message then says so).
+
+    Returns
+    -------
+    list or iterable of Perturbation
+    """
+    if allow_none and perturbations is None:
+        return []
+    if isinstance(perturbations, Perturbation):
+        return [perturbations]
+    if isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):
+        expected = ("None, [] or a list such as" if allow_none
+                    else "a list of perturbations, e.g.")
+        raise InvalidInputError(
+            f"perturbations must be {expected} [vv.J2(vv.EARTH)]; got {perturbations!r}."
+        )
+    return perturbations
+
+
 def _check_combination(perturbations, central):
     """Refuse combinations the force block cannot hold (one gravity field, one drag, one SRP,
     each third body once and not the central body)."""
@@ -481,13 +509,7 @@ def propagate_cowell(
         )
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
         raise InvalidInputError(f"max_steps must be an integer > 0; got {fmt_number(max_steps)}.")
-    if isinstance(perturbations, Perturbation):
-        perturbations = [perturbations]
-    elif isinstance(perturbations, str | bytes) or not hasattr(perturbations, "__iter__"):
-        raise InvalidInputError(
-            f"perturbations must be a list of perturbations, e.g. [vv.J2(vv.EARTH)]; got "
-            f"{perturbations!r}."
-        )
+    perturbations = perturbation_list(perturbations)
     if isinstance(events, Event):
         events = [events]
     require_finite(offsets, "t")

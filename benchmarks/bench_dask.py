@@ -23,10 +23,10 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .bench_sgp4 import _cpu_seconds, _times, interleaved, synthetic_catalog
+    from .bench_sgp4 import _cpu_seconds, _times, interleaved_medians, synthetic_catalog
     from .common import quick_from_env, result, skipped, threads
 except ImportError:  # pragma: no cover
-    from bench_sgp4 import _cpu_seconds, _times, interleaved, synthetic_catalog
+    from bench_sgp4 import _cpu_seconds, _times, synthetic_catalog
     from common import quick_from_env, result, skipped, threads
 
 
@@ -120,8 +120,8 @@ def run(quick: bool = False) -> list[dict]:
             del batch
 
         rounds = 3 if quick else 5
-        dk, single = interleaved(gathered, lambda: vcat.propagate_sgp4_batch(cat, t), rounds)
-        dk_kept, single2 = interleaved(kept, lambda: vcat.propagate_sgp4_batch(cat, t), rounds)
+        dk, single = interleaved_medians(gathered, lambda: vcat.propagate_sgp4_batch(cat, t), rounds)
+        dk_kept, single2 = interleaved_medians(kept, lambda: vcat.propagate_sgp4_batch(cat, t), rounds)
         single_cpu = _cpu_seconds(lambda: vcat.propagate_sgp4_batch(cat, t))
         for label, ours, ref, fn in (("gathered by compute()", dk, single, gathered),
                                      ("kept on the workers by persist()", dk_kept, single2, kept)):
@@ -154,7 +154,7 @@ def run(quick: bool = False) -> list[dict]:
             with threads(1):
                 vv.propagate_cowell(states, tc, perts)
 
-        dk, single = interleaved(cowell_dask, cowell_single, rounds=3)
+        dk, single = interleaved_medians(cowell_dask, cowell_single, rounds=3)
         cpu = _cpu_note(_cpu_seconds(cowell_single), *_cpu_split(client, cowell_dask))
         t0 = time.perf_counter()
         with threads(None) as k:

@@ -21,10 +21,10 @@ import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
     from .bench_sgp4 import synthetic_catalog
-    from .common import compile_time, interleaved, quick_from_env, result, skipped
+    from .common import compile_time, interleaved_medians, quick_from_env, result, skipped
 except ImportError:  # pragma: no cover
     from bench_sgp4 import synthetic_catalog
-    from common import compile_time, interleaved, quick_from_env, result, skipped
+    from common import compile_time, quick_from_env, result, skipped
 
 
 def leo_catalog(n: int, seed: int = 1):
@@ -80,7 +80,7 @@ def run(quick: bool = False) -> list[dict]:
             vv.find_passes(cat, stations, t0, t1)
 
         first = compile_time(ours)
-        sky_s, ours_s = interleaved(sky, ours, rounds=3 if quick else 5)
+        sky_s, ours_s = interleaved_medians(sky, ours, rounds=3 if quick else 5)
         per_sky = sky_s / (len(sky_sats) * n_st)
         per_ours = ours_s / (n * n_st)
         rows.append(result(
@@ -103,7 +103,7 @@ def run(quick: bool = False) -> list[dict]:
         for es in sky_sats:
             es.find_events(site, a, b)
 
-    sky_s, ev_s = interleaved(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
+    sky_s, ev_s = interleaved_medians(sky_one, lambda: search_events(cat, stations, t0, t1, 0.0),
                               rounds=3 if quick else 5)
     per_sky, per_ev = sky_s / len(sky_sats), ev_s / n
     rows.append(result(

@@ -19,9 +19,16 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, interleaved, quick_from_env, result, skipped, time_call
+    from .common import (
+        compile_time,
+        interleaved_medians,
+        quick_from_env,
+        result,
+        skipped,
+        time_call,
+    )
 except ImportError:  # pragma: no cover
-    from common import compile_time, interleaved, quick_from_env, result, skipped, time_call
+    from common import compile_time, quick_from_env, result, skipped, time_call
 
 
 def synthetic_catalog(n: int, seed: int = 0, *, prefix: str = "SYN", first_id: int = 10000,
@@ -105,7 +112,7 @@ def run(quick: bool = False) -> list[dict]:
 
     first = compile_time(vcat.propagate_sgp4_batch, cat, t)
     time_call(sa.sgp4, jd, fr, repeat=1, number=1)  # warm caches
-    ref, ours = interleaved(lambda: sa.sgp4(jd, fr), lambda: vcat.propagate_sgp4_batch(cat, t),
+    ref, ours = interleaved_medians(lambda: sa.sgp4(jd, fr), lambda: vcat.propagate_sgp4_batch(cat, t),
                             rounds=9)
     rows.append(result(
         f"sgp4 batch, {n} satellites x {m} times", ours,
@@ -117,7 +124,7 @@ def run(quick: bool = False) -> list[dict]:
 
     try:
         first = compile_time(vcat.propagate_j2_batch, cat, t)
-        ref2, j2 = interleaved(lambda: sa.sgp4(jd, fr), lambda: vcat.propagate_j2_batch(cat, t),
+        ref2, j2 = interleaved_medians(lambda: sa.sgp4(jd, fr), lambda: vcat.propagate_j2_batch(cat, t),
                                rounds=9)
         cpu_j2, cpu_ref = _cpu_seconds(lambda: vcat.propagate_j2_batch(cat, t)), _cpu_seconds(
             lambda: sa.sgp4(jd, fr))

@@ -139,35 +139,6 @@ def time_call(fn: Callable, *args, repeat: int = 7, number: int | None = None,
                   number=number, samples=samples)
 
 
-def interleaved(fa: Callable, fb: Callable, rounds: int = 7) -> tuple[float, float]:
-    """Median per-call times of ``fa()`` and ``fb()`` measured alternately (A B A B ...).
-
-    A change of machine load hits both alike, so their ratio is steadier than two separate
-    :func:`time_call` runs. No warm-up call: warm both up first where compilation matters.
-
-    Parameters
-    ----------
-    fa, fb : callable
-        The two functions, called without arguments.
-    rounds : int
-        Calls of each.
-
-    Returns
-    -------
-    (float, float)
-        The median seconds per call of ``fa`` and of ``fb``.
-    """
-    ta, tb = [], []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        fa()
-        ta.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        fb()
-        tb.append(time.perf_counter() - t0)
-    return statistics.median(ta), statistics.median(tb)
-
-
 def n_threads() -> int:
     """The number of threads numba currently uses (1 when numba is missing)."""
     try:
@@ -260,3 +231,14 @@ def quick_from_env(default: bool = False) -> bool:
     """``True`` when ``VISVIVA_BENCH_QUICK`` is set to a true value."""
     value = os.environ.get("VISVIVA_BENCH_QUICK", "")
     return value.lower() in {"1", "true", "yes"} if value else default
+
+
+def interleaved_medians(fa: Callable, fb: Callable, rounds: int = 7) -> tuple[float, float]:
+    """Median per-call seconds of ``fa()`` and ``fb()`` timed in alternation (A B A B ...), after
+    one untimed call of each: :func:`interleaved` for two functions, as plain numbers.
+
+    A change of machine load hits both alike, so their ratio is steadier than two separate
+    :func:`time_call` runs.
+    """
+    ta, tb = interleaved([fa, fb], rounds)
+    return ta.median, tb.median

@@ -153,7 +153,7 @@ def _index_elements(elements, key, cls_name: str):
     Parameters
     ----------
     elements : KeplerianElements or ModifiedEquinoctialElements
-        The element set (its ``_stored()`` arrays have its leading shape).
+        The element set (its ``stored_arrays()`` arrays have its leading shape).
     key : index
         Any numpy index of the leading axes.
     cls_name : str
@@ -168,11 +168,11 @@ def _index_elements(elements, key, cls_name: str):
     epoch : astropy.time.Time or None
         The epoch, indexed where it has the leading shape.
     """
-    shape = elements._shape
+    shape = elements.shape
     key = normalise_key(key, shape, cls_name)
-    parts = [np.array(x[key]) for x in elements._stored()]
-    gm = np.array(np.broadcast_to(elements._gm, shape)[key])
-    return parts, gm, index_epoch(elements._epoch, key, shape)
+    parts = [np.array(x[key]) for x in elements.stored_arrays()]
+    gm = np.array(np.broadcast_to(elements.gm_km3_s2, shape)[key])
+    return parts, gm, index_epoch(elements.epoch, key, shape)
 
 
 def canonical_arrays(shape: tuple, *arrays) -> tuple:
@@ -199,12 +199,12 @@ def flat_elements(elements) -> list:
     Parameters
     ----------
     elements : KeplerianElements or ModifiedEquinoctialElements
-        The element set (its ``_stored()`` arrays and ``_gm``).
+        The element set (its ``stored_arrays()`` arrays and ``gm_km3_s2``).
 
     Returns
     -------
     list of ndarray
         The six elements then gm (km3/s2), each of shape ``(elements.size,)``.
     """
-    shape = elements._shape
-    return [flat(x, shape) for x in (*elements._stored(), elements._gm)]
+    shape = elements.shape
+    return [flat(x, shape) for x in (*elements.stored_arrays(), elements.gm_km3_s2)]

@@ -248,6 +248,11 @@ class KeplerianElements:
         return int(np.prod(self._shape, dtype=np.int64))
 
     @property
+    def gm_km3_s2(self):
+        """Gravitational parameter in km3/s2 as stored (float64, broadcasting to :attr:`shape`)."""
+        return self._gm
+
+    @property
     def epoch(self):
         """Epoch (as given, or None)."""
         return self._epoch
@@ -266,7 +271,9 @@ class KeplerianElements:
         parts, gm, epoch = _index_elements(self, key, "KeplerianElements")
         return KeplerianElements._from_canonical(*parts, gm, epoch)
 
-    def _stored(self):
+    def stored_arrays(self) -> tuple:
+        """The six stored elements as canonical float64 arrays (p km, ecc, inc, raan, argp, nu rad), each broadcasting to
+        :attr:`shape`: what the compiled kernels take."""
         return (self._p, self._ecc, self._inc, self._raan, self._argp, self._nu)
 
     def __repr__(self) -> str:
@@ -274,7 +281,7 @@ class KeplerianElements:
         gm_txt = f"{gm[0]:.10g} km3 / s2" if gm.size == 1 else f"{gm.size} values"
         epoch = "" if self._epoch is None else f", epoch={self._epoch}"
         if self.size == 1:
-            p, e, i, o, w, n = (float(x.reshape(-1)[0]) for x in self._stored())
+            p, e, i, o, w, n = (float(x.reshape(-1)[0]) for x in self.stored_arrays())
             return (
                 f"KeplerianElements(p={p:.9g} km, ecc={e:.12g}, inc={_deg(i)}, "
                 f"raan={_deg(o)}, argp={_deg(w)}, nu={_deg(n)}, gm={gm_txt}{epoch})"

@@ -107,6 +107,11 @@ class ModifiedEquinoctialElements:
         return self._shape
 
     @property
+    def gm_km3_s2(self):
+        """Gravitational parameter in km3/s2 as stored (float64, broadcasting to :attr:`shape`)."""
+        return self._gm
+
+    @property
     def epoch(self):
         return self._epoch
 
@@ -177,13 +182,15 @@ class ModifiedEquinoctialElements:
         parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")
         return ModifiedEquinoctialElements._from_canonical(*parts, gm, epoch, self._retrograde)
 
-    def _stored(self):
+    def stored_arrays(self) -> tuple:
+        """The six stored elements as canonical float64 arrays (p km, f, g, h, k, L rad), each broadcasting to
+        :attr:`shape`: what the compiled kernels take."""
         return (self._p, self._f, self._g, self._h, self._k, self._L)
 
     def __repr__(self) -> str:
         I = -1 if self._retrograde else 1  # noqa: E741
         if int(np.prod(self._shape)) == 1:
-            vals = [float(x.reshape(-1)[0]) for x in self._stored()]
+            vals = [float(x.reshape(-1)[0]) for x in self.stored_arrays()]
             return (
                 f"ModifiedEquinoctialElements(p={vals[0]:.9g} km, f={vals[1]:.12g}, "
                 f"g={vals[2]:.12g}, h={vals[3]:.12g}, k={vals[4]:.12g}, L={_deg(vals[5])}, I={I})"

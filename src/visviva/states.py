@@ -391,8 +391,8 @@ def states_from_kernel(elements, r, v, status, context, inputs, result_inputs=No
     are quoted in its messages) and returns a :class:`StateVectors` with the gm and epoch of
     ``elements``.
     """
-    shape = elements._shape
+    shape = elements.shape
     r = r.reshape(shape + (3,))
     v = v.reshape(shape + (3,))
     raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
-    return StateVectors._from_canonical(r, v, elements._gm, elements._epoch)
+    return StateVectors._from_canonical(r, v, elements.gm_km3_s2, elements.epoch)

@@ -186,7 +186,7 @@ def animate_simulation(sim, t_end, frames: int = 100, *, plane: str = "xy", trai
     units = getattr(sim, "units", None)
     t0 = sim.t
     if is_quantity(t_end):
-        t_end = sim._time(t_end, "t_end")
+        t_end = sim.time_value(t_end, "t_end")
     t_end = float(t_end)
     if not np.isfinite(t_end) or t_end == t0:
         raise InvalidInputError(

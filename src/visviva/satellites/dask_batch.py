@@ -329,7 +329,7 @@ def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=
     --------
     >>> import numpy as np, visviva as vv                                 # doctest: +SKIP
     >>> from astropy import units as u                                    # doctest: +SKIP
-    >>> lazy = vv.satellites.propagate_dask(states, np.linspace(0, 1, 97) * u.day,
+    >>> lazy = vv.satellites.propagate_dask(states, np.linspace(0, 1, 97) * u.day,  # doctest: +SKIP
     ...                                     method="cowell", perturbations=[vv.J2(vv.EARTH)])
     >>> out = lazy.compute()                                              # doctest: +SKIP
     """

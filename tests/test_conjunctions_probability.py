@@ -301,3 +301,35 @@ def test_six_by_six_uses_position_block():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert collision_probability(*args, 20.0) == pytest.approx(OM_PC, rel=1e-10)
+
+
+@pytest.mark.slow
+def test_3d_agrees_with_two_body_monte_carlo_for_a_slow_encounter():
+    """4 m/s relative speed, ~150 s encounter: sample both 6-D states, propagate each sample on
+    its two-body orbit (universal variables) every 0.5 s, count minimum distances below the HBR."""
+    from visviva.core.universal import propagate_many
+
+    gm = 398600.4418
+    r = 6878.0
+    vc = math.sqrt(gm / r)
+    r1, v1 = np.array([r, 0, 0]), np.array([0, vc, 0])
+    r2, v2 = r1 + np.array([0.030, 0, 0]), v1 + np.array([0, 0, 0.004])
+    c = np.diag([100.0**2, 300.0**2, 100.0**2, 0.05**2, 0.05**2, 0.05**2])
+    p3 = collision_probability(r1 * 1e3, v1 * 1e3, c, r2 * 1e3, v2 * 1e3, c, 20.0, method="3d")
+    rng = np.random.default_rng(1)
+    n = 20_000
+    chol = np.linalg.cholesky(c)
+    states = []
+    for r0, v0 in ((r1, v1), (r2, v2)):
+        d = rng.standard_normal((n, 6)) @ chol.T * 1e-3
+        states.append((r0 + d[:, :3], v0 + d[:, 3:]))
+    dmin = np.full(n, np.inf)
+    out = [(np.empty((n, 3)), np.empty((n, 3))) for _ in range(2)]
+    st = np.empty(n, dtype=np.int64)
+    gms = np.full(n, gm)
+    for t in np.arange(-400.0, 400.5, 0.5):
+        for (rs, vs), (ro, vo) in zip(states, out, strict=True):
+            propagate_many(rs, vs, gms, np.full(n, t), ro, vo, st)
+        dmin = np.minimum(dmin, np.linalg.norm(out[0][0] - out[1][0], axis=1) * 1e3)
+    hits = np.count_nonzero(dmin < 20.0)
+    assert abs(hits / n - p3) < 3 * math.sqrt(hits) / n

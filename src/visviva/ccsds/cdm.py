@@ -254,7 +254,7 @@ class ConjunctionDataMessage:
             vec.extend(moved)
             rel.insert(at, vec)
         for obj in (self.object1, self.object2):
-            seg = ET_sub(body, "segment")
+            seg = _et_sub(body, "segment")
             for section in SEGMENT_SECTIONS:
                 if section.name in obj.sections:
                     parent = seg
@@ -274,7 +274,7 @@ class ConjunctionDataMessage:
                 f"miss {self.relative['MISS_DISTANCE']} m)")
 
 
-def ET_sub(parent, tag):  # noqa: N802
+def _et_sub(parent, tag):
     """Append an empty child element ``tag`` to ``parent`` and return it."""
     import xml.etree.ElementTree as ET
 

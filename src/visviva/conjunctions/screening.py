@@ -157,6 +157,8 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
     for a, i in enumerate(rows):
         for c in range(int(counts[a])):
             j, k = int(out_j[a, c]), int(out_k[a, c])
+            if cat1[int(i)] is cat2[j]:
+                continue  # the same object in both lists
             s1, s2 = cat1[int(i)].satrec, cat2[j].satrec
             if k < 0:
                 lo, hi = 0.0, step_s

@@ -160,11 +160,18 @@ def test_events_sit_on_the_threshold_and_alternate(lat, lon, el):
     cross = kinds != 1
     np.testing.assert_allclose(look.elevation[cross].to_value(u.deg), el, atol=1e-6)
     assert np.all(look.elevation[~cross] > el * u.deg)
-    # rate at a rise is positive, at a set negative, at a culmination ~0
+    # rate at a rise is positive, at a set negative
     assert np.all(look.elevation_rate[kinds == 0] > 0)
     assert np.all(look.elevation_rate[kinds == 2] < 0)
-    np.testing.assert_allclose(look.elevation_rate[kinds == 1].to_value(u.deg / u.s), 0,
-                               atol=1e-5)
+    # a culmination is the maximum of the elevation (of SGP4's positions, on which it is found)
+    # to within 0.025 s: not below the elevation 0.05 s before or after (the issue asks 0.1 s).
+    # (The elevation rate there is not exactly 0: it comes from SGP4's velocity, which is not
+    # exactly the derivative of SGP4's positions.)
+    culminations = times[kinds == 1]
+    if len(culminations):
+        top = look.elevation[kinds == 1]
+        for dt in (-0.05, 0.05):
+            assert np.all(site.look(iss, culminations + dt * u.s).elevation <= top)
     assert np.all(np.diff(times.jd) > 0)
     real = kinds[kinds != 1]
     assert np.all(real[1:] != real[:-1])  # rise and set alternate

@@ -19,6 +19,7 @@ finish, and the first such exception is raised afterwards with the member's inde
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 
@@ -211,7 +212,8 @@ class Ensemble:
         if client is not None:
             from .ensemble_dask import integrate_on_dask
 
-            errors = integrate_on_dask(self, t, client)
+            advance = functools.partial(_advance_block, backend=self.backend)
+            errors = integrate_on_dask(self._members, t, client, advance)
         else:
             errors = self._integrate_here(t)
         _raise_first(errors)
@@ -353,3 +355,10 @@ def _raise_first(errors) -> None:
         + ". The other members reached the requested time."
     )
     raise exc
+
+
+def _advance_block(members, t, backend):
+    """Dask worker side: advance a block of members as an ensemble; returns them and the errors."""
+    ens = Ensemble(members, backend)
+    errors = ens._integrate_here(t)
+    return ens._members, errors

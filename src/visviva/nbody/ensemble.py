@@ -292,9 +292,9 @@ class Ensemble:
 
         :meth:`load` returns an ensemble whose members continue bit for bit. Format
         ``visviva.nbody.ensemble`` version 1: ``count``, ``backend`` and each member as in
-        :mod:`visviva.nbody.archive` under the keys ``e<k>_<key>``.
+        :mod:`visviva.nbody.snapshot` under the keys ``e<k>_<key>``.
         """
-        from .archive import _atomic_savez, _state
+        from .snapshot import _atomic_savez, _state
 
         arrays = {
             "format": np.array(ENSEMBLE_FORMAT),
@@ -324,7 +324,7 @@ class Ensemble:
         -------
         Ensemble
         """
-        from .archive import _build, _check_format, _open_npz
+        from .snapshot import _build, _check_format, _open_npz
 
         with _open_npz(path) as data:
             _check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))

@@ -15,8 +15,8 @@ import numpy as np
 from astropy import units as u
 
 from ..errors import InvalidInputError
-from .passes import _catalog, find_passes
-from .search import check_window, min_elevation_rad
+from .passes import find_passes
+from .search import as_catalog, check_window, min_elevation_rad
 from .station import as_stations
 
 __all__ = ["find_passes_dask"]
@@ -62,7 +62,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     from ..satellites.catalog import Catalog
     from ..satellites.dask_batch import get_client
 
-    cat = _catalog(satellites)
+    cat = as_catalog(satellites)
     sts = as_stations(stations)
     check_window(t0, t1)
     min_elevation_rad(min_elevation)

@@ -15,55 +15,17 @@ from astropy.time import Time
 
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
-from .search import WINDOW_END, WINDOW_START, check_window, min_elevation_rad, search_events
-from .station import GroundStation, as_stations
+from .search import (
+    WINDOW_END,
+    WINDOW_START,
+    as_catalog,
+    check_window,
+    min_elevation_rad,
+    search_events,
+)
+from .station import as_stations
 
-__all__ = ["find_passes", "station_events", "write_passes"]
-
-
-def _catalog(satellites):
-    from ..satellites.catalog import Catalog
-    from ..satellites.tle import Satellite
-
-    if isinstance(satellites, Satellite):
-        return Catalog([satellites])
-    if isinstance(satellites, Catalog):
-        cat = satellites
-    else:
-        try:
-            items = list(satellites)
-        except TypeError:
-            raise InvalidInputError(
-                f"satellites must be a Satellite, a Catalog or a list of Satellite, got "
-                f"{type(satellites).__name__}."
-            ) from None
-        for k, s in enumerate(items):
-            if not isinstance(s, Satellite):
-                raise InvalidInputError(f"satellites[{k}] is a {type(s).__name__}, not a "
-                                        "Satellite.")
-        cat = Catalog(items)
-    if len(cat) == 0:
-        raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
-    return cat
-
-
-def station_events(station: GroundStation, satellite, t0, t1, min_elevation=0.0 * u.deg):
-    """Rise (0), culmination (1) and set (2) times of one satellite at one station.
-
-    See :meth:`visviva.GroundStation.find_events`.
-    """
-    from ..satellites.tle import Satellite
-
-    if not isinstance(satellite, Satellite):
-        raise InvalidInputError(
-            f"find_events takes one Satellite, got {type(satellite).__name__}; for a catalogue "
-            "use vv.find_passes(catalog, station, t0, t1)."
-        )
-    check_window(t0, t1)
-    el = min_elevation_rad(min_elevation)
-    ev = search_events(_catalog(satellite), [station], t0, t1, el)
-    real = ev.kind <= _topo.SET
-    return ev.times(np.flatnonzero(real)), ev.kind[real].astype(np.int64)
+__all__ = ["find_passes", "write_passes"]
 
 
 def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
@@ -118,7 +80,7 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     >>> len(passes)
     5
     """
-    cat = _catalog(satellites)
+    cat = as_catalog(satellites)
     sts = as_stations(stations)
     check_window(t0, t1)
     el_min = min_elevation_rad(min_elevation)

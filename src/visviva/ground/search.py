@@ -35,8 +35,8 @@ from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
 from .earthfixed import EarthFixedMap
 
-__all__ = ["EventSet", "search_events", "check_window", "min_elevation_rad", "WINDOW_START",
-           "WINDOW_END"]
+__all__ = ["EventSet", "search_events", "as_catalog", "check_window", "min_elevation_rad",
+           "WINDOW_START", "WINDOW_END"]
 
 _BASE_STEP_S = 75.0
 _SAMPLES = 6
@@ -47,6 +47,33 @@ _NEAR = 5e-3
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
+
+
+def as_catalog(satellites):
+    """The satellites as a non-empty Catalog (a Satellite, a Catalog or a list of Satellite)."""
+    from ..satellites.catalog import Catalog
+    from ..satellites.tle import Satellite
+
+    if isinstance(satellites, Satellite):
+        return Catalog([satellites])
+    if isinstance(satellites, Catalog):
+        cat = satellites
+    else:
+        try:
+            items = list(satellites)
+        except TypeError:
+            raise InvalidInputError(
+                f"satellites must be a Satellite, a Catalog or a list of Satellite, got "
+                f"{type(satellites).__name__}."
+            ) from None
+        for k, s in enumerate(items):
+            if not isinstance(s, Satellite):
+                raise InvalidInputError(f"satellites[{k}] is a {type(s).__name__}, not a "
+                                        "Satellite.")
+        cat = Catalog(items)
+    if len(cat) == 0:
+        raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
+    return cat
 
 
 def check_window(t0, t1):

@@ -254,11 +254,22 @@ class GroundStation:
         Notes
         -----
         The coarse search, bracketing and root refinement of
-        :func:`visviva.ground.passes.find_events_batch`.
+        :func:`visviva.ground.search.search_events`.
         """
-        from .passes import station_events
+        from ..core.topocentric import SET
+        from ..satellites.tle import Satellite
+        from .search import as_catalog, check_window, min_elevation_rad, search_events
 
-        return station_events(self, satellite, t0, t1, min_elevation)
+        if not isinstance(satellite, Satellite):
+            raise InvalidInputError(
+                f"find_events takes one Satellite, got {type(satellite).__name__}; for a "
+                "catalogue use vv.find_passes(catalog, station, t0, t1)."
+            )
+        check_window(t0, t1)
+        el = min_elevation_rad(min_elevation)
+        ev = search_events(as_catalog(satellite), [self], t0, t1, el)
+        real = ev.kind <= SET
+        return ev.times(np.flatnonzero(real)), ev.kind[real].astype(np.int64)
 
     # protocol ------------------------------------------------------------------------------
     def __repr__(self):

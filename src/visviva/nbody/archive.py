@@ -1,158 +1,36 @@
-"""Saving, loading and archiving N-body simulations (versioned ``.npz`` files, atomic writes).
+"""Archiving N-body simulations: many snapshots in one file (atomic writes).
 
-Format ``visviva.nbody.simulation`` version 1 (an uncompressed numpy ``.npz`` archive)
-------------------------------------------------------------------------------------------
-=================  =========================================================================
-key                content
-=================  =========================================================================
-``format``         the string ``"visviva.nbody.simulation"``
-``format_version`` integer, 1
-``meta``           JSON: integrator, units, collision mode, restitution, parallel flag,
-                   energy offset (as a float hex string), forces (how to rebuild them), names
-``x``, ``v``       positions and velocities, (N, 3) float64
-``m``, ``radius``  masses and collision radii, (N,)
-``fstate``         float64 scalar state (time, dt, last dt, epsilon, G, ...); see
-                   :mod:`visviva.core.nbody_common`
-``istate``         int64 scalar state (step counters, flags)
-``buf``            the integrator's internal arrays (IAS15's b, e and compensated-summation
-                   terms, WHFast's Jacobi state), (K, N, 3); absent if never integrated
-=================  =========================================================================
-
-Every bit of state is stored, so a loaded simulation continues exactly as if it had never
-stopped. Files are written to a temporary file in the same directory and moved into place with
-:func:`os.replace`, so a crash never leaves a half-written file.
-
-An :class:`Archive` (format ``visviva.nbody.archive`` version 1) holds many such snapshots in one
+An :class:`Archive` (format ``visviva.nbody.archive`` version 1) holds many snapshots in one
 file under the keys ``s<k>_<key>``, plus ``times``; indexing it returns a :class:`Simulation`
-that continues bit for bit from that snapshot.
+that continues bit for bit from that snapshot. Each snapshot holds the keys of one simulation
+file (format ``visviva.nbody.simulation``, described in :mod:`visviva.nbody.snapshot`).
 """
 
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 import warnings
 
 import numpy as np
 
 from ..errors import InvalidInputError, fmt_number
+from .simulation import Simulation
+from .snapshot import (
+    FORMAT,
+    FORMAT_VERSION,
+    _atomic_savez,
+    _build,
+    _check_format,
+    _open_npz,
+    _state,
+    load_simulation,
+    save_simulation,
+)
 
 __all__ = ["save_simulation", "load_simulation", "Archive", "FORMAT", "FORMAT_VERSION"]
 
-FORMAT = "visviva.nbody.simulation"
-FORMAT_VERSION = 1
 ARCHIVE_FORMAT = "visviva.nbody.archive"
 ARCHIVE_VERSION = 1
-
-
-def _state(sim) -> dict:
-    meta = {
-        "integrator": sim.integrator,
-        "units": None if sim.units is None else list(sim.units.as_tuple()),
-        "collision": sim.collision,
-        "restitution": sim.restitution,
-        "parallel": sim.parallel,
-        "energy_offset": float(sim.energy_offset).hex(),
-        "forces": [f.spec() for f in sim.forces],
-        "names": getattr(sim, "names", None),
-    }
-    out = {"meta": np.array(json.dumps(meta))}
-    out.update(sim.state_arrays())
-    return out
-
-
-def _atomic_savez(path, arrays: dict) -> None:
-    path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def save_simulation(sim, path) -> None:
-    """Write ``sim`` to ``path`` atomically (format above)."""
-    arrays = {"format": np.array(FORMAT), "format_version": np.array(FORMAT_VERSION)}
-    arrays.update(_state(sim))
-    _atomic_savez(path, arrays)
-
-
-def _build(cls, get, forces=None):
-    from .forces import Force
-    from .state import SimulationState
-    from .units import SimulationUnits
-
-    meta = json.loads(str(get("meta")))
-    state = SimulationState.from_arrays(
-        get,
-        collision=meta["collision"],
-        restitution=meta["restitution"],
-        energy_offset=float.fromhex(meta["energy_offset"]),
-    )
-    units = None if meta["units"] is None else SimulationUnits.parse(meta["units"])
-    if forces is not None:
-        forces = [f if isinstance(f, Force) else Force(f) for f in forces]
-    else:
-        forces = []
-        for spec in meta["forces"]:
-            try:
-                forces.append(Force.from_spec(spec))
-            except (ImportError, AttributeError, KeyError, TypeError) as exc:
-                raise InvalidInputError(
-                    f"the saved simulation used the force {spec['fn']!r}, which cannot be "
-                    "re-imported (defined in __main__ or a closure): pass it again with "
-                    "Simulation.load(path, forces=[...])."
-                ) from exc
-    sim = cls.from_state(state, meta["integrator"], units=units, parallel=meta["parallel"],
-                         forces=forces)
-    if meta.get("names") is not None:
-        sim.names = meta["names"]
-    return sim
-
-
-def _check_format(data, fmt, version, path):
-    if "format" not in data or str(data["format"]) != fmt:
-        raise InvalidInputError(f"{path!r} is not a {fmt} file.")
-    v = int(data["format_version"])
-    if v > version:
-        raise InvalidInputError(
-            f"{path!r} has format version {v}; this visviva reads up to {version}: upgrade visviva."
-        )
-
-
-def load_simulation(cls, path, forces=None):
-    """Read a simulation written by :func:`save_simulation`."""
-    data = _open_npz(path)
-    with data:
-        _check_format(data, FORMAT, FORMAT_VERSION, path)
-        return _build(cls, lambda k: data[k] if k in data else None, forces)
-
-
-def _open_npz(path):
-    """``np.load`` of an archive, with a typed error for a file that is not one."""
-    try:
-        data = np.load(os.fspath(path), allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (ValueError, OSError, EOFError) as exc:
-        raise InvalidInputError(
-            f"{path!r} is not a visviva simulation file (numpy .npz written by Simulation.save or "
-            f"Archive.record): {exc}. Pass the path of such a file."
-        ) from exc
-    if not hasattr(data, "files"):
-        raise InvalidInputError(
-            f"{path!r} is a single numpy array, not a visviva simulation file (.npz written by "
-            "Simulation.save or Archive.record)."
-        )
-    return data
 
 
 class Archive:
@@ -251,8 +129,6 @@ class Archive:
         return len(self._snapshots)
 
     def __getitem__(self, k):
-        from .simulation import Simulation
-
         if isinstance(k, slice):
             return [self[i] for i in range(*k.indices(len(self)))]
         snap = self._snapshots[k]

@@ -19,6 +19,7 @@ finish, and the first such exception is raised afterwards with the member's inde
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 
@@ -211,7 +212,8 @@ class Ensemble:
         if client is not None:
             from .ensemble_dask import integrate_on_dask
 
-            errors = integrate_on_dask(self, t, client)
+            advance = functools.partial(_advance_block, backend=self.backend)
+            errors = integrate_on_dask(self._members, t, client, advance)
         else:
             errors = self._integrate_here(t)
         _raise_first(errors)
@@ -290,9 +292,9 @@ class Ensemble:
 
         :meth:`load` returns an ensemble whose members continue bit for bit. Format
         ``visviva.nbody.ensemble`` version 1: ``count``, ``backend`` and each member as in
-        :mod:`visviva.nbody.archive` under the keys ``e<k>_<key>``.
+        :mod:`visviva.nbody.snapshot` under the keys ``e<k>_<key>``.
         """
-        from .archive import _atomic_savez, _state
+        from .snapshot import _atomic_savez, _state
 
         arrays = {
             "format": np.array(ENSEMBLE_FORMAT),
@@ -322,7 +324,7 @@ class Ensemble:
         -------
         Ensemble
         """
-        from .archive import _build, _check_format, _open_npz
+        from .snapshot import _build, _check_format, _open_npz
 
         with _open_npz(path) as data:
             _check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))
@@ -353,3 +355,10 @@ def _raise_first(errors) -> None:
         + ". The other members reached the requested time."
     )
     raise exc
+
+
+def _advance_block(members, t, backend):
+    """Dask worker side: advance a block of members as an ensemble; returns them and the errors."""
+    ens = Ensemble(members, backend)
+    errors = ens._integrate_here(t)
+    return ens._members, errors

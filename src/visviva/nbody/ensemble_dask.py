@@ -38,11 +38,9 @@ def resolve_client(client):
     return client
 
 
-def _run_block(members, t, backend):
-    """Worker side: advance a block of members as an ensemble; returns them and the errors."""
+def _run_block(members, t, advance):
+    """Worker side: give ``advance`` this worker's numba threads and run it on a block."""
     import numba
-
-    from .ensemble import Ensemble
 
     threads = 1
     try:
@@ -52,21 +50,24 @@ def _run_block(members, t, backend):
     except (ImportError, ValueError, AttributeError):  # pragma: no cover - outside a worker
         pass
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    ens = Ensemble(members, backend)
-    errors = ens._integrate_here(t)
-    return ens._members, errors
+    return advance(members, t)
 
 
-def integrate_on_dask(ensemble, t, client) -> list:
-    """Advance ``ensemble``'s members on the workers of ``client``; returns the errors."""
+def integrate_on_dask(members: list, t, client, advance) -> list:
+    """Advance ``members`` in place on the workers of ``client``; returns the errors.
+
+    ``advance(block, t) -> (block, [(index in block, exception), ...])`` runs on a worker (it
+    must pickle by reference: a module-level function or a ``functools.partial`` of one); the
+    caller (:meth:`visviva.Ensemble.integrate`) supplies it, so this module does not know the
+    ensemble class.
+    """
     client = resolve_client(client)
     workers = client.scheduler_info().get("workers", {})
     slots = sum(int(w.get("nthreads", 1)) for w in workers.values()) or 1
-    members = ensemble._members
     n_blocks = min(len(members), slots)
     bounds = np.linspace(0, len(members), n_blocks + 1).round().astype(int)
     blocks = [members[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-    futures = client.map(_run_block, blocks, t=t, backend=ensemble.backend, pure=False)
+    futures = client.map(_run_block, blocks, t=t, advance=advance, pure=False)
     errors = []
     for a, (done, block_errors) in zip(bounds[:-1], client.gather(futures), strict=True):
         members[a:a + len(done)] = done

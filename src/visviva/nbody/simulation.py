@@ -169,7 +169,7 @@ class Simulation:
 
     def state_arrays(self) -> dict:
         """The state's arrays under their archive keys (``x, v, m, radius, fstate, istate`` and
-        ``buf`` once integrated): the live arrays, not copies (see :mod:`visviva.nbody.archive`)."""
+        ``buf`` once integrated): the live arrays, not copies (see :mod:`visviva.nbody.snapshot`)."""
         return self._state.arrays()
 
     # ---- settings: each one slot of the state (see visviva.nbody.settings) ------------------------
@@ -651,14 +651,14 @@ class Simulation:
         return (f"<Simulation {self.integrator} N={self.N} (active {self.N_active}) "
                 f"t={self.t:.6g} dt={self.dt:.6g} G={self.G:.6g}>")
 
-    # ---- persistence and interop (defined in archive.py / interop.py) ------------------------------
+    # ---- persistence and interop (defined in snapshot.py / interop.py) ------------------------------
     def save(self, path) -> None:
         """Write the complete state (integrator internals included) atomically to ``path``.
 
         A simulation loaded with :meth:`load` continues bit for bit. Format: see
-        :mod:`visviva.nbody.archive`.
+        :mod:`visviva.nbody.snapshot`.
         """
-        from .archive import save_simulation
+        from .snapshot import save_simulation
 
         save_simulation(self, path)
 
@@ -666,7 +666,7 @@ class Simulation:
     def load(cls, path, forces=None) -> Simulation:
         """Read a simulation written by :meth:`save`; pass ``forces`` when user forces cannot be
         re-imported by name (functions defined in ``__main__``)."""
-        from .archive import load_simulation
+        from .snapshot import load_simulation
 
         return load_simulation(cls, path, forces=forces)
 

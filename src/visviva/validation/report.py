@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import Check
+from .results import _fmt, environment, short_name, status_of, to_json
 
 __all__ = ["write_report", "plot_specs", "markdown_escape"]
 
@@ -203,8 +204,6 @@ def _slug(text: str) -> str:
 
 def _figures(outcome) -> list[tuple[str, list[tuple[Check, dict]]]]:
     """Group (check, spec) pairs into figures: one per ``plot_group``, else one per check."""
-    from .runner import short_name
-
     groups: dict[str, list[tuple[Check, dict]]] = {}
     order: list[str] = []
     for module, check in outcome.checks:
@@ -265,16 +264,8 @@ def _reason(check: Check) -> str | None:
     return None
 
 
-def _fmt(x) -> str:
-    from .runner import _fmt as fmt
-
-    return fmt(x)
-
-
 def write_report(outcome, folder) -> Path:
     """Write ``report.md``, ``results.json`` and the plots into ``folder``; return the report path."""
-    from .runner import environment, short_name, status_of, to_json
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     for old in folder.glob("plot_*.png"):

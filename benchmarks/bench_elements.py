@@ -99,7 +99,12 @@ def run(quick: bool = False) -> list[dict]:
         from astropy import units as u
 
         import visviva as vv
-        from visviva.core.elements import coe_to_rv_array, rv_to_coe_array
+        from visviva.core.elements import (
+            coe_to_rv_array,
+            empty_elements,
+            empty_states,
+            rv_to_coe_array,
+        )
     except Exception as exc:  # pragma: no cover
         return [skipped("states -> elements", f"visviva not importable: {exc}")]
     try:
@@ -128,15 +133,18 @@ def run(quick: bool = False) -> list[dict]:
         return (el.semi_latus_rectum, el.eccentricity, el.inclination,
                 el.longitude_of_ascending_node, el.argument_of_periapsis, el.true_anomaly)
 
-    def kernel_rv2coe():
-        return rv_to_coe_array(r, v, gm_flat)
+    def kernel_rv2coe():  # the allocation included, as in the public call
+        out = empty_elements(n)
+        rv_to_coe_array(r, v, gm_flat, *out)
+        return out
 
     rows += _direction_rows(f"states -> elements, {n:.0e} states", "rv_to_coe_array",
                             sky_ref + " OsculatingElements", vv_rv2coe, kernel_rv2coe,
                             sky_rv2coe, n, note_prefix=f"{n:.0e} random ellipses/hyperbolas; ")
 
     # --- elements -> states -------------------------------------------------------------------
-    p, e, i, raan, argp, nu, _ = rv_to_coe_array(r, v, gm_flat)
+    p, e, i, raan, argp, nu, _ = out = empty_elements(n)
+    rv_to_coe_array(r, v, gm_flat, *out)
     p_q = p * u.km
 
     def vv_coe2rv():
@@ -147,7 +155,9 @@ def run(quick: bool = False) -> list[dict]:
         return ele_to_vec(p, e, i, raan, argp, nu, MU)
 
     def kernel_coe2rv():
-        return coe_to_rv_array(p, e, i, raan, argp, nu, gm_flat)
+        out = empty_states(n)
+        coe_to_rv_array(p, e, i, raan, argp, nu, gm_flat, *out)
+        return out
 
     rows += _direction_rows(f"elements -> states, {n:.0e} orbits", "coe_to_rv_array",
                             sky_ref + " keplerlib.ele_to_vec", vv_coe2rv, kernel_coe2rv,

@@ -199,10 +199,11 @@ class ModifiedEquinoctialElements:
 
     def to_state(self):
         """State vectors (Walker et al. 1985, eqs. 3-4). Returns :class:`StateVectors`."""
-        from .core.elements import mee_to_rv_array
+        from .core.elements import empty_states, mee_to_rv_array
 
         retro = -1.0 if self._retrograde else 1.0
-        r, v, status = mee_to_rv_array(*flat_elements(self), retro)
+        r, v, status = out = empty_states(self.size)
+        mee_to_rv_array(*flat_elements(self), retro, *out)
         return states_from_kernel(
             self,
             r,

@@ -313,10 +313,11 @@ class StateVectors:
         One call of :func:`visviva.core.elements.rv_to_coe_array`; Vallado (2013) Algorithm 9
         rewritten with atan2 only (no arccos), see :mod:`visviva.core.elements`.
         """
-        from .core.elements import rv_to_coe_array
+        from .core.elements import empty_elements, rv_to_coe_array
         from .elements import KeplerianElements
 
-        *elements, status = rv_to_coe_array(*self._flat_inputs())
+        *elements, status = out = empty_elements(self.size)
+        rv_to_coe_array(*self._flat_inputs(), *out)
         elements = self._checked_results(
             elements,
             status,
@@ -345,11 +346,12 @@ class StateVectors:
         InvalidStateError
             Radial motion.
         """
-        from .core.elements import rv_to_mee_array
+        from .core.elements import empty_elements, rv_to_mee_array
         from .equinoctial import ModifiedEquinoctialElements
 
         retro = -1.0 if retrograde else 1.0
-        *elements, status = rv_to_mee_array(*self._flat_inputs(), retro)
+        *elements, status = out = empty_elements(self.size)
+        rv_to_mee_array(*self._flat_inputs(), retro, *out)
         elements = self._checked_results(elements, status, "state vectors -> equinoctial elements")
         return ModifiedEquinoctialElements._from_canonical(
             *elements, self._gm, self._epoch, bool(retrograde)

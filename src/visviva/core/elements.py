@@ -54,6 +54,8 @@ __all__ = [
     "coe_to_rv",
     "rv_to_mee",
     "mee_to_rv",
+    "empty_elements",
+    "empty_states",
     "rv_to_coe_array",
     "coe_to_rv_array",
     "rv_to_mee_array",
@@ -469,11 +471,17 @@ def mee_to_rv(p, f, g, h, k, L, gm, retro):
 # ----------------------------------------------------------------------------------------------
 
 
-@inline_kernel
-def _empty_elements(n):
-    """Six float64 outputs of shape (n,) and an int8 status array, for an element set."""
+def empty_elements(n: int) -> tuple:
+    """Outputs for :func:`rv_to_coe_array` / :func:`rv_to_mee_array`: six float64 arrays of shape
+    ``(n,)`` and the int64 status array (plain Python: the wrapper owns the allocation)."""
     return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-            np.empty(n, dtype=np.int8))
+            np.empty(n, dtype=np.int64))
+
+
+def empty_states(n: int) -> tuple:
+    """Outputs for :func:`coe_to_rv_array` / :func:`mee_to_rv_array`: ``r``, ``v`` of shape
+    ``(n, 3)`` (float64) and the int64 status array of shape ``(n,)``."""
+    return np.empty((n, 3)), np.empty((n, 3)), np.empty(n, dtype=np.int64)
 
 
 @inline_kernel
@@ -501,57 +509,41 @@ def _put_state(r, v, status, i, res):
 
 
 @parallel_kernel
-def rv_to_coe_array(r, v, gm):
-    """:func:`rv_to_coe` over ``r``, ``v`` of shape (n, 3) and ``gm`` of shape (n,).
-
-    Returns ``(p, ecc, inc, raan, argp, nu, status)``, each of shape (n,); status is int8.
-    """
-    n = r.shape[0]
-    p, ecc, inc, raan, argp, nu, status = _empty_elements(n)
-    for i in prange(n):
+def rv_to_coe_array(r, v, gm, p, ecc, inc, raan, argp, nu, status):
+    """:func:`rv_to_coe` over ``r``, ``v`` of shape (n, 3) and ``gm`` of shape (n,), written into
+    ``p, ecc, inc, raan, argp, nu`` (float64, (n,)) and ``status`` (int64, (n,)); see
+    :func:`empty_elements`."""
+    for i in prange(r.shape[0]):
         res = rv_to_coe(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i])
         _put_elements(p, ecc, inc, raan, argp, nu, status, i, res)
-    return p, ecc, inc, raan, argp, nu, status
 
 
 @parallel_kernel
-def coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm):
-    """:func:`coe_to_rv` over arrays of shape (n,). Returns ``(r, v, status)``, r, v (n, 3)."""
-    n = p.shape[0]
-    r = np.empty((n, 3))
-    v = np.empty((n, 3))
-    status = np.empty(n, dtype=np.int8)
-    for i in prange(n):
+def coe_to_rv_array(p, ecc, inc, raan, argp, nu, gm, r, v, status):
+    """:func:`coe_to_rv` over arrays of shape (n,), written into ``r``, ``v`` (float64, (n, 3))
+    and ``status`` (int64, (n,)); see :func:`empty_states`."""
+    for i in prange(p.shape[0]):
         res = coe_to_rv(p[i], ecc[i], inc[i], raan[i], argp[i], nu[i], gm[i])
         _put_state(r, v, status, i, res)
-    return r, v, status
 
 
 @parallel_kernel
-def rv_to_mee_array(r, v, gm, retro):
-    """:func:`rv_to_mee` over ``r``, ``v`` (n, 3), ``gm`` (n,) and a scalar ``retro``.
-
-    Returns ``(p, f, g, h, k, L, status)``, each of shape (n,).
-    """
-    n = r.shape[0]
-    p, f, g, h, k, L, status = _empty_elements(n)
-    for i in prange(n):
+def rv_to_mee_array(r, v, gm, retro, p, f, g, h, k, L, status):
+    """:func:`rv_to_mee` over ``r``, ``v`` (n, 3), ``gm`` (n,) and a scalar ``retro``, written
+    into ``p, f, g, h, k, L`` (float64, (n,)) and ``status`` (int64, (n,)); see
+    :func:`empty_elements`."""
+    for i in prange(r.shape[0]):
         res = rv_to_mee(r[i, 0], r[i, 1], r[i, 2], v[i, 0], v[i, 1], v[i, 2], gm[i], retro)
         _put_elements(p, f, g, h, k, L, status, i, res)
-    return p, f, g, h, k, L, status
 
 
 @parallel_kernel
-def mee_to_rv_array(p, f, g, h, k, L, gm, retro):
-    """:func:`mee_to_rv` over arrays of shape (n,) and a scalar ``retro``; returns (r, v, status)."""
-    n = p.shape[0]
-    r = np.empty((n, 3))
-    v = np.empty((n, 3))
-    status = np.empty(n, dtype=np.int8)
-    for i in prange(n):
+def mee_to_rv_array(p, f, g, h, k, L, gm, retro, r, v, status):
+    """:func:`mee_to_rv` over arrays of shape (n,) and a scalar ``retro``, written into ``r``,
+    ``v`` (float64, (n, 3)) and ``status`` (int64, (n,)); see :func:`empty_states`."""
+    for i in prange(p.shape[0]):
         res = mee_to_rv(p[i], f[i], g[i], h[i], k[i], L[i], gm[i], retro)
         _put_state(r, v, status, i, res)
-    return r, v, status
 
 
 # ----------------------------------------------------------------------------------------------

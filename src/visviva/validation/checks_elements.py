@@ -154,7 +154,7 @@ def _round_trips() -> list[Check]:
     from astropy import units as u
 
     import visviva as vv
-    from visviva.core.elements import coe_to_rv_array
+    from visviva.core.elements import coe_to_rv_array, empty_states
 
     gm = MU * u.km**3 / u.s**2
     out = []
@@ -194,8 +194,9 @@ def _round_trips() -> list[Check]:
     keep = 1 + E * np.cos(N) >= 1e-3  # where (p, e, nu) is well conditioned (docs/elements.md)
     E, I, N = E[keep], I[keep], N[keep]
     n = E.size
-    r, v, status = coe_to_rv_array(np.full(n, 9000.0), E, I, np.full(n, 0.7), np.full(n, 1.3),
-                                   N, np.full(n, MU))
+    r, v, status = states = empty_states(n)
+    coe_to_rv_array(np.full(n, 9000.0), E, I, np.full(n, 0.7), np.full(n, 1.3), N,
+                    np.full(n, MU), *states)
     s = vv.StateVectors(r * u.km, v * u.km / u.s, gm)
     back = s.to_elements().to_state()
     er = np.linalg.norm(back.r.value - r, axis=-1) / np.linalg.norm(r, axis=-1)

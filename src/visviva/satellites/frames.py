@@ -80,16 +80,20 @@ def _raw(value, kind, name):
     return arr
 
 
-def _transform(r, v, t, source, target):
-    from astropy.coordinates import GCRS, ITRS, TEME, CartesianDifferential, CartesianRepresentation
+def _need_time(t, source, target):
+    """Raise unless ``t`` is an astropy Time (a frame rotation depends on the date)."""
     from astropy.time import Time
 
-    frames = {"teme": TEME, "gcrs": GCRS, "itrs": ITRS}
     if not isinstance(t, Time):
         raise InvalidInputError(
             f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
             f"(the rotation depends on the date); got {type(t).__name__}."
         )
+
+
+def _states_at(r, v, t, source, target):
+    """Canonical ``r`` (km), ``v`` (km/s) checked against ``t`` and their broadcast shape."""
+    _need_time(t, source, target)
     r_km = _raw(r, "length", "r")
     v_km_s = _raw(v, "speed", "v")
     try:
@@ -98,6 +102,14 @@ def _transform(r, v, t, source, target):
         raise ShapeError(
             f"r {r_km.shape}, v {v_km_s.shape} and t {t.shape} do not broadcast: {exc}"
         ) from exc
+    return r_km, v_km_s, shape
+
+
+def _transform(r, v, t, source, target):
+    from astropy.coordinates import GCRS, ITRS, TEME, CartesianDifferential, CartesianRepresentation
+
+    frames = {"teme": TEME, "gcrs": GCRS, "itrs": ITRS}
+    r_km, v_km_s, shape = _states_at(r, v, t, source, target)
     r_km = np.broadcast_to(r_km, shape + (3,))
     v_km_s = np.broadcast_to(v_km_s, shape + (3,))
     if r_km.size == 0:  # empty in, empty out (astropy drops the differentials of empty data)
@@ -271,18 +283,12 @@ def transform_matrices(t, source: str, target: str) -> np.ndarray:
     ndarray, shape t.shape + (6, 6)
         ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
     """
-    from astropy.time import Time
-
     for name, frame in (("source", source), ("target", target)):
         if frame not in ("teme", "gcrs", "itrs"):
             raise InvalidInputError(
                 f"{name} frame must be 'teme', 'gcrs' or 'itrs'; got {frame!r}."
             )
-    if not isinstance(t, Time):
-        raise InvalidInputError(
-            f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
-            f"(the rotation depends on the date); got {type(t).__name__}."
-        )
+    _need_time(t, source, target)
     if t.size == 0:
         return np.zeros(t.shape + (6, 6))
     if source == target:
@@ -330,21 +336,7 @@ def transform_batch(r, v, t, source: str, target: str):
 
 def _convert(r, v, t, source, target):
     """Frame change of states broadcast against ``t`` through :func:`transform_matrices`."""
-    from astropy.time import Time
-
-    if not isinstance(t, Time):
-        raise InvalidInputError(
-            f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
-            f"(the rotation depends on the date); got {type(t).__name__}."
-        )
-    r_km = _raw(r, "length", "r")
-    v_km_s = _raw(v, "speed", "v")
-    try:
-        shape = np.broadcast_shapes(r_km.shape[:-1], v_km_s.shape[:-1], t.shape)
-    except ValueError as exc:
-        raise ShapeError(
-            f"r {r_km.shape}, v {v_km_s.shape} and t {t.shape} do not broadcast: {exc}"
-        ) from exc
+    r_km, v_km_s, shape = _states_at(r, v, t, source, target)
     if int(np.prod(shape)) == 0:
         return np.empty(shape + (3,)), np.empty(shape + (3,))
     m = transform_matrices(t, source, target)

@@ -48,6 +48,13 @@ def _members(sat):
     return list(sat) if _is_catalog(sat) else [sat]
 
 
+def _tracks_on_axes(sat, t, ax):
+    """``(figure, axes, list of ground tracks)``: ``ax`` or a new figure's, one track a member."""
+    fig, ax = (ax.figure, ax) if ax is not None else new_figure()
+    tracks = ground_track(sat, t)
+    return fig, ax, tracks if isinstance(tracks, list) else [tracks]
+
+
 def plot_ground_track(sat, t, ax=None, **line_kwargs):
     """Draw the ground track on a longitude-latitude map.
 
@@ -67,9 +74,7 @@ def plot_ground_track(sat, t, ax=None, **line_kwargs):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = (ax.figure, ax) if ax is not None else new_figure()
-    tracks = ground_track(sat, t)
-    tracks = tracks if isinstance(tracks, list) else [tracks]
+    fig, ax, tracks = _tracks_on_axes(sat, t, ax)
     for n, track in enumerate(tracks):
         lon = track.longitude.to_value(u.deg)
         lat = track.latitude.to_value(u.deg)
@@ -167,9 +172,7 @@ def plot_altitude_eclipse(sat, t, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = (ax.figure, ax) if ax is not None else new_figure()
-    tracks = ground_track(sat, t)
-    tracks = tracks if isinstance(tracks, list) else [tracks]
+    fig, ax, tracks = _tracks_on_axes(sat, t, ax)
     times = tracks[0].t
     hours = (times - times[0]).to_value(u.h)
     for n, track in enumerate(tracks):

@@ -36,7 +36,7 @@ import numpy as np
 
 from . import force_block as fb
 from . import status as st
-from ._jit import kernel, parallel_kernel, prange
+from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .perturbations import cowell_rhs, geodetic_altitude, hermite_position
 
 __all__ = ["integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
@@ -45,6 +45,20 @@ _SAFETY = 0.9
 _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
+
+
+@inline_kernel
+def rk_combine(n, y, K, w, n_stages, h, out):
+    """out[j] = y[j] + h * sum(w[m] K[m, j] for m < n_stages), j < n: a Runge-Kutta stage/update.
+
+    ``w`` is a row of the tableau (``A[s]`` for stage ``s`` with ``n_stages = s``, or ``B``); the
+    sum runs left to right, so the stage values are the same bits wherever this is called.
+    """
+    for j in range(n):
+        acc = 0.0
+        for m in range(n_stages):
+            acc += w[m] * K[m, j]
+        out[j] = y[j] + h * acc
 
 
 @kernel
@@ -283,17 +297,9 @@ def integrate_cowell(
             for j in range(n):
                 K[0, j] = f[j]
             for s in range(1, _N_STAGES):
-                for j in range(n):
-                    acc = 0.0
-                    for m in range(s):
-                        acc += A[s, m] * K[m, j]
-                    y_tmp[j] = y[j] + h * acc
+                rk_combine(n, y, K, A[s], s, h, y_tmp)
                 cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
-            for j in range(n):
-                acc = 0.0
-                for m in range(_N_STAGES):
-                    acc += B[m] * K[m, j]
-                y_new[j] = y[j] + h * acc
+            rk_combine(n, y, K, B, _N_STAGES, h, y_new)
             cowell_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES])
             nfev += _N_STAGES
             for j in range(n):
@@ -333,11 +339,7 @@ def integrate_cowell(
 
         # dense output coefficients for [t, t + h]
         for s in range(_N_STAGES + 1, 16):
-            for j in range(n):
-                acc = 0.0
-                for m in range(s):
-                    acc += A[s, m] * K[m, j]
-                y_tmp[j] = y[j] + h * acc
+            rk_combine(n, y, K, A[s], s, h, y_tmp)
             cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
         nfev += 3
         for j in range(n):

@@ -41,6 +41,7 @@ import numpy as np
 from . import force_block as fb
 from . import status as st
 from ._jit import kernel
+from .cowell import rk_combine
 from .perturbations import (
     cowell_rhs,
     exponential_density,
@@ -360,18 +361,10 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
             for j in range(n):
                 K[0, j] = f[j]
             for s in range(1, _N_STAGES):
-                for j in range(n):
-                    acc = 0.0
-                    for m in range(s):
-                        acc += A[s, m] * K[m, j]
-                    y_tmp[j] = y[j] + h * acc
+                rk_combine(n, y, K, A[s], s, h, y_tmp)
                 variational_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm,
                                 sh, K[s], dadr, dadv)  # fmt: skip
-            for j in range(n):
-                acc = 0.0
-                for m in range(_N_STAGES):
-                    acc += B[m] * K[m, j]
-                y_new[j] = y[j] + h * acc
+            rk_combine(n, y, K, B, _N_STAGES, h, y_new)
             variational_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
                             K[_N_STAGES], dadr, dadv)  # fmt: skip
             nfev += _N_STAGES

@@ -8,7 +8,7 @@ Rows (ratio = visviva time / reference time; below 1 visviva is faster):
   Pelaez 2017 / Brandt et al. 2021). Target: at least as fast (ratio <= 1).
 * ``solve_kepler, 1e6, 2 threads``: the same with two numba threads. Target: at least twice as
   fast as kepler.py on one thread (ratio <= 0.5).
-* ``core kernel, 1e6, 1 thread``: ``visviva.core.kepler.solve_kepler_array`` on preallocated
+* ``core kernel, 1e6, 1 thread``: ``visviva.core.kepler_arrays.solve_kepler_array`` on preallocated
   outputs (the compiled kernel alone), for reference (no target).
 * ``mean_to_true, 1e6, 1 thread``: the public conversion for mixed e in [0, 3], against
   ``kepler.kepler`` (E, cos nu, sin nu for e < 1 only; no target).
@@ -33,7 +33,7 @@ def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     try:
         import visviva as vv
-        from visviva.core import kepler as core
+        from visviva.core import kepler_arrays as core
     except Exception as exc:  # pragma: no cover
         return [skipped("solve_kepler", f"visviva not importable: {exc}")]
     try:

@@ -81,5 +81,7 @@ def test_gravity_paths_share_one_compiled_pair_item():
     gravity._gravity_pairs_serial(x, m, 1.0, 1e-4, massive, acc_serial)
     gravity._gravity_pairs_parallel(x, m, 1.0, 1e-4, massive, acc_parallel)
     np.testing.assert_array_equal(acc_serial, acc_parallel)  # same items, same order, same bits
+    # with an empty cache each helper is compiled for exactly one signature; with numba's cache
+    # warm the callers load their machine code and the helpers are not compiled at all (0)
     for fn in (gravity._pair_item, gravity._pair_reduce, gravity._test_rows):
-        assert len(fn.signatures) == 1, (fn, fn.signatures)
+        assert len(fn.signatures) <= 1, (fn, fn.signatures)

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from . import _units
-from .core import kepler as _k
+from .core import kepler_arrays as _ka
 from .core.status import OK, OVERFLOW
 from .errors import ShapeError, raise_for_status
 
@@ -140,7 +140,7 @@ def solve_kepler(M, ecc):
     >>> print(f"{vv.solve_kepler(0.5, 0.1):.12f}")
     0.552479986907
     """
-    return _run(_k.solve_kepler_array, "solve_kepler (elliptic, 0 <= e < 1)", M, "M", ecc)
+    return _run(_ka.solve_kepler_array, "solve_kepler (elliptic, 0 <= e < 1)", M, "M", ecc)
 
 
 def solve_kepler_hyperbolic(M, ecc):
@@ -171,7 +171,7 @@ def solve_kepler_hyperbolic(M, ecc):
     ``F = log((M + F) / e) + log 2`` is solved instead (no overflow up to M ~ 1e308).
     Reference: Vallado (2013), Algorithm 4; Farnocchia et al. (2013).
     """
-    return _run(_k.solve_kepler_hyperbolic_array, "solve_kepler_hyperbolic (e > 1)", M, "M", ecc)
+    return _run(_ka.solve_kepler_hyperbolic_array, "solve_kepler_hyperbolic (e > 1)", M, "M", ecc)
 
 
 def solve_barker(M):
@@ -192,7 +192,7 @@ def solve_barker(M):
     Barker's equation, solved in closed form (Cardano, written without cancellation).
     Reference: Vallado (2013), Algorithm 3.
     """
-    D = _run(_k.parabolic_anomaly_array, "solve_barker (e = 1)", M, "M")
+    D = _run(_ka.parabolic_anomaly_array, "solve_barker (e = 1)", M, "M")
     return D.value if _units.is_quantity(D) else D
 
 
@@ -225,7 +225,7 @@ def mean_to_true(M, ecc):
     >>> print(f"{vv.mean_to_true(0.0, 0.7):.1f}")
     0.0
     """
-    return _run(_k.mean_to_true_array, "mean_to_true", M, "M", ecc)
+    return _run(_ka.mean_to_true_array, "mean_to_true", M, "M", ecc)
 
 
 def true_to_mean(nu, ecc):
@@ -250,7 +250,7 @@ def true_to_mean(nu, ecc):
     ``(e - 1) F + e (sinh F - F)``, or ``D + D^3 / 3``) with the series of ``E - sin E`` and
     ``sinh F - F`` for small arguments, so M keeps full relative precision near e = 1.
     """
-    return _run(_k.true_to_mean_array, "true_to_mean", nu, "nu", ecc)
+    return _run(_ka.true_to_mean_array, "true_to_mean", nu, "nu", ecc)
 
 
 def eccentric_to_true(E, ecc):
@@ -273,7 +273,7 @@ def eccentric_to_true(E, ecc):
     nu = 2 atan2(sqrt(1 + e) sin(E / 2), sqrt(1 - e) cos(E / 2)), exact at E = +-pi
     (Vallado 2013, Sec. 2.2).
     """
-    return _run(_k.true_from_eccentric_array, "eccentric_to_true (0 <= e < 1)", E, "E", ecc)
+    return _run(_ka.true_from_eccentric_array, "eccentric_to_true (0 <= e < 1)", E, "E", ecc)
 
 
 def true_to_eccentric(nu, ecc):
@@ -295,7 +295,7 @@ def true_to_eccentric(nu, ecc):
     tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2), evaluated with atan2 (Vallado 2013,
     Sec. 2.2).
     """
-    return _run(_k.eccentric_from_true_array, "true_to_eccentric (0 <= e < 1)", nu, "nu", ecc)
+    return _run(_ka.eccentric_from_true_array, "true_to_eccentric (0 <= e < 1)", nu, "nu", ecc)
 
 
 def hyperbolic_to_true(F, ecc):
@@ -317,7 +317,7 @@ def hyperbolic_to_true(F, ecc):
     -----
     tan(nu / 2) = sqrt((e + 1) / (e - 1)) tanh(F / 2) (Vallado 2013, Sec. 2.2).
     """
-    return _run(_k.true_from_hyperbolic_array, "hyperbolic_to_true (e > 1)", F, "F", ecc)
+    return _run(_ka.true_from_hyperbolic_array, "hyperbolic_to_true (e > 1)", F, "F", ecc)
 
 
 def true_to_hyperbolic(nu, ecc):
@@ -343,7 +343,7 @@ def true_to_hyperbolic(nu, ecc):
     -----
     tanh(F / 2) = sqrt((e - 1) / (e + 1)) tan(nu / 2) (Vallado 2013, Sec. 2.2).
     """
-    return _run(_k.hyperbolic_from_true_array, "true_to_hyperbolic (e > 1)", nu, "nu", ecc)
+    return _run(_ka.hyperbolic_from_true_array, "true_to_hyperbolic (e > 1)", nu, "nu", ecc)
 
 
 def parabolic_to_true(D):
@@ -360,7 +360,7 @@ def parabolic_to_true(D):
         True anomaly (rad), |nu| < pi.
     """
     D = _units.to_array(D, "dimensionless", "D", finite=False)
-    return _run(_k.true_from_parabolic_array, "parabolic_to_true", D, "D")
+    return _run(_ka.true_from_parabolic_array, "parabolic_to_true", D, "D")
 
 
 def true_to_parabolic(nu):
@@ -376,7 +376,7 @@ def true_to_parabolic(nu):
     D : ndarray or float
         Dimensionless (a plain array also for Quantity input).
     """
-    D = _run(_k.parabolic_from_true_array, "true_to_parabolic (e = 1)", nu, "nu")
+    D = _run(_ka.parabolic_from_true_array, "true_to_parabolic (e = 1)", nu, "nu")
     return D.value if _units.is_quantity(D) else D
 
 
@@ -399,7 +399,7 @@ def eccentric_to_mean(E, ecc):
     Evaluated as (1 - e) E + e (E - sin E) with the series of E - sin E for e > 0.5 and
     |E| < 2, so M has full relative precision near e = 1 (Farnocchia et al. 2013).
     """
-    return _run(_k.mean_from_eccentric_array, "eccentric_to_mean (0 <= e < 1)", E, "E", ecc)
+    return _run(_ka.mean_from_eccentric_array, "eccentric_to_mean (0 <= e < 1)", E, "E", ecc)
 
 
 def hyperbolic_to_mean(F, ecc):
@@ -421,4 +421,4 @@ def hyperbolic_to_mean(F, ecc):
     Evaluated as (e - 1) F + e (sinh F - F) with the series of sinh F - F for e < 2 and |F| < 2
     (Farnocchia et al. 2013).
     """
-    return _run(_k.mean_from_hyperbolic_array, "hyperbolic_to_mean (e > 1)", F, "F", ecc)
+    return _run(_ka.mean_from_hyperbolic_array, "hyperbolic_to_mean (e > 1)", F, "F", ecc)

@@ -346,9 +346,9 @@ class KeplerianElements:
 
         Ellipse E - e sin E, hyperbola e sinh F - F, parabola D + D^3/3 with D = tan(nu/2)
         (Barker), each with the sign of nu; M = n (t - t_periapsis) with n = mean_motion.
-        Computed by :func:`visviva.core.kepler.true_to_mean_array`.
+        Computed by :func:`visviva.core.kepler_arrays.true_to_mean_array`.
         """
-        from .core.kepler import true_to_mean_array
+        from .core.kepler_arrays import true_to_mean_array
 
         nu = np.ascontiguousarray(self._nu).reshape(-1)
         ecc = np.ascontiguousarray(self._ecc).reshape(-1)

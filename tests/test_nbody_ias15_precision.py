@@ -3,7 +3,7 @@
 The energy error of a tight, eccentric pair far from the origin is set by the round-off of the
 absolute positions the forces are evaluated at (``eps |x|`` instead of ``eps |d|``). visviva's
 IAS15 evaluates gravity on its compensated two-part positions for such steps
-(:func:`visviva.core.gravity.gravity_split`); REBOUND's IAS15 (gravity "basic") does not.
+(:func:`visviva.core.gravity_split.gravity_split`); REBOUND's IAS15 (gravity "basic") does not.
 See docs/nbody.md, "IAS15 on close encounters".
 """
 
@@ -16,6 +16,7 @@ import pytest
 
 import visviva as vv
 from visviva.core import gravity as g
+from visviva.core import gravity_split as gs
 from visviva.core import nbody_ias15 as ias
 
 rebound = pytest.importorskip("rebound")
@@ -130,14 +131,14 @@ def test_gravity_split_keeps_the_separation_of_a_tight_pair_far_away():
     massive = g.massive_indices(m)
     a_split = np.empty((3, 3))
     a_plain = np.empty((3, 3))
-    g.gravity_split(hi, lo, m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
+    gs.gravity_split(hi, lo, m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
     g.gravity(hi, m, 1.0, 0.0, massive, a_plain, np.empty((7, 3)), False)
     rel_split = np.abs(a_split[:2] - ref[:2]).max() / np.abs(ref[:2]).max()
     rel_plain = np.abs(a_plain[:2] - ref[:2]).max() / np.abs(ref[:2]).max()
     assert rel_split < 1e-14
     assert rel_plain > 1e-10  # what the rounded positions give
     # lo = 0: the same accelerations as gravity (to the last bits of the reordered sums)
-    g.gravity_split(hi, np.zeros((3, 3)), m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
+    gs.gravity_split(hi, np.zeros((3, 3)), m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
     np.testing.assert_allclose(a_split, a_plain, rtol=1e-15, atol=0)
 
 
@@ -150,8 +151,8 @@ def test_gravity_split_serial_and_parallel_give_identical_bits():
     massive = g.massive_indices(m)
     a1 = np.empty((n, 3))
     a2 = np.empty((n, 3))
-    g.gravity_split(x, lo, m, 1.0, 1e-6, massive, a1, np.empty((7, n)), False)
-    g.gravity_split(x, lo, m, 1.0, 1e-6, massive, a2, np.empty((7, n)), True)
+    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a1, np.empty((7, n)), False)
+    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a2, np.empty((7, n)), True)
     assert np.array_equal(a1, a2)
 
 
@@ -187,9 +188,9 @@ def test_gravity_split_few_and_packed_paths_agree():
     m = rng.uniform(0.5, 2.0, n)
     m[4] = 0.0  # a test particle
     massive = g.massive_indices(m)
-    assert len(massive) < g.SPLIT_FEW_N
+    assert len(massive) < gs.SPLIT_FEW_N
     a_few = np.empty((n, 3))
     a_packed = np.empty((n, 3))
-    g.gravity_split(x, lo, m, 1.0, 0.0, massive, a_few, np.empty((7, n)), False)
-    g._gravity_split_serial(x, lo, m, 1.0, 0.0, massive, a_packed, np.empty((7, n)))
+    gs.gravity_split(x, lo, m, 1.0, 0.0, massive, a_few, np.empty((7, n)), False)
+    gs._gravity_split_serial(x, lo, m, 1.0, 0.0, massive, a_packed, np.empty((7, n)))
     np.testing.assert_allclose(a_few, a_packed, rtol=4e-16 * n, atol=0)

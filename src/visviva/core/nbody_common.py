@@ -34,7 +34,8 @@ import math
 from numba import types
 
 from ._jit import kernel
-from .gravity import gravity, gravity_split
+from .gravity import gravity
+from .gravity_split import gravity_split
 from .status import COLLISION, ENCOUNTER, ESCAPE, OK
 
 __all__ = [
@@ -117,7 +118,7 @@ def accelerations_split(t, x, xlo, v, m, massive, fstate, istate, gwork, force, 
     """:func:`accelerations` with positions in two parts ``x + xlo`` for gravity (IAS15).
 
     The additional force sees ``x`` (the high parts) only. (Numba's cache checks only the
-    stamp of the defining file: after editing :func:`visviva.core.gravity.gravity_split`, touch
+    stamp of the defining file: after editing :func:`visviva.core.gravity_split.gravity_split`, touch
     this file and :mod:`.nbody_ias15`.)
     """
     gravity_split(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork,

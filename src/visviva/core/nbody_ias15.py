@@ -31,7 +31,7 @@ grows by more than a factor 4. Positions and velocities are updated with compens
 summation, so the state is ``x - csx`` in two parts. When a particle and a massive one are closer
 than ``1 / SPLIT_RATIO`` of their distance from the origin (:func:`_tight_pair`, once per step),
 the step evaluates gravity on those two-part positions
-(:func:`visviva.core.gravity.gravity_split`): a tight, eccentric binary far from the origin then
+(:func:`visviva.core.gravity_split.gravity_split`): a tight, eccentric binary far from the origin then
 keeps the relative precision of its separation (REBOUND's IAS15 rounds the positions; see
 docs/nbody.md, "IAS15 on close encounters"); with fewer than seven massive particles that
 gravity is a plain pair loop, faster than the packed kernel. Other steps are unchanged, bit for
@@ -225,7 +225,7 @@ def _tight_pair(x, massive):
 
     Rounded to doubles, such a pair's separation would carry the round-off of its absolute
     positions (``eps |x|`` instead of ``eps |d|``); the step then evaluates gravity on the
-    two-part positions ``x - csx`` (:func:`visviva.core.gravity.gravity_split`).
+    two-part positions ``x - csx`` (:func:`visviva.core.gravity_split.gravity_split`).
     """
     nm = massive.shape[0]
     if nm >= PAIR_MIN_N:

@@ -22,13 +22,60 @@ from .station import as_stations
 __all__ = ["find_passes_dask"]
 
 
+def _table_to_wire(table) -> tuple:
+    """A pass table as plain arrays that pickle between processes (astropy's table columns
+    keep a weak reference to their table, and its masked Time and Quantity columns do not
+    unpickle): per column ``(name, kind, data, mask, extra)``, and the table's ``meta``."""
+    from astropy.time import Time
+
+    cols = []
+    for name in table.colnames:
+        col = table[name]
+        mask = np.array(getattr(col, "mask", False), dtype=bool)
+        if isinstance(col, Time):
+            plain = col.unmasked if hasattr(col, "unmasked") else col
+            cols.append((name, "time", (np.array(plain.jd1), np.array(plain.jd2)), mask,
+                         plain.scale))
+        elif isinstance(col, u.Quantity):
+            plain = col.unmasked if hasattr(col, "unmasked") else col
+            cols.append((name, "quantity", np.array(plain.value), mask, plain.unit.to_string()))
+        else:
+            cols.append((name, "column", np.array(col), mask, None))
+    return cols, dict(table.meta)
+
+
+def _table_from_wire(wire):
+    """The QTable that :func:`_table_to_wire` took apart (the same values and masks)."""
+    from astropy.table import QTable
+    from astropy.time import Time
+    from astropy.utils.masked import Masked
+
+    cols, meta = wire
+    table = QTable(meta=meta)
+    for name, kind, data, mask, extra in cols:
+        if kind == "time":
+            col = Time(data[0], data[1], format="jd", scale=extra)
+            if mask.any():
+                col = col.copy()
+                col[mask] = np.ma.masked
+        elif kind == "quantity":
+            col = data * u.Unit(extra)
+            if mask.any():
+                col = Masked(col, mask=mask)
+        else:
+            col = np.ma.MaskedArray(data, mask=mask) if mask.any() else data
+        table[name] = col
+    return table
+
+
 def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude):
     from ..satellites.dask_batch import _NUMBA_LOCK
 
     # numba's workqueue threading layer must not be entered from two threads at once
     with _NUMBA_LOCK:
-        return find_passes(chunk, stations, t0, t1, min_elevation,
-                           standard_magnitude=standard_magnitude)
+        table = find_passes(chunk, stations, t0, t1, min_elevation,
+                            standard_magnitude=standard_magnitude)
+    return _table_to_wire(table)
 
 
 def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
@@ -79,7 +126,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
                       pure=False)
         for a in starts
     ]
-    tables = client.gather(futures)
+    tables = [_table_from_wire(w) for w in client.gather(futures)]
     out = vstack(tables, metadata_conflicts="silent")
     if len(out):
         rise = out["rise_time"]

@@ -25,7 +25,7 @@ import math
 
 from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
-from .universal import stumpff_c2c3
+from .stumpff import stumpff_c2c3
 
 __all__ = ["izzo_one", "izzo_many", "universal_one", "universal_many", "izzo_tof"]
 

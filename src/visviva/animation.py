@@ -15,6 +15,8 @@ the frame's x-y plane (``plane="xy"``).
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from .errors import InvalidInputError
@@ -23,6 +25,9 @@ __all__ = ["animate_orbit", "animate_simulation", "save_animation"]
 
 #: frames drawn per second when played or saved (40 ms per frame)
 _INTERVAL_MS = 40
+#: the frame interval (ms) of each animation made here, for save_animation's default fps
+#: (kept beside the object, not written into matplotlib's FuncAnimation)
+_INTERVALS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _orbit_positions(target, t, frame: str):
@@ -249,7 +254,7 @@ def _animate(ax, xy, names, times, time_unit, radius, length_unit, trail, interv
     if own_figure:
         fig.tight_layout()
     anim = FuncAnimation(fig, draw, frames=n_frames, interval=interval, blit=False)
-    anim._visviva_interval = interval
+    _INTERVALS[anim] = interval
     return anim
 
 
@@ -278,7 +283,7 @@ def save_animation(anim, path, *, fps: float | None = None, dpi: int = 80):
     from matplotlib import animation
 
     path = Path(os.fspath(path))
-    fps = fps or 1000.0 / getattr(anim, "_visviva_interval", _INTERVAL_MS)
+    fps = fps or 1000.0 / _INTERVALS.get(anim, _INTERVAL_MS)
     ext = path.suffix.lower()
     if ext == ".gif":
         writer = animation.PillowWriter(fps=fps)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import threading
 import uuid
+import weakref
 
 import numpy as np
 from astropy.time import Time
@@ -97,11 +98,18 @@ def _block_into(key, a, b, c, d, method: str, on_error: str):
     return None
 
 
+#: whether each client's workers all run in this process, asked once per client
+_IN_PROCESS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _in_process(client) -> bool:
     """True when every worker of ``client`` runs in this process (a threads LocalCluster)."""
     import os
 
-    cached = getattr(client, "_visviva_in_process", None)
+    try:
+        cached = _IN_PROCESS.get(client)
+    except TypeError:  # pragma: no cover - a client that cannot be weakly referenced
+        cached = None
     if cached is None:
         pid = os.getpid()
         try:
@@ -110,8 +118,8 @@ def _in_process(client) -> bool:
         except Exception:  # pragma: no cover - exotic clusters
             cached = False
         try:
-            client._visviva_in_process = cached
-        except AttributeError:  # pragma: no cover
+            _IN_PROCESS[client] = cached
+        except TypeError:  # pragma: no cover
             pass
     return cached
 

@@ -140,11 +140,11 @@ def test_j2_batch_tracks_sgp4_for_a_day():
 
 
 def test_j2_batch_equals_the_secular_theory_of_visviva_satellites_secular(catalog):
-    from visviva.satellites.catalog import _mean_elements, _wgs72_body
     from visviva.satellites.secular import propagate_j2_secular
+    from visviva.satellites.secular_batch import _mean_elements, _wgs72_body
 
     cat = Catalog([catalog[i] for i in (0, 2, 3, 7)])  # LEO and deep-space, e up to 0.69
-    a, ecc, inc, raan, argp, M = _mean_elements(cat)
+    a, ecc, inc, raan, argp, M = _mean_elements([s.satrec for s in cat])
     body = _wgs72_body(cat[0].satrec)
     dt = np.array([-3600.0, 0.0, 5400.0, 86400.0])
     for i, sat in enumerate(cat):

@@ -10,13 +10,13 @@
   :func:`visviva.core.universal.propagate_many`).
 * :func:`propagate_j2_batch` propagates SGP4 mean elements with the secular J2 drift of the
   node, perigee and mean anomaly (rates from :mod:`visviva.satellites.secular`), one compiled
-  loop over the N x T pairs built from the core kernels (Kepler's equation, elements -> state).
+  loop over the N x T pairs built from the core kernels (Kepler's equation, elements -> state)
+  in :mod:`visviva.satellites.secular_batch`.
 """
 
 from __future__ import annotations
 
 import io
-import math
 import os
 from functools import cached_property
 
@@ -26,9 +26,8 @@ from astropy.time import Time
 
 from .._units import to_array, to_quantity, to_vector
 from ..constants import DAY_S
-from ..core._jit import kernel, parallel_kernel, prange
-from ..core.kepler import eccentric_anomaly
 from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
+from .secular_batch import secular_grid, secular_setup
 from .tle import (
     MINUTES_PER_DAY,
     Satellite,
@@ -561,100 +560,6 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
     )
 
 
-def _mean_elements(cat: Catalog):
-    """SGP4 mean elements at epoch as (N,) float arrays: a (km), e, i, raan, argp, M (rad)."""
-    s = [x.satrec for x in cat.satellites]
-    a = np.array([x.a * x.radiusearthkm for x in s])
-    ecc = np.array([x.ecco for x in s])
-    inc = np.array([x.inclo for x in s])
-    raan = np.array([x.nodeo for x in s])
-    argp = np.array([x.argpo for x in s])
-    M = np.array([x.mo for x in s])
-    return a, ecc, inc, raan, argp, M
-
-
-@kernel
-def _secular_grid(a, ecc, inc, raan0, argp0, M0, raan_dot, argp_dot, M_dot, ep1, ep2, t1, t2,
-                  gm, r_out, v_out, status):
-    n = a.shape[0]
-    sq = np.empty(n)
-    kv = np.empty(n)
-    si = np.empty(n)
-    ci = np.empty(n)
-    for i in range(n):  # per-satellite constants, once
-        sq[i] = math.sqrt(1.0 - ecc[i] * ecc[i])
-        kv[i] = math.sqrt(gm * a[i])
-        si[i] = math.sin(inc[i])
-        ci[i] = math.cos(inc[i])
-    _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot,
-                   ep1, ep2, t1, t2, r_out, v_out, status)
-
-
-@parallel_kernel
-def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot, M_dot,
-                   ep1, ep2, t1, t2, r_out, v_out, status):
-    """States of N mean-element sets at N x T offsets dt (s) with linear secular drift.
-
-    Per pair: M = M0 + Mdot dt, E from Kepler's equation (the core solver), then the state
-    straight from E in the perifocal frame,
-        x = a (cos E - e),  y = b sin E,  xdot = -sqrt(mu a) sin E / r,
-        ydot = sqrt(mu a) sqrt(1 - e^2) cos E / r,  r = a (1 - e cos E),
-    rotated by R3(-raan) R1(-inc) R3(-argp) (Montenbruck & Gill 2000, eqs. 2.43 and 2.46).
-    Going through E rather than the true anomaly saves an atan2 and two sin/cos per state.
-    ``prange`` over the satellites (per-satellite constants stay in registers); each item is
-    independent, so any chunking gives the same bits. dt = ((t1 - ep1) + (t2 - ep2)) * 86400 s
-    from two-part TAI Julian dates, as in :func:`_offsets_s`.
-    """
-    n = a.shape[0]
-    m = t1.shape[0]
-    for i in prange(n):
-        e = ecc[i]
-        ai = a[i]
-        sqi = sq[i]
-        kvi = kv[i]
-        sii = si[i]
-        cii = ci[i]
-        for j in range(m):
-            d = ((t1[j] - ep1[i]) + (t2[j] - ep2[i])) * DAY_S
-            E, st = eccentric_anomaly(M0[i] + M_dot[i] * d, e)
-            sE = math.sin(E)
-            cE = math.cos(E)
-            x = ai * (cE - e)
-            y = ai * sqi * sE
-            k_v = kvi / (ai * (1.0 - e * cE))
-            xd = -k_v * sE
-            yd = k_v * sqi * cE
-            raan = raan0[i] + raan_dot[i] * d
-            argp = argp0[i] + argp_dot[i] * d
-            sO = math.sin(raan)
-            cO = math.cos(raan)
-            sw = math.sin(argp)
-            cw = math.cos(argp)
-            px = cO * cw - sO * sw * cii
-            py = sO * cw + cO * sw * cii
-            pz = sw * sii
-            qx = -cO * sw - sO * cw * cii
-            qy = -sO * sw + cO * cw * cii
-            qz = cw * sii
-            r_out[i, j, 0] = x * px + y * qx
-            r_out[i, j, 1] = x * py + y * qy
-            r_out[i, j, 2] = x * pz + y * qz
-            v_out[i, j, 0] = xd * px + yd * qx
-            v_out[i, j, 1] = xd * py + yd * qy
-            v_out[i, j, 2] = xd * pz + yd * qz
-            status[i, j] = st
-
-
-def _wgs72_body(satrec):
-    """The Earth as SGP4 sees it (WGS-72 GM, radius, J2), for consistent secular rates."""
-    from ..bodies import Body
-
-    return Body(
-        "earth (WGS-72)", satrec.mu * u.km**3 / u.s**2, satrec.radiusearthkm * u.km,
-        zonal=(satrec.j2,),
-    )
-
-
 def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates:
     """Secular J2 propagation of SGP4 mean elements for N satellites at T times.
 
@@ -677,29 +582,12 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     BatchStates
         TEME ``r`` (km), ``v`` (km/s), shape (N, T, 3).
     """
-    from .secular import j2_secular_rates
-
     _check_on_error(on_error)
     cat = _as_catalog(satellites)
     t = _absolute_times(t, "propagate_j2_batch")
     setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
     if setup is None:
-        a, ecc, inc, raan, argp, M = _mean_elements(cat)
-        body = _wgs72_body(cat.satellites[0].satrec)
-        bad = (a <= 0) | ~((ecc >= 0) & (ecc < 1))
-        if bad.any():
-            k = int(np.flatnonzero(bad)[0])
-            raise InvalidInputError(
-                f"satellite {cat.names[k]!r} has mean a = {a[k]:.6g} km, e = {ecc[k]:.6g}: the "
-                "secular J2 theory needs a bound orbit (a > 0, 0 <= e < 1); use method='sgp4'."
-            )
-        rates = tuple(
-            q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
-        )
-        ep = cat.epochs.tai
-        setup = ((a, ecc, inc, raan, argp, M), rates, body.gm_km3_s2,
-                 np.ascontiguousarray(ep.jd1, dtype=np.float64),
-                 np.ascontiguousarray(ep.jd2, dtype=np.float64))
+        setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
         cat.__dict__["_j2_setup"] = setup
     (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
     tt = t.tai
@@ -707,7 +595,7 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     r = np.empty((n, m, 3))
     v = np.empty((n, m, 3))
     status = np.empty((n, m), dtype=np.int64)
-    _secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, ep1, ep2,
+    secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, ep1, ep2,
                   np.ascontiguousarray(tt.jd1, dtype=np.float64),
                   np.ascontiguousarray(tt.jd2, dtype=np.float64), gm, r, v, status)
     if on_error == "raise" and status.any():

@@ -143,6 +143,14 @@ def _rst_block(rst_lines: list[str]) -> list[str]:
     return ["```{eval-rst}", *rst_lines, "```", ""]
 
 
+def _inherited_option(obj) -> list[str]:
+    """Document the members a class takes from a shared visviva base (``_containers``)."""
+    bases = getattr(obj, "__mro__", ())[1:]
+    if any(getattr(b, "__module__", "").startswith("visviva._") for b in bases):
+        return ["   :inherited-members: object"]
+    return []
+
+
 def _api_markdown() -> list[str]:
     objs, missing = _public_objects()
     lines = ["## The top-level surface", ""]
@@ -155,7 +163,7 @@ def _api_markdown() -> list[str]:
             rst += [f".. py:data:: {qualname}", "", f"   ``{text[:150]}``", ""]
             continue
         documented.add(id(obj))
-        rst += [f".. {kind}:: {qualname}", ""]
+        rst += [f".. {kind}:: {qualname}", *_inherited_option(obj), ""]
     lines += _rst_block(rst)
     for modname, items in _module_extras(EXTRA_MODULES, documented):
         lines += [f"## More in `{modname}`", ""]

@@ -7,14 +7,63 @@ typed exceptions of :mod:`visviva.errors` with a message that says what to do.
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 
 from . import _units
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
-__all__ = ["broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
+__all__ = ["TwoBodyContainer", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
            "canonical_arrays", "flat_elements"]
+
+
+
+class TwoBodyContainer:
+    """What every two-body container has: shape, size, length, epoch and central body's GM.
+
+    The base of :class:`~visviva.StateVectors`, :class:`~visviva.KeplerianElements` and
+    :class:`~visviva.ModifiedEquinoctialElements`; each stores ``_shape`` (tuple), ``_epoch``
+    (astropy Time or None) and ``_gm`` (float64 km3/s2, broadcasting to ``_shape``).
+    """
+
+    #: what one item is called in messages ("a single state has no len()")
+    _ITEM = "item"
+
+    @property
+    def shape(self) -> tuple:
+        """Leading shape: one item (state or orbit) per index."""
+        return self._shape
+
+    @property
+    def ndim(self) -> int:
+        """Number of leading dimensions, ``len(shape)``."""
+        return len(self._shape)
+
+    @property
+    def size(self) -> int:
+        """Number of items, the product of :attr:`shape` (1 for a single item)."""
+        return int(np.prod(self._shape, dtype=np.int64))
+
+    @property
+    def epoch(self):
+        """Epoch (astropy Time, as given, or None)."""
+        return self._epoch
+
+    @property
+    def gm_km3_s2(self):
+        """Gravitational parameter in km3/s2 as stored (float64, broadcasting to :attr:`shape`)."""
+        return self._gm
+
+    @cached_property
+    def gm(self):
+        """Gravitational parameter of the central body (Quantity, km3/s2), shape :attr:`shape`."""
+        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
+
+    def __len__(self) -> int:
+        if not self._shape:
+            raise TypeError(f"a single {self._ITEM} (shape ()) has no len(); see .shape")
+        return self._shape[0]
 
 
 def broadcast_shape(named_shapes: dict[str, tuple], what: str) -> tuple:

@@ -18,6 +18,7 @@ from . import _units
 from ._containers import (
     _INC_SLACK,
     _TWO_PI,
+    TwoBodyContainer,
     _deg,
     _first_bad,
     _index_elements,
@@ -37,7 +38,7 @@ from .states import states_from_kernel
 
 __all__ = ["KeplerianElements"]
 
-class KeplerianElements:
+class KeplerianElements(TwoBodyContainer):
     """Classical orbital elements of one or many two-body orbits.
 
     Parameters
@@ -84,6 +85,8 @@ class KeplerianElements:
     >>> print(el.to_state().r)
     [7000.    0.    0.] km
     """
+
+    _ITEM = "set of elements"
 
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
         from .core.elements import scan_coe
@@ -234,39 +237,6 @@ class KeplerianElements:
         return cls(_units.to_quantity(p, "length"), e, inc, raan, argp, nu, gm, epoch)
 
     # --- container protocol --------------------------------------------------------------------
-    @property
-    def shape(self) -> tuple:
-        """Leading shape: one item per orbit."""
-        return self._shape
-
-    @property
-    def ndim(self) -> int:
-        return len(self._shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self._shape, dtype=np.int64))
-
-    @property
-    def gm_km3_s2(self):
-        """Gravitational parameter in km3/s2 as stored (float64, broadcasting to :attr:`shape`)."""
-        return self._gm
-
-    @property
-    def epoch(self):
-        """Epoch (as given, or None)."""
-        return self._epoch
-
-    @cached_property
-    def gm(self):
-        """Gravitational parameter of the central body (Quantity, km3/s2)."""
-        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
-
-    def __len__(self) -> int:
-        if not self._shape:
-            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
-        return self._shape[0]
-
     def __getitem__(self, key):
         parts, gm, epoch = _index_elements(self, key, "KeplerianElements")
         return KeplerianElements._from_canonical(*parts, gm, epoch)

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _units
 from ._containers import (
+    TwoBodyContainer,
     _deg,
     _first_bad,
     _index_elements,
@@ -28,7 +29,7 @@ from .states import states_from_kernel
 __all__ = ["ModifiedEquinoctialElements"]
 
 
-class ModifiedEquinoctialElements:
+class ModifiedEquinoctialElements(TwoBodyContainer):
     """Modified equinoctial elements (Walker, Ireland & Owens 1985) of one or many orbits.
 
     Parameters
@@ -54,6 +55,8 @@ class ModifiedEquinoctialElements:
     may be >= 1). r = p/(1 + f cos L + g sin L); the frame vectors and the velocity follow
     Walker et al. (1985), eqs. 2-4, with the retrograde factor of Broucke & Cefola (1972).
     """
+
+    _ITEM = "set of elements"
 
     def __init__(self, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
         p_km = _units.to_array(p, "length", "p")
@@ -103,35 +106,9 @@ class ModifiedEquinoctialElements:
         return obj
 
     @property
-    def shape(self) -> tuple:
-        return self._shape
-
-    @property
-    def gm_km3_s2(self):
-        """Gravitational parameter in km3/s2 as stored (float64, broadcasting to :attr:`shape`)."""
-        return self._gm
-
-    @property
-    def epoch(self):
-        return self._epoch
-
-    @property
-    def ndim(self) -> int:
-        return len(self._shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self._shape, dtype=np.int64))
-
-    @property
     def retrograde(self) -> bool:
         """True when the retrograde factor I = -1 is used."""
         return self._retrograde
-
-    @cached_property
-    def gm(self):
-        """Gravitational parameter (Quantity, km3/s2)."""
-        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
 
     @cached_property
     def semi_latus_rectum(self):
@@ -172,11 +149,6 @@ class ModifiedEquinoctialElements:
     def L(self):
         """Alias of :attr:`true_longitude`."""
         return self.true_longitude
-
-    def __len__(self) -> int:
-        if not self._shape:
-            raise TypeError("a single set of elements (shape ()) has no len(); see .shape")
-        return self._shape[0]
 
     def __getitem__(self, key):
         parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import _units
 from ._containers import (
+    TwoBodyContainer,
     broadcast_shape,
     flat,
     gm_positive,
@@ -43,7 +44,7 @@ def _fmt_vec(arr: np.ndarray) -> str:
 # ----------------------------------------------------------------------------------------------
 
 
-class StateVectors:
+class StateVectors(TwoBodyContainer):
     """Position and velocity of one or many bodies relative to a central body.
 
     Parameters
@@ -93,6 +94,8 @@ class StateVectors:
     >>> print(f"{s.to_elements().eccentricity:.6f}")
     0.012169
     """
+
+    _ITEM = "state"
 
     def __init__(self, r, v, gm, epoch=None):
         from .core.elements import scan_states
@@ -156,34 +159,6 @@ class StateVectors:
     def v(self):
         """Velocity (Quantity, km/s), shape ``shape + (3,)``."""
         return _units.to_quantity(self._v, "speed")
-
-    @cached_property
-    def gm(self):
-        """Gravitational parameter of the central body (Quantity, km3/s2), shape ``shape``."""
-        return _units.to_quantity(np.broadcast_to(self._gm, self._shape), "gm")
-
-    @property
-    def epoch(self):
-        """Epoch of the states (as given, or None)."""
-        return self._epoch
-
-    @property
-    def shape(self) -> tuple:
-        """Leading shape: one item per state."""
-        return self._shape
-
-    @property
-    def ndim(self) -> int:
-        return len(self._shape)
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self._shape, dtype=np.int64))
-
-    def __len__(self) -> int:
-        if not self._shape:
-            raise TypeError("a single state (shape ()) has no len(); check .shape instead")
-        return self._shape[0]
 
     def __getitem__(self, key):
         key = normalise_key(key, self._shape, "StateVectors")

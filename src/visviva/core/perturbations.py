@@ -33,6 +33,7 @@ import numpy as np
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
+from .hermite import hermite_basis
 
 __all__ = [
     "FORCE_SIZE",
@@ -402,13 +403,7 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
         k = 0
     if k > n - 2:
         k = n - 2
-    s = u - k
-    s2 = s * s
-    s3 = s2 * s
-    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-    h10 = s3 - 2.0 * s2 + s
-    h01 = -2.0 * s3 + 3.0 * s2
-    h11 = s3 - s2
+    h00, h10, h01, h11 = hermite_basis(u - k)
     for i in range(3):
         out[i] = (
             h00 * eph_r[body, k, i]

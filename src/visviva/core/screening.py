@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from ._jit import inline_kernel, parallel_kernel, prange
+from .hermite import hermite_basis, hermite_basis_rate
 
 __all__ = ["screen_rows"]
 
@@ -32,16 +33,10 @@ __all__ = ["screen_rows"]
 @inline_kernel
 def _hermite_g(s, p0, p1, m0, m1, h):
     # relative position and velocity on the cubic Hermite segment at s in [0, 1]
-    s2 = s * s
-    s3 = s2 * s
-    h00 = 2 * s3 - 3 * s2 + 1
-    h10 = s3 - 2 * s2 + s
-    h01 = -2 * s3 + 3 * s2
-    h11 = s3 - s2
-    d00 = (6 * s2 - 6 * s) / h
-    d10 = (3 * s2 - 4 * s + 1)
-    d01 = (-6 * s2 + 6 * s) / h
-    d11 = (3 * s2 - 2 * s)
+    h00, h10, h01, h11 = hermite_basis(s)
+    d00, d10, d01, d11 = hermite_basis_rate(s)
+    d00 /= h
+    d01 /= h
     g = 0.0
     d2 = 0.0
     for c in range(3):

@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
+from .hermite import hermite_basis
 
 __all__ = ["razel", "razel_many", "scan_passes", "elevation_rate_many", "RISE", "CULMINATION",
            "SET", "NEAR_MAXIMUM", "teme_to_itrs_anchored", "PAIR_OK", "PAIR_NON_FINITE", "PAIR_OVERFLOW"]
@@ -147,13 +148,9 @@ def _f_at(r, v, i, t, h, nodes, sx, sy, sz, ux, uy, uz, sin_min):
         j = nodes - 2
     if j < 0:
         j = 0
-    s = t / h - j
-    s2 = s * s
-    s3 = s2 * s
-    h00 = 2.0 * s3 - 3.0 * s2 + 1.0
-    h10 = (s3 - 2.0 * s2 + s) * h
-    h01 = -2.0 * s3 + 3.0 * s2
-    h11 = (s3 - s2) * h
+    h00, h10, h01, h11 = hermite_basis(t / h - j)
+    h10 *= h
+    h11 *= h
     px = h00 * r[i, j, 0] + h10 * v[i, j, 0] + h01 * r[i, j + 1, 0] + h11 * v[i, j + 1, 0] - sx
     py = h00 * r[i, j, 1] + h10 * v[i, j, 1] + h01 * r[i, j + 1, 1] + h11 * v[i, j + 1, 1] - sy
     pz = h00 * r[i, j, 2] + h10 * v[i, j, 2] + h01 * r[i, j + 1, 2] + h11 * v[i, j + 1, 2] - sz

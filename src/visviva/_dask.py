@@ -7,7 +7,14 @@ started here. Requires the ``scale`` extra (``pip install visviva[scale]``).
 
 from __future__ import annotations
 
-__all__ = ["require_dask", "get_client", "close_local_cluster"]
+import threading
+
+__all__ = ["require_dask", "get_client", "close_local_cluster", "NUMBA_LOCK"]
+
+#: numba's parallel kernels already use every core, and numba's "workqueue" threading layer
+#: must not be entered from two threads at once: blocks that call them take this lock (one at a
+#: time per process; satellites.dask_batch, ground.dask_passes).
+NUMBA_LOCK = threading.Lock()
 
 _LOCAL = {}
 

@@ -69,10 +69,10 @@ def _table_from_wire(wire):
 
 
 def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude):
-    from ..satellites.dask_batch import _NUMBA_LOCK
+    from .._dask import NUMBA_LOCK
 
     # numba's workqueue threading layer must not be entered from two threads at once
-    with _NUMBA_LOCK:
+    with NUMBA_LOCK:
         table = find_passes(chunk, stations, t0, t1, min_elevation,
                             standard_magnitude=standard_magnitude)
     return _table_to_wire(table)

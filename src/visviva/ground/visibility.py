@@ -52,12 +52,12 @@ def sun_itrs_km(t_ref, t_s, earth) -> np.ndarray:
 
 def sun_fraction(r_km, sun_km) -> np.ndarray:
     """Fraction of the solar disc seen from ``r_km`` (1 sunlit, 0 umbra); any common frame."""
-    from ..satellites.groundtrack import _shadow_many
+    from ..satellites.groundtrack import shadow_fraction_many
 
     r = np.ascontiguousarray(np.reshape(r_km, (-1, 3)), dtype=np.float64)
     s = np.ascontiguousarray(np.reshape(sun_km, (-1, 3)), dtype=np.float64)
     out = np.empty(r.shape[0])
-    _shadow_many(r, s, R_EARTH_KM, R_SUN_KM, out)
+    shadow_fraction_many(r, s, R_EARTH_KM, R_SUN_KM, out)
     return out.reshape(np.shape(r_km)[:-1])
 
 

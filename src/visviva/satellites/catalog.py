@@ -393,7 +393,18 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
 # --------------------------------------------------------------------------------------------
 # Batch propagation
 # --------------------------------------------------------------------------------------------
-def _as_catalog(satellites) -> Catalog:
+def as_catalog(satellites) -> Catalog:
+    """The batch functions' input as a :class:`Catalog` (a Catalog is returned as it is).
+
+    Parameters
+    ----------
+    satellites : Catalog, Satellite or sequence of Satellite
+        What to propagate.
+
+    Returns
+    -------
+    Catalog
+    """
     if isinstance(satellites, Catalog):
         return satellites
     if isinstance(satellites, Satellite):
@@ -401,7 +412,31 @@ def _as_catalog(satellites) -> Catalog:
     return Catalog(satellites)
 
 
-def _absolute_times(t, what: str) -> Time:
+#: the former private name, still imported by ``conjunctions.screening``
+_as_catalog = as_catalog
+
+
+def absolute_times(t, what: str) -> Time:
+    """``t`` checked as the absolute times of a batch: a scalar or 1-D astropy Time, as 1-D.
+
+    Parameters
+    ----------
+    t : astropy Time, scalar or shape (T,)
+        The times, shared by every object of the batch.
+    what : str
+        The caller, for the message.
+
+    Returns
+    -------
+    astropy Time, shape (T,)
+
+    Raises
+    ------
+    UnitsError
+        If ``t`` is not a Time (offsets need an epoch: ``epoch + dt``).
+    ShapeError
+        If ``t`` has more than one dimension.
+    """
     if not isinstance(t, Time):
         raise UnitsError(
             f"{what} needs absolute times (an astropy Time), shared by every satellite; got "
@@ -413,7 +448,14 @@ def _absolute_times(t, what: str) -> Time:
     return t.reshape(-1) if t.ndim == 0 else t
 
 
-def _check_on_error(on_error):
+def check_on_error(on_error) -> None:
+    """Refuse an ``on_error`` other than ``"raise"`` or ``"nan"`` (InvalidInputError).
+
+    Parameters
+    ----------
+    on_error : str
+        The batch functions' ``on_error`` argument.
+    """
     if on_error not in ("raise", "nan"):
         raise InvalidInputError(f"on_error must be 'raise' or 'nan', got {on_error!r}.")
 
@@ -440,9 +482,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         TEME ``r`` (km) and ``v`` (km/s), shape (N, T, 3); identical bit for bit to
         ``Satellite.teme(t)`` of each satellite.
     """
-    _check_on_error(on_error)
-    cat = _as_catalog(satellites)
-    t = _absolute_times(t, "propagate_sgp4_batch")
+    check_on_error(on_error)
+    cat = as_catalog(satellites)
+    t = absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
     ep = cat.epochs
     tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
@@ -518,10 +560,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         from ..core.cuda.kernels import propagate_many
     else:
         from ..core.universal import propagate_many
-    _check_on_error(on_error)
-    t = _absolute_times(t, "propagate_kepler_batch")
+    check_on_error(on_error)
+    t = absolute_times(t, "propagate_kepler_batch")
     if isinstance(states, (Catalog, Satellite, list, tuple)):
-        cat = _as_catalog(states)
+        cat = as_catalog(states)
         ep = cat.epochs
         # each satellite at its own epoch (one sgp4 call per element set, not per step)
         out = [s.satrec.sgp4(s.satrec.jdsatepoch, s.satrec.jdsatepochF) for s in cat]
@@ -582,9 +624,9 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     BatchStates
         TEME ``r`` (km), ``v`` (km/s), shape (N, T, 3).
     """
-    _check_on_error(on_error)
-    cat = _as_catalog(satellites)
-    t = _absolute_times(t, "propagate_j2_batch")
+    check_on_error(on_error)
+    cat = as_catalog(satellites)
+    t = absolute_times(t, "propagate_j2_batch")
     setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
     if setup is None:
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)

@@ -23,23 +23,22 @@ Requires the ``scale`` extra (``pip install visviva[scale]``: dask[array,distrib
 
 from __future__ import annotations
 
-import threading
 import uuid
 import weakref
 
 import numpy as np
 from astropy.time import Time
 
-from .._dask import close_local_cluster, get_client
+from .._dask import NUMBA_LOCK, close_local_cluster, get_client
 from .._dask import require_dask as _require_dask
 from .._units import to_quantity
 from ..errors import InvalidInputError
 from .catalog import (
     BatchStates,
     Catalog,
-    _absolute_times,
-    _as_catalog,
-    _check_on_error,
+    absolute_times,
+    as_catalog,
+    check_on_error,
     propagate_j2_batch,
     propagate_kepler_batch,
     propagate_sgp4_batch,
@@ -52,16 +51,11 @@ _METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": pr
 _COWELL_CHUNK = 256
 
 
-#: numba's parallel kernels (J2, Kepler) already use every core, and numba's "workqueue"
-#: threading layer must not be entered from two threads at once: one block at a time per process.
-_NUMBA_LOCK = threading.Lock()
-
-
 def _block(cat: Catalog, t: Time, method: str, on_error: str):
     if method == "sgp4":
         out = _METHODS[method](cat, t, on_error=on_error)
     else:
-        with _NUMBA_LOCK:
+        with NUMBA_LOCK:
             out = _METHODS[method](cat, t, on_error=on_error)
     return out.r.value, out.v.value, out.status
 
@@ -72,7 +66,7 @@ def _cowell_block(r0, v0, gm, epoch, t, perturbations, options):
     from .cowell import propagate_cowell
 
     state = StateVectors._from_canonical(r0, v0, gm, epoch)
-    with _NUMBA_LOCK:
+    with NUMBA_LOCK:
         out = propagate_cowell(state, t, perturbations, **options)
     r = np.ascontiguousarray(out.r.to_value("km"))
     v = np.ascontiguousarray(out.v.to_value("km/s"))
@@ -356,9 +350,9 @@ def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=
     import dask
     import dask.array as da
 
-    _check_on_error(on_error)
-    cat = _as_catalog(states)
-    t = _absolute_times(t, "propagate_dask")
+    check_on_error(on_error)
+    cat = as_catalog(states)
+    t = absolute_times(t, "propagate_dask")
     chunks = (1000, 1000) if chunks is None else chunks
     try:
         n_chunk, t_chunk = chunks

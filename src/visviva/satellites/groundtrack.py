@@ -61,7 +61,9 @@ def _times(sat, t) -> Time:
     return sat.epoch + t
 
 
-def _is_catalog(obj) -> bool:
+def is_catalog(obj) -> bool:
+    """Whether ``obj`` is a :class:`~visviva.satellites.catalog.Catalog` (without importing it
+    for a single satellite's plot)."""
     from .catalog import Catalog
 
     return isinstance(obj, Catalog)
@@ -83,10 +85,10 @@ def ground_track(sat, t):
     """
     from .frames import itrs_to_geodetic
 
-    if _is_catalog(sat):
-        from .catalog import _absolute_times
+    if is_catalog(sat):
+        from .catalog import absolute_times
 
-        times = _absolute_times(t, "ground_track of a Catalog")
+        times = absolute_times(t, "ground_track of a Catalog")
         states = sat.propagate(times, frame="itrs")
         lat, lon, h = itrs_to_geodetic(states.r)
         return [GroundTrack(times, lat[k], lon[k], h[k], name)
@@ -97,7 +99,13 @@ def ground_track(sat, t):
 
 
 @parallel_kernel
-def _shadow_many(r, s, radius, sun_radius, out):
+def shadow_fraction_many(r, s, radius, sun_radius, out):
+    """Visible fraction of the Sun's disc (conical shadow) for N positions, in place.
+
+    ``r``, ``s`` (N, 3) satellite and Sun positions (km) from the body's centre, ``radius`` and
+    ``sun_radius`` (km); writes ``out`` (N,) with
+    :func:`visviva.core.perturbations.shadow_fraction`.
+    """
     for i in prange(r.shape[0]):
         out[i] = shadow_fraction(
             r[i, 0], r[i, 1], r[i, 2], s[i, 0], s[i, 1], s[i, 2], radius, sun_radius, 2
@@ -126,10 +134,10 @@ def eclipse_fraction(sat, t) -> np.ndarray:
     """
     from .ephemeris import sun_position
 
-    if _is_catalog(sat):
-        from .catalog import _absolute_times
+    if is_catalog(sat):
+        from .catalog import absolute_times
 
-        times = _absolute_times(t, "eclipse_fraction of a Catalog")
+        times = absolute_times(t, "eclipse_fraction of a Catalog")
         r = sat.propagate(times, frame="gcrs").r.to_value(u.km)  # (N, T, 3)
         s = np.broadcast_to(sun_position(times).to_value(u.km), r.shape)
         shape = r.shape[:-1]
@@ -141,7 +149,7 @@ def eclipse_fraction(sat, t) -> np.ndarray:
     r = np.ascontiguousarray(r.reshape(-1, 3))
     s = np.ascontiguousarray(s.reshape(-1, 3))
     out = np.empty(r.shape[0])
-    _shadow_many(r, s, R_EARTH_KM, R_SUN_KM, out)
+    shadow_fraction_many(r, s, R_EARTH_KM, R_SUN_KM, out)
     return out.reshape(shape)
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from astropy import units as u
 
 from ..constants import R_EARTH_KM
-from .groundtrack import _is_catalog, eclipse_fraction, eclipse_intervals, ground_track
+from .groundtrack import eclipse_fraction, eclipse_intervals, ground_track, is_catalog
 
 __all__ = ["plot_ground_track", "plot_orbit_3d", "plot_altitude_eclipse", "new_figure"]
 
@@ -45,7 +45,7 @@ def new_figure(projection=None, figsize=(8, 4.5)):
 
 def _members(sat):
     """The satellites to draw: a catalogue's, or the one."""
-    return list(sat) if _is_catalog(sat) else [sat]
+    return list(sat) if is_catalog(sat) else [sat]
 
 
 def _tracks_on_axes(sat, t, ax):
@@ -120,10 +120,10 @@ def plot_orbit_3d(sat, t, ax=None, frame: str = "gcrs", **line_kwargs):
     matplotlib.figure.Figure
     """
     fig, ax = (ax.figure, ax) if ax is not None else new_figure("3d", figsize=(6, 6))
-    if _is_catalog(sat):
-        from .catalog import _absolute_times
+    if is_catalog(sat):
+        from .catalog import absolute_times
 
-        states = sat.propagate(_absolute_times(t, "plot_orbit_3d of a Catalog"), frame=frame)
+        states = sat.propagate(absolute_times(t, "plot_orbit_3d of a Catalog"), frame=frame)
         paths = list(zip(states.names, states.r.to_value(u.km), strict=True))
     else:
         paths = [(sat.name, getattr(sat, frame)(t).r.to_value(u.km).reshape(-1, 3))]

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ._inputs import Inputs
-from .particles import Trajectory, _check_times, _particle_inputs
+from .particles import Trajectory, check_times, particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
 
@@ -47,7 +47,7 @@ class ConstrainedTrajectory(Trajectory):
     violation: np.ndarray = None
 
 
-def _extrapolate(estimate, h0, *, shrink=1.6, levels=14):
+def ridders_extrapolate(estimate, h0, *, shrink=1.6, levels=14):
     """Ridders' polynomial extrapolation of a difference quotient with an error series in h^2.
 
     ``estimate(h)`` returns a central first or second difference (an array); the Neville table
@@ -108,7 +108,7 @@ class _Constraint:
             def central(h, e=e):
                 return (self.value(x + h * e, t) - self.value(x - h * e, t)) / (2 * h)
 
-            cols.append(_extrapolate(central, 2e-3 * max(1.0, abs(x[j]))))
+            cols.append(ridders_extrapolate(central, 2e-3 * max(1.0, abs(x[j]))))
         return np.column_stack(cols)
 
     def time_derivative(self, x, t):
@@ -118,7 +118,7 @@ class _Constraint:
         def central(h):
             return (self.value(x, t + h) - self.value(x, t - h)) / (2 * h)
 
-        return _extrapolate(central, 2e-3 * max(1.0, abs(t)))
+        return ridders_extrapolate(central, 2e-3 * max(1.0, abs(t)))
 
     def rate(self, x, v, t):
         """f' = J v + f_t."""
@@ -137,7 +137,7 @@ class _Constraint:
                 minus = self.rate(x - h * v, v, t - h * self.tau)
                 return (plus - minus) / (2 * h)
 
-            return _extrapolate(first, h0)
+            return ridders_extrapolate(first, h0)
         f0 = self.value(x, t)
 
         def second(h):
@@ -145,7 +145,7 @@ class _Constraint:
             minus = self.value(x - h * v, t - h * self.tau)
             return (plus - 2 * f0 + minus) / (h * h)
 
-        return _extrapolate(second, h0)
+        return ridders_extrapolate(second, h0)
 
 
 def _solve_gram(A, b):
@@ -241,10 +241,10 @@ def solve_constrained(
     from scipy.integrate import solve_ivp
 
     ins = Inputs()
-    r0, v0, m = _particle_inputs(ins, masses, r0, v0)
+    r0, v0, m = particle_inputs(ins, masses, r0, v0)
     shape = r0.shape
     w = np.repeat(1.0 / m, shape[1]) if r0.ndim == 2 else np.full(r0.size, 1.0 / m)
-    t = _check_times(ins.get(t, "s", "t"))
+    t = check_times(ins.get(t, "s", "t"))
     con = _Constraint(constraint, jacobian, shape, time_dependent)
     rate = 10.0 / (t[-1] - t[0]) if baumgarte is None else float(baumgarte)
     if rate < 0:

@@ -291,7 +291,7 @@ def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
     """
     from scipy.integrate import quad
 
-    from .constraints import _extrapolate
+    from .constraints import ridders_extrapolate
 
     s0, s1 = (float(s) for s in s_range)
     if not (np.isfinite(s0) and np.isfinite(s1)):
@@ -304,7 +304,7 @@ def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
         def central(h):
             return (np.asarray(curve(s + h), float) - np.asarray(curve(s - h), float)) / (2 * h)
 
-        return _extrapolate(central, 1e-3 * max(1.0, abs(s1 - s0)))
+        return ridders_extrapolate(central, 1e-3 * max(1.0, abs(s1 - s0)))
 
     def integrand(s):
         F = np.asarray(field(np.asarray(curve(s), dtype=float)), dtype=float)

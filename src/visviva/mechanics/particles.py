@@ -72,7 +72,8 @@ class Trajectory:
         return h if h.ndim == 2 else h.sum(axis=1)
 
 
-def _check_times(t):
+def check_times(t):
+    """``t`` as a 1-D float array of at least 2 strictly increasing output times (InvalidInputError otherwise)."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
     if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
         raise InvalidInputError(
@@ -82,7 +83,7 @@ def _check_times(t):
     return t
 
 
-def _particle_inputs(ins: Inputs, masses, r0, v0):
+def particle_inputs(ins: Inputs, masses, r0, v0):
     """Initial positions, velocities and masses of one or many particles, converted and checked.
 
     Parameters
@@ -183,8 +184,8 @@ def solve_particles(
     from scipy.integrate import solve_ivp
 
     ins = Inputs()
-    r0, v0, m = _particle_inputs(ins, masses, r0, v0)
-    t = _check_times(ins.get(t, "s", "t"))
+    r0, v0, m = particle_inputs(ins, masses, r0, v0)
+    t = check_times(ins.get(t, "s", "t"))
     shape = r0.shape
     size = r0.size
     inv_m = (1.0 / m)[..., None] if r0.ndim == 2 else 1.0 / m

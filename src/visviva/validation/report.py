@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import Check
-from .results import _fmt, environment, short_name, status_of, to_json
+from .results import environment, fmt_value, short_name, status_of, to_json
 
 __all__ = ["write_report", "plot_specs", "markdown_escape"]
 
@@ -304,21 +304,21 @@ def write_report(outcome, folder) -> Path:
     for _module, c in outcome.checks:
         status = status_of(c)
         shown = f"**{status}**" if status == "FAIL" else status
-        measured = _fmt(c.measured) if status != "SKIP" else markdown_escape(
+        measured = fmt_value(c.measured) if status != "SKIP" else markdown_escape(
             c.details.get("skipped"))
-        lines.append(f"| {shown} | {markdown_escape(c.name)} | {measured} | {_fmt(c.tolerance)} "
+        lines.append(f"| {shown} | {markdown_escape(c.name)} | {measured} | {fmt_value(c.tolerance)} "
                      f"| {markdown_escape(c.metric)} | {markdown_escape(c.reference)} |")
     reasons = [(c, _reason(c)) for _m, c in outcome.checks if _reason(c)]
     if reasons:
         lines += ["", "## Why these tolerances", ""]
-        lines += [f"- {markdown_escape(c.name)} (tolerance {_fmt(c.tolerance)}): "
+        lines += [f"- {markdown_escape(c.name)} (tolerance {fmt_value(c.tolerance)}): "
                   f"{markdown_escape(why)}" for c, why in reasons]
     failures = [(m, c) for m, c in outcome.checks if status_of(c) == "FAIL"]
     if failures:
         lines += ["", "## Failures", ""]
         for module, c in failures:
             lines += [f"- {markdown_escape(short_name(module))}: {markdown_escape(c.name)}: "
-                      f"measured {_fmt(c.measured)}, tolerance {_fmt(c.tolerance)}"]
+                      f"measured {fmt_value(c.measured)}, tolerance {fmt_value(c.tolerance)}"]
             hint = c.details.get("hint") if isinstance(c.details, dict) else None
             if hint:
                 lines += [f"  hint: {markdown_escape(hint)}"]

@@ -78,7 +78,8 @@ def short_name(module: str) -> str:
     return leaf[len(PREFIX):] if leaf.startswith(PREFIX) else leaf
 
 
-def _fmt(x) -> str:
+def fmt_value(x) -> str:
+    """A measured value or tolerance for the report: 3 significant digits, nan/inf spelled out."""
     try:
         x = float(x)
     except (TypeError, ValueError):
@@ -92,7 +93,7 @@ def _fmt(x) -> str:
     return f"{x:.3g}" if 1e-3 <= abs(x) < 1e4 else f"{x:.2e}"
 
 
-def _jsonable(value, max_len: int = 20000):
+def jsonable(value, max_len: int = 20000):
     """Convert ``details`` values for JSON: arrays become lists (long ones are summarised)."""
     try:
         import numpy as np
@@ -105,18 +106,18 @@ def _jsonable(value, max_len: int = 20000):
             return {"size": int(arr.size), "min": float(finite.min()) if finite.size else None,
                     "max": float(finite.max()) if finite.size else None}
         if arr.dtype.kind in "fiub":
-            return [_jsonable(v) for v in arr.tolist()] if arr.ndim else _jsonable(arr.item())
+            return [jsonable(v) for v in arr.tolist()] if arr.ndim else jsonable(arr.item())
         return str(arr.tolist())[:1000]
     if isinstance(value, float):
         return value if math.isfinite(value) else str(value)
     if isinstance(value, int | bool | str) or value is None:
         return value
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         if len(value) > max_len:
             return f"<{len(value)} items>"
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     return str(value)[:1000]
 
 
@@ -133,9 +134,9 @@ def to_json(outcome: Outcome) -> dict:
         "modules": [{"module": m.module, "elapsed_s": m.elapsed_s, "error": m.error,
                      "warnings": m.warnings} for m in outcome.modules],
         "checks": [{"module": short_name(mod), "name": c.name, "status": status_of(c),
-                    "metric": c.metric, "measured": _jsonable(_as_float(c.measured)),
-                    "tolerance": _jsonable(_as_float(c.tolerance)), "reference": c.reference,
-                    "details": _jsonable(c.details)} for mod, c in outcome.checks],
+                    "metric": c.metric, "measured": jsonable(_as_float(c.measured)),
+                    "tolerance": jsonable(_as_float(c.tolerance)), "reference": c.reference,
+                    "details": jsonable(c.details)} for mod, c in outcome.checks],
     }
 
 

@@ -37,8 +37,8 @@ from .results import (
     PREFIX,
     ModuleResult,
     Outcome,
-    _fmt,
-    _jsonable,
+    fmt_value,
+    jsonable,
     short_name,
     status_of,
     to_json,
@@ -173,8 +173,8 @@ def format_line(check: Check, width: int = 64) -> str:
     name = check.name if len(check.name) <= width else check.name[: width - 1] + "…"
     if status == "SKIP":
         return f"SKIP  {name:<{width}s}  ({check.details.get('skipped')})"
-    line = (f"{status}  {name:<{width}s}  {_fmt(check.measured):>10s} <= "
-            f"{_fmt(check.tolerance):<9s}  {check.metric}")
+    line = (f"{status}  {name:<{width}s}  {fmt_value(check.measured):>10s} <= "
+            f"{fmt_value(check.tolerance):<9s}  {check.metric}")
     details = check.details if isinstance(check.details, dict) else {}
     if status == "FAIL":
         for key in ("error", "hint"):
@@ -291,7 +291,7 @@ def _child_main(name: str, full: bool, timeout_s: float | None, conn) -> None:
         pickle.dumps(result)
     except Exception:  # noqa: BLE001 - details holding something unpicklable
         for check in result.checks:
-            check.details = _jsonable(check.details)
+            check.details = jsonable(check.details)
     conn.send(result)
     conn.close()
 

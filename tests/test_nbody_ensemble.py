@@ -187,6 +187,18 @@ def test_dask_process_workers_give_identical_results():
         np.testing.assert_array_equal(there.velocities, here.velocities)
         # by scheduler address too
         there.integrate(25.0, client=cluster.scheduler_address)
+        # an event in one member on a worker: raised here with the member's index, the others
+        # (on both workers) reach the time as in this process
+        wide = [planets("whfast", a=1.0 + 0.05 * k) for k in range(4)]
+        wide[2].exit_max_distance = 1.2  # the outer planet (a = 1.76) escapes the sphere
+        far = vv.Ensemble.from_simulations(wide)
+        with pytest.raises(vv.Escape) as info:
+            far.integrate(5.0, client=client)
+        assert info.value.member == 2 and info.value.members == [2]
+        alone = wide[0].copy()
+        alone.integrate(5.0)
+        assert far.t[[0, 1, 3]].tolist() == [5.0] * 3 and far.t[2] < 5.0
+        np.testing.assert_array_equal(far[0].positions, alone.positions)
     here.integrate(25.0)
     np.testing.assert_array_equal(there.positions, here.positions)
     from visviva._dask import close_local_cluster

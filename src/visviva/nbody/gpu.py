@@ -90,6 +90,7 @@ class DeviceGravity:
         self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
         self.soft2 = float(soft2)
         self.acc = cuda.device_array((self.n, 3))
+        self._x = self._out = None  # host-path buffers, allocated on first use
 
     def __call__(self, x):
         """Launch the kernel on ``x`` (a device array, shape (N, 3)); returns the device array
@@ -100,10 +101,16 @@ class DeviceGravity:
         return self.acc
 
     def host(self, x, out) -> None:
-        """Accelerations at the host positions ``x`` into the host array ``out`` (N, 3)."""
+        """Accelerations at the host positions ``x`` into the host array ``out`` (N, 3); the
+        device buffers are allocated once and reused."""
         from numba import cuda
 
-        out[:] = self(cuda.to_device(x)).copy_to_host()
+        if self._x is None:
+            self._x = cuda.device_array((self.n, 3))
+            self._out = np.empty((self.n, 3))
+        self._x.copy_to_device(np.ascontiguousarray(x))
+        self(self._x).copy_to_host(self._out)
+        out[:] = self._out
 
 
 def plan(state: dict, target: float):

@@ -171,9 +171,11 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
         sim.integrate([1.0, 2.0])
 
 
-def test_dask_process_workers_give_identical_results():
+def test_dask_process_workers_give_identical_results(monkeypatch):
     pytest.importorskip("distributed")
     from distributed import Client, LocalCluster
+
+    from visviva.nbody import ensemble_dask
 
     sims = [planets("whfast", a=1.0 + 0.05 * k, extra=k % 2) for k in range(5)]
     here = vv.Ensemble.from_simulations(sims)
@@ -185,8 +187,10 @@ def test_dask_process_workers_give_identical_results():
         assert there.t.tolist() == [20.0] * 5
         np.testing.assert_array_equal(there.positions, here.positions)
         np.testing.assert_array_equal(there.velocities, here.velocities)
-        # by scheduler address too
+        # by scheduler address too, and with the blocks scattered first (large ensembles)
+        monkeypatch.setattr(ensemble_dask, "SCATTER_BYTES", 0)
         there.integrate(25.0, client=cluster.scheduler_address)
+        monkeypatch.undo()
         # an event in one member on a worker: raised here with the member's index, the others
         # (on both workers) reach the time as in this process
         wide = [planets("whfast", a=1.0 + 0.05 * k) for k in range(4)]

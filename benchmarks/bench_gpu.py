@@ -8,10 +8,12 @@ Rows
   The results are identical (checked here too).
 * The same ensemble on a Dask LocalCluster of 2 process workers (1 thread each) against 1 worker
   (target <= 0.625x, i.e. a speed-up >= 1.6x; the notes give the speed-up).
-* Direct summation on the GPU backend (leapfrog, N = 10^3 ... 10^6; ns per interaction) against
-  the CPU backend on every core (target <= 0.02x, i.e. >= 50x); ensembles of leapfrog systems on
-  the GPU (system-steps per second) against the CPU ensemble. Without an NVIDIA GPU these rows
-  are reported as skipped with the CPU figures in the notes.
+* Direct summation on the GPU backend (leapfrog, N = 10^3 ... 10^6; ns per interaction; the
+  tiled kernel) against the CPU backend on every core (target <= 0.02x, i.e. >= 50x); WHFast
+  with its interaction step on the GPU (N = 10^4, 10^5); ensembles of leapfrog systems on the GPU
+  (system-steps per second) against the CPU ensemble. Without an NVIDIA GPU these rows are
+  reported as skipped with the CPU figures in the notes. The GPU model is printed and given in
+  the notes of every GPU row. One command on a GPU machine: ``python -m benchmarks --only gpu``.
 * Kepler solves per second (``propagate_kepler_batch``'s solver) on the GPU twin against the CPU
   kernel on every core.
 """
@@ -36,20 +38,56 @@ def _system(a, integrator="whfast", dt=0.05):
     return sim
 
 
-def _cluster(n, backend, seed=1):
+def _from_arrays(integrator, x, v, m, backend, **settings):
+    """A simulation of N particles built in one go (``sim.add`` per particle copies the arrays
+    each time: O(N**2) at N = 10^6), through the friend constructor ``from_state``."""
     import visviva as vv
+    from visviva.nbody.state import SimulationState
 
-    rng = np.random.default_rng(seed)
-    sim = vv.Simulation("leapfrog", dt=1e-3, softening=0.01, backend=backend)
-    for x, v in zip(rng.normal(size=(n, 3)), 0.1 * rng.normal(size=(n, 3)), strict=True):
-        sim.add(1.0 / n, x, v)
+    template = vv.Simulation(integrator, **settings).state_arrays()
+    state = SimulationState(np.ascontiguousarray(x), np.ascontiguousarray(v), m.copy(),
+                            np.zeros(len(m)), template["fstate"].copy(),
+                            template["istate"].copy())
+    sim = vv.Simulation.from_state(state, integrator)
+    sim.backend = backend
     return sim
+
+
+def _cluster(n, backend, seed=1):
+    """A Plummer-softened cluster of ``n`` equal masses (leapfrog, dt = 1e-3)."""
+    rng = np.random.default_rng(seed)
+    return _from_arrays("leapfrog", rng.normal(size=(n, 3)), 0.1 * rng.normal(size=(n, 3)),
+                        np.full(n, 1.0 / n), backend, dt=1e-3, softening=0.01)
+
+
+def _disc(n, backend, seed=2):
+    """A star and ``n - 1`` planetesimals on near-circular orbits at 1-3 (WHFast, dt = 0.01)."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(1.0, 3.0, n)
+    phi = rng.uniform(0.0, 2 * np.pi, n)
+    z = 0.01 * rng.normal(size=n)
+    x = np.stack([a * np.cos(phi), a * np.sin(phi), z], -1)
+    vc = 1.0 / np.sqrt(a)
+    v = np.stack([-vc * np.sin(phi), vc * np.cos(phi), np.zeros(n)], -1)
+    x[0] = v[0] = 0.0
+    m = np.full(n, 1e-9)
+    m[0] = 1.0
+    return _from_arrays("whfast", x, v, m, backend, dt=0.01, softening=1e-3)
 
 
 def _gpu_problem():
     from visviva.core import cuda
 
     return cuda.missing() if not cuda.simulator() else "numba's CUDA simulator is on"
+
+
+def gpu_model() -> str:
+    """The GPU's name and compute capability (for the notes of every GPU row)."""
+    from numba import cuda
+
+    dev = cuda.get_current_device()
+    name = dev.name.decode() if isinstance(dev.name, bytes) else str(dev.name)
+    return f"{name} (cc {dev.compute_capability[0]}.{dev.compute_capability[1]})"
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -98,33 +136,54 @@ def run(quick: bool = False) -> list[dict]:
             ens.integrate(T, client=client)
             return ens
 
+        import dask
+
+        from benchmarks.bench_dask import _cpu_split, _load
+        from benchmarks.bench_sgp4 import _cpu_seconds
+
+        with threads(1):
+            single_cpu = _cpu_seconds(ensemble)
         timings = {}
-        for workers in (1, 2):
-            with LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
-                              dashboard_address=":0") as cluster, Client(cluster) as client:
-                on(client)  # workers import visviva and load the compiled kernels
-                timings[workers] = time_call(on, client, repeat=3, number=1)
+        # the workers' statistical profiler off, as in visviva's own LocalCluster (client=True)
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            for workers in (1, 2):
+                with LocalCluster(n_workers=workers, processes=True, threads_per_worker=1,
+                                  dashboard_address=":0") as cluster, Client(cluster) as client:
+                    on(client)  # workers import visviva and load the compiled kernels
+                    timings[workers] = time_call(on, client, repeat=5, number=1)
+                    if workers == 2:
+                        per_worker, here = _cpu_split(client, lambda c=client: on(c))
         speedup = timings[1].median / timings[2].median
+        critical = max(per_worker) + here
         rows.append(result(
             f"ensemble {M} x 3-body whfast on Dask, 2 process workers", timings[2],
             "the same on 1 worker", timings[1], target=1 / 1.6,
-            notes=(f"speed-up {speedup:.2f}x on {n_threads()} core(s); results identical to "
-                   "the in-process ensemble (tests/test_nbody_ensemble.py)"),
+            notes=(f"speed-up {speedup:.2f}x (wall) on {n_threads()} core(s), load {_load()}; "
+                   f"CPU s: in-process ensemble on 1 thread {single_cpu:.3g}, on 2 workers the "
+                   f"busiest worker {max(per_worker):.3g} + this process {here:.3g} -> on idle "
+                   f"cores at least {single_cpu / critical:.2f}x the in-process ensemble "
+                   "(client and worker CPU added: conservative); results identical to the "
+                   "in-process ensemble (tests/test_nbody_ensemble.py)"),
         ))
 
     # -- GPU ---------------------------------------------------------------------------------------
     problem = _gpu_problem()
+    model = "" if problem else gpu_model()
+    if model:
+        print(f"GPU: {model}")
     sizes = (1000, 10_000) if quick or problem else (1000, 10_000, 100_000, 1_000_000)
     for n in sizes:
         cpu = _cluster(n, "cpu")
         nsteps = 2 if n <= 10_000 else 1
+        repeat = 3 if n <= 100_000 else 1  # 10^12 interactions per CPU step at N = 10^6
 
         def step(sim=cpu, k=nsteps):
             sim.integrate(sim.t + k * 1e-3)
 
         with threads(None):
-            step()
-            t_cpu = time_call(step, repeat=3, number=1)
+            if n <= 100_000:
+                step()  # compiled at the smallest N; a warm-up run at N = 10^6 costs minutes
+            t_cpu = time_call(step, repeat=repeat, number=1)
         ns_cpu = t_cpu.median * 1e9 / (float(n) * n * nsteps)
         name = f"direct summation on the GPU, leapfrog, N={n}"
         if problem:
@@ -141,7 +200,36 @@ def run(quick: bool = False) -> list[dict]:
         ns_gpu = t_gpu.median * 1e9 / (float(n) * n * nsteps)
         rows.append(result(name, t_gpu, "CPU backend, every core", t_cpu, target=0.02,
                            compile_s=c,
-                           notes=f"{ns_gpu:.3g} ns/interaction (CPU {ns_cpu:.3g}); fp64"))
+                           notes=f"{ns_gpu:.3g} ns/interaction (CPU {ns_cpu:.3g}); fp64, tiled "
+                                 f"kernel; {model}"))
+
+    # WHFast with the interaction step's gravity on the GPU (Kepler drifts on the CPU)
+    for n in (10_000,) if quick or problem else (10_000, 100_000):
+        cpu = _disc(n, "cpu")
+        nsteps = 4 if n <= 10_000 else 2
+
+        def wstep(sim=cpu, k=nsteps):
+            sim.integrate(sim.t + k * 0.01)
+
+        with threads(None):
+            wstep()
+            t_cpu = time_call(wstep, repeat=3, number=1)
+        name = f"WHFast on the GPU (interaction step), star + {n - 1} planetesimals"
+        if problem:
+            rows.append(skipped(name, f"no GPU ({problem}); CPU backend: "
+                                      f"{t_cpu.median / nsteps * 1e3:.3g} ms per step"))
+            continue
+        gpu = _disc(n, "cuda")
+
+        def gwstep(sim=gpu, k=nsteps):
+            sim.integrate(sim.t + k * 0.01)
+
+        c = compile_time(gwstep)
+        t_gpu = time_call(gwstep, repeat=3, number=1)
+        rows.append(result(name, t_gpu, "CPU backend, every core", t_cpu, target=0.1,
+                           compile_s=c,
+                           notes=f"{t_gpu.median / nsteps * 1e3:.3g} ms per step (CPU "
+                                 f"{t_cpu.median / nsteps * 1e3:.3g}); fp64; {model}"))
 
     members = 4096 if quick else 131_072
     lf = [_system(1.0 + k / members, "leapfrog", dt=0.01) for k in range(min(members, 4096))]
@@ -162,7 +250,7 @@ def run(quick: bool = False) -> list[dict]:
                           repeat=3, number=1)
         rows.append(result(name, t_gpu, "CPU ensemble, every core", t_cpu, target=0.02,
                            notes=f"{members * 100 / t_gpu.median:.3g} system-steps/s "
-                                 f"(CPU {rate_cpu:.3g}); fp64"))
+                                 f"(CPU {rate_cpu:.3g}); fp64; {model}"))
 
     # -- Kepler solves: the universal-variable solver, CPU kernel and its GPU twin -----------------
     from visviva.core import universal
@@ -188,5 +276,6 @@ def run(quick: bool = False) -> list[dict]:
         t_gpu = time_call(kernels.propagate_many, r0, v0, gm, dt, *out, repeat=3, number=1)
         rows.append(result(name, t_gpu, "CPU backend, every core", t_cpu, target=0.02,
                            compile_s=c, notes=f"{n / t_gpu.median:.3g} solves/s (CPU "
-                           f"{n / t_cpu.median:.3g}) including host-device copies; fp64"))
+                           f"{n / t_cpu.median:.3g}) including host-device copies; fp64; "
+                           f"{model}"))
     return rows

@@ -150,9 +150,17 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
 
     monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
     with pytest.raises(InvalidInputError, match="leapfrog"):
-        vv.Simulation("whfast", dt=0.01, backend="cuda")
+        vv.Simulation("ias15", backend="cuda")
     with pytest.raises(InvalidInputError, match="leapfrog"):
         vv.Ensemble.from_simulations([planets("ias15")], backend="cuda")
+    with pytest.raises(InvalidInputError, match="ensembles"):  # WHFast: one large system only
+        vv.Ensemble.from_simulations([planets("whfast")], backend="cuda")
+    for setting, value in (("corrector", 5), ("coordinates", "democratic_heliocentric")):
+        sim = planets("whfast")
+        setattr(sim, setting, value)
+        sim.backend = "cuda"
+        with pytest.raises(InvalidInputError, match="corrector=0 and coordinates='jacobi'"):
+            sim.integrate(1.0)
     sim = planets("leapfrog", collision="merge")
     sim.backend = "cuda"
     with pytest.raises(InvalidInputError, match="backend='cpu'"):
@@ -163,9 +171,11 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
         sim.integrate([1.0, 2.0])
 
 
-def test_dask_process_workers_give_identical_results():
+def test_dask_process_workers_give_identical_results(monkeypatch):
     pytest.importorskip("distributed")
     from distributed import Client, LocalCluster
+
+    from visviva.nbody import ensemble_dask
 
     sims = [planets("whfast", a=1.0 + 0.05 * k, extra=k % 2) for k in range(5)]
     here = vv.Ensemble.from_simulations(sims)
@@ -177,8 +187,22 @@ def test_dask_process_workers_give_identical_results():
         assert there.t.tolist() == [20.0] * 5
         np.testing.assert_array_equal(there.positions, here.positions)
         np.testing.assert_array_equal(there.velocities, here.velocities)
-        # by scheduler address too
+        # by scheduler address too, and with the blocks scattered first (large ensembles)
+        monkeypatch.setattr(ensemble_dask, "SCATTER_BYTES", 0)
         there.integrate(25.0, client=cluster.scheduler_address)
+        monkeypatch.undo()
+        # an event in one member on a worker: raised here with the member's index, the others
+        # (on both workers) reach the time as in this process
+        wide = [planets("whfast", a=1.0 + 0.05 * k) for k in range(4)]
+        wide[2].exit_max_distance = 1.2  # the outer planet (a = 1.76) escapes the sphere
+        far = vv.Ensemble.from_simulations(wide)
+        with pytest.raises(vv.Escape) as info:
+            far.integrate(5.0, client=client)
+        assert info.value.member == 2 and info.value.members == [2]
+        alone = wide[0].copy()
+        alone.integrate(5.0)
+        assert far.t[[0, 1, 3]].tolist() == [5.0] * 3 and far.t[2] < 5.0
+        np.testing.assert_array_equal(far[0].positions, alone.positions)
     here.integrate(25.0)
     np.testing.assert_array_equal(there.positions, here.positions)
     from visviva._dask import close_local_cluster

@@ -31,9 +31,13 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     # after several steps (off the step grid: the shortened last step too), relative to the
     # largest position/velocity: <= 1e-12 as the brief asks; in practice ~1e-15
     for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc",
-                "kepler_pos", "kepler_vel", "conics_pos"):
+                "kepler_pos", "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos",
+                "whfast_vel", "whfast_restart_pos"):
         assert float(out[key]) <= 1e-12, (key, out[key])
     assert out["steps_equal"] == "True" and out["times_equal"] == "True"
+    # the tiled direct sum adds the pulls in the order of the CPU twin: the same bits
+    assert out["tiled_bits"] == "True"
+    assert out["whfast_steps_equal"] == "True"
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
     # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
     assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
@@ -54,7 +58,8 @@ def _has_gpu():
 def test_cuda_backend_on_a_real_gpu_matches_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "0"})
     for key in ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc",
-                "kepler_pos", "kepler_vel", "conics_pos"):
+                "kepler_pos", "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos",
+                "whfast_vel", "whfast_restart_pos"):
         assert float(out[key]) <= 1e-12, (key, out[key])
 
 

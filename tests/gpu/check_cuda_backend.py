@@ -84,6 +84,47 @@ def main():
     arith.member_accelerations_cpu(x, gm, massive, 0, 50, 0, 50, 0.0, twin)
     print(f"twin_acc={rel(acc_d.copy_to_host(), twin)!r}")
 
+    # the tiled kernel over several blocks and tiles (300 particles, 200 massive: 3 blocks of
+    # 128 threads, 2 tiles), softened: the pulls are added in the twin's order, so equal bits
+    n = 300
+    x = rng.normal(size=(n, 3))
+    gm = rng.uniform(0.1, 1.0, n)
+    gm[::3] = 0.0
+    massive = np.flatnonzero(gm).astype(np.int64)
+    acc_d = cuda.device_array((n, 3))
+    kernels.accelerations[kernels.blocks(n), kernels.THREADS](
+        cuda.to_device(x), cuda.to_device(gm), cuda.to_device(massive), 1e-4, acc_d)
+    twin = np.zeros((n, 3))
+    arith.member_accelerations_cpu(x, gm, massive, 0, len(massive), 0, n, 1e-4, twin)
+    print(f"tiled_acc={rel(acc_d.copy_to_host(), twin)!r}")
+    print(f"tiled_bits={bool((acc_d.copy_to_host() == twin).all())!r}")
+
+    # WHFast with the interaction step's gravity on the GPU: a star and 139 planetesimals (more
+    # massive bodies than one tile), off the grid then on it, then continued on the CPU
+    def disc(backend):
+        rng = np.random.default_rng(11)
+        sim = vv.Simulation("whfast", dt=0.02, backend=backend)
+        sim.add(1.0)
+        for k in range(139):
+            sim.add(1e-7 * rng.uniform(0.5, 1.5), a=1.0 + 0.01 * k, e=0.05 * rng.uniform(),
+                    inc=0.02 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=None)
+        sim.move_to_com()
+        return sim
+
+    wc, wg = disc("cpu"), disc("cuda")
+    for t in (0.05, 0.1):
+        wc.integrate(t)
+        wg.integrate(t)
+    print(f"whfast_pos={rel(wg.positions, wc.positions)!r}")
+    print(f"whfast_vel={rel(wg.velocities, wc.velocities)!r}")
+    print(f"whfast_steps_equal={(wg.steps_done == wc.steps_done and wg.t == wc.t)!r}")
+    gpu_path = os.path.join(tempfile.mkdtemp(), "w.npz")
+    wg.save(gpu_path)
+    back = vv.Simulation.load(gpu_path)  # the GPU run's internal state, continued on the CPU
+    back.integrate(0.14)
+    wc.integrate(0.14)
+    print(f"whfast_restart_pos={rel(back.positions, wc.positions)!r}")
+
     # batch two-body propagation: the universal-variable solver's device twin against the CPU
 
 

@@ -97,6 +97,8 @@ __all__ = [
     "from_jacobi",
     "to_democratic_heliocentric",
     "from_democratic_heliocentric",
+    "kepler_drift",
+    "interaction_kick",
     "N_BUF",
     "JACOBI",
     "DEMOCRATIC_HELIOCENTRIC",
@@ -297,6 +299,10 @@ def _kepler_drift(xj, vj, eta, G, h, dh):
     return OK
 
 
+#: Public name of :func:`_kepler_drift` for step-by-step drivers (the GPU backend's WHFast).
+kepler_drift = _kepler_drift
+
+
 @kernel
 def _jump(q, vb, m, h):
     """The democratic heliocentric jump: every ``Q_i += h sum_{j>=1} m_j V_j / m_0``."""
@@ -339,6 +345,10 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
         k = G * eta[i] / (r2 * math.sqrt(r2))
         for c in range(3):
             vj[i, c] += (aj[i, c] + k * xj[i, c]) * h
+
+
+#: Public name of :func:`_interaction_kick` for step-by-step drivers (the GPU backend's WHFast).
+interaction_kick = _interaction_kick
 
 
 @kernel

@@ -18,13 +18,13 @@ from .simulation import Simulation
 from .snapshot import (
     FORMAT,
     FORMAT_VERSION,
-    _atomic_savez,
-    _build,
-    _check_format,
-    _open_npz,
-    _state,
+    atomic_savez,
+    build_simulation,
+    check_format,
     load_simulation,
+    open_npz,
     save_simulation,
+    state_dict,
 )
 
 __all__ = ["save_simulation", "load_simulation", "Archive", "FORMAT", "FORMAT_VERSION"]
@@ -58,8 +58,8 @@ class Archive:
         self._snapshots: list[dict] = []
         self._times: list[float] = []
         if os.path.exists(self.path):
-            with _open_npz(self.path) as data:
-                _check_format(data, ARCHIVE_FORMAT, ARCHIVE_VERSION, self.path)
+            with open_npz(self.path) as data:
+                check_format(data, ARCHIVE_FORMAT, ARCHIVE_VERSION, self.path)
                 n = int(data["count"])
                 keys = [k for k in data.files if k.startswith("s")]
                 for k in range(n):
@@ -72,7 +72,7 @@ class Archive:
     # -- writing ----------------------------------------------------------------------------------
     def append(self, sim, flush: bool = True) -> None:
         """Add a snapshot of ``sim`` (and rewrite the file atomically when ``flush``)."""
-        self._snapshots.append({k: np.array(v, copy=True) for k, v in _state(sim).items()})
+        self._snapshots.append({k: np.array(v, copy=True) for k, v in state_dict(sim).items()})
         self._times.append(sim.t)
         if flush:
             self.flush()
@@ -87,7 +87,7 @@ class Archive:
         for k, snap in enumerate(self._snapshots):
             for key, value in snap.items():
                 arrays[f"s{k}_{key}"] = value
-        _atomic_savez(self.path, arrays)
+        atomic_savez(self.path, arrays)
 
     @classmethod
     def record(cls, sim, path, interval, t_end, *, progress: bool = False,
@@ -133,7 +133,7 @@ class Archive:
             return [self[i] for i in range(*k.indices(len(self)))]
         snap = self._snapshots[k]
         with warnings.catch_warnings():
-            return _build(Simulation, lambda key: snap.get(key))
+            return build_simulation(Simulation, lambda key: snap.get(key))
 
     def __iter__(self):
         for k in range(len(self)):

@@ -27,10 +27,10 @@ import numpy as np
 
 from ..errors import InvalidInputError, ShapeError
 from .gpu import check_backend
-from .integrators import _compiled
+from .integrators import compiled_kernel
 from .simulation import Simulation
 
-__all__ = ["Ensemble"]
+__all__ = ["Ensemble", "advance_members"]
 
 ENSEMBLE_FORMAT = "visviva.nbody.ensemble"
 ENSEMBLE_VERSION = 1
@@ -39,7 +39,7 @@ ENSEMBLE_VERSION = 1
 def _ensemble_kernel():
     from ..core.nbody_ensemble import ENSEMBLE_SIGNATURE
 
-    return _compiled("visviva.core.nbody_ensemble", "ensemble_run", ENSEMBLE_SIGNATURE)
+    return compiled_kernel("visviva.core.nbody_ensemble", "ensemble_run", ENSEMBLE_SIGNATURE)
 
 
 def _force_key(sim) -> tuple:
@@ -116,7 +116,7 @@ class Ensemble:
                 f"the members use different integrators {names}: an ensemble advances members "
                 "of one integrator; make one ensemble per integrator."
             )
-        backend = check_backend(backend, names[0])
+        backend = check_backend(backend, names[0], ensemble=True)
         return cls([s.copy() for s in sims], backend)
 
     # ---- members ---------------------------------------------------------------------------------
@@ -215,76 +215,8 @@ class Ensemble:
             advance = functools.partial(_advance_block, backend=self.backend)
             errors = integrate_on_dask(self._members, t, client, advance)
         else:
-            errors = self._integrate_here(t)
+            errors = advance_members(self._members, t, self.backend)
         _raise_first(errors)
-
-    def _integrate_here(self, t) -> list:
-        """Advance every member in this process; returns ``[(member, exception), ...]``."""
-        if self.backend == "cuda":
-            from .gpu import integrate_ensemble
-
-            return integrate_ensemble(self, t)
-        errors = []
-        groups: dict = {}
-        for k, sim in enumerate(self._members):
-            try:
-                times = sim._begin_run(t)
-            except Exception as exc:
-                errors.append((k, exc))
-                continue
-            groups.setdefault((_force_key(sim), times.tobytes()), []).append(k)
-        for (_, times_bytes), ks in groups.items():
-            times = np.frombuffer(times_bytes, dtype=np.float64).copy()
-            status = self._run_group(ks, times)
-            for k, code in zip(ks, status.tolist(), strict=True):
-                sim = self._members[k]
-                try:
-                    if not sim._after_kernel(int(code)):
-                        sim.integrate(t)  # a merger or bounce was resolved: finish alone
-                except Exception as exc:
-                    errors.append((k, exc))
-        return sorted(errors, key=lambda e: e[0])
-
-    def _run_group(self, ks, times) -> np.ndarray:
-        """One compiled call over the members ``ks`` (same forces, same output times)."""
-        members = [self._members[k] for k in ks]
-        info = members[0].integrator_info
-        n_buf = info.n_buf
-        inputs = [s._kernel_inputs(parallel=False) for s in members]
-        arrays = [s.state_arrays() for s in members]
-        n = np.array([s.N for s in members], dtype=np.int64)
-        poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
-        moff = np.concatenate([[0], np.cumsum([len(i[2]) for i in inputs])]).astype(np.int64)
-        qoff = np.concatenate([[0], np.cumsum([len(i[1]) for i in inputs])]).astype(np.int64)
-
-        def cat(key):
-            return np.ascontiguousarray(np.concatenate([a[key] for a in arrays]))
-
-        x, v, m, radius = cat("x"), cat("v"), cat("m"), cat("radius")
-        fstate = np.ascontiguousarray(np.stack([a["fstate"] for a in arrays]))
-        istate = np.ascontiguousarray(np.stack([a["istate"] for a in arrays]))
-        buf = np.concatenate([a["buf"].reshape(-1) for a in arrays])
-        massive = np.ascontiguousarray(np.concatenate([i[2] for i in inputs]), dtype=np.int64)
-        params = np.ascontiguousarray(np.concatenate([i[1] for i in inputs]))
-        T = len(times)
-        total = int(poff[-1])
-        gwork = np.zeros(7 * total)
-        out_t = np.zeros((len(ks), T))
-        out_x = np.zeros(T * total * 3)
-        out_v = np.zeros(T * total * 3)
-        status = np.zeros(len(ks), dtype=np.int64)
-        _ensemble_kernel()(
-            info.kernel(), n_buf, x, v, m, massive, moff, radius, fstate, istate, buf, gwork,
-            inputs[0][0], params, qoff, times, out_t, out_x, out_v, poff, status,
-        )
-        for j, a in enumerate(arrays):
-            lo, hi = poff[j], poff[j + 1]
-            a["x"][:] = x[lo:hi]
-            a["v"][:] = v[lo:hi]
-            a["fstate"][:] = fstate[j]
-            a["istate"][:] = istate[j]
-            a["buf"][:] = buf[n_buf * lo * 3:n_buf * hi * 3].reshape(a["buf"].shape)
-        return status
 
     # ---- files -----------------------------------------------------------------------------------
     def save(self, path) -> None:
@@ -294,7 +226,7 @@ class Ensemble:
         ``visviva.nbody.ensemble`` version 1: ``count``, ``backend`` and each member as in
         :mod:`visviva.nbody.snapshot` under the keys ``e<k>_<key>``.
         """
-        from .snapshot import _atomic_savez, _state
+        from .snapshot import atomic_savez, state_dict
 
         arrays = {
             "format": np.array(ENSEMBLE_FORMAT),
@@ -303,9 +235,9 @@ class Ensemble:
             "backend": np.array(json.dumps(self.backend)),
         }
         for k, sim in enumerate(self._members):
-            for key, value in _state(sim).items():
+            for key, value in state_dict(sim).items():
                 arrays[f"e{k}_{key}"] = value
-        _atomic_savez(path, arrays)
+        atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path, forces=None, backend: str | None = None) -> Ensemble:
@@ -324,10 +256,10 @@ class Ensemble:
         -------
         Ensemble
         """
-        from .snapshot import _build, _check_format, _open_npz
+        from .snapshot import build_simulation, check_format, open_npz
 
-        with _open_npz(path) as data:
-            _check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))
+        with open_npz(path) as data:
+            check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))
             count = int(data["count"])
             saved_backend = json.loads(str(data["backend"]))
             members = []
@@ -335,8 +267,9 @@ class Ensemble:
                 prefix = f"e{k}_"
                 snap = {key[len(prefix):]: data[key] for key in data.files
                         if key.startswith(prefix)}
-                members.append(_build(Simulation, snap.get, forces))
-        return cls(members, check_backend(backend or saved_backend, members[0].integrator))
+                members.append(build_simulation(Simulation, snap.get, forces))
+        return cls(members, check_backend(backend or saved_backend, members[0].integrator,
+                                          ensemble=True))
 
 
 def _raise_first(errors) -> None:
@@ -359,6 +292,78 @@ def _raise_first(errors) -> None:
 
 def _advance_block(members, t, backend):
     """Dask worker side: advance a block of members as an ensemble; returns them and the errors."""
-    ens = Ensemble(members, backend)
-    errors = ens._integrate_here(t)
-    return ens._members, errors
+    return members, advance_members(members, t, backend)
+
+
+def advance_members(members: list, t, backend: str = "cpu") -> list:
+    """Advance the simulations ``members`` (in place) to ``t`` in this process, as one ensemble;
+    returns ``[(index, exception), ...]`` of the members that stopped early.
+
+    The worker side of :meth:`Ensemble.integrate` and its in-process path (numba threads over
+    the members on ``backend="cpu"``, one GPU thread per member on ``"cuda"``).
+    """
+    if backend == "cuda":
+        from .gpu import integrate_ensemble
+
+        return integrate_ensemble(members, t)
+    errors = []
+    groups: dict = {}
+    for k, sim in enumerate(members):
+        try:
+            times = sim.begin_run(t)
+        except Exception as exc:
+            errors.append((k, exc))
+            continue
+        groups.setdefault((_force_key(sim), times.tobytes()), []).append(k)
+    for (_, times_bytes), ks in groups.items():
+        times = np.frombuffer(times_bytes, dtype=np.float64).copy()
+        status = _run_group([members[k] for k in ks], times)
+        for k, code in zip(ks, status.tolist(), strict=True):
+            sim = members[k]
+            try:
+                if not sim.after_kernel(int(code)):
+                    sim.integrate(t)  # a merger or bounce was resolved: finish alone
+            except Exception as exc:
+                errors.append((k, exc))
+    return sorted(errors, key=lambda e: e[0])
+
+
+def _run_group(members, times) -> np.ndarray:
+    """One compiled call over ``members`` (same forces, same output times); their status codes."""
+    info = members[0].integrator_info
+    n_buf = info.n_buf
+    inputs = [s.kernel_inputs(parallel=False) for s in members]
+    arrays = [s.state_arrays() for s in members]
+    n = np.array([s.N for s in members], dtype=np.int64)
+    poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
+    moff = np.concatenate([[0], np.cumsum([len(i[2]) for i in inputs])]).astype(np.int64)
+    qoff = np.concatenate([[0], np.cumsum([len(i[1]) for i in inputs])]).astype(np.int64)
+
+    def cat(key):
+        return np.ascontiguousarray(np.concatenate([a[key] for a in arrays]))
+
+    x, v, m, radius = cat("x"), cat("v"), cat("m"), cat("radius")
+    fstate = np.ascontiguousarray(np.stack([a["fstate"] for a in arrays]))
+    istate = np.ascontiguousarray(np.stack([a["istate"] for a in arrays]))
+    buf = np.concatenate([a["buf"].reshape(-1) for a in arrays])
+    massive = np.ascontiguousarray(np.concatenate([i[2] for i in inputs]), dtype=np.int64)
+    params = np.ascontiguousarray(np.concatenate([i[1] for i in inputs]))
+    T = len(times)
+    total = int(poff[-1])
+    gwork = np.zeros(7 * total)
+    out_t = np.zeros((len(members), T))
+    out_x = np.zeros(T * total * 3)
+    out_v = np.zeros(T * total * 3)
+    status = np.zeros(len(members), dtype=np.int64)
+    _ensemble_kernel()(
+        info.kernel(), n_buf, x, v, m, massive, moff, radius, fstate, istate, buf, gwork,
+        inputs[0][0], params, qoff, times, out_t, out_x, out_v, poff, status,
+    )
+    for j, a in enumerate(arrays):
+        lo, hi = poff[j], poff[j + 1]
+        a["x"][:] = x[lo:hi]
+        a["v"][:] = v[lo:hi]
+        a["fstate"][:] = fstate[j]
+        a["istate"][:] = istate[j]
+        a["buf"][:] = buf[n_buf * lo * 3:n_buf * hi * 3].reshape(a["buf"].shape)
+    return status

@@ -1,16 +1,23 @@
 """The ``backend="cuda"`` runs of :class:`visviva.Simulation` and :class:`visviva.Ensemble`.
 
-What runs on the GPU today: the leapfrog integrator (drift-kick-drift) with direct-summation
-gravity, for one large simulation (one thread per particle per kernel, the state kept on the device
-between steps) and for ensembles (one thread per member, :mod:`visviva.core.cuda.kernels`).
-The step grid, the time origin and the shortened last step to an output time follow the CPU
-kernel (:mod:`visviva.core.nbody_leapfrog`) exactly, and the state (``buf`` included) is stored as
-the CPU backend stores it, so a run can be saved, loaded and continued on either backend. Results
-agree with the CPU backend to round-off (the gravity sums are added in another order).
+What runs on the GPU today:
 
-Not on the GPU (yet): WHFast and IAS15, additional forces, collision/encounter/escape checks,
-arrays of output times; these raise :class:`visviva.errors.InvalidInputError` saying to use
-``backend="cpu"``.
+* the leapfrog integrator (drift-kick-drift) with direct-summation gravity, for one large
+  simulation (one thread per particle per kernel, the gravity tiled through shared memory, the
+  state kept on the device between steps) and for ensembles (one thread per member,
+  :mod:`visviva.core.cuda.kernels`);
+* WHFast's interaction step for one large simulation (:mod:`visviva.nbody.gpu_whfast`): the
+  inertial accelerations by the tiled direct sum on the GPU, the Kepler drifts and the Jacobi
+  transforms (O(N) per step) by the CPU kernels, Jacobi coordinates without corrector.
+
+The step grid, the time origin and the shortened last step to an output time follow the CPU
+kernels exactly, and the state (``buf`` included) is stored as the CPU backend stores it, so a run
+can be saved, loaded and continued on either backend. Results agree with the CPU backend to
+round-off (the gravity sums are added in another order).
+
+Not on the GPU (yet): IAS15, WHFast ensembles, WHFast's symplectic correctors and democratic
+heliocentric coordinates, additional forces, collision/encounter/escape checks, arrays of output
+times; these raise :class:`visviva.errors.InvalidInputError` saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -23,33 +30,87 @@ from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 
-__all__ = ["check_backend", "integrate_simulation", "integrate_ensemble"]
+__all__ = [
+    "check_backend", "integrate_simulation", "integrate_ensemble", "DeviceGravity",
+    "begin_gpu_run",
+]
 
-#: Integrators with a GPU implementation.
-GPU_INTEGRATORS = ("leapfrog",)
+#: Integrators with a GPU implementation: of one simulation, of an ensemble.
+GPU_INTEGRATORS = ("leapfrog", "whfast")
+GPU_ENSEMBLE_INTEGRATORS = ("leapfrog",)
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
 
 
-def check_backend(backend: str, integrator: str | None = None) -> str:
+def check_backend(backend: str, integrator: str | None = None, ensemble: bool = False) -> str:
     """The canonical backend name (:func:`visviva._backends.check_backend`), and for ``"cuda"``
-    an :class:`~visviva.errors.InvalidInputError` when ``integrator`` has no GPU version."""
+    an :class:`~visviva.errors.InvalidInputError` when ``integrator`` has no GPU version (for
+    an ensemble when ``ensemble``)."""
     name = _check(backend)
-    if name == "cuda" and integrator is not None and integrator not in GPU_INTEGRATORS:
+    able = GPU_ENSEMBLE_INTEGRATORS if ensemble else GPU_INTEGRATORS
+    if name == "cuda" and integrator is not None and integrator not in able:
+        what = "ensembles of the" if ensemble else "the"
         raise InvalidInputError(
-            f"backend='cuda' runs the {GPU_INTEGRATORS} integrator(s) so far, not "
-            f"{integrator!r}; use backend='cpu' (or integrator='leapfrog')."
+            f"backend='cuda' runs {what} {able} integrator(s) so far, not {integrator!r}; use "
+            "backend='cpu' (or integrator='leapfrog')."
         )
     return name
 
 
-def _check_supported(sim) -> None:
+def _check_supported(sim, ensemble: bool) -> None:
     if sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance:
         raise InvalidInputError(
             "backend='cuda' integrates gravity only: additional forces and collision, encounter "
             "or escape checks run on backend='cpu'."
         )
-    check_backend("cuda", sim.integrator)
+    check_backend("cuda", sim.integrator, ensemble)
+
+
+class DeviceGravity:
+    """Direct-summation accelerations of one system on the GPU (the tiled kernel).
+
+    Parameters
+    ----------
+    gm : ndarray, shape (N,)
+        ``G m`` of every particle (length**3 / time**2).
+    massive : ndarray of int64
+        Indices of the massive particles.
+    soft2 : float
+        Plummer softening length squared (length**2).
+    """
+
+    def __init__(self, gm, massive, soft2: float):
+        from numba import cuda
+
+        from ..core.cuda import kernels
+
+        self._kernels = kernels
+        self.n = len(gm)
+        self.gm = cuda.to_device(np.ascontiguousarray(gm, dtype=np.float64))
+        self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
+        self.soft2 = float(soft2)
+        self.acc = cuda.device_array((self.n, 3))
+        self._x = self._out = None  # host-path buffers, allocated on first use
+
+    def __call__(self, x):
+        """Launch the kernel on ``x`` (a device array, shape (N, 3)); returns the device array
+        of accelerations (length / time**2), overwritten by the next call."""
+        K = self._kernels
+        K.accelerations[K.blocks(self.n), K.THREADS](x, self.gm, self.massive, self.soft2,
+                                                     self.acc)
+        return self.acc
+
+    def host(self, x, out) -> None:
+        """Accelerations at the host positions ``x`` into the host array ``out`` (N, 3); the
+        device buffers are allocated once and reused."""
+        from numba import cuda
+
+        if self._x is None:
+            self._x = cuda.device_array((self.n, 3))
+            self._out = np.empty((self.n, 3))
+        self._x.copy_to_device(np.ascontiguousarray(x))
+        self(self._x).copy_to_host(self._out)
+        out[:] = self._out
 
 
 def plan(state: dict, target: float):
@@ -125,36 +186,42 @@ def _finish(sim, state, n, h, t_final) -> None:
         )
 
 
-def _begin(sim, t):
+def begin_gpu_run(sim, t, ensemble: bool = False):
+    """Check that ``sim`` can run on the GPU to the one time ``t`` and prepare it
+    (:meth:`visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`); returns
+    the target time (simulation units) and the indices of the massive particles."""
     if np.ndim(t) != 0:
         raise ShapeError("backend='cuda' integrates to one time per call; got an array of "
                          "times (call integrate once per output time).")
-    _check_supported(sim)
-    target = float(sim._begin_run(t)[0])
-    _, _, massive = sim._kernel_inputs(parallel=False)
+    _check_supported(sim, ensemble)
+    target = float(sim.begin_run(t)[0])
+    _, _, massive = sim.kernel_inputs(parallel=False)
     return target, massive
 
 
 def integrate_simulation(sim, t) -> None:
-    """Integrate one simulation to ``t`` on the GPU (the state stays on the device between
-    steps; N threads per kernel)."""
+    """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
+    between steps, N threads per kernel; WHFast: :mod:`visviva.nbody.gpu_whfast`)."""
+    whfast = sim.integrator == "whfast"
+    if whfast:
+        from .gpu_whfast import check_supported, integrate_whfast
+
+        check_supported(sim.state_arrays()["istate"])
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
-    target, massive = _begin(sim, t)
+    target, massive = begin_gpu_run(sim, t)
     state = sim.state_arrays()
+    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
+    if whfast:
+        return integrate_whfast(sim, state, target, gravity)
     n, h, rem, t_final = plan(state, target)
-    N = sim.N
-    grid = K.blocks(N)
-    gm = cuda.to_device(sim.G * state["m"])
-    massive_d = cuda.to_device(massive)
-    soft2 = float(state["fstate"][_nc.F_SOFT2])
-    acc = cuda.device_array((N, 3))
+    grid = K.blocks(sim.N)
 
     def dkd(x, v, step):
         K.drift[grid, K.THREADS](x, v, 0.5 * step)
-        K.accelerations[grid, K.THREADS](x, gm, massive_d, soft2, acc)
+        acc = gravity(x)
         K.kick_drift[grid, K.THREADS](x, v, acc, step, 0.5 * step)
 
     xi = cuda.to_device(np.ascontiguousarray(state["buf"][_XI]))
@@ -172,17 +239,17 @@ def integrate_simulation(sim, t) -> None:
     _finish(sim, state, n, h, t_final)
 
 
-def integrate_ensemble(ensemble, t) -> list:
-    """Advance every member of ``ensemble`` to ``t`` on the GPU, one thread per member; returns
-    ``[(member, exception), ...]`` as the CPU path does."""
+def integrate_ensemble(members, t) -> list:
+    """Advance the simulations ``members`` (in place) to ``t`` on the GPU, one thread per member;
+    returns ``[(index, exception), ...]`` as the CPU path does."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
     errors, ks, plans, states, massives = [], [], [], [], []
-    for k, sim in enumerate(ensemble._members):
+    for k, sim in enumerate(members):
         try:
-            target, massive = _begin(sim, t)
+            target, massive = begin_gpu_run(sim, t, ensemble=True)
             state = sim.state_arrays()
             plans.append(plan(state, target))
         except Exception as exc:
@@ -193,7 +260,7 @@ def integrate_ensemble(ensemble, t) -> list:
         massives.append(massive)
     if not ks:
         return errors
-    sims = [ensemble._members[k] for k in ks]
+    sims = [members[k] for k in ks]
     n = np.array([s.N for s in sims], dtype=np.int64)
     poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
     moff = np.concatenate([[0], np.cumsum([len(m) for m in massives])]).astype(np.int64)

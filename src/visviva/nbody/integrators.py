@@ -82,13 +82,13 @@ class Integrator:
 
     def kernel(self):
         """The compiled kernel (compiled or loaded from numba's cache on first use)."""
-        return _compiled(self.module, self.kernel_name)
+        return compiled_kernel(self.module, self.kernel_name)
 
 
 _CACHE: dict = {}
 
 
-def _compiled(module: str, name: str, signature=None):
+def compiled_kernel(module: str, name: str, signature=None):
     """The kernel ``module.name`` compiled for ``signature`` (default: the integrators' common
     :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process."""
     key = (module, name)

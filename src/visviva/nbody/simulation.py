@@ -450,11 +450,11 @@ class Simulation:
         tau = tau[np.isfinite(tau) & (tau > 0)]
         return 1e-3 * float(tau.min()) if tau.size else 0.0
 
-    def _begin_run(self, t) -> np.ndarray:
-        """Check a run to ``t`` can start and set up what it needs once; the output times.
-
-        Shared with :class:`visviva.Ensemble`, which runs every member's kernel itself.
-        """
+    def begin_run(self, t) -> np.ndarray:
+        """Check a run to the time(s) ``t`` can start, set up what it needs once, and return the
+        output times (float64 array, simulation units). Friend interface (docs/design.md): the
+        ensembles and the GPU backend run kernels between :meth:`begin_run`,
+        :meth:`kernel_inputs` and :meth:`after_kernel`; users call :meth:`integrate`."""
         times = np.ascontiguousarray(np.atleast_1d(_s.convert(self, t, "time", "t")).astype(np.float64))
         if times.ndim != 1:
             raise ShapeError(f"t must be a number or a 1-D array of times; got shape {times.shape}.")
@@ -483,13 +483,10 @@ class Simulation:
         self._state.istate[_nc.I_NOUT] = 0
         return times
 
-    def _kernel_inputs(self, parallel: bool | None = None):
-        """Make the state ready for one kernel call; returns the force, its parameters and the
-        indices of the massive particles.
-
-        ``parallel`` overrides the simulation's choice of gravity kernel (both give the same
-        bits). Shared with :class:`visviva.Ensemble`.
-        """
+    def kernel_inputs(self, parallel: bool | None = None):
+        """Make the state ready for one kernel call; returns the fused force, its parameters and
+        the indices of the massive particles (friend interface, see :meth:`begin_run`).
+        ``parallel`` overrides the choice of gravity kernel (both give the same bits)."""
         st = self._state
         st.ensure_buf(self._integrator.n_buf)
         fn, params = self._force_args()
@@ -500,9 +497,10 @@ class Simulation:
         st.work()
         return fn, params, st.massive
 
-    def _after_kernel(self, status: int) -> bool:
-        """Act on a kernel's status: True when the run is done, False to call it again (after a
-        pause or a resolved merger/bounce); raises on events. Shared with the ensembles."""
+    def after_kernel(self, status: int) -> bool:
+        """Act on a kernel's status code: True when the run is done, False to call the kernel
+        again (after a pause or a resolved merger/bounce); events raise (friend interface, see
+        :meth:`begin_run`)."""
         st = self._state
         if status == _st.OK:
             if not (np.all(np.isfinite(st.x)) and np.all(np.isfinite(st.v))):
@@ -552,7 +550,7 @@ class Simulation:
 
             return integrate_simulation(self, t)
         scalar = np.ndim(t) == 0
-        times = self._begin_run(t)
+        times = self.begin_run(t)
         st = self._state
         info = self._integrator
         T = len(times)
@@ -571,7 +569,7 @@ class Simulation:
         out_t = times.copy()
         try:
             while True:
-                fn, params, _ = self._kernel_inputs()
+                fn, params, _ = self.kernel_inputs()
                 stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
                 st.istate[_nc.I_STOP_AT_STEP] = stop
                 done0 = int(st.istate[_nc.I_NOUT])
@@ -587,7 +585,7 @@ class Simulation:
                     bar.n = abs(self.t - t_start)
                     bar.refresh()
                 self._removed = None
-                if self._after_kernel(status):
+                if self.after_kernel(status):
                     break
                 if self._removed is not None:
                     alive = np.delete(alive, self._removed)

@@ -38,13 +38,18 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["save_simulation", "load_simulation", "FORMAT", "FORMAT_VERSION"]
+__all__ = [
+    "save_simulation", "load_simulation", "FORMAT", "FORMAT_VERSION",
+    # the friend functions of the archive and the ensembles (docs/design.md)
+    "state_dict", "atomic_savez", "check_format", "open_npz", "build_simulation",
+]
 
 FORMAT = "visviva.nbody.simulation"
 FORMAT_VERSION = 1
 
 
-def _state(sim) -> dict:
+def state_dict(sim) -> dict:
+    """Everything a file stores of ``sim``: ``meta`` (JSON settings) and its state arrays."""
     meta = {
         "integrator": sim.integrator,
         "units": None if sim.units is None else list(sim.units.as_tuple()),
@@ -60,7 +65,9 @@ def _state(sim) -> dict:
     return out
 
 
-def _atomic_savez(path, arrays: dict) -> None:
+def atomic_savez(path, arrays: dict) -> None:
+    """``np.savez`` of ``arrays`` to a temporary file in the same folder, then renamed to
+    ``path``: a reader never sees half a file."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
@@ -79,11 +86,13 @@ def _atomic_savez(path, arrays: dict) -> None:
 def save_simulation(sim, path) -> None:
     """Write ``sim`` to ``path`` atomically (format above)."""
     arrays = {"format": np.array(FORMAT), "format_version": np.array(FORMAT_VERSION)}
-    arrays.update(_state(sim))
-    _atomic_savez(path, arrays)
+    arrays.update(state_dict(sim))
+    atomic_savez(path, arrays)
 
 
-def _build(cls, get, forces=None):
+def build_simulation(cls, get, forces=None):
+    """A ``cls`` (through its friend constructor ``from_state``) from ``get(key)`` (a stored
+    array or None) as written by :func:`state_dict`; ``forces`` replace the saved ones."""
     from .forces import Force
     from .state import SimulationState
     from .units import SimulationUnits
@@ -116,7 +125,9 @@ def _build(cls, get, forces=None):
     return sim
 
 
-def _check_format(data, fmt, version, path):
+def check_format(data, fmt, version, path):
+    """Raise :class:`~visviva.errors.InvalidInputError` unless ``data`` is a ``fmt`` file of a
+    version this visviva reads."""
     if "format" not in data or str(data["format"]) != fmt:
         raise InvalidInputError(f"{path!r} is not a {fmt} file.")
     v = int(data["format_version"])
@@ -128,13 +139,13 @@ def _check_format(data, fmt, version, path):
 
 def load_simulation(cls, path, forces=None):
     """Read a simulation written by :func:`save_simulation`."""
-    data = _open_npz(path)
+    data = open_npz(path)
     with data:
-        _check_format(data, FORMAT, FORMAT_VERSION, path)
-        return _build(cls, lambda k: data[k] if k in data else None, forces)
+        check_format(data, FORMAT, FORMAT_VERSION, path)
+        return build_simulation(cls, lambda k: data[k] if k in data else None, forces)
 
 
-def _open_npz(path):
+def open_npz(path):
     """``np.load`` of an archive, with a typed error for a file that is not one."""
     try:
         data = np.load(os.fspath(path), allow_pickle=False)

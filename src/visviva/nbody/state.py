@@ -137,6 +137,11 @@ class SimulationState:
         return self.gwork
 
     # ---- copies and files ------------------------------------------------------------------------
+    def __getstate__(self):
+        # pickles (Dask workers, multiprocessing) leave the kernels' scratch behind: rebuilt on
+        # demand, and two of nine arrays less per simulation to pickle
+        return {**self.__dict__, "massive": None, "gwork": None}
+
     def copy(self) -> SimulationState:
         """A deep copy (the scratch is not shared)."""
         return SimulationState(

@@ -4,7 +4,13 @@ The device functions are the source of :mod:`.arith` compiled with
 ``numba.cuda.jit(device=True)``; the kernels below only map threads to work:
 
 * :func:`accelerations` - one thread per particle ``i`` of one large system (direct summation
-  over the massive particles: O(N N_massive) per step, N threads);
+  over the massive particles: O(N N_massive) per step, N threads), tiled through shared memory:
+  the threads of a block load one tile of :data:`THREADS` massive particles (positions and
+  ``G m``) into shared memory together, wait, and each adds that tile's pulls on its particle
+  before the next tile is loaded (the scheme of Nyland, Harris & Prins 2007, GPU Gems 3 ch. 31),
+  so every position is read from global memory once per block instead of once per thread. The
+  pulls are added in the order of ``massive``, as :func:`.arith.particle_acceleration` adds them,
+  so the result equals the untiled sum bit for bit;
 * :func:`drift`, :func:`kick_drift` - the two halves of a leapfrog step around it, one thread per
   particle (``x += v h/2``; ``v += a h``, ``x += v h/2``, in the CPU kernel's order);
 * :func:`ensemble_leapfrog` - one thread per member of an ensemble: ``nsteps[k]`` full steps of
@@ -16,7 +22,7 @@ fp64 throughout.
 
 from __future__ import annotations
 
-from numba import cuda
+from numba import cuda, float64
 
 from . import arith
 
@@ -34,10 +40,39 @@ _member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
 
 @cuda.jit
 def accelerations(x, gm, massive, soft2, acc):
-    """``acc[i]`` from every massive particle, one thread per particle (one system)."""
+    """``acc[i]`` from every massive particle, one thread per particle (one system), the massive
+    particles streamed through shared memory in tiles of :data:`THREADS`."""
+    tx = cuda.shared.array(THREADS, float64)
+    ty = cuda.shared.array(THREADS, float64)
+    tz = cuda.shared.array(THREADS, float64)
+    tg = cuda.shared.array(THREADS, float64)
     i = cuda.grid(1)
-    if i < x.shape[0]:
-        ax, ay, az = _particle(i, x, gm, massive, 0, massive.shape[0], soft2)
+    lane = cuda.threadIdx.x
+    mine = i < x.shape[0]
+    n_massive = massive.shape[0]
+    xi = yi = zi = 0.0
+    if mine:
+        xi = x[i, 0]
+        yi = x[i, 1]
+        zi = x[i, 2]
+    ax = ay = az = 0.0
+    for base in range(0, n_massive, THREADS):
+        b = base + lane
+        if b < n_massive:  # every thread of the block loads one member of the tile
+            j = massive[b]
+            tx[lane] = x[j, 0]
+            ty[lane] = x[j, 1]
+            tz[lane] = x[j, 2]
+            tg[lane] = gm[j]
+        cuda.syncthreads()
+        if mine:
+            for k in range(min(THREADS, n_massive - base)):
+                px, py, pz = _pair(tx[k] - xi, ty[k] - yi, tz[k] - zi, tg[k], soft2)
+                ax += px
+                ay += py
+                az += pz
+        cuda.syncthreads()  # the tile is read by all before the next one overwrites it
+    if mine:
         acc[i, 0] = ax
         acc[i, 1] = ay
         acc[i, 2] = az

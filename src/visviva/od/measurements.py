@@ -17,16 +17,17 @@ azel         atan2(e, n), asin(u / |rho|),       as radec in the local (e, n, u)
              (e, n, u) = E(t) rho                the GCRS -> east-north-up rotation E(t)
 ===========  ==================================  =============================================
 
-The signal's light time and aberration are not modelled (geometric observables at the
-reception time); for LEO the light time moves the satellite by ~25 m per 1000 km of range, so
-fit real tracking data with that in mind.
+These are the geometric values at one instant (``Observations(light_time=False)``);
+:func:`model` dispatches to :func:`visviva.od.light_time.predict_light_time` for the default
+``light_time=True``, which adds the signal's flight (for LEO the satellite moves ~25 m per
+1000 km of range meanwhile).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["predict", "residuals"]
+__all__ = ["predict", "residuals", "model"]
 
 
 def _angles(vec):
@@ -116,3 +117,19 @@ def residuals(kinds, observed, computed):
     if ang.any():
         z[ang, 0] = np.mod(z[ang, 0] + np.pi, 2 * np.pi) - np.pi
     return z
+
+
+def model(observations, y, gm):
+    """Predicted values and partials of a whole :class:`~visviva.Observations` table.
+
+    ``y`` (N, 6) holds the satellite's GCRS states at the observation (reception) times and
+    ``gm`` the central body's GM (km^3/s^2); the table's ``light_time`` and
+    ``radec_reference`` choose the model.
+    """
+    site_r, site_v, enu = observations.sites()
+    if not observations.light_time:
+        return predict(observations.kinds, y, site_r, site_v, enu)
+    from .light_time import predict_light_time
+
+    ev = observations.earth_velocity() if observations.radec_reference == "stars" else None
+    return predict_light_time(observations.kinds, y, site_r, site_v, enu, gm, ev)

@@ -297,3 +297,46 @@ def test_states_in_other_frames_match_astropy_via_satellite():
         assert np.abs(got.v.to_value(u.km / u.s) - ref.v.to_value(u.km / u.s)).max() < 1e-9
     with pytest.raises(vv.InvalidInputError, match="not supported"):
         seg.states_in("icrs")
+
+
+def _with_comments_among_states():
+    text = OEM_KVN.replace(
+        "2024-01-31T00:02:00 6980.4",
+        "COMMENT tracking gap ends here\nCOMMENT (two notes)\n2024-01-31T00:02:00 6980.4")
+    text = text.replace("\nCOVARIANCE_START", "COMMENT last state of the arc\n\nCOVARIANCE_START")
+    return text.replace("2024-032T00:05:00 6878.0", "COMMENT after the burn\n2024-032T00:05:00 6878.0"
+                        ) + "COMMENT end of file\n"
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_comments_among_state_lines_are_kept_and_written_back(fmt):
+    text = _with_comments_among_states()
+    oem = vv.read_oem(text)
+    first, second = oem.segments
+    assert first.data_comments == ["states in km and km/s"]
+    assert first.state_comments == {2: ["tracking gap ends here", "(two notes)"],
+                                     4: ["last state of the arc"]}
+    assert second.state_comments == {2: ["after the burn"], 3: ["end of file"]}
+    assert len(first) == 4 and len(first.covariances) == 2  # nothing else changed
+    back = vv.read_oem(vv.write_oem(oem, format=fmt))
+    for a, b in zip(oem.segments, back.segments, strict=True):
+        assert a.data_comments == b.data_comments and a.state_comments == b.state_comments
+        assert a.epochs == b.epochs and np.array_equal(a.r_km, b.r_km)
+    # the KVN text keeps each note in its place: every COMMENT line of the input is written
+    out = vv.write_oem(oem, format="kvn")
+    assert [ln for ln in out.splitlines() if ln.startswith("COMMENT")] == [
+        " ".join(ln.split()) for ln in text.splitlines() if ln.startswith("COMMENT")]
+    lines = out.splitlines()
+    k = lines.index("COMMENT tracking gap ends here")
+    assert lines[k - 1].startswith("2024-01-31T00:01:00") and lines[k + 2].startswith(
+        "2024-01-31T00:02:00")
+
+
+def test_segment_interface_used_by_the_ephemeris():
+    seg = vv.read_oem(OEM_KVN).segments[0]
+    t = seg.times[0] + [30, 90] * u.s
+    r, v = seg.interpolate_arrays(t)
+    assert r.shape == v.shape == (2, 3)
+    states = seg.interpolate(t)
+    np.testing.assert_array_equal(states.r.to_value(u.km), r)
+    assert seg.gm_km3_s2 == vv.EARTH.gm_km3_s2

@@ -82,10 +82,15 @@ class OEMSegment(FrameCenterMetadata):
         The covariance matrices.
     data_comments : list of str, optional
         COMMENT lines at the start of the data.
+    state_comments : dict, optional
+        COMMENT lines among the state lines, keyed by the number of state lines before them:
+        ``{k: [...]}`` sits between state ``k - 1`` and state ``k``, ``{len(epochs): [...]}``
+        after the last one. Read from files that put notes there and written back in place, so
+        that no line of a user's file is lost.
     """
 
     def __init__(self, metadata, epochs, r_km, v_km_s, a_km_s2=None, covariances=(),
-                 data_comments=()):
+                 data_comments=(), state_comments=None):
         self.metadata = metadata if isinstance(metadata, Record) else Record(values=dict(metadata))
         self.epochs = list(epochs)
         self.r_km = np.asarray(r_km, dtype=np.float64).reshape(-1, 3)
@@ -93,6 +98,7 @@ class OEMSegment(FrameCenterMetadata):
         self.a_km_s2 = None if a_km_s2 is None else np.asarray(a_km_s2, np.float64).reshape(-1, 3)
         self.covariances = list(covariances)
         self.data_comments = list(data_comments)
+        self.state_comments = {int(k): list(v) for k, v in (state_comments or {}).items() if v}
         self._times = None
         self._seconds = None
 
@@ -176,7 +182,7 @@ class OEMSegment(FrameCenterMetadata):
         """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``)."""
         from ..states import StateVectors
 
-        return StateVectors._from_canonical(self.r_km, self.v_km_s, self._gm(), self.times)
+        return StateVectors._from_canonical(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
 
     def states_in(self, frame: str):
         """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
@@ -208,9 +214,11 @@ class OEMSegment(FrameCenterMetadata):
             return self.states
         r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
                                frame)
-        return StateVectors._from_canonical(r[0], v[0], self._gm(), self.times)
+        return StateVectors._from_canonical(r[0], v[0], self.gm_km3_s2, self.times)
 
-    def _gm(self) -> float:
+    @property
+    def gm_km3_s2(self) -> float:
+        """GM of ``CENTER_NAME``, km^3/s^2 (raises for a centre visviva does not know)."""
         body = center_body(self.center)
         if body is None:
             raise InvalidInputError(
@@ -283,11 +291,30 @@ class OEMSegment(FrameCenterMetadata):
         """
         from ..states import StateVectors
 
-        r, v = self._interpolate_raw(t)
+        r, v = self.interpolate_arrays(t)
         return StateVectors._from_canonical(r.reshape(t.shape + (3,)),
-                                            v.reshape(t.shape + (3,)), self._gm(), t)
+                                            v.reshape(t.shape + (3,)), self.gm_km3_s2, t)
 
-    def _interpolate_raw(self, t):
+    def interpolate_arrays(self, t):
+        """Positions and velocities at ``t`` as plain arrays: what :meth:`interpolate` wraps.
+
+        Parameters
+        ----------
+        t : astropy.time.Time
+            Times within the segment's useable span (any shape).
+
+        Returns
+        -------
+        r_km : ndarray, shape (M, 3)
+            Positions (km) in the segment's frame, M = ``t.size`` (flattened).
+        v_km_s : ndarray, shape (M, 3)
+            Velocities (km/s).
+
+        Raises
+        ------
+        InvalidInputError
+            A time outside the segment, an unsupported method, or too few states for the degree.
+        """
         from astropy.time import Time
 
         if not isinstance(t, Time):
@@ -398,7 +425,7 @@ class Ephemeris:
         v = np.empty(flat.shape + (3,))
         for k in np.unique(which):
             sel = which == k
-            r[sel], v[sel] = self.segments[k]._interpolate_raw(flat[sel])
-        gm = self.segments[0]._gm()
+            r[sel], v[sel] = self.segments[k].interpolate_arrays(flat[sel])
+        gm = self.segments[0].gm_km3_s2
         return StateVectors._from_canonical(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
                                             gm, t)

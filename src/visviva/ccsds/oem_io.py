@@ -120,7 +120,7 @@ def _read_kvn(text: str, name: str) -> Ephemeris:
         check_mandatory(meta, METADATA, name)
         cursor.expect_block("META", "stop")
         data_comments = cursor.take_comments()
-        rows = cursor.data_lines()
+        rows, state_comments = cursor.data_lines_with_comments()
         if not rows:
             raise cursor.error("the segment has no state lines after META_STOP")
         epochs, numbers = _state_lines(rows, name)
@@ -129,7 +129,7 @@ def _read_kvn(text: str, name: str) -> Ephemeris:
             covariances = _kvn_covariances(cursor)
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
                          numbers[:, 6:9] if numbers.shape[1] == 9 else None, covariances,
-                         data_comments)
+                         data_comments, state_comments)
         _check_segment(seg, [r.line for r in rows], start.line, name)
         segments.append(seg)
     if not segments:
@@ -262,9 +262,11 @@ def _read_xml(text: str, name: str) -> Ephemeris:
             raise CCSDSFormatError("a <segment> needs <metadata> and <data>", line=node.line,
                                    source=name)
         meta = read_xml_section(meta_node, METADATA, name)
-        comments, state_nodes, covariances = [], [], []
+        comments, state_nodes, covariances, among = [], [], [], {}
         for child in data_node.children:
-            if child.tag == "COMMENT":
+            if child.tag == "COMMENT" and (state_nodes or covariances):
+                among.setdefault(len(state_nodes), []).append(child.text)
+            elif child.tag == "COMMENT":
                 comments.append(child.text)
             elif child.tag == "stateVector":
                 state_nodes.append(child)
@@ -281,7 +283,7 @@ def _read_xml(text: str, name: str) -> Ephemeris:
         epochs, numbers = _xml_states(state_nodes, name)
         acc = numbers.shape[1] == 9
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
-                         numbers[:, 6:9] if acc else None, covariances, comments)
+                         numbers[:, 6:9] if acc else None, covariances, comments, among)
         _check_segment(seg, [n.line for n in state_nodes], meta_node.line, name)
         segments.append(seg)
     if not segments:
@@ -400,8 +402,12 @@ def _write_kvn(eph: Ephemeris) -> str:
         w.blank()
         w.comment(seg.data_comments)
         fmt = format_float
-        for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True):
+        among = seg.state_comments
+        for k, (epoch, row) in enumerate(zip(seg.epochs, _rows(seg).tolist(), strict=True)):
+            if k in among:
+                w.comment(among[k])
             w.data(epoch + " " + " ".join(map(fmt, row)))
+        w.comment(among.get(len(seg), []))
         if seg.covariances:
             w.blank()
             w.marker("COVARIANCE_START")
@@ -454,8 +460,11 @@ def _xml_data_block(seg: OEMSegment) -> str:
            for k, unit in zip(_STATE_KEYS[:width], _STATE_UNITS[:width], strict=True)]
         + [f"{pad}</stateVector>"])
     fmt = format_float
-    lines += [template.format(epoch, *map(fmt, row))
-              for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True)]
+    among = seg.state_comments
+    for k, (epoch, row) in enumerate(zip(seg.epochs, _rows(seg).tolist(), strict=True)):
+        lines += [_xml_element("COMMENT", c, None, pad) for c in among.get(k, ())]
+        lines.append(template.format(epoch, *map(fmt, row)))
+    lines += [_xml_element("COMMENT", c, None, pad) for c in among.get(len(seg), ())]
     for cov in seg.covariances:
         lines.append(f"{pad}<covarianceMatrix>")
         lines += [_xml_element("COMMENT", c, None, pad2) for c in cov.comments]

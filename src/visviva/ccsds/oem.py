@@ -87,10 +87,12 @@ class OEMSegment(FrameCenterMetadata):
         ``{k: [...]}`` sits between state ``k - 1`` and state ``k``, ``{len(epochs): [...]}``
         after the last one. Read from files that put notes there and written back in place, so
         that no line of a user's file is lost.
+    mission_epoch : astropy.time.Time, optional
+        The epoch a ``TIME_SYSTEM`` of MET or MRT counts from (not carried by the message).
     """
 
     def __init__(self, metadata, epochs, r_km, v_km_s, a_km_s2=None, covariances=(),
-                 data_comments=(), state_comments=None):
+                 data_comments=(), state_comments=None, mission_epoch=None):
         self.metadata = metadata if isinstance(metadata, Record) else Record(values=dict(metadata))
         self.epochs = list(epochs)
         self.r_km = np.asarray(r_km, dtype=np.float64).reshape(-1, 3)
@@ -99,13 +101,15 @@ class OEMSegment(FrameCenterMetadata):
         self.covariances = list(covariances)
         self.data_comments = list(data_comments)
         self.state_comments = {int(k): list(v) for k, v in (state_comments or {}).items() if v}
+        self.mission_epoch = mission_epoch
         self._times = None
         self._seconds = None
 
     @classmethod
     def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
                     center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
-                    interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None):
+                    interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
+                    mission_epoch=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
 
         Parameters
@@ -132,17 +136,19 @@ class OEMSegment(FrameCenterMetadata):
             ``INTERPOLATION_DEGREE``.
         a_km_s2 : array_like, shape (N, 3), optional
             Accelerations (km/s**2).
+        mission_epoch : astropy.time.Time, optional
+            The epoch MET/MRT count from, for those time systems.
 
         Returns
         -------
         OEMSegment
         """
-        epochs = time_to_epochs(times, time_system)
+        epochs = time_to_epochs(times, time_system, mission_epoch)
         meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
                 "STOP_TIME": epochs[-1], "INTERPOLATION": interpolation,
                 "INTERPOLATION_DEGREE": int(degree)}
-        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2)
+        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, mission_epoch=mission_epoch)
         seg.check()
         return seg
 
@@ -171,7 +177,8 @@ class OEMSegment(FrameCenterMetadata):
         """The epochs as an astropy ``Time`` (in the segment's time system)."""
         if self._times is None:
             self._times = epochs_to_time(self.epochs, self.time_system,
-                                         line=self.metadata.line_of("TIME_SYSTEM"))
+                                         line=self.metadata.line_of("TIME_SYSTEM"),
+                                         mission_epoch=self.mission_epoch)
         return self._times
 
     def _seconds_since(self, t0) -> np.ndarray:
@@ -230,13 +237,13 @@ class OEMSegment(FrameCenterMetadata):
     def start(self):
         """``USEABLE_START_TIME`` (else ``START_TIME``) as a Time."""
         text = self.metadata.get("USEABLE_START_TIME") or self.metadata["START_TIME"]
-        return epochs_to_time(text, self.time_system)
+        return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
     @property
     def stop(self):
         """``USEABLE_STOP_TIME`` (else ``STOP_TIME``) as a Time."""
         text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
-        return epochs_to_time(text, self.time_system)
+        return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
     def __len__(self) -> int:
         return len(self.epochs)

@@ -128,7 +128,10 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     Parameters
     ----------
     observations : Observations
-        The measurements (positions, ranges, range rates, az/el, RA/Dec).
+        The measurements (positions, ranges, range rates, az/el, RA/Dec); the table's
+        ``light_time`` (default True: two-way range and range rate, one-way angles, as real
+        tracking measures them) and ``radec_reference`` choose the measurement model
+        (:mod:`visviva.od.light_time`).
     initial : StateVectors or None
         First guess of the GCRS state, with an ``epoch`` (the estimate's epoch); e.g. from
         :func:`~visviva.gauss_angles`, :func:`~visviva.gibbs` or :func:`~visviva.herrick_gibbs`.

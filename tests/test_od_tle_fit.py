@@ -148,3 +148,20 @@ def test_fit_tle_batch_serial_and_on_dask(iss):
         assert a.fit.fields == b.fit.fields  # the same fit wherever it runs
     with pytest.raises(vv.InvalidInputError, match="satnums"):
         vv.od.fit_tle_batch(days, satnums=[1, 2])
+
+
+def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
+    """What travels to a Dask worker (a few flat arrays) gives bit for bit the serial fits."""
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+    from visviva.od.tle_batch import _fit_chunk, _fit_packed, _pack
+
+    st = iss.itrs(np.linspace(0, 1, 25) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame="ITRF", time_system="TAI")
+    histories = [iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors(),
+                 vv.read_oem(vv.write_oem(Ephemeris([seg])))]
+    items = list(zip(histories, [25544, 25545], strict=True))
+    packed = _pack(items, "gcrs")
+    assert packed["frame"] == ["gcrs", "itrs"] and packed["r"].shape == (50, 3)
+    assert [f for f, _ in _fit_packed(packed, {})] == [f for f, _ in _fit_chunk(items, {})]

@@ -57,7 +57,8 @@ def _scipy_fit(obs, guess, forces):
     from scipy.optimize import least_squares
 
     import visviva as vv
-    from visviva.od.measurements import model, residuals
+    from visviva.od.light_time import model
+    from visviva.od.measurements import residuals
 
     epoch = guess.epoch
     offsets, inverse = np.unique(obs.offsets_s(epoch), return_inverse=True)

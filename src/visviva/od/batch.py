@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
-from .measurements import model, residuals
+from .light_time import model
+from .measurements import residuals
 from .observations import KINDS, Observations
 
 __all__ = ["fit_orbit", "OrbitFit"]

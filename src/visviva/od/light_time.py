@@ -1,4 +1,5 @@
-"""The signal's flight time in the ground-station measurement models (``light_time=True``).
+"""The signal's flight time in the ground-station measurement models (``light_time=True``),
+and :func:`model`, the measurement model of an :class:`~visviva.Observations` table.
 
 A station's measurement is tagged with the time ``t_r`` the signal is *received*. With
 light time on (the default of :class:`~visviva.Observations`, what real tracking data are):
@@ -43,8 +44,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import C_KM_S, EARTH_ROTATION_RAD_S
+from .measurements import angles, predict
 
-__all__ = ["predict_light_time"]
+__all__ = ["predict_light_time", "model"]
 
 #: fixed-point iterations of each flight time (each multiplies the error by ~v/c)
 ITERATIONS = 3
@@ -84,14 +86,10 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
 
     Parameters
     ----------
-    kinds : ndarray of str (N,)
-        The measurement kind of each row.
-    y : ndarray (N, 6)
-        Satellite GCRS position (km) and velocity (km/s) at each reception time.
-    site_r, site_v : ndarray (N, 3)
-        Station GCRS position (km) and velocity (km/s) at each reception time.
-    enu : ndarray (N, 3, 3)
-        GCRS -> east-north-up rows (azel rows).
+    kinds, y, site_r, site_v, enu : ndarray
+        As for :func:`visviva.od.measurements.predict` (kinds (N,), satellite state (N, 6)
+        in km and km/s, station position and velocity (N, 3) in km and km/s, GCRS -> ENU
+        rows (N, 3, 3)), with the satellite and the station at the reception times.
     gm : float
         GM of the central body, km^3/s^2 (the Taylor step back along the orbit).
     earth_velocity : ndarray (N, 3), optional
@@ -105,8 +103,6 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     H : ndarray (N, 3, 6)
         Partials with respect to the state at the reception time.
     """
-    from .measurements import _angles, predict
-
     station = kinds != "position"
     yb = y.copy()
     jac = np.broadcast_to(np.eye(6), (len(kinds), 6, 6)).copy()
@@ -145,7 +141,33 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
         if m.any():
             rho = yb[m, :3] - site_r[m]
             tau = np.linalg.norm(rho, axis=-1)[:, None] / C_KM_S
-            lon, lat, _ = _angles(rho - earth_velocity[m] * tau)
+            lon, lat, _ = angles(rho - earth_velocity[m] * tau)
             h[m, 0] = lon
             h[m, 1] = lat
     return h, np.einsum("nij,njk->nik", H, jac)
+
+
+def model(observations, y, gm):
+    """Predicted values and partials of a whole :class:`~visviva.Observations` table.
+
+    Parameters
+    ----------
+    observations : Observations
+        The table; its ``light_time`` and ``radec_reference`` choose the model.
+    y : ndarray (N, 6)
+        The satellite's GCRS states at the observation (reception) times, km and km/s.
+    gm : float
+        GM of the central body, km^3/s^2.
+
+    Returns
+    -------
+    h : ndarray (N, 3)
+        Predicted values (km, km/s, rad).
+    H : ndarray (N, 3, 6)
+        Partials with respect to the states ``y``.
+    """
+    site_r, site_v, enu = observations.sites()
+    if not observations.light_time:
+        return predict(observations.kinds, y, site_r, site_v, enu)
+    ev = observations.earth_velocity() if observations.radec_reference == "stars" else None
+    return predict_light_time(observations.kinds, y, site_r, site_v, enu, gm, ev)

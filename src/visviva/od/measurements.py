@@ -18,8 +18,9 @@ azel         atan2(e, n), asin(u / |rho|),       as radec in the local (e, n, u)
 ===========  ==================================  =============================================
 
 These are the geometric values at one instant (``Observations(light_time=False)``);
-:func:`model` dispatches to :func:`visviva.od.light_time.predict_light_time` for the default
-``light_time=True``, which adds the signal's flight (for LEO the satellite moves ~25 m per
+:func:`visviva.od.light_time.model` dispatches to
+:func:`visviva.od.light_time.predict_light_time` for the default ``light_time=True``, which adds
+the signal's flight (for LEO the satellite moves ~25 m per
 1000 km of range meanwhile).
 """
 
@@ -27,11 +28,26 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["predict", "residuals", "model"]
+__all__ = ["predict", "residuals", "angles"]
 
 
-def _angles(vec):
-    """Longitude-like and latitude-like angles of (N, 3) vectors and their (N, 2, 3) partials."""
+def angles(vec):
+    """Longitude-like and latitude-like angles of vectors, and their partials.
+
+    Parameters
+    ----------
+    vec : ndarray (N, 3)
+        Vectors (any length unit).
+
+    Returns
+    -------
+    lon : ndarray (N,)
+        atan2(y, x) in [0, 2 pi), rad.
+    lat : ndarray (N,)
+        asin(z / |vec|), rad.
+    d : ndarray (N, 2, 3)
+        d(lon, lat) / d vec, rad per length unit.
+    """
     x, y, z = vec[:, 0], vec[:, 1], vec[:, 2]
     rho2 = x * x + y * y + z * z
     q2 = x * x + y * y
@@ -93,7 +109,7 @@ def predict(kinds, y, site_r, site_v, enu):
         H[m, 0, 3:] = u_hat
     m = kinds == "radec"
     if m.any():
-        lon, lat, d = _angles(rho[m])
+        lon, lat, d = angles(rho[m])
         h[m, 0] = lon
         h[m, 1] = lat
         H[m, :2, :3] = d
@@ -102,7 +118,7 @@ def predict(kinds, y, site_r, site_v, enu):
         local = np.einsum("nij,nj->ni", enu[m], rho[m])  # (e, n, u)
         # azimuth from north through east: atan2(e, n) = the longitude of (n, e, u)
         swapped = local[:, [1, 0, 2]]
-        az, el, d = _angles(swapped)
+        az, el, d = angles(swapped)
         d_local = d[:, :, [1, 0, 2]]  # back to (e, n, u) order
         h[m, 0] = az
         h[m, 1] = el
@@ -118,18 +134,3 @@ def residuals(kinds, observed, computed):
         z[ang, 0] = np.mod(z[ang, 0] + np.pi, 2 * np.pi) - np.pi
     return z
 
-
-def model(observations, y, gm):
-    """Predicted values and partials of a whole :class:`~visviva.Observations` table.
-
-    ``y`` (N, 6) holds the satellite's GCRS states at the observation (reception) times and
-    ``gm`` the central body's GM (km^3/s^2); the table's ``light_time`` and
-    ``radec_reference`` choose the model.
-    """
-    site_r, site_v, enu = observations.sites()
-    if not observations.light_time:
-        return predict(observations.kinds, y, site_r, site_v, enu)
-    from .light_time import predict_light_time
-
-    ev = observations.earth_velocity() if observations.radec_reference == "stars" else None
-    return predict_light_time(observations.kinds, y, site_r, site_v, enu, gm, ev)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
-from .measurements import model
+from .light_time import model
 from .observations import KINDS, Observations
 
 __all__ = ["simulate_observations", "simulate_tracking"]

@@ -57,7 +57,8 @@ def _scale(time_system: str, line, source, mission_epoch=None):
             raise CCSDSFormatError(
                 f"TIME_SYSTEM {name} counts time from {RELATIVE_TIME_SYSTEMS[name]}, which the "
                 f"message does not carry: pass mission_epoch=Time(...) (that epoch, as agreed "
-                f"for the mission) to the reader or writer", line=line, source=source)
+                f"for the mission) to the reader or writer (--mission-epoch ISO on the command "
+                f"line)", line=line, source=source)
         _check_mission_epoch(mission_epoch)
         return None
     scale = TIME_SCALES.get(name)

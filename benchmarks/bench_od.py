@@ -10,8 +10,10 @@ Rows (ratio = visviva time / reference time; below 1 visviva is faster):
 * ``fit_tle per satellite``: :func:`visviva.fit_tle` on one day of SGP4 states (49 points) of
   synthetic catalogue satellites vs ``scipy.optimize.least_squares`` (trust region, 2-point
   Jacobian) on the same residual function. Target: ratio <= 1.5. Reports TLE fits per second.
-* ``fit_tle on Dask``: the same fits on a ``LocalCluster`` of 2 worker processes vs in one
-  process. Target: ratio <= 1.0 (on an idle machine 2 processes approach 0.5).
+* ``fit_tle on Dask``: the same fits on a ``LocalCluster`` of 2 worker processes (profiler
+  off, 2 tasks per worker) vs in one process. Target: ratio <= 0.67 (a 1.5x speed-up; on an
+  idle machine 2 processes approach 0.5). The notes give the CPU seconds of each process and
+  the speed-up they imply on idle cores, which a loaded machine's wall clock hides.
 
 Run: ``python -m benchmarks --only od`` or ``python -m benchmarks.bench_od [--quick]``.
 """
@@ -55,11 +57,11 @@ def _scipy_fit(obs, guess, forces):
     from scipy.optimize import least_squares
 
     import visviva as vv
-    from visviva.od.measurements import predict, residuals
+    from visviva.od.light_time import model
+    from visviva.od.measurements import residuals
 
     epoch = guess.epoch
     offsets, inverse = np.unique(obs.offsets_s(epoch), return_inverse=True)
-    site_r, site_v, enu = obs.sites()
     mask = np.arange(3)[None, :] < obs.dims[:, None]
     sig = obs.sigmas[:, None]
 
@@ -67,7 +69,7 @@ def _scipy_fit(obs, guess, forces):
         s = vv.StateVectors(x[:3] * u.km, x[3:] * u.km / u.s, vv.EARTH, epoch=epoch)
         res = vv.propagate_cowell(s, offsets * u.s, forces, rtol=1e-11, atol=1e-11)
         y = np.concatenate([res.r.to_value(u.km), res.v.to_value(u.km / u.s)], axis=1)[inverse]
-        h, _ = predict(obs.kinds, y, site_r, site_v, enu)
+        h, _ = model(obs, y, vv.EARTH.gm_km3_s2)
         return (residuals(obs.kinds, obs.values, h) / sig)[mask]
 
     x0 = np.r_[guess.r.to_value(u.km), guess.v.to_value(u.km / u.s)]
@@ -171,12 +173,13 @@ def run(quick: bool = False) -> list[dict]:
         "scipy least_squares (trf, 2-point) on the same residuals", ref_tle, target=1.5,
         notes=f"{1 / ours_tle:.1f} TLE fits/s; worst recovery {max(rms) * 1e3:.3g} m",
     ))
-    rows.append(_dask_row(cases, ours_tle))
+    rows.append(_dask_row(cases if quick else _tle_cases(400)))
     return rows
 
 
-def _dask_row(cases, serial_per_fit):
+def _dask_row(cases):
     try:
+        import dask
         from distributed import Client, LocalCluster
     except ImportError:
         return skipped("fit_tle on Dask", "dask.distributed not installed")
@@ -189,18 +192,34 @@ def _dask_row(cases, serial_per_fit):
                  for r, v, t, _ in cases]  # fmt: skip
     satnums = [s for *_, s in cases]
     n = len(cases)
-    with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
-                      dashboard_address=":0") as cluster, Client(cluster) as client:
-        vv.od.fit_tle_batch(histories[:4], satnums[:4], client=client, frame="teme")  # warm
-        t0 = time.perf_counter()
+    vv.od.fit_tle_batch(histories[:4], satnums[:4], frame="teme")  # warm
+    c0, t0 = time.process_time(), time.perf_counter()
+    vv.od.fit_tle_batch(histories, satnums, frame="teme")
+    serial_wall, serial_cpu = time.perf_counter() - t0, time.process_time() - c0
+    with dask.config.set({"distributed.worker.profile.enabled": False}), \
+            LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                         dashboard_address=":0") as cluster, Client(cluster) as client:
+        from visviva.od.tle_batch import _fit_packed, _pack
+
+        # warm every worker (imports, first SGP4 and astropy calls), not just the first one
+        client.run(_fit_packed, _pack(list(zip(histories[:2], satnums[:2], strict=True)), "teme"), {})
+        before = client.run(time.process_time)
+        c0, t0 = time.process_time(), time.perf_counter()
         sats = vv.od.fit_tle_batch(histories, satnums, client=client, frame="teme")
-        dk = (time.perf_counter() - t0) / n
+        wall, here_cpu = time.perf_counter() - t0, time.process_time() - c0
+        after = client.run(time.process_time)
+    workers = [after[k] - before[k] for k in before]
+    # what the same work would take on idle cores: the busiest worker plus this process's
+    # share (pickling, scheduling, rebuilding the Satellites), against the serial CPU time
+    idle_speedup = serial_cpu / (max(workers) + here_cpu)
     worst = max(s.fit.max_position_km for s in sats)
     return result(
-        f"fit_tle_batch on Dask (LocalCluster, 2 processes), {n} satellites", dk,
-        "the same fits in one process", serial_per_fit, target=1.0,
-        notes=f"{1 / dk:.1f} TLE fits/s, worst {worst * 1e3:.2g} m; 8 tasks of "
-        f"{-(-n // 8)} fits; the shared 2-core machine limits the speed-up",
+        f"fit_tle_batch on Dask (LocalCluster, 2 processes), {n} satellites", wall / n,
+        "the same fits in one process", serial_wall / n, target=0.67,
+        notes=f"{n / wall:.1f} TLE fits/s, worst {worst * 1e3:.2g} m; 4 tasks of packed "
+        f"arrays, worker profiler off; CPU s: one process {serial_cpu:.3f}, Dask workers "
+        f"{', '.join(f'{w:.3f}' for w in workers)}, this process {here_cpu:.3f}: "
+        f"{idle_speedup:.2f}x on idle cores; wall ratio limited by the shared machine's load",
     )
 
 

@@ -171,8 +171,16 @@ def test_epochs_time_systems_frames_centres():
     assert abs((gps - Time("2024-01-31T11:59:42", scale="utc")).sec) < 1e-9
     assert time_to_epochs(gps, "GPS") == ["2024-01-31T12:00:00.000000000"]
     assert time_to_epochs(t[:1], "TAI") == ["2024-01-31T12:00:37.500000000"]
-    with pytest.raises(CCSDSFormatError, match="TIME_SYSTEM 'MET' is not supported"):
-        epochs_to_time("2024-01-31T12:00:00", "MET", line=4)
+    with pytest.raises(CCSDSFormatError, match="TIME_SYSTEM 'SCLK' is not supported"):
+        epochs_to_time("2024-01-31T12:00:00", "SCLK", line=4)
+    with pytest.raises(CCSDSFormatError, match="line 4.*MET counts time from the launch"):
+        epochs_to_time("0000-001T12:00:00", "MET", line=4)
+    launch = Time("2024-01-01T00:00:00", scale="utc")
+    met = epochs_to_time(["0000-000T00:00:00", "0001-010T01:02:03.5"], "MET", mission_epoch=launch)
+    # one Julian year (365.25 d) + 10 d + 1 h 2 min 3.5 s, counted in SI seconds from the launch
+    assert abs((met[1] - launch).sec - (375.25 * 86400 + 3723.5)) < 1e-9
+    assert time_to_epochs(met, "MET", mission_epoch=launch) == [
+        "0000-000T00:00:00.000000000", "0001-010T01:02:03.500000000"]
     assert visviva_frame("EME2000") == "gcrs" and visviva_frame("itrf2014") == "itrs"
     assert visviva_frame("TEME") == "teme" and visviva_frame("RTN") is None
     assert center_body("EARTH").name == "earth"

@@ -199,7 +199,9 @@ def test_ephemeris_interpolates_across_segments_and_refuses_gaps():
     (("MESSAGE_ID = OEM-0001", "MESSAGE_ID = OEM-0001\nOBJECT_NAME = X"), 6,
      "expected META_START"),
     (("TIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31", "TIME_SYSTEM = MET\nSTART_TIME = 2024-01-31"),
-     13, "TIME_SYSTEM 'MET' is not supported"),
+     13, "TIME_SYSTEM MET counts time from the launch epoch.*pass mission_epoch=Time"),
+    (("TIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31", "TIME_SYSTEM = SCLK\nSTART_TIME = 2024-01-31"),
+     13, "TIME_SYSTEM 'SCLK' is not supported"),
 ])
 def test_malformed_kvn_names_the_line(edit, line, words):
     assert edit[0] in OEM_KVN
@@ -297,3 +299,86 @@ def test_states_in_other_frames_match_astropy_via_satellite():
         assert np.abs(got.v.to_value(u.km / u.s) - ref.v.to_value(u.km / u.s)).max() < 1e-9
     with pytest.raises(vv.InvalidInputError, match="not supported"):
         seg.states_in("icrs")
+
+
+def _with_comments_among_states():
+    text = OEM_KVN.replace(
+        "2024-01-31T00:02:00 6980.4",
+        "COMMENT tracking gap ends here\nCOMMENT (two notes)\n2024-01-31T00:02:00 6980.4")
+    text = text.replace("\nCOVARIANCE_START", "COMMENT last state of the arc\n\nCOVARIANCE_START")
+    return text.replace("2024-032T00:05:00 6878.0", "COMMENT after the burn\n2024-032T00:05:00 6878.0"
+                        ) + "COMMENT end of file\n"
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_comments_among_state_lines_are_kept_and_written_back(fmt):
+    text = _with_comments_among_states()
+    oem = vv.read_oem(text)
+    first, second = oem.segments
+    assert first.data_comments == ["states in km and km/s"]
+    assert first.state_comments == {2: ["tracking gap ends here", "(two notes)"],
+                                     4: ["last state of the arc"]}
+    assert second.state_comments == {2: ["after the burn"], 3: ["end of file"]}
+    assert len(first) == 4 and len(first.covariances) == 2  # nothing else changed
+    back = vv.read_oem(vv.write_oem(oem, format=fmt))
+    for a, b in zip(oem.segments, back.segments, strict=True):
+        assert a.data_comments == b.data_comments and a.state_comments == b.state_comments
+        assert a.epochs == b.epochs and np.array_equal(a.r_km, b.r_km)
+    # the KVN text keeps each note in its place: every COMMENT line of the input is written
+    out = vv.write_oem(oem, format="kvn")
+    assert [ln for ln in out.splitlines() if ln.startswith("COMMENT")] == [
+        " ".join(ln.split()) for ln in text.splitlines() if ln.startswith("COMMENT")]
+    lines = out.splitlines()
+    k = lines.index("COMMENT tracking gap ends here")
+    assert lines[k - 1].startswith("2024-01-31T00:01:00") and lines[k + 2].startswith(
+        "2024-01-31T00:02:00")
+
+
+def test_segment_interface_used_by_the_ephemeris():
+    seg = vv.read_oem(OEM_KVN).segments[0]
+    t = seg.times[0] + [30, 90] * u.s
+    r, v = seg.interpolate_arrays(t)
+    assert r.shape == v.shape == (2, 3)
+    states = seg.interpolate(t)
+    np.testing.assert_array_equal(states.r.to_value(u.km), r)
+    assert seg.gm_km3_s2 == vv.EARTH.gm_km3_s2
+
+
+def _met_oem():
+    """The example's first segment in MET from a launch at 2024-01-30T22:00:00 UTC."""
+    text = OEM_KVN.split("\nMETA_START", 2)
+    first = "\nMETA_START" + text[1]
+    first = first.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = MET")
+    for hh_mm in ("00:00", "00:01", "00:02", "00:03"):
+        first = first.replace(f"2024-01-31T{hh_mm}:00", f"0000-000T02:{hh_mm[3:]}:00")
+    return text[0] + first
+
+
+def test_met_and_mrt_count_from_the_mission_epoch_the_user_gives():
+    launch = Time("2024-01-30T22:00:00", scale="utc")
+    utc = vv.read_oem(OEM_KVN).segments[0]
+    with pytest.raises(vv.CCSDSFormatError, match="pass mission_epoch"):
+        vv.read_oem(_met_oem())
+    met = vv.read_oem(_met_oem(), mission_epoch=launch).segments[0]
+    assert met.time_system == "MET" and met.epochs[1] == "0000-000T02:01:00"
+    assert np.abs((met.times - utc.times).to_value(u.s)).max() < 1e-9
+    t = utc.times[0] + 90 * u.s
+    np.testing.assert_allclose(met.interpolate(t).r.to_value(u.km),
+                               utc.interpolate(t).r.to_value(u.km), rtol=0, atol=ONE_MM)
+    # written back as it was, and a segment made in code in MRT round-trips to the nanosecond
+    assert vv.write_oem(vv.read_oem(_met_oem(), mission_epoch=launch)).count("0000-000T02:0") >= 6
+    ref = Time("2023-06-01T00:00:00", scale="tai")
+    times = Time("2024-01-31T00:00:00", scale="utc") + np.arange(5) * 60.123456789 * u.s
+    seg = OEMSegment.from_states(times, utc.r_km[[0, 1, 2, 3, 3]] + np.arange(5)[:, None],
+                                 np.ones((5, 3)), object_name="X", time_system="MRT",
+                                 mission_epoch=ref)  # fmt: skip
+    assert seg.epochs[0] == "0000-244T00:00:37.000000000"  # 244 days + TAI - UTC = 37 s
+    back = vv.read_oem(vv.write_oem(seg), mission_epoch=ref).segments[0]
+    assert back.epochs == seg.epochs
+    assert np.abs((back.times - times).to_value(u.s)).max() < 1e-9
+    with pytest.raises(vv.InvalidInputError, match="before the mission epoch"):
+        OEMSegment.from_states(times, np.ones((5, 3)), np.ones((5, 3)), object_name="X",
+                               time_system="MET", mission_epoch=times[-1])
+    with pytest.raises(vv.CCSDSFormatError, match="elapsed time written YYYY-DDDThh:mm:ss"):
+        vv.read_oem(OEM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = MRT", 1),
+                    mission_epoch=ref)

@@ -337,3 +337,16 @@ def test_xml_unknown_elements_name_the_line():
     with pytest.raises(vv.CCSDSFormatError, match="<orbitStuff> does not belong in <data>") as e:
         vv.read_opm(bad)
     assert e.value.line == k + 1
+
+
+def test_opm_in_mission_elapsed_time():
+    launch = Time("2024-03-01T10:00:00", scale="utc")
+    epoch = launch + (2 * 86400 + 3661.25) * u.s
+    state = vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, epoch=epoch)
+    opm = OPM.from_state(state, object_name="M", time_system="MET", mission_epoch=launch)
+    assert opm.sections["state_vector"]["EPOCH"] == "0000-002T01:01:01.250000000"
+    text = vv.write_opm(opm)
+    with pytest.raises(vv.CCSDSFormatError, match="MET counts time from the launch epoch"):
+        vv.read_opm(text)
+    back = vv.read_opm(text, mission_epoch=launch)
+    assert abs((back.epoch - epoch).sec) < 1e-9

@@ -283,10 +283,10 @@ def test_measurement_partials_match_finite_differences(tracking):
 
 
 def test_azel_and_range_against_an_earth_fixed_computation(tracking):
-    """Predicted az/el/range against the ITRS topocentric vector (astropy's GCRS -> ITRS)."""
+    """Geometric az/el/range against the ITRS topocentric vector (astropy's GCRS -> ITRS)."""
     t, kinds, sigmas, stations = tracking
     obs = simulate_observations(TRUTH, t[:12], kinds[:12], sigmas[:12], stations[:12],
-                                seed=False)
+                                seed=False, light_time=False)
     y, _ = Dynamics(vv.EARTH.gm_km3_s2, [], EPOCH, (0, 1e4)).propagate(Y_TRUE,
                                                                       obs.offsets_s(EPOCH))
     r_itrs, _ = gcrs_to_itrs(y[:, :3], y[:, 3:], obs.times)

@@ -148,3 +148,47 @@ def test_fit_tle_batch_serial_and_on_dask(iss):
         assert a.fit.fields == b.fit.fields  # the same fit wherever it runs
     with pytest.raises(vv.InvalidInputError, match="satnums"):
         vv.od.fit_tle_batch(days, satnums=[1, 2])
+
+
+def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
+    """What travels to a Dask worker (a few flat arrays) gives bit for bit the serial fits."""
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+    from visviva.od.tle_batch import _fit_chunk, _fit_packed, _pack
+
+    st = iss.itrs(np.linspace(0, 1, 25) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame="ITRF", time_system="TAI")
+    histories = [iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors(),
+                 vv.read_oem(vv.write_oem(Ephemeris([seg])))]
+    items = list(zip(histories, [25544, 25545], strict=True))
+    packed = _pack(items, "gcrs")
+    assert packed["frame"] == ["gcrs", "itrs"] and packed["r"].shape == (50, 3)
+    assert [f for f, _ in _fit_packed(packed, {})] == [f for f, _ in _fit_chunk(items, {})]
+
+
+def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, capsys):
+    from astropy.time import Time
+
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    launch = Time("2023-12-31T06:00:00", scale="utc")
+    st = iss.gcrs(np.linspace(0, 1, 49) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS", time_system="MET", mission_epoch=launch)
+    path = tmp_path / "met.oem"
+    vv.write_oem(Ephemeris([seg]), path)
+    assert main(["fit-tle", str(path)]) == 1
+    assert "--mission-epoch" in capsys.readouterr().err
+    assert main(["fit-tle", str(path), "--mission-epoch", "2023-12-31T06:00:00"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    direct = vv.fit_tle(st.to_state_vectors())
+    assert lines[-2:] == list(direct.to_tle())  # the same element set as from UTC states
+    xml = tmp_path / "met.xml"
+    assert main(["convert", str(path), str(xml), "--to", "oem",
+                 "--mission-epoch", "2023-12-31T06:00:00"]) == 0
+    back = vv.read_oem(xml, mission_epoch=launch).segments[0]
+    assert back.epochs == seg.epochs and back.time_system == "MET"
+    assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 1
+    assert "is not an ISO date-time" in capsys.readouterr().err

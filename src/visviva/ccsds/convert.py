@@ -38,6 +38,8 @@ def add_parser(sub) -> None:
     p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default="GCRF",
                    help="OEM reference frame (default GCRF; EME2000 is written from the same "
                         "GCRS states, which differ from it by the 23 mas frame bias)")
+    p.add_argument("--mission-epoch", default=None, metavar="ISO",
+                   help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--originator", default="VISVIVA",
                    help="ORIGINATOR of a new OMM or OEM (default VISVIVA)")
 
@@ -162,7 +164,16 @@ def _convert(args, text, source, target, fmt) -> str:
         if target != "oem":
             raise SystemExit("visviva convert: an OEM becomes a TLE or OMM only by a fit; use "
                              "visviva.fit_tle on the ephemeris")
-        return write_oem(read_oem(text), format=fmt)
+        from astropy.time import Time
+
+        from ..errors import InvalidInputError
+
+        try:
+            mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
+        except ValueError:
+            raise InvalidInputError(f"--mission-epoch {args.mission_epoch!r} is not an ISO "
+                                    "date-time like 2024-01-31T12:00:00") from None
+        return write_oem(read_oem(text, mission_epoch=mission), format=fmt)
     if source == "omm" and target == "omm":
         return write_omm(read_omm(text), format=fmt, originator=args.originator)
     sat = _satellite(args, text, source)

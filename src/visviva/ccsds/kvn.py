@@ -187,12 +187,28 @@ class KVNCursor:
 
     def data_lines(self) -> list[KVNLine]:
         """Consume the data lines at the cursor (comments between them are skipped)."""
-        out = []
+        return self.data_lines_with_comments()[0]
+
+    def data_lines_with_comments(self) -> tuple[list[KVNLine], dict[int, list[str]]]:
+        """Consume the data lines at the cursor and the comments among and right after them.
+
+        Returns
+        -------
+        rows : list of KVNLine
+            The data lines.
+        comments : dict
+            COMMENT texts keyed by the number of data lines before them (so ``k`` means
+            "between line k-1 and line k", and ``len(rows)`` "after the last one").
+        """
+        rows: list[KVNLine] = []
+        comments: dict[int, list[str]] = {}
         while (line := self.peek()) is not None and line.kind in ("data", "comment"):
             if line.kind == "data":
-                out.append(line)
+                rows.append(line)
+            else:
+                comments.setdefault(len(rows), []).append(line.value)
             self.pos += 1
-        return out
+        return rows, comments
 
 
 class KVNWriter:

@@ -82,10 +82,17 @@ class OEMSegment(FrameCenterMetadata):
         The covariance matrices.
     data_comments : list of str, optional
         COMMENT lines at the start of the data.
+    state_comments : dict, optional
+        COMMENT lines among the state lines, keyed by the number of state lines before them:
+        ``{k: [...]}`` sits between state ``k - 1`` and state ``k``, ``{len(epochs): [...]}``
+        after the last one. Read from files that put notes there and written back in place, so
+        that no line of a user's file is lost.
+    mission_epoch : astropy.time.Time, optional
+        The epoch a ``TIME_SYSTEM`` of MET or MRT counts from (not carried by the message).
     """
 
     def __init__(self, metadata, epochs, r_km, v_km_s, a_km_s2=None, covariances=(),
-                 data_comments=()):
+                 data_comments=(), state_comments=None, mission_epoch=None):
         self.metadata = metadata if isinstance(metadata, Record) else Record(values=dict(metadata))
         self.epochs = list(epochs)
         self.r_km = np.asarray(r_km, dtype=np.float64).reshape(-1, 3)
@@ -93,13 +100,16 @@ class OEMSegment(FrameCenterMetadata):
         self.a_km_s2 = None if a_km_s2 is None else np.asarray(a_km_s2, np.float64).reshape(-1, 3)
         self.covariances = list(covariances)
         self.data_comments = list(data_comments)
+        self.state_comments = {int(k): list(v) for k, v in (state_comments or {}).items() if v}
+        self.mission_epoch = mission_epoch
         self._times = None
         self._seconds = None
 
     @classmethod
     def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
                     center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
-                    interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None):
+                    interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
+                    mission_epoch=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
 
         Parameters
@@ -126,17 +136,19 @@ class OEMSegment(FrameCenterMetadata):
             ``INTERPOLATION_DEGREE``.
         a_km_s2 : array_like, shape (N, 3), optional
             Accelerations (km/s**2).
+        mission_epoch : astropy.time.Time, optional
+            The epoch MET/MRT count from, for those time systems.
 
         Returns
         -------
         OEMSegment
         """
-        epochs = time_to_epochs(times, time_system)
+        epochs = time_to_epochs(times, time_system, mission_epoch)
         meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
                 "STOP_TIME": epochs[-1], "INTERPOLATION": interpolation,
                 "INTERPOLATION_DEGREE": int(degree)}
-        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2)
+        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, mission_epoch=mission_epoch)
         seg.check()
         return seg
 
@@ -165,7 +177,8 @@ class OEMSegment(FrameCenterMetadata):
         """The epochs as an astropy ``Time`` (in the segment's time system)."""
         if self._times is None:
             self._times = epochs_to_time(self.epochs, self.time_system,
-                                         line=self.metadata.line_of("TIME_SYSTEM"))
+                                         line=self.metadata.line_of("TIME_SYSTEM"),
+                                         mission_epoch=self.mission_epoch)
         return self._times
 
     def _seconds_since(self, t0) -> np.ndarray:
@@ -176,7 +189,7 @@ class OEMSegment(FrameCenterMetadata):
         """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``)."""
         from ..states import StateVectors
 
-        return StateVectors._from_canonical(self.r_km, self.v_km_s, self._gm(), self.times)
+        return StateVectors._from_canonical(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
 
     def states_in(self, frame: str):
         """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
@@ -208,9 +221,11 @@ class OEMSegment(FrameCenterMetadata):
             return self.states
         r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
                                frame)
-        return StateVectors._from_canonical(r[0], v[0], self._gm(), self.times)
+        return StateVectors._from_canonical(r[0], v[0], self.gm_km3_s2, self.times)
 
-    def _gm(self) -> float:
+    @property
+    def gm_km3_s2(self) -> float:
+        """GM of ``CENTER_NAME``, km^3/s^2 (raises for a centre visviva does not know)."""
         body = center_body(self.center)
         if body is None:
             raise InvalidInputError(
@@ -222,13 +237,13 @@ class OEMSegment(FrameCenterMetadata):
     def start(self):
         """``USEABLE_START_TIME`` (else ``START_TIME``) as a Time."""
         text = self.metadata.get("USEABLE_START_TIME") or self.metadata["START_TIME"]
-        return epochs_to_time(text, self.time_system)
+        return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
     @property
     def stop(self):
         """``USEABLE_STOP_TIME`` (else ``STOP_TIME``) as a Time."""
         text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
-        return epochs_to_time(text, self.time_system)
+        return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
     def __len__(self) -> int:
         return len(self.epochs)
@@ -283,11 +298,30 @@ class OEMSegment(FrameCenterMetadata):
         """
         from ..states import StateVectors
 
-        r, v = self._interpolate_raw(t)
+        r, v = self.interpolate_arrays(t)
         return StateVectors._from_canonical(r.reshape(t.shape + (3,)),
-                                            v.reshape(t.shape + (3,)), self._gm(), t)
+                                            v.reshape(t.shape + (3,)), self.gm_km3_s2, t)
 
-    def _interpolate_raw(self, t):
+    def interpolate_arrays(self, t):
+        """Positions and velocities at ``t`` as plain arrays: what :meth:`interpolate` wraps.
+
+        Parameters
+        ----------
+        t : astropy.time.Time
+            Times within the segment's useable span (any shape).
+
+        Returns
+        -------
+        r_km : ndarray, shape (M, 3)
+            Positions (km) in the segment's frame, M = ``t.size`` (flattened).
+        v_km_s : ndarray, shape (M, 3)
+            Velocities (km/s).
+
+        Raises
+        ------
+        InvalidInputError
+            A time outside the segment, an unsupported method, or too few states for the degree.
+        """
         from astropy.time import Time
 
         if not isinstance(t, Time):
@@ -398,7 +432,7 @@ class Ephemeris:
         v = np.empty(flat.shape + (3,))
         for k in np.unique(which):
             sel = which == k
-            r[sel], v[sel] = self.segments[k]._interpolate_raw(flat[sel])
-        gm = self.segments[0]._gm()
+            r[sel], v[sel] = self.segments[k].interpolate_arrays(flat[sel])
+        gm = self.segments[0].gm_km3_s2
         return StateVectors._from_canonical(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
                                             gm, t)

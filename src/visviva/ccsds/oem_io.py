@@ -41,13 +41,16 @@ COVARIANCE_XML = Section("covariance", COVARIANCE_META.keywords + COVARIANCE_KEY
                          "covarianceMatrix")
 
 
-def read_oem(source) -> Ephemeris:
+def read_oem(source, *, mission_epoch=None) -> Ephemeris:
     """Read a CCSDS Orbit Ephemeris Message (KVN or XML, detected).
 
     Parameters
     ----------
     source : str or os.PathLike
         A path, or the message text.
+    mission_epoch : astropy.time.Time, optional
+        The epoch that ``TIME_SYSTEM = MET`` (launch) or ``MRT`` (the mission's reference)
+        counts from; such messages cannot be read without it.
 
     Returns
     -------
@@ -85,12 +88,12 @@ def read_oem(source) -> Ephemeris:
     """
     text, name = read_text(source)
     if looks_like_xml(text):
-        return _read_xml(text, name)
-    return _read_kvn(text, name)
+        return _read_xml(text, name, mission_epoch)
+    return _read_kvn(text, name, mission_epoch)
 
 
 # ---- KVN ---------------------------------------------------------------------------------
-def _read_kvn(text: str, name: str) -> Ephemeris:
+def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
     cursor = KVNCursor(text, name)
     first = cursor.peek()
     if first is None:
@@ -120,7 +123,7 @@ def _read_kvn(text: str, name: str) -> Ephemeris:
         check_mandatory(meta, METADATA, name)
         cursor.expect_block("META", "stop")
         data_comments = cursor.take_comments()
-        rows = cursor.data_lines()
+        rows, state_comments = cursor.data_lines_with_comments()
         if not rows:
             raise cursor.error("the segment has no state lines after META_STOP")
         epochs, numbers = _state_lines(rows, name)
@@ -129,7 +132,7 @@ def _read_kvn(text: str, name: str) -> Ephemeris:
             covariances = _kvn_covariances(cursor)
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
                          numbers[:, 6:9] if numbers.shape[1] == 9 else None, covariances,
-                         data_comments)
+                         data_comments, state_comments, mission_epoch)
         _check_segment(seg, [r.line for r in rows], start.line, name)
         segments.append(seg)
     if not segments:
@@ -229,8 +232,12 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise CCSDSFormatError(f"the epochs must increase: {seg.epochs[k]} follows "
                                f"{seg.epochs[k - 1]}", line=lines[k], source=name)
-    start = (epochs_to_time(meta["START_TIME"], seg.time_system) - t[0]).to_value("s")
-    stop = (epochs_to_time(meta["STOP_TIME"], seg.time_system) - t[0]).to_value("s")
+    def offset(key):
+        text = meta[key]
+        return (epochs_to_time(text, seg.time_system, meta.line_of(key), name,
+                               seg.mission_epoch) - t[0]).to_value("s")  # fmt: skip
+
+    start, stop = offset("START_TIME"), offset("STOP_TIME")
     if stop < start:
         raise CCSDSFormatError("STOP_TIME is before START_TIME",
                                line=meta.line_of("STOP_TIME"), source=name)
@@ -247,7 +254,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
 
 
 # ---- XML ---------------------------------------------------------------------------------
-def _read_xml(text: str, name: str) -> Ephemeris:
+def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
     root = message_root(parse(text, name), "oem", name)
     header_node = root.find("header")
     if header_node is None or not root.attrib.get("version"):
@@ -262,9 +269,11 @@ def _read_xml(text: str, name: str) -> Ephemeris:
             raise CCSDSFormatError("a <segment> needs <metadata> and <data>", line=node.line,
                                    source=name)
         meta = read_xml_section(meta_node, METADATA, name)
-        comments, state_nodes, covariances = [], [], []
+        comments, state_nodes, covariances, among = [], [], [], {}
         for child in data_node.children:
-            if child.tag == "COMMENT":
+            if child.tag == "COMMENT" and (state_nodes or covariances):
+                among.setdefault(len(state_nodes), []).append(child.text)
+            elif child.tag == "COMMENT":
                 comments.append(child.text)
             elif child.tag == "stateVector":
                 state_nodes.append(child)
@@ -281,7 +290,8 @@ def _read_xml(text: str, name: str) -> Ephemeris:
         epochs, numbers = _xml_states(state_nodes, name)
         acc = numbers.shape[1] == 9
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
-                         numbers[:, 6:9] if acc else None, covariances, comments)
+                         numbers[:, 6:9] if acc else None, covariances, comments, among,
+                         mission_epoch)
         _check_segment(seg, [n.line for n in state_nodes], meta_node.line, name)
         segments.append(seg)
     if not segments:
@@ -400,8 +410,12 @@ def _write_kvn(eph: Ephemeris) -> str:
         w.blank()
         w.comment(seg.data_comments)
         fmt = format_float
-        for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True):
+        among = seg.state_comments
+        for k, (epoch, row) in enumerate(zip(seg.epochs, _rows(seg).tolist(), strict=True)):
+            if k in among:
+                w.comment(among[k])
             w.data(epoch + " " + " ".join(map(fmt, row)))
+        w.comment(among.get(len(seg), []))
         if seg.covariances:
             w.blank()
             w.marker("COVARIANCE_START")
@@ -454,8 +468,11 @@ def _xml_data_block(seg: OEMSegment) -> str:
            for k, unit in zip(_STATE_KEYS[:width], _STATE_UNITS[:width], strict=True)]
         + [f"{pad}</stateVector>"])
     fmt = format_float
-    lines += [template.format(epoch, *map(fmt, row))
-              for epoch, row in zip(seg.epochs, _rows(seg).tolist(), strict=True)]
+    among = seg.state_comments
+    for k, (epoch, row) in enumerate(zip(seg.epochs, _rows(seg).tolist(), strict=True)):
+        lines += [_xml_element("COMMENT", c, None, pad) for c in among.get(k, ())]
+        lines.append(template.format(epoch, *map(fmt, row)))
+    lines += [_xml_element("COMMENT", c, None, pad) for c in among.get(len(seg), ())]
     for cov in seg.covariances:
         lines.append(f"{pad}<covarianceMatrix>")
         lines += [_xml_element("COMMENT", c, None, pad2) for c in cov.comments]

@@ -61,7 +61,21 @@ class OMM(dict):
     source: str
 
     @classmethod
-    def _from_sections(cls, sections: dict, source: str) -> OMM:
+    def from_sections(cls, sections: dict, source: str) -> OMM:
+        """An OMM from the parsed sections of a message (what :func:`read_omm` builds).
+
+        Parameters
+        ----------
+        sections : dict
+            Section name -> :class:`visviva.ccsds.grammar.Record` (values, comments, lines),
+            as :func:`visviva.ccsds.layout.read_message` returns them.
+        source : str
+            Where the message came from (a path or ``"<text>"``), for messages.
+
+        Returns
+        -------
+        OMM
+        """
         out = cls()
         out.comments, out.lines, out.source = {}, {}, source
         for name, record in sections.items():
@@ -99,7 +113,7 @@ def read_omm(source) -> OMM:
     if ("SEMI_MAJOR_AXIS" in mean) == ("MEAN_MOTION" in mean):
         raise CCSDSFormatError("the mean elements need exactly one of SEMI_MAJOR_AXIS and "
                                "MEAN_MOTION", line=mean.line, source=name)
-    return OMM._from_sections(sections, name)
+    return OMM.from_sections(sections, name)
 
 
 def write_omm(omm, path=None, format: str | None = None, *, originator: str | None = None,  # noqa: A002

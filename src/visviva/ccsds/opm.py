@@ -109,15 +109,18 @@ class OPM(FrameCenterMetadata):
         ``"maneuvers"`` (a list), ``"user_defined"``) -> Record or dict of keyword values.
     source : str
         Where it was read from.
+    mission_epoch : astropy.time.Time, optional
+        The epoch a ``TIME_SYSTEM`` of MET or MRT counts from (not carried by the message).
     """
 
-    def __init__(self, sections: dict, source: str = "<text>"):
+    def __init__(self, sections: dict, source: str = "<text>", mission_epoch=None):
         self.sections = {k: (v if isinstance(v, Record | list) else Record(values=dict(v)))
                          for k, v in sections.items()}
         if "maneuvers" in self.sections:
             self.sections["maneuvers"] = [m if isinstance(m, Record) else Record(values=dict(m))
                                           for m in self.sections["maneuvers"]]
         self.source = source
+        self.mission_epoch = mission_epoch
         for name in ("header", "metadata", "state_vector"):
             if name not in self.sections:
                 raise InvalidInputError(f"an OPM needs a {name.replace('_', ' ')} section")
@@ -125,7 +128,8 @@ class OPM(FrameCenterMetadata):
     @classmethod
     def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
                    center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
-                   maneuvers=(), covariance=None, originator: str = "VISVIVA"):
+                   maneuvers=(), covariance=None, originator: str = "VISVIVA",
+                   mission_epoch=None):  # fmt: skip
         """An OPM for one state computed in visviva.
 
         Parameters
@@ -149,6 +153,8 @@ class OPM(FrameCenterMetadata):
             Covariance in km and km/s.
         originator : str
             ``ORIGINATOR``.
+        mission_epoch : astropy.time.Time, optional
+            The epoch MET/MRT count from, for those time systems.
 
         Returns
         -------
@@ -167,7 +173,7 @@ class OPM(FrameCenterMetadata):
             "header": {"CCSDS_OPM_VERS": "3.0", "ORIGINATOR": originator},
             "metadata": {"OBJECT_NAME": object_name, "OBJECT_ID": object_id,
                          "CENTER_NAME": center, "REF_FRAME": frame, "TIME_SYSTEM": time_system},
-            "state_vector": {"EPOCH": time_to_epochs(state.epoch, time_system)[0],
+            "state_vector": {"EPOCH": time_to_epochs(state.epoch, time_system, mission_epoch)[0],
                              **dict(zip(("X", "Y", "Z"), map(float, r), strict=True)),
                              **dict(zip(("X_DOT", "Y_DOT", "Z_DOT"), map(float, v),
                                         strict=True))},
@@ -176,14 +182,14 @@ class OPM(FrameCenterMetadata):
             sections["covariance"] = values_from_matrix(covariance)
         if maneuvers:
             sections["maneuvers"] = [{
-                "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system)[0],
+                "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system, mission_epoch)[0],
                 "MAN_DURATION": float(u.Quantity(m.duration).to_value(u.s)),
                 "MAN_DELTA_MASS": float(u.Quantity(m.delta_mass).to_value(u.kg)),
                 "MAN_REF_FRAME": m.frame,
                 **dict(zip(("MAN_DV_1", "MAN_DV_2", "MAN_DV_3"),
                            map(float, u.Quantity(m.delta_v).to_value(u.km / u.s)), strict=True)),
             } for m in maneuvers]
-        return cls(sections)
+        return cls(sections, mission_epoch=mission_epoch)
 
     def __repr__(self) -> str:
         meta = self.sections["metadata"]
@@ -203,7 +209,7 @@ class OPM(FrameCenterMetadata):
     def _time(self, text, key):
         record = self.metadata
         return epochs_to_time(text, record["TIME_SYSTEM"], record.line_of("TIME_SYSTEM"),
-                              self.source)
+                              self.source, self.mission_epoch)
 
     @property
     def epoch(self):
@@ -254,13 +260,16 @@ class OPM(FrameCenterMetadata):
         return out
 
 
-def read_opm(source) -> OPM:
+def read_opm(source, *, mission_epoch=None) -> OPM:
     """Read a CCSDS Orbit Parameter Message (KVN or XML, detected).
 
     Parameters
     ----------
     source : str or os.PathLike
         A path, or the message text.
+    mission_epoch : astropy.time.Time, optional
+        The epoch that ``TIME_SYSTEM = MET`` (launch) or ``MRT`` (the mission's reference)
+        counts from; such messages cannot be read without it.
 
     Returns
     -------
@@ -278,7 +287,7 @@ def read_opm(source) -> OPM:
     if kep is not None and ("TRUE_ANOMALY" in kep) == ("MEAN_ANOMALY" in kep):
         raise CCSDSFormatError("the Keplerian elements need exactly one of TRUE_ANOMALY and "
                                "MEAN_ANOMALY", line=kep.line, source=name)
-    opm = OPM(sections, name)
+    opm = OPM(sections, name, mission_epoch)
     opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
     return opm
 

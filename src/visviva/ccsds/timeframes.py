@@ -2,8 +2,13 @@
 
 * Epochs: ``YYYY-MM-DDThh:mm:ss.d...`` or ``YYYY-DDDThh:mm:ss`` (day of year) in the message's
   ``TIME_SYSTEM``; UTC, TAI, TT, TDB, TCB, TCG and UT1 are astropy time scales, GPS is TAI - 19 s.
-  Other systems (MET, MRT, SCLK, ...) need a reference the message does not carry, so they are
-  refused with a message saying so.
+  MET (mission elapsed time) and MRT (mission relative time) count from a mission epoch agreed
+  outside the message (CCSDS 502.0-B-3 annex: "time since launch" / "time since a
+  mission-defined reference"): they are read and written when the user gives that epoch
+  (``mission_epoch=Time(...)``), with each epoch written ``YYYY-DDDThh:mm:ss.f`` meaning
+  YYYY Julian years + DDD days + the clock time elapsed (Orekit's reading). SCLK, GMST and the
+  rest cannot be interpreted without a clock correlation or a rotation model: they are refused
+  with a message saying what to do.
 * Frames: ``EME2000``, ``ICRF``, ``GCRF`` are inertial frames that differ from the GCRS by at
   most the 23 mas frame bias (~1 m at GEO); visviva maps all three to ``"gcrs"``. ``TEME`` is
   ``"teme"``, ``ITRF``/``ITRF2000``/``ITRF-93``/``ITRF-97``/``ITRF2008``/``ITRF2014``/``ITRF2020``
@@ -19,15 +24,20 @@ import re
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError
 
-__all__ = ["TIME_SCALES", "epochs_to_time", "time_to_epochs", "visviva_frame", "center_body",
-           "FrameCenterMetadata"]
+__all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
+           "visviva_frame", "center_body", "FrameCenterMetadata"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
                "UT1": "ut1", "GPS": "tai"}
 _GPS_MINUS_TAI_S = -19.0
+#: time systems counted from a mission epoch the user supplies: name -> what the epoch is
+RELATIVE_TIME_SYSTEMS = {"MET": "the launch epoch", "MRT": "the mission's reference epoch"}
+_JULIAN_YEAR_S = 365.25 * 86400.0
+_ELAPSED = re.compile(r"^(\d{4})-(\d{3})T(\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)Z?$")
 
 _FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
            "ITRF": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
@@ -39,14 +49,79 @@ CCSDS_FRAME = {"gcrs": "GCRF", "teme": "TEME", "itrs": "ITRF"}
 _ORDINAL = re.compile(r"^(\d{4})-(\d{3})T(.*?)Z?$")
 
 
-def _scale(time_system: str, line, source):
-    scale = TIME_SCALES.get(time_system.upper())
+def _scale(time_system: str, line, source, mission_epoch=None):
+    """The astropy scale of a CCSDS time system; None for MET/MRT given a mission epoch."""
+    name = time_system.upper()
+    if name in RELATIVE_TIME_SYSTEMS:
+        if mission_epoch is None:
+            raise CCSDSFormatError(
+                f"TIME_SYSTEM {name} counts time from {RELATIVE_TIME_SYSTEMS[name]}, which the "
+                f"message does not carry: pass mission_epoch=Time(...) (that epoch, as agreed "
+                f"for the mission) to the reader or writer (--mission-epoch ISO on the command "
+                f"line)", line=line, source=source)
+        _check_mission_epoch(mission_epoch)
+        return None
+    scale = TIME_SCALES.get(name)
     if scale is None:
         raise CCSDSFormatError(
             f"TIME_SYSTEM {time_system!r} is not supported (visviva reads "
-            f"{', '.join(TIME_SCALES)}); convert the epochs to one of these",
-            line=line, source=source)
+            f"{', '.join(TIME_SCALES)}, and MET/MRT given mission_epoch=); convert the epochs "
+            "to one of these", line=line, source=source)
     return scale
+
+
+def _check_mission_epoch(mission_epoch):
+    from astropy.time import Time
+
+    if not isinstance(mission_epoch, Time) or not mission_epoch.isscalar:
+        raise InvalidInputError(
+            f"mission_epoch must be one astropy Time (the epoch MET/MRT count from); got "
+            f"{type(mission_epoch).__name__}")
+
+
+def _elapsed(texts, time_system, line, source):
+    """Elapsed time of MET/MRT epochs as (whole days, seconds of the day), each (N,)."""
+    days = np.empty(len(texts))
+    secs = np.empty(len(texts))
+    for i, text in enumerate(texts):
+        m = _ELAPSED.match(text.strip())
+        if m is None:
+            raise CCSDSFormatError(
+                f"in TIME_SYSTEM {time_system} an epoch is elapsed time written "
+                f"YYYY-DDDThh:mm:ss (years, days and clock time since the mission epoch); "
+                f"got {text!r}", line=line, source=source)
+        years, dd, hh, mm = (int(g) for g in m.groups()[:4])
+        days[i] = years * 365.25 + dd  # a multiple of 1/4: exact
+        secs[i] = hh * 3600.0 + mm * 60.0 + float(m.group(5))
+    return days, secs
+
+
+def _format_elapsed(delta) -> list[str]:
+    """MET/MRT text of TimeDelta(s) from the mission epoch, without losing the nanoseconds."""
+    jd1 = np.atleast_1d(delta.jd1)
+    jd2 = np.atleast_1d(delta.jd2)
+    whole = np.floor(jd1) + np.floor(jd2)
+    frac = (jd1 - np.floor(jd1)) + (jd2 - np.floor(jd2))  # [0, 2) days
+    out = []
+    for w, f in zip(whole, frac, strict=True):
+        if w + f < 0:
+            raise InvalidInputError(
+                f"a time {(w + f) * 86400.0:.3f} s before the mission epoch cannot be written in "
+                "MET/MRT (elapsed time is not negative); choose an earlier mission_epoch or "
+                "another time system")
+        years = int((w + f) // 365.25)
+        rest = w - years * 365.25  # exact (quarter days)
+        days = int(np.floor(rest + f))
+        sec = round((rest - days) * 86400.0 + f * 86400.0, 9)
+        while sec < 0.0:  # rest + f rounded up across a day boundary
+            days, sec = days - 1, sec + 86400.0
+        while sec >= 86400.0:
+            days, sec = days + 1, sec - 86400.0
+        hh = int(sec // 3600.0)
+        mm = int((sec - hh * 3600.0) // 60.0)
+        ss = sec - hh * 3600.0 - mm * 60.0
+        out.append(f"{years:04d}-{days:03d}T{hh:02d}:{mm:02d}:{ss:012.9f}")
+    return out
 
 
 def _iso(text: str) -> str:
@@ -57,7 +132,8 @@ def _iso(text: str) -> str:
     return text
 
 
-def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>"):
+def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
+                   mission_epoch=None):  # fmt: skip
     """Convert CCSDS epoch strings to an astropy ``Time`` in the given time system.
 
     Parameters
@@ -70,18 +146,27 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>"):
         Line of the first epoch, for error messages.
     source : str
         File name, for error messages.
+    mission_epoch : astropy.time.Time, optional
+        The epoch MET/MRT count from (needed for those systems only).
 
     Returns
     -------
     astropy.time.Time
-        Scalar for one string, else one-dimensional.
+        Scalar for one string, else one-dimensional (for MET/MRT: in the scale of
+        ``mission_epoch``, elapsed SI seconds added).
     """
     from astropy import units as u
     from astropy.time import Time
 
-    scale = _scale(time_system, line, source)
+    scale = _scale(time_system, line, source, mission_epoch)
     scalar = isinstance(texts, str)
     items = [texts] if scalar else list(texts)
+    if scale is None:
+        from astropy.time import TimeDelta
+
+        days, secs = _elapsed(items, time_system.upper(), line, source)
+        t = mission_epoch + TimeDelta(days, secs / 86400.0, format="jd", scale="tai")
+        return t[0] if scalar else t
     iso = [_iso(t) for t in items]
     kinds = {":" in t[4:5] for t in iso}
     try:
@@ -100,7 +185,7 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>"):
     return t[0] if scalar else t
 
 
-def time_to_epochs(t, time_system: str) -> list[str]:
+def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     """Format times as CCSDS epochs (``YYYY-MM-DDThh:mm:ss.fffffffff``) in a time system.
 
     Parameters
@@ -109,6 +194,8 @@ def time_to_epochs(t, time_system: str) -> list[str]:
         Times (any scale; converted).
     time_system : str
         The CCSDS time system to write in.
+    mission_epoch : astropy.time.Time, optional
+        The epoch MET/MRT count from (needed for those systems only).
 
     Returns
     -------
@@ -117,8 +204,10 @@ def time_to_epochs(t, time_system: str) -> list[str]:
     """
     from astropy import units as u
 
-    _scale(time_system, None, "<output>")
+    scale = _scale(time_system, None, "<output>", mission_epoch)
     flat = t.reshape(-1) if t.ndim else t.reshape(1)
+    if scale is None:
+        return _format_elapsed(flat.tai - mission_epoch.tai)
     if time_system.upper() == "GPS":
         flat = flat.tai + _GPS_MINUS_TAI_S * u.s
         out = flat.tai

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
-from .measurements import predict, residuals
+from .light_time import model
+from .measurements import residuals
 from .observations import KINDS, Observations
 
 __all__ = ["fit_orbit", "OrbitFit"]
@@ -128,7 +129,10 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     Parameters
     ----------
     observations : Observations
-        The measurements (positions, ranges, range rates, az/el, RA/Dec).
+        The measurements (positions, ranges, range rates, az/el, RA/Dec); the table's
+        ``light_time`` (default True: two-way range and range rate, one-way angles, as real
+        tracking measures them) and ``radec_reference`` choose the measurement model
+        (:mod:`visviva.od.light_time`).
     initial : StateVectors or None
         First guess of the GCRS state, with an ``epoch`` (the estimate's epoch); e.g. from
         :func:`~visviva.gauss_angles`, :func:`~visviva.gibbs` or :func:`~visviva.herrick_gibbs`.
@@ -206,7 +210,6 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     offsets = observations.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
                    DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol)
-    site_r, site_v, enu = observations.sites()
     kinds = observations.kinds
     dims = observations.dims
     comp_mask = np.arange(3)[None, :] < dims[:, None]  # (N, 3) components in use
@@ -226,7 +229,7 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             )
             err.history = history
             raise err from exc
-        h, H = predict(kinds, y, site_r, site_v, enu)
+        h, H = model(observations, y, gm)
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if outlier_sigma is not None and rms_prev is not None:

@@ -22,6 +22,8 @@ def add_parser(sub) -> None:
     p.add_argument("--name", default=None, help="object name (default: the OEM's OBJECT_NAME)")
     p.add_argument("--epoch", default=None, metavar="ISO",
                    help="epoch of the element set, UTC (default: the first state)")
+    p.add_argument("--mission-epoch", default=None, metavar="ISO",
+                   help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--no-bstar", action="store_true", help="hold B* fixed instead of fitting it")
     p.add_argument("--bstar", type=float, default=0.0,
                    help="B* (1/earth radii): held value, or first guess (default 0)")
@@ -47,7 +49,8 @@ def run(args) -> int:
     from .tle_fit import fit_tle
 
     try:
-        eph = read_oem(args.ephemeris)
+        mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
+        eph = read_oem(args.ephemeris, mission_epoch=mission)
         name = args.name
         if name is None:
             name = str(eph.segments[0].metadata.get("OBJECT_NAME", "")) or None

@@ -17,20 +17,37 @@ azel         atan2(e, n), asin(u / |rho|),       as radec in the local (e, n, u)
              (e, n, u) = E(t) rho                the GCRS -> east-north-up rotation E(t)
 ===========  ==================================  =============================================
 
-The signal's light time and aberration are not modelled (geometric observables at the
-reception time); for LEO the light time moves the satellite by ~25 m per 1000 km of range, so
-fit real tracking data with that in mind.
+These are the geometric values at one instant (``Observations(light_time=False)``);
+:func:`visviva.od.light_time.model` dispatches to
+:func:`visviva.od.light_time.predict_light_time` for the default ``light_time=True``, which adds
+the signal's flight (for LEO the satellite moves ~25 m per
+1000 km of range meanwhile).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["predict", "residuals"]
+__all__ = ["predict", "residuals", "angles"]
 
 
-def _angles(vec):
-    """Longitude-like and latitude-like angles of (N, 3) vectors and their (N, 2, 3) partials."""
+def angles(vec):
+    """Longitude-like and latitude-like angles of vectors, and their partials.
+
+    Parameters
+    ----------
+    vec : ndarray (N, 3)
+        Vectors (any length unit).
+
+    Returns
+    -------
+    lon : ndarray (N,)
+        atan2(y, x) in [0, 2 pi), rad.
+    lat : ndarray (N,)
+        asin(z / |vec|), rad.
+    d : ndarray (N, 2, 3)
+        d(lon, lat) / d vec, rad per length unit.
+    """
     x, y, z = vec[:, 0], vec[:, 1], vec[:, 2]
     rho2 = x * x + y * y + z * z
     q2 = x * x + y * y
@@ -92,7 +109,7 @@ def predict(kinds, y, site_r, site_v, enu):
         H[m, 0, 3:] = u_hat
     m = kinds == "radec"
     if m.any():
-        lon, lat, d = _angles(rho[m])
+        lon, lat, d = angles(rho[m])
         h[m, 0] = lon
         h[m, 1] = lat
         H[m, :2, :3] = d
@@ -101,7 +118,7 @@ def predict(kinds, y, site_r, site_v, enu):
         local = np.einsum("nij,nj->ni", enu[m], rho[m])  # (e, n, u)
         # azimuth from north through east: atan2(e, n) = the longitude of (n, e, u)
         swapped = local[:, [1, 0, 2]]
-        az, el, d = _angles(swapped)
+        az, el, d = angles(swapped)
         d_local = d[:, :, [1, 0, 2]]  # back to (e, n, u) order
         h[m, 0] = az
         h[m, 1] = el
@@ -116,3 +133,4 @@ def residuals(kinds, observed, computed):
     if ang.any():
         z[ang, 0] = np.mod(z[ang, 0] + np.pi, 2 * np.pi) - np.pi
     return z
+

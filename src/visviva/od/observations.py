@@ -64,6 +64,17 @@ class Observations:
     station : GroundStation or sequence, optional
         The observing station of each row (one for all, or a list with None for position rows);
         needs ``gcrs_position_velocity(t)`` and, for azel, ``enu_matrix`` (ITRS).
+    light_time : bool
+        True (default, what real tracking measures): the models include the signal's flight
+        time: range and range rate two-way (round trip from the station), az/el and RA/Dec
+        one-way (where the satellite was when the light left it), times tagged at reception
+        (:mod:`visviva.od.light_time`). False: geometric values at the tag time (the station
+        and the satellite at the same instant), e.g. for data made that way.
+    radec_reference : {"gcrs", "stars"}
+        What RA/Dec rows are: ``"gcrs"`` (default) the natural direction of the incoming light
+        in the GCRS; ``"stars"`` optical astrometry reduced against catalogue stars (the
+        barycentric direction: differs by up to 20.5 arcsec, the Earth's velocity times the
+        flight time). ``"stars"`` needs ``light_time=True``.
 
     Attributes
     ----------
@@ -77,18 +88,32 @@ class Observations:
         Canonical sigmas.
     stations : list
         Station of each row (None for positions).
+    light_time : bool
+    radec_reference : str
 
     Raises
     ------
     InvalidInputError
-        No observations, an unknown kind, a non-positive or non-finite sigma, a row needing a
+        No observations, an unknown kind, an unknown ``radec_reference``, a non-positive or non-finite sigma, a row needing a
         station without one, times that go backwards, or a time that is not an astropy Time.
     ShapeError
         A value with the wrong number of components.
     """
 
-    def __init__(self, time, kind, value, sigma, station=None):
+    def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,
+                 radec_reference="gcrs"):  # fmt: skip
         from astropy.time import Time
+
+        if radec_reference not in ("gcrs", "stars"):
+            raise InvalidInputError(
+                f"radec_reference must be 'gcrs' (natural GCRS direction) or 'stars' (reduced "
+                f"against catalogue stars); got {radec_reference!r}."
+            )
+        if radec_reference == "stars" and not light_time:
+            raise InvalidInputError(
+                "radec_reference='stars' models the light's flight in the barycentric frame: "
+                "it needs light_time=True."
+            )
 
         if not isinstance(time, Time):
             raise InvalidInputError(
@@ -143,6 +168,8 @@ class Observations:
         self.dims = dims
         self.sigmas = sig
         self.stations = stations
+        self.light_time = bool(light_time)
+        self.radec_reference = radec_reference
         self._cache = {}
 
     @staticmethod
@@ -225,3 +252,17 @@ class Observations:
                 enu[idx] = np.asarray(s.enu_matrix) @ m
         self._cache["sites"] = (r, v, enu)
         return r, v, enu
+
+    def earth_velocity(self):
+        """The Earth's barycentric velocity at each time, km/s in ICRS (= GCRS) axes (N, 3).
+
+        Used by RA/Dec rows referred to catalogue stars; from astropy's built-in ephemeris
+        (no download), cached.
+        """
+        if "earth_velocity" not in self._cache:
+            from astropy.coordinates import get_body_barycentric_posvel
+
+            _, vel = get_body_barycentric_posvel("earth", self.times)
+            self._cache["earth_velocity"] = np.asarray(
+                vel.xyz.to_value("km/s"), dtype=np.float64).T.reshape(len(self), 3)  # fmt: skip
+        return self._cache["earth_velocity"]

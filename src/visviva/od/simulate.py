@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
-from .measurements import predict
+from .light_time import model
 from .observations import KINDS, Observations
 
 __all__ = ["simulate_observations", "simulate_tracking"]
@@ -29,7 +29,7 @@ MIN_ELEVATION_RAD = np.radians(10.0)
 
 
 def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
-                          seed=None):  # fmt: skip
+                          seed=None, light_time=True, radec_reference="gcrs"):  # fmt: skip
     """Observations of the orbit through ``state``, with Gaussian noise of standard deviation sigma.
 
     Parameters
@@ -49,11 +49,16 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     seed : int, numpy Generator or False, optional
         Random seed or generator of the noise; ``False`` gives the exact values (the sigmas
         are still recorded).
+    light_time : bool
+        Include the signal's flight time (default; see :class:`~visviva.Observations`).
+    radec_reference : {"gcrs", "stars"}
+        What RA/Dec rows are (see :class:`~visviva.Observations`).
 
     Returns
     -------
     Observations
-        The noisy table (angles wrapped into range).
+        The noisy table (angles wrapped into range), with the same ``light_time`` and
+        ``radec_reference``.
 
     Notes
     -----
@@ -62,16 +67,16 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     """
     from .dynamics import Dynamics
 
+    flags = {"light_time": light_time, "radec_reference": radec_reference}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
-                         sigma=sigma, station=station)  # fmt: skip
+                         sigma=sigma, station=station, **flags)  # fmt: skip
     from .batch import _check_initial
 
     x, gm, epoch = _check_initial(state)
     offsets = exact.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13)
     y, _ = dyn.propagate(x, offsets)
-    site_r, site_v, enu = exact.sites()
-    h, _ = predict(exact.kinds, y, site_r, site_v, enu)
+    h, _ = model(exact, y, gm)
     if seed is False:
         noise = np.zeros_like(h)
     else:
@@ -84,18 +89,15 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     if np.any(exact.kinds == "azel") and np.any(np.abs(values[exact.kinds == "azel", 1]) > np.pi / 2):
         raise InvalidInputError("an elevation left [-90, 90] deg; lower the angle noise.")
     return Observations(time=exact.times, kind=list(exact.kinds), value=rows,
-                        sigma=list(exact.sigmas), station=exact.stations)  # fmt: skip
+                        sigma=list(exact.sigmas), station=exact.stations, **flags)  # fmt: skip
 
 
 def _placeholder(kind, n):
     kinds = [kind] * n if isinstance(kind, str) else list(kind)
     return [np.zeros(KINDS[k][0]) if k in KINDS else 0.0 for k in kinds]
 
-
-
-
 def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
-                      min_elevation=MIN_ELEVATION_RAD, seed=None):  # fmt: skip
+                      min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True):  # fmt: skip
     """A tracking campaign: every station measures whenever the satellite is high enough.
 
     Parameters
@@ -115,6 +117,8 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         Elevation above which a station sees the satellite (default 10 deg).
     seed : int, numpy Generator or False, optional
         Noise seed (False: no noise).
+    light_time : bool
+        Include the signal's flight time (default; see :class:`~visviva.Observations`).
 
     Returns
     -------
@@ -143,4 +147,4 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     rows.sort(key=lambda row: (row[0], row[1]))
     idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
     return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
-                                 perturbations, seed=seed)  # fmt: skip
+                                 perturbations, seed=seed, light_time=light_time)  # fmt: skip

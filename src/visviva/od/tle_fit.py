@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
 
-__all__ = ["fit_tle", "TLEFit"]
+__all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
 
 _MIN_PER_DAY = 1440.0
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
@@ -62,8 +62,29 @@ class TLEFit:
                 f"{self.max_position_km * 1e3:.3g} m, {self.iterations} iterations)")  # fmt: skip
 
 
-def _states_and_times(states, times, frame):
-    """(r km (N, 3), v km/s (N, 3), Time (N,), frame name) from any supported source."""
+def states_and_times(states, times, frame):
+    """The arrays of a state history in any form :func:`fit_tle` accepts.
+
+    Parameters
+    ----------
+    states : StateVectors, CowellResult or OEM ephemeris
+        As for :func:`fit_tle`.
+    times : astropy Time (N,) or None
+        Times when ``states`` carries none.
+    frame : {"gcrs", "teme"}
+        Frame of a ``StateVectors`` input (an ephemeris names its own).
+
+    Returns
+    -------
+    r_km : ndarray (N, 3)
+        Positions, km.
+    v_km_s : ndarray (N, 3)
+        Velocities, km/s.
+    times : astropy Time (N,)
+        Their times.
+    frame : str
+        ``"gcrs"``, ``"teme"`` or ``"itrs"``.
+    """
     from astropy.time import Time
 
     from .._units import to_vector
@@ -279,13 +300,74 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     (:func:`visviva.satellites.frames.transform_matrices`). On states that SGP4 itself
     generated, the fit recovers the trajectory to well below a metre.
     """
+    if frame not in ("gcrs", "teme"):
+        raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
+    r, v, t, frame = states_and_times(states, times, frame)
+    return fit_tle_arrays(r, v, t, frame, satnum, fit_bstar, bstar, epoch=epoch, name=name,
+                          object_id=object_id, max_iterations=max_iterations, tol=tol)
+
+
+def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bstar=0.0, *,
+                   epoch=None, name=None, object_id=None, max_iterations=50,
+                   tol=1e-8):  # fmt: skip
+    """:func:`fit_tle` on plain arrays: what it calls once it has read its input.
+
+    For callers that hold the states as arrays already (``fit_tle_batch`` ships them to Dask
+    workers this way: a few flat arrays pickle far cheaper than astropy objects).
+
+    Parameters
+    ----------
+    r_km : ndarray, shape (N, 3)
+        Positions, km.
+    v_km_s : ndarray, shape (N, 3)
+        Velocities, km/s.
+    times : astropy Time, shape (N,)
+        Their times (strictly increasing).
+    frame : {"gcrs", "teme", "itrs"}
+        Frame of the states.
+    satnum : int
+        Catalogue number of the new element set.
+    fit_bstar : bool
+        Fit B* too.
+    bstar : float
+        B* in 1/earth radii (held, or the first guess).
+    epoch : astropy Time, optional
+        Epoch of the element set (default: the first time).
+    name : str, optional
+        Object name.
+    object_id : str, optional
+        International designator.
+    max_iterations : int
+        Iterations allowed.
+    tol : float
+        Relative decrease of the sum of squares that ends the iteration.
+
+    Returns
+    -------
+    Satellite
+        With its ``fit`` report (see :func:`fit_tle`).
+
+    Raises
+    ------
+    InvalidInputError
+        Too few states, times not increasing, an unbound orbit, a bad argument.
+    ConvergenceError
+        The correction did not converge.
+    """
     from astropy.time import Time
 
     from ..satellites.frames import transform_matrices
 
-    if frame not in ("gcrs", "teme"):
-        raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
-    r, v, t, frame = _states_and_times(states, times, frame)
+    if frame not in ("gcrs", "teme", "itrs"):
+        raise InvalidInputError(f"frame must be 'gcrs', 'teme' or 'itrs'; got {frame!r}.")
+    r = np.asarray(r_km, dtype=np.float64)
+    v = np.asarray(v_km_s, dtype=np.float64)
+    t = times
+    if r.ndim != 2 or r.shape[1] != 3 or v.shape != r.shape or not isinstance(t, Time) or (
+            t.shape != (r.shape[0],)):
+        raise ShapeError(
+            f"fit_tle_arrays needs r and v of shape (N, 3) and times of shape (N,); got "
+            f"{r.shape}, {v.shape} and {getattr(t, 'shape', None)}.")
     n = r.shape[0]
     need = 4 if not fit_bstar else 7
     if n < need:

@@ -168,3 +168,21 @@ def test_few_body_and_every_path_kernels_give_the_same_bits(integrator, kw):
         assert few_bodies(st.istate, st.massive) == (parallel is None)
     np.testing.assert_array_equal(runs[0].positions, runs[1].positions)
     np.testing.assert_array_equal(runs[0].velocities, runs[1].velocities)
+
+
+_ZONAL_ONLY_COWELL = """
+import numpy as np
+from astropy import units as u
+import visviva as vv
+from visviva.core import cowell, perturbations
+s = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+vv.propagate_cowell(s, np.linspace(0, 3600, 5) * u.s, perturbations=[vv.J2(vv.EARTH)])
+fns = (perturbations.cowell_rhs, perturbations.accel_drag, perturbations.accel_srp,
+       perturbations.accel_harmonics, perturbations.shadow_fraction, cowell.event_function)
+print(repr([f.__name__ for f in fns if f.signatures]), len(perturbations.zonal_rhs.signatures))
+"""
+
+
+@pytest.mark.slow
+def test_j2_cowell_compiles_only_the_zonal_right_hand_side(tmp_path):
+    assert _fresh_process(_ZONAL_ONLY_COWELL, tmp_path) == "[] 1"

@@ -393,83 +393,84 @@ def integrate_cowell(
                     acc += D[i, m] * K[m, j]
                 F[3 + i, j] = h * acc
 
-        # events in (t, t_new]
+        # events in (t, t_new] (none in the ZONAL_ONLY kernel: numba drops this block)
         t_stop = t_new
-        for e in range(n_ev):
-            g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
-        # find all crossings in this step, ordered in time
-        while True:
-            best_t = t_stop
-            best_e = -1
-            best_sign = 0.0
+        if full is not None:
             for e in range(n_ev):
-                ga = g_old[e]
-                gb = g_new[e]
-                if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
-                    continue
-                rising = gb > ga
-                if ev_dir[e] > 0 and not rising:
-                    continue
-                if ev_dir[e] < 0 and rising:
-                    continue
-                # Illinois regula falsi on the dense output between t and t_stop
-                ta = t
-                tb = t_new
-                fa = ga
-                fb = gb
-                side = 0
-                tc = tb
-                for _ in range(200):
-                    if abs(tb - ta) <= ev_tol:
-                        break
-                    tc = (fa * tb - fb * ta) / (fa - fb)
-                    if not (min(ta, tb) < tc < max(ta, tb)):
-                        tc = 0.5 * (ta + tb)
-                    dense_eval(tc, t, h, y, F, y_tmp)
-                    fc = _event(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v, full)
-                    if fc == 0.0:
-                        ta = tc
-                        tb = tc
-                        break
-                    if (fc < 0.0) == (fb < 0.0):
-                        tb = tc
-                        fb = fc
-                        if side == -1:
-                            fa *= 0.5
-                        side = -1
-                    else:
-                        ta = tc
-                        fa = fc
-                        if side == 1:
-                            fb *= 0.5
-                        side = 1
-                    if abs(tb - ta) <= ev_tol:
-                        break
-                # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
-                tc = 0.5 * (ta + tb)
-                if direction * (tc - best_t) < 0.0 or best_e < 0:
-                    if direction * (tc - t_stop) <= 0.0:
-                        best_t = tc
-                        best_e = e
-                        best_sign = 1.0 if rising else -1.0
-            if best_e < 0:
-                break
-            # record it
-            if n_found < cap:
-                ev_t[n_found] = best_t
-                dense_eval(best_t, t, h, y, F, y_tmp)
-                for j in range(n):
-                    ev_y[n_found, j] = y_tmp[j]
-                ev_which[n_found] = (best_e + 1) * best_sign
-            n_found += 1
-            # mark this event as done for this step
-            g_old[best_e] = g_new[best_e]
-            if ev_terminal[best_e] != 0:
-                t_stop = best_t
-                terminal_index = best_e
-                break
-            # other events before this one were already handled (each event at most once per
-            # step: the step is short compared with an orbit)
+                g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
+            # find all crossings in this step, ordered in time
+            while True:
+                best_t = t_stop
+                best_e = -1
+                best_sign = 0.0
+                for e in range(n_ev):
+                    ga = g_old[e]
+                    gb = g_new[e]
+                    if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
+                        continue
+                    rising = gb > ga
+                    if ev_dir[e] > 0 and not rising:
+                        continue
+                    if ev_dir[e] < 0 and rising:
+                        continue
+                    # Illinois regula falsi on the dense output between t and t_stop
+                    ta = t
+                    tb = t_new
+                    fa = ga
+                    fb = gb
+                    side = 0
+                    tc = tb
+                    for _ in range(200):
+                        if abs(tb - ta) <= ev_tol:
+                            break
+                        tc = (fa * tb - fb * ta) / (fa - fb)
+                        if not (min(ta, tb) < tc < max(ta, tb)):
+                            tc = 0.5 * (ta + tb)
+                        dense_eval(tc, t, h, y, F, y_tmp)
+                        fc = _event(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v, full)
+                        if fc == 0.0:
+                            ta = tc
+                            tb = tc
+                            break
+                        if (fc < 0.0) == (fb < 0.0):
+                            tb = tc
+                            fb = fc
+                            if side == -1:
+                                fa *= 0.5
+                            side = -1
+                        else:
+                            ta = tc
+                            fa = fc
+                            if side == 1:
+                                fb *= 0.5
+                            side = 1
+                        if abs(tb - ta) <= ev_tol:
+                            break
+                    # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
+                    tc = 0.5 * (ta + tb)
+                    if direction * (tc - best_t) < 0.0 or best_e < 0:
+                        if direction * (tc - t_stop) <= 0.0:
+                            best_t = tc
+                            best_e = e
+                            best_sign = 1.0 if rising else -1.0
+                if best_e < 0:
+                    break
+                # record it
+                if n_found < cap:
+                    ev_t[n_found] = best_t
+                    dense_eval(best_t, t, h, y, F, y_tmp)
+                    for j in range(n):
+                        ev_y[n_found, j] = y_tmp[j]
+                    ev_which[n_found] = (best_e + 1) * best_sign
+                n_found += 1
+                # mark this event as done for this step
+                g_old[best_e] = g_new[best_e]
+                if ev_terminal[best_e] != 0:
+                    t_stop = best_t
+                    terminal_index = best_e
+                    break
+                # other events before this one were already handled (each event at most once per
+                # step: the step is short compared with an orbit)
         # outputs in (t, t_stop]
         while written < n_out and direction * (t_out[written] - t_stop) <= 0.0:
             if t_out[written] == t_new and terminal_index < 0:

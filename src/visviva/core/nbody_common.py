@@ -7,6 +7,11 @@ same signature, :data:`RUN_SIGNATURE`::
         t_out, out_t, out_x, out_v) -> status
 
 and advances the state in place through every requested output time in ONE compiled call.
+Each integrator has two such kernels around one run body: ``<name>_run`` (gravity by any
+kernel, chosen at run time from ``istate[I_PARALLEL]`` and N) and ``<name>_run_few`` (the
+serial few-body gravity alone, :data:`FEW`: one thread, fewer than
+:data:`visviva.core.gravity.PAIR_MIN_N` massive particles; the same bits, and a fraction of the
+compile time on a fresh install). ``visviva.nbody.integrators.few_bodies`` chooses.
 
 ``x, v`` (N, 3)
     positions and velocities, updated in place.

@@ -17,8 +17,6 @@ from matplotlib.animation import FuncAnimation  # noqa: E402
 
 import visviva as vv  # noqa: E402
 
-pytestmark = pytest.mark.filterwarnings("ignore:Animation was deleted without rendering")
-
 DATA = Path(__file__).parent / "data" / "figure_eight.json"
 ISS_1 = "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009"
 ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340"
@@ -30,8 +28,16 @@ def _close_figures():
     plt.close("all")
 
 
+def _drawn(anim):
+    """The animation after its first draw, as a player would do (matplotlib warns about an
+    animation deleted without having drawn anything)."""
+    anim._init_draw()
+    return anim
+
+
 def _dot_xy(anim, i, k=0):
     """Draw frame i and return where particle k's dot is."""
+    _drawn(anim)
     artists = anim._func(i)
     x, y = artists[k].get_data()
     return np.array([x[0], y[0]])
@@ -97,6 +103,6 @@ def test_bad_animation_inputs_say_what_to_do(tmp_path):
         vv.animate_orbit(el, np.arange(3) * u.s, plane="yz")
     with pytest.raises(vv.InvalidInputError, match="frames must be >= 2"):
         vv.animate_simulation(vv.Simulation(), 1.0, frames=1)
-    anim = vv.animate_orbit(el, np.arange(3) * u.min)
+    anim = _drawn(vv.animate_orbit(el, np.arange(3) * u.min))
     with pytest.raises(vv.InvalidInputError, match=".gif"):
         vv.save_animation(anim, tmp_path / "orbit.avi")

@@ -318,3 +318,25 @@ def test_step_budget_exhausted_says_so():
     for bad in (0, -5, 2.5):
         with pytest.raises(InvalidInputError, match="max_steps must be an integer > 0"):
             propagate_cowell(state, 100 * u.s, max_steps=bad)
+
+
+def test_zonal_only_kernel_gives_the_full_kernels_bits(monkeypatch):
+    # a two-body + zonal model without events runs the ZONAL_ONLY variant (only zonal_rhs
+    # compiled, for a short first call); forced onto the full right-hand side it gives the
+    # same bits, one state and a batch
+    from visviva.core import cowell as core_cowell
+    from visviva.satellites import cowell as sat_cowell
+
+    state = leo()
+    batch = vv.StateVectors([[7000.0, 0.0, 0.0], [0.0, 8000.0, 10.0]] * u.km,
+                            [[0.0, 7.5, 1.0], [-6.9, 0.0, 1.5]] * u.km / u.s, vv.EARTH)
+    t = np.linspace(0.0, 6 * 3600.0, 13) * u.s
+    model = [vv.Zonal(vv.EARTH, 4)]
+    assert core_cowell.rhs_kind(np.zeros(core_cowell.fb.FORCE_SIZE), 0) is None
+    assert core_cowell.rhs_kind(np.zeros(core_cowell.fb.FORCE_SIZE), 1) is True
+    few = [propagate_cowell(s, t, model) for s in (state, batch)]
+    monkeypatch.setattr(sat_cowell, "rhs_kind", lambda force, n_events: core_cowell.FULL)
+    full = [propagate_cowell(s, t, model) for s in (state, batch)]
+    for a, b in zip(few, full, strict=True):
+        np.testing.assert_array_equal(a.r.to_value(u.km), b.r.to_value(u.km))
+        np.testing.assert_array_equal(a.v.to_value(u.km / u.s), b.v.to_value(u.km / u.s))

@@ -85,3 +85,104 @@ def test_gravity_paths_share_one_compiled_pair_item():
     # warm the callers load their machine code and the helpers are not compiled at all (0)
     for fn in (gravity._pair_item, gravity._pair_reduce, gravity._test_rows):
         assert len(fn.signatures) <= 1, (fn, fn.signatures)
+
+
+# ---- the few-body kernels: what a small N-body run compiles (issue 11, cold start) -----------
+
+_FEW_GRAVITY = """
+import numpy as np
+from visviva.core import gravity, gravity_split
+x = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+m = np.array([1.0, 1e-3, 1e-3])
+acc = np.zeros((3, 3))
+work = np.zeros((7, 3))
+massive = np.arange(3)
+gravity.gravity(x, m, 1.0, 0.0, massive, acc, work, gravity.FEW)
+gravity_split.gravity_split(x, 0.0 * x, m, 1.0, 0.0, massive, acc, work, gravity.FEW)
+compiled = [f.__name__ for f in (gravity.gravity_parallel, gravity._gravity_pairs_parallel,
+            gravity._gravity_pairs_serial, gravity.gravity_serial,
+            gravity_split._gravity_split_parallel) if f.signatures]
+print(repr(compiled), len(gravity.gravity_few.signatures))
+"""
+
+
+def _fresh_process(code, cache_dir):
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=900, check=True)
+    return proc.stdout.strip().splitlines()[-1]
+
+
+def test_few_body_gravity_compiles_no_parallel_or_large_n_kernel(tmp_path):
+    # FEW (None) is a type: numba drops the other branches when it types the dispatch, so with
+    # an empty cache no prange region and no large-N kernel is compiled (the structure that
+    # keeps a small N-body run's first call short)
+    assert _fresh_process(_FEW_GRAVITY, tmp_path) == "[] 1"
+
+
+_FEW_RUNS = """
+import visviva as vv
+from visviva.core import gravity, gravity_split, nbody_ias15, nbody_whfast
+for integrator, kw in (("whfast", {"dt": 0.01}), ("ias15", {})):
+    sim = vv.Simulation(integrator=integrator, G=1.0, **kw)
+    sim.add(1.0, [0, 0, 0], [0, 0, 0])
+    sim.add(1e-3, [1, 0, 0], [0, 1, 0])
+    sim.add(1e-3, [2, 0, 0], [0, 0.7, 0])
+    sim.integrate(1.0)
+fns = (gravity.gravity_parallel, gravity._gravity_pairs_parallel, gravity._gravity_pairs_serial,
+       gravity_split._gravity_split_parallel, nbody_whfast.whfast_run, nbody_ias15.ias15_run)
+print(repr([f.__name__ for f in fns if f.signatures]),
+      len(nbody_whfast.whfast_run_few.signatures), len(nbody_ias15.ias15_run_few.signatures))
+"""
+
+
+@pytest.mark.slow
+def test_three_body_runs_compile_only_the_few_body_kernels(tmp_path):
+    # a 3-body WHFast and IAS15 run with an empty cache: the few-body kernels only (one
+    # signature each), no parallel gravity, no large-N kernel, not the every-path kernels
+    assert _fresh_process(_FEW_RUNS, tmp_path) == "[] 1 1"
+
+
+@pytest.mark.parametrize("integrator, kw", [
+    ("whfast", {"dt": 0.01, "corrector": 5}),
+    ("whfast", {"dt": 0.01, "coordinates": "democratic_heliocentric"}),
+    ("ias15", {}),
+    ("leapfrog", {"dt": 0.01}),
+])
+def test_few_body_and_every_path_kernels_give_the_same_bits(integrator, kw):
+    import visviva as vv
+    from visviva.nbody.integrators import few_bodies
+
+    runs = []
+    for parallel in (None, True):  # 3 bodies: the few-body kernel; parallel: every-path one
+        sim = vv.Simulation(integrator=integrator, G=1.0, parallel=parallel, **kw)
+        sim.add(1.0, [0, 0, 0], [0, 0, 0])
+        sim.add(1e-3, [1, 0, 0], [0, 1, 0])
+        sim.add(1e-3, [2, 0, 0.1], [0, 0.7, 0])
+        runs.append(sim.integrate(np.linspace(0.0, 3.0, 7)))
+        st = sim._state
+        assert few_bodies(st.istate, st.massive) == (parallel is None)
+    np.testing.assert_array_equal(runs[0].positions, runs[1].positions)
+    np.testing.assert_array_equal(runs[0].velocities, runs[1].velocities)
+
+
+_ZONAL_ONLY_COWELL = """
+import numpy as np
+from astropy import units as u
+import visviva as vv
+from visviva.core import cowell, perturbations
+s = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+vv.propagate_cowell(s, np.linspace(0, 3600, 5) * u.s, perturbations=[vv.J2(vv.EARTH)])
+fns = (perturbations.cowell_rhs, perturbations.accel_drag, perturbations.accel_srp,
+       perturbations.accel_harmonics, perturbations.shadow_fraction, cowell.event_function)
+print(repr([f.__name__ for f in fns if f.signatures]), len(perturbations.zonal_rhs.signatures))
+"""
+
+
+@pytest.mark.slow
+def test_j2_cowell_compiles_only_the_zonal_right_hand_side(tmp_path):
+    assert _fresh_process(_ZONAL_ONLY_COWELL, tmp_path) == "[] 1"

@@ -83,6 +83,15 @@ def _simulation(integrator, **kw):
     return run
 
 
+def _nbody_all_paths():
+    # the 3-body runs above use each integrator's few-body kernel; these are the ones with
+    # every gravity path (threads, large N, ensembles)
+    from .nbody.integrators import INTEGRATORS
+
+    for info in INTEGRATORS.values():
+        info.kernel()
+
+
 def _satellite():
     import numpy as np
     from astropy import units as u
@@ -105,6 +114,7 @@ TASKS = (
     ("N-body: IAS15", _simulation("ias15")),
     ("N-body: WHFast", _simulation("whfast", dt=0.01)),
     ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
+    ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),
 )
 

@@ -36,7 +36,7 @@ from numba.core.registry import CPUDispatcher
 from numba.extending import intrinsic
 
 __all__ = ["compile_notice", "kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel",
-           "prefer_wide_vectors"]
+           "step_kernel", "prefer_wide_vectors"]
 
 _FLAGS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": False}
 
@@ -152,6 +152,27 @@ def inline_kernel(fn):
     (docs/design.md, "Compile time").
     """
     return _njit(forceinline=True, **_FLAGS)(fn)
+
+
+def step_kernel(fn):
+    """Decorator for a function that numba merges into its caller (an integrator's run body).
+
+    ``inline="always"``: numba splices the function's IR into each caller before typing, so it
+    is never compiled as a function of its own. Every function numba compiles links in the
+    code of all its callees and runs LLVM's optimisation and machine-code emission over the whole
+    tree again, so a compiled level costs as much as the tree below it. Each N-body integrator
+    has one run body and two thin kernels around it (``<name>_run``, every gravity path, and
+    ``<name>_run_few``, the serial few-body path alone); with the body merged into them the
+    variants add no level. Also used for a two-line helper (``accelerations``) and for IAS15's
+    step (one call site).
+
+    Use it only with one or two call sites: the IR is typed again at every site. Merging all of
+    WHFast's orchestration (the corrector inlined seven times) took 45 s of CPU against 17 s
+    for the levels it removed, and numba's inlining of numeric helpers was what made
+    ``_propagate_unscaled`` slow to compile (see :func:`inline_kernel`). Called from Python, it
+    compiles like any kernel.
+    """
+    return _njit(inline="always", **_FLAGS)(fn)
 
 
 prange = numba.prange

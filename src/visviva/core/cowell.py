@@ -36,8 +36,8 @@ import numpy as np
 
 from . import force_block as fb
 from . import status as st
-from ._jit import inline_kernel, kernel, parallel_kernel, prange
-from .perturbations import cowell_rhs, geodetic_altitude, hermite_position
+from ._jit import inline_kernel, kernel, parallel_kernel, prange, step_kernel
+from .perturbations import cowell_rhs, geodetic_altitude, hermite_position, zonal_rhs
 
 __all__ = ["integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
 
@@ -120,6 +120,41 @@ def dense_eval(t, t_old, h, y_old, F, out):
         out[j] = y_old[j] + acc
 
 
+#: The ``full`` argument of :func:`integrate_cowell` for a force model of the two-body and
+#: zonal terms alone and no events (a type, not a value: with ``None`` numba compiles
+#: :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body, SRP, shadow and
+#: harmonics kernels nor the event functions: about half the compile time of a first call).
+ZONAL_ONLY = None
+#: The ``full`` argument for any other force model or with events.
+FULL = True
+
+
+def rhs_kind(force, n_events):
+    """:data:`ZONAL_ONLY` when ``force`` (the force block) has no term beyond the two-body and
+    zonal ones and there are no events, else :data:`FULL` (plain Python, not compiled)."""
+    zonal_only = (n_events == 0 and force[fb.HARMONICS_DEGREE] < 2.0
+                  and force[fb.DRAG_ON] == 0.0 and int(force[fb.N_THIRD_BODIES]) == 0
+                  and force[fb.SRP_ON] == 0.0)
+    return ZONAL_ONLY if zonal_only else FULL
+
+
+@step_kernel
+def _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, full):
+    # cowell_rhs, or zonal_rhs alone when full is ZONAL_ONLY (numba drops the other branch)
+    if full is None:
+        zonal_rhs(y, force, zonal, dy)
+    else:
+        cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy)
+
+
+@step_kernel
+def _event(kind, param, t, y, force, eph_r, eph_v, full):
+    # event_function; never reached with ZONAL_ONLY (no events), so not compiled there
+    if full is None:
+        return 0.0
+    return event_function(kind, param, t, y, force, eph_r, eph_v)
+
+
 @kernel
 def _rms_norm(v, scale):
     acc = 0.0
@@ -161,6 +196,7 @@ def integrate_cowell(
     ev_y,
     ev_which,
     info,
+    full,
 ):
     """Integrate y' = cowell_rhs(t, y) from t = 0 to ``t_end`` (either sign).
 
@@ -195,6 +231,10 @@ def integrate_cowell(
     info : ndarray (6,)
         Output: [outputs written, events found (may exceed M: then rerun larger), steps,
         rhs evaluations, final time reached, index of the terminal event or -1].
+    full : None or bool
+        :data:`ZONAL_ONLY` (``None``) for a force model of the two-body and zonal terms alone
+        without events (compiles only those; same bits), else :data:`FULL`; see
+        :func:`rhs_kind`.
 
     Returns
     -------
@@ -231,10 +271,10 @@ def integrate_cowell(
             y_out[written, j] = y[j]
         written += 1
 
-    cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f)
+    _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
     nfev += 1
     for e in range(n_ev):
-        g_old[e] = event_function(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v)
+        g_old[e] = _event(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v, full)
 
     interval = abs(t_end)
     if interval == 0.0:
@@ -257,7 +297,7 @@ def integrate_cowell(
     h0 = min(h0, interval)
     for j in range(n):
         y_tmp[j] = y[j] + h0 * direction * f[j]
-    cowell_rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new)
+    _rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new, full)
     nfev += 1
     for j in range(n):
         err5[j] = y_new[j] - f[j]
@@ -298,9 +338,9 @@ def integrate_cowell(
                 K[0, j] = f[j]
             for s in range(1, _N_STAGES):
                 rk_combine(n, y, K, A[s], s, h, y_tmp)
-                cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
+                _rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
             rk_combine(n, y, K, B, _N_STAGES, h, y_new)
-            cowell_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES])
+            _rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES], full)
             nfev += _N_STAGES
             for j in range(n):
                 scale[j] = atol + max(abs(y[j]), abs(y_new[j])) * rtol
@@ -340,7 +380,7 @@ def integrate_cowell(
         # dense output coefficients for [t, t + h]
         for s in range(_N_STAGES + 1, 16):
             rk_combine(n, y, K, A[s], s, h, y_tmp)
-            cowell_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s])
+            _rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
         nfev += 3
         for j in range(n):
             dlt = y_new[j] - y[j]
@@ -353,83 +393,84 @@ def integrate_cowell(
                     acc += D[i, m] * K[m, j]
                 F[3 + i, j] = h * acc
 
-        # events in (t, t_new]
+        # events in (t, t_new] (none in the ZONAL_ONLY kernel: numba drops this block)
         t_stop = t_new
-        for e in range(n_ev):
-            g_new[e] = event_function(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v)
-        # find all crossings in this step, ordered in time
-        while True:
-            best_t = t_stop
-            best_e = -1
-            best_sign = 0.0
+        if full is not None:
             for e in range(n_ev):
-                ga = g_old[e]
-                gb = g_new[e]
-                if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
-                    continue
-                rising = gb > ga
-                if ev_dir[e] > 0 and not rising:
-                    continue
-                if ev_dir[e] < 0 and rising:
-                    continue
-                # Illinois regula falsi on the dense output between t and t_stop
-                ta = t
-                tb = t_new
-                fa = ga
-                fb = gb
-                side = 0
-                tc = tb
-                for _ in range(200):
-                    if abs(tb - ta) <= ev_tol:
-                        break
-                    tc = (fa * tb - fb * ta) / (fa - fb)
-                    if not (min(ta, tb) < tc < max(ta, tb)):
-                        tc = 0.5 * (ta + tb)
-                    dense_eval(tc, t, h, y, F, y_tmp)
-                    fc = event_function(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v)
-                    if fc == 0.0:
-                        ta = tc
-                        tb = tc
-                        break
-                    if (fc < 0.0) == (fb < 0.0):
-                        tb = tc
-                        fb = fc
-                        if side == -1:
-                            fa *= 0.5
-                        side = -1
-                    else:
-                        ta = tc
-                        fa = fc
-                        if side == 1:
-                            fb *= 0.5
-                        side = 1
-                    if abs(tb - ta) <= ev_tol:
-                        break
-                # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
-                tc = 0.5 * (ta + tb)
-                if direction * (tc - best_t) < 0.0 or best_e < 0:
-                    if direction * (tc - t_stop) <= 0.0:
-                        best_t = tc
-                        best_e = e
-                        best_sign = 1.0 if rising else -1.0
-            if best_e < 0:
-                break
-            # record it
-            if n_found < cap:
-                ev_t[n_found] = best_t
-                dense_eval(best_t, t, h, y, F, y_tmp)
-                for j in range(n):
-                    ev_y[n_found, j] = y_tmp[j]
-                ev_which[n_found] = (best_e + 1) * best_sign
-            n_found += 1
-            # mark this event as done for this step
-            g_old[best_e] = g_new[best_e]
-            if ev_terminal[best_e] != 0:
-                t_stop = best_t
-                terminal_index = best_e
-                break
-            # other events before this one were already handled (each event at most once per
-            # step: the step is short compared with an orbit)
+                g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
+            # find all crossings in this step, ordered in time
+            while True:
+                best_t = t_stop
+                best_e = -1
+                best_sign = 0.0
+                for e in range(n_ev):
+                    ga = g_old[e]
+                    gb = g_new[e]
+                    if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
+                        continue
+                    rising = gb > ga
+                    if ev_dir[e] > 0 and not rising:
+                        continue
+                    if ev_dir[e] < 0 and rising:
+                        continue
+                    # Illinois regula falsi on the dense output between t and t_stop
+                    ta = t
+                    tb = t_new
+                    fa = ga
+                    fb = gb
+                    side = 0
+                    tc = tb
+                    for _ in range(200):
+                        if abs(tb - ta) <= ev_tol:
+                            break
+                        tc = (fa * tb - fb * ta) / (fa - fb)
+                        if not (min(ta, tb) < tc < max(ta, tb)):
+                            tc = 0.5 * (ta + tb)
+                        dense_eval(tc, t, h, y, F, y_tmp)
+                        fc = _event(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v, full)
+                        if fc == 0.0:
+                            ta = tc
+                            tb = tc
+                            break
+                        if (fc < 0.0) == (fb < 0.0):
+                            tb = tc
+                            fb = fc
+                            if side == -1:
+                                fa *= 0.5
+                            side = -1
+                        else:
+                            ta = tc
+                            fa = fc
+                            if side == 1:
+                                fb *= 0.5
+                            side = 1
+                        if abs(tb - ta) <= ev_tol:
+                            break
+                    # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
+                    tc = 0.5 * (ta + tb)
+                    if direction * (tc - best_t) < 0.0 or best_e < 0:
+                        if direction * (tc - t_stop) <= 0.0:
+                            best_t = tc
+                            best_e = e
+                            best_sign = 1.0 if rising else -1.0
+                if best_e < 0:
+                    break
+                # record it
+                if n_found < cap:
+                    ev_t[n_found] = best_t
+                    dense_eval(best_t, t, h, y, F, y_tmp)
+                    for j in range(n):
+                        ev_y[n_found, j] = y_tmp[j]
+                    ev_which[n_found] = (best_e + 1) * best_sign
+                n_found += 1
+                # mark this event as done for this step
+                g_old[best_e] = g_new[best_e]
+                if ev_terminal[best_e] != 0:
+                    t_stop = best_t
+                    terminal_index = best_e
+                    break
+                # other events before this one were already handled (each event at most once per
+                # step: the step is short compared with an orbit)
         # outputs in (t, t_stop]
         while written < n_out and direction * (t_out[written] - t_stop) <= 0.0:
             if t_out[written] == t_new and terminal_index < 0:
@@ -465,7 +506,7 @@ def integrate_cowell(
 @parallel_kernel
 def integrate_cowell_many(
     y0, t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
-    A, B, C, E3, E5, D, y_out, status, info,
+    A, B, C, E3, E5, D, y_out, status, info, full,
 ):  # fmt: skip
     """:func:`integrate_cowell` for N initial states (rows of ``y0``) in parallel, no events.
 
@@ -480,5 +521,5 @@ def integrate_cowell_many(
         status[k] = integrate_cowell(
             y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v,
             eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
-            y_out[k], ev_t, ev_y, ev_which, info[k],
+            y_out[k], ev_t, ev_y, ev_which, info[k], full,
         )  # fmt: skip

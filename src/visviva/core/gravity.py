@@ -77,6 +77,8 @@ __all__ = [
     "gravity_serial",
     "gravity_parallel",
     "gravity",
+    "gravity_few",
+    "FEW",
     "energy",
     "kinetic_energy",
     "potential_energy",
@@ -99,6 +101,10 @@ PAIR_COL_BLOCK = 4096
 #: The large-N kernel's rows are padded to a multiple of this many columns (8-double vectors,
 #: unrolled twice by LLVM) with massless far-away dummies, so no scalar remainder loop runs.
 PAIR_PAD = 16
+#: The ``parallel`` argument of :func:`gravity` and
+#: :func:`visviva.core.gravity_split.gravity_split` that compiles the few-body serial path alone
+#: (a type, not a value: ``None`` makes numba drop the other paths when it compiles the caller).
+FEW = None
 #: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003).
 _RSQRT_MAGIC = 0x5FE6EB50C7B537A9
 
@@ -518,6 +524,14 @@ def gravity_serial(x, m, G, soft2, massive, acc, work):
     if massive.shape[0] >= PAIR_MIN_N:
         _gravity_pairs_serial(x, m, G, soft2, massive, acc)
         return
+    gravity_few(x, m, G, soft2, massive, acc, work)
+
+
+@kernel
+def gravity_few(x, m, G, soft2, massive, acc, work):
+    """:func:`gravity_serial` below :data:`PAIR_MIN_N` massive particles (the same bits): one
+    :func:`row_acceleration` per particle, on one thread. The only path compiled into the
+    integrators' few-body kernels (see :func:`gravity`)."""
     nm = pack_massive(x, m, G, massive, work)
     _rows(0, x.shape[0], x, work[0, :nm], work[1, :nm], work[2, :nm], work[3, :nm], soft2, acc)
 
@@ -545,8 +559,16 @@ def gravity_parallel(x, m, G, soft2, massive, acc, work):
 @kernel
 def gravity(x, m, G, soft2, massive, acc, work, parallel):
     """Dispatch: :func:`gravity_parallel` when ``parallel``, else :func:`gravity_serial`
-    (same bits)."""
-    if parallel:
+    (same bits).
+
+    ``parallel=None`` (the integrators' few-body kernels, :data:`FEW`) compiles
+    :func:`gravity_few` alone: numba removes the other branch when it types the call, so no
+    ``prange`` region and no large-N kernel is compiled. Valid only on one thread below
+    :data:`PAIR_MIN_N` massive particles, where it gives the same bits as the others.
+    """
+    if parallel is None:
+        gravity_few(x, m, G, soft2, massive, acc, work)
+    elif parallel:
         gravity_parallel(x, m, G, soft2, massive, acc, work)
     else:
         gravity_serial(x, m, G, soft2, massive, acc, work)

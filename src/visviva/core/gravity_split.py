@@ -159,7 +159,12 @@ def gravity_split(x, xlo, m, G, soft2, massive, acc, work, parallel):
     the time of :func:`gravity`); from :data:`PAIR_MIN_N` massive particles on, the large-N
     kernel runs on the high parts alone (as :func:`gravity` does).
     """
-    if massive.shape[0] >= PAIR_MIN_N:
+    if parallel is None:  # FEW: the serial few-body paths alone (see gravity.gravity)
+        if massive.shape[0] < SPLIT_FEW_N:
+            _gravity_split_few(x, xlo, m, G, soft2, massive, acc)
+        else:
+            _gravity_split_serial(x, xlo, m, G, soft2, massive, acc, work)
+    elif massive.shape[0] >= PAIR_MIN_N:
         gravity(x, m, G, soft2, massive, acc, work, parallel)
     elif massive.shape[0] < SPLIT_FEW_N and not parallel:
         _gravity_split_few(x, xlo, m, G, soft2, massive, acc)

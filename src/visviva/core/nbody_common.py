@@ -7,6 +7,11 @@ same signature, :data:`RUN_SIGNATURE`::
         t_out, out_t, out_x, out_v) -> status
 
 and advances the state in place through every requested output time in ONE compiled call.
+Each integrator has two such kernels around one run body: ``<name>_run`` (gravity by any
+kernel, chosen at run time from ``istate[I_PARALLEL]`` and N) and ``<name>_run_few`` (the
+serial few-body gravity alone, :data:`FEW`: one thread, fewer than
+:data:`visviva.core.gravity.PAIR_MIN_N` massive particles; the same bits, and a fraction of the
+compile time on a fresh install). ``visviva.nbody.integrators.few_bodies`` chooses.
 
 ``x, v`` (N, 3)
     positions and velocities, updated in place.
@@ -33,8 +38,8 @@ import math
 
 from numba import types
 
-from ._jit import kernel
-from .gravity import gravity
+from ._jit import kernel, step_kernel
+from .gravity import FEW, gravity
 from .gravity_split import gravity_split
 from .status import COLLISION, ENCOUNTER, ESCAPE, OK
 
@@ -47,6 +52,7 @@ __all__ = [
     "check_events",
     "N_FSTATE",
     "N_ISTATE",
+    "FEW",
 ]
 
 # ---- scalar state slots ------------------------------------------------------------------------
@@ -106,23 +112,25 @@ RUN_SIGNATURE = types.int64(
 )
 
 
-@kernel
-def accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc):
-    """Gravity (direct summation) plus the additional force, written into ``acc``."""
-    gravity(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork, istate[I_PARALLEL] != 0)
+@step_kernel
+def accelerations(t, x, v, m, massive, fstate, gwork, force, params, acc, parallel):
+    """Gravity (direct summation) plus the additional force, written into ``acc``.
+
+    ``parallel``: the gravity kernel's choice (``istate[I_PARALLEL] != 0``), or ``FEW`` in a
+    few-body kernel (see :func:`visviva.core.gravity.gravity`)."""
+    gravity(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork, parallel)
     force(t, x, v, m, params, acc)
 
 
-@kernel
-def accelerations_split(t, x, xlo, v, m, massive, fstate, istate, gwork, force, params, acc):
+@step_kernel
+def accelerations_split(t, x, xlo, v, m, massive, fstate, gwork, force, params, acc, parallel):
     """:func:`accelerations` with positions in two parts ``x + xlo`` for gravity (IAS15).
 
     The additional force sees ``x`` (the high parts) only. (Numba's cache checks only the
     stamp of the defining file: after editing :func:`visviva.core.gravity_split.gravity_split`, touch
     this file and :mod:`.nbody_ias15`.)
     """
-    gravity_split(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork,
-                  istate[I_PARALLEL] != 0)
+    gravity_split(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc, gwork, parallel)
     force(t, x, v, m, params, acc)
 
 

@@ -55,7 +55,7 @@ import math
 
 import numpy as np
 
-from ._jit import kernel
+from ._jit import kernel, step_kernel
 from .gravity import PAIR_MIN_N
 from .nbody_common import (
     F_DT,
@@ -68,6 +68,7 @@ from .nbody_common import (
     F_MIN_DT,
     F_T,
     F_T_INT,
+    FEW,
     I_ADAPTIVE_MODE,
     I_COLLISIONS,
     I_EXACT_FINISH,
@@ -75,6 +76,7 @@ from .nbody_common import (
     I_INT_VALID,
     I_ITERATIONS,
     I_NOUT,
+    I_PARALLEL,
     I_REJECTED,
     I_STEPS,
     I_STOP_AT_STEP,
@@ -89,7 +91,7 @@ from .nbody_common import (
 )
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
-__all__ = ["ias15_run", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
+__all__ = ["ias15_run", "ias15_run_few", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
 
 #: Gauss-Radau spacings on [0, 1] (h0 = 0 and the 7 roots; Everhart 1985, table 1).
 H = np.array(
@@ -246,8 +248,9 @@ def _tight_pair(x, massive):
     return False
 
 
-@kernel
-def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt):
+@step_kernel
+def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt,
+          parallel):
     """Try one step of length ``dt``. Returns (status, accepted, dt_new).
 
     The (N, 3) arrays are processed as flat vectors of length 3N (one loop, no inner xyz loop).
@@ -277,9 +280,9 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
     if split:
         for q in range(n3):
             xlf[q] = -csx[q]
-        accelerations_split(t, x, xl, v, m, massive, fstate, istate, gwork, force, params, a0)
+        accelerations_split(t, x, xl, v, m, massive, fstate, gwork, force, params, a0, parallel)
     else:
-        accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, a0)
+        accelerations(t, x, v, m, massive, fstate, gwork, force, params, a0, parallel)
     for q in range(n3):
         if not math.isfinite(a0f[q]):
             return NON_FINITE, False, dt  # a singular or overflowing force: report it
@@ -347,11 +350,11 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
                           * cv2 + b0) * cv1 + a0f[q]) * dth
                     ) + vf[q]
             if split:
-                accelerations_split(t + h * dt, xp, xl, vp, m, massive, fstate, istate, gwork,
-                                    force, params, F)
+                accelerations_split(t + h * dt, xp, xl, vp, m, massive, fstate, gwork, force,
+                                    params, F, parallel)
             else:
-                accelerations(t + h * dt, xp, vp, m, massive, fstate, istate, gwork, force, params,
-                              F)
+                accelerations(t + h * dt, xp, vp, m, massive, fstate, gwork, force, params, F,
+                              parallel)
             maxa = 0.0
             maxdb6 = 0.0
             for q in range(n3):
@@ -463,7 +466,7 @@ def _step(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t
 
 @kernel
 def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, target,
-             direction, mode, events, span):
+             direction, mode, events, span, parallel):
     """Adaptive steps of the internal state towards ``target``.
 
     ``mode`` 0: stop before a step would pass ``target``; 1: land exactly on it (the last step
@@ -491,7 +494,7 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
             if mode == 1:
                 dt = rem
         status, accepted, dt_new = _step(
-            xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt
+            xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt, parallel
         )
         if status != OK:
             return status
@@ -566,6 +569,24 @@ def _expose(xi, vi, x, v):
 @kernel
 def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
               out_t, out_x, out_v):
+    """Advance through every output time with IAS15 (see :func:`_ias15`); gravity by any
+    kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
+    return _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                  out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+
+
+@kernel
+def ias15_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                  out_t, out_x, out_v):
+    """:func:`ias15_run` with the serial few-body gravity alone (``FEW``; see
+    :func:`visviva.core.nbody_whfast.whfast_run_few`)."""
+    return _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                  out_t, out_x, out_v, FEW)
+
+
+@step_kernel
+def _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+           out_t, out_x, out_v, parallel):
     """Advance through every output time with IAS15 (see the module docstring).
 
     The integrator's own state (``buf``: positions, velocities, b and e arrays, compensated
@@ -599,7 +620,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
         target = t_out[k]
         mode = 0 if exact else 2
         status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params,
-                          target, direction, mode, events, span)
+                          target, direction, mode, events, span, parallel)
         if status != OK:
             _expose(xi, vi, x, v)
             fstate[F_T] = fstate[F_T_INT]
@@ -615,7 +636,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 isave[q] = istate[q]
             istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
             status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
-                              params, target, direction, 1, False, span)
+                              params, target, direction, 1, False, span, parallel)
             _expose(xi, vi, x, v)
             _backup(buf, True)
             for q in range(fstate.shape[0]):

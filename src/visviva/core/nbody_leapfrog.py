@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import kernel
+from ._jit import kernel, step_kernel
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
@@ -27,12 +27,14 @@ from .nbody_common import (
     F_EXIT,
     F_T,
     F_T0,
+    FEW,
     I_COLLISIONS,
     I_EXACT_FINISH,
     I_FRESH,
     I_INT_VALID,
     I_K,
     I_NOUT,
+    I_PARALLEL,
     I_STEPS,
     PAUSED,
     accelerations,
@@ -43,7 +45,7 @@ from .nbody_common import (
 )
 from .status import NON_FINITE, OK
 
-__all__ = ["leapfrog_run", "N_BUF"]
+__all__ = ["leapfrog_run", "leapfrog_run_few", "N_BUF"]
 
 # slots of buf: acceleration, internal positions and velocities (on the step grid)
 _ACC = 0
@@ -54,13 +56,13 @@ N_BUF = 3
 
 
 @kernel
-def _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t, h):
+def _dkd(x, v, m, massive, fstate, gwork, force, params, acc, t, h, parallel):
     n = x.shape[0]
     half = 0.5 * h
     for i in range(n):
         for c in range(3):
             x[i, c] += v[i, c] * half
-    accelerations(t + half, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+    accelerations(t + half, x, v, m, massive, fstate, gwork, force, params, acc, parallel)
     for i in range(n):
         for c in range(3):
             v[i, c] += acc[i, c] * h
@@ -70,6 +72,24 @@ def _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t, h):
 @kernel
 def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
                  out_t, out_x, out_v):
+    """Advance through every output time with drift-kick-drift steps (see :func:`_leapfrog`);
+    gravity by any kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
+    return _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+
+
+@kernel
+def leapfrog_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v):
+    """:func:`leapfrog_run` with the serial few-body gravity alone (``FEW``; see
+    :func:`visviva.core.nbody_whfast.whfast_run_few`)."""
+    return _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v, FEW)
+
+
+@step_kernel
+def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+              out_t, out_x, out_v, parallel):
     """Advance through every output time with drift-kick-drift steps (see the module docstring).
 
     The integrator's own state (``buf``) advances on the grid ``t0 + k |dt|``; an output time
@@ -107,7 +127,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                 break
             if exact and rem * direction < adt * (1.0 - 1e-9):
                 break  # less than a step to go: the output comes from a copy
-            _dkd(xi, vi, m, massive, fstate, istate, gwork, force, params, acc, t_grid, h)
+            _dkd(xi, vi, m, massive, fstate, gwork, force, params, acc, t_grid, h, parallel)
             istate[I_K] += 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
             fstate[F_DT_LAST] = h
@@ -135,7 +155,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
                 v[i, c] = vi[i, c]
         rem = target - t_grid
         if exact and rem * direction > 1e-9 * adt:
-            _dkd(x, v, m, massive, fstate, istate, gwork, force, params, acc, t_grid, rem)
+            _dkd(x, v, m, massive, fstate, gwork, force, params, acc, t_grid, rem, parallel)
         fstate[F_T] = target if exact else t_grid
         for i in range(n):
             for c in range(3):

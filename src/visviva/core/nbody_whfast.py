@@ -55,8 +55,8 @@ import math
 
 import numpy as np
 
-from ._jit import kernel
-from .gravity import gravity
+from ._jit import kernel, step_kernel
+from .gravity import FEW, gravity
 from .nbody_common import (
     F_DT,
     F_DT_LAST,
@@ -93,6 +93,7 @@ from .universal import propagate_scalar
 
 __all__ = [
     "whfast_run",
+    "whfast_run_few",
     "to_jacobi",
     "from_jacobi",
     "to_democratic_heliocentric",
@@ -370,7 +371,7 @@ def _dh_interaction_kick(vj, acc, fa, m, eta, h):
 
 @kernel
 def _kick(t, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, params, acc, aj,
-          dh):
+          dh, parallel):
     """Interaction kick ``h`` of the internal velocities with the forces at time ``t``.
 
     Jacobi: the Jacobi transform of the full accelerations minus each body's Kepler term.
@@ -381,20 +382,20 @@ def _kick(t, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, 
     """
     if dh:
         from_democratic_heliocentric(xj, m, eta, x, False)
-        gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, istate[I_PARALLEL] != 0)
+        gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, parallel)
         aj[:, :] = 0.0
         force(t, x, v, m, params, aj)
         _dh_interaction_kick(vj, acc, aj, m, eta, h)
     else:
         from_jacobi(xj, m, eta, x)
-        accelerations(t, x, v, m, massive, fstate, istate, gwork, force, params, acc)
+        accelerations(t, x, v, m, massive, fstate, gwork, force, params, acc, parallel)
         to_jacobi(acc, m, eta, aj)
         _interaction_kick(xj, vj, aj, eta, G, h)
 
 
 @kernel
 def _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, params, acc,
-             fa):
+             fa, parallel):
     """One fused democratic heliocentric step of the internal state: ``Jump(h/2) Kepler(h)
     Jump(h/2)``, then the interaction kick ``h`` with the forces at ``tk``."""
     # _drift and _kick(dh) written out: through those generic calls the step is ~20% slower
@@ -404,7 +405,7 @@ def _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, for
         return st
     _jump(xj, vj, m, 0.5 * h)
     from_democratic_heliocentric(xj, m, eta, x, False)
-    gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, istate[I_PARALLEL] != 0)
+    gravity(x, m, G, fstate[F_SOFT2], massive[1:], acc, gwork, parallel)
     fa[:, :] = 0.0
     force(tk, x, v, m, params, fa)
     _dh_interaction_kick(vj, acc, fa, m, eta, h)
@@ -413,19 +414,19 @@ def _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, for
 
 @kernel
 def _phase_kick(xj, vj, m, eta, G, ah, bh, t, x, v, massive, fstate, istate, gwork, force,
-                params, acc, aj):
+                params, acc, aj, parallel):
     """Kepler drift by ``ah``, interaction kick ``bh``, Kepler drift back by ``-ah`` (Jacobi)."""
     st = _kepler_drift(xj, vj, eta, G, ah, False)
     if st != OK:
         return st
     _kick(t, xj, vj, m, eta, G, bh, x, v, massive, fstate, istate, gwork, force, params, acc, aj,
-          False)
+          False, parallel)
     return _kepler_drift(xj, vj, eta, G, -ah, False)
 
 
 @kernel
 def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate, gwork,
-               force, params, acc, aj):
+               force, params, acc, aj, parallel):
     """Apply the symplectic corrector C (``inverse`` false) or its inverse to Jacobi ``xj, vj``.
 
     ``C = prod_j Y(a_j, b_j) Y(-a_j, -b_j)`` with ``Y(a, b)`` = drift ``a h``, kick ``b h``,
@@ -441,18 +442,18 @@ def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, i
         b = CORRECTOR_B[order, j] * h
         if inverse:
             st = _phase_kick(xj, vj, m, eta, G, -a, b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj)
+                             force, params, acc, aj, parallel)
             if st != OK:
                 return st
             st = _phase_kick(xj, vj, m, eta, G, a, -b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj)
+                             force, params, acc, aj, parallel)
         else:
             st = _phase_kick(xj, vj, m, eta, G, a, b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj)
+                             force, params, acc, aj, parallel)
             if st != OK:
                 return st
             st = _phase_kick(xj, vj, m, eta, G, -a, -b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj)
+                             force, params, acc, aj, parallel)
         if st != OK:
             return st
     return OK
@@ -460,7 +461,7 @@ def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, i
 
 @kernel
 def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstate, istate,
-                 gwork, force, params, acc, aj, dh):
+                 gwork, force, params, acc, aj, dh, parallel):
     """Inertial ``x, v`` from the internal state: a copy drifted by the last half step (and
     taken back through the inverse corrector when one is used)."""
     n = xj.shape[0]
@@ -473,7 +474,7 @@ def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstat
         return st
     if order > 0:
         st = _corrector(order, True, 2.0 * half, xs, vs, m, eta, G, t, x, v, massive, fstate,
-                        istate, gwork, force, params, acc, aj)
+                        istate, gwork, force, params, acc, aj, parallel)
         if st != OK:
             return st
     _from_internal(xs, vs, m, eta, x, v, dh)
@@ -482,32 +483,32 @@ def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstat
 
 @kernel
 def _first_half(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
-                acc, aj, order, dh):
+                acc, aj, order, dh, parallel):
     """Internal state from inertial ``x, v`` at ``t``, through the first kick of a step ``h``:
     (corrector,) drift ``h/2`` (then jump ``h/2``), kick ``h``."""
     half = 0.5 * h
     _to_internal(x, v, m, eta, xj, vj, dh)
     if order > 0:
         st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate,
-                        gwork, force, params, acc, aj)
+                        gwork, force, params, acc, aj, parallel)
         if st != OK:
             return st
     st = _drift(xj, vj, m, eta, G, half, 0.0, half, dh)
     if st != OK:
         return st
     _kick(t + half, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, force, params,
-          acc, aj, dh)
+          acc, aj, dh, parallel)
     return OK
 
 
 @kernel
 def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force, params,
-              acc, aj, order, dh):
+              acc, aj, order, dh, parallel):
     """One synchronised drift-kick-drift step of ``x, v`` (inertial in, inertial out),
     conjugated by the corrector for this step length when ``order > 0``."""
     half = 0.5 * h
     st = _first_half(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, force,
-                     params, acc, aj, order, dh)
+                     params, acc, aj, order, dh, parallel)
     if st != OK:
         return st
     st = _drift(xj, vj, m, eta, G, half, half, 0.0, dh)
@@ -515,7 +516,7 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
         return st
     if order > 0:
         st = _corrector(order, True, h, xj, vj, m, eta, G, t + h, x, v, massive, fstate, istate,
-                        gwork, force, params, acc, aj)
+                        gwork, force, params, acc, aj, parallel)
         if st != OK:
             return st
     _from_internal(xj, vj, m, eta, x, v, dh)
@@ -525,6 +526,25 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
 @kernel
 def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
                out_t, out_x, out_v):
+    """Advance through every output time with Wisdom-Holman steps (see the module docstring and
+    :func:`_whfast`); gravity by any kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
+    return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                   out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+
+
+@kernel
+def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                   out_t, out_x, out_v):
+    """:func:`whfast_run` compiled with the serial few-body gravity alone (``FEW``): for one
+    thread and fewer than :data:`visviva.core.gravity.PAIR_MIN_N` massive particles, the same
+    bits and a fraction of the compile time (no ``prange`` region, no large-N kernel)."""
+    return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                   out_t, out_x, out_v, FEW)
+
+
+@step_kernel
+def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+            out_t, out_x, out_v, parallel):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
     Particle 0 must have mass (the central body). ``istate[I_WH_COORDINATES]`` chooses Jacobi
@@ -580,7 +600,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             fstate[F_DT_REF] = adt
             istate[I_K] = 0
             st = _first_half(x, v, m, eta, G, h, fstate[F_T], xj, vj, massive, fstate, istate,
-                             gwork, force, params, acc, aj, order, dh)
+                             gwork, force, params, acc, aj, order, dh, parallel)
             if st != OK:
                 return st
             # P now belongs to the grid point t0 + h: count that step
@@ -602,7 +622,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                     tk = t_grid + 0.5 * h
                     if dh:
                         st = _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate,
-                                      gwork, force, params, acc, aj)
+                                      gwork, force, params, acc, aj, parallel)
                         if st != OK:
                             return st
                     else:
@@ -610,8 +630,8 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                         if st != OK:
                             return st
                         from_jacobi(xj, m, eta, x)
-                        accelerations(tk, x, v, m, massive, fstate, istate, gwork, force, params,
-                                      acc)
+                        accelerations(tk, x, v, m, massive, fstate, gwork, force, params, acc,
+                                      parallel)
                         to_jacobi(acc, m, eta, aj)
                         _interaction_kick(xj, vj, aj, eta, G, h)
                     istate[I_K] += 1 if h > 0.0 else -1
@@ -620,7 +640,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                     if should_pause(istate):
                         st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order,
                                           t_grid + h, massive, fstate, istate, gwork, force,
-                                          params, acc, aj, dh)
+                                          params, acc, aj, dh, parallel)
                         if st != OK:
                             return st
                         fstate[F_T] = fstate[F_T0] + istate[I_K] * adt
@@ -630,7 +650,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             # P belongs to grid point t_grid: synchronise a copy there
             t_grid = fstate[F_T0] + istate[I_K] * adt
             st = _synchronise(xj, vj, xs, vs, m, eta, G, 0.5 * h, x, v, order, t_grid, massive,
-                              fstate, istate, gwork, force, params, acc, aj, dh)
+                              fstate, istate, gwork, force, params, acc, aj, dh, parallel)
             if st != OK:
                 return st
             rem = target - t_grid
@@ -638,7 +658,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                 # a shortened step of the copy lands on the output time (backwards when the
                 # target lies within the first step, which P has already taken); P is untouched
                 st = _dkd_step(x, v, m, eta, G, rem, t_grid, xs, vs, massive, fstate, istate,
-                               gwork, force, params, acc, aj, order, dh)
+                               gwork, force, params, acc, aj, order, dh, parallel)
                 if st != OK:
                     return st
             fstate[F_T] = target if exact else t_grid
@@ -660,7 +680,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
                     advance_clock(fstate, istate, 0.0, True, True, target)
                 break
             st = _dkd_step(x, v, m, eta, G, hh, t, xj, vj, massive, fstate, istate, gwork,
-                           force, params, acc, aj, 0, dh)
+                           force, params, acc, aj, 0, dh, parallel)
             if st != OK:
                 return st
             advance_clock(fstate, istate, hh, last, exact, target)

@@ -48,6 +48,7 @@ __all__ = [
     "grid_density",
     "geodetic_altitude",
     "hermite_position",
+    "zonal_rhs",
     "cowell_rhs",
     "cowell_rhs_array",
 ]
@@ -414,24 +415,33 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
 
 
 @kernel
+def zonal_rhs(y, force, zonal, dy):
+    """The derivative dy = (v, a) with the two-body and zonal-harmonic terms alone (the first
+    two terms of :func:`cowell_rhs`, same bits). Returns nothing; writes ``dy``."""
+    acc = np.zeros(3)
+    accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
+    n_max = int(force[fb.ZONAL_DEGREE])
+    if n_max >= 2:
+        accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, acc)
+    for i in range(3):
+        dy[i] = y[3 + i]
+        dy[3 + i] = acc[i]
+
+
+@kernel
 def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
-    Sums, in this fixed order: two-body, zonal harmonics, full spherical harmonics, drag,
-    third bodies, SRP.
+    Sums, in this fixed order: two-body, zonal harmonics (:func:`zonal_rhs`), full spherical
+    harmonics, drag, third bodies, SRP.
     """
     x = y[0]
     yy = y[1]
     z = y[2]
-    dy[0] = y[3]
-    dy[1] = y[4]
-    dy[2] = y[5]
-    acc = np.zeros(3)
-    gm = force[fb.GM]
-    accel_two_body(x, yy, z, gm, acc)
-    n_max = int(force[fb.ZONAL_DEGREE])
-    if n_max >= 2:
-        accel_zonal(x, yy, z, gm, force[fb.RADIUS], zonal, n_max, acc)
+    zonal_rhs(y, force, zonal, dy)
+    acc = np.empty(3)
+    for i in range(3):
+        acc[i] = dy[3 + i]
     if force[fb.HARMONICS_DEGREE] >= 2.0:
         _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     n_third = int(force[fb.N_THIRD_BODIES])

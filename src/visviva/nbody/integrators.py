@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 from ..errors import InvalidInputError
 
-__all__ = ["Integrator", "INTEGRATORS", "get_integrator", "COORDINATES", "parse_coordinates"]
+__all__ = ["Integrator", "INTEGRATORS", "get_integrator", "COORDINATES", "parse_coordinates",
+           "few_bodies"]
 
 #: Coordinate systems of the Wisdom-Holman splitting -> ``istate[I_WH_COORDINATES]``.
 COORDINATES = {"jacobi": 0, "democratic_heliocentric": 1}
@@ -80,17 +81,35 @@ class Integrator:
     def n_buf(self) -> int:
         return int(self.core.N_BUF)
 
-    def kernel(self):
-        """The compiled kernel (compiled or loaded from numba's cache on first use)."""
+    def kernel(self, few: bool = False):
+        """The compiled kernel (compiled or loaded from numba's cache on first use).
+
+        ``few``: the variant ``<kernel_name>_few`` compiled with the serial few-body gravity
+        alone (:data:`visviva.core.gravity.FEW`), valid when :func:`few_bodies` says so: the
+        same bits, and a fraction of the compile time on a fresh install.
+        """
+        if few:
+            return compiled_kernel(self.module, self.kernel_name + "_few", threads=False)
         return compiled_kernel(self.module, self.kernel_name)
+
+
+def few_bodies(istate, massive) -> bool:
+    """True when a run may use an integrator's few-body kernel (``Integrator.kernel(few=True)``):
+    gravity on one thread (``istate[I_PARALLEL] == 0``) and fewer than
+    :data:`visviva.core.gravity.PAIR_MIN_N` massive particles (a run never adds particles)."""
+    from ..core.gravity import PAIR_MIN_N
+    from ..core.nbody_common import I_PARALLEL
+
+    return int(istate[I_PARALLEL]) == 0 and len(massive) < PAIR_MIN_N
 
 
 _CACHE: dict = {}
 
 
-def compiled_kernel(module: str, name: str, signature=None):
+def compiled_kernel(module: str, name: str, signature=None, threads: bool = True):
     """The kernel ``module.name`` compiled for ``signature`` (default: the integrators' common
-    :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process."""
+    :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process. ``threads=False`` for a
+    kernel with no parallel region (numba's thread pool is then not started)."""
     key = (module, name)
     if key not in _CACHE:
         from numba.np.ufunc import parallel as _numba_parallel
@@ -99,7 +118,8 @@ def compiled_kernel(module: str, name: str, signature=None):
 
         # the kernels call the parallel gravity kernel: numba's thread pool must be up before
         # machine code that refers to it is loaded from the cache
-        _numba_parallel._launch_threads()
+        if threads:
+            _numba_parallel._launch_threads()
 
         fn = getattr(importlib.import_module(module), name)
         # One signature with the force as a first-class function type: one machine code for

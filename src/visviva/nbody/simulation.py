@@ -22,7 +22,7 @@ from . import events as _events
 from . import forces as _forces
 from . import settings as _s
 from .gpu import check_backend
-from .integrators import INTEGRATORS, get_integrator
+from .integrators import INTEGRATORS, few_bodies, get_integrator
 from .placement import elements_to_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
@@ -573,7 +573,7 @@ class Simulation:
                 stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
                 st.istate[_nc.I_STOP_AT_STEP] = stop
                 done0 = int(st.istate[_nc.I_NOUT])
-                status = int(info.kernel()(
+                status = int(info.kernel(few_bodies(st.istate, st.massive))(
                     st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
                     st.gwork, fn, params, times, out_t, chunk_x, chunk_v,
                 ))

@@ -22,7 +22,7 @@ from .. import constants as c
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
 from ..core import force_block as fb
-from ..core.cowell import integrate_cowell
+from ..core.cowell import integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
 from .events import Event, EventRecord
@@ -369,7 +369,7 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
         status = integrate_cowell(
             y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             kinds, params, dirs, terms, ev_tol, A, B, C, E3, E5, D,
-            y_out, ev_t, ev_y, ev_which, info,
+            y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, len(kinds)),
         )  # fmt: skip
         n_found = int(info[1])
         if n_found <= cap:
@@ -399,7 +399,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
         info = np.zeros((n, 6))
         integrate_cowell_many(
             y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
-            A, B, C, E3, E5, D, y_out, status, info,
+            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force, 0),
         )  # fmt: skip
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])

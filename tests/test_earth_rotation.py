@@ -144,13 +144,16 @@ sat = vv.Satellite.from_tle(
     "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
     "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482")
 t = np.linspace(0, 86400, 1441) * u.s
-sat.gcrs(t).r, sat.itrs(t).r, sat.gcrs(t).altitude
+sat.gcrs(t).r, sat.itrs(t).r, sat.gcrs(t).altitude, sat.geodetic(t)
+vv.satellites.ground_track(sat, t)
+vv.GroundStation(52.0 * u.deg, 4.4 * u.deg).look(sat.gcrs(t))
 print(sorted(m for m in sys.modules if m.startswith("astropy.coordinates")))
 """
 
 
 def test_satellite_frames_do_not_import_astropy_coordinates(tmp_path):
-    """The import of astropy.coordinates (~0.2-0.4 s) is not needed for TEME/GCRS/ITRS."""
+    """The import of astropy.coordinates (~0.2-0.4 s) is not needed for TEME/GCRS/ITRS, the
+    geodetic height, a ground track or look angles."""
     env = dict(os.environ, VISVIVA_CACHE_DIR=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True,
                          check=True, env=env, timeout=600)
@@ -175,3 +178,16 @@ def test_geodetic_equals_astropys_earth_location():
     assert np.all((lon.to_value(u.deg) >= -180.0) & (lon.to_value(u.deg) < 180.0))
     lat0, lon0, h0 = itrs_to_geodetic([6378.137, 0.0, 0.0])  # a scalar, plain km
     assert lat0.shape == () and abs(h0.to_value(u.km)) < 1e-12 and lon0.to_value(u.deg) == 0
+
+
+def test_station_itrs_equals_astropys_earth_location():
+    from astropy.coordinates import EarthLocation
+
+    import visviva as vv
+
+    for lat, lon, h in ((52.0, 4.4, 0.0), (-33.9, -70.7, 2400.0), (89.9, 179.99, -30.0)):
+        site = vv.GroundStation(lat * u.deg, lon * u.deg, h * u.m)
+        ref = EarthLocation.from_geodetic(lon * u.deg, lat * u.deg, h * u.m, ellipsoid="WGS84")
+        np.testing.assert_allclose(site.itrs_km, ref.get_itrs().cartesian.xyz.to_value(u.km),
+                                   rtol=0, atol=1e-11)
+        assert site.itrs_km.shape == (3,) and site.itrs_km.dtype == np.float64

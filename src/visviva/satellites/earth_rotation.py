@@ -103,14 +103,7 @@ def teme_to_itrs_mat(t) -> np.ndarray:
 def gcrs_to_cirs_mat(t) -> np.ndarray:
     """Celestial-to-intermediate matrices GCRS -> CIRS (IAU 2006/2000A) at ``t`` (TT).
 
-    Parameters
-    ----------
-    t : astropy Time
-        The times (any scale).
-
-    Returns
-    -------
-    ndarray, shape t.shape + (3, 3)
+    Parameters and result as in :func:`teme_to_itrs_mat` (``r_cirs = M @ r_gcrs``).
 
     Notes
     -----
@@ -122,14 +115,7 @@ def gcrs_to_cirs_mat(t) -> np.ndarray:
 def cirs_to_itrs_mat(t) -> np.ndarray:
     """Rotation matrices CIRS -> ITRS at the astropy Time ``t`` (shape t.shape + (3, 3)).
 
-    Parameters
-    ----------
-    t : astropy Time
-        The times (any scale).
-
-    Returns
-    -------
-    ndarray, shape t.shape + (3, 3)
+    Parameters and result as in :func:`teme_to_itrs_mat` (``r_itrs = M @ r_cirs``).
 
     Notes
     -----

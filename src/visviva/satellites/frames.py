@@ -39,6 +39,7 @@ __all__ = [
     "gcrs_to_itrs",
     "itrs_to_gcrs",
     "itrs_to_geodetic",
+    "geodetic_to_itrs_km",
     "altitude_km",
     "transform_matrices",
     "transform_batch",
@@ -427,3 +428,28 @@ def itrs_to_geodetic(r):
     lon_deg = np.where(lon_deg >= 180.0, lon_deg - 360.0, lon_deg)  # [-180, 180)
     return (np.rad2deg(lat_rad) << u.deg, lon_deg << u.deg,
             np.asarray(height_km, dtype=np.float64) << u.km)
+
+
+def geodetic_to_itrs_km(lat_rad, lon_rad, height_km) -> np.ndarray:
+    """Earth-fixed (ITRS) position (km) of WGS-84 geodetic coordinates.
+
+    Parameters
+    ----------
+    lat_rad, lon_rad : float or ndarray
+        Geodetic latitude and longitude, radians.
+    height_km : float or ndarray
+        Height above the WGS-84 ellipsoid, km.
+
+    Returns
+    -------
+    ndarray, shape (broadcast shape) + (3,)
+
+    Notes
+    -----
+    ERFA ``gd2gce``, the routine behind astropy's ``EarthLocation.from_geodetic``, called
+    directly (no astropy.coordinates import); equal to astropy's to ~1e-12 km.
+    """
+    import erfa
+
+    return np.asarray(erfa.gd2gce(WGS84_A_KM, WGS84_F, lon_rad, lat_rad, height_km),
+                      dtype=np.float64)

@@ -417,8 +417,10 @@ def itrs_to_geodetic(r):
     Notes
     -----
     ERFA ``gc2gde`` (Fukushima's method), the routine behind astropy's
-    ``EarthLocation.to_geodetic("WGS84")``, called directly (no astropy.coordinates import),
-    exact to well below a millimetre; equal to astropy's to ~1e-12 km and ~1e-12 degrees.
+    ``EarthLocation.to_geodetic("WGS84")``, called directly (no astropy.coordinates import);
+    equal to astropy's to ~1e-10 km and ~1e-13 degrees. A round trip through
+    :func:`geodetic_to_itrs_km` returns the position to ~1e-9 km in low orbit and ~1e-6 km
+    (1 mm) at GEO distance and beyond: the accuracy of ERFA's closed-form method.
     """
     import erfa
 

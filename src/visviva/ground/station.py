@@ -169,8 +169,10 @@ class GroundStation:
 
     @functools.cached_property
     def itrs_km(self) -> np.ndarray:
-        """Earth-fixed (ITRS) position, km, shape (3,)."""
-        return np.array(self.location.get_itrs().cartesian.xyz.to_value(u.km), dtype=np.float64)
+        """Earth-fixed (ITRS) position, km, shape (3,) (ERFA ``gd2gce``, as ``location``)."""
+        from ..satellites.frames import geodetic_to_itrs_km
+
+        return geodetic_to_itrs_km(self._lat_rad, self._lon_rad, self._height_km)
 
     @functools.cached_property
     def enu_matrix(self) -> np.ndarray:

@@ -1,8 +1,9 @@
 """Earth-centred frames for satellites: TEME, GCRS, ITRS and geodetic, through astropy.
 
-Every rotation is astropy's own: the matrix functions its frame graph applies between
-``astropy.coordinates.TEME``, ``GCRS`` and ``ITRS`` (GMST 1982 and polar motion; the IAU
-2006/2000A CIO-based chain through ERFA), so visviva holds no copy of precession, nutation,
+Every rotation is the one astropy's frame graph applies between ``astropy.coordinates.TEME``,
+``GCRS`` and ``ITRS`` (GMST 1982 and polar motion; the IAU 2006/2000A CIO-based chain), built
+from the same ERFA routines and IERS table (:mod:`visviva.satellites.earth_rotation`, which
+spares the import of astropy.coordinates), so visviva holds no copy of precession, nutation,
 sidereal time or polar motion. They are evaluated once per time (the costly precession-nutation
 matrix on hourly nodes, interpolated) into 6 x 6 maps of (r, v) that every satellite shares
 (:func:`transform_matrices`): a catalogue of 3 satellites x 1441 times goes to GCRS in ~0.03 s
@@ -29,6 +30,7 @@ from astropy import units as u
 
 from .._units import to_quantity, to_vector
 from ..errors import DomainError, InvalidInputError, ShapeError
+from .earth_rotation import cirs_to_itrs_mat, gcrs_to_cirs_mat, teme_to_itrs_mat
 
 __all__ = [
     "offline_iers",
@@ -37,6 +39,7 @@ __all__ = [
     "gcrs_to_itrs",
     "itrs_to_gcrs",
     "itrs_to_geodetic",
+    "geodetic_to_itrs_km",
     "altitude_km",
     "transform_matrices",
     "transform_batch",
@@ -56,8 +59,12 @@ def offline_iers():
     Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
     predictions are used however old the installed file is (``auto_max_age = None``), and
     times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``).
+    The table astropy parses from those files is kept on disk between processes
+    (:mod:`visviva.satellites.iers_cache`), so a fresh process loads it in ~10 ms.
     """
     from astropy.utils import iers
+
+    from .iers_cache import install_cached_table
 
     with (
         iers.conf.set_temp("auto_download", False),
@@ -67,6 +74,7 @@ def offline_iers():
         iers.conf.set_temp("auto_max_age", None),
         iers.conf.set_temp("iers_degraded_accuracy", "warn"),
     ):
+        install_cached_table()  # astropy's parsed table from disk: ~10 ms instead of ~0.5 s
         yield
 
 
@@ -156,14 +164,13 @@ def _lagrange4(s):
 
 
 def _gcrs_to_cirs(t):
-    """astropy's GCRS -> CIRS matrix G (``gcrs_to_cirs_mat``) and its rate dG/dt (1/s) at t.
+    """The GCRS -> CIRS matrix G (:func:`.earth_rotation.gcrs_to_cirs_mat`) and dG/dt (1/s) at t.
 
     G is evaluated on an hourly grid of TT nodes and interpolated by cubic Lagrange
     polynomials: its fastest terms (nutation, periods of days and longer) change by ~1e-7 rad
     per hour, so the interpolation error is below 1e-15 rad (~1e-11 km at GEO). When the times
-    are sparse (more nodes than times) G comes straight from astropy at t +- 0.5 s instead.
+    are sparse (more nodes than times) G comes straight from ERFA at t +- 0.5 s instead.
     """
-    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
     from astropy.time import Time, TimeDelta
 
     tt = t.tt
@@ -174,10 +181,10 @@ def _gcrs_to_cirs(t):
     uniq, inverse = np.unique(nodes, return_inverse=True)
     if uniq.size > 2 * t.size:
         half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
-        g = irt.gcrs_to_cirs_mat(t)
-        rate = (irt.gcrs_to_cirs_mat(t + half) - irt.gcrs_to_cirs_mat(t - half)) / _FD_STEP_S
+        g = gcrs_to_cirs_mat(t)
+        rate = (gcrs_to_cirs_mat(t + half) - gcrs_to_cirs_mat(t - half)) / _FD_STEP_S
         return g, rate
-    g_nodes = irt.gcrs_to_cirs_mat(Time(ref, uniq * (_NODE_H / 24.0), format="jd", scale="tt"))
+    g_nodes = gcrs_to_cirs_mat(Time(ref, uniq * (_NODE_H / 24.0), format="jd", scale="tt"))
     g4 = g_nodes[inverse.reshape(nodes.shape)]  # t.shape + (4, 3, 3)
     w, dw = _lagrange4(hours - k)
     g = np.einsum("...k,...kij->...ij", w, g4)
@@ -188,17 +195,16 @@ def _gcrs_to_cirs(t):
 def _rotation_to_itrs(t, frame: str, g) -> np.ndarray:
     """3 x 3 matrices (shape t.shape + (3, 3)) rotating ``frame`` vectors to ITRS at ``t``.
 
-    astropy's own matrix functions, the ones its frame graph applies (TEME -> ITRS: GMST 1982
-    and polar motion, Vallado et al. 2006; GCRS -> CIRS -> ITRS: IAU 2006/2000A CIO-based),
-    with the GCRS -> CIRS matrix ``g`` given (see :func:`_gcrs_to_cirs`).
+    The rotations astropy's frame graph applies (TEME -> ITRS: GMST 1982 and polar motion,
+    Vallado et al. 2006; GCRS -> CIRS -> ITRS: IAU 2006/2000A CIO-based), from
+    :mod:`visviva.satellites.earth_rotation`, with the GCRS -> CIRS matrix ``g`` given (see
+    :func:`_gcrs_to_cirs`).
     """
-    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
-
     if frame == "itrs":
         return np.broadcast_to(np.eye(3), t.shape + (3, 3))
     if frame == "teme":
-        return irt.teme_to_itrs_mat(t)
-    return np.matmul(irt.cirs_to_itrs_mat(t), g)
+        return teme_to_itrs_mat(t)
+    return np.matmul(cirs_to_itrs_mat(t), g)
 
 
 def _map_at(t, source: str, target: str, g) -> np.ndarray:
@@ -209,14 +215,13 @@ def _map_at(t, source: str, target: str, g) -> np.ndarray:
 
 
 def _matrices_fast(t, source: str, target: str) -> np.ndarray:
-    """(..., 6, 6) maps from astropy's rotation matrices.
+    """(..., 6, 6) maps from the rotation matrices of :mod:`.earth_rotation`.
 
     The position rotates by M(t); the velocity as astropy's frame graph does it, by a symmetric
     finite difference in obstime, v' = M v + (M+ - M-)/h r with M+- = M(t +- h/2) and
     h = 1 s, for the Earth-rotation parts, plus the (tiny) precession-nutation rate from
     :func:`_gcrs_to_cirs`. The result equals the frame graph's to ~1e-11 km and ~1e-10 km/s.
     """
-    from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
     from astropy.time import TimeDelta
 
     half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
@@ -226,11 +231,11 @@ def _matrices_fast(t, source: str, target: str) -> np.ndarray:
         rate = (_map_at(t + half, source, target, g) - _map_at(t - half, source, target, g))
         rate /= _FD_STEP_S
         if source == "gcrs":  # M = from_itrs(target) C G: add from_itrs C dG/dt
-            c = irt.cirs_to_itrs_mat(t)
+            c = cirs_to_itrs_mat(t)
             from_itrs = np.swapaxes(_rotation_to_itrs(t, target, g), -1, -2)
             rate += from_itrs @ c @ g_rate
         elif target == "gcrs":  # M = G^T C^T to_itrs(source): add dG^T/dt C^T to_itrs
-            c = irt.cirs_to_itrs_mat(t)
+            c = cirs_to_itrs_mat(t)
             rate += np.swapaxes(g_rate, -1, -2) @ np.swapaxes(c, -1, -2) @ _rotation_to_itrs(
                 t, source, g)
     out = np.zeros(t.shape + (6, 6))
@@ -240,36 +245,16 @@ def _matrices_fast(t, source: str, target: str) -> np.ndarray:
     return out
 
 
-def _matrices_graph(t, source: str, target: str) -> np.ndarray:
-    """(T, 6, 6) maps from astropy's frame graph applied to six basis states per time."""
-    scale = 7000.0  # km: a basis of satellite-like size keeps astropy's finite differences sane
-    T = t.shape[0]
-    r = np.zeros((6, T, 3))
-    v = np.zeros((6, T, 3))
-    for k in range(3):
-        r[k, :, k] = scale
-        r[3 + k, :, 0] = scale
-        v[3 + k, :, k] = 1.0
-    ro, vo = _transform(r, v, t, source, target)
-    out = np.concatenate([ro, vo], axis=-1)  # (6, T, 6)
-    m = np.empty((T, 6, 6))
-    for k in range(3):
-        m[:, :, k] = out[k] / scale
-        m[:, :, 3 + k] = out[3 + k] - out[0]
-    return m
-
-
 def transform_matrices(t, source: str, target: str) -> np.ndarray:
     """6 x 6 matrices taking (r, v) in ``source`` to (r, v) in ``target`` at each time.
 
     The frame changes between TEME, GCRS and ITRS are linear in (r, v) at a fixed time
     (rotations, plus the rotation rate times r in the velocity; all three are geocentric).
-    The rotations are astropy's own matrix functions (those its frame graph applies), evaluated
-    once per time and at t +- 0.5 s for the velocity term, as astropy's graph does by finite
-    differences; applying them to N objects costs one small matrix product per state instead of
-    an astropy transformation per state. Should astropy's private matrix functions move, the
-    maps come from its public frame graph applied to six basis states per time (slower, same
-    numbers).
+    The rotations are those astropy's frame graph applies, from the same ERFA routines and IERS
+    table (:mod:`visviva.satellites.earth_rotation`), evaluated once per time and at t +- 0.5 s
+    for the velocity term, as astropy's graph does by finite differences; applying them to N
+    objects costs one small matrix product per state instead of an astropy transformation per
+    state.
 
     Parameters
     ----------
@@ -293,11 +278,7 @@ def transform_matrices(t, source: str, target: str) -> np.ndarray:
         return np.zeros(t.shape + (6, 6))
     if source == target:
         return np.broadcast_to(np.eye(6), t.shape + (6, 6)).copy()
-    try:
-        m = _matrices_fast(t, source, target)
-    except (ImportError, AttributeError):  # pragma: no cover - astropy moved its helpers
-        flat = t.reshape(-1)
-        m = _matrices_graph(flat, source, target).reshape(t.shape + (6, 6))
+    m = _matrices_fast(t, source, target)
     if not np.isfinite(m).all():
         raise DomainError(
             f"the {source.upper()} -> {target.upper()} rotation is not finite (astropy/ERFA) "
@@ -435,14 +416,42 @@ def itrs_to_geodetic(r):
 
     Notes
     -----
-    astropy's ``EarthLocation.to_geodetic("WGS84")`` (ERFA ``gc2gde``, Fukushima's method),
-    exact to well below a millimetre.
+    ERFA ``gc2gde`` (Fukushima's method), the routine behind astropy's
+    ``EarthLocation.to_geodetic("WGS84")``, called directly (no astropy.coordinates import);
+    equal to astropy's to ~1e-10 km and ~1e-13 degrees. A round trip through
+    :func:`geodetic_to_itrs_km` returns the position to ~1e-9 km in low orbit and ~1e-6 km
+    (1 mm) at GEO distance and beyond: the accuracy of ERFA's closed-form method.
     """
-    from astropy.coordinates import EarthLocation
+    import erfa
 
     r_km = _raw(r, "length", "r")
-    loc = EarthLocation.from_geocentric(r_km[..., 0], r_km[..., 1], r_km[..., 2], unit=u.km)
-    geo = loc.to_geodetic("WGS84")
-    lat = u.Quantity(geo.lat, u.deg)
-    lon = u.Quantity(geo.lon.wrap_at(180 * u.deg), u.deg)
-    return lat, lon, geo.height.to(u.km)
+    lon_rad, lat_rad, height_km = erfa.gc2gde(WGS84_A_KM, WGS84_F, r_km)
+    lon_deg = np.rad2deg(lon_rad)
+    lon_deg = np.where(lon_deg >= 180.0, lon_deg - 360.0, lon_deg)  # [-180, 180)
+    return (np.rad2deg(lat_rad) << u.deg, lon_deg << u.deg,
+            np.asarray(height_km, dtype=np.float64) << u.km)
+
+
+def geodetic_to_itrs_km(lat_rad, lon_rad, height_km) -> np.ndarray:
+    """Earth-fixed (ITRS) position (km) of WGS-84 geodetic coordinates.
+
+    Parameters
+    ----------
+    lat_rad, lon_rad : float or ndarray
+        Geodetic latitude and longitude, radians.
+    height_km : float or ndarray
+        Height above the WGS-84 ellipsoid, km.
+
+    Returns
+    -------
+    ndarray, shape (broadcast shape) + (3,)
+
+    Notes
+    -----
+    ERFA ``gd2gce``, the routine behind astropy's ``EarthLocation.from_geodetic``, called
+    directly (no astropy.coordinates import); equal to astropy's to ~1e-12 km.
+    """
+    import erfa
+
+    return np.asarray(erfa.gd2gce(WGS84_A_KM, WGS84_F, lon_rad, lat_rad, height_km),
+                      dtype=np.float64)

@@ -1,0 +1,110 @@
+"""A parsed copy of astropy's Earth-orientation table kept on disk between processes.
+
+astropy reads its IERS table (``IERS_Auto``: the Bulletin A file ``finals2000A.all`` with the
+EOP C04 values substituted, both from the ``astropy-iers-data`` package) with its general CDS
+text reader the first time a process needs UT1-UTC or polar motion: about 0.5 s of CPU on
+every fresh process, a third of the warm budget of ``Satellite.gcrs`` (issue 11). This module
+stores the table astropy builds, unchanged (a pickle of the ``IERS_Auto`` instance), in a cache
+directory keyed by the astropy version and the paths, sizes and modification times of the
+files it was read from; later processes load it in ~10 ms and hand it to astropy as the table
+``IERS_Auto.open()`` returns, so every number is astropy's own.
+
+The directory is ``$VISVIVA_CACHE_DIR``, else ``$NUMBA_CACHE_DIR/visviva`` when numba's cache
+is redirected (a fresh numba cache then means a fresh table too), else
+``$XDG_CACHE_HOME/visviva`` (``~/.cache/visviva``). Nothing is cached when the directory is not
+writable or when a ``finals2000A.all`` lies in the working directory (astropy then reads that
+file, with a deprecation warning); a damaged or foreign cache file is ignored and rewritten.
+Delete the directory to force a fresh parse.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import tempfile
+from pathlib import Path
+
+__all__ = ["cache_dir", "install_cached_table"]
+
+
+def cache_dir() -> Path:
+    """The directory of visviva's on-disk caches (see the module docstring)."""
+    explicit = os.environ.get("VISVIVA_CACHE_DIR")
+    if explicit:
+        return Path(explicit)
+    numba_dir = os.environ.get("NUMBA_CACHE_DIR")
+    if numba_dir:
+        return Path(numba_dir) / "visviva"
+    xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(xdg) / "visviva"
+
+
+def _cache_file(iers) -> Path | None:
+    """The cache file for the installed IERS files and astropy version (None: do not cache)."""
+    import astropy
+
+    parts = [astropy.__version__, str(pickle.HIGHEST_PROTOCOL)]
+    for name in (iers.IERS_A_FILE, iers.IERS_A_README, iers.IERS_B_FILE, iers.IERS_B_README):
+        try:
+            st = os.stat(name)
+        except OSError:
+            return None
+        parts += [os.fspath(name), str(st.st_size), str(st.st_mtime_ns)]
+    key = hashlib.sha256("\n".join(parts).encode()).hexdigest()[:20]
+    return cache_dir() / f"iers_auto-{key}.pickle"
+
+
+def _load(path: Path, cls):
+    try:
+        with open(path, "rb") as fh:
+            table = pickle.load(fh)
+    except Exception:  # missing, truncated or written by another version: parse again
+        return None
+    return table if type(table) is cls else None
+
+
+def _store(path: Path, table) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".iers-", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                pickle.dump(table, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, path)  # atomic: a concurrent reader sees the old or the new file
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    except (OSError, pickle.PicklingError):  # read-only home, full disk: just do not cache
+        pass
+
+
+def install_cached_table() -> bool:
+    """Give astropy its default Earth-orientation table from the disk cache, if it has none.
+
+    Does nothing when astropy already holds the table in this process or when a
+    ``finals2000A.all`` in the working directory would make astropy read that file instead.
+    Otherwise the table comes from the cache file, or is read by astropy
+    (``IERS_Auto.read()``, the call ``IERS_Auto.open()`` makes) and written to the cache.
+    Call it with downloads off (:func:`visviva.satellites.frames.offline_iers`).
+
+    Returns
+    -------
+    bool
+        True when the table came from the cache file.
+    """
+    from astropy.utils import iers
+
+    if iers.IERS_Auto.iers_table is not None or os.path.exists("finals2000A.all"):
+        return False
+    path = _cache_file(iers)
+    if path is None:
+        return False
+    table = _load(path, iers.IERS_Auto)
+    if table is not None:
+        iers.IERS_Auto.iers_table = table
+        return True
+    table = iers.IERS_Auto.read()
+    iers.IERS_Auto.iers_table = table
+    _store(path, table)
+    return False

@@ -1,0 +1,193 @@
+"""The frame code's fast start: ERFA rotations equal to astropy's, the IERS table cache, and a
+``Satellite.gcrs`` process that never imports astropy.coordinates (issue 11, warm budget)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import warnings
+
+import erfa
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.coordinates.builtin_frames import intermediate_rotation_transforms as irt
+from astropy.time import Time
+from astropy.utils import iers
+
+from visviva.satellites import earth_rotation, iers_cache
+from visviva.satellites.frames import offline_iers
+
+# 2019-2024 inside the installed IERS table (observed and predicted), 1900 before it, 2300
+# beyond it (mean pole, UT1-UTC held: astropy warns)
+INSIDE = Time("2019-12-09T16:38:29", scale="utc") + np.linspace(0.0, 4 * 365.25, 97) * u.day
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", erfa.ErfaWarning)  # "dubious year": no leap seconds known
+    OUTSIDE = Time(["1900-06-01T00:00:00", "2300-01-01T12:00:00"], scale="utc")
+
+
+@pytest.mark.parametrize("name", ["teme_to_itrs_mat", "gcrs_to_cirs_mat", "cirs_to_itrs_mat"])
+@pytest.mark.parametrize("times", [INSIDE, INSIDE.tt, INSIDE[5], OUTSIDE, OUTSIDE[1]],
+                         ids=["utc", "tt", "scalar", "outside", "outside-scalar"])
+def test_matrices_equal_astropys_frame_graph_functions(name, times):
+    """The same ERFA calls on the same time scales and IERS data: bit for bit equal."""
+    with offline_iers(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # outside the table both warn (mean pole, ERFA dubious)
+        ours = getattr(earth_rotation, name)(times)
+        theirs = getattr(irt, name)(times)
+    assert ours.shape == np.shape(times) + (3, 3)
+    np.testing.assert_array_equal(ours, theirs)
+
+
+def test_outside_the_table_warns_and_uses_the_mean_pole():
+    with offline_iers(), pytest.warns(Warning, match="polar motion"):
+        xp, yp = earth_rotation.polar_motion_rad(OUTSIDE)
+    mean = np.array(earth_rotation.MEAN_POLE_ARCSEC) * u.arcsec
+    np.testing.assert_allclose(np.stack([xp, yp], -1), np.broadcast_to(mean.to_value(u.rad),
+                                                                         (2, 2)), rtol=0)
+    with offline_iers():  # inside: the table's values, ~0.1-0.5 arcsec
+        xp, yp = earth_rotation.polar_motion_rad(INSIDE)
+    assert np.all(np.abs(np.hypot(xp, yp)) < (1 * u.arcsec).to_value(u.rad))
+    assert np.all(np.hypot(xp, yp) > 0)
+
+
+@pytest.fixture
+def fresh_table(monkeypatch, tmp_path):
+    """No IERS table in this process (restored afterwards) and an empty cache directory."""
+    monkeypatch.setattr(iers.IERS_Auto, "iers_table", None)
+    monkeypatch.setenv("VISVIVA_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def _assert_same_table(a, b):
+    assert a.colnames == b.colnames and len(a) == len(b)
+    for name in a.colnames:
+        x, y = np.asarray(a[name]), np.asarray(b[name])
+        if x.dtype.kind == "f":
+            np.testing.assert_array_equal(x, y)
+        else:
+            assert (x == y).all(), name
+
+
+def test_cache_round_trip_gives_astropys_table(fresh_table):
+    with offline_iers():
+        assert iers.IERS_Auto.iers_table is not None  # parsed by astropy and written
+    files = list(fresh_table.glob("iers_auto-*.pickle"))
+    assert len(files) == 1
+    parsed = iers.IERS_Auto.iers_table
+    iers.IERS_Auto.iers_table = None
+    assert iers_cache.install_cached_table() is True  # loaded from the file
+    loaded = iers.IERS_Auto.iers_table
+    assert loaded is not parsed and type(loaded) is iers.IERS_Auto
+    _assert_same_table(loaded, parsed)
+    assert loaded.meta["predictive_mjd"] == parsed.meta["predictive_mjd"]
+    # and astropy's Time uses it: UT1 from the cached table equals UT1 from a fresh parse
+    with offline_iers():
+        ut1_cached = INSIDE.ut1.jd2
+    with iers.earth_orientation_table.set(iers.IERS_Auto.read()):
+        ut1_parsed = INSIDE.ut1.jd2
+    np.testing.assert_array_equal(ut1_cached, ut1_parsed)
+
+
+def test_a_held_table_is_left_alone(fresh_table):
+    table = iers.IERS_Auto.read()
+    iers.IERS_Auto.iers_table = table
+    assert iers_cache.install_cached_table() is False
+    assert iers.IERS_Auto.iers_table is table
+    assert not fresh_table.exists()  # nothing written
+
+
+def test_damaged_cache_file_is_ignored_and_rewritten(fresh_table):
+    path = iers_cache._cache_file(iers)
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"not a pickle")
+    assert iers_cache.install_cached_table() is False  # parsed again
+    assert type(iers.IERS_Auto.iers_table) is iers.IERS_Auto
+    iers.IERS_Auto.iers_table = None
+    assert iers_cache.install_cached_table() is True  # the rewritten file loads
+
+
+def test_unwritable_cache_directory_still_works(fresh_table, monkeypatch, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    monkeypatch.setenv("VISVIVA_CACHE_DIR", str(blocker / "cache"))  # cannot be created
+    assert iers_cache.install_cached_table() is False
+    assert type(iers.IERS_Auto.iers_table) is iers.IERS_Auto
+
+
+def test_a_finals_file_in_the_working_directory_is_left_to_astropy(fresh_table, monkeypatch,
+                                                                   tmp_path):
+    (tmp_path / "finals2000A.all").write_text("")
+    monkeypatch.chdir(tmp_path)
+    assert iers_cache.install_cached_table() is False
+    assert iers.IERS_Auto.iers_table is None and not fresh_table.exists()
+
+
+def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.delenv("VISVIVA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    assert iers_cache.cache_dir() == tmp_path / "numba" / "visviva"
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert iers_cache.cache_dir() == tmp_path / "xdg" / "visviva"
+    monkeypatch.setenv("VISVIVA_CACHE_DIR", str(tmp_path / "mine"))
+    assert iers_cache.cache_dir() == tmp_path / "mine"
+
+
+_SCRIPT = """
+import sys
+import numpy as np
+from astropy import units as u
+import visviva as vv
+sat = vv.Satellite.from_tle(
+    "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+    "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482")
+t = np.linspace(0, 86400, 1441) * u.s
+sat.gcrs(t).r, sat.itrs(t).r, sat.gcrs(t).altitude, sat.geodetic(t)
+vv.satellites.ground_track(sat, t)
+vv.GroundStation(52.0 * u.deg, 4.4 * u.deg).look(sat.gcrs(t))
+print(sorted(m for m in sys.modules if m.startswith("astropy.coordinates")))
+"""
+
+
+def test_satellite_frames_do_not_import_astropy_coordinates(tmp_path):
+    """The import of astropy.coordinates (~0.2-0.4 s) is not needed for TEME/GCRS/ITRS, the
+    geodetic height, a ground track or look angles."""
+    env = dict(os.environ, VISVIVA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True,
+                         check=True, env=env, timeout=600)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+    assert list(tmp_path.glob("iers_auto-*.pickle"))  # and the parsed table was kept
+
+
+def test_geodetic_equals_astropys_earth_location():
+    from astropy.coordinates import EarthLocation
+
+    from visviva.satellites.frames import itrs_to_geodetic
+
+    rng = np.random.default_rng(11)
+    r = rng.normal(size=(500, 3)) * rng.uniform(100.0, 45000.0, size=(500, 1))
+    r = np.concatenate([r, [[-7000.0, 0.0, 0.0], [-7000.0, -0.0, 10.0], [0.0, 0.0, 6400.0]]])
+    lat, lon, h = itrs_to_geodetic(r * u.km)
+    geo = EarthLocation.from_geocentric(*r.T, unit=u.km).to_geodetic("WGS84")
+    np.testing.assert_allclose(lat.to_value(u.deg), geo.lat.deg, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(h.to_value(u.km), geo.height.to_value(u.km), rtol=0, atol=1e-9)
+    dlon = (lon.to_value(u.deg) - geo.lon.wrap_at(180 * u.deg).deg + 180.0) % 360.0 - 180.0
+    np.testing.assert_allclose(dlon, 0.0, atol=1e-12)
+    assert np.all((lon.to_value(u.deg) >= -180.0) & (lon.to_value(u.deg) < 180.0))
+    lat0, lon0, h0 = itrs_to_geodetic([6378.137, 0.0, 0.0])  # a scalar, plain km
+    assert lat0.shape == () and abs(h0.to_value(u.km)) < 1e-12 and lon0.to_value(u.deg) == 0
+
+
+def test_station_itrs_equals_astropys_earth_location():
+    from astropy.coordinates import EarthLocation
+
+    import visviva as vv
+
+    for lat, lon, h in ((52.0, 4.4, 0.0), (-33.9, -70.7, 2400.0), (89.9, 179.99, -30.0)):
+        site = vv.GroundStation(lat * u.deg, lon * u.deg, h * u.m)
+        ref = EarthLocation.from_geodetic(lon * u.deg, lat * u.deg, h * u.m, ellipsoid="WGS84")
+        np.testing.assert_allclose(site.itrs_km, ref.get_itrs().cartesian.xyz.to_value(u.km),
+                                   rtol=0, atol=1e-11)
+        assert site.itrs_km.shape == (3,) and site.itrs_km.dtype == np.float64

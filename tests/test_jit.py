@@ -42,7 +42,7 @@ def test_inline_kernel_is_llvm_alwaysinline():
 def test_kernels_use_the_unliteral_dispatcher():
     from visviva.core import nbody_whfast, universal
 
-    for fn in (universal.propagate_many, universal._stumpff_all, nbody_whfast.whfast_run):
+    for fn in (universal.propagate_many, universal.stumpff_all, nbody_whfast.whfast_run):
         assert isinstance(fn, _jit._Kernel)
 
 

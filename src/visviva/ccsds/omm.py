@@ -12,7 +12,7 @@ from .covariance import COVARIANCE_KEYWORDS
 from .grammar import Keyword as K
 from .grammar import Record, Section
 from .layout import read_message
-from .opm import _write, header_section
+from .opm import header_section, write_sections
 
 __all__ = ["OMM", "read_omm", "write_omm", "SECTIONS"]
 
@@ -176,7 +176,7 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
         parsed[section.name] = record
     if "ORIGINATOR" not in header:
         raise InvalidInputError("the OMM has no ORIGINATOR; pass originator='...'")
-    return _write(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS", path, format)
+    return write_sections(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS", path, format)
 
 
 def _coerce(keyword, value):

@@ -311,10 +311,10 @@ def write_opm(opm: OPM, path=None, format: str | None = None) -> str:  # noqa: A
     """
     if not isinstance(opm, OPM):
         raise InvalidInputError(f"write_opm needs an OPM, got {type(opm).__name__}")
-    return _write(opm.sections, SECTIONS, "opm", "CCSDS_OPM_VERS", path, format)
+    return write_sections(opm.sections, SECTIONS, "opm", "CCSDS_OPM_VERS", path, format)
 
 
-def _write(sections, table, root, version_key, path, format):  # noqa: A002
+def write_sections(sections, table, root, version_key, path, format):  # noqa: A002
     import os
 
     if format is None:

@@ -91,9 +91,9 @@ _LN2 = math.log(2.0)
     (-1.0) ** k / math.factorial(2 * k) for k in range(13)
 )
 #: switch to the cancellation-free iteration where 1 - e cos E falls below this
-_NEAR_PARABOLIC = 0.3
+NEAR_PARABOLIC = 0.3
 #: below this |M| the elliptic solver evaluates sin E and cos E with libm (relative accuracy)
-_SMALL_M = 0.25
+SMALL_M = 0.25
 #: Newton stops once the step is below this fraction of the anomaly (error after it ~ step^2)
 _STEP_TOL = 1e-11
 _MAX_ITER = 40
@@ -240,7 +240,7 @@ def mean_from_parabolic(D):
 # Elliptic Kepler equation
 # ---------------------------------------------------------------------------------------------
 @inline_kernel
-def _sincos_0_pi(x):
+def sincos_0_pi(x):
     """(sin x, cos x) for 0 <= x <= pi to ~3e-16 absolute, inline (no libm call).
 
     Taylor series of cos y and sin y about y = x - pi/2 in [-pi/2, pi/2] (terms to y^24), so
@@ -276,7 +276,7 @@ def _sincos_0_pi(x):
 
 
 @inline_kernel
-def _markley_starter(M, ecc):
+def markley_starter(M, ecc):
     """Markley's (1995, eq. 20) starter for 0 <= M <= pi, 0 <= e < 1: the root of a cubic
     approximating Kepler's equation, without branches."""
     alpha = (_3PI2 + _1P6PI * (PI - M) / (1.0 + ecc)) * _INV_PI2_MINUS_6
@@ -290,7 +290,7 @@ def _markley_starter(M, ecc):
 
 
 @inline_kernel
-def _markley_correction(E, M, ecc, sE, cE):
+def markley_correction(E, M, ecc, sE, cE):
     """Markley's (1995, eqs. 21-24) fifth-order correction of E, given sin E and cos E.
 
     Returns ``(E, f1)`` with ``f1 = 1 - e cos E`` at the starter; the result has full precision
@@ -331,14 +331,14 @@ def _eccentric_near_parabolic(M, ecc):
 @inline_kernel
 def _eccentric_reduced(M, ecc):
     """E for 0 <= M <= pi, 0 < e < 1. Returns (E, status)."""
-    E = _markley_starter(M, ecc)
-    if M >= _SMALL_M:
-        sE, cE = _sincos_0_pi(E)  # absolute accuracy suffices here
+    E = markley_starter(M, ecc)
+    if M >= SMALL_M:
+        sE, cE = sincos_0_pi(E)  # absolute accuracy suffices here
     else:
         sE = math.sin(E)  # relative accuracy needed for small E
         cE = math.cos(E)
-    E, f1 = _markley_correction(E, M, ecc, sE, cE)
-    if f1 >= _NEAR_PARABOLIC:
+    E, f1 = markley_correction(E, M, ecc, sE, cE)
+    if f1 >= NEAR_PARABOLIC:
         return E, OK
     return _eccentric_near_parabolic(M, ecc)
 

@@ -9,22 +9,22 @@ import math
 
 from ._jit import kernel, parallel_kernel, prange
 from .kepler import (
-    _NEAR_PARABOLIC,
-    _SMALL_M,
+    NEAR_PARABOLIC,
     PI,
+    SMALL_M,
     TWO_PI,
-    _markley_correction,
-    _markley_starter,
-    _sincos_0_pi,
     eccentric_anomaly,
     eccentric_from_true,
     hyperbolic_anomaly,
     hyperbolic_from_true,
+    markley_correction,
+    markley_starter,
     mean_from_eccentric,
     mean_from_hyperbolic,
     mean_to_true_anomaly,
     parabolic_anomaly,
     parabolic_from_true,
+    sincos_0_pi,
     true_from_eccentric,
     true_from_hyperbolic,
     true_from_parabolic,
@@ -66,16 +66,16 @@ def _markley_pass(M, ecc, E_out, status_out):
         x = abs(m)
         wrap = x > PI  # pi < |M| <= 2 pi: solve for 2 pi - |M| (exact) and reflect
         xr = TWO_PI - x if wrap else x
-        good = (x <= TWO_PI) & (xr >= _SMALL_M) & (e > 0.0) & (e < 1.0)
+        good = (x <= TWO_PI) & (xr >= SMALL_M) & (e > 0.0) & (e < 1.0)
         # harmless stand-ins for the items left to the scalar kernel (no NaN/inf arithmetic)
         xs = xr if good else 1.0
         es = e if good else 0.5
-        E = _markley_starter(xs, es)
-        sE, cE = _sincos_0_pi(E)
-        E, f1 = _markley_correction(E, xs, es, sE, cE)
+        E = markley_starter(xs, es)
+        sE, cE = sincos_0_pi(E)
+        E, f1 = markley_correction(E, xs, es, sE, cE)
         E = TWO_PI - E if wrap else E
         E_out[i] = math.copysign(E, m)
-        good = good & (f1 >= _NEAR_PARABOLIC)
+        good = good & (f1 >= NEAR_PARABOLIC)
         status_out[i] = OK if good else NO_CONVERGENCE
 
 

@@ -66,7 +66,7 @@ def _series_c2c3(psi):
 
 
 @inline_kernel
-def _stumpff_all(psi):
+def stumpff_all(psi):
     """c0, c1, c2, c3 of psi without cancellation (series for |psi| < 4, half angles beyond)."""
     if psi > SERIES_LIMIT:
         x = math.sqrt(psi)
@@ -120,7 +120,7 @@ def stumpff_c0123(psi):
     case, ``x - sin x`` at ``x = 2``, loses one bit).
     Reference: Danby (1992) sec. 6.9; Vallado (2013) Algorithm 1.
     """
-    return _stumpff_all(psi)
+    return stumpff_all(psi)
 
 
 @kernel
@@ -143,5 +143,5 @@ def stumpff_c2c3(psi):
     Series near zero (no cancellation), half-angle closed forms beyond ``|psi| = 4``. Overflows
     to ``inf`` only for ``psi < -(1420)**2``. See :func:`stumpff_c0123`.
     """
-    c0, c1, c2, c3 = _stumpff_all(psi)
+    c0, c1, c2, c3 = stumpff_all(psi)
     return c2, c3

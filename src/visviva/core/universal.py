@@ -78,7 +78,7 @@ from ._intrinsics import EPS as _EPS
 from ._intrinsics import fma as _fma
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .status import BAD_GM, HITS_ATTRACTOR, NO_CONVERGENCE, NON_FINITE, OK, ZERO_POSITION
-from .stumpff import SERIES_LIMIT, _stumpff_all, stumpff_c0123, stumpff_c2c3
+from .stumpff import SERIES_LIMIT, stumpff_all, stumpff_c0123, stumpff_c2c3
 
 __all__ = [
     "stumpff_c2c3",
@@ -178,7 +178,7 @@ def _solve_universal(A, B, C, beta, tau, s_start):
     s = s0
     for _ in range(MAX_ITERATIONS):
         psi = beta * s * s
-        c0, c1, c2, c3 = _stumpff_all(psi)
+        c0, c1, c2, c3 = stumpff_all(psi)
         if abs(c0) > 1e200:
             # cosh(x) > 1e200: t(s) is astronomically beyond any tau; bisect toward the start
             # (this also keeps inf - inf from ever forming)
@@ -221,7 +221,7 @@ def _solve_universal(A, B, C, beta, tau, s_start):
         if abs(delta) <= _ACCEPT * abs(s) + noise:
             if not lo < s_new < hi:
                 return True, s, c0, G1, G2
-            c0, c1, c2, c3 = _stumpff_all(beta * s_new * s_new)
+            c0, c1, c2, c3 = stumpff_all(beta * s_new * s_new)
             return True, s_new, c0, s_new * c1, s_new * s_new * c2
         if not (lo < s_new < hi):
             # step left the bracket (or was NaN): bisect, or expand an open bracket
@@ -469,7 +469,7 @@ def _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s_guess):
         sigma0 = math.asinh(kb * g1) / kb
     else:
         sigma0 = g1
-    c0, c1, c2, c3 = _stumpff_all(beta * sigma0 * sigma0)
+    c0, c1, c2, c3 = stumpff_all(beta * sigma0 * sigma0)
     T1 = q * sigma0 + mue * sigma0 * sigma0 * sigma0 * c3 + tau
     # t(sigma) = q G1 + gm G3 = q sigma + gm e G3: the universal equation from periapsis
     converged, sigma, G0, G1, G2 = _solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)

@@ -76,7 +76,7 @@ class OrbitFit:
         )
 
 
-def _check_initial(initial):
+def check_initial(initial):
     from .._units import to_array, to_vector
 
     if not (hasattr(initial, "r") and hasattr(initial, "v") and hasattr(initial, "gm")):
@@ -196,7 +196,7 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         from .iod import initial_orbit
 
         initial = initial_orbit(observations, EARTH)
-    x, gm, epoch = _check_initial(initial)
+    x, gm, epoch = check_initial(initial)
     if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
         raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")
     if outlier_sigma is not None and not outlier_sigma > 0:

@@ -55,9 +55,9 @@ class Dynamics:
         integration outward from the epoch.
         """
         from ..core.variational import integrate_variational
-        from ..satellites.cowell import _dop853_tableau
+        from ..satellites.cowell import dop853_tableau
 
-        A, B, C, E3, E5, _ = _dop853_tableau()
+        A, B, C, E3, E5, _ = dop853_tableau()
         offsets_s = np.asarray(offsets_s, dtype=np.float64)
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
         y_all = np.empty((offsets_s.size, 6))

@@ -70,9 +70,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     flags = {"light_time": light_time, "radec_reference": radec_reference}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
-    from .batch import _check_initial
+    from .batch import check_initial
 
-    x, gm, epoch = _check_initial(state)
+    x, gm, epoch = check_initial(state)
     offsets = exact.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13)
     y, _ = dyn.propagate(x, offsets)

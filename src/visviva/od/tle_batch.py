@@ -112,7 +112,7 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
     InvalidInputError
         ``satnums`` of another length than ``histories``.
     """
-    from .tle_fit import TLEFit, _satellite_from_fields
+    from .tle_fit import TLEFit, satellite_from_fields
 
     histories = list(histories)
     satnums = [99999] * len(histories) if satnums is None else [int(s) for s in satnums]
@@ -134,7 +134,7 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
         results = [r for part in client.gather(futures) for r in part]
     sats = []
     for fields, report in results:
-        sat = _satellite_from_fields(fields)
+        sat = satellite_from_fields(fields)
         sat.fit = TLEFit(**report)
         sats.append(sat)
     return sats

@@ -223,7 +223,7 @@ def _initial_elements(r, v, bstar):
     return np.array([n_rad_min, ecc * math.cos(w), ecc * math.sin(w), inc, raan, w + M, bstar])
 
 
-def _satellite_from_fields(fields):
+def satellite_from_fields(fields):
     """A Satellite from fitted OMM fields (a blank OBJECT_ID leaves the designator blank)."""
     from ..satellites.tle import Satellite
 
@@ -488,7 +488,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
     if not object_id:
         fields["OBJECT_ID"] = ""
-    sat = _satellite_from_fields(fields)
+    sat = satellite_from_fields(fields)
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(

@@ -47,7 +47,7 @@ EPHEMERIS_STEP_S = 3600.0
 
 
 @functools.lru_cache(maxsize=1)
-def _dop853_tableau():
+def dop853_tableau():
     """The DOP853 coefficients (Hairer & Wanner), as contiguous float64 arrays.
 
     Taken from scipy, which transcribes Hairer's Fortran DOP853; scipy is a dependency of
@@ -357,7 +357,7 @@ def _raise_budget(max_steps, t_reached_s, where):
 
 
 def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
-    A, B, C, E3, E5, D = _dop853_tableau()
+    A, B, C, E3, E5, D = dop853_tableau()
     kinds, params, dirs, terms = ev
     cap = 64
     while True:
@@ -384,7 +384,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     """N states through the parallel kernel; results (N, T, 3)."""
     from ..core.cowell import integrate_cowell_many
 
-    A, B, C, E3, E5, D = _dop853_tableau()
+    A, B, C, E3, E5, D = dop853_tableau()
     y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
     n = y0.shape[0]
     pieces = []

@@ -94,6 +94,7 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
     list of tuple
         ``(i, j, tca_s, miss_km, speed_km_s, radial, in_track, cross_track)`` per conjunction.
     """
+    from ..core.orbit_path import path_schedule
     from ..core.screening import screen_rows
     from .sources import speed_bound as _speed_bound
 
@@ -105,10 +106,14 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
         q1, Q1 = src1.shells()
         q2, Q2 = (q1, Q1) if self_mode else src2.shells()
+        el1 = src1.path_elements()
+        el2 = el1 if self_mode else src2.path_elements()
         cache.clear()
         cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
+                     path=(el1, el2) + path_schedule([el1, el2], (n_steps - 1) * step_s),
                      speed=_speed_bound(v1, v2))
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
+    el1, el2, t_mid, chunk = cache["path"]
     speed_bound = cache["speed"]
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     cap = 64
@@ -120,7 +125,7 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         fine = HERMITE_MARGIN_KM * max(1.0, (step_s / 60.0) ** 4)
         screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, bool(self_mode), float(step_s),
                     float(threshold_km), FILTER_MARGIN_KM, fine, speed_bound, out_j, out_k, out_d,
-                    counts)
+                    counts, el1, el2, t_mid, chunk)
         if counts.max(initial=0) <= cap:
             break
         cap = int(counts.max()) + 16
@@ -153,6 +158,36 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
             found.append((int(i), j, tca, miss, float(np.linalg.norm(vb - va)),
                           float(d @ R), float(d @ T), float(d @ N)))
     return found
+
+
+def filter_statistics(src1, src2, span_s, threshold_km):
+    """Pairs passing the apogee/perigee filter and also the orbit-path filter (two ints).
+
+    Parameters
+    ----------
+    src1, src2 : SgpSource or SampledSource
+        Primaries and secondaries (the same object: a self-screen).
+    span_s : float
+        Window length, s.
+    threshold_km : float
+        Screening distance, km.
+
+    Returns
+    -------
+    tuple of int
+        ``(after apogee/perigee, after orbit path)``.
+    """
+    from ..core.orbit_path import count_filter_survivors, path_schedule
+
+    self_mode = src1 is src2
+    q1, Q1 = src1.shells()
+    q2, Q2 = src2.shells()
+    el1, el2 = src1.path_elements(), src2.path_elements()
+    t_mid, chunk = path_schedule([el1, el2], span_s)
+    out = np.zeros((len(src1), 2), dtype=np.int64)
+    count_filter_survivors(q1, Q1, q2, Q2, el1, el2, self_mode,
+                           float(threshold_km) + FILTER_MARGIN_KM, t_mid, chunk, out)
+    return int(out[:, 0].sum()), int(out[:, 1].sum())
 
 
 _WORKER_CACHE: dict = {}

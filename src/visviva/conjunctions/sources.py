@@ -59,6 +59,20 @@ class SgpSource:
         big_q = (1.0 + np.array([s.alta for s in sat])) * re
         return q, big_q
 
+    def path_elements(self):
+        """Mean elements at t0 and secular rates for the orbit-path filter, ``(N, 7)``
+        (:data:`visviva.core.orbit_path.PATH_ELEMENTS`; km, rad, rad/s)."""
+        out = np.empty((len(self.catalog), 7))
+        t0 = self.jd0 + self.fr0
+        for n, sat in enumerate(self.catalog):
+            s = sat.satrec
+            dt_min = (t0 - (s.jdsatepoch + s.jdsatepochF)) * 1440.0
+            e = min(s.ecco, 0.999)
+            out[n] = (s.a * s.radiusearthkm * (1.0 - e * e), e, s.inclo,
+                      s.nodeo + s.nodedot * dt_min, s.argpo + s.argpdot * dt_min,
+                      s.nodedot / 60.0, s.argpdot / 60.0)
+        return out
+
     def state(self, i, ts):
         """State of object ``i`` at ``ts`` (s from t0), or ``(None, None)`` if SGP4 fails."""
         e, r, v = self.catalog[i].satrec.sgp4(self.jd0, self.fr0 + ts / DAY_S)
@@ -127,6 +141,11 @@ class SampledSource:
         the radius between samples."""
         rad = [np.linalg.norm(x, axis=-1) for x in self.r]
         return np.array([x.min() for x in rad]), np.array([x.max() for x in rad])
+
+    def path_elements(self):
+        """No mean elements: the orbit-path filter is off for ephemerides (the sampled filters
+        see every approach)."""
+        return np.empty((0, 7))
 
     def state(self, i, ts):
         r, v = self._interp(i, ts)

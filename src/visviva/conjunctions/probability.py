@@ -32,7 +32,8 @@ METHODS = {
     "foster": "2-D encounter-plane integral over the hard-body circle (CARA PcCircle, 1e-10)",
     "chan": "Chan's series (equivalent-area Rician approximation)",
     "3d": "time integral of the probability flux through the hard-body cross-section along "
-          "two-body relative motion, covariances propagated by the STM",
+          "two-body relative motion, covariances propagated by the STM (mean relative "
+          "velocity only; 'pc3d_hall' is the validated 3-D method)",
     "pc3d_hall": "Hall's (2021) 3D-Nc method (NASA CARA's Pc3D_Hall): the expected number of "
                  "collisions, two-body motion with equinoctial-element covariances linearised "
                  "about the peak overlap position, flux integrated over the hard-body sphere",

@@ -5,11 +5,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
-from visviva.core.orbit_path import orbit_paths_close, path_schedule
+from visviva.core.orbit_path import (
+    orbit_paths_close,
+    path_geometry,
+    path_rate,
+    path_schedule,
+)
 
 RE = 6378.135
 
@@ -42,7 +48,7 @@ def test_never_drops_orbits_closer_than_the_distance(o1, o2, dist, near):
     if near:  # make the second orbit pass close to the first: same node, perigee radius near
         o2 = (o2[0], o2[1], o2[2], o1[3], o1[4])
     el = np.array([[a * (1 - e * e), e, i, n, w, 0.0, 0.0] for a, e, i, n, w in (o1, o2)])
-    keep = orbit_paths_close(el, 0, el, 1, np.zeros(1), dist, 0.0)
+    keep = _close(el, dist)
     if not keep:
         pts = [_ellipse_points(*el[k, :5]) for k in range(2)]
         moid, _ = cKDTree(pts[1]).query(pts[0], k=1)
@@ -54,24 +60,26 @@ def test_it_prunes_and_keeps_what_it_should():
     # two circular orbits 100 km apart in radius, crossing planes: dropped at 50 km, kept at 150
     el = np.array([[7000.0, 0.0, 0.9, 0.0, 0.0, 0.0, 0.0],
                    [7100.0, 0.0, 1.2, 1.0, 0.0, 0.0, 0.0]])
-    assert not orbit_paths_close(el, 0, el, 1, np.zeros(1), 50.0, 0.0)
-    assert orbit_paths_close(el, 0, el, 1, np.zeros(1), 150.0, 0.0)
+    assert not _close(el, 50.0)
+    assert _close(el, 150.0)
     # an eccentric orbit with its perigee on the mutual node line at the other's radius: kept
     el[1] = [7000.0 * 1.1, 0.1, 1.2, 1.0, 0.0, 0.0, 0.0]
     el[0, 3] = 1.0  # same node: the mutual node line is the line of nodes, perigee on it
-    assert orbit_paths_close(el, 0, el, 1, np.zeros(1), 5.0, 0.0)
+    assert _close(el, 5.0)
     # coplanar: always kept
     el[1] = [7100.0, 0.0, 0.9, 1.0, 0.0, 0.0, 0.0]
-    assert orbit_paths_close(el, 0, el, 1, np.zeros(1), 5.0, 0.0)
+    assert _close(el, 5.0)
 
 
 def test_drift_chunks_bound_the_displacement():
     el = np.array([[7000.0, 0.001, 1.0, 0.0, 0.0, -1.1e-6, 1.3e-6]])
-    t_mid, length = path_schedule([el], 86400.0, drift_km=10.0)
-    assert t_mid.size * length == 86400.0
-    big = el[0, 0] / (1 - el[0, 1])
-    assert 0.5 * big * (abs(el[0, 5]) + abs(el[0, 6])) * length <= 10.0 + 1e-9
-    assert path_schedule([np.empty((0, 7))], 3600.0) == (np.array([1800.0]), 3600.0)
+    t_mid, length = path_schedule(path_rate(el), 86400.0, drift_km=10.0)
+    assert t_mid.size * length == pytest.approx(86400.0)
+    const, geom = path_geometry(el, 86400.0, path_rate(el))
+    assert geom.shape == (1, t_mid.size, 4)
+    assert const[0, 4] <= 20.0 + 1e-9  # displacement over half a chunk (default 20 km)
+    assert np.allclose(np.linalg.norm(geom[0, :, :3], axis=1), 1.0)
+    assert path_schedule(0.0, 3600.0) == (np.array([1800.0]), 3600.0)
 
 
 @settings(max_examples=20, deadline=None)
@@ -104,8 +112,12 @@ def test_sgp4_pairs_found_by_one_second_sampling_pass_the_filter(e1, e2, i1, i2,
     ts = np.arange(0.0, 3 * 3600.0 + 1)
     r, _ = src.sample(ts)
     dmin = float(np.nanmin(np.linalg.norm(r[1] - r[0], axis=-1)))
-    el = src.path_elements()
-    t_mid, length = path_schedule([el], ts[-1])
-    keep = orbit_paths_close(el, 0, el, 1, t_mid, 30.0 + 60.0, length)
+    keep = _close(src.path_elements(), 30.0 + 60.0, ts[-1])
     if dmin < 30.0:
         assert keep
+
+
+def _close(el7, dist, span=0.0):
+    el7 = np.asarray(el7, dtype=np.float64)
+    el, g = path_geometry(el7, max(span, 1.0), path_rate(el7))
+    return orbit_paths_close(el, g, 0, el, g, 1, dist)

@@ -94,7 +94,6 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
     list of tuple
         ``(i, j, tca_s, miss_km, speed_km_s, radial, in_track, cross_track)`` per conjunction.
     """
-    from ..core.orbit_path import path_schedule
     from ..core.screening import screen_rows
     from .sources import speed_bound as _speed_bound
 
@@ -106,14 +105,12 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
         q1, Q1 = src1.shells()
         q2, Q2 = (q1, Q1) if self_mode else src2.shells()
-        el1 = src1.path_elements()
-        el2 = el1 if self_mode else src2.path_elements()
         cache.clear()
         cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
-                     path=(el1, el2) + path_schedule([el1, el2], (n_steps - 1) * step_s),
+                     path=_path(src1, src2, self_mode, (n_steps - 1) * step_s),
                      speed=_speed_bound(v1, v2))
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
-    el1, el2, t_mid, chunk = cache["path"]
+    el1, g1, el2, g2 = cache["path"]
     speed_bound = cache["speed"]
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     cap = 64
@@ -125,7 +122,7 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         fine = HERMITE_MARGIN_KM * max(1.0, (step_s / 60.0) ** 4)
         screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, bool(self_mode), float(step_s),
                     float(threshold_km), FILTER_MARGIN_KM, fine, speed_bound, out_j, out_k, out_d,
-                    counts, el1, el2, t_mid, chunk)
+                    counts, el1, g1, el2, g2)
         if counts.max(initial=0) <= cap:
             break
         cap = int(counts.max()) + 16
@@ -160,6 +157,18 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
     return found
 
 
+def _path(src1, src2, self_mode, span_s):
+    """The orbit-path filter's arrays for both sides (same drift chunks)."""
+    from ..core.orbit_path import path_geometry, path_rate
+
+    e1 = src1.path_elements()
+    e2 = e1 if self_mode else src2.path_elements()
+    rate = path_rate(e1, e2)
+    el1, g1 = path_geometry(e1, span_s, rate)
+    el2, g2 = (el1, g1) if self_mode else path_geometry(e2, span_s, rate)
+    return el1, g1, el2, g2
+
+
 def filter_statistics(src1, src2, span_s, threshold_km):
     """Pairs passing the apogee/perigee filter and also the orbit-path filter (two ints).
 
@@ -177,16 +186,15 @@ def filter_statistics(src1, src2, span_s, threshold_km):
     tuple of int
         ``(after apogee/perigee, after orbit path)``.
     """
-    from ..core.orbit_path import count_filter_survivors, path_schedule
+    from ..core.orbit_path import count_filter_survivors
 
     self_mode = src1 is src2
     q1, Q1 = src1.shells()
     q2, Q2 = src2.shells()
-    el1, el2 = src1.path_elements(), src2.path_elements()
-    t_mid, chunk = path_schedule([el1, el2], span_s)
+    el1, g1, el2, g2 = _path(src1, src2, self_mode, span_s)
     out = np.zeros((len(src1), 2), dtype=np.int64)
-    count_filter_survivors(q1, Q1, q2, Q2, el1, el2, self_mode,
-                           float(threshold_km) + FILTER_MARGIN_KM, t_mid, chunk, out)
+    count_filter_survivors(q1, Q1, q2, Q2, el1, g1, el2, g2, self_mode,
+                           float(threshold_km) + FILTER_MARGIN_KM, out)
     return int(out[:, 0].sum()), int(out[:, 1].sum())
 
 

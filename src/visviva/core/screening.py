@@ -141,8 +141,7 @@ TILE = 16
 
 @parallel_kernel
 def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, margin,
-                fine_margin, speed_bound, out_j, out_k, out_d, counts, el1, el2, t_mid,
-                drift_chunk):
+                fine_margin, speed_bound, out_j, out_k, out_d, counts, el1, g1, el2, g2):
     """Candidate close approaches of the primaries ``rows`` against every secondary.
 
     Parameters
@@ -174,13 +173,9 @@ def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, marg
         Written: the estimated minimum distance (km).
     counts : ndarray of int64, shape (m,)
         Written: number of candidates per row (may exceed ``cap``: then call again with more).
-    el1, el2 : ndarray, shape (N1, 7), (N2, 7)
-        Mean elements for the orbit-path filter (:data:`~visviva.core.orbit_path.PATH_ELEMENTS`;
-        ``(0, 7)``: no orbit-path filter).
-    t_mid : ndarray
-        Middles of the drift chunks of the orbit-path filter (s from the elements' reference).
-    drift_chunk : float
-        Their length (s).
+    el1, g1, el2, g2 : ndarray
+        The orbit-path filter's per-object constants and per-chunk plane geometry
+        (:func:`visviva.core.orbit_path.path_geometry`; ``(0, 8)`` constants: no filter).
 
     Notes
     -----
@@ -211,7 +206,7 @@ def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, marg
                     continue
                 if max(q1[i], q2[j]) - min(Q1[i], Q2[j]) > reach:
                     continue
-                if not orbit_paths_close(el1, i, el2, j, t_mid, reach, drift_chunk):
+                if not orbit_paths_close(el1, g1, i, el2, g2, j, reach):
                     continue
                 counts[a] = _pair(a, i, j, r1, v1, r2, v2, dt, fine, speed_bound, counts[a],
                                   out_j, out_k, out_d, p0, p1, m0, m1)

@@ -56,6 +56,13 @@ def test_never_drops_orbits_closer_than_the_distance(o1, o2, dist, near):
         assert moid.min() > dist - spacing
 
 
+def test_equatorial_orbit_found_by_hypothesis():
+    # an equatorial eccentric orbit (no node line of its own) against an inclined circle
+    el = np.array([[12823.0 * (1 - 0.5625**2), 0.5625, 0.0, 3.796875, 0.546875, 0.0, 0.0],
+                   [17241.0, 0.0, 1.0, 1.703125, 0.0, 0.0, 0.0]])
+    assert _close(el, 63.0)  # the orbits come within 52 km
+
+
 def test_it_prunes_and_keeps_what_it_should():
     # two circular orbits 100 km apart in radius, crossing planes: dropped at 50 km, kept at 150
     el = np.array([[7000.0, 0.0, 0.9, 0.0, 0.0, 0.0, 0.0],
@@ -73,10 +80,10 @@ def test_it_prunes_and_keeps_what_it_should():
 
 def test_drift_chunks_bound_the_displacement():
     el = np.array([[7000.0, 0.001, 1.0, 0.0, 0.0, -1.1e-6, 1.3e-6]])
-    t_mid, length = path_schedule(path_rate(el), 86400.0, drift_km=10.0)
+    t_mid, length = path_schedule(path_rate(el), 86400.0)
     assert t_mid.size * length == pytest.approx(86400.0)
     const, geom = path_geometry(el, 86400.0, path_rate(el))
-    assert geom.shape == (1, t_mid.size, 4)
+    assert geom.shape == (1, t_mid.size, 6)
     assert const[0, 4] <= 20.0 + 1e-9  # displacement over half a chunk (default 20 km)
     assert np.allclose(np.linalg.norm(geom[0, :, :3], axis=1), 1.0)
     assert path_schedule(0.0, 3600.0) == (np.array([1800.0]), 3600.0)

@@ -51,11 +51,9 @@ def _radius_range(p, e, nu_lo, nu_hi):
 
 
 @inline_kernel
-def _node_angle(nx, ny, nz, hx, hy, hz):
-    # atan2(n . Q, n . P) with the plane's node vector P = (-hy, hx, 0) / sin i and Q = h x P
-    # (the common factor sin i > 0 cancels)
-    px = -hy
-    py = hx
+def _node_angle(nx, ny, nz, hx, hy, hz, px, py):
+    # argument of latitude of the direction n: atan2(n . Q, n . P) with the node vector
+    # P = (px, py, 0) and Q = h x P (P given, so that equatorial orbits keep their reference)
     qx = -hz * py
     qy = hz * px
     qz = hx * py - hy * px
@@ -68,8 +66,9 @@ def orbit_paths_close(el1, g1, i, el2, g2, j, dist):
     within ``dist`` (km) in some drift chunk.
 
     ``el1``, ``el2``: ``(N, 8)`` per-object constants from :func:`path_geometry` (``(0, 8)``
-    when there are none, e.g. ephemerides: the filter is off); ``g1``, ``g2``: ``(N, C, 4)``
-    plane normal (3) and argument of perigee of each object at each chunk middle.
+    when there are none, e.g. ephemerides: the filter is off); ``g1``, ``g2``: ``(N, C, 6)``
+    plane normal (3), node vector (2) and argument of perigee of each object at each chunk
+    middle.
     """
     if el1.shape[0] == 0 or el2.shape[0] == 0:
         return True
@@ -79,8 +78,8 @@ def orbit_paths_close(el1, g1, i, el2, g2, j, dist):
     if max(el1[i, 3], el2[j, 3]) - min(q1, q2) <= d:
         return True  # every radius of one orbit is within d of every radius of the other
     for c in range(g1.shape[1]):
-        h1x, h1y, h1z, w1 = g1[i, c, 0], g1[i, c, 1], g1[i, c, 2], g1[i, c, 3]
-        h2x, h2y, h2z, w2 = g2[j, c, 0], g2[j, c, 1], g2[j, c, 2], g2[j, c, 3]
+        h1x, h1y, h1z, w1 = g1[i, c, 0], g1[i, c, 1], g1[i, c, 2], g1[i, c, 5]
+        h2x, h2y, h2z, w2 = g2[j, c, 0], g2[j, c, 1], g2[j, c, 2], g2[j, c, 5]
         nx = h1y * h2z - h1z * h2y
         ny = h1z * h2x - h1x * h2z
         nz = h1x * h2y - h1y * h2x
@@ -91,8 +90,8 @@ def orbit_paths_close(el1, g1, i, el2, g2, j, dist):
             return True  # near-coplanar: the arcs are wide, no pruning
         a1 = math.asin(s1)
         a2 = math.asin(s2)
-        u1 = _node_angle(nx, ny, nz, h1x, h1y, h1z)
-        u2 = _node_angle(nx, ny, nz, h2x, h2y, h2z)
+        u1 = _node_angle(nx, ny, nz, h1x, h1y, h1z, g1[i, c, 3], g1[i, c, 4])
+        u2 = _node_angle(nx, ny, nz, h2x, h2y, h2z, g2[j, c, 3], g2[j, c, 4])
         for side in range(2):
             nu1 = u1 + side * math.pi - w1
             nu2 = u2 + side * math.pi - w2
@@ -142,12 +141,13 @@ def path_geometry(elements, span_s, rate_km_s, drift_km=20.0):
     -------
     el : ndarray, shape (N, 8)
         ``p, e, q, Q``, the drift displacement over half a chunk (km), three spare columns.
-    geometry : ndarray, shape (N, C, 4)
-        Unit normal of the orbit plane and argument of perigee at each chunk middle.
+    geometry : ndarray, shape (N, C, 6)
+        Unit normal of the orbit plane, node vector (x, y) and argument of perigee at each
+        chunk middle.
     """
     n = elements.shape[0]
     if n == 0:
-        return np.empty((0, 8)), np.empty((0, 1, 4))
+        return np.empty((0, 8)), np.empty((0, 1, 6))
     t_mid, length = path_schedule(rate_km_s, span_s, drift_km)
     p, e, inc = elements[:, 0], elements[:, 1], elements[:, 2]
     big = p / (1.0 - e)
@@ -155,12 +155,14 @@ def path_geometry(elements, span_s, rate_km_s, drift_km=20.0):
     el[:, 0], el[:, 1], el[:, 2], el[:, 3] = p, e, p / (1.0 + e), big
     el[:, 4] = big * (np.abs(elements[:, 5]) + np.abs(elements[:, 6])) * 0.5 * length
     node = elements[:, 3:4] + elements[:, 5:6] * t_mid[None, :]
-    geometry = np.empty((n, t_mid.size, 4))
+    geometry = np.empty((n, t_mid.size, 6))
     si = np.sin(inc)[:, None]
     geometry[..., 0] = si * np.sin(node)
     geometry[..., 1] = -si * np.cos(node)
     geometry[..., 2] = np.cos(inc)[:, None]
-    geometry[..., 3] = elements[:, 4:5] + elements[:, 6:7] * t_mid[None, :]
+    geometry[..., 3] = np.cos(node)
+    geometry[..., 4] = np.sin(node)
+    geometry[..., 5] = elements[:, 4:5] + elements[:, 6:7] * t_mid[None, :]
     return el, geometry
 
 

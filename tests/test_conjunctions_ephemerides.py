@@ -7,6 +7,7 @@ import pytest
 from astropy import units as u
 
 import visviva as vv
+from test_conjunctions_screening import brute_force_minima
 from visviva.conjunctions.synthetic import synthetic_catalog
 from visviva.errors import InvalidInputError
 
@@ -30,18 +31,7 @@ def setup():
 
 
 def _brute(fine):
-    r = fine.r.to_value(u.km)
-    ts = fine.t.to_value(u.s)
-    out = []
-    for i in range(r.shape[0]):
-        d = np.linalg.norm(r[i + 1:] - r[i], axis=-1)
-        for jj in np.flatnonzero(d.min(axis=1) < THRESHOLD):
-            dd = d[jj]
-            left = np.r_[True, dd[1:] <= dd[:-1]]
-            right = np.r_[dd[:-1] < dd[1:], True]
-            for k in np.flatnonzero((dd < THRESHOLD) & left & right):
-                out.append((i, i + 1 + jj, ts[k], dd[k]))
-    return out
+    return brute_force_minima(fine.r.to_value(u.km), fine.t.to_value(u.s), THRESHOLD)
 
 
 def test_cowell_screen_misses_nothing_one_second_sampling_finds(setup):

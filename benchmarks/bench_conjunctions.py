@@ -19,6 +19,7 @@ Run: ``python -m benchmarks --only conjunctions`` or ``python -m benchmarks.benc
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -128,9 +129,11 @@ def _all_vs_all_rows(n, log=None):
     t = time.perf_counter()
     tab = screen_conjunctions(cat, None, t0, t0 + 1 * u.day)
     single = time.perf_counter() - t
-    say(f"single process: {single:.1f} s, {len(tab)} conjunctions")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    say(f"single process: {single:.1f} s, {len(tab)} conjunctions, load {load:.1f}")
     rows = [result(f"all-vs-all {n} objects x 1 day, single process", single, "", None,
-                   notes=f"{len(tab)} conjunctions < 5 km; numba threads")]
+                   notes=f"{len(tab)} conjunctions < 5 km; numba threads; "
+                         f"load average {load:.1f} at the end")]
     try:
         import dask
         from distributed import Client, LocalCluster
@@ -145,18 +148,65 @@ def _all_vs_all_rows(n, log=None):
             t = time.perf_counter()
             tab2 = screen_conjunctions(cat, None, t0, t0 + 1 * u.day, client=client)
             dask_s = time.perf_counter() - t
+            load2 = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     except Exception as exc:  # a loaded machine can fail to start workers: keep the other row
         return rows + [skipped("all-vs-all on Dask", f"cluster failed: {exc}")]
     say(f"dask: {dask_s:.1f} s, {len(tab2)} conjunctions")
     rows.append(result(f"all-vs-all {n} objects x 1 day: Dask 2 process workers", dask_s,
                        "the same screen in a single process (numba threads)", single,
                        notes=f"{len(tab2)} conjunctions < 5 km (single process: {len(tab)}); "
-                             "1 thread per worker; each worker propagates the catalogue once"))
+                             "1 thread per worker; each worker propagates the catalogue once; "
+                             f"load average {load2:.1f} at the end"))
     return rows
 
 
+def _pruning_row(n):
+    """Pairs left by the apogee/perigee filter and by the orbit-path filter after it."""
+    from visviva.conjunctions.screening import filter_statistics
+    from visviva.conjunctions.sources import SgpSource
+
+    cat = _catalog(n, seed=7)
+    t0 = cat.epochs[0]
+    src = SgpSource(cat, float(t0.utc.jd1), float(t0.utc.jd2))
+    t = time.perf_counter()
+    after_ap, after_path = filter_statistics(src, src, 86400.0, 5.0)
+    tp = time.perf_counter() - t
+    pairs = n * (n - 1) // 2
+    return result(f"orbit-path filter, {n} objects x 1 day", tp, "", None,
+                  notes=f"{pairs:,} pairs; apogee/perigee keeps {after_ap:,} "
+                        f"({after_ap / pairs:.1%}); orbit path keeps {after_path:,} "
+                        f"({after_path / max(after_ap, 1):.1%} of those)")
+
+
+def _pc3d_row():
+    """Hall's 3D-Nc on Alfano's case 5 (LEO) vs the Foster 2-D integral."""
+    import csv
+    import io
+    from pathlib import Path
+
+    from visviva.conjunctions import collision_probability
+
+    path = Path(__file__).resolve().parents[1] / "tests" / "data" / "alfano2009_cara.csv"
+    rows = [ln for ln in path.read_text().splitlines(keepends=True) if not ln.startswith("#")]
+    row = [r for r in csv.DictReader(io.StringIO("".join(rows))) if r["case"] == "5"][0]
+    args = []
+    for o in "12":
+        args.append(np.array([float(row[f"r{o}_{a}_m"]) for a in "xyz"]))
+        args.append(np.array([float(row[f"v{o}_{a}_m_s"]) for a in "xyz"]))
+        args.append(np.array([float(row[f"cov{o}_{i}{j}"]) for i in range(1, 7)
+                              for j in range(1, 7)]).reshape(6, 6))
+    args.append(float(row["hbr_m"]))
+    w = float(row["a09_final_time_s"])
+    t3 = time_call(lambda: collision_probability(*args, method="pc3d_hall", window=(-w, w)),
+                   repeat=3).median
+    t2 = time_call(lambda: collision_probability(*args), repeat=5).median
+    return result("Pc3D_Hall (3D-Nc), Alfano case 5", t3, "Foster 2-D, same case", t2,
+                  notes="adaptive time integral 1e-6, density-adapted sphere rule")
+
+
 def run(quick: bool = False) -> list[dict]:
-    rows = [_screen_row(300 if quick else 2000), _pc_row()]
+    rows = [_screen_row(300 if quick else 2000), _pc_row(), _pruning_row(1000 if quick else 10_000),
+            _pc3d_row()]
     rows.extend(_all_vs_all_rows(1000 if quick else 10_000))
     return rows
 

@@ -20,6 +20,20 @@ from visviva.core.universal import propagate_one
 ONE_METER = 1e-3  # km
 
 
+def brute_force_minima(r, ts, threshold):
+    """Local minima of every pair's sampled distance below ``threshold``: (i, j, t, d)."""
+    out = []
+    for i in range(r.shape[0]):
+        d = np.linalg.norm(r[i + 1:] - r[i], axis=-1)
+        for jj in np.flatnonzero(d.min(axis=1) < threshold):
+            dd = d[jj]
+            left = np.r_[True, dd[1:] <= dd[:-1]]
+            right = np.r_[dd[:-1] < dd[1:], True]
+            for k in np.flatnonzero((dd < threshold) & left & right):
+                out.append((i, i + 1 + jj, ts[k], dd[k]))
+    return out
+
+
 @pytest.fixture(scope="module")
 def catalog():
     return synthetic_catalog(120, seed=4, crossing_pairs=4)
@@ -37,15 +51,7 @@ def test_screening_misses_nothing_one_second_sampling_finds(catalog, screened):
     jd = np.full(ts.size, t0.utc.jd1)
     fr = t0.utc.jd2 + ts / 86400.0
     _, r, _ = catalog.satrec_array.sgp4(jd, fr)
-    brute = []
-    for i in range(len(catalog)):
-        d = np.linalg.norm(r[i + 1:] - r[i], axis=-1)
-        for jj in np.flatnonzero(d.min(axis=1) < 20.0):
-            dd = d[jj]
-            left = np.r_[True, dd[1:] <= dd[:-1]]
-            right = np.r_[dd[:-1] < dd[1:], True]
-            for k in np.flatnonzero((dd < 20.0) & left & right):
-                brute.append((i, i + 1 + jj, ts[k], dd[k]))
+    brute = brute_force_minima(r, ts, 20.0)
     assert len(brute) >= 4  # the crossing pairs meet
     tca_s = (screened["tca"] - t0).to_value(u.s)
     miss = screened["miss_distance"].to_value(u.km)

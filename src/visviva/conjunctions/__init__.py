@@ -1,8 +1,10 @@
 """Conjunction assessment: screening, covariance tools, collision probability, plots.
 
-* :func:`screen_conjunctions` finds the close approaches of a catalogue (SGP4) over a window.
+* :func:`screen_conjunctions` finds the close approaches of a catalogue (SGP4) or of
+  ephemerides (Cowell, state histories) over a window.
 * :func:`collision_probability` computes Pc with Foster's 2-D integral (NASA CARA PcCircle
-  convention), Chan's series, a 3-D flux integral or Monte Carlo;
+  convention), Chan's series, Hall's 3D-Nc method (CARA's Pc3D_Hall), a 3-D flux integral or
+  Monte Carlo;
   :func:`max_collision_probability` is Alfano's maximum over the covariance size.
 * :mod:`visviva.conjunctions.covariance`: RTN <-> inertial, STM propagation, encounter plane.
 """

@@ -44,37 +44,13 @@ FILTER_MARGIN_KM = 60.0
 HERMITE_MARGIN_KM = 2.0
 
 
-def _shells(cat):
-    sat = [s.satrec for s in cat]
-    re = np.array([s.radiusearthkm for s in sat])
-    q = (1.0 + np.array([s.altp for s in sat])) * re
-    Q = (1.0 + np.array([s.alta for s in sat])) * re
-    return q, Q
-
-
-def _propagate(cat, jd, fr):
-    e, r, v = cat.satrec_array.sgp4(jd, fr)
-    bad = e != 0
-    if bad.any():
-        r[bad] = np.nan
-        v[bad] = np.nan
-    return np.ascontiguousarray(r), np.ascontiguousarray(v)
-
-
-def _state(satrec, jd, fr):
-    e, r, v = satrec.sgp4(jd, fr)
-    if e:
-        return None, None
-    return np.array(r), np.array(v)
-
-
-def _refine(sat1, sat2, jd0, fr0, t_lo, t_hi, window):
-    """TCA in [t_lo, t_hi] (s from jd0 + fr0) by Brent on rho . rho_dot; exact SGP4 states."""
+def _refine(src1, i, src2, j, t_lo, t_hi, window):
+    """TCA in [t_lo, t_hi] (s from t0) by Brent on rho . rho_dot, on the sources' own states."""
     from scipy.optimize import brentq
 
     def f(ts):
-        r1, v1 = _state(sat1, jd0, fr0 + ts / DAY_S)
-        r2, v2 = _state(sat2, jd0, fr0 + ts / DAY_S)
+        r1, v1 = src1.state(i, ts)
+        r2, v2 = src2.state(j, ts)
         if r1 is None or r2 is None:
             return math.nan
         return float(np.dot(r2 - r1, v2 - v1))
@@ -92,18 +68,16 @@ def _refine(sat1, sat2, jd0, fr0, t_lo, t_hi, window):
     return tca
 
 
-def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows,
-                 cache=None):
-    """Screen the primaries ``rows`` of ``cat1`` against ``cat2``: the unit of parallel work.
+def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cache=None):
+    """Screen the primaries ``rows`` of ``src1`` against ``src2``: the unit of parallel work.
 
     Parameters
     ----------
-    cat1, cat2 : Catalog
-        Primaries and secondaries (the same object when ``self_mode``).
+    src1, src2 : SgpSource or SampledSource
+        Primaries and secondaries (the same object when ``self_mode``), see
+        :mod:`visviva.conjunctions.sources`.
     self_mode : bool
         Screen the catalogue against itself (pairs ``j > i``).
-    jd0, fr0 : float
-        Start of the window (UTC Julian date, two parts).
     step_s : float
         Sampling step, s.
     n_steps : int
@@ -121,22 +95,22 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
         ``(i, j, tca_s, miss_km, speed_km_s, radial, in_track, cross_track)`` per conjunction.
     """
     from ..core.screening import screen_rows
+    from .sources import speed_bound as _speed_bound
 
     cache = {} if cache is None else cache
-    key = (id(cat1), id(cat2), jd0, fr0, step_s, n_steps)
+    key = (id(src1), id(src2), step_s, n_steps)
     if cache.get("key") != key:
         ts = np.arange(n_steps) * step_s
-        jd = np.full(n_steps, jd0)
-        fr = fr0 + ts / DAY_S
-        r1, v1 = _propagate(cat1, jd, fr)
-        r2, v2 = (r1, v1) if self_mode else _propagate(cat2, jd, fr)
-        q1, Q1 = _shells(cat1)
-        q2, Q2 = (q1, Q1) if self_mode else _shells(cat2)
-        speeds = [np.nanmax(np.linalg.norm(v, axis=-1), initial=0.0) for v in (v1, v2)]
+        r1, v1 = src1.sample(ts)
+        r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
+        q1, Q1 = src1.shells()
+        q2, Q2 = (q1, Q1) if self_mode else src2.shells()
         cache.clear()
         cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
-                     speed=1.01 * (speeds[0] + speeds[1]) + 1e-3)
+                     path=_path(src1, src2, self_mode, (n_steps - 1) * step_s),
+                     speed=_speed_bound(v1, v2))
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
+    el1, g1, el2, g2 = cache["path"]
     speed_bound = cache["speed"]
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     cap = 64
@@ -148,7 +122,7 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
         fine = HERMITE_MARGIN_KM * max(1.0, (step_s / 60.0) ** 4)
         screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, bool(self_mode), float(step_s),
                     float(threshold_km), FILTER_MARGIN_KM, fine, speed_bound, out_j, out_k, out_d,
-                    counts)
+                    counts, el1, g1, el2, g2)
         if counts.max(initial=0) <= cap:
             break
         cap = int(counts.max()) + 16
@@ -157,20 +131,19 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
     for a, i in enumerate(rows):
         for c in range(int(counts[a])):
             j, k = int(out_j[a, c]), int(out_k[a, c])
-            if cat1[int(i)] is cat2[j]:
+            if src1.same(int(i), src2, j):
                 continue  # the same object in both lists
-            s1, s2 = cat1[int(i)].satrec, cat2[j].satrec
             if k < 0:
                 lo, hi = 0.0, step_s
             elif k >= n_steps - 1:
                 lo, hi = window - step_s, window
             else:
                 lo, hi = k * step_s, (k + 1) * step_s
-            tca = _refine(s1, s2, jd0, fr0, lo, hi, window)
+            tca = _refine(src1, int(i), src2, j, lo, hi, window)
             if tca is None:
                 continue
-            ra, va = _state(s1, jd0, fr0 + tca / DAY_S)
-            rb, vb = _state(s2, jd0, fr0 + tca / DAY_S)
+            ra, va = src1.state(int(i), tca)
+            rb, vb = src2.state(j, tca)
             d = rb - ra
             miss = float(np.linalg.norm(d))
             if miss >= threshold_km:
@@ -184,11 +157,52 @@ def screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km,
     return found
 
 
+def _path(src1, src2, self_mode, span_s):
+    """The orbit-path filter's arrays for both sides (same drift chunks)."""
+    from ..core.orbit_path import path_geometry, path_rate
+
+    e1 = src1.path_elements()
+    e2 = e1 if self_mode else src2.path_elements()
+    rate = path_rate(e1, e2)
+    el1, g1 = path_geometry(e1, span_s, rate)
+    el2, g2 = (el1, g1) if self_mode else path_geometry(e2, span_s, rate)
+    return el1, g1, el2, g2
+
+
+def filter_statistics(src1, src2, span_s, threshold_km):
+    """Pairs passing the apogee/perigee filter and also the orbit-path filter (two ints).
+
+    Parameters
+    ----------
+    src1, src2 : SgpSource or SampledSource
+        Primaries and secondaries (the same object: a self-screen).
+    span_s : float
+        Window length, s.
+    threshold_km : float
+        Screening distance, km.
+
+    Returns
+    -------
+    tuple of int
+        ``(after apogee/perigee, after orbit path)``.
+    """
+    from ..core.orbit_path import count_filter_survivors
+
+    self_mode = src1 is src2
+    q1, Q1 = src1.shells()
+    q2, Q2 = src2.shells()
+    el1, g1, el2, g2 = _path(src1, src2, self_mode, span_s)
+    out = np.zeros((len(src1), 2), dtype=np.int64)
+    count_filter_survivors(q1, Q1, q2, Q2, el1, g1, el2, g2, self_mode,
+                           float(threshold_km) + FILTER_MARGIN_KM, out)
+    return int(out[:, 0].sum()), int(out[:, 1].sum())
+
+
 _WORKER_CACHE: dict = {}
 
 
-def _worker_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows):
-    return screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, threshold_km, rows,
+def _worker_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows):
+    return screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
                         cache=_WORKER_CACHE)
 
 
@@ -198,10 +212,15 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     Parameters
     ----------
-    primaries : Satellite or Catalog
-        The objects to protect.
-    secondaries : Satellite or Catalog, optional
-        The objects screened against them; ``None`` screens ``primaries`` against itself.
+    primaries : Satellite, Catalog, CowellResult, StateVectors or list
+        The objects to protect: SGP4 objects (TEME), or ephemerides (a
+        :class:`~visviva.satellites.CowellResult` of one or N states with an epoch, a
+        :class:`~visviva.StateVectors` history with one absolute epoch per state, or a list of
+        them; positions in their inertial frame, covering the window), see
+        :mod:`visviva.conjunctions.sources`.
+    secondaries : same kinds, optional
+        The objects screened against them (of the same kind as ``primaries``); ``None`` screens
+        ``primaries`` against itself.
     t0, t1 : astropy Time
         The window.
     threshold : Quantity
@@ -243,7 +262,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     from astropy.table import QTable
     from astropy.time import Time
 
-    from ..satellites.catalog import Catalog, _as_catalog
+    from .sources import as_source, check_same_kind
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
@@ -256,15 +275,14 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     span = float((t1 - t0).to_value(u.s))
     if not span > 0:
         raise InvalidInputError(f"t1 must be after t0; got a window of {span} s.")
-    cat1 = _as_catalog(primaries)
-    self_mode = secondaries is None
-    cat2 = cat1 if self_mode else _as_catalog(secondaries)
-    if not isinstance(cat1, Catalog):
-        raise InvalidInputError("primaries must be a Satellite or a Catalog.")
     n_steps = int(math.ceil(span / step_s)) + 1
     step_s = span / (n_steps - 1)
     tu = t0.utc
     jd0, fr0 = float(tu.jd1), float(tu.jd2)
+    cat1 = as_source(primaries, t0, t1, "primaries", jd0, fr0)
+    self_mode = secondaries is None
+    cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
+    check_same_kind(cat1, cat2)
     n1 = len(cat1)
     if blocks is None:
         blocks = 32 if client is None else 4 * max(1, len(client.scheduler_info()["workers"]))
@@ -280,13 +298,13 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
             it = tqdm(row_sets, desc="screening", unit="block")
         for rows in it:
-            found.extend(screen_block(cat1, cat2, self_mode, jd0, fr0, step_s, n_steps, thr,
-                                      rows, cache=cache))
+            found.extend(screen_block(cat1, cat2, self_mode, step_s, n_steps, thr, rows,
+                                      cache=cache))
     else:
         c1 = client.scatter(cat1, broadcast=True)
         c2 = c1 if self_mode else client.scatter(cat2, broadcast=True)
-        futures = [client.submit(_worker_block, c1, c2, self_mode, jd0, fr0, step_s, n_steps,
-                                 thr, rows, pure=False) for rows in row_sets]
+        futures = [client.submit(_worker_block, c1, c2, self_mode, step_s, n_steps, thr, rows,
+                                 pure=False) for rows in row_sets]
         if progress:
             from dask.distributed import progress as dask_progress
 

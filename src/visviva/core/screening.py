@@ -4,6 +4,8 @@ For every pair of objects (one ``prange`` loop over the rows of primaries), the 
 
 1. the apogee/perigee filter (Hoots, Crawford & Roehrich 1984): the radial shells
    ``[q, Q]`` of the two orbits, widened by ``limit + margin``, must overlap;
+   then their orbit-path filter: near the mutual nodes of the two (drifting) orbit planes the
+   radii must come within ``limit + margin`` (:mod:`visviva.core.orbit_path`);
 2. the time filter on the sampled relative motion: an interval ``[t_k, t_k+1]`` holds a local
    minimum of the distance exactly when the range rate ``rho . rho_dot`` changes sign from
    negative to positive (positions and velocities are sampled, so no minimum between samples is
@@ -26,6 +28,7 @@ import numpy as np
 
 from ._jit import inline_kernel, parallel_kernel, prange
 from .hermite import hermite_basis, hermite_basis_rate
+from .orbit_path import orbit_paths_close
 
 __all__ = ["screen_rows"]
 
@@ -133,7 +136,7 @@ TILE = 16
 
 @parallel_kernel
 def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, margin,
-                fine_margin, speed_bound, out_j, out_k, out_d, counts):
+                fine_margin, speed_bound, out_j, out_k, out_d, counts, el1, g1, el2, g2):
     """Candidate close approaches of the primaries ``rows`` against every secondary.
 
     Parameters
@@ -165,6 +168,9 @@ def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, marg
         Written: the estimated minimum distance (km).
     counts : ndarray of int64, shape (m,)
         Written: number of candidates per row (may exceed ``cap``: then call again with more).
+    el1, g1, el2, g2 : ndarray
+        The orbit-path filter's per-object constants and per-chunk plane geometry
+        (:func:`visviva.core.orbit_path.path_geometry`; ``(0, 8)`` constants: no filter).
 
     Notes
     -----
@@ -194,6 +200,8 @@ def screen_rows(r1, v1, q1, Q1, rows, r2, v2, q2, Q2, self_mode, dt, limit, marg
                 if self_mode and j <= i:
                     continue
                 if max(q1[i], q2[j]) - min(Q1[i], Q2[j]) > reach:
+                    continue
+                if not orbit_paths_close(el1, g1, i, el2, g2, j, reach):
                     continue
                 counts[a] = _pair(a, i, j, r1, v1, r2, v2, dt, fine, speed_bound, counts[a],
                                   out_j, out_k, out_d, p0, p1, m0, m1)

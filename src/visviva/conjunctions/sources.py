@@ -1,0 +1,244 @@
+"""What the screening kernel reads: sampled states of a set of objects, from SGP4 or ephemerides.
+
+:func:`~visviva.conjunctions.screen_conjunctions` screens either SGP4 element sets (a
+:class:`~visviva.Catalog`, TEME) or ephemerides: a :class:`~visviva.satellites.CowellResult` (one
+or N states), a :class:`~visviva.StateVectors` history with absolute epochs, or a list of them
+(positions in their own inertial frame, e.g. GCRS). Both are wrapped here behind the same four
+operations: sample every object on the screening grid, the radial shells of the apogee/perigee
+filter, one object's state at any time (for the TCA refinement) and the names.
+
+Ephemerides are interpolated with the cubic Hermite polynomial of the two samples around each
+time (positions and velocities): its error grows as ``h^4``; at the 60 s outputs typical of LEO
+it is about a metre, so TCA and miss distance are as good as the ephemeris spacing allows.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..constants import DAY_S
+from ..errors import InvalidInputError
+
+__all__ = ["SgpSource", "SampledSource", "as_source"]
+
+
+class SgpSource:
+    """SGP4 element sets (a Catalog) as a screening source; states in TEME, km and km/s."""
+
+    frame = "TEME"
+
+    def __init__(self, catalog, jd0, fr0):
+        self.catalog = catalog
+        self.jd0 = jd0
+        self.fr0 = fr0
+
+    def __len__(self):
+        return len(self.catalog)
+
+    @property
+    def names(self):
+        return self.catalog.names
+
+    def sample(self, ts):
+        """Positions and velocities ``(N, T, 3)`` at ``ts`` (s from t0); NaN where SGP4 fails."""
+        jd = np.full(ts.size, self.jd0)
+        e, r, v = self.catalog.satrec_array.sgp4(jd, self.fr0 + ts / DAY_S)
+        bad = e != 0
+        if bad.any():
+            r[bad] = np.nan
+            v[bad] = np.nan
+        return np.ascontiguousarray(r), np.ascontiguousarray(v)
+
+    def shells(self):
+        """Perigee and apogee radii (km) of SGP4's mean elements."""
+        sat = [s.satrec for s in self.catalog]
+        re = np.array([s.radiusearthkm for s in sat])
+        q = (1.0 + np.array([s.altp for s in sat])) * re
+        big_q = (1.0 + np.array([s.alta for s in sat])) * re
+        return q, big_q
+
+    def path_elements(self):
+        """Mean elements at t0 and secular rates for the orbit-path filter, ``(N, 7)``
+        (:data:`visviva.core.orbit_path.PATH_ELEMENTS`; km, rad, rad/s)."""
+        out = np.empty((len(self.catalog), 7))
+        t0 = self.jd0 + self.fr0
+        for n, sat in enumerate(self.catalog):
+            s = sat.satrec
+            dt_min = (t0 - (s.jdsatepoch + s.jdsatepochF)) * 1440.0
+            e = min(s.ecco, 0.999)
+            out[n] = (s.a * s.radiusearthkm * (1.0 - e * e), e, s.inclo,
+                      s.nodeo + s.nodedot * dt_min, s.argpo + s.argpdot * dt_min,
+                      s.nodedot / 60.0, s.argpdot / 60.0)
+        return out
+
+    def state(self, i, ts):
+        """State of object ``i`` at ``ts`` (s from t0), or ``(None, None)`` if SGP4 fails."""
+        e, r, v = self.catalog[i].satrec.sgp4(self.jd0, self.fr0 + ts / DAY_S)
+        if e:
+            return None, None
+        return np.array(r), np.array(v)
+
+    def same(self, i, other, j):
+        return self.catalog[i] is other.catalog[j]
+
+
+class SampledSource:
+    """Ephemerides (sample times, positions, velocities per object) as a screening source.
+
+    Parameters
+    ----------
+    times : list of ndarray (T_i,)
+        Sample times of each object, s from the screening start, increasing.
+    r, v : list of ndarray (T_i, 3)
+        Positions (km) and velocities (km/s) at those times.
+    names : list of str
+        Object names.
+    """
+
+    frame = "ephemeris"
+
+    def __init__(self, times, r, v, names):
+        self.times = times
+        self.r = r
+        self.v = v
+        self._names = list(names)
+
+    def __len__(self):
+        return len(self.times)
+
+    @property
+    def names(self):
+        return self._names
+
+    def _interp(self, i, ts):
+        tau, p, m = self.times[i], self.r[i], self.v[i]
+        ts = np.atleast_1d(np.asarray(ts, dtype=np.float64))
+        k = np.clip(np.searchsorted(tau, ts, side="right") - 1, 0, tau.size - 2)
+        h = (tau[k + 1] - tau[k])[:, None]
+        s = (ts - tau[k])[:, None] / h
+        s2, s3 = s * s, s * s * s
+        r = ((2 * s3 - 3 * s2 + 1) * p[k] + (s3 - 2 * s2 + s) * h * m[k]
+             + (-2 * s3 + 3 * s2) * p[k + 1] + (s3 - s2) * h * m[k + 1])
+        v = ((6 * s2 - 6 * s) / h * p[k] + (3 * s2 - 4 * s + 1) * m[k]
+             + (-6 * s2 + 6 * s) / h * p[k + 1] + (3 * s2 - 2 * s) * m[k + 1])
+        out = (ts < tau[0] - 1e-9) | (ts > tau[-1] + 1e-9)
+        r[out] = np.nan
+        v[out] = np.nan
+        return r, v
+
+    def sample(self, ts):
+        """Hermite-interpolated positions and velocities ``(N, T, 3)``; NaN outside an ephemeris."""
+        r = np.empty((len(self), ts.size, 3))
+        v = np.empty_like(r)
+        for i in range(len(self)):
+            r[i], v[i] = self._interp(i, ts)
+        return r, v
+
+    def shells(self):
+        """Smallest and largest sampled radius of each object (km); the filter's margin covers
+        the radius between samples."""
+        rad = [np.linalg.norm(x, axis=-1) for x in self.r]
+        return np.array([x.min() for x in rad]), np.array([x.max() for x in rad])
+
+    def path_elements(self):
+        """No mean elements: the orbit-path filter is off for ephemerides (the sampled filters
+        see every approach)."""
+        return np.empty((0, 7))
+
+    def state(self, i, ts):
+        r, v = self._interp(i, ts)
+        if not np.all(np.isfinite(r)):
+            return None, None
+        return r[0], v[0]
+
+    def same(self, i, other, j):
+        return other is self and i == j
+
+
+def _history(obj, t0, name):
+    """(times from t0 in s, r km, v km/s) of one object's ephemeris; a list for N objects."""
+    from astropy import units as u
+    from astropy.time import Time
+
+    from ..satellites.cowell import CowellResult
+    from ..states import StateVectors
+
+    if isinstance(obj, CowellResult):
+        if obj.epoch is None:
+            raise InvalidInputError(f"{name}: the CowellResult has no epoch (give the initial "
+                                    "StateVectors an epoch to screen its ephemeris).")
+        tau = (obj.epoch - t0).to_value(u.s) + obj.t.to_value(u.s)
+        r = obj.r.to_value(u.km)
+        v = obj.v.to_value(u.km / u.s)
+        if r.ndim == 2:
+            return [(np.atleast_1d(tau), r, v)]
+        return [(np.atleast_1d(tau), r[n], v[n]) for n in range(r.shape[0])]
+    if isinstance(obj, StateVectors):
+        if not isinstance(obj.epoch, Time) or obj.epoch.ndim != 1 or obj.r.ndim != 2:
+            raise InvalidInputError(f"{name}: a StateVectors history needs r of shape (T, 3) "
+                                    "and one absolute epoch per state (a 1-D Time).")
+        tau = (obj.epoch - t0).to_value(u.s)
+        return [(tau, obj.r.to_value(u.km), obj.v.to_value(u.km / u.s))]
+    raise InvalidInputError(
+        f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history or a "
+        f"list of them; got {type(obj).__name__}.")
+
+
+def _sampled(objs, t0, t1, name):
+    from astropy import units as u
+
+    items = objs if isinstance(objs, (list, tuple)) else [objs]
+    times, rs, vs, names = [], [], [], []
+    span = float((t1 - t0).to_value(u.s))
+    for n, obj in enumerate(items):
+        for tau, r, v in _history(obj, t0, f"{name}[{n}]"):
+            tau = np.asarray(tau, dtype=np.float64)
+            if tau.size < 2 or np.any(np.diff(tau) <= 0):
+                raise InvalidInputError(f"{name}[{n}]: an ephemeris needs at least two samples "
+                                        "at increasing times.")
+            if tau[0] > 1e-6 or tau[-1] < span - 1e-6:
+                raise InvalidInputError(
+                    f"{name}[{n}]: the ephemeris spans {tau[0]:.3f} to {tau[-1]:.3f} s from t0, "
+                    f"which does not cover the screening window (0 to {span:.3f} s); propagate "
+                    "over the whole window.")
+            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(v))):
+                raise InvalidInputError(f"{name}[{n}]: the ephemeris contains NaN.")
+            times.append(tau)
+            rs.append(np.ascontiguousarray(r, dtype=np.float64))
+            vs.append(np.ascontiguousarray(v, dtype=np.float64))
+            names.append(f"{name}[{len(names)}]")
+    return SampledSource(times, rs, vs, names)
+
+
+def _is_sgp4(obj):
+    from ..satellites.catalog import Catalog
+    from ..satellites.tle import Satellite
+
+    if isinstance(obj, (Catalog, Satellite)):
+        return True
+    return isinstance(obj, (list, tuple)) and len(obj) > 0 and all(
+        isinstance(o, Satellite) for o in obj)
+
+
+def as_source(objs, t0, t1, name, jd0, fr0):
+    """The screening source of ``objs`` (SGP4 objects or ephemerides)."""
+    if _is_sgp4(objs):
+        from ..satellites.catalog import _as_catalog
+
+        return SgpSource(_as_catalog(objs), jd0, fr0)
+    return _sampled(objs, t0, t1, name)
+
+
+def check_same_kind(src1, src2):
+    if src1.frame != src2.frame:
+        raise InvalidInputError(
+            "primaries and secondaries must both be SGP4 objects (TEME) or both ephemerides (one "
+            "inertial frame): positions in different frames cannot be compared.")
+
+
+def speed_bound(v1, v2):
+    """An upper bound of every relative speed (km/s)."""
+    speeds = [np.nanmax(np.linalg.norm(v, axis=-1), initial=0.0) for v in (v1, v2)]
+    return 1.01 * (speeds[0] + speeds[1]) + 1e-3 if math.isfinite(sum(speeds)) else math.inf

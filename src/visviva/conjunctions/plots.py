@@ -32,9 +32,9 @@ def plot_encounter_plane(r1, v1, cov1, r2, v2, cov2, hard_body_radius, ax=None, 
     import matplotlib.pyplot as plt
 
     from .covariance import encounter_plane
-    from .probability import _inputs, collision_probability
+    from .probability import collision_probability, encounter_inputs
 
-    a = _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    a = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     plane = encounter_plane(*a[:6], a[6])
     if ax is None:
         _, ax = plt.subplots(figsize=(5.5, 5))
@@ -80,9 +80,9 @@ def plot_pc_vs_hbr(r1, v1, cov1, r2, v2, cov2, radii, ax=None, methods=("foster"
     """
     import matplotlib.pyplot as plt
 
-    from .probability import _si, collision_probability
+    from .probability import collision_probability, si_value
 
-    radii = np.atleast_1d(_si(radii, "m", "radii"))
+    radii = np.atleast_1d(si_value(radii, "m", "radii"))
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
     for m in methods:

@@ -47,7 +47,9 @@ class CovarianceRepairWarning(UserWarning):
     """A covariance was not positive semi-definite and was repaired by eigenvalue clipping."""
 
 
-def _si(value, unit: str, name: str) -> np.ndarray:
+def si_value(value, unit: str, name: str) -> np.ndarray:
+    """``value`` as a float64 array in ``unit`` (a Quantity is converted, a plain number is taken
+    as ``unit``); a clear error naming ``name`` for wrong units or non-finite values."""
     if is_quantity(value):
         from astropy import units as u
 
@@ -69,11 +71,13 @@ def _si(value, unit: str, name: str) -> np.ndarray:
     return arr
 
 
-def _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
+def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
+    """The checked inputs of the collision-probability methods in SI units (m, m/s, m^2...):
+    ``(r1, v1, cov1, r2, v2, cov2, hbr)``; shared with :mod:`visviva.conjunctions.plots`."""
     vecs = []
     for val, unit, name in ((r1, "m", "r1"), (v1, "m/s", "v1"), (r2, "m", "r2"),
                             (v2, "m/s", "v2")):
-        arr = _si(val, unit, name)
+        arr = si_value(val, unit, name)
         if arr.shape != (3,):
             raise ShapeError(f"{name} must be one 3-vector; got shape {arr.shape}.")
         vecs.append(arr)
@@ -83,7 +87,7 @@ def _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
         if c.ndim != 2:
             raise ShapeError(f"{name} must be a single 6x6 or 3x3 matrix; got {c.shape}.")
     if is_quantity(hard_body_radius):
-        hbr = float(_si(hard_body_radius, "m", "hard_body_radius"))
+        hbr = float(si_value(hard_body_radius, "m", "hard_body_radius"))
     else:
         try:
             hbr = float(hard_body_radius)
@@ -204,7 +208,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     """
     if method not in METHODS:
         raise InvalidInputError(f"method must be one of {sorted(METHODS)}, got {method!r}.")
-    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if method == "monte_carlo":
         res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, hbr, samples=samples, seed=seed)
         return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
@@ -285,7 +289,7 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     """
     from scipy import stats
 
-    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     samples = int(samples)
     if samples < 1:
         raise InvalidInputError(f"samples must be >= 1, got {samples}.")
@@ -344,7 +348,7 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
     eye = np.eye(3)
     c1 = eye if cov1 is None else cov1
     c2 = eye if cov2 is None else cov2
-    r1, v1, c1, r2, v2, c2, hbr = _inputs(r1, v1, c1, r2, v2, c2, hard_body_radius)
+    r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, c1, r2, v2, c2, hard_body_radius)
     if hbr == 0:
         return -math.inf if log else 0.0
     plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
@@ -476,5 +480,5 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
             ta, tb = window
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(f"window must be a pair (t_a, t_b), got {window!r}.") from exc
-        window = (float(_si(ta, "s", "window[0]")), float(_si(tb, "s", "window[1]")))
+        window = (float(si_value(ta, "s", "window[0]")), float(si_value(tb, "s", "window[1]")))
     return log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm_m, window)

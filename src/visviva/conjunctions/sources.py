@@ -225,9 +225,9 @@ def _is_sgp4(obj):
 def as_source(objs, t0, t1, name, jd0, fr0):
     """The screening source of ``objs`` (SGP4 objects or ephemerides)."""
     if _is_sgp4(objs):
-        from ..satellites.catalog import _as_catalog
+        from ..satellites.catalog import as_catalog
 
-        return SgpSource(_as_catalog(objs), jd0, fr0)
+        return SgpSource(as_catalog(objs), jd0, fr0)
     return _sampled(objs, t0, t1, name)
 
 

@@ -412,9 +412,6 @@ def as_catalog(satellites) -> Catalog:
     return Catalog(satellites)
 
 
-#: the former private name, still imported by ``conjunctions.screening``
-_as_catalog = as_catalog
-
 
 def absolute_times(t, what: str) -> Time:
     """``t`` checked as the absolute times of a batch: a scalar or 1-D astropy Time, as 1-D.

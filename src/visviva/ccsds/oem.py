@@ -143,6 +143,9 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        if int(degree) != degree or degree < 1:
+            raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
+                                    "integer >= 1 (a reader refuses anything else).")
         epochs = time_to_epochs(times, time_system, mission_epoch)
         meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],

@@ -251,6 +251,11 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
     if method is not None and method.upper() not in ("LAGRANGE", "HERMITE", "LINEAR"):
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "
                                "LINEAR", line=meta.line_of("INTERPOLATION"), source=name)
+    degree = meta.get("INTERPOLATION_DEGREE")
+    if degree is not None and degree < 1:
+        raise CCSDSFormatError(f"INTERPOLATION_DEGREE = {degree}: the degree of an interpolating "
+                               "polynomial is at least 1", line=meta.line_of("INTERPOLATION_DEGREE"),
+                               source=name)
 
 
 # ---- XML ---------------------------------------------------------------------------------

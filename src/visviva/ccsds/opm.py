@@ -180,6 +180,13 @@ class OPM(FrameCenterMetadata):
         }
         if covariance is not None:
             sections["covariance"] = values_from_matrix(covariance)
+        for k, m in enumerate(maneuvers or ()):
+            if not u.Quantity(m.duration).to_value(u.s) >= 0:
+                raise InvalidInputError(f"maneuvers[{k}]: duration = {m.duration}; a burn lasts "
+                                        ">= 0 s (0 for an impulse).")
+            if not u.Quantity(m.delta_mass).to_value(u.kg) <= 0:
+                raise InvalidInputError(f"maneuvers[{k}]: delta_mass = {m.delta_mass}; a manoeuvre "
+                                        "spends mass, so the change is <= 0.")
         if maneuvers:
             sections["maneuvers"] = [{
                 "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system, mission_epoch)[0],
@@ -287,6 +294,15 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
     if kep is not None and ("TRUE_ANOMALY" in kep) == ("MEAN_ANOMALY" in kep):
         raise CCSDSFormatError("the Keplerian elements need exactly one of TRUE_ANOMALY and "
                                "MEAN_ANOMALY", line=kep.line, source=name)
+    for man in sections.get("maneuvers", []):
+        if man["MAN_DURATION"] < 0:
+            raise CCSDSFormatError(f"MAN_DURATION = {man['MAN_DURATION']!r} s: a burn lasts >= 0 s "
+                                   "(0 for an impulse)", line=man.line_of("MAN_DURATION"),
+                                   source=name)
+        if man["MAN_DELTA_MASS"] > 0:
+            raise CCSDSFormatError(f"MAN_DELTA_MASS = {man['MAN_DELTA_MASS']!r} kg: a manoeuvre "
+                                   "spends mass, so the change is <= 0 (write it negative)",
+                                   line=man.line_of("MAN_DELTA_MASS"), source=name)
     opm = OPM(sections, name, mission_epoch)
     opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
     return opm

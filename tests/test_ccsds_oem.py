@@ -196,6 +196,7 @@ def test_ephemeris_interpolates_across_segments_and_refuses_gaps():
     ((" 2.0E-5  4.0E-3\n", " 2.0E-5\n"), 32, "row 2 of the covariance"),
     (("COVARIANCE_STOP\n", ""), 46, "expected EPOCH"),
     (("INTERPOLATION = HERMITE", "INTERPOLATION = SPLINE"), 18, "INTERPOLATION = SPLINE"),
+    ((" 2.0E-5  4.0E-3\n", " 2.0E-5 -4.0E-3\n"), 32, "CY_Y = -0.004 is a variance"),
     (("INTERPOLATION_DEGREE = 1", "INTERPOLATION_DEGREE = -1"), 19,
      "INTERPOLATION_DEGREE = -1: the degree .* is at least 1"),
     (("MESSAGE_ID = OEM-0001", "MESSAGE_ID = OEM-0001\nOBJECT_NAME = X"), 6,
@@ -227,6 +228,11 @@ def test_malformed_xml_names_the_line():
         vv.read_oem(bad)
     with pytest.raises(vv.CCSDSFormatError, match="not well formed"):
         vv.read_oem(text[:-20])
+    k = next(i for i, s in enumerate(lines) if "<CZ_DOT_Z_DOT" in s)
+    bad = "\n".join(lines[:k] + [lines[k].replace(">", ">-", 1)] + lines[k + 1:])
+    with pytest.raises(vv.CCSDSFormatError, match="CZ_DOT_Z_DOT = -.* cannot be negative") as info:
+        vv.read_oem(bad)
+    assert info.value.line == k + 1
 
 
 @pytest.mark.parametrize("degree", [0, -2, 2.5])

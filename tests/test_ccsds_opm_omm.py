@@ -167,6 +167,7 @@ def test_opm_round_trip_every_field(fmt, tmp_path):
      "MAN_DURATION = -132.6 s: a burn lasts >= 0 s"),
     (("MAN_DELTA_MASS = -18.418 [kg]", "MAN_DELTA_MASS = 18.418 [kg]"), "MAN_DELTA_MASS",
      "a manoeuvre spends mass"),
+    (("CY_Y = 6.782", "CY_Y = -6.782"), "CY_Y", "CY_Y = -0.000678.* is a variance"),
     (("DRAG_COEFF = 2.5", "DRAG_COEF = 2.5"), "DRAG_COEF ", "DRAG_COEF: not a keyword of a OPM"),
     (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-03-01 00:00"), "EPOCH =",
      "not a CCSDS epoch"),
@@ -192,6 +193,8 @@ def test_opm_from_state_refuses_impossible_manoeuvres():
                         (Maneuver(epoch, 1 * u.s, 1 * u.kg, "RTN", dv), "spends mass")):
         with pytest.raises(vv.InvalidInputError, match=words):
             OPM.from_state(state, object_name="H", maneuvers=[burn])
+    with pytest.raises(vv.InvalidInputError, match="variances >= 0"):
+        OPM.from_state(state, object_name="H", covariance=-np.eye(6))
 
 
 def test_omm_reads_into_satellite_like_the_tle():

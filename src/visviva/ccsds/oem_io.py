@@ -8,6 +8,8 @@ import numpy as np
 
 from .covariance import (
     COVARIANCE_KEYWORDS,
+    check_record_variances,
+    check_variance,
     matrix_from_rows,
     matrix_from_values,
     values_from_matrix,
@@ -214,6 +216,7 @@ def _kvn_covariances(cursor: KVNCursor) -> list:
                                    f"{i + 1} numbers, not {len(line.tokens)}", line=line.line)
             lower += [parse_float(x, "a covariance value", line.line, cursor.source)
                       for x in line.tokens]
+            check_variance(lower[-1], i, line.line, cursor.source)
         out.append(OEMCovariance(meta["EPOCH"], matrix_from_rows(lower),
                                  meta.get("COV_REF_FRAME"), meta.comments))
     cursor.expect_block("COVARIANCE", "stop")
@@ -284,6 +287,7 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
                 state_nodes.append(child)
             elif child.tag == "covarianceMatrix":
                 rec = read_xml_section(child, COVARIANCE_XML, name)
+                check_record_variances(rec, name)
                 covariances.append(OEMCovariance(rec["EPOCH"], matrix_from_values(rec.values),
                                                  rec.get("COV_REF_FRAME"), rec.comments))
             else:

@@ -33,6 +33,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 
 import numpy as np
 
@@ -151,10 +152,16 @@ def open_npz(path):
         data = np.load(os.fspath(path), allow_pickle=False)
     except FileNotFoundError:
         raise
-    except (ValueError, OSError, EOFError) as exc:
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, zipfile.BadZipFile):
+            why = f"a truncated or corrupted zip archive ({exc})"
+        elif "pickle" in str(exc):  # numpy's fallback for unknown content; never unpickle
+            why = "not a numpy file at all"
+        else:
+            why = str(exc)
         raise InvalidInputError(
             f"{path!r} is not a visviva simulation file (numpy .npz written by Simulation.save or "
-            f"Archive.record): {exc}. Pass the path of such a file."
+            f"Archive.record): {why}. Pass the path of such a file."
         ) from exc
     if not hasattr(data, "files"):
         raise InvalidInputError(

@@ -121,6 +121,8 @@ def test_bad_values_raise_typed_errors(tmp_path):
     cut.write_bytes(good.read_bytes()[: good.stat().st_size // 2])  # an interrupted copy
     with pytest.raises(InvalidInputError, match="truncated or corrupted zip archive"):
         vv.Simulation.load(cut)  # was zipfile.BadZipFile
+    with pytest.raises(FileNotFoundError, match=r"cannot write .*nodir.*does not exist"):
+        s.save(tmp_path / "nodir" / "x.npz")  # was: the name of a temporary file
     arr = tmp_path / "arr.npy"
     np.save(arr, np.zeros(3))
     with pytest.raises(InvalidInputError, match="single numpy array"):

@@ -465,7 +465,10 @@ def propagate_cowell(
         increasing, any sign) or absolute astropy Times.
     perturbations : list of Perturbation
         Any of :class:`~visviva.J2`, :class:`~visviva.Zonal`, :class:`~visviva.AtmosphericDrag`,
-        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`.
+        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`. The central
+        body is the one they name (J2, drag, SRP's shadow), else the known body whose GM the
+        state has (third bodies are then tabulated relative to it), else the Earth; a state
+        whose GM is another known body's than the one they name is refused.
     events : list of Event
         :class:`~visviva.satellites.Eclipse`, :class:`~visviva.satellites.ReEntry`,
         :class:`~visviva.satellites.AltitudeCrossing`, :class:`~visviva.satellites.AscendingNode`,

@@ -235,6 +235,19 @@ def test_malformed_xml_names_the_line():
     assert info.value.line == k + 1
 
 
+def test_from_states_converts_quantities():
+    # a position in metres was stored as that many kilometres, silently
+    t = Time("2024-01-31T00:00:00", scale="utc") + np.arange(3) * 60 * u.s
+    r = np.array([[7000.0, 0, 0], [6990.0, 450.0, 0], [6960.0, 900.0, 0]])
+    v = np.array([[0, 7.5, 0], [-0.5, 7.48, 0], [-1.0, 7.43, 0]])
+    seg = OEMSegment.from_states(t, r * 1000 * u.m, v * 1000 * u.m / u.s, object_name="X",
+                                 a_km_s2=np.zeros((3, 3)) * u.m / u.s**2)
+    np.testing.assert_allclose(seg.r_km, r, rtol=1e-15)
+    np.testing.assert_allclose(seg.v_km_s, v, rtol=1e-15)
+    with pytest.raises(vv.UnitsError, match="r_km has unit 's'"):
+        OEMSegment.from_states(t, r * u.s, v, object_name="X")
+
+
 @pytest.mark.parametrize("degree", [0, -2, 2.5])
 def test_from_states_refuses_a_degree_no_reader_accepts(degree):
     t = Time("2024-01-31T00:00:00", scale="utc") + np.arange(3) * 60 * u.s

@@ -246,6 +246,9 @@ def test_from_states_converts_quantities():
     np.testing.assert_allclose(seg.v_km_s, v, rtol=1e-15)
     with pytest.raises(vv.UnitsError, match="r_km has unit 's'"):
         OEMSegment.from_states(t, r * u.s, v, object_name="X")
+    assert len(Ephemeris(seg).segments) == 1  # one segment, not in a list
+    with pytest.raises(vv.InvalidInputError, match=r"segments\[1\] is a int, not an OEMSegment"):
+        Ephemeris([seg, 1])  # was TypeError: object of type 'int' has no len()
 
 
 @pytest.mark.parametrize("degree", [0, -2, 2.5])

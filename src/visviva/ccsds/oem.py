@@ -374,9 +374,15 @@ class Ephemeris:
     """
 
     def __init__(self, segments, header=None):
+        if isinstance(segments, OEMSegment):
+            segments = [segments]
         self.segments = list(segments)
         if not self.segments:
             raise InvalidInputError("an OEM needs at least one segment")
+        for k, seg in enumerate(self.segments):
+            if not isinstance(seg, OEMSegment):
+                raise InvalidInputError(f"segments[{k}] is a {type(seg).__name__}, not an "
+                                        "OEMSegment (build one with OEMSegment.from_states).")
         if header is None:
             from astropy.time import Time
 

@@ -55,6 +55,22 @@ def test_reads_two_and_three_line_files(tmp_path, catalog):
         assert len(read_tle_file(f)) == 2
 
 
+def test_names_survive_any_encoding(tmp_path):
+    # names were read as ASCII with '?' marks for every other byte, and a byte-order mark
+    # became part of the first name
+    body = ISS_1 + "\n" + ISS_2 + "\n"
+    cases = [("КОСМОС 2251", "utf-8"), ("ISS (ZARYA)", "utf-8-sig"), ("SAT é", "latin-1")]
+    for name, encoding in cases:
+        path = tmp_path / f"{encoding}.txt"
+        path.write_bytes((name + "\n" + body).encode(encoding))
+        assert read_tle_file(path).names == [name]
+    path = tmp_path / "bad.txt"
+    path.write_text("X\n" + ISS_1.replace("98067A", "98067\u00c5") + "\n" + ISS_2 + "\n",
+                    encoding="utf-8")
+    with pytest.raises(TLEFormatError, match="line 2 of .*non-ASCII character 'Å' in column 15"):
+        read_tle_file(path)
+
+
 @pytest.mark.parametrize(
     "text, needle",
     [

@@ -341,8 +341,14 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
         text = path.read()
         source = getattr(path, "name", "<file>")
     else:
-        with open(os.fspath(path), encoding="ascii", errors="replace") as f:
-            text = f.read()
+        with open(os.fspath(path), "rb") as f:
+            raw = f.read()
+        # element lines are ASCII; names may not be: UTF-8 (a byte-order mark dropped), else
+        # Latin-1, which decodes any byte (names were replaced by '?' marks before)
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = raw.decode("latin-1")
         source = os.fspath(path)
     return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
 

@@ -198,6 +198,17 @@ def test_read_omm_json_and_csv_equal_the_tles(tmp_path, catalog):
         out = propagate_sgp4_batch(cat, t)
         # OMM epochs are written to the microsecond: agree to well below a metre
         assert np.abs((out.r - ref.r).to_value(u.km)).max() < 1e-3
+    # a byte-order mark: JSON failed and the CSV's first column (OBJECT_NAME) was lost
+    for name in ("gp.json", "gp.csv"):
+        text = (tmp_path / name).read_text()
+        (tmp_path / f"bom-{name}").write_text(text, encoding="utf-8-sig")
+        assert read_omm_file(tmp_path / f"bom-{name}").names == [s.name for s in sats]
+    (tmp_path / "cut.json").write_text(json.dumps(records)[:300])
+    with pytest.raises(vv.InvalidInputError, match=r"cut.json, line 1, column \d+: not valid JSON"):
+        read_omm_file(tmp_path / "cut.json")
+    (tmp_path / "cut.xml").write_text("<ndm><omm>\n<body>")
+    with pytest.raises(vv.InvalidInputError, match="cut.xml, line 2: not well-formed XML"):
+        read_omm_file(tmp_path / "cut.xml")
     records[1].pop("MEAN_MOTION")
     (tmp_path / "bad.json").write_text(json.dumps(records))
     with pytest.raises(vv.InvalidInputError, match="record 2 of"):

@@ -97,6 +97,8 @@ def test_bad_animation_inputs_say_what_to_do(tmp_path):
         12000 * u.km, 0.1, 0.5, 0.0, 0.0, 0.0, vv.EARTH)
     with pytest.raises(vv.InvalidInputError, match="at least 2 times"):
         vv.animate_orbit(el, [0.0] * u.s)
+    with pytest.raises(vv.InvalidInputError, match="at least 2 times to animate; got 0"):
+        vv.animate_orbit(el, [] * u.s)  # was IndexError
     with pytest.raises(vv.InvalidInputError, match="animate_simulation"):
         vv.animate_orbit(vv.Simulation(), np.arange(3) * u.s)
     with pytest.raises(vv.InvalidInputError, match="plane"):

@@ -55,6 +55,22 @@ def test_reads_two_and_three_line_files(tmp_path, catalog):
         assert len(read_tle_file(f)) == 2
 
 
+def test_names_survive_any_encoding(tmp_path):
+    # names were read as ASCII with '?' marks for every other byte, and a byte-order mark
+    # became part of the first name
+    body = ISS_1 + "\n" + ISS_2 + "\n"
+    cases = [("КОСМОС 2251", "utf-8"), ("ISS (ZARYA)", "utf-8-sig"), ("SAT é", "latin-1")]
+    for name, encoding in cases:
+        path = tmp_path / f"{encoding}.txt"
+        path.write_bytes((name + "\n" + body).encode(encoding))
+        assert read_tle_file(path).names == [name]
+    path = tmp_path / "bad.txt"
+    path.write_text("X\n" + ISS_1.replace("98067A", "98067\u00c5") + "\n" + ISS_2 + "\n",
+                    encoding="utf-8")
+    with pytest.raises(TLEFormatError, match="line 2 of .*non-ASCII character 'Å' in column 15"):
+        read_tle_file(path)
+
+
 @pytest.mark.parametrize(
     "text, needle",
     [
@@ -182,6 +198,17 @@ def test_read_omm_json_and_csv_equal_the_tles(tmp_path, catalog):
         out = propagate_sgp4_batch(cat, t)
         # OMM epochs are written to the microsecond: agree to well below a metre
         assert np.abs((out.r - ref.r).to_value(u.km)).max() < 1e-3
+    # a byte-order mark: JSON failed and the CSV's first column (OBJECT_NAME) was lost
+    for name in ("gp.json", "gp.csv"):
+        text = (tmp_path / name).read_text()
+        (tmp_path / f"bom-{name}").write_text(text, encoding="utf-8-sig")
+        assert read_omm_file(tmp_path / f"bom-{name}").names == [s.name for s in sats]
+    (tmp_path / "cut.json").write_text(json.dumps(records)[:300])
+    with pytest.raises(vv.InvalidInputError, match=r"cut.json, line 1, column \d+: not valid JSON"):
+        read_omm_file(tmp_path / "cut.json")
+    (tmp_path / "cut.xml").write_text("<ndm><omm>\n<body>")
+    with pytest.raises(vv.InvalidInputError, match="cut.xml, line 2: not well-formed XML"):
+        read_omm_file(tmp_path / "cut.xml")
     records[1].pop("MEAN_MOTION")
     (tmp_path / "bad.json").write_text(json.dumps(records))
     with pytest.raises(vv.InvalidInputError, match="record 2 of"):

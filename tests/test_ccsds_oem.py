@@ -196,6 +196,9 @@ def test_ephemeris_interpolates_across_segments_and_refuses_gaps():
     ((" 2.0E-5  4.0E-3\n", " 2.0E-5\n"), 32, "row 2 of the covariance"),
     (("COVARIANCE_STOP\n", ""), 46, "expected EPOCH"),
     (("INTERPOLATION = HERMITE", "INTERPOLATION = SPLINE"), 18, "INTERPOLATION = SPLINE"),
+    ((" 2.0E-5  4.0E-3\n", " 2.0E-5 -4.0E-3\n"), 32, "CY_Y = -0.004 is a variance"),
+    (("INTERPOLATION_DEGREE = 1", "INTERPOLATION_DEGREE = -1"), 19,
+     "INTERPOLATION_DEGREE = -1: the degree .* is at least 1"),
     (("MESSAGE_ID = OEM-0001", "MESSAGE_ID = OEM-0001\nOBJECT_NAME = X"), 6,
      "expected META_START"),
     (("TIME_SYSTEM = UTC\nSTART_TIME = 2024-01-31", "TIME_SYSTEM = MET\nSTART_TIME = 2024-01-31"),
@@ -225,6 +228,46 @@ def test_malformed_xml_names_the_line():
         vv.read_oem(bad)
     with pytest.raises(vv.CCSDSFormatError, match="not well formed"):
         vv.read_oem(text[:-20])
+    k = next(i for i, s in enumerate(lines) if "<CZ_DOT_Z_DOT" in s)
+    bad = "\n".join(lines[:k] + [lines[k].replace(">", ">-", 1)] + lines[k + 1:])
+    with pytest.raises(vv.CCSDSFormatError, match="CZ_DOT_Z_DOT = -.* cannot be negative") as info:
+        vv.read_oem(bad)
+    assert info.value.line == k + 1
+
+
+def test_from_states_converts_quantities():
+    # a position in metres was stored as that many kilometres, silently
+    t = Time("2024-01-31T00:00:00", scale="utc") + np.arange(3) * 60 * u.s
+    r = np.array([[7000.0, 0, 0], [6990.0, 450.0, 0], [6960.0, 900.0, 0]])
+    v = np.array([[0, 7.5, 0], [-0.5, 7.48, 0], [-1.0, 7.43, 0]])
+    seg = OEMSegment.from_states(t, r * 1000 * u.m, v * 1000 * u.m / u.s, object_name="X",
+                                 a_km_s2=np.zeros((3, 3)) * u.m / u.s**2)
+    np.testing.assert_allclose(seg.r_km, r, rtol=1e-15)
+    np.testing.assert_allclose(seg.v_km_s, v, rtol=1e-15)
+    with pytest.raises(vv.UnitsError, match="r_km has unit 's'"):
+        OEMSegment.from_states(t, r * u.s, v, object_name="X")
+    assert len(Ephemeris(seg).segments) == 1  # one segment, not in a list
+    with pytest.raises(vv.InvalidInputError, match=r"segments\[1\] is a int, not an OEMSegment"):
+        Ephemeris([seg, 1])  # was TypeError: object of type 'int' has no len()
+
+
+@pytest.mark.parametrize("degree", [0, -2, 2.5])
+def test_from_states_refuses_a_degree_no_reader_accepts(degree):
+    t = Time("2024-01-31T00:00:00", scale="utc") + np.arange(3) * 60 * u.s
+    with pytest.raises(vv.InvalidInputError, match="interpolation degree is an integer >= 1"):
+        OEMSegment.from_states(t, np.full((3, 3), 7000.0), np.ones((3, 3)), object_name="X",
+                               degree=degree)
+
+
+def test_byte_order_mark_is_not_part_of_the_message(tmp_path):
+    # Windows editors start UTF-8 files with a BOM; it used to make line 1 "not KEYWORD = value"
+    path = tmp_path / "bom.oem"
+    path.write_text(OEM_KVN, encoding="utf-8-sig")
+    plain = vv.read_oem(OEM_KVN)
+    for source in (path, "\ufeff" + OEM_KVN):
+        seg = vv.read_oem(source).segments[0]
+        assert np.array_equal(seg.r_km, plain.segments[0].r_km)
+    assert vv.write_oem(vv.read_oem(path)) == vv.write_oem(plain)
 
 
 def test_paths_errors_and_empty():

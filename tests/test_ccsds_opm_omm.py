@@ -163,6 +163,11 @@ def test_opm_round_trip_every_field(fmt, tmp_path):
      "SEMI_MAJOR", "exactly one of TRUE_ANOMALY and MEAN_ANOMALY"),
     (("MAN_DV_2 = 0.0 [km/s]\n", ""), "MAN_EPOCH_IGNITION = 2024-03-02",
      "lacks the mandatory keyword MAN_DV_2"),
+    (("MAN_DURATION = 132.60 [s]", "MAN_DURATION = -132.60 [s]"), "MAN_DURATION",
+     "MAN_DURATION = -132.6 s: a burn lasts >= 0 s"),
+    (("MAN_DELTA_MASS = -18.418 [kg]", "MAN_DELTA_MASS = 18.418 [kg]"), "MAN_DELTA_MASS",
+     "a manoeuvre spends mass"),
+    (("CY_Y = 6.782", "CY_Y = -6.782"), "CY_Y", "CY_Y = -0.000678.* is a variance"),
     (("DRAG_COEFF = 2.5", "DRAG_COEF = 2.5"), "DRAG_COEF ", "DRAG_COEF: not a keyword of a OPM"),
     (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-03-01 00:00"), "EPOCH =",
      "not a CCSDS epoch"),
@@ -176,6 +181,20 @@ def test_opm_errors_name_the_line(edit, marker, words):
     with pytest.raises(vv.CCSDSFormatError, match=words) as info:
         vv.read_opm(text)
     assert info.value.line == line, str(info.value)
+
+
+def test_opm_from_state_refuses_impossible_manoeuvres():
+    from visviva.ccsds.opm import Maneuver
+
+    epoch = Time("2025-01-01T00:00:00", scale="utc")
+    state = vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, epoch=epoch)
+    dv = [0, 1, 0] * u.m / u.s
+    for burn, words in ((Maneuver(epoch, -1 * u.s, -1 * u.kg, "RTN", dv), "lasts >= 0 s"),
+                        (Maneuver(epoch, 1 * u.s, 1 * u.kg, "RTN", dv), "spends mass")):
+        with pytest.raises(vv.InvalidInputError, match=words):
+            OPM.from_state(state, object_name="H", maneuvers=[burn])
+    with pytest.raises(vv.InvalidInputError, match="variances >= 0"):
+        OPM.from_state(state, object_name="H", covariance=-np.eye(6))
 
 
 def test_omm_reads_into_satellite_like_the_tle():

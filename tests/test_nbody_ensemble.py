@@ -124,7 +124,14 @@ def test_bad_input_says_what_to_do():
         vv.Ensemble.from_simulations([vv.Simulation()])
     with pytest.raises(InvalidInputError, match="backend"):
         vv.Ensemble.from_simulations([planets("whfast")], backend="tpu")
+    with pytest.raises(InvalidInputError, match=r"one Simulation.*pass \[sim\]"):
+        vv.Ensemble.from_simulations(planets("whfast"))  # was TypeError: not iterable
+    with pytest.raises(InvalidInputError, match="list of visviva.Simulation"):
+        vv.Ensemble.from_simulations(3)
     ens = vv.Ensemble.from_simulations([planets("whfast")])
+    with pytest.raises(IndexError, match="member 1 is out of range: the ensemble has 1"):
+        ens[1]
+    assert ens[-1].N == ens[0].N
     with pytest.raises(ShapeError, match="one time"):
         ens.integrate([1.0, 2.0])
     with pytest.raises(InvalidInputError, match="client"):

@@ -113,8 +113,16 @@ def test_bad_values_raise_typed_errors(tmp_path):
         vv.solar_system(epoch="yesterday")
     junk = tmp_path / "junk.npz"
     junk.write_bytes(b"this is not a simulation")
-    with pytest.raises(InvalidInputError, match="not a visviva simulation file"):
-        vv.Simulation.load(junk)
+    with pytest.raises(InvalidInputError, match="not a visviva simulation file.*not a numpy file"):
+        vv.Simulation.load(junk)  # numpy's 'load it unsafely with allow_pickle' hint is not passed on
+    good = tmp_path / "good.npz"
+    s.save(good)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(good.read_bytes()[: good.stat().st_size // 2])  # an interrupted copy
+    with pytest.raises(InvalidInputError, match="truncated or corrupted zip archive"):
+        vv.Simulation.load(cut)  # was zipfile.BadZipFile
+    with pytest.raises(FileNotFoundError, match=r"cannot write .*nodir.*does not exist"):
+        s.save(tmp_path / "nodir" / "x.npz")  # was: the name of a temporary file
     arr = tmp_path / "arr.npy"
     np.save(arr, np.zeros(3))
     with pytest.raises(InvalidInputError, match="single numpy array"):

@@ -159,6 +159,16 @@ def test_observations_bad_input():
         vv.Observations(time=t, kind="position", value=pos, sigma=0.1 * u.s)
     with pytest.raises(vv.InvalidInputError, match="astropy Time"):
         vv.Observations(time=[0, 1, 2] * u.s, kind="position", value=pos, sigma=0.1 * u.km)
+    # impossible values: a negative range, degrees passed as plain numbers (read as radians)
+    with pytest.raises(vv.DomainError, match="a range is a distance"):
+        vv.Observations(time=t, kind="range", value=[-1000, 1001, 1002], sigma=0.01,
+                        station=STATIONS[0])
+    with pytest.raises(vv.DomainError, match=r"observation 0 \(azel\): the elevation 30"):
+        vv.Observations(time=t[:1], kind="azel", value=[[200, 30]], sigma=[1e-4],
+                        station=STATIONS[0])
+    with pytest.raises(vv.DomainError, match="declination"):
+        vv.Observations(time=t[:1], kind="radec", value=[[1.0, -1.6]], sigma=[1e-4],
+                        station=STATIONS[0])
     # quantities in any unit are converted (angles in deg, sigma in arcsec)
     obs = vv.Observations(time=t[:1], kind="radec", value=[[10, 20] * u.deg], sigma=[1 * u.arcsec],
                           station=STATIONS[0])

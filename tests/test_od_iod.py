@@ -258,3 +258,8 @@ def test_angles_only_bad_input():
     with pytest.raises(vv.DomainError, match="coplanar"):
         same = np.zeros(3)
         vv.gauss_angles(same, same, t, sites, GM)
+    # degrees passed as plain numbers (read as radians) gave an orbit inside the Earth, silently
+    deg = np.array([10.0, 12.0, 14.0])
+    for iod in (vv.gauss_angles, vv.od.double_r):
+        with pytest.raises(vv.DomainError, match=r"dec\[0\] = 10 rad is outside"):
+            iod(deg, deg, t, sites, GM)

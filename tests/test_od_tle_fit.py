@@ -104,6 +104,9 @@ def test_bad_input(iss):
         vv.fit_tle(states, satnum=0)
     with pytest.raises(vv.InvalidInputError, match="frame"):
         vv.fit_tle(states, frame="itrs")
+    for bad in (np.nan, np.inf, "x"):  # was: 'SGP4 cannot propagate the first guess'
+        with pytest.raises(vv.InvalidInputError, match="bstar must be a finite number"):
+            vv.fit_tle(states, fit_bstar=False, bstar=bad)
     with pytest.raises(vv.InvalidInputError):
         vv.fit_tle([1, 2, 3])
     escaping = vv.StateVectors(states.r, states.v * 1.6, vv.EARTH, epoch=states.epoch)

@@ -141,6 +141,27 @@ def test_force_model_total_acceleration():
     assert np.allclose(pert, expect, rtol=1e-6, atol=1e-18)
 
 
+def test_central_body_follows_the_state_gm():
+    """A state around the Moon gets the Sun's tide relative to the Moon (it was relative to the
+    Earth: 0.26 % off in direction and size, silently); a field of another body is refused."""
+    gm_moon = vv.MOON.gm_km3_s2
+    model = ForceModel(gm_moon, [vv.ThirdBody(vv.SUN)], (), EPOCH, (0, 3600))
+    assert model.central_body.name == "moon"
+    r = np.array([[2000.0, 300.0, -100.0]])
+    acc = model.acceleration(1800.0, r, np.zeros((1, 3)))[0]
+    pert = acc + gm_moon * r[0] / np.linalg.norm(r[0]) ** 3
+    t = EPOCH + 1800 * u.s
+    sun_from_moon = (ephemeris.sun_position(t) - ephemeris.moon_position(t)).to_value(u.km)
+    expect = np.zeros(3)
+    accel_third_body(*r[0], *sun_from_moon, vv.SUN.gm_km3_s2, expect)
+    assert np.allclose(pert, expect, rtol=1e-6, atol=1e-20)
+    with pytest.raises(vv.InvalidInputError, match="moon is the central body"):
+        ForceModel(gm_moon, [vv.ThirdBody(vv.MOON)], (), EPOCH, (0, 3600))
+    mars = vv.StateVectors([4000.0, 0, 0] * u.km, [0, 3.2, 0] * u.km / u.s, vv.MARS, EPOCH)
+    with pytest.raises(vv.InvalidInputError, match=r"J2\(earth\) refers to earth.*is mars's"):
+        vv.propagate_cowell(mars, 60 * u.s, [vv.J2(vv.EARTH)])
+
+
 def test_ephemeris_agrees_with_astropy_builtin():
     """DE421 (jplephem) against astropy's built-in ERFA ephemeris: a few km."""
     from astropy.coordinates import get_body_barycentric, solar_system_ephemeris

@@ -138,6 +138,9 @@ def animate_orbit(target, t, *, plane: str = "orbit", frame: str = "gcrs", trail
     (``StateVectors.propagate`` over the array of times, or one SGP4 array call), so playing
     and saving only draw.
     """
+    n_t = getattr(t, "size", None)
+    if n_t is not None and n_t < 2:  # checked first: an empty t failed with an IndexError
+        raise InvalidInputError(f"t must hold at least 2 times to animate; got {n_t}.")
     r, minutes, radius, name = _orbit_positions(target, t, frame)
     if r.shape[0] < 2:
         raise InvalidInputError(f"t must hold at least 2 times to animate; got {r.shape[0]}.")

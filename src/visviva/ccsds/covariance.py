@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grammar import Keyword
+from .grammar import CCSDSFormatError, Keyword
 
 __all__ = ["AXES", "COVARIANCE_KEYWORDS", "matrix_from_values", "values_from_matrix",
-           "matrix_from_rows"]
+           "matrix_from_rows", "check_variance", "check_record_variances"]
 
 AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
 
@@ -75,3 +75,41 @@ def values_from_matrix(matrix) -> dict:
     """
     m = np.asarray(matrix, dtype=np.float64)
     return {k.name: float(m[i, j]) for k, (i, j) in zip(COVARIANCE_KEYWORDS, _INDEX, strict=True)}
+
+
+def check_variance(value: float, axis: int, line, source: str) -> None:
+    """Raise unless a diagonal element (a variance) is >= 0.
+
+    Parameters
+    ----------
+    value : float
+        The variance as read (km**2 or km**2/s**2).
+    axis : int
+        0..5 over (X, Y, Z, X_DOT, Y_DOT, Z_DOT).
+    line : int or None
+        Line it was read from, for the message.
+    source : str
+        File name, for the message.
+    """
+    if value < 0:
+        name = f"C{AXES[axis]}_{AXES[axis]}"
+        raise CCSDSFormatError(
+            f"{name} = {value!r} is a variance (the square of a standard deviation) and cannot be "
+            "negative; the covariance is corrupted (check the sign and the row order)",
+            line=line, source=source)
+
+
+def check_record_variances(record, source: str) -> None:
+    """:func:`check_variance` on the six diagonal keywords of a section as read.
+
+    Parameters
+    ----------
+    record : Record
+        The covariance section (``CX_X`` ... ``CZ_DOT_Z_DOT``), with its lines.
+    source : str
+        File name, for the message.
+    """
+    for axis, a in enumerate(AXES):
+        key = f"C{a}_{a}"
+        if key in record:
+            check_variance(record[key], axis, record.line_of(key), source)

@@ -193,7 +193,11 @@ def check_degree(method: str, degree: int, n_nodes: int, where: str) -> None:
         raise InvalidInputError(
             f"{where}: INTERPOLATION = {method} is not supported; visviva interpolates with "
             f"{' or '.join(METHODS)}.")
-    if degree < 1 or degree + 1 > n_nodes:
+    if degree < 1:
+        raise InvalidInputError(
+            f"{where}: INTERPOLATION_DEGREE = {degree}: the degree of an interpolating polynomial "
+            "is at least 1.")
+    if degree + 1 > n_nodes:
         raise InvalidInputError(
             f"{where}: INTERPOLATION_DEGREE = {degree} needs {degree + 1} states, the segment "
             f"has {n_nodes}; use a degree between 1 and {n_nodes - 1}.")

@@ -43,11 +43,12 @@ def read_text(source) -> tuple[str, str]:
         path = os.fspath(source)
         if not os.path.exists(path):
             raise CCSDSFormatError(f"no such file {path!r}; pass a path or the message text")
-        with open(path, encoding="utf-8") as handle:
+        # utf-8-sig: a byte-order mark (Windows editors write one) is not part of the message
+        with open(path, encoding="utf-8-sig") as handle:
             return handle.read(), path
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
-    return source, "<text>"
+    return source.removeprefix("\ufeff"), "<text>"
 
 
 def check_mandatory(record: Record, section: Section, source: str) -> None:

@@ -95,9 +95,14 @@ class OEMSegment(FrameCenterMetadata):
                  data_comments=(), state_comments=None, mission_epoch=None):
         self.metadata = metadata if isinstance(metadata, Record) else Record(values=dict(metadata))
         self.epochs = list(epochs)
-        self.r_km = np.asarray(r_km, dtype=np.float64).reshape(-1, 3)
-        self.v_km_s = np.asarray(v_km_s, dtype=np.float64).reshape(-1, 3)
-        self.a_km_s2 = None if a_km_s2 is None else np.asarray(a_km_s2, np.float64).reshape(-1, 3)
+        from .._units import to_array
+
+        # Quantities are converted (a position in m was taken as km); plain numbers are km, km/s
+        self.r_km = to_array(r_km, "length", "r_km", allow_plain=True, finite=False).reshape(-1, 3)
+        self.v_km_s = to_array(v_km_s, "speed", "v_km_s", allow_plain=True,
+                               finite=False).reshape(-1, 3)
+        self.a_km_s2 = None if a_km_s2 is None else to_array(
+            a_km_s2, "accel", "a_km_s2", allow_plain=True, finite=False).reshape(-1, 3)
         self.covariances = list(covariances)
         self.data_comments = list(data_comments)
         self.state_comments = {int(k): list(v) for k, v in (state_comments or {}).items() if v}
@@ -143,6 +148,9 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        if int(degree) != degree or degree < 1:
+            raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
+                                    "integer >= 1 (a reader refuses anything else).")
         epochs = time_to_epochs(times, time_system, mission_epoch)
         meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
@@ -366,9 +374,15 @@ class Ephemeris:
     """
 
     def __init__(self, segments, header=None):
+        if isinstance(segments, OEMSegment):
+            segments = [segments]
         self.segments = list(segments)
         if not self.segments:
             raise InvalidInputError("an OEM needs at least one segment")
+        for k, seg in enumerate(self.segments):
+            if not isinstance(seg, OEMSegment):
+                raise InvalidInputError(f"segments[{k}] is a {type(seg).__name__}, not an "
+                                        "OEMSegment (build one with OEMSegment.from_states).")
         if header is None:
             from astropy.time import Time
 

@@ -8,6 +8,8 @@ import numpy as np
 
 from .covariance import (
     COVARIANCE_KEYWORDS,
+    check_record_variances,
+    check_variance,
     matrix_from_rows,
     matrix_from_values,
     values_from_matrix,
@@ -214,6 +216,7 @@ def _kvn_covariances(cursor: KVNCursor) -> list:
                                    f"{i + 1} numbers, not {len(line.tokens)}", line=line.line)
             lower += [parse_float(x, "a covariance value", line.line, cursor.source)
                       for x in line.tokens]
+            check_variance(lower[-1], i, line.line, cursor.source)
         out.append(OEMCovariance(meta["EPOCH"], matrix_from_rows(lower),
                                  meta.get("COV_REF_FRAME"), meta.comments))
     cursor.expect_block("COVARIANCE", "stop")
@@ -251,6 +254,11 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
     if method is not None and method.upper() not in ("LAGRANGE", "HERMITE", "LINEAR"):
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "
                                "LINEAR", line=meta.line_of("INTERPOLATION"), source=name)
+    degree = meta.get("INTERPOLATION_DEGREE")
+    if degree is not None and degree < 1:
+        raise CCSDSFormatError(f"INTERPOLATION_DEGREE = {degree}: the degree of an interpolating "
+                               "polynomial is at least 1", line=meta.line_of("INTERPOLATION_DEGREE"),
+                               source=name)
 
 
 # ---- XML ---------------------------------------------------------------------------------
@@ -279,6 +287,7 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
                 state_nodes.append(child)
             elif child.tag == "covarianceMatrix":
                 rec = read_xml_section(child, COVARIANCE_XML, name)
+                check_record_variances(rec, name)
                 covariances.append(OEMCovariance(rec["EPOCH"], matrix_from_values(rec.values),
                                                  rec.get("COV_REF_FRAME"), rec.comments))
             else:

@@ -8,7 +8,7 @@ CCSDS 502.0-B-3, section 4. :func:`read_omm` gives an :class:`OMM`, a ``dict`` o
 from __future__ import annotations
 
 from ..errors import InvalidInputError
-from .covariance import COVARIANCE_KEYWORDS
+from .covariance import COVARIANCE_KEYWORDS, check_record_variances
 from .grammar import Keyword as K
 from .grammar import Record, Section
 from .layout import read_message
@@ -113,6 +113,8 @@ def read_omm(source) -> OMM:
     if ("SEMI_MAJOR_AXIS" in mean) == ("MEAN_MOTION" in mean):
         raise CCSDSFormatError("the mean elements need exactly one of SEMI_MAJOR_AXIS and "
                                "MEAN_MOTION", line=mean.line, source=name)
+    if sections.get("covariance") is not None:
+        check_record_variances(sections["covariance"], name)
     return OMM.from_sections(sections, name)
 
 

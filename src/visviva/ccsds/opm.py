@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidInputError
-from .covariance import COVARIANCE_KEYWORDS, matrix_from_values
+from .covariance import COVARIANCE_KEYWORDS, check_record_variances, matrix_from_values
 from .grammar import CCSDSFormatError, Record, Section
 from .grammar import Keyword as K
 from .layout import read_message, write_message
@@ -179,7 +179,18 @@ class OPM(FrameCenterMetadata):
                                         strict=True))},
         }
         if covariance is not None:
+            diag = np.diagonal(np.asarray(covariance, dtype=np.float64))
+            if not (np.isfinite(covariance).all() and (diag >= 0).all()):
+                raise InvalidInputError("covariance must be finite with variances >= 0 on its "
+                                        f"diagonal; got diagonal {diag}.")
             sections["covariance"] = values_from_matrix(covariance)
+        for k, m in enumerate(maneuvers or ()):
+            if not u.Quantity(m.duration).to_value(u.s) >= 0:
+                raise InvalidInputError(f"maneuvers[{k}]: duration = {m.duration}; a burn lasts "
+                                        ">= 0 s (0 for an impulse).")
+            if not u.Quantity(m.delta_mass).to_value(u.kg) <= 0:
+                raise InvalidInputError(f"maneuvers[{k}]: delta_mass = {m.delta_mass}; a manoeuvre "
+                                        "spends mass, so the change is <= 0.")
         if maneuvers:
             sections["maneuvers"] = [{
                 "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system, mission_epoch)[0],
@@ -287,6 +298,17 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
     if kep is not None and ("TRUE_ANOMALY" in kep) == ("MEAN_ANOMALY" in kep):
         raise CCSDSFormatError("the Keplerian elements need exactly one of TRUE_ANOMALY and "
                                "MEAN_ANOMALY", line=kep.line, source=name)
+    if sections.get("covariance") is not None:
+        check_record_variances(sections["covariance"], name)
+    for man in sections.get("maneuvers", []):
+        if man["MAN_DURATION"] < 0:
+            raise CCSDSFormatError(f"MAN_DURATION = {man['MAN_DURATION']!r} s: a burn lasts >= 0 s "
+                                   "(0 for an impulse)", line=man.line_of("MAN_DURATION"),
+                                   source=name)
+        if man["MAN_DELTA_MASS"] > 0:
+            raise CCSDSFormatError(f"MAN_DELTA_MASS = {man['MAN_DELTA_MASS']!r} kg: a manoeuvre "
+                                   "spends mass, so the change is <= 0 (write it negative)",
+                                   line=man.line_of("MAN_DELTA_MASS"), source=name)
     opm = OPM(sections, name, mission_epoch)
     opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
     return opm

@@ -76,11 +76,15 @@ def run(args) -> int:
         try:
             t0 = Time(args.start, scale="utc")
         except ValueError as exc:
-            print(f"visviva passes: --start {args.start!r} is not an ISO time ({exc}); use e.g. "
+            # astropy lists why every format failed; the ISO one is the reason that matters here
+            lines = str(exc).splitlines()
+            why = next((ln.split(":", 1)[1].strip() for ln in lines if "'isot'" in ln), lines[0])
+            print(f"visviva passes: --start {args.start!r} is not an ISO time ({why}); use e.g. "
                   "2024-05-01T18:00:00", file=sys.stderr)
             return 2
-        if not args.hours > 0:
-            print(f"visviva passes: --hours must be positive, got {args.hours}", file=sys.stderr)
+        if not 0 < args.hours < float("inf"):
+            print(f"visviva passes: --hours must be a positive finite number, got {args.hours}",
+                  file=sys.stderr)
             return 2
         cat = read_tle_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,

@@ -100,7 +100,16 @@ class Ensemble:
         -------
         Ensemble
         """
-        sims = list(sims)
+        if isinstance(sims, Simulation):
+            raise InvalidInputError(
+                "sims is one Simulation; an Ensemble is built from a list of them: pass [sim] "
+                "(or [sim.copy() for _ in range(n)] for n copies).")
+        try:
+            sims = list(sims)
+        except TypeError:
+            raise InvalidInputError(
+                f"sims must be a list of visviva.Simulation objects; got a "
+                f"{type(sims).__name__}.") from None
         if not sims:
             raise InvalidInputError("an Ensemble needs at least one Simulation.")
         for k, sim in enumerate(sims):
@@ -126,7 +135,10 @@ class Ensemble:
     def __getitem__(self, index):
         if isinstance(index, slice):
             return Ensemble([s.copy() for s in self._members[index]], self.backend)
-        return self._members[int(index)].copy()
+        k = int(index)
+        if not -len(self) <= k < len(self):
+            raise IndexError(f"member {k} is out of range: the ensemble has {len(self)} members.")
+        return self._members[k].copy()
 
     def __iter__(self):
         for k in range(len(self)):

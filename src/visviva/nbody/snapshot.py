@@ -33,6 +33,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 
 import numpy as np
 
@@ -70,6 +71,8 @@ def atomic_savez(path, arrays: dict) -> None:
     ``path``: a reader never sees half a file."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):  # else the error names the temporary file
+        raise FileNotFoundError(f"cannot write {path!r}: the folder {directory!r} does not exist")
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
     try:
         with os.fdopen(fd, "wb") as fh:
@@ -151,10 +154,16 @@ def open_npz(path):
         data = np.load(os.fspath(path), allow_pickle=False)
     except FileNotFoundError:
         raise
-    except (ValueError, OSError, EOFError) as exc:
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, zipfile.BadZipFile):
+            why = f"a truncated or corrupted zip archive ({exc})"
+        elif "pickle" in str(exc):  # numpy's fallback for unknown content; never unpickle
+            why = "not a numpy file at all"
+        else:
+            why = str(exc)
         raise InvalidInputError(
             f"{path!r} is not a visviva simulation file (numpy .npz written by Simulation.save or "
-            f"Archive.record): {exc}. Pass the path of such a file."
+            f"Archive.record): {why}. Pass the path of such a file."
         ) from exc
     if not hasattr(data, "files"):
         raise InvalidInputError(

@@ -189,6 +189,12 @@ def _angles_inputs(ra, dec, t, site_positions):
             f"angles-only IOD takes exactly three observations: ra and dec of shape (3,); got "
             f"{alpha.shape} and {delta.shape}. Pick three from a longer pass."
         )
+    if np.any(np.abs(delta) > np.pi / 2):
+        k = int(np.flatnonzero(np.abs(delta) > np.pi / 2)[0])
+        raise DomainError(
+            f"dec[{k}] = {float(delta[k]):g} rad is outside [-pi/2, pi/2]. Plain numbers are "
+            "radians: pass degrees as a Quantity, e.g. dec=[10, 12, 14] * u.deg."
+        )
     if isinstance(t, Time):
         if t.shape != (3,):
             raise ShapeError(f"t must hold three times; got shape {t.shape}.")

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._units import is_quantity, to_array
-from ..errors import InvalidInputError, ShapeError
+from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["Observations", "KINDS"]
 
@@ -40,7 +40,19 @@ def _row_value(value, kind, i):
             f"observation {i} of kind {kind!r} needs a value of {dim} component(s) "
             f"({_UNITS_TEXT[phys]}); got shape {arr.shape}."
         )
-    return arr.reshape(dim)
+    arr = arr.reshape(dim)
+    if kind == "range" and arr[0] < 0:
+        raise DomainError(
+            f"observation {i}: a range is a distance, >= 0; got {float(arr[0]):g} km. Check the sign "
+            "and the unit (plain numbers are km)."
+        )
+    if phys == "angle" and abs(arr[1]) > np.pi / 2:
+        name = "elevation" if kind == "azel" else "declination"
+        raise DomainError(
+            f"observation {i} ({kind}): the {name} {float(arr[1]):g} rad is outside [-pi/2, pi/2]. "
+            "Plain numbers are radians: pass degrees as a Quantity, e.g. [200, 30] * u.deg."
+        )
+    return arr
 
 
 class Observations:
@@ -98,6 +110,9 @@ class Observations:
         station without one, times that go backwards, or a time that is not an astropy Time.
     ShapeError
         A value with the wrong number of components.
+    DomainError
+        An impossible value: a negative range, or an elevation or declination outside
+        [-90, 90] deg (often degrees passed as plain numbers, which are read as radians).
     """
 
     def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,

@@ -383,6 +383,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             f"the state times must increase strictly; state {i} is not after state {i - 1}. Sort "
             "them and remove duplicates."
         )
+    try:
+        bstar_ok = math.isfinite(float(bstar))
+    except (TypeError, ValueError):
+        bstar_ok = False
+    if not bstar_ok:
+        raise InvalidInputError(
+            f"bstar must be a finite number (1/earth radii, as in a TLE); got {bstar!r}.")
     if not (isinstance(satnum, int | np.integer) and 0 < satnum < 340000):
         raise InvalidInputError(f"satnum must be an integer in 1..339999; got {satnum!r}.")
     if frame != "teme":

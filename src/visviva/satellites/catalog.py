@@ -341,8 +341,14 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
         text = path.read()
         source = getattr(path, "name", "<file>")
     else:
-        with open(os.fspath(path), encoding="ascii", errors="replace") as f:
-            text = f.read()
+        with open(os.fspath(path), "rb") as f:
+            raw = f.read()
+        # element lines are ASCII; names may not be: UTF-8 (a byte-order mark dropped), else
+        # Latin-1, which decodes any byte (names were replaced by '?' marks before)
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = raw.decode("latin-1")
         source = os.fspath(path)
     return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
 
@@ -362,25 +368,38 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
     InvalidInputError
         Naming the file and the record number (1-based) of the first bad record.
     """
+    import json
+    from xml.etree.ElementTree import ParseError
+
     from sgp4 import omm
 
     path = os.fspath(path)
     fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
-    with open(path, encoding="utf-8") as f:
-        if fmt == "json":
-            import json
-
-            records = json.load(f)
-            if isinstance(records, dict):
-                records = [records]
-        elif fmt == "csv":
-            records = list(omm.parse_csv(f))
-        elif fmt == "xml":
-            records = list(omm.parse_xml(f))
-        else:
+    if fmt not in ("json", "csv", "xml"):
+        raise InvalidInputError(
+            f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
+        )
+    # utf-8-sig: a byte-order mark made JSON fail and hid the first CSV column (OBJECT_NAME)
+    with open(path, encoding="utf-8-sig") as f:
+        try:
+            if fmt == "json":
+                records = json.load(f)
+                if isinstance(records, dict):
+                    records = [records]
+            elif fmt == "csv":
+                records = list(omm.parse_csv(f))
+            else:
+                records = list(omm.parse_xml(f))
+        except json.JSONDecodeError as exc:
             raise InvalidInputError(
-                f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
-            )
+                f"{path}, line {exc.lineno}, column {exc.colno}: not valid JSON ({exc.msg}); the "
+                "file is truncated or is not CelesTrak's GP JSON."
+            ) from exc
+        except ParseError as exc:
+            raise InvalidInputError(
+                f"{path}, line {exc.position[0]}: not well-formed XML ({exc}); the file is "
+                "truncated or is not an OMM XML file."
+            ) from exc
     sats = []
     for k, rec in enumerate(records, start=1):
         try:

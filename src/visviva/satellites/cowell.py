@@ -140,6 +140,28 @@ def _check_combination(perturbations, central):
         raise InvalidInputError("give at most one SolarRadiationPressure.")
 
 
+def _central_body(gm_km3_s2, perturbations):
+    """The central body: the one the perturbations name (refused when the state's GM is, to
+    0.1 %, that of another known body), else the known body whose GM the state has, else the
+    Earth. A GM of no known body (a custom or scaled one) is left to the caller."""
+    from ..bodies import BODIES
+
+    gm = float(gm_km3_s2)
+    same = [b for b in BODIES.values() if abs(gm / b.gm_km3_s2 - 1.0) <= 1e-3]
+    named = next((p for p in perturbations if p.central_body is not None), None)
+    if named is None:
+        return same[0] if same else EARTH
+    body = named.central_body
+    if same and body.name not in {b.name for b in same}:
+        raise InvalidInputError(
+            f"{named!r} refers to {body.name} as the central body, but the state's gm = "
+            f"{gm:.10g} km3/s2 is {same[0].name}'s, not {body.name}'s. Build the state around "
+            f"{body.name} (gm=vv.{body.name.upper()}) or give the perturbations of the body the "
+            "state orbits."
+        )
+    return body
+
+
 class ForceModel:
     """The perturbations assembled into the flat arrays of :mod:`visviva.core.perturbations`.
 
@@ -172,7 +194,7 @@ class ForceModel:
                 f"the perturbations refer to different central bodies ({sorted(centrals)}); "
                 "use one central body for every perturbation."
             )
-        central = next((p.central_body for p in perturbations if p.central_body is not None), EARTH)
+        central = _central_body(gm_km3_s2, perturbations)
         self.central_body = central
         self.force[fb.RADIUS] = central.radius_km
         self.force[fb.FLATTENING] = flattening_of(central)
@@ -443,7 +465,10 @@ def propagate_cowell(
         increasing, any sign) or absolute astropy Times.
     perturbations : list of Perturbation
         Any of :class:`~visviva.J2`, :class:`~visviva.Zonal`, :class:`~visviva.AtmosphericDrag`,
-        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`.
+        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`. The central
+        body is the one they name (J2, drag, SRP's shadow), else the known body whose GM the
+        state has (third bodies are then tabulated relative to it), else the Earth; a state
+        whose GM is another known body's than the one they name is refused.
     events : list of Event
         :class:`~visviva.satellites.Eclipse`, :class:`~visviva.satellites.ReEntry`,
         :class:`~visviva.satellites.AltitudeCrossing`, :class:`~visviva.satellites.AscendingNode`,

@@ -244,6 +244,12 @@ def check_tle_lines(
                 f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
                 "Check that the line was not wrapped, truncated or padded."
             )
+        if not line.isascii():
+            bad = next(ch for ch in line if not ch.isascii())
+            raise TLEFormatError(
+                f"{name} holds the non-ASCII character {bad!r} in column {line.index(bad) + 1}: "
+                f"{line!r}. A TLE line is plain ASCII; the line is corrupted."
+            )
         if line[0] != str(number):
             raise TLEFormatError(
                 f"{name} must start with '{number}', got {line[0]!r}: {line!r}. "

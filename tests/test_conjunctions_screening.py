@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from astropy import units as u
+from astropy.time import Time
 
 import visviva as vv
 from visviva.cli import main
@@ -18,6 +19,8 @@ from visviva.conjunctions.synthetic import synthetic_catalog
 from visviva.core.universal import propagate_one
 
 ONE_METER = 1e-3  # km
+ISS_L1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
+ISS_L2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
 
 
 def brute_force_minima(r, ts, threshold):
@@ -113,6 +116,32 @@ def test_cli_screen(tmp_path, capsys):
     assert out_csv.read_text().startswith("object1,object2,tca")
     assert main(["screen", str(tmp_path / "none.tle"), "--start", "2024-01-01",
                  "--hours", "1"]) == 2
+
+
+@pytest.mark.parametrize(("start", "hours", "why"), [
+    ("2019-13-10", "2", "is not an ISO time"),
+    ("2024-01-01", "inf", "--hours must be a positive finite number"),
+    ("2024-01-01", "-1", "--hours must be a positive finite number"),
+])
+def test_screen_cli_bad_window_is_one_short_reason(tmp_path, capsys, start, hours, why):
+    from visviva.cli import main
+
+    path = tmp_path / "cat.tle"
+    path.write_text("ISS\n" + ISS_L1 + "\n" + ISS_L2 + "\n")
+    assert main(["screen", str(path), "--start", start, "--hours", hours, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert why in err and len(err.strip().splitlines()) == 1
+
+
+def test_screen_threshold_and_step_need_units():
+    sat = vv.Satellite.from_tle(ISS_L1, ISS_L2)
+    t0 = Time("2024-01-01T00:00:00", scale="utc")
+    with pytest.raises(vv.UnitsError, match="threshold"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, threshold=5)
+    with pytest.raises(vv.UnitsError, match="step"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, 5 * u.km, step=60)
+    with pytest.raises(vv.UnitsError, match="threshold"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, threshold=5 * u.s)
 
 
 # --- covariance tools ------------------------------------------------------------------------

@@ -287,6 +287,19 @@ def test_omm_alpha5_catalogue_number():
     np.testing.assert_array_equal(sat.teme(10 * u.min).r, ref.teme(10 * u.min).r)
 
 
+
+@pytest.mark.parametrize("satnum", ["abc", "a0001", "I0001", "-5", "1.5", "A000"])
+def test_omm_bad_catalogue_number_says_what_is_accepted(satnum):
+    # 'abc' used to end in "invalid literal for int() with base 10: 'bc'"
+    with pytest.raises(vv.InvalidInputError, match="alpha-5 number .* e.g. 'A0001'"):
+        vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "NORAD_CAT_ID": satnum})
+
+
+@pytest.mark.parametrize("satnum", [25544, "25544", " 25544 ", 25544.0, np.int64(25544)])
+def test_omm_catalogue_number_as_int_string_or_integral_float(satnum):
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "NORAD_CAT_ID": satnum})
+    assert sat.satnum == 25544
+
 @settings(max_examples=200, deadline=None)
 @given(which=st.sampled_from([0, 1]), col=st.integers(0, 67), digit=st.integers(0, 9))
 def test_any_changed_digit_is_caught(which, col, digit):

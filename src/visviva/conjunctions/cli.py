@@ -28,16 +28,15 @@ def run(args) -> int:
     import sys
 
     from astropy import units as u
-    from astropy.time import Time
 
+    from ..cli_window import window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import Catalog, read_tle_file
     from .screening import screen_conjunctions
 
     try:
         cat = read_tle_file(args.tle_file)
-        t0 = Time(args.start, scale="utc")
-        t1 = t0 + args.hours * u.hour
+        t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:
             prim = cat[args.primary]
             rest = Catalog([s for s in cat if s is not prim])

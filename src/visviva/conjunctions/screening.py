@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from .._units import to_array
 from ..constants import DAY_S
 from ..errors import InvalidInputError
 
@@ -266,10 +267,8 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
-    threshold = 5 * u.km if threshold is None else threshold
-    step = 60 * u.s if step is None else step
-    thr = float(u.Quantity(threshold).to_value(u.km))
-    step_s = float(u.Quantity(step).to_value(u.s))
+    thr = 5.0 if threshold is None else float(to_array(threshold, "length", "threshold"))
+    step_s = 60.0 if step is None else float(to_array(step, "time", "step"))
     if not thr > 0 or not step_s > 0:
         raise InvalidInputError("threshold and step must be positive.")
     span = float((t1 - t0).to_value(u.s))

@@ -65,38 +65,29 @@ def format_table(table) -> str:
 
 def run(args) -> int:
     from astropy import units as u
-    from astropy.time import Time
 
+    from ..cli_window import window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import read_tle_file
     from .passes import find_passes, write_passes
     from .station import GroundStation
 
     try:
-        try:
-            t0 = Time(args.start, scale="utc")
-        except ValueError as exc:
-            # astropy lists why every format failed; the ISO one is the reason that matters here
-            lines = str(exc).splitlines()
-            why = next((ln.split(":", 1)[1].strip() for ln in lines if "'isot'" in ln), lines[0])
-            print(f"visviva passes: --start {args.start!r} is not an ISO time ({why}); use e.g. "
-                  "2024-05-01T18:00:00", file=sys.stderr)
-            return 2
-        if not 0 < args.hours < float("inf"):
-            print(f"visviva passes: --hours must be a positive finite number, got {args.hours}",
-                  file=sys.stderr)
-            return 2
+        t0, t1 = window_from_args(args.start, args.hours)
+    except VisvivaError as exc:
+        print(f"visviva passes: {exc}", file=sys.stderr)
+        return 2
+    try:
         cat = read_tle_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
                              name=f"{args.lat:g}, {args.lon:g}")
-        table = find_passes(cat, site, t0, t0 + args.hours * u.hour,
-                            args.min_elevation * u.deg)
+        table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg)
         if args.visible:
             table = table[table["visible"]]
         print(format_table(table))
         print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
               f"{args.min_elevation:g} deg between {t0.isot} and "
-              f"{(t0 + args.hours * u.hour).isot} UTC")
+              f"{t1.isot} UTC")
         if args.csv:
             write_passes(table, args.csv, format="csv")
         if args.ecsv:

@@ -99,6 +99,27 @@ def _omm_epoch(text: str) -> str:
     )
 
 
+
+def _catalogue_number(value) -> int:
+    """An OMM's ``NORAD_CAT_ID`` as an int: a number, or an alpha-5 string (one letter A-Z
+    without I and O, then four digits: ``"A0001"`` is 100001); anything else raises ValueError
+    saying what is accepted."""
+    import re
+
+    if isinstance(value, float) and value.is_integer() and value >= 0:
+        value = int(value)
+    text = str(value).strip()
+    if re.fullmatch(r"[A-HJ-NP-Z][0-9]{4}", text):
+        from sgp4.alpha5 import from_alpha5
+
+        return int(from_alpha5(text))
+    if re.fullmatch(r"[0-9]+", text):
+        return int(text)
+    raise ValueError(
+        f"NORAD_CAT_ID {value!r} is neither a catalogue number (digits) nor an alpha-5 number "
+        "(a letter A-Z other than I and O, then four digits, e.g. 'A0001')"
+    )
+
 class Satellite:
     """An Earth satellite described by SGP4 mean elements (from a TLE or an OMM record).
 
@@ -212,12 +233,7 @@ class Satellite:
         clean.update({k: v for k, v in fields.items() if v not in (None, "")})
         clean["EPOCH"] = _omm_epoch(clean["EPOCH"])
         try:
-            satnum = clean["NORAD_CAT_ID"]
-            if isinstance(satnum, str) and satnum.strip()[:1].isalpha():
-                from sgp4.alpha5 import from_alpha5
-
-                clean["NORAD_CAT_ID"] = from_alpha5(satnum.strip())
-            clean["NORAD_CAT_ID"] = int(clean["NORAD_CAT_ID"])
+            clean["NORAD_CAT_ID"] = _catalogue_number(clean["NORAD_CAT_ID"])
             for k in ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",
                       "ARG_OF_PERICENTER", "MEAN_ANOMALY", "BSTAR", "MEAN_MOTION_DOT",
                       "MEAN_MOTION_DDOT"):

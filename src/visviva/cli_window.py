@@ -1,0 +1,51 @@
+"""The time window that the command-line tools take: ``--start ISO --hours H``.
+
+One owner for parsing it, so that ``visviva passes`` and ``visviva screen`` refuse a bad window
+with the same short message instead of astropy's list of every time format it tried.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["window_from_args"]
+
+
+def window_from_args(start: str, hours: float):
+    """The window ``(t0, t1)`` (astropy Times, UTC) from ``--start`` and ``--hours``.
+
+    Parameters
+    ----------
+    start : str
+        Start of the window, an ISO 8601 time in UTC (e.g. ``2024-05-01T18:00``).
+    hours : float
+        Length of the window, hours; positive and finite.
+
+    Returns
+    -------
+    t0, t1 : astropy.time.Time
+        Start and end of the window.
+
+    Raises
+    ------
+    visviva.errors.InvalidInputError
+        ``start`` is not an ISO time (the message gives astropy's ISO reason only, and an
+        example), or ``hours`` is not a positive finite number.
+    """
+    from astropy import units as u
+    from astropy.time import Time
+
+    from .errors import InvalidInputError
+
+    if not (math.isfinite(hours) and hours > 0):
+        raise InvalidInputError(f"--hours must be a positive finite number, got {hours}.")
+    try:
+        t0 = Time(start, scale="utc")
+    except ValueError as exc:
+        # astropy lists why every format failed; the ISO one is the reason that matters here
+        lines = str(exc).splitlines()
+        why = next((ln.split(":", 1)[1].strip() for ln in lines if "'isot'" in ln), lines[0])
+        raise InvalidInputError(
+            f"--start {start!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
+        ) from None
+    return t0, t0 + hours * u.hour

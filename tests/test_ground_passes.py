@@ -198,7 +198,7 @@ def _omm(epoch):
 
 # 2040 is beyond the leap-second table: ERFA (through astropy's UTC conversions) says "dubious
 # year" for every such time, as astropy does for any Time there; that warning is astropy's.
-@pytest.mark.filterwarnings("ignore:ERFA function .* dubious year")
+@pytest.mark.filterwarnings("ignore:ERFA function .*dubious year")
 def test_offline_earth_orientation_for_recent_and_far_future_dates():
     from astropy.utils import iers
     from astropy.utils.exceptions import AstropyWarning

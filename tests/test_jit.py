@@ -136,8 +136,7 @@ for integrator, kw in (("whfast", {"dt": 0.01}), ("ias15", {})):
 w = nbody_whfast
 fns = (gravity.gravity_parallel, gravity._gravity_pairs_parallel, gravity._gravity_pairs_serial,
        gravity_split._gravity_split_parallel, w.whfast_run, nbody_ias15.ias15_run,
-       w.whfast_run_few, w._corrector, w._phase_kick, w._dh_step, w._jump,
-       w.to_democratic_heliocentric, w.from_democratic_heliocentric, w._dh_interaction_kick)
+       w.whfast_run_few, w._corrector, w._phase_kick, w._dh_step)
 print(repr([f.__name__ for f in fns if f.signatures]),
       len(w.whfast_run_plain.signatures), len(nbody_ias15.ias15_run_few.signatures))
 """
@@ -148,7 +147,7 @@ def test_three_body_runs_compile_only_the_few_body_kernels(tmp_path):
     # a 3-body WHFast and IAS15 run with an empty cache: the few-body kernels only (one
     # signature each), no parallel gravity, no large-N kernel, not the every-path kernels;
     # WHFast's default case (Jacobi, no corrector, no events) compiles neither the corrector
-    # nor the democratic heliocentric code
+    # nor the democratic heliocentric step
     assert _fresh_process(_FEW_RUNS, tmp_path) == "[] 1 1"
 
 

@@ -239,9 +239,10 @@ def integrate_cowell(
         :data:`ZONAL_ONLY` (``None``) for a force model of the two-body and zonal terms alone
         without events (compiles only those; same bits), else :data:`FULL`; see
         :func:`rhs_kind`.
-    work : ndarray (WORK_ROWS, 6) and ``ev_param``
+    work : ndarray (WORK_ROWS, 6)
         Scratch space from the caller (its contents are ignored and overwritten). The kernel
-        allocates no array and calls no ``min``/``max``: numba compiles its ``np.empty``,
+        allocates no array (the event values are copies of ``ev_param``, which numba's array
+        copy makes without an overload) and calls no ``min``/``max``: numba compiles its ``np.empty``,
         ``np.zeros``, ``min`` and ``max`` overloads anew in every process for every signature,
         0.4 s of a first call's CPU (see docs/performance.md, "Cold start").
 

@@ -133,18 +133,54 @@ for integrator, kw in (("whfast", {"dt": 0.01}), ("ias15", {})):
     sim.add(1e-3, [1, 0, 0], [0, 1, 0])
     sim.add(1e-3, [2, 0, 0], [0, 0.7, 0])
     sim.integrate(1.0)
+w = nbody_whfast
 fns = (gravity.gravity_parallel, gravity._gravity_pairs_parallel, gravity._gravity_pairs_serial,
-       gravity_split._gravity_split_parallel, nbody_whfast.whfast_run, nbody_ias15.ias15_run)
+       gravity_split._gravity_split_parallel, w.whfast_run, nbody_ias15.ias15_run,
+       w.whfast_run_few, w._corrector, w._phase_kick, w._dh_step)
 print(repr([f.__name__ for f in fns if f.signatures]),
-      len(nbody_whfast.whfast_run_few.signatures), len(nbody_ias15.ias15_run_few.signatures))
+      len(w.whfast_run_plain.signatures), len(nbody_ias15.ias15_run_few.signatures))
 """
 
 
 @pytest.mark.slow
 def test_three_body_runs_compile_only_the_few_body_kernels(tmp_path):
     # a 3-body WHFast and IAS15 run with an empty cache: the few-body kernels only (one
-    # signature each), no parallel gravity, no large-N kernel, not the every-path kernels
+    # signature each), no parallel gravity, no large-N kernel, not the every-path kernels;
+    # WHFast's default case (Jacobi, no corrector, no events) compiles neither the corrector
+    # nor the democratic heliocentric step
     assert _fresh_process(_FEW_RUNS, tmp_path) == "[] 1 1"
+
+
+@pytest.mark.parametrize("kw, plain", [
+    ({}, True),
+    ({"exact_finish_time": False}, True),
+    ({"corrector": 5}, False),
+    ({"coordinates": "democratic_heliocentric"}, False),
+])
+def test_plain_whfast_kernel_gives_the_general_kernels_bits(monkeypatch, kw, plain):
+    # the default-case kernel (whfast_run_plain) and the general few-body kernel agree to the
+    # bit, at output times off the step grid (shortened steps) and through a resumed run
+    import visviva as vv
+    from visviva.core import nbody_whfast
+
+    def run():
+        sim = vv.Simulation(integrator="whfast", G=1.0, dt=0.013, **kw)
+        sim.add(1.0, [0, 0, 0], [0, 0, 0])
+        sim.add(1e-3, [1, 0, 0], [0, 1, 0])
+        sim.add(1e-3, [2, 0, 0.1], [0, 0.7, 0])
+        kernels.append(nbody_whfast.is_plain(sim._state.istate, sim._state.fstate))
+        first = sim.integrate(np.linspace(0.0, 3.0, 7))
+        second = sim.integrate(np.array([3.5, 4.0001]))
+        return np.concatenate([first.positions, second.positions]), np.concatenate(
+            [first.velocities, second.velocities])
+
+    kernels = []
+    x1, v1 = run()
+    monkeypatch.setattr(nbody_whfast, "is_plain", lambda istate, fstate: False)
+    x2, v2 = run()
+    assert kernels == [plain, False]
+    np.testing.assert_array_equal(x1, x2)
+    np.testing.assert_array_equal(v1, v2)
 
 
 @pytest.mark.parametrize("integrator, kw", [
@@ -171,18 +207,32 @@ def test_few_body_and_every_path_kernels_give_the_same_bits(integrator, kw):
 
 
 _ZONAL_ONLY_COWELL = """
+import sys
 import numpy as np
 from astropy import units as u
+from numba.core import event
 import visviva as vv
 from visviva.core import cowell, perturbations
+compiled = []
+class Names(event.Listener):
+    def on_start(self, e):
+        compiled.append(e.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, e):
+        pass
+event.register("numba:compile", Names())
 s = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
 vv.propagate_cowell(s, np.linspace(0, 3600, 5) * u.s, perturbations=[vv.J2(vv.EARTH)])
 fns = (perturbations.cowell_rhs, perturbations.accel_drag, perturbations.accel_srp,
        perturbations.accel_harmonics, perturbations.shadow_fraction, cowell.event_function)
-print(repr([f.__name__ for f in fns if f.signatures]), len(perturbations.zonal_rhs.signatures))
+builtins = sorted({n.split(".")[0] for n in compiled if n.split(".")[0] in (
+    "ol_np_empty", "ol_np_zeros", "ol_min", "ol_max")})
+print(repr([f.__name__ for f in fns if f.signatures]), len(perturbations.zonal_rhs.signatures),
+      repr(builtins), "scipy.integrate" in sys.modules)
 """
 
 
 @pytest.mark.slow
 def test_j2_cowell_compiles_only_the_zonal_right_hand_side(tmp_path):
-    assert _fresh_process(_ZONAL_ONLY_COWELL, tmp_path) == "[] 1"
+    # and no numba np.empty/np.zeros/min/max overload (compiled anew in every process), and
+    # the DOP853 tableau is read without importing scipy.integrate (0.2 s)
+    assert _fresh_process(_ZONAL_ONLY_COWELL, tmp_path) == "[] 1 [] False"

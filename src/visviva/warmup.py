@@ -113,6 +113,7 @@ TASKS = (
     ("Cowell propagation", _cowell),
     ("N-body: IAS15", _simulation("ias15")),
     ("N-body: WHFast", _simulation("whfast", dt=0.01)),
+    ("N-body: WHFast, corrector and other coordinates", _simulation("whfast", dt=0.01, corrector=5)),
     ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),

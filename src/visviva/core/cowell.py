@@ -39,12 +39,15 @@ from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, step_kernel
 from .perturbations import cowell_rhs, geodetic_altitude, hermite_position, zonal_rhs
 
-__all__ = ["integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
+__all__ = ["WORK_ROWS", "integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
 
 _SAFETY = 0.9
 _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
+#: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
+#: state vectors; 6 columns).
+WORK_ROWS = 30
 
 
 @inline_kernel
@@ -197,6 +200,7 @@ def integrate_cowell(
     ev_which,
     info,
     full,
+    work,
 ):
     """Integrate y' = cowell_rhs(t, y) from t = 0 to ``t_end`` (either sign).
 
@@ -235,6 +239,12 @@ def integrate_cowell(
         :data:`ZONAL_ONLY` (``None``) for a force model of the two-body and zonal terms alone
         without events (compiles only those; same bits), else :data:`FULL`; see
         :func:`rhs_kind`.
+    work : ndarray (WORK_ROWS, 6)
+        Scratch space from the caller (its contents are ignored and overwritten). The kernel
+        allocates no array (the event values are copies of ``ev_param``, which numba's array
+        copy makes without an overload) and calls no ``min``/``max``: numba compiles its ``np.empty``,
+        ``np.zeros``, ``min`` and ``max`` overloads anew in every process for every signature,
+        0.4 s of a first call's CPU (see docs/performance.md, "Cold start").
 
     Returns
     -------
@@ -245,17 +255,22 @@ def integrate_cowell(
     n_ev = ev_kind.shape[0]
     n_out = t_out.shape[0]
     cap = ev_t.shape[0]
-    K = np.zeros((16, n))
-    F = np.zeros((7, n))
-    y = y0.copy()
-    y_new = np.empty(n)
-    y_tmp = np.empty(n)
-    f = np.empty(n)
-    scale = np.empty(n)
-    err5 = np.empty(n)
-    err3 = np.empty(n)
-    g_old = np.empty(n_ev)
-    g_new = np.empty(n_ev)
+    K = work[0:16]
+    F = work[16:23]
+    y = work[23]
+    y_new = work[24]
+    y_tmp = work[25]
+    f = work[26]
+    scale = work[27]
+    err5 = work[28]
+    err3 = work[29]
+    for i in range(WORK_ROWS):
+        for j in range(n):
+            work[i, j] = 0.0
+    for j in range(n):
+        y[j] = y0[j]
+    g_old = ev_param.copy()  # event values (array copies need no np.empty overload)
+    g_new = ev_param.copy()
     direction = 1.0 if t_end >= 0.0 else -1.0
     t = 0.0
     nfev = 0
@@ -294,7 +309,7 @@ def integrate_cowell(
         h0 = 1e-6
     else:
         h0 = 0.01 * d0 / d1
-    h0 = min(h0, interval)
+    h0 = interval if interval < h0 else h0  # min(h0, interval), also below: same selections
     for j in range(n):
         y_tmp[j] = y[j] + h0 * direction * f[j]
     _rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new, full)
@@ -303,10 +318,13 @@ def integrate_cowell(
         err5[j] = y_new[j] - f[j]
     d2 = _rms_norm(err5, scale) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
+        h1 = h0 * 1e-3 if h0 * 1e-3 > 1e-6 else 1e-6
     else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    h_abs = min(100.0 * h0, h1, interval, h_max)
+        h1 = (0.01 / (d2 if d2 > d1 else d1)) ** (1.0 / 8.0)
+    h_abs = 100.0 * h0  # min(100 h0, h1, interval, h_max)
+    h_abs = h1 if h1 < h_abs else h_abs
+    h_abs = interval if interval < h_abs else h_abs
+    h_abs = h_max if h_max < h_abs else h_abs
 
     status = st.OK
     finished = False
@@ -343,7 +361,9 @@ def integrate_cowell(
             _rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES], full)
             nfev += _N_STAGES
             for j in range(n):
-                scale[j] = atol + max(abs(y[j]), abs(y_new[j])) * rtol
+                ay = abs(y[j])
+                an = abs(y_new[j])
+                scale[j] = atol + (an if an > ay else ay) * rtol
                 a5 = 0.0
                 a3 = 0.0
                 for m in range(_N_STAGES + 1):
@@ -364,13 +384,15 @@ def integrate_cowell(
                 if err == 0.0:
                     factor = _MAX_FACTOR
                 else:
-                    factor = min(_MAX_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
-                if rejected:
-                    factor = min(1.0, factor)
+                    factor = _SAFETY * err ** (-1.0 / 8.0)
+                    factor = factor if factor < _MAX_FACTOR else _MAX_FACTOR
+                if rejected and not factor < 1.0:
+                    factor = 1.0
                 h_abs *= factor
                 accepted = True
             else:
-                h_abs *= max(_MIN_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+                shrink = _SAFETY * err ** (-1.0 / 8.0)
+                h_abs *= shrink if shrink > _MIN_FACTOR else _MIN_FACTOR
                 rejected = True
         if not accepted:
             status = st.STEP_TOO_SMALL
@@ -518,8 +540,9 @@ def integrate_cowell_many(
         ev_t = np.zeros(1)
         ev_y = np.zeros((1, 6))
         ev_which = np.zeros(1)
+        work = np.zeros((WORK_ROWS, 6))
         status[k] = integrate_cowell(
             y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v,
             eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
-            y_out[k], ev_t, ev_y, ev_which, info[k], full,
+            y_out[k], ev_t, ev_y, ev_which, info[k], full, work,
         )  # fmt: skip

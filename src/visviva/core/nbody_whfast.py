@@ -53,8 +53,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ._jit import kernel, step_kernel
 from .gravity import FEW, gravity
 from .nbody_common import (
@@ -90,10 +88,13 @@ from .nbody_common import (
 )
 from .status import OK
 from .universal import propagate_scalar
+from .wh_corrector import CORRECTOR_A, CORRECTOR_B
 
 __all__ = [
     "whfast_run",
     "whfast_run_few",
+    "whfast_run_plain",
+    "is_plain",
     "to_jacobi",
     "from_jacobi",
     "to_democratic_heliocentric",
@@ -121,44 +122,6 @@ _XS = 5
 _VS = 6
 #: Number of (N, 3) slots in ``buf``.
 N_BUF = 7
-
-#: Bernoulli numbers B_2 .. B_12.
-_BERNOULLI = (1.0 / 6.0, -1.0 / 30.0, 1.0 / 42.0, -1.0 / 30.0, 5.0 / 66.0, -691.0 / 2730.0)
-
-
-def _corrector_table(m):
-    """Drift fractions a_j = j/m and kick weights b_j of an m-pair symplectic corrector.
-
-    To first order in the interaction, the drift-kick-drift map differs from the exact flow by
-    the factor ``x / sin x`` (``x = omega h / 2``) on each Fourier mode of the interaction along
-    the Kepler flow; the conjugating corrector ``C`` has the generator
-    ``chi_k = (h / 2i) (1/sin x - 1/x)``. A pair of kicks ``b h`` at Kepler phases ``+-a h``
-    contributes ``2 i h b sin(2 a x)``, so the weights solve
-    ``sum_j b_j sin(2 a_j x) = -(1/4) (1/sin x - 1/x)`` order by order in ``x`` (the first m odd
-    powers), with ``1/sin x - 1/x = sum_n (-1)^(n+1) 2 (2^(2n-1) - 1) B_2n x^(2n-1) / (2n)!``.
-    The first equation, ``2 sum a_j b_j = -1/24``, is Wisdom, Holman & Touma's (1996) condition.
-    """
-    a = np.array([(j + 1) / m for j in range(m)])
-    A = np.zeros((m, m))
-    rhs = np.zeros(m)
-    for n in range(m):
-        k = n + 1
-        coeff = (-1.0) ** (k + 1) * 2.0 * (2.0 ** (2 * k - 1) - 1.0) * _BERNOULLI[k - 1]
-        rhs[n] = -0.25 * coeff / math.factorial(2 * k)
-        for j in range(m):
-            A[n, j] = (-1.0) ** n * (2.0 * a[j]) ** (2 * n + 1) / math.factorial(2 * n + 1)
-    return a, np.linalg.solve(A, rhs)
-
-
-#: Supported corrector orders -> number of kick pairs (orders of the removed O(eps h^k) terms).
-CORRECTOR_PAIRS = {3: 1, 5: 2, 7: 3}
-#: Rows: corrector order; columns: a_j (drift fractions) and b_j (kick weights), zero-padded.
-CORRECTOR_A = np.zeros((8, 3))
-CORRECTOR_B = np.zeros((8, 3))
-for _order, _m in CORRECTOR_PAIRS.items():
-    _a, _b = _corrector_table(_m)
-    CORRECTOR_A[_order, :_m] = _a
-    CORRECTOR_B[_order, :_m] = _b
 
 
 @kernel
@@ -472,7 +435,7 @@ def _synchronise(xj, vj, xs, vs, m, eta, G, half, x, v, order, t, massive, fstat
     st = _drift(xs, vs, m, eta, G, half, half, 0.0, dh)
     if st != OK:
         return st
-    if order > 0:
+    if order is not None and order > 0:
         st = _corrector(order, True, 2.0 * half, xs, vs, m, eta, G, t, x, v, massive, fstate,
                         istate, gwork, force, params, acc, aj, parallel)
         if st != OK:
@@ -488,7 +451,7 @@ def _first_half(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, f
     (corrector,) drift ``h/2`` (then jump ``h/2``), kick ``h``."""
     half = 0.5 * h
     _to_internal(x, v, m, eta, xj, vj, dh)
-    if order > 0:
+    if order is not None and order > 0:
         st = _corrector(order, False, h, xj, vj, m, eta, G, t, x, v, massive, fstate, istate,
                         gwork, force, params, acc, aj, parallel)
         if st != OK:
@@ -514,7 +477,7 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
     st = _drift(xj, vj, m, eta, G, half, half, 0.0, dh)
     if st != OK:
         return st
-    if order > 0:
+    if order is not None and order > 0:
         st = _corrector(order, True, h, xj, vj, m, eta, G, t + h, x, v, massive, fstate, istate,
                         gwork, force, params, acc, aj, parallel)
         if st != OK:
@@ -529,7 +492,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     """Advance through every output time with Wisdom-Holman steps (see the module docstring and
     :func:`_whfast`); gravity by any kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                   out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+                   out_t, out_x, out_v, istate[I_PARALLEL] != 0, ANY_CASE)
 
 
 @kernel
@@ -539,12 +502,39 @@ def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, 
     thread and fewer than :data:`visviva.core.gravity.PAIR_MIN_N` massive particles, the same
     bits and a fraction of the compile time (no ``prange`` region, no large-N kernel)."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                   out_t, out_x, out_v, FEW)
+                   out_t, out_x, out_v, FEW, ANY_CASE)
+
+
+#: The ``plain`` argument of the run body for the default case: Jacobi coordinates, no
+#: symplectic corrector, no collisions, encounters or escape radius (a type, not a value: numba
+#: then drops the corrector, the democratic heliocentric step and the event path; see
+#: :func:`is_plain`). ``dh`` stays a run-time ``False`` for the callees: passing ``None`` there
+#: too dropped 3 s more of compiling but made the warm step loop 5-7 % slower.
+PLAIN = None
+#: The ``plain`` argument for every other case (chosen at run time from ``istate``).
+ANY_CASE = True
+
+
+def is_plain(istate, fstate) -> bool:
+    """True when a run may use :func:`whfast_run_plain` (plain Python, not compiled): Jacobi
+    coordinates, no corrector, and none of collisions, encounters or an escape radius."""
+    return (int(istate[I_WH_COORDINATES]) == JACOBI and int(istate[I_CORRECTOR]) == 0
+            and int(istate[I_COLLISIONS]) == 0 and fstate[F_ENCOUNTER] <= 0.0
+            and fstate[F_EXIT] <= 0.0)
+
+
+@kernel
+def whfast_run_plain(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v):
+    """:func:`whfast_run_few` for the default case alone (:func:`is_plain`): Jacobi
+    coordinates, no corrector, no events. The same bits; what a first WHFast run compiles."""
+    return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                   out_t, out_x, out_v, FEW, PLAIN)
 
 
 @step_kernel
 def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-            out_t, out_x, out_v, parallel):
+            out_t, out_x, out_v, parallel, plain):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
     Particle 0 must have mass (the central body). ``istate[I_WH_COORDINATES]`` chooses Jacobi
@@ -575,7 +565,12 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
     for i in range(n):
         s += m[i]
         eta[i] = s
-    dh = istate[I_WH_COORDINATES] == DEMOCRATIC_HELIOCENTRIC
+    if plain is None:
+        dh = False  # Jacobi (a bool: see PLAIN)
+        order = plain  # None: the callees compile no corrector
+    else:
+        dh = istate[I_WH_COORDINATES] == DEMOCRATIC_HELIOCENTRIC
+        order = 0 if dh else istate[I_CORRECTOR]
     dt = fstate[F_DT]
     adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
@@ -583,7 +578,6 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
     fast = istate[I_COLLISIONS] == 0 and fstate[F_ENCOUNTER] <= 0.0 and fstate[F_EXIT] <= 0.0
     h = math.copysign(adt, direction)
     if fast:
-        order = 0 if dh else istate[I_CORRECTOR]
         valid = (istate[I_WH_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_WH_H] == h
                  and fstate[F_DT_REF] == adt)
         istate[I_FRESH] = 0
@@ -620,7 +614,7 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
                     # call: this keeps the loop small enough for LLVM to optimise (generic
                     # _drift/_kick calls here cost 10-15% for either coordinate system)
                     tk = t_grid + 0.5 * h
-                    if dh:
+                    if plain is not None and dh:
                         st = _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate,
                                       gwork, force, params, acc, aj, parallel)
                         if st != OK:
@@ -665,6 +659,8 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
             write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
             istate[I_NOUT] = k + 1
         return OK
+    if plain is None:
+        return OK  # not reached: the plain kernel is chosen only for runs without events
 
     # ---- with event detection: every step synchronised --------------------------------------
     istate[I_WH_VALID] = 0

@@ -417,15 +417,20 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
 @kernel
 def zonal_rhs(y, force, zonal, dy):
     """The derivative dy = (v, a) with the two-body and zonal-harmonic terms alone (the first
-    two terms of :func:`cowell_rhs`, same bits). Returns nothing; writes ``dy``."""
-    acc = np.zeros(3)
+    two terms of :func:`cowell_rhs`, same bits). Returns nothing; writes ``dy`` (not ``y``).
+
+    The accelerations are summed in ``dy[3:]`` itself: no array is allocated, so neither this
+    kernel nor the integrator above it compiles numba's ``np.zeros``/``np.empty`` (a cost paid
+    in every process with an empty cache).
+    """
+    for i in range(3):
+        dy[i] = y[3 + i]
+        dy[3 + i] = 0.0
+    acc = dy[3:]
     accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
     n_max = int(force[fb.ZONAL_DEGREE])
     if n_max >= 2:
         accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, acc)
-    for i in range(3):
-        dy[i] = y[3 + i]
-        dy[3 + i] = acc[i]
 
 
 @kernel

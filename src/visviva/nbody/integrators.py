@@ -81,13 +81,19 @@ class Integrator:
     def n_buf(self) -> int:
         return int(self.core.N_BUF)
 
-    def kernel(self, few: bool = False):
+    def kernel(self, few: bool = False, istate=None, fstate=None):
         """The compiled kernel (compiled or loaded from numba's cache on first use).
 
         ``few``: the variant ``<kernel_name>_few`` compiled with the serial few-body gravity
         alone (:data:`visviva.core.gravity.FEW`), valid when :func:`few_bodies` says so: the
-        same bits, and a fraction of the compile time on a fresh install.
+        same bits, and a fraction of the compile time on a fresh install. Given the run's
+        ``istate`` and ``fstate``, an integrator whose module has ``is_plain`` (WHFast) takes
+        ``<kernel_name>_plain`` when that says so: the few-body kernel for the default case
+        alone (no other coordinates, corrector or events compiled).
         """
+        plain = getattr(self.core, "is_plain", None)
+        if few and istate is not None and plain is not None and plain(istate, fstate):
+            return compiled_kernel(self.module, self.kernel_name + "_plain", threads=False)
         if few:
             return compiled_kernel(self.module, self.kernel_name + "_few", threads=False)
         return compiled_kernel(self.module, self.kernel_name)

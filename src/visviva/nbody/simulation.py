@@ -573,7 +573,7 @@ class Simulation:
                 stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
                 st.istate[_nc.I_STOP_AT_STEP] = stop
                 done0 = int(st.istate[_nc.I_NOUT])
-                status = int(info.kernel(few_bodies(st.istate, st.massive))(
+                status = int(info.kernel(few_bodies(st.istate, st.massive), st.istate, st.fstate)(
                     st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
                     st.gwork, fn, params, times, out_t, chunk_x, chunk_v,
                 ))

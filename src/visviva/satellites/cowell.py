@@ -22,7 +22,7 @@ from .. import constants as c
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
 from ..core import force_block as fb
-from ..core.cowell import integrate_cowell, rhs_kind
+from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
 from .events import Event, EventRecord
@@ -52,13 +52,32 @@ def dop853_tableau():
 
     Taken from scipy, which transcribes Hairer's Fortran DOP853; scipy is a dependency of
     visviva, and the compiled integrator in :mod:`visviva.core.cowell` receives them as arrays.
+    The module (plain numpy arrays) is loaded from its file: importing it by name would first
+    import ``scipy.integrate`` and with it ``scipy.optimize`` (0.2 s of a first call's process).
     """
-    from scipy.integrate._ivp import dop853_coefficients as dc
+    dc = _scipy_dop853_module()
 
     def arr(a):
         return np.ascontiguousarray(a, dtype=np.float64)
 
     return (arr(dc.A), arr(dc.B), arr(dc.C), arr(dc.E3), arr(dc.E5), arr(dc.D))
+
+
+def _scipy_dop853_module():
+    """scipy's ``dop853_coefficients`` module, executed from its file (it imports numpy only)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    name = "scipy.integrate._ivp.dop853_coefficients"
+    if name in sys.modules:  # scipy.integrate already imported: the same module
+        return sys.modules[name]
+    scipy_dir = Path(importlib.util.find_spec("scipy").origin).parent
+    path = scipy_dir / "integrate" / "_ivp" / "dop853_coefficients.py"
+    spec = importlib.util.spec_from_file_location("_visviva_scipy_dop853", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _all_instances(items, cls, what, hint):
@@ -392,6 +411,7 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
             y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             kinds, params, dirs, terms, ev_tol, A, B, C, E3, E5, D,
             y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, len(kinds)),
+            np.zeros((WORK_ROWS, 6)),
         )  # fmt: skip
         n_found = int(info[1])
         if n_found <= cap:

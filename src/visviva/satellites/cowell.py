@@ -74,6 +74,10 @@ def _scipy_dop853_module():
         return sys.modules[name]
     scipy_dir = Path(importlib.util.find_spec("scipy").origin).parent
     path = scipy_dir / "integrate" / "_ivp" / "dop853_coefficients.py"
+    if not path.is_file():  # another scipy layout: import it by name (slower, same arrays)
+        import importlib
+
+        return importlib.import_module(name)
     spec = importlib.util.spec_from_file_location("_visviva_scipy_dop853", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

@@ -710,6 +710,8 @@ def test_slow_driven_oscillator_sweep(x0, v0, w0, g, f0, w, t):
     assert_finite(mech.driven_oscillator(x0, v0, w0, g, f0, w, t))
 
 
+# plain angles above 2 pi are drawn on purpose: the wrap warning is the documented behaviour
+@pytest.mark.filterwarnings("ignore:.* is a plain number, so it is taken in radians")
 @pytest.mark.slow
 @SLOW
 @given(

@@ -106,6 +106,17 @@ def test_light_time_moves_the_satellite_back_by_range_over_c(iss, site, times):
     assert np.abs(lt.range - geo.range).max() > 5 * ONE_METER * u.km
 
 
+def test_states_at_another_time_than_t_are_refused(iss, site, times):
+    # a t one minute after the states' epoch used to rotate the states to the Earth-fixed frame
+    # of the wrong time: another azimuth and elevation, silently
+    states = iss.gcrs(times).to_state_vectors()
+    with pytest.raises(vv.InvalidInputError, match="light time"):
+        site.look(states, times + 60 * u.s)
+    # omitting t uses the epoch; t equal to it gives the same answer
+    a, b = site.look(states), site.look(states, times)
+    np.testing.assert_array_equal(a.elevation, b.elevation)
+
+
 def test_doppler_known_value_and_sign(iss, site, times):
     f = 437.8 * u.MHz
     shift = doppler_shift(f, -7.0 * u.km / u.s)

@@ -79,6 +79,37 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
     return np.where(h >= -1.0, r_arcmin / 60.0, 0.0)
 
 
+#: Largest distance from the geocentre to a station (km): a margin for the light time bound.
+_STATION_REACH_KM = 6400.0
+
+
+def _check_states_time(states, t) -> None:
+    """Refuse a ``t`` farther from the states' own epoch than light can travel between them and
+    a station: look() rotates the states to the Earth-fixed frame at ``t``, so a later ``t``
+    would silently give another place in the sky. A difference up to the light time (states
+    at emission, ``t`` at reception) is the documented use."""
+    epoch = states.epoch
+    if epoch is None or t is None:
+        return
+    try:
+        dt = np.abs(np.asarray((t - epoch).to_value(u.s), dtype=float))
+        dist = np.linalg.norm(states.r.to_value(u.km), axis=-1)
+        limit = (np.broadcast_to(dist, np.broadcast_shapes(dist.shape, dt.shape))
+                 + _STATION_REACH_KM) / SPEED_OF_LIGHT_KM_S + 1e-3
+        bad = dt > limit
+    except ValueError:  # shapes that do not broadcast are reported by the caller
+        return
+    if np.any(bad):
+        worst = float(np.max(dt))
+        raise InvalidInputError(
+            f"t differs from the states' epoch by up to {worst:.6g} s, more than the light time "
+            "between them and a station: look() evaluates the states at t, so this would be "
+            "another place in the sky. Pass states at t (e.g. sat.gcrs(t)), or omit t to use "
+            "their epoch; a difference up to the light time (states at emission, t at "
+            "reception) is accepted."
+        )
+
+
 def _target_states(target, t):
     """Earth-fixed (ITRS) r, v (km, km/s) of shape lead + t.shape + (3,), the times, and the
     ITRS -> GCRS rotations (T, 3, 3) of the flat times."""
@@ -123,6 +154,7 @@ def _target_states(target, t):
             raise InvalidInputError(
                 f"states of shape {target.shape} and t of shape {t.shape} do not broadcast."
             ) from exc
+        _check_states_time(target, t)
         t = t if t.shape == shape else Time(np.broadcast_to(t.jd1, shape),
                                               np.broadcast_to(t.jd2, shape),
                                               format="jd", scale=t.scale)
@@ -156,7 +188,9 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
         A satellite (SGP4), a catalogue (adds a leading satellite axis), or states in the GCRS
         (``sat.gcrs(t)``, or any :class:`visviva.StateVectors` with GCRS axes).
     t : astropy Time, optional
-        Times, scalar or any shape; for states it defaults to their epoch.
+        Times, scalar or any shape; for states it defaults to their epoch, and a given ``t``
+        may differ from the epoch by at most the light time to a station (states at emission,
+        ``t`` at reception); more raises :class:`~visviva.errors.InvalidInputError`.
     refraction : bool
         Add standard atmospheric refraction to the elevation (:func:`refraction_deg`:
         1010 hPa, 10 deg C; about 0.57 deg at the horizon). Default: geometric.

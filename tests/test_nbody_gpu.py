@@ -2,7 +2,8 @@
 
 The simulator is switched on with ``NUMBA_ENABLE_CUDASIM=1`` in a subprocess (it must be set
 before numba.cuda is imported and would change nothing else here), which runs
-``tests/gpu/check_cuda_backend.py``. Real-GPU runs: ``-m gpu`` on a machine with an NVIDIA GPU.
+``tests/gpu/check_cuda_backend.py`` (leapfrog, WHFast, ensembles, Kepler) or
+``tests/gpu/check_ias15.py`` (IAS15). Real-GPU runs: ``-m gpu`` on a machine with an NVIDIA GPU.
 """
 
 from __future__ import annotations
@@ -17,10 +18,10 @@ import pytest
 SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_cuda_backend.py")
 
 
-def _run(env_extra):
+def _run(env_extra, script=SCRIPT):
     pytest.importorskip("numba_cuda")
     env = {**os.environ, **env_extra}
-    proc = subprocess.run([sys.executable, SCRIPT], env=env, capture_output=True, text=True,
+    proc = subprocess.run([sys.executable, script], env=env, capture_output=True, text=True,
                           timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return dict(line.split("=", 1) for line in proc.stdout.splitlines() if "=" in line)
@@ -80,3 +81,54 @@ def test_cpu_twins_of_the_device_functions_match_the_gravity_kernel():
     twin = np.zeros((n, 3))
     arith.member_accelerations_cpu(x, 1.3 * m, massive, 0, len(massive), 0, n, 0.01, twin)
     np.testing.assert_allclose(twin, acc, rtol=1e-13, atol=1e-14 * np.abs(acc).max())
+
+
+# ---- IAS15 ----------------------------------------------------------------------------------------
+IAS15_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_ias15.py")
+#: after several adaptive steps (and a shortened copy to an output time), relative to the
+#: largest position or velocity: the brief's bound; measured ~1e-16
+ROUND_OFF = 1e-12
+
+
+def _check(out):
+    for key in ("ias15_pos", "ias15_vel", "ias15_restart_pos", "ias15_continue_pos",
+                "ias15_energy_rel", "split_pos", "split_vel", "split_separation",
+                "split_kernel_acc"):
+        assert float(out[key]) <= ROUND_OFF, (key, out[key])
+    # the same step grid and step control as the CPU kernel (it IS the CPU kernel)
+    assert int(out["ias15_steps"]) >= 5
+    assert out["ias15_steps_equal"] == "True" and out["ias15_times_equal"] == "True"
+    assert out["ias15_restart_steps_equal"] == "True"
+    # the next step follows from b6, jerk and snap of the converged polynomial: equal to the
+    # round-off of those high derivatives
+    assert float(out["ias15_dt_rel"]) <= 1e-9
+    # the tight binary far from the origin: the steps on two-part positions were taken, and the
+    # separation agrees with the CPU's to round-off of the separation itself (without the
+    # two-part positions it differs by ~4e-13 after 24 steps)
+    assert int(out["split_steps"]) > 0 and out["split_steps_equal"] == "True"
+    assert out["tight_equal"] == "True"
+
+
+def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
+    out = _run({"NUMBA_ENABLE_CUDASIM": "1"}, IAS15_SCRIPT)
+    _check(out)
+    # what the GPU path does not run is refused with the library's errors
+    assert out["refuse_force"] == "InvalidInputError"
+    assert out["refuse_events"] == "InvalidInputError"
+    assert out["refuse_times"] == "ShapeError"
+    # an error in the GPU call reaches the caller, the state stays at the last good step
+    assert out["broken"] == "device lost" and out["broken_state_kept"] == "True"
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
+def test_ias15_on_a_real_gpu_matches_the_cpu_backend():
+    _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, IAS15_SCRIPT))
+
+
+def test_the_driver_knows_the_kernels_buf_layout():
+    # the GPU force reads IAS15's buf by slot: the slots must be the kernel's
+    from visviva.core import nbody_ias15 as k
+    from visviva.nbody.gpu_ias15 import IAS15_SLOTS
+
+    assert IAS15_SLOTS == {"csx": k._CSX, "xp": k._XP, "xi": k._XI, "xl": k._XL}

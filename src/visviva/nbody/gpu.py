@@ -36,7 +36,7 @@ __all__ = [
 ]
 
 #: Integrators with a GPU implementation: of one simulation, of an ensemble.
-GPU_INTEGRATORS = ("leapfrog", "whfast")
+GPU_INTEGRATORS = ("leapfrog", "whfast", "ias15")
 GPU_ENSEMBLE_INTEGRATORS = ("leapfrog",)
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -90,27 +90,52 @@ class DeviceGravity:
         self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
         self.soft2 = float(soft2)
         self.acc = cuda.device_array((self.n, 3))
-        self._x = self._out = None  # host-path buffers, allocated on first use
+        self._buffers: dict = {}  # host-path device buffers, allocated on first use
+        self._out = None
 
-    def __call__(self, x):
-        """Launch the kernel on ``x`` (a device array, shape (N, 3)); returns the device array
-        of accelerations (length / time**2), overwritten by the next call."""
+    def __call__(self, x, xlo=None):
+        """Launch the kernel on ``x`` (a device array, shape (N, 3)), on the two-part positions
+        ``x + xlo`` when ``xlo`` is given; returns the device array of accelerations
+        (length / time**2), overwritten by the next call."""
         K = self._kernels
-        K.accelerations[K.blocks(self.n), K.THREADS](x, self.gm, self.massive, self.soft2,
-                                                     self.acc)
+        kernel = K.accelerations if xlo is None else K.accelerations_split
+        kernel[K.blocks(self.n), K.THREADS](x, x if xlo is None else xlo, self.gm, self.massive,
+                                            self.soft2, self.acc)
         return self.acc
 
-    def host(self, x, out) -> None:
-        """Accelerations at the host positions ``x`` into the host array ``out`` (N, 3); the
-        device buffers are allocated once and reused."""
+    def _device(self, name, host):
+        """``host`` (N, 3) copied into the device buffer ``name`` (allocated on first use)."""
         from numba import cuda
 
-        if self._x is None:
-            self._x = cuda.device_array((self.n, 3))
+        buf = self._buffers.get(name)
+        if buf is None:
+            buf = self._buffers[name] = cuda.device_array(host.shape, dtype=host.dtype)
+        buf.copy_to_device(np.ascontiguousarray(host))
+        return buf
+
+    def host(self, x, out, xlo=None) -> None:
+        """Accelerations at the host positions ``x`` (two-part ``x + xlo`` when ``xlo`` is
+        given) into the host array ``out`` (N, 3); the device buffers are allocated once and
+        reused."""
+        d_lo = None if xlo is None else self._device("xlo", xlo)
+        acc = self(self._device("x", x), d_lo)
+        if self._out is None:
             self._out = np.empty((self.n, 3))
-        self._x.copy_to_device(np.ascontiguousarray(x))
-        self(self._x).copy_to_host(self._out)
+        acc.copy_to_host(self._out)
         out[:] = self._out
+
+    def tight(self, x, ratio: float) -> bool:
+        """True when a particle and a massive one are closer than ``1 / ratio`` of the larger
+        of their distances from the origin (host positions ``x``, evaluated on the GPU)."""
+        K = self._kernels
+        flags = self._buffers.get("flags")
+        if flags is None:
+            from numba import cuda
+
+            flags = self._buffers["flags"] = cuda.device_array(self.n, dtype=np.int32)
+        K.tight_pairs[K.blocks(self.n), K.THREADS](self._device("x", x), self.massive,
+                                                   ratio * ratio, flags)
+        return bool(flags.copy_to_host().any())
 
 
 def plan(state: dict, target: float):
@@ -201,7 +226,8 @@ def begin_gpu_run(sim, t, ensemble: bool = False):
 
 def integrate_simulation(sim, t) -> None:
     """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
-    between steps, N threads per kernel; WHFast: :mod:`visviva.nbody.gpu_whfast`)."""
+    between steps, N threads per kernel; WHFast: :mod:`visviva.nbody.gpu_whfast`; IAS15:
+    :mod:`visviva.nbody.gpu_ias15`)."""
     whfast = sim.integrator == "whfast"
     if whfast:
         from .gpu_whfast import check_supported, integrate_whfast
@@ -216,6 +242,10 @@ def integrate_simulation(sim, t) -> None:
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     if whfast:
         return integrate_whfast(sim, state, target, gravity)
+    if sim.integrator == "ias15":
+        from .gpu_ias15 import integrate_ias15
+
+        return integrate_ias15(sim, target, massive, gravity)
     n, h, rem, t_final = plan(state, target)
     grid = K.blocks(sim.N)
 

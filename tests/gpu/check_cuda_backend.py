@@ -104,11 +104,11 @@ def main():
 
     # WHFast with the interaction step's gravity on the GPU: a star and 139 planetesimals (more
     # massive bodies than one tile), off the grid then on it, then continued on the CPU
-    def disc(backend):
+    def disc(backend, n=139, **settings):
         rng = np.random.default_rng(11)
-        sim = vv.Simulation("whfast", dt=0.02, backend=backend)
+        sim = vv.Simulation("whfast", dt=0.02, backend=backend, **settings)
         sim.add(1.0)
-        for k in range(139):
+        for k in range(n):
             sim.add(1e-7 * rng.uniform(0.5, 1.5), a=1.0 + 0.01 * k, e=0.05 * rng.uniform(),
                     inc=0.02 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=None)
         sim.move_to_com()
@@ -127,6 +127,26 @@ def main():
     back.integrate(0.14)
     wc.integrate(0.14)
     print(f"whfast_restart_pos={rel(back.positions, wc.positions)!r}")
+
+    # democratic heliocentric coordinates, and Jacobi with a 5th-order corrector: 3 planets and
+    # 20 planetesimals, off the grid then on it, then continued on the CPU from the saved state
+    for key, settings in (("dh", {"coordinates": "democratic_heliocentric"}),
+                          ("corrector", {"corrector": 5})):
+        wc, wg = disc("cpu", n=20, **settings), disc("cuda", n=20, **settings)
+        for sim in (wc, wg):
+            for j in (1, 2, 3):
+                sim.set_particle(j, m=1e-3 / j)
+            sim.move_to_com()
+            sim.integrate(0.07)
+            sim.integrate(0.16)
+        print(f"whfast_{key}_pos={rel(wg.positions, wc.positions)!r}")
+        print(f"whfast_{key}_vel={rel(wg.velocities, wc.velocities)!r}")
+        print(f"whfast_{key}_steps_equal={(wg.steps_done == wc.steps_done > 5)!r}")
+        wg.save(gpu_path)
+        back = vv.Simulation.load(gpu_path)
+        back.integrate(0.3)
+        wc.integrate(0.3)
+        print(f"whfast_{key}_restart_pos={rel(back.positions, wc.positions)!r}")
 
     # batch two-body propagation: the universal-variable solver's device twin against the CPU
 

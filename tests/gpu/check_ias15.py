@@ -149,12 +149,12 @@ def main():
     print(f"refuse_force={refusal(with_force)}")
     print(f"refuse_events={refusal(with_events)}")
     print(f"refuse_times={refusal(lambda: planets('cuda', n=3, tp=0).integrate([0.1, 0.2]))}")
-    host = gpu.DeviceGravity.host
+    add = gpu.DeviceGravity.add
 
     def broken(self, *args):
         raise RuntimeError("device lost")
 
-    gpu.DeviceGravity.host = broken
+    gpu.DeviceGravity.add = broken
     s = planets("cuda", n=3, tp=0)
     x0 = s.positions
     try:
@@ -162,7 +162,7 @@ def main():
         print("broken=none")
     except RuntimeError as exc:
         print(f"broken={exc}")
-    gpu.DeviceGravity.host = host
+    gpu.DeviceGravity.add = add
     print(f"broken_state_kept={bool((s.positions == x0).all() and s.t == 0.0)!r}")
 
 

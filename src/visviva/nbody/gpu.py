@@ -6,18 +6,24 @@ What runs on the GPU today:
   simulation (one thread per particle per kernel, the gravity tiled through shared memory, the
   state kept on the device between steps) and for ensembles (one thread per member,
   :mod:`visviva.core.cuda.kernels`);
-* WHFast's interaction step for one large simulation (:mod:`visviva.nbody.gpu_whfast`): the
-  inertial accelerations by the tiled direct sum on the GPU, the Kepler drifts and the Jacobi
-  transforms (O(N) per step) by the CPU kernels, Jacobi coordinates without corrector.
+* IAS15 and WHFast for one large simulation (:mod:`visviva.nbody.gpu_force`): the CPU backend's
+  own compiled kernel runs every step (IAS15's predictor-corrector and step control; WHFast's
+  Kepler drifts, coordinate transforms and correctors, in Jacobi or democratic heliocentric
+  coordinates) and every gravity evaluation is the tiled direct sum on the GPU, handed to the
+  kernel through its additional-force argument (:mod:`visviva.nbody.gpu_ias15`, with IAS15's
+  two-part positions for tight pairs; :mod:`visviva.nbody.gpu_whfast`).
 
-The step grid, the time origin and the shortened last step to an output time follow the CPU
-kernels exactly, and the state (``buf`` included) is stored as the CPU backend stores it, so a run
-can be saved, loaded and continued on either backend. Results agree with the CPU backend to
-round-off (the gravity sums are added in another order).
+The step grid, the time origin and the shortened last step to an output time are the CPU
+kernels' (the leapfrog's plan is computed with their expressions, :func:`plan`), and the state
+(``buf`` included) is stored as the CPU backend stores it, so a run can be saved, loaded and
+continued on either backend. Results agree with the CPU backend to round-off (the gravity sums
+are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative after several
+steps (``tests/test_nbody_gpu.py``); that is all the simulator shows, it says nothing of speed.
 
-Not on the GPU (yet): IAS15, WHFast ensembles, WHFast's symplectic correctors and democratic
-heliocentric coordinates, additional forces, collision/encounter/escape checks, arrays of output
-times; these raise :class:`visviva.errors.InvalidInputError` saying to use ``backend="cpu"``.
+Not on the GPU (yet): ensembles of IAS15 or WHFast systems, additional forces,
+collision/encounter/escape checks, arrays of output times; these raise
+:class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the times)
+saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -113,16 +119,16 @@ class DeviceGravity:
         buf.copy_to_device(np.ascontiguousarray(host))
         return buf
 
-    def host(self, x, out, xlo=None) -> None:
-        """Accelerations at the host positions ``x`` (two-part ``x + xlo`` when ``xlo`` is
-        given) into the host array ``out`` (N, 3); the device buffers are allocated once and
+    def add(self, x, acc, xlo=None) -> None:
+        """Add the accelerations at the host positions ``x`` (two-part ``x + xlo`` when ``xlo``
+        is given) to the host array ``acc`` (N, 3); the device buffers are allocated once and
         reused."""
         d_lo = None if xlo is None else self._device("xlo", xlo)
-        acc = self(self._device("x", x), d_lo)
+        out = self(self._device("x", x), d_lo)
         if self._out is None:
             self._out = np.empty((self.n, 3))
-        acc.copy_to_host(self._out)
-        out[:] = self._out
+        out.copy_to_host(self._out)
+        acc += self._out
 
     def tight(self, x, ratio: float) -> bool:
         """True when a particle and a massive one are closer than ``1 / ratio`` of the larger
@@ -226,22 +232,22 @@ def begin_gpu_run(sim, t, ensemble: bool = False):
 
 def integrate_simulation(sim, t) -> None:
     """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
-    between steps, N threads per kernel; WHFast: :mod:`visviva.nbody.gpu_whfast`; IAS15:
-    :mod:`visviva.nbody.gpu_ias15`)."""
-    whfast = sim.integrator == "whfast"
-    if whfast:
-        from .gpu_whfast import check_supported, integrate_whfast
-
-        check_supported(sim.state_arrays()["istate"])
+    between steps, N threads per kernel; WHFast and IAS15: the CPU kernel with the gravity on
+    the GPU, :mod:`visviva.nbody.gpu_force`)."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
     target, massive = begin_gpu_run(sim, t)
     state = sim.state_arrays()
-    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
-    if whfast:
-        return integrate_whfast(sim, state, target, gravity)
+    soft2 = state["fstate"][_nc.F_SOFT2]
+    gm = sim.G * state["m"]
+    if sim.integrator == "whfast":
+        from .gpu_whfast import integrate_whfast, interacting
+
+        gravity = DeviceGravity(gm, interacting(state["istate"], massive), soft2)
+        return integrate_whfast(sim, target, gravity)
+    gravity = DeviceGravity(gm, massive, soft2)
     if sim.integrator == "ias15":
         from .gpu_ias15 import integrate_ias15
 

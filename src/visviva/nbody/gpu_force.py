@@ -1,0 +1,183 @@
+"""The CPU integrator kernels with their direct-sum gravity evaluated on the GPU.
+
+For one large simulation an IAS15 or WHFast step costs O(N N_massive) for the gravity and O(N)
+for everything else (IAS15's predictor-corrector and step control, WHFast's Kepler drifts,
+coordinate transforms and correctors). :func:`run_with_gpu_gravity` therefore runs the CPU
+backend's own compiled kernel (:mod:`visviva.core.nbody_ias15`, :mod:`visviva.core.nbody_whfast`)
+and hands it the gravity through its additional-force argument:
+
+* the kernel is called with no massive particle, so its own direct sum adds nothing (one O(N)
+  pass), and with :func:`gpu_gravity_force` as the additional force;
+* that compiled force calls back into Python (``numba.objmode``) once per force evaluation, and
+  an evaluator (one per run, found through ``params[0]``) adds the accelerations from the tiled
+  direct sum on the GPU (:class:`visviva.nbody.gpu.DeviceGravity`): positions go to the device
+  and accelerations come back, 48 bytes per particle against N_massive pair evaluations.
+
+The step grid, the step control, the output copies and the stored state are the CPU backend's
+own, operation for operation: only the gravity sums differ (added in another order: round-off),
+and a run can be saved, loaded and continued on either backend. The evaluators
+(:mod:`visviva.nbody.gpu_ias15`, :mod:`visviva.nbody.gpu_whfast`) know which slot of the
+integrator's ``buf`` a call concerns; tests check their slot numbers against the kernels'.
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import warnings
+
+import numpy as np
+from numba import objmode
+
+from ..core._jit import kernel
+
+__all__ = ["GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity"]
+
+_RUNS: dict = {}  # run key (params[0]) -> GravityEvaluator, for the runs in flight
+_KEYS = itertools.count(1)
+_LOCK = threading.Lock()
+_READY: list = []  # [True] once gpu_gravity_force is compiled (see _compile_force)
+
+
+class GravityEvaluator:
+    """The gravity of one run on the GPU, called by :func:`gpu_gravity_force`.
+
+    Parameters
+    ----------
+    buf : ndarray, shape (K, N, 3)
+        The integrator's own arrays (read and, by some evaluators, written).
+    gravity : DeviceGravity
+        The GPU direct sum of the run's particles.
+
+    Notes
+    -----
+    Subclasses define ``__call__(x, acc)``: add the gravity at the positions ``x`` (N, 3) to
+    ``acc`` (N, 3), both arrays over the kernel's own memory (``x.ctypes.data`` tells which slot
+    of ``buf`` they are). An exception is kept in :attr:`error` and re-raised by
+    :func:`run_with_gpu_gravity` (it cannot cross the compiled kernel).
+    """
+
+    def __init__(self, buf, gravity):
+        self.buf = buf
+        self.gravity = gravity
+        self.error: BaseException | None = None
+
+    def address(self, slot: int) -> int:
+        """Where slot ``slot`` of ``buf`` starts in memory."""
+        return self.buf[slot].ctypes.data
+
+    def unexpected(self, what: str) -> RuntimeError:
+        """The error for a call the evaluator does not recognise (the kernel's buf layout
+        changed under it)."""
+        return RuntimeError(
+            f"the integrator kernel asked for gravity {what} outside the slots the GPU driver "
+            f"knows ({type(self).__module__}): use backend='cpu' and report this."
+        )
+
+
+def _evaluate(params, x, acc) -> None:
+    """Called from compiled code: the GPU gravity of run ``params[0]`` added to ``acc``. An
+    exception cannot cross the compiled kernel: it is kept for the driver, and NaN makes the
+    kernel stop at once (its non-finite checks)."""
+    run = _RUNS.get(int(params[0]))
+    if run is None:
+        return  # key 0: the compile-time call of _compile_force
+    try:
+        run(x, acc)
+    except BaseException as exc:  # noqa: BLE001 - re-raised by run_with_gpu_gravity
+        if run.error is None:
+            run.error = exc
+        acc[:] = np.nan
+
+
+@kernel
+def gpu_gravity_force(t, x, v, m, params, acc):
+    """The additional force that adds the direct-sum gravity computed on the GPU.
+
+    Parameters
+    ----------
+    t : float
+        Time (simulation units; not used).
+    x, v : ndarray, shape (N, 3)
+        Positions and velocities (simulation units) as the integrator kernel passes them.
+    m : ndarray, shape (N,)
+        Masses (not used: the GPU holds ``G m``).
+    params : ndarray, shape (>= 1,)
+        ``params[0]``: the key of the run in flight (:func:`run_with_gpu_gravity`).
+    acc : ndarray, shape (N, 3)
+        Accelerations (length / time**2), added to in place.
+
+    Notes
+    -----
+    A compiled function with the integrators' force signature
+    (:data:`visviva.core.nbody_common.FORCE_SIGNATURE`) whose body calls back into the
+    interpreter (``numba.objmode``) for the GPU launch; numba caches it like any kernel.
+    """
+    with objmode():
+        _evaluate(params, x, acc)
+
+
+def _compile_force() -> None:
+    """Compile (or load from the cache) :func:`gpu_gravity_force` and the interpreter block in
+    it (compiled at its first call), without numba's warning that this block holds the GIL (it
+    must: it launches the GPU kernels from Python; the kernel around it releases the GIL as
+    usual)."""
+    if _READY:
+        return
+    from numba.core.errors import NumbaWarning
+
+    from ..core.nbody_common import FORCE_SIGNATURE
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NumbaWarning)
+        gpu_gravity_force.compile(FORCE_SIGNATURE)
+        z = np.zeros((1, 3))
+        gpu_gravity_force(0.0, z, z, np.zeros(1), np.zeros(1), z)  # key 0: no run, no-op
+    _READY.append(True)
+
+
+def run_with_gpu_gravity(sim, target: float, evaluator: GravityEvaluator) -> None:
+    """Integrate ``sim`` to the absolute time ``target`` with its CPU kernel, the gravity from
+    ``evaluator``.
+
+    Parameters
+    ----------
+    sim : Simulation
+        Gravity only, prepared by :func:`visviva.nbody.gpu.begin_gpu_run` (``I_PARALLEL`` 0,
+        ``buf`` allocated).
+    target : float
+        Absolute time (simulation units).
+    evaluator : GravityEvaluator
+        The run's GPU gravity, over ``sim``'s ``buf``.
+
+    Raises
+    ------
+    StepSizeError, InvalidStateError
+        As on the CPU (the kernel's status goes through :meth:`visviva.Simulation.after_kernel`).
+    Exception
+        Whatever the GPU call raised; the state is then the last one the kernel completed.
+    """
+    state = sim.state_arrays()
+    x, v, fstate, istate = state["x"], state["v"], state["fstate"], state["istate"]
+    n = x.shape[0]
+    _compile_force()
+    with _LOCK:
+        key = next(_KEYS)
+    _RUNS[key] = evaluator
+    params = np.array([float(key), 0.0])
+    times = np.array([target])
+    out_x, out_v = np.empty((1, n, 3)), np.empty((1, n, 3))
+    # the few-body kernel: its own gravity is a pass over no massive particle
+    run_kernel = sim.integrator_info.kernel(True, istate, fstate)
+    try:
+        while True:
+            status = int(run_kernel(x, v, state["m"], np.empty(0, np.int64), state["radius"],
+                                    fstate, istate, state["buf"], np.zeros((7, 1)),
+                                    gpu_gravity_force, params, times, times.copy(), out_x,
+                                    out_v))
+            if evaluator.error is not None:
+                raise evaluator.error
+            if sim.after_kernel(status):
+                return
+    finally:
+        del _RUNS[key]

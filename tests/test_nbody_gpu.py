@@ -31,7 +31,8 @@ def _run(env_extra, script=SCRIPT):
 KEYS = ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc", "kepler_pos",
         "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos", "whfast_vel", "whfast_restart_pos",
         "whfast_dh_pos", "whfast_dh_vel", "whfast_dh_restart_pos", "whfast_corrector_pos",
-        "whfast_corrector_vel", "whfast_corrector_restart_pos")
+        "whfast_corrector_vel", "whfast_corrector_restart_pos", "whfast_dh_j2_pos",
+        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos")
 
 
 def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
@@ -43,7 +44,7 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     assert out["steps_equal"] == "True" and out["times_equal"] == "True"
     # the tiled direct sum adds the pulls in the order of the CPU twin: the same bits
     assert out["tiled_bits"] == "True"
-    for key in ("whfast", "whfast_dh", "whfast_corrector"):
+    for key in ("whfast", "whfast_dh", "whfast_corrector", "whfast_dh_j2"):
         assert out[f"{key}_steps_equal"] == "True", key
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
     # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
@@ -97,7 +98,8 @@ ROUND_OFF = 1e-12
 def _check(out):
     for key in ("ias15_pos", "ias15_vel", "ias15_restart_pos", "ias15_continue_pos",
                 "ias15_energy_rel", "split_pos", "split_vel", "split_separation",
-                "split_kernel_acc"):
+                "split_kernel_acc", "force_pos", "force_vel", "merge_pos", "encounter_pos",
+                "encounter_t"):
         assert float(out[key]) <= ROUND_OFF, (key, out[key])
     # the same step grid and step control as the CPU kernel (it IS the CPU kernel)
     assert int(out["ias15_steps"]) >= 5
@@ -116,10 +118,13 @@ def _check(out):
 def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "1"}, IAS15_SCRIPT)
     _check(out)
+    # events run in the CPU kernel: a merger on both backends (N - 1 particles after it), an
+    # encounter raised at the same step
+    assert out["merge_n"] == "2,2"
+    assert out["encounter"] == "Encounter/Encounter" and out["encounter_before"] == "True"
     # what the GPU path does not run is refused with the library's errors
-    assert out["refuse_force"] == "InvalidInputError"
-    assert out["refuse_events"] == "InvalidInputError"
     assert out["refuse_times"] == "ShapeError"
+    assert out["refuse_leapfrog_force"] == "InvalidInputError"
     # an error in the GPU call reaches the caller, the state stays at the last good step
     assert out["broken"] == "device lost" and out["broken_state_kept"] == "True"
 

@@ -11,6 +11,7 @@ import numpy as np
 from astropy import units as u
 
 import visviva as vv
+from visviva.nbody.forces import J2Force
 
 
 def system(backend, n=6, seed=0, softening=0.0):
@@ -130,13 +131,17 @@ def main():
 
     # democratic heliocentric coordinates, and Jacobi with a 5th-order corrector: 3 planets and
     # 20 planetesimals, off the grid then on it, then continued on the CPU from the saved state
+    # (and democratic heliocentric with J2 of the star: the additional force's slot)
     for key, settings in (("dh", {"coordinates": "democratic_heliocentric"}),
-                          ("corrector", {"corrector": 5})):
+                          ("corrector", {"corrector": 5}),
+                          ("dh_j2", {"coordinates": "democratic_heliocentric"})):
         wc, wg = disc("cpu", n=20, **settings), disc("cuda", n=20, **settings)
         for sim in (wc, wg):
             for j in (1, 2, 3):
                 sim.set_particle(j, m=1e-3 / j)
             sim.move_to_com()
+            if key == "dh_j2":
+                sim.add_force(J2Force(0, 0.05, 0.3))
             sim.integrate(0.07)
             sim.integrate(0.16)
         print(f"whfast_{key}_pos={rel(wg.positions, wc.positions)!r}")

@@ -20,10 +20,12 @@ continued on either backend. Results agree with the CPU backend to round-off (th
 are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative after several
 steps (``tests/test_nbody_gpu.py``); that is all the simulator shows, it says nothing of speed.
 
-Not on the GPU (yet): ensembles of IAS15 or WHFast systems, additional forces,
-collision/encounter/escape checks, arrays of output times; these raise
-:class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the times)
-saying to use ``backend="cpu"``.
+IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
+kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
+mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 or WHFast
+systems, forces and events with the leapfrog or in ensembles, arrays of output times; these
+raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
+times) saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -63,11 +65,19 @@ def check_backend(backend: str, integrator: str | None = None, ensemble: bool = 
     return name
 
 
+#: Integrators whose GPU run is their CPU kernel with the gravity on the GPU
+#: (:mod:`visviva.nbody.gpu_force`): additional forces and event checks run as on the CPU.
+CPU_KERNEL_INTEGRATORS = ("ias15", "whfast")
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    if sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance:
+    extras = sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance
+    if extras and (ensemble or sim.integrator not in CPU_KERNEL_INTEGRATORS):
+        what = "ensembles" if ensemble else "the leapfrog"
         raise InvalidInputError(
-            "backend='cuda' integrates gravity only: additional forces and collision, encounter "
-            "or escape checks run on backend='cpu'."
+            f"backend='cuda' integrates {what} with gravity only: additional forces and "
+            "collision, encounter or escape checks run on backend='cpu' (or, for one "
+            f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
         )
     check_backend("cuda", sim.integrator, ensemble)
 
@@ -239,19 +249,12 @@ def integrate_simulation(sim, t) -> None:
     from ..core.cuda import kernels as K
 
     target, massive = begin_gpu_run(sim, t)
+    if sim.integrator in CPU_KERNEL_INTEGRATORS:
+        from .gpu_force import run_with_gpu_gravity
+
+        return run_with_gpu_gravity(sim, target)
     state = sim.state_arrays()
-    soft2 = state["fstate"][_nc.F_SOFT2]
-    gm = sim.G * state["m"]
-    if sim.integrator == "whfast":
-        from .gpu_whfast import integrate_whfast, interacting
-
-        gravity = DeviceGravity(gm, interacting(state["istate"], massive), soft2)
-        return integrate_whfast(sim, target, gravity)
-    gravity = DeviceGravity(gm, massive, soft2)
-    if sim.integrator == "ias15":
-        from .gpu_ias15 import integrate_ias15
-
-        return integrate_ias15(sim, target, massive, gravity)
+    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     n, h, rem, t_final = plan(state, target)
     grid = K.blocks(sim.N)
 

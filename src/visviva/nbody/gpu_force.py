@@ -25,6 +25,7 @@ from __future__ import annotations
 import itertools
 import threading
 import warnings
+import weakref
 
 import numpy as np
 from numba import objmode
@@ -37,6 +38,7 @@ _RUNS: dict = {}  # run key (params[0]) -> GravityEvaluator, for the runs in fli
 _KEYS = itertools.count(1)
 _LOCK = threading.Lock()
 _READY: list = []  # [True] once gpu_gravity_force is compiled (see _compile_force)
+_FUSED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # user force -> with gravity
 
 
 class GravityEvaluator:
@@ -136,48 +138,76 @@ def _compile_force() -> None:
     _READY.append(True)
 
 
-def run_with_gpu_gravity(sim, target: float, evaluator: GravityEvaluator) -> None:
-    """Integrate ``sim`` to the absolute time ``target`` with its CPU kernel, the gravity from
-    ``evaluator``.
+def _fused_with(fn):
+    """:func:`gpu_gravity_force` followed by the simulation's own (fused) force ``fn``: the GPU
+    gravity first, then the forces, added in the CPU kernel's order."""
+    fused = _FUSED.get(fn)
+    if fused is None:
+        from numba.core.errors import NumbaWarning
+
+        from ..core.nbody_common import FORCE_SIGNATURE
+        from .forces import combine
+
+        fused = combine([gpu_gravity_force, fn], [1, 0])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NumbaWarning)
+            fused.compile(FORCE_SIGNATURE)
+        _FUSED[fn] = fused
+    return fused
+
+
+def _evaluator(sim, massive):
+    """The run's evaluator for ``sim``'s integrator, over its current arrays."""
+    if sim.integrator == "ias15":
+        from .gpu_ias15 import evaluator
+    else:
+        from .gpu_whfast import evaluator
+    return evaluator(sim, massive)
+
+
+def run_with_gpu_gravity(sim, target: float) -> None:
+    """Integrate ``sim`` (IAS15 or WHFast) to the absolute time ``target`` with its CPU kernel,
+    every gravity evaluation on the GPU.
 
     Parameters
     ----------
     sim : Simulation
-        Gravity only, prepared by :func:`visviva.nbody.gpu.begin_gpu_run` (``I_PARALLEL`` 0,
-        ``buf`` allocated).
+        Prepared by :func:`visviva.nbody.gpu.begin_gpu_run`. Its additional forces are added
+        after the gravity, and its collision, encounter and escape checks run, as on the CPU; a
+        merger or bounce rebuilds the GPU's arrays before the run goes on.
     target : float
         Absolute time (simulation units).
-    evaluator : GravityEvaluator
-        The run's GPU gravity, over ``sim``'s ``buf``.
 
     Raises
     ------
-    StepSizeError, InvalidStateError
+    Collision, Encounter, Escape, StepSizeError, InvalidStateError
         As on the CPU (the kernel's status goes through :meth:`visviva.Simulation.after_kernel`).
     Exception
         Whatever the GPU call raised; the state is then the last one the kernel completed.
     """
-    state = sim.state_arrays()
-    x, v, fstate, istate = state["x"], state["v"], state["fstate"], state["istate"]
-    n = x.shape[0]
+    from ..core.gravity import no_force
+
     _compile_force()
     with _LOCK:
         key = next(_KEYS)
-    _RUNS[key] = evaluator
-    params = np.array([float(key), 0.0])
     times = np.array([target])
-    out_x, out_v = np.empty((1, n, 3)), np.empty((1, n, 3))
-    # the few-body kernel: its own gravity is a pass over no massive particle
-    run_kernel = sim.integrator_info.kernel(True, istate, fstate)
     try:
         while True:
-            status = int(run_kernel(x, v, state["m"], np.empty(0, np.int64), state["radius"],
-                                    fstate, istate, state["buf"], np.zeros((7, 1)),
-                                    gpu_gravity_force, params, times, times.copy(), out_x,
-                                    out_v))
+            # (again after a merger or bounce: N, the masses and buf may have changed)
+            fn, params, massive = sim.kernel_inputs(parallel=False)
+            state = sim.state_arrays()
+            x, v, fstate, istate = state["x"], state["v"], state["fstate"], state["istate"]
+            evaluator = _RUNS[key] = _evaluator(sim, massive)
+            force = gpu_gravity_force if fn is no_force else _fused_with(fn)
+            n = x.shape[0]
+            # the few-body kernel: its own gravity is a pass over no massive particle
+            status = int(sim.integrator_info.kernel(True, istate, fstate)(
+                x, v, state["m"], np.empty(0, np.int64), state["radius"], fstate, istate,
+                state["buf"], np.zeros((7, 1)), force, np.concatenate([[float(key)], params]),
+                times, times.copy(), np.empty((1, n, 3)), np.empty((1, n, 3))))
             if evaluator.error is not None:
                 raise evaluator.error
             if sim.after_kernel(status):
                 return
     finally:
-        del _RUNS[key]
+        _RUNS.pop(key, None)

@@ -20,11 +20,12 @@ its relative precision as on the CPU.
 
 from __future__ import annotations
 
+from ..core import nbody_common as _nc
 from ..core.gravity import PAIR_MIN_N
 from ..core.nbody_ias15 import SPLIT_RATIO
-from .gpu_force import GravityEvaluator, run_with_gpu_gravity
+from .gpu_force import GravityEvaluator
 
-__all__ = ["integrate_ias15", "IAS15_SLOTS"]
+__all__ = ["evaluator", "IAS15_SLOTS"]
 
 #: Slots of IAS15's ``buf`` the evaluator reads (see :mod:`visviva.core.nbody_ias15`): the
 #: compensated-summation terms of the positions, the predicted positions of a substep, the
@@ -62,19 +63,12 @@ class _IAS15Gravity(GravityEvaluator):
         self.gravity.add(x, acc, lo)
 
 
-def integrate_ias15(sim, target: float, massive, gravity) -> None:
-    """Integrate ``sim`` (IAS15, ``backend="cuda"``) to the absolute time ``target``.
+def evaluator(sim, massive) -> GravityEvaluator:
+    """The GPU gravity of one IAS15 run of ``sim`` (prepared by
+    :func:`visviva.nbody.gpu.begin_gpu_run`; ``massive``: the indices of its massive particles),
+    for :func:`visviva.nbody.gpu_force.run_with_gpu_gravity`."""
+    from .gpu import DeviceGravity
 
-    Parameters
-    ----------
-    sim : Simulation
-        An IAS15 simulation, gravity only, prepared by :func:`visviva.nbody.gpu.begin_gpu_run`.
-    target : float
-        Absolute time (simulation units).
-    massive : ndarray of int64
-        Indices of its massive particles.
-    gravity : DeviceGravity
-        The GPU direct sum of its particles.
-    """
-    buf = sim.state_arrays()["buf"]
-    run_with_gpu_gravity(sim, target, _IAS15Gravity(buf, gravity, len(massive)))
+    state = sim.state_arrays()
+    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
+    return _IAS15Gravity(state["buf"], gravity, len(massive))

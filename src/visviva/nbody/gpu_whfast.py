@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
-from .gpu_force import GravityEvaluator, run_with_gpu_gravity
+from .gpu_force import GravityEvaluator
 
-__all__ = ["integrate_whfast", "WHFAST_SLOTS", "interacting"]
+__all__ = ["evaluator", "WHFAST_SLOTS", "interacting"]
 
 #: Slots of WHFast's ``buf`` the evaluator recognises (see :mod:`visviva.core.nbody_whfast`): the
 #: inertial accelerations and the Jacobi accelerations / democratic heliocentric additional
@@ -58,22 +58,13 @@ class _WHFastGravity(GravityEvaluator):
             raise self.unexpected("into accelerations")
 
 
-def integrate_whfast(sim, target: float, gravity) -> None:
-    """Integrate ``sim`` (WHFast, ``backend="cuda"``) to the absolute time ``target``.
+def evaluator(sim, massive) -> GravityEvaluator:
+    """The GPU gravity of one WHFast run of ``sim`` (prepared by
+    :func:`visviva.nbody.gpu.begin_gpu_run`; ``massive``: the indices of its massive particles),
+    summed over :func:`interacting`, for :func:`visviva.nbody.gpu_force.run_with_gpu_gravity`."""
+    from .gpu import DeviceGravity
 
-    Parameters
-    ----------
-    sim : Simulation
-        A WHFast simulation (either coordinate system, any corrector), gravity only, prepared
-        by :func:`visviva.nbody.gpu.begin_gpu_run`.
-    target : float
-        Absolute time (simulation units).
-    gravity : DeviceGravity
-        The GPU direct sum over :func:`interacting` of its massive particles.
-
-    Raises
-    ------
-    InvalidStateError
-        Non-finite positions or velocities (as on the CPU).
-    """
-    run_with_gpu_gravity(sim, target, _WHFastGravity(sim.state_arrays()["buf"], gravity))
+    state = sim.state_arrays()
+    gravity = DeviceGravity(sim.G * state["m"], interacting(state["istate"], massive),
+                            state["fstate"][_nc.F_SOFT2])
+    return _WHFastGravity(state["buf"], gravity)

@@ -15,7 +15,10 @@ and hands it the gravity through its additional-force argument:
 
 The step grid, the step control, the output copies and the stored state are the CPU backend's
 own, operation for operation: only the gravity sums differ (added in another order: round-off),
-and a run can be saved, loaded and continued on either backend. The evaluators
+and a run can be saved, loaded and continued on either backend. The simulation's own additional
+forces are fused after :func:`gpu_gravity_force` (added after the gravity, as the CPU kernel
+adds them), and the collision, encounter and escape checks run in the kernel as on the CPU (a
+merger or bounce rebuilds the GPU's arrays before the run goes on). The evaluators
 (:mod:`visviva.nbody.gpu_ias15`, :mod:`visviva.nbody.gpu_whfast`) know which slot of the
 integrator's ``buf`` a call concerns; tests check their slot numbers against the kernels'.
 """

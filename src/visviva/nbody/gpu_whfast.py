@@ -13,8 +13,8 @@ Both coordinate systems run: in Jacobi coordinates the kernel asks for the inert
 accelerations (slot ``acc`` of ``buf``), which the GPU sum adds; in democratic heliocentric
 coordinates it sums the gravity of the bodies other than the central one into ``acc`` and then
 asks for the additional force in slot ``aj`` (whose barycentric mean it subtracts): the GPU sum
-over ``massive[1:]`` then goes into ``acc`` and the additional force stays zero, exactly the CPU
-kernel's arithmetic.
+over ``massive[1:]`` then goes into ``acc``, and the simulation's own forces, if any, into ``aj``,
+exactly the CPU kernel's arithmetic.
 """
 
 from __future__ import annotations

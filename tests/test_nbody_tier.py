@@ -1,4 +1,4 @@
-"""The interpreter tier (nbody/tier.py): a cold few-body run starts in the interpreter.
+"""The interpreter tier (core/tier.py, nbody/tier.py): a cold small call runs interpreted.
 
 What it must never do is change a result: an interpreted run, a compiled run and a run that
 switches from one to the other midway give the same bits, for every integrator and option.
@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 import visviva as vv
 from visviva.core import _jit
 from visviva.core import nbody_common as nc
+from visviva.core import tier as core_tier
 from visviva.nbody import tier
 
 # (integrator, settings) cases: every kernel variant a few-body run can take
@@ -32,9 +33,9 @@ CASES = [
 def force_tier(monkeypatch):
     """``force_tier("interpreted")`` or ``("compiled")``: the tier every run of the test takes."""
     def choose(mode, budget=1e9):
-        monkeypatch.setattr(tier, "_spent", {"cpu_s": 0.0, "per_step_s": None,
-                                             "off": mode == "compiled"})
-        monkeypatch.setattr(tier, "BUDGET_S", budget)
+        monkeypatch.setattr(core_tier, "spent", {"cpu_s": 0.0, "off": mode == "compiled"})
+        monkeypatch.setattr(core_tier, "BUDGET_S", budget)
+        monkeypatch.setattr(tier, "_per_step", {"s": None})
         # as on a fresh install: no machine code in memory or in numba's cache
         monkeypatch.setattr(_jit._Kernel, "load_cached", lambda self, sig: False)
     return choose
@@ -87,7 +88,7 @@ def test_interpreted_run_gives_the_compiled_bits(force_tier, integrator, options
         sim = _system(integrator, options, n=5, seed=3, test_particles=1)
         results.append(_run(sim, times))
         if mode == "interpreted":
-            assert tier._spent["cpu_s"] > 0  # it did run interpreted
+            assert core_tier.spent["cpu_s"] > 0  # it did run interpreted
     _assert_same(*results)
 
 
@@ -146,7 +147,7 @@ def test_python_raising_falls_back_to_machine_code_with_the_state_restored(force
     monkeypatch.setattr(tier, "interpreted_kernel", wrapped)
     sim = _system("whfast", {}, n=4, seed=5)
     r1 = _run(sim, 1.5)
-    assert calls and tier._spent["off"]
+    assert calls and core_tier.spent["off"]
     force_tier("compiled")
     sim2 = _system("whfast", {}, n=4, seed=5)
     _assert_same(r1, _run(sim2, 1.5))
@@ -156,7 +157,7 @@ def test_large_runs_are_not_interpreted(force_tier):
     force_tier("interpreted")
     sim = _system("leapfrog", {}, n=tier.MAX_MASSIVE + 1, seed=1)
     sim.integrate(0.1)
-    assert tier._spent["cpu_s"] == 0.0
+    assert core_tier.spent["cpu_s"] == 0.0
 
 
 _COLD = """

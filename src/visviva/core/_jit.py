@@ -67,6 +67,11 @@ class _Kernel(CPUDispatcher):
         args, _ = sigutils.normalize_signature(sig)
         if tuple(args) in self.overloads:
             return True
+        if self.targetoptions.get("parallel"):
+            # numba's thread pool must be up before machine code that refers to it is loaded
+            from numba.np.ufunc import parallel as numba_parallel
+
+            numba_parallel._launch_threads()
         with global_compiler_lock:  # the steps of numba's Dispatcher.compile up to compiling
             cres = self._cache.load_overload(sig, self.targetctx)
             if cres is None:

@@ -89,6 +89,7 @@ class KeplerianElements(TwoBodyContainer):
     _ITEM = "set of elements"
 
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
+        from .core import tier
         from .core.elements import scan_coe
 
         raan_in, argp_in, nu_in = raan, argp, nu
@@ -113,9 +114,9 @@ class KeplerianElements(TwoBodyContainer):
             },
             "KeplerianElements",
         )
-        first, _ = scan_coe(
-            *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
-        )
+        first, _ = tier.call(
+            scan_coe, *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK,
+            small=math.prod(shape) <= tier.SMALL_ITEMS)
         if first >= 0:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi

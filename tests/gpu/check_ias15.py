@@ -54,7 +54,7 @@ def refusal(make):
 def main():
     from numba import cuda
 
-    from visviva.core import gravity_split, nbody_ias15
+    from visviva.core import gravity, gravity_split, nbody_ias15
     from visviva.core.cuda import kernels
     from visviva.nbody import gpu
 
@@ -116,7 +116,8 @@ def main():
     m[::5] = 0.0
     massive = np.flatnonzero(m).astype(np.int64)
     acc = np.zeros((n, 3))
-    gravity_split.gravity_split(x, xlo, m, 1.0, 0.0, massive, acc, np.zeros((7, n)), False)
+    work = np.zeros((gravity.GWORK_ROWS, n))
+    gravity_split.gravity_split(x, xlo, m, 1.0, 0.0, massive, acc, work, False)
     d_acc = cuda.device_array((n, 3))
     kernels.accelerations_split[kernels.blocks(n), kernels.THREADS](
         cuda.to_device(x), cuda.to_device(xlo), cuda.to_device(m), cuda.to_device(massive),

@@ -188,7 +188,7 @@ def run_with_gpu_gravity(sim, target: float) -> None:
     Exception
         Whatever the GPU call raised; the state is then the last one the kernel completed.
     """
-    from ..core.gravity import no_force
+    from ..core.gravity import GWORK_ROWS, no_force
 
     _compile_force()
     with _LOCK:
@@ -203,11 +203,13 @@ def run_with_gpu_gravity(sim, target: float) -> None:
             evaluator = _RUNS[key] = _evaluator(sim, massive)
             force = gpu_gravity_force if fn is no_force else _fused_with(fn)
             n = x.shape[0]
-            # the few-body kernel: its own gravity is a pass over no massive particle
+            # the few-body kernel: its own gravity is a pass over no massive particle (with
+            # its scratch of the full size: the rows of the particles i are used all the same)
             status = int(sim.integrator_info.kernel(True, istate, fstate)(
                 x, v, state["m"], np.empty(0, np.int64), state["radius"], fstate, istate,
-                state["buf"], np.zeros((7, 1)), force, np.concatenate([[float(key)], params]),
-                times, times.copy(), np.empty((1, n, 3)), np.empty((1, n, 3))))
+                state["buf"], np.zeros((GWORK_ROWS, n)), force,
+                np.concatenate([[float(key)], params]), times, times.copy(),
+                np.empty((1, n, 3)), np.empty((1, n, 3))))
             if evaluator.error is not None:
                 raise evaluator.error
             if sim.after_kernel(status):

@@ -37,6 +37,7 @@ import numpy as np
 from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
+from .gpu_force import DeviceGravity
 
 __all__ = [
     "check_backend", "integrate_simulation", "integrate_ensemble", "DeviceGravity",
@@ -80,78 +81,6 @@ def _check_supported(sim, ensemble: bool) -> None:
             f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
         )
     check_backend("cuda", sim.integrator, ensemble)
-
-
-class DeviceGravity:
-    """Direct-summation accelerations of one system on the GPU (the tiled kernel).
-
-    Parameters
-    ----------
-    gm : ndarray, shape (N,)
-        ``G m`` of every particle (length**3 / time**2).
-    massive : ndarray of int64
-        Indices of the massive particles.
-    soft2 : float
-        Plummer softening length squared (length**2).
-    """
-
-    def __init__(self, gm, massive, soft2: float):
-        from numba import cuda
-
-        from ..core.cuda import kernels
-
-        self._kernels = kernels
-        self.n = len(gm)
-        self.gm = cuda.to_device(np.ascontiguousarray(gm, dtype=np.float64))
-        self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
-        self.soft2 = float(soft2)
-        self.acc = cuda.device_array((self.n, 3))
-        self._buffers: dict = {}  # host-path device buffers, allocated on first use
-        self._out = None
-
-    def __call__(self, x, xlo=None):
-        """Launch the kernel on ``x`` (a device array, shape (N, 3)), on the two-part positions
-        ``x + xlo`` when ``xlo`` is given; returns the device array of accelerations
-        (length / time**2), overwritten by the next call."""
-        K = self._kernels
-        kernel = K.accelerations if xlo is None else K.accelerations_split
-        kernel[K.blocks(self.n), K.THREADS](x, x if xlo is None else xlo, self.gm, self.massive,
-                                            self.soft2, self.acc)
-        return self.acc
-
-    def _device(self, name, host):
-        """``host`` (N, 3) copied into the device buffer ``name`` (allocated on first use)."""
-        from numba import cuda
-
-        buf = self._buffers.get(name)
-        if buf is None:
-            buf = self._buffers[name] = cuda.device_array(host.shape, dtype=host.dtype)
-        buf.copy_to_device(np.ascontiguousarray(host))
-        return buf
-
-    def add(self, x, acc, xlo=None) -> None:
-        """Add the accelerations at the host positions ``x`` (two-part ``x + xlo`` when ``xlo``
-        is given) to the host array ``acc`` (N, 3); the device buffers are allocated once and
-        reused."""
-        d_lo = None if xlo is None else self._device("xlo", xlo)
-        out = self(self._device("x", x), d_lo)
-        if self._out is None:
-            self._out = np.empty((self.n, 3))
-        out.copy_to_host(self._out)
-        acc += self._out
-
-    def tight(self, x, ratio: float) -> bool:
-        """True when a particle and a massive one are closer than ``1 / ratio`` of the larger
-        of their distances from the origin (host positions ``x``, evaluated on the GPU)."""
-        K = self._kernels
-        flags = self._buffers.get("flags")
-        if flags is None:
-            from numba import cuda
-
-            flags = self._buffers["flags"] = cuda.device_array(self.n, dtype=np.int32)
-        K.tight_pairs[K.blocks(self.n), K.THREADS](self._device("x", x), self.massive,
-                                                   ratio * ratio, flags)
-        return bool(flags.copy_to_host().any())
 
 
 def plan(state: dict, target: float):
@@ -252,7 +181,11 @@ def integrate_simulation(sim, t) -> None:
     if sim.integrator in CPU_KERNEL_INTEGRATORS:
         from .gpu_force import run_with_gpu_gravity
 
-        return run_with_gpu_gravity(sim, target)
+        if sim.integrator == "ias15":
+            from .gpu_ias15 import evaluator
+        else:
+            from .gpu_whfast import evaluator
+        return run_with_gpu_gravity(sim, target, evaluator)
     state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     n, h, rem, t_final = plan(state, target)

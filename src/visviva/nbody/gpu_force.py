@@ -10,7 +10,7 @@ and hands it the gravity through its additional-force argument:
   pass), and with :func:`gpu_gravity_force` as the additional force;
 * that compiled force calls back into Python (``numba.objmode``) once per force evaluation, and
   an evaluator (one per run, found through ``params[0]``) adds the accelerations from the tiled
-  direct sum on the GPU (:class:`visviva.nbody.gpu.DeviceGravity`): positions go to the device
+  direct sum on the GPU (:class:`DeviceGravity`): positions go to the device
   and accelerations come back, 48 bytes per particle against N_massive pair evaluations.
 
 The step grid, the step control, the output copies and the stored state are the CPU backend's
@@ -35,13 +35,85 @@ from numba import objmode
 
 from ..core._jit import kernel
 
-__all__ = ["GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity"]
+__all__ = ["DeviceGravity", "GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity"]
 
 _RUNS: dict = {}  # run key (params[0]) -> GravityEvaluator, for the runs in flight
 _KEYS = itertools.count(1)
 _LOCK = threading.Lock()
 _READY: list = []  # [True] once gpu_gravity_force is compiled (see _compile_force)
 _FUSED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # user force -> with gravity
+
+
+class DeviceGravity:
+    """Direct-summation accelerations of one system on the GPU (the tiled kernel).
+
+    Parameters
+    ----------
+    gm : ndarray, shape (N,)
+        ``G m`` of every particle (length**3 / time**2).
+    massive : ndarray of int64
+        Indices of the massive particles.
+    soft2 : float
+        Plummer softening length squared (length**2).
+    """
+
+    def __init__(self, gm, massive, soft2: float):
+        from numba import cuda
+
+        from ..core.cuda import kernels
+
+        self._kernels = kernels
+        self.n = len(gm)
+        self.gm = cuda.to_device(np.ascontiguousarray(gm, dtype=np.float64))
+        self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
+        self.soft2 = float(soft2)
+        self.acc = cuda.device_array((self.n, 3))
+        self._buffers: dict = {}  # host-path device buffers, allocated on first use
+        self._out = None
+
+    def __call__(self, x, xlo=None):
+        """Launch the kernel on ``x`` (a device array, shape (N, 3)), on the two-part positions
+        ``x + xlo`` when ``xlo`` is given; returns the device array of accelerations
+        (length / time**2), overwritten by the next call."""
+        K = self._kernels
+        kernel = K.accelerations if xlo is None else K.accelerations_split
+        kernel[K.blocks(self.n), K.THREADS](x, x if xlo is None else xlo, self.gm, self.massive,
+                                            self.soft2, self.acc)
+        return self.acc
+
+    def _device(self, name, host):
+        """``host`` (N, 3) copied into the device buffer ``name`` (allocated on first use)."""
+        from numba import cuda
+
+        buf = self._buffers.get(name)
+        if buf is None:
+            buf = self._buffers[name] = cuda.device_array(host.shape, dtype=host.dtype)
+        buf.copy_to_device(np.ascontiguousarray(host))
+        return buf
+
+    def add(self, x, acc, xlo=None) -> None:
+        """Add the accelerations at the host positions ``x`` (two-part ``x + xlo`` when ``xlo``
+        is given) to the host array ``acc`` (N, 3); the device buffers are allocated once and
+        reused."""
+        d_lo = None if xlo is None else self._device("xlo", xlo)
+        out = self(self._device("x", x), d_lo)
+        if self._out is None:
+            self._out = np.empty((self.n, 3))
+        out.copy_to_host(self._out)
+        acc += self._out
+
+    def tight(self, x, ratio: float) -> bool:
+        """True when a particle and a massive one are closer than ``1 / ratio`` of the larger
+        of their distances from the origin (host positions ``x``, evaluated on the GPU)."""
+        K = self._kernels
+        flags = self._buffers.get("flags")
+        if flags is None:
+            from numba import cuda
+
+            flags = self._buffers["flags"] = cuda.device_array(self.n, dtype=np.int32)
+        K.tight_pairs[K.blocks(self.n), K.THREADS](self._device("x", x), self.massive,
+                                                   ratio * ratio, flags)
+        return bool(flags.copy_to_host().any())
 
 
 class GravityEvaluator:
@@ -159,16 +231,7 @@ def _fused_with(fn):
     return fused
 
 
-def _evaluator(sim, massive):
-    """The run's evaluator for ``sim``'s integrator, over its current arrays."""
-    if sim.integrator == "ias15":
-        from .gpu_ias15 import evaluator
-    else:
-        from .gpu_whfast import evaluator
-    return evaluator(sim, massive)
-
-
-def run_with_gpu_gravity(sim, target: float) -> None:
+def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
     """Integrate ``sim`` (IAS15 or WHFast) to the absolute time ``target`` with its CPU kernel,
     every gravity evaluation on the GPU.
 
@@ -180,6 +243,10 @@ def run_with_gpu_gravity(sim, target: float) -> None:
         merger or bounce rebuilds the GPU's arrays before the run goes on.
     target : float
         Absolute time (simulation units).
+    evaluator : callable
+        ``evaluator(sim, massive)``: the :class:`GravityEvaluator` of one kernel call over the
+        current arrays of ``sim`` (``massive``: the indices of its massive particles), e.g.
+        :func:`visviva.nbody.gpu_ias15.evaluator`.
 
     Raises
     ------
@@ -200,7 +267,7 @@ def run_with_gpu_gravity(sim, target: float) -> None:
             fn, params, massive = sim.kernel_inputs(parallel=False)
             state = sim.state_arrays()
             x, v, fstate, istate = state["x"], state["v"], state["fstate"], state["istate"]
-            evaluator = _RUNS[key] = _evaluator(sim, massive)
+            run = _RUNS[key] = evaluator(sim, massive)
             force = gpu_gravity_force if fn is no_force else _fused_with(fn)
             n = x.shape[0]
             # the few-body kernel: its own gravity is a pass over no massive particle (with
@@ -210,8 +277,8 @@ def run_with_gpu_gravity(sim, target: float) -> None:
                 state["buf"], np.zeros((GWORK_ROWS, n)), force,
                 np.concatenate([[float(key)], params]), times, times.copy(),
                 np.empty((1, n, 3)), np.empty((1, n, 3))))
-            if evaluator.error is not None:
-                raise evaluator.error
+            if run.error is not None:
+                raise run.error
             if sim.after_kernel(status):
                 return
     finally:

@@ -23,7 +23,7 @@ from __future__ import annotations
 from ..core import nbody_common as _nc
 from ..core.gravity import PAIR_MIN_N
 from ..core.nbody_ias15 import SPLIT_RATIO
-from .gpu_force import GravityEvaluator
+from .gpu_force import DeviceGravity, GravityEvaluator
 
 __all__ = ["evaluator", "IAS15_SLOTS"]
 
@@ -67,8 +67,6 @@ def evaluator(sim, massive) -> GravityEvaluator:
     """The GPU gravity of one IAS15 run of ``sim`` (prepared by
     :func:`visviva.nbody.gpu.begin_gpu_run`; ``massive``: the indices of its massive particles),
     for :func:`visviva.nbody.gpu_force.run_with_gpu_gravity`."""
-    from .gpu import DeviceGravity
-
     state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     return _IAS15Gravity(state["buf"], gravity, len(massive))

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
-from .gpu_force import GravityEvaluator
+from .gpu_force import DeviceGravity, GravityEvaluator
 
 __all__ = ["evaluator", "WHFAST_SLOTS", "interacting"]
 
@@ -62,8 +62,6 @@ def evaluator(sim, massive) -> GravityEvaluator:
     """The GPU gravity of one WHFast run of ``sim`` (prepared by
     :func:`visviva.nbody.gpu.begin_gpu_run`; ``massive``: the indices of its massive particles),
     summed over :func:`interacting`, for :func:`visviva.nbody.gpu_force.run_with_gpu_gravity`."""
-    from .gpu import DeviceGravity
-
     state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], interacting(state["istate"], massive),
                             state["fstate"][_nc.F_SOFT2])

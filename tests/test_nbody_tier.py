@@ -6,6 +6,7 @@ switches from one to the other midway give the same bits, for every integrator a
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -163,6 +164,7 @@ def test_large_runs_are_not_interpreted(force_tier):
 _COLD = """
 import sys
 from numba.core import event
+import numba
 import numpy as np
 import visviva as vv
 names = []
@@ -198,3 +200,35 @@ def test_cold_first_run_compiles_no_integrator_and_matches_the_warm_bits(tmp_pat
     warm = run(dict(cache, VISVIVA_INTERPRET="0"))  # compiles (the test's own cost), then warm
     assert warm[0] != "[]"  # this one compiled the integrator's kernel
     assert cold[-1] == warm[-1]
+
+
+@numba.njit
+def _user_push(t, x, v, m, params, acc):
+    # a user's own compiled force: it stays compiled (it may use fast-math flags), called from
+    # the interpreted kernel
+    for i in range(1, x.shape[0]):
+        acc[i, 0] += params[0] * x[i, 1]
+
+
+@pytest.mark.parametrize("integrator, forces", [
+    ("ias15", lambda: [vv.nbody.forces.GeneralRelativity(c=30.0)]),
+    ("ias15", lambda: [vv.nbody.forces.GeneralRelativity(c=30.0),
+                       vv.nbody.forces.LinearDrag(1e-4)]),
+    ("whfast", lambda: [vv.nbody.forces.GeneralRelativityPotential(c=30.0)]),
+    ("whfast", lambda: [(_user_push, (1e-5,))]),
+], ids=["ias15-gr", "ias15-gr-drag", "whfast-grpotential", "whfast-user-force"])
+def test_runs_with_additional_forces_are_bit_identical_across_tiers(force_tier, integrator,
+                                                                   forces):
+    results = []
+    for mode in ("interpreted", "compiled"):
+        force_tier(mode)
+        sim = _system(integrator, {}, n=4, seed=2)
+        for f in forces():
+            if isinstance(f, tuple):
+                sim.add_force(f[0], params=f[1])
+            else:
+                sim.add_force(f)
+        results.append(_run(sim, np.array([0.5, 1.5])))
+        if mode == "interpreted":
+            assert core_tier.spent["cpu_s"] > 0 and not core_tier.spent["off"]
+    _assert_same(*results)

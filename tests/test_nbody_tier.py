@@ -197,8 +197,8 @@ def test_cold_first_run_compiles_no_integrator_and_matches_the_warm_bits(tmp_pat
     cache = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     cold = run(cache)
     assert cold[0] == "[]"
-    warm = run(dict(cache, VISVIVA_INTERPRET="0"))  # compiles (the test's own cost), then warm
-    assert warm[0] != "[]"  # this one compiled the integrator's kernel
+    # the machine code, from the test session's own numba cache (or compiled into it)
+    warm = run(dict(os.environ, VISVIVA_INTERPRET="0"))
     assert cold[-1] == warm[-1]
 
 

@@ -15,20 +15,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import visviva as vv
-from visviva.core import _jit, tier
+from visviva.core import tier
 
 KM, KMS = u.km, u.km / u.s
 EPOCH = Time("2024-03-20T12:00:00", scale="utc")
-
-
-@pytest.fixture
-def force_tier(monkeypatch):
-    """``force_tier("interpreted")`` or ``("compiled")``: the tier every call of the test takes."""
-    def choose(mode, budget=1e9):
-        monkeypatch.setattr(tier, "spent", {"cpu_s": 0.0, "off": mode == "compiled"})
-        monkeypatch.setattr(tier, "BUDGET_S", budget)
-        monkeypatch.setattr(_jit._Kernel, "load_cached", lambda self, sig: False)
-    return choose
 
 
 def _both(force_tier, fn, clean=True):
@@ -154,41 +144,22 @@ def test_large_calls_compile(force_tier):
 
 _COLD = """
 import sys
-from numba.core import event
 import numpy as np
 from astropy import units as u
 import visviva as vv
-names = []
-class L(event.Listener):
-    def on_start(self, ev): names.append(ev.data["dispatcher"].py_func.__name__)
-    def on_end(self, ev): pass
-event.register("numba:compile", L())
 s = vv.StateVectors([[7000.0, 0.0, 0.0], [0.0, 42164.0, 0.0]] * u.km,
                     [[0.0, 7.5, 1.0], [-3.07, 0.0, 0.0]] * u.km / u.s, vv.EARTH)
 el = s.to_elements()
 moved = s.propagate(3600 * u.s)
 c = vv.propagate_cowell(s[0], np.linspace(0, 86400, 145) * u.s, perturbations=[vv.J2(vv.EARTH)])
 out = np.concatenate([np.ravel(el.eccentricity), moved.r.value.ravel(), c.r.value.ravel()])
-print(len(names), out.tobytes().hex())
+print(len(compiled), out.tobytes().hex())
 """
 
 
-def test_cold_first_calls_compile_nothing_and_match_the_warm_bits(tmp_path):
+def test_cold_first_calls_compile_nothing_and_match_the_warm_bits(cold_and_warm):
     # a fresh install (empty numba cache): elements, two-body propagation and a one-day Cowell
     # run with J2 compile no kernel, and give the bits of the compiled kernels
-    import os
-    import subprocess
-    import sys
-
-    def run(env):
-        proc = subprocess.run([sys.executable, "-c", _COLD], capture_output=True, text=True,
-                              env=env, timeout=900, check=True)
-        return proc.stdout.strip().splitlines()[-1].split(" ")
-
-    cache = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    cold = run(cache)
+    cold, warm = cold_and_warm(_COLD)
     assert cold[0] == "0"
-    # the machine code: from the test session's own numba cache (filled by the other tests, or
-    # compiled here into it, for the tests after this one)
-    warm = run(dict(os.environ, VISVIVA_INTERPRET="0"))
     assert cold[1] == warm[1]

@@ -163,3 +163,71 @@ def test_cold_first_calls_compile_nothing_and_match_the_warm_bits(cold_and_warm)
     cold, warm = cold_and_warm(_COLD)
     assert cold[0] == "0"
     assert cold[1] == warm[1]
+
+
+def _value_or_error(f):
+    try:
+        out = f()
+    except vv.errors.VisvivaError as exc:
+        return type(exc).__name__
+    return np.asarray(getattr(out, "value", out))
+
+
+def _same(a, b):
+    if isinstance(a, str) or isinstance(b, str):
+        assert a == b
+    else:
+        np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(M=st.lists(st.floats(-50.0, 50.0), min_size=1, max_size=5),
+       ecc=st.floats(0.0, 5.0) | st.sampled_from([0.0, 0.999999, 1.0, 1.000001]))
+def test_anomalies_are_bit_identical_across_tiers(force_tier, M, ecc):
+    M = np.array(M)
+    calls = [lambda: vv.mean_to_true(M, ecc), lambda: vv.true_to_mean(np.clip(M, -3.1, 3.1), ecc)]
+    if ecc < 1.0:
+        calls.append(lambda: vv.solve_kepler(M, ecc))
+    elif ecc > 1.0:
+        calls.append(lambda: vv.solve_kepler_hyperbolic(M, ecc))
+    for call in calls:
+        a, b = _both(force_tier, lambda call=call: _value_or_error(call), clean=False)
+        _same(a, b)
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(r2=st.tuples(st.floats(-4e4, 4e4), st.floats(-4e4, 4e4), st.floats(-4e3, 4e3)),
+       tof=st.floats(600.0, 2e5), revolutions=st.integers(0, 2), prograde=st.booleans(),
+       branch=st.sampled_from(["left", "right"]), method=st.sampled_from(["izzo", "universal"]))
+def test_lambert_is_bit_identical_across_tiers(force_tier, r2, tof, revolutions, prograde,
+                                               branch, method):
+    r1 = [7000.0, 0.0, 0.0] * KM
+
+    def run():
+        try:
+            v1, v2 = vv.lambert(r1, np.array(r2) * KM, tof * u.s, vv.EARTH, revolutions,
+                                prograde, branch=branch, method=method)
+        except (vv.errors.VisvivaError, ValueError) as exc:
+            return type(exc).__name__
+        return np.concatenate([v1.value, v2.value])
+
+    a, b = _both(force_tier, run, clean=False)
+    _same(a, b)
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(a=st.floats(6600.0, 5e5), ecc=st.floats(0.0, 0.99), inc=st.floats(0.0, 3.14159),
+       angles=st.tuples(*(st.floats(-10.0, 10.0),) * 3))
+def test_elements_to_state_is_bit_identical_across_tiers(force_tier, a, ecc, inc, angles):
+    def run():
+        el = vv.KeplerianElements.from_semi_major_axis(
+            a * KM, ecc, inc * u.rad, angles[0] * u.rad, angles[1] * u.rad, angles[2] * u.rad,
+            vv.EARTH)
+        s = el.to_state()
+        return np.concatenate([s.r.value, s.v.value])
+
+    x, y = _both(force_tier, run)
+    _same(x, y)

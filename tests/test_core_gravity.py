@@ -139,7 +139,8 @@ def test_small_n_path_is_the_strict_sum_below_pair_min_n():
     # below PAIR_MIN_N massive particles each acceleration is the strict left-to-right sum over
     # j (the same bits on every CPU, any vector width, and in the interpreter tier); serial and
     # parallel agree; at PAIR_MIN_N it switches to the large-N kernel (about one ulp per term)
-    for nm, same in ((3, True), (9, True), (g.PAIR_MIN_N - 1, True), (g.PAIR_MIN_N, False)):
+    for nm, same in ((3, True), (9, True), (16, True), (g.PAIR_MIN_N - 1, True),
+                     (g.PAIR_MIN_N, False)):
         n = nm + 40
         rng = np.random.default_rng(nm)
         x = rng.normal(size=(n, 3))

@@ -6,13 +6,13 @@ switches from one to the other midway give the same bits, for every integrator a
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import visviva as vv
-from visviva.core import _jit
 from visviva.core import nbody_common as nc
 from visviva.core import tier as core_tier
 from visviva.nbody import tier
@@ -27,18 +27,6 @@ CASES = [
     ("ias15", {"adaptive_mode": "rs15"}),
     ("leapfrog", {}),
 ]
-
-
-@pytest.fixture
-def force_tier(monkeypatch):
-    """``force_tier("interpreted")`` or ``("compiled")``: the tier every run of the test takes."""
-    def choose(mode, budget=1e9):
-        monkeypatch.setattr(core_tier, "spent", {"cpu_s": 0.0, "off": mode == "compiled"})
-        monkeypatch.setattr(core_tier, "BUDGET_S", budget)
-        monkeypatch.setattr(tier, "_per_step", {"s": None})
-        # as on a fresh install: no machine code in memory or in numba's cache
-        monkeypatch.setattr(_jit._Kernel, "load_cached", lambda self, sig: False)
-    return choose
 
 
 def _system(integrator, options, n, seed, test_particles=0, soft=0.0):
@@ -162,39 +150,54 @@ def test_large_runs_are_not_interpreted(force_tier):
 
 _COLD = """
 import sys
-from numba.core import event
 import numpy as np
 import visviva as vv
-names = []
-class L(event.Listener):
-    def on_start(self, ev): names.append(ev.data["dispatcher"].py_func.__name__)
-    def on_end(self, ev): pass
-event.register("numba:compile", L())
 kw = {"dt": 0.01} if sys.argv[1] != "ias15" else {}
 sim = vv.Simulation(integrator=sys.argv[1], G=1.0, **kw)
 sim.add(1.0, [0,0,0], [0,0,0]); sim.add(1e-3, [1,0,0], [0,1,0]); sim.add(1e-3, [2,0,0], [0,0.7,0])
 sim.integrate(10.0)
 state = np.r_[sim.positions.ravel(), sim.velocities.ravel()]
-print(sorted(n for n in names if "_run" in n), state.tobytes().hex())
+print(sorted(n for n in compiled if "_run" in n), state.tobytes().hex())
 """
 
 
 @pytest.mark.parametrize("integrator", ["whfast", "ias15"])
-def test_cold_first_run_compiles_no_integrator_and_matches_the_warm_bits(tmp_path, integrator):
+def test_cold_first_run_compiles_no_integrator_and_matches_the_warm_bits(cold_and_warm,
+                                                                          integrator):
     # a fresh install (empty numba cache): the three-body run of the README compiles no
     # integrator kernel, and gives the bits the compiled kernel gives once the cache is warm
-    import os
-    import subprocess
-    import sys
-
-    def run(env):
-        proc = subprocess.run([sys.executable, "-c", _COLD, integrator], capture_output=True,
-                              text=True, env=env, timeout=900, check=True)
-        return proc.stdout.strip().splitlines()[-1].split(" ")
-
-    cache = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    cold = run(cache)
+    cold, warm = cold_and_warm(_COLD, integrator)
     assert cold[0] == "[]"
-    warm = run(dict(cache, VISVIVA_INTERPRET="0"))  # compiles (the test's own cost), then warm
-    assert warm[0] != "[]"  # this one compiled the integrator's kernel
     assert cold[-1] == warm[-1]
+
+
+@numba.njit
+def _user_push(t, x, v, m, params, acc):
+    # a user's own compiled force: it stays compiled (it may use fast-math flags), called from
+    # the interpreted kernel
+    for i in range(1, x.shape[0]):
+        acc[i, 0] += params[0] * x[i, 1]
+
+
+@pytest.mark.parametrize("integrator, forces", [
+    ("ias15", lambda: [vv.nbody.forces.GeneralRelativity(c=30.0)]),
+    ("ias15", lambda: [vv.nbody.forces.GeneralRelativity(c=30.0),
+                       vv.nbody.forces.LinearDrag(1e-4)]),
+    ("whfast", lambda: [vv.nbody.forces.GeneralRelativityPotential(c=30.0)]),
+    ("whfast", lambda: [(_user_push, (1e-5,))]),
+], ids=["ias15-gr", "ias15-gr-drag", "whfast-grpotential", "whfast-user-force"])
+def test_runs_with_additional_forces_are_bit_identical_across_tiers(force_tier, integrator,
+                                                                   forces):
+    results = []
+    for mode in ("interpreted", "compiled"):
+        force_tier(mode)
+        sim = _system(integrator, {}, n=4, seed=2)
+        for f in forces():
+            if isinstance(f, tuple):
+                sim.add_force(f[0], params=f[1])
+            else:
+                sim.add_force(f)
+        results.append(_run(sim, np.array([0.5, 1.5])))
+        if mode == "interpreted":
+            assert core_tier.spent["cpu_s"] > 0 and not core_tier.spent["off"]
+    _assert_same(*results)

@@ -413,10 +413,11 @@ class KeplerianElements(TwoBodyContainer):
         -----
         One call of :func:`visviva.core.elements.coe_to_rv_array` (Vallado 2013, Algorithm 10).
         """
+        from .core import tier
         from .core.elements import coe_to_rv_array, empty_states
 
         r, v, status = out = empty_states(self.size)
-        coe_to_rv_array(*flat_elements(self), *out)
+        tier.call(coe_to_rv_array, *flat_elements(self), *out, small=self.size <= tier.SMALL_ITEMS)
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
         return states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 

@@ -94,6 +94,9 @@ PARALLEL_MIN_N = 512
 #: ``x, y, z, G m``; 4-6 their low parts (:mod:`visviva.core.gravity_split`); 7-9 the positions of
 #: the particles ``i``; 10-12 their sums; 13-15 the low parts of their positions (split).
 GWORK_ROWS = 16
+#: Below this many massive particles the few-body gravity is one plain loop over the pairs (no
+#: packing into ``work``); the same bits as the packed rows.
+PLAIN_N = 8
 #: Particles ``i`` per work item of the multi-threaded kernel.
 CHUNK = 64
 #: From this many massive particles on, gravity evaluates each pair once (large-N kernel).
@@ -153,11 +156,29 @@ def sum_rows(xm, ym, zm, gmm, soft2, xs, ys, zs, sx, sy, sz):
         sx[i] = 0.0
         sy[i] = 0.0
         sz[i] = 0.0
-    for b in range(xm.shape[0]):
-        xb = xm[b]
-        yb = ym[b]
-        zb = zm[b]
-        gb = gmm[b]
+    nm = xm.shape[0]
+    for b in range(0, nm - 1, 2):  # two j per pass over i: half the loads/stores of the sums
+        xb, yb, zb, gb = xm[b], ym[b], zm[b], gmm[b]
+        xc, yc, zc, gc = xm[b + 1], ym[b + 1], zm[b + 1], gmm[b + 1]
+        for i in range(n):
+            dx = xb - xs[i]
+            dy = yb - ys[i]
+            dz = zb - zs[i]
+            r2 = dx * dx + dy * dy + dz * dz + soft2
+            r2 += 1.0 if r2 == 0.0 else 0.0
+            s = gb / (r2 * math.sqrt(r2))
+            ex = xc - xs[i]
+            ey = yc - ys[i]
+            ez = zc - zs[i]
+            q2 = ex * ex + ey * ey + ez * ez + soft2
+            q2 += 1.0 if q2 == 0.0 else 0.0
+            q = gc / (q2 * math.sqrt(q2))
+            sx[i] = (sx[i] + dx * s) + ex * q  # the order of j: the same bits as one at a time
+            sy[i] = (sy[i] + dy * s) + ey * q
+            sz[i] = (sz[i] + dz * s) + ez * q
+    if nm % 2 == 1:
+        b = nm - 1
+        xb, yb, zb, gb = xm[b], ym[b], zm[b], gmm[b]
         for i in range(n):
             dx = xb - xs[i]
             dy = yb - ys[i]
@@ -182,6 +203,32 @@ def pack_massive(x, m, G, massive, work):
         work[2, b] = x[j, 2]
         work[3, b] = G * m[j]
     return nm
+
+
+@kernel
+def _plain_rows(x, m, G, soft2, massive, acc):
+    # few massive particles: one plain loop over the pairs, no packing (cheaper below PLAIN_N);
+    # each sum in the order of j, so the bits are those of sum_rows (a skipped self term and a
+    # masked one give the same sum: a sum that starts at +0.0 never becomes -0.0)
+    for i in range(x.shape[0]):
+        ax = 0.0
+        ay = 0.0
+        az = 0.0
+        for b in range(massive.shape[0]):
+            j = massive[b]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            r2 = dx * dx + dy * dy + dz * dz + soft2
+            if r2 == 0.0:
+                continue  # the particle itself (or a coincident one without softening)
+            s = G * m[j] / (r2 * math.sqrt(r2))
+            ax += dx * s
+            ay += dy * s
+            az += dz * s
+        acc[i, 0] = ax
+        acc[i, 1] = ay
+        acc[i, 2] = az
 
 
 @kernel
@@ -550,6 +597,9 @@ def gravity_few(x, m, G, soft2, massive, acc, work):
     """:func:`gravity_serial` below :data:`PAIR_MIN_N` massive particles (the same bits): one
     :func:`sum_rows` over all particles, on one thread. The only path compiled into the
     integrators' few-body kernels (see :func:`gravity`)."""
+    if massive.shape[0] < PLAIN_N:
+        _plain_rows(x, m, G, soft2, massive, acc)
+        return
     nm = pack_massive(x, m, G, massive, work)
     _rows(0, x.shape[0], x, nm, soft2, work, acc)
 

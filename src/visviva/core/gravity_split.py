@@ -25,7 +25,7 @@ from .gravity import (
 __all__ = ["gravity_split", "sum_rows_split", "SPLIT_FEW_N"]
 
 #: Below this many massive particles :func:`gravity_split` sums the pairs in one plain loop.
-SPLIT_FEW_N = 7
+SPLIT_FEW_N = 16
 
 
 @kernel
@@ -130,8 +130,9 @@ def _gravity_split_parallel(x, xlo, m, G, soft2, massive, acc, work):
 @kernel
 def _gravity_split_few(x, xlo, m, G, soft2, massive, acc):
     # few massive particles: one plain loop over the pairs, no packing (the packed, vectorised
-    # rows cost more than they save below SPLIT_FEW_N); each sum in the order of j, with the
-    # same masked self term, so the bits are those of sum_rows_split
+    # rows cost more than they save below SPLIT_FEW_N); each sum in the order of j, so the bits
+    # are those of sum_rows_split (a skipped self term and a masked one give the same sum: a
+    # sum that starts at +0.0 never becomes -0.0)
     for i in range(x.shape[0]):
         ax = 0.0
         ay = 0.0
@@ -142,7 +143,8 @@ def _gravity_split_few(x, xlo, m, G, soft2, massive, acc):
             dy = (x[j, 1] - x[i, 1]) + (xlo[j, 1] - xlo[i, 1])
             dz = (x[j, 2] - x[i, 2]) + (xlo[j, 2] - xlo[i, 2])
             r2 = dx * dx + dy * dy + dz * dz + soft2
-            r2 += 1.0 if r2 == 0.0 else 0.0  # the particle itself: its term is exactly 0
+            if r2 == 0.0:
+                continue  # the particle itself (or a coincident one without softening)
             s = G * m[j] / (r2 * math.sqrt(r2))
             ax += dx * s
             ay += dy * s

@@ -17,9 +17,11 @@ the arrays the call was given are restored and the machine code runs it. The tie
 ``VISVIVA_INTERPRET=0`` is set, when numba's JIT is disabled, and when numba uses Intel's SVML
 (its vectorised transcendental functions round differently from the C library's).
 
-Callers: :meth:`visviva.StateVectors.to_elements`, two-body propagation
-(:mod:`visviva.propagation`), :func:`visviva.propagate_cowell` (one state), and the N-body
-integrators in slices of steps (:mod:`visviva.nbody.tier`).
+Callers: the state and element constructors' scans, :meth:`visviva.StateVectors.to_elements`,
+:meth:`visviva.KeplerianElements.to_state`, two-body propagation (:mod:`visviva.propagation`),
+the anomaly functions (:mod:`visviva.anomalies`), :func:`visviva.lambert`,
+:func:`visviva.propagate_cowell` (one state), and the N-body integrators in slices of steps
+(:mod:`visviva.nbody.tier`).
 """
 
 from __future__ import annotations

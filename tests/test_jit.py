@@ -236,3 +236,37 @@ def test_j2_cowell_compiles_only_the_zonal_right_hand_side(tmp_path):
     # and no numba np.empty/np.zeros/min/max overload (compiled anew in every process), and
     # the DOP853 tableau is read without importing scipy.integrate (0.2 s)
     assert _fresh_process(_ZONAL_ONLY_COWELL, tmp_path) == "[] 1 [] False"
+
+
+_SERIAL_LINKING_PARALLEL = """
+import sys
+import numpy as np
+from visviva.core import gravity as g
+n = 300
+rng = np.random.default_rng(1)
+x = rng.normal(size=(n, 3))
+m = rng.uniform(0.1, 1, n)
+acc = np.zeros((n, 3))
+work = np.zeros((g.GWORK_ROWS, n))
+if sys.argv[1] == "parallel":
+    g.gravity_parallel(x, m, 1.0, 0.0, np.arange(n), acc, work)
+else:
+    g.gravity_serial(x, m, 1.0, 0.0, np.arange(n), acc, work)
+    g.gravity(x, m, 1.0, 0.0, np.arange(n), acc, work, False)
+print(acc[0, 0].hex())
+"""
+
+
+def test_serial_kernel_linking_a_parallel_one_loads_from_the_cache(tmp_path):
+    # gravity (serial) links gravity_parallel: loaded from numba's cache in a process whose
+    # threading layer was not started, it called address 0 (a segfault in the third process
+    # of this sequence); every kernel now starts the layer before it is compiled or loaded
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = [subprocess.run([sys.executable, "-c", _SERIAL_LINKING_PARALLEL, which], env=env,
+                          capture_output=True, text=True, timeout=900, check=True).stdout
+           for which in ("parallel", "serial", "serial")]
+    assert out[0] == out[1] == out[2] != ""

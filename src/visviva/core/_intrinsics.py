@@ -3,6 +3,7 @@
 * :func:`fma`: ``a * b + c`` with one rounding (``llvm.fma``: one instruction on CPUs with FMA,
   a correctly rounded library call otherwise), the error-free product transformation of
   Ogita, Rump & Oishi (2005); used where rounding must be unbiased (:mod:`visviva.core.universal`).
+* :func:`cbrt`: the C library's cube root (what numba compiles ``np.cbrt`` to).
 * :func:`float_bits` / :func:`float_from_bits`: the IEEE-754 bits of a float64 as an int64 and
   back (a bitcast, free), for bit-level first guesses (:func:`visviva.core.gravity.inv_r3`).
 
@@ -24,10 +25,10 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
-from ._jit import PYTHON_EQUIVALENTS
+from ._jit import PYTHON_EQUIVALENTS, inline_kernel
 
 __all__ = ["fma", "float_bits", "float_from_bits", "fma_py", "float_bits_py", "float_from_bits_py",
-           "EPS"]
+           "cbrt", "EPS"]
 
 #: Machine epsilon of float64, ``2**-52`` (the one definition the kernels share).
 EPS = 2.220446049250313e-16
@@ -81,9 +82,17 @@ def float_from_bits_py(n):
     return float(np.int64(n).view(np.float64))
 
 
+@inline_kernel
+def cbrt(x):
+    """The real cube root of a float64, by the C library's ``cbrt`` (numba compiles
+    ``np.cbrt`` to that call; numpy's own ``np.cbrt`` rounds differently in the last place, so
+    the interpreter tier runs :func:`math.cbrt`, which is that call too)."""
+    return np.cbrt(x)
+
+
 # the interpreter tier (visviva.core._jit.interpreted) runs the plain equivalents
 PYTHON_EQUIVALENTS.update({fma: fma_py, float_bits: float_bits_py,
-                           float_from_bits: float_from_bits_py})
+                           float_from_bits: float_from_bits_py, cbrt: math.cbrt})
 
 if numba.config.DISABLE_JIT:  # pure Python: the same bits by other means
     fma = fma_py  # noqa: F811

@@ -67,11 +67,7 @@ class _Kernel(CPUDispatcher):
         args, _ = sigutils.normalize_signature(sig)
         if tuple(args) in self.overloads:
             return True
-        if self.targetoptions.get("parallel"):
-            # numba's thread pool must be up before machine code that refers to it is loaded
-            from numba.np.ufunc import parallel as numba_parallel
-
-            numba_parallel._launch_threads()
+        _threads_up()
         with global_compiler_lock:  # the steps of numba's Dispatcher.compile up to compiling
             cres = self._cache.load_overload(sig, self.targetctx)
             if cres is None:
@@ -86,6 +82,7 @@ class _Kernel(CPUDispatcher):
         # compile it (seconds to a minute with an empty cache); say so when it takes longer
         # than COMPILE_NOTICE_S. Only the outermost compilation is announced: the callees a
         # kernel compiles on the way are part of it.
+        _threads_up()
         if notices["depth"] or sig in self.overloads:
             return super().compile(sig)
         notices["depth"] += 1
@@ -94,6 +91,21 @@ class _Kernel(CPUDispatcher):
                 return super().compile(sig)
         finally:
             notices["depth"] -= 1
+
+
+def _threads_up() -> None:
+    """Start numba's threading layer once per process (about 20 ms) before any kernel is
+    compiled or loaded from the cache: a serial kernel whose tree links a parallel one (e.g.
+    ``gravity`` calling ``gravity_parallel``) refers to the layer's functions, and loaded from
+    the cache before the layer is up it would call address 0 (a crash)."""
+    if not _THREADS["up"]:
+        from numba.np.ufunc import parallel as numba_parallel
+
+        numba_parallel._launch_threads()
+        _THREADS["up"] = True
+
+
+_THREADS = {"up": False}
 
 
 #: A call from Python that is still compiling after this many seconds says so on stderr.
@@ -202,18 +214,21 @@ prange = numba.prange
 
 
 _INTERPRETED: dict = {}
-#: Intrinsic -> the plain Python function that gives the same bits (:func:`interpreted`).
+#: Intrinsic (or kernel) -> the plain Python function that gives the same bits as its machine
+#: code (:func:`interpreted`).
 PYTHON_EQUIVALENTS: dict = {}
 
 
 def _interpreted_value(value):
     # what a kernel's global or closure variable becomes in the interpreted copy
+    try:
+        if value in PYTHON_EQUIVALENTS:
+            return PYTHON_EQUIVALENTS[value]
+    except TypeError:  # unhashable: not an intrinsic or a kernel
+        return value
     if isinstance(value, _Kernel):
         return interpreted(value)
-    try:
-        return PYTHON_EQUIVALENTS.get(value, value)
-    except TypeError:  # unhashable: not an intrinsic
-        return value
+    return value
 
 
 def interpreted(fn):

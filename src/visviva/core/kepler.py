@@ -41,6 +41,7 @@ import math
 
 import numpy as np
 
+from ._intrinsics import cbrt
 from ._jit import inline_kernel, kernel
 from .status import (
     BAD_ECCENTRICITY,
@@ -163,14 +164,14 @@ def _cubic_root(a, b, c):
     if p3 > 1e100 or h > 1e100:
         # scale to avoid overflow of p3^3 or h^2: x^3 + p x = q is homogeneous in
         # (x, p, q) ~ (s, s^2, s^3)
-        s = max(math.sqrt(p3), np.cbrt(h))
+        s = max(math.sqrt(p3), cbrt(h))
         ps = p3 / (s * s)
         hs = h / (s * s * s)
         u3 = hs + math.sqrt(hs * hs + ps * ps * ps)
-        u = np.cbrt(u3)
+        u = cbrt(u3)
         return s * (2.0 * hs) / (u * u + ps + ps * ps / (u * u))
     u3 = h + math.sqrt(h * h + p3 * p3 * p3)
-    u = np.cbrt(u3)
+    u = cbrt(u3)
     if u == 0.0:  # both tiny: fall back to the dominant term
         return c / b
     return (2.0 * h) / (u * u + p3 + p3 * p3 / (u * u))
@@ -284,7 +285,7 @@ def markley_starter(M, ecc):
     q = 2.0 * alpha * d * (1.0 - ecc) - M * M
     r = 3.0 * alpha * d * (d - 1.0 + ecc) * M + M * M * M
     w = abs(r) + math.sqrt(max(q * q * q + r * r, 0.0))
-    w = np.cbrt(w * w)
+    w = cbrt(w * w)
     den = w * w + w * q + q * q
     return (2.0 * r * w + M * den) / (den * d)
 
@@ -468,7 +469,7 @@ def parabolic_anomaly(M):
         return NAN, NON_FINITE
     x = abs(M)
     if x > 1e300:
-        c = np.cbrt(3.0) * np.cbrt(x)  # D^3 + 3D = 3M with D = c - 1/c + O(c^-5)
+        c = cbrt(3.0) * cbrt(x)  # D^3 + 3D = 3M with D = c - 1/c + O(c^-5)
         D = c - 1.0 / c
     else:
         D = _cubic_root(1.0 / 3.0, 1.0, x)

@@ -65,8 +65,10 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
+from . import gravity_simd
 from ._intrinsics import float_bits as _bits
 from ._intrinsics import float_from_bits as _from_bits
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, prefer_wide_vectors, simd_kernel
@@ -344,6 +346,13 @@ def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
     return ax, ay, az
 
 
+if numba.config.DISABLE_JIT:  # pure Python: the scalar references above
+    _row, _head, _one_sided = pair_row, pair_row_head, row_acceleration_fast
+else:  # the same loops written as explicit 8-double vectors (visviva.core.gravity_simd)
+    _row, _head, _one_sided = (gravity_simd.pair_row, gravity_simd.pair_row_head,
+                               gravity_simd.one_sided_row)
+
+
 @kernel
 def _aligned_rows(k, n):
     # an uninitialised (k, n) array whose rows start on 64-byte boundaries when n is a multiple of 8
@@ -387,7 +396,7 @@ def _pair_block(lo, hi, nm, p, soft2, b):
     # PAIR_PAD (dummies)
     for i in range(lo, hi):
         s = i // 8 * 8
-        ax, ay, az = pair_row_head(p[0, i], p[1, i], p[2, i], p[3, i], i, p, s, s + 16, soft2, b)
+        ax, ay, az = _head(p[0, i], p[1, i], p[2, i], p[3, i], i, p, s, s + 16, soft2, b)
         b[0, i] += ax
         b[1, i] += ay
         b[2, i] += az
@@ -399,7 +408,7 @@ def _pair_block(lo, hi, nm, p, soft2, b):
             j1 = j0 + PAIR_COL_BLOCK
             if j1 > nm:
                 j1 = j0 + (nm - j0 + PAIR_PAD - 1) // PAIR_PAD * PAIR_PAD
-            ax, ay, az = pair_row(p[0, i], p[1, i], p[2, i], p[3, i], p, j0, j1, soft2, b)
+            ax, ay, az = _row(p[0, i], p[1, i], p[2, i], p[3, i], p, j0, j1, soft2, b)
             b[0, i] += ax
             b[1, i] += ay
             b[2, i] += az
@@ -457,7 +466,7 @@ def _test_rows(lo, hi, tests, x, p, nm, soft2, acc):
     # the test particles tests[lo:hi], one-sided rows over the massive ones
     for t in range(lo, hi):
         i = tests[t]
-        ax, ay, az = row_acceleration_fast(x[i, 0], x[i, 1], x[i, 2], p, nm, soft2)
+        ax, ay, az = _one_sided(x[i, 0], x[i, 1], x[i, 2], p, nm, soft2)
         acc[i, 0] = ax
         acc[i, 1] = ay
         acc[i, 2] = az

@@ -186,7 +186,7 @@ def test_large_n_kernel_with_a_subset_of_the_massive_particles():
 def _seeds():
     # the loops as compiled here (vrsqrt14pd with AVX-512), and the bit-level guess of CPUs
     # without it, compiled here too by patching the feature test (the code LLVM gets is the same)
-    return [True, False] if gs.has_rsqrt14() else [False]
+    return [True, False] if not numba.config.DISABLE_JIT and gs.has_rsqrt14() else [False]
 
 
 def _compiled(monkeypatch, rsqrt14):
@@ -213,6 +213,10 @@ def _compiled(monkeypatch, rsqrt14):
     return inv_r3, rows, head, one_sided
 
 
+_JIT_ONLY = pytest.mark.skipif(numba.config.DISABLE_JIT, reason="LLVM intrinsics need numba's compiler")
+
+
+@_JIT_ONLY
 @pytest.mark.parametrize("rsqrt14", _seeds())
 def test_vector_inv_r3_within_one_ulp_over_the_whole_range(monkeypatch, rsqrt14):
     rng = np.random.default_rng(1)
@@ -233,6 +237,7 @@ def test_vector_inv_r3_within_one_ulp_over_the_whole_range(monkeypatch, rsqrt14)
     assert rel.max() <= (1 if rsqrt14 else 2) * ULP, rel.max()
 
 
+@_JIT_ONLY
 @pytest.mark.parametrize("rsqrt14", _seeds())
 @pytest.mark.parametrize("soft", [0.0, 0.01])
 def test_vector_loops_match_their_scalar_references(monkeypatch, rsqrt14, soft):

@@ -22,31 +22,38 @@ it differs from it in the last bits.)
 
 Large N: each pair once, fixed work items
 -----------------------------------------
-From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 3.6x
-faster per interaction on one thread (0.33 against 1.2 ns at N = 4,000 on an AVX-512 Xeon):
+From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 5x
+faster per interaction on one thread (0.25 against 1.2 ns at N = 4,000 on a Zen 4 EPYC):
 
 * each massive pair is evaluated once (Newton's third law: ``a_i += G m_j d r**-3`` and
   ``a_j -= G m_i d r**-3``), which halves the work;
 * ``r**-3`` comes without a divide or square root (the double-precision divide/sqrt unit bounds
-  the small-N kernel): a bit-level first guess of ``1/sqrt(r2)`` (:func:`inv_r3`), one third-order
-  Householder step and a final third-order step folded into the cube, all multiply-adds, accurate
-  to about one ulp (max relative error 3.3e-16 over random inputs, tested; the correctly rounded
-  ``1 / (r2 sqrt(r2))`` in float64 itself has 2.7e-16);
-* the loop is compiled for the widest vectors the CPU has (:func:`visviva.core._jit.prefer_wide_vectors`: 512-bit
-  on AVX-512, where LLVM's default is 256), over a private copy of the massive particles as rows
-  ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a multiple
-  of 8 columns and is padded at the end to a multiple of 16 with massless dummies placed far from
-  every particle, so the loads are aligned and no scalar remainder loop runs.
+  the small-N kernel): on CPUs with AVX-512 from the ``vrsqrt14pd`` estimate of ``1/sqrt(r2)``
+  (relative error below ``2**-14``) and one fourth-order step folded into the cube (max relative
+  error 1.1e-16 over 200 decades, tested); elsewhere from a bit-level first guess, one third-order
+  Householder step and a final third-order step folded into the cube (:func:`inv_r3`, 2.7e-16;
+  the correctly rounded ``1 / (r2 sqrt(r2))`` in float64 itself has 2.6e-16). All multiply-adds;
+* the three inner loops (a row of pairs, the masked head of a row, a test particle's row) are
+  written as explicit 8-double vectors in LLVM IR (:mod:`visviva.core.gravity_simd`: the loop
+  vectoriser cannot use ``vrsqrt14pd``), 512-bit on AVX-512; 1.3-1.4x faster than the
+  auto-vectorised scalar loops they replace (:func:`pair_row`, :func:`pair_row_head`,
+  :func:`row_acceleration_fast`, kept as the references the tests compare with and as the code
+  that runs under ``NUMBA_DISABLE_JIT``). They run over a private copy of the massive particles
+  as rows ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a
+  multiple of 8 columns and is padded at the end to a multiple of 16 with massless dummies placed
+  far from every particle, so the loads are aligned and no scalar remainder loop runs.
 
 Determinism: the triangle of pairs (rows ``i``, columns ``j > i``) is cut into ``2 *``
 :data:`PAIR_ITEMS` blocks of rows; work item ``k`` takes blocks ``k`` and ``nb - 1 - k`` (equal work
 in total). The number of items is fixed in advance (not the thread count); each item accumulates
 into its own buffer in a fixed order; the buffers are then summed per particle in item order.
-Threads only choose which item runs where, so the bits do not depend on the number of threads
-(serial and parallel agree too; tested). Test particles still cost O(N_massive) each: they use a
-one-sided row kernel with the same ``r**-3``. The large-N path gives different bits from the
-small-N one (a different summation order, and ``r**-3`` within about one ulp of the correctly
-rounded ``1 / (r2 sqrt(r2))``); systems below :data:`PAIR_MIN_N` massive particles (planetary
+Threads only choose which item runs where (dynamically: each takes the next item from an atomic
+counter, so a thread that another process holds up takes fewer), so the bits do not depend on
+the number of threads or on the machine's load (serial and parallel agree too; tested). Test
+particles still cost O(N_massive) each: they use a one-sided row with the same ``r**-3``. The
+large-N path gives different bits from the small-N one (a different summation order, and
+``r**-3`` within about one ulp of the correctly rounded ``1 / (r2 sqrt(r2))``), and on CPUs with
+and without AVX-512 (the first guess); systems below :data:`PAIR_MIN_N` massive particles (planetary
 systems compared with REBOUND at tight tolerances) keep the small-N kernel unchanged, bit for bit.
 Coordinates beyond about ``1e100`` or separations below ``1e-100`` (in the units used) may overflow
 differently in the two paths; a coincident pair without softening contributes exactly 0 in both.
@@ -220,7 +227,8 @@ def inv_r3(r2):
 @simd_kernel
 def pair_row(xi, yi, zi, gmi, p, lo, hi, soft2, b):
     """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)``: returns the sum on ``i`` and subtracts
-    the reaction from ``b[:, j]``.
+    the reaction from ``b[:, j]`` (the scalar reference of
+    :func:`visviva.core.gravity_simd.pair_row`, which the compiled kernel runs).
 
     Parameters
     ----------
@@ -297,7 +305,8 @@ def pair_row_head(xi, yi, zi, gmi, i, p, lo, hi, soft2, b):
     Two 8-wide vector steps instead of a scalar loop over the ragged start: the terms with
     ``j <= i`` (the particle itself included: ``r2 = 1`` if zero) are multiplied by 0. (``hi`` is
     an argument: LLVM would unroll a loop of constant length 16 fully instead of vectorising
-    it.) Returns the sum on ``i``.
+    it.) Returns the sum on ``i``. The scalar reference of
+    :func:`visviva.core.gravity_simd.pair_row_head`.
     """
     prefer_wide_vectors()
     ax = 0.0
@@ -327,7 +336,8 @@ def pair_row_head(xi, yi, zi, gmi, i, p, lo, hi, soft2, b):
 def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
     """:func:`row_acceleration` over the first ``nm`` columns of ``p`` (rows ``x, y, z, G m``)
     with ``r**-3`` from :func:`inv_r3` and wide vectors (large-N kernel, for test particles);
-    the same result to about one ulp per term."""
+    the same result to about one ulp per term. The scalar reference of
+    :func:`visviva.core.gravity_simd.one_sided_row`."""
     prefer_wide_vectors()
     ax = 0.0
     ay = 0.0
@@ -348,9 +358,11 @@ def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
 
 if numba.config.DISABLE_JIT:  # pure Python: the scalar references above
     _row, _head, _one_sided = pair_row, pair_row_head, row_acceleration_fast
+    _next_item = gravity_simd.next_item_py
 else:  # the same loops written as explicit 8-double vectors (visviva.core.gravity_simd)
     _row, _head, _one_sided = (gravity_simd.pair_row, gravity_simd.pair_row_head,
                                gravity_simd.one_sided_row)
+    _next_item = gravity_simd.next_item
 
 
 @kernel
@@ -491,8 +503,15 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
     nm = massive.shape[0]
     p = _pad_massive(x, m, G, massive)
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
-    for k in prange(PAIR_ITEMS):
-        _pair_item(np.int64(k), nm, p, soft2, buf)  # int64 as in the serial loop: one compile
+    # items are shared dynamically: the first iteration each thread runs takes the next item
+    # until none is left (the others find none), so a thread that another process holds up
+    # takes fewer (a static split would wait for it); the bits do not depend on who ran what
+    ticket = np.zeros(1, dtype=np.int64)
+    for _ in prange(PAIR_ITEMS):
+        k = _next_item(ticket)
+        while k < PAIR_ITEMS:
+            _pair_item(k, nm, p, soft2, buf)
+            k = _next_item(ticket)
     for c in prange((nm + CHUNK - 1) // CHUNK):
         _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
     if x.shape[0] > nm:  # test particles (no parallel region when there are none)

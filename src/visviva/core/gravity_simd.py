@@ -94,6 +94,9 @@ def _poly(builder, e, coefs):
 
 def _inv_r3(builder, r2, rsqrt14):
     """IR for ``r2**-1.5`` on 8 lanes (see the module docstring)."""
+    # 512-bit operations stay legal in the caller even where LLVM prefers 256-bit registers
+    # (llvmlite's attribute set knows a fixed list of names: add the string directly)
+    set.add(builder.function.attributes, '"min-legal-vector-width"="512"')
     if rsqrt14:
         fn = _function(builder.module, _RSQRT14, _V8, [_V8, _V8, ir.IntType(8)])
         y = builder.call(fn, [r2, _const(0.0), ir.Constant(ir.IntType(8), 255)])
@@ -295,3 +298,30 @@ def inv_r3_x8(typingctx, r2, out, k):
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+@intrinsic
+def next_item(typingctx, counter):
+    """Atomically ``counter[0] += 1``; returns the value before (a ticket: the next work item).
+
+    Threads that take work items this way share them dynamically: one that the operating system
+    pauses (another process on its core) takes fewer. Which thread runs an item never changes
+    the item's result.
+    """
+    if not (isinstance(counter, types.Array) and counter.ndim == 1
+            and counter.dtype == types.int64):
+        raise errors.TypingError(f"next_item: a 1-d int64 array, got {counter}")
+    sig = types.int64(counter)
+
+    def codegen(context, builder, signature, args):
+        arr = context.make_array(signature.args[0])(context, builder, args[0])
+        return builder.atomic_rmw("add", arr.data, ir.Constant(_I64, 1), "monotonic")
+
+    return sig, codegen
+
+
+def next_item_py(counter):
+    """:func:`next_item` in pure Python (``NUMBA_DISABLE_JIT``: one thread)."""
+    k = int(counter[0])
+    counter[0] = k + 1
+    return k

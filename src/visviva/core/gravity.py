@@ -48,8 +48,9 @@ Determinism: the triangle of pairs (rows ``i``, columns ``j > i``) is cut into `
 in total). The number of items is fixed in advance (not the thread count); each item accumulates
 into its own buffer in a fixed order; the buffers are then summed per particle in item order.
 Threads only choose which item runs where (dynamically: each takes the next item from an atomic
-counter, so a thread that another process holds up takes fewer), so the bits do not depend on
-the number of threads or on the machine's load (serial and parallel agree too; tested). Test
+counter, so a thread that another process holds up takes fewer; the thread that finishes the
+last item sums the buffers, so a call has one parallel region), so the bits do not depend on the
+number of threads or on the machine's load (serial and parallel agree too; tested). Test
 particles still cost O(N_massive) each: they use a one-sided row with the same ``r**-3``. The
 large-N path gives different bits from the small-N one (a different summation order, and
 ``r**-3`` within about one ulp of the correctly rounded ``1 / (r2 sqrt(r2))``), and on CPUs with
@@ -358,11 +359,11 @@ def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
 
 if numba.config.DISABLE_JIT:  # pure Python: the scalar references above
     _row, _head, _one_sided = pair_row, pair_row_head, row_acceleration_fast
-    _next_item = gravity_simd.next_item_py
+    _ticket = gravity_simd.ticket_py
 else:  # the same loops written as explicit 8-double vectors (visviva.core.gravity_simd)
     _row, _head, _one_sided = (gravity_simd.pair_row, gravity_simd.pair_row_head,
                                gravity_simd.one_sided_row)
-    _next_item = gravity_simd.next_item
+    _ticket = gravity_simd.ticket
 
 
 @kernel
@@ -505,15 +506,17 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     # items are shared dynamically: the first iteration each thread runs takes the next item
     # until none is left (the others find none), so a thread that another process holds up
-    # takes fewer (a static split would wait for it); the bits do not depend on who ran what
-    ticket = np.zeros(1, dtype=np.int64)
+    # takes fewer (a static split would wait for it); the thread that finishes the last item
+    # sums the buffers (no second parallel region to wait for). The bits do not depend on who
+    # ran what.
+    tickets = np.zeros(2, dtype=np.int64)  # next item, items done
     for _ in prange(PAIR_ITEMS):
-        k = _next_item(ticket)
+        k = _ticket(tickets, 0)
         while k < PAIR_ITEMS:
             _pair_item(k, nm, p, soft2, buf)
-            k = _next_item(ticket)
-    for c in prange((nm + CHUNK - 1) // CHUNK):
-        _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
+            if _ticket(tickets, 1) == PAIR_ITEMS - 1:
+                _pair_reduce(0, nm, buf, massive, acc)
+            k = _ticket(tickets, 0)
     if x.shape[0] > nm:  # test particles (no parallel region when there are none)
         tests = _test_indices(x.shape[0], massive)
         nt = tests.shape[0]

@@ -42,7 +42,7 @@ from numba import types
 from numba.core import errors
 from numba.extending import intrinsic
 
-__all__ = ["pair_row", "pair_row_head", "one_sided_row", "inv_r3_x8", "has_rsqrt14"]
+__all__ = ["pair_row", "pair_row_head", "one_sided_row", "inv_r3_x8", "has_rsqrt14", "ticket"]
 
 _F64 = ir.DoubleType()
 _V8 = ir.VectorType(_F64, 8)
@@ -301,27 +301,29 @@ def inv_r3_x8(typingctx, r2, out, k):
 
 
 @intrinsic
-def next_item(typingctx, counter):
-    """Atomically ``counter[0] += 1``; returns the value before (a ticket: the next work item).
+def ticket(typingctx, counter, slot):
+    """Atomically ``counter[slot] += 1``; returns the value before (a ticket).
 
     Threads that take work items this way share them dynamically: one that the operating system
     pauses (another process on its core) takes fewer. Which thread runs an item never changes
-    the item's result.
+    the item's result. The increment is a full barrier for memory (``acq_rel``): a thread that
+    draws the last "item done" ticket sees every buffer the other items wrote before theirs.
     """
     if not (isinstance(counter, types.Array) and counter.ndim == 1
             and counter.dtype == types.int64):
-        raise errors.TypingError(f"next_item: a 1-d int64 array, got {counter}")
-    sig = types.int64(counter)
+        raise errors.TypingError(f"ticket: a 1-d int64 array, got {counter}")
+    sig = types.int64(counter, types.int64)
 
     def codegen(context, builder, signature, args):
         arr = context.make_array(signature.args[0])(context, builder, args[0])
-        return builder.atomic_rmw("add", arr.data, ir.Constant(_I64, 1), "monotonic")
+        ptr = builder.gep(arr.data, [args[1]])
+        return builder.atomic_rmw("add", ptr, ir.Constant(_I64, 1), "acq_rel")
 
     return sig, codegen
 
 
-def next_item_py(counter):
-    """:func:`next_item` in pure Python (``NUMBA_DISABLE_JIT``: one thread)."""
-    k = int(counter[0])
-    counter[0] = k + 1
+def ticket_py(counter, slot):
+    """:func:`ticket` in pure Python (``NUMBA_DISABLE_JIT``: one thread)."""
+    k = int(counter[slot])
+    counter[slot] = k + 1
     return k

@@ -22,8 +22,9 @@ it differs from it in the last bits.)
 
 Large N: each pair once, fixed work items
 -----------------------------------------
-From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 5x
-faster per interaction on one thread (0.25 against 1.2 ns at N = 4,000 on a Zen 4 EPYC):
+From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 2.1x
+faster per interaction on one thread (0.42 against 0.87 ns at N = 4,000 on a 2-core Zen 4 EPYC;
+3.6x on an AVX-512 Xeon with a slower divide, measured with the earlier multiply-add loops):
 
 * each massive pair is evaluated once (Newton's third law: ``a_i += G m_j d r**-3`` and
   ``a_j -= G m_i d r**-3``), which halves the work;
@@ -35,8 +36,8 @@ faster per interaction on one thread (0.25 against 1.2 ns at N = 4,000 on a Zen 
   the correctly rounded ``1 / (r2 sqrt(r2))`` in float64 itself has 2.6e-16). All multiply-adds;
 * the three inner loops (a row of pairs, the masked head of a row, a test particle's row) are
   written as explicit 8-double vectors in LLVM IR (:mod:`visviva.core.gravity_simd`: the loop
-  vectoriser cannot use ``vrsqrt14pd``), 512-bit on AVX-512; 1.3-1.4x faster than the
-  auto-vectorised scalar loops they replace (:func:`pair_row`, :func:`pair_row_head`,
+  vectoriser cannot use ``vrsqrt14pd``), 512-bit on AVX-512; 1.3-1.8x faster than the
+  auto-vectorised scalar loops they replace (N = 256 ... 10^5, one thread, side by side) (:func:`pair_row`, :func:`pair_row_head`,
   :func:`row_acceleration_fast`, kept as the references the tests compare with and as the code
   that runs under ``NUMBA_DISABLE_JIT``). They run over a private copy of the massive particles
   as rows ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a

@@ -74,7 +74,7 @@ def test_large_n_kernel_matches_extended_precision_sum(soft):
     assert g.massive_indices(m).shape[0] >= g.PAIR_MIN_N
     ref, scale = _reference(x, m, soft**2)
     a = np.empty((n, 3))
-    g.gravity_parallel(x, m, 1.0, soft**2, g.massive_indices(m), a, np.empty((7, n)))
+    g.gravity_parallel(x, m, 1.0, soft**2, g.massive_indices(m), a, np.empty((g.GWORK_ROWS, n)))
     assert np.isfinite(a).all()
     # error of each component relative to the sum of the magnitudes of its terms: the round-off
     # floor of any summation order (the small-N kernel: 3e-16 here)
@@ -92,7 +92,7 @@ def test_large_n_kernel_same_bits_for_every_thread_count_and_serial(soft):
     massive = g.massive_indices(m)
     assert massive.shape[0] >= g.PAIR_MIN_N and massive.shape[0] < n
     ref = np.empty((n, 3))
-    g.gravity_serial(x, m, 1.0, soft**2, massive, ref, np.empty((4, n)))
+    g.gravity_serial(x, m, 1.0, soft**2, massive, ref, np.empty((g.GWORK_ROWS, n)))
     assert np.isfinite(ref).all()
     old = numba.get_num_threads()
     try:
@@ -101,10 +101,10 @@ def test_large_n_kernel_same_bits_for_every_thread_count_and_serial(soft):
                 continue
             numba.set_num_threads(nt)
             a = np.full((n, 3), np.nan)
-            g.gravity_parallel(x, m, 1.0, soft**2, massive, a, np.empty((7, n)))
+            g.gravity_parallel(x, m, 1.0, soft**2, massive, a, np.empty((g.GWORK_ROWS, n)))
             np.testing.assert_array_equal(a, ref)
             b = np.full((n, 3), np.nan)
-            g.gravity(x, m, 1.0, soft**2, massive, b, np.empty((7, n)), True)
+            g.gravity(x, m, 1.0, soft**2, massive, b, np.empty((g.GWORK_ROWS, n)), True)
             np.testing.assert_array_equal(b, ref)
     finally:
         numba.set_num_threads(old)
@@ -115,7 +115,7 @@ def test_large_n_kernel_conserves_momentum_and_coincident_pairs_pull_nothing():
     x, m = _cluster(n, seed=2, frac_test=0.0)
     x[1] = x[0]  # a coincident massive pair, no softening
     a = np.empty((n, 3))
-    g.gravity_serial(x, m, 1.0, 0.0, g.massive_indices(m), a, np.empty((4, n)))
+    g.gravity_serial(x, m, 1.0, 0.0, g.massive_indices(m), a, np.empty((g.GWORK_ROWS, n)))
     assert np.isfinite(a).all()
     # each pair once: the momentum balance holds to the round-off of the final sums
     p = (m[:, None] * a).sum(0)
@@ -124,28 +124,40 @@ def test_large_n_kernel_conserves_momentum_and_coincident_pairs_pull_nothing():
     np.testing.assert_allclose(a[0], a[1], rtol=1e-12)
 
 
-def test_small_n_path_unchanged_below_pair_min_n():
-    # below PAIR_MIN_N massive particles gravity is exactly the row kernel of each particle
-    # (the bits that planetary runs compared with REBOUND rely on); at PAIR_MIN_N it switches
-    for nm, same in ((g.PAIR_MIN_N - 1, True), (g.PAIR_MIN_N, False)):
+def _strict_sum(x, m, G, soft2, massive):
+    # each a_i summed over the massive j in ascending order, left to right (numpy across i)
+    acc = np.zeros_like(x)
+    for j in massive:
+        d = x[j] - x
+        r2 = (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2] + soft2
+        r2 = r2 + np.where(r2 == 0.0, 1.0, 0.0)
+        s = (G * m[j]) / (r2 * np.sqrt(r2))
+        acc += d * s[:, None]
+    return acc
+
+
+def test_small_n_path_is_the_strict_sum_below_pair_min_n():
+    # below PAIR_MIN_N massive particles each acceleration is the strict left-to-right sum over
+    # j (the same bits on every CPU, any vector width, and in the interpreter tier); serial and
+    # parallel agree; at PAIR_MIN_N it switches to the large-N kernel (about one ulp per term)
+    for nm, same in ((3, True), (9, True), (16, True), (g.PAIR_MIN_N - 1, True),
+                     (g.PAIR_MIN_N, False)):
         n = nm + 40
         rng = np.random.default_rng(nm)
         x = rng.normal(size=(n, 3))
         m = np.zeros(n)
         m[rng.permutation(n)[:nm]] = rng.uniform(size=nm)
         massive = g.massive_indices(m)
-        xm, ym, zm = (np.ascontiguousarray(x[massive, k]) for k in range(3))
-        rows = np.empty((n, 3))
-        g._rows(0, n, x, xm, ym, zm, m[massive].copy(), 1e-6, rows)
+        ref = _strict_sum(x, m, 1.3, 1e-6, massive)
         a = np.empty((n, 3))
-        g.gravity_serial(x, m, 1.0, 1e-6, massive, a, np.empty((4, n)))
+        g.gravity_serial(x, m, 1.3, 1e-6, massive, a, np.empty((g.GWORK_ROWS, n)))
         b = np.empty((n, 3))
-        g.gravity_parallel(x, m, 1.0, 1e-6, massive, b, np.empty((4, n)))
+        g.gravity_parallel(x, m, 1.3, 1e-6, massive, b, np.empty((g.GWORK_ROWS, n)))
         np.testing.assert_array_equal(a, b)
         if same:
-            np.testing.assert_array_equal(a, rows)
+            np.testing.assert_array_equal(a, ref)
         else:
-            np.testing.assert_allclose(a, rows, rtol=1e-12, atol=1e-14 * np.abs(rows).max())
+            np.testing.assert_allclose(a, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
 
 
 @pytest.mark.parametrize("scale", [1e-30, 1e-3, 1.5e8, 1e30])
@@ -157,12 +169,10 @@ def test_large_n_kernel_at_any_length_scale(scale):
     x = x * scale
     soft2 = (1e-3 * scale) ** 2
     massive = g.massive_indices(m)
-    xm, ym, zm = (np.ascontiguousarray(x[massive, k]) for k in range(3))
     for s2 in (0.0, soft2):
-        rows = np.empty((n, 3))
-        g._rows(0, n, x, xm, ym, zm, m[massive].copy(), s2, rows)
+        rows = _strict_sum(x, m, 1.0, s2, massive)
         a = np.empty((n, 3))
-        g.gravity_parallel(x, m, 1.0, s2, massive, a, np.empty((4, n)))
+        g.gravity_parallel(x, m, 1.0, s2, massive, a, np.empty((g.GWORK_ROWS, n)))
         assert np.isfinite(a).all()
         np.testing.assert_allclose(a, rows, rtol=0, atol=1e-13 * np.abs(rows).max())
 
@@ -174,11 +184,9 @@ def test_large_n_kernel_with_a_subset_of_the_massive_particles():
     n = 600
     x, m = _cluster(n, seed=3, frac_test=0.1)
     massive = g.massive_indices(m)[1:]
-    xm, ym, zm = (np.ascontiguousarray(x[massive, k]) for k in range(3))
-    rows = np.empty((n, 3))
-    g._rows(0, n, x, xm, ym, zm, m[massive].copy(), 0.0, rows)
+    rows = _strict_sum(x, m, 1.0, 0.0, massive)
     a = np.empty((n, 3))
-    g.gravity(x, m, 1.0, 0.0, massive, a, np.empty((7, n)), True)
+    g.gravity(x, m, 1.0, 0.0, massive, a, np.empty((g.GWORK_ROWS, n)), True)
     np.testing.assert_allclose(a, rows, rtol=0, atol=1e-13 * np.abs(rows).max())
 
 

@@ -95,7 +95,7 @@ from visviva.core import gravity, gravity_split
 x = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
 m = np.array([1.0, 1e-3, 1e-3])
 acc = np.zeros((3, 3))
-work = np.zeros((7, 3))
+work = np.zeros((gravity.GWORK_ROWS, 3))
 massive = np.arange(3)
 gravity.gravity(x, m, 1.0, 0.0, massive, acc, work, gravity.FEW)
 gravity_split.gravity_split(x, 0.0 * x, m, 1.0, 0.0, massive, acc, work, gravity.FEW)

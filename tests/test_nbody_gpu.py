@@ -76,7 +76,7 @@ def test_cpu_twins_of_the_device_functions_match_the_gravity_kernel():
     m[::7] = 0.0
     massive = gravity.massive_indices(m)
     acc = np.zeros((n, 3))
-    gravity.gravity(x, m, 1.3, 0.01, massive, acc, np.zeros((7, n)), False)
+    gravity.gravity(x, m, 1.3, 0.01, massive, acc, np.zeros((gravity.GWORK_ROWS, n)), False)
     twin = np.zeros((n, 3))
     arith.member_accelerations_cpu(x, 1.3 * m, massive, 0, len(massive), 0, n, 0.01, twin)
     np.testing.assert_allclose(twin, acc, rtol=1e-13, atol=1e-14 * np.abs(acc).max())

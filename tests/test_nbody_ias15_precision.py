@@ -131,14 +131,14 @@ def test_gravity_split_keeps_the_separation_of_a_tight_pair_far_away():
     massive = g.massive_indices(m)
     a_split = np.empty((3, 3))
     a_plain = np.empty((3, 3))
-    gs.gravity_split(hi, lo, m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
-    g.gravity(hi, m, 1.0, 0.0, massive, a_plain, np.empty((7, 3)), False)
+    gs.gravity_split(hi, lo, m, 1.0, 0.0, massive, a_split, np.empty((g.GWORK_ROWS, 3)), False)
+    g.gravity(hi, m, 1.0, 0.0, massive, a_plain, np.empty((g.GWORK_ROWS, 3)), False)
     rel_split = np.abs(a_split[:2] - ref[:2]).max() / np.abs(ref[:2]).max()
     rel_plain = np.abs(a_plain[:2] - ref[:2]).max() / np.abs(ref[:2]).max()
     assert rel_split < 1e-14
     assert rel_plain > 1e-10  # what the rounded positions give
     # lo = 0: the same accelerations as gravity (to the last bits of the reordered sums)
-    gs.gravity_split(hi, np.zeros((3, 3)), m, 1.0, 0.0, massive, a_split, np.empty((7, 3)), False)
+    gs.gravity_split(hi, np.zeros((3, 3)), m, 1.0, 0.0, massive, a_split, np.empty((g.GWORK_ROWS, 3)), False)
     np.testing.assert_allclose(a_split, a_plain, rtol=1e-15, atol=0)
 
 
@@ -151,8 +151,8 @@ def test_gravity_split_serial_and_parallel_give_identical_bits():
     massive = g.massive_indices(m)
     a1 = np.empty((n, 3))
     a2 = np.empty((n, 3))
-    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a1, np.empty((7, n)), False)
-    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a2, np.empty((7, n)), True)
+    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a1, np.empty((g.GWORK_ROWS, n)), False)
+    gs.gravity_split(x, lo, m, 1.0, 1e-6, massive, a2, np.empty((g.GWORK_ROWS, n)), True)
     assert np.array_equal(a1, a2)
 
 
@@ -179,8 +179,9 @@ def test_state_saved_before_the_low_part_slot_continues_bit_for_bit():
     assert np.array_equal(a.velocities, b.velocities)
 
 
-def test_gravity_split_few_and_packed_paths_agree():
-    # below SPLIT_FEW_N massive particles a plain pair loop, above it the packed SIMD rows
+def test_gravity_split_few_and_packed_paths_agree_bit_for_bit():
+    # below SPLIT_FEW_N massive particles a plain pair loop, above it the packed rows: both sum
+    # each acceleration in the order of j, so they give the same bits (serial and parallel too)
     rng = np.random.default_rng(11)
     n = 5
     x = rng.normal(size=(n, 3)) * 3.0
@@ -191,6 +192,33 @@ def test_gravity_split_few_and_packed_paths_agree():
     assert len(massive) < gs.SPLIT_FEW_N
     a_few = np.empty((n, 3))
     a_packed = np.empty((n, 3))
-    gs.gravity_split(x, lo, m, 1.0, 0.0, massive, a_few, np.empty((7, n)), False)
-    gs._gravity_split_serial(x, lo, m, 1.0, 0.0, massive, a_packed, np.empty((7, n)))
-    np.testing.assert_allclose(a_few, a_packed, rtol=4e-16 * n, atol=0)
+    a_parallel = np.empty((n, 3))
+    gs.gravity_split(x, lo, m, 1.0, 0.0, massive, a_few, np.empty((g.GWORK_ROWS, n)), False)
+    gs._gravity_split_serial(x, lo, m, 1.0, 0.0, massive, a_packed, np.empty((g.GWORK_ROWS, n)))
+    gs._gravity_split_parallel(x, lo, m, 1.0, 0.0, massive, a_parallel,
+                               np.empty((g.GWORK_ROWS, n)))
+    np.testing.assert_array_equal(a_few, a_packed)
+    np.testing.assert_array_equal(a_few, a_parallel)
+
+
+@pytest.mark.parametrize("nm", [3, gs.SPLIT_FEW_N - 1, gs.SPLIT_FEW_N, gs.SPLIT_FEW_N + 1, 40])
+def test_gravity_split_is_the_strict_sum_over_j(nm):
+    # every few-body path sums each acceleration over j in ascending order, left to right: the
+    # same bits on every CPU (any vector width) and in the interpreter tier
+    rng = np.random.default_rng(nm)
+    n = nm + 3
+    x = rng.normal(size=(n, 3)) * 3.0
+    lo = rng.normal(size=(n, 3)) * 1e-16
+    m = np.zeros(n)
+    m[rng.permutation(n)[:nm]] = rng.uniform(0.5, 2.0, nm)
+    massive = g.massive_indices(m)
+    ref = np.zeros((n, 3))
+    for j in massive:
+        d = (x[j] - x) + (lo[j] - lo)
+        r2 = (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2] + 1e-6
+        s = (1.3 * m[j]) / (r2 * np.sqrt(r2))
+        ref += d * s[:, None]
+    for parallel in (None, False, True):
+        a = np.empty((n, 3))
+        gs.gravity_split(x, lo, m, 1.3, 1e-6, massive, a, np.empty((g.GWORK_ROWS, n)), parallel)
+        np.testing.assert_array_equal(a, ref)

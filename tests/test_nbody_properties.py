@@ -26,9 +26,9 @@ def test_gravity_kernels_agree_bit_for_bit(n, seed, soft, frac_test):
     m[rng.uniform(size=n) < frac_test] = 0.0
     massive = g.massive_indices(m)
     a = np.empty((3, n, 3))
-    g.gravity_serial(x, m, 1.0, soft**2, massive, a[0], np.empty((7, n)))
-    g.gravity(x, m, 1.0, soft**2, massive, a[1], np.empty((4, n)), False)
-    g.gravity_parallel(x, m, 1.0, soft**2, massive, a[2], np.empty((7, n)))
+    g.gravity_serial(x, m, 1.0, soft**2, massive, a[0], np.empty((g.GWORK_ROWS, n)))
+    g.gravity(x, m, 1.0, soft**2, massive, a[1], np.empty((g.GWORK_ROWS, n)), False)
+    g.gravity_parallel(x, m, 1.0, soft**2, massive, a[2], np.empty((g.GWORK_ROWS, n)))
     np.testing.assert_array_equal(a[0], a[1])
     np.testing.assert_array_equal(a[0], a[2])
     # momentum balance: sum m a = 0 to round-off

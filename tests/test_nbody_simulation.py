@@ -150,11 +150,11 @@ def test_gravity_serial_and_parallel_give_identical_bits(n):
     massive = g.massive_indices(m)
     a1 = np.empty((n, 3))
     a2 = np.empty((n, 3))
-    g.gravity_serial(x, m, 1.0, 1e-6, massive, a1, np.empty((7, n)))
-    g.gravity_parallel(x, m, 1.0, 1e-6, massive, a2, np.empty((7, n)))
+    g.gravity_serial(x, m, 1.0, 1e-6, massive, a1, np.empty((g.GWORK_ROWS, n)))
+    g.gravity_parallel(x, m, 1.0, 1e-6, massive, a2, np.empty((g.GWORK_ROWS, n)))
     np.testing.assert_array_equal(a1, a2)
     a3 = np.empty((n, 3))
-    g.gravity(x, m, 1.0, 1e-6, massive, a3, np.empty((7, n)), True)
+    g.gravity(x, m, 1.0, 1e-6, massive, a3, np.empty((g.GWORK_ROWS, n)), True)
     np.testing.assert_array_equal(a1, a3)
 
 
@@ -172,14 +172,14 @@ def test_gravity_matches_slow_reference_and_thread_count(n):
     np.fill_diagonal(r2, np.inf)
     ref = (m[None, :, None] * d / r2[..., None] ** 1.5).sum(1)
     a = np.empty((n, 3))
-    g.gravity_parallel(x, m, 1.0, 0.01**2, massive, a, np.empty((7, n)))
+    g.gravity_parallel(x, m, 1.0, 0.01**2, massive, a, np.empty((g.GWORK_ROWS, n)))
     np.testing.assert_allclose(a, ref, rtol=1e-12, atol=1e-12)
     old = numba.get_num_threads()
     try:
         for nt in range(1, old + 1):  # the same bits for every thread count
             numba.set_num_threads(nt)
             b = np.empty((n, 3))
-            g.gravity_parallel(x, m, 1.0, 0.01**2, massive, b, np.empty((7, n)))
+            g.gravity_parallel(x, m, 1.0, 0.01**2, massive, b, np.empty((g.GWORK_ROWS, n)))
             np.testing.assert_array_equal(a, b)
     finally:
         numba.set_num_threads(old)
@@ -192,13 +192,13 @@ def test_gravity_coincident_particles_and_softening():
     m = np.array([1.0, 2.0, 3.0, 0.0])  # the last one is a test particle
     massive = g.massive_indices(m)
     a = np.empty((4, 3))
-    g.gravity(x, m, 1.0, 0.0, massive, a, np.empty((7, 4)), False)
+    g.gravity(x, m, 1.0, 0.0, massive, a, np.empty((g.GWORK_ROWS, 4)), False)
     assert np.all(np.isfinite(a))
     np.testing.assert_allclose(a[0], [3.0, 0.0, 0.0], rtol=1e-15)
     np.testing.assert_allclose(a[2], [-3.0, 0.0, 0.0], rtol=1e-15)
     np.testing.assert_allclose(a[3], [-3.0 / 0.25 + 3.0 / 0.25, 0.0, 0.0], atol=1e-14)
     eps = 0.1
-    g.gravity(x, m, 1.0, eps**2, massive, a, np.empty((7, 4)), True)
+    g.gravity(x, m, 1.0, eps**2, massive, a, np.empty((g.GWORK_ROWS, 4)), True)
     np.testing.assert_allclose(a[0, 0], 3.0 / (1.0 + eps**2) ** 1.5, rtol=1e-15)
     np.testing.assert_allclose(a[0, 1:], 0.0, atol=0.0)
 

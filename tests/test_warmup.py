@@ -26,6 +26,18 @@ def test_warmup_reports_each_task_and_failures():
     assert lines[0].split()[0] == "fine" and "FAILED: ValueError: no such kernel" in lines[1]
 
 
+def test_warmup_compiles_instead_of_interpreting(monkeypatch):
+    # the interpreter tier (core/tier.py) is off while the tasks run: their small calls must
+    # compile and fill the cache; it is back as it was afterwards
+    from visviva.core import tier
+
+    monkeypatch.setitem(tier.spent, "off", False)
+    seen = []
+    warmup.warmup((("task", lambda: seen.append(tier.spent["off"])),), progress=False,
+                  stream=io.StringIO())
+    assert seen == [True] and tier.spent["off"] is False
+
+
 def test_warmup_progress_bar_names_the_running_task():
     stream = io.StringIO()
     warmup.warmup((("first task", lambda: None),), progress=True, stream=stream)

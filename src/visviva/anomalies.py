@@ -28,6 +28,7 @@ import numpy as np
 
 from . import _units
 from .core import kepler_arrays as _ka
+from .core import tier
 from .core.status import OK, OVERFLOW
 from .errors import ShapeError, raise_for_status
 
@@ -83,8 +84,8 @@ def _run(kernel, context, angle, angle_name, ecc=None):
         # few thousand solves take microseconds: run small batches on the calling thread
         threads = numba.get_num_threads()
         numba.set_num_threads(1)
-        try:
-            kernel(*args, out, status)
+        try:  # a small call on a fresh install runs interpreted (core/tier.py)
+            tier.call(kernel, *args, out, status, small=n <= tier.SMALL_ITEMS)
         finally:
             numba.set_num_threads(threads)
     else:

@@ -89,6 +89,7 @@ class KeplerianElements(TwoBodyContainer):
     _ITEM = "set of elements"
 
     def __init__(self, p, ecc, inc, raan, argp, nu, gm, epoch=None):
+        from .core import tier
         from .core.elements import scan_coe
 
         raan_in, argp_in, nu_in = raan, argp, nu
@@ -113,9 +114,9 @@ class KeplerianElements(TwoBodyContainer):
             },
             "KeplerianElements",
         )
-        first, _ = scan_coe(
-            *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK
-        )
+        first, _ = tier.call(
+            scan_coe, *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK,
+            small=math.prod(shape) <= tier.SMALL_ITEMS)
         if first >= 0:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
@@ -412,10 +413,11 @@ class KeplerianElements(TwoBodyContainer):
         -----
         One call of :func:`visviva.core.elements.coe_to_rv_array` (Vallado 2013, Algorithm 10).
         """
+        from .core import tier
         from .core.elements import coe_to_rv_array, empty_states
 
         r, v, status = out = empty_states(self.size)
-        coe_to_rv_array(*flat_elements(self), *out)
+        tier.call(coe_to_rv_array, *flat_elements(self), *out, small=self.size <= tier.SMALL_ITEMS)
         inputs = {"p": self._p, "ecc": self._ecc, "nu": self._nu}
         return states_from_kernel(self, r, v, status, "elements -> state vectors", inputs)
 

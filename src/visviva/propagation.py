@@ -112,6 +112,7 @@ def propagate_canonical(r_km, v_km_s, gm_km3_s2, state_shape: tuple, dt):
     UnitsError, ShapeError, InvalidInputError, InvalidStateError, ConvergenceError, DomainError
         As listed for :func:`propagate_kepler`.
     """
+    from .core import tier
     from .core.universal import propagate_many
 
     dt_s = _units.to_array(dt, "time", "dt")
@@ -132,7 +133,8 @@ def propagate_canonical(r_km, v_km_s, gm_km3_s2, state_shape: tuple, dt):
     r_out = np.empty((n, 3))
     v_out = np.empty((n, 3))
     status = np.empty(n, dtype=np.int64)
-    propagate_many(r0, v0, gm, dt_flat, r_out, v_out, status)
+    tier.call(propagate_many, r0, v0, gm, dt_flat, r_out, v_out, status,
+              small=n <= tier.SMALL_ITEMS)
     _explain_extreme_magnitudes(status, r0, v0, gm, dt_flat, shape)
     r_out = r_out.reshape(shape + (3,))
     v_out = v_out.reshape(shape + (3,))

@@ -98,6 +98,7 @@ class StateVectors(TwoBodyContainer):
     _ITEM = "state"
 
     def __init__(self, r, v, gm, epoch=None):
+        from .core import tier
         from .core.elements import scan_states
         from .core.status import NON_FINITE
 
@@ -112,7 +113,8 @@ class StateVectors(TwoBodyContainer):
         )
         r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
         v_kms = np.ascontiguousarray(np.broadcast_to(v_kms, shape + (3,)))
-        first, code = scan_states(r_km.reshape(-1, 3), v_kms.reshape(-1, 3))
+        first, code = tier.call(scan_states, r_km.reshape(-1, 3), v_kms.reshape(-1, 3),
+                                small=r_km.size <= 3 * tier.SMALL_ITEMS)
         if first >= 0:
             if code == NON_FINITE:
                 _units.require_finite(r_km, "r")
@@ -288,11 +290,12 @@ class StateVectors(TwoBodyContainer):
         One call of :func:`visviva.core.elements.rv_to_coe_array`; Vallado (2013) Algorithm 9
         rewritten with atan2 only (no arccos), see :mod:`visviva.core.elements`.
         """
+        from .core import tier
         from .core.elements import empty_elements, rv_to_coe_array
         from .elements import KeplerianElements
 
         *elements, status = out = empty_elements(self.size)
-        rv_to_coe_array(*self._flat_inputs(), *out)
+        tier.call(rv_to_coe_array, *self._flat_inputs(), *out, small=self.size <= tier.SMALL_ITEMS)
         elements = self._checked_results(
             elements,
             status,

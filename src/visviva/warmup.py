@@ -140,16 +140,20 @@ def warmup(tasks=TASKS, progress: bool = True, stream=None) -> list[tuple[str, f
     Notes
     -----
     The per-kernel compile notice (:func:`visviva.core._jit.compile_notice`) is switched off
-    while this runs: the bar says what is compiling.
+    while this runs: the bar says what is compiling. So is the interpreter tier
+    (:mod:`visviva.core.tier`): the small calls of the tasks compile instead of running
+    interpreted.
     """
     from tqdm import tqdm
 
-    from .core import _jit
+    from .core import _jit, tier
 
     stream = sys.stderr if stream is None else stream
     out = []
     enabled = _jit.notices["enabled"]
     _jit.notices["enabled"] = False
+    tier_off = tier.spent["off"]
+    tier.spent["off"] = True
     try:
         bar = tqdm(tasks, desc="visviva warmup", unit="task", file=stream, disable=not progress,
                    bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} {postfix}")
@@ -170,6 +174,7 @@ def warmup(tasks=TASKS, progress: bool = True, stream=None) -> list[tuple[str, f
                 print(msg, file=stream)
     finally:
         _jit.notices["enabled"] = enabled
+        tier.spent["off"] = tier_off
     return out
 
 

@@ -24,6 +24,8 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic
 
+from ._jit import PYTHON_EQUIVALENTS
+
 __all__ = ["fma", "float_bits", "float_from_bits", "fma_py", "float_bits_py", "float_from_bits_py",
            "EPS"]
 
@@ -78,6 +80,10 @@ def float_from_bits_py(n):
     """The double whose bits are the int64 ``n``, in pure Python."""
     return float(np.int64(n).view(np.float64))
 
+
+# the interpreter tier (visviva.core._jit.interpreted) runs the plain equivalents
+PYTHON_EQUIVALENTS.update({fma: fma_py, float_bits: float_bits_py,
+                           float_from_bits: float_from_bits_py})
 
 if numba.config.DISABLE_JIT:  # pure Python: the same bits by other means
     fma = fma_py  # noqa: F811

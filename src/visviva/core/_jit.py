@@ -29,14 +29,17 @@ import contextlib
 import sys
 import threading
 import time
+import types as pytypes
 
 import numba
 from numba import types
+from numba.core import sigutils
+from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
 from numba.extending import intrinsic
 
 __all__ = ["compile_notice", "kernel", "parallel_kernel", "prange", "inline_kernel", "simd_kernel",
-           "step_kernel", "prefer_wide_vectors"]
+           "step_kernel", "prefer_wide_vectors", "interpreted"]
 
 _FLAGS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": False}
 
@@ -57,6 +60,26 @@ class _Kernel(CPUDispatcher):
         args = tuple(types.unliteral(a) for a in args)
         kws = {k: types.unliteral(a) for k, a in kws.items()}
         return super().get_call_template(args, kws)
+
+    def load_cached(self, sig) -> bool:
+        """True when machine code for ``sig`` is in memory, or is in numba's on-disk cache (then
+        it is loaded, in milliseconds, as a call would); False when a call would compile."""
+        args, _ = sigutils.normalize_signature(sig)
+        if tuple(args) in self.overloads:
+            return True
+        if self.targetoptions.get("parallel"):
+            # numba's thread pool must be up before machine code that refers to it is loaded
+            from numba.np.ufunc import parallel as numba_parallel
+
+            numba_parallel._launch_threads()
+        with global_compiler_lock:  # the steps of numba's Dispatcher.compile up to compiling
+            cres = self._cache.load_overload(sig, self.targetctx)
+            if cres is None:
+                return False
+            self._cache_hits[sig] += 1
+            self.targetctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
+            self.add_overload(cres)
+        return True
 
     def compile(self, sig):
         # no compiled version in memory: load it from numba's on-disk cache (milliseconds) or
@@ -178,6 +201,64 @@ def step_kernel(fn):
 prange = numba.prange
 
 
+_INTERPRETED: dict = {}
+#: Intrinsic -> the plain Python function that gives the same bits (:func:`interpreted`).
+PYTHON_EQUIVALENTS: dict = {}
+
+
+def _interpreted_value(value):
+    # what a kernel's global or closure variable becomes in the interpreted copy
+    if isinstance(value, _Kernel):
+        return interpreted(value)
+    try:
+        return PYTHON_EQUIVALENTS.get(value, value)
+    except TypeError:  # unhashable: not an intrinsic
+        return value
+
+
+def interpreted(fn):
+    """The Python function behind the kernel ``fn``, calling the interpreted copies of the
+    kernels it calls (:mod:`visviva.nbody.tier`, the interpreter tier of a cold first run).
+
+    The copy runs the kernel's own source in the interpreter: the same operations in the same
+    order on IEEE doubles, so the same bits as the machine code, because no kernel on the paths
+    it is used for allows reassociation or contraction (no ``fastmath``; :func:`simd_kernel`
+    only on the large-N paths) and ``x**n`` with an integer ``n > 2`` is not used there
+    (numba multiplies, Python calls ``pow``). Tests compare the two bit for bit. Where Python
+    and numba differ, Python raises (a division by zero, ``math.sqrt`` of a negative number,
+    an overflow in ``math.exp``) while the machine code returns ``inf``/``nan``: the caller
+    then runs the machine code instead. Not one of visviva's kernels (a user's ``numba.njit``
+    force, which may use fast-math flags): ``fn`` itself, called compiled.
+    """
+    if not isinstance(fn, _Kernel):
+        return fn
+    if fn in _INTERPRETED:
+        return _INTERPRETED[fn]
+    py = fn.py_func
+    globals_ = dict(py.__globals__)
+    closure = None
+    if py.__closure__:
+        closure = tuple(pytypes.CellType() for _ in py.__closure__)
+    copy = pytypes.FunctionType(py.__code__, globals_, py.__name__, py.__defaults__, closure)
+    _INTERPRETED[fn] = copy  # before the callees: kernels that call each other terminate
+    for name in _names(py.__code__):
+        if name in globals_:
+            globals_[name] = _interpreted_value(globals_[name])
+    if closure:
+        for new, old in zip(closure, py.__closure__, strict=True):
+            new.cell_contents = _interpreted_value(old.cell_contents)
+    return copy
+
+
+def _names(code) -> set[str]:
+    # the global names a function and its nested code objects refer to
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, pytypes.CodeType):
+            names |= _names(const)
+    return names
+
+
 @intrinsic
 def prefer_wide_vectors(typingctx):
     """Compile the calling function for the widest SIMD registers the CPU has (no-op call).
@@ -194,6 +275,11 @@ def prefer_wide_vectors(typingctx):
     return types.none(), codegen
 
 
+def _no_op():
+    return None
+
+
+PYTHON_EQUIVALENTS[prefer_wide_vectors] = _no_op
+
 if numba.config.DISABLE_JIT:  # pure Python (coverage runs): the intrinsic is a plain no-op
-    def prefer_wide_vectors():  # noqa: F811
-        return None
+    prefer_wide_vectors = _no_op  # noqa: F811

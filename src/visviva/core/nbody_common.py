@@ -21,8 +21,8 @@ compile time on a fresh install). ``visviva.nbody.integrators.few_bodies`` choos
     the scalar state; the slots are named by the ``F_*`` and ``I_*`` constants below.
 ``buf`` (K, N, 3)
     the integrator's own arrays (IAS15's b and e, WHFast's Jacobi state, ...).
-``gwork`` (7, N)
-    scratch of the gravity kernels (rows 0-3: the massive particles as structure of arrays).
+``gwork`` (GWORK_ROWS, N)
+    scratch of the gravity kernels (:data:`visviva.core.gravity.GWORK_ROWS`).
 ``force``, ``params``
     the additional force ``force(t, x, v, m, params, acc)`` (a first-class compiled function that
     ADDS to ``acc``) and its float64 parameter array.

@@ -17,7 +17,7 @@ Array layout (``K`` = the integrator's ``N_BUF``, ``T`` output times):
     each member's massive-particle indices (local to the member).
 ``fstate`` (M, N_FSTATE), ``istate`` (M, N_ISTATE)
     one row per member.
-``buf`` (K * sum N * 3,), ``gwork`` (7 * sum N,)
+``buf`` (K * sum N * 3,), ``gwork`` (GWORK_ROWS * sum N,)
     the integrator's arrays and the gravity scratch, member after member (reshaped per member).
 ``params`` (P,), offsets ``qoff`` (M + 1,)
     the additional force's parameters of each member.
@@ -33,6 +33,7 @@ from __future__ import annotations
 from numba import types
 
 from ._jit import parallel_kernel, prange
+from .gravity import GWORK_ROWS
 from .nbody_common import RUN_SIGNATURE
 
 __all__ = ["ensemble_run", "ENSEMBLE_SIGNATURE", "RUN_TYPE"]
@@ -70,7 +71,8 @@ def ensemble_run(run, n_buf, x, v, m, massive, moff, radius, fstate, istate, buf
         status[k] = run(
             x[a:b], v[a:b], m[a:b], massive[moff[k]:moff[k + 1]], radius[a:b], fstate[k],
             istate[k], buf[n_buf * a * 3:n_buf * b * 3].reshape((n_buf, n, 3)),
-            gwork[7 * a:7 * b].reshape((7, n)), force, params[qoff[k]:qoff[k + 1]], t_out,
+            gwork[GWORK_ROWS * a:GWORK_ROWS * b].reshape((GWORK_ROWS, n)), force,
+            params[qoff[k]:qoff[k + 1]], t_out,
             out_t[k], out_x[T * a * 3:T * b * 3].reshape((T, n, 3)),
             out_v[T * a * 3:T * b * 3].reshape((T, n, 3)),
         )

@@ -342,6 +342,8 @@ def advance_members(members: list, t, backend: str = "cpu") -> list:
 
 def _run_group(members, times) -> np.ndarray:
     """One compiled call over ``members`` (same forces, same output times); their status codes."""
+    from ..core.gravity import GWORK_ROWS
+
     info = members[0].integrator_info
     n_buf = info.n_buf
     inputs = [s.kernel_inputs(parallel=False) for s in members]
@@ -362,7 +364,7 @@ def _run_group(members, times) -> np.ndarray:
     params = np.ascontiguousarray(np.concatenate([i[1] for i in inputs]))
     T = len(times)
     total = int(poff[-1])
-    gwork = np.zeros(7 * total)
+    gwork = np.zeros(GWORK_ROWS * total)
     out_t = np.zeros((len(members), T))
     out_x = np.zeros(T * total * 3)
     out_v = np.zeros(T * total * 3)

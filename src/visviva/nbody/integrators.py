@@ -91,12 +91,17 @@ class Integrator:
         ``<kernel_name>_plain`` when that says so: the few-body kernel for the default case
         alone (no other coordinates, corrector or events compiled).
         """
+        name = self.variant(few, istate, fstate)
+        return compiled_kernel(self.module, name, threads=name == self.kernel_name)
+
+    def variant(self, few: bool = False, istate=None, fstate=None) -> str:
+        """The name of the kernel :meth:`kernel` returns for these arguments."""
         plain = getattr(self.core, "is_plain", None)
         if few and istate is not None and plain is not None and plain(istate, fstate):
-            return compiled_kernel(self.module, self.kernel_name + "_plain", threads=False)
+            return self.kernel_name + "_plain"
         if few:
-            return compiled_kernel(self.module, self.kernel_name + "_few", threads=False)
-        return compiled_kernel(self.module, self.kernel_name)
+            return self.kernel_name + "_few"
+        return self.kernel_name
 
 
 def few_bodies(istate, massive) -> bool:

@@ -17,10 +17,12 @@ import numpy as np
 from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
 from ..core import status as _st
+from ..core._jit import interpreted
 from ..errors import InvalidInputError, ShapeError, fmt_number
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
+from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
 from .placement import elements_to_state
@@ -570,13 +572,19 @@ class Simulation:
         try:
             while True:
                 fn, params, _ = self.kernel_inputs()
-                stop = st.istate[_nc.I_STEPS] + 2000 if progress else 0
+                stop = int(st.istate[_nc.I_STEPS]) + 2000 if progress else 0
                 st.istate[_nc.I_STOP_AT_STEP] = stop
                 done0 = int(st.istate[_nc.I_NOUT])
-                status = int(info.kernel(few_bodies(st.istate, st.massive), st.istate, st.fstate)(
-                    st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
-                    st.gwork, fn, params, times, out_t, chunk_x, chunk_v,
-                ))
+                few = few_bodies(st.istate, st.massive)
+                args = (st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
+                        st.gwork, fn, params, times, out_t, chunk_x, chunk_v)
+                status = None
+                slow = _tier.interpreted_kernel(info, few, st.istate, st.fstate, len(st.massive))
+                if slow is not None:  # a cold first run: the interpreter tier (nbody/tier.py)
+                    status = _tier.run_slice(slow, args[:9] + (interpreted(fn),) + args[10:],
+                                             st.istate, stop)
+                if status is None:
+                    status = int(info.kernel(few, st.istate, st.fstate)(*args))
                 done = int(st.istate[_nc.I_NOUT])
                 if done > done0:
                     out_x[done0:done, alive] = chunk_x[done0:done]

@@ -131,9 +131,11 @@ class SimulationState:
             self.mark_fresh()
 
     def work(self) -> np.ndarray:
-        """The gravity kernels' scratch, shape (7, N)."""
-        if self.gwork is None or self.gwork.shape[1] != self.N:
-            self.gwork = np.zeros((7, self.N))
+        """The gravity kernels' scratch, shape (GWORK_ROWS, N) (:mod:`visviva.core.gravity`)."""
+        from ..core.gravity import GWORK_ROWS
+
+        if self.gwork is None or self.gwork.shape != (GWORK_ROWS, self.N):
+            self.gwork = np.zeros((GWORK_ROWS, self.N))
         return self.gwork
 
     # ---- copies and files ------------------------------------------------------------------------

@@ -401,6 +401,44 @@ def _raise_budget(max_steps, t_reached_s, where):
     )
 
 
+#: CPU seconds per step of an interpreted Cowell run (core/tier.py), first guess (measured 0.6
+#: ms for two-body + J2); updated from each interpreted run.
+_INTERPRETED_STEP_S = {"s": 1e-3}
+
+
+def _integrate(args: tuple, info: np.ndarray) -> int:
+    """``integrate_cowell(*args)``; on a fresh install, interpreted first (:mod:`visviva.core.tier`).
+
+    A Cowell run cannot pause and resume bit for bit, so the interpreted run gets a step cap
+    that the process's interpreter budget affords; a run that reaches it is dropped (its arrays
+    restored) and the machine code runs it from the start. ``info`` is the kernel's info array
+    (``info[2]``: steps done)."""
+    import time
+
+    from ..core import tier
+
+    max_steps = int(args[6])
+    cap = min(max_steps, int(tier.budget_left() / _INTERPRETED_STEP_S["s"]))
+    if cap < 50:  # not worth it (or the tier is off, or its budget is used)
+        return integrate_cowell(*args)
+    fn = tier.interpreted_if_cold(integrate_cowell,
+                                  tuple(integrate_cowell.typeof_pyval(a) for a in args))
+    if fn is None:
+        return integrate_cowell(*args)
+    t0 = time.process_time()
+
+    def finished(status) -> bool:  # (before the arrays are restored)
+        steps = int(info[2])
+        if steps > 0:
+            _INTERPRETED_STEP_S["s"] = max((time.process_time() - t0) / steps, 1e-5)
+        return cap == max_steps or status == 0 or steps < cap
+
+    ok, status = tier.run_guarded(fn, args[:6] + (cap,) + args[7:], accept=finished)
+    if ok:
+        return int(status)
+    return integrate_cowell(*args)
+
+
 def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
     A, B, C, E3, E5, D = dop853_tableau()
     kinds, params, dirs, terms = ev
@@ -411,12 +449,12 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
         ev_y = np.zeros((cap, 6))
         ev_which = np.zeros(cap)
         info = np.zeros(6)
-        status = integrate_cowell(
+        status = _integrate((
             y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             kinds, params, dirs, terms, ev_tol, A, B, C, E3, E5, D,
             y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, len(kinds)),
             np.zeros((WORK_ROWS, 6)),
-        )  # fmt: skip
+        ), info)  # fmt: skip
         n_found = int(info[1])
         if n_found <= cap:
             break

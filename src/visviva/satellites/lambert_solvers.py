@@ -15,6 +15,7 @@ import numpy as np
 
 from .._units import to_array, to_quantity, to_vector
 from ..core import status as st
+from ..core import tier
 from ..core.lambert import izzo_many, universal_many
 from ..errors import DomainError, InvalidInputError, ShapeError, raise_for_status
 
@@ -142,10 +143,11 @@ def lambert(
     v1 = np.empty((n, 3))
     v2 = np.empty((n, 3))
     status = np.zeros(n, dtype=np.int64)
-    LAMBERT_METHODS[method]["kernel"](
+    tier.call(  # a small call on a fresh install runs interpreted (core/tier.py)
+        LAMBERT_METHODS[method]["kernel"],
         np.ascontiguousarray(k1), np.ascontiguousarray(k2), np.ascontiguousarray(kt),
         np.ascontiguousarray(km), int(revolutions), bool(prograde), branch == "right", v1, v2,
-        status,
+        status, small=n <= tier.SMALL_ITEMS,
     )  # fmt: skip
     v1 = np.where(rescale[:, None], v1 * speed[:, None], v1)
     v2 = np.where(rescale[:, None], v2 * speed[:, None], v2)

@@ -1,0 +1,55 @@
+"""Fixtures shared by the interpreter-tier tests (tests/test_tier.py, tests/test_nbody_tier.py)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+#: Prepended to a fresh-process script: records the names of the kernels numba compiles in
+#: ``compiled`` (a list).
+COMPILE_LISTENER = """
+from numba.core import event
+compiled = []
+class _Listener(event.Listener):
+    def on_start(self, ev): compiled.append(ev.data["dispatcher"].py_func.__name__)
+    def on_end(self, ev): pass
+event.register("numba:compile", _Listener())
+"""
+
+
+@pytest.fixture
+def force_tier(monkeypatch):
+    """``force_tier("interpreted")`` or ``force_tier("compiled")``: the tier every small call
+    of the test takes (``budget``: the interpreter's CPU budget, seconds). "interpreted" is as
+    on a fresh install: no machine code in memory or in numba's cache."""
+    from visviva.core import _jit
+    from visviva.core import tier as core_tier
+    from visviva.nbody import tier as nbody_tier
+
+    def choose(mode, budget=1e9):
+        monkeypatch.setattr(core_tier, "spent", {"cpu_s": 0.0, "off": mode == "compiled"})
+        monkeypatch.setattr(core_tier, "BUDGET_S", budget)
+        monkeypatch.setattr(nbody_tier, "_per_step", {"s": None})
+        monkeypatch.setattr(_jit._Kernel, "load_cached", lambda self, sig: False)
+    return choose
+
+
+@pytest.fixture
+def cold_and_warm(tmp_path):
+    """``cold_and_warm(script, *args)``: the last stdout line of ``script`` (run after
+    :data:`COMPILE_LISTENER`) split on spaces, in a fresh process with an EMPTY numba cache
+    (the interpreter tier on), and in one with the test session's own cache and the tier off
+    (``VISVIVA_INTERPRET=0``: the machine code, loaded or compiled)."""
+    def run(script, *args):
+        out = []
+        for env in (dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path)),
+                    dict(os.environ, VISVIVA_INTERPRET="0")):
+            proc = subprocess.run([sys.executable, "-c", COMPILE_LISTENER + script, *args],
+                                  capture_output=True, text=True, env=env, timeout=900,
+                                  check=True)
+            out.append(proc.stdout.strip().splitlines()[-1].split(" "))
+        return out
+    return run

@@ -22,42 +22,35 @@ whatever the number of threads or the width of the CPU's vectors.
 Large N: each pair once, fixed work items
 -----------------------------------------
 From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 2.1x
-faster per interaction on one thread (0.42 against 0.87 ns at N = 4,000 on a 2-core Zen 4 EPYC;
-3.6x on an AVX-512 Xeon with a slower divide, measured with the earlier multiply-add loops):
+faster per interaction on one thread (0.42 against 0.87 ns at N = 4,000 on a 2-core Zen 4 EPYC):
 
 * each massive pair is evaluated once (Newton's third law: ``a_i += G m_j d r**-3`` and
   ``a_j -= G m_i d r**-3``), which halves the work;
-* ``r**-3`` comes without a divide or square root (the double-precision divide/sqrt unit bounds
-  the small-N kernel): on CPUs with AVX-512 from the ``vrsqrt14pd`` estimate of ``1/sqrt(r2)``
-  (relative error below ``2**-14``) and one fourth-order step folded into the cube (max relative
-  error 1.1e-16 over 200 decades, tested); elsewhere from a bit-level first guess, one third-order
-  Householder step and a final third-order step folded into the cube (:func:`inv_r3`, 2.7e-16;
-  the correctly rounded ``1 / (r2 sqrt(r2))`` in float64 itself has 2.6e-16). All multiply-adds;
-* the three inner loops (a row of pairs, the masked head of a row, a test particle's row) are
-  written as explicit 8-double vectors in LLVM IR (:mod:`visviva.core.gravity_simd`: the loop
-  vectoriser cannot use ``vrsqrt14pd``), 512-bit on AVX-512; 1.3-1.8x faster than the
-  auto-vectorised scalar loops they replace (N = 256 ... 10^5, one thread, side by side) (:func:`pair_row`, :func:`pair_row_head`,
-  :func:`row_acceleration_fast`, kept as the references the tests compare with and as the code
-  that runs under ``NUMBA_DISABLE_JIT``). They run over a private copy of the massive particles
-  as rows ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a
-  multiple of 8 columns and is padded at the end to a multiple of 16 with massless dummies placed
-  far from every particle, so the loads are aligned and no scalar remainder loop runs.
+* ``r**-3`` by multiply-adds, no divide or square root: on AVX-512 CPUs from the ``vrsqrt14pd``
+  estimate and one fourth-order step folded into the cube (max relative error 1.1e-16, tested),
+  elsewhere from the bit-level guess and two third-order steps of :func:`inv_r3` (2.7e-16; the
+  correctly rounded ``1 / (r2 sqrt(r2))`` has 2.6e-16);
+* the three inner loops are explicit 8-double vectors in LLVM IR
+  (:mod:`visviva.core.gravity_simd`; 1.3-1.8x faster than the auto-vectorised scalar loops
+  :func:`pair_row`, :func:`pair_row_head` and :func:`row_acceleration_fast`, kept as the
+  references the tests compare with and as what runs under ``NUMBA_DISABLE_JIT``), over a
+  private copy of the massive particles as rows ``x, y, z, G m`` starting on 64-byte boundaries;
+  every row of pairs starts on a multiple of 8 columns and is padded to a multiple of 16 with
+  massless dummies far from every particle (aligned loads, no remainder loop).
 
 Determinism: the triangle of pairs (rows ``i``, columns ``j > i``) is cut into ``2 *``
 :data:`PAIR_ITEMS` blocks of rows; work item ``k`` takes blocks ``k`` and ``nb - 1 - k`` (equal work
 in total). The number of items is fixed in advance (not the thread count); each item accumulates
-into its own buffer in a fixed order; the buffers are then summed per particle in item order.
-Threads only choose which item runs where (dynamically: each takes the next item from an atomic
-counter, so a thread that another process holds up takes fewer; the thread that finishes the
-last item sums the buffers, so a call has one parallel region), so the bits do not depend on the
-number of threads or on the machine's load (serial and parallel agree too; tested). Test
-particles still cost O(N_massive) each: they use a one-sided row with the same ``r**-3``. The
-large-N path gives different bits from the small-N one (a different summation order, and
-``r**-3`` within about one ulp of the correctly rounded ``1 / (r2 sqrt(r2))``), and on CPUs with
-and without AVX-512 (the first guess); systems below :data:`PAIR_MIN_N` massive particles (planetary
-systems compared with REBOUND at tight tolerances) keep the small-N kernel unchanged, bit for bit.
-Coordinates beyond about ``1e100`` or separations below ``1e-100`` (in the units used) may overflow
-differently in the two paths; a coincident pair without softening contributes exactly 0 in both.
+into its own buffer; the buffers are summed per particle in item order. Threads take the items
+dynamically (an atomic counter: a thread that another process holds up takes fewer) and the one
+that finishes the last item sums the buffers (one parallel region per call): who ran what never
+changes the bits, so they do not depend on the number of threads (serial and parallel agree;
+tested). Test particles use a one-sided row with the same ``r**-3``. The large-N bits differ from
+the small-N ones (summation order, ``r**-3`` within an ulp) and between CPUs with and without
+AVX-512; systems below :data:`PAIR_MIN_N` massive particles (planetary systems compared with
+REBOUND at tight tolerances) keep the small-N kernel, bit for bit. Coordinates beyond about
+``1e100`` or separations below ``1e-100`` may overflow differently in the two paths; a coincident
+pair without softening contributes exactly 0 in both.
 
 All inputs are plain float64 arrays in any consistent units (``G`` in the same units).
 
@@ -293,37 +286,17 @@ def inv_r3(r2):
 
 @simd_kernel
 def pair_row(xi, yi, zi, gmi, p, lo, hi, soft2, b):
-    """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)``: returns the sum on ``i`` and subtracts
-    the reaction from ``b[:, j]`` (the scalar reference of
-    :func:`visviva.core.gravity_simd.pair_row`, which the compiled kernel runs).
+    """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)`` (``i`` not in it): returns the sum
+    ``sum_j G m_j d / r**3`` on ``i`` (``d = x_j - x_i``, length / time**2) and subtracts the
+    reaction ``G m_i d / r**3`` from ``b[:, j]``.
 
-    Parameters
-    ----------
-    xi, yi, zi : float
-        Position of particle ``i`` (length).
-    gmi : float
-        Its ``G m_i`` (length**3 / time**2).
-    p : ndarray of float64, shape (4, >= hi)
-        The massive particles as rows ``x, y, z, G m`` (length; length**3 / time**2).
-    lo, hi : int
-        The range of ``j`` (``0 <= lo``, ``i`` not in it).
-    soft2 : float
-        Square of the softening length (length**2).
-    b : ndarray of float64, shape (3, >= hi)
-        Accumulators of the accelerations of the ``j``: ``G m_i d / r**3`` is subtracted.
-
-    Returns
-    -------
-    ax, ay, az : float
-        ``sum_j G m_j d / r**3`` with ``d = x_j - x_i`` (length / time**2).
-
-    Notes
-    -----
-    With softening ``r2 >= soft2 > 0``; without it, a coincident pair (``r2 == 0``) is given
-    ``r2 = 1`` so its term is exactly 0. ``r**-3`` from :func:`inv_r3`. The loop runs over an
-    unsigned index (no negative-index wraparound, so it vectorises) with 512-bit vectors where
-    available. Two 2-d arguments rather than seven 1-d ones: numba then prunes the reference
-    counting of the arguments, which otherwise costs ~75 ns per call.
+    ``p`` holds the massive particles as rows ``x, y, z, G m`` (length; length**3 / time**2),
+    ``soft2`` the squared softening length (length**2). With softening ``r2 >= soft2 > 0``;
+    without, a coincident pair is given ``r2 = 1`` so its term is exactly 0. The scalar
+    reference of :func:`visviva.core.gravity_simd.pair_row`, which the compiled kernel runs (this
+    loop, auto-vectorised with 512-bit vectors, was the kernel before). The unsigned index
+    avoids numba's negative-index wraparound (which stops vectorisation); two 2-d arguments
+    rather than seven 1-d ones let numba prune their reference counting (~75 ns a call).
     """
     prefer_wide_vectors()
     ax = 0.0

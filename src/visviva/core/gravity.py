@@ -482,20 +482,18 @@ def _pair_item(k, nm, p, soft2, buf):
 
 
 @kernel
-def _pair_reduce(lo, hi, buf, massive, acc):
-    # acc of the massive particles lo <= b < hi: the item buffers summed in item order
-    for b in range(lo, hi):
-        ax = 0.0
-        ay = 0.0
-        az = 0.0
-        for k in range(buf.shape[0]):
-            ax += buf[k, 0, b]
-            ay += buf[k, 1, b]
-            az += buf[k, 2, b]
+def _pair_reduce(nm, buf, massive, acc):
+    # acc of the massive particles: the item buffers summed in item order, into item 0's buffer
+    # (items outer, particles inner: the inner loop vectorises, each sum keeps the item order)
+    for k in range(1, buf.shape[0]):
+        for c in range(3):
+            for b in range(nm):
+                buf[0, c, b] += buf[k, c, b]
+    for b in range(nm):
         i = massive[b]
-        acc[i, 0] = ax
-        acc[i, 1] = ay
-        acc[i, 2] = az
+        acc[i, 0] = buf[0, 0, b]
+        acc[i, 1] = buf[0, 1, b]
+        acc[i, 2] = buf[0, 2, b]
 
 
 @kernel
@@ -532,7 +530,7 @@ def _gravity_pairs_serial(x, m, G, soft2, massive, acc):
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     for k in range(PAIR_ITEMS):
         _pair_item(k, nm, p, soft2, buf)
-    _pair_reduce(0, nm, buf, massive, acc)
+    _pair_reduce(nm, buf, massive, acc)
     tests = _test_indices(x.shape[0], massive)
     _test_rows(0, tests.shape[0], tests, x, p, nm, soft2, acc)
 
@@ -554,7 +552,7 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
         while k < PAIR_ITEMS:
             _pair_item(k, nm, p, soft2, buf)
             if _ticket(tickets, 1) == PAIR_ITEMS - 1:
-                _pair_reduce(0, nm, buf, massive, acc)
+                _pair_reduce(nm, buf, massive, acc)
             k = _ticket(tickets, 0)
     if x.shape[0] > nm:  # test particles (no parallel region when there are none)
         tests = _test_indices(x.shape[0], massive)

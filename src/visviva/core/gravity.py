@@ -117,7 +117,7 @@ PAIR_PAD = 16
 #: (a type, not a value: ``None`` makes numba drop the other paths when it compiles the caller).
 FEW = None
 #: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003).
-_RSQRT_MAGIC = 0x5FE6EB50C7B537A9
+_RSQRT_MAGIC = gravity_simd.RSQRT_MAGIC
 
 
 @kernel

@@ -34,6 +34,9 @@ Column ranges: ``lo`` is a multiple of 8 (and the rows of ``p``, ``b`` start on 
 boundaries, see :func:`visviva.core.gravity._aligned_rows`); the loops run in steps of 8 while
 ``j < hi``, so the columns up to the next multiple of 8 at or above ``hi`` must exist (the
 massless padding of :func:`visviva.core.gravity._pad_massive`).
+
+The module also holds :func:`ticket`, the atomic counter with which the parallel kernel's
+threads share its work items.
 """
 
 from __future__ import annotations
@@ -43,14 +46,17 @@ from numba import types
 from numba.core import errors
 from numba.extending import intrinsic
 
-__all__ = ["pair_row", "pair_row_head", "one_sided_row", "inv_r3_x8", "has_rsqrt14", "ticket"]
+__all__ = ["pair_row", "pair_row_head", "one_sided_row", "inv_r3_x8", "has_rsqrt14", "ticket",
+           "RSQRT_MAGIC"]
 
 _F64 = ir.DoubleType()
 _V8 = ir.VectorType(_F64, 8)
 _I64 = ir.IntType(64)
 _VI8 = ir.VectorType(_I64, 8)
 _I32 = ir.IntType(32)
-_RSQRT_MAGIC = 0x5FE6EB50C7B537A9  # as visviva.core.gravity (Lomont 2003)
+#: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003), here and in
+#: :func:`visviva.core.gravity.inv_r3`.
+RSQRT_MAGIC = 0x5FE6EB50C7B537A9
 _RSQRT14 = "llvm.x86.avx512.rsqrt14.pd.512"
 
 
@@ -104,7 +110,7 @@ def _inv_r3(builder, r2, rsqrt14):
         fold = (1.5, 1.875, 2.1875, 2.4609375)
     else:  # inv_r3's guess and first step: y (1 + e/2 + 3 e**2/8 + 5 e**3/16)
         bits = builder.lshr(builder.bitcast(r2, _VI8), ir.Constant(_VI8, [1] * 8))
-        y = builder.bitcast(builder.sub(ir.Constant(_VI8, [_RSQRT_MAGIC] * 8), bits), _V8)
+        y = builder.bitcast(builder.sub(ir.Constant(_VI8, [RSQRT_MAGIC] * 8), bits), _V8)
         e = _fma(builder, builder.fneg(r2), builder.fmul(y, y), _const(1.0))
         y = _fma(builder, y, builder.fmul(e, _poly(builder, e, (0.5, 0.375, 0.3125))), y)
         fold = (1.5, 1.875, 2.1875)

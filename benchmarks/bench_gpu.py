@@ -10,7 +10,8 @@ Rows
   (target <= 0.625x, i.e. a speed-up >= 1.6x; the notes give the speed-up).
 * Direct summation on the GPU backend (leapfrog, N = 10^3 ... 10^6; ns per interaction; the
   tiled kernel) against the CPU backend on every core (target <= 0.02x, i.e. >= 50x); WHFast
-  with its interaction step on the GPU (N = 10^4, 10^5); ensembles of leapfrog systems on the GPU
+  with its interaction step on the GPU (N = 10^4, 10^5); IAS15 with its gravity evaluations on
+  the GPU (N = 10^4, 10^5; the same steps as the CPU run); ensembles of leapfrog systems on the GPU
   (system-steps per second) against the CPU ensemble. Without an NVIDIA GPU these rows are
   reported as skipped with the CPU figures in the notes. The GPU model is printed and given in
   the notes of every GPU row. One command on a GPU machine: ``python -m benchmarks --only gpu``.
@@ -60,8 +61,9 @@ def _cluster(n, backend, seed=1):
                         np.full(n, 1.0 / n), backend, dt=1e-3, softening=0.01)
 
 
-def _disc(n, backend, seed=2):
-    """A star and ``n - 1`` planetesimals on near-circular orbits at 1-3 (WHFast, dt = 0.01)."""
+def _disc(n, backend, seed=2, integrator="whfast"):
+    """A star and ``n - 1`` planetesimals on near-circular orbits at 1-3 (dt = 0.01: WHFast's
+    step, IAS15's first guess)."""
     rng = np.random.default_rng(seed)
     a = rng.uniform(1.0, 3.0, n)
     phi = rng.uniform(0.0, 2 * np.pi, n)
@@ -72,7 +74,7 @@ def _disc(n, backend, seed=2):
     x[0] = v[0] = 0.0
     m = np.full(n, 1e-9)
     m[0] = 1.0
-    return _from_arrays("whfast", x, v, m, backend, dt=0.01, softening=1e-3)
+    return _from_arrays(integrator, x, v, m, backend, dt=0.01, softening=1e-3)
 
 
 def _gpu_problem():
@@ -230,6 +232,39 @@ def run(quick: bool = False) -> list[dict]:
                            compile_s=c,
                            notes=f"{t_gpu.median / nsteps * 1e3:.3g} ms per step (CPU "
                                  f"{t_cpu.median / nsteps * 1e3:.3g}); fp64; {model}"))
+
+    # IAS15 with every gravity evaluation of its predictor-corrector on the GPU: the GPU and the
+    # CPU runs take the same steps (the same kernel decides them), so the ratio of the times
+    # over one time span is the ratio per step
+    for n in (2_000,) if quick or problem else (10_000, 100_000):
+        cpu = _disc(n, "cpu", integrator="ias15")
+        span = 0.2 if n <= 10_000 else 0.1  # about 3 and 1-2 steps
+
+        def istep(sim=cpu, dt=span):
+            sim.integrate(sim.t + dt)
+
+        with threads(None):
+            istep()
+            s0 = cpu.steps_done
+            t_cpu = time_call(istep, repeat=3 if n <= 10_000 else 1, number=1)
+        per_step = (cpu.steps_done - s0) / (3 if n <= 10_000 else 1)
+        name = f"IAS15 on the GPU (gravity evaluations), star + {n - 1} planetesimals"
+        if problem:
+            rows.append(skipped(name, f"no GPU ({problem}); CPU backend: {t_cpu.median:.3g} s "
+                                      f"per {span} time units (~{per_step:.3g} steps)"))
+            continue
+        gpu = _disc(n, "cuda", integrator="ias15")
+
+        def gistep(sim=gpu, dt=span):
+            sim.integrate(sim.t + dt)
+
+        c = compile_time(gistep)
+        t_gpu = time_call(gistep, repeat=3 if n <= 10_000 else 1, number=1)
+        rows.append(result(name, t_gpu, "CPU backend, every core", t_cpu, target=0.1,
+                           compile_s=c,
+                           notes=f"{t_gpu.median:.3g} s per {span} time units (~{per_step:.3g} "
+                                 f"steps; CPU {t_cpu.median:.3g} s); the same steps as the "
+                                 f"CPU run; fp64; {model}"))
 
     members = 4096 if quick else 131_072
     lf = [_system(1.0 + k / members, "leapfrog", dt=0.01) for k in range(min(members, 4096))]

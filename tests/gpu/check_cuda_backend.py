@@ -11,6 +11,7 @@ import numpy as np
 from astropy import units as u
 
 import visviva as vv
+from visviva.nbody.forces import J2Force
 
 
 def system(backend, n=6, seed=0, softening=0.0):
@@ -78,22 +79,25 @@ def main():
     gm = rng.uniform(0.1, 1.0, 50)
     massive = np.arange(50, dtype=np.int64)
     acc_d = cuda.device_array((50, 3))
+    d_x = cuda.to_device(x)
     kernels.accelerations[kernels.blocks(50), kernels.THREADS](
-        cuda.to_device(x), cuda.to_device(gm), cuda.to_device(massive), 0.0, acc_d)
+        d_x, d_x, cuda.to_device(gm), cuda.to_device(massive), 0.0, acc_d)
     twin = np.zeros((50, 3))
     arith.member_accelerations_cpu(x, gm, massive, 0, 50, 0, 50, 0.0, twin)
     print(f"twin_acc={rel(acc_d.copy_to_host(), twin)!r}")
 
-    # the tiled kernel over several blocks and tiles (300 particles, 200 massive: 3 blocks of
-    # 128 threads, 2 tiles), softened: the pulls are added in the twin's order, so equal bits
+    # the tiled kernel over several blocks and tiles (300 particles, 200 massive: 3 blocks and
+    # 2 tiles of 128 on a GPU, 19 and 13 of 16 under the simulator), softened: the pulls are
+    # added in the twin's order, so equal bits
     n = 300
     x = rng.normal(size=(n, 3))
     gm = rng.uniform(0.1, 1.0, n)
     gm[::3] = 0.0
     massive = np.flatnonzero(gm).astype(np.int64)
     acc_d = cuda.device_array((n, 3))
+    d_x = cuda.to_device(x)
     kernels.accelerations[kernels.blocks(n), kernels.THREADS](
-        cuda.to_device(x), cuda.to_device(gm), cuda.to_device(massive), 1e-4, acc_d)
+        d_x, d_x, cuda.to_device(gm), cuda.to_device(massive), 1e-4, acc_d)
     twin = np.zeros((n, 3))
     arith.member_accelerations_cpu(x, gm, massive, 0, len(massive), 0, n, 1e-4, twin)
     print(f"tiled_acc={rel(acc_d.copy_to_host(), twin)!r}")
@@ -101,11 +105,11 @@ def main():
 
     # WHFast with the interaction step's gravity on the GPU: a star and 139 planetesimals (more
     # massive bodies than one tile), off the grid then on it, then continued on the CPU
-    def disc(backend):
+    def disc(backend, n=139, **settings):
         rng = np.random.default_rng(11)
-        sim = vv.Simulation("whfast", dt=0.02, backend=backend)
+        sim = vv.Simulation("whfast", dt=0.02, backend=backend, **settings)
         sim.add(1.0)
-        for k in range(139):
+        for k in range(n):
             sim.add(1e-7 * rng.uniform(0.5, 1.5), a=1.0 + 0.01 * k, e=0.05 * rng.uniform(),
                     inc=0.02 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=None)
         sim.move_to_com()
@@ -124,6 +128,30 @@ def main():
     back.integrate(0.14)
     wc.integrate(0.14)
     print(f"whfast_restart_pos={rel(back.positions, wc.positions)!r}")
+
+    # democratic heliocentric coordinates, and Jacobi with a 5th-order corrector: 3 planets and
+    # 20 planetesimals, off the grid then on it, then continued on the CPU from the saved state
+    # (and democratic heliocentric with J2 of the star: the additional force's slot)
+    for key, settings in (("dh", {"coordinates": "democratic_heliocentric"}),
+                          ("corrector", {"corrector": 5}),
+                          ("dh_j2", {"coordinates": "democratic_heliocentric"})):
+        wc, wg = disc("cpu", n=20, **settings), disc("cuda", n=20, **settings)
+        for sim in (wc, wg):
+            for j in (1, 2, 3):
+                sim.set_particle(j, m=1e-3 / j)
+            sim.move_to_com()
+            if key == "dh_j2":
+                sim.add_force(J2Force(0, 0.05, 0.3))
+            sim.integrate(0.07)
+            sim.integrate(0.16)
+        print(f"whfast_{key}_pos={rel(wg.positions, wc.positions)!r}")
+        print(f"whfast_{key}_vel={rel(wg.velocities, wc.velocities)!r}")
+        print(f"whfast_{key}_steps_equal={(wg.steps_done == wc.steps_done > 5)!r}")
+        wg.save(gpu_path)
+        back = vv.Simulation.load(gpu_path)
+        back.integrate(0.3)
+        wc.integrate(0.3)
+        print(f"whfast_{key}_restart_pos={rel(back.positions, wc.positions)!r}")
 
     # batch two-body propagation: the universal-variable solver's device twin against the CPU
 

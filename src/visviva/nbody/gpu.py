@@ -6,18 +6,26 @@ What runs on the GPU today:
   simulation (one thread per particle per kernel, the gravity tiled through shared memory, the
   state kept on the device between steps) and for ensembles (one thread per member,
   :mod:`visviva.core.cuda.kernels`);
-* WHFast's interaction step for one large simulation (:mod:`visviva.nbody.gpu_whfast`): the
-  inertial accelerations by the tiled direct sum on the GPU, the Kepler drifts and the Jacobi
-  transforms (O(N) per step) by the CPU kernels, Jacobi coordinates without corrector.
+* IAS15 and WHFast for one large simulation (:mod:`visviva.nbody.gpu_force`): the CPU backend's
+  own compiled kernel runs every step (IAS15's predictor-corrector and step control; WHFast's
+  Kepler drifts, coordinate transforms and correctors, in Jacobi or democratic heliocentric
+  coordinates) and every gravity evaluation is the tiled direct sum on the GPU, handed to the
+  kernel through its additional-force argument (:mod:`visviva.nbody.gpu_ias15`, with IAS15's
+  two-part positions for tight pairs; :mod:`visviva.nbody.gpu_whfast`).
 
-The step grid, the time origin and the shortened last step to an output time follow the CPU
-kernels exactly, and the state (``buf`` included) is stored as the CPU backend stores it, so a run
-can be saved, loaded and continued on either backend. Results agree with the CPU backend to
-round-off (the gravity sums are added in another order).
+The step grid, the time origin and the shortened last step to an output time are the CPU
+kernels' (the leapfrog's plan is computed with their expressions, :func:`plan`), and the state
+(``buf`` included) is stored as the CPU backend stores it, so a run can be saved, loaded and
+continued on either backend. Results agree with the CPU backend to round-off (the gravity sums
+are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative after several
+steps (``tests/test_nbody_gpu.py``); that is all the simulator shows, it says nothing of speed.
 
-Not on the GPU (yet): IAS15, WHFast ensembles, WHFast's symplectic correctors and democratic
-heliocentric coordinates, additional forces, collision/encounter/escape checks, arrays of output
-times; these raise :class:`visviva.errors.InvalidInputError` saying to use ``backend="cpu"``.
+IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
+kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
+mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 or WHFast
+systems, forces and events with the leapfrog or in ensembles, arrays of output times; these
+raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
+times) saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -29,6 +37,7 @@ import numpy as np
 from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
+from .gpu_force import DeviceGravity
 
 __all__ = [
     "check_backend", "integrate_simulation", "integrate_ensemble", "DeviceGravity",
@@ -36,7 +45,7 @@ __all__ = [
 ]
 
 #: Integrators with a GPU implementation: of one simulation, of an ensemble.
-GPU_INTEGRATORS = ("leapfrog", "whfast")
+GPU_INTEGRATORS = ("leapfrog", "whfast", "ias15")
 GPU_ENSEMBLE_INTEGRATORS = ("leapfrog",)
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -57,60 +66,21 @@ def check_backend(backend: str, integrator: str | None = None, ensemble: bool = 
     return name
 
 
+#: Integrators whose GPU run is their CPU kernel with the gravity on the GPU
+#: (:mod:`visviva.nbody.gpu_force`): additional forces and event checks run as on the CPU.
+CPU_KERNEL_INTEGRATORS = ("ias15", "whfast")
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    if sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance:
+    extras = sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance
+    if extras and (ensemble or sim.integrator not in CPU_KERNEL_INTEGRATORS):
+        what = "ensembles" if ensemble else "the leapfrog"
         raise InvalidInputError(
-            "backend='cuda' integrates gravity only: additional forces and collision, encounter "
-            "or escape checks run on backend='cpu'."
+            f"backend='cuda' integrates {what} with gravity only: additional forces and "
+            "collision, encounter or escape checks run on backend='cpu' (or, for one "
+            f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
         )
     check_backend("cuda", sim.integrator, ensemble)
-
-
-class DeviceGravity:
-    """Direct-summation accelerations of one system on the GPU (the tiled kernel).
-
-    Parameters
-    ----------
-    gm : ndarray, shape (N,)
-        ``G m`` of every particle (length**3 / time**2).
-    massive : ndarray of int64
-        Indices of the massive particles.
-    soft2 : float
-        Plummer softening length squared (length**2).
-    """
-
-    def __init__(self, gm, massive, soft2: float):
-        from numba import cuda
-
-        from ..core.cuda import kernels
-
-        self._kernels = kernels
-        self.n = len(gm)
-        self.gm = cuda.to_device(np.ascontiguousarray(gm, dtype=np.float64))
-        self.massive = cuda.to_device(np.ascontiguousarray(massive, dtype=np.int64))
-        self.soft2 = float(soft2)
-        self.acc = cuda.device_array((self.n, 3))
-        self._x = self._out = None  # host-path buffers, allocated on first use
-
-    def __call__(self, x):
-        """Launch the kernel on ``x`` (a device array, shape (N, 3)); returns the device array
-        of accelerations (length / time**2), overwritten by the next call."""
-        K = self._kernels
-        K.accelerations[K.blocks(self.n), K.THREADS](x, self.gm, self.massive, self.soft2,
-                                                     self.acc)
-        return self.acc
-
-    def host(self, x, out) -> None:
-        """Accelerations at the host positions ``x`` into the host array ``out`` (N, 3); the
-        device buffers are allocated once and reused."""
-        from numba import cuda
-
-        if self._x is None:
-            self._x = cuda.device_array((self.n, 3))
-            self._out = np.empty((self.n, 3))
-        self._x.copy_to_device(np.ascontiguousarray(x))
-        self(self._x).copy_to_host(self._out)
-        out[:] = self._out
 
 
 def plan(state: dict, target: float):
@@ -201,21 +171,23 @@ def begin_gpu_run(sim, t, ensemble: bool = False):
 
 def integrate_simulation(sim, t) -> None:
     """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
-    between steps, N threads per kernel; WHFast: :mod:`visviva.nbody.gpu_whfast`)."""
-    whfast = sim.integrator == "whfast"
-    if whfast:
-        from .gpu_whfast import check_supported, integrate_whfast
-
-        check_supported(sim.state_arrays()["istate"])
+    between steps, N threads per kernel; WHFast and IAS15: the CPU kernel with the gravity on
+    the GPU, :mod:`visviva.nbody.gpu_force`)."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
     target, massive = begin_gpu_run(sim, t)
+    if sim.integrator in CPU_KERNEL_INTEGRATORS:
+        from .gpu_force import run_with_gpu_gravity
+
+        if sim.integrator == "ias15":
+            from .gpu_ias15 import evaluator
+        else:
+            from .gpu_whfast import evaluator
+        return run_with_gpu_gravity(sim, target, evaluator)
     state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
-    if whfast:
-        return integrate_whfast(sim, state, target, gravity)
     n, h, rem, t_final = plan(state, target)
     grid = K.blocks(sim.N)
 

@@ -90,8 +90,8 @@ class Simulation:
         Land exactly on requested times (default) or return the first step past them. Either
         way the integrator's own trajectory does not depend on the output times.
     backend : str
-        ``"cpu"`` (default) or ``"cuda"``: the leapfrog's direct summation on an NVIDIA GPU
-        (:mod:`visviva.nbody.gpu`; raises :class:`visviva.errors.BackendUnavailableError`
+        ``"cpu"`` (default) or ``"cuda"``: the direct summation on an NVIDIA GPU, for every
+        integrator (:mod:`visviva.nbody.gpu`; raises :class:`visviva.errors.BackendUnavailableError`
         saying what is missing without a GPU or numba-cuda).
 
     Examples

@@ -10,7 +10,9 @@ The device functions are the source of :mod:`.arith` compiled with
   before the next tile is loaded (the scheme of Nyland, Harris & Prins 2007, GPU Gems 3 ch. 31),
   so every position is read from global memory once per block instead of once per thread. The
   pulls are added in the order of ``massive``, as :func:`.arith.particle_acceleration` adds them,
-  so the result equals the untiled sum bit for bit;
+  so the result equals the untiled sum bit for bit; :data:`accelerations_split` is the same
+  kernel on IAS15's two-part positions ``x + xlo`` and :func:`tight_pairs` the test that
+  selects it (see :mod:`visviva.nbody.gpu_ias15`);
 * :func:`drift`, :func:`kick_drift` - the two halves of a leapfrog step around it, one thread per
   particle (``x += v h/2``; ``v += a h``, ``x += v h/2``, in the CPU kernel's order);
 * :func:`ensemble_leapfrog` - one thread per member of an ensemble: ``nsteps[k]`` full steps of
@@ -24,12 +26,15 @@ from __future__ import annotations
 
 from numba import cuda, float64
 
-from . import arith
+from . import arith, simulator
 
-__all__ = ["accelerations", "drift", "kick_drift", "ensemble_leapfrog", "propagate_many", "THREADS"]
+__all__ = ["accelerations", "accelerations_split", "tight_pairs", "drift", "kick_drift",
+           "ensemble_leapfrog", "propagate_many", "THREADS"]
 
-#: Threads per block of every kernel.
-THREADS = 128
+#: Threads per block of every kernel (and the tile length of the direct sum): 128 on a GPU; 16
+#: under numba's CUDA simulator, which runs every thread of a block as a Python thread (a launch
+#: costs about 0.4 s at 128, 0.08 s at 16) and so covers several blocks and tiles at small N.
+THREADS = 16 if simulator() else 128
 
 _device = cuda.jit(device=True)
 _pair = _device(arith.pair_acceleration)
@@ -38,44 +43,100 @@ _member_acc = _device(arith.rebind(arith.member_accelerations, _particle=_partic
 _member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
 
 
+def _tiled(split):
+    """The tiled direct-sum kernel; ``split``: the positions are given in two parts."""
+
+    def accelerations(x, xlo, gm, massive, soft2, acc):
+        tx = cuda.shared.array(THREADS, float64)
+        ty = cuda.shared.array(THREADS, float64)
+        tz = cuda.shared.array(THREADS, float64)
+        tg = cuda.shared.array(THREADS, float64)
+        lx = cuda.shared.array(THREADS, float64)
+        ly = cuda.shared.array(THREADS, float64)
+        lz = cuda.shared.array(THREADS, float64)
+        i = cuda.grid(1)
+        lane = cuda.threadIdx.x
+        mine = i < x.shape[0]
+        n_massive = massive.shape[0]
+        xi = yi = zi = 0.0
+        lxi = lyi = lzi = 0.0
+        if mine:
+            xi = x[i, 0]
+            yi = x[i, 1]
+            zi = x[i, 2]
+            if split:
+                lxi = xlo[i, 0]
+                lyi = xlo[i, 1]
+                lzi = xlo[i, 2]
+        ax = ay = az = 0.0
+        for base in range(0, n_massive, THREADS):
+            b = base + lane
+            if b < n_massive:  # every thread of the block loads one member of the tile
+                j = massive[b]
+                tx[lane] = x[j, 0]
+                ty[lane] = x[j, 1]
+                tz[lane] = x[j, 2]
+                tg[lane] = gm[j]
+                if split:
+                    lx[lane] = xlo[j, 0]
+                    ly[lane] = xlo[j, 1]
+                    lz[lane] = xlo[j, 2]
+            cuda.syncthreads()
+            if mine:
+                for k in range(min(THREADS, n_massive - base)):
+                    dx = tx[k] - xi
+                    dy = ty[k] - yi
+                    dz = tz[k] - zi
+                    if split:  # (x_j - x_i) + (lo_j - lo_i), as gravity_split forms it
+                        dx += lx[k] - lxi
+                        dy += ly[k] - lyi
+                        dz += lz[k] - lzi
+                    px, py, pz = _pair(dx, dy, dz, tg[k], soft2)
+                    ax += px
+                    ay += py
+                    az += pz
+            cuda.syncthreads()  # the tile is read by all before the next one overwrites it
+        if mine:
+            acc[i, 0] = ax
+            acc[i, 1] = ay
+            acc[i, 2] = az
+
+    return cuda.jit(accelerations)
+
+
+#: ``accelerations[blocks, THREADS](x, xlo, gm, massive, soft2, acc)``: ``acc[i]`` from every
+#: massive particle, one thread per particle (one system), the massive particles streamed
+#: through shared memory in tiles of :data:`THREADS` (``xlo`` is not read: pass ``x``).
+accelerations = _tiled(False)
+#: The same on two-part positions ``x + xlo`` (IAS15's compensated state): the separations are
+#: ``(x_j - x_i) + (xlo_j - xlo_i)``, as :func:`visviva.core.gravity_split.gravity_split` forms
+#: them, so a tight pair far from the origin keeps its relative precision.
+accelerations_split = _tiled(True)
+
+
 @cuda.jit
-def accelerations(x, gm, massive, soft2, acc):
-    """``acc[i]`` from every massive particle, one thread per particle (one system), the massive
-    particles streamed through shared memory in tiles of :data:`THREADS`."""
-    tx = cuda.shared.array(THREADS, float64)
-    ty = cuda.shared.array(THREADS, float64)
-    tz = cuda.shared.array(THREADS, float64)
-    tg = cuda.shared.array(THREADS, float64)
+def tight_pairs(x, massive, k2, flags):
+    """``flags[i] = 1`` when particle ``i`` and a massive particle ``j != i`` are closer than
+    ``1 / sqrt(k2)`` of the larger of their distances from the origin, else 0 (the test of
+    :mod:`visviva.core.nbody_ias15` that switches a step to two-part positions)."""
     i = cuda.grid(1)
-    lane = cuda.threadIdx.x
-    mine = i < x.shape[0]
-    n_massive = massive.shape[0]
-    xi = yi = zi = 0.0
-    if mine:
+    if i < x.shape[0]:
         xi = x[i, 0]
         yi = x[i, 1]
         zi = x[i, 2]
-    ax = ay = az = 0.0
-    for base in range(0, n_massive, THREADS):
-        b = base + lane
-        if b < n_massive:  # every thread of the block loads one member of the tile
+        ri2 = xi * xi + yi * yi + zi * zi
+        flag = 0
+        for b in range(massive.shape[0]):
             j = massive[b]
-            tx[lane] = x[j, 0]
-            ty[lane] = x[j, 1]
-            tz[lane] = x[j, 2]
-            tg[lane] = gm[j]
-        cuda.syncthreads()
-        if mine:
-            for k in range(min(THREADS, n_massive - base)):
-                px, py, pz = _pair(tx[k] - xi, ty[k] - yi, tz[k] - zi, tg[k], soft2)
-                ax += px
-                ay += py
-                az += pz
-        cuda.syncthreads()  # the tile is read by all before the next one overwrites it
-    if mine:
-        acc[i, 0] = ax
-        acc[i, 1] = ay
-        acc[i, 2] = az
+            if j != i:
+                dx = x[j, 0] - xi
+                dy = x[j, 1] - yi
+                dz = x[j, 2] - zi
+                rj2 = x[j, 0] * x[j, 0] + x[j, 1] * x[j, 1] + x[j, 2] * x[j, 2]
+                if max(ri2, rj2) > k2 * (dx * dx + dy * dy + dz * dz):
+                    flag = 1
+                    break
+        flags[i] = flag
 
 
 @cuda.jit

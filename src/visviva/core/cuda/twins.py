@@ -2,8 +2,8 @@
 
 :func:`device_twin` takes a compiled scalar kernel (a numba dispatcher whose helpers are other
 dispatchers) and returns ``numba.cuda.jit(device=True)`` of the same source, with every helper it
-calls replaced by its own device twin (recursively, each built once) and the fused multiply-add
-intrinsic by libdevice's ``fma``. The arithmetic is then written once: the CPU keeps its kernels
+calls replaced by its own device twin (recursively, each built once), the fused multiply-add
+intrinsic by libdevice's ``fma`` and ``np.fmod`` by libdevice's ``fmod``. The arithmetic is then written once: the CPU keeps its kernels
 as they are, the GPU compiles the same functions.
 """
 
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import types
 
+import numpy as np
 from numba import cuda
 from numba.core.registry import CPUDispatcher
 
@@ -33,6 +34,24 @@ def _fma():
     return libdevice.fma
 
 
+def _numpy():
+    """What the device code sees as ``np``: numpy under the simulator; on a GPU a module whose
+    ``fmod`` is libdevice's (numba-cuda compiles no ``np.fmod`` ufunc; both are IEEE's exact
+    remainder) and whose other names are numpy's (constants such as ``np.pi``)."""
+    from . import simulator
+
+    if simulator():
+        return np
+    if "np" not in _TWINS:
+        from numba.cuda import libdevice
+
+        module = types.ModuleType("numpy_on_device")
+        module.__dict__.update({k: v for k, v in vars(np).items() if not k.startswith("_")})
+        module.fmod = libdevice.fmod
+        _TWINS["np"] = module
+    return _TWINS["np"]
+
+
 def _names(code):
     names = set(code.co_names)
     for const in code.co_consts:
@@ -52,6 +71,8 @@ def device_twin(dispatcher):
         value = scope.get(name)
         if value is _intrinsics.fma:
             scope[name] = _fma()
+        elif value is np:
+            scope[name] = _numpy()
         elif isinstance(value, CPUDispatcher):
             scope[name] = device_twin(value)
     source = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)

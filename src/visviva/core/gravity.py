@@ -21,34 +21,36 @@ whatever the number of threads or the width of the CPU's vectors.
 
 Large N: each pair once, fixed work items
 -----------------------------------------
-From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 3.6x
-faster per interaction on one thread (0.33 against 1.2 ns at N = 4,000 on an AVX-512 Xeon):
+From :data:`PAIR_MIN_N` massive particles on, both paths switch to a second kernel, about 2.1x
+faster per interaction on one thread (0.42 against 0.87 ns at N = 4,000 on a 2-core Zen 4 EPYC):
 
 * each massive pair is evaluated once (Newton's third law: ``a_i += G m_j d r**-3`` and
   ``a_j -= G m_i d r**-3``), which halves the work;
-* ``r**-3`` comes without a divide or square root (the double-precision divide/sqrt unit bounds
-  the small-N kernel): a bit-level first guess of ``1/sqrt(r2)`` (:func:`inv_r3`), one third-order
-  Householder step and a final third-order step folded into the cube, all multiply-adds, accurate
-  to about one ulp (max relative error 3.3e-16 over random inputs, tested; the correctly rounded
-  ``1 / (r2 sqrt(r2))`` in float64 itself has 2.7e-16);
-* the loop is compiled for the widest vectors the CPU has (:func:`visviva.core._jit.prefer_wide_vectors`: 512-bit
-  on AVX-512, where LLVM's default is 256), over a private copy of the massive particles as rows
-  ``x, y, z, G m`` whose rows start on 64-byte boundaries; every row of pairs starts on a multiple
-  of 8 columns and is padded at the end to a multiple of 16 with massless dummies placed far from
-  every particle, so the loads are aligned and no scalar remainder loop runs.
+* ``r**-3`` by multiply-adds, no divide or square root: on AVX-512 CPUs from the ``vrsqrt14pd``
+  estimate and one fourth-order step folded into the cube (max relative error 1.1e-16, tested),
+  elsewhere from the bit-level guess and two third-order steps of :func:`inv_r3` (2.7e-16; the
+  correctly rounded ``1 / (r2 sqrt(r2))`` has 2.6e-16);
+* the three inner loops are explicit 8-double vectors in LLVM IR
+  (:mod:`visviva.core.gravity_simd`; 1.3-1.8x faster than the auto-vectorised scalar loops
+  :func:`pair_row`, :func:`pair_row_head` and :func:`row_acceleration_fast`, kept as the
+  references the tests compare with and as what runs under ``NUMBA_DISABLE_JIT``), over a
+  private copy of the massive particles as rows ``x, y, z, G m`` starting on 64-byte boundaries;
+  every row of pairs starts on a multiple of 8 columns and is padded to a multiple of 16 with
+  massless dummies far from every particle (aligned loads, no remainder loop).
 
 Determinism: the triangle of pairs (rows ``i``, columns ``j > i``) is cut into ``2 *``
 :data:`PAIR_ITEMS` blocks of rows; work item ``k`` takes blocks ``k`` and ``nb - 1 - k`` (equal work
 in total). The number of items is fixed in advance (not the thread count); each item accumulates
-into its own buffer in a fixed order; the buffers are then summed per particle in item order.
-Threads only choose which item runs where, so the bits do not depend on the number of threads
-(serial and parallel agree too; tested). Test particles still cost O(N_massive) each: they use a
-one-sided row kernel with the same ``r**-3``. The large-N path gives different bits from the
-small-N one (a different summation order, and ``r**-3`` within about one ulp of the correctly
-rounded ``1 / (r2 sqrt(r2))``); systems below :data:`PAIR_MIN_N` massive particles (planetary
-systems compared with REBOUND at tight tolerances) keep the small-N kernel unchanged, bit for bit.
-Coordinates beyond about ``1e100`` or separations below ``1e-100`` (in the units used) may overflow
-differently in the two paths; a coincident pair without softening contributes exactly 0 in both.
+into its own buffer; the buffers are summed per particle in item order. Threads take the items
+dynamically (an atomic counter: a thread that another process holds up takes fewer) and the one
+that finishes the last item sums the buffers (one parallel region per call): who ran what never
+changes the bits, so they do not depend on the number of threads (serial and parallel agree;
+tested). Test particles use a one-sided row with the same ``r**-3``. The large-N bits differ from
+the small-N ones (summation order, ``r**-3`` within an ulp) and between CPUs with and without
+AVX-512; systems below :data:`PAIR_MIN_N` massive particles (planetary systems compared with
+REBOUND at tight tolerances) keep the small-N kernel, bit for bit. Coordinates beyond about
+``1e100`` or separations below ``1e-100`` may overflow differently in the two paths; a coincident
+pair without softening contributes exactly 0 in both.
 
 All inputs are plain float64 arrays in any consistent units (``G`` in the same units).
 
@@ -64,8 +66,10 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
+from . import gravity_simd
 from ._intrinsics import float_bits as _bits
 from ._intrinsics import float_from_bits as _from_bits
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, prefer_wide_vectors, simd_kernel
@@ -113,7 +117,7 @@ PAIR_PAD = 16
 #: (a type, not a value: ``None`` makes numba drop the other paths when it compiles the caller).
 FEW = None
 #: Bit-level first guess of ``1/sqrt(x)`` for doubles (Lomont 2003).
-_RSQRT_MAGIC = 0x5FE6EB50C7B537A9
+_RSQRT_MAGIC = gravity_simd.RSQRT_MAGIC
 
 
 @kernel
@@ -282,36 +286,17 @@ def inv_r3(r2):
 
 @simd_kernel
 def pair_row(xi, yi, zi, gmi, p, lo, hi, soft2, b):
-    """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)``: returns the sum on ``i`` and subtracts
-    the reaction from ``b[:, j]``.
+    """Pairs ``(i, j)`` for massive ``j`` in ``[lo, hi)`` (``i`` not in it): returns the sum
+    ``sum_j G m_j d / r**3`` on ``i`` (``d = x_j - x_i``, length / time**2) and subtracts the
+    reaction ``G m_i d / r**3`` from ``b[:, j]``.
 
-    Parameters
-    ----------
-    xi, yi, zi : float
-        Position of particle ``i`` (length).
-    gmi : float
-        Its ``G m_i`` (length**3 / time**2).
-    p : ndarray of float64, shape (4, >= hi)
-        The massive particles as rows ``x, y, z, G m`` (length; length**3 / time**2).
-    lo, hi : int
-        The range of ``j`` (``0 <= lo``, ``i`` not in it).
-    soft2 : float
-        Square of the softening length (length**2).
-    b : ndarray of float64, shape (3, >= hi)
-        Accumulators of the accelerations of the ``j``: ``G m_i d / r**3`` is subtracted.
-
-    Returns
-    -------
-    ax, ay, az : float
-        ``sum_j G m_j d / r**3`` with ``d = x_j - x_i`` (length / time**2).
-
-    Notes
-    -----
-    With softening ``r2 >= soft2 > 0``; without it, a coincident pair (``r2 == 0``) is given
-    ``r2 = 1`` so its term is exactly 0. ``r**-3`` from :func:`inv_r3`. The loop runs over an
-    unsigned index (no negative-index wraparound, so it vectorises) with 512-bit vectors where
-    available. Two 2-d arguments rather than seven 1-d ones: numba then prunes the reference
-    counting of the arguments, which otherwise costs ~75 ns per call.
+    ``p`` holds the massive particles as rows ``x, y, z, G m`` (length; length**3 / time**2),
+    ``soft2`` the squared softening length (length**2). With softening ``r2 >= soft2 > 0``;
+    without, a coincident pair is given ``r2 = 1`` so its term is exactly 0. The scalar
+    reference of :func:`visviva.core.gravity_simd.pair_row`, which the compiled kernel runs (this
+    loop, auto-vectorised with 512-bit vectors, was the kernel before). The unsigned index
+    avoids numba's negative-index wraparound (which stops vectorisation); two 2-d arguments
+    rather than seven 1-d ones let numba prune their reference counting (~75 ns a call).
     """
     prefer_wide_vectors()
     ax = 0.0
@@ -360,7 +345,8 @@ def pair_row_head(xi, yi, zi, gmi, i, p, lo, hi, soft2, b):
     Two 8-wide vector steps instead of a scalar loop over the ragged start: the terms with
     ``j <= i`` (the particle itself included: ``r2 = 1`` if zero) are multiplied by 0. (``hi`` is
     an argument: LLVM would unroll a loop of constant length 16 fully instead of vectorising
-    it.) Returns the sum on ``i``.
+    it.) Returns the sum on ``i``. The scalar reference of
+    :func:`visviva.core.gravity_simd.pair_row_head`.
     """
     prefer_wide_vectors()
     ax = 0.0
@@ -390,7 +376,8 @@ def pair_row_head(xi, yi, zi, gmi, i, p, lo, hi, soft2, b):
 def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
     """:func:`sum_rows` for one particle over the first ``nm`` columns of ``p`` (rows ``x, y, z, G m``)
     with ``r**-3`` from :func:`inv_r3` and wide vectors (large-N kernel, for test particles);
-    the same result to about one ulp per term."""
+    the same result to about one ulp per term. The scalar reference of
+    :func:`visviva.core.gravity_simd.one_sided_row`."""
     prefer_wide_vectors()
     ax = 0.0
     ay = 0.0
@@ -407,6 +394,15 @@ def row_acceleration_fast(xi, yi, zi, p, nm, soft2):
         ay += dy * s
         az += dz * s
     return ax, ay, az
+
+
+if numba.config.DISABLE_JIT:  # pure Python: the scalar references above
+    _row, _head, _one_sided = pair_row, pair_row_head, row_acceleration_fast
+    _ticket = gravity_simd.ticket_py
+else:  # the same loops written as explicit 8-double vectors (visviva.core.gravity_simd)
+    _row, _head, _one_sided = (gravity_simd.pair_row, gravity_simd.pair_row_head,
+                               gravity_simd.one_sided_row)
+    _ticket = gravity_simd.ticket
 
 
 @kernel
@@ -452,7 +448,7 @@ def _pair_block(lo, hi, nm, p, soft2, b):
     # PAIR_PAD (dummies)
     for i in range(lo, hi):
         s = i // 8 * 8
-        ax, ay, az = pair_row_head(p[0, i], p[1, i], p[2, i], p[3, i], i, p, s, s + 16, soft2, b)
+        ax, ay, az = _head(p[0, i], p[1, i], p[2, i], p[3, i], i, p, s, s + 16, soft2, b)
         b[0, i] += ax
         b[1, i] += ay
         b[2, i] += az
@@ -464,7 +460,7 @@ def _pair_block(lo, hi, nm, p, soft2, b):
             j1 = j0 + PAIR_COL_BLOCK
             if j1 > nm:
                 j1 = j0 + (nm - j0 + PAIR_PAD - 1) // PAIR_PAD * PAIR_PAD
-            ax, ay, az = pair_row(p[0, i], p[1, i], p[2, i], p[3, i], p, j0, j1, soft2, b)
+            ax, ay, az = _row(p[0, i], p[1, i], p[2, i], p[3, i], p, j0, j1, soft2, b)
             b[0, i] += ax
             b[1, i] += ay
             b[2, i] += az
@@ -486,20 +482,18 @@ def _pair_item(k, nm, p, soft2, buf):
 
 
 @kernel
-def _pair_reduce(lo, hi, buf, massive, acc):
-    # acc of the massive particles lo <= b < hi: the item buffers summed in item order
-    for b in range(lo, hi):
-        ax = 0.0
-        ay = 0.0
-        az = 0.0
-        for k in range(buf.shape[0]):
-            ax += buf[k, 0, b]
-            ay += buf[k, 1, b]
-            az += buf[k, 2, b]
+def _pair_reduce(nm, buf, massive, acc):
+    # acc of the massive particles: the item buffers summed in item order, into item 0's buffer
+    # (items outer, particles inner: the inner loop vectorises, each sum keeps the item order)
+    for k in range(1, buf.shape[0]):
+        for c in range(3):
+            for b in range(nm):
+                buf[0, c, b] += buf[k, c, b]
+    for b in range(nm):
         i = massive[b]
-        acc[i, 0] = ax
-        acc[i, 1] = ay
-        acc[i, 2] = az
+        acc[i, 0] = buf[0, 0, b]
+        acc[i, 1] = buf[0, 1, b]
+        acc[i, 2] = buf[0, 2, b]
 
 
 @kernel
@@ -522,7 +516,7 @@ def _test_rows(lo, hi, tests, x, p, nm, soft2, acc):
     # the test particles tests[lo:hi], one-sided rows over the massive ones
     for t in range(lo, hi):
         i = tests[t]
-        ax, ay, az = row_acceleration_fast(x[i, 0], x[i, 1], x[i, 2], p, nm, soft2)
+        ax, ay, az = _one_sided(x[i, 0], x[i, 1], x[i, 2], p, nm, soft2)
         acc[i, 0] = ax
         acc[i, 1] = ay
         acc[i, 2] = az
@@ -536,7 +530,7 @@ def _gravity_pairs_serial(x, m, G, soft2, massive, acc):
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
     for k in range(PAIR_ITEMS):
         _pair_item(k, nm, p, soft2, buf)
-    _pair_reduce(0, nm, buf, massive, acc)
+    _pair_reduce(nm, buf, massive, acc)
     tests = _test_indices(x.shape[0], massive)
     _test_rows(0, tests.shape[0], tests, x, p, nm, soft2, acc)
 
@@ -547,10 +541,19 @@ def _gravity_pairs_parallel(x, m, G, soft2, massive, acc):
     nm = massive.shape[0]
     p = _pad_massive(x, m, G, massive)
     buf = _aligned_rows(3 * PAIR_ITEMS, p.shape[1]).reshape((PAIR_ITEMS, 3, p.shape[1]))
-    for k in prange(PAIR_ITEMS):
-        _pair_item(np.int64(k), nm, p, soft2, buf)  # int64 as in the serial loop: one compile
-    for c in prange((nm + CHUNK - 1) // CHUNK):
-        _pair_reduce(c * CHUNK, min(nm, (c + 1) * CHUNK), buf, massive, acc)
+    # items are shared dynamically: the first iteration each thread runs takes the next item
+    # until none is left (the others find none), so a thread that another process holds up
+    # takes fewer (a static split would wait for it); the thread that finishes the last item
+    # sums the buffers (no second parallel region to wait for). The bits do not depend on who
+    # ran what.
+    tickets = np.zeros(2, dtype=np.int64)  # next item, items done
+    for _ in prange(PAIR_ITEMS):
+        k = _ticket(tickets, 0)
+        while k < PAIR_ITEMS:
+            _pair_item(k, nm, p, soft2, buf)
+            if _ticket(tickets, 1) == PAIR_ITEMS - 1:
+                _pair_reduce(nm, buf, massive, acc)
+            k = _ticket(tickets, 0)
     if x.shape[0] > nm:  # test particles (no parallel region when there are none)
         tests = _test_indices(x.shape[0], massive)
         nt = tests.shape[0]

@@ -34,6 +34,7 @@ def force_tier(monkeypatch):
         monkeypatch.setattr(core_tier, "BUDGET_S", budget)
         monkeypatch.setattr(nbody_tier, "_per_step", {"s": None})
         monkeypatch.setattr(_jit._Kernel, "load_cached", lambda self, sig: False)
+        monkeypatch.setattr(core_tier, "in_memory", lambda kernel: False)
     return choose
 
 

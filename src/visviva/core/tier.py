@@ -34,7 +34,7 @@ import numpy as np
 
 from ._jit import interpreted
 
-__all__ = ["BUDGET_S", "SMALL_ITEMS", "interpreted_if_cold", "run_guarded", "call", "spent",
+__all__ = ["BUDGET_S", "SMALL_ITEMS", "in_memory", "interpreted_if_cold", "run_guarded", "call", "spent",
            "budget_left"]
 
 #: CPU seconds a process spends in interpreted calls before every call compiles instead.
@@ -53,6 +53,12 @@ def _available() -> bool:
                 or numba.config.USING_SVML)
 
 
+def in_memory(kernel) -> bool:
+    """True when ``kernel`` has machine code in memory (for any signature): the warm path,
+    which then skips every other check of the tier (they cost about 30 us a call)."""
+    return bool(getattr(kernel, "overloads", None))
+
+
 def interpreted_if_cold(kernel, signature):
     """The interpreted ``kernel`` when it should run interpreted now, else ``None``.
 
@@ -60,7 +66,7 @@ def interpreted_if_cold(kernel, signature):
     ``signature`` (a numba signature, or the tuple of argument types of a call from Python) is
     in memory or in numba's cache (it is then loaded, as a call would).
     """
-    if not _available():
+    if not _available() or in_memory(kernel):
         return None
     load_cached = getattr(kernel, "load_cached", None)
     if load_cached is None or load_cached(signature):
@@ -97,7 +103,7 @@ def budget_left() -> float:
 def call(kernel, *args, small: bool = True):
     """``kernel(*args)``: interpreted when ``small`` and its machine code is not ready (see
     the module docstring), in machine code otherwise. The same result either way."""
-    if small and _available():
+    if small and _available() and not in_memory(kernel):
         fn = interpreted_if_cold(kernel, tuple(kernel.typeof_pyval(a) for a in args))
         if fn is not None:
             ok, result = run_guarded(fn, args)

@@ -419,7 +419,7 @@ def _integrate(args: tuple, info: np.ndarray) -> int:
 
     max_steps = int(args[6])
     cap = min(max_steps, int(tier.budget_left() / _INTERPRETED_STEP_S["s"]))
-    if cap < 50:  # not worth it (or the tier is off, or its budget is used)
+    if cap < 50 or tier.in_memory(integrate_cowell):  # not worth it, or tier off, or warm
         return integrate_cowell(*args)
     fn = tier.interpreted_if_cold(integrate_cowell,
                                   tuple(integrate_cowell.typeof_pyval(a) for a in args))

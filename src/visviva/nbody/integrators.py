@@ -92,7 +92,7 @@ class Integrator:
         alone (no other coordinates, corrector or events compiled).
         """
         name = self.variant(few, istate, fstate)
-        return compiled_kernel(self.module, name, threads=name == self.kernel_name)
+        return compiled_kernel(self.module, name)
 
     def variant(self, few: bool = False, istate=None, fstate=None) -> str:
         """The name of the kernel :meth:`kernel` returns for these arguments."""
@@ -117,20 +117,13 @@ def few_bodies(istate, massive) -> bool:
 _CACHE: dict = {}
 
 
-def compiled_kernel(module: str, name: str, signature=None, threads: bool = True):
+def compiled_kernel(module: str, name: str, signature=None):
     """The kernel ``module.name`` compiled for ``signature`` (default: the integrators' common
-    :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process. ``threads=False`` for a
-    kernel with no parallel region (numba's thread pool is then not started)."""
+    :data:`~visviva.core.nbody_common.RUN_SIGNATURE`), once per process (numba's thread pool is
+    started by the kernel's own compile, ``visviva.core._jit._threads_up``)."""
     key = (module, name)
     if key not in _CACHE:
-        from numba.np.ufunc import parallel as _numba_parallel
-
         from ..core.nbody_common import RUN_SIGNATURE
-
-        # the kernels call the parallel gravity kernel: numba's thread pool must be up before
-        # machine code that refers to it is loaded from the cache
-        if threads:
-            _numba_parallel._launch_threads()
 
         fn = getattr(importlib.import_module(module), name)
         # One signature with the force as a first-class function type: one machine code for

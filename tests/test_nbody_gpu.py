@@ -66,7 +66,18 @@ def _has_gpu():
 def test_cuda_backend_on_a_real_gpu_matches_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "0"})
     for key in KEYS:
-        assert float(out[key]) <= 1e-12, (key, out[key])
+        assert float(out[key]) <= REAL_GPU_TOLERANCE.get(key, 1e-12), (key, out[key])
+    assert out["steps_equal"] == "True" and out["times_equal"] == "True"
+    assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
+    assert out["ens_bits_vs_sim"] == "True"
+
+
+#: On a real GPU the Kepler solver uses the device's own sin, cos and sqrt (1-2 ulp from the
+#: host's) and fused multiply-adds, and the +-3-day batch spans up to 45 revolutions, which
+#: amplify those last-place differences: measured on an NVIDIA H200 (2026-11-26) 6.2e-12 in
+#: positions and 3.8e-12 in velocities (0.04 mm of 7,000 km); the N-body keys stayed within
+#: 4e-16 there. The simulator runs the host's arithmetic and keeps every key within 1e-12.
+REAL_GPU_TOLERANCE = {"kepler_pos": 1e-10, "kepler_vel": 1e-10}
 
 
 def test_cpu_twins_of_the_device_functions_match_the_gravity_kernel():

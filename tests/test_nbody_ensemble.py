@@ -8,7 +8,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import visviva as vv
-from visviva.errors import BackendUnavailableError, Collision, InvalidInputError, ShapeError
+from visviva.errors import (
+    BackendUnavailableError,
+    Collision,
+    InvalidInputError,
+    InvalidStateError,
+    ShapeError,
+)
 
 
 def planets(integrator, a=1.0, extra=0, **kw):
@@ -230,3 +236,55 @@ def test_property_any_ragged_ensemble_equals_its_members_alone(sizes, t, seed):
         sim.integrate(t)
         np.testing.assert_array_equal(ens[k].positions, sim.positions)
         np.testing.assert_array_equal(ens[k].velocities, sim.velocities)
+
+
+# ---- the packed fast path (nbody/ensemble_pack.py) ----------------------------------------------
+@pytest.mark.parametrize("integrator", ["leapfrog", "whfast", "ias15"])
+def test_packed_calls_keep_equal_to_lone_runs_call_after_call(integrator):
+    sims = [planets(integrator, a=1.0 + 0.05 * k, extra=k % 2) for k in range(5)]
+    ens = vv.Ensemble.from_simulations(sims)
+    for t in (0.5, 0.73, 2.0, 2.0, 1.1, 3.37):  # repeated and backwards times too
+        ens.integrate(t)
+        assert ens._pack is not None  # the packed call ran (no member needed the slow path)
+        for sim in sims:
+            sim.integrate(t)
+        np.testing.assert_array_equal(ens.t, [s.t for s in sims])
+        for k, sim in enumerate(sims):
+            np.testing.assert_array_equal(ens.positions[k, :sim.N], sim.positions)
+            np.testing.assert_array_equal(ens.velocities[k, :sim.N], sim.velocities)
+            assert ens[k].steps_done == sim.steps_done
+    # a member taken out continues alone as the ensemble would have continued it
+    alone = ens[3]
+    ens.integrate(4.0)
+    alone.integrate(4.0)
+    np.testing.assert_array_equal(ens[3].positions, alone.positions)
+
+
+def test_a_merger_in_a_packed_call_is_resolved_and_the_pack_rebuilt():
+    crash = vv.Simulation("ias15", dt=0.01, collision="merge")
+    crash.add(1.0, radius=0.1)
+    crash.add(1.0, r=[1.0, 0, 0], v=[-0.2, 0, 0], radius=0.1)
+    sims = [planets("ias15"), crash, planets("ias15", a=1.3)]
+    ens = vv.Ensemble.from_simulations(sims)
+    for t in (1.0, 3.0, 4.5):
+        ens.integrate(t)
+        for sim in sims:
+            sim.integrate(t)
+        for k, sim in enumerate(sims):
+            np.testing.assert_array_equal(ens[k].positions, sim.positions)
+    assert ens.n_particles.tolist() == [3, 1, 3]
+    assert ens._pack is not None  # built again after the merger
+
+
+def test_a_member_with_coincident_particles_stops_alone():
+    bad = vv.Simulation("leapfrog", dt=0.01)
+    bad.add(1.0)
+    bad.add(1.0)  # at the same place, no softening: infinite gravity
+    good = planets("leapfrog")
+    ens = vv.Ensemble.from_simulations([good, bad, planets("leapfrog", a=1.2)])
+    with pytest.raises(InvalidStateError, match="same position") as info:
+        ens.integrate(1.0)
+    assert info.value.member == 1
+    assert ens.t.tolist() == [1.0, 0.0, 1.0]
+    good.integrate(1.0)
+    np.testing.assert_array_equal(ens[0].positions, good.positions)

@@ -47,6 +47,8 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     for key in ("whfast", "whfast_dh", "whfast_corrector", "whfast_dh_j2"):
         assert out[f"{key}_steps_equal"] == "True", key
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
+    # the packed call equals the member-by-member path bit for bit
+    assert out["ens_packed"] == "True" and out["ens_pack_bits_vs_each"] == "True"
     # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
     assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
     assert int(out["conics_hyperbolic"]) > 20  # open orbits exercised too

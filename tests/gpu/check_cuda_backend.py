@@ -70,6 +70,17 @@ def main():
     alone.integrate(0.113)
     alone.integrate(0.3)
     print(f"ens_bits_vs_sim={bool((ens_gpu[2].positions == alone.positions).all())!r}")
+    # the packed call (nbody/ensemble_pack.py) against the member-by-member GPU path
+    from visviva.nbody.ensemble import _advance_each
+
+    each = [m.copy() for m in members]
+    for t in (0.113, 0.3):
+        _advance_each(each, t, "cuda")
+    print(f"ens_packed={ens_gpu._pack is not None!r}")
+    same = all((e.positions == ens_gpu[k].positions).all()
+               and (e.velocities == ens_gpu[k].velocities).all()
+               and e.steps_done == ens_gpu[k].steps_done for k, e in enumerate(each))
+    print(f"ens_pack_bits_vs_each={same!r}")
 
     # the device arithmetic's CPU twin against the device kernel, one evaluation
 

@@ -25,7 +25,9 @@ import os
 
 import numpy as np
 
+from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
+from .ensemble_pack import Pack, finish_member
 from .gpu import check_backend
 from .integrators import compiled_kernel
 from .simulation import Simulation
@@ -82,6 +84,7 @@ class Ensemble:
     def __init__(self, members, backend: str = "cpu"):
         self._members = list(members)
         self.backend = backend
+        self._pack = None  # the members' arrays packed (ensemble_pack.Pack), once integrated
 
     @classmethod
     def from_simulations(cls, sims, backend: str = "cpu") -> Ensemble:
@@ -161,6 +164,8 @@ class Ensemble:
     @property
     def t(self) -> np.ndarray:
         """Time of each member, shape (M,) (simulation units)."""
+        if self._pack is not None:
+            return self._pack.fstate[:, _nc.F_T].copy()
         return np.array([s.t for s in self._members])
 
     @property
@@ -169,6 +174,9 @@ class Ensemble:
         return np.array([s.N for s in self._members], dtype=np.int64)
 
     def _padded(self, name, width):
+        if self._pack is not None:
+            return self._pack.padded(getattr(self._pack, {"positions": "x", "velocities": "v",
+                                                          "masses": "m"}[name]))
         n = self.n_particles
         out = np.full((len(self), int(n.max())) + width, np.nan)
         for k, s in enumerate(self._members):
@@ -225,9 +233,10 @@ class Ensemble:
             from .ensemble_dask import integrate_on_dask
 
             advance = functools.partial(_advance_block, backend=self.backend)
+            self._pack = None  # the members come back as new objects
             errors = integrate_on_dask(self._members, t, client, advance)
         else:
-            errors = advance_members(self._members, t, self.backend)
+            errors, self._pack = advance_members(self._members, t, self.backend, self._pack)
         _raise_first(errors)
 
     # ---- files -----------------------------------------------------------------------------------
@@ -304,16 +313,45 @@ def _raise_first(errors) -> None:
 
 def _advance_block(members, t, backend):
     """Dask worker side: advance a block of members as an ensemble; returns them and the errors."""
-    return members, advance_members(members, t, backend)
+    return members, advance_members(members, t, backend)[0]
 
 
-def advance_members(members: list, t, backend: str = "cpu") -> list:
-    """Advance the simulations ``members`` (in place) to ``t`` in this process, as one ensemble;
-    returns ``[(index, exception), ...]`` of the members that stopped early.
+def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
+    """Advance the simulations ``members`` (in place) to ``t`` in this process, as one ensemble.
 
     The worker side of :meth:`Ensemble.integrate` and its in-process path (numba threads over
-    the members on ``backend="cpu"``, one GPU thread per member on ``"cuda"``).
+    the members on ``backend="cpu"``, one GPU thread per member on ``"cuda"``). The members are
+    packed (:class:`~visviva.nbody.ensemble_pack.Pack`, or ``pack``, the one a previous call
+    returned for the same members) and advanced in one call; what the pack does not clear runs
+    member by member, with the same results.
+
+    Returns
+    -------
+    errors : list
+        ``[(index, exception), ...]`` of the members that stopped early.
+    pack : Pack or None
+        The pack to pass to the next call for these members (None: build it again).
     """
+    if pack is None:
+        pack = Pack.build(members)
+    errors = None
+    if pack is not None:
+        if backend == "cuda":
+            from .gpu import integrate_pack
+
+            errors = integrate_pack(pack, t)
+        else:
+            errors = pack.advance(t)
+        if errors is None or pack.stale:
+            pack = None
+    if errors is None:
+        errors = _advance_each(members, t, backend)
+    return errors, pack
+
+
+def _advance_each(members: list, t, backend: str) -> list:
+    """The per-member path of :func:`advance_members` (each member prepared and finished as a
+    lone run; one compiled call per group of members with the same forces)."""
     if backend == "cuda":
         from .gpu import integrate_ensemble
 
@@ -331,12 +369,7 @@ def advance_members(members: list, t, backend: str = "cpu") -> list:
         times = np.frombuffer(times_bytes, dtype=np.float64).copy()
         status = _run_group([members[k] for k in ks], times)
         for k, code in zip(ks, status.tolist(), strict=True):
-            sim = members[k]
-            try:
-                if not sim.after_kernel(int(code)):
-                    sim.integrate(t)  # a merger or bounce was resolved: finish alone
-            except Exception as exc:
-                errors.append((k, exc))
+            finish_member(members[k], code, t, errors, k)
     return sorted(errors, key=lambda e: e[0])
 
 

@@ -40,8 +40,8 @@ from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
 
 __all__ = [
-    "check_backend", "integrate_simulation", "integrate_ensemble", "DeviceGravity",
-    "begin_gpu_run",
+    "check_backend", "integrate_simulation", "integrate_ensemble", "integrate_pack",
+    "DeviceGravity", "begin_gpu_run",
 ]
 
 #: Integrators with a GPU implementation: of one simulation, of an ensemble.
@@ -150,10 +150,14 @@ def _finish(sim, state, n, h, t_final) -> None:
     istate[_nc.I_NOUT] = 1
     if not (np.all(np.isfinite(state["x"])) and np.all(np.isfinite(state["v"]))):
         istate[_nc.I_INT_VALID] = 0
-        raise InvalidStateError(
-            f"the GPU leapfrog produced NaN or infinite positions or velocities by t = "
-            f"{t_final!r}: use a smaller dt or softening > 0."
-        )
+        raise _non_finite(t_final)
+
+
+def _non_finite(t_final) -> InvalidStateError:
+    return InvalidStateError(
+        f"the GPU leapfrog produced NaN or infinite positions or velocities by t = "
+        f"{float(t_final)!r}: use a smaller dt or softening > 0."
+    )
 
 
 def begin_gpu_run(sim, t, ensemble: bool = False):
@@ -263,3 +267,84 @@ def integrate_ensemble(members, t) -> list:
         except Exception as exc:
             errors.append((k, exc))
     return sorted(errors, key=lambda e: e[0])
+
+
+def plan_many(fstate, istate, target: float):
+    """:func:`plan` for many members at once (rows of ``fstate``/``istate``), with the same
+    expressions element by element; returns ``(n, h, rem, t_final, restart)``, ``restart``
+    marking the members whose internal state must be set from their output state."""
+    adt = np.abs(fstate[:, _nc.F_DT])
+    exact = istate[:, _nc.I_EXACT_FINISH] != 0
+    direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
+    h = np.copysign(adt, direction)
+    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
+                & (fstate[:, _nc.F_DT_REF] == adt))
+    istate[:, _nc.I_FRESH] = 0
+    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
+    fstate[restart, _nc.F_DT_REF] = adt[restart]
+    istate[restart, _nc.I_K] = 0
+    istate[restart, _nc.I_INT_VALID] = 1
+    t0, k0 = fstate[:, _nc.F_T0], istate[:, _nc.I_K]
+    sign = np.where(h > 0.0, 1, -1)
+
+    def stops(j):
+        rem = target - (t0 + (k0 + sign * j) * adt)
+        return (rem * direction <= 1e-9 * adt) | (exact & (rem * direction < adt * (1.0 - 1e-9)))
+
+    n = np.maximum(0, np.trunc((target - (t0 + k0 * adt)) * direction / adt).astype(np.int64) - 2)
+    while (back := (n > 0) & stops(np.maximum(n - 1, 0))).any():
+        n -= back
+    while (ahead := ~stops(n)).any():
+        n += ahead
+    t_grid = t0 + (k0 + sign * n) * adt
+    rem = target - t_grid
+    rem = np.where(exact & (rem * direction > 1e-9 * adt), rem, 0.0)
+    return n, h, rem, np.where(exact, target, t_grid), restart
+
+
+def integrate_pack(pack, t):
+    """Advance an ensemble's packed leapfrog members (:class:`visviva.nbody.ensemble_pack.Pack`)
+    to ``t`` on the GPU, one thread per member, with the plan and bookkeeping of
+    :func:`integrate_ensemble` done on whole arrays; returns the errors, or None when the
+    per-member path must run this call (it then raises what the GPU cannot run)."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+
+    pack.stale = False
+    fs, ist = pack.fstate, pack.istate
+    if (not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
+            or np.any(fs[:, _nc.F_EXIT] != 0.0) or pack.members[0].integrator != "leapfrog"):
+        return None
+    target = pack.target(t)
+    if target is None:
+        return None
+    n, h, rem, t_final, restart = plan_many(fs, ist, target)
+    xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
+    fresh = restart[pack.member_of]
+    pack.buf[xi_at[fresh]] = pack.x[fresh]
+    pack.buf[vi_at[fresh]] = pack.v[fresh]
+    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
+        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
+    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
+    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
+    K.ensemble_leapfrog[K.blocks(len(pack.members)), K.THREADS](
+        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
+        cuda.to_device(pack.moff), cuda.to_device(pack.poff),
+        cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
+        cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
+        cuda.to_device(rem),
+    )
+    pack.buf[xi_at] = d["xi"].copy_to_host()
+    pack.buf[vi_at] = d["vi"].copy_to_host()
+    pack.x[:] = d["x"].copy_to_host()
+    pack.v[:] = d["v"].copy_to_host()
+    ist[:, _nc.I_K] += np.where(h > 0.0, n, -n)
+    ist[:, _nc.I_STEPS] += n
+    fs[n != 0, _nc.F_DT_LAST] = h[n != 0]
+    fs[:, _nc.F_T] = t_final
+    ist[:, _nc.I_NOUT] = 1
+    finite = np.isfinite(pack.x).all(axis=1) & np.isfinite(pack.v).all(axis=1)
+    bad = np.flatnonzero(~np.logical_and.reduceat(finite, pack.poff[:-1]))
+    ist[bad, _nc.I_INT_VALID] = 0
+    return [(int(k), _non_finite(t_final[k])) for k in bad]

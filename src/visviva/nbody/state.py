@@ -119,6 +119,13 @@ class SimulationState:
             self.radius[i] = radius
         self.mark_fresh()
 
+    def adopt(self, x, v, m, radius, fstate, istate, buf, massive) -> None:
+        """Hold the given arrays, which already hold this state's values (views into an
+        ensemble's packed arrays, :mod:`visviva.nbody.ensemble_pack`), as this state's arrays:
+        a packed call then updates the member in place."""
+        self.x, self.v, self.m, self.radius = x, v, m, radius
+        self.fstate, self.istate, self.buf, self.massive = fstate, istate, buf, massive
+
     # ---- kernel scratch --------------------------------------------------------------------------
     def ensure_buf(self, n_buf: int) -> None:
         """Allocate the integrator's arrays when missing or of another shape (restart then)."""

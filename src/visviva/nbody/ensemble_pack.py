@@ -1,0 +1,181 @@
+"""An ensemble's members packed one after another: :class:`Pack`, the fast path of its calls.
+
+:meth:`visviva.Ensemble.integrate` used to prepare each member as a lone run does
+(:meth:`~visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`,
+:meth:`~visviva.Simulation.after_kernel`), concatenate the members' arrays for the compiled call
+and copy the results back: about 40-80 us of Python per member and call. For small systems
+(a three-body system's 100 leapfrog steps are about 5 us of arithmetic) that was nearly all of
+the time, on the CPU and on the GPU alike (measured: ``docs/performance.md``).
+
+A :class:`Pack` holds the members' arrays once, one after another (positions, velocities,
+masses, radii, the integrator's internal arrays; ``fstate``/``istate`` as rows of 2-D arrays),
+and each member's :class:`~visviva.nbody.state.SimulationState` then holds *views* into them
+(:meth:`~visviva.nbody.state.SimulationState.adopt`). A call checks what ``begin_run`` checks on
+the whole pack at once and hands the packed arrays to the same compiled ensemble kernel, with
+the same layout, so the results are the bits the per-member path gives. Whatever the pack's
+checks do not clear (a member without a time step, particles at the same position without
+softening, a status other than OK, additional forces) goes the per-member way, which also
+raises the exceptions; the ensemble then drops the pack and builds it again at its next call.
+
+The members are the ensemble's own (users get copies), so nothing else changes their arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import nbody_common as _nc
+from ..core import status as _st
+from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
+
+__all__ = ["Pack", "finish_member"]
+
+
+def finish_member(sim, code: int, t, errors: list, k: int) -> bool:
+    """Act on member ``k``'s kernel status as a lone run does (:meth:`Simulation.after_kernel`;
+    a resolved merger or bounce, or a pause, finishes the member alone); an exception goes to
+    ``errors``. Returns True when the member's arrays may have been replaced."""
+    try:
+        if not sim.after_kernel(int(code)):
+            sim.integrate(t)
+            return True
+    except Exception as exc:
+        errors.append((k, exc))
+    return code != _st.OK
+
+
+class Pack:
+    """The members' arrays, packed; the members' states view them (see the module notes).
+
+    Build one with :meth:`build`, which returns None for members the pack does not take
+    (additional forces, different units).
+    """
+
+    def __init__(self, members, n_buf: int):
+        states = [s._state for s in members]  # friend access: see visviva.nbody.state
+        for st in states:
+            st.ensure_buf(n_buf)
+        self.members = members
+        self.n_buf = n_buf
+        self.stale = False
+        n = np.array([st.N for st in states], dtype=np.int64)
+        self.poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
+        self.member_of = np.repeat(np.arange(len(members)), n)
+        self.x = np.concatenate([st.x for st in states])
+        self.v = np.concatenate([st.v for st in states])
+        self.m = np.concatenate([st.m for st in states])
+        self.radius = np.concatenate([st.radius for st in states])
+        self.fstate = np.stack([st.fstate for st in states])
+        self.istate = np.stack([st.istate for st in states])
+        self.buf = np.concatenate([st.buf.reshape(-1) for st in states])
+        local = [massive_indices(st.m) for st in states]
+        self.massive = np.ascontiguousarray(np.concatenate(local), dtype=np.int64)
+        self.moff = np.concatenate([[0], np.cumsum([len(i) for i in local])]).astype(np.int64)
+        step = 3 * n_buf
+        for j, st in enumerate(states):
+            lo, hi = self.poff[j], self.poff[j + 1]
+            st.adopt(self.x[lo:hi], self.v[lo:hi], self.m[lo:hi], self.radius[lo:hi],
+                     self.fstate[j], self.istate[j],
+                     self.buf[step * lo:step * hi].reshape(n_buf, hi - lo, 3), local[j])
+
+    @classmethod
+    def build(cls, members) -> Pack | None:
+        """A pack of ``members`` (Simulations of one integrator), or None when some member has
+        additional forces or the members' units differ (the per-member path runs those)."""
+        first = members[0]
+        if any(s.forces or s.units != first.units for s in members):
+            return None
+        pack = cls(members, first.integrator_info.n_buf)
+        pack.collision_off = all(s.collision == "none" for s in members)
+        return pack
+
+    def slot(self, s: int) -> np.ndarray:
+        """Indices into the packed ``buf`` of slot ``s`` of every particle, shape (P, 3)
+        (member j's internal arrays are ``buf`` of shape (n_buf, N_j, 3), one after another)."""
+        lo = self.poff[self.member_of]
+        n = np.diff(self.poff)[self.member_of]
+        base = 3 * self.n_buf * lo + 3 * s * n + 3 * (np.arange(len(self.x)) - lo)
+        return base[:, None] + np.arange(3)
+
+    # ---- reading ---------------------------------------------------------------------------------
+    def padded(self, packed: np.ndarray) -> np.ndarray:
+        """``packed`` (one row per particle) as (members, N_max, ...) with NaN past each N."""
+        n = np.diff(self.poff)
+        out = np.full((len(n), int(n.max())) + packed.shape[1:], np.nan)
+        out[self.member_of, np.arange(len(packed)) - self.poff[self.member_of]] = packed
+        return out
+
+    # ---- the fast path ---------------------------------------------------------------------------
+    def target(self, t) -> float | None:
+        """The output time in simulation units when every member can start a run to it as
+        :meth:`visviva.Simulation.begin_run` would let it, else None (nothing changed then)."""
+        first = self.members[0]
+        try:
+            target = float(first.begin_run(t)[0])  # converts t and checks member 0
+        except Exception:
+            return None  # the per-member path raises it, for the right member
+        info = first.integrator_info
+        dt = self.fstate[:, _nc.F_DT]
+        if (info.needs_dt or info.adaptive) and not np.all(dt != 0.0):
+            return None
+        if info.name == "whfast" and not np.all(self.m[self.poff[:-1]] > 0.0):
+            return None
+        if self._maybe_coincident():
+            return None
+        self.istate[:, _nc.I_NOUT] = 0
+        self.istate[:, _nc.I_PARALLEL] = 0
+        self.istate[:, _nc.I_VELOCITY_DEPENDENT] = 0
+        return target
+
+    def _maybe_coincident(self) -> bool:
+        """True when two particles of one unsoftened member share their first coordinate (the
+        per-member check then decides: :func:`visviva.nbody.events.check_not_coincident`)."""
+        hard = self.fstate[:, _nc.F_SOFT2][self.member_of] <= 0.0
+        if not hard.any():
+            return False
+        owner, x0 = self.member_of[hard], self.x[hard, 0]
+        order = np.lexsort((x0, owner))
+        owner, x0 = owner[order], x0[order]
+        return bool(np.any((owner[1:] == owner[:-1]) & (x0[1:] == x0[:-1])))
+
+    def advance(self, t) -> list | None:
+        """Advance every member to ``t`` on the CPU in one compiled call; returns
+        ``[(index, exception), ...]``, or None when the per-member path must run this call.
+        :attr:`stale` is True afterwards when some member's arrays may have been replaced."""
+        from .ensemble import _ensemble_kernel
+
+        self.stale = False
+        target = self.target(t)
+        if target is None:
+            return None
+        first = self.members[0]
+        fn, _, _ = first.kernel_inputs(parallel=False)
+        M, P = len(self.members), len(self.x)
+        times = np.array([target])
+        out_t = np.zeros((M, 1))
+        out_x = np.zeros(P * 3)
+        out_v = np.zeros(P * 3)
+        status = np.zeros(M, dtype=np.int64)
+        # no additional forces: one unused parameter per member, as each lone run passes
+        params = np.zeros(M)
+        qoff = np.arange(M + 1, dtype=np.int64)
+        # members with few massive bodies run the few-body kernel a lone run takes (the same
+        # bits; visviva.nbody.integrators.few_bodies), the others the every-path kernel
+        few = int(np.diff(self.moff).max()) < PAIR_MIN_N
+        _ensemble_kernel()(
+            first.integrator_info.kernel(few), self.n_buf, self.x, self.v, self.m, self.massive,
+            self.moff, self.radius, self.fstate, self.istate, self.buf,
+            np.zeros(GWORK_ROWS * P), fn, params, qoff, times, out_t, out_x, out_v, self.poff,
+            status,
+        )
+        return self.finish(status, t)
+
+    def finish(self, status: np.ndarray, t) -> list:
+        """After a packed call: members with status OK and finite numbers are done; the others
+        are finished (or raise) one by one as a lone run would."""
+        finite = np.isfinite(self.x).all(axis=1) & np.isfinite(self.v).all(axis=1)
+        good = np.logical_and.reduceat(finite, self.poff[:-1]) & (status == _st.OK)
+        errors: list = []
+        for k in np.flatnonzero(~good).tolist():
+            self.stale |= finish_member(self.members[k], int(status[k]), t, errors, k)
+        return errors

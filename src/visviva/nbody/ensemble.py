@@ -27,21 +27,14 @@ import numpy as np
 
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
-from .ensemble_pack import Pack, finish_member
+from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .gpu import check_backend
-from .integrators import compiled_kernel
 from .simulation import Simulation
 
 __all__ = ["Ensemble", "advance_members"]
 
 ENSEMBLE_FORMAT = "visviva.nbody.ensemble"
 ENSEMBLE_VERSION = 1
-
-
-def _ensemble_kernel():
-    from ..core.nbody_ensemble import ENSEMBLE_SIGNATURE
-
-    return compiled_kernel("visviva.core.nbody_ensemble", "ensemble_run", ENSEMBLE_SIGNATURE)
 
 
 def _force_key(sim) -> tuple:
@@ -402,7 +395,7 @@ def _run_group(members, times) -> np.ndarray:
     out_x = np.zeros(T * total * 3)
     out_v = np.zeros(T * total * 3)
     status = np.zeros(len(members), dtype=np.int64)
-    _ensemble_kernel()(
+    ensemble_kernel()(
         info.kernel(), n_buf, x, v, m, massive, moff, radius, fstate, istate, buf, gwork,
         inputs[0][0], params, qoff, times, out_t, out_x, out_v, poff, status,
     )

@@ -28,7 +28,15 @@ from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
 
-__all__ = ["Pack", "finish_member"]
+__all__ = ["Pack", "ensemble_kernel", "finish_member"]
+
+
+def ensemble_kernel():
+    """The compiled ensemble kernel (:func:`visviva.core.nbody_ensemble.ensemble_run`)."""
+    from ..core.nbody_ensemble import ENSEMBLE_SIGNATURE
+    from .integrators import compiled_kernel
+
+    return compiled_kernel("visviva.core.nbody_ensemble", "ensemble_run", ENSEMBLE_SIGNATURE)
 
 
 def finish_member(sim, code: int, t, errors: list, k: int) -> bool:
@@ -142,8 +150,6 @@ class Pack:
         """Advance every member to ``t`` on the CPU in one compiled call; returns
         ``[(index, exception), ...]``, or None when the per-member path must run this call.
         :attr:`stale` is True afterwards when some member's arrays may have been replaced."""
-        from .ensemble import _ensemble_kernel
-
         self.stale = False
         target = self.target(t)
         if target is None:
@@ -162,7 +168,7 @@ class Pack:
         # members with few massive bodies run the few-body kernel a lone run takes (the same
         # bits; visviva.nbody.integrators.few_bodies), the others the every-path kernel
         few = int(np.diff(self.moff).max()) < PAIR_MIN_N
-        _ensemble_kernel()(
+        ensemble_kernel()(
             first.integrator_info.kernel(few), self.n_buf, self.x, self.v, self.m, self.massive,
             self.moff, self.radius, self.fstate, self.istate, self.buf,
             np.zeros(GWORK_ROWS * P), fn, params, qoff, times, out_t, out_x, out_v, self.poff,

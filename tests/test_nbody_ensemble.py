@@ -158,14 +158,25 @@ def test_cuda_backend_without_a_gpu_says_what_is_missing(monkeypatch):
         propagate_kepler_batch(None, None, backend="cuda")  # checked before anything else
 
 
-def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch):
+def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     from visviva.core import cuda as vcuda
 
     monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
     vv.Simulation("ias15", backend="cuda")  # one large system: IAS15 and WHFast run
-    for integrator in ("ias15", "whfast"):  # ensembles: the leapfrog only
-        with pytest.raises(InvalidInputError, match="ensembles of the"):
-            vv.Ensemble.from_simulations([planets(integrator)], backend="cuda")
+    with pytest.raises(InvalidInputError, match="ensembles of the"):  # leapfrog and WHFast
+        vv.Ensemble.from_simulations([planets("ias15")], backend="cuda")
+    # WHFast ensembles: the plain case (Jacobi, no corrector, gravity only) on the GPU
+    ens = vv.Ensemble.from_simulations([planets("whfast")] * 2, backend="cuda")
+    for options in ({"coordinates": "democraticheliocentric"}, {"corrector": 5},
+                    {"collision": "merge"}):
+        odd = [planets("whfast"), planets("whfast", **options)]
+        with pytest.raises(InvalidInputError, match=r"member 1: .*backend='cpu'"):
+            vv.Ensemble.from_simulations(odd, backend="cuda")
+    path = tmp_path / "e.npz"
+    vv.Ensemble.from_simulations(odd).save(path)
+    with pytest.raises(InvalidInputError, match="backend='cpu'"):
+        vv.Ensemble.load(path, backend="cuda")
+    assert ens.backend == "cuda"
     sim = planets("leapfrog", collision="merge")
     sim.backend = "cuda"
     with pytest.raises(InvalidInputError, match="backend='cpu'"):

@@ -2,8 +2,9 @@
 
 The simulator is switched on with ``NUMBA_ENABLE_CUDASIM=1`` in a subprocess (it must be set
 before numba.cuda is imported and would change nothing else here), which runs
-``tests/gpu/check_cuda_backend.py`` (leapfrog, WHFast, ensembles, Kepler) or
-``tests/gpu/check_ias15.py`` (IAS15). Real-GPU runs: ``-m gpu`` on a machine with an NVIDIA GPU.
+``tests/gpu/check_cuda_backend.py`` (leapfrog, WHFast, ensembles, Kepler),
+``tests/gpu/check_ias15.py`` (IAS15) or ``tests/gpu/check_whfast_ensemble.py`` (WHFast
+ensembles). Real-GPU runs: ``-m gpu`` on a machine with an NVIDIA GPU.
 """
 
 from __future__ import annotations
@@ -148,6 +149,34 @@ def test_ias15_on_a_real_gpu_matches_the_cpu_backend():
     _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, IAS15_SCRIPT))
 
 
+# ---- WHFast ensembles ------------------------------------------------------------------------------
+WHFAST_ENSEMBLE_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_whfast_ensemble.py")
+
+
+def _check_whfast_ensemble(out, tolerance):
+    # ragged members with their own dt, at the start time, off and on the grid and backwards;
+    # then saved from the GPU and continued on the CPU: the CPU kernel's grid, origin and
+    # internal state, so the same steps and times and round-off agreement (the simulator
+    # runs the host's arithmetic: bit for bit there, 0.0)
+    for key in ("ens_pos", "ens_vel", "restart_pos", "restart_vel"):
+        assert float(out[key]) <= tolerance, (key, out[key])
+    for key in ("ens_t_equal", "ens_steps_equal", "ens_packed", "restart_steps_equal",
+                "each_bits_vs_packed"):
+        assert out[key] == "True", key
+    assert int(out["ens_steps"]) > 10
+
+
+def test_whfast_ensemble_on_the_cuda_simulator_matches_the_cpu_ensemble():
+    _check_whfast_ensemble(_run({"NUMBA_ENABLE_CUDASIM": "1"}, WHFAST_ENSEMBLE_SCRIPT), 1e-12)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
+def test_whfast_ensemble_on_a_real_gpu_matches_the_cpu_ensemble():
+    # the device's sin, cos, sqrt and fused multiply-adds in the Kepler drifts: round-off
+    _check_whfast_ensemble(_run({"NUMBA_ENABLE_CUDASIM": "0"}, WHFAST_ENSEMBLE_SCRIPT), 1e-12)
+
+
 def test_the_drivers_know_the_kernels_buf_layouts():
     # the GPU gravity recognises the kernels' calls by the slots of buf: they must be the kernels'
     from visviva.core import nbody_ias15 as k
@@ -170,6 +199,6 @@ def test_every_gpu_kernel_compiles_to_ptx():
     out = _run({"NUMBA_ENABLE_CUDASIM": "0"}, PTX_SCRIPT)
     if "missing" in out:
         pytest.skip(f"NVVM/NVRTC not installed ({out['missing']})")
-    assert len(out) == 7
+    assert len(out) == 8
     for kernel, result in out.items():
         assert result == "ok", (kernel, result)

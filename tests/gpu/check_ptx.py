@@ -28,6 +28,7 @@ def main():
     dispatcher.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
 
     from visviva.core.cuda import kernels as K
+    from visviva.core.cuda import whfast as W
 
     a2, f1, i1 = float64[:, ::1], float64[::1], int64[::1]
     cases = {
@@ -39,6 +40,8 @@ def main():
         "ensemble_leapfrog": (K.ensemble_leapfrog, (a2, a2, a2, a2, f1, i1, i1, i1, f1, a2, i1,
                                                     f1, f1)),
         "propagate_many": (K._kepler_kernel(), (a2, a2, f1, f1, a2, a2, i1)),
+        "ensemble_whfast": (W.build(), (a2, a2, f1) + (a2,) * 6 + (f1, i1, i1, i1, f1, f1, f1,
+                                                                   i1, i1, f1, i1)),
     }
     for name, (kernel, sig) in cases.items():
         try:

@@ -28,7 +28,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
-from .gpu import check_backend
+from .gpu import check_backend, check_ensemble
 from .simulation import Simulation
 
 __all__ = ["Ensemble", "advance_members"]
@@ -54,7 +54,8 @@ class Ensemble:
         The members (taken over, not copied: use :meth:`from_simulations`).
     backend : str
         ``"cpu"`` (numba threads over the members) or ``"cuda"`` (one GPU thread per member;
-        leapfrog only so far, see :mod:`visviva.nbody.gpu`).
+        leapfrog, and WHFast in Jacobi coordinates without a corrector; see
+        :mod:`visviva.nbody.gpu`).
 
     Examples
     --------
@@ -88,9 +89,12 @@ class Ensemble:
         sims : sequence of Simulation
             At least one; all with the same integrator; any number of particles each.
         backend : str
-            ``"cpu"`` (default) or ``"cuda"`` (leapfrog members; see :mod:`visviva.nbody.gpu`);
-            ``"cuda"`` raises :class:`visviva.errors.BackendUnavailableError` saying what is
-            missing when there is no usable GPU or numba-cuda is not installed.
+            ``"cpu"`` (default) or ``"cuda"`` (leapfrog or plain WHFast members; see
+            :mod:`visviva.nbody.gpu`); ``"cuda"`` raises
+            :class:`visviva.errors.BackendUnavailableError` saying what is missing when there is
+            no usable GPU or numba-cuda is not installed, and
+            :class:`visviva.errors.InvalidInputError` (naming the member) for settings the GPU
+            does not run.
 
         Returns
         -------
@@ -122,6 +126,8 @@ class Ensemble:
                 "of one integrator; make one ensemble per integrator."
             )
         backend = check_backend(backend, names[0], ensemble=True)
+        if backend == "cuda":
+            check_ensemble(sims)
         return cls([s.copy() for s in sims], backend)
 
     # ---- members ---------------------------------------------------------------------------------
@@ -282,8 +288,10 @@ class Ensemble:
                 snap = {key[len(prefix):]: data[key] for key in data.files
                         if key.startswith(prefix)}
                 members.append(build_simulation(Simulation, snap.get, forces))
-        return cls(members, check_backend(backend or saved_backend, members[0].integrator,
-                                          ensemble=True))
+        backend = check_backend(backend or saved_backend, members[0].integrator, ensemble=True)
+        if backend == "cuda":
+            check_ensemble(members)
+        return cls(members, backend)
 
 
 def _raise_first(errors) -> None:

@@ -12,25 +12,31 @@ What runs on the GPU today:
   coordinates) and every gravity evaluation is the tiled direct sum on the GPU, handed to the
   kernel through its additional-force argument (:mod:`visviva.nbody.gpu_ias15`, with IAS15's
   two-part positions for tight pairs; :mod:`visviva.nbody.gpu_whfast`).
+* WHFast ensembles in the plain case (Jacobi coordinates, no symplectic corrector, gravity
+  only): one thread per member runs the CPU kernel's own functions compiled for the device
+  (:mod:`visviva.core.cuda.whfast`: Jacobi transforms, universal-variable Kepler drifts,
+  interaction kick, few-body gravity sum), planned on the host
+  (:mod:`visviva.nbody.gpu_ensemble_whfast`).
 
 The step grid, the time origin and the shortened last step to an output time are the CPU
-kernels' (the leapfrog's plan is computed with their expressions, :func:`plan`), and the state
-(``buf`` included) is stored as the CPU backend stores it, so a run can be saved, loaded and
-continued on either backend. Results agree with the CPU backend to round-off (the gravity sums
-are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative after several
-steps (``tests/test_nbody_gpu.py``); that is all the simulator shows, it says nothing of speed.
+kernels' (the plans are computed with their expressions, :mod:`visviva.nbody.gpu_plan`), and
+the state (``buf`` included) is stored as the CPU backend stores it, so a run can be saved,
+loaded and continued on either backend. Results agree with the CPU backend to round-off (the
+gravity sums are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative
+after several steps (``tests/test_nbody_gpu.py``; the WHFast ensembles, which add the same
+numbers in the same order, bit for bit there); that is all the simulator shows, it says nothing
+of speed.
 
 IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
-mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 or WHFast
-systems, forces and events with the leapfrog or in ensembles, arrays of output times; these
-raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
-times) saying to use ``backend="cpu"``.
+mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 systems,
+WHFast ensembles in democratic heliocentric coordinates or with a corrector, forces and events
+with the leapfrog or in ensembles, arrays of output times; these raise
+:class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the times)
+saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -38,15 +44,16 @@ from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
+from .gpu_plan import plan, plan_many
 
 __all__ = [
     "check_backend", "integrate_simulation", "integrate_ensemble", "integrate_pack",
-    "DeviceGravity", "begin_gpu_run",
+    "DeviceGravity", "begin_gpu_run", "check_ensemble",
 ]
 
 #: Integrators with a GPU implementation: of one simulation, of an ensemble.
 GPU_INTEGRATORS = ("leapfrog", "whfast", "ias15")
-GPU_ENSEMBLE_INTEGRATORS = ("leapfrog",)
+GPU_ENSEMBLE_INTEGRATORS = ("leapfrog", "whfast")
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
 
@@ -81,62 +88,20 @@ def _check_supported(sim, ensemble: bool) -> None:
             f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
         )
     check_backend("cuda", sim.integrator, ensemble)
+    if ensemble and sim.integrator == "whfast":
+        from .gpu_ensemble_whfast import check_plain
+
+        check_plain(sim)
 
 
-def plan(state: dict, target: float):
-    """Prepare the leapfrog's internal state and count the steps to ``target``, exactly as
-    :func:`visviva.core.nbody_leapfrog.leapfrog_run` does.
-
-    Parameters
-    ----------
-    state : dict
-        The simulation's live arrays (:meth:`visviva.Simulation.state_arrays`); ``fstate``,
-        ``istate`` and (when the internal state restarts) ``buf`` are updated.
-    target : float
-        Absolute output time (simulation units).
-
-    Returns
-    -------
-    n : int
-        Full steps of the internal state.
-    h : float
-        Their signed length (time).
-    rem : float
-        Length of the shortened last step of the output copy (0: none).
-    t_final : float
-        The time reached.
-    """
-    fstate, istate, buf = state["fstate"], state["istate"], state["buf"]
-    adt = abs(float(fstate[_nc.F_DT]))
-    exact = istate[_nc.I_EXACT_FINISH] != 0
-    direction = 1.0 if target >= fstate[_nc.F_T] else -1.0
-    h = math.copysign(adt, direction)
-    valid = (istate[_nc.I_INT_VALID] != 0 and istate[_nc.I_FRESH] == 0
-             and fstate[_nc.F_DT_REF] == adt)
-    istate[_nc.I_FRESH] = 0
-    if not valid:
-        buf[_XI] = state["x"]
-        buf[_VI] = state["v"]
-        fstate[_nc.F_T0] = fstate[_nc.F_T]
-        fstate[_nc.F_DT_REF] = adt
-        istate[_nc.I_K] = 0
-        istate[_nc.I_INT_VALID] = 1
-    t0, k0 = float(fstate[_nc.F_T0]), int(istate[_nc.I_K])
-    sign = 1 if h > 0.0 else -1
-
-    def stops(j):
-        rem = target - (t0 + (k0 + sign * j) * adt)
-        return rem * direction <= 1e-9 * adt or (exact and rem * direction < adt * (1.0 - 1e-9))
-
-    n = max(0, int((target - (t0 + k0 * adt)) * direction / adt) - 2)
-    while n > 0 and stops(n - 1):
-        n -= 1
-    while not stops(n):
-        n += 1
-    t_grid = t0 + (k0 + sign * n) * adt
-    rem = target - t_grid
-    rem = rem if exact and rem * direction > 1e-9 * adt else 0.0
-    return n, h, rem, (target if exact else t_grid)
+def check_ensemble(members) -> None:
+    """Raise :class:`~visviva.errors.InvalidInputError` (naming the member) when a member of a
+    ``backend="cuda"`` ensemble uses what the GPU ensemble kernels do not run."""
+    for k, sim in enumerate(members):
+        try:
+            _check_supported(sim, ensemble=True)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"ensemble member {k}: {exc}") from None
 
 
 def _finish(sim, state, n, h, t_final) -> None:
@@ -222,6 +187,8 @@ def integrate_ensemble(members, t) -> list:
 
     from ..core.cuda import kernels as K
 
+    if members and members[0].integrator == "whfast":
+        return _whfast_each(members, t)
     errors, ks, plans, states, massives = [], [], [], [], []
     for k, sim in enumerate(members):
         try:
@@ -269,37 +236,24 @@ def integrate_ensemble(members, t) -> list:
     return sorted(errors, key=lambda e: e[0])
 
 
-def plan_many(fstate, istate, target: float):
-    """:func:`plan` for many members at once (rows of ``fstate``/``istate``), with the same
-    expressions element by element; returns ``(n, h, rem, t_final, restart)``, ``restart``
-    marking the members whose internal state must be set from their output state."""
-    adt = np.abs(fstate[:, _nc.F_DT])
-    exact = istate[:, _nc.I_EXACT_FINISH] != 0
-    direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
-    h = np.copysign(adt, direction)
-    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
-                & (fstate[:, _nc.F_DT_REF] == adt))
-    istate[:, _nc.I_FRESH] = 0
-    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
-    fstate[restart, _nc.F_DT_REF] = adt[restart]
-    istate[restart, _nc.I_K] = 0
-    istate[restart, _nc.I_INT_VALID] = 1
-    t0, k0 = fstate[:, _nc.F_T0], istate[:, _nc.I_K]
-    sign = np.where(h > 0.0, 1, -1)
+def _whfast_each(members, t) -> list:
+    """:func:`integrate_ensemble` for WHFast members: each checked as a lone run, then the
+    members that may run packed together (one pack per output time in simulation units)."""
+    from .ensemble_pack import Pack
+    from .gpu_ensemble_whfast import run
 
-    def stops(j):
-        rem = target - (t0 + (k0 + sign * j) * adt)
-        return (rem * direction <= 1e-9 * adt) | (exact & (rem * direction < adt * (1.0 - 1e-9)))
-
-    n = np.maximum(0, np.trunc((target - (t0 + k0 * adt)) * direction / adt).astype(np.int64) - 2)
-    while (back := (n > 0) & stops(np.maximum(n - 1, 0))).any():
-        n -= back
-    while (ahead := ~stops(n)).any():
-        n += ahead
-    t_grid = t0 + (k0 + sign * n) * adt
-    rem = target - t_grid
-    rem = np.where(exact & (rem * direction > 1e-9 * adt), rem, 0.0)
-    return n, h, rem, np.where(exact, target, t_grid), restart
+    errors, groups = [], {}
+    for k, sim in enumerate(members):
+        try:
+            target, _ = begin_gpu_run(sim, t, ensemble=True)
+        except Exception as exc:
+            errors.append((k, exc))
+            continue
+        groups.setdefault(target, []).append(k)
+    for target, ks in groups.items():
+        pack = Pack([members[k] for k in ks], members[ks[0]].integrator_info.n_buf)
+        errors += [(ks[j], exc) for j, exc in run(pack, target, t)]
+    return sorted(errors, key=lambda e: e[0])
 
 
 def integrate_pack(pack, t):
@@ -313,12 +267,20 @@ def integrate_pack(pack, t):
 
     pack.stale = False
     fs, ist = pack.fstate, pack.istate
+    integrator = pack.members[0].integrator
     if (not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
-            or np.any(fs[:, _nc.F_EXIT] != 0.0) or pack.members[0].integrator != "leapfrog"):
+            or np.any(fs[:, _nc.F_EXIT] != 0.0) or integrator not in GPU_ENSEMBLE_INTEGRATORS):
+        return None
+    if integrator == "whfast" and (np.any(ist[:, _nc.I_WH_COORDINATES] != 0)
+                                   or np.any(ist[:, _nc.I_CORRECTOR] != 0)):
         return None
     target = pack.target(t)
     if target is None:
         return None
+    if integrator == "whfast":
+        from .gpu_ensemble_whfast import run
+
+        return run(pack, target, t)
     n, h, rem, t_final, restart = plan_many(fs, ist, target)
     xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
     fresh = restart[pack.member_of]

@@ -1,0 +1,122 @@
+"""The GPU kernel of WHFast ensembles: one thread per member, the CPU kernel's own functions.
+
+:func:`ensemble_whfast` runs, for every member of a packed ensemble, what the fast path of
+:func:`visviva.core.nbody_whfast.whfast_run_plain` runs between two outputs (Jacobi
+coordinates, no symplectic corrector, no additional force, no events): build the internal state
+``P`` when it is not valid (``_first_half``: inertial -> Jacobi, Kepler drift ``h/2``, kick
+``h``), ``nsteps`` fused steps ``P <- Kick(h) Kepler(h) P``, a synchronised copy (Kepler
+``h/2`` and back to inertial coordinates) and, for an output time between grid points, one
+shortened drift-kick-drift step of the copy. The host plans the steps with the CPU kernel's
+expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+
+Every piece of arithmetic is a CPU kernel compiled for the device from its own source
+(:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable
+solver), the interaction kick and the few-body gravity sum :func:`visviva.core.gravity._plain_rows`
+(each pull summed in the order of ``massive``, the bits of the CPU's few-body kernel). Only the
+sequence of calls is written here, in the order of the CPU kernel; under numba's CUDA simulator
+the results equal the CPU ensemble's to round-off (the CPU kernel adds the same numbers).
+"""
+
+from __future__ import annotations
+
+from numba import cuda
+
+__all__ = ["build"]
+
+#: Values of the ``mode`` argument: nothing to do (an output at the current time of a member
+#: without an internal state), continue the internal state, or build it first.
+SKIP, CONTINUE, RESTART = 0, 1, 2
+
+
+def build():
+    """Compile (lazily, on first launch) and return the kernel :func:`ensemble_whfast`."""
+    from .. import gravity, nbody_whfast
+    from ..status import OK
+    from .twins import device_twin
+
+    to_jacobi = device_twin(nbody_whfast.to_jacobi)
+    from_internal = device_twin(nbody_whfast._from_internal)
+    to_internal = device_twin(nbody_whfast._to_internal)
+    kepler_drift = device_twin(nbody_whfast._kepler_drift)
+    interaction_kick = device_twin(nbody_whfast._interaction_kick)
+    from_jacobi = device_twin(nbody_whfast.from_jacobi)
+    gravity_rows = device_twin(gravity._plain_rows)
+
+    @cuda.jit(device=True)
+    def kick(xj, vj, x, m, eta, G, soft2, massive, acc, aj, h):
+        # nbody_whfast._kick for Jacobi coordinates without an additional force
+        from_jacobi(xj, m, eta, x)
+        gravity_rows(x, m, G, soft2, massive, acc)
+        to_jacobi(acc, m, eta, aj)
+        interaction_kick(xj, vj, aj, eta, G, h)
+
+    @cuda.jit(device=True)
+    def first_half(x, v, m, eta, G, soft2, massive, h, xj, vj, acc, aj):
+        # nbody_whfast._first_half without a corrector
+        to_internal(x, v, m, eta, xj, vj, False)
+        st = kepler_drift(xj, vj, eta, G, 0.5 * h, False)
+        if st != OK:
+            return st
+        kick(xj, vj, x, m, eta, G, soft2, massive, acc, aj, h)
+        return OK
+
+    @cuda.jit
+    def ensemble_whfast(x, v, m, xj, vj, xs, vs, acc, aj, eta, massive, moff, poff, G, soft2,
+                        h, mode, nsteps, rem, status):
+        """Member ``k`` (one thread) through one output time; ``status[k]`` its status code.
+
+        ``x, v`` (inertial, in and out), ``xj, vj`` (the internal state), ``xs, vs, acc, aj``
+        (scratch), one row per particle, member after member (``poff``); ``eta`` (scratch,
+        one per particle); ``massive`` local indices (``moff``); ``G, soft2, h, rem`` and
+        ``mode, nsteps`` one per member (``rem`` 0: the output is on the grid).
+        """
+        k = cuda.grid(1)
+        if k >= mode.shape[0]:
+            return
+        status[k] = OK
+        if mode[k] == SKIP:
+            return
+        lo = poff[k]
+        hi = poff[k + 1]
+        X, V, M, E = x[lo:hi], v[lo:hi], m[lo:hi], eta[lo:hi]
+        XJ, VJ, XS, VS, A, AJ = xj[lo:hi], vj[lo:hi], xs[lo:hi], vs[lo:hi], acc[lo:hi], aj[lo:hi]
+        ms = massive[moff[k]:moff[k + 1]]
+        g = G[k]
+        s2 = soft2[k]
+        step = h[k]
+        total = 0.0
+        for i in range(hi - lo):
+            total += M[i]
+            E[i] = total
+        if mode[k] == RESTART:
+            st = first_half(X, V, M, E, g, s2, ms, step, XJ, VJ, A, AJ)
+            if st != OK:
+                status[k] = st
+                return
+        for _ in range(nsteps[k]):  # the fused step of the CPU kernel's loop
+            st = kepler_drift(XJ, VJ, E, g, step, False)
+            if st != OK:
+                status[k] = st
+                return
+            kick(XJ, VJ, X, M, E, g, s2, ms, A, AJ, step)
+        # nbody_whfast._synchronise: a copy of P drifted by the last half step
+        for i in range(hi - lo):
+            for c in range(3):
+                XS[i, c] = XJ[i, c]
+                VS[i, c] = VJ[i, c]
+        st = kepler_drift(XS, VS, E, g, 0.5 * step, False)
+        if st != OK:
+            status[k] = st
+            return
+        from_internal(XS, VS, M, E, X, V, False)
+        r = rem[k]
+        if r != 0.0:  # nbody_whfast._dkd_step of the copy, without a corrector
+            st = first_half(X, V, M, E, g, s2, ms, r, XS, VS, A, AJ)
+            if st == OK:
+                st = kepler_drift(XS, VS, E, g, 0.5 * r, False)
+            if st != OK:
+                status[k] = st
+                return
+            from_internal(XS, VS, M, E, X, V, False)
+
+    return ensemble_whfast

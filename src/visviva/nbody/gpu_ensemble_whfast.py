@@ -1,0 +1,130 @@
+"""WHFast ensembles on the GPU: the host side of :mod:`visviva.core.cuda.whfast`.
+
+An ensemble of WHFast members runs on the GPU in the plain case of the CPU kernel
+(:func:`visviva.core.nbody_whfast.is_plain`: Jacobi coordinates, no symplectic corrector, no
+collisions, encounters or escape radius; members with additional forces are not packed and are
+refused by :func:`visviva.nbody.gpu.begin_gpu_run`). :func:`plan` decides on the host, for all
+members at once and with the CPU kernel's expressions, whether a member's internal state is
+still valid or must be built again (the grid origin then moves to the member's current time),
+how many fused steps it takes and the length of the shortened step of its output copy;
+:func:`run` launches one GPU thread per member and does the CPU kernel's bookkeeping (step
+counter, grid index, clock). The step grid, the time origin and the saved internal state are
+therefore the CPU kernel's: a GPU run can be saved and continued on the CPU, and agrees with
+the CPU ensemble to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import nbody_common as _nc
+from ..core import nbody_whfast as _wh
+from ..core import status as _st
+from ..errors import InvalidInputError
+from .gpu_plan import count_steps
+
+__all__ = ["plan", "run", "check_plain"]
+
+_KERNEL: list = []
+
+
+def check_plain(sim) -> None:
+    """Raise :class:`~visviva.errors.InvalidInputError` when the WHFast member ``sim`` uses a
+    setting the GPU ensemble kernel does not run (democratic heliocentric coordinates or a
+    symplectic corrector; forces and events are checked by the caller)."""
+    istate = sim.state_arrays()["istate"]
+    if istate[_nc.I_WH_COORDINATES] != _wh.JACOBI or istate[_nc.I_CORRECTOR] != 0:
+        raise InvalidInputError(
+            "backend='cuda' runs ensembles of WHFast members in Jacobi coordinates without a "
+            f"symplectic corrector; got coordinates={sim.coordinates!r}, corrector="
+            f"{sim.corrector}: use backend='cpu' for these settings.")
+
+
+def plan(fstate, istate, target: float):
+    """The work of every member (rows of ``fstate``/``istate``, updated as the CPU kernel
+    updates them before its loop) for one run to ``target``.
+
+    Returns
+    -------
+    mode : ndarray of int64
+        :data:`visviva.core.cuda.whfast.SKIP` (an output at the current time of a member
+        without a valid internal state: nothing moves), ``CONTINUE`` or ``RESTART`` (build the
+        internal state from the inertial one first, which takes the first step).
+    n : ndarray of int64
+        Fused steps after that.
+    h : ndarray of float64
+        The signed step (time).
+    rem : ndarray of float64
+        The shortened step of the output copy (0: none).
+    t_final : ndarray of float64
+        The time each member reaches.
+    """
+    from ..core.cuda.whfast import CONTINUE, RESTART, SKIP
+
+    adt = np.abs(fstate[:, _nc.F_DT])
+    exact = istate[:, _nc.I_EXACT_FINISH] != 0
+    direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
+    h = np.copysign(adt, direction)
+    valid = ((istate[:, _nc.I_WH_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
+             & (fstate[:, _nc.F_WH_H] == h) & (fstate[:, _nc.F_DT_REF] == adt))
+    istate[:, _nc.I_FRESH] = 0
+    skip = ~valid & (fstate[:, _nc.F_T] == target)
+    restart = ~valid & ~skip
+    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
+    fstate[restart, _nc.F_DT_REF] = adt[restart]
+    istate[restart, _nc.I_K] = np.where(h[restart] > 0.0, 1, -1)
+    istate[restart, _nc.I_STEPS] += 1
+    fstate[restart, _nc.F_WH_H] = h[restart]
+    istate[restart, _nc.I_WH_VALID] = 1
+    n, t_grid = count_steps(target, fstate[:, _nc.F_T0], istate[:, _nc.I_K], adt, direction,
+                            exact)
+    n[skip] = 0
+    rem = target - t_grid
+    rem = np.where(exact & (np.abs(rem) > 1e-9 * adt), rem, 0.0)
+    t_final = np.where(skip, fstate[:, _nc.F_T], np.where(exact, target, t_grid))
+    mode = np.where(skip, SKIP, np.where(restart, RESTART, CONTINUE)).astype(np.int64)
+    return mode, n, h, rem, t_final
+
+
+def run(pack, target: float, t) -> list:
+    """Advance the packed WHFast members of ``pack`` (:class:`visviva.nbody.ensemble_pack.Pack`)
+    to ``target`` (simulation units; ``t`` as the user gave it) on the GPU, one thread per
+    member; returns ``[(index, exception), ...]`` (members whose kernel failed or whose numbers
+    are not finite are finished as a lone run would be)."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+    from ..core.cuda import whfast as W
+
+    if not _KERNEL:
+        _KERNEL.append(W.build())
+    fs, ist = pack.fstate, pack.istate
+    mode, n, h, rem, t_final = plan(fs, ist, target)
+    xj_at, vj_at = pack.slot(_wh._XJ), pack.slot(_wh._VJ)
+    P, M = len(pack.x), len(pack.members)
+
+    def dev(a):
+        return cuda.to_device(np.ascontiguousarray(a))
+
+    d = {"x": dev(pack.x), "v": dev(pack.v), "xj": dev(pack.buf[xj_at]),
+         "vj": dev(pack.buf[vj_at])}
+    status = cuda.device_array(M, dtype=np.int64)
+    _KERNEL[0][K.blocks(M), K.THREADS](
+        d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
+        *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P),
+        dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
+        dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status,
+    )
+    pack.x[:] = d["x"].copy_to_host()
+    pack.v[:] = d["v"].copy_to_host()
+    pack.buf[xj_at] = d["xj"].copy_to_host()
+    pack.buf[vj_at] = d["vj"].copy_to_host()
+    status = status.copy_to_host()
+    # the CPU kernel's bookkeeping after its loop (K, steps, last step, clock, outputs)
+    ist[:, _nc.I_K] += np.where(h > 0.0, n, -n)
+    ist[:, _nc.I_STEPS] += n
+    fs[n != 0, _nc.F_DT_LAST] = h[n != 0]
+    fs[:, _nc.F_T] = t_final
+    ist[:, _nc.I_NOUT] = 1
+    ist[status != _st.OK, _nc.I_WH_VALID] = 0  # a failed member builds P again next time
+    return pack.finish(status, t)

@@ -1,0 +1,79 @@
+"""Run a WHFast ensemble on the CUDA backend (a GPU, or numba's simulator when
+NUMBA_ENABLE_CUDASIM=1) beside the same ensemble on the CPU and print ``key=value`` lines."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+import visviva as vv
+
+
+def member(k):
+    """Ragged members (3 to 6 particles, a test particle in some), each with its own time step;
+    one member is softened, one lands on its output times by grid points only."""
+    rng = np.random.default_rng(k)
+    sim = vv.Simulation("whfast", dt=0.01 + 0.002 * k, softening=0.01 * (k == 3),
+                        exact_finish_time=k != 4)
+    sim.add(1.0)
+    for j in range(1, 3 + k % 3):
+        sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.5 * j, e=0.1 * rng.uniform(),
+                inc=0.05 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=0)
+    if k % 2:
+        sim.add(0.0, a=0.6, e=0.2, primary=0)
+    sim.move_to_com()
+    return sim
+
+
+def rel(a, b):
+    a, b = np.nan_to_num(a), np.nan_to_num(b)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def same(a, b):
+    return (np.array_equal(a.t, b.t) and bool(np.array_equal(np.nan_to_num(a.positions),
+                                                             np.nan_to_num(b.positions)))
+            and [s.steps_done for s in a] == [s.steps_done for s in b])
+
+
+def main():
+    members = [member(k) for k in range(6)]
+    cpu = vv.Ensemble.from_simulations(members)
+    gpu = vv.Ensemble.from_simulations(members, backend="cuda")
+    # at the start time (nothing moves), off the grid, on it (t = 0.36 is a grid point of
+    # dt = 0.01 and 0.012), backwards (the internal state is built again)
+    for t in (0.0, 0.237, 0.36, 0.3):
+        cpu.integrate(t)
+        gpu.integrate(t)
+    print(f"ens_pos={rel(gpu.positions, cpu.positions)!r}")
+    print(f"ens_vel={rel(gpu.velocities, cpu.velocities)!r}")
+    print(f"ens_t_equal={np.array_equal(gpu.t, cpu.t)!r}")
+    print(f"ens_steps_equal={[s.steps_done for s in gpu] == [s.steps_done for s in cpu]!r}")
+    print(f"ens_steps={min(s.steps_done for s in gpu)!r}")
+    print(f"ens_packed={gpu._pack is not None!r}")
+
+    # saved on the GPU, loaded and continued on the CPU
+    path = os.path.join(tempfile.mkdtemp(), "e.npz")
+    gpu.save(path)
+    back = vv.Ensemble.load(path, backend="cpu")
+    back.integrate(0.55)
+    cpu.integrate(0.55)
+    print(f"restart_pos={rel(back.positions, cpu.positions)!r}")
+    print(f"restart_vel={rel(back.velocities, cpu.velocities)!r}")
+    print(f"restart_steps_equal={[s.steps_done for s in back] == [s.steps_done for s in cpu]!r}")
+
+    # the member-by-member GPU path (what runs when the pack cannot) equals the packed one
+    from visviva.nbody.ensemble import _advance_each
+
+    each = vv.Ensemble.from_simulations(members, backend="cuda")
+    packed = vv.Ensemble.from_simulations(members, backend="cuda")
+    for t in (0.113, 0.2):
+        _advance_each(each._members, t, "cuda")
+        packed.integrate(t)
+    print(f"each_bits_vs_packed={same(each, packed)!r}")
+
+
+if __name__ == "__main__":
+    main()

@@ -23,7 +23,7 @@ from ..core import status as _st
 from ..errors import InvalidInputError
 from .gpu_plan import count_steps
 
-__all__ = ["plan", "run", "check_plain"]
+__all__ = ["plan", "account", "run", "check_plain"]
 
 _KERNEL: list = []
 
@@ -80,7 +80,7 @@ def plan(fstate, istate, target: float):
                             exact)
     n[skip] = 0
     rem = target - t_grid
-    rem = np.where(exact & (np.abs(rem) > 1e-9 * adt), rem, 0.0)
+    rem = np.where(exact & ~skip & (np.abs(rem) > 1e-9 * adt), rem, 0.0)
     t_final = np.where(skip, fstate[:, _nc.F_T], np.where(exact, target, t_grid))
     mode = np.where(skip, SKIP, np.where(restart, RESTART, CONTINUE)).astype(np.int64)
     return mode, n, h, rem, t_final
@@ -120,11 +120,16 @@ def run(pack, target: float, t) -> list:
     pack.buf[xj_at] = d["xj"].copy_to_host()
     pack.buf[vj_at] = d["vj"].copy_to_host()
     status = status.copy_to_host()
-    # the CPU kernel's bookkeeping after its loop (K, steps, last step, clock, outputs)
-    ist[:, _nc.I_K] += np.where(h > 0.0, n, -n)
-    ist[:, _nc.I_STEPS] += n
-    fs[n != 0, _nc.F_DT_LAST] = h[n != 0]
-    fs[:, _nc.F_T] = t_final
-    ist[:, _nc.I_NOUT] = 1
+    account(fs, ist, n, h, t_final)
     ist[status != _st.OK, _nc.I_WH_VALID] = 0  # a failed member builds P again next time
     return pack.finish(status, t)
+
+
+def account(fstate, istate, n, h, t_final) -> None:
+    """The CPU kernel's bookkeeping after its loop, for the members' rows: grid index, step
+    counter, last step, clock and output count (``n, h, t_final`` from :func:`plan`)."""
+    istate[:, _nc.I_K] += np.where(h > 0.0, n, -n)
+    istate[:, _nc.I_STEPS] += n
+    fstate[n != 0, _nc.F_DT_LAST] = h[n != 0]
+    fstate[:, _nc.F_T] = t_final
+    istate[:, _nc.I_NOUT] = 1

@@ -35,12 +35,16 @@ def build():
     from .twins import device_twin
 
     to_jacobi = device_twin(nbody_whfast.to_jacobi)
-    from_internal = device_twin(nbody_whfast._from_internal)
-    to_internal = device_twin(nbody_whfast._to_internal)
-    kepler_drift = device_twin(nbody_whfast._kepler_drift)
-    interaction_kick = device_twin(nbody_whfast._interaction_kick)
     from_jacobi = device_twin(nbody_whfast.from_jacobi)
+    kepler_drift = device_twin(nbody_whfast.kepler_drift)
+    interaction_kick = device_twin(nbody_whfast.interaction_kick)
     gravity_rows = device_twin(gravity._plain_rows)
+
+    @cuda.jit(device=True)
+    def from_internal(xj, vj, m, eta, x, v):
+        # nbody_whfast._from_internal for Jacobi coordinates
+        from_jacobi(xj, m, eta, x)
+        from_jacobi(vj, m, eta, v)
 
     @cuda.jit(device=True)
     def kick(xj, vj, x, m, eta, G, soft2, massive, acc, aj, h):
@@ -53,7 +57,8 @@ def build():
     @cuda.jit(device=True)
     def first_half(x, v, m, eta, G, soft2, massive, h, xj, vj, acc, aj):
         # nbody_whfast._first_half without a corrector
-        to_internal(x, v, m, eta, xj, vj, False)
+        to_jacobi(x, m, eta, xj)  # nbody_whfast._to_internal for Jacobi coordinates
+        to_jacobi(v, m, eta, vj)
         st = kepler_drift(xj, vj, eta, G, 0.5 * h, False)
         if st != OK:
             return st
@@ -108,7 +113,7 @@ def build():
         if st != OK:
             status[k] = st
             return
-        from_internal(XS, VS, M, E, X, V, False)
+        from_internal(XS, VS, M, E, X, V)
         r = rem[k]
         if r != 0.0:  # nbody_whfast._dkd_step of the copy, without a corrector
             st = first_half(X, V, M, E, g, s2, ms, r, XS, VS, A, AJ)
@@ -117,6 +122,6 @@ def build():
             if st != OK:
                 status[k] = st
                 return
-            from_internal(XS, VS, M, E, X, V, False)
+            from_internal(XS, VS, M, E, X, V)
 
     return ensemble_whfast

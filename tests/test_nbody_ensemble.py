@@ -288,3 +288,36 @@ def test_a_member_with_coincident_particles_stops_alone():
     assert ens.t.tolist() == [1.0, 0.0, 1.0]
     good.integrate(1.0)
     np.testing.assert_array_equal(ens[0].positions, good.positions)
+
+
+def test_files_pack_the_members_and_version_1_files_still_load(tmp_path):
+    from visviva.nbody.snapshot import atomic_savez, state_dict
+
+    # ragged members, different settings, one never integrated (no internal arrays yet)
+    sims = [planets("whfast", a=1.0 + 0.1 * k, extra=k) for k in range(4)]
+    sims[1].collision = "merge"
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(2.0)
+    fresh = vv.Ensemble.from_simulations(sims)  # members with buf=None
+    members = ens.to_simulations()[:2] + fresh.to_simulations()[2:]
+    mixed = vv.Ensemble(members)
+    path = tmp_path / "v2.npz"
+    mixed.save(path)
+    with np.load(path) as data:
+        assert int(data["format_version"]) == 2 and len(data.files) == 15
+        assert len(data["meta"]) == 2  # the distinct settings, stored once each
+    # version 1: one set of arrays per member under e<k>_<key>, as the first release wrote
+    v1 = {"format": np.array("visviva.nbody.ensemble"), "format_version": np.array(1),
+          "count": np.array(4), "backend": np.array('"cpu"')}
+    for k, sim in enumerate(members):
+        v1.update({f"e{k}_{key}": value for key, value in state_dict(sim).items()})
+    atomic_savez(tmp_path / "v1.npz", v1)
+    for name in ("v2.npz", "v1.npz"):
+        back = vv.Ensemble.load(tmp_path / name)
+        assert back.n_particles.tolist() == mixed.n_particles.tolist()
+        assert back[1].collision == "merge" and back[0].collision == "none"
+        twin = vv.Ensemble(mixed.to_simulations())
+        back.integrate(3.3)
+        twin.integrate(3.3)
+        np.testing.assert_array_equal(back.positions, twin.positions)
+        np.testing.assert_array_equal(back.velocities, twin.velocities)

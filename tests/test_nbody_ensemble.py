@@ -17,6 +17,16 @@ from visviva.errors import (
 )
 
 
+@pytest.fixture(autouse=True)
+def _ensemble_kernel_itself(monkeypatch):
+    """These tests check the ensemble kernel itself: the member-by-member shortcut of a fresh
+    install's first small ensemble (visviva.nbody.tier.ensemble_would_compile) is off here and
+    tested on its own below."""
+    from visviva.core import tier as core_tier
+
+    monkeypatch.setitem(core_tier.spent, "off", True)
+
+
 def planets(integrator, a=1.0, extra=0, **kw):
     sim = vv.Simulation(integrator, dt=0.01, **kw)
     sim.add(1.0, radius=0.005)
@@ -321,3 +331,25 @@ def test_files_pack_the_members_and_version_1_files_still_load(tmp_path):
         twin.integrate(3.3)
         np.testing.assert_array_equal(back.positions, twin.positions)
         np.testing.assert_array_equal(back.velocities, twin.velocities)
+
+
+def test_a_fresh_install_runs_a_small_first_ensemble_member_by_member(force_tier):
+    from visviva.nbody import tier as nbody_tier
+
+    sims = [planets("whfast", a=1.0 + 0.1 * k, extra=k) for k in range(3)]
+    ens = vv.Ensemble.from_simulations(sims)
+    force_tier("interpreted")  # no machine code anywhere, as on a fresh install
+    assert nbody_tier.ensemble_would_compile(ens._members, 1.0)
+    ens.integrate(1.0)
+    assert ens._pack is None  # each member ran as a lone run (interpreted: no compile)
+    force_tier("compiled")
+    ens.integrate(1.5)
+    assert ens._pack is not None  # the ensemble kernel
+    for k, sim in enumerate(sims):
+        sim.integrate(1.5)
+        np.testing.assert_array_equal(ens[k].positions, sim.positions)
+        np.testing.assert_array_equal(ens[k].velocities, sim.velocities)
+    force_tier("interpreted")
+    many = vv.Ensemble.from_simulations([planets("leapfrog")] * (nbody_tier.SMALL_ENSEMBLE + 1))
+    assert not nbody_tier.ensemble_would_compile(many._members, 1.0)  # large: compile
+    assert not nbody_tier.ensemble_would_compile(ens._members, 1e6)  # long: compile

@@ -20,11 +20,13 @@ finish, and the first such exception is raised afterwards with the member's inde
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
+from . import tier as _tier
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .gpu import check_backend
@@ -300,6 +302,8 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
     pack : Pack or None
         The pack to pass to the next call for these members (None: build it again).
     """
+    if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
+        return _advance_alone(members, t), None  # a fresh install's first small ensemble
     if pack is None:
         pack = Pack.build(members)
     errors = None
@@ -315,6 +319,27 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
     if errors is None:
         errors = _advance_each(members, t, backend)
     return errors, pack
+
+
+def _time(sim, t) -> float:
+    """``t`` in ``sim``'s simulation units (NaN when it is not a valid time: the run says so)."""
+    from .settings import convert
+
+    try:
+        return float(convert(sim, t, "time", "t"))
+    except Exception:
+        return math.nan
+
+
+def _advance_alone(members: list, t) -> list:
+    """Each member integrated as a lone simulation (the same bits as the ensemble kernel)."""
+    errors = []
+    for k, sim in enumerate(members):
+        try:
+            sim.integrate(t)
+        except Exception as exc:
+            errors.append((k, exc))
+    return errors
 
 
 def _advance_each(members: list, t, backend: str) -> list:

@@ -32,7 +32,7 @@ KEYS = ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc", "
         "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos", "whfast_vel", "whfast_restart_pos",
         "whfast_dh_pos", "whfast_dh_vel", "whfast_dh_restart_pos", "whfast_corrector_pos",
         "whfast_corrector_vel", "whfast_corrector_restart_pos", "whfast_dh_j2_pos",
-        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos")
+        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos", "conics_device_pos")
 
 
 def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
@@ -50,6 +50,8 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
     assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
     assert int(out["conics_hyperbolic"]) > 20  # open orbits exercised too
+    # device arrays in and out of kernels.propagate_many (in place, no copy): the same bits
+    assert out["conics_device_bits"] == "True"
 
 
 def _has_gpu():

@@ -14,9 +14,9 @@ import visviva as vv
 from visviva.nbody.forces import J2Force
 
 
-def system(backend, n=6, seed=0, softening=0.0):
+def system(backend, n=6, seed=0, softening=0.0, integrator="leapfrog"):
     rng = np.random.default_rng(seed)
-    sim = vv.Simulation("leapfrog", dt=0.01, backend=backend, softening=softening)
+    sim = vv.Simulation(integrator, dt=0.01, backend=backend, softening=softening)
     sim.add(1.0)
     for k in range(1, n):
         sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.4 * k, e=0.05 * rng.uniform(),
@@ -51,6 +51,21 @@ def main():
     print(f"sim_vel={rel(gpu.velocities, cpu.velocities)!r}")
     print(f"steps_equal={(gpu.steps_done == cpu.steps_done)!r}")
     print(f"times_equal={(gpu.t == cpu.t)!r}")
+
+    # arrays of output times: the CPU's Trajectory (off the grid, a time repeated, then
+    # backwards in a second call), leapfrog and WHFast
+    for key, integrator in (("lf", "leapfrog"), ("wh", "whfast")):
+        runs = {b: system(b, n=4, seed=3, integrator=integrator) for b in ("cpu", "cuda")}
+        pairs = [[sim.integrate(times) for sim in runs.values()]
+                 for times in ([0.013, 0.05, 0.05, 0.0871, 0.12], [0.1, 0.031, -0.02])]
+        pos = max(rel(g.positions, c.positions) for c, g in pairs)
+        vel = max(rel(g.velocities, c.velocities) for c, g in pairs)
+        same_t = all((g.t == c.t).all() for c, g in pairs)
+        cpu_sim, gpu_sim = runs.values()
+        print(f"traj_{key}_pos={pos!r}")
+        print(f"traj_{key}_vel={vel!r}")
+        print(f"traj_{key}_times_equal={same_t and gpu_sim.t == cpu_sim.t == -0.02!r}")
+        print(f"traj_{key}_steps_equal={gpu_sim.steps_done == cpu_sim.steps_done!r}")
 
     # restart: the GPU state saved and continued on the CPU
 

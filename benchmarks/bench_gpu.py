@@ -16,7 +16,8 @@ Rows
   reported as skipped with the CPU figures in the notes. The GPU model is printed and given in
   the notes of every GPU row. One command on a GPU machine: ``python -m benchmarks --only gpu``.
 * Kepler solves per second (``propagate_kepler_batch``'s solver) on the GPU twin against the CPU
-  kernel on every core.
+  kernel on every core: from and to host arrays (the host-device copies included), and the
+  kernel alone on arrays already on the device (``cuda.synchronize()`` inside the timed call).
 """
 
 from __future__ import annotations
@@ -372,3 +373,26 @@ def _kepler(rows, quick):
                            compile_s=c, notes=f"{n / t_gpu.median:.3g} solves/s (CPU "
                            f"{n / t_cpu.median:.3g}) including host-device copies; fp64; "
                            f"{model}"))
+        rows.append(_kepler_on_device(kernels, (r0, v0, gm, dt), out, t_cpu, model))
+
+
+def _kepler_on_device(kernels, inputs, out, t_cpu, model):
+    """The Kepler kernel alone: inputs and outputs already on the device (no host-device copy;
+    ``propagate_many`` uses device arrays in place), synchronised inside the timed call."""
+    from numba import cuda
+
+    n = inputs[0].shape[0]
+    d_in = [cuda.to_device(a) for a in inputs]
+    d_out = [cuda.device_array(a.shape, dtype=a.dtype) for a in out]
+
+    def call():
+        kernels.propagate_many(*d_in, *d_out)
+        cuda.synchronize()
+
+    t_gpu = time_call(call, repeat=5, number=1)
+    moved = sum(a.nbytes for a in (*inputs, *out)) / 1e9
+    return result(f"Kepler kernel on the GPU, {n:.0e} pairs already on the device", t_gpu,
+                  "CPU backend, every core", t_cpu, target=0.02,
+                  notes=f"{n / t_gpu.median:.3g} solves/s (CPU {n / t_cpu.median:.3g}); kernel "
+                        f"only: the {moved:.2g} GB of inputs and outputs stay on the device; "
+                        f"fp64; {model}")

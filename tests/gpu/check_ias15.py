@@ -169,8 +169,18 @@ def main():
     print(f"encounter_before={(max(ec.t, eg.t) < 0.06)!r}")
     print(f"encounter_pos={rel(eg.positions, ec.positions)!r}")
 
+    # an array of output times through the merger: the CPU's Trajectory (the merged planet's
+    # column NaN after it), with a progress bar on the GPU run
+    tc = crossing("cpu", collision="merge").integrate([0.01, 0.03, 0.03, 0.05, 0.08])
+    tg = crossing("cuda", collision="merge").integrate([0.01, 0.03, 0.03, 0.05, 0.08],
+                                                       progress=True)
+    print(f"traj_merge_pos={rel(np.nan_to_num(tg.positions), np.nan_to_num(tc.positions))!r}")
+    print(f"traj_merge_vel={rel(np.nan_to_num(tg.velocities), np.nan_to_num(tc.velocities))!r}")
+    print(f"traj_merge_nan={int(np.isnan(tc.positions).any(-1).sum())!r},"
+          f"{int(np.isnan(tg.positions).any(-1).sum())!r}")
+    print(f"traj_merge_times_equal={bool((tg.t == tc.t).all())!r}")
+
     # what is refused, and an error inside the GPU call
-    print(f"refuse_times={refusal(lambda: planets('cuda', n=3, tp=0).integrate([0.1, 0.2]))}")
 
     def leapfrog_force():
         s = vv.Simulation("leapfrog", dt=0.01, backend="cuda")

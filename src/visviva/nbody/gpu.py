@@ -20,12 +20,18 @@ continued on either backend. Results agree with the CPU backend to round-off (th
 are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative after several
 steps (``tests/test_nbody_gpu.py``); that is all the simulator shows, it says nothing of speed.
 
+A simulation integrates through an array of output times as on the CPU and returns the same
+:class:`~visviva.nbody.trajectory.Trajectory` (:func:`integrate_simulation`; the snapshots are
+gathered by the CPU path's :class:`~visviva.nbody.trajectory.Recording`): IAS15 and WHFast hand
+the times to their CPU kernel, the leapfrog runs to one output time after the other (the same
+steps and bits as one CPU call through all of them).
+
 IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 or WHFast
-systems, forces and events with the leapfrog or in ensembles, arrays of output times; these
-raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
-times) saying to use ``backend="cpu"``.
+systems, forces and events with the leapfrog or in ensembles, arrays of output times for
+ensembles; these raise :class:`visviva.errors.InvalidInputError`
+(:class:`visviva.errors.ShapeError` for the times) saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ import numpy as np
 
 from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
+from ..core import status as _st
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
 
@@ -161,9 +168,9 @@ def _non_finite(t_final) -> InvalidStateError:
 
 
 def begin_gpu_run(sim, t, ensemble: bool = False):
-    """Check that ``sim`` can run on the GPU to the one time ``t`` and prepare it
-    (:meth:`visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`); returns
-    the target time (simulation units) and the indices of the massive particles."""
+    """Check that ``sim`` (an ensemble's member) can run on the GPU to the one time ``t`` and
+    prepare it (:meth:`visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`);
+    returns the target time (simulation units) and the indices of the massive particles."""
     if np.ndim(t) != 0:
         raise ShapeError("backend='cuda' integrates to one time per call; got an array of "
                          "times (call integrate once per output time).")
@@ -173,24 +180,50 @@ def begin_gpu_run(sim, t, ensemble: bool = False):
     return target, massive
 
 
-def integrate_simulation(sim, t) -> None:
-    """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
-    between steps, N threads per kernel; WHFast and IAS15: the CPU kernel with the gravity on
-    the GPU, :mod:`visviva.nbody.gpu_force`)."""
+def integrate_simulation(sim, t, progress: bool = False):
+    """Integrate one simulation to the time(s) ``t`` on the GPU, as
+    :meth:`visviva.Simulation.integrate` does on the CPU (same arguments, same result: None for
+    one time, a :class:`~visviva.nbody.trajectory.Trajectory` for an array of times).
+
+    Leapfrog: the state stays on the device between steps (N threads per kernel), one run per
+    output time (:func:`_leapfrog_to`), each landing on the time as the CPU kernel does; WHFast
+    and IAS15: the CPU kernel through all the output times, its gravity on the GPU
+    (:mod:`visviva.nbody.gpu_force`)."""
+    from .trajectory import Recording
+
+    _check_supported(sim, ensemble=False)
+    scalar = np.ndim(t) == 0
+    times = sim.begin_run(t)
+    with Recording(sim, times, progress) as rec:
+        if sim.integrator in CPU_KERNEL_INTEGRATORS:
+            from .gpu_force import run_with_gpu_gravity
+
+            if sim.integrator == "ias15":
+                from .gpu_ias15 import evaluator
+            else:
+                from .gpu_whfast import evaluator
+            run_with_gpu_gravity(sim, rec, evaluator)
+        else:
+            _, _, massive = sim.kernel_inputs(parallel=False)
+            state = sim.state_arrays()
+            for k, target in enumerate(times):
+                done0 = rec.before_call()
+                _leapfrog_to(sim, state, massive, float(target))
+                state["istate"][_nc.I_NOUT] = k + 1
+                rec.out_t[k] = sim.t
+                rec.chunk_x[k] = state["x"]
+                rec.chunk_v[k] = state["v"]
+                rec.after_call(_st.OK, done0)
+    return None if scalar else rec.trajectory()
+
+
+def _leapfrog_to(sim, state, massive, target: float) -> None:
+    """The leapfrog on the GPU to the one time ``target`` (simulation units): the internal state
+    on the device for the steps of :func:`plan`, then the output copy."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
-    target, massive = begin_gpu_run(sim, t)
-    if sim.integrator in CPU_KERNEL_INTEGRATORS:
-        from .gpu_force import run_with_gpu_gravity
-
-        if sim.integrator == "ias15":
-            from .gpu_ias15 import evaluator
-        else:
-            from .gpu_whfast import evaluator
-        return run_with_gpu_gravity(sim, target, evaluator)
-    state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     n, h, rem, t_final = plan(state, target)
     grid = K.blocks(sim.N)

@@ -231,18 +231,19 @@ def _fused_with(fn):
     return fused
 
 
-def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
-    """Integrate ``sim`` (IAS15 or WHFast) to the absolute time ``target`` with its CPU kernel,
-    every gravity evaluation on the GPU.
+def run_with_gpu_gravity(sim, rec, evaluator) -> None:
+    """Integrate ``sim`` (IAS15 or WHFast) through the output times of ``rec`` with its CPU
+    kernel, every gravity evaluation on the GPU.
 
     Parameters
     ----------
     sim : Simulation
-        Prepared by :func:`visviva.nbody.gpu.begin_gpu_run`. Its additional forces are added
+        Prepared by :meth:`visviva.Simulation.begin_run`. Its additional forces are added
         after the gravity, and its collision, encounter and escape checks run, as on the CPU; a
         merger or bounce rebuilds the GPU's arrays before the run goes on.
-    target : float
-        Absolute time (simulation units).
+    rec : visviva.nbody.trajectory.Recording
+        The output times (simulation units, monotonic) and the arrays the kernel writes its
+        snapshots into, as :meth:`visviva.Simulation.integrate` passes them on the CPU.
     evaluator : callable
         ``evaluator(sim, massive)``: the :class:`GravityEvaluator` of one kernel call over the
         current arrays of ``sim`` (``massive``: the indices of its massive particles), e.g.
@@ -260,7 +261,6 @@ def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
     _compile_force()
     with _LOCK:
         key = next(_KEYS)
-    times = np.array([target])
     try:
         while True:
             # (again after a merger or bounce: N, the masses and buf may have changed)
@@ -270,16 +270,17 @@ def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
             run = _RUNS[key] = evaluator(sim, massive)
             force = gpu_gravity_force if fn is no_force else _fused_with(fn)
             n = x.shape[0]
+            done0 = rec.before_call()
             # the few-body kernel: its own gravity is a pass over no massive particle (with
             # its scratch of the full size: the rows of the particles i are used all the same)
             status = int(sim.integrator_info.kernel(True, istate, fstate)(
                 x, v, state["m"], np.empty(0, np.int64), state["radius"], fstate, istate,
                 state["buf"], np.zeros((GWORK_ROWS, n)), force,
-                np.concatenate([[float(key)], params]), times, times.copy(),
-                np.empty((1, n, 3)), np.empty((1, n, 3))))
+                np.concatenate([[float(key)], params]), rec.times, rec.out_t, rec.chunk_x,
+                rec.chunk_v))
             if run.error is not None:
                 raise run.error
-            if sim.after_kernel(status):
+            if rec.after_call(status, done0):
                 return
     finally:
         _RUNS.pop(key, None)

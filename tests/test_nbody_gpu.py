@@ -32,8 +32,9 @@ KEYS = ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc", "
         "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos", "whfast_vel", "whfast_restart_pos",
         "whfast_dh_pos", "whfast_dh_vel", "whfast_dh_restart_pos", "whfast_corrector_pos",
         "whfast_corrector_vel", "whfast_corrector_restart_pos", "whfast_dh_j2_pos",
-        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos", "conics_device_pos", "traj_lf_pos",
-        "traj_lf_vel", "traj_wh_pos", "traj_wh_vel")
+        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos", "lf_force_pos", "lf_force_vel",
+        "lf_merge_pos", "conics_device_pos", "traj_lf_pos", "traj_lf_vel", "traj_wh_pos",
+        "traj_wh_vel")
 
 
 def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
@@ -48,6 +49,8 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     for key in ("whfast", "whfast_dh", "whfast_corrector", "whfast_dh_j2"):
         assert out[f"{key}_steps_equal"] == "True", key
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
+    # the leapfrog with an additional force and with a merger (its CPU kernel, GPU gravity)
+    assert out["lf_force_steps_equal"] == "True" and out["lf_merge_n"] == "2,2"
     # the packed call equals the member-by-member path bit for bit
     assert out["ens_packed"] == "True" and out["ens_pack_bits_vs_each"] == "True"
     # arrays of output times (forwards, a repeated time, backwards): the CPU's Trajectory
@@ -147,7 +150,7 @@ def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
     assert out["merge_n"] == "2,2"
     assert out["encounter"] == "Encounter/Encounter" and out["encounter_before"] == "True"
     # what the GPU path does not run is refused with the library's errors
-    assert out["refuse_leapfrog_force"] == "InvalidInputError"
+    assert out["refuse_ensemble_force"] == "InvalidInputError"
     # an error in the GPU call reaches the caller, the state stays at the last good step
     assert out["broken"] == "device lost" and out["broken_state_kept"] == "True"
 

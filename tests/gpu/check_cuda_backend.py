@@ -184,6 +184,27 @@ def main():
         wc.integrate(0.3)
         print(f"whfast_{key}_restart_pos={rel(back.positions, wc.positions)!r}")
 
+    # the leapfrog with an additional force, and with mergers: its CPU kernel, the gravity on
+    # the GPU (nbody/gpu_force.every_call)
+    lc, lg = system("cpu"), system("cuda")
+    for sim in (lc, lg):
+        sim.add_force(J2Force(0, 0.05, 0.3))
+        sim.integrate(0.237)
+        sim.integrate(0.5)
+    print(f"lf_force_pos={rel(lg.positions, lc.positions)!r}")
+    print(f"lf_force_vel={rel(lg.velocities, lc.velocities)!r}")
+    print(f"lf_force_steps_equal={(lg.steps_done == lc.steps_done == 50)!r}")
+    runs = []
+    for backend in ("cpu", "cuda"):
+        sim = vv.Simulation("leapfrog", dt=0.01, backend=backend, collision="merge")
+        sim.add(1.0, radius=0.1)
+        sim.add(1e-3, r=[0.6, 0.0, 0.0], v=[-0.3, 0.2, 0.0], radius=0.05)  # falls in
+        sim.add(1e-3, r=[-0.7, 0.0, 0.0], v=[0.4, -1.1, 0.0], radius=0.05)
+        sim.integrate(3.0)
+        runs.append(sim)
+    print(f"lf_merge_n={runs[0].N!r},{runs[1].N!r}")
+    print(f"lf_merge_pos={rel(runs[1].positions, runs[0].positions)!r}")
+
     # batch two-body propagation: the universal-variable solver's device twin against the CPU
 
 

@@ -182,14 +182,14 @@ def main():
 
     # what is refused, and an error inside the GPU call
 
-    def leapfrog_force():
-        s = vv.Simulation("leapfrog", dt=0.01, backend="cuda")
+    def ensemble_force():
+        s = vv.Simulation("leapfrog", dt=0.01)
         s.add(1.0)
         s.add(1e-3, a=1.0, primary=0)
         s.add_force(J2Force(0, 1e-3, 0.01))
-        s.integrate(0.1)
+        vv.Ensemble.from_simulations([s], backend="cuda").integrate(0.1)
 
-    print(f"refuse_leapfrog_force={refusal(leapfrog_force)}")
+    print(f"refuse_ensemble_force={refusal(ensemble_force)}")
     add = gpu.DeviceGravity.add
 
     def broken(self, *args):

@@ -28,9 +28,10 @@ steps and bits as one CPU call through all of them).
 
 IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
-mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 or WHFast
-systems, forces and events with the leapfrog or in ensembles, arrays of output times for
-ensembles; these raise :class:`visviva.errors.InvalidInputError`
+mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
+CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
+GPU (yet): ensembles of IAS15 or WHFast systems, forces and events in ensembles, arrays of
+output times for ensembles; these raise :class:`visviva.errors.InvalidInputError`
 (:class:`visviva.errors.ShapeError` for the times) saying to use ``backend="cpu"``.
 """
 
@@ -78,14 +79,18 @@ def check_backend(backend: str, integrator: str | None = None, ensemble: bool = 
 CPU_KERNEL_INTEGRATORS = ("ias15", "whfast")
 
 
+def _extras(sim) -> bool:
+    """True when ``sim`` has additional forces or collision, encounter or escape checks."""
+    return bool(sim.forces or sim.collision != "none" or sim.encounter_distance
+                or sim.exit_max_distance)
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    extras = sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance
-    if extras and (ensemble or sim.integrator not in CPU_KERNEL_INTEGRATORS):
-        what = "ensembles" if ensemble else "the leapfrog"
+    if ensemble and _extras(sim):
         raise InvalidInputError(
-            f"backend='cuda' integrates {what} with gravity only: additional forces and "
+            "backend='cuda' integrates ensembles with gravity only: additional forces and "
             "collision, encounter or escape checks run on backend='cpu' (or, for one "
-            f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
+            "simulation, on the GPU: Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
 
@@ -195,13 +200,15 @@ def integrate_simulation(sim, t, progress: bool = False):
     scalar = np.ndim(t) == 0
     times = sim.begin_run(t)
     with Recording(sim, times, progress) as rec:
-        if sim.integrator in CPU_KERNEL_INTEGRATORS:
+        if sim.integrator in CPU_KERNEL_INTEGRATORS or _extras(sim):
             from .gpu_force import run_with_gpu_gravity
 
             if sim.integrator == "ias15":
                 from .gpu_ias15 import evaluator
-            else:
+            elif sim.integrator == "whfast":
                 from .gpu_whfast import evaluator
+            else:  # the leapfrog with forces or event checks: its CPU kernel
+                from .gpu_force import every_call as evaluator
             run_with_gpu_gravity(sim, rec, evaluator)
         else:
             _, _, massive = sim.kernel_inputs(parallel=False)

@@ -1,6 +1,7 @@
 """The CPU integrator kernels with their direct-sum gravity evaluated on the GPU.
 
-For one large simulation an IAS15 or WHFast step costs O(N N_massive) for the gravity and O(N)
+For one large simulation an IAS15 or WHFast step (or a leapfrog step with additional forces or
+event checks) costs O(N N_massive) for the gravity and O(N)
 for everything else (IAS15's predictor-corrector and step control, WHFast's Kepler drifts,
 coordinate transforms and correctors). :func:`run_with_gpu_gravity` therefore runs the CPU
 backend's own compiled kernel (:mod:`visviva.core.nbody_ias15`, :mod:`visviva.core.nbody_whfast`)
@@ -33,9 +34,11 @@ import weakref
 import numpy as np
 from numba import objmode
 
+from ..core import nbody_common as _nc
 from ..core._jit import kernel
 
-__all__ = ["DeviceGravity", "GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity"]
+__all__ = ["DeviceGravity", "GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity",
+           "every_call"]
 
 _RUNS: dict = {}  # run key (params[0]) -> GravityEvaluator, for the runs in flight
 _KEYS = itertools.count(1)
@@ -152,6 +155,22 @@ class GravityEvaluator:
         )
 
 
+class _EveryCall(GravityEvaluator):
+    """For a kernel whose every force call is one whole acceleration evaluation at ``x`` (the
+    leapfrog: :func:`visviva.core.nbody_common.accelerations`, once per step)."""
+
+    def __call__(self, x, acc) -> None:
+        self.gravity.add(x, acc)
+
+
+def every_call(sim, massive) -> GravityEvaluator:
+    """The GPU gravity of one leapfrog run of ``sim`` with additional forces or event checks
+    (``massive``: the indices of its massive particles), for :func:`run_with_gpu_gravity`."""
+    state = sim.state_arrays()
+    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
+    return _EveryCall(state["buf"], gravity)
+
+
 def _evaluate(params, x, acc) -> None:
     """Called from compiled code: the GPU gravity of run ``params[0]`` added to ``acc``. An
     exception cannot cross the compiled kernel: it is kept for the driver, and NaN makes the
@@ -232,7 +251,7 @@ def _fused_with(fn):
 
 
 def run_with_gpu_gravity(sim, rec, evaluator) -> None:
-    """Integrate ``sim`` (IAS15 or WHFast) through the output times of ``rec`` with its CPU
+    """Integrate ``sim`` (IAS15, WHFast, or the leapfrog with forces or events) through the output times of ``rec`` with its CPU
     kernel, every gravity evaluation on the GPU.
 
     Parameters

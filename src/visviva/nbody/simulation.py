@@ -498,6 +498,13 @@ class Simulation:
         st.work()
         return fn, params, st.massive
 
+    def adopt_arrays(self, arrays: dict, massive) -> None:
+        """Hold ``arrays`` (the keys of :meth:`state_arrays`, views into an ensemble's packed
+        arrays holding this simulation's values) as the state's arrays (friend interface, see
+        :meth:`begin_run`; :mod:`visviva.nbody.ensemble_pack`)."""
+        self._state.adopt(*(arrays[k] for k in ("x", "v", "m", "radius", "fstate", "istate",
+                                                  "buf")), massive)
+
     def after_kernel(self, status: int, removed=None) -> bool:
         """Act on a kernel's status code: True when the run is done, False to call the kernel
         again (after a pause or a resolved merger/bounce, ``removed(index)`` called with the

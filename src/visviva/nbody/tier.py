@@ -112,7 +112,7 @@ def ensemble_would_compile(members, t: float) -> bool:
     if not steps <= SMALL_ENSEMBLE_STEPS:
         return False
     info = members[0].integrator_info
-    few = max(np.count_nonzero(s._state.m) for s in members) < PAIR_MIN_N  # friend access
+    few = max(np.count_nonzero(s.state_arrays()["m"]) for s in members) < PAIR_MIN_N
     member_kernel = getattr(importlib.import_module(info.module), info.variant(few))
     return not all(_core_tier.in_memory(k) or k.load_cached(sig) for k, sig in (
         (ensemble_run, ENSEMBLE_SIGNATURE), (member_kernel, _nc.RUN_SIGNATURE)))

@@ -123,8 +123,9 @@ def _cell(text) -> str:
     return str("" if text is None else text).replace("|", "\\|").replace("\n", " ")
 
 
-def markdown(rows: list[dict], quick: bool, elapsed_s: float) -> str:
-    """The performance page: machine, versions, one table row per benchmark."""
+def markdown(rows: list[dict], quick: bool, elapsed_s: float, output=None) -> str:
+    """The performance page: machine, versions, one table row per benchmark, and the
+    hand-written sections of the page at ``output`` (:func:`kept_sections`)."""
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     mach = machine()
     vers = versions()
@@ -166,11 +167,32 @@ def markdown(rows: list[dict], quick: bool, elapsed_s: float) -> str:
     if not rows:
         lines.append("| (no benchmark modules found) | | | | | | | |")
     lines.append("")
-    # the hand-measured cold-start section (before/after and per-kernel figures) stays on the page
+    # the hand-measured sections (cold start, GPU, scale-out: figures measured by hand, on a lent
+    # GPU, or before/after a change) stay on the page: those of the page being replaced, or,
+    # for a new page, the cold-start section
+    kept = kept_sections(Path(output)) if output is not None else ""
     cold = Path(__file__).with_name("cold_start.md")
-    if cold.is_file():
-        lines += ["", cold.read_text(encoding="utf-8").rstrip(), ""]
+    if not kept and cold.is_file():
+        kept = cold.read_text(encoding="utf-8").rstrip()
+    if kept:
+        lines += ["", kept, ""]
     return "\n".join(lines)
+
+
+def kept_sections(page: Path) -> str:
+    """The hand-written sections of an existing performance page: everything from the first
+    ``## `` heading after its ``## Results`` table ("" when there is none)."""
+    if not page.is_file():
+        return ""
+    text = page.read_text(encoding="utf-8").splitlines()
+    try:
+        start = text.index("## Results")
+    except ValueError:
+        return ""
+    for i in range(start + 1, len(text)):
+        if text[i].startswith("## "):
+            return "\n".join(text[i:]).rstrip()
+    return ""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -207,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_write:
         out = Path(args.output)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(markdown(rows, args.quick, elapsed), encoding="utf-8")
+        out.write_text(markdown(rows, args.quick, elapsed, out), encoding="utf-8")
         print(f"wrote {out}", file=sys.stderr)
     failed = [r for r in rows if r["name"].endswith(": failed")]
     return 1 if failed else 0

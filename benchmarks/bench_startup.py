@@ -135,6 +135,16 @@ sim = vv.Simulation(integrator="ias15", G=1.0)
 sim.add(1.0, [0,0,0], [0,0,0]); sim.add(1e-3, [1,0,0], [0,1,0]); sim.add(1e-3, [2,0,0], [0,0.7,0])
 sim.integrate(10.0); sim.energy()
 """,
+"ensemble": """
+import visviva as vv
+sims = []
+for a2 in (1.3, 1.6, 1.9):
+    sim = vv.Simulation("whfast", dt=0.15)
+    sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(3e-4, a=a2)
+    sims.append(sim)
+ens = vv.Ensemble.from_simulations(sims)
+ens.integrate(100.0); ens.energy()
+""",
 "cowell": """
 from astropy import units as u
 import numpy as np

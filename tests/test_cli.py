@@ -218,6 +218,13 @@ def test_bench_page_marks_targets(tmp_path, monkeypatch):
     text = bench_main.markdown(rows, quick=True, elapsed_s=1.0)
     assert "| fast |" in text and "| met |" in text and "| NOT met |" in text
     assert "1 of 2 targets met" in text
+    # a page being replaced keeps its hand-written sections (GPU figures measured on a lent
+    # machine, before/after comparisons): a rerun on another machine must not erase them
+    page = tmp_path / "performance.md"
+    page.write_text(text + "\n## Measured on a GPU by hand\n\n| row | 1 ns |\n")
+    again = bench_main.markdown(rows[:1], quick=False, elapsed_s=2.0, output=page)
+    assert "## Measured on a GPU by hand" in again and "| row | 1 ns |" in again
+    assert "| slow |" not in again and again.count("## Results") == 1
 
 
 def test_warnings_are_recorded_not_printed(monkeypatch, tmp_path, capsys):

@@ -88,7 +88,10 @@ def test_large_n_kernel_matches_extended_precision_sum(soft):
     # error of each component relative to the sum of the magnitudes of its terms: the round-off
     # floor of any summation order (the small-N kernel: 3e-16 here)
     err = np.abs(a - ref).max(1) / scale
-    assert err.max() <= 1e-15, err.max()  # measured 2.3e-16 .. 3.1e-16
+    # measured 2.3e-16 .. 3.1e-16; with numba's JIT off the vector loops' Python stand-ins
+    # (core/gravity_simd.py) round the r**-3 step differently: 1.1e-15, still round-off
+    floor = 2e-15 if numba.config.DISABLE_JIT else 1e-15
+    assert err.max() <= floor, err.max()
     # and relative to |a| itself (cancellation makes this larger for a few particles)
     rel = np.linalg.norm(a - ref, axis=1) / np.linalg.norm(ref, axis=1)
     assert rel.max() <= 1e-13, rel.max()

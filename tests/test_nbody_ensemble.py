@@ -17,6 +17,16 @@ from visviva.errors import (
 )
 
 
+@pytest.fixture(autouse=True)
+def _ensemble_kernel_itself(monkeypatch):
+    """These tests check the ensemble kernel itself: the member-by-member shortcut of a fresh
+    install's first small ensemble (visviva.nbody.tier.ensemble_would_compile) is off here and
+    tested on its own below."""
+    from visviva.core import tier as core_tier
+
+    monkeypatch.setitem(core_tier.spent, "off", True)
+
+
 def planets(integrator, a=1.0, extra=0, **kw):
     sim = vv.Simulation(integrator, dt=0.01, **kw)
     sim.add(1.0, radius=0.005)
@@ -165,8 +175,13 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     vv.Simulation("ias15", backend="cuda")  # one large system: IAS15 and WHFast run
     with pytest.raises(InvalidInputError, match="ensembles of the"):  # leapfrog and WHFast
         vv.Ensemble.from_simulations([planets("ias15")], backend="cuda")
-    # WHFast ensembles: the plain case (Jacobi, no corrector, gravity only) on the GPU
+    with pytest.raises(InvalidInputError, match="ensembles with gravity only.*backend='cpu'"):
+        vv.Ensemble.from_simulations([planets("leapfrog", collision="merge")],
+                                     backend="cuda").integrate(1.0)
+    # WHFast ensembles: the plain case (Jacobi, no corrector, gravity only) on the GPU; other
+    # settings are refused when the ensemble is made or loaded, naming the member
     ens = vv.Ensemble.from_simulations([planets("whfast")] * 2, backend="cuda")
+    assert ens.backend == "cuda"
     for options in ({"coordinates": "democraticheliocentric"}, {"corrector": 5},
                     {"collision": "merge"}):
         odd = [planets("whfast"), planets("whfast", **options)]
@@ -176,15 +191,8 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     vv.Ensemble.from_simulations(odd).save(path)
     with pytest.raises(InvalidInputError, match="backend='cpu'"):
         vv.Ensemble.load(path, backend="cuda")
-    assert ens.backend == "cuda"
-    sim = planets("leapfrog", collision="merge")
-    sim.backend = "cuda"
-    with pytest.raises(InvalidInputError, match="backend='cpu'"):
-        sim.integrate(1.0)
-    sim = planets("leapfrog")
-    sim.backend = "cuda"
-    with pytest.raises(ShapeError, match="one time"):
-        sim.integrate([1.0, 2.0])
+    # (one leapfrog simulation with forces or events runs on the GPU: tests/test_nbody_gpu.py)
+    # (an array of output times runs on the GPU: tests/test_nbody_gpu.py)
 
 
 def test_dask_process_workers_give_identical_results(monkeypatch):
@@ -299,3 +307,58 @@ def test_a_member_with_coincident_particles_stops_alone():
     assert ens.t.tolist() == [1.0, 0.0, 1.0]
     good.integrate(1.0)
     np.testing.assert_array_equal(ens[0].positions, good.positions)
+
+
+def test_files_pack_the_members_and_version_1_files_still_load(tmp_path):
+    from visviva.nbody.snapshot import atomic_savez, state_dict
+
+    # ragged members, different settings, one never integrated (no internal arrays yet)
+    sims = [planets("whfast", a=1.0 + 0.1 * k, extra=k) for k in range(4)]
+    sims[1].collision = "merge"
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(2.0)
+    fresh = vv.Ensemble.from_simulations(sims)  # members with buf=None
+    members = ens.to_simulations()[:2] + fresh.to_simulations()[2:]
+    mixed = vv.Ensemble(members)
+    path = tmp_path / "v2.npz"
+    mixed.save(path)
+    with np.load(path) as data:
+        assert int(data["format_version"]) == 2 and len(data.files) == 15
+        assert len(data["meta"]) == 2  # the distinct settings, stored once each
+    # version 1: one set of arrays per member under e<k>_<key>, as the first release wrote
+    v1 = {"format": np.array("visviva.nbody.ensemble"), "format_version": np.array(1),
+          "count": np.array(4), "backend": np.array('"cpu"')}
+    for k, sim in enumerate(members):
+        v1.update({f"e{k}_{key}": value for key, value in state_dict(sim).items()})
+    atomic_savez(tmp_path / "v1.npz", v1)
+    for name in ("v2.npz", "v1.npz"):
+        back = vv.Ensemble.load(tmp_path / name)
+        assert back.n_particles.tolist() == mixed.n_particles.tolist()
+        assert back[1].collision == "merge" and back[0].collision == "none"
+        twin = vv.Ensemble(mixed.to_simulations())
+        back.integrate(3.3)
+        twin.integrate(3.3)
+        np.testing.assert_array_equal(back.positions, twin.positions)
+        np.testing.assert_array_equal(back.velocities, twin.velocities)
+
+
+def test_a_fresh_install_runs_a_small_first_ensemble_member_by_member(force_tier):
+    from visviva.nbody import tier as nbody_tier
+
+    sims = [planets("whfast", a=1.0 + 0.1 * k, extra=k) for k in range(3)]
+    ens = vv.Ensemble.from_simulations(sims)
+    force_tier("interpreted")  # no machine code anywhere, as on a fresh install
+    assert nbody_tier.ensemble_would_compile(ens._members, 1.0)
+    ens.integrate(1.0)
+    assert ens._pack is None  # each member ran as a lone run (interpreted: no compile)
+    force_tier("compiled")
+    ens.integrate(1.5)
+    assert ens._pack is not None  # the ensemble kernel
+    for k, sim in enumerate(sims):
+        sim.integrate(1.5)
+        np.testing.assert_array_equal(ens[k].positions, sim.positions)
+        np.testing.assert_array_equal(ens[k].velocities, sim.velocities)
+    force_tier("interpreted")
+    many = vv.Ensemble.from_simulations([planets("leapfrog")] * (nbody_tier.SMALL_ENSEMBLE + 1))
+    assert not nbody_tier.ensemble_would_compile(many._members, 1.0)  # large: compile
+    assert not nbody_tier.ensemble_would_compile(ens._members, 1e6)  # long: compile

@@ -33,7 +33,9 @@ KEYS = ("sim_pos", "sim_vel", "ens_pos", "ens_vel", "restart_pos", "twin_acc", "
         "kepler_vel", "conics_pos", "tiled_acc", "whfast_pos", "whfast_vel", "whfast_restart_pos",
         "whfast_dh_pos", "whfast_dh_vel", "whfast_dh_restart_pos", "whfast_corrector_pos",
         "whfast_corrector_vel", "whfast_corrector_restart_pos", "whfast_dh_j2_pos",
-        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos")
+        "whfast_dh_j2_vel", "whfast_dh_j2_restart_pos", "lf_force_pos", "lf_force_vel",
+        "lf_merge_pos", "conics_device_pos", "traj_lf_pos", "traj_lf_vel", "traj_wh_pos",
+        "traj_wh_vel")
 
 
 def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
@@ -48,11 +50,18 @@ def test_cuda_kernels_under_the_simulator_match_the_cpu_backend():
     for key in ("whfast", "whfast_dh", "whfast_corrector", "whfast_dh_j2"):
         assert out[f"{key}_steps_equal"] == "True", key
     assert out["ens_bits_vs_sim"] == "True"  # a GPU ensemble member equals the GPU sim run alone
+    # the leapfrog with an additional force and with a merger (its CPU kernel, GPU gravity)
+    assert out["lf_force_steps_equal"] == "True" and out["lf_merge_n"] == "2,2"
     # the packed call equals the member-by-member path bit for bit
     assert out["ens_packed"] == "True" and out["ens_pack_bits_vs_each"] == "True"
+    # arrays of output times (forwards, a repeated time, backwards): the CPU's Trajectory
+    for key in ("lf", "wh"):
+        assert out[f"traj_{key}_times_equal"] == "True" and out[f"traj_{key}_steps_equal"] == "True"
     # propagate_kepler_batch(backend="cuda"): the universal-variable solver's device twin
     assert out["kepler_status_equal"] == "True" and out["conics_status_equal"] == "True"
     assert int(out["conics_hyperbolic"]) > 20  # open orbits exercised too
+    # device arrays in and out of kernels.propagate_many (in place, no copy): the same bits
+    assert out["conics_device_bits"] == "True"
 
 
 def _has_gpu():
@@ -113,7 +122,7 @@ def _check(out):
     for key in ("ias15_pos", "ias15_vel", "ias15_restart_pos", "ias15_continue_pos",
                 "ias15_energy_rel", "split_pos", "split_vel", "split_separation",
                 "split_kernel_acc", "force_pos", "force_vel", "merge_pos", "encounter_pos",
-                "encounter_t"):
+                "encounter_t", "traj_merge_pos", "traj_merge_vel"):
         assert float(out[key]) <= ROUND_OFF, (key, out[key])
     # the same step grid and step control as the CPU kernel (it IS the CPU kernel)
     assert int(out["ias15_steps"]) >= 5
@@ -127,6 +136,11 @@ def _check(out):
     # two-part positions it differs by ~4e-13 after 24 steps)
     assert int(out["split_steps"]) > 0 and out["split_steps_equal"] == "True"
     assert out["tight_equal"] == "True"
+    # an array of output times through a merger: the CPU's Trajectory, the removed planet's
+    # column NaN in the same snapshots
+    assert out["traj_merge_times_equal"] == "True"
+    nan_cpu, nan_gpu = out["traj_merge_nan"].split(",")
+    assert nan_cpu == nan_gpu and int(nan_cpu) > 0
 
 
 def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
@@ -137,8 +151,7 @@ def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
     assert out["merge_n"] == "2,2"
     assert out["encounter"] == "Encounter/Encounter" and out["encounter_before"] == "True"
     # what the GPU path does not run is refused with the library's errors
-    assert out["refuse_times"] == "ShapeError"
-    assert out["refuse_leapfrog_force"] == "InvalidInputError"
+    assert out["refuse_ensemble_force"] == "InvalidInputError"
     # an error in the GPU call reaches the caller, the state stays at the last good step
     assert out["broken"] == "device lost" and out["broken_state_kept"] == "True"
 

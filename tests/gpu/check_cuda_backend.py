@@ -14,9 +14,9 @@ import visviva as vv
 from visviva.nbody.forces import J2Force
 
 
-def system(backend, n=6, seed=0, softening=0.0):
+def system(backend, n=6, seed=0, softening=0.0, integrator="leapfrog"):
     rng = np.random.default_rng(seed)
-    sim = vv.Simulation("leapfrog", dt=0.01, backend=backend, softening=softening)
+    sim = vv.Simulation(integrator, dt=0.01, backend=backend, softening=softening)
     sim.add(1.0)
     for k in range(1, n):
         sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.4 * k, e=0.05 * rng.uniform(),
@@ -24,6 +24,11 @@ def system(backend, n=6, seed=0, softening=0.0):
     sim.add(0.0, a=0.7, e=0.1, primary=0)  # a test particle
     sim.move_to_com()
     return sim
+
+
+def host(a):
+    """A numpy array, copied from the device when ``a`` is a device array."""
+    return a if isinstance(a, np.ndarray) else a.copy_to_host()
 
 
 def rel(a, b):
@@ -46,6 +51,21 @@ def main():
     print(f"sim_vel={rel(gpu.velocities, cpu.velocities)!r}")
     print(f"steps_equal={(gpu.steps_done == cpu.steps_done)!r}")
     print(f"times_equal={(gpu.t == cpu.t)!r}")
+
+    # arrays of output times: the CPU's Trajectory (off the grid, a time repeated, then
+    # backwards in a second call), leapfrog and WHFast
+    for key, integrator in (("lf", "leapfrog"), ("wh", "whfast")):
+        runs = {b: system(b, n=4, seed=3, integrator=integrator) for b in ("cpu", "cuda")}
+        pairs = [[sim.integrate(times) for sim in runs.values()]
+                 for times in ([0.013, 0.05, 0.05, 0.0871, 0.12], [0.1, 0.031, -0.02])]
+        pos = max(rel(g.positions, c.positions) for c, g in pairs)
+        vel = max(rel(g.velocities, c.velocities) for c, g in pairs)
+        same_t = all((g.t == c.t).all() for c, g in pairs)
+        cpu_sim, gpu_sim = runs.values()
+        print(f"traj_{key}_pos={pos!r}")
+        print(f"traj_{key}_vel={vel!r}")
+        print(f"traj_{key}_times_equal={same_t and gpu_sim.t == cpu_sim.t == -0.02!r}")
+        print(f"traj_{key}_steps_equal={gpu_sim.steps_done == cpu_sim.steps_done!r}")
 
     # restart: the GPU state saved and continued on the CPU
 
@@ -164,6 +184,27 @@ def main():
         wc.integrate(0.3)
         print(f"whfast_{key}_restart_pos={rel(back.positions, wc.positions)!r}")
 
+    # the leapfrog with an additional force, and with mergers: its CPU kernel, the gravity on
+    # the GPU (nbody/gpu_force.every_call)
+    lc, lg = system("cpu"), system("cuda")
+    for sim in (lc, lg):
+        sim.add_force(J2Force(0, 0.05, 0.3))
+        sim.integrate(0.237)
+        sim.integrate(0.5)
+    print(f"lf_force_pos={rel(lg.positions, lc.positions)!r}")
+    print(f"lf_force_vel={rel(lg.velocities, lc.velocities)!r}")
+    print(f"lf_force_steps_equal={(lg.steps_done == lc.steps_done == 50)!r}")
+    runs = []
+    for backend in ("cpu", "cuda"):
+        sim = vv.Simulation("leapfrog", dt=0.01, backend=backend, collision="merge")
+        sim.add(1.0, radius=0.1)
+        sim.add(1e-3, r=[0.6, 0.0, 0.0], v=[-0.3, 0.2, 0.0], radius=0.05)  # falls in
+        sim.add(1e-3, r=[-0.7, 0.0, 0.0], v=[0.4, -1.1, 0.0], radius=0.05)
+        sim.integrate(3.0)
+        runs.append(sim)
+    print(f"lf_merge_n={runs[0].N!r},{runs[1].N!r}")
+    print(f"lf_merge_pos={rel(runs[1].positions, runs[0].positions)!r}")
+
     # batch two-body propagation: the universal-variable solver's device twin against the CPU
 
 
@@ -196,6 +237,16 @@ def main():
     print(f"conics_hyperbolic={int((energy > 0).sum())!r}")
     print(f"conics_status_equal={bool((out_c[2] == out_g[2]).all())!r}")
     print(f"conics_pos={rel(out_g[0], out_c[0])!r}")
+    # device arrays in and out (used in place, no copies), all of them or some: the same bits
+    on_dev = (cuda.device_array((n, 3)), cuda.device_array((n, 3)), cuda.device_array(n, np.int64))
+    kernels.propagate_many(*(cuda.to_device(a) for a in (r0, v0, gm, dt)), *on_dev)
+    cuda.synchronize()
+    mixed = (cuda.device_array((n, 3)), np.zeros((n, 3)), cuda.device_array(n, np.int64))
+    kernels.propagate_many(cuda.to_device(r0), v0, cuda.to_device(gm), dt, *mixed)
+    same = all((host(a) == b).all() for outs in (on_dev, mixed)
+               for a, b in zip(outs, out_g, strict=True))
+    print(f"conics_device_bits={same!r}")
+    print(f"conics_device_pos={rel(on_dev[0].copy_to_host(), out_c[0])!r}")
 
 
 if __name__ == "__main__":

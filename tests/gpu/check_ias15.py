@@ -169,17 +169,27 @@ def main():
     print(f"encounter_before={(max(ec.t, eg.t) < 0.06)!r}")
     print(f"encounter_pos={rel(eg.positions, ec.positions)!r}")
 
-    # what is refused, and an error inside the GPU call
-    print(f"refuse_times={refusal(lambda: planets('cuda', n=3, tp=0).integrate([0.1, 0.2]))}")
+    # an array of output times through the merger: the CPU's Trajectory (the merged planet's
+    # column NaN after it), with a progress bar on the GPU run
+    tc = crossing("cpu", collision="merge").integrate([0.01, 0.03, 0.03, 0.05, 0.08])
+    tg = crossing("cuda", collision="merge").integrate([0.01, 0.03, 0.03, 0.05, 0.08],
+                                                       progress=True)
+    print(f"traj_merge_pos={rel(np.nan_to_num(tg.positions), np.nan_to_num(tc.positions))!r}")
+    print(f"traj_merge_vel={rel(np.nan_to_num(tg.velocities), np.nan_to_num(tc.velocities))!r}")
+    print(f"traj_merge_nan={int(np.isnan(tc.positions).any(-1).sum())!r},"
+          f"{int(np.isnan(tg.positions).any(-1).sum())!r}")
+    print(f"traj_merge_times_equal={bool((tg.t == tc.t).all())!r}")
 
-    def leapfrog_force():
-        s = vv.Simulation("leapfrog", dt=0.01, backend="cuda")
+    # what is refused, and an error inside the GPU call
+
+    def ensemble_force():
+        s = vv.Simulation("leapfrog", dt=0.01)
         s.add(1.0)
         s.add(1e-3, a=1.0, primary=0)
         s.add_force(J2Force(0, 1e-3, 0.01))
-        s.integrate(0.1)
+        vv.Ensemble.from_simulations([s], backend="cuda").integrate(0.1)
 
-    print(f"refuse_leapfrog_force={refusal(leapfrog_force)}")
+    print(f"refuse_ensemble_force={refusal(ensemble_force)}")
     add = gpu.DeviceGravity.add
 
     def broken(self, *args):

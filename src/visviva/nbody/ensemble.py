@@ -20,21 +20,20 @@ finish, and the first such exception is raised afterwards with the member's inde
 from __future__ import annotations
 
 import functools
-import json
-import os
+import math
 
 import numpy as np
 
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
+from . import tier as _tier
+from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .gpu import check_backend, check_ensemble
 from .simulation import Simulation
 
 __all__ = ["Ensemble", "advance_members"]
 
-ENSEMBLE_FORMAT = "visviva.nbody.ensemble"
-ENSEMBLE_VERSION = 1
 
 
 def _force_key(sim) -> tuple:
@@ -243,25 +242,14 @@ class Ensemble:
         """Write every member's complete state atomically to ``path`` (an ``.npz`` file).
 
         :meth:`load` returns an ensemble whose members continue bit for bit. Format
-        ``visviva.nbody.ensemble`` version 1: ``count``, ``backend`` and each member as in
-        :mod:`visviva.nbody.snapshot` under the keys ``e<k>_<key>``.
+        ``visviva.nbody.ensemble`` version 2: the members' arrays packed one after another
+        (:mod:`visviva.nbody.ensemble_file`).
         """
-        from .snapshot import atomic_savez, state_dict
-
-        arrays = {
-            "format": np.array(ENSEMBLE_FORMAT),
-            "format_version": np.array(ENSEMBLE_VERSION),
-            "count": np.array(len(self)),
-            "backend": np.array(json.dumps(self.backend)),
-        }
-        for k, sim in enumerate(self._members):
-            for key, value in state_dict(sim).items():
-                arrays[f"e{k}_{key}"] = value
-        atomic_savez(path, arrays)
+        save_ensemble(self._members, self.backend, path)
 
     @classmethod
     def load(cls, path, forces=None, backend: str | None = None) -> Ensemble:
-        """Read an ensemble written by :meth:`save`.
+        """Read an ensemble written by :meth:`save` (format version 1 or 2).
 
         Parameters
         ----------
@@ -276,18 +264,7 @@ class Ensemble:
         -------
         Ensemble
         """
-        from .snapshot import build_simulation, check_format, open_npz
-
-        with open_npz(path) as data:
-            check_format(data, ENSEMBLE_FORMAT, ENSEMBLE_VERSION, os.fspath(path))
-            count = int(data["count"])
-            saved_backend = json.loads(str(data["backend"]))
-            members = []
-            for k in range(count):
-                prefix = f"e{k}_"
-                snap = {key[len(prefix):]: data[key] for key in data.files
-                        if key.startswith(prefix)}
-                members.append(build_simulation(Simulation, snap.get, forces))
+        members, saved_backend = load_ensemble(Simulation, path, forces)
         backend = check_backend(backend or saved_backend, members[0].integrator, ensemble=True)
         if backend == "cuda":
             check_ensemble(members)
@@ -333,6 +310,8 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
     pack : Pack or None
         The pack to pass to the next call for these members (None: build it again).
     """
+    if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
+        return _advance_alone(members, t), None  # a fresh install's first small ensemble
     if pack is None:
         pack = Pack.build(members)
     errors = None
@@ -348,6 +327,27 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
     if errors is None:
         errors = _advance_each(members, t, backend)
     return errors, pack
+
+
+def _time(sim, t) -> float:
+    """``t`` in ``sim``'s simulation units (NaN when it is not a valid time: the run says so)."""
+    from .settings import convert
+
+    try:
+        return float(convert(sim, t, "time", "t"))
+    except Exception:
+        return math.nan
+
+
+def _advance_alone(members: list, t) -> list:
+    """Each member integrated as a lone simulation (the same bits as the ensemble kernel)."""
+    errors = []
+    for k, sim in enumerate(members):
+        try:
+            sim.integrate(t)
+        except Exception as exc:
+            errors.append((k, exc))
+    return errors
 
 
 def _advance_each(members: list, t, backend: str) -> list:

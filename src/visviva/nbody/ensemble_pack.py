@@ -60,31 +60,33 @@ class Pack:
     """
 
     def __init__(self, members, n_buf: int):
-        states = [s._state for s in members]  # friend access: see visviva.nbody.state
-        for st in states:
-            st.ensure_buf(n_buf)
+        for s in members:  # the integrator's arrays allocated (a fresh start if they were not)
+            s.kernel_inputs(parallel=False)
+        states = [s.state_arrays() for s in members]
         self.members = members
         self.n_buf = n_buf
         self.stale = False
-        n = np.array([st.N for st in states], dtype=np.int64)
+        n = np.array([len(st["m"]) for st in states], dtype=np.int64)
         self.poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
         self.member_of = np.repeat(np.arange(len(members)), n)
-        self.x = np.concatenate([st.x for st in states])
-        self.v = np.concatenate([st.v for st in states])
-        self.m = np.concatenate([st.m for st in states])
-        self.radius = np.concatenate([st.radius for st in states])
-        self.fstate = np.stack([st.fstate for st in states])
-        self.istate = np.stack([st.istate for st in states])
-        self.buf = np.concatenate([st.buf.reshape(-1) for st in states])
-        local = [massive_indices(st.m) for st in states]
+        self.x = np.concatenate([st["x"] for st in states])
+        self.v = np.concatenate([st["v"] for st in states])
+        self.m = np.concatenate([st["m"] for st in states])
+        self.radius = np.concatenate([st["radius"] for st in states])
+        self.fstate = np.stack([st["fstate"] for st in states])
+        self.istate = np.stack([st["istate"] for st in states])
+        self.buf = np.concatenate([st["buf"].reshape(-1) for st in states])
+        local = [massive_indices(st["m"]) for st in states]
         self.massive = np.ascontiguousarray(np.concatenate(local), dtype=np.int64)
         self.moff = np.concatenate([[0], np.cumsum([len(i) for i in local])]).astype(np.int64)
         step = 3 * n_buf
-        for j, st in enumerate(states):
+        for j, s in enumerate(members):
             lo, hi = self.poff[j], self.poff[j + 1]
-            st.adopt(self.x[lo:hi], self.v[lo:hi], self.m[lo:hi], self.radius[lo:hi],
-                     self.fstate[j], self.istate[j],
-                     self.buf[step * lo:step * hi].reshape(n_buf, hi - lo, 3), local[j])
+            s.adopt_arrays({"x": self.x[lo:hi], "v": self.v[lo:hi], "m": self.m[lo:hi],
+                            "radius": self.radius[lo:hi], "fstate": self.fstate[j],
+                            "istate": self.istate[j],
+                            "buf": self.buf[step * lo:step * hi].reshape(n_buf, hi - lo, 3)},
+                           local[j])
 
     @classmethod
     def build(cls, members) -> Pack | None:

@@ -27,13 +27,20 @@ after several steps (``tests/test_nbody_gpu.py``; the WHFast ensembles, which ad
 numbers in the same order, bit for bit there); that is all the simulator shows, it says nothing
 of speed.
 
+A simulation integrates through an array of output times as on the CPU and returns the same
+:class:`~visviva.nbody.trajectory.Trajectory` (:func:`integrate_simulation`; the snapshots are
+gathered by the CPU path's :class:`~visviva.nbody.trajectory.Recording`): IAS15 and WHFast hand
+the times to their CPU kernel, the leapfrog runs to one output time after the other (the same
+steps and bits as one CPU call through all of them).
+
 IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gravity, as the CPU
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
-mergers and bounces rebuild the GPU arrays). Not on the GPU (yet): ensembles of IAS15 systems,
-WHFast ensembles in democratic heliocentric coordinates or with a corrector, forces and events
-with the leapfrog or in ensembles, arrays of output times; these raise
-:class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the times)
-saying to use ``backend="cpu"``.
+mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
+CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
+GPU (yet): ensembles of IAS15 systems, WHFast ensembles in democratic heliocentric coordinates or
+with a corrector, forces and events in ensembles, arrays of output times for ensembles; these
+raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
+times) saying to use ``backend="cpu"``.
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ import numpy as np
 
 from .._backends import check_backend as _check
 from ..core import nbody_common as _nc
+from ..core import status as _st
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
 from .gpu_plan import plan, plan_many
@@ -78,14 +86,18 @@ def check_backend(backend: str, integrator: str | None = None, ensemble: bool = 
 CPU_KERNEL_INTEGRATORS = ("ias15", "whfast")
 
 
+def _extras(sim) -> bool:
+    """True when ``sim`` has additional forces or collision, encounter or escape checks."""
+    return bool(sim.forces or sim.collision != "none" or sim.encounter_distance
+                or sim.exit_max_distance)
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    extras = sim.forces or sim.collision != "none" or sim.encounter_distance or sim.exit_max_distance
-    if extras and (ensemble or sim.integrator not in CPU_KERNEL_INTEGRATORS):
-        what = "ensembles" if ensemble else "the leapfrog"
+    if ensemble and _extras(sim):
         raise InvalidInputError(
-            f"backend='cuda' integrates {what} with gravity only: additional forces and "
+            "backend='cuda' integrates ensembles with gravity only: additional forces and "
             "collision, encounter or escape checks run on backend='cpu' (or, for one "
-            f"simulation, with integrator in {CPU_KERNEL_INTEGRATORS} on the GPU)."
+            "simulation, on the GPU: Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
     if ensemble and sim.integrator == "whfast":
@@ -126,9 +138,9 @@ def _non_finite(t_final) -> InvalidStateError:
 
 
 def begin_gpu_run(sim, t, ensemble: bool = False):
-    """Check that ``sim`` can run on the GPU to the one time ``t`` and prepare it
-    (:meth:`visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`); returns
-    the target time (simulation units) and the indices of the massive particles."""
+    """Check that ``sim`` (an ensemble's member) can run on the GPU to the one time ``t`` and
+    prepare it (:meth:`visviva.Simulation.begin_run`, :meth:`~visviva.Simulation.kernel_inputs`);
+    returns the target time (simulation units) and the indices of the massive particles."""
     if np.ndim(t) != 0:
         raise ShapeError("backend='cuda' integrates to one time per call; got an array of "
                          "times (call integrate once per output time).")
@@ -138,24 +150,52 @@ def begin_gpu_run(sim, t, ensemble: bool = False):
     return target, massive
 
 
-def integrate_simulation(sim, t) -> None:
-    """Integrate one simulation to ``t`` on the GPU (leapfrog: the state stays on the device
-    between steps, N threads per kernel; WHFast and IAS15: the CPU kernel with the gravity on
-    the GPU, :mod:`visviva.nbody.gpu_force`)."""
+def integrate_simulation(sim, t, progress: bool = False):
+    """Integrate one simulation to the time(s) ``t`` on the GPU, as
+    :meth:`visviva.Simulation.integrate` does on the CPU (same arguments, same result: None for
+    one time, a :class:`~visviva.nbody.trajectory.Trajectory` for an array of times).
+
+    Leapfrog: the state stays on the device between steps (N threads per kernel), one run per
+    output time (:func:`_leapfrog_to`), each landing on the time as the CPU kernel does; WHFast
+    and IAS15: the CPU kernel through all the output times, its gravity on the GPU
+    (:mod:`visviva.nbody.gpu_force`)."""
+    from .trajectory import Recording
+
+    _check_supported(sim, ensemble=False)
+    scalar = np.ndim(t) == 0
+    times = sim.begin_run(t)
+    with Recording(sim, times, progress) as rec:
+        if sim.integrator in CPU_KERNEL_INTEGRATORS or _extras(sim):
+            from .gpu_force import run_with_gpu_gravity
+
+            if sim.integrator == "ias15":
+                from .gpu_ias15 import evaluator
+            elif sim.integrator == "whfast":
+                from .gpu_whfast import evaluator
+            else:  # the leapfrog with forces or event checks: its CPU kernel
+                from .gpu_force import every_call as evaluator
+            run_with_gpu_gravity(sim, rec, evaluator)
+        else:
+            _, _, massive = sim.kernel_inputs(parallel=False)
+            state = sim.state_arrays()
+            for k, target in enumerate(times):
+                done0 = rec.before_call()
+                _leapfrog_to(sim, state, massive, float(target))
+                state["istate"][_nc.I_NOUT] = k + 1
+                rec.out_t[k] = sim.t
+                rec.chunk_x[k] = state["x"]
+                rec.chunk_v[k] = state["v"]
+                rec.after_call(_st.OK, done0)
+    return None if scalar else rec.trajectory()
+
+
+def _leapfrog_to(sim, state, massive, target: float) -> None:
+    """The leapfrog on the GPU to the one time ``target`` (simulation units): the internal state
+    on the device for the steps of :func:`plan`, then the output copy."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
 
-    target, massive = begin_gpu_run(sim, t)
-    if sim.integrator in CPU_KERNEL_INTEGRATORS:
-        from .gpu_force import run_with_gpu_gravity
-
-        if sim.integrator == "ias15":
-            from .gpu_ias15 import evaluator
-        else:
-            from .gpu_whfast import evaluator
-        return run_with_gpu_gravity(sim, target, evaluator)
-    state = sim.state_arrays()
     gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
     n, h, rem, t_final = plan(state, target)
     grid = K.blocks(sim.N)

@@ -1,6 +1,7 @@
 """The CPU integrator kernels with their direct-sum gravity evaluated on the GPU.
 
-For one large simulation an IAS15 or WHFast step costs O(N N_massive) for the gravity and O(N)
+For one large simulation an IAS15 or WHFast step (or a leapfrog step with additional forces or
+event checks) costs O(N N_massive) for the gravity and O(N)
 for everything else (IAS15's predictor-corrector and step control, WHFast's Kepler drifts,
 coordinate transforms and correctors). :func:`run_with_gpu_gravity` therefore runs the CPU
 backend's own compiled kernel (:mod:`visviva.core.nbody_ias15`, :mod:`visviva.core.nbody_whfast`)
@@ -33,9 +34,11 @@ import weakref
 import numpy as np
 from numba import objmode
 
+from ..core import nbody_common as _nc
 from ..core._jit import kernel
 
-__all__ = ["DeviceGravity", "GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity"]
+__all__ = ["DeviceGravity", "GravityEvaluator", "gpu_gravity_force", "run_with_gpu_gravity",
+           "every_call"]
 
 _RUNS: dict = {}  # run key (params[0]) -> GravityEvaluator, for the runs in flight
 _KEYS = itertools.count(1)
@@ -152,6 +155,22 @@ class GravityEvaluator:
         )
 
 
+class _EveryCall(GravityEvaluator):
+    """For a kernel whose every force call is one whole acceleration evaluation at ``x`` (the
+    leapfrog: :func:`visviva.core.nbody_common.accelerations`, once per step)."""
+
+    def __call__(self, x, acc) -> None:
+        self.gravity.add(x, acc)
+
+
+def every_call(sim, massive) -> GravityEvaluator:
+    """The GPU gravity of one leapfrog run of ``sim`` with additional forces or event checks
+    (``massive``: the indices of its massive particles), for :func:`run_with_gpu_gravity`."""
+    state = sim.state_arrays()
+    gravity = DeviceGravity(sim.G * state["m"], massive, state["fstate"][_nc.F_SOFT2])
+    return _EveryCall(state["buf"], gravity)
+
+
 def _evaluate(params, x, acc) -> None:
     """Called from compiled code: the GPU gravity of run ``params[0]`` added to ``acc``. An
     exception cannot cross the compiled kernel: it is kept for the driver, and NaN makes the
@@ -231,18 +250,19 @@ def _fused_with(fn):
     return fused
 
 
-def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
-    """Integrate ``sim`` (IAS15 or WHFast) to the absolute time ``target`` with its CPU kernel,
-    every gravity evaluation on the GPU.
+def run_with_gpu_gravity(sim, rec, evaluator) -> None:
+    """Integrate ``sim`` (IAS15, WHFast, or the leapfrog with forces or events) through the output times of ``rec`` with its CPU
+    kernel, every gravity evaluation on the GPU.
 
     Parameters
     ----------
     sim : Simulation
-        Prepared by :func:`visviva.nbody.gpu.begin_gpu_run`. Its additional forces are added
+        Prepared by :meth:`visviva.Simulation.begin_run`. Its additional forces are added
         after the gravity, and its collision, encounter and escape checks run, as on the CPU; a
         merger or bounce rebuilds the GPU's arrays before the run goes on.
-    target : float
-        Absolute time (simulation units).
+    rec : visviva.nbody.trajectory.Recording
+        The output times (simulation units, monotonic) and the arrays the kernel writes its
+        snapshots into, as :meth:`visviva.Simulation.integrate` passes them on the CPU.
     evaluator : callable
         ``evaluator(sim, massive)``: the :class:`GravityEvaluator` of one kernel call over the
         current arrays of ``sim`` (``massive``: the indices of its massive particles), e.g.
@@ -260,7 +280,6 @@ def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
     _compile_force()
     with _LOCK:
         key = next(_KEYS)
-    times = np.array([target])
     try:
         while True:
             # (again after a merger or bounce: N, the masses and buf may have changed)
@@ -270,16 +289,17 @@ def run_with_gpu_gravity(sim, target: float, evaluator) -> None:
             run = _RUNS[key] = evaluator(sim, massive)
             force = gpu_gravity_force if fn is no_force else _fused_with(fn)
             n = x.shape[0]
+            done0 = rec.before_call()
             # the few-body kernel: its own gravity is a pass over no massive particle (with
             # its scratch of the full size: the rows of the particles i are used all the same)
             status = int(sim.integrator_info.kernel(True, istate, fstate)(
                 x, v, state["m"], np.empty(0, np.int64), state["radius"], fstate, istate,
                 state["buf"], np.zeros((GWORK_ROWS, n)), force,
-                np.concatenate([[float(key)], params]), times, times.copy(),
-                np.empty((1, n, 3)), np.empty((1, n, 3))))
+                np.concatenate([[float(key)], params]), rec.times, rec.out_t, rec.chunk_x,
+                rec.chunk_v))
             if run.error is not None:
                 raise run.error
-            if sim.after_kernel(status):
+            if rec.after_call(status, done0):
                 return
     finally:
         _RUNS.pop(key, None)

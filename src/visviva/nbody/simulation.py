@@ -28,7 +28,7 @@ from .integrators import INTEGRATORS, few_bodies, get_integrator
 from .placement import elements_to_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
-from .trajectory import Trajectory
+from .trajectory import Recording, Trajectory
 from .units import SimulationUnits
 
 __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
@@ -132,7 +132,6 @@ class Simulation:
         self._state = SimulationState.empty()
         self._forces: list = []
         self._fused = None
-        self._removed = None
         self.parallel = parallel
         self._integrator = get_integrator(integrator)
         self.backend = check_backend(backend, self._integrator.name)
@@ -499,10 +498,17 @@ class Simulation:
         st.work()
         return fn, params, st.massive
 
-    def after_kernel(self, status: int) -> bool:
+    def adopt_arrays(self, arrays: dict, massive) -> None:
+        """Hold ``arrays`` (the keys of :meth:`state_arrays`, views into an ensemble's packed
+        arrays holding this simulation's values) as the state's arrays (friend interface, see
+        :meth:`begin_run`; :mod:`visviva.nbody.ensemble_pack`)."""
+        self._state.adopt(*(arrays[k] for k in ("x", "v", "m", "radius", "fstate", "istate",
+                                                  "buf")), massive)
+
+    def after_kernel(self, status: int, removed=None) -> bool:
         """Act on a kernel's status code: True when the run is done, False to call the kernel
-        again (after a pause or a resolved merger/bounce); events raise (friend interface, see
-        :meth:`begin_run`)."""
+        again (after a pause or a resolved merger/bounce, ``removed(index)`` called with the
+        index a merger removed); events raise (friend interface, see :meth:`begin_run`)."""
         st = self._state
         if status == _st.OK:
             if not (np.all(np.isfinite(st.x)) and np.all(np.isfinite(st.v))):
@@ -514,8 +520,10 @@ class Simulation:
             from .collisions import resolve
 
             i, j = int(st.istate[_nc.I_EVENT_A]), int(st.istate[_nc.I_EVENT_B])
-            self._removed = resolve(self, i, j)
+            gone = resolve(self, i, j)
             st.mark_fresh()
+            if gone is not None and removed is not None:
+                removed(gone)
             return False
         _events.raise_event(self._state, status, self.integrator)
 
@@ -550,62 +558,28 @@ class Simulation:
         if self.backend == "cuda":
             from .gpu import integrate_simulation
 
-            return integrate_simulation(self, t)
+            return integrate_simulation(self, t, progress=progress)
         scalar = np.ndim(t) == 0
         times = self.begin_run(t)
         st = self._state
         info = self._integrator
-        T = len(times)
-        out_x = np.full((T, self.N, 3), np.nan)
-        out_v = np.full((T, self.N, 3), np.nan)
-        masses0 = st.m.copy()
-        alive = np.arange(self.N)  # original index of each current particle
-        bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=abs(times[-1] - self.t), unit="t", desc=f"{info.name}")
-            t_start = self.t
-        chunk_x = np.empty((T, self.N, 3))
-        chunk_v = np.empty((T, self.N, 3))
-        out_t = times.copy()
-        try:
+        with Recording(self, times, progress) as rec:
             while True:
                 fn, params, _ = self.kernel_inputs()
-                stop = int(st.istate[_nc.I_STEPS]) + 2000 if progress else 0
-                st.istate[_nc.I_STOP_AT_STEP] = stop
-                done0 = int(st.istate[_nc.I_NOUT])
+                done0 = rec.before_call()
                 few = few_bodies(st.istate, st.massive)
                 args = (st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
-                        st.gwork, fn, params, times, out_t, chunk_x, chunk_v)
+                        st.gwork, fn, params, times, rec.out_t, rec.chunk_x, rec.chunk_v)
                 status = None
                 slow = _tier.interpreted_kernel(info, few, st.istate, st.fstate, len(st.massive))
                 if slow is not None:  # a cold first run: the interpreter tier (nbody/tier.py)
                     status = _tier.run_slice(slow, args[:9] + (interpreted(fn),) + args[10:],
-                                             st.istate, stop)
+                                             st.istate, int(st.istate[_nc.I_STOP_AT_STEP]))
                 if status is None:
                     status = int(info.kernel(few, st.istate, st.fstate)(*args))
-                done = int(st.istate[_nc.I_NOUT])
-                if done > done0:
-                    out_x[done0:done, alive] = chunk_x[done0:done]
-                    out_v[done0:done, alive] = chunk_v[done0:done]
-                if bar is not None:
-                    bar.n = abs(self.t - t_start)
-                    bar.refresh()
-                self._removed = None
-                if self.after_kernel(status):
+                if rec.after_call(status, done0):
                     break
-                if self._removed is not None:
-                    alive = np.delete(alive, self._removed)
-                    chunk_x = np.empty((T, self.N, 3))
-                    chunk_v = np.empty((T, self.N, 3))
-        finally:
-            st.istate[_nc.I_STOP_AT_STEP] = 0
-            if bar is not None:
-                bar.close()
-        if scalar:
-            return None
-        return Trajectory(out_t, out_x, out_v, masses0, self.G, self.softening)
+        return None if scalar else rec.trajectory()
 
     # ---- diagnostics -----------------------------------------------------------------------------
     def energy(self, include_offset: bool = True) -> float:

@@ -22,13 +22,23 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import tier as _core_tier
 
-__all__ = ["interpreted_kernel", "run_slice", "MAX_MASSIVE", "SLICE_S"]
+__all__ = ["interpreted_kernel", "run_slice", "MAX_MASSIVE", "SLICE_S", "SMALL_ENSEMBLE",
+           "SMALL_ENSEMBLE_STEPS", "ensemble_would_compile"]
 
 #: Runs with this many massive particles or more always compile (the interpreter costs about
 #: 1 us per pair interaction, the machine code about 3 ns).
 MAX_MASSIVE = 16
 #: CPU seconds aimed at per slice (the kernel pauses at a step count estimated from the last one).
 SLICE_S = 0.1
+
+#: Ensembles of at most this many members run member by member, each as a lone run (through
+#: this tier), while their ensemble call would compile: the ensemble kernel and the members'
+#: kernel cost about 22 s of CPU to compile on a fresh install, a lone few-body run 1-2 s
+#: (interpreted) or its one kernel's compile; the results are the same bits (a member equals its
+#: lone run, tests/test_nbody_ensemble.py).
+SMALL_ENSEMBLE = 64
+#: ... and at most this many member-steps in all (a long run compiles and runs in parallel).
+SMALL_ENSEMBLE_STEPS = 100_000
 
 #: The interpreted cost of one step in the last slice (CPU seconds), for the next slice's length.
 _per_step = {"s": None}
@@ -78,3 +88,31 @@ def _slice_steps() -> int:
         return 50
     left = max(_core_tier.BUDGET_S - _core_tier.spent["cpu_s"], 0.0)
     return int(min(max(min(SLICE_S, left) / max(per_step, 1e-7), 10), 1_000_000))
+
+
+def ensemble_would_compile(members, t: float) -> bool:
+    """True when an in-process CPU ensemble call on ``members`` (Simulations of one integrator)
+    to the time ``t`` (simulation units) is small (:data:`SMALL_ENSEMBLE`,
+    :data:`SMALL_ENSEMBLE_STEPS`; an adaptive member without a step yet counts 1,000 steps) and
+    would compile, on a process where the tier is on: the ensemble kernel or the members' kernel
+    has machine code neither in memory nor in numba's cache (found there, it is loaded)."""
+    import importlib
+
+    import numba
+
+    from ..core.gravity import PAIR_MIN_N
+    from ..core.nbody_ensemble import ENSEMBLE_SIGNATURE, ensemble_run
+
+    if len(members) > SMALL_ENSEMBLE or _core_tier.spent["off"] or numba.config.DISABLE_JIT:
+        return False
+    steps = 0.0
+    for s in members:
+        span, dt = abs(t - s.t), abs(s.dt)
+        steps += span / dt if dt > 0 else 1000.0
+    if not steps <= SMALL_ENSEMBLE_STEPS:
+        return False
+    info = members[0].integrator_info
+    few = max(np.count_nonzero(s.state_arrays()["m"]) for s in members) < PAIR_MIN_N
+    member_kernel = getattr(importlib.import_module(info.module), info.variant(few))
+    return not all(_core_tier.in_memory(k) or k.load_cached(sig) for k, sig in (
+        (ensemble_run, ENSEMBLE_SIGNATURE), (member_kernel, _nc.RUN_SIGNATURE)))

@@ -1,7 +1,10 @@
-"""Snapshots of an N-body run (:class:`Trajectory`) and the coincident-particle check.
+"""Snapshots of an N-body run (:class:`Trajectory`), their collection during the run
+(:class:`Recording`) and the coincident-particle check.
 
 A :class:`Trajectory` is what :meth:`visviva.Simulation.integrate` returns for an array of output
-times: ``(T, N, 3)`` positions and velocities, with the energy of every snapshot on demand.
+times: ``(T, N, 3)`` positions and velocities, with the energy of every snapshot on demand. A
+:class:`Recording` gathers them while the run goes on, on either backend: the rows a kernel call
+wrote, the particles a merger removed, the progress bar.
 """
 
 from __future__ import annotations
@@ -11,9 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import gravity as _gravity
+from ..core import nbody_common as _nc
 from ..errors import InvalidStateError, fmt_number
 
-__all__ = ["Trajectory", "coincident_pairs"]
+__all__ = ["Trajectory", "Recording", "coincident_pairs"]
+
+#: Steps between two pauses of a kernel call when a progress bar is shown.
+_PROGRESS_STEPS = 2000
 
 
 def coincident_pairs(x, m, soft2, limit: int = 3) -> list:
@@ -97,3 +104,86 @@ class Trajectory:
                 "radii with collision='merge'."
             )
         return out
+
+
+class Recording:
+    """The snapshots of one run through the output times ``times``, gathered as it goes (one
+    per :meth:`visviva.Simulation.integrate` call, on the CPU and GPU backends alike).
+
+    A kernel call writes its snapshots into ``out_t``, ``chunk_x`` and ``chunk_v`` (rows ``k``
+    for the outputs it reached, over the particles it had); :meth:`after_call` copies them to
+    the particles' original columns and acts on the call's status. Used as a context manager:
+    the progress bar is closed and the kernel's pause request cleared on exit.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation about to run (after :meth:`visviva.Simulation.begin_run`).
+    times : ndarray, shape (T,)
+        The output times (simulation units).
+    progress : bool
+        Show a tqdm progress bar, updated when a kernel call pauses or returns.
+    """
+
+    def __init__(self, sim, times, progress: bool = False):
+        self.sim = sim
+        self.times = times
+        self.out_t = times.copy()
+        T, n = len(times), sim.N
+        self.out_x = np.full((T, n, 3), np.nan)
+        self.out_v = np.full((T, n, 3), np.nan)
+        self.masses = sim.masses
+        self.alive = np.arange(n)  # original index of each current particle
+        self._chunks(n)
+        self.bar = None
+        self.t_start = sim.t
+        if progress:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=abs(times[-1] - sim.t), unit="t", desc=sim.integrator)
+
+    def _chunks(self, n: int) -> None:
+        T = len(self.times)
+        self.chunk_x = np.empty((T, n, 3))
+        self.chunk_v = np.empty((T, n, 3))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.sim.state_arrays()["istate"][_nc.I_STOP_AT_STEP] = 0
+        if self.bar is not None:
+            self.bar.close()
+        return False
+
+    def before_call(self) -> int:
+        """Ask the next kernel call to pause after a slice of steps when a bar is shown; returns
+        the number of outputs done so far (for :meth:`after_call`)."""
+        istate = self.sim.state_arrays()["istate"]
+        steps = int(istate[_nc.I_STEPS])
+        istate[_nc.I_STOP_AT_STEP] = steps + _PROGRESS_STEPS if self.bar is not None else 0
+        return int(istate[_nc.I_NOUT])
+
+    def after_call(self, status: int, done0: int) -> bool:
+        """Copy the snapshots the call wrote (outputs ``done0`` on), update the bar, and act on
+        the status (:meth:`visviva.Simulation.after_kernel`): True when the run is done, False
+        to call the kernel again; events raise."""
+        sim = self.sim
+        done = int(sim.state_arrays()["istate"][_nc.I_NOUT])
+        if done > done0:
+            self.out_x[done0:done, self.alive] = self.chunk_x[done0:done]
+            self.out_v[done0:done, self.alive] = self.chunk_v[done0:done]
+        if self.bar is not None:
+            self.bar.n = abs(sim.t - self.t_start)
+            self.bar.refresh()
+        return sim.after_kernel(status, removed=self._removed)
+
+    def _removed(self, index: int) -> None:
+        """A merger removed particle ``index``: the columns of the particles left."""
+        self.alive = np.delete(self.alive, index)
+        self._chunks(self.sim.N)
+
+    def trajectory(self) -> Trajectory:
+        """The snapshots as a :class:`Trajectory`."""
+        return Trajectory(self.out_t, self.out_x, self.out_v, self.masses, self.sim.G,
+                          self.sim.softening)

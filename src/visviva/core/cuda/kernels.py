@@ -24,12 +24,13 @@ fp64 throughout.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import cuda, float64
 
 from . import arith, simulator
 
 __all__ = ["accelerations", "accelerations_split", "tight_pairs", "drift", "kick_drift",
-           "ensemble_leapfrog", "propagate_many", "THREADS"]
+           "ensemble_leapfrog", "propagate_many", "on_device", "THREADS"]
 
 #: Threads per block of every kernel (and the tile length of the direct sum): 128 on a GPU; 16
 #: under numba's CUDA simulator, which runs every thread of a block as a Python thread (a launch
@@ -206,16 +207,35 @@ def _kepler_kernel():
 _KEPLER = []
 
 
+def on_device(a):
+    """``a`` as a numba device array when it lives on the GPU (a numba device array, or any
+    object with ``__cuda_array_interface__``: used in place, no copy), else None."""
+    if cuda.devicearray.is_cuda_ndarray(a):
+        return a
+    if hasattr(a, "__cuda_array_interface__"):
+        return cuda.as_cuda_array(a)
+    return None
+
+
 def propagate_many(r0, v0, gm, dt, r_out, v_out, status):
-    """The GPU twin of :func:`visviva.core.universal.propagate_many` on host arrays (same
-    arguments and outputs; the kernel is built on first use)."""
+    """The GPU twin of :func:`visviva.core.universal.propagate_many` (same arguments and
+    outputs; the kernel is built on first use).
+
+    Every argument may be a host numpy array or a device array (:func:`on_device`). Device
+    inputs are read in place and device outputs written in place, with no host-device copy;
+    host inputs are copied to the device, and host outputs filled from the device, as the call
+    returns. With everything on the device the call only launches the kernel: call
+    ``numba.cuda.synchronize()`` before timing or reading the results.
+    """
     if not _KEPLER:
         _KEPLER.append(_kepler_kernel())
     n = r0.shape[0]
-    d_r, d_v, d_s = cuda.device_array((n, 3)), cuda.device_array((n, 3)), cuda.device_array(
-        n, dtype=status.dtype)
-    _KEPLER[0][blocks(n), THREADS](cuda.to_device(r0), cuda.to_device(v0), cuda.to_device(gm),
-                                   cuda.to_device(dt), d_r, d_v, d_s)
-    r_out[:] = d_r.copy_to_host()
-    v_out[:] = d_v.copy_to_host()
-    status[:] = d_s.copy_to_host()
+    ins = [on_device(a) for a in (r0, v0, gm, dt)]
+    ins = [cuda.to_device(np.ascontiguousarray(a)) if d is None else d
+           for a, d in zip((r0, v0, gm, dt), ins, strict=True)]
+    outs = [(a, on_device(a)) for a in (r_out, v_out, status)]
+    d_outs = [cuda.device_array(a.shape, dtype=a.dtype) if d is None else d for a, d in outs]
+    _KEPLER[0][blocks(n), THREADS](*ins, *d_outs)
+    for (host, d), dev in zip(outs, d_outs, strict=True):
+        if d is None:
+            host[:] = dev.copy_to_host()

@@ -1,0 +1,43 @@
+#!/bin/bash
+# The real-GPU checks and benchmarks of issue 16 in one command, for a machine with an NVIDIA GPU
+# and numba-cuda (e.g. a lent data-centre GPU whose Python lacks some of visviva's dependencies).
+#
+#   bash benchmarks/on_gpu.sh [WHEELS_DIR]
+#
+# WHEELS_DIR (optional): wheels installed into /tmp/site first (no network needed), e.g. made
+# beforehand, elsewhere, with
+#   pip download --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
+#     --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 -d WHEELS_DIR \
+#     astropy==8.0.2 pyerfa==2.0.1.5 astropy-iers-data==0.2026.11.2.0.34.55 sgp4==2.27 numpy==2.4.6
+# (numpy 2.5 removed np.row_stack, which numba-cuda 0.30.4 still uses at import: pin 2.4.)
+# Output goes to $OUT (default ./gpu-out): versions, the real-GPU check scripts' key=value
+# lines, and one JSON line per benchmark row (rows.jsonl), written as each row is measured.
+# Environment: CHECK_S / BENCH_S (time limits, s), SECTIONS (bench_gpu sections, comma-separated).
+set -u
+OUT=${OUT:-gpu-out}
+mkdir -p "$OUT"
+export PYTHONUNBUFFERED=1
+if [ $# -ge 1 ]; then
+    python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+        --target /tmp/site "$1"/*.whl || exit 3
+    export PYTHONPATH=/tmp/site:$PWD/src:$PWD
+else
+    export PYTHONPATH=$PWD/src:$PWD
+fi
+export NUMBA_CACHE_DIR=${NUMBA_CACHE_DIR:-/tmp/numba_cache}
+{ nvidia-smi -L; lscpu | grep -i "model name"; nproc
+  python3 -c "import numba, numpy, numba_cuda; print('numba', numba.__version__, 'numpy', numpy.__version__, 'numba-cuda', numba_cuda.__version__); from visviva.core import cuda; print('missing:', cuda.missing())"
+} 2>&1 | tee "$OUT/versions.txt"
+SECONDS=0
+for check in tests/gpu/check_cuda_backend.py tests/gpu/check_ias15.py; do
+    timeout "${CHECK_S:-120}" python3 "$check" > "$OUT/$(basename "$check" .py).txt" 2>&1
+    echo "$check rc=$? ($SECONDS s)"; grep "=" "$OUT/$(basename "$check" .py).txt"
+done
+SECONDS=0
+VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-300}" python3 -c "
+import sys
+import benchmarks.bench_gpu as b
+print('GPU:', b.gpu_model(), file=sys.stderr)
+b.run(sections=tuple(sys.argv[1].split(',')))" "${SECTIONS:-direct,kepler,gpu-ensemble,whfast,ias15}" 2>&1 \
+    | grep -v "NumbaPerformanceWarning\|warn(errors" | tee "$OUT/bench.log"
+echo "bench: $SECONDS s"

@@ -103,7 +103,8 @@ def budget_left() -> float:
 def call(kernel, *args, small: bool = True):
     """``kernel(*args)``: interpreted when ``small`` and its machine code is not ready (see
     the module docstring), in machine code otherwise. The same result either way."""
-    if small and _available() and not in_memory(kernel):
+    # (a plain Python callable, e.g. a kernel wrapped by a caller's instrumentation, is called)
+    if small and _available() and not in_memory(kernel) and hasattr(kernel, "typeof_pyval"):
         fn = interpreted_if_cold(kernel, tuple(kernel.typeof_pyval(a) for a in args))
         if fn is not None:
             ok, result = run_guarded(fn, args)

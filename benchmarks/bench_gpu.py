@@ -306,16 +306,22 @@ def _ias15(rows, quick):
 
 
 def _gpu_ensemble(rows, quick):
-    """Ensembles of three-body leapfrog systems, one GPU thread per member, against the CPU
-    ensemble: each timed call advances the same ensemble by ``steps`` steps (the per-call cost,
-    checks and copies, is timed apart with 1-step calls and given in the notes). Building the
-    ensemble from Simulation objects is Python work of the same size on both: left out."""
+    """Ensembles of three-body systems (leapfrog, then WHFast), one GPU thread per member,
+    against the CPU ensemble: each timed call advances the same ensemble by ``steps`` steps (the
+    per-call cost, checks and copies, is timed apart with 1-step calls and given in the notes).
+    Building the ensemble from Simulation objects is Python work of the same size on both: left
+    out."""
+    for integrator in ("leapfrog", "whfast"):
+        _one_gpu_ensemble(rows, quick, integrator)
+
+
+def _one_gpu_ensemble(rows, quick, integrator):
     import visviva as vv
 
     problem, model = _gpu()
     members = 4096 if quick else 131_072
     steps = 100 if quick else 1000
-    lf = [_system(1.0 + k / members, "leapfrog", dt=0.01) for k in range(min(members, 4096))]
+    lf = [_system(1.0 + k / members, integrator, dt=0.01) for k in range(min(members, 4096))]
     lf = (lf * (members // len(lf) + 1))[:members]
 
     def timed(ens, k):
@@ -328,7 +334,7 @@ def _gpu_ensemble(rows, quick):
         t_cpu = timed(ens, steps)
         call_cpu = timed(ens, 1).median
     rate_cpu = members * steps / t_cpu.median
-    name = f"ensemble of {members} 3-body leapfrog systems on the GPU, {steps} steps"
+    name = f"ensemble of {members} 3-body {integrator} systems on the GPU, {steps} steps"
     if problem:
         rows.append(skipped(name, f"no GPU ({problem}); CPU ensemble: {rate_cpu:.3g} "
                                   f"system-steps/s on every core; a 1-step call "

@@ -362,3 +362,17 @@ def test_a_fresh_install_runs_a_small_first_ensemble_member_by_member(force_tier
     many = vv.Ensemble.from_simulations([planets("leapfrog")] * (nbody_tier.SMALL_ENSEMBLE + 1))
     assert not nbody_tier.ensemble_would_compile(many._members, 1.0)  # large: compile
     assert not nbody_tier.ensemble_would_compile(ens._members, 1e6)  # long: compile
+
+
+def test_an_incomplete_ensemble_file_says_what_is_wrong(tmp_path):
+    ens = vv.Ensemble.from_simulations([planets("leapfrog"), planets("leapfrog", a=1.2)])
+    ens.integrate(0.5)
+    path = tmp_path / "e.npz"
+    ens.save(path)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    for broken, match in (({k: v for k, v in arrays.items() if k != "buf"}, "'buf'.*missing"),
+                          ({**arrays, "count": np.array(3)}, "3 members but offsets for 2")):
+        np.savez(tmp_path / "bad.npz", **broken)
+        with pytest.raises(InvalidInputError, match=match):
+            vv.Ensemble.load(tmp_path / "bad.npz")

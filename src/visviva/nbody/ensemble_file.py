@@ -36,6 +36,7 @@ import os
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .snapshot import atomic_savez, build_simulation, check_format, open_npz, state_dict
 
 __all__ = ["save_ensemble", "load_ensemble", "ENSEMBLE_FORMAT", "ENSEMBLE_VERSION"]
@@ -84,10 +85,22 @@ def load_ensemble(cls, path, forces=None) -> tuple:
         if int(data["format_version"]) == 1:
             return _load_version_1(cls, data, forces), backend
         arrays = {key: data[key] for key in data.files}
+    missing = [k for k in (*_PACKED, "poff", "boff", "fstate", "istate", "buf", "meta",
+                           "meta_index", "count") if k not in arrays]
+    if missing:
+        raise InvalidInputError(
+            f"{os.fspath(path)!r} is not a complete visviva.nbody.ensemble file: the array(s) "
+            f"{missing} are missing. Save the ensemble again with Ensemble.save.")
     poff, boff = arrays["poff"], arrays["boff"]
+    count = int(arrays["count"])
+    if len(poff) != count + 1 or len(boff) != count + 1 or len(arrays["meta_index"]) != count:
+        raise InvalidInputError(
+            f"{os.fspath(path)!r} is not a consistent visviva.nbody.ensemble file: {count} "
+            f"members but offsets for {len(poff) - 1}. Save the ensemble again with "
+            "Ensemble.save.")
     meta, meta_index = arrays["meta"], arrays["meta_index"]
     members = []
-    for k in range(int(arrays["count"])):
+    for k in range(count):
         lo, hi = poff[k], poff[k + 1]
         b = arrays["buf"][boff[k]:boff[k + 1]]
         one = {key: arrays[key][lo:hi] for key in _PACKED}

@@ -197,13 +197,13 @@ IAS15_ENSEMBLE_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_ia
 def _check_ias15_ensemble(out, tolerance, bits):
     # ragged members (rs15 and prs23 step control, softening, a tight planet-moon pair that
     # takes IAS15's two-part positions, one without exact_finish_time) at the start time,
-    # between steps, continued and backwards; saved from the GPU and continued on the CPU; a
-    # step below min_dt raises the CPU's exception. The simulator runs the CPU's arithmetic:
-    # bit for bit there
-    for key in ("ens_pos", "ens_vel", "ens_t", "restart_pos", "restart_vel"):
+    # between steps, continued and backwards; saved from the GPU and continued on the CPU (and
+    # the other way); a step below min_dt raises the CPU's exception. The simulator runs the
+    # CPU's arithmetic: bit for bit there
+    for key in ("ens_pos", "ens_vel", "ens_t", "restart_pos", "restart_vel", "to_gpu_pos"):
         assert float(out[key]) <= tolerance, (key, out[key])
-    for key in ("ens_steps_equal", "ens_packed", "restart_steps_equal", "each_bits_vs_packed",
-                "min_dt_same_error"):
+    for key in ("ens_steps_equal", "ens_packed", "restart_steps_equal", "to_gpu_steps_equal",
+                "each_bits_vs_packed", "min_dt_same_error"):
         assert out[key] == "True", key
     assert out["min_dt_error"].startswith("'StepSizeError")
     assert int(out["ens_steps"]) >= 3

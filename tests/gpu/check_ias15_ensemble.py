@@ -56,6 +56,13 @@ def main():
     print(f"restart_pos={rel(back.positions, cpu.positions)!r}")
     print(f"restart_vel={rel(back.velocities, cpu.velocities)!r}")
     print(f"restart_steps_equal={[s.steps_done for s in back] == [s.steps_done for s in cpu]!r}")
+    # and the other way: saved on the CPU, continued on the GPU
+    cpu.save(path)
+    there = vv.Ensemble.load(path, backend="cuda")
+    there.integrate(0.6)
+    cpu.integrate(0.6)
+    print(f"to_gpu_pos={rel(there.positions, cpu.positions)!r}")
+    print(f"to_gpu_steps_equal={[s.steps_done for s in there] == [s.steps_done for s in cpu]!r}")
 
     # the member-by-member GPU path (what runs when the pack cannot) equals the packed one
     from visviva.nbody.ensemble import _advance_each

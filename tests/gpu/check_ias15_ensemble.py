@@ -3,11 +3,8 @@ NUMBA_ENABLE_CUDASIM=1) beside the same ensemble on the CPU and print ``key=valu
 
 from __future__ import annotations
 
-import os
-import tempfile
-
 import numpy as np
-from check_whfast_ensemble import rel, same  # this folder is the script's sys.path[0]
+from check_whfast_ensemble import continue_on, each_vs_packed, rel, same  # (this folder)
 
 import visviva as vv
 
@@ -47,32 +44,9 @@ def main():
     print(f"ens_steps={min(s.steps_done for s in gpu)!r}")
     print(f"ens_packed={gpu._pack is not None!r}")
 
-    # saved on the GPU, loaded and continued on the CPU
-    path = os.path.join(tempfile.mkdtemp(), "e.npz")
-    gpu.save(path)
-    back = vv.Ensemble.load(path, backend="cpu")
-    back.integrate(0.5)
-    cpu.integrate(0.5)
-    print(f"restart_pos={rel(back.positions, cpu.positions)!r}")
-    print(f"restart_vel={rel(back.velocities, cpu.velocities)!r}")
-    print(f"restart_steps_equal={[s.steps_done for s in back] == [s.steps_done for s in cpu]!r}")
-    # and the other way: saved on the CPU, continued on the GPU
-    cpu.save(path)
-    there = vv.Ensemble.load(path, backend="cuda")
-    there.integrate(0.6)
-    cpu.integrate(0.6)
-    print(f"to_gpu_pos={rel(there.positions, cpu.positions)!r}")
-    print(f"to_gpu_steps_equal={[s.steps_done for s in there] == [s.steps_done for s in cpu]!r}")
-
-    # the member-by-member GPU path (what runs when the pack cannot) equals the packed one
-    from visviva.nbody.ensemble import _advance_each
-
-    each = vv.Ensemble.from_simulations(members, backend="cuda")
-    packed = vv.Ensemble.from_simulations(members, backend="cuda")
-    for t in (0.113, 0.2):
-        _advance_each(each._members, t, "cuda")
-        packed.integrate(t)
-    print(f"each_bits_vs_packed={same(each, packed)!r}")
+    continue_on(gpu, cpu, "cpu", 0.5, "restart")  # saved on the GPU, continued on the CPU
+    continue_on(cpu, cpu, "cuda", 0.6, "to_gpu")  # saved on the CPU, continued on the GPU
+    each_vs_packed(members, (0.113, 0.2))
 
     # a member whose step falls below its floor stops with the CPU's exception
     bad = [member(0), member(1)]

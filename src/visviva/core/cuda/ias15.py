@@ -15,8 +15,10 @@ calls :func:`visviva.core.nbody_common.accelerations` (the few-body gravity sum,
 additional force, none here), the device calls the plain pair loops
 :func:`visviva.core.gravity._plain_rows` and :func:`visviva.core.gravity_split._gravity_split_few`
 directly, which give the bits of every few-body gravity path below
-:data:`visviva.core.gravity.PAIR_MIN_N` massive particles. The sequence of :func:`_ias15` for
-one output time is written here (it allocates its save rows; the device gets them as scratch).
+:data:`visviva.core.gravity.PAIR_MIN_N` massive particles. The device runs the CPU's own
+``_start`` (a fresh start of an invalid state) and ``_to_output`` (one output time: the natural
+steps, then the shortened copy); only the loop over output times of ``_ias15``, which allocates
+its save rows, is written here, for one time (the save rows come as scratch).
 Under numba's CUDA simulator the results equal the CPU ensemble's bit for bit; on a GPU the
 step-size control's ``x ** (1/7)`` is libdevice's ``pow`` (within an ulp of the CPU's).
 """
@@ -32,19 +34,7 @@ def build():
     """Compile (lazily, on first launch) and return the kernel :func:`ensemble_ias15`."""
     from .. import gravity, gravity_split, nbody_common
     from .. import nbody_ias15 as I
-    from ..nbody_common import (
-        F_DT_LAST,
-        F_G,
-        F_SOFT2,
-        F_T,
-        F_T_INT,
-        I_EXACT_FINISH,
-        I_FRESH,
-        I_INT_VALID,
-        I_NOUT,
-        I_STOP_AT_STEP,
-        PAUSED,
-    )
+    from ..nbody_common import F_G, F_SOFT2, F_T_INT, I_NOUT
     from ..status import OK
     from .twins import device_twin
 
@@ -64,67 +54,24 @@ def build():
 
     swaps = {nbody_common.accelerations: accelerations,
              nbody_common.accelerations_split: accelerations_split}
-    advance = device_twin(I._advance, swaps)
-    backup = device_twin(I._backup)
-    expose = device_twin(I._expose)
-    zero_predictor = device_twin(I._zero_predictor)
-    n_buf, xi_at, vi_at, csx_at, csv_at = I.N_BUF, I._XI, I._VI, I._CSX, I._CSV
+    start = device_twin(I._start)
+    to_output = device_twin(I._to_output, swaps)
+    n_buf = I.N_BUF
 
     @cuda.jit(device=True)
     def run_one(x, v, m, massive, fstate, istate, buf, fsave, isave, target):
-        # nbody_ias15._ias15 for the one output time ``target`` (the arguments it does not use
-        # here: radius, gwork, force and params are stand-ins, events are off, parallel unused)
-        n = x.shape[0]
-        xi = buf[xi_at]
-        vi = buf[vi_at]
-        exact = istate[I_EXACT_FINISH] != 0
-        if istate[I_FRESH] != 0 or istate[I_INT_VALID] == 0:
-            zero_predictor(buf, n)
-            for i in range(n):
-                for c in range(3):
-                    buf[csx_at, i, c] = 0.0
-                    buf[csv_at, i, c] = 0.0
-            expose(x, v, xi, vi)
-            fstate[F_T_INT] = fstate[F_T]
-            fstate[F_DT_LAST] = 0.0
-            istate[I_FRESH] = 0
-            istate[I_INT_VALID] = 1
+        # nbody_ias15._ias15 for the one output time ``target`` (radius, gwork, force and params
+        # are stand-ins it does not use: events are off, the gravity is swapped in)
+        start(x, v, fstate, istate, buf)
         direction = 1.0 if target >= fstate[F_T_INT] else -1.0  # nbody_common.run_direction
         span = abs(target - fstate[F_T_INT])
         if istate[I_NOUT] >= 1:
             return OK
-        mode = 0 if exact else 2
-        status = advance(xi, vi, m, massive, m, fstate, istate, buf, buf, 0, m, target,
-                         direction, mode, False, span, 0)
-        if status != OK:
-            expose(xi, vi, x, v)
-            fstate[F_T] = fstate[F_T_INT]
-            if status != PAUSED:
-                istate[I_INT_VALID] = 0
-            return status
-        if exact and fstate[F_T_INT] != target:
-            backup(buf, False)
-            for q in range(fstate.shape[0]):
-                fsave[q] = fstate[q]
-            for q in range(istate.shape[0]):
-                isave[q] = istate[q]
-            istate[I_STOP_AT_STEP] = 0
-            status = advance(xi, vi, m, massive, m, fstate, istate, buf, buf, 0, m, target,
-                             direction, 1, False, span, 0)
-            expose(xi, vi, x, v)
-            backup(buf, True)
-            for q in range(fstate.shape[0]):
-                fstate[q] = fsave[q]
-            for q in range(istate.shape[0]):
-                istate[q] = isave[q]
-            if status != OK and status != PAUSED:
-                return status
-            fstate[F_T] = target
-        else:
-            expose(xi, vi, x, v)
-            fstate[F_T] = fstate[F_T_INT]
-        istate[I_NOUT] = 1
-        return OK
+        status = to_output(x, v, m, massive, m, fstate, istate, buf, buf, 0, m, target,
+                           direction, False, span, 0, fsave, isave)
+        if status == OK:
+            istate[I_NOUT] = 1
+        return status
 
     @cuda.jit
     def ensemble_ias15(x, v, m, massive, moff, poff, fstate, istate, buf, fsave, isave, target,

@@ -53,9 +53,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ._jit import kernel, step_kernel
+from .gauss_radau import BG, CB, RINV, H
 from .gravity import PAIR_MIN_N
 from .nbody_common import (
     F_DT,
@@ -92,43 +91,6 @@ from .nbody_common import (
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
 __all__ = ["ias15_run", "ias15_run_few", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
-
-#: Gauss-Radau spacings on [0, 1] (h0 = 0 and the 7 roots; Everhart 1985, table 1).
-H = np.array(
-    [
-        0.0,
-        0.0562625605369221464656521910318,
-        0.180240691736892364987579942780,
-        0.352624717113169637373907769648,
-        0.547153626330555383001448554766,
-        0.734210177215410531523210605558,
-        0.885320946839095768090359771030,
-        0.977520613561287501891174488626,
-    ]
-)
-
-
-def _g_to_b():
-    """CB[n, k]: coefficient of h**(k+1) in prod_{i<n} (h - H_i), n = 1..7 (row 0 unused)."""
-    cb = np.zeros((8, 7))
-    for n in range(1, 8):
-        poly = np.array([1.0])  # ascending powers
-        for i in range(n):
-            poly = np.convolve(poly, np.array([-H[i], 1.0]))
-        cb[n, : n] = poly[1 : n + 1]
-    return cb
-
-
-#: b_k = sum_n g_n CB[n, k]
-CB = _g_to_b()
-#: g_n = sum_k b_k BG[k, n]  (inverse of the triangular map above)
-BG = np.zeros((7, 8))
-BG[:, 1:] = np.linalg.inv(CB[1:, :])
-#: divided-difference denominators 1 / (H_n - H_k)
-RINV = np.zeros((8, 8))
-for _n in range(8):
-    for _k in range(_n):
-        RINV[_n, _k] = 1.0 / (H[_n] - H[_k])
 
 SAFETY = 0.25
 #: A step evaluates gravity on two-part positions (hi + lo) when a pair is closer than

@@ -27,10 +27,11 @@ def main():
     dispatcher = sys.modules["numba.cuda.dispatcher"]
     dispatcher.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
 
+    from visviva.core.cuda import ias15 as I
     from visviva.core.cuda import kernels as K
     from visviva.core.cuda import whfast as W
 
-    a2, f1, i1 = float64[:, ::1], float64[::1], int64[::1]
+    a2, f1, i1, i2 = float64[:, ::1], float64[::1], int64[::1], int64[:, ::1]
     cases = {
         "tight_pairs": (K.tight_pairs, (a2, i1, float64, int32[::1])),
         "accelerations": (K.accelerations, (a2, a2, f1, i1, float64, a2)),
@@ -42,6 +43,8 @@ def main():
         "propagate_many": (K._kepler_kernel(), (a2, a2, f1, f1, a2, a2, i1)),
         "ensemble_whfast": (W.build(), (a2, a2, f1) + (a2,) * 6 + (f1, i1, i1, i1, f1, f1, f1,
                                                                    i1, i1, f1, i1)),
+        "ensemble_ias15": (I.build(), (a2, a2, f1, i1, i1, i1, a2, i2, f1, a2, i2, float64,
+                                       i1)),
     }
     for name, (kernel, sig) in cases.items():
         try:

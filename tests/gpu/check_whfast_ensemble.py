@@ -41,6 +41,31 @@ def same(a, b):
             and [s.steps_done for s in a] == [s.steps_done for s in b])
 
 
+def continue_on(ens, ref, backend, t, key):
+    """Save ``ens``, load it on ``backend`` and continue it, and ``ref``, to ``t``; print how
+    they differ (keys ``<key>_pos``, ``<key>_vel``, ``<key>_steps_equal``)."""
+    path = os.path.join(tempfile.mkdtemp(), "e.npz")
+    ens.save(path)
+    back = vv.Ensemble.load(path, backend=backend)
+    back.integrate(t)
+    ref.integrate(t)
+    print(f"{key}_pos={rel(back.positions, ref.positions)!r}")
+    print(f"{key}_vel={rel(back.velocities, ref.velocities)!r}")
+    print(f"{key}_steps_equal={[s.steps_done for s in back] == [s.steps_done for s in ref]!r}")
+
+
+def each_vs_packed(members, times):
+    """The member-by-member GPU path (what runs when the pack cannot) against the packed one."""
+    from visviva.nbody.ensemble import _advance_each
+
+    each = vv.Ensemble.from_simulations(members, backend="cuda")
+    packed = vv.Ensemble.from_simulations(members, backend="cuda")
+    for t in times:
+        _advance_each(each._members, t, "cuda")
+        packed.integrate(t)
+    print(f"each_bits_vs_packed={same(each, packed)!r}")
+
+
 def main():
     # 20 members: two blocks of threads under the simulator (16 threads per block there)
     members = [member(k) for k in range(20)]
@@ -58,26 +83,8 @@ def main():
     print(f"ens_steps={min(s.steps_done for s in gpu)!r}")
     print(f"ens_packed={gpu._pack is not None!r}")
 
-    # saved on the GPU, loaded and continued on the CPU
-    path = os.path.join(tempfile.mkdtemp(), "e.npz")
-    gpu.save(path)
-    back = vv.Ensemble.load(path, backend="cpu")
-    back.integrate(0.55)
-    cpu.integrate(0.55)
-    print(f"restart_pos={rel(back.positions, cpu.positions)!r}")
-    print(f"restart_vel={rel(back.velocities, cpu.velocities)!r}")
-    print(f"restart_steps_equal={[s.steps_done for s in back] == [s.steps_done for s in cpu]!r}")
-
-    # the member-by-member GPU path (what runs when the pack cannot) equals the packed one
-    from visviva.nbody.ensemble import _advance_each
-
-    each = vv.Ensemble.from_simulations(members, backend="cuda")
-    packed = vv.Ensemble.from_simulations(members, backend="cuda")
-    for t in (0.113, 0.2):
-        _advance_each(each._members, t, "cuda")
-        packed.integrate(t)
-    print(f"each_bits_vs_packed={same(each, packed)!r}")
-
+    continue_on(gpu, cpu, "cpu", 0.55, "restart")  # saved on the GPU, continued on the CPU
+    each_vs_packed(members, (0.113, 0.2))
 
 if __name__ == "__main__":
     main()

@@ -53,9 +53,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ._jit import kernel, step_kernel
+from .gauss_radau import BG, CB, RINV, H
 from .gravity import PAIR_MIN_N
 from .nbody_common import (
     F_DT,
@@ -92,43 +91,6 @@ from .nbody_common import (
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
 __all__ = ["ias15_run", "ias15_run_few", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
-
-#: Gauss-Radau spacings on [0, 1] (h0 = 0 and the 7 roots; Everhart 1985, table 1).
-H = np.array(
-    [
-        0.0,
-        0.0562625605369221464656521910318,
-        0.180240691736892364987579942780,
-        0.352624717113169637373907769648,
-        0.547153626330555383001448554766,
-        0.734210177215410531523210605558,
-        0.885320946839095768090359771030,
-        0.977520613561287501891174488626,
-    ]
-)
-
-
-def _g_to_b():
-    """CB[n, k]: coefficient of h**(k+1) in prod_{i<n} (h - H_i), n = 1..7 (row 0 unused)."""
-    cb = np.zeros((8, 7))
-    for n in range(1, 8):
-        poly = np.array([1.0])  # ascending powers
-        for i in range(n):
-            poly = np.convolve(poly, np.array([-H[i], 1.0]))
-        cb[n, : n] = poly[1 : n + 1]
-    return cb
-
-
-#: b_k = sum_n g_n CB[n, k]
-CB = _g_to_b()
-#: g_n = sum_k b_k BG[k, n]  (inverse of the triangular map above)
-BG = np.zeros((7, 8))
-BG[:, 1:] = np.linalg.inv(CB[1:, :])
-#: divided-difference denominators 1 / (H_n - H_k)
-RINV = np.zeros((8, 8))
-for _n in range(8):
-    for _k in range(_n):
-        RINV[_n, _k] = 1.0 / (H[_n] - H[_k])
 
 SAFETY = 0.25
 #: A step evaluates gravity on two-part positions (hi + lo) when a pair is closer than
@@ -596,59 +558,75 @@ def _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, 
     is the state after the first step at or past the time. ``x, v`` hold the last output.
     Arguments as in :mod:`visviva.core.nbody_common`; returns a status code.
     """
-    n = x.shape[0]
-    xi = buf[_XI]
-    vi = buf[_VI]
-    exact = istate[I_EXACT_FINISH] != 0
-    events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
-    if istate[I_FRESH] != 0 or istate[I_INT_VALID] == 0:
-        _zero_predictor(buf, n)
-        for i in range(n):
-            for c in range(3):
-                buf[_CSX, i, c] = 0.0
-                buf[_CSV, i, c] = 0.0
-        _expose(x, v, xi, vi)
-        fstate[F_T_INT] = fstate[F_T]
-        fstate[F_DT_LAST] = 0.0
-        istate[I_FRESH] = 0
-        istate[I_INT_VALID] = 1
+    _start(x, v, fstate, istate, buf)
     direction = run_direction(fstate[F_T_INT], t_out)
     span = abs(t_out[t_out.shape[0] - 1] - fstate[F_T_INT]) if t_out.shape[0] > 0 else 0.0
     fsave = fstate.copy()
     isave = istate.copy()
+    events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
     for k in range(istate[I_NOUT], t_out.shape[0]):
-        target = t_out[k]
-        mode = 0 if exact else 2
-        status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params,
-                          target, direction, mode, events, span, parallel)
+        status = _to_output(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
+                            t_out[k], direction, events, span, parallel, fsave, isave)
         if status != OK:
-            _expose(xi, vi, x, v)
-            fstate[F_T] = fstate[F_T_INT]
-            if status != PAUSED:
-                istate[I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
             return status
-        if exact and fstate[F_T_INT] != target:
-            # land on the output time with a copy, then restore the integrator's own state
-            _backup(buf, False)
-            for q in range(fstate.shape[0]):
-                fsave[q] = fstate[q]
-            for q in range(istate.shape[0]):
-                isave[q] = istate[q]
-            istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
-            status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
-                              params, target, direction, 1, False, span, parallel)
-            _expose(xi, vi, x, v)
-            _backup(buf, True)
-            for q in range(fstate.shape[0]):
-                fstate[q] = fsave[q]
-            for q in range(istate.shape[0]):
-                istate[q] = isave[q]
-            if status != OK and status != PAUSED:
-                return status
-            fstate[F_T] = target
-        else:
-            _expose(xi, vi, x, v)
-            fstate[F_T] = fstate[F_T_INT]
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
         istate[I_NOUT] = k + 1
+    return OK
+
+
+@step_kernel
+def _start(x, v, fstate, istate, buf):
+    """A fresh start of the integrator's own state from ``x, v`` when it is not valid."""
+    if istate[I_FRESH] != 0 or istate[I_INT_VALID] == 0:
+        _zero_predictor(buf, x.shape[0])
+        for i in range(x.shape[0]):
+            for c in range(3):
+                buf[_CSX, i, c] = 0.0
+                buf[_CSV, i, c] = 0.0
+        _expose(x, v, buf[_XI], buf[_VI])
+        fstate[F_T_INT] = fstate[F_T]
+        fstate[F_DT_LAST] = 0.0
+        istate[I_FRESH] = 0
+        istate[I_INT_VALID] = 1
+
+
+@step_kernel
+def _to_output(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, target,
+               direction, events, span, parallel, fsave, isave):
+    """One output time of :func:`_ias15` into ``x, v`` (``fsave, isave``: scratch of the shapes
+    of ``fstate, istate``); returns a status code."""
+    xi = buf[_XI]
+    vi = buf[_VI]
+    exact = istate[I_EXACT_FINISH] != 0
+    mode = 0 if exact else 2
+    status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params,
+                      target, direction, mode, events, span, parallel)
+    if status != OK:
+        _expose(xi, vi, x, v)
+        fstate[F_T] = fstate[F_T_INT]
+        if status != PAUSED:
+            istate[I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
+        return status
+    if exact and fstate[F_T_INT] != target:
+        # land on the output time with a copy, then restore the integrator's own state
+        _backup(buf, False)
+        for q in range(fstate.shape[0]):
+            fsave[q] = fstate[q]
+        for q in range(istate.shape[0]):
+            isave[q] = istate[q]
+        istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
+        status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
+                          params, target, direction, 1, False, span, parallel)
+        _expose(xi, vi, x, v)
+        _backup(buf, True)
+        for q in range(fstate.shape[0]):
+            fstate[q] = fsave[q]
+        for q in range(istate.shape[0]):
+            istate[q] = isave[q]
+        if status != OK and status != PAUSED:
+            return status
+        fstate[F_T] = target
+    else:
+        _expose(xi, vi, x, v)
+        fstate[F_T] = fstate[F_T_INT]
     return OK

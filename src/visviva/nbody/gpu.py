@@ -16,15 +16,20 @@ What runs on the GPU today:
   only): one thread per member runs the CPU kernel's own functions compiled for the device
   (:mod:`visviva.core.cuda.whfast`: Jacobi transforms, universal-variable Kepler drifts,
   interaction kick, few-body gravity sum), planned on the host
-  (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+  (:mod:`visviva.nbody.gpu_ensemble_whfast`);
+* IAS15 ensembles with gravity only (fewer than ``PAIR_MIN_N`` massive particles per member):
+  one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
+  summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
+  for the device from the CPU source (:mod:`visviva.core.cuda.ias15`,
+  :mod:`visviva.nbody.gpu_ensemble_ias15`); the members' whole state goes to the device and back.
 
 The step grid, the time origin and the shortened last step to an output time are the CPU
 kernels' (the plans are computed with their expressions, :mod:`visviva.nbody.gpu_plan`), and
 the state (``buf`` included) is stored as the CPU backend stores it, so a run can be saved,
 loaded and continued on either backend. Results agree with the CPU backend to round-off (the
 gravity sums are added in another order): under numba's CUDA simulator 1e-17 to 3e-16 relative
-after several steps (``tests/test_nbody_gpu.py``; the WHFast ensembles, which add the same
-numbers in the same order, bit for bit there); that is all the simulator shows, it says nothing
+after several steps (``tests/test_nbody_gpu.py``; the WHFast and IAS15 ensembles, which add
+the same numbers in the same order, bit for bit there); that is all the simulator shows, it says nothing
 of speed.
 
 A simulation integrates through an array of output times as on the CPU and returns the same
@@ -37,8 +42,9 @@ IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gra
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
-GPU (yet): ensembles of IAS15 systems, WHFast ensembles in democratic heliocentric coordinates or
-with a corrector, forces and events in ensembles, arrays of output times for ensembles; these
+GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, WHFast
+ensembles in democratic heliocentric coordinates or with a corrector, forces and events in
+ensembles, arrays of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """
@@ -61,7 +67,7 @@ __all__ = [
 
 #: Integrators with a GPU implementation: of one simulation, of an ensemble.
 GPU_INTEGRATORS = ("leapfrog", "whfast", "ias15")
-GPU_ENSEMBLE_INTEGRATORS = ("leapfrog", "whfast")
+GPU_ENSEMBLE_INTEGRATORS = ("leapfrog", "whfast", "ias15")
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
 
@@ -104,6 +110,10 @@ def _check_supported(sim, ensemble: bool) -> None:
         from .gpu_ensemble_whfast import check_plain
 
         check_plain(sim)
+    if ensemble and sim.integrator == "ias15":
+        from .gpu_ensemble_ias15 import check_member
+
+        check_member(sim)
 
 
 def check_ensemble(members) -> None:
@@ -227,8 +237,8 @@ def integrate_ensemble(members, t) -> list:
 
     from ..core.cuda import kernels as K
 
-    if members and members[0].integrator == "whfast":
-        return _whfast_each(members, t)
+    if members and members[0].integrator in ("whfast", "ias15"):
+        return _packed_each(members, t)
     errors, ks, plans, states, massives = [], [], [], [], []
     for k, sim in enumerate(members):
         try:
@@ -276,11 +286,12 @@ def integrate_ensemble(members, t) -> list:
     return sorted(errors, key=lambda e: e[0])
 
 
-def _whfast_each(members, t) -> list:
-    """:func:`integrate_ensemble` for WHFast members: each checked as a lone run, then the
-    members that may run packed together (one pack per output time in simulation units)."""
+def _packed_each(members, t) -> list:
+    """:func:`integrate_ensemble` for WHFast and IAS15 members: each checked as a lone run, then
+    the members that may run packed together (one pack per output time in simulation units)."""
     from .ensemble_pack import Pack
-    from .gpu_ensemble_whfast import run
+
+    run = _pack_runner(members[0].integrator)
 
     errors, groups = [], {}
     for k, sim in enumerate(members):
@@ -294,6 +305,15 @@ def _whfast_each(members, t) -> list:
         pack = Pack([members[k] for k in ks], members[ks[0]].integrator_info.n_buf)
         errors += [(ks[j], exc) for j, exc in run(pack, target, t)]
     return sorted(errors, key=lambda e: e[0])
+
+
+def _pack_runner(integrator: str):
+    """The ``run(pack, target, t)`` of the GPU ensemble kernel of ``integrator``."""
+    if integrator == "ias15":
+        from .gpu_ensemble_ias15 import run
+    else:
+        from .gpu_ensemble_whfast import run
+    return run
 
 
 def integrate_pack(pack, t):
@@ -317,10 +337,8 @@ def integrate_pack(pack, t):
     target = pack.target(t)
     if target is None:
         return None
-    if integrator == "whfast":
-        from .gpu_ensemble_whfast import run
-
-        return run(pack, target, t)
+    if integrator in ("whfast", "ias15"):
+        return _pack_runner(integrator)(pack, target, t)
     n, h, rem, t_final, restart = plan_many(fs, ist, target)
     xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
     fresh = restart[pack.member_of]

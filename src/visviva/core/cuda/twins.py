@@ -4,7 +4,9 @@
 dispatchers) and returns ``numba.cuda.jit(device=True)`` of the same source, with every helper it
 calls replaced by its own device twin (recursively, each built once), the fused multiply-add
 intrinsic by libdevice's ``fma`` and ``np.fmod`` by libdevice's ``fmod``. The arithmetic is then written once: the CPU keeps its kernels
-as they are, the GPU compiles the same functions.
+as they are, the GPU compiles the same functions. ``replace`` swaps named helpers (at any depth)
+for device functions of the same signature: IAS15's step, for instance, calls the few-body
+gravity sum directly instead of the CPU's dispatch through its additional-force argument.
 """
 
 from __future__ import annotations
@@ -60,21 +62,27 @@ def _names(code):
     return names
 
 
-def device_twin(dispatcher):
-    """``cuda.jit(device=True)`` of ``dispatcher``'s Python source, helpers rebound to twins."""
-    key = id(dispatcher)
+def device_twin(dispatcher, replace=None):
+    """``cuda.jit(device=True)`` of ``dispatcher``'s Python source, helpers rebound to twins;
+    ``replace`` maps helpers (CPU dispatchers) to the device functions that take their place in
+    the whole tree below ``dispatcher``."""
+    replace = replace or {}
+    swaps = {id(cpu): dev for cpu, dev in replace.items()}
+    key = (id(dispatcher), tuple(sorted((k, id(v)) for k, v in swaps.items())))
     if key in _TWINS:
         return _TWINS[key]
     fn = dispatcher.py_func
     scope = dict(fn.__globals__)
     for name in _names(fn.__code__):
         value = scope.get(name)
-        if value is _intrinsics.fma:
+        if id(value) in swaps:
+            scope[name] = swaps[id(value)]
+        elif value is _intrinsics.fma:
             scope[name] = _fma()
         elif value is np:
             scope[name] = _numpy()
         elif isinstance(value, CPUDispatcher):
-            scope[name] = device_twin(value)
+            scope[name] = device_twin(value, replace)
     source = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
     twin = cuda.jit(device=True)(source)
     _TWINS[key] = twin

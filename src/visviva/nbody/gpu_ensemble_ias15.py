@@ -1,0 +1,61 @@
+"""IAS15 ensembles on the GPU: the host side of :mod:`visviva.core.cuda.ias15`.
+
+An ensemble of IAS15 members with gravity only (no additional forces, no collision, encounter or
+escape checks; those are refused by :func:`visviva.nbody.gpu.begin_gpu_run`) runs one GPU
+thread per member through IAS15's own adaptive steps, compiled for the device from the CPU
+kernel's source. The whole state (``fstate``, ``istate`` and ``buf``: the integrator's own
+positions and velocities, the compensated-summation terms, the predictor's ``b`` and ``e``) goes
+to the device and back as the CPU kernel leaves it, so a GPU run can be saved and continued on
+the CPU, and a member's status (a step below the floor, non-finite numbers) is finished by
+:meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU, raising the same exception.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.gravity import PAIR_MIN_N, massive_indices
+from ..errors import InvalidInputError
+
+__all__ = ["run", "check_member"]
+
+_KERNEL: list = []
+
+
+def check_member(sim) -> None:
+    """Raise :class:`~visviva.errors.InvalidInputError` when the IAS15 member ``sim`` has
+    :data:`~visviva.core.gravity.PAIR_MIN_N` massive particles or more (the CPU then sums the
+    gravity with its large-N kernel, which the device does not run)."""
+    nm = len(massive_indices(sim.state_arrays()["m"]))
+    if nm >= PAIR_MIN_N:
+        raise InvalidInputError(
+            f"backend='cuda' runs ensembles of IAS15 members with fewer than {PAIR_MIN_N} "
+            f"massive particles; got {nm}: use backend='cpu' for this ensemble.")
+
+
+def run(pack, target: float, t) -> list:
+    """Advance the packed IAS15 members of ``pack`` (:class:`visviva.nbody.ensemble_pack.Pack`)
+    to ``target`` (simulation units; ``t`` as the user gave it) on the GPU, one thread per
+    member; returns ``[(index, exception), ...]`` (members whose kernel reported a status other
+    than OK, or whose numbers are not finite, are finished as a lone run would be)."""
+    from numba import cuda
+
+    from ..core.cuda import ias15 as I
+    from ..core.cuda import kernels as K
+
+    if not _KERNEL:
+        _KERNEL.append(I.build())
+    M = len(pack.members)
+    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
+        ("x", pack.x), ("v", pack.v), ("fstate", pack.fstate), ("istate", pack.istate),
+        ("buf", pack.buf))}
+    status = cuda.device_array(M, dtype=np.int64)
+    _KERNEL[0][K.blocks(M), K.THREADS](
+        d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
+        cuda.to_device(pack.moff), cuda.to_device(pack.poff), d["fstate"], d["istate"],
+        d["buf"], cuda.device_array(pack.fstate.shape), cuda.device_array(pack.istate.shape,
+                                                                          dtype=np.int64),
+        float(target), status)
+    for name, arr in d.items():  # in place: the members' states view these arrays
+        getattr(pack, name)[:] = arr.copy_to_host()
+    return pack.finish(status.copy_to_host(), t)

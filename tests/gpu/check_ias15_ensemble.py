@@ -1,0 +1,67 @@
+"""Run an IAS15 ensemble on the CUDA backend (a GPU, or numba's simulator when
+NUMBA_ENABLE_CUDASIM=1) beside the same ensemble on the CPU and print ``key=value`` lines."""
+
+from __future__ import annotations
+
+import numpy as np
+from check_whfast_ensemble import continue_on, each_vs_packed, rel, same  # (this folder)
+
+import visviva as vv
+
+
+def member(k):
+    """Ragged members (3 to 6 particles, a test particle in some); one uses the rs15 step
+    control, one is softened, one outputs the state after the first step past the time, one
+    has a moon close to its planet (IAS15's two-part positions for a tight pair)."""
+    rng = np.random.default_rng(k)
+    sim = vv.Simulation("ias15", softening=0.01 * (k == 3), exact_finish_time=k != 4,
+                        adaptive_mode="rs15" if k == 1 else "prs23")
+    sim.add(1.0)
+    for j in range(1, 3 + k % 3):
+        sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.5 * j, e=0.1 * rng.uniform(),
+                inc=0.05 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=0)
+    if k == 2:
+        sim.add(1e-6, a=0.02, e=0.05, primary=1)  # a moon: a tight pair far from the origin
+    if k % 2:
+        sim.add(0.0, a=0.6, e=0.2, primary=0)
+    sim.move_to_com()
+    return sim
+
+
+def main():
+    members = [member(k) for k in range(5)]
+    cpu = vv.Ensemble.from_simulations(members)
+    gpu = vv.Ensemble.from_simulations(members, backend="cuda")
+    # at the start time (nothing moves), between steps, a second call continues, backwards
+    for t in (0.0, 0.15, 0.4, 0.3):
+        cpu.integrate(t)
+        gpu.integrate(t)
+    print(f"ens_pos={rel(gpu.positions, cpu.positions)!r}")
+    print(f"ens_vel={rel(gpu.velocities, cpu.velocities)!r}")
+    print(f"ens_bits={same(gpu, cpu)!r}")
+    print(f"ens_t={rel(gpu.t, cpu.t)!r}")
+    print(f"ens_steps_equal={[s.steps_done for s in gpu] == [s.steps_done for s in cpu]!r}")
+    print(f"ens_steps={min(s.steps_done for s in gpu)!r}")
+    print(f"ens_packed={gpu._pack is not None!r}")
+
+    continue_on(gpu, cpu, "cpu", 0.5, "restart")  # saved on the GPU, continued on the CPU
+    continue_on(cpu, cpu, "cuda", 0.6, "to_gpu")  # saved on the CPU, continued on the GPU
+    each_vs_packed(members, (0.113, 0.2))
+
+    # a member whose step falls below its floor stops with the CPU's exception
+    bad = [member(0), member(1)]
+    bad[1].min_dt = 10.0
+    errs = []
+    for backend in ("cpu", "cuda"):
+        ens = vv.Ensemble.from_simulations(bad, backend=backend)
+        try:
+            ens.integrate(0.2)
+            errs.append("none")
+        except Exception as exc:  # the ensemble raises the member's error
+            errs.append(f"{type(exc).__name__}: {exc}")
+    print(f"min_dt_same_error={errs[0] == errs[1] and errs[0] != 'none'!r}")
+    print(f"min_dt_error={errs[1][:80]!r}")
+
+
+if __name__ == "__main__":
+    main()

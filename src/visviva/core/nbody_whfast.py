@@ -399,24 +399,18 @@ def _corrector(order, inverse, h, xj, vj, m, eta, G, t, x, v, massive, fstate, i
     for j in range(CORRECTOR_A.shape[1]):
         if CORRECTOR_A[order, j] != 0.0:
             npairs = j + 1
-    for jj in range(npairs):
-        j = npairs - 1 - jj if inverse else jj
+    for jj in range(2 * npairs):
+        # pair j, its first or second map: one call site (a device twin inlines each site)
+        j = npairs - 1 - jj // 2 if inverse else jj // 2
         a = CORRECTOR_A[order, j] * h
         b = CORRECTOR_B[order, j] * h
-        if inverse:
-            st = _phase_kick(xj, vj, m, eta, G, -a, b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj, parallel)
-            if st != OK:
-                return st
-            st = _phase_kick(xj, vj, m, eta, G, a, -b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj, parallel)
+        if jj % 2 == 0:
+            a = -a if inverse else a
         else:
-            st = _phase_kick(xj, vj, m, eta, G, a, b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj, parallel)
-            if st != OK:
-                return st
-            st = _phase_kick(xj, vj, m, eta, G, -a, -b, t, x, v, massive, fstate, istate, gwork,
-                             force, params, acc, aj, parallel)
+            a = a if inverse else -a
+            b = -b
+        st = _phase_kick(xj, vj, m, eta, G, a, b, t, x, v, massive, fstate, istate, gwork,
+                         force, params, acc, aj, parallel)
         if st != OK:
             return st
     return OK

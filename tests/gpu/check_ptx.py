@@ -43,6 +43,8 @@ def main():
         "propagate_many": (K._kepler_kernel(), (a2, a2, f1, f1, a2, a2, i1)),
         "ensemble_whfast": (W.build(), (a2, a2, f1) + (a2,) * 6 + (f1, i1, i1, i1, f1, f1, f1,
                                                                    i1, i1, f1, i1)),
+        "ensemble_whfast_general": (W.build_general(), (a2, a2, f1, i1, i1, f1, i1, a2, i2, f1,
+                                                        f1, a2, f1, f1, i1)),
         "ensemble_ias15": (I.build(), (a2, a2, f1, i1, i1, i1, a2, i2, f1, a2, i2, float64,
                                        i1)),
     }

@@ -12,11 +12,11 @@ What runs on the GPU today:
   coordinates) and every gravity evaluation is the tiled direct sum on the GPU, handed to the
   kernel through its additional-force argument (:mod:`visviva.nbody.gpu_ias15`, with IAS15's
   two-part positions for tight pairs; :mod:`visviva.nbody.gpu_whfast`).
-* WHFast ensembles in the plain case (Jacobi coordinates, no symplectic corrector, gravity
-  only): one thread per member runs the CPU kernel's own functions compiled for the device
-  (:mod:`visviva.core.cuda.whfast`: Jacobi transforms, universal-variable Kepler drifts,
-  interaction kick, few-body gravity sum), planned on the host
-  (:mod:`visviva.nbody.gpu_ensemble_whfast`);
+* WHFast ensembles without additional forces (Jacobi or democratic heliocentric coordinates,
+  symplectic correctors, collision, encounter and escape checks): one thread per member runs
+  the CPU kernel's own functions compiled for the device (:mod:`visviva.core.cuda.whfast`; in
+  the plain case planned on the host, otherwise the CPU's whole run body on the member's
+  state, :mod:`visviva.nbody.gpu_ensemble_whfast`);
 * IAS15 ensembles with gravity only (fewer than ``PAIR_MIN_N`` massive particles per member):
   one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
@@ -42,9 +42,8 @@ IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gra
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
-GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, WHFast
-ensembles in democratic heliocentric coordinates or with a corrector, forces and events in
-ensembles, arrays of output times for ensembles; these
+GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, forces
+in ensembles, events in leapfrog and IAS15 ensembles, arrays of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """
@@ -99,7 +98,7 @@ def _extras(sim) -> bool:
 
 
 def _check_supported(sim, ensemble: bool) -> None:
-    if ensemble and _extras(sim):
+    if ensemble and _extras(sim) and sim.integrator != "whfast":  # WHFast: check_member
         raise InvalidInputError(
             "backend='cuda' integrates ensembles with gravity only: additional forces and "
             "collision, encounter or escape checks run on backend='cpu' (or, for one "
@@ -107,9 +106,9 @@ def _check_supported(sim, ensemble: bool) -> None:
         )
     check_backend("cuda", sim.integrator, ensemble)
     if ensemble and sim.integrator == "whfast":
-        from .gpu_ensemble_whfast import check_plain
+        from .gpu_ensemble_whfast import check_member
 
-        check_plain(sim)
+        check_member(sim)
     if ensemble and sim.integrator == "ias15":
         from .gpu_ensemble_ias15 import check_member
 

@@ -1,16 +1,21 @@
 """WHFast ensembles on the GPU: the host side of :mod:`visviva.core.cuda.whfast`.
 
-An ensemble of WHFast members runs on the GPU in the plain case of the CPU kernel
+Every WHFast member without additional forces runs on the GPU (members with forces are refused
+by :func:`check_member`, through :func:`visviva.nbody.gpu.begin_gpu_run`), one thread per
+member. A pack whose members are all in the plain case of the CPU kernel
 (:func:`visviva.core.nbody_whfast.is_plain`: Jacobi coordinates, no symplectic corrector, no
-collisions, encounters or escape radius; members with additional forces are not packed and are
-refused by :func:`visviva.nbody.gpu.begin_gpu_run`). :func:`plan` decides on the host, for all
-members at once and with the CPU kernel's expressions, whether a member's internal state is
-still valid or must be built again (the grid origin then moves to the member's current time),
-how many fused steps it takes and the length of the shortened step of its output copy;
-:func:`run` launches one GPU thread per member and does the CPU kernel's bookkeeping (step
-counter, grid index, clock). The step grid, the time origin and the saved internal state are
-therefore the CPU kernel's: a GPU run can be saved and continued on the CPU, and agrees with
-the CPU ensemble to round-off.
+collisions, encounters or escape radius) runs the plain kernel: :func:`plan` decides on the
+host, for all members at once and with the CPU kernel's expressions, whether a member's
+internal state is still valid or must be built again (the grid origin then moves to the
+member's current time), how many fused steps it takes and the length of the shortened step of
+its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
+counter, grid index, clock: :func:`account`). Any other pack (democratic heliocentric
+coordinates, a corrector, event checks, in any mix) runs :func:`run_general`: the CPU kernel's
+whole run body on the device, on the members' whole state, bookkeeping included; members whose
+check fired are finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as in the CPU
+ensemble. Either way the step grid, the time origin and the saved internal state are the CPU
+kernel's: a GPU run can be saved and continued on the CPU, and agrees with the CPU ensemble to
+round-off (bit for bit under the simulator).
 """
 
 from __future__ import annotations
@@ -23,21 +28,20 @@ from ..core import status as _st
 from ..errors import InvalidInputError
 from .gpu_plan import count_steps
 
-__all__ = ["plan", "account", "run", "check_plain"]
+__all__ = ["plan", "account", "run", "run_general", "check_member"]
 
 _KERNEL: list = []
+_GENERAL: list = []
 
 
-def check_plain(sim) -> None:
+def check_member(sim) -> None:
     """Raise :class:`~visviva.errors.InvalidInputError` when the WHFast member ``sim`` uses a
-    setting the GPU ensemble kernel does not run (democratic heliocentric coordinates or a
-    symplectic corrector; forces and events are checked by the caller)."""
-    istate = sim.state_arrays()["istate"]
-    if istate[_nc.I_WH_COORDINATES] != _wh.JACOBI or istate[_nc.I_CORRECTOR] != 0:
+    setting the GPU ensemble kernels do not run: additional forces."""
+    if sim.forces:
         raise InvalidInputError(
-            "backend='cuda' runs ensembles of WHFast members in Jacobi coordinates without a "
-            f"symplectic corrector; got coordinates={sim.coordinates!r}, corrector="
-            f"{sim.corrector}: use backend='cpu' for these settings.")
+            "backend='cuda' runs ensembles of WHFast members with gravity only (any "
+            "coordinates, corrector, collision, encounter or escape checks); additional forces "
+            "run on backend='cpu' (or, for one simulation, Simulation(..., backend='cuda')).")
 
 
 def plan(fstate, istate, target: float):
@@ -96,6 +100,8 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import kernels as K
     from ..core.cuda import whfast as W
 
+    if not all(_wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
+        return run_general(pack, target, t)
     if not _KERNEL:
         _KERNEL.append(W.build())
     fs, ist = pack.fstate, pack.istate
@@ -133,3 +139,33 @@ def account(fstate, istate, n, h, t_final) -> None:
     fstate[n != 0, _nc.F_DT_LAST] = h[n != 0]
     fstate[:, _nc.F_T] = t_final
     istate[:, _nc.I_NOUT] = 1
+
+
+def run_general(pack, target: float, t) -> list:
+    """:func:`run` for members in any setting but additional forces (democratic heliocentric
+    coordinates, a symplectic corrector, collision, encounter and escape checks): each GPU
+    thread runs the CPU kernel's own run body (:func:`visviva.core.cuda.whfast.build_general`)
+    on the member's whole state, which goes to the device and back as the CPU kernel leaves it
+    (clock, step counter, internal state, status and ``istate[I_EVENT_A/B]``); a member whose
+    check fired is then finished by :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as in
+    the CPU ensemble (merged and continued, or its Escape/Encounter raised)."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+    from ..core.cuda import whfast as W
+
+    if not _GENERAL:
+        _GENERAL.append(W.build_general())
+    M, P = len(pack.members), len(pack.x)
+    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
+        ("x", pack.x), ("v", pack.v), ("fstate", pack.fstate), ("istate", pack.istate),
+        ("buf", pack.buf))}
+    status = cuda.device_array(M, dtype=np.int64)
+    _GENERAL[0][K.blocks(M), K.THREADS](
+        d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
+        cuda.to_device(pack.moff), cuda.to_device(pack.radius), cuda.to_device(pack.poff),
+        d["fstate"], d["istate"], d["buf"], cuda.to_device(np.array([target])),
+        cuda.device_array((M, 1)), cuda.device_array(3 * P), cuda.device_array(3 * P), status)
+    for name, arr in d.items():  # in place: the members' states view these arrays
+        getattr(pack, name)[:] = arr.copy_to_host()
+    return pack.finish(status.copy_to_host(), t)

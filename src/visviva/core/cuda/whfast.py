@@ -1,27 +1,42 @@
-"""The GPU kernel of WHFast ensembles: one thread per member, the CPU kernel's own functions.
+"""The GPU kernels of WHFast ensembles: one thread per member, the CPU kernel's own functions.
 
-:func:`ensemble_whfast` runs, for every member of a packed ensemble, what the fast path of
-:func:`visviva.core.nbody_whfast.whfast_run_plain` runs between two outputs (Jacobi
-coordinates, no symplectic corrector, no additional force, no events): build the internal state
-``P`` when it is not valid (``_first_half``: inertial -> Jacobi, Kepler drift ``h/2``, kick
-``h``), ``nsteps`` fused steps ``P <- Kick(h) Kepler(h) P``, a synchronised copy (Kepler
-``h/2`` and back to inertial coordinates) and, for an output time between grid points, one
-shortened drift-kick-drift step of the copy. The host plans the steps with the CPU kernel's
-expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+:func:`build` returns :func:`ensemble_whfast`, the plain case: for every member of a packed
+ensemble, what the fast path of :func:`visviva.core.nbody_whfast.whfast_run_plain` runs between
+two outputs (Jacobi coordinates, no symplectic corrector, no additional force, no events):
+build the internal state ``P`` when it is not valid (``_first_half``: inertial -> Jacobi, Kepler
+drift ``h/2``, kick ``h``), ``nsteps`` fused steps ``P <- Kick(h) Kepler(h) P``, a synchronised
+copy (Kepler ``h/2`` and back to inertial coordinates) and, for an output time between grid
+points, one shortened drift-kick-drift step of the copy. The host plans the steps with the CPU
+kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+
+:func:`build_general` returns :func:`ensemble_whfast_general`, every other case but additional
+forces: each thread runs the CPU kernel's run body itself,
+:func:`visviva.core.nbody_whfast._whfast`, compiled for the device with the member's whole
+state (``fstate``, ``istate``, ``buf``), so democratic heliocentric coordinates (transforms,
+jump, interaction kick), the symplectic correctors (applied when the internal state is built
+and when a synchronised copy is made) and the event path (synchronised steps, then
+:func:`visviva.core.nbody_common.check_events`; a member whose check fires stops there with the
+CPU's state, clock, status and ``istate[I_EVENT_A/B]``) are the CPU kernel's own code, its
+bookkeeping included. Only the gravity dispatch is swapped (``gravity.gravity`` and
+``nbody_common.accelerations`` become the plain few-body rows, the bits of the CPU's few-body
+kernels) and the additional force is a device function that adds nothing. The device inlines
+the universal-variable Kepler solver at each of the run body's call sites (about 23): the PTX is
+about 11 MB and the first launch in a process compiles for one to two minutes (the plain kernel:
+3 MB, 16 s).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable
 solver), the interaction kick and the few-body gravity sum :func:`visviva.core.gravity._plain_rows`
-(each pull summed in the order of ``massive``, the bits of the CPU's few-body kernel). Only the
-sequence of calls is written here, in the order of the CPU kernel; under numba's CUDA simulator
-the results equal the CPU ensemble's to round-off (the CPU kernel adds the same numbers).
+(each pull summed in the order of ``massive``, the bits of the CPU's few-body kernel). Under
+numba's CUDA simulator the results equal the CPU ensemble's bit for bit (the CPU kernel adds
+the same numbers in the same order).
 """
 
 from __future__ import annotations
 
 from numba import cuda
 
-__all__ = ["build"]
+__all__ = ["build", "build_general"]
 
 #: Values of the ``mode`` argument: nothing to do (an output at the current time of a member
 #: without an internal state), continue the internal state, or build it first.
@@ -125,3 +140,59 @@ def build():
             from_internal(XS, VS, M, E, X, V)
 
     return ensemble_whfast
+
+
+def build_general():
+    """Compile (lazily, on first launch) and return :func:`ensemble_whfast_general`: every
+    member through the CPU kernel's own run body, :func:`visviva.core.nbody_whfast._whfast`,
+    compiled for the device (see the module notes)."""
+    from .. import gravity, nbody_common
+    from .. import nbody_whfast as W
+    from ..nbody_common import F_G, F_SOFT2
+    from .twins import device_twin
+
+    rows = device_twin(gravity._plain_rows)
+
+    @cuda.jit(device=True)
+    def gravity_few(x, m, G, soft2, massive, acc, work, parallel):
+        # gravity.gravity of the few-body kernels (FEW): the plain rows below PAIR_MIN_N
+        rows(x, m, G, soft2, massive, acc)
+
+    @cuda.jit(device=True)
+    def accelerations(t, x, v, m, massive, fstate, gwork, force, params, acc, parallel):
+        # nbody_common.accelerations of the few-body kernel, gravity only
+        rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
+
+    @cuda.jit(device=True)
+    def no_force(t, x, v, m, params, acc):
+        # gravity.no_force: the additional force of a member without one
+        pass
+
+    run = device_twin(W._whfast, {gravity.gravity: gravity_few,
+                                  nbody_common.accelerations: accelerations})
+    n_buf = W.N_BUF
+
+    @cuda.jit
+    def ensemble_whfast_general(x, v, m, massive, moff, radius, poff, fstate, istate, buf,
+                                t_out, out_t, out_x, out_v, status):
+        """Member ``k`` (one thread) through the output times ``t_out``; ``status[k]`` its code.
+
+        The arrays of :func:`visviva.core.nbody_ensemble.ensemble_run` (``buf`` and ``out_x``,
+        ``out_v`` flat, member after member; ``out_t`` one row per member), less the force.
+        """
+        k = cuda.grid(1)
+        if k >= fstate.shape[0]:
+            return
+        lo = poff[k]
+        hi = poff[k + 1]
+        n = hi - lo
+        T = t_out.shape[0]
+        X = x[lo:hi]
+        M = m[lo:hi]
+        status[k] = run(
+            X, v[lo:hi], M, massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k], istate[k],
+            buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, no_force, M, t_out,
+            out_t[k], out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
+            out_v[3 * T * lo:3 * T * hi].reshape((T, n, 3)), 0, True)
+
+    return ensemble_whfast_general

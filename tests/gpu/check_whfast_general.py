@@ -57,6 +57,7 @@ def both(members, times, key):
     print(f"{key}_pos={rel(gpu.positions, cpu.positions)!r}")
     print(f"{key}_vel={rel(gpu.velocities, cpu.velocities)!r}")
     print(f"{key}_t_equal={np.array_equal(gpu.t, cpu.t)!r}")
+    print(f"{key}_t_diff={float(np.max(np.abs(gpu.t - cpu.t)))!r}")
     print(f"{key}_n_equal={np.array_equal(gpu.n_particles, cpu.n_particles)!r}")
     print(f"{key}_steps_equal={[s.steps_done for s in gpu] == [s.steps_done for s in cpu]!r}")
     print(f"{key}_raised_equal={raised['gpu'] == raised['cpu']!r}")
@@ -97,7 +98,24 @@ def main():
                      collision="merge" if k == 4 else "none") for k in range(5)]
     events[1].exit_max_distance = 2.1  # its outer planet (a = 2.5, e ~ 0.1) leaves at once
     events.insert(3, crash())
+    # the 5th-order corrector with checks on (the CPU's event path takes none) and an
+    # encounter (member 7: its planets at a = 1.5 and 2.0 come within 0.8)
+    events.append(member(0, corrector=5, exit_max_distance=50.0, encounter_distance=0.01))
+    events.append(member(2, encounter_distance=0.8))
     cpu, gpu = both(events, (0.123, 0.35), "events")
+    # each member run alone on the CPU: its exception (by type) and its state
+    alone, diff, times = [], 0.0, []
+    for k, sim in enumerate(events):
+        for t in (0.123, 0.35):
+            try:
+                sim.integrate(t)
+            except Exception as exc:
+                alone.append((k, type(exc).__name__))
+        diff = max(diff, rel(gpu[k].positions, sim.positions))
+        times.append(abs(sim.t - gpu.t[k]))
+    print(f"events_alone_pos={diff!r}")
+    print(f"events_alone_t_diff={float(max(times))!r}")
+    print(f"events_alone_raised={sorted(set(alone))!r}")
     print(f"events_n={','.join(map(str, gpu.n_particles))}")
     print(f"events_t={','.join(repr(float(x)) for x in gpu.t)}")
     continue_on(gpu, cpu, "cpu", 0.4, "events_restart")

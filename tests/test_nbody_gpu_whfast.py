@@ -23,7 +23,7 @@ def _check(out, tolerance, bits):
     # the same steps, times, particle counts and exceptions as the CPU ensemble, the state to
     # round-off (under the simulator the device runs the CPU's arithmetic: 0.0, and the same
     # times; on a GPU the compiler's fused multiply-adds may move a time by an ulp)
-    for key in SECTIONS + ("dh_restart", "events_restart"):
+    for key in SECTIONS + ("dh_restart", "dh_to_gpu", "events_restart"):
         for what in ("pos", "vel"):
             assert float(out[f"{key}_{what}"]) <= tolerance, (key, what, out[f"{key}_{what}"])
         assert out[f"{key}_steps_equal"] == "True", key

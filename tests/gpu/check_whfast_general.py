@@ -90,6 +90,7 @@ def main():
     dh = [member(k, coordinates="democratic_heliocentric") for k in range(5)]
     cpu, gpu = both(dh, times, "dh")
     continue_on(gpu, cpu, "cpu", 0.25, "dh_restart")  # saved on the GPU, continued on the CPU
+    continue_on(cpu, gpu, "cuda", 0.3, "dh_to_gpu")  # and the other way
     for order in (3, 7):
         both([member(k, corrector=order) for k in range(5)], times, f"corr{order}")
     # events: an escape (member 1), a merger (member 3), the others run on; democratic

@@ -272,31 +272,40 @@ def propagate_scalar(x, y, z, vx, vy, vz, gm, dt):
     vmax = max(abs(vx), abs(vy), abs(vz))
     # squares of r and v cannot over- or underflow in this range: the caller's units are used
     ordinary = 1e-140 < rmax < 1e140 and vmax < 1e140 and (vmax == 0.0 or vmax > 1e-140)
-    out = _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt)
-    if ordinary and out[0] != NO_CONVERGENCE and out[0] != ZERO_POSITION:
-        return out
-    if not (rmax > 0.0 and gm > 0.0 and math.isfinite(rmax) and math.isfinite(gm)):
-        return out
-    if not (math.isfinite(vmax) and math.isfinite(dt)):
-        return out
-    a = math.frexp(rmax)[1]
-    a -= a % 2
-    # speed unit: the larger of |v| and the circular speed sqrt(gm / r0), as exponents of 2
-    c = (math.frexp(gm)[1] - a) // 2
-    if vmax > 0.0:
-        c = max(c, math.frexp(vmax)[1])
-    b = a - c
-    av = b - a  # velocity scale exponent: v' = v T / L
-    st, xs, ys, zs, vxs, vys, vzs = _propagate_unscaled(
-        math.ldexp(x, -a),
-        math.ldexp(y, -a),
-        math.ldexp(z, -a),
-        math.ldexp(vx, av),
-        math.ldexp(vy, av),
-        math.ldexp(vz, av),
-        math.ldexp(gm, 2 * b - 3 * a),
-        math.ldexp(dt, -b),
-    )
+    # at most two attempts through ONE call site (a device twin inlines every call site of the
+    # solver): the caller's units, then the power-of-two units; a, av: their exponents
+    a = 0
+    av = 0
+    px, py, pz, pvx, pvy, pvz, pgm, pdt = x, y, z, vx, vy, vz, gm, dt
+    out = (OK, x, y, z, vx, vy, vz)
+    for attempt in range(2):
+        res = _propagate_unscaled(px, py, pz, pvx, pvy, pvz, pgm, pdt)
+        if attempt == 1:
+            break
+        out = res
+        if ordinary and out[0] != NO_CONVERGENCE and out[0] != ZERO_POSITION:
+            return out
+        if not (rmax > 0.0 and gm > 0.0 and math.isfinite(rmax) and math.isfinite(gm)):
+            return out
+        if not (math.isfinite(vmax) and math.isfinite(dt)):
+            return out
+        a = math.frexp(rmax)[1]
+        a -= a % 2
+        # speed unit: the larger of |v| and the circular speed sqrt(gm / r0), as exponents of 2
+        c = (math.frexp(gm)[1] - a) // 2
+        if vmax > 0.0:
+            c = max(c, math.frexp(vmax)[1])
+        b = a - c
+        av = b - a  # velocity scale exponent: v' = v T / L
+        px = math.ldexp(x, -a)
+        py = math.ldexp(y, -a)
+        pz = math.ldexp(z, -a)
+        pvx = math.ldexp(vx, av)
+        pvy = math.ldexp(vy, av)
+        pvz = math.ldexp(vz, av)
+        pgm = math.ldexp(gm, 2 * b - 3 * a)
+        pdt = math.ldexp(dt, -b)
+    st, xs, ys, zs, vxs, vys, vzs = res
     if st != OK:
         return out
     rx = math.ldexp(xs, a)

@@ -53,8 +53,8 @@ class Ensemble:
         The members (taken over, not copied: use :meth:`from_simulations`).
     backend : str
         ``"cpu"`` (numba threads over the members) or ``"cuda"`` (one GPU thread per member;
-        leapfrog, and WHFast in Jacobi coordinates without a corrector; see
-        :mod:`visviva.nbody.gpu`).
+        leapfrog, IAS15, and WHFast in any coordinates, with or without a corrector and event
+        checks; see :mod:`visviva.nbody.gpu`).
 
     Examples
     --------
@@ -88,7 +88,7 @@ class Ensemble:
         sims : sequence of Simulation
             At least one; all with the same integrator; any number of particles each.
         backend : str
-            ``"cpu"`` (default) or ``"cuda"`` (leapfrog or plain WHFast members; see
+            ``"cpu"`` (default) or ``"cuda"`` (leapfrog, IAS15 or WHFast members; see
             :mod:`visviva.nbody.gpu`); ``"cuda"`` raises
             :class:`visviva.errors.BackendUnavailableError` saying what is missing when there is
             no usable GPU or numba-cuda is not installed, and

@@ -20,9 +20,10 @@ CPU's state, clock, status and ``istate[I_EVENT_A/B]``) are the CPU kernel's own
 bookkeeping included. Only the gravity dispatch is swapped (``gravity.gravity`` and
 ``nbody_common.accelerations`` become the plain few-body rows, the bits of the CPU's few-body
 kernels) and the additional force is a device function that adds nothing. The device inlines
-the universal-variable Kepler solver at each of the run body's call sites (about 23): the PTX is
-about 11 MB and the first launch in a process compiles for one to two minutes (the plain kernel:
-3 MB, 16 s).
+the universal-variable Kepler solver at each of the run body's 23 call sites (the corrector's
+maps and the solver's retry in power-of-two units each go through one call site for that
+reason): the PTX is about 6 MB, and the first launch in a process compiles for about a minute
+(NVVM; the plain kernel: 2 MB, 10 s).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable

@@ -13,24 +13,18 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
+from check_whfast_ensemble import member as plain_member  # noqa: E402
 from check_whfast_ensemble import rel  # noqa: E402
 
 import visviva as vv  # noqa: E402
 
 
 def member(k, **settings):
-    """Ragged members (3 to 5 particles, a test particle in odd ones), own time steps; member 2
-    lands on its output times by grid points only."""
-    rng = np.random.default_rng(k)
-    sim = vv.Simulation("whfast", dt=0.011 + 0.002 * (k % 3), exact_finish_time=k != 2,
-                        **settings)
-    sim.add(1.0)
-    for j in range(1, 3 + k % 3):
-        sim.add(1e-3 * rng.uniform(0.1, 1.0), a=1.0 + 0.5 * j, e=0.1 * rng.uniform(),
-                inc=0.05 * rng.uniform(), mean_anomaly=rng.uniform(0, 6.28), primary=0)
-    if k % 2:
-        sim.add(0.0, a=0.6, e=0.2, primary=0)
-    sim.move_to_com()
+    """Member ``k`` of the plain ensemble check (ragged, own time steps, a test particle in odd
+    ones, member 3 softened, member 4 landing on grid points only) with ``settings``."""
+    sim = plain_member(k)
+    for name, value in settings.items():
+        setattr(sim, name, value)
     return sim
 
 

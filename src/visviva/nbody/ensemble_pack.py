@@ -107,6 +107,20 @@ class Pack:
         base = 3 * self.n_buf * lo + 3 * s * n + 3 * (np.arange(len(self.x)) - lo)
         return base[:, None] + np.arange(3)
 
+    def to_device(self, names) -> dict:
+        """The packed arrays ``names`` (``"x"``, ``"fstate"``, ...) copied to the GPU, by name
+        (numba device arrays; for the GPU ensemble kernels)."""
+        from numba import cuda
+
+        return {name: cuda.to_device(np.ascontiguousarray(getattr(self, name)))
+                for name in names}
+
+    def from_device(self, arrays: dict) -> None:
+        """Copy the device arrays of :meth:`to_device` back into the packed arrays, in place
+        (the members' states view them)."""
+        for name, arr in arrays.items():
+            getattr(self, name)[:] = arr.copy_to_host()
+
     # ---- reading ---------------------------------------------------------------------------------
     def padded(self, packed: np.ndarray) -> np.ndarray:
         """``packed`` (one row per particle) as (members, N_max, ...) with NaN past each N."""

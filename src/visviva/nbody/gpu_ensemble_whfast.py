@@ -157,15 +157,13 @@ def run_general(pack, target: float, t) -> list:
     if not _GENERAL:
         _GENERAL.append(W.build_general())
     M, P = len(pack.members), len(pack.x)
-    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("x", pack.x), ("v", pack.v), ("fstate", pack.fstate), ("istate", pack.istate),
-        ("buf", pack.buf))}
+    state = pack.to_device(("x", "v", "fstate", "istate", "buf"))  # in and out
+    d = {**pack.to_device(("m", "massive", "moff", "radius", "poff")), **state}
     status = cuda.device_array(M, dtype=np.int64)
+    out_x, out_v = cuda.device_array(3 * P), cuda.device_array(3 * P)  # the output snapshot
     _GENERAL[0][K.blocks(M), K.THREADS](
-        d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.radius), cuda.to_device(pack.poff),
-        d["fstate"], d["istate"], d["buf"], cuda.to_device(np.array([target])),
-        cuda.device_array((M, 1)), cuda.device_array(3 * P), cuda.device_array(3 * P), status)
-    for name, arr in d.items():  # in place: the members' states view these arrays
-        getattr(pack, name)[:] = arr.copy_to_host()
+        *(d[k] for k in ("x", "v", "m", "massive", "moff", "radius", "poff", "fstate", "istate",
+                         "buf")),
+        cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
+    pack.from_device(state)
     return pack.finish(status.copy_to_host(), t)

@@ -173,7 +173,7 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
 
     monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
     vv.Simulation("ias15", backend="cuda")  # one large system: IAS15 and WHFast run
-    from visviva.nbody import LinearDrag
+    from visviva.nbody import GeneralRelativityPotential, LinearDrag
     from visviva.nbody.gpu import check_backend
 
     with pytest.raises(InvalidInputError, match="ensembles of the"):  # a future integrator
@@ -194,15 +194,16 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     with pytest.raises(InvalidInputError, match="ensembles with gravity only.*backend='cpu'"):
         vv.Ensemble.from_simulations([planets("leapfrog", collision="merge")],
                                      backend="cuda").integrate(1.0)
-    # WHFast ensembles: the plain case (Jacobi, no corrector, gravity only) on the GPU; other
-    # settings are refused when the ensemble is made or loaded, naming the member
-    ens = vv.Ensemble.from_simulations([planets("whfast")] * 2, backend="cuda")
-    assert ens.backend == "cuda"
-    for options in ({"coordinates": "democraticheliocentric"}, {"corrector": 5},
+    # WHFast ensembles: any coordinates, corrector and event checks on the GPU; additional
+    # forces are refused when the ensemble is made or loaded, naming the member
+    for options in ({}, {"coordinates": "democraticheliocentric"}, {"corrector": 5},
                     {"collision": "merge"}):
-        odd = [planets("whfast"), planets("whfast", **options)]
-        with pytest.raises(InvalidInputError, match=r"member 1: .*backend='cpu'"):
-            vv.Ensemble.from_simulations(odd, backend="cuda")
+        ens = vv.Ensemble.from_simulations([planets("whfast", **options)] * 2, backend="cuda")
+        assert ens.backend == "cuda"
+    odd = [planets("whfast"), planets("whfast")]
+    odd[1].add_force(GeneralRelativityPotential(c=30.0))
+    with pytest.raises(InvalidInputError, match=r"member 1: .*forces.*backend='cpu'"):
+        vv.Ensemble.from_simulations(odd, backend="cuda")
     path = tmp_path / "e.npz"
     vv.Ensemble.from_simulations(odd).save(path)
     with pytest.raises(InvalidInputError, match="backend='cpu'"):

@@ -173,27 +173,27 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
 
     monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
     vv.Simulation("ias15", backend="cuda")  # one large system: IAS15 and WHFast run
-    from visviva.nbody import LinearDrag
+    from visviva.nbody import J2Force, LinearDrag
     from visviva.nbody.gpu import check_backend
 
     with pytest.raises(InvalidInputError, match="ensembles of the"):  # a future integrator
         check_backend("cuda", "mercurius", ensemble=True)
-    # IAS15 ensembles: gravity only, below PAIR_MIN_N massive particles per member
-    assert vv.Ensemble.from_simulations([planets("ias15")], backend="cuda").backend == "cuda"
-    forced = planets("ias15")
-    forced.add_force(LinearDrag(0.1))
-    for odd in (forced, planets("ias15", collision="merge"),
-                planets("ias15", encounter_distance=0.1)):
-        with pytest.raises(InvalidInputError, match="member 1: .*gravity only.*backend='cpu'"):
-            vv.Ensemble.from_simulations([planets("ias15"), odd], backend="cuda")
+    # IAS15 and leapfrog ensembles: no additional forces (events run: test_nbody_gpu_events.py);
+    # IAS15 below PAIR_MIN_N massive particles per member
+    for name in ("ias15", "leapfrog"):
+        with_events = [planets(name), planets(name, collision="merge"),
+                       planets(name, encounter_distance=0.1)]
+        assert vv.Ensemble.from_simulations(with_events, backend="cuda").backend == "cuda"
+        forced = planets(name)
+        forced.add_force(LinearDrag(0.1) if name == "ias15" else J2Force(0, 1e-3, 1e-3))
+        with pytest.raises(InvalidInputError,
+                           match="member 1: .*without additional forces.*backend='cpu'"):
+            vv.Ensemble.from_simulations([planets(name), forced], backend="cuda")
     crowd = planets("ias15")
     for j in range(256):
         crowd.add(1e-9, r=[5.0 + j, 0.0, 0.0], v=[0.0, 0.4, 0.0])
     with pytest.raises(InvalidInputError, match="fewer than 256 massive.*backend='cpu'"):
         vv.Ensemble.from_simulations([crowd], backend="cuda")
-    with pytest.raises(InvalidInputError, match="ensembles with gravity only.*backend='cpu'"):
-        vv.Ensemble.from_simulations([planets("leapfrog", collision="merge")],
-                                     backend="cuda").integrate(1.0)
     # WHFast ensembles: the plain case (Jacobi, no corrector, gravity only) on the GPU; other
     # settings are refused when the ensemble is made or loaded, naming the member
     ens = vv.Ensemble.from_simulations([planets("whfast")] * 2, backend="cuda")

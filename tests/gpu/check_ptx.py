@@ -39,12 +39,12 @@ def main():
         "drift": (K.drift, (a2, a2, float64)),
         "kick_drift": (K.kick_drift, (a2, a2, a2, float64, float64)),
         "ensemble_leapfrog": (K.ensemble_leapfrog, (a2, a2, a2, a2, f1, i1, i1, i1, f1, a2, i1,
-                                                    f1, f1)),
+                                                    f1, f1, f1, a2, i2, i1, i1)),
         "propagate_many": (K._kepler_kernel(), (a2, a2, f1, f1, a2, a2, i1)),
         "ensemble_whfast": (W.build(), (a2, a2, f1) + (a2,) * 6 + (f1, i1, i1, i1, f1, f1, f1,
                                                                    i1, i1, f1, i1)),
-        "ensemble_ias15": (I.build(), (a2, a2, f1, i1, i1, i1, a2, i2, f1, a2, i2, float64,
-                                       i1)),
+        "ensemble_ias15": (I.build(), (a2, a2, f1, i1, i1, i1, f1, a2, i2, f1, a2, i2,
+                                       float64, i1)),
     }
     for name, (kernel, sig) in cases.items():
         try:

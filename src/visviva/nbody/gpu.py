@@ -58,7 +58,7 @@ from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
-from .gpu_plan import plan, plan_many
+from .gpu_plan import plan
 
 __all__ = [
     "check_backend", "integrate_simulation", "integrate_ensemble", "integrate_pack",
@@ -98,12 +98,18 @@ def _extras(sim) -> bool:
                 or sim.exit_max_distance)
 
 
+#: Integrators whose GPU ensembles run the collision, encounter and escape checks.
+EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "ias15")
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    if ensemble and _extras(sim):
+    if ensemble and _extras(sim) and (sim.forces
+                                      or sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS):
         raise InvalidInputError(
-            "backend='cuda' integrates ensembles with gravity only: additional forces and "
-            "collision, encounter or escape checks run on backend='cpu' (or, for one "
-            "simulation, on the GPU: Simulation(..., backend='cuda'))."
+            "backend='cuda' integrates ensembles without additional forces, and with "
+            f"collision, encounter or escape checks only for {EVENT_ENSEMBLE_INTEGRATORS}: "
+            "use backend='cpu' for this ensemble (or, for one simulation, on the GPU: "
+            "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
     if ensemble and sim.integrator == "whfast":
@@ -232,63 +238,15 @@ def _leapfrog_to(sim, state, massive, target: float) -> None:
 
 def integrate_ensemble(members, t) -> list:
     """Advance the simulations ``members`` (in place) to ``t`` on the GPU, one thread per member;
-    returns ``[(index, exception), ...]`` as the CPU path does."""
-    from numba import cuda
-
-    from ..core.cuda import kernels as K
-
-    if members and members[0].integrator in ("whfast", "ias15"):
-        return _packed_each(members, t)
-    errors, ks, plans, states, massives = [], [], [], [], []
-    for k, sim in enumerate(members):
-        try:
-            target, massive = begin_gpu_run(sim, t, ensemble=True)
-            state = sim.state_arrays()
-            plans.append(plan(state, target))
-        except Exception as exc:
-            errors.append((k, exc))
-            continue
-        ks.append(k)
-        states.append(state)
-        massives.append(massive)
-    if not ks:
-        return errors
-    sims = [members[k] for k in ks]
-    n = np.array([s.N for s in sims], dtype=np.int64)
-    poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
-    moff = np.concatenate([[0], np.cumsum([len(m) for m in massives])]).astype(np.int64)
-    massive = np.concatenate([m + poff[j] for j, m in enumerate(massives)]).astype(np.int64)
-    gm = np.concatenate([s.G * st["m"] for s, st in zip(sims, states, strict=True)])
-    soft2 = np.array([st["fstate"][_nc.F_SOFT2] for st in states])
-    d = {name: cuda.to_device(np.ascontiguousarray(np.concatenate(parts))) for name, parts in (
-        ("xi", [st["buf"][_XI] for st in states]), ("vi", [st["buf"][_VI] for st in states]),
-        ("x", [st["x"] for st in states]), ("v", [st["v"] for st in states]))}
-    nsteps = np.array([p[0] for p in plans], dtype=np.int64)
-    h = np.array([p[1] for p in plans])
-    rem = np.array([p[2] for p in plans])
-    acc = cuda.device_array((int(poff[-1]), 3))
-    K.ensemble_leapfrog[K.blocks(len(ks)), K.THREADS](
-        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
-        cuda.to_device(moff), cuda.to_device(poff), cuda.to_device(soft2), acc,
-        cuda.to_device(nsteps), cuda.to_device(h), cuda.to_device(rem),
-    )
-    host = {name: arr.copy_to_host() for name, arr in d.items()}
-    for j, (k, state, p) in enumerate(zip(ks, states, plans, strict=True)):
-        lo, hi = poff[j], poff[j + 1]
-        state["buf"][_XI] = host["xi"][lo:hi]
-        state["buf"][_VI] = host["vi"][lo:hi]
-        state["x"][:] = host["x"][lo:hi]
-        state["v"][:] = host["v"][lo:hi]
-        try:
-            _finish(sims[j], state, p[0], p[1], p[3])
-        except Exception as exc:
-            errors.append((k, exc))
-    return sorted(errors, key=lambda e: e[0])
+    returns ``[(index, exception), ...]`` as the CPU path does (the member-by-member path of
+    :func:`visviva.nbody.ensemble.advance_members`: each member checked as a lone run, then
+    the members that may run packed together)."""
+    return _packed_each(members, t)
 
 
 def _packed_each(members, t) -> list:
-    """:func:`integrate_ensemble` for WHFast and IAS15 members: each checked as a lone run, then
-    the members that may run packed together (one pack per output time in simulation units)."""
+    """:func:`integrate_ensemble`: each member checked as a lone run, then the members that may
+    run packed together (one pack per output time in simulation units)."""
     from .ensemble_pack import Pack
 
     run = _pack_runner(members[0].integrator)
@@ -311,25 +269,26 @@ def _pack_runner(integrator: str):
     """The ``run(pack, target, t)`` of the GPU ensemble kernel of ``integrator``."""
     if integrator == "ias15":
         from .gpu_ensemble_ias15 import run
+    elif integrator == "leapfrog":
+        from .gpu_ensemble_leapfrog import run
     else:
         from .gpu_ensemble_whfast import run
     return run
 
 
 def integrate_pack(pack, t):
-    """Advance an ensemble's packed leapfrog members (:class:`visviva.nbody.ensemble_pack.Pack`)
-    to ``t`` on the GPU, one thread per member, with the plan and bookkeeping of
-    :func:`integrate_ensemble` done on whole arrays; returns the errors, or None when the
-    per-member path must run this call (it then raises what the GPU cannot run)."""
-    from numba import cuda
-
-    from ..core.cuda import kernels as K
-
+    """Advance an ensemble's packed members (:class:`visviva.nbody.ensemble_pack.Pack`) to ``t``
+    on the GPU, one thread per member, the plan and bookkeeping done on whole arrays; returns
+    the errors, or None when the per-member path must run this call (it then raises what the
+    GPU cannot run)."""
     pack.stale = False
     fs, ist = pack.fstate, pack.istate
     integrator = pack.members[0].integrator
-    if (not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
-            or np.any(fs[:, _nc.F_EXIT] != 0.0) or integrator not in GPU_ENSEMBLE_INTEGRATORS):
+    if integrator not in GPU_ENSEMBLE_INTEGRATORS:
+        return None
+    if integrator not in EVENT_ENSEMBLE_INTEGRATORS and (
+            not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
+            or np.any(fs[:, _nc.F_EXIT] != 0.0)):
         return None
     if integrator == "whfast" and (np.any(ist[:, _nc.I_WH_COORDINATES] != 0)
                                    or np.any(ist[:, _nc.I_CORRECTOR] != 0)):
@@ -337,34 +296,4 @@ def integrate_pack(pack, t):
     target = pack.target(t)
     if target is None:
         return None
-    if integrator in ("whfast", "ias15"):
-        return _pack_runner(integrator)(pack, target, t)
-    n, h, rem, t_final, restart = plan_many(fs, ist, target)
-    xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
-    fresh = restart[pack.member_of]
-    pack.buf[xi_at[fresh]] = pack.x[fresh]
-    pack.buf[vi_at[fresh]] = pack.v[fresh]
-    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
-    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
-    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
-    K.ensemble_leapfrog[K.blocks(len(pack.members)), K.THREADS](
-        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.poff),
-        cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
-        cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
-        cuda.to_device(rem),
-    )
-    pack.buf[xi_at] = d["xi"].copy_to_host()
-    pack.buf[vi_at] = d["vi"].copy_to_host()
-    pack.x[:] = d["x"].copy_to_host()
-    pack.v[:] = d["v"].copy_to_host()
-    ist[:, _nc.I_K] += np.where(h > 0.0, n, -n)
-    ist[:, _nc.I_STEPS] += n
-    fs[n != 0, _nc.F_DT_LAST] = h[n != 0]
-    fs[:, _nc.F_T] = t_final
-    ist[:, _nc.I_NOUT] = 1
-    finite = np.isfinite(pack.x).all(axis=1) & np.isfinite(pack.v).all(axis=1)
-    bad = np.flatnonzero(~np.logical_and.reduceat(finite, pack.poff[:-1]))
-    ist[bad, _nc.I_INT_VALID] = 0
-    return [(int(k), _non_finite(t_final[k])) for k in bad]
+    return _pack_runner(integrator)(pack, target, t)

@@ -1,9 +1,11 @@
 """IAS15 ensembles on the GPU: the host side of :mod:`visviva.core.cuda.ias15`.
 
-An ensemble of IAS15 members with gravity only (no additional forces, no collision, encounter or
-escape checks; those are refused by :func:`visviva.nbody.gpu.begin_gpu_run`) runs one GPU
-thread per member through IAS15's own adaptive steps, compiled for the device from the CPU
-kernel's source. The whole state (``fstate``, ``istate`` and ``buf``: the integrator's own
+An ensemble of IAS15 members without additional forces (those are refused by
+:func:`visviva.nbody.gpu.begin_gpu_run`) runs one GPU thread per member through IAS15's own
+adaptive steps, compiled for the device from the CPU kernel's source, with the CPU kernel's
+collision, encounter and escape checks after every step (a member stopped by one is finished
+by :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as the CPU ensemble finishes it: a merger
+or bounce resolved and the member continued alone, a halt, encounter or escape raised). The whole state (``fstate``, ``istate`` and ``buf``: the integrator's own
 positions and velocities, the compensated-summation terms, the predictor's ``b`` and ``e``) goes
 to the device and back as the CPU kernel leaves it, so a GPU run can be saved and continued on
 the CPU, and a member's status (a step below the floor, non-finite numbers) is finished by
@@ -52,7 +54,8 @@ def run(pack, target: float, t) -> list:
     status = cuda.device_array(M, dtype=np.int64)
     _KERNEL[0][K.blocks(M), K.THREADS](
         d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.poff), d["fstate"], d["istate"],
+        cuda.to_device(pack.moff), cuda.to_device(pack.poff), cuda.to_device(pack.radius),
+        d["fstate"], d["istate"],
         d["buf"], cuda.device_array(pack.fstate.shape), cuda.device_array(pack.istate.shape,
                                                                           dtype=np.int64),
         float(target), status)

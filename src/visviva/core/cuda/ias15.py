@@ -7,7 +7,9 @@ integrator's own state when it is not valid, its natural adaptive steps towards 
 ``adaptive_mode``, rejected steps, the compensated summation, the two-part positions of a tight
 pair), and, with ``exact_finish_time``, the shortened last step of a copy of that state, which is
 then restored (so output times never change the trajectory). Without ``exact_finish_time`` the
-output is the state after the first step at or past the time.
+output is the state after the first step at or past the time. A member with collision,
+encounter or escape checks runs the CPU kernel's check after every step and stops where it
+fires, leaving its state, clock and status as the CPU kernel leaves them.
 
 Every piece of arithmetic is the CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`); only the gravity dispatch is swapped: the CPU's few-body kernel
@@ -34,7 +36,15 @@ def build():
     """Compile (lazily, on first launch) and return the kernel :func:`ensemble_ias15`."""
     from .. import gravity, gravity_split, nbody_common
     from .. import nbody_ias15 as I
-    from ..nbody_common import F_G, F_SOFT2, F_T_INT, I_NOUT
+    from ..nbody_common import (
+        F_ENCOUNTER,
+        F_EXIT,
+        F_G,
+        F_SOFT2,
+        F_T_INT,
+        I_COLLISIONS,
+        I_NOUT,
+    )
     from ..status import OK
     from .twins import device_twin
 
@@ -59,28 +69,31 @@ def build():
     n_buf = I.N_BUF
 
     @cuda.jit(device=True)
-    def run_one(x, v, m, massive, fstate, istate, buf, fsave, isave, target):
-        # nbody_ias15._ias15 for the one output time ``target`` (radius, gwork, force and params
-        # are stand-ins it does not use: events are off, the gravity is swapped in)
+    def run_one(x, v, m, massive, radius, fstate, istate, buf, fsave, isave, target):
+        # nbody_ias15._ias15 for the one output time ``target`` (gwork, force and params are
+        # stand-ins it does not use: the gravity is swapped in)
         start(x, v, fstate, istate, buf)
         direction = 1.0 if target >= fstate[F_T_INT] else -1.0  # nbody_common.run_direction
         span = abs(target - fstate[F_T_INT])
+        events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
         if istate[I_NOUT] >= 1:
             return OK
-        status = to_output(x, v, m, massive, m, fstate, istate, buf, buf, 0, m, target,
-                           direction, False, span, 0, fsave, isave)
+        status = to_output(x, v, m, massive, radius, fstate, istate, buf, buf, 0, m, target,
+                           direction, events, span, 0, fsave, isave)
         if status == OK:
             istate[I_NOUT] = 1
         return status
 
     @cuda.jit
-    def ensemble_ias15(x, v, m, massive, moff, poff, fstate, istate, buf, fsave, isave, target,
-                       status):
+    def ensemble_ias15(x, v, m, massive, moff, poff, radius, fstate, istate, buf, fsave, isave,
+                       target, status):
         """Member ``k`` (one thread) to the output time ``target``; ``status[k]`` its code.
 
-        ``x, v`` (one row per particle, member after member: ``poff``), ``m``; ``massive`` local
-        indices (``moff``); ``fstate, istate`` one row per member, ``fsave, isave`` scratch of
-        their shapes; ``buf`` the members' ``(N_BUF, N_k, 3)`` arrays one after another, flat.
+        ``x, v`` (one row per particle, member after member: ``poff``), ``m``, ``radius``;
+        ``massive`` local indices (``moff``); ``fstate, istate`` one row per member, ``fsave,
+        isave`` scratch of their shapes; ``buf`` the members' ``(N_BUF, N_k, 3)`` arrays one
+        after another, flat. A member with collision, encounter or escape checks stops where
+        one fires, as the CPU kernel stops (the status code, the particles in ``istate``).
         """
         k = cuda.grid(1)
         if k >= fstate.shape[0]:
@@ -89,6 +102,7 @@ def build():
         hi = poff[k + 1]
         member_buf = buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, hi - lo, 3))
         status[k] = run_one(x[lo:hi], v[lo:hi], m[lo:hi], massive[moff[k]:moff[k + 1]],
-                            fstate[k], istate[k], member_buf, fsave[k], isave[k], target)
+                            radius[lo:hi], fstate[k], istate[k], member_buf, fsave[k], isave[k],
+                            target)
 
     return ensemble_ias15

@@ -17,7 +17,10 @@ The device functions are the source of :mod:`.arith` compiled with
   particle (``x += v h/2``; ``v += a h``, ``x += v h/2``, in the CPU kernel's order);
 * :func:`ensemble_leapfrog` - one thread per member of an ensemble: ``nsteps[k]`` full steps of
   the member's internal state, then its output state, with a last shortened step ``rem[k]`` when
-  an output time lies between grid points (as :func:`visviva.core.nbody_leapfrog.leapfrog_run`).
+  an output time lies between grid points (as :func:`visviva.core.nbody_leapfrog.leapfrog_run`);
+  a member with collision, encounter or escape checks runs the CPU kernel's check after every
+  step (:func:`visviva.core.nbody_common.check_events` compiled for the device) and stops where
+  it fires, as the CPU kernel stops.
 
 fp64 throughout.
 """
@@ -27,7 +30,10 @@ from __future__ import annotations
 import numpy as np
 from numba import cuda, float64
 
+from ..nbody_common import F_ENCOUNTER, F_EXIT, I_COLLISIONS, check_events
+from ..status import OK
 from . import arith, simulator
+from .twins import device_twin
 
 __all__ = ["accelerations", "accelerations_split", "tight_pairs", "drift", "kick_drift",
            "ensemble_leapfrog", "propagate_many", "on_device", "THREADS"]
@@ -42,6 +48,8 @@ _pair = _device(arith.pair_acceleration)
 _particle = _device(arith.rebind(arith.particle_acceleration, _pair=_pair))
 _member_acc = _device(arith.rebind(arith.member_accelerations, _particle=_particle))
 _member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
+#: the CPU kernels' collision, encounter and escape check, compiled for the device
+_check_events = device_twin(check_events)
 
 
 def _tiled(split):
@@ -160,20 +168,40 @@ def kick_drift(x, v, acc, h, half):
 
 
 @cuda.jit
-def ensemble_leapfrog(xi, vi, x, v, gm, massive, moff, poff, soft2, acc, nsteps, h, rem):
+def ensemble_leapfrog(xi, vi, x, v, gm, massive, moff, poff, soft2, acc, nsteps, h, rem, radius,
+                      fstate, istate, done, status):
     """Member ``k`` (one thread): ``nsteps[k]`` steps ``h[k]`` of ``xi, vi``, copy to ``x, v``,
-    then one step ``rem[k]`` of ``x, v`` when it is not 0."""
+    then one step ``rem[k]`` of ``x, v`` when it is not 0.
+
+    With the member's collision, encounter or escape checks on (``istate[k]``, ``fstate[k]``,
+    ``radius``) every step is followed by the CPU kernel's check
+    (:func:`visviva.core.nbody_common.check_events`, compiled for the device); a check that
+    fires stops the member there, as :func:`visviva.core.nbody_leapfrog.leapfrog_run` stops: its
+    internal state copied to ``x, v``, the particles in ``istate[k, I_EVENT_A/B]``, no output
+    step. ``done[k]`` is the number of steps taken, ``status[k]`` the status code.
+    """
     k = cuda.grid(1)
     if k < nsteps.shape[0]:
         lo = poff[k]
         hi = poff[k + 1]
+        fs = fstate[k]
+        ist = istate[k]
+        events = ist[I_COLLISIONS] != 0 or fs[F_ENCOUNTER] > 0.0 or fs[F_EXIT] > 0.0
+        status[k] = OK
+        done[k] = 0
         for _ in range(nsteps[k]):
             _member_dkd(xi, vi, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, h[k])
+            done[k] += 1
+            if events:
+                st = _check_events(xi[lo:hi], vi[lo:hi], radius[lo:hi], fs, ist)
+                if st != OK:
+                    status[k] = st
+                    break
         for i in range(lo, hi):
             for c in range(3):
                 x[i, c] = xi[i, c]
                 v[i, c] = vi[i, c]
-        if rem[k] != 0.0:
+        if rem[k] != 0.0 and status[k] == OK:
             _member_dkd(x, v, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, rem[k])
 
 

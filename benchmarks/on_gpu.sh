@@ -29,7 +29,10 @@ export NUMBA_CACHE_DIR=${NUMBA_CACHE_DIR:-/tmp/numba_cache}
   python3 -c "import numba, numpy, numba_cuda; print('numba', numba.__version__, 'numpy', numpy.__version__, 'numba-cuda', numba_cuda.__version__); from visviva.core import cuda; print('missing:', cuda.missing())"
 } 2>&1 | tee "$OUT/versions.txt"
 SECONDS=0
-for check in tests/gpu/check_cuda_backend.py tests/gpu/check_ias15.py; do
+# (check_ensemble_events: leapfrog and IAS15 ensembles through an escape, mergers, an encounter
+# and a halting collision; every *_pos/_vel/_t key <= 1e-12, every *_equal True)
+for check in tests/gpu/check_cuda_backend.py tests/gpu/check_ias15.py \
+        tests/gpu/check_ensemble_events.py; do
     timeout "${CHECK_S:-120}" python3 "$check" > "$OUT/$(basename "$check" .py).txt" 2>&1
     echo "$check rc=$? ($SECONDS s)"; grep "=" "$OUT/$(basename "$check" .py).txt"
 done

@@ -13,7 +13,7 @@ from test_nbody_gpu import _has_gpu, _run
 SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_ensemble_events.py")
 
 
-def _check(out, tolerance):
+def _check(out, tolerance, messages_equal):
     for prefix in ("lf", "ias15"):
         # seven members: 1 launches a test particle past its exit distance (Escape), 2 merges
         # two planets and runs on, 3 meets an encounter, 5 halts at a collision, 0, 4 and 6 run
@@ -22,9 +22,11 @@ def _check(out, tolerance):
         # ensemble's, and the ensemble raises the CPU's exception (type, message, members)
         for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t"):
             assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])
-        for key in ("raised_equal", "steps_equal", "n_equal", "restart_raised_equal",
+        for key in ("raised_kind_equal", "steps_equal", "n_equal", "restart_raised_kind_equal",
                     "restart_steps_equal", "restart_n_equal"):
             assert out[f"{prefix}_{key}"] == "True", (prefix, key)
+        if messages_equal:  # the messages name the event's time: the same digits
+            assert out[f"{prefix}_raised_equal"] == out[f"{prefix}_restart_raised_equal"] == "True"
         assert out[f"{prefix}_raised"] == "Escape"  # member 1's, the first that stopped
         assert out[f"{prefix}_stopped"] == "1,3,5"
         assert out[f"{prefix}_n"] == "3,4,4,5,3,5,3"  # member 2 merged (N 5 -> 4)
@@ -35,11 +37,12 @@ def _check(out, tolerance):
 
 def test_events_in_gpu_ensembles_under_the_simulator_match_the_cpu_ensemble():
     # the simulator runs the host's arithmetic in the CPU kernels' order: bit for bit there
-    _check(_run({"NUMBA_ENABLE_CUDASIM": "1"}, SCRIPT), 0.0)
+    _check(_run({"NUMBA_ENABLE_CUDASIM": "1"}, SCRIPT), 0.0, True)
 
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
 def test_events_in_gpu_ensembles_on_a_real_gpu_match_the_cpu_ensemble():
-    # fused multiply-adds and libdevice's pow (IAS15's step control): round-off
-    _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, SCRIPT), 1e-12)
+    # fused multiply-adds and libdevice's pow (IAS15's step control): round-off, so the event
+    # times in the messages may differ in the last digit
+    _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, SCRIPT), 1e-12, False)

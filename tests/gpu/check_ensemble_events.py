@@ -55,6 +55,11 @@ def outcome(ens, t):
     return None
 
 
+def kind(raised):
+    """An :func:`outcome` without the message: the type and the members."""
+    return raised and raised[:1] + raised[2:]
+
+
 def compare(gpu, cpu, key):
     """Print how two ensembles differ: positions, velocities, times, steps, particle counts."""
     print(f"{key}_pos={rel(gpu.positions, cpu.positions)!r}")
@@ -72,6 +77,10 @@ def check(integrator, prefix):
     for t in TIMES:
         raised.append((outcome(cpu, t), outcome(gpu, t)))
     print(f"{prefix}_raised_equal={all(c == g for c, g in raised)!r}")
+    # the exception's type and members (its message names the event's time, which on a GPU may
+    # differ from the CPU's in the last digit where IAS15's step sizes do)
+    print(f"{prefix}_raised_kind_equal="
+          f"{all(kind(c) == kind(g) for c, g in raised)!r}")
     first = raised[-1][1]
     print(f"{prefix}_raised={first[0] if first else None}")
     print(f"{prefix}_stopped={','.join(map(str, first[3])) if first else ''}")
@@ -85,7 +94,9 @@ def check(integrator, prefix):
     path = os.path.join(tempfile.mkdtemp(), "e.npz")
     gpu.save(path)
     back = vv.Ensemble.load(path, backend="cpu")
-    print(f"{prefix}_restart_raised_equal={outcome(back, 1.4) == outcome(cpu, 1.4)!r}")
+    g, c = outcome(back, 1.4), outcome(cpu, 1.4)
+    print(f"{prefix}_restart_raised_equal={g == c!r}")
+    print(f"{prefix}_restart_raised_kind_equal={kind(g) == kind(c)!r}")
     compare(back, cpu, f"{prefix}_restart")
 
 

@@ -5,7 +5,7 @@ What runs on the GPU today:
 * the leapfrog integrator (drift-kick-drift) with direct-summation gravity, for one large
   simulation (one thread per particle per kernel, the gravity tiled through shared memory, the
   state kept on the device between steps) and for ensembles (one thread per member,
-  :mod:`visviva.core.cuda.kernels`);
+  :mod:`visviva.core.cuda.kernels`, :mod:`visviva.nbody.gpu_ensemble_leapfrog`);
 * IAS15 and WHFast for one large simulation (:mod:`visviva.nbody.gpu_force`): the CPU backend's
   own compiled kernel runs every step (IAS15's predictor-corrector and step control; WHFast's
   Kepler drifts, coordinate transforms and correctors, in Jacobi or democratic heliocentric
@@ -17,11 +17,18 @@ What runs on the GPU today:
   (:mod:`visviva.core.cuda.whfast`: Jacobi transforms, universal-variable Kepler drifts,
   interaction kick, few-body gravity sum), planned on the host
   (:mod:`visviva.nbody.gpu_ensemble_whfast`);
-* IAS15 ensembles with gravity only (fewer than ``PAIR_MIN_N`` massive particles per member):
+* IAS15 ensembles without additional forces (fewer than ``PAIR_MIN_N`` massive particles per
+  member):
   one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
   for the device from the CPU source (:mod:`visviva.core.cuda.ias15`,
   :mod:`visviva.nbody.gpu_ensemble_ias15`); the members' whole state goes to the device and back.
+* collision, encounter and escape checks in leapfrog and IAS15 ensembles: after every step the
+  member's thread runs the CPU kernel's own check (:func:`visviva.core.nbody_common.check_events`
+  compiled for the device); a member whose check fires stops as the CPU kernel stops and is
+  finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU (a merger or bounce
+  resolved and the member continued alone; a halt, encounter or escape raised for it), the
+  others run on.
 
 The step grid, the time origin and the shortened last step to an output time are the CPU
 kernels' (the plans are computed with their expressions, :mod:`visviva.nbody.gpu_plan`), and
@@ -43,8 +50,8 @@ kernel adds them) and the collision, encounter and escape checks (on the CPU aft
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
 GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, WHFast
-ensembles in democratic heliocentric coordinates or with a corrector, forces and events in
-ensembles, arrays of output times for ensembles; these
+ensembles in democratic heliocentric coordinates or with a corrector, additional forces in
+ensembles, events in WHFast ensembles, arrays of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """

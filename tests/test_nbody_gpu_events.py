@@ -1,5 +1,5 @@
-"""Collision, encounter and escape checks in leapfrog and IAS15 GPU ensembles, against the CPU
-ensemble, under numba's CUDA simulator (``tests/gpu/check_ensemble_events.py`` in a subprocess;
+"""Collision, encounter and escape checks, and additional forces, in leapfrog and IAS15 GPU
+ensembles, against the CPU ensemble, under numba's CUDA simulator (``tests/gpu/check_ensemble_events.py`` in a subprocess;
 see :mod:`test_nbody_gpu`). Real-GPU runs: ``-m gpu`` on a machine with an NVIDIA GPU."""
 
 from __future__ import annotations
@@ -33,16 +33,27 @@ def _check(out, tolerance, messages_equal):
         assert out[f"{prefix}_n0"] == "3,4,5,5,3,5,3"
         assert out[f"{prefix}_on_time"] == "0,2,4,6"  # the others reached the time
         assert int(out[f"{prefix}_steps"]) >= 5
+    for prefix in ("lf_force", "ias15_force"):
+        # seven members: no force, J2Force of the star (two J2 values), a user's numba.njit
+        # force (position- and time-dependent; two parameter sets), both fused, J2 with a
+        # merger; two calls, then saved and continued on the CPU. Each member adds the force's
+        # device twin on its own parameters: the CPU ensemble's numbers
+        for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t"):
+            assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])
+        for key in ("steps_equal", "n_equal", "restart_steps_equal", "restart_n_equal"):
+            assert out[f"{prefix}_{key}"] == "True", (prefix, key)
+        assert out[f"{prefix}_n"] == "3,3,3,3,4,3,3"  # member 4 merged (N 5 -> 4)
+        assert int(out[f"{prefix}_steps"]) >= 10
 
 
-def test_events_in_gpu_ensembles_under_the_simulator_match_the_cpu_ensemble():
+def test_events_and_forces_in_gpu_ensembles_under_the_simulator_match_the_cpu_ensemble():
     # the simulator runs the host's arithmetic in the CPU kernels' order: bit for bit there
     _check(_run({"NUMBA_ENABLE_CUDASIM": "1"}, SCRIPT), 0.0, True)
 
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
-def test_events_in_gpu_ensembles_on_a_real_gpu_match_the_cpu_ensemble():
+def test_events_and_forces_in_gpu_ensembles_on_a_real_gpu_match_the_cpu_ensemble():
     # fused multiply-adds and libdevice's pow (IAS15's step control): round-off, so the event
     # times in the messages may differ in the last digit
     _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, SCRIPT), 1e-12, False)

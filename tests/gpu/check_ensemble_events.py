@@ -1,17 +1,31 @@
 """Leapfrog and IAS15 ensembles whose members meet events (an escape, mergers, an encounter, a
-halting collision) on the CUDA backend (a GPU, or numba's simulator when NUMBA_ENABLE_CUDASIM=1)
-beside the same ensembles on the CPU; prints ``key=value`` lines (largest relative differences,
-flags), keys prefixed ``lf_`` and ``ias15_``."""
+halting collision) or have additional forces (J2Force, a user's numba.njit force, both) on the
+CUDA backend (a GPU, or numba's simulator when NUMBA_ENABLE_CUDASIM=1) beside the same ensembles
+on the CPU; prints ``key=value`` lines (largest relative differences, flags), keys prefixed
+``lf_``, ``ias15_`` (events), ``lf_force_`` and ``ias15_force_`` (forces)."""
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 
+import numba
 import numpy as np
 from check_whfast_ensemble import rel  # (this folder)
 
 import visviva as vv
+from visviva.nbody import J2Force
+
+
+@numba.njit
+def swirl(t, x, v, m, params, acc):
+    """A user's force, position- and time-dependent: ``a += p0 sin(p1 t) (y, -x, 0)`` on every
+    particle but the first."""
+    s = params[0] * math.sin(params[1] * t)
+    for i in range(1, x.shape[0]):
+        acc[i, 0] += s * x[i, 1]
+        acc[i, 1] -= s * x[i, 0]
 
 #: what each member meets (index: kind), and the times the ensembles are integrated to
 EVENTS = {1: "escape", 2: "merge", 3: "encounter", 5: "halt"}
@@ -100,9 +114,42 @@ def check(integrator, prefix):
     compare(back, cpu, f"{prefix}_restart")
 
 
+def forced(integrator, k, user_force):
+    """Members with forces: 0 none, 1 and 6 J2 of the star (their own J2), 2 and 5 the user's
+    force (their own parameters), 3 both, 4 J2 and a merger (forces and events together)."""
+    sim = member(integrator, 2 if k == 4 else 0)
+    if k in (1, 3, 4, 6):
+        sim.add_force(J2Force(0, 1e-3 * (1 + k), 0.05))
+    if k in (2, 3, 5):
+        sim.add_force(user_force, params=[0.01 * (1 + k), 3.0 + k])
+    return sim
+
+
+def check_forces(integrator, prefix):
+    import check_ensemble_events as me  # the user's force from an importable module (save)
+
+    members = [forced(integrator, k, me.swirl) for k in range(7)]
+    cpu = vv.Ensemble.from_simulations(members)
+    gpu = vv.Ensemble.from_simulations(members, backend="cuda")
+    for t in TIMES[:2]:
+        cpu.integrate(t)
+        gpu.integrate(t)
+    print(f"{prefix}_steps={min(s.steps_done for s in gpu)!r}")
+    print(f"{prefix}_n={','.join(map(str, gpu.n_particles))}")
+    compare(gpu, cpu, prefix)
+    path = os.path.join(tempfile.mkdtemp(), "f.npz")
+    gpu.save(path)
+    back = vv.Ensemble.load(path, backend="cpu")
+    back.integrate(TIMES[2])
+    cpu.integrate(TIMES[2])
+    compare(back, cpu, f"{prefix}_restart")
+
+
 def main():
     check("leapfrog", "lf")
     check("ias15", "ias15")
+    check_forces("leapfrog", "lf_force")
+    check_forces("ias15", "ias15_force")
 
 
 if __name__ == "__main__":

@@ -17,8 +17,7 @@ What runs on the GPU today:
   (:mod:`visviva.core.cuda.whfast`: Jacobi transforms, universal-variable Kepler drifts,
   interaction kick, few-body gravity sum), planned on the host
   (:mod:`visviva.nbody.gpu_ensemble_whfast`);
-* IAS15 ensembles without additional forces (fewer than ``PAIR_MIN_N`` massive particles per
-  member):
+* IAS15 ensembles (fewer than ``PAIR_MIN_N`` massive particles per member):
   one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
   for the device from the CPU source (:mod:`visviva.core.cuda.ias15`,
@@ -28,7 +27,9 @@ What runs on the GPU today:
   compiled for the device); a member whose check fires stops as the CPU kernel stops and is
   finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU (a merger or bounce
   resolved and the member continued alone; a halt, encounter or escape raised for it), the
-  others run on.
+  others run on; and additional forces in leapfrog and IAS15 ensembles, each force function
+  compiled for the device from its own source (:mod:`visviva.nbody.gpu_forces`), one kernel
+  call per set of force functions, each member on its own parameters.
 
 The step grid, the time origin and the shortened last step to an output time are the CPU
 kernels' (the plans are computed with their expressions, :mod:`visviva.nbody.gpu_plan`), and
@@ -50,8 +51,8 @@ kernel adds them) and the collision, encounter and escape checks (on the CPU aft
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
 GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, WHFast
-ensembles in democratic heliocentric coordinates or with a corrector, additional forces in
-ensembles, events in WHFast ensembles, arrays of output times for ensembles; these
+ensembles in democratic heliocentric coordinates or with a corrector, additional forces and
+events in WHFast ensembles, arrays of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """
@@ -105,17 +106,17 @@ def _extras(sim) -> bool:
                 or sim.exit_max_distance)
 
 
-#: Integrators whose GPU ensembles run the collision, encounter and escape checks.
+#: Integrators whose GPU ensembles run additional forces and the collision, encounter and
+#: escape checks.
 EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "ias15")
 
 
 def _check_supported(sim, ensemble: bool) -> None:
-    if ensemble and _extras(sim) and (sim.forces
-                                      or sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS):
+    if ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS:
         raise InvalidInputError(
-            "backend='cuda' integrates ensembles without additional forces, and with "
-            f"collision, encounter or escape checks only for {EVENT_ENSEMBLE_INTEGRATORS}: "
-            "use backend='cpu' for this ensemble (or, for one simulation, on the GPU: "
+            "backend='cuda' integrates ensembles with additional forces or collision, "
+            f"encounter or escape checks for the {EVENT_ENSEMBLE_INTEGRATORS} integrators "
+            "only: use backend='cpu' for this ensemble (or, for one simulation, on the GPU: "
             "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
@@ -253,10 +254,13 @@ def integrate_ensemble(members, t) -> list:
 
 def _packed_each(members, t) -> list:
     """:func:`integrate_ensemble`: each member checked as a lone run, then the members that may
-    run packed together (one pack per output time in simulation units)."""
+    run packed together (one pack per output time in simulation units and set of additional
+    force functions)."""
     from .ensemble_pack import Pack
 
     run = _pack_runner(members[0].integrator)
+
+    from .gpu_forces import force_key
 
     errors, groups = [], {}
     for k, sim in enumerate(members):
@@ -265,8 +269,8 @@ def _packed_each(members, t) -> list:
         except Exception as exc:
             errors.append((k, exc))
             continue
-        groups.setdefault(target, []).append(k)
-    for target, ks in groups.items():
+        groups.setdefault((target, force_key(sim)), []).append(k)
+    for (target, _), ks in groups.items():
         pack = Pack([members[k] for k in ks], members[ks[0]].integrator_info.n_buf)
         errors += [(ks[j], exc) for j, exc in run(pack, target, t)]
     return sorted(errors, key=lambda e: e[0])

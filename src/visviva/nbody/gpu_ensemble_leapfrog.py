@@ -3,7 +3,10 @@
 The packed members (:class:`visviva.nbody.ensemble_pack.Pack`) are planned on the host with the
 CPU kernel's expressions (:func:`visviva.nbody.gpu_plan.plan_many`: the step grid, the time
 origin, the shortened last step of the output copy), then one GPU thread per member takes the
-steps. A member with collision, encounter or escape checks is checked after every step with the
+steps, with the members' additional force compiled for the device
+(:mod:`visviva.nbody.gpu_forces`; the members of one call share their force functions, each
+with its own parameters). A member with collision, encounter or escape checks is checked after
+every step with the
 CPU kernel's own check compiled for the device; where a check fires the member stops as
 :func:`visviva.core.nbody_leapfrog.leapfrog_run` stops (its internal state is the output, the
 time is its grid point, the internal state is marked invalid, the event's particles are in
@@ -19,6 +22,7 @@ import numpy as np
 
 from ..core import nbody_common as _nc
 from ..core import status as _st
+from .gpu_forces import kernel_for, launch
 from .gpu_plan import plan_many
 
 __all__ = ["run"]
@@ -50,14 +54,16 @@ def run(pack, target: float, t) -> list:
     status = cuda.device_array(M, dtype=np.int64)
     gm = fs[:, _nc.F_G][pack.member_of] * pack.m
     massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
-    K.ensemble_leapfrog[K.blocks(M), K.THREADS](
-        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.poff),
-        cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
-        cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
-        cuda.to_device(rem), cuda.to_device(pack.radius), cuda.to_device(fs), d["istate"], done,
-        status,
-    )
+    first = pack.members[0]
+    kernel = K.ensemble_leapfrog if not first.forces else kernel_for(
+        "leapfrog", first, K.leapfrog_kernel)
+    launch(kernel, first, K.blocks(M), K.THREADS,
+           d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(gm),
+           cuda.to_device(massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
+           cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
+           cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
+           cuda.to_device(rem), cuda.to_device(pack.radius), cuda.to_device(fs), d["istate"],
+           cuda.to_device(pack.params), cuda.to_device(pack.qoff), done, status)
     pack.buf[xi_at] = d["xi"].copy_to_host()
     pack.buf[vi_at] = d["vi"].copy_to_host()
     pack.x[:] = d["x"].copy_to_host()

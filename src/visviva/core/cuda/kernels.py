@@ -18,9 +18,10 @@ The device functions are the source of :mod:`.arith` compiled with
 * :func:`ensemble_leapfrog` - one thread per member of an ensemble: ``nsteps[k]`` full steps of
   the member's internal state, then its output state, with a last shortened step ``rem[k]`` when
   an output time lies between grid points (as :func:`visviva.core.nbody_leapfrog.leapfrog_run`);
-  a member with collision, encounter or escape checks runs the CPU kernel's check after every
-  step (:func:`visviva.core.nbody_common.check_events` compiled for the device) and stops where
-  it fires, as the CPU kernel stops.
+  :func:`leapfrog_kernel` builds it for members with an additional force (compiled for the
+  device: :mod:`visviva.nbody.gpu_forces`); a member with collision, encounter or escape checks
+  runs the CPU kernel's check after every step (:func:`visviva.core.nbody_common.check_events`
+  compiled for the device) and stops where it fires, as the CPU kernel stops.
 
 fp64 throughout.
 """
@@ -30,13 +31,14 @@ from __future__ import annotations
 import numpy as np
 from numba import cuda, float64
 
-from ..nbody_common import F_ENCOUNTER, F_EXIT, I_COLLISIONS, check_events
+from ..gravity import no_force
+from ..nbody_common import F_DT, F_ENCOUNTER, F_EXIT, F_T0, I_COLLISIONS, I_K, check_events
 from ..status import OK
 from . import arith, simulator
 from .twins import device_twin
 
 __all__ = ["accelerations", "accelerations_split", "tight_pairs", "drift", "kick_drift",
-           "ensemble_leapfrog", "propagate_many", "on_device", "THREADS"]
+           "ensemble_leapfrog", "leapfrog_kernel", "propagate_many", "on_device", "THREADS"]
 
 #: Threads per block of every kernel (and the tile length of the direct sum): 128 on a GPU; 16
 #: under numba's CUDA simulator, which runs every thread of a block as a Python thread (a launch
@@ -167,42 +169,63 @@ def kick_drift(x, v, acc, h, half):
             x[i, c] += v[i, c] * half
 
 
-@cuda.jit
-def ensemble_leapfrog(xi, vi, x, v, gm, massive, moff, poff, soft2, acc, nsteps, h, rem, radius,
-                      fstate, istate, done, status):
-    """Member ``k`` (one thread): ``nsteps[k]`` steps ``h[k]`` of ``xi, vi``, copy to ``x, v``,
-    then one step ``rem[k]`` of ``x, v`` when it is not 0.
+def leapfrog_kernel(force):
+    """The kernel :func:`ensemble_leapfrog` whose members add the additional force ``force`` (a
+    device function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`)."""
 
-    With the member's collision, encounter or escape checks on (``istate[k]``, ``fstate[k]``,
-    ``radius``) every step is followed by the CPU kernel's check
-    (:func:`visviva.core.nbody_common.check_events`, compiled for the device); a check that
-    fires stops the member there, as :func:`visviva.core.nbody_leapfrog.leapfrog_run` stops: its
-    internal state copied to ``x, v``, the particles in ``istate[k, I_EVENT_A/B]``, no output
-    step. ``done[k]`` is the number of steps taken, ``status[k]`` the status code.
-    """
-    k = cuda.grid(1)
-    if k < nsteps.shape[0]:
-        lo = poff[k]
-        hi = poff[k + 1]
-        fs = fstate[k]
-        ist = istate[k]
-        events = ist[I_COLLISIONS] != 0 or fs[F_ENCOUNTER] > 0.0 or fs[F_EXIT] > 0.0
-        status[k] = OK
-        done[k] = 0
-        for _ in range(nsteps[k]):
-            _member_dkd(xi, vi, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, h[k])
-            done[k] += 1
-            if events:
-                st = _check_events(xi[lo:hi], vi[lo:hi], radius[lo:hi], fs, ist)
-                if st != OK:
-                    status[k] = st
-                    break
-        for i in range(lo, hi):
-            for c in range(3):
-                x[i, c] = xi[i, c]
-                v[i, c] = vi[i, c]
-        if rem[k] != 0.0 and status[k] == OK:
-            _member_dkd(x, v, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, rem[k])
+    @cuda.jit
+    def ensemble_leapfrog(xi, vi, x, v, m, gm, massive, moff, poff, soft2, acc, nsteps, h, rem,
+                          radius, fstate, istate, params, qoff, done, status):
+        """Member ``k`` (one thread): ``nsteps[k]`` steps ``h[k]`` of ``xi, vi``, copy to
+        ``x, v``, then one step ``rem[k]`` of ``x, v`` when it is not 0.
+
+        Each step starts from the member's grid time ``t0 + k |dt|`` (``fstate[k]``,
+        ``istate[k]``; the force is evaluated at its middle, with the member's parameters
+        ``params[qoff[k]:qoff[k + 1]]``). With the member's collision, encounter or escape
+        checks on (``istate[k]``, ``fstate[k]``, ``radius``) every step is followed by the CPU
+        kernel's check (:func:`visviva.core.nbody_common.check_events`, compiled for the
+        device); a check that fires stops the member there, as
+        :func:`visviva.core.nbody_leapfrog.leapfrog_run` stops: its internal state copied to
+        ``x, v``, the particles in ``istate[k, I_EVENT_A/B]``, no output step. ``done[k]`` is
+        the number of steps taken, ``status[k]`` the status code.
+        """
+        k = cuda.grid(1)
+        if k < nsteps.shape[0]:
+            lo = poff[k]
+            hi = poff[k + 1]
+            fs = fstate[k]
+            ist = istate[k]
+            p = params[qoff[k]:qoff[k + 1]]
+            events = ist[I_COLLISIONS] != 0 or fs[F_ENCOUNTER] > 0.0 or fs[F_EXIT] > 0.0
+            adt = abs(fs[F_DT])
+            sign = 1 if h[k] > 0.0 else -1
+            status[k] = OK
+            done[k] = 0
+            for j in range(nsteps[k]):
+                t_grid = fs[F_T0] + (ist[I_K] + sign * j) * adt  # the CPU kernel's clock
+                _member_dkd(xi, vi, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                            t_grid, h[k], force, p)
+                done[k] += 1
+                if events:
+                    st = _check_events(xi[lo:hi], vi[lo:hi], radius[lo:hi], fs, ist)
+                    if st != OK:
+                        status[k] = st
+                        break
+            for i in range(lo, hi):
+                for c in range(3):
+                    x[i, c] = xi[i, c]
+                    v[i, c] = vi[i, c]
+            if rem[k] != 0.0 and status[k] == OK:
+                t_grid = fs[F_T0] + (ist[I_K] + sign * done[k]) * adt
+                _member_dkd(x, v, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                            t_grid, rem[k], force, p)
+
+    return ensemble_leapfrog
+
+
+#: ``ensemble_leapfrog[blocks, THREADS](...)``: :func:`leapfrog_kernel` of members with gravity
+#: only (the no-op force)
+ensemble_leapfrog = leapfrog_kernel(device_twin(no_force))
 
 
 def blocks(n: int) -> int:

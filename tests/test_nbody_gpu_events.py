@@ -57,3 +57,33 @@ def test_events_and_forces_in_gpu_ensembles_on_a_real_gpu_match_the_cpu_ensemble
     # fused multiply-adds and libdevice's pow (IAS15's step control): round-off, so the event
     # times in the messages may differ in the last digit
     _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, SCRIPT), 1e-12, False)
+
+
+def test_a_force_the_device_cannot_compile_is_refused_with_what_to_do():
+    # numba-cuda's typing error on launch becomes the library's InvalidInputError naming the
+    # force (the simulator runs forces as Python, so the error is raised here by a stand-in)
+    from numba.core.errors import TypingError
+
+    import visviva as vv
+    from visviva.errors import InvalidInputError
+    from visviva.nbody import J2Force
+    from visviva.nbody.gpu_forces import force_key, launch
+
+    class Refusing:
+        def __getitem__(self, launch_config):
+            def call(*args):
+                raise TypingError("Use of unsupported NumPy function 'numpy.linalg.svd'")
+            return call
+
+    sim = vv.Simulation("leapfrog", dt=0.01)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    with pytest.raises(TypingError):  # no force: the error is the kernel's own, passed on
+        launch(Refusing(), sim, 1, 1)
+    sim.add_force(J2Force(0, 1e-3, 0.01))
+    with pytest.raises(InvalidInputError, match=r"J2 do not compile for the GPU.*svd.*'cpu'"):
+        launch(Refusing(), sim, 1, 1)
+    # members with the same force functions and parameter lengths share a kernel
+    other = sim.copy()
+    other.forces[0].j2 = 2e-3
+    assert force_key(other) == force_key(sim) != force_key(vv.Simulation("leapfrog", dt=0.01))

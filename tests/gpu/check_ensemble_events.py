@@ -74,6 +74,13 @@ def kind(raised):
     return raised and raised[:1] + raised[2:]
 
 
+def on_the_cpu(ens):
+    """``ens`` saved and loaded on the CPU backend."""
+    path = os.path.join(tempfile.mkdtemp(), "e.npz")
+    ens.save(path)
+    return vv.Ensemble.load(path, backend="cpu")
+
+
 def compare(gpu, cpu, key):
     """Print how two ensembles differ: positions, velocities, times, steps, particle counts."""
     print(f"{key}_pos={rel(gpu.positions, cpu.positions)!r}")
@@ -104,10 +111,7 @@ def check(integrator, prefix):
     print(f"{prefix}_steps={min(s.steps_done for s in gpu)!r}")
     compare(gpu, cpu, prefix)
 
-    # saved after the events on the GPU, loaded and continued on the CPU
-    path = os.path.join(tempfile.mkdtemp(), "e.npz")
-    gpu.save(path)
-    back = vv.Ensemble.load(path, backend="cpu")
+    back = on_the_cpu(gpu)  # saved after the events on the GPU, continued on the CPU
     g, c = outcome(back, 1.4), outcome(cpu, 1.4)
     print(f"{prefix}_restart_raised_equal={g == c!r}")
     print(f"{prefix}_restart_raised_kind_equal={kind(g) == kind(c)!r}")
@@ -137,9 +141,7 @@ def check_forces(integrator, prefix):
     print(f"{prefix}_steps={min(s.steps_done for s in gpu)!r}")
     print(f"{prefix}_n={','.join(map(str, gpu.n_particles))}")
     compare(gpu, cpu, prefix)
-    path = os.path.join(tempfile.mkdtemp(), "f.npz")
-    gpu.save(path)
-    back = vv.Ensemble.load(path, backend="cpu")
+    back = on_the_cpu(gpu)
     back.integrate(TIMES[2])
     cpu.integrate(TIMES[2])
     compare(back, cpu, f"{prefix}_restart")

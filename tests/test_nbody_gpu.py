@@ -250,6 +250,8 @@ def test_every_gpu_kernel_compiles_to_ptx():
     out = _run({"NUMBA_ENABLE_CUDASIM": "0"}, PTX_SCRIPT)
     if "missing" in out:
         pytest.skip(f"NVVM/NVRTC not installed ({out['missing']})")
-    assert len(out) == 9
+    # every kernel the script lists printed a line (a crash would leave names out)
+    assert {"accelerations", "accelerations_rsqrt", "ensemble_leapfrog", "propagate_many",
+            "ensemble_whfast", "ensemble_ias15"} <= set(out) and len(out) >= 10
     for kernel, result in out.items():
         assert result == "ok", (kernel, result)

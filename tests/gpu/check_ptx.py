@@ -53,6 +53,7 @@ def main():
         "tight_pairs": (K.tight_pairs, (a2, i1, float64, int32[::1])),
         "accelerations": (K.accelerations, (a2, a2, f1, i1, float64, a2)),
         "accelerations_split": (K.accelerations_split, (a2, a2, f1, i1, float64, a2)),
+        "accelerations_rsqrt": (K.accelerations_rsqrt, (a2, a2, f1, i1, float64, a2)),
         "drift": (K.drift, (a2, a2, float64)),
         "kick_drift": (K.kick_drift, (a2, a2, a2, float64, float64)),
         "ensemble_leapfrog": (K.leapfrog_kernel(device_twin(no_force)), leapfrog),

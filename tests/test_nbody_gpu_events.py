@@ -20,10 +20,14 @@ def _check(out, tolerance, messages_equal):
         # on (4 with collision checks that never fire); three calls, the later ones after the
         # events. Every member's state, time, step count and particle count is the CPU
         # ensemble's, and the ensemble raises the CPU's exception (type, message, members)
-        for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t"):
+        # (then saved on the GPU and continued on the CPU, and saved on the CPU and continued
+        # on the GPU)
+        for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t", "to_gpu_pos",
+                    "to_gpu_vel", "to_gpu_t"):
             assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])
         for key in ("raised_kind_equal", "steps_equal", "n_equal", "restart_raised_kind_equal",
-                    "restart_steps_equal", "restart_n_equal"):
+                    "restart_steps_equal", "restart_n_equal", "to_gpu_raised_kind_equal",
+                    "to_gpu_steps_equal", "to_gpu_n_equal"):
             assert out[f"{prefix}_{key}"] == "True", (prefix, key)
         if messages_equal:  # the messages name the event's time: the same digits
             assert out[f"{prefix}_raised_equal"] == out[f"{prefix}_restart_raised_equal"] == "True"
@@ -34,9 +38,9 @@ def _check(out, tolerance, messages_equal):
         assert out[f"{prefix}_on_time"] == "0,2,4,6"  # the others reached the time
         assert int(out[f"{prefix}_steps"]) >= 5
     for prefix in ("lf_force", "ias15_force"):
-        # seven members: no force, J2Force of the star (two J2 values), a user's numba.njit
-        # force (position- and time-dependent; two parameter sets), both fused, J2 with a
-        # merger; two calls, then saved and continued on the CPU. Each member adds the force's
+        # seven members: no force, J2Force of the star (two J2 values; IAS15's second with the
+        # velocity-dependent GeneralRelativity too), a user's numba.njit force (position- and
+        # time-dependent; two parameter sets), both fused, J2 with a merger; two calls, then saved and continued on the CPU. Each member adds the force's
         # device twin on its own parameters: the CPU ensemble's numbers
         for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t"):
             assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])

@@ -15,7 +15,7 @@ import numpy as np
 from check_whfast_ensemble import rel  # (this folder)
 
 import visviva as vv
-from visviva.nbody import J2Force
+from visviva.nbody import GeneralRelativity, J2Force
 
 
 @numba.njit
@@ -74,11 +74,11 @@ def kind(raised):
     return raised and raised[:1] + raised[2:]
 
 
-def on_the_cpu(ens):
-    """``ens`` saved and loaded on the CPU backend."""
+def on_the(ens, backend):
+    """``ens`` saved and loaded on ``backend``."""
     path = os.path.join(tempfile.mkdtemp(), "e.npz")
     ens.save(path)
-    return vv.Ensemble.load(path, backend="cpu")
+    return vv.Ensemble.load(path, backend=backend)
 
 
 def compare(gpu, cpu, key):
@@ -111,21 +111,27 @@ def check(integrator, prefix):
     print(f"{prefix}_steps={min(s.steps_done for s in gpu)!r}")
     compare(gpu, cpu, prefix)
 
-    back = on_the_cpu(gpu)  # saved after the events on the GPU, continued on the CPU
+    back = on_the(gpu, "cpu")  # saved after the events on the GPU, continued on the CPU
+    ahead = on_the(cpu, "cuda")  # and the CPU's saved, continued on the GPU
     g, c = outcome(back, 1.4), outcome(cpu, 1.4)
     print(f"{prefix}_restart_raised_equal={g == c!r}")
     print(f"{prefix}_restart_raised_kind_equal={kind(g) == kind(c)!r}")
     compare(back, cpu, f"{prefix}_restart")
+    print(f"{prefix}_to_gpu_raised_kind_equal={kind(outcome(ahead, 1.4)) == kind(c)!r}")
+    compare(ahead, cpu, f"{prefix}_to_gpu")
 
 
 def forced(integrator, k, user_force):
-    """Members with forces: 0 none, 1 and 6 J2 of the star (their own J2), 2 and 5 the user's
-    force (their own parameters), 3 both, 4 J2 and a merger (forces and events together)."""
+    """Members with forces: 0 none, 1 and 6 J2 of the star (their own J2; IAS15's 6 with the
+    velocity-dependent 1PN force too), 2 and 5 the user's force (their own parameters), 3 both,
+    4 J2 and a merger (forces and events together)."""
     sim = member(integrator, 2 if k == 4 else 0)
     if k in (1, 3, 4, 6):
         sim.add_force(J2Force(0, 1e-3 * (1 + k), 0.05))
     if k in (2, 3, 5):
         sim.add_force(user_force, params=[0.01 * (1 + k), 3.0 + k])
+    if k == 6 and integrator == "ias15":  # velocity-dependent: IAS15's predictor on velocities
+        sim.add_force(GeneralRelativity(0, c=30.0))
     return sim
 
 
@@ -141,7 +147,7 @@ def check_forces(integrator, prefix):
     print(f"{prefix}_steps={min(s.steps_done for s in gpu)!r}")
     print(f"{prefix}_n={','.join(map(str, gpu.n_particles))}")
     compare(gpu, cpu, prefix)
-    back = on_the_cpu(gpu)
+    back = on_the(gpu, "cpu")
     back.integrate(TIMES[2])
     cpu.integrate(TIMES[2])
     compare(back, cpu, f"{prefix}_restart")

@@ -44,6 +44,7 @@ __all__ = [
     "GeneralRelativityPotential",
     "LinearDrag",
     "combine",
+    "force_key",
 ]
 
 
@@ -128,6 +129,17 @@ def combine(fns, sizes, jit=None):
         rest(t, x, v, m, params[split:], acc)
 
     return (jit or numba.njit(**{**_FLAGS, "cache": False}))(both)
+
+
+def force_key(sim) -> tuple:
+    """What identifies ``sim``'s additional forces for one compiled call over several
+    simulations: each force's compiled function and the length of its parameters.
+
+    Members with equal keys share one fused force (:func:`combine` bakes the split of the
+    concatenated parameters into the fused function), so the lengths belong to the key: two
+    members with the same functions but parameters of different lengths need two calls.
+    """
+    return tuple((id(f.fn), len(f.parameters(sim))) for f in sim.forces)
 
 
 # ---- built-in forces -----------------------------------------------------------------------------

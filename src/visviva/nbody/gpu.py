@@ -260,7 +260,7 @@ def _packed_each(members, t) -> list:
 
     run = _pack_runner(members[0].integrator)
 
-    from .gpu_forces import force_key
+    from .forces import force_key
 
     errors, groups = [], {}
     for k, sim in enumerate(members):

@@ -4,7 +4,7 @@ A lone run hands its integrator kernel the fused force
 (:func:`visviva.nbody.forces.combine` of its forces' compiled functions) and its parameters;
 the CPU ensemble calls its kernel once per group of members whose forces are the same
 functions, each member with its own parameters. The GPU ensembles do the same: the members of
-one call share their forces' functions (:func:`force_key`), and :func:`device_force` compiles
+one call share their forces' functions (:func:`visviva.nbody.forces.force_key`), and :func:`device_force` compiles
 each function's own source for the device (:func:`visviva.core.cuda.twins.device_twin`: a
 user's ``numba.njit`` function as well as the built-in :class:`~visviva.nbody.forces.J2Force`,
 :class:`~visviva.nbody.forces.GeneralRelativity`,
@@ -22,17 +22,12 @@ A force whose source numba-cuda cannot compile raises
 from __future__ import annotations
 
 from ..errors import InvalidInputError
+from .forces import force_key
 
-__all__ = ["force_key", "device_force", "kernel_for", "launch"]
+__all__ = ["device_force", "kernel_for", "launch"]
 
 #: force key -> (the forces' functions, kept alive so that their ids stay theirs; the kernel)
 _KERNELS: dict = {}
-
-
-def force_key(sim) -> tuple:
-    """What identifies ``sim``'s forces for the device: each force's function and the length of
-    its parameters (members with equal keys share one compiled kernel)."""
-    return tuple((id(f.fn), len(f.parameters(sim))) for f in sim.forces)
 
 
 def device_force(sim):

@@ -24,7 +24,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.common import compile_time, n_threads, result, skipped, threads, time_call
+from benchmarks.common import (
+    compile_time,
+    interleaved_medians,
+    n_threads,
+    result,
+    skipped,
+    threads,
+    time_call,
+)
 
 NAME = "gpu"
 
@@ -236,6 +244,39 @@ def _direct(rows, quick):
                            compile_s=c,
                            notes=f"{ns_gpu:.3g} ns/interaction (CPU {ns_cpu:.3g}); fp64, tiled "
                                  f"kernel; {model}"))
+        if n >= 100_000:
+            rows.append(_direct_kernels(n, model))
+
+
+def _direct_kernels(n, model):
+    """The direct-sum kernel alone, positions on the device: the reciprocal-square-root variant
+    (``kernels.accelerations_rsqrt``) against the exact pulls (``kernels.accelerations``, what
+    simulations use), interleaved in one process."""
+    from numba import cuda
+
+    from visviva.core.cuda import kernels as K
+
+    rng = np.random.default_rng(3)
+    d_x = cuda.to_device(rng.normal(size=(n, 3)))
+    d_gm = cuda.to_device(rng.uniform(0.5, 1.5, n) / n)
+    d_massive = cuda.to_device(np.arange(n, dtype=np.int64))
+    d_acc = cuda.device_array((n, 3))
+
+    def launcher(kernel):
+        def call():
+            kernel[K.blocks(n), K.THREADS](d_x, d_x, d_gm, d_massive, 1e-6, d_acc)
+            cuda.synchronize()
+        return call
+
+    exact, fast = launcher(K.accelerations), launcher(K.accelerations_rsqrt)
+    exact()
+    fast()
+    t_exact, t_fast = interleaved_medians(exact, fast, rounds=5)
+    per = 1e9 / (float(n) * n)
+    return result(f"direct-sum kernel with rsqrt pulls, N={n}", t_fast,
+                  "the same kernel with exact pulls (sqrt and division)", t_exact,
+                  notes=f"{t_fast * per:.3g} against {t_exact * per:.3g} ns/interaction, "
+                        f"kernel only (positions on the device); fp64; {model}")
 
 
 def _whfast(rows, quick):

@@ -8,10 +8,13 @@
 # beforehand, elsewhere, with
 #   pip download --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
 #     --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 -d WHEELS_DIR \
-#     astropy==8.0.2 pyerfa==2.0.1.5 astropy-iers-data==0.2026.11.2.0.34.55 sgp4==2.27 numpy==2.4.6
+#     astropy==8.0.2 pyerfa==2.0.1.5 astropy-iers-data==0.2026.11.2.0.34.55 sgp4==2.27 numpy==2.4.6 \
+#     pytest==9.2.0 pluggy==1.7.0 iniconfig==2.3.1 packaging==26.3 pygments==2.21.0
 # (numpy 2.5 removed np.row_stack, which numba-cuda 0.30.4 still uses at import: pin 2.4.)
 # Output goes to $OUT (default ./gpu-out): versions, the real-GPU check scripts' key=value
-# lines, and one JSON line per benchmark row (rows.jsonl), written as each row is measured.
+# lines (tests/gpu/check_*.py, all at once) and exit codes, the gpu-marked tests' verdict on
+# them (pytest-gpu.txt), and one JSON line per benchmark row (rows.jsonl), written as each row
+# is measured.
 # Environment: CHECK_S / BENCH_S (time limits, s), SECTIONS (bench_gpu sections, comma-separated).
 set -u
 OUT=${OUT:-gpu-out}
@@ -29,11 +32,26 @@ export NUMBA_CACHE_DIR=${NUMBA_CACHE_DIR:-/tmp/numba_cache}
   python3 -c "import numba, numpy, numba_cuda; print('numba', numba.__version__, 'numpy', numpy.__version__, 'numba-cuda', numba_cuda.__version__); from visviva.core import cuda; print('missing:', cuda.missing())"
 } 2>&1 | tee "$OUT/versions.txt"
 SECONDS=0
-for check in tests/gpu/check_cuda_backend.py tests/gpu/check_ias15.py tests/gpu/check_whfast_ensemble.py \
-        tests/gpu/check_whfast_general.py; do
-    timeout "${CHECK_S:-240}" python3 "$check" > "$OUT/$(basename "$check" .py).txt" 2>&1
-    echo "$check rc=$? ($SECONDS s)"; grep "=" "$OUT/$(basename "$check" .py).txt"
+# every real-GPU check script at once (the GPU and 16 host cores take them together; most of
+# each is numba compiling), each with its output and exit status in $OUT
+for check in tests/gpu/check_*.py; do
+    name=$OUT/$(basename "$check" .py)
+    ( timeout "${CHECK_S:-300}" python3 "$check" > "$name.txt" 2>&1; echo $? > "$name.rc" ) &
 done
+wait
+echo "checks: $SECONDS s"
+for check in tests/gpu/check_*.py; do
+    name=$OUT/$(basename "$check" .py)
+    echo "$check rc=$(cat "$name.rc")"; grep "=" "$name.txt"
+done
+# the tolerances of the gpu-marked tests, applied to those outputs (pytest among the wheels;
+# check_ensemble_events: events and forces in leapfrog and IAS15 ensembles at 1e-12;
+# check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12)
+if python3 -c "import pytest" 2>/dev/null; then
+    VISVIVA_GPU_OUTPUTS=$OUT python3 -m pytest -q -p no:cacheprovider -m gpu -o addopts="" \
+        tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py 2>&1 \
+        | tee "$OUT/pytest-gpu.txt" | tail -15
+fi
 SECONDS=0
 VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-300}" python3 -c "
 import sys

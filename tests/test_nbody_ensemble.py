@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -173,27 +174,24 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
 
     monkeypatch.setattr(vcuda, "missing", lambda: None)  # as if a GPU were there
     vv.Simulation("ias15", backend="cuda")  # one large system: IAS15 and WHFast run
-    from visviva.nbody import GeneralRelativityPotential, LinearDrag
+    from visviva.nbody import GeneralRelativityPotential, J2Force, LinearDrag
     from visviva.nbody.gpu import check_backend
 
     with pytest.raises(InvalidInputError, match="ensembles of the"):  # a future integrator
         check_backend("cuda", "mercurius", ensemble=True)
-    # IAS15 ensembles: gravity only, below PAIR_MIN_N massive particles per member
-    assert vv.Ensemble.from_simulations([planets("ias15")], backend="cuda").backend == "cuda"
-    forced = planets("ias15")
-    forced.add_force(LinearDrag(0.1))
-    for odd in (forced, planets("ias15", collision="merge"),
-                planets("ias15", encounter_distance=0.1)):
-        with pytest.raises(InvalidInputError, match="member 1: .*gravity only.*backend='cpu'"):
-            vv.Ensemble.from_simulations([planets("ias15"), odd], backend="cuda")
+    # IAS15 and leapfrog ensembles run additional forces and events (test_nbody_gpu_events.py);
+    # IAS15 below PAIR_MIN_N massive particles per member
+    for name in ("ias15", "leapfrog"):
+        forced = planets(name)
+        forced.add_force(LinearDrag(0.1) if name == "ias15" else J2Force(0, 1e-3, 1e-3))
+        odd = [planets(name), planets(name, collision="merge"),
+               planets(name, encounter_distance=0.1), forced]
+        assert vv.Ensemble.from_simulations(odd, backend="cuda").backend == "cuda"
     crowd = planets("ias15")
     for j in range(256):
         crowd.add(1e-9, r=[5.0 + j, 0.0, 0.0], v=[0.0, 0.4, 0.0])
     with pytest.raises(InvalidInputError, match="fewer than 256 massive.*backend='cpu'"):
         vv.Ensemble.from_simulations([crowd], backend="cuda")
-    with pytest.raises(InvalidInputError, match="ensembles with gravity only.*backend='cpu'"):
-        vv.Ensemble.from_simulations([planets("leapfrog", collision="merge")],
-                                     backend="cuda").integrate(1.0)
     # WHFast ensembles: any coordinates, corrector and event checks on the GPU; additional
     # forces are refused when the ensemble is made or loaded, naming the member
     for options in ({}, {"coordinates": "democraticheliocentric"}, {"corrector": 5},
@@ -393,3 +391,40 @@ def test_an_incomplete_ensemble_file_says_what_is_wrong(tmp_path):
         np.savez(tmp_path / "bad.npz", **broken)
         with pytest.raises(InvalidInputError, match=match):
             vv.Ensemble.load(tmp_path / "bad.npz")
+
+
+# two user forces fused: the split of the concatenated parameters is baked into the fused
+# function, so members whose first force has parameters of another length need their own call
+@numba.njit
+def _push_by_sum(t, x, v, m, params, acc):
+    s = 0.0
+    for k in range(params.shape[0]):
+        s += params[k]
+    for i in range(x.shape[0]):
+        acc[i, 0] += s
+
+
+@numba.njit
+def _pull_down(t, x, v, m, params, acc):
+    for i in range(x.shape[0]):
+        acc[i, 1] -= params[0]
+
+
+def test_members_with_fused_forces_of_other_parameter_lengths_equal_their_lone_runs():
+    def member(push):
+        sim = vv.Simulation("leapfrog", dt=0.01)
+        sim.add(1.0)
+        sim.add(1e-3, a=1.0)
+        sim.add_force(_push_by_sum, params=push)
+        sim.add_force(_pull_down, params=[1e-3])
+        return sim
+
+    members = [member([1e-4]), member([1e-4, 2e-4, 3e-4]), member([5e-4])]
+    alone = [s.copy() for s in members]
+    for s in alone:
+        s.integrate(1.0)
+    ens = vv.Ensemble.from_simulations(members)
+    ens.integrate(1.0)
+    for k, s in enumerate(alone):  # was 4e-4 off for the second member: a silent wrong number
+        np.testing.assert_array_equal(ens[k].positions, s.positions)
+        np.testing.assert_array_equal(ens[k].velocities, s.velocities)

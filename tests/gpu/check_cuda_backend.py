@@ -133,6 +133,16 @@ def main():
     arith.member_accelerations_cpu(x, gm, massive, 0, len(massive), 0, n, 1e-4, twin)
     print(f"tiled_acc={rel(acc_d.copy_to_host(), twin)!r}")
     print(f"tiled_bits={bool((acc_d.copy_to_host() == twin).all())!r}")
+    # the same tiles with each pull from a reciprocal square root: round-off, not the bits
+    kernels.accelerations_rsqrt[kernels.blocks(n), kernels.THREADS](
+        d_x, d_x, cuda.to_device(gm), cuda.to_device(massive), 1e-4, acc_d)
+    print(f"rsqrt_acc={rel(acc_d.copy_to_host(), twin)!r}")
+    # unsoftened: each massive particle's own pull (r = 0) is 0, not NaN
+    kernels.accelerations_rsqrt[kernels.blocks(n), kernels.THREADS](
+        d_x, d_x, cuda.to_device(gm), cuda.to_device(massive), 0.0, acc_d)
+    twin = np.zeros((n, 3))
+    arith.member_accelerations_cpu(x, gm, massive, 0, len(massive), 0, n, 0.0, twin)
+    print(f"rsqrt_acc_unsoftened={rel(acc_d.copy_to_host(), twin)!r}")
 
     # WHFast with the interaction step's gravity on the GPU: a star and 139 planetesimals (more
     # massive bodies than one tile), off the grid then on it, then continued on the CPU

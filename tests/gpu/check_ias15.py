@@ -182,8 +182,8 @@ def main():
 
     # what is refused, and an error inside the GPU call
 
-    def ensemble_force():
-        s = vv.Simulation("leapfrog", dt=0.01)
+    def ensemble_force():  # (leapfrog and IAS15 ensembles run forces: check_ensemble_events)
+        s = vv.Simulation("whfast", dt=0.01)
         s.add(1.0)
         s.add(1e-3, a=1.0, primary=0)
         s.add_force(J2Force(0, 1e-3, 0.01))

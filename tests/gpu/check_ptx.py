@@ -27,26 +27,44 @@ def main():
     dispatcher = sys.modules["numba.cuda.dispatcher"]
     dispatcher.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
 
+    import visviva as vv
     from visviva.core.cuda import ias15 as I
     from visviva.core.cuda import kernels as K
     from visviva.core.cuda import whfast as W
+    from visviva.core.cuda.twins import device_twin
+    from visviva.core.gravity import no_force
+    from visviva.nbody.forces import J2Force, LinearDrag
+    from visviva.nbody.gpu_forces import device_force
+
+    # the ensembles' additional forces compiled for the device: J2 fused with a user's force
+    # (the fused closure of visviva.nbody.forces.combine), and IAS15's velocity-dependent drag
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add_force(J2Force(0, 1e-3, 0.05))
+    sim.add_force(_user_force(), params=[0.1])
+    sim.add_force(LinearDrag(0.1))
+    forces = device_force(sim)
 
     a2, f1, i1, i2 = float64[:, ::1], float64[::1], int64[::1], int64[:, ::1]
+    leapfrog = (a2, a2, a2, a2, f1, f1, i1, i1, i1, f1, a2, i1, f1, f1, f1, a2, i2, f1, i1, i1,
+                i1)
+    ias15 = (a2, a2, f1, i1, i1, i1, f1, a2, i2, f1, f1, i1, a2, i2, float64, i1)
     cases = {
         "tight_pairs": (K.tight_pairs, (a2, i1, float64, int32[::1])),
         "accelerations": (K.accelerations, (a2, a2, f1, i1, float64, a2)),
         "accelerations_split": (K.accelerations_split, (a2, a2, f1, i1, float64, a2)),
+        "accelerations_rsqrt": (K.accelerations_rsqrt, (a2, a2, f1, i1, float64, a2)),
         "drift": (K.drift, (a2, a2, float64)),
         "kick_drift": (K.kick_drift, (a2, a2, a2, float64, float64)),
-        "ensemble_leapfrog": (K.ensemble_leapfrog, (a2, a2, a2, a2, f1, i1, i1, i1, f1, a2, i1,
-                                                    f1, f1)),
+        "ensemble_leapfrog": (K.leapfrog_kernel(device_twin(no_force)), leapfrog),
+        "ensemble_leapfrog_forces": (K.leapfrog_kernel(forces), leapfrog),
         "propagate_many": (K._kepler_kernel(), (a2, a2, f1, f1, a2, a2, i1)),
         "ensemble_whfast": (W.build(), (a2, a2, f1) + (a2,) * 6 + (f1, i1, i1, i1, f1, f1, f1,
                                                                    i1, i1, f1, i1)),
         "ensemble_whfast_general": (W.build_general(), (a2, a2, f1, i1, i1, f1, i1, a2, i2, f1,
                                                         f1, a2, f1, f1, i1)),
-        "ensemble_ias15": (I.build(), (a2, a2, f1, i1, i1, i1, a2, i2, f1, a2, i2, float64,
-                                       i1)),
+        "ensemble_ias15": (I.build(device_twin(no_force)), ias15),
+        "ensemble_ias15_forces": (I.build(forces), ias15),
     }
     for name, (kernel, sig) in cases.items():
         try:
@@ -54,6 +72,17 @@ def main():
             print(f"{name}={'ok' if '.entry' in ptx else 'no entry'}")
         except Exception as exc:
             print(f"{name}={type(exc).__name__}: {str(exc).splitlines()[0][:200]}")
+
+
+def _user_force():
+    import numba
+
+    @numba.njit
+    def pull(t, x, v, m, params, acc):
+        for i in range(x.shape[0]):
+            acc[i, 2] -= params[0] * x[i, 2]
+
+    return pull
 
 
 if __name__ == "__main__":

@@ -29,16 +29,12 @@ from ..errors import InvalidInputError, ShapeError
 from . import tier as _tier
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
+from .forces import force_key
 from .gpu import check_backend, check_ensemble
 from .simulation import Simulation
 
 __all__ = ["Ensemble", "advance_members"]
 
-
-
-def _force_key(sim) -> tuple:
-    """Members whose additional forces are the same compiled functions share one kernel call."""
-    return tuple(id(f.fn) for f in sim.forces)
 
 
 class Ensemble:
@@ -365,7 +361,7 @@ def _advance_each(members: list, t, backend: str) -> list:
         except Exception as exc:
             errors.append((k, exc))
             continue
-        groups.setdefault((_force_key(sim), times.tobytes()), []).append(k)
+        groups.setdefault((force_key(sim), times.tobytes()), []).append(k)
     for (_, times_bytes), ks in groups.items():
         times = np.frombuffer(times_bytes, dtype=np.float64).copy()
         status = _run_group([members[k] for k in ks], times)

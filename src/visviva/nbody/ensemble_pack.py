@@ -60,8 +60,11 @@ class Pack:
     """
 
     def __init__(self, members, n_buf: int):
-        for s in members:  # the integrator's arrays allocated (a fresh start if they were not)
-            s.kernel_inputs(parallel=False)
+        # the integrator's arrays allocated (a fresh start if they were not); the additional
+        # forces' parameters as each lone run passes them, ``qoff`` their offsets
+        params = [s.kernel_inputs(parallel=False)[1] for s in members]
+        self.params = np.ascontiguousarray(np.concatenate(params))
+        self.qoff = np.concatenate([[0], np.cumsum([len(p) for p in params])]).astype(np.int64)
         states = [s.state_arrays() for s in members]
         self.members = members
         self.n_buf = n_buf

@@ -44,6 +44,7 @@ __all__ = [
     "GeneralRelativityPotential",
     "LinearDrag",
     "combine",
+    "force_key",
 ]
 
 
@@ -106,11 +107,13 @@ class Force:
         return f"{type(self).__name__}({self.name!r}, velocity_dependent={self.velocity_dependent})"
 
 
-def combine(fns, sizes):
+def combine(fns, sizes, jit=None):
     """Fuse several compiled forces into one compiled function with concatenated parameters.
 
     The fused function is a closure over the forces, compiled with visviva's numba flags except
-    the on-disk cache (closures cannot be cached; compiling it takes a fraction of a second).
+    the on-disk cache (closures cannot be cached; compiling it takes a fraction of a second), or
+    with ``jit`` when given (``numba.cuda.jit(device=True)`` fuses the forces' device twins for
+    the GPU ensembles: :mod:`visviva.nbody.gpu_forces`).
     """
     import numba
 
@@ -118,14 +121,25 @@ def combine(fns, sizes):
 
     if len(fns) == 1:
         return fns[0]
-    head, rest = fns[0], combine(fns[1:], sizes[1:])
+    head, rest = fns[0], combine(fns[1:], sizes[1:], jit)
     split = int(sizes[0])
 
     def both(t, x, v, m, params, acc):
         head(t, x, v, m, params[:split], acc)
         rest(t, x, v, m, params[split:], acc)
 
-    return numba.njit(**{**_FLAGS, "cache": False})(both)
+    return (jit or numba.njit(**{**_FLAGS, "cache": False}))(both)
+
+
+def force_key(sim) -> tuple:
+    """What identifies ``sim``'s additional forces for one compiled call over several
+    simulations: each force's compiled function and the length of its parameters.
+
+    Members with equal keys share one fused force (:func:`combine` bakes the split of the
+    concatenated parameters into the fused function), so the lengths belong to the key: two
+    members with the same functions but parameters of different lengths need two calls.
+    """
+    return tuple((id(f.fn), len(f.parameters(sim))) for f in sim.forces)
 
 
 # ---- built-in forces -----------------------------------------------------------------------------

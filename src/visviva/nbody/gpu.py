@@ -5,7 +5,7 @@ What runs on the GPU today:
 * the leapfrog integrator (drift-kick-drift) with direct-summation gravity, for one large
   simulation (one thread per particle per kernel, the gravity tiled through shared memory, the
   state kept on the device between steps) and for ensembles (one thread per member,
-  :mod:`visviva.core.cuda.kernels`);
+  :mod:`visviva.core.cuda.kernels`, :mod:`visviva.nbody.gpu_ensemble_leapfrog`);
 * IAS15 and WHFast for one large simulation (:mod:`visviva.nbody.gpu_force`): the CPU backend's
   own compiled kernel runs every step (IAS15's predictor-corrector and step control; WHFast's
   Kepler drifts, coordinate transforms and correctors, in Jacobi or democratic heliocentric
@@ -17,11 +17,19 @@ What runs on the GPU today:
   the CPU kernel's own functions compiled for the device (:mod:`visviva.core.cuda.whfast`; in
   the plain case planned on the host, otherwise the CPU's whole run body on the member's
   state, :mod:`visviva.nbody.gpu_ensemble_whfast`);
-* IAS15 ensembles with gravity only (fewer than ``PAIR_MIN_N`` massive particles per member):
+* IAS15 ensembles (fewer than ``PAIR_MIN_N`` massive particles per member):
   one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
   for the device from the CPU source (:mod:`visviva.core.cuda.ias15`,
   :mod:`visviva.nbody.gpu_ensemble_ias15`); the members' whole state goes to the device and back.
+* collision, encounter and escape checks in leapfrog and IAS15 ensembles: after every step the
+  member's thread runs the CPU kernel's own check (:func:`visviva.core.nbody_common.check_events`
+  compiled for the device); a member whose check fires stops as the CPU kernel stops and is
+  finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU (a merger or bounce
+  resolved and the member continued alone; a halt, encounter or escape raised for it), the
+  others run on; and additional forces in leapfrog and IAS15 ensembles, each force function
+  compiled for the device from its own source (:mod:`visviva.nbody.gpu_forces`), one kernel
+  call per set of force functions, each member on its own parameters.
 
 The step grid, the time origin and the shortened last step to an output time are the CPU
 kernels' (the plans are computed with their expressions, :mod:`visviva.nbody.gpu_plan`), and
@@ -42,8 +50,8 @@ IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gra
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
-GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, forces
-in ensembles, events in leapfrog and IAS15 ensembles, arrays of output times for ensembles; these
+GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member,
+additional forces in WHFast ensembles, arrays of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """
@@ -57,7 +65,7 @@ from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from .gpu_force import DeviceGravity
-from .gpu_plan import plan, plan_many
+from .gpu_plan import plan
 
 __all__ = [
     "check_backend", "integrate_simulation", "integrate_ensemble", "integrate_pack",
@@ -97,12 +105,20 @@ def _extras(sim) -> bool:
                 or sim.exit_max_distance)
 
 
+#: Integrators whose GPU ensembles run additional forces and the collision, encounter and
+#: escape checks.
+EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "ias15")
+
+
 def _check_supported(sim, ensemble: bool) -> None:
-    if ensemble and _extras(sim) and sim.integrator != "whfast":  # WHFast: check_member
+    # WHFast ensembles run the checks, not the forces: its check_member below says so
+    if (ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS
+            and sim.integrator != "whfast"):
         raise InvalidInputError(
-            "backend='cuda' integrates ensembles with gravity only: additional forces and "
-            "collision, encounter or escape checks run on backend='cpu' (or, for one "
-            "simulation, on the GPU: Simulation(..., backend='cuda'))."
+            "backend='cuda' integrates ensembles with additional forces or collision, "
+            f"encounter or escape checks for the {EVENT_ENSEMBLE_INTEGRATORS} integrators "
+            "only: use backend='cpu' for this ensemble (or, for one simulation, on the GPU: "
+            "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
     if ensemble and sim.integrator == "whfast":
@@ -231,66 +247,21 @@ def _leapfrog_to(sim, state, massive, target: float) -> None:
 
 def integrate_ensemble(members, t) -> list:
     """Advance the simulations ``members`` (in place) to ``t`` on the GPU, one thread per member;
-    returns ``[(index, exception), ...]`` as the CPU path does."""
-    from numba import cuda
-
-    from ..core.cuda import kernels as K
-
-    if members and members[0].integrator in ("whfast", "ias15"):
-        return _packed_each(members, t)
-    errors, ks, plans, states, massives = [], [], [], [], []
-    for k, sim in enumerate(members):
-        try:
-            target, massive = begin_gpu_run(sim, t, ensemble=True)
-            state = sim.state_arrays()
-            plans.append(plan(state, target))
-        except Exception as exc:
-            errors.append((k, exc))
-            continue
-        ks.append(k)
-        states.append(state)
-        massives.append(massive)
-    if not ks:
-        return errors
-    sims = [members[k] for k in ks]
-    n = np.array([s.N for s in sims], dtype=np.int64)
-    poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
-    moff = np.concatenate([[0], np.cumsum([len(m) for m in massives])]).astype(np.int64)
-    massive = np.concatenate([m + poff[j] for j, m in enumerate(massives)]).astype(np.int64)
-    gm = np.concatenate([s.G * st["m"] for s, st in zip(sims, states, strict=True)])
-    soft2 = np.array([st["fstate"][_nc.F_SOFT2] for st in states])
-    d = {name: cuda.to_device(np.ascontiguousarray(np.concatenate(parts))) for name, parts in (
-        ("xi", [st["buf"][_XI] for st in states]), ("vi", [st["buf"][_VI] for st in states]),
-        ("x", [st["x"] for st in states]), ("v", [st["v"] for st in states]))}
-    nsteps = np.array([p[0] for p in plans], dtype=np.int64)
-    h = np.array([p[1] for p in plans])
-    rem = np.array([p[2] for p in plans])
-    acc = cuda.device_array((int(poff[-1]), 3))
-    K.ensemble_leapfrog[K.blocks(len(ks)), K.THREADS](
-        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
-        cuda.to_device(moff), cuda.to_device(poff), cuda.to_device(soft2), acc,
-        cuda.to_device(nsteps), cuda.to_device(h), cuda.to_device(rem),
-    )
-    host = {name: arr.copy_to_host() for name, arr in d.items()}
-    for j, (k, state, p) in enumerate(zip(ks, states, plans, strict=True)):
-        lo, hi = poff[j], poff[j + 1]
-        state["buf"][_XI] = host["xi"][lo:hi]
-        state["buf"][_VI] = host["vi"][lo:hi]
-        state["x"][:] = host["x"][lo:hi]
-        state["v"][:] = host["v"][lo:hi]
-        try:
-            _finish(sims[j], state, p[0], p[1], p[3])
-        except Exception as exc:
-            errors.append((k, exc))
-    return sorted(errors, key=lambda e: e[0])
+    returns ``[(index, exception), ...]`` as the CPU path does (the member-by-member path of
+    :func:`visviva.nbody.ensemble.advance_members`: each member checked as a lone run, then
+    the members that may run packed together)."""
+    return _packed_each(members, t)
 
 
 def _packed_each(members, t) -> list:
-    """:func:`integrate_ensemble` for WHFast and IAS15 members: each checked as a lone run, then
-    the members that may run packed together (one pack per output time in simulation units)."""
+    """:func:`integrate_ensemble`: each member checked as a lone run, then the members that may
+    run packed together (one pack per output time in simulation units and set of additional
+    force functions)."""
     from .ensemble_pack import Pack
 
     run = _pack_runner(members[0].integrator)
+
+    from .forces import force_key
 
     errors, groups = [], {}
     for k, sim in enumerate(members):
@@ -299,8 +270,8 @@ def _packed_each(members, t) -> list:
         except Exception as exc:
             errors.append((k, exc))
             continue
-        groups.setdefault(target, []).append(k)
-    for target, ks in groups.items():
+        groups.setdefault((target, force_key(sim)), []).append(k)
+    for (target, _), ks in groups.items():
         pack = Pack([members[k] for k in ks], members[ks[0]].integrator_info.n_buf)
         errors += [(ks[j], exc) for j, exc in run(pack, target, t)]
     return sorted(errors, key=lambda e: e[0])
@@ -310,60 +281,28 @@ def _pack_runner(integrator: str):
     """The ``run(pack, target, t)`` of the GPU ensemble kernel of ``integrator``."""
     if integrator == "ias15":
         from .gpu_ensemble_ias15 import run
+    elif integrator == "leapfrog":
+        from .gpu_ensemble_leapfrog import run
     else:
         from .gpu_ensemble_whfast import run
     return run
 
 
 def integrate_pack(pack, t):
-    """Advance an ensemble's packed leapfrog members (:class:`visviva.nbody.ensemble_pack.Pack`)
-    to ``t`` on the GPU, one thread per member, with the plan and bookkeeping of
-    :func:`integrate_ensemble` done on whole arrays; returns the errors, or None when the
-    per-member path must run this call (it then raises what the GPU cannot run)."""
-    from numba import cuda
-
-    from ..core.cuda import kernels as K
-
+    """Advance an ensemble's packed members (:class:`visviva.nbody.ensemble_pack.Pack`) to ``t``
+    on the GPU, one thread per member, the plan and bookkeeping done on whole arrays; returns
+    the errors, or None when the per-member path must run this call (it then raises what the
+    GPU cannot run)."""
     pack.stale = False
-    fs, ist = pack.fstate, pack.istate
+    fs = pack.fstate
     integrator = pack.members[0].integrator
-    if (not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
-            or np.any(fs[:, _nc.F_EXIT] != 0.0) or integrator not in GPU_ENSEMBLE_INTEGRATORS):
+    if integrator not in GPU_ENSEMBLE_INTEGRATORS:
         return None
-    if integrator == "whfast" and (np.any(ist[:, _nc.I_WH_COORDINATES] != 0)
-                                   or np.any(ist[:, _nc.I_CORRECTOR] != 0)):
+    if integrator not in EVENT_ENSEMBLE_INTEGRATORS + ("whfast",) and (
+            not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
+            or np.any(fs[:, _nc.F_EXIT] != 0.0)):
         return None
     target = pack.target(t)
     if target is None:
         return None
-    if integrator in ("whfast", "ias15"):
-        return _pack_runner(integrator)(pack, target, t)
-    n, h, rem, t_final, restart = plan_many(fs, ist, target)
-    xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
-    fresh = restart[pack.member_of]
-    pack.buf[xi_at[fresh]] = pack.x[fresh]
-    pack.buf[vi_at[fresh]] = pack.v[fresh]
-    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
-    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
-    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
-    K.ensemble_leapfrog[K.blocks(len(pack.members)), K.THREADS](
-        d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(gm), cuda.to_device(massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.poff),
-        cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
-        cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
-        cuda.to_device(rem),
-    )
-    pack.buf[xi_at] = d["xi"].copy_to_host()
-    pack.buf[vi_at] = d["vi"].copy_to_host()
-    pack.x[:] = d["x"].copy_to_host()
-    pack.v[:] = d["v"].copy_to_host()
-    ist[:, _nc.I_K] += np.where(h > 0.0, n, -n)
-    ist[:, _nc.I_STEPS] += n
-    fs[n != 0, _nc.F_DT_LAST] = h[n != 0]
-    fs[:, _nc.F_T] = t_final
-    ist[:, _nc.I_NOUT] = 1
-    finite = np.isfinite(pack.x).all(axis=1) & np.isfinite(pack.v).all(axis=1)
-    bad = np.flatnonzero(~np.logical_and.reduceat(finite, pack.poff[:-1]))
-    ist[bad, _nc.I_INT_VALID] = 0
-    return [(int(k), _non_finite(t_final[k])) for k in bad]
+    return _pack_runner(integrator)(pack, target, t)

@@ -1,9 +1,12 @@
 """IAS15 ensembles on the GPU: the host side of :mod:`visviva.core.cuda.ias15`.
 
-An ensemble of IAS15 members with gravity only (no additional forces, no collision, encounter or
-escape checks; those are refused by :func:`visviva.nbody.gpu.begin_gpu_run`) runs one GPU
-thread per member through IAS15's own adaptive steps, compiled for the device from the CPU
-kernel's source. The whole state (``fstate``, ``istate`` and ``buf``: the integrator's own
+An ensemble of IAS15 members runs one GPU thread per member through IAS15's own adaptive
+steps, compiled for the device from the CPU kernel's source, with the members' additional
+forces compiled for the device (one kernel per set of force functions,
+:mod:`visviva.nbody.gpu_forces`) and the CPU kernel's collision, encounter and escape checks
+after every step (a member stopped by one is finished
+by :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as the CPU ensemble finishes it: a merger
+or bounce resolved and the member continued alone, a halt, encounter or escape raised). The whole state (``fstate``, ``istate`` and ``buf``: the integrator's own
 positions and velocities, the compensated-summation terms, the predictor's ``b`` and ``e``) goes
 to the device and back as the CPU kernel leaves it, so a GPU run can be saved and continued on
 the CPU, and a member's status (a step below the floor, non-finite numbers) is finished by
@@ -16,10 +19,9 @@ import numpy as np
 
 from ..core.gravity import PAIR_MIN_N, massive_indices
 from ..errors import InvalidInputError
+from .gpu_forces import kernel_for, launch
 
 __all__ = ["run", "check_member"]
-
-_KERNEL: list = []
 
 
 def check_member(sim) -> None:
@@ -43,19 +45,18 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import ias15 as I
     from ..core.cuda import kernels as K
 
-    if not _KERNEL:
-        _KERNEL.append(I.build())
+    kernel = kernel_for("ias15", pack.members[0], I.build)
     M = len(pack.members)
     d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
         ("x", pack.x), ("v", pack.v), ("fstate", pack.fstate), ("istate", pack.istate),
         ("buf", pack.buf))}
     status = cuda.device_array(M, dtype=np.int64)
-    _KERNEL[0][K.blocks(M), K.THREADS](
-        d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
-        cuda.to_device(pack.moff), cuda.to_device(pack.poff), d["fstate"], d["istate"],
-        d["buf"], cuda.device_array(pack.fstate.shape), cuda.device_array(pack.istate.shape,
-                                                                          dtype=np.int64),
-        float(target), status)
+    launch(kernel, pack.members[0], K.blocks(M), K.THREADS,
+           d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
+           cuda.to_device(pack.moff), cuda.to_device(pack.poff), cuda.to_device(pack.radius),
+           d["fstate"], d["istate"], d["buf"], cuda.to_device(pack.params),
+           cuda.to_device(pack.qoff), cuda.device_array(pack.fstate.shape),
+           cuda.device_array(pack.istate.shape, dtype=np.int64), float(target), status)
     for name, arr in d.items():  # in place: the members' states view these arrays
         getattr(pack, name)[:] = arr.copy_to_host()
     return pack.finish(status.copy_to_host(), t)

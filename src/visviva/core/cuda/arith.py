@@ -72,8 +72,10 @@ def member_accelerations(x, gm, massive, mlo, mhi, lo, hi, soft2, acc):
         acc[i, 2] = az
 
 
-def member_dkd(x, v, gm, massive, mlo, mhi, lo, hi, soft2, acc, h):
-    """One drift-kick-drift leapfrog step of length ``h`` (time) of one member, in place.
+def member_dkd(x, v, m, gm, massive, mlo, mhi, lo, hi, soft2, acc, t, h, force, params):
+    """One drift-kick-drift leapfrog step of length ``h`` (time) from time ``t`` of one member,
+    in place; ``force(t, x, v, m, params, acc)`` adds the additional force of the member's
+    particles (their rows of ``x, v, m, acc``) at the middle of the step.
 
     The same operations in the same order as :func:`visviva.core.nbody_leapfrog._dkd`.
     """
@@ -82,6 +84,7 @@ def member_dkd(x, v, gm, massive, mlo, mhi, lo, hi, soft2, acc, h):
         for c in range(3):
             x[i, c] += v[i, c] * half
     _member_acc(x, gm, massive, mlo, mhi, lo, hi, soft2, acc)
+    force(t + half, x[lo:hi], v[lo:hi], m[lo:hi], params, acc[lo:hi])
     for i in range(lo, hi):
         for c in range(3):
             v[i, c] += acc[i, c] * h

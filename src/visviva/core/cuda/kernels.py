@@ -12,25 +12,38 @@ The device functions are the source of :mod:`.arith` compiled with
   pulls are added in the order of ``massive``, as :func:`.arith.particle_acceleration` adds them,
   so the result equals the untiled sum bit for bit; :data:`accelerations_split` is the same
   kernel on IAS15's two-part positions ``x + xlo`` and :func:`tight_pairs` the test that
-  selects it (see :mod:`visviva.nbody.gpu_ias15`);
+  selects it (see :mod:`visviva.nbody.gpu_ias15`); :data:`accelerations_rsqrt` the same tiles
+  with each pull from a reciprocal square root (fewer fp64 instructions, not the same bits:
+  measured beside the default by the benchmarks, used by no simulation yet);
 * :func:`drift`, :func:`kick_drift` - the two halves of a leapfrog step around it, one thread per
   particle (``x += v h/2``; ``v += a h``, ``x += v h/2``, in the CPU kernel's order);
 * :func:`ensemble_leapfrog` - one thread per member of an ensemble: ``nsteps[k]`` full steps of
   the member's internal state, then its output state, with a last shortened step ``rem[k]`` when
-  an output time lies between grid points (as :func:`visviva.core.nbody_leapfrog.leapfrog_run`).
+  an output time lies between grid points (as :func:`visviva.core.nbody_leapfrog.leapfrog_run`);
+  :func:`leapfrog_kernel` builds it for members with an additional force (compiled for the
+  device: :mod:`visviva.nbody.gpu_forces`); a member with collision, encounter or escape checks
+  runs the CPU kernel's check after every step (:func:`visviva.core.nbody_common.check_events`
+  compiled for the device) and stops where it fires, as the CPU kernel stops.
 
 fp64 throughout.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from numba import cuda, float64
+from numba import cuda, float64, uint32
 
+from ..gravity import no_force
+from ..nbody_common import F_DT, F_ENCOUNTER, F_EXIT, F_T0, I_COLLISIONS, I_K, check_events
+from ..status import OK
 from . import arith, simulator
+from .twins import device_twin
 
-__all__ = ["accelerations", "accelerations_split", "tight_pairs", "drift", "kick_drift",
-           "ensemble_leapfrog", "propagate_many", "on_device", "THREADS"]
+__all__ = ["accelerations", "accelerations_split", "accelerations_rsqrt", "tight_pairs", "drift",
+           "kick_drift", "ensemble_leapfrog", "leapfrog_kernel", "propagate_many", "on_device",
+           "THREADS"]
 
 #: Threads per block of every kernel (and the tile length of the direct sum): 128 on a GPU; 16
 #: under numba's CUDA simulator, which runs every thread of a block as a Python thread (a launch
@@ -42,10 +55,40 @@ _pair = _device(arith.pair_acceleration)
 _particle = _device(arith.rebind(arith.particle_acceleration, _pair=_pair))
 _member_acc = _device(arith.rebind(arith.member_accelerations, _particle=_particle))
 _member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
+#: the CPU kernels' collision, encounter and escape check, compiled for the device
+_check_events = device_twin(check_events)
 
 
-def _tiled(split):
-    """The tiled direct-sum kernel; ``split``: the positions are given in two parts."""
+def _rsqrt():
+    """``1 / sqrt(x)`` on the device: libdevice's ``rsqrt`` on a GPU (the hardware's approximate
+    reciprocal square root refined in fp64, within 1 ulp); under the simulator, where device code
+    runs as Python, ``1 / math.sqrt(x)`` (``inf`` at 0, as the device's)."""
+    if simulator():
+        return _device(lambda r2: 1.0 / math.sqrt(r2) if r2 > 0.0 else math.inf)
+    from numba.cuda import libdevice
+
+    return libdevice.rsqrt
+
+
+_inv_sqrt = _rsqrt()
+
+
+@_device
+def _pair_rsqrt(dx, dy, dz, gm, soft2):
+    """:func:`.arith.pair_acceleration` with ``G m / r**3`` formed as ``G m (1/sqrt(r2))**3``:
+    one reciprocal square root instead of a square root and a division, and a select instead
+    of a branch for ``r2 == 0`` (the pull of the particle itself is 0). In the sm_90 machine
+    code of the tiled kernel: 19 fp64 and 49 instructions per pair instead of 31 and 83; each
+    pull within a few ulp of the exact form, not its bits."""
+    r2 = dx * dx + dy * dy + dz * dz + soft2
+    y = _inv_sqrt(r2)
+    s = gm * (y * y * y) if r2 > 0.0 else 0.0
+    return dx * s, dy * s, dz * s
+
+
+def _tiled(split, pair=_pair):
+    """The tiled direct-sum kernel; ``split``: the positions are given in two parts; ``pair``:
+    the device function of one pull."""
 
     def accelerations(x, xlo, gm, massive, soft2, acc):
         tx = cuda.shared.array(THREADS, float64)
@@ -84,7 +127,8 @@ def _tiled(split):
                     lz[lane] = xlo[j, 2]
             cuda.syncthreads()
             if mine:
-                for k in range(min(THREADS, n_massive - base)):
+                for kk in range(min(THREADS, n_massive - base)):
+                    k = uint32(kk)  # unsigned: no wrap-around test for negative indices
                     dx = tx[k] - xi
                     dy = ty[k] - yi
                     dz = tz[k] - zi
@@ -92,7 +136,7 @@ def _tiled(split):
                         dx += lx[k] - lxi
                         dy += ly[k] - lyi
                         dz += lz[k] - lzi
-                    px, py, pz = _pair(dx, dy, dz, tg[k], soft2)
+                    px, py, pz = pair(dx, dy, dz, tg[k], soft2)
                     ax += px
                     ay += py
                     az += pz
@@ -113,6 +157,11 @@ accelerations = _tiled(False)
 #: ``(x_j - x_i) + (xlo_j - xlo_i)``, as :func:`visviva.core.gravity_split.gravity_split` forms
 #: them, so a tight pair far from the origin keeps its relative precision.
 accelerations_split = _tiled(True)
+#: :data:`accelerations` with each pull from a reciprocal square root (:func:`_pair_rsqrt`):
+#: fewer fp64 instructions, results within a few ulp of :data:`accelerations` instead of its
+#: bits. Measured beside it by ``benchmarks/bench_gpu.py`` (section ``direct``); not used by a
+#: simulation until a real GPU shows it faster.
+accelerations_rsqrt = _tiled(False, _pair_rsqrt)
 
 
 @cuda.jit
@@ -159,22 +208,63 @@ def kick_drift(x, v, acc, h, half):
             x[i, c] += v[i, c] * half
 
 
-@cuda.jit
-def ensemble_leapfrog(xi, vi, x, v, gm, massive, moff, poff, soft2, acc, nsteps, h, rem):
-    """Member ``k`` (one thread): ``nsteps[k]`` steps ``h[k]`` of ``xi, vi``, copy to ``x, v``,
-    then one step ``rem[k]`` of ``x, v`` when it is not 0."""
-    k = cuda.grid(1)
-    if k < nsteps.shape[0]:
-        lo = poff[k]
-        hi = poff[k + 1]
-        for _ in range(nsteps[k]):
-            _member_dkd(xi, vi, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, h[k])
-        for i in range(lo, hi):
-            for c in range(3):
-                x[i, c] = xi[i, c]
-                v[i, c] = vi[i, c]
-        if rem[k] != 0.0:
-            _member_dkd(x, v, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc, rem[k])
+def leapfrog_kernel(force):
+    """The kernel :func:`ensemble_leapfrog` whose members add the additional force ``force`` (a
+    device function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`)."""
+
+    @cuda.jit
+    def ensemble_leapfrog(xi, vi, x, v, m, gm, massive, moff, poff, soft2, acc, nsteps, h, rem,
+                          radius, fstate, istate, params, qoff, done, status):
+        """Member ``k`` (one thread): ``nsteps[k]`` steps ``h[k]`` of ``xi, vi``, copy to
+        ``x, v``, then one step ``rem[k]`` of ``x, v`` when it is not 0.
+
+        Each step starts from the member's grid time ``t0 + k |dt|`` (``fstate[k]``,
+        ``istate[k]``; the force is evaluated at its middle, with the member's parameters
+        ``params[qoff[k]:qoff[k + 1]]``). With the member's collision, encounter or escape
+        checks on (``istate[k]``, ``fstate[k]``, ``radius``) every step is followed by the CPU
+        kernel's check (:func:`visviva.core.nbody_common.check_events`, compiled for the
+        device); a check that fires stops the member there, as
+        :func:`visviva.core.nbody_leapfrog.leapfrog_run` stops: its internal state copied to
+        ``x, v``, the particles in ``istate[k, I_EVENT_A/B]``, no output step. ``done[k]`` is
+        the number of steps taken, ``status[k]`` the status code.
+        """
+        k = cuda.grid(1)
+        if k < nsteps.shape[0]:
+            lo = poff[k]
+            hi = poff[k + 1]
+            fs = fstate[k]
+            ist = istate[k]
+            p = params[qoff[k]:qoff[k + 1]]
+            events = ist[I_COLLISIONS] != 0 or fs[F_ENCOUNTER] > 0.0 or fs[F_EXIT] > 0.0
+            adt = abs(fs[F_DT])
+            sign = 1 if h[k] > 0.0 else -1
+            status[k] = OK
+            done[k] = 0
+            for j in range(nsteps[k]):
+                t_grid = fs[F_T0] + (ist[I_K] + sign * j) * adt  # the CPU kernel's clock
+                _member_dkd(xi, vi, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                            t_grid, h[k], force, p)
+                done[k] += 1
+                if events:
+                    st = _check_events(xi[lo:hi], vi[lo:hi], radius[lo:hi], fs, ist)
+                    if st != OK:
+                        status[k] = st
+                        break
+            for i in range(lo, hi):
+                for c in range(3):
+                    x[i, c] = xi[i, c]
+                    v[i, c] = vi[i, c]
+            if rem[k] != 0.0 and status[k] == OK:
+                t_grid = fs[F_T0] + (ist[I_K] + sign * done[k]) * adt
+                _member_dkd(x, v, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                            t_grid, rem[k], force, p)
+
+    return ensemble_leapfrog
+
+
+#: ``ensemble_leapfrog[blocks, THREADS](...)``: :func:`leapfrog_kernel` of members with gravity
+#: only (the no-op force)
+ensemble_leapfrog = leapfrog_kernel(device_twin(no_force))
 
 
 def blocks(n: int) -> int:

@@ -1,0 +1,87 @@
+"""Leapfrog ensembles on the GPU: the host side of :func:`visviva.core.cuda.kernels.ensemble_leapfrog`.
+
+The packed members (:class:`visviva.nbody.ensemble_pack.Pack`) are planned on the host with the
+CPU kernel's expressions (:func:`visviva.nbody.gpu_plan.plan_many`: the step grid, the time
+origin, the shortened last step of the output copy), then one GPU thread per member takes the
+steps, with the members' additional force compiled for the device
+(:mod:`visviva.nbody.gpu_forces`; the members of one call share their force functions, each
+with its own parameters). A member with collision, encounter or escape checks is checked after
+every step with the
+CPU kernel's own check compiled for the device; where a check fires the member stops as
+:func:`visviva.core.nbody_leapfrog.leapfrog_run` stops (its internal state is the output, the
+time is its grid point, the internal state is marked invalid, the event's particles are in
+``istate``), and the kernel returns the steps it took, so that the clock and counters here are
+the CPU kernel's. :meth:`~visviva.nbody.ensemble_pack.Pack.finish` then finishes such a member
+as the CPU ensemble does (a merger or bounce resolved and the member continued alone; a halt,
+encounter or escape raised for that member); the other members run on undisturbed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import nbody_common as _nc
+from ..core import status as _st
+from .gpu_forces import kernel_for, launch
+from .gpu_plan import plan_many
+
+__all__ = ["run"]
+
+# slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
+_XI, _VI = 1, 2
+
+
+def run(pack, target: float, t) -> list:
+    """Advance the packed leapfrog members of ``pack`` to ``target`` (simulation units; ``t`` as
+    the user gave it) on the GPU, one thread per member; returns ``[(index, exception), ...]``
+    (members stopped by an event, or with non-finite numbers, finished as a lone run would be).
+    """
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+
+    fs, ist = pack.fstate, pack.istate
+    n, h, rem, t_final, restart = plan_many(fs, ist, target)
+    xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
+    fresh = restart[pack.member_of]
+    pack.buf[xi_at[fresh]] = pack.x[fresh]
+    pack.buf[vi_at[fresh]] = pack.v[fresh]
+    M = len(pack.members)
+    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
+        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v),
+        ("istate", ist))}
+    done = cuda.device_array(M, dtype=np.int64)
+    status = cuda.device_array(M, dtype=np.int64)
+    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
+    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
+    first = pack.members[0]
+    kernel = K.ensemble_leapfrog if not first.forces else kernel_for(
+        "leapfrog", first, K.leapfrog_kernel)
+    launch(kernel, first, K.blocks(M), K.THREADS,
+           d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(gm),
+           cuda.to_device(massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
+           cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
+           cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
+           cuda.to_device(rem), cuda.to_device(pack.radius), cuda.to_device(fs), d["istate"],
+           cuda.to_device(pack.params), cuda.to_device(pack.qoff), done, status)
+    pack.buf[xi_at] = d["xi"].copy_to_host()
+    pack.buf[vi_at] = d["vi"].copy_to_host()
+    pack.x[:] = d["x"].copy_to_host()
+    pack.v[:] = d["v"].copy_to_host()
+    ist[:] = d["istate"].copy_to_host()  # the event's particles (I_EVENT_A, I_EVENT_B)
+    done = done.copy_to_host()
+    status = status.copy_to_host()
+    # the clock and counters as the CPU kernel leaves them (nbody_leapfrog._leapfrog)
+    ist[:, _nc.I_K] += np.where(h > 0.0, done, -done)
+    ist[:, _nc.I_STEPS] += done
+    fs[done != 0, _nc.F_DT_LAST] = h[done != 0]
+    stopped = status != _st.OK
+    at_event = fs[:, _nc.F_T0] + ist[:, _nc.I_K] * np.abs(fs[:, _nc.F_DT])
+    fs[:, _nc.F_T] = np.where(stopped, at_event, t_final)
+    ist[stopped, _nc.I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
+    finite = np.isfinite(pack.x).all(axis=1) & np.isfinite(pack.v).all(axis=1)
+    bad = ~np.logical_and.reduceat(finite, pack.poff[:-1]) & ~stopped
+    status[bad] = _st.NON_FINITE  # overflow or a singular force, as the CPU kernel reports it
+    ist[bad, _nc.I_INT_VALID] = 0
+    ist[status == _st.OK, _nc.I_NOUT] = 1
+    return pack.finish(status, t)

@@ -33,6 +33,8 @@ def _check(out, tolerance, bits):
         assert out[f"{key}_t_equal"] == "True" if bits else float(out[f"{key}_t_diff"]) < 1e-12
     for key in ("dh", "corr3", "corr7"):
         assert out[f"{key}_raised"] == "[]", key
+    # through the pack (Ensemble.integrate's fast path), and member by member the same bits
+    assert out["dh_packed"] == "True" and out["each_bits_vs_packed"] == "True"
     # member 1 escapes (raised at both calls, as by the CPU ensemble, which names member 7
     # too: its encounter), member 3 merges its two bodies into one and member 5 keeps its four,
     # the others reach the times; each member equals its lone CPU run (the escape and the

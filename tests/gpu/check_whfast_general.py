@@ -13,8 +13,8 @@ import tempfile
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
+from check_whfast_ensemble import each_vs_packed, rel  # noqa: E402
 from check_whfast_ensemble import member as plain_member  # noqa: E402
-from check_whfast_ensemble import rel  # noqa: E402
 
 import visviva as vv  # noqa: E402
 
@@ -85,6 +85,8 @@ def main():
     cpu, gpu = both(dh, times, "dh")
     continue_on(gpu, cpu, "cpu", 0.25, "dh_restart")  # saved on the GPU, continued on the CPU
     continue_on(cpu, gpu, "cuda", 0.3, "dh_to_gpu")  # and the other way
+    print(f"dh_packed={gpu._pack is not None!r}")  # the fast path of Ensemble.integrate
+    each_vs_packed(dh, (0.113, 0.2))  # the member-by-member GPU path: the same bits
     for order in (3, 7):
         both([member(k, corrector=order) for k in range(5)], times, f"corr{order}")
     # events: an escape (member 1), a merger (member 3), the others run on; democratic

@@ -278,8 +278,14 @@ def euler_angles_313(R):
 
     Notes
     -----
-    theta = atan2(sqrt(R20^2 + R21^2), R22), phi = atan2(R02, -R12), psi = atan2(R20, R21); the
-    atan2 forms keep full accuracy near theta = 0 and pi, where arccos(R22) loses half the digits.
+    theta = atan2(sqrt(R20^2 + R21^2), R22) keeps full accuracy near 0 and pi, where arccos(R22)
+    loses half the digits; phi = atan2(R02, -R12). psi comes from the upper 2x2 block:
+    psi = (phi + psi) - phi with phi + psi = atan2(R10 - R01, R00 + R11) for theta <= pi/2, and
+    psi = phi - (phi - psi) with phi - psi = atan2(R10 + R01, R00 - R11) beyond. Near gimbal lock
+    phi carries an error of about eps / sin(theta) from a rounded R, but it moves the elements
+    of size sin(theta) by only eps, and the block, which holds the sum (or difference), stays
+    exact: the round trip keeps R to rounding at every theta (psi = atan2(R20, R21) alone would
+    not: the block would then carry both angles' errors, up to 1e-8 at theta = 1e-8).
     """
     ins = Inputs()
     R = ins.get(R, "one", "R")
@@ -293,11 +299,16 @@ def euler_angles_313(R):
         )
     sin_theta = np.hypot(R[..., 2, 0], R[..., 2, 1])
     theta = np.arctan2(sin_theta, R[..., 2, 2])
-    locked = sin_theta < 1e-12
-    phi = np.where(
-        locked, np.arctan2(R[..., 1, 0], R[..., 0, 0]), np.arctan2(R[..., 0, 2], -R[..., 1, 2])
-    )
-    psi = np.where(locked, 0.0, np.arctan2(R[..., 2, 0], R[..., 2, 1]))
+    # R00 + R11 = (1 + cos theta) cos(phi + psi), R10 - R01 = (1 + cos theta) sin(phi + psi),
+    # R00 - R11 = (1 - cos theta) cos(phi - psi), R10 + R01 = (1 - cos theta) sin(phi - psi):
+    # phi + psi is well conditioned for theta <= pi/2, phi - psi for theta >= pi/2
+    up = R[..., 2, 2] >= 0.0
+    total = np.arctan2(R[..., 1, 0] - R[..., 0, 1], R[..., 0, 0] + R[..., 1, 1])
+    diff = np.arctan2(R[..., 1, 0] + R[..., 0, 1], R[..., 0, 0] - R[..., 1, 1])
+    locked = sin_theta == 0.0  # gimbal lock: only phi + psi (or phi - psi) exists; psi = 0
+    phi = np.where(locked, np.where(up, total, diff), np.arctan2(R[..., 0, 2], -R[..., 1, 2]))
+    psi = np.where(up, total - phi, phi - diff)
+    psi = np.where(psi > np.pi, psi - 2.0 * np.pi, np.where(psi <= -np.pi, psi + 2.0 * np.pi, psi))
     return phi[()], theta[()], psi[()]
 
 

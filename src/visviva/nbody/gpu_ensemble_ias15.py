@@ -47,9 +47,7 @@ def run(pack, target: float, t) -> list:
 
     kernel = kernel_for("ias15", pack.members[0], I.build)
     M = len(pack.members)
-    d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("x", pack.x), ("v", pack.v), ("fstate", pack.fstate), ("istate", pack.istate),
-        ("buf", pack.buf))}
+    d = pack.to_device(("x", "v", "fstate", "istate", "buf"))
     status = cuda.device_array(M, dtype=np.int64)
     launch(kernel, pack.members[0], K.blocks(M), K.THREADS,
            d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(pack.massive),
@@ -57,6 +55,5 @@ def run(pack, target: float, t) -> list:
            d["fstate"], d["istate"], d["buf"], cuda.to_device(pack.params),
            cuda.to_device(pack.qoff), cuda.device_array(pack.fstate.shape),
            cuda.device_array(pack.istate.shape, dtype=np.int64), float(target), status)
-    for name, arr in d.items():  # in place: the members' states view these arrays
-        getattr(pack, name)[:] = arr.copy_to_host()
+    pack.from_device(d)  # in place: the members' states view these arrays
     return pack.finish(status.copy_to_host(), t)

@@ -107,13 +107,11 @@ def _extras(sim) -> bool:
 
 #: Integrators whose GPU ensembles run additional forces and the collision, encounter and
 #: escape checks.
-EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "ias15")
+EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "whfast", "ias15")
 
 
 def _check_supported(sim, ensemble: bool) -> None:
-    # WHFast ensembles run the checks, not the forces: its check_member below says so
-    if (ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS
-            and sim.integrator != "whfast"):
+    if ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS:
         raise InvalidInputError(
             "backend='cuda' integrates ensembles with additional forces or collision, "
             f"encounter or escape checks for the {EVENT_ENSEMBLE_INTEGRATORS} integrators "
@@ -121,10 +119,6 @@ def _check_supported(sim, ensemble: bool) -> None:
             "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
-    if ensemble and sim.integrator == "whfast":
-        from .gpu_ensemble_whfast import check_member
-
-        check_member(sim)
     if ensemble and sim.integrator == "ias15":
         from .gpu_ensemble_ias15 import check_member
 
@@ -298,7 +292,7 @@ def integrate_pack(pack, t):
     integrator = pack.members[0].integrator
     if integrator not in GPU_ENSEMBLE_INTEGRATORS:
         return None
-    if integrator not in EVENT_ENSEMBLE_INTEGRATORS + ("whfast",) and (
+    if integrator not in EVENT_ENSEMBLE_INTEGRATORS and (
             not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
             or np.any(fs[:, _nc.F_EXIT] != 0.0)):
         return None

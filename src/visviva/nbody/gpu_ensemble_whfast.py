@@ -25,23 +25,12 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
 from ..core import status as _st
-from ..errors import InvalidInputError
+from .gpu_forces import kernel_for, launch
 from .gpu_plan import count_steps
 
-__all__ = ["plan", "account", "run", "run_general", "check_member"]
+__all__ = ["plan", "account", "run", "run_general"]
 
 _KERNEL: list = []
-_GENERAL: list = []
-
-
-def check_member(sim) -> None:
-    """Raise :class:`~visviva.errors.InvalidInputError` when the WHFast member ``sim`` uses a
-    setting the GPU ensemble kernels do not run: additional forces."""
-    if sim.forces:
-        raise InvalidInputError(
-            "backend='cuda' runs ensembles of WHFast members with gravity only (any "
-            "coordinates, corrector, collision, encounter or escape checks); additional forces "
-            "run on backend='cpu' (or, for one simulation, Simulation(..., backend='cuda')).")
 
 
 def plan(fstate, istate, target: float):
@@ -100,7 +89,8 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import kernels as K
     from ..core.cuda import whfast as W
 
-    if not all(_wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
+    if pack.members[0].forces or not all(
+            _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
         return run_general(pack, target, t)
     if not _KERNEL:
         _KERNEL.append(W.build())
@@ -142,28 +132,31 @@ def account(fstate, istate, n, h, t_final) -> None:
 
 
 def run_general(pack, target: float, t) -> list:
-    """:func:`run` for members in any setting but additional forces (democratic heliocentric
-    coordinates, a symplectic corrector, collision, encounter and escape checks): each GPU
-    thread runs the CPU kernel's own run body (:func:`visviva.core.cuda.whfast.build_general`)
-    on the member's whole state, which goes to the device and back as the CPU kernel leaves it
-    (clock, step counter, internal state, status and ``istate[I_EVENT_A/B]``); a member whose
-    check fired is then finished by :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as in
-    the CPU ensemble (merged and continued, or its Escape/Encounter raised)."""
+    """:func:`run` for members in any setting (democratic heliocentric coordinates, a
+    symplectic corrector, collision, encounter and escape checks, additional forces): each GPU
+    thread runs the CPU kernel's own run body (:func:`visviva.core.cuda.whfast.build_general`,
+    one kernel per set of force functions: :func:`visviva.nbody.gpu_forces.kernel_for`) on the
+    member's whole state and its force's parameters as its lone run passes them; the state goes
+    to the device and back as the CPU kernel leaves it (clock, step counter, internal state,
+    status and ``istate[I_EVENT_A/B]``); a member whose check fired is then finished by
+    :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as in the CPU ensemble (merged and
+    continued, or its Escape/Encounter raised)."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
     from ..core.cuda import whfast as W
 
-    if not _GENERAL:
-        _GENERAL.append(W.build_general())
+    first = pack.members[0]
+    kernel = kernel_for("whfast", first, W.build_general)
     M, P = len(pack.members), len(pack.x)
     state = pack.to_device(("x", "v", "fstate", "istate", "buf"))  # in and out
-    d = {**pack.to_device(("m", "massive", "moff", "radius", "poff")), **state}
+    d = {**pack.to_device(("m", "massive", "moff", "radius", "poff", "params", "qoff")),
+         **state}
     status = cuda.device_array(M, dtype=np.int64)
     out_x, out_v = cuda.device_array(3 * P), cuda.device_array(3 * P)  # the output snapshot
-    _GENERAL[0][K.blocks(M), K.THREADS](
-        *(d[k] for k in ("x", "v", "m", "massive", "moff", "radius", "poff", "fstate", "istate",
-                         "buf")),
-        cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
+    launch(kernel, first, K.blocks(M), K.THREADS,
+           *(d[k] for k in ("x", "v", "m", "massive", "moff", "radius", "poff", "fstate",
+                            "istate", "buf", "params", "qoff")),
+           cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
     pack.from_device(state)
     return pack.finish(status.copy_to_host(), t)

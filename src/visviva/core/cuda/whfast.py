@@ -143,10 +143,12 @@ def build():
     return ensemble_whfast
 
 
-def build_general():
+def build_general(force):
     """Compile (lazily, on first launch) and return :func:`ensemble_whfast_general`: every
     member through the CPU kernel's own run body, :func:`visviva.core.nbody_whfast._whfast`,
-    compiled for the device (see the module notes)."""
+    compiled for the device, its members adding the additional force ``force`` (a device
+    function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op
+    force for gravity only; see the module notes)."""
     from .. import gravity, nbody_common
     from .. import nbody_whfast as W
     from ..nbody_common import F_G, F_SOFT2
@@ -160,14 +162,10 @@ def build_general():
         rows(x, m, G, soft2, massive, acc)
 
     @cuda.jit(device=True)
-    def accelerations(t, x, v, m, massive, fstate, gwork, force, params, acc, parallel):
-        # nbody_common.accelerations of the few-body kernel, gravity only
+    def accelerations(t, x, v, m, massive, fstate, gwork, unused, params, acc, parallel):
+        # nbody_common.accelerations of the few-body kernel
         rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
-
-    @cuda.jit(device=True)
-    def no_force(t, x, v, m, params, acc):
-        # gravity.no_force: the additional force of a member without one
-        pass
+        force(t, x, v, m, params, acc)
 
     run = device_twin(W._whfast, {gravity.gravity: gravity_few,
                                   nbody_common.accelerations: accelerations})
@@ -175,11 +173,12 @@ def build_general():
 
     @cuda.jit
     def ensemble_whfast_general(x, v, m, massive, moff, radius, poff, fstate, istate, buf,
-                                t_out, out_t, out_x, out_v, status):
+                                params, qoff, t_out, out_t, out_x, out_v, status):
         """Member ``k`` (one thread) through the output times ``t_out``; ``status[k]`` its code.
 
         The arrays of :func:`visviva.core.nbody_ensemble.ensemble_run` (``buf`` and ``out_x``,
-        ``out_v`` flat, member after member; ``out_t`` one row per member), less the force.
+        ``out_v`` flat, member after member; ``out_t`` one row per member; ``params`` the
+        force's parameters of every member, ``qoff`` their offsets).
         """
         k = cuda.grid(1)
         if k >= fstate.shape[0]:
@@ -189,11 +188,11 @@ def build_general():
         n = hi - lo
         T = t_out.shape[0]
         X = x[lo:hi]
-        M = m[lo:hi]
         status[k] = run(
-            X, v[lo:hi], M, massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k], istate[k],
-            buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, no_force, M, t_out,
-            out_t[k], out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
+            X, v[lo:hi], m[lo:hi], massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k],
+            istate[k], buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, force,
+            params[qoff[k]:qoff[k + 1]], t_out, out_t[k],
+            out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
             out_v[3 * T * lo:3 * T * hi].reshape((T, n, 3)), 0, True)
 
     return ensemble_whfast_general

@@ -65,8 +65,8 @@ FORCES_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_whfast_for
 
 def _check_forces(out, tolerance, bits):
     # seven members: J2 of the star with two J2 values (one kernel call), a user's numba.njit
-    # force fused with J2, democratic heliocentric coordinates with J2 and with the user's
-    # force, the GR potential with the 5th-order corrector, one member without forces; three
+    # force fused with J2, democratic heliocentric coordinates with J2 and with both fused, the
+    # GR potential with the 5th-order corrector, one member without forces; three
     # output times (off the grid, on it, backwards). Each member adds its force's device twin
     # on the parameters its lone run passes: the CPU ensemble's and the lone runs' numbers,
     # steps and times; then saved on the GPU and continued on the CPU, and the other way
@@ -79,9 +79,9 @@ def _check_forces(out, tolerance, bits):
         assert out[key] == "True", key
     assert out["force_t_equal"] == "True" or not bits
     assert int(out["force_steps"]) >= 10
-    # one kernel per set of force functions (J2; J2 and the user's force; the GR potential;
-    # the user's force), whatever the members' coordinates or parameter values
-    assert out["force_kernels"] == "4"
+    # one kernel per set of force functions (J2; J2 and the user's force; the GR potential),
+    # whatever the members' coordinates or parameter values
+    assert out["force_kernels"] == "3"
     # the forces do move the members (relative to the same members without them)
     assert float(out["effect_min"]) > 1e-8 and float(out["effect_none"]) == 0.0
     # a velocity-dependent force: WHFast refuses it as on the CPU, saying what to use

@@ -1,7 +1,7 @@
 """WHFast ensembles whose members have additional forces (J2Force with two J2 values, a user's
 numba.njit force fused with J2, GeneralRelativityPotential with a corrector, democratic
-heliocentric coordinates with J2 and with the user's force, one member without forces) on the
-CUDA backend (a GPU, or numba's simulator when NUMBA_ENABLE_CUDASIM=1) beside the same ensemble
+heliocentric coordinates with J2 and with J2 and the user's force, one member without forces)
+on the CUDA backend (a GPU, or numba's simulator when NUMBA_ENABLE_CUDASIM=1) beside the same ensemble
 on the CPU and each member run alone; prints ``key=value`` lines (read by
 ``tests/test_nbody_gpu_whfast.py``)."""
 
@@ -25,10 +25,12 @@ TIMES = (0.123, 0.198, 0.15)  # off the grid, on it, backwards (the internal sta
 def forced(k):
     """Member ``k``: 0 and 1 J2 of the star (two J2 values: one kernel call), 2 the user's force
     fused with J2, 3 democratic heliocentric with J2, 4 no force, 5 the GR potential with the
-    5th-order corrector, 6 democratic heliocentric with the user's force."""
+    5th-order corrector, 6 democratic heliocentric with the user's force fused with J2 (its own
+    parameters). Three sets of force functions: three general kernels, each compiled for about
+    a minute on a real GPU (NVVM), so no more than that."""
     sim = member(k, coordinates="democratic_heliocentric" if k in (3, 6) else "jacobi",
                  corrector=5 if k == 5 else 0)
-    if k in (0, 1, 2, 3):
+    if k in (0, 1, 2, 3, 6):
         sim.add_force(J2Force(0, 1e-3 * (1 + 2 * (k == 1)), 0.3))
     if k in (2, 6):
         sim.add_force(swirl, params=[0.5 * (1 + k), 3.0 + k])

@@ -1,8 +1,7 @@
 """WHFast ensembles on the GPU: the host side of :mod:`visviva.core.cuda.whfast`.
 
-Every WHFast member without additional forces runs on the GPU (members with forces are refused
-by :func:`check_member`, through :func:`visviva.nbody.gpu.begin_gpu_run`), one thread per
-member. A pack whose members are all in the plain case of the CPU kernel
+Every WHFast member runs on the GPU, one thread per member. A pack of members without
+additional forces, all in the plain case of the CPU kernel
 (:func:`visviva.core.nbody_whfast.is_plain`: Jacobi coordinates, no symplectic corrector, no
 collisions, encounters or escape radius) runs the plain kernel: :func:`plan` decides on the
 host, for all members at once and with the CPU kernel's expressions, whether a member's
@@ -10,8 +9,11 @@ internal state is still valid or must be built again (the grid origin then moves
 member's current time), how many fused steps it takes and the length of the shortened step of
 its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
 counter, grid index, clock: :func:`account`). Any other pack (democratic heliocentric
-coordinates, a corrector, event checks, in any mix) runs :func:`run_general`: the CPU kernel's
-whole run body on the device, on the members' whole state, bookkeeping included; members whose
+coordinates, a corrector, event checks, additional forces, in any mix) runs
+:func:`run_general`: the CPU kernel's whole run body on the device, on the members' whole
+state, bookkeeping included, with the members' force compiled for the device (the members of
+one pack share their force functions; one kernel per set of them,
+:mod:`visviva.nbody.gpu_forces`) on the parameters each member's lone run passes; members whose
 check fired are finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as in the CPU
 ensemble. Either way the step grid, the time origin and the saved internal state are the CPU
 kernel's: a GPU run can be saved and continued on the CPU, and agrees with the CPU ensemble to

@@ -9,8 +9,8 @@ copy (Kepler ``h/2`` and back to inertial coordinates) and, for an output time b
 points, one shortened drift-kick-drift step of the copy. The host plans the steps with the CPU
 kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
 
-:func:`build_general` returns :func:`ensemble_whfast_general`, every other case but additional
-forces: each thread runs the CPU kernel's run body itself,
+:func:`build_general` returns :func:`ensemble_whfast_general`, every other case (additional
+forces included): each thread runs the CPU kernel's run body itself,
 :func:`visviva.core.nbody_whfast._whfast`, compiled for the device with the member's whole
 state (``fstate``, ``istate``, ``buf``), so democratic heliocentric coordinates (transforms,
 jump, interaction kick), the symplectic correctors (applied when the internal state is built
@@ -19,11 +19,14 @@ and when a synchronised copy is made) and the event path (synchronised steps, th
 CPU's state, clock, status and ``istate[I_EVENT_A/B]``) are the CPU kernel's own code, its
 bookkeeping included. Only the gravity dispatch is swapped (``gravity.gravity`` and
 ``nbody_common.accelerations`` become the plain few-body rows, the bits of the CPU's few-body
-kernels) and the additional force is a device function that adds nothing. The device inlines
+kernels) and the additional force is the members' force compiled for the device (built once
+per set of force functions by :func:`visviva.nbody.gpu_forces.kernel_for`: the run body calls
+it through the CPU's first-class force argument, on each member's parameters
+``params[qoff[k]:qoff[k + 1]]``; the no-op force for gravity only). The device inlines
 the universal-variable Kepler solver at each of the run body's 23 call sites (the corrector's
 maps and the solver's retry in power-of-two units each go through one call site for that
 reason): the PTX is about 6 MB, and the first launch in a process compiles for about a minute
-(NVVM; the plain kernel: 2 MB, 10 s).
+(NVVM; once per set of force functions; the plain kernel: 2 MB, 10 s).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable

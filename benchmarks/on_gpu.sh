@@ -46,7 +46,8 @@ for check in tests/gpu/check_*.py; do
 done
 # the tolerances of the gpu-marked tests, applied to those outputs (pytest among the wheels;
 # check_ensemble_events: events and forces in leapfrog and IAS15 ensembles at 1e-12;
-# check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12)
+# check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12;
+# check_whfast_forces: WHFast ensembles with additional forces at 1e-12)
 if python3 -c "import pytest" 2>/dev/null; then
     VISVIVA_GPU_OUTPUTS=$OUT python3 -m pytest -q -p no:cacheprovider -m gpu -o addopts="" \
         tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py 2>&1 \

@@ -192,19 +192,20 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
         crowd.add(1e-9, r=[5.0 + j, 0.0, 0.0], v=[0.0, 0.4, 0.0])
     with pytest.raises(InvalidInputError, match="fewer than 256 massive.*backend='cpu'"):
         vv.Ensemble.from_simulations([crowd], backend="cuda")
-    # WHFast ensembles: any coordinates, corrector and event checks on the GPU; additional
-    # forces are refused when the ensemble is made or loaded, naming the member
+    # WHFast ensembles: any coordinates, corrector, event checks and position-dependent forces
+    # on the GPU (tests/test_nbody_gpu_whfast.py)
+    forced = planets("whfast")
+    forced.add_force(GeneralRelativityPotential(c=30.0))
     for options in ({}, {"coordinates": "democraticheliocentric"}, {"corrector": 5},
                     {"collision": "merge"}):
-        ens = vv.Ensemble.from_simulations([planets("whfast", **options)] * 2, backend="cuda")
+        ens = vv.Ensemble.from_simulations([planets("whfast", **options), forced],
+                                           backend="cuda")
         assert ens.backend == "cuda"
-    odd = [planets("whfast"), planets("whfast")]
-    odd[1].add_force(GeneralRelativityPotential(c=30.0))
-    with pytest.raises(InvalidInputError, match=r"member 1: .*forces.*backend='cpu'"):
-        vv.Ensemble.from_simulations(odd, backend="cuda")
+    # what is still refused (a member with PAIR_MIN_N massive particles or more) is refused
+    # when the ensemble is loaded too, naming the member and what to do
     path = tmp_path / "e.npz"
-    vv.Ensemble.from_simulations(odd).save(path)
-    with pytest.raises(InvalidInputError, match="backend='cpu'"):
+    vv.Ensemble.from_simulations([planets("ias15"), crowd]).save(path)
+    with pytest.raises(InvalidInputError, match="member 1: .*backend='cpu'"):
         vv.Ensemble.load(path, backend="cuda")
     # (one leapfrog simulation with forces or events runs on the GPU: tests/test_nbody_gpu.py)
     # (an array of output times runs on the GPU: tests/test_nbody_gpu.py)

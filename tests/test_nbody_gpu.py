@@ -165,7 +165,7 @@ def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
     assert out["merge_n"] == "2,2"
     assert out["encounter"] == "Encounter/Encounter" and out["encounter_before"] == "True"
     # what the GPU path does not run is refused with the library's errors
-    assert out["refuse_ensemble_force"] == "InvalidInputError"
+    assert out["refuse_ensemble_crowd"] == "InvalidInputError"
     # an error in the GPU call reaches the caller, the state stays at the last good step
     assert out["broken"] == "device lost" and out["broken_state_kept"] == "True"
 
@@ -263,7 +263,7 @@ def test_every_gpu_kernel_compiles_to_ptx():
     # every kernel the script lists printed a line (a crash would leave names out), the
     # ensembles' kernels with additional forces among them
     assert {"accelerations", "accelerations_rsqrt", "ensemble_leapfrog", "propagate_many",
-            "ensemble_whfast", "ensemble_whfast_general", "ensemble_ias15", "ensemble_leapfrog_forces",
-            "ensemble_ias15_forces"} <= set(out) and len(out) >= 13
+            "ensemble_whfast", "ensemble_whfast_general_forces", "ensemble_ias15",
+            "ensemble_leapfrog_forces", "ensemble_ias15_forces"} <= set(out) and len(out) >= 13
     for kernel, result in out.items():
         assert result == "ok", (kernel, result)

@@ -1,7 +1,7 @@
 """WHFast GPU ensembles beyond the plain case (democratic heliocentric coordinates, symplectic
-correctors, collision/encounter/escape checks) against the CPU ensemble, under numba's CUDA
-simulator in a subprocess (``tests/gpu/check_whfast_general.py``); the same script on a real
-GPU with ``-m gpu``."""
+correctors, collision/encounter/escape checks, additional forces) against the CPU ensemble and
+lone CPU runs, under numba's CUDA simulator in a subprocess (``tests/gpu/check_whfast_general.py``,
+``tests/gpu/check_whfast_forces.py``); the same scripts on a real GPU with ``-m gpu``."""
 
 from __future__ import annotations
 
@@ -60,12 +60,51 @@ def test_whfast_ensembles_in_every_setting_on_a_real_gpu_match_the_cpu():
     _check(_run({"NUMBA_ENABLE_CUDASIM": "0"}, SCRIPT), 1e-12, False)
 
 
-def test_whfast_members_with_forces_are_refused_with_a_clear_error(monkeypatch):
+FORCES_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_whfast_forces.py")
+
+
+def _check_forces(out, tolerance, bits):
+    # seven members: J2 of the star with two J2 values (one kernel call), a user's numba.njit
+    # force fused with J2, democratic heliocentric coordinates with J2 and with both fused, the
+    # GR potential with the 5th-order corrector, one member without forces; three
+    # output times (off the grid, on it, backwards). Each member adds its force's device twin
+    # on the parameters its lone run passes: the CPU ensemble's and the lone runs' numbers,
+    # steps and times; then saved on the GPU and continued on the CPU, and the other way
+    for key in ("force_pos", "force_vel", "force_t", "alone_pos", "alone_vel", "restart_pos",
+                "restart_vel", "restart_t", "to_gpu_pos", "to_gpu_vel", "to_gpu_t"):
+        assert float(out[key]) <= tolerance, (key, out[key])
+    assert float(out["alone_t_diff"]) <= (0.0 if bits else 1e-12)
+    for key in ("force_steps_equal", "force_n_equal", "alone_steps_equal",
+                "restart_steps_equal", "to_gpu_steps_equal"):
+        assert out[key] == "True", key
+    assert out["force_t_equal"] == "True" or not bits
+    assert int(out["force_steps"]) >= 10
+    # one kernel per set of force functions (J2; J2 and the user's force; the GR potential),
+    # whatever the members' coordinates or parameter values
+    assert out["force_kernels"] == "3"
+    # the forces do move the members (relative to the same members without them)
+    assert float(out["effect_min"]) > 1e-8 and float(out["effect_none"]) == 0.0
+    # a velocity-dependent force: WHFast refuses it as on the CPU, saying what to use
+    assert out["velocity_refused"].startswith("InvalidInputError: ")
+    assert "integrator='ias15'" in out["velocity_refused"]
+
+
+def test_whfast_ensembles_with_forces_on_the_cuda_simulator_match_the_cpu():
+    _check_forces(_run({"NUMBA_ENABLE_CUDASIM": "1"}, FORCES_SCRIPT), 0.0, True)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
+def test_whfast_ensembles_with_forces_on_a_real_gpu_match_the_cpu():
+    _check_forces(_run({"NUMBA_ENABLE_CUDASIM": "0"}, FORCES_SCRIPT), 1e-12, False)
+
+
+def test_whfast_members_with_forces_are_accepted_and_velocity_forces_refused(monkeypatch):
     # the check backend="cuda" makes for every member (no GPU needed: the simulator's switch
     # makes the backend available to it, nothing is compiled or launched)
     pytest.importorskip("numba_cuda")
     monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "1")
-    from visviva.nbody import J2Force
+    from visviva.nbody import GeneralRelativity, J2Force
     from visviva.nbody.gpu import check_ensemble
 
     sim = vv.Simulation("whfast", dt=0.01, coordinates="democratic_heliocentric")
@@ -75,8 +114,7 @@ def test_whfast_members_with_forces_are_refused_with_a_clear_error(monkeypatch):
     sim.corrector = 0
     events = sim.copy()
     events.collision = "merge"
-    check_ensemble([sim, events])  # any coordinates, corrector, events: accepted
     sim.add_force(J2Force(0, 1e-3, 0.01))
-    with pytest.raises(InvalidInputError, match="member 1: .*additional forces run on "
-                                                "backend='cpu'"):
-        check_ensemble([events, sim])
+    check_ensemble([sim, events])  # any coordinates, corrector, events, forces: accepted
+    with pytest.raises(InvalidInputError, match="depends on velocities.*integrator='ias15'"):
+        sim.add_force(GeneralRelativity(0, c=30.0))  # as on the CPU

@@ -49,8 +49,8 @@ class Ensemble:
         The members (taken over, not copied: use :meth:`from_simulations`).
     backend : str
         ``"cpu"`` (numba threads over the members) or ``"cuda"`` (one GPU thread per member;
-        leapfrog, IAS15, and WHFast in any coordinates, with or without a corrector and event
-        checks; see :mod:`visviva.nbody.gpu`).
+        leapfrog, IAS15, and WHFast in any coordinates, with or without a corrector, event
+        checks and additional forces; see :mod:`visviva.nbody.gpu`).
 
     Examples
     --------

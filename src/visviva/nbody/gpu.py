@@ -12,11 +12,12 @@ What runs on the GPU today:
   coordinates) and every gravity evaluation is the tiled direct sum on the GPU, handed to the
   kernel through its additional-force argument (:mod:`visviva.nbody.gpu_ias15`, with IAS15's
   two-part positions for tight pairs; :mod:`visviva.nbody.gpu_whfast`).
-* WHFast ensembles without additional forces (Jacobi or democratic heliocentric coordinates,
-  symplectic correctors, collision, encounter and escape checks): one thread per member runs
-  the CPU kernel's own functions compiled for the device (:mod:`visviva.core.cuda.whfast`; in
-  the plain case planned on the host, otherwise the CPU's whole run body on the member's
-  state, :mod:`visviva.nbody.gpu_ensemble_whfast`);
+* WHFast ensembles (Jacobi or democratic heliocentric coordinates, symplectic correctors,
+  collision, encounter and escape checks, position-dependent additional forces): one thread per
+  member runs the CPU kernel's own functions compiled for the device
+  (:mod:`visviva.core.cuda.whfast`; in the plain case without forces planned on the host,
+  otherwise the CPU's whole run body on the member's state,
+  :mod:`visviva.nbody.gpu_ensemble_whfast`);
 * IAS15 ensembles (fewer than ``PAIR_MIN_N`` massive particles per member):
   one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
@@ -27,7 +28,8 @@ What runs on the GPU today:
   compiled for the device); a member whose check fires stops as the CPU kernel stops and is
   finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU (a merger or bounce
   resolved and the member continued alone; a halt, encounter or escape raised for it), the
-  others run on; and additional forces in leapfrog and IAS15 ensembles, each force function
+  others run on (WHFast: the CPU's run body on the device); and additional forces in leapfrog,
+  IAS15 and WHFast ensembles, each force function
   compiled for the device from its own source (:mod:`visviva.nbody.gpu_forces`), one kernel
   call per set of force functions, each member on its own parameters.
 
@@ -50,8 +52,8 @@ IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gra
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
-GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member,
-additional forces in WHFast ensembles, arrays of output times for ensembles; these
+GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, arrays
+of output times for ensembles; these
 raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
 times) saying to use ``backend="cpu"``.
 """
@@ -107,13 +109,11 @@ def _extras(sim) -> bool:
 
 #: Integrators whose GPU ensembles run additional forces and the collision, encounter and
 #: escape checks.
-EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "ias15")
+EVENT_ENSEMBLE_INTEGRATORS = ("leapfrog", "whfast", "ias15")
 
 
 def _check_supported(sim, ensemble: bool) -> None:
-    # WHFast ensembles run the checks, not the forces: its check_member below says so
-    if (ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS
-            and sim.integrator != "whfast"):
+    if ensemble and _extras(sim) and sim.integrator not in EVENT_ENSEMBLE_INTEGRATORS:
         raise InvalidInputError(
             "backend='cuda' integrates ensembles with additional forces or collision, "
             f"encounter or escape checks for the {EVENT_ENSEMBLE_INTEGRATORS} integrators "
@@ -121,10 +121,6 @@ def _check_supported(sim, ensemble: bool) -> None:
             "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
-    if ensemble and sim.integrator == "whfast":
-        from .gpu_ensemble_whfast import check_member
-
-        check_member(sim)
     if ensemble and sim.integrator == "ias15":
         from .gpu_ensemble_ias15 import check_member
 
@@ -298,7 +294,7 @@ def integrate_pack(pack, t):
     integrator = pack.members[0].integrator
     if integrator not in GPU_ENSEMBLE_INTEGRATORS:
         return None
-    if integrator not in EVENT_ENSEMBLE_INTEGRATORS + ("whfast",) and (
+    if integrator not in EVENT_ENSEMBLE_INTEGRATORS and (
             not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
             or np.any(fs[:, _nc.F_EXIT] != 0.0)):
         return None

@@ -1,8 +1,7 @@
 """WHFast ensembles on the GPU: the host side of :mod:`visviva.core.cuda.whfast`.
 
-Every WHFast member without additional forces runs on the GPU (members with forces are refused
-by :func:`check_member`, through :func:`visviva.nbody.gpu.begin_gpu_run`), one thread per
-member. A pack whose members are all in the plain case of the CPU kernel
+Every WHFast member runs on the GPU, one thread per member. A pack of members without
+additional forces, all in the plain case of the CPU kernel
 (:func:`visviva.core.nbody_whfast.is_plain`: Jacobi coordinates, no symplectic corrector, no
 collisions, encounters or escape radius) runs the plain kernel: :func:`plan` decides on the
 host, for all members at once and with the CPU kernel's expressions, whether a member's
@@ -10,8 +9,11 @@ internal state is still valid or must be built again (the grid origin then moves
 member's current time), how many fused steps it takes and the length of the shortened step of
 its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
 counter, grid index, clock: :func:`account`). Any other pack (democratic heliocentric
-coordinates, a corrector, event checks, in any mix) runs :func:`run_general`: the CPU kernel's
-whole run body on the device, on the members' whole state, bookkeeping included; members whose
+coordinates, a corrector, event checks, additional forces, in any mix) runs
+:func:`run_general`: the CPU kernel's whole run body on the device, on the members' whole
+state, bookkeeping included, with the members' force compiled for the device (the members of
+one pack share their force functions; one kernel per set of them,
+:mod:`visviva.nbody.gpu_forces`) on the parameters each member's lone run passes; members whose
 check fired are finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as in the CPU
 ensemble. Either way the step grid, the time origin and the saved internal state are the CPU
 kernel's: a GPU run can be saved and continued on the CPU, and agrees with the CPU ensemble to
@@ -25,23 +27,12 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
 from ..core import status as _st
-from ..errors import InvalidInputError
+from .gpu_forces import kernel_for, launch
 from .gpu_plan import count_steps
 
-__all__ = ["plan", "account", "run", "run_general", "check_member"]
+__all__ = ["plan", "account", "run", "run_general"]
 
 _KERNEL: list = []
-_GENERAL: list = []
-
-
-def check_member(sim) -> None:
-    """Raise :class:`~visviva.errors.InvalidInputError` when the WHFast member ``sim`` uses a
-    setting the GPU ensemble kernels do not run: additional forces."""
-    if sim.forces:
-        raise InvalidInputError(
-            "backend='cuda' runs ensembles of WHFast members with gravity only (any "
-            "coordinates, corrector, collision, encounter or escape checks); additional forces "
-            "run on backend='cpu' (or, for one simulation, Simulation(..., backend='cuda')).")
 
 
 def plan(fstate, istate, target: float):
@@ -100,7 +91,8 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import kernels as K
     from ..core.cuda import whfast as W
 
-    if not all(_wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
+    if pack.members[0].forces or not all(
+            _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
         return run_general(pack, target, t)
     if not _KERNEL:
         _KERNEL.append(W.build())
@@ -142,28 +134,31 @@ def account(fstate, istate, n, h, t_final) -> None:
 
 
 def run_general(pack, target: float, t) -> list:
-    """:func:`run` for members in any setting but additional forces (democratic heliocentric
-    coordinates, a symplectic corrector, collision, encounter and escape checks): each GPU
-    thread runs the CPU kernel's own run body (:func:`visviva.core.cuda.whfast.build_general`)
-    on the member's whole state, which goes to the device and back as the CPU kernel leaves it
-    (clock, step counter, internal state, status and ``istate[I_EVENT_A/B]``); a member whose
-    check fired is then finished by :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as in
-    the CPU ensemble (merged and continued, or its Escape/Encounter raised)."""
+    """:func:`run` for members in any setting (democratic heliocentric coordinates, a
+    symplectic corrector, collision, encounter and escape checks, additional forces): each GPU
+    thread runs the CPU kernel's own run body (:func:`visviva.core.cuda.whfast.build_general`,
+    one kernel per set of force functions: :func:`visviva.nbody.gpu_forces.kernel_for`) on the
+    member's whole state and its force's parameters as its lone run passes them; the state goes
+    to the device and back as the CPU kernel leaves it (clock, step counter, internal state,
+    status and ``istate[I_EVENT_A/B]``); a member whose check fired is then finished by
+    :meth:`~visviva.nbody.ensemble_pack.Pack.finish` as in the CPU ensemble (merged and
+    continued, or its Escape/Encounter raised)."""
     from numba import cuda
 
     from ..core.cuda import kernels as K
     from ..core.cuda import whfast as W
 
-    if not _GENERAL:
-        _GENERAL.append(W.build_general())
+    first = pack.members[0]
+    kernel = kernel_for("whfast", first, W.build_general)
     M, P = len(pack.members), len(pack.x)
     state = pack.to_device(("x", "v", "fstate", "istate", "buf"))  # in and out
-    d = {**pack.to_device(("m", "massive", "moff", "radius", "poff")), **state}
+    d = {**pack.to_device(("m", "massive", "moff", "radius", "poff", "params", "qoff")),
+         **state}
     status = cuda.device_array(M, dtype=np.int64)
     out_x, out_v = cuda.device_array(3 * P), cuda.device_array(3 * P)  # the output snapshot
-    _GENERAL[0][K.blocks(M), K.THREADS](
-        *(d[k] for k in ("x", "v", "m", "massive", "moff", "radius", "poff", "fstate", "istate",
-                         "buf")),
-        cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
+    launch(kernel, first, K.blocks(M), K.THREADS,
+           *(d[k] for k in ("x", "v", "m", "massive", "moff", "radius", "poff", "fstate",
+                            "istate", "buf", "params", "qoff")),
+           cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
     pack.from_device(state)
     return pack.finish(status.copy_to_host(), t)

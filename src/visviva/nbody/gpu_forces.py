@@ -3,7 +3,8 @@
 A lone run hands its integrator kernel the fused force
 (:func:`visviva.nbody.forces.combine` of its forces' compiled functions) and its parameters;
 the CPU ensemble calls its kernel once per group of members whose forces are the same
-functions, each member with its own parameters. The GPU ensembles do the same: the members of
+functions, each member with its own parameters. The GPU ensembles (leapfrog, IAS15 and WHFast:
+``kernel_for("leapfrog" | "ias15" | "whfast", ...)``) do the same: the members of
 one call share their forces' functions (:func:`visviva.nbody.forces.force_key`), and :func:`device_force` compiles
 each function's own source for the device (:func:`visviva.core.cuda.twins.device_twin`: a
 user's ``numba.njit`` function as well as the built-in :class:`~visviva.nbody.forces.J2Force`,

@@ -9,8 +9,8 @@ copy (Kepler ``h/2`` and back to inertial coordinates) and, for an output time b
 points, one shortened drift-kick-drift step of the copy. The host plans the steps with the CPU
 kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
 
-:func:`build_general` returns :func:`ensemble_whfast_general`, every other case but additional
-forces: each thread runs the CPU kernel's run body itself,
+:func:`build_general` returns :func:`ensemble_whfast_general`, every other case (additional
+forces included): each thread runs the CPU kernel's run body itself,
 :func:`visviva.core.nbody_whfast._whfast`, compiled for the device with the member's whole
 state (``fstate``, ``istate``, ``buf``), so democratic heliocentric coordinates (transforms,
 jump, interaction kick), the symplectic correctors (applied when the internal state is built
@@ -19,11 +19,14 @@ and when a synchronised copy is made) and the event path (synchronised steps, th
 CPU's state, clock, status and ``istate[I_EVENT_A/B]``) are the CPU kernel's own code, its
 bookkeeping included. Only the gravity dispatch is swapped (``gravity.gravity`` and
 ``nbody_common.accelerations`` become the plain few-body rows, the bits of the CPU's few-body
-kernels) and the additional force is a device function that adds nothing. The device inlines
+kernels) and the additional force is the members' force compiled for the device (built once
+per set of force functions by :func:`visviva.nbody.gpu_forces.kernel_for`: the run body calls
+it through the CPU's first-class force argument, on each member's parameters
+``params[qoff[k]:qoff[k + 1]]``; the no-op force for gravity only). The device inlines
 the universal-variable Kepler solver at each of the run body's 23 call sites (the corrector's
 maps and the solver's retry in power-of-two units each go through one call site for that
 reason): the PTX is about 6 MB, and the first launch in a process compiles for about a minute
-(NVVM; the plain kernel: 2 MB, 10 s).
+(NVVM; once per set of force functions; the plain kernel: 2 MB, 10 s).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable
@@ -143,10 +146,12 @@ def build():
     return ensemble_whfast
 
 
-def build_general():
+def build_general(force):
     """Compile (lazily, on first launch) and return :func:`ensemble_whfast_general`: every
     member through the CPU kernel's own run body, :func:`visviva.core.nbody_whfast._whfast`,
-    compiled for the device (see the module notes)."""
+    compiled for the device, its members adding the additional force ``force`` (a device
+    function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op
+    force for gravity only; see the module notes)."""
     from .. import gravity, nbody_common
     from .. import nbody_whfast as W
     from ..nbody_common import F_G, F_SOFT2
@@ -160,14 +165,10 @@ def build_general():
         rows(x, m, G, soft2, massive, acc)
 
     @cuda.jit(device=True)
-    def accelerations(t, x, v, m, massive, fstate, gwork, force, params, acc, parallel):
-        # nbody_common.accelerations of the few-body kernel, gravity only
+    def accelerations(t, x, v, m, massive, fstate, gwork, unused, params, acc, parallel):
+        # nbody_common.accelerations of the few-body kernel
         rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
-
-    @cuda.jit(device=True)
-    def no_force(t, x, v, m, params, acc):
-        # gravity.no_force: the additional force of a member without one
-        pass
+        force(t, x, v, m, params, acc)
 
     run = device_twin(W._whfast, {gravity.gravity: gravity_few,
                                   nbody_common.accelerations: accelerations})
@@ -175,11 +176,12 @@ def build_general():
 
     @cuda.jit
     def ensemble_whfast_general(x, v, m, massive, moff, radius, poff, fstate, istate, buf,
-                                t_out, out_t, out_x, out_v, status):
+                                params, qoff, t_out, out_t, out_x, out_v, status):
         """Member ``k`` (one thread) through the output times ``t_out``; ``status[k]`` its code.
 
         The arrays of :func:`visviva.core.nbody_ensemble.ensemble_run` (``buf`` and ``out_x``,
-        ``out_v`` flat, member after member; ``out_t`` one row per member), less the force.
+        ``out_v`` flat, member after member; ``out_t`` one row per member; ``params`` the
+        force's parameters of every member, ``qoff`` their offsets).
         """
         k = cuda.grid(1)
         if k >= fstate.shape[0]:
@@ -189,11 +191,11 @@ def build_general():
         n = hi - lo
         T = t_out.shape[0]
         X = x[lo:hi]
-        M = m[lo:hi]
         status[k] = run(
-            X, v[lo:hi], M, massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k], istate[k],
-            buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, no_force, M, t_out,
-            out_t[k], out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
+            X, v[lo:hi], m[lo:hi], massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k],
+            istate[k], buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, force,
+            params[qoff[k]:qoff[k + 1]], t_out, out_t[k],
+            out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
             out_v[3 * T * lo:3 * T * hi].reshape((T, n, 3)), 0, True)
 
     return ensemble_whfast_general

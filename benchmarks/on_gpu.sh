@@ -15,7 +15,8 @@
 # lines (tests/gpu/check_*.py, all at once) and exit codes, the gpu-marked tests' verdict on
 # them (pytest-gpu.txt), and one JSON line per benchmark row (rows.jsonl), written as each row
 # is measured.
-# Environment: CHECK_S / BENCH_S (time limits, s), SECTIONS (bench_gpu sections, comma-separated).
+# Environment: CHECK_S / BENCH_S (time limits, s; the defaults, 280 + 260, fit one 10-minute call
+# with the start), SECTIONS (bench_gpu sections, comma-separated).
 set -u
 OUT=${OUT:-gpu-out}
 mkdir -p "$OUT"
@@ -36,7 +37,7 @@ SECONDS=0
 # each is numba compiling), each with its output and exit status in $OUT
 for check in tests/gpu/check_*.py; do
     name=$OUT/$(basename "$check" .py)
-    ( timeout "${CHECK_S:-300}" python3 "$check" > "$name.txt" 2>&1; echo $? > "$name.rc" ) &
+    ( timeout "${CHECK_S:-280}" python3 "$check" > "$name.txt" 2>&1; echo $? > "$name.rc" ) &
 done
 wait
 echo "checks: $SECONDS s"
@@ -54,7 +55,7 @@ if python3 -c "import pytest" 2>/dev/null; then
         | tee "$OUT/pytest-gpu.txt" | tail -15
 fi
 SECONDS=0
-VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-300}" python3 -c "
+VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-260}" python3 -c "
 import sys
 import benchmarks.bench_gpu as b
 print('GPU:', b.gpu_model(), file=sys.stderr)

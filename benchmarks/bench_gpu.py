@@ -127,6 +127,7 @@ def run(quick: bool = False, sections=SECTIONS) -> list[dict]:
     rows = _Rows()
     for name in sections:
         globals()["_" + name.replace("-", "_")](rows, quick)
+    return rows
 
 
 def _cpu_ensemble(rows, quick):

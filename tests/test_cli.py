@@ -276,3 +276,17 @@ def test_energy_histories_share_one_figure_and_reference_is_dashed():
     (spec,) = plot_specs(a)
     assert spec["x"] == "times_yr" and spec["group"] == "energy error against time"
     assert _is_reference("energy_error_rebound") and not _is_reference("energy_error_visviva")
+
+
+def test_bench_gpu_sections_return_their_rows(monkeypatch):
+    # run() must hand its rows to the page writer (it printed them and returned None, so
+    # `python -m benchmarks --only gpu` reported "bench_gpu: failed")
+    sys.path.insert(0, str(ROOT))
+    try:
+        from benchmarks import bench_gpu
+    finally:
+        sys.path.remove(str(ROOT))
+    monkeypatch.setattr(bench_gpu, "_gpu", lambda: ("no GPU here", ""))
+    rows = bench_gpu.run(quick=True, sections=("whfast",))
+    assert isinstance(rows, list) and len(rows) == 1
+    assert rows[0]["name"].startswith("WHFast on the GPU") and "skipped" in rows[0]["notes"]

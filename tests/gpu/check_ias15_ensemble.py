@@ -61,6 +61,70 @@ def main():
             errs.append(f"{type(exc).__name__}: {exc}")
     print(f"min_dt_same_error={errs[0] == errs[1] and errs[0] != 'none'!r}")
     print(f"min_dt_error={errs[1][:80]!r}")
+    alone()
+
+
+def crowd():
+    """A star and 256 light bodies: PAIR_MIN_N massive particles and one more."""
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    for j in range(256):
+        sim.add(1e-9, r=[1.0 + 0.05 * j, 0.0, 0.01 * j], v=[0.0, (1.0 + 0.05 * j) ** -0.5, 0.0])
+    return sim
+
+
+def alone():
+    """Members with ALONE_MIN_MASSIVE massive particles or more run as lone GPU simulations
+    beside the packed ones: on a GPU a real crowd (257 massive particles); under the simulator,
+    which sums 257**2 pairs in Python far too slowly, the limit is lowered so that member 2
+    (five massive particles and a moon) takes that path."""
+    from visviva.core.cuda import simulator
+    from visviva.nbody import gpu, gpu_ensemble_ias15
+
+    if simulator():
+        gpu_ensemble_ias15.ALONE_MIN_MASSIVE = 5
+        members = [member(k) for k in range(4)]
+        big = 2
+    else:
+        members = [member(0), member(1), crowd(), member(3)]
+        big = 2
+    assert [gpu_ensemble_ias15.runs_alone(s) for s in members] == [k == big for k in range(4)]
+    ens = vv.Ensemble.from_simulations(members, backend="cuda")
+    cpu = vv.Ensemble.from_simulations(members)
+    lone_gpu = members[big].copy()
+    lone_gpu.backend = "cuda"
+    lone_cpu = members[big].copy()
+    alone_runs = []
+    run_alone = gpu.integrate_simulation
+
+    def counted(sim, t, progress=False):  # the ensemble's lone runs (lone_gpu's are not)
+        alone_runs.append(sim.N)
+        return run_alone(sim, t, progress)
+
+    gpu.integrate_simulation = counted
+    for t in (0.1, 0.25, 0.2):  # the fast path's pack sends the call to the per-member path
+        ens.integrate(t)
+        gpu.integrate_simulation = run_alone
+        cpu.integrate(t)
+        lone_gpu.integrate(t)
+        gpu.integrate_simulation = counted
+        lone_cpu.integrate(t)
+    gpu.integrate_simulation = run_alone
+    small = [k for k in range(4) if k != big]
+    print(f"alone_runs={len(alone_runs)!r},{set(alone_runs) == {members[big].N}!r}")
+    print(f"alone_flags={[gpu_ensemble_ias15.runs_alone(s) for s in ens]!r}")
+    print(f"alone_bits_vs_lone_gpu={same_state(ens[big], lone_gpu)!r}")
+    print(f"alone_pos={rel(ens[big].positions, lone_cpu.positions)!r}")
+    print(f"alone_vel={rel(ens[big].velocities, lone_cpu.velocities)!r}")
+    print(f"alone_t={ens[big].t!r},{lone_cpu.t!r}")
+    print(f"alone_steps={ens[big].steps_done!r},{lone_cpu.steps_done!r}")
+    print(f"alone_others_pos={max(rel(ens[k].positions, cpu[k].positions) for k in small)!r}")
+    print(f"alone_others_bits={all(same_state(ens[k], cpu[k]) for k in small)!r}")
+
+
+def same_state(a, b):
+    return bool(np.array_equal(a.positions, b.positions)
+                and np.array_equal(a.velocities, b.velocities) and a.t == b.t)
 
 
 if __name__ == "__main__":

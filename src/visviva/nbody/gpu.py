@@ -18,11 +18,12 @@ What runs on the GPU today:
   (:mod:`visviva.core.cuda.whfast`; in the plain case without forces planned on the host,
   otherwise the CPU's whole run body on the member's state,
   :mod:`visviva.nbody.gpu_ensemble_whfast`);
-* IAS15 ensembles (fewer than ``PAIR_MIN_N`` massive particles per member):
-  one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
+* IAS15 ensembles: one thread per member runs IAS15's own step (predictor-corrector, step control, compensated
   summation, two-part positions for tight pairs, the shortened copy to an output time) compiled
   for the device from the CPU source (:mod:`visviva.core.cuda.ias15`,
   :mod:`visviva.nbody.gpu_ensemble_ias15`); the members' whole state goes to the device and back.
+  A member with ``PAIR_MIN_N`` (256) massive particles or more runs as its own GPU simulation
+  (its gravity tiled over the GPU, as above), with its lone run's result.
 * collision, encounter and escape checks in leapfrog and IAS15 ensembles: after every step the
   member's thread runs the CPU kernel's own check (:func:`visviva.core.nbody_common.check_events`
   compiled for the device); a member whose check fires stops as the CPU kernel stops and is
@@ -52,10 +53,8 @@ IAS15 and WHFast take additional forces (evaluated on the CPU, after the GPU gra
 kernel adds them) and the collision, encounter and escape checks (on the CPU after each step;
 mergers and bounces rebuild the GPU arrays); so does a leapfrog simulation, which then runs its
 CPU kernel with the gravity on the GPU (:func:`visviva.nbody.gpu_force.every_call`). Not on the
-GPU (yet): IAS15 ensembles with ``PAIR_MIN_N`` massive particles or more in a member, arrays
-of output times for ensembles; these
-raise :class:`visviva.errors.InvalidInputError` (:class:`visviva.errors.ShapeError` for the
-times) saying to use ``backend="cpu"``.
+GPU (yet): arrays of output times for ensembles (:class:`visviva.errors.ShapeError`, as on the
+CPU: an ensemble integrates to one time per call).
 """
 
 from __future__ import annotations
@@ -121,10 +120,6 @@ def _check_supported(sim, ensemble: bool) -> None:
             "Simulation(..., backend='cuda'))."
         )
     check_backend("cuda", sim.integrator, ensemble)
-    if ensemble and sim.integrator == "ias15":
-        from .gpu_ensemble_ias15 import check_member
-
-        check_member(sim)
 
 
 def check_ensemble(members) -> None:
@@ -252,16 +247,19 @@ def integrate_ensemble(members, t) -> list:
 def _packed_each(members, t) -> list:
     """:func:`integrate_ensemble`: each member checked as a lone run, then the members that may
     run packed together (one pack per output time in simulation units and set of additional
-    force functions)."""
+    force functions); an IAS15 member with ``PAIR_MIN_N`` massive particles or more runs as
+    its own GPU simulation (:func:`integrate_simulation`, the same as its lone run)."""
     from .ensemble_pack import Pack
+    from .forces import force_key
+    from .gpu_ensemble_ias15 import runs_alone
 
     run = _pack_runner(members[0].integrator)
-
-    from .forces import force_key
-
     errors, groups = [], {}
     for k, sim in enumerate(members):
         try:
+            if sim.integrator == "ias15" and runs_alone(sim):
+                integrate_simulation(sim, t)  # a large member: its lone GPU run
+                continue
             target, _ = begin_gpu_run(sim, t, ensemble=True)
         except Exception as exc:
             errors.append((k, exc))
@@ -298,6 +296,11 @@ def integrate_pack(pack, t):
             not pack.collision_off or np.any(fs[:, _nc.F_ENCOUNTER] != 0.0)
             or np.any(fs[:, _nc.F_EXIT] != 0.0)):
         return None
+    if integrator == "ias15":
+        from .gpu_ensemble_ias15 import any_alone
+
+        if any_alone(pack.moff):  # a large member runs alone: the per-member path
+            return None
     target = pack.target(t)
     if target is None:
         return None

@@ -11,6 +11,9 @@ positions and velocities, the compensated-summation terms, the predictor's ``b``
 to the device and back as the CPU kernel leaves it, so a GPU run can be saved and continued on
 the CPU, and a member's status (a step below the floor, non-finite numbers) is finished by
 :meth:`visviva.nbody.ensemble_pack.Pack.finish` as on the CPU, raising the same exception.
+A member with :data:`ALONE_MIN_MASSIVE` massive particles or more runs as its own GPU
+simulation instead (:func:`visviva.nbody.gpu.integrate_ensemble`), with the result of its lone
+``backend="cuda"`` run.
 """
 
 from __future__ import annotations
@@ -18,21 +21,27 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.gravity import PAIR_MIN_N, massive_indices
-from ..errors import InvalidInputError
 from .gpu_forces import kernel_for, launch
 
-__all__ = ["run", "check_member"]
+__all__ = ["run", "runs_alone", "ALONE_MIN_MASSIVE"]
+
+#: An IAS15 member with this many massive particles or more does not join the one-thread-per-
+#: member kernel (one thread would sum its ``N**2`` pairs serially, and the CPU sums such a
+#: member's gravity with its large-N kernel, which the device does not run): it runs as its
+#: own ``Simulation(..., backend="cuda")`` run, every gravity sum tiled over the GPU
+#: (:mod:`visviva.nbody.gpu_ias15`), so it gives what its lone run gives.
+ALONE_MIN_MASSIVE = PAIR_MIN_N
 
 
-def check_member(sim) -> None:
-    """Raise :class:`~visviva.errors.InvalidInputError` when the IAS15 member ``sim`` has
-    :data:`~visviva.core.gravity.PAIR_MIN_N` massive particles or more (the CPU then sums the
-    gravity with its large-N kernel, which the device does not run)."""
-    nm = len(massive_indices(sim.state_arrays()["m"]))
-    if nm >= PAIR_MIN_N:
-        raise InvalidInputError(
-            f"backend='cuda' runs ensembles of IAS15 members with fewer than {PAIR_MIN_N} "
-            f"massive particles; got {nm}: use backend='cpu' for this ensemble.")
+def runs_alone(sim) -> bool:
+    """True when the IAS15 member ``sim`` runs as a lone GPU simulation, not in the ensemble
+    kernel (:data:`ALONE_MIN_MASSIVE` massive particles or more)."""
+    return len(massive_indices(sim.state_arrays()["m"])) >= ALONE_MIN_MASSIVE
+
+
+def any_alone(moff) -> bool:
+    """True when a packed member (massive particles ``moff[k]:moff[k + 1]``) runs alone."""
+    return bool(np.any(np.diff(moff) >= ALONE_MIN_MASSIVE))
 
 
 def run(pack, target: float, t) -> list:

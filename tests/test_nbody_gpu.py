@@ -280,3 +280,13 @@ def test_every_gpu_kernel_compiles_to_ptx():
             "ensemble_leapfrog_forces", "ensemble_ias15_forces"} <= set(out) and len(out) >= 13
     for kernel, result in out.items():
         assert result == "ok", (kernel, result)
+
+
+# ---- a property over drawn ensembles ---------------------------------------------------------------
+def test_property_cuda_ensembles_give_the_cpu_ensembles_bits_under_the_simulator():
+    # tests/gpu/property_ensemble.py: 30 drawn ensembles (every integrator, forces, mergers,
+    # escapes, calls forwards and backwards), GPU path vs CPU ensemble, bits and exceptions
+    script = os.path.join(os.path.dirname(__file__), "gpu", "property_ensemble.py")
+    out = _run({"NUMBA_ENABLE_CUDASIM": "1"}, script)
+    assert int(out["property_examples"]) >= 20
+    assert out["property_failures"] == "0", out

@@ -18,9 +18,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from test_nbody_ensemble_properties import cases  # noqa: E402 (the tests folder)
-
 import visviva as vv  # noqa: E402
+from test_nbody_ensemble_properties import cases  # noqa: E402 (the tests folder)
 
 failures: list = []
 counts = {"examples": 0, "raised": 0}

@@ -23,6 +23,9 @@ __all__ = ["gibbs", "herrick_gibbs", "gauss_angles", "double_r", "initial_orbit"
 
 #: largest angle between r1 and the plane of r2, r3 that Gibbs accepts by default, rad
 COPLANAR_TOL_RAD = math.radians(1.0)
+#: largest angle between successive positions that Herrick-Gibbs accepts by default, rad
+#: (its series is ~2e-5 of the speed off at 10 deg, 3e-3 at 36 deg)
+HERRICK_GIBBS_MAX_ARC_RAD = math.radians(10.0)
 
 
 def _gm(gm):
@@ -90,16 +93,16 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     (a, b, c), quantity = _positions(r1, r2, r3)
     ra, rb, rc = (np.linalg.norm(x, axis=-1, keepdims=True) for x in (a, b, c))
     c12, c23, c31 = np.cross(a, b), np.cross(b, c), np.cross(c, a)
-    n23 = np.linalg.norm(c23, axis=-1, keepdims=True)
-    if np.any(n23 == 0):
-        raise DomainError("r2 and r3 are parallel: their plane is undefined. Use other points.")
-    tilt = np.arcsin(np.clip(np.abs(np.sum(a * c23, axis=-1)) / (ra[..., 0] * n23[..., 0]), 0, 1))
-    if np.any(tilt > coplanar_tol):
-        raise DomainError(
-            f"the three positions are not coplanar: r1 lies {np.degrees(np.max(tilt)):.3f} deg "
-            f"off the plane of r2 and r3 (tolerance {np.degrees(coplanar_tol):.3f} deg). They "
-            "cannot be on one two-body orbit; check the data or raise coplanar_tol."
-        )
+    _check_coplanar(a, c23, ra, coplanar_tol)
+    for (i, j), x, y, cr in (((1, 2), a, b, c12), ((2, 3), b, c, c23), ((1, 3), a, c, c31)):
+        same = (np.linalg.norm(cr, axis=-1) <= 1e-12 * np.linalg.norm(x, axis=-1)
+                * np.linalg.norm(y, axis=-1)) & (np.sum(x * y, axis=-1) > 0)  # fmt: skip
+        if np.any(same):
+            raise DomainError(
+                f"r{i} and r{j} point the same way from the attractor: no conic passes twice "
+                "along one direction (and equal positions leave the orbit undetermined). Use "
+                "positions some degrees apart."
+            )
     N = ra * c23 + rb * c31 + rc * c12
     D = c12 + c23 + c31
     S = a * (rb - rc) + b * (rc - ra) + c * (ra - rb)
@@ -107,8 +110,48 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     nD = np.linalg.norm(D, axis=-1, keepdims=True)
     if np.any(nN * nD == 0):
         raise DomainError("Gibbs: N or D vanishes (collinear positions); use other points.")
+    if np.any(np.sum(N * D, axis=-1) <= 0):
+        raise DomainError(
+            "there is no two-body orbit through these three positions: the only conic with its "
+            "focus at the attractor through them is the branch of a hyperbola that bends away "
+            "from the attractor (N . D < 0). Check the data (order, frame, units)."
+        )
     v2 = np.sqrt(g / (nN * nD)) * (np.cross(D, b) / rb + S)
+    _check_hyperbolic_order(a, b, c, v2, g)
     return _out(v2, quantity)
+
+
+def _check_coplanar(r1, n23, r1_norm, tol):
+    """Refuse r1 more than ``tol`` rad off the plane whose normal is ``n23`` = r2 x r3."""
+    nn = np.linalg.norm(n23, axis=-1)
+    if np.any(nn == 0):
+        raise DomainError("r2 and r3 are parallel: their plane is undefined. Use other points.")
+    tilt = np.arcsin(np.clip(np.abs(np.sum(r1 * n23, axis=-1)) / (r1_norm[..., 0] * nn), 0, 1))
+    if np.any(tilt > tol):
+        raise DomainError(
+            f"the three positions are not coplanar: r1 lies {np.degrees(np.max(tilt)):.3f} deg "
+            f"off the plane of r2 and r3 (tolerance {np.degrees(tol):.3f} deg). They "
+            "cannot be on one two-body orbit; check the data or raise coplanar_tol."
+        )
+
+
+def _check_hyperbolic_order(r1, r2, r3, v2, gm):
+    """On an open conic the true anomalies must increase r1 -> r2 -> r3 (no second pass)."""
+    h = np.cross(r2, v2)
+    e = np.cross(v2, h) / gm - r2 / np.linalg.norm(r2, axis=-1, keepdims=True)
+    ecc = np.linalg.norm(e, axis=-1, keepdims=True)
+    open_ = ecc[..., 0] >= 1.0
+    if not np.any(open_):
+        return
+    p_hat = e / ecc
+    q_hat = np.cross(h / np.linalg.norm(h, axis=-1, keepdims=True), p_hat)
+    nu = [np.arctan2(np.sum(r * q_hat, axis=-1), np.sum(r * p_hat, axis=-1)) for r in (r1, r2, r3)]
+    if np.any(open_ & ~((nu[0] < nu[1]) & (nu[1] < nu[2]))):
+        raise DomainError(
+            "there is no two-body orbit through these positions in this order: the conic "
+            "through them is a hyperbola (escape orbit), which passes each point once, and not "
+            "in the order r1, r2, r3. Check the order of the positions."
+        )
 
 
 def _offsets(t1, t2, t3):
@@ -117,6 +160,11 @@ def _offsets(t1, t2, t3):
 
     ts = (t1, t2, t3)
     if all(isinstance(t, Time) for t in ts):
+        if any(t.shape != () for t in ts):
+            raise ShapeError(
+                f"t1, t2, t3 must be scalars (one time per position); got Time shapes "
+                f"{[t.shape for t in ts]}."
+            )
         return [float((t.tt - t1.tt).sec) for t in ts]
     if any(isinstance(t, Time) for t in ts):
         raise InvalidInputError("give t1, t2, t3 all as astropy Times or all as time offsets.")
@@ -126,7 +174,8 @@ def _offsets(t1, t2, t3):
     return [float(o) for o in out]
 
 
-def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm):
+def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
+                  max_arc=HERRICK_GIBBS_MAX_ARC_RAD):  # fmt: skip
     """Velocity at the middle of three closely spaced positions (Herrick-Gibbs).
 
     Parameters
@@ -137,6 +186,11 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm):
         Times of the positions, strictly increasing.
     gm : Quantity (km^3/s^2), Body or float (km^3/s^2)
         Gravitational parameter.
+    coplanar_tol : float
+        Largest angle (rad) between r1 and the plane of r2 and r3 (default 1 deg).
+    max_arc : float
+        Largest angle (rad) between r1 and r2 or between r2 and r3 (default 10 deg, where the
+        series is about 2e-5 of the speed off; use :func:`gibbs` for longer arcs).
 
     Returns
     -------
@@ -147,6 +201,9 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm):
     ------
     InvalidInputError
         Times not strictly increasing.
+    DomainError
+        The positions are not coplanar within ``coplanar_tol``, or an arc is longer than
+        ``max_arc``.
 
     Notes
     -----
@@ -168,6 +225,15 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm):
             f"the times must increase strictly (t1 < t2 < t3); got offsets {s1}, {s2}, {s3} s."
         )
     ra, rb, rc = (np.linalg.norm(x, axis=-1, keepdims=True) for x in (a, b, c))
+    _check_coplanar(a, np.cross(b, c), ra, coplanar_tol)
+    arc = np.maximum(_angle_between(a, b), _angle_between(b, c))
+    if np.any(arc > max_arc):
+        raise DomainError(
+            f"the positions are {np.degrees(np.max(arc)):.2f} deg apart, beyond the "
+            f"{np.degrees(max_arc):.2f} deg where Herrick-Gibbs's series holds (its error grows "
+            "like the fourth power of the arc): use vv.gibbs for arcs this long, or raise "
+            "max_arc."
+        )
     v2 = (
         -d32 * (1.0 / (d21 * d31) + g / (12.0 * ra**3)) * a
         + (d32 - d21) * (1.0 / (d21 * d32) + g / (12.0 * rb**3)) * b
@@ -637,6 +703,11 @@ def initial_orbit(observations, gm):
         "rows each with a range from the same station at the same time, or three RA/Dec rows "
         "within one pass; or pass initial=vv.StateVectors(...) yourself."
     )
+
+
+def _angle_between(a, b):
+    """Angles (rad) between the vectors of two (..., 3) arrays."""
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
 
 
 def _angle(a, b):

@@ -355,3 +355,56 @@ def test_herrick_gibbs_names_array_times():
     with pytest.raises(vv.ShapeError, match="one time per position"):
         vv.herrick_gibbs([7000, 0, 0], [6999, 100, 0], [6998, 200, 0],
                          t0 + [-60, -59] * u.s, t0, t0 + 60 * u.s, GM)
+
+
+# -- audit: Gauss's method on noise-free directions from visible passes -------------------------
+
+#: (r2 km, v2 km/s, site latitude and longitude rad at the middle time, offsets s, number of
+#: bound orbits through the three lines of sight): seen > 10 deg above the horizon at each
+#: time. Before the fix Gauss's refinement diverged on the first two ("found no orbit"),
+#: converged to an escape orbit 174,000 km away on the third and raised on the fourth,
+#: where Newton's method from Gauss's first estimate finds the truth.
+GAUSS_HARD = [
+    ([26832.886, 14818.391, -39621.677], [-1.001555, -1.427052, -1.856634], -0.8614, 0.2437,
+     [-3756.1, 0.0, 2982.1], 2),
+    ([10607.611, 6429.195, 5652.188], [-1.068048, 3.956078, 3.020063], 0.3565, 0.5472,
+     [-30.8, 0.0, 23.7], 1),
+    ([-44035.837, 5194.879, 6329.638], [0.426043, 1.759783, -2.345352], 0.0045, 3.1002,
+     [-226.2, 0.0, 241.4], 1),
+    ([26813.136, -8747.447, -14250.567], [1.54013, 2.719287, -2.482868], -0.1976, -0.4796,
+     [-1418.2, 0.0, 3366.7], 1),
+]
+
+
+def _directions(r2, v2, lat, lon, dts):
+    omega = 7.292115e-5
+    ras, decs, sites = [], [], []
+    for dt in dts:
+        rk, _ = _prop(np.asarray(r2), np.asarray(v2), dt)
+        th = lon + omega * dt
+        site = 6378.0 * np.array([np.cos(lat) * np.cos(th), np.cos(lat) * np.sin(th), np.sin(lat)])
+        d = rk - site
+        ras.append(np.arctan2(d[1], d[0]))
+        decs.append(np.arcsin(d[2] / np.linalg.norm(d)))
+        sites.append(site)
+    return np.array(ras), np.array(decs), np.array(sites)
+
+
+@pytest.mark.parametrize("case", GAUSS_HARD)
+def test_gauss_finds_the_orbits_its_refinement_lost(case):
+    r2, v2, lat, lon, dts, n_bound = case
+    ra, dec, sites = _directions(r2, v2, lat, lon, dts)
+    args = (ra * u.rad, dec * u.rad, np.asarray(dts) * u.s, sites * u.km, vv.EARTH)
+    every = vv.gauss_angles(*args, return_all=True)
+    # every orbit offered passes through the three lines of sight, and the truth is among them
+    errors = [np.linalg.norm(s.r.to_value(u.km) - r2) for s in every]
+    assert min(errors) < ONE_METER
+    best = every[int(np.argmin(errors))]
+    assert np.linalg.norm(best.v.to_value(KMS) - v2) < 1e-6
+    assert sum(s.to_elements().eccentricity < 1 for s in every) == n_bound
+    if n_bound == 1:
+        s = vv.gauss_angles(*args)
+        assert np.linalg.norm(s.r.to_value(u.km) - r2) < ONE_METER
+    else:  # three directions cannot tell several bound orbits apart: said, not hidden
+        with pytest.warns(RuntimeWarning, match=f"{n_bound} bound orbits"):
+            vv.gauss_angles(*args)

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeErro
 from .iod import gibbs, gm_value
 
 __all__ = ["gauss_angles", "double_r", "state_at"]
+
+#: largest angle (rad) between an observed line of sight and the orbit's for an IOD solution
+SIGHT_TOL_RAD = 1e-8
 
 
 # -- angles only --------------------------------------------------------------------------------
@@ -101,27 +105,34 @@ def _gauss_determinants(los, sites):
     return D0, np.array([[R @ p for p in (p1, p2, p3)] for R in sites])
 
 
-def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
-    """Gauss's method from a guess of |r2|, refined with exact f and g until the ranges settle."""
+def _series_fg(gm, r2m, tau):
+    """Lagrange f and g to third order in ``tau`` about a radius ``r2m``."""
+    return 1.0 - gm * tau**2 / (2 * r2m**3), tau - gm * tau**3 / (6 * r2m**3)
+
+
+def _gauss_ranges(los, sites, D0, D, f1, g1, f3, g3):
+    """Ranges, r2 and v2 of Gauss's method for given Lagrange coefficients."""
     L1, L2, L3 = los
     R1, R2, R3 = sites
+    den = f1 * g3 - f3 * g1
+    c1, c3 = g3 / den, -g1 / den
+    rho1 = (-D[0, 0] + D[1, 0] / c1 - D[2, 0] * c3 / c1) / D0
+    rho2 = (-c1 * D[0, 1] + D[1, 1] - c3 * D[2, 1]) / D0
+    rho3 = (-D[0, 2] * c1 / c3 + D[1, 2] / c3 - D[2, 2]) / D0
+    r1v, r2v, r3v = R1 + rho1 * L1, R2 + rho2 * L2, R3 + rho3 * L3
+    v2v = (-f3 * r1v + f1 * r3v) / den
+    return r2v, v2v, np.array([rho1, rho2, rho3])
+
+
+def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
+    """Gauss's method from a guess of |r2|, refined with exact f and g until the ranges settle."""
     tau1, tau3 = taus[0], taus[2]
     D0, D = _gauss_determinants(los, sites)
-    r2m = r2_guess
-    f1 = 1.0 - gm * tau1**2 / (2 * r2m**3)
-    g1 = tau1 - gm * tau1**3 / (6 * r2m**3)
-    f3 = 1.0 - gm * tau3**2 / (2 * r2m**3)
-    g3 = tau3 - gm * tau3**3 / (6 * r2m**3)
+    f1, g1 = _series_fg(gm, r2_guess, tau1)
+    f3, g3 = _series_fg(gm, r2_guess, tau3)
     rho_old = None
     for _ in range(max_iter):
-        den = f1 * g3 - f3 * g1
-        c1, c3 = g3 / den, -g1 / den
-        rho1 = (-D[0, 0] + D[1, 0] / c1 - D[2, 0] * c3 / c1) / D0
-        rho2 = (-c1 * D[0, 1] + D[1, 1] - c3 * D[2, 1]) / D0
-        rho3 = (-D[0, 2] * c1 / c3 + D[1, 2] / c3 - D[2, 2]) / D0
-        r1v, r2v, r3v = R1 + rho1 * L1, R2 + rho2 * L2, R3 + rho3 * L3
-        v2v = (-f3 * r1v + f1 * r3v) / den
-        rho = np.array([rho1, rho2, rho3])
+        r2v, v2v, rho = _gauss_ranges(los, sites, D0, D, f1, g1, f3, g3)
         if rho_old is not None and np.max(np.abs(rho - rho_old)) < tol * max(1.0, np.max(np.abs(rho))):
             return r2v, v2v, rho
         rho_old = rho
@@ -135,6 +146,69 @@ def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
     return None
 
 
+def _perpendiculars(los):
+    """Two unit vectors perpendicular to each line of sight, (3, 2, 3)."""
+    out = np.empty((3, 2, 3))
+    for k, L in enumerate(los):
+        a = np.cross(L, [1.0, 0.0, 0.0] if abs(L[0]) < 0.9 else [0.0, 1.0, 0.0])
+        a /= np.linalg.norm(a)
+        out[k] = a, np.cross(L, a)
+    return out
+
+
+def _sight_offsets(x, gm, taus, sites, perp):
+    """Offsets (km) of the orbit (r2, v2) = x from the three lines of sight, (6,) or None."""
+    out = np.empty(6)
+    for k in range(3):
+        res = _propagate(x[:3], x[3:], gm, taus[k]) if k != 1 else (x[:3], x[3:])
+        if res is None:
+            return None
+        out[2 * k: 2 * k + 2] = perp[k] @ (res[0] - sites[k])
+    return out
+
+
+def _newton_angles(r2, v2, gm, los, taus, sites, max_iter=40):
+    """Orbit through the three lines of sight by Newton's method on (r2, v2), or None.
+
+    Six equations (the two offsets of the orbit from each line of sight) in six unknowns,
+    the Jacobian by central differences, steps halved until the offsets shrink. Converges
+    from Gauss's first estimate where the fixed-point refinement of the ranges diverges.
+    """
+    perp = _perpendiculars(los)
+    x = np.concatenate([r2, v2])
+    F = _sight_offsets(x, gm, taus, sites, perp)
+    if F is None or not np.all(np.isfinite(x)):
+        return None
+    for _ in range(max_iter):
+        size = float(np.linalg.norm(x[:3]))
+        h = 1e-6 * np.concatenate([np.full(3, size), np.full(3, np.linalg.norm(x[3:]))])
+        J = np.empty((6, 6))
+        for j in range(6):
+            e = np.zeros(6)
+            e[j] = h[j]
+            Fp = _sight_offsets(x + e, gm, taus, sites, perp)
+            Fm = _sight_offsets(x - e, gm, taus, sites, perp)
+            if Fp is None or Fm is None:
+                return None
+            J[:, j] = (Fp - Fm) / 2.0
+        try:
+            dx = h * np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            break
+        lam = 1.0
+        while lam > 1e-4:
+            Fn = _sight_offsets(x + lam * dx, gm, taus, sites, perp)
+            if Fn is not None and np.linalg.norm(Fn) < np.linalg.norm(F):
+                break
+            lam *= 0.5
+        else:
+            break  # no step lowers the offsets: at the round-off floor (or stuck)
+        x, F = x + lam * dx, Fn
+        if np.linalg.norm(lam * dx[:3]) <= 1e-14 * size:
+            break
+    return (x[:3], x[3:]) if np.linalg.norm(F) <= 1e-8 * np.linalg.norm(x[:3]) else None
+
+
 def _los_residual(r2, v2, gm, los, taus, sites):
     """Largest angle (rad) between the observed lines of sight and those of the orbit."""
     worst = 0.0
@@ -143,8 +217,7 @@ def _los_residual(r2, v2, gm, los, taus, sites):
         if res is None:
             return math.inf
         d = res[0] - sites[k]
-        cosang = float(np.clip(d @ los[k] / np.linalg.norm(d), -1.0, 1.0))
-        worst = max(worst, math.acos(cosang))
+        worst = max(worst, math.atan2(float(np.linalg.norm(np.cross(d, los[k]))), float(d @ los[k])))
     return worst
 
 
@@ -155,7 +228,8 @@ def state_at(r2, v2, gm, epoch):
     return StateVectors._from_canonical(np.asarray(r2), np.asarray(v2), np.float64(gm), epoch)
 
 
-def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12):
+def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
+                 return_all=False):  # fmt: skip
     """Orbit from three angles-only observations (Gauss's method with iterative refinement).
 
     Parameters
@@ -172,12 +246,20 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12):
         Largest number of refinement iterations.
     tol : float
         Relative change of the slant ranges that ends the refinement.
+    return_all : bool
+        False (default): one orbit. True: every distinct orbit found through the three lines
+        of sight, a list, the returned one first.
 
     Returns
     -------
-    StateVectors
+    StateVectors or list of StateVectors
         Position (km) and velocity (km/s) at the middle time (``epoch`` = ``t[1]`` when ``t``
         is a Time).
+
+    Warns
+    -----
+    RuntimeWarning
+        When more than one bound orbit passes through the three lines of sight.
 
     Raises
     ------
@@ -198,9 +280,14 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12):
 
     (series f and g to third order in tau) starts an iteration in which f and g are
     recomputed exactly by two-body propagation (universal variables) and averaged with their
-    previous values until the ranges change by less than ``tol``. When several roots lead to
-    orbits, the one whose lines of sight match the observations best is returned. The result
-    is exact for noise-free two-body data.
+    previous values until the ranges change by less than ``tol``. That fixed-point iteration
+    can diverge or run off to another orbit, so each root's first estimate also starts Newton's
+    method on the six offsets of the orbit (r2, v2) from the three lines of sight. Three
+    directions can be matched by more than one orbit (Charlier's ambiguity; on noise-free
+    passes seen from the ground, about one case in ten for GEO-like arcs): candidates through
+    the lines of sight (within 1e-8 rad) are ranked bound before unbound, then by how far they
+    moved from their root, and a warning lists the bound ones when there are several. The
+    result is exact for noise-free two-body data.
     """
     g = gm_value(gm)
     los, taus, sites, epoch = _angles_inputs(ra, dec, t, site_positions)
@@ -220,23 +307,51 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12):
     real = sorted(
         float(z.real) for z in roots if abs(z.imag) <= 1e-8 * abs(z) and z.real > 0
     )
-    best = None
+    candidates = []  # (unbound, shift from the root, r2, v2)
     for r2_guess in real:
+        found = []
         sol = _gauss_solution(los, taus, sites, g, r2_guess, max_iter, tol)
-        if sol is None or sol[2][1] <= 0:
-            continue
-        resid = _los_residual(sol[0], sol[1], g, los, taus, sites)
-        if best is None or resid < best[0]:
-            best = (resid, sol)
-    if best is None:
+        if sol is not None:
+            found.append(sol[:2])
+        # Newton from Gauss's first estimate: the refinement above can diverge or run off to
+        # another orbit through the same lines of sight
+        first = _gauss_ranges(los, sites, D0, D, *_series_fg(g, r2_guess, tau1),
+                              *_series_fg(g, r2_guess, tau3))  # fmt: skip
+        newton = _newton_angles(first[0], first[1], g, los, taus, sites)
+        if newton is not None:
+            found.append(newton)
+        for r2v, v2v in found:
+            if _los_residual(r2v, v2v, g, los, taus, sites) > SIGHT_TOL_RAD:
+                continue
+            bound = float(v2v @ v2v) / 2.0 - g / float(np.linalg.norm(r2v)) < 0.0
+            shift = abs(float(np.linalg.norm(r2v)) - r2_guess) / r2_guess
+            candidates.append((not bound, shift, r2v, v2v))
+    if not candidates:
         raise ConvergenceError(
             f"Gauss's method found no orbit: the positive roots {real} of the eighth-degree "
             "polynomial give no converged ranges. Check the observations (angles in the GCRS, "
             "site positions in km), space them further apart, or use vv.od.double_r with a "
             "range guess."
         )
-    r2v, v2v, _ = best[1]
-    return state_at(r2v, v2v, g, epoch)
+    # several orbits can pass through three lines of sight: a bound one first, then the one
+    # that stayed closest to the root of Gauss's polynomial it came from
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    distinct = []
+    for c in candidates:
+        if all(np.linalg.norm(c[2] - d[2]) > 1e-4 * np.linalg.norm(d[2]) for d in distinct):
+            distinct.append(c)
+    states = [state_at(c[2], c[3], g, epoch) for c in distinct]
+    if return_all:
+        return states
+    bound = [c for c in distinct if not c[0]]
+    if len(bound) > 1:
+        radii = ", ".join(f"{np.linalg.norm(c[2]):.1f}" for c in bound)
+        warnings.warn(
+            f"{len(bound)} bound orbits pass through the three lines of sight (|r2| = {radii} "
+            "km): three directions cannot tell them apart. Returning the first; see them all "
+            "with return_all=True, and settle it with more observations (vv.fit_orbit).",
+            RuntimeWarning, stacklevel=2)  # fmt: skip
+    return states[0]
 
 
 def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, max_iter=50,

@@ -425,3 +425,28 @@ def test_met_and_mrt_count_from_the_mission_epoch_the_user_gives():
     with pytest.raises(vv.CCSDSFormatError, match="elapsed time written YYYY-DDDThh:mm:ss"):
         vv.read_oem(OEM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = MRT", 1),
                     mission_epoch=ref)
+
+
+# -- audit -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("good, bad", [
+    ("2024-01-31T00:01:00", "2024-13-31T00:01:00"),   # month 13
+    ("2024-01-31T00:02:00", "2024-01-31T24:02:00"),   # hour 24
+    ("2024-032T00:04:00", "2024-032T00:61:00"),       # minute 61, day-of-year form
+])
+def test_an_impossible_state_date_names_its_own_line(good, bad):
+    # the error named the TIME_SYSTEM line (13 or 52) and carried astropy's two-line ERFA
+    # message, whatever state line held the bad date
+    text = OEM_KVN.replace(good + " ", bad + " ", 1)
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith(bad))
+    with pytest.raises(vv.CCSDSFormatError, match="is not a valid date-time") as info:
+        vv.read_oem(text)
+    assert info.value.line == line, str(info.value)
+    assert bad in str(info.value) and "\n" not in str(info.value)
+    xml = vv.write_oem(vv.read_oem(OEM_KVN), format="xml")
+    k = next(i for i, s in enumerate(xml.splitlines(), 1) if f">{good}<" in s)
+    xml = xml.replace(f">{good}<", f">{bad}<", 1)  # the writer keeps the epochs as read
+    with pytest.raises(vv.CCSDSFormatError, match="is not a valid date-time") as info:
+        vv.read_oem(xml)
+    assert info.value.line == k, str(info.value)

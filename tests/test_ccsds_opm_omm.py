@@ -369,3 +369,29 @@ def test_opm_in_mission_elapsed_time():
         vv.read_opm(text)
     back = vv.read_opm(text, mission_epoch=launch)
     assert abs((back.epoch - epoch).sec) < 1e-9
+
+
+# -- audit -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("edit, marker, words", [
+    # a bad date named the TIME_SYSTEM line; a manoeuvre's was not checked at read at all
+    (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-02-30T00:00:00.000"), "EPOCH =",
+     "2024-02-30T00:00:00.000' is not a valid date-time"),
+    (("MAN_EPOCH_IGNITION = 2024-03-02T09:00:34.1", "MAN_EPOCH_IGNITION = 2024-03-02T25:00:34.1"),
+     "MAN_EPOCH_IGNITION = 2024-03-02", "is not a valid date-time"),
+    # impossible values were read silently
+    (("ECCENTRICITY = 0.1", "ECCENTRICITY = -0.1"), "ECCENTRICITY", "ECCENTRICITY = -0.1"),
+    (("GM = 398600.4415", "GM = -398600.4415"), "GM =", "GM = -398600.4415"),
+    (("MASS = 3000.0", "MASS = -3000.0"), "MASS =", "MASS = -3000.0"),
+    (("DRAG_AREA = 18.77", "DRAG_AREA = -18.77"), "DRAG_AREA", "DRAG_AREA = -18.77"),
+    (("SEMI_MAJOR_AXIS = 7800.0", "SEMI_MAJOR_AXIS = -7800.0"), "SEMI_MAJOR_AXIS",
+     "SEMI_MAJOR_AXIS = -7800.0 .* ECCENTRICITY = 0.1"),
+])
+def test_opm_bad_dates_and_impossible_values_name_their_line(edit, marker, words):
+    assert edit[0] in OPM_KVN
+    text = OPM_KVN.replace(edit[0], edit[1], 1)
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith(marker))
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_opm(text)
+    assert info.value.line == line, str(info.value)

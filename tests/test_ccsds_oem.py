@@ -450,3 +450,28 @@ def test_an_impossible_state_date_names_its_own_line(good, bad):
     with pytest.raises(vv.CCSDSFormatError, match="is not a valid date-time") as info:
         vv.read_oem(xml)
     assert info.value.line == k, str(info.value)
+
+
+@pytest.mark.parametrize("system", ["UTC", "TDB"])
+def test_interpolation_does_not_depend_on_the_scale_of_the_query(system):
+    # the time from the first node was taken in the query's scale: the same instant given in
+    # TDB and in UTC landed 0.57 us apart (TDB's periodic term over half an hour), 4 mm at
+    # 7.4 km/s, ten thousand times the interpolation error of Hermite on these nodes
+    t0 = Time("2024-01-31T00:00:00", scale=system.lower())
+    ts = np.arange(0.0, 3601.0, 60.0)
+    state = vv.StateVectors([7000.0, 0, 100] * u.km, [0, 7.4, 1.0] * u.km / u.s, vv.EARTH,
+                            epoch=t0)
+    eph = state.propagate(ts * u.s)
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+    seg = OEMSegment.from_states(t0 + ts * u.s, eph.r, eph.v, object_name="S",
+                                 object_id="2024-999A", center="EARTH", frame="EME2000",
+                                 time_system=system, interpolation="HERMITE", degree=5)
+    oem = vv.read_oem(vv.write_oem(Ephemeris([seg])))
+    t = t0 + 1800.5 * u.s
+    ref = oem.interpolate(t).r.to_value(u.km)
+    for other in (t.utc, t.tdb, t.tt, t.tai):
+        assert np.linalg.norm(oem.interpolate(other).r.to_value(u.km) - ref) < 1e-9  # 1 um
+        assert np.linalg.norm(oem.segments[0].interpolate(other).r.to_value(u.km) - ref) < 1e-9
+    truth = state.propagate(1800.5 * u.s).r.to_value(u.km)
+    assert np.linalg.norm(ref - truth) < 1e-6  # Hermite of degree 5 on 1-min nodes: < 1 mm

@@ -336,6 +336,9 @@ class OEMSegment(FrameCenterMetadata):
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
         t0 = self.times[0]
         nodes = self._seconds_since(t0)
+        # seconds of the file's own time scale: a query in another scale is converted first
+        # (TDB - UTC differences in TDB would drift from the file's by up to 1e-7 s per hour)
+        t = getattr(t, t0.scale)
         query = np.atleast_1d((t - t0).to_value("s")).ravel()
         lo = (self.start - t0).to_value("s")
         hi = (self.stop - t0).to_value("s")

@@ -395,3 +395,20 @@ def test_opm_bad_dates_and_impossible_values_name_their_line(edit, marker, words
     with pytest.raises(vv.CCSDSFormatError, match=words) as info:
         vv.read_opm(text)
     assert info.value.line == line, str(info.value)
+
+
+@pytest.mark.parametrize("edit, words", [
+    # each was propagated with SGP4 as if it said UTC / TEME / SGP4 / EARTH: a TDB epoch is
+    # 69 s late (about 500 km along a low orbit), other mean elements are not SGP4's
+    (("TIME_SYSTEM = UTC", "TIME_SYSTEM = TDB"), "TIME_SYSTEM = TDB"),
+    (("REF_FRAME = TEME", "REF_FRAME = GCRF"), "REF_FRAME = GCRF"),
+    (("MEAN_ELEMENT_THEORY = SGP4", "MEAN_ELEMENT_THEORY = DSST"), "MEAN_ELEMENT_THEORY = DSST"),
+    (("CENTER_NAME = EARTH", "CENTER_NAME = MOON"), "CENTER_NAME = MOON"),
+])
+def test_from_omm_refuses_mean_elements_sgp4_cannot_use(edit, words):
+    omm = vv.read_omm(OMM_KVN.replace(*edit))
+    with pytest.raises(vv.InvalidInputError, match=words):
+        vv.Satellite.from_omm(omm)
+    # the same in lower case or with spaces is accepted when it says what SGP4 needs
+    ok = vv.read_omm(OMM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = utc"))
+    assert vv.Satellite.from_omm(ok).satnum == 25544

@@ -195,3 +195,20 @@ def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, c
     assert back.epochs == seg.epochs and back.time_system == "MET"
     assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 1
     assert "is not an ISO date-time" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("frame, center, words", [
+    # a true-of-date frame was taken as GCRS (precession since 2000: ~40 km at the ISS), a
+    # Mars-centred ephemeris was fitted with SGP4: both silently
+    ("TOD", "EARTH", "REF_FRAME = TOD"),
+    ("EME2000", "MARS", "CENTER_NAME = MARS"),
+])
+def test_oem_input_in_a_frame_or_centre_sgp4_cannot_use_is_refused(iss, frame, center, words):
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    st = iss.gcrs(np.linspace(0, 1, 49) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame=frame, center=center)
+    with pytest.raises(vv.InvalidInputError, match=words):
+        vv.fit_tle(vv.read_oem(vv.write_oem(Ephemeris([seg]))), satnum=25544)

@@ -94,14 +94,23 @@ def states_and_times(states, times, frame):
         rs, vs, ts = [], [], []
         frames = set()
         for seg in src.segments:
+            name = str(getattr(seg, "frame", "GCRF")).strip().upper()
+            vf = getattr(seg, "visviva_frame", None)
+            if vf is None:
+                raise InvalidInputError(
+                    f"the ephemeris has REF_FRAME = {name}, a frame visviva cannot rotate to "
+                    "TEME; give the states in GCRF/EME2000/ICRF, TEME or ITRF."
+                )
+            center = str(getattr(seg, "center", "EARTH")).strip().upper()
+            if center != "EARTH":
+                raise InvalidInputError(
+                    f"the ephemeris has CENTER_NAME = {center}; SGP4 mean elements describe "
+                    "Earth orbits: give geocentric states (CENTER_NAME = EARTH)."
+                )
             st = seg.states
             rs.append(to_vector(st.r, "length", "segment.states.r"))
             vs.append(to_vector(st.v, "speed", "segment.states.v"))
             ts.append(seg.times)
-            vf = getattr(seg, "visviva_frame", None)
-            name = str(getattr(seg, "frame", "GCRS")).upper()
-            if vf is None:
-                vf = "teme" if "TEME" in name else "itrs" if "ITR" in name else "gcrs"
             frames.add(vf)
         if not rs:
             raise InvalidInputError("the ephemeris has no segments; nothing to fit.")

@@ -275,8 +275,8 @@ def _conic_miss_km(r2, v2, points, gm=GM):
     p = h @ h / gm
     miss = 0.0
     for r in points:
-        cosnu = e @ r / (np.linalg.norm(e) * np.linalg.norm(r))
-        miss = max(miss, abs(p / (1 + np.linalg.norm(e) * cosnu) - np.linalg.norm(r)))
+        e_cosnu = e @ r / np.linalg.norm(r)  # |e| cos(nu), also for a circle
+        miss = max(miss, abs(p / (1 + e_cosnu) - np.linalg.norm(r)))
     return miss
 
 
@@ -408,3 +408,17 @@ def test_gauss_finds_the_orbits_its_refinement_lost(case):
     else:  # three directions cannot tell several bound orbits apart: said, not hidden
         with pytest.warns(RuntimeWarning, match=f"{n_bound} bound orbits"):
             vv.gauss_angles(*args)
+
+
+@pytest.mark.parametrize("case", [c for c in GAUSS_HARD if c[5] == 1])
+def test_double_r_polish_keeps_the_orbit_it_converged_to(case):
+    # double-r converged near the truth, then its "polish" (Gauss's fixed-point refinement)
+    # ran off to an escape orbit through the same lines of sight 170,000 km away and
+    # replaced it: 10 of 150 noise-free passes with distance guesses 5% off
+    r2, v2, lat, lon, dts, _ = case
+    ra, dec, sites = _directions(r2, v2, lat, lon, dts)
+    r1, _ = _prop(np.asarray(r2), np.asarray(v2), dts[0])
+    s = double_r(ra, dec, np.asarray(dts) * u.s, sites, GM, 1.05 * np.linalg.norm(r1),
+                 1.05 * np.linalg.norm(r2))
+    assert np.linalg.norm(s.r.to_value(u.km) - r2) < ONE_METER
+    assert np.linalg.norm(s.v.to_value(KMS) - v2) < 1e-6

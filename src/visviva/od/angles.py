@@ -395,8 +395,8 @@ def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, ma
     eccentricity and semi-major axis) give the times of flight by Kepler's equation; Newton's
     method on the residuals F1 = tau1 - (t1 - t2), F2 = tau3 - (t3 - t2), with partials by
     small changes of r1, r2, drives them to zero (Escobal 1965; Vallado 2013, Algorithm 53).
-    The result is then polished with the exact Lagrange coefficients, like
-    :func:`gauss_angles`. Unlike Gauss's method it does not need the observations to span a
+    The result is then polished by Newton's method on its offsets from the three lines of
+    sight, as in :func:`gauss_angles`. Unlike Gauss's method it does not need the observations to span a
     short arc, but it needs distance guesses.
     """
     g = gm_value(gm)
@@ -444,9 +444,9 @@ def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, ma
             if out is None:
                 break
             r2v, v2v = out[1], out[2]
-            # polish with the exact Lagrange coefficients (Gauss refinement) from this orbit
-            polished = _gauss_solution(los, taus, sites, g, float(np.linalg.norm(r2v)),
-                                       100, 1e-12)  # fmt: skip
+            # polish by Newton's method from this orbit (it stays on it; Gauss's fixed-point
+            # refinement can run off to another orbit through the same lines of sight)
+            polished = _newton_angles(r2v, v2v, g, los, taus, sites)
             if polished is not None:
                 resid_p = _los_residual(polished[0], polished[1], g, los, taus, sites)
                 resid_d = _los_residual(r2v, v2v, g, los, taus, sites)

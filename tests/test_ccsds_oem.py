@@ -475,3 +475,33 @@ def test_interpolation_does_not_depend_on_the_scale_of_the_query(system):
         assert np.linalg.norm(oem.segments[0].interpolate(other).r.to_value(u.km) - ref) < 1e-9
     truth = state.propagate(1800.5 * u.s).r.to_value(u.km)
     assert np.linalg.norm(ref - truth) < 1e-6  # Hermite of degree 5 on 1-min nodes: < 1 mm
+
+
+def test_writers_refuse_what_their_reader_would_refuse():
+    # from_states took an empty or two-line OBJECT_NAME and INTERPOLATION = SPLINE and wrote
+    # files that read_oem then refused ("has no value", a broken metadata block, SPLINE)
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+    t = Time("2024-01-01", scale="utc") + np.arange(5) * 60 * u.s
+    r = np.tile([7000.0, 0, 0], (5, 1)) + np.arange(5)[:, None] * [0, 450, 0]
+    v = np.tile([0, 7.5, 0], (5, 1))
+    with pytest.raises(vv.InvalidInputError, match="SPLINE"):
+        OEMSegment.from_states(t, r, v, object_name="X", interpolation="SPLINE")
+    for name in ("", "A\nB", "  "):
+        seg = OEMSegment.from_states(t, r, v, object_name=name)
+        for fmt in ("kvn", "xml"):
+            with pytest.raises(vv.InvalidInputError, match="OBJECT_NAME"):
+                vv.write_oem(Ephemeris([seg]), format=fmt)
+    ok = vv.read_oem(vv.write_oem(Ephemeris([OEMSegment.from_states(t, r, v, object_name="A=B")])))
+    assert ok.segments[0].metadata["OBJECT_NAME"] == "A=B"
+
+
+def test_a_file_that_is_not_text_names_the_line(tmp_path):
+    # a Latin-1 byte raised UnicodeDecodeError; a directory IsADirectoryError
+    path = tmp_path / "latin1.oem"
+    path.write_bytes(OEM_KVN.replace("OBJECT_NAME = TESTSAT", "OBJECT_NAME = TESTS\xe4T").encode("latin-1"))
+    with pytest.raises(vv.CCSDSFormatError, match="not UTF-8") as info:
+        vv.read_oem(path)
+    assert info.value.line == 9
+    with pytest.raises(vv.CCSDSFormatError, match="directory"):
+        vv.read_oem(tmp_path)

@@ -28,7 +28,15 @@ from .layout import (
     xml_child,
 )
 from .ndmxml import looks_like_xml, message_root, new_root, parse, to_text
-from .oem import COVARIANCE_META, HEADER, METADATA, Ephemeris, OEMCovariance, OEMSegment
+from .oem import (
+    COVARIANCE_META,
+    HEADER,
+    INTERPOLATION_METHODS,
+    METADATA,
+    Ephemeris,
+    OEMCovariance,
+    OEMSegment,
+)
 
 __all__ = ["read_oem", "write_oem"]
 
@@ -256,7 +264,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
                                f"({meta['START_TIME']} .. {meta['STOP_TIME']})",
                                line=lines[k], source=name)
     method = meta.get("INTERPOLATION")
-    if method is not None and method.upper() not in ("LAGRANGE", "HERMITE", "LINEAR"):
+    if method is not None and method.upper() not in INTERPOLATION_METHODS:
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "
                                "LINEAR", line=meta.line_of("INTERPOLATION"), source=name)
     degree = meta.get("INTERPOLATION_DEGREE")

@@ -422,3 +422,19 @@ def test_double_r_polish_keeps_the_orbit_it_converged_to(case):
                  1.05 * np.linalg.norm(r2))
     assert np.linalg.norm(s.r.to_value(u.km) - r2) < ONE_METER
     assert np.linalg.norm(s.v.to_value(KMS) - v2) < 1e-6
+
+
+def test_iod_tolerances_take_angle_quantities():
+    # coplanar_tol=0.5 * u.deg raised astropy's UnitConversionError
+    r1, r2, r3 = [7000, 0, 10], [6000, 3000, 0], [3000, 6000, 0]  # r1 0.08 deg off the plane
+    with pytest.raises(vv.DomainError, match="not coplanar"):
+        vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=0.05 * u.deg)
+    v = vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=0.1 * u.deg)
+    np.testing.assert_array_equal(v, vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=np.radians(0.1)))
+    with pytest.raises(vv.DomainError, match="use vv.gibbs"):
+        vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, coplanar_tol=1 * u.deg,
+                         max_arc=10 * u.deg)
+    with pytest.raises(vv.InvalidInputError, match="max_arc"):
+        vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, max_arc=-1.0)
+    with pytest.raises(vv.UnitsError):
+        vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=1 * u.km)

@@ -67,8 +67,8 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
         Successive positions on one orbit, relative to the attractor, in time order.
     gm : Quantity (km^3/s^2), Body or float (km^3/s^2)
         Gravitational parameter of the attractor.
-    coplanar_tol : float
-        Largest angle (rad) between r1 and the plane of r2 and r3 (default 1 deg).
+    coplanar_tol : Quantity (angle) or float (rad)
+        Largest angle between r1 and the plane of r2 and r3 (default 1 deg).
 
     Returns
     -------
@@ -92,6 +92,7 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     (use :func:`herrick_gibbs` for short arcs).
     """
     g = gm_value(gm)
+    coplanar_tol = _angle_limit(coplanar_tol, "coplanar_tol")
     (a, b, c), quantity = _positions(r1, r2, r3)
     ra, rb, rc = (np.linalg.norm(x, axis=-1, keepdims=True) for x in (a, b, c))
     c12, c23, c31 = np.cross(a, b), np.cross(b, c), np.cross(c, a)
@@ -121,6 +122,14 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     v2 = np.sqrt(g / (nN * nD)) * (np.cross(D, b) / rb + S)
     _check_hyperbolic_order(a, b, c, v2, g)
     return _out(v2, quantity)
+
+
+def _angle_limit(value, name):
+    """An angle limit (Quantity or float in rad) as one float > 0 in rad."""
+    x = to_array(value, "angle", name, allow_plain=True)
+    if x.ndim != 0 or not x > 0:
+        raise InvalidInputError(f"{name} must be one angle > 0 (rad, or a Quantity); got {value!r}.")
+    return float(x)
 
 
 def _check_coplanar(r1, n23, r1_norm, tol):
@@ -188,10 +197,10 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
         Times of the positions, strictly increasing.
     gm : Quantity (km^3/s^2), Body or float (km^3/s^2)
         Gravitational parameter.
-    coplanar_tol : float
-        Largest angle (rad) between r1 and the plane of r2 and r3 (default 1 deg).
-    max_arc : float
-        Largest angle (rad) between r1 and r2 or between r2 and r3 (default 10 deg, where the
+    coplanar_tol : Quantity (angle) or float (rad)
+        Largest angle between r1 and the plane of r2 and r3 (default 1 deg).
+    max_arc : Quantity (angle) or float (rad)
+        Largest angle between r1 and r2 or between r2 and r3 (default 10 deg, where the
         series is about 2e-5 of the speed off; use :func:`gibbs` for longer arcs).
 
     Returns
@@ -219,6 +228,8 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
     Accurate for arcs of a few degrees (where Gibbs loses precision); error grows like dt^4.
     """
     g = gm_value(gm)
+    coplanar_tol = _angle_limit(coplanar_tol, "coplanar_tol")
+    max_arc = _angle_limit(max_arc, "max_arc")
     (a, b, c), quantity = _positions(r1, r2, r3)
     s1, s2, s3 = _offsets(t1, t2, t3)
     d21, d31, d32 = s2 - s1, s3 - s1, s3 - s2

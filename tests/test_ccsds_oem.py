@@ -425,3 +425,83 @@ def test_met_and_mrt_count_from_the_mission_epoch_the_user_gives():
     with pytest.raises(vv.CCSDSFormatError, match="elapsed time written YYYY-DDDThh:mm:ss"):
         vv.read_oem(OEM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = MRT", 1),
                     mission_epoch=ref)
+
+
+# -- audit -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("good, bad", [
+    ("2024-01-31T00:01:00", "2024-13-31T00:01:00"),   # month 13
+    ("2024-01-31T00:02:00", "2024-01-31T24:02:00"),   # hour 24
+    ("2024-032T00:04:00", "2024-032T00:61:00"),       # minute 61, day-of-year form
+])
+def test_an_impossible_state_date_names_its_own_line(good, bad):
+    # the error named the TIME_SYSTEM line (13 or 52) and carried astropy's two-line ERFA
+    # message, whatever state line held the bad date
+    text = OEM_KVN.replace(good + " ", bad + " ", 1)
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith(bad))
+    with pytest.raises(vv.CCSDSFormatError, match="is not a valid date-time") as info:
+        vv.read_oem(text)
+    assert info.value.line == line, str(info.value)
+    assert bad in str(info.value) and "\n" not in str(info.value)
+    xml = vv.write_oem(vv.read_oem(OEM_KVN), format="xml")
+    k = next(i for i, s in enumerate(xml.splitlines(), 1) if f">{good}<" in s)
+    xml = xml.replace(f">{good}<", f">{bad}<", 1)  # the writer keeps the epochs as read
+    with pytest.raises(vv.CCSDSFormatError, match="is not a valid date-time") as info:
+        vv.read_oem(xml)
+    assert info.value.line == k, str(info.value)
+
+
+@pytest.mark.parametrize("system", ["UTC", "TDB"])
+def test_interpolation_does_not_depend_on_the_scale_of_the_query(system):
+    # the time from the first node was taken in the query's scale: the same instant given in
+    # TDB and in UTC landed 0.57 us apart (TDB's periodic term over half an hour), 4 mm at
+    # 7.4 km/s, ten thousand times the interpolation error of Hermite on these nodes
+    t0 = Time("2024-01-31T00:00:00", scale=system.lower())
+    ts = np.arange(0.0, 3601.0, 60.0)
+    state = vv.StateVectors([7000.0, 0, 100] * u.km, [0, 7.4, 1.0] * u.km / u.s, vv.EARTH,
+                            epoch=t0)
+    eph = state.propagate(ts * u.s)
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+    seg = OEMSegment.from_states(t0 + ts * u.s, eph.r, eph.v, object_name="S",
+                                 object_id="2024-999A", center="EARTH", frame="EME2000",
+                                 time_system=system, interpolation="HERMITE", degree=5)
+    oem = vv.read_oem(vv.write_oem(Ephemeris([seg])))
+    t = t0 + 1800.5 * u.s
+    ref = oem.interpolate(t).r.to_value(u.km)
+    for other in (t.utc, t.tdb, t.tt, t.tai):
+        assert np.linalg.norm(oem.interpolate(other).r.to_value(u.km) - ref) < 1e-9  # 1 um
+        assert np.linalg.norm(oem.segments[0].interpolate(other).r.to_value(u.km) - ref) < 1e-9
+    truth = state.propagate(1800.5 * u.s).r.to_value(u.km)
+    assert np.linalg.norm(ref - truth) < 1e-6  # Hermite of degree 5 on 1-min nodes: < 1 mm
+
+
+def test_writers_refuse_what_their_reader_would_refuse():
+    # from_states took an empty or two-line OBJECT_NAME and INTERPOLATION = SPLINE and wrote
+    # files that read_oem then refused ("has no value", a broken metadata block, SPLINE)
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+    t = Time("2024-01-01", scale="utc") + np.arange(5) * 60 * u.s
+    r = np.tile([7000.0, 0, 0], (5, 1)) + np.arange(5)[:, None] * [0, 450, 0]
+    v = np.tile([0, 7.5, 0], (5, 1))
+    with pytest.raises(vv.InvalidInputError, match="SPLINE"):
+        OEMSegment.from_states(t, r, v, object_name="X", interpolation="SPLINE")
+    for name in ("", "A\nB", "  "):
+        seg = OEMSegment.from_states(t, r, v, object_name=name)
+        for fmt in ("kvn", "xml"):
+            with pytest.raises(vv.InvalidInputError, match="OBJECT_NAME"):
+                vv.write_oem(Ephemeris([seg]), format=fmt)
+    ok = vv.read_oem(vv.write_oem(Ephemeris([OEMSegment.from_states(t, r, v, object_name="A=B")])))
+    assert ok.segments[0].metadata["OBJECT_NAME"] == "A=B"
+
+
+def test_a_file_that_is_not_text_names_the_line(tmp_path):
+    # a Latin-1 byte raised UnicodeDecodeError; a directory IsADirectoryError
+    path = tmp_path / "latin1.oem"
+    path.write_bytes(OEM_KVN.replace("OBJECT_NAME = TESTSAT", "OBJECT_NAME = TESTS\xe4T").encode("latin-1"))
+    with pytest.raises(vv.CCSDSFormatError, match="not UTF-8") as info:
+        vv.read_oem(path)
+    assert info.value.line == 9
+    with pytest.raises(vv.CCSDSFormatError, match="directory"):
+        vv.read_oem(tmp_path)

@@ -369,3 +369,46 @@ def test_opm_in_mission_elapsed_time():
         vv.read_opm(text)
     back = vv.read_opm(text, mission_epoch=launch)
     assert abs((back.epoch - epoch).sec) < 1e-9
+
+
+# -- audit -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("edit, marker, words", [
+    # a bad date named the TIME_SYSTEM line; a manoeuvre's was not checked at read at all
+    (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-02-30T00:00:00.000"), "EPOCH =",
+     "2024-02-30T00:00:00.000' is not a valid date-time"),
+    (("MAN_EPOCH_IGNITION = 2024-03-02T09:00:34.1", "MAN_EPOCH_IGNITION = 2024-03-02T25:00:34.1"),
+     "MAN_EPOCH_IGNITION = 2024-03-02", "is not a valid date-time"),
+    # impossible values were read silently
+    (("ECCENTRICITY = 0.1", "ECCENTRICITY = -0.1"), "ECCENTRICITY", "ECCENTRICITY = -0.1"),
+    (("GM = 398600.4415", "GM = -398600.4415"), "GM =", "GM = -398600.4415"),
+    (("MASS = 3000.0", "MASS = -3000.0"), "MASS =", "MASS = -3000.0"),
+    (("DRAG_AREA = 18.77", "DRAG_AREA = -18.77"), "DRAG_AREA", "DRAG_AREA = -18.77"),
+    (("SEMI_MAJOR_AXIS = 7800.0", "SEMI_MAJOR_AXIS = -7800.0"), "SEMI_MAJOR_AXIS",
+     "SEMI_MAJOR_AXIS = -7800.0 .* ECCENTRICITY = 0.1"),
+])
+def test_opm_bad_dates_and_impossible_values_name_their_line(edit, marker, words):
+    assert edit[0] in OPM_KVN
+    text = OPM_KVN.replace(edit[0], edit[1], 1)
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith(marker))
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_opm(text)
+    assert info.value.line == line, str(info.value)
+
+
+@pytest.mark.parametrize("edit, words", [
+    # each was propagated with SGP4 as if it said UTC / TEME / SGP4 / EARTH: a TDB epoch is
+    # 69 s late (about 500 km along a low orbit), other mean elements are not SGP4's
+    (("TIME_SYSTEM = UTC", "TIME_SYSTEM = TDB"), "TIME_SYSTEM = TDB"),
+    (("REF_FRAME = TEME", "REF_FRAME = GCRF"), "REF_FRAME = GCRF"),
+    (("MEAN_ELEMENT_THEORY = SGP4", "MEAN_ELEMENT_THEORY = DSST"), "MEAN_ELEMENT_THEORY = DSST"),
+    (("CENTER_NAME = EARTH", "CENTER_NAME = MOON"), "CENTER_NAME = MOON"),
+])
+def test_from_omm_refuses_mean_elements_sgp4_cannot_use(edit, words):
+    omm = vv.read_omm(OMM_KVN.replace(*edit))
+    with pytest.raises(vv.InvalidInputError, match=words):
+        vv.Satellite.from_omm(omm)
+    # the same in lower case or with spaces is accepted when it says what SGP4 needs
+    ok = vv.read_omm(OMM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = utc"))
+    assert vv.Satellite.from_omm(ok).satnum == 25544

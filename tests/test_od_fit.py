@@ -343,3 +343,45 @@ def test_fit_without_initial_guess_uses_iod(tracking):
                               sigma=1e-5 * u.km / u.s, station=stations[0])
     with pytest.raises(vv.InvalidInputError, match="first orbit"):
         vv.od.initial_orbit(only_rr, vv.EARTH)
+
+
+# -- audit ----------------------------------------------------------------------------------------
+
+
+def test_fit_orbit_takes_a_cowell_result_at_its_own_time():
+    # propagate_cowell's result holds r, v at its output time but .epoch is the start: used as
+    # `initial` it was refused with "initial.gm must be an astropy Quantity"; read by .epoch
+    # it would be the state of another time
+    obs = simulate_observations(TRUTH, EPOCH + np.linspace(0, 5400, 30) * u.s, "position",
+                                0.001 * u.km, seed=False)
+    mid = vv.propagate_cowell(TRUTH, EPOCH + 2700 * u.s, [])
+    fit = vv.fit_orbit(obs, mid)
+    assert fit.state.epoch == EPOCH + 2700 * u.s
+    assert np.linalg.norm((fit.state.r - mid.r).to_value(u.km)) < 1e-6
+    with pytest.raises(vv.InvalidInputError, match="one state"):
+        vv.fit_orbit(obs, vv.propagate_cowell(TRUTH, EPOCH + [0, 60] * u.s, []))
+
+
+def test_fit_orbit_with_an_impossible_first_guess_raises_convergence_error():
+    # the Earth observations with a first guess whose gm is the Sun's: numpy's "SVD did not
+    # converge" (LinAlgError) escaped
+    obs = _position_obs(1, n=30)
+    sun_guess = vv.StateVectors(GUESS.r, GUESS.v, vv.SUN, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError, match="diverged"):
+        vv.fit_orbit(obs, sun_guess)
+
+
+def test_fit_orbit_refuses_bad_tolerances():
+    obs = _position_obs(1, n=30)
+    for kw in ({"tol": np.nan}, {"tol": 0.0}, {"rtol": -1.0}, {"atol": np.inf}):
+        with pytest.raises(vv.InvalidInputError, match=next(iter(kw))):
+            vv.fit_orbit(obs, GUESS, **kw)
+
+
+def test_observations_take_numpy_scalars_and_refuse_non_bool_light_time():
+    t = EPOCH + [0, 60, 120] * u.s
+    pos = [[7000, 0, 0], [6990, 450, 0], [6960, 900, 0]]
+    obs = vv.Observations(time=t, kind="position", value=pos, sigma=np.array(0.01))  # TypeError
+    np.testing.assert_array_equal(obs.sigmas, 0.01)
+    with pytest.raises(vv.InvalidInputError, match="light_time"):
+        vv.Observations(time=t, kind="position", value=pos, sigma=0.01, light_time="no")

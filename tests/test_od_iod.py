@@ -263,3 +263,178 @@ def test_angles_only_bad_input():
     for iod in (vv.gauss_angles, vv.od.double_r):
         with pytest.raises(vv.DomainError, match=r"dec\[0\] = 10 rad is outside"):
             iod(deg, deg, t, sites, GM)
+
+
+# -- audit: Gibbs and Herrick-Gibbs refuse what no two-body orbit does -----------------------------
+
+
+def _conic_miss_km(r2, v2, points, gm=GM):
+    """Largest distance (along the radius) between ``points`` and the conic of (r2, v2)."""
+    h = np.cross(r2, v2)
+    e = np.cross(v2, h) / gm - r2 / np.linalg.norm(r2)
+    p = h @ h / gm
+    miss = 0.0
+    for r in points:
+        e_cosnu = e @ r / np.linalg.norm(r)  # |e| cos(nu), also for a circle
+        miss = max(miss, abs(p / (1 + e_cosnu) - np.linalg.norm(r)))
+    return miss
+
+
+def test_gibbs_refuses_points_only_a_repulsive_hyperbola_joins():
+    # three coplanar points at 16,900, 44,600 and 9,000 km: the only conic with a focus at the
+    # Earth through them is the branch of a hyperbola that bends away from the focus (N . D < 0).
+    # Gibbs returned a velocity whose orbit missed r1 by 15,000 km, silently.
+    ang = [0.52788397, 4.94548452, 5.23165747]
+    rad = [16912.57077019, 44627.06404027, 9047.70951403]
+    pts = [np.array([r * np.cos(a), r * np.sin(a), 0.0]) for r, a in zip(rad, ang, strict=True)]
+    with pytest.raises(vv.DomainError, match="no two-body orbit"):
+        vv.gibbs(*pts, GM)
+
+
+def test_gibbs_refuses_a_hyperbola_visited_out_of_order():
+    # the conic through these three points is a hyperbola (e = 1.53) on which r3 (true anomaly
+    # -115 deg) comes before r1 (31 deg) and r2 (113 deg): no orbit visits them in the order given. Gibbs returned a velocity anyway
+    # (a body leaving r2 with it never reaches r3).
+    ang = [0.257, 1.695, 4.002]
+    rad = [7219.0, 41877.0, 46205.0]
+    pts = [np.array([r * np.cos(a), r * np.sin(a), 0.0]) for r, a in zip(rad, ang, strict=True)]
+    v1 = vv.gibbs(pts[2], pts[0], pts[1], GM)  # the order r3, r1, r2 is a real escape orbit
+    assert _conic_miss_km(pts[0], v1, pts) < 1e-6
+    with pytest.raises(vv.DomainError, match="order"):
+        vv.gibbs(*pts, GM)
+
+
+@settings(max_examples=200, deadline=None)
+@given(ang=st.lists(st.floats(0, 2 * np.pi), min_size=3, max_size=3),
+       rad=st.lists(st.floats(6500, 50000), min_size=3, max_size=3))
+def test_gibbs_answer_always_passes_through_the_three_points(ang, rad):
+    ang = sorted(ang)
+    if min(np.diff(ang + [ang[0] + 2 * np.pi])) < np.radians(1.0):
+        return  # Gibbs loses precision below a few degrees (Herrick-Gibbs's domain)
+    pts = [np.array([r * np.cos(a), r * np.sin(a), 0.0]) for r, a in zip(rad, ang, strict=True)]
+    try:
+        v2 = vv.gibbs(*pts, GM)
+    except vv.DomainError:
+        return
+    assert _conic_miss_km(pts[1], np.asarray(v2), pts) < 1e-6 * max(rad)
+
+
+def test_gibbs_refuses_two_positions_along_one_direction():
+    # r1 and r2 on one ray at 6,500 and 8,800 km: no conic through both; Gibbs missed r1 by
+    # 170 km, silently
+    with pytest.raises(vv.DomainError, match="r1 and r2 point the same way"):
+        vv.gibbs([6500.0, 0, 0], [8798.75, 0, 0], [12649.0 * np.cos(1.75), 12649.0 * np.sin(1.75), 0],
+                 GM)
+    with pytest.raises(vv.DomainError, match="r1 and r3 point the same way"):
+        vv.gibbs([7000.0, 0, 0], [0, 7000.0, 0], [7000.0, 0, 0], GM)
+
+
+def test_herrick_gibbs_refuses_non_coplanar_and_long_arcs():
+    r2, v2 = np.array([7000.0, 0, 0]), np.array([0, 7.5, 1.0])
+    r1, _ = _prop(r2, v2, -60.0)
+    r3, _ = _prop(r2, v2, 60.0)
+    # r1 300 km out of the plane (2.4 deg): Herrick-Gibbs gave v_z = -1.50 km/s instead of 1.0
+    with pytest.raises(vv.DomainError, match="not coplanar"):
+        vv.herrick_gibbs(r1 + [0, 0, 300], r2, r3, -60, 0, 60, GM)
+    # 36 deg of arc on each side: the series was 23 m/s off (5.5 km/s at 162 deg), silently
+    period = 2 * np.pi * np.sqrt(7000.0**3 / GM)
+    r1, _ = _prop(r2, v2, -0.1 * period)
+    r3, _ = _prop(r2, v2, 0.1 * period)
+    with pytest.raises(vv.DomainError, match="use vv.gibbs"):
+        vv.herrick_gibbs(r1, r2, r3, -0.1 * period, 0, 0.1 * period, GM)
+    assert np.linalg.norm(vv.gibbs(r1, r2, r3, GM) - v2) < 1e-9
+    # below the limit the series stays within its documented accuracy (10 deg: 0.2 m/s)
+    r1, _ = _prop(r2, v2, -0.027 * period)
+    r3, _ = _prop(r2, v2, 0.027 * period)
+    got = vv.herrick_gibbs(r1, r2, r3, -0.027 * period, 0, 0.027 * period, GM)
+    assert np.linalg.norm(got - v2) < 2e-4
+
+
+def test_herrick_gibbs_names_array_times():
+    t0 = Time("2024-01-01T00:00:00", scale="utc")
+    with pytest.raises(vv.ShapeError, match="one time per position"):
+        vv.herrick_gibbs([7000, 0, 0], [6999, 100, 0], [6998, 200, 0],
+                         t0 + [-60, -59] * u.s, t0, t0 + 60 * u.s, GM)
+
+
+# -- audit: Gauss's method on noise-free directions from visible passes -------------------------
+
+#: (r2 km, v2 km/s, site latitude and longitude rad at the middle time, offsets s, number of
+#: bound orbits through the three lines of sight): seen > 10 deg above the horizon at each
+#: time. Before the fix Gauss's refinement diverged on the first two ("found no orbit"),
+#: converged to an escape orbit 174,000 km away on the third and raised on the fourth,
+#: where Newton's method from Gauss's first estimate finds the truth.
+GAUSS_HARD = [
+    ([26832.886, 14818.391, -39621.677], [-1.001555, -1.427052, -1.856634], -0.8614, 0.2437,
+     [-3756.1, 0.0, 2982.1], 2),
+    ([10607.611, 6429.195, 5652.188], [-1.068048, 3.956078, 3.020063], 0.3565, 0.5472,
+     [-30.8, 0.0, 23.7], 1),
+    ([-44035.837, 5194.879, 6329.638], [0.426043, 1.759783, -2.345352], 0.0045, 3.1002,
+     [-226.2, 0.0, 241.4], 1),
+    ([26813.136, -8747.447, -14250.567], [1.54013, 2.719287, -2.482868], -0.1976, -0.4796,
+     [-1418.2, 0.0, 3366.7], 1),
+]
+
+
+def _directions(r2, v2, lat, lon, dts):
+    omega = 7.292115e-5
+    ras, decs, sites = [], [], []
+    for dt in dts:
+        rk, _ = _prop(np.asarray(r2), np.asarray(v2), dt)
+        th = lon + omega * dt
+        site = 6378.0 * np.array([np.cos(lat) * np.cos(th), np.cos(lat) * np.sin(th), np.sin(lat)])
+        d = rk - site
+        ras.append(np.arctan2(d[1], d[0]))
+        decs.append(np.arcsin(d[2] / np.linalg.norm(d)))
+        sites.append(site)
+    return np.array(ras), np.array(decs), np.array(sites)
+
+
+@pytest.mark.parametrize("case", GAUSS_HARD)
+def test_gauss_finds_the_orbits_its_refinement_lost(case):
+    r2, v2, lat, lon, dts, n_bound = case
+    ra, dec, sites = _directions(r2, v2, lat, lon, dts)
+    args = (ra * u.rad, dec * u.rad, np.asarray(dts) * u.s, sites * u.km, vv.EARTH)
+    every = vv.gauss_angles(*args, return_all=True)
+    # every orbit offered passes through the three lines of sight, and the truth is among them
+    errors = [np.linalg.norm(s.r.to_value(u.km) - r2) for s in every]
+    assert min(errors) < ONE_METER
+    best = every[int(np.argmin(errors))]
+    assert np.linalg.norm(best.v.to_value(KMS) - v2) < 1e-6
+    assert sum(s.to_elements().eccentricity < 1 for s in every) == n_bound
+    if n_bound == 1:
+        s = vv.gauss_angles(*args)
+        assert np.linalg.norm(s.r.to_value(u.km) - r2) < ONE_METER
+    else:  # three directions cannot tell several bound orbits apart: said, not hidden
+        with pytest.warns(RuntimeWarning, match=f"{n_bound} bound orbits"):
+            vv.gauss_angles(*args)
+
+
+@pytest.mark.parametrize("case", [c for c in GAUSS_HARD if c[5] == 1])
+def test_double_r_polish_keeps_the_orbit_it_converged_to(case):
+    # double-r converged near the truth, then its "polish" (Gauss's fixed-point refinement)
+    # ran off to an escape orbit through the same lines of sight 170,000 km away and
+    # replaced it: 10 of 150 noise-free passes with distance guesses 5% off
+    r2, v2, lat, lon, dts, _ = case
+    ra, dec, sites = _directions(r2, v2, lat, lon, dts)
+    r1, _ = _prop(np.asarray(r2), np.asarray(v2), dts[0])
+    s = double_r(ra, dec, np.asarray(dts) * u.s, sites, GM, 1.05 * np.linalg.norm(r1),
+                 1.05 * np.linalg.norm(r2))
+    assert np.linalg.norm(s.r.to_value(u.km) - r2) < ONE_METER
+    assert np.linalg.norm(s.v.to_value(KMS) - v2) < 1e-6
+
+
+def test_iod_tolerances_take_angle_quantities():
+    # coplanar_tol=0.5 * u.deg raised astropy's UnitConversionError
+    r1, r2, r3 = [7000, 0, 10], [6000, 3000, 0], [3000, 6000, 0]  # r1 0.08 deg off the plane
+    with pytest.raises(vv.DomainError, match="not coplanar"):
+        vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=0.05 * u.deg)
+    v = vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=0.1 * u.deg)
+    np.testing.assert_array_equal(v, vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=np.radians(0.1)))
+    with pytest.raises(vv.DomainError, match="use vv.gibbs"):
+        vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, coplanar_tol=1 * u.deg,
+                         max_arc=10 * u.deg)
+    with pytest.raises(vv.InvalidInputError, match="max_arc"):
+        vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, max_arc=-1.0)
+    with pytest.raises(vv.UnitsError):
+        vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=1 * u.km)

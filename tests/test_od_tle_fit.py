@@ -195,3 +195,55 @@ def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, c
     assert back.epochs == seg.epochs and back.time_system == "MET"
     assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 1
     assert "is not an ISO date-time" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("frame, center, words", [
+    # a true-of-date frame was taken as GCRS (precession since 2000: ~40 km at the ISS), a
+    # Mars-centred ephemeris was fitted with SGP4: both silently
+    ("TOD", "EARTH", "REF_FRAME = TOD"),
+    ("EME2000", "MARS", "CENTER_NAME = MARS"),
+])
+def test_oem_input_in_a_frame_or_centre_sgp4_cannot_use_is_refused(iss, frame, center, words):
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    st = iss.gcrs(np.linspace(0, 1, 49) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS", frame=frame, center=center)
+    with pytest.raises(vv.InvalidInputError, match=words):
+        vv.fit_tle(vv.read_oem(vv.write_oem(Ephemeris([seg]))), satnum=25544)
+
+
+def test_states_sgp4_cannot_reproduce_raise_instead_of_a_bad_fit(iss):
+    # the first half of a day from the ISS, the second from a Molniya orbit: the fit stopped
+    # where no step helped and returned a satellite 8,000 km RMS off as if it had converged
+    # (likewise on a Cowell ephemeris that decays through the ground)
+    molniya = vv.Satellite.from_tle(*MOLNIYA)
+    t = iss.epoch + np.linspace(0, 1, 40) * u.day
+    a, b = iss.gcrs(t[:20]).to_state_vectors(), molniya.gcrs(t[20:]).to_state_vectors()
+    spliced = vv.StateVectors(np.concatenate([a.r, b.r]), np.concatenate([a.v, b.v]), vv.EARTH,
+                              epoch=t)
+    with pytest.raises(vv.ConvergenceError, match="SGP4 cannot reproduce these states"):
+        vv.fit_tle(spliced)
+
+
+def test_a_bstar_the_arc_cannot_determine_is_reported(iss):
+    # ten minutes of states with 10 m noise: B* came back 30 times the truth (0.0031 for
+    # 0.0001) with nothing said; it is now given with its formal sigma and a warning
+    st = iss.gcrs(np.linspace(0, 10, 11) * u.min).to_state_vectors()
+    rng = np.random.default_rng(0)
+    noisy = vv.StateVectors(st.r + rng.normal(0, 0.01, st.r.shape) * u.km,
+                            st.v + rng.normal(0, 1e-5, st.v.shape) * u.km / u.s, vv.EARTH,
+                            epoch=st.epoch)
+    with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
+        sat = vv.fit_tle(noisy)
+    assert abs(sat.satrec.bstar - iss.satrec.bstar) < 2 * sat.fit.sigma_bstar
+    # a day of the same noise determines it (sigma ~5e-7) and warns of nothing
+    day = iss.gcrs(np.linspace(0, 1, 60) * u.day).to_state_vectors()
+    noisy = vv.StateVectors(day.r + rng.normal(0, 0.01, day.r.shape) * u.km,
+                            day.v + rng.normal(0, 1e-5, day.v.shape) * u.km / u.s, vv.EARTH,
+                            epoch=day.epoch)
+    sat = vv.fit_tle(noisy)
+    assert sat.fit.sigma_bstar < 2e-6
+    assert abs(sat.satrec.bstar - iss.satrec.bstar) < 4 * sat.fit.sigma_bstar
+    assert vv.fit_tle(noisy, fit_bstar=False).fit.sigma_bstar is None

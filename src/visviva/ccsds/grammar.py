@@ -264,7 +264,12 @@ def format_value(keyword: Keyword, value) -> str:
         return format_float(value)
     if keyword.type == "int":
         return str(int(value))
-    return str(value)
+    text = str(value).strip()
+    if not text or "\n" in text or "\r" in text:
+        raise InvalidInputError(
+            f"{keyword.name} = {value!r}: a value is one line of text, not empty (a reader "
+            "refuses anything else); give e.g. UNKNOWN.")
+    return text
 
 
 def format_float(value: float) -> str:

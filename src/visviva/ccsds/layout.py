@@ -43,9 +43,19 @@ def read_text(source) -> tuple[str, str]:
         path = os.fspath(source)
         if not os.path.exists(path):
             raise CCSDSFormatError(f"no such file {path!r}; pass a path or the message text")
+        if os.path.isdir(path):
+            raise CCSDSFormatError(f"{path!r} is a directory; pass the path of a message file")
+        with open(path, "rb") as handle:
+            data = handle.read()
         # utf-8-sig: a byte-order mark (Windows editors write one) is not part of the message
-        with open(path, encoding="utf-8-sig") as handle:
-            return handle.read(), path
+        try:
+            return data.decode("utf-8-sig"), path
+        except UnicodeDecodeError as exc:
+            line = data[:exc.start].count(b"\n") + 1
+            raise CCSDSFormatError(
+                f"byte 0x{data[exc.start]:02x} is not UTF-8 text (CCSDS messages are ASCII): "
+                "remove the character or save the file as UTF-8", line=line, source=path
+            ) from None
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
     return source.removeprefix("\ufeff"), "<text>"

@@ -38,6 +38,8 @@ COVARIANCE_META = Section("covariance", (
 #: derivative of its positions, and Hermite then degrades with the degree; see
 #: examples/ccsds_oem_interpolation.py)
 DEFAULT_INTERPOLATION = ("LAGRANGE", 7)
+#: the interpolation methods visviva reads and writes
+INTERPOLATION_METHODS = ("LAGRANGE", "HERMITE", "LINEAR")
 
 
 @dataclass
@@ -151,6 +153,10 @@ class OEMSegment(FrameCenterMetadata):
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
                                     "integer >= 1 (a reader refuses anything else).")
+        if str(interpolation).upper() not in INTERPOLATION_METHODS:
+            raise InvalidInputError(f"interpolation = {interpolation!r}: use one of "
+                                    f"{', '.join(INTERPOLATION_METHODS)} (a reader refuses "
+                                    "anything else).")
         epochs = time_to_epochs(times, time_system, mission_epoch)
         meta = {"OBJECT_NAME": object_name, "OBJECT_ID": object_id, "CENTER_NAME": center,
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
@@ -336,6 +342,9 @@ class OEMSegment(FrameCenterMetadata):
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
         t0 = self.times[0]
         nodes = self._seconds_since(t0)
+        # seconds of the file's own time scale: a query in another scale is converted first
+        # (TDB - UTC differences in TDB would drift from the file's by up to 1e-7 s per hour)
+        t = getattr(t, t0.scale)
         query = np.atleast_1d((t - t0).to_value("s")).ravel()
         lo = (self.start - t0).to_value("s")
         hi = (self.stop - t0).to_value("s")

@@ -28,7 +28,15 @@ from .layout import (
     xml_child,
 )
 from .ndmxml import looks_like_xml, message_root, new_root, parse, to_text
-from .oem import COVARIANCE_META, HEADER, METADATA, Ephemeris, OEMCovariance, OEMSegment
+from .oem import (
+    COVARIANCE_META,
+    HEADER,
+    INTERPOLATION_METHODS,
+    METADATA,
+    Ephemeris,
+    OEMCovariance,
+    OEMSegment,
+)
 
 __all__ = ["read_oem", "write_oem"]
 
@@ -228,7 +236,12 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
     from .timeframes import epochs_to_time
 
     meta = seg.metadata
-    t = seg.times
+    try:
+        t = seg.times
+    except CCSDSFormatError:  # name the state line of the bad epoch, not TIME_SYSTEM's
+        epochs_to_time(seg.epochs, seg.time_system, list(lines), name, seg.mission_epoch,
+                       system_line=meta.line_of("TIME_SYSTEM"))
+        raise
     sec = (t - t[0]).to_value("s")
     steps = np.diff(sec)
     if (steps <= 0).any():
@@ -251,7 +264,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
                                f"({meta['START_TIME']} .. {meta['STOP_TIME']})",
                                line=lines[k], source=name)
     method = meta.get("INTERPOLATION")
-    if method is not None and method.upper() not in ("LAGRANGE", "HERMITE", "LINEAR"):
+    if method is not None and method.upper() not in INTERPOLATION_METHODS:
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "
                                "LINEAR", line=meta.line_of("INTERPOLATION"), source=name)
     degree = meta.get("INTERPOLATION_DEGREE")
@@ -301,7 +314,8 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
                          numbers[:, 6:9] if acc else None, covariances, comments, among,
                          mission_epoch)
-        _check_segment(seg, [n.line for n in state_nodes], meta_node.line, name)
+        _check_segment(seg, [_epoch_line(n) for n in state_nodes], meta_node.line,
+                       name)  # fmt: skip
         segments.append(seg)
     if not segments:
         raise CCSDSFormatError("the OEM has no <segment>", line=root.line, source=name)
@@ -493,3 +507,9 @@ def _xml_data_block(seg: OEMSegment) -> str:
             lines.append(_xml_element(key, fmt(value), unit, pad2))
         lines.append(f"{pad}</covarianceMatrix>")
     return "\n".join(lines)
+
+
+def _epoch_line(node):
+    """Line of a ``<stateVector>``'s ``<EPOCH>`` (of the element itself when it has none)."""
+    epoch = node.find("EPOCH")
+    return node.line if epoch is None else epoch.line

@@ -217,15 +217,16 @@ class OPM(FrameCenterMetadata):
         """The metadata keywords."""
         return self.sections["metadata"]
 
-    def _time(self, text, key):
-        record = self.metadata
-        return epochs_to_time(text, record["TIME_SYSTEM"], record.line_of("TIME_SYSTEM"),
-                              self.source, self.mission_epoch)
+    def _time(self, text, key, record):
+        meta = self.metadata
+        return epochs_to_time(text, meta["TIME_SYSTEM"], record.line_of(key), self.source,
+                              self.mission_epoch, system_line=meta.line_of("TIME_SYSTEM"))
 
     @property
     def epoch(self):
         """The state's ``EPOCH`` as an astropy ``Time`` (in ``TIME_SYSTEM``)."""
-        return self._time(self.sections["state_vector"]["EPOCH"], "EPOCH")
+        sv = self.sections["state_vector"]
+        return self._time(sv["EPOCH"], "EPOCH", sv)
 
     @property
     def gm(self) -> float:
@@ -265,7 +266,7 @@ class OPM(FrameCenterMetadata):
         out = []
         for m in self.sections.get("maneuvers", []):
             out.append(Maneuver(
-                self._time(m["MAN_EPOCH_IGNITION"], "MAN_EPOCH_IGNITION"),
+                self._time(m["MAN_EPOCH_IGNITION"], "MAN_EPOCH_IGNITION", m),
                 m["MAN_DURATION"] * u.s, m["MAN_DELTA_MASS"] * u.kg, m["MAN_REF_FRAME"],
                 [m["MAN_DV_1"], m["MAN_DV_2"], m["MAN_DV_3"]] * (u.km / u.s)))
         return out
@@ -309,9 +310,37 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
             raise CCSDSFormatError(f"MAN_DELTA_MASS = {man['MAN_DELTA_MASS']!r} kg: a manoeuvre "
                                    "spends mass, so the change is <= 0 (write it negative)",
                                    line=man.line_of("MAN_DELTA_MASS"), source=name)
+    _check_values(sections, name)
     opm = OPM(sections, name, mission_epoch)
     opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
+    opm.maneuvers  # noqa: B018  (and the manoeuvre epochs)
     return opm
+
+
+#: keywords that cannot be negative (GM must be positive), by section
+_NOT_NEGATIVE = {"keplerian_elements": ("ECCENTRICITY",),
+                 "spacecraft_parameters": ("MASS", "SOLAR_RAD_AREA", "DRAG_AREA")}
+
+
+def _check_values(sections, name):
+    """Refuse physically impossible values, naming the line."""
+    for section, keys in _NOT_NEGATIVE.items():
+        rec = sections.get(section)
+        for key in keys if rec is not None else ():
+            if key in rec and rec[key] < 0:
+                raise CCSDSFormatError(f"{key} = {rec[key]!r} cannot be negative",
+                                       line=rec.line_of(key), source=name)
+    kep = sections.get("keplerian_elements")
+    if kep is None:
+        return
+    if not kep["GM"] > 0:
+        raise CCSDSFormatError(f"GM = {kep['GM']!r} km**3/s**2: a gravitational parameter is > 0",
+                               line=kep.line_of("GM"), source=name)
+    a, e = kep["SEMI_MAJOR_AXIS"], kep["ECCENTRICITY"]
+    if a == 0 or (a > 0) != (e < 1):
+        raise CCSDSFormatError(f"SEMI_MAJOR_AXIS = {a!r} km does not go with ECCENTRICITY = {e!r} "
+                               "(a > 0 for an ellipse, e < 1; a < 0 for a hyperbola, e > 1)",
+                               line=kep.line_of("SEMI_MAJOR_AXIS"), source=name)
 
 
 def write_opm(opm: OPM, path=None, format: str | None = None) -> str:  # noqa: A002

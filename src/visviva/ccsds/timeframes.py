@@ -79,6 +79,11 @@ def _check_mission_epoch(mission_epoch):
             f"{type(mission_epoch).__name__}")
 
 
+def _line_at(line, k):
+    """Line of item ``k``: ``line`` is one line number, a sequence of them, or None."""
+    return line[k] if isinstance(line, list | tuple) else line
+
+
 def _elapsed(texts, time_system, line, source):
     """Elapsed time of MET/MRT epochs as (whole days, seconds of the day), each (N,)."""
     days = np.empty(len(texts))
@@ -89,7 +94,7 @@ def _elapsed(texts, time_system, line, source):
             raise CCSDSFormatError(
                 f"in TIME_SYSTEM {time_system} an epoch is elapsed time written "
                 f"YYYY-DDDThh:mm:ss (years, days and clock time since the mission epoch); "
-                f"got {text!r}", line=line, source=source)
+                f"got {text!r}", line=_line_at(line, i), source=source)
         years, dd, hh, mm = (int(g) for g in m.groups()[:4])
         days[i] = years * 365.25 + dd  # a multiple of 1/4: exact
         secs[i] = hh * 3600.0 + mm * 60.0 + float(m.group(5))
@@ -133,7 +138,7 @@ def _iso(text: str) -> str:
 
 
 def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
-                   mission_epoch=None):  # fmt: skip
+                   mission_epoch=None, *, system_line=None):  # fmt: skip
     """Convert CCSDS epoch strings to an astropy ``Time`` in the given time system.
 
     Parameters
@@ -142,12 +147,14 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         Epochs as written in the message (already checked by the grammar).
     time_system : str
         The message's ``TIME_SYSTEM`` (``"UTC"``, ``"TDB"``, ``"GPS"``, ...).
-    line : int or None
-        Line of the first epoch, for error messages.
+    line : int, list of int or None
+        Line of the epoch (or of each epoch), for error messages.
     source : str
         File name, for error messages.
     mission_epoch : astropy.time.Time, optional
         The epoch MET/MRT count from (needed for those systems only).
+    system_line : int or None
+        Line of ``TIME_SYSTEM``, for an unsupported time system (default: ``line``).
 
     Returns
     -------
@@ -158,7 +165,9 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
     from astropy import units as u
     from astropy.time import Time
 
-    scale = _scale(time_system, line, source, mission_epoch)
+    if system_line is None and not isinstance(line, list | tuple):
+        system_line = line
+    scale = _scale(time_system, system_line, source, mission_epoch)
     scalar = isinstance(texts, str)
     items = [texts] if scalar else list(texts)
     if scale is None:
@@ -177,12 +186,26 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         else:
             t = Time([Time(s, format="yday" if s[4] == ":" else "isot", scale=scale) for s in iso],
                      precision=9)
-    except ValueError as exc:
-        raise CCSDSFormatError(f"an epoch is not a valid date-time: {exc}", line=line,
-                               source=source) from None
+    except ValueError:
+        raise _bad_epoch(iso, items, scale, line, source) from None
     if time_system.upper() == "GPS":
         t = t - _GPS_MINUS_TAI_S * u.s
     return t[0] if scalar else t
+
+
+def _bad_epoch(iso, items, scale, line, source):
+    """The error for the first epoch that astropy cannot read, naming its line."""
+    from astropy.time import Time
+
+    for k, text in enumerate(iso):
+        try:
+            Time(text, format="yday" if text[4:5] == ":" else "isot", scale=scale)
+        except ValueError as exc:
+            reason = str(exc).strip().splitlines()[-1].rsplit(" of ", 1)[-1].strip('"')
+            return CCSDSFormatError(f"the epoch {items[k]!r} is not a valid date-time ({reason})",
+                                    line=_line_at(line, k), source=source)
+    return CCSDSFormatError("the epochs are not valid date-times", line=_line_at(line, 0),
+                            source=source)
 
 
 def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:

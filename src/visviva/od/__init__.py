@@ -14,8 +14,8 @@ from .. import _lazy
 _EXPORTS = {
     "gibbs": "iod",
     "herrick_gibbs": "iod",
-    "gauss_angles": "iod",
-    "double_r": "iod",
+    "gauss_angles": "angles",
+    "double_r": "angles",
     "initial_orbit": "iod",
     "Observations": "observations",
     "fit_orbit": "batch",

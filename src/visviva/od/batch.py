@@ -84,6 +84,9 @@ def check_initial(initial):
             "initial must be a vv.StateVectors first guess (e.g. from vv.gauss_angles or "
             "vv.gibbs); got " + type(initial).__name__ + "."
         )
+    if hasattr(initial, "to_states") and hasattr(initial, "times"):
+        # a CowellResult: its r, v are at .times (its .epoch is where the propagation began)
+        initial = initial.to_states()
     r0 = to_vector(initial.r, "length", "initial.r")
     v0 = to_vector(initial.v, "speed", "initial.v")
     if r0.shape != (3,) or v0.shape != (3,):
@@ -201,6 +204,9 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")
     if outlier_sigma is not None and not outlier_sigma > 0:
         raise InvalidInputError(f"outlier_sigma must be > 0 or None; got {outlier_sigma!r}.")
+    for name, value in (("tol", tol), ("rtol", rtol), ("atol", atol)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise InvalidInputError(f"{name} must be a finite number > 0; got {value!r}.")
     n_comp = int(observations.dims.sum())
     if n_comp < 6:
         raise InvalidInputError(
@@ -256,6 +262,14 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             raise err
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+            err = ConvergenceError(
+                f"the orbit fit diverged at iteration {it}: the measurement partials are not "
+                "finite (the trajectory left the model's domain). Start from a better initial "
+                "state (IOD); check that its gm is the observed body's."
+            )
+            err.history = history
+            raise err
         dx, P = _solve(A, b)
         step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / 6.0))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),

@@ -75,7 +75,9 @@ def run(args) -> int:
     fit = sat.fit
     print(f"fitted {fit.n_states} states in {fit.iterations} iterations: position RMS "
           f"{fit.rms_position_km * 1e3:.3f} m, max {fit.max_position_km * 1e3:.3f} m, "
-          f"B* {sat.satrec.bstar:.5e}", file=sys.stderr)
+          f"B* {sat.satrec.bstar:.5e}"
+          + (f" +- {fit.sigma_bstar:.1e}" if fit.sigma_bstar is not None else " (held)"),
+          file=sys.stderr)
     if args.output == "-":
         sys.stdout.write(text)
     else:

@@ -119,6 +119,11 @@ class Observations:
                  radec_reference="gcrs"):  # fmt: skip
         from astropy.time import Time
 
+        if not isinstance(light_time, bool | np.bool_):
+            raise InvalidInputError(
+                f"light_time must be True (model the signal's flight time) or False; got "
+                f"{light_time!r}."
+            )
         if radec_reference not in ("gcrs", "stars"):
             raise InvalidInputError(
                 f"radec_reference must be 'gcrs' (natural GCRS direction) or 'stars' (reduced "
@@ -189,7 +194,9 @@ class Observations:
 
     @staticmethod
     def _sigmas(sigma, kinds, n):
-        if is_quantity(sigma) and np.ndim(sigma) == 0 or np.isscalar(sigma):
+        if (is_quantity(sigma) or isinstance(sigma, np.ndarray)) and np.ndim(sigma) == 0 or (
+            np.isscalar(sigma)
+        ):
             items = [sigma] * n
         else:
             items = list(sigma)

@@ -20,6 +20,7 @@ True
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -52,6 +53,9 @@ class TLEFit:
     fields : dict
         The fitted element set as OMM fields at full float precision (what
         :meth:`~visviva.Satellite.from_omm` takes).
+    sigma_bstar : float or None
+        Formal 1-sigma of the fitted B* (1/earth radii), the residuals taken as the noise;
+        None when B* was held.
     """
 
     def __init__(self, **kw):
@@ -94,14 +98,23 @@ def states_and_times(states, times, frame):
         rs, vs, ts = [], [], []
         frames = set()
         for seg in src.segments:
+            name = str(getattr(seg, "frame", "GCRF")).strip().upper()
+            vf = getattr(seg, "visviva_frame", None)
+            if vf is None:
+                raise InvalidInputError(
+                    f"the ephemeris has REF_FRAME = {name}, a frame visviva cannot rotate to "
+                    "TEME; give the states in GCRF/EME2000/ICRF, TEME or ITRF."
+                )
+            center = str(getattr(seg, "center", "EARTH")).strip().upper()
+            if center != "EARTH":
+                raise InvalidInputError(
+                    f"the ephemeris has CENTER_NAME = {center}; SGP4 mean elements describe "
+                    "Earth orbits: give geocentric states (CENTER_NAME = EARTH)."
+                )
             st = seg.states
             rs.append(to_vector(st.r, "length", "segment.states.r"))
             vs.append(to_vector(st.v, "speed", "segment.states.v"))
             ts.append(seg.times)
-            vf = getattr(seg, "visviva_frame", None)
-            name = str(getattr(seg, "frame", "GCRS")).upper()
-            if vf is None:
-                vf = "teme" if "TEME" in name else "itrs" if "ITR" in name else "gcrs"
             frames.add(vf)
         if not rs:
             raise InvalidInputError("the ephemeris has no segments; nothing to fit.")
@@ -286,7 +299,15 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     InvalidInputError
         Fewer than 4 states (7 with B*), times not strictly increasing, an unbound orbit.
     ConvergenceError
-        The correction did not converge (``history`` attribute holds the iterations).
+        The correction did not converge (``history`` attribute holds the iterations), or the
+        best element set still misses the states by more than 1% of the orbit's radius (not
+        one free Earth orbit: a manoeuvre, a re-entry, a wrong frame or unit).
+
+    Warns
+    -----
+    RuntimeWarning
+        B* was fitted but the states do not determine it (its formal 1-sigma, ``fit.sigma_bstar``,
+        exceeds 1e-4 1/earth radii and half its value): an arc too short for drag to show.
 
     Notes
     -----
@@ -492,6 +513,23 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         )
         err.history = history
         raise err
+    rms_final = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+    size = float(np.mean(np.linalg.norm(r, axis=1)))
+    if rms_final > MAX_RMS_FRACTION * size:
+        err = ConvergenceError(
+            f"SGP4 cannot reproduce these states: the best element set misses them by "
+            f"{rms_final:.4g} km RMS ({rms_final / size:.1%} of the orbit's radius). Check "
+            "that they are one free Earth orbit (no manoeuvre, no re-entry), their frame "
+            "(frame=) and units, or fit a shorter arc."
+        )
+        err.history = history
+        raise err
+    sigma_bstar = _sigma_bstar(J, cost, fit_bstar)
+    if sigma_bstar is not None and sigma_bstar > max(1e-4, 0.5 * abs(p[6])):
+        warnings.warn(
+            f"B* is not determined by these states: fitted {p[6]:.3g} +- {sigma_bstar:.2g} "
+            "1/earth radii (1 sigma, from the residuals); drag needs a longer arc to show. "
+            "Hold it with fit_bstar=False, bstar=<a known value>.", RuntimeWarning, stacklevel=3)
     fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
     if not object_id:
         fields["OBJECT_ID"] = ""
@@ -506,5 +544,28 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         history=history,
         n_states=n,
         fields=fields,
+        sigma_bstar=sigma_bstar,
     )
     return sat
+
+
+#: largest position RMS of a fit, as a fraction of the orbit's mean radius, before fit_tle
+#: reports that SGP4 cannot reproduce the states (good fits are ~1e-4 of it or far less)
+MAX_RMS_FRACTION = 0.01
+
+
+def _sigma_bstar(J, cost, fit_bstar):
+    """Formal standard deviation of a fitted B* (1/earth radii), residuals as the noise scale.
+
+    P = s^2 (J^T J)^-1 with s^2 = cost / (m - k), the weighted sum of squares per degree of
+    freedom; None when B* was held.
+    """
+    if not fit_bstar:
+        return None
+    m, k = J.shape
+    s2 = cost / max(m - k, 1)
+    try:
+        cov = np.linalg.pinv(J.T @ J)
+    except np.linalg.LinAlgError:
+        return math.inf
+    return float(math.sqrt(max(s2 * cov[-1, -1], 0.0)))

@@ -100,6 +100,25 @@ def _omm_epoch(text: str) -> str:
 
 
 
+#: OMM metadata that SGP4 mean elements must carry when given: keyword -> accepted values
+_SGP4_METADATA = {"TIME_SYSTEM": ("UTC",), "REF_FRAME": ("TEME",), "CENTER_NAME": ("EARTH",),
+                  "MEAN_ELEMENT_THEORY": ("SGP4", "SGP/SGP4")}
+
+
+def _check_sgp4_metadata(fields) -> None:
+    """Refuse an OMM whose metadata says its elements are not SGP4's (UTC, TEME, Earth)."""
+    for key, accepted in _SGP4_METADATA.items():
+        value = fields.get(key)
+        if value in (None, "") or str(value).strip().upper() in accepted:
+            continue
+        raise InvalidInputError(
+            f"OMM record {fields.get('OBJECT_NAME', '')!r} has {key} = {value}; SGP4 mean "
+            f"elements are {accepted[0]} (TIME_SYSTEM UTC, REF_FRAME TEME, CENTER_NAME EARTH, "
+            "MEAN_ELEMENT_THEORY SGP4). Propagating these with SGP4 would be wrong: convert "
+            "the record, or use the mean-element theory it was made for."
+        )
+
+
 def _catalogue_number(value) -> int:
     """An OMM's ``NORAD_CAT_ID`` as an int: a number, or an alpha-5 string (one letter A-Z
     without I and O, then four digits: ``"A0001"`` is 100001); anything else raises ValueError
@@ -229,6 +248,7 @@ class Satellite:
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} lacks {', '.join(missing)}; "
                 "pass every mean element (CelesTrak's GP data in JSON or CSV has them)."
             )
+        _check_sgp4_metadata(fields)
         clean = dict(_OMM_DEFAULTS)
         clean.update({k: v for k, v in fields.items() if v not in (None, "")})
         clean["EPOCH"] = _omm_epoch(clean["EPOCH"])

@@ -263,6 +263,13 @@ def test_chan_on_cara_repaired_covariance_is_zero_not_a_hang():
         lp_foster = collision_probability(r1, v1, c1, r2, v2, c2, 52.84, log=True)
     # Chan's equivalent-area circle is an approximation for this 1e9:1 ellipse: ln Pc within 1 %
     assert lp_chan == pytest.approx(lp_foster, rel=1e-2)
+    # the Monte Carlo estimate draws from the same repaired plane: it must say so too
+    with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
+        res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, 52.84, samples=1000, seed=1)
+    assert res.pc == 0.0
+    with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
+        assert collision_probability(r1, v1, c1, r2, v2, c2, 52.84, method="monte_carlo",
+                                     samples=1000, seed=1) == 0.0
 
 
 def test_monte_carlo_interval_covers_foster():

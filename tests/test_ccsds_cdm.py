@@ -90,6 +90,48 @@ def test_malformed_messages_name_the_line(old, new, match):
     assert info.value.line is not None
 
 
+@pytest.mark.parametrize("old, new, match", [
+    # calendar dates the grammar's pattern lets through: read_cdm returned the message and only
+    # msg.tca raised, later, far from the reader
+    ("TCA                                = 2010-03-13T22:37:52.618",
+     "TCA = 2010-13-13T22:37:52.618", r"line 7:.*bad month"),
+    ("CREATION_DATE                      = 2010-03-12T22:31:12.000",
+     "CREATION_DATE = 2010-02-30T22:31:12.000", r"line 3:.*CREATION_DATE"),
+    ("TIME_LASTOB_END                    = 2010-03-12T02:14:12.746",
+     "TIME_LASTOB_END = 2010-03-12T25:14:12.746", r"line 40:.*TIME_LASTOB_END"),
+    # impossible values: a probability above 1, a negative distance or speed
+    ("COLLISION_PROBABILITY              = 4.835E-05", "COLLISION_PROBABILITY = 1.5",
+     r"line 25:.*COLLISION_PROBABILITY.*\[0, 1\]"),
+    ("MISS_DISTANCE                      = 715 [m]", "MISS_DISTANCE = -715 [m]",
+     r"line 8:.*MISS_DISTANCE.*negative"),
+    ("RELATIVE_SPEED                     = 14762 [m/s]", "RELATIVE_SPEED = -14762 [m/s]",
+     r"line 9:.*RELATIVE_SPEED.*negative"),
+], ids=["tca-month-13", "creation-feb-30", "lastob-hour-25", "pc-1.5", "miss-negative",
+        "speed-negative"])
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_impossible_dates_and_values_are_refused_when_read(old, new, match, fmt):
+    text = _broken(old, new)
+    if fmt == "xml":
+        # the same message as XML (built without the reader's checks), lines of the XML text
+        from visviva.ccsds.cdm import ConjunctionDataMessage
+
+        good = read_cdm(SAMPLE)
+        key = new.split("=")[0].strip()
+        value = new.split("=")[1].split("[")[0].strip()
+        sections = good.sections()
+        for rec in [sections["header"], sections["relative"],
+                    *sections["object1"].values()]:
+            if key in rec.values:
+                rec.values[key] = float(value) if key in ("COLLISION_PROBABILITY",
+                                                          "MISS_DISTANCE",
+                                                          "RELATIVE_SPEED") else value
+        text = ConjunctionDataMessage(sections).to_xml()
+        match = match.split(":", 1)[1]
+    with pytest.raises(vv.CCSDSFormatError, match=match) as info:
+        read_cdm(text)
+    assert info.value.line is not None
+
+
 def test_truncated_message_is_an_error():
     text = SAMPLE.read_text()
     cut = text[: text.index("OBJECT                             = OBJECT2")]

@@ -74,6 +74,21 @@ MH_PC = [0.0, 2.514939701718358e-15, 1.232312816404174e-05, 6.343318773183237e-0
          1.917884657463699e-02, 6.389821634646267e-02, 1.900663422510684e-01, 1.0]
 
 
+# --- CARA's non-positive-definite case (m, m/s, m^2) ----------------------------------------------
+NPD_CASE = (
+    np.array([-6711923.276204407, 2115987.639388162, 596903.033311516]),
+    np.array([-3633.024009735033, -8343.876216289187, 1529.269073307224]),
+    np.array([[10651.06865424844, 25162.51806981900, -4653.47179860534],
+              [25162.51806981901, 61873.55078822979, -11370.63814221593],
+              [-4653.47179860534, -11370.63814221593, 2108.71780971058]]),
+    np.array([-6703689.997789211, 2066645.266249834, 601175.621383896]),
+    np.array([-499.951545210059, -8271.763735723972, -3673.287518932014]),
+    np.array([[38324418857.201, 409236977944.646, 182366534533.406],
+              [409236977944.646, 4369926131386.673, 1947351616381.380],
+              [182366534533.406, 1947351616381.380, 867790027954.990]]),
+)
+
+
 def _km_to_m(r1, v1, c1, r2, v2, c2):
     return r1 * 1e3, v1 * 1e3, c1 * 1e6, r2 * 1e3, v2 * 1e3, c2 * 1e6
 
@@ -122,16 +137,7 @@ def test_cara_multiple_hbr(hbr, expected):
 
 
 def test_cara_npd_case_warns_and_is_zero():
-    r1 = np.array([-6711923.276204407, 2115987.639388162, 596903.033311516])
-    v1 = np.array([-3633.024009735033, -8343.876216289187, 1529.269073307224])
-    r2 = np.array([-6703689.997789211, 2066645.266249834, 601175.621383896])
-    v2 = np.array([-499.951545210059, -8271.763735723972, -3673.287518932014])
-    c1 = np.array([[10651.06865424844, 25162.51806981900, -4653.47179860534],
-                   [25162.51806981901, 61873.55078822979, -11370.63814221593],
-                   [-4653.47179860534, -11370.63814221593, 2108.71780971058]])
-    c2 = np.array([[38324418857.201, 409236977944.646, 182366534533.406],
-                   [409236977944.646, 4369926131386.673, 1947351616381.380],
-                   [182366534533.406, 1947351616381.380, 867790027954.990]])
+    r1, v1, c1, r2, v2, c2 = NPD_CASE
     with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
         pc = collision_probability(r1, v1, c1, r2, v2, c2, 52.84)
     assert pc == 0.0  # CARA: 0 (underflow); here ln Pc ~ -9.8e12 is still available:
@@ -226,6 +232,41 @@ def test_tiny_probability_keeps_relative_accuracy():
     # ~1e-300 as a float: not underflowed, not zero
     lp, _ = kern.log_pc_circle(370.0, 0.0, 10.0, 10.0, 1.0, kern.GAUSS_LO, kern.GAUSS_HI, 1e-13)
     assert 1e-310 < math.exp(lp) < 1e-290
+
+
+@pytest.mark.parametrize("d, s", [(5e3, 3.0), (2e4, 1.0), (1e6, 1.0)])
+def test_chan_series_far_miss_equals_the_exact_rice_integral(d, s):
+    # For a circular covariance Chan's series is exact (the Rice distribution), so it must equal
+    # the Foster kernel, itself checked against mpmath above; here ln Pc was computed with mpmath
+    # too (substituting x = R - y in the Rice integral): -1377811.0942761686, -199600214.2753042,
+    # -499980000220.14435. Many sigmas of miss put the Poisson mode v/2 at 1e6..5e11 while the
+    # largest term sits near sqrt(u v)/2: the series once walked down from v/2 term by term
+    # (13 s at v/2 = 2e8, hours at 1e11; a hang for CARA's repaired covariances).
+    lp_foster, status = kern.log_pc_circle(d, 0.0, s, s, 20.0, kern.GAUSS_LO, kern.GAUSS_HI,
+                                           1e-13)
+    assert status == 0
+    assert kern.log_pc_chan(d, 0.0, s, s, 20.0) == pytest.approx(lp_foster, rel=1e-12)
+
+
+def test_chan_on_cara_repaired_covariance_is_zero_not_a_hang():
+    # CARA's non-positive-definite case (test_cara_npd_case_warns_and_is_zero): after the repair
+    # the minor sigma is 1e-4 HBR, the miss ~1e6 sigmas, v/2 ~ 1e13
+    r1, v1, c1, r2, v2, c2 = NPD_CASE
+    with pytest.warns(CovarianceRepairWarning):
+        assert collision_probability(r1, v1, c1, r2, v2, c2, 52.84, method="chan") == 0.0
+    with pytest.warns(CovarianceRepairWarning):
+        lp_chan = collision_probability(r1, v1, c1, r2, v2, c2, 52.84, method="chan", log=True)
+    with pytest.warns(CovarianceRepairWarning):
+        lp_foster = collision_probability(r1, v1, c1, r2, v2, c2, 52.84, log=True)
+    # Chan's equivalent-area circle is an approximation for this 1e9:1 ellipse: ln Pc within 1 %
+    assert lp_chan == pytest.approx(lp_foster, rel=1e-2)
+    # the Monte Carlo estimate draws from the same repaired plane: it must say so too
+    with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
+        res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, 52.84, samples=1000, seed=1)
+    assert res.pc == 0.0
+    with pytest.warns(CovarianceRepairWarning, match="not positive semi-definite"):
+        assert collision_probability(r1, v1, c1, r2, v2, c2, 52.84, method="monte_carlo",
+                                     samples=1000, seed=1) == 0.0
 
 
 def test_monte_carlo_interval_covers_foster():

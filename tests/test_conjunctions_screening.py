@@ -116,6 +116,17 @@ def test_cli_screen(tmp_path, capsys):
     assert out_csv.read_text().startswith("object1,object2,tca")
     assert main(["screen", str(tmp_path / "none.tle"), "--start", "2024-01-01",
                  "--hours", "1"]) == 2
+    capsys.readouterr()
+    # an unknown --primary named the key only ("visviva screen: 'NOPE'"); an unwritable --csv
+    # was a FileNotFoundError traceback (exit 1)
+    assert main(["screen", str(path), "--primary", "NOPE", "--start", "2024-01-01T00:00:00",
+                 "--hours", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "no object named 'NOPE'" in err and "SYN60000" in err
+    assert main(["screen", str(path), "--start", "2024-01-01T00:00:00", "--hours", "1",
+                 "--quiet", "--csv", str(tmp_path / "no_such_dir" / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot write" in err and "no_such_dir" in err and len(err.strip().splitlines()) == 1
 
 
 @pytest.mark.parametrize(("start", "hours", "why"), [

@@ -199,3 +199,13 @@ def test_cowell_dask_refuses_what_it_cannot_do(catalog, leo_states, times):
         propagate_dask(leo_states, np.arange(3) * u.min, method="cowell", tolerance=1e-9)
     with pytest.raises(vv.InvalidInputError, match="method must be one of"):
         propagate_dask(catalog, times, method="rk4")
+    # a bad force model is refused when the graph is built, not later inside a worker (where it
+    # logged a worker traceback at compute time)
+    no_epoch = vv.StateVectors(leo_states.r, leo_states.v, vv.EARTH)
+    for states, perturbations, match in (
+            (leo_states, ["J2"], "not a perturbation"),
+            (leo_states, [vv.ThirdBody(vv.SUN), vv.ThirdBody(vv.SUN)], "listed twice"),
+            (no_epoch, [vv.ThirdBody(vv.SUN)], "epoch")):
+        with pytest.raises(vv.InvalidInputError, match=match):
+            propagate_dask(states, np.arange(3) * u.min, method="cowell",
+                           perturbations=perturbations)

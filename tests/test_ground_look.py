@@ -160,6 +160,21 @@ def test_bad_targets(iss, site, times):
         site.look(vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH))
 
 
+def test_states_about_another_body_are_refused(iss, site, times):
+    # StateVectors about the Moon or the Sun were taken as geocentric GCRS: an elevation, a
+    # range and RA/Dec came back for a position that is not relative to the Earth at all
+    g = iss.gcrs(times)
+    for body in (vv.MOON, vv.SUN):
+        with pytest.raises(vv.InvalidInputError, match=f"{body.name}'s"):
+            site.look(vv.StateVectors(g.r, g.v, body, epoch=times))
+    # the Earth's GM, as a body or a Quantity, is what look() expects
+    ref = site.look(iss, times)
+    for gm in (vv.EARTH, vv.EARTH.gm, vv.EARTH.gm.to(u.m**3 / u.s**2)):
+        la = site.look(vv.StateVectors(g.r, g.v, gm, epoch=times))
+        np.testing.assert_allclose(la.elevation.to_value(u.deg), ref.elevation.to_value(u.deg),
+                                   atol=1e-9)
+
+
 def test_razel_against_vallados_rv2razel():
     # Vallado's RAZEL (Algorithm 27) as run by his own rv2razel for an Earth-fixed state seen
     # from the site of his Example 7-1 (39.007 deg N, 104.883 deg W, 2.102 km); the values are

@@ -149,11 +149,21 @@ def test_command_line(tmp_path, capsys):
     assert "2008-09-20 22:51:52" in out and "5 pass(es)" in out
     assert len(out_csv.read_text().splitlines()) == 6
     assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start", "nonsense"]) == 2
+    # bad arguments: a clear one-line message and exit code 2, as `visviva screen` (these gave 1)
     assert main(["passes", str(tmp_path / "missing.tle"), "--lat", "40", "--lon", "-75",
-                 "--start", "2008-09-20T12:00:00"]) == 1
+                 "--start", "2008-09-20T12:00:00"]) == 2
+    assert "missing.tle" in capsys.readouterr().err
     assert main(["passes", str(tle), "--lat", "95", "--lon", "-75",
-                 "--start", "2008-09-20T12:00:00"]) == 1
+                 "--start", "2008-09-20T12:00:00"]) == 2
     assert "outside [-90, 90]" in capsys.readouterr().err
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--min-elevation", "100",
+                 "--start", "2008-09-20T12:00:00"]) == 2
+    assert "min_elevation" in capsys.readouterr().err
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--hours", "2",
+                 "--start", "2008-09-20T12:00:00", "--csv",
+                 str(tmp_path / "no_such_dir" / "p.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot write" in err and "no_such_dir" in err and len(err.strip().splitlines()) == 1
     # a bad date: one short reason (not astropy's list of every format); --hours inf refused
     assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start", "2008-13-20"]) == 2
     err = capsys.readouterr().err

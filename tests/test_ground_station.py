@@ -96,6 +96,16 @@ def test_bad_input(kwargs, error):
         GroundStation(**kwargs)
 
 
+def test_wrong_angle_unit_message_does_not_suggest_plain_floats():
+    # the generic units message ended "(or a plain float in radians)", which GroundStation
+    # refuses: the advice contradicted the rule
+    for kwargs in ({"lat": 10 * u.m, "lon": 0.0 * u.deg}, {"lat": 1 * u.deg, "lon": 3 * u.s}):
+        with pytest.raises(vv.UnitsError) as info:
+            GroundStation(**kwargs)
+        msg = str(info.value)
+        assert "plain float" not in msg and "u.deg" in msg
+
+
 def test_gcrs_needs_time():
     with pytest.raises(vv.InvalidInputError, match="astropy Time"):
         GroundStation(0 * u.deg, 0 * u.deg).gcrs_position_velocity(2451545.0)

@@ -350,7 +350,45 @@ def read_cdm(source) -> ConjunctionDataMessage:
     if not cursor.at_end():
         raise cursor.error(f"unexpected {_describe(cursor.peek())} after the two objects "
                            "(misspelt or out-of-order keyword)")
+    _check_values(sections, name)
     return ConjunctionDataMessage(sections, name)
+
+
+#: keywords whose value cannot be negative (CCSDS 508.0-B-1, tables 3-2 and 3-3)
+_NON_NEGATIVE = ("MISS_DISTANCE", "RELATIVE_SPEED", "SCREEN_VOLUME_X", "SCREEN_VOLUME_Y",
+                 "SCREEN_VOLUME_Z")
+
+
+def _check_values(sections: dict, source: str) -> None:
+    """Refuse what the grammar's patterns let through: impossible calendar dates (month 13,
+    February 30, hour 25) in any epoch keyword, a probability outside [0, 1], a negative
+    distance or speed; each error names the keyword and its line."""
+    from .timeframes import epochs_to_time
+
+    records = [(HEADER, sections["header"]), (RELATIVE, sections["relative"])]
+    for label in ("object1", "object2"):
+        for section in SEGMENT_SECTIONS:
+            if section.name in sections[label]:
+                records.append((section, sections[label][section.name]))
+    for section, record in records:
+        for key, value in record.values.items():
+            kw = section.by_name.get(key)
+            if kw is None:
+                continue
+            line = record.line_of(key)
+            if kw.type == "epoch":
+                try:
+                    epochs_to_time(value, "UTC", line, source)
+                except CCSDSFormatError as exc:
+                    reason = " ".join(str(exc).split(": ", 2)[-1].split())
+                    raise CCSDSFormatError(f"{key} = {value!r} is not a valid date-time "
+                                           f"({reason})", line=line, source=source) from None
+            elif key == "COLLISION_PROBABILITY" and not 0.0 <= value <= 1.0:
+                raise CCSDSFormatError(f"COLLISION_PROBABILITY = {value!r} is not a probability "
+                                       "in [0, 1]", line=line, source=source)
+            elif key in _NON_NEGATIVE and value < 0:
+                raise CCSDSFormatError(f"{key} = {value!r} is negative; a distance or speed is "
+                                       ">= 0", line=line, source=source)
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS
@@ -418,6 +456,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
                                    f"{seg['metadata']['OBJECT']!r}",
                                    line=seg["metadata"].line_of("OBJECT"), source=name)
         sections[label.lower()] = seg
+    _check_values(sections, name)
     return ConjunctionDataMessage(sections, name)
 
 

@@ -38,6 +38,11 @@ def run(args) -> int:
         cat = read_tle_file(args.tle_file)
         t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:
+            if args.primary not in cat.names:
+                shown = ", ".join(repr(n) for n in cat.names[:10])
+                more = f" and {len(cat) - 10} more" if len(cat) > 10 else ""
+                raise KeyError(f"no object named {args.primary!r} in {args.tle_file} (it has "
+                               f"{shown}{more})")
             prim = cat[args.primary]
             rest = Catalog([s for s in cat if s is not prim])
             tab = screen_conjunctions(prim, rest, t0, t1, args.threshold * u.km,
@@ -46,7 +51,8 @@ def run(args) -> int:
             tab = screen_conjunctions(cat, None, t0, t1, args.threshold * u.km,
                                       step=args.step * u.s, progress=not args.quiet)
     except (VisvivaError, KeyError, ValueError, OSError) as exc:
-        print(f"visviva screen: {exc}", file=sys.stderr)
+        reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"visviva screen: {reason}", file=sys.stderr)
         return 2
     print(f"{len(tab)} close approaches below {args.threshold:g} km between {t0.isot} and "
           f"{t1.isot} ({len(cat)} objects)")
@@ -57,5 +63,9 @@ def run(args) -> int:
               f"RTN ({row['radial'].to_value(u.km):8.3f}, {row['in_track'].to_value(u.km):8.3f}, "
               f"{row['cross_track'].to_value(u.km):8.3f}) km")
     if args.csv:
-        tab.write(args.csv, format="ascii.csv", overwrite=True)
+        try:
+            tab.write(args.csv, format="ascii.csv", overwrite=True)
+        except OSError as exc:
+            print(f"visviva screen: cannot write {args.csv}: {exc}", file=sys.stderr)
+            return 2
     return 0

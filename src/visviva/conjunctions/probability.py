@@ -107,11 +107,21 @@ def _check_psd(c, name):
     return False
 
 
-def _warn_repair(what):
+def _warn_repair(what, stacklevel=3):
     warnings.warn(
         f"{what} is not positive semi-definite; repaired as NASA CARA does (eigenvalues of the "
         "encounter-plane covariance clipped to (1e-4 HBR)^2). Check the covariance source.",
-        CovarianceRepairWarning, stacklevel=3)
+        CovarianceRepairWarning, stacklevel=stacklevel)
+
+
+def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
+    """The encounter plane with CARA's eigenvalue clip, warning when a covariance needed it."""
+    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    if npd_in or plane.non_positive_definite:
+        _warn_repair("the combined covariance" if not npd_in else "an input covariance",
+                     stacklevel=4)
+    return plane
 
 
 def _log_pc_2d(xm, zm, sx, sz, hbr, method):
@@ -220,12 +230,10 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         return lp if log else math.exp(lp)
     if hbr == 0:
         return -math.inf if log else 0.0
-    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
-    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
     if math.isinf(hbr):
+        encounter_plane(r1, v1, c1, r2, v2, c2, hbr)  # its input checks
         return 0.0 if log else 1.0
-    if npd_in or plane.non_positive_definite:
-        _warn_repair("the combined covariance" if not npd_in else "an input covariance")
+    plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     xm, zm = plane.principal_miss
     sx, sz = plane.sigma
     lp = _log_pc_2d(xm, zm, sx, sz, hbr, method)
@@ -293,7 +301,7 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     samples = int(samples)
     if samples < 1:
         raise InvalidInputError(f"samples must be >= 1, got {samples}.")
-    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     sx, sz = plane.sigma
     xm, zm = plane.principal_miss
     rng = np.random.default_rng(seed)

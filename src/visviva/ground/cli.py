@@ -74,25 +74,24 @@ def run(args) -> int:
 
     try:
         t0, t1 = window_from_args(args.start, args.hours)
-    except VisvivaError as exc:
-        print(f"visviva passes: {exc}", file=sys.stderr)
-        return 2
-    try:
         cat = read_tle_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
                              name=f"{args.lat:g}, {args.lon:g}")
         table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg)
-        if args.visible:
-            table = table[table["visible"]]
-        print(format_table(table))
-        print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
-              f"{args.min_elevation:g} deg between {t0.isot} and "
-              f"{t1.isot} UTC")
-        if args.csv:
-            write_passes(table, args.csv, format="csv")
-        if args.ecsv:
-            write_passes(table, args.ecsv, format="ecsv")
-    except (VisvivaError, OSError) as exc:
+    except (VisvivaError, OSError) as exc:  # bad arguments: the file, the site, the window
         print(f"visviva passes: {exc}", file=sys.stderr)
-        return 1
+        return 2
+    if args.visible:
+        table = table[table["visible"]]
+    print(format_table(table))
+    print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
+          f"{args.min_elevation:g} deg between {t0.isot} and "
+          f"{t1.isot} UTC")
+    for path, fmt in ((args.csv, "csv"), (args.ecsv, "ecsv")):
+        if path:
+            try:
+                write_passes(table, path, format=fmt)
+            except (VisvivaError, OSError) as exc:
+                print(f"visviva passes: cannot write {path}: {exc}", file=sys.stderr)
+                return 2
     return 0

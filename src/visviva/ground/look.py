@@ -110,6 +110,20 @@ def _check_states_time(states, t) -> None:
         )
 
 
+def _check_geocentric(states) -> None:
+    """Refuse states whose GM is (to 0.1 %) another known body's: look() takes them as
+    geocentric GCRS, so a lunar or heliocentric state would give a place in the sky silently."""
+    from ..satellites.cowell import _central_body
+
+    gm = float(np.asarray(states.gm.to_value(u.km**3 / u.s**2)).ravel()[0])
+    body = _central_body(gm, ())
+    if body.name != "earth":
+        raise InvalidInputError(
+            f"the states' gm = {gm:.10g} km3/s2 is {body.name}'s: look() needs geocentric "
+            "states with GCRS axes (gm=vv.EARTH), e.g. sat.gcrs(t)."
+        )
+
+
 def _target_states(target, t):
     """Earth-fixed (ITRS) r, v (km, km/s) of shape lead + t.shape + (3,), the times, and the
     ITRS -> GCRS rotations (T, 3, 3) of the flat times."""
@@ -145,6 +159,7 @@ def _target_states(target, t):
                 "look() needs the states' times: give the StateVectors an epoch or pass t "
                 "(astropy Time)."
             )
+        _check_geocentric(target)
         source = getattr(target, "frame", "gcrs")
         if source == "itrs":
             raise InvalidInputError("pass GCRS or TEME states (sat.gcrs(t)), not ITRS ones.")

@@ -31,6 +31,11 @@ def _angle_rad(value, name: str) -> float:
             f"{type(value).__name__}: degrees and radians are too easy to confuse for a site "
             "(with `from astropy import units as u`)."
         )
+    if not value.unit.is_equivalent(u.rad):
+        raise errors.UnitsError(
+            f"{name} has unit '{value.unit}', which is not an angle; pass e.g. "
+            f"{name}=52.2 * u.deg."
+        )
     arr = to_array(value, "angle", name)
     if arr.ndim != 0:
         raise ShapeError(

@@ -537,7 +537,10 @@ def propagate_cowell(
         :class:`~visviva.satellites.Apsides` ...
     rtol, atol : float
         Local error tolerances of the integrator (atol in km and km/s). The defaults keep the
-        error after one day of LEO near 0.2 mm.
+        error after one day of LEO near 0.2 mm for smooth forces; SRP with a shadow model
+        switches at the shadow boundary and needs ``max_step`` too (default settings: 0.4 m
+        (conical) to 4 m (cylindrical) after a day of LEO; ``max_step=10 * u.s``: a few mm;
+        see docs/cowell.md).
     max_step : Quantity, optional
         Largest step size.
     max_steps : int

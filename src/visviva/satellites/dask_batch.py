@@ -425,7 +425,11 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
     g = float(gm[0])
     m = len(t)
     blocks_r, blocks_v, blocks_s = [], [], []
-    perturbations = list(perturbations)
+    # the force model's checks (types, central body, epoch) here, not later in a worker
+    from .cowell import ForceModel, perturbation_list
+
+    perturbations = list(perturbation_list(perturbations))
+    ForceModel(g, perturbations, (), None if epoch is None else epoch.ravel()[0], (0.0, 0.0))
     for a, b in _splits(r0.shape[0], n_chunk):
         blk = dask.delayed(_cowell_block, pure=False, nout=3)(
             r0[a:b], v0[a:b], g, epoch, t, perturbations, dict(options))

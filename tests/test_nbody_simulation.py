@@ -344,6 +344,29 @@ def test_to_rebound_carries_events_and_warns_about_what_rebound_will_not_do():
     assert (back.encounter_distance, back.exit_max_distance) == (0.01, 50.0)
 
 
+
+def test_add_by_elements_checks_primary_and_angles():
+    # primary=1.7 or True orbited particle 1 silently, primary="sun" and inc=[...] gave raw
+    # ValueError/TypeError tracebacks, an angle Quantity (inc=30 deg) a TypeError, e=nan a
+    # message about the semi-latus rectum, and nu with mean_anomaly silently ignored the latter
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0)
+    for primary in (1.7, True, "sun", 2, -3):
+        with pytest.raises(vv.InvalidInputError, match="primary"):
+            sim.add(0.0, a=0.1, primary=primary)
+    with pytest.raises(vv.InvalidInputError, match="e contains NaN"):
+        sim.add(0.0, a=0.1, e=np.nan, primary=0)
+    with pytest.raises(vv.ShapeError, match="inc"):
+        sim.add(0.0, a=0.1, inc=[0.1, 0.2], primary=0)
+    with pytest.raises(vv.InvalidInputError, match="mean_anomaly"):
+        sim.add(0.0, a=0.1, nu=0.1, mean_anomaly=0.2, primary=0)
+    k = sim.add(0.0, a=0.1, e=0.2, inc=30 * u.deg, raan=0.5 * u.rad, nu=10 * u.deg, primary=-1)
+    j = sim.add(0.0, a=0.1, e=0.2, inc=np.radians(30), raan=0.5, nu=np.radians(10), primary=1)
+    np.testing.assert_array_equal(sim.positions[k], sim.positions[j])
+    np.testing.assert_array_equal(sim.velocities[k], sim.velocities[j])
+
+
 def test_add_by_elements_uses_the_elements_kernels():
     from visviva.core.elements import coe_to_rv
     from visviva.core.kepler import mean_to_true_anomaly

@@ -382,3 +382,27 @@ def test_mee_huge_h_gives_finite_state(h):
     np.testing.assert_allclose(r[:2], ref.r.to_value(KM)[:2], rtol=1e-14)
     np.testing.assert_allclose(v[:2], ref.v.to_value(KMS)[:2], rtol=1e-14)
     assert abs(r[2]) < 1e-100
+
+
+@pytest.mark.parametrize("epoch", ["2020-01-01", 2451545.0])
+def test_elements_epoch_must_be_time(epoch):
+    # KeplerianElements and ModifiedEquinoctialElements stored any object as the epoch (a
+    # string came back from .epoch and broke to_state().propagate)
+    with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):
+        vv.KeplerianElements(7000 * KM, 0.1, 0, 0, 0, 0, MU, epoch=epoch)
+    with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):
+        vv.KeplerianElements.from_semi_major_axis(7000 * KM, 0.1, 0, 0, 0, 0, MU, epoch=epoch)
+    with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):
+        vv.ModifiedEquinoctialElements(7000 * KM, 0.1, 0, 0, 0, 0, MU, epoch=epoch)
+
+
+def test_elements_epoch_shape_is_checked():
+    from astropy.time import Time
+
+    three = Time("2024-01-01", scale="utc") + np.arange(3) * u.h
+    with pytest.raises(vv.ShapeError, match="epoch"):
+        vv.KeplerianElements([7000, 8000] * KM, 0.1, 0, 0, 0, 0, MU, epoch=three)
+    with pytest.raises(vv.ShapeError, match="epoch"):
+        vv.ModifiedEquinoctialElements([7000, 8000] * KM, 0.1, 0, 0, 0, 0, MU, epoch=three)
+    el = vv.KeplerianElements([7000, 8000, 9000] * KM, 0.1, 0, 0, 0, 0, MU, epoch=three)
+    assert el.epoch is three and el[2].epoch == three[2]

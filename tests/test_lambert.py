@@ -77,10 +77,8 @@ def test_round_trip_arrives_within_1_mm(name, method):
     )
     r, v = arrive(r1, v1.to_value(KMS), tof)
     # the universal-variable method divides by g ~ sqrt(1 + cos dnu), which vanishes at 180 deg
-    # (Vallado 2013, sec. 7.6): a known loss of accuracy there, Izzo's method has none
+    # (Vallado 2013, sec. 7.6); written without cancellation it keeps 1 mm there too
     tol = ONE_MM
-    if method == "universal" and name == "near 180 deg":
-        tol = 10 * ONE_MM
     if method == "universal" and name == "near 360 deg":
         tol = 1.0  # km: t(psi) is singular at psi = 4 pi^2, the known weakness of the method
     assert np.linalg.norm(r - np.array(r2)) < tol
@@ -225,3 +223,35 @@ def test_lambert_long_zero_rev_transfer_agrees_between_methods():
     v_long, _ = vv.lambert(r1 * u.km, r2 * u.km, 1e12 * time_unit * u.s, GM)
     v_longer, _ = vv.lambert(r1 * u.km, r2 * u.km, 1e15 * time_unit * u.s, GM)
     np.testing.assert_allclose(v_long.to_value(KMS), v_longer.to_value(KMS), rtol=1e-6)
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+@pytest.mark.parametrize("offset", [1e-8, 1e-7, 1e-6, 1e-5, 1e-4])
+def test_lambert_within_microradians_of_180_deg_arrives_at_r2(method, offset):
+    # 1 + cos(dnu) (universal: A = sqrt(r1 r2 (1 + cos dnu))) and lambda^2 = 1 - c/s (Izzo)
+    # were computed by cancellation, so both lost all digits of the small quantity near a
+    # 180 deg transfer: the universal method missed r2 by 9 km at 1e-6 rad off 180 deg and by
+    # 2200 km at 1e-7 rad (silently); Izzo arrived at exactly 180 deg (9e-5 km off at 1e-8 rad)
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = 9000.0 * np.array([-np.cos(offset), np.sin(offset), 0.0])
+    for prograde in (True, False):
+        v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, 6000 * u.s, GM, prograde=prograde, method=method)
+        r, v = arrive(r1, v1.to_value(KMS), 6000.0)
+        assert np.linalg.norm(r - r2) < ONE_MM
+        assert np.linalg.norm(v - v2.to_value(KMS)) < ONE_MM / 6000.0 * 10
+
+
+@pytest.mark.parametrize("offset", [1e-9, 1e-7, 1e-5, 1e-3])
+def test_izzo_within_nanoradians_of_360_deg_arrives_at_r2(offset):
+    # sigma = sqrt(1 - rho^2), rho = (r1 - r2)/c, cancelled near a 0/360 deg transfer: the
+    # long way round missed r2 by 8.5e-6 km at 1e-9 rad and 1e-6 km at 1e-8 rad
+    from scipy.spatial.transform import Rotation
+
+    rot = Rotation.from_euler("ZXZ", [0.3, 1.1, -0.7]).as_matrix()
+    r1 = rot @ np.array([7702.0, 0.0, 0.0])
+    r2 = rot @ (7771.0 * np.array([np.cos(offset), np.sin(offset), 0.0]))
+    for prograde in (True, False):
+        v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, 4536 * u.s, GM, prograde=prograde)
+        r, v = arrive(r1, v1.to_value(KMS), 4536.0)
+        assert np.linalg.norm(r - r2) < ONE_MM / 100
+        assert np.linalg.norm(v - v2.to_value(KMS)) < ONE_MM / 4536.0

@@ -256,6 +256,117 @@ def test_rebound_round_trip():
     assert back.integrator == "ias15"
 
 
+
+def _three_bodies(**settings):
+    sim = vv.Simulation(**settings)
+    sim.add(1.0)
+    sim.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.05])
+    sim.add(3e-4, r=[0.0, -2.1, 0.1], v=[0.68, 0.0, 0.02])
+    return sim
+
+
+def test_rebound_interop_carries_the_integrator_settings():
+    # to_rebound/from_rebound dropped the WHFast corrector, IAS15's epsilon, adaptive mode and
+    # min_dt, and exact_finish_time: with corrector=7 the REBOUND copy ran without it and was
+    # 1.9e-6 away after 100 time units (4.6e-12 with the corrector carried over)
+    pytest.importorskip("rebound")
+    sim = _three_bodies(integrator="whfast", dt=0.05, corrector=7, exact_finish_time=False)
+    r = sim.to_rebound()
+    assert r.integrator.corrector == 7 and r.exact_finish_time == 0
+    back = vv.Simulation.from_rebound(r)
+    assert back.corrector == 7 and back.exact_finish_time is False
+    sim.integrate(100.0)
+    r.integrate(100.0)
+    ref = np.array([[p.x, p.y, p.z] for p in r.particles])
+    assert np.abs(sim.positions - ref).max() < 1e-10
+    sim = _three_bodies(integrator="ias15", epsilon=1e-6, adaptive_mode="rs15", min_dt=1e-7)
+    r = sim.to_rebound()
+    ias15 = r.integrator
+    assert ias15.epsilon == 1e-6 and str(ias15.adaptive_mode).lower() == "global"
+    assert ias15.min_dt == 1e-7
+    back = vv.Simulation.from_rebound(r)
+    assert (back.epsilon, back.adaptive_mode, back.min_dt) == (1e-6, "rs15", 1e-7)
+
+
+def test_from_rebound_refuses_settings_without_a_counterpart():
+    rebound = pytest.importorskip("rebound")
+
+    def rsim(integrator):
+        r = rebound.Simulation()
+        r.integrator = integrator
+        r.dt = 0.05
+        r.add(m=1.0)
+        r.add(m=1e-3, a=1.0)
+        r.add(m=1e-4, a=2.0)
+        return r
+
+    r = rsim("whfast")
+    r.integrator.corrector = 11
+    with pytest.raises(vv.InvalidInputError, match="corrector"):
+        vv.Simulation.from_rebound(r)
+    r = rsim("ias15")
+    r.integrator.epsilon = 0.0  # REBOUND: fixed steps of dt
+    with pytest.raises(vv.InvalidInputError, match="epsilon"):
+        vv.Simulation.from_rebound(r)
+    r = rsim("ias15")
+    r.integrator.adaptive_mode = "individual"
+    with pytest.raises(vv.InvalidInputError, match="adaptive_mode"):
+        vv.Simulation.from_rebound(r)
+    # massive test particles that pull the active ones (testparticle_type 1) would lose their
+    # pull silently if copied as visviva test particles (mass 0)
+    r = rsim("ias15")
+    r.N_active = 2
+    r.testparticle_type = 1
+    with pytest.raises(vv.InvalidInputError, match="testparticle_type"):
+        vv.Simulation.from_rebound(r)
+
+
+def test_to_rebound_carries_events_and_warns_about_what_rebound_will_not_do():
+    # additional forces and inelastic bounces have no plain-REBOUND counterpart: the copy
+    # integrated different dynamics without a word; collisions and events were dropped too
+    pytest.importorskip("rebound")
+    from visviva.nbody.forces import J2Force
+
+    sim = _three_bodies(integrator="ias15", collision="merge", encounter_distance=0.01,
+                        exit_max_distance=50.0)
+    r = sim.to_rebound()
+    assert str(r.collision).lower() == "direct"
+    assert (r.exit_min_distance, r.exit_max_distance) == (0.01, 50.0)
+    sim = _three_bodies(integrator="ias15", collision="bounce", restitution=0.5)
+    with pytest.warns(UserWarning, match="restitution"):
+        sim.to_rebound()
+    sim = _three_bodies(integrator="ias15")
+    sim.add_force(J2Force(0, 1e-3, 0.01))
+    with pytest.warns(UserWarning, match="additional force"):
+        sim.to_rebound()
+    with pytest.warns(UserWarning, match="collision detection"):
+        back = vv.Simulation.from_rebound(r)
+    assert (back.encounter_distance, back.exit_max_distance) == (0.01, 50.0)
+
+
+
+def test_add_by_elements_checks_primary_and_angles():
+    # primary=1.7 or True orbited particle 1 silently, primary="sun" and inc=[...] gave raw
+    # ValueError/TypeError tracebacks, an angle Quantity (inc=30 deg) a TypeError, e=nan a
+    # message about the semi-latus rectum, and nu with mean_anomaly silently ignored the latter
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0)
+    for primary in (1.7, True, "sun", 2, -3):
+        with pytest.raises(vv.InvalidInputError, match="primary"):
+            sim.add(0.0, a=0.1, primary=primary)
+    with pytest.raises(vv.InvalidInputError, match="e contains NaN"):
+        sim.add(0.0, a=0.1, e=np.nan, primary=0)
+    with pytest.raises(vv.ShapeError, match="inc"):
+        sim.add(0.0, a=0.1, inc=[0.1, 0.2], primary=0)
+    with pytest.raises(vv.InvalidInputError, match="mean_anomaly"):
+        sim.add(0.0, a=0.1, nu=0.1, mean_anomaly=0.2, primary=0)
+    k = sim.add(0.0, a=0.1, e=0.2, inc=30 * u.deg, raan=0.5 * u.rad, nu=10 * u.deg, primary=-1)
+    j = sim.add(0.0, a=0.1, e=0.2, inc=np.radians(30), raan=0.5, nu=np.radians(10), primary=1)
+    np.testing.assert_array_equal(sim.positions[k], sim.positions[j])
+    np.testing.assert_array_equal(sim.velocities[k], sim.velocities[j])
+
+
 def test_add_by_elements_uses_the_elements_kernels():
     from visviva.core.elements import coe_to_rv
     from visviva.core.kepler import mean_to_true_anomaly

@@ -209,3 +209,25 @@ def test_tiny_gm_elements_raise_instead_of_inf():
 def test_epoch_must_be_time(epoch):
     with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):
         vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0] * KMS, MU, epoch=epoch)
+
+
+def test_epoch_that_does_not_match_the_states_raises_shape_error():
+    # an epoch of 3 times for 2 states was stored silently; s[1].epoch then gave all 3 times
+    from astropy.time import Time
+
+    r = [[7000.0, 0, 0], [8000.0, 100.0, 0]] * KM
+    three = Time("2024-01-01", scale="utc") + np.arange(3) * u.h
+    with pytest.raises(vv.ShapeError, match="epoch"):
+        vv.StateVectors(r, [0, 7.5, 1.0] * KMS, MU, epoch=three)
+
+
+def test_epoch_broadcasts_to_the_leading_shape():
+    # (N,) epochs against (T, N) states: every state gets its own time, so indexing is right
+    from astropy.time import Time
+
+    t = Time("2024-01-01", scale="tdb") + np.arange(2) * u.day
+    r = np.tile([7000.0, 0.0, 0.0], (3, 2, 1)) * KM
+    s = vv.StateVectors(r, [0, 7.5, 1.0] * KMS, MU, epoch=t)
+    assert s.epoch.shape == (3, 2)
+    assert s[2, 1].epoch == t[1] and s[0].epoch.shape == (2,)
+    assert np.all(s.propagate(1 * u.h).epoch == t + 1 * u.h)

@@ -88,7 +88,13 @@ def gm_positive(gm: np.ndarray) -> None:
         )
 
 
-def validate_epoch(epoch):
+def validate_epoch(epoch, shape=None, what="the container"):
+    """``epoch`` checked to be a Time (or None) whose shape broadcasts to ``shape``.
+
+    A scalar epoch, or one of exactly ``shape``, is returned as it is; one that broadcasts (e.g.
+    ``(N,)`` times for ``(T, N)`` states) is broadcast to ``shape``, so that indexing the
+    container indexes its epoch.
+    """
     if epoch is None:
         return None
     from astropy.time import Time
@@ -98,7 +104,17 @@ def validate_epoch(epoch):
             f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
             f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
         )
-    return epoch
+    if shape is None or epoch.shape in ((), shape):
+        return epoch
+    try:
+        if np.broadcast_shapes(epoch.shape, shape) == shape:
+            return np.broadcast_to(epoch, shape, subok=True)
+    except ValueError:
+        pass
+    raise ShapeError(
+        f"epoch of shape {epoch.shape} does not match {what} of shape {shape}: give one Time "
+        "for all, or one Time per item (an array of the same shape)."
+    )
 
 
 def flat(arr: np.ndarray, shape: tuple) -> np.ndarray:

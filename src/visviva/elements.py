@@ -32,6 +32,7 @@ from ._containers import (
     flat,
     flat_elements,
     gm_positive,
+    validate_epoch,
 )
 from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
 from .states import states_from_kernel
@@ -114,6 +115,7 @@ class KeplerianElements(TwoBodyContainer):
             },
             "KeplerianElements",
         )
+        epoch = validate_epoch(epoch, shape, "the elements")
         first, _ = tier.call(
             scan_coe, *(flat(x, shape) for x in (p_km, ecc, inc, raan, argp, nu, gm)), _INC_SLACK,
             small=math.prod(shape) <= tier.SMALL_ITEMS)

@@ -22,6 +22,7 @@ from ._containers import (
     canonical_arrays,
     flat_elements,
     gm_positive,
+    validate_epoch,
 )
 from .errors import InvalidElementsError
 from .states import states_from_kernel
@@ -79,6 +80,7 @@ class ModifiedEquinoctialElements(TwoBodyContainer):
             },
             "ModifiedEquinoctialElements",
         )
+        epoch = validate_epoch(epoch, shape, "the elements")
         _require_positive_p(p_km)
         w = np.broadcast_to(1.0 + f * np.cos(L) + g * np.sin(L), shape)
         if np.any(w <= 0):

@@ -111,6 +111,7 @@ class StateVectors(TwoBodyContainer):
         shape = broadcast_shape(
             {"r": r_km.shape[:-1], "v": v_kms.shape[:-1], "gm": gm_arr.shape}, "StateVectors"
         )
+        epoch = validate_epoch(epoch, shape, "the states")
         r_km = np.ascontiguousarray(np.broadcast_to(r_km, shape + (3,)))
         v_kms = np.ascontiguousarray(np.broadcast_to(v_kms, shape + (3,)))
         first, code = tier.call(scan_states, r_km.reshape(-1, 3), v_kms.reshape(-1, 3),

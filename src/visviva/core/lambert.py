@@ -160,6 +160,15 @@ def _bisect_zero_rev(T, lam):
 
 
 @inline_kernel
+def _half_sum_norm(ir1, ir2):
+    """|r1_hat + r2_hat| / 2 = |cos(dnu/2)|, accurate also near dnu = 180 deg (no cancellation)."""
+    sx = ir1[0] + ir2[0]
+    sy = ir1[1] + ir2[1]
+    sz = ir1[2] + ir2[2]
+    return 0.5 * math.sqrt(sx * sx + sy * sy + sz * sz)
+
+
+@inline_kernel
 def _check_problem(r1, r2, tof, gm, M, v1, v2):
     """Common prologue of the solvers: NaN into ``v1``, ``v2``, then the input checks.
 
@@ -228,8 +237,9 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     if hn < 1e-12:
         return st.DOMAIN
     ih = (hx / hn, hy / hn, hz / hn)
-    lam2 = 1.0 - c / s
-    lam = math.sqrt(max(0.0, lam2))
+    # lambda^2 = 1 - c/s = r1 r2 cos^2(dnu/2) / s^2, with 2 |cos(dnu/2)| = |r1_hat + r2_hat|:
+    # 1 - c/s cancels to nothing within ~1e-8 rad of 180 deg, the sum of unit vectors does not
+    lam = math.sqrt(R1 * R2) * _half_sum_norm(ir1, ir2) / s
     # tangential unit vectors, in the direction of motion
     sign = 1.0
     # the same test as universal_one, on the raw cross product: h_z = 0 (a transfer plane
@@ -296,7 +306,12 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
 
     gamma = math.sqrt(gm * s / 2.0)
     rho = (R1 - R2) / c
-    sigma = math.sqrt(max(0.0, 1.0 - rho * rho))
+    # sigma = sqrt(1 - rho^2) = 2 sqrt(r1 r2) |sin(dnu/2)| / c with 2 |sin(dnu/2)| =
+    # |r1_hat - r2_hat|: 1 - rho^2 cancels near a 0/360 deg transfer, the difference does not
+    dx = ir1[0] - ir2[0]
+    dy = ir1[1] - ir2[1]
+    dz = ir1[2] - ir2[2]
+    sigma = math.sqrt(R1 * R2) * math.sqrt(dx * dx + dy * dy + dz * dz) / c
     y = math.sqrt(1.0 - lam2 + lam2 * x * x)
     vr1 = gamma * ((lam * y - x) - rho * (lam * y + x)) / R1
     vr2 = -gamma * ((lam * y - x) + rho * (lam * y + x)) / R2
@@ -330,8 +345,8 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     status, r1n, r2n = _check_problem(r1, r2, tof, gm, M, v1, v2)
     if status != st.OK:
         return status
-    cosdnu = (r1[0] * r2[0] + r1[1] * r2[1] + r1[2] * r2[2]) / (r1n * r2n)
-    cosdnu = max(-1.0, min(1.0, cosdnu))
+    ir1 = (r1[0] / r1n, r1[1] / r1n, r1[2] / r1n)
+    ir2 = (r2[0] / r2n, r2[1] / r2n, r2[2] / r2n)
     hz = r1[0] * r2[1] - r1[1] * r2[0]
     hx = r1[1] * r2[2] - r1[2] * r2[1]
     hy = r1[2] * r2[0] - r1[0] * r2[2]
@@ -341,7 +356,10 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     if not prograde:
         short = not short
     tm = 1.0 if short else -1.0
-    A = tm * math.sqrt(r1n * r2n * (1.0 + cosdnu))
+    # A = sqrt(r1 r2 (1 + cos dnu)) = sqrt(2 r1 r2) |cos(dnu/2)|, from the sum of the unit
+    # vectors: 1 + cos dnu by a dot product loses every digit within ~1e-7 rad of 180 deg
+    cos_half = _half_sum_norm(ir1, ir2)
+    A = tm * math.sqrt(2.0 * r1n * r2n) * cos_half
     if A == 0.0:
         return st.DOMAIN
     two_pi2 = 4.0 * _PI * _PI
@@ -390,12 +408,29 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     t, y = _uv_tof(psi, r1n, r2n, A, gm)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
-    f = 1.0 - y / r1n
-    gdot = 1.0 - y / r2n
-    g = A * math.sqrt(y / gm)
-    for i in range(3):
-        v1[i] = (r2[i] - f * r1[i]) / g
-        v2[i] = (gdot * r2[i] - r1[i]) / g
+    # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and
+    # g = A sqrt(y/mu), rearranged without cancellation near 180 deg (where g -> 0):
+    # r2 - f r1 = r2 (r1_hat + r2_hat) + D r1_hat and gdot r2 - r1 = -(r1 (r1_hat + r2_hat)
+    # + D r2_hat), with D = y - r1 - r2 = A (psi c3 - 1)/sqrt(c2) computed directly
+    # The component of r1_hat + r2_hat along r1_hat (or r2_hat) is 1 + cos dnu = 2 cos^2(dnu/2),
+    # O(eps^2) near 180 deg: it is taken from cos_half, not from the rounded sum, whose
+    # rounding noise (1e-16) divided by g ~ eps would tilt the radial velocity.
+    c2, c3 = stumpff_c2c3(psi)
+    root = math.sqrt(y / gm)
+    d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)
+    sum_over_g = 1.0 / (A * root)
+    par = 2.0 * cos_half * cos_half
+    sx = ir1[0] + ir2[0]
+    sy = ir1[1] + ir2[1]
+    sz = ir1[2] + ir2[2]
+    p1 = par - (sx * ir1[0] + sy * ir1[1] + sz * ir1[2])
+    p2 = par - (sx * ir2[0] + sy * ir2[1] + sz * ir2[2])
+    v1[0] = r2n * (sx + p1 * ir1[0]) * sum_over_g + d_over_g * ir1[0]
+    v1[1] = r2n * (sy + p1 * ir1[1]) * sum_over_g + d_over_g * ir1[1]
+    v1[2] = r2n * (sz + p1 * ir1[2]) * sum_over_g + d_over_g * ir1[2]
+    v2[0] = -(r1n * (sx + p2 * ir2[0]) * sum_over_g + d_over_g * ir2[0])
+    v2[1] = -(r1n * (sy + p2 * ir2[1]) * sum_over_g + d_over_g * ir2[1])
+    v2[2] = -(r1n * (sz + p2 * ir2[2]) * sum_over_g + d_over_g * ir2[2])
     return st.OK
 
 

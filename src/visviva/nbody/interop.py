@@ -4,11 +4,24 @@ Particles (mass, position, velocity, radius), ``G``, ``t`` and ``dt`` are copied
 same float64 values). The integrator is mapped by name (``leapfrog``, ``whfast``, ``ias15``), and
 WHFast's coordinates with it (visviva's ``"jacobi"`` / ``"democratic_heliocentric"`` <-> REBOUND's
 ``"jacobi"`` / ``"democraticheliocentric"``; REBOUND's WHDS and barycentric WHFast have no visviva
-counterpart and are refused); integrator internals (IAS15's b arrays, ...) are not transferred:
-the first step in the other code starts fresh.
+counterpart and are refused). The integrator settings that both codes have travel too: WHFast's
+``corrector`` (0, 3, 5, 7; REBOUND's 11 and 17 are refused), IAS15's ``epsilon`` (REBOUND's
+``epsilon = 0``, fixed steps, is refused), ``adaptive_mode`` (``"prs23"`` <-> ``"prs23"``,
+``"rs15"`` <-> ``"global"``; REBOUND's ``"individual"`` and ``"aarseth85"`` are refused) and
+``min_dt`` (a floor in both; visviva raises :class:`~visviva.StepSizeError` at it where REBOUND
+keeps stepping), ``exact_finish_time``, ``softening``, ``encounter_distance`` <-> REBOUND's
+``exit_min_distance`` and ``exit_max_distance``. ``collision="halt"``/``"merge"``/``"bounce"``
+become REBOUND's direct detection with the ``"halt"``/``"merge"``/``"hardsphere"`` resolver.
+What cannot travel is said, not dropped in silence: ``to_rebound`` warns about additional forces
+and inelastic bounces, ``from_rebound`` about REBOUND's collision detection (its resolver function
+cannot be read back) and refuses massive test particles that pull (``testparticle_type = 1``).
+Integrator internals (IAS15's b arrays, ...) are not transferred: the first step in the other
+code starts fresh.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -18,6 +31,10 @@ __all__ = ["to_rebound", "from_rebound"]
 
 #: visviva's WHFast coordinates -> REBOUND's ``integrator.coordinates``.
 _REBOUND_COORDINATES = {"jacobi": "jacobi", "democratic_heliocentric": "democraticheliocentric"}
+#: visviva's IAS15 ``adaptive_mode`` -> REBOUND's.
+_REBOUND_ADAPTIVE = {"prs23": "prs23", "rs15": "global"}
+#: visviva's ``collision`` -> REBOUND's ``collision_resolve`` (with ``collision = "direct"``).
+_REBOUND_RESOLVE = {"halt": "halt", "merge": "merge", "bounce": "hardsphere"}
 
 
 def _rebound():
@@ -50,7 +67,36 @@ def to_rebound(sim):
         r.softening = sim.softening
     if sim.N_active < sim.N and np.all(m[: sim.N_active] != 0):
         r.N_active = sim.N_active
+    _settings_to_rebound(sim, r)
     return r
+
+
+def _settings_to_rebound(sim, r):
+    """The integrator, event and collision settings of ``sim`` on the REBOUND copy ``r``."""
+    if sim.integrator == "whfast":
+        r.integrator.corrector = int(sim.corrector)
+    elif sim.integrator == "ias15":
+        r.integrator.epsilon = float(sim.epsilon)
+        r.integrator.adaptive_mode = _REBOUND_ADAPTIVE[sim.adaptive_mode]
+        r.integrator.min_dt = float(sim.min_dt)
+    r.exact_finish_time = int(bool(sim.exact_finish_time))
+    if sim.encounter_distance is not None:
+        r.exit_min_distance = float(sim.encounter_distance)
+    if sim.exit_max_distance is not None:
+        r.exit_max_distance = float(sim.exit_max_distance)
+    lost = []
+    if sim.collision != "none":
+        r.collision = "direct"
+        r.collision_resolve = _REBOUND_RESOLVE[sim.collision]
+        if sim.collision == "bounce" and sim.restitution != 1.0:
+            lost.append(f"the collision restitution {sim.restitution} (REBOUND's hard spheres "
+                         "bounce elastically unless given a coefficient_of_restitution function)")
+    if sim.forces:
+        lost.append(f"{len(sim.forces)} additional force(s) (REBOUND needs REBOUNDx or its "
+                    "additional_forces callback for them)")
+    if lost:
+        warnings.warn("to_rebound: the REBOUND copy does not carry " + " and ".join(lost)
+                      + ", so it integrates different dynamics.", UserWarning, stacklevel=3)
 
 
 def from_rebound(cls, rsim, integrator=None):
@@ -78,9 +124,61 @@ def from_rebound(cls, rsim, integrator=None):
     sim = cls(name, G=float(rsim.G), coordinates=coordinates)
     sim.softening = float(rsim.softening)
     n_active = rsim.N_active if rsim.N_active >= 0 else rsim.N
+    if n_active < rsim.N and int(rsim.testparticle_type) != 0 and any(
+        float(p.m) != 0.0 for p in rsim.particles[n_active:]
+    ):
+        raise InvalidInputError(
+            "from_rebound: the REBOUND simulation has massive test particles that pull the "
+            "active ones (testparticle_type = 1), which visviva does not have; set "
+            "rsim.testparticle_type = 0 (they then feel but do not pull, as visviva's test "
+            "particles) or make them active (rsim.N_active = -1)."
+        )
+    if str(rsim.integrator) == name:
+        _settings_from_rebound(rsim, sim)
     for k, p in enumerate(rsim.particles):
         m = float(p.m) if k < n_active else 0.0
         sim.add(m, [p.x, p.y, p.z], [p.vx, p.vy, p.vz], radius=float(p.r))
     sim.t = float(rsim.t)
     sim.dt = float(rsim.dt)
     return sim
+
+
+def _settings_from_rebound(rsim, sim):
+    """The integrator, event and collision settings of the REBOUND simulation ``rsim``."""
+    if sim.integrator == "whfast":
+        corrector = int(rsim.integrator.corrector)
+        if corrector not in (0, 3, 5, 7):
+            raise InvalidInputError(
+                f"REBOUND's WHFast corrector {corrector} has no visviva counterpart (0, 3, 5 "
+                "or 7); set rsim.integrator.corrector to one of them first."
+            )
+        sim.corrector = corrector
+    elif sim.integrator == "ias15":
+        epsilon = float(rsim.integrator.epsilon)
+        if not epsilon > 0:
+            raise InvalidInputError(
+                f"REBOUND's IAS15 epsilon = {epsilon} (fixed steps of dt) has no visviva "
+                "counterpart: set rsim.integrator.epsilon > 0 (e.g. 1e-9) first."
+            )
+        mode = str(rsim.integrator.adaptive_mode).lower()
+        back = {v: k for k, v in _REBOUND_ADAPTIVE.items()}
+        if mode not in back:
+            raise InvalidInputError(
+                f"REBOUND's IAS15 adaptive_mode {mode!r} has no visviva counterpart; set "
+                f"rsim.integrator.adaptive_mode to one of {sorted(back)} first."
+            )
+        sim.epsilon = epsilon
+        sim.adaptive_mode = back[mode]
+        sim.min_dt = float(rsim.integrator.min_dt)
+    sim.exact_finish_time = bool(rsim.exact_finish_time)
+    if float(rsim.exit_min_distance) > 0:
+        sim.encounter_distance = float(rsim.exit_min_distance)
+    if float(rsim.exit_max_distance) > 0:
+        sim.exit_max_distance = float(rsim.exit_max_distance)
+    if str(rsim.collision).lower() != "none":
+        warnings.warn(
+            f"from_rebound: REBOUND's collision detection ({str(rsim.collision)!r}) is not "
+            "carried over (its resolver function cannot be read back): set sim.collision to "
+            "'halt', 'merge' or 'bounce' (and the particles' radii) on the visviva copy.",
+            UserWarning, stacklevel=3,
+        )

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _units
 from ..core import elements as _elements
 from ..core import kepler as _kepler
 from ..errors import InvalidInputError, fmt_number, raise_for_status
-from .settings import length
+from .settings import length, scalar
 
 __all__ = ["elements_to_state"]
 
@@ -24,12 +25,15 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
         xp = (masses[:, None] * x).sum(0) / mp if mp > 0 else x.mean(0)
         vp = (masses[:, None] * v).sum(0) / mp if mp > 0 else v.mean(0)
     else:
-        i = int(primary)
+        i = _primary_index(primary, sim.N)
         mp, xp, vp = masses[i], x[i], v[i]
     gm = sim.G * (mp + m)
     if not gm > 0:
         raise InvalidInputError("the primary and the particle have no mass: GM = 0.")
-    e = float(e)
+    e = scalar(_units.to_array(e, "dimensionless", "e"), "e")
+    inc, raan, argp = (_angle(val, name) for val, name in ((inc, "inc"), (raan, "raan"), (argp, "argp")))
+    if nu is not None and M is not None:
+        raise InvalidInputError("give the true anomaly nu or the mean_anomaly, not both.")
     if e < 0:
         raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
     if p is None:
@@ -47,11 +51,27 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
         else:
             if e >= 1:
                 raise InvalidInputError("give nu (not mean_anomaly) for open orbits.")
-            nu, status = _kepler.mean_to_true_anomaly(float(M), e)
+            M = _angle(M, "mean_anomaly")
+            nu, status = _kepler.mean_to_true_anomaly(M, e)
             raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
-    *state, status = _elements.coe_to_rv(
-        p, e, float(inc), float(raan), float(argp), float(nu), gm
-    )
+    else:
+        nu = _angle(nu, "nu")
+    *state, status = _elements.coe_to_rv(p, e, inc, raan, argp, float(nu), gm)
     raise_for_status(np.array([status]), "orbital elements to state", p=p, e=e, nu=nu)
     return xp + np.array(state[:3]), vp + np.array(state[3:])
 
+
+
+def _angle(value, name) -> float:
+    """One angle in radians: a plain number (radians) or an angle Quantity."""
+    return scalar(_units.to_array(value, "angle", name), name)
+
+
+def _primary_index(primary, n) -> int:
+    """``primary`` as an index into the ``n`` particles (negative counts from the end)."""
+    if isinstance(primary, bool) or not isinstance(primary, int | np.integer) or not -n <= primary < n:
+        raise InvalidInputError(
+            f"primary must be the index of a particle added before (an integer in [{-n}, {n})), "
+            f'or "com"/None for the centre of mass; got {primary!r}.'
+        )
+    return int(primary) % n

@@ -651,14 +651,22 @@ class Simulation:
         return load_simulation(cls, path, forces=forces)
 
     def to_rebound(self):
-        """A ``rebound.Simulation`` with the same particles, G, t, dt and integrator."""
+        """A ``rebound.Simulation`` with the same particles, G, t, dt, integrator and settings.
+
+        Warns about what REBOUND cannot carry (additional forces, an inelastic bounce); see
+        :mod:`visviva.nbody.interop`.
+        """
         from .interop import to_rebound
 
         return to_rebound(self)
 
     @classmethod
     def from_rebound(cls, rsim, integrator=None) -> Simulation:
-        """A visviva Simulation from a ``rebound.Simulation`` (particles, G, t, dt)."""
+        """A visviva Simulation from a ``rebound.Simulation`` (particles, G, t, dt, settings).
+
+        Settings without a visviva counterpart raise :class:`~visviva.InvalidInputError`; see
+        :mod:`visviva.nbody.interop`.
+        """
         from .interop import from_rebound
 
         return from_rebound(cls, rsim, integrator=integrator)

@@ -412,3 +412,16 @@ def test_from_omm_refuses_mean_elements_sgp4_cannot_use(edit, words):
     # the same in lower case or with spaces is accepted when it says what SGP4 needs
     ok = vv.read_omm(OMM_KVN.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = utc"))
     assert vv.Satellite.from_omm(ok).satnum == 25544
+
+
+@pytest.mark.parametrize("year", ["2060", "1950"])
+def test_to_tle_refuses_an_epoch_its_two_digit_year_cannot_hold(year):
+    # a TLE's year has two digits, 57..99 for 1957..1999 and 00..56 for 2000..2056: an epoch
+    # in 2060 was written "60" and read back as 1960, silently a century off
+    sat = vv.Satellite.from_omm(vv.read_omm(OMM_KVN.replace("EPOCH = 2024", f"EPOCH = {year}")))
+    with pytest.raises(vv.InvalidInputError, match="1957 .. 2056"):
+        sat.to_tle()
+    assert vv.Satellite.from_omm(sat.to_omm()).epoch == sat.epoch  # the OMM holds it
+    for ok in ("2056", "1957"):
+        s = vv.Satellite.from_omm(vv.read_omm(OMM_KVN.replace("EPOCH = 2024", f"EPOCH = {ok}")))
+        assert vv.Satellite.from_tle(*s.to_tle()).epoch.isot == s.epoch.isot

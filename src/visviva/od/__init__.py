@@ -16,7 +16,7 @@ _EXPORTS = {
     "herrick_gibbs": "iod",
     "gauss_angles": "angles",
     "double_r": "angles",
-    "initial_orbit": "iod",
+    "initial_orbit": "first_orbit",
     "Observations": "observations",
     "fit_orbit": "batch",
     "OrbitFit": "batch",

@@ -196,7 +196,7 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         )
     if initial is None:
         from ..bodies import EARTH
-        from .iod import initial_orbit
+        from .first_orbit import initial_orbit
 
         initial = initial_orbit(observations, EARTH)
     x, gm, epoch = check_initial(initial)

@@ -1,5 +1,6 @@
-"""Initial orbit determination from positions: Gibbs and Herrick-Gibbs, and a first orbit from
-a table of observations (angles only: :mod:`visviva.od.angles`).
+"""Initial orbit determination from positions: Gibbs and Herrick-Gibbs (angles only:
+:mod:`visviva.od.angles`; a first orbit from a table of observations:
+:mod:`visviva.od.first_orbit`).
 
 >>> import visviva as vv
 >>> from astropy import units as u
@@ -20,7 +21,7 @@ import numpy as np
 from .._units import is_quantity, to_array, to_quantity, to_vector
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["gibbs", "herrick_gibbs", "initial_orbit"]
+__all__ = ["gibbs", "herrick_gibbs", "gm_value"]
 
 #: largest angle between r1 and the plane of r2, r3 that Gibbs accepts by default, rad
 COPLANAR_TOL_RAD = math.radians(1.0)
@@ -255,97 +256,6 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
     return _out(v2, quantity)
 
 
-def _first_group(idx, secs, gap_s=300.0):
-    """The leading run of ``idx`` whose successive times are at most ``gap_s`` apart."""
-    end = 1
-    while end < len(idx) and secs[idx[end]] - secs[idx[end - 1]] <= gap_s:
-        end += 1
-    return idx[:end]
-
-
-def initial_orbit(observations, gm):
-    """A first state from a table of observations, for :func:`~visviva.fit_orbit`.
-
-    Parameters
-    ----------
-    observations : Observations
-        Positions, or az/el or RA/Dec rows with a range row of the same station at the same
-        time (together a position), or at least three RA/Dec rows of one station.
-    gm : Quantity (km^3/s^2), Body or float (km^3/s^2)
-        Gravitational parameter.
-
-    Returns
-    -------
-    StateVectors
-        The GCRS state at the middle of the three observations used, with that epoch.
-
-    Raises
-    ------
-    InvalidInputError
-        The table has neither three positions (or angle + range pairs) nor three RA/Dec rows
-        within one pass.
-
-    Notes
-    -----
-    Three position fixes from the first pass (fixes at most 5 min apart): first, middle and
-    last. Gibbs when they span more than 5 deg of arc, Herrick-Gibbs otherwise; with only
-    angles, Gauss's method on the first, middle and last RA/Dec of the first pass.
-    """
-    from .angles import gauss_angles, state_at
-
-    g = gm_value(gm)
-    kinds = observations.kinds
-    vals = observations.values
-    secs = (observations.times.tt - observations.times[0].tt).sec
-    site_r, _, enu = observations.sites()
-    fixes = {}
-    for i in np.flatnonzero(kinds == "position"):
-        fixes.setdefault(i, vals[i, :3])
-    ranges = {(round(secs[i], 6), id(observations.stations[i])): vals[i, 0]
-              for i in np.flatnonzero(kinds == "range")}  # fmt: skip
-    for i in np.flatnonzero((kinds == "azel") | (kinds == "radec")):
-        rho = ranges.get((round(secs[i], 6), id(observations.stations[i])))
-        if rho is None:
-            continue
-        a, b = vals[i, 0], vals[i, 1]
-        if kinds[i] == "azel":
-            los = enu[i].T @ np.array([np.cos(b) * np.sin(a), np.cos(b) * np.cos(a), np.sin(b)])
-        else:
-            los = np.array([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)])
-        fixes.setdefault(i, site_r[i] + rho * los)
-    order = np.array(sorted(fixes, key=lambda i: secs[i]), dtype=np.int64)
-    if order.size >= 3:
-        group = _first_group(order, secs)
-        if group.size < 3:
-            group = order
-        i1, i2, i3 = group[0], group[len(group) // 2], group[-1]
-        if secs[i1] < secs[i2] < secs[i3]:
-            r1, r2, r3 = fixes[i1], fixes[i2], fixes[i3]
-            arc = max(_angle(r1, r2), _angle(r2, r3))
-            if arc > math.radians(5.0):
-                v2 = gibbs(r1, r2, r3, g, coplanar_tol=math.radians(5.0))
-            else:
-                v2 = herrick_gibbs(r1, r2, r3, secs[i1], secs[i2], secs[i3], g)
-            return state_at(r2, np.asarray(v2), g, observations.times[i2])
-    radec = np.flatnonzero(kinds == "radec")
-    if radec.size >= 3:
-        group = _first_group(radec, secs)
-        if group.size >= 3:
-            pick = [group[0], group[len(group) // 2], group[-1]]
-            return gauss_angles(vals[pick, 0], vals[pick, 1], observations.times[pick],
-                                site_r[pick], g)  # fmt: skip
-    raise InvalidInputError(
-        "cannot find a first orbit in these observations: give three positions, az/el or RA/Dec "
-        "rows each with a range from the same station at the same time, or three RA/Dec rows "
-        "within one pass; or pass initial=vv.StateVectors(...) yourself."
-    )
-
-
 def _angle_between(a, b):
     """Angles (rad) between the vectors of two (..., 3) arrays."""
     return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
-
-
-def _angle(a, b):
-    c = float(a @ b) / (float(np.linalg.norm(a)) * float(np.linalg.norm(b)))
-    return math.acos(max(-1.0, min(1.0, c)))

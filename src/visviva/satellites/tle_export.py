@@ -63,6 +63,14 @@ def _angle(rad: float) -> str:
     return "  0.0000" if text == "360.0000" else text
 
 
+def _epoch_year(satrec) -> int:
+    """Full year of the record's epoch (from its Julian date, UTC)."""
+    from datetime import datetime, timedelta
+
+    days = (satrec.jdsatepoch - 2433281.5) + satrec.jdsatepochF  # since 1949-12-31 00:00
+    return (datetime(1949, 12, 31) + timedelta(days=days)).year
+
+
 def _satnum(satnum: int) -> str:
     from sgp4.alpha5 import to_alpha5
 
@@ -99,6 +107,10 @@ def to_tle(satrec) -> tuple[str, str]:
         raise InvalidInputError(f"mean motion derivative {ndot} rev/day**2 does not fit a TLE")
     ndot_text = f"{ndot: .8f}".replace("0.", ".", 1)
     nddot = satrec.nddot * _XPDOTP * 1440.0 * 1440.0  # rev/day**3 (n-ddot/6)
+    year = _epoch_year(satrec)
+    if not 1957 <= year <= 2056:
+        raise InvalidInputError(f"epoch year {year} cannot be written in a TLE (its two digits "
+                                "mean 1957 .. 2056); use to_omm()")
     epoch = f"{satrec.epochyr % 100:02d}{satrec.epochdays:012.8f}"
     line1 = (f"1 {num}{cls} {intl:<8} {epoch} {ndot_text} "
              f"{format_exponent(nddot, 'MEAN_MOTION_DDOT', '-')} "

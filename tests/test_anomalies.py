@@ -286,3 +286,13 @@ def test_hyperbolic_tiny_and_subnormal_mean_anomaly(M, ecc):
 def test_hyperbolic_to_mean_overflow_is_named():
     with pytest.raises(vv.errors.DomainError, match="overflows float64"):
         vv.hyperbolic_to_mean(1e300, 2.0)
+
+
+def test_a_list_of_angle_quantities_gives_a_quantity():
+    # [10 * u.deg, 0.2 * u.rad] was converted correctly but came back as a plain ndarray,
+    # unlike one Quantity (docs/conventions.md: Quantity in, Quantity in rad out)
+    E = vv.solve_kepler([10 * u.deg, 0.2 * u.rad], 0.1)
+    assert E.unit == u.rad
+    np.testing.assert_allclose(E.value, vv.solve_kepler(np.array([np.radians(10), 0.2]), 0.1),
+                               rtol=4e-16)
+    assert vv.mean_to_true([30 * u.deg], 1.0).unit == u.rad

@@ -406,3 +406,18 @@ def test_elements_epoch_shape_is_checked():
         vv.ModifiedEquinoctialElements([7000, 8000] * KM, 0.1, 0, 0, 0, 0, MU, epoch=three)
     el = vv.KeplerianElements([7000, 8000, 9000] * KM, 0.1, 0, 0, 0, 0, MU, epoch=three)
     assert el.epoch is three and el[2].epoch == three[2]
+
+
+@pytest.mark.parametrize("nu", [1e-300, 1e-15, -1e-15, 1e-12, -1e-12, -1e-8, 3.0, -3.0, PI])
+def test_small_true_anomalies_keep_their_digits(nu):
+    # wrapping into (-pi, pi] as pi - ((pi - nu) mod 2 pi) rounded small angles to multiples of
+    # ulp(2 pi): nu = -1e-15 came back as -8.9e-16 (11 % off), -1e-12 as -1.0000889e-12, and
+    # 1e-300 as 0, both from KeplerianElements(...) and from states just before periapsis
+    el = vv.KeplerianElements(7000 * KM, 0.3, 0.1, 0.2, 0.3, nu, MU)
+    assert el.true_anomaly.to_value(u.rad) == nu
+    mu = MU.to_value(GM_UNIT)
+    p, e = 7000.0, 0.3
+    r = p / (1 + e * math.cos(nu)) * np.array([math.cos(nu), math.sin(nu), 0.0])
+    v = math.sqrt(mu / p) * np.array([-math.sin(nu), e + math.cos(nu), 0.0])
+    back = vv.StateVectors(r * KM, v * KMS, MU).to_elements().true_anomaly.to_value(u.rad)
+    assert back == pytest.approx(nu, rel=1e-12, abs=0)

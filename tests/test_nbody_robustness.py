@@ -123,6 +123,8 @@ def test_bad_values_raise_typed_errors(tmp_path):
         vv.Simulation.load(cut)  # was zipfile.BadZipFile
     with pytest.raises(FileNotFoundError, match=r"cannot write .*nodir.*does not exist"):
         s.save(tmp_path / "nodir" / "x.npz")  # was: the name of a temporary file
+    with pytest.raises(IsADirectoryError, match=r"cannot write .* a folder"):
+        s.save(tmp_path)  # was: "Is a directory: '.../.tmp-xxxx.npz' -> ..." (a temporary file)
     arr = tmp_path / "arr.npy"
     np.save(arr, np.zeros(3))
     with pytest.raises(InvalidInputError, match="single numpy array"):

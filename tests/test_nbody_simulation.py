@@ -384,3 +384,11 @@ def test_add_by_elements_uses_the_elements_kernels():
         sim.add(0.0, p=1.0, e=3.0, nu=2.0, primary=0)
     with pytest.raises(vv.InvalidInputError, match="nu"):
         sim.add(0.0, p=1.0, e=1.5, mean_anomaly=0.3, primary=0)
+
+
+
+def test_G_and_units_together_are_refused():
+    # Simulation(G=2.0, units=("au", "yr", "Msun")) silently used G = 39.48 from the units
+    with pytest.raises(vv.InvalidInputError, match="G or units"):
+        vv.Simulation(G=2.0, units=("au", "yr", "Msun"))
+    assert vv.Simulation(units=("au", "yr", "Msun")).G == pytest.approx(4 * math.pi**2, rel=1e-4)

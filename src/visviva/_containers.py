@@ -159,8 +159,14 @@ def _wrap_2pi(x: np.ndarray) -> np.ndarray:
 
 
 def _wrap_pi(x: np.ndarray) -> np.ndarray:
-    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero)."""
-    return math.pi - _wrap_2pi(math.pi - np.asarray(x)) + 0.0
+    """Wrap into (-pi, pi] (pi stays pi, -pi becomes pi; no negative zero).
+
+    Angles already inside are returned unchanged: wrapping them through [0, 2 pi) would round
+    small ones to multiples of ulp(2 pi) (-1e-15 -> -8.9e-16).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    inside = (x > -math.pi) & (x <= math.pi)
+    return np.where(inside, x, math.pi - _wrap_2pi(math.pi - x)) + 0.0
 
 
 def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:

@@ -54,7 +54,9 @@ _PARALLEL_MIN_ITEMS = 4096
 
 def _run(kernel, context, angle, angle_name, ecc=None):
     """Convert, broadcast, call ``kernel(angle, [ecc,] out, status)`` once, raise, wrap."""
-    was_quantity = _units.is_quantity(angle)
+    was_quantity = _units.is_quantity(angle) or (
+        isinstance(angle, list | tuple) and _units._holds_quantity(angle)
+    )
     # NaN and inf are caught by the kernels (status NON_FINITE), so no separate pass here
     x = _units.to_array(angle, "angle", angle_name, finite=False)
     inputs = {angle_name: x}

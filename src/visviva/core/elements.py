@@ -96,7 +96,10 @@ def _wrap_2pi(x):
 
 @inline_kernel
 def _wrap_pi(x):
-    """Angle in (-pi, pi], never -0.0."""
+    """Angle in (-pi, pi], never -0.0; angles already inside are returned unchanged (wrapping
+    them through [0, 2 pi) would round small negative angles to multiples of ulp(2 pi))."""
+    if -_PI < x <= _PI:
+        return x + 0.0
     y = _wrap_2pi(x)
     if y > _PI:
         y -= _TWO_PI

@@ -239,7 +239,7 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     ih = (hx / hn, hy / hn, hz / hn)
     # lambda^2 = 1 - c/s = r1 r2 cos^2(dnu/2) / s^2, with 2 |cos(dnu/2)| = |r1_hat + r2_hat|:
     # 1 - c/s cancels to nothing within ~1e-8 rad of 180 deg, the sum of unit vectors does not
-    lam = math.sqrt(R1 * R2) * _half_sum_norm(ir1, ir2) / s
+    lam = min(1.0, math.sqrt(R1 * R2) * _half_sum_norm(ir1, ir2) / s)
     # tangential unit vectors, in the direction of motion
     sign = 1.0
     # the same test as universal_one, on the raw cross product: h_z = 0 (a transfer plane

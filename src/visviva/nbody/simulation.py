@@ -50,8 +50,8 @@ class Simulation:
     dt : float or Quantity, optional
         Time step (required by the fixed-step integrators; IAS15's first guess).
     units : tuple of str, optional
-        ``(length, time, mass)``, e.g. ``("au", "yr", "Msun")``: sets ``G`` and lets :meth:`add`
-        take astropy Quantities.
+        ``(length, time, mass)``, e.g. ``("au", "yr", "Msun")``: sets ``G`` (so give one of
+        ``G`` and ``units``, not both) and lets :meth:`add` take astropy Quantities.
     softening : float
         Plummer softening length (simulation units); 0 for none.
     parallel : bool, optional
@@ -135,6 +135,11 @@ class Simulation:
         self.parallel = parallel
         self._integrator = get_integrator(integrator)
         self.backend = check_backend(backend, self._integrator.name)
+        if self.units is not None and not (isinstance(G, int | float) and G == 1.0):
+            raise InvalidInputError(
+                f"give G or units, not both: units={units!r} set G = {self.units.G:.10g} "
+                f"(in those units), which would silently replace G = {G!r}."
+            )
         G_value = self.units.G if self.units is not None else float(G)
         if not (math.isfinite(G_value) and G_value > 0):
             raise InvalidInputError(f"G must be a finite number > 0; got {fmt_number(G)}.")

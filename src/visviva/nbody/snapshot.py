@@ -73,6 +73,11 @@ def atomic_savez(path, arrays: dict) -> None:
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):  # else the error names the temporary file
         raise FileNotFoundError(f"cannot write {path!r}: the folder {directory!r} does not exist")
+    if os.path.isdir(path):
+        raise IsADirectoryError(
+            f"cannot write {path!r}: it is a folder; give a file name in it, e.g. "
+            f"{os.path.join(path, 'simulation.npz')!r}"
+        )
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
     try:
         with os.fdopen(fd, "wb") as fh:

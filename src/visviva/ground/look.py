@@ -113,10 +113,10 @@ def _check_states_time(states, t) -> None:
 def _check_geocentric(states) -> None:
     """Refuse states whose GM is (to 0.1 %) another known body's: look() takes them as
     geocentric GCRS, so a lunar or heliocentric state would give a place in the sky silently."""
-    from ..satellites.cowell import _central_body
+    from ..satellites.cowell import central_body
 
     gm = float(np.asarray(states.gm.to_value(u.km**3 / u.s**2)).ravel()[0])
-    body = _central_body(gm, ())
+    body = central_body(gm, ())
     if body.name != "earth":
         raise InvalidInputError(
             f"the states' gm = {gm:.10g} km3/s2 is {body.name}'s: look() needs geocentric "

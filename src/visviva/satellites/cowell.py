@@ -36,7 +36,7 @@ from .perturbations import (
     flattening_of,
 )
 
-__all__ = ["propagate_cowell", "CowellResult", "ForceModel"]
+__all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body"]
 
 #: Default tolerances: with rtol = 1e-12 the error after one day of LEO is ~0.2 mm
 #: (docs/cowell.md); atol in km and km/s.
@@ -163,7 +163,7 @@ def _check_combination(perturbations, central):
         raise InvalidInputError("give at most one SolarRadiationPressure.")
 
 
-def _central_body(gm_km3_s2, perturbations):
+def central_body(gm_km3_s2, perturbations):
     """The central body: the one the perturbations name (refused when the state's GM is, to
     0.1 %, that of another known body), else the known body whose GM the state has, else the
     Earth. A GM of no known body (a custom or scaled one) is left to the caller."""
@@ -217,7 +217,7 @@ class ForceModel:
                 f"the perturbations refer to different central bodies ({sorted(centrals)}); "
                 "use one central body for every perturbation."
             )
-        central = _central_body(gm_km3_s2, perturbations)
+        central = central_body(gm_km3_s2, perturbations)
         self.central_body = central
         self.force[fb.RADIUS] = central.radius_km
         self.force[fb.FLATTENING] = flattening_of(central)
@@ -537,10 +537,8 @@ def propagate_cowell(
         :class:`~visviva.satellites.Apsides` ...
     rtol, atol : float
         Local error tolerances of the integrator (atol in km and km/s). The defaults keep the
-        error after one day of LEO near 0.2 mm for smooth forces; SRP with a shadow model
-        switches at the shadow boundary and needs ``max_step`` too (default settings: 0.4 m
-        (conical) to 4 m (cylindrical) after a day of LEO; ``max_step=10 * u.s``: a few mm;
-        see docs/cowell.md).
+        error after one day of LEO near 0.2 mm, but not across SRP's shadow switch: with a
+        shadow model pass ``max_step=10 * u.s`` too (0.4 m to 4 m otherwise; docs/cowell.md).
     max_step : Quantity, optional
         Largest step size.
     max_steps : int

@@ -43,6 +43,7 @@ _PUBLIC = {
     "Encounter": "visviva.errors",
     "Escape": "visviva.errors",
     "BackendUnavailableError": "visviva.errors",
+    "SurfaceImpact": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

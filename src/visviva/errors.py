@@ -29,6 +29,7 @@ __all__ = [
     "Escape",
     "StepSizeError",
     "BackendUnavailableError",
+    "SurfaceImpact",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -130,6 +131,32 @@ class BackendUnavailableError(VisvivaError, RuntimeError):
     """A compute backend was asked for that this machine or installation cannot provide (for
     example ``backend="cuda"`` without an NVIDIA GPU or without numba-cuda); the message says
     what is missing."""
+
+
+class SurfaceImpact(VisvivaError, RuntimeError):
+    """A propagated trajectory reached the surface of its central body, below which the force
+    model (gravity field, atmosphere) means nothing.
+
+    Attributes
+    ----------
+    t : Quantity
+        Time of the impact from the initial epoch, s (for a batch: the first output time found
+        below the surface).
+    state : int or None
+        For a batch of states: the index of the first state that went below the surface.
+    result : CowellResult
+        The propagation up to the impact (one state) or the whole batch as integrated: nothing
+        computed is lost.
+    """
+
+    def __init__(self, message: str, t=None, state=None, result=None):
+        super().__init__(message)
+        self.t = t
+        self.state = state
+        self.result = result
+
+    def __reduce__(self):  # keep the attributes across processes (Dask workers)
+        return type(self), (str(self), self.t, self.state, self.result)
 
 
 class NBodyEvent(VisvivaError):

@@ -35,6 +35,7 @@ from .perturbations import (
     Zonal,
     flattening_of,
 )
+from .surface import check_batch, check_single, watched_body, with_surface
 
 __all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body"]
 
@@ -625,10 +626,12 @@ def propagate_cowell(
             "their events, or drop events=... for the batch."
         )
     model = ForceModel(gm, perturbations, events, epoch, span)
+    body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
-        return _propagate_batch(
+        return check_batch(_propagate_batch(
             r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps
-        )
+        ), body)
+    events = with_surface(events, body)
     ev = (
         np.array([e.kind for e in events], dtype=np.int64),
         np.array([e.param for e in events], dtype=np.float64),
@@ -688,6 +691,6 @@ def propagate_cowell(
     records.sort(key=lambda rec: rec.t.value)
     if scalar and len(t_all) == 1:
         y_all, t_all = y_all[0], t_all[0]
-    return CowellResult._from_arrays(
+    return check_single(CowellResult._from_arrays(
         t_all, y_all, gm, epoch, records, terminated, t_final, n_steps, nfev, scalar
-    )
+    ), body)

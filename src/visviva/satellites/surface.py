@@ -1,0 +1,130 @@
+"""The central body's surface bounds a perturbed Cowell propagation.
+
+A trajectory that reaches the surface of its central body under a force model of that body
+(zonal harmonics, drag, solar radiation pressure with its shadow, third bodies about it) has
+left the model's domain: below the surface the field expansion and the atmosphere mean nothing,
+and a drag run would go on through an extrapolated atmosphere. :func:`visviva.propagate_cowell`
+therefore watches the geodetic altitude ``h = |r| - R (1 - f sin^2 phi)`` (the body's radius
+``R`` and flattening ``f``, as :class:`~visviva.satellites.AltitudeCrossing` does) and raises
+:class:`visviva.errors.SurfaceImpact` when it reaches 0, with the propagation up to that point
+attached (``exc.result``). A terminal event of the user's that comes first (``ReEntry()`` at
+100 km) ends the run as before, without an error.
+
+One state: a terminal altitude-0 event of its own (:class:`SurfaceCrossing`) is found on the
+integrator's dense output, to the event tolerance (1e-6 s). A batch of states (no events in the
+parallel kernel): the output times are checked, so an impact is found at the first output time
+below the surface (a trajectory that dips below the surface and comes out again between two
+outputs, i.e. passes through the body, is not seen there; give denser output times or
+propagate that state alone).
+
+Pure two-body motion (no perturbations) and a GM of no known body are not watched: a conic
+through the attractor is the exact solution of the two-body problem, as
+:meth:`visviva.StateVectors.propagate` gives it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from ..errors import InvalidStateError, SurfaceImpact
+from .events import AltitudeCrossing
+from .perturbations import flattening_of
+
+__all__ = ["SurfaceCrossing", "watched_body", "altitude_km", "with_surface", "check_single",
+           "check_batch"]
+
+
+class SurfaceCrossing(AltitudeCrossing):
+    """The geodetic altitude reaches 0 (either direction of time): the run stops there."""
+
+    name = "surface"
+
+    def __init__(self):
+        super().__init__(0.0 * u.km, direction=0, terminal=True)
+
+
+def watched_body(gm_km3_s2: float, perturbations, r0_km):
+    """The central body whose surface bounds the run, or None; refuses initial positions
+    ``r0_km`` (3,) or (N, 3) below that surface.
+
+    A run with perturbations about a known body (its GM within 0.1 % of one in
+    :data:`visviva.bodies.BODIES`, or a body a perturbation names) is watched; pure two-body
+    motion and a GM of no known body are not.
+    """
+    from ..bodies import BODIES
+
+    if not perturbations:
+        return None
+    body = next((p.central_body for p in perturbations if p.central_body is not None), None)
+    if body is None:
+        same = [b for b in BODIES.values()
+                if abs(float(gm_km3_s2) / b.gm_km3_s2 - 1.0) <= 1e-3]
+        if not same:
+            return None
+        body = same[0]
+    h = np.atleast_1d(altitude_km(r0_km, body))
+    if np.any(h < 0.0):
+        k = int(np.argmin(h))
+        where = f"state {k} starts" if np.ndim(r0_km) == 2 else "the initial state is"
+        raise InvalidStateError(
+            f"{where} {-float(h[k]):.6g} km below the surface of {body.name} (geodetic "
+            f"altitude from its radius {body.radius_km} km and flattening): the perturbations "
+            "of that body mean nothing there. Check the position's units and frame (km, "
+            "centred on the body), or propagate without perturbations for a conic."
+        )
+    return body
+
+
+def altitude_km(r_km, body) -> np.ndarray:
+    """Geodetic altitude (km) of positions ``r_km`` (..., 3), to first order in the flattening
+    (the expression of the compiled altitude event)."""
+    r = np.asarray(r_km, dtype=np.float64)
+    rn = np.linalg.norm(r, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s2 = (r[..., 2] / rn) ** 2
+    return rn - body.radius_km * (1.0 - flattening_of(body) * s2)
+
+
+def with_surface(events, body) -> list:
+    """``events`` and, for a watched run, the terminal :class:`SurfaceCrossing`."""
+    return list(events) + ([SurfaceCrossing()] if body is not None else [])
+
+
+def _impact(body, t_s: float, result, what: str) -> SurfaceImpact:
+    return SurfaceImpact(
+        f"the trajectory reached the surface of {body.name} at t = {t_s:.6f} s from the epoch "
+        f"(geodetic altitude 0), where the force model means nothing: {what} To stop earlier "
+        "without an error, pass events=[vv.satellites.ReEntry()] (100 km) or another terminal "
+        "AltitudeCrossing.",
+        t=t_s * u.s, result=result)
+
+
+def check_single(result, body):
+    """``result`` of one state, or :class:`~visviva.errors.SurfaceImpact` when its run stopped
+    at the surface (the run up to the impact attached)."""
+    hit = next((e for e in result.events if e.name == SurfaceCrossing.name), None)
+    if body is None or hit is None:
+        return result
+    raise _impact(body, float(hit.t.to_value(u.s)), result,
+                  "the propagation stopped there; the run up to the impact is in exc.result "
+                  "(exc.result.t, .r, .v, .events).")
+
+
+def check_batch(result, body):
+    """``result`` of a batch, or :class:`~visviva.errors.SurfaceImpact` naming the first state
+    below the surface at an output time (and its first such time)."""
+    if body is None:
+        return result
+    r = result.r.to_value(u.km)
+    below = altitude_km(r.reshape(r.shape[0], -1, 3), body) < 0.0
+    if not below.any():
+        return result
+    k = int(np.flatnonzero(below.any(axis=1))[0])
+    j = int(np.flatnonzero(below[k])[0])
+    exc = _impact(body, float(np.ravel(result.t.to_value(u.s))[j]), result,
+                  f"state {k} of the batch was below it at this output time (the batch kernel "
+                  "checks the output times only). exc.result holds every state at every output "
+                  "time as integrated.")
+    exc.state = k
+    raise exc

@@ -133,6 +133,8 @@ def test_cli_screen(tmp_path, capsys):
     ("2019-13-10", "2", "is not an ISO time"),
     ("2024-01-01", "inf", "--hours must be a positive finite number"),
     ("2024-01-01", "-1", "--hours must be a positive finite number"),
+    # 114,000 years at 60 s: was a numpy MemoryError traceback (447 GiB for the time grid)
+    ("2024-01-01", "1e9", "more than half of this machine's memory"),
 ])
 def test_screen_cli_bad_window_is_one_short_reason(tmp_path, capsys, start, hours, why):
     from visviva.cli import main

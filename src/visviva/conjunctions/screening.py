@@ -283,6 +283,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
     check_same_kind(cat1, cat2)
     n1 = len(cat1)
+    _check_memory(n1 + (0 if self_mode else len(cat2)), n_steps, step_s)
     if blocks is None:
         blocks = 32 if client is None else 4 * max(1, len(client.scheduler_info()["workers"]))
     blocks = max(1, min(int(blocks), n1))
@@ -327,3 +328,24 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
     tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
     return tab
+
+
+def _check_memory(n_objects: int, n_steps: int, step_s: float) -> None:
+    """Refuse a screening whose sampled ephemerides (positions and velocities of every object at
+    every step, 48 bytes each) would need more than half of this machine's memory."""
+    import os
+
+    need = 48.0 * n_objects * n_steps
+    try:
+        limit = 0.5 * os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        limit = 8.0 * 2**30
+    if need > limit:
+        raise InvalidInputError(
+            f"screening {n_objects} objects at {n_steps} steps of {step_s:g} s samples their "
+            f"ephemerides at once: {need / 2**30:.3g} GiB, more than half of this machine's "
+            f"memory ({2 * limit / 2**30:.3g} GiB). Screen shorter windows one after the other "
+            "(element sets are good for days, not years) and stack the tables "
+            "(astropy.table.vstack), screen fewer objects per call, or use a larger step."
+        )
+

@@ -94,7 +94,7 @@ def test_malformed_messages_name_the_line(old, new, match):
     # calendar dates the grammar's pattern lets through: read_cdm returned the message and only
     # msg.tca raised, later, far from the reader
     ("TCA                                = 2010-03-13T22:37:52.618",
-     "TCA = 2010-13-13T22:37:52.618", r"line 7:.*bad month"),
+     "TCA = 2010-13-13T22:37:52.618", r"line 7:.*TCA .* not a date that exists .month 13"),
     ("CREATION_DATE                      = 2010-03-12T22:31:12.000",
      "CREATION_DATE = 2010-02-30T22:31:12.000", r"line 3:.*CREATION_DATE"),
     ("TIME_LASTOB_END                    = 2010-03-12T02:14:12.746",
@@ -106,8 +106,11 @@ def test_malformed_messages_name_the_line(old, new, match):
      r"line 8:.*MISS_DISTANCE.*negative"),
     ("RELATIVE_SPEED                     = 14762 [m/s]", "RELATIVE_SPEED = -14762 [m/s]",
      r"line 9:.*RELATIVE_SPEED.*negative"),
+    # a negative variance on the covariance's diagonal (object 1's CR_R, line 58)
+    ("CR_R                               = 4.142E+01 [m**2]", "CR_R = -4.142E+01 [m**2]",
+     r"line 58:.*CR_R.*negative variance"),
 ], ids=["tca-month-13", "creation-feb-30", "lastob-hour-25", "pc-1.5", "miss-negative",
-        "speed-negative"])
+        "speed-negative", "variance-negative"])
 @pytest.mark.parametrize("fmt", ["kvn", "xml"])
 def test_impossible_dates_and_values_are_refused_when_read(old, new, match, fmt):
     text = _broken(old, new)
@@ -123,8 +126,8 @@ def test_impossible_dates_and_values_are_refused_when_read(old, new, match, fmt)
                     *sections["object1"].values()]:
             if key in rec.values:
                 rec.values[key] = float(value) if key in ("COLLISION_PROBABILITY",
-                                                          "MISS_DISTANCE",
-                                                          "RELATIVE_SPEED") else value
+                                                          "MISS_DISTANCE", "RELATIVE_SPEED",
+                                                          "CR_R") else value
         text = ConjunctionDataMessage(sections).to_xml()
         match = match.split(":", 1)[1]
     with pytest.raises(vv.CCSDSFormatError, match=match) as info:

@@ -94,6 +94,19 @@ def test_parse_value_types_and_units():
         parse_value(Keyword("X", "float"), "1e999", None, 3, "f")
     with pytest.raises(CCSDSFormatError, match="not a CCSDS epoch"):
         parse_value(Keyword("E", "epoch"), "2024/01/01 00:00", None, 3, "f")
+    # dates that match the pattern but do not exist, in every epoch keyword of every message
+    # (an OPM's CREATION_DATE = 2024-02-30 was read as it stood)
+    for bad, why in (("2024-02-30T00:00:00", "day 30 of a month of 29 days"),
+                     ("2023-02-29T00:00:00", "day 29 of a month of 28 days"),
+                     ("2024-13-01T00:00:00", "month 13"), ("2024-00-10T00:00:00", "month 0"),
+                     ("2023-366T00:00:00", "day 366 of a year of 365 days"),
+                     ("2024-000T00:00:00", "day 0"), ("2024-01-01T24:00:00", "time 24:00:00"),
+                     ("2024-01-01T12:60:00", "time"), ("2024-01-01T12:00:61.5Z", "time")):
+        with pytest.raises(CCSDSFormatError, match=f"line 4: E = .* not a date that exists "
+                                                   f"\\({why}"):
+            parse_value(Keyword("E", "epoch"), bad, None, 4, "f")
+    for good in ("2024-02-29T23:59:59.999", "2024-366T00:00:00Z", "2016-12-31T23:59:60"):
+        assert parse_value(Keyword("E", "epoch"), good, None, 4, "f") == good
 
 
 @settings(max_examples=300, deadline=None)

@@ -377,9 +377,9 @@ def test_opm_in_mission_elapsed_time():
 @pytest.mark.parametrize("edit, marker, words", [
     # a bad date named the TIME_SYSTEM line; a manoeuvre's was not checked at read at all
     (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-02-30T00:00:00.000"), "EPOCH =",
-     "2024-02-30T00:00:00.000' is not a valid date-time"),
+     "2024-02-30T00:00:00.000' is not a date that exists .day 30 of a month of 29 days"),
     (("MAN_EPOCH_IGNITION = 2024-03-02T09:00:34.1", "MAN_EPOCH_IGNITION = 2024-03-02T25:00:34.1"),
-     "MAN_EPOCH_IGNITION = 2024-03-02", "is not a valid date-time"),
+     "MAN_EPOCH_IGNITION = 2024-03-02", "is not a date that exists .time 25:00:34.1"),
     # impossible values were read silently
     (("ECCENTRICITY = 0.1", "ECCENTRICITY = -0.1"), "ECCENTRICITY", "ECCENTRICITY = -0.1"),
     (("GM = 398600.4415", "GM = -398600.4415"), "GM =", "GM = -398600.4415"),
@@ -425,3 +425,12 @@ def test_to_tle_refuses_an_epoch_its_two_digit_year_cannot_hold(year):
     for ok in ("2056", "1957"):
         s = vv.Satellite.from_omm(vv.read_omm(OMM_KVN.replace("EPOCH = 2024", f"EPOCH = {ok}")))
         assert vv.Satellite.from_tle(*s.to_tle()).epoch.isot == s.epoch.isot
+
+
+def test_an_impossible_creation_date_names_its_line():
+    # CREATION_DATE = 2024-02-30 was read as it stood (only its pattern was checked)
+    bad = OPM_KVN.replace("CREATION_DATE = 2024-03-01T10:00:00", "CREATION_DATE = 2024-02-30T10:00:00")
+    line = 1 + bad.splitlines().index("CREATION_DATE = 2024-02-30T10:00:00")
+    with pytest.raises(vv.VisvivaError, match=f"line {line}: CREATION_DATE .* not a date that "
+                                              "exists .day 30 of a month of 29 days"):
+        vv.read_opm(bad)

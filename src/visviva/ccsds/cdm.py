@@ -359,6 +359,10 @@ _NON_NEGATIVE = ("MISS_DISTANCE", "RELATIVE_SPEED", "SCREEN_VOLUME_X", "SCREEN_V
                  "SCREEN_VOLUME_Z")
 
 
+#: the diagonal of the covariance (508.0-B-1 table 3-5, and the optional rows 7-9)
+_VARIANCES = tuple(name for name, i, j in _COV6 if i == j) + ("CDRG_DRG", "CSRP_SRP", "CTHR_THR")
+
+
 def _check_values(sections: dict, source: str) -> None:
     """Refuse what the grammar's patterns let through: impossible calendar dates (month 13,
     February 30, hour 25) in any epoch keyword, a probability outside [0, 1], a negative
@@ -389,6 +393,10 @@ def _check_values(sections: dict, source: str) -> None:
             elif key in _NON_NEGATIVE and value < 0:
                 raise CCSDSFormatError(f"{key} = {value!r} is negative; a distance or speed is "
                                        ">= 0", line=line, source=source)
+            elif key in _VARIANCES and value < 0:
+                raise CCSDSFormatError(f"{key} = {value!r} is a negative variance (a diagonal "
+                                       "element of the covariance is a squared sigma, >= 0)",
+                                       line=line, source=source)
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS

@@ -17,6 +17,7 @@ from ..errors import InvalidInputError
 
 __all__ = [
     "CCSDSFormatError", "Keyword", "Section", "Record", "parse_value", "parse_float",
+    "impossible_date",
     "format_value", "format_float", "normalise_unit",
 ]
 
@@ -211,6 +212,10 @@ def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str
             raise CCSDSFormatError(
                 f"{keyword.name} = {text!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000 "
                 "or 2024-031T12:00:00", line=line, source=source)
+        why = impossible_date(text)
+        if why:
+            raise CCSDSFormatError(f"{keyword.name} = {text!r} is not a date that exists "
+                                   f"({why})", line=line, source=source)
         return text
     if keyword.type == "int":
         if not _INT_RE.match(text):
@@ -218,6 +223,34 @@ def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str
                                    line=line, source=source)
         return int(text)
     return parse_float(text, keyword.name, line, source)
+
+
+def impossible_date(text: str) -> str:
+    """Why a text that matches :data:`EPOCH_PATTERN` is no calendar date-time (month 13,
+    February 30, day 366 of a common year, hour 24, minute 60, second 61 or more), or ``""``.
+    A leap second (``23:59:60``) passes here: the time system decides (astropy, for UTC); so
+    does an ordinal date in year 0000 (the elapsed days of a MET or MRT time)."""
+    import calendar
+
+    date, _, clock = text.rstrip("Z").partition("T")
+    parts = date.split("-")
+    year = int(parts[0])
+    if len(parts) == 3:
+        month, day = int(parts[1]), int(parts[2])
+        if not 1 <= month <= 12:
+            return f"month {month}"
+        last = calendar.monthrange(year, month)[1]
+        if not 1 <= day <= last:
+            return f"day {day} of a month of {last} days"
+    elif year >= 1000:  # (year 0000: an elapsed time of a MET/MRT message, day 000 and on)
+        day = int(parts[1])
+        last = 366 if calendar.isleap(year) else 365
+        if not 1 <= day <= last:
+            return f"day {day} of a year of {last} days"
+    hh, mm, ss = clock.split(":")
+    if int(hh) > 23 or int(mm) > 59 or float(ss) >= 61.0:
+        return f"time {clock}"
+    return ""
 
 
 def parse_float(text: str, what: str, line, source: str) -> float:

@@ -130,3 +130,67 @@ def test_maneuver_rejects_what_is_not_a_list_of_impulses():  # ROBUSTNESS_BUGS #
         vv.Maneuver([1, 2, 3])
     single = vv.Maneuver([(0 * u.s, [0, 0.1, 0] * KMS)])
     assert single.total_delta_v.to_value(KMS) == pytest.approx(0.1, rel=1e-15)
+
+
+def test_bielliptic_vallado_example_6_2():
+    """Vallado (2013), Example 6-2: 191.344 km altitude to 376 310 km via 503 873 km."""
+    r1 = 6378.137 + 191.34411
+    rb, r2 = 6378.137 + 503873.0, 6378.137 + 376310.0
+    dv1, dv2, dv3, tof = bielliptic_delta_v(r1 * u.km, rb * u.km, r2 * u.km, GM)
+    assert dv1.to_value(KMS) == pytest.approx(3.156233, abs=2e-6)
+    assert dv2.to_value(KMS) == pytest.approx(0.677358, abs=2e-6)
+    assert dv3.to_value(KMS) == pytest.approx(-0.070466, abs=2e-6)
+    assert (dv1 + dv2 - dv3).to_value(KMS) == pytest.approx(3.904057, abs=3e-6)
+    assert tof.to_value(u.h) == pytest.approx(593.92, abs=2e-3)
+
+
+def test_bielliptic_rejects_non_positive_radius_or_gm():
+    # r1 <= 0 or gm <= 0 returned NaN burns silently (sqrt of a negative number)
+    with pytest.raises(InvalidInputError, match="r1"):
+        bielliptic_delta_v(-7000 * u.km, 9e4 * u.km, 4e4 * u.km, GM)
+    with pytest.raises(InvalidInputError, match="r1"):
+        bielliptic_delta_v(0 * u.km, 9e4 * u.km, 4e4 * u.km, GM)
+    with pytest.raises(InvalidInputError, match="gm"):
+        bielliptic_delta_v(7000 * u.km, 9e4 * u.km, 4e4 * u.km, -GM)
+
+
+def test_transfer_arguments_that_do_not_broadcast_raise_shape_error():
+    from visviva.errors import ShapeError
+
+    with pytest.raises(ShapeError, match="hohmann_delta_v"):
+        hohmann_delta_v([7000, 8000] * u.km, [1e4, 2e4, 3e4] * u.km, GM)
+    with pytest.raises(ShapeError, match="bielliptic_delta_v"):
+        bielliptic_delta_v([7000, 8000] * u.km, [1e5, 2e5, 3e5] * u.km, 9000 * u.km, GM)
+    with pytest.raises(ShapeError, match="plane_change_delta_v"):
+        plane_change_delta_v([7, 8] * KMS, [1, 2, 3] * u.deg)
+
+
+def test_plane_change_rejects_negative_speed():
+    # a negative speed was taken by its absolute value without a word
+    with pytest.raises(InvalidInputError, match="speed"):
+        plane_change_delta_v(-7.5 * KMS, 10 * u.deg)
+
+
+def test_bielliptic_from_a_nearly_circular_state_arrives_on_the_target_circle():
+    # the first burn ignored the start's actual speed (Hohmann used it): 5e-6 relative off the
+    # circular speed, accepted as circular, left the final orbit 5.7 km low with e = 5e-4
+    mu = GM.to_value(u.km**3 / u.s**2)
+    v0 = np.sqrt(mu / 6678.0) * (1 - 5e-6)
+    leo = vv.StateVectors([6678.0, 0, 0] * u.km, [0, v0, 0] * KMS, GM)
+    final = Maneuver.bielliptic(leo, 1e5 * u.km, 42164 * u.km).apply(leo)
+    assert abs(np.linalg.norm(final.r.to_value(u.km)) - 42164.0) < 1e-6
+    assert final.to_elements().eccentricity < 1e-9
+
+
+def test_maneuver_constructors_say_what_is_wrong_with_arrays():
+    leo = circular_state(6678.0)
+    # arrays where one value is needed gave "TypeError: only 0-dimensional arrays ..."
+    with pytest.raises(InvalidInputError, match="r_final"):
+        Maneuver.hohmann(leo, [42164, 5e4] * u.km)
+    with pytest.raises(InvalidInputError, match="delta_inc"):
+        Maneuver.plane_change(leo, [1, 2] * u.deg)
+    with pytest.raises(InvalidInputError, match="impulse time"):
+        Maneuver([([0, 1] * u.s, [0, 0.1, 0] * KMS)])
+    two = vv.StateVectors([[6678.0, 0, 0]] * 2 * u.km, [[0, 7.7, 0]] * 2 * KMS, GM)
+    with pytest.raises(InvalidInputError, match=r"one state \(shape \(3,\)\)"):
+        Maneuver.plane_change(two, 1 * u.deg)

@@ -229,3 +229,43 @@ def test_event_times_agree_with_root_finding_on_a_dense_sampling_and_skyfield_su
     for e in out.events:
         if e.name in ("ascending node", "descending node"):
             assert (e.v[2] > 0) == (e.name == "ascending node")
+
+
+def test_backward_propagation_labels_events_by_their_physical_direction():
+    # integrating to negative times, crossings were labelled by their sign in the direction of
+    # integration: "periapsis" at r = 8800 km (the apoapsis), "ascending node" with v_z < 0,
+    # "ascending" altitude crossings while falling, eclipse entry and exit swapped; and the
+    # direction filters (AscendingNode, ReEntry's descending-only) picked the opposite crossings
+    state = vv.KeplerianElements.from_semi_major_axis(
+        8000 * u.km, 0.1, 0.5, 0.0, 0.0, 1.0, vv.EARTH, EPOCH
+    ).to_state()
+    events = [AscendingNode(), DescendingNode(), Apsides(), AltitudeCrossing(1500 * u.km),
+              AltitudeCrossing(1500 * u.km, direction=-1), Eclipse()]  # fmt: skip
+    forward = propagate_cowell(state, 20000 * u.s, [], events=events)
+    backward = propagate_cowell(state, -20000 * u.s, [], events=events)
+    for out in (forward, backward):
+        assert len(out.events) > 20
+        for e in out.events:
+            r, v = e.r.to_value(u.km), e.v.to_value(u.km / u.s)
+            rdot = r @ v / np.linalg.norm(r)
+            if e.name == "ascending node":
+                assert v[2] > 0
+            elif e.name == "descending node":
+                assert v[2] < 0
+            elif e.what == "periapsis":
+                assert np.linalg.norm(r) == pytest.approx(7200.0, abs=1e-3)
+            elif e.what == "apoapsis":
+                assert np.linalg.norm(r) == pytest.approx(8800.0, abs=1e-3)
+            elif e.name == "altitude":
+                assert (rdot > 0) == (e.what == "ascending")
+    # one descending-only altitude crossing per orbit, in either direction of time
+    for out in (forward, backward):
+        alt = [e for e in out.events if e.name == "altitude"]
+        assert sum(e.what == "descending" for e in alt) > sum(e.what == "ascending" for e in alt)
+    # the shadow entered going forward is left going backward at the same instants
+    ent_f = [e.t.value for e in forward.events_named("eclipse", "entry")]
+    ent_b = [e.t.value for e in backward.events_named("eclipse", "entry")]
+    period = 2 * np.pi * np.sqrt(8000.0**3 / vv.EARTH.gm_km3_s2)
+    phase = lambda x: np.mod(np.asarray(x), period)  # noqa: E731
+    # the Sun moves ~1 deg in 20000 s: entries recur at nearly the same orbital phase
+    assert np.abs(phase(ent_b)[:, None] - phase(ent_f)[None, :]).min() < 60.0

@@ -269,3 +269,10 @@ def test_backward_propagation_labels_events_by_their_physical_direction():
     phase = lambda x: np.mod(np.asarray(x), period)  # noqa: E731
     # the Sun moves ~1 deg in 20000 s: entries recur at nearly the same orbital phase
     assert np.abs(phase(ent_b)[:, None] - phase(ent_f)[None, :]).min() < 60.0
+
+
+def test_umbra_with_the_cylindrical_model_is_refused():
+    # Eclipse("cylindrical", umbra=True) quietly gave the cylinder's entry/exit records
+    with pytest.raises(InvalidInputError, match="conical"):
+        Eclipse("cylindrical", umbra=True)
+    assert Eclipse("conical", umbra=True).umbra

@@ -141,9 +141,14 @@ class Eclipse(Event):
     def __init__(self, model: str = "cylindrical", umbra: bool = False):
         if model not in ("cylindrical", "conical"):
             raise InvalidInputError(f"model must be 'cylindrical' or 'conical'; got {model!r}.")
+        if umbra and model != "conical":
+            raise InvalidInputError(
+                "umbra=True needs model='conical': the cylindrical shadow has no umbra and "
+                "penumbra (use Eclipse('conical', umbra=True))."
+            )
         self.kind = 1 if model == "cylindrical" else (3 if umbra else 2)
         self.model = model
-        self.umbra = bool(umbra) and model == "conical"
+        self.umbra = bool(umbra)
 
     def label(self, sign):
         what = "exit" if sign > 0 else "entry"

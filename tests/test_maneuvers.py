@@ -194,3 +194,20 @@ def test_maneuver_constructors_say_what_is_wrong_with_arrays():
     two = vv.StateVectors([[6678.0, 0, 0]] * 2 * u.km, [[0, 7.7, 0]] * 2 * KMS, GM)
     with pytest.raises(InvalidInputError, match=r"one state \(shape \(3,\)\)"):
         Maneuver.plane_change(two, 1 * u.deg)
+
+
+def test_porkchop_points_match_curtis_example_and_flown_missions():
+    # Curtis (2014), sec. 8.10 worked example: Earth 7 Nov 1996 -> Mars 12 Sep 1997 (the Mars
+    # Global Surveyor dates),
+    # v_inf 3.1651 km/s at departure and 2.8852 km/s at arrival from Curtis's mean elements;
+    # DE421 gives 3.1625 and 2.8848
+    pc = porkchop(
+        "earth", "mars", Time(["1996-11-07"], scale="tdb"), Time(["1997-09-12"], scale="tdb")
+    )
+    assert np.sqrt(pc.c3[0, 0].to_value(u.km**2 / u.s**2)) == pytest.approx(3.1651, abs=0.01)
+    assert pc.v_inf_arrival[0, 0].to_value(KMS) == pytest.approx(2.8852, abs=0.01)
+    assert pc.tof[0, 0].to_value(u.day) == pytest.approx(309.0)
+    # Mars Reconnaissance Orbiter: launched 12 Aug 2005 with C3 = 16.4 km^2/s^2, arrived 10 Mar
+    # 2006 (NASA MRO arrival press kit); the patched-conic Lambert arc gives 16.3
+    mro = porkchop("earth", vv.MARS, Time(["2005-08-12"]), Time(["2006-03-10"]))
+    assert mro.c3[0, 0].to_value(u.km**2 / u.s**2) == pytest.approx(16.4, abs=0.3)

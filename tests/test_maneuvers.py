@@ -211,3 +211,27 @@ def test_porkchop_points_match_curtis_example_and_flown_missions():
     # 2006 (NASA MRO arrival press kit); the patched-conic Lambert arc gives 16.3
     mro = porkchop("earth", vv.MARS, Time(["2005-08-12"]), Time(["2006-03-10"]))
     assert mro.c3[0, 0].to_value(u.km**2 / u.s**2) == pytest.approx(16.4, abs=0.3)
+
+
+def test_lambert_rendezvous_with_a_target_at_another_epoch_or_attractor():
+    epoch = Time("2024-01-01", scale="utc")
+    chaser = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.0, 0.1, 0.0, 0.0, 0.0, GM, epoch=epoch
+    ).to_state()
+    target_elements = (7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.0, GM)
+    later = vv.KeplerianElements.from_semi_major_axis(
+        *target_elements, epoch=epoch + 1000 * u.s
+    ).to_state()
+    # the target's epoch was ignored: its state 1000 s later was taken as its state now, and the
+    # rendezvous missed it by thousands of km, silently
+    tof = 2500 * u.s
+    final = Maneuver.lambert(chaser, later, tof).apply(chaser)
+    target_then = later.propagate(tof - 1000 * u.s)
+    assert np.linalg.norm((final.r - target_then.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((final.v - target_then.v).to_value(KMS)) < 1e-9
+    # states about different bodies were combined with the chaser's GM
+    mars = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.0, 0.1, 0.0, 0.0, 0.0, vv.MARS
+    ).to_state()
+    with pytest.raises(InvalidInputError, match="same attractor"):
+        Maneuver.lambert(mars, later, tof)

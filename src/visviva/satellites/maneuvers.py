@@ -297,10 +297,22 @@ class Maneuver:
         """Two-impulse rendezvous: leave ``state_from`` now, meet ``state_to`` after ``tof``.
 
         ``state_to`` is the target's state at the start; it is propagated by ``tof`` on its
-        own conic. Extra keywords go to :func:`visviva.lambert` (revolutions, prograde, ...).
+        own conic. When both states carry epochs, the target is first carried from its epoch to
+        the chaser's (the start). Both must orbit the same attractor (equal GM). Extra keywords
+        go to :func:`visviva.lambert` (revolutions, prograde, ...).
         """
         from .lambert_solvers import lambert
 
-        target = state_to.propagate(tof)
+        mu_from = to_array(state_from.gm, "gm", "state_from.gm")
+        mu_to = to_array(state_to.gm, "gm", "state_to.gm")
+        if not np.allclose(mu_from, mu_to, rtol=1e-12, atol=0.0):
+            raise InvalidInputError(
+                f"Maneuver.lambert needs the chaser and the target about the same attractor; "
+                f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
+            )
+        coast = to_array(tof, "time", "tof")
+        if state_from.epoch is not None and state_to.epoch is not None:
+            coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)
+        target = state_to.propagate(coast * u.s)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
         return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])

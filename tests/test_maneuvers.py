@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as hs
 
 import visviva as vv
 from visviva.errors import InvalidInputError, InvalidStateError
@@ -235,3 +237,22 @@ def test_lambert_rendezvous_with_a_target_at_another_epoch_or_attractor():
     ).to_state()
     with pytest.raises(InvalidInputError, match="same attractor"):
         Maneuver.lambert(mars, later, tof)
+
+
+@settings(max_examples=40, deadline=None)
+@given(r1=hs.floats(6600.0, 1e6), ratio=hs.floats(0.05, 20.0), inc=hs.floats(0.0, 3.0))
+def test_hohmann_from_any_circle_arrives_and_equals_the_bielliptic_limit(r1, ratio, inc):
+    r2 = max(r1 * ratio, 6600.0)
+    state = circular_state(r1, inc=inc)
+    final = Maneuver.hohmann(state, r2 * u.km).apply(state)
+    assert abs(np.linalg.norm(final.r.to_value(u.km)) / r2 - 1) < 1e-10
+    assert final.to_elements().eccentricity < 1e-8
+    assert final.to_elements().inclination.to_value(u.rad) == pytest.approx(inc, abs=1e-9)
+    # a bi-elliptic transfer whose intermediate radius is the larger of the two is a Hohmann
+    dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, GM)
+    b1, b2, b3, tb = bielliptic_delta_v(r1 * u.km, max(r1, r2) * u.km, r2 * u.km, GM)
+    total_b = abs(b1.value) + abs(b2.value) + abs(b3.value)
+    assert total_b == pytest.approx(abs(dv1.value) + abs(dv2.value), rel=1e-12, abs=1e-15)
+    # ... plus half a circular orbit at that radius
+    half_circle = np.pi * np.sqrt(max(r1, r2) ** 3 / MU)
+    assert tb.to_value(u.s) == pytest.approx(tof.to_value(u.s) + half_circle, rel=1e-12)

@@ -24,19 +24,6 @@ def iss():
     return vv.Satellite.from_tle(L1, L2, verify_checksum=False)
 
 
-@pytest.fixture(scope="module")
-def skyfield_ts():
-    import astropy_iers_data
-    from skyfield.api import load
-    from skyfield.data import iers as sky_iers
-
-    ts = load.timescale(builtin=True)
-    # the same offline Earth-orientation file astropy uses, for Skyfield's polar motion
-    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
-        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
-    return ts
-
-
 def test_ground_track_agrees_with_skyfield_subpoint_and_astropy(iss, skyfield_ts):
     from astropy.coordinates import ITRS, TEME, CartesianRepresentation, EarthLocation
     from skyfield.api import EarthSatellite, wgs84

@@ -54,3 +54,17 @@ def cold_and_warm(tmp_path):
             out.append(proc.stdout.strip().splitlines()[-1].split(" "))
         return out
     return run
+
+
+@pytest.fixture(scope="session")
+def skyfield_ts():
+    """A Skyfield timescale with the polar motion of astropy's offline IERS-A file."""
+    import astropy_iers_data
+    from skyfield.api import load
+    from skyfield.data import iers as sky_iers
+
+    ts = load.timescale(builtin=True)
+    # the same offline Earth-orientation file astropy uses, for Skyfield's polar motion
+    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
+        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
+    return ts

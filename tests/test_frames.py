@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import astropy_iers_data
 import numpy as np
 import pytest
 from astropy import units as u
@@ -43,18 +42,6 @@ def sats():
         vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS"),
         vv.Satellite.from_tle(MOLNIYA_1, MOLNIYA_2, name="MOLNIYA", verify_checksum=False),
     ]
-
-
-@pytest.fixture(scope="module")
-def skyfield_ts():
-    from skyfield.api import load
-    from skyfield.data import iers as sky_iers
-
-    ts = load.timescale(builtin=True)
-    # the same offline Earth-orientation file astropy uses, for Skyfield's polar motion
-    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
-        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
-    return ts
 
 
 def _times(sat):

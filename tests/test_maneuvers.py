@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as hs
 
 import visviva as vv
 from visviva.errors import InvalidInputError, InvalidStateError
@@ -130,3 +132,127 @@ def test_maneuver_rejects_what_is_not_a_list_of_impulses():  # ROBUSTNESS_BUGS #
         vv.Maneuver([1, 2, 3])
     single = vv.Maneuver([(0 * u.s, [0, 0.1, 0] * KMS)])
     assert single.total_delta_v.to_value(KMS) == pytest.approx(0.1, rel=1e-15)
+
+
+def test_bielliptic_vallado_example_6_2():
+    """Vallado (2013), Example 6-2: 191.344 km altitude to 376 310 km via 503 873 km."""
+    r1 = 6378.137 + 191.34411
+    rb, r2 = 6378.137 + 503873.0, 6378.137 + 376310.0
+    dv1, dv2, dv3, tof = bielliptic_delta_v(r1 * u.km, rb * u.km, r2 * u.km, GM)
+    assert dv1.to_value(KMS) == pytest.approx(3.156233, abs=2e-6)
+    assert dv2.to_value(KMS) == pytest.approx(0.677358, abs=2e-6)
+    assert dv3.to_value(KMS) == pytest.approx(-0.070466, abs=2e-6)
+    assert (dv1 + dv2 - dv3).to_value(KMS) == pytest.approx(3.904057, abs=3e-6)
+    assert tof.to_value(u.h) == pytest.approx(593.92, abs=2e-3)
+
+
+def test_bielliptic_rejects_non_positive_radius_or_gm():
+    # r1 <= 0 or gm <= 0 returned NaN burns silently (sqrt of a negative number)
+    with pytest.raises(InvalidInputError, match="r1"):
+        bielliptic_delta_v(-7000 * u.km, 9e4 * u.km, 4e4 * u.km, GM)
+    with pytest.raises(InvalidInputError, match="r1"):
+        bielliptic_delta_v(0 * u.km, 9e4 * u.km, 4e4 * u.km, GM)
+    with pytest.raises(InvalidInputError, match="gm"):
+        bielliptic_delta_v(7000 * u.km, 9e4 * u.km, 4e4 * u.km, -GM)
+
+
+def test_transfer_arguments_that_do_not_broadcast_raise_shape_error():
+    from visviva.errors import ShapeError
+
+    with pytest.raises(ShapeError, match="hohmann_delta_v"):
+        hohmann_delta_v([7000, 8000] * u.km, [1e4, 2e4, 3e4] * u.km, GM)
+    with pytest.raises(ShapeError, match="bielliptic_delta_v"):
+        bielliptic_delta_v([7000, 8000] * u.km, [1e5, 2e5, 3e5] * u.km, 9000 * u.km, GM)
+    with pytest.raises(ShapeError, match="plane_change_delta_v"):
+        plane_change_delta_v([7, 8] * KMS, [1, 2, 3] * u.deg)
+
+
+def test_plane_change_rejects_negative_speed():
+    # a negative speed was taken by its absolute value without a word
+    with pytest.raises(InvalidInputError, match="speed"):
+        plane_change_delta_v(-7.5 * KMS, 10 * u.deg)
+
+
+def test_bielliptic_from_a_nearly_circular_state_arrives_on_the_target_circle():
+    # the first burn ignored the start's actual speed (Hohmann used it): 5e-6 relative off the
+    # circular speed, accepted as circular, left the final orbit 5.7 km low with e = 5e-4
+    mu = GM.to_value(u.km**3 / u.s**2)
+    v0 = np.sqrt(mu / 6678.0) * (1 - 5e-6)
+    leo = vv.StateVectors([6678.0, 0, 0] * u.km, [0, v0, 0] * KMS, GM)
+    final = Maneuver.bielliptic(leo, 1e5 * u.km, 42164 * u.km).apply(leo)
+    assert abs(np.linalg.norm(final.r.to_value(u.km)) - 42164.0) < 1e-6
+    assert final.to_elements().eccentricity < 1e-9
+
+
+def test_maneuver_constructors_say_what_is_wrong_with_arrays():
+    leo = circular_state(6678.0)
+    # arrays where one value is needed gave "TypeError: only 0-dimensional arrays ..."
+    with pytest.raises(InvalidInputError, match="r_final"):
+        Maneuver.hohmann(leo, [42164, 5e4] * u.km)
+    with pytest.raises(InvalidInputError, match="delta_inc"):
+        Maneuver.plane_change(leo, [1, 2] * u.deg)
+    with pytest.raises(InvalidInputError, match="impulse time"):
+        Maneuver([([0, 1] * u.s, [0, 0.1, 0] * KMS)])
+    two = vv.StateVectors([[6678.0, 0, 0]] * 2 * u.km, [[0, 7.7, 0]] * 2 * KMS, GM)
+    with pytest.raises(InvalidInputError, match=r"one state \(shape \(3,\)\)"):
+        Maneuver.plane_change(two, 1 * u.deg)
+
+
+def test_porkchop_points_match_curtis_example_and_flown_missions():
+    # Curtis (2014), sec. 8.10 worked example: Earth 7 Nov 1996 -> Mars 12 Sep 1997 (the Mars
+    # Global Surveyor dates),
+    # v_inf 3.1651 km/s at departure and 2.8852 km/s at arrival from Curtis's mean elements;
+    # DE421 gives 3.1625 and 2.8848
+    pc = porkchop(
+        "earth", "mars", Time(["1996-11-07"], scale="tdb"), Time(["1997-09-12"], scale="tdb")
+    )
+    assert np.sqrt(pc.c3[0, 0].to_value(u.km**2 / u.s**2)) == pytest.approx(3.1651, abs=0.01)
+    assert pc.v_inf_arrival[0, 0].to_value(KMS) == pytest.approx(2.8852, abs=0.01)
+    assert pc.tof[0, 0].to_value(u.day) == pytest.approx(309.0)
+    # Mars Reconnaissance Orbiter: launched 12 Aug 2005 with C3 = 16.4 km^2/s^2, arrived 10 Mar
+    # 2006 (NASA MRO arrival press kit); the patched-conic Lambert arc gives 16.3
+    mro = porkchop("earth", vv.MARS, Time(["2005-08-12"]), Time(["2006-03-10"]))
+    assert mro.c3[0, 0].to_value(u.km**2 / u.s**2) == pytest.approx(16.4, abs=0.3)
+
+
+def test_lambert_rendezvous_with_a_target_at_another_epoch_or_attractor():
+    epoch = Time("2024-01-01", scale="utc")
+    chaser = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.0, 0.1, 0.0, 0.0, 0.0, GM, epoch=epoch
+    ).to_state()
+    target_elements = (7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.0, GM)
+    later = vv.KeplerianElements.from_semi_major_axis(
+        *target_elements, epoch=epoch + 1000 * u.s
+    ).to_state()
+    # the target's epoch was ignored: its state 1000 s later was taken as its state now, and the
+    # rendezvous missed it by thousands of km, silently
+    tof = 2500 * u.s
+    final = Maneuver.lambert(chaser, later, tof).apply(chaser)
+    target_then = later.propagate(tof - 1000 * u.s)
+    assert np.linalg.norm((final.r - target_then.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((final.v - target_then.v).to_value(KMS)) < 1e-9
+    # states about different bodies were combined with the chaser's GM
+    mars = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.0, 0.1, 0.0, 0.0, 0.0, vv.MARS
+    ).to_state()
+    with pytest.raises(InvalidInputError, match="same attractor"):
+        Maneuver.lambert(mars, later, tof)
+
+
+@settings(max_examples=40, deadline=None)
+@given(r1=hs.floats(6600.0, 1e6), ratio=hs.floats(0.05, 20.0), inc=hs.floats(0.0, 3.0))
+def test_hohmann_from_any_circle_arrives_and_equals_the_bielliptic_limit(r1, ratio, inc):
+    r2 = max(r1 * ratio, 6600.0)
+    state = circular_state(r1, inc=inc)
+    final = Maneuver.hohmann(state, r2 * u.km).apply(state)
+    assert abs(np.linalg.norm(final.r.to_value(u.km)) / r2 - 1) < 1e-10
+    assert final.to_elements().eccentricity < 1e-8
+    assert final.to_elements().inclination.to_value(u.rad) == pytest.approx(inc, abs=1e-9)
+    # a bi-elliptic transfer whose intermediate radius is the larger of the two is a Hohmann
+    dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, GM)
+    b1, b2, b3, tb = bielliptic_delta_v(r1 * u.km, max(r1, r2) * u.km, r2 * u.km, GM)
+    total_b = abs(b1.value) + abs(b2.value) + abs(b3.value)
+    assert total_b == pytest.approx(abs(dv1.value) + abs(dv2.value), rel=1e-12, abs=1e-15)
+    # ... plus half a circular orbit at that radius
+    half_circle = np.pi * np.sqrt(max(r1, r2) ** 3 / MU)
+    assert tb.to_value(u.s) == pytest.approx(tof.to_value(u.s) + half_circle, rel=1e-12)

@@ -183,3 +183,48 @@ def test_secular_domain_checks():
         j2_secular_rates(7000 * u.km, 0.01, -1.0)
     with pytest.raises(DomainError, match="below the surface"):
         sun_synchronous_inclination(6000 * u.km)
+
+
+def test_sun_synchronous_semi_major_axis_rejects_impossible_orbits():
+    # e outside [0, 1) and inc outside [0, 180 deg] gave numbers silently (e = 1.5 -> a =
+    # 6318 km; inc = 250 deg -> the a of 110 deg), and inc = 90.01 deg gave a = 1042 km,
+    # inside the Earth
+    with pytest.raises(DomainError, match="0 <= e < 1"):
+        sun_synchronous_semi_major_axis(98.6 * u.deg, 1.5)
+    with pytest.raises(DomainError, match="0 <= e < 1"):
+        sun_synchronous_semi_major_axis(98.6 * u.deg, -0.1)
+    with pytest.raises(DomainError, match=r"\[0, pi\]"):
+        sun_synchronous_semi_major_axis(250 * u.deg)
+    with pytest.raises(DomainError, match="below the surface"):
+        sun_synchronous_semi_major_axis(90.01 * u.deg)
+    # a textbook value still comes out: 98.6 deg is sun-synchronous near 800 km altitude
+    alt = sun_synchronous_semi_major_axis(98.6 * u.deg) - EARTH.radius
+    assert 790 < alt.to_value(u.km) < 810
+
+
+def test_frozen_eccentricity_rejects_orbits_inside_the_body_and_bodies_without_j3():
+    # a = 1000 km (inside the Earth) returned e = 0.0074; a body without zonal harmonics gave
+    # a bare AttributeError
+    with pytest.raises(DomainError, match="below the surface"):
+        frozen_eccentricity(1000 * u.km, 98.2 * u.deg)
+    with pytest.raises(vv.InvalidInputError, match="J3"):
+        frozen_eccentricity(3000 * u.km, 98.2 * u.deg, body=vv.MOON)
+    with pytest.raises(DomainError, match=r"\[0, pi\]"):
+        frozen_eccentricity(A_MEAN * u.km, 4.0)
+
+
+def test_secular_arguments_that_do_not_broadcast_raise_shape_error():
+    # numpy's "operands could not be broadcast together" escaped from every helper
+    from visviva.errors import ShapeError
+
+    with pytest.raises(ShapeError, match="j2_secular_rates"):
+        j2_secular_rates([7000, 7100] * u.km, [0.0, 0.01, 0.02], 1.0)
+    with pytest.raises(ShapeError, match="sun_synchronous_inclination"):
+        sun_synchronous_inclination([7000, 7100] * u.km, [0.0, 0.01, 0.02])
+    with pytest.raises(ShapeError, match="frozen_eccentricity"):
+        frozen_eccentricity([7000, 7100] * u.km, [1, 2, 3] * u.deg)
+    el = vv.KeplerianElements.from_semi_major_axis(
+        [7000, 8000] * u.km, [0.01, 0.02], 1.0, 0.1, 0.2, 0.3, EARTH
+    )
+    with pytest.raises(ShapeError, match="propagate_j2_secular"):
+        propagate_j2_secular(el, [0, 1, 2] * u.day)

@@ -13,7 +13,8 @@ estimates, err = |h| e5^2 / sqrt(n (e5^2 + 0.01 e3^2)), and the step changes by
 0.9 err^(-1/8), clipped to [0.2, 10].
 
 Event kinds (``ev_kind``), each with a parameter ``ev_param`` and a direction ``ev_dir``
-(+1: only rising zero crossings, -1: only falling, 0: both):
+(+1: only rising zero crossings, -1: only falling, 0: both; rising and falling in physical
+time, also when integrating backwards):
 
 ====  =====================================================================
 0     altitude: g = h_geodetic(r) - param (km)
@@ -230,8 +231,9 @@ def integrate_cowell(
     y_out : ndarray (T, 6)
         Output: the states at ``t_out``.
     ev_t, ev_y, ev_which : ndarray (M,), (M, 6), (M,)
-        Output: event times, states, and which event: +(index + 1) for a rising crossing of
-        event ``index``, -(index + 1) for a falling one.
+        Output: event times, states, and which event: +(index + 1) for a crossing of event
+        ``index`` rising in physical time (whatever the direction of integration),
+        -(index + 1) for a falling one.
     info : ndarray (6,)
         Output: [outputs written, events found (may exceed M: then rerun larger), steps,
         rhs evaluations, final time reached, index of the terminal event or -1].
@@ -430,7 +432,8 @@ def integrate_cowell(
                     gb = g_new[e]
                     if ga == 0.0 or (ga < 0.0) == (gb < 0.0) and gb != 0.0:
                         continue
-                    rising = gb > ga
+                    # rising in physical time: integrating backwards, g_new is the earlier value
+                    rising = (gb > ga) == (direction > 0.0)
                     if ev_dir[e] > 0 and not rising:
                         continue
                     if ev_dir[e] < 0 and rising:

@@ -127,19 +127,18 @@ def position_velocity(name, t, center="earth"):
     name, center : str or Body
         Names from :data:`KNOWN_BODIES` (a :class:`visviva.bodies.Body` gives its name).
     t : astropy.time.Time
-        Scalar or 1-D array of instants (any scale; converted to TDB).
+        Instants, any shape (any scale; converted to TDB).
 
     Returns
     -------
     r : Quantity (..., 3), km
     v : Quantity (..., 3), km/s
-        ICRF axes; shape (3,) for a scalar ``t``, (N, 3) for N times.
+        ICRF axes; shape ``t.shape + (3,)``: (3,) for a scalar ``t``, (N, 3) for N times.
     """
     t = _as_time(t)
     key = _check_name(name)
     ckey = _check_name(center)
-    scalar = t.isscalar
-    tt = t.reshape(1) if scalar else t.ravel()
+    tt = t.reshape(1) if t.isscalar else t.ravel()
     eph = _de421()
     if eph is not None:
         tdb = tt.tdb
@@ -159,8 +158,8 @@ def position_velocity(name, t, center="earth"):
         r, v = _barycentric_astropy(key, tt)
         rc, vc = _barycentric_astropy(ckey, tt)
         r, v = r - rc, v - vc
-    if scalar:
-        r, v = r[0], v[0]
+    r = r.reshape(t.shape + (3,))
+    v = v.reshape(t.shape + (3,))
     return to_quantity(np.ascontiguousarray(r), "length"), to_quantity(
         np.ascontiguousarray(v), "speed"
     )

@@ -4,7 +4,8 @@ Pass event objects to :func:`visviva.propagate_cowell` (``events=[...]``). The c
 integrator evaluates every event function after each step; on a sign change it locates the root
 on the step's 7th-degree dense-output polynomial (Illinois regula falsi) to ``1e-6`` s, well
 inside the 1 ms the docs promise, and records the time and state. A terminal event (re-entry)
-stops the propagation there.
+stops the propagation there. Directions (ascending/descending, entry/exit, periapsis/apoapsis
+and the ``direction`` filters) refer to physical time, also when propagating to negative times.
 
 >>> import visviva as vv
 >>> sat = vv.satellites
@@ -141,9 +142,14 @@ class Eclipse(Event):
     def __init__(self, model: str = "cylindrical", umbra: bool = False):
         if model not in ("cylindrical", "conical"):
             raise InvalidInputError(f"model must be 'cylindrical' or 'conical'; got {model!r}.")
+        if umbra and model != "conical":
+            raise InvalidInputError(
+                "umbra=True needs model='conical': the cylindrical shadow has no umbra and "
+                "penumbra (use Eclipse('conical', umbra=True))."
+            )
         self.kind = 1 if model == "cylindrical" else (3 if umbra else 2)
         self.model = model
-        self.umbra = bool(umbra) and model == "conical"
+        self.umbra = bool(umbra)
 
     def label(self, sign):
         what = "exit" if sign > 0 else "entry"

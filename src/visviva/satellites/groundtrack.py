@@ -49,16 +49,32 @@ class GroundTrack:
 
     def segments(self):
         """Index slices of the pieces between antimeridian crossings (for line plots)."""
-        lon = self.longitude.to_value(u.deg)
+        lon = np.atleast_1d(self.longitude.to_value(u.deg))
         breaks = np.flatnonzero(np.abs(np.diff(lon)) > 180.0) + 1
         edges = np.concatenate([[0], breaks, [lon.size]])
         return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
 
 def _times(sat, t) -> Time:
+    """``t`` as absolute times: a Time as it is, a time Quantity as offsets from the epoch."""
+    from .._units import to_array
+    from ..errors import InvalidInputError, UnitsError
+    from .tle import Satellite
+
+    if not isinstance(sat, Satellite):
+        raise InvalidInputError(
+            f"give a vv.Satellite (from_tle / from_omm) or a vv.Catalog; got "
+            f"{type(sat).__name__}. For states or elements, propagate them and convert with "
+            "vv.satellites.gcrs_to_itrs and itrs_to_geodetic."
+        )
     if isinstance(t, Time):
         return t
-    return sat.epoch + t
+    if not isinstance(t, u.Quantity):
+        raise UnitsError(
+            f"t must be an astropy Time (absolute times) or a time Quantity (offsets from the "
+            f"element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {type(t).__name__}."
+        )
+    return sat.epoch + to_array(t, "time", "t") * u.s
 
 
 def is_catalog(obj) -> bool:
@@ -157,6 +173,13 @@ def eclipse_intervals(t: Time, fraction: np.ndarray, threshold: float = 1.0):
     """(start, end) Time pairs of the runs where ``fraction < threshold`` (sampled, no root
     finding: the edges are good to one sample step; use the Cowell ``Eclipse`` event for exact
     times)."""
+    if len(t) != np.shape(fraction)[0] or np.ndim(fraction) != 1:
+        from ..errors import InvalidInputError
+
+        raise InvalidInputError(
+            f"t and fraction must be 1-D and of the same length; got {len(t)} times and "
+            f"fraction of shape {np.shape(fraction)} (for a Catalog pass one row at a time)."
+        )
     shaded = np.asarray(fraction) < threshold
     edges = np.diff(np.concatenate([[0], shaded.astype(np.int8), [0]]))
     starts = np.flatnonzero(edges == 1)

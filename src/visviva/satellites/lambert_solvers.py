@@ -66,8 +66,11 @@ def lambert(
         M = 0.
     method : {"izzo", "universal"}
         Izzo (2015), Householder iterations (default); or the universal-variable method of
-        Bate, Mueller & White / Vallado Algorithm 58 with bisection (independent check; it
-        loses a few digits within ~0.01 deg of a 180 deg transfer, where g -> 0).
+        Bate, Mueller & White / Vallado Algorithm 58 with bisection (an independent check).
+        Both stay accurate up to the collinear limit: near a 180 deg transfer (g -> 0) the
+        kernels form 1 + cos(dnu) and g without cancellation, so both arrive at r2 to
+        ~1e-10 km in LEO from 1e-8 to 1e-4 rad off 180 deg (tests/test_lambert.py) and to
+        ~1e-6 km (3e-15 relative) on a 2.2e8 km heliocentric arc 1e-9 deg off 180 deg.
 
     Returns
     -------

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
-from .._units import to_array, to_quantity, to_vector
+from .._units import broadcast_or_raise, require_positive, to_array, to_quantity, to_vector
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = [
@@ -30,12 +30,31 @@ __all__ = [
 ]
 
 
+def _one_value(value, kind, name):
+    """A scalar in the canonical unit of ``kind``; InvalidInputError for an array."""
+    arr = to_array(value, kind, name)
+    if arr.ndim != 0:
+        raise InvalidInputError(
+            f"{name} must be one value here (a Maneuver is one transfer); got shape "
+            f"{arr.shape}. For many transfers use hohmann_delta_v / bielliptic_delta_v, "
+            "which broadcast."
+        )
+    return float(arr)
+
+
 def hohmann_delta_v(r1, r2, gm):
     """Δv of the two burns and the transfer time of a Hohmann transfer between circles.
 
     Δv1 = sqrt(mu/r1) (sqrt(2 r2/(r1 + r2)) - 1), Δv2 = sqrt(mu/r2) (1 - sqrt(2 r1/(r1 + r2))),
     t = pi sqrt((r1 + r2)^3 / (8 mu)) (Vallado 2013, Algorithm 36; Curtis 2014, sec. 6.2).
     Signed: negative burns slow down (for r2 < r1).
+
+    Parameters
+    ----------
+    r1, r2 : Quantity, length
+        Radii of the initial and final circular orbits (> 0); broadcast together.
+    gm : Quantity (km^3/s^2) or Body
+        Gravitational parameter of the attractor (> 0).
 
     Returns
     -------
@@ -47,6 +66,7 @@ def hohmann_delta_v(r1, r2, gm):
     mu = to_array(gm, "gm", "gm")
     if np.any(a <= 0) or np.any(b <= 0) or np.any(mu <= 0):
         raise InvalidInputError("r1, r2 and gm must be > 0.")
+    broadcast_or_raise("hohmann_delta_v", r1=a, r2=b, gm=mu)
     dv1 = np.sqrt(mu / a) * (np.sqrt(2 * b / (a + b)) - 1)
     dv2 = np.sqrt(mu / b) * (1 - np.sqrt(2 * a / (a + b)))
     tof = np.pi * np.sqrt((a + b) ** 3 / (8 * mu))
@@ -58,6 +78,13 @@ def bielliptic_delta_v(r1, rb, r2, gm):
 
     Two Hohmann half-ellipses r1 -> rb and rb -> r2 (Vallado 2013, Algorithm 37).
 
+    Parameters
+    ----------
+    r1, rb, r2 : Quantity, length
+        Initial, intermediate and final radii (> 0, rb >= r1 and r2); broadcast together.
+    gm : Quantity (km^3/s^2) or Body
+        Gravitational parameter of the attractor (> 0).
+
     Returns
     -------
     dv1, dv2, dv3 : Quantity, km/s (signed along the velocity)
@@ -67,6 +94,9 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     m = to_array(rb, "length", "rb")
     b = to_array(r2, "length", "r2")
     mu = to_array(gm, "gm", "gm")
+    for arr, name in ((a, "r1"), (b, "r2"), (mu, "gm")):
+        require_positive(arr, name)
+    broadcast_or_raise("bielliptic_delta_v", r1=a, rb=m, r2=b, gm=mu)
     if np.any(m < np.maximum(a, b)):
         raise InvalidInputError("the intermediate radius rb must be >= r1 and r2.")
     a1 = 0.5 * (a + m)
@@ -80,10 +110,25 @@ def bielliptic_delta_v(r1, rb, r2, gm):
 
 
 def plane_change_delta_v(speed, delta_inc):
-    """Δv = 2 v sin(Δi/2) of a pure plane change at speed v (Vallado 2013, eq. 6-23)."""
+    """Δv = 2 v sin(Δi/2) of a pure plane change at speed v (Vallado 2013, eq. 6-23).
+
+    Parameters
+    ----------
+    speed : Quantity, speed
+        Speed at the burn (>= 0).
+    delta_inc : Quantity or float
+        Change of inclination (angle; rad for plain floats); broadcasts against ``speed``.
+
+    Returns
+    -------
+    Quantity, km/s
+        The Δv magnitude.
+    """
     v = to_array(speed, "speed", "speed")
     di = to_array(delta_inc, "angle", "delta_inc")
-    return to_quantity(2 * np.abs(v) * np.abs(np.sin(di / 2)), "speed")
+    require_positive(v, "speed", strict=False)
+    broadcast_or_raise("plane_change_delta_v", speed=v, delta_inc=di)
+    return to_quantity(2 * v * np.abs(np.sin(di / 2)), "speed")
 
 
 @dataclass(frozen=True)
@@ -120,7 +165,7 @@ class Maneuver:
                 if isinstance(imp, str | bytes) or not hasattr(imp, "__len__") or len(imp) != 2:
                     raise InvalidInputError(f"{usage}; got the item {imp!r}.")
                 t, dv = imp
-            t_s = float(to_array(t, "time", "impulse time"))
+            t_s = _one_value(t, "time", "impulse time")
             dv_v = to_vector(dv, "speed", "impulse dv")
             if dv_v.shape != (3,):
                 raise InvalidInputError("each impulse dv must be one (3,) vector.")
@@ -191,7 +236,7 @@ class Maneuver:
     def hohmann(cls, state, r_final):
         """Hohmann transfer from the circular orbit of ``state`` to radius ``r_final``."""
         r, v, mu, r1 = cls._circular(state, "Maneuver.hohmann")
-        r2 = float(to_array(r_final, "length", "r_final"))
+        r2 = _one_value(r_final, "length", "r_final")
         dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, mu * u.km**3 / u.s**2)
         v_hat = v / np.linalg.norm(v)
         # the first burn starts from the actual speed (exact for a nearly circular start)
@@ -208,17 +253,19 @@ class Maneuver:
     def bielliptic(cls, state, r_intermediate, r_final):
         """Bi-elliptic transfer via ``r_intermediate`` from a circular orbit to ``r_final``."""
         r, v, mu, r1 = cls._circular(state, "Maneuver.bielliptic")
-        rb = float(to_array(r_intermediate, "length", "r_intermediate"))
-        r2 = float(to_array(r_final, "length", "r_final"))
+        rb = _one_value(r_intermediate, "length", "r_intermediate")
+        r2 = _one_value(r_final, "length", "r_final")
         gm = mu * u.km**3 / u.s**2
         dv1, dv2, dv3, _ = bielliptic_delta_v(r1 * u.km, rb * u.km, r2 * u.km, gm)
         t1 = np.pi * np.sqrt((0.5 * (r1 + rb)) ** 3 / mu)
         t2 = np.pi * np.sqrt((0.5 * (rb + r2)) ** 3 / mu)
         v_hat = v / np.linalg.norm(v)
         kms = u.km / u.s
+        # as in hohmann: the first burn starts from the actual speed
+        dv1 = np.sqrt(mu / r1) + dv1.value - np.linalg.norm(v)
         return cls(
             [
-                (0 * u.s, dv1.value * v_hat * kms),
+                (0 * u.s, dv1 * v_hat * kms),
                 (t1 * u.s, -dv2.value * v_hat * kms),
                 ((t1 + t2) * u.s, dv3.value * v_hat * kms),
             ]
@@ -233,7 +280,11 @@ class Maneuver:
         """
         r = to_vector(state.r, "length", "state.r")
         v = to_vector(state.v, "speed", "state.v")
-        di = float(to_array(delta_inc, "angle", "delta_inc"))
+        if r.shape != (3,) or v.shape != (3,):
+            raise InvalidInputError(
+                f"Maneuver.plane_change takes one state (shape (3,)); got r {r.shape}."
+            )
+        di = _one_value(delta_inc, "angle", "delta_inc")
         k = r / np.linalg.norm(r)
         # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
         # so at the ascending node a positive di raises the inclination
@@ -246,10 +297,22 @@ class Maneuver:
         """Two-impulse rendezvous: leave ``state_from`` now, meet ``state_to`` after ``tof``.
 
         ``state_to`` is the target's state at the start; it is propagated by ``tof`` on its
-        own conic. Extra keywords go to :func:`visviva.lambert` (revolutions, prograde, ...).
+        own conic. When both states carry epochs, the target is first carried from its epoch to
+        the chaser's (the start). Both must orbit the same attractor (equal GM). Extra keywords
+        go to :func:`visviva.lambert` (revolutions, prograde, ...).
         """
         from .lambert_solvers import lambert
 
-        target = state_to.propagate(tof)
+        mu_from = to_array(state_from.gm, "gm", "state_from.gm")
+        mu_to = to_array(state_to.gm, "gm", "state_to.gm")
+        if not np.allclose(mu_from, mu_to, rtol=1e-12, atol=0.0):
+            raise InvalidInputError(
+                f"Maneuver.lambert needs the chaser and the target about the same attractor; "
+                f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
+            )
+        coast = to_array(tof, "time", "tof")
+        if state_from.epoch is not None and state_to.epoch is not None:
+            coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)
+        target = state_to.propagate(coast * u.s)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
         return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])

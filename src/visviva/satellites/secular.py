@@ -20,7 +20,7 @@ import numpy as np
 from astropy import units as u
 
 from .. import constants as c
-from .._units import to_array, to_quantity
+from .._units import broadcast_or_raise, to_array, to_quantity
 from ..bodies import EARTH
 from ..errors import DomainError, InvalidInputError
 
@@ -46,6 +46,27 @@ def _body_consts(body):
     except AttributeError as exc:
         raise InvalidInputError(f"{body!r} has no J2; use a body with zonal harmonics.") from exc
     return body.gm_km3_s2, body.radius_km, j2
+
+
+def _check_ecc(e):
+    if np.any((e < 0) | (e >= 1)):
+        raise DomainError(
+            "secular J2 theory needs a closed orbit, 0 <= e < 1; parabolic and hyperbolic orbits "
+            "have no secular drift (propagate them with vv.propagate_cowell)."
+        )
+
+
+def _check_inc(i):
+    if np.any((i < 0) | (i > np.pi)):
+        raise DomainError("inc must lie in [0, pi] rad (0 to 180 deg); got values outside.")
+
+
+def _check_above_surface(periapsis_km, body, radius_km, what):
+    if np.any(periapsis_km < radius_km):
+        raise DomainError(
+            f"{what}: the periapsis a (1 - e) lies below the surface of "
+            f"{getattr(body, 'name', 'the body')} (radius {radius_km} km); no such orbit exists."
+        )
 
 
 def j2_secular_rates(a, ecc, inc, body=EARTH):
@@ -78,13 +99,9 @@ def j2_secular_rates(a, ecc, inc, body=EARTH):
         raise InvalidInputError("a, ecc and inc must be finite (no NaN or inf).")
     if np.any(a_km <= 0):
         raise InvalidInputError("a must be > 0 (elliptic orbits).")
-    if np.any((e < 0) | (e >= 1)):
-        raise DomainError(
-            "secular J2 rates need a closed orbit, 0 <= e < 1; parabolic and hyperbolic orbits "
-            "have no secular drift (propagate them with vv.propagate_cowell)."
-        )
-    if np.any((i < 0) | (i > np.pi)):
-        raise DomainError("inc must lie in [0, pi] rad (0 to 180 deg); got values outside.")
+    _check_ecc(e)
+    _check_inc(i)
+    broadcast_or_raise("j2_secular_rates", a=a_km, ecc=e, inc=i)
     gm, R, j2 = _body_consts(body)
     n = np.sqrt(gm / a_km**3)
     p = a_km * (1 - e**2)
@@ -139,6 +156,7 @@ def propagate_j2_secular(elements, dt, body=EARTH):
         )
     a = elements.semi_major_axis
     inc = elements.inclination
+    broadcast_or_raise("propagate_j2_secular", elements=e, dt=dt_s)
     raan_rate, argp_rate, m_rate = j2_secular_rates(a, e, inc, body)
     raan = elements.longitude_of_ascending_node.to_value(u.rad) + raan_rate.value * dt_s
     argp = elements.argument_of_periapsis.to_value(u.rad) + argp_rate.value * dt_s
@@ -167,14 +185,12 @@ def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):
     """
     a_km = to_array(a, "length", "a")
     e = to_array(ecc, "dimensionless", "ecc")
-    if np.any(a_km <= 0) or np.any((e < 0) | (e >= 1)):
-        raise InvalidInputError("need a > 0 and 0 <= e < 1.")
+    if np.any(a_km <= 0):
+        raise InvalidInputError("a must be > 0.")
+    _check_ecc(e)
+    broadcast_or_raise("sun_synchronous_inclination", a=a_km, ecc=e)
     gm, R, j2 = _body_consts(body)
-    if np.any(a_km * (1 - e) < R):
-        raise DomainError(
-            f"the periapsis a (1 - e) lies below the surface of {getattr(body, 'name', 'the body')}"
-            f" (radius {R} km); give a with a (1 - e) >= {R} km."
-        )
+    _check_above_surface(a_km * (1 - e), body, R, f"give a with a (1 - e) >= {R} km")
     rate = SUN_SYNCHRONOUS_RATE.to_value(u.rad / u.s)
     cos_i = -2 * rate * a_km**3.5 * (1 - e**2) ** 2 / (3 * j2 * R**2 * np.sqrt(gm))
     if np.any(np.abs(cos_i) > 1):
@@ -186,14 +202,36 @@ def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):
 
 
 def sun_synchronous_semi_major_axis(inc, ecc=0.0, body=EARTH):
-    """Semi-major axis at which an orbit of inclination ``inc`` (> 90 deg) is sun-synchronous."""
+    """Semi-major axis at which an orbit of inclination ``inc`` (> 90 deg) is sun-synchronous.
+
+    Parameters
+    ----------
+    inc : Quantity or float
+        Inclination, 90 deg < inc <= 180 deg (rad for plain floats).
+    ecc : float or array_like
+        Eccentricity, 0 <= e < 1; broadcasts against ``inc``.
+    body : Body
+        Central body with J2 (default Earth).
+
+    Returns
+    -------
+    Quantity, km
+        a from Vallado (2013), eq. 11-11 solved for a. Raises DomainError when the periapsis
+        a (1 - e) would lie below the surface (inc just above 90 deg).
+    """
     i = to_array(inc, "angle", "inc")
     e = to_array(ecc, "dimensionless", "ecc")
+    _check_ecc(e)
+    _check_inc(i)
     if np.any(np.cos(i) >= 0):
         raise DomainError("sun-synchronous orbits are retrograde: give inc > 90 deg.")
+    broadcast_or_raise("sun_synchronous_semi_major_axis", inc=i, ecc=e)
     gm, R, j2 = _body_consts(body)
     rate = SUN_SYNCHRONOUS_RATE.to_value(u.rad / u.s)
     a = (-3 * j2 * R**2 * np.sqrt(gm) * np.cos(i) / (2 * rate * (1 - e**2) ** 2)) ** (2 / 7)
+    _check_above_surface(
+        a * (1 - e), body, R, "the sun-synchronous orbit at this inclination and eccentricity"
+    )
     return to_quantity(a, "length")
 
 
@@ -203,11 +241,33 @@ def frozen_eccentricity(a, inc, body=EARTH):
     e_f = -(J3 / (2 J2)) (R / a) sin i, with argp = 90 deg: the J3 long-period drift of e and
     argp vanishes to first order (Vallado 2013, sec. 11.4.3; Cook 1966). About 0.001 for
     the Earth in LEO.
+
+    Parameters
+    ----------
+    a : Quantity, length
+        Mean semi-major axis (at or above the body's surface).
+    inc : Quantity or float
+        Inclination in [0, 180 deg] (rad for plain floats); broadcasts against ``a``.
+    body : Body
+        Central body with J2 and J3 (default Earth).
+
+    Returns
+    -------
+    float or ndarray
+        The frozen eccentricity (dimensionless).
     """
     a_km = to_array(a, "length", "a")
     i = to_array(inc, "angle", "inc")
     if np.any(a_km <= 0):
         raise InvalidInputError("a must be > 0.")
-    j2 = body.jn(2)
-    j3 = body.jn(3)
+    _check_inc(i)
+    broadcast_or_raise("frozen_eccentricity", a=a_km, inc=i)
+    try:
+        j2 = body.jn(2)
+        j3 = body.jn(3)
+    except AttributeError as exc:
+        raise InvalidInputError(
+            f"frozen_eccentricity needs J2 and J3 of {getattr(body, 'name', body)!r}: {exc}."
+        ) from exc
+    _check_above_surface(a_km, body, body.radius_km, "frozen_eccentricity")
     return -(j3 / (2 * j2)) * (body.radius_km / a_km) * np.sin(i)

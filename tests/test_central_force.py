@@ -123,6 +123,26 @@ def test_turning_points_are_the_kepler_apsides(ecc):
     np.testing.assert_allclose(roots.to_value(KM), [a * (1 - ecc), a * (1 + ecc)], rtol=rtol)
 
 
+def test_turning_points_below_a_barrier_top_are_found():
+    # V = -1/r - beta/r^3 (the form of the relativistic correction): V_eff has a barrier. Just
+    # below its top the two turning points are closer than the grid spacing and V_eff - E is
+    # negative at every grid point: they must still be found (not an empty "no turning point").
+    beta, h = 0.05, 1.0
+    potential = lambda r: -1.0 / r - beta / r**3  # noqa: E731
+    # V_eff' = 0: r^2 - h^2 r + 3 beta = 0, the barrier at the smaller root
+    r_top = (h**2 - math.sqrt(h**4 - 12 * beta)) / 2
+    e_top = h**2 / (2 * r_top**2) + potential(r_top)
+    d2 = 3 * h**2 / r_top**4 - 2 / r_top**3 - 12 * beta / r_top**5  # V_eff'' < 0 at the top
+    for d_e in (1e-6, 1e-9, 1e-11):
+        roots = turning_points(e_top - d_e, h, potential, 0.05, 100.0)
+        assert roots.size == 2
+        half_width = math.sqrt(2 * d_e / -d2)  # V_eff ~ E_top + V''(r - r_top)^2 / 2
+        np.testing.assert_allclose(roots, [r_top - half_width, r_top + half_width],
+                                   rtol=0, atol=half_width * 1e-3 + 1e-12)
+        np.testing.assert_allclose(effective_potential(roots, h, potential), e_top - d_e,
+                                   rtol=0, atol=1e-13)
+
+
 def test_binet_gravity_gives_the_conic():
     mu, h, r0 = 1.0, 0.8, 0.5  # start at periapsis: e = h^2/(mu r0) - 1
     ecc = h * h / (mu * r0) - 1.0

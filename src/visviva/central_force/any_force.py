@@ -139,7 +139,9 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
         The interval searched, ``0 < r_min < r_max``.
     n_grid : int
         Points of the logarithmic scan that brackets the roots before Brent's method refines them
-        to machine precision. Roots closer together than the grid spacing can be missed.
+        to machine precision. Two roots closer together than the grid spacing are found by
+        locating the extremum of :math:`V_{eff}` between them (the bottom of a well, the top of a
+        barrier); more than two within one grid cell can be missed.
 
     Returns
     -------
@@ -180,17 +182,20 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
         for i in np.flatnonzero(np.signbit(values[:-1]) != np.signbit(values[1:]))
         if values[i] != 0.0 and values[i + 1] != 0.0
     ]
-    # two roots closer than the grid spacing (a nearly circular orbit) hide in a local minimum of
-    # V_eff - E that stays positive on the grid: find the minimum and split the bracket there
-    interior = np.flatnonzero((values[1:-1] > 0) & (values[1:-1] <= values[:-2])
-                              & (values[1:-1] <= values[2:])) + 1
-    for i in interior:
-        best = minimize_scalar(lambda x: float(f(np.array([x]))[0]), bounds=(grid[i - 1], grid[i + 1]),
+    # two roots closer than the grid spacing hide in a local minimum of V_eff - E that stays
+    # positive on the grid (a nearly circular orbit), or in a local maximum that stays negative
+    # (an energy just below the top of a barrier): find the extremum and split the bracket there
+    mid, left, right = values[1:-1], values[:-2], values[2:]
+    hidden = [(i, 1.0) for i in np.flatnonzero((mid > 0) & (mid <= left) & (mid <= right)) + 1]
+    hidden += [(i, -1.0) for i in np.flatnonzero((mid < 0) & (mid >= left) & (mid >= right)) + 1]
+    for i, sign in hidden:
+        best = minimize_scalar(lambda x, s=sign: s * float(f(np.array([x]))[0]),
+                               bounds=(grid[i - 1], grid[i + 1]),
                                method="bounded", options={"xatol": 1e-14 * grid[i]})
         if best.fun < 0:
             brackets += [(grid[i - 1], best.x), (best.x, grid[i + 1])]
         elif best.fun == 0:
-            roots.append(float(best.x))  # a double root: the circular orbit
+            roots.append(float(best.x))  # a double root: the circular orbit or the barrier top
     for lo_b, hi_b in brackets:
         roots.append(brentq(lambda x: float(f(np.array([x]))[0]), lo_b, hi_b,
                             xtol=1e-15 * lo_b, rtol=4 * np.finfo(float).eps, maxiter=200))

@@ -105,3 +105,11 @@ def test_redundant_constraints_rejected():
 
     with pytest.raises(InvalidInputError, match="rank deficient"):
         mech.solve_constrained(1.0, [1.0, 0.0], [0.0, 1.0], [0.0, 0.1], twice)
+
+
+def test_nan_force_is_named_not_blamed_on_the_jacobian():
+    # a NaN applied force was reported as "the constraint Jacobian is rank deficient"
+    f, jac = mech.pendulum_constraint(1.0)
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.solve_constrained(1.0, [np.sin(1.0), -np.cos(1.0)], [0, 0], np.linspace(0, 1, 5), f,
+                               jac, lambda t, r, v: np.array([np.nan, -G]))

@@ -6,6 +6,7 @@ import pytest
 sp = pytest.importorskip("sympy")
 from sympy.physics.mechanics import dynamicsymbols  # noqa: E402
 
+from visviva import errors as mech_errors  # noqa: E402
 from visviva import mechanics as mech  # noqa: E402
 from visviva.errors import InvalidInputError, ShapeError  # noqa: E402
 
@@ -107,3 +108,13 @@ def test_bad_inputs():
     assert not nonsep.is_separable
     with pytest.raises(InvalidInputError, match="not separable"):
         nonsep.symplectic([1.0], [0.0], 0.1, 10)
+
+
+def test_nan_equations_of_motion_raise_a_domain_error():
+    # H = p^2/2 - sqrt(q) falls into q < 0, where dH/dq is NaN: solve_ivp used to hang there
+    q, p = sp.symbols("q p")
+    system = mech.HamiltonianSystem(p**2 / 2 - sp.sqrt(q), [q], [p])
+    with np.errstate(invalid="ignore"), pytest.raises(mech_errors.DomainError, match="not finite"):
+        system.simulate([0.5], [-3.0], np.linspace(0, 2, 5))
+    with np.errstate(invalid="ignore"), pytest.raises(mech_errors.DomainError, match="not finite"):
+        mech.poincare_section(system, [0.5, -3.0], 5.0, 0)

@@ -130,3 +130,11 @@ def test_parameters_may_be_quantities():
     assert sys.parameters[m] == pytest.approx(0.5) and sys.parameters[k] == pytest.approx(2.0)
     tr = sys.simulate([1.0], [0.0], [0.0, np.pi])
     assert tr.q[-1, 0] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_nan_generalised_force_raises_instead_of_hanging():
+    pen = mech.pendulum()
+    damped = mech.LagrangianSystem(pen.lagrangian, pen.coordinates, pen.parameters,
+                                   forces=lambda t, q, qdot: [np.nan])
+    with pytest.raises(InvalidInputError, match=r"forces\(t, q, qdot\) returned NaN"):
+        damped.simulate([1.0], [0.0], np.linspace(0, 1, 5))

@@ -153,3 +153,18 @@ def test_work_along_curve_path_independence_and_circulation():
     assert mech.work_along_curve(swirl, circle, (0, 2 * np.pi), tangent) == pytest.approx(
         2 * np.pi, rel=1e-12
     )
+
+
+def test_nan_force_raises_instead_of_hanging():
+    # solve_ivp shrinks its step for ever on a NaN derivative: the call used to hang
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.solve_particles(lambda t, r, v: np.full_like(r, np.nan), 1.0, [0, 0, 0], [1, 0, 0], t)
+    # NaN only later in the motion: the time is named
+    late = lambda t, r, v: -r if t < 0.5 else r / 0.0  # noqa: E731
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        InvalidInputError, match=r"at t = 0\.5"
+    ):
+        mech.solve_particles(late, 1.0, [1.0, 0, 0], [0, 1.0, 0], t)
+    with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
+        mech.solve_particles(lambda t, r, v: np.zeros(2), 1.0, [0, 0, 0], [1, 0, 0], t)

@@ -195,3 +195,12 @@ def test_inertia_tensor_rotates_as_a_tensor_and_obeys_triangle(seed):
     moments, axes = mech.principal_axes(I)
     assert moments[0] >= -1e-12 and moments[2] <= moments[0] + moments[1] + 1e-12 * moments[2]
     np.testing.assert_allclose(axes.T @ I @ axes, np.diag(moments), atol=1e-12 * moments[2])
+
+
+def test_bad_torque_raises_instead_of_hanging():
+    # a NaN torque used to hang solve_ivp; a (2,) torque gave numpy's broadcasting ValueError
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(InvalidInputError, match=r"torque\(t, R, omega\) returned NaN"):
+        mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [np.nan, 0, 0])
+    with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
+        mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [1.0, 0.0])

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result, finite_rhs
 from .particles import Trajectory, check_times, particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
@@ -254,9 +254,8 @@ def solve_constrained(
     def applied(time, x, v):
         if force is None:
             return np.zeros(n)
-        F = np.asarray(force(time, x.reshape(shape), v.reshape(shape)), dtype=float)
-        if F.size != n:
-            raise ShapeError(f"force returned shape {F.shape}; it must return {shape}.")
+        F = callable_result(force(time, x.reshape(shape), v.reshape(shape)), shape,
+                            "force(t, r, v)", time)
         return F.ravel()
 
     def multipliers(time, x, v):
@@ -290,7 +289,7 @@ def solve_constrained(
     if project:
         x0, u0 = projected(x0, u0, t[0])
     sol = solve_ivp(
-        rhs, (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
+        finite_rhs(rhs, "solve_constrained"), (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
     )
     if sol.status == -1:
         raise ConvergenceError(f"solve_constrained: the integrator failed: {sol.message}")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ._inputs import finite_rhs
 
 __all__ = [
     "HamiltonianSystem",
@@ -283,7 +284,7 @@ class HamiltonianSystem:
 
         t = np.asarray(t, float)
         y0 = np.concatenate([np.atleast_1d(q0), np.atleast_1d(p0)]).astype(float)
-        sol = solve_ivp(self.rhs, (t[0], t[-1]), y0, t_eval=t, rtol=rtol, atol=atol, method=method)
+        sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0, t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
             raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
         n = self.dof
@@ -369,7 +370,7 @@ def poincare_section(
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
     event.terminal = int(max_points) + int(on_section) if max_points else False
     sol = solve_ivp(
-        fun, (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
+        finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
     )
     if sol.status == -1:
         raise ConvergenceError(f"poincare_section: integration failed: {sol.message}")

@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ._inputs import callable_result, finite_rhs
 
 __all__ = [
     "LagrangianSystem",
@@ -167,7 +168,7 @@ class LagrangianSystem:
         n = self.dof
         M, f = fn(t, *y.tolist())
         if self.forces is not None:
-            Q = np.asarray(self.forces(t, y[:n], y[n:]), dtype=float).reshape(n)
+            Q = callable_result(self.forces(t, y[:n], y[n:]), (n,), "forces(t, q, qdot)", t)
             f = [fi + Qi for fi, Qi in zip(f, Q.tolist(), strict=True)]
         out = np.empty(2 * n)
         out[:n] = y[n:]
@@ -222,7 +223,7 @@ class LagrangianSystem:
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(qdot0))):
             raise InvalidInputError("q0 and qdot0 must be finite.")
         sol = solve_ivp(
-            self.rhs,
+            finite_rhs(self.rhs, "LagrangianSystem.simulate"),
             (t[0], t[-1]),
             np.concatenate([q0, qdot0]),
             method=method,

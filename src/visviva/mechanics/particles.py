@@ -13,7 +13,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result
 
 __all__ = [
     "Trajectory",
@@ -193,9 +193,7 @@ def solve_particles(
     def rhs(time, y):
         r = y[:size].reshape(shape)
         v = y[size:].reshape(shape)
-        F = np.asarray(force(time, r, v), dtype=float)
-        if F.shape != shape:
-            raise ShapeError(f"force returned shape {F.shape}; it must return {shape}.")
+        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time)
         return np.concatenate([y[size:], (F * inv_m).ravel()])
 
     wrapped = None

@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result
 
 __all__ = [
     "inertia_tensor",
@@ -517,7 +517,7 @@ def integrate_rigid_body(
                     [2 * (x * z - yq * s), 2 * (yq * z + x * s), 1 - 2 * (x * x + yq * yq)],
                 ]
             )
-            tau = np.asarray(torque(time, R, w), dtype=float)
+            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time)
         dw = I_inv @ (tau - np.cross(w, Ib @ w))
         return np.concatenate([dq, dw])
 

@@ -118,3 +118,24 @@ def test_nan_equations_of_motion_raise_a_domain_error():
         system.simulate([0.5], [-3.0], np.linspace(0, 2, 5))
     with np.errstate(invalid="ignore"), pytest.raises(mech_errors.DomainError, match="not finite"):
         mech.poincare_section(system, [0.5, -3.0], 5.0, 0)
+
+
+def test_symplectic_nan_gradient_raises_instead_of_returning_nan():
+    # dV/dq = log q is NaN once the particle passes q = 0: the trajectory used to be NaN, silently
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        mech_errors.DomainError, match="not finite"
+    ):
+        mech.symplectic_integrate(lambda p: p, lambda q: np.log(q), [2.0], [-3.0], 0.1, 50)
+
+
+def test_hamiltonian_simulate_checks_its_inputs():
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(ShapeError, match=r"shape \(1,\)"):
+        osc.simulate([1.0, 0.0], [0.0], [0.0, 1.0])  # was sympy's TypeError
+    with pytest.raises(InvalidInputError, match="finite"):
+        osc.simulate([np.nan], [0.0], [0.0, 1.0])  # was scipy's ValueError
+    with pytest.raises(InvalidInputError, match="t_max"):
+        mech.poincare_section(osc, [1.0, 0.0], -5.0, 0)  # was an empty result
+    tr = osc.simulate([1.0], [0.0], np.linspace(0, np.pi, 5))  # q = cos t
+    np.testing.assert_allclose(tr.q[:, 0], np.cos(np.linspace(0, np.pi, 5)), atol=1e-10)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
 from ._inputs import finite_rhs
 
 __all__ = [
@@ -133,6 +133,15 @@ def symplectic_integrate(
     ts, qs, ps = [t0], [q.copy()], [p.copy()]
     for i in range(1, n_steps + 1):
         q, p = step(dT_dp, dV_dq, q, p, dt)
+        if i % save_every == 0 or i == n_steps:
+            # NaN persists once it appears: checking the saved samples and the end is enough
+            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
+                raise DomainError(
+                    f"symplectic_integrate: the state is not finite (NaN or inf) by step {i} "
+                    f"(t = {t0 + i * dt:.9g}): dT_dp or dV_dq returned NaN or inf there (a "
+                    "singularity of the potential, or outside its domain). Take smaller steps "
+                    "or stop before it."
+                )
         if i % save_every == 0:
             ts.append(t0 + i * dt)
             qs.append(q.copy())
@@ -282,8 +291,18 @@ class HamiltonianSystem:
         """Integrate Hamilton's equations with solve_ivp; returns a SymplecticTrajectory-like record."""
         from scipy.integrate import solve_ivp
 
-        t = np.asarray(t, float)
-        y0 = np.concatenate([np.atleast_1d(q0), np.atleast_1d(p0)]).astype(float)
+        q0 = np.atleast_1d(np.asarray(q0, dtype=float))
+        p0 = np.atleast_1d(np.asarray(p0, dtype=float))
+        if q0.shape != (self.dof,) or p0.shape != (self.dof,):
+            raise ShapeError(
+                f"q0 and p0 must have shape ({self.dof},); got {q0.shape} and {p0.shape}."
+            )
+        if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(p0))):
+            raise InvalidInputError("q0 and p0 must be finite.")
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
+        y0 = np.concatenate([q0, p0])
         sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0, t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
             raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
@@ -360,6 +379,8 @@ def poincare_section(
     from scipy.integrate import solve_ivp
 
     fun = rhs.rhs if isinstance(rhs, HamiltonianSystem) else rhs
+    if not (np.ndim(t_max) == 0 and np.isfinite(t_max) and t_max > 0):
+        raise InvalidInputError(f"t_max must be a finite time > 0; got {t_max!r}.")
     if callable(section):
         event = lambda t, y: section(t, y)  # noqa: E731
     else:

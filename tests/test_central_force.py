@@ -207,3 +207,12 @@ def test_bad_input_gets_clear_errors():
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
     with pytest.raises(vv.DomainError, match="n <= -3"):
         bertrand_apsidal_angle(-3.5)
+
+
+def test_scalar_only_potential_gets_a_clear_error():
+    # turning_points evaluates V on a whole grid: a callable using float(r) raised numpy's
+    # "only 0-dimensional arrays can be converted" TypeError
+    with pytest.raises(vv.InvalidInputError, match="vectorised"):
+        turning_points(-0.3, 1.0, lambda r: -1.0 / float(r), 0.01, 100.0)
+    roots = turning_points(-0.3, 1.0, np.vectorize(lambda r: -1.0 / float(r)), 0.01, 100.0)
+    np.testing.assert_allclose(roots, [0.61257411, 2.72075922], rtol=1e-8)

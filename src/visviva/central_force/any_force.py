@@ -75,6 +75,20 @@ def _split_units(r, h):
     return r_is_q
 
 
+def _call_potential(potential, r):
+    """``potential(r)`` for a whole array ``r``; a callable written for scalars is named."""
+    try:
+        return potential(r)
+    except (TypeError, ValueError) as exc:
+        if np.ndim(r) == 0:
+            raise
+        raise InvalidInputError(
+            f"potential(r) failed on an array of radii ({type(exc).__name__}: {exc}): it must be "
+            "vectorised (numpy operations, e.g. lambda r: -mu / r, not math.sqrt or float(r)). "
+            "Wrap a scalar function with numpy.vectorize."
+        ) from exc
+
+
 def effective_potential(r, h, potential):
     """Effective potential of radial motion :math:`V_{eff}(r) = h^2/(2r^2) + V(r)` per unit mass.
 
@@ -109,14 +123,15 @@ def effective_potential(r, h, potential):
     if _split_units(r, h):
         r_km = _positive_array(r, "length", "r")
         h_c = to_array(h, "spec_angmom", "h")
-        V = to_array(potential(to_quantity(r_km, "length")), "spec_energy", "potential(r)")
+        V = to_array(_call_potential(potential, to_quantity(r_km, "length")), "spec_energy",
+                     "potential(r)")
         broadcast_or_raise("effective_potential", r=r_km, h=h_c, V=V)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             out = h_c**2 / (2.0 * r_km**2) + V
         return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
-    V = to_array(potential(r), "length", "potential(r)", allow_plain=True)
+    V = to_array(_call_potential(potential, r), "length", "potential(r)", allow_plain=True)
     broadcast_or_raise("effective_potential", r=r, h=h, V=V)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         out = h**2 / (2.0 * r**2) + V

@@ -168,3 +168,18 @@ def test_nan_force_raises_instead_of_hanging():
         mech.solve_particles(late, 1.0, [1.0, 0, 0], [0, 1.0, 0], t)
     with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
         mech.solve_particles(lambda t, r, v: np.zeros(2), 1.0, [0, 0, 0], [1, 0, 0], t)
+
+
+def test_work_of_a_nan_force_raises_instead_of_returning_nan():
+    tr = mech.solve_particles(mech.uniform_gravity(1.0), 1.0, [0.0, 0.0, 0.0], [1.0, 0.0, 5.0],
+                              np.linspace(0, 1, 11))
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.work(lambda t, r, v: np.full(3, np.nan), tr)
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        InvalidInputError, match=r"field\(r\) returned NaN or inf at s = 0"
+    ):
+        mech.work_along_curve(lambda r: r / 0.0,
+                              lambda s: np.array([s, 0.0, 0.0]), (0.0, 1.0))
+    # the work of gravity on the same motion is m g (z0 - z1) (published closed form)
+    W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81]), tr)
+    assert W == pytest.approx(9.81 * (tr.r[0, 2] - tr.r[-1, 2]), rel=1e-12)

@@ -135,7 +135,7 @@ def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-def callable_result(value, shape: tuple, what: str, time) -> np.ndarray:
+def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.ndarray:
     """The float64 array a user callable returned, checked to have ``shape`` and be finite.
 
     Parameters
@@ -147,7 +147,9 @@ def callable_result(value, shape: tuple, what: str, time) -> np.ndarray:
     what : str
         The callable as the user knows it, e.g. ``"force(t, r, v)"``, named in the errors.
     time : float
-        The time [s] of the call, named in the errors.
+        The time [s] (or curve parameter) of the call, named in the errors.
+    at : str
+        The name of ``time`` in the errors (``"t"``, or ``"s"`` for a curve parameter).
 
     Returns
     -------
@@ -161,7 +163,7 @@ def callable_result(value, shape: tuple, what: str, time) -> np.ndarray:
         )
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError(
-            f"{what} returned NaN or inf at t = {float(time):.9g}: {arr.tolist()}. It must be finite "
+            f"{what} returned NaN or inf at {at} = {float(time):.9g}: {arr.tolist()}. It must be finite "
             "all along the motion; check the formula (a division by zero, a square root of a "
             "negative number) and its units."
         )

@@ -183,3 +183,13 @@ def test_work_of_a_nan_force_raises_instead_of_returning_nan():
     # the work of gravity on the same motion is m g (z0 - z1) (published closed form)
     W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81]), tr)
     assert W == pytest.approx(9.81 * (tr.r[0, 2] - tr.r[-1, 2]), rel=1e-12)
+
+
+def test_conservation_report_rejects_a_nan_potential():
+    # a potential that is NaN somewhere on the path made every drift NaN, silently
+    tr = mech.solve_particles(mech.uniform_gravity(1.0), 1.0, [0.0, 0.0, 1.0], [1.0, 0.0, 0.0],
+                              np.linspace(0, 0.5, 11))
+    with np.errstate(invalid="ignore"), pytest.raises(InvalidInputError, match=r"potential\(r\)"):
+        mech.conservation_report(tr, lambda r: np.sqrt(r[2] - 0.5))
+    report = mech.conservation_report(tr, mech.UniformGravity(1.0, 9.81).potential)
+    assert report["energy"] < 1e-9 and report["momentum"] > 0.1  # gravity changes momentum

@@ -340,7 +340,9 @@ def conservation_report(trajectory, potential=None):
     V = np.zeros_like(T)
     pots = [] if potential is None else (potential if isinstance(potential, list) else [potential])
     for pot in pots:
-        V = V + np.array([np.sum(pot(ri)) for ri in trajectory.r])
+        for i, (ti, ri) in enumerate(zip(trajectory.t, trajectory.r, strict=True)):
+            value = pot(ri)
+            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti))
     E = T + V
     scale_E = max(abs(E[0]), np.max(np.abs(T)), np.finfo(float).tiny)
     m = trajectory.masses[..., None]

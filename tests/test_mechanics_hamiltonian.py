@@ -139,3 +139,10 @@ def test_hamiltonian_simulate_checks_its_inputs():
         mech.poincare_section(osc, [1.0, 0.0], -5.0, 0)  # was an empty result
     tr = osc.simulate([1.0], [0.0], np.linspace(0, np.pi, 5))  # q = cos t
     np.testing.assert_allclose(tr.q[:, 0], np.cos(np.linspace(0, np.pi, 5)), atol=1e-10)
+
+
+def test_symplectic_gradient_of_the_wrong_shape_raises():
+    # a (2,) dV/dq for a (1,) q silently broadcast the state to (2,)
+    with pytest.raises(ShapeError, match="shaped like q0"):
+        mech.symplectic_integrate(lambda p: p, lambda q: np.array([q[0], q[0]]), [1.0], [0.0],
+                                  0.1, 10)

@@ -133,20 +133,29 @@ def symplectic_integrate(
     ts, qs, ps = [t0], [q.copy()], [p.copy()]
     for i in range(1, n_steps + 1):
         q, p = step(dT_dp, dV_dq, q, p, dt)
-        if i % save_every == 0 or i == n_steps:
-            # NaN persists once it appears: checking the saved samples and the end is enough
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
-                raise DomainError(
-                    f"symplectic_integrate: the state is not finite (NaN or inf) by step {i} "
-                    f"(t = {t0 + i * dt:.9g}): dT_dp or dV_dq returned NaN or inf there (a "
-                    "singularity of the potential, or outside its domain). Take smaller steps "
-                    "or stop before it."
-                )
+        if i == 1 and (q.shape != qs[0].shape or p.shape != qs[0].shape):
+            raise ShapeError(
+                f"symplectic_integrate: dT_dp and dV_dq must return arrays shaped like q0 "
+                f"{qs[0].shape}; the state became {q.shape} and {p.shape}."
+            )
         if i % save_every == 0:
             ts.append(t0 + i * dt)
             qs.append(q.copy())
             ps.append(p.copy())
-    return SymplecticTrajectory(np.array(ts), np.array(qs), np.array(ps))
+    Q, P = np.array(qs), np.array(ps)
+    # NaN persists once it appears: the samples and the final state show it (checked once, in
+    # bulk, so that the per-step cost stays that of the gradients)
+    finite = np.isfinite(Q).reshape(len(qs), -1).all(axis=1) & np.isfinite(P).reshape(
+        len(ps), -1).all(axis=1)
+    if not (finite.all() and np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
+        bad = int(np.argmin(finite)) * save_every if not finite.all() else n_steps
+        raise DomainError(
+            f"symplectic_integrate: the state is not finite (NaN or inf) by step {bad} "
+            f"(t = {t0 + bad * dt:.9g}): dT_dp or dV_dq returned NaN or inf there (a "
+            "singularity of the potential, or outside its domain). Take smaller steps or stop "
+            "before it."
+        )
+    return SymplecticTrajectory(np.array(ts), Q, P)
 
 
 def legendre_transform(lagrangian, coordinates):

@@ -146,3 +146,16 @@ def test_symplectic_gradient_of_the_wrong_shape_raises():
     with pytest.raises(ShapeError, match="shaped like q0"):
         mech.symplectic_integrate(lambda p: p, lambda q: np.array([q[0], q[0]]), [1.0], [0.0],
                                   0.1, 10)
+
+
+def test_poincare_section_checks_state_and_section():
+    # a short y0 gave sympy's TypeError, a section index past the state numpy's IndexError
+    x, y, px, py = sp.symbols("x y p_x p_y")
+    system = mech.HamiltonianSystem((px**2 + py**2) / 2 + (x**2 + y**2) / 2, [x, y], [px, py])
+    with pytest.raises(ShapeError, match="4 numbers"):
+        mech.poincare_section(system, [0.5, 0.0, 0.0], 5.0, 0)
+    with pytest.raises(InvalidInputError, match="section index 7"):
+        mech.poincare_section(system, [0.5, 0.0, 0.0, 1.0], 5.0, 7)
+    # isotropic oscillator: x = 0.5 cos t crosses x = 0 upwards at t = 3 pi / 2 + 2 pi k
+    t_cross, _ = mech.poincare_section(system, [0.5, 0.0, 0.0, 1.0], 12.0, 0)
+    np.testing.assert_allclose(t_cross, [1.5 * np.pi, 3.5 * np.pi], rtol=1e-9)

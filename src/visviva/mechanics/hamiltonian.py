@@ -312,7 +312,8 @@ class HamiltonianSystem:
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         y0 = np.concatenate([q0, p0])
-        sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0, t_eval=t, rtol=rtol, atol=atol, method=method)
+        sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
+                        t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
             raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
         n = self.dof
@@ -390,12 +391,24 @@ def poincare_section(
     fun = rhs.rhs if isinstance(rhs, HamiltonianSystem) else rhs
     if not (np.ndim(t_max) == 0 and np.isfinite(t_max) and t_max > 0):
         raise InvalidInputError(f"t_max must be a finite time > 0; got {t_max!r}.")
+    y0 = np.atleast_1d(np.asarray(y0, float))
+    if y0.ndim != 1 or not np.all(np.isfinite(y0)):
+        raise InvalidInputError(f"y0 must be a finite 1-D state; got {y0.tolist()}.")
+    if isinstance(rhs, HamiltonianSystem) and y0.size != 2 * rhs.dof:
+        raise ShapeError(
+            f"y0 must hold (q, p): {2 * rhs.dof} numbers for this {rhs.dof}-dof system; got "
+            f"{y0.size}."
+        )
     if callable(section):
         event = lambda t, y: section(t, y)  # noqa: E731
     else:
         idx = int(section)
+        if not -y0.size <= idx < y0.size:
+            raise InvalidInputError(
+                f"section index {idx} is outside the state of size {y0.size}; give the index of "
+                "the component whose zero is the section, or a function g(t, y)."
+            )
         event = lambda t, y: y[idx]  # noqa: E731
-    y0 = np.asarray(y0, float)
     event.direction = direction
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
     event.terminal = int(max_points) + int(on_section) if max_points else False

@@ -193,3 +193,27 @@ def test_conservation_report_rejects_a_nan_potential():
         mech.conservation_report(tr, lambda r: np.sqrt(r[2] - 0.5))
     report = mech.conservation_report(tr, mech.UniformGravity(1.0, 9.81).potential)
     assert report["energy"] < 1e-9 and report["momentum"] > 0.1  # gravity changes momentum
+
+
+def test_force_builders_reject_negative_drag_and_nan_gravity():
+    # projectile(drag="linear", k=-0.1) integrated an accelerating "anti-drag" silently (the exact
+    # projectile_linear_drag already refused k < 0); k without a drag law was ignored silently
+    t = [0.0, 1.0]
+    with pytest.raises(DomainError, match="k must be >= 0"):
+        mech.projectile([0, 0], [10, 10], t, drag="linear", k=-0.1)
+    with pytest.raises(DomainError, match="k must be >= 0"):
+        mech.projectile([0, 0], [10, 10], t, drag="quadratic", k=-0.1)
+    with pytest.raises(InvalidInputError, match="without a drag law"):
+        mech.projectile([0, 0], [10, 10], t, k=0.5)
+    with pytest.raises(DomainError, match="b must be >= 0"):
+        mech.linear_drag(-0.3)
+    with pytest.raises(DomainError, match="c must be >= 0"):
+        mech.quadratic_drag(-0.3)
+    with pytest.raises(InvalidInputError, match="g contains NaN"):
+        mech.uniform_gravity(1.0, np.nan)
+    with pytest.raises(DomainError, match="masses must be > 0"):
+        mech.uniform_gravity(-1.0)
+    # Quantities: k = 0.5 / s equals k = 0.5 in SI, and matches the exact solution
+    tr = mech.projectile([0, 0], [10, 10], [0.0, 1.0], drag="linear", k=0.5 / u.s)
+    r, _ = mech.projectile_linear_drag([0, 0], [10, 10], [1.0], 0.5)
+    np.testing.assert_allclose(tr.r[-1], r[0], atol=1e-9)

@@ -37,6 +37,7 @@ class _SIUnits:
         "stiffness": "N / m",
         "drag_linear": "kg / s",
         "drag_quadratic": "kg / m",
+        "per_m": "1 / m",
         "one": "",
     }
 

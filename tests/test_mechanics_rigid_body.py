@@ -204,3 +204,12 @@ def test_bad_torque_raises_instead_of_hanging():
         mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [np.nan, 0, 0])
     with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
         mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [1.0, 0.0])
+
+
+def test_heavy_top_rate_takes_scalars_with_a_clear_error():
+    # an array omega3 gave numpy's "only 0-dimensional arrays" TypeError
+    with pytest.raises(ShapeError, match="omega3 must be a scalar"):
+        mech.heavy_top_precession_rate(0.012, 0.003, 1.0, 9.81, 0.1, np.array([150.0, 200.0]), 0.6)
+    # a fast top: the slow rate tends to m g l / (I3 omega3) (Goldstein eq. 5.79)
+    rate = mech.heavy_top_precession_rate(0.012, 0.003, 1.0, 9.81, 0.1, 1e5, 0.6)
+    assert rate == pytest.approx(9.81 * 0.1 / (0.003 * 1e5), rel=1e-6)

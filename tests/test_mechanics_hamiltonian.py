@@ -159,3 +159,20 @@ def test_poincare_section_checks_state_and_section():
     # isotropic oscillator: x = 0.5 cos t crosses x = 0 upwards at t = 3 pi / 2 + 2 pi k
     t_cross, _ = mech.poincare_section(system, [0.5, 0.0, 0.0, 1.0], 12.0, 0)
     np.testing.assert_allclose(t_cross, [1.5 * np.pi, 3.5 * np.pi], rtol=1e-9)
+
+
+def test_kepler_orbit_from_hamiltons_equations():
+    # L = (r'^2 + r^2 phi'^2)/2 + 1/r (GM = 1) -> H by the Legendre transform; from periapsis
+    # of an a = 1, e = 0.5 ellipse, Hamilton's equations reach apoapsis a(1 + e) at phi = pi after
+    # T/2 and close after T = 2 pi (Kepler's third law), with H = -1/(2a) and p_phi = h conserved
+    r, ph = dynamicsymbols("r phi")
+    kepler = mech.HamiltonianSystem.from_lagrangian(
+        (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 + 1 / r, [r, ph]
+    )
+    a, e = 1.0, 0.5
+    h = np.sqrt(a * (1 - e**2))
+    tr = kepler.simulate([a * (1 - e), 0.0], [0.0, h], [0.0, np.pi, 2 * np.pi])
+    np.testing.assert_allclose(tr.q[1], [a * (1 + e), np.pi], rtol=1e-9)
+    np.testing.assert_allclose(tr.q[2], [a * (1 - e), 2 * np.pi], rtol=1e-9)
+    np.testing.assert_allclose(kepler.energy(tr.q, tr.p), -1 / (2 * a), rtol=1e-10)
+    np.testing.assert_allclose(tr.p[:, 1], h, rtol=1e-12)

@@ -87,11 +87,13 @@ class _Constraint:
         self.tau = 1.0 if time_dependent else 0.0
 
     def value(self, x, t):
-        return np.atleast_1d(np.asarray(self.f(x.reshape(self.shape), t), dtype=float)).ravel()
+        f = np.atleast_1d(np.asarray(self.f(x.reshape(self.shape), t), dtype=float)).ravel()
+        return callable_result(f, f.shape, "constraint(r, t)", t)
 
     def jacobian(self, x, t):
         if self.jac is not None:
             J = np.asarray(self.jac(x.reshape(self.shape), t), dtype=float)
+            J = callable_result(J, J.shape, "jacobian(r, t)", t)
             k = J.size // self.n
             if J.size != k * self.n or k == 0:
                 raise ShapeError(

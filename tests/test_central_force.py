@@ -123,6 +123,26 @@ def test_turning_points_are_the_kepler_apsides(ecc):
     np.testing.assert_allclose(roots.to_value(KM), [a * (1 - ecc), a * (1 + ecc)], rtol=rtol)
 
 
+def test_turning_points_below_a_barrier_top_are_found():
+    # V = -1/r - beta/r^3 (the form of the relativistic correction): V_eff has a barrier. Just
+    # below its top the two turning points are closer than the grid spacing and V_eff - E is
+    # negative at every grid point: they must still be found (not an empty "no turning point").
+    beta, h = 0.05, 1.0
+    potential = lambda r: -1.0 / r - beta / r**3  # noqa: E731
+    # V_eff' = 0: r^2 - h^2 r + 3 beta = 0, the barrier at the smaller root
+    r_top = (h**2 - math.sqrt(h**4 - 12 * beta)) / 2
+    e_top = h**2 / (2 * r_top**2) + potential(r_top)
+    d2 = 3 * h**2 / r_top**4 - 2 / r_top**3 - 12 * beta / r_top**5  # V_eff'' < 0 at the top
+    for d_e in (1e-6, 1e-9, 1e-11):
+        roots = turning_points(e_top - d_e, h, potential, 0.05, 100.0)
+        assert roots.size == 2
+        half_width = math.sqrt(2 * d_e / -d2)  # V_eff ~ E_top + V''(r - r_top)^2 / 2
+        np.testing.assert_allclose(roots, [r_top - half_width, r_top + half_width],
+                                   rtol=0, atol=half_width * 1e-3 + 1e-12)
+        np.testing.assert_allclose(effective_potential(roots, h, potential), e_top - d_e,
+                                   rtol=0, atol=1e-13)
+
+
 def test_binet_gravity_gives_the_conic():
     mu, h, r0 = 1.0, 0.8, 0.5  # start at periapsis: e = h^2/(mu r0) - 1
     ecc = h * h / (mu * r0) - 1.0
@@ -187,3 +207,59 @@ def test_bad_input_gets_clear_errors():
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
     with pytest.raises(vv.DomainError, match="n <= -3"):
         bertrand_apsidal_angle(-3.5)
+
+
+def test_scalar_only_potential_gets_a_clear_error():
+    # turning_points evaluates V on a whole grid: a callable using float(r) raised numpy's
+    # "only 0-dimensional arrays can be converted" TypeError
+    with pytest.raises(vv.InvalidInputError, match="vectorised"):
+        turning_points(-0.3, 1.0, lambda r: -1.0 / float(r), 0.01, 100.0)
+    roots = turning_points(-0.3, 1.0, np.vectorize(lambda r: -1.0 / float(r)), 0.01, 100.0)
+    np.testing.assert_allclose(roots, [0.61257411, 2.72075922], rtol=1e-8)
+
+
+def test_binet_orbit_matches_cartesian_integration_for_a_yukawa_force():
+    # F = -(1 + r/lam) e^(-r/lam) / r^2 (screened gravity): no closed form. The Binet orbit r(theta)
+    # must equal a Cartesian integration of r'' = F(r) r_hat (scipy DOP853, theta carried along
+    # as theta' = h / r^2 and the samples located by root finding on it)
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    lam = 2.0
+
+    def force(r):
+        return -(1.0 + r / lam) * math.exp(-r / lam) / r**2
+
+    r0, h = 1.0, 0.75
+    orbit = orbit_equation(force, r0=r0, h=h, theta_max=5 * math.pi, n_points=60)
+
+    def rhs(_t, y):
+        x, yy, vx, vy, _th = y
+        r = math.hypot(x, yy)
+        a = force(r) / r
+        return [vx, vy, a * x, a * yy, h / r**2]
+
+    sol = solve_ivp(rhs, (0, 60), [r0, 0, 0, h / r0, 0], method="DOP853", rtol=1e-13,
+                    atol=1e-14, dense_output=True)
+    assert sol.y[4, -1] > 5 * math.pi
+    radii = []
+    for theta in orbit.theta[1:]:
+        t_hit = brentq(lambda t, th=theta: sol.sol(t)[4] - th, 0, 60, xtol=1e-14)
+        x, yy = sol.sol(t_hit)[:2]
+        radii.append(math.hypot(x, yy))
+        assert math.atan2(yy, x) == pytest.approx(math.remainder(theta, 2 * math.pi), abs=1e-9)
+    np.testing.assert_allclose(orbit.r[1:], radii, rtol=1e-10)
+
+
+@pytest.mark.parametrize("lam", [1.0, 2.0, 10.0])  # stable circles need r/lam < 1.618
+def test_near_circular_apsidal_angle_of_a_yukawa_force(lam):
+    # textbook apsidal angle of a nearly circular orbit for ANY central force (Goldstein sec. 3.6,
+    # problem 3.x): pi / sqrt(3 + d ln F / d ln r); for Yukawa d ln F / d ln r has a closed form,
+    # -2 - (r/lam)^2 / (1 + r/lam)
+    r_c = 1.3
+    f_c = (1.0 + r_c / lam) * math.exp(-r_c / lam) / r_c**2
+    h = math.sqrt(f_c * r_c**3)  # circular: h^2 / r^3 = |F|
+    dlnf = -2.0 - (r_c / lam) ** 2 / (1.0 + r_c / lam)
+    orbit = orbit_equation(lambda r: -(1.0 + r / lam) * math.exp(-r / lam) / r**2,
+                           r0=r_c * (1 + 1e-5), h=h, theta_max=20.0)
+    assert orbit.apsidal_angle == pytest.approx(math.pi / math.sqrt(3.0 + dlnf), rel=1e-7)

@@ -421,3 +421,48 @@ def test_small_true_anomalies_keep_their_digits(nu):
     v = math.sqrt(mu / p) * np.array([-math.sin(nu), e + math.cos(nu), 0.0])
     back = vv.StateVectors(r * KM, v * KMS, MU).to_elements().true_anomaly.to_value(u.rad)
     assert back == pytest.approx(nu, rel=1e-12, abs=0)
+
+
+# --- auditmech: modified equinoctial elements over every conic and both retrograde factors ------
+@settings(max_examples=60, deadline=None)
+@given(
+    ecc=st.one_of(st.just(0.0), st.floats(0.0, 0.95), st.just(1.0), st.floats(1.05, 20.0)),
+    inc=st.one_of(st.sampled_from([0.0, 1e-12, math.pi / 2, math.pi - 1e-12, math.pi]),
+                  st.floats(0.0, math.pi)),
+    raan=st.floats(0.0, 6.28),
+    argp=st.floats(0.0, 6.28),
+    nu_frac=st.floats(-0.9, 0.9),
+    retrograde=st.booleans(),
+)
+def test_equinoctial_definitions_and_round_trip_every_conic(ecc, inc, raan, argp, nu_frac,
+                                                            retrograde):
+    # f, g, h, k, L equal their definitions from the classical elements (Walker et al. 1985
+    # with the retrograde factor I), and the state round trip holds, for circles, ellipses,
+    # parabolas and hyperbolas at every inclination; exactly at the one singular inclination
+    # (i = pi for I = +1, i = 0 for I = -1) a DomainError is raised, never garbage
+    nu_max = math.pi if ecc < 1 else math.acos(-1 / ecc)
+    nu = nu_frac * nu_max
+    el = vv.KeplerianElements(12000 * KM, ecc, inc, raan, argp, nu, MU)
+    state = el.to_state()
+    I = -1 if retrograde else 1  # noqa: E741
+    ref = state.to_elements()  # the documented convention for undefined angles
+    i_ref = ref.inclination.to_value(u.rad)
+    if (I == 1 and i_ref == math.pi) or (I == -1 and i_ref == 0.0):
+        with pytest.raises(vv.DomainError, match="singular"):
+            state.to_equinoctial(retrograde=retrograde)
+        return
+    m = state.to_equinoctial(retrograde=retrograde)
+    e = ref.eccentricity
+    O, w = ref.longitude_of_ascending_node.to_value(u.rad), ref.argument_of_periapsis.to_value(u.rad)
+    t = math.tan(i_ref / 2) ** I
+    assert m.f == pytest.approx(e * math.cos(w + I * O), abs=1e-12)
+    assert m.g == pytest.approx(e * math.sin(w + I * O), abs=1e-12)
+    assert m.h == pytest.approx(t * math.cos(O), abs=1e-12 * (1 + t))
+    assert m.k == pytest.approx(t * math.sin(O), abs=1e-12 * (1 + t))
+    L = w + I * O + ref.true_anomaly.to_value(u.rad)
+    assert abs(math.remainder(m.true_longitude.to_value(u.rad) - L, 2 * math.pi)) < 1e-12
+    back = m.to_state()
+    r0 = np.linalg.norm(state.r.to_value(KM))
+    np.testing.assert_allclose(back.r.to_value(KM), state.r.to_value(KM), rtol=0, atol=1e-13 * r0)
+    v0 = np.linalg.norm(state.v.to_value(KMS))
+    np.testing.assert_allclose(back.v.to_value(KMS), state.v.to_value(KMS), rtol=0, atol=1e-13 * v0)

@@ -105,3 +105,27 @@ def test_redundant_constraints_rejected():
 
     with pytest.raises(InvalidInputError, match="rank deficient"):
         mech.solve_constrained(1.0, [1.0, 0.0], [0.0, 1.0], [0.0, 0.1], twice)
+
+
+def test_nan_force_is_named_not_blamed_on_the_jacobian():
+    # a NaN applied force was reported as "the constraint Jacobian is rank deficient"
+    f, jac = mech.pendulum_constraint(1.0)
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.solve_constrained(1.0, [np.sin(1.0), -np.cos(1.0)], [0, 0], np.linspace(0, 1, 5), f,
+                               jac, lambda t, r, v: np.array([np.nan, -G]))
+
+
+def test_nan_constraint_or_jacobian_is_named():
+    # a NaN constraint value or gradient was reported as a "rank deficient" Jacobian, or as
+    # numpy's "SVD did not converge"
+    f, jac = mech.pendulum_constraint(1.0)
+    r0, t = [np.sin(1.0), -np.cos(1.0)], np.linspace(0, 1, 5)
+    gravity = lambda t, r, v: np.array([0.0, -G])  # noqa: E731
+    with pytest.raises(InvalidInputError, match=r"constraint\(r, t\) returned NaN"):
+        mech.solve_constrained(1.0, r0, [0, 0], t, lambda r, t: np.array([np.nan]), jac, gravity)
+    with pytest.raises(InvalidInputError, match=r"jacobian\(r, t\) returned NaN"):
+        mech.solve_constrained(1.0, r0, [0, 0], t, f, lambda r, t: np.full((1, 2), np.nan),
+                               gravity)
+    with pytest.raises(InvalidInputError, match=r"constraint\(r, t\) returned NaN"):
+        mech.solve_constrained(1.0, r0, [0, 0], t,
+                               lambda r, t: np.array([r @ r - 1.0, np.nan]), None, gravity)

@@ -6,6 +6,7 @@ import pytest
 sp = pytest.importorskip("sympy")
 from sympy.physics.mechanics import dynamicsymbols  # noqa: E402
 
+from visviva import errors as mech_errors  # noqa: E402
 from visviva import mechanics as mech  # noqa: E402
 from visviva.errors import InvalidInputError, ShapeError  # noqa: E402
 
@@ -107,3 +108,71 @@ def test_bad_inputs():
     assert not nonsep.is_separable
     with pytest.raises(InvalidInputError, match="not separable"):
         nonsep.symplectic([1.0], [0.0], 0.1, 10)
+
+
+def test_nan_equations_of_motion_raise_a_domain_error():
+    # H = p^2/2 - sqrt(q) falls into q < 0, where dH/dq is NaN: solve_ivp used to hang there
+    q, p = sp.symbols("q p")
+    system = mech.HamiltonianSystem(p**2 / 2 - sp.sqrt(q), [q], [p])
+    with np.errstate(invalid="ignore"), pytest.raises(mech_errors.DomainError, match="not finite"):
+        system.simulate([0.5], [-3.0], np.linspace(0, 2, 5))
+    with np.errstate(invalid="ignore"), pytest.raises(mech_errors.DomainError, match="not finite"):
+        mech.poincare_section(system, [0.5, -3.0], 5.0, 0)
+
+
+def test_symplectic_nan_gradient_raises_instead_of_returning_nan():
+    # dV/dq = log q is NaN once the particle passes q = 0: the trajectory used to be NaN, silently
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        mech_errors.DomainError, match="not finite"
+    ):
+        mech.symplectic_integrate(lambda p: p, lambda q: np.log(q), [2.0], [-3.0], 0.1, 50)
+
+
+def test_hamiltonian_simulate_checks_its_inputs():
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(ShapeError, match=r"shape \(1,\)"):
+        osc.simulate([1.0, 0.0], [0.0], [0.0, 1.0])  # was sympy's TypeError
+    with pytest.raises(InvalidInputError, match="finite"):
+        osc.simulate([np.nan], [0.0], [0.0, 1.0])  # was scipy's ValueError
+    with pytest.raises(InvalidInputError, match="t_max"):
+        mech.poincare_section(osc, [1.0, 0.0], -5.0, 0)  # was an empty result
+    tr = osc.simulate([1.0], [0.0], np.linspace(0, np.pi, 5))  # q = cos t
+    np.testing.assert_allclose(tr.q[:, 0], np.cos(np.linspace(0, np.pi, 5)), atol=1e-10)
+
+
+def test_symplectic_gradient_of_the_wrong_shape_raises():
+    # a (2,) dV/dq for a (1,) q silently broadcast the state to (2,)
+    with pytest.raises(ShapeError, match="shaped like q0"):
+        mech.symplectic_integrate(lambda p: p, lambda q: np.array([q[0], q[0]]), [1.0], [0.0],
+                                  0.1, 10)
+
+
+def test_poincare_section_checks_state_and_section():
+    # a short y0 gave sympy's TypeError, a section index past the state numpy's IndexError
+    x, y, px, py = sp.symbols("x y p_x p_y")
+    system = mech.HamiltonianSystem((px**2 + py**2) / 2 + (x**2 + y**2) / 2, [x, y], [px, py])
+    with pytest.raises(ShapeError, match="4 numbers"):
+        mech.poincare_section(system, [0.5, 0.0, 0.0], 5.0, 0)
+    with pytest.raises(InvalidInputError, match="section index 7"):
+        mech.poincare_section(system, [0.5, 0.0, 0.0, 1.0], 5.0, 7)
+    # isotropic oscillator: x = 0.5 cos t crosses x = 0 upwards at t = 3 pi / 2 + 2 pi k
+    t_cross, _ = mech.poincare_section(system, [0.5, 0.0, 0.0, 1.0], 12.0, 0)
+    np.testing.assert_allclose(t_cross, [1.5 * np.pi, 3.5 * np.pi], rtol=1e-9)
+
+
+def test_kepler_orbit_from_hamiltons_equations():
+    # L = (r'^2 + r^2 phi'^2)/2 + 1/r (GM = 1) -> H by the Legendre transform; from periapsis
+    # of an a = 1, e = 0.5 ellipse, Hamilton's equations reach apoapsis a(1 + e) at phi = pi after
+    # T/2 and close after T = 2 pi (Kepler's third law), with H = -1/(2a) and p_phi = h conserved
+    r, ph = dynamicsymbols("r phi")
+    kepler = mech.HamiltonianSystem.from_lagrangian(
+        (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 + 1 / r, [r, ph]
+    )
+    a, e = 1.0, 0.5
+    h = np.sqrt(a * (1 - e**2))
+    tr = kepler.simulate([a * (1 - e), 0.0], [0.0, h], [0.0, np.pi, 2 * np.pi])
+    np.testing.assert_allclose(tr.q[1], [a * (1 + e), np.pi], rtol=1e-9)
+    np.testing.assert_allclose(tr.q[2], [a * (1 - e), 2 * np.pi], rtol=1e-9)
+    np.testing.assert_allclose(kepler.energy(tr.q, tr.p), -1 / (2 * a), rtol=1e-10)
+    np.testing.assert_allclose(tr.p[:, 1], h, rtol=1e-12)

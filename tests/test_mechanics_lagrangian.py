@@ -130,3 +130,45 @@ def test_parameters_may_be_quantities():
     assert sys.parameters[m] == pytest.approx(0.5) and sys.parameters[k] == pytest.approx(2.0)
     tr = sys.simulate([1.0], [0.0], [0.0, np.pi])
     assert tr.q[-1, 0] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_nan_generalised_force_raises_instead_of_hanging():
+    pen = mech.pendulum()
+    damped = mech.LagrangianSystem(pen.lagrangian, pen.coordinates, pen.parameters,
+                                   forces=lambda t, q, qdot: [np.nan])
+    with pytest.raises(InvalidInputError, match=r"forces\(t, q, qdot\) returned NaN"):
+        damped.simulate([1.0], [0.0], np.linspace(0, 1, 5))
+
+
+def test_ready_made_systems_reject_unphysical_parameters():
+    # pendulum(length=-1) used to integrate theta'' = +(g/|l|) sin(theta): an inverted pendulum,
+    # silently; a NaN g gave NaN motion
+    from visviva.errors import DomainError
+
+    with pytest.raises(DomainError, match="length must be > 0"):
+        mech.pendulum(length=-1.0)
+    with pytest.raises(DomainError, match="m1 must be > 0"):
+        mech.double_pendulum(m1=-1.0)
+    with pytest.raises(InvalidInputError, match="NaN"):
+        mech.pendulum(g=np.nan)
+    with pytest.raises(DomainError, match="k must be > 0"):
+        mech.spring_pendulum(k=0.0)
+    with pytest.raises(DomainError, match="m must be > 0"):
+        mech.central_potential(m=0.0)
+    # Quantities are converted to SI: a 150 cm pendulum, small swing, period 2 pi sqrt(l/g)
+    u = pytest.importorskip("astropy.units")
+    pen = mech.pendulum(m=2 * u.kg, length=150 * u.cm, g=9.81 * u.m / u.s**2)
+    period = 2 * np.pi * np.sqrt(1.5 / G)
+    tr = pen.simulate([1e-4], [0.0], [0.0, period])
+    assert tr.q[-1, 0] == pytest.approx(1e-4, rel=1e-6)
+
+
+def test_degenerate_lagrangian_raises_a_domain_error():
+    # L linear in x' has a zero mass matrix: was Python's bare ZeroDivisionError
+    from visviva.errors import DomainError
+
+    x = dynamicsymbols("x")
+    with pytest.raises(DomainError, match="not finite"):
+        mech.LagrangianSystem(x.diff() - x**2, [x]).simulate([1.0], [0.0], [0.0, 1.0])
+    with pytest.raises(InvalidInputError, match="finite"):  # was a DomainError at t = nan
+        mech.pendulum().simulate([1.0], [0.0], [0.0, np.nan])

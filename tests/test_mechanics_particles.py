@@ -153,3 +153,67 @@ def test_work_along_curve_path_independence_and_circulation():
     assert mech.work_along_curve(swirl, circle, (0, 2 * np.pi), tangent) == pytest.approx(
         2 * np.pi, rel=1e-12
     )
+
+
+def test_nan_force_raises_instead_of_hanging():
+    # solve_ivp shrinks its step for ever on a NaN derivative: the call used to hang
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.solve_particles(lambda t, r, v: np.full_like(r, np.nan), 1.0, [0, 0, 0], [1, 0, 0], t)
+    # NaN only later in the motion: the time is named
+    late = lambda t, r, v: -r if t < 0.5 else r / 0.0  # noqa: E731
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        InvalidInputError, match=r"at t = 0\.5"
+    ):
+        mech.solve_particles(late, 1.0, [1.0, 0, 0], [0, 1.0, 0], t)
+    with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
+        mech.solve_particles(lambda t, r, v: np.zeros(2), 1.0, [0, 0, 0], [1, 0, 0], t)
+
+
+def test_work_of_a_nan_force_raises_instead_of_returning_nan():
+    tr = mech.solve_particles(mech.uniform_gravity(1.0), 1.0, [0.0, 0.0, 0.0], [1.0, 0.0, 5.0],
+                              np.linspace(0, 1, 11))
+    with pytest.raises(InvalidInputError, match=r"force\(t, r, v\) returned NaN"):
+        mech.work(lambda t, r, v: np.full(3, np.nan), tr)
+    with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(
+        InvalidInputError, match=r"field\(r\) returned NaN or inf at s = 0"
+    ):
+        mech.work_along_curve(lambda r: r / 0.0,
+                              lambda s: np.array([s, 0.0, 0.0]), (0.0, 1.0))
+    # the work of gravity on the same motion is m g (z0 - z1) (published closed form)
+    W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81]), tr)
+    assert W == pytest.approx(9.81 * (tr.r[0, 2] - tr.r[-1, 2]), rel=1e-12)
+
+
+def test_conservation_report_rejects_a_nan_potential():
+    # a potential that is NaN somewhere on the path made every drift NaN, silently
+    tr = mech.solve_particles(mech.uniform_gravity(1.0), 1.0, [0.0, 0.0, 1.0], [1.0, 0.0, 0.0],
+                              np.linspace(0, 0.5, 11))
+    with np.errstate(invalid="ignore"), pytest.raises(InvalidInputError, match=r"potential\(r\)"):
+        mech.conservation_report(tr, lambda r: np.sqrt(r[2] - 0.5))
+    report = mech.conservation_report(tr, mech.UniformGravity(1.0, 9.81).potential)
+    assert report["energy"] < 1e-9 and report["momentum"] > 0.1  # gravity changes momentum
+
+
+def test_force_builders_reject_negative_drag_and_nan_gravity():
+    # projectile(drag="linear", k=-0.1) integrated an accelerating "anti-drag" silently (the exact
+    # projectile_linear_drag already refused k < 0); k without a drag law was ignored silently
+    t = [0.0, 1.0]
+    with pytest.raises(DomainError, match="k must be >= 0"):
+        mech.projectile([0, 0], [10, 10], t, drag="linear", k=-0.1)
+    with pytest.raises(DomainError, match="k must be >= 0"):
+        mech.projectile([0, 0], [10, 10], t, drag="quadratic", k=-0.1)
+    with pytest.raises(InvalidInputError, match="without a drag law"):
+        mech.projectile([0, 0], [10, 10], t, k=0.5)
+    with pytest.raises(DomainError, match="b must be >= 0"):
+        mech.linear_drag(-0.3)
+    with pytest.raises(DomainError, match="c must be >= 0"):
+        mech.quadratic_drag(-0.3)
+    with pytest.raises(InvalidInputError, match="g contains NaN"):
+        mech.uniform_gravity(1.0, np.nan)
+    with pytest.raises(DomainError, match="masses must be > 0"):
+        mech.uniform_gravity(-1.0)
+    # Quantities: k = 0.5 / s equals k = 0.5 in SI, and matches the exact solution
+    tr = mech.projectile([0, 0], [10, 10], [0.0, 1.0], drag="linear", k=0.5 / u.s)
+    r, _ = mech.projectile_linear_drag([0, 0], [10, 10], [1.0], 0.5)
+    np.testing.assert_allclose(tr.r[-1], r[0], atol=1e-9)

@@ -195,3 +195,52 @@ def test_inertia_tensor_rotates_as_a_tensor_and_obeys_triangle(seed):
     moments, axes = mech.principal_axes(I)
     assert moments[0] >= -1e-12 and moments[2] <= moments[0] + moments[1] + 1e-12 * moments[2]
     np.testing.assert_allclose(axes.T @ I @ axes, np.diag(moments), atol=1e-12 * moments[2])
+
+
+def test_bad_torque_raises_instead_of_hanging():
+    # a NaN torque used to hang solve_ivp; a (2,) torque gave numpy's broadcasting ValueError
+    t = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(InvalidInputError, match=r"torque\(t, R, omega\) returned NaN"):
+        mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [np.nan, 0, 0])
+    with pytest.raises(ShapeError, match=r"must return shape \(3,\)"):
+        mech.integrate_rigid_body([1, 2, 3], [1, 0, 0], t, torque=lambda t, R, w: [1.0, 0.0])
+
+
+def test_heavy_top_rate_takes_scalars_with_a_clear_error():
+    # an array omega3 gave numpy's "only 0-dimensional arrays" TypeError
+    with pytest.raises(ShapeError, match="omega3 must be a scalar"):
+        mech.heavy_top_precession_rate(0.012, 0.003, 1.0, 9.81, 0.1, np.array([150.0, 200.0]), 0.6)
+    # a fast top: the slow rate tends to m g l / (I3 omega3) (Goldstein eq. 5.79)
+    rate = mech.heavy_top_precession_rate(0.012, 0.003, 1.0, 9.81, 0.1, 1e5, 0.6)
+    assert rate == pytest.approx(9.81 * 0.1 / (0.003 * 1e5), rel=1e-6)
+
+
+def test_asymmetric_top_period_is_the_elliptic_integral():
+    # torque-free asymmetric top started near the intermediate axis: omega_2 is a Jacobi elliptic
+    # function with period 4 K(k^2) / tau (Landau & Lifshitz, Mechanics, sec. 37), while the
+    # energy and |L| (and L itself in the reference frame) are conserved; the angular velocity
+    # stays on the invariable plane, omega . L = 2 E (Poinsot)
+    from scipy.special import ellipk
+
+    I1, I2, I3 = 1.0, 2.0, 3.0
+    w0 = np.array([0.01, 1.0, 0.01])
+    moments = np.array([I1, I2, I3])
+    L2, E2 = np.sum((moments * w0) ** 2), np.sum(moments * w0**2)  # |L|^2 and 2E
+    assert L2 > E2 * I2  # this branch of Landau's formula (eq. 37.10)
+    tau = np.sqrt((I3 - I2) * (L2 - E2 * I1) / (I1 * I2 * I3))
+    k2 = (I2 - I1) * (E2 * I3 - L2) / ((I3 - I2) * (L2 - E2 * I1))
+    period = 4 * ellipk(k2) / tau
+    t = np.linspace(0, 2 * period, 4001)
+    tr = mech.integrate_rigid_body(moments, w0, t)
+    w2 = tr.omega[:, 1]
+    # zero crossings of omega_2 (two per period), located by linear interpolation
+    i = np.flatnonzero(np.sign(w2[:-1]) != np.sign(w2[1:]))
+    crossings = t[i] - w2[i] * (t[i + 1] - t[i]) / (w2[i + 1] - w2[i])
+    assert len(crossings) == 4
+    assert 2 * np.mean(np.diff(crossings)) == pytest.approx(period, rel=1e-6)
+    E = tr.rotational_energy
+    L = tr.angular_momentum
+    assert np.ptp(E) / E[0] < 1e-9
+    np.testing.assert_allclose(L, np.broadcast_to(L[0], L.shape), atol=1e-9 * np.linalg.norm(L[0]))
+    omega_ref = tr.rotation.apply(tr.omega)
+    np.testing.assert_allclose(np.sum(omega_ref * L, axis=1), E2, rtol=1e-9)

@@ -75,6 +75,20 @@ def _split_units(r, h):
     return r_is_q
 
 
+def _call_potential(potential, r):
+    """``potential(r)`` for a whole array ``r``; a callable written for scalars is named."""
+    try:
+        return potential(r)
+    except (TypeError, ValueError) as exc:
+        if np.ndim(r) == 0:
+            raise
+        raise InvalidInputError(
+            f"potential(r) failed on an array of radii ({type(exc).__name__}: {exc}): it must be "
+            "vectorised (numpy operations, e.g. lambda r: -mu / r, not math.sqrt or float(r)). "
+            "Wrap a scalar function with numpy.vectorize."
+        ) from exc
+
+
 def effective_potential(r, h, potential):
     """Effective potential of radial motion :math:`V_{eff}(r) = h^2/(2r^2) + V(r)` per unit mass.
 
@@ -109,14 +123,15 @@ def effective_potential(r, h, potential):
     if _split_units(r, h):
         r_km = _positive_array(r, "length", "r")
         h_c = to_array(h, "spec_angmom", "h")
-        V = to_array(potential(to_quantity(r_km, "length")), "spec_energy", "potential(r)")
+        V = to_array(_call_potential(potential, to_quantity(r_km, "length")), "spec_energy",
+                     "potential(r)")
         broadcast_or_raise("effective_potential", r=r_km, h=h_c, V=V)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             out = h_c**2 / (2.0 * r_km**2) + V
         return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
-    V = to_array(potential(r), "length", "potential(r)", allow_plain=True)
+    V = to_array(_call_potential(potential, r), "length", "potential(r)", allow_plain=True)
     broadcast_or_raise("effective_potential", r=r, h=h, V=V)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         out = h**2 / (2.0 * r**2) + V
@@ -139,7 +154,9 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
         The interval searched, ``0 < r_min < r_max``.
     n_grid : int
         Points of the logarithmic scan that brackets the roots before Brent's method refines them
-        to machine precision. Roots closer together than the grid spacing can be missed.
+        to machine precision. Two roots closer together than the grid spacing are found by
+        locating the extremum of :math:`V_{eff}` between them (the bottom of a well, the top of a
+        barrier); more than two within one grid cell can be missed.
 
     Returns
     -------
@@ -180,17 +197,20 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
         for i in np.flatnonzero(np.signbit(values[:-1]) != np.signbit(values[1:]))
         if values[i] != 0.0 and values[i + 1] != 0.0
     ]
-    # two roots closer than the grid spacing (a nearly circular orbit) hide in a local minimum of
-    # V_eff - E that stays positive on the grid: find the minimum and split the bracket there
-    interior = np.flatnonzero((values[1:-1] > 0) & (values[1:-1] <= values[:-2])
-                              & (values[1:-1] <= values[2:])) + 1
-    for i in interior:
-        best = minimize_scalar(lambda x: float(f(np.array([x]))[0]), bounds=(grid[i - 1], grid[i + 1]),
+    # two roots closer than the grid spacing hide in a local minimum of V_eff - E that stays
+    # positive on the grid (a nearly circular orbit), or in a local maximum that stays negative
+    # (an energy just below the top of a barrier): find the extremum and split the bracket there
+    mid, left, right = values[1:-1], values[:-2], values[2:]
+    hidden = [(i, 1.0) for i in np.flatnonzero((mid > 0) & (mid <= left) & (mid <= right)) + 1]
+    hidden += [(i, -1.0) for i in np.flatnonzero((mid < 0) & (mid >= left) & (mid >= right)) + 1]
+    for i, sign in hidden:
+        best = minimize_scalar(lambda x, s=sign: s * float(f(np.array([x]))[0]),
+                               bounds=(grid[i - 1], grid[i + 1]),
                                method="bounded", options={"xatol": 1e-14 * grid[i]})
         if best.fun < 0:
             brackets += [(grid[i - 1], best.x), (best.x, grid[i + 1])]
         elif best.fun == 0:
-            roots.append(float(best.x))  # a double root: the circular orbit
+            roots.append(float(best.x))  # a double root: the circular orbit or the barrier top
     for lo_b, hi_b in brackets:
         roots.append(brentq(lambda x: float(f(np.array([x]))[0]), lo_b, hi_b,
                             xtol=1e-15 * lo_b, rtol=4 * np.finfo(float).eps, maxiter=200))

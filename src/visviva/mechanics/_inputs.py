@@ -12,7 +12,7 @@ import numpy as np
 from .._units import broadcast_or_raise, require_finite_result, to_si
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["Inputs", "SI"]
+__all__ = ["Inputs", "SI", "callable_result", "finite_rhs"]
 
 
 class _SIUnits:
@@ -37,6 +37,7 @@ class _SIUnits:
         "stiffness": "N / m",
         "drag_linear": "kg / s",
         "drag_quadratic": "kg / m",
+        "per_m": "1 / m",
         "one": "",
     }
 
@@ -133,3 +134,82 @@ def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
             f"{np.max(np.abs(arr - arr.T)):.3g}. Pass (A + A.T) / 2 if the asymmetry is rounding."
         )
     return 0.5 * (arr + arr.T)
+
+
+def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.ndarray:
+    """The float64 array a user callable returned, checked to have ``shape`` and be finite.
+
+    Parameters
+    ----------
+    value : array_like
+        What the callable returned.
+    shape : tuple
+        The shape it must have (same number of elements is accepted, then reshaped).
+    what : str
+        The callable as the user knows it, e.g. ``"force(t, r, v)"``, named in the errors.
+    time : float
+        The time [s] (or curve parameter) of the call, named in the errors.
+    at : str
+        The name of ``time`` in the errors (``"t"``, or ``"s"`` for a curve parameter).
+
+    Returns
+    -------
+    ndarray
+        ``value`` as float64 of ``shape``.
+    """
+    arr = np.asarray(value, dtype=float)
+    if arr.size != int(np.prod(shape)):
+        raise ShapeError(
+            f"{what.split('(')[0]} returned shape {arr.shape}; {what} must return shape {shape}."
+        )
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInputError(
+            f"{what} returned NaN or inf at {at} = {float(time):.9g}: {arr.tolist()}. It must be finite "
+            "all along the motion; check the formula (a division by zero, a square root of a "
+            "negative number) and its units."
+        )
+    return arr.reshape(shape)
+
+
+def finite_rhs(rhs, context: str):
+    """``rhs(t, y)`` for :func:`scipy.integrate.solve_ivp` that raises instead of returning NaN.
+
+    solve_ivp does not stop on a NaN derivative: its step-size control shrinks the step for ever
+    (the call hangs) or fails with an unrelated message. The wrapper raises
+    :class:`~visviva.errors.DomainError` naming the time and the state instead.
+
+    Parameters
+    ----------
+    rhs : callable
+        ``rhs(t, y) -> dy/dt``.
+    context : str
+        The public function, named in the error.
+
+    Returns
+    -------
+    callable
+        The guarded right-hand side.
+    """
+
+    def fail(t, y, cause):
+        raise DomainError(
+            f"{context}: the equations of motion are not finite ({cause}) at t = "
+            f"{float(t):.9g}, state {np.asarray(y).tolist()}: the motion reached a singular "
+            "configuration (a collision, a singular mass matrix, a zero radius) or a callable "
+            "returned NaN. Stop the integration before it, or check the model."
+        )
+
+    def guarded(t, y):
+        try:
+            dy = rhs(t, y)
+        except (ZeroDivisionError, OverflowError) as exc:  # from math-module lambdified code
+            fail(t, y, str(exc))
+        except ValueError as exc:
+            if str(exc) != "math domain error":
+                raise
+            fail(t, y, str(exc))
+        if not np.all(np.isfinite(dy)):
+            fail(t, y, "NaN or inf")
+        return dy
+
+    return guarded

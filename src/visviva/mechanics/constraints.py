@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result, finite_rhs
 from .particles import Trajectory, check_times, particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
@@ -87,11 +87,13 @@ class _Constraint:
         self.tau = 1.0 if time_dependent else 0.0
 
     def value(self, x, t):
-        return np.atleast_1d(np.asarray(self.f(x.reshape(self.shape), t), dtype=float)).ravel()
+        f = np.atleast_1d(np.asarray(self.f(x.reshape(self.shape), t), dtype=float)).ravel()
+        return callable_result(f, f.shape, "constraint(r, t)", t)
 
     def jacobian(self, x, t):
         if self.jac is not None:
             J = np.asarray(self.jac(x.reshape(self.shape), t), dtype=float)
+            J = callable_result(J, J.shape, "jacobian(r, t)", t)
             k = J.size // self.n
             if J.size != k * self.n or k == 0:
                 raise ShapeError(
@@ -254,9 +256,8 @@ def solve_constrained(
     def applied(time, x, v):
         if force is None:
             return np.zeros(n)
-        F = np.asarray(force(time, x.reshape(shape), v.reshape(shape)), dtype=float)
-        if F.size != n:
-            raise ShapeError(f"force returned shape {F.shape}; it must return {shape}.")
+        F = callable_result(force(time, x.reshape(shape), v.reshape(shape)), shape,
+                            "force(t, r, v)", time)
         return F.ravel()
 
     def multipliers(time, x, v):
@@ -290,7 +291,7 @@ def solve_constrained(
     if project:
         x0, u0 = projected(x0, u0, t[0])
     sol = solve_ivp(
-        rhs, (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
+        finite_rhs(rhs, "solve_constrained"), (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
     )
     if sol.status == -1:
         raise ConvergenceError(f"solve_constrained: the integrator failed: {sol.message}")

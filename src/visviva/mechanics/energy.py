@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result
 
 __all__ = [
     "UniformGravity",
@@ -214,9 +214,7 @@ def _power(force, trajectory):
     t, r, v = trajectory.t, trajectory.r, trajectory.v
     P = np.empty(t.size)
     for i in range(t.size):
-        F = np.asarray(force(t[i], r[i], v[i]), dtype=float)
-        if F.shape != r[i].shape:
-            raise ShapeError(f"force returned shape {F.shape}; expected {r[i].shape}.")
+        F = callable_result(force(t[i], r[i], v[i]), r[i].shape, "force(t, r, v)", t[i])
         P[i] = np.sum(F * v[i])
     return P
 
@@ -307,8 +305,15 @@ def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
         return ridders_extrapolate(central, 1e-3 * max(1.0, abs(s1 - s0)))
 
     def integrand(s):
-        F = np.asarray(field(np.asarray(curve(s), dtype=float)), dtype=float)
-        return float(np.dot(F, dr_ds(s)))
+        r = np.asarray(curve(s), dtype=float)
+        F = callable_result(field(r), r.shape, "field(r)", s, at="s")
+        value = float(np.dot(F, dr_ds(s)))
+        if not np.isfinite(value):
+            raise InvalidInputError(
+                f"work_along_curve: the curve or its tangent is not finite at s = {s:.9g} "
+                f"(r = {r.tolist()}); check curve(s) (and tangent(s)) over s_range."
+            )
+        return value
 
     value, _ = quad(integrand, s0, s1, epsabs=0.0, epsrel=rtol, limit=200)
     return value
@@ -335,7 +340,9 @@ def conservation_report(trajectory, potential=None):
     V = np.zeros_like(T)
     pots = [] if potential is None else (potential if isinstance(potential, list) else [potential])
     for pot in pots:
-        V = V + np.array([np.sum(pot(ri)) for ri in trajectory.r])
+        for i, (ti, ri) in enumerate(zip(trajectory.t, trajectory.r, strict=True)):
+            value = pot(ri)
+            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti))
     E = T + V
     scale_E = max(abs(E[0]), np.max(np.abs(T)), np.finfo(float).tiny)
     m = trajectory.masses[..., None]

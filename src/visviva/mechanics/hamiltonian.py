@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
+from ._inputs import finite_rhs
 
 __all__ = [
     "HamiltonianSystem",
@@ -132,11 +133,29 @@ def symplectic_integrate(
     ts, qs, ps = [t0], [q.copy()], [p.copy()]
     for i in range(1, n_steps + 1):
         q, p = step(dT_dp, dV_dq, q, p, dt)
+        if i == 1 and (q.shape != qs[0].shape or p.shape != qs[0].shape):
+            raise ShapeError(
+                f"symplectic_integrate: dT_dp and dV_dq must return arrays shaped like q0 "
+                f"{qs[0].shape}; the state became {q.shape} and {p.shape}."
+            )
         if i % save_every == 0:
             ts.append(t0 + i * dt)
             qs.append(q.copy())
             ps.append(p.copy())
-    return SymplecticTrajectory(np.array(ts), np.array(qs), np.array(ps))
+    Q, P = np.array(qs), np.array(ps)
+    # NaN persists once it appears: the samples and the final state show it (checked once, in
+    # bulk, so that the per-step cost stays that of the gradients)
+    finite = np.isfinite(Q).reshape(len(qs), -1).all(axis=1) & np.isfinite(P).reshape(
+        len(ps), -1).all(axis=1)
+    if not (finite.all() and np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
+        bad = int(np.argmin(finite)) * save_every if not finite.all() else n_steps
+        raise DomainError(
+            f"symplectic_integrate: the state is not finite (NaN or inf) by step {bad} "
+            f"(t = {t0 + bad * dt:.9g}): dT_dp or dV_dq returned NaN or inf there (a "
+            "singularity of the potential, or outside its domain). Take smaller steps or stop "
+            "before it."
+        )
+    return SymplecticTrajectory(np.array(ts), Q, P)
 
 
 def legendre_transform(lagrangian, coordinates):
@@ -281,9 +300,20 @@ class HamiltonianSystem:
         """Integrate Hamilton's equations with solve_ivp; returns a SymplecticTrajectory-like record."""
         from scipy.integrate import solve_ivp
 
-        t = np.asarray(t, float)
-        y0 = np.concatenate([np.atleast_1d(q0), np.atleast_1d(p0)]).astype(float)
-        sol = solve_ivp(self.rhs, (t[0], t[-1]), y0, t_eval=t, rtol=rtol, atol=atol, method=method)
+        q0 = np.atleast_1d(np.asarray(q0, dtype=float))
+        p0 = np.atleast_1d(np.asarray(p0, dtype=float))
+        if q0.shape != (self.dof,) or p0.shape != (self.dof,):
+            raise ShapeError(
+                f"q0 and p0 must have shape ({self.dof},); got {q0.shape} and {p0.shape}."
+            )
+        if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(p0))):
+            raise InvalidInputError("q0 and p0 must be finite.")
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
+        y0 = np.concatenate([q0, p0])
+        sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
+                        t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
             raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
         n = self.dof
@@ -359,17 +389,31 @@ def poincare_section(
     from scipy.integrate import solve_ivp
 
     fun = rhs.rhs if isinstance(rhs, HamiltonianSystem) else rhs
+    if not (np.ndim(t_max) == 0 and np.isfinite(t_max) and t_max > 0):
+        raise InvalidInputError(f"t_max must be a finite time > 0; got {t_max!r}.")
+    y0 = np.atleast_1d(np.asarray(y0, float))
+    if y0.ndim != 1 or not np.all(np.isfinite(y0)):
+        raise InvalidInputError(f"y0 must be a finite 1-D state; got {y0.tolist()}.")
+    if isinstance(rhs, HamiltonianSystem) and y0.size != 2 * rhs.dof:
+        raise ShapeError(
+            f"y0 must hold (q, p): {2 * rhs.dof} numbers for this {rhs.dof}-dof system; got "
+            f"{y0.size}."
+        )
     if callable(section):
         event = lambda t, y: section(t, y)  # noqa: E731
     else:
         idx = int(section)
+        if not -y0.size <= idx < y0.size:
+            raise InvalidInputError(
+                f"section index {idx} is outside the state of size {y0.size}; give the index of "
+                "the component whose zero is the section, or a function g(t, y)."
+            )
         event = lambda t, y: y[idx]  # noqa: E731
-    y0 = np.asarray(y0, float)
     event.direction = direction
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
     event.terminal = int(max_points) + int(on_section) if max_points else False
     sol = solve_ivp(
-        fun, (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
+        finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
     )
     if sol.status == -1:
         raise ConvergenceError(f"poincare_section: integration failed: {sol.message}")

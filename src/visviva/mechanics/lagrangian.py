@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ._inputs import Inputs, callable_result, finite_rhs
 
 __all__ = [
     "LagrangianSystem",
@@ -167,7 +168,7 @@ class LagrangianSystem:
         n = self.dof
         M, f = fn(t, *y.tolist())
         if self.forces is not None:
-            Q = np.asarray(self.forces(t, y[:n], y[n:]), dtype=float).reshape(n)
+            Q = callable_result(self.forces(t, y[:n], y[n:]), (n,), "forces(t, q, qdot)", t)
             f = [fi + Qi for fi, Qi in zip(f, Q.tolist(), strict=True)]
         out = np.empty(2 * n)
         out[:n] = y[n:]
@@ -217,12 +218,12 @@ class LagrangianSystem:
         if q0.shape != (self.dof,) or qdot0.shape != (self.dof,):
             raise ShapeError(f"q0 and qdot0 must have shape ({self.dof},).")
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
-            raise InvalidInputError("t must hold at least 2 strictly increasing times.")
+        if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(qdot0))):
             raise InvalidInputError("q0 and qdot0 must be finite.")
         sol = solve_ivp(
-            self.rhs,
+            finite_rhs(self.rhs, "LagrangianSystem.simulate"),
             (t[0], t[-1]),
             np.concatenate([q0, qdot0]),
             method=method,
@@ -236,13 +237,25 @@ class LagrangianSystem:
         return LagrangianTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(), self)
 
 
+def _physical(value, unit: str, name: str, *, positive: bool = True) -> float:
+    """A finite scalar parameter of a ready-made system, in SI (> 0, or >= 0 for g)."""
+    arr = Inputs().get(value, unit, name, positive=positive, nonnegative=not positive)
+    if arr.size != 1:
+        raise ShapeError(f"{name} must be a scalar; got shape {arr.shape}.")
+    return float(arr.reshape(()))
+
+
 def pendulum(m=1.0, length=1.0, g=9.81) -> LagrangianSystem:
     """Simple pendulum, L = m l^2 theta'^2 / 2 + m g l cos(theta) (theta from the downward vertical)."""
     sp, me = _sympy()
     th = me.dynamicsymbols("theta")
     M, ell, gg = sp.symbols("m l g", positive=True)
     L = M * ell**2 * th.diff() ** 2 / 2 + M * gg * ell * sp.cos(th)
-    return LagrangianSystem(L, [th], {M: m, ell: length, gg: g})
+    return LagrangianSystem(L, [th], {
+        M: _physical(m, "kg", "m"),
+        ell: _physical(length, "m", "length"),
+        gg: _physical(g, "accel", "g", positive=False),
+    })
 
 
 def double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81) -> LagrangianSystem:
@@ -258,7 +271,13 @@ def double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81) -> LagrangianSystem:
     T = (M1 + M2) * L1**2 * w1**2 / 2 + M2 * L2**2 * w2**2 / 2
     T += M2 * L1 * L2 * w1 * w2 * sp.cos(t1 - t2)
     V = -(M1 + M2) * gg * L1 * sp.cos(t1) - M2 * gg * L2 * sp.cos(t2)
-    return LagrangianSystem(T - V, [t1, t2], {M1: m1, M2: m2, L1: l1, L2: l2, gg: g})
+    return LagrangianSystem(T - V, [t1, t2], {
+        M1: _physical(m1, "kg", "m1"),
+        M2: _physical(m2, "kg", "m2"),
+        L1: _physical(l1, "m", "l1"),
+        L2: _physical(l2, "m", "l2"),
+        gg: _physical(g, "accel", "g", positive=False),
+    })
 
 
 def spring_pendulum(m=1.0, k=10.0, rest_length=1.0, g=9.81) -> LagrangianSystem:
@@ -271,7 +290,12 @@ def spring_pendulum(m=1.0, k=10.0, rest_length=1.0, g=9.81) -> LagrangianSystem:
     M, K, l0, gg = sp.symbols("m k l0 g", positive=True)
     L = M * (r.diff() ** 2 + r**2 * th.diff() ** 2) / 2 - K * (r - l0) ** 2 / 2
     L += M * gg * r * sp.cos(th)
-    return LagrangianSystem(L, [r, th], {M: m, K: k, l0: rest_length, gg: g})
+    return LagrangianSystem(L, [r, th], {
+        M: _physical(m, "kg", "m"),
+        K: _physical(k, "stiffness", "k"),
+        l0: _physical(rest_length, "m", "rest_length", positive=False),
+        gg: _physical(g, "accel", "g", positive=False),
+    })
 
 
 def central_potential(potential=None, m=1.0, k=1.0) -> LagrangianSystem:
@@ -286,4 +310,5 @@ def central_potential(potential=None, m=1.0, k=1.0) -> LagrangianSystem:
     M, K = sp.symbols("m k", positive=True)
     V = -K / r if potential is None else potential(r)
     L = M * (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 - V
-    return LagrangianSystem(L, [r, ph], {M: m, K: k})
+    k = Inputs().get(k, "energy_length", "k")  # any sign: attractive (> 0) or repulsive
+    return LagrangianSystem(L, [r, ph], {M: _physical(m, "kg", "m"), K: float(k)})

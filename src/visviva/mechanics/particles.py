@@ -13,7 +13,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result
 
 __all__ = [
     "Trajectory",
@@ -193,9 +193,7 @@ def solve_particles(
     def rhs(time, y):
         r = y[:size].reshape(shape)
         v = y[size:].reshape(shape)
-        F = np.asarray(force(time, r, v), dtype=float)
-        if F.shape != shape:
-            raise ShapeError(f"force returned shape {F.shape}; it must return {shape}.")
+        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time)
         return np.concatenate([y[size:], (F * inv_m).ravel()])
 
     wrapped = None
@@ -232,12 +230,19 @@ def _weight(m, r, g, axis=-1):
     return F
 
 
+def _gravity_inputs(masses, g):
+    """Masses [kg] (> 0) and g [m/s^2] (finite) of the force builders, in SI."""
+    ins = Inputs()
+    return ins.get(masses, "kg", "masses", positive=True), float(ins.get(g, "accel", "g"))
+
+
 def uniform_gravity(masses, g=9.81, axis: int = -1):
     """Force callable ``F(t, r, v)`` = -m g along ``axis`` (the last coordinate by default) [N].
 
-    ``masses`` is a scalar for one particle of shape (d,), or (N,) for positions (N, d).
+    ``masses`` [kg] (> 0) is a scalar for one particle of shape (d,), or (N,) for positions
+    (N, d); ``g`` [m/s^2] finite.
     """
-    m = np.asarray(masses, dtype=float)
+    m, g = _gravity_inputs(masses, g)
 
     def force(t, r, v):
         return _weight(m, r, g, axis)
@@ -248,9 +253,10 @@ def uniform_gravity(masses, g=9.81, axis: int = -1):
 def linear_drag(b, g=0.0, masses=1.0):
     """Force callable F = -b v - m g e_last (linear/Stokes drag, optional gravity) [N].
 
-    ``b`` [kg/s] is a scalar or (N, 1) per particle.
+    ``b`` [kg/s] (>= 0) is a scalar or (N, 1) per particle.
     """
-    m = np.asarray(masses, dtype=float)
+    m, g = _gravity_inputs(masses, g)
+    b = Inputs().get(b, "drag_linear", "b", nonnegative=True)
 
     def force(t, r, v):
         return -b * v + _weight(m, r, g)
@@ -261,9 +267,10 @@ def linear_drag(b, g=0.0, masses=1.0):
 def quadratic_drag(c, g=0.0, masses=1.0):
     """Force callable F = -c ‖v‖ v - m g e_last (quadratic/Newton drag, optional gravity) [N].
 
-    ``c`` [kg/m] is a scalar or (N, 1) per particle.
+    ``c`` [kg/m] (>= 0) is a scalar or (N, 1) per particle.
     """
-    m = np.asarray(masses, dtype=float)
+    m, g = _gravity_inputs(masses, g)
+    c = Inputs().get(c, "drag_quadratic", "c", nonnegative=True)
 
     def force(t, r, v):
         return -c * np.linalg.norm(v, axis=-1, keepdims=True) * v + _weight(m, r, g)
@@ -329,12 +336,15 @@ def projectile(r0, v0, t, *, drag: str | None = None, k: float = 0.0, g: float =
     :func:`solve_particles`. For linear drag the exact answer is :func:`projectile_linear_drag`;
     for quadratic drag from rest, v(t) = v_T tanh(g t / v_T) with v_T = sqrt(g / k).
     """
-    if drag is None:
-        force = linear_drag(0.0, g)
-    elif drag == "linear":
-        force = linear_drag(k, g)
-    elif drag == "quadratic":
-        force = quadratic_drag(k, g)
-    else:
+    if drag not in (None, "linear", "quadratic"):
         raise InvalidInputError(f"drag must be None, 'linear' or 'quadratic'; got {drag!r}.")
+    unit = {None: "rate", "linear": "rate", "quadratic": "per_m"}[drag]
+    k = float(Inputs().get(k, unit, "k", nonnegative=True))
+    if drag is None and k != 0:
+        raise InvalidInputError(
+            f"k = {k!r} was given without a drag law: pass drag='linear' or drag='quadratic' "
+            "(or leave k = 0 for the vacuum parabola)."
+        )
+    # k = c/m or b/m for the unit mass integrated below
+    force = quadratic_drag(k, g) if drag == "quadratic" else linear_drag(k, g)
     return solve_particles(force, 1.0, r0, v0, t, **kw)

@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs
+from ._inputs import Inputs, callable_result
 
 __all__ = [
     "inertia_tensor",
@@ -517,7 +517,7 @@ def integrate_rigid_body(
                     [2 * (x * z - yq * s), 2 * (yq * z + x * s), 1 - 2 * (x * x + yq * yq)],
                 ]
             )
-            tau = np.asarray(torque(time, R, w), dtype=float)
+            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time)
         dw = I_inv @ (tau - np.cross(w, Ib @ w))
         return np.concatenate([dq, dw])
 
@@ -618,13 +618,23 @@ def heavy_top_precession_rate(I1, I3, mass, g, length, omega3, theta, *, branch:
     no cancellation.
     """
     ins = Inputs()
-    I1 = float(ins.get(I1, "inertia", "I1", positive=True))
-    I3 = float(ins.get(I3, "inertia", "I3", positive=True))
-    m = float(ins.get(mass, "kg", "mass", positive=True))
-    gg = float(ins.get(g, "accel", "g"))
-    ell = float(ins.get(length, "m", "length"))
-    w3 = float(ins.get(omega3, "rate", "omega3"))
-    th = float(ins.get(theta, "rad", "theta"))
+
+    def scalar(value, unit, name, **rule):
+        arr = ins.get(value, unit, name, **rule)
+        if arr.size != 1:
+            raise ShapeError(
+                f"heavy_top_precession_rate takes one top: {name} must be a scalar; got shape "
+                f"{arr.shape}. Call it once per value."
+            )
+        return float(arr.reshape(()))
+
+    I1 = scalar(I1, "inertia", "I1", positive=True)
+    I3 = scalar(I3, "inertia", "I3", positive=True)
+    m = scalar(mass, "kg", "mass", positive=True)
+    gg = scalar(g, "accel", "g")
+    ell = scalar(length, "m", "length")
+    w3 = scalar(omega3, "rate", "omega3")
+    th = scalar(theta, "rad", "theta")
     a = I1 * np.cos(th)
     b = I3 * w3
     c = m * gg * ell
@@ -637,7 +647,12 @@ def heavy_top_precession_rate(I1, I3, mass, g, length, omega3, theta, *, branch:
     root = np.sqrt(disc)
     q = b + np.copysign(root, b) if b != 0 else root
     if branch == "slow":
-        rate = 2.0 * c / q if q != 0 else np.inf
+        if q == 0 and c != 0:  # a = b = 0: c = 0 has no root
+            raise DomainError(
+                "heavy_top_precession_rate: no steady precession for a top that does not spin "
+                "(omega3 = 0) with its axis horizontal."
+            )
+        rate = 2.0 * c / q if q != 0 else 0.0
     elif branch == "fast":
         if a == 0:
             raise DomainError("the fast precession branch does not exist at theta = pi/2.")

@@ -37,6 +37,19 @@ _REBOUND_ADAPTIVE = {"prs23": "prs23", "rs15": "global"}
 _REBOUND_RESOLVE = {"halt": "halt", "merge": "merge", "bounce": "hardsphere"}
 
 
+def _from_rebound(table: dict, value, what: str, attribute: str) -> str:
+    """The visviva name of REBOUND's setting ``value`` in ``table`` (visviva -> REBOUND names),
+    or :class:`~visviva.errors.InvalidInputError` naming what to set in REBOUND."""
+    back = {v: k for k, v in table.items()}
+    name = str(value).lower()
+    if name not in back:
+        raise InvalidInputError(
+            f"REBOUND's {what} {name!r} has no visviva counterpart; set "
+            f"rsim.integrator.{attribute} to one of {sorted(back)} first."
+        )
+    return back[name]
+
+
 def _rebound():
     try:
         import rebound
@@ -113,14 +126,8 @@ def from_rebound(cls, rsim, integrator=None):
         )
     coordinates = "jacobi"
     if name == "whfast" and str(rsim.integrator) == "whfast":
-        rebound_coordinates = str(rsim.integrator.coordinates).lower()
-        back = {v: k for k, v in _REBOUND_COORDINATES.items()}
-        if rebound_coordinates not in back:
-            raise InvalidInputError(
-                f"REBOUND's WHFast coordinates {rebound_coordinates!r} have no visviva "
-                f"counterpart; set rsim.integrator.coordinates to one of {sorted(back)} first."
-            )
-        coordinates = back[rebound_coordinates]
+        coordinates = _from_rebound(_REBOUND_COORDINATES, rsim.integrator.coordinates,
+                                    "WHFast coordinates", "coordinates")
     sim = cls(name, G=float(rsim.G), coordinates=coordinates)
     sim.softening = float(rsim.softening)
     n_active = rsim.N_active if rsim.N_active >= 0 else rsim.N
@@ -160,15 +167,9 @@ def _settings_from_rebound(rsim, sim):
                 f"REBOUND's IAS15 epsilon = {epsilon} (fixed steps of dt) has no visviva "
                 "counterpart: set rsim.integrator.epsilon > 0 (e.g. 1e-9) first."
             )
-        mode = str(rsim.integrator.adaptive_mode).lower()
-        back = {v: k for k, v in _REBOUND_ADAPTIVE.items()}
-        if mode not in back:
-            raise InvalidInputError(
-                f"REBOUND's IAS15 adaptive_mode {mode!r} has no visviva counterpart; set "
-                f"rsim.integrator.adaptive_mode to one of {sorted(back)} first."
-            )
         sim.epsilon = epsilon
-        sim.adaptive_mode = back[mode]
+        sim.adaptive_mode = _from_rebound(_REBOUND_ADAPTIVE, rsim.integrator.adaptive_mode,
+                                          "IAS15 adaptive_mode", "adaptive_mode")
         sim.min_dt = float(rsim.integrator.min_dt)
     sim.exact_finish_time = bool(rsim.exact_finish_time)
     if float(rsim.exit_min_distance) > 0:

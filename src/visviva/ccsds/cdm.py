@@ -434,7 +434,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
     if not version or not header:
         raise CCSDSFormatError("<cdm> needs a version attribute and a <header>", line=root.line,
                                source=name)
-    sections = {"header": read_xml_section(with_version(header[0], "CCSDS_CDM_VERS", version),
+    sections = {"header": read_xml_section(with_version(header[0], "CCSDS_CDM_VERS", root),
                                            HEADER, name)}
     rel = root.path("body/relativeMetadataData")
     if not rel:

@@ -206,6 +206,8 @@ def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str
                 line=line, source=source)
     text = text.strip()
     if keyword.type == "text":
+        if not text:  # (an XML attribute or element of blanks; KVN refuses it in the lexer)
+            raise CCSDSFormatError(f"{keyword.name} has no value", line=line, source=source)
         return text
     if keyword.type == "epoch":
         if not _EPOCH_RE.match(text):

@@ -29,6 +29,12 @@ _KEYWORD_RE = re.compile(r"^([A-Z][A-Z0-9_]*)\s*=\s*(.*?)\s*$")
 _UNIT_RE = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]$")
 _DATA_START = frozenset("0123456789+-.")
 _MARKER_RE = re.compile(r"^([A-Z][A-Z0-9_]*_(START|STOP))$")
+#: characters no KVN line holds (CCSDS 502.0-B-3, 7.4: printable ASCII text and blanks; a tab
+#: is read as a blank). Python's ``str.splitlines`` would also split at several of these
+#: (form feed, U+2028, ...), so lines are split at CR/LF only and these refused.
+_CONTROL_RE = re.compile("[\x00-\x08\x0b-\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029]")
+_NEWLINE_RE = re.compile(r"\r\n?|\n")
+_KEY_ONLY_RE = re.compile(r"^[A-Z][A-Z0-9_]*$")
 
 
 class KVNLine(NamedTuple):
@@ -79,11 +85,19 @@ def tokenize(text: str, source: str = "<text>") -> list[KVNLine]:
     Raises
     ------
     CCSDSFormatError
-        A keyword line without a value, or a unit bracket left open.
+        A keyword line without a value, a unit bracket left open, or a control character.
     """
+    control = _CONTROL_RE.search(text)
+    if control is not None:
+        before = text[:control.start()]
+        line = len(_NEWLINE_RE.findall(before)) + 1
+        column = control.start() - max(before.rfind("\n"), before.rfind("\r"))
+        raise CCSDSFormatError(
+            f"control character U+{ord(control.group()):04X} in column {column}: a KVN message "
+            "is printable text; remove it", line=line, source=source)
     out = []
     append = out.append
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(_NEWLINE_RE.split(text), start=1):
         stripped = raw.strip()
         if not stripped:
             continue
@@ -219,12 +233,32 @@ class KVNWriter:
         self.width = width
 
     def comment(self, texts) -> None:
-        """Write one ``COMMENT`` line per text."""
+        """Write one ``COMMENT`` line per text (a text of several lines, as XML may hold, on
+        as many ``COMMENT`` lines)."""
         for text in texts:
-            self.out.append(f"COMMENT {text}".rstrip())
+            for part in _NEWLINE_RE.split(str(text)) if text else [""]:
+                self.out.append(f"COMMENT {part}".rstrip())
 
     def keyword(self, key: str, value: str, unit: str | None = None) -> None:
-        """Write ``KEY = value [unit]``."""
+        """Write ``KEY = value [unit]``.
+
+        Raises
+        ------
+        CCSDSFormatError
+            A key or a value that KVN cannot hold, so that the text would not read back (a
+            value read from XML may hold a bracket or a line break): write XML instead.
+        """
+        value = str(value)
+        if not _KEY_ONLY_RE.match(key):
+            raise CCSDSFormatError(
+                f"{key!r} cannot be a KVN keyword (upper case letters, digits and underscores "
+                "only): rename it, or write the message as XML")
+        if ("[" in value or "]" in value or not value.strip() or _NEWLINE_RE.search(value)
+                or _CONTROL_RE.search(value)):
+            raise CCSDSFormatError(
+                f"{key} = {value!r} cannot be written as KVN (a KVN value is one line of "
+                "printable text without brackets, which would read as a unit): change the "
+                "value, or write the message as XML")
         suffix = f" [{unit}]" if unit else ""
         self.out.append(f"{key:<{self.width}} = {value}{suffix}")
 

@@ -324,7 +324,7 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
                     raise CCSDSFormatError(f"<{root_tag}> lacks its version attribute",
                                            line=root.line, source=name)
                 header = read_xml_section(
-                    with_version(nodes[0], version_key, version), section, name)
+                    with_version(nodes[0], version_key, root), section, name)
                 parsed[section.name] = header
                 continue
             if not nodes:
@@ -404,7 +404,7 @@ def _unexpected(cursor: KVNCursor, sections: tuple, root_tag: str) -> None:
                            f"{root_tag.upper()} message (check its spelling)")
 
 
-def with_version(node: XMLNode, key: str, version: str) -> XMLNode:
+def with_version(node: XMLNode, key: str, root: XMLNode) -> XMLNode:
     """A copy of an XML ``<header>`` with the root's version as its first keyword element.
 
     Parameters
@@ -413,14 +413,15 @@ def with_version(node: XMLNode, key: str, version: str) -> XMLNode:
         The header element.
     key : str
         The version keyword (``"CCSDS_OEM_VERS"``).
-    version : str
-        The root's ``version`` attribute.
+    root : XMLNode
+        The message element, whose ``version`` attribute is the version (errors about it name
+        the root's line, where it is written).
 
     Returns
     -------
     XMLNode
     """
-    version_node = XMLNode(key, {}, node.line, version)
+    version_node = XMLNode(key, {}, root.line, root.attrib["version"])
     return XMLNode(node.tag, node.attrib, node.line, node.text, [version_node, *node.children])
 
 

@@ -139,7 +139,10 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
     try:
-        parser.Parse(text.encode("utf-8") if isinstance(text, str) else text, True)
+        # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
+        # XML declaration names (a declared 'latin-1' or an unknown name would otherwise
+        # re-decode it or raise LookupError)
+        parser.Parse(text, True)
     except expat.ExpatError as exc:
         raise CCSDSFormatError(
             f"the XML is not well formed: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",

@@ -281,8 +281,7 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
     if header_node is None or not root.attrib.get("version"):
         raise CCSDSFormatError("<oem> needs a version attribute and a <header>",
                                line=root.line, source=name)
-    header = read_xml_section(with_version(header_node, "CCSDS_OEM_VERS",
-                                            root.attrib["version"]), HEADER, name)
+    header = read_xml_section(with_version(header_node, "CCSDS_OEM_VERS", root), HEADER, name)
     segments = []
     for node in root.path("body/segment"):
         meta_node, data_node = node.find("metadata"), node.find("data")
@@ -355,6 +354,12 @@ def _xml_states(nodes, name):
         rec = read_xml_section(node, STATE_VECTOR, name)
         rows.append([rec["EPOCH"]] + [rec.get(k) for k in _STATE_KEYS])
         lines.append(node.line)
+    for row, line in zip(rows, lines, strict=True):  # (X .. Z_DOT are mandatory keywords)
+        missing = [k for k, v in zip(_STATE_KEYS[6:], row[7:], strict=True) if v is None]
+        if 0 < len(missing) < 3:
+            raise CCSDSFormatError(f"the <stateVector> has accelerations but lacks "
+                                   f"<{'>, <'.join(missing)}>: give all three or none",
+                                   line=line, source=name)
     has_acc = [r[7] is not None for r in rows]
     if any(has_acc) and not all(has_acc):
         k = has_acc.index(not has_acc[0])

@@ -1,0 +1,103 @@
+"""Fuzzing the file readers: malformed input raises a VisvivaError naming the line, never a bare
+Python exception, a NaN read as data, or a message that does not read back.
+
+The regression tests first (each a defect the fuzzer found), then the hypothesis properties
+(derandomized, so CI runs the same examples every time).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import visviva as vv
+from test_ccsds_oem import OEM_KVN
+from test_ccsds_opm_omm import OMM_KVN, OPM_KVN
+from visviva.ccsds.grammar import CCSDSFormatError
+
+CDM_KVN = (Path(__file__).parent / "data" / "sample_cdm.kvn").read_text()
+
+
+def _line(exc) -> int:
+    found = re.search(r"line (\d+)", str(exc.value))
+    assert found, f"the message names no line: {exc.value}"
+    return int(found.group(1))
+
+
+# ---- regression tests: one per defect found ----------------------------------------------------
+
+def test_xml_declaration_naming_another_or_unknown_encoding_reads_the_text():
+    # the reader has the text already decoded: a declared encoding must neither re-decode it
+    # (latin-1 turned 'é' into 'Ã©') nor crash (LookupError: unknown encoding)
+    xml = vv.write_omm(vv.read_omm(OMM_KVN.replace("ISS (ZARYA)", "ISS é")), format="xml")
+    for name in ("NaN", "latin-1", "utf-16"):
+        text = xml.replace('encoding="UTF-8"', f'encoding="{name}"')
+        omm = vv.read_omm(text)
+        assert omm["OBJECT_NAME"] == "ISS é" and omm["MEAN_MOTION"] == 15.4981535
+
+
+def test_oem_xml_state_with_one_acceleration_missing_names_its_line():
+    # was: the missing Y_DDOT read as NaN in a_km_s2, silently
+    xml = vv.write_oem(vv.read_oem(OEM_KVN), format="xml")
+    lines = xml.splitlines()
+    k = next(i for i, t in enumerate(lines) if "<Y_DDOT" in t)
+    del lines[k]
+    vector = max(i for i in range(k) if "<stateVector>" in lines[i]) + 1
+    with pytest.raises(CCSDSFormatError, match="lacks <Y_DDOT>") as exc:
+        vv.read_oem("\n".join(lines))
+    assert _line(exc) == vector
+
+
+def test_xml_version_attribute_of_blanks_is_refused():
+    # was: read as version '' and written to KVN as 'CCSDS_CDM_VERS = ', which reads back as
+    # an error
+    xml = vv.read_cdm(CDM_KVN).to_xml().replace('id="CCSDS_CDM_VERS" version="1.0"',
+                                                  'id="CCSDS_CDM_VERS" version=" "')
+    with pytest.raises(CCSDSFormatError, match="CCSDS_CDM_VERS has no value") as exc:
+        vv.read_cdm(xml)
+    assert _line(exc) == 2
+
+
+def test_xml_comment_of_several_lines_is_written_as_several_kvn_comments():
+    # was: the KVN writer wrote the line break into one COMMENT line, so the next line read as
+    # data and the written OEM did not read back
+    xml = vv.write_oem(vv.read_oem(OEM_KVN), format="xml").replace(
+        "first segment, before the burn", "first segment,\n before the burn")
+    oem = vv.read_oem(xml)
+    back = vv.read_oem(vv.write_oem(oem))
+    assert back.segments[0].metadata.comments == ["first segment,", "before the burn"]
+    np.testing.assert_array_equal(back.segments[0].r_km, oem.segments[0].r_km)
+
+
+@pytest.mark.parametrize("value", ["TE[STS", "]", "A [B]"])
+def test_kvn_writer_refuses_a_value_with_a_bracket_it_could_not_read_back(value):
+    # XML may hold a bracket in a text value; in KVN a bracket reads as a unit
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml").replace(
+        "<ORIGINATOR>VISVIVA TESTS<", f"<ORIGINATOR>{value}<")
+    opm = vv.read_opm(xml)
+    assert opm.sections["header"]["ORIGINATOR"] == value
+    with pytest.raises(CCSDSFormatError, match="ORIGINATOR .* cannot be written as KVN"):
+        vv.write_opm(opm, format="kvn")
+    assert vv.read_opm(vv.write_opm(opm, format="xml")).sections["header"]["ORIGINATOR"] == value
+
+
+def test_kvn_writer_refuses_a_user_defined_parameter_that_is_no_kvn_keyword():
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml").replace(
+        'parameter="EARTH_MODEL"', 'parameter="é"')
+    with pytest.raises(CCSDSFormatError, match="cannot be a KVN keyword"):
+        vv.write_opm(vv.read_opm(xml), format="kvn")
+
+
+@pytest.mark.parametrize("char", ["\x00", "\x0c", "\x1b", "\u2028", "\x85"])
+def test_kvn_control_character_is_refused_naming_its_line(char):
+    # was: NUL kept in a value; form feed, U+2028 and NEL split the line (str.splitlines), so
+    # every later line number was off by one
+    lines = OPM_KVN.splitlines()
+    assert lines[6] == "OBJECT_NAME = TESTSAT"
+    lines[6] = "OBJECT_NAME = TEST" + char + "SAT"
+    with pytest.raises(CCSDSFormatError, match=f"U\\+{ord(char):04X}") as exc:
+        vv.read_opm("\n".join(lines))
+    assert _line(exc) == 7

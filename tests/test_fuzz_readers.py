@@ -101,3 +101,67 @@ def test_kvn_control_character_is_refused_naming_its_line(char):
     with pytest.raises(CCSDSFormatError, match=f"U\\+{ord(char):04X}") as exc:
         vv.read_opm("\n".join(lines))
     assert _line(exc) == 7
+
+
+def test_kvn_writer_refuses_a_comment_with_a_control_character():
+    # XML 1.0 allows U+0085 in a comment; the KVN reader refuses it, so the writer must too
+    xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml").replace("first burn", "first\x85burn")
+    opm = vv.read_opm(xml)
+    with pytest.raises(CCSDSFormatError, match="control character"):
+        vv.write_opm(opm, format="kvn")
+
+
+@pytest.mark.parametrize("line, value", [
+    ("X = 6503.514000 [km]", "X = " + "1" * 200_000 + "x [km]"),
+    ("X = 6503.514000 [km]", "X = " + "1" * 200_000 + "e [km]"),
+    ("OBJECT_NAME = TESTSAT", "OBJECT_NAME = A" + " " * 200_000 + "x]"),
+    ("OBJECT_NAME = TESTSAT", "OBJECT_NAME = A" + " " * 200_000 + "B"),
+])
+def test_a_very_long_line_is_read_in_linear_time(line, value):
+    # was: backtracking regular expressions took quadratic time (200 000 characters: minutes)
+    text = OPM_KVN.replace(line, value)
+    if value.endswith("B"):  # a name may be long: it reads
+        assert vv.read_opm(text).sections["metadata"]["OBJECT_NAME"].endswith(" " * 1000 + "B")
+        return
+    with pytest.raises(CCSDSFormatError, match="not a number|unbalanced bracket") as exc:
+        vv.read_opm(text)
+    assert _line(exc) == OPM_KVN.splitlines().index(line) + 1
+
+
+@pytest.mark.parametrize("old, new", [
+    ("X = 6503.514000 [km]", "X = ６５０３.５１４ [km]"),
+    ("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = ２０２４-03-01T00:00:00.000"),
+    ("DRAG_COEFF = 2.5", "DRAG_COEFF = ٢.٥"),
+])
+def test_non_ascii_digits_are_refused_naming_the_line(old, new):
+    # was: '\\d' and float() took fullwidth and Arabic-Indic digits as numbers
+    with pytest.raises(CCSDSFormatError) as exc:
+        vv.read_opm(OPM_KVN.replace(old, new))
+    assert _line(exc) == OPM_KVN.splitlines().index(old) + 1
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_oem_state_with_non_ascii_digits_is_refused_naming_the_line(fmt):
+    text = vv.write_oem(vv.read_oem(OEM_KVN), format=fmt)
+    old = "6995.1"
+    k = next(i for i, t in enumerate(text.splitlines()) if old in t) + 1
+    with pytest.raises(CCSDSFormatError, match="not a number") as exc:
+        vv.read_oem(text.replace(old, "６９９５.1", 1))
+    assert _line(exc) == k
+
+
+@pytest.mark.parametrize("fmt", ["opm", "oem"])
+def test_xml_keyword_element_holding_an_element_is_refused(fmt):
+    # was: expat joined the text around the inner element into one value ('65' + '03.5')
+    if fmt == "opm":
+        xml = vv.write_opm(vv.read_opm(OPM_KVN), format="xml")
+        read = vv.read_opm
+    else:
+        xml = vv.write_oem(vv.read_oem(OEM_KVN), format="xml")
+        read = vv.read_oem
+    old = '<X units="km">' + ("6503.514" if fmt == "opm" else "6995.1")
+    assert old in xml
+    k = next(i for i, t in enumerate(xml.splitlines()) if old in t) + 1
+    with pytest.raises(CCSDSFormatError, match="holds the element <b>") as exc:
+        read(xml.replace(old, old[:-3] + "<b/>" + old[-3:], 1))
+    assert _line(exc) == k

@@ -40,10 +40,12 @@ class CCSDSFormatError(InvalidInputError):
         self.source = source
 
 
-_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")
-_INT_RE = re.compile(r"^[+-]?\d+$")
+# ASCII digits only ([0-9], not \d, which also takes '１２' and '١٢'), and no two ways to match
+# the same digits (a long run of them that fails must fail in linear time)
+_NUMBER_RE = re.compile(r"^[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eEdD][+-]?[0-9]+)?$")
+_INT_RE = re.compile(r"^[+-]?[0-9]+$")
 #: CCSDS epoch: calendar (YYYY-MM-DD) or ordinal (YYYY-DDD) date, 'T', time, optional 'Z'
-EPOCH_PATTERN = r"\d{4}-(?:\d{2}-\d{2}|\d{3})T\d{2}:\d{2}:\d{2}(?:\.\d*)?Z?"
+EPOCH_PATTERN = r"[0-9]{4}-(?:[0-9]{2}-[0-9]{2}|[0-9]{3})T[0-9]{2}:[0-9]{2}:[0-9]{2}(?:\.[0-9]*)?Z?"
 _EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
 
 #: value types a keyword may have

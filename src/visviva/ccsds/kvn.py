@@ -25,8 +25,9 @@ from .grammar import CCSDSFormatError, format_float
 
 __all__ = ["KVNLine", "tokenize", "KVNCursor", "KVNWriter", "format_float"]
 
-_KEYWORD_RE = re.compile(r"^([A-Z][A-Z0-9_]*)\s*=\s*(.*?)\s*$")
-_UNIT_RE = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]$")
+# (a line is stripped before matching, so the value has no trailing blanks: no lazy '.*?\s*$',
+# which takes quadratic time on a long run of blanks)
+_KEYWORD_RE = re.compile(r"^([A-Z][A-Z0-9_]*)\s*=\s*(.*)$")
 _DATA_START = frozenset("0123456789+-.")
 _MARKER_RE = re.compile(r"^([A-Z][A-Z0-9_]*_(START|STOP))$")
 #: characters no KVN line holds (CCSDS 502.0-B-3, 7.4: printable ASCII text and blanks; a tab
@@ -122,11 +123,12 @@ def tokenize(text: str, source: str = "<text>") -> list[KVNLine]:
             key, value = match.group(1), match.group(2)
             unit = None
             if value.endswith("]"):
-                with_unit = _UNIT_RE.match(value)
-                if with_unit is None:
+                bracket = value.rfind("[")
+                unit = value[bracket + 1:-1]
+                if bracket < 0 or "]" in unit:
                     raise CCSDSFormatError(f"the unit of {key} has an unbalanced bracket",
                                            line=number, source=source)
-                value, unit = with_unit.group(1), with_unit.group(2).strip()
+                value, unit = value[:bracket].rstrip(), unit.strip()
             elif "[" in value:
                 raise CCSDSFormatError(f"the unit of {key} lacks its closing bracket ']'",
                                        line=number, source=source)
@@ -237,6 +239,10 @@ class KVNWriter:
         as many ``COMMENT`` lines)."""
         for text in texts:
             for part in _NEWLINE_RE.split(str(text)) if text else [""]:
+                if _CONTROL_RE.search(part):
+                    raise CCSDSFormatError(
+                        f"the comment {part[:60]!r} holds a control character, which KVN "
+                        "cannot hold: remove it, or write the message as XML")
                 self.out.append(f"COMMENT {part}".rstrip())
 
     def keyword(self, key: str, value: str, unit: str | None = None) -> None:

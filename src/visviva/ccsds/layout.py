@@ -172,6 +172,10 @@ def read_xml_section(node: XMLNode, section: Section, source: str) -> Record:
     """
     record = Record(line=node.line)
     for child in node.children:
+        if child.children:  # (expat would join the text around them into one value)
+            raise CCSDSFormatError(f"<{child.tag}> holds the element <{child.children[0].tag}>; "
+                                   "a keyword element holds only its value",
+                                   line=child.children[0].line, source=source)
         if child.tag == "COMMENT":
             record.comments.append(child.text)
             continue

@@ -159,18 +159,20 @@ def _state_lines(rows, name):
     n = len(rows)
     width = len(rows[0].value.split())
     blob = " ".join([r.value for r in rows])
-    parts = blob.split()
-    # float() would also take '1_000' and 'nan': the first is refused here, the second below
-    if "_" not in blob:
-        fast = _table(parts, n, width)
-        if fast is not None:
-            return fast
+    fast = _table(blob.split(), n, width)
+    if fast is not None:
+        return fast
     return _state_lines_checked(rows, name)
 
 
 def _table(parts: list, n: int, width: int):
     """(epochs, numbers) from n rows of ``width`` tokens, or None when anything is off."""
     if width not in (7, 10) or len(parts) != n * width:
+        return None
+    # float() would also take '1_000', '１２' and 'nan': the first two are refused here, the
+    # third below (the grammar's checks then say which token is wrong, on which line)
+    joined = "".join(parts)
+    if "_" in joined or not joined.isascii():
         return None
     table = np.array(parts, dtype=object).reshape(n, width)
     epochs = table[:, 0].tolist()
@@ -339,13 +341,14 @@ def _xml_states(nodes, name):
                 fast = False
                 break
             for child, key, unit in zip(children, keys, units, strict=True):
-                if child.tag != key or child.attrib.get("units", unit) != unit:
+                if (child.tag != key or child.attrib.get("units", unit) != unit
+                        or child.children):
                     fast = False
                     break
                 texts.append(child.text)
             if not fast:
                 break
-    if fast and not any("_" in t for t in texts):
+    if fast:
         table = _table(texts, len(nodes), width)
         if table is not None:
             return table

@@ -37,7 +37,7 @@ _GPS_MINUS_TAI_S = -19.0
 #: time systems counted from a mission epoch the user supplies: name -> what the epoch is
 RELATIVE_TIME_SYSTEMS = {"MET": "the launch epoch", "MRT": "the mission's reference epoch"}
 _JULIAN_YEAR_S = 365.25 * 86400.0
-_ELAPSED = re.compile(r"^(\d{4})-(\d{3})T(\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)Z?$")
+_ELAPSED = re.compile(r"^(\d{4})-(\d{3})T(\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)Z?$", re.ASCII)
 
 _FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
            "ITRF": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
@@ -46,7 +46,7 @@ _FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
 #: visviva frame -> the CCSDS name writers use
 CCSDS_FRAME = {"gcrs": "GCRF", "teme": "TEME", "itrs": "ITRF"}
 
-_ORDINAL = re.compile(r"^(\d{4})-(\d{3})T(.*?)Z?$")
+_ORDINAL = re.compile(r"^(\d{4})-(\d{3})T(.*?)Z?$", re.ASCII)
 
 
 def _scale(time_system: str, line, source, mission_epoch=None):

@@ -165,3 +165,34 @@ def test_xml_keyword_element_holding_an_element_is_refused(fmt):
     with pytest.raises(CCSDSFormatError, match="holds the element <b>") as exc:
         read(xml.replace(old, old[:-3] + "<b/>" + old[-3:], 1))
     assert _line(exc) == k
+
+
+def test_xml_external_entity_is_refused_naming_its_line_not_dropped():
+    # was: expat skipped the entity, so 'ISS&e;' read as 'ISS' silently
+    xml = vv.write_omm(vv.read_omm(OMM_KVN), format="xml")
+    text = xml.replace('<?xml version="1.0" encoding="UTF-8"?>',
+                       '<!DOCTYPE omm [<!ENTITY e SYSTEM "/etc/hostname">]>')
+    with pytest.raises(CCSDSFormatError, match="external entity") as exc:
+        vv.read_omm(text.replace("ISS (ZARYA)", "ISS&e;"))
+    assert _line(exc) == next(i for i, t in enumerate(text.splitlines()) if "ISS (" in t) + 1
+    # an internal entity is plain XML and reads; so does a billion-laughs one, refused by expat
+    internal = xml.replace('<?xml version="1.0" encoding="UTF-8"?>',
+                           '<!DOCTYPE omm [<!ENTITY e "ISS">]>')
+    assert vv.read_omm(internal.replace("ISS (ZARYA)", "&e; (ZARYA)"))["OBJECT_NAME"] == (
+        "ISS (ZARYA)")
+    laughs = "".join(f'<!ENTITY e{i + 1} "{f"&e{i};" * 10}">' for i in range(8))
+    bomb = xml.replace('<?xml version="1.0" encoding="UTF-8"?>',
+                       f'<!DOCTYPE omm [<!ENTITY e0 "lol">{laughs}]>')
+    with pytest.raises(CCSDSFormatError, match="amplification"):
+        vv.read_omm(bomb.replace("ISS (ZARYA)", "&e8;"))
+
+
+@pytest.mark.parametrize("kind", ["kvn", "xml"])
+def test_bytes_read_like_the_file_holding_them(kind):
+    text = OMM_KVN if kind == "kvn" else vv.write_omm(vv.read_omm(OMM_KVN), format="xml")
+    assert dict(vv.read_omm(text.encode())) == dict(vv.read_omm(text))
+    assert dict(vv.read_omm(b"\xef\xbb\xbf" + text.encode())) == dict(vv.read_omm(text))
+    bad = text.replace("ISS (ZARYA)", "IS\xe9").encode("latin-1")
+    with pytest.raises(CCSDSFormatError, match="byte 0xe9 is not UTF-8") as exc:
+        vv.read_omm(bad)
+    assert _line(exc) == next(i for i, t in enumerate(text.splitlines()) if "ISS (" in t) + 1

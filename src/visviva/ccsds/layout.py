@@ -21,13 +21,13 @@ __all__ = [
 
 
 def read_text(source) -> tuple[str, str]:
-    """The text of a message given as a path, a ``pathlib.Path`` or the text itself.
+    """The text of a message given as a path, a ``pathlib.Path``, the text itself or its bytes.
 
     Parameters
     ----------
-    source : str or os.PathLike
-        A file name, or the message text (anything containing a newline or ``=``, or starting
-        with ``<``).
+    source : str, os.PathLike or bytes
+        A file name, the message text (anything containing a newline or ``=``, or starting
+        with ``<``), or the bytes of a message (UTF-8, as a file holds them).
 
     Returns
     -------
@@ -37,6 +37,8 @@ def read_text(source) -> tuple[str, str]:
     """
     import os
 
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        return _decode(bytes(source), "<text>"), "<text>"
     if isinstance(source, os.PathLike) or (
             isinstance(source, str) and "\n" not in source and "=" not in source
             and not source.lstrip().startswith("<")):
@@ -46,19 +48,23 @@ def read_text(source) -> tuple[str, str]:
         if os.path.isdir(path):
             raise CCSDSFormatError(f"{path!r} is a directory; pass the path of a message file")
         with open(path, "rb") as handle:
-            data = handle.read()
-        # utf-8-sig: a byte-order mark (Windows editors write one) is not part of the message
-        try:
-            return data.decode("utf-8-sig"), path
-        except UnicodeDecodeError as exc:
-            line = data[:exc.start].count(b"\n") + 1
-            raise CCSDSFormatError(
-                f"byte 0x{data[exc.start]:02x} is not UTF-8 text (CCSDS messages are ASCII): "
-                "remove the character or save the file as UTF-8", line=line, source=path
-            ) from None
+            return _decode(handle.read(), path), path
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
     return source.removeprefix("\ufeff"), "<text>"
+
+
+def _decode(data: bytes, name: str) -> str:
+    """The UTF-8 text of a file's bytes, or an error naming the line of the first bad byte."""
+    # utf-8-sig: a byte-order mark (Windows editors write one) is not part of the message
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise CCSDSFormatError(
+            f"byte 0x{data[exc.start]:02x} is not UTF-8 text (CCSDS messages are ASCII): "
+            "remove the character or save the file as UTF-8", line=line, source=name
+        ) from None
 
 
 def check_mandatory(record: Record, section: Section, source: str) -> None:

@@ -135,9 +135,15 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
         if stack:
             stack[-1].text += data
 
+    def external(context, base, system_id, public_id):
+        return 0  # not fetched: expat then stops with "error in processing external entity"
+
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
+    # an entity declared SYSTEM "file-or-url" and used in the text is refused, not fetched,
+    # nor silently left out of the value it stands in (an external DTD is not read either)
+    parser.ExternalEntityRefHandler = external
     try:
         # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
         # XML declaration names (a declared 'latin-1' or an unknown name would otherwise

@@ -7,6 +7,7 @@ The regression tests first (each a defect the fuzzer found), then the hypothesis
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -196,3 +197,58 @@ def test_bytes_read_like_the_file_holding_them(kind):
     with pytest.raises(CCSDSFormatError, match="byte 0xe9 is not UTF-8") as exc:
         vv.read_omm(bad)
     assert _line(exc) == next(i for i, t in enumerate(text.splitlines()) if "ISS (" in t) + 1
+
+
+# ---- TLE: sgp4 scans blank-separated numbers, so a blank or tab in the wrong column shifts the
+# fields; such lines read silently wrong before these checks -----------------------------------
+
+_ISS = ("1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+
+
+def _tle_with(line: int, col: int, text: str) -> str:
+    """The ISS element set as a file with ``text`` written from 1-based column ``col`` of
+    ``line`` (1 or 2), its checksum made right again."""
+    from visviva.satellites.tle_checks import tle_checksum
+
+    lines = list(_ISS)
+    s = lines[line - 1]
+    s = s[:col - 1] + text + s[col - 1 + len(text):]
+    lines[line - 1] = s[:68] + str(tle_checksum(s))
+    return "ISS (ZARYA)\n" + "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("line, col, text, was", [
+    (2, 44, "325. 288", "mean anomaly 325 deg, mean motion 288 rev/day"),
+    (2, 9, " 5 .6416", "inclination 5 deg, eccentricity 51.64"),
+    (1, 19, " 6001.5", "epoch year 2060, day 1.5"),
+    (1, 34, " .00 16717", "ndot 0.00 and nddot 16717"),
+    (1, 54, "        ", "B* NaN"),
+    (1, 54, " 10270- ", "B* inf"),
+    (1, 54, "  1027-3", "B* misread"),
+    (1, 12, "\t", "epoch day 2.0, B* NaN"),
+])
+def test_tle_field_broken_by_a_blank_or_tab_is_refused_naming_line_and_columns(line, col, text,
+                                                                              was):
+    from visviva.satellites.catalog import parse_tle_text
+    from visviva.satellites.tle_checks import TLEFormatError
+
+    with pytest.raises(TLEFormatError, match=f"line {line + 1} of cat.txt") as exc:
+        parse_tle_text(_tle_with(line, col, text), source="cat.txt")
+    assert "column" in str(exc.value)
+
+
+def test_tle_numbers_padded_with_blanks_still_read():
+    # right-justified numbers, blanks in the eccentricity and the second derivative (sgp4 reads
+    # them as zeros) are valid TLE and read as sgp4 reads them
+    from sgp4.api import WGS72, Satrec
+
+    from visviva.satellites.catalog import parse_tle_text
+
+    for line, col, text in [(2, 9, "  7.1   "), (2, 27, "  067 3"), (1, 45, "       0"),
+                            (1, 34, " .0001    "), (2, 53, " 1.4981535 ")]:
+        text_file = _tle_with(line, col, text)
+        sat = parse_tle_text(text_file).satellites[0]
+        ref = Satrec.twoline2rv(*text_file.splitlines()[1:3], WGS72)
+        for f in ("inclo", "ecco", "nddot", "ndot", "no_kozai", "bstar"):
+            assert getattr(sat.satrec, f) == getattr(ref, f) and math.isfinite(getattr(ref, f))

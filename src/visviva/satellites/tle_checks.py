@@ -182,10 +182,10 @@ _LINE1_FIELDS = (
     (1, 1, "line number", r"1"),
     (3, 7, "catalogue number", _SATNUM),
     (8, 8, "classification", r"[ A-Z]"),
-    (19, 32, "epoch (YYDDD.DDDDDDDD)", r"[ 0-9]{5}\.[ 0-9]{8}"),
+    (19, 32, "epoch (YYDDD.DDDDDDDD)", r"[0-9]{2}[ 0-9]{3}\.[ 0-9]{8}"),
     (34, 43, "first derivative of mean motion", r"[ +-]\.[ 0-9]{8}"),
     (45, 52, "second derivative of mean motion", r"[ +-][ 0-9]{5}[ +-][ 0-9]"),
-    (54, 61, "BSTAR drag term", r"[ +-][ 0-9]{5}[ +-][ 0-9]"),
+    (54, 61, "BSTAR drag term", r"[ +-][0-9]{5}[ +-][0-9]"),
     (63, 63, "ephemeris type", r"[ 0-9]"),
     (65, 68, "element set number", r"[ 0-9]{4}"),
     (69, 69, "checksum", r"[0-9]"),
@@ -203,6 +203,19 @@ _LINE2_FIELDS = (
     (69, 69, "checksum", r"[0-9]"),
 )
 _BLANKS = {1: (2, 9, 18, 33, 44, 53, 62, 64), 2: (2, 8, 17, 26, 34, 43, 52)}
+#: the numbers of each line (first column, last column, name): right-justified, so a blank may
+#: pad them on the left (or right) but never sit between two characters. sgp4's reader scans
+#: blank-separated numbers, so '325. 288' in the mean anomaly read as 325 deg and a mean motion
+#: of 288 rev/day. For the same reason the fields above take no blank where sgp4 would read the
+#: next field's digits (epoch ' 6176.8' read as year 61, day 76.8) or NaN/inf (B* all blank or
+#: without its exponent). The eccentricity and the second derivative's mantissa may hold
+#: blanks: sgp4 reads them as zeros.
+_NUMBERS = {
+    1: ((21, 32, "epoch day of year"), (34, 43, "first derivative of mean motion")),
+    2: ((9, 16, "inclination (deg)"), (18, 25, "right ascension of the ascending node (deg)"),
+        (35, 42, "argument of perigee (deg)"), (44, 51, "mean anomaly (deg)"),
+        (53, 63, "mean motion (rev/day)")),
+}
 _COMPILED = {
     1: [(a, b, n, re.compile(p)) for a, b, n, p in _LINE1_FIELDS],
     2: [(a, b, n, re.compile(p)) for a, b, n, p in _LINE2_FIELDS],
@@ -250,6 +263,13 @@ def check_tle_lines(
                 f"{name} holds the non-ASCII character {bad!r} in column {line.index(bad) + 1}: "
                 f"{line!r}. A TLE line is plain ASCII; the line is corrupted."
             )
+        control = next((c for c in line if c < " " or c == "\x7f"), None)
+        if control is not None:  # (sgp4 reads a tab in the designator as a field break)
+            raise TLEFormatError(
+                f"{name} holds the control character {control!r} in column "
+                f"{line.index(control) + 1}: {line!r}. A TLE line is printable ASCII (blanks, "
+                "no tabs); the line is corrupted."
+            )
         if line[0] != str(number):
             raise TLEFormatError(
                 f"{name} must start with '{number}', got {line[0]!r}: {line!r}. "
@@ -267,6 +287,14 @@ def check_tle_lines(
                 raise TLEFormatError(
                     f"{name}: columns {a}-{b} ({field}) hold {text!r}, which is not a valid "
                     f"value: {line!r}."
+                )
+        for a, b, field in _NUMBERS[number]:
+            text = line[a - 1 : b].strip()
+            if " " in text or not any(c.isdigit() for c in text):
+                raise TLEFormatError(
+                    f"{name}: columns {a}-{b} ({field}) hold {line[a - 1 : b]!r}, which is not "
+                    f"one number (a TLE number is right-justified: blanks only on its left, "
+                    f"none inside it, at least one digit): {line!r}."
                 )
         if verify_checksum:
             expected = tle_checksum(line)

@@ -68,5 +68,5 @@ def test_errors(tle_file, tmp_path, capsys):
         cli.main(["convert", str(tle_file), str(tmp_path / "x.dat")])
     bad = tmp_path / "bad.omm"
     bad.write_text("CCSDS_OMM_VERS = 3.0\nCREATION_DATE = 2024\n")
-    assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 1
+    assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 2
     assert "line 2" in capsys.readouterr().err

@@ -252,3 +252,35 @@ def test_tle_numbers_padded_with_blanks_still_read():
         ref = Satrec.twoline2rv(*text_file.splitlines()[1:3], WGS72)
         for f in ("inclo", "ecco", "nddot", "ndot", "no_kozai", "bstar"):
             assert getattr(sat.satrec, f) == getattr(ref, f) and math.isfinite(getattr(ref, f))
+
+
+# ---- the command line: a file it cannot read or write is exit code 2 and one line ------------
+
+@pytest.mark.parametrize("command", ["convert", "fit-tle"])
+def test_cli_unwritable_output_or_unreadable_input_is_one_line_and_exit_code_2(
+        command, tmp_path, capsys):
+    # was: a traceback (IsADirectoryError, FileNotFoundError) when the output could not be
+    # written; convert and fit-tle exited 1 on unreadable input, screen and passes 2
+    from visviva.cli import main
+
+    good = tmp_path / "iss.tle"
+    good.write_text("ISS (ZARYA)\n" + "\n".join(_ISS) + "\n")
+    oem = tmp_path / "iss.oem"
+    assert main(["convert", str(good), str(oem), "--hours", "0.5", "--step", "120"]) == 0
+    for output in (tmp_path, tmp_path / "no" / "such" / "dir.omm"):
+        capsys.readouterr()
+        if command == "convert":
+            args = ["convert", str(good), str(output), "--to", "omm"]
+        else:
+            args = ["fit-tle", str(oem), "--no-bstar", "--output", str(output)]
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip().splitlines()  # (fit-tle: the fit's summary first)
+        assert err[-1].startswith(f"visviva {command}: cannot write") and "Traceback" not in err
+    bad = tmp_path / "a=b.txt"  # (a file name holding '=' is a file name)
+    bad.write_bytes(b"\x00\xff junk")
+    for path in (bad, tmp_path / "missing.txt", tmp_path):
+        args = [str(path), str(tmp_path / "x.omm")] if command == "convert" else [str(path)]
+        assert main([command, *args]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"visviva {command}:") and "\n" not in err
+        assert str(path.name) in err

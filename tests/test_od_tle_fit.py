@@ -134,7 +134,7 @@ def test_fit_tle_command(iss, tmp_path, capsys):
     assert main(["fit-tle", str(path), "--to", "omm", "-o", str(omm), "--no-bstar"]) == 0
     back = vv.Satellite.from_omm(vv.read_omm(omm))
     assert back.satrec.bstar == 0.0
-    assert main(["fit-tle", str(tmp_path / "missing.oem")]) == 1
+    assert main(["fit-tle", str(tmp_path / "missing.oem")]) == 2
     assert "fit-tle" in capsys.readouterr().err
 
 
@@ -182,7 +182,7 @@ def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, c
                                  object_name="ISS", time_system="MET", mission_epoch=launch)
     path = tmp_path / "met.oem"
     vv.write_oem(Ephemeris([seg]), path)
-    assert main(["fit-tle", str(path)]) == 1
+    assert main(["fit-tle", str(path)]) == 2
     assert "--mission-epoch" in capsys.readouterr().err
     assert main(["fit-tle", str(path), "--mission-epoch", "2023-12-31T06:00:00"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
@@ -193,7 +193,7 @@ def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, c
                  "--mission-epoch", "2023-12-31T06:00:00"]) == 0
     back = vv.read_oem(xml, mission_epoch=launch).segments[0]
     assert back.epochs == seg.epochs and back.time_system == "MET"
-    assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 1
+    assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 2
     assert "is not an ISO date-time" in capsys.readouterr().err
 
 

@@ -73,13 +73,13 @@ def _format(args) -> str:
     return "xml" if args.output.lower().endswith(".xml") else "kvn"
 
 
-def _satellite(args, text: str, kind: str):
+def _satellite(args, path, text: str, kind: str):
     from ..satellites import Satellite
     from ..satellites.catalog import parse_tle_text
     from .omm import read_omm
 
     if kind == "omm":
-        return Satellite.from_omm(read_omm(text))
+        return Satellite.from_omm(read_omm(path))
     catalog = parse_tle_text(text, source=args.input)
     sats = list(catalog.satellites)
     if args.satnum is not None:
@@ -132,31 +132,38 @@ def run(args) -> int:
     Returns
     -------
     int
-        0 on success.
+        0 on success, 2 for input that cannot be read or an output that cannot be written.
     """
     import sys
+    from pathlib import Path
 
     from ..errors import VisvivaError
     from .layout import read_text
 
     try:
-        text, _ = read_text(args.input)
+        # (a Path: a file name holding '=' is still a file name, and errors name the file)
+        text, _ = read_text(Path(args.input))
         source = _kind_of_text(text)
         target = _output_kind(args)
         fmt = _format(args)
-        out = _convert(args, text, source, target, fmt)
+        out = _convert(args, Path(args.input), text, source, target, fmt)
     except VisvivaError as exc:
         print(f"visviva convert: {exc}", file=sys.stderr)
-        return 1
+        return 2
     if args.output == "-":
         sys.stdout.write(out)
     else:
-        with open(args.output, "w", encoding="utf-8") as handle:
-            handle.write(out)
+        try:
+            with open(args.output, "w", encoding="utf-8") as handle:
+                handle.write(out)
+        except OSError as exc:
+            print(f"visviva convert: cannot write {args.output}: {exc.strerror or exc}",
+                  file=sys.stderr)
+            return 2
     return 0
 
 
-def _convert(args, text, source, target, fmt) -> str:
+def _convert(args, path, text, source, target, fmt) -> str:
     from .oem_io import read_oem, write_oem
     from .omm import read_omm, write_omm
 
@@ -173,10 +180,10 @@ def _convert(args, text, source, target, fmt) -> str:
         except ValueError:
             raise InvalidInputError(f"--mission-epoch {args.mission_epoch!r} is not an ISO "
                                     "date-time like 2024-01-31T12:00:00") from None
-        return write_oem(read_oem(text, mission_epoch=mission), format=fmt)
+        return write_oem(read_oem(path, mission_epoch=mission), format=fmt)
     if source == "omm" and target == "omm":
-        return write_omm(read_omm(text), format=fmt, originator=args.originator)
-    sat = _satellite(args, text, source)
+        return write_omm(read_omm(path), format=fmt, originator=args.originator)
+    sat = _satellite(args, path, text, source)
     if target == "tle":
         line1, line2 = sat.to_tle()
         return f"{sat.name}\n{line1}\n{line2}\n"

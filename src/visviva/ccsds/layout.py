@@ -44,11 +44,18 @@ def read_text(source) -> tuple[str, str]:
             and not source.lstrip().startswith("<")):
         path = os.fspath(source)
         if not os.path.exists(path):
-            raise CCSDSFormatError(f"no such file {path!r}; pass a path or the message text")
+            raise CCSDSFormatError("no such file; pass a path or the message text",
+                                   source=repr(path))
         if os.path.isdir(path):
-            raise CCSDSFormatError(f"{path!r} is a directory; pass the path of a message file")
-        with open(path, "rb") as handle:
-            return _decode(handle.read(), path), path
+            raise CCSDSFormatError("a directory; pass the path of a message file",
+                                   source=repr(path))
+        try:
+            with open(path, "rb") as handle:
+                data = handle.read()
+        except OSError as exc:  # (no permission, a device, ...)
+            raise CCSDSFormatError(f"cannot be read: {exc.strerror or exc}",
+                                   source=repr(path)) from None
+        return _decode(data, path), path
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
     return source.removeprefix("\ufeff"), "<text>"

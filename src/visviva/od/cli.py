@@ -33,7 +33,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    """Run ``visviva fit-tle``; returns the exit code (0 on success, 1 on a failed fit).
+    """Run ``visviva fit-tle``; returns the exit code (0 on success, 1 on a failed fit, 2 for an
+    ephemeris that cannot be read or an output that cannot be written).
 
     Parameters
     ----------
@@ -41,6 +42,7 @@ def run(args) -> int:
         The parsed arguments of :func:`add_parser`.
     """
     import sys
+    from pathlib import Path
 
     from astropy.time import Time
 
@@ -50,7 +52,11 @@ def run(args) -> int:
 
     try:
         mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
-        eph = read_oem(args.ephemeris, mission_epoch=mission)
+        eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
+    except (VisvivaError, ValueError) as exc:  # the file or --mission-epoch
+        print(f"visviva fit-tle: {exc}", file=sys.stderr)
+        return 2
+    try:
         name = args.name
         if name is None:
             name = str(eph.segments[0].metadata.get("OBJECT_NAME", "")) or None
@@ -81,6 +87,11 @@ def run(args) -> int:
     if args.output == "-":
         sys.stdout.write(text)
     else:
-        with open(args.output, "w", encoding="utf-8") as fh:
-            fh.write(text)
+        try:
+            with open(args.output, "w", encoding="utf-8") as fh:
+                fh.write(text)
+        except OSError as exc:
+            print(f"visviva fit-tle: cannot write {args.output}: {exc.strerror or exc}",
+                  file=sys.stderr)
+            return 2
     return 0

@@ -284,3 +284,100 @@ def test_cli_unwritable_output_or_unreadable_input_is_one_line_and_exit_code_2(
         err = capsys.readouterr().err.strip()
         assert err.startswith(f"visviva {command}:") and "\n" not in err
         assert str(path.name) in err
+
+
+# ---- OMM catalogues (CelesTrak GP data) and TLE text -------------------------------------------
+
+def _gp_files(tmp_path):
+    import csv
+    import json
+
+    from sgp4.exporter import export_omm
+
+    sat = vv.Satellite.from_tle(*_ISS, name="ISS (ZARYA)")
+    rec = export_omm(sat.satrec, sat.name)
+    (tmp_path / "gp.json").write_text(json.dumps([rec, rec]))
+    with open(tmp_path / "gp.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rec))
+        writer.writeheader()
+        writer.writerows([rec, rec])
+    one = vv.write_omm(sat.to_omm(), format="xml", originator="X").split("?>", 1)[1]
+    (tmp_path / "gp.xml").write_text('<?xml version="1.0" encoding="UTF-8"?>\n<ndm>'
+                                     + one + one + "</ndm>\n")
+    return sat
+
+
+@pytest.mark.parametrize("fmt", ["json", "csv", "xml"])
+def test_omm_file_that_is_not_utf8_names_its_line(fmt, tmp_path):
+    # was: UnicodeDecodeError
+    from visviva.satellites.catalog import read_omm_file
+
+    _gp_files(tmp_path)
+    path = tmp_path / f"gp.{fmt}"
+    path.write_bytes(path.read_bytes().replace(b"ISS", b"IS\xe9", 1))
+    k = next(i for i, t in enumerate(path.read_bytes().split(b"\n")) if b"\xe9" in t) + 1
+    with pytest.raises(vv.InvalidInputError, match=f"line {k}: byte 0xe9 is not UTF-8"):
+        read_omm_file(path)
+
+
+@pytest.mark.parametrize("content, match", [
+    ("42", "top level is int, not a list of OMM records"),  # was: TypeError
+    ('[{"NORAD_CAT_ID": 1}, 5]', "record 1 of"),
+])
+def test_omm_json_that_is_no_list_of_records_is_refused(content, match, tmp_path):
+    from visviva.satellites.catalog import read_omm_file
+
+    (tmp_path / "x.json").write_text(content)
+    with pytest.raises(vv.InvalidInputError, match=match):
+        read_omm_file(tmp_path / "x.json")
+
+
+@pytest.mark.parametrize("fmt", ["json", "csv"])
+def test_omm_integer_field_too_large_is_refused_naming_the_record(fmt, tmp_path):
+    # was: OverflowError from sgp4 (an ELEMENT_SET_NO of 1e999, a 30-digit catalogue number)
+    from visviva.satellites.catalog import read_omm_file
+
+    _gp_files(tmp_path)
+    path = tmp_path / f"gp.{fmt}"
+    text = path.read_text()
+    if fmt == "json":
+        text = text.replace('"ELEMENT_SET_NO": 900', '"ELEMENT_SET_NO": 1e999', 1)
+    else:
+        text = text.replace("25544", "9" * 30, 1)
+    assert text != path.read_text()
+    path.write_text(text)
+    with pytest.raises(vv.InvalidInputError, match="record 1 of .*" + (
+            "" if fmt == "json" else "line 2")):
+        read_omm_file(path)
+
+
+def test_omm_xml_declared_encoding_and_missing_sections(tmp_path):
+    from visviva.satellites.catalog import read_omm_file
+
+    sat = _gp_files(tmp_path)
+    path = tmp_path / "gp.xml"
+    xml = path.read_text()
+    for name in ("NORAD_CAT_ID", "latin-1"):  # was: LookupError; a re-decoded text
+        path.write_text(xml.replace('encoding="UTF-8"', f'encoding="{name}"'))
+        cat = read_omm_file(path)
+        assert cat.names == [sat.name] * 2
+        assert cat.satellites[0].satrec.no_kozai == pytest.approx(sat.satrec.no_kozai, rel=1e-12)
+    start, stop = xml.index("<data>"), xml.index("</data>") + len("</data>")
+    path.write_text(xml[:start] + xml[stop:])  # was: AttributeError in sgp4's reader
+    with pytest.raises(vv.InvalidInputError, match="record 1 of .* lacks EPOCH"):
+        read_omm_file(path)
+    path.write_text("<ndm><omm></omm></ndm>")
+    with pytest.raises(vv.InvalidInputError, match="no OMM <segment>"):
+        read_omm_file(path)
+
+
+@pytest.mark.parametrize("char", ["\x0c", "\x85", "\u2028"])
+def test_tle_text_line_numbers_count_cr_lf_only(char):
+    # was: str.splitlines split a name at a form feed or NEL, so every later line number was off
+    from visviva.satellites.catalog import parse_tle_text
+    from visviva.satellites.tle_checks import TLEFormatError
+
+    text = f"ISS{char}(ZARYA)\n" + "\n".join(_ISS) + "\nBROKEN\n" + _ISS[0] + "\n"
+    with pytest.raises(TLEFormatError, match="line 6 of <text> should be line 2"):
+        parse_tle_text(text)
+    assert parse_tle_text(text.rsplit("BROKEN", 1)[0]).names == [f"ISS{char}(ZARYA)"]

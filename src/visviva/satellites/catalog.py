@@ -278,7 +278,9 @@ def parse_tle_text(text: str, *, source: str = "<text>", verify_checksum: bool =
     TLEFormatError
         Naming the line number (1-based) and ``source`` of the first bad line.
     """
-    lines = text.splitlines()
+    # lines end at CR/LF only: str.splitlines would also split at a form feed or a NEL (a
+    # Latin-1 byte 0x85 in a name), and every later line number would be off
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     sats = []
     name = None
     i = 0
@@ -368,8 +370,8 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
     InvalidInputError
         Naming the file and the record number (1-based) of the first bad record.
     """
+    import csv
     import json
-    from xml.etree.ElementTree import ParseError
 
     from sgp4 import omm
 
@@ -379,34 +381,86 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
         raise InvalidInputError(
             f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
         )
+    with open(path, "rb") as f:
+        raw = f.read()
     # utf-8-sig: a byte-order mark made JSON fail and hid the first CSV column (OBJECT_NAME)
-    with open(path, encoding="utf-8-sig") as f:
-        try:
-            if fmt == "json":
-                records = json.load(f)
-                if isinstance(records, dict):
-                    records = [records]
-            elif fmt == "csv":
-                records = list(omm.parse_csv(f))
-            else:
-                records = list(omm.parse_xml(f))
-        except json.JSONDecodeError as exc:
-            raise InvalidInputError(
-                f"{path}, line {exc.lineno}, column {exc.colno}: not valid JSON ({exc.msg}); the "
-                "file is truncated or is not CelesTrak's GP JSON."
-            ) from exc
-        except ParseError as exc:
-            raise InvalidInputError(
-                f"{path}, line {exc.position[0]}: not well-formed XML ({exc}); the file is "
-                "truncated or is not an OMM XML file."
-            ) from exc
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise InvalidInputError(
+            f"{path}, line {line}: byte 0x{raw[exc.start]:02x} is "
+            "not UTF-8 text; save the file as UTF-8 (CelesTrak's GP data is)."
+        ) from None
+    where = []  # the line of each record, where the format tells it (CSV)
+    try:
+        if fmt == "json":
+            records = json.loads(text)
+            if isinstance(records, dict):
+                records = [records]
+            if not isinstance(records, list):
+                raise InvalidInputError(
+                    f"{path}: the JSON top level is {type(records).__name__}, not a list of OMM "
+                    "records (objects of keyword: value); is it CelesTrak's GP JSON?"
+                )
+        elif fmt == "csv":
+            reader = omm.parse_csv(io.StringIO(text, newline=""))
+            records = []
+            for rec in reader:
+                records.append(rec)
+                where.append(reader.line_num)
+        else:
+            records = _omm_xml_records(text, path)
+    except json.JSONDecodeError as exc:
+        raise InvalidInputError(
+            f"{path}, line {exc.lineno}, column {exc.colno}: not valid JSON ({exc.msg}); the "
+            "file is truncated or is not CelesTrak's GP JSON."
+        ) from exc
+    except csv.Error as exc:
+        raise InvalidInputError(
+            f"{path}, line {reader.line_num}: not valid CSV ({exc})."
+        ) from exc
     sats = []
     for k, rec in enumerate(records, start=1):
         try:
             sats.append(Satellite.from_omm(rec))
         except InvalidInputError as exc:
-            raise type(exc)(f"record {k} of {path}: {exc}") from exc
+            line = f", line {where[k - 1]}" if where else ""
+            raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
     return Catalog(sats)
+
+
+def _omm_xml_records(text: str, path: str) -> list:
+    """The keyword: text records of every OMM ``<segment>`` of an XML file (one ``<omm>`` or an
+    ``<ndm>`` of many, as CelesTrak writes).
+
+    As sgp4's ``omm.parse_xml``, but the decoded text is parsed as UTF-8 whatever encoding its
+    declaration names (a declared 'latin-1' re-decoded it, an unknown name raised LookupError),
+    a segment without some of its sections gives a record lacking those keywords (which
+    :meth:`Satellite.from_omm` names) instead of an AttributeError, and elements holding
+    elements are left out."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.fromstring(text.encode("utf-8"), parser=ET.XMLParser(encoding="utf-8"))
+    except ET.ParseError as exc:
+        raise InvalidInputError(
+            f"{path}, line {exc.position[0]}: not well-formed XML ({exc}); the file is "
+            "truncated or is not an OMM XML file."
+        ) from None
+    records = []
+    for segment in root.iter():
+        if segment.tag.rsplit("}", 1)[-1] != "segment":
+            continue
+        fields = {}
+        for section in ("metadata", "data/meanElements", "data/tleParameters"):
+            for element in segment.findall(section):
+                fields.update((c.tag, (c.text or "").strip()) for c in element
+                              if c.tag != "COMMENT" and len(c) == 0)
+        records.append(fields)
+    if not records:
+        raise InvalidInputError(f"{path}: no OMM <segment> in the XML; is it an OMM XML file?")
+    return records
 
 
 # --------------------------------------------------------------------------------------------

@@ -280,7 +280,7 @@ class Satellite:
         )
         try:
             omm.initialize(satrec, clean, WGS72)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:  # (an int field of 1e999, say)
             raise InvalidInputError(
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} has a bad value: {exc}."
             ) from exc

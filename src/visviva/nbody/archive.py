@@ -23,6 +23,7 @@ from .snapshot import (
     check_format,
     load_simulation,
     open_npz,
+    read_arrays,
     save_simulation,
     state_dict,
 )
@@ -59,15 +60,22 @@ class Archive:
         self._times: list[float] = []
         if os.path.exists(self.path):
             with open_npz(self.path) as data:
-                check_format(data, ARCHIVE_FORMAT, ARCHIVE_VERSION, self.path)
-                n = int(data["count"])
-                keys = [k for k in data.files if k.startswith("s")]
-                for k in range(n):
-                    prefix = f"s{k}_"
-                    self._snapshots.append(
-                        {key[len(prefix):]: data[key] for key in keys if key.startswith(prefix)}
-                    )
-                self._times = list(np.asarray(data["times"], dtype=float))
+                arrays = read_arrays(data, self.path)
+            check_format(arrays, ARCHIVE_FORMAT, ARCHIVE_VERSION, self.path)
+            n, times = arrays.get("count"), arrays.get("times")
+            if (n is None or np.ndim(n) != 0 or np.asarray(n).dtype.kind not in "iu"
+                    or times is None or times.shape != (int(n),)
+                    or times.dtype.kind != "f" or not np.isfinite(times).all()):
+                raise InvalidInputError(
+                    f"{self.path!r} is not a consistent visviva archive: its snapshot count and "
+                    "times do not agree. Record the run again.")
+            keys = [k for k in arrays if k.startswith("s")]
+            for k in range(int(n)):
+                prefix = f"s{k}_"
+                self._snapshots.append(
+                    {key[len(prefix):]: arrays[key] for key in keys if key.startswith(prefix)}
+                )
+            self._times = [float(t) for t in times]
 
     # -- writing ----------------------------------------------------------------------------------
     def append(self, sim, flush: bool = True) -> None:
@@ -133,7 +141,7 @@ class Archive:
             return [self[i] for i in range(*k.indices(len(self)))]
         snap = self._snapshots[k]
         with warnings.catch_warnings():
-            return build_simulation(Simulation, lambda key: snap.get(key))
+            return build_simulation(Simulation, snap.get, path=f"{self.path} (snapshot {k})")
 
     def __iter__(self):
         for k in range(len(self)):

@@ -42,7 +42,7 @@ from ..errors import InvalidInputError
 __all__ = [
     "save_simulation", "load_simulation", "FORMAT", "FORMAT_VERSION",
     # the friend functions of the archive and the ensembles (docs/design.md)
-    "state_dict", "atomic_savez", "check_format", "open_npz", "build_simulation",
+    "state_dict", "atomic_savez", "check_format", "open_npz", "read_arrays", "build_simulation",
 ]
 
 FORMAT = "visviva.nbody.simulation"
@@ -98,21 +98,32 @@ def save_simulation(sim, path) -> None:
     atomic_savez(path, arrays)
 
 
-def build_simulation(cls, get, forces=None):
+def build_simulation(cls, get, forces=None, path="the file"):
     """A ``cls`` (through its friend constructor ``from_state``) from ``get(key)`` (a stored
-    array or None) as written by :func:`state_dict`; ``forces`` replace the saved ones."""
+    array or None) as written by :func:`state_dict`; ``forces`` replace the saved ones.
+
+    Everything read is checked first (:func:`_check_meta`, :func:`_check_state`): a file that
+    was truncated, edited or written by something else raises
+    :class:`~visviva.errors.InvalidInputError` naming ``path`` and what is wrong, never a bare
+    exception, NaN state, or arrays whose sizes disagree (the kernels would write past them).
+    """
     from .forces import Force
     from .state import SimulationState
     from .units import SimulationUnits
 
-    meta = json.loads(str(get("meta")))
-    state = SimulationState.from_arrays(
-        get,
-        collision=meta["collision"],
-        restitution=meta["restitution"],
-        energy_offset=float.fromhex(meta["energy_offset"]),
-    )
-    units = None if meta["units"] is None else SimulationUnits.parse(meta["units"])
+    meta = _check_meta(get("meta"), path)
+    arrays = {key: get(key) for key in (*_ARRAY_KEYS, "buf")}
+    _check_state(arrays, path)
+    try:
+        state = SimulationState.from_arrays(
+            arrays.get,
+            collision=meta["collision"],
+            restitution=float(meta["restitution"]),
+            energy_offset=float.fromhex(meta["energy_offset"]),
+        )
+        units = None if meta["units"] is None else SimulationUnits.parse(meta["units"])
+    except (TypeError, ValueError) as exc:
+        raise _inconsistent(path, f"a setting cannot be read ({exc})") from None
     if forces is not None:
         forces = [f if isinstance(f, Force) else Force(f) for f in forces]
     else:
@@ -120,9 +131,10 @@ def build_simulation(cls, get, forces=None):
         for spec in meta["forces"]:
             try:
                 forces.append(Force.from_spec(spec))
-            except (ImportError, AttributeError, KeyError, TypeError) as exc:
+            except (ImportError, AttributeError, KeyError, TypeError, ValueError) as exc:
+                fn = spec.get("fn") if isinstance(spec, dict) else spec
                 raise InvalidInputError(
-                    f"the saved simulation used the force {spec['fn']!r}, which cannot be "
+                    f"the saved simulation used the force {fn!r}, which cannot be "
                     "re-imported (defined in __main__ or a closure): pass it again with "
                     "Simulation.load(path, forces=[...])."
                 ) from exc
@@ -133,12 +145,89 @@ def build_simulation(cls, get, forces=None):
     return sim
 
 
+_ARRAY_KEYS = ("x", "v", "m", "radius", "fstate", "istate")  # (state.ARRAY_KEYS, unimported)
+#: meta key -> (types it may have, what it is)
+_META_TYPES = {
+    "integrator": (str, "the integrator's name"), "collision": (str, "the collision mode"),
+    "restitution": ((int, float), "a number"), "parallel": ((bool, type(None)), "true/false"),
+    "energy_offset": (str, "a float in hex"), "forces": (list, "a list"),
+    "units": ((list, type(None)), "a list of 3 unit names or null"),
+}
+
+
+def _inconsistent(path, why: str) -> InvalidInputError:
+    return InvalidInputError(
+        f"{path!r} is not a valid visviva simulation file: {why}. The file was truncated, "
+        "edited or written by another program; save the simulation again.")
+
+
+def _check_meta(raw, path) -> dict:
+    """The settings (``meta``) of a stored simulation, checked for every key and type."""
+    if raw is None or np.ndim(raw) != 0:
+        raise _inconsistent(path, "its settings ('meta') are missing")
+    try:
+        meta = json.loads(str(raw))
+    except ValueError:
+        meta = None
+    if not isinstance(meta, dict):
+        raise _inconsistent(path, "its settings ('meta') are not a JSON object")
+    for key, (types, what) in _META_TYPES.items():
+        if key not in meta or not isinstance(meta[key], types):
+            raise _inconsistent(path, f"the setting {key!r} is missing or not {what}")
+    names = meta.get("names")
+    if names is not None and not (isinstance(names, list)
+                                  and all(isinstance(n, str) for n in names)):
+        raise _inconsistent(path, "the setting 'names' is not a list of names")
+    return meta
+
+
+def _check_state(arrays: dict, path) -> None:
+    """Shapes, types, finiteness and the index and flag slots of a stored state."""
+    from ..core import nbody_common as nc
+
+    for key in _ARRAY_KEYS:
+        if arrays[key] is None:
+            raise _inconsistent(path, f"the array {key!r} is missing")
+    x = arrays["x"]
+    n = x.shape[0] if x.ndim == 2 else -1
+    shapes = {"x": (n, 3), "v": (n, 3), "m": (n,), "radius": (n,),
+              "fstate": (nc.N_FSTATE,), "istate": (nc.N_ISTATE,)}
+    for key, shape in shapes.items():
+        a = arrays[key]
+        dtype = np.int64 if key == "istate" else np.float64
+        if a.shape != shape or a.dtype != dtype:
+            raise _inconsistent(path, f"the array {key!r} is {a.dtype} of shape {a.shape}, not "
+                                      f"{np.dtype(dtype)} of shape {shape}")
+    buf = arrays["buf"]
+    if buf is not None and (buf.dtype != np.float64 or buf.ndim != 3 or buf.shape[1:] != (n, 3)):
+        raise _inconsistent(path, f"the integrator's array 'buf' is {buf.dtype} of shape "
+                                  f"{buf.shape}, not float64 of shape (K, {n}, 3)")
+    for key in ("x", "v", "m", "radius", "fstate", "buf"):
+        a = arrays[key]
+        if a is not None and not np.isfinite(a).all():
+            raise _inconsistent(path, f"the array {key!r} holds NaN or infinite values")
+    if (arrays["m"] < 0).any() or (arrays["radius"] < 0).any():
+        raise _inconsistent(path, "a mass or a radius is negative")
+    ist = arrays["istate"]
+    flags = (nc.I_PARALLEL, nc.I_COLLISIONS, nc.I_FRESH, nc.I_EXACT_FINISH, nc.I_WH_VALID,
+             nc.I_VELOCITY_DEPENDENT, nc.I_INT_VALID, nc.I_ADAPTIVE_MODE, nc.I_WH_COORDINATES)
+    counts = (nc.I_NOUT, nc.I_STEPS, nc.I_ITERATIONS, nc.I_REJECTED, nc.I_STOP_AT_STEP,
+              nc.I_CORRECTOR)
+    if (any(ist[i] not in (0, 1) for i in flags) or any(ist[i] < 0 for i in counts)
+            or not all(-1 <= ist[i] < n for i in (nc.I_EVENT_A, nc.I_EVENT_B))):
+        raise _inconsistent(path, "its integer state ('istate') holds impossible values")
+
+
 def check_format(data, fmt, version, path):
     """Raise :class:`~visviva.errors.InvalidInputError` unless ``data`` is a ``fmt`` file of a
     version this visviva reads."""
-    if "format" not in data or str(data["format"]) != fmt:
+    if "format" not in data or np.ndim(data["format"]) != 0 or str(data["format"]) != fmt:
         raise InvalidInputError(f"{path!r} is not a {fmt} file.")
-    v = int(data["format_version"])
+    v = data["format_version"] if "format_version" in data else None
+    if v is None or np.ndim(v) != 0 or np.asarray(v).dtype.kind not in "iu" or v < 1:
+        raise InvalidInputError(f"{path!r} is a {fmt} file without a valid format_version; it "
+                                "was edited or written by another program.")
+    v = int(v)
     if v > version:
         raise InvalidInputError(
             f"{path!r} has format version {v}; this visviva reads up to {version}: upgrade visviva."
@@ -147,10 +236,23 @@ def check_format(data, fmt, version, path):
 
 def load_simulation(cls, path, forces=None):
     """Read a simulation written by :func:`save_simulation`."""
-    data = open_npz(path)
-    with data:
-        check_format(data, FORMAT, FORMAT_VERSION, path)
-        return build_simulation(cls, lambda k: data[k] if k in data else None, forces)
+    with open_npz(path) as data:
+        arrays = read_arrays(data, path)
+    check_format(arrays, FORMAT, FORMAT_VERSION, path)
+    return build_simulation(cls, arrays.get, forces, os.fspath(path))
+
+
+def read_arrays(data, path) -> dict:
+    """Every array of an open ``.npz`` (:func:`open_npz`), read now: a member whose bytes were
+    damaged (a CRC error, a bad header, a truncated member) raises a typed error naming the
+    file here, not later at first use."""
+    try:
+        return {key: data[key] for key in data.files}
+    except Exception as exc:  # noqa: BLE001 (damaged bytes: BadZipFile, zlib.error, a header
+        # numpy's parser chokes on (ValueError, SyntaxError, TokenError), a huge shape...)
+        raise InvalidInputError(
+            f"{os.fspath(path)!r} is corrupted and cannot be read ({type(exc).__name__}: "
+            f"{exc}); use another copy or save the simulation again.") from exc
 
 
 def open_npz(path):
@@ -159,7 +261,7 @@ def open_npz(path):
         data = np.load(os.fspath(path), allow_pickle=False)
     except FileNotFoundError:
         raise
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, NotImplementedError) as exc:
         if isinstance(exc, zipfile.BadZipFile):
             why = f"a truncated or corrupted zip archive ({exc})"
         elif "pickle" in str(exc):  # numpy's fallback for unknown content; never unpickle

@@ -509,6 +509,8 @@ def _mutated(draw):
             lines[i] = lines[i][:draw(st.integers(0, len(lines[i])))]
         elif op in (4, 5, 6):  # a value replaced by junk
             sites = [m.span() for m in _TOKEN.finditer(text)]
+            if not sites:
+                continue
             a, b = draw(st.sampled_from(sites))
             text = text[:a] + draw(st.sampled_from(_JUNK)) + text[b:]
             continue
@@ -548,8 +550,10 @@ def _values(kind, obj):
     if kind == "cdm":
         return obj
     if kind == "opm":
-        return {n: [r.values for r in v] if isinstance(v, list) else v.values
-                for n, v in obj.sections.items() if v}
+        # (an empty section, e.g. XML's <userDefinedParameters/>, has nothing to write in KVN)
+        out = {n: [r.values for r in v] if isinstance(v, list) else v.values
+               for n, v in obj.sections.items()}
+        return {n: v for n, v in out.items() if v}
     return (obj.header.values, [(s.metadata.values, s.epochs, s.r_km.tolist(), s.v_km_s.tolist(),
                                  None if s.a_km_s2 is None else s.a_km_s2.tolist(),
                                  [(c.epoch, c.matrix.tolist()) for c in s.covariances])

@@ -648,3 +648,33 @@ def test_mutated_readers_long_profile(test, strategy):
     long = settings(max_examples=20_000, derandomize=True, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
     long(given(strategy())(test.hypothesis.inner_test))()
+
+
+# ---- format versions ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", ["oem", "opm", "omm", "cdm"])
+@pytest.mark.parametrize("version", ["9.9", "banana", "3"])
+def test_unknown_format_version_is_refused_naming_its_line(kind, version):
+    # was: read as if it were the version this reader knows, whatever the file said
+    key = f"CCSDS_{kind.upper()}_VERS"
+    kvn = _CORPUS[kind][0]
+    good = re.search(rf"{key} *= *(\S+)", kvn).group(1)
+    with pytest.raises(CCSDSFormatError, match=f"line 1: {key} = '{version}': this reader knows"):
+        _READ[kind](re.sub(rf"({key} *= *)\S+", rf"\g<1>{version}", kvn, count=1))
+    xml = _CORPUS[kind][1]
+    root = next(i for i, t in enumerate(xml.splitlines()) if f'id="{key}"' in t) + 1
+    with pytest.raises(CCSDSFormatError, match=f"line {root}: {key}"):
+        _READ[kind](xml.replace(f'id="{key}" version="{good}"', f'id="{key}" version="{version}"'))
+
+
+def test_cdm_version_2_reads_the_keywords_it_shares_with_1_and_names_a_new_one():
+    # CDM 2.0 (CCSDS 508.0-P-1.1) keeps the meaning of the 1.0 keywords and adds new ones
+    two = re.sub(r"(CCSDS_CDM_VERS *= *)1\.0", r"\g<1>2.0", CDM_KVN, count=1)
+    a, b = vv.read_cdm(CDM_KVN), vv.read_cdm(two)
+    assert b.header["CCSDS_CDM_VERS"] == "2.0" and b.miss_distance == a.miss_distance
+    np.testing.assert_array_equal(b.object1.covariance_rtn, a.object1.covariance_rtn)
+    lines = two.splitlines()
+    k = next(i for i, t in enumerate(lines) if t.startswith("MESSAGE_ID"))
+    lines.insert(k + 1, "CONJUNCTION_ID = 20240101-0001")
+    with pytest.raises(CCSDSFormatError, match=f"line {k + 2}: unexpected CONJUNCTION_ID"):
+        vv.read_cdm("\n".join(lines))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grammar import CCSDSFormatError, Record, Section
+from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
 from .layout import (
@@ -29,7 +29,7 @@ __all__ = ["ConjunctionDataMessage", "CDMObject", "read_cdm", "write_cdm", "HEAD
            "SEGMENT_SECTIONS"]
 
 HEADER = Section("header", (
-    K("CCSDS_CDM_VERS", "text", None, True), K("CREATION_DATE", "epoch", None, True),
+    version_keyword("CDM"), K("CREATION_DATE", "epoch", None, True),
     K("ORIGINATOR", "text", None, True), K("MESSAGE_FOR"), K("MESSAGE_ID", "text", None, True)),
     "header")
 

@@ -17,7 +17,7 @@ from ..errors import InvalidInputError
 
 __all__ = [
     "CCSDSFormatError", "Keyword", "Section", "Record", "parse_value", "parse_float",
-    "impossible_date",
+    "impossible_date", "VERSIONS", "version_keyword",
     "format_value", "format_float", "normalise_unit",
 ]
 
@@ -67,16 +67,41 @@ class Keyword:
         dimensionless keywords. A unit written in the message must match it.
     mandatory : bool
         Whether the section is incomplete without it.
+    values : tuple of str
+        The only texts a text keyword may hold (empty: any).
     """
 
     name: str
     type: str = "text"
     unit: str | None = None
     mandatory: bool = False
+    values: tuple = ()
 
     def __post_init__(self):
         if self.type not in TYPES:
             raise ValueError(f"Keyword {self.name}: type must be one of {TYPES}")
+
+
+#: the format versions each reader knows (CCSDS 502.0-B-1..B-3 for the ODMs; 508.0-B-1 for the
+#: CDM, and 2.0 of its update 508.0-P-1.1, whose keywords shared with 1.0 keep their meaning:
+#: the reader takes those and refuses its new ones as unknown keywords, naming the line)
+VERSIONS = {"OEM": ("1.0", "2.0", "3.0"), "OPM": ("1.0", "2.0", "3.0"),
+            "OMM": ("2.0", "3.0"), "CDM": ("1.0", "2.0")}
+
+
+def version_keyword(kind: str) -> Keyword:
+    """The mandatory ``CCSDS_<KIND>_VERS`` keyword, taking the versions of :data:`VERSIONS`.
+
+    Parameters
+    ----------
+    kind : str
+        ``"OEM"``, ``"OPM"``, ``"OMM"`` or ``"CDM"``.
+
+    Returns
+    -------
+    Keyword
+    """
+    return Keyword(f"CCSDS_{kind}_VERS", "text", None, True, VERSIONS[kind])
 
 
 @dataclass(frozen=True)
@@ -210,6 +235,10 @@ def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str
     if keyword.type == "text":
         if not text:  # (an XML attribute or element of blanks; KVN refuses it in the lexer)
             raise CCSDSFormatError(f"{keyword.name} has no value", line=line, source=source)
+        if keyword.values and text not in keyword.values:
+            raise CCSDSFormatError(
+                f"{keyword.name} = {text!r}: this reader knows {', '.join(keyword.values)}",
+                line=line, source=source)
         return text
     if keyword.type == "epoch":
         if not _EPOCH_RE.match(text):

@@ -13,14 +13,14 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from .grammar import Keyword as K
-from .grammar import Record, Section
+from .grammar import Record, Section, version_keyword
 from .interpolation import check_degree, hermite, lagrange
 from .timeframes import FrameCenterMetadata, center_body, epochs_to_time, time_to_epochs
 
 __all__ = ["Ephemeris", "OEMSegment", "OEMCovariance", "HEADER", "METADATA", "COVARIANCE_META"]
 
 HEADER = Section("header", (
-    K("CCSDS_OEM_VERS", "text", None, True), K("CLASSIFICATION"),
+    version_keyword("OEM"), K("CLASSIFICATION"),
     K("CREATION_DATE", "epoch", None, True), K("ORIGINATOR", "text", None, True),
     K("MESSAGE_ID")), "header")
 METADATA = Section("metadata", (

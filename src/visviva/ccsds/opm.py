@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from .covariance import COVARIANCE_KEYWORDS, check_record_variances, matrix_from_values
-from .grammar import CCSDSFormatError, Record, Section
+from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .layout import read_message, write_message
 from .timeframes import FrameCenterMetadata, center_body, epochs_to_time
@@ -33,7 +33,7 @@ def header_section(kind: str) -> Section:
     Section
     """
     return Section("header", (
-        K(f"CCSDS_{kind}_VERS", "text", None, True), K("CLASSIFICATION"),
+        version_keyword(kind), K("CLASSIFICATION"),
         K("CREATION_DATE", "epoch", None, True), K("ORIGINATOR", "text", None, True),
         K("MESSAGE_ID")), "header")
 

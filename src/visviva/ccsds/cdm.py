@@ -300,8 +300,8 @@ def read_cdm(source) -> ConjunctionDataMessage:
 
     Parameters
     ----------
-    source : str or os.PathLike
-        A path, or the message text.
+    source : str, os.PathLike or bytes
+        A path, the message text, or its bytes (UTF-8).
 
     Returns
     -------

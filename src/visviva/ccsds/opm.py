@@ -277,8 +277,8 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
 
     Parameters
     ----------
-    source : str or os.PathLike
-        A path, or the message text.
+    source : str, os.PathLike or bytes
+        A path, the message text, or its bytes (UTF-8).
     mission_epoch : astropy.time.Time, optional
         The epoch that ``TIME_SYSTEM = MET`` (launch) or ``MRT`` (the mission's reference)
         counts from; such messages cannot be read without it.

@@ -1,14 +1,17 @@
-"""The time window that the command-line tools take: ``--start ISO --hours H``.
+"""The time window that the command-line tools take (``--start ISO --hours H``), and the output
+file they write.
 
-One owner for parsing it, so that ``visviva passes`` and ``visviva screen`` refuse a bad window
-with the same short message instead of astropy's list of every time format it tried.
+One owner for parsing the window, so that ``visviva passes`` and ``visviva screen`` refuse a bad
+window with the same short message instead of astropy's list of every time format it tried; one
+for writing the output, so that ``visviva convert`` and ``visviva fit-tle`` report a file they
+cannot write in one line with exit code 2 instead of a traceback.
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["window_from_args"]
+__all__ = ["window_from_args", "write_output"]
 
 
 def window_from_args(start: str, hours: float):
@@ -49,3 +52,35 @@ def window_from_args(start: str, hours: float):
             f"--start {start!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
         ) from None
     return t0, t0 + hours * u.hour
+
+
+def write_output(command: str, path: str, text: str) -> int:
+    """Write ``text`` to ``path`` (``"-"``: standard output); the exit code.
+
+    Parameters
+    ----------
+    command : str
+        The command's name, quoted in the message (``"convert"``).
+    path : str
+        The output file, or ``"-"``.
+    text : str
+        What to write.
+
+    Returns
+    -------
+    int
+        0, or 2 after a one-line message on standard error when the file cannot be written (a
+        folder, a missing folder, no permission).
+    """
+    import sys
+
+    if path == "-":
+        sys.stdout.write(text)
+        return 0
+    try:
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
+    except OSError as exc:
+        print(f"visviva {command}: cannot write {path}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    return 0

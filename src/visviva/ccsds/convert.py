@@ -137,6 +137,7 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
+    from ..cli_window import write_output
     from ..errors import VisvivaError
     from .layout import read_text
 
@@ -150,17 +151,7 @@ def run(args) -> int:
     except VisvivaError as exc:
         print(f"visviva convert: {exc}", file=sys.stderr)
         return 2
-    if args.output == "-":
-        sys.stdout.write(out)
-    else:
-        try:
-            with open(args.output, "w", encoding="utf-8") as handle:
-                handle.write(out)
-        except OSError as exc:
-            print(f"visviva convert: cannot write {args.output}: {exc.strerror or exc}",
-                  file=sys.stderr)
-            return 2
-    return 0
+    return write_output("convert", args.output, out)
 
 
 def _convert(args, path, text, source, target, fmt) -> str:

@@ -47,6 +47,7 @@ def run(args) -> int:
     from astropy.time import Time
 
     from ..ccsds.oem_io import read_oem
+    from ..cli_window import write_output
     from ..errors import VisvivaError
     from .tle_fit import fit_tle
 
@@ -84,14 +85,4 @@ def run(args) -> int:
           f"B* {sat.satrec.bstar:.5e}"
           + (f" +- {fit.sigma_bstar:.1e}" if fit.sigma_bstar is not None else " (held)"),
           file=sys.stderr)
-    if args.output == "-":
-        sys.stdout.write(text)
-    else:
-        try:
-            with open(args.output, "w", encoding="utf-8") as fh:
-                fh.write(text)
-        except OSError as exc:
-            print(f"visviva fit-tle: cannot write {args.output}: {exc.strerror or exc}",
-                  file=sys.stderr)
-            return 2
-    return 0
+    return write_output("fit-tle", args.output, text)

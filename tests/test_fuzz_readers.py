@@ -678,3 +678,27 @@ def test_cdm_version_2_reads_the_keywords_it_shares_with_1_and_names_a_new_one()
     lines.insert(k + 1, "CONJUNCTION_ID = 20240101-0001")
     with pytest.raises(CCSDSFormatError, match=f"line {k + 2}: unexpected CONJUNCTION_ID"):
         vv.read_cdm("\n".join(lines))
+
+
+# ---- ICGEM gravity fields (SphericalHarmonics) --------------------------------------------------
+
+@pytest.mark.parametrize("old, new, match", [
+    ("gfc 2 2 ", "gfc 2 5 ", "0 <= m <= n"),                # was: ValueError (lgamma domain)
+    ("gfc 2 2 ", "gfc 2 -1 ", "0 <= m <= n"),               # was: read into column -1 silently
+    ("gfc 3 1 2.030462010478640e-06", "gfc 3 1 nan", "C is not finite"),  # was: NaN read
+    ("gfc 3 1 2.0", "gfc 3 1 x", "C is not a number"),
+    ("radius 6378136.3", "radius 63781x36.3", "radius is not a number"),  # was: ValueError
+    ("radius 6378136.3", "radius -1", "radius must be positive"),
+    ("earth_gravity_constant 3.986004415E+14", "earth_gravity_constant 0", "must be positive"),
+])
+def test_gfc_file_error_names_the_line(tmp_path, old, new, match):
+    from test_perturbations import GFC_HEADER, GFC_ROWS
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    text = GFC_HEADER + "\n".join(f"gfc {n} {m} {c:.15e} {s:.15e} 0 0"
+                                  for n, m, c, s in GFC_ROWS) + "\n"
+    assert old in text
+    k = next(i for i, t in enumerate(text.splitlines()) if old in t) + 1
+    (tmp_path / "f.gfc").write_text(text.replace(old, new, 1))
+    with pytest.raises(vv.InvalidInputError, match=f"f.gfc, line {k}: .*{match}"):
+        SphericalHarmonics(tmp_path / "f.gfc")

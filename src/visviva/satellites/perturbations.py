@@ -16,6 +16,7 @@ perturbation is one class here (its slots, its ``pack``) plus its term in
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -517,35 +518,57 @@ class SphericalHarmonics(Perturbation):
 
 
 def _read_gfc(path):
-    """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...])."""
+    """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...]).
+
+    Every error names the file and the line: a header number that does not parse or is not
+    positive, a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n, a
+    coefficient that is NaN or infinite."""
     gm = radius = None
     norm = True
     rows = []
     in_head = True
     try:
-        text = open(path, encoding="utf-8", errors="replace").read().splitlines()
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            text = fh.read().replace("\r\n", "\n").replace("\r", "\n").split("\n")
     except OSError as exc:
         raise InvalidInputError(f"cannot read the gravity-field file {path!r}: {exc}") from exc
-    for line in text:
-        parts = line.replace("D", "E").replace("d", "e").split() if not in_head else line.split()
+
+    def bad(number, what):
+        return InvalidInputError(f"{path}, line {number}: {what}: {text[number - 1][:80]!r}")
+
+    def number_in(parts, k, number, what):
+        try:
+            value = float(parts[k].replace("D", "E").replace("d", "e"))
+        except (IndexError, ValueError):
+            raise bad(number, f"{what} is not a number") from None
+        if not math.isfinite(value):
+            raise bad(number, f"{what} is not finite")
+        return value
+
+    for number, line in enumerate(text, start=1):
+        parts = line.split()
         if not parts:
             continue
+        key = parts[0].lower()
         if in_head:
-            key = parts[0].lower()
             if key == "end_of_head":
                 in_head = False
-            elif key == "earth_gravity_constant" and len(parts) > 1:
-                gm = float(parts[1].replace("D", "E"))
-            elif key == "radius" and len(parts) > 1:
-                radius = float(parts[1].replace("D", "E"))
+            elif key in ("earth_gravity_constant", "radius") and len(parts) > 1:
+                value = number_in(parts, 1, number, key)
+                if value <= 0:
+                    raise bad(number, f"{key} must be positive")
+                gm, radius = (value, radius) if key == "earth_gravity_constant" else (gm, value)
             elif key == "norm" and len(parts) > 1:
                 norm = parts[1].lower() != "unnormalized"
             continue
-        if parts[0].lower() == "gfc":
+        if key == "gfc":
             try:
-                rows.append((int(parts[1]), int(parts[2]), float(parts[3]), float(parts[4])))
-            except (IndexError, ValueError) as exc:
-                raise InvalidInputError(f"bad gfc line in {path!r}: {line!r}") from exc
+                n, m = int(parts[1]), int(parts[2])
+            except (IndexError, ValueError):
+                raise bad(number, "a 'gfc n m C S' line needs the integers n and m") from None
+            if not 0 <= m <= n:
+                raise bad(number, f"degree n = {n} and order m = {m} need 0 <= m <= n")
+            rows.append((n, m, number_in(parts, 3, number, "C"), number_in(parts, 4, number, "S")))
     if gm is None or radius is None or not rows or in_head:
         raise InvalidInputError(
             f"{path!r} is not an ICGEM .gfc file: it needs earth_gravity_constant, radius and "

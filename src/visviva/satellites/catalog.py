@@ -1,7 +1,9 @@
 """Catalogue scale: many satellites at many times in one call.
 
 * :func:`read_tle_file` reads a file of two- or three-line element sets into a :class:`Catalog`
-  (a bad line raises :class:`~visviva.satellites.tle.TLEFormatError` naming its line number).
+  (a bad line raises :class:`~visviva.satellites.tle.TLEFormatError` naming its line number);
+  :func:`read_omm_file` reads CelesTrak's GP data (JSON, CSV, XML); the parsing is in
+  :mod:`visviva.satellites.catalog_files`.
 * :func:`propagate_sgp4_batch` propagates N satellites to T times with one call of sgp4's
   ``SatrecArray`` (C++), returning ``(N, T, 3)`` positions and velocities. It is a thin wrapper:
   the arrays sgp4 writes are the arrays returned (no copy), and it agrees bit for bit with
@@ -16,8 +18,6 @@
 
 from __future__ import annotations
 
-import io
-import os
 from functools import cached_property
 
 import numpy as np
@@ -27,12 +27,12 @@ from astropy.time import Time
 from .._units import to_array, to_quantity, to_vector
 from ..constants import DAY_S
 from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
+from .catalog_files import omm_file_satellites, tle_file_satellites, tle_text_satellites
 from .secular_batch import secular_grid, secular_setup
 from .tle import (
     MINUTES_PER_DAY,
     Satellite,
     SGP4Error,
-    TLEFormatError,
     check_tsince,
     raise_for_sgp4_status,
     sgp4_times,
@@ -259,7 +259,7 @@ def _catalog_from_payload(token: str, data: bytes) -> Catalog:
 
 
 # --------------------------------------------------------------------------------------------
-# Reading files
+# Reading files (the parsing: visviva.satellites.catalog_files)
 # --------------------------------------------------------------------------------------------
 def parse_tle_text(text: str, *, source: str = "<text>", verify_checksum: bool = True) -> Catalog:
     """Parse two-line or three-line element sets (names on their own line, ``0 `` optional).
@@ -278,46 +278,7 @@ def parse_tle_text(text: str, *, source: str = "<text>", verify_checksum: bool =
     TLEFormatError
         Naming the line number (1-based) and ``source`` of the first bad line.
     """
-    # lines end at CR/LF only: str.splitlines would also split at a form feed or a NEL (a
-    # Latin-1 byte 0x85 in a name), and every later line number would be off
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    sats = []
-    name = None
-    i = 0
-    n = len(lines)
-    while i < n:
-        line = lines[i].rstrip()
-        if not line.strip():
-            i += 1
-            continue
-        nxt = lines[i + 1].rstrip() if i + 1 < n else ""
-        if line.startswith("1 ") and nxt.startswith("2 "):
-            where = (f"line {i + 1} of {source}", f"line {i + 2} of {source}")
-            sats.append(
-                Satellite.from_tle(line, nxt, name, verify_checksum=verify_checksum, where=where)
-            )
-            name = None
-            i += 2
-            continue
-        if line.startswith("1 "):
-            raise TLEFormatError(
-                f"line {i + 2} of {source} should be line 2 of the element set that starts on "
-                f"line {i + 1} (it must start with '2 '), got {nxt!r}."
-            )
-        if line.startswith("2 "):
-            raise TLEFormatError(
-                f"line {i + 1} of {source} is a TLE line 2 without its line 1: {line!r}."
-            )
-        if name is not None:
-            raise TLEFormatError(
-                f"line {i + 1} of {source}: expected TLE line 1 after the name line {name!r}, "
-                f"got {line!r}."
-            )
-        name = line[2:].strip() if line.startswith("0 ") else line.strip()
-        i += 1
-    if name is not None:
-        raise TLEFormatError(f"{source} ends with the name line {name!r} and no element set.")
-    return Catalog(sats)
+    return Catalog(tle_text_satellites(text, source=source, verify_checksum=verify_checksum))
 
 
 def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
@@ -339,20 +300,7 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
     TLEFormatError
         Naming the file and the line number of the first bad line.
     """
-    if isinstance(path, io.TextIOBase) or hasattr(path, "read"):
-        text = path.read()
-        source = getattr(path, "name", "<file>")
-    else:
-        with open(os.fspath(path), "rb") as f:
-            raw = f.read()
-        # element lines are ASCII; names may not be: UTF-8 (a byte-order mark dropped), else
-        # Latin-1, which decodes any byte (names were replaced by '?' marks before)
-        try:
-            text = raw.decode("utf-8-sig")
-        except UnicodeDecodeError:
-            text = raw.decode("latin-1")
-        source = os.fspath(path)
-    return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
+    return Catalog(tle_file_satellites(path, verify_checksum=verify_checksum))
 
 
 def read_omm_file(path, *, format: str | None = None) -> Catalog:
@@ -368,99 +316,10 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
     Raises
     ------
     InvalidInputError
-        Naming the file and the record number (1-based) of the first bad record.
+        Naming the file and the line (bytes that are not UTF-8, JSON or XML syntax, a CSV
+        record) or the record number (1-based) of the first bad record.
     """
-    import csv
-    import json
-
-    from sgp4 import omm
-
-    path = os.fspath(path)
-    fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
-    if fmt not in ("json", "csv", "xml"):
-        raise InvalidInputError(
-            f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
-        )
-    with open(path, "rb") as f:
-        raw = f.read()
-    # utf-8-sig: a byte-order mark made JSON fail and hid the first CSV column (OBJECT_NAME)
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise InvalidInputError(
-            f"{path}, line {line}: byte 0x{raw[exc.start]:02x} is "
-            "not UTF-8 text; save the file as UTF-8 (CelesTrak's GP data is)."
-        ) from None
-    where = []  # the line of each record, where the format tells it (CSV)
-    try:
-        if fmt == "json":
-            records = json.loads(text)
-            if isinstance(records, dict):
-                records = [records]
-            if not isinstance(records, list):
-                raise InvalidInputError(
-                    f"{path}: the JSON top level is {type(records).__name__}, not a list of OMM "
-                    "records (objects of keyword: value); is it CelesTrak's GP JSON?"
-                )
-        elif fmt == "csv":
-            reader = omm.parse_csv(io.StringIO(text, newline=""))
-            records = []
-            for rec in reader:
-                records.append(rec)
-                where.append(reader.line_num)
-        else:
-            records = _omm_xml_records(text, path)
-    except json.JSONDecodeError as exc:
-        raise InvalidInputError(
-            f"{path}, line {exc.lineno}, column {exc.colno}: not valid JSON ({exc.msg}); the "
-            "file is truncated or is not CelesTrak's GP JSON."
-        ) from exc
-    except csv.Error as exc:
-        raise InvalidInputError(
-            f"{path}, line {reader.line_num}: not valid CSV ({exc})."
-        ) from exc
-    sats = []
-    for k, rec in enumerate(records, start=1):
-        try:
-            sats.append(Satellite.from_omm(rec))
-        except InvalidInputError as exc:
-            line = f", line {where[k - 1]}" if where else ""
-            raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
-    return Catalog(sats)
-
-
-def _omm_xml_records(text: str, path: str) -> list:
-    """The keyword: text records of every OMM ``<segment>`` of an XML file (one ``<omm>`` or an
-    ``<ndm>`` of many, as CelesTrak writes).
-
-    As sgp4's ``omm.parse_xml``, but the decoded text is parsed as UTF-8 whatever encoding its
-    declaration names (a declared 'latin-1' re-decoded it, an unknown name raised LookupError),
-    a segment without some of its sections gives a record lacking those keywords (which
-    :meth:`Satellite.from_omm` names) instead of an AttributeError, and elements holding
-    elements are left out."""
-    import xml.etree.ElementTree as ET
-
-    try:
-        root = ET.fromstring(text.encode("utf-8"), parser=ET.XMLParser(encoding="utf-8"))
-    except ET.ParseError as exc:
-        raise InvalidInputError(
-            f"{path}, line {exc.position[0]}: not well-formed XML ({exc}); the file is "
-            "truncated or is not an OMM XML file."
-        ) from None
-    records = []
-    for segment in root.iter():
-        if segment.tag.rsplit("}", 1)[-1] != "segment":
-            continue
-        fields = {}
-        for section in ("metadata", "data/meanElements", "data/tleParameters"):
-            for element in segment.findall(section):
-                fields.update((c.tag, (c.text or "").strip()) for c in element
-                              if c.tag != "COMMENT" and len(c) == 0)
-        records.append(fields)
-    if not records:
-        raise InvalidInputError(f"{path}: no OMM <segment> in the XML; is it an OMM XML file?")
-    return records
+    return Catalog(omm_file_satellites(path, format=format))
 
 
 # --------------------------------------------------------------------------------------------
@@ -716,3 +575,4 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
         to_quantity(r, "length"), to_quantity(v, "speed"), t, status.astype(np.uint8),
         cat.names, "teme",
     )
+

@@ -48,7 +48,7 @@ def _edited(arrays, key, value):
     ("buf", lambda a: a[:, :2].copy(), "'buf' is float64 of shape"),    # corruption, abort)
     ("v", lambda a: np.where(np.arange(9).reshape(3, 3) == 4, np.nan, a), "NaN or infinite"),
     ("x", lambda a: a.astype(np.float32), "'x' is float32"),
-    ("istate", lambda a: np.where(np.arange(32) == 4, 99, a), "impossible values"),
+    ("istate", lambda a: np.where(np.arange(32) == 9, 99, a), "impossible values"),
     ("m", lambda a: -a, "negative"),
     ("meta", lambda a: np.array("{"), "not a JSON object"),           # was: JSONDecodeError
     ("meta", lambda a: np.array(str(a).replace('"collision"', '"x"')), "'collision' is missing"),

@@ -213,8 +213,8 @@ def _check_state(arrays: dict, path) -> None:
              nc.I_VELOCITY_DEPENDENT, nc.I_INT_VALID, nc.I_ADAPTIVE_MODE, nc.I_WH_COORDINATES)
     counts = (nc.I_NOUT, nc.I_STEPS, nc.I_ITERATIONS, nc.I_REJECTED, nc.I_STOP_AT_STEP,
               nc.I_CORRECTOR)
-    if (any(ist[i] not in (0, 1) for i in flags) or any(ist[i] < 0 for i in counts)
-            or not all(-1 <= ist[i] < n for i in (nc.I_EVENT_A, nc.I_EVENT_B))):
+    # (not the event's particles, I_EVENT_A/B: after an escape they may name a removed one)
+    if any(ist[i] not in (0, 1) for i in flags) or any(ist[i] < 0 for i in counts):
         raise _inconsistent(path, "its integer state ('istate') holds impossible values")
 
 

@@ -45,6 +45,40 @@ class SatelliteStates(StateVectors):
         obj.frame = frame
         return obj
 
+    def _in_my_frame(self, states: StateVectors) -> SatelliteStates:
+        """``states`` (a result computed from these) labelled with this frame."""
+        obj = SatelliteStates._from_canonical(states._r, states._v, states._gm, states.epoch)
+        obj.frame = self.frame
+        return obj
+
+    def __getitem__(self, key):
+        return self._in_my_frame(super().__getitem__(key))
+
+    def propagate(self, dt):
+        """States after two-body motion for a time ``dt``, in this frame.
+
+        Parameters
+        ----------
+        dt : Quantity
+            Time of flight (as :meth:`visviva.StateVectors.propagate`).
+
+        Returns
+        -------
+        SatelliteStates
+            In the same frame (TEME or GCRS).
+
+        Raises
+        ------
+        InvalidInputError
+            The states are in the rotating ITRS, where Kepler motion does not hold.
+        """
+        if self.frame == "itrs":
+            raise InvalidInputError(
+                "ITRS rotates with the Earth, so Kepler motion does not hold in it: propagate "
+                "sat.gcrs(t) or sat.teme(t) instead."
+            )
+        return self._in_my_frame(super().propagate(dt))
+
     @property
     def t(self):
         """The times of the states (astropy Time)."""

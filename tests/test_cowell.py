@@ -340,3 +340,15 @@ def test_zonal_only_kernel_gives_the_full_kernels_bits(monkeypatch):
     for a, b in zip(few, full, strict=True):
         np.testing.assert_array_equal(a.r.to_value(u.km), b.r.to_value(u.km))
         np.testing.assert_array_equal(a.v.to_value(u.km / u.s), b.v.to_value(u.km / u.s))
+
+
+@pytest.mark.parametrize("frame", ["teme", "itrs"])
+def test_satellite_states_in_another_frame_than_gcrs_are_refused(frame):
+    # sat.teme(t) was integrated as if GCRS: 37 km off after 10 min (ITRS: 7,000 km), no error
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*gcrs"):
+        vv.propagate_cowell(getattr(sat, frame)(sat.epoch), 600 * u.s, [vv.J2()])
+    out = vv.propagate_cowell(sat.gcrs(sat.epoch), 600 * u.s, [vv.J2()])
+    assert np.linalg.norm((out.r - sat.gcrs(sat.epoch + 600 * u.s).r).to_value(u.km)) < 0.1

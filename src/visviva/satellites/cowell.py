@@ -35,6 +35,7 @@ from .perturbations import (
     Zonal,
     flattening_of,
 )
+from .satellite_states import require_gcrs
 from .surface import check_batch, check_single, watched_body, with_surface
 
 __all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body"]
@@ -564,6 +565,7 @@ def propagate_cowell(
             "state must be a vv.StateVectors (with .r, .v, .gm); build one with "
             "vv.StateVectors(r, v, vv.EARTH)."
         )
+    require_gcrs(state, "propagate_cowell")
     r0 = to_vector(state.r, "length", "state.r")
     v0 = to_vector(state.v, "speed", "state.v")
     if r0.shape != v0.shape or r0.ndim > 2:

@@ -10,7 +10,20 @@ from ..errors import (
 )
 from ..states import StateVectors
 
-__all__ = ["SatelliteStates"]
+__all__ = ["SatelliteStates", "require_gcrs"]
+
+
+def require_gcrs(states, what: str) -> None:
+    """Refuse satellite states that say they are not in the GCRS (``what`` works there).
+
+    Plain :class:`~visviva.StateVectors` carry no frame and pass (they are taken as GCRS).
+    """
+    frame = getattr(states, "frame", None)
+    if frame is not None and frame != "gcrs":
+        raise InvalidInputError(
+            f"{what} works in the GCRS (where the Sun, the Moon and the Earth's pole are "
+            f"placed), but these states are in {str(frame).upper()}: pass sat.gcrs(t) instead."
+        )
 
 
 # --------------------------------------------------------------------------------------------

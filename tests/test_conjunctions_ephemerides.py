@@ -94,3 +94,26 @@ def test_bad_ephemerides_are_refused(setup):
         vv.screen_conjunctions(cat, coarse, t0, t0 + 1 * u.hour)
     with pytest.raises(InvalidInputError, match="CowellResult"):
         vv.screen_conjunctions(np.zeros(3), None, t0, t0 + 1 * u.hour)
+
+
+def test_satellite_state_histories_are_screened_in_one_frame():
+    # sat1.teme(t) against sat2.gcrs(t) compared positions 40 km apart by frame alone: a 3.4 km
+    # approach was missed with no error
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    t = t0 + np.arange(0, 7201, 30) * u.s
+    a, b = cat[4], cat[5]
+    sgp4 = vv.screen_conjunctions(a, b, t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    assert len(sgp4) == 1
+    for frame in ("gcrs", "teme"):
+        tab = vv.screen_conjunctions(getattr(a, frame)(t), getattr(b, frame)(t), t0,
+                                     t0 + 2 * u.hour, threshold=20 * u.km)
+        assert len(tab) == 1
+        assert abs(tab["tca"][0] - sgp4["tca"][0]) < 0.01 * u.s
+        assert abs(tab["miss_distance"][0] - sgp4["miss_distance"][0]) < 1 * u.m
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
+        vv.screen_conjunctions(a.teme(t), b.gcrs(t), t0, t0 + 2 * u.hour)
+    with pytest.raises(InvalidInputError, match="GCRS and TEME are mixed"):
+        vv.screen_conjunctions([a.teme(t), b.gcrs(t)], None, t0, t0 + 2 * u.hour)
+    with pytest.raises(InvalidInputError, match="ITRS"):
+        vv.screen_conjunctions(a.itrs(t), b.itrs(t), t0, t0 + 2 * u.hour)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Record, Section
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
@@ -485,6 +486,10 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
     str
         The text.
     """
+    if not isinstance(message, ConjunctionDataMessage):
+        raise InvalidInputError(
+            f"write_cdm needs a ConjunctionDataMessage, got {type(message).__name__} (read one "
+            "with vv.read_cdm).")
     if format not in ("kvn", "xml"):
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     text = message.to_kvn() if format == "kvn" else message.to_xml()

@@ -361,7 +361,9 @@ def write_opm(opm: OPM, path=None, format: str | None = None) -> str:  # noqa: A
         The message text.
     """
     if not isinstance(opm, OPM):
-        raise InvalidInputError(f"write_opm needs an OPM, got {type(opm).__name__}")
+        raise InvalidInputError(
+            f"write_opm needs an OPM, got {type(opm).__name__}: build one from a state with "
+            "visviva.ccsds.opm.OPM.from_state(state, object_name=...).")
     return write_sections(opm.sections, SECTIONS, "opm", "CCSDS_OPM_VERS", path, format)
 
 

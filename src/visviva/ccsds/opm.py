@@ -242,15 +242,18 @@ class OPM(FrameCenterMetadata):
 
     @property
     def state(self):
-        """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch)."""
+        """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch); about
+        the Earth in GCRS, TEME or ITRF it knows its frame (``.frame``: ``"gcrs"``, ...)."""
         from astropy import units as u
 
         from ..states import StateVectors
 
         sv = self.sections["state_vector"]
-        r = [sv["X"], sv["Y"], sv["Z"]] * u.km
-        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]] * u.km / u.s
-        return StateVectors(r, v, self.gm * u.km**3 / u.s**2, epoch=self.epoch)
+        r = [sv["X"], sv["Y"], sv["Z"]]
+        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
+        checked = StateVectors(r * u.km, v * u.km / u.s, self.gm * u.km**3 / u.s**2,
+                               epoch=self.epoch)  # the constructor's checks
+        return self._states(checked._r, checked._v, checked._gm, checked.epoch)
 
     @property
     def covariance(self) -> np.ndarray | None:

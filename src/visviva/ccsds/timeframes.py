@@ -280,6 +280,15 @@ class FrameCenterMetadata:
         """``CENTER_NAME`` as written."""
         return self.metadata["CENTER_NAME"]
 
+    def _states(self, r_km, v_km_s, gm_km3_s2, times):
+        """States of this message, labelled with their visviva frame when Earth-centred (so
+        that TEME or ITRF data are not taken for GCRS downstream)."""
+        from ..satellites.satellite_states import framed_states
+
+        earth = str(self.center).strip().upper() == "EARTH"
+        return framed_states(r_km, v_km_s, gm_km3_s2, times,
+                             self.visviva_frame if earth else None)
+
 
 def center_body(name: str):
     """The :class:`~visviva.bodies.Body` named by a CCSDS ``CENTER_NAME``, or None.

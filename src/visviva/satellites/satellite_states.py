@@ -10,7 +10,33 @@ from ..errors import (
 )
 from ..states import StateVectors
 
-__all__ = ["SatelliteStates", "require_gcrs"]
+__all__ = ["SatelliteStates", "require_gcrs", "framed_states"]
+
+
+def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
+    """States that know their frame (:class:`SatelliteStates`) when ``frame`` is one of visviva's
+    Earth frames (``"gcrs"``, ``"teme"``, ``"itrs"``), else plain :class:`~visviva.StateVectors`.
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray (..., 3)
+        Positions (km) and velocities (km/s).
+    gm_km3_s2 : float
+        Central GM, km^3/s^2.
+    times : astropy Time or None
+        The states' times.
+    frame : str or None
+        Their frame; None (or another name) leaves them unlabelled.
+
+    Returns
+    -------
+    StateVectors
+    """
+    if frame not in ("gcrs", "teme", "itrs"):
+        return StateVectors._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+    obj = SatelliteStates._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+    obj.frame = frame
+    return obj
 
 
 def require_gcrs(states, what: str) -> None:
@@ -60,9 +86,7 @@ class SatelliteStates(StateVectors):
 
     def _in_my_frame(self, states: StateVectors) -> SatelliteStates:
         """``states`` (a result computed from these) labelled with this frame."""
-        obj = SatelliteStates._from_canonical(states._r, states._v, states._gm, states.epoch)
-        obj.frame = self.frame
-        return obj
+        return framed_states(states._r, states._v, states._gm, states.epoch, self.frame)
 
     def __getitem__(self, key):
         return self._in_my_frame(super().__getitem__(key))

@@ -194,9 +194,11 @@ class Maneuver:
     def apply(self, state):
         """Coast and burn through the impulses; the state just after the last impulse.
 
-        The returned state's epoch (if any) is advanced to the time of the last impulse.
+        The returned state's epoch (if any) is advanced to the time of the last impulse; satellite
+        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame.
         """
         from ..states import StateVectors
+        from .satellite_states import framed_states
 
         t_prev = 0.0
         cur = state
@@ -205,7 +207,7 @@ class Maneuver:
                 cur = cur.propagate((t - t_prev) * u.s)
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
-        return cur
+        return framed_states(cur._r, cur._v, cur._gm, cur.epoch, getattr(state, "frame", None))
 
     def __repr__(self):
         return (

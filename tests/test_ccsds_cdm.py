@@ -145,3 +145,42 @@ def test_truncated_message_is_an_error():
 def test_covariance_table_has_the_21_mandatory_keywords():
     assert sum(k.mandatory for k in COVARIANCE.keywords) == 21
     assert len(COVARIANCE.keywords) == 21 + 7 + 8 + 9
+
+
+def test_a_screened_conjunction_becomes_a_cdm_that_gives_the_same_pc(tmp_path):
+    # there was no way from a screening row to a CDM short of filling 50 keywords by hand
+    from visviva.conjunctions import rtn_to_inertial
+    from visviva.conjunctions.synthetic import synthetic_catalog
+
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    row = vv.screen_conjunctions(cat, None, t0, t0 + 2 * u.hour, threshold=10 * u.km)[0]
+    byname = {s.name: s for s in cat}
+    s1, s2 = byname[row["object1"]].gcrs(row["tca"]), byname[row["object2"]].gcrs(row["tca"])
+    rtn = np.diag([100.0, 2000.0, 50.0, 1e-3, 1e-2, 1e-3]) ** 2  # m, m/s
+    c1, c2 = rtn_to_inertial(rtn, s1.r, s1.v), rtn_to_inertial(4 * rtn, s2.r, s2.v)
+    pc = vv.collision_probability(s1.r, s1.v, c1, s2.r, s2.v, c2, 20 * u.m)
+    msg = vv.ConjunctionDataMessage.from_states(
+        row["tca"], s1.r, s1.v, c1, s2.r, s2.v, c2, names=(row["object1"], row["object2"]),
+        collision_probability=pc, collision_probability_method="FOSTER-1992")
+    back = vv.read_cdm(write_cdm(msg, tmp_path / "c.cdm"))
+    assert back == msg
+    assert abs(back.tca - row["tca"]) < 1 * u.us
+    assert abs(back.miss_distance - row["miss_distance"]) < 1 * u.mm
+    assert abs(back.relative_speed - row["relative_speed"]) < 1 * u.mm / u.s
+    for key, col in zip("RTN", ("radial", "in_track", "cross_track"), strict=True):
+        # the screening's RTN is in TEME, the message's in GCRF: the same components to 1 mm
+        assert abs(back.relative[f"RELATIVE_POSITION_{key}"] * u.m - row[col]) < 1 * u.mm
+    o1, o2 = back.object1, back.object2
+    assert o1.name == row["object1"] and o1.frame == "GCRF"
+    np.testing.assert_allclose(o1.covariance_rtn, rtn, rtol=1e-9, atol=1e-12 * rtn.max())
+    np.testing.assert_allclose(o2.covariance, c2, rtol=1e-9, atol=1e-12 * np.abs(c2).max())
+    again = vv.collision_probability(o1.r, o1.v, o1.covariance, o2.r, o2.v, o2.covariance,
+                                     20 * u.m)
+    assert again == pytest.approx(pc, rel=1e-9) and back.collision_probability == pc
+    with pytest.raises(vv.InvalidInputError, match="6x6"):
+        vv.ConjunctionDataMessage.from_states(row["tca"], s1.r, s1.v, c1[:3, :3], s2.r, s2.v,
+                                              c2, names=("A", "B"))
+    with pytest.raises(vv.InvalidInputError, match="inertial"):
+        vv.ConjunctionDataMessage.from_states(row["tca"], s1.r, s1.v, c1, s2.r, s2.v, c2,
+                                              frame="ITRF")

@@ -188,6 +188,61 @@ class ConjunctionDataMessage:
             else CDMObject(sections["object2"])
         self.source = source
 
+    @classmethod
+    def from_states(cls, tca, r1, v1, cov1, r2, v2, cov2, *, names=("OBJECT1", "OBJECT2"),
+                    designators=("UNKNOWN", "UNKNOWN"), frame="GCRF", originator="VISVIVA",
+                    message_id=None, collision_probability=None,
+                    collision_probability_method=None):  # fmt: skip
+        """A CDM from the two objects' states and covariances at TCA (e.g. a screening row).
+
+        Parameters
+        ----------
+        tca : astropy.time.Time
+            Time of closest approach (written in UTC to the nanosecond).
+        r1, v1, r2, v2 : Quantity or array_like, shape (3,)
+            States of objects 1 and 2 at ``tca`` in one inertial frame (m and m/s when plain,
+            as :func:`~visviva.collision_probability` takes them).
+        cov1, cov2 : array_like or Quantity, shape (6, 6)
+            Their covariances in that frame (m^2, m^2/s, m^2/s^2 when plain), rotated here to
+            each object's RTN frame as the CDM stores them.
+        names : (str, str)
+            ``OBJECT_NAME`` of the two objects.
+        designators : (str, str)
+            ``OBJECT_DESIGNATOR`` (catalogue numbers).
+        frame : {"GCRF", "EME2000"}
+            ``REF_FRAME`` of the states (use ``sat.gcrs(tca)`` for SGP4 objects).
+        originator : str
+            ``ORIGINATOR``.
+        message_id : str, optional
+            ``MESSAGE_ID`` (default: the names and the TCA).
+        collision_probability : float, optional
+            ``COLLISION_PROBABILITY`` (e.g. from :func:`~visviva.collision_probability`).
+        collision_probability_method : str, optional
+            ``COLLISION_PROBABILITY_METHOD`` (e.g. ``"FOSTER-1992"``).
+
+        Returns
+        -------
+        ConjunctionDataMessage
+            With the mandatory keywords (the metadata the states do not give are
+            ``CATALOG_NAME = SATCAT``, ``INTERNATIONAL_DESIGNATOR = UNKNOWN``,
+            ``EPHEMERIS_NAME = NONE``, ``COVARIANCE_METHOD = CALCULATED``,
+            ``MANEUVERABLE = N/A``; edit ``msg.object1.sections`` to change them), the miss
+            distance, relative speed and relative state in object 1's RTN frame.
+
+        Raises
+        ------
+        InvalidInputError
+            A frame that is not inertial, a covariance that is not 6x6, NaN, a probability
+            outside [0, 1].
+        """
+        from .cdm_build import cdm_sections
+
+        return cls(cdm_sections(
+            tca, r1, v1, cov1, r2, v2, cov2, names=names, designators=designators, frame=frame,
+            originator=originator, message_id=message_id,
+            collision_probability=collision_probability,
+            collision_probability_method=collision_probability_method, cov_keywords=_COV6))
+
     @property
     def tca(self):
         """Time of closest approach (astropy Time, UTC)."""

@@ -353,8 +353,23 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
     return parse_tle_text(text, source=str(source), verify_checksum=verify_checksum)
 
 
+def _is_kvn_omm(path: str) -> bool:
+    """Whether the file starts (comments and blank lines aside) with ``CCSDS_OMM_VERS``."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            for line in f:
+                if line.strip() and not line.lstrip().startswith("COMMENT"):
+                    return line.strip().upper().startswith("CCSDS_OMM_VERS")
+    except OSError:
+        return False
+    return False
+
+
 def read_omm_file(path, *, format: str | None = None) -> Catalog:
     """Read OMM records (CelesTrak GP data) from a JSON, CSV or XML file.
+
+    A CCSDS KVN OMM (what :func:`visviva.write_omm` writes by default) is one message: read it
+    with ``vv.Catalog.from_omm([vv.read_omm(path)])``.
 
     Parameters
     ----------
@@ -376,6 +391,11 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
     path = os.fspath(path)
     fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
     if fmt not in ("json", "csv", "xml"):
+        if _is_kvn_omm(path):
+            raise InvalidInputError(
+                f"{path} is a KVN OMM (what vv.write_omm writes); read it with "
+                "vv.Catalog.from_omm([vv.read_omm(path)])."
+            )
         raise InvalidInputError(
             f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
         )

@@ -117,3 +117,25 @@ def test_satellite_state_histories_are_screened_in_one_frame():
         vv.screen_conjunctions([a.teme(t), b.gcrs(t)], None, t0, t0 + 2 * u.hour)
     with pytest.raises(InvalidInputError, match="ITRS"):
         vv.screen_conjunctions(a.itrs(t), b.itrs(t), t0, t0 + 2 * u.hour)
+
+
+def test_oem_ephemerides_are_screened(tmp_path):
+    # an OEM (vv.read_oem) was refused ("must be a Satellite, a Catalog, a CowellResult, ...")
+    from visviva.ccsds.oem import OEMSegment
+
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    t = t0 + np.arange(0, 7201, 30) * u.s
+    a, b = cat[4], cat[5]
+    oems = []
+    for sat, frame in ((a, "GCRF"), (b, "EME2000")):
+        s = sat.gcrs(t)
+        seg = OEMSegment.from_states(t, s.r.to_value(u.km), s.v.to_value(u.km / u.s),
+                                     object_name=sat.name, frame=frame)
+        oems.append(vv.read_oem(vv.write_oem(seg)))
+    ref = vv.screen_conjunctions(a.gcrs(t), b.gcrs(t), t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    tab = vv.screen_conjunctions(oems[0], oems[1], t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    assert len(tab) == len(ref) == 1
+    assert abs(tab["miss_distance"][0] - ref["miss_distance"][0]) < 1 * u.mm
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS|GCRS.*TEME"):
+        vv.screen_conjunctions(oems[0], b.teme(t), t0, t0 + 2 * u.hour)

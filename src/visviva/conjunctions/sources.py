@@ -183,8 +183,8 @@ def _history(obj, t0, name):
         tau = (obj.epoch - t0).to_value(u.s)
         return [(tau, obj.r.to_value(u.km), obj.v.to_value(u.km / u.s))]
     raise InvalidInputError(
-        f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history or a "
-        f"list of them; got {type(obj).__name__}.")
+        f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history, an "
+        f"OEM or a list of them; got {type(obj).__name__}.")
 
 
 def _sampled(objs, t0, t1, name):
@@ -195,6 +195,7 @@ def _sampled(objs, t0, t1, name):
     span = float((t1 - t0).to_value(u.s))
     frames = set()
     for n, obj in enumerate(items):
+        obj = _oem_states(obj, f"{name}[{n}]")
         frames.add(_frame(obj, f"{name}[{n}]"))
         for tau, r, v in _history(obj, t0, f"{name}[{n}]"):
             tau = np.asarray(tau, dtype=np.float64)
@@ -218,6 +219,23 @@ def _sampled(objs, t0, t1, name):
             "different frames cannot be compared; give every history in one frame (e.g. "
             "sat.gcrs(t)).")
     return SampledSource(times, rs, vs, names, frames.pop() if frames else "GCRS")
+
+
+def _oem_states(obj, name):
+    """The states of a one-segment Earth-centred OEM (they know their frame); other objects
+    unchanged."""
+    if not hasattr(obj, "segments"):
+        return obj
+    if len(obj.segments) != 1:
+        raise InvalidInputError(
+            f"{name}: the OEM has {len(obj.segments)} segments (a manoeuvre between them breaks "
+            "the interpolation): screen each segment's span with oem.segments[k].states.")
+    seg = obj.segments[0]
+    if str(seg.center).strip().upper() != "EARTH" or seg.visviva_frame is None:
+        raise InvalidInputError(
+            f"{name}: the OEM has CENTER_NAME = {seg.center}, REF_FRAME = {seg.frame}; "
+            "screening needs geocentric states in GCRF/EME2000/ICRF or TEME.")
+    return seg.states
 
 
 def _frame(obj, name):

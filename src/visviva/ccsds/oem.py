@@ -202,7 +202,7 @@ class OEMSegment(FrameCenterMetadata):
     def states(self):
         """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``); about the
         Earth in GCRS, TEME or ITRF they know their frame (``.frame``: ``"gcrs"``, ...)."""
-        return self._states(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
+        return self.wrap_states(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
 
     def states_in(self, frame: str):
         """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
@@ -310,7 +310,7 @@ class OEMSegment(FrameCenterMetadata):
             A time outside the segment, an unsupported method, or too few states for the degree.
         """
         r, v = self.interpolate_arrays(t)
-        return self._states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
+        return self.wrap_states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
                             self.gm_km3_s2, t)
 
     def interpolate_arrays(self, t):
@@ -452,5 +452,5 @@ class Ephemeris:
             sel = which == k
             r[sel], v[sel] = self.segments[k].interpolate_arrays(flat[sel])
         first = self.segments[0]
-        return first._states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
+        return first.wrap_states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
                              first.gm_km3_s2, t)

@@ -253,7 +253,8 @@ class OPM(FrameCenterMetadata):
         v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
         checked = StateVectors(r * u.km, v * u.km / u.s, self.gm * u.km**3 / u.s**2,
                                epoch=self.epoch)  # the constructor's checks
-        return self._states(checked._r, checked._v, checked._gm, checked.epoch)
+        return self.wrap_states(checked.r.to_value(u.km), checked.v.to_value(u.km / u.s),
+                                self.gm, checked.epoch)
 
     @property
     def covariance(self) -> np.ndarray | None:

@@ -280,9 +280,25 @@ class FrameCenterMetadata:
         """``CENTER_NAME`` as written."""
         return self.metadata["CENTER_NAME"]
 
-    def _states(self, r_km, v_km_s, gm_km3_s2, times):
+    def wrap_states(self, r_km, v_km_s, gm_km3_s2, times):
         """States of this message, labelled with their visviva frame when Earth-centred (so
-        that TEME or ITRF data are not taken for GCRS downstream)."""
+        that TEME or ITRF data are not taken for GCRS downstream).
+
+        Parameters
+        ----------
+        r_km, v_km_s : ndarray (..., 3)
+            Positions (km) and velocities (km/s) in ``REF_FRAME``.
+        gm_km3_s2 : float
+            Central GM, km^3/s^2.
+        times : astropy.time.Time
+            Their times.
+
+        Returns
+        -------
+        StateVectors
+            A :class:`~visviva.satellites.SatelliteStates` with ``.frame`` for Earth-centred
+            GCRS/TEME/ITRS data, else plain.
+        """
         from ..satellites.satellite_states import framed_states
 
         earth = str(self.center).strip().upper() == "EARTH"

@@ -198,7 +198,7 @@ class Maneuver:
         states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame.
         """
         from ..states import StateVectors
-        from .satellite_states import framed_states
+        from .satellite_states import with_frame
 
         t_prev = 0.0
         cur = state
@@ -207,7 +207,7 @@ class Maneuver:
                 cur = cur.propagate((t - t_prev) * u.s)
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
-        return framed_states(cur._r, cur._v, cur._gm, cur.epoch, getattr(state, "frame", None))
+        return with_frame(cur, getattr(state, "frame", None))
 
     def __repr__(self):
         return (

@@ -10,7 +10,7 @@ from ..errors import (
 )
 from ..states import StateVectors
 
-__all__ = ["SatelliteStates", "require_gcrs", "framed_states"]
+__all__ = ["SatelliteStates", "require_gcrs", "framed_states", "with_frame"]
 
 
 def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
@@ -37,6 +37,13 @@ def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
     obj = SatelliteStates._from_canonical(r_km, v_km_s, gm_km3_s2, times)
     obj.frame = frame
     return obj
+
+
+def with_frame(states, frame):
+    """``states`` (any :class:`~visviva.StateVectors`) labelled with ``frame`` as in
+    :func:`framed_states` (None leaves them plain)."""
+    return framed_states(states.r.to_value(u.km), states.v.to_value(u.km / u.s),
+                         states.gm.to_value(u.km**3 / u.s**2), states.epoch, frame)
 
 
 def require_gcrs(states, what: str) -> None:
@@ -86,7 +93,7 @@ class SatelliteStates(StateVectors):
 
     def _in_my_frame(self, states: StateVectors) -> SatelliteStates:
         """``states`` (a result computed from these) labelled with this frame."""
-        return framed_states(states._r, states._v, states._gm, states.epoch, self.frame)
+        return with_frame(states, self.frame)
 
     def __getitem__(self, key):
         return self._in_my_frame(super().__getitem__(key))

@@ -155,6 +155,16 @@ def test_j2_batch_tracks_sgp4_for_a_day():
     assert np.isfinite(j2.r.value).all()
 
 
+def test_j2_batch_refuses_a_decayed_satellite():
+    # mean motion 17.6 rev/day: mean perigee 6237 km, inside the Earth; SGP4 says "decayed"
+    # (error 6) but the secular batch returned positions 140 km underground as numbers
+    line1 = "1 99999U          21067.00000000  .00000000  00000-0  00000+0 0    03"
+    line2 = "2 99999  51.5662   0.0000 0010000   0.0000   0.0000 17.60000000    07"
+    sat = vv.Satellite.from_tle(line1, line2)
+    with pytest.raises(vv.InvalidInputError, match="99999.*decayed"):
+        propagate_j2_batch(Catalog([sat]), sat.epoch)
+
+
 def test_j2_batch_equals_the_secular_theory_of_visviva_satellites_secular(catalog):
     from visviva.satellites.secular import propagate_j2_secular
     from visviva.satellites.secular_batch import _mean_elements, _wgs72_body

@@ -127,7 +127,7 @@ class OPM(FrameCenterMetadata):
 
     @classmethod
     def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
-                   center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+                   center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
                    maneuvers=(), covariance=None, originator: str = "VISVIVA",
                    mission_epoch=None):  # fmt: skip
         """An OPM for one state computed in visviva.
@@ -142,8 +142,10 @@ class OPM(FrameCenterMetadata):
             ``OBJECT_ID`` (international designator).
         center : str
             ``CENTER_NAME``.
-        frame : str
-            ``REF_FRAME`` of the state (CCSDS name).
+        frame : str, optional
+            ``REF_FRAME`` of the state (CCSDS name). Default: the state's own frame when it
+            knows it (``sat.teme(t)`` gives ``"TEME"``, ``sat.gcrs(t)`` ``"GCRF"``), else
+            ``"GCRF"``; a frame that contradicts the state's own is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         maneuvers : iterable of Maneuver
@@ -163,10 +165,11 @@ class OPM(FrameCenterMetadata):
         from astropy import units as u
 
         from .covariance import values_from_matrix
-        from .timeframes import time_to_epochs
+        from .timeframes import ref_frame_of, time_to_epochs
 
         if getattr(state, "shape", None) != () or state.epoch is None:
             raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
+        frame = ref_frame_of(state, frame)
         r = state.r.to_value(u.km)
         v = state.v.to_value(u.km / u.s)
         sections = {

@@ -28,7 +28,7 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
-           "visviva_frame", "center_body", "FrameCenterMetadata"]
+           "visviva_frame", "center_body", "FrameCenterMetadata", "ref_frame_of"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -255,6 +255,37 @@ def visviva_frame(name: str) -> str | None:
         None for frames visviva has no transformation for.
     """
     return _FRAMES.get(name.strip().upper())
+
+
+#: the CCSDS REF_FRAME written for states that know their visviva frame
+_CCSDS_NAME = {"teme": "TEME", "gcrs": "GCRF", "itrs": "ITRF"}
+
+
+def ref_frame_of(states, frame: str | None) -> str:
+    """The ``REF_FRAME`` to write for ``states``: ``frame``, or their own when they know it
+    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"``; a ``frame`` that contradicts theirs is
+    refused.
+
+    Parameters
+    ----------
+    states : StateVectors
+        The states to write (satellite states carry ``.frame``).
+    frame : str or None
+        The CCSDS frame asked for.
+
+    Returns
+    -------
+    str
+    """
+    own = getattr(states, "frame", None)
+    if frame is None:
+        return _CCSDS_NAME.get(own, "GCRF")
+    if own is not None and visviva_frame(str(frame)) != own:
+        raise InvalidInputError(
+            f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was asked "
+            f"for: leave frame out to write {_CCSDS_NAME.get(own, own)}, or pass states in "
+            f"{frame}.")
+    return frame
 
 
 class FrameCenterMetadata:

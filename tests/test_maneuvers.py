@@ -274,3 +274,16 @@ def test_manoeuvre_keeps_the_frame_of_satellite_states():
     assert abs(site.look(teme).range - site.look(gcrs).range) < 20 * u.m
     with pytest.raises(InvalidInputError, match="TEME"):
         vv.propagate_cowell(teme, 60 * u.s)
+
+
+def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
+    # Maneuver.lambert(sat1.teme(t), sat2.gcrs(t), tof) aimed at a target 40 km off by frame alone
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    chaser, target = sat.teme(sat.epoch), sat.gcrs(sat.epoch + 20 * u.min)
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
+        Maneuver.lambert(chaser, target, 30 * u.min)
+    same = Maneuver.lambert(sat.gcrs(sat.epoch), target, 30 * u.min)
+    arrived = same.apply(sat.gcrs(sat.epoch))
+    assert np.linalg.norm((arrived.r - target.propagate(10 * u.min).r).to_value(u.km)) < 1e-6

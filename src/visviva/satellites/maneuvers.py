@@ -312,6 +312,12 @@ class Maneuver:
                 f"Maneuver.lambert needs the chaser and the target about the same attractor; "
                 f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
             )
+        frames = (getattr(state_from, "frame", None), getattr(state_to, "frame", None))
+        if None not in frames and frames[0] != frames[1]:
+            raise InvalidInputError(
+                f"Maneuver.lambert: the chaser is in {frames[0].upper()}, the target in "
+                f"{frames[1].upper()}; give both in one frame (e.g. sat.gcrs(t) for both)."
+            )
         coast = to_array(tof, "time", "tof")
         if state_from.epoch is not None and state_to.epoch is not None:
             coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)

@@ -184,3 +184,38 @@ def test_a_screened_conjunction_becomes_a_cdm_that_gives_the_same_pc(tmp_path):
     with pytest.raises(vv.InvalidInputError, match="inertial"):
         vv.ConjunctionDataMessage.from_states(row["tca"], s1.r, s1.v, c1, s2.r, s2.v, c2,
                                               frame="ITRF")
+
+
+def test_an_itrf_message_rotates_its_covariance_with_the_inertial_rtn_axes():
+    # CDMObject.covariance built the RTN axes of an ITRF message from the Earth-fixed velocity,
+    # ~3.5 deg off the inertial ones in LEO: Pc 26 % off on this case (CARA converts to J2000
+    # first); the same conjunction in GCRF and in ITRF now gives the same Pc
+    from visviva.conjunctions import rtn_to_inertial
+    from visviva.conjunctions.synthetic import synthetic_catalog
+
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    row = vv.screen_conjunctions(cat, None, t0, t0 + 2 * u.hour, threshold=10 * u.km)[0]
+    byname = {s.name: s for s in cat}
+    a, b = byname[row["object1"]], byname[row["object2"]]
+    g1, g2 = a.gcrs(row["tca"]), b.gcrs(row["tca"])
+    rtn = np.diag([10.0, 200.0, 5.0, 1e-4, 1e-3, 1e-4]) ** 2
+    c1, c2 = rtn_to_inertial(rtn, g1.r, g1.v), rtn_to_inertial(rtn, g2.r, g2.v)
+    gcrf = vv.ConjunctionDataMessage.from_states(row["tca"], g1.r, g1.v, c1, g2.r, g2.v, c2)
+    sections = vv.read_cdm(gcrf.to_kvn()).sections()  # a copy to edit
+    for key, sat in (("object1", a), ("object2", b)):
+        itrs = sat.itrs(row["tca"])
+        sections[key]["metadata"].values["REF_FRAME"] = "ITRF"
+        state = sections[key]["state_vector"].values
+        for k, axis in enumerate("XYZ"):
+            state[axis] = float(itrs.r[k].to_value(u.km))
+            state[f"{axis}_DOT"] = float(itrs.v[k].to_value(u.km / u.s))
+    itrf = vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())
+
+    def log_pc(msg):
+        o1, o2 = msg.object1, msg.object2
+        return vv.collision_probability(o1.r, o1.v, o1.covariance, o2.r, o2.v, o2.covariance,
+                                        2 * u.km, log=True)
+
+    assert itrf.object1.frame == "ITRF"
+    assert log_pc(itrf) == pytest.approx(log_pc(gcrf), abs=1e-3)  # Pc to 0.1 %

@@ -158,10 +158,26 @@ class CDMObject:
 
     @property
     def covariance(self) -> np.ndarray:
-        """The 6x6 covariance rotated to :attr:`frame` (m, m/s), via the RTN axes of (r, v)."""
-        from ..conjunctions.covariance import rtn_to_inertial
+        """The 6x6 covariance rotated to the axes of :attr:`frame` (m, m/s), via the RTN axes of
+        the object's inertial state.
 
-        return rtn_to_inertial(self.covariance_rtn, self.r, self.v)
+        For ``REF_FRAME = ITRF`` the RTN axes are those of the inertial velocity on ITRF axes,
+        ``v + omega x r`` (as NASA CARA's ``cdmobj_J2Kstatecov`` converts an ITRF state to J2000
+        before rotating the RTN covariance): the Earth-fixed velocity would tilt the in-track and
+        cross-track axes by ~3.5 deg in LEO.
+        """
+        from ..conjunctions.covariance import rtn_to_inertial
+        from .timeframes import visviva_frame
+
+        v = self.v
+        if visviva_frame(self.frame) == "itrs":
+            from astropy import units as u
+
+            from ..constants import EARTH_ROTATION_RAD_S
+
+            omega = np.array([0.0, 0.0, EARTH_ROTATION_RAD_S])
+            v = v + np.cross(omega, self.r.to_value(u.km)) * (u.km / u.s)
+        return rtn_to_inertial(self.covariance_rtn, self.r, v)
 
     def __repr__(self):
         return f"CDMObject({self.name!r}, {self.frame})"

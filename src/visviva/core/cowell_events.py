@@ -1,0 +1,226 @@
+"""Events on the dense output of a Cowell step: the event functions, their root finding, and the
+shadow boundaries of solar radiation pressure at which the integrator ends its steps.
+
+The event kinds (``kind``) are listed in :mod:`visviva.core.cowell`. Zeros are located on the
+DOP853 dense output of a step with the Illinois variant of regula falsi (:func:`locate_zero`).
+
+Shadow boundaries. With SRP and a shadow model the force is not smooth at the shadow's edge:
+the cylindrical shadow switches SRP off (a jump), the conical one has kinks where the penumbra
+and the umbra begin and end. DOP853's error estimate does not see either, so
+:func:`visviva.core.cowell.integrate_cowell` never steps across such a boundary (as Orekit and
+GMAT handle force discontinuities): each side of each boundary function (the event functions of
+kinds 1, or 2 and 3) is recorded at the start of a step; a step whose dense output leaves a side
+(:func:`shadow_crossing`, at :data:`SHADOW_SAMPLES` points) is dropped, the boundary located on it
+to :data:`BOUNDARY_RTOL` of the step (just past it), and the step redone up to there; the side
+is then flipped and the integration restarts with a fresh derivative. The cylindrical shadow
+is evaluated on the recorded side for a whole step (:func:`lock_shadow`): every stage of the
+step up to the boundary sees the force from before it, every stage after it the force from
+after, whatever side rounding puts a stage near the boundary on. The conical shadow fraction
+is continuous; its stages near a kink differ from the one-sided force by the kink's slope times
+the (1e-9 relative) overshoot.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import force_block as fb
+from ._jit import kernel, step_kernel
+from .perturbations import geodetic_altitude, hermite_position
+
+__all__ = ["event_function", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
+           "shadow_boundary_kind", "lock_shadow", "shadow_sides", "shadow_crossing"]
+
+@kernel
+def event_function(kind, param, t, y, force, eph_r, eph_v):
+    """Value of event function ``kind`` at (t, y); the kinds are listed in :mod:`visviva.core.cowell`."""
+    x = y[0]
+    yy = y[1]
+    z = y[2]
+    if kind == 0:
+        return geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING]) - param
+    if kind == 4:
+        return z
+    if kind == 5:
+        return x * y[3] + yy * y[4] + z * y[5]
+    # shadow events need the Sun
+    sun = int(force[fb.SUN_ROW])
+    if sun < 0:
+        return 1.0
+    s = np.empty(3)
+    hermite_position(t, sun, force, eph_r, eph_v, s)
+    r = math.sqrt(x * x + yy * yy + z * z)
+    radius = force[fb.RADIUS]
+    if kind == 1:
+        sn = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
+        proj = (x * s[0] + yy * s[1] + z * s[2]) / sn
+        if proj >= 0.0:
+            return r
+        px = x - proj * s[0] / sn
+        py = yy - proj * s[1] / sn
+        pz = z - proj * s[2] / sn
+        return math.sqrt(px * px + py * py + pz * pz) - radius
+    dx = s[0] - x
+    dy = s[1] - yy
+    dz = s[2] - z
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    a = math.asin(min(1.0, force[fb.SUN_RADIUS] / d))
+    b = math.asin(min(1.0, radius / r))
+    cosc = -(x * dx + yy * dy + z * dz) / (r * d)
+    c = math.acos(max(-1.0, min(1.0, cosc)))
+    if kind == 2:
+        return c - (a + b)
+    return c - (b - a)
+
+
+@kernel
+def dense_eval(t, t_old, h, y_old, F, out):
+    """Evaluate the DOP853 dense-output polynomial of the last step at time t."""
+    xx = (t - t_old) / h
+    n = y_old.shape[0]
+    for j in range(n):
+        acc = 0.0
+        for i in range(F.shape[0] - 1, -1, -1):
+            acc += F[i, j]
+            # the innermost coefficient (i = 6) is multiplied by x, then alternately 1-x, x ...
+            if (F.shape[0] - 1 - i) % 2 == 0:
+                acc *= xx
+            else:
+                acc *= 1.0 - xx
+        out[j] = y_old[j] + acc
+
+
+
+@step_kernel
+def locate_zero(kind, param, ta, tb, fa, fb, tol, t, h, y, F, y_tmp, force, eph_r, eph_v):
+    """Bracket [ta, tb] (either order) of a zero of event function ``kind`` on the dense output
+    of the step (t, h), narrowed to ``tol`` s by the Illinois variant of regula falsi from the
+    values ``fa``, ``fb`` of opposite signs at its ends. Returns the narrowed (ta, tb): ``ta`` on
+    ``fa``'s side, ``tb`` on ``fb``'s (both the zero when it is hit exactly)."""
+    side = 0
+    tc = tb
+    for _ in range(200):
+        if abs(tb - ta) <= tol:
+            break
+        tc = (fa * tb - fb * ta) / (fa - fb)
+        if not (min(ta, tb) < tc < max(ta, tb)):
+            tc = 0.5 * (ta + tb)
+        dense_eval(tc, t, h, y, F, y_tmp)
+        fc = event_function(kind, param, tc, y_tmp, force, eph_r, eph_v)
+        if fc == 0.0:
+            ta = tc
+            tb = tc
+            break
+        if (fc < 0.0) == (fb < 0.0):
+            tb = tc
+            fb = fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            ta = tc
+            fa = fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        if abs(tb - ta) <= tol:
+            break
+    return ta, tb
+
+
+#: Points of the dense output (fractions of the step, the end last) where the shadow boundary
+#: functions are sampled to find a boundary crossed within a step (also one entered and left
+#: again between the step's ends).
+SHADOW_SAMPLES = 3
+#: Tolerance of the shadow boundary location, relative to the step.
+BOUNDARY_RTOL = 1e-9
+
+
+@kernel
+def shadow_boundary_kind(model, which):
+    """Event kind of boundary ``which`` of SRP shadow ``model`` (1 cylindrical: its one
+    boundary, event kind 1; 2 conical: ``which`` 0 the penumbra, kind 2, 1 the umbra, kind 3)."""
+    if model == 1:
+        return 1
+    return 2 + which
+
+
+@kernel
+def lock_shadow(rforce, model, side0):
+    """Set the SRP slots of ``rforce`` (the integrator's copy of the force block) so that the
+    cylindrical shadow stays on one side during a step: ``side0`` +1 lit (no shadow test), -1 in
+    the shadow (no SRP). The conical shadow fraction is continuous: nothing to lock."""
+    if model != 1:
+        return
+    if side0 > 0.0:
+        rforce[fb.SRP_ON] = 1.0
+        rforce[fb.SHADOW_MODEL] = 0.0
+    else:
+        rforce[fb.SRP_ON] = 0.0
+
+
+@step_kernel
+def shadow_sides(model, n_sh, t, y, force, eph_r, eph_v):
+    """The sides (+1 outside, -1 inside) of the shadow boundaries of SRP ``model`` at (t, y)."""
+    side1 = 1.0
+    g = event_function(shadow_boundary_kind(model, 0), 0.0, t, y, force, eph_r, eph_v)
+    side0 = 1.0 if g >= 0.0 else -1.0
+    if n_sh == 2:
+        g = event_function(shadow_boundary_kind(model, 1), 0.0, t, y, force, eph_r, eph_v)
+        side1 = 1.0 if g >= 0.0 else -1.0
+    return side0, side1
+
+
+@step_kernel
+def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, force, eph_r, eph_v):
+    """The first point of the step (t, t + h) where a shadow boundary function of SRP ``model``
+    leaves the side it had at t (``side0``, ``side1``: +1 outside, -1 inside), from samples of
+    the dense output, located to ``BOUNDARY_RTOL`` |h|. Returns (ta, tb, which): the zero lies
+    in [ta, tb], tb on the new side; which = -1 when no boundary is crossed."""
+    tol = BOUNDARY_RTOL * abs(h)
+    t_prev = t
+    for k in range(1, SHADOW_SAMPLES + 1):
+        tk = t + h * k / SHADOW_SAMPLES
+        if k == SHADOW_SAMPLES:
+            tk = t + h
+            for j in range(6):
+                y_tmp[j] = y_new[j]
+        else:
+            dense_eval(tk, t, h, y, F, y_tmp)
+        best_a = tk
+        best_b = tk
+        best = -1
+        for which in range(n_sh):
+            kind = shadow_boundary_kind(model, which)
+            side = side0 if which == 0 else side1
+            gb = event_function(kind, 0.0, tk, y_tmp, force, eph_r, eph_v)
+            if (gb >= 0.0) == (side > 0.0):
+                continue
+            # a crossing in (t_prev, tk]: the value at t_prev on the old side (at t, a value just
+            # past the boundary may have the new side's sign: then take one of the size of gb)
+            dense_eval(t_prev, t, h, y, F, y_tmp)
+            if t_prev == t:
+                for j in range(6):
+                    y_tmp[j] = y[j]
+            ga = event_function(kind, 0.0, t_prev, y_tmp, force, eph_r, eph_v)
+            if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
+                ga = side * abs(gb) if gb != 0.0 else side
+            if gb == 0.0:
+                gb = -side * abs(ga)
+            ta, tb = locate_zero(kind, 0.0, t_prev, tk, ga, gb, tol, t, h, y, F, y_tmp, force,
+                               eph_r, eph_v)
+            if best < 0 or (tb - best_b) * h < 0.0:
+                best_a = ta
+                best_b = tb
+                best = which
+            if k == SHADOW_SAMPLES:
+                for j in range(6):
+                    y_tmp[j] = y_new[j]
+            else:
+                dense_eval(tk, t, h, y, F, y_tmp)
+        if best >= 0:
+            return best_a, best_b, best
+        t_prev = tk
+    return t + h, t + h, -1

@@ -49,8 +49,10 @@ from .cowell_events import (
     BOUNDARY_RTOL,
     dense_eval,
     event_function,
+    fix_boundary_events,
     locate_zero,
     lock_shadow,
+    shadow_boundary_kind,
     shadow_crossing,
     shadow_sides,
 )
@@ -436,6 +438,11 @@ def integrate_cowell(
         if full is not None:
             for e in range(n_ev):
                 g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
+            if flip >= 0:
+                # the step ends at a shadow boundary: an event on the same boundary function
+                # takes the side beyond it (its value there may round to either side)
+                fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
+                                    -(side0 if flip == 0 else side1))
             # find all crossings in this step, ordered in time
             while True:
                 best_t = t_stop

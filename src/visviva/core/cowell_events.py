@@ -31,7 +31,8 @@ from ._jit import kernel, step_kernel
 from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
-           "shadow_boundary_kind", "lock_shadow", "shadow_sides", "shadow_crossing"]
+           "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_sides",
+           "shadow_crossing"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -159,6 +160,18 @@ def lock_shadow(rforce, model, side0):
         rforce[fb.SHADOW_MODEL] = 0.0
     else:
         rforce[fb.SRP_ON] = 0.0
+
+
+@kernel
+def fix_boundary_events(ev_kind, g, kind, side):
+    """Give the events of ``kind`` in ``g`` (their values at the end of a step that ends on that
+    shadow boundary) the sign of ``side`` (+1 outside, -1 inside): the boundary is crossed there,
+    whatever side rounding put the step's end on, so the event is reported in this step (at the
+    boundary, to its time tolerance) and not missed or reported again in the next."""
+    for e in range(ev_kind.shape[0]):
+        if ev_kind[e] == kind and (g[e] == 0.0 or (g[e] > 0.0) != (side > 0.0)):
+            ga = abs(g[e])
+            g[e] = side * (ga if ga > 0.0 else 1e-300)
 
 
 @step_kernel

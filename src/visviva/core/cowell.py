@@ -65,8 +65,8 @@ _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
 #: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
-#: state vectors; 6 columns).
-WORK_ROWS = 30
+#: state vectors, the shadow boundary samples; 6 columns).
+WORK_ROWS = 31
 
 
 @inline_kernel
@@ -226,6 +226,7 @@ def integrate_cowell(
     scale = work[27]
     err5 = work[28]
     err3 = work[29]
+    gs = work[30]
     for i in range(WORK_ROWS):
         for j in range(n):
             work[i, j] = 0.0
@@ -412,7 +413,8 @@ def integrate_cowell(
                     resync = True  # found at t again and again: take the step, sides from its end
                 else:
                     ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y,
-                                                           y_new, F, y_tmp, force, eph_r, eph_v)
+                                                           y_new, F, y_tmp, gs, force, eph_r,
+                                                           eph_v)
                     if which_b >= 0:
                         if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
                             # the boundary is at t (within the tolerance): cross it here

@@ -186,54 +186,99 @@ def shadow_sides(model, n_sh, t, y, force, eph_r, eph_v):
     return side0, side1
 
 
+@kernel
+def _sample(k, t, h, y, y_new, F, out):
+    """The state at sample ``k`` of :data:`SHADOW_SAMPLES` of the step (t, h) into ``out`` (k = 0:
+    ``y``, the last: ``y_new``, between: the dense output); returns its time."""
+    if k == 0:
+        for j in range(6):
+            out[j] = y[j]
+        return t
+    if k == SHADOW_SAMPLES:
+        for j in range(6):
+            out[j] = y_new[j]
+        return t + h
+    tk = t + h * k / SHADOW_SAMPLES
+    dense_eval(tk, t, h, y, F, out)
+    return tk
+
+
 @step_kernel
-def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, force, eph_r, eph_v):
+def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs, force, eph_r,
+                    eph_v):  # fmt: skip
     """The first point of the step (t, t + h) where a shadow boundary function of SRP ``model``
-    leaves the side it had at t (``side0``, ``side1``: +1 outside, -1 inside), from samples of
-    the dense output, located to ``BOUNDARY_RTOL`` |h|. Returns (ta, tb, which): the zero lies
-    in [ta, tb], tb on the new side; which = -1 when no boundary is crossed."""
+    leaves the side it had at t (``side0``, ``side1``: +1 outside, -1 inside), located to
+    ``BOUNDARY_RTOL`` |h| on the dense output. Returns (ta, tb, which): the zero lies in
+    [ta, tb], tb on the new side; which = -1 when no boundary is crossed.
+
+    Each function is sampled at :data:`SHADOW_SAMPLES` + 1 points of the step (into ``gs``, as
+    side * g: positive on the current side). A crossing shows as a sample on the other side; a
+    shadow entered and left again between two samples (grazing) as a minimum between them: where
+    the parabola through three neighbouring samples dips below half their least value, its
+    vertex is sampled too (the functions are smooth on the scale of a step, so the parabola
+    finds the minimum of a dip shorter than the samples' spacing)."""
     tol = BOUNDARY_RTOL * abs(h)
-    t_prev = t
-    for k in range(1, SHADOW_SAMPLES + 1):
-        tk = t + h * k / SHADOW_SAMPLES
-        if k == SHADOW_SAMPLES:
-            tk = t + h
-            for j in range(6):
-                y_tmp[j] = y_new[j]
-        else:
-            dense_eval(tk, t, h, y, F, y_tmp)
-        best_a = tk
-        best_b = tk
-        best = -1
-        for which in range(n_sh):
-            kind = shadow_boundary_kind(model, which)
-            side = side0 if which == 0 else side1
-            gb = event_function(kind, 0.0, tk, y_tmp, force, eph_r, eph_v)
-            if (gb >= 0.0) == (side > 0.0):
-                continue
-            # a crossing in (t_prev, tk]: the value at t_prev on the old side (at t, a value just
-            # past the boundary may have the new side's sign: then take one of the size of gb)
-            dense_eval(t_prev, t, h, y, F, y_tmp)
-            if t_prev == t:
-                for j in range(6):
-                    y_tmp[j] = y[j]
-            ga = event_function(kind, 0.0, t_prev, y_tmp, force, eph_r, eph_v)
-            if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
-                ga = side * abs(gb) if gb != 0.0 else side
-            if gb == 0.0:
-                gb = -side * abs(ga)
-            ta, tb = locate_zero(kind, 0.0, t_prev, tk, ga, gb, tol, t, h, y, F, y_tmp, force,
-                               eph_r, eph_v)
-            if best < 0 or (tb - best_b) * h < 0.0:
-                best_a = ta
-                best_b = tb
-                best = which
-            if k == SHADOW_SAMPLES:
-                for j in range(6):
-                    y_tmp[j] = y_new[j]
-            else:
-                dense_eval(tk, t, h, y, F, y_tmp)
-        if best >= 0:
-            return best_a, best_b, best
-        t_prev = tk
-    return t + h, t + h, -1
+    best = -1
+    best_a = t + h
+    best_b = t + h
+    for which in range(n_sh):
+        kind = shadow_boundary_kind(model, which)
+        side = side0 if which == 0 else side1
+        found = False
+        ta = t
+        tb = t
+        ga = 0.0
+        gb = 0.0
+        for k in range(SHADOW_SAMPLES + 1):
+            tk = _sample(k, t, h, y, y_new, F, y_tmp)
+            g = event_function(kind, 0.0, tk, y_tmp, force, eph_r, eph_v)
+            gs[k] = side * g
+            if k > 0 and (g >= 0.0) != (side > 0.0):
+                found = True
+                ta = t + h * (k - 1) / SHADOW_SAMPLES if k > 1 else t
+                tb = tk
+                ga = side * gs[k - 1]
+                gb = g
+                break
+        if not found:
+            for k in range(1, SHADOW_SAMPLES):
+                p0 = gs[k - 1]
+                p1 = gs[k]
+                p2 = gs[k + 1]
+                curv = 0.5 * (p0 - 2.0 * p1 + p2)
+                if curv <= 0.0:
+                    continue
+                slope = 0.5 * (p2 - p0)
+                u = -slope / (2.0 * curv)
+                if u < -1.0 or u > 1.0:
+                    continue
+                low = p0 if p0 < p1 else p1
+                low = p2 if p2 < low else low
+                if p1 - slope * slope / (4.0 * curv) >= 0.5 * low:
+                    continue
+                tv = t + h * (k + u) / SHADOW_SAMPLES
+                dense_eval(tv, t, h, y, F, y_tmp)
+                g = event_function(kind, 0.0, tv, y_tmp, force, eph_r, eph_v)
+                if (g >= 0.0) != (side > 0.0):
+                    found = True
+                    kk = k - 1 if u < 0.0 else k
+                    ta = t + h * kk / SHADOW_SAMPLES if kk > 0 else t
+                    tb = tv
+                    ga = side * gs[kk]
+                    gb = g
+                    break
+        if not found:
+            continue
+        # the value at ta on the old side (at t, a value just past the boundary may have the
+        # new side's sign: then take one of the size of gb)
+        if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
+            ga = side * abs(gb) if gb != 0.0 else side
+        if gb == 0.0:
+            gb = -side * abs(ga)
+        ta, tb = locate_zero(kind, 0.0, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
+                             eph_v)
+        if best < 0 or (tb - best_b) * h < 0.0:
+            best_a = ta
+            best_b = tb
+            best = which
+    return best_a, best_b, best

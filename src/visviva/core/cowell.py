@@ -65,8 +65,8 @@ _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
 #: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
-#: state vectors, the shadow boundary samples; 6 columns).
-WORK_ROWS = 31
+#: state vectors, 2 rows of shadow boundary samples, the Sun's position for them; 6 columns).
+WORK_ROWS = 33
 
 
 @inline_kernel
@@ -226,7 +226,9 @@ def integrate_cowell(
     scale = work[27]
     err5 = work[28]
     err3 = work[29]
-    gs = work[30]
+    gs0 = work[30]
+    gs1 = work[31]
+    sun_s = work[32]
     for i in range(WORK_ROWS):
         for j in range(n):
             work[i, j] = 0.0
@@ -253,7 +255,7 @@ def integrate_cowell(
         if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
             sh_model = int(force[fb.SHADOW_MODEL])
             n_sh = 1 if sh_model == 1 else 2
-            side0, side1 = shadow_sides(sh_model, n_sh, t, y, force, eph_r, eph_v)
+            side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
             rforce = force.copy()
             lock_shadow(rforce, sh_model, side0)
     bnd_pending = False  # the step being tried ends at the boundary t_bnd
@@ -413,8 +415,8 @@ def integrate_cowell(
                     resync = True  # found at t again and again: take the step, sides from its end
                 else:
                     ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y,
-                                                           y_new, F, y_tmp, gs, force, eph_r,
-                                                           eph_v)
+                                                           y_new, F, y_tmp, gs0, gs1, sun_s,
+                                                           force, eph_r, eph_v)
                     if which_b >= 0:
                         if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
                             # the boundary is at t (within the tolerance): cross it here
@@ -517,7 +519,7 @@ def integrate_cowell(
                 elif flip == 1:
                     side1 = -side1
                 else:
-                    side0, side1 = shadow_sides(sh_model, n_sh, t, y, force, eph_r, eph_v)
+                    side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
                 if sh_model == 1:
                     # the force changes at the boundary: a fresh derivative (no FSAL)
                     lock_shadow(rforce, sh_model, side0)

@@ -27,12 +27,12 @@ import math
 import numpy as np
 
 from . import force_block as fb
-from ._jit import kernel, step_kernel
+from ._jit import inline_kernel, kernel, step_kernel
 from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
-           "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_sides",
-           "shadow_crossing"]
+           "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
+           "shadow_sides", "shadow_crossing"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -52,28 +52,43 @@ def event_function(kind, param, t, y, force, eph_r, eph_v):
         return 1.0
     s = np.empty(3)
     hermite_position(t, sun, force, eph_r, eph_v, s)
+    g0, g1 = _shadow_pair(1 if kind == 1 else 2, x, yy, z, s, force[fb.RADIUS],
+                          force[fb.SUN_RADIUS])
+    return g1 if kind == 3 else g0
+
+
+@inline_kernel
+def _shadow_pair(model, x, yy, z, s, radius, sun_radius):
+    """The shadow boundary functions at r = (x, yy, z) with the Sun at ``s``: model 1, (the
+    cylinder's, 1.0) (event kind 1); model 2, (the penumbra's, the umbra's) (kinds 2, 3)."""
     r = math.sqrt(x * x + yy * yy + z * z)
-    radius = force[fb.RADIUS]
-    if kind == 1:
+    if model == 1:
         sn = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
         proj = (x * s[0] + yy * s[1] + z * s[2]) / sn
         if proj >= 0.0:
-            return r
+            return r, 1.0
         px = x - proj * s[0] / sn
         py = yy - proj * s[1] / sn
         pz = z - proj * s[2] / sn
-        return math.sqrt(px * px + py * py + pz * pz) - radius
+        return math.sqrt(px * px + py * py + pz * pz) - radius, 1.0
     dx = s[0] - x
     dy = s[1] - yy
     dz = s[2] - z
     d = math.sqrt(dx * dx + dy * dy + dz * dz)
-    a = math.asin(min(1.0, force[fb.SUN_RADIUS] / d))
+    a = math.asin(min(1.0, sun_radius / d))
     b = math.asin(min(1.0, radius / r))
     cosc = -(x * dx + yy * dy + z * dz) / (r * d)
     c = math.acos(max(-1.0, min(1.0, cosc)))
-    if kind == 2:
-        return c - (a + b)
-    return c - (b - a)
+    return c - (a + b), c - (b - a)
+
+
+@kernel
+def shadow_values(model, t, y, force, eph_r, eph_v, s):
+    """Both boundary functions of SRP shadow ``model`` at (t, y) (:func:`_shadow_pair`; the
+    values of :func:`event_function` of their kinds, without its scratch array: the Sun's
+    position goes to ``s``, 3 values)."""
+    hermite_position(t, int(force[fb.SUN_ROW]), force, eph_r, eph_v, s)
+    return _shadow_pair(model, y[0], y[1], y[2], s, force[fb.RADIUS], force[fb.SUN_RADIUS])
 
 
 @kernel
@@ -175,15 +190,10 @@ def fix_boundary_events(ev_kind, g, kind, side):
 
 
 @step_kernel
-def shadow_sides(model, n_sh, t, y, force, eph_r, eph_v):
-    """The sides (+1 outside, -1 inside) of the shadow boundaries of SRP ``model`` at (t, y)."""
-    side1 = 1.0
-    g = event_function(shadow_boundary_kind(model, 0), 0.0, t, y, force, eph_r, eph_v)
-    side0 = 1.0 if g >= 0.0 else -1.0
-    if n_sh == 2:
-        g = event_function(shadow_boundary_kind(model, 1), 0.0, t, y, force, eph_r, eph_v)
-        side1 = 1.0 if g >= 0.0 else -1.0
-    return side0, side1
+def shadow_sides(model, t, y, force, eph_r, eph_v, s):
+    """The sides (+1 outside, -1 inside) of the boundaries of SRP shadow ``model`` at (t, y)."""
+    g0, g1 = shadow_values(model, t, y, force, eph_r, eph_v, s)
+    return (1.0 if g0 >= 0.0 else -1.0), (1.0 if g1 >= 0.0 else -1.0)
 
 
 @kernel
@@ -203,74 +213,85 @@ def _sample(k, t, h, y, y_new, F, out):
     return tk
 
 
+@kernel
+def _dip_vertex(gs, k):
+    """Where the parabola through the samples gs[k - 1], gs[k], gs[k + 1] (distances from a
+    boundary, positive on the current side) has a minimum below half their least value, in
+    sample units from k (-1..1); 2.0 where it has none."""
+    p0 = gs[k - 1]
+    p1 = gs[k]
+    p2 = gs[k + 1]
+    curv = 0.5 * (p0 - 2.0 * p1 + p2)
+    if curv <= 0.0:
+        return 2.0
+    slope = 0.5 * (p2 - p0)
+    u = -slope / (2.0 * curv)
+    if u < -1.0 or u > 1.0:
+        return 2.0
+    low = p0 if p0 < p1 else p1
+    low = p2 if p2 < low else low
+    if p1 - slope * slope / (4.0 * curv) >= 0.5 * low:
+        return 2.0
+    return u
+
+
 @step_kernel
-def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs, force, eph_r,
-                    eph_v):  # fmt: skip
+def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs1, s, force,
+                    eph_r, eph_v):  # fmt: skip
     """The first point of the step (t, t + h) where a shadow boundary function of SRP ``model``
     leaves the side it had at t (``side0``, ``side1``: +1 outside, -1 inside), located to
     ``BOUNDARY_RTOL`` |h| on the dense output. Returns (ta, tb, which): the zero lies in
     [ta, tb], tb on the new side; which = -1 when no boundary is crossed.
 
-    Each function is sampled at :data:`SHADOW_SAMPLES` + 1 points of the step (into ``gs``, as
-    side * g: positive on the current side). A crossing shows as a sample on the other side; a
-    shadow entered and left again between two samples (grazing) as a minimum between them: where
-    the parabola through three neighbouring samples dips below half their least value, its
-    vertex is sampled too (the functions are smooth on the scale of a step, so the parabola
-    finds the minimum of a dip shorter than the samples' spacing)."""
+    The functions are sampled at :data:`SHADOW_SAMPLES` + 1 points of the step (into ``gs0``,
+    ``gs1``, as side * g: positive on the current side; ``s``: scratch for the Sun). A crossing
+    shows as a sample on the other side; a shadow entered and left again between two samples
+    (grazing) as a minimum between them: where the parabola through three neighbouring samples
+    dips below half their least value, its vertex is sampled too (the functions are smooth on
+    the scale of a step, so the parabola finds the minimum of a dip shorter than the samples'
+    spacing)."""
+    for k in range(SHADOW_SAMPLES + 1):
+        tk = _sample(k, t, h, y, y_new, F, y_tmp)
+        g0, g1 = shadow_values(model, tk, y_tmp, force, eph_r, eph_v, s)
+        gs0[k] = side0 * g0
+        gs1[k] = side1 * g1
     tol = BOUNDARY_RTOL * abs(h)
     best = -1
     best_a = t + h
     best_b = t + h
     for which in range(n_sh):
-        kind = shadow_boundary_kind(model, which)
+        gs = gs0 if which == 0 else gs1
         side = side0 if which == 0 else side1
-        found = False
-        ta = t
+        kind = shadow_boundary_kind(model, which)
+        ka = -1  # the crossing lies after sample ka (gs[ka] on the old side) and before tb
         tb = t
-        ga = 0.0
         gb = 0.0
-        for k in range(SHADOW_SAMPLES + 1):
-            tk = _sample(k, t, h, y, y_new, F, y_tmp)
-            g = event_function(kind, 0.0, tk, y_tmp, force, eph_r, eph_v)
-            gs[k] = side * g
-            if k > 0 and (g >= 0.0) != (side > 0.0):
-                found = True
-                ta = t + h * (k - 1) / SHADOW_SAMPLES if k > 1 else t
-                tb = tk
-                ga = side * gs[k - 1]
-                gb = g
+        for k in range(1, SHADOW_SAMPLES + 1):
+            if (gs[k] * side >= 0.0) != (side > 0.0):
+                ka = k - 1
+                tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
+                gb = gs[k] * side
                 break
-        if not found:
+        if ka < 0:
             for k in range(1, SHADOW_SAMPLES):
-                p0 = gs[k - 1]
-                p1 = gs[k]
-                p2 = gs[k + 1]
-                curv = 0.5 * (p0 - 2.0 * p1 + p2)
-                if curv <= 0.0:
-                    continue
-                slope = 0.5 * (p2 - p0)
-                u = -slope / (2.0 * curv)
-                if u < -1.0 or u > 1.0:
-                    continue
-                low = p0 if p0 < p1 else p1
-                low = p2 if p2 < low else low
-                if p1 - slope * slope / (4.0 * curv) >= 0.5 * low:
+                u = _dip_vertex(gs, k)
+                if u > 1.0:
                     continue
                 tv = t + h * (k + u) / SHADOW_SAMPLES
                 dense_eval(tv, t, h, y, F, y_tmp)
-                g = event_function(kind, 0.0, tv, y_tmp, force, eph_r, eph_v)
+                g0, g1 = shadow_values(model, tv, y_tmp, force, eph_r, eph_v, s)
+                g = g0 if which == 0 else g1
                 if (g >= 0.0) != (side > 0.0):
-                    found = True
-                    kk = k - 1 if u < 0.0 else k
-                    ta = t + h * kk / SHADOW_SAMPLES if kk > 0 else t
+                    ka = k - 1 if u < 0.0 else k
                     tb = tv
-                    ga = side * gs[kk]
                     gb = g
                     break
-        if not found:
+        if ka < 0:
             continue
+        ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
         # the value at ta on the old side (at t, a value just past the boundary may have the
         # new side's sign: then take one of the size of gb)
+        ga = side * gs[ka]
         if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
             ga = side * abs(gb) if gb != 0.0 else side
         if gb == 0.0:

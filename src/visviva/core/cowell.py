@@ -52,6 +52,7 @@ from .cowell_events import (
     fix_boundary_events,
     locate_zero,
     lock_shadow,
+    penumbra_step,
     shadow_boundary_kind,
     shadow_crossing,
     shadow_sides,
@@ -262,6 +263,7 @@ def integrate_cowell(
     t_bnd = 0.0
     bnd_which = -1
     h_keep = 0.0  # the step size before the step was cut at a boundary
+    pen_cap = math.inf  # the largest step in the penumbra
     n_here = 0  # boundaries crossed at the current t without a step (guard)
 
     # outputs at the start time
@@ -319,6 +321,9 @@ def integrate_cowell(
         min_step = 10.0 * abs(math.nextafter(t, direction * math.inf) - t)
         if h_abs > h_max:
             h_abs = h_max
+        if full is not None:
+            if side0 < 0.0 and side1 > 0.0 and h_abs > pen_cap:
+                h_abs = pen_cap  # in the penumbra (conical shadow)
         if h_abs < min_step:
             status = st.STEP_TOO_SMALL
             break
@@ -514,6 +519,8 @@ def integrate_cowell(
             f[j] = K[_N_STAGES, j]
         if full is not None:
             if flip >= 0 or resync:
+                if flip >= 0 and sh_model == 2:
+                    pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h)
                 if flip == 0:
                     side0 = -side0
                 elif flip == 1:

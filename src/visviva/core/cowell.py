@@ -322,7 +322,7 @@ def integrate_cowell(
         if h_abs > h_max:
             h_abs = h_max
         if full is not None:
-            if side0 < 0.0 and side1 > 0.0 and h_abs > pen_cap:
+            if side0 < 0.0 and side1 > 0.0 and h_abs > pen_cap and pen_cap > 100.0 * min_step:
                 h_abs = pen_cap  # in the penumbra (conical shadow)
         if h_abs < min_step:
             status = st.STEP_TOO_SMALL
@@ -520,7 +520,9 @@ def integrate_cowell(
         if full is not None:
             if flip >= 0 or resync:
                 if flip >= 0 and sh_model == 2:
-                    pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h)
+                    v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+                    pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h,
+                                            force[fb.SRP_COEFFICIENT], atol + rtol * v)
                 if flip == 0:
                     side0 = -side0
                 elif flip == 1:

@@ -31,7 +31,7 @@ from ._jit import inline_kernel, kernel, step_kernel
 from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
-           "PENUMBRA_STEPS", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
+           "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing"]
 
 @kernel
@@ -191,25 +191,34 @@ def fix_boundary_events(ev_kind, g, kind, side):
 
 #: Steps across the conical shadow's penumbra, at least (:func:`penumbra_step`).
 PENUMBRA_STEPS = 4
+#: The penumbra gets :data:`PENUMBRA_STEPS` steps when the velocity SRP gives across it exceeds
+#: this many times the velocity tolerance (:func:`penumbra_step`).
+PENUMBRA_IMPULSE = 1000.0
 
 
 @kernel
-def penumbra_step(g0, g1, which, h):
+def penumbra_step(g0, g1, which, h, srp_accel, v_tol):
     """The largest step in the penumbra just entered, s: its crossing time over
-    :data:`PENUMBRA_STEPS`; ``inf`` where it cannot be estimated.
+    :data:`PENUMBRA_STEPS`, when SRP (``srp_accel``, km/s^2) gives more than
+    :data:`PENUMBRA_IMPULSE` times the velocity tolerance ``v_tol`` (km/s) across it; else, or
+    where it cannot be estimated, ``inf``.
 
     ``g0``, ``g1`` are the penumbra and umbra functions at the start of the step of length ``h``
     that ended on boundary ``which``: the penumbra is 2a wide in them (a, the Sun's apparent
     radius: g1 - g0 = 2a) and is crossed at about the rate |g_which| / |h|. The fraction of the
     Sun seen varies like depth^(3/2) near the penumbra's edges (the overlap of two discs), so
-    the force's second derivative is unbounded there; DOP853's error estimate then lets one step
-    take the whole penumbra (6 mm off after 10 days of GEO in eclipse season, 0.24 mm with this
-    limit, which costs one LEO day with SRP about 16 % more steps)."""
+    the force's second derivative is unbounded there, and DOP853's error estimate lets one step
+    take the whole penumbra: 6 mm off after 10 days of GEO in eclipse season, 0.24 mm with
+    this limit. In LEO (a penumbra of ~10 s, 12 times shorter) the limit is not needed at the
+    default tolerances (0.15 mm after a day without it) and would cost 16 % more steps."""
     g = g0 if which == 0 else g1
     two_a = g1 - g0
     if g == 0.0 or not two_a > 0.0:
         return math.inf
-    return abs(two_a * h / g) / PENUMBRA_STEPS
+    crossing = abs(two_a * h / g)
+    if srp_accel * crossing <= PENUMBRA_IMPULSE * v_tol:
+        return math.inf
+    return crossing / PENUMBRA_STEPS
 
 
 @step_kernel

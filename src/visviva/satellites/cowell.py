@@ -539,8 +539,8 @@ def propagate_cowell(
         :class:`~visviva.satellites.Apsides` ...
     rtol, atol : float
         Local error tolerances of the integrator (atol in km and km/s). The defaults keep the
-        error after one day of LEO near 0.2 mm, but not across SRP's shadow switch: with a
-        shadow model pass ``max_step=10 * u.s`` too (0.4 m to 4 m otherwise; docs/cowell.md).
+        error after one day of LEO near 0.2 mm, also with SRP and a shadow (steps end at the
+        shadow boundaries; docs/cowell.md, "Shadow boundaries").
     max_step : Quantity, optional
         Largest step size.
     max_steps : int

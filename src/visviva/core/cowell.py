@@ -49,6 +49,7 @@ from .cowell_events import (
     BOUNDARY_RTOL,
     dense_eval,
     event_function,
+    event_value,
     fix_boundary_events,
     locate_zero,
     lock_shadow,
@@ -85,18 +86,21 @@ def rk_combine(n, y, K, w, n_stages, h, out):
 
 
 #: The ``full`` argument of :func:`integrate_cowell` for a force model of the two-body and
-#: zonal terms alone and no events (a type, not a value: with ``None`` numba compiles
-#: :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body, SRP, shadow and
-#: harmonics kernels nor the event functions: about half the compile time of a first call).
+#: zonal terms alone and no events but altitude crossings (a type, not a value: with ``None``
+#: numba compiles :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body,
+#: SRP, shadow and harmonics kernels nor the other event functions and the shadow boundaries:
+#: about a third of the compile time of a first call, and half the run time of a J2 run).
 ZONAL_ONLY = None
-#: The ``full`` argument for any other force model or with events.
+#: The ``full`` argument for any other force model or other events.
 FULL = True
 
 
-def rhs_kind(force, n_events):
+def rhs_kind(force, ev_kind=()):
     """:data:`ZONAL_ONLY` when ``force`` (the force block) has no term beyond the two-body and
-    zonal ones and there are no events, else :data:`FULL` (plain Python, not compiled)."""
-    zonal_only = (n_events == 0 and force[fb.HARMONICS_DEGREE] < 2.0
+    zonal ones and every event of ``ev_kind`` is an altitude crossing (kind 0: the surface of
+    :mod:`visviva.satellites.surface` that bounds every perturbed run, ``AltitudeCrossing``,
+    ``ReEntry``), else :data:`FULL` (plain Python, not compiled)."""
+    zonal_only = (all(int(k) == 0 for k in ev_kind) and force[fb.HARMONICS_DEGREE] < 2.0
                   and force[fb.DRAG_ON] == 0.0 and int(force[fb.N_THIRD_BODIES]) == 0
                   and force[fb.SRP_ON] == 0.0)
     return ZONAL_ONLY if zonal_only else FULL
@@ -109,14 +113,6 @@ def _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, full):
         zonal_rhs(y, force, zonal, dy)
     else:
         cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy)
-
-
-@step_kernel
-def _event(kind, param, t, y, force, eph_r, eph_v, full):
-    # event_function; never reached with ZONAL_ONLY (no events), so not compiled there
-    if full is None:
-        return 0.0
-    return event_function(kind, param, t, y, force, eph_r, eph_v)
 
 
 @kernel
@@ -200,8 +196,8 @@ def integrate_cowell(
         rhs evaluations, final time reached, index of the terminal event or -1].
     full : None or bool
         :data:`ZONAL_ONLY` (``None``) for a force model of the two-body and zonal terms alone
-        without events (compiles only those; same bits), else :data:`FULL`; see
-        :func:`rhs_kind`.
+        with no events but altitude crossings (compiles only those; same bits), else
+        :data:`FULL`; see :func:`rhs_kind`.
     work : ndarray (WORK_ROWS, 6)
         Scratch space from the caller (its contents are ignored and overwritten). The kernel
         allocates no array (the event values are copies of ``ev_param``, which numba's array
@@ -275,7 +271,7 @@ def integrate_cowell(
     _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
     nfev += 1
     for e in range(n_ev):
-        g_old[e] = _event(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v, full)
+        g_old[e] = event_value(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v, full)
 
     interval = abs(t_end)
     if interval == 0.0:
@@ -442,16 +438,19 @@ def integrate_cowell(
                             h_abs = abs(t_bnd - t)
                         continue
 
-        # events in (t, t_new] (none in the ZONAL_ONLY kernel: numba drops this block)
+        # events in (t, t_new] (altitude crossings only in the ZONAL_ONLY kernel: rhs_kind)
         t_stop = t_new
-        if full is not None:
+        if n_ev > 0:
             for e in range(n_ev):
-                g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
-            if flip >= 0:
-                # the step ends at a shadow boundary: an event on the same boundary function
-                # takes the side beyond it (its value there may round to either side)
-                fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
-                                    -(side0 if flip == 0 else side1))
+                g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v,
+                                       full)
+            if full is not None:
+                if flip >= 0:
+                    # the step ends at a shadow boundary: an event on the same boundary
+                    # function takes the side beyond it (its value there may round to either
+                    # side)
+                    fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
+                                        -(side0 if flip == 0 else side1))
             # find all crossings in this step, ordered in time
             while True:
                 best_t = t_stop
@@ -469,8 +468,8 @@ def integrate_cowell(
                     if ev_dir[e] < 0 and rising:
                         continue
                     # Illinois regula falsi on the dense output between t and t_stop
-                    ta, tb = locate_zero(ev_kind[e], ev_param[e], t, t_new, ga, gb, ev_tol, t, h, y, F,
-                                       y_tmp, force, eph_r, eph_v)
+                    ta, tb = locate_zero(ev_kind[e], ev_param[e], t, t_new, ga, gb, ev_tol, t, h,
+                                         y, F, y_tmp, force, eph_r, eph_v, full)
                     # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
                     tc = 0.5 * (ta + tb)
                     if direction * (tc - best_t) < 0.0 or best_e < 0:

@@ -30,7 +30,7 @@ from . import force_block as fb
 from ._jit import inline_kernel, kernel, step_kernel
 from .perturbations import geodetic_altitude, hermite_position
 
-__all__ = ["event_function", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
+__all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing"]
 
@@ -110,21 +110,35 @@ def dense_eval(t, t_old, h, y_old, F, out):
 
 
 @step_kernel
-def locate_zero(kind, param, ta, tb, fa, fb, tol, t, h, y, F, y_tmp, force, eph_r, eph_v):
+def event_value(kind, param, t, y, force, eph_r, eph_v, full):
+    """:func:`event_function`, or with ``full`` None (the ZONAL_ONLY kernel of
+    :func:`visviva.core.cowell.integrate_cowell`, whose events are altitude crossings only:
+    :func:`visviva.core.cowell.rhs_kind`) the altitude function alone, so that numba compiles
+    none of the other kinds there (same value: kind 0 of :func:`event_function`)."""
+    if full is None:
+        return geodetic_altitude(y[0], y[1], y[2], force[fb.RADIUS], force[fb.FLATTENING]) - param
+    return event_function(kind, param, t, y, force, eph_r, eph_v)
+
+
+@step_kernel
+def locate_zero(kind, param, ta, tb, fa, fb, tol, t, h, y, F, y_tmp, force, eph_r, eph_v, full):
     """Bracket [ta, tb] (either order) of a zero of event function ``kind`` on the dense output
     of the step (t, h), narrowed to ``tol`` s by the Illinois variant of regula falsi from the
-    values ``fa``, ``fb`` of opposite signs at its ends. Returns the narrowed (ta, tb): ``ta`` on
-    ``fa``'s side, ``tb`` on ``fb``'s (both the zero when it is hit exactly)."""
+    values ``fa``, ``fb`` of opposite signs at its ends (``full`` as for :func:`event_value`).
+    Returns the narrowed (ta, tb): ``ta`` on ``fa``'s side, ``tb`` on ``fb``'s (both the zero
+    when it is hit exactly)."""
     side = 0
     tc = tb
     for _ in range(200):
         if abs(tb - ta) <= tol:
             break
         tc = (fa * tb - fb * ta) / (fa - fb)
-        if not (min(ta, tb) < tc < max(ta, tb)):
+        lo = ta if ta < tb else tb  # no min/max: numba compiles their overloads in every process
+        hi = tb if ta < tb else ta
+        if not (lo < tc < hi):
             tc = 0.5 * (ta + tb)
         dense_eval(tc, t, h, y, F, y_tmp)
-        fc = event_function(kind, param, tc, y_tmp, force, eph_r, eph_v)
+        fc = event_value(kind, param, tc, y_tmp, force, eph_r, eph_v, full)
         if fc == 0.0:
             ta = tc
             tb = tc
@@ -329,7 +343,7 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
         if gb == 0.0:
             gb = -side * abs(ga)
         ta, tb = locate_zero(kind, 0.0, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
-                             eph_v)
+                             eph_v, True)
         if best < 0 or (tb - best_b) * h < 0.0:
             best_a = ta
             best_b = tb

@@ -454,7 +454,7 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
         status = _integrate((
             y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             kinds, params, dirs, terms, ev_tol, A, B, C, E3, E5, D,
-            y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, len(kinds)),
+            y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, kinds),
             np.zeros((WORK_ROWS, 6)),
         ), info)  # fmt: skip
         n_found = int(info[1])
@@ -485,7 +485,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
         info = np.zeros((n, 6))
         integrate_cowell_many(
             y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
-            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force, 0),
+            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force),
         )  # fmt: skip
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])

@@ -155,6 +155,16 @@ def test_j2_batch_tracks_sgp4_for_a_day():
     assert np.isfinite(j2.r.value).all()
 
 
+def test_j2_batch_refuses_a_decayed_satellite():
+    # mean motion 17.6 rev/day: mean perigee 6237 km, inside the Earth; SGP4 says "decayed"
+    # (error 6) but the secular batch returned positions 140 km underground as numbers
+    line1 = "1 99999U          21067.00000000  .00000000  00000-0  00000+0 0    03"
+    line2 = "2 99999  51.5662   0.0000 0010000   0.0000   0.0000 17.60000000    07"
+    sat = vv.Satellite.from_tle(line1, line2)
+    with pytest.raises(vv.InvalidInputError, match="99999.*decayed"):
+        propagate_j2_batch(Catalog([sat]), sat.epoch)
+
+
 def test_j2_batch_equals_the_secular_theory_of_visviva_satellites_secular(catalog):
     from visviva.satellites.secular import propagate_j2_secular
     from visviva.satellites.secular_batch import _mean_elements, _wgs72_body
@@ -273,3 +283,19 @@ def test_a_catalogue_travels_once_per_process():
     assert other is not first and len(other) == 1
     t = iss.epoch + np.arange(3) * u.min
     np.testing.assert_array_equal(first.propagate(t).r.value, cat.propagate(t).r.value)
+
+
+def test_a_kvn_omm_file_is_pointed_to_its_reader(tmp_path):
+    # vv.write_omm writes KVN by default; read_omm_file said only "pass format='json', 'csv' or
+    # 'xml'", with no way to get the file visviva itself wrote into a Catalog
+    from visviva.satellites.catalog import read_omm_file
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    path = tmp_path / "iss.omm"
+    vv.write_omm(sat.to_omm(), path, originator="TEST")
+    with pytest.raises(vv.InvalidInputError, match=r"KVN.*Catalog\.from_omm\(\[vv\.read_omm"):
+        read_omm_file(path)
+    cat = vv.Catalog.from_omm([vv.read_omm(path)])  # the path the message gives
+    assert cat[0].to_tle() == sat.to_tle()

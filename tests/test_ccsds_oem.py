@@ -344,6 +344,42 @@ def test_states_in_other_frames_match_astropy_via_satellite():
         seg.states_in("icrs")
 
 
+@pytest.mark.parametrize("frame", ["TEME", "ITRF", "GCRF"])
+def test_earth_states_read_from_a_file_know_their_frame(frame):
+    # seg.states, oem.interpolate(t) and opm.state were plain StateVectors whatever REF_FRAME
+    # said, so GroundStation.look read TEME as GCRS (9 km of range off) and ITRF (3,356 km off)
+    from visviva.ccsds.opm import OPM
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+    t = sat.epoch + np.arange(0, 600, 60.0) * u.s
+    mine = {"TEME": "teme", "ITRF": "itrs", "GCRF": "gcrs"}[frame]
+    s = getattr(sat, mine)(t)
+    oem = vv.read_oem(vv.write_oem(OEMSegment.from_states(
+        t, s.r.to_value(u.km), s.v.to_value(u.km / u.s), object_name="ISS", frame=frame)))
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(
+        vv.StateVectors(s.r[0], s.v[0], vv.EARTH, epoch=t[0]), object_name="ISS", frame=frame)))
+    got = (oem.segments[0].states, oem.segments[0].interpolate(t), oem.interpolate(t), opm.state,
+           oem.segments[0].states_in(mine))
+    for states in got:
+        assert states.frame == mine
+    site = vv.GroundStation(52.2 * u.deg, 0.12 * u.deg)
+    if mine == "itrs":
+        with pytest.raises(vv.InvalidInputError, match="ITRS"):
+            site.look(got[0])
+        with pytest.raises(vv.InvalidInputError, match="ITRS"):
+            vv.propagate_cowell(opm.state, 60 * u.s)
+    else:
+        truth = site.look(sat, t).range
+        for states in got[:3]:
+            assert np.abs(site.look(states).range - truth).max() < 1 * u.mm
+        assert abs(site.look(opm.state).range - truth[0]) < 1 * u.mm
+    moon = OEMSegment.from_states(t, s.r.to_value(u.km), s.v.to_value(u.km / u.s),
+                                  object_name="X", center="MOON", frame=frame)
+    assert getattr(moon.states, "frame", None) is None  # frames about other bodies: unlabelled
+
+
 def _with_comments_among_states():
     text = OEM_KVN.replace(
         "2024-01-31T00:02:00 6980.4",

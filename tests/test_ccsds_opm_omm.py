@@ -416,3 +416,23 @@ def test_to_tle_refuses_an_epoch_its_two_digit_year_cannot_hold(year):
     for ok in ("2056", "1957"):
         s = vv.Satellite.from_omm(vv.read_omm(OMM_KVN.replace("EPOCH = 2024", f"EPOCH = {ok}")))
         assert vv.Satellite.from_tle(*s.to_tle()).epoch.isot == s.epoch.isot
+
+
+def test_opm_from_satellite_states_writes_their_frame():
+    # OPM.from_state(sat.teme(t)) wrote TEME numbers under REF_FRAME = GCRF (its default), ~40 km
+    # off for anyone reading the file, with no error
+    from visviva.ccsds.opm import OPM
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    for mine, ccsds in (("teme", "TEME"), ("gcrs", "GCRF"), ("itrs", "ITRF")):
+        state = getattr(sat, mine)(sat.epoch)
+        opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="ISS")))
+        assert opm.frame == ccsds and opm.state.frame == mine
+        np.testing.assert_array_equal(opm.state.r, state.r)
+    assert OPM.from_state(sat.gcrs(sat.epoch), object_name="ISS", frame="EME2000").frame == "EME2000"
+    with pytest.raises(vv.InvalidInputError, match="TEME.*GCRF"):
+        OPM.from_state(sat.teme(sat.epoch), object_name="ISS", frame="GCRF")
+    plain = sat.gcrs(sat.epoch).to_state_vectors()
+    assert OPM.from_state(plain, object_name="ISS").frame == "GCRF"  # plain states: as before

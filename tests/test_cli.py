@@ -10,6 +10,7 @@ import types
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from visviva import cli
 from visviva.validation import runner
@@ -290,3 +291,13 @@ def test_bench_gpu_sections_return_their_rows(monkeypatch):
     rows = bench_gpu.run(quick=True, sections=("whfast",))
     assert isinstance(rows, list) and len(rows) == 1
     assert rows[0]["name"].startswith("WHFast on the GPU") and "skipped" in rows[0]["notes"]
+
+
+def test_top_level_help_speaks_to_users(capsys):
+    # `visviva --help` printed the module docstring: RST markup and the developers' _COMMANDS
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "_COMMANDS" not in out and "``" not in out
+    assert "visviva COMMAND --help" in out

@@ -94,3 +94,48 @@ def test_bad_ephemerides_are_refused(setup):
         vv.screen_conjunctions(cat, coarse, t0, t0 + 1 * u.hour)
     with pytest.raises(InvalidInputError, match="CowellResult"):
         vv.screen_conjunctions(np.zeros(3), None, t0, t0 + 1 * u.hour)
+
+
+def test_satellite_state_histories_are_screened_in_one_frame():
+    # sat1.teme(t) against sat2.gcrs(t) compared positions 40 km apart by frame alone: a 3.4 km
+    # approach was missed with no error
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    t = t0 + np.arange(0, 7201, 30) * u.s
+    a, b = cat[4], cat[5]
+    sgp4 = vv.screen_conjunctions(a, b, t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    assert len(sgp4) == 1
+    for frame in ("gcrs", "teme"):
+        tab = vv.screen_conjunctions(getattr(a, frame)(t), getattr(b, frame)(t), t0,
+                                     t0 + 2 * u.hour, threshold=20 * u.km)
+        assert len(tab) == 1
+        assert abs(tab["tca"][0] - sgp4["tca"][0]) < 0.01 * u.s
+        assert abs(tab["miss_distance"][0] - sgp4["miss_distance"][0]) < 1 * u.m
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
+        vv.screen_conjunctions(a.teme(t), b.gcrs(t), t0, t0 + 2 * u.hour)
+    with pytest.raises(InvalidInputError, match="GCRS and TEME are mixed"):
+        vv.screen_conjunctions([a.teme(t), b.gcrs(t)], None, t0, t0 + 2 * u.hour)
+    with pytest.raises(InvalidInputError, match="ITRS"):
+        vv.screen_conjunctions(a.itrs(t), b.itrs(t), t0, t0 + 2 * u.hour)
+
+
+def test_oem_ephemerides_are_screened(tmp_path):
+    # an OEM (vv.read_oem) was refused ("must be a Satellite, a Catalog, a CowellResult, ...")
+    from visviva.ccsds.oem import OEMSegment
+
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    t = t0 + np.arange(0, 7201, 30) * u.s
+    a, b = cat[4], cat[5]
+    oems = []
+    for sat, frame in ((a, "GCRF"), (b, "EME2000")):
+        s = sat.gcrs(t)
+        seg = OEMSegment.from_states(t, s.r.to_value(u.km), s.v.to_value(u.km / u.s),
+                                     object_name=sat.name, frame=frame)
+        oems.append(vv.read_oem(vv.write_oem(seg)))
+    ref = vv.screen_conjunctions(a.gcrs(t), b.gcrs(t), t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    tab = vv.screen_conjunctions(oems[0], oems[1], t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    assert len(tab) == len(ref) == 1
+    assert abs(tab["miss_distance"][0] - ref["miss_distance"][0]) < 1 * u.mm
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS|GCRS.*TEME"):
+        vv.screen_conjunctions(oems[0], b.teme(t), t0, t0 + 2 * u.hour)

@@ -11,7 +11,7 @@ from hypothesis import strategies as hs
 
 import visviva as vv
 from visviva.errors import InvalidInputError, ShapeError, UnitsError
-from visviva.satellites import propagate_cowell
+from visviva.satellites import AltitudeCrossing, propagate_cowell
 from visviva.validation.checks_cowell import srp_eccentricity_growth
 
 ONE_MM = 1e-6  # km
@@ -332,11 +332,34 @@ def test_zonal_only_kernel_gives_the_full_kernels_bits(monkeypatch):
                             [[0.0, 7.5, 1.0], [-6.9, 0.0, 1.5]] * u.km / u.s, vv.EARTH)
     t = np.linspace(0.0, 6 * 3600.0, 13) * u.s
     model = [vv.Zonal(vv.EARTH, 4)]
-    assert core_cowell.rhs_kind(np.zeros(core_cowell.fb.FORCE_SIZE), 0) is None
-    assert core_cowell.rhs_kind(np.zeros(core_cowell.fb.FORCE_SIZE), 1) is True
+    zeros = np.zeros(core_cowell.fb.FORCE_SIZE)
+    assert core_cowell.rhs_kind(zeros) is None
+    # altitude crossings (the surface that bounds every perturbed run, ReEntry) stay ZONAL_ONLY:
+    # the surface watch had put every J2 run on the full kernel (twice the run time, three
+    # times the first compile); other events need the full one
+    assert core_cowell.rhs_kind(zeros, np.array([0, 0])) is None
+    assert core_cowell.rhs_kind(zeros, np.array([0, 4])) is True
+    events = [AltitudeCrossing(700 * u.km), AltitudeCrossing(900 * u.km, direction=-1)]
     few = [propagate_cowell(s, t, model) for s in (state, batch)]
-    monkeypatch.setattr(sat_cowell, "rhs_kind", lambda force, n_events: core_cowell.FULL)
+    few_ev = propagate_cowell(state, t, model, events=events)
+    monkeypatch.setattr(sat_cowell, "rhs_kind", lambda force, ev_kind=(): core_cowell.FULL)
     full = [propagate_cowell(s, t, model) for s in (state, batch)]
-    for a, b in zip(few, full, strict=True):
+    full_ev = propagate_cowell(state, t, model, events=events)
+    for a, b in zip([*few, few_ev], [*full, full_ev], strict=True):
         np.testing.assert_array_equal(a.r.to_value(u.km), b.r.to_value(u.km))
         np.testing.assert_array_equal(a.v.to_value(u.km / u.s), b.v.to_value(u.km / u.s))
+    assert len(few_ev.events) > 0
+    assert [(e.what, e.t.value) for e in few_ev.events] == [(e.what, e.t.value)
+                                                            for e in full_ev.events]
+
+
+@pytest.mark.parametrize("frame", ["teme", "itrs"])
+def test_satellite_states_in_another_frame_than_gcrs_are_refused(frame):
+    # sat.teme(t) was integrated as if GCRS: 37 km off after 10 min (ITRS: 7,000 km), no error
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*gcrs"):
+        vv.propagate_cowell(getattr(sat, frame)(sat.epoch), 600 * u.s, [vv.J2()])
+    out = vv.propagate_cowell(sat.gcrs(sat.epoch), 600 * u.s, [vv.J2()])
+    assert np.linalg.norm((out.r - sat.gcrs(sat.epoch + 600 * u.s).r).to_value(u.km)) < 0.1

@@ -199,6 +199,9 @@ def test_cowell_dask_refuses_what_it_cannot_do(catalog, leo_states, times):
         propagate_dask(leo_states, np.arange(3) * u.min, method="cowell", tolerance=1e-9)
     with pytest.raises(vv.InvalidInputError, match="method must be one of"):
         propagate_dask(catalog, times, method="rk4")
+    teme = catalog[0].teme(catalog[0].epoch + np.arange(3) * u.min)  # was integrated as GCRS
+    with pytest.raises(vv.InvalidInputError, match="TEME: pass sat.gcrs"):
+        propagate_dask(teme, np.arange(3) * u.min, method="cowell")
     # a bad force model is refused when the graph is built, not later inside a worker (where it
     # logged a worker traceback at compute time)
     no_epoch = vv.StateVectors(leo_states.r, leo_states.v, vv.EARTH)

@@ -111,7 +111,9 @@ def _fresh_process(code, cache_dir):
     import subprocess
     import sys
 
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+    # what compiles is the question: the interpreter tier would run these small first calls
+    # without compiling anything (visviva.core.tier)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), VISVIVA_INTERPRET="0")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=env, timeout=900, check=True)
     return proc.stdout.strip().splitlines()[-1]

@@ -256,3 +256,34 @@ def test_hohmann_from_any_circle_arrives_and_equals_the_bielliptic_limit(r1, rat
     # ... plus half a circular orbit at that radius
     half_circle = np.pi * np.sqrt(max(r1, r2) ** 3 / MU)
     assert tb.to_value(u.s) == pytest.approx(tof.to_value(u.s) + half_circle, rel=1e-12)
+
+
+def test_manoeuvre_keeps_the_frame_of_satellite_states():
+    # Maneuver.apply(sat.teme(t)) returned plain StateVectors, which look() and Cowell then took
+    # for GCRS (tens of km off) with no error
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    man = Maneuver([(100 * u.s, [0, 0.01, 0] * u.km / u.s), (300 * u.s, [0.0, 0, 0.01] * u.km / u.s)])
+    teme = man.apply(sat.teme(sat.epoch))
+    gcrs = man.apply(sat.gcrs(sat.epoch))
+    assert teme.frame == "teme" and gcrs.frame == "gcrs"
+    site = vv.GroundStation(52.2 * u.deg, 0.12 * u.deg)
+    # the same Delta-v numbers point 0.33 deg apart in TEME and GCRS axes (precession since
+    # J2000): 10 m/s x 0.0058 rad over <= 300 s is < 20 m; taking TEME for GCRS was ~9 km
+    assert abs(site.look(teme).range - site.look(gcrs).range) < 20 * u.m
+    with pytest.raises(InvalidInputError, match="TEME"):
+        vv.propagate_cowell(teme, 60 * u.s)
+
+
+def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
+    # Maneuver.lambert(sat1.teme(t), sat2.gcrs(t), tof) aimed at a target 40 km off by frame alone
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    chaser, target = sat.teme(sat.epoch), sat.gcrs(sat.epoch + 20 * u.min)
+    with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
+        Maneuver.lambert(chaser, target, 30 * u.min)
+    same = Maneuver.lambert(sat.gcrs(sat.epoch), target, 30 * u.min)
+    arrived = same.apply(sat.gcrs(sat.epoch))
+    assert np.linalg.norm((arrived.r - target.propagate(10 * u.min).r).to_value(u.km)) < 1e-6

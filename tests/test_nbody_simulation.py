@@ -257,6 +257,34 @@ def test_rebound_round_trip():
 
 
 
+def test_rebound_interop_carries_the_units():
+    # from_rebound and to_rebound dropped the units: the copy took no Quantities in add() and a
+    # REBOUND copy had units None (G alone travelled)
+    rebound = pytest.importorskip("rebound")
+    r = rebound.Simulation()
+    r.units = ("AU", "yr", "Msun")
+    r.add(m=1.0)
+    r.add(m=1e-3, a=5.2, e=0.05)
+    sim = vv.Simulation.from_rebound(r)
+    assert sim.units.as_tuple() == ("au", "yr", "Msun") and sim.G == r.G  # G still exact
+    assert sim.add(1 * u.Mjup, r=[5.2, 0, 0] * u.au, v=[0, 13.06, 0] * u.km / u.s) == 2
+    assert sim.masses[2] == pytest.approx((1 * u.Mjup / u.Msun).to_value(u.one), rel=1e-12)
+    back = sim.to_rebound()
+    assert back.units == {"length": "au", "time": "yr", "mass": "msun"} and back.G == r.G
+    np.testing.assert_array_equal(vv.Simulation.from_rebound(back).positions, sim.positions)
+    mine = vv.Simulation(units=("km", "day", "Mearth"))
+    mine.add(1 * u.Mearth)
+    theirs = mine.to_rebound()
+    assert theirs.units == {"length": "km", "time": "day", "mass": "mearth"}
+    assert theirs.G == mine.G
+    odd = rebound.Simulation()
+    odd.units = ("AU", "yr2pi", "Msun")  # G = 1: no astropy name, a scaled unit instead
+    sim = vv.Simulation.from_rebound(odd)
+    assert sim.G == odd.G and sim.units.time_s == rebound.units.times_SI["yr2pi"]  # sidereal
+    assert sim.to_rebound().units["time"] == "yr2pi"
+    assert vv.Simulation.from_rebound(rebound.Simulation()).units is None
+
+
 def _three_bodies(**settings):
     sim = vv.Simulation(**settings)
     sim.add(1.0)

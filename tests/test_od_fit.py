@@ -386,3 +386,19 @@ def test_observations_take_numpy_scalars_and_refuse_non_bool_light_time():
     np.testing.assert_array_equal(obs.sigmas, 0.01)
     with pytest.raises(vv.InvalidInputError, match="light_time"):
         vv.Observations(time=t, kind="position", value=pos, sigma=0.01, light_time="no")
+
+
+@pytest.mark.parametrize("frame", ["teme", "itrs"])
+def test_satellite_states_in_another_frame_than_gcrs_are_refused_as_truth_or_guess(frame):
+    # simulate_observations(sat.teme(t0), ...) observed the orbit through the TEME numbers read
+    # as GCRS (40 km off; ITRS: another orbit altogether), with no error
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    state = getattr(sat, frame)(sat.epoch)
+    t = sat.epoch + np.arange(0, 600, 60) * u.s
+    with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*gcrs"):
+        vv.od.simulate_observations(state, t, "position", 0.01)
+    obs = vv.od.simulate_observations(sat.gcrs(sat.epoch), t, "position", 0.01, seed=1)
+    with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*gcrs"):
+        vv.fit_orbit(obs, state)

@@ -247,3 +247,18 @@ def test_a_bstar_the_arc_cannot_determine_is_reported(iss):
     assert sat.fit.sigma_bstar < 2e-6
     assert abs(sat.satrec.bstar - iss.satrec.bstar) < 4 * sat.fit.sigma_bstar
     assert vv.fit_tle(noisy, fit_bstar=False).fit.sigma_bstar is None
+
+
+@pytest.mark.parametrize("frame", ["teme", "itrs"])
+def test_satellite_states_are_fitted_in_their_own_frame(iss, frame):
+    # sat.teme(t) knows it is TEME: it was taken as GCRS, a TLE 40 km off with no error
+    # (ITRS: "SGP4 cannot propagate the first guess")
+    t = iss.epoch + np.arange(0, 3 * 3600, 60) * u.s
+    states = getattr(iss, frame)(t)
+    fit = vv.fit_tle(states, satnum=25544)
+    miss = np.linalg.norm((fit.teme(t).r - iss.teme(t).r).to_value(u.km), axis=-1)
+    assert miss.max() < ONE_METER
+    if frame == "teme":  # saying the frame the states already say is fine
+        assert vv.fit_tle(states, satnum=25544, frame="teme").to_tle() == fit.to_tle()
+    with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*frame='gcrs'"):
+        vv.fit_tle(states, frame="gcrs")

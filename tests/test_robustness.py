@@ -736,3 +736,21 @@ def test_slow_anomalies_nan_sweep(data, ecc):
     clean, bad = data
     assert_finite(vv.mean_to_true(clean, ecc))
     raises_input_error(lambda: vv.mean_to_true(bad, ecc))
+
+
+def test_writers_given_the_wrong_object_say_what_to_pass(tmp_path):
+    # write_oem(CowellResult) said "<text>: write_oem needs an Ephemeris" (no way forward),
+    # write_cdm({}) crashed with AttributeError, from_omm(path) did not point to read_omm
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    result = vv.propagate_cowell(sat.gcrs(sat.epoch), [0, 60] * u.s)
+    cases = ((vv.write_oem, result, r"^write_oem needs .*OEMSegment\.from_states"),
+             (vv.write_oem, result.to_states(), "OEMSegment.from_states"),
+             (vv.write_opm, sat.gcrs(sat.epoch), r"OPM\.from_state"),
+             (vv.write_omm, sat, r"sat\.to_omm\(\)"),
+             (vv.write_cdm, {}, "ConjunctionDataMessage.*read_cdm"),
+             (vv.Satellite.from_omm, str(tmp_path / "x.omm"), r"vv\.read_omm\(path\)"))
+    for writer, wrong, match in cases:
+        with pytest.raises(InvalidInputError, match=match):
+            writer(wrong)

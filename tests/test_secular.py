@@ -157,6 +157,16 @@ def test_rates_reject_open_orbits():
         j2_secular_rates(7000 * u.km, 1.2, 0.5)
 
 
+@pytest.mark.parametrize(("a_km", "ecc"), [(6000.0, 0.0), (7000.0, 0.1), (6378.0, 0.0)])
+def test_rates_refuse_an_orbit_through_the_body(a_km, ecc):
+    # the zonal expansion holds outside the body only: rates for a periapsis inside the Earth
+    # (6000 km circular, or 7000 km with e = 0.1: 6300 km) were returned as numbers
+    with pytest.raises(DomainError, match="below the surface"):
+        j2_secular_rates(a_km * u.km, ecc, 0.5)
+    # a grazing periapsis at the radius itself is still an orbit
+    j2_secular_rates(vv.EARTH.radius_km / (1 - ecc) * u.km, ecc, 0.5)
+
+
 # --- robustness regressions (ROBUSTNESS_BUGS #12, #19, #22) ---------------------------------
 
 

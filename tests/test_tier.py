@@ -86,7 +86,8 @@ def _cowell(perturbations, events=(), days=0.3):
     [vv.J2(vv.EARTH)],
     [vv.Zonal(vv.EARTH, 4), vv.AtmosphericDrag(0.01 * u.m**2 / u.kg), vv.ThirdBody(vv.SUN),
      vv.ThirdBody(vv.MOON), vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow="conical")],
-], ids=["two-body", "J2", "full"])
+    [vv.J2(vv.EARTH), vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow="cylindrical")],
+], ids=["two-body", "J2", "full", "cylindrical-shadow"])
 def test_cowell_is_bit_identical_across_tiers(force_tier, perturbations):
     a, b = _both(force_tier, lambda: _cowell(perturbations))
     np.testing.assert_array_equal(a, b)

@@ -430,3 +430,21 @@ def test_times_centuries_from_the_epoch_are_refused_not_hung():
     with pytest.raises(vv.DomainError, match="days from the element-set epoch"):
         propagate_sgp4_batch([sat], sat.epoch + [0.0, 3e5] * u.day)
     assert np.isfinite(sat.teme(30 * u.day).r.to_value(u.km)).all()
+
+
+def test_indexed_and_propagated_satellite_states_keep_their_frame():
+    # sat.teme(t)[k] and sat.teme(t0).propagate(dt) were plain StateVectors, read as GCRS by
+    # GroundStation.look: 9 km of range off for the ISS in 2024, with no error
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    t = sat.epoch + np.arange(0, 600, 60) * u.s
+    site = vv.GroundStation(52.2 * u.deg, 0.12 * u.deg)
+    sgp4 = site.look(sat, t[3]).range
+    kepler = site.look(sat.gcrs(t[0]).to_state_vectors().propagate(t[3] - t[0])).range
+    for frame in ("teme", "gcrs"):
+        states = getattr(sat, frame)(t)
+        for one, truth in ((states[3], sgp4), (states[[3]][0], sgp4),
+                           (states[0].propagate(t[3] - t[0]), kepler)):
+            assert one.frame == frame
+            assert abs(site.look(one).range - truth) < 1 * u.cm  # TEME spins 2 mm in 3 min
+    with pytest.raises(vv.InvalidInputError, match="ITRS.*gcrs"):
+        sat.itrs(t[0]).propagate(60 * u.s)

@@ -74,7 +74,13 @@ _COMMANDS: dict[str, str] = {
 def main(argv: list[str] | None = None) -> int:
     import importlib
 
-    parser = argparse.ArgumentParser(prog="visviva", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="visviva",
+        description="visviva: orbital mechanics cross-validated against REBOUND, Skyfield, "
+                    "astropy and sgp4. Run `visviva warmup` once after installing, "
+                    "`visviva validate` for the cross-validation report.",
+        epilog="Each command has its own help: visviva COMMAND --help.",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     _validate_parser(sub)
     _bench_parser(sub)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
@@ -157,10 +158,26 @@ class CDMObject:
 
     @property
     def covariance(self) -> np.ndarray:
-        """The 6x6 covariance rotated to :attr:`frame` (m, m/s), via the RTN axes of (r, v)."""
-        from ..conjunctions.covariance import rtn_to_inertial
+        """The 6x6 covariance rotated to the axes of :attr:`frame` (m, m/s), via the RTN axes of
+        the object's inertial state.
 
-        return rtn_to_inertial(self.covariance_rtn, self.r, self.v)
+        For ``REF_FRAME = ITRF`` the RTN axes are those of the inertial velocity on ITRF axes,
+        ``v + omega x r`` (as NASA CARA's ``cdmobj_J2Kstatecov`` converts an ITRF state to J2000
+        before rotating the RTN covariance): the Earth-fixed velocity would tilt the in-track and
+        cross-track axes by ~3.5 deg in LEO.
+        """
+        from ..conjunctions.covariance import rtn_to_inertial
+        from .timeframes import visviva_frame
+
+        v = self.v
+        if visviva_frame(self.frame) == "itrs":
+            from astropy import units as u
+
+            from ..constants import EARTH_ROTATION_RAD_S
+
+            omega = np.array([0.0, 0.0, EARTH_ROTATION_RAD_S])
+            v = v + np.cross(omega, self.r.to_value(u.km)) * (u.km / u.s)
+        return rtn_to_inertial(self.covariance_rtn, self.r, v)
 
     def __repr__(self):
         return f"CDMObject({self.name!r}, {self.frame})"
@@ -186,6 +203,61 @@ class ConjunctionDataMessage:
         self.object2 = sections["object2"] if isinstance(sections["object2"], CDMObject) \
             else CDMObject(sections["object2"])
         self.source = source
+
+    @classmethod
+    def from_states(cls, tca, r1, v1, cov1, r2, v2, cov2, *, names=("OBJECT1", "OBJECT2"),
+                    designators=("UNKNOWN", "UNKNOWN"), frame="GCRF", originator="VISVIVA",
+                    message_id=None, collision_probability=None,
+                    collision_probability_method=None):  # fmt: skip
+        """A CDM from the two objects' states and covariances at TCA (e.g. a screening row).
+
+        Parameters
+        ----------
+        tca : astropy.time.Time
+            Time of closest approach (written in UTC to the nanosecond).
+        r1, v1, r2, v2 : Quantity or array_like, shape (3,)
+            States of objects 1 and 2 at ``tca`` in one inertial frame (m and m/s when plain,
+            as :func:`~visviva.collision_probability` takes them).
+        cov1, cov2 : array_like or Quantity, shape (6, 6)
+            Their covariances in that frame (m^2, m^2/s, m^2/s^2 when plain), rotated here to
+            each object's RTN frame as the CDM stores them.
+        names : (str, str)
+            ``OBJECT_NAME`` of the two objects.
+        designators : (str, str)
+            ``OBJECT_DESIGNATOR`` (catalogue numbers).
+        frame : {"GCRF", "EME2000"}
+            ``REF_FRAME`` of the states (use ``sat.gcrs(tca)`` for SGP4 objects).
+        originator : str
+            ``ORIGINATOR``.
+        message_id : str, optional
+            ``MESSAGE_ID`` (default: the names and the TCA).
+        collision_probability : float, optional
+            ``COLLISION_PROBABILITY`` (e.g. from :func:`~visviva.collision_probability`).
+        collision_probability_method : str, optional
+            ``COLLISION_PROBABILITY_METHOD`` (e.g. ``"FOSTER-1992"``).
+
+        Returns
+        -------
+        ConjunctionDataMessage
+            With the mandatory keywords (the metadata the states do not give are
+            ``CATALOG_NAME = SATCAT``, ``INTERNATIONAL_DESIGNATOR = UNKNOWN``,
+            ``EPHEMERIS_NAME = NONE``, ``COVARIANCE_METHOD = CALCULATED``,
+            ``MANEUVERABLE = N/A``; edit ``msg.object1.sections`` to change them), the miss
+            distance, relative speed and relative state in object 1's RTN frame.
+
+        Raises
+        ------
+        InvalidInputError
+            A frame that is not inertial, a covariance that is not 6x6, NaN, a probability
+            outside [0, 1].
+        """
+        from .cdm_build import cdm_sections
+
+        return cls(cdm_sections(
+            tca, r1, v1, cov1, r2, v2, cov2, names=names, designators=designators, frame=frame,
+            originator=originator, message_id=message_id,
+            collision_probability=collision_probability,
+            collision_probability_method=collision_probability_method, cov_keywords=_COV6))
 
     @property
     def tca(self):
@@ -485,6 +557,10 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
     str
         The text.
     """
+    if not isinstance(message, ConjunctionDataMessage):
+        raise InvalidInputError(
+            f"write_cdm needs a ConjunctionDataMessage, got {type(message).__name__} (read one "
+            "with vv.read_cdm).")
     if format not in ("kvn", "xml"):
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     text = message.to_kvn() if format == "kvn" else message.to_xml()

@@ -200,10 +200,9 @@ class OEMSegment(FrameCenterMetadata):
 
     @property
     def states(self):
-        """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``)."""
-        from ..states import StateVectors
-
-        return StateVectors._from_canonical(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
+        """The states as :class:`~visviva.states.StateVectors` (GM of ``CENTER_NAME``); about the
+        Earth in GCRS, TEME or ITRF they know their frame (``.frame``: ``"gcrs"``, ...)."""
+        return self.wrap_states(self.r_km, self.v_km_s, self.gm_km3_s2, self.times)
 
     def states_in(self, frame: str):
         """The states rotated to a visviva frame (``"gcrs"``, ``"teme"`` or ``"itrs"``).
@@ -224,7 +223,7 @@ class OEMSegment(FrameCenterMetadata):
         Earth-orientation data installed with astropy; EME2000/ICRF/GCRF are taken as the GCRS.
         """
         from ..satellites.frames import transform_batch
-        from ..states import StateVectors
+        from ..satellites.satellite_states import framed_states
 
         source = self.visviva_frame
         if source is None or frame not in ("gcrs", "teme", "itrs"):
@@ -235,7 +234,7 @@ class OEMSegment(FrameCenterMetadata):
             return self.states
         r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
                                frame)
-        return StateVectors._from_canonical(r[0], v[0], self.gm_km3_s2, self.times)
+        return framed_states(r[0], v[0], self.gm_km3_s2, self.times, frame)
 
     @property
     def gm_km3_s2(self) -> float:
@@ -310,11 +309,9 @@ class OEMSegment(FrameCenterMetadata):
         InvalidInputError
             A time outside the segment, an unsupported method, or too few states for the degree.
         """
-        from ..states import StateVectors
-
         r, v = self.interpolate_arrays(t)
-        return StateVectors._from_canonical(r.reshape(t.shape + (3,)),
-                                            v.reshape(t.shape + (3,)), self.gm_km3_s2, t)
+        return self.wrap_states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
+                            self.gm_km3_s2, t)
 
     def interpolate_arrays(self, t):
         """Positions and velocities at ``t`` as plain arrays: what :meth:`interpolate` wraps.
@@ -436,8 +433,6 @@ class Ephemeris:
         """
         from astropy.time import Time
 
-        from ..states import StateVectors
-
         if not isinstance(t, Time):
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
         frame, center = self.frame, self.center  # noqa: F841  (checks they agree)
@@ -456,6 +451,6 @@ class Ephemeris:
         for k in np.unique(which):
             sel = which == k
             r[sel], v[sel] = self.segments[k].interpolate_arrays(flat[sel])
-        gm = self.segments[0].gm_km3_s2
-        return StateVectors._from_canonical(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
-                                            gm, t)
+        first = self.segments[0]
+        return first.wrap_states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
+                             first.gm_km3_s2, t)

@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .covariance import (
     COVARIANCE_KEYWORDS,
     check_record_variances,
@@ -401,7 +402,10 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
     if isinstance(ephemeris, OEMSegment):
         ephemeris = Ephemeris([ephemeris])
     if not isinstance(ephemeris, Ephemeris):
-        raise CCSDSFormatError(f"write_oem needs an Ephemeris, got {type(ephemeris).__name__}")
+        raise InvalidInputError(
+            f"write_oem needs an Ephemeris or an OEMSegment, got {type(ephemeris).__name__}: "
+            "build one from computed states with visviva.ccsds.oem.OEMSegment.from_states("
+            "times, r_km, v_km_s, object_name=...) (a CowellResult gives .times, .r, .v).")
     if format is None:
         format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
     if format not in ("kvn", "xml"):

@@ -149,7 +149,7 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
 
     if not hasattr(omm, "items"):
         raise InvalidInputError(f"write_omm needs a mapping of OMM keywords, got "
-                                f"{type(omm).__name__}")
+                                f"{type(omm).__name__} (for a Satellite, pass sat.to_omm()).")
     comments = getattr(omm, "comments", {}) or {}
     records = {s.name: Record(comments=list(comments.get(s.name, []))) for s in SECTIONS}
     for key, value in omm.items():

@@ -127,7 +127,7 @@ class OPM(FrameCenterMetadata):
 
     @classmethod
     def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
-                   center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+                   center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
                    maneuvers=(), covariance=None, originator: str = "VISVIVA",
                    mission_epoch=None):  # fmt: skip
         """An OPM for one state computed in visviva.
@@ -142,8 +142,10 @@ class OPM(FrameCenterMetadata):
             ``OBJECT_ID`` (international designator).
         center : str
             ``CENTER_NAME``.
-        frame : str
-            ``REF_FRAME`` of the state (CCSDS name).
+        frame : str, optional
+            ``REF_FRAME`` of the state (CCSDS name). Default: the state's own frame when it
+            knows it (``sat.teme(t)`` gives ``"TEME"``, ``sat.gcrs(t)`` ``"GCRF"``), else
+            ``"GCRF"``; a frame that contradicts the state's own is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         maneuvers : iterable of Maneuver
@@ -163,10 +165,11 @@ class OPM(FrameCenterMetadata):
         from astropy import units as u
 
         from .covariance import values_from_matrix
-        from .timeframes import time_to_epochs
+        from .timeframes import ref_frame_of, time_to_epochs
 
         if getattr(state, "shape", None) != () or state.epoch is None:
             raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
+        frame = ref_frame_of(state, frame)
         r = state.r.to_value(u.km)
         v = state.v.to_value(u.km / u.s)
         sections = {
@@ -242,15 +245,19 @@ class OPM(FrameCenterMetadata):
 
     @property
     def state(self):
-        """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch)."""
+        """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch); about
+        the Earth in GCRS, TEME or ITRF it knows its frame (``.frame``: ``"gcrs"``, ...)."""
         from astropy import units as u
 
         from ..states import StateVectors
 
         sv = self.sections["state_vector"]
-        r = [sv["X"], sv["Y"], sv["Z"]] * u.km
-        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]] * u.km / u.s
-        return StateVectors(r, v, self.gm * u.km**3 / u.s**2, epoch=self.epoch)
+        r = [sv["X"], sv["Y"], sv["Z"]]
+        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
+        checked = StateVectors(r * u.km, v * u.km / u.s, self.gm * u.km**3 / u.s**2,
+                               epoch=self.epoch)  # the constructor's checks
+        return self.wrap_states(checked.r.to_value(u.km), checked.v.to_value(u.km / u.s),
+                                self.gm, checked.epoch)
 
     @property
     def covariance(self) -> np.ndarray | None:
@@ -361,7 +368,9 @@ def write_opm(opm: OPM, path=None, format: str | None = None) -> str:  # noqa: A
         The message text.
     """
     if not isinstance(opm, OPM):
-        raise InvalidInputError(f"write_opm needs an OPM, got {type(opm).__name__}")
+        raise InvalidInputError(
+            f"write_opm needs an OPM, got {type(opm).__name__}: build one from a state with "
+            "visviva.ccsds.opm.OPM.from_state(state, object_name=...).")
     return write_sections(opm.sections, SECTIONS, "opm", "CCSDS_OPM_VERS", path, format)
 
 

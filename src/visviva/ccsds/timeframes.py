@@ -28,7 +28,7 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
-           "visviva_frame", "center_body", "FrameCenterMetadata"]
+           "visviva_frame", "center_body", "FrameCenterMetadata", "ref_frame_of"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -257,6 +257,37 @@ def visviva_frame(name: str) -> str | None:
     return _FRAMES.get(name.strip().upper())
 
 
+#: the CCSDS REF_FRAME written for states that know their visviva frame
+_CCSDS_NAME = {"teme": "TEME", "gcrs": "GCRF", "itrs": "ITRF"}
+
+
+def ref_frame_of(states, frame: str | None) -> str:
+    """The ``REF_FRAME`` to write for ``states``: ``frame``, or their own when they know it
+    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"``; a ``frame`` that contradicts theirs is
+    refused.
+
+    Parameters
+    ----------
+    states : StateVectors
+        The states to write (satellite states carry ``.frame``).
+    frame : str or None
+        The CCSDS frame asked for.
+
+    Returns
+    -------
+    str
+    """
+    own = getattr(states, "frame", None)
+    if frame is None:
+        return _CCSDS_NAME.get(own, "GCRF")
+    if own is not None and visviva_frame(str(frame)) != own:
+        raise InvalidInputError(
+            f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was asked "
+            f"for: leave frame out to write {_CCSDS_NAME.get(own, own)}, or pass states in "
+            f"{frame}.")
+    return frame
+
+
 class FrameCenterMetadata:
     """Mixin for a message part with a ``metadata`` record: its frame and its centre.
 
@@ -279,6 +310,31 @@ class FrameCenterMetadata:
     def center(self) -> str:
         """``CENTER_NAME`` as written."""
         return self.metadata["CENTER_NAME"]
+
+    def wrap_states(self, r_km, v_km_s, gm_km3_s2, times):
+        """States of this message, labelled with their visviva frame when Earth-centred (so
+        that TEME or ITRF data are not taken for GCRS downstream).
+
+        Parameters
+        ----------
+        r_km, v_km_s : ndarray (..., 3)
+            Positions (km) and velocities (km/s) in ``REF_FRAME``.
+        gm_km3_s2 : float
+            Central GM, km^3/s^2.
+        times : astropy.time.Time
+            Their times.
+
+        Returns
+        -------
+        StateVectors
+            A :class:`~visviva.satellites.SatelliteStates` with ``.frame`` for Earth-centred
+            GCRS/TEME/ITRS data, else plain.
+        """
+        from ..satellites.satellite_states import framed_states
+
+        earth = str(self.center).strip().upper() == "EARTH"
+        return framed_states(r_km, v_km_s, gm_km3_s2, times,
+                             self.visviva_frame if earth else None)
 
 
 def center_body(name: str):

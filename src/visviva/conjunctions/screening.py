@@ -216,8 +216,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     primaries : Satellite, Catalog, CowellResult, StateVectors or list
         The objects to protect: SGP4 objects (TEME), or ephemerides (a
         :class:`~visviva.satellites.CowellResult` of one or N states with an epoch, a
-        :class:`~visviva.StateVectors` history with one absolute epoch per state, or a list of
-        them; positions in their inertial frame, covering the window), see
+        :class:`~visviva.StateVectors` history with one absolute epoch per state, a one-segment
+        geocentric OEM (:func:`~visviva.read_oem`), or a list of them; positions in their
+        inertial frame, covering the window; histories that say their frame, as
+        ``sat.teme(t)`` does, are only screened against histories in the same one), see
         :mod:`visviva.conjunctions.sources`.
     secondaries : same kinds, optional
         The objects screened against them (of the same kind as ``primaries``); ``None`` screens

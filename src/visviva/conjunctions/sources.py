@@ -27,7 +27,7 @@ __all__ = ["SgpSource", "SampledSource", "as_source"]
 class SgpSource:
     """SGP4 element sets (a Catalog) as a screening source; states in TEME, km and km/s."""
 
-    frame = "TEME"
+    frame = "SGP4 objects (TEME)"
 
     def __init__(self, catalog, jd0, fr0):
         self.catalog = catalog
@@ -97,9 +97,10 @@ class SampledSource:
         Object names.
     """
 
-    frame = "ephemeris"
+    frame = "GCRS ephemerides"
 
-    def __init__(self, times, r, v, names):
+    def __init__(self, times, r, v, names, frame="GCRS"):
+        self.frame = f"{frame} ephemerides"
         self.times = times
         self.r = r
         self.v = v
@@ -182,8 +183,8 @@ def _history(obj, t0, name):
         tau = (obj.epoch - t0).to_value(u.s)
         return [(tau, obj.r.to_value(u.km), obj.v.to_value(u.km / u.s))]
     raise InvalidInputError(
-        f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history or a "
-        f"list of them; got {type(obj).__name__}.")
+        f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history, an "
+        f"OEM or a list of them; got {type(obj).__name__}.")
 
 
 def _sampled(objs, t0, t1, name):
@@ -192,7 +193,10 @@ def _sampled(objs, t0, t1, name):
     items = objs if isinstance(objs, (list, tuple)) else [objs]
     times, rs, vs, names = [], [], [], []
     span = float((t1 - t0).to_value(u.s))
+    frames = set()
     for n, obj in enumerate(items):
+        obj = _oem_states(obj, f"{name}[{n}]")
+        frames.add(_frame(obj, f"{name}[{n}]"))
         for tau, r, v in _history(obj, t0, f"{name}[{n}]"):
             tau = np.asarray(tau, dtype=np.float64)
             if tau.size < 2 or np.any(np.diff(tau) <= 0):
@@ -209,7 +213,40 @@ def _sampled(objs, t0, t1, name):
             rs.append(np.ascontiguousarray(r, dtype=np.float64))
             vs.append(np.ascontiguousarray(v, dtype=np.float64))
             names.append(f"{name}[{len(names)}]")
-    return SampledSource(times, rs, vs, names)
+    if len(frames) > 1:
+        raise InvalidInputError(
+            f"{name}: ephemerides in {' and '.join(sorted(frames))} are mixed, and positions in "
+            "different frames cannot be compared; give every history in one frame (e.g. "
+            "sat.gcrs(t)).")
+    return SampledSource(times, rs, vs, names, frames.pop() if frames else "GCRS")
+
+
+def _oem_states(obj, name):
+    """The states of a one-segment Earth-centred OEM (they know their frame); other objects
+    unchanged."""
+    if not hasattr(obj, "segments"):
+        return obj
+    if len(obj.segments) != 1:
+        raise InvalidInputError(
+            f"{name}: the OEM has {len(obj.segments)} segments (a manoeuvre between them breaks "
+            "the interpolation): screen each segment's span with oem.segments[k].states.")
+    seg = obj.segments[0]
+    if str(seg.center).strip().upper() != "EARTH" or seg.visviva_frame is None:
+        raise InvalidInputError(
+            f"{name}: the OEM has CENTER_NAME = {seg.center}, REF_FRAME = {seg.frame}; "
+            "screening needs geocentric states in GCRF/EME2000/ICRF or TEME.")
+    return seg.states
+
+
+def _frame(obj, name):
+    """The frame of one ephemeris: satellite states say theirs (TEME, GCRS); the rest are
+    taken as GCRS. The rotating ITRS is refused (its velocities would tilt the RTN axes)."""
+    frame = str(getattr(obj, "frame", None) or "gcrs").upper()
+    if frame == "ITRS":
+        raise InvalidInputError(
+            f"{name} is in the ITRS, which rotates with the Earth (its velocities would tilt the "
+            "RTN axes): screen sat.gcrs(t) or sat.teme(t) states instead.")
+    return frame
 
 
 def _is_sgp4(obj):
@@ -234,8 +271,9 @@ def as_source(objs, t0, t1, name, jd0, fr0):
 def check_same_kind(src1, src2):
     if src1.frame != src2.frame:
         raise InvalidInputError(
-            "primaries and secondaries must both be SGP4 objects (TEME) or both ephemerides (one "
-            "inertial frame): positions in different frames cannot be compared.")
+            f"the primaries are {src1.frame}, the secondaries {src2.frame}: give both as SGP4 "
+            "objects (TEME) or both as ephemerides in one inertial frame; positions in different "
+            "frames cannot be compared.")
 
 
 def speed_bound(v1, v2):

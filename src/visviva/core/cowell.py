@@ -26,7 +26,14 @@ time, also when integrating backwards):
 ====  =====================================================================
 
 Events are located on the dense output with the Illinois variant of regula falsi to
-``ev_tol`` seconds; ``ev_terminal`` events stop the integration at the event.
+``ev_tol`` seconds; ``ev_terminal`` events stop the integration at the event
+(:mod:`visviva.core.cowell_events`).
+
+Shadow boundaries. With solar radiation pressure and a shadow model in the force block, steps
+end exactly at the shadow's boundaries (the functions of kinds 1, or 2 and 3) and never cross
+one: a step that would is dropped and redone up to the boundary, and the integration restarts
+there with a fresh derivative (:mod:`visviva.core.cowell_events`, "Shadow boundaries"). Without
+SRP or without a shadow, nothing changes (the same bits as without this handling).
 """
 
 from __future__ import annotations
@@ -38,7 +45,20 @@ import numpy as np
 from . import force_block as fb
 from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, step_kernel
-from .perturbations import cowell_rhs, geodetic_altitude, hermite_position, zonal_rhs
+from .cowell_events import (
+    BOUNDARY_RTOL,
+    dense_eval,
+    event_function,
+    event_value,
+    fix_boundary_events,
+    locate_zero,
+    lock_shadow,
+    penumbra_step,
+    shadow_boundary_kind,
+    shadow_crossing,
+    shadow_sides,
+)
+from .perturbations import cowell_rhs, zonal_rhs
 
 __all__ = ["WORK_ROWS", "integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
 
@@ -47,8 +67,8 @@ _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
 #: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
-#: state vectors; 6 columns).
-WORK_ROWS = 30
+#: state vectors, 2 rows of shadow boundary samples, the Sun's position for them; 6 columns).
+WORK_ROWS = 33
 
 
 @inline_kernel
@@ -65,78 +85,22 @@ def rk_combine(n, y, K, w, n_stages, h, out):
         out[j] = y[j] + h * acc
 
 
-@kernel
-def event_function(kind, param, t, y, force, eph_r, eph_v):
-    """Value of event function ``kind`` at (t, y); see the module docstring."""
-    x = y[0]
-    yy = y[1]
-    z = y[2]
-    if kind == 0:
-        return geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING]) - param
-    if kind == 4:
-        return z
-    if kind == 5:
-        return x * y[3] + yy * y[4] + z * y[5]
-    # shadow events need the Sun
-    sun = int(force[fb.SUN_ROW])
-    if sun < 0:
-        return 1.0
-    s = np.empty(3)
-    hermite_position(t, sun, force, eph_r, eph_v, s)
-    r = math.sqrt(x * x + yy * yy + z * z)
-    radius = force[fb.RADIUS]
-    if kind == 1:
-        sn = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
-        proj = (x * s[0] + yy * s[1] + z * s[2]) / sn
-        if proj >= 0.0:
-            return r
-        px = x - proj * s[0] / sn
-        py = yy - proj * s[1] / sn
-        pz = z - proj * s[2] / sn
-        return math.sqrt(px * px + py * py + pz * pz) - radius
-    dx = s[0] - x
-    dy = s[1] - yy
-    dz = s[2] - z
-    d = math.sqrt(dx * dx + dy * dy + dz * dz)
-    a = math.asin(min(1.0, force[fb.SUN_RADIUS] / d))
-    b = math.asin(min(1.0, radius / r))
-    cosc = -(x * dx + yy * dy + z * dz) / (r * d)
-    c = math.acos(max(-1.0, min(1.0, cosc)))
-    if kind == 2:
-        return c - (a + b)
-    return c - (b - a)
-
-
-@kernel
-def dense_eval(t, t_old, h, y_old, F, out):
-    """Evaluate the DOP853 dense-output polynomial of the last step at time t."""
-    xx = (t - t_old) / h
-    n = y_old.shape[0]
-    for j in range(n):
-        acc = 0.0
-        for i in range(F.shape[0] - 1, -1, -1):
-            acc += F[i, j]
-            # the innermost coefficient (i = 6) is multiplied by x, then alternately 1-x, x ...
-            if (F.shape[0] - 1 - i) % 2 == 0:
-                acc *= xx
-            else:
-                acc *= 1.0 - xx
-        out[j] = y_old[j] + acc
-
-
 #: The ``full`` argument of :func:`integrate_cowell` for a force model of the two-body and
-#: zonal terms alone and no events (a type, not a value: with ``None`` numba compiles
-#: :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body, SRP, shadow and
-#: harmonics kernels nor the event functions: about half the compile time of a first call).
+#: zonal terms alone and no events but altitude crossings (a type, not a value: with ``None``
+#: numba compiles :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body,
+#: SRP, shadow and harmonics kernels nor the other event functions and the shadow boundaries:
+#: about a third of the compile time of a first call, and half the run time of a J2 run).
 ZONAL_ONLY = None
-#: The ``full`` argument for any other force model or with events.
+#: The ``full`` argument for any other force model or other events.
 FULL = True
 
 
-def rhs_kind(force, n_events):
+def rhs_kind(force, ev_kind=()):
     """:data:`ZONAL_ONLY` when ``force`` (the force block) has no term beyond the two-body and
-    zonal ones and there are no events, else :data:`FULL` (plain Python, not compiled)."""
-    zonal_only = (n_events == 0 and force[fb.HARMONICS_DEGREE] < 2.0
+    zonal ones and every event of ``ev_kind`` is an altitude crossing (kind 0: the surface of
+    :mod:`visviva.satellites.surface` that bounds every perturbed run, ``AltitudeCrossing``,
+    ``ReEntry``), else :data:`FULL` (plain Python, not compiled)."""
+    zonal_only = (all(int(k) == 0 for k in ev_kind) and force[fb.HARMONICS_DEGREE] < 2.0
                   and force[fb.DRAG_ON] == 0.0 and int(force[fb.N_THIRD_BODIES]) == 0
                   and force[fb.SRP_ON] == 0.0)
     return ZONAL_ONLY if zonal_only else FULL
@@ -149,14 +113,6 @@ def _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, full):
         zonal_rhs(y, force, zonal, dy)
     else:
         cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy)
-
-
-@step_kernel
-def _event(kind, param, t, y, force, eph_r, eph_v, full):
-    # event_function; never reached with ZONAL_ONLY (no events), so not compiled there
-    if full is None:
-        return 0.0
-    return event_function(kind, param, t, y, force, eph_r, eph_v)
 
 
 @kernel
@@ -235,12 +191,13 @@ def integrate_cowell(
         ``index`` rising in physical time (whatever the direction of integration),
         -(index + 1) for a falling one.
     info : ndarray (6,)
-        Output: [outputs written, events found (may exceed M: then rerun larger), steps,
+        Output: [outputs written, events found (may exceed M: then rerun larger), steps
+        (accepted by the error control; with a shadow, also those redone up to a boundary),
         rhs evaluations, final time reached, index of the terminal event or -1].
     full : None or bool
         :data:`ZONAL_ONLY` (``None``) for a force model of the two-body and zonal terms alone
-        without events (compiles only those; same bits), else :data:`FULL`; see
-        :func:`rhs_kind`.
+        with no events but altitude crossings (compiles only those; same bits), else
+        :data:`FULL`; see :func:`rhs_kind`.
     work : ndarray (WORK_ROWS, 6)
         Scratch space from the caller (its contents are ignored and overwritten). The kernel
         allocates no array (the event values are copies of ``ev_param``, which numba's array
@@ -266,6 +223,9 @@ def integrate_cowell(
     scale = work[27]
     err5 = work[28]
     err3 = work[29]
+    gs0 = work[30]
+    gs1 = work[31]
+    sun_s = work[32]
     for i in range(WORK_ROWS):
         for j in range(n):
             work[i, j] = 0.0
@@ -281,6 +241,26 @@ def integrate_cowell(
     written = 0
     terminal_index = -1
     info[5] = -1.0
+    # SRP with a shadow (FULL kernel only): steps end at the shadow boundaries, never cross them
+    # (module docstring, "Shadow boundaries"); side0/side1: +1 outside the boundary, -1 inside
+    rforce = force
+    sh_model = 0
+    n_sh = 0
+    side0 = 1.0
+    side1 = 1.0
+    if full is not None:
+        if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
+            sh_model = int(force[fb.SHADOW_MODEL])
+            n_sh = 1 if sh_model == 1 else 2
+            side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
+            rforce = force.copy()
+            lock_shadow(rforce, sh_model, side0)
+    bnd_pending = False  # the step being tried ends at the boundary t_bnd
+    t_bnd = 0.0
+    bnd_which = -1
+    h_keep = 0.0  # the step size before the step was cut at a boundary
+    pen_cap = math.inf  # the largest step in the penumbra
+    n_here = 0  # boundaries crossed at the current t without a step (guard)
 
     # outputs at the start time
     while written < n_out and t_out[written] * direction <= 0.0:
@@ -288,10 +268,10 @@ def integrate_cowell(
             y_out[written, j] = y[j]
         written += 1
 
-    _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+    _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
     nfev += 1
     for e in range(n_ev):
-        g_old[e] = _event(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v, full)
+        g_old[e] = event_value(ev_kind[e], ev_param[e], t, y, force, eph_r, eph_v, full)
 
     interval = abs(t_end)
     if interval == 0.0:
@@ -314,7 +294,7 @@ def integrate_cowell(
     h0 = interval if interval < h0 else h0  # min(h0, interval), also below: same selections
     for j in range(n):
         y_tmp[j] = y[j] + h0 * direction * f[j]
-    _rhs(t + h0 * direction, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new, full)
+    _rhs(t + h0 * direction, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, y_new, full)
     nfev += 1
     for j in range(n):
         err5[j] = y_new[j] - f[j]
@@ -337,6 +317,9 @@ def integrate_cowell(
         min_step = 10.0 * abs(math.nextafter(t, direction * math.inf) - t)
         if h_abs > h_max:
             h_abs = h_max
+        if full is not None:
+            if side0 < 0.0 and side1 > 0.0 and h_abs > pen_cap and pen_cap > 100.0 * min_step:
+                h_abs = pen_cap  # in the penumbra (conical shadow)
         if h_abs < min_step:
             status = st.STEP_TOO_SMALL
             break
@@ -351,6 +334,9 @@ def integrate_cowell(
             t_new = t + h
             if direction * (t_new - t_end) > 0.0:
                 t_new = t_end
+            if full is not None:
+                if bnd_pending and direction * (t_new - t_bnd) > -BOUNDARY_RTOL * h_abs:
+                    t_new = t_bnd
             h = t_new - t
             h_abs = abs(h)
             # stages
@@ -358,9 +344,9 @@ def integrate_cowell(
                 K[0, j] = f[j]
             for s in range(1, _N_STAGES):
                 rk_combine(n, y, K, A[s], s, h, y_tmp)
-                _rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
+                _rhs(t + C[s] * h, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
             rk_combine(n, y, K, B, _N_STAGES, h, y_new)
-            _rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES], full)
+            _rhs(t + h, y_new, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, K[_N_STAGES], full)
             nfev += _N_STAGES
             for j in range(n):
                 ay = abs(y[j])
@@ -404,7 +390,7 @@ def integrate_cowell(
         # dense output coefficients for [t, t + h]
         for s in range(_N_STAGES + 1, 16):
             rk_combine(n, y, K, A[s], s, h, y_tmp)
-            _rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
+            _rhs(t + C[s] * h, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
         nfev += 3
         for j in range(n):
             dlt = y_new[j] - y[j]
@@ -417,11 +403,54 @@ def integrate_cowell(
                     acc += D[i, m] * K[m, j]
                 F[3 + i, j] = h * acc
 
-        # events in (t, t_new] (none in the ZONAL_ONLY kernel: numba drops this block)
-        t_stop = t_new
+        # a shadow boundary crossed within the step: redo the step up to it
+        flip = -1
+        resync = False
         if full is not None:
+            if n_sh > 0:
+                at_boundary = bnd_pending and t_new == t_bnd
+                bnd_pending = False
+                if at_boundary:
+                    flip = bnd_which
+                elif n_here > 2 * n_sh:
+                    resync = True  # found at t again and again: take the step, sides from its end
+                else:
+                    ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y,
+                                                           y_new, F, y_tmp, gs0, gs1, sun_s,
+                                                           force, eph_r, eph_v)
+                    if which_b >= 0:
+                        if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
+                            # the boundary is at t (within the tolerance): cross it here
+                            if which_b == 0:
+                                side0 = -side0
+                            else:
+                                side1 = -side1
+                            lock_shadow(rforce, sh_model, side0)
+                            _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                            nfev += 1
+                            n_here += 1
+                            h_abs = abs(h)
+                        else:
+                            bnd_pending = True
+                            t_bnd = tb_b
+                            bnd_which = which_b
+                            h_keep = h_abs
+                            h_abs = abs(t_bnd - t)
+                        continue
+
+        # events in (t, t_new] (altitude crossings only in the ZONAL_ONLY kernel: rhs_kind)
+        t_stop = t_new
+        if n_ev > 0:
             for e in range(n_ev):
-                g_new[e] = _event(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v, full)
+                g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v,
+                                       full)
+            if full is not None:
+                if flip >= 0:
+                    # the step ends at a shadow boundary: an event on the same boundary
+                    # function takes the side beyond it (its value there may round to either
+                    # side)
+                    fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
+                                        -(side0 if flip == 0 else side1))
             # find all crossings in this step, ordered in time
             while True:
                 best_t = t_stop
@@ -439,38 +468,8 @@ def integrate_cowell(
                     if ev_dir[e] < 0 and rising:
                         continue
                     # Illinois regula falsi on the dense output between t and t_stop
-                    ta = t
-                    tb = t_new
-                    fa = ga
-                    fb = gb
-                    side = 0
-                    tc = tb
-                    for _ in range(200):
-                        if abs(tb - ta) <= ev_tol:
-                            break
-                        tc = (fa * tb - fb * ta) / (fa - fb)
-                        if not (min(ta, tb) < tc < max(ta, tb)):
-                            tc = 0.5 * (ta + tb)
-                        dense_eval(tc, t, h, y, F, y_tmp)
-                        fc = _event(ev_kind[e], ev_param[e], tc, y_tmp, force, eph_r, eph_v, full)
-                        if fc == 0.0:
-                            ta = tc
-                            tb = tc
-                            break
-                        if (fc < 0.0) == (fb < 0.0):
-                            tb = tc
-                            fb = fc
-                            if side == -1:
-                                fa *= 0.5
-                            side = -1
-                        else:
-                            ta = tc
-                            fa = fc
-                            if side == 1:
-                                fb *= 0.5
-                            side = 1
-                        if abs(tb - ta) <= ev_tol:
-                            break
+                    ta, tb = locate_zero(ev_kind[e], ev_param[e], t, t_new, ga, gb, ev_tol, t, h,
+                                         y, F, y_tmp, force, eph_r, eph_v, full)
                     # the crossing lies within [ta, tb], narrower than ev_tol: report its middle
                     tc = 0.5 * (ta + tb)
                     if direction * (tc - best_t) < 0.0 or best_e < 0:
@@ -517,6 +516,26 @@ def integrate_cowell(
         for j in range(n):
             y[j] = y_new[j]
             f[j] = K[_N_STAGES, j]
+        if full is not None:
+            if flip >= 0 or resync:
+                if flip >= 0 and sh_model == 2:
+                    v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+                    pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h,
+                                            force[fb.SRP_COEFFICIENT], atol + rtol * v)
+                if flip == 0:
+                    side0 = -side0
+                elif flip == 1:
+                    side1 = -side1
+                else:
+                    side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
+                if sh_model == 1:
+                    # the force changes at the boundary: a fresh derivative (no FSAL)
+                    lock_shadow(rforce, sh_model, side0)
+                    _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                    nfev += 1
+                if flip >= 0 and h_keep > h_abs:
+                    h_abs = h_keep
+            n_here = 0
         if direction * (t - t_end) >= 0.0:
             finished = True
 

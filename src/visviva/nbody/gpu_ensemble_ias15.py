@@ -23,7 +23,7 @@ import numpy as np
 from ..core.gravity import PAIR_MIN_N, massive_indices
 from .gpu_forces import kernel_for, launch
 
-__all__ = ["run", "runs_alone", "ALONE_MIN_MASSIVE"]
+__all__ = ["run", "runs_alone", "any_alone", "ALONE_MIN_MASSIVE"]
 
 #: An IAS15 member with this many massive particles or more does not join the one-thread-per-
 #: member kernel (one thread would sum its ``N**2`` pairs serially, and the CPU sums such a

@@ -1,7 +1,11 @@
 """Conversion to and from REBOUND (``pip install rebound``; tested with REBOUND 5.2).
 
 Particles (mass, position, velocity, radius), ``G``, ``t`` and ``dt`` are copied exactly (the
-same float64 values). The integrator is mapped by name (``leapfrog``, ``whfast``, ``ias15``), and
+same float64 values). The units travel by name (``sim.units`` <-> REBOUND's ``sim.units``:
+``("au", "yr", "Msun")`` <-> ``("au", "yr", "msun")``, ...), ``G`` staying the copied value;
+a REBOUND unit astropy has no name for (``yr2pi``, ``mmars``) becomes a scaled unit
+(``"5022642.89091303 s"``) with REBOUND's value, and a visviva unit REBOUND has no name for
+leaves the REBOUND copy without units, with a warning. The integrator is mapped by name (``leapfrog``, ``whfast``, ``ias15``), and
 WHFast's coordinates with it (visviva's ``"jacobi"`` / ``"democratic_heliocentric"`` <-> REBOUND's
 ``"jacobi"`` / ``"democraticheliocentric"``; REBOUND's WHDS and barycentric WHFast have no visviva
 counterpart and are refused). The integrator settings that both codes have travel too: WHFast's
@@ -37,6 +41,50 @@ _REBOUND_ADAPTIVE = {"prs23": "prs23", "rs15": "global"}
 _REBOUND_RESOLVE = {"halt": "halt", "merge": "merge", "bounce": "hardsphere"}
 
 
+#: visviva's (astropy's) unit names -> REBOUND's.
+_REBOUND_UNITS = {"m": "m", "cm": "cm", "km": "km", "au": "au", "pc": "pc", "s": "s", "h": "hr",
+                  "day": "day", "yr": "yr", "kyr": "kyr", "Myr": "myr", "Gyr": "gyr", "kg": "kg",
+                  "g": "g", "Msun": "msun", "Mearth": "mearth", "Mjup": "mjupiter"}
+#: REBOUND's other spellings of the same units.
+_REBOUND_ALIASES = {"aus": "au", "parsec": "pc", "d": "day", "days": "day", "year": "yr",
+                    "years": "yr", "yrs": "yr", "jyr": "yr", "gram": "g", "solarmass": "Msun",
+                    "sunmass": "Msun", "msolar": "Msun"}
+
+
+def _units_from_rebound(rsim):
+    """visviva unit names for REBOUND's ``rsim.units`` (None when REBOUND has none)."""
+    from rebound import units as ru
+
+    units = rsim.units
+    names = [units.get(k) for k in ("length", "time", "mass")]
+    if any(n is None for n in names):
+        return None
+    back = {v: k for k, v in _REBOUND_UNITS.items()} | _REBOUND_ALIASES
+    tables = ((ru.lengths_SI, "m"), (ru.times_SI, "s"), (ru.masses_SI, "kg"))
+    return tuple(back.get(n) or f"{table[n]!r} {si}"
+                 for n, (table, si) in zip(names, tables, strict=True))
+
+
+def _units_to_rebound(sim, r):
+    """Set REBOUND's units on ``r`` from ``sim.units`` (before G and the particles)."""
+    from rebound import units as ru
+
+    if sim.units is None:
+        return
+    names = []
+    for name, table, scale in ((sim.units.length, ru.lengths_SI, sim.units.length_km * 1e3),
+                               (sim.units.time, ru.times_SI, sim.units.time_s),
+                               (sim.units.mass, ru.masses_SI, sim.units.mass_kg)):
+        match = _REBOUND_UNITS.get(name) or next(
+            (k for k, v in table.items() if abs(v - scale) <= 1e-12 * scale), None)
+        names.append(match)
+    if None in names:
+        warnings.warn(f"to_rebound: REBOUND has no name for the units {sim.units.as_tuple()}; "
+                      "the copy has the same G but no units.", UserWarning, stacklevel=3)
+        return
+    r.units = tuple(names)
+
+
 def _from_rebound(table: dict, value, what: str, attribute: str) -> str:
     """The visviva name of REBOUND's setting ``value`` in ``table`` (visviva -> REBOUND names),
     or :class:`~visviva.errors.InvalidInputError` naming what to set in REBOUND."""
@@ -64,6 +112,7 @@ def to_rebound(sim):
     """A ``rebound.Simulation`` with the particles, G, t, dt and integrator of ``sim``."""
     rebound = _rebound()
     r = rebound.Simulation()
+    _units_to_rebound(sim, r)
     r.G = sim.G
     m, xs, vs, radii = sim.masses, sim.positions, sim.velocities, sim.radii
     for k in range(sim.N):
@@ -129,6 +178,11 @@ def from_rebound(cls, rsim, integrator=None):
         coordinates = _from_rebound(_REBOUND_COORDINATES, rsim.integrator.coordinates,
                                     "WHFast coordinates", "coordinates")
     sim = cls(name, G=float(rsim.G), coordinates=coordinates)
+    units = _units_from_rebound(rsim)
+    if units is not None:  # G stays REBOUND's value; the units let add() take Quantities
+        from .units import SimulationUnits
+
+        sim.units = SimulationUnits.parse(units)
     sim.softening = float(rsim.softening)
     n_active = rsim.N_active if rsim.N_active >= 0 else rsim.N
     if n_active < rsim.N and int(rsim.testparticle_type) != 0 and any(

@@ -87,6 +87,9 @@ def check_initial(initial):
     if hasattr(initial, "to_states") and hasattr(initial, "times"):
         # a CowellResult: its r, v are at .times (its .epoch is where the propagation began)
         initial = initial.to_states()
+    from ..satellites.satellite_states import require_gcrs
+
+    require_gcrs(initial, "orbit determination")
     r0 = to_vector(initial.r, "length", "initial.r")
     v0 = to_vector(initial.v, "speed", "initial.v")
     if r0.shape != (3,) or v0.shape != (3,):

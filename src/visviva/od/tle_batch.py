@@ -126,8 +126,8 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
     else:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         size = chunks or max(1, -(-len(items) // (2 * n_workers)))
-        frame = kwargs.pop("frame", "gcrs")
-        if frame not in ("gcrs", "teme"):
+        frame = kwargs.pop("frame", None)
+        if frame not in (None, "gcrs", "teme"):
             raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
         parts = [_pack(items[i:i + size], frame) for i in range(0, len(items), size)]
         futures = client.map(_fit_packed, parts, [kwargs] * len(parts), pure=False)

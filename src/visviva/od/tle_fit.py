@@ -66,6 +66,19 @@ class TLEFit:
                 f"{self.max_position_km * 1e3:.3g} m, {self.iterations} iterations)")  # fmt: skip
 
 
+def _frame_of(states, frame):
+    """The frame of a state history: its own (``sat.teme(t)`` knows it) or ``frame``."""
+    own = getattr(states, "frame", None)
+    if own is None:
+        return "gcrs" if frame is None else frame
+    if frame is not None and frame != own:
+        raise InvalidInputError(
+            f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was given: "
+            "leave frame out to fit them in their own frame, or pass states in that frame."
+        )
+    return own
+
+
 def states_and_times(states, times, frame):
     """The arrays of a state history in any form :func:`fit_tle` accepts.
 
@@ -75,8 +88,9 @@ def states_and_times(states, times, frame):
         As for :func:`fit_tle`.
     times : astropy Time (N,) or None
         Times when ``states`` carries none.
-    frame : {"gcrs", "teme"}
-        Frame of a ``StateVectors`` input (an ephemeris names its own).
+    frame : {"gcrs", "teme"} or None
+        Frame of a ``StateVectors`` input; None: the states' own ``frame`` (satellite states
+        such as ``sat.teme(t)`` know it; an ephemeris names its own), else GCRS.
 
     Returns
     -------
@@ -137,6 +151,7 @@ def states_and_times(states, times, frame):
             "states must be a vv.StateVectors (GCRS, epoch array = times), a CowellResult or an "
             f"OEM ephemeris with .segments; got {type(states).__name__}."
         )
+    frame = _frame_of(src, frame)
     r = to_vector(src.r, "length", "states.r")
     v = to_vector(src.v, "speed", "states.v")
     if r.ndim != 2:
@@ -254,7 +269,7 @@ def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
 
 
 def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
-            frame="gcrs", name=None, object_id=None, max_iterations=50,
+            frame=None, name=None, object_id=None, max_iterations=50,
             tol=1e-8):  # fmt: skip
     """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
 
@@ -262,7 +277,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     ----------
     states : StateVectors, CowellResult or OEM ephemeris
         The states to fit: a :class:`~visviva.StateVectors` of shape (N,) whose ``epoch`` is
-        the Time array of the states (taken as GCRS unless ``frame="teme"``), a
+        the Time array of the states (in its own frame when it has one, as ``sat.teme(t)``,
+        ``sat.gcrs(t)`` and ``sat.itrs(t)`` do; else GCRS unless ``frame="teme"``), a
         :class:`~visviva.satellites.CowellResult` (GCRS), or an ephemeris with ``.segments``
         (each with ``.times``, ``.states`` and ``.frame``; TEME, ITRF or GCRS/EME2000/ICRF).
     times : astropy Time (N,), optional
@@ -276,8 +292,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     epoch : astropy Time, optional
         Epoch of the element set (default: the first state's time), rounded to the
         microsecond as an OMM stores it.
-    frame : {"gcrs", "teme"}
-        Frame of a ``StateVectors`` input.
+    frame : {"gcrs", "teme"} or None
+        Frame of a ``StateVectors`` input; None (default): the states' own frame when they
+        know it (satellite states), else GCRS. A frame that contradicts the states' own is
+        refused.
     name : str, optional
         Object name of the new element set.
     object_id : str, optional
@@ -321,7 +339,7 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     (:func:`visviva.satellites.frames.transform_matrices`). On states that SGP4 itself
     generated, the fit recovers the trajectory to well below a metre.
     """
-    if frame not in ("gcrs", "teme"):
+    if frame not in (None, "gcrs", "teme"):
         raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
     r, v, t, frame = states_and_times(states, times, frame)
     return fit_tle_arrays(r, v, t, frame, satnum, fit_bstar, bstar, epoch=epoch, name=name,

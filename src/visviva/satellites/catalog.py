@@ -306,6 +306,9 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
 def read_omm_file(path, *, format: str | None = None) -> Catalog:
     """Read OMM records (CelesTrak GP data) from a JSON, CSV or XML file.
 
+    A CCSDS KVN OMM (what :func:`visviva.write_omm` writes by default) is one message: read it
+    with ``vv.Catalog.from_omm([vv.read_omm(path)])``.
+
     Parameters
     ----------
     path : str or os.PathLike

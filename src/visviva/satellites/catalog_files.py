@@ -80,6 +80,18 @@ def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
     return tle_text_satellites(text, source=str(source), verify_checksum=verify_checksum)
 
 
+def _is_kvn_omm(path: str) -> bool:
+    """Whether the file starts (comments and blank lines aside) with ``CCSDS_OMM_VERS``."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            for line in f:
+                if line.strip() and not line.lstrip().startswith("COMMENT"):
+                    return line.strip().upper().startswith("CCSDS_OMM_VERS")
+    except OSError:
+        return False
+    return False
+
+
 def omm_file_satellites(path, *, format: str | None = None) -> list:
     """The satellites of :func:`visviva.satellites.catalog.read_omm_file` (which see), as a list."""
     import csv
@@ -90,6 +102,11 @@ def omm_file_satellites(path, *, format: str | None = None) -> list:
     path = os.fspath(path)
     fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
     if fmt not in ("json", "csv", "xml"):
+        if _is_kvn_omm(path):
+            raise InvalidInputError(
+                f"{path} is a KVN OMM (what vv.write_omm writes); read it with "
+                "vv.Catalog.from_omm([vv.read_omm(path)])."
+            )
         raise InvalidInputError(
             f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
         )

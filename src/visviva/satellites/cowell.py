@@ -35,6 +35,7 @@ from .perturbations import (
     Zonal,
     flattening_of,
 )
+from .satellite_states import require_gcrs
 from .surface import check_batch, check_single, watched_body, with_surface
 
 __all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body"]
@@ -453,7 +454,7 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
         status = _integrate((
             y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(),
             kinds, params, dirs, terms, ev_tol, A, B, C, E3, E5, D,
-            y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, len(kinds)),
+            y_out, ev_t, ev_y, ev_which, info, rhs_kind(model.force, kinds),
             np.zeros((WORK_ROWS, 6)),
         ), info)  # fmt: skip
         n_found = int(info[1])
@@ -484,7 +485,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
         info = np.zeros((n, 6))
         integrate_cowell_many(
             y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
-            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force, 0),
+            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force),
         )  # fmt: skip
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])
@@ -538,8 +539,8 @@ def propagate_cowell(
         :class:`~visviva.satellites.Apsides` ...
     rtol, atol : float
         Local error tolerances of the integrator (atol in km and km/s). The defaults keep the
-        error after one day of LEO near 0.2 mm, but not across SRP's shadow switch: with a
-        shadow model pass ``max_step=10 * u.s`` too (0.4 m to 4 m otherwise; docs/cowell.md).
+        error after one day of LEO near 0.2 mm, also with SRP and a shadow (steps end at the
+        shadow boundaries; docs/cowell.md, "Shadow boundaries").
     max_step : Quantity, optional
         Largest step size.
     max_steps : int
@@ -564,6 +565,7 @@ def propagate_cowell(
             "state must be a vv.StateVectors (with .r, .v, .gm); build one with "
             "vv.StateVectors(r, v, vv.EARTH)."
         )
+    require_gcrs(state, "propagate_cowell")
     r0 = to_vector(state.r, "length", "state.r")
     v0 = to_vector(state.v, "speed", "state.v")
     if r0.shape != v0.shape or r0.ndim > 2:

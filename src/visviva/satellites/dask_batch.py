@@ -392,6 +392,9 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
             "method='cowell' takes N state vectors (vv.StateVectors of shape (N,)); got "
             f"{type(states).__name__}. For a catalogue use method='sgp4'."
         )
+    from .satellite_states import require_gcrs
+
+    require_gcrs(states, "propagate_dask(method='cowell')")
     unknown = set(options) - {"rtol", "atol", "max_step", "max_steps"}
     if unknown:
         raise InvalidInputError(

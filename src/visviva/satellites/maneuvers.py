@@ -194,9 +194,11 @@ class Maneuver:
     def apply(self, state):
         """Coast and burn through the impulses; the state just after the last impulse.
 
-        The returned state's epoch (if any) is advanced to the time of the last impulse.
+        The returned state's epoch (if any) is advanced to the time of the last impulse; satellite
+        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame.
         """
         from ..states import StateVectors
+        from .satellite_states import with_frame
 
         t_prev = 0.0
         cur = state
@@ -205,7 +207,7 @@ class Maneuver:
                 cur = cur.propagate((t - t_prev) * u.s)
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
-        return cur
+        return with_frame(cur, getattr(state, "frame", None))
 
     def __repr__(self):
         return (
@@ -309,6 +311,12 @@ class Maneuver:
             raise InvalidInputError(
                 f"Maneuver.lambert needs the chaser and the target about the same attractor; "
                 f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
+            )
+        frames = (getattr(state_from, "frame", None), getattr(state_to, "frame", None))
+        if None not in frames and frames[0] != frames[1]:
+            raise InvalidInputError(
+                f"Maneuver.lambert: the chaser is in {frames[0].upper()}, the target in "
+                f"{frames[1].upper()}; give both in one frame (e.g. sat.gcrs(t) for both)."
             )
         coast = to_array(tof, "time", "tof")
         if state_from.epoch is not None and state_to.epoch is not None:

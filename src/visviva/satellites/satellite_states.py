@@ -10,7 +10,53 @@ from ..errors import (
 )
 from ..states import StateVectors
 
-__all__ = ["SatelliteStates"]
+__all__ = ["SatelliteStates", "require_gcrs", "framed_states", "with_frame"]
+
+
+def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
+    """States that know their frame (:class:`SatelliteStates`) when ``frame`` is one of visviva's
+    Earth frames (``"gcrs"``, ``"teme"``, ``"itrs"``), else plain :class:`~visviva.StateVectors`.
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray (..., 3)
+        Positions (km) and velocities (km/s).
+    gm_km3_s2 : float
+        Central GM, km^3/s^2.
+    times : astropy Time or None
+        The states' times.
+    frame : str or None
+        Their frame; None (or another name) leaves them unlabelled.
+
+    Returns
+    -------
+    StateVectors
+    """
+    if frame not in ("gcrs", "teme", "itrs"):
+        return StateVectors._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+    obj = SatelliteStates._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+    obj.frame = frame
+    return obj
+
+
+def with_frame(states, frame):
+    """``states`` (any :class:`~visviva.StateVectors`) labelled with ``frame`` as in
+    :func:`framed_states` (None leaves them plain)."""
+    return framed_states(states.r.to_value(u.km), states.v.to_value(u.km / u.s),
+                         states.gm.to_value(u.km**3 / u.s**2), states.epoch, frame)
+
+
+def require_gcrs(states, what: str) -> None:
+    """Refuse satellite states that say they are not in the GCRS (``what`` works there).
+
+    Plain :class:`~visviva.StateVectors` carry no frame and pass (they are taken as GCRS).
+    """
+    frame = getattr(states, "frame", None)
+    if frame is not None and frame != "gcrs":
+        raise InvalidInputError(
+            f"{what} works in the GCRS (where the Sun, the Moon and the Earth's pole are "
+            f"placed), but these states are in {str(frame).upper()}: pass sat.gcrs(t) instead."
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -44,6 +90,38 @@ class SatelliteStates(StateVectors):
         obj = cls._from_canonical(r_km, v_km_s, np.float64(GM_EARTH_KM3_S2), times)
         obj.frame = frame
         return obj
+
+    def _in_my_frame(self, states: StateVectors) -> SatelliteStates:
+        """``states`` (a result computed from these) labelled with this frame."""
+        return with_frame(states, self.frame)
+
+    def __getitem__(self, key):
+        return self._in_my_frame(super().__getitem__(key))
+
+    def propagate(self, dt):
+        """States after two-body motion for a time ``dt``, in this frame.
+
+        Parameters
+        ----------
+        dt : Quantity
+            Time of flight (as :meth:`visviva.StateVectors.propagate`).
+
+        Returns
+        -------
+        SatelliteStates
+            In the same frame (TEME or GCRS).
+
+        Raises
+        ------
+        InvalidInputError
+            The states are in the rotating ITRS, where Kepler motion does not hold.
+        """
+        if self.frame == "itrs":
+            raise InvalidInputError(
+                "ITRS rotates with the Earth, so Kepler motion does not hold in it: propagate "
+                "sat.gcrs(t) or sat.teme(t) instead."
+            )
+        return self._in_my_frame(super().propagate(dt))
 
     @property
     def t(self):

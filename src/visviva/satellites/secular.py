@@ -75,7 +75,9 @@ def j2_secular_rates(a, ecc, inc, body=EARTH):
     Parameters
     ----------
     a : Quantity, length
-        Mean semi-major axis (> 0; elliptic orbits, 0 <= e < 1).
+        Mean semi-major axis (> 0; elliptic orbits, 0 <= e < 1), with the periapsis
+        a (1 - e) at or above the body's radius (DomainError otherwise: the zonal expansion
+        describes the field outside the body only).
     ecc : float or array_like
         Mean eccentricity.
     inc : Quantity or float
@@ -103,6 +105,7 @@ def j2_secular_rates(a, ecc, inc, body=EARTH):
     _check_inc(i)
     broadcast_or_raise("j2_secular_rates", a=a_km, ecc=e, inc=i)
     gm, R, j2 = _body_consts(body)
+    _check_above_surface(a_km * (1 - e), body, R, f"give a with a (1 - e) >= {R} km")
     n = np.sqrt(gm / a_km**3)
     p = a_km * (1 - e**2)
     k = n * j2 * (R / p) ** 2

@@ -56,6 +56,14 @@ def secular_setup(satrecs, names, epochs_tai):
             f"satellite {names[k]!r} has mean a = {a[k]:.6g} km, e = {ecc[k]:.6g}: the "
             "secular J2 theory needs a bound orbit (a > 0, 0 <= e < 1); use method='sgp4'."
         )
+    under = a * (1 - ecc) < body.radius_km
+    if under.any():
+        k = int(np.flatnonzero(under)[0])
+        raise InvalidInputError(
+            f"satellite {names[k]!r} has its mean perigee a (1 - e) = {a[k] * (1 - ecc[k]):.6g} "
+            f"km below the Earth's radius ({body.radius_km} km): it has decayed; drop it from the "
+            "catalog or use method='sgp4', which flags decayed satellites per time."
+        )
     rates = tuple(
         q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
     )

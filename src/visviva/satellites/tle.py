@@ -240,7 +240,8 @@ class Satellite:
 
         if not hasattr(fields, "keys"):
             raise InvalidInputError(
-                f"fields must be a dict of OMM keywords, got {type(fields).__name__}."
+                f"fields must be a dict of OMM keywords, got {type(fields).__name__} (for a "
+                "file or a message text, pass vv.read_omm(path))."
             )
         missing = [k for k in _OMM_REQUIRED if k not in fields or fields[k] in (None, "")]
         if missing:

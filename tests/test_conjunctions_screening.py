@@ -146,6 +146,20 @@ def test_screen_cli_bad_window_is_one_short_reason(tmp_path, capsys, start, hour
     assert why in err and len(err.strip().splitlines()) == 1
 
 
+def test_an_empty_catalogue_is_refused_not_screened(tmp_path, capsys):
+    # `visviva screen` on an empty TLE file printed "0 close approaches ... (0 objects)" and
+    # exited 0, as if a catalogue had been screened; `visviva passes` exits 2 there
+
+    t0 = Time("2024-01-01T00:00:00", scale="utc")
+    with pytest.raises(vv.InvalidInputError, match="primaries hold no object"):
+        vv.screen_conjunctions(vv.Catalog([]), None, t0, t0 + 1 * u.h)
+    path = tmp_path / "empty.tle"
+    path.write_text("")
+    assert main(["screen", str(path), "--start", "2024-01-01T00:00:00", "--hours", "1",
+                 "--quiet"]) == 2
+    assert "hold no object" in capsys.readouterr().err
+
+
 def test_screen_threshold_and_step_need_units():
     sat = vv.Satellite.from_tle(ISS_L1, ISS_L2)
     t0 = Time("2024-01-01T00:00:00", scale="utc")

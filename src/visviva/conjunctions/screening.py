@@ -284,6 +284,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     self_mode = secondaries is None
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
     check_same_kind(cat1, cat2)
+    for which, src in (("primaries", cat1), ("secondaries", cat2)):
+        if len(src) == 0:
+            raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
+                                    "catalogue or TLE file?); pass at least one object.")
     n1 = len(cat1)
     _check_memory(n1 + (0 if self_mode else len(cat2)), n_steps, step_s)
     if blocks is None:

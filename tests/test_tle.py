@@ -448,3 +448,68 @@ def test_indexed_and_propagated_satellite_states_keep_their_frame():
             assert abs(site.look(one).range - truth) < 1 * u.cm  # TEME spins 2 mm in 3 min
     with pytest.raises(vv.InvalidInputError, match="ITRS.*gcrs"):
         sat.itrs(t[0]).propagate(60 * u.s)
+
+
+def test_elements_of_satellite_states_keep_their_frame():
+    # sat.teme(t).to_elements().to_state() came back as plain StateVectors, which look(),
+    # Cowell, screening and fit_orbit took for GCRS: ~40 km off for TEME, with no error
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    t = sat.epoch + np.arange(0, 600, 60) * u.s
+    site = vv.GroundStation(52.2 * u.deg, 0.12 * u.deg)
+    for frame in ("teme", "gcrs"):
+        states = getattr(sat, frame)(t)
+        truth = site.look(states)
+        el = states.to_elements()
+        assert el.frame == frame
+        routes = (el.to_state(), el[3:].to_state(), el.to_equinoctial().to_state(),
+                  states.to_equinoctial().to_keplerian().to_state(),
+                  states.to_equinoctial()[[2, 5]].to_state())
+        for back, k in zip(routes, (slice(None), slice(3, None), slice(None), slice(None),
+                                    [2, 5]), strict=True):
+            assert back.frame == frame
+            got = site.look(back)
+            np.testing.assert_allclose(got.range.to_value(u.km),
+                                       truth.range.to_value(u.km)[k], rtol=0, atol=1e-6)
+            np.testing.assert_allclose(got.azimuth.to_value(u.deg), truth.azimuth.to_value(u.deg)[k],
+                                       rtol=0, atol=1e-7)
+        # the J2 secular drift of mean elements stays in their frame too
+        drifted = vv.propagate_j2_secular(el[0], 60 * u.s)
+        assert drifted.frame == frame and drifted.to_state().frame == frame
+        assert vv.propagate_j2_secular(states[0], 60 * u.s).frame == frame
+
+
+def test_framed_elements_meet_gcrs_only_consumers_with_a_refusal():
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    back = sat.teme(sat.epoch).to_elements().to_state()
+    with pytest.raises(vv.InvalidInputError, match="TEME"):
+        vv.propagate_cowell(back, 60 * u.s)
+    with pytest.raises(vv.InvalidInputError, match="TEME"):
+        vv.propagate_cowell(sat.teme(sat.epoch).to_equinoctial().to_state(), 60 * u.s)
+    # GCRS elements pass, and give the same Cowell run as the GCRS states themselves
+    gcrs = sat.gcrs(sat.epoch)
+    one = vv.propagate_cowell(gcrs.to_elements().to_state(), 60 * u.s)
+    two = vv.propagate_cowell(gcrs, 60 * u.s)
+    np.testing.assert_allclose(one.r.to_value(u.km), two.r.to_value(u.km), rtol=0, atol=1e-6)
+    # ITRS rotates with the Earth: its osculating elements mean nothing, so they are refused
+    for convert in ("to_elements", "to_equinoctial"):
+        with pytest.raises(vv.InvalidInputError, match="ITRS.*gcrs"):
+            getattr(sat.itrs(sat.epoch), convert)()
+
+
+def test_framed_elements_pickle_and_plain_elements_are_unchanged():
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    states = sat.teme(sat.epoch + np.arange(3) * u.min)
+    el = states.to_elements()
+    again = pickle.loads(pickle.dumps(el))
+    assert again.frame == "teme" and again.to_state().frame == "teme"
+    assert pickle.loads(pickle.dumps(states.to_equinoctial())).frame == "teme"
+    # plain states give plain elements: no frame, the same bits as the framed ones
+    plain = states.to_state_vectors().to_elements()
+    assert type(plain) is vv.KeplerianElements and not hasattr(plain, "frame")
+    assert type(plain.to_state()) is vv.StateVectors and not hasattr(plain.to_state(), "frame")
+    assert type(plain[0]) is vv.KeplerianElements
+    for a, b in zip(plain.stored_arrays(), el.stored_arrays(), strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(plain.to_state().r, el.to_state().r)
+    assert type(vv.propagate_j2_secular(plain, 60 * u.s)) is vv.KeplerianElements
+    assert isinstance(el, vv.KeplerianElements) and "teme" in repr(el)

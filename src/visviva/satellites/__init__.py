@@ -16,6 +16,8 @@ _EXPORTS = {
     # TLE/OMM, frames, catalogue batches, Dask, ground tracks and plots:
     "Satellite": "tle",
     "SatelliteStates": "satellite_states",
+    "SatelliteElements": "satellite_states",
+    "SatelliteEquinoctialElements": "satellite_states",
     "TLEFormatError": "tle_checks",
     "SGP4Error": "tle_checks",
     "SatelliteDecayedError": "tle_checks",

@@ -1,16 +1,28 @@
-"""Satellite states: :class:`SatelliteStates`, state vectors about the Earth that know their frame."""
+"""Satellite states and elements that know their frame: :class:`SatelliteStates`,
+:class:`SatelliteElements`, :class:`SatelliteEquinoctialElements`.
+
+One owner for the frame label: :func:`with_frame` attaches it (or drops it) on any two-body
+container, and every method of the framed classes that builds a new container (indexing,
+propagation, states <-> elements) passes its result through it.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 from astropy import units as u
 
+from ..elements import KeplerianElements
+from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
     InvalidInputError,
 )
 from ..states import StateVectors
 
-__all__ = ["SatelliteStates", "require_gcrs", "framed_states", "with_frame"]
+__all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
+           "require_gcrs", "framed_states", "with_frame"]
+
+#: visviva's Earth frames, the labels a framed container may carry
+FRAMES = ("gcrs", "teme", "itrs")
 
 
 def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
@@ -32,18 +44,42 @@ def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
     -------
     StateVectors
     """
-    if frame not in ("gcrs", "teme", "itrs"):
+    if frame not in FRAMES:
         return StateVectors._from_canonical(r_km, v_km_s, gm_km3_s2, times)
     obj = SatelliteStates._from_canonical(r_km, v_km_s, gm_km3_s2, times)
     obj.frame = frame
     return obj
 
 
-def with_frame(states, frame):
-    """``states`` (any :class:`~visviva.StateVectors`) labelled with ``frame`` as in
-    :func:`framed_states` (None leaves them plain)."""
-    return framed_states(states.r.to_value(u.km), states.v.to_value(u.km / u.s),
-                         states.gm.to_value(u.km**3 / u.s**2), states.epoch, frame)
+def with_frame(obj, frame):
+    """``obj`` labelled with ``frame``, sharing its arrays.
+
+    Parameters
+    ----------
+    obj : StateVectors, KeplerianElements or ModifiedEquinoctialElements
+        Any two-body container about the Earth (framed or plain).
+    frame : str or None
+        ``"gcrs"``, ``"teme"`` or ``"itrs"`` give the framed class (:class:`SatelliteStates`,
+        :class:`SatelliteElements`, :class:`SatelliteEquinoctialElements`); None (or another
+        name) gives the plain one.
+
+    Returns
+    -------
+    StateVectors, KeplerianElements or ModifiedEquinoctialElements
+        A new container with the same values (the same arrays, no copy).
+    """
+    plain = next((base for base in _FRAMED if isinstance(obj, base)), None)
+    if plain is None:
+        raise InvalidInputError(
+            f"only state vectors and element sets carry a frame; got {type(obj).__name__}."
+        )
+    cls = _FRAMED[plain] if frame in FRAMES else plain
+    new = cls.__new__(cls)
+    new.__dict__.update(vars(obj))
+    new.__dict__.pop("frame", None)
+    if cls is not plain:
+        new.frame = frame
+    return new
 
 
 def require_gcrs(states, what: str) -> None:
@@ -62,12 +98,26 @@ def require_gcrs(states, what: str) -> None:
 # --------------------------------------------------------------------------------------------
 # Results
 # --------------------------------------------------------------------------------------------
-class SatelliteStates(StateVectors):
+class _Framed:
+    """What the framed containers share: ``.frame``, and indexing that keeps it."""
+
+    frame = "teme"
+
+    def _in_my_frame(self, result):
+        """``result`` (a container computed from this one) labelled with this frame."""
+        return with_frame(result, self.frame)
+
+    def __getitem__(self, key):
+        return self._in_my_frame(super().__getitem__(key))
+
+
+class SatelliteStates(_Framed, StateVectors):
     """Positions and velocities of a satellite in one frame at an array of times.
 
     A :class:`visviva.StateVectors` about the Earth (``gm`` = ``vv.EARTH.gm``) that also knows
-    its frame, so ``.to_elements()`` gives osculating elements in that frame (meaningful in the
-    quasi-inertial TEME and GCRS, not in the rotating ITRS).
+    its frame, so ``.to_elements()`` gives osculating elements in that frame
+    (:class:`SatelliteElements`; TEME and GCRS only: in the rotating ITRS they mean nothing and
+    are refused).
 
     Attributes
     ----------
@@ -81,8 +131,6 @@ class SatelliteStates(StateVectors):
         ``"teme"``, ``"gcrs"`` or ``"itrs"``.
     """
 
-    frame = "teme"
-
     @classmethod
     def _wrap(cls, r_km, v_km_s, times, frame):
         from ..constants import GM_EARTH_KM3_S2
@@ -91,12 +139,49 @@ class SatelliteStates(StateVectors):
         obj.frame = frame
         return obj
 
-    def _in_my_frame(self, states: StateVectors) -> SatelliteStates:
-        """``states`` (a result computed from these) labelled with this frame."""
-        return with_frame(states, self.frame)
+    def _refuse_itrs(self, what: str) -> None:
+        if self.frame == "itrs":
+            raise InvalidInputError(
+                f"ITRS rotates with the Earth, so {what}: use sat.gcrs(t) or sat.teme(t) instead."
+            )
 
-    def __getitem__(self, key):
-        return self._in_my_frame(super().__getitem__(key))
+    def to_elements(self) -> SatelliteElements:
+        """Osculating classical elements in this frame (TEME or GCRS).
+
+        Returns
+        -------
+        SatelliteElements
+            As :meth:`visviva.StateVectors.to_elements`, with ``.frame``; their ``.to_state()``
+            gives satellite states in the same frame.
+
+        Raises
+        ------
+        InvalidInputError
+            The states are in the rotating ITRS, where osculating elements mean nothing.
+        """
+        self._refuse_itrs("osculating elements in it mean nothing")
+        return self._in_my_frame(super().to_elements())
+
+    def to_equinoctial(self, retrograde: bool = False) -> SatelliteEquinoctialElements:
+        """Modified equinoctial elements in this frame (TEME or GCRS).
+
+        Parameters
+        ----------
+        retrograde : bool
+            As :meth:`visviva.StateVectors.to_equinoctial`.
+
+        Returns
+        -------
+        SatelliteEquinoctialElements
+            With ``.frame``, kept by ``.to_state()`` and ``.to_keplerian()``.
+
+        Raises
+        ------
+        InvalidInputError
+            The states are in the rotating ITRS.
+        """
+        self._refuse_itrs("osculating elements in it mean nothing")
+        return self._in_my_frame(super().to_equinoctial(retrograde=retrograde))
 
     def propagate(self, dt):
         """States after two-body motion for a time ``dt``, in this frame.
@@ -116,11 +201,7 @@ class SatelliteStates(StateVectors):
         InvalidInputError
             The states are in the rotating ITRS, where Kepler motion does not hold.
         """
-        if self.frame == "itrs":
-            raise InvalidInputError(
-                "ITRS rotates with the Earth, so Kepler motion does not hold in it: propagate "
-                "sat.gcrs(t) or sat.teme(t) instead."
-            )
+        self._refuse_itrs("Kepler motion does not hold in it")
         return self._in_my_frame(super().propagate(dt))
 
     @property
@@ -150,3 +231,57 @@ class SatelliteStates(StateVectors):
 
     def __repr__(self):
         return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"
+
+
+class _FramedElements(_Framed):
+    """Element sets that know their frame: their states (and indexing) keep it."""
+
+    def to_state(self) -> SatelliteStates:
+        """State vectors in the frame of these elements.
+
+        Returns
+        -------
+        SatelliteStates
+            As the plain element set's ``to_state()``, labelled with :attr:`frame`.
+        """
+        return self._in_my_frame(super().to_state())
+
+    def __repr__(self):
+        return f"{super().__repr__()} in {self.frame!r}"
+
+
+class SatelliteElements(_FramedElements, KeplerianElements):
+    """Osculating classical elements of satellite states, in their frame (TEME or GCRS).
+
+    What :meth:`SatelliteStates.to_elements` returns: a :class:`visviva.KeplerianElements` that
+    also knows its frame, so that ``.to_state()``, indexing, ``.to_equinoctial()`` and
+    :func:`visviva.propagate_j2_secular` give results in the same frame, and what works in the
+    GCRS only refuses TEME elements' states instead of taking them for GCRS.
+
+    Attributes
+    ----------
+    frame : str
+        ``"teme"`` or ``"gcrs"``.
+    """
+
+
+class SatelliteEquinoctialElements(_FramedElements, ModifiedEquinoctialElements):
+    """Modified equinoctial elements of satellite states, in their frame (TEME or GCRS).
+
+    What :meth:`SatelliteStates.to_equinoctial` returns: a
+    :class:`visviva.ModifiedEquinoctialElements` whose ``.to_state()``, ``.to_keplerian()`` and
+    indexing keep :attr:`frame`.
+
+    Attributes
+    ----------
+    frame : str
+        ``"teme"`` or ``"gcrs"``.
+    """
+
+
+#: plain container -> its framed subclass (what :func:`with_frame` chooses between)
+_FRAMED = {
+    StateVectors: SatelliteStates,
+    KeplerianElements: SatelliteElements,
+    ModifiedEquinoctialElements: SatelliteEquinoctialElements,
+}

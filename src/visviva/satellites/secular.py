@@ -133,10 +133,12 @@ def propagate_j2_secular(elements, dt, body=EARTH):
     -------
     KeplerianElements
         a, e, i unchanged; RAAN, argp and mean anomaly advanced linearly, true anomaly from the
-        new mean anomaly (Kepler's equation).
+        new mean anomaly (Kepler's equation); in the frame of the input when it has one
+        (elements or states of a satellite, e.g. ``sat.teme(t).to_elements()``).
     """
     from ..anomalies import mean_to_true
     from ..elements import KeplerianElements
+    from .satellite_states import with_frame
 
     if not isinstance(elements, KeplerianElements):
         if hasattr(elements, "to_elements"):
@@ -168,7 +170,7 @@ def propagate_j2_secular(elements, dt, body=EARTH):
     nu = mean_to_true(M, np.broadcast_to(e, np.shape(M)))
     nu = nu.to_value(u.rad) if hasattr(nu, "unit") else np.asarray(nu)
     shape = np.shape(M)
-    return KeplerianElements.from_semi_major_axis(
+    drifted = KeplerianElements.from_semi_major_axis(
         np.broadcast_to(a.to_value(u.km), shape) * u.km,
         np.broadcast_to(e, shape),
         np.broadcast_to(inc.to_value(u.rad), shape),
@@ -178,6 +180,8 @@ def propagate_j2_secular(elements, dt, body=EARTH):
         elements.gm,
         epoch=None if elements.epoch is None else elements.epoch + dt_s * u.s,
     )
+    frame = getattr(elements, "frame", None)
+    return drifted if frame is None else with_frame(drifted, frame)
 
 
 def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):

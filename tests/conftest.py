@@ -68,3 +68,45 @@ def skyfield_ts():
     with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
         sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
     return ts
+
+
+@pytest.fixture
+def write_catalog_files(tmp_path):
+    """A function writing the element sets of satellites as every file kind that
+    ``visviva.read_catalog_file`` reads, with the library's own writers; returns {kind: path}.
+
+    Kinds: ``tle`` (three lines), ``json`` (a list of CelesTrak GP records), ``csv``
+    (CelesTrak's GP CSV), ``ndm`` (CelesTrak's GP XML: one ``<ndm>`` of ``<omm>``), and for one
+    satellite ``kvn`` / ``xml`` (a CCSDS OMM as ``vv.write_omm`` writes it). The files have no
+    telling suffix, so the reader must go by content.
+    """
+    import csv
+    import json
+
+    import visviva as vv
+
+    def write(satellites, stem="cat"):
+        records = []
+        for s in satellites:
+            rec = s.to_omm()
+            rec["OBJECT_ID"] = rec["OBJECT_ID"] or "UNKNOWN"
+            records.append(rec)
+        paths = {kind: tmp_path / f"{stem}_{kind}.dat" for kind in ("tle", "json", "csv", "ndm")}
+        paths["tle"].write_text("".join(f"{s.name}\n{s.to_tle()[0]}\n{s.to_tle()[1]}\n"
+                                        for s in satellites))
+        paths["json"].write_text(json.dumps(records, indent=1))
+        with open(paths["csv"], "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(records[0]))
+            writer.writeheader()
+            writer.writerows(records)
+        omms = [vv.write_omm(rec, format="xml", originator="TEST").split("?>", 1)[1]
+                for rec in records]
+        paths["ndm"].write_text('<?xml version="1.0" encoding="UTF-8"?>\n<ndm>'
+                                + "".join(omms) + "</ndm>\n")
+        if len(records) == 1:
+            for kind in ("kvn", "xml"):
+                paths[kind] = tmp_path / f"{stem}_{kind}.dat"
+                paths[kind].write_text(vv.write_omm(records[0], format=kind, originator="TEST"))
+        return paths
+
+    return write

@@ -225,3 +225,32 @@ def test_offline_earth_orientation_for_recent_and_far_future_dates():
     with pytest.warns(AstropyWarning, match="IERS"):
         tab = vv.find_passes(_omm("2040-01-01T00:00:00"), site, far, far + 6 * u.hour)
     assert len(tab) >= 1
+
+
+def test_command_line_reads_every_catalogue_kind(tmp_path, capsys, write_catalog_files):
+    """``visviva passes`` on the same satellite as TLE, OMM JSON/CSV, CelesTrak XML and CCSDS
+    OMM KVN/XML (files without a telling suffix): the same table, row for row."""
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2, "ISS (ZARYA)")
+    outputs = {}
+    for kind, path in write_catalog_files([iss]).items():
+        out_csv = tmp_path / f"{kind}.csv"
+        assert main(["passes", str(path), "--lat", "40", "--lon", "-75", "--start",
+                     "2008-09-20T12:00:00", "--hours", "12", "--csv", str(out_csv)]) == 0
+        outputs[kind] = (capsys.readouterr().out, out_csv.read_text())
+    assert set(outputs) == {"tle", "json", "csv", "ndm", "kvn", "xml"}
+    out, table = outputs["tle"]
+    assert "ISS (ZARYA)" in out and "2008-09-20 22:5" in out and "0 pass(es)" not in out
+    for kind, got in outputs.items():
+        assert got == (out, table), kind
+    # junk, an OEM, a bad OMM: exit 2 and one line naming the file and the line or record
+    junk = tmp_path / "junk.txt"
+    junk.write_text("hello\nworld\n")
+    oem = tmp_path / "eph.oem"
+    oem.write_text("CCSDS_OEM_VERS = 3.0\nCREATION_DATE = 2024-01-01\nORIGINATOR = X\n")
+    bad_json = tmp_path / "bad.json"
+    bad_json.write_text('[{"OBJECT_NAME": "X",\n "EPOCH": }]')
+    for path, where in ((junk, "line 2"), (oem, "CCSDS OEM"), (bad_json, "line 2")):
+        assert main(["passes", str(path), "--lat", "40", "--lon", "-75",
+                     "--start", "2008-09-20T12:00:00"]) == 2
+        err = capsys.readouterr().err
+        assert str(path) in err and where in err and len(err.strip().splitlines()) == 1, err

@@ -139,11 +139,10 @@ def run(args) -> int:
 
     from ..cli_window import write_output
     from ..errors import VisvivaError
-    from .layout import read_text
 
     try:
         # (a Path: a file name holding '=' is still a file name, and errors name the file)
-        text, _ = read_text(Path(args.input))
+        text = _input_text(Path(args.input))
         source = _kind_of_text(text)
         target = _output_kind(args)
         fmt = _format(args)
@@ -152,6 +151,27 @@ def run(args) -> int:
         print(f"visviva convert: {exc}", file=sys.stderr)
         return 2
     return write_output("convert", args.output, out)
+
+
+def _input_text(path) -> str:
+    """The text of the input: a CCSDS message strictly UTF-8 (a bad byte is refused naming its
+    line), a TLE file as :func:`visviva.read_tle_file` reads it (names in UTF-8, else
+    Latin-1)."""
+    from ..satellites.catalog_files import decode_tle_bytes
+    from .grammar import CCSDSFormatError
+    from .layout import read_text
+
+    try:
+        return read_text(path)[0]
+    except CCSDSFormatError as exc:
+        try:
+            text = decode_tle_bytes(path.read_bytes())
+        except OSError:  # (no such file, a directory, no permission: read_text's message)
+            raise exc from None
+        head = text.lstrip()[:2000]
+        if head.startswith("<") or "CCSDS_" in head:  # (a CCSDS message: stay strict)
+            raise
+        return text
 
 
 def _convert(args, path, text, source, target, fmt) -> str:

@@ -1,4 +1,7 @@
-"""``visviva screen``: screen a TLE file against itself for close approaches."""
+"""``visviva screen``: screen an element-set file against itself for close approaches.
+
+The file is read by :func:`visviva.read_catalog_file`: TLE, OMM JSON/CSV/XML or a CCSDS OMM.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +9,13 @@ from __future__ import annotations
 def add_parser(sub) -> None:
     """Add the ``screen`` sub-command to ``sub`` (an argparse sub-parsers object)."""
     p = sub.add_parser(
-        "screen", help="screen a TLE catalogue against itself for close approaches (SGP4)",
-        description="Find every close approach below --threshold between the objects of a TLE "
-        "file over a window, with TCA within 1 ms and the miss vector in the primary's RTN "
-        "frame.")
-    p.add_argument("tle_file", help="two- or three-line element sets")
+        "screen", help="screen a catalogue (TLE or OMM) against itself for close approaches (SGP4)",
+        description="Find every close approach below --threshold between the objects of an "
+        "element-set file over a window, with TCA within 1 ms and the miss vector in the "
+        "primary's RTN frame.")
+    p.add_argument("tle_file", metavar="FILE",
+                   help="element sets: TLE (2 or 3 lines each), OMM JSON/CSV/XML (CelesTrak GP "
+                        "data) or a CCSDS OMM (KVN or XML); the kind is told by content")
     p.add_argument("--threshold", type=float, default=5.0, metavar="KM",
                    help="reporting distance in km (default 5)")
     p.add_argument("--start", required=True, metavar="ISO", help="start of the window (UTC)")
@@ -31,11 +36,11 @@ def run(args) -> int:
 
     from ..cli_window import window_from_args
     from ..errors import VisvivaError
-    from ..satellites.catalog import Catalog, read_tle_file
+    from ..satellites.catalog import Catalog, read_catalog_file
     from .screening import screen_conjunctions
 
     try:
-        cat = read_tle_file(args.tle_file)
+        cat = read_catalog_file(args.tle_file)
         t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:
             if args.primary not in cat.names:

@@ -1,4 +1,7 @@
-"""``visviva passes``: the passes of every satellite in a TLE file over one site.
+"""``visviva passes``: the passes of every satellite in an element-set file over one site.
+
+The file is read by :func:`visviva.read_catalog_file`: TLE (two or three lines per satellite),
+OMM JSON, CSV or XML (CelesTrak's GP data) or a CCSDS OMM (KVN or XML), told by content.
 
 Example::
 
@@ -16,10 +19,13 @@ import sys
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
-        "passes", help="passes of the satellites of a TLE file over a ground site",
-        description="Rise, culmination and set of every satellite of a TLE file over one site, "
-        "with maximum elevation, azimuths and visibility (sunlit satellite, dark site).")
-    p.add_argument("tle_file", metavar="TLE_FILE", help="two- or three-line element file")
+        "passes", help="passes of the satellites of an element-set file over a ground site",
+        description="Rise, culmination and set of every satellite of an element-set file over "
+        "one site, with maximum elevation, azimuths and visibility (sunlit satellite, dark "
+        "site).")
+    p.add_argument("tle_file", metavar="FILE",
+                   help="element sets: TLE (2 or 3 lines each), OMM JSON/CSV/XML (CelesTrak GP "
+                        "data) or a CCSDS OMM (KVN or XML); the kind is told by content")
     p.add_argument("--lat", type=float, required=True, metavar="DEG",
                    help="geodetic latitude, degrees north")
     p.add_argument("--lon", type=float, required=True, metavar="DEG",
@@ -68,13 +74,13 @@ def run(args) -> int:
 
     from ..cli_window import window_from_args
     from ..errors import VisvivaError
-    from ..satellites.catalog import read_tle_file
+    from ..satellites.catalog import read_catalog_file
     from .passes import find_passes, write_passes
     from .station import GroundStation
 
     try:
         t0, t1 = window_from_args(args.start, args.hours)
-        cat = read_tle_file(args.tle_file)
+        cat = read_catalog_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
                              name=f"{args.lat:g}, {args.lon:g}")
         table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg)

@@ -28,6 +28,7 @@ _EXPORTS = {
     "Catalog": "catalog",
     "read_tle_file": "catalog",
     "read_omm_file": "catalog",
+    "read_catalog_file": "catalog",
     "propagate_sgp4_batch": "catalog",
     "propagate_kepler_batch": "catalog",
     "propagate_j2_batch": "catalog",

@@ -27,7 +27,12 @@ from astropy.time import Time
 from .._units import to_array, to_quantity, to_vector
 from ..constants import DAY_S
 from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
-from .catalog_files import omm_file_satellites, tle_file_satellites, tle_text_satellites
+from .catalog_files import (
+    catalog_file_satellites,
+    omm_file_satellites,
+    tle_file_satellites,
+    tle_text_satellites,
+)
 from .secular_batch import secular_grid, secular_setup
 from .tle import (
     MINUTES_PER_DAY,
@@ -43,6 +48,7 @@ __all__ = [
     "BatchStates",
     "read_tle_file",
     "read_omm_file",
+    "read_catalog_file",
     "parse_tle_text",
     "propagate_sgp4_batch",
     "propagate_kepler_batch",
@@ -323,6 +329,35 @@ def read_omm_file(path, *, format: str | None = None) -> Catalog:
         record) or the record number (1-based) of the first bad record.
     """
     return Catalog(omm_file_satellites(path, format=format))
+
+
+def read_catalog_file(path) -> Catalog:
+    """Read a file of element sets of any kind visviva knows, told apart by its content.
+
+    Two- or three-line element sets (names in UTF-8 or Latin-1); OMM records as CelesTrak's GP
+    data in JSON (a list of records or one record), CSV or XML (``<ndm>`` of ``<omm>``, or one
+    CCSDS OMM XML as :func:`visviva.write_omm` writes it); a CCSDS KVN OMM (one satellite).
+    The suffix of the file name plays no part. ``visviva passes`` and ``visviva screen`` read
+    their file with this.
+
+    Parameters
+    ----------
+    path : str, os.PathLike or text file object
+        The file (a text file object is read as TLE text).
+
+    Returns
+    -------
+    Catalog
+
+    Raises
+    ------
+    TLEFormatError
+        A file that is not OMM, naming its first bad TLE line.
+    InvalidInputError
+        An OMM file naming the line or record (as :func:`read_omm_file`), or another CCSDS
+        message (an OEM, an OPM) or XML document.
+    """
+    return Catalog(catalog_file_satellites(path))
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
-"""Reading satellite catalogues from files: TLE text (two- or three-line element sets) and OMM
-records (CelesTrak's GP data as JSON, CSV or XML), for the public readers of
-:mod:`visviva.satellites.catalog`, which wrap the satellites in a ``Catalog``.
+"""Reading satellite catalogues from files: TLE text (two- or three-line element sets), OMM
+records (CelesTrak's GP data as JSON, CSV or XML) and a CCSDS KVN OMM (one satellite), for the
+public readers of :mod:`visviva.satellites.catalog`, which wrap the satellites in a ``Catalog``.
+:func:`catalog_file_satellites` tells the kind of a file from its content.
 
 Every malformed input raises a typed error naming the file and the line (or the record):
 :class:`~visviva.satellites.tle.TLEFormatError` for TLE lines,
@@ -15,7 +16,8 @@ import os
 from ..errors import InvalidInputError
 from .tle import Satellite, TLEFormatError
 
-__all__ = ["tle_text_satellites", "tle_file_satellites", "omm_file_satellites"]
+__all__ = ["tle_text_satellites", "tle_file_satellites", "omm_file_satellites",
+           "catalog_file_satellites", "decode_tle_bytes"]
 
 
 def tle_text_satellites(text: str, *, source: str = "<text>", verify_checksum: bool = True) -> list:
@@ -69,36 +71,34 @@ def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
         source = getattr(path, "name", "<file>")
     else:
         with open(os.fspath(path), "rb") as f:
-            raw = f.read()
-        # element lines are ASCII; names may not be: UTF-8 (a byte-order mark dropped), else
-        # Latin-1, which decodes any byte (names were replaced by '?' marks before)
-        try:
-            text = raw.decode("utf-8-sig")
-        except UnicodeDecodeError:
-            text = raw.decode("latin-1")
+            text = decode_tle_bytes(f.read())
         source = os.fspath(path)
     return tle_text_satellites(text, source=str(source), verify_checksum=verify_checksum)
+
+
+def decode_tle_bytes(raw: bytes) -> str:
+    """The text of a TLE file's bytes: UTF-8 (a byte-order mark dropped), else Latin-1.
+
+    Element lines are ASCII; names may not be, and Latin-1 decodes any byte (names were
+    replaced by '?' marks before). ``visviva convert`` reads TLE files through this too.
+    """
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
 
 
 def _is_kvn_omm(path: str) -> bool:
     """Whether the file starts (comments and blank lines aside) with ``CCSDS_OMM_VERS``."""
     try:
-        with open(path, encoding="utf-8-sig", errors="replace") as f:
-            for line in f:
-                if line.strip() and not line.lstrip().startswith("COMMENT"):
-                    return line.strip().upper().startswith("CCSDS_OMM_VERS")
+        with open(path, "rb") as f:
+            return _ccsds_kind(f.read(4096).lstrip(b"\xef\xbb\xbf")) == "OMM"
     except OSError:
         return False
-    return False
 
 
 def omm_file_satellites(path, *, format: str | None = None) -> list:
     """The satellites of :func:`visviva.satellites.catalog.read_omm_file` (which see), as a list."""
-    import csv
-    import json
-
-    from sgp4 import omm
-
     path = os.fspath(path)
     fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
     if fmt not in ("json", "csv", "xml"):
@@ -112,16 +112,31 @@ def omm_file_satellites(path, *, format: str | None = None) -> list:
         )
     with open(path, "rb") as f:
         raw = f.read()
+    return _omm_text_satellites(_decode_utf8(raw, path), path, fmt)
+
+
+def _decode_utf8(raw: bytes, path: str) -> str:
+    """The UTF-8 text of an OMM file, or an error naming the line of the first bad byte."""
     # utf-8-sig: a byte-order mark made JSON fail and hid the first CSV column (OBJECT_NAME)
     try:
-        text = raw.decode("utf-8-sig")
+        return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = raw[:exc.start].count(b"\n") + 1
         raise InvalidInputError(
             f"{path}, line {line}: byte 0x{raw[exc.start]:02x} is "
             "not UTF-8 text; save the file as UTF-8 (CelesTrak's GP data is)."
         ) from None
-    where = []  # the line of each record, where the format tells it (CSV)
+
+
+def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
+    """The satellites of the OMM records of ``text`` in the format ``fmt`` (json, csv, xml or
+    kvn), errors naming ``path`` and the line or record."""
+    import csv
+    import json
+
+    from sgp4 import omm
+
+    where = []  # the line of each record, where the format tells it (CSV, KVN)
     try:
         if fmt == "json":
             records = json.loads(text)
@@ -138,6 +153,9 @@ def omm_file_satellites(path, *, format: str | None = None) -> list:
             for rec in reader:
                 records.append(rec)
                 where.append(reader.line_num)
+        elif fmt == "kvn":
+            records = [_kvn_omm_record(text, path)]
+            where.append(1)
         else:
             records = _omm_xml_records(text, path)
     except json.JSONDecodeError as exc:
@@ -157,6 +175,82 @@ def omm_file_satellites(path, *, format: str | None = None) -> list:
             line = f", line {where[k - 1]}" if where else ""
             raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
     return sats
+
+
+def _kvn_omm_record(text: str, path: str) -> dict:
+    """The ``KEYWORD = value`` pairs of a CCSDS KVN OMM (units in brackets dropped).
+
+    The layers keep :mod:`visviva.satellites` below :mod:`visviva.ccsds`, so a catalogue file
+    is read here; :func:`visviva.read_omm` is the full CCSDS reader (every section checked),
+    and both give the same satellite (tests/test_ccsds_convert.py)."""
+    fields = {}
+    for number, line in enumerate(text.replace("\r\n", "\n").split("\n"), start=1):
+        stripped = line.strip()
+        if not stripped or stripped == "COMMENT" or stripped.startswith(("COMMENT ", "COMMENT\t")):
+            continue
+        key, eq, value = stripped.partition("=")
+        key = key.strip()
+        if not eq or not key.replace("_", "").isalnum():
+            raise InvalidInputError(
+                f"{path}, line {number}: expected 'KEYWORD = value' of a KVN OMM, got "
+                f"{stripped[:60]!r}."
+            )
+        if key in ("COVARIANCE_START", "USER_DEFINED_START"):
+            continue
+        if key in fields:
+            raise InvalidInputError(f"{path}, line {number}: {key} appears twice; an OMM "
+                                    "holds one satellite.")
+        value = value.strip()
+        if value.endswith("]") and "[" in value:
+            value = value[:value.rindex("[")].strip()
+        fields[key] = value
+    return fields
+
+
+def catalog_file_satellites(path) -> list:
+    """The satellites of :func:`visviva.satellites.catalog.read_catalog_file` (which see)."""
+    if isinstance(path, io.TextIOBase) or hasattr(path, "read"):
+        return tle_file_satellites(path)
+    path = os.fspath(path)
+    with open(path, "rb") as f:
+        raw = f.read()
+    head = raw.lstrip(b"\xef\xbb\xbf \t\r\n")[:4096]
+    first = head.split(b"\n", 1)[0].upper()
+    if head[:1] in (b"{", b"["):
+        fmt = "json"
+    elif head[:1] == b"<":
+        fmt = "xml"
+        if b"<omm" not in head.lower() and b"<ndm" not in head.lower():
+            raise InvalidInputError(
+                f"{path}, line 1: an XML file without <omm> or <ndm>; visviva reads element "
+                "sets from OMM XML (CelesTrak's or CCSDS), not other messages."
+            )
+    elif b"NORAD_CAT_ID" in first and b"," in first:
+        fmt = "csv"
+    else:
+        kind = _ccsds_kind(head)
+        if kind is None:
+            return tle_text_satellites(decode_tle_bytes(raw), source=path)
+        if kind != "OMM":
+            raise InvalidInputError(
+                f"{path}: a CCSDS {kind}, not element sets; visviva reads TLE, OMM JSON, CSV "
+                "or XML, and CCSDS OMM files."
+            )
+        fmt = "kvn"
+    return _omm_text_satellites(_decode_utf8(raw, path), path, fmt)
+
+
+def _ccsds_kind(head: bytes) -> str | None:
+    """``"OMM"``, ``"OEM"``... when the first line that is not blank or a comment is a CCSDS
+    ``CCSDS_xxx_VERS`` keyword, else None."""
+    for line in head.split(b"\n"):
+        stripped = line.strip().upper()
+        if not stripped or stripped.startswith(b"COMMENT"):
+            continue
+        if stripped.startswith(b"CCSDS_") and b"_VERS" in stripped[:16]:
+            return stripped[6:9].decode("ascii", "replace")
+        return None
+    return None
 
 
 def _omm_xml_records(text: str, path: str) -> list:

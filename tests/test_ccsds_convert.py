@@ -70,3 +70,51 @@ def test_errors(tle_file, tmp_path, capsys):
     bad.write_text("CCSDS_OMM_VERS = 3.0\nCREATION_DATE = 2024\n")
     assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 2
     assert "line 2" in capsys.readouterr().err
+
+
+def test_latin1_tle_converts(tmp_path, capsys):
+    """A TLE whose name line is Latin-1 (not UTF-8) converts, as read_tle_file reads it; a
+    CCSDS message with the same byte is still refused naming its line."""
+    path = tmp_path / "latin1.tle"
+    path.write_bytes("ESPAÑA-SAT\n".encode("latin-1") + "\n".join(ISS[1:]).encode() + b"\n")
+    assert vv.read_tle_file(path)[0].name == "ESPAÑA-SAT"
+    out = tmp_path / "out.omm"
+    assert cli.main(["convert", str(path), str(out)]) == 0
+    omm = vv.read_omm(out)
+    assert omm["OBJECT_NAME"] == "ESPAÑA-SAT" and omm["NORAD_CAT_ID"] == 25544
+    back = tmp_path / "back.tle"
+    assert cli.main(["convert", str(out), str(back)]) == 0
+    assert back.read_text(encoding="utf-8").splitlines() == ["ESPAÑA-SAT", *ISS[1:]]
+    text = out.read_text(encoding="utf-8").replace("ESPAÑA", "ESPA\xd1A")
+    bad = tmp_path / "bad.omm"
+    bad.write_bytes(text.encode("latin-1"))
+    assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 2
+    err = capsys.readouterr().err
+    line = 1 + text[:text.index("ESPA\xd1A")].count("\n")
+    assert f"line {line}" in err and "not UTF-8" in err and str(bad) in err, err
+
+
+def test_read_catalog_file_kvn_matches_read_omm(tmp_path, write_catalog_files):
+    """read_catalog_file's KVN OMM (parsed in the satellites layer, which may not import
+    ccsds) gives the satellite vv.read_omm does; every kind gives the TLE's satellite."""
+    iss = vv.Satellite.from_tle(*ISS[1:], ISS[0])
+    paths = write_catalog_files([iss])
+    full = vv.Catalog.from_omm([vv.read_omm(paths["kvn"])])[0]
+    for kind, path in paths.items():
+        sat = vv.read_catalog_file(path)[0]
+        assert sat.to_tle() == iss.to_tle() == full.to_tle() and sat.name == ISS[0], kind
+    # a KVN line without '=' and a repeated keyword name their lines
+    text = paths["kvn"].read_text().splitlines()
+    for k, edit in ((5, "OBJECT_NAME ISS"), (6, text[5])):
+        bad = tmp_path / f"bad{k}.dat"
+        bad.write_text("\n".join(text[:k] + [edit] + text[k + 1:]) + "\n")
+        with pytest.raises(vv.InvalidInputError, match=f"line {k + 1}"):
+            vv.read_catalog_file(bad)
+    # other CCSDS messages and XML documents are refused by name, not read as TLE lines
+    oem = tmp_path / "x.dat"
+    oem.write_text("COMMENT made by hand\nCCSDS_OPM_VERS = 3.0\n")
+    with pytest.raises(vv.InvalidInputError, match="CCSDS OPM"):
+        vv.read_catalog_file(oem)
+    oem.write_text('<?xml version="1.0"?>\n<oem><header/></oem>\n')
+    with pytest.raises(vv.InvalidInputError, match="without <omm>"):
+        vv.read_catalog_file(oem)

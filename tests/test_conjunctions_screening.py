@@ -221,3 +221,29 @@ def test_propagated_covariance_grows_along_track():
     rtn = inertial_to_rtn(later, r1, v1)
     assert rtn[1, 1] > 10 * rtn[0, 0]
     assert np.all(np.linalg.eigvalsh(later) > 0)
+
+
+def test_cli_screen_reads_every_catalogue_kind(tmp_path, capsys, write_catalog_files):
+    """``visviva screen`` on the same catalogue as TLE, OMM JSON, CSV and CelesTrak XML (no
+    telling suffix): the same close approaches, line for line."""
+    cat = synthetic_catalog(0, crossing_pairs=2, seed=1)
+    outputs = {}
+    for kind, path in write_catalog_files(list(cat)).items():
+        assert main(["screen", str(path), "--threshold", "20", "--start",
+                     "2024-01-01T00:00:00", "--hours", "2", "--quiet"]) == 0
+        outputs[kind] = capsys.readouterr().out
+    assert set(outputs) == {"tle", "json", "csv", "ndm"}
+    assert "SYN60000" in outputs["tle"] and "(4 objects)" in outputs["tle"]
+    assert not outputs["tle"].startswith("0 close")
+    for kind, out in outputs.items():
+        assert out == outputs["tle"], kind
+    # a CSV with a bad record: exit 2, one line naming the file, the record and its line
+    bad = tmp_path / "bad.csv"
+    text = write_catalog_files(list(cat), "bad")["csv"].read_text().splitlines()
+    text[2] = text[2].replace("SYN60001,", "SYN60001,,", 1)
+    bad.write_text("\n".join(text) + "\n")
+    assert main(["screen", str(bad), "--start", "2024-01-01T00:00:00", "--hours", "1",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "record 2" in err and "line 3" in err, err
+    assert len(err.strip().splitlines()) == 1

@@ -4,14 +4,30 @@ file they write.
 One owner for parsing the window, so that ``visviva passes`` and ``visviva screen`` refuse a bad
 window with the same short message instead of astropy's list of every time format it tried; one
 for writing the output, so that ``visviva convert`` and ``visviva fit-tle`` report a file they
-cannot write in one line with exit code 2 instead of a traceback.
+cannot write in one line with exit code 2 instead of a traceback; one for the element-set file
+argument of ``visviva passes`` and ``visviva screen`` (read by :func:`visviva.read_catalog_file`).
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["window_from_args", "write_output"]
+__all__ = ["window_from_args", "write_output", "add_catalog_argument"]
+
+
+def add_catalog_argument(parser) -> None:
+    """Add the positional element-set file argument (``args.tle_file``) to ``parser``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        A sub-command's parser; its ``run`` reads the file with
+        :func:`visviva.read_catalog_file`, which tells the kind by content.
+    """
+    parser.add_argument(
+        "tle_file", metavar="FILE",
+        help="element sets: TLE (2 or 3 lines each), OMM JSON/CSV/XML (CelesTrak GP data) or a "
+             "CCSDS OMM (KVN or XML); the kind is told by content")
 
 
 def window_from_args(start: str, hours: float):

@@ -13,9 +13,9 @@ def add_parser(sub) -> None:
         description="Find every close approach below --threshold between the objects of an "
         "element-set file over a window, with TCA within 1 ms and the miss vector in the "
         "primary's RTN frame.")
-    p.add_argument("tle_file", metavar="FILE",
-                   help="element sets: TLE (2 or 3 lines each), OMM JSON/CSV/XML (CelesTrak GP "
-                        "data) or a CCSDS OMM (KVN or XML); the kind is told by content")
+    from ..cli_window import add_catalog_argument
+
+    add_catalog_argument(p)
     p.add_argument("--threshold", type=float, default=5.0, metavar="KM",
                    help="reporting distance in km (default 5)")
     p.add_argument("--start", required=True, metavar="ISO", help="start of the window (UTC)")

@@ -23,9 +23,9 @@ def add_parser(sub) -> None:
         description="Rise, culmination and set of every satellite of an element-set file over "
         "one site, with maximum elevation, azimuths and visibility (sunlit satellite, dark "
         "site).")
-    p.add_argument("tle_file", metavar="FILE",
-                   help="element sets: TLE (2 or 3 lines each), OMM JSON/CSV/XML (CelesTrak GP "
-                        "data) or a CCSDS OMM (KVN or XML); the kind is told by content")
+    from ..cli_window import add_catalog_argument
+
+    add_catalog_argument(p)
     p.add_argument("--lat", type=float, required=True, metavar="DEG",
                    help="geodetic latitude, degrees north")
     p.add_argument("--lon", type=float, required=True, metavar="DEG",

@@ -110,6 +110,11 @@ def test_read_catalog_file_kvn_matches_read_omm(tmp_path, write_catalog_files):
         bad.write_text("\n".join(text[:k] + [edit] + text[k + 1:]) + "\n")
         with pytest.raises(vv.InvalidInputError, match=f"line {k + 1}"):
             vv.read_catalog_file(bad)
+    # a TLE whose names start like JSON or XML is still a TLE
+    for name in ("[+] ISS", "<ISS>", "{ISS}"):
+        odd = tmp_path / "odd.dat"
+        odd.write_text(f"{name}\n{ISS[1]}\n{ISS[2]}\n")
+        assert vv.read_catalog_file(odd)[0].name == name
     # other CCSDS messages and XML documents are refused by name, not read as TLE lines
     oem = tmp_path / "x.dat"
     oem.write_text("COMMENT made by hand\nCCSDS_OPM_VERS = 3.0\n")

@@ -216,6 +216,9 @@ def catalog_file_satellites(path) -> list:
         raw = f.read()
     head = raw.lstrip(b"\xef\xbb\xbf \t\r\n")[:4096]
     first = head.split(b"\n", 1)[0].upper()
+    lines = [line for line in head.split(b"\n", 4)[:4] if line.strip()]
+    if any(line.startswith(b"1 ") for line in lines[:2]):  # (a name such as '[+] X' or '<X>')
+        return tle_text_satellites(decode_tle_bytes(raw), source=path)
     if head[:1] in (b"{", b"["):
         fmt = "json"
     elif head[:1] == b"<":

@@ -123,3 +123,31 @@ def test_read_catalog_file_kvn_matches_read_omm(tmp_path, write_catalog_files):
     oem.write_text('<?xml version="1.0"?>\n<oem><header/></oem>\n')
     with pytest.raises(vv.InvalidInputError, match="without <omm>"):
         vv.read_catalog_file(oem)
+
+
+def test_convert_reads_gp_data(tmp_path, write_catalog_files):
+    """CelesTrak GP data (JSON, CSV, an XML <ndm> of many OMMs; Space-Track's records hold
+    CCSDS_OMM_VERS too) converts: --satnum picks the satellite, the TLE lines come back."""
+    import json
+
+    iss = vv.Satellite.from_tle(*ISS[1:], ISS[0])
+    l1, l2 = (s.replace("25544", "25545")[:68] for s in ISS[1:])
+    from visviva.satellites.tle_export import tle_checksum
+
+    other = vv.Satellite.from_tle(l1 + str(tle_checksum(l1)), l2 + str(tle_checksum(l2)), "B")
+    paths = write_catalog_files([other, iss])
+    spacetrack = tmp_path / "st.json"
+    records = json.loads(paths["json"].read_text())
+    spacetrack.write_text(json.dumps([{"CCSDS_OMM_VERS": "2.0", **r} for r in records]))
+    paths["spacetrack"] = spacetrack
+    for kind, path in paths.items():
+        if kind == "tle":
+            continue
+        out = tmp_path / f"{kind}.tle"
+        assert cli.main(["convert", str(path), str(out), "--satnum", "25544"]) == 0, kind
+        assert out.read_text().splitlines() == list(ISS), kind
+        with pytest.raises(SystemExit, match="holds 2 satellites"):
+            cli.main(["convert", str(path), str(out)])
+    omm = tmp_path / "iss.omm"
+    assert cli.main(["convert", str(paths["ndm"]), str(omm), "--satnum", "25544"]) == 0
+    assert vv.read_omm(omm)["NORAD_CAT_ID"] == 25544

@@ -1,7 +1,8 @@
 """``visviva convert``: between TLE, OMM and OEM (an OEM from a TLE or OMM by SGP4 sampling).
 
 Input kinds are recognised from the content (``CCSDS_OMM_VERS`` / ``<omm>``, ``CCSDS_OEM_VERS``
-/ ``<oem>``, else TLE lines); the output kind from ``--to`` or the output's suffix (``.tle``,
+/ ``<oem>``, else element sets of any kind :func:`visviva.read_catalog_file` reads: TLE lines,
+CelesTrak's GP data as OMM JSON, CSV or an XML ``<ndm>`` of many ``<omm>``); the output kind from ``--to`` or the output's suffix (``.tle``,
 ``.txt``, ``.omm``, ``.oem``); KVN or XML from ``--format`` or a ``.xml`` suffix.
 """
 
@@ -23,14 +24,15 @@ def add_parser(sub) -> None:
         "convert", help="convert between TLE, CCSDS OMM and CCSDS OEM (KVN or XML)",
         description="Convert orbit data: TLE <-> OMM (exact SGP4 mean elements), TLE or OMM -> "
         "OEM (SGP4 sampled every --step seconds for --hours from --start), OEM/OMM KVN <-> XML.")
-    p.add_argument("input", help="TLE file (2 or 3 lines per satellite), OMM or OEM (KVN/XML)")
+    p.add_argument("input", help="TLE file (2 or 3 lines per satellite), CelesTrak GP data "
+                   "(OMM JSON, CSV or XML), CCSDS OMM or OEM (KVN/XML)")
     p.add_argument("output", help="file to write ('-' for standard output)")
     p.add_argument("--to", choices=_KINDS, default=None,
                    help="output kind (default: from the output's suffix)")
     p.add_argument("--format", choices=("kvn", "xml"), default=None,
                    help="CCSDS encoding (default: xml for a .xml output, else kvn)")
     p.add_argument("--satnum", type=int, default=None,
-                   help="catalogue number to take from a TLE file with several satellites")
+                   help="catalogue number to take from a file with several satellites")
     p.add_argument("--start", default=None, metavar="ISO",
                    help="OEM start, UTC (default: the element set's epoch)")
     p.add_argument("--hours", type=float, default=24.0, help="OEM span in hours (default 24)")
@@ -46,6 +48,9 @@ def add_parser(sub) -> None:
 
 def _kind_of_text(text: str) -> str:
     head = text.lstrip()[:2000]
+    first = head.split("\n", 1)[0]
+    if head.startswith(("{", "[")) or ("," in first and "=" not in first):
+        return "tle"  # (GP data in JSON or CSV, whose records may hold CCSDS_OMM_VERS)
     for kind in ("omm", "oem"):
         if f"CCSDS_{kind.upper()}_VERS" in head or f"<{kind}" in head:
             return kind
@@ -75,13 +80,12 @@ def _format(args) -> str:
 
 def _satellite(args, path, text: str, kind: str):
     from ..satellites import Satellite
-    from ..satellites.catalog import parse_tle_text
+    from ..satellites.catalog import read_catalog_file
     from .omm import read_omm
 
-    if kind == "omm":
+    if kind == "omm" and not _is_ndm(text):
         return Satellite.from_omm(read_omm(path))
-    catalog = parse_tle_text(text, source=args.input)
-    sats = list(catalog.satellites)
+    sats = list(read_catalog_file(path))
     if args.satnum is not None:
         sats = [s for s in sats if s.satnum == args.satnum]
         if not sats:
@@ -91,6 +95,12 @@ def _satellite(args, path, text: str, kind: str):
         raise SystemExit(f"visviva convert: {args.input} holds {len(sats)} satellites "
                          f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with --satnum")
     return sats[0]
+
+
+def _is_ndm(text: str) -> bool:
+    """Whether an XML input is an ``<ndm>`` (CelesTrak's GP XML: many OMMs, read as a
+    catalogue) rather than one ``<omm>``."""
+    return "<ndm" in text.lstrip()[:2000]
 
 
 def _sample_oem(sat, args):
@@ -192,7 +202,7 @@ def _convert(args, path, text, source, target, fmt) -> str:
             raise InvalidInputError(f"--mission-epoch {args.mission_epoch!r} is not an ISO "
                                     "date-time like 2024-01-31T12:00:00") from None
         return write_oem(read_oem(path, mission_epoch=mission), format=fmt)
-    if source == "omm" and target == "omm":
+    if source == "omm" and target == "omm" and not _is_ndm(text):
         return write_omm(read_omm(path), format=fmt, originator=args.originator)
     sat = _satellite(args, path, text, source)
     if target == "tle":

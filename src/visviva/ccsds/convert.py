@@ -2,8 +2,9 @@
 
 Input kinds are recognised from the content (``CCSDS_OMM_VERS`` / ``<omm>``, ``CCSDS_OEM_VERS``
 / ``<oem>``, else element sets of any kind :func:`visviva.read_catalog_file` reads: TLE lines,
-CelesTrak's GP data as OMM JSON, CSV or an XML ``<ndm>`` of many ``<omm>``); the output kind from ``--to`` or the output's suffix (``.tle``,
-``.txt``, ``.omm``, ``.oem``); KVN or XML from ``--format`` or a ``.xml`` suffix.
+CelesTrak's GP data as OMM JSON, CSV or an XML ``<ndm>`` of many ``<omm>``); the output kind
+from ``--to`` or the output's suffix (``.tle``, ``.txt``, ``.omm``, ``.oem``); KVN or XML from
+``--format`` or a ``.xml`` suffix.
 """
 
 from __future__ import annotations

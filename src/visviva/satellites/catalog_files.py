@@ -195,8 +195,6 @@ def _kvn_omm_record(text: str, path: str) -> dict:
                 f"{path}, line {number}: expected 'KEYWORD = value' of a KVN OMM, got "
                 f"{stripped[:60]!r}."
             )
-        if key in ("COVARIANCE_START", "USER_DEFINED_START"):
-            continue
         if key in fields:
             raise InvalidInputError(f"{path}, line {number}: {key} appears twice; an OMM "
                                     "holds one satellite.")

@@ -9,6 +9,7 @@ order, units and XML element names come from one table.
 
 from __future__ import annotations
 
+from .._text import utf8_text
 from .grammar import CCSDSFormatError, Record, Section, format_value, parse_value
 from .kvn import KVNCursor, KVNWriter
 from .ndmxml import XMLNode, add_text, looks_like_xml, message_root, new_root, parse, to_text
@@ -63,15 +64,9 @@ def read_text(source) -> tuple[str, str]:
 
 def _decode(data: bytes, name: str) -> str:
     """The UTF-8 text of a file's bytes, or an error naming the line of the first bad byte."""
-    # utf-8-sig: a byte-order mark (Windows editors write one) is not part of the message
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise CCSDSFormatError(
-            f"byte 0x{data[exc.start]:02x} is not UTF-8 text (CCSDS messages are ASCII): "
-            "remove the character or save the file as UTF-8", line=line, source=name
-        ) from None
+    return utf8_text(data, lambda line, byte: CCSDSFormatError(
+        f"byte 0x{byte:02x} is not UTF-8 text (CCSDS messages are ASCII): remove the character "
+        "or save the file as UTF-8", line=line, source=name))
 
 
 def check_mandatory(record: Record, section: Section, source: str) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import os
 
+from .._text import utf8_text
 from ..errors import InvalidInputError
 from .tle import Satellite, TLEFormatError
 
@@ -117,15 +118,9 @@ def omm_file_satellites(path, *, format: str | None = None) -> list:
 
 def _decode_utf8(raw: bytes, path: str) -> str:
     """The UTF-8 text of an OMM file, or an error naming the line of the first bad byte."""
-    # utf-8-sig: a byte-order mark made JSON fail and hid the first CSV column (OBJECT_NAME)
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise InvalidInputError(
-            f"{path}, line {line}: byte 0x{raw[exc.start]:02x} is "
-            "not UTF-8 text; save the file as UTF-8 (CelesTrak's GP data is)."
-        ) from None
+    return utf8_text(raw, lambda line, byte: InvalidInputError(
+        f"{path}, line {line}: byte 0x{byte:02x} is not UTF-8 text; save the file as UTF-8 "
+        "(CelesTrak's GP data is)."))
 
 
 def _omm_text_satellites(text: str, path: str, fmt: str) -> list:

@@ -217,7 +217,7 @@ def test_read_omm_json_and_csv_equal_the_tles(tmp_path, catalog):
     with pytest.raises(vv.InvalidInputError, match=r"cut.json, line 1, column \d+: not valid JSON"):
         read_omm_file(tmp_path / "cut.json")
     (tmp_path / "cut.xml").write_text("<ndm><omm>\n<body>")
-    with pytest.raises(vv.InvalidInputError, match="cut.xml, line 2: not well-formed XML"):
+    with pytest.raises(vv.InvalidInputError, match="cut.xml, line 2: the XML is not well formed"):
         read_omm_file(tmp_path / "cut.xml")
     records[1].pop("MEAN_MOTION")
     (tmp_path / "bad.json").write_text(json.dumps(records))

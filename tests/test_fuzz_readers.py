@@ -376,6 +376,23 @@ def test_omm_xml_declared_encoding_and_missing_sections(tmp_path):
         read_omm_file(path)
 
 
+def test_omm_xml_record_error_names_the_line_of_its_segment(tmp_path):
+    # was: "record 2 of gp.xml" only (ElementTree keeps no line numbers)
+    from visviva.satellites.catalog import read_omm_file
+
+    _gp_files(tmp_path)
+    path = tmp_path / "gp.xml"
+    lines = path.read_text().split("\n")
+    segments = [k for k, line in enumerate(lines, start=1) if "<segment>" in line]
+    assert len(segments) == 2
+    motion = max(k for k, line in enumerate(lines) if "<MEAN_MOTION " in line)
+    lines[motion] = "<MEAN_MOTION>-15.5</MEAN_MOTION>"
+    path.write_text("\n".join(lines))
+    with pytest.raises(vv.InvalidElementsError,
+                       match=f"record 2 of .*gp.xml, line {segments[1]}: .*MEAN_MOTION"):
+        read_omm_file(path)
+
+
 @pytest.mark.parametrize("char", ["\x0c", "\x85", "\u2028"])
 def test_tle_text_line_numbers_count_cr_lf_only(char):
     # was: str.splitlines split a name at a form feed or NEL, so every later line number was off

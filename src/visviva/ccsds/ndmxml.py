@@ -5,17 +5,16 @@ holding ``<header>`` and ``<body>``; the body holds one or more ``<segment>`` wi
 ``<metadata>`` and ``<data>``; every keyword is an element of the same name with an optional
 ``units`` attribute (``<X units="km">6655.99</X>``), comments are ``<COMMENT>`` elements.
 
-:func:`parse` reads the text with :mod:`xml.parsers.expat` (the standard library's parser) into
-:class:`XMLNode` objects that remember their line, so errors name the line as in KVN.
+:func:`parse` reads the text into :class:`XMLNode` objects (:mod:`visviva._xmltree`: expat, every
+element remembers its line), so errors name the line as in KVN.
 :func:`new_root` and :func:`to_text` write with :mod:`xml.etree.ElementTree`.
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
-from xml.parsers import expat
 
+from .._xmltree import XMLNode, parse_xml
 from .grammar import CCSDSFormatError
 
 __all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "add_text",
@@ -23,53 +22,6 @@ __all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "ad
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
 _SCHEMA = "https://sanaregistry.org/r/ndmxml_unqualified/ndmxml-3.0.0-master-3.0.xsd"
-
-
-@dataclass(slots=True)
-class XMLNode:
-    """One XML element: tag, attributes, stripped text, children and its 1-based line.
-
-    Attributes
-    ----------
-    tag : str
-        Element name with any namespace prefix removed.
-    attrib : dict
-        Attributes (names without prefixes).
-    text : str
-        The element's own character data, stripped.
-    children : list of XMLNode
-        Child elements in document order.
-    line : int
-        Line of the start tag.
-    """
-
-    tag: str
-    attrib: dict
-    line: int
-    text: str = ""
-    children: list = field(default_factory=list)
-
-    def find(self, tag: str) -> XMLNode | None:
-        """First child with this tag, or None."""
-        for child in self.children:
-            if child.tag == tag:
-                return child
-        return None
-
-    def findall(self, tag: str) -> list[XMLNode]:
-        """Every child with this tag."""
-        return [c for c in self.children if c.tag == tag]
-
-    def path(self, path: str) -> list[XMLNode]:
-        """Every descendant along a slash-separated path of tags (``"body/segment"``)."""
-        nodes = [self]
-        for tag in path.split("/"):
-            nodes = [c for n in nodes for c in n.findall(tag)]
-        return nodes
-
-
-def _local(name: str) -> str:
-    return name.rsplit(":", 1)[-1].rsplit("}", 1)[-1]
 
 
 def looks_like_xml(text: str) -> bool:
@@ -88,7 +40,7 @@ def looks_like_xml(text: str) -> bool:
 
 
 def parse(text: str, source: str = "<text>") -> XMLNode:
-    """Parse XML text into :class:`XMLNode` objects; the root node is returned.
+    """Parse an NDM/XML message into :class:`XMLNode` objects; the root node is returned.
 
     Parameters
     ----------
@@ -106,54 +58,8 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
     CCSDSFormatError
         The XML is not well formed (the message names the line and column).
     """
-    parser = expat.ParserCreate()
-    parser.buffer_text = True
-    stack: list[XMLNode] = []
-    root: list[XMLNode] = []
-    names: dict[str, str] = {}
-
-    def local(name):
-        out = names.get(name)
-        if out is None:
-            out = names[name] = _local(name)
-        return out
-
-    def start(name, attrs):
-        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()} if attrs else {},
-                       parser.CurrentLineNumber)
-        if stack:
-            stack[-1].children.append(node)
-        else:
-            root.append(node)
-        stack.append(node)
-
-    def end(name):
-        node = stack.pop()
-        node.text = node.text.strip()
-
-    def chars(data):
-        if stack:
-            stack[-1].text += data
-
-    def external(context, base, system_id, public_id):
-        return 0  # not fetched: expat then stops with "error in processing external entity"
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.CharacterDataHandler = chars
-    # an entity declared SYSTEM "file-or-url" and used in the text is refused, not fetched,
-    # nor silently left out of the value it stands in (an external DTD is not read either)
-    parser.ExternalEntityRefHandler = external
-    try:
-        # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
-        # XML declaration names (a declared 'latin-1' or an unknown name would otherwise
-        # re-decode it or raise LookupError)
-        parser.Parse(text, True)
-    except expat.ExpatError as exc:
-        raise CCSDSFormatError(
-            f"the XML is not well formed: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",
-            line=exc.lineno, source=source) from None
-    return root[0]
+    return parse_xml(text, lambda line, message: CCSDSFormatError(message, line=line,
+                                                                   source=source))
 
 
 def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:

@@ -131,7 +131,7 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
 
     from sgp4 import omm
 
-    where = []  # the line of each record, where the format tells it (CSV, KVN)
+    where = []  # the line of each record, where the format tells it (CSV, KVN, XML)
     try:
         if fmt == "json":
             records = json.loads(text)
@@ -152,7 +152,7 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
             records = [_kvn_omm_record(text, path)]
             where.append(1)
         else:
-            records = _omm_xml_records(text, path)
+            records, where = _omm_xml_records(text, path)
     except json.JSONDecodeError as exc:
         raise InvalidInputError(
             f"{path}, line {exc.lineno}, column {exc.colno}: not valid JSON ({exc.msg}); the "
@@ -249,34 +249,28 @@ def _ccsds_kind(head: bytes) -> str | None:
     return None
 
 
-def _omm_xml_records(text: str, path: str) -> list:
+def _omm_xml_records(text: str, path: str) -> tuple[list, list]:
     """The keyword: text records of every OMM ``<segment>`` of an XML file (one ``<omm>`` or an
-    ``<ndm>`` of many, as CelesTrak writes).
+    ``<ndm>`` of many, as CelesTrak writes), and the line of each ``<segment>``.
 
     As sgp4's ``omm.parse_xml``, but the decoded text is parsed as UTF-8 whatever encoding its
     declaration names (a declared 'latin-1' re-decoded it, an unknown name raised LookupError),
-    a segment without some of its sections gives a record lacking those keywords (which
-    :meth:`Satellite.from_omm` names) instead of an AttributeError, and elements holding
-    elements are left out."""
-    import xml.etree.ElementTree as ET
+    external entities are refused (:mod:`visviva._xmltree`), a segment without some of its
+    sections gives a record lacking those keywords (which :meth:`Satellite.from_omm` names)
+    instead of an AttributeError, and elements holding elements are left out."""
+    from .._xmltree import parse_xml
 
-    try:
-        root = ET.fromstring(text.encode("utf-8"), parser=ET.XMLParser(encoding="utf-8"))
-    except ET.ParseError as exc:
-        raise InvalidInputError(
-            f"{path}, line {exc.position[0]}: not well-formed XML ({exc}); the file is "
-            "truncated or is not an OMM XML file."
-        ) from None
-    records = []
-    for segment in root.iter():
-        if segment.tag.rsplit("}", 1)[-1] != "segment":
-            continue
+    root = parse_xml(text, lambda line, message: InvalidInputError(
+        f"{path}, line {line}: {message}; the file is truncated or is not an OMM XML file."))
+    records, lines = [], []
+    for segment in root.iter("segment"):
         fields = {}
         for section in ("metadata", "data/meanElements", "data/tleParameters"):
-            for element in segment.findall(section):
-                fields.update((c.tag, (c.text or "").strip()) for c in element
-                              if c.tag != "COMMENT" and len(c) == 0)
+            for element in segment.path(section):
+                fields.update((c.tag, c.text) for c in element.children
+                              if c.tag != "COMMENT" and not c.children)
         records.append(fields)
+        lines.append(segment.line)
     if not records:
         raise InvalidInputError(f"{path}: no OMM <segment> in the XML; is it an OMM XML file?")
-    return records
+    return records, lines

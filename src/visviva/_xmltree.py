@@ -1,0 +1,136 @@
+"""A small XML element tree that keeps the line of every element, for the file readers.
+
+:func:`parse_xml` reads the text with :mod:`xml.parsers.expat` (the standard library's parser)
+into :class:`XMLNode` objects that remember their line, so a reader's errors name the line of
+the element at fault (ElementTree keeps no line numbers). External entities are refused, not
+fetched, and the encoding an XML declaration names is ignored (the text is already Unicode).
+The CCSDS NDM/XML reader (:mod:`visviva.ccsds.ndmxml`) and the OMM XML catalogue reader
+(:mod:`visviva.satellites.catalog_files`) use it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from xml.parsers import expat
+
+__all__ = ["XMLNode", "parse_xml"]
+
+
+def _local(name: str) -> str:
+    return name.rsplit(":", 1)[-1].rsplit("}", 1)[-1]
+
+
+@dataclass(slots=True)
+class XMLNode:
+    """One XML element: tag, attributes, stripped text, children and its 1-based line.
+
+    Attributes
+    ----------
+    tag : str
+        Element name with any namespace prefix removed.
+    attrib : dict
+        Attributes (names without prefixes).
+    text : str
+        The element's own character data, stripped.
+    children : list of XMLNode
+        Child elements in document order.
+    line : int
+        Line of the start tag.
+    """
+
+    tag: str
+    attrib: dict
+    line: int
+    text: str = ""
+    children: list = field(default_factory=list)
+
+    def find(self, tag: str) -> XMLNode | None:
+        """First child with this tag, or None."""
+        for child in self.children:
+            if child.tag == tag:
+                return child
+        return None
+
+    def findall(self, tag: str) -> list[XMLNode]:
+        """Every child with this tag."""
+        return [c for c in self.children if c.tag == tag]
+
+    def iter(self, tag: str):
+        """This element and every descendant with this tag, in document order."""
+        stack = [self]
+        while stack:
+            node = stack.pop()
+            if node.tag == tag:
+                yield node
+            stack.extend(reversed(node.children))
+
+    def path(self, path: str) -> list[XMLNode]:
+        """Every descendant along a slash-separated path of tags (``"body/segment"``)."""
+        nodes = [self]
+        for tag in path.split("/"):
+            nodes = [c for n in nodes for c in n.findall(tag)]
+        return nodes
+
+
+def parse_xml(text: str, error) -> XMLNode:
+    """Parse XML text into :class:`XMLNode` objects; the root node is returned.
+
+    Parameters
+    ----------
+    text : str
+        The XML document.
+    error : callable
+        ``error(line: int, message: str) -> Exception``: the exception the caller raises when
+        the XML is not well formed (``message`` names the fault and the column).
+
+    Returns
+    -------
+    XMLNode
+    """
+    parser = expat.ParserCreate()
+    parser.buffer_text = True
+    stack: list[XMLNode] = []
+    root: list[XMLNode] = []
+    names: dict[str, str] = {}
+
+    def local(name):
+        out = names.get(name)
+        if out is None:
+            out = names[name] = _local(name)
+        return out
+
+    def start(name, attrs):
+        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()} if attrs else {},
+                       parser.CurrentLineNumber)
+        if stack:
+            stack[-1].children.append(node)
+        else:
+            root.append(node)
+        stack.append(node)
+
+    def end(name):
+        node = stack.pop()
+        node.text = node.text.strip()
+
+    def chars(data):
+        if stack:
+            stack[-1].text += data
+
+    def external(context, base, system_id, public_id):
+        return 0  # not fetched: expat then stops with "error in processing external entity"
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = chars
+    # an entity declared SYSTEM "file-or-url" and used in the text is refused, not fetched,
+    # nor silently left out of the value it stands in (an external DTD is not read either)
+    parser.ExternalEntityRefHandler = external
+    try:
+        # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
+        # XML declaration names (a declared 'latin-1' or an unknown name would otherwise
+        # re-decode it or raise LookupError)
+        parser.Parse(text, True)
+    except expat.ExpatError as exc:
+        raise error(exc.lineno, f"the XML is not well formed: {expat.ErrorString(exc.code)} "
+                                f"(column {exc.offset + 1})") from None
+    return root[0]

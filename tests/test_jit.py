@@ -272,3 +272,30 @@ def test_serial_kernel_linking_a_parallel_one_loads_from_the_cache(tmp_path):
                           capture_output=True, text=True, timeout=900, check=True).stdout
            for which in ("parallel", "serial", "serial")]
     assert out[0] == out[1] == out[2] != ""
+
+
+_STAMP_RUN = """
+import sys
+sys.path.insert(0, {folder!r})
+from visviva.core import _jit
+if {stamp!r}:
+    _jit.core_sources_stamp = lambda: {stamp!r}  # as after an edit to a file of visviva.core
+import stamped_kernel
+print(stamped_kernel.twice(2.0), sum(stamped_kernel.twice.stats.cache_hits.values()))
+"""
+
+
+def test_an_edit_anywhere_in_core_invalidates_cached_kernels(tmp_path):
+    # numba keys a cached kernel by its own file: a kernel whose callee lives in another file of
+    # visviva.core (integrate_cowell calling core/cowell_events.py) was loaded stale from the
+    # cache after the callee's file changed. The key now holds a stamp of every core source.
+    folder = tmp_path / "mod"
+    folder.mkdir()
+    (folder / "stamped_kernel.py").write_text(
+        "from visviva.core._jit import kernel\n\n@kernel\ndef twice(x):\n    return 2.0 * x\n")
+    runs = [_fresh_process(_STAMP_RUN.format(folder=str(folder), stamp=stamp), tmp_path / "c")
+            for stamp in ("", "", "edited", "edited", "")]
+    hits = [int(line.split()[-1]) for line in runs]
+    assert [line.split()[0] for line in runs] == ["4.0"] * 5
+    # compiled, loaded, recompiled after the "edit", loaded, recompiled after the "revert"
+    assert hits == [0, 1, 0, 1, 0]

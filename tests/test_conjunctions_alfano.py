@@ -174,6 +174,28 @@ def test_cara_similar_to_2d_case_default_window():
     assert collision_probability(r1, v1, c1, r2, v2, c2, math.inf, method="pc3d_hall") == 1.0
 
 
+@pytest.mark.parametrize("v2, sigma_v", [
+    ((0.0, 0.0, 7500.0), 1.0),  # a polar orbit crossing an equatorial one
+    ((0.0, 5000.0, 5600.0), 0.01),  # a small velocity uncertainty (1 cm/s)
+])
+def test_pc3d_hall_survives_times_where_the_densities_do_not_overlap(v2, sigma_v):
+    # was: numpy's LinAlgError "Singular matrix": far from TCA the peak-overlap iteration left
+    # the elliptic domain (NaN states, singular covariances) where the collision rate is nil;
+    # such times now keep the linearisation about the mean. Within a quarter orbit of TCA this
+    # high-speed encounter is the 3d method's (the default window of half an orbit either side
+    # also holds the next crossing of these equal-period orbits, half an orbit later).
+    r1, v1 = np.array([7000e3, 0.0, 0.0]), np.array([0.0, 7500.0, 0.0])
+    r2, v2 = r1 + np.array([100.0, 50.0, 0.0]), np.array(v2)
+    c = np.diag([1e4, 4e4, 1e4, sigma_v**2, sigma_v**2, sigma_v**2])
+    quarter = 0.25 * 2 * math.pi * math.sqrt((7000e3) ** 3 / 3.986004418e14)
+    p3d = collision_probability(r1, v1, c, r2, v2, c, 20.0, method="3d")
+    hall = collision_probability(r1, v1, c, r2, v2, c, 20.0, method="pc3d_hall",
+                                 window=(-quarter, quarter))
+    assert hall == pytest.approx(p3d, rel=1e-4)
+    whole = collision_probability(r1, v1, c, r2, v2, c, 20.0, method="pc3d_hall")
+    assert hall <= whole < 1.3 * hall
+
+
 def test_pc3d_hall_bad_input_is_refused():
     from visviva.errors import InvalidInputError, ShapeError
 

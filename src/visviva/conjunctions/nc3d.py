@@ -126,6 +126,19 @@ def _solve3(a, b):
     return np.linalg.solve(a, b[..., None])[..., 0]
 
 
+def _usable(centres):
+    """Rows of equinoctial elements ``(N, 6)`` inside the elliptic domain (n > 0, e < 1)."""
+    return (np.all(np.isfinite(centres), axis=1) & (centres[:, 0] > 0)
+            & (centres[:, 1] ** 2 + centres[:, 2] ** 2 < 1.0))
+
+
+def _positive_definite(a):
+    """Rows of ``(N, 3, 3)`` symmetric matrices that are finite and positive definite."""
+    ok = np.all(np.isfinite(a), axis=(1, 2))
+    w = np.linalg.eigvalsh(np.where(ok[:, None, None], a, np.eye(3)))
+    return ok & (w[:, 0] > 0)
+
+
 def _peak_overlap(t, e1, q1, e2, q2, gm):
     """Expansion centres of both objects at the times ``t`` (Hall 2021, section III).
 
@@ -133,35 +146,68 @@ def _peak_overlap(t, e1, q1, e2, q2, gm):
     ``xu = X(Es) + J (E0 - Es)`` and covariance ``J Q J^T``. The peak overlap position ``r*``
     maximises the product of the two position densities; each new centre is the most probable
     element set (under ``N(E0, Q)``) whose linearised position at ``t`` is ``r*``.
+
+    Far from the encounter the two densities do not overlap and the iteration can leave the
+    elliptic domain (e >= 1, a NaN state) or make a position covariance singular; such a time
+    point keeps the linearisation about the mean elements ``E0`` and is reported as not
+    converged (the caller refuses the result only where the collision rate matters).
     """
     nt = t.size
     centres = [np.tile(e1, (nt, 1)), np.tile(e2, (nt, 1))]
     scales = [np.sqrt(np.diag(q1)), np.sqrt(np.diag(q2))]
     done = np.zeros(nt, dtype=bool)
-    for _ in range(_POP_ITERATIONS):
-        lin = []
-        for es, e0, q in zip(centres, (e1, e2), (q1, q2), strict=True):
-            xs, jac = _state_and_jacobian(es, t, gm)
-            xu = xs + np.einsum("nij,nj->ni", jac, e0[None, :] - es)
-            p = jac @ q @ np.swapaxes(jac, 1, 2)
-            lin.append((xu, p, jac))
-        a1, a2 = lin[0][1][:, :3, :3], lin[1][1][:, :3, :3]
-        i1, i2 = np.linalg.inv(a1), np.linalg.inv(a2)
-        rstar = _solve3(i1 + i2, np.einsum("nij,nj->ni", i1, lin[0][0][:, :3])
-                        + np.einsum("nij,nj->ni", i2, lin[1][0][:, :3]))
-        moved = np.zeros(nt)
-        for j, ((xu, p, jac), e0, q, sc) in enumerate(
-                zip(lin, (e1, e2), (q1, q2), scales, strict=True)):
-            jr = jac[:, :3, :]
-            gain = q @ np.swapaxes(jr, 1, 2)  # Q Jr^T, (N, 6, 3)
-            new = e0[None, :] + np.einsum("nij,nj->ni", gain,
-                                          _solve3(p[:, :3, :3], rstar - xu[:, :3]))
-            moved = np.maximum(moved, np.max(np.abs(new - centres[j]) / sc, axis=1))
-            centres[j] = np.where(done[:, None], centres[j], new)
-        done |= moved < _POP_TOL
-        if np.all(done):
-            break
-    return lin, done
+    failed = np.zeros(nt, dtype=bool)
+    about_mean = None
+    # a time point that leaves the domain computes inf/NaN on its way; it is found and set
+    # aside below (the warnings of its arithmetic would only repeat that)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for _ in range(_POP_ITERATIONS):
+            lin = []
+            for es, e0, q in zip(centres, (e1, e2), (q1, q2), strict=True):
+                xs, jac = _state_and_jacobian(es, t, gm)
+                xu = xs + np.einsum("nij,nj->ni", jac, e0[None, :] - es)
+                p = jac @ q @ np.swapaxes(jac, 1, 2)
+                lin.append((xu, p, jac))
+            if about_mean is None:  # the first pass linearises about E0 itself
+                about_mean = lin
+            for xu, p, jac in lin:
+                failed |= ~(np.all(np.isfinite(xu), axis=1) & np.all(np.isfinite(jac), axis=(1, 2))
+                            & _positive_definite(p[:, :3, :3]))
+            lin = _about_mean_where(failed, lin, about_mean)
+            for j, e0 in enumerate((e1, e2)):
+                centres[j] = np.where(failed[:, None], e0[None, :], centres[j])
+            a1, a2 = lin[0][1][:, :3, :3], lin[1][1][:, :3, :3]
+            if not np.all(_positive_definite(a1) & _positive_definite(a2)):
+                raise ConvergenceError(
+                    "the 3D-Nc method found a singular position covariance at the mean elements; "
+                    "check the covariances (positive definite, in m^2, m^2/s, m^2/s^2) or use "
+                    "method='foster'.")
+            i1, i2 = np.linalg.inv(a1), np.linalg.inv(a2)
+            rstar = _solve3(i1 + i2, np.einsum("nij,nj->ni", i1, lin[0][0][:, :3])
+                            + np.einsum("nij,nj->ni", i2, lin[1][0][:, :3]))
+            moved = np.zeros(nt)
+            for j, ((xu, p, jac), e0, q, sc) in enumerate(
+                    zip(lin, (e1, e2), (q1, q2), scales, strict=True)):
+                jr = jac[:, :3, :]
+                gain = q @ np.swapaxes(jr, 1, 2)  # Q Jr^T, (N, 6, 3)
+                new = e0[None, :] + np.einsum("nij,nj->ni", gain,
+                                              _solve3(p[:, :3, :3], rstar - xu[:, :3]))
+                failed |= ~_usable(new)
+                moved = np.maximum(moved, np.max(np.abs(new - centres[j]) / sc, axis=1))
+                centres[j] = np.where((done | failed)[:, None], centres[j], new)
+            done |= (moved < _POP_TOL) | failed
+            if np.all(done):
+                break
+    return _about_mean_where(failed, lin, about_mean), done & ~failed
+
+
+def _about_mean_where(failed, lin, about_mean):
+    """The linearisations ``lin`` with the rows of ``failed`` time points taken about E0."""
+    if not np.any(failed):
+        return lin
+    return [tuple(np.where(failed.reshape((-1,) + (1,) * (x.ndim - 1)), x0, x)
+                  for x, x0 in zip(now, mean, strict=True))
+            for now, mean in zip(lin, about_mean, strict=True)]
 
 
 # --- the collision rate: flux into the hard-body sphere ----------------------------------------

@@ -13,8 +13,6 @@ The first call compiles the integrator (a few seconds, cached on disk afterwards
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from astropy import units as u
 
@@ -25,6 +23,8 @@ from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
+from .burns import burn_schedule
+from .dop853 import dop853_tableau
 from .events import Event, EventRecord
 from .perturbations import (
     AtmosphericDrag,
@@ -46,44 +46,6 @@ DEFAULT_RTOL = 1e-12
 DEFAULT_ATOL = 1e-12
 #: Ephemeris grid step for the Hermite tables, s.
 EPHEMERIS_STEP_S = 3600.0
-
-
-@functools.lru_cache(maxsize=1)
-def dop853_tableau():
-    """The DOP853 coefficients (Hairer & Wanner), as contiguous float64 arrays.
-
-    Taken from scipy, which transcribes Hairer's Fortran DOP853; scipy is a dependency of
-    visviva, and the compiled integrator in :mod:`visviva.core.cowell` receives them as arrays.
-    The module (plain numpy arrays) is loaded from its file: importing it by name would first
-    import ``scipy.integrate`` and with it ``scipy.optimize`` (0.2 s of a first call's process).
-    """
-    dc = _scipy_dop853_module()
-
-    def arr(a):
-        return np.ascontiguousarray(a, dtype=np.float64)
-
-    return (arr(dc.A), arr(dc.B), arr(dc.C), arr(dc.E3), arr(dc.E5), arr(dc.D))
-
-
-def _scipy_dop853_module():
-    """scipy's ``dop853_coefficients`` module, executed from its file (it imports numpy only)."""
-    import importlib.util
-    import sys
-    from pathlib import Path
-
-    name = "scipy.integrate._ivp.dop853_coefficients"
-    if name in sys.modules:  # scipy.integrate already imported: the same module
-        return sys.modules[name]
-    scipy_dir = Path(importlib.util.find_spec("scipy").origin).parent
-    path = scipy_dir / "integrate" / "_ivp" / "dop853_coefficients.py"
-    if not path.is_file():  # another scipy layout: import it by name (slower, same arrays)
-        import importlib
-
-        return importlib.import_module(name)
-    spec = importlib.util.spec_from_file_location("_visviva_scipy_dop853", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _all_instances(items, cls, what, hint):
@@ -514,6 +476,7 @@ def propagate_cowell(
     atol: float = DEFAULT_ATOL,
     max_step=None,
     max_steps: int = 10_000_000,
+    maneuvers=None,
 ):
     """Propagate a state numerically with perturbations (Cowell's method).
 
@@ -545,11 +508,17 @@ def propagate_cowell(
         Largest step size.
     max_steps : int
         Step budget (raises :class:`~visviva.StepSizeError` beyond).
+    maneuvers : list of ImpulsiveBurn or FiniteBurn, optional
+        Burns at or after the state's epoch, one state only (docs/cowell.md, "Manoeuvres"):
+        the run is split at each burn's start and end. A state read from an OPM with
+        manoeuvres is refused without it (``maneuvers=opm.burns()``, or ``[]`` for none).
 
     Returns
     -------
     CowellResult
-        ``.t``, ``.r``, ``.v`` at the requested times (up to a terminal event), ``.events``.
+        ``.t``, ``.r``, ``.v`` at the requested times (up to a terminal event), ``.events``;
+        with burns also ``.burns`` (:class:`~visviva.satellites.burns.BurnRecord`) and
+        ``.final_mass``.
 
     Notes
     -----
@@ -627,6 +596,7 @@ def propagate_cowell(
             "events are found for one state at a time; loop over the states (state[i]) to get "
             "their events, or drop events=... for the batch."
         )
+    schedule = burn_schedule(maneuvers, state, epoch, batch)
     model = ForceModel(gm, perturbations, events, epoch, span)
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
@@ -652,7 +622,8 @@ def propagate_cowell(
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if t_end == 0.0 and part.size == 0:
             continue
-        status, y_out, ev_t, ev_y, ev_which, info = _run(
+        run = _run if t_end < 0 or schedule is None else schedule.run(_run)
+        status, y_out, ev_t, ev_y, ev_which, info = run(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )
         if status != 0 and int(info[2]) >= max_steps:
@@ -693,6 +664,9 @@ def propagate_cowell(
     records.sort(key=lambda rec: rec.t.value)
     if scalar and len(t_all) == 1:
         y_all, t_all = y_all[0], t_all[0]
-    return check_single(CowellResult._from_arrays(
+    result = CowellResult._from_arrays(
         t_all, y_all, gm, epoch, records, terminated, t_final, n_steps, nfev, scalar
-    ), body)
+    )
+    if schedule is not None:
+        schedule.annotate(result)
+    return check_single(result, body)

@@ -98,6 +98,8 @@ _EXAMPLE = {
     "gm": "vv.EARTH.gm or 398600.4418 * u.km**3 / u.s**2",
     "accel": "1e-6 * u.km / u.s**2",
     "mass": "1000 * u.kg",
+    "force": "400 * u.N",
+    "mass_flow": "0.1 * u.kg / u.s",
     "area_per_mass": "0.01 * u.m**2 / u.kg",
     "spec_angmom": "52000 * u.km**2 / u.s",
     "spec_energy": "-30 * u.km**2 / u.s**2",

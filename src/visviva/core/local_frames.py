@@ -62,9 +62,10 @@ def local_axes(r, v, frame: int) -> np.ndarray:
     r = np.asarray(r, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     h = np.cross(r, v)
-    w = h / np.linalg.norm(h, axis=-1, keepdims=True)
     e1 = (r if frame == RTN else v)
-    e1 = e1 / np.linalg.norm(e1, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = h / np.linalg.norm(h, axis=-1, keepdims=True)
+        e1 = e1 / np.linalg.norm(e1, axis=-1, keepdims=True)
     if frame == VNB:
         return np.stack([e1, w, np.cross(e1, w)], axis=-2)
     if frame not in (RTN, TNW):

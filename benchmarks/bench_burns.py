@@ -19,52 +19,58 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
+    from .bench_cowell import _python_rhs as _gravity_rhs
     from .common import compile_time, quick_from_env, result, skipped, time_call
 except ImportError:  # pragma: no cover
+    from bench_cowell import _python_rhs as _gravity_rhs
     from common import compile_time, quick_from_env, result, skipped, time_call
 
 
-def _python_rhs(gm, radius, j2, burn_on, accel0, rate, t0, d):
+def _python_rhs(gravity, burn_on, accel0, rate, t0, d):
+    """Two-body + J2 (``gravity``, bench_cowell's), plus the thrust in RTN while ``burn_on``."""
+    if not burn_on:
+        return gravity
+
     def rhs(t, y):
+        dy = gravity(t, y)
         r, v = y[:3], y[3:]
-        r2 = r @ r
-        rn = np.sqrt(r2)
-        s = 5.0 * r[2] * r[2] / r2
-        f = 1.5 * j2 * gm * radius * radius / (r2 * r2 * rn)
-        a = -gm / (r2 * rn) * r + f * r * np.array([s - 1.0, s - 1.0, s - 3.0])
-        if burn_on:
-            h = np.cross(r, v)
-            w = h / np.linalg.norm(h)
-            rh = r / rn
-            a = a + accel0 / (1.0 - rate * (t - t0)) * (
-                d[0] * rh + d[1] * np.cross(w, rh) + d[2] * w)
-        return np.concatenate([v, a])
+        w = np.cross(r, v)
+        w /= np.linalg.norm(w)
+        rh = r / np.linalg.norm(r)
+        dy[3:] += accel0 / (1.0 - rate * (t - t0)) * (
+            d[0] * rh + d[1] * np.cross(w, rh) + d[2] * w)
+        return dy
 
     return rhs
+
+
+def _imports():
+    from astropy import units as u
+
+    import visviva as vv
+    from visviva.satellites import burns
+
+    return u, vv, burns
 
 
 def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     try:
-        from astropy import units as u
-
-        import visviva as vv
-        from visviva.satellites import FiniteBurn, propagate_cowell
-        from visviva.satellites.burns import STANDARD_GRAVITY_M_S2
+        u, vv, burns = _imports()
     except Exception as exc:  # pragma: no cover
         return [skipped("Cowell with a finite burn", f"visviva not importable: {exc}")]
     import scipy
     from scipy.integrate import solve_ivp
 
-    el = vv.KeplerianElements.from_semi_major_axis(
-        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH)
-    state = el.to_state()
+    propagate_cowell = vv.propagate_cowell
+    state = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH).to_state()
     t_s = np.linspace(0.0, 86400.0, 1441)
     t = t_s * u.s
     forces = [vv.J2(vv.EARTH)]
     d = np.array([0.0, 1.0, 0.0])
-    burn = FiniteBurn(3600 * u.s, 600 * u.s, d, "RTN", thrust=400 * u.N, mass=1000 * u.kg,
-                      isp=300 * u.s)
+    burn = burns.FiniteBurn(3600 * u.s, 600 * u.s, d, "RTN", thrust=400 * u.N,
+                            mass=1000 * u.kg, isp=300 * u.s)
     first = compile_time(propagate_cowell, state, t, forces, maneuvers=[burn])
     repeat = 3 if quick else 7
     tb = time_call(lambda: propagate_cowell(state, t, forces, maneuvers=[burn]), repeat=repeat)
@@ -79,8 +85,8 @@ def run(quick: bool = False) -> list[dict]:
                f"{out.burns[0].delta_v.to_value(u.m / u.s):.3f} m/s"),
         compile_s=first)]
 
-    gm, radius, j2 = vv.EARTH.gm_km3_s2, vv.EARTH.radius_km, vv.EARTH.j2
-    mdot = 400.0 / (300.0 * STANDARD_GRAVITY_M_S2)
+    gravity = _gravity_rhs(vv.EARTH.gm_km3_s2, vv.EARTH.radius_km, vv.EARTH.j2)
+    mdot = 400.0 / (300.0 * burns.STANDARD_GRAVITY_M_S2)
     y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(u.km / u.s)])
     legs = [(0.0, 3600.0, False), (3600.0, 4200.0, True), (4200.0, 86400.0, False)]
 
@@ -88,7 +94,7 @@ def run(quick: bool = False) -> list[dict]:
         y = y0
         outs = []
         for a, b, on in legs:
-            rhs = _python_rhs(gm, radius, j2, on, 0.4 / 1000.0, mdot / 1000.0, 3600.0, d)
+            rhs = _python_rhs(gravity, on, 0.4 / 1000.0, mdot / 1000.0, 3600.0, d)
             keep = t_s[(t_s >= a) & (t_s < b)] if b < 86400.0 else t_s[t_s >= a]
             sol = solve_ivp(rhs, (a, b), y, method="DOP853", t_eval=keep, rtol=1e-12,
                             atol=1e-12, dense_output=True)

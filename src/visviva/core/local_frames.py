@@ -106,17 +106,14 @@ def to_inertial(frame, y, d0, d1, d2, out):
     ax = y[k] / en
     ay = y[k + 1] / en
     az = y[k + 2] / en
-    if frame == VNB:  # e2 = w, e3 = e1 x w
-        bx = ay * wz - az * wy
-        by = az * wx - ax * wz
-        bz = ax * wy - ay * wx
-        out[0] = d0 * ax + d1 * wx + d2 * bx
-        out[1] = d0 * ay + d1 * wy + d2 * by
-        out[2] = d0 * az + d1 * wz + d2 * bz
-    else:  # e2 = w x e1, e3 = w
-        bx = wy * az - wz * ay
-        by = wz * ax - wx * az
-        bz = wx * ay - wy * ax
-        out[0] = d0 * ax + d1 * bx + d2 * wx
-        out[1] = d0 * ay + d1 * by + d2 * wy
-        out[2] = d0 * az + d1 * bz + d2 * wz
+    cx = wy * az - wz * ay  # c = w x e1
+    cy = wz * ax - wx * az
+    cz = wx * ay - wy * ax
+    if frame == VNB:  # e2 = w, e3 = e1 x w = -c
+        out[0] = d0 * ax + d1 * wx - d2 * cx
+        out[1] = d0 * ay + d1 * wy - d2 * cy
+        out[2] = d0 * az + d1 * wz - d2 * cz
+    else:  # e2 = c, e3 = w
+        out[0] = d0 * ax + d1 * cx + d2 * wx
+        out[1] = d0 * ay + d1 * cy + d2 * wy
+        out[2] = d0 * az + d1 * cz + d2 * wz

@@ -92,6 +92,24 @@ def test_hohmann_by_impulsive_tnw_burns_matches_the_kepler_path():
         [dv1.value, dv2.value], rel=1e-12)
 
 
+@settings(max_examples=10, deadline=None)
+@given(times=hs.lists(hs.floats(0.0, 6000.0), min_size=1, max_size=4),
+       dvs=hs.lists(hs.lists(hs.floats(-0.05, 0.05), min_size=3, max_size=3), min_size=4,
+                    max_size=4))
+def test_random_impulses_match_kepler_arcs_with_the_same_impulses(times, dvs):
+    state = leo()
+    burns = [ImpulsiveBurn(tk * u.s, dv * KMS) for tk, dv in zip(times, dvs, strict=False)]
+    out = propagate_cowell(state, 7000 * u.s, [], maneuvers=burns, rtol=1e-13, atol=1e-13)
+    # the obvious way: Kepler arcs between the impulses, in time order
+    r, v, t_prev = state.r, state.v, 0.0
+    for tk, dv in sorted(zip(times, dvs, strict=False), key=lambda x: x[0]):
+        arc = vv.StateVectors(r, v, vv.EARTH).propagate((tk - t_prev) * u.s)
+        r, v, t_prev = arc.r, arc.v + dv * KMS, tk
+    end = vv.StateVectors(r, v, vv.EARTH).propagate((7000.0 - t_prev) * u.s)
+    assert np.linalg.norm((out.r - end.r).to_value(u.km)) < 10 * ONE_MM
+    assert len(out.burns) == len(burns)
+
+
 def test_rtn_delta_v_equals_the_same_delta_v_given_inertially():
     state = leo()
     dv_rtn = np.array([0.01, 0.05, -0.02])

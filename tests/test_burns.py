@@ -174,6 +174,12 @@ def test_burns_at_absolute_epochs_and_two_at_one_epoch():
         ImpulsiveBurn(EPOCH + 600 * u.s, [0.01, 0.0, 0.0] * KMS, "TNW")])
     assert np.abs((one.r - two.r).to_value(u.km)).max() < 1e-9
     assert len(two.burns) == 2
+    # the burn's offset from its Time is 599.9999999999978 s: an output at 600 s (exact) or at
+    # the Time is still the state after it, whichever way each was given
+    for burn_at, out_at in ((600 * u.s, EPOCH + 600 * u.s), (EPOCH + 600 * u.s, 600 * u.s)):
+        burn = ImpulsiveBurn(burn_at, [0.02, 0.0, 0.0] * KMS, "TNW")
+        at = propagate_cowell(state, out_at, [], maneuvers=[burn])
+        assert np.linalg.norm((at.v - one.v[1]).to_value(KMS)) < 1e-12
 
 
 def test_backward_outputs_coast_and_burns_before_the_epoch_are_refused():
@@ -439,3 +445,6 @@ def test_bad_burn_units_and_schedules_are_refused():
     with pytest.raises(InvalidInputError, match="undefined"):
         propagate_cowell(radial, 10 * u.s, [], maneuvers=[
             ImpulsiveBurn(0 * u.s, [0.1, 0, 0] * KMS, "RTN")])
+    with pytest.raises(InvalidInputError, match="undefined at its start"):
+        propagate_cowell(radial, 10 * u.s, [], maneuvers=[
+            FiniteBurn(1 * u.s, 5 * u.s, [1, 0, 0], "VNB", acceleration=1e-5 * u.km / u.s**2)])

@@ -36,6 +36,7 @@ def run_segments(schedule, run_one, y0, t_out, t_end, model, rtol, atol, h_max, 
         whole leg: event times from the epoch, ``info`` summed over the segments (final time
         and terminal event of the last segment run).
     """
+    schedule.snap(t_out)
     points = schedule.breakpoints(float(t_end))
     y = np.array(y0, dtype=np.float64)
     ys, ets, eys, ews = [], [], [], []
@@ -52,6 +53,7 @@ def run_segments(schedule, run_one, y0, t_out, t_end, model, rtol, atol, h_max, 
             ys.append(np.tile(y, (int(np.count_nonzero(t_out == a)), 1)))
             break
         b = points[i + 1]
+        schedule.check_state(a, y)
         mask = (t_out >= a) & (t_out < b)
         n_seg = int(np.count_nonzero(mask))
         seg = schedule.segment_model(model, a, b)

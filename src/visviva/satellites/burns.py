@@ -375,12 +375,41 @@ class BurnRecord:
     complete: bool
 
 
+#: A burn's start or end this close to an output time (s) is taken at that time: offsets from
+#: astropy Times round at 1e-12 s, which must not move an output to the other side of a burn.
+SNAP_S = 1e-6
+
+
 class _Schedule:
     """The burns of one run, ordered, with the log of what they did."""
 
     def __init__(self, items):
         self.items = items  # (start_s, end_s, burn), by start
         self.records = []
+
+    def snap(self, t_out) -> None:
+        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it."""
+        t_out = np.asarray(t_out, dtype=np.float64)
+        if t_out.size == 0:
+            return
+
+        def near(x):
+            k = int(np.searchsorted(t_out, x))
+            close = [t_out[j] for j in (k - 1, k) if 0 <= j < t_out.size]
+            best = min(close, key=lambda c: abs(c - x))
+            return float(best) if abs(best - x) <= SNAP_S else x
+
+        self.items = [(near(a), near(b), m) for a, b, m in self.items]
+
+    def check_state(self, t: float, y) -> None:
+        """Refuse a finite burn in a local frame that starts where the frame is undefined."""
+        for start, _, burn in self.items:
+            if isinstance(burn, FiniteBurn) and start == t and burn.code != INERTIAL:
+                if not np.all(np.isfinite(local_axes(y[:3], y[3:], burn.code))):
+                    raise InvalidStateError(
+                        f"the {burn.frame} frame of {burn!r} is undefined at its start (r x v = 0 "
+                        "or v = 0): give its direction in GCRS."
+                    )
 
     def breakpoints(self, t_last: float) -> list:
         """0, the burns' starts and ends up to ``t_last``, and ``t_last``, sorted, unique."""

@@ -344,6 +344,28 @@ def test_runs_without_burns_are_unchanged_to_the_bit():
         assert not hasattr(a, "burns")
 
 
+def test_a_batch_of_states_with_burns_equals_single_runs():
+    """The same burns for N states: each local frame at each state's own r, v."""
+    el = vv.KeplerianElements([7000.0, 7200.0, 8000.0] * u.km, [0.001, 0.01, 0.05],
+                              [0.9, 0.3, 1.7], [0.0, 1.0, 2.0], [0.1, 0.2, 0.3],
+                              [0.0, 2.0, 4.0], vv.EARTH).to_state()
+    r, v = el.r.to_value(u.km), el.v.to_value(KMS)
+    batch = vv.StateVectors(r * u.km, v * KMS, vv.EARTH)
+    burns = [ImpulsiveBurn(300 * u.s, [0.01, 0.02, -0.01] * KMS, "RTN"),
+             FiniteBurn(900 * u.s, 300 * u.s, [1, 0, 0], "TNW", thrust=500 * u.N,
+                        mass=800 * u.kg, isp=250 * u.s),
+             ImpulsiveBurn(1200 * u.s, [0.0, 0.0, 0.03] * KMS, "VNB")]
+    t = np.array([-600.0, 0.0, 300.0, 1000.0, 1200.0, 3000.0]) * u.s
+    out = propagate_cowell(batch, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    assert out.r.shape == (3, 6, 3)
+    for k in range(3):
+        one = propagate_cowell(vv.StateVectors(r[k] * u.km, v[k] * KMS, vv.EARTH), t,
+                               [vv.J2(vv.EARTH)], maneuvers=burns)
+        assert np.abs((out.r[k] - one.r).to_value(u.km)).max() < 1e-9
+    assert out.burns[0].delta_v_inertial.shape == (3, 3)
+    assert out.final_mass.to_value(u.kg) == pytest.approx(800 - 500 / (250 * 9.80665) * 300)
+
+
 # ---------------------------------------------------------------- OPM manoeuvres
 
 
@@ -433,10 +455,6 @@ def test_bad_burn_units_and_schedules_are_refused():
     with pytest.raises(InvalidInputError, match="has no epoch"):
         propagate_cowell(state, 1000 * u.s, [], maneuvers=[
             ImpulsiveBurn(EPOCH, [0.1, 0, 0] * KMS)])
-    batch = vv.StateVectors([[7000.0, 0, 0], [0, 7000.0, 0]] * u.km,
-                            [[0, 7.5, 0], [-7.5, 0, 0]] * KMS, vv.EARTH)
-    with pytest.raises(InvalidInputError, match="one state at a time"):
-        propagate_cowell(batch, 1000 * u.s, [], maneuvers=[long])
     # touching burns are fine: an impulse at a finite burn's end
     out = propagate_cowell(state, 1000 * u.s, [], maneuvers=[
         long, ImpulsiveBurn(200 * u.s, [0.01, 0, 0] * KMS)])

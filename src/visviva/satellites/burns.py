@@ -164,19 +164,19 @@ class ImpulsiveBurn(_Burn):
 
         Parameters
         ----------
-        r_km : ndarray (3,)
-            Position, km.
-        v_km_s : ndarray (3,)
-            Velocity, km/s.
+        r_km : ndarray (..., 3)
+            Position(s), km.
+        v_km_s : ndarray (..., 3)
+            Velocity(ies), km/s.
 
         Returns
         -------
-        ndarray (3,)
+        ndarray (..., 3)
             km/s: ``M.T @ delta_v`` with ``M`` the local axes (rows), or ``delta_v`` itself.
         """
         if self.code == INERTIAL:
-            return self._dv.copy()
-        dv = local_axes(r_km, v_km_s, self.code).T @ self._dv
+            return np.broadcast_to(self._dv, np.shape(r_km)).copy()
+        dv = self._dv @ local_axes(r_km, v_km_s, self.code)
         if not np.all(np.isfinite(dv)):
             raise InvalidStateError(
                 f"the {self.frame} frame of {self!r} is undefined at r = {r_km}, v = {v_km_s} "
@@ -402,10 +402,11 @@ class _Schedule:
         self.items = [(near(a), near(b), m) for a, b, m in self.items]
 
     def check_state(self, t: float, y) -> None:
-        """Refuse a finite burn in a local frame that starts where the frame is undefined."""
+        """Refuse a finite burn in a local frame that starts where the frame is undefined
+        (``y``: one state (6,) or N states (N, 6))."""
         for start, _, burn in self.items:
             if isinstance(burn, FiniteBurn) and start == t and burn.code != INERTIAL:
-                if not np.all(np.isfinite(local_axes(y[:3], y[3:], burn.code))):
+                if not np.all(np.isfinite(local_axes(y[..., :3], y[..., 3:], burn.code))):
                     raise InvalidStateError(
                         f"the {burn.frame} frame of {burn!r} is undefined at its start (r x v = 0 "
                         "or v = 0): give its direction in GCRS."
@@ -431,7 +432,7 @@ class _Schedule:
         return [b for a, _, b in self.items if a == t and isinstance(b, ImpulsiveBurn)]
 
     def log_impulse(self, burn, t, dv):
-        n = float(np.linalg.norm(dv))
+        n = np.linalg.norm(dv, axis=-1)
         self.records.append(BurnRecord(burn, t * u.s, t * u.s, n * u.km / u.s,
                                        to_quantity(dv, "speed"), None, None, True))
 
@@ -453,6 +454,15 @@ class _Schedule:
 
         def run(*args):
             return run_segments(self, run_one, *args)
+
+        return run
+
+    def run_many(self, run_many):
+        """The same for N states and ``cowell._run_many``."""
+        from .burn_segments import run_segments_many
+
+        def run(*args):
+            return run_segments_many(self, run_many, *args)
 
         return run
 
@@ -479,7 +489,7 @@ class _SegmentModel:
 PENDING_ATTRIBUTE = "_pending_maneuvers"
 
 
-def burn_schedule(maneuvers, state, epoch, batch):
+def burn_schedule(maneuvers, state, epoch):
     """Check ``maneuvers`` of :func:`visviva.propagate_cowell` and order them.
 
     Parameters
@@ -490,8 +500,6 @@ def burn_schedule(maneuvers, state, epoch, batch):
         The initial state (an OPM's state says how many manoeuvres its message has).
     epoch : astropy.time.Time or None
         The state's epoch.
-    batch : bool
-        Whether the state holds N states.
 
     Returns
     -------
@@ -518,11 +526,6 @@ def burn_schedule(maneuvers, state, epoch, batch):
                 f"{m!r} is not a burn; give vv.ImpulsiveBurn(...) or vv.FiniteBurn(...) (an "
                 "OPM's manoeuvres: opm.burns())."
             )
-    if batch:
-        raise InvalidInputError(
-            "manoeuvres are applied to one state at a time; loop over the states (state[i]) "
-            "or propagate the batch without maneuvers=...."
-        )
     items = []
     for m in maneuvers:
         a = m.start_offset_s(epoch)

@@ -427,14 +427,25 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
     return status, y_out[:written], ev_t[:n_found], ev_y[:n_found], ev_which[:n_found], info
 
 
-def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
-                     max_steps):  # fmt: skip
-    """N states through the parallel kernel; results (N, T, 3)."""
+def _run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps):
+    """N states (rows of ``y0``) through the parallel kernel: ``(y_out, status, info)``."""
     from ..core.cowell import integrate_cowell_many
 
-    A, B, C, E3, E5, D = dop853_tableau()
-    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
     n = y0.shape[0]
+    y_out = np.zeros((n, t_out.size, 6))
+    status = np.zeros(n, dtype=np.int64)
+    info = np.zeros((n, 6))
+    integrate_cowell_many(
+        y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(), *dop853_tableau(),
+        y_out, status, info, rhs_kind(model.force),
+    )  # fmt: skip
+    return y_out, status, info
+
+
+def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
+                     max_steps, schedule):  # fmt: skip
+    """N states through the parallel kernel; results (N, T, 3)."""
+    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
     pieces = []
     n_steps = nfev = 0
     back = offsets[offsets < 0][::-1]
@@ -442,13 +453,9 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if part.size == 0:
             continue
-        y_out = np.zeros((n, part.size, 6))
-        status = np.zeros(n, dtype=np.int64)
-        info = np.zeros((n, 6))
-        integrate_cowell_many(
-            y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
-            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force),
-        )  # fmt: skip
+        run = _run_many if t_end < 0 or schedule is None else schedule.run_many(_run_many)
+        y_out, status, info = run(y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max,
+                                  max_steps)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])
             _raise_budget(max_steps, info[k, 4], f" for state {k}")
@@ -461,9 +468,12 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     if scalar:
         y_all, t_all = y_all[:, 0], offsets[0]
     t_final = float(offsets[-1] if offsets[-1] > 0 else 0.0)
-    return CowellResult._from_arrays(
+    result = CowellResult._from_arrays(
         t_all, y_all, gm, epoch, [], False, t_final, n_steps, nfev, scalar
     )
+    if schedule is not None:
+        schedule.annotate(result)
+    return result
 
 
 def propagate_cowell(
@@ -509,8 +519,8 @@ def propagate_cowell(
     max_steps : int
         Step budget (raises :class:`~visviva.StepSizeError` beyond).
     maneuvers : list of ImpulsiveBurn or FiniteBurn, optional
-        Burns at or after the state's epoch, one state only (docs/cowell.md, "Manoeuvres"):
-        the run is split at each burn's start and end. A state read from an OPM with
+        Burns at or after the state's epoch (docs/cowell.md, "Manoeuvres"), the same for
+        every state of a batch: the run is split at each burn's start and end. A state read from an OPM with
         manoeuvres is refused without it (``maneuvers=opm.burns()``, or ``[]`` for none).
 
     Returns
@@ -596,13 +606,13 @@ def propagate_cowell(
             "events are found for one state at a time; loop over the states (state[i]) to get "
             "their events, or drop events=... for the batch."
         )
-    schedule = burn_schedule(maneuvers, state, epoch, batch)
+    schedule = burn_schedule(maneuvers, state, epoch)
     model = ForceModel(gm, perturbations, events, epoch, span)
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
         return check_batch(_propagate_batch(
-            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps
-        ), body)
+            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps,
+            schedule), body)
     events = with_surface(events, body)
     ev = (
         np.array([e.kind for e in events], dtype=np.int64),

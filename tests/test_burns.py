@@ -388,6 +388,7 @@ def test_opm_with_two_manoeuvres_written_read_and_propagated(tmp_path):
         propagate_cowell(back.state, 3600 * u.s)
     out = back.propagate(3600 * u.s, [vv.J2(vv.EARTH)])
     assert out.final_mass.to_value(u.kg) == pytest.approx(994.0, rel=1e-12)
+    assert [r.mass_after.to_value(u.kg) for r in out.burns] == pytest.approx([999.0, 994.0])
     direct = propagate_cowell(state, 3600 * u.s, [vv.J2(vv.EARTH)], maneuvers=[
         ImpulsiveBurn(600 * u.s, [0, 0.01, 0] * KMS, "RTN"),
         FiniteBurn(1800 * u.s, 120 * u.s, [1, 0, 0], "TNW", thrust=burns[1].thrust,
@@ -410,6 +411,11 @@ def test_opm_finite_burn_without_mass_is_a_constant_acceleration_and_bad_frames_
         OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, 0 * u.kg, "ITRF", [0, 0, 0.01] * KMS)])
     with pytest.raises(InvalidInputError, match=r"line \d+: MAN_REF_FRAME = ITRF"):
         vv.read_opm(vv.write_opm(bad)).burns()
+    heavy = OPM.from_state(state, object_name="SAT", mass=10 * u.kg, maneuvers=[
+        OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, -6 * u.kg, "RTN", [0, 0.01, 0] * KMS),
+        OPMManeuver(EPOCH + 90 * u.s, 10 * u.s, -6 * u.kg, "RTN", [0, 0.01, 0] * KMS)])
+    with pytest.raises(InvalidInputError, match=r"line \d+: MAN_DELTA_MASS = -6.0 kg leaves -2"):
+        vv.read_opm(vv.write_opm(heavy)).burns()
 
 
 # ---------------------------------------------------------------- bad input

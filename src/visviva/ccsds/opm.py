@@ -360,14 +360,15 @@ def _burns(opm) -> list:
         dt = float(man.duration.to_value(u.s))
         dm = float(man.delta_mass.to_value(u.kg))
         n = float(np.linalg.norm(dv))
+        if mass is not None and not mass + dm > 0:
+            raise InvalidInputError(
+                f"{opm.source} line {rec.line_of('MAN_DELTA_MASS')}: MAN_DELTA_MASS = {dm} kg leaves {mass + dm:g} kg of the spacecraft "
+                "(MASS plus the earlier manoeuvres' MAN_DELTA_MASS); check the masses.")
         if dt == 0.0 or n == 0.0:
-            out.append(ImpulsiveBurn(man.epoch, man.delta_v, man.frame, delta_mass=man.delta_mass))
+            out.append(ImpulsiveBurn(man.epoch, man.delta_v, man.frame, delta_mass=man.delta_mass,
+                                     mass=None if mass is None else mass * u.kg))
         elif mass is not None and dm < 0.0:
             m1 = mass + dm
-            if not m1 > 0:
-                raise InvalidInputError(
-                    f"{where}: MAN_DELTA_MASS = {dm} kg leaves {m1:g} kg of the {mass:g} kg "
-                    "spacecraft (MASS minus the earlier manoeuvres); check the masses.")
             mdot = -dm / dt
             thrust = mdot * n / math.log(mass / m1) * 1e3  # F = mdot v_e, v_e = |dv| / ln(m0/m1)
             out.append(FiniteBurn(man.epoch, man.duration, dv / n, man.frame, thrust=thrust * u.N,

@@ -131,6 +131,9 @@ class ImpulsiveBurn(_Burn):
     delta_mass : Quantity, optional
         Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``): reported
         on the result, not used by the dynamics.
+    mass : Quantity, optional
+        Spacecraft mass before the burn (kg, > 0): with ``delta_mass``, the result reports the
+        masses before and after.
 
     Notes
     -----
@@ -138,7 +141,7 @@ class ImpulsiveBurn(_Burn):
     right): an output time equal to the epoch gives v + Δv.
     """
 
-    def __init__(self, epoch, delta_v, frame: str = "GCRS", *, delta_mass=None):
+    def __init__(self, epoch, delta_v, frame: str = "GCRS", *, delta_mass=None, mass=None):
         self.start = _when(epoch, "epoch")
         dv = to_vector(delta_v, "speed", "delta_v")
         if dv.shape != (3,):
@@ -153,6 +156,15 @@ class ImpulsiveBurn(_Burn):
             if dm.ndim != 0 or dm > 0:
                 raise InvalidInputError(f"delta_mass must be one mass <= 0 kg; got {dm}.")
             self.delta_mass = float(dm) * u.kg
+        self.mass = None
+        if mass is not None:
+            m = to_array(mass, "mass", "mass")
+            require_positive(m, "mass")
+            if m.ndim != 0 or (self.delta_mass is not None and not m + dm > 0):
+                raise InvalidInputError(
+                    f"mass must be one mass > 0 kg that the burn does not exhaust; got {m} kg "
+                    f"with delta_mass = {self.delta_mass}.")
+            self.mass = float(m) * u.kg
 
     @property
     def end(self):
@@ -433,8 +445,10 @@ class _Schedule:
 
     def log_impulse(self, burn, t, dv):
         n = np.linalg.norm(dv, axis=-1)
+        after = (None if burn.mass is None else
+                 burn.mass + (0.0 * u.kg if burn.delta_mass is None else burn.delta_mass))
         self.records.append(BurnRecord(burn, t * u.s, t * u.s, n * u.km / u.s,
-                                       to_quantity(dv, "speed"), None, None, True))
+                                       to_quantity(dv, "speed"), burn.mass, after, True))
 
     def log_finite(self, t_reached: float):
         """Record the finite burns started before ``t_reached`` (s), cut there if unfinished."""

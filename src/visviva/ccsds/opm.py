@@ -362,8 +362,9 @@ def _burns(opm) -> list:
         n = float(np.linalg.norm(dv))
         if mass is not None and not mass + dm > 0:
             raise InvalidInputError(
-                f"{opm.source} line {rec.line_of('MAN_DELTA_MASS')}: MAN_DELTA_MASS = {dm} kg leaves {mass + dm:g} kg of the spacecraft "
-                "(MASS plus the earlier manoeuvres' MAN_DELTA_MASS); check the masses.")
+                f"{opm.source} line {rec.line_of('MAN_DELTA_MASS')}: MAN_DELTA_MASS = {dm} kg "
+                f"leaves {mass + dm:g} kg of the spacecraft (MASS plus the earlier manoeuvres' "
+                "MAN_DELTA_MASS); check the masses.")
         if dt == 0.0 or n == 0.0:
             out.append(ImpulsiveBurn(man.epoch, man.delta_v, man.frame, delta_mass=man.delta_mass,
                                      mass=None if mass is None else mass * u.kg))

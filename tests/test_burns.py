@@ -316,6 +316,19 @@ def test_a_finite_burn_cut_by_the_last_output_and_its_record():
     assert rec.mass_after.to_value(u.kg) == pytest.approx(500.0 - mdot * 500.0, rel=1e-14)
 
 
+def test_a_terminal_event_during_a_finite_burn_cuts_it():
+    state = circular(6378.137 + 130.0)
+    burn = FiniteBurn(60 * u.s, 2000 * u.s, [-1, 0, 0], "TNW", thrust=2 * u.kN, mass=100 * u.kg)
+    t = np.linspace(0.0, 3000.0, 31) * u.s
+    out = propagate_cowell(state, t, [], events=[ReEntry()], maneuvers=[burn])
+    (entry,) = out.events_named("reentry")
+    rec = out.burns[0]
+    assert out.terminated and not rec.complete
+    assert rec.t_end == entry.t and 60.0 < entry.t.to_value(u.s) < 2060.0
+    assert rec.delta_v.to_value(KMS) == pytest.approx(0.02 * (entry.t.to_value(u.s) - 60.0))
+    assert out.t[-1] <= entry.t
+
+
 def test_a_split_without_thrust_keeps_time_dependent_forces_right(tmp_path):
     """A zero impulse splits the run in two segments: with harmonics (rotating body frame),
     third bodies, SRP and drag (ephemeris tables) the result is the unsplit run's."""

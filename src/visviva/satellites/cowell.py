@@ -266,6 +266,10 @@ class CowellResult:
         The last time integrated to.
     n_steps, n_evaluations : int
         Accepted steps and right-hand-side evaluations.
+    burns : list of BurnRecord
+        Only for a run with ``maneuvers``: what each burn did (:mod:`visviva.satellites.burns`).
+    final_mass : Quantity or None
+        Only for a run with ``maneuvers``: the mass after the last burn that knows it, kg.
     """
 
     def __init__(self, t, r, v, gm, epoch, events, terminated, t_final, n_steps, nfev, scalar):

@@ -50,6 +50,13 @@ def test_local_frame_axes_on_a_circular_orbit():
                                [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-15)
     np.testing.assert_allclose(lf.local_axes(r, v, lf.VNB),
                                [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-15)
+    from visviva.satellites.burns import frame_code
+
+    assert [frame_code(n) for n in ("rtn", "RSW", "RIC", "QSW", " tnw ", "VNB", "EME2000")] == [
+        lf.RTN, lf.RTN, lf.RTN, lf.RTN, lf.TNW, lf.VNB, lf.INERTIAL]
+    for bad in ("NTW", "LVLH", "TEME", "ITRF", None, 3):
+        with pytest.raises(InvalidInputError, match="not supported"):
+            frame_code(bad)
 
 
 @settings(max_examples=30, deadline=None)

@@ -36,8 +36,9 @@ INERTIAL = 0
 RTN = 1
 TNW = 2
 VNB = 3
-#: Frame name -> code, for the local frames.
-FRAME_CODES = {"RTN": RTN, "TNW": TNW, "VNB": VNB}
+#: Frame name -> code, for the local frames (RSW, RIC and QSW are other names of RTN's axes:
+#: Vallado, NASA CARA, Orekit).
+FRAME_CODES = {"RTN": RTN, "TNW": TNW, "VNB": VNB, "RSW": RTN, "RIC": RTN, "QSW": RTN}
 
 
 def local_axes(r, v, frame: int) -> np.ndarray:

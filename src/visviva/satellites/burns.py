@@ -52,8 +52,10 @@ def frame_code(frame) -> int:
     Parameters
     ----------
     frame : str
-        ``"RTN"``, ``"TNW"``, ``"VNB"`` (local, evaluated at the burn's state) or an inertial
-        name: ``"GCRS"``, ``"GCRF"``, ``"EME2000"``, ``"ICRF"`` (case-insensitive).
+        ``"RTN"`` (also ``"RSW"``, ``"RIC"``, ``"QSW"``), ``"TNW"``, ``"VNB"`` (local,
+        evaluated at the burn's state) or an inertial name: ``"GCRS"``, ``"GCRF"``,
+        ``"EME2000"``, ``"ICRF"`` (case-insensitive). Vallado's NTW and the LVLH frames, whose
+        axes differ between tools, are refused.
 
     Returns
     -------

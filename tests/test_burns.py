@@ -117,6 +117,18 @@ def test_random_impulses_match_kepler_arcs_with_the_same_impulses(times, dvs):
     assert len(out.burns) == len(burns)
 
 
+def test_a_two_body_maneuver_flown_by_cowell_through_its_burns():
+    state = circular(7000.0, inc=0.5)
+    man = Maneuver.bielliptic(state, 30000 * u.km, 12000 * u.km)
+    end = man.duration
+    out = propagate_cowell(state, end, [], maneuvers=man.burns(), rtol=1e-13, atol=1e-13)
+    after = man.apply(state)
+    assert np.linalg.norm((out.r - after.r).to_value(u.km)) < 10 * ONE_MM
+    assert np.linalg.norm((out.v - after.v).to_value(KMS)) < 1e-9
+    j2 = propagate_cowell(state, end, [vv.J2(vv.EARTH)], maneuvers=man.burns())
+    assert np.linalg.norm((j2.r - after.r).to_value(u.km)) > 1.0  # J2 moves it
+
+
 def test_rtn_delta_v_equals_the_same_delta_v_given_inertially():
     state = leo()
     dv_rtn = np.array([0.01, 0.05, -0.02])

@@ -381,9 +381,11 @@ def test_force_block_layout_tiles_the_block_and_every_slot_has_one_writer():
         assert getattr(fb, name) == first and size >= 1 and meaning and isinstance(unit, str)
         covered.extend(range(first, first + size))
     assert covered == list(range(fb.FORCE_SIZE))  # in order, no gap, no overlap
+    from visviva.satellites.burns import FiniteBurn
+
     classes = [pm.Zonal, pm.AtmosphericDrag, pm.ThirdBody, pm.SolarRadiationPressure,
                pm.SphericalHarmonics]
-    writers = list(ForceModel.SHARED_PARAMETERS)
+    writers = list(ForceModel.SHARED_PARAMETERS) + list(FiniteBurn.PARAMETERS)
     for cls in classes:
         assert cls.PARAMETERS, cls
         assert [row[0] for row in cls.parameters()] == list(cls.PARAMETERS)

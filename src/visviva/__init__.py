@@ -90,6 +90,8 @@ _PUBLIC = {
     "SolarRadiationPressure": "visviva.satellites",
     "lambert": "visviva.satellites",
     "Maneuver": "visviva.satellites",
+    "ImpulsiveBurn": "visviva.satellites",
+    "FiniteBurn": "visviva.satellites",
     "hohmann_delta_v": "visviva.satellites",
     "porkchop": "visviva.satellites",
     "Eclipse": "visviva.satellites",

@@ -12,6 +12,8 @@ Kinds and their canonical units:
 - ``gm``: km3 / s2 (a :class:`visviva.bodies.Body` gives its ``gm``)
 - ``accel``: km / s2
 - ``mass``: kg
+- ``force``: N (thrust)
+- ``mass_flow``: kg / s
 - ``area_per_mass``: m2 / kg (ballistic and radiation-pressure coefficients)
 - ``spec_angmom``: km2 / s (specific angular momentum)
 - ``spec_energy``: km2 / s2 (specific energy, potential per unit mass)
@@ -64,6 +66,8 @@ def _canonical() -> dict:
         "gm": u.km**3 / u.s**2,
         "accel": u.km / u.s**2,
         "mass": u.kg,
+        "force": u.N,
+        "mass_flow": u.kg / u.s,
         "area_per_mass": u.m**2 / u.kg,
         "spec_angmom": u.km**2 / u.s,
         "spec_energy": u.km**2 / u.s**2,
@@ -94,6 +98,8 @@ _EXAMPLE = {
     "gm": "vv.EARTH.gm or 398600.4418 * u.km**3 / u.s**2",
     "accel": "1e-6 * u.km / u.s**2",
     "mass": "1000 * u.kg",
+    "force": "400 * u.N",
+    "mass_flow": "0.1 * u.kg / u.s",
     "area_per_mass": "0.01 * u.m**2 / u.kg",
     "spec_angmom": "52000 * u.km**2 / u.s",
     "spec_energy": "-30 * u.km**2 / u.s**2",

@@ -6,6 +6,7 @@ CCSDS 502.0-B-3, section 3. Read with :func:`read_opm` (KVN or XML), write with
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -129,7 +130,7 @@ class OPM(FrameCenterMetadata):
     def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
                    center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
                    maneuvers=(), covariance=None, originator: str = "VISVIVA",
-                   mission_epoch=None):  # fmt: skip
+                   mission_epoch=None, mass=None):  # fmt: skip
         """An OPM for one state computed in visviva.
 
         Parameters
@@ -157,6 +158,8 @@ class OPM(FrameCenterMetadata):
             ``ORIGINATOR``.
         mission_epoch : astropy.time.Time, optional
             The epoch MET/MRT count from, for those time systems.
+        mass : Quantity, optional
+            Spacecraft ``MASS`` (kg, > 0) at the epoch: its spacecraft parameters section.
 
         Returns
         -------
@@ -181,6 +184,11 @@ class OPM(FrameCenterMetadata):
                              **dict(zip(("X_DOT", "Y_DOT", "Z_DOT"), map(float, v),
                                         strict=True))},
         }
+        if mass is not None:
+            m_kg = float(u.Quantity(mass).to_value(u.kg))
+            if not m_kg > 0:
+                raise InvalidInputError(f"mass must be > 0 kg; got {mass}.")
+            sections["spacecraft_parameters"] = {"MASS": m_kg}
         if covariance is not None:
             diag = np.diagonal(np.asarray(covariance, dtype=np.float64))
             if not (np.isfinite(covariance).all() and (diag >= 0).all()):
@@ -246,7 +254,11 @@ class OPM(FrameCenterMetadata):
     @property
     def state(self):
         """The state vector as :class:`~visviva.states.StateVectors` (km, km/s, GM, epoch); about
-        the Earth in GCRS, TEME or ITRF it knows its frame (``.frame``: ``"gcrs"``, ...)."""
+        the Earth in GCRS, TEME or ITRF it knows its frame (``.frame``: ``"gcrs"``, ...).
+
+        The state of a message with manoeuvres remembers it: :func:`visviva.propagate_cowell`
+        refuses it unless given ``maneuvers=`` (:meth:`burns`, or ``[]`` for none), so that the
+        manoeuvres are never left out silently; :meth:`propagate` applies them."""
         from astropy import units as u
 
         from ..states import StateVectors
@@ -256,8 +268,13 @@ class OPM(FrameCenterMetadata):
         v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
         checked = StateVectors(r * u.km, v * u.km / u.s, self.gm * u.km**3 / u.s**2,
                                epoch=self.epoch)  # the constructor's checks
-        return self.wrap_states(checked.r.to_value(u.km), checked.v.to_value(u.km / u.s),
-                                self.gm, checked.epoch)
+        state = self.wrap_states(checked.r.to_value(u.km), checked.v.to_value(u.km / u.s),
+                                 self.gm, checked.epoch)
+        if self.sections.get("maneuvers"):  # propagate_cowell refuses it without maneuvers=
+            from ..satellites.burns import PENDING_ATTRIBUTE
+
+            setattr(state, PENDING_ATTRIBUTE, len(self.sections["maneuvers"]))
+        return state
 
     @property
     def covariance(self) -> np.ndarray | None:
@@ -277,6 +294,92 @@ class OPM(FrameCenterMetadata):
                 m["MAN_DURATION"] * u.s, m["MAN_DELTA_MASS"] * u.kg, m["MAN_REF_FRAME"],
                 [m["MAN_DV_1"], m["MAN_DV_2"], m["MAN_DV_3"]] * (u.km / u.s)))
         return out
+
+    def burns(self) -> list:
+        """The manoeuvres as burns for :func:`visviva.propagate_cowell` (``maneuvers=``).
+
+        Returns
+        -------
+        list of ImpulsiveBurn or FiniteBurn
+            In the order of their epochs. ``MAN_DURATION = 0``: an impulse of ``MAN_DV`` in
+            ``MAN_REF_FRAME``. ``MAN_DURATION > 0``: a finite burn along ``MAN_DV`` (held fixed
+            in that frame) whose thrust integrates to |MAN_DV|: with the spacecraft ``MASS``
+            and ``MAN_DELTA_MASS < 0``, thrust and mass flow from the rocket equation
+            (mdot = -MAN_DELTA_MASS / MAN_DURATION, F = mdot |Δv| / ln(m0 / m1), m0 the mass at
+            ignition: ``MASS`` plus the earlier manoeuvres' ``MAN_DELTA_MASS``); otherwise a
+            constant acceleration |Δv| / MAN_DURATION.
+
+        Raises
+        ------
+        InvalidInputError
+            A ``MAN_REF_FRAME`` other than RTN, TNW, VNB, EME2000, GCRF, ICRF (named, with its
+            line), or a manoeuvre that uses more mass than the spacecraft has.
+        """
+        return _burns(self)
+
+    def propagate(self, t, perturbations=(), **kwargs):
+        """Propagate the state with its manoeuvres: :func:`visviva.propagate_cowell` with
+        ``maneuvers=self.burns()``.
+
+        Parameters
+        ----------
+        t : Quantity or astropy Time
+            Output times (offsets from ``EPOCH``, or absolute).
+        perturbations : list of Perturbation
+            As for :func:`visviva.propagate_cowell`.
+        **kwargs
+            Other arguments of :func:`visviva.propagate_cowell` (``events``, ``rtol`` ...).
+
+        Returns
+        -------
+        CowellResult
+        """
+        from ..satellites.cowell import propagate_cowell
+
+        return propagate_cowell(self.state, t, perturbations, maneuvers=self.burns(), **kwargs)
+
+
+def _burns(opm) -> list:
+    """:meth:`OPM.burns` (see there)."""
+    from astropy import units as u
+
+    from ..satellites.burns import FiniteBurn, ImpulsiveBurn, frame_code
+
+    sc = opm.sections.get("spacecraft_parameters")
+    mass = None if sc is None or sc.get("MASS") is None else float(sc["MASS"])
+    records = sorted(zip(opm.maneuvers, opm.sections.get("maneuvers", []), strict=True),
+                     key=lambda x: x[0].epoch.tt.jd)
+    out = []
+    for man, rec in records:
+        where = f"{opm.source} line {rec.line_of('MAN_REF_FRAME')}"
+        try:
+            frame_code(man.frame)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{where}: MAN_REF_FRAME = {man.frame}: {exc}") from None
+        dv = man.delta_v.to_value(u.km / u.s)
+        dt = float(man.duration.to_value(u.s))
+        dm = float(man.delta_mass.to_value(u.kg))
+        n = float(np.linalg.norm(dv))
+        if mass is not None and not mass + dm > 0:
+            raise InvalidInputError(
+                f"{opm.source} line {rec.line_of('MAN_DELTA_MASS')}: MAN_DELTA_MASS = {dm} kg "
+                f"leaves {mass + dm:g} kg of the spacecraft (MASS plus the earlier manoeuvres' "
+                "MAN_DELTA_MASS); check the masses.")
+        if dt == 0.0 or n == 0.0:
+            out.append(ImpulsiveBurn(man.epoch, man.delta_v, man.frame, delta_mass=man.delta_mass,
+                                     mass=None if mass is None else mass * u.kg))
+        elif mass is not None and dm < 0.0:
+            m1 = mass + dm
+            mdot = -dm / dt
+            thrust = mdot * n / math.log(mass / m1) * 1e3  # F = mdot v_e, v_e = |dv| / ln(m0/m1)
+            out.append(FiniteBurn(man.epoch, man.duration, dv / n, man.frame, thrust=thrust * u.N,
+                                  mass=mass * u.kg, mass_flow=mdot * u.kg / u.s))
+        else:
+            out.append(FiniteBurn(man.epoch, man.duration, dv / n, man.frame,
+                                  acceleration=n / dt * u.km / u.s**2))
+        if mass is not None:
+            mass += dm
+    return out
 
 
 def read_opm(source, *, mission_epoch=None) -> OPM:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._units import to_array, to_vector
+from ..core.local_frames import RTN, local_axes
 from ..errors import InvalidInputError, ShapeError, raise_for_status
 
 __all__ = [
@@ -103,7 +104,8 @@ def rtn_basis(r, v) -> np.ndarray:
     -------
     ndarray, shape (..., 3, 3)
         ``M`` with rows ``R = r/|r|``, ``T = N x R``, ``N = (r x v)/|r x v|``, so that
-        ``M @ x_inertial`` gives the RTN components (CCSDS 508.0-B-1 sec. 3.5.2, "RTN").
+        ``M @ x_inertial`` gives the RTN components (CCSDS 508.0-B-1 sec. 3.5.2, "RTN"; the
+        axes of :mod:`visviva.core.local_frames`).
     """
     r = _vec(r, "length", "r")
     v = _vec(v, "speed", "v")
@@ -114,10 +116,7 @@ def rtn_basis(r, v) -> np.ndarray:
         raise InvalidInputError(
             "the RTN frame needs r != 0 and r not parallel to v (r x v = 0 here)."
         )
-    R = r / rn
-    N = h / hn
-    T = np.cross(N, R)
-    return np.stack([R, T, N], axis=-2)
+    return local_axes(r, v, RTN)
 
 
 def _block(m, n):

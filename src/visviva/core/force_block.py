@@ -39,6 +39,13 @@ __all__ = [
     "DENSITY_MODEL",
     "DENSITY_GRID",
     "DENSITY_GRID_SIZES",
+    "THRUST_ON",
+    "THRUST_ACCEL",
+    "THRUST_MASS_RATE",
+    "THRUST_FRAME",
+    "THRUST_DIRECTION",
+    "TIME_DEPENDENT",
+    "with_time_origin",
 ]
 
 #: GM of the central body, km^3/s^2.
@@ -87,8 +94,21 @@ DENSITY_MODEL = 27
 DENSITY_GRID = 28
 #: First of 3 slots: grid sizes (altitudes, latitudes, hour angles).
 DENSITY_GRID_SIZES = 34
+#: Thrust of a finite burn on/off (on only over the burn's segment of a run).
+THRUST_ON = 37
+#: Thrust acceleration F / m at t = 0 (the burn's start), km/s^2.
+THRUST_ACCEL = 38
+#: Mass flow over the mass at t = 0, mdot / m0, 1/s: a(t) = THRUST_ACCEL / (1 - rate t).
+THRUST_MASS_RATE = 39
+#: Frame of the thrust direction (:mod:`visviva.core.local_frames`: 0 inertial, 1 RTN, 2 TNW,
+#: 3 VNB).
+THRUST_FRAME = 40
+#: First of 3 slots: the unit thrust direction in that frame.
+THRUST_DIRECTION = 41
 #: Length of the block.
-FORCE_SIZE = 37
+FORCE_SIZE = 44
+#: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
+TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX")
 
 #: ``(name, first index, size, unit, meaning)`` of every slot, in index order.
 LAYOUT = (
@@ -116,4 +136,41 @@ LAYOUT = (
      "hour angle)"),
     ("DENSITY_GRID_SIZES", DENSITY_GRID_SIZES, 3, "", "grid sizes (altitude, latitude, "
      "hour angle)"),
+    ("THRUST_ON", THRUST_ON, 1, "flag", "finite-burn thrust on/off"),
+    ("THRUST_ACCEL", THRUST_ACCEL, 1, "km/s2", "thrust acceleration F / m at t = 0"),
+    ("THRUST_MASS_RATE", THRUST_MASS_RATE, 1, "1/s", "mass flow over the mass at t = 0"),
+    ("THRUST_FRAME", THRUST_FRAME, 1, "", "0 inertial, 1 RTN, 2 TNW, 3 VNB"),
+    ("THRUST_DIRECTION", THRUST_DIRECTION, 3, "", "unit thrust direction in that frame"),
 )
+
+
+def with_time_origin(force, t0_s: float):
+    """A copy of the block for a run whose t = 0 lies ``t0_s`` after the block's t = 0.
+
+    Parameters
+    ----------
+    force : ndarray (FORCE_SIZE,)
+        The block.
+    t0_s : float
+        The new origin, s after the old one.
+
+    Returns
+    -------
+    ndarray (FORCE_SIZE,)
+        The ephemeris grid start moved by ``-t0_s`` and the body-fixed frame matrix at t = 0
+        turned by the body's rotation over ``t0_s`` (r_bf = Rz(w (t' + t0)) M0 r =
+        Rz(w t') [Rz(w t0) M0] r), the only slots that depend on the origin
+        (:data:`TIME_DEPENDENT`).
+    """
+    import math
+
+    import numpy as np
+
+    out = force.copy()
+    out[EPH_T0] = force[EPH_T0] - t0_s
+    th = force[ROTATION_RATE] * t0_s
+    c, s = math.cos(th), math.sin(th)
+    rz = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    m = force[FRAME_MATRIX:FRAME_MATRIX + 9].reshape(3, 3)
+    out[FRAME_MATRIX:FRAME_MATRIX + 9] = (rz @ m).ravel()
+    return out

@@ -34,6 +34,7 @@ from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
 from .hermite import hermite_basis
+from .local_frames import to_inertial
 
 __all__ = [
     "FORCE_SIZE",
@@ -415,6 +416,21 @@ def hermite_position(t, body, force, eph_r, eph_v, out):
 
 
 @kernel
+def accel_thrust(t, y, force, out):
+    """The thrust acceleration of a finite burn at time t (s from its start), km/s^2.
+
+    a(t) = F / m(t) u with m(t) = m0 - mdot t, i.e. ``THRUST_ACCEL / (1 - THRUST_MASS_RATE t)``,
+    along the unit direction ``THRUST_DIRECTION`` held fixed in the frame ``THRUST_FRAME``
+    (inertial, or RTN / TNW / VNB turning with the state, :mod:`visviva.core.local_frames`).
+    Writes ``out`` (3,).
+    """
+    a = force[fb.THRUST_ACCEL] / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    d = fb.THRUST_DIRECTION
+    to_inertial(int(force[fb.THRUST_FRAME]), y, a * force[d], a * force[d + 1],
+                a * force[d + 2], out)
+
+
+@kernel
 def zonal_rhs(y, force, zonal, dy):
     """The derivative dy = (v, a) with the two-body and zonal-harmonic terms alone (the first
     two terms of :func:`cowell_rhs`, same bits). Returns nothing; writes ``dy`` (not ``y``).
@@ -438,7 +454,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
     Sums, in this fixed order: two-body, zonal harmonics (:func:`zonal_rhs`), full spherical
-    harmonics, drag, third bodies, SRP.
+    harmonics, drag, third bodies, SRP, thrust.
     """
     x = y[0]
     yy = y[1]
@@ -479,6 +495,10 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
             x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
         )
         accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.SRP_COEFFICIENT], force[fb.AU], nu, acc)
+    if force[fb.THRUST_ON] != 0.0:
+        accel_thrust(t, y, force, pos)
+        for i in range(3):
+            acc[i] += pos[i]
     dy[3] = acc[0]
     dy[4] = acc[1]
     dy[5] = acc[2]

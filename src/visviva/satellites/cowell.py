@@ -13,8 +13,6 @@ The first call compiles the integrator (a few seconds, cached on disk afterwards
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from astropy import units as u
 
@@ -25,6 +23,8 @@ from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
+from .burns import burn_schedule
+from .dop853 import dop853_tableau
 from .events import Event, EventRecord
 from .perturbations import (
     AtmosphericDrag,
@@ -46,44 +46,6 @@ DEFAULT_RTOL = 1e-12
 DEFAULT_ATOL = 1e-12
 #: Ephemeris grid step for the Hermite tables, s.
 EPHEMERIS_STEP_S = 3600.0
-
-
-@functools.lru_cache(maxsize=1)
-def dop853_tableau():
-    """The DOP853 coefficients (Hairer & Wanner), as contiguous float64 arrays.
-
-    Taken from scipy, which transcribes Hairer's Fortran DOP853; scipy is a dependency of
-    visviva, and the compiled integrator in :mod:`visviva.core.cowell` receives them as arrays.
-    The module (plain numpy arrays) is loaded from its file: importing it by name would first
-    import ``scipy.integrate`` and with it ``scipy.optimize`` (0.2 s of a first call's process).
-    """
-    dc = _scipy_dop853_module()
-
-    def arr(a):
-        return np.ascontiguousarray(a, dtype=np.float64)
-
-    return (arr(dc.A), arr(dc.B), arr(dc.C), arr(dc.E3), arr(dc.E5), arr(dc.D))
-
-
-def _scipy_dop853_module():
-    """scipy's ``dop853_coefficients`` module, executed from its file (it imports numpy only)."""
-    import importlib.util
-    import sys
-    from pathlib import Path
-
-    name = "scipy.integrate._ivp.dop853_coefficients"
-    if name in sys.modules:  # scipy.integrate already imported: the same module
-        return sys.modules[name]
-    scipy_dir = Path(importlib.util.find_spec("scipy").origin).parent
-    path = scipy_dir / "integrate" / "_ivp" / "dop853_coefficients.py"
-    if not path.is_file():  # another scipy layout: import it by name (slower, same arrays)
-        import importlib
-
-        return importlib.import_module(name)
-    spec = importlib.util.spec_from_file_location("_visviva_scipy_dop853", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _all_instances(items, cls, what, hint):
@@ -304,6 +266,10 @@ class CowellResult:
         The last time integrated to.
     n_steps, n_evaluations : int
         Accepted steps and right-hand-side evaluations.
+    burns : list of BurnRecord
+        Only for a run with ``maneuvers``: what each burn did (:mod:`visviva.satellites.burns`).
+    final_mass : Quantity or None
+        Only for a run with ``maneuvers``: the mass after the last burn that knows it, kg.
     """
 
     def __init__(self, t, r, v, gm, epoch, events, terminated, t_final, n_steps, nfev, scalar):
@@ -465,14 +431,25 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
     return status, y_out[:written], ev_t[:n_found], ev_y[:n_found], ev_which[:n_found], info
 
 
-def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
-                     max_steps):  # fmt: skip
-    """N states through the parallel kernel; results (N, T, 3)."""
+def _run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps):
+    """N states (rows of ``y0``) through the parallel kernel: ``(y_out, status, info)``."""
     from ..core.cowell import integrate_cowell_many
 
-    A, B, C, E3, E5, D = dop853_tableau()
-    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
     n = y0.shape[0]
+    y_out = np.zeros((n, t_out.size, 6))
+    status = np.zeros(n, dtype=np.int64)
+    info = np.zeros((n, 6))
+    integrate_cowell_many(
+        y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(), *dop853_tableau(),
+        y_out, status, info, rhs_kind(model.force),
+    )  # fmt: skip
+    return y_out, status, info
+
+
+def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
+                     max_steps, schedule):  # fmt: skip
+    """N states through the parallel kernel; results (N, T, 3)."""
+    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
     pieces = []
     n_steps = nfev = 0
     back = offsets[offsets < 0][::-1]
@@ -480,13 +457,9 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if part.size == 0:
             continue
-        y_out = np.zeros((n, part.size, 6))
-        status = np.zeros(n, dtype=np.int64)
-        info = np.zeros((n, 6))
-        integrate_cowell_many(
-            y0, np.ascontiguousarray(part), t_end, rtol, atol, h_max, max_steps, *model.arrays(),
-            A, B, C, E3, E5, D, y_out, status, info, rhs_kind(model.force),
-        )  # fmt: skip
+        run = _run_many if t_end < 0 or schedule is None else schedule.run_many(_run_many)
+        y_out, status, info = run(y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max,
+                                  max_steps)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])
             _raise_budget(max_steps, info[k, 4], f" for state {k}")
@@ -499,9 +472,12 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     if scalar:
         y_all, t_all = y_all[:, 0], offsets[0]
     t_final = float(offsets[-1] if offsets[-1] > 0 else 0.0)
-    return CowellResult._from_arrays(
+    result = CowellResult._from_arrays(
         t_all, y_all, gm, epoch, [], False, t_final, n_steps, nfev, scalar
     )
+    if schedule is not None:
+        schedule.annotate(result)
+    return result
 
 
 def propagate_cowell(
@@ -514,6 +490,7 @@ def propagate_cowell(
     atol: float = DEFAULT_ATOL,
     max_step=None,
     max_steps: int = 10_000_000,
+    maneuvers=None,
 ):
     """Propagate a state numerically with perturbations (Cowell's method).
 
@@ -545,11 +522,17 @@ def propagate_cowell(
         Largest step size.
     max_steps : int
         Step budget (raises :class:`~visviva.StepSizeError` beyond).
+    maneuvers : list of ImpulsiveBurn or FiniteBurn, optional
+        Burns at or after the state's epoch (docs/cowell.md, "Manoeuvres"), the same for
+        every state of a batch: the run is split at each burn's start and end. A state read from an OPM with
+        manoeuvres is refused without it (``maneuvers=opm.burns()``, or ``[]`` for none).
 
     Returns
     -------
     CowellResult
-        ``.t``, ``.r``, ``.v`` at the requested times (up to a terminal event), ``.events``.
+        ``.t``, ``.r``, ``.v`` at the requested times (up to a terminal event), ``.events``;
+        with burns also ``.burns`` (:class:`~visviva.satellites.burns.BurnRecord`) and
+        ``.final_mass``.
 
     Notes
     -----
@@ -627,12 +610,13 @@ def propagate_cowell(
             "events are found for one state at a time; loop over the states (state[i]) to get "
             "their events, or drop events=... for the batch."
         )
+    schedule = burn_schedule(maneuvers, state, epoch)
     model = ForceModel(gm, perturbations, events, epoch, span)
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
         return check_batch(_propagate_batch(
-            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps
-        ), body)
+            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps,
+            schedule), body)
     events = with_surface(events, body)
     ev = (
         np.array([e.kind for e in events], dtype=np.int64),
@@ -652,7 +636,8 @@ def propagate_cowell(
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if t_end == 0.0 and part.size == 0:
             continue
-        status, y_out, ev_t, ev_y, ev_which, info = _run(
+        run = _run if t_end < 0 or schedule is None else schedule.run(_run)
+        status, y_out, ev_t, ev_y, ev_which, info = run(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )
         if status != 0 and int(info[2]) >= max_steps:
@@ -693,6 +678,9 @@ def propagate_cowell(
     records.sort(key=lambda rec: rec.t.value)
     if scalar and len(t_all) == 1:
         y_all, t_all = y_all[0], t_all[0]
-    return check_single(CowellResult._from_arrays(
+    result = CowellResult._from_arrays(
         t_all, y_all, gm, epoch, records, terminated, t_final, n_steps, nfev, scalar
-    ), body)
+    )
+    if schedule is not None:
+        schedule.annotate(result)
+    return check_single(result, body)

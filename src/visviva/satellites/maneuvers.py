@@ -1,7 +1,9 @@
 """Impulsive manoeuvres: Hohmann, bi-elliptic, plane change and Lambert transfers.
 
 A :class:`Maneuver` is a sequence of impulses (time after the start, Δv vector); ``apply``
-coasts on the two-body conic between impulses and returns the state just after the last one.
+coasts on the two-body conic between impulses and returns the state just after the last one;
+``burns()`` gives them to :func:`visviva.propagate_cowell` (``maneuvers=``) to fly them under
+perturbations.
 
 >>> import visviva as vv
 >>> from astropy import units as u
@@ -208,6 +210,19 @@ class Maneuver:
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
         return with_frame(cur, getattr(state, "frame", None))
+
+    def burns(self) -> list:
+        """The impulses as :class:`~visviva.satellites.burns.ImpulsiveBurn` (inertial Δv, times
+        from the state's epoch), for :func:`visviva.propagate_cowell` (``maneuvers=``): the same
+        manoeuvre flown under perturbations instead of on two-body coasts.
+
+        Returns
+        -------
+        list of ImpulsiveBurn
+        """
+        from .burns import ImpulsiveBurn
+
+        return [ImpulsiveBurn(t * u.s, to_quantity(dv, "speed"), "GCRS") for t, dv in self._items]
 
     def __repr__(self):
         return (

@@ -1,0 +1,506 @@
+"""Burns inside Cowell runs: impulsive and finite, local frames, mass, OPM manoeuvres."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as hs
+
+import visviva as vv
+from visviva.conjunctions.covariance import rtn_basis
+from visviva.core import local_frames as lf
+from visviva.errors import InvalidInputError, UnitsError
+from visviva.satellites import FiniteBurn, ImpulsiveBurn, Maneuver, propagate_cowell
+from visviva.satellites.burns import STANDARD_GRAVITY_M_S2
+from visviva.satellites.events import Apsides, ReEntry
+
+ONE_MM = 1e-6  # km
+ONE_M = 1e-3  # km
+KMS = u.km / u.s
+MU = vv.EARTH.gm_km3_s2
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+
+
+def circular(r=7000.0, inc=0.0, epoch=None):
+    v = np.sqrt(MU / r)
+    return vv.StateVectors([r, 0.0, 0.0] * u.km, [0.0, v * np.cos(inc), v * np.sin(inc)] * KMS,
+                           vv.EARTH, epoch)
+
+
+def leo(epoch=None):
+    return vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 5.0, 5.8] * KMS, vv.EARTH, epoch)
+
+
+def energy(r, v, mu=MU):
+    return 0.5 * np.sum(v * v, axis=-1) - mu / np.linalg.norm(r, axis=-1)
+
+
+# ---------------------------------------------------------------- local frames
+
+
+def test_local_frame_axes_on_a_circular_orbit():
+    """RTN: R out, T along v, N = h; TNW: T along v, N = W x T inward, W = h; VNB: B = V x N
+    outward (CCSDS 502.0-B-3 annex / Orekit LOFType.TNW; GMAT VNB)."""
+    r, v = np.array([7000.0, 0, 0]), np.array([0, 7.5, 0])
+    np.testing.assert_allclose(lf.local_axes(r, v, lf.RTN), np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(lf.local_axes(r, v, lf.TNW),
+                               [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-15)
+    np.testing.assert_allclose(lf.local_axes(r, v, lf.VNB),
+                               [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-15)
+    from visviva.satellites.burns import frame_code
+
+    assert [frame_code(n) for n in ("rtn", "RSW", "RIC", "QSW", " tnw ", "VNB", "EME2000")] == [
+        lf.RTN, lf.RTN, lf.RTN, lf.RTN, lf.TNW, lf.VNB, lf.INERTIAL]
+    for bad in ("NTW", "LVLH", "TEME", "ITRF", None, 3):
+        with pytest.raises(InvalidInputError, match="not supported"):
+            frame_code(bad)
+
+
+@settings(max_examples=30, deadline=None)
+@given(r=hs.lists(hs.floats(-9e3, 9e3), min_size=3, max_size=3),
+       v=hs.lists(hs.floats(-8.0, 8.0), min_size=3, max_size=3),
+       d=hs.lists(hs.floats(-1.0, 1.0), min_size=3, max_size=3),
+       frame=hs.sampled_from([lf.RTN, lf.TNW, lf.VNB]))
+def test_compiled_and_array_axes_agree_and_are_orthonormal(r, v, d, frame):
+    r, v, d = np.array(r), np.array(v), np.array(d)
+    if np.linalg.norm(np.cross(r, v)) < 1e-3 * np.linalg.norm(r) * np.linalg.norm(v) or \
+            np.linalg.norm(r) < 1.0 or np.linalg.norm(v) < 1e-3:
+        return
+    m = lf.local_axes(r, v, frame)
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-13)
+    assert np.linalg.det(m) == pytest.approx(1.0, abs=1e-13)
+    out = np.zeros(3)
+    lf.to_inertial(frame, np.concatenate([r, v]), d[0], d[1], d[2], out)
+    np.testing.assert_allclose(out, m.T @ d, atol=1e-14)
+    if frame == lf.RTN:  # the conjunction tools use the same axes
+        np.testing.assert_array_equal(rtn_basis(r, v), m)
+
+
+# ---------------------------------------------------------------- impulsive burns
+
+
+def test_hohmann_by_impulsive_tnw_burns_matches_the_kepler_path():
+    """Two along-track impulses in a two-body Cowell run vs Maneuver.hohmann (Kepler arcs)."""
+    state = circular(7000.0, inc=0.3)
+    man = Maneuver.hohmann(state, 42164 * u.km)
+    dv1, dv2, tof = vv.satellites.hohmann_delta_v(7000 * u.km, 42164 * u.km, vv.EARTH)
+    burns = [ImpulsiveBurn(0 * u.s, [dv1.value, 0, 0] * KMS, "TNW"),
+             ImpulsiveBurn(tof, [0, dv2.value, 0] * KMS, "RTN")]
+    t = np.array([0.0, 0.5 * tof.value, tof.value, tof.value + 7200.0]) * u.s
+    out = propagate_cowell(state, t, [], maneuvers=burns, rtol=1e-13, atol=1e-13)
+    after = man.apply(state)  # the state just after the second impulse
+    assert np.linalg.norm((out.r[2] - after.r).to_value(u.km)) < ONE_MM
+    assert np.linalg.norm((out.v[2] - after.v).to_value(KMS)) < 1e-9
+    assert np.linalg.norm(out.r[3].to_value(u.km)) == pytest.approx(42164.0, abs=ONE_MM)
+    assert [rec.delta_v.to_value(KMS) for rec in out.burns] == pytest.approx(
+        [dv1.value, dv2.value], rel=1e-12)
+
+
+@settings(max_examples=10, deadline=None)
+@given(times=hs.lists(hs.floats(0.0, 6000.0), min_size=1, max_size=4),
+       dvs=hs.lists(hs.lists(hs.floats(-0.05, 0.05), min_size=3, max_size=3), min_size=4,
+                    max_size=4))
+def test_random_impulses_match_kepler_arcs_with_the_same_impulses(times, dvs):
+    state = leo()
+    burns = [ImpulsiveBurn(tk * u.s, dv * KMS) for tk, dv in zip(times, dvs, strict=False)]
+    out = propagate_cowell(state, 7000 * u.s, [], maneuvers=burns, rtol=1e-13, atol=1e-13)
+    # the obvious way: Kepler arcs between the impulses, in time order
+    r, v, t_prev = state.r, state.v, 0.0
+    for tk, dv in sorted(zip(times, dvs, strict=False), key=lambda x: x[0]):
+        arc = vv.StateVectors(r, v, vv.EARTH).propagate((tk - t_prev) * u.s)
+        r, v, t_prev = arc.r, arc.v + dv * KMS, tk
+    end = vv.StateVectors(r, v, vv.EARTH).propagate((7000.0 - t_prev) * u.s)
+    assert np.linalg.norm((out.r - end.r).to_value(u.km)) < 10 * ONE_MM
+    assert len(out.burns) == len(burns)
+
+
+def test_a_two_body_maneuver_flown_by_cowell_through_its_burns():
+    state = circular(7000.0, inc=0.5)
+    man = Maneuver.bielliptic(state, 30000 * u.km, 12000 * u.km)
+    end = man.duration
+    out = propagate_cowell(state, end, [], maneuvers=man.burns(), rtol=1e-13, atol=1e-13)
+    after = man.apply(state)
+    assert np.linalg.norm((out.r - after.r).to_value(u.km)) < 10 * ONE_MM
+    assert np.linalg.norm((out.v - after.v).to_value(KMS)) < 1e-9
+    j2 = propagate_cowell(state, end, [vv.J2(vv.EARTH)], maneuvers=man.burns())
+    assert np.linalg.norm((j2.r - after.r).to_value(u.km)) > 1.0  # J2 moves it
+
+
+def test_rtn_delta_v_equals_the_same_delta_v_given_inertially():
+    state = leo()
+    dv_rtn = np.array([0.01, 0.05, -0.02])
+    t_b = 1500.0
+    coast = propagate_cowell(state, t_b * u.s, [vv.J2(vv.EARTH)])
+    m = rtn_basis(coast.r.to_value(u.km), coast.v.to_value(KMS))
+    dv_in = m.T @ dv_rtn
+    t = np.linspace(0.0, 7200.0, 5) * u.s
+    a = propagate_cowell(state, t, [vv.J2(vv.EARTH)],
+                         maneuvers=[ImpulsiveBurn(t_b * u.s, dv_rtn * KMS, "RTN")])
+    b = propagate_cowell(state, t, [vv.J2(vv.EARTH)],
+                         maneuvers=[ImpulsiveBurn(t_b * u.s, dv_in * KMS, "EME2000")])
+    assert np.max(np.abs((a.r - b.r).to_value(u.km))) < 1e-9
+    np.testing.assert_allclose(a.burns[0].delta_v_inertial.to_value(KMS), dv_in, atol=1e-15)
+
+
+@settings(max_examples=20, deadline=None)
+@given(dv=hs.lists(hs.floats(-0.5, 0.5), min_size=3, max_size=3),
+       frame=hs.sampled_from(["RTN", "TNW", "VNB", "GCRS"]))
+def test_energy_change_is_v_dot_dv_plus_half_dv_squared(dv, frame):
+    state = leo()
+    out = propagate_cowell(state, 0 * u.s, [], maneuvers=[ImpulsiveBurn(0 * u.s, dv * KMS, frame)])
+    r0, v0 = state.r.to_value(u.km), state.v.to_value(KMS)
+    dvi = out.burns[0].delta_v_inertial.to_value(KMS)
+    assert np.linalg.norm(dvi) == pytest.approx(np.linalg.norm(dv), abs=1e-15)
+    d_energy = energy(out.r.to_value(u.km), out.v.to_value(KMS)) - energy(r0, v0)
+    assert d_energy == pytest.approx(v0 @ dvi + 0.5 * dvi @ dvi, abs=1e-12)
+
+
+def test_outputs_before_at_and_after_an_impulse():
+    """An output at the burn's epoch is the state after it; others are those of coasts."""
+    state = leo()
+    t_b = 1000.0
+    dv = np.array([0.1, 0.0, 0.0])
+    t = np.array([0.0, t_b - 1.0, t_b, t_b + 1.0, 3000.0]) * u.s
+    out = propagate_cowell(state, t, [], maneuvers=[ImpulsiveBurn(t_b * u.s, dv * KMS, "TNW")])
+    plain = propagate_cowell(state, t, [])
+    # before: coasting (steps end at the burn, so not the same bits)
+    assert np.abs((out.r[:2] - plain.r[:2]).to_value(u.km)).max() < 1e-9
+    assert np.linalg.norm((out.r[2] - plain.r[2]).to_value(u.km)) < ONE_MM  # r continuous
+    jump = (out.v[2] - plain.v[2]).to_value(KMS)
+    assert np.linalg.norm(jump) == pytest.approx(0.1, abs=1e-9)
+    v_hat = plain.v[2].to_value(KMS) / np.linalg.norm(plain.v[2].to_value(KMS))
+    assert jump @ v_hat == pytest.approx(0.1, abs=1e-9)  # TNW's T is along the velocity
+    # the same outputs asked one at a time
+    for k in (2, 3, 4):
+        one = propagate_cowell(state, t[k], [], maneuvers=[ImpulsiveBurn(t_b * u.s, dv * KMS,
+                                                                          "TNW")])
+        assert np.linalg.norm((one.r - out.r[k]).to_value(u.km)) < ONE_MM
+    # the burn after the last output is not applied (and not reported)
+    early = propagate_cowell(state, t[:2], [], maneuvers=[ImpulsiveBurn(t_b * u.s, dv * KMS)])
+    assert np.abs((early.r - plain.r[:2]).to_value(u.km)).max() < 1e-9 and early.burns == []
+
+
+def test_burns_at_absolute_epochs_and_two_at_one_epoch():
+    state = leo(EPOCH)
+    t = EPOCH + np.array([0.0, 600.0, 1800.0]) * u.s
+    one = propagate_cowell(state, t, [], maneuvers=[
+        ImpulsiveBurn(EPOCH + 600 * u.s, [0.02, 0.0, 0.0] * KMS, "TNW")])
+    two = propagate_cowell(state, t, [], maneuvers=[
+        ImpulsiveBurn(600 * u.s, [0.01, 0.0, 0.0] * KMS, "TNW"),
+        ImpulsiveBurn(EPOCH + 600 * u.s, [0.01, 0.0, 0.0] * KMS, "TNW")])
+    assert np.abs((one.r - two.r).to_value(u.km)).max() < 1e-9
+    assert len(two.burns) == 2
+    # the burn's offset from its Time is 599.9999999999978 s: an output at 600 s (exact) or at
+    # the Time is still the state after it, whichever way each was given
+    for burn_at, out_at in ((600 * u.s, EPOCH + 600 * u.s), (EPOCH + 600 * u.s, 600 * u.s)):
+        burn = ImpulsiveBurn(burn_at, [0.02, 0.0, 0.0] * KMS, "TNW")
+        at = propagate_cowell(state, out_at, [], maneuvers=[burn])
+        assert np.linalg.norm((at.v - one.v[1]).to_value(KMS)) < 1e-12
+
+
+def test_backward_outputs_coast_and_burns_before_the_epoch_are_refused():
+    state = leo()
+    burn = ImpulsiveBurn(600 * u.s, [0.05, 0, 0] * KMS, "TNW")
+    t = np.array([-1200.0, -300.0, 0.0, 1200.0]) * u.s
+    out = propagate_cowell(state, t, [vv.J2(vv.EARTH)], maneuvers=[burn])
+    plain = propagate_cowell(state, t[:3], [vv.J2(vv.EARTH)])
+    assert np.abs((out.r[:3] - plain.r).to_value(u.km)).max() == 0.0
+    with pytest.raises(InvalidInputError, match="before the state's epoch"):
+        propagate_cowell(state, t, [], maneuvers=[ImpulsiveBurn(-60 * u.s, [0.1, 0, 0] * KMS)])
+
+
+def test_events_and_a_terminal_reentry_after_a_deorbit_burn():
+    state = circular(6578.0)
+    burn = ImpulsiveBurn(600 * u.s, [-0.3, 0, 0] * KMS, "TNW")
+    t = np.linspace(0.0, 6000.0, 61) * u.s
+    out = propagate_cowell(state, t, [], events=[ReEntry(), Apsides()], maneuvers=[burn])
+    assert out.terminated
+    entry = out.events_named("reentry")
+    assert len(entry) == 1 and entry[0].t.to_value(u.s) > 600.0
+    assert out.t[-1] <= entry[0].t and len(out.t) < 61
+    h = np.linalg.norm(entry[0].r.to_value(u.km)) - vv.EARTH.radius_km
+    assert abs(h - 100.0) < 25.0  # geodetic 100 km at the equator
+    # the apoapsis right after the burn (the burn point) is seen in the next segment's events
+    apo = [e for e in out.events_named("apsis") if e.what == "apoapsis"]
+    assert all(e.t.to_value(u.s) >= 600.0 - 1e-3 for e in apo)
+
+
+# ---------------------------------------------------------------- finite burns
+
+
+@pytest.mark.parametrize("frame", ["RTN", "GCRS"])
+def test_finite_burn_converges_to_the_impulse_at_its_middle_as_duration_squared(frame):
+    """Error ~ T^2 for a radial or inertial direction. (Along the velocity or the transverse
+    axis a term ~ |Δv|^2 T remains: those axes turn at a rate that the burn itself changes;
+    measured in docs/cowell.md.)"""
+    state = leo()
+    dv = 0.05  # km/s
+    t_mid, t_out = 1200.0, 4000.0
+    imp = propagate_cowell(state, t_out * u.s, [], rtol=1e-13, atol=1e-14, maneuvers=[
+        ImpulsiveBurn(t_mid * u.s, [dv, 0, 0] * KMS, frame)])
+    errs = []
+    durations = np.array([40.0, 20.0, 10.0])
+    for d in durations:
+        burn = FiniteBurn((t_mid - d / 2) * u.s, d * u.s, [1, 0, 0], frame,
+                          acceleration=dv / d * u.km / u.s**2)
+        fin = propagate_cowell(state, t_out * u.s, [], rtol=1e-13, atol=1e-14, maneuvers=[burn])
+        errs.append(np.linalg.norm((fin.r - imp.r).to_value(u.km)))
+        assert fin.burns[0].delta_v.to_value(KMS) == pytest.approx(dv, rel=1e-14)
+    order = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    np.testing.assert_allclose(order, 2.0, atol=0.05)
+    assert errs[-1] < 3 * ONE_M
+
+
+@pytest.mark.parametrize("frame,direction", [("GCRS", [0.6, 0.8, 0.0]), ("VNB", [1, 0, 0])])
+def test_rocket_equation_in_free_space(frame, direction):
+    """Thrust along a fixed direction (or along v) with no gravity: |Δv| = Isp g0 ln(m0/m1)."""
+    gm = 1e-12 * u.km**3 / u.s**2  # a GM of no known body: gravity negligible here
+    state = vv.StateVectors([1e6, 0, 0] * u.km, [0.6, 0.8, 0.0] * KMS, gm)
+    burn = FiniteBurn(100 * u.s, 1000 * u.s, direction, frame, thrust=500 * u.N,
+                      mass=1200 * u.kg, isp=320 * u.s)
+    out = propagate_cowell(state, [0.0, 2000.0] * u.s, [], maneuvers=[burn])
+    m1 = 1200.0 - 500.0 / (320.0 * STANDARD_GRAVITY_M_S2) * 1000.0
+    expected = 320.0 * STANDARD_GRAVITY_M_S2 * np.log(1200.0 / m1) / 1e3
+    dv = np.linalg.norm((out.v[1] - out.v[0]).to_value(KMS))
+    assert dv == pytest.approx(expected, rel=1e-11)
+    assert out.final_mass.to_value(u.kg) == pytest.approx(m1, rel=1e-14)
+    assert out.burns[0].delta_v.to_value(KMS) == pytest.approx(expected, rel=1e-14)
+    assert burn.ideal_delta_v.to_value(KMS) == pytest.approx(expected, rel=1e-14)
+
+
+def _axes(frame, r, v):
+    """Independent numpy construction of the local axes (columns), from their definitions."""
+    h = np.cross(r, v) / np.linalg.norm(np.cross(r, v))
+    if frame == "RTN":
+        rh = r / np.linalg.norm(r)
+        return np.column_stack([rh, np.cross(h, rh), h])
+    t = v / np.linalg.norm(v)
+    if frame == "TNW":
+        return np.column_stack([t, np.cross(h, t), h])
+    return np.column_stack([t, h, np.cross(t, h)])  # VNB
+
+
+def _scipy_thrust_run(y0, t_start, duration, t_end, accel0, mass_rate, d, j2, frame):
+    from scipy.integrate import solve_ivp
+
+    re = vv.EARTH.radius_km
+
+    def rhs(t, y):
+        r, v = y[:3], y[3:]
+        rn = np.linalg.norm(r)
+        a = -MU * r / rn**3
+        if j2:
+            z2 = (r[2] / rn) ** 2
+            k = -1.5 * vv.EARTH.zonal[0] * MU * re**2 / rn**5
+            a = a + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])
+        if t_start <= t < t_start + duration:
+            a = a + accel0 / (1 - mass_rate * (t - t_start)) * (_axes(frame, r, v) @ d)
+        return np.concatenate([v, a])
+
+    y = np.asarray(y0, dtype=float)
+    for a, b in ((0.0, t_start), (t_start, t_start + duration), (t_start + duration, t_end)):
+        y = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
+    return y
+
+
+@pytest.mark.parametrize("j2,frame", [(False, "RTN"), (True, "RTN"), (True, "TNW"),
+                                      (False, "VNB")])
+def test_finite_burn_with_mass_flow_matches_scipy(j2, frame):
+    state = leo()
+    d = np.array([0.3, 0.9, -0.3])
+    burn = FiniteBurn(900 * u.s, 600 * u.s, d, frame, thrust=2 * u.kN, mass=800 * u.kg,
+                      mass_flow=0.5 * u.kg / u.s)
+    perts = [vv.J2(vv.EARTH)] if j2 else []
+    out = propagate_cowell(state, 3000 * u.s, perts, maneuvers=[burn])
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(KMS)])
+    ref = _scipy_thrust_run(y0, 900.0, 600.0, 3000.0, 2.0 / 800.0, 0.5 / 800.0,
+                            d / np.linalg.norm(d), j2, frame)
+    assert np.linalg.norm(out.r.to_value(u.km) - ref[:3]) < ONE_MM / 10  # 0.01 mm measured
+    assert np.linalg.norm(out.v.to_value(KMS) - ref[3:]) < 1e-10
+    assert out.final_mass.to_value(u.kg) == pytest.approx(500.0, rel=1e-14)
+    assert out.burns[0].complete
+
+
+def test_a_finite_burn_cut_by_the_last_output_and_its_record():
+    state = leo()
+    burn = FiniteBurn(100 * u.s, 1000 * u.s, [1, 0, 0], "TNW", thrust=100 * u.N,
+                      mass=500 * u.kg, isp=300 * u.s)
+    out = propagate_cowell(state, 600 * u.s, [], maneuvers=[burn])
+    rec = out.burns[0]
+    assert not rec.complete and rec.t_end.to_value(u.s) == 600.0
+    mdot = 100.0 / (300.0 * STANDARD_GRAVITY_M_S2)
+    assert rec.mass_after.to_value(u.kg) == pytest.approx(500.0 - mdot * 500.0, rel=1e-14)
+
+
+def test_a_terminal_event_during_a_finite_burn_cuts_it():
+    state = circular(6378.137 + 130.0)
+    burn = FiniteBurn(60 * u.s, 2000 * u.s, [-1, 0, 0], "TNW", thrust=2 * u.kN, mass=100 * u.kg)
+    t = np.linspace(0.0, 3000.0, 31) * u.s
+    out = propagate_cowell(state, t, [], events=[ReEntry()], maneuvers=[burn])
+    (entry,) = out.events_named("reentry")
+    rec = out.burns[0]
+    assert out.terminated and not rec.complete
+    assert rec.t_end == entry.t and 60.0 < entry.t.to_value(u.s) < 2060.0
+    assert rec.delta_v.to_value(KMS) == pytest.approx(0.02 * (entry.t.to_value(u.s) - 60.0))
+    assert out.t[-1] <= entry.t
+
+
+def test_a_split_without_thrust_keeps_time_dependent_forces_right(tmp_path):
+    """A zero impulse splits the run in two segments: with harmonics (rotating body frame),
+    third bodies, SRP and drag (ephemeris tables) the result is the unsplit run's."""
+    state = leo(EPOCH)
+    from test_perturbations import GFC_HEADER, GFC_ROWS
+
+    gfc = tmp_path / "field.gfc"
+    gfc.write_text(GFC_HEADER + "\n".join(f"gfc {n} {m} {c:.15e} {s:.15e} 0 0"
+                                          for n, m, c, s in GFC_ROWS) + "\n")
+    perts = [vv.satellites.SphericalHarmonics(gfc), vv.ThirdBody(vv.MOON), vv.ThirdBody(vv.SUN),
+             vv.SolarRadiationPressure(area_to_mass=0.02 * u.m**2 / u.kg)]
+    t = np.linspace(0.0, 7200.0, 4) * u.s
+    plain = propagate_cowell(state, t, perts)
+    split = propagate_cowell(state, t, perts,
+                             maneuvers=[ImpulsiveBurn(3000 * u.s, [0, 0, 0] * KMS, "RTN")])
+    assert np.abs((plain.r - split.r).to_value(u.km)).max() < ONE_MM
+
+
+def test_runs_without_burns_are_unchanged_to_the_bit():
+    state = leo(EPOCH)
+    t = np.linspace(0.0, 3600.0, 5) * u.s
+    for perts in ([vv.J2(vv.EARTH)], [vv.J2(vv.EARTH), vv.ThirdBody(vv.MOON)]):
+        a = propagate_cowell(state, t, perts)
+        b = propagate_cowell(state, t, perts, maneuvers=[])
+        assert np.array_equal(a.r.value, b.r.value) and np.array_equal(a.v.value, b.v.value)
+        assert not hasattr(a, "burns")
+
+
+def test_a_batch_of_states_with_burns_equals_single_runs():
+    """The same burns for N states: each local frame at each state's own r, v."""
+    el = vv.KeplerianElements([7000.0, 7200.0, 8000.0] * u.km, [0.001, 0.01, 0.05],
+                              [0.9, 0.3, 1.7], [0.0, 1.0, 2.0], [0.1, 0.2, 0.3],
+                              [0.0, 2.0, 4.0], vv.EARTH).to_state()
+    r, v = el.r.to_value(u.km), el.v.to_value(KMS)
+    batch = vv.StateVectors(r * u.km, v * KMS, vv.EARTH)
+    burns = [ImpulsiveBurn(300 * u.s, [0.01, 0.02, -0.01] * KMS, "RTN"),
+             FiniteBurn(900 * u.s, 300 * u.s, [1, 0, 0], "TNW", thrust=500 * u.N,
+                        mass=800 * u.kg, isp=250 * u.s),
+             ImpulsiveBurn(1200 * u.s, [0.0, 0.0, 0.03] * KMS, "VNB")]
+    t = np.array([-600.0, 0.0, 300.0, 1000.0, 1200.0, 3000.0]) * u.s
+    out = propagate_cowell(batch, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    assert out.r.shape == (3, 6, 3)
+    for k in range(3):
+        one = propagate_cowell(vv.StateVectors(r[k] * u.km, v[k] * KMS, vv.EARTH), t,
+                               [vv.J2(vv.EARTH)], maneuvers=burns)
+        assert np.abs((out.r[k] - one.r).to_value(u.km)).max() < 1e-9
+    assert out.burns[0].delta_v_inertial.shape == (3, 3)
+    assert out.final_mass.to_value(u.kg) == pytest.approx(800 - 500 / (250 * 9.80665) * 300)
+
+
+# ---------------------------------------------------------------- OPM manoeuvres
+
+
+def test_opm_with_two_manoeuvres_written_read_and_propagated(tmp_path):
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    state = leo(EPOCH)
+    mans = [OPMManeuver(EPOCH + 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS),
+            OPMManeuver(EPOCH + 1800 * u.s, 120 * u.s, -5.0 * u.kg, "TNW", [0.02, 0, 0] * KMS)]
+    opm = OPM.from_state(state, object_name="SAT", maneuvers=mans, mass=1000 * u.kg)
+    path = tmp_path / "two.opm"
+    vv.write_opm(opm, path)
+    back = vv.read_opm(path)
+    burns = back.burns()
+    assert isinstance(burns[0], ImpulsiveBurn) and isinstance(burns[1], FiniteBurn)
+    assert burns[1].mass_kg == pytest.approx(999.0)  # MASS less the first manoeuvre's
+    assert burns[1].ideal_delta_v.to_value(KMS) == pytest.approx(0.02, rel=1e-12)
+    with pytest.raises(InvalidInputError, match=r"2 manoeuvre\(s\).*maneuvers=opm.burns\(\)"):
+        propagate_cowell(back.state, 3600 * u.s)
+    out = back.propagate(3600 * u.s, [vv.J2(vv.EARTH)])
+    assert out.final_mass.to_value(u.kg) == pytest.approx(994.0, rel=1e-12)
+    assert [r.mass_after.to_value(u.kg) for r in out.burns] == pytest.approx([999.0, 994.0])
+    direct = propagate_cowell(state, 3600 * u.s, [vv.J2(vv.EARTH)], maneuvers=[
+        ImpulsiveBurn(600 * u.s, [0, 0.01, 0] * KMS, "RTN"),
+        FiniteBurn(1800 * u.s, 120 * u.s, [1, 0, 0], "TNW", thrust=burns[1].thrust,
+                   mass=999 * u.kg, mass_flow=5 / 120 * u.kg / u.s)])
+    assert np.linalg.norm((out.r - direct.r).to_value(u.km)) < ONE_MM
+    coast = propagate_cowell(back.state, 3600 * u.s, [vv.J2(vv.EARTH)], maneuvers=[])
+    assert np.linalg.norm((coast.r - out.r).to_value(u.km)) > 10.0  # the burns matter
+
+
+def test_opm_finite_burn_without_mass_is_a_constant_acceleration_and_bad_frames_are_named():
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    state = leo(EPOCH)
+    opm = OPM.from_state(state, object_name="SAT", maneuvers=[
+        OPMManeuver(EPOCH + 60 * u.s, 100 * u.s, 0 * u.kg, "EME2000", [0, 0, 0.01] * KMS)])
+    (burn,) = vv.read_opm(vv.write_opm(opm)).burns()
+    assert burn.mass_kg is None and burn.accel0_km_s2 == pytest.approx(1e-4)
+    bad = OPM.from_state(state, object_name="SAT", maneuvers=[
+        OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, 0 * u.kg, "ITRF", [0, 0, 0.01] * KMS)])
+    with pytest.raises(InvalidInputError, match=r"line \d+: MAN_REF_FRAME = ITRF"):
+        vv.read_opm(vv.write_opm(bad)).burns()
+    heavy = OPM.from_state(state, object_name="SAT", mass=10 * u.kg, maneuvers=[
+        OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, -6 * u.kg, "RTN", [0, 0.01, 0] * KMS),
+        OPMManeuver(EPOCH + 90 * u.s, 10 * u.s, -6 * u.kg, "RTN", [0, 0.01, 0] * KMS)])
+    with pytest.raises(InvalidInputError, match=r"line \d+: MAN_DELTA_MASS = -6.0 kg leaves -2"):
+        vv.read_opm(vv.write_opm(heavy)).burns()
+
+
+# ---------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("make,match", [
+    (lambda: FiniteBurn(0 * u.s, 0 * u.s, [1, 0, 0], acceleration=1e-5 * u.km / u.s**2),
+     "ImpulsiveBurn"),
+    (lambda: FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], thrust=-1 * u.N, mass=10 * u.kg),
+     "thrust must be > 0"),
+    (lambda: FiniteBurn(0 * u.s, 10 * u.s, [0, 0, 0], acceleration=1e-5 * u.km / u.s**2),
+     "non-zero"),
+    (lambda: FiniteBurn(0 * u.s, 1000 * u.s, [1, 0, 0], thrust=1 * u.kN, mass=10 * u.kg,
+                        isp=100 * u.s), "more than the spacecraft's mass"),
+    (lambda: FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], thrust=1 * u.N), "thrust=... and mass"),
+    (lambda: FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], thrust=1 * u.N, mass=1 * u.kg,
+                        acceleration=1 * u.m / u.s**2), "not both"),
+    (lambda: ImpulsiveBurn(0 * u.s, [np.nan, 0, 0] * KMS), "NaN|finite"),
+    (lambda: ImpulsiveBurn(0 * u.s, [1, 0] * KMS), "shape"),
+    (lambda: ImpulsiveBurn(0 * u.s, [1, 0, 0] * KMS, "LVLH"), "'LVLH' is not supported"),
+    (lambda: ImpulsiveBurn(np.nan * u.s, [1, 0, 0] * KMS), "NaN|finite"),
+])
+def test_bad_burns_are_refused(make, match):
+    with pytest.raises(InvalidInputError, match=match):
+        make()
+
+
+def test_bad_burn_units_and_schedules_are_refused():
+    with pytest.raises(UnitsError):
+        ImpulsiveBurn(0 * u.s, [1, 0, 0] * u.km)
+    with pytest.raises(UnitsError):
+        FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], thrust=1 * u.kg, mass=1 * u.kg)
+    state = leo()
+    long = FiniteBurn(100 * u.s, 100 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(state, 1000 * u.s, [], maneuvers=[
+            long, ImpulsiveBurn(150 * u.s, [0.1, 0, 0] * KMS)])
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(state, 1000 * u.s, [], maneuvers=[
+            long, FiniteBurn(190 * u.s, 20 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)])
+    with pytest.raises(InvalidInputError, match="not a burn"):
+        propagate_cowell(state, 1000 * u.s, [], maneuvers=[Maneuver.hohmann(circular(), 9000 * u.km)])
+    with pytest.raises(InvalidInputError, match="has no epoch"):
+        propagate_cowell(state, 1000 * u.s, [], maneuvers=[
+            ImpulsiveBurn(EPOCH, [0.1, 0, 0] * KMS)])
+    # touching burns are fine: an impulse at a finite burn's end
+    out = propagate_cowell(state, 1000 * u.s, [], maneuvers=[
+        long, ImpulsiveBurn(200 * u.s, [0.01, 0, 0] * KMS)])
+    assert len(out.burns) == 2
+    radial = vv.StateVectors([7000.0, 0, 0] * u.km, [1.0, 0, 0] * KMS, vv.EARTH)
+    with pytest.raises(InvalidInputError, match="undefined"):
+        propagate_cowell(radial, 10 * u.s, [], maneuvers=[
+            ImpulsiveBurn(0 * u.s, [0.1, 0, 0] * KMS, "RTN")])
+    with pytest.raises(InvalidInputError, match="undefined at its start"):
+        propagate_cowell(radial, 10 * u.s, [], maneuvers=[
+            FiniteBurn(1 * u.s, 5 * u.s, [1, 0, 0], "VNB", acceleration=1e-5 * u.km / u.s**2)])

@@ -85,6 +85,23 @@ def rk_combine(n, y, K, w, n_stages, h, out):
         out[j] = y[j] + h * acc
 
 
+@inline_kernel
+def dense_coefficients(n, h, y, y_new, K, D, F):
+    """The 7 rows of DOP853's dense output of the step (y, h) -> y_new from its 16 stages ``K``
+    (12 of the step, the FSAL one, 3 extra; first ``n`` components) into ``F`` (7, n), as
+    :func:`visviva.core.cowell_events.dense_eval` reads them."""
+    for j in range(n):
+        dlt = y_new[j] - y[j]
+        F[0, j] = dlt
+        F[1, j] = h * K[0, j] - dlt
+        F[2, j] = 2.0 * dlt - h * (K[_N_STAGES, j] + K[0, j])
+        for i in range(4):
+            acc = 0.0
+            for m in range(16):
+                acc += D[i, m] * K[m, j]
+            F[3 + i, j] = h * acc
+
+
 #: The ``full`` argument of :func:`integrate_cowell` for a force model of the two-body and
 #: zonal terms alone and no events but altitude crossings (a type, not a value: with ``None``
 #: numba compiles :func:`visviva.core.perturbations.zonal_rhs` alone, not the drag, third-body,
@@ -392,16 +409,7 @@ def integrate_cowell(
             rk_combine(n, y, K, A[s], s, h, y_tmp)
             _rhs(t + C[s] * h, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
         nfev += 3
-        for j in range(n):
-            dlt = y_new[j] - y[j]
-            F[0, j] = dlt
-            F[1, j] = h * K[0, j] - dlt
-            F[2, j] = 2.0 * dlt - h * (K[_N_STAGES, j] + K[0, j])
-            for i in range(4):
-                acc = 0.0
-                for m in range(16):
-                    acc += D[i, m] * K[m, j]
-                F[3 + i, j] = h * acc
+        dense_coefficients(n, h, y, y_new, K, D, F)
 
         # a shadow boundary crossed within the step: redo the step up to it
         flip = -1

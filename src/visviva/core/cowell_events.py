@@ -32,7 +32,7 @@ from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
-           "shadow_sides", "shadow_crossing"]
+           "shadow_sides", "shadow_crossing", "boundary_gradient"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -349,3 +349,37 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
             best_b = tb
             best = which
     return best_a, best_b, best
+
+
+@kernel
+def boundary_gradient(model, which, t, y, force, eph_r, eph_v, s, grad):
+    """The gradient of boundary function ``which`` of SRP shadow ``model`` with respect to the
+    position at (t, y), 1 (into ``grad``, 3 values), and its rate along the trajectory, 1/s
+    (returned), by central differences.
+
+    The steps are 1e-3 km in each coordinate, and for the rate 1e-3 km along the straight line
+    r + v dt (the acceleration's terms of the two sides cancel in a central difference, so the
+    line and the trajectory give the same rate to second order). The functions are angles
+    (conical) or distances (cylindrical) of curvature radius >= the body's radius, so the
+    differences are good to ~1e-9 relative. Used by the state-transition matrix at a boundary
+    where the force jumps (:mod:`visviva.core.variational`)."""
+    dr = 1e-3
+    p = np.empty(6)
+    for j in range(6):
+        p[j] = y[j]
+    for k in range(3):
+        p[k] = y[k] + dr
+        gp0, gp1 = shadow_values(model, t, p, force, eph_r, eph_v, s)
+        p[k] = y[k] - dr
+        gm0, gm1 = shadow_values(model, t, p, force, eph_r, eph_v, s)
+        p[k] = y[k]
+        grad[k] = ((gp0 - gm0) if which == 0 else (gp1 - gm1)) / (2.0 * dr)
+    v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    dt = dr / v
+    for k in range(3):
+        p[k] = y[k] + y[3 + k] * dt
+    gp0, gp1 = shadow_values(model, t + dt, p, force, eph_r, eph_v, s)
+    for k in range(3):
+        p[k] = y[k] - y[3 + k] * dt
+    gm0, gm1 = shadow_values(model, t - dt, p, force, eph_r, eph_v, s)
+    return ((gp0 - gm0) if which == 0 else (gp1 - gm1)) / (2.0 * dt)

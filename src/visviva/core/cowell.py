@@ -49,6 +49,7 @@ from .cowell_events import (
     BOUNDARY_RTOL,
     dense_eval,
     event_function,
+    event_shadow_model,
     event_value,
     fix_boundary_events,
     locate_zero,
@@ -57,6 +58,7 @@ from .cowell_events import (
     shadow_boundary_kind,
     shadow_crossing,
     shadow_sides,
+    srp_shadow_model,
 )
 from .perturbations import cowell_rhs, zonal_rhs
 
@@ -265,11 +267,18 @@ def integrate_cowell(
     n_sh = 0
     side0 = 1.0
     side1 = 1.0
+    # Eclipse events without SRP's shadow: steps end at the boundaries of the events' shadow
+    # (no force changes there), so that an eclipse shorter than a step or a graze is found
+    lock = False  # SRP's shadow: the force is locked on a side during a step
     if full is not None:
-        if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
-            sh_model = int(force[fb.SHADOW_MODEL])
+        sh_model = srp_shadow_model(force)
+        lock = sh_model > 0
+        if not lock:
+            sh_model = event_shadow_model(ev_kind, force)
+        if sh_model > 0:
             n_sh = 1 if sh_model == 1 else 2
             side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
+        if lock:
             rforce = force.copy()
             lock_shadow(rforce, sh_model, side0)
     bnd_pending = False  # the step being tried ends at the boundary t_bnd
@@ -433,9 +442,10 @@ def integrate_cowell(
                                 side0 = -side0
                             else:
                                 side1 = -side1
-                            lock_shadow(rforce, sh_model, side0)
-                            _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
-                            nfev += 1
+                            if lock:
+                                lock_shadow(rforce, sh_model, side0)
+                                _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                                nfev += 1
                             n_here += 1
                             h_abs = abs(h)
                         else:
@@ -526,7 +536,7 @@ def integrate_cowell(
             f[j] = K[_N_STAGES, j]
         if full is not None:
             if flip >= 0 or resync:
-                if flip >= 0 and sh_model == 2:
+                if flip >= 0 and sh_model == 2 and lock:
                     v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
                     pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h,
                                             force[fb.SRP_COEFFICIENT], atol + rtol * v)
@@ -536,7 +546,7 @@ def integrate_cowell(
                     side1 = -side1
                 else:
                     side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
-                if sh_model == 1:
+                if sh_model == 1 and lock:
                     # the force changes at the boundary: a fresh derivative (no FSAL)
                     lock_shadow(rforce, sh_model, side0)
                     _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)

@@ -32,7 +32,8 @@ from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
-           "shadow_sides", "shadow_crossing", "boundary_gradient"]
+           "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
+           "event_shadow_model"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -175,6 +176,35 @@ def shadow_boundary_kind(model, which):
     if model == 1:
         return 1
     return 2 + which
+
+
+@kernel
+def srp_shadow_model(force):
+    """The shadow model of SRP in the force block (1 cylindrical, 2 conical) when SRP is on and
+    the Sun tabulated, else 0: the boundaries the integrators end their steps at."""
+    if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
+        return int(force[fb.SHADOW_MODEL])
+    return 0
+
+
+@kernel
+def event_shadow_model(ev_kind, force):
+    """The shadow model of the eclipse events among ``ev_kind`` (2, conical, when any is of kind
+    2 or 3, else 1, cylindrical, when any is of kind 1), or 0 without such events or a
+    tabulated Sun: without SRP's shadow, :func:`visviva.core.cowell.integrate_cowell` ends its
+    steps at the boundaries of this shadow so that every crossing of the events' functions is
+    found, also where one is entered and left within a step. An event of the other model (a
+    cylindrical event with a conical one, or with SRP's conical shadow, and the reverse) is
+    looked for at the steps' ends only."""
+    if force[fb.SUN_ROW] < 0.0:
+        return 0
+    model = 0
+    for e in range(ev_kind.shape[0]):
+        if ev_kind[e] == 2 or ev_kind[e] == 3:
+            return 2
+        if ev_kind[e] == 1:
+            model = 1
+    return model
 
 
 @kernel

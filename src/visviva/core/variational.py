@@ -52,6 +52,7 @@ from .cowell_events import (
     penumbra_step,
     shadow_crossing,
     shadow_sides,
+    srp_shadow_model,
 )
 from .perturbations import (
     cowell_rhs,
@@ -398,8 +399,8 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     side1 = 1.0
     F = np.zeros((7, 6))
     scr = np.zeros((6, 6))  # rows: the dense state, two sample rows, the Sun, a_old, grad
-    if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
-        sh_model = int(force[fb.SHADOW_MODEL])
+    if srp_shadow_model(force) > 0:
+        sh_model = srp_shadow_model(force)
         n_sh = 1 if sh_model == 1 else 2
         side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, scr[3])
         rforce = force.copy()

@@ -17,22 +17,11 @@ from astropy import units as u
 from astropy.time import Time
 
 import visviva as vv
+from test_cowell_shadow import AM, EPOCH, TIGHT, forces, leo
+from test_od_fit import _fd_stm
 from visviva.od.dynamics import Dynamics
 
-EPOCH = Time("2024-03-01T00:00:00", scale="utc")
-AM = 0.02 * u.m**2 / u.kg
 KMS = u.km / u.s
-TIGHT = {"rtol": 1e-13, "atol": 1e-13}
-
-
-def leo():
-    return vv.KeplerianElements.from_semi_major_axis(
-        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=EPOCH
-    ).to_state()
-
-
-def forces(shadow):
-    return [vv.J2(vv.EARTH), vv.SolarRadiationPressure(AM, 1.5, shadow=shadow)]
 
 
 def vec(state):
@@ -54,23 +43,6 @@ def test_variational_trajectory_matches_cowell_across_the_shadow(shadow, sign):
     assert np.linalg.norm((plain.r - ref.r).to_value(u.mm), axis=-1).max() > 100 * err_mm
 
 
-def _fd_stm(state, forces, t):
-    """Central differences of propagate_cowell (1 m, 1 mm/s)."""
-    y = vec(state)
-    fd = np.empty((t.size, 6, 6))
-    for j in range(6):
-        d = 1e-3 if j < 3 else 1e-6
-        ys = []
-        for s in (1, -1):
-            y0 = y.copy()
-            y0[j] += s * d
-            s0 = vv.StateVectors(y0[:3] * u.km, y0[3:] * KMS, vv.EARTH, epoch=state.epoch)
-            res = vv.propagate_cowell(s0, t * u.s, forces, **TIGHT)
-            ys.append(np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=1))
-        fd[:, :, j] = (ys[0] - ys[1]) / (2 * d)
-    return fd
-
-
 @pytest.mark.parametrize("shadow", ["conical", "cylindrical"])
 def test_stm_across_eclipses_matches_finite_differences_of_cowell(shadow):
     # the shadow's effect on Phi is ~1e-6 of it after 6 h (the jump of SRP's 1.4e-10 km/s^2
@@ -80,7 +52,7 @@ def test_stm_across_eclipses_matches_finite_differences_of_cowell(shadow):
     f = forces(shadow)
     _, phi = Dynamics(vv.EARTH.gm_km3_s2, f, EPOCH, (t.min(), t.max()), 1e-13,
                       1e-13).propagate(vec(leo()), t)  # fmt: skip
-    fd = _fd_stm(leo(), f, t)
+    fd = _fd_stm(f, t, leo())
     rel = np.abs(fd - phi).max(axis=(1, 2)) / np.abs(fd).max(axis=(1, 2))
     assert rel.max() < 3e-8  # without the shadow terms: 1e-6 after 6 h
     # the default tolerances of the fits: the STM's own integration error, ~2e-8

@@ -47,6 +47,7 @@ from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, step_kernel
 from .cowell_events import (
     BOUNDARY_RTOL,
+    boundary_plan,
     dense_eval,
     event_function,
     event_shadow_model,
@@ -436,24 +437,18 @@ def integrate_cowell(
                                                            y_new, F, y_tmp, gs0, gs1, sun_s,
                                                            force, eph_r, eph_v)
                     if which_b >= 0:
-                        if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
-                            # the boundary is at t (within the tolerance): cross it here
-                            if which_b == 0:
-                                side0 = -side0
-                            else:
-                                side1 = -side1
+                        at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                        if at_t:
+                            # the boundary is at t (within the tolerance): crossed here
                             if lock:
                                 lock_shadow(rforce, sh_model, side0)
                                 _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
                                 nfev += 1
                             n_here += 1
-                            h_abs = abs(h)
                         else:
                             bnd_pending = True
-                            t_bnd = tb_b
                             bnd_which = which_b
-                            h_keep = h_abs
-                            h_abs = abs(t_bnd - t)
                         continue
 
         # events in (t, t_new] (altitude crossings only in the ZONAL_ONLY kernel: rhs_kind)

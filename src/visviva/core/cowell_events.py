@@ -33,7 +33,7 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "event_shadow_model"]
+           "event_shadow_model", "boundary_plan"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -176,6 +176,24 @@ def shadow_boundary_kind(model, which):
     if model == 1:
         return 1
     return 2 + which
+
+
+@kernel
+def boundary_plan(ta, tb, which, t, h, h_abs, min_step, side0, side1):
+    """What an integrator does with the boundary crossing (``ta``, ``tb``, ``which``) that
+    :func:`shadow_crossing` found in its step (t, h) of size ``h_abs`` (after the error
+    control): when the crossing lies at t (``ta`` is t, or ``tb`` within 2 ``min_step`` of it),
+    cross it there, with the side of boundary ``which`` flipped, and retry the step (|h|);
+    else redo the step up to ``tb``, keeping ``h_abs`` to resume with after the boundary.
+
+    Returns (at_t, side0, side1, t_bnd, h_keep, h_abs)."""
+    if ta == t or abs(tb - t) < 2.0 * min_step:
+        if which == 0:
+            side0 = -side0
+        else:
+            side1 = -side1
+        return True, side0, side1, tb, h_abs, abs(h)
+    return False, side0, side1, tb, h_abs, abs(tb - t)
 
 
 @kernel

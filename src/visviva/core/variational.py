@@ -48,6 +48,7 @@ from .cowell import dense_coefficients, rk_combine
 from .cowell_events import (
     BOUNDARY_RTOL,
     boundary_gradient,
+    boundary_plan,
     lock_shadow,
     penumbra_step,
     shadow_crossing,
@@ -509,23 +510,18 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                                                       y_new[:6], F, scr[0], scr[1], scr[2],
                                                       scr[3], force, eph_r, eph_v)  # fmt: skip
                 if which_b >= 0:
-                    if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
-                        # the boundary is at t: cross it here
+                    side_before = side0
+                    at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                        ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                    if at_t:
+                        # the boundary is at t: crossed here
                         _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
-                               eph_gm, sh, side0, dadr, dadv, scr)  # fmt: skip
-                        if which_b == 0:
-                            side0 = -side0
-                        else:
-                            side1 = -side1
+                               eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
                         nfev += 2
                         n_here += 1
-                        h_abs = abs(h)
                     else:
                         bnd_pending = True
-                        t_bnd = tb_b
                         bnd_which = which_b
-                        h_keep = h_abs
-                        h_abs = abs(t_bnd - t)
                     continue
         t_old = t
         if landing:

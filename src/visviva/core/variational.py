@@ -32,7 +32,12 @@ Partials included, each exact for its force term:
 
 Integration is DOP853 (the tableau of :mod:`visviva.core.cowell`) with the step-size control
 on the six state components only; each step is shortened to land on the next output time, so
-no dense output is needed and the STM at every output is that of the integrated trajectory.
+the STM at every output is that of the integrated trajectory. With SRP and a shadow model the
+steps also end at the shadow's boundaries, as in :func:`visviva.core.cowell.integrate_cowell`
+(:mod:`visviva.core.cowell_events`, "Shadow boundaries"; the boundaries are found on the dense
+output of the state, from three extra stages of the state alone), so both integrators follow
+the same trajectory to their tolerances; runs without a shadow take the same steps, with the
+same bits, as before this handling.
 """
 
 from __future__ import annotations

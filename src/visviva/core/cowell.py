@@ -33,7 +33,11 @@ Shadow boundaries. With solar radiation pressure and a shadow model in the force
 end exactly at the shadow's boundaries (the functions of kinds 1, or 2 and 3) and never cross
 one: a step that would is dropped and redone up to the boundary, and the integration restarts
 there with a fresh derivative (:mod:`visviva.core.cowell_events`, "Shadow boundaries"). Without
-SRP or without a shadow, nothing changes (the same bits as without this handling).
+SRP's shadow but with eclipse events (kinds 1 to 3), the steps end at the boundaries of the
+events' shadow the same way, with no change of the force there
+(:func:`~visviva.core.cowell_events.event_shadow_model`), so that a shadow entered and left
+within a step is found. Without either, nothing changes (the same bits as without this
+handling).
 """
 
 from __future__ import annotations

@@ -18,6 +18,12 @@ step up to the boundary sees the force from before it, every stage after it the 
 after, whatever side rounding puts a stage near the boundary on. The conical shadow fraction
 is continuous; its stages near a kink differ from the one-sided force by the kink's slope times
 the (1e-9 relative) overshoot.
+
+The same boundaries serve :func:`visviva.core.variational.integrate_variational` (the fits'
+trajectory and state-transition matrix: :func:`boundary_gradient` gives the saltation matrix
+at the cylindrical shadow's jump) and, without SRP's shadow, eclipse events
+(:func:`event_shadow_model`); :func:`boundary_plan` is what either integrator does with a
+boundary found in its step.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Eclipse events of propagate_cowell in runs whose force model has no SRP shadow (two-body, J2):
 the integrator ends its steps at the events' shadow boundaries (core/cowell_events.py,
-``event_shadow_model``), so eclipses shorter than a step and grazes are found.
+``boundary_models``), so eclipses shorter than a step and grazes are found.
 
 Before, the shadow functions were looked at only at the ends of the steps: a 4 s graze of the
 cylinder in LEO, a 0.5 s penumbra-only graze, and a 5-minute penumbra pass in GEO (steps of
@@ -173,8 +173,8 @@ ORBITS = {  # a km, e, inc, RAAN, arg. of perigee (deg); days; events at least
 @pytest.mark.parametrize("sign", [1, -1], ids=["forward", "backward"])
 @pytest.mark.parametrize("orbit", list(ORBITS))
 def test_days_of_eclipses_match_the_reference(orbit, sign):
-    # all three functions at once (the conical ones set the step ends, the cylinder's are
-    # found at the step ends as before): LEO 15 eclipses a day, GTO 4 or 5 in 1.8 days (23-minute
+    # all three functions at once (the boundaries of both models end steps): LEO 15 eclipses
+    # a day, GTO 4 or 5 in 1.8 days (23-minute
     # ones near apogee, one cut by the start); the Sun from DE430 (skyfield)
     (a, e, inc, raan, argp), days, n_events = ORBITS[orbit]
     state = vv.KeplerianElements.from_semi_major_axis(
@@ -187,5 +187,40 @@ def test_days_of_eclipses_match_the_reference(orbit, sign):
     assert len(check(out, Reference(state, span, True), events, tol_s=1e-3)) >= n_events
     # the steps end at the shadow's boundaries: a few more steps, the same trajectory
     plain = vv.propagate_cowell(state, t, [vv.J2(vv.EARTH)])
-    assert plain.n_steps < out.n_steps < 1.2 * plain.n_steps
+    assert plain.n_steps < out.n_steps < 1.3 * plain.n_steps  # LEO: 744 -> 909
     np.testing.assert_allclose(out.r.to_value(u.km), plain.r.to_value(u.km), rtol=0, atol=1e-6)
+
+
+def test_a_graze_of_the_cylinder_is_found_beside_the_conical_shadow():
+    # the cylinder lies inside the penumbra: its 4 s dip falls within the step from the
+    # penumbra's entry to its exit, so its boundaries end steps too (a second model)
+    a, inc, raan, span, _, _ = GRAZES["cylinder 4 s"]
+    state = circular(a, inc, raan[True])
+    events = [Eclipse("cylindrical"), Eclipse("conical"), Eclipse("conical", umbra=True)]
+    out = vv.propagate_cowell(state, [0.0, span] * u.s, [vv.J2(vv.EARTH)], events=events)
+    want = check(out, Reference(state, span, True, sun="DE421"), events)
+    assert [w for _, w in want] == ["entry", "entry", "exit", "exit"]  # penumbra, cylinder
+
+
+@pytest.mark.parametrize(("srp_shadow", "event"), [("conical", "cylindrical"),
+                                                  ("cylindrical", "conical")])
+def test_grazes_of_the_other_model_are_found_with_srp_and_its_shadow(srp_shadow, event):
+    # SRP's shadow ends the steps at its boundaries (and switches the force there); an eclipse
+    # event of the other model adds its own boundaries. The cylinder's 4 s graze, far shorter
+    # than a step (the penumbra around it: 4.5 min): against 0.1 s steps at 1e-13
+    a, inc, raan, span, _, _ = GRAZES["cylinder 4 s"]
+    state = circular(a, inc, raan[True])
+    forces = [vv.J2(vv.EARTH), vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, 1.5,
+                                                         shadow=srp_shadow)]  # fmt: skip
+    t = [0.0, span] * u.s
+    out = vv.propagate_cowell(state, t, forces, events=[Eclipse(event)])
+    ref = vv.propagate_cowell(state, t, forces, events=[Eclipse(event)], max_step=0.1 * u.s,
+                              rtol=1e-13, atol=1e-13)  # fmt: skip
+    assert [e.what for e in ref.events] == ["entry", "exit"]
+    assert [e.what for e in out.events] == ["entry", "exit"]
+    np.testing.assert_allclose([e.t.to_value(u.s) for e in out.events],
+                               [e.t.to_value(u.s) for e in ref.events], rtol=0, atol=1e-4)
+    if event == "cylindrical":  # the 4 s dip, in a run of ~100 s steps
+        plain = vv.propagate_cowell(state, t, forces)
+        assert (out.events[1].t - out.events[0].t).to_value(u.s) < 0.2 * span / plain.n_steps
+    np.testing.assert_allclose(out.r.to_value(u.km), ref.r.to_value(u.km), rtol=0, atol=1e-6)

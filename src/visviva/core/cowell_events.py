@@ -22,7 +22,7 @@ the (1e-9 relative) overshoot.
 The same boundaries serve :func:`visviva.core.variational.integrate_variational` (the fits'
 trajectory and state-transition matrix: :func:`boundary_gradient` gives the saltation matrix
 at the cylindrical shadow's jump) and, without SRP's shadow, eclipse events
-(:func:`event_shadow_model`); :func:`boundary_plan` is what either integrator does with a
+(:func:`boundary_models`); :func:`boundary_plan` is what either integrator does with a
 boundary found in its step.
 """
 
@@ -39,7 +39,7 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "event_shadow_model", "boundary_plan"]
+           "boundary_models", "boundary_plan"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -212,23 +212,34 @@ def srp_shadow_model(force):
 
 
 @kernel
-def event_shadow_model(ev_kind, force):
-    """The shadow model of the eclipse events among ``ev_kind`` (2, conical, when any is of kind
-    2 or 3, else 1, cylindrical, when any is of kind 1), or 0 without such events or a
-    tabulated Sun: without SRP's shadow, :func:`visviva.core.cowell.integrate_cowell` ends its
-    steps at the boundaries of this shadow so that every crossing of the events' functions is
-    found, also where one is entered and left within a step. An event of the other model (a
-    cylindrical event with a conical one, or with SRP's conical shadow, and the reverse) is
-    looked for at the steps' ends only."""
-    if force[fb.SUN_ROW] < 0.0:
-        return 0
-    model = 0
-    for e in range(ev_kind.shape[0]):
-        if ev_kind[e] == 2 or ev_kind[e] == 3:
-            return 2
-        if ev_kind[e] == 1:
-            model = 1
-    return model
+def boundary_models(force, ev_kind):
+    """The shadow models (1 cylindrical, 2 conical) whose boundaries end the steps of
+    :func:`visviva.core.cowell.integrate_cowell`: (first, second, lock).
+
+    ``first`` is SRP's shadow (``lock`` True: the force changes at its boundaries and is locked
+    on one side during a step, :func:`lock_shadow`) or, without it, that of the eclipse events
+    among ``ev_kind`` (kinds 1 to 3; conical when any is), with no change of the force there;
+    ``second`` the other model when eclipse events of it are asked for too, else 0. So every
+    crossing of an eclipse event's function is found, also where a shadow is entered and left
+    within what would have been one step. 0 for none (no eclipse events, no tabulated Sun)."""
+    first = srp_shadow_model(force)
+    lock = first > 0
+    cyl = False
+    con = False
+    if force[fb.SUN_ROW] >= 0.0:
+        for e in range(ev_kind.shape[0]):
+            if ev_kind[e] == 1:
+                cyl = True
+            elif ev_kind[e] == 2 or ev_kind[e] == 3:
+                con = True
+    if first == 0:
+        first = 2 if con else (1 if cyl else 0)
+    second = 0
+    if first == 2 and cyl:
+        second = 1
+    elif first == 1 and con:
+        second = 2
+    return first, second, lock
 
 
 @kernel

@@ -197,15 +197,18 @@ def test_fit_orbit_bad_input():
         vv.fit_orbit(rng, GUESS, max_iterations=5)
 
 
-def _fd_stm(forces, t):
+def _fd_stm(forces, t, state=TRUTH):
+    """Central differences (1 m, 1 mm/s) of propagate_cowell (rtol = atol = 1e-13) from
+    ``state`` at offsets ``t`` (s): the STM (T, 6, 6)."""
+    y = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
     fd = np.empty((t.size, 6, 6))
     for j in range(6):
         d = 1e-3 if j < 3 else 1e-6
         ys = []
         for sign in (1, -1):
-            y0 = Y_TRUE.copy()
+            y0 = y.copy()
             y0[j] += sign * d
-            s0 = vv.StateVectors(y0[:3] * u.km, y0[3:] * KMS, vv.EARTH, epoch=EPOCH)
+            s0 = vv.StateVectors(y0[:3] * u.km, y0[3:] * KMS, vv.EARTH, epoch=state.epoch)
             res = vv.propagate_cowell(s0, t * u.s, forces, rtol=1e-13, atol=1e-13)
             ys.append(np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=1))
         fd[:, :, j] = (ys[0] - ys[1]) / (2 * d)
@@ -216,8 +219,8 @@ def _fd_stm(forces, t):
     ([vv.Zonal(vv.EARTH, 6), vv.ThirdBody(vv.MOON), vv.ThirdBody(vv.SUN),
       vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow=None)], 5e-6, 6000.0),
     # the exponential table's density is discontinuous at its base altitudes, which limits
-    # what central differences can confirm; the conical shadow's edge is held fixed (see
-    # visviva.core.variational). TRUTH's perigee is at 75 km: with drag it reaches the ground
+    # what central differences can confirm (the shadow is checked in
+    # test_variational_shadow.py). TRUTH's perigee is at 75 km: with drag it reaches the ground
     # at t = 4000 s (propagate_cowell raises SurfaceImpact there), so this run ends at 3000 s
     ([vv.J2(vv.EARTH), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg), vv.ThirdBody(vv.MOON),
       vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg)], 1e-3, 3000.0),

@@ -33,7 +33,12 @@ Shadow boundaries. With solar radiation pressure and a shadow model in the force
 end exactly at the shadow's boundaries (the functions of kinds 1, or 2 and 3) and never cross
 one: a step that would is dropped and redone up to the boundary, and the integration restarts
 there with a fresh derivative (:mod:`visviva.core.cowell_events`, "Shadow boundaries"). Without
-SRP or without a shadow, nothing changes (the same bits as without this handling).
+SRP's shadow but with eclipse events (kinds 1 to 3), the steps end at the boundaries of the
+events' shadow the same way, with no change of the force there, and at those of a second
+shadow model when eclipse events of both models are asked for (or with SRP's shadow, events of
+the other model; :func:`~visviva.core.cowell_events.boundary_models`), so that a shadow entered
+and left within a step is found. Without either, nothing changes (the same bits as without this
+handling).
 """
 
 from __future__ import annotations
@@ -47,6 +52,8 @@ from . import status as st
 from ._jit import inline_kernel, kernel, parallel_kernel, prange, step_kernel
 from .cowell_events import (
     BOUNDARY_RTOL,
+    boundary_models,
+    boundary_plan,
     dense_eval,
     event_function,
     event_value,
@@ -67,8 +74,9 @@ _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
 #: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
-#: state vectors, 2 rows of shadow boundary samples, the Sun's position for them; 6 columns).
-WORK_ROWS = 33
+#: state vectors, 2 rows of shadow boundary samples, the Sun's position for them, 2 rows of
+#: samples of a second shadow model's boundaries; 6 columns).
+WORK_ROWS = 35
 
 
 @inline_kernel
@@ -83,6 +91,23 @@ def rk_combine(n, y, K, w, n_stages, h, out):
         for m in range(n_stages):
             acc += w[m] * K[m, j]
         out[j] = y[j] + h * acc
+
+
+@inline_kernel
+def dense_coefficients(n, h, y, y_new, K, D, F):
+    """The 7 rows of DOP853's dense output of the step (y, h) -> y_new from its 16 stages ``K``
+    (12 of the step, the FSAL one, 3 extra; first ``n`` components) into ``F`` (7, n), as
+    :func:`visviva.core.cowell_events.dense_eval` reads them."""
+    for j in range(n):
+        dlt = y_new[j] - y[j]
+        F[0, j] = dlt
+        F[1, j] = h * K[0, j] - dlt
+        F[2, j] = 2.0 * dlt - h * (K[_N_STAGES, j] + K[0, j])
+        for i in range(4):
+            acc = 0.0
+            for m in range(16):
+                acc += D[i, m] * K[m, j]
+            F[3 + i, j] = h * acc
 
 
 #: The ``full`` argument of :func:`integrate_cowell` for a force model of the two-body and
@@ -226,6 +251,8 @@ def integrate_cowell(
     gs0 = work[30]
     gs1 = work[31]
     sun_s = work[32]
+    gs2 = work[33]
+    gs3 = work[34]
     for i in range(WORK_ROWS):
         for j in range(n):
             work[i, j] = 0.0
@@ -248,11 +275,23 @@ def integrate_cowell(
     n_sh = 0
     side0 = 1.0
     side1 = 1.0
+    # Eclipse events without SRP's shadow: steps end at the boundaries of the events' shadow
+    # (no force changes there), so that an eclipse shorter than a step or a graze is found; the
+    # second model's (sh2, sides side2, side3): eclipse events of the other model
+    lock = False  # SRP's shadow: the force is locked on a side during a step
+    sh2 = 0
+    n_sh2 = 0
+    side2 = 1.0
+    side3 = 1.0
     if full is not None:
-        if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
-            sh_model = int(force[fb.SHADOW_MODEL])
+        sh_model, sh2, lock = boundary_models(force, ev_kind)
+        if sh_model > 0:
             n_sh = 1 if sh_model == 1 else 2
             side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
+        if sh2 > 0:
+            n_sh2 = 1 if sh2 == 1 else 2
+            side2, side3 = shadow_sides(sh2, t, y, force, eph_r, eph_v, sun_s)
+        if lock:
             rforce = force.copy()
             lock_shadow(rforce, sh_model, side0)
     bnd_pending = False  # the step being tried ends at the boundary t_bnd
@@ -392,16 +431,7 @@ def integrate_cowell(
             rk_combine(n, y, K, A[s], s, h, y_tmp)
             _rhs(t + C[s] * h, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, K[s], full)
         nfev += 3
-        for j in range(n):
-            dlt = y_new[j] - y[j]
-            F[0, j] = dlt
-            F[1, j] = h * K[0, j] - dlt
-            F[2, j] = 2.0 * dlt - h * (K[_N_STAGES, j] + K[0, j])
-            for i in range(4):
-                acc = 0.0
-                for m in range(16):
-                    acc += D[i, m] * K[m, j]
-                F[3 + i, j] = h * acc
+        dense_coefficients(n, h, y, y_new, K, D, F)
 
         # a shadow boundary crossed within the step: redo the step up to it
         flip = -1
@@ -412,30 +442,37 @@ def integrate_cowell(
                 bnd_pending = False
                 if at_boundary:
                     flip = bnd_which
-                elif n_here > 2 * n_sh:
+                elif n_here > 2 * (n_sh + n_sh2):
                     resync = True  # found at t again and again: take the step, sides from its end
                 else:
                     ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y,
                                                            y_new, F, y_tmp, gs0, gs1, sun_s,
                                                            force, eph_r, eph_v)
+                    if sh2 > 0:
+                        ta_2, tb_2, which_2 = shadow_crossing(sh2, n_sh2, side2, side3, t, h, y,
+                                                              y_new, F, y_tmp, gs2, gs3, sun_s,
+                                                              force, eph_r, eph_v)  # fmt: skip
+                        if which_2 >= 0 and (which_b < 0 or (tb_2 - tb_b) * h < 0.0):
+                            ta_b = ta_2
+                            tb_b = tb_2
+                            which_b = which_2 + 2  # 2, 3: the second model's boundaries
                     if which_b >= 0:
-                        if ta_b == t or abs(tb_b - t) < 2.0 * min_step:
-                            # the boundary is at t (within the tolerance): cross it here
-                            if which_b == 0:
-                                side0 = -side0
-                            else:
-                                side1 = -side1
-                            lock_shadow(rforce, sh_model, side0)
-                            _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
-                            nfev += 1
+                        if which_b < 2:
+                            at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                                ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                        else:
+                            at_t, side2, side3, t_bnd, h_keep, h_abs = boundary_plan(
+                                ta_b, tb_b, which_b - 2, t, h, h_abs, min_step, side2, side3)
+                        if at_t:
+                            # the boundary is at t (within the tolerance): crossed here
+                            if lock and which_b < 2:
+                                lock_shadow(rforce, sh_model, side0)
+                                _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                                nfev += 1
                             n_here += 1
-                            h_abs = abs(h)
                         else:
                             bnd_pending = True
-                            t_bnd = tb_b
                             bnd_which = which_b
-                            h_keep = h_abs
-                            h_abs = abs(t_bnd - t)
                         continue
 
         # events in (t, t_new] (altitude crossings only in the ZONAL_ONLY kernel: rhs_kind)
@@ -449,8 +486,12 @@ def integrate_cowell(
                     # the step ends at a shadow boundary: an event on the same boundary
                     # function takes the side beyond it (its value there may round to either
                     # side)
-                    fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
-                                        -(side0 if flip == 0 else side1))
+                    if flip < 2:
+                        fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
+                                            -(side0 if flip == 0 else side1))
+                    else:
+                        fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh2, flip - 2),
+                                            -(side2 if flip == 2 else side3))
             # find all crossings in this step, ordered in time
             while True:
                 best_t = t_stop
@@ -518,7 +559,7 @@ def integrate_cowell(
             f[j] = K[_N_STAGES, j]
         if full is not None:
             if flip >= 0 or resync:
-                if flip >= 0 and sh_model == 2:
+                if 0 <= flip < 2 and sh_model == 2 and lock:
                     v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
                     pen_cap = penumbra_step(gs0[0] * side0, gs1[0] * side1, flip, h,
                                             force[fb.SRP_COEFFICIENT], atol + rtol * v)
@@ -526,9 +567,15 @@ def integrate_cowell(
                     side0 = -side0
                 elif flip == 1:
                     side1 = -side1
+                elif flip == 2:
+                    side2 = -side2
+                elif flip == 3:
+                    side3 = -side3
                 else:
                     side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
-                if sh_model == 1:
+                    if sh2 > 0:
+                        side2, side3 = shadow_sides(sh2, t, y, force, eph_r, eph_v, sun_s)
+                if sh_model == 1 and lock and flip < 2:
                     # the force changes at the boundary: a fresh derivative (no FSAL)
                     lock_shadow(rforce, sh_model, side0)
                     _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)

@@ -18,6 +18,12 @@ step up to the boundary sees the force from before it, every stage after it the 
 after, whatever side rounding puts a stage near the boundary on. The conical shadow fraction
 is continuous; its stages near a kink differ from the one-sided force by the kink's slope times
 the (1e-9 relative) overshoot.
+
+The same boundaries serve :func:`visviva.core.variational.integrate_variational` (the fits'
+trajectory and state-transition matrix: :func:`boundary_gradient` gives the saltation matrix
+at the cylindrical shadow's jump) and, without SRP's shadow, eclipse events
+(:func:`boundary_models`); :func:`boundary_plan` is what either integrator does with a
+boundary found in its step.
 """
 
 from __future__ import annotations
@@ -32,7 +38,8 @@ from .perturbations import geodetic_altitude, hermite_position
 
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
-           "shadow_sides", "shadow_crossing"]
+           "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
+           "boundary_models", "boundary_plan"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -175,6 +182,64 @@ def shadow_boundary_kind(model, which):
     if model == 1:
         return 1
     return 2 + which
+
+
+@kernel
+def boundary_plan(ta, tb, which, t, h, h_abs, min_step, side0, side1):
+    """What an integrator does with the boundary crossing (``ta``, ``tb``, ``which``) that
+    :func:`shadow_crossing` found in its step (t, h) of size ``h_abs`` (after the error
+    control): when the crossing lies at t (``ta`` is t, or ``tb`` within 2 ``min_step`` of it),
+    cross it there, with the side of boundary ``which`` flipped, and retry the step (|h|);
+    else redo the step up to ``tb``, keeping ``h_abs`` to resume with after the boundary.
+
+    Returns (at_t, side0, side1, t_bnd, h_keep, h_abs)."""
+    if ta == t or abs(tb - t) < 2.0 * min_step:
+        if which == 0:
+            side0 = -side0
+        else:
+            side1 = -side1
+        return True, side0, side1, tb, h_abs, abs(h)
+    return False, side0, side1, tb, h_abs, abs(tb - t)
+
+
+@kernel
+def srp_shadow_model(force):
+    """The shadow model of SRP in the force block (1 cylindrical, 2 conical) when SRP is on and
+    the Sun tabulated, else 0: the boundaries the integrators end their steps at."""
+    if force[fb.SRP_ON] != 0.0 and force[fb.SUN_ROW] >= 0.0 and force[fb.SHADOW_MODEL] > 0.0:
+        return int(force[fb.SHADOW_MODEL])
+    return 0
+
+
+@kernel
+def boundary_models(force, ev_kind):
+    """The shadow models (1 cylindrical, 2 conical) whose boundaries end the steps of
+    :func:`visviva.core.cowell.integrate_cowell`: (first, second, lock).
+
+    ``first`` is SRP's shadow (``lock`` True: the force changes at its boundaries and is locked
+    on one side during a step, :func:`lock_shadow`) or, without it, that of the eclipse events
+    among ``ev_kind`` (kinds 1 to 3; conical when any is), with no change of the force there;
+    ``second`` the other model when eclipse events of it are asked for too, else 0. So every
+    crossing of an eclipse event's function is found, also where a shadow is entered and left
+    within what would have been one step. 0 for none (no eclipse events, no tabulated Sun)."""
+    first = srp_shadow_model(force)
+    lock = first > 0
+    cyl = False
+    con = False
+    if force[fb.SUN_ROW] >= 0.0:
+        for e in range(ev_kind.shape[0]):
+            if ev_kind[e] == 1:
+                cyl = True
+            elif ev_kind[e] == 2 or ev_kind[e] == 3:
+                con = True
+    if first == 0:
+        first = 2 if con else (1 if cyl else 0)
+    second = 0
+    if first == 2 and cyl:
+        second = 1
+    elif first == 1 and con:
+        second = 2
+    return first, second, lock
 
 
 @kernel
@@ -349,3 +414,37 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
             best_b = tb
             best = which
     return best_a, best_b, best
+
+
+@kernel
+def boundary_gradient(model, which, t, y, force, eph_r, eph_v, s, grad):
+    """The gradient of boundary function ``which`` of SRP shadow ``model`` with respect to the
+    position at (t, y), 1 (into ``grad``, 3 values), and its rate along the trajectory, 1/s
+    (returned), by central differences.
+
+    The steps are 1e-3 km in each coordinate, and for the rate 1e-3 km along the straight line
+    r + v dt (the acceleration's terms of the two sides cancel in a central difference, so the
+    line and the trajectory give the same rate to second order). The functions are angles
+    (conical) or distances (cylindrical) of curvature radius >= the body's radius, so the
+    differences are good to ~1e-9 relative. Used by the state-transition matrix at a boundary
+    where the force jumps (:mod:`visviva.core.variational`)."""
+    dr = 1e-3
+    p = np.empty(6)
+    for j in range(6):
+        p[j] = y[j]
+    for k in range(3):
+        p[k] = y[k] + dr
+        gp0, gp1 = shadow_values(model, t, p, force, eph_r, eph_v, s)
+        p[k] = y[k] - dr
+        gm0, gm1 = shadow_values(model, t, p, force, eph_r, eph_v, s)
+        p[k] = y[k]
+        grad[k] = ((gp0 - gm0) if which == 0 else (gp1 - gm1)) / (2.0 * dr)
+    v = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    dt = dr / v
+    for k in range(3):
+        p[k] = y[k] + y[3 + k] * dt
+    gp0, gp1 = shadow_values(model, t + dt, p, force, eph_r, eph_v, s)
+    for k in range(3):
+        p[k] = y[k] - y[3 + k] * dt
+    gm0, gm1 = shadow_values(model, t - dt, p, force, eph_r, eph_v, s)
+    return ((gp0 - gm0) if which == 0 else (gp1 - gm1)) / (2.0 * dt)

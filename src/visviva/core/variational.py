@@ -25,11 +25,19 @@ Partials included, each exact for its force term:
   co-rotation and from the altitude gradient of the density, d ln rho / dh = -1/H
   (exponential table) or the slope of the tabulated ln rho along altitude (NRLMSIS grid);
 * third bodies: da/dr = GM_b (3 d d^T / d^5 - I / d^3), d = r_b - r;
-* SRP (cannonball, shadow fraction held fixed over the step): da/dr = k (I/d^3 - 3 d d^T/d^5).
+* SRP (cannonball): da/dr = k nu (I/d^3 - 3 d d^T/d^5), plus in the conical shadow's penumbra
+  the change of the visible fraction nu of the Sun, k d grad(nu)^T / d^3
+  (:func:`_add_penumbra_gradient`); the cylindrical shadow's jump enters at its boundary as a
+  saltation matrix (:func:`_boundary_jump`).
 
 Integration is DOP853 (the tableau of :mod:`visviva.core.cowell`) with the step-size control
 on the six state components only; each step is shortened to land on the next output time, so
-no dense output is needed and the STM at every output is that of the integrated trajectory.
+the STM at every output is that of the integrated trajectory. With SRP and a shadow model the
+steps also end at the shadow's boundaries, as in :func:`visviva.core.cowell.integrate_cowell`
+(:mod:`visviva.core.cowell_events`, "Shadow boundaries"; the boundaries are found on the dense
+output of the state, from three extra stages of the state alone), so both integrators follow
+the same trajectory to their tolerances; runs without a shadow take the same steps, with the
+same bits, as before this handling.
 """
 
 from __future__ import annotations
@@ -41,7 +49,17 @@ import numpy as np
 from . import force_block as fb
 from . import status as st
 from ._jit import kernel
-from .cowell import rk_combine
+from .cowell import dense_coefficients, rk_combine
+from .cowell_events import (
+    BOUNDARY_RTOL,
+    boundary_gradient,
+    boundary_plan,
+    lock_shadow,
+    penumbra_step,
+    shadow_crossing,
+    shadow_sides,
+    srp_shadow_model,
+)
 from .perturbations import (
     cowell_rhs,
     exponential_density,
@@ -257,6 +275,34 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             k = nu * force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU]
             # a = k d / |d|^3 with d = r - r_sun: d a / d r = k (I/d^3 - 3 d d^T/d^5)
             _add_point_mass_gradient(from_sun_x, from_sun_y, from_sun_z, -k, dadr)
+        if 0.0 < nu < 1.0 and int(force[fb.SHADOW_MODEL]) == 2:
+            _add_penumbra_gradient(x, yy, z, from_sun_x, from_sun_y, from_sun_z, sun_pos,
+                                   force, dadr)  # fmt: skip
+
+
+@kernel
+def _add_penumbra_gradient(x, yy, z, dx, dy, dz, sun_pos, force, G):
+    """G += (a_srp / nu) grad(nu)^T in the conical shadow's penumbra: the change of the visible
+    fraction nu of the Sun with position (d = r - r_sun = (dx, dy, dz)), by central differences
+    of 1e-3 km (nu changes over the penumbra's width, >= 20 km in low orbit; it varies like
+    depth^1.5 near its edges, so the differences are good to ~1e-6 of the gradient there)."""
+    d2 = dx * dx + dy * dy + dz * dz
+    k = force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU] / (d2 * math.sqrt(d2))
+    step = 1e-3
+    radius = force[fb.RADIUS]
+    sun_radius = force[fb.SUN_RADIUS]
+    dv = (dx, dy, dz)
+    for j in range(3):
+        ex = step if j == 0 else 0.0
+        ey = step if j == 1 else 0.0
+        ez = step if j == 2 else 0.0
+        up = shadow_fraction(x + ex, yy + ey, z + ez, sun_pos[0], sun_pos[1], sun_pos[2],
+                             radius, sun_radius, 2)  # fmt: skip
+        down = shadow_fraction(x - ex, yy - ey, z - ez, sun_pos[0], sun_pos[1], sun_pos[2],
+                               radius, sun_radius, 2)  # fmt: skip
+        dnu = (up - down) / (2.0 * step)
+        for i in range(3):
+            G[i, j] += k * dv[i] * dnu
 
 
 @kernel
@@ -276,8 +322,28 @@ def variational_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, dadr,
 
 
 @kernel
+def _boundary_jump(model, which, t, y, a_old, a_new, force, eph_r, eph_v, s, grad):
+    """Apply the saltation matrix of a jump of the acceleration from ``a_old`` to ``a_new``
+    (km/s^2) at shadow boundary ``which`` (crossed at t, y) to the STM in ``y[6:]``.
+
+    A trajectory started at x0 + dx0 reaches the boundary g = 0 at t + dt, dt = -grad g . dx /
+    g_dot, and spends dt longer (or shorter) under the old force: after the boundary its
+    deviation is dx + (f_new - f_old) grad g . dx / g_dot. So Phi+ = (I + (f_new - f_old)
+    grad g^T / g_dot) Phi- (the saltation matrix; Hiskens & Pai 2000), with g the boundary
+    function (:func:`visviva.core.cowell_events.boundary_gradient`, position only) and f the
+    derivative of the state, which jumps in its acceleration only."""
+    rate = boundary_gradient(model, which, t, y, force, eph_r, eph_v, s, grad)
+    if rate == 0.0:
+        return
+    for j in range(6):
+        w = (grad[0] * y[6 + j] + grad[1] * y[12 + j] + grad[2] * y[18 + j]) / rate
+        for i in range(3):
+            y[6 + (3 + i) * 6 + j] += (a_new[i] - a_old[i]) * w
+
+
+@kernel
 def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r,
-                          eph_v, eph_gm, sh, A, B, C, E3, E5, y_out, phi_out, info):  # fmt: skip
+                          eph_v, eph_gm, sh, A, B, C, E3, E5, D, y_out, phi_out, info):  # fmt: skip
     """Integrate the state and its STM from t = 0 to each of the output times ``t_out``.
 
     Parameters
@@ -294,14 +360,15 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         Step budget; beyond it the status is ``STEP_TOO_SMALL``.
     force, zonal, atm, eph_r, eph_v, eph_gm, sh : ndarray
         The force model (:mod:`visviva.core.perturbations`).
-    A, B, C, E3, E5 : ndarray
-        The DOP853 tableau.
+    A, B, C, E3, E5, D : ndarray
+        The DOP853 tableau (``D``: the dense output, used with a shadow only).
     y_out : ndarray (T, 6)
         Output: states at ``t_out``.
     phi_out : ndarray (T, 6, 6)
         Output: Phi(t_out, 0).
     info : ndarray (3,)
-        Output: [outputs written, steps, right-hand-side evaluations].
+        Output: [outputs written, steps (with a shadow, also those redone up to a boundary),
+        right-hand-side evaluations].
 
     Returns
     -------
@@ -314,7 +381,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     for j in range(6):
         y[j] = y0[j]
         y[6 + j * 6 + j] = 1.0
-    K = np.zeros((_N_STAGES + 1, n))
+    K = np.zeros((16, n))
     y_new = np.empty(n)
     y_tmp = np.empty(n)
     f = np.empty(n)
@@ -329,7 +396,28 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     n_steps = 0
     nfev = 0
     status = st.OK
-    variational_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+    # SRP with a shadow: steps end at the shadow boundaries, as in integrate_cowell (see
+    # visviva.core.cowell_events, "Shadow boundaries"); side0/side1 +1 outside, -1 inside
+    rforce = force
+    sh_model = 0
+    n_sh = 0
+    side0 = 1.0
+    side1 = 1.0
+    F = np.zeros((7, 6))
+    scr = np.zeros((6, 6))  # rows: the dense state, two sample rows, the Sun, a_old, grad
+    if srp_shadow_model(force) > 0:
+        sh_model = srp_shadow_model(force)
+        n_sh = 1 if sh_model == 1 else 2
+        side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, scr[3])
+        rforce = force.copy()
+        lock_shadow(rforce, sh_model, side0)
+    bnd_pending = False
+    t_bnd = 0.0
+    bnd_which = -1
+    h_keep = 0.0
+    pen_cap = math.inf
+    n_here = 0
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
     nfev += 1
     # a first step of 1/200 of the orbital period-ish: |r|/|v| / 20
     rr = math.sqrt(y[0] ** 2 + y[1] ** 2 + y[2] ** 2)
@@ -347,10 +435,14 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         if n_steps >= max_steps:
             status = st.STEP_TOO_SMALL
             break
+        min_step = 10.0 * abs(math.nextafter(t, direction * math.inf) - t)
+        if n_sh > 0 and side0 < 0.0 and side1 > 0.0 and h_abs > pen_cap > 100.0 * min_step:
+            h_abs = pen_cap  # in the penumbra (conical shadow)
         accepted = False
         rejected = False
         h = 0.0
         landing = False
+        at_bnd = False
         while not accepted:
             if h_abs < 1e-14 * max(1.0, abs(t)):
                 break
@@ -358,14 +450,19 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
             landing = direction * (t + h - target) >= 0.0
             if landing:
                 h = target - t
+            at_bnd = False
+            if bnd_pending and direction * (t + h - t_bnd) > -BOUNDARY_RTOL * abs(h):
+                h = t_bnd - t
+                at_bnd = True
+                landing = t_bnd == target
             for j in range(n):
                 K[0, j] = f[j]
             for s in range(1, _N_STAGES):
                 rk_combine(n, y, K, A[s], s, h, y_tmp)
-                variational_rhs(t + C[s] * h, y_tmp, force, zonal, atm, eph_r, eph_v, eph_gm,
+                variational_rhs(t + C[s] * h, y_tmp, rforce, zonal, atm, eph_r, eph_v, eph_gm,
                                 sh, K[s], dadr, dadv)  # fmt: skip
             rk_combine(n, y, K, B, _N_STAGES, h, y_new)
-            variational_rhs(t + h, y_new, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
+            variational_rhs(t + h, y_new, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh,
                             K[_N_STAGES], dadr, dadv)  # fmt: skip
             nfev += _N_STAGES
             e5 = 0.0
@@ -388,7 +485,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                                                             _SAFETY * err ** (-1.0 / 8.0))
                 if rejected:
                     factor = min(1.0, factor)
-                if not landing or factor < 1.0:
+                if not (landing or at_bnd) or factor < 1.0:
                     h_abs = abs(h) * factor
                 accepted = True
             else:
@@ -398,11 +495,94 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
             status = st.STEP_TOO_SMALL
             break
         n_steps += 1
-        t = target if landing else t + h
+        flip = -1
+        resync = False
+        if n_sh > 0:
+            bnd_pending = False
+            if at_bnd:
+                flip = bnd_which
+            elif n_here > 2 * n_sh:
+                resync = True
+            else:
+                # the state's dense output (its own three extra stages, state only)
+                for s in range(_N_STAGES + 1, 16):
+                    rk_combine(6, y, K, A[s], s, h, y_tmp)
+                    cowell_rhs(t + C[s] * h, y_tmp[:6], rforce, zonal, atm, eph_r, eph_v,
+                               eph_gm, sh, K[s, :6])  # fmt: skip
+                nfev += 3
+                dense_coefficients(6, h, y, y_new, K, D, F)
+                ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y[:6],
+                                                      y_new[:6], F, scr[0], scr[1], scr[2],
+                                                      scr[3], force, eph_r, eph_v)  # fmt: skip
+                if which_b >= 0:
+                    side_before = side0
+                    at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                        ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                    if at_t:
+                        # the boundary is at t: crossed here
+                        _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
+                               eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
+                        nfev += 2
+                        n_here += 1
+                    else:
+                        bnd_pending = True
+                        bnd_which = which_b
+                    continue
+        t_old = t
+        if landing:
+            t = target
+        elif at_bnd:
+            t = t_bnd
+        else:
+            t = t + h
         for j in range(n):
             y[j] = y_new[j]
             f[j] = K[_N_STAGES, j]
+        if n_sh > 0:
+            if flip >= 0 or resync:
+                if flip >= 0 and sh_model == 2:
+                    pen_cap = penumbra_step(scr[1, 0] * side0, scr[2, 0] * side1, flip,
+                                            t - t_old, force[fb.SRP_COEFFICIENT],
+                                            atol + rtol * math.sqrt(y[3] ** 2 + y[4] ** 2
+                                                                    + y[5] ** 2))  # fmt: skip
+                if flip >= 0:
+                    if sh_model == 1:
+                        _cross(sh_model, flip, t, y, f, rforce, zonal, atm, eph_r, eph_v,
+                               eph_gm, sh, side0, dadr, dadv, scr)  # fmt: skip
+                        nfev += 2
+                    if flip == 0:
+                        side0 = -side0
+                    else:
+                        side1 = -side1
+                    if h_keep > h_abs:
+                        h_abs = h_keep
+                else:
+                    side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, scr[3])
+                    if sh_model == 1:
+                        lock_shadow(rforce, sh_model, side0)
+                        variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f,
+                                        dadr, dadv)  # fmt: skip
+                        nfev += 1
+            n_here = 0
     info[0] = written
     info[1] = n_steps
     info[2] = nfev
     return status
+
+
+@kernel
+def _cross(model, which, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, side0, dadr,
+           dadv, scr):  # fmt: skip
+    """Cross boundary ``which`` of SRP shadow ``model`` at (t, y) (the state with its STM; the
+    side of boundary 0 before the crossing ``side0``): the cylindrical shadow's force jumps, so
+    the shadow is locked on the new side, the STM takes the saltation matrix of the jump
+    (:func:`_boundary_jump`) and ``f`` the derivative after it. The conical shadow's force is
+    continuous: nothing changes (the caller flips the side)."""
+    if model != 1:
+        return
+    for i in range(3):
+        scr[4, i] = f[3 + i]
+    lock_shadow(rforce, model, -side0)
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+    _boundary_jump(model, which, t, y, scr[4, :3], f[3:6], rforce, eph_r, eph_v, scr[3], scr[5])
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)

@@ -57,7 +57,7 @@ class Dynamics:
         from ..core.variational import integrate_variational
         from ..satellites.cowell import dop853_tableau
 
-        A, B, C, E3, E5, _ = dop853_tableau()
+        A, B, C, E3, E5, D = dop853_tableau()
         offsets_s = np.asarray(offsets_s, dtype=np.float64)
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
         y_all = np.empty((offsets_s.size, 6))
@@ -73,7 +73,7 @@ class Dynamics:
             info = np.zeros(3)
             status = integrate_variational(
                 y0, t, self.rtol, self.atol, np.inf, max_steps, *self.model.arrays(),
-                A, B, C, E3, E5, y_out, phi_out, info,
+                A, B, C, E3, E5, D, y_out, phi_out, info,
             )  # fmt: skip
             if status != 0 and int(info[1]) >= max_steps:
                 raise StepSizeError(

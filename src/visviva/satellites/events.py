@@ -4,7 +4,10 @@ Pass event objects to :func:`visviva.propagate_cowell` (``events=[...]``). The c
 integrator evaluates every event function after each step; on a sign change it locates the root
 on the step's 7th-degree dense-output polynomial (Illinois regula falsi) to ``1e-6`` s, well
 inside the 1 ms the docs promise, and records the time and state. A terminal event (re-entry)
-stops the propagation there. Directions (ascending/descending, entry/exit, periapsis/apoapsis
+stops the propagation there. With eclipse events the steps end at the shadow's boundaries
+(:func:`visviva.core.cowell_events.boundary_models`), so an eclipse or a graze shorter than a
+step is found too (without them such a shadow has the same sign at both ends of the step).
+Directions (ascending/descending, entry/exit, periapsis/apoapsis
 and the ``direction`` filters) refer to physical time, also when propagating to negative times.
 
 >>> import visviva as vv

@@ -25,6 +25,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..satellites.utc_days import time_to_utc_days
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
 
@@ -444,8 +445,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     head, frac = epoch_str.split(".")
     epoch_str = f"{head}.{(frac + '000000')[:6]}"
     ep_exact = Time(epoch_str, scale="utc")
-    tu = t.utc
-    jd, fr = tu.jd1, tu.jd2
+    jd, fr = time_to_utc_days(t)  # sgp4's UTC days of 86,400 s
     # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc
     ep_tt = ep_exact.tt
     from_epoch = (tt.jd1 - ep_tt.jd1) * 86400.0 + (tt.jd2 - ep_tt.jd2) * 86400.0

@@ -42,6 +42,7 @@ from .tle import (
     raise_for_sgp4_status,
     sgp4_times,
 )
+from .utc_days import utc_days_to_time
 
 __all__ = [
     "Catalog",
@@ -214,7 +215,7 @@ class Catalog:
         """Element-set epochs, UTC (shape (N,))."""
         jd = np.array([s.satrec.jdsatepoch for s in self.satellites])
         fr = np.array([s.satrec.jdsatepochF for s in self.satellites])
-        return Time(jd, fr, format="jd", scale="utc")
+        return utc_days_to_time(jd, fr)
 
     def propagate(self, t, method: str = "sgp4", frame: str = "teme", on_error: str = "raise"):
         """Propagate every satellite to the times ``t``.
@@ -453,8 +454,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     cat = as_catalog(satellites)
     t = absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
-    ep = cat.epochs
-    tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
+    ep_jd = np.array([s.satrec.jdsatepoch for s in cat.satellites])
+    ep_fr = np.array([s.satrec.jdsatepochF for s in cat.satellites])
+    tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)

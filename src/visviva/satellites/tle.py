@@ -42,6 +42,7 @@ from .tle_checks import (
     raise_for_sgp4_status,
     sgp4_times,
 )
+from .utc_days import utc_days_to_time
 
 #: names also importable from here (their modules: tle_checks, satellite_states)
 __all__ = [
@@ -296,7 +297,7 @@ class Satellite:
     @cached_property
     def epoch(self) -> Time:
         """Epoch of the element set (astropy Time, UTC)."""
-        return Time(self.satrec.jdsatepoch, self.satrec.jdsatepochF, format="jd", scale="utc")
+        return utc_days_to_time(self.satrec.jdsatepoch, self.satrec.jdsatepochF)
 
     @property
     def inclination(self):
@@ -361,7 +362,7 @@ class Satellite:
         e, r, v = s.sgp4_array(jd, fr)
         if e.any():
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
-            when = times if times is not None else Time(jd, fr, format="jd", scale="utc")
+            when = times if times is not None else utc_days_to_time(jd, fr)
             raise_for_sgp4_status(e, [self.name], tsince, when)
         if not (np.isfinite(r).all() and np.isfinite(v).all()):
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
@@ -373,7 +374,7 @@ class Satellite:
                 satellite=self.name, reason="non-finite state", tsince_min=float(tsince[k]),
             )
         if times is None:
-            times = Time(jd, fr, format="jd", scale="utc").reshape(shape)
+            times = utc_days_to_time(jd, fr).reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times
 
     def teme(self, t) -> SatelliteStates:

@@ -424,15 +424,17 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
     if isinstance(t, Time):
         from erfa import ErfaError
 
+        from .utc_days import time_to_utc_days
+
         try:
-            tu = t.utc
+            jd, fr = time_to_utc_days(t)  # sgp4's days of 86,400 s, not astropy's quasi-JD
         except (ErfaError, ValueError) as exc:
             raise DomainError(
                 f"t cannot be converted to UTC ({exc}); use dates within astropy's supported "
                 "range, near the element-set epoch."
             ) from exc
-        jd = np.ascontiguousarray(tu.jd1, dtype=np.float64).ravel()
-        fr = np.ascontiguousarray(tu.jd2, dtype=np.float64).ravel()
+        jd = np.ascontiguousarray(jd, dtype=np.float64).ravel()
+        fr = np.ascontiguousarray(fr, dtype=np.float64).ravel()
         return jd, fr, t.shape, t
     if isinstance(t, u.Quantity):
         dt_s = to_array(t, "time", "t")

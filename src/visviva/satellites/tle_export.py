@@ -111,7 +111,7 @@ def to_tle(satrec) -> tuple[str, str]:
     if not 1957 <= year <= 2056:
         raise InvalidInputError(f"epoch year {year} cannot be written in a TLE (its two digits "
                                 "mean 1957 .. 2056); use to_omm()")
-    epoch = f"{satrec.epochyr % 100:02d}{satrec.epochdays:012.8f}"
+    epoch = _tle_epoch(year, satrec.epochdays)
     line1 = (f"1 {num}{cls} {intl:<8} {epoch} {ndot_text} "
              f"{format_exponent(nddot, 'MEAN_MOTION_DDOT', '-')} "
              f"{format_exponent(satrec.bstar, 'BSTAR')} {int(satrec.ephtype) % 10} "
@@ -129,6 +129,22 @@ def to_tle(satrec) -> tuple[str, str]:
              f"{_angle(satrec.argpo)} {_angle(satrec.mo)} {n:11.8f}"
              f"{int(satrec.revnum) % 100000:5d}")
     return line1 + str(tle_checksum(line1)), line2 + str(tle_checksum(line2))
+
+
+def _tle_epoch(year: int, days: float) -> str:
+    """Columns 19-32 of line 1, ``YYDDD.DDDDDDDD``: the day of year rounded to 1e-8 day (0.86 ms).
+
+    A time in the last 0.43 ms of a year rounds to day 1 of the next year (``%012.8f`` alone
+    wrote day 366.00000000 of a common year, which no TLE reader accepts), or, where that year
+    is 2057 (beyond the two-digit years), down to the year's last 1e-8 day.
+    """
+    text = f"{days:012.8f}"
+    leap = year % 4 == 0 and (year % 100 != 0 or year % 400 == 0)
+    if float(text) >= (367.0 if leap else 366.0):
+        if year + 1 <= 2056:
+            return f"{(year + 1) % 100:02d}001.00000000"
+        text = f"{(366.0 if leap else 365.0) + 0.99999999:012.8f}"
+    return f"{year % 100:02d}{text}"
 
 
 def _epoch_text(jd: float, fr: float) -> str:

@@ -25,6 +25,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..satellites.tle_export import _epoch_text
 from ..satellites.utc_days import time_to_utc_days
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
@@ -439,11 +440,9 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     ep = t[0] if epoch is None else epoch
     if not isinstance(ep, Time) or not ep.isscalar:
         raise InvalidInputError("epoch must be one astropy Time.")
-    epoch_str = ep.utc.isot
-    if "." not in epoch_str:
-        epoch_str += ".000000"
-    head, frac = epoch_str.split(".")
-    epoch_str = f"{head}.{(frac + '000000')[:6]}"
+    # the epoch as an OMM string to the microsecond, on sgp4's clock (a leap second reads as
+    # the first second of the next day: sgp4 cannot name it)
+    epoch_str = _epoch_text(*(float(x) for x in time_to_utc_days(ep)))
     ep_exact = Time(epoch_str, scale="utc")
     jd, fr = time_to_utc_days(t)  # sgp4's UTC days of 86,400 s
     # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc

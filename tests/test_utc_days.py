@@ -9,7 +9,7 @@ off the TLE's own epoch.
 import numpy as np
 import pytest
 from astropy import units as u
-from astropy.time import Time
+from astropy.time import Time, TimeDelta
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from sgp4.api import jday
@@ -101,6 +101,9 @@ def test_offsets_and_times_agree_on_a_leap_second_day():
     by_time = sat.teme(t).r.to_value(u.km)
     by_offset = sat.teme(6 * u.hour).r.to_value(u.km)
     assert np.linalg.norm(by_time - by_offset) < 1e-6  # was 1.9 km
+    # a TimeDelta is an offset too (as StateVectors.propagate takes it): was a UnitsError
+    by_delta = sat.teme(TimeDelta(6 * 3600.0, format="sec")).r.to_value(u.km)
+    np.testing.assert_array_equal(by_delta, by_offset)
 
 
 def test_omm_round_trip_keeps_a_leap_second_day_epoch():

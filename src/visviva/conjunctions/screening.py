@@ -266,7 +266,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     from astropy.table import QTable
     from astropy.time import Time
 
-    from .sources import as_source, check_same_kind
+    from .sources import SgpSource, as_source, check_same_kind
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
@@ -323,7 +323,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab = QTable()
     tab["object1"] = [names1[f[0]] for f in found]
     tab["object2"] = [names2[f[1]] for f in found]
-    tca = utc_days_to_time(np.full(len(found), jd0), fr0 + arr[:, 0] / DAY_S)
+    if isinstance(cat1, SgpSource):  # seconds on sgp4's UTC clock (days of 86,400 s)
+        tca = utc_days_to_time(np.full(len(found), jd0), fr0 + arr[:, 0] / DAY_S)
+    else:  # ephemerides count SI seconds from t0 (leap seconds included)
+        tca = (t0 + arr[:, 0] * u.s).utc
     tca.format = "isot"
     tab["tca"] = tca
     tab["miss_distance"] = arr[:, 1] * u.km

@@ -8,7 +8,7 @@ stores the table astropy builds (a pickle of the ``IERS_Auto`` instance), with t
 of 1962-1972 put before it (:func:`with_eop_c04_before`; astropy's own values from 1973), in a cache
 directory keyed by the astropy version and the paths, sizes and modification times of the
 files it was read from; later processes load it in ~10 ms and hand it to astropy as the table
-``IERS_Auto.open()`` returns, so every number is astropy's own.
+``IERS_Auto.open()`` returns, so every number from 1973 on is astropy's own.
 
 The directory is ``$VISVIVA_CACHE_DIR``, else ``$NUMBA_CACHE_DIR/visviva`` when numba's cache
 is redirected (a fresh numba cache then means a fresh table too), else

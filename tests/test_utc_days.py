@@ -111,3 +111,54 @@ def test_omm_round_trip_keeps_a_leap_second_day_epoch():
     again = vv.Satellite.from_omm(sat.to_omm())
     assert abs((again.epoch - sat.epoch).to_value(u.s)) < 1e-6
     assert again.epoch.isot == "2016-12-31T12:00:00.000"
+
+
+def test_ut1_times_use_the_installed_iers_table_never_a_download(monkeypatch, tmp_path):
+    """A time in UT1 past the table's last observed day, once that day is 30 days old, made
+    astropy try to download a new table and then raise ValueError ('predictive values more than
+    30 days old') from Satellite.teme, find_passes, screen_conjunctions, propagate_cowell and a
+    TIME_SYSTEM = UT1 OEM (interpolate, states_in, write)."""
+    import astropy.utils.data
+    from astropy.utils import iers
+
+    from visviva.satellites.frames import offline_iers
+
+    def no_download(*args, **kwargs):
+        raise AssertionError(f"a download was attempted: {args!r}")
+
+    with offline_iers():
+        table = iers.earth_orientation_table.get()
+    last = Time(table.meta["predictive_mjd"], format="mjd", scale="utc")
+    monkeypatch.setattr(astropy.utils.data, "download_file", no_download)
+    monkeypatch.setattr(iers.IERS_Auto, "time_now", property(lambda self: last + 365 * u.day))
+    monkeypatch.setattr(iers.conf, "auto_max_age", 30.0)
+    t_ut1 = Time((last + 10 * u.day).utc.isot, scale="ut1")
+    with offline_iers():  # the test's own reference conversions
+        t_tai = t_ut1.tai
+    fields = vv.Satellite.from_tle(L1, L2).to_omm()
+    sat = vv.Satellite.from_omm({**fields, "EPOCH": t_tai.utc.isot})  # elements of that day
+    np.testing.assert_allclose(sat.teme(t_ut1).r.to_value(u.km),
+                               sat.teme(t_tai).r.to_value(u.km), atol=1e-9)
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg)
+    vv.find_passes(sat, site, t_ut1, t_ut1 + 2 * u.hour)
+    site.find_events(sat, t_ut1, t_ut1 + 1 * u.hour)
+    vv.screen_conjunctions(sat, None, t_ut1, t_ut1 + 1 * u.hour)
+    state = sat.gcrs(t_tai).to_state_vectors()
+    out = vv.propagate_cowell(state, t_ut1 + [0, 60] * u.s)
+    assert abs(out.t[-1].to_value(u.s) - 60.0) < 1e-6
+    times = t_ut1 + np.arange(4) * 60 * u.s
+    times_tai = t_tai + np.arange(4) * 60 * u.s
+    gcrs = sat.gcrs(times_tai)
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+
+    seg = OEMSegment.from_states(times, gcrs.r.to_value(u.km), gcrs.v.to_value(u.km / u.s),
+                                 object_name="X", time_system="UT1", degree=3)
+    vv.write_oem(Ephemeris([seg]), tmp_path / "ut1.oem")
+    eph = vv.read_oem(tmp_path / "ut1.oem")
+    assert eph.segments[0].times.scale == "ut1"
+    mid = eph.interpolate(times_tai[1] + 30 * u.s)
+    assert np.linalg.norm((mid.r - sat.gcrs(times_tai[1] + 30 * u.s).r).to_value(u.km)) < 1e-3
+    eph.segments[0].states_in("itrs")
+    obs = vv.Observations(time=times, kind=["range"] * 4, value=[1000.0] * 4,
+                          sigma=[0.01] * 4, station=[site] * 4)
+    np.testing.assert_allclose(obs.offsets_s(t_tai), np.arange(4) * 60.0, atol=1e-6)

@@ -261,15 +261,18 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     """
     from astropy import units as u
 
+    from ..satellites.frames import offline_iers
+
     scale = _scale(time_system, None, "<output>", mission_epoch)
     flat = t.reshape(-1) if t.ndim else t.reshape(1)
-    if scale is None:
-        return _format_elapsed(flat.tai - mission_epoch.tai)
-    if time_system.upper() == "GPS":
-        flat = flat.tai + _GPS_MINUS_TAI_S * u.s
-        out = flat.tai
-    else:
-        out = getattr(flat, TIME_SCALES[time_system.upper()])
+    with offline_iers():  # UT1 needs the installed IERS table, never a download
+        if scale is None:
+            return _format_elapsed(flat.tai - mission_epoch.tai)
+        if time_system.upper() == "GPS":
+            flat = flat.tai + _GPS_MINUS_TAI_S * u.s
+            out = flat.tai
+        else:
+            out = getattr(flat, TIME_SCALES[time_system.upper()])
     out = out.copy(format="isot")
     out.precision = 9
     return list(np.atleast_1d(out.value))

@@ -270,6 +270,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # a window in UT1 needs the installed IERS table, never a download
+        t0, t1 = t0.tai, t1.tai
     thr = 5.0 if threshold is None else float(to_array(threshold, "length", "threshold"))
     step_s = 60.0 if step is None else float(to_array(step, "time", "step"))
     if not thr > 0 or not step_s > 0:

@@ -78,7 +78,11 @@ def as_catalog(satellites):
 
 
 def check_window(t0, t1):
-    """Validate the window: scalar astropy Times with ``t1 > t0``; returns them."""
+    """Validate the window: scalar astropy Times with ``t1 > t0``; returns them in TAI.
+
+    The conversion uses the IERS table installed with astropy (a window given in UT1 needs
+    it), never a download.
+    """
     for name, t in (("t0", t0), ("t1", t1)):
         if not isinstance(t, Time):
             raise InvalidInputError(
@@ -87,6 +91,10 @@ def check_window(t0, t1):
             )
         if not t.isscalar:
             raise InvalidInputError(f"{name} must be a scalar Time, got shape {t.shape}.")
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():
+        t0, t1 = t0.tai, t1.tai
     span = (t1 - t0).to_value(u.s)
     if not span > 0:
         raise InvalidInputError(

@@ -138,7 +138,11 @@ def states_and_times(states, times, frame):
             raise InvalidInputError(f"the ephemeris mixes frames {sorted(frames)}; fit one frame.")
         from astropy.time import Time as _T
 
-        t_all = _T(np.concatenate([t.utc.jd1 for t in ts]), np.concatenate([t.utc.jd2 for t in ts]),
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            utc = [t.utc for t in ts]
+        t_all = _T(np.concatenate([t.jd1 for t in utc]), np.concatenate([t.jd2 for t in utc]),
                    format="jd", scale="utc")  # fmt: skip
         r, v = np.concatenate(rs), np.concatenate(vs)
         return r, v, t_all, frames.pop()
@@ -416,7 +420,10 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             f"{n} state(s) cannot fix {6 + bool(fit_bstar)} mean elements; give at least {need} "
             "states spread over at least one orbit."
         )
-    tt = t.tt
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # times in UT1 need the installed IERS table, never a download
+        tt = t.tt
     secs = (tt.jd1 - tt.jd1[0]) * 86400.0 + (tt.jd2 - tt.jd2[0]) * 86400.0
     if np.any(np.diff(secs) <= 0):
         i = int(np.flatnonzero(np.diff(secs) <= 0)[0]) + 1

@@ -489,8 +489,11 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
 
 def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
     """(N, T) seconds from each epoch to each time (TAI differences: leap seconds counted)."""
-    e = epochs.tai
-    tt = t.tai
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        e = epochs.tai
+        tt = t.tai
     return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
 
 
@@ -601,7 +604,10 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
         cat.__dict__["_j2_setup"] = setup
     (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
-    tt = t.tai
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        tt = t.tai
     n, m = len(cat), len(t)
     r = np.empty((n, m, 3))
     v = np.empty((n, m, 3))

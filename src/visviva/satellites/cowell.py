@@ -391,7 +391,10 @@ def _offsets_s(t, epoch):
             )
         # differences in TT: SI seconds of geocentric motion, whatever scales t and epoch are in
         # (a TDB difference is in TDB seconds, which drift from SI seconds by ~1.7 ms a year)
-        return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
+        from .frames import offline_iers
+
+        with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+            return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
     return to_array(t, "time", "t")
 
 

@@ -43,7 +43,10 @@ def time_to_utc_days(t):
     """
     import erfa
 
-    tu = t.utc
+    from .frames import offline_iers
+
+    with offline_iers():  # a UT1 time needs the installed IERS table, never a download
+        tu = t.utc
     # the UTC calendar day and the (quasi-JD) fraction of it elapsed
     iy, im, iday, frac = erfa.jd2cal(np.asarray(tu.jd1, dtype=np.float64),
                                      np.asarray(tu.jd2, dtype=np.float64))

@@ -146,6 +146,8 @@ def test_ut1_times_use_the_installed_iers_table_never_a_download(monkeypatch, tm
     state = sat.gcrs(t_tai).to_state_vectors()
     out = vv.propagate_cowell(state, t_ut1 + [0, 60] * u.s)
     assert abs(out.t[-1].to_value(u.s) - 60.0) < 1e-6
+    at_ut1 = vv.StateVectors(state.r, state.v, vv.EARTH, epoch=t_ut1)  # the Sun's position
+    vv.propagate_cowell(at_ut1, 60 * u.s, [vv.J2(), vv.ThirdBody(vv.SUN)])
     times = t_ut1 + np.arange(4) * 60 * u.s
     times_tai = t_tai + np.arange(4) * 60 * u.s
     gcrs = sat.gcrs(times_tai)

@@ -278,7 +278,10 @@ class AtmosphericDrag(Perturbation):
         lons = np.mod(np.degrees(sun_longitude_rad) + hours + 180.0, 360.0) - 180.0
         # NRLMSIS takes a numpy datetime64 (no leap second): its UTC date and time, the
         # fraction of a second kept, a leap second (23:59:60.x) held at 23:59:59.999999
-        iso = epoch.utc.copy(format="isot")
+        from .frames import offline_iers
+
+        with offline_iers():  # an epoch in UT1 needs the installed IERS table, no download
+            iso = epoch.utc.copy(format="isot")
         iso.precision = 6
         text = str(iso.value)
         if text[17:19] == "60":

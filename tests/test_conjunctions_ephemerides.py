@@ -16,9 +16,8 @@ HOURS = 2.0
 THRESHOLD = 20.0  # km
 
 
-@pytest.fixture(scope="module")
-def setup():
-    cat = synthetic_catalog(14, seed=5, crossing_pairs=4)
+def _cowell_runs(cat):
+    """The catalogue's TEME states at its first epoch run by Cowell (J2): 30 s and 1 s outputs."""
     t0 = cat.epochs[0]
     teme = [s.teme(t0) for s in cat]
     r = np.array([x.r.to_value(u.km) for x in teme])
@@ -29,6 +28,11 @@ def setup():
     coarse = vv.propagate_cowell(state, np.arange(0.0, span + 1, 30.0) * u.s, [vv.J2()])
     fine = vv.propagate_cowell(state, np.arange(0.0, span + 1, 1.0) * u.s, [vv.J2()])
     return t0, coarse, fine
+
+
+@pytest.fixture(scope="module")
+def setup():
+    return _cowell_runs(synthetic_catalog(14, seed=5, crossing_pairs=4))
 
 
 def _brute(fine):
@@ -145,15 +149,8 @@ def test_oem_ephemerides_are_screened(tmp_path):
 def test_tca_of_ephemerides_across_a_leap_second():
     """Ephemeris offsets are SI seconds from t0: a TCA after 2016-12-31T23:59:60 was put 1 s
     late (UTC Julian-day arithmetic) while miss distances stayed right."""
-    cat = synthetic_catalog(6, seed=0, crossing_pairs=3, epoch="2016-12-31T23:30:00")
-    t0 = cat.epochs[0]
-    teme = [s.teme(t0) for s in cat]
-    r = np.array([x.r.to_value(u.km) for x in teme])
-    v = np.array([x.v.to_value(u.km / u.s) for x in teme])
-    state = vv.StateVectors(r * u.km, v * u.km / u.s, vv.EARTH.gm, epoch=t0)
-    span = HOURS * 3600.0
-    coarse = vv.propagate_cowell(state, np.arange(0.0, span + 1, 30.0) * u.s, [vv.J2()])
-    fine = vv.propagate_cowell(state, np.arange(0.0, span + 1, 1.0) * u.s, [vv.J2()])
+    t0, coarse, fine = _cowell_runs(
+        synthetic_catalog(6, seed=0, crossing_pairs=3, epoch="2016-12-31T23:30:00"))
     tab = vv.screen_conjunctions(coarse, None, t0, t0 + HOURS * u.hour,
                                  threshold=THRESHOLD * u.km)
     rf, vf = fine.r.to_value(u.km), fine.v.to_value(u.km / u.s)

@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ..satellites.tle_export import _epoch_text
+from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
@@ -449,7 +449,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         raise InvalidInputError("epoch must be one astropy Time.")
     # the epoch as an OMM string to the microsecond, on sgp4's clock (a leap second reads as
     # the first second of the next day: sgp4 cannot name it)
-    epoch_str = _epoch_text(*(float(x) for x in time_to_utc_days(ep)))
+    epoch_str = epoch_text(*(float(x) for x in time_to_utc_days(ep)))
     ep_exact = Time(epoch_str, scale="utc")
     jd, fr = time_to_utc_days(t)  # sgp4's UTC days of 86,400 s
     # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc

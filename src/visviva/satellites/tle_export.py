@@ -14,7 +14,7 @@ import math
 from ..errors import InvalidInputError
 from .tle_checks import tle_checksum  # the one checksum rule (read and write)
 
-__all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent"]
+__all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent", "epoch_text"]
 
 _XPDOTP = 1440.0 / (2.0 * math.pi)  # rad/min -> rev/day
 
@@ -147,10 +147,19 @@ def _tle_epoch(year: int, days: float) -> str:
     return f"{year % 100:02d}{text}"
 
 
-def _epoch_text(jd: float, fr: float) -> str:
+def epoch_text(jd: float, fr: float) -> str:
     """``YYYY-mm-ddTHH:MM:SS.ffffff`` of a two-part UTC Julian date, rounded to the microsecond.
 
     (sgp4's own exporter truncates through ``datetime``; rounding halves the error to 0.5 us.)
+
+    Parameters
+    ----------
+    jd, fr : float
+        Whole and fractional parts of the Julian date (days, sgp4's UTC days of 86,400 s).
+
+    Returns
+    -------
+    str
     """
     from datetime import datetime, timedelta
 
@@ -220,7 +229,7 @@ def to_omm(satrec, name: str) -> dict:
         "REF_FRAME": "TEME",
         "TIME_SYSTEM": "UTC",
         "MEAN_ELEMENT_THEORY": "SGP4",
-        "EPOCH": _epoch_text(satrec.jdsatepoch, satrec.jdsatepochF),
+        "EPOCH": epoch_text(satrec.jdsatepoch, satrec.jdsatepochF),
         "MEAN_MOTION": _inverse(satrec.no_kozai, lambda x: x / 720.0 * math.pi),
         "ECCENTRICITY": satrec.ecco,
         "INCLINATION": _inverse(satrec.inclo, lambda x: x * rad),

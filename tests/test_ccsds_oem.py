@@ -541,3 +541,47 @@ def test_a_file_that_is_not_text_names_the_line(tmp_path):
     assert info.value.line == 9
     with pytest.raises(vv.CCSDSFormatError, match="directory"):
         vv.read_oem(tmp_path)
+
+
+def _leap_oem(system, epochs):
+    head = ("CCSDS_OEM_VERS = 3.0\nCREATION_DATE = 2024-01-31T00:00:00\nORIGINATOR = VISVIVA\n"
+            "META_START\nOBJECT_NAME = X\nOBJECT_ID = 2016-999A\nCENTER_NAME = EARTH\n"
+            f"REF_FRAME = EME2000\nTIME_SYSTEM = {system}\nSTART_TIME = {epochs[0]}\n"
+            f"STOP_TIME = {epochs[-1]}\nMETA_STOP\n")  # states start on line 13
+    rows = [f"{e} {7000.0 + k} 0.0 0.0 0.0 7.5 0.0" for k, e in enumerate(epochs)]
+    return head + "\n".join(rows) + "\n"
+
+
+def test_a_leap_second_epoch_is_read_and_written_back_to_the_nanosecond(tmp_path):
+    epochs = ["2016-12-31T23:59:59.5", "2016-12-31T23:59:60.25", "2017-01-01T00:00:00.75"]
+    eph = vv.read_oem(_leap_oem("UTC", epochs))
+    t = eph.segments[0].times
+    # the leap second 2016-12-31T23:59:60 counts: 0.75 s then 1.5 s of TAI apart
+    np.testing.assert_allclose(np.diff(t.tai.jd1 * 86400.0 + t.tai.jd2 * 86400.0), [0.75, 1.5],
+                               atol=1e-6)
+    vv.write_oem(eph, tmp_path / "leap.oem")
+    again = vv.read_oem(tmp_path / "leap.oem").segments[0].times
+    assert np.abs((again - t).to_value(u.s)).max() < 1e-9
+    assert "2016-12-31T23:59:60.25 " in (tmp_path / "leap.oem").read_text()
+    # from states (no text kept): astropy writes the leap second as 23:59:60
+    st_ = eph.segments[0].states
+    made = OEMSegment.from_states(t, st_.r.to_value(u.km), st_.v.to_value(u.km / u.s),
+                                  object_name="X", degree=1)
+    vv.write_oem(Ephemeris([made]), tmp_path / "made.oem")
+    assert "2016-12-31T23:59:60.250000000" in (tmp_path / "made.oem").read_text()
+    again = vv.read_oem(tmp_path / "made.oem").segments[0].times
+    assert np.abs((again - t).to_value(u.s)).max() < 1e-9
+
+
+@pytest.mark.parametrize(("system", "epoch"), [
+    ("UTC", "2017-01-01T23:59:60.5"),   # no leap second that day: was read as 01-02T00:00:00.5
+    ("UTC", "2016-06-30T23:59:60.0"),   # the leap second was 2015-06-30: was 07-01T00:00:00
+    ("TAI", "2016-12-31T23:59:60.5"),   # uniform scales have no second 60: was 1 min later
+    ("TT", "2016-366T23:59:60.5"),
+    ("GPS", "2016-12-31T23:59:60.0"),
+])
+def test_a_second_60_that_is_no_leap_second_names_its_line(system, epoch):
+    text = _leap_oem(system, ["2016-12-31T23:59:00", epoch])
+    with pytest.raises(vv.CCSDSFormatError, match="second 60") as info:
+        vv.read_oem(text)
+    assert "line 14" in str(info.value) or "line 11" in str(info.value)

@@ -180,6 +180,9 @@ def test_large_results_stay_distributed(cluster, catalog, times, leo_states, tmp
                                   mem.r.value)
     assert group.attrs["names"] == mem.names and group.attrs["frame"] == "teme"
     assert len(group.attrs["t_utc"]) == len(times)
+    # the times come back to the nanosecond (were written to the millisecond: up to 4 m in LEO)
+    back = Time(group.attrs["t_utc"], scale="utc")
+    assert np.abs((back - times).to_value(u.s)).max() < 1e-9
     t = np.linspace(0, 1, 4) * u.hour
     cow = vv.satellites.propagate_dask(leo_states, t, method="cowell", chunks=4)
     cow.to_zarr(tmp_path / "cowell.zarr", client=client)

@@ -191,3 +191,32 @@ def test_station_itrs_equals_astropys_earth_location():
         np.testing.assert_allclose(site.itrs_km, ref.get_itrs().cartesian.xyz.to_value(u.km),
                                    rtol=0, atol=1e-11)
         assert site.itrs_km.shape == (3,) and site.itrs_km.dtype == np.float64
+
+
+#: Delta T = TT - UT1 (s) on 1 January, USNO's historic table (Astronomical Almanac); years
+#: whose 1 January is no step of the 1960s UTC (1965, 1972: the interpolation spans the step)
+PUBLISHED_DELTA_T = {1963: 34.47, 1964: 35.03, 1966: 36.54, 1967: 37.43,
+                     1968: 38.29, 1969: 39.20, 1970: 40.18, 1971: 41.17, 1973: 43.37}
+
+
+def test_ut1_and_pole_before_the_bulletin_a_file_come_from_eop_c04():
+    """1962-1972: UT1-UTC was held at 1973-01-02's 0.808 s (Delta T 0.5-0.8 s wrong, ~400 m
+    of Earth rotation at the equator) and the pole at the 50-year mean."""
+    t = Time([f"{y}-01-01" for y in PUBLISHED_DELTA_T], scale="tt")
+    with offline_iers(), warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "polar motion ... before IERS data" any more
+        ut1 = t.ut1
+        xp, yp = earth_rotation.polar_motion_rad(t)
+        b = iers.IERS_B.open()
+        xb, yb = b.pm_xy(t)
+    delta_t = ((t.jd1 - ut1.jd1) + (t.jd2 - ut1.jd2)) * 86400.0
+    np.testing.assert_allclose(delta_t, list(PUBLISHED_DELTA_T.values()), atol=0.01)
+    np.testing.assert_allclose(xp, xb.to_value(u.rad), rtol=1e-12)
+    np.testing.assert_allclose(yp, yb.to_value(u.rad), rtol=1e-12)
+    with offline_iers():  # from 1973 on the table is astropy's own, row for row
+        table = iers.earth_orientation_table.get()
+        ref = iers.IERS_Auto.read()
+        k = len(table) - len(ref)
+        assert k > 0 and table["MJD"][k] == ref["MJD"][0]
+        np.testing.assert_array_equal(np.asarray(table["UT1_UTC"][k:]), np.asarray(ref["UT1_UTC"]))
+        assert table.meta["predictive_index"] - k == ref.meta["predictive_index"]

@@ -214,3 +214,19 @@ def test_decaying_satellite_gives_events_up_to_the_failure_and_warns():
     assert times[-1] < Time("2006-06-17T05:50:00", scale="utc")
     look = site.look(sat, times[kinds != 1])
     np.testing.assert_allclose(look.elevation.to_value(u.deg), 0.0, atol=1e-6)
+
+
+def test_rise_and_set_on_a_leap_second_day_match_skyfield():
+    """On 2016-12-31 (86,401 s long) the SGP4 states behind the events were up to 1 s late
+    (astropy's stretched UTC Julian day): rises and sets up to 1.0 s off Skyfield's crossings."""
+    from test_utc_days import L1, L2
+
+    sat = vv.Satellite.from_tle(L1, L2)
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg, 100 * u.m)
+    t0 = Time("2016-12-31T12:00:00", scale="utc")
+    times, kinds = site.find_events(sat, t0, t0 + 15 * u.hour)
+    cross = kinds != 1
+    assert cross.sum() >= 10 and (times > Time("2017-01-01", scale="utc")).any()
+    ts, es, topos = _skyfield(L1, L2, 40.0, -75.0, 100)
+    ref = _true_crossings(ts, es, topos, times[cross], 0.0)
+    assert np.abs((times[cross] - ref).to_value(u.s)).max() < TENTH_SECOND

@@ -147,6 +147,13 @@ def test_command_line(tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0
     assert "2008-09-20 22:51:52" in out and "5 pass(es)" in out
+    # times rounded to the second (set 22:55:11.77 was shown cut to 22:55:11)
+    assert "2008-09-20 22:55:12" in out and "22:55:11" not in out
+    # a start with a UTC offset is that instant (was refused as no ISO time)
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--height", "50",
+                 "--start", "2008-09-20T08:00:00-04:00", "--hours", "24",
+                 "--min-elevation", "10"]) == 0
+    assert capsys.readouterr().out.splitlines()[:7] == out.splitlines()[:7]
     assert len(out_csv.read_text().splitlines()) == 6
     assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start", "nonsense"]) == 2
     # bad arguments: a clear one-line message and exit code 2, as `visviva screen` (these gave 1)

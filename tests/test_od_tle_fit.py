@@ -262,3 +262,29 @@ def test_satellite_states_are_fitted_in_their_own_frame(iss, frame):
         assert vv.fit_tle(states, satnum=25544, frame="teme").to_tle() == fit.to_tle()
     with pytest.raises(vv.InvalidInputError, match=f"{frame.upper()}.*frame='gcrs'"):
         vv.fit_tle(states, frame="gcrs")
+
+
+def _fixed(line):
+    return line[:68] + str(sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10)
+
+
+def test_fit_across_a_leap_second_recovers_the_tle_and_its_epoch():
+    """States spanning 2016-12-31T23:59:60 fit back to the TLE; epoch given inside the leap
+    second (was ValueError 'second must be in 0..59') and to the microsecond (was rounded to
+    the millisecond)."""
+    from astropy.time import Time
+
+    line1 = _fixed("1 25544U 98067A   16366.50000000  .00016717  00000-0  10270-3 0  9009")
+    sat = vv.Satellite.from_tle(line1, ISS[1])
+    times = Time("2016-12-31T12:00:00", scale="utc") + np.linspace(0, 1, 60) * u.day
+    states = sat.gcrs(times).to_state_vectors()
+    fit = vv.fit_tle(states, satnum=25544, fit_bstar=False, bstar=sat.satrec.bstar)
+    assert fit.fit.max_position_km < ONE_METER
+    assert abs((fit.epoch - sat.epoch).to_value(u.s)) < 1e-6
+    ep = Time("2016-12-31T23:59:60.5", scale="utc")
+    fit2 = vv.fit_tle(states, epoch=ep, satnum=25544, fit_bstar=False, bstar=sat.satrec.bstar)
+    assert _rms_km(fit2, states) < ONE_METER
+    assert fit2.epoch.isot == "2017-01-01T00:00:00.500"  # sgp4's clock has no 23:59:60
+    ep = Time("2016-12-31T18:00:00.123456", scale="utc")
+    fit3 = vv.fit_tle(states, epoch=ep, satnum=25544, fit_bstar=False, bstar=sat.satrec.bstar)
+    assert abs((fit3.epoch - ep).to_value(u.s)) < 1e-6

@@ -413,3 +413,20 @@ def test_each_perturbation_writes_only_its_own_slots():
         changed = {int(i) for i in np.flatnonzero(force != base)}
         assert changed - shared <= own, (p, changed)
         assert changed & own, p
+
+
+def test_nrlmsis_drag_from_an_epoch_in_a_leap_second():
+    """Was ValueError 'Seconds out of range in datetime string "2016-12-31T23:59:60"'."""
+    pytest.importorskip("pymsis")
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="nrlmsis", f107=150.0, f107a=150.0,
+                              ap=4.0)
+    leap = Time("2016-12-31T23:59:60.5", scale="utc")
+    state = vv.KeplerianElements.from_semi_major_axis(
+        (R + 400) * u.km, 0.0, 51.6 * u.deg, 0, 0, 0, vv.EARTH, epoch=leap).to_state()
+    out = vv.propagate_cowell(state, 600 * u.s, [drag])
+    # the same state a second later: the same arc (the atmosphere barely turns in a second)
+    later = vv.propagate_cowell(
+        vv.StateVectors(state.r, state.v, vv.EARTH, epoch=leap + 1 * u.s), 600 * u.s, [drag])
+    kepler = state.propagate(600 * u.s)
+    assert np.linalg.norm((out.r - later.r).to_value(u.km)) < 1e-5
+    assert 0 < np.linalg.norm((out.r - kepler.r).to_value(u.km)) < 1.0  # drag acts, a little

@@ -513,3 +513,40 @@ def test_framed_elements_pickle_and_plain_elements_are_unchanged():
     np.testing.assert_array_equal(plain.to_state().r, el.to_state().r)
     assert type(vv.propagate_j2_secular(plain, 60 * u.s)) is vv.KeplerianElements
     assert isinstance(el, vv.KeplerianElements) and "teme" in repr(el)
+
+
+@pytest.mark.parametrize(("epoch", "expected"), [
+    ("2008-264T12:25:40.104192", "2008-09-20T12:25:40.104192"),  # CCSDS day-of-year form
+    ("2008-264T12:25:40.104192Z", "2008-09-20T12:25:40.104192"),
+    ("2008-09-20T12:25:40.1041915", "2008-09-20T12:25:40.104192"),  # 7 decimals: rounded
+    ("2008-09-20T12:25:40.104191999Z", "2008-09-20T12:25:40.104192"),
+    ("2008-366T00:00:00", "2008-12-31T00:00:00.000000"),  # day 366 of a leap year
+])
+def test_omm_epoch_in_every_ccsds_form(epoch, expected):
+    # these were refused ("is not an ISO date-time") though CCSDS 502.0 allows them
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "EPOCH": epoch})
+    assert abs((sat.epoch - Time(expected, scale="utc")).to_value(u.s)) < 1e-6
+
+
+@pytest.mark.parametrize("epoch", ["2007-366T00:00:00", "2008-000T00:00:00",
+                                   "2016-12-31T23:59:60.5", "2008-09-20T24:00:00"])
+def test_omm_epoch_that_is_no_sgp4_date_raises(epoch):
+    with pytest.raises(vv.InvalidInputError, match="EPOCH"):
+        vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "EPOCH": epoch})
+
+
+@pytest.mark.parametrize(("epoch", "line1_epoch", "tol_s"), [
+    ("2023-12-31T23:59:59.999999", "24001.00000000", 0.44e-3),  # was 23366.00000000: unreadable
+    ("2024-12-31T23:59:59.9999", "25001.00000000", 0.44e-3),    # was 24367.00000000
+    ("2024-12-31T23:59:59.999", "24366.99999999", 0.44e-3),     # rounded to 1e-8 day / 2
+    ("2056-12-31T23:59:59.9999", "56366.99999999", 0.87e-3),    # no year 57: 1e-8 day down
+])
+def test_to_tle_epoch_rounding_into_the_next_year(epoch, line1_epoch, tol_s):
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "EPOCH": epoch})
+    line1, line2 = sat.to_tle()
+    assert line1[18:32] == line1_epoch
+    again = vv.Satellite.from_tle(line1, line2)  # and our reader (and sgp4's) take it back
+    ref = Satrec.twoline2rv(line1, line2, WGS72)
+    assert abs(((again.satrec.jdsatepoch - ref.jdsatepoch)
+                + (again.satrec.jdsatepochF - ref.jdsatepochF)) * 86400.0) < 1e-6
+    assert abs((again.epoch - sat.epoch).to_value(u.s)) < tol_s

@@ -36,7 +36,8 @@ def window_from_args(start: str, hours: float):
     Parameters
     ----------
     start : str
-        Start of the window, an ISO 8601 time in UTC (e.g. ``2024-05-01T18:00``).
+        Start of the window, an ISO 8601 time in UTC (e.g. ``2024-05-01T18:00``), or with a
+        UTC offset (``2024-05-01T20:00+02:00``: the same instant).
     hours : float
         Length of the window, hours; positive and finite.
 
@@ -59,7 +60,9 @@ def window_from_args(start: str, hours: float):
     if not (math.isfinite(hours) and hours > 0):
         raise InvalidInputError(f"--hours must be a positive finite number, got {hours}.")
     try:
-        t0 = Time(start, scale="utc")
+        t0 = _with_utc_offset(start)
+        if t0 is None:
+            t0 = Time(start, scale="utc")
     except ValueError as exc:
         # astropy lists why every format failed; the ISO one is the reason that matters here
         lines = str(exc).splitlines()
@@ -68,6 +71,22 @@ def window_from_args(start: str, hours: float):
             f"--start {start!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
         ) from None
     return t0, t0 + hours * u.hour
+
+
+def _with_utc_offset(start: str):
+    """The Time of an ISO string that ends in a UTC offset (``+02:00``, ``-0500``), else None.
+
+    astropy refuses such strings; read through ``datetime`` they are converted to UTC, never
+    taken for UTC clock readings.
+    """
+    import re
+    from datetime import datetime
+
+    from astropy.time import Time
+
+    if not re.search(r"[T ].*[+-]\d{2}:?\d{2}$", start.strip()):
+        return None
+    return Time(datetime.fromisoformat(start.strip()), scale="utc")
 
 
 def write_output(command: str, path: str, text: str) -> int:

@@ -196,7 +196,10 @@ class OEMSegment(FrameCenterMetadata):
         return self._times
 
     def _seconds_since(self, t0) -> np.ndarray:
-        return (self.times - t0).to_value("s")
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            return (self.times - t0).to_value("s")
 
     @property
     def states(self):
@@ -232,8 +235,11 @@ class OEMSegment(FrameCenterMetadata):
                 "visviva rotates between 'gcrs' (EME2000/ICRF/GCRF), 'teme' and 'itrs' (ITRF)")
         if frame == source:
             return self.states
-        r, v = transform_batch(self.r_km[None], self.v_km_s[None], self.times.utc, source,
-                               frame)
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            times = self.times.utc
+        r, v = transform_batch(self.r_km[None], self.v_km_s[None], times, source, frame)
         return framed_states(r[0], v[0], self.gm_km3_s2, self.times, frame)
 
     @property
@@ -337,14 +343,17 @@ class OEMSegment(FrameCenterMetadata):
 
         if not isinstance(t, Time):
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
+        from ..satellites.frames import offline_iers
+
         t0 = self.times[0]
         nodes = self._seconds_since(t0)
         # seconds of the file's own time scale: a query in another scale is converted first
         # (TDB - UTC differences in TDB would drift from the file's by up to 1e-7 s per hour)
-        t = getattr(t, t0.scale)
-        query = np.atleast_1d((t - t0).to_value("s")).ravel()
-        lo = (self.start - t0).to_value("s")
-        hi = (self.stop - t0).to_value("s")
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            t = getattr(t, t0.scale)
+            query = np.atleast_1d((t - t0).to_value("s")).ravel()
+            lo = (self.start - t0).to_value("s")
+            hi = (self.stop - t0).to_value("s")
         tol = 1e-6  # s: epochs written to the microsecond
         outside = (query < lo - tol) | (query > hi + tol)
         if outside.any():
@@ -435,13 +444,16 @@ class Ephemeris:
 
         if not isinstance(t, Time):
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
+        from ..satellites.frames import offline_iers
+
         frame, center = self.frame, self.center  # noqa: F841  (checks they agree)
         flat = t.reshape(-1) if t.ndim else t.reshape(1)
         which = np.full(flat.shape, -1)
-        for k, seg in enumerate(self.segments):
-            inside = ((flat - seg.start).to_value("s") >= -1e-6) & (
-                (flat - seg.stop).to_value("s") <= 1e-6)
-            which[inside] = k
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            for k, seg in enumerate(self.segments):
+                inside = ((flat - seg.start).to_value("s") >= -1e-6) & (
+                    (flat - seg.stop).to_value("s") <= 1e-6)
+                which[inside] = k
         if (which < 0).any():
             bad = flat[int(np.flatnonzero(which < 0)[0])]
             spans = ", ".join(f"{s.start.isot} .. {s.stop.isot}" for s in self.segments)

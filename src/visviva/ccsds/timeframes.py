@@ -21,6 +21,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 
@@ -163,8 +164,6 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         ``mission_epoch``, elapsed SI seconds added).
     """
     from astropy import units as u
-    from astropy.time import Time
-
     if system_line is None and not isinstance(line, list | tuple):
         system_line = line
     scale = _scale(time_system, system_line, source, mission_epoch)
@@ -177,6 +176,19 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         t = mission_epoch + TimeDelta(days, secs / 86400.0, format="jd", scale="tai")
         return t[0] if scalar else t
     iso = [_iso(t) for t in items]
+    with warnings.catch_warnings():  # a second 60 that is no leap second: refused below
+        warnings.filterwarnings("ignore", message=".*after end of day")
+        t = _parse(iso, items, scale, line, source)
+    _check_leap_seconds(iso, items, t, scale, time_system, line, source)
+    if time_system.upper() == "GPS":
+        t = t - _GPS_MINUS_TAI_S * u.s
+    return t[0] if scalar else t
+
+
+def _parse(iso, items, scale, line, source):
+    """astropy Time of ISO or ``yday`` texts (one format each), nanosecond precision."""
+    from astropy.time import Time
+
     kinds = {":" in t[4:5] for t in iso}
     try:
         if kinds == {True}:
@@ -188,9 +200,31 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
                      precision=9)
     except ValueError:
         raise _bad_epoch(iso, items, scale, line, source) from None
-    if time_system.upper() == "GPS":
-        t = t - _GPS_MINUS_TAI_S * u.s
-    return t[0] if scalar else t
+    return t
+
+
+def _check_leap_seconds(iso, items, t, scale, time_system, line, source):
+    """Refuse a second 60 that is no leap second (astropy reads ``23:59:60.5`` of any day, in
+    any scale, as 00:00:00.5 of the next day).
+
+    CCSDS 502.0 allows ``23:59:60.x`` in UTC at the end of a day that ends with a leap second
+    (e.g. 2016-12-31); TAI, TT, TDB, GPS and the other uniform scales have no such second.
+    """
+    for k, text in enumerate(iso):
+        if float(text.rpartition(":")[2]) < 60.0:
+            continue
+        if scale == "utc":
+            one = t if t.isscalar else t[k]
+            written = one.utc.copy(format="isot").value
+            if written[11:19] == "23:59:60":  # astropy names it a leap second: it is one
+                continue
+            why = (f"UTC has no such second on {items[k].partition('T')[0]} (a leap second is "
+                   "23:59:60.x at the end of a day that has one, e.g. 2016-12-31T23:59:60.5)")
+        else:
+            why = f"{time_system.upper()} is a uniform time scale without leap seconds"
+        raise CCSDSFormatError(
+            f"the epoch {items[k]!r} has second 60 or more, but {why}; write the next minute "
+            "(hh:mm+1:ss-60) instead", line=_line_at(line, k), source=source)
 
 
 def _bad_epoch(iso, items, scale, line, source):
@@ -227,15 +261,18 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     """
     from astropy import units as u
 
+    from ..satellites.frames import offline_iers
+
     scale = _scale(time_system, None, "<output>", mission_epoch)
     flat = t.reshape(-1) if t.ndim else t.reshape(1)
-    if scale is None:
-        return _format_elapsed(flat.tai - mission_epoch.tai)
-    if time_system.upper() == "GPS":
-        flat = flat.tai + _GPS_MINUS_TAI_S * u.s
-        out = flat.tai
-    else:
-        out = getattr(flat, TIME_SCALES[time_system.upper()])
+    with offline_iers():  # UT1 needs the installed IERS table, never a download
+        if scale is None:
+            return _format_elapsed(flat.tai - mission_epoch.tai)
+        if time_system.upper() == "GPS":
+            flat = flat.tai + _GPS_MINUS_TAI_S * u.s
+            out = flat.tai
+        else:
+            out = getattr(flat, TIME_SCALES[time_system.upper()])
     out = out.copy(format="isot")
     out.precision = 9
     return list(np.atleast_1d(out.value))

@@ -20,6 +20,7 @@ import numpy as np
 from .._units import to_array
 from ..constants import DAY_S
 from ..errors import InvalidInputError
+from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 
 __all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
 
@@ -265,10 +266,14 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     from astropy.table import QTable
     from astropy.time import Time
 
-    from .sources import as_source, check_same_kind
+    from .sources import SgpSource, as_source, check_same_kind
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # a window in UT1 needs the installed IERS table, never a download
+        t0, t1 = t0.tai, t1.tai
     thr = 5.0 if threshold is None else float(to_array(threshold, "length", "threshold"))
     step_s = 60.0 if step is None else float(to_array(step, "time", "step"))
     if not thr > 0 or not step_s > 0:
@@ -278,8 +283,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         raise InvalidInputError(f"t1 must be after t0; got a window of {span} s.")
     n_steps = int(math.ceil(span / step_s)) + 1
     step_s = span / (n_steps - 1)
-    tu = t0.utc
-    jd0, fr0 = float(tu.jd1), float(tu.jd2)
+    jd0, fr0 = (float(x) for x in time_to_utc_days(t0))  # sgp4's UTC days of 86,400 s
     cat1 = as_source(primaries, t0, t1, "primaries", jd0, fr0)
     self_mode = secondaries is None
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
@@ -323,7 +327,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab = QTable()
     tab["object1"] = [names1[f[0]] for f in found]
     tab["object2"] = [names2[f[1]] for f in found]
-    tca = Time(np.full(len(found), jd0), fr0 + arr[:, 0] / DAY_S, format="jd", scale="utc")
+    if isinstance(cat1, SgpSource):  # seconds on sgp4's UTC clock (days of 86,400 s)
+        tca = utc_days_to_time(np.full(len(found), jd0), fr0 + arr[:, 0] / DAY_S)
+    else:  # ephemerides count SI seconds from t0 (leap seconds included)
+        tca = (t0 + arr[:, 0] * u.s).utc
     tca.format = "isot"
     tab["tca"] = tca
     tab["miss_distance"] = arr[:, 1] * u.km

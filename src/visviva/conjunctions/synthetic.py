@@ -45,9 +45,11 @@ def synthetic_catalog(n, *, seed=0, epoch="2024-01-01T00:00:00", crossing_pairs=
 
     from ..satellites.catalog import Catalog
     from ..satellites.tle import Satellite
+    from ..satellites.utc_days import time_to_utc_days
 
     t = Time(epoch, scale="utc")
-    days = float((t.utc.jd1 - 2433281.5) + t.utc.jd2)  # days since 1949-12-31 00:00 UT
+    jd, fr = time_to_utc_days(t)  # sgp4's UTC days of 86,400 s
+    days = float((jd - 2433281.5) + fr)  # days since 1949-12-31 00:00 UTC
     rng = np.random.default_rng(seed)
 
     def make(satnum, ecc, argp, inc, mo, alt, node):

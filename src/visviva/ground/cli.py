@@ -46,7 +46,12 @@ def add_parser(sub) -> None:
 
 
 def _fmt_time(t) -> str:
-    return "--" if getattr(t, "mask", False) else t.utc.strftime("%Y-%m-%d %H:%M:%S")
+    """UTC to the nearest second (``strftime`` cut the fraction: up to 1 s early)."""
+    if getattr(t, "mask", False):
+        return "--"
+    shown = t.utc.copy(format="iso")
+    shown.precision = 0
+    return str(shown.value)
 
 
 def format_table(table) -> str:

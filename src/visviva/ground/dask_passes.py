@@ -111,7 +111,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
 
     cat = as_catalog(satellites)
     sts = as_stations(stations)
-    check_window(t0, t1)
+    t0, t1 = check_window(t0, t1)
     min_elevation_rad(min_elevation)
     if not (isinstance(chunk_size, (int, np.integer)) and chunk_size > 0):
         raise InvalidInputError(f"chunk_size must be a positive integer, got {chunk_size!r}.")

@@ -82,7 +82,7 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     """
     cat = as_catalog(satellites)
     sts = as_stations(stations)
-    check_window(t0, t1)
+    t0, t1 = check_window(t0, t1)
     el_min = min_elevation_rad(min_elevation)
     ev = search_events(cat, sts, t0, t1, el_min)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)

@@ -43,7 +43,7 @@ def plot_sky_track(station, satellite, t0, t1, ax=None, step=10 * u.s, min_eleva
     """
     from .search import check_window, min_elevation_rad
 
-    check_window(t0, t1)
+    t0, t1 = check_window(t0, t1)
     el_min = np.degrees(min_elevation_rad(min_elevation))
     dt = step.to_value(u.s) if hasattr(step, "unit") else None
     if dt is None or not dt > 0:

@@ -33,6 +33,7 @@ from astropy.time import Time
 from .._units import is_quantity, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
+from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
 __all__ = ["EventSet", "search_events", "as_catalog", "check_window", "min_elevation_rad",
@@ -77,7 +78,11 @@ def as_catalog(satellites):
 
 
 def check_window(t0, t1):
-    """Validate the window: scalar astropy Times with ``t1 > t0``; returns them."""
+    """Validate the window: scalar astropy Times with ``t1 > t0``; returns them in TAI.
+
+    The conversion uses the IERS table installed with astropy (a window given in UT1 needs
+    it), never a download.
+    """
     for name, t in (("t0", t0), ("t1", t1)):
         if not isinstance(t, Time):
             raise InvalidInputError(
@@ -86,6 +91,10 @@ def check_window(t0, t1):
             )
         if not t.isscalar:
             raise InvalidInputError(f"{name} must be a scalar Time, got shape {t.shape}.")
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():
+        t0, t1 = t0.tai, t1.tai
     span = (t1 - t0).to_value(u.s)
     if not span > 0:
         raise InvalidInputError(
@@ -153,7 +162,9 @@ class EventSet:
         clock = self.__dict__.get("clock")
         if clock is not None and clock.leap_free:
             jd1, jd2 = clock.parts(t)
-            return Time(jd1, jd2, format="jd", scale="utc", precision=3).copy(format="isot")
+            out = utc_days_to_time(jd1, jd2)
+            out.precision = 3
+            return out.copy(format="isot")
         return (self.t_ref + t * u.s).utc
 
 
@@ -166,20 +177,20 @@ class _Clock:
 
     def __init__(self, t_ref, lo_s: float, hi_s: float):
         self.t_ref = t_ref
-        base = t_ref.utc
-        self.jd1 = float(base.jd1)
-        self.jd2 = float(base.jd2)
-        edges = (t_ref + np.array([lo_s, hi_s]) * u.s).utc
-        exact = ((edges.jd1 - self.jd1) + (edges.jd2 - self.jd2)) * 86400.0
+        jd1, jd2 = time_to_utc_days(t_ref)  # sgp4's UTC days of 86,400 s
+        self.jd1 = float(jd1)
+        self.jd2 = float(jd2)
+        e1, e2 = time_to_utc_days(t_ref + np.array([lo_s, hi_s]) * u.s)
+        exact = ((e1 - self.jd1) + (e2 - self.jd2)) * 86400.0
         self.leap_free = bool(np.abs(exact - np.array([lo_s, hi_s])).max() < 1e-3)
 
     def parts(self, t_s):
         t_s = np.ascontiguousarray(t_s, dtype=np.float64)
         if self.leap_free:
             return np.full(t_s.shape, self.jd1), self.jd2 + t_s / 86400.0
-        tu = (self.t_ref + t_s * u.s).utc
-        return (np.ascontiguousarray(tu.jd1, dtype=np.float64),
-                np.ascontiguousarray(tu.jd2, dtype=np.float64))
+        jd1, jd2 = time_to_utc_days(self.t_ref + t_s * u.s)
+        return (np.ascontiguousarray(jd1, dtype=np.float64),
+                np.ascontiguousarray(jd2, dtype=np.float64))
 
 
 def _sgp4_teme(satrecs, sat_idx, clock, t_s):

@@ -272,7 +272,7 @@ class GroundStation:
                 f"find_events takes one Satellite, got {type(satellite).__name__}; for a "
                 "catalogue use vv.find_passes(catalog, station, t0, t1)."
             )
-        check_window(t0, t1)
+        t0, t1 = check_window(t0, t1)
         el = min_elevation_rad(min_elevation)
         ev = search_events(as_catalog(satellite), [self], t0, t1, el)
         real = ev.kind <= SET

@@ -45,7 +45,11 @@ def _states_at(epoch, names):
     DE421 through jplephem when installed (sub-km for the planets), else astropy's built-in
     ephemeris (VSOP87-based: about 1e-5 relative in position).
     """
-    jd = _jd(epoch)
+    _jd(epoch)  # checked
+    # two-part TDB Julian date: one float64 JD is only good to ~20 us (~0.6 m of the Earth's
+    # motion); a Time keeps both parts
+    jd, jd2 = (float(epoch.tdb.jd1), float(epoch.tdb.jd2)) if hasattr(epoch, "tdb") else (
+        float(epoch), 0.0)
     try:
         import de421
         from jplephem import Ephemeris
@@ -53,7 +57,7 @@ def _states_at(epoch, names):
         eph = Ephemeris(de421)
         out = {}
         for name in names:
-            r, v = eph.position_and_velocity(name, jd)
+            r, v = eph.position_and_velocity(name, jd, jd2)
             out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / DAY_S)
         return out
     except ImportError:

@@ -152,7 +152,11 @@ class Observations:
                 raise InvalidInputError(
                     f"observation {i} has unknown kind {k!r}; use one of {', '.join(KINDS)}."
                 )
-        dt = np.diff((times.tt - times[0].tt).sec) if n > 1 else np.zeros(0)
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # times in UT1 need the installed IERS table, never a download
+            tt = times.tt
+        dt = np.diff((tt - tt[0]).sec) if n > 1 else np.zeros(0)
         if np.any(dt < 0):
             i = int(np.flatnonzero(dt < 0)[0]) + 1
             raise InvalidInputError(
@@ -245,7 +249,10 @@ class Observations:
 
     def offsets_s(self, epoch):
         """Times as seconds from ``epoch`` (differences in TT)."""
-        return np.asarray((self.times.tt - epoch.tt).sec, dtype=np.float64)
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # times in UT1 need the installed IERS table, never a download
+            return np.asarray((self.times.tt - epoch.tt).sec, dtype=np.float64)
 
     def sites(self):
         """GCRS site position (km), velocity (km/s) and GCRS->ENU rows, each (N, 3[, 3]).

@@ -25,6 +25,8 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..satellites.tle_export import epoch_text
+from ..satellites.utc_days import time_to_utc_days
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
 
@@ -136,7 +138,11 @@ def states_and_times(states, times, frame):
             raise InvalidInputError(f"the ephemeris mixes frames {sorted(frames)}; fit one frame.")
         from astropy.time import Time as _T
 
-        t_all = _T(np.concatenate([t.utc.jd1 for t in ts]), np.concatenate([t.utc.jd2 for t in ts]),
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            utc = [t.utc for t in ts]
+        t_all = _T(np.concatenate([t.jd1 for t in utc]), np.concatenate([t.jd2 for t in utc]),
                    format="jd", scale="utc")  # fmt: skip
         r, v = np.concatenate(rs), np.concatenate(vs)
         return r, v, t_all, frames.pop()
@@ -414,7 +420,10 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             f"{n} state(s) cannot fix {6 + bool(fit_bstar)} mean elements; give at least {need} "
             "states spread over at least one orbit."
         )
-    tt = t.tt
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # times in UT1 need the installed IERS table, never a download
+        tt = t.tt
     secs = (tt.jd1 - tt.jd1[0]) * 86400.0 + (tt.jd2 - tt.jd2[0]) * 86400.0
     if np.any(np.diff(secs) <= 0):
         i = int(np.flatnonzero(np.diff(secs) <= 0)[0]) + 1
@@ -438,14 +447,11 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     ep = t[0] if epoch is None else epoch
     if not isinstance(ep, Time) or not ep.isscalar:
         raise InvalidInputError("epoch must be one astropy Time.")
-    epoch_str = ep.utc.isot
-    if "." not in epoch_str:
-        epoch_str += ".000000"
-    head, frac = epoch_str.split(".")
-    epoch_str = f"{head}.{(frac + '000000')[:6]}"
+    # the epoch as an OMM string to the microsecond, on sgp4's clock (a leap second reads as
+    # the first second of the next day: sgp4 cannot name it)
+    epoch_str = epoch_text(*(float(x) for x in time_to_utc_days(ep)))
     ep_exact = Time(epoch_str, scale="utc")
-    tu = t.utc
-    jd, fr = tu.jd1, tu.jd2
+    jd, fr = time_to_utc_days(t)  # sgp4's UTC days of 86,400 s
     # first guess: the osculating state nearest the epoch, moved to the epoch on a two-body arc
     ep_tt = ep_exact.tt
     from_epoch = (tt.jd1 - ep_tt.jd1) * 86400.0 + (tt.jd2 - ep_tt.jd2) * 86400.0

@@ -42,6 +42,7 @@ from .tle import (
     raise_for_sgp4_status,
     sgp4_times,
 )
+from .utc_days import utc_days_to_time
 
 __all__ = [
     "Catalog",
@@ -214,7 +215,7 @@ class Catalog:
         """Element-set epochs, UTC (shape (N,))."""
         jd = np.array([s.satrec.jdsatepoch for s in self.satellites])
         fr = np.array([s.satrec.jdsatepochF for s in self.satellites])
-        return Time(jd, fr, format="jd", scale="utc")
+        return utc_days_to_time(jd, fr)
 
     def propagate(self, t, method: str = "sgp4", frame: str = "teme", on_error: str = "raise"):
         """Propagate every satellite to the times ``t``.
@@ -453,8 +454,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     cat = as_catalog(satellites)
     t = absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
-    ep = cat.epochs
-    tsince = ((jd[None, :] - ep.jd1[:, None]) + (fr[None, :] - ep.jd2[:, None])) * MINUTES_PER_DAY
+    ep_jd = np.array([s.satrec.jdsatepoch for s in cat.satellites])
+    ep_fr = np.array([s.satrec.jdsatepochF for s in cat.satellites])
+    tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
@@ -487,8 +489,11 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
 
 def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
     """(N, T) seconds from each epoch to each time (TAI differences: leap seconds counted)."""
-    e = epochs.tai
-    tt = t.tai
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        e = epochs.tai
+        tt = t.tai
     return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
 
 
@@ -599,7 +604,10 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
         cat.__dict__["_j2_setup"] = setup
     (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
-    tt = t.tai
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        tt = t.tai
     n, m = len(cat), len(t)
     r = np.empty((n, m, 3))
     v = np.empty((n, m, 3))

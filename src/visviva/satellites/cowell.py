@@ -26,6 +26,7 @@ from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, r
 from .burns import burn_schedule
 from .dop853 import dop853_tableau
 from .events import Event, EventRecord
+from .frames import offline_iers
 from .perturbations import (
     AtmosphericDrag,
     Perturbation,
@@ -355,9 +356,9 @@ def _offsets_s(t, epoch):
                 "t is an astropy Time but the state has no epoch; build the state with "
                 "epoch=..., or pass t as offsets from the initial state (e.g. 3600 * u.s)."
             )
-        # differences in TT: SI seconds of geocentric motion, whatever scales t and epoch are in
-        # (a TDB difference is in TDB seconds, which drift from SI seconds by ~1.7 ms a year)
-        return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
+        # TT differences: SI seconds whatever the scales (TDB seconds drift ~1.7 ms a year);
+        with offline_iers():  # UT1 needs the installed IERS table, never a download
+            return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
     return to_array(t, "time", "t")
 
 

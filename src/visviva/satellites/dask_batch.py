@@ -222,7 +222,7 @@ class DaskBatch:
         -------
         zarr.Group
             Arrays ``r`` (km), ``v`` (km/s), ``status`` and attributes ``names``, ``frame``
-            and the times ``t_utc`` (ISO strings) or ``t_s`` (seconds).
+            and the times ``t_utc`` (ISO strings, UTC, to the nanosecond) or ``t_s`` (seconds).
 
         Notes
         -----
@@ -245,7 +245,9 @@ class DaskBatch:
         group.attrs["names"] = list(self.names)
         group.attrs["frame"] = self.frame
         if isinstance(self.t, Time):
-            group.attrs["t_utc"] = [str(x) for x in self.t.utc.isot]
+            iso = self.t.utc.copy(format="isot")
+            iso.precision = 9  # nanoseconds: astropy's default 3 digits lose up to 0.5 ms
+            group.attrs["t_utc"] = [str(x) for x in np.ravel(iso.value)]
         else:
             group.attrs["t_s"] = [float(x) for x in np.ravel(self.t.to_value("s"))]
         group.attrs["units"] = {"r": "km", "v": "km/s"}

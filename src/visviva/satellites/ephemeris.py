@@ -138,10 +138,13 @@ def position_velocity(name, t, center="earth"):
     t = _as_time(t)
     key = _check_name(name)
     ckey = _check_name(center)
-    tt = t.reshape(1) if t.isscalar else t.ravel()
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        tt = (t.reshape(1) if t.isscalar else t.ravel()).tdb
     eph = _de421()
     if eph is not None:
-        tdb = tt.tdb
+        tdb = tt
         jd1 = np.asarray(tdb.jd1, dtype=float)
         jd2 = np.asarray(tdb.jd2, dtype=float)
         lo, hi = 2414992.5, 2524624.5

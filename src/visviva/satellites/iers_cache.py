@@ -4,10 +4,11 @@ astropy reads its IERS table (``IERS_Auto``: the Bulletin A file ``finals2000A.a
 EOP C04 values substituted, both from the ``astropy-iers-data`` package) with its general CDS
 text reader the first time a process needs UT1-UTC or polar motion: about 0.5 s of CPU on
 every fresh process, a third of the warm budget of ``Satellite.gcrs`` (issue 11). This module
-stores the table astropy builds, unchanged (a pickle of the ``IERS_Auto`` instance), in a cache
+stores the table astropy builds (a pickle of the ``IERS_Auto`` instance), with the EOP C04 rows
+of 1962-1972 put before it (:func:`with_eop_c04_before`; astropy's own values from 1973), in a cache
 directory keyed by the astropy version and the paths, sizes and modification times of the
 files it was read from; later processes load it in ~10 ms and hand it to astropy as the table
-``IERS_Auto.open()`` returns, so every number is astropy's own.
+``IERS_Auto.open()`` returns, so every number from 1973 on is astropy's own.
 
 The directory is ``$VISVIVA_CACHE_DIR``, else ``$NUMBA_CACHE_DIR/visviva`` when numba's cache
 is redirected (a fresh numba cache then means a fresh table too), else
@@ -25,7 +26,10 @@ import pickle
 import tempfile
 from pathlib import Path
 
-__all__ = ["cache_dir", "install_cached_table"]
+__all__ = ["cache_dir", "install_cached_table", "with_eop_c04_before"]
+
+#: the layout of the cached table (2: EOP C04 rows from 1962 before the Bulletin A file)
+_TABLE_VERSION = "2"
 
 
 def cache_dir() -> Path:
@@ -44,7 +48,7 @@ def _cache_file(iers) -> Path | None:
     """The cache file for the installed IERS files and astropy version (None: do not cache)."""
     import astropy
 
-    parts = [astropy.__version__, str(pickle.HIGHEST_PROTOCOL)]
+    parts = [astropy.__version__, str(pickle.HIGHEST_PROTOCOL), _TABLE_VERSION]
     for name in (iers.IERS_A_FILE, iers.IERS_A_README, iers.IERS_B_FILE, iers.IERS_B_README):
         try:
             st = os.stat(name)
@@ -98,13 +102,69 @@ def install_cached_table() -> bool:
     if iers.IERS_Auto.iers_table is not None or os.path.exists("finals2000A.all"):
         return False
     path = _cache_file(iers)
-    if path is None:
-        return False
-    table = _load(path, iers.IERS_Auto)
+    table = None if path is None else _load(path, iers.IERS_Auto)
     if table is not None:
         iers.IERS_Auto.iers_table = table
         return True
-    table = iers.IERS_Auto.read()
+    table = with_eop_c04_before(iers.IERS_Auto.read())
     iers.IERS_Auto.iers_table = table
-    _store(path, table)
+    if path is not None:
+        _store(path, table)
     return False
+
+
+def with_eop_c04_before(table):
+    """The ``IERS_Auto`` table with the EOP C04 (IERS-B) rows that precede it put first.
+
+    astropy's ``IERS_Auto`` starts with the Bulletin A file, on 1973-01-02; before that it
+    held UT1 - UTC at that day's 0.808 s (true values 1962-1972: -0.09 .. +0.07 s, so up to
+    0.9 s of Earth rotation, ~400 m at the equator, wrong without a warning) and used the
+    mean pole. The EOP C04 file installed with it starts on 1962-01-01: its rows give
+    UT1 - UTC and polar motion from then on, as astropy's ``IERS_B`` table does.
+
+    Parameters
+    ----------
+    table : astropy.utils.iers.IERS_Auto
+        As ``IERS_Auto.read()`` returns it.
+
+    Returns
+    -------
+    astropy.utils.iers.IERS_Auto
+        The same rows after the C04 ones (``predictive_index`` moved along).
+    """
+    import warnings
+
+    import numpy as np
+    from astropy import units as u
+    from astropy.table import MaskedColumn, QTable, vstack
+    from astropy.utils import iers
+
+    b = iers.IERS_B.open()
+    first = table["MJD"][0].to_value(u.d)
+    early = b[np.asarray(b["MJD"].to_value(u.d)) < first]
+    n = len(early)
+    if n == 0:
+        return table
+    same = {"PM_X": "PM_x", "PM_Y": "PM_y"}  # the _B columns' names in IERS_B
+    cols = {}
+    for name in table.colnames:
+        col = table[name]
+        base = name[:-2] if name.endswith(("_A", "_B")) else name
+        src = same.get(base, base)
+        if name == "year":
+            cols[name] = np.asarray(early["year"]) % 100  # two digits, as the A file
+        elif name in ("month", "day"):
+            cols[name] = np.asarray(early[name])
+        elif col.dtype.kind == "U":  # flags: "B" (from Bulletin B / C04); none for the A file
+            from_a = name.endswith("_A")
+            cols[name] = MaskedColumn(np.full(n, "" if from_a else "B"), mask=np.full(n, from_a))
+        elif name.endswith("_A") or src not in early.colnames:
+            cols[name] = np.full(n, np.nan) * (col.unit or 1)
+        else:
+            cols[name] = early[src].to(col.unit)
+    with warnings.catch_warnings():  # column descriptions differ between the two files
+        warnings.simplefilter("ignore")
+        joined = vstack([QTable(cols), QTable(table)], metadata_conflicts="silent")
+    out = iers.IERS_Auto(joined, meta=dict(table.meta))
+    out.meta["predictive_index"] = table.meta["predictive_index"] + n
+    return out

@@ -276,7 +276,17 @@ class AtmosphericDrag(Perturbation):
         lats = np.arange(-90.0, 90.0 + 1e-9, 5.0)
         hours = np.arange(-180.0, 180.0 + 1e-9, 15.0)
         lons = np.mod(np.degrees(sun_longitude_rad) + hours + 180.0, 360.0) - 180.0
-        date = np.array([np.datetime64(epoch.utc.isot[:19])], dtype="datetime64[s]")
+        # NRLMSIS takes a numpy datetime64 (no leap second): its UTC date and time, the
+        # fraction of a second kept, a leap second (23:59:60.x) held at 23:59:59.999999
+        from .frames import offline_iers
+
+        with offline_iers():  # an epoch in UT1 needs the installed IERS table, no download
+            iso = epoch.utc.copy(format="isot")
+        iso.precision = 6
+        text = str(iso.value)
+        if text[17:19] == "60":
+            text = text[:17] + "59.999999"
+        date = np.array([np.datetime64(text, "us")])
         out = msis.run(date, lons, lats, alts, f107s=[self.f107], f107as=[self.f107a],
                        aps=[[self.ap] * 7], version=2.1)  # fmt: skip
         rho = np.asarray(out[0, ..., 0], dtype=np.float64)  # (hours, lats, alts)

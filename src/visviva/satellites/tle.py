@@ -12,7 +12,8 @@ TLE are not osculating elements, and only SGP4 turns them into positions consist
 from __future__ import annotations
 
 import math
-from datetime import datetime
+import re
+from datetime import datetime, timedelta
 from functools import cached_property
 
 import numpy as np
@@ -42,6 +43,7 @@ from .tle_checks import (
     raise_for_sgp4_status,
     sgp4_times,
 )
+from .utc_days import utc_days_to_time
 
 #: names also importable from here (their modules: tle_checks, satellite_states)
 __all__ = [
@@ -85,18 +87,44 @@ _OMM_DEFAULTS = {
 }
 
 
+_OMM_EPOCH = re.compile(r"(\d{4})-(?:(\d{2})-(\d{2})|(\d{3}))[T ](\d{2}):(\d{2}):(\d{2})"
+                        r"(\.\d*)?Z?", re.ASCII)
+
+
 def _omm_epoch(text: str) -> str:
-    """Normalise an OMM EPOCH to ``YYYY-mm-ddTHH:MM:SS.ffffff`` (what sgp4.omm parses)."""
-    text = str(text).strip().rstrip("Z")
-    for fmt in ("%Y-%m-%dT%H:%M:%S.%f", "%Y-%m-%dT%H:%M:%S", "%Y-%m-%d %H:%M:%S.%f",
-                "%Y-%m-%d %H:%M:%S"):
-        try:
-            return datetime.strptime(text, fmt).strftime("%Y-%m-%dT%H:%M:%S.%f")
-        except ValueError:
-            continue
-    raise InvalidInputError(
-        f"OMM EPOCH {text!r} is not an ISO date-time like '2024-01-31T12:00:00.000000'."
-    )
+    """Normalise an OMM EPOCH to ``YYYY-mm-ddTHH:MM:SS.ffffff`` (what sgp4.omm parses).
+
+    CCSDS 502.0 epochs: calendar (``2024-01-31T12:00:00.123``) or day-of-year
+    (``2024-031T12:00:00``) dates, any number of decimals (rounded to the microsecond sgp4
+    keeps), an optional ``Z``.
+    """
+    raw = str(text).strip()
+    m = _OMM_EPOCH.fullmatch(raw)
+    try:
+        if m is None:
+            raise ValueError(raw)
+        year, month, day, doy, hh, mm, ss = (None if g is None else int(g) for g in m.groups()[:7])
+        start = (datetime(year, month, day) if doy is None
+                 else datetime(year, 1, 1) + timedelta(days=doy - 1))
+        if doy is not None and (doy < 1 or start.year != year):  # day 366 of a common year
+            raise ValueError(raw)
+        micro = round(float("0" + (m.group(8) or ".0")) * 1e6)
+        when = start + timedelta(hours=_clock(hh, 24), minutes=_clock(mm, 60),
+                                 seconds=_clock(ss, 60), microseconds=micro)
+    except ValueError:
+        raise InvalidInputError(
+            f"OMM EPOCH {raw!r} is not a UTC date-time like '2024-01-31T12:00:00.000000' or "
+            "'2024-031T12:00:00' (day of year); a leap second (23:59:60) cannot be an SGP4 "
+            "epoch."
+        ) from None
+    return when.strftime("%Y-%m-%dT%H:%M:%S.%f")
+
+
+def _clock(value: int, limit: int) -> int:
+    """An hour, minute or second field checked against its limit (ValueError past it)."""
+    if not 0 <= value < limit:
+        raise ValueError(value)
+    return value
 
 
 
@@ -123,8 +151,6 @@ def _catalogue_number(value) -> int:
     """An OMM's ``NORAD_CAT_ID`` as an int: a number, or an alpha-5 string (one letter A-Z
     without I and O, then four digits: ``"A0001"`` is 100001); anything else raises ValueError
     saying what is accepted."""
-    import re
-
     if isinstance(value, float) and value.is_integer() and value >= 0:
         value = int(value)
     text = str(value).strip()
@@ -296,7 +322,7 @@ class Satellite:
     @cached_property
     def epoch(self) -> Time:
         """Epoch of the element set (astropy Time, UTC)."""
-        return Time(self.satrec.jdsatepoch, self.satrec.jdsatepochF, format="jd", scale="utc")
+        return utc_days_to_time(self.satrec.jdsatepoch, self.satrec.jdsatepochF)
 
     @property
     def inclination(self):
@@ -361,7 +387,7 @@ class Satellite:
         e, r, v = s.sgp4_array(jd, fr)
         if e.any():
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
-            when = times if times is not None else Time(jd, fr, format="jd", scale="utc")
+            when = times if times is not None else utc_days_to_time(jd, fr)
             raise_for_sgp4_status(e, [self.name], tsince, when)
         if not (np.isfinite(r).all() and np.isfinite(v).all()):
             tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
@@ -373,7 +399,7 @@ class Satellite:
                 satellite=self.name, reason="non-finite state", tsince_min=float(tsince[k]),
             )
         if times is None:
-            times = Time(jd, fr, format="jd", scale="utc").reshape(shape)
+            times = utc_days_to_time(jd, fr).reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times
 
     def teme(self, t) -> SatelliteStates:

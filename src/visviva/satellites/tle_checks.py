@@ -407,8 +407,9 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
 
     Parameters
     ----------
-    t : astropy Time or Quantity (time)
-        Absolute times, or offsets from the epoch ``jd_epoch + fr_epoch``.
+    t : astropy Time, or Quantity (time) or TimeDelta
+        Absolute times, or offsets from the epoch ``jd_epoch + fr_epoch`` (SGP4's minutes since
+        epoch: days of 86,400 s on sgp4's UTC clock).
     jd_epoch, fr_epoch : float
         Whole and fractional parts of the epoch's UTC Julian date (days).
 
@@ -424,17 +425,19 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
     if isinstance(t, Time):
         from erfa import ErfaError
 
+        from .utc_days import time_to_utc_days
+
         try:
-            tu = t.utc
+            jd, fr = time_to_utc_days(t)  # sgp4's days of 86,400 s, not astropy's quasi-JD
         except (ErfaError, ValueError) as exc:
             raise DomainError(
                 f"t cannot be converted to UTC ({exc}); use dates within astropy's supported "
                 "range, near the element-set epoch."
             ) from exc
-        jd = np.ascontiguousarray(tu.jd1, dtype=np.float64).ravel()
-        fr = np.ascontiguousarray(tu.jd2, dtype=np.float64).ravel()
+        jd = np.ascontiguousarray(jd, dtype=np.float64).ravel()
+        fr = np.ascontiguousarray(fr, dtype=np.float64).ravel()
         return jd, fr, t.shape, t
-    if isinstance(t, u.Quantity):
+    if isinstance(t, u.Quantity) or type(t).__name__ == "TimeDelta":  # offsets, as propagate
         dt_s = to_array(t, "time", "t")
         jd = np.full(dt_s.size, jd_epoch)
         fr = fr_epoch + dt_s.ravel() / DAY_S

@@ -14,7 +14,7 @@ import math
 from ..errors import InvalidInputError
 from .tle_checks import tle_checksum  # the one checksum rule (read and write)
 
-__all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent"]
+__all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent", "epoch_text"]
 
 _XPDOTP = 1440.0 / (2.0 * math.pi)  # rad/min -> rev/day
 
@@ -111,7 +111,7 @@ def to_tle(satrec) -> tuple[str, str]:
     if not 1957 <= year <= 2056:
         raise InvalidInputError(f"epoch year {year} cannot be written in a TLE (its two digits "
                                 "mean 1957 .. 2056); use to_omm()")
-    epoch = f"{satrec.epochyr % 100:02d}{satrec.epochdays:012.8f}"
+    epoch = _tle_epoch(year, satrec.epochdays)
     line1 = (f"1 {num}{cls} {intl:<8} {epoch} {ndot_text} "
              f"{format_exponent(nddot, 'MEAN_MOTION_DDOT', '-')} "
              f"{format_exponent(satrec.bstar, 'BSTAR')} {int(satrec.ephtype) % 10} "
@@ -131,10 +131,35 @@ def to_tle(satrec) -> tuple[str, str]:
     return line1 + str(tle_checksum(line1)), line2 + str(tle_checksum(line2))
 
 
-def _epoch_text(jd: float, fr: float) -> str:
+def _tle_epoch(year: int, days: float) -> str:
+    """Columns 19-32 of line 1, ``YYDDD.DDDDDDDD``: the day of year rounded to 1e-8 day (0.86 ms).
+
+    A time in the last 0.43 ms of a year rounds to day 1 of the next year (``%012.8f`` alone
+    wrote day 366.00000000 of a common year, which no TLE reader accepts), or, where that year
+    is 2057 (beyond the two-digit years), down to the year's last 1e-8 day.
+    """
+    text = f"{days:012.8f}"
+    leap = year % 4 == 0 and (year % 100 != 0 or year % 400 == 0)
+    if float(text) >= (367.0 if leap else 366.0):
+        if year + 1 <= 2056:
+            return f"{(year + 1) % 100:02d}001.00000000"
+        text = f"{(366.0 if leap else 365.0) + 0.99999999:012.8f}"
+    return f"{year % 100:02d}{text}"
+
+
+def epoch_text(jd: float, fr: float) -> str:
     """``YYYY-mm-ddTHH:MM:SS.ffffff`` of a two-part UTC Julian date, rounded to the microsecond.
 
     (sgp4's own exporter truncates through ``datetime``; rounding halves the error to 0.5 us.)
+
+    Parameters
+    ----------
+    jd, fr : float
+        Whole and fractional parts of the Julian date (days, sgp4's UTC days of 86,400 s).
+
+    Returns
+    -------
+    str
     """
     from datetime import datetime, timedelta
 
@@ -204,7 +229,7 @@ def to_omm(satrec, name: str) -> dict:
         "REF_FRAME": "TEME",
         "TIME_SYSTEM": "UTC",
         "MEAN_ELEMENT_THEORY": "SGP4",
-        "EPOCH": _epoch_text(satrec.jdsatepoch, satrec.jdsatepochF),
+        "EPOCH": epoch_text(satrec.jdsatepoch, satrec.jdsatepochF),
         "MEAN_MOTION": _inverse(satrec.no_kozai, lambda x: x / 720.0 * math.pi),
         "ECCENTRICITY": satrec.ecco,
         "INCLINATION": _inverse(satrec.inclo, lambda x: x * rad),

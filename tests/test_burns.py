@@ -504,3 +504,17 @@ def test_bad_burn_units_and_schedules_are_refused():
     with pytest.raises(InvalidInputError, match="undefined at its start"):
         propagate_cowell(radial, 10 * u.s, [], maneuvers=[
             FiniteBurn(1 * u.s, 5 * u.s, [1, 0, 0], "VNB", acceleration=1e-5 * u.km / u.s**2)])
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"thrust": [1, 2] * u.N, "mass": 10 * u.kg},
+    {"thrust": 1 * u.N, "mass": [10, 20] * u.kg},
+    {"thrust": 1 * u.N, "mass": 10 * u.kg, "isp": [300, 200] * u.s},
+    {"thrust": 1 * u.N, "mass": 10 * u.kg, "mass_flow": [1, 2] * u.g / u.s},
+    {"acceleration": [1, 2] * u.m / u.s**2},
+])
+def test_a_finite_burn_takes_one_thrust_mass_isp_or_acceleration(kwargs):
+    # was numpy's TypeError "only 0-dimensional arrays can be converted to Python scalars"
+    with pytest.raises(InvalidInputError, match="one value"):
+        FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], **kwargs)
+

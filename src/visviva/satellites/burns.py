@@ -92,6 +92,16 @@ def _when(value, name):
     return float(arr)
 
 
+def _one(value, kind, name) -> np.ndarray:
+    """One value (0-d array) of ``kind`` in visviva's unit: a burn has one thrust, mass ..."""
+    arr = to_array(value, kind, name)
+    if arr.ndim != 0:
+        raise InvalidInputError(
+            f"{name} must be one value; got shape {arr.shape}. A burn has one {name}: build "
+            "one burn per value.")
+    return arr
+
+
 def _describe(when) -> str:
     return f"{when:g} s" if isinstance(when, float) else when.isot
 
@@ -247,9 +257,7 @@ class FiniteBurn(_Burn):
     def __init__(self, start, duration, direction, frame: str = "GCRS", *, thrust=None,
                  mass=None, isp=None, mass_flow=None, acceleration=None):
         self.start = _when(start, "start")
-        dt = to_array(duration, "time", "duration")
-        if dt.ndim != 0:
-            raise InvalidInputError(f"duration must be one time; got shape {dt.shape}.")
+        dt = _one(duration, "time", "duration")
         if not dt > 0:
             raise InvalidInputError(
                 f"a finite burn lasts > 0 s; got duration = {float(dt)} s. For an instantaneous "
@@ -270,7 +278,7 @@ class FiniteBurn(_Burn):
                     "give either acceleration=..., or thrust=... and mass=... (with isp or "
                     "mass_flow), not both."
                 )
-            acc = to_array(acceleration, "accel", "acceleration")
+            acc = _one(acceleration, "accel", "acceleration")
             require_positive(acc, "acceleration")
             self.accel0_km_s2, self.mass_rate, self.mass_kg, self.mdot_kg_s = float(acc), 0.0, None, 0.0
             return
@@ -279,19 +287,19 @@ class FiniteBurn(_Burn):
                 "a finite burn needs thrust=... and mass=... (e.g. thrust=400 * u.N, "
                 "mass=1000 * u.kg, isp=300 * u.s), or a constant acceleration=...."
             )
-        f_n = to_array(thrust, "force", "thrust")
-        m0 = to_array(mass, "mass", "mass")
+        f_n = _one(thrust, "force", "thrust")
+        m0 = _one(mass, "mass", "mass")
         require_positive(f_n, "thrust")
         require_positive(m0, "mass")
         if isp is not None and mass_flow is not None:
             raise InvalidInputError("give isp or mass_flow, not both.")
         mdot = 0.0
         if isp is not None:
-            isp_s = to_array(isp, "time", "isp")
+            isp_s = _one(isp, "time", "isp")
             require_positive(isp_s, "isp")
             mdot = float(f_n) / (float(isp_s) * STANDARD_GRAVITY_M_S2)
         elif mass_flow is not None:
-            mdot_arr = to_array(mass_flow, "mass_flow", "mass_flow")
+            mdot_arr = _one(mass_flow, "mass_flow", "mass_flow")
             require_positive(mdot_arr, "mass_flow", strict=False)
             mdot = float(mdot_arr)
         m_end = float(m0) - mdot * self.duration_s

@@ -518,3 +518,18 @@ def test_a_finite_burn_takes_one_thrust_mass_isp_or_acceleration(kwargs):
     with pytest.raises(InvalidInputError, match="one value"):
         FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], **kwargs)
 
+
+def test_the_same_finite_burn_twice_is_refused_as_an_overlap():
+    # was accepted: the thrust was applied once (half the Δv asked) and logged twice
+    burn = FiniteBurn(100 * u.s, 100 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(leo(), 1000 * u.s, [], maneuvers=[burn, burn])
+    twin = FiniteBurn(100 * u.s, 100 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(leo(), 1000 * u.s, [], maneuvers=[burn, twin])
+    # two impulses at one epoch add up (both applied)
+    kick = ImpulsiveBurn(100 * u.s, [0.01, 0, 0] * KMS)
+    out = propagate_cowell(leo(), [100] * u.s, [], maneuvers=[kick, kick])
+    ref = propagate_cowell(leo(), [100] * u.s, [], maneuvers=[
+        ImpulsiveBurn(100 * u.s, [0.02, 0, 0] * KMS)])
+    assert np.allclose(out.v.to_value(KMS), ref.v.to_value(KMS), rtol=0, atol=1e-15)

@@ -561,10 +561,11 @@ def burn_schedule(maneuvers, state, epoch):
             )
         items.append((a, a + getattr(m, "duration_s", 0.0), m))
     items.sort(key=lambda x: x[0])
-    finite = [x for x in items if isinstance(x[2], FiniteBurn)]
-    for a, b, m in finite:
-        for c, d, other in items:
-            if other is m:
+    for i, (a, b, m) in enumerate(items):
+        if not isinstance(m, FiniteBurn):
+            continue
+        for j, (c, d, other) in enumerate(items):
+            if j == i:
                 continue
             inside = a < c < b if isinstance(other, ImpulsiveBurn) else (c < b and a < d)
             if inside:

@@ -533,3 +533,26 @@ def test_the_same_finite_burn_twice_is_refused_as_an_overlap():
     ref = propagate_cowell(leo(), [100] * u.s, [], maneuvers=[
         ImpulsiveBurn(100 * u.s, [0.02, 0, 0] * KMS)])
     assert np.allclose(out.v.to_value(KMS), ref.v.to_value(KMS), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("frame", ["TOD", "MOD", "GTOD", "J2000", "TEMEOFDATE"])
+def test_an_earth_opm_in_a_frame_visviva_cannot_rotate_is_not_propagated_as_gcrs(frame):
+    # opm.propagate and propagate_cowell(opm.state) took a true-of-date (or Greenwich rotating)
+    # state for a GCRS one: ~40 km at LEO from precession since 2000, silently
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    state = leo(EPOCH)
+    for mans in ([], [OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, 0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]):
+        opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="SAT", frame=frame,
+                                                      maneuvers=mans)))
+        with pytest.raises(InvalidInputError, match=f"REF_FRAME = {frame}"):
+            opm.propagate(600 * u.s)
+        with pytest.raises(InvalidInputError, match=f"REF_FRAME = {frame}"):
+            propagate_cowell(opm.state, 600 * u.s, maneuvers=[])
+    # a Moon-centred EME2000 state is inertial about the Moon: propagated as before
+    moon = OPM.from_state(vv.StateVectors([2000.0, 0, 0] * u.km, [0, 1.5, 0] * KMS, vv.MOON,
+                                          EPOCH), object_name="SAT", center="MOON",
+                          frame="EME2000")
+    out = vv.read_opm(vv.write_opm(moon)).propagate(600 * u.s)
+    assert abs(np.linalg.norm(out.r.to_value(u.km)) - 2000.0) < 300.0

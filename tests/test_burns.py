@@ -556,3 +556,28 @@ def test_an_earth_opm_in_a_frame_visviva_cannot_rotate_is_not_propagated_as_gcrs
                           frame="EME2000")
     out = vv.read_opm(vv.write_opm(moon)).propagate(600 * u.s)
     assert abs(np.linalg.norm(out.r.to_value(u.km)) - 2000.0) < 300.0
+
+
+def test_other_propagators_of_an_opm_state_with_manoeuvres_refuse_to_drop_them():
+    # opm.state.propagate(dt) (Kepler), propagate_dask(opm.state, method="cowell") and
+    # simulate_observations(opm.state, ...) ran without the message's manoeuvres, silently
+    # (a 10 m/s RTN impulse: 11 km off an hour later)
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+    from visviva.od import simulate_observations
+
+    mans = [OPMManeuver(EPOCH + 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        opm.state.propagate(1 * u.h)
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        vv.satellites.propagate_dask(opm.state, [100, 200] * u.s, method="cowell",
+                                     client="sync")
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        simulate_observations(opm.state, EPOCH + [1200] * u.s, "position", 1e-3)
+    # without manoeuvres nothing changes
+    plain = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
+    kepler = plain.state.propagate(1 * u.h)
+    cowell = propagate_cowell(plain.state, 1 * u.h)
+    assert np.linalg.norm((kepler.r - cowell.r).to_value(u.km)) < ONE_MM

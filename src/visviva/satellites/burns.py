@@ -37,7 +37,7 @@ from ..core.local_frames import FRAME_CODES, INERTIAL, local_axes
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2", "frame_code",
-           "burn_schedule"]
+           "burn_schedule", "refuse_pending"]
 
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
@@ -513,6 +513,33 @@ class _SegmentModel:
 PENDING_ATTRIBUTE = "_pending_maneuvers"
 
 
+def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "
+                   "perturbations), which applies them.") -> None:
+    """Refuse a state read from an OPM with manoeuvres where ``what`` would ignore them.
+
+    Parameters
+    ----------
+    state : StateVectors
+        The state (an OPM's :attr:`~visviva.ccsds.opm.OPM.state` says how many manoeuvres its
+        message has).
+    what : str
+        The function that cannot apply manoeuvres, for the message.
+    remedy : str
+        What to do instead.
+
+    Raises
+    ------
+    InvalidInputError
+        When the state carries manoeuvres.
+    """
+    pending = getattr(state, PENDING_ATTRIBUTE, None)
+    if pending:
+        raise InvalidInputError(
+            f"this state comes from an OPM with {pending} manoeuvre(s), which {what} would "
+            f"ignore. {remedy}"
+        )
+
+
 def burn_schedule(maneuvers, state, epoch):
     """Check ``maneuvers`` of :func:`visviva.propagate_cowell` and order them.
 
@@ -530,14 +557,10 @@ def burn_schedule(maneuvers, state, epoch):
     _Schedule or None
         None when there are no burns.
     """
-    pending = getattr(state, PENDING_ATTRIBUTE, None)
     if maneuvers is None:
-        if pending:
-            raise InvalidInputError(
-                f"this state comes from an OPM with {pending} manoeuvre(s), which "
-                "propagate_cowell would ignore. Pass maneuvers=opm.burns() to apply them (or "
-                "call opm.propagate(t, perturbations)), or maneuvers=[] to propagate without."
-            )
+        refuse_pending(state, "propagate_cowell", "Pass maneuvers=opm.burns() to apply them (or "
+                       "call opm.propagate(t, perturbations)), or maneuvers=[] to propagate "
+                       "without.")
         return None
     if isinstance(maneuvers, _Burn):
         maneuvers = [maneuvers]

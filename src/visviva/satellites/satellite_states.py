@@ -218,9 +218,13 @@ class SatelliteStates(_Framed, StateVectors):
         Raises
         ------
         InvalidInputError
-            The states are in the rotating ITRS, where Kepler motion does not hold.
+            The states are in the rotating ITRS, where Kepler motion does not hold, or come
+            from an OPM with manoeuvres (:meth:`visviva.ccsds.opm.OPM.propagate` applies them).
         """
         self._refuse_itrs("Kepler motion does not hold in it")
+        from .burns import refuse_pending
+
+        refuse_pending(self, "two-body propagation")
         return self._in_my_frame(super().propagate(dt))
 
     @property

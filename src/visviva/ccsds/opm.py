@@ -195,7 +195,8 @@ class OPM(FrameCenterMetadata):
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
                                         f"diagonal; got diagonal {diag}.")
             sections["covariance"] = values_from_matrix(covariance)
-        for k, m in enumerate(maneuvers or ()):
+        maneuvers = list(maneuvers or ())  # iterated twice below: a generator would be used up
+        for k, m in enumerate(maneuvers):
             if not u.Quantity(m.duration).to_value(u.s) >= 0:
                 raise InvalidInputError(f"maneuvers[{k}]: duration = {m.duration}; a burn lasts "
                                         ">= 0 s (0 for an impulse).")

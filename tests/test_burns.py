@@ -581,3 +581,15 @@ def test_other_propagators_of_an_opm_state_with_manoeuvres_refuse_to_drop_them()
     kepler = plain.state.propagate(1 * u.h)
     cowell = propagate_cowell(plain.state, 1 * u.h)
     assert np.linalg.norm((kepler.r - cowell.r).to_value(u.km)) < ONE_MM
+
+
+def test_a_finite_burn_shorter_than_the_snap_near_an_output_keeps_its_thrust():
+    # start and end both snapped onto the output time: the burn shrank to nothing, its Δv
+    # (0.1 m/s here) was dropped and the record said complete with Δv = 0
+    burn = FiniteBurn(100.0000001 * u.s, 1e-7 * u.s, [1, 0, 0], acceleration=1e3 * u.km / u.s**2)
+    out = propagate_cowell(leo(), [0, 100, 200] * u.s, [], maneuvers=[burn])
+    ref = propagate_cowell(leo(), [0, 100, 200] * u.s, [], maneuvers=[
+        ImpulsiveBurn(100 * u.s, [1e-4, 0, 0] * KMS)])
+    (record,) = out.burns
+    assert record.complete and abs(record.delta_v.to_value(KMS) - 1e-4) < 1e-10  # 100 s + 1e-7 s
+    assert np.abs((out.r[2] - ref.r[2]).to_value(u.km)).max() < ONE_MM

@@ -410,7 +410,8 @@ class _Schedule:
         self.records = []
 
     def snap(self, t_out) -> None:
-        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it."""
+        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it (a finite
+        burn whose start and end would meet keeps its duration)."""
         t_out = np.asarray(t_out, dtype=np.float64)
         if t_out.size == 0:
             return
@@ -421,7 +422,11 @@ class _Schedule:
             best = min(close, key=lambda c: abs(c - x))
             return float(best) if abs(best - x) <= SNAP_S else x
 
-        self.items = [(near(a), near(b), m) for a, b, m in self.items]
+        def both(a, b):  # a finite burn never shrinks to nothing: then it moves as a whole
+            a1, b1 = near(a), near(b)
+            return (a1, b1) if b1 > a1 or a == b else (a1, a1 + (b - a))
+
+        self.items = [(*both(a, b), m) for a, b, m in self.items]
 
     def check_state(self, t: float, y) -> None:
         """Refuse a finite burn in a local frame that starts where the frame is undefined

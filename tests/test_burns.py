@@ -593,3 +593,18 @@ def test_a_finite_burn_shorter_than_the_snap_near_an_output_keeps_its_thrust():
     (record,) = out.burns
     assert record.complete and abs(record.delta_v.to_value(KMS) - 1e-4) < 1e-10  # 100 s + 1e-7 s
     assert np.abs((out.r[2] - ref.r[2]).to_value(u.km)).max() < ONE_MM
+
+
+def test_an_oem_state_in_tod_is_refused_after_indexing_too():
+    # seg.states[i] of a TOD ephemeris lost its frame on indexing and was propagated as GCRS
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    t = EPOCH + np.linspace(0, 600, 11) * u.s
+    orbit = propagate_cowell(leo(EPOCH), t)
+    seg = OEMSegment.from_states(t, orbit.r.to_value(u.km), orbit.v.to_value(KMS),
+                                 object_name="SAT", frame="TOD", center="EARTH")
+    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    for state in (back.states, back.states[3], back.states[2:5]):
+        with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
+            propagate_cowell(state, 60 * u.s)

@@ -16,7 +16,7 @@ from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
     InvalidInputError,
 )
-from ..states import StateVectors
+from ..states import FOREIGN_FRAME_ATTRIBUTE, StateVectors
 
 __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
            "require_gcrs", "framed_states", "with_frame"]
@@ -25,9 +25,6 @@ __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements
 FRAMES = ("gcrs", "teme", "itrs")
 
 
-#: What Earth-centred states in a frame visviva has no rotation for carry: the frame's name
-#: (e.g. an OPM with ``REF_FRAME = TOD``), so that :func:`require_gcrs` refuses them.
-FOREIGN_FRAME_ATTRIBUTE = "_foreign_frame"
 
 
 def framed_states(r_km, v_km_s, gm_km3_s2, times, frame, *, foreign=None):

@@ -608,3 +608,14 @@ def test_an_oem_state_in_tod_is_refused_after_indexing_too():
     for state in (back.states, back.states[3], back.states[2:5]):
         with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
             propagate_cowell(state, 60 * u.s)
+
+
+def test_an_empty_manoeuvre_list_reports_no_burns():
+    # maneuvers=[] (an OPM without manoeuvres: opm.burns()) gave a result without .burns and
+    # .final_mass (AttributeError); the run itself is unchanged to the bit
+    for state in (leo(), vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 5.0, 5.8]] * 2 * KMS,
+                                         vv.EARTH)):
+        out = propagate_cowell(state, [60, 600] * u.s, [vv.J2(vv.EARTH)], maneuvers=[])
+        plain = propagate_cowell(state, [60, 600] * u.s, [vv.J2(vv.EARTH)])
+        assert out.burns == [] and out.final_mass is None
+        assert np.array_equal(out.r.to_value(u.km), plain.r.to_value(u.km))

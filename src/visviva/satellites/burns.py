@@ -409,6 +409,10 @@ class _Schedule:
         self.items = items  # (start_s, end_s, burn), by start
         self.records = []
 
+    def __bool__(self) -> bool:
+        """Whether there is any burn (an empty schedule runs as no schedule)."""
+        return bool(self.items)
+
     def snap(self, t_out) -> None:
         """Move burn starts and ends within :data:`SNAP_S` of an output time onto it (a finite
         burn whose start and end would meet keeps its duration)."""
@@ -560,7 +564,7 @@ def burn_schedule(maneuvers, state, epoch):
     Returns
     -------
     _Schedule or None
-        None when there are no burns.
+        None without ``maneuvers``; an empty (false) schedule for an empty list.
     """
     if maneuvers is None:
         refuse_pending(state, "propagate_cowell", "Pass maneuvers=opm.burns() to apply them (or "
@@ -571,7 +575,7 @@ def burn_schedule(maneuvers, state, epoch):
         maneuvers = [maneuvers]
     maneuvers = list(maneuvers)
     if not maneuvers:
-        return None
+        return _Schedule([])  # nothing to split at; the result reports no burns
     for m in maneuvers:
         if not isinstance(m, _Burn):
             raise InvalidInputError(

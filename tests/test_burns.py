@@ -619,3 +619,12 @@ def test_an_empty_manoeuvre_list_reports_no_burns():
         plain = propagate_cowell(state, [60, 600] * u.s, [vv.J2(vv.EARTH)])
         assert out.burns == [] and out.final_mass is None
         assert np.array_equal(out.r.to_value(u.km), plain.r.to_value(u.km))
+
+
+def test_opm_propagate_with_its_own_maneuvers_argument_says_what_to_call():
+    # was Python's TypeError "got multiple values for keyword argument 'maneuvers'"
+    from visviva.ccsds.opm import OPM
+
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
+    with pytest.raises(InvalidInputError, match=r"propagate_cowell\(opm.state"):
+        opm.propagate(60 * u.s, maneuvers=[])

@@ -324,6 +324,10 @@ class OPM(FrameCenterMetadata):
         """
         from ..satellites.cowell import propagate_cowell
 
+        if "maneuvers" in kwargs:
+            raise InvalidInputError(
+                "opm.propagate applies the message's own manoeuvres; for other ones call "
+                "vv.propagate_cowell(opm.state, t, perturbations, maneuvers=[...]).")
         return propagate_cowell(self.state, t, perturbations, maneuvers=self.burns(), **kwargs)
 
 

@@ -504,3 +504,127 @@ def test_bad_burn_units_and_schedules_are_refused():
     with pytest.raises(InvalidInputError, match="undefined at its start"):
         propagate_cowell(radial, 10 * u.s, [], maneuvers=[
             FiniteBurn(1 * u.s, 5 * u.s, [1, 0, 0], "VNB", acceleration=1e-5 * u.km / u.s**2)])
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"thrust": [1, 2] * u.N, "mass": 10 * u.kg},
+    {"thrust": 1 * u.N, "mass": [10, 20] * u.kg},
+    {"thrust": 1 * u.N, "mass": 10 * u.kg, "isp": [300, 200] * u.s},
+    {"thrust": 1 * u.N, "mass": 10 * u.kg, "mass_flow": [1, 2] * u.g / u.s},
+    {"acceleration": [1, 2] * u.m / u.s**2},
+])
+def test_a_finite_burn_takes_one_thrust_mass_isp_or_acceleration(kwargs):
+    # was numpy's TypeError "only 0-dimensional arrays can be converted to Python scalars"
+    with pytest.raises(InvalidInputError, match="one value"):
+        FiniteBurn(0 * u.s, 10 * u.s, [1, 0, 0], **kwargs)
+
+
+def test_the_same_finite_burn_twice_is_refused_as_an_overlap():
+    # was accepted: the thrust was applied once (half the Δv asked) and logged twice
+    burn = FiniteBurn(100 * u.s, 100 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(leo(), 1000 * u.s, [], maneuvers=[burn, burn])
+    twin = FiniteBurn(100 * u.s, 100 * u.s, [1, 0, 0], acceleration=1e-6 * u.km / u.s**2)
+    with pytest.raises(InvalidInputError, match="overlaps"):
+        propagate_cowell(leo(), 1000 * u.s, [], maneuvers=[burn, twin])
+    # two impulses at one epoch add up (both applied)
+    kick = ImpulsiveBurn(100 * u.s, [0.01, 0, 0] * KMS)
+    out = propagate_cowell(leo(), [100] * u.s, [], maneuvers=[kick, kick])
+    ref = propagate_cowell(leo(), [100] * u.s, [], maneuvers=[
+        ImpulsiveBurn(100 * u.s, [0.02, 0, 0] * KMS)])
+    assert np.allclose(out.v.to_value(KMS), ref.v.to_value(KMS), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("frame", ["TOD", "MOD", "GTOD", "J2000", "TEMEOFDATE"])
+def test_an_earth_opm_in_a_frame_visviva_cannot_rotate_is_not_propagated_as_gcrs(frame):
+    # opm.propagate and propagate_cowell(opm.state) took a true-of-date (or Greenwich rotating)
+    # state for a GCRS one: ~40 km at LEO from precession since 2000, silently
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    state = leo(EPOCH)
+    for mans in ([], [OPMManeuver(EPOCH + 60 * u.s, 0 * u.s, 0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]):
+        opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="SAT", frame=frame,
+                                                      maneuvers=mans)))
+        with pytest.raises(InvalidInputError, match=f"REF_FRAME = {frame}"):
+            opm.propagate(600 * u.s)
+        with pytest.raises(InvalidInputError, match=f"REF_FRAME = {frame}"):
+            propagate_cowell(opm.state, 600 * u.s, maneuvers=[])
+    # a Moon-centred EME2000 state is inertial about the Moon: propagated as before
+    moon = OPM.from_state(vv.StateVectors([2000.0, 0, 0] * u.km, [0, 1.5, 0] * KMS, vv.MOON,
+                                          EPOCH), object_name="SAT", center="MOON",
+                          frame="EME2000")
+    out = vv.read_opm(vv.write_opm(moon)).propagate(600 * u.s)
+    assert abs(np.linalg.norm(out.r.to_value(u.km)) - 2000.0) < 300.0
+
+
+def test_other_propagators_of_an_opm_state_with_manoeuvres_refuse_to_drop_them():
+    # opm.state.propagate(dt) (Kepler), propagate_dask(opm.state, method="cowell") and
+    # simulate_observations(opm.state, ...) ran without the message's manoeuvres, silently
+    # (a 10 m/s RTN impulse: 11 km off an hour later)
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+    from visviva.od import simulate_observations
+
+    mans = [OPMManeuver(EPOCH + 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        opm.state.propagate(1 * u.h)
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        vv.satellites.propagate_dask(opm.state, [100, 200] * u.s, method="cowell",
+                                     client="sync")
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+        simulate_observations(opm.state, EPOCH + [1200] * u.s, "position", 1e-3)
+    # without manoeuvres nothing changes
+    plain = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
+    kepler = plain.state.propagate(1 * u.h)
+    cowell = propagate_cowell(plain.state, 1 * u.h)
+    assert np.linalg.norm((kepler.r - cowell.r).to_value(u.km)) < ONE_MM
+
+
+def test_a_finite_burn_shorter_than_the_snap_near_an_output_keeps_its_thrust():
+    # start and end both snapped onto the output time: the burn shrank to nothing, its Δv
+    # (0.1 m/s here) was dropped and the record said complete with Δv = 0
+    burn = FiniteBurn(100.0000001 * u.s, 1e-7 * u.s, [1, 0, 0], acceleration=1e3 * u.km / u.s**2)
+    out = propagate_cowell(leo(), [0, 100, 200] * u.s, [], maneuvers=[burn])
+    ref = propagate_cowell(leo(), [0, 100, 200] * u.s, [], maneuvers=[
+        ImpulsiveBurn(100 * u.s, [1e-4, 0, 0] * KMS)])
+    (record,) = out.burns
+    assert record.complete and abs(record.delta_v.to_value(KMS) - 1e-4) < 1e-10  # 100 s + 1e-7 s
+    assert np.abs((out.r[2] - ref.r[2]).to_value(u.km)).max() < ONE_MM
+
+
+def test_an_oem_state_in_tod_is_refused_after_indexing_too():
+    # seg.states[i] of a TOD ephemeris lost its frame on indexing and was propagated as GCRS
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    t = EPOCH + np.linspace(0, 600, 11) * u.s
+    orbit = propagate_cowell(leo(EPOCH), t)
+    seg = OEMSegment.from_states(t, orbit.r.to_value(u.km), orbit.v.to_value(KMS),
+                                 object_name="SAT", frame="TOD", center="EARTH")
+    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    for state in (back.states, back.states[3], back.states[2:5]):
+        with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
+            propagate_cowell(state, 60 * u.s)
+
+
+def test_an_empty_manoeuvre_list_reports_no_burns():
+    # maneuvers=[] (an OPM without manoeuvres: opm.burns()) gave a result without .burns and
+    # .final_mass (AttributeError); the run itself is unchanged to the bit
+    for state in (leo(), vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 5.0, 5.8]] * 2 * KMS,
+                                         vv.EARTH)):
+        out = propagate_cowell(state, [60, 600] * u.s, [vv.J2(vv.EARTH)], maneuvers=[])
+        plain = propagate_cowell(state, [60, 600] * u.s, [vv.J2(vv.EARTH)])
+        assert out.burns == [] and out.final_mass is None
+        assert np.array_equal(out.r.to_value(u.km), plain.r.to_value(u.km))
+
+
+def test_opm_propagate_with_its_own_maneuvers_argument_says_what_to_call():
+    # was Python's TypeError "got multiple values for keyword argument 'maneuvers'"
+    from visviva.ccsds.opm import OPM
+
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
+    with pytest.raises(InvalidInputError, match=r"propagate_cowell\(opm.state"):
+        opm.propagate(60 * u.s, maneuvers=[])

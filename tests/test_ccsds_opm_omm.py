@@ -211,6 +211,48 @@ def test_opm_from_state_refuses_impossible_manoeuvres():
         OPM.from_state(state, object_name="H", covariance=-np.eye(6))
 
 
+def test_opm_from_state_keeps_manoeuvres_given_as_a_generator():
+    # the manoeuvres were iterated twice (checks, then the section): a generator was used up by
+    # the checks and the OPM was written without its manoeuvres, silently
+    from visviva.ccsds.opm import Maneuver
+
+    epoch = Time("2025-01-01T00:00:00", scale="utc")
+    state = vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, epoch=epoch)
+    burns = [Maneuver(epoch + k * u.h, 0 * u.s, -1 * u.kg, "RTN", [0, 1, 0] * u.m / u.s)
+             for k in (1, 2)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="G",
+                                                  maneuvers=(b for b in burns))))
+    assert [round(float((m.epoch - epoch).to_value(u.s)), 6) for m in opm.maneuvers] == [3600.0, 7200.0]
+
+
+@pytest.mark.parametrize("field, value, error, words", [
+    ("mass", 100.0, vv.UnitsError, "mass"),
+    ("mass", 5 * u.m, vv.UnitsError, "mass"),
+    ("mass", [1, 2] * u.kg, vv.InvalidInputError, "one value"),
+    ("delta_mass", -1 * u.m, vv.UnitsError, "delta_mass"),
+    ("duration", 1 * u.kg, vv.UnitsError, "duration"),
+    ("delta_v", [0, 1] * u.m / u.s, vv.InvalidInputError, "shape"),
+    ("delta_v", [0, 1, 0] * u.m, vv.UnitsError, "delta_v"),
+    ("epoch", 600 * u.s, vv.InvalidInputError, "astropy Time"),
+])
+def test_opm_from_state_refuses_bad_masses_and_manoeuvre_fields(field, value, error, words):
+    # were astropy's UnitConversionError, numpy's TypeError or an AttributeError ('Quantity'
+    # object has no 'utc' member)
+    from visviva.ccsds.opm import Maneuver
+
+    epoch = Time("2025-01-01T00:00:00", scale="utc")
+    state = vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, epoch=epoch)
+    fields = {"epoch": epoch + 60 * u.s, "duration": 0 * u.s, "delta_mass": -1 * u.kg,
+              "frame": "RTN", "delta_v": [0, 1, 0] * u.m / u.s}
+    mass = 100 * u.kg
+    if field == "mass":
+        mass = value
+    else:
+        fields[field] = value
+    with pytest.raises(error, match=words):
+        OPM.from_state(state, object_name="H", maneuvers=[Maneuver(**fields)], mass=mass)
+
+
 def test_omm_reads_into_satellite_like_the_tle():
     omm = vv.read_omm(OMM_KVN)
     assert isinstance(omm, dict) and omm["NORAD_CAT_ID"] == 25544 and omm["BSTAR"] == 1.027e-4

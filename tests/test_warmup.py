@@ -56,3 +56,57 @@ def test_warmup_compiles_every_task(capsys):
     assert cli.main(["warmup", "--quiet"]) == 0
     out = capsys.readouterr()
     assert f"{len(warmup.TASKS)} of {len(warmup.TASKS)} kernel families compiled" in out.out
+
+
+def test_warmup_compiles_the_full_cowell_kernels(monkeypatch):
+    # the warm-up ran only the two-body + J2 kernel: a later process compiled the full force
+    # model (SRP, drag, third bodies, events, a finite burn's thrust) for ~19 s and the batch
+    # kernel for ~10 s on its first call
+    from visviva.satellites import cowell
+
+    seen = set()
+    kind = cowell.rhs_kind
+
+    def spy(force, *ev_kind):  # one state passes its event kinds, a batch none
+        full = kind(force, *ev_kind)
+        seen.add(("one" if ev_kind else "many", full is not None))  # None: zonal only
+        return full
+
+    monkeypatch.setattr(cowell, "rhs_kind", spy)
+    tasks = [(label, task) for label, task in warmup.TASKS if label.startswith("Cowell")]
+    assert all(r[2] is None for r in warmup.warmup(tasks, progress=False, stream=io.StringIO()))
+    assert {("one", False), ("one", True), ("many", False), ("many", True)} <= seen
+
+
+@pytest.mark.slow
+def test_after_warmup_a_new_process_compiles_no_cowell_kernel(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    fill = "from visviva import warmup\nfor label, task in warmup.TASKS:\n" \
+           "    if label.startswith('Cowell'):\n        task()\n"
+    subprocess.run([sys.executable, "-c", fill], env=env, check=True)
+    use = """
+import gc
+import numpy as np
+from astropy import units as u
+from astropy.time import Time
+import visviva as vv
+from visviva.core._jit import _Kernel
+ep = Time("2024-03-01T00:00:00", scale="utc")
+one = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 1.0] * u.km / u.s, vv.EARTH, epoch=ep)
+many = vv.StateVectors([[7000.0, 0, 0]] * 3 * u.km, [[0, 7.5, 1.0]] * 3 * u.km / u.s, vv.EARTH,
+                       epoch=ep)
+burn = vv.FiniteBurn(60 * u.s, 100 * u.s, [1, 0, 0], "RTN", thrust=1 * u.N, mass=100 * u.kg)
+srp = vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow="conical")
+vv.propagate_cowell(one, 3600 * u.s, [srp], events=[vv.satellites.Eclipse()], maneuvers=[burn])
+vv.propagate_cowell(many, 3600 * u.s, [vv.J2(vv.EARTH)], maneuvers=[burn])
+compiled = [k.py_func.__name__ for k in gc.get_objects() if isinstance(k, _Kernel)
+            and sum(k.stats.cache_misses.values())]
+print(sorted(compiled))
+"""
+    out = subprocess.run([sys.executable, "-c", use], env=env, check=True, capture_output=True,
+                         text=True).stdout
+    assert out.strip() == "[]"

@@ -29,6 +29,11 @@ from .errors import (
 
 __all__ = ["StateVectors"]
 
+#: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
+#: carry its name here, kept by indexing, so that the GCRS-only functions refuse them
+#: (:func:`visviva.satellites.satellite_states.require_gcrs`).
+FOREIGN_FRAME_ATTRIBUTE = "_foreign_frame"
+
 
 def _norm(x: np.ndarray) -> np.ndarray:
     """Euclidean norm over the last axis, scaled so that squares cannot overflow."""
@@ -168,9 +173,13 @@ class StateVectors(TwoBodyContainer):
         r = self._r[key + (slice(None),)]
         v = self._v[key + (slice(None),)]
         gm = np.broadcast_to(self._gm, self._shape)[key]
-        return StateVectors._from_canonical(
+        out = StateVectors._from_canonical(
             r, v, np.array(gm), index_epoch(self._epoch, key, self._shape)
         )
+        foreign = getattr(self, FOREIGN_FRAME_ATTRIBUTE, None)
+        if foreign is not None:
+            setattr(out, FOREIGN_FRAME_ATTRIBUTE, foreign)
+        return out
 
     def __repr__(self) -> str:
         if self.size == 0:

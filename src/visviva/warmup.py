@@ -69,6 +69,25 @@ def _cowell():
                         perturbations=[vv.J2(vv.EARTH)])
 
 
+def _cowell_full():
+    # the full force model (drag, SRP, third bodies, harmonics, eclipse events, a finite burn's
+    # thrust) is another compiled kernel than the two-body + zonal one of _cowell, and a batch
+    # of states runs a third, in both variants (coasts zonal-only, the burn full)
+    import numpy as np
+    from astropy import units as u
+
+    import visviva as vv
+
+    burn = vv.FiniteBurn(60.0 * u.s, 60.0 * u.s, [1.0, 0.0, 0.0], "TNW",
+                         acceleration=1e-6 * u.km / u.s**2)
+    t = np.linspace(0.0, 600.0, 3) * u.s
+    one = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+    vv.propagate_cowell(one, t, [vv.J2(vv.EARTH)], maneuvers=[burn])
+    many = vv.StateVectors([[7000.0, 0.0, 0.0], [7100.0, 0.0, 0.0]] * u.km,
+                           [[0.0, 7.5, 1.0], [0.0, 7.4, 1.0]] * u.km / u.s, vv.EARTH)
+    vv.propagate_cowell(many, t, [vv.J2(vv.EARTH)], maneuvers=[burn])
+
+
 def _simulation(integrator, **kw):
     def run():
         import visviva as vv
@@ -111,6 +130,7 @@ TASKS = (
     ("two-body propagation", _propagation),
     ("Lambert", _lambert),
     ("Cowell propagation", _cowell),
+    ("Cowell: full force model, burns, batches", _cowell_full),
     ("N-body: IAS15", _simulation("ias15")),
     ("N-body: WHFast", _simulation("whfast", dt=0.01)),
     ("N-body: WHFast, corrector and other coordinates", _simulation("whfast", dt=0.01, corrector=5)),

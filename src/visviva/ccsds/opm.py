@@ -185,7 +185,7 @@ class OPM(FrameCenterMetadata):
                                         strict=True))},
         }
         if mass is not None:
-            m_kg = float(u.Quantity(mass).to_value(u.kg))
+            m_kg = _one(mass, "mass", "mass")
             if not m_kg > 0:
                 raise InvalidInputError(f"mass must be > 0 kg; got {mass}.")
             sections["spacecraft_parameters"] = {"MASS": m_kg}
@@ -195,22 +195,10 @@ class OPM(FrameCenterMetadata):
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
                                         f"diagonal; got diagonal {diag}.")
             sections["covariance"] = values_from_matrix(covariance)
-        for k, m in enumerate(maneuvers or ()):
-            if not u.Quantity(m.duration).to_value(u.s) >= 0:
-                raise InvalidInputError(f"maneuvers[{k}]: duration = {m.duration}; a burn lasts "
-                                        ">= 0 s (0 for an impulse).")
-            if not u.Quantity(m.delta_mass).to_value(u.kg) <= 0:
-                raise InvalidInputError(f"maneuvers[{k}]: delta_mass = {m.delta_mass}; a manoeuvre "
-                                        "spends mass, so the change is <= 0.")
-        if maneuvers:
-            sections["maneuvers"] = [{
-                "MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system, mission_epoch)[0],
-                "MAN_DURATION": float(u.Quantity(m.duration).to_value(u.s)),
-                "MAN_DELTA_MASS": float(u.Quantity(m.delta_mass).to_value(u.kg)),
-                "MAN_REF_FRAME": m.frame,
-                **dict(zip(("MAN_DV_1", "MAN_DV_2", "MAN_DV_3"),
-                           map(float, u.Quantity(m.delta_v).to_value(u.km / u.s)), strict=True)),
-            } for m in maneuvers]
+        records = [_maneuver_record(k, m, time_system, mission_epoch)
+                   for k, m in enumerate(maneuvers or ())]  # once: a generator is used up
+        if records:
+            sections["maneuvers"] = records
         return cls(sections, mission_epoch=mission_epoch)
 
     def __repr__(self) -> str:
@@ -336,7 +324,48 @@ class OPM(FrameCenterMetadata):
         """
         from ..satellites.cowell import propagate_cowell
 
+        if "maneuvers" in kwargs:
+            raise InvalidInputError(
+                "opm.propagate applies the message's own manoeuvres; for other ones call "
+                "vv.propagate_cowell(opm.state, t, perturbations, maneuvers=[...]).")
         return propagate_cowell(self.state, t, perturbations, maneuvers=self.burns(), **kwargs)
+
+
+def _one(value, kind, name) -> float:
+    """One value of ``kind`` in visviva's unit (kg, s ...), as :meth:`OPM.from_state` writes it."""
+    from .._units import to_array
+
+    arr = to_array(value, kind, name)
+    if arr.ndim != 0:
+        raise InvalidInputError(f"{name} must be one value; got shape {arr.shape}.")
+    return float(arr)
+
+
+def _maneuver_record(k, m, time_system, mission_epoch) -> dict:
+    """The ``MAN_*`` keywords of the manoeuvre ``m`` (``maneuvers[k]`` of
+    :meth:`OPM.from_state`), checked."""
+    from astropy.time import Time
+
+    from .._units import to_vector
+    from .timeframes import time_to_epochs
+
+    if not isinstance(m.epoch, Time) or not m.epoch.isscalar:
+        raise InvalidInputError(f"maneuvers[{k}]: epoch must be one astropy Time (the ignition); "
+                                f"got {m.epoch!r}.")
+    duration = _one(m.duration, "time", f"maneuvers[{k}].duration")
+    if not duration >= 0:
+        raise InvalidInputError(f"maneuvers[{k}]: duration = {m.duration}; a burn lasts "
+                                ">= 0 s (0 for an impulse).")
+    delta_mass = _one(m.delta_mass, "mass", f"maneuvers[{k}].delta_mass")
+    if not delta_mass <= 0:
+        raise InvalidInputError(f"maneuvers[{k}]: delta_mass = {m.delta_mass}; a manoeuvre "
+                                "spends mass, so the change is <= 0.")
+    dv = to_vector(m.delta_v, "speed", f"maneuvers[{k}].delta_v")
+    if dv.shape != (3,):
+        raise InvalidInputError(f"maneuvers[{k}]: delta_v must have shape (3,); got {dv.shape}.")
+    return {"MAN_EPOCH_IGNITION": time_to_epochs(m.epoch, time_system, mission_epoch)[0],
+            "MAN_DURATION": duration, "MAN_DELTA_MASS": delta_mass, "MAN_REF_FRAME": m.frame,
+            **dict(zip(("MAN_DV_1", "MAN_DV_2", "MAN_DV_3"), map(float, dv), strict=True))}
 
 
 def _burns(opm) -> list:

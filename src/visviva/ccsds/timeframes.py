@@ -365,13 +365,16 @@ class FrameCenterMetadata:
         -------
         StateVectors
             A :class:`~visviva.satellites.SatelliteStates` with ``.frame`` for Earth-centred
-            GCRS/TEME/ITRS data, else plain.
+            GCRS/TEME/ITRS data, else plain (Earth-centred data in another frame remember its
+            name, so that :func:`~visviva.satellites.satellite_states.require_gcrs` refuses
+            them).
         """
         from ..satellites.satellite_states import framed_states
 
         earth = str(self.center).strip().upper() == "EARTH"
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
-                             self.visviva_frame if earth else None)
+                             self.visviva_frame if earth else None,
+                             foreign=self.frame if earth else None)
 
 
 def center_body(name: str):

@@ -37,7 +37,7 @@ from ..core.local_frames import FRAME_CODES, INERTIAL, local_axes
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2", "frame_code",
-           "burn_schedule"]
+           "burn_schedule", "refuse_pending"]
 
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
@@ -90,6 +90,16 @@ def _when(value, name):
     if arr.ndim != 0:
         raise InvalidInputError(f"{name} must be one time; got shape {arr.shape}.")
     return float(arr)
+
+
+def _one(value, kind, name) -> np.ndarray:
+    """One value (0-d array) of ``kind`` in visviva's unit: a burn has one thrust, mass ..."""
+    arr = to_array(value, kind, name)
+    if arr.ndim != 0:
+        raise InvalidInputError(
+            f"{name} must be one value; got shape {arr.shape}. A burn has one {name}: build "
+            "one burn per value.")
+    return arr
 
 
 def _describe(when) -> str:
@@ -247,9 +257,7 @@ class FiniteBurn(_Burn):
     def __init__(self, start, duration, direction, frame: str = "GCRS", *, thrust=None,
                  mass=None, isp=None, mass_flow=None, acceleration=None):
         self.start = _when(start, "start")
-        dt = to_array(duration, "time", "duration")
-        if dt.ndim != 0:
-            raise InvalidInputError(f"duration must be one time; got shape {dt.shape}.")
+        dt = _one(duration, "time", "duration")
         if not dt > 0:
             raise InvalidInputError(
                 f"a finite burn lasts > 0 s; got duration = {float(dt)} s. For an instantaneous "
@@ -270,7 +278,7 @@ class FiniteBurn(_Burn):
                     "give either acceleration=..., or thrust=... and mass=... (with isp or "
                     "mass_flow), not both."
                 )
-            acc = to_array(acceleration, "accel", "acceleration")
+            acc = _one(acceleration, "accel", "acceleration")
             require_positive(acc, "acceleration")
             self.accel0_km_s2, self.mass_rate, self.mass_kg, self.mdot_kg_s = float(acc), 0.0, None, 0.0
             return
@@ -279,19 +287,19 @@ class FiniteBurn(_Burn):
                 "a finite burn needs thrust=... and mass=... (e.g. thrust=400 * u.N, "
                 "mass=1000 * u.kg, isp=300 * u.s), or a constant acceleration=...."
             )
-        f_n = to_array(thrust, "force", "thrust")
-        m0 = to_array(mass, "mass", "mass")
+        f_n = _one(thrust, "force", "thrust")
+        m0 = _one(mass, "mass", "mass")
         require_positive(f_n, "thrust")
         require_positive(m0, "mass")
         if isp is not None and mass_flow is not None:
             raise InvalidInputError("give isp or mass_flow, not both.")
         mdot = 0.0
         if isp is not None:
-            isp_s = to_array(isp, "time", "isp")
+            isp_s = _one(isp, "time", "isp")
             require_positive(isp_s, "isp")
             mdot = float(f_n) / (float(isp_s) * STANDARD_GRAVITY_M_S2)
         elif mass_flow is not None:
-            mdot_arr = to_array(mass_flow, "mass_flow", "mass_flow")
+            mdot_arr = _one(mass_flow, "mass_flow", "mass_flow")
             require_positive(mdot_arr, "mass_flow", strict=False)
             mdot = float(mdot_arr)
         m_end = float(m0) - mdot * self.duration_s
@@ -401,8 +409,13 @@ class _Schedule:
         self.items = items  # (start_s, end_s, burn), by start
         self.records = []
 
+    def __bool__(self) -> bool:
+        """Whether there is any burn (an empty schedule runs as no schedule)."""
+        return bool(self.items)
+
     def snap(self, t_out) -> None:
-        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it."""
+        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it (a finite
+        burn whose start and end would meet keeps its duration)."""
         t_out = np.asarray(t_out, dtype=np.float64)
         if t_out.size == 0:
             return
@@ -413,7 +426,11 @@ class _Schedule:
             best = min(close, key=lambda c: abs(c - x))
             return float(best) if abs(best - x) <= SNAP_S else x
 
-        self.items = [(near(a), near(b), m) for a, b, m in self.items]
+        def both(a, b):  # a finite burn never shrinks to nothing: then it moves as a whole
+            a1, b1 = near(a), near(b)
+            return (a1, b1) if b1 > a1 or a == b else (a1, a1 + (b - a))
+
+        self.items = [(*both(a, b), m) for a, b, m in self.items]
 
     def check_state(self, t: float, y) -> None:
         """Refuse a finite burn in a local frame that starts where the frame is undefined
@@ -505,6 +522,33 @@ class _SegmentModel:
 PENDING_ATTRIBUTE = "_pending_maneuvers"
 
 
+def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "
+                   "perturbations), which applies them.") -> None:
+    """Refuse a state read from an OPM with manoeuvres where ``what`` would ignore them.
+
+    Parameters
+    ----------
+    state : StateVectors
+        The state (an OPM's :attr:`~visviva.ccsds.opm.OPM.state` says how many manoeuvres its
+        message has).
+    what : str
+        The function that cannot apply manoeuvres, for the message.
+    remedy : str
+        What to do instead.
+
+    Raises
+    ------
+    InvalidInputError
+        When the state carries manoeuvres.
+    """
+    pending = getattr(state, PENDING_ATTRIBUTE, None)
+    if pending:
+        raise InvalidInputError(
+            f"this state comes from an OPM with {pending} manoeuvre(s), which {what} would "
+            f"ignore. {remedy}"
+        )
+
+
 def burn_schedule(maneuvers, state, epoch):
     """Check ``maneuvers`` of :func:`visviva.propagate_cowell` and order them.
 
@@ -520,22 +564,18 @@ def burn_schedule(maneuvers, state, epoch):
     Returns
     -------
     _Schedule or None
-        None when there are no burns.
+        None without ``maneuvers``; an empty (false) schedule for an empty list.
     """
-    pending = getattr(state, PENDING_ATTRIBUTE, None)
     if maneuvers is None:
-        if pending:
-            raise InvalidInputError(
-                f"this state comes from an OPM with {pending} manoeuvre(s), which "
-                "propagate_cowell would ignore. Pass maneuvers=opm.burns() to apply them (or "
-                "call opm.propagate(t, perturbations)), or maneuvers=[] to propagate without."
-            )
+        refuse_pending(state, "propagate_cowell", "Pass maneuvers=opm.burns() to apply them (or "
+                       "call opm.propagate(t, perturbations)), or maneuvers=[] to propagate "
+                       "without.")
         return None
     if isinstance(maneuvers, _Burn):
         maneuvers = [maneuvers]
     maneuvers = list(maneuvers)
     if not maneuvers:
-        return None
+        return _Schedule([])  # nothing to split at; the result reports no burns
     for m in maneuvers:
         if not isinstance(m, _Burn):
             raise InvalidInputError(
@@ -553,10 +593,11 @@ def burn_schedule(maneuvers, state, epoch):
             )
         items.append((a, a + getattr(m, "duration_s", 0.0), m))
     items.sort(key=lambda x: x[0])
-    finite = [x for x in items if isinstance(x[2], FiniteBurn)]
-    for a, b, m in finite:
-        for c, d, other in items:
-            if other is m:
+    for i, (a, b, m) in enumerate(items):
+        if not isinstance(m, FiniteBurn):
+            continue
+        for j, (c, d, other) in enumerate(items):
+            if j == i:
                 continue
             inside = a < c < b if isinstance(other, ImpulsiveBurn) else (c < b and a < d)
             if inside:

@@ -268,7 +268,8 @@ class CowellResult:
     n_steps, n_evaluations : int
         Accepted steps and right-hand-side evaluations.
     burns : list of BurnRecord
-        Only for a run with ``maneuvers``: what each burn did (:mod:`visviva.satellites.burns`).
+        Only for a run with ``maneuvers`` (``[]`` for an empty list): what each burn did
+        (:mod:`visviva.satellites.burns`).
     final_mass : Quantity or None
         Only for a run with ``maneuvers``: the mass after the last burn that knows it, kg.
     """
@@ -458,7 +459,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if part.size == 0:
             continue
-        run = _run_many if t_end < 0 or schedule is None else schedule.run_many(_run_many)
+        run = _run_many if t_end < 0 or not schedule else schedule.run_many(_run_many)
         y_out, status, info = run(y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max,
                                   max_steps)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
@@ -637,7 +638,7 @@ def propagate_cowell(
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if t_end == 0.0 and part.size == 0:
             continue
-        run = _run if t_end < 0 or schedule is None else schedule.run(_run)
+        run = _run if t_end < 0 or not schedule else schedule.run(_run)
         status, y_out, ev_t, ev_y, ev_which, info = run(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )

@@ -397,6 +397,10 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
     from .satellite_states import require_gcrs
 
     require_gcrs(states, "propagate_dask(method='cowell')")
+    from .burns import refuse_pending
+
+    refuse_pending(states, "propagate_dask", "Use opm.propagate(t, perturbations), which "
+                   "applies them.")
     unknown = set(options) - {"rtol", "atol", "max_step", "max_steps"}
     if unknown:
         raise InvalidInputError(

@@ -16,7 +16,7 @@ from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
     InvalidInputError,
 )
-from ..states import StateVectors
+from ..states import FOREIGN_FRAME_ATTRIBUTE, StateVectors
 
 __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
            "require_gcrs", "framed_states", "with_frame"]
@@ -25,7 +25,9 @@ __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements
 FRAMES = ("gcrs", "teme", "itrs")
 
 
-def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
+
+
+def framed_states(r_km, v_km_s, gm_km3_s2, times, frame, *, foreign=None):
     """States that know their frame (:class:`SatelliteStates`) when ``frame`` is one of visviva's
     Earth frames (``"gcrs"``, ``"teme"``, ``"itrs"``), else plain :class:`~visviva.StateVectors`.
 
@@ -39,13 +41,19 @@ def framed_states(r_km, v_km_s, gm_km3_s2, times, frame):
         The states' times.
     frame : str or None
         Their frame; None (or another name) leaves them unlabelled.
+    foreign : str, optional
+        For unlabelled Earth-centred states: the name of their frame (``"TOD"``), which
+        :func:`require_gcrs` names when it refuses them.
 
     Returns
     -------
     StateVectors
     """
     if frame not in FRAMES:
-        return StateVectors._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+        plain = StateVectors._from_canonical(r_km, v_km_s, gm_km3_s2, times)
+        if foreign is not None:
+            setattr(plain, FOREIGN_FRAME_ATTRIBUTE, str(foreign))
+        return plain
     obj = SatelliteStates._from_canonical(r_km, v_km_s, gm_km3_s2, times)
     obj.frame = frame
     return obj
@@ -85,8 +93,16 @@ def with_frame(obj, frame):
 def require_gcrs(states, what: str) -> None:
     """Refuse satellite states that say they are not in the GCRS (``what`` works there).
 
-    Plain :class:`~visviva.StateVectors` carry no frame and pass (they are taken as GCRS).
+    Plain :class:`~visviva.StateVectors` carry no frame and pass (they are taken as GCRS),
+    unless they were read as Earth-centred in a frame visviva cannot rotate (``REF_FRAME = TOD``).
     """
+    foreign = getattr(states, FOREIGN_FRAME_ATTRIBUTE, None)
+    if foreign is not None:
+        raise InvalidInputError(
+            f"{what} works in the GCRS, but these states are Earth-centred in REF_FRAME = "
+            f"{foreign}, which visviva cannot rotate to the GCRS (it reads EME2000, GCRF, ICRF, "
+            "TEME, ITRF): convert them to one of those first."
+        )
     frame = getattr(states, "frame", None)
     if frame is not None and frame != "gcrs":
         raise InvalidInputError(
@@ -199,9 +215,13 @@ class SatelliteStates(_Framed, StateVectors):
         Raises
         ------
         InvalidInputError
-            The states are in the rotating ITRS, where Kepler motion does not hold.
+            The states are in the rotating ITRS, where Kepler motion does not hold, or come
+            from an OPM with manoeuvres (:meth:`visviva.ccsds.opm.OPM.propagate` applies them).
         """
         self._refuse_itrs("Kepler motion does not hold in it")
+        from .burns import refuse_pending
+
+        refuse_pending(self, "two-body propagation")
         return self._in_my_frame(super().propagate(dt))
 
     @property

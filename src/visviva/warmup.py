@@ -104,6 +104,18 @@ def _satellite():
     sat.gcrs(np.linspace(0.0, 600.0, 3) * u.s)
 
 
+def _conjunctions():
+    import numpy as np
+
+    from visviva.conjunctions import collision_probability
+
+    r1, v1 = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    c = np.diag([1e-2, 4e-2, 1e-2, 1e-6, 1e-6, 1e-6])
+    args = (r1, v1, c, r1 + np.array([0.1, 0.05, 0.0]), np.array([0.0, 5.0, 5.6]), c, 0.02)
+    collision_probability(*args)
+    collision_probability(*args, method="pc3d_hall", window=(-60.0, 60.0))
+
+
 #: (label, function): what ``visviva warmup`` runs, in order.
 TASKS = (
     ("states <-> elements", _elements),
@@ -117,6 +129,7 @@ TASKS = (
     ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),
+    ("conjunctions: Foster and 3D-Nc (pc3d_hall)", _conjunctions),
 )
 
 

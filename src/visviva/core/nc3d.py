@@ -1,0 +1,363 @@
+"""Kernels of Hall's (2021) 3D-Nc collision probability (NASA CARA's ``Pc3D_Hall``).
+
+The conjunction layer (:mod:`visviva.conjunctions.nc3d`) finds where the collision rate lives and
+integrates it over time; these kernels do the work per time point, in metres and seconds:
+
+* :func:`pop_linearise`: for each time ``t`` from TCA, the two-body state and its Jacobian with
+  respect to the equinoctial elements at TCA (complex step: the Kepler equation is solved once
+  in real arithmetic and one complex Newton step carries the derivatives, exact to rounding),
+  iterated to the *peak overlap position* of the two position densities (Hall 2021, sec. III).
+  A time point whose iteration leaves the elliptic domain or makes a position covariance
+  singular keeps the linearisation about the mean elements and is flagged.
+* :func:`log_rates`: ln of the collision rate at each time point, the flux of the relative
+  position into the hard-body sphere integrated over the sphere by a product Gauss-Legendre rule
+  adapted to the position density (the caller passes the covariance's eigen-decomposition).
+
+Reference: D. Hall, "Expected Collision Rates for Tracked Satellites", JSR 58 (2021) 715;
+equinoctial elements: Broucke & Cefola, Celest. Mech. 5 (1972) 303.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import inline_kernel, kernel
+from .collision import log_ndtr
+
+__all__ = ["pop_linearise", "log_rates", "state_jacobian", "POP_OK", "POP_FAILED", "POP_SINGULAR"]
+
+#: status per time point: converged; kept about the mean (left the domain, or did not converge);
+#: the position covariance at the mean elements is singular (the caller refuses the case)
+POP_OK, POP_FAILED, POP_SINGULAR = 0, 1, 2
+
+_STEP = 1e-30  # complex-step size
+_POP_ITERATIONS = 60
+_POP_TOL = 1e-4  # change of the expansion centre, in sigmas of each element
+_LOG_2PI = math.log(2.0 * math.pi)
+_SQRT_2PI = math.sqrt(2.0 * math.pi)
+
+
+@inline_kernel
+def _kepler_real(lam, h, k):
+    """Eccentric longitude F of ``lam = F + h cos F - k sin F`` (Newton from F = lam)."""
+    f = lam
+    for _ in range(50):
+        c, s = math.cos(f), math.sin(f)
+        step = (f + h * c - k * s - lam) / (1.0 - h * s - k * c)
+        f = f - step
+        if not abs(step) >= 1e-15:  # NaN stops too
+            break
+    return f
+
+
+@kernel
+def state_jacobian(es, t, gm, x, jac):
+    """State ``x`` (6,) at ``t`` of the elements ``es`` at TCA and ``jac`` = dx/des (6, 6).
+
+    ``es = (n, k, h, p, q, lam)``; the mean longitude at ``t`` is ``lam + n t``.
+    """
+    f_real = _kepler_real(es[5] + es[0] * t, es[2], es[1])
+    e = np.empty(6, dtype=np.complex128)
+    for col in range(7):
+        for j in range(6):
+            e[j] = es[j]
+        if col > 0:
+            e[col - 1] += 1j * _STEP
+        n, k, h, p, q = e[0], e[1], e[2], e[3], e[4]
+        lam = e[5] + n * t
+        # one Newton step from the real root carries the imaginary part (first order is exact)
+        c0, s0 = math.cos(f_real), math.sin(f_real)
+        big_f = f_real - (f_real + h * c0 - k * s0 - lam) / (1.0 - h * s0 - k * c0)
+        c, s = np.cos(big_f), np.sin(big_f)
+        a = np.exp(np.log(gm / (n * n)) / 3.0)
+        beta = 1.0 / (1.0 + np.sqrt(1.0 - h * h - k * k))
+        x1 = a * ((1.0 - h * h * beta) * c + h * k * beta * s - k)
+        y1 = a * ((1.0 - k * k * beta) * s + h * k * beta * c - h)
+        fac = n * a * a / (a * (1.0 - k * c - h * s))
+        xd = fac * (h * k * beta * c - (1.0 - h * h * beta) * s)
+        yd = fac * ((1.0 - k * k * beta) * c - h * k * beta * s)
+        s2 = 1.0 + p * p + q * q
+        fx, fy, fz = (1.0 - p * p + q * q) / s2, 2.0 * p * q / s2, -2.0 * p / s2
+        gx, gy, gz = 2.0 * p * q / s2, (1.0 + p * p - q * q) / s2, 2.0 * q / s2
+        st = (x1 * fx + y1 * gx, x1 * fy + y1 * gy, x1 * fz + y1 * gz,
+              xd * fx + yd * gx, xd * fy + yd * gy, xd * fz + yd * gz)
+        for j in range(6):
+            if col == 0:
+                x[j] = st[j].real
+            else:
+                jac[j, col - 1] = st[j].imag / _STEP
+
+
+@inline_kernel
+def _cholesky3(a, low):
+    """Lower Cholesky factor of the symmetric 3x3 ``a`` into ``low``; False unless finite and
+    positive definite."""
+    for i in range(3):
+        for j in range(i + 1):
+            s = a[i, j]
+            for m in range(j):
+                s -= low[i, m] * low[j, m]
+            if i == j:
+                if not s > 0.0:
+                    return False
+                low[i, i] = math.sqrt(s)
+            else:
+                low[i, j] = s / low[j, j]
+                if not math.isfinite(low[i, j]):
+                    return False
+    return True
+
+
+@inline_kernel
+def _cho_solve3(low, b, out):
+    """``out = A^-1 b`` from the Cholesky factor of A (``out`` may be ``b``)."""
+    y0 = b[0] / low[0, 0]
+    y1 = (b[1] - low[1, 0] * y0) / low[1, 1]
+    y2 = (b[2] - low[2, 0] * y0 - low[2, 1] * y1) / low[2, 2]
+    out[2] = y2 / low[2, 2]
+    out[1] = (y1 - low[2, 1] * out[2]) / low[1, 1]
+    out[0] = (y0 - low[1, 0] * out[1] - low[2, 0] * out[2]) / low[0, 0]
+
+
+@kernel
+def _linearise(es, e0, q, t, gm, xu, p, jac, x):
+    """Mean ``xu`` (6,) and covariance ``p`` (6, 6) of the state at ``t`` linearised about the
+    centre ``es`` (``jac``, ``x``: work arrays); False unless finite with a positive-definite
+    position block."""
+    state_jacobian(es, t, gm, x, jac)
+    for i in range(6):
+        s = x[i]
+        for j in range(6):
+            s += jac[i, j] * (e0[j] - es[j])
+        xu[i] = s
+    for i in range(6):
+        for m in range(6):
+            s = 0.0
+            for r in range(6):
+                s += jac[i, r] * q[r, m]
+            x[m] = s  # row i of J Q (x is free again)
+        for j in range(6):
+            s = 0.0
+            for m in range(6):
+                s += x[m] * jac[j, m]
+            p[i, j] = s
+    for i in range(6):
+        if not math.isfinite(xu[i]):
+            return False
+        for j in range(6):
+            if not math.isfinite(p[i, j]):
+                return False
+    return _cholesky3(p[:3, :3], np.empty((3, 3)))
+
+
+@kernel
+def _pop_point(t, e1, q1, e2, q2, gm, xu, p):
+    """Peak-overlap linearisation of both objects at one time ``t``; ``xu`` (2, 6), ``p``
+    (2, 6, 6) receive it. Returns a ``POP_*`` status."""
+    e0 = (e1, e2)
+    qs = (q1, q2)
+    cen = np.empty((2, 6))
+    cen[0] = e1
+    cen[1] = e2
+    mean_xu = np.empty((2, 6))
+    mean_p = np.empty((2, 6, 6))
+    jacs = np.empty((2, 6, 6))
+    x = np.empty(6)
+    low = np.empty((2, 3, 3))
+    lsum = np.empty((3, 3))
+    inv = np.empty((2, 3, 3))
+    rhs = np.empty(3)
+    col = np.empty(3)
+    d = np.empty(3)
+    new = np.empty(6)
+    g = np.empty(6)
+    failed = False
+    for it in range(_POP_ITERATIONS + 1):
+        good = True
+        for j in range(2):
+            good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
+        if it == 0:
+            mean_xu[:] = xu
+            mean_p[:] = p
+        if not good or failed:
+            xu[:] = mean_xu
+            p[:] = mean_p
+            for j in range(2):
+                if not _cholesky3(p[j, :3, :3], low[j]):
+                    return POP_SINGULAR
+            return POP_FAILED
+        if it == _POP_ITERATIONS:
+            return POP_FAILED
+        # r* = (A1^-1 + A2^-1)^-1 (A1^-1 xu1 + A2^-1 xu2)
+        rhs[:] = 0.0
+        for j in range(2):
+            _cholesky3(p[j, :3, :3], low[j])
+            for m in range(3):
+                col[:] = 0.0
+                col[m] = 1.0
+                _cho_solve3(low[j], col, col)
+                inv[j, :, m] = col
+            for m in range(3):
+                for i in range(3):
+                    rhs[m] += inv[j, m, i] * xu[j, i]
+        if not _cholesky3(inv[0] + inv[1], lsum):
+            xu[:] = mean_xu
+            p[:] = mean_p
+            return POP_FAILED
+        _cho_solve3(lsum, rhs, rhs)
+        moved = 0.0
+        for j in range(2):
+            for i in range(3):
+                d[i] = rhs[i] - xu[j, i]
+            _cho_solve3(low[j], d, d)
+            # new centre: E0 + Q Jr^T A^-1 (r* - xu)
+            for i in range(6):
+                g[i] = jacs[j, 0, i] * d[0] + jacs[j, 1, i] * d[1] + jacs[j, 2, i] * d[2]
+            for m in range(6):
+                s = 0.0
+                for i in range(6):
+                    s += qs[j][m, i] * g[i]
+                new[m] = e0[j][m] + s
+            if not (new[0] > 0.0 and new[1] * new[1] + new[2] * new[2] < 1.0):
+                failed = True  # NaN lands here too
+            for m in range(6):
+                sc = math.sqrt(qs[j][m, m])
+                moved = max(moved, abs(new[m] - cen[j, m]) / sc)
+            if not failed:
+                cen[j] = new
+        if failed:
+            continue  # the next pass restores the mean linearisation
+        if moved < _POP_TOL:
+            # the linearisation about the converged centres
+            good = True
+            for j in range(2):
+                good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
+            if good:
+                return POP_OK
+            failed = True
+    return POP_FAILED
+
+
+@kernel
+def pop_linearise(t, e1, q1, e2, q2, gm, xu, p, status):
+    """Peak-overlap linearisations at the times ``t`` (N,) (s from TCA).
+
+    ``e1``, ``e2``: equinoctial elements (6,) at TCA (rad/s, -, -, -, -, rad); ``q1``, ``q2``:
+    their covariances (6, 6); ``gm`` in m^3/s^2. Fills ``xu`` (N, 2, 6) (m, m/s), ``p``
+    (N, 2, 6, 6) and ``status`` (N,) with a ``POP_*`` code.
+    """
+    for i in range(t.size):
+        status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, xu[i], p[i])
+
+
+@kernel
+def log_rates(ru, vu, ps, w, vecs, hbr, k_sigma, gu, gp, out):
+    r"""ln of the collision rate (1/s) at each time point, ``R^2 \oint N(R n) E[(-n.v)^+ | R n]``.
+
+    ``ru``, ``vu``: relative mode position and velocity (N, 3) (m, m/s); ``ps``: relative
+    covariance (N, 6, 6); ``w``, ``vecs``: eigenvalues (clipped, m^2) and eigenvectors of its
+    position block (N, 3) and (N, 3, 3); ``hbr`` (m); ``k_sigma``: sigmas kept either side of
+    the density's centre; ``gu``, ``gp``: Gauss-Legendre nodes (row 0) and weights (row 1) in
+    ``u = cos(theta)`` and along each half ring. The velocity is the conditional Gaussian given
+    the position (Hall 2021 eq. 36 ff.).
+    """
+    n_u = gu.shape[1]
+    n_p = gp.shape[1]
+    for i in range(ru.shape[0]):
+        out[i] = _log_rate_point(ru[i], vu[i], ps[i], w[i], vecs[i], hbr, k_sigma, gu, gp,
+                                 n_u, n_p)
+
+
+@kernel
+def _log_rate_point(ru, vu, ps, w, vecs, hbr, k_sigma, gu, gp, n_u, n_p):
+    ainv = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            s = 0.0
+            for m in range(3):
+                s += vecs[a, m] * vecs[b, m] / w[m]
+            ainv[a, b] = s
+    logdet = math.log(w[0]) + math.log(w[1]) + math.log(w[2])
+    bs = np.empty((3, 3))  # B A^-1, B = cov(v, r)
+    for a in range(3):
+        for b in range(3):
+            bs[a, b] = (ps[3 + a, 0] * ainv[0, b] + ps[3 + a, 1] * ainv[1, b]
+                        + ps[3 + a, 2] * ainv[2, b])
+    cp = np.empty((3, 3))  # C - B A^-1 B^T: the velocity covariance given the position
+    for a in range(3):
+        for b in range(3):
+            cp[a, b] = ps[3 + a, 3 + b] - (bs[a, 0] * ps[3 + b, 0] + bs[a, 1] * ps[3 + b, 1]
+                                           + bs[a, 2] * ps[3 + b, 2])
+    m_e = np.empty(3)  # the centre in the eigenframe
+    for a in range(3):
+        m_e[a] = vecs[0, a] * ru[0] + vecs[1, a] * ru[1] + vecs[2, a] * ru[2]
+    sig0, sig1 = math.sqrt(w[0]), math.sqrt(w[1])
+    u_lo = min(max((m_e[0] - k_sigma * sig0) / hbr, -1.0), 1.0)
+    u_hi = min(max((m_e[0] + k_sigma * sig0) / hbr, -1.0), 1.0)
+    half = 0.5 * (u_hi - u_lo)
+    mid = 0.5 * (u_hi + u_lo)
+    const = -0.5 * logdet - 1.5 * _LOG_2PI
+    top = -math.inf
+    total = 0.0
+    d = np.empty(3)
+    nv = np.empty(3)
+    vm = np.empty(3)
+    for iu in range(n_u):
+        u = mid + half * gu[0, iu]
+        wu = half * gu[1, iu]
+        st = math.sqrt(max(1.0 - u * u, 0.0))
+        ring = hbr * st
+        if ring > 0:
+            c_hi = (m_e[1] + k_sigma * sig1) / ring
+            c_lo = (m_e[1] - k_sigma * sig1) / ring
+        else:
+            c_hi, c_lo = 1.0, -1.0
+        p_lo = math.acos(min(max(c_hi, -1.0), 1.0))
+        p_hi = math.acos(min(max(c_lo, -1.0), 1.0))
+        ph = 0.5 * (p_hi - p_lo)
+        pm = 0.5 * (p_hi + p_lo)
+        for ip in range(2 * n_p):
+            sign = 1.0 if ip < n_p else -1.0
+            jp = ip % n_p
+            phi = sign * (pm + ph * gp[0, jp])
+            weight = wu * ph * gp[1, jp]
+            if not weight > 0:
+                continue
+            loc0, loc1, loc2 = u, st * math.cos(phi), st * math.sin(phi)
+            for a in range(3):
+                nv[a] = vecs[a, 0] * loc0 + vecs[a, 1] * loc1 + vecs[a, 2] * loc2
+                d[a] = hbr * nv[a] - ru[a]
+            md2 = 0.0
+            for a in range(3):
+                for b in range(3):
+                    md2 += d[a] * ainv[a, b] * d[b]
+            mu = 0.0
+            var = 0.0
+            for a in range(3):
+                vm[a] = vu[a] + bs[a, 0] * d[0] + bs[a, 1] * d[1] + bs[a, 2] * d[2]
+                mu -= nv[a] * vm[a]
+                for b in range(3):
+                    var += nv[a] * cp[a, b] * nv[b]
+            sd = math.sqrt(max(var, 0.0))
+            # E[w+] for w ~ N(mu, sd^2): mu Phi(mu/sd) + sd phi(mu/sd); far tail sd phi(z)/z^2
+            if sd > 0:
+                z = mu / sd
+                if z < -30.0:
+                    log_e = math.log(sd) - 0.5 * z * z - 0.5 * _LOG_2PI - 2.0 * math.log(-z)
+                else:
+                    ez = mu * math.exp(log_ndtr(z)) + sd * math.exp(-0.5 * z * z) / _SQRT_2PI
+                    log_e = math.log(max(ez, 1e-320))
+            else:
+                log_e = math.log(max(mu, 1e-320))
+            term = const - 0.5 * md2 + log_e + math.log(weight)
+            # running log-sum-exp
+            if term > top:
+                total = total * math.exp(top - term) + 1.0 if top > -math.inf else 1.0
+                top = term
+            elif term > -math.inf:
+                total += math.exp(term - top)
+    if top == -math.inf:
+        return -math.inf
+    return top + math.log(total) + 2.0 * math.log(hbr)

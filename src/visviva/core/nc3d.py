@@ -153,16 +153,24 @@ def _linearise(es, e0, q, t, gm, xu, p, jac, x):
 
 
 @kernel
-def _pop_point(t, e1, q1, e2, q2, gm, xu, p):
-    """Peak-overlap linearisation of both objects at one time ``t``; ``xu`` (2, 6), ``p``
-    (2, 6, 6) receive it. Returns a ``POP_*`` status."""
+def _about_mean(t, e1, q1, e2, q2, gm, xu, p):
+    """Both linearisations about the mean elements; ``POP_FAILED``, or ``POP_SINGULAR`` where
+    a position covariance is not positive definite even there."""
+    jac = np.empty((6, 6))
+    x = np.empty(6)
+    good = _linearise(e1, e1, q1, t, gm, xu[0], p[0], jac, x)
+    good &= _linearise(e2, e2, q2, t, gm, xu[1], p[1], jac, x)
+    return POP_FAILED if good else POP_SINGULAR
+
+
+@kernel
+def _pop_point(t, e1, q1, e2, q2, gm, cen, xu, p):
+    """Peak-overlap linearisation of both objects at one time ``t``, iterated from the centres
+    ``cen`` (2, 6) (updated in place); ``xu`` (2, 6), ``p`` (2, 6, 6) receive it. Returns a
+    ``POP_*`` status: a point whose iteration leaves the elliptic domain, meets a singular
+    covariance or does not converge is linearised about the mean elements instead."""
     e0 = (e1, e2)
     qs = (q1, q2)
-    cen = np.empty((2, 6))
-    cen[0] = e1
-    cen[1] = e2
-    mean_xu = np.empty((2, 6))
-    mean_p = np.empty((2, 6, 6))
     jacs = np.empty((2, 6, 6))
     x = np.empty(6)
     low = np.empty((2, 3, 3))
@@ -171,25 +179,18 @@ def _pop_point(t, e1, q1, e2, q2, gm, xu, p):
     rhs = np.empty(3)
     col = np.empty(3)
     d = np.empty(3)
-    new = np.empty(6)
+    new = np.empty((2, 6))
     g = np.empty(6)
-    failed = False
-    for it in range(_POP_ITERATIONS + 1):
+    res = np.empty((2, 6))  # the last residual (sigmas) and fixed-point image
+    prev = np.empty((2, 6))
+    have_prev = False
+    last_moved = math.inf
+    for _ in range(_POP_ITERATIONS):
         good = True
         for j in range(2):
             good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
-        if it == 0:
-            mean_xu[:] = xu
-            mean_p[:] = p
-        if not good or failed:
-            xu[:] = mean_xu
-            p[:] = mean_p
-            for j in range(2):
-                if not _cholesky3(p[j, :3, :3], low[j]):
-                    return POP_SINGULAR
-            return POP_FAILED
-        if it == _POP_ITERATIONS:
-            return POP_FAILED
+        if not good:
+            break
         # r* = (A1^-1 + A2^-1)^-1 (A1^-1 xu1 + A2^-1 xu2)
         rhs[:] = 0.0
         for j in range(2):
@@ -203,41 +204,61 @@ def _pop_point(t, e1, q1, e2, q2, gm, xu, p):
                 for i in range(3):
                     rhs[m] += inv[j, m, i] * xu[j, i]
         if not _cholesky3(inv[0] + inv[1], lsum):
-            xu[:] = mean_xu
-            p[:] = mean_p
-            return POP_FAILED
+            break
         _cho_solve3(lsum, rhs, rhs)
         moved = 0.0
+        usable = True
         for j in range(2):
             for i in range(3):
                 d[i] = rhs[i] - xu[j, i]
             _cho_solve3(low[j], d, d)
-            # new centre: E0 + Q Jr^T A^-1 (r* - xu)
+            # the most probable elements whose linearised position is r*: E0 + Q Jr^T A^-1 (r* - xu)
             for i in range(6):
                 g[i] = jacs[j, 0, i] * d[0] + jacs[j, 1, i] * d[1] + jacs[j, 2, i] * d[2]
             for m in range(6):
                 s = 0.0
                 for i in range(6):
                     s += qs[j][m, i] * g[i]
-                new[m] = e0[j][m] + s
-            if not (new[0] > 0.0 and new[1] * new[1] + new[2] * new[2] < 1.0):
-                failed = True  # NaN lands here too
-            for m in range(6):
-                sc = math.sqrt(qs[j][m, m])
-                moved = max(moved, abs(new[m] - cen[j, m]) / sc)
-            if not failed:
-                cen[j] = new
-        if failed:
-            continue  # the next pass restores the mean linearisation
-        if moved < _POP_TOL:
-            # the linearisation about the converged centres
+                new[j, m] = e0[j][m] + s
+                moved = max(moved, abs(new[j, m] - cen[j, m]) / math.sqrt(qs[j][m, m]))
+            usable &= new[j, 0] > 0.0 and new[j, 1] * new[j, 1] + new[j, 2] * new[j, 2] < 1.0
+        if not usable:  # NaN lands here too
+            break
+        if moved < _POP_TOL:  # the linearisation about the converged centres
+            cen[:] = new
             good = True
             for j in range(2):
                 good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
             if good:
                 return POP_OK
-            failed = True
-    return POP_FAILED
+            break
+        # the map converges linearly (slowly far from TCA): an Anderson step of depth one (a
+        # secant step on the residual new - cen, in sigmas) where the residual shrinks
+        num = 0.0
+        den = 0.0
+        for j in range(2):
+            for m in range(6):
+                sc = math.sqrt(qs[j][m, m])
+                r_now = (new[j, m] - cen[j, m]) / sc
+                dr = r_now - res[j, m]
+                num += r_now * dr
+                den += dr * dr
+                res[j, m] = r_now
+        accelerate = have_prev and moved < last_moved and den > 0.0
+        last_moved = moved
+        have_prev = True
+        for j in range(2):
+            for m in range(6):
+                step = new[j, m]
+                if accelerate:
+                    step -= num / den * (new[j, m] - prev[j, m])
+                prev[j, m] = new[j, m]
+                cen[j, m] = step
+        if accelerate:
+            for j in range(2):
+                if not (cen[j, 0] > 0.0 and cen[j, 1] ** 2 + cen[j, 2] ** 2 < 1.0):
+                    cen[:] = prev  # the secant step left the domain: the plain step
+    return _about_mean(t, e1, q1, e2, q2, gm, xu, p)
 
 
 @kernel
@@ -246,10 +267,21 @@ def pop_linearise(t, e1, q1, e2, q2, gm, xu, p, status):
 
     ``e1``, ``e2``: equinoctial elements (6,) at TCA (rad/s, -, -, -, -, rad); ``q1``, ``q2``:
     their covariances (6, 6); ``gm`` in m^3/s^2. Fills ``xu`` (N, 2, 6) (m, m/s), ``p``
-    (N, 2, 6, 6) and ``status`` (N,) with a ``POP_*`` code.
+    (N, 2, 6, 6) and ``status`` (N,) with a ``POP_*`` code. Each point's iteration starts from
+    the centres its predecessor in ``t`` converged to (sort ``t`` for the best start), and from
+    the mean elements where that fails.
     """
+    cen = np.empty((2, 6))
+    warm = False
     for i in range(t.size):
-        status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, xu[i], p[i])
+        status[i] = POP_FAILED
+        if warm:
+            status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
+        if status[i] != POP_OK:
+            cen[0] = e1
+            cen[1] = e2
+            status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
+        warm = status[i] == POP_OK
 
 
 @kernel

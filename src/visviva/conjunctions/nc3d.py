@@ -94,14 +94,10 @@ def _relative(t, el, gm):
     point keeps the linearisation about the mean elements ``E0`` and is reported as not
     converged (the caller refuses the result only where the collision rate matters).
     """
-    order = np.argsort(t, kind="stable")  # each point starts from its predecessor's centres
     xu = np.empty((t.size, 2, 6))
     p = np.empty((t.size, 2, 6, 6))
     status = np.empty(t.size, dtype=np.int64)
-    pop_linearise(np.ascontiguousarray(t[order], dtype=float), *el, gm, xu, p, status)
-    back = np.empty_like(order)
-    back[order] = np.arange(t.size)
-    xu, p, status = xu[back], p[back], status[back]
+    pop_linearise(np.ascontiguousarray(t, dtype=float), *el, gm, xu, p, status)
     if np.any(status == POP_SINGULAR):
         raise ConvergenceError(
             "the 3D-Nc method found a singular position covariance at the mean elements; "

@@ -267,21 +267,15 @@ def pop_linearise(t, e1, q1, e2, q2, gm, xu, p, status):
 
     ``e1``, ``e2``: equinoctial elements (6,) at TCA (rad/s, -, -, -, -, rad); ``q1``, ``q2``:
     their covariances (6, 6); ``gm`` in m^3/s^2. Fills ``xu`` (N, 2, 6) (m, m/s), ``p``
-    (N, 2, 6, 6) and ``status`` (N,) with a ``POP_*`` code. Each point's iteration starts from
-    the centres its predecessor in ``t`` converged to (sort ``t`` for the best start), and from
-    the mean elements where that fails.
+    (N, 2, 6, 6) and ``status`` (N,) with a ``POP_*`` code. Every point's iteration starts from
+    the mean elements (a start from a neighbouring point's centres can follow another branch of
+    the peak overlap, a revolution away, along a whole grid).
     """
     cen = np.empty((2, 6))
-    warm = False
     for i in range(t.size):
-        status[i] = POP_FAILED
-        if warm:
-            status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
-        if status[i] != POP_OK:
-            cen[0] = e1
-            cen[1] = e2
-            status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
-        warm = status[i] == POP_OK
+        cen[0] = e1
+        cen[1] = e2
+        status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
 
 
 @kernel

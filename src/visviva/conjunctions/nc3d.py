@@ -64,7 +64,7 @@ def state_to_elements(x, gm):
 
 
 def _tca_jacobian(e0, gm):
-    """``dX/dE`` (6, 6) at TCA of the equinoctial elements ``e0`` (complex step, in the kernel)."""
+    """``dX/dE`` (6, 6) at TCA of the equinoctial elements ``e0`` (analytic, in the kernel)."""
     x = np.empty(6)
     jac = np.empty((6, 6))
     state_jacobian(e0, 0.0, gm, x, jac)

@@ -30,6 +30,7 @@ __all__ = ["pop_linearise", "log_rates", "state_jacobian", "POP_OK", "POP_FAILED
 #: status per time point: converged; kept about the mean (left the domain, or did not converge);
 #: the position covariance at the mean elements is singular (the caller refuses the case)
 POP_OK, POP_FAILED, POP_SINGULAR = 0, 1, 2
+_ITERATE, _CONVERGED, _ABOUT_MEAN = 0, 1, 2  # what the next pass of the iteration does
 
 _POP_ITERATIONS = 60
 _POP_TOL = 1e-4  # change of the expansion centre, in sigmas of each element
@@ -119,10 +120,10 @@ def state_jacobian(es, t, gm, x, jac):
         jac[3 + i, 4] = xd * fq + yd * gq
 
 
-@inline_kernel
+@kernel
 def _cholesky3(a, low):
-    """Lower Cholesky factor of the symmetric 3x3 ``a`` into ``low``; False unless finite and
-    positive definite."""
+    """Lower Cholesky factor of the leading 3x3 block of the symmetric ``a`` into ``low``; False
+    unless finite and positive definite."""
     for i in range(3):
         for j in range(i + 1):
             s = a[i, j]
@@ -139,7 +140,7 @@ def _cholesky3(a, low):
     return True
 
 
-@inline_kernel
+@kernel
 def _cho_solve3(low, b, out):
     """``out = A^-1 b`` from the Cholesky factor of A (``out`` may be ``b``)."""
     y0 = b[0] / low[0, 0]
@@ -178,33 +179,40 @@ def _linearise(es, e0, q, t, gm, xu, p, jac, x):
         for j in range(6):
             if not math.isfinite(p[i, j]):
                 return False
-    return _cholesky3(p[:3, :3], np.empty((3, 3)))
+    return _cholesky3(p, np.empty((3, 3)))
 
 
-@kernel
-def _about_mean(t, e1, q1, e2, q2, gm, xu, p):
-    """Both linearisations about the mean elements; ``POP_FAILED``, or ``POP_SINGULAR`` where
-    a position covariance is not positive definite even there."""
-    jac = np.empty((6, 6))
-    x = np.empty(6)
-    good = _linearise(e1, e1, q1, t, gm, xu[0], p[0], jac, x)
-    good &= _linearise(e2, e2, q2, t, gm, xu[1], p[1], jac, x)
-    return POP_FAILED if good else POP_SINGULAR
+@inline_kernel
+def _copy_rows(src, dst):
+    for j in range(2):
+        for m in range(6):
+            dst[j, m] = src[j, m]
 
 
 @kernel
 def _pop_point(t, e1, q1, e2, q2, gm, cen, xu, p):
     """Peak-overlap linearisation of both objects at one time ``t``, iterated from the centres
-    ``cen`` (2, 6) (updated in place); ``xu`` (2, 6), ``p`` (2, 6, 6) receive it. Returns a
+    ``cen`` (2, 6) (overwritten); ``xu`` (2, 6), ``p`` (2, 6, 6) receive it. Returns a
     ``POP_*`` status: a point whose iteration leaves the elliptic domain, meets a singular
-    covariance or does not converge is linearised about the mean elements instead."""
-    e0 = (e1, e2)
-    qs = (q1, q2)
+    covariance or does not converge is linearised about the mean elements instead
+    (``POP_FAILED``; ``POP_SINGULAR`` where a position covariance is singular even there).
+
+    One call site of :func:`_linearise` serves the iteration, the converged centres and the
+    mean (numba compiles the callee tree into each call site: one keeps the compile short).
+    """
+    e0 = np.empty((2, 6))
+    qs = np.empty((2, 6, 6))
+    for m in range(6):  # element loops: an array assignment costs seconds of compile
+        e0[0, m] = e1[m]
+        e0[1, m] = e2[m]
+        for i in range(6):
+            qs[0, m, i] = q1[m, i]
+            qs[1, m, i] = q2[m, i]
     jacs = np.empty((2, 6, 6))
     x = np.empty(6)
     low = np.empty((2, 3, 3))
     lsum = np.empty((3, 3))
-    inv = np.empty((2, 3, 3))
+    isum = np.empty((3, 3))
     rhs = np.empty(3)
     col = np.empty(3)
     d = np.empty(3)
@@ -214,26 +222,38 @@ def _pop_point(t, e1, q1, e2, q2, gm, cen, xu, p):
     prev = np.empty((2, 6))
     have_prev = False
     last_moved = math.inf
-    for _ in range(_POP_ITERATIONS):
+    mode = _ITERATE
+    iterations = 0
+    while True:
         good = True
         for j in range(2):
             good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
-        if not good:
-            break
+        if mode == _ABOUT_MEAN:
+            return POP_FAILED if good else POP_SINGULAR
+        if mode == _CONVERGED and good:
+            return POP_OK
+        mode = _ABOUT_MEAN  # unless this pass moves the centres on
+        if not good or iterations == _POP_ITERATIONS:
+            _copy_rows(e0, cen)
+            continue
+        iterations += 1
         # r* = (A1^-1 + A2^-1)^-1 (A1^-1 xu1 + A2^-1 xu2)
-        rhs[:] = 0.0
+        for m in range(3):
+            rhs[m] = 0.0
+            for i in range(3):
+                isum[m, i] = 0.0
         for j in range(2):
-            _cholesky3(p[j, :3, :3], low[j])
-            for m in range(3):
-                col[:] = 0.0
-                col[m] = 1.0
-                _cho_solve3(low[j], col, col)
-                inv[j, :, m] = col
+            _cholesky3(p[j], low[j])
             for m in range(3):
                 for i in range(3):
-                    rhs[m] += inv[j, m, i] * xu[j, i]
-        if not _cholesky3(inv[0] + inv[1], lsum):
-            break
+                    col[i] = 1.0 if i == m else 0.0
+                _cho_solve3(low[j], col, col)  # column m of A_j^-1
+                for i in range(3):
+                    isum[i, m] += col[i]
+                    rhs[i] += col[i] * xu[j, m]
+        if not _cholesky3(isum, lsum):
+            _copy_rows(e0, cen)
+            continue
         _cho_solve3(lsum, rhs, rhs)
         moved = 0.0
         usable = True
@@ -247,28 +267,25 @@ def _pop_point(t, e1, q1, e2, q2, gm, cen, xu, p):
             for m in range(6):
                 s = 0.0
                 for i in range(6):
-                    s += qs[j][m, i] * g[i]
-                new[j, m] = e0[j][m] + s
-                moved = max(moved, abs(new[j, m] - cen[j, m]) / math.sqrt(qs[j][m, m]))
+                    s += qs[j, m, i] * g[i]
+                new[j, m] = e0[j, m] + s
+                moved = max(moved, abs(new[j, m] - cen[j, m]) / math.sqrt(qs[j, m, m]))
             usable &= new[j, 0] > 0.0 and new[j, 1] * new[j, 1] + new[j, 2] * new[j, 2] < 1.0
         if not usable:  # NaN lands here too
-            break
-        if moved < _POP_TOL:  # the linearisation about the converged centres
-            cen[:] = new
-            good = True
-            for j in range(2):
-                good &= _linearise(cen[j], e0[j], qs[j], t, gm, xu[j], p[j], jacs[j], x)
-            if good:
-                return POP_OK
-            break
+            _copy_rows(e0, cen)
+            continue
+        if moved < _POP_TOL:  # the next pass linearises about the converged centres
+            _copy_rows(new, cen)
+            mode = _CONVERGED
+            continue
+        mode = _ITERATE
         # the map converges linearly (slowly far from TCA): an Anderson step of depth one (a
         # secant step on the residual new - cen, in sigmas) where the residual shrinks
         num = 0.0
         den = 0.0
         for j in range(2):
             for m in range(6):
-                sc = math.sqrt(qs[j][m, m])
-                r_now = (new[j, m] - cen[j, m]) / sc
+                r_now = (new[j, m] - cen[j, m]) / math.sqrt(qs[j, m, m])
                 dr = r_now - res[j, m]
                 num += r_now * dr
                 den += dr * dr
@@ -283,11 +300,9 @@ def _pop_point(t, e1, q1, e2, q2, gm, cen, xu, p):
                     step -= num / den * (new[j, m] - prev[j, m])
                 prev[j, m] = new[j, m]
                 cen[j, m] = step
-        if accelerate:
-            for j in range(2):
-                if not (cen[j, 0] > 0.0 and cen[j, 1] ** 2 + cen[j, 2] ** 2 < 1.0):
-                    cen[:] = prev  # the secant step left the domain: the plain step
-    return _about_mean(t, e1, q1, e2, q2, gm, xu, p)
+        for j in range(2):
+            if not (cen[j, 0] > 0.0 and cen[j, 1] ** 2 + cen[j, 2] ** 2 < 1.0):
+                _copy_rows(prev, cen)  # the secant step left the domain: the plain step
 
 
 @kernel
@@ -302,8 +317,9 @@ def pop_linearise(t, e1, q1, e2, q2, gm, xu, p, status):
     """
     cen = np.empty((2, 6))
     for i in range(t.size):
-        cen[0] = e1
-        cen[1] = e2
+        for m in range(6):
+            cen[0, m] = e1[m]
+            cen[1, m] = e2[m]
         status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
 
 
@@ -410,7 +426,8 @@ def _log_rate_point(ru, vu, ps, w, vecs, hbr, k_sigma, gu, gp, n_u, n_p):
             log_w = const + math.log(weight)
             angle = pm + ph * gp[0, jp]
             cphi, sphi = st * math.cos(angle), st * math.sin(angle)
-            for sign in (1.0, -1.0):  # the half rings x_c >= 0 and x_c <= 0
+            for half_ring in range(2):  # x_c >= 0 and x_c <= 0
+                sign = 1.0 - 2.0 * half_ring
                 term = log_w + _log_node(u, cphi, sign * sphi, vecs, ru, vu, ainv, bs, cp, hbr)
                 # running log-sum-exp
                 if term > top:

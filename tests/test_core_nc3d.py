@@ -9,6 +9,8 @@ import math
 import numpy as np
 import pytest
 from astropy import units as u
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.conjunctions import collision_probability
@@ -72,3 +74,60 @@ def test_pc3d_hall_keeps_the_values_of_the_numpy_implementation(case, old):
     lp = collision_probability(*_args(c), method="pc3d_hall", window=(-c["window"], c["window"]),
                                gm=3.986004418e5, log=True)
     assert math.exp(lp - old) - 1 == pytest.approx(0.0, abs=1e-7)
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.floats(6e-4, 1.2e-3), ecc=st.floats(0.0, 0.7), w=st.floats(-3.0, 3.0),
+       tani=st.floats(0.0, 3.0), node=st.floats(-3.0, 3.0), lam=st.floats(-3.0, 3.0),
+       t=st.floats(-5000.0, 5000.0))
+def test_jacobian_matches_central_differences_everywhere(n, ecc, w, tani, node, lam, t):
+    e = np.array([n, ecc * math.cos(w), ecc * math.sin(w), tani * math.sin(node),
+                  tani * math.cos(node), lam])
+    _, jac = _state(e, t)
+    for j in range(6):
+        step = 1e-7 * e[0] if j == 0 else 1e-6
+        de = np.zeros(6)
+        de[j] = step
+        fd = (_state(e + de, t)[0] - _state(e - de, t)[0]) / (2 * step)
+        np.testing.assert_allclose(jac[:, j], fd, rtol=1e-4,
+                                   atol=1e-4 * float(np.max(np.abs(jac[:, j]))) + 1e-9)
+
+
+def _brute_force_log_rate(ru, vu, ps, hbr, n_theta=300, n_phi=600):
+    """The flux into the sphere on a dense Gauss-Legendre x uniform grid over the whole sphere."""
+    from scipy.special import ndtr
+
+    x, wx = np.polynomial.legendre.leggauss(n_theta)  # u = cos(theta)
+    phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    u, ph = np.meshgrid(x, phi, indexing="ij")
+    s = np.sqrt(1 - u * u)
+    nv = np.stack([s * np.cos(ph), s * np.sin(ph), u], axis=-1).reshape(-1, 3)
+    wts = (wx[:, None] * np.full(n_phi, 2 * np.pi / n_phi)[None, :]).ravel()
+    a, b, c = ps[:3, :3], ps[3:, :3], ps[3:, 3:]
+    ainv = np.linalg.inv(a)
+    d = hbr * nv - ru
+    dens = np.exp(-0.5 * np.einsum("ki,ij,kj->k", d, ainv, d)) / math.sqrt(
+        (2 * math.pi) ** 3 * np.linalg.det(a))
+    bs = b @ ainv
+    mu = -np.einsum("ki,ki->k", nv, vu + d @ bs.T)
+    sd = np.sqrt(np.einsum("ki,ij,kj->k", nv, c - bs @ b.T, nv))
+    ez = mu * ndtr(mu / sd) + sd * np.exp(-0.5 * (mu / sd) ** 2) / math.sqrt(2 * math.pi)
+    return math.log(hbr * hbr * float(np.sum(wts * dens * ez)))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_sphere_rule_matches_a_dense_grid_over_the_whole_sphere(seed):
+    from visviva.conjunctions.nc3d import _K_SIGMA, _N_PHI, _N_U, _legendre
+    from visviva.core.nc3d import log_rates
+
+    rng = np.random.default_rng(seed)
+    hbr = 20.0
+    m = rng.normal(size=(6, 6)) * np.r_[15.0, 25.0, 40.0, 0.5, 0.5, 0.5][:, None]
+    ps = m @ m.T + np.diag([4.0, 4.0, 4.0, 1e-3, 1e-3, 1e-3])
+    ru = rng.normal(size=3) * 15.0
+    vu = rng.normal(size=3) * 3.0 + np.array([0.0, 0.0, 2.0])
+    w, vecs = np.linalg.eigh(ps[:3, :3])
+    out = np.empty(1)
+    log_rates(ru[None], vu[None], ps[None], w[None], vecs[None], hbr, _K_SIGMA,
+              _legendre(_N_U), _legendre(_N_PHI), out)
+    assert out[0] == pytest.approx(_brute_force_log_rate(ru, vu, ps, hbr), abs=1e-6)

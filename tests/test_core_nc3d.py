@@ -131,3 +131,16 @@ def test_sphere_rule_matches_a_dense_grid_over_the_whole_sphere(seed):
     log_rates(ru[None], vu[None], ps[None], w[None], vecs[None], hbr, _K_SIGMA,
               _legendre(_N_U), _legendre(_N_PHI), out)
     assert out[0] == pytest.approx(_brute_force_log_rate(ru, vu, ps, hbr), abs=1e-6)
+
+
+def test_singular_position_covariance_is_refused_with_a_reason():
+    # no position uncertainty at all: the relative position density at TCA is a point mass; the
+    # peak-overlap kernel reports POP_SINGULAR and the method says what to check
+    from visviva.errors import ConvergenceError
+
+    r1, v1 = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    c = np.diag([0.0, 0.0, 0.0, 1e-6, 1e-6, 1e-6])
+    with pytest.raises(ConvergenceError, match="singular position covariance"):
+        collision_probability(r1, v1, c, r1 + np.array([0.1, 0.05, 0.0]),
+                              np.array([0.0, 5.0, 5.6]), c, 0.02, method="pc3d_hall",
+                              window=(-60.0, 60.0))

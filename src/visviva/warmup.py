@@ -109,9 +109,9 @@ def _conjunctions():
 
     from visviva.conjunctions import collision_probability
 
-    r1, v1 = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
-    c = np.diag([1e-2, 4e-2, 1e-2, 1e-6, 1e-6, 1e-6])
-    args = (r1, v1, c, r1 + np.array([0.1, 0.05, 0.0]), np.array([0.0, 5.0, 5.6]), c, 0.02)
+    r1, v1 = np.array([7000e3, 0.0, 0.0]), np.array([0.0, 7500.0, 0.0])  # plain numbers: m, m/s
+    c = np.diag([1e4, 4e4, 1e4, 1.0, 1.0, 1.0])
+    args = (r1, v1, c, r1 + np.array([100.0, 50.0, 0.0]), np.array([0.0, 0.0, 7500.0]), c, 20.0)
     collision_probability(*args)
     collision_probability(*args, method="pc3d_hall", window=(-60.0, 60.0))
 

@@ -8,7 +8,9 @@ two position densities (found by iteration). The collision rate is the flux of t
 position into the hard-body sphere, integrated over the sphere, and the probability its integral
 over time (Hall, "Expected Collision Rates for Tracked Satellites", JSR 58 (2021) 715).
 
-Everything here is in metres and seconds; the arrays carry a leading axis of time points.
+Everything here is in metres and seconds; the arrays carry a leading axis of time points. The
+work per time point (the peak-overlap linearisation and the sphere rule) is done by the numba
+kernels of :mod:`visviva.core.nc3d`.
 """
 
 from __future__ import annotations
@@ -24,7 +26,6 @@ from ..errors import ConvergenceError, InvalidInputError
 __all__ = ["log_pc3d_hall"]
 
 
-
 # --- equinoctial elements (Broucke & Cefola 1972): n, af=k, ag=h, p, q, mean longitude --------
 
 def _frame(p, q):
@@ -35,7 +36,8 @@ def _frame(p, q):
 
 
 def state_to_elements(x, gm):
-    """Equinoctial elements of one prograde Cartesian state (m, m/s); see elements_to_state."""
+    """Equinoctial elements ``(n, k, h, p, q, lam)`` of one prograde Cartesian state (m, m/s);
+    the inverse of the state map of :func:`visviva.core.nc3d.state_jacobian`."""
     r, v = x[:3], x[3:]
     hv = np.cross(r, v)
     w = hv / np.linalg.norm(hv)
@@ -125,13 +127,6 @@ def _rates(t, el, hbr, clip, gm, n_u=_N_U, n_phi=_N_PHI):
     log_rates(ru, vu, ps, np.maximum(w, clip), vecs, hbr, _K_SIGMA, _legendre(n_u),
               _legendre(n_phi), out)
     return out, ok
-
-
-def _logsumexp(x):
-    top = float(np.max(x))
-    if not np.isfinite(top):
-        return -math.inf
-    return top + math.log(float(np.sum(np.exp(x - top))))
 
 
 def _support(t, lr, margin=60.0):

@@ -25,9 +25,9 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import result, skipped, time_call
+    from .common import interleaved, result, skipped, time_call
 except ImportError:  # pragma: no cover
-    from common import result, skipped, time_call
+    from common import interleaved, result, skipped, time_call
 
 
 def _catalog(n, seed=1):
@@ -178,35 +178,65 @@ def _pruning_row(n):
                         f"({after_path / max(after_ap, 1):.1%} of those)")
 
 
-def _pc3d_row():
-    """Hall's 3D-Nc on Alfano's case 5 (LEO) vs the Foster 2-D integral."""
+def _alfano_cases():
+    """Alfano's (2009) twelve conjunctions (tests/data/alfano2009_cara.csv): case number ->
+    (collision_probability's positional arguments, the A09 half window in s)."""
     import csv
     import io
     from pathlib import Path
 
-    from visviva.conjunctions import collision_probability
-
     path = Path(__file__).resolve().parents[1] / "tests" / "data" / "alfano2009_cara.csv"
     rows = [ln for ln in path.read_text().splitlines(keepends=True) if not ln.startswith("#")]
-    row = [r for r in csv.DictReader(io.StringIO("".join(rows))) if r["case"] == "5"][0]
-    args = []
-    for o in "12":
-        args.append(np.array([float(row[f"r{o}_{a}_m"]) for a in "xyz"]))
-        args.append(np.array([float(row[f"v{o}_{a}_m_s"]) for a in "xyz"]))
-        args.append(np.array([float(row[f"cov{o}_{i}{j}"]) for i in range(1, 7)
-                              for j in range(1, 7)]).reshape(6, 6))
-    args.append(float(row["hbr_m"]))
-    w = float(row["a09_final_time_s"])
-    t3 = time_call(lambda: collision_probability(*args, method="pc3d_hall", window=(-w, w)),
-                   repeat=3).median
-    t2 = time_call(lambda: collision_probability(*args), repeat=5).median
-    return result("Pc3D_Hall (3D-Nc), Alfano case 5", t3, "Foster 2-D, same case", t2,
-                  notes="adaptive time integral 1e-6, density-adapted sphere rule")
+    cases = {}
+    for row in csv.DictReader(io.StringIO("".join(rows))):
+        args = []
+        for o in "12":
+            args.append(np.array([float(row[f"r{o}_{a}_m"]) for a in "xyz"]))
+            args.append(np.array([float(row[f"v{o}_{a}_m_s"]) for a in "xyz"]))
+            args.append(np.array([float(row[f"cov{o}_{i}{j}"]) for i in range(1, 7)
+                                  for j in range(1, 7)]).reshape(6, 6))
+        args.append(float(row["hbr_m"]))
+        cases[int(row["case"])] = (tuple(args), float(row["a09_final_time_s"]))
+    return cases
+
+
+def _pc3d_rows(quick: bool):
+    """Hall's 3D-Nc per conjunction on Alfano's cases, beside the Foster 2-D integral and the
+    linear-motion "3d" flux integral, timed in alternation in one process."""
+    from visviva.conjunctions import collision_probability
+
+    cases = _alfano_cases()
+    numbers = [1, 5, 9] if quick else [n for n in cases if n != 12]  # 12: no relative velocity
+
+    def every(method, windowed):
+        def go():
+            for n in numbers:
+                args, w = cases[n]
+                kw = {"window": (-w, w)} if windowed else {}
+                collision_probability(*args, method=method, gm=3.986004418e5, **kw)
+        return go
+
+    args, w = cases[numbers[0]]
+    t0 = time.perf_counter()  # the first call compiles the kernels or loads them from the cache
+    collision_probability(*args, method="pc3d_hall", gm=3.986004418e5, window=(-w, w))
+    first = time.perf_counter() - t0
+    hall, foster, flux = interleaved([every("pc3d_hall", True), every("foster", False),
+                                      every("3d", False)], rounds=2 if quick else 3)
+    k = len(numbers)
+    label = f"Alfano cases {numbers[0]}-{numbers[-1]}" if not quick else "Alfano cases 1, 5, 9"
+    notes = ("per conjunction (mean over the cases); adaptive time integral 1e-6, "
+             "density-adapted sphere rule")
+    return [result(f"Pc3D_Hall (3D-Nc) per conjunction, {label}", hall.median / k,
+                   "Foster 2-D, same cases", foster.median / k, notes=notes,
+                   compile_s=first),
+            result(f"Pc3D_Hall (3D-Nc) per conjunction, {label}", hall.median / k,
+                   'method="3d" (linear-motion flux integral), same cases', flux.median / k,
+                   notes=notes)]
 
 
 def run(quick: bool = False) -> list[dict]:
     rows = [_screen_row(300 if quick else 2000), _pc_row(), _pruning_row(1000 if quick else 10_000),
-            _pc3d_row()]
+            *_pc3d_rows(quick)]
     rows.extend(_all_vs_all_rows(1000 if quick else 10_000))
     return rows
 

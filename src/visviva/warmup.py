@@ -123,6 +123,18 @@ def _satellite():
     sat.gcrs(np.linspace(0.0, 600.0, 3) * u.s)
 
 
+def _conjunctions():
+    import numpy as np
+
+    from visviva.conjunctions import collision_probability
+
+    r1, v1 = np.array([7000e3, 0.0, 0.0]), np.array([0.0, 7500.0, 0.0])  # plain numbers: m, m/s
+    c = np.diag([1e4, 4e4, 1e4, 1.0, 1.0, 1.0])
+    args = (r1, v1, c, r1 + np.array([100.0, 50.0, 0.0]), np.array([0.0, 0.0, 7500.0]), c, 20.0)
+    collision_probability(*args)
+    collision_probability(*args, method="pc3d_hall", window=(-60.0, 60.0))
+
+
 #: (label, function): what ``visviva warmup`` runs, in order.
 TASKS = (
     ("states <-> elements", _elements),
@@ -137,6 +149,7 @@ TASKS = (
     ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),
+    ("conjunctions: Foster and 3D-Nc (pc3d_hall)", _conjunctions),
 )
 
 

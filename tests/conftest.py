@@ -1,4 +1,4 @@
-"""Fixtures shared by the interpreter-tier tests (tests/test_tier.py, tests/test_nbody_tier.py)."""
+"""Fixtures shared by the tests, and the hypothesis profile (derandomized) every test runs under."""
 
 from __future__ import annotations
 
@@ -7,6 +7,12 @@ import subprocess
 import sys
 
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run (CI included): a failure found once is
+# found again, never by chance on a later landing. A test's own @settings add to this profile.
+settings.register_profile("visviva", derandomize=True)
+settings.load_profile("visviva")
 
 #: Prepended to a fresh-process script: records the names of the kernels numba compiles in
 #: ``compiled`` (a list).

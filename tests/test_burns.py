@@ -117,6 +117,24 @@ def test_random_impulses_match_kepler_arcs_with_the_same_impulses(times, dvs):
     assert len(out.burns) == len(burns)
 
 
+@pytest.mark.parametrize("times", [(0.0, 5e-324), (100.0, 100.0 + 1e-12), (0.0, 0.0)])
+def test_impulses_closer_than_a_nanosecond_act_as_one(times):
+    # was: StepSizeError at t = 0 (hypothesis found burns at 0 and 5e-324 s: a segment shorter
+    # than the integrator's smallest step)
+    state = leo()
+    dvs = ([0.01, -0.02, 0.03], [-0.02, 0.01, 0.005])
+    burns = [ImpulsiveBurn(tk * u.s, dv * KMS) for tk, dv in zip(times, dvs, strict=True)]
+    batch = vv.StateVectors(u.Quantity([state.r, state.r]), u.Quantity([state.v, state.v]),
+                            vv.EARTH, epoch=state.epoch)
+    for start in (state, batch):
+        out = propagate_cowell(start, [50.0, 7000.0] * u.s, [], maneuvers=burns, rtol=1e-13,
+                               atol=1e-13)
+        arc = vv.StateVectors(state.r, state.v, vv.EARTH).propagate(times[0] * u.s)
+        end = vv.StateVectors(arc.r, arc.v + np.sum(dvs, axis=0) * KMS, vv.EARTH).propagate(
+            (7000.0 - times[0]) * u.s)
+        assert np.linalg.norm((out.r[..., -1, :] - end.r).to_value(u.km), axis=-1).max() < ONE_MM
+
+
 def test_a_two_body_maneuver_flown_by_cowell_through_its_burns():
     state = circular(7000.0, inc=0.5)
     man = Maneuver.bielliptic(state, 30000 * u.km, 12000 * u.km)

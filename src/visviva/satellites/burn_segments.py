@@ -15,6 +15,11 @@ import numpy as np
 
 __all__ = ["run_segments", "run_segments_many"]
 
+#: A segment shorter than this (burn epochs less than a nanosecond apart) is not integrated (the
+#: integrator cannot step below ~1e-322 s from t = 0): the state drifts along its velocity over
+#: it, off the true motion by |a| dt^2 / 2 < 1e-20 km.
+DRIFT_S = 1e-9
+
 
 def _drive(schedule, model, t_out, t_end, y0, segment):
     """Walk the segments of ``schedule`` up to ``t_end``; ``segment(y, t_seg, a, b, seg_model)``
@@ -40,6 +45,12 @@ def _drive(schedule, model, t_out, t_end, y0, segment):
         n_seg = int(np.count_nonzero(mask))
         # the segment's outputs, then its end (the state the next segment starts from)
         t_seg = np.ascontiguousarray(np.append(t_out[mask] - a, b - a))
+        if b - a < DRIFT_S:
+            y_seg = np.repeat(y[..., None, :], t_seg.size, axis=-2)
+            y_seg[..., :3] += y[..., None, 3:] * t_seg[:, None]
+            pieces.append(y_seg[..., :n_seg, :])
+            y = y_seg[..., n_seg, :].copy()
+            continue
         y_seg, stopped_at = segment(np.ascontiguousarray(y), t_seg, a, b,
                                     schedule.segment_model(model, a, b))
         pieces.append(y_seg[..., :n_seg, :])

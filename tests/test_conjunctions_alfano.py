@@ -192,6 +192,31 @@ def test_pc3d_hall_survives_times_where_the_densities_do_not_overlap(v2, sigma_v
     assert hall == pytest.approx(p3d, rel=3e-3)
 
 
+def test_pc3d_hall_default_window_is_the_encounter_at_tca_not_the_next_one():
+    # was 9x too large (2.11e-5): two LEO orbits of equal periods crossing at 145 deg meet again
+    # half an orbit later, at the default window's edges, and that re-encounter was added to
+    # this conjunction's Pc. The 3d method and a Monte Carlo (94 hits in 4e7: 2.35e-6) agree
+    # with the encounter at TCA alone; an explicit window still counts every encounter in it.
+    r1 = np.array([7255910.812350129, 0.0, 0.0])
+    v1 = np.array([0.0, -7322.2166421397005, 1148.7935185660149])
+    r2 = np.array([7255369.253733643, 376.24260426291903, 185.5017874906196])
+    v2 = np.array([0.0, 6664.574541382814, 3243.151135096688])
+    c1 = _lower([7206.7, 1905.22, 7012.8, 8737.63, 6629.2, 45015.1, -7.49097, -10.5302, -18.5654,
+                 0.0953729, 9.69763, 11.7912, 33.947, 0.00130924, 0.120123, -0.764298, 3.22534,
+                 -1.93569, 0.00621984, 0.00719674, 0.0532084])
+    c2 = _lower([17328.1, -3469.76, 25562, 5189.07, -5372.82, 15980.6, 12.4807, -35.1715, 20.0681,
+                 0.151605, -5.81584, -7.46674, -10.8671, -0.00223779, 0.0837319, -8.39647,
+                 39.8133, -9.92662, -0.0694014, 0.0269946, 0.165292])
+    args = (r1, v1, c1, r2, v2, c2, 20.0)
+    p3d = collision_probability(*args, method="3d")
+    hall = collision_probability(*args, method="pc3d_hall")
+    assert hall == pytest.approx(p3d, rel=3e-3)
+    assert hall == pytest.approx(2.35e-6, rel=0.05)
+    half = math.pi * math.sqrt(7255.9e3**3 / 3.986004418e14)  # ~ half a period, s
+    both = collision_probability(*args, method="pc3d_hall", window=(-1.05 * half, 1.05 * half))
+    assert both > 5 * hall
+
+
 def test_pc3d_hall_bad_input_is_refused():
     from visviva.errors import InvalidInputError, ShapeError
 

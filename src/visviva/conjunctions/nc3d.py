@@ -149,6 +149,30 @@ def _support(t, lr, margin=60.0):
     return out
 
 
+def _encounter(t, lr, tc, margin=60.0):
+    """The stretch of the sorted grid ``t`` holding the encounter at ``tc``: uphill from the grid
+    point nearest ``tc`` to the rate's local peak, then out on both sides while the rate stays
+    within ``e^-margin`` of that peak (one more cell each side). Returns ``(t_lo, t_hi, peak)``
+    (``peak``: the local ln rate; -inf when the rate is nil there)."""
+    i = int(np.argmin(np.abs(t - tc)))
+    while True:
+        j = i
+        if i + 1 < t.size and lr[i + 1] > lr[j]:
+            j = i + 1
+        if i > 0 and lr[i - 1] > lr[j]:
+            j = i - 1
+        if j == i:
+            break
+        i = j
+    peak = float(lr[i])
+    lo = hi = i
+    while lo > 0 and lr[lo - 1] > peak - margin:
+        lo -= 1
+    while hi < t.size - 1 and lr[hi + 1] > peak - margin:
+        hi += 1
+    return float(t[max(lo - 1, 0)]), float(t[min(hi + 1, t.size - 1)]), peak
+
+
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
 
@@ -214,8 +238,10 @@ def _orient(states, covs):
 def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
     """ln Pc by Hall's 3D-Nc method (inputs in m, m/s, m^2...; ``gm`` in m^3/s^2).
 
-    ``window``: ``(ta, tb)`` in s relative to TCA bounding the time integral, or ``None`` for
-    half the shorter orbital period on either side. Returns ``ln Pc``.
+    ``window``: ``(ta, tb)`` in s relative to TCA bounding the time integral (every encounter
+    in it counts), or ``None``: the encounter at TCA alone, searched for within half the
+    shorter orbital period on either side (orbits of nearly equal periods meet again half an
+    orbit later; that re-encounter is another conjunction). Returns ``ln Pc``.
     """
     if hbr == 0:
         return -math.inf
@@ -244,6 +270,7 @@ def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
     arel = k1[:3, :3] + k2[:3, :3]
     grid = [np.linspace(ta, tb, 2049)]
     vel = rel[3:]
+    tc = 0.0
     if float(np.linalg.norm(vel)) > 0:
         ainv = np.linalg.inv(arel + clip * np.eye(3))
         curv = float(vel @ ainv @ vel)
@@ -255,13 +282,19 @@ def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
     peak = float(np.max(lr))
     if not np.isfinite(peak):
         return -math.inf
+    edges = None
+    if window is None:  # the encounter at TCA, not a re-encounter half an orbit away
+        lo, hi, local = _encounter(t, lr, tc)
+        if np.isfinite(local):
+            peak, edges = local, [(lo, hi)]
+            conv = conv | (t < lo) | (t > hi)
     if np.any(~conv & (lr > peak - 30.0)):
         _pop_failed()
 
     def log_rate(tt):
         return _rates(tt, el, hbr, clip, gm)
 
-    lp, worst = _adaptive(_support(t, lr), log_rate, rtol)
+    lp, worst = _adaptive(edges or _support(t, lr), log_rate, rtol)
     if worst > peak - 30.0:
         _pop_failed()
     return lp

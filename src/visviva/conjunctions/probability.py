@@ -170,8 +170,10 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         Attractor for ``method="3d"`` and ``"pc3d_hall"`` (default: the Earth).
     window : tuple of Quantity or float, optional
         ``(t_a, t_b)``, the time span relative to TCA (plain numbers: s) over which
-        ``method="pc3d_hall"`` integrates the collision rate (default: half the shorter orbital
-        period on either side of TCA).
+        ``method="pc3d_hall"`` integrates the collision rate; every encounter in it counts.
+        Default: the encounter at TCA alone (the stretch of the rate around TCA, searched for
+        within half the shorter orbital period on either side; orbits of nearly equal periods
+        meet again half an orbit later, and that is another conjunction).
     log : bool
         Return the natural logarithm of Pc instead (represents values below 1e-308).
 

@@ -211,11 +211,16 @@ class Catalog:
         return SatrecArray([s.satrec for s in self.satellites])
 
     @cached_property
+    def epoch_days(self) -> tuple:
+        """Element-set epochs as sgp4 keeps them: ``(jd, fraction)`` arrays (N,) of UTC Julian
+        dates of 86,400-s days (:mod:`visviva.satellites.utc_days`)."""
+        return (np.array([s.satrec.jdsatepoch for s in self.satellites]),
+                np.array([s.satrec.jdsatepochF for s in self.satellites]))
+
+    @cached_property
     def epochs(self) -> Time:
         """Element-set epochs, UTC (shape (N,))."""
-        jd = np.array([s.satrec.jdsatepoch for s in self.satellites])
-        fr = np.array([s.satrec.jdsatepochF for s in self.satellites])
-        return utc_days_to_time(jd, fr)
+        return utc_days_to_time(*self.epoch_days)
 
     def propagate(self, t, method: str = "sgp4", frame: str = "teme", on_error: str = "raise"):
         """Propagate every satellite to the times ``t``.
@@ -454,8 +459,7 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     cat = as_catalog(satellites)
     t = absolute_times(t, "propagate_sgp4_batch")
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
-    ep_jd = np.array([s.satrec.jdsatepoch for s in cat.satellites])
-    ep_fr = np.array([s.satrec.jdsatepochF for s in cat.satellites])
+    ep_jd, ep_fr = cat.epoch_days
     tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
     if out is None:

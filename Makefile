@@ -30,7 +30,7 @@ lint: install
 	$(UV) run --frozen --no-sync lint-imports
 
 test: lint docs
-	$(UV) run --frozen --no-sync pytest
+	$(UV) run --frozen --no-sync pytest --durations=20
 
 # the documentation site; warnings fail the build, docstring markup problems included
 # (VISVIVA_DOCS_STRICT=1; see docs/conf.py)

@@ -55,17 +55,23 @@ WGS84_F = 1.0 / 298.257223563
 
 @contextlib.contextmanager
 def offline_iers():
-    """Use the Earth-orientation data installed with astropy; never download.
+    """Use visviva's Earth-orientation table, from the files installed with astropy; never download.
 
-    Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
+    Inside the block ``astropy.utils.iers.earth_orientation_table`` is visviva's table
+    (:func:`visviva.satellites.iers_cache.visviva_table`: astropy's ``IERS_Auto`` table from the
+    installed files with the EOP C04 rows from 1962 first, the same whatever table astropy
+    loaded before), unless the user set one with ``earth_orientation_table.set(...)``: that
+    one is used as given. ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
     predictions are used however old the installed file is (``auto_max_age = None``), and
-    times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``).
-    The table astropy parses from those files is kept on disk between processes
+    times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``): an
+    :class:`~visviva.errors.EarthOrientationWarning` naming the date and the possible error,
+    once per kind per call. The parsed table is kept on disk between processes
     (:mod:`visviva.satellites.iers_cache`), so a fresh process loads it in ~10 ms.
     """
     from astropy.utils import iers
 
-    from .iers_cache import install_cached_table
+    from .eop_table import warning_scope
+    from .iers_cache import visviva_table
 
     with (
         iers.conf.set_temp("auto_download", False),
@@ -74,9 +80,13 @@ def offline_iers():
         # download a newer one)
         iers.conf.set_temp("auto_max_age", None),
         iers.conf.set_temp("iers_degraded_accuracy", "warn"),
+        warning_scope(),
     ):
-        install_cached_table()  # astropy's parsed table from disk: ~10 ms instead of ~0.5 s
-        yield
+        if getattr(iers.earth_orientation_table, "_value", None) is not None:
+            yield  # a table the user chose (or visviva's, set by an enclosing block)
+        else:
+            with iers.earth_orientation_table.set(visviva_table()):
+                yield
 
 
 def _raw(value, kind, name):

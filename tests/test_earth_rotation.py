@@ -16,8 +16,9 @@ from astropy.coordinates.builtin_frames import intermediate_rotation_transforms 
 from astropy.time import Time
 from astropy.utils import iers
 
-from visviva.satellites import earth_rotation, iers_cache
-from visviva.satellites.eop_table import EarthOrientationTable
+from visviva import _iers_cache as iers_cache
+from visviva._eop_table import EarthOrientationTable
+from visviva.satellites import earth_rotation
 from visviva.satellites.frames import gcrs_to_itrs, offline_iers
 
 # 2019-2024 inside the installed IERS table (observed and predicted), 1900 before it, 2300

@@ -244,7 +244,7 @@ class Observations:
 
     def __repr__(self):
         counts = {k: int(np.sum(self.kinds == k)) for k in KINDS if np.any(self.kinds == k)}
-        span = (self.times[-1].tt - self.times[0].tt).sec
+        span = self.offsets_s(self.times[0])[-1] if len(self) else 0.0
         return f"Observations({len(self)} rows {counts}, span {span:.1f} s)"
 
     def offsets_s(self, epoch):

@@ -122,7 +122,10 @@ class _Burn:
                 f"{self!r} starts at an absolute epoch but the state has no epoch; build the "
                 "state with epoch=..., or give the burn's start as an offset (e.g. 600 * u.s)."
             )
-        return float((self.start.tt - epoch.tt).to_value(u.s))
+        from .frames import offline_iers
+
+        with offline_iers():  # UT1 needs the installed IERS table, never a download
+            return float((self.start.tt - epoch.tt).to_value(u.s))
 
 
 class ImpulsiveBurn(_Burn):

@@ -18,17 +18,16 @@ predictions, and EOP C04): inside these functions ``astropy.utils.iers.conf.auto
 error model). Beyond the table UT1-UTC is held at its last value (astropy's ``IERS_Auto`` does
 not warn about that) and the pole is the 50-year mean (with astropy's warning about polar
 motion): errors grow to up to 0.9 s in UT1 (~400 m along the equator in ITRS). Before the
-Bulletin A file (1973) the EOP C04 rows from 1962 are used (:mod:`.iers_cache`).
+Bulletin A file (1973) the EOP C04 rows from 1962 are used (:mod:`visviva._iers_cache`).
 GCRS is insensitive to these data (TEME and GCRS are both inertial). See docs/satellites.md.
 """
 
 from __future__ import annotations
 
-import contextlib
-
 import numpy as np
 from astropy import units as u
 
+from .._offline_iers import offline_iers
 from .._units import to_quantity, to_vector
 from ..errors import DomainError, InvalidInputError, ShapeError
 from .earth_rotation import cirs_to_itrs_mat, gcrs_to_cirs_mat, teme_to_itrs_mat
@@ -51,42 +50,6 @@ __all__ = [
 #: WGS-84 equatorial radius (km) and flattening (NIMA TR8350.2).
 WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
-
-
-@contextlib.contextmanager
-def offline_iers():
-    """Use visviva's Earth-orientation table, from the files installed with astropy; never download.
-
-    Inside the block ``astropy.utils.iers.earth_orientation_table`` is visviva's table
-    (:func:`visviva.satellites.iers_cache.visviva_table`: astropy's ``IERS_Auto`` table from the
-    installed files with the EOP C04 rows from 1962 first, the same whatever table astropy
-    loaded before), unless the user set one with ``earth_orientation_table.set(...)``: that
-    one is used as given. ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
-    predictions are used however old the installed file is (``auto_max_age = None``), and
-    times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``): an
-    :class:`~visviva.errors.EarthOrientationWarning` naming the date and the possible error,
-    once per kind per call. The parsed table is kept on disk between processes
-    (:mod:`visviva.satellites.iers_cache`), so a fresh process loads it in ~10 ms.
-    """
-    from astropy.utils import iers
-
-    from .eop_table import warning_scope
-    from .iers_cache import visviva_table
-
-    with (
-        iers.conf.set_temp("auto_download", False),
-        # the installed table's predictions are used however old the file is (without this,
-        # astropy refuses predictions from a file more than 30 days old: it expects to
-        # download a newer one)
-        iers.conf.set_temp("auto_max_age", None),
-        iers.conf.set_temp("iers_degraded_accuracy", "warn"),
-        warning_scope(),
-    ):
-        if getattr(iers.earth_orientation_table, "_value", None) is not None:
-            yield  # a table the user chose (or visviva's, set by an enclosing block)
-        else:
-            with iers.earth_orientation_table.set(visviva_table()):
-                yield
 
 
 def _raw(value, kind, name):

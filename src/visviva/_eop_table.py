@@ -1,14 +1,14 @@
 """visviva's Earth-orientation table: astropy's ``IERS_Auto`` rows that say when they run out.
 
 :class:`EarthOrientationTable` is astropy's ``IERS_Auto`` table (with the EOP C04 rows of
-1962-1972 put first, :func:`visviva.satellites.iers_cache.with_eop_c04_before`) whose
+1962-1972 put first, :func:`visviva._iers_cache.with_eop_c04_before`) whose
 interpolation behaves exactly as astropy's, number for number, except that a time outside the
 table issues an :class:`~visviva.errors.EarthOrientationWarning` naming the date and how wrong
 UT1 may be there. astropy holds UT1 - UTC at the table's last (or first) value there and says
 nothing about it (it warns only about polar motion, and only in the frame transformations).
 
 visviva hands this table to astropy as ``astropy.utils.iers.earth_orientation_table`` inside
-:func:`visviva.satellites.frames.offline_iers` only, so whatever table astropy itself loaded
+:func:`visviva._offline_iers.offline_iers` only, so whatever table astropy itself loaded
 before (a user's ``Time(...).ut1``) changes nothing in visviva's numbers, and visviva changes
 nothing in astropy's outside its calls.
 
@@ -28,7 +28,7 @@ import warnings
 import numpy as np
 from astropy.utils import iers
 
-from ..errors import EarthOrientationWarning
+from .errors import EarthOrientationWarning
 
 __all__ = ["EarthOrientationTable", "warning_scope"]
 

@@ -92,17 +92,17 @@ _TABLE = None
 def visviva_table():
     """visviva's Earth-orientation table, from the disk cache or parsed once per process.
 
-    An :class:`~visviva.satellites.eop_table.EarthOrientationTable`: astropy's ``IERS_Auto``
+    An :class:`~visviva._eop_table.EarthOrientationTable`: astropy's ``IERS_Auto``
     table (``IERS_Auto.read()``, what ``IERS_Auto.open()`` parses) with the EOP C04 rows of
     1962-1972 first, read from the cache file or parsed and written to it. It is visviva's
     own: whatever table astropy holds (``IERS_Auto.iers_table``, loaded by a user's
     ``Time(...).ut1`` before visviva's first call, or not) is neither used nor changed, so the
     numbers do not depend on the order of the calls. Call it with downloads off
-    (:func:`visviva.satellites.frames.offline_iers`, which hands it to astropy).
+    (:func:`visviva._offline_iers.offline_iers`, which hands it to astropy).
 
     Returns
     -------
-    visviva.satellites.eop_table.EarthOrientationTable
+    visviva._eop_table.EarthOrientationTable
     """
     global _TABLE
     if _TABLE is None:
@@ -114,7 +114,7 @@ def _load_or_parse():
     """(table, True when it came from the cache file)."""
     from astropy.utils import iers
 
-    from .eop_table import EarthOrientationTable
+    from ._eop_table import EarthOrientationTable
 
     path = None if os.path.exists("finals2000A.all") else _cache_file(iers)
     table = None if path is None else _load(path, EarthOrientationTable)
@@ -142,7 +142,7 @@ def with_eop_c04_before(table):
 
     Returns
     -------
-    visviva.satellites.eop_table.EarthOrientationTable
+    visviva._eop_table.EarthOrientationTable
         The same rows after the C04 ones (``predictive_index`` moved along).
     """
     import warnings
@@ -152,7 +152,7 @@ def with_eop_c04_before(table):
     from astropy.table import MaskedColumn, QTable, vstack
     from astropy.utils import iers
 
-    from .eop_table import EarthOrientationTable
+    from ._eop_table import EarthOrientationTable
 
     b = iers.IERS_B.open()
     first = table["MJD"][0].to_value(u.d)

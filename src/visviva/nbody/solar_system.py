@@ -15,6 +15,7 @@ from importlib import resources
 import numpy as np
 
 from .._offline_iers import offline_iers
+from .._units import require_usable_time
 from ..constants import AU_KM, DAY_S, J2000_JD, JULIAN_YEAR_S
 from ..errors import InvalidInputError, fmt_number
 
@@ -127,6 +128,14 @@ def solar_system(epoch=None, *, integrator="whfast", dt=None, pluto=False, units
 
 
 def _jd(epoch):
+    from astropy.time import Time, TimeDelta
+
+    if isinstance(epoch, TimeDelta):
+        raise InvalidInputError(
+            "epoch must be an absolute date (an astropy Time or a TDB Julian date), not a "
+            "TimeDelta; e.g. Time('2025-01-01', scale='tdb').")
+    if isinstance(epoch, Time):
+        require_usable_time(epoch, "epoch")
     try:
         with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
             jd = float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)

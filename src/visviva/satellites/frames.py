@@ -28,7 +28,7 @@ import numpy as np
 from astropy import units as u
 
 from .._offline_iers import offline_iers
-from .._units import to_quantity, to_vector
+from .._units import require_usable_time, to_quantity, to_vector
 from ..errors import DomainError, InvalidInputError, ShapeError
 from .earth_rotation import cirs_to_itrs_mat, gcrs_to_cirs_mat, teme_to_itrs_mat
 
@@ -71,6 +71,7 @@ def _need_time(t, source, target):
             f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
             f"(the rotation depends on the date); got {type(t).__name__}."
         )
+    require_usable_time(t, "t")
 
 
 def _states_at(r, v, t, source, target):

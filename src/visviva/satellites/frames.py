@@ -15,10 +15,12 @@ astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` 
 predictions, and EOP C04): inside these functions ``astropy.utils.iers.conf.auto_download`` is
 ``False``, so no call goes to the network. Observed values are good to ~0.1 ms in UT1 and
 ~0.1 mas in polar motion; predictions degrade to ~20 ms and ~0.08" after a year (Bulletin A's
-error model). Beyond the table UT1-UTC is held at its last value (astropy's ``IERS_Auto`` does
-not warn about that) and the pole is the 50-year mean (with astropy's warning about polar
-motion): errors grow to up to 0.9 s in UT1 (~400 m along the equator in ITRS). Before the
-Bulletin A file (1973) the EOP C04 rows from 1962 are used (:mod:`visviva._iers_cache`).
+error model). Beyond the table UT1-UTC is held at its last value and the pole is the 50-year
+mean, with an :class:`~visviva.errors.EarthOrientationWarning` naming the date and the bound
+of the error (up to ~1 s of UT1 per year past the table, 0.465 km per second along the
+equator). Before the Bulletin A file (1973) the EOP C04 rows from 1962 are used
+(:mod:`visviva._iers_cache`); the table is visviva's own, whatever astropy loaded first
+(docs/conventions.md, "Earth orientation").
 GCRS is insensitive to these data (TEME and GCRS are both inertial). See docs/satellites.md.
 """
 

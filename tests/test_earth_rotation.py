@@ -292,6 +292,14 @@ def test_times_past_the_table_warn_naming_the_date_and_the_error(fresh_table):
     assert "~2.6 s" in msg and "~1.2 km" in msg  # 2.6 years at up to 1 s a year, 0.465 km/s
     with pytest.warns(vv.EarthOrientationWarning, match="2030-06-01"):
         site.look(sat.gcrs(late))
+    # TEME -> GCRS does not depend on UT1 (GMST and the Earth rotation angle cancel): silent,
+    # unless the times themselves are in UT1 (converted to UTC for SGP4 with the held value)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sat.gcrs(late)
+    assert not [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)]
+    with pytest.warns(vv.EarthOrientationWarning, match="times given in UT1"):
+        sat.gcrs(Time("2030-06-01T00:00:00", scale="ut1"))
     with pytest.warns(vv.EarthOrientationWarning, match="before the IERS table"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", erfa.ErfaWarning)

@@ -30,7 +30,7 @@ from astropy.utils import iers
 
 from .errors import EarthOrientationWarning
 
-__all__ = ["EarthOrientationTable", "warning_scope"]
+__all__ = ["EarthOrientationTable", "warning_scope", "insensitive"]
 
 #: drift of UT1 against a held UT1 - UTC, s per year (the upper end: the 1970s-1990s rate)
 DRIFT_S_PER_YEAR = 1.0
@@ -39,6 +39,8 @@ EQUATOR_KM_PER_S = 0.465
 
 #: keys of the warnings already issued in the current visviva call (None: outside any call)
 _ISSUED: contextvars.ContextVar[set | None] = contextvars.ContextVar("_eop_issued", default=None)
+#: True while computing a result that does not depend on UT1 (TEME <-> GCRS rotations)
+_QUIET: contextvars.ContextVar[bool] = contextvars.ContextVar("_eop_quiet", default=False)
 
 
 class warning_scope:
@@ -54,6 +56,19 @@ class warning_scope:
         return False
 
 
+class insensitive:
+    """No warning inside: the result does not depend on UT1 or the pole (TEME <-> GCRS, where
+    GMST and the Earth rotation angle cancel to ~1e-11 rad per second of UT1 error)."""
+
+    def __enter__(self):
+        self._token = _QUIET.set(True)
+        return self
+
+    def __exit__(self, *exc):
+        _QUIET.reset(self._token)
+        return False
+
+
 def _isot(mjd: float) -> str:
     from astropy.time import Time
 
@@ -63,6 +78,8 @@ def _isot(mjd: float) -> str:
 
 
 def _issue(key: str, message: str) -> None:
+    if _QUIET.get():
+        return
     issued = _ISSUED.get()
     if issued is not None:
         if key in issued:
@@ -98,7 +115,8 @@ class EarthOrientationTable(iers.IERS_Auto):
             f"UT1-UTC is held at its last value, {held:+.4f} s, and the pole at the 50-year "
             f"mean. UT1 drifts from a held value by 0.1-1 s a year, so Earth-fixed (ITRS) "
             f"positions, look angles and sidereal times there may be off by up to ~{err_s:.1f} s "
-            f"of rotation (~{err_s * EQUATOR_KM_PER_S:.1f} km along the equator). Install a "
+            f"of rotation (~{err_s * EQUATOR_KM_PER_S:.1f} km along the equator), and times "
+            "given in UT1 by as many seconds of time. Install a "
             "newer astropy-iers-data (pip install -U astropy-iers-data) or set "
             "astropy.utils.iers.earth_orientation_table to a current IERS-A table."))
 

@@ -26,6 +26,8 @@ GCRS is insensitive to these data (TEME and GCRS are both inertial). See docs/sa
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from astropy import units as u
 
@@ -201,8 +203,11 @@ def _matrices_fast(t, source: str, target: str) -> np.ndarray:
     """
     from astropy.time import TimeDelta
 
+    from .._eop_table import insensitive
+
     half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
-    with offline_iers():
+    quiet = insensitive() if "itrs" not in (source, target) else contextlib.nullcontext()
+    with offline_iers(), quiet:
         g, g_rate = _gcrs_to_cirs(t) if "gcrs" in (source, target) else (None, None)
         m0 = _map_at(t, source, target, g)
         rate = (_map_at(t + half, source, target, g) - _map_at(t - half, source, target, g))

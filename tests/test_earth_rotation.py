@@ -16,6 +16,7 @@ from astropy.coordinates.builtin_frames import intermediate_rotation_transforms 
 from astropy.time import Time
 from astropy.utils import iers
 
+import visviva as vv
 from visviva import _iers_cache as iers_cache
 from visviva._eop_table import EarthOrientationTable
 from visviva.satellites import earth_rotation
@@ -312,3 +313,25 @@ def test_times_past_the_table_warn_naming_the_date_and_the_error(fresh_table):
         with iers.earth_orientation_table.set(iers.IERS_Auto.read()):
             theirs_ut1 = late.ut1
     np.testing.assert_array_equal(ours_ut1.jd2, theirs_ut1.jd2)
+
+
+def test_a_time_carrying_another_tables_ut1_says_so():
+    """astropy caches t.ut1 on the Time: one computed with astropy's own table (0.808 s held
+    before 1973) was used silently, 0.86 s of rotation (0.4 km at the equator) off in 1966."""
+    t = Time(["1966-01-01", "1969-01-01"], scale="tt")
+    with iers.earth_orientation_table.set(iers.IERS_Auto.read()):
+        t.ut1  # noqa: B018 (cached on t with astropy's table)
+    r = np.array([[7000.0, 0.0, 0.0], [0.0, 7000.0, 0.0]]) * u.km
+    v = np.zeros((2, 3)) * u.km / u.s
+    with pytest.warns(vv.EarthOrientationWarning, match=r"carries UT1-UTC = \+0\.8079 s"):
+        gcrs_to_itrs(r, v, t)
+    fresh = Time(t.jd1, t.jd2, format="jd", scale="tt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gcrs_to_itrs(r, v, fresh)
+        gcrs_to_itrs(r, v, fresh)  # now carrying visviva's own value: silent
+        with offline_iers():
+            ut1 = fresh.ut1
+    delta_t = ((fresh.jd1 - ut1.jd1) + (fresh.jd2 - ut1.jd2)) * 86400.0
+    np.testing.assert_allclose(delta_t, [PUBLISHED_DELTA_T[1966], PUBLISHED_DELTA_T[1969]],
+                               atol=0.01)

@@ -30,7 +30,10 @@ from astropy.utils import iers
 
 from .errors import EarthOrientationWarning
 
-__all__ = ["EarthOrientationTable", "warning_scope", "insensitive"]
+__all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1"]
+
+#: a UT1 - UTC carried by a Time that differs from the table's by more than this (s) warns
+CARRIED_TOL_S = 0.1
 
 #: drift of UT1 against a held UT1 - UTC, s per year (the upper end: the 1970s-1990s rate)
 DRIFT_S_PER_YEAR = 1.0
@@ -131,3 +134,38 @@ class EarthOrientationTable(iers.IERS_Auto):
             "the equator), ~35 s in 1900; Earth-fixed (ITRS) positions, look angles and "
             "sidereal times are that far off. Set astropy.utils.iers.earth_orientation_table, "
             "or give the times' delta_ut1_utc, from a long-term Delta T model."))
+
+
+def check_carried_ut1(t) -> None:
+    """Warn when ``t`` carries a UT1 - UTC far (> 0.1 s) from visviva's table.
+
+    astropy keeps the UT1 it computed the first time (``t.ut1`` is cached on ``t``, with its
+    UT1 - UTC), or the ``t.delta_ut1_utc`` the user set, and uses it from then on, whatever
+    table is in force: a ``t.ut1`` computed before visviva's first call with astropy's own table (UT1 - UTC
+    held at 0.808 s before 1973) would carry that value into visviva's rotations. The value
+    the Time carries is used (it may be the user's own); the warning says so.
+    """
+    carried = getattr(t, "_delta_ut1_utc", None)  # set by the user
+    if carried is None:  # or computed by an earlier t.ut1, which astropy caches whole
+        cached = t.cache["scale"].get("ut1") if "scale" in t.cache else None
+        carried = getattr(cached, "_delta_ut1_utc", None)
+    table = iers.earth_orientation_table.get()
+    if carried is None or not isinstance(table, EarthOrientationTable) or t.size == 0:
+        return
+    utc = t.utc
+    ours = np.asarray(table.ut1_utc(utc.jd1, utc.jd2).to_value("s"))
+    diff = np.abs(np.asarray(carried, dtype=np.float64) - ours)
+    if not np.nanmax(diff, initial=0.0) > CARRIED_TOL_S:
+        return
+    k = int(np.nanargmax(np.broadcast_to(diff, np.shape(ours)).ravel())) if np.ndim(ours) else 0
+    flat_c = np.broadcast_to(np.asarray(carried, dtype=np.float64), np.shape(ours)).ravel()
+    when = utc.ravel()[k] if utc.ndim else utc
+    _issue("carried", (
+        f"the Time carries UT1-UTC = {float(flat_c[k]):+.4f} s at {when.isot[:19]} (set on it, "
+        "or computed by an earlier .ut1 with another IERS table, e.g. astropy's own before "
+        "visviva's first call); visviva's table gives "
+        f"{float(np.ravel(ours)[k]):+.4f} s there. visviva uses the value the Time carries "
+        f"({float(np.ravel(diff)[k]):.2f} s of Earth rotation, "
+        f"~{float(np.ravel(diff)[k]) * EQUATOR_KM_PER_S:.2f} km along the equator, apart). To "
+        "use the table, pass a fresh Time, e.g. Time(t.jd1, t.jd2, format='jd', "
+        "scale=t.scale)."))

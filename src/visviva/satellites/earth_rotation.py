@@ -45,6 +45,10 @@ def _jd12(t, scale: str):
 
     if t.scale == scale:
         return t.jd1, t.jd2
+    if scale == "ut1":
+        from .._eop_table import check_carried_ut1
+
+        check_carried_ut1(t)
     try:
         other = getattr(t, scale)
     except iers.IERSRangeError as exc:

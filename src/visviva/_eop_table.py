@@ -100,13 +100,21 @@ class EarthOrientationTable(iers.IERS_Auto):
         days = np.asarray(mjd, dtype=np.float64) + np.asarray(frac, dtype=np.float64)
         days = days[np.isfinite(days)]
         if days.size:
-            first = float(self["MJD"][0].to_value("d"))
-            last = float(self["MJD"][-1].to_value("d"))
+            first, last = self._mjd_range()
             if days.max() > last:
                 self._warn_after(float(days.max()), last)
             if days.min() < first:
                 self._warn_before(float(days.min()), first)
         return out
+
+    def _mjd_range(self) -> tuple[float, float]:
+        """(first, last) MJD of the table, computed once."""
+        rng = self.__dict__.get("_visviva_mjd_range")
+        if rng is None:
+            mjd = self["MJD"]
+            rng = (float(mjd[0].to_value("d")), float(mjd[-1].to_value("d")))
+            self.__dict__["_visviva_mjd_range"] = rng
+        return rng
 
     def _warn_after(self, mjd: float, last: float) -> None:
         years = (mjd - last) / 365.25

@@ -151,3 +151,41 @@ def test_solar_system_at_a_ut1_epoch(no_download):
                                atol=1e-12)  # au: the same instant, to 0.15 m
     np.testing.assert_allclose(np.asarray(got.velocities), np.asarray(ref.velocities), rtol=0,
                                atol=1e-12)
+
+
+def test_threads_share_the_offline_table(no_download):
+    """Each visviva call restored astropy's settings on leaving, even while another thread was
+    mid-conversion: that thread got astropy's own table (no 1962-1972 rows: 0.36 km of ITRS in
+    1968) or downloads on (a download attempt, then TypeError)."""
+    import threading
+
+    from visviva.satellites.frames import gcrs_to_itrs
+
+    r, v = [7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 0.0] * u.km / u.s
+
+    def times(k):
+        if k % 2:
+            return Time("1968-01-01T00:00:00", scale="utc") + np.arange(50) * u.s
+        return ut1(np.arange(50.0))
+
+    ref = {k: gcrs_to_itrs(r, v, times(k))[0].to_value(u.km) for k in (0, 1)}
+    bad = []
+
+    def work(k):
+        for _ in range(40):
+            try:
+                got = gcrs_to_itrs(r, v, times(k))[0].to_value(u.km)
+                if np.abs(got - ref[k % 2]).max() > 1e-9:
+                    bad.append(("mismatch", k, float(np.abs(got - ref[k % 2]).max())))
+            except Exception as exc:  # noqa: BLE001 (collected, reported below)
+                bad.append(repr(exc))
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert not bad, bad[:3]
+    from astropy.utils import iers
+
+    assert iers.conf.auto_download and iers.earth_orientation_table._value is None  # restored

@@ -10,6 +10,7 @@ outside :mod:`visviva.satellites` so that :mod:`visviva.nbody` (a UT1 epoch for
 from __future__ import annotations
 
 import contextlib
+import threading
 
 __all__ = ["offline_iers"]
 
@@ -27,24 +28,62 @@ def offline_iers():
     times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``): an
     :class:`~visviva.errors.EarthOrientationWarning` naming the date and the possible error,
     once per kind per call. The parsed table is kept on disk between processes
-    (:mod:`visviva._iers_cache`), so a fresh process loads it in ~10 ms.
+    (:mod:`visviva._iers_cache`), so a fresh process loads it in ~10 ms. Re-entrant and
+    thread-safe: threads inside such blocks share one activation (astropy's settings are
+    process-wide), undone when the last block ends.
     """
+    from ._eop_table import warning_scope
+
+    _enter()
+    try:
+        with warning_scope():
+            yield
+    finally:
+        _exit()
+
+
+#: the settings are process-wide (astropy's configuration and science state are global), so
+#: threads share one activation: the first block to enter applies them, the last to leave
+#: restores them (a thread leaving while another still converts would otherwise hand the
+#: other astropy's own table and downloads mid-call: 0.36 km of ITRS in 1968, seen)
+_LOCK = threading.RLock()
+_DEPTH = 0
+_ACTIVE: contextlib.ExitStack | None = None
+
+
+def _enter() -> None:
+    global _DEPTH, _ACTIVE
+    with _LOCK:
+        if _DEPTH == 0:
+            _ACTIVE = _apply()
+        _DEPTH += 1
+
+
+def _exit() -> None:
+    global _DEPTH, _ACTIVE
+    with _LOCK:
+        _DEPTH -= 1
+        if _DEPTH == 0:
+            active, _ACTIVE = _ACTIVE, None
+            active.close()
+
+
+def _apply() -> contextlib.ExitStack:
     from astropy.utils import iers
 
-    from ._eop_table import warning_scope
     from ._iers_cache import visviva_table
 
-    with (
-        iers.conf.set_temp("auto_download", False),
+    stack = contextlib.ExitStack()
+    try:
+        stack.enter_context(iers.conf.set_temp("auto_download", False))
         # the installed table's predictions are used however old the file is (without this,
         # astropy refuses predictions from a file more than 30 days old: it expects to
         # download a newer one)
-        iers.conf.set_temp("auto_max_age", None),
-        iers.conf.set_temp("iers_degraded_accuracy", "warn"),
-        warning_scope(),
-    ):
-        if getattr(iers.earth_orientation_table, "_value", None) is not None:
-            yield  # a table the user chose (or visviva's, set by an enclosing block)
-        else:
-            with iers.earth_orientation_table.set(visviva_table()):
-                yield
+        stack.enter_context(iers.conf.set_temp("auto_max_age", None))
+        stack.enter_context(iers.conf.set_temp("iers_degraded_accuracy", "warn"))
+        if getattr(iers.earth_orientation_table, "_value", None) is None:  # else the user's
+            stack.enter_context(iers.earth_orientation_table.set(visviva_table()))
+    except BaseException:
+        stack.close()
+        raise
+    return stack

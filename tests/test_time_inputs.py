@@ -119,3 +119,23 @@ def test_two_digit_epoch_years_and_times_before_1960(yy, year):
         ref = _sgp4_km(l1, l2, t)
         got = sat.teme(t).r.to_value(u.km)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-3)
+
+
+def test_timedelta_durations_are_accepted_like_quantities_everywhere():
+    """propagate, propagate_kepler, propagate_cowell and burns took a TimeDelta; an N-body
+    Simulation refused it ('t must be a number')."""
+    st = vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 1] * u.km / u.s, vv.EARTH,
+                         epoch=Time("2024-01-01"))
+    ref = st.propagate(3600 * u.s).r.to_value(u.km)
+    day = TimeDelta(1 / 24, format="jd")
+    np.testing.assert_allclose(st.propagate(day).r.to_value(u.km), ref, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(vv.propagate_kepler(st, day).r.to_value(u.km), ref, rtol=0,
+                               atol=1e-9)
+    assert vv.ImpulsiveBurn(day, [0, 1e-3, 0] * u.km / u.s).start == 3600.0
+    a, b = vv.solar_system(), vv.solar_system()  # units au, yr (Julian), Msun
+    a.integrate(TimeDelta(365.25, format="jd"))
+    b.integrate(1 * u.yr)
+    assert a.t == b.t == 1.0
+    np.testing.assert_array_equal(np.asarray(a.positions), np.asarray(b.positions))
+    with pytest.raises(vv.UnitsError, match="no units"):
+        vv.Simulation().integrate(TimeDelta(1.0, format="jd"))

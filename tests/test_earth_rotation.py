@@ -303,7 +303,8 @@ def test_times_past_the_table_warn_naming_the_date_and_the_error(fresh_table):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         sat.gcrs(late)
-    assert not [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)]
+    assert not [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)
+                or "polar motion" in str(w.message)]
     with pytest.warns(vv.EarthOrientationWarning, match="times given in UT1"):
         sat.gcrs(Time("2030-06-01T00:00:00", scale="ut1"))
     with pytest.warns(vv.EarthOrientationWarning, match="before the IERS table"):

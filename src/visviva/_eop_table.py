@@ -31,7 +31,8 @@ from astropy.utils import iers
 
 from .errors import EarthOrientationWarning
 
-__all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1"]
+__all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1",
+           "is_insensitive"]
 
 #: a UT1 - UTC carried by a Time that differs from the table's by more than this (s) warns
 CARRIED_TOL_S = 0.1
@@ -71,6 +72,11 @@ class insensitive:
     def __exit__(self, *exc):
         _QUIET.reset(self._token)
         return False
+
+
+def is_insensitive() -> bool:
+    """True inside :class:`insensitive` (the result does not depend on UT1 or the pole)."""
+    return _QUIET.get()
 
 
 def _isot(mjd: float) -> str:

@@ -16,8 +16,11 @@ from astropy.coordinates.builtin_frames import intermediate_rotation_transforms 
 from astropy.time import Time
 from astropy.utils import iers
 
-from visviva.satellites import earth_rotation, iers_cache
-from visviva.satellites.frames import offline_iers
+import visviva as vv
+from visviva import _iers_cache as iers_cache
+from visviva._eop_table import EarthOrientationTable
+from visviva.satellites import earth_rotation
+from visviva.satellites.frames import gcrs_to_itrs, offline_iers
 
 # 2019-2024 inside the installed IERS table (observed and predicted), 1900 before it, 2300
 # beyond it (mean pole, UT1-UTC held: astropy warns)
@@ -54,8 +57,8 @@ def test_outside_the_table_warns_and_uses_the_mean_pole():
 
 @pytest.fixture
 def fresh_table(monkeypatch, tmp_path):
-    """No IERS table in this process (restored afterwards) and an empty cache directory."""
-    monkeypatch.setattr(iers.IERS_Auto, "iers_table", None)
+    """No visviva table in this process (restored afterwards) and an empty cache directory."""
+    monkeypatch.setattr(iers_cache, "_TABLE", None)
     monkeypatch.setenv("VISVIVA_CACHE_DIR", str(tmp_path / "cache"))
     return tmp_path / "cache"
 
@@ -72,14 +75,12 @@ def _assert_same_table(a, b):
 
 def test_cache_round_trip_gives_astropys_table(fresh_table):
     with offline_iers():
-        assert iers.IERS_Auto.iers_table is not None  # parsed by astropy and written
+        parsed = iers.earth_orientation_table.get()  # parsed by astropy and written
+    assert type(parsed) is EarthOrientationTable and iers_cache._TABLE is parsed
     files = list(fresh_table.glob("iers_auto-*.pickle"))
     assert len(files) == 1
-    parsed = iers.IERS_Auto.iers_table
-    iers.IERS_Auto.iers_table = None
-    assert iers_cache.install_cached_table() is True  # loaded from the file
-    loaded = iers.IERS_Auto.iers_table
-    assert loaded is not parsed and type(loaded) is iers.IERS_Auto
+    loaded, from_file = iers_cache._load_or_parse()
+    assert from_file and loaded is not parsed and type(loaded) is EarthOrientationTable
     _assert_same_table(loaded, parsed)
     assert loaded.meta["predictive_mjd"] == parsed.meta["predictive_mjd"]
     # and astropy's Time uses it: UT1 from the cached table equals UT1 from a fresh parse
@@ -90,38 +91,48 @@ def test_cache_round_trip_gives_astropys_table(fresh_table):
     np.testing.assert_array_equal(ut1_cached, ut1_parsed)
 
 
-def test_a_held_table_is_left_alone(fresh_table):
+def test_astropys_own_table_is_neither_used_nor_changed(fresh_table, monkeypatch):
     table = iers.IERS_Auto.read()
-    iers.IERS_Auto.iers_table = table
-    assert iers_cache.install_cached_table() is False
+    monkeypatch.setattr(iers.IERS_Auto, "iers_table", table)
+    with offline_iers():
+        assert type(iers.earth_orientation_table.get()) is EarthOrientationTable
     assert iers.IERS_Auto.iers_table is table
-    assert not fresh_table.exists()  # nothing written
+    assert iers.earth_orientation_table.get() is table  # outside visviva's calls: astropy's
+
+
+def test_a_table_the_user_set_is_used_as_given(fresh_table):
+    table = iers.IERS_B.open()
+    with iers.earth_orientation_table.set(table), offline_iers():
+        assert iers.earth_orientation_table.get() is table
+    assert iers_cache._TABLE is None  # not even loaded
 
 
 def test_damaged_cache_file_is_ignored_and_rewritten(fresh_table):
     path = iers_cache._cache_file(iers)
     path.parent.mkdir(parents=True)
     path.write_bytes(b"not a pickle")
-    assert iers_cache.install_cached_table() is False  # parsed again
-    assert type(iers.IERS_Auto.iers_table) is iers.IERS_Auto
-    iers.IERS_Auto.iers_table = None
-    assert iers_cache.install_cached_table() is True  # the rewritten file loads
+    table, from_file = iers_cache._load_or_parse()  # parsed again
+    assert not from_file and type(table) is EarthOrientationTable
+    assert iers_cache._load_or_parse()[1] is True  # the rewritten file loads
 
 
 def test_unwritable_cache_directory_still_works(fresh_table, monkeypatch, tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("x")
     monkeypatch.setenv("VISVIVA_CACHE_DIR", str(blocker / "cache"))  # cannot be created
-    assert iers_cache.install_cached_table() is False
-    assert type(iers.IERS_Auto.iers_table) is iers.IERS_Auto
+    table, from_file = iers_cache._load_or_parse()
+    assert not from_file and type(table) is EarthOrientationTable
 
 
-def test_a_finals_file_in_the_working_directory_is_left_to_astropy(fresh_table, monkeypatch,
-                                                                   tmp_path):
+def test_a_finals_file_in_the_working_directory_is_not_cached(fresh_table, monkeypatch,
+                                                              tmp_path):
+    parsed = iers.IERS_Auto.read()
     (tmp_path / "finals2000A.all").write_text("")
     monkeypatch.chdir(tmp_path)
-    assert iers_cache.install_cached_table() is False
-    assert iers.IERS_Auto.iers_table is None and not fresh_table.exists()
+    monkeypatch.setattr(iers.IERS_Auto, "read", lambda *a, **k: parsed)  # astropy reads it
+    table, from_file = iers_cache._load_or_parse()
+    assert not from_file and type(table) is EarthOrientationTable and len(table) > len(parsed)
+    assert not fresh_table.exists()
 
 
 def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
@@ -220,3 +231,113 @@ def test_ut1_and_pole_before_the_bulletin_a_file_come_from_eop_c04():
         assert k > 0 and table["MJD"][k] == ref["MJD"][0]
         np.testing.assert_array_equal(np.asarray(table["UT1_UTC"][k:]), np.asarray(ref["UT1_UTC"]))
         assert table.meta["predictive_index"] - k == ref.meta["predictive_index"]
+
+
+_LOAD_ORDER_SCRIPT = """
+import numpy as np
+from astropy import units as u
+from astropy.time import Time
+t = Time(["1966-01-01", "1969-01-01"], scale="tt")
+t.ut1  # astropy loads its own IERS table (no C04 rows before 1973) before visviva's first call
+from visviva.satellites.frames import gcrs_to_itrs, offline_iers
+t = Time(["1966-01-01", "1969-01-01"], scale="tt")  # a fresh Time, no UT1 cached on it
+r = np.array([[7000.0, 0.0, 0.0], [0.0, 7000.0, 0.0]])
+v = np.array([[0.0, 7.5, 0.0], [-7.5, 0.0, 0.0]])
+ri, vi = gcrs_to_itrs(r * u.km, v * u.km / u.s, t)
+with offline_iers():
+    ut1 = t.ut1
+print(repr([ri.to_value(u.km).tolist(), (((t.jd1 - ut1.jd1) + (t.jd2 - ut1.jd2)) * 86400).tolist()]))
+"""
+
+
+def test_the_c04_rows_are_used_whatever_table_astropy_loaded_first(tmp_path):
+    """A Time(...).ut1 before visviva's first call left astropy's table without the 1962-1972
+    rows in place, and visviva used it: Delta T 0.75 s wrong in 1966 (~350 m in ITRS)."""
+    env = dict(os.environ, VISVIVA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", _LOAD_ORDER_SCRIPT], capture_output=True,
+                         text=True, check=True, env=env, timeout=600)
+    r_itrs, delta_t = eval(out.stdout.strip().splitlines()[-1])  # noqa: S307 (our own print)
+    np.testing.assert_allclose(delta_t, [PUBLISHED_DELTA_T[1966], PUBLISHED_DELTA_T[1969]],
+                               atol=0.01)
+    # the reference: astropy's frame graph with the EOP C04 table (IERS-B) set explicitly
+    from astropy.coordinates import GCRS, ITRS, CartesianRepresentation
+
+    t = Time(["1966-01-01", "1969-01-01"], scale="tt")
+    r = np.array([[7000.0, 0.0, 0.0], [0.0, 7000.0, 0.0]])
+    with iers.earth_orientation_table.set(iers.IERS_B.open()):
+        ref = GCRS(CartesianRepresentation(r.T * u.km), obstime=t).transform_to(ITRS(obstime=t))
+    ref_km = ref.cartesian.xyz.to_value(u.km).T
+    # 0.01 s of Earth rotation is 5 m at 7000 km
+    np.testing.assert_allclose(r_itrs, ref_km, rtol=0, atol=0.005)
+
+
+def test_times_past_the_table_warn_naming_the_date_and_the_error(fresh_table):
+    import visviva as vv
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+        "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482")
+    site = vv.GroundStation(52.0 * u.deg, 4.4 * u.deg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # inside the table (observed and predicted): silent
+        sat.itrs(INSIDE)
+        site.look(sat.gcrs(INSIDE))
+    late = Time("2030-06-01T00:00:00", scale="utc") + np.arange(3) * u.hour
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sat.itrs(late)
+    ours = [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)]
+    assert len(ours) == 1  # once per call, however many conversions the call makes
+    msg = str(ours[0].message)
+    assert "2030-06-01" in msg and "2027-10-29" in msg and "UT1-UTC is held" in msg
+    assert "~2.6 s" in msg and "~1.2 km" in msg  # 2.6 years at up to 1 s a year, 0.465 km/s
+    states = sat.gcrs(late)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        site.look(states)
+    ours = [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)]
+    assert len(ours) == 1 and "2030-06-01" in str(ours[0].message)
+    assert ours[0].filename == __file__  # it points at the caller's line, not astropy's
+    # TEME -> GCRS does not depend on UT1 (GMST and the Earth rotation angle cancel): silent,
+    # unless the times themselves are in UT1 (converted to UTC for SGP4 with the held value)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sat.gcrs(late)
+    assert not [w for w in caught if issubclass(w.category, vv.EarthOrientationWarning)
+                or "polar motion" in str(w.message)]
+    with pytest.warns(vv.EarthOrientationWarning, match="times given in UT1"):
+        sat.gcrs(Time("2030-06-01T00:00:00", scale="ut1"))
+    with pytest.warns(vv.EarthOrientationWarning, match="before the IERS table"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", erfa.ErfaWarning)
+            gcrs_to_itrs([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s,
+                         Time("1955-01-01", scale="utc"))
+    # the held values are astropy's own: the same numbers as astropy's IERS_Auto there
+    with offline_iers(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ours_ut1 = late.ut1
+        with iers.earth_orientation_table.set(iers.IERS_Auto.read()):
+            theirs_ut1 = late.ut1
+    np.testing.assert_array_equal(ours_ut1.jd2, theirs_ut1.jd2)
+
+
+def test_a_time_carrying_another_tables_ut1_says_so():
+    """astropy caches t.ut1 on the Time: one computed with astropy's own table (0.808 s held
+    before 1973) was used silently, 0.86 s of rotation (0.4 km at the equator) off in 1966."""
+    t = Time(["1966-01-01", "1969-01-01"], scale="tt")
+    with iers.earth_orientation_table.set(iers.IERS_Auto.read()):
+        t.ut1  # noqa: B018 (cached on t with astropy's table)
+    r = np.array([[7000.0, 0.0, 0.0], [0.0, 7000.0, 0.0]]) * u.km
+    v = np.zeros((2, 3)) * u.km / u.s
+    with pytest.warns(vv.EarthOrientationWarning, match=r"carries UT1-UTC = \+0\.8079 s"):
+        gcrs_to_itrs(r, v, t)
+    fresh = Time(t.jd1, t.jd2, format="jd", scale="tt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gcrs_to_itrs(r, v, fresh)
+        gcrs_to_itrs(r, v, fresh)  # now carrying visviva's own value: silent
+        with offline_iers():
+            ut1 = fresh.ut1
+    delta_t = ((fresh.jd1 - ut1.jd1) + (fresh.jd2 - ut1.jd2)) * 86400.0
+    np.testing.assert_allclose(delta_t, [PUBLISHED_DELTA_T[1966], PUBLISHED_DELTA_T[1969]],
+                               atol=0.01)

@@ -44,6 +44,7 @@ _PUBLIC = {
     "Escape": "visviva.errors",
     "BackendUnavailableError": "visviva.errors",
     "SurfaceImpact": "visviva.errors",
+    "EarthOrientationWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

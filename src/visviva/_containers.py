@@ -104,6 +104,7 @@ def validate_epoch(epoch, shape=None, what="the container"):
             f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
             f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
         )
+    _units.require_usable_time(epoch, "epoch")
     if shape is None or epoch.shape in ((), shape):
         return epoch
     try:

@@ -225,6 +225,35 @@ def require_finite(arr, name: str) -> None:
         )
 
 
+def require_usable_time(t, name: str) -> None:
+    """Raise :class:`InvalidInputError` for an astropy Time no date can be computed from.
+
+    A masked Time (``Time(np.ma.masked_array(...))``, a masked table column) keeps a value
+    under each mask, and every conversion (``t.utc.jd1``, ``t.tt - epoch``) silently used it:
+    a state at the hidden date instead of none. A Time in the ``local`` scale (a free-running
+    clock) has no relation to UTC or TT.
+
+    Parameters
+    ----------
+    t : astropy.time.Time
+        The times (any shape).
+    name : str
+        The argument's name, for the message.
+    """
+    if getattr(t, "scale", None) == "local":
+        raise InvalidInputError(
+            f"{name} is in the 'local' time scale, which has no relation to UTC, TT or TDB; "
+            "give times in utc, tai, tt, tdb, tcg, tcb or ut1 (e.g. Time(..., scale='utc')).")
+    if getattr(t, "masked", False):
+        mask = np.asarray(t.mask)
+        if mask.any():
+            first = tuple(int(i) for i in np.argwhere(mask)[0]) if mask.ndim else ()
+            raise InvalidInputError(
+                f"{name} has {int(mask.sum())} masked (missing) time(s), the first at index "
+                f"{first}; a masked time has no date to compute at. Drop them first, e.g. "
+                f"t[~t.mask].")
+
+
 def broadcast_or_raise(context: str, **arrays) -> tuple:
     """Return the common broadcast shape of ``arrays``; :class:`ShapeError` if there is none.
 

@@ -30,6 +30,7 @@ __all__ = [
     "StepSizeError",
     "BackendUnavailableError",
     "SurfaceImpact",
+    "EarthOrientationWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -186,6 +187,19 @@ class Encounter(NBodyEvent):
 
 class Escape(NBodyEvent):
     """A particle went beyond the simulation's escape radius."""
+
+
+class EarthOrientationWarning(UserWarning):
+    """A time lies outside the Earth-orientation (IERS) table, so UT1 and the pole are guessed.
+
+    Past the table's end (the installed Bulletin A predictions, about a year after the
+    ``astropy-iers-data`` release) UT1 - UTC is held at its last value and the pole at the
+    50-year mean; before 1962 UT1 - UTC is held at its first value. The message names the date
+    and the size of the possible error (UT1 drifts 0.1-1 s a year: 0.05-0.5 km along the
+    equator). Earth-fixed (ITRS) positions, geodetic coordinates, look angles and passes at
+    such times carry that error; inertial (GCRS, TEME) results do not. See
+    docs/conventions.md, "Earth orientation".
+    """
 
 
 #: status code -> (exception class, what happened, what to do). The single table of the project.

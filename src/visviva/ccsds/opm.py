@@ -376,8 +376,11 @@ def _burns(opm) -> list:
 
     sc = opm.sections.get("spacecraft_parameters")
     mass = None if sc is None or sc.get("MASS") is None else float(sc["MASS"])
-    records = sorted(zip(opm.maneuvers, opm.sections.get("maneuvers", []), strict=True),
-                     key=lambda x: x[0].epoch.tt.jd)
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+        records = sorted(zip(opm.maneuvers, opm.sections.get("maneuvers", []), strict=True),
+                         key=lambda x: x[0].epoch.tai.jd)
     out = []
     for man, rec in records:
         where = f"{opm.source} line {rec.line_of('MAN_REF_FRAME')}"

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .._units import to_array
+from .._units import require_usable_time, to_array
 from ..constants import DAY_S
 from ..errors import InvalidInputError
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
@@ -270,6 +270,8 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    require_usable_time(t0, "t0")
+    require_usable_time(t1, "t1")
     from ..satellites.frames import offline_iers
 
     with offline_iers():  # a window in UT1 needs the installed IERS table, never a download

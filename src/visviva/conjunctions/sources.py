@@ -164,13 +164,15 @@ def _history(obj, t0, name):
     from astropy.time import Time
 
     from ..satellites.cowell import CowellResult
+    from ..satellites.frames import offline_iers
     from ..states import StateVectors
 
     if isinstance(obj, CowellResult):
         if obj.epoch is None:
             raise InvalidInputError(f"{name}: the CowellResult has no epoch (give the initial "
                                     "StateVectors an epoch to screen its ephemeris).")
-        tau = (obj.epoch - t0).to_value(u.s) + obj.t.to_value(u.s)
+        with offline_iers():  # an epoch in UT1 needs the installed IERS table, no download
+            tau = (obj.epoch.tai - t0.tai).to_value(u.s) + obj.t.to_value(u.s)
         r = obj.r.to_value(u.km)
         v = obj.v.to_value(u.km / u.s)
         if r.ndim == 2:
@@ -180,7 +182,8 @@ def _history(obj, t0, name):
         if not isinstance(obj.epoch, Time) or obj.epoch.ndim != 1 or obj.r.ndim != 2:
             raise InvalidInputError(f"{name}: a StateVectors history needs r of shape (T, 3) "
                                     "and one absolute epoch per state (a 1-D Time).")
-        tau = (obj.epoch - t0).to_value(u.s)
+        with offline_iers():  # epochs in UT1 need the installed IERS table, no download
+            tau = (obj.epoch.tai - t0.tai).to_value(u.s)
         return [(tau, obj.r.to_value(u.km), obj.v.to_value(u.km / u.s))]
     raise InvalidInputError(
         f"{name} must be a Satellite, a Catalog, a CowellResult, a StateVectors history, an "

@@ -228,7 +228,10 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
     ``az_dot = (e_dot n - n_dot e) / (e^2 + n^2)``,
     ``el_dot = (z_dot - rdot z / |rho|) / sqrt(e^2 + n^2)``.
     """
-    r_i, v_i, t, lead, rot_ig = _target_states(target, t)
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # one block: an Earth-orientation warning once per call
+        r_i, v_i, t, lead, rot_ig = _target_states(target, t)
     rho = r_i - station.itrs_km
     if light_time:
         omega = np.array([0.0, 0.0, GMST_RATE_RAD_S])

@@ -30,7 +30,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
-from .._units import is_quantity, to_array
+from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
@@ -91,6 +91,7 @@ def check_window(t0, t1):
             )
         if not t.isscalar:
             raise InvalidInputError(f"{name} must be a scalar Time, got shape {t.shape}.")
+        require_usable_time(t, name)
     from ..satellites.frames import offline_iers
 
     with offline_iers():

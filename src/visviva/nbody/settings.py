@@ -35,6 +35,8 @@ def scalar(arr, name) -> float:
 
 def convert(sim, value, kind, name):
     """``value`` (a number, an array or a Quantity of ``kind``) in simulation units, finite."""
+    if kind == "time" and type(value).__name__ == "TimeDelta":  # a duration, as a Quantity
+        value = value.to("s")
     if hasattr(value, "unit"):
         if sim.units is None:
             from ..errors import UnitsError

@@ -14,6 +14,8 @@ from importlib import resources
 
 import numpy as np
 
+from .._offline_iers import offline_iers
+from .._units import require_usable_time
 from ..constants import AU_KM, DAY_S, J2000_JD, JULIAN_YEAR_S
 from ..errors import InvalidInputError, fmt_number
 
@@ -48,8 +50,9 @@ def _states_at(epoch, names):
     _jd(epoch)  # checked
     # two-part TDB Julian date: one float64 JD is only good to ~20 us (~0.6 m of the Earth's
     # motion); a Time keeps both parts
-    jd, jd2 = (float(epoch.tdb.jd1), float(epoch.tdb.jd2)) if hasattr(epoch, "tdb") else (
-        float(epoch), 0.0)
+    with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+        jd, jd2 = (float(epoch.tdb.jd1), float(epoch.tdb.jd2)) if hasattr(epoch, "tdb") else (
+            float(epoch), 0.0)
     try:
         import de421
         from jplephem import Ephemeris
@@ -125,8 +128,17 @@ def solar_system(epoch=None, *, integrator="whfast", dt=None, pluto=False, units
 
 
 def _jd(epoch):
+    from astropy.time import Time, TimeDelta
+
+    if isinstance(epoch, TimeDelta):
+        raise InvalidInputError(
+            "epoch must be an absolute date (an astropy Time or a TDB Julian date), not a "
+            "TimeDelta; e.g. Time('2025-01-01', scale='tdb').")
+    if isinstance(epoch, Time):
+        require_usable_time(epoch, "epoch")
     try:
-        jd = float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)
+        with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+            jd = float(epoch.tdb.jd) if hasattr(epoch, "tdb") else float(epoch)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(
             f"epoch must be an astropy Time (e.g. Time('2025-01-01', scale='tdb')) or a TDB "

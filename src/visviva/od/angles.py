@@ -51,7 +51,10 @@ def _angles_inputs(ra, dec, t, site_positions):
     if isinstance(t, Time):
         if t.shape != (3,):
             raise ShapeError(f"t must hold three times; got shape {t.shape}.")
-        secs = (t.tt - t[1].tt).sec
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # times in UT1 need the installed IERS table, never a download
+            secs = (t.tt - t[1].tt).sec
         epoch = t[1]
     else:
         secs = to_array(t, "time", "t", allow_plain=True)

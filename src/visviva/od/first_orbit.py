@@ -52,7 +52,7 @@ def initial_orbit(observations, gm):
     g = gm_value(gm)
     kinds = observations.kinds
     vals = observations.values
-    secs = (observations.times.tt - observations.times[0].tt).sec
+    secs = observations.offsets_s(observations.times[0])
     site_r, _, enu = observations.sites()
     fixes = {}
     for i in np.flatnonzero(kinds == "position"):

@@ -177,7 +177,10 @@ def _offsets(t1, t2, t3):
                 f"t1, t2, t3 must be scalars (one time per position); got Time shapes "
                 f"{[t.shape for t in ts]}."
             )
-        return [float((t.tt - t1.tt).sec) for t in ts]
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # times in UT1 need the installed IERS table, never a download
+            return [float((t.tt - t1.tt).sec) for t in ts]
     if any(isinstance(t, Time) for t in ts):
         raise InvalidInputError("give t1, t2, t3 all as astropy Times or all as time offsets.")
     out = [to_array(t, "time", f"t{k}", allow_plain=True) for k, t in enumerate(ts, 1)]

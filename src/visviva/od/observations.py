@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._units import is_quantity, to_array
+from .._units import is_quantity, require_usable_time, to_array
 from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["Observations", "KINDS"]
@@ -140,6 +140,7 @@ class Observations:
                 f"time must be an astropy Time array (stations and the force model need dates); "
                 f"got {type(time).__name__}."
             )
+        require_usable_time(time, "time")
         times = time.reshape(-1) if time.ndim else time.reshape(1)
         n = len(times)
         if n == 0:
@@ -244,7 +245,7 @@ class Observations:
 
     def __repr__(self):
         counts = {k: int(np.sum(self.kinds == k)) for k in KINDS if np.any(self.kinds == k)}
-        span = (self.times[-1].tt - self.times[0].tt).sec
+        span = self.offsets_s(self.times[0])[-1] if len(self) else 0.0
         return f"Observations({len(self)} rows {counts}, span {span:.1f} s)"
 
     def offsets_s(self, epoch):

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
-from .._units import require_positive, to_array, to_quantity, to_vector
+from .._units import require_positive, require_usable_time, to_array, to_quantity, to_vector
 from ..core import force_block as fb
 from ..core.local_frames import FRAME_CODES, INERTIAL, local_axes
 from ..errors import InvalidInputError, InvalidStateError
@@ -85,6 +85,7 @@ def _when(value, name):
     if isinstance(value, Time):
         if not value.isscalar:
             raise InvalidInputError(f"{name} must be one epoch; got shape {value.shape}.")
+        require_usable_time(value, name)
         return value
     arr = to_array(value, "time", name)
     if arr.ndim != 0:
@@ -122,7 +123,10 @@ class _Burn:
                 f"{self!r} starts at an absolute epoch but the state has no epoch; build the "
                 "state with epoch=..., or give the burn's start as an offset (e.g. 600 * u.s)."
             )
-        return float((self.start.tt - epoch.tt).to_value(u.s))
+        from .frames import offline_iers
+
+        with offline_iers():  # UT1 needs the installed IERS table, never a download
+            return float((self.start.tt - epoch.tt).to_value(u.s))
 
 
 class ImpulsiveBurn(_Burn):

@@ -17,7 +17,7 @@ import numpy as np
 from astropy import units as u
 
 from .. import constants as c
-from .._units import require_finite, to_array, to_quantity, to_vector
+from .._units import require_finite, require_usable_time, to_array, to_quantity, to_vector
 from ..bodies import EARTH, SUN
 from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
@@ -357,6 +357,7 @@ def _offsets_s(t, epoch):
                 "t is an astropy Time but the state has no epoch; build the state with "
                 "epoch=..., or pass t as offsets from the initial state (e.g. 3600 * u.s)."
             )
+        require_usable_time(t, "t")
         # TT differences: SI seconds whatever the scales (TDB seconds drift ~1.7 ms a year);
         with offline_iers():  # UT1 needs the installed IERS table, never a download
             return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)

@@ -45,6 +45,10 @@ def _jd12(t, scale: str):
 
     if t.scale == scale:
         return t.jd1, t.jd2
+    if scale == "ut1":
+        from .._eop_table import check_carried_ut1
+
+        check_carried_ut1(t)
     try:
         other = getattr(t, scale)
     except iers.IERSRangeError as exc:
@@ -63,13 +67,18 @@ def polar_motion_rad(t):
     from astropy.utils import iers
     from astropy.utils.exceptions import AstropyWarning
 
+    from .._eop_table import is_insensitive
+
     xp, yp, status = iers.earth_orientation_table.get().pm_xy(t, return_status=True)
+    quiet = is_insensitive()  # a TEME <-> GCRS rotation: the pole cancels
     for code, when in ((iers.TIME_BEFORE_IERS_RANGE, "before"),
                        (iers.TIME_BEYOND_IERS_RANGE, "after")):
         outside = status == code
         if np.any(outside):
             xp[outside] = MEAN_POLE_ARCSEC[0] * u.arcsec
             yp[outside] = MEAN_POLE_ARCSEC[1] * u.arcsec
+            if quiet:
+                continue
             warnings.warn(
                 f"Tried to get polar motions for times {when} IERS data is valid. Defaulting "
                 "to polar motion from the 50-yr mean for those. This may affect precision at "

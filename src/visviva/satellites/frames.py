@@ -15,10 +15,12 @@ astropy (the ``astropy-iers-data`` package: IERS Bulletin A ``finals2000A.all`` 
 predictions, and EOP C04): inside these functions ``astropy.utils.iers.conf.auto_download`` is
 ``False``, so no call goes to the network. Observed values are good to ~0.1 ms in UT1 and
 ~0.1 mas in polar motion; predictions degrade to ~20 ms and ~0.08" after a year (Bulletin A's
-error model). Beyond the table UT1-UTC is held at its last value (astropy's ``IERS_Auto`` does
-not warn about that) and the pole is the 50-year mean (with astropy's warning about polar
-motion): errors grow to up to 0.9 s in UT1 (~400 m along the equator in ITRS). Before the
-Bulletin A file (1973) the EOP C04 rows from 1962 are used (:mod:`.iers_cache`).
+error model). Beyond the table UT1-UTC is held at its last value and the pole is the 50-year
+mean, with an :class:`~visviva.errors.EarthOrientationWarning` naming the date and the bound
+of the error (up to ~1 s of UT1 per year past the table, 0.465 km per second along the
+equator). Before the Bulletin A file (1973) the EOP C04 rows from 1962 are used
+(:mod:`visviva._iers_cache`); the table is visviva's own, whatever astropy loaded first
+(docs/conventions.md, "Earth orientation").
 GCRS is insensitive to these data (TEME and GCRS are both inertial). See docs/satellites.md.
 """
 
@@ -29,7 +31,8 @@ import contextlib
 import numpy as np
 from astropy import units as u
 
-from .._units import to_quantity, to_vector
+from .._offline_iers import offline_iers
+from .._units import require_usable_time, to_quantity, to_vector
 from ..errors import DomainError, InvalidInputError, ShapeError
 from .earth_rotation import cirs_to_itrs_mat, gcrs_to_cirs_mat, teme_to_itrs_mat
 
@@ -53,32 +56,6 @@ WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
 
 
-@contextlib.contextmanager
-def offline_iers():
-    """Use the Earth-orientation data installed with astropy; never download.
-
-    Inside the block ``astropy.utils.iers.conf.auto_download`` is ``False``, the table's
-    predictions are used however old the installed file is (``auto_max_age = None``), and
-    times beyond the table warn instead of raising (``iers_degraded_accuracy = "warn"``).
-    The table astropy parses from those files is kept on disk between processes
-    (:mod:`visviva.satellites.iers_cache`), so a fresh process loads it in ~10 ms.
-    """
-    from astropy.utils import iers
-
-    from .iers_cache import install_cached_table
-
-    with (
-        iers.conf.set_temp("auto_download", False),
-        # the installed table's predictions are used however old the file is (without this,
-        # astropy refuses predictions from a file more than 30 days old: it expects to
-        # download a newer one)
-        iers.conf.set_temp("auto_max_age", None),
-        iers.conf.set_temp("iers_degraded_accuracy", "warn"),
-    ):
-        install_cached_table()  # astropy's parsed table from disk: ~10 ms instead of ~0.5 s
-        yield
-
-
 def _raw(value, kind, name):
     """Plain float64 array in canonical units from a Quantity or (already canonical) array."""
     if isinstance(value, u.Quantity):
@@ -98,6 +75,7 @@ def _need_time(t, source, target):
             f"t must be an astropy Time for a {source.upper()} -> {target.upper()} conversion "
             f"(the rotation depends on the date); got {type(t).__name__}."
         )
+    require_usable_time(t, "t")
 
 
 def _states_at(r, v, t, source, target):
@@ -225,8 +203,11 @@ def _matrices_fast(t, source: str, target: str) -> np.ndarray:
     """
     from astropy.time import TimeDelta
 
+    from .._eop_table import insensitive
+
     half = TimeDelta(_FD_STEP_S / 2.0, format="sec")
-    with offline_iers():
+    quiet = insensitive() if "itrs" not in (source, target) else contextlib.nullcontext()
+    with offline_iers(), quiet:
         g, g_rate = _gcrs_to_cirs(t) if "gcrs" in (source, target) else (None, None)
         m0 = _map_at(t, source, target, g)
         rate = (_map_at(t + half, source, target, g) - _map_at(t - half, source, target, g))

@@ -429,6 +429,8 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
 
         try:
             jd, fr = time_to_utc_days(t)  # sgp4's days of 86,400 s, not astropy's quasi-JD
+        except InvalidInputError:
+            raise  # masked or 'local' times: the message says what to do
         except (ErfaError, ValueError) as exc:
             raise DomainError(
                 f"t cannot be converted to UTC ({exc}); use dates within astropy's supported "

@@ -43,8 +43,10 @@ def time_to_utc_days(t):
     """
     import erfa
 
+    from .._units import require_usable_time
     from .frames import offline_iers
 
+    require_usable_time(t, "t")
     with offline_iers():  # a UT1 time needs the installed IERS table, never a download
         tu = t.utc
     # the UTC calendar day and the (quasi-JD) fraction of it elapsed

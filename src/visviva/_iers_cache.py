@@ -7,8 +7,9 @@ every fresh process, a third of the warm budget of ``Satellite.gcrs`` (issue 11)
 stores the table astropy builds (a pickle of the ``IERS_Auto`` instance), with the EOP C04 rows
 of 1962-1972 put before it (:func:`with_eop_c04_before`; astropy's own values from 1973), in a cache
 directory keyed by the astropy version and the paths, sizes and modification times of the
-files it was read from; later processes load it in ~10 ms and hand it to astropy as the table
-``IERS_Auto.open()`` returns, so every number from 1973 on is astropy's own.
+files it was read from; later processes load it in ~10 ms. visviva hands it to astropy as
+``earth_orientation_table`` inside its own calls only (:func:`visviva_table`), so every number
+from 1973 on is astropy's own and none depends on which table astropy loaded first.
 
 The directory is ``$VISVIVA_CACHE_DIR``, else ``$NUMBA_CACHE_DIR/visviva`` when numba's cache
 is redirected (a fresh numba cache then means a fresh table too), else
@@ -26,10 +27,11 @@ import pickle
 import tempfile
 from pathlib import Path
 
-__all__ = ["cache_dir", "install_cached_table", "with_eop_c04_before"]
+__all__ = ["cache_dir", "visviva_table", "with_eop_c04_before"]
 
-#: the layout of the cached table (2: EOP C04 rows from 1962 before the Bulletin A file)
-_TABLE_VERSION = "2"
+#: the layout of the cached table (2: EOP C04 rows from 1962 before the Bulletin A file;
+#: 3: an EarthOrientationTable, which warns outside its range)
+_TABLE_VERSION = "3"
 
 
 def cache_dir() -> Path:
@@ -83,34 +85,45 @@ def _store(path: Path, table) -> None:
         pass
 
 
-def install_cached_table() -> bool:
-    """Give astropy its default Earth-orientation table from the disk cache, if it has none.
+#: the table visviva uses, once loaded in this process (:func:`visviva_table`)
+_TABLE = None
 
-    Does nothing when astropy already holds the table in this process or when a
-    ``finals2000A.all`` in the working directory would make astropy read that file instead.
-    Otherwise the table comes from the cache file, or is read by astropy
-    (``IERS_Auto.read()``, the call ``IERS_Auto.open()`` makes) and written to the cache.
-    Call it with downloads off (:func:`visviva.satellites.frames.offline_iers`).
+
+def visviva_table():
+    """visviva's Earth-orientation table, from the disk cache or parsed once per process.
+
+    An :class:`~visviva._eop_table.EarthOrientationTable`: astropy's ``IERS_Auto``
+    table (``IERS_Auto.read()``, what ``IERS_Auto.open()`` parses) with the EOP C04 rows of
+    1962-1972 first, read from the cache file or parsed and written to it. It is visviva's
+    own: whatever table astropy holds (``IERS_Auto.iers_table``, loaded by a user's
+    ``Time(...).ut1`` before visviva's first call, or not) is neither used nor changed, so the
+    numbers do not depend on the order of the calls. Call it with downloads off
+    (:func:`visviva._offline_iers.offline_iers`, which hands it to astropy).
 
     Returns
     -------
-    bool
-        True when the table came from the cache file.
+    visviva._eop_table.EarthOrientationTable
     """
+    global _TABLE
+    if _TABLE is None:
+        _TABLE = _load_or_parse()[0]
+    return _TABLE
+
+
+def _load_or_parse():
+    """(table, True when it came from the cache file)."""
     from astropy.utils import iers
 
-    if iers.IERS_Auto.iers_table is not None or os.path.exists("finals2000A.all"):
-        return False
-    path = _cache_file(iers)
-    table = None if path is None else _load(path, iers.IERS_Auto)
+    from ._eop_table import EarthOrientationTable
+
+    path = None if os.path.exists("finals2000A.all") else _cache_file(iers)
+    table = None if path is None else _load(path, EarthOrientationTable)
     if table is not None:
-        iers.IERS_Auto.iers_table = table
-        return True
+        return table, True
     table = with_eop_c04_before(iers.IERS_Auto.read())
-    iers.IERS_Auto.iers_table = table
     if path is not None:
         _store(path, table)
-    return False
+    return table, False
 
 
 def with_eop_c04_before(table):
@@ -129,7 +142,7 @@ def with_eop_c04_before(table):
 
     Returns
     -------
-    astropy.utils.iers.IERS_Auto
+    visviva._eop_table.EarthOrientationTable
         The same rows after the C04 ones (``predictive_index`` moved along).
     """
     import warnings
@@ -139,12 +152,14 @@ def with_eop_c04_before(table):
     from astropy.table import MaskedColumn, QTable, vstack
     from astropy.utils import iers
 
+    from ._eop_table import EarthOrientationTable
+
     b = iers.IERS_B.open()
     first = table["MJD"][0].to_value(u.d)
     early = b[np.asarray(b["MJD"].to_value(u.d)) < first]
     n = len(early)
     if n == 0:
-        return table
+        return EarthOrientationTable(table, meta=dict(table.meta))
     same = {"PM_X": "PM_x", "PM_Y": "PM_y"}  # the _B columns' names in IERS_B
     cols = {}
     for name in table.colnames:
@@ -165,6 +180,6 @@ def with_eop_c04_before(table):
     with warnings.catch_warnings():  # column descriptions differ between the two files
         warnings.simplefilter("ignore")
         joined = vstack([QTable(cols), QTable(table)], metadata_conflicts="silent")
-    out = iers.IERS_Auto(joined, meta=dict(table.meta))
+    out = EarthOrientationTable(joined, meta=dict(table.meta))
     out.meta["predictive_index"] = table.meta["predictive_index"] + n
     return out

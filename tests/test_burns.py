@@ -219,15 +219,18 @@ def test_burns_at_absolute_epochs_and_two_at_one_epoch():
         assert np.linalg.norm((at.v - one.v[1]).to_value(KMS)) < 1e-12
 
 
-def test_backward_outputs_coast_and_burns_before_the_epoch_are_refused():
+def test_backward_outputs_coast_when_the_burns_lie_ahead_and_forward_ones_behind():
     state = leo()
     burn = ImpulsiveBurn(600 * u.s, [0.05, 0, 0] * KMS, "TNW")
     t = np.array([-1200.0, -300.0, 0.0, 1200.0]) * u.s
     out = propagate_cowell(state, t, [vv.J2(vv.EARTH)], maneuvers=[burn])
     plain = propagate_cowell(state, t[:3], [vv.J2(vv.EARTH)])
     assert np.abs((out.r[:3] - plain.r).to_value(u.km)).max() == 0.0
-    with pytest.raises(InvalidInputError, match="before the state's epoch"):
-        propagate_cowell(state, t, [], maneuvers=[ImpulsiveBurn(-60 * u.s, [0.1, 0, 0] * KMS)])
+    # a burn before the epoch is not met by a forward run (as one after the last output)
+    ahead = propagate_cowell(state, t[2:], [], maneuvers=[ImpulsiveBurn(-60 * u.s, [0.1, 0, 0]
+                                                                        * KMS)])
+    assert np.array_equal(ahead.r.value, propagate_cowell(state, t[2:], []).r.value)
+    assert ahead.burns == []
 
 
 def test_events_and_a_terminal_reentry_after_a_deorbit_burn():
@@ -646,3 +649,151 @@ def test_opm_propagate_with_its_own_maneuvers_argument_says_what_to_call():
     opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
     with pytest.raises(InvalidInputError, match=r"propagate_cowell\(opm.state"):
         opm.propagate(60 * u.s, maneuvers=[])
+
+
+# ---------------------------------------------------------------- backward runs through burns
+
+
+@settings(max_examples=40, deadline=None)
+@given(dv=hs.lists(hs.floats(-0.8, 0.8), min_size=3, max_size=3),
+       frame=hs.sampled_from(["RTN", "TNW", "VNB", "GCRS"]),
+       nu=hs.floats(0.0, 6.28))
+def test_an_impulse_crossed_backwards_gives_the_pre_burn_velocity_to_round_off(dv, frame, nu):
+    """v- solves v- + M(r, v-)^T dv = v+ (the frame of the state before the burn): flying the
+    burn forward from it gives v+ back, and it is the v- the forward burn started from."""
+    el = vv.KeplerianElements.from_semi_major_axis(8000 * u.km, 0.1, 0.9, 0.3, 0.5, nu, vv.EARTH)
+    r, v = el.to_state().r.to_value(u.km), el.to_state().v.to_value(KMS)
+    burn = ImpulsiveBurn(0 * u.s, dv * KMS, frame)
+    v_after = v + burn.delta_v_inertial(r, v)
+    v_before = burn.pre_burn_velocity(r, v_after)
+    again = v_before + burn.delta_v_inertial(r, v_before)
+    assert np.linalg.norm(again - v_after) <= 2e-15 * np.linalg.norm(v_after)
+    assert np.linalg.norm(v_before - v) <= 1e-13 * np.linalg.norm(v)
+
+
+def test_a_delta_v_too_large_to_invert_in_a_local_frame_is_refused():
+    # near-radial motion: RTN's N turns fast with v, two pre-burn states give this v+
+    r = np.array([7000.0, 0.0, 0.0])
+    v = np.array([3.0, 0.3, 0.0])
+    burn = ImpulsiveBurn(0 * u.s, [0.0, 0.5, 0.8] * KMS, "RTN")
+    with pytest.raises(vv.errors.InvalidStateError, match="give the Δv in GCRS"):
+        burn.pre_burn_velocity(r, v + burn.delta_v_inertial(r, v))
+    # along the velocity alone it is closed form, also for a Δv larger than the speed
+    geo = ImpulsiveBurn(0 * u.s, [1.47, 0.0, 0.0] * KMS, "TNW")
+    v_apo = np.array([0.0, 1.6, 0.0])
+    after = v_apo + geo.delta_v_inertial(r, v_apo)
+    np.testing.assert_allclose(geo.pre_burn_velocity(r, after), v_apo, rtol=1e-15, atol=1e-15)
+
+
+def _shifted(burns, dt):
+    """The burns ``dt`` seconds later (to fly forward from a state found backwards)."""
+    out = []
+    for b in burns:
+        if isinstance(b, ImpulsiveBurn):
+            out.append(ImpulsiveBurn((b.start + dt) * u.s, b.delta_v, b.frame))
+        else:
+            out.append(FiniteBurn((b.start + dt) * u.s, b.duration_s * u.s, b.direction, b.frame,
+                                  thrust=b.thrust, mass=b.mass_kg * u.kg,
+                                  mass_flow=b.mdot_kg_s * u.kg / u.s))
+    return out
+
+
+@pytest.mark.parametrize("frame", ["GCRS", "RTN", "TNW", "VNB"])
+def test_backward_then_forward_through_impulsive_and_finite_burns_returns_the_start(frame):
+    """Reconstruct the state before three burns (impulse, finite burn with mass flow, impulse)
+    backwards from a state after them, with J2; flying them forward from it gives the start
+    back within the integrator's tolerance (measured 0.8 to 2.4 micrometres after 3000 s)."""
+    state = leo()
+    burns = [ImpulsiveBurn(-2000 * u.s, [0.03, -0.02, 0.05] * KMS, frame),
+             FiniteBurn(-1500 * u.s, 400 * u.s, [0.3, 0.9, -0.3], frame, thrust=200 * u.N,
+                        mass=800 * u.kg, mass_flow=0.5 * u.kg / u.s),
+             ImpulsiveBurn(-600 * u.s, [0.0, 0.04, -0.01] * KMS, frame)]
+    j2 = [vv.J2(vv.EARTH)]
+    back = propagate_cowell(state, -3000 * u.s, j2, maneuvers=burns)
+    assert [r.backward for r in back.burns] == [True, True, True]
+    assert all(r.complete for r in back.burns)
+    # the records describe the burns forwards in time: mass falls, the rocket equation's Δv
+    fin = back.burns[1]
+    assert fin.t_start.to_value(u.s) == -1500.0 and fin.t_end.to_value(u.s) == -1100.0
+    assert fin.mass_before.to_value(u.kg) == 800.0 and fin.mass_after.to_value(u.kg) == 600.0
+    assert fin.delta_v.to_value(KMS) == pytest.approx(0.2 / 0.5 * np.log(800 / 600), rel=1e-14)
+    start = vv.StateVectors(back.r, back.v, vv.EARTH)
+    fwd = propagate_cowell(start, 3000 * u.s, j2, maneuvers=_shifted(burns, 3000.0))
+    assert np.linalg.norm((fwd.r - state.r).to_value(u.km)) < 1e-8  # 10 micrometres
+    assert np.linalg.norm((fwd.v - state.v).to_value(KMS)) < 1e-11
+    # the impulses' inertial Δv are those the forward run applies
+    for k in (0, 2):
+        np.testing.assert_allclose(back.burns[k].delta_v_inertial.to_value(KMS),
+                                   fwd.burns[k].delta_v_inertial.to_value(KMS), atol=1e-11)
+
+
+def _scipy_run(y0, pieces, j2=False):
+    """solve_ivp (DOP853, rtol 1e-12) from y0 through ``pieces`` ``(a, b, accel)`` (either
+    direction), one call each, with ``accel(t, r, v)`` (or None) added to two-body (+ J2)."""
+    from scipy.integrate import solve_ivp
+
+    re = vv.EARTH.radius_km
+
+    def rhs(t, y, accel):
+        r, v = y[:3], y[3:]
+        rn = np.linalg.norm(r)
+        a = -MU * r / rn**3
+        if j2:
+            z2 = (r[2] / rn) ** 2
+            k = -1.5 * vv.EARTH.zonal[0] * MU * re**2 / rn**5
+            a = a + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])
+        return np.concatenate([v, a if accel is None else a + accel(t, r, v)])
+
+    y = np.asarray(y0, dtype=float)
+    for a, b, accel in pieces:
+        y = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-13,
+                      args=(accel,)).y[:, -1]
+    return y
+
+
+def test_a_finite_burn_crossed_backwards_matches_scipy_with_the_mass_growing_back():
+    """Backwards through a TNW burn with mass flow: a = F / m(t), m(t) = m0 - mdot (t - t0)
+    the same function of time as forwards (the mass grows back)."""
+    state = leo()
+    d = np.array([0.3, 0.9, -0.3]) / np.linalg.norm([0.3, 0.9, -0.3])
+    burn = FiniteBurn(-1500 * u.s, 600 * u.s, d, "TNW", thrust=200 * u.N, mass=800 * u.kg,
+                      mass_flow=0.2 * u.kg / u.s)
+    out = propagate_cowell(state, -2500 * u.s, [vv.J2(vv.EARTH)], maneuvers=[burn])
+
+    def thrust(t, r, v):
+        return 0.2 / (800.0 - 0.2 * (t + 1500.0)) * (_axes("TNW", r, v) @ d)
+
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(KMS)])
+    ref = _scipy_run(y0, [(0.0, -900.0, None), (-900.0, -1500.0, thrust),
+                          (-1500.0, -2500.0, None)], j2=True)
+    assert np.linalg.norm(out.r.to_value(u.km) - ref[:3]) < ONE_MM / 10
+    assert np.linalg.norm(out.v.to_value(KMS) - ref[3:]) < 1e-10
+    assert out.burns[0].backward and out.final_mass.to_value(u.kg) == pytest.approx(680.0)
+
+
+def test_mixed_times_through_burns_on_both_sides_equal_one_time_at_a_time():
+    state = leo()
+    burns = [ImpulsiveBurn(-2000 * u.s, [0.03, -0.02, 0.05] * KMS, "RTN"),
+             FiniteBurn(-300 * u.s, 600 * u.s, [1, 0, 0], "VNB", acceleration=0.1 * u.m / u.s**2),
+             ImpulsiveBurn(1000 * u.s, [0.03, -0.02, 0.05] * KMS, "TNW")]
+    t = np.array([-3000.0, -2000.0, -1000.0, -100.0, 0.0, 100.0, 1000.0, 2000.0]) * u.s
+    out = propagate_cowell(state, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    for k in range(len(t)):
+        one = propagate_cowell(state, t[k], [vv.J2(vv.EARTH)], maneuvers=burns)
+        assert np.linalg.norm((one.r - out.r[k]).to_value(u.km)) < 1e-8
+        assert np.linalg.norm((one.v - out.v[k]).to_value(KMS)) < 1e-11
+    # the finite burn that straddles the epoch is logged in two parts, one per direction
+    parts = [(r.t_start.to_value(u.s), r.t_end.to_value(u.s), r.backward) for r in out.burns]
+    assert parts == [(-2000.0, -2000.0, True), (-300.0, 0.0, True), (0.0, 300.0, False),
+                     (1000.0, 1000.0, False)]
+    assert sum(r.delta_v.to_value(KMS) for r in out.burns[1:3]) == pytest.approx(0.06)
+    # an output at an impulse's epoch is the state after it, in both directions
+    before = propagate_cowell(state, -2000.0 * u.s - 1e-5 * u.s, [vv.J2(vv.EARTH)],
+                              maneuvers=burns)
+    jump = (out.v[1] - before.v).to_value(KMS)  # gravity adds 8e-8 km/s over 10 us
+    assert np.linalg.norm(jump - out.burns[0].delta_v_inertial.to_value(KMS)) < 1e-7
+    # a batch backwards equals its single runs
+    batch = vv.StateVectors(np.stack([state.r.value] * 2) * u.km,
+                            np.stack([state.v.value, state.v.value * 1.01]) * KMS, vv.EARTH)
+    many = propagate_cowell(batch, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    assert np.abs((many.r[0] - out.r).to_value(u.km)).max() < 1e-8

@@ -241,12 +241,16 @@ class Schedule:
 
     def segment_model(self, model, a: float, b: float):
         """The force model of the segment from a to b (s from the epoch, either direction): its
-        time origin at a, the thrust of the finite burn that is on over it."""
+        time origin at a, the thrust of the finite burn that is on over it, drag and SRP scaled
+        to the spacecraft's mass there (:func:`visviva.satellites.burn_mass.scale_area`)."""
+        from .burn_mass import scale_area
+
         force = fb.with_time_origin(model.force, a)
         lo = min(a, b)
         for start, end, burn in self.items:
             if isinstance(burn, FiniteBurn) and start <= lo < end:
                 burn.pack(force, a - start)
+        scale_area(self, force, a, b)
         return _SegmentModel(force, model)
 
     def impulses_at(self, t: float) -> list:

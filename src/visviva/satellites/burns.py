@@ -141,11 +141,11 @@ class ImpulsiveBurn(_Burn):
         at the state just before the burn; or inertial: ``"GCRS"`` (default), ``"GCRF"``,
         ``"EME2000"``, ``"ICRF"``. Axes: :mod:`visviva.core.local_frames`.
     delta_mass : Quantity, optional
-        Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``): reported
-        on the result, not used by the dynamics.
+        Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``).
     mass : Quantity, optional
         Spacecraft mass before the burn (kg, > 0): with ``delta_mass``, the result reports the
-        masses before and after.
+        masses before and after, and drag and SRP follow the mass
+        (:mod:`visviva.satellites.burn_mass`).
 
     Notes
     -----
@@ -307,7 +307,8 @@ class FiniteBurn(_Burn):
     thrust : Quantity, optional
         Thrust F (force, > 0), e.g. ``400 * u.N``.
     mass : Quantity, optional
-        Spacecraft mass at ignition (kg, > 0); needed with ``thrust``.
+        Spacecraft mass at ignition (kg, > 0); needed with ``thrust``. Drag and SRP follow the
+        mass the burn spends (:mod:`visviva.satellites.burn_mass`).
     isp : Quantity, optional
         Specific impulse (time, > 0): mass flow mdot = F / (Isp g0).
     mass_flow : Quantity, optional

@@ -874,3 +874,34 @@ def test_burn_masses_that_contradict_each_other_are_refused_with_drag():
         propagate_cowell(state, 1000 * u.s, [drag], maneuvers=burns)
     # without drag or SRP the masses are only reported
     assert propagate_cowell(state, 1000 * u.s, [], maneuvers=burns).burns[1].complete
+
+
+def test_the_pending_manoeuvre_guard_survives_indexing_and_element_conversions():
+    """opm.state.to_elements().to_state() lost the mark (propagate_cowell then ran without the
+    message's 10 m/s RTN impulse, 11 km off an hour later) and fit_orbit(initial=opm.state)
+    fitted through it; a state rebuilt from the arrays cannot be told apart (docs/ccsds.md)."""
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    mans = [OPMManeuver(EPOCH + 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    state = opm.state
+    derived = [state.to_elements().to_state(), state.to_equinoctial().to_state(),
+               state.to_equinoctial().to_keplerian().to_state(), state.to_state_vectors()]
+    batch = vv.StateVectors(np.stack([state.r.value] * 2) * u.km,
+                            np.stack([state.v.value] * 2) * KMS, vv.EARTH, epoch=EPOCH)
+    setattr(batch, vv.satellites.burns.PENDING_ATTRIBUTE, 1)  # as an OPM's state carries it
+    derived += [batch[0], batch.to_elements()[1].to_state(), batch.to_equinoctial()[0].to_state()]
+    for other in derived:
+        with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+            propagate_cowell(other, 1 * u.h)
+        with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+            other.propagate(1 * u.h)  # Kepler, plain StateVectors too
+    obs = vv.Observations(time=EPOCH + [100, 200, 300] * u.s, kind="position",
+                          value=np.zeros((3, 3)), sigma=1e-3)
+    with pytest.raises(InvalidInputError, match=r"fit_orbit.*1 manoeuvre\(s\)|1 manoeuvre\(s\).*fit"):
+        vv.fit_orbit(obs, state)
+    # with the manoeuvres applied, the converted state propagates as the OPM's own
+    out = propagate_cowell(state.to_elements().to_state(), 1 * u.h, maneuvers=opm.burns())
+    assert np.linalg.norm((out.r - opm.propagate(1 * u.h).r).to_value(u.km)) < 1e-6

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
+from .._containers import PENDING_MANEUVERS_ATTRIBUTE, refuse_pending
 from .._units import require_positive, to_array, to_quantity, to_vector
 from ..core import force_block as fb
 from ..core.local_frames import FRAME_CODES, INERTIAL, RTN, local_axes
@@ -478,32 +479,6 @@ class BurnRecord:
     backward: bool = False
 
 
-#: What an OPM's state carries when its message has manoeuvres (see :meth:`OPM.state`).
-PENDING_ATTRIBUTE = "_pending_maneuvers"
-
-
-def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "
-                   "perturbations), which applies them.") -> None:
-    """Refuse a state read from an OPM with manoeuvres where ``what`` would ignore them.
-
-    Parameters
-    ----------
-    state : StateVectors
-        The state (an OPM's :attr:`~visviva.ccsds.opm.OPM.state` says how many manoeuvres its
-        message has).
-    what : str
-        The function that cannot apply manoeuvres, for the message.
-    remedy : str
-        What to do instead.
-
-    Raises
-    ------
-    InvalidInputError
-        When the state carries manoeuvres.
-    """
-    pending = getattr(state, PENDING_ATTRIBUTE, None)
-    if pending:
-        raise InvalidInputError(
-            f"this state comes from an OPM with {pending} manoeuvre(s), which {what} would "
-            f"ignore. {remedy}"
-        )
+#: What an OPM's state carries when its message has manoeuvres (see :meth:`OPM.state`); kept by
+#: indexing and conversions (:func:`visviva._containers.carry_marks`).
+PENDING_ATTRIBUTE = PENDING_MANEUVERS_ATTRIBUTE

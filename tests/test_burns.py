@@ -905,3 +905,87 @@ def test_the_pending_manoeuvre_guard_survives_indexing_and_element_conversions()
     # with the manoeuvres applied, the converted state propagates as the OPM's own
     out = propagate_cowell(state.to_elements().to_state(), 1 * u.h, maneuvers=opm.burns())
     assert np.linalg.norm((out.r - opm.propagate(1 * u.h).r).to_value(u.km)) < 1e-6
+
+
+# ---------------------------------------------------------------- events at burns
+
+
+def _apsides_by_brute_force(state, t_end, burns):
+    """(time, 'periapsis' | 'apoapsis') where r.v changes sign on a 0.01 s grid of the same
+    run without events (offset by 0.005 s from whole hundredths: off the burn's epoch, where
+    r.v is zero to round-off)."""
+    tt = np.sort(np.arange(0.005, abs(t_end), 0.01) * np.sign(t_end))
+    run = propagate_cowell(state, tt * u.s, [vv.J2(vv.EARTH)], maneuvers=burns)
+    rv = np.einsum("ij,ij->i", run.r.to_value(u.km), run.v.to_value(KMS))
+    k = np.flatnonzero(np.sign(rv[1:]) != np.sign(rv[:-1]))
+    return [(float(tt[i] + 0.005), "apoapsis" if rv[i] > 0 else "periapsis") for i in k]
+
+
+@pytest.mark.parametrize("t_b,factor,backward", [
+    (1000.0, 1.03, False), (1000.0, 0.97, False), (3900.0, 1.03, False), (3900.0, 0.97, False),
+    (1000.0, 1.03, True), (3900.0, 0.97, True), (None, 1.08, False), (None, 1.0, False)])
+def test_an_apsis_made_or_unmade_by_an_impulse_is_reported_once_or_not_at_all(t_b, factor,
+                                                                               backward):
+    """An RTN impulse that cancels the radial velocity (speed set to ``factor`` x circular)
+    makes its epoch an apsis when r.v leaves with the other sign (inbound and faster than
+    circular: a periapsis, which no integration segment saw, so it was missed; outbound and
+    slower: an apoapsis), and not when r keeps rising or falling. A TNW impulse at an
+    apoapsis (``t_b`` None) that makes it the periapsis is no apsis (a crossing found before
+    the burn and one across it cancel); a small one leaves it an apoapsis. Each run agrees with
+    a brute-force search of r.v on a 0.01 s grid, also backwards from the state after it."""
+    el = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.05, 0.9, 0.3, 0.5, 0.8,
+                                                   vv.EARTH).to_state()
+    state = vv.StateVectors(el.r, el.v, vv.EARTH)
+    j2 = [vv.J2(vv.EARTH)]
+    if t_b is None:  # at the apoapsis, along the velocity
+        t_b = propagate_cowell(state, 4000 * u.s, j2, events=[Apsides()]).events_named(
+            "apsis")[0].t.to_value(u.s)
+        burns = [ImpulsiveBurn(t_b * u.s, [0.6 if factor > 1 else 0.01, 0, 0] * KMS, "TNW")]
+    else:
+        at = propagate_cowell(state, t_b * u.s, j2)
+        r, v = at.r.to_value(u.km), at.v.to_value(KMS)
+        v_r = r @ v / np.linalg.norm(r)
+        v_t = np.linalg.norm(np.cross(r, v)) / np.linalg.norm(r)
+        speed = factor * np.sqrt(MU / np.linalg.norm(r))
+        burns = [ImpulsiveBurn(t_b * u.s, [-v_r, speed - v_t, 0] * KMS, "RTN")]
+    t_end = t_b + 500.0
+    if backward:  # the same burn flown backwards from the state 500 s after it
+        after = propagate_cowell(state, t_end * u.s, j2, maneuvers=burns)
+        state = vv.StateVectors(after.r, after.v, vv.EARTH)
+        burns = [ImpulsiveBurn(-500 * u.s, burns[0].delta_v, burns[0].frame)]
+        t_b, t_end = -500.0, -1000.0
+    out = propagate_cowell(state, t_end * u.s, j2, events=[Apsides()], maneuvers=burns)
+    found = [(e.t.to_value(u.s), e.what) for e in out.events_named("apsis")]
+    truth = _apsides_by_brute_force(state, t_end, burns)
+    assert [w for _, w in found] == [w for _, w in truth]
+    for (t1, _), (t2, _) in zip(found, truth, strict=True):
+        assert abs(t1 - t2) <= 0.01
+    near = [t for t, _ in found if abs(t - t_b) < 1.0]
+    assert len(near) <= 1 and all(abs(t - t_b) < 1e-6 for t in near)
+
+
+@pytest.mark.parametrize("kind", ["impulse", "finite_start", "finite_end"])
+def test_events_exactly_at_a_burn_boundary_are_reported_once(kind):
+    """Eclipse entries and exits, altitude and node crossings, apsides of a run without burns:
+    a burn (that changes nothing measurable) put exactly at each of their times leaves each
+    reported once, at its time."""
+    from visviva.satellites.events import AltitudeCrossing, AscendingNode, Eclipse
+
+    el = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.01, 0.9, 0.3, 0.5, 0.2,
+                                                   vv.EARTH).to_state()
+    state = vv.StateVectors(el.r, el.v, vv.EARTH, epoch=EPOCH)
+    events = [Apsides(), Eclipse(), AltitudeCrossing(650 * u.km), AscendingNode()]
+    j2 = [vv.J2(vv.EARTH)]
+    plain = propagate_cowell(state, 6500 * u.s, j2, events=events)
+    assert len(plain.events) >= 7
+    for rec in plain.events:
+        t = rec.t.to_value(u.s)
+        burn = {"impulse": ImpulsiveBurn(t * u.s, [0, 0, 0] * KMS, "TNW"),
+                "finite_start": FiniteBurn(t * u.s, 100 * u.s, [0, 0, 1], "TNW",
+                                           acceleration=1e-12 * u.km / u.s**2),
+                "finite_end": FiniteBurn((t - 100) * u.s, 100 * u.s, [0, 0, 1], "TNW",
+                                         acceleration=1e-12 * u.km / u.s**2)}[kind]
+        out = propagate_cowell(state, 6500 * u.s, j2, events=events, maneuvers=[burn])
+        assert [(e.name, e.what) for e in out.events] == [(e.name, e.what) for e in plain.events]
+        times = np.array([e.t.to_value(u.s) for e in out.events])
+        assert np.abs(times - [e.t.to_value(u.s) for e in plain.events]).max() < 1e-5

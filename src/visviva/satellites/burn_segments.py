@@ -31,7 +31,7 @@ __all__ = ["Schedule", "SNAP_S", "burn_schedule", "run_segments", "run_segments_
 DRIFT_S = 1e-9
 
 
-def _drive(schedule, model, t_out, t_end, y0, segment):
+def _drive(schedule, model, t_out, t_end, y0, segment, jump=None):
     """Walk the segments of ``schedule`` from 0 to ``t_end`` (either sign; ``t_out`` in the
     run's direction); ``segment(y, t_seg, a, b, seg_model)`` integrates one and returns
     ``(y_out, stopped_at)`` (``stopped_at``: None when it reached b, else the time, s from the
@@ -41,7 +41,9 @@ def _drive(schedule, model, t_out, t_end, y0, segment):
     state given is the one before it). Backwards, they are taken off on arrival
     (:meth:`~visviva.satellites.burns.ImpulsiveBurn.pre_burn_velocity`), except at 0 (the state
     given is before those) and at ``t_end``. Either way an output at an impulse's epoch is the
-    state after the impulse. (The schedule is snapped to the outputs and 0 before.)"""
+    state after the impulse. (The schedule is snapped to the outputs and 0 before.)
+    ``jump(a, y_before, y_after)`` (optional) sees the states just before and after the
+    impulses at ``a`` in physical time and returns True to stop there (a terminal event)."""
     points = schedule.breakpoints(float(t_end))
     backward = t_end < 0
     y = np.array(y0, dtype=np.float64)
@@ -49,22 +51,30 @@ def _drive(schedule, model, t_out, t_end, y0, segment):
     t_reached = 0.0
     for i, a in enumerate(points):
         if i > 0 or not backward:
-            if not backward:
-                for burn in schedule.impulses_at(a):
+            impulses = schedule.impulses_at(a)
+            stop = False
+            if impulses and not backward:
+                y_before = y.copy()
+                for burn in impulses:
                     dv = burn.delta_v_inertial(y[..., :3], y[..., 3:])
                     y[..., 3:] += dv
                     schedule.log_impulse(burn, a, dv)
+                stop = jump is not None and jump(a, y_before, y)
             # the outputs at a: the state there, after its impulses
             pieces.append(np.repeat(y[..., None, :], int(np.count_nonzero(t_out == a)), axis=-2))
-            if i == len(points) - 1:
+            if i == len(points) - 1 or stop:
                 t_reached = a
                 break
-            if backward:
-                for burn in schedule.impulses_at(a)[::-1]:
+            if impulses and backward:
+                y_after = y.copy()
+                for burn in impulses[::-1]:
                     v_before = burn.pre_burn_velocity(y[..., :3], y[..., 3:])
                     dv = y[..., 3:] - v_before
                     y[..., 3:] = v_before
                     schedule.log_impulse(burn, a, dv, backward=True)
+                if jump is not None and jump(a, y, y_after):
+                    t_reached = a
+                    break
         b = points[i + 1]
         schedule.check_state(a, b, y)
         mask = (t_out < a) & (t_out > b) if backward else (t_out > a) & (t_out < b)
@@ -126,11 +136,81 @@ def run_segments(schedule, run_one, y0, t_out, t_end, model, rtol, atol, h_max, 
             return y_seg, a + seg_info[4]
         return y_seg, None
 
-    y_out, info[4] = _drive(schedule, model, t_out, t_end, y0, segment)
+    epochs = []
+
+    def jump(a, y_before, y_after):
+        """The events whose sign the impulses at ``a`` flip (an apsis made by a burn)."""
+        from ..core.cowell_events import event_function
+
+        epochs.append(a)
+        force, _, _, eph_r, eph_v = (fb.with_time_origin(model.force, a),) + model.arrays()[1:5]
+        kinds, params, dirs, terms = ev
+        stop = False
+        def side(e, y, dt):
+            """The sign of event ``e`` at ``y``, or where it is zero, ``dt`` s later (on a
+            two-body drift): the integrator skips a zero at a segment's start, and reports
+            one at its end as a crossing to the other side."""
+            g = event_function(kinds[e], params[e], 0.0, y, force, eph_r, eph_v)
+            if g == 0.0:
+                r = y[:3]
+                acc = -force[fb.GM] * r / np.linalg.norm(r) ** 3
+                near = np.concatenate([r + y[3:] * dt + 0.5 * acc * dt * dt, y[3:] + acc * dt])
+                g = event_function(kinds[e], params[e], dt, near, force, eph_r, eph_v)
+                g = g if dt > 0 else -g
+            return -1.0 if g < 0.0 else 1.0
+
+        for e in range(kinds.size):
+            s0, s1 = side(e, y_before, -1e-3), side(e, y_after, 1e-3)
+            rising = s1 > s0
+            if s0 == s1 or dirs[e] * s1 < 0:
+                continue
+            events.append((np.array([a]), y_after[None, :].copy(),
+                           np.array([(e + 1.0) * (1.0 if rising else -1.0)])))
+            if terms[e] != 0 and not stop:
+                info[5], stop = e, True
+        return stop
+
+    y_out, info[4] = _drive(schedule, model, t_out, t_end, y0, segment, jump)
     info[0] = len(y_out)
     ev_t, ev_y, ev_which = (np.concatenate([e[k] for e in events]) if events else
                             np.zeros((0, 6) if k == 1 else 0) for k in range(3))
-    return status[0], y_out, ev_t, ev_y, ev_which, info
+    order = np.argsort(ev_t * np.sign(t_end or 1.0), kind="stable")  # in the run's direction
+    keep = _cancel_touches(ev_t[order], ev_which[order], epochs, 2.0 * ev_tol)
+    order = order[keep]
+    return status[0], y_out, ev_t[order], ev_y[order], ev_which[order], info
+
+
+def _cancel_touches(ev_t, ev_which, epochs, window):
+    """Which events to keep: at an impulse's epoch a crossing of the event function across the
+    jump and one found by the integrator on either side within ``window`` (s) of it, in
+    opposite directions, are one touch of zero, not two crossings (a burn at an apsis that
+    leaves the orbit's radius rising, or falling, on both sides): both are dropped, so that an
+    apsis made or unmade by a burn is reported once or not at all.
+
+    Parameters
+    ----------
+    ev_t, ev_which : ndarray
+        The events in the run's order: times (s from the epoch) and (index + 1) x direction.
+    epochs : list of float
+        The impulses' epochs.
+    window : float
+        s.
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    keep = np.ones(ev_t.size, dtype=bool)
+    for a in epochs:
+        near = np.flatnonzero(np.abs(ev_t - a) <= window)
+        for e in np.unique(np.abs(ev_which[near])):
+            stack = []
+            for k in near[np.abs(ev_which[near]) == e]:
+                if stack and np.sign(ev_which[stack[-1]]) != np.sign(ev_which[k]):
+                    keep[stack.pop()] = keep[k] = False
+                else:
+                    stack.append(k)
+    return keep
 
 
 def run_segments_many(schedule, run_many, y0, t_out, t_end, model, rtol, atol, h_max,

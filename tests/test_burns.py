@@ -305,26 +305,11 @@ def _axes(frame, r, v):
 
 
 def _scipy_thrust_run(y0, t_start, duration, t_end, accel0, mass_rate, d, j2, frame):
-    from scipy.integrate import solve_ivp
+    def thrust(t, r, v):
+        return accel0 / (1 - mass_rate * (t - t_start)) * (_axes(frame, r, v) @ d)
 
-    re = vv.EARTH.radius_km
-
-    def rhs(t, y):
-        r, v = y[:3], y[3:]
-        rn = np.linalg.norm(r)
-        a = -MU * r / rn**3
-        if j2:
-            z2 = (r[2] / rn) ** 2
-            k = -1.5 * vv.EARTH.zonal[0] * MU * re**2 / rn**5
-            a = a + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])
-        if t_start <= t < t_start + duration:
-            a = a + accel0 / (1 - mass_rate * (t - t_start)) * (_axes(frame, r, v) @ d)
-        return np.concatenate([v, a])
-
-    y = np.asarray(y0, dtype=float)
-    for a, b in ((0.0, t_start), (t_start, t_start + duration), (t_start + duration, t_end)):
-        y = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
-    return y
+    return _scipy_run(y0, [(0.0, t_start, None), (t_start, t_start + duration, thrust),
+                           (t_start + duration, t_end, None)], j2=j2)
 
 
 @pytest.mark.parametrize("j2,frame", [(False, "RTN"), (True, "RTN"), (True, "TNW"),

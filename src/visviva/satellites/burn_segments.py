@@ -358,27 +358,25 @@ class Schedule:
                     None if m0 is None else m0 * u.kg, None if m1 is None else m1 * u.kg,
                     t0 == start and t1 == end, t_reached < 0))
 
-    def run(self, run_one):
-        """A function with the signature and outputs of ``cowell._run`` that integrates a leg
-        (forward or backward from the epoch) segment by segment; a leg that meets no burn is
-        one call of ``run_one``, the same bits as a run without burns."""
+    def _leg(self, plain, segmented):
+        """``plain`` (``cowell._run`` or ``_run_many``) for a leg that meets no burn (the same
+        bits as a run without burns), else ``segmented`` with this schedule."""
         def run(*args):
             self.snap(np.sort(np.append(args[1], 0.0)))
             if not self.crosses(float(args[2])):
-                return run_one(*args)
-            return run_segments(self, run_one, *args)
+                return plain(*args)
+            return segmented(self, plain, *args)
 
         return run
+
+    def run(self, run_one):
+        """A function with the signature and outputs of ``cowell._run`` that integrates a leg
+        (forward or backward from the epoch) segment by segment."""
+        return self._leg(run_one, run_segments)
 
     def run_many(self, run_many):
         """The same for N states and ``cowell._run_many``."""
-        def run(*args):
-            self.snap(np.sort(np.append(args[1], 0.0)))
-            if not self.crosses(float(args[2])):
-                return run_many(*args)
-            return run_segments_many(self, run_many, *args)
-
-        return run
+        return self._leg(run_many, run_segments_many)
 
     def annotate(self, result) -> None:
         """Set ``result.burns`` (records by start) and ``result.final_mass`` (the mass after

@@ -974,3 +974,23 @@ def test_events_exactly_at_a_burn_boundary_are_reported_once(kind):
         assert [(e.name, e.what) for e in out.events] == [(e.name, e.what) for e in plain.events]
         times = np.array([e.t.to_value(u.s) for e in out.events])
         assert np.abs(times - [e.t.to_value(u.s) for e in plain.events]).max() < 1e-5
+
+
+def test_an_opm_manoeuvre_before_its_epoch_starts_with_the_mass_it_had():
+    """MASS is the mass at EPOCH: a manoeuvre before it had spent its MAN_DELTA_MASS by then
+    (it was given MASS at ignition, 1 kg too little, and drag and SRP after it the wrong ratio);
+    opm.propagate crosses it backwards."""
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    mans = [OPMManeuver(EPOCH - 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS),
+            OPMManeuver(EPOCH + 600 * u.s, 60 * u.s, -2.0 * u.kg, "TNW", [0.02, 0, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    before, after = opm.burns()
+    assert before.mass.to_value(u.kg) == 101.0 and after.mass_kg == 100.0
+    out = opm.propagate([-1200, 1200] * u.s)
+    assert [(r.backward, r.mass_before.to_value(u.kg), r.mass_after.to_value(u.kg))
+            for r in out.burns] == [(True, 101.0, 100.0), (False, 100.0, 98.0)]
+    srp = vv.SolarRadiationPressure(area_to_mass=0.05 * u.m**2 / u.kg, shadow=None)
+    assert opm.propagate(-1200 * u.s, [srp]).burns[0].complete

@@ -994,3 +994,45 @@ def test_an_opm_manoeuvre_before_its_epoch_starts_with_the_mass_it_had():
             for r in out.burns] == [(True, 101.0, 100.0), (False, 100.0, 98.0)]
     srp = vv.SolarRadiationPressure(area_to_mass=0.05 * u.m**2 / u.kg, shadow=None)
     assert opm.propagate(-1200 * u.s, [srp]).burns[0].complete
+
+
+@settings(max_examples=15, deadline=None)
+@given(times=hs.lists(hs.floats(100.0, 2900.0), min_size=1, max_size=3, unique=True),
+       dvs=hs.lists(hs.lists(hs.floats(-0.2, 0.2), min_size=3, max_size=3), min_size=3,
+                    max_size=3),
+       frames=hs.lists(hs.sampled_from(["RTN", "TNW", "VNB", "GCRS"]), min_size=3, max_size=3))
+def test_backward_through_random_impulses_returns_the_kepler_start(times, dvs, frames):
+    """Fly impulses forward on Kepler arcs from y0 at -3000 s to the state at 0; propagate_cowell
+    (two-body) from that state back to -3000 s through the same burns returns y0."""
+    y0 = leo()
+    burns = [ImpulsiveBurn((t - 3000.0) * u.s, dv * KMS, f)
+             for t, dv, f in zip(sorted(times), dvs, frames, strict=False)]
+    cur, t_prev = y0, -3000.0
+    for b in burns:
+        cur = cur.propagate((b.start - t_prev) * u.s)
+        r, v = cur.r.to_value(u.km), cur.v.to_value(KMS)
+        cur = vv.StateVectors(r * u.km, (v + b.delta_v_inertial(r, v)) * KMS, vv.EARTH)
+        t_prev = b.start
+    x = cur.propagate(-t_prev * u.s)
+    back = propagate_cowell(x, -3000 * u.s, [], maneuvers=burns)
+    assert np.linalg.norm((back.r - y0.r).to_value(u.km)) < 1e-6  # 1 mm
+    assert np.linalg.norm((back.v - y0.v).to_value(KMS)) < 1e-9
+
+
+def test_a_batch_with_drag_and_a_mass_spending_burn_equals_single_runs():
+    el = vv.KeplerianElements([6700.0, 6750.0] * u.km, [0.001, 0.01], [0.9, 1.7], [0.0, 1.0],
+                              [0.1, 0.2], [0.0, 2.0], vv.EARTH).to_state()
+    r, v = el.r.to_value(u.km), el.v.to_value(KMS)
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)
+    burns = [FiniteBurn(-900 * u.s, 1200 * u.s, [1, 0, 0], "TNW", thrust=50 * u.N,
+                        mass=600 * u.kg, mass_flow=0.2 * u.kg / u.s),
+             ImpulsiveBurn(900 * u.s, [0.01, 0, 0] * KMS, "TNW", mass=360 * u.kg,
+                           delta_mass=-10 * u.kg)]
+    t = np.array([-1500.0, -100.0, 0.0, 600.0, 2000.0]) * u.s
+    many = propagate_cowell(vv.StateVectors(r * u.km, v * KMS, vv.EARTH), t, [drag],
+                            maneuvers=burns)
+    for k in range(2):
+        one = propagate_cowell(vv.StateVectors(r[k] * u.km, v[k] * KMS, vv.EARTH), t, [drag],
+                               maneuvers=burns)
+        assert np.abs((many.r[k] - one.r).to_value(u.km)).max() < 1e-9
+    assert many.final_mass.to_value(u.kg) == pytest.approx(350.0)

@@ -219,15 +219,18 @@ def test_burns_at_absolute_epochs_and_two_at_one_epoch():
         assert np.linalg.norm((at.v - one.v[1]).to_value(KMS)) < 1e-12
 
 
-def test_backward_outputs_coast_and_burns_before_the_epoch_are_refused():
+def test_backward_outputs_coast_when_the_burns_lie_ahead_and_forward_ones_behind():
     state = leo()
     burn = ImpulsiveBurn(600 * u.s, [0.05, 0, 0] * KMS, "TNW")
     t = np.array([-1200.0, -300.0, 0.0, 1200.0]) * u.s
     out = propagate_cowell(state, t, [vv.J2(vv.EARTH)], maneuvers=[burn])
     plain = propagate_cowell(state, t[:3], [vv.J2(vv.EARTH)])
     assert np.abs((out.r[:3] - plain.r).to_value(u.km)).max() == 0.0
-    with pytest.raises(InvalidInputError, match="before the state's epoch"):
-        propagate_cowell(state, t, [], maneuvers=[ImpulsiveBurn(-60 * u.s, [0.1, 0, 0] * KMS)])
+    # a burn before the epoch is not met by a forward run (as one after the last output)
+    ahead = propagate_cowell(state, t[2:], [], maneuvers=[ImpulsiveBurn(-60 * u.s, [0.1, 0, 0]
+                                                                        * KMS)])
+    assert np.array_equal(ahead.r.value, propagate_cowell(state, t[2:], []).r.value)
+    assert ahead.burns == []
 
 
 def test_events_and_a_terminal_reentry_after_a_deorbit_burn():
@@ -302,26 +305,11 @@ def _axes(frame, r, v):
 
 
 def _scipy_thrust_run(y0, t_start, duration, t_end, accel0, mass_rate, d, j2, frame):
-    from scipy.integrate import solve_ivp
+    def thrust(t, r, v):
+        return accel0 / (1 - mass_rate * (t - t_start)) * (_axes(frame, r, v) @ d)
 
-    re = vv.EARTH.radius_km
-
-    def rhs(t, y):
-        r, v = y[:3], y[3:]
-        rn = np.linalg.norm(r)
-        a = -MU * r / rn**3
-        if j2:
-            z2 = (r[2] / rn) ** 2
-            k = -1.5 * vv.EARTH.zonal[0] * MU * re**2 / rn**5
-            a = a + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])
-        if t_start <= t < t_start + duration:
-            a = a + accel0 / (1 - mass_rate * (t - t_start)) * (_axes(frame, r, v) @ d)
-        return np.concatenate([v, a])
-
-    y = np.asarray(y0, dtype=float)
-    for a, b in ((0.0, t_start), (t_start, t_start + duration), (t_start + duration, t_end)):
-        y = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
-    return y
+    return _scipy_run(y0, [(0.0, t_start, None), (t_start, t_start + duration, thrust),
+                           (t_start + duration, t_end, None)], j2=j2)
 
 
 @pytest.mark.parametrize("j2,frame", [(False, "RTN"), (True, "RTN"), (True, "TNW"),
@@ -646,3 +634,405 @@ def test_opm_propagate_with_its_own_maneuvers_argument_says_what_to_call():
     opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT")))
     with pytest.raises(InvalidInputError, match=r"propagate_cowell\(opm.state"):
         opm.propagate(60 * u.s, maneuvers=[])
+
+
+# ---------------------------------------------------------------- backward runs through burns
+
+
+@settings(max_examples=40, deadline=None)
+@given(dv=hs.lists(hs.floats(-0.8, 0.8), min_size=3, max_size=3),
+       frame=hs.sampled_from(["RTN", "TNW", "VNB", "GCRS"]),
+       nu=hs.floats(0.0, 6.28))
+def test_an_impulse_crossed_backwards_gives_the_pre_burn_velocity_to_round_off(dv, frame, nu):
+    """v- solves v- + M(r, v-)^T dv = v+ (the frame of the state before the burn): flying the
+    burn forward from it gives v+ back, and it is the v- the forward burn started from."""
+    el = vv.KeplerianElements.from_semi_major_axis(8000 * u.km, 0.1, 0.9, 0.3, 0.5, nu, vv.EARTH)
+    r, v = el.to_state().r.to_value(u.km), el.to_state().v.to_value(KMS)
+    burn = ImpulsiveBurn(0 * u.s, dv * KMS, frame)
+    v_after = v + burn.delta_v_inertial(r, v)
+    v_before = burn.pre_burn_velocity(r, v_after)
+    again = v_before + burn.delta_v_inertial(r, v_before)
+    assert np.linalg.norm(again - v_after) <= 2e-15 * np.linalg.norm(v_after)
+    assert np.linalg.norm(v_before - v) <= 1e-13 * np.linalg.norm(v)
+
+
+def test_a_delta_v_too_large_to_invert_in_a_local_frame_is_refused():
+    # near-radial motion: RTN's N turns fast with v, two pre-burn states give this v+
+    r = np.array([7000.0, 0.0, 0.0])
+    v = np.array([3.0, 0.3, 0.0])
+    burn = ImpulsiveBurn(0 * u.s, [0.0, 0.5, 0.8] * KMS, "RTN")
+    with pytest.raises(vv.errors.InvalidStateError, match="give the Δv in GCRS"):
+        burn.pre_burn_velocity(r, v + burn.delta_v_inertial(r, v))
+    # along the velocity alone it is closed form, also for a Δv larger than the speed
+    geo = ImpulsiveBurn(0 * u.s, [1.47, 0.0, 0.0] * KMS, "TNW")
+    v_apo = np.array([0.0, 1.6, 0.0])
+    after = v_apo + geo.delta_v_inertial(r, v_apo)
+    np.testing.assert_allclose(geo.pre_burn_velocity(r, after), v_apo, rtol=1e-15, atol=1e-15)
+
+
+def _shifted(burns, dt):
+    """The burns ``dt`` seconds later (to fly forward from a state found backwards)."""
+    out = []
+    for b in burns:
+        if isinstance(b, ImpulsiveBurn):
+            out.append(ImpulsiveBurn((b.start + dt) * u.s, b.delta_v, b.frame))
+        else:
+            out.append(FiniteBurn((b.start + dt) * u.s, b.duration_s * u.s, b.direction, b.frame,
+                                  thrust=b.thrust, mass=b.mass_kg * u.kg,
+                                  mass_flow=b.mdot_kg_s * u.kg / u.s))
+    return out
+
+
+@pytest.mark.parametrize("frame", ["GCRS", "RTN", "TNW", "VNB"])
+def test_backward_then_forward_through_impulsive_and_finite_burns_returns_the_start(frame):
+    """Reconstruct the state before three burns (impulse, finite burn with mass flow, impulse)
+    backwards from a state after them, with J2; flying them forward from it gives the start
+    back within the integrator's tolerance (measured 0.8 to 2.4 micrometres after 3000 s)."""
+    state = leo()
+    burns = [ImpulsiveBurn(-2000 * u.s, [0.03, -0.02, 0.05] * KMS, frame),
+             FiniteBurn(-1500 * u.s, 400 * u.s, [0.3, 0.9, -0.3], frame, thrust=200 * u.N,
+                        mass=800 * u.kg, mass_flow=0.5 * u.kg / u.s),
+             ImpulsiveBurn(-600 * u.s, [0.0, 0.04, -0.01] * KMS, frame)]
+    j2 = [vv.J2(vv.EARTH)]
+    back = propagate_cowell(state, -3000 * u.s, j2, maneuvers=burns)
+    assert [r.backward for r in back.burns] == [True, True, True]
+    assert all(r.complete for r in back.burns)
+    # the records describe the burns forwards in time: mass falls, the rocket equation's Δv
+    fin = back.burns[1]
+    assert fin.t_start.to_value(u.s) == -1500.0 and fin.t_end.to_value(u.s) == -1100.0
+    assert fin.mass_before.to_value(u.kg) == 800.0 and fin.mass_after.to_value(u.kg) == 600.0
+    assert fin.delta_v.to_value(KMS) == pytest.approx(0.2 / 0.5 * np.log(800 / 600), rel=1e-14)
+    start = vv.StateVectors(back.r, back.v, vv.EARTH)
+    fwd = propagate_cowell(start, 3000 * u.s, j2, maneuvers=_shifted(burns, 3000.0))
+    assert np.linalg.norm((fwd.r - state.r).to_value(u.km)) < 1e-8  # 10 micrometres
+    assert np.linalg.norm((fwd.v - state.v).to_value(KMS)) < 1e-11
+    # the impulses' inertial Δv are those the forward run applies
+    for k in (0, 2):
+        np.testing.assert_allclose(back.burns[k].delta_v_inertial.to_value(KMS),
+                                   fwd.burns[k].delta_v_inertial.to_value(KMS), atol=1e-11)
+
+
+def _scipy_run(y0, pieces, j2=False):
+    """solve_ivp (DOP853, rtol 1e-12) from y0 through ``pieces`` ``(a, b, accel)`` (either
+    direction), one call each, with ``accel(t, r, v)`` (or None) added to two-body (+ J2)."""
+    from scipy.integrate import solve_ivp
+
+    re = vv.EARTH.radius_km
+
+    def rhs(t, y, accel):
+        r, v = y[:3], y[3:]
+        rn = np.linalg.norm(r)
+        a = -MU * r / rn**3
+        if j2:
+            z2 = (r[2] / rn) ** 2
+            k = -1.5 * vv.EARTH.zonal[0] * MU * re**2 / rn**5
+            a = a + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])
+        return np.concatenate([v, a if accel is None else a + accel(t, r, v)])
+
+    y = np.asarray(y0, dtype=float)
+    for a, b, accel in pieces:
+        y = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-13,
+                      args=(accel,)).y[:, -1]
+    return y
+
+
+def test_a_finite_burn_crossed_backwards_matches_scipy_with_the_mass_growing_back():
+    """Backwards through a TNW burn with mass flow: a = F / m(t), m(t) = m0 - mdot (t - t0)
+    the same function of time as forwards (the mass grows back)."""
+    state = leo()
+    d = np.array([0.3, 0.9, -0.3]) / np.linalg.norm([0.3, 0.9, -0.3])
+    burn = FiniteBurn(-1500 * u.s, 600 * u.s, d, "TNW", thrust=200 * u.N, mass=800 * u.kg,
+                      mass_flow=0.2 * u.kg / u.s)
+    out = propagate_cowell(state, -2500 * u.s, [vv.J2(vv.EARTH)], maneuvers=[burn])
+
+    def thrust(t, r, v):
+        return 0.2 / (800.0 - 0.2 * (t + 1500.0)) * (_axes("TNW", r, v) @ d)
+
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(KMS)])
+    ref = _scipy_run(y0, [(0.0, -900.0, None), (-900.0, -1500.0, thrust),
+                          (-1500.0, -2500.0, None)], j2=True)
+    assert np.linalg.norm(out.r.to_value(u.km) - ref[:3]) < ONE_MM / 10
+    assert np.linalg.norm(out.v.to_value(KMS) - ref[3:]) < 1e-10
+    assert out.burns[0].backward and out.final_mass.to_value(u.kg) == pytest.approx(680.0)
+
+
+def test_mixed_times_through_burns_on_both_sides_equal_one_time_at_a_time():
+    state = leo()
+    burns = [ImpulsiveBurn(-2000 * u.s, [0.03, -0.02, 0.05] * KMS, "RTN"),
+             FiniteBurn(-300 * u.s, 600 * u.s, [1, 0, 0], "VNB", acceleration=0.1 * u.m / u.s**2),
+             ImpulsiveBurn(1000 * u.s, [0.03, -0.02, 0.05] * KMS, "TNW")]
+    t = np.array([-3000.0, -2000.0, -1000.0, -100.0, 0.0, 100.0, 1000.0, 2000.0]) * u.s
+    out = propagate_cowell(state, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    for k in range(len(t)):
+        one = propagate_cowell(state, t[k], [vv.J2(vv.EARTH)], maneuvers=burns)
+        assert np.linalg.norm((one.r - out.r[k]).to_value(u.km)) < 1e-8
+        assert np.linalg.norm((one.v - out.v[k]).to_value(KMS)) < 1e-11
+    # the finite burn that straddles the epoch is logged in two parts, one per direction
+    parts = [(r.t_start.to_value(u.s), r.t_end.to_value(u.s), r.backward) for r in out.burns]
+    assert parts == [(-2000.0, -2000.0, True), (-300.0, 0.0, True), (0.0, 300.0, False),
+                     (1000.0, 1000.0, False)]
+    assert sum(r.delta_v.to_value(KMS) for r in out.burns[1:3]) == pytest.approx(0.06)
+    # an output at an impulse's epoch is the state after it, in both directions
+    before = propagate_cowell(state, -2000.0 * u.s - 1e-5 * u.s, [vv.J2(vv.EARTH)],
+                              maneuvers=burns)
+    jump = (out.v[1] - before.v).to_value(KMS)  # gravity adds 8e-8 km/s over 10 us
+    assert np.linalg.norm(jump - out.burns[0].delta_v_inertial.to_value(KMS)) < 1e-7
+    # a batch backwards equals its single runs
+    batch = vv.StateVectors(np.stack([state.r.value] * 2) * u.km,
+                            np.stack([state.v.value, state.v.value * 1.01]) * KMS, vv.EARTH)
+    many = propagate_cowell(batch, t, [vv.J2(vv.EARTH)], maneuvers=burns)
+    assert np.abs((many.r[0] - out.r).to_value(u.km)).max() < 1e-8
+
+
+# ---------------------------------------------------------------- mass in drag and SRP
+
+
+def test_drag_follows_the_mass_a_finite_burn_spends_as_scipy_with_the_model_written_out():
+    """area_to_mass is for the mass at the epoch; a burn that halves the mass doubles drag
+    after it, and during the burn Cd A / m(t) follows m(t). scipy's solve_ivp with drag, thrust
+    and the mass written out agrees to 0.84 mm after 3000 s (the integrators' error over the
+    density table's kinks: 0.5 mm between visviva's default and tighter tolerances); keeping
+    the epoch's mass (the old behaviour) is 14.5 m off, and the mass at ignition held over the
+    burn 12.3 m off."""
+    r0 = vv.EARTH.radius_km + 300.0
+    v0 = np.sqrt(MU / r0)
+    state = vv.StateVectors([r0, 0, 0] * u.km, [0, v0 * np.cos(0.9), v0 * np.sin(0.9)] * KMS,
+                            vv.EARTH)
+    bc = 0.022  # m^2/kg, at the epoch's mass
+    drag = vv.AtmosphericDrag(bc * u.m**2 / u.kg)
+    burn = FiniteBurn(500 * u.s, 1000 * u.s, [1, 0, 0], "TNW", thrust=100 * u.N,
+                      mass=1000 * u.kg, mass_flow=0.5 * u.kg / u.s)
+    out = propagate_cowell(state, 3000 * u.s, [drag], maneuvers=[burn])
+    radius, flat = vv.EARTH.radius_km, 1 / 298.257223563
+    omega = vv.EARTH.rotation_rate.to_value(u.rad / u.s)
+
+    def drag_acc(r, v, mass):
+        rn = np.linalg.norm(r)
+        h = rn - radius * (1 - flat * (r[2] / rn) ** 2)  # geodetic to first order in f
+        rho = float(drag.density(h * u.km).to_value(u.kg / u.m**3)) * 1e9  # kg/km^3
+        w = v - np.cross([0.0, 0.0, omega], r)
+        return -0.5 * rho * bc * 1e-6 * (1000.0 / mass) * np.linalg.norm(w) * w
+
+    def thrusting(t, r, v):
+        m = 1000.0 - 0.5 * (t - 500.0)
+        return 0.1 / m * _axes("TNW", r, v)[:, 0] + drag_acc(r, v, m)
+
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(KMS)])
+    ref = _scipy_run(y0, [(0.0, 500.0, lambda t, r, v: drag_acc(r, v, 1000.0)),
+                          (500.0, 1500.0, thrusting),
+                          (1500.0, 3000.0, lambda t, r, v: drag_acc(r, v, 500.0))])
+    assert np.linalg.norm(out.r.to_value(u.km) - ref[:3]) < 2e-6  # 0.84 mm measured
+    assert np.linalg.norm(out.v.to_value(KMS) - ref[3:]) < 2e-9
+
+
+def test_srp_follows_the_mass_of_impulses_forwards_and_backwards():
+    """An impulse that spends 200 of 1000 kg: SRP after it is that of A / m x 1000 / 800, as
+    two runs joined by hand with the two SolarRadiationPressure models (backwards: the mass
+    before a burn behind the epoch is larger)."""
+    state = leo(EPOCH)
+    dv = np.array([0.01, -0.02, 0.015])
+    srp = vv.SolarRadiationPressure(area_to_mass=0.05 * u.m**2 / u.kg, shadow=None)
+    for t_b, t_end in ((1800.0, 3600.0), (-1800.0, -3600.0)):
+        burn = ImpulsiveBurn(t_b * u.s, dv * KMS, "GCRS", mass=1000 * u.kg,
+                             delta_mass=-200 * u.kg)
+        out = propagate_cowell(state, t_end * u.s, [srp], maneuvers=[burn])
+        first = propagate_cowell(state, t_b * u.s, [srp])
+        ratio = 1000.0 / 800.0 if t_b > 0 else 800.0 / 1000.0  # m(epoch) / m(after t_b)
+        v_next = first.v.to_value(KMS) + (dv if t_b > 0 else -dv)
+        mid = vv.StateVectors(first.r, v_next * KMS, vv.EARTH, epoch=EPOCH + t_b * u.s)
+        second = propagate_cowell(mid, (t_end - t_b) * u.s, [vv.SolarRadiationPressure(
+            area_to_mass=0.05 * ratio * u.m**2 / u.kg, shadow=None)])
+        assert np.linalg.norm((out.r - second.r).to_value(u.km)) < 1e-8
+        # keeping the epoch's A / m instead is metres off
+        kept = propagate_cowell(mid, (t_end - t_b) * u.s, [srp])
+        assert np.linalg.norm((kept.r - second.r).to_value(u.km)) > 1e-4
+
+
+def test_burn_masses_that_contradict_each_other_are_refused_with_drag():
+    state = leo()
+    burns = [ImpulsiveBurn(100 * u.s, [0.01, 0, 0] * KMS, "TNW", mass=1000 * u.kg,
+                           delta_mass=-10 * u.kg),
+             FiniteBurn(500 * u.s, 100 * u.s, [1, 0, 0], "TNW", thrust=10 * u.N,
+                        mass=1000 * u.kg, isp=300 * u.s)]
+    drag = vv.AtmosphericDrag(0.01 * u.m**2 / u.kg)
+    with pytest.raises(InvalidInputError, match="left 990 kg"):
+        propagate_cowell(state, 1000 * u.s, [drag], maneuvers=burns)
+    # without drag or SRP the masses are only reported
+    assert propagate_cowell(state, 1000 * u.s, [], maneuvers=burns).burns[1].complete
+
+
+def test_the_pending_manoeuvre_guard_survives_indexing_and_element_conversions():
+    """opm.state.to_elements().to_state() lost the mark (propagate_cowell then ran without the
+    message's 10 m/s RTN impulse, 11 km off an hour later) and fit_orbit(initial=opm.state)
+    fitted through it; a state rebuilt from the arrays cannot be told apart (docs/ccsds.md)."""
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    mans = [OPMManeuver(EPOCH + 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    state = opm.state
+    derived = [state.to_elements().to_state(), state.to_equinoctial().to_state(),
+               state.to_equinoctial().to_keplerian().to_state(), state.to_state_vectors()]
+    batch = vv.StateVectors(np.stack([state.r.value] * 2) * u.km,
+                            np.stack([state.v.value] * 2) * KMS, vv.EARTH, epoch=EPOCH)
+    setattr(batch, vv.satellites.burns.PENDING_ATTRIBUTE, 1)  # as an OPM's state carries it
+    derived += [batch[0], batch.to_elements()[1].to_state(), batch.to_equinoctial()[0].to_state()]
+    for other in derived:
+        with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+            propagate_cowell(other, 1 * u.h)
+        with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\)"):
+            other.propagate(1 * u.h)  # Kepler, plain StateVectors too
+    obs = vv.Observations(time=EPOCH + [100, 200, 300] * u.s, kind="position",
+                          value=np.zeros((3, 3)), sigma=1e-3)
+    with pytest.raises(InvalidInputError, match=r"fit_orbit.*1 manoeuvre\(s\)|1 manoeuvre\(s\).*fit"):
+        vv.fit_orbit(obs, state)
+    # with the manoeuvres applied, the converted state propagates as the OPM's own
+    out = propagate_cowell(state.to_elements().to_state(), 1 * u.h, maneuvers=opm.burns())
+    assert np.linalg.norm((out.r - opm.propagate(1 * u.h).r).to_value(u.km)) < 1e-6
+
+
+# ---------------------------------------------------------------- events at burns
+
+
+def _apsides_by_brute_force(state, t_end, burns):
+    """(time, 'periapsis' | 'apoapsis') where r.v changes sign on a 0.01 s grid of the same
+    run without events (offset by 0.005 s from whole hundredths: off the burn's epoch, where
+    r.v is zero to round-off)."""
+    tt = np.sort(np.arange(0.005, abs(t_end), 0.01) * np.sign(t_end))
+    run = propagate_cowell(state, tt * u.s, [vv.J2(vv.EARTH)], maneuvers=burns)
+    rv = np.einsum("ij,ij->i", run.r.to_value(u.km), run.v.to_value(KMS))
+    k = np.flatnonzero(np.sign(rv[1:]) != np.sign(rv[:-1]))
+    return [(float(tt[i] + 0.005), "apoapsis" if rv[i] > 0 else "periapsis") for i in k]
+
+
+@pytest.mark.parametrize("t_b,factor,backward", [
+    (1000.0, 1.03, False), (1000.0, 0.97, False), (3900.0, 1.03, False), (3900.0, 0.97, False),
+    (1000.0, 1.03, True), (3900.0, 0.97, True), (None, 1.08, False), (None, 1.0, False)])
+def test_an_apsis_made_or_unmade_by_an_impulse_is_reported_once_or_not_at_all(t_b, factor,
+                                                                               backward):
+    """An RTN impulse that cancels the radial velocity (speed set to ``factor`` x circular)
+    makes its epoch an apsis when r.v leaves with the other sign (inbound and faster than
+    circular: a periapsis, which no integration segment saw, so it was missed; outbound and
+    slower: an apoapsis), and not when r keeps rising or falling. A TNW impulse at an
+    apoapsis (``t_b`` None) that makes it the periapsis is no apsis (a crossing found before
+    the burn and one across it cancel); a small one leaves it an apoapsis. Each run agrees with
+    a brute-force search of r.v on a 0.01 s grid, also backwards from the state after it."""
+    el = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.05, 0.9, 0.3, 0.5, 0.8,
+                                                   vv.EARTH).to_state()
+    state = vv.StateVectors(el.r, el.v, vv.EARTH)
+    j2 = [vv.J2(vv.EARTH)]
+    if t_b is None:  # at the apoapsis, along the velocity
+        t_b = propagate_cowell(state, 4000 * u.s, j2, events=[Apsides()]).events_named(
+            "apsis")[0].t.to_value(u.s)
+        burns = [ImpulsiveBurn(t_b * u.s, [0.6 if factor > 1 else 0.01, 0, 0] * KMS, "TNW")]
+    else:
+        at = propagate_cowell(state, t_b * u.s, j2)
+        r, v = at.r.to_value(u.km), at.v.to_value(KMS)
+        v_r = r @ v / np.linalg.norm(r)
+        v_t = np.linalg.norm(np.cross(r, v)) / np.linalg.norm(r)
+        speed = factor * np.sqrt(MU / np.linalg.norm(r))
+        burns = [ImpulsiveBurn(t_b * u.s, [-v_r, speed - v_t, 0] * KMS, "RTN")]
+    t_end = t_b + 500.0
+    if backward:  # the same burn flown backwards from the state 500 s after it
+        after = propagate_cowell(state, t_end * u.s, j2, maneuvers=burns)
+        state = vv.StateVectors(after.r, after.v, vv.EARTH)
+        burns = [ImpulsiveBurn(-500 * u.s, burns[0].delta_v, burns[0].frame)]
+        t_b, t_end = -500.0, -1000.0
+    out = propagate_cowell(state, t_end * u.s, j2, events=[Apsides()], maneuvers=burns)
+    found = [(e.t.to_value(u.s), e.what) for e in out.events_named("apsis")]
+    truth = _apsides_by_brute_force(state, t_end, burns)
+    assert [w for _, w in found] == [w for _, w in truth]
+    for (t1, _), (t2, _) in zip(found, truth, strict=True):
+        assert abs(t1 - t2) <= 0.01
+    near = [t for t, _ in found if abs(t - t_b) < 1.0]
+    assert len(near) <= 1 and all(abs(t - t_b) < 1e-6 for t in near)
+
+
+@pytest.mark.parametrize("kind", ["impulse", "finite_start", "finite_end"])
+def test_events_exactly_at_a_burn_boundary_are_reported_once(kind):
+    """Eclipse entries and exits, altitude and node crossings, apsides of a run without burns:
+    a burn (that changes nothing measurable) put exactly at each of their times leaves each
+    reported once, at its time."""
+    from visviva.satellites.events import AltitudeCrossing, AscendingNode, Eclipse
+
+    el = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.01, 0.9, 0.3, 0.5, 0.2,
+                                                   vv.EARTH).to_state()
+    state = vv.StateVectors(el.r, el.v, vv.EARTH, epoch=EPOCH)
+    events = [Apsides(), Eclipse(), AltitudeCrossing(650 * u.km), AscendingNode()]
+    j2 = [vv.J2(vv.EARTH)]
+    plain = propagate_cowell(state, 6500 * u.s, j2, events=events)
+    assert len(plain.events) >= 7
+    for rec in plain.events:
+        t = rec.t.to_value(u.s)
+        burn = {"impulse": ImpulsiveBurn(t * u.s, [0, 0, 0] * KMS, "TNW"),
+                "finite_start": FiniteBurn(t * u.s, 100 * u.s, [0, 0, 1], "TNW",
+                                           acceleration=1e-12 * u.km / u.s**2),
+                "finite_end": FiniteBurn((t - 100) * u.s, 100 * u.s, [0, 0, 1], "TNW",
+                                         acceleration=1e-12 * u.km / u.s**2)}[kind]
+        out = propagate_cowell(state, 6500 * u.s, j2, events=events, maneuvers=[burn])
+        assert [(e.name, e.what) for e in out.events] == [(e.name, e.what) for e in plain.events]
+        times = np.array([e.t.to_value(u.s) for e in out.events])
+        assert np.abs(times - [e.t.to_value(u.s) for e in plain.events]).max() < 1e-5
+
+
+def test_an_opm_manoeuvre_before_its_epoch_starts_with_the_mass_it_had():
+    """MASS is the mass at EPOCH: a manoeuvre before it had spent its MAN_DELTA_MASS by then
+    (it was given MASS at ignition, 1 kg too little, and drag and SRP after it the wrong ratio);
+    opm.propagate crosses it backwards."""
+    from visviva.ccsds.opm import OPM
+    from visviva.ccsds.opm import Maneuver as OPMManeuver
+
+    mans = [OPMManeuver(EPOCH - 600 * u.s, 0 * u.s, -1.0 * u.kg, "RTN", [0, 0.01, 0] * KMS),
+            OPMManeuver(EPOCH + 600 * u.s, 60 * u.s, -2.0 * u.kg, "TNW", [0.02, 0, 0] * KMS)]
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(leo(EPOCH), object_name="SAT",
+                                                  maneuvers=mans, mass=100 * u.kg)))
+    before, after = opm.burns()
+    assert before.mass.to_value(u.kg) == 101.0 and after.mass_kg == 100.0
+    out = opm.propagate([-1200, 1200] * u.s)
+    assert [(r.backward, r.mass_before.to_value(u.kg), r.mass_after.to_value(u.kg))
+            for r in out.burns] == [(True, 101.0, 100.0), (False, 100.0, 98.0)]
+    srp = vv.SolarRadiationPressure(area_to_mass=0.05 * u.m**2 / u.kg, shadow=None)
+    assert opm.propagate(-1200 * u.s, [srp]).burns[0].complete
+
+
+@settings(max_examples=15, deadline=None)
+@given(times=hs.lists(hs.floats(100.0, 2900.0), min_size=1, max_size=3, unique=True),
+       dvs=hs.lists(hs.lists(hs.floats(-0.2, 0.2), min_size=3, max_size=3), min_size=3,
+                    max_size=3),
+       frames=hs.lists(hs.sampled_from(["RTN", "TNW", "VNB", "GCRS"]), min_size=3, max_size=3))
+def test_backward_through_random_impulses_returns_the_kepler_start(times, dvs, frames):
+    """Fly impulses forward on Kepler arcs from y0 at -3000 s to the state at 0; propagate_cowell
+    (two-body) from that state back to -3000 s through the same burns returns y0."""
+    y0 = leo()
+    burns = [ImpulsiveBurn((t - 3000.0) * u.s, dv * KMS, f)
+             for t, dv, f in zip(sorted(times), dvs, frames, strict=False)]
+    cur, t_prev = y0, -3000.0
+    for b in burns:
+        cur = cur.propagate((b.start - t_prev) * u.s)
+        r, v = cur.r.to_value(u.km), cur.v.to_value(KMS)
+        cur = vv.StateVectors(r * u.km, (v + b.delta_v_inertial(r, v)) * KMS, vv.EARTH)
+        t_prev = b.start
+    x = cur.propagate(-t_prev * u.s)
+    back = propagate_cowell(x, -3000 * u.s, [], maneuvers=burns)
+    assert np.linalg.norm((back.r - y0.r).to_value(u.km)) < 1e-6  # 1 mm
+    assert np.linalg.norm((back.v - y0.v).to_value(KMS)) < 1e-9
+
+
+def test_a_batch_with_drag_and_a_mass_spending_burn_equals_single_runs():
+    el = vv.KeplerianElements([6700.0, 6750.0] * u.km, [0.001, 0.01], [0.9, 1.7], [0.0, 1.0],
+                              [0.1, 0.2], [0.0, 2.0], vv.EARTH).to_state()
+    r, v = el.r.to_value(u.km), el.v.to_value(KMS)
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)
+    burns = [FiniteBurn(-900 * u.s, 1200 * u.s, [1, 0, 0], "TNW", thrust=50 * u.N,
+                        mass=600 * u.kg, mass_flow=0.2 * u.kg / u.s),
+             ImpulsiveBurn(900 * u.s, [0.01, 0, 0] * KMS, "TNW", mass=360 * u.kg,
+                           delta_mass=-10 * u.kg)]
+    t = np.array([-1500.0, -100.0, 0.0, 600.0, 2000.0]) * u.s
+    many = propagate_cowell(vv.StateVectors(r * u.km, v * KMS, vv.EARTH), t, [drag],
+                            maneuvers=burns)
+    for k in range(2):
+        one = propagate_cowell(vv.StateVectors(r[k] * u.km, v[k] * KMS, vv.EARTH), t, [drag],
+                               maneuvers=burns)
+        assert np.abs((many.r[k] - one.r).to_value(u.km)).max() < 1e-9
+    assert many.final_mass.to_value(u.kg) == pytest.approx(350.0)

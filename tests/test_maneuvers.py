@@ -287,3 +287,28 @@ def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
     same = Maneuver.lambert(sat.gcrs(sat.epoch), target, 30 * u.min)
     arrived = same.apply(sat.gcrs(sat.epoch))
     assert np.linalg.norm((arrived.r - target.propagate(10 * u.min).r).to_value(u.km)) < 1e-6
+
+
+def test_burns_of_a_plan_made_from_teme_states_are_refused_not_labelled_gcrs():
+    # Maneuver.hohmann(sat.teme(t), ...).burns() labelled TEME Δv vectors GCRS: the Cowell run
+    # then burned 0.33 deg off the planned direction (10 m/s per km/s of Δv, sideways)
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    teme, gcrs = sat.teme(sat.epoch), sat.gcrs(sat.epoch)
+    in_teme = Maneuver.hohmann(teme, 7500 * u.km)
+    in_gcrs = Maneuver.hohmann(gcrs, 7500 * u.km)
+    assert in_teme.frame == "teme" and in_gcrs.frame == "gcrs"
+    a, b = (m.impulses[0].dv.to_value(KMS) for m in (in_teme, in_gcrs))
+    angle = np.degrees(np.arccos(a @ b / np.linalg.norm(a) / np.linalg.norm(b)))
+    assert 0.3 < angle < 0.4  # the error the GCRS label made
+    for plan in (in_teme, Maneuver.plane_change(teme, 1 * u.deg),
+                 Maneuver.lambert(teme, sat.teme(sat.epoch + 20 * u.min), 30 * u.min)):
+        with pytest.raises(InvalidInputError, match="planned from TEME states"):
+            plan.burns()
+    burns = in_gcrs.burns()
+    np.testing.assert_array_equal(burns[0].delta_v.to_value(KMS), b)
+    out = vv.propagate_cowell(gcrs, 600 * u.s, maneuvers=burns)
+    assert out.burns[0].burn.frame == "GCRS"
+    # a plan of plain numbers (no frame) is taken as GCRS, as plain states are everywhere
+    assert Maneuver([(0 * u.s, [0, 0.1, 0] * KMS)]).frame is None

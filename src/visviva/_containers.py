@@ -14,9 +14,74 @@ import numpy as np
 from . import _units
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
-__all__ = ["TwoBodyContainer", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
+__all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
+           "carry_marks", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
            "canonical_arrays", "flat_elements"]
 
+
+#: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
+#: carry its name here, so that the GCRS-only functions refuse them
+#: (:func:`visviva.satellites.satellite_states.require_gcrs`).
+FOREIGN_FRAME_ATTRIBUTE = "_foreign_frame"
+#: States read from an OPM with manoeuvres carry how many here (:attr:`visviva.ccsds.opm.OPM.state`),
+#: so that what cannot apply them refuses them (:func:`refuse_pending`).
+PENDING_MANEUVERS_ATTRIBUTE = "_pending_maneuvers"
+#: The marks that say where states came from: kept by indexing and by every conversion between
+#: states and elements (:func:`carry_marks`), never by propagation (a new state).
+MARKS = (FOREIGN_FRAME_ATTRIBUTE, PENDING_MANEUVERS_ATTRIBUTE)
+
+
+def carry_marks(source, result):
+    """``result`` (a container computed from ``source`` by indexing or conversion), with the
+    :data:`MARKS` of ``source``.
+
+    Parameters
+    ----------
+    source, result : TwoBodyContainer
+        The container and what was computed from it.
+
+    Returns
+    -------
+    TwoBodyContainer
+        ``result``, marked in place.
+
+    Notes
+    -----
+    A container built anew from a marked one's arrays (``vv.StateVectors(s.r, s.v, ...)``)
+    carries no mark: nothing can tell where plain numbers came from.
+    """
+    for name in MARKS:
+        value = getattr(source, name, None)
+        if value is not None:
+            setattr(result, name, value)
+    return result
+
+
+def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "
+                   "perturbations), which applies them.") -> None:
+    """Refuse a state read from an OPM with manoeuvres where ``what`` would ignore them.
+
+    Parameters
+    ----------
+    state : TwoBodyContainer
+        The state (an OPM's :attr:`~visviva.ccsds.opm.OPM.state`, or what was indexed or
+        converted from it, says how many manoeuvres its message has).
+    what : str
+        The function that cannot apply manoeuvres, for the message.
+    remedy : str
+        What to do instead.
+
+    Raises
+    ------
+    InvalidInputError
+        When the state carries manoeuvres.
+    """
+    pending = getattr(state, PENDING_MANEUVERS_ATTRIBUTE, None)
+    if pending:
+        raise InvalidInputError(
+            f"this state comes from an OPM with {pending} manoeuvre(s), which {what} would "
+            f"ignore. {remedy}"
+        )
 
 
 class TwoBodyContainer:

@@ -29,6 +29,7 @@ from ._containers import (
     _wrap_pi,
     broadcast_shape,
     canonical_arrays,
+    carry_marks,
     flat,
     flat_elements,
     gm_positive,
@@ -242,7 +243,7 @@ class KeplerianElements(TwoBodyContainer):
     # --- container protocol --------------------------------------------------------------------
     def __getitem__(self, key):
         parts, gm, epoch = _index_elements(self, key, "KeplerianElements")
-        return KeplerianElements._from_canonical(*parts, gm, epoch)
+        return carry_marks(self, KeplerianElements._from_canonical(*parts, gm, epoch))
 
     def stored_arrays(self) -> tuple:
         """The six stored elements as canonical float64 arrays (p km, ecc, inc, raan, argp, nu rad), each broadcasting to

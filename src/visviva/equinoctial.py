@@ -20,6 +20,7 @@ from ._containers import (
     _scalar_or_array,
     broadcast_shape,
     canonical_arrays,
+    carry_marks,
     flat_elements,
     gm_positive,
     validate_epoch,
@@ -154,7 +155,8 @@ class ModifiedEquinoctialElements(TwoBodyContainer):
 
     def __getitem__(self, key):
         parts, gm, epoch = _index_elements(self, key, "ModifiedEquinoctialElements")
-        return ModifiedEquinoctialElements._from_canonical(*parts, gm, epoch, self._retrograde)
+        return carry_marks(self, ModifiedEquinoctialElements._from_canonical(
+            *parts, gm, epoch, self._retrograde))
 
     def stored_arrays(self) -> tuple:
         """The six stored elements as canonical float64 arrays (p km, f, g, h, k, L rad), each broadcasting to

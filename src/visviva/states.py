@@ -15,10 +15,12 @@ from . import _units
 from ._containers import (
     TwoBodyContainer,
     broadcast_shape,
+    carry_marks,
     flat,
     gm_positive,
     index_epoch,
     normalise_key,
+    refuse_pending,
     validate_epoch,
 )
 from .errors import (
@@ -29,10 +31,6 @@ from .errors import (
 
 __all__ = ["StateVectors"]
 
-#: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
-#: carry its name here, kept by indexing, so that the GCRS-only functions refuse them
-#: (:func:`visviva.satellites.satellite_states.require_gcrs`).
-FOREIGN_FRAME_ATTRIBUTE = "_foreign_frame"
 
 
 def _norm(x: np.ndarray) -> np.ndarray:
@@ -176,10 +174,7 @@ class StateVectors(TwoBodyContainer):
         out = StateVectors._from_canonical(
             r, v, np.array(gm), index_epoch(self._epoch, key, self._shape)
         )
-        foreign = getattr(self, FOREIGN_FRAME_ATTRIBUTE, None)
-        if foreign is not None:
-            setattr(out, FOREIGN_FRAME_ATTRIBUTE, foreign)
-        return out
+        return carry_marks(self, out)
 
     def __repr__(self) -> str:
         if self.size == 0:
@@ -312,7 +307,8 @@ class StateVectors(TwoBodyContainer):
             "state vectors -> elements",
             "state vectors -> elements (scale r, v and gm to other units)",
         )
-        return KeplerianElements._from_canonical(*elements, self._gm, self._epoch)
+        return carry_marks(self, KeplerianElements._from_canonical(*elements, self._gm,
+                                                                   self._epoch))
 
     def to_equinoctial(self, retrograde: bool = False):
         """Modified equinoctial elements (Walker, Ireland & Owens 1985) of every state.
@@ -341,9 +337,9 @@ class StateVectors(TwoBodyContainer):
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)
         elements = self._checked_results(elements, status, "state vectors -> equinoctial elements")
-        return ModifiedEquinoctialElements._from_canonical(
+        return carry_marks(self, ModifiedEquinoctialElements._from_canonical(
             *elements, self._gm, self._epoch, bool(retrograde)
-        )
+        ))
 
     def propagate(self, dt):
         """States after two-body (Kepler) motion for a time ``dt``.
@@ -365,6 +361,7 @@ class StateVectors(TwoBodyContainer):
         """
         from .propagation import propagate_canonical
 
+        refuse_pending(self, "two-body propagation")
         r, v, gm, dt_s, shape = propagate_canonical(self._r, self._v, self._gm, self._shape, dt)
         epoch = self.epoch
         if epoch is not None:
@@ -385,4 +382,5 @@ def states_from_kernel(elements, r, v, status, context, inputs, result_inputs=No
     r = r.reshape(shape + (3,))
     v = v.reshape(shape + (3,))
     raise_for_result(context, status, [r, v], shape, inputs, result_inputs=result_inputs)
-    return StateVectors._from_canonical(r, v, elements.gm_km3_s2, elements.epoch)
+    return carry_marks(elements, StateVectors._from_canonical(r, v, elements.gm_km3_s2,
+                                                              elements.epoch))

@@ -294,8 +294,10 @@ class OPM(FrameCenterMetadata):
             in that frame) whose thrust integrates to |MAN_DV|: with the spacecraft ``MASS``
             and ``MAN_DELTA_MASS < 0``, thrust and mass flow from the rocket equation
             (mdot = -MAN_DELTA_MASS / MAN_DURATION, F = mdot |Δv| / ln(m0 / m1), m0 the mass at
-            ignition: ``MASS`` plus the earlier manoeuvres' ``MAN_DELTA_MASS``); otherwise a
-            constant acceleration |Δv| / MAN_DURATION.
+            ignition: ``MASS``, the mass at ``EPOCH``, less the ``MAN_DELTA_MASS`` of the
+            manoeuvres ignited before ``EPOCH``, plus those of the earlier manoeuvres, so that a
+            manoeuvre before ``EPOCH``, crossed backwards, starts with the mass it had);
+            otherwise a constant acceleration |Δv| / MAN_DURATION.
 
         Raises
         ------
@@ -381,6 +383,9 @@ def _burns(opm) -> list:
     with offline_iers():  # a UT1 file needs the installed IERS table, never a download
         records = sorted(zip(opm.maneuvers, opm.sections.get("maneuvers", []), strict=True),
                          key=lambda x: x[0].epoch.tai.jd)
+        if mass is not None:  # MASS is at EPOCH: manoeuvres before it had spent their mass by then
+            mass -= sum(float(m.delta_mass.to_value(u.kg)) for m, _ in records
+                        if (m.epoch.tai - opm.epoch.tai).to_value(u.s) < 0)
     out = []
     for man, rec in records:
         where = f"{opm.source} line {rec.line_of('MAN_REF_FRAME')}"

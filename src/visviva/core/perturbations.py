@@ -454,7 +454,9 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
     Sums, in this fixed order: two-body, zonal harmonics (:func:`zonal_rhs`), full spherical
-    harmonics, drag, third bodies, SRP, thrust.
+    harmonics, drag, third bodies, SRP, thrust. During a finite burn drag's and SRP's
+    area-to-mass ratios follow the falling mass (divided by 1 - ``THRUST_MASS_RATE`` t);
+    otherwise they are the block's (multiplied by exactly 1.0: the same bits).
     """
     x = y[0]
     yy = y[1]
@@ -471,6 +473,10 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     sun_pos = np.empty(3)
     if sun >= 0:
         hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    # drag's and SRP's area-to-mass follow the mass during a finite burn: m(0) / m(t)
+    mass_scale = 1.0
+    if force[fb.THRUST_ON] != 0.0:
+        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
     if force[fb.DRAG_ON] != 0.0:
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
             h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
@@ -481,9 +487,9 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
             elif ha < -math.pi:
                 ha += 2.0 * math.pi
             rho = grid_density(h, lat, ha, force, atm)
-            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC], force[fb.ROTATION_RATE], acc)
+            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
         else:
-            accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC], force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)
+            accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)
@@ -494,7 +500,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         nu = shadow_fraction(
             x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
         )
-        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.SRP_COEFFICIENT], force[fb.AU], nu, acc)
+        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.SRP_COEFFICIENT] * mass_scale, force[fb.AU], nu, acc)
     if force[fb.THRUST_ON] != 0.0:
         accel_thrust(t, y, force, pos)
         for i in range(3):

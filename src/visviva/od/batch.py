@@ -87,9 +87,13 @@ def check_initial(initial):
     if hasattr(initial, "to_states") and hasattr(initial, "times"):
         # a CowellResult: its r, v are at .times (its .epoch is where the propagation began)
         initial = initial.to_states()
+    from .._containers import refuse_pending
     from ..satellites.satellite_states import require_gcrs
 
     require_gcrs(initial, "orbit determination")
+    refuse_pending(initial, "orbit determination (fit_orbit, simulate_observations)", "Its "
+                   "dynamics has no burns: fit or simulate the arcs between manoeuvres, each "
+                   "from a state of its own.")
     r0 = to_vector(initial.r, "length", "initial.r")
     v0 = to_vector(initial.v, "speed", "initial.v")
     if r0.shape != (3,) or v0.shape != (3,):
@@ -144,7 +148,8 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         :func:`~visviva.gauss_angles`, :func:`~visviva.gibbs` or :func:`~visviva.herrick_gibbs`.
         None: an Earth orbit from the observations themselves
         (:func:`visviva.od.initial_orbit`: Gibbs or Herrick-Gibbs on three position fixes of
-        the first pass, or Gauss on three RA/Dec).
+        the first pass, or Gauss on three RA/Dec). A state read from an OPM with manoeuvres
+        (or indexed or converted from one) is refused: the dynamics has no burns.
     perturbations : list of Perturbation or None
         Dynamics: None or [] for two-body motion, or Cowell perturbations
         (``[vv.J2(vv.EARTH)]``, ``vv.Zonal``, ``vv.AtmosphericDrag``, ``vv.ThirdBody``,

@@ -70,11 +70,8 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     flags = {"light_time": light_time, "radec_reference": radec_reference}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
-    from ..satellites.burns import refuse_pending
     from .batch import check_initial
 
-    refuse_pending(state, "simulate_observations", "Its dynamics has no burns: simulate "
-                   "the arcs between manoeuvres, each from its own state.")
     x, gm, epoch = check_initial(state)
     offsets = exact.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13)

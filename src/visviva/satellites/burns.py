@@ -31,13 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
+from .._containers import PENDING_MANEUVERS_ATTRIBUTE, refuse_pending
 from .._units import require_positive, require_usable_time, to_array, to_quantity, to_vector
 from ..core import force_block as fb
-from ..core.local_frames import FRAME_CODES, INERTIAL, local_axes
+from ..core.local_frames import FRAME_CODES, INERTIAL, RTN, local_axes
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2", "frame_code",
-           "burn_schedule", "refuse_pending"]
+           "refuse_pending"]
 
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
@@ -145,11 +146,11 @@ class ImpulsiveBurn(_Burn):
         at the state just before the burn; or inertial: ``"GCRS"`` (default), ``"GCRF"``,
         ``"EME2000"``, ``"ICRF"``. Axes: :mod:`visviva.core.local_frames`.
     delta_mass : Quantity, optional
-        Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``): reported
-        on the result, not used by the dynamics.
+        Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``).
     mass : Quantity, optional
         Spacecraft mass before the burn (kg, > 0): with ``delta_mass``, the result reports the
-        masses before and after.
+        masses before and after, and drag and SRP follow the mass
+        (:mod:`visviva.satellites.burn_mass`).
 
     Notes
     -----
@@ -212,6 +213,80 @@ class ImpulsiveBurn(_Burn):
             )
         return dv
 
+    def pre_burn_velocity(self, r_km, v_after_km_s) -> np.ndarray:
+        """The velocity just before the burn, given the one just after (a backward run).
+
+        Parameters
+        ----------
+        r_km : ndarray (..., 3)
+            Position(s) at the burn, km.
+        v_after_km_s : ndarray (..., 3)
+            Velocity(ies) just after the burn, km/s.
+
+        Returns
+        -------
+        ndarray (..., 3)
+            km/s: the v- with ``v- + delta_v_inertial(r, v-) = v+``, so that the burn flown
+            forward from it gives ``v_after`` back (to round-off).
+
+        Raises
+        ------
+        InvalidStateError
+            No pre-burn state is found (the local frame undefined, or a Δv so large against
+            the speed that the equation has no solution near v+ - Δv): give the Δv in GCRS.
+
+        Notes
+        -----
+        The local frame of a burn is that of the state before it (GMAT, Orekit), and RTN's N,
+        TNW and VNB depend on the velocity, so v- solves v- + M(r, v-)^T Δv = v+. Newton's
+        method from v+ - M(r, v+)^T Δv with a central-difference Jacobian (I + d(M^T Δv)/dv,
+        near I for |Δv| << |v|), to |residual| <= 1e-15 |v+|; inertial Δv: v- = v+ - Δv; a Δv
+        along the velocity alone (TNW's T, VNB's V): v- = v+ (|v+| - Δv) / |v+|. Where the
+        frame turns fast with the velocity (|d(M^T Δv)/dv| > 1/2 at the root: a Δv comparable
+        to the speed, or to the transverse speed in RTN) several pre-burn states can give the
+        same v+ and the burn is refused.
+        """
+        r = np.asarray(r_km, dtype=np.float64)
+        v1 = np.asarray(v_after_km_s, dtype=np.float64)
+        if self.code == INERTIAL:
+            return v1 - self._dv
+        speed = np.linalg.norm(v1, axis=-1, keepdims=True)
+        if self.code != RTN and self._dv[1] == 0.0 and self._dv[2] == 0.0 and np.all(
+                speed > -self._dv[0]):  # along the velocity: v- = v+ (|v+| - dv) / |v+|
+            return v1 * ((speed - self._dv[0]) / speed)
+
+        def residual(v):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                return v + self._dv @ local_axes(r, v, self.code) - v1
+
+        v = v1 - (self._dv @ local_axes(r, v1, self.code))
+        scale = np.linalg.norm(v1, axis=-1, keepdims=True)
+        for _ in range(30):
+            f = residual(v)
+            size = np.linalg.norm(f, axis=-1, keepdims=True)
+            if not np.all(np.isfinite(f)):
+                break
+            h = 1e-7 * scale
+            jac = np.stack([(residual(v + h * e) - residual(v - h * e)) / (2.0 * h)
+                            for e in np.eye(3)], axis=-1)  # (..., 3, 3): columns d f / d v_k
+            if not np.all(np.isfinite(jac)):
+                break
+            step = np.linalg.solve(jac, f[..., None])[..., 0]
+            if np.all(size <= 1e-15 * scale) or (np.all(
+                    np.linalg.norm(step, axis=-1, keepdims=True) <= 1e-16 * scale) and np.all(
+                    size <= 1e-13 * scale)):  # converged, or round-off: no step changes v
+                # one root only where the frame turns slowly: |d(M^T Δv)/dv| <= 1/2 there
+                if np.all(np.linalg.norm(jac - np.eye(3), ord=2, axis=(-2, -1)) <= 0.5):
+                    return v if np.all(size <= 1e-15 * scale) else v - step
+                break
+            v = v - step
+        raise InvalidStateError(
+            f"no state before {self!r} gives r = {r}, v = {v1} km/s after it (the {self.frame} "
+            "frame undefined there, or a Δv so large against the speed that several states "
+            "before the burn give this one): give the Δv in GCRS to cross this burn backwards "
+            "(a forward run's out.burns[k].delta_v_inertial)."
+        )
+
     def __repr__(self):
         dv = ", ".join(f"{x:.6g}" for x in self._dv)
         return f"ImpulsiveBurn({_describe(self.start)}, [{dv}] km/s {self.frame})"
@@ -237,7 +312,8 @@ class FiniteBurn(_Burn):
     thrust : Quantity, optional
         Thrust F (force, > 0), e.g. ``400 * u.N``.
     mass : Quantity, optional
-        Spacecraft mass at ignition (kg, > 0); needed with ``thrust``.
+        Spacecraft mass at ignition (kg, > 0); needed with ``thrust``. Drag and SRP follow the
+        mass the burn spends (:mod:`visviva.satellites.burn_mass`).
     isp : Quantity, optional
         Specific impulse (time, > 0): mass flow mdot = F / (Isp g0).
     mass_flow : Quantity, optional
@@ -389,6 +465,11 @@ class BurnRecord:
         Spacecraft mass (kg) at ignition and cut-off, when the burn knows it.
     complete : bool
         Whether the whole burn was executed.
+    backward : bool
+        Whether the run crossed it backwards in time (from a state after it to outputs before
+        it). The other fields still describe the burn forwards in time, as it happened to the
+        spacecraft: ``t_start < t_end``, ``mass_before`` before ignition, the Δv added to the
+        velocity; a finite burn cut by the run is the part between the cut and its end.
     """
 
     burn: object
@@ -399,214 +480,9 @@ class BurnRecord:
     mass_before: object
     mass_after: object
     complete: bool
+    backward: bool = False
 
 
-#: A burn's start or end this close to an output time (s) is taken at that time: offsets from
-#: astropy Times round at 1e-12 s, which must not move an output to the other side of a burn.
-SNAP_S = 1e-6
-
-
-class _Schedule:
-    """The burns of one run, ordered, with the log of what they did."""
-
-    def __init__(self, items):
-        self.items = items  # (start_s, end_s, burn), by start
-        self.records = []
-
-    def __bool__(self) -> bool:
-        """Whether there is any burn (an empty schedule runs as no schedule)."""
-        return bool(self.items)
-
-    def snap(self, t_out) -> None:
-        """Move burn starts and ends within :data:`SNAP_S` of an output time onto it (a finite
-        burn whose start and end would meet keeps its duration)."""
-        t_out = np.asarray(t_out, dtype=np.float64)
-        if t_out.size == 0:
-            return
-
-        def near(x):
-            k = int(np.searchsorted(t_out, x))
-            close = [t_out[j] for j in (k - 1, k) if 0 <= j < t_out.size]
-            best = min(close, key=lambda c: abs(c - x))
-            return float(best) if abs(best - x) <= SNAP_S else x
-
-        def both(a, b):  # a finite burn never shrinks to nothing: then it moves as a whole
-            a1, b1 = near(a), near(b)
-            return (a1, b1) if b1 > a1 or a == b else (a1, a1 + (b - a))
-
-        self.items = [(*both(a, b), m) for a, b, m in self.items]
-
-    def check_state(self, t: float, y) -> None:
-        """Refuse a finite burn in a local frame that starts where the frame is undefined
-        (``y``: one state (6,) or N states (N, 6))."""
-        for start, _, burn in self.items:
-            if isinstance(burn, FiniteBurn) and start == t and burn.code != INERTIAL:
-                if not np.all(np.isfinite(local_axes(y[..., :3], y[..., 3:], burn.code))):
-                    raise InvalidStateError(
-                        f"the {burn.frame} frame of {burn!r} is undefined at its start (r x v = 0 "
-                        "or v = 0): give its direction in GCRS."
-                    )
-
-    def breakpoints(self, t_last: float) -> list:
-        """0, the burns' starts and ends up to ``t_last``, and ``t_last``, sorted, unique."""
-        pts = {0.0, t_last}
-        for a, b, _ in self.items:
-            pts.update(x for x in (a, b) if x <= t_last)
-        return sorted(pts)
-
-    def segment_model(self, model, a: float, b: float):
-        """The force model of the segment [a, b) (s from the epoch): its time origin at a, the
-        thrust of the finite burn that is on over it."""
-        force = fb.with_time_origin(model.force, a)
-        for start, end, burn in self.items:
-            if isinstance(burn, FiniteBurn) and start <= a < end:
-                burn.pack(force, a - start)
-        return _SegmentModel(force, model)
-
-    def impulses_at(self, t: float) -> list:
-        return [b for a, _, b in self.items if a == t and isinstance(b, ImpulsiveBurn)]
-
-    def log_impulse(self, burn, t, dv):
-        n = np.linalg.norm(dv, axis=-1)
-        after = (None if burn.mass is None else
-                 burn.mass + (0.0 * u.kg if burn.delta_mass is None else burn.delta_mass))
-        self.records.append(BurnRecord(burn, t * u.s, t * u.s, n * u.km / u.s,
-                                       to_quantity(dv, "speed"), burn.mass, after, True))
-
-    def log_finite(self, t_reached: float):
-        """Record the finite burns started before ``t_reached`` (s), cut there if unfinished."""
-        for start, end, burn in self.items:
-            if isinstance(burn, FiniteBurn) and start < t_reached:
-                stop = min(end, t_reached)
-                m0, m1 = burn.mass_at(0.0), burn.mass_at(stop - start)
-                self.records.append(BurnRecord(
-                    burn, start * u.s, stop * u.s, burn.delta_v_after(stop - start) * u.km / u.s,
-                    None, None if m0 is None else m0 * u.kg, None if m1 is None else m1 * u.kg,
-                    stop == end))
-
-    def run(self, run_one):
-        """A function with the signature and outputs of ``cowell._run`` that integrates the
-        forward leg segment by segment."""
-        from .burn_segments import run_segments
-
-        def run(*args):
-            return run_segments(self, run_one, *args)
-
-        return run
-
-    def run_many(self, run_many):
-        """The same for N states and ``cowell._run_many``."""
-        from .burn_segments import run_segments_many
-
-        def run(*args):
-            return run_segments_many(self, run_many, *args)
-
-        return run
-
-    def annotate(self, result) -> None:
-        """Set ``result.burns`` (records by start) and ``result.final_mass``."""
-        records = sorted(self.records, key=lambda r: r.t_start.value)
-        result.burns = records
-        masses = [r.mass_after for r in records if r.mass_after is not None]
-        result.final_mass = masses[-1] if masses else None
-
-
-class _SegmentModel:
-    """A force model whose block is replaced (``.force``, ``.arrays()``) for one segment."""
-
-    def __init__(self, force, model):
-        self.force = force
-        self._model = model
-
-    def arrays(self):
-        return (self.force,) + self._model.arrays()[1:]
-
-
-#: What an OPM's state carries when its message has manoeuvres (see :meth:`OPM.state`).
-PENDING_ATTRIBUTE = "_pending_maneuvers"
-
-
-def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "
-                   "perturbations), which applies them.") -> None:
-    """Refuse a state read from an OPM with manoeuvres where ``what`` would ignore them.
-
-    Parameters
-    ----------
-    state : StateVectors
-        The state (an OPM's :attr:`~visviva.ccsds.opm.OPM.state` says how many manoeuvres its
-        message has).
-    what : str
-        The function that cannot apply manoeuvres, for the message.
-    remedy : str
-        What to do instead.
-
-    Raises
-    ------
-    InvalidInputError
-        When the state carries manoeuvres.
-    """
-    pending = getattr(state, PENDING_ATTRIBUTE, None)
-    if pending:
-        raise InvalidInputError(
-            f"this state comes from an OPM with {pending} manoeuvre(s), which {what} would "
-            f"ignore. {remedy}"
-        )
-
-
-def burn_schedule(maneuvers, state, epoch):
-    """Check ``maneuvers`` of :func:`visviva.propagate_cowell` and order them.
-
-    Parameters
-    ----------
-    maneuvers : None or iterable of ImpulsiveBurn / FiniteBurn
-        As given (None: the default).
-    state : StateVectors
-        The initial state (an OPM's state says how many manoeuvres its message has).
-    epoch : astropy.time.Time or None
-        The state's epoch.
-
-    Returns
-    -------
-    _Schedule or None
-        None without ``maneuvers``; an empty (false) schedule for an empty list.
-    """
-    if maneuvers is None:
-        refuse_pending(state, "propagate_cowell", "Pass maneuvers=opm.burns() to apply them (or "
-                       "call opm.propagate(t, perturbations)), or maneuvers=[] to propagate "
-                       "without.")
-        return None
-    if isinstance(maneuvers, _Burn):
-        maneuvers = [maneuvers]
-    maneuvers = list(maneuvers)
-    if not maneuvers:
-        return _Schedule([])  # nothing to split at; the result reports no burns
-    for m in maneuvers:
-        if not isinstance(m, _Burn):
-            raise InvalidInputError(
-                f"{m!r} is not a burn; give vv.ImpulsiveBurn(...) or vv.FiniteBurn(...) (an "
-                "OPM's manoeuvres: opm.burns())."
-            )
-    items = []
-    for m in maneuvers:
-        a = m.start_offset_s(epoch)
-        if not math.isfinite(a) or a < 0:
-            raise InvalidInputError(
-                f"{m!r} starts {a:g} s before the state's epoch. Burns are applied forward in "
-                "time only (a local-frame Δv needs the state before the burn): start from a "
-                "state at or before the first burn."
-            )
-        items.append((a, a + getattr(m, "duration_s", 0.0), m))
-    items.sort(key=lambda x: x[0])
-    for i, (a, b, m) in enumerate(items):
-        if not isinstance(m, FiniteBurn):
-            continue
-        for j, (c, d, other) in enumerate(items):
-            if j == i:
-                continue
-            inside = a < c < b if isinstance(other, ImpulsiveBurn) else (c < b and a < d)
-            if inside:
-                raise InvalidInputError(
-                    f"{other!r} overlaps {m!r}; burns must not overlap (an impulse may sit at a "
-                    "finite burn's start or end)."
-                )
-    return _Schedule(items)
+#: What an OPM's state carries when its message has manoeuvres (see :meth:`OPM.state`); kept by
+#: indexing and conversions (:func:`visviva._containers.carry_marks`).
+PENDING_ATTRIBUTE = PENDING_MANEUVERS_ATTRIBUTE

@@ -23,7 +23,7 @@ from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
-from .burns import burn_schedule
+from .burn_segments import burn_schedule
 from .dop853 import dop853_tableau
 from .events import Event, EventRecord
 from .frames import offline_iers
@@ -460,7 +460,7 @@ def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if part.size == 0:
             continue
-        run = _run_many if t_end < 0 or not schedule else schedule.run_many(_run_many)
+        run = schedule.run_many(_run_many) if schedule else _run_many
         y_out, status, info = run(y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max,
                                   max_steps)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
@@ -526,9 +526,11 @@ def propagate_cowell(
     max_steps : int
         Step budget (raises :class:`~visviva.StepSizeError` beyond).
     maneuvers : list of ImpulsiveBurn or FiniteBurn, optional
-        Burns at or after the state's epoch (docs/cowell.md, "Manoeuvres"), the same for
-        every state of a batch: the run is split at each burn's start and end. A state read from an OPM with
-        manoeuvres is refused without it (``maneuvers=opm.burns()``, or ``[]`` for none).
+        Burns (docs/cowell.md, "Manoeuvres"), the same for every state of a batch: the run is
+        split at each burn's start and end; burns before the epoch are crossed backwards by
+        negative output times (the state given is after them and before any burn at the
+        epoch). A state read from an OPM with manoeuvres is refused without it
+        (``maneuvers=opm.burns()``, or ``[]`` for none).
 
     Returns
     -------
@@ -639,7 +641,7 @@ def propagate_cowell(
     for part, t_end in ((back, span[0]), (fwd, span[1])):
         if t_end == 0.0 and part.size == 0:
             continue
-        run = _run if t_end < 0 or not schedule else schedule.run(_run)
+        run = schedule.run(_run) if schedule else _run
         status, y_out, ev_t, ev_y, ev_which, info = run(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )

@@ -178,6 +178,28 @@ class Maneuver:
         if any(b < a for a, b in zip(times, times[1:], strict=False)) or times[0] < 0:
             raise InvalidInputError("impulse times must be >= 0 and non-decreasing.")
         self._items = items
+        self.frame = None
+
+    @property
+    def frame(self):
+        """The frame of the states the plan was made from (``"gcrs"``, ``"teme"``, ``"itrs"``,
+        an OEM's ``"TOD"`` ...), or None (plain states: taken as GCRS); its Δv are vectors of
+        that frame."""
+        return self._frame
+
+    @frame.setter
+    def frame(self, value):
+        self._frame = None if value is None else str(value)
+
+    def _planned_from(self, *states):
+        """This plan, labelled with the frame of the ``states`` it was made from."""
+        from .._containers import FOREIGN_FRAME_ATTRIBUTE
+
+        for state in states:
+            frame = getattr(state, "frame", None) or getattr(state, FOREIGN_FRAME_ATTRIBUTE, None)
+            if frame is not None:
+                self.frame = frame
+        return self
 
     @property
     def impulses(self) -> list:
@@ -219,9 +241,23 @@ class Maneuver:
         Returns
         -------
         list of ImpulsiveBurn
+
+        Raises
+        ------
+        InvalidInputError
+            The plan was made from states in another frame than the GCRS (``sat.teme(t)``,
+            ITRS, an OEM in TOD): its Δv are vectors of that frame, which the GCRS run would
+            take for GCRS vectors (TEME and GCRS axes differ by ~0.3 degrees in 2024).
         """
         from .burns import ImpulsiveBurn
 
+        if self.frame not in (None, "gcrs"):
+            raise InvalidInputError(
+                f"this Maneuver was planned from {self.frame.upper()} states, so its Δv are "
+                f"{self.frame.upper()} vectors; propagate_cowell works in the GCRS and would take "
+                "them for GCRS ones. Plan it from GCRS states (e.g. Maneuver.hohmann(sat.gcrs(t), "
+                "...)) and propagate those."
+            )
         return [ImpulsiveBurn(t * u.s, to_quantity(dv, "speed"), "GCRS") for t, dv in self._items]
 
     def __repr__(self):
@@ -264,7 +300,7 @@ class Maneuver:
                 (0 * u.s, dv1.value * v_hat * (u.km / u.s)),
                 (tof, -dv2.value * v_hat * (u.km / u.s)),
             ]
-        )
+        )._planned_from(state)
 
     @classmethod
     def bielliptic(cls, state, r_intermediate, r_final):
@@ -286,7 +322,7 @@ class Maneuver:
                 (t1 * u.s, -dv2.value * v_hat * kms),
                 ((t1 + t2) * u.s, dv3.value * v_hat * kms),
             ]
-        )
+        )._planned_from(state)
 
     @classmethod
     def plane_change(cls, state, delta_inc):
@@ -307,7 +343,7 @@ class Maneuver:
         # so at the ascending node a positive di raises the inclination
         th = di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
-        return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])
+        return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
 
     @classmethod
     def lambert(cls, state_from, state_to, tof, **lambert_kwargs):
@@ -338,4 +374,5 @@ class Maneuver:
             coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)
         target = state_to.propagate(coast * u.s)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
-        return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])
+        return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])._planned_from(
+            state_from, state_to)

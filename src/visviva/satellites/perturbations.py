@@ -158,7 +158,9 @@ class AtmosphericDrag(Perturbation):
     Parameters
     ----------
     ballistic_coefficient : Quantity, m^2/kg
-        Cd * A / m (e.g. 2.2 * 1 m^2 / 100 kg = 0.022 m^2/kg).
+        Cd * A / m (e.g. 2.2 * 1 m^2 / 100 kg = 0.022 m^2/kg), m the spacecraft's mass at the
+        state's epoch: burns of :func:`~visviva.propagate_cowell` that know the mass scale it
+        by m(epoch) / m(t) (:mod:`visviva.satellites.burn_mass`).
     body : Body
         Central body (default Earth): its radius and flattening define the geodetic altitude,
         its rotation rate the co-rotating atmosphere.
@@ -365,7 +367,8 @@ class SolarRadiationPressure(Perturbation):
     Parameters
     ----------
     area_to_mass : Quantity, m^2/kg
-        Illuminated area over mass, A/m.
+        Illuminated area over mass, A/m, m the mass at the state's epoch (burns that know
+        the mass scale it by m(epoch) / m(t), as for :class:`AtmosphericDrag`).
     reflectivity : float
         Cr, 1 for a black body, up to 2 for a mirror (default 1.3).
     shadow : {"conical", "cylindrical", None}

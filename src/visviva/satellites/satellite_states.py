@@ -11,12 +11,13 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
+from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks
 from ..elements import KeplerianElements
 from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
     InvalidInputError,
 )
-from ..states import FOREIGN_FRAME_ATTRIBUTE, StateVectors
+from ..states import StateVectors
 
 __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
            "require_gcrs", "framed_states", "with_frame"]
@@ -247,7 +248,8 @@ class SatelliteStates(_Framed, StateVectors):
                 "ITRS rotates with the Earth, so its velocities are not inertial; convert "
                 "sat.gcrs(t) or sat.teme(t) instead."
             )
-        return StateVectors._from_canonical(self._r, self._v, self._gm, self.epoch)
+        return carry_marks(self, StateVectors._from_canonical(self._r, self._v, self._gm,
+                                                              self.epoch))
 
     def __repr__(self):
         return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"

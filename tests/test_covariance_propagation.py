@@ -1,0 +1,262 @@
+"""vv.propagate_covariance: a covariance through Cowell's full force model (its STM from the
+variational equations), checked against the two-body propagation of conjunctions, central
+differences and a Monte Carlo of propagate_cowell, and for its invariants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.conjunctions import inertial_to_rtn
+from visviva.conjunctions import propagate_covariance as two_body_covariance
+
+KMS = u.km / u.s
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+#: 30 m / 3 cm/s on each axis with some correlation (km, km/s)
+_A = np.r_[[3e-2] * 3, [3e-5] * 3][:, None] * np.random.default_rng(7).normal(size=(6, 6))
+P0 = _A @ _A.T
+
+
+def leo(a_km=7000.0):
+    return vv.KeplerianElements.from_semi_major_axis(
+        a_km * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=EPOCH
+    ).to_state()
+
+
+def full_forces():
+    am = 0.05 * u.m**2 / u.kg
+    return [vv.Zonal(vv.EARTH, 4), vv.AtmosphericDrag(am), vv.ThirdBody(vv.SUN),
+            vv.ThirdBody(vv.MOON), vv.SolarRadiationPressure(am, 1.3, shadow="conical")]
+
+
+def rel(a, b):
+    return np.abs(a - b).max(axis=(-2, -1)) / np.abs(b).max(axis=(-2, -1))
+
+
+def test_two_body_equals_the_conjunctions_two_body_propagation():
+    t = np.array([-3000.0, 600.0, 2900.0, 5800.0])
+    out = vv.propagate_covariance(leo(), P0, t * u.s, [])
+    state = leo()
+    for k, dt in enumerate(t):
+        ref = two_body_covariance(P0, state.r, state.v, dt * u.s, vv.EARTH)
+        assert rel(out.covariance[k], ref) < 1e-10  # measured 1e-12 to 3e-11
+    # the states are propagate_cowell's
+    cow = vv.propagate_cowell(state, t * u.s, [])
+    assert np.abs((cow.r - out.r).to_value(u.km)).max() < 1e-6
+
+
+def test_stm_matches_central_differences_of_cowell_over_a_leo_day():
+    # J4, drag, Sun, Moon and SRP with a conical shadow (~15 penumbra crossings in a day);
+    # the 12 displaced states go through propagate_cowell's batch mode in one call
+    f = full_forces()
+    state = leo()
+    t = np.array([-5400.0, 21600.0, 86400.0])
+    out = vv.propagate_covariance(state, P0, t * u.s, f, rtol=1e-13, atol=1e-13)
+    y = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
+    d = np.r_[[1e-3] * 3, [1e-6] * 3]
+    y0 = np.concatenate([y + np.diag(d), y - np.diag(d)])
+    batch = vv.StateVectors(y0[:, :3] * u.km, y0[:, 3:] * KMS, vv.EARTH, epoch=EPOCH)
+    res = vv.propagate_cowell(batch, t * u.s, f, rtol=1e-13, atol=1e-13)
+    yt = np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=-1)  # (12, T, 6)
+    fd = np.transpose((yt[:6] - yt[6:]) / (2 * d[:, None, None]), (1, 2, 0))
+    assert rel(out.stm, fd).max() < 2e-6  # measured: see docs/cowell.md
+    # and the map is what makes the covariance
+    want = out.stm @ P0 @ np.swapaxes(out.stm, -1, -2)
+    assert rel(out.covariance, want).max() < 1e-12
+
+
+def test_covariance_matches_a_monte_carlo_while_linear():
+    # 3000 samples of P0 (30 m, 3 cm/s) through one orbit with J2: the sample covariance of
+    # the positions equals the linear one within sampling error (variance: sqrt(2/N) = 2.6 %)
+    rng = np.random.default_rng(11)
+    n = 3000
+    state = leo()
+    t = 5800.0
+    f = [vv.J2(vv.EARTH)]
+    out = vv.propagate_covariance(state, P0, t * u.s, f)
+    y = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
+    samples = rng.multivariate_normal(y, P0, size=n)
+    batch = vv.StateVectors(samples[:, :3] * u.km, samples[:, 3:] * KMS, vv.EARTH, epoch=EPOCH)
+    res = vv.propagate_cowell(batch, t * u.s, f)
+    yt = np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=-1)
+    sample_cov = np.cov(yt.T)
+    sd = np.sqrt(np.diag(out.covariance))
+    corr_err = (sample_cov - out.covariance) / np.outer(sd, sd)
+    assert np.abs(np.diag(corr_err)).max() < 4 * np.sqrt(2.0 / n)
+    assert np.abs(corr_err).max() < 4 * np.sqrt(2.0 / n)
+    # the sample mean is the propagated state (no bias at this size)
+    mean_err = (yt.mean(axis=0) - np.r_[out.r.to_value(u.km), out.v.to_value(KMS)]) / sd
+    assert np.abs(mean_err).max() < 4 / np.sqrt(n)
+
+
+def test_linear_covariance_breaks_for_a_large_along_track_uncertainty():
+    # 1 m/s along-track over a day spreads the samples ~150 km along the orbit: the cloud
+    # bends (a banana) and its radial spread is far from the linear one; documented in
+    # docs/cowell.md, "Covariance propagation"
+    rng = np.random.default_rng(5)
+    n = 2000
+    state = leo()
+    P = np.diag([1e-6, 1e-6, 1e-6, 1e-12, 1e-6, 1e-12])  # 1 m and 1 m/s along-track (RTN)
+    t = 86400.0
+    out = vv.propagate_covariance(state, P, t * u.s, [vv.J2(vv.EARTH)], frame="RTN")
+    pin = vv.propagate_covariance(state, P, 0 * u.s, [], frame="RTN", output_frame="GCRS")
+    y = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
+    samples = rng.multivariate_normal(y, pin.covariance, size=n)
+    batch = vv.StateVectors(samples[:, :3] * u.km, samples[:, 3:] * KMS, vv.EARTH, epoch=EPOCH)
+    res = vv.propagate_cowell(batch, t * u.s, [vv.J2(vv.EARTH)])
+    yt = np.concatenate([res.r.to_value(u.km), res.v.to_value(KMS)], axis=-1)
+    rtn = inertial_to_rtn(np.cov(yt.T), out.r, out.v)
+    ratio = np.sqrt(np.diag(rtn)[:3] / np.diag(out.covariance)[:3])
+    assert abs(ratio[1] - 1) < 0.1  # along-track still right
+    assert ratio[0] > 2.0  # radial: the curvature of the orbit, absent from the linear map
+
+
+def test_rtn_output_is_the_gcrs_output_rotated_and_input_frames_agree():
+    f = [vv.J2(vv.EARTH)]
+    t = np.array([-600.0, 0.0, 3000.0]) * u.s
+    g = vv.propagate_covariance(leo(), P0, t, f)
+    r = vv.propagate_covariance(leo(), P0, t, f, output_frame="RTN")
+    assert r.frame == "RTN"
+    want = inertial_to_rtn(g.covariance, g.r, g.v)
+    assert rel(r.covariance, want).max() < 1e-14
+    # a covariance given in RTN is the GCRS one rotated at the epoch
+    p_rtn = inertial_to_rtn(P0, leo().r, leo().v)
+    back = vv.propagate_covariance(leo(), p_rtn, t, f, frame="RTN", output_frame="GCRS")
+    assert rel(back.covariance, g.covariance).max() < 1e-12
+    np.testing.assert_array_equal(r.stm, g.stm)
+
+
+def test_symmetric_positive_definite_and_det_phi_one_for_conservative_forces():
+    f = [vv.Zonal(vv.EARTH, 4), vv.ThirdBody(vv.MOON), vv.ThirdBody(vv.SUN)]
+    t = np.linspace(-43200, 86400, 7) * u.s
+    out = vv.propagate_covariance(leo(), P0, t, f)
+    c = out.covariance
+    np.testing.assert_array_equal(c, np.swapaxes(c, -1, -2))
+    assert np.all(np.linalg.eigvalsh(c)[:, 0] > 0)
+    # Liouville: a Hamiltonian flow keeps phase-space volume (time-dependent third bodies too)
+    assert np.abs(np.linalg.det(out.stm) - 1).max() < 1e-8
+    # symplectic: Phi^T J Phi = J
+    J = np.block([[np.zeros((3, 3)), np.eye(3)], [-np.eye(3), np.zeros((3, 3))]])
+    sym = np.swapaxes(out.stm, -1, -2) @ J @ out.stm
+    assert np.abs(sym - J).max() < 1e-7 * np.abs(out.stm).max() ** 2
+    # drag takes volume away: det(Phi) < 1 over a day
+    dr = vv.propagate_covariance(leo(6700.0), P0, 86400 * u.s,
+                                 [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)])
+    assert np.linalg.det(dr.stm) < 1 - 1e-6
+
+
+@pytest.mark.parametrize("shadow, tol", [(None, 1e-7), ("conical", 5e-6)])
+def test_backward_then_forward_returns_p0(shadow, tol):
+    # half a day back, then forward from there: P0 again, to the conditioning of the map
+    # (P grows ~1e4 times along-track in 12 h): measured 2e-8 without a shadow; 1.2e-6 with
+    # the conical penumbra, whose gradient of the visible Sun fraction is a central difference
+    # good to ~1e-6 (core/variational.py)
+    am = 0.05 * u.m**2 / u.kg
+    f = full_forces()[:-1] + [vv.SolarRadiationPressure(am, 1.3, shadow=shadow)]
+    state = leo()
+    back = vv.propagate_covariance(state, P0, -43200 * u.s, f)
+    earlier = vv.StateVectors(back.r, back.v, vv.EARTH, epoch=EPOCH - 43200 * u.s)
+    fwd = vv.propagate_covariance(earlier, back.covariance, 43200 * u.s, f)
+    assert np.abs((fwd.r - state.r).to_value(u.km)).max() < 1e-6
+    assert rel(fwd.covariance, P0) < tol
+    # Phi(t0, t) = Phi(t, t0)^-1
+    assert rel(fwd.stm, np.linalg.inv(back.stm)) < tol / 100
+
+
+def test_j2_and_drag_reshape_the_covariance_against_two_body():
+    state = leo(6700.0)
+    f = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)]
+    full = vv.propagate_covariance(state, P0, 86400 * u.s, f, output_frame="RTN")
+    kep = vv.propagate_covariance(state, P0, 86400 * u.s, [], output_frame="RTN")
+    s_full = full.position_sigma.to_value(u.km)
+    s_kep = kep.position_sigma.to_value(u.km)
+    # the along-track sigma differs by more than 10 % (J2's secular rates change the
+    # along-track drift per unit semi-major-axis error), the cross-track by more
+    assert abs(s_full[1] / s_kep[1] - 1) > 0.1 or abs(s_full[2] / s_kep[2] - 1) > 0.1
+
+
+def test_process_noise_adds_the_snc_growth():
+    q = 1e-12  # km^2/s^3
+    zero = np.zeros((6, 6))
+    out = vv.propagate_covariance(leo(), zero, [5.0, 10.0] * u.s, [], process_noise=q)
+    # over 10 s the motion is a straight line: sigma_x^2 = q t^3 / 3, sigma_v^2 = q t
+    np.testing.assert_allclose(out.covariance[1, 0, 0], q * 1000 / 3, rtol=1e-3)
+    np.testing.assert_allclose(out.covariance[1, 3, 3], q * 10, rtol=1e-3)
+    np.testing.assert_allclose(out.covariance[1, 0, 3], q * 100 / 2, rtol=1e-3)
+    # over an orbit, the SNC sum converges with its step (60 s vs 10 s: < 1 %)
+    a = vv.propagate_covariance(leo(), P0, 5800 * u.s, [], process_noise=[q, 4 * q, q])
+    b = vv.propagate_covariance(leo(), P0, 5800 * u.s, [], process_noise=[q, 4 * q, q],
+                                noise_step=10 * u.s)
+    c = vv.propagate_covariance(leo(), P0, 5800 * u.s, [])
+    grow = a.covariance - c.covariance
+    assert rel(grow, b.covariance - c.covariance) < 1e-2
+    assert np.all(np.diag(grow) > 0)
+    # backward: the noise adds too
+    back = vv.propagate_covariance(leo(), P0, -5800 * u.s, [], process_noise=q)
+    noiseless = vv.propagate_covariance(leo(), P0, -5800 * u.s, [])
+    assert np.all(np.diag(back.covariance - noiseless.covariance) > 0)
+    qq = vv.propagate_covariance(leo(), P0, 100 * u.s, [],
+                                 process_noise=1e-6 * u.m**2 / u.s**3)
+    np.testing.assert_allclose(qq.process_noise, 1e-12)
+
+
+def test_quantity_covariance_and_absolute_times():
+    P_m = P0 * 1e6 * u.m**2
+    t = EPOCH + [0, 1] * u.h
+    a = vv.propagate_covariance(leo(), P_m, t, [vv.J2(vv.EARTH)])
+    b = vv.propagate_covariance(leo(), P0, [0, 3600] * u.s, [vv.J2(vv.EARTH)])
+    assert rel(a.covariance, b.covariance).max() < 1e-14
+    s = vv.propagate_covariance(leo(), P0, 60 * u.s, [])
+    assert s.covariance.shape == (6, 6) and s.r.shape == (3,)
+
+
+@pytest.mark.parametrize("cov, match", [
+    (P0[:3, :3], "6x6"),
+    (np.triu(P0), "not symmetric"),
+    (np.where(np.eye(6) == 1, np.nan, P0), "NaN"),
+    (P0 - 2 * np.diag(np.diag(P0)), "negative variance"),
+    ("corr", None),
+    ("zero-variance", None),
+])
+def test_bad_covariances_are_refused(cov, match):
+    if isinstance(cov, str) and cov == "corr":  # a correlation above 1
+        bad = np.diag([1e-6] * 6)
+        bad[0, 1] = bad[1, 0] = 2e-6
+        match = "not positive semi-definite"
+    elif isinstance(cov, str):  # no uncertainty on x, yet correlated
+        bad = np.diag([0.0] + [1e-6] * 5)
+        bad[0, 1] = bad[1, 0] = 1e-7
+        match = "row is not"
+    else:
+        bad = np.array(cov, dtype=float)
+    with pytest.raises(vv.VisvivaError, match=match):
+        vv.propagate_covariance(leo(), bad, 60 * u.s, [])
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(vv.UnitsError, match="area unit"):
+        vv.propagate_covariance(leo(), P0 * u.m, 60 * u.s, [])
+    with pytest.raises(vv.InvalidInputError, match="output_frame"):
+        vv.propagate_covariance(leo(), P0, 60 * u.s, [], output_frame="ECEF")
+    with pytest.raises(vv.InvalidInputError, match="process_noise must be >= 0"):
+        vv.propagate_covariance(leo(), P0, 60 * u.s, [], process_noise=-1.0)
+    with pytest.raises(vv.InvalidInputError, match="strictly increasing"):
+        vv.propagate_covariance(leo(), P0, [60, 0] * u.s, [])
+    two = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * KMS, vv.EARTH)
+    with pytest.raises(vv.ShapeError, match="one state"):
+        vv.propagate_covariance(two, P0, 60 * u.s, [])
+    with pytest.raises(vv.SurfaceImpact):
+        vv.propagate_covariance(leo(6450.0), P0, 2 * u.day,
+                                [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)])
+
+
+def test_a_state_with_pending_manoeuvres_is_refused():
+    from visviva._containers import PENDING_MANEUVERS_ATTRIBUTE
+
+    state = leo()
+    setattr(state, PENDING_MANEUVERS_ATTRIBUTE, 1)
+    with pytest.raises(vv.InvalidInputError, match="manoeuvre"):
+        vv.propagate_covariance(state, P0, 60 * u.s, [])

@@ -210,7 +210,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     Notes
     -----
     The linear map of a covariance by the state-transition matrix (Tapley, Schutz & Born 2004,
-    sec. 4.2; Montenbruck & Gill 2000, sec. 7.1):
+    sec. 4.2; Montenbruck & Gill 2000, sec. 7.1)::
 
         P(t) = Phi(t, t0) P0 Phi(t, t0)^T,    Phi' = F(t, y) Phi,  Phi(t0) = I,
 
@@ -221,7 +221,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
 
     Process noise is the state noise compensation of Tapley, Schutz & Born (2004), sec. 4.9:
     a white acceleration of density Q_c = diag(q) (rotated from ``process_noise_frame`` at the
-    start of each interval) adds, over an interval dt taken in straight-line motion,
+    start of each interval) adds, over an interval dt taken in straight-line motion::
 
         Q(dt) = [[|dt|^3/3 Q_c, dt|dt|/2 Q_c], [dt|dt|/2 Q_c, |dt| Q_c]],
 

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.conjunctions import inertial_to_rtn
@@ -315,3 +317,42 @@ def test_oem_segment_carries_propagated_covariances():
     with pytest.raises(vv.InvalidInputError, match="one 6x6 matrix per epoch"):
         OEMSegment.from_states(out.times, out.r.to_value(u.km), out.v.to_value(KMS),
                                object_name="SAT", covariance=out.covariance[:2])
+
+
+def test_a_covariance_in_m2_given_as_km2_warns():
+    # a CDM's covariance (m^2) passed as plain numbers reads 1e6 too large: 100 km sigma
+    cdm_like = np.diag([1e4, 4e4, 1e4, 1e-2, 1e-2, 1e-2])
+    with pytest.warns(UserWarning, match="Quantity"):
+        vv.propagate_covariance(leo(), cdm_like, 60 * u.s, [])
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = vv.propagate_covariance(leo(), cdm_like * u.m**2, 60 * u.s, [])
+    assert out.position_sigma.to_value(u.m)[0] < 500
+
+
+def _random_covariance(seed, scales=(3e-2, 3e-5)):
+    rng = np.random.default_rng(seed)
+    a = np.r_[[scales[0]] * 3, [scales[1]] * 3][:, None] * rng.normal(size=(6, 6))
+    return a @ a.T
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31), frame=st.sampled_from(["RTN", "TNW", "VNB", "RIC", "gcrs"]),
+       dt=st.floats(-7200.0, 7200.0))
+def test_frames_round_trip_and_outputs_stay_covariances(seed, frame, dt):
+    P = _random_covariance(seed)
+    state = leo()
+    # given in a frame, returned in the same frame at t = 0: the input back
+    local = vv.propagate_covariance(state, P, 0 * u.s, [], output_frame=frame)
+    back = vv.propagate_covariance(state, local.covariance, 0 * u.s, [], frame=frame,
+                                  output_frame="GCRS")
+    assert rel(back.covariance, vv.propagate_covariance(state, P, 0 * u.s, []).covariance) < 1e-13
+    # at any time: symmetric, positive definite, and the local output is the GCRS one rotated
+    g = vv.propagate_covariance(state, P, dt * u.s, [vv.J2(vv.EARTH)])
+    f = vv.propagate_covariance(state, P, dt * u.s, [vv.J2(vv.EARTH)], output_frame=frame)
+    np.testing.assert_array_equal(f.covariance, f.covariance.T)
+    assert np.linalg.eigvalsh(f.covariance)[0] > 0
+    np.testing.assert_allclose(np.trace(f.covariance[:3, :3]), np.trace(g.covariance[:3, :3]),
+                               rtol=1e-12)

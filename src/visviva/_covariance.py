@@ -171,14 +171,14 @@ def to_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
     ``M = blockdiag(Q, Q)`` with ``Q`` the frame's axes as rows
     (:func:`visviva.core.local_frames.local_axes`); the velocity block is rotated like the
     position block, ignoring the frame's rotation (the convention of the CCSDS CDM and of NASA
-    CARA). Code 0 (inertial) returns ``cov`` unchanged.
+    CARA); the result is symmetrised. Code 0 (inertial) returns ``cov`` unchanged.
     """
     if code == 0:
         return cov
     from .core.local_frames import local_axes
 
     m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
-    return m @ cov @ np.swapaxes(m, -1, -2)
+    return _symmetric(m @ cov @ np.swapaxes(m, -1, -2))
 
 
 def from_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
@@ -189,7 +189,12 @@ def from_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
     from .core.local_frames import local_axes
 
     m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
-    return np.swapaxes(m, -1, -2) @ cov @ m
+    return _symmetric(np.swapaxes(m, -1, -2) @ cov @ m)
+
+
+def _symmetric(c):
+    """``(C + C^T) / 2``: a rotated covariance, symmetric to the bit."""
+    return 0.5 * (c + np.swapaxes(c, -1, -2))
 
 
 def check_shape(cov: np.ndarray, name: str) -> None:

@@ -82,6 +82,24 @@ class CovarianceResult(CowellResult):
         return f"CovarianceResult({len(self)} times, frame={self.frame!r})"
 
 
+#: Position sigma, as a fraction of |r|, above which a linear map means nothing (warned).
+HUGE_SIGMA_FRACTION = 0.01
+
+
+def _warn_if_huge(P0, r0):
+    """Warn when the position sigma is a sizable fraction of the orbit (a matrix in m^2 read as
+    km^2 gives this: a CDM's covariance is in m, m/s)."""
+    sigma = float(np.sqrt(np.max(np.diag(P0)[:3])))
+    if sigma > HUGE_SIGMA_FRACTION * float(np.linalg.norm(r0)):
+        import warnings
+
+        warnings.warn(
+            f"the covariance's largest position sigma is {sigma:.6g} km, "
+            f"{sigma / np.linalg.norm(r0):.2g} of |r|: a linear propagation means little at "
+            "that size. Plain numbers are km^2, km^2/s, km^2/s^2; a matrix in m^2 (a CDM's) "
+            "must be passed as a Quantity (cov * u.m**2).", UserWarning, stacklevel=3)
+
+
 def _noise_density(q):
     """The process-noise density as three values, km^2/s^3, or None."""
     if q is None:
@@ -168,8 +186,8 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     t : Quantity or astropy Time
         Output times: offsets from the epoch (scalar or 1-D, strictly increasing, any sign:
         negative times give the covariance at earlier times) or absolute Times.
-    perturbations : list of Perturbation
-        As for :func:`~visviva.propagate_cowell`; ``[]`` is two-body motion.
+    perturbations : list of Perturbation or None
+        As for :func:`~visviva.propagate_cowell`; ``[]`` or None is two-body motion.
     frame : str
         Axes of ``covariance``: ``"GCRS"`` (inertial) or a local frame of the state, ``"RTN"``
         (alias ``"RSW"``, ``"RIC"``), ``"TNW"``, ``"VNB"``.
@@ -196,6 +214,12 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         ``.t``, ``.r``, ``.v`` (as from :func:`~visviva.propagate_cowell`), ``.covariance``
         (T, 6, 6) in ``output_frame``, km-based units; ``.stm`` (T, 6, 6) inertial;
         ``.position_sigma``, ``.velocity_sigma``.
+
+    Warns
+    -----
+    UserWarning
+        A position sigma above 1 % of |r| (where a linear map means little; also what a matrix
+        in m^2 passed as plain numbers looks like).
 
     Raises
     ------
@@ -270,6 +294,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     out_code = frame_code(out_name, "output_frame")
     P0 = from_local(P0, r0, v0, in_code)
     require_psd(P0, "covariance")
+    _warn_if_huge(P0, r0)
     q = _noise_density(process_noise)
     noise_code = frame_code(process_noise_frame, "process_noise_frame")
     step_s = DEFAULT_NOISE_STEP_S if noise_step is None else float(
@@ -291,7 +316,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol}, atol={atol}.")
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
         raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
-    perturbations = list(perturbation_list(perturbations))
+    perturbations = list(perturbation_list(perturbations, allow_none=True))
     body = watched_body(gm, perturbations, r0)
     from .variational import Dynamics
 

@@ -30,7 +30,7 @@ from astropy import units as u
 from .._covariance import as_covariance, check_shape, frame_code, from_local, require_psd, to_local
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..errors import InvalidInputError, ShapeError, StepSizeError, SurfaceImpact
-from .cowell import CowellResult, _offsets_s, perturbation_list
+from .cowell import CowellResult, output_offsets_s, perturbation_list
 from .satellite_states import require_gcrs
 from .surface import altitude_km, watched_body
 
@@ -301,7 +301,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         to_array(noise_step, "time", "noise_step"))
     if not step_s > 0:
         raise InvalidInputError(f"noise_step must be > 0; got {step_s} s.")
-    offsets = _offsets_s(t, epoch)
+    offsets = output_offsets_s(t, epoch)
     scalar = offsets.ndim == 0
     offsets = np.atleast_1d(offsets)
     if offsets.ndim != 1 or offsets.size == 0:

@@ -58,6 +58,8 @@ class CovarianceResult(CowellResult):
         The frame of ``covariance``: ``"GCRS"`` or a local frame of the state at each time.
     process_noise : ndarray (3,) or None
         The acceleration noise density used, km^2/s^3 per axis of ``process_noise_frame``.
+    process_noise_frame : str or None
+        ``"RTN"``, ``"GCRS"``, ... (None without process noise).
     """
 
     def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):

@@ -48,6 +48,7 @@ def test_two_body_equals_the_conjunctions_two_body_propagation():
     # the states are propagate_cowell's
     cow = vv.propagate_cowell(state, t * u.s, [])
     assert np.abs((cow.r - out.r).to_value(u.km)).max() < 1e-6
+    assert 0.5 * cow.n_steps < out.n_steps < 2 * cow.n_steps
 
 
 def test_stm_matches_central_differences_of_cowell_over_a_leo_day():

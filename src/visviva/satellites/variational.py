@@ -56,13 +56,15 @@ class Dynamics:
         """States (T, 6) and STMs Phi(t, epoch) (T, 6, 6) at ``offsets_s`` (s from the epoch).
 
         ``offsets_s`` may hold both signs and need not be sorted; each side is one compiled
-        integration outward from the epoch.
+        integration outward from the epoch. Afterwards ``n_steps`` and ``n_evaluations`` hold the
+        steps and right-hand-side evaluations of the call.
         """
         from ..core.variational import integrate_variational
 
         A, B, C, E3, E5, D = dop853_tableau()
         offsets_s = np.asarray(offsets_s, dtype=np.float64)
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
+        self.n_steps = self.n_evaluations = 0
         y_all = np.empty((offsets_s.size, 6))
         phi_all = np.empty((offsets_s.size, 6, 6))
         for side in (-1.0, 1.0):
@@ -84,6 +86,8 @@ class Dynamics:
                     "steps); use a shorter arc or check the state (a decaying orbit?)."
                 )
             raise_for_status(np.int64(status), "state-transition-matrix integration")
+            self.n_steps += int(info[1])
+            self.n_evaluations += int(info[2])
             if not np.all(np.isfinite(y_out)):
                 raise InvalidInputError(
                     "the integrated trajectory is not finite (it crosses the central body?); "

@@ -299,6 +299,15 @@ def test_fit_to_covariance_at_tca_to_collision_probability():
                                     r2.to(u.m), v2.to(u.m / u.s), cov2 * 1e6, 20 * u.m)
     assert 1e-3 < pc < 0.1
     np.testing.assert_allclose(pc, pc_m, rtol=1e-12)
+    # and into a CDM (RTN, m) and back: the same covariance and probability
+    cdm = vv.ConjunctionDataMessage.from_states(tca, r1, v1, at_tca.covariance * u.km**2, r2, v2,
+                                                cov2 * u.km**2, collision_probability=pc)
+    back = vv.read_cdm(cdm.to_kvn())
+    c1 = back.object1.covariance
+    assert rel(c1, at_tca.covariance * 1e6) < 1e-6
+    again = vv.collision_probability(back.object1.r, back.object1.v, c1, back.object2.r,
+                                     back.object2.v, back.object2.covariance, 20 * u.m)
+    np.testing.assert_allclose(again, pc, rtol=1e-4)
 
 
 def test_oem_segment_carries_propagated_covariances():

@@ -41,6 +41,8 @@ __all__ = [
     "accel_two_body",
     "accel_zonal",
     "accel_harmonics",
+    "accel_harmonics_inertial",
+    "grid_density_at",
     "accel_drag",
     "accel_third_body",
     "accel_srp",
@@ -205,7 +207,7 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
 
 
 @kernel
-def _accel_harmonics_inertial(t, x, y, z, force, sh, out):
+def accel_harmonics_inertial(t, x, y, z, force, sh, out):
     """Rotate r to the body frame at time t, add the harmonic acceleration rotated back."""
     th = force[fb.ROTATION_RATE] * t
     c = math.cos(th)
@@ -252,6 +254,21 @@ def exponential_density(h, atm):
     while k + 1 < n and h >= atm[k + 1, 0]:
         k += 1
     return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+
+
+@kernel
+def grid_density_at(x, y, z, sun_pos, force, atm):
+    """Density (kg/m^3) of the gridded model at the position (x, y, z) (km, inertial), the Sun
+    at ``sun_pos``: geodetic altitude, geocentric latitude and hour angle from the Sun, then
+    :func:`grid_density`."""
+    h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
+    lat = math.asin(z / math.sqrt(x * x + y * y + z * z))
+    ha = math.atan2(y, x) - math.atan2(sun_pos[1], sun_pos[0])
+    if ha > math.pi:
+        ha -= 2.0 * math.pi
+    elif ha < -math.pi:
+        ha += 2.0 * math.pi
+    return grid_density(h, lat, ha, force, atm)
 
 
 @kernel
@@ -466,7 +483,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     for i in range(3):
         acc[i] = dy[3 + i]
     if force[fb.HARMONICS_DEGREE] >= 2.0:
-        _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
+        accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     n_third = int(force[fb.N_THIRD_BODIES])
     sun = int(force[fb.SUN_ROW])
     pos = np.empty(3)
@@ -479,14 +496,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
     if force[fb.DRAG_ON] != 0.0:
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-            lat = math.asin(z / math.sqrt(x * x + yy * yy + z * z))
-            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
-            if ha > math.pi:
-                ha -= 2.0 * math.pi
-            elif ha < -math.pi:
-                ha += 2.0 * math.pi
-            rho = grid_density(h, lat, ha, force, atm)
+            rho = grid_density_at(x, yy, z, sun_pos, force, atm)
             accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
         else:
             accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)

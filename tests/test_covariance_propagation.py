@@ -439,3 +439,31 @@ def test_gridded_density_partials_include_the_horizontal_gradient():
             cowell_rhs(t, ym, *model.arrays(), b)
             fd[:, j] = (a[3:] - b[3:]) / 2e-3
         assert np.abs(dadr - fd).max() < 1e-4 * np.abs(dadr - kep).max()  # measured 3.6e-6
+
+
+@pytest.mark.parametrize("frame", ["RTN", "GCRS"])
+def test_process_noise_equals_the_integral_of_the_noise_through_the_stm(frame):
+    # the exact growth, int_0^T Phi(T, tau) B Qc(tau) B^T Phi(T, tau)^T dtau (B = [0; I]), by
+    # Simpson's rule on 5-s nodes of the STM; the 60-s SNC sum is within 0.2 % of it
+    # (measured 0.035 % RTN, 0.12 % GCRS)
+    from scipy.integrate import simpson
+
+    from visviva.core.local_frames import RTN, local_axes
+
+    q = np.array([1e-12, 4e-12, 2e-12])
+    f = [vv.J2(vv.EARTH)]
+    T = 5800.0
+    out = vv.propagate_covariance(leo(), np.zeros((6, 6)), T * u.s, f, process_noise=q,
+                                  process_noise_frame=frame)
+    tau = np.linspace(0.0, T, 1161)
+    g = vv.propagate_covariance(leo(), np.zeros((6, 6)), tau * u.s, f)
+    r, v = g.r.to_value(u.km), g.v.to_value(KMS)
+    vals = np.empty((tau.size, 6, 6))
+    for k in range(tau.size):
+        b = (g.stm[-1] @ np.linalg.inv(g.stm[k]))[:, 3:]
+        qc = np.diag(q)
+        if frame == "RTN":
+            m = local_axes(r[k], v[k], RTN)
+            qc = m.T @ qc @ m
+        vals[k] = b @ qc @ b.T
+    assert rel(out.covariance, simpson(vals, x=tau, axis=0)) < 2e-3

@@ -467,3 +467,40 @@ def test_process_noise_equals_the_integral_of_the_noise_through_the_stm(frame):
             qc = m.T @ qc @ m
         vals[k] = b @ qc @ b.T
     assert rel(out.covariance, simpson(vals, x=tau, axis=0)) < 2e-3
+
+
+def test_field_hessian_matches_central_differences_of_the_field():
+    # random coefficients to degree and order 12, a tilted and turning body frame: the
+    # analytic Hessian of the potential against central differences of the acceleration
+    from scipy.spatial.transform import Rotation
+
+    from visviva.core import force_block as fb
+    from visviva.core.perturbations import FORCE_SIZE, accel_harmonics_inertial
+    from visviva.core.variational import _add_harmonics_gradient
+
+    rng = np.random.default_rng(3)
+    n_max = 12
+    sh = np.zeros((2, n_max + 1, n_max + 1))
+    for n in range(2, n_max + 1):
+        sh[0, n, : n + 1] = rng.normal(size=n + 1) * 1e-6
+        sh[1, n, 1: n + 1] = rng.normal(size=n) * 1e-6
+    force = np.zeros(FORCE_SIZE)
+    force[fb.GM] = vv.EARTH.gm_km3_s2
+    force[fb.RADIUS] = vv.EARTH.radius_km
+    force[fb.ROTATION_RATE] = 7.292115e-5
+    force[fb.HARMONICS_DEGREE] = n_max
+    force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = Rotation.from_rotvec([0.01, -0.02, 0.3]) \
+        .as_matrix().ravel()
+    for t, pos in ((0.0, [7000.0, 100.0, 300.0]), (5000.0, [-2000.0, 5000.0, 4500.0]),
+                   (100.0, [10.0, 20.0, 7000.0])):
+        G = np.zeros((3, 3))
+        _add_harmonics_gradient(t, *pos, force, sh, G)
+        fd = np.zeros((3, 3))
+        for j in range(3):
+            a, b = np.zeros(3), np.zeros(3)
+            e = np.eye(3)[j] * 1e-3
+            accel_harmonics_inertial(t, *(np.array(pos) + e), force, sh, a)
+            accel_harmonics_inertial(t, *(np.array(pos) - e), force, sh, b)
+            fd[:, j] = (a - b) / 2e-3
+        assert np.abs(G - fd).max() < 1e-8 * np.abs(fd).max()  # measured ~5e-10 (the FD's)
+        np.testing.assert_allclose(G, G.T, rtol=0, atol=1e-14 * np.abs(G).max())

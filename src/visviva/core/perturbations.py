@@ -42,6 +42,7 @@ __all__ = [
     "accel_zonal",
     "accel_harmonics",
     "accel_harmonics_inertial",
+    "cunningham_vw",
     "grid_density_at",
     "accel_drag",
     "accel_third_body",
@@ -148,24 +149,18 @@ def accel_zonal(x, y, z, gm, radius, zonal, n_max, out):
 
 
 @kernel
-def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
-    """Add the acceleration of a spherical-harmonic field of degree and order ``n_max``.
+def cunningham_vw(x, y, z, radius, n_rows):
+    """The V_nm, W_nm of Cunningham's recursions for degrees and orders 0 .. ``n_rows`` - 1.
 
-    Body-fixed coordinates in, body-fixed acceleration added to ``out``. Terms of degree 0 and
-    1 are skipped (the central term is the two-body one).
-
-    Notes
-    -----
-    The V_nm, W_nm recursions and the acceleration sums of Montenbruck & Gill (2000),
-    eqs. 3.29-3.33, with unnormalised C_nm = sh[0, n, m], S_nm = sh[1, n, m]
-    (Cunningham 1970).
+    Body-fixed (x, y, z) and the field's reference radius, km; Montenbruck & Gill (2000),
+    eqs. 3.29-3.31. Returns (V, W), each (n_rows, n_rows), zero above the diagonal m > n.
     """
     r2 = x * x + y * y + z * z
     rr = radius * radius / r2
     x0 = radius * x / r2
     y0 = radius * y / r2
     z0 = radius * z / r2
-    N = n_max + 2
+    N = n_rows
     V = np.zeros((N, N))
     W = np.zeros((N, N))
     V[0, 0] = radius / math.sqrt(r2)
@@ -180,6 +175,23 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
         for n in range(m + 2, N):
             V[n, m] = ((2 * n - 1) * z0 * V[n - 1, m] - (n + m - 1) * rr * V[n - 2, m]) / (n - m)
             W[n, m] = ((2 * n - 1) * z0 * W[n - 1, m] - (n + m - 1) * rr * W[n - 2, m]) / (n - m)
+    return V, W
+
+
+@kernel
+def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
+    """Add the acceleration of a spherical-harmonic field of degree and order ``n_max``.
+
+    Body-fixed coordinates in, body-fixed acceleration added to ``out``. Terms of degree 0 and
+    1 are skipped (the central term is the two-body one).
+
+    Notes
+    -----
+    The V_nm, W_nm recursions and the acceleration sums of Montenbruck & Gill (2000),
+    eqs. 3.29-3.33, with unnormalised C_nm = sh[0, n, m], S_nm = sh[1, n, m]
+    (Cunningham 1970).
+    """
+    V, W = cunningham_vw(x, y, z, radius, n_max + 2)
     ax = 0.0
     ay = 0.0
     az = 0.0

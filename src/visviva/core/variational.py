@@ -17,10 +17,9 @@ Partials included, each exact for its force term:
 * two-body: da/dr = -GM/r^3 (I - 3 r r^T / r^2);
 * zonal harmonics J_2 .. J_n: the Hessian of the zonal potential of any degree
   (:func:`_add_zonal_gradient`); a full spherical-harmonic field (tesseral terms, the body
-  frame's orientation): central differences of its acceleration
-  (:func:`_add_harmonics_gradient`, steps of 1e-6 |r|, good to ~1e-9 of the gradient up to
-  degree 80; before, its zonal part alone, which left the covariance of a LEO day with a
-  degree-4 field 1 % off);
+  frame's orientation): the Hessian of its potential from Cunningham's recursions
+  (:func:`_add_harmonics_gradient`; before, its zonal part alone, which left the covariance
+  of a LEO day with a degree-4 field 1 % off);
 * drag: da/dv = -rho B/2 (|w| I + w w^T/|w|), w = v - omega x r, and da/dr from the
   co-rotation and from the gradient of the density: d ln rho / dh = -1/H along the geodetic
   altitude (exponential table), or central differences of 1 m of the gridded ln rho along
@@ -62,8 +61,8 @@ from .cowell_events import (
     srp_shadow_model,
 )
 from .perturbations import (
-    accel_harmonics_inertial,
     cowell_rhs,
+    cunningham_vw,
     exponential_density,
     geodetic_altitude,
     grid_density_at,
@@ -285,24 +284,97 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
 @kernel
 def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
     """G += d a_field / d r of a full spherical-harmonic field (every degree and order, in its
-    body frame at time t), by central differences of :func:`accel_harmonics_inertial` with
-    steps h = 1e-6 |r| (~7 m in low orbit): the truncation error, ~(n h / r)^2 / 6 of the
-    gradient for degree n, is ~1e-9 at degree 80 and ~3e-12 at degree 4; the rounding error,
-    ~1e-16 r / (n h) of it, ~1e-10."""
-    h = 1e-6 * math.sqrt(x * x + yy * yy + z * z)
-    up = np.zeros(3)
-    down = np.zeros(3)
+    body frame at time t): the Hessian of its potential, analytically from Cunningham's V_nm,
+    W_nm to degree n_max + 2, rotated to the inertial axes, H_in = M^T H_bf M.
+
+    The acceleration sums of :func:`visviva.core.perturbations.accel_harmonics` are the
+    derivative rules d/dz (a V_nm + b W_nm) = -(n - m + 1) (a V_n+1,m + b W_n+1,m) and, with
+    f = (n - m + 2)(n - m + 1), d/dx = 1/2 [-(a V + b W)_n+1,m+1 + f (a V + b W)_n+1,m-1],
+    d/dy = 1/2 [(b V - a W)_n+1,m+1 + f (b V - a W)_n+1,m-1] (lengths in units of R;
+    Montenbruck & Gill 2000, eqs. 3.33, 7.40); applied twice they give the Hessian. An order
+    -1 is folded into order 1: V_N,-1 = -V_N,1 / (N (N + 1)), W_N,-1 = W_N,1 / (N (N + 1)).
+    """
+    th = force[fb.ROTATION_RATE] * t
+    c = math.cos(th)
+    s = math.sin(th)
+    m0 = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
+    M = np.empty((3, 3))  # r_bf = M r, M = Rz(th) M0
     for j in range(3):
-        ex = h if j == 0 else 0.0
-        ey = h if j == 1 else 0.0
-        ez = h if j == 2 else 0.0
-        for i in range(3):
-            up[i] = 0.0
-            down[i] = 0.0
-        accel_harmonics_inertial(t, x + ex, yy + ey, z + ez, force, sh, up)
-        accel_harmonics_inertial(t, x - ex, yy - ey, z - ez, force, sh, down)
-        for i in range(3):
-            G[i, j] += (up[i] - down[i]) / (2.0 * h)
+        M[0, j] = c * m0[j] + s * m0[3 + j]
+        M[1, j] = -s * m0[j] + c * m0[3 + j]
+        M[2, j] = m0[6 + j]
+    bx = M[0, 0] * x + M[0, 1] * yy + M[0, 2] * z
+    by = M[1, 0] * x + M[1, 1] * yy + M[1, 2] * z
+    bz = M[2, 0] * x + M[2, 1] * yy + M[2, 2] * z
+    n_max = int(force[fb.HARMONICS_DEGREE])
+    radius = force[fb.RADIUS]
+    V, W = cunningham_vw(bx, by, bz, radius, n_max + 3)
+    k1 = np.empty(2, np.int64)
+    c1 = np.empty(2)
+    w1 = np.empty(2)
+    k2 = np.empty(2, np.int64)
+    c2 = np.empty(2)
+    w2 = np.empty(2)
+    H = np.zeros((3, 3))  # lower triangle, body frame
+    for n in range(2, n_max + 1):
+        for m in range(n + 1):
+            C = sh[0, n, m]
+            S = sh[1, n, m]
+            if C == 0.0 and S == 0.0:
+                continue
+            for b in range(3):
+                n1 = _derive(b, n, m, C, S, k1, c1, w1)
+                for i in range(n1):
+                    for a in range(b, 3):
+                        n2 = _derive(a, n + 1, k1[i], c1[i], w1[i], k2, c2, w2)
+                        for j in range(n2):
+                            kk = k2[j]
+                            H[a, b] += c2[j] * V[n + 2, kk] + w2[j] * W[n + 2, kk]
+    k = force[fb.GM] / (radius * radius * radius)
+    for a in range(3):
+        for b in range(a):
+            H[b, a] = H[a, b]
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for p in range(3):
+                for q in range(3):
+                    acc += M[p, i] * H[p, q] * M[q, j]
+            G[i, j] += k * acc
+
+
+@kernel
+def _derive(axis, n, m, a, b, ks, cvs, cws):
+    """d/d(axis) (x, y, z = 0, 1, 2) of a V_nm + b W_nm (m >= 0, lengths in units of R): terms
+    (order ks[i], cvs[i] V + cws[i] W) of degree n + 1; returns how many (1 or 2)."""
+    if axis == 2:
+        g = -(n - m + 1.0)
+        ks[0] = m
+        cvs[0] = g * a
+        cws[0] = g * b
+        return 1
+    f = (n - m + 2.0) * (n - m + 1.0)
+    ks[0] = m + 1
+    if axis == 0:
+        cvs[0] = -0.5 * a
+        cws[0] = -0.5 * b
+        cv = 0.5 * f * a
+        cw = 0.5 * f * b
+    else:
+        cvs[0] = 0.5 * b
+        cws[0] = -0.5 * a
+        cv = 0.5 * f * b
+        cw = -0.5 * f * a
+    if m >= 1:
+        ks[1] = m - 1
+        cvs[1] = cv
+        cws[1] = cw
+    else:  # order -1 of degree N = n + 1, folded into order 1
+        fold = 1.0 / ((n + 1.0) * (n + 2.0))
+        ks[1] = 1
+        cvs[1] = -fold * cv
+        cws[1] = fold * cw
+    return 2
 
 
 @kernel

@@ -78,6 +78,7 @@ _PUBLIC = {
     "Satellite": "visviva.satellites",
     "Catalog": "visviva.satellites",
     "read_tle_file": "visviva.satellites",
+    "read_omm_file": "visviva.satellites",
     "read_catalog_file": "visviva.satellites",
     "TLEFormatError": "visviva.satellites",
     "SGP4Error": "visviva.satellites",

@@ -25,6 +25,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..satellites.catalog_numbers import CATALOGUE_MAX, sgp4_number
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
 
@@ -220,7 +221,7 @@ def _sgp4_states(p, epoch_days, satnum, jd, fr):
         return None
     argp = math.atan2(p[2], p[1]) if ecc > 0 else 0.0
     sat = Satrec()
-    sat.sgp4init(WGS72, "i", int(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
+    sat.sgp4init(WGS72, "i", sgp4_number(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
                  argp % (2 * math.pi), p[3], (p[5] - argp) % (2 * math.pi), p[0],
                  p[4] % (2 * math.pi))  # fmt: skip
     e, r, v = sat.sgp4_array(jd, fr)
@@ -290,7 +291,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     times : astropy Time (N,), optional
         Times of the states, when ``states`` carries none.
     satnum : int
-        Catalogue number of the new element set (alpha-5 is used above 99999 on output).
+        Catalogue number of the new element set, 1 .. 999,999,999 (``to_tle()`` writes alpha-5
+        above 99,999 and refuses numbers above 339,999, which only an OMM can carry).
     fit_bstar : bool
         Fit the drag term B* too (default); otherwise it is held at ``bstar``.
     bstar : float
@@ -438,8 +440,11 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     if not bstar_ok:
         raise InvalidInputError(
             f"bstar must be a finite number (1/earth radii, as in a TLE); got {bstar!r}.")
-    if not (isinstance(satnum, int | np.integer) and 0 < satnum < 340000):
-        raise InvalidInputError(f"satnum must be an integer in 1..339999; got {satnum!r}.")
+    if not (isinstance(satnum, int | np.integer) and not isinstance(satnum, bool)
+            and 0 < satnum <= CATALOGUE_MAX):
+        raise InvalidInputError(
+            f"satnum must be a catalogue number, an integer in 1..{CATALOGUE_MAX}; got "
+            f"{satnum!r}.")
     if frame != "teme":
         m = transform_matrices(t, frame, "teme")
         y = np.einsum("nij,nj->ni", m, np.concatenate([r, v], axis=1))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -190,3 +191,90 @@ def test_hypothesis_any_catalogue_number_round_trips_through_the_omm(number):
     if number <= ALPHA5_MAX:
         line1, line2 = sat.to_tle()
         assert vv.Satellite.from_tle(line1, line2).satnum == number
+
+
+# -- the catalogue readers: missing files, duplicate and mixed ids --------------------------
+@pytest.mark.parametrize("reader", ["read_tle_file", "read_omm_file", "read_catalog_file"])
+def test_a_missing_file_names_the_path_and_is_still_a_file_not_found_error(reader, tmp_path):
+    path = tmp_path / "gp.json"
+    with pytest.raises(vv.MissingFileError, match="gp.json': no such file; .*download") as err:
+        getattr(vv, reader)(path)
+    assert isinstance(err.value, FileNotFoundError) and isinstance(err.value, vv.VisvivaError)
+    assert err.value.filename == str(path) and err.value.errno == 2
+    again = pickle.loads(pickle.dumps(err.value))  # (raised on a Dask worker, say)
+    assert str(again) == str(err.value)
+    with pytest.raises(vv.InvalidInputError, match="is a directory"):
+        getattr(vv, reader)(tmp_path)
+
+
+def test_the_same_object_twice_warns_and_latest_keeps_the_newest_set(tmp_path):
+    later = {**ISS, "EPOCH": "2024-01-01T18:00:00.000000", "MEAN_ANOMALY": 100.0}
+    other = {**ISS, "NORAD_CAT_ID": 123456789, "OBJECT_NAME": "OTHER"}
+    path = tmp_path / "gp.json"
+    path.write_text(json.dumps([later, other, ISS]))
+    with pytest.warns(UserWarning, match=r"catalogue number 25544 \(2 element sets\) appears "
+                                         r"more than once.*latest\(\)"):
+        cat = vv.read_omm_file(path)
+    assert list(cat.satnums) == [25544, 123456789, 25544]
+    newest = cat.latest()
+    assert list(newest.satnums) == [25544, 123456789]
+    assert newest[0].epoch.isot == "2024-01-01T18:00:00.000"
+
+
+def test_screening_two_sets_of_one_object_says_they_are_not_a_conjunction():
+    iss = vv.Satellite.from_omm(ISS)
+    refit = vv.fit_tle(iss.teme(np.linspace(0.25, 0.75, 30) * u.day), initial=iss,
+                       fit_bstar=False, bstar=ISS["BSTAR"])  # the same orbit, a later epoch
+    t0 = Time("2024-01-01T12:00:00")
+    with pytest.warns(UserWarning, match="pair an object with itself .*25544"):
+        rows = vv.screen_conjunctions(vv.Catalog([iss, refit]), None, t0, t0 + 3 * u.h)
+    assert len(rows) > 0 and (rows["miss_distance"] < 1 * u.m).all()  # kept, not dropped
+    assert len(vv.screen_conjunctions(vv.Catalog([iss, refit]).latest(), None, t0,
+                                      t0 + 3 * u.h)) == 0
+
+
+def test_mixed_alpha5_and_numeric_ids_are_one_number(tmp_path):
+    path = tmp_path / "gp.json"
+    path.write_text(json.dumps([{**ISS, "NORAD_CAT_ID": "A0001"},
+                                {**ISS, "NORAD_CAT_ID": 100001, "OBJECT_NAME": "SAME"},
+                                {**ISS, "NORAD_CAT_ID": "Z9999"}]))
+    with pytest.warns(UserWarning, match="100001"):
+        cat = vv.read_omm_file(path)
+    assert list(cat.satnums) == [100001, 100001, 339999]
+    tle = tmp_path / "gp.tle"
+    tle.write_text("\n".join(cat[0].to_tle() + cat[2].to_tle()) + "\n")
+    assert list(vv.read_tle_file(tle).satnums) == [100001, 339999]
+
+
+_IDS = st.one_of(
+    st.integers(0, 2 * CATALOGUE_MAX), st.integers(0, 2 * CATALOGUE_MAX).map(str),
+    st.from_regex(r"[A-Z][0-9]{4}", fullmatch=True), st.text("0123456789AIO -.e", max_size=11))
+
+
+@settings(max_examples=60, deadline=None)
+@given(ids=st.lists(_IDS, min_size=1, max_size=4), fmt=st.sampled_from(["json", "csv"]))
+def test_hypothesis_catalogue_readers_take_any_id_or_name_the_record(ids, fmt, tmp_path_factory):
+    path = tmp_path_factory.mktemp("ids") / f"gp.{fmt}"
+    records = [{**ISS, "NORAD_CAT_ID": n} for n in ids]
+    if fmt == "json":
+        path.write_text(json.dumps(records))
+    else:
+        with open(path, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(ISS))
+            writer.writeheader()
+            writer.writerows(records)
+    expected = []
+    for n in ids:
+        try:
+            expected.append(catalogue_number(n))
+        except ValueError:
+            expected.append(None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # duplicates
+        if None in expected:
+            k = expected.index(None) + 1
+            with pytest.raises(vv.InvalidInputError, match=f"record {k} of .*NORAD_CAT_ID"):
+                vv.read_omm_file(path)
+            return
+        cat = vv.read_omm_file(path)
+    assert list(cat.satnums) == expected

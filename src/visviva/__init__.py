@@ -36,6 +36,7 @@ _PUBLIC = {
     "ShapeError": "visviva.errors",
     "InvalidStateError": "visviva.errors",
     "InvalidElementsError": "visviva.errors",
+    "MissingFileError": "visviva.errors",
     "ConvergenceError": "visviva.errors",
     "DomainError": "visviva.errors",
     "StepSizeError": "visviva.errors",

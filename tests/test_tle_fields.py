@@ -173,3 +173,13 @@ def test_fit_tle_batch_carries_each_history_its_own_revolution_number():
         vv.od.fit_tle_batch(days, initial=old)
     with pytest.raises(vv.InvalidInputError, match="1 initials for 2 histories"):
         vv.od.fit_tle_batch(days, initials=[old])
+
+
+def test_an_initial_set_that_decays_before_the_midpoint_keeps_the_fit_and_warns():
+    fields = vv.Satellite.from_tle(*ISS_2018A).to_omm()
+    low = vv.Satellite.from_omm({**fields, "MEAN_MOTION": 16.2, "BSTAR": 0.01})  # decays in 2 d
+    later = vv.Satellite.from_omm({**fields, "EPOCH": "2018-07-15T12:00:00.000000"})
+    states = later.teme(np.linspace(0.0, 0.3, 20) * u.day)
+    with pytest.warns(RuntimeWarning, match="revolution number was not carried .*SGP4 error 1"):
+        fit = vv.fit_tle(states, initial=low, fit_bstar=False, bstar=later.satrec.bstar)
+    assert fit.satrec.revnum == 0 and fit.fit.rms_position_km < 1e-3

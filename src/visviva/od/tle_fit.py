@@ -289,13 +289,19 @@ def _from_initial(initial, satnum, name, object_id):
 def unused_fields(sat, fields, initial):
     """The fitted satellite with the fields SGP4 ignores filled in ``fields`` and rebuilt:
     ``MEAN_MOTION_DOT`` from its own mean motion, ``REV_AT_EPOCH`` carried from ``initial``."""
+    from ..satellites.tle_checks import SGP4Error
     from ..satellites.tle_fields import mean_motion_dot, revolutions_between
 
     fields["MEAN_MOTION_DOT"] = mean_motion_dot(sat.satrec)
     if initial is not None:
-        crossings, _ = revolutions_between(initial, sat)
-        rev = int(initial.satrec.revnum) + crossings
-        fields["REV_AT_EPOCH"] = rev if rev >= 0 else rev % 100000  # a wrapped 5-digit field
+        try:
+            crossings, _ = revolutions_between(initial, sat)
+        except SGP4Error as exc:  # a set that decays before the midpoint: keep the fit
+            warnings.warn(f"the revolution number was not carried from initial (left 0): "
+                          f"{exc}", RuntimeWarning, stacklevel=4)
+        else:
+            rev = int(initial.satrec.revnum) + crossings
+            fields["REV_AT_EPOCH"] = rev if rev >= 0 else rev % 100000  # a wrapped 5-digit field
     return satellite_from_fields(fields)
 
 

@@ -183,3 +183,26 @@ def test_an_initial_set_that_decays_before_the_midpoint_keeps_the_fit_and_warns(
     with pytest.warns(RuntimeWarning, match="revolution number was not carried .*SGP4 error 1"):
         fit = vv.fit_tle(states, initial=low, fit_bstar=False, bstar=later.satrec.bstar)
     assert fit.satrec.revnum == 0 and fit.fit.rms_position_km < 1e-3
+
+
+def test_fit_tle_command_carries_the_revolution_number_from_an_initial_file(tmp_path, capsys):
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+    from visviva.cli import main
+
+    old, new = _sat(ISS_2018A), _sat(ISS_2018B)
+    st = new.gcrs(np.linspace(0.0, 1.0, 40) * u.day)
+    seg = OEMSegment.from_states(st.t, st.r.to_value(u.km), st.v.to_value(u.km / u.s),
+                                 object_name="ISS (ZARYA)", object_id="1998-067A")
+    oem = tmp_path / "iss.oem"
+    vv.write_oem(Ephemeris([seg]), oem)
+    tle = tmp_path / "old.tle"
+    other = vv.Satellite.from_omm({**old.to_omm(), "NORAD_CAT_ID": 5})
+    tle.write_text("\n".join([*old.to_tle(), *other.to_tle()]) + "\n")
+    assert main(["fit-tle", str(oem), "--initial", str(tle), "--satnum", "25544"]) == 0
+    line1, line2 = capsys.readouterr().out.strip().splitlines()[1:]
+    assert line1[2:7] == "25544" and line2[63:68] == "12110"
+    assert main(["fit-tle", str(oem), "--initial", str(tle)]) == 2  # two objects: which?
+    assert "pick the object with --satnum" in capsys.readouterr().err
+    assert main(["fit-tle", str(oem), "--initial", str(tmp_path / "none.tle")]) == 2
+    assert "no such file" in capsys.readouterr().err

@@ -82,7 +82,7 @@ def mean_motion_dot(satrec, step_min: float = 1.0) -> float:
 
 def _latitude_argument(sat, tsince_min) -> tuple[np.ndarray, float, float]:
     """SGP4's mean argument of latitude w + M (rad, unwrapped) of ``sat`` at the minutes
-    ``tsince_min`` from its epoch (monotonic, spaced under half a revolution), and the
+    ``tsince_min`` from its epoch (from 0 outward, spaced under half a revolution), and the
     equation of centre nu - M of the mean elements at the first and last time."""
     from ..core.kepler import mean_to_true_anomaly
 
@@ -158,9 +158,11 @@ def revolutions_between(old, new) -> tuple[int, float]:
     lam, c0, c1 = _latitude_argument(old, _grid(0.0, mid, 1.25 * rate_a))
     start = (lam[0] + c0) % (2.0 * math.pi)  # the old epoch's u = w + nu, in [0, 2 pi)
     at_mid = start + (lam[-1] + c1) - (lam[0] + c0)
-    lam, c0, c1 = _latitude_argument(new, _grid(mid - gap_min, 0.0, 1.25 * rate_b))
-    mismatch = math.remainder(lam[0] + c0 - at_mid, 2.0 * math.pi)
-    end = at_mid + mismatch + (lam[-1] + c1) - (lam[0] + c0)
+    # (sampled from the epoch outward, as for old: sgp4's deep-space resonance integrator
+    # restarts from the epoch whenever a call comes nearer to it than the last one)
+    lam, c0, c1 = _latitude_argument(new, _grid(0.0, mid - gap_min, 1.25 * rate_b))
+    mismatch = math.remainder(lam[-1] + c1 - at_mid, 2.0 * math.pi)
+    end = at_mid + mismatch + (lam[0] + c0) - (lam[-1] + c1)
     half_days = 0.5 * abs(gap_min) / MINUTES_PER_DAY
     drift = max(abs(mean_motion_dot(a)), abs(mean_motion_dot(b))) * half_days**2  # rev
     if abs(mismatch) > _MISMATCH_WARN_RAD or drift > _DRIFT_WARN_REV:

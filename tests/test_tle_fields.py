@@ -206,3 +206,11 @@ def test_fit_tle_command_carries_the_revolution_number_from_an_initial_file(tmp_
     assert "pick the object with --satnum" in capsys.readouterr().err
     assert main(["fit-tle", str(oem), "--initial", str(tmp_path / "none.tle")]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def test_a_set_of_another_orbit_as_initial_is_reported():
+    iss = _sat(ISS_2018A)
+    other = vv.Satellite.from_omm({**iss.to_omm(), "MEAN_MOTION": 14.2,
+                                   "EPOCH": "2018-05-25T00:00:00.000000"})
+    with pytest.warns(RuntimeWarning, match="may be off: their mean motions differ by 9"):
+        revolutions_between(iss, other)

@@ -41,6 +41,9 @@ _MISMATCH_WARN_RAD = math.pi / 2
 #: largest drag-driven along-track drift (rev; |ndot/2| t**2 over half the gap between the
 #: epochs) before the count is reported as resting on SGP4's drag model
 _DRIFT_WARN_REV = 0.5
+#: largest relative difference of the two sets' SGP4 mean motions where they meet before the
+#: count is reported as uncertain (one object's sets agree to ~1e-3 over months of drag)
+_MEAN_MOTION_WARN = 0.01
 
 
 def mean_motion_dot(satrec, step_min: float = 1.0) -> float:
@@ -80,10 +83,11 @@ def mean_motion_dot(satrec, step_min: float = 1.0) -> float:
     return float(min(max(half, -NDOT_TLE_MAX), NDOT_TLE_MAX))
 
 
-def _latitude_argument(sat, tsince_min) -> tuple[np.ndarray, float, float]:
+def _latitude_argument(sat, tsince_min) -> tuple[np.ndarray, float, float, float]:
     """SGP4's mean argument of latitude w + M (rad, unwrapped) of ``sat`` at the minutes
-    ``tsince_min`` from its epoch (from 0 outward, spaced under half a revolution), and the
-    equation of centre nu - M of the mean elements at the first and last time."""
+    ``tsince_min`` from its epoch (from 0 outward, spaced under half a revolution), the
+    equation of centre nu - M of the mean elements at the first and last time, and SGP4's mean
+    motion (rad/min) at the last time."""
     from ..core.kepler import mean_to_true_anomaly
 
     rec = sat.satrec
@@ -98,13 +102,34 @@ def _latitude_argument(sat, tsince_min) -> tuple[np.ndarray, float, float]:
             mean = math.remainder(rec.mm, 2.0 * math.pi)
             nu, _ = mean_to_true_anomaly(mean, min(max(rec.em, 0.0), 0.999999))
             centre.append(nu - mean)
-    return np.unwrap(out), centre[0], centre[-1]
+    return np.unwrap(out), centre[0], centre[-1], float(rec.nm)
 
 
 def _grid(t0_min: float, t1_min: float, rev_per_min: float) -> np.ndarray:
     """Times from t0 to t1 (either order), spaced at most 1/_SAMPLES_PER_REV revolution."""
     count = int(math.ceil(abs(t1_min - t0_min) * rev_per_min * _SAMPLES_PER_REV)) + 1
     return np.linspace(t0_min, t1_min, max(count, 2))
+
+
+def _warn_if_uncertain(mismatch: float, drift: float, dn: float, days: float) -> None:
+    """Warn when a revolution count may be off: the sets disagree along track by ``mismatch``
+    (rad) or in mean motion by the fraction ``dn`` where they meet, or drag moves the object
+    ``drift`` revolutions over half the ``days`` between them."""
+    if dn > _MEAN_MOTION_WARN:
+        why = (f"their mean motions differ by {dn:.1%} half-way between their epochs (are they "
+               "one object?)")
+    elif abs(mismatch) > _MISMATCH_WARN_RAD:
+        why = (f"they disagree by {abs(mismatch) / (2 * math.pi):.2f} revolution along track "
+               "half-way between their epochs")
+    elif drift > _DRIFT_WARN_REV:
+        why = (f"drag moves the object {drift:.1f} revolutions along track over half the gap, "
+               "and the count relies on SGP4's drag model over it")
+    else:
+        return
+    warnings.warn(
+        f"the revolution number carried between element sets {days:.1f} days apart may be "
+        f"off: {why}. Carry it from an element set of the same object nearer in time (with no "
+        "manoeuvre in between).", RuntimeWarning, stacklevel=3)
 
 
 def revolutions_between(old, new) -> tuple[int, float]:
@@ -133,10 +158,11 @@ def revolutions_between(old, new) -> tuple[int, float]:
     Warns
     -----
     RuntimeWarning
-        The count may be off by one or more: the sets disagree by more than a quarter
-        revolution at the midpoint (a manoeuvre between them, or epochs too far apart), or drag
-        moves the object more than half a revolution along track over half the gap
-        (|ndot/2| t**2), so the count rests on SGP4's drag model over it.
+        The count may be off by one or more: at the midpoint the sets disagree by more than a
+        quarter revolution along track (a manoeuvre between them, or epochs too far apart) or
+        by more than 1 % in mean motion (another object?), or drag moves the object more than
+        half a revolution along track over half the gap (|ndot/2| t**2), so the count rests on
+        SGP4's drag model over it.
 
     Notes
     -----
@@ -155,23 +181,15 @@ def revolutions_between(old, new) -> tuple[int, float]:
     mid = 0.5 * gap_min
     rate_a = a.no_kozai / (2.0 * math.pi)  # rev/min
     rate_b = b.no_kozai / (2.0 * math.pi)
-    lam, c0, c1 = _latitude_argument(old, _grid(0.0, mid, 1.25 * rate_a))
+    lam, c0, c1, n_old = _latitude_argument(old, _grid(0.0, mid, 1.25 * rate_a))
     start = (lam[0] + c0) % (2.0 * math.pi)  # the old epoch's u = w + nu, in [0, 2 pi)
     at_mid = start + (lam[-1] + c1) - (lam[0] + c0)
     # (sampled from the epoch outward, as for old: sgp4's deep-space resonance integrator
     # restarts from the epoch whenever a call comes nearer to it than the last one)
-    lam, c0, c1 = _latitude_argument(new, _grid(0.0, mid - gap_min, 1.25 * rate_b))
+    lam, c0, c1, n_new = _latitude_argument(new, _grid(0.0, mid - gap_min, 1.25 * rate_b))
     mismatch = math.remainder(lam[-1] + c1 - at_mid, 2.0 * math.pi)
     end = at_mid + mismatch + (lam[0] + c0) - (lam[-1] + c1)
     half_days = 0.5 * abs(gap_min) / MINUTES_PER_DAY
     drift = max(abs(mean_motion_dot(a)), abs(mean_motion_dot(b))) * half_days**2  # rev
-    if abs(mismatch) > _MISMATCH_WARN_RAD or drift > _DRIFT_WARN_REV:
-        why = (f"they disagree by {abs(mismatch) / (2 * math.pi):.2f} revolution along track "
-               "half-way between their epochs" if abs(mismatch) > _MISMATCH_WARN_RAD else
-               f"drag moves the object {drift:.1f} revolutions along track over half the gap, "
-               "and the count relies on SGP4's drag model over it")
-        warnings.warn(
-            f"the revolution number carried between element sets {2 * half_days:.1f} days apart "
-            f"may be off: {why}. Carry it from an element set nearer in time (with no "
-            "manoeuvre in between).", RuntimeWarning, stacklevel=3)
+    _warn_if_uncertain(mismatch, drift, abs(n_new - n_old) / n_new, 2.0 * half_days)
     return int(math.floor(end / (2.0 * math.pi))), float(mismatch)

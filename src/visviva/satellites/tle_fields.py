@@ -32,9 +32,10 @@ __all__ = ["mean_motion_dot", "revolutions_between", "NDOT_TLE_MAX"]
 _REV_DAY2_PER_RAD_MIN2 = MINUTES_PER_DAY**2 / (2.0 * math.pi)  # rad/min**2 -> rev/day**2
 #: the largest |ndot/2| the TLE's column can hold (rev/day**2): ``.99999999``
 NDOT_TLE_MAX = 0.99999999
-#: mean-argument-of-latitude samples per revolution when counting node crossings (the unwrap
-#: needs fewer than two; eight leave room for a mean motion that grows under drag)
-_SAMPLES_PER_REV = 8
+#: mean-argument-of-latitude samples per revolution of the epoch's mean motion when counting
+#: node crossings, times 1.25 (the unwrap needs steps under half a revolution: five per
+#: revolution leave room for a mean motion that grows 2.5-fold under drag)
+_SAMPLES_PER_REV = 4
 #: largest along-track disagreement (rad) of two element sets where they meet before the count
 #: of revolutions between them is reported as uncertain
 _MISMATCH_WARN_RAD = math.pi / 2
@@ -169,7 +170,7 @@ def revolutions_between(old, new) -> tuple[int, float]:
     NORAD's revolution number goes up by one at each ascending-node crossing. The crossings are
     the multiples of 2 pi passed by the argument of latitude u = w + nu of SGP4's mean elements
     (secular and drag terms, deep-space resonance included, no short-period terms), not
-    estimated from the period: the mean argument of latitude w + M is sampled eight times per
+    estimated from the period: the mean argument of latitude w + M is sampled five times per
     revolution and unwrapped, and the equation of centre nu - M of the mean elements is added
     at the ends (so that an eccentric orbit's count changes where the mean orbit crosses the
     equator, not half an orbit's eccentric lag away). ``old`` carries u from its epoch to the

@@ -251,18 +251,32 @@ _IDS = st.one_of(
     st.from_regex(r"[A-Z][0-9]{4}", fullmatch=True), st.text("0123456789AIO -.e", max_size=11))
 
 
+def _omm_text(number, fmt):
+    """One OMM (KVN or an XML <omm>) of ISS whose NORAD_CAT_ID is written as ``number``."""
+    text = vv.write_omm(vv.Satellite.from_omm(ISS).to_omm(), format=fmt, originator="TEST")
+    if fmt == "kvn":
+        return text.replace("NORAD_CAT_ID         = 25544", f"NORAD_CAT_ID = {number}")
+    return text.split("\n", 1)[1].replace("<NORAD_CAT_ID>25544<", f"<NORAD_CAT_ID>{number}<")
+
+
 @settings(max_examples=60, deadline=None)
-@given(ids=st.lists(_IDS, min_size=1, max_size=4), fmt=st.sampled_from(["json", "csv"]))
+@given(ids=st.lists(_IDS, min_size=1, max_size=4),
+       fmt=st.sampled_from(["json", "csv", "xml", "kvn"]))
 def test_hypothesis_catalogue_readers_take_any_id_or_name_the_record(ids, fmt, tmp_path_factory):
     path = tmp_path_factory.mktemp("ids") / f"gp.{fmt}"
     records = [{**ISS, "NORAD_CAT_ID": n} for n in ids]
     if fmt == "json":
         path.write_text(json.dumps(records))
-    else:
+    elif fmt == "csv":
         with open(path, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(ISS))
             writer.writeheader()
             writer.writerows(records)
+    elif fmt == "kvn":  # Space-Track's KVN: one OMM after another
+        path.write_text("".join(_omm_text(n, "kvn") for n in ids))
+    else:  # CelesTrak's XML: an <ndm> of <omm>s
+        body = "".join(_omm_text(n, "xml") for n in ids)
+        path.write_text(f'<?xml version="1.0" encoding="UTF-8"?>\n<ndm>\n{body}</ndm>\n')
     expected = []
     for n in ids:
         try:

@@ -81,7 +81,8 @@ def warn_duplicates(sats, source: str) -> None:
     warnings.warn(
         f"{source}: catalogue number {listed}{more} appears more than once. The catalogue "
         "keeps every element set, so screening pairs such an object with itself and passes are "
-        "listed once per set; keep the newest set of each object with catalog.latest().",
+        "listed once per set: keep the newest set of each object (catalog.latest()), or remove "
+        "the older sets from the file.",
         UserWarning, stacklevel=2)
 
 

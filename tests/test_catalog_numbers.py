@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import pickle
+import re
 import warnings
 
 import numpy as np
@@ -292,3 +293,40 @@ def test_hypothesis_catalogue_readers_take_any_id_or_name_the_record(ids, fmt, t
             return
         cat = vv.read_omm_file(path)
     assert list(cat.satnums) == expected
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_hypothesis_mutated_kvn_catalogue_reads_or_names_the_line(data, tmp_path_factory):
+    """Space-Track-style KVN (two OMMs one after another) with lines deleted, duplicated,
+    swapped, cut or lower-cased: read_catalog_file reads it or raises a visviva error that
+    names the line (or says the file is empty)."""
+    text = _omm_text(25544, "kvn") + _omm_text(123456789, "kvn")
+    lines = text.split("\n")
+    for _ in range(data.draw(st.integers(1, 3))):
+        i = data.draw(st.integers(0, len(lines) - 1))
+        op = data.draw(st.integers(0, 4))
+        if op == 0:
+            del lines[i]
+        elif op == 1:
+            lines.insert(i, lines[data.draw(st.integers(0, len(lines) - 1))])
+        elif op == 2:
+            j = data.draw(st.integers(0, len(lines) - 1))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif op == 3:
+            lines[i] = lines[i][:data.draw(st.integers(0, len(lines[i])))]
+        else:
+            lines[i] = lines[i].lower()
+        if not lines:
+            break
+    path = tmp_path_factory.mktemp("kvn") / "gp.kvn"
+    path.write_text("\n".join(lines))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            cat = vv.read_catalog_file(path)
+    except vv.VisvivaError as exc:
+        assert re.search(r"line \d+", str(exc)) or "empty" in str(exc), str(exc)
+        return
+    assert all(np.isfinite(s.teme(0 * u.min).r.value).all() for s in cat)
+    assert set(cat.satnums) <= {25544, 123456789}

@@ -330,3 +330,11 @@ def test_hypothesis_mutated_kvn_catalogue_reads_or_names_the_line(data, tmp_path
         return
     assert all(np.isfinite(s.teme(0 * u.min).r.value).all() for s in cat)
     assert set(cat.satnums) <= {25544, 123456789}
+
+
+def test_read_omm_on_many_messages_points_to_the_catalogue_reader():
+    one = _omm_text(25544, "kvn")
+    k = one.count("\n") + 1  # the line where the second message starts
+    with pytest.raises(vv.CCSDSFormatError, match=f"line {k}: a second OMM starts here.*"
+                                                  r"vv\.read_omm_file"):
+        vv.read_omm(one + _omm_text(123456789, "kvn"))

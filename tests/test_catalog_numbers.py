@@ -338,3 +338,18 @@ def test_read_omm_on_many_messages_points_to_the_catalogue_reader():
     with pytest.raises(vv.CCSDSFormatError, match=f"line {k}: a second OMM starts here.*"
                                                   r"vv\.read_omm_file"):
         vv.read_omm(one + _omm_text(123456789, "kvn"))
+
+
+def test_convert_picks_one_object_of_a_many_omm_kvn_file(tmp_path, capsys):
+    from visviva.cli import main
+
+    path = tmp_path / "gp.kvn"
+    path.write_text(_omm_text(25544, "kvn") + _omm_text(123456789, "kvn"))
+    with pytest.raises(SystemExit, match=r"holds 2 satellites \(25544, 123456789\); pick one "
+                                         "with --satnum"):
+        main(["convert", str(path), str(tmp_path / "x.tle")])
+    out = tmp_path / "big.omm"
+    assert main(["convert", str(path), str(out), "--satnum", "123456789"]) == 0
+    assert vv.read_omm(out)["NORAD_CAT_ID"] == 123456789
+    assert main(["convert", str(path), str(tmp_path / "big.tle"), "--satnum", "123456789"]) == 2
+    assert "cannot be written in a TLE" in capsys.readouterr().err

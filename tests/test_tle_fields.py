@@ -214,3 +214,17 @@ def test_a_set_of_another_orbit_as_initial_is_reported():
                                    "EPOCH": "2018-05-25T00:00:00.000000"})
     with pytest.warns(RuntimeWarning, match="may be off: their mean motions differ by 9"):
         revolutions_between(iss, other)
+
+
+@pytest.mark.parametrize("lines", [ISS_2018A, ISS_2008])
+def test_revolution_counts_add_up_and_change_sign(lines):
+    # three sets of one SGP4 trajectory (fits 20 and 45 days on): A->B plus B->C is A->C,
+    # and B->A is -(A->B)
+    a = _sat(lines)
+    kw = {"initial": a, "fit_bstar": False, "bstar": a.satrec.bstar}
+    b = vv.fit_tle(a.teme((20.3 + np.linspace(0, 0.3, 20)) * u.day), **kw)
+    c = vv.fit_tle(a.teme((45.7 + np.linspace(0, 0.3, 20)) * u.day), **kw)
+    ab, bc, ac = (revolutions_between(x, y)[0] for x, y in ((a, b), (b, c), (a, c)))
+    assert ab + bc == ac == c.satrec.revnum - a.satrec.revnum
+    assert revolutions_between(b, a)[0] == -ab
+    assert ac == _ascending_crossings(a, 45.7)

@@ -286,7 +286,7 @@ def _from_initial(initial, satnum, name, object_id):
     return satnum, name or initial.name, object_id
 
 
-def unused_fields(sat, fields, initial):
+def _fill_unused_fields(sat, fields, initial):
     """The fitted satellite with the fields SGP4 ignores filled in ``fields`` and rebuilt:
     ``MEAN_MOTION_DOT`` from its own mean motion, ``REV_AT_EPOCH`` carried from ``initial``."""
     from ..satellites.tle_checks import SGP4Error
@@ -620,7 +620,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
     if not object_id:
         fields["OBJECT_ID"] = ""
-    sat = unused_fields(satellite_from_fields(fields), fields, initial)
+    sat = _fill_unused_fields(satellite_from_fields(fields), fields, initial)
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(

@@ -371,6 +371,12 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
                                f"(expected {section.keywords[0].name} or another of its "
                                f"keywords, found {_describe(cursor.peek())})")
     if not cursor.at_end():
+        nxt = cursor.peek()
+        if nxt.kind == "keyword" and nxt.key == version_key:  # messages one after another
+            hint = (" (for many OMMs, as in Space-Track's KVN GP data, use vv.read_omm_file)"
+                    if root_tag == "omm" else "")
+            raise cursor.error(f"a second {root_tag.upper()} starts here; this reader takes "
+                               f"one message{hint}")
         _unexpected(cursor, sections, root_tag)
         raise cursor.error(f"unexpected {_describe(cursor.peek())} here: out of order (the "
                            "sections go header, metadata, data in the CCSDS order)")

@@ -127,6 +127,9 @@ _PUBLIC = {
     "read_cdm": "visviva.ccsds.cdm",
     "write_cdm": "visviva.ccsds.cdm",
     "ConjunctionDataMessage": "visviva.ccsds.cdm",
+    "read_tdm": "visviva.ccsds.tdm",
+    "write_tdm": "visviva.ccsds.tdm_write",
+    "TDM": "visviva.ccsds.tdm",
     # ground stations and passes
     "GroundStation": "visviva.ground",
     "find_passes": "visviva.ground",

@@ -199,7 +199,7 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
         km = _range_km(seg, times[m], values[m], range_units_km, ignore, src)
         if np.any(km < 0):
             i = int(np.flatnonzero(km < 0)[0])
-            raise CCSDSFormatError(f"RANGE = {values[m][i]!r} is negative", line=int(lines[m][i]),
+            raise CCSDSFormatError(f"RANGE = {float(values[m][i])!r} is negative", line=int(lines[m][i]),
                                    source=src)
         values[m] = km
         if meta.get("TIMETAG_REF") == "TRANSMIT":
@@ -207,7 +207,7 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     doppler = [k for k in use if k.startswith("DOPPLER")]
     if doppler:
         _check_doppler_tags(seg, doppler, integrated_doppler, keys, shift, src)
-    for key in ["RANGE", *doppler]:
+    for key in [k for k in use if MODELLED[k] is not None]:
         for i in np.flatnonzero(keys == key):
             rows.append((i, MODELLED[key], values[i], station))
     if "ANGLE_1" in use or "ANGLE_2" in use:
@@ -385,7 +385,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
         i1, i2 = slot["ANGLE_1"], slot["ANGLE_2"]
         if not -90.0 <= values[i2] <= 90.0:
             name = "elevation" if kind == "azel" else "declination"
-            raise CCSDSFormatError(f"ANGLE_2 ({name}) = {values[i2]!r} deg is outside "
+            raise CCSDSFormatError(f"ANGLE_2 ({name}) = {float(values[i2])!r} deg is outside "
                                    "[-90, 90]", line=int(lines[i2]), source=src)
         rows.append((i1, kind, np.radians([values[i1], values[i2]]), station))
     return rows

@@ -170,7 +170,7 @@ def _same_site(a, b) -> bool:
 
 
 def _kvn(tdm: TDM) -> str:
-    writer = KVNWriter()
+    writer = KVNWriter(width=21)  # (the longest keyword written: DOPPLER_INSTANTANEOUS)
     write_kvn_section(writer, HEADER, tdm.header)
     writer.blank()
     for seg in tdm.segments:

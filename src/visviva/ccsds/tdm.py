@@ -10,8 +10,9 @@ system, participants, signal path, units, corrections) and a data block (``DATA_
 :func:`read_tdm` reads KVN and XML (detected) into a :class:`TDM`: ``.header``, ``.segments``
 (each a :class:`TDMSegment` with ``.metadata``, ``.keywords``, ``.epochs``, ``.values``,
 ``.times``), every line kept -- keywords visviva does not model included. Turning the
-measurements into a :class:`~visviva.Observations` table is
-:meth:`TDM.to_observations` (:mod:`visviva.ccsds.tdm_map`); writing is
+measurements into a :class:`~visviva.Observations` table is ``to_observations`` of the
+subclass that ``vv.read_tdm`` returns (:mod:`visviva.od.tracking_data`: orbit determination
+sits above the file formats); writing is
 :func:`~visviva.ccsds.tdm_write.write_tdm`. The KVN lexer, the keyword tables and the XML tree
 are those of the other CCSDS messages (:mod:`visviva.ccsds.layout`): every malformed line is a
 :class:`~visviva.ccsds.grammar.CCSDSFormatError` naming the line.
@@ -230,32 +231,8 @@ class TDM:
                 out[k] = out.get(k, 0) + 1
         return out
 
-    def to_observations(self, stations, sigma, **options):
-        """The measurements visviva models, as an :class:`~visviva.Observations` table.
 
-        See :func:`visviva.ccsds.tdm_map.to_observations` for the parameters (``stations``
-        maps participant names to :class:`~visviva.GroundStation`; ``sigma`` maps
-        ``"range"``, ``"range_rate"``, ``"azel"``, ``"radec"`` to standard deviations).
-
-        Parameters
-        ----------
-        stations : dict
-            Participant name -> GroundStation.
-        sigma : dict
-            Observation kind -> standard deviation (Quantity, or km, km/s, rad).
-        **options
-            Passed on to :func:`visviva.ccsds.tdm_map.to_observations`.
-
-        Returns
-        -------
-        Observations
-        """
-        from .tdm_map import to_observations
-
-        return to_observations(self, stations, sigma, **options)
-
-
-def read_tdm(source, *, mission_epoch=None) -> TDM:
+def read_tdm(source, *, mission_epoch=None, cls=None) -> TDM:
     """Read a CCSDS Tracking Data Message (KVN or XML, detected).
 
     Parameters
@@ -264,6 +241,9 @@ def read_tdm(source, *, mission_epoch=None) -> TDM:
         A path, the message text, or its bytes (UTF-8).
     mission_epoch : astropy.time.Time, optional
         The epoch that ``TIME_SYSTEM = MET`` or ``MRT`` counts from.
+    cls : type, optional
+        The class of the result (a subclass of :class:`TDM`; ``vv.read_tdm`` gives
+        :class:`visviva.od.tracking_data.TDM`, which adds ``to_observations``).
 
     Returns
     -------
@@ -303,9 +283,9 @@ def read_tdm(source, *, mission_epoch=None) -> TDM:
     ({1: 'STATION-A', 2: 'SAT'}, (1, 2, 1), [1234.5678, 1230.0012])
     """
     text, name = read_text(source)
-    if looks_like_xml(text):
-        return _read_xml(text, name, mission_epoch)
-    return _read_kvn(text, name, mission_epoch)
+    read = _read_xml if looks_like_xml(text) else _read_kvn
+    tdm = read(text, name, mission_epoch)
+    return tdm if cls is None else cls(tdm.header, tdm.segments, tdm.fmt)
 
 
 def _check_metadata(meta: Record, name: str) -> None:

@@ -45,11 +45,12 @@ import warnings
 
 import numpy as np
 
+from ..ccsds import tdm as _tdm
+from ..ccsds.grammar import CCSDSFormatError
 from ..constants import C_KM_S
 from ..errors import InvalidInputError, TrackingDataWarning
-from .grammar import CCSDSFormatError
 
-__all__ = ["to_observations", "MODELLED"]
+__all__ = ["TDM", "read_tdm", "to_observations", "MODELLED"]
 
 #: data keyword -> visviva observation kind
 MODELLED = {"RANGE": "range", "DOPPLER_INSTANTANEOUS": "range_rate",
@@ -59,6 +60,72 @@ _CORRECTION = {"RANGE": "CORRECTION_RANGE", "DOPPLER_INSTANTANEOUS": "CORRECTION
                "DOPPLER_INTEGRATED": "CORRECTION_DOPPLER", "ANGLE_1": "CORRECTION_ANGLE_1",
                "ANGLE_2": "CORRECTION_ANGLE_2"}
 _QUALITIES = ("RAW", "VALIDATED", "DEGRADED")
+
+
+class TDM(_tdm.TDM):
+    """A CCSDS Tracking Data Message: a header and segments of tracking data, and the
+    measurements visviva models as :class:`~visviva.Observations`.
+
+    Parameters
+    ----------
+    header : Record or dict
+        ``CCSDS_TDM_VERS``, ``CREATION_DATE``, ``ORIGINATOR``, optional ``MESSAGE_ID``.
+    segments : list of TDMSegment
+        The segments (:class:`visviva.ccsds.tdm.TDMSegment`: ``.metadata``, ``.keywords``,
+        ``.epochs``, ``.values``, ``.times``, ``.select(keyword)``).
+    fmt : {"kvn", "xml"}
+        The format read.
+
+    Attributes
+    ----------
+    header : Record
+    segments : list of TDMSegment
+    fmt : str
+    """
+
+    def to_observations(self, stations, sigma, **options):
+        """The range, Doppler and angle data as an :class:`~visviva.Observations` table.
+
+        Parameters
+        ----------
+        stations : dict
+            Participant name -> :class:`~visviva.GroundStation`.
+        sigma : dict
+            Observation kind (``"range"``, ``"range_rate"``, ``"azel"``, ``"radec"``) ->
+            standard deviation (Quantity, or km, km/s, rad).
+        **options
+            ``quality``, ``range_units_km``, ``integrated_doppler``, ``corrections_applied``,
+            ``ignore``, ``radec_reference``: see :func:`to_observations`.
+
+        Returns
+        -------
+        Observations
+        """
+        return to_observations(self, stations, sigma, **options)
+
+
+def read_tdm(source, *, mission_epoch=None) -> TDM:
+    """Read a CCSDS Tracking Data Message (KVN or XML, detected) for orbit determination.
+
+    Parameters
+    ----------
+    source : str, os.PathLike or bytes
+        A path, the message text, or its bytes (UTF-8).
+    mission_epoch : astropy.time.Time, optional
+        The epoch that ``TIME_SYSTEM = MET`` or ``MRT`` counts from.
+
+    Returns
+    -------
+    TDM
+        ``.header``, ``.segments`` (every line kept), ``.to_observations(stations, sigma)``
+        for :func:`~visviva.fit_orbit`.
+
+    Raises
+    ------
+    CCSDSFormatError
+        Malformed input, naming the line (see :func:`visviva.ccsds.tdm.read_tdm`).
+    """
+    return _tdm.read_tdm(source, mission_epoch=mission_epoch, cls=TDM)
 
 
 def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
@@ -352,7 +419,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
             f"ANGLE_TYPE = {angle_type}: visviva models AZEL and RADEC angles; drop these "
             "with ignore=('ANGLE_1', 'ANGLE_2')", line=meta.line_of("ANGLE_TYPE"), source=src)
     if kind == "radec":
-        from .timeframes import visviva_frame
+        from ..ccsds.timeframes import visviva_frame
 
         frame = meta.get("REFERENCE_FRAME")
         if frame is None or visviva_frame(frame) != "gcrs":
@@ -394,7 +461,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
 def _table(parts, sigma, radec_reference):
     from astropy.time import Time
 
-    from ..od.observations import Observations
+    from .observations import Observations
 
     kinds = [k for p in parts for k in p[1]]
     for k in dict.fromkeys(kinds):

@@ -344,7 +344,12 @@ def test_xml_message():
     ("<ANGLE_2>32.25</ANGLE_2>", "<ANGLE_2>x</ANGLE_2>", "<ANGLE_2>x", "not a number"),
     ("<PATH>2,1</PATH>", "<PATH>2,1</PATH>\n<COLOR>red</COLOR>", "COLOR", "COLOR"),
     ("<EPOCH>2024-02-14T10:00:00</EPOCH><TROPO", "<EPOCH>2024-02-30T10:00:00</EPOCH><TROPO",
-     "2024-02-30", "not a valid date|not a date")])
+     "2024-02-30", "not a valid date|not a date"),
+    ("<COMMENT>angles</COMMENT>", "<COMMENT>angles</COMMENT></data><data>", "</data><data>",
+     "one <data>"),
+    (XML[XML.index("<data>"):XML.index("</data>") + 7], "<data></data>", "<data></data>",
+     "empty"),
+])
 def test_malformed_xml_names_the_line(old, new, where, match):
     text = XML.replace(old, new)
     with pytest.raises(CCSDSFormatError, match=match) as exc:
@@ -374,6 +379,7 @@ def test_malformed_xml_names_the_line(old, new, where, match):
     (ANNEX_RANGE.replace("META_STOP\n", "META_STOP\nRANGE = 2024-02-14T10:00:00 1\n"),
      "RANGE = 2024-02-14T10:00:00 1", "DATA_START"),
     ("CCSDS_OEM_VERS = 2.0\n", "CCSDS_OEM_VERS", "CCSDS_TDM_VERS"),
+    (tdm_text(TWO_WAY, "COMMENT nothing measured"), "DATA_STOP", "empty"),
 ])
 def test_malformed_kvn_names_the_line(text, where, match):
     with pytest.raises(CCSDSFormatError, match=match) as exc:

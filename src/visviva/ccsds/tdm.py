@@ -336,8 +336,7 @@ def _segment(meta, rows, data_comments, name, mission_epoch):
         values.append(value)
         lines.append(line)
     seg = TDMSegment(meta, keywords, epochs, values, lines, data_comments, name, mission_epoch)
-    if keywords:
-        seg.times  # noqa: B018 -- parse the epochs now, so a bad one is reported on reading
+    seg.times  # noqa: B018 -- parse the epochs now, so a bad one is reported on reading
     return seg
 
 
@@ -387,6 +386,9 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
             got = "the end of the message" if line is None else f"'{line.value[:40]}'"
             raise cursor.error("expected a data line 'KEYWORD = epoch value' or DATA_STOP, "
                                f"found {got}")
+        if not rows:
+            raise cursor.error("the data block is empty: a TDM segment holds at least one "
+                               "data line 'KEYWORD = epoch value'")
         cursor.next()
         segments.append(_segment(meta, rows, data_comments, name, mission_epoch))
     if not segments:
@@ -420,7 +422,8 @@ def _read_xml(text: str, name: str, mission_epoch) -> TDM:
         metas, datas = node.findall("metadata"), node.findall("data")
         extra = [c for c in node.children if c.tag not in ("metadata", "data")]
         if extra or len(metas) != 1 or len(datas) != 1:
-            where = extra[0].line if extra else node.line
+            where = (extra[0].line if extra else datas[1].line if len(datas) > 1
+                     else metas[1].line if len(metas) > 1 else node.line)
             raise CCSDSFormatError("a <segment> holds one <metadata> and one <data>",
                                    line=where, source=name)
         meta = read_xml_section(metas[0], METADATA, name)
@@ -433,6 +436,9 @@ def _read_xml(text: str, name: str, mission_epoch) -> TDM:
                 raise CCSDSFormatError(f"<{obs.tag}> does not belong in <data> (expected "
                                        "<observation>)", line=obs.line, source=name)
             rows.append(_xml_observation(obs, name))
+        if not rows:
+            raise CCSDSFormatError("the <data> is empty: a TDM segment holds at least one "
+                                   "<observation>", line=datas[0].line, source=name)
         segments.append(_segment(meta, rows, comments, name, mission_epoch))
     if not segments:
         raise CCSDSFormatError("the TDM has no <segment>", line=bodies[0].line, source=name)

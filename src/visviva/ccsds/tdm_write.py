@@ -2,7 +2,7 @@
 :class:`~visviva.Observations`.
 
 Observations become one segment per station and measurement family, each with the metadata
-that :func:`~visviva.ccsds.tdm_map.to_observations` reads back to the same rows:
+that :func:`~visviva.od.tracking_data.to_observations` reads back to the same rows:
 
 * range and range rate: ``PATH = 1,2,1`` (two-way from the station), ``RANGE_UNITS = km``,
   ``RANGE`` and ``DOPPLER_INSTANTANEOUS`` (km/s, positive receding);

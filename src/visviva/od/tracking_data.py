@@ -280,7 +280,10 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     if "ANGLE_1" in use or "ANGLE_2" in use:
         rows += _angle_rows(seg, keys, values, lines, station, use, src)
     idx = np.array([r[0] for r in rows])
-    t = times[idx].tt
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # times in UT1 need the installed IERS table, never a download
+        t = times[idx].tt
     if np.any(shift[idx]):
         from astropy import units as u
 

@@ -139,6 +139,23 @@ def test_time_systems(system, scale, offset_s):
     assert abs((obs.times[0].tt - ref.tt).sec) < ONE_NS
 
 
+def test_mission_elapsed_time_needs_the_mission_epoch():
+    text = tdm_text(TWO_WAY.replace("UTC", "MET"), "RANGE = 0000-001T00:00:30 1000")
+    with pytest.raises(CCSDSFormatError, match="mission_epoch") as exc:
+        vv.read_tdm(text)
+    assert exc.value.line == line_of(text, "TIME_SYSTEM")
+    launch = Time("2024-02-14T09:00:00", scale="utc")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrackingDataWarning)
+        obs = vv.read_tdm(text, mission_epoch=launch).to_observations({"DSS-65": SITE}, SIGMA)
+    assert abs((obs.times[0] - launch).sec - 86430.0) < ONE_NS
+
+
+def test_tdm_inside_an_ndm_wrapper():
+    wrapped = XML.replace('<?xml version="1.0" encoding="UTF-8"?>\n', '<ndm>\n') + "</ndm>\n"
+    assert vv.read_tdm(wrapped).segments[0].keywords[:2] == ["ANGLE_1", "ANGLE_2"]
+
+
 def test_leap_second_accepted_in_utc_and_refused_elsewhere():
     obs = read_obs(tdm_text(TWO_WAY, "RANGE = 2016-12-31T23:59:60.5 1000"))
     ref = Time("2017-01-01T00:00:00", scale="utc") - 0.5 * u.s
@@ -184,9 +201,16 @@ def test_transmit_tags_are_moved_to_reception_for_range_and_refused_for_doppler(
 
 def test_one_way_range_is_refused_naming_the_path_line():
     text = tdm_text(TWO_WAY.replace("1,2,1", "1,2"), "RANGE = 2024-02-14T10:00:00 1000")
-    with pytest.raises(CCSDSFormatError, match="one-way") as exc:
+    with pytest.raises(CCSDSFormatError, match="not two-way") as exc:
         read_obs(text)
     assert exc.value.line == line_of(text, "PATH")
+    reversed_roles = TWO_WAY.replace("PARTICIPANT_1 = DSS-65\nPARTICIPANT_2 = SAT-1",
+                                     "PARTICIPANT_1 = SAT-1\nPARTICIPANT_2 = DSS-65")
+    with pytest.raises(CCSDSFormatError, match="not two-way from the station"):
+        read_obs(tdm_text(reversed_roles, "RANGE = 2024-02-14T10:00:00 1000"))
+    obs = read_obs(tdm_text(reversed_roles.replace("1,2,1", "2,1,2"),
+                            "RANGE = 2024-02-14T10:00:00 1000"))
+    assert obs.stations[0] is SITE
     # ... unless dropped knowingly
     text2 = tdm_text(TWO_WAY.replace("1,2,1", "1,2") + "ANGLE_TYPE = AZEL",
                      "RANGE = 2024-02-14T10:00:00 1000\nANGLE_1 = 2024-02-14T10:00:00 10\n"

@@ -241,9 +241,10 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     ranging = [k for k in use if MODELLED[k] is not None]
     if ranging and not two_way:
         raise CCSDSFormatError(
-            f"{ranging[0]} on the one-way path PATH = {meta.get('PATH')}: visviva models "
-            "two-way range and Doppler (PATH = 1,2,1 from one station); one-way data need "
-            f"the clocks' offsets. Drop them with ignore=({ranging[0]!r},)",
+            f"{ranging[0]} on PATH = {meta.get('PATH')}, which is not two-way from the "
+            "station: visviva models two-way range and Doppler (e.g. PATH = 1,2,1 with "
+            "PARTICIPANT_1 the station); one-way data need the clocks' offsets. Drop them "
+            f"with ignore=({ranging[0]!r},)",
             line=meta.line_of("PATH"), source=src)
     if ranging and meta.get("RANGE_MODE") == "ONE_WAY":
         raise CCSDSFormatError(

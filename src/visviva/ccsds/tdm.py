@@ -27,7 +27,14 @@ import numpy as np
 from .grammar import EPOCH_PATTERN, CCSDSFormatError, Record, Section, parse_float, version_keyword
 from .grammar import Keyword as K
 from .kvn import KVNCursor
-from .layout import check_mandatory, read_kvn_section, read_text, read_xml_section, with_version
+from .layout import (
+    check_mandatory,
+    read_kvn_header,
+    read_kvn_metadata_block,
+    read_text,
+    read_xml_section,
+    with_version,
+)
 from .ndmxml import looks_like_xml, message_root, parse
 
 __all__ = ["TDM", "TDMSegment", "read_tdm", "HEADER", "METADATA", "DATA_KEYWORDS"]
@@ -343,32 +350,16 @@ def _segment(meta, rows, data_comments, name, mission_epoch):
 # ---- KVN ---------------------------------------------------------------------------------
 def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
     cursor = KVNCursor(text, name)
-    first = cursor.peek()
-    if first is None:
-        raise CCSDSFormatError("the message is empty", source=name)
-    if first.kind != "keyword" or first.key != "CCSDS_TDM_VERS":
-        raise cursor.error("a TDM starts with CCSDS_TDM_VERS = <version>")
-    header = read_kvn_section(cursor, HEADER)
+    header = read_kvn_header(cursor, HEADER, "TDM")
     segments = []
     while not cursor.at_end():
-        comments = cursor.take_comments()
-        if cursor.at_end():
+        block = read_kvn_metadata_block(
+            cursor, METADATA, "TDM", not segments,
+            "the segment's metadata is empty (TIME_SYSTEM, PARTICIPANT_1 ... are mandatory)",
+            check=False)
+        if block is None:
             break
-        if not cursor.at_block("META"):
-            line = cursor.peek()
-            what = line.key if line.kind == "keyword" else f"'{line.value[:40]}'"
-            raise cursor.error(f"expected META_START (a new segment), found {what}"
-                               + (": not a TDM header keyword" if not segments else ""))
-        cursor.next()
-        meta = read_kvn_section(cursor, METADATA, check=False)
-        if meta is None:
-            raise cursor.error("the segment's metadata is empty (TIME_SYSTEM, PARTICIPANT_1 "
-                               "... are mandatory)")
-        meta.comments = comments + meta.comments
-        line = cursor.peek()
-        if line is not None and line.kind == "keyword":
-            raise cursor.error(f"{line.key} is not a TDM metadata keyword (or is given twice)")
-        cursor.expect_block("META", "stop")
+        meta = block[0]
         cursor.take_comments()
         cursor.expect_block("DATA", "start")
         data_comments, rows = [], []

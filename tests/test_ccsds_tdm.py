@@ -6,6 +6,7 @@ The messages here are hand-written in the shapes of the annex examples of CCSDS 
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -516,3 +517,39 @@ def test_property_written_values_and_epochs_read_back_exactly(ranges, rate, ns):
     assert np.abs((back.times.tt - obs.times.tt).sec).max() < 2e-9
     rr = vv.Observations(time=t0, kind="range_rate", value=[rate], sigma=1e-5, station=SITE)
     assert read_obs(vv.write_tdm(rr, format="xml")).values[0, 0] == rate
+
+
+_PIECES = ["=", " ", "[", "]", "T", "-", ":", "60", "e", "nan", "inf", "\t", "<", ">", "/",
+           "1,2", "0000", "\x00", "é", "DATA_STOP", "META_START", "COMMENT"]
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(st.sampled_from([ANNEX_RANGE, XML]),
+       st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 10**6),
+                          st.sampled_from(_PIECES), st.integers(0, 2)), min_size=1, max_size=3))
+def test_fuzzed_messages_raise_a_visviva_error_naming_the_line_or_read_back(base, edits):
+    """Lines deleted, repeated or spliced: a VisvivaError (naming the line when the file is at
+    fault), never a bare exception or a non-finite value; what reads writes and reads back."""
+    lines = base.split("\n")
+    for a, b, piece, op in edits:
+        i = a % len(lines)
+        if op == 0:
+            del lines[i]
+        elif op == 1:
+            lines.insert(i, lines[b % len(lines)])
+        else:
+            j = b % (len(lines[i]) + 1)
+            lines[i] = lines[i][:j] + piece + lines[i][j + 2:]
+    text = "\n".join(lines)
+    try:
+        tdm = vv.read_tdm(text)
+        obs = read_obs(text)
+    except CCSDSFormatError as exc:
+        assert exc.line is not None or "empty" in str(exc) or "one <" in str(exc)
+        return
+    except vv.VisvivaError as exc:
+        assert re.search("no measurement|stations|sigma", str(exc)), str(exc)
+        return
+    assert np.isfinite(obs.values).all()
+    again = vv.read_tdm(vv.write_tdm(tdm, format=tdm.fmt))
+    assert again.segments[0].keywords == tdm.segments[0].keywords

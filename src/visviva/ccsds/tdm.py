@@ -40,6 +40,7 @@ from .ndmxml import looks_like_xml, message_root, parse
 __all__ = ["TDM", "TDMSegment", "read_tdm", "HEADER", "METADATA", "DATA_KEYWORDS"]
 
 _EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
+_EPOCHS_RE = re.compile(f"(?:{EPOCH_PATTERN}\n)*{EPOCH_PATTERN}")  # one per line, one scan
 _PARTICIPANTS = range(1, 6)  # PARTICIPANT_1 .. PARTICIPANT_5 (503.0-B-2, 3.3.2)
 _PATH_RE = re.compile(r"^[1-5](?:\s*,\s*[1-5])+$")
 
@@ -336,12 +337,8 @@ def _data_line(key: str, text: str, line, name: str):
 def _segment(meta, rows, data_comments, name, mission_epoch):
     """A segment from its metadata and (key, epoch text, value text or float, line) rows."""
     _check_metadata(meta, name)
-    keywords, epochs, values, lines = [], [], [], []
-    for key, epoch, value, line in rows:
-        keywords.append(key)
-        epochs.append(epoch)
-        values.append(value)
-        lines.append(line)
+    keywords, epochs, values, lines = (list(c) for c in zip(*rows, strict=True)) if rows else (
+        [], [], [], [])
     seg = TDMSegment(meta, keywords, epochs, values, lines, data_comments, name, mission_epoch)
     seg.times  # noqa: B018 -- parse the epochs now, so a bad one is reported on reading
     return seg
@@ -362,17 +359,17 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
         meta = block[0]
         cursor.take_comments()
         cursor.expect_block("DATA", "start")
-        data_comments, rows = [], []
-        while (line := cursor.peek()) is not None and line.kind in ("keyword", "comment"):
-            cursor.next()
+        data_comments, raw = [], []
+        lines = cursor.lines
+        while cursor.pos < len(lines) and lines[cursor.pos].kind in ("keyword", "comment"):
+            line = lines[cursor.pos]
+            cursor.pos += 1
             if line.kind == "comment":
                 data_comments.append(line.value)
-                continue
-            if line.unit is not None:  # 'KEY = epoch value [unit]'
-                raise CCSDSFormatError(f"a TDM data line carries no unit; remove [{line.unit}]",
-                                       line=line.line, source=name)
-            epoch, value = _data_line(line.key, line.value, line.line, name)
-            rows.append((line.key, epoch, value, line.line))
+            else:
+                raw.append(line)
+        line = cursor.peek()
+        rows = _data_rows(raw, name)
         if line is None or line.kind != "stop" or line.key != "DATA":
             got = "the end of the message" if line is None else f"'{line.value[:40]}'"
             raise cursor.error("expected a data line 'KEYWORD = epoch value' or DATA_STOP, "
@@ -386,6 +383,36 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
         raise cursor.error("the TDM has no segment (META_START ... META_STOP, DATA_START ... "
                            "DATA_STOP)")
     return TDM(header, segments, "kvn")
+
+
+def _data_rows(raw, name):
+    """(keyword, epoch, value, line) of the data lines of a block: one split, one regex over
+    the epochs, one numpy conversion; anything unusual falls back to the line-by-line checks,
+    which name the line."""
+    try:
+        if any(r.unit is not None or r.key not in DATA_KEYWORDS for r in raw):
+            raise ValueError
+        parts = " ".join([r.value for r in raw]).split()
+        if len(parts) != 2 * len(raw):
+            raise ValueError
+        epochs, texts = parts[0::2], parts[1::2]
+        joined = "".join(texts)
+        if "_" in joined or not joined.isascii() or not _EPOCHS_RE.fullmatch("\n".join(epochs)):
+            raise ValueError
+        values = np.array(texts, dtype=object).astype(np.float64)
+        if not np.isfinite(values).all():
+            raise ValueError
+    except ValueError:
+        return [_checked_row(r, name) for r in raw]
+    return [(r.key, e, v, r.line) for r, e, v in zip(raw, epochs, values.tolist(), strict=True)]
+
+
+def _checked_row(line, name):
+    if line.unit is not None:  # 'KEY = epoch value [unit]'
+        raise CCSDSFormatError(f"a TDM data line carries no unit; remove [{line.unit}]",
+                               line=line.line, source=name)
+    epoch, value = _data_line(line.key, line.value, line.line, name)
+    return line.key, epoch, value, line.line
 
 
 # ---- XML ---------------------------------------------------------------------------------

@@ -453,6 +453,8 @@ def test_write_path_first_as_well(campaign, tmp_path):
     path = tmp_path / "a.tdm"
     text = vv.write_tdm(str(path), campaign)
     assert path.read_text() == text and text.startswith("CCSDS_TDM_VERS")
+    xml = vv.write_tdm(campaign, tmp_path / "a.XML")  # the format from the suffix, as write_oem
+    assert xml.startswith("<?xml") and vv.read_tdm(tmp_path / "a.XML").fmt == "xml"
 
 
 def test_doppler_sign_is_positive_when_the_range_grows(campaign):
@@ -553,3 +555,21 @@ def test_fuzzed_messages_raise_a_visviva_error_naming_the_line_or_read_back(base
     assert np.isfinite(obs.values).all()
     again = vv.read_tdm(vv.write_tdm(tdm, format=tdm.fmt))
     assert again.segments[0].keywords == tdm.segments[0].keywords
+
+
+@pytest.mark.parametrize("system", ["TDB", "GPS", "TAI"])
+@pytest.mark.parametrize("reference", ["gcrs", "stars"])
+def test_radec_round_trip_in_other_time_systems(system, reference):
+    times = EPOCH + np.array([600.0, 610.5, 621.25]) * u.s
+    obs = vv.od.simulate_observations(TRUTH, times, "radec", np.radians(1e-4), STATIONS[0],
+                                      seed=3, radec_reference=reference)
+    text = vv.write_tdm(obs, time_system=system)
+    seg = vv.read_tdm(text).segments[0]
+    assert seg.metadata["ANGLE_TYPE"] == "RADEC" and seg.metadata["REFERENCE_FRAME"] == "GCRF"
+    assert seg.time_system == system
+    assert (reference == "stars") == any("stars" in c for c in seg.metadata.comments)
+    back = vv.read_tdm(text).to_observations({"Colorado": STATIONS[0]}, SIGMA,
+                                             radec_reference=reference)
+    assert np.abs((back.times.tt - obs.times.tt).sec).max() < 1e-9
+    np.testing.assert_allclose(back.values, obs.values, rtol=4e-16, atol=0)
+    assert back.radec_reference == reference

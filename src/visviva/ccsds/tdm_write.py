@@ -36,7 +36,7 @@ _FAMILIES = {"range": ("ranging", ("RANGE",)), "range_rate": ("ranging", ("DOPPL
              "radec": ("RADEC", ("ANGLE_1", "ANGLE_2"))}
 
 
-def write_tdm(tdm, path=None, format: str = "kvn", *, participant: str = "SATELLITE",  # noqa: A002
+def write_tdm(tdm, path=None, format: str | None = None, *, participant: str = "SATELLITE",  # noqa: A002
               originator: str = "VISVIVA", time_system: str = "UTC") -> str:
     """Write a CCSDS TDM (KVN or XML): a :class:`~visviva.TDM` as read, or Observations.
 
@@ -48,8 +48,8 @@ def write_tdm(tdm, path=None, format: str = "kvn", *, participant: str = "SATELL
     path : str or os.PathLike, optional
         Where to write (the text is returned either way). ``write_tdm(path, observations)``,
         path first, is accepted too.
-    format : {"kvn", "xml"}
-        Output format.
+    format : {"kvn", "xml"}, optional
+        Output format. Default: ``"xml"`` for a path ending in ``.xml``, else ``"kvn"``.
     participant : str
         ``PARTICIPANT_2``, the spacecraft's name (Observations only).
     originator : str
@@ -83,6 +83,8 @@ def write_tdm(tdm, path=None, format: str = "kvn", *, participant: str = "SATELL
     """
     if isinstance(tdm, str | os.PathLike) and not isinstance(path, str | os.PathLike | None):
         tdm, path = path, tdm  # write_tdm(path, observations)
+    if format is None:
+        format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
     if format not in ("kvn", "xml"):
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     if not isinstance(tdm, TDM):

@@ -573,3 +573,19 @@ def test_radec_round_trip_in_other_time_systems(system, reference):
     assert np.abs((back.times.tt - obs.times.tt).sec).max() < 1e-9
     np.testing.assert_allclose(back.values, obs.values, rtol=4e-16, atol=0)
     assert back.radec_reference == reference
+
+
+@pytest.mark.parametrize("keys, epochs, values, match", [
+    (["RANGE"], ["2024-01-01T00:00:00"], [np.nan], "NaN"),
+    (["RANGES"], ["2024-01-01T00:00:00"], [1.0], "not a TDM data keyword"),
+    (["RANGE"], ["2024-01-01 00:00:00"], [1.0], "not a CCSDS epoch")])
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_writer_refuses_data_lines_its_reader_would_refuse(keys, epochs, values, match, fmt):
+    from visviva.ccsds.grammar import Record
+    from visviva.ccsds.tdm import TDMSegment
+
+    tdm = vv.read_tdm(tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1000"))
+    tdm.segments.append(TDMSegment(Record(values=dict(tdm.segments[0].metadata.values)), keys,
+                                   epochs, values))
+    with pytest.raises(CCSDSFormatError, match=match):
+        vv.write_tdm(tdm, format=fmt)

@@ -37,7 +37,8 @@ from .layout import (
 )
 from .ndmxml import looks_like_xml, message_root, parse
 
-__all__ = ["TDM", "TDMSegment", "read_tdm", "HEADER", "METADATA", "DATA_KEYWORDS"]
+__all__ = ["TDM", "TDMSegment", "read_tdm", "check_data", "HEADER", "METADATA",
+           "DATA_KEYWORDS"]
 
 _EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
 _EPOCHS_RE = re.compile(f"(?:{EPOCH_PATTERN}\n)*{EPOCH_PATTERN}")  # one per line, one scan
@@ -342,6 +343,29 @@ def _segment(meta, rows, data_comments, name, mission_epoch):
     seg = TDMSegment(meta, keywords, epochs, values, lines, data_comments, name, mission_epoch)
     seg.times  # noqa: B018 -- parse the epochs now, so a bad one is reported on reading
     return seg
+
+
+def check_data(seg: TDMSegment) -> None:
+    """Refuse data lines a reader would refuse (checked at once; for writers).
+
+    Parameters
+    ----------
+    seg : TDMSegment
+        The segment to write.
+
+    Raises
+    ------
+    CCSDSFormatError
+        An unknown data keyword, an epoch that is no CCSDS epoch, a NaN or infinite value.
+    """
+    unknown = set(seg.keywords) - set(DATA_KEYWORDS)
+    if unknown:
+        raise CCSDSFormatError(f"{sorted(unknown)[0]} is not a TDM data keyword")
+    if seg.epochs and not _EPOCHS_RE.fullmatch("\n".join(seg.epochs)):
+        bad = next(e for e in seg.epochs if not _EPOCH_RE.match(e))
+        raise CCSDSFormatError(f"{bad!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000")
+    if not np.isfinite(seg.values).all():
+        raise CCSDSFormatError("a TDM data value is NaN or infinite; remove that line")
 
 
 # ---- KVN ---------------------------------------------------------------------------------

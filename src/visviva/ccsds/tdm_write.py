@@ -26,7 +26,7 @@ from .grammar import CCSDSFormatError, Record, format_float
 from .kvn import KVNWriter
 from .layout import write_kvn_section, write_xml_section
 from .ndmxml import add_text, new_root, to_text
-from .tdm import _EPOCH_RE, _EPOCHS_RE, DATA_KEYWORDS, HEADER, METADATA, TDM, TDMSegment
+from .tdm import HEADER, METADATA, TDM, TDMSegment, check_data
 
 __all__ = ["write_tdm", "tdm_from_observations"]
 
@@ -182,25 +182,13 @@ def _kvn(tdm: TDM) -> str:
         writer.blank()
         writer.marker("DATA_START")
         writer.comment(seg.data_comments)
-        _check_data(seg)
+        check_data(seg)
         width = writer.width
         for key, epoch, value in zip(seg.keywords, seg.epochs, seg.values.tolist(), strict=True):
             writer.data(f"{key:<{width}} = {epoch} {format_float(value)}")
         writer.marker("DATA_STOP")
         writer.blank()
     return writer.text()
-
-
-def _check_data(seg) -> None:
-    """Refuse data lines the reader would refuse (checked at once, not line by line)."""
-    unknown = set(seg.keywords) - set(DATA_KEYWORDS)
-    if unknown:
-        raise CCSDSFormatError(f"{sorted(unknown)[0]} is not a TDM data keyword")
-    if seg.epochs and not _EPOCHS_RE.fullmatch("\n".join(seg.epochs)):
-        bad = next(e for e in seg.epochs if not _EPOCH_RE.match(e))
-        raise CCSDSFormatError(f"{bad!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000")
-    if not np.isfinite(seg.values).all():
-        raise CCSDSFormatError("a TDM data value is NaN or infinite; remove that line")
 
 
 def _xml(tdm: TDM) -> str:
@@ -215,7 +203,7 @@ def _xml(tdm: TDM) -> str:
         data = ET.SubElement(segment, "data")
         for text in seg.data_comments:
             add_text(data, "COMMENT", text)
-        _check_data(seg)
+        check_data(seg)
         for key, epoch, value in zip(seg.keywords, seg.epochs, seg.values.tolist(), strict=True):
             item = ET.SubElement(data, "observation")
             add_text(item, "EPOCH", epoch)

@@ -123,6 +123,19 @@ def test_corrections_applied_flag_and_override(flag, override, expected):
     assert obs.values[0, 0] == pytest.approx(expected, abs=1e-12)
 
 
+def test_correction_range_may_carry_the_range_units():
+    text = tdm_text(TWO_WAY + "RANGE_UNITS = s\nCORRECTION_RANGE = 1.0E-8 [s]\n"
+                    "CORRECTIONS_APPLIED = NO", "RANGE = 2024-02-14T10:00:00 0.01")
+    assert read_obs(text).values[0, 0] == pytest.approx((0.01 + 1e-8) * C_KM_S / 2, rel=1e-15)
+    wrong = text.replace("[s]", "[km]")
+    with pytest.raises(CCSDSFormatError, match="RANGE_UNITS") as exc:
+        vv.read_tdm(wrong)
+    assert exc.value.line == line_of(wrong, "CORRECTION_RANGE")
+    xml = vv.write_tdm(vv.read_tdm(text), format="xml").replace(
+        "<CORRECTION_RANGE>", '<CORRECTION_RANGE units="s">')
+    assert vv.read_tdm(xml).segments[0].metadata["CORRECTION_RANGE"] == 1e-8
+
+
 def test_correction_without_corrections_applied_is_refused_naming_its_line():
     text = tdm_text(TWO_WAY + "CORRECTION_RANGE = 0.0021", "RANGE = 2024-02-14T10:00:00 1201.25")
     with pytest.raises(CCSDSFormatError, match="CORRECTIONS_APPLIED") as exc:

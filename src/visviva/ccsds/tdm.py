@@ -44,6 +44,8 @@ _EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
 _EPOCHS_RE = re.compile(f"(?:{EPOCH_PATTERN}\n)*{EPOCH_PATTERN}")  # one per line, one scan
 _PARTICIPANTS = range(1, 6)  # PARTICIPANT_1 .. PARTICIPANT_5 (503.0-B-2, 3.3.2)
 _PATH_RE = re.compile(r"^[1-5](?:\s*,\s*[1-5])+$")
+#: keywords in RANGE_UNITS (km, s or RU): a unit written with them must be that one
+_IN_RANGE_UNITS = ("CORRECTION_RANGE", "RANGE_MODULUS")
 
 HEADER = Section("header", (
     version_keyword("TDM"), K("CREATION_DATE", "epoch", None, True),
@@ -297,9 +299,16 @@ def read_tdm(source, *, mission_epoch=None, cls=None) -> TDM:
     return tdm if cls is None else cls(tdm.header, tdm.segments, tdm.fmt)
 
 
-def _check_metadata(meta: Record, name: str) -> None:
-    """Checks that need more than one keyword: the path, a participant it names."""
+def _check_metadata(meta: Record, name: str, units: dict) -> None:
+    """Checks that need more than one keyword: the path, a participant it names, a unit
+    written with a keyword in ``RANGE_UNITS`` (``units``: keyword -> unit as written)."""
     check_mandatory(meta, METADATA, name)
+    range_units = meta.get("RANGE_UNITS", "km")
+    for key, unit in units.items():
+        if key in meta and unit != range_units:
+            raise CCSDSFormatError(
+                f"{key} is in RANGE_UNITS ({range_units}), not [{unit}]; convert the value",
+                line=meta.line_of(key), source=name)
     present = {n for n in _PARTICIPANTS if f"PARTICIPANT_{n}" in meta}
     for key in ("PATH", "PATH_1", "PATH_2"):
         text = meta.get(key)
@@ -335,9 +344,9 @@ def _data_line(key: str, text: str, line, name: str):
     return epoch, parse_float(value, key, line, name)
 
 
-def _segment(meta, rows, data_comments, name, mission_epoch):
+def _segment(meta, rows, data_comments, name, mission_epoch, units):
     """A segment from its metadata and (key, epoch text, value text or float, line) rows."""
-    _check_metadata(meta, name)
+    _check_metadata(meta, name, units)
     keywords, epochs, values, lines = (list(c) for c in zip(*rows, strict=True)) if rows else (
         [], [], [], [])
     seg = TDMSegment(meta, keywords, epochs, values, lines, data_comments, name, mission_epoch)
@@ -374,6 +383,7 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
     header = read_kvn_header(cursor, HEADER, "TDM")
     segments = []
     while not cursor.at_end():
+        units = _take_range_units(cursor)
         block = read_kvn_metadata_block(
             cursor, METADATA, "TDM", not segments,
             "the segment's metadata is empty (TIME_SYSTEM, PARTICIPANT_1 ... are mandatory)",
@@ -402,11 +412,29 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
             raise cursor.error("the data block is empty: a TDM segment holds at least one "
                                "data line 'KEYWORD = epoch value'")
         cursor.next()
-        segments.append(_segment(meta, rows, data_comments, name, mission_epoch))
+        segments.append(_segment(meta, rows, data_comments, name, mission_epoch, units))
     if not segments:
         raise cursor.error("the TDM has no segment (META_START ... META_STOP, DATA_START ... "
                            "DATA_STOP)")
     return TDM(header, segments, "kvn")
+
+
+def _take_range_units(cursor) -> dict:
+    """The units written with CORRECTION_RANGE and RANGE_MODULUS in the next metadata block
+    (taken off their lines, which the grammar would refuse: their unit is RANGE_UNITS)."""
+    units = {}
+    lines = cursor.lines
+    for k in range(cursor.pos, len(lines)):
+        line = lines[k]
+        if line.kind == "stop" and line.key == "META":
+            break
+        if line.kind == "keyword" and line.key in _IN_RANGE_UNITS and line.unit is not None:
+            if line.unit not in ("km", "s", "RU"):
+                raise CCSDSFormatError(f"{line.key} is in RANGE_UNITS (km, s or RU), not "
+                                       f"[{line.unit}]", line=line.line, source=cursor.source)
+            units[line.key] = line.unit
+            lines[k] = line._replace(unit=None)
+    return units
 
 
 def _data_rows(raw, name):
@@ -468,6 +496,11 @@ def _read_xml(text: str, name: str, mission_epoch) -> TDM:
                      else metas[1].line if len(metas) > 1 else node.line)
             raise CCSDSFormatError("a <segment> holds one <metadata> and one <data>",
                                    line=where, source=name)
+        units = {}
+        for child in metas[0].children:
+            if child.tag in _IN_RANGE_UNITS and child.attrib.get("units"):
+                units[child.tag] = child.attrib["units"]
+                child.attrib = {k: v for k, v in child.attrib.items() if k != "units"}
         meta = read_xml_section(metas[0], METADATA, name)
         comments, rows = [], []
         for obs in datas[0].children:
@@ -481,7 +514,7 @@ def _read_xml(text: str, name: str, mission_epoch) -> TDM:
         if not rows:
             raise CCSDSFormatError("the <data> is empty: a TDM segment holds at least one "
                                    "<observation>", line=datas[0].line, source=name)
-        segments.append(_segment(meta, rows, comments, name, mission_epoch))
+        segments.append(_segment(meta, rows, comments, name, mission_epoch, units))
     if not segments:
         raise CCSDSFormatError("the TDM has no <segment>", line=bodies[0].line, source=name)
     return TDM(header, segments, "xml")

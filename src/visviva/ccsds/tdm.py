@@ -26,7 +26,7 @@ import numpy as np
 
 from .grammar import EPOCH_PATTERN, CCSDSFormatError, Record, Section, parse_float, version_keyword
 from .grammar import Keyword as K
-from .kvn import KVNCursor
+from .kvn import KVNCursor, KVNLine
 from .layout import (
     check_mandatory,
     read_kvn_header,
@@ -433,7 +433,7 @@ def _take_range_units(cursor) -> dict:
                 raise CCSDSFormatError(f"{line.key} is in RANGE_UNITS (km, s or RU), not "
                                        f"[{line.unit}]", line=line.line, source=cursor.source)
             units[line.key] = line.unit
-            lines[k] = line._replace(unit=None)
+            lines[k] = KVNLine(line.kind, line.line, line.key, line.value, None)
     return units
 
 

@@ -129,6 +129,9 @@ _PUBLIC = {
     "read_cdm": "visviva.ccsds.cdm",
     "write_cdm": "visviva.ccsds.cdm",
     "ConjunctionDataMessage": "visviva.ccsds.cdm",
+    "read_tdm": "visviva.od.tracking_data",
+    "write_tdm": "visviva.ccsds.tdm_write",
+    "TDM": "visviva.od.tracking_data",
     # ground stations and passes
     "GroundStation": "visviva.ground",
     "find_passes": "visviva.ground",

@@ -32,6 +32,7 @@ __all__ = [
     "BackendUnavailableError",
     "SurfaceImpact",
     "EarthOrientationWarning",
+    "TrackingDataWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -225,6 +226,14 @@ class EarthOrientationWarning(UserWarning):
     equator). Earth-fixed (ITRS) positions, geodetic coordinates, look angles and passes at
     such times carry that error; inertial (GCRS, TEME) results do not. See
     docs/conventions.md, "Earth orientation".
+    """
+
+
+class TrackingDataWarning(UserWarning):
+    """Tracking data were read but not used: a CCSDS TDM's keywords that visviva does not
+    model (frequencies, phase counts, media, clocks, signal strength ...), or metadata the
+    caller asked to ignore. The message lists each keyword and how many lines it had; the
+    data stay in the :class:`~visviva.TDM` object.
     """
 
 

@@ -13,6 +13,13 @@ of the same work without the CCSDS grammar (ratio = visviva time / reference tim
 * ``write_oem XML``: against building the same element tree with ElementTree and serialising
   it. Target: <= 1.5.
 
+* ``read_tdm KVN``: ``vv.read_tdm(text)`` of two-way ranges (lexer, metadata, keywords, numbers
+  and epochs checked, times parsed) against splitting the data lines and converting their
+  epochs with ``astropy.time.Time`` and their values with numpy. Target: ratio <= 6 (half of
+  the time is the KVN lexer shared by every message, which checks each line's form).
+* ``write_tdm KVN``: ``vv.write_tdm(tdm)`` against joining ``f"RANGE = {epoch} {value!r}"``
+  lines. Target: <= 3.
+
 The notes give the file sizes and states per second. Run: ``python -m benchmarks --only ccsds``.
 """
 
@@ -107,6 +114,48 @@ def run(quick: bool = False) -> list[dict]:
         t_ref = time_call(ref, repeat=repeat, number=1)
         rows.append(result(f"{name}, {size} states", t_vv, ref_name, t_ref, target=target,
                            notes=f"{mb / 1e6:.1f} MB; {n / t_vv.median / 1e3:.0f} k states/s; "
+                                 f"read back bit for bit: {exact}"))
+    rows += _tdm_rows(vv, Time, n, repeat, size)
+    return rows
+
+
+def _tdm_text(n: int) -> tuple[str, list, list]:
+    from astropy import units as u
+    from astropy.time import Time
+
+    t = Time("2024-01-01T00:00:00", scale="utc") + np.arange(n) * u.s
+    epochs = list(t.isot)
+    values = (1000.0 + np.random.default_rng(503).normal(size=n)).tolist()
+    head = ("CCSDS_TDM_VERS = 2.0\nCREATION_DATE = 2024-01-01T00:00:00\nORIGINATOR = BENCH\n"
+            "META_START\nTIME_SYSTEM = UTC\nPARTICIPANT_1 = STATION\nPARTICIPANT_2 = SAT\n"
+            "MODE = SEQUENTIAL\nPATH = 1,2,1\nRANGE_UNITS = km\nMETA_STOP\nDATA_START\n")
+    body = "\n".join(f"RANGE = {e} {v!r}" for e, v in zip(epochs, values, strict=True))
+    return head + body + "\nDATA_STOP\n", epochs, values
+
+
+def _tdm_rows(vv, Time, n, repeat, size) -> list[dict]:
+    text, epochs, values = _tdm_text(n)
+    tdm = vv.read_tdm(text)
+    exact = tdm.segments[0].values.tolist() == values
+
+    def ref_read():
+        parts = [line.split() for line in text.splitlines()[12:-1]]
+        return (Time([p[2] for p in parts], format="isot", scale="utc"),
+                np.array([p[3] for p in parts], dtype=float))
+
+    def ref_write():
+        return "\n".join(f"RANGE = {e} {v!r}" for e, v in zip(epochs, values, strict=True))
+
+    rows = []
+    for name, ours, ref_name, ref, target in (
+        ("read_tdm KVN", lambda: vv.read_tdm(text), "str.split + astropy Time + numpy",
+         ref_read, 6.0),
+        ("write_tdm KVN", lambda: vv.write_tdm(tdm), "f-string lines joined", ref_write, 3.0),
+    ):
+        t_vv = time_call(ours, repeat=repeat, number=1)
+        t_ref = time_call(ref, repeat=repeat, number=1)
+        rows.append(result(f"{name}, {size} ranges", t_vv, ref_name, t_ref, target=target,
+                           notes=f"{len(text) / 1e6:.1f} MB; {n / t_vv.median / 1e3:.0f} k lines/s; "
                                  f"read back bit for bit: {exact}"))
     return rows
 

@@ -285,9 +285,11 @@ def test_a_catalogue_travels_once_per_process():
     np.testing.assert_array_equal(first.propagate(t).r.value, cat.propagate(t).r.value)
 
 
-def test_a_kvn_omm_file_is_pointed_to_its_reader(tmp_path):
+def test_a_kvn_omm_file_is_read_one_message_or_many(tmp_path):
     # vv.write_omm writes KVN by default; read_omm_file said only "pass format='json', 'csv' or
-    # 'xml'", with no way to get the file visviva itself wrote into a Catalog
+    # 'xml'", then pointed to vv.read_omm (one message). Space-Track's KVN GP data holds many
+    # OMMs one after another (the only text format besides JSON/CSV/XML that carries the
+    # 6-9 digit catalogue numbers): read_omm_file and read_catalog_file read them all
     from visviva.satellites.catalog import read_omm_file
 
     sat = vv.Satellite.from_tle(
@@ -295,7 +297,18 @@ def test_a_kvn_omm_file_is_pointed_to_its_reader(tmp_path):
         "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
     path = tmp_path / "iss.omm"
     vv.write_omm(sat.to_omm(), path, originator="TEST")
-    with pytest.raises(vv.InvalidInputError, match=r"KVN.*Catalog\.from_omm\(\[vv\.read_omm"):
-        read_omm_file(path)
-    cat = vv.Catalog.from_omm([vv.read_omm(path)])  # the path the message gives
-    assert cat[0].to_tle() == sat.to_tle()
+    assert read_omm_file(path)[0].to_tle() == sat.to_tle()
+    assert vv.Catalog.from_omm([vv.read_omm(path)])[0].to_tle() == sat.to_tle()
+    other = vv.Satellite.from_omm({**sat.to_omm(), "NORAD_CAT_ID": 123456789, "OBJECT_NAME": "X"})
+    many = tmp_path / "gp.kvn"
+    many.write_text(path.read_text() + vv.write_omm(other.to_omm(), originator="TEST"))
+    for cat in (read_omm_file(many), vv.read_catalog_file(many)):
+        assert list(cat.satnums) == [25544, 123456789] and cat.names == ["ISS", "X"]
+    broken = tmp_path / "broken.kvn"
+    lines = many.read_text().splitlines()
+    k = max(i for i, line in enumerate(lines) if line.startswith("MEAN_MOTION "))
+    broken.write_text("\n".join(lines[:k + 1] + [lines[k]] + lines[k + 1:]))
+    start = max(i for i, line in enumerate(lines) if line.startswith("CCSDS_OMM_VERS")) + 1
+    with pytest.raises(vv.InvalidInputError, match=f"line {k + 2}: MEAN_MOTION appears twice "
+                                                   f"in the OMM that starts on line {start}"):
+        read_omm_file(broken)

@@ -384,7 +384,7 @@ def test_hypothesis_opm_round_trip(r, v, dv, fmt, with_cov, seconds):
     "MEAN_MOTION": st.floats(0.5, 17.0), "ECCENTRICITY": st.floats(0.0, 0.99),
     "INCLINATION": st.floats(0.0, 180.0), "RA_OF_ASC_NODE": st.floats(0.0, 360.0),
     "ARG_OF_PERICENTER": st.floats(0.0, 360.0), "MEAN_ANOMALY": st.floats(0.0, 360.0),
-    "BSTAR": st.floats(-1.0, 1.0), "NORAD_CAT_ID": st.integers(1, 339999),
+    "BSTAR": st.floats(-1.0, 1.0), "NORAD_CAT_ID": st.integers(1, 999_999_999),
     "MEAN_MOTION_DOT": st.floats(-1.0, 1.0), "MEAN_MOTION_DDOT": st.floats(-1.0, 1.0)}),
     fmt=st.sampled_from(["kvn", "xml"]))
 def test_hypothesis_omm_round_trip(values, fmt):

@@ -164,10 +164,11 @@ def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
                                  object_name="ISS", frame="ITRF", time_system="TAI")
     histories = [iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors(),
                  vv.read_oem(vv.write_oem(Ephemeris([seg])))]
-    items = list(zip(histories, [25544, 25545], strict=True))
+    items = list(zip(histories, [25544, 25545], [None, iss], strict=True))
     packed = _pack(items, "gcrs")
     assert packed["frame"] == ["gcrs", "itrs"] and packed["r"].shape == (50, 3)
     assert [f for f, _ in _fit_packed(packed, {})] == [f for f, _ in _fit_chunk(items, {})]
+    assert _fit_chunk(items, {})[1][0]["REV_AT_EPOCH"] == iss.satrec.revnum  # carried
 
 
 def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, capsys):

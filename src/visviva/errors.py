@@ -21,6 +21,7 @@ __all__ = [
     "ShapeError",
     "InvalidStateError",
     "InvalidElementsError",
+    "MissingFileError",
     "ConvergenceError",
     "DomainError",
     "NBodyEvent",
@@ -31,6 +32,7 @@ __all__ = [
     "BackendUnavailableError",
     "SurfaceImpact",
     "EarthOrientationWarning",
+    "TrackingDataWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -120,6 +122,31 @@ class DomainError(InvalidInputError):
     """An input lies outside the mathematical domain of the function."""
 
 
+class MissingFileError(InvalidInputError, FileNotFoundError):
+    """A file to read does not exist; the message names the path and says what to do.
+
+    Also a ``FileNotFoundError`` (what ``open`` and skyfield's loaders raise), so code that
+    catches that keeps working; ``filename`` is the path and ``errno`` is ``ENOENT``.
+    """
+
+    def __init__(self, path, todo: str):
+        import errno
+        import os
+
+        path = os.fspath(path)
+        where = "" if os.path.isabs(path) else f" (relative to {os.getcwd()!r})"
+        self.message = f"{path!r}: no such file{where}; {todo}"
+        super().__init__(self.message)
+        self.errno, self.strerror, self.filename = errno.ENOENT, "No such file", path
+        self._todo = todo
+
+    def __str__(self):  # (OSError's own would print "[Errno 2] No such file: path" only)
+        return self.message
+
+    def __reduce__(self):
+        return type(self), (self.filename, self._todo)
+
+
 class ConvergenceError(VisvivaError, ArithmeticError):
     """An iterative solver did not converge to machine precision."""
 
@@ -199,6 +226,14 @@ class EarthOrientationWarning(UserWarning):
     equator). Earth-fixed (ITRS) positions, geodetic coordinates, look angles and passes at
     such times carry that error; inertial (GCRS, TEME) results do not. See
     docs/conventions.md, "Earth orientation".
+    """
+
+
+class TrackingDataWarning(UserWarning):
+    """Tracking data were read but not used: a CCSDS TDM's keywords that visviva does not
+    model (frequencies, phase counts, media, clocks, signal strength ...), or metadata the
+    caller asked to ignore. The message lists each keyword and how many lines it had; the
+    data stay in the :class:`~visviva.TDM` object.
     """
 
 

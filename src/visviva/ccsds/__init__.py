@@ -20,8 +20,10 @@ The modules, bottom up:
   ``REF_FRAME`` to visviva's frames, ``CENTER_NAME`` to bodies;
 * the messages: :mod:`~visviva.ccsds.oem` (``Ephemeris``, ``OEMSegment``, interpolation in
   :mod:`~visviva.ccsds.interpolation`) with :mod:`~visviva.ccsds.oem_io`,
-  :mod:`~visviva.ccsds.opm`, :mod:`~visviva.ccsds.omm`; ``visviva convert`` in
-  :mod:`~visviva.ccsds.convert`.
+  :mod:`~visviva.ccsds.opm`, :mod:`~visviva.ccsds.omm`, the tracking data message
+  :mod:`~visviva.ccsds.tdm` with :mod:`~visviva.ccsds.tdm_write` (its meaning for orbit
+  determination is :mod:`visviva.od.tracking_data`, which ``vv.read_tdm`` uses);
+  ``visviva convert`` in :mod:`~visviva.ccsds.convert`.
 
 How a message is described and read (the pattern the OPM, OMM and CDM modules follow)::
 
@@ -51,7 +53,9 @@ from .oem import Ephemeris, OEMCovariance, OEMSegment
 from .oem_io import read_oem, write_oem
 from .omm import OMM, read_omm, write_omm
 from .opm import OPM, Maneuver, read_opm, write_opm
+from .tdm import TDMSegment
+from .tdm_write import write_tdm
 
 __all__ = ["CCSDSFormatError", "Keyword", "Record", "Section", "Ephemeris", "OEMSegment",
            "OEMCovariance", "OPM", "Maneuver", "OMM", "read_oem", "write_oem", "read_opm",
-           "write_opm", "read_omm", "write_omm"]
+           "write_opm", "read_omm", "write_omm", "TDMSegment", "write_tdm"]

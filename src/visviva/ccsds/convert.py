@@ -84,7 +84,7 @@ def _satellite(args, path, text: str, kind: str):
     from ..satellites.catalog import read_catalog_file
     from .omm import read_omm
 
-    if kind == "omm" and not _is_ndm(text):
+    if kind == "omm" and not _is_ndm(text) and _one_omm(text):
         return Satellite.from_omm(read_omm(path))
     sats = list(read_catalog_file(path))
     if args.satnum is not None:
@@ -96,6 +96,12 @@ def _satellite(args, path, text: str, kind: str):
         raise SystemExit(f"visviva convert: {args.input} holds {len(sats)} satellites "
                          f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with --satnum")
     return sats[0]
+
+
+def _one_omm(text: str) -> bool:
+    """Whether a KVN input holds one OMM (many one after another, as Space-Track's KVN GP data,
+    are read as a catalogue)."""
+    return text.count("CCSDS_OMM_VERS") <= 1
 
 
 def _is_ndm(text: str) -> bool:
@@ -203,7 +209,7 @@ def _convert(args, path, text, source, target, fmt) -> str:
             raise InvalidInputError(f"--mission-epoch {args.mission_epoch!r} is not an ISO "
                                     "date-time like 2024-01-31T12:00:00") from None
         return write_oem(read_oem(path, mission_epoch=mission), format=fmt)
-    if source == "omm" and target == "omm" and not _is_ndm(text):
+    if source == "omm" and target == "omm" and not _is_ndm(text) and _one_omm(text):
         return write_omm(read_omm(path), format=fmt, originator=args.originator)
     sat = _satellite(args, path, text, source)
     if target == "tle":

@@ -86,7 +86,7 @@ class Keyword:
 #: CDM, and 2.0 of its update 508.0-P-1.1, whose keywords shared with 1.0 keep their meaning:
 #: the reader takes those and refuses its new ones as unknown keywords, naming the line)
 VERSIONS = {"OEM": ("1.0", "2.0", "3.0"), "OPM": ("1.0", "2.0", "3.0"),
-            "OMM": ("2.0", "3.0"), "CDM": ("1.0", "2.0")}
+            "OMM": ("2.0", "3.0"), "CDM": ("1.0", "2.0"), "TDM": ("1.0", "2.0")}
 
 
 def version_keyword(kind: str) -> Keyword:

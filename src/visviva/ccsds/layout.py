@@ -17,7 +17,7 @@ from .ndmxml import XMLNode, add_text, looks_like_xml, message_root, new_root, p
 __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
     "write_kvn_section", "write_xml_section", "write_message", "xml_child", "read_text",
-    "with_version",
+    "with_version", "read_kvn_header", "read_kvn_metadata_block", "article_of",
 ]
 
 
@@ -139,6 +139,85 @@ def read_kvn_section(cursor: KVNCursor, section: Section, check: bool = True) ->
     if check:
         check_mandatory(record, section, cursor.source)
     return record
+
+
+def read_kvn_header(cursor: KVNCursor, header: Section, kind: str) -> Record:
+    """Read the header of a KVN message with segments (OEM, TDM), which starts with its
+    version keyword (the first keyword of ``header``).
+
+    Parameters
+    ----------
+    cursor : KVNCursor
+        At the start of the message.
+    header : Section
+        The header's description; its first keyword is ``CCSDS_<KIND>_VERS``.
+    kind : str
+        ``"OEM"``, ``"TDM"``, for the error messages.
+
+    Returns
+    -------
+    Record
+    """
+    version_key = header.keywords[0].name
+    first = cursor.peek()
+    if first is None:
+        raise CCSDSFormatError("the message is empty", source=cursor.source)
+    if first.kind != "keyword" or first.key != version_key:
+        raise cursor.error(f"{article_of(kind)} {kind} starts with {version_key} = <version>")
+    return read_kvn_section(cursor, header)
+
+
+def read_kvn_metadata_block(cursor: KVNCursor, metadata: Section, kind: str, first: bool,
+                            empty: str, check: bool = True):  # fmt: skip
+    """Read ``META_START``, a segment's metadata keywords and ``META_STOP`` (with the comments
+    before the block, which join the record's), or return None at the end of the message.
+
+    Parameters
+    ----------
+    cursor : KVNCursor
+        Where the next segment may start.
+    metadata : Section
+        The metadata's description.
+    kind : str
+        ``"OEM"``, ``"TDM"``, for the error messages.
+    first : bool
+        Whether no segment was read yet (a stray keyword is then no header keyword).
+    empty : str
+        The error message for a block without keywords (naming the mandatory ones).
+    check : bool
+        Check the mandatory keywords before ``META_STOP``.
+
+    Returns
+    -------
+    (Record, KVNLine) or None
+        The metadata and the ``META_START`` line.
+    """
+    comments = cursor.take_comments()
+    if cursor.at_end():
+        return None
+    if not cursor.at_block("META"):
+        line = cursor.peek()
+        what = line.key if line.kind == "keyword" else f"'{line.value[:40]}'"
+        raise cursor.error(f"expected META_START (a new segment), found {what}"
+                           + (f": not {article_of(kind)} {kind} header keyword" if first else ""))
+    start = cursor.next()
+    meta = read_kvn_section(cursor, metadata, check=False)
+    if meta is None:
+        raise cursor.error(empty)
+    meta.comments = comments + meta.comments
+    line = cursor.peek()
+    if line is not None and line.kind == "keyword":
+        raise cursor.error(f"{line.key} is not {article_of(kind)} {kind} metadata keyword (or "
+                           "is given twice)")
+    if check:
+        check_mandatory(meta, metadata, cursor.source)
+    cursor.expect_block("META", "stop")
+    return meta, start
+
+
+def article_of(kind: str) -> str:
+    """``"an"`` before OEM, OPM, OMM; ``"a"`` before TDM, CDM."""
+    return "an" if kind[:1] in "AEIOU" else "a"
 
 
 def _next_keyword(cursor: KVNCursor, section: Section, record: Record):
@@ -371,6 +450,12 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
                                f"(expected {section.keywords[0].name} or another of its "
                                f"keywords, found {_describe(cursor.peek())})")
     if not cursor.at_end():
+        nxt = cursor.peek()
+        if nxt.kind == "keyword" and nxt.key == version_key:  # messages one after another
+            hint = (" (for many OMMs, as in Space-Track's KVN GP data, use vv.read_omm_file)"
+                    if root_tag == "omm" else "")
+            raise cursor.error(f"a second {root_tag.upper()} starts here; this reader takes "
+                               f"one message{hint}")
         _unexpected(cursor, sections, root_tag)
         raise cursor.error(f"unexpected {_describe(cursor.peek())} here: out of order (the "
                            "sections go header, metadata, data in the CCSDS order)")

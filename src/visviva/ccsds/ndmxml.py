@@ -83,7 +83,7 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
         if len(inner) != 1:
             raise CCSDSFormatError(
                 f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
-                "OMMs use visviva.satellites.read_omm_file)", line=root.line, source=source)
+                "OMMs use vv.read_omm_file)", line=root.line, source=source)
         return inner[0]
     if root.tag != tag:
         raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",

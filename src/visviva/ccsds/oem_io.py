@@ -19,7 +19,8 @@ from .grammar import EPOCH_PATTERN, CCSDSFormatError, Record, Section, format_fl
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
 from .layout import (
-    check_mandatory,
+    read_kvn_header,
+    read_kvn_metadata_block,
     read_kvn_section,
     read_text,
     read_xml_section,
@@ -106,33 +107,16 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
 # ---- KVN ---------------------------------------------------------------------------------
 def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
     cursor = KVNCursor(text, name)
-    first = cursor.peek()
-    if first is None:
-        raise CCSDSFormatError("the message is empty", source=name)
-    if first.kind != "keyword" or first.key != "CCSDS_OEM_VERS":
-        raise cursor.error("an OEM starts with CCSDS_OEM_VERS = <version>")
-    header = read_kvn_section(cursor, HEADER)
+    header = read_kvn_header(cursor, HEADER, "OEM")
     segments = []
     while not cursor.at_end():
-        comments = cursor.take_comments()
-        if cursor.at_end():
+        block = read_kvn_metadata_block(
+            cursor, METADATA, "OEM", not segments,
+            "the segment's metadata is empty (OBJECT_NAME, OBJECT_ID, CENTER_NAME, REF_FRAME, "
+            "TIME_SYSTEM, START_TIME, STOP_TIME)")
+        if block is None:
             break
-        if not cursor.at_block("META"):
-            line = cursor.peek()
-            what = line.key if line.kind == "keyword" else f"'{line.value[:40]}'"
-            raise cursor.error(f"expected META_START (a new segment), found {what}"
-                               + (": not an OEM header keyword" if not segments else ""))
-        start = cursor.next()
-        meta = read_kvn_section(cursor, METADATA, check=False)
-        if meta is None:
-            raise cursor.error("the segment's metadata is empty (OBJECT_NAME, OBJECT_ID, "
-                               "CENTER_NAME, REF_FRAME, TIME_SYSTEM, START_TIME, STOP_TIME)")
-        meta.comments = comments + meta.comments
-        line = cursor.peek()
-        if line is not None and line.kind == "keyword":
-            raise cursor.error(f"{line.key} is not an OEM metadata keyword (or is given twice)")
-        check_mandatory(meta, METADATA, name)
-        cursor.expect_block("META", "stop")
+        meta, start = block
         data_comments = cursor.take_comments()
         rows, state_comments = cursor.data_lines_with_comments()
         if not rows:

@@ -104,7 +104,8 @@ def read_omm(source) -> OMM:
     Raises
     ------
     CCSDSFormatError
-        Malformed input; the message names the line.
+        Malformed input, such as a ``NORAD_CAT_ID`` that is not a catalogue number (digits,
+        at most nine); the message names the line.
     """
     from .grammar import CCSDSFormatError
 
@@ -115,6 +116,15 @@ def read_omm(source) -> OMM:
                                "MEAN_MOTION", line=mean.line, source=name)
     if sections.get("covariance") is not None:
         check_record_variances(sections["covariance"], name)
+    tle = sections.get("tle_parameters")
+    if tle is not None and "NORAD_CAT_ID" in tle:
+        from ..satellites.catalog_numbers import catalogue_number
+
+        try:
+            catalogue_number(tle["NORAD_CAT_ID"])
+        except ValueError as exc:
+            raise CCSDSFormatError(str(exc), line=tle.lines.get("NORAD_CAT_ID"),
+                                   source=name) from None
     return OMM.from_sections(sections, name)
 
 
@@ -193,11 +203,11 @@ def _coerce(keyword, value):
             if not math.isfinite(value):
                 raise ValueError("not finite")
             return value
-        if keyword.type == "int":
-            if isinstance(value, str) and value.strip()[:1].isalpha():
-                from sgp4.alpha5 import from_alpha5
+        if keyword.name == "NORAD_CAT_ID":
+            from ..satellites.catalog_numbers import catalogue_number
 
-                return from_alpha5(value.strip())
+            return catalogue_number(value)
+        if keyword.type == "int":
             if isinstance(value, float) and not value.is_integer():
                 raise ValueError("not an integer")
             return int(value)

@@ -342,7 +342,29 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab["cross_track"] = arr[:, 5] * u.km
     tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
     tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
+    _warn_same_object(cat1, cat2, tab)
     return tab
+
+
+def _warn_same_object(cat1, cat2, tab) -> None:
+    """Warn when rows pair two element sets with one catalogue number (not 0): one object
+    twice, not a conjunction (kept, so that no close approach is ever dropped on a guess)."""
+    from .sources import SgpSource
+
+    if not (len(tab) and isinstance(cat1, SgpSource) and isinstance(cat2, SgpSource)):
+        return
+    n1 = cat1.catalog.satnums[tab["index1"]]
+    n2 = cat2.catalog.satnums[tab["index2"]]
+    same = (n1 == n2) & (n1 != 0)
+    if same.any():
+        import warnings
+
+        numbers = ", ".join(str(n) for n in sorted(set(n1[same].tolist()))[:5])
+        warnings.warn(
+            f"{int(same.sum())} of the {len(tab)} close approaches pair an object with itself "
+            f"(catalogue number {numbers}: two element sets of one object, not a conjunction). "
+            "Screen catalog.latest() (one set per object), or drop the rows whose objects "
+            "share a number.", UserWarning, stacklevel=3)
 
 
 def _check_memory(n_objects: int, n_steps: int, step_s: float) -> None:

@@ -2,7 +2,8 @@
 
 ``import visviva as vv`` gives :func:`~visviva.gibbs`, :func:`~visviva.herrick_gibbs`,
 :func:`~visviva.gauss_angles`, :class:`~visviva.Observations`, :func:`~visviva.fit_orbit` and
-:func:`~visviva.fit_tle`; the rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
+:func:`~visviva.fit_tle`, :func:`~visviva.read_tdm` and :class:`~visviva.TDM` (tracking data
+from CCSDS TDM files); the rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
 Names load lazily (PEP 562): importing ``visviva.od`` compiles nothing.
 """
 
@@ -25,6 +26,8 @@ _EXPORTS = {
     "fit_tle_batch": "tle_batch",
     "simulate_observations": "simulate",
     "simulate_tracking": "simulate",
+    "read_tdm": "tracking_data",
+    "TDM": "tracking_data",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -18,7 +18,12 @@ def add_parser(sub) -> None:
         "or an OMM. The fit's RMS and largest position difference go to standard error.")
     p.add_argument("ephemeris", help="OEM file (KVN or XML)")
     p.add_argument("--satnum", type=int, default=99999,
-                   help="catalogue number of the new element set (default 99999)")
+                   help="catalogue number of the new element set, up to nine digits (default "
+                   "99999, or the --initial set's)")
+    p.add_argument("--initial", default=None, metavar="FILE",
+                   help="an earlier element set of the object (TLE or OMM file; with several "
+                   "objects, the one numbered --satnum): carries the revolution number forward "
+                   "and gives the catalogue number")
     p.add_argument("--name", default=None, help="object name (default: the OEM's OBJECT_NAME)")
     p.add_argument("--epoch", default=None, metavar="ISO",
                    help="epoch of the element set, UTC (default: the first state)")
@@ -34,7 +39,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Run ``visviva fit-tle``; returns the exit code (0 on success, 1 on a failed fit, 2 for an
-    ephemeris that cannot be read or an output that cannot be written).
+    ephemeris or ``--initial`` file that cannot be read or an output that cannot be written).
 
     Parameters
     ----------
@@ -54,7 +59,8 @@ def run(args) -> int:
     try:
         mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
         eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
-    except (VisvivaError, ValueError) as exc:  # the file or --mission-epoch
+        initial = _initial(args.initial, args.satnum) if args.initial else None
+    except (VisvivaError, ValueError) as exc:  # the files or --mission-epoch
         print(f"visviva fit-tle: {exc}", file=sys.stderr)
         return 2
     try:
@@ -66,7 +72,7 @@ def run(args) -> int:
             object_id = None
         epoch = Time(args.epoch, scale="utc") if args.epoch else None
         sat = fit_tle(eph, satnum=args.satnum, fit_bstar=not args.no_bstar, bstar=args.bstar,
-                      epoch=epoch, name=name, object_id=object_id)
+                      epoch=epoch, name=name, object_id=object_id, initial=initial)
         if args.to == "tle":
             line1, line2 = sat.to_tle()
             text = (f"{name}\n" if name else "") + f"{line1}\n{line2}\n"
@@ -86,3 +92,20 @@ def run(args) -> int:
           + (f" +- {fit.sigma_bstar:.1e}" if fit.sigma_bstar is not None else " (held)"),
           file=sys.stderr)
     return write_output("fit-tle", args.output, text)
+
+
+def _initial(path: str, satnum: int):
+    """The element set of ``--initial``: the file's only one, or the one numbered ``satnum``."""
+    from ..errors import InvalidInputError
+    from ..satellites.catalog import read_catalog_file
+
+    cat = read_catalog_file(path)
+    if len(cat) == 1:
+        return cat[0]
+    match = [s for s in cat if s.satnum == satnum]
+    if not match:
+        numbers = ", ".join(str(n) for n in cat.satnums[:10])
+        raise InvalidInputError(f"{path} holds {len(cat)} element sets ({numbers}"
+                                f"{', ...' if len(cat) > 10 else ''}); pick the object with "
+                                "--satnum")
+    return max(match, key=lambda s: s.epoch.jd)  # the newest set of that object

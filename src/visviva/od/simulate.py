@@ -22,7 +22,7 @@ from .observations import KINDS, Observations
 
 __all__ = ["simulate_observations", "simulate_tracking"]
 
-#: default tracking: range 1 cm, range rate 10 um/s, azimuth/elevation 0.01 deg
+#: default tracking: range 10 m (0.010 km), range rate 1 cm/s (1e-5 km/s), azimuth/elevation 0.01 deg
 DEFAULT_TRACKING = (("range", 0.010), ("range_rate", 1e-5), ("azel", np.radians(0.01)))
 #: default elevation mask, rad (10 deg)
 MIN_ELEVATION_RAD = np.radians(10.0)
@@ -112,7 +112,7 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         Dynamics of the truth (None: two-body).
     measurements : sequence of (kind, sigma)
         What each station measures at each visible time, with the noise standard deviation in
-        km, km/s or rad (default: range 1 cm, range rate 10 um/s, az/el 0.01 deg).
+        km, km/s or rad (default: range 10 m, range rate 1 cm/s, az/el 0.01 deg).
     min_elevation : Quantity (angle) or float (rad)
         Elevation above which a station sees the satellite (default 10 deg).
     seed : int, numpy Generator or False, optional

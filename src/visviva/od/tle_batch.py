@@ -21,23 +21,24 @@ __all__ = ["fit_tle_batch"]
 
 
 def _fit_chunk(items, kwargs):
-    """Fit each (states, satnum) of a chunk; return picklable (OMM fields, fit report) pairs."""
+    """Fit each (states, satnum, initial) of a chunk; return picklable (OMM fields, fit report)
+    pairs."""
     from .tle_fit import fit_tle
 
     out = []
-    for states, satnum in items:
-        sat = fit_tle(states, satnum=satnum, **kwargs)
+    for states, satnum, initial in items:
+        sat = fit_tle(states, satnum=satnum, initial=initial, **kwargs)
         out.append((sat.fit.fields, dict(sat.fit.__dict__)))
     return out
 
 
 def _pack(items, frame):
-    """A chunk of (history, satnum) as a few flat arrays (one pickle frame each, not four per
+    """A chunk of (history, satnum, initial) as a few flat arrays (one pickle frame each, not four per
     history: Dask's transfer cost is per frame), read here with fit_tle's own input reader."""
     from .tle_fit import states_and_times
 
     rs, vs, jd1, jd2, scales, frames, counts = [], [], [], [], [], [], []
-    for states, _ in items:
+    for states, _, _ in items:
         r, v, t, fr = states_and_times(states, None, frame)
         rs.append(r)
         vs.append(v)
@@ -48,7 +49,8 @@ def _pack(items, frame):
         counts.append(len(r))
     return {"r": np.concatenate(rs), "v": np.concatenate(vs), "jd1": np.concatenate(jd1),
             "jd2": np.concatenate(jd2), "scale": scales, "frame": frames,
-            "count": np.asarray(counts), "satnum": [s for _, s in items]}  # fmt: skip
+            "count": np.asarray(counts), "satnum": [s for _, s, _ in items],
+            "initial": [i for _, _, i in items]}  # fmt: skip
 
 
 def _fit_packed(packed, kwargs):
@@ -63,12 +65,13 @@ def _fit_packed(packed, kwargs):
         sl = slice(stop - packed["count"][k], stop)
         t = Time(packed["jd1"][sl], packed["jd2"][sl], format="jd", scale=packed["scale"][k])
         sat = fit_tle_arrays(packed["r"][sl], packed["v"][sl], t, packed["frame"][k], satnum,
-                             **kwargs)  # fmt: skip
+                             initial=packed["initial"][k], **kwargs)  # fmt: skip
         out.append((sat.fit.fields, dict(sat.fit.__dict__)))
     return out
 
 
-def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs):
+def fit_tle_batch(histories, satnums=None, *, initials=None, client=None, chunks=None,
+                  **kwargs):  # fmt: skip
     """Fit one element set per state history, serially or on a Dask ``Client``.
 
     Parameters
@@ -77,7 +80,11 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
         State histories, each what :func:`~visviva.fit_tle` takes (a ``StateVectors`` with
         an epoch array, a ``CowellResult`` or an OEM ephemeris).
     satnums : sequence of int, optional
-        Catalogue number of each new element set (default 99999 for all).
+        Catalogue number of each new element set (default 99999 for all, or each initial
+        set's number).
+    initials : sequence of Satellite or None, optional
+        An earlier element set of each object (``initial`` of :func:`~visviva.fit_tle`: the
+        revolution number is carried forward), or None for a history without one.
     client : distributed.Client, optional
         Runs the fits on the cluster, ``chunks`` histories per task (worker processes give
         real parallelism: SGP4 holds the GIL); None fits here, one after another.
@@ -110,7 +117,8 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
     Raises
     ------
     InvalidInputError
-        ``satnums`` of another length than ``histories``.
+        ``satnums`` or ``initials`` of another length than ``histories``; ``initial=`` (one
+        set for every history) instead of ``initials=``.
     """
     from .tle_fit import TLEFit, satellite_from_fields
 
@@ -120,7 +128,15 @@ def fit_tle_batch(histories, satnums=None, *, client=None, chunks=None, **kwargs
         raise InvalidInputError(
             f"{len(satnums)} satnums for {len(histories)} histories; give one per history."
         )
-    items = list(zip(histories, satnums, strict=True))
+    if "initial" in kwargs:
+        raise InvalidInputError("fit_tle_batch takes initials=[...], one element set (or None) "
+                                "per history, not initial=.")
+    initials = [None] * len(histories) if initials is None else list(initials)
+    if len(initials) != len(histories):
+        raise InvalidInputError(
+            f"{len(initials)} initials for {len(histories)} histories; give one per history "
+            "(None where there is none).")
+    items = list(zip(histories, satnums, initials, strict=True))
     if client is None:
         results = _fit_chunk(items, kwargs)
     else:

@@ -25,6 +25,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
+from ..satellites.catalog_numbers import CATALOGUE_MAX, sgp4_number
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
 
@@ -220,7 +221,7 @@ def _sgp4_states(p, epoch_days, satnum, jd, fr):
         return None
     argp = math.atan2(p[2], p[1]) if ecc > 0 else 0.0
     sat = Satrec()
-    sat.sgp4init(WGS72, "i", int(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
+    sat.sgp4init(WGS72, "i", sgp4_number(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
                  argp % (2 * math.pi), p[3], (p[5] - argp) % (2 * math.pi), p[0],
                  p[4] % (2 * math.pi))  # fmt: skip
     e, r, v = sat.sgp4_array(jd, fr)
@@ -268,6 +269,42 @@ def satellite_from_fields(fields):
     return sat
 
 
+def _from_initial(initial, satnum, name, object_id):
+    """``satnum``, ``name``, ``object_id`` with the defaults an initial element set gives."""
+    if initial is None:
+        return satnum, name, object_id
+    from ..satellites.tle import Satellite
+
+    if not isinstance(initial, Satellite):
+        raise InvalidInputError(
+            f"initial must be a vv.Satellite (an element set of the same object, e.g. "
+            f"vv.Satellite.from_tle(...)); got {type(initial).__name__}.")
+    if satnum == 99999:
+        satnum = initial.satnum
+    if object_id is None:
+        object_id = initial.to_omm()["OBJECT_ID"] or None
+    return satnum, name or initial.name, object_id
+
+
+def _fill_unused_fields(sat, fields, initial):
+    """The fitted satellite with the fields SGP4 ignores filled in ``fields`` and rebuilt:
+    ``MEAN_MOTION_DOT`` from its own mean motion, ``REV_AT_EPOCH`` carried from ``initial``."""
+    from ..satellites.tle_checks import SGP4Error
+    from ..satellites.tle_fields import mean_motion_dot, revolutions_between
+
+    fields["MEAN_MOTION_DOT"] = mean_motion_dot(sat.satrec)
+    if initial is not None:
+        try:
+            crossings, _ = revolutions_between(initial, sat)
+        except SGP4Error as exc:  # a set that decays before the midpoint: keep the fit
+            warnings.warn(f"the revolution number was not carried from initial (left 0): "
+                          f"{exc}", RuntimeWarning, stacklevel=4)
+        else:
+            rev = int(initial.satrec.revnum) + crossings
+            fields["REV_AT_EPOCH"] = rev if rev >= 0 else rev % 100000  # a wrapped 5-digit field
+    return satellite_from_fields(fields)
+
+
 def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
     """OMM fields made directly from an osculating TEME state: the naive TLE, for comparison."""
     p = _initial_elements(np.asarray(r_teme), np.asarray(v_teme), bstar)
@@ -275,7 +312,7 @@ def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
 
 
 def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
-            frame=None, name=None, object_id=None, max_iterations=50,
+            frame=None, name=None, object_id=None, initial=None, max_iterations=50,
             tol=1e-8):  # fmt: skip
     """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
 
@@ -290,7 +327,9 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     times : astropy Time (N,), optional
         Times of the states, when ``states`` carries none.
     satnum : int
-        Catalogue number of the new element set (alpha-5 is used above 99999 on output).
+        Catalogue number of the new element set, 1 .. 999,999,999 (``to_tle()`` writes alpha-5
+        above 99,999 and refuses numbers above 339,999, which only an OMM can carry). With
+        ``initial`` and the default 99999: ``initial``'s number.
     fit_bstar : bool
         Fit the drag term B* too (default); otherwise it is held at ``bstar``.
     bstar : float
@@ -306,6 +345,11 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         Object name of the new element set.
     object_id : str, optional
         International designator (``"1998-067A"``); blank in the TLE when not given.
+    initial : Satellite, optional
+        An earlier (or later) element set of the same object, e.g. the TLE or OMM the states
+        were propagated from: the new set carries its revolution number forward (see Notes)
+        and takes its catalogue number, name and designator where ``satnum``, ``name`` and
+        ``object_id`` are not given. Without it ``REV_AT_EPOCH`` is 0 (unknown).
     max_iterations : int
         Differential-correction iterations allowed.
     tol : float
@@ -331,7 +375,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     -----
     RuntimeWarning
         B* was fitted but the states do not determine it (its formal 1-sigma, ``fit.sigma_bstar``,
-        exceeds 1e-4 1/earth radii and half its value): an arc too short for drag to show.
+        exceeds 1e-4 1/earth radii and half its value): an arc too short for drag to show. Or
+        the revolution number carried from ``initial`` may be off (the two sets disagree along
+        track, or drag over the gap between them is large: see
+        :func:`visviva.satellites.tle_fields.revolutions_between`).
 
     Notes
     -----
@@ -344,16 +391,25 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     Vallado & Crawford 2008). GCRS states are rotated to TEME with astropy
     (:func:`visviva.satellites.frames.transform_matrices`). On states that SGP4 itself
     generated, the fit recovers the trajectory to well below a metre.
+
+    The fields SGP4 does not use are filled as a published element set has them
+    (:mod:`visviva.satellites.tle_fields`): ``MEAN_MOTION_DOT`` (the TLE's ndot/2, rev/day**2)
+    is half the rate of change of the fitted set's SGP4 mean motion at its epoch (the drag the
+    fitted B* implies; same sign and magnitude as the published field of real TLEs), and
+    ``REV_AT_EPOCH`` is ``initial``'s plus the ascending-node crossings between the two epochs,
+    counted from SGP4's mean argument of latitude. ``MEAN_MOTION_DDOT`` is 0, as in nearly
+    every published set. Propagation does not depend on them.
     """
     if frame not in (None, "gcrs", "teme"):
         raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
     r, v, t, frame = states_and_times(states, times, frame)
     return fit_tle_arrays(r, v, t, frame, satnum, fit_bstar, bstar, epoch=epoch, name=name,
-                          object_id=object_id, max_iterations=max_iterations, tol=tol)
+                          object_id=object_id, initial=initial, max_iterations=max_iterations,
+                          tol=tol)
 
 
 def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bstar=0.0, *,
-                   epoch=None, name=None, object_id=None, max_iterations=50,
+                   epoch=None, name=None, object_id=None, initial=None, max_iterations=50,
                    tol=1e-8):  # fmt: skip
     """:func:`fit_tle` on plain arrays: what it calls once it has read its input.
 
@@ -382,6 +438,9 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         Object name.
     object_id : str, optional
         International designator.
+    initial : Satellite, optional
+        An element set of the same object (revolution number, and defaults for the number,
+        name and designator; see :func:`fit_tle`).
     max_iterations : int
         Iterations allowed.
     tol : float
@@ -438,8 +497,12 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     if not bstar_ok:
         raise InvalidInputError(
             f"bstar must be a finite number (1/earth radii, as in a TLE); got {bstar!r}.")
-    if not (isinstance(satnum, int | np.integer) and 0 < satnum < 340000):
-        raise InvalidInputError(f"satnum must be an integer in 1..339999; got {satnum!r}.")
+    satnum, name, object_id = _from_initial(initial, satnum, name, object_id)
+    if not (isinstance(satnum, int | np.integer) and not isinstance(satnum, bool)
+            and 0 < satnum <= CATALOGUE_MAX):
+        raise InvalidInputError(
+            f"satnum must be a catalogue number, an integer in 1..{CATALOGUE_MAX}; got "
+            f"{satnum!r}.")
     if frame != "teme":
         m = transform_matrices(t, frame, "teme")
         y = np.einsum("nij,nj->ni", m, np.concatenate([r, v], axis=1))
@@ -557,7 +620,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
     if not object_id:
         fields["OBJECT_ID"] = ""
-    sat = satellite_from_fields(fields)
+    sat = _fill_unused_fields(satellite_from_fields(fields), fields, initial)
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(

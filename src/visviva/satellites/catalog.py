@@ -201,7 +201,30 @@ class Catalog:
 
     @property
     def satnums(self) -> np.ndarray:
+        """Catalogue numbers (int64, shape (N,); up to nine digits)."""
         return np.array([s.satnum for s in self.satellites], dtype=np.int64)
+
+    def latest(self) -> Catalog:
+        """One satellite per catalogue number: the element set with the latest epoch.
+
+        A file may hold an object more than once (an element-set history, or two downloads
+        joined): screening such a catalogue pairs the object with itself, and passes are
+        listed once per element set. This keeps, for each catalogue number, the set with the
+        latest epoch (the later in the file on a tie), in the order of first appearance;
+        satellites numbered 0 (unknown) are all kept.
+
+        Returns
+        -------
+        Catalog
+        """
+        jd, fr = self.epoch_days
+        chosen: dict = {}  # number -> index (a dict keeps each number's first place)
+        for k, number in enumerate(self.satnums.tolist()):
+            key = ("unknown", k) if number == 0 else number
+            j = chosen.get(key)
+            if j is None or (jd[k] - jd[j]) + (fr[k] - fr[j]) >= 0:
+                chosen[key] = k
+        return Catalog(self.satellites[k] for k in chosen.values())
 
     @cached_property
     def satrec_array(self):
@@ -316,20 +339,31 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
 
 
 def read_omm_file(path, *, format: str | None = None) -> Catalog:
-    """Read OMM records (CelesTrak GP data) from a JSON, CSV or XML file.
+    """Read OMM records (GP data of CelesTrak or Space-Track) from a JSON, CSV, XML or KVN file.
 
-    A CCSDS KVN OMM (what :func:`visviva.write_omm` writes by default) is one message: read it
-    with ``vv.Catalog.from_omm([vv.read_omm(path)])``.
+    Catalogue numbers may have up to nine digits (18 SDS publishes those above 339,999 in OMMs
+    only). A KVN file holds one CCSDS OMM (what :func:`visviva.write_omm` writes by default) or
+    many one after another (each from its ``CCSDS_OMM_VERS`` line), as Space-Track's KVN GP
+    data does.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file.
-    format : {"json", "csv", "xml"}, optional
-        Taken from the file extension when not given.
+    format : {"json", "csv", "xml", "kvn"}, optional
+        Taken from the file extension when not given; a file whose extension is none of these
+        is read as KVN when it starts with ``CCSDS_OMM_VERS``.
+
+    Returns
+    -------
+    Catalog
+        One satellite per record, in file order (an object that appears twice is there twice:
+        see :meth:`Catalog.latest`).
 
     Raises
     ------
+    MissingFileError
+        No such file (also a ``FileNotFoundError``).
     InvalidInputError
         Naming the file and the line (bytes that are not UTF-8, JSON or XML syntax, a CSV
         record) or the record number (1-based) of the first bad record.

@@ -14,11 +14,11 @@ import io
 import os
 
 from .._text import utf8_text
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, MissingFileError
 from .tle import Satellite, TLEFormatError
 
 __all__ = ["tle_text_satellites", "tle_file_satellites", "omm_file_satellites",
-           "catalog_file_satellites", "decode_tle_bytes"]
+           "catalog_file_satellites", "decode_tle_bytes", "warn_duplicates"]
 
 
 def tle_text_satellites(text: str, *, source: str = "<text>", verify_checksum: bool = True) -> list:
@@ -62,7 +62,28 @@ def tle_text_satellites(text: str, *, source: str = "<text>", verify_checksum: b
         i += 1
     if name is not None:
         raise TLEFormatError(f"{source} ends with the name line {name!r} and no element set.")
+    warn_duplicates(sats, source)
     return sats
+
+
+def warn_duplicates(sats, source: str) -> None:
+    """Warn (``UserWarning``) when catalogue numbers other than 0 appear more than once among
+    the satellites read from ``source``, naming them and what to do."""
+    import warnings
+    from collections import Counter
+
+    counts = Counter(s.satnum for s in sats if s.satnum != 0)
+    twice = [(n, c) for n, c in counts.items() if c > 1]
+    if not twice:
+        return
+    listed = ", ".join(f"{n} ({c} element sets)" for n, c in twice[:5])
+    more = f" and {len(twice) - 5} more" if len(twice) > 5 else ""
+    warnings.warn(
+        f"{source}: catalogue number {listed}{more} appears more than once. The catalogue "
+        "keeps every element set, so screening pairs such an object with itself and passes are "
+        "listed once per set: keep the newest set of each object (catalog.latest()), or remove "
+        "the older sets from the file.",
+        UserWarning, stacklevel=2)
 
 
 def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
@@ -71,10 +92,26 @@ def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
         text = path.read()
         source = getattr(path, "name", "<file>")
     else:
-        with open(os.fspath(path), "rb") as f:
-            text = decode_tle_bytes(f.read())
+        text = decode_tle_bytes(_file_bytes(path, "element sets"))
         source = os.fspath(path)
     return tle_text_satellites(text, source=str(source), verify_checksum=verify_checksum)
+
+
+def _file_bytes(path, what: str) -> bytes:
+    """The bytes of a catalogue file; a missing file or a directory raises an error that names
+    the path and says what to do (a :class:`~visviva.errors.MissingFileError` is also a
+    ``FileNotFoundError``)."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise InvalidInputError(f"{path!r} is a directory; pass the path of a file of {what}.")
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except FileNotFoundError:
+        raise MissingFileError(
+            path, f"check the name, or download the {what} first (e.g. CelesTrak's GP data, "
+            "https://celestrak.org/NORAD/elements/, in TLE, JSON, CSV or XML); visviva never "
+            "downloads them itself.") from None
 
 
 def decode_tle_bytes(raw: bytes) -> str:
@@ -89,30 +126,18 @@ def decode_tle_bytes(raw: bytes) -> str:
         return raw.decode("latin-1")
 
 
-def _is_kvn_omm(path: str) -> bool:
-    """Whether the file starts (comments and blank lines aside) with ``CCSDS_OMM_VERS``."""
-    try:
-        with open(path, "rb") as f:
-            return _ccsds_kind(f.read(4096).lstrip(b"\xef\xbb\xbf")) == "OMM"
-    except OSError:
-        return False
-
-
 def omm_file_satellites(path, *, format: str | None = None) -> list:
     """The satellites of :func:`visviva.satellites.catalog.read_omm_file` (which see), as a list."""
     path = os.fspath(path)
+    raw = _file_bytes(path, "OMM records")
     fmt = (format or os.path.splitext(path)[1].lstrip(".")).lower()
-    if fmt not in ("json", "csv", "xml"):
-        if _is_kvn_omm(path):
+    if fmt not in ("json", "csv", "xml", "kvn"):
+        if format is not None or _ccsds_kind(raw.lstrip(b"\xef\xbb\xbf")[:4096]) != "OMM":
             raise InvalidInputError(
-                f"{path} is a KVN OMM (what vv.write_omm writes); read it with "
-                "vv.Catalog.from_omm([vv.read_omm(path)])."
+                f"cannot tell the OMM format of {path!r}; pass format='json', 'csv', 'xml' or "
+                "'kvn'."
             )
-        raise InvalidInputError(
-            f"cannot tell the OMM format of {path!r}; pass format='json', 'csv' or 'xml'."
-        )
-    with open(path, "rb") as f:
-        raw = f.read()
+        fmt = "kvn"  # (CCSDS_OMM_VERS first: what vv.write_omm and Space-Track's KVN write)
     return _omm_text_satellites(_decode_utf8(raw, path), path, fmt)
 
 
@@ -149,8 +174,7 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
                 records.append(rec)
                 where.append(reader.line_num)
         elif fmt == "kvn":
-            records = [_kvn_omm_record(text, path)]
-            where.append(1)
+            records, where = _kvn_omm_records(text, path)
         else:
             records, where = _omm_xml_records(text, path)
     except json.JSONDecodeError as exc:
@@ -169,16 +193,20 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
         except InvalidInputError as exc:
             line = f", line {where[k - 1]}" if where else ""
             raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
+    warn_duplicates(sats, path)
     return sats
 
 
-def _kvn_omm_record(text: str, path: str) -> dict:
-    """The ``KEYWORD = value`` pairs of a CCSDS KVN OMM (units in brackets dropped).
+def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
+    """The ``KEYWORD = value`` pairs (units in brackets dropped) of each CCSDS KVN OMM in
+    ``text`` (one message, or many one after another as Space-Track's and CelesTrak's KVN GP
+    data hold them: each ``CCSDS_OMM_VERS`` starts the next), and the line each starts on.
 
     The layers keep :mod:`visviva.satellites` below :mod:`visviva.ccsds`, so a catalogue file
     is read here; :func:`visviva.read_omm` is the full CCSDS reader (every section checked),
     and both give the same satellite (tests/test_ccsds_convert.py)."""
-    fields = {}
+    records, starts = [], []
+    fields = None
     for number, line in enumerate(text.replace("\r\n", "\n").split("\n"), start=1):
         stripped = line.strip()
         if not stripped or stripped == "COMMENT" or stripped.startswith(("COMMENT ", "COMMENT\t")):
@@ -190,14 +218,22 @@ def _kvn_omm_record(text: str, path: str) -> dict:
                 f"{path}, line {number}: expected 'KEYWORD = value' of a KVN OMM, got "
                 f"{stripped[:60]!r}."
             )
-        if key in fields:
-            raise InvalidInputError(f"{path}, line {number}: {key} appears twice; an OMM "
-                                    "holds one satellite.")
+        if fields is None or key == "CCSDS_OMM_VERS":
+            fields = {}
+            records.append(fields)
+            starts.append(number)
+        elif key in fields:
+            raise InvalidInputError(
+                f"{path}, line {number}: {key} appears twice in the OMM that starts on line "
+                f"{starts[-1]}; each OMM (from its CCSDS_OMM_VERS line on) holds one satellite."
+            )
         value = value.strip()
         if value.endswith("]") and "[" in value:
             value = value[:value.rindex("[")].strip()
         fields[key] = value
-    return fields
+    if not records:
+        raise InvalidInputError(f"{path}: no 'KEYWORD = value' lines; the file is empty.")
+    return records, starts
 
 
 def catalog_file_satellites(path) -> list:
@@ -205,8 +241,7 @@ def catalog_file_satellites(path) -> list:
     if isinstance(path, io.TextIOBase) or hasattr(path, "read"):
         return tle_file_satellites(path)
     path = os.fspath(path)
-    with open(path, "rb") as f:
-        raw = f.read()
+    raw = _file_bytes(path, "element sets")
     head = raw.lstrip(b"\xef\xbb\xbf \t\r\n")[:4096]
     first = head.split(b"\n", 1)[0].upper()
     lines = [line for line in head.split(b"\n", 4)[:4] if line.strip()]

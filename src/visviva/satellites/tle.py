@@ -24,6 +24,7 @@ from ..errors import (
     InvalidElementsError,
     InvalidInputError,
 )
+from .catalog_numbers import catalogue_number, sgp4_number
 from .satellite_states import SatelliteStates
 from .tle_checks import (
     MINUTES_PER_DAY,
@@ -147,24 +148,6 @@ def _check_sgp4_metadata(fields) -> None:
         )
 
 
-def _catalogue_number(value) -> int:
-    """An OMM's ``NORAD_CAT_ID`` as an int: a number, or an alpha-5 string (one letter A-Z
-    without I and O, then four digits: ``"A0001"`` is 100001); anything else raises ValueError
-    saying what is accepted."""
-    if isinstance(value, float) and value.is_integer() and value >= 0:
-        value = int(value)
-    text = str(value).strip()
-    if re.fullmatch(r"[A-HJ-NP-Z][0-9]{4}", text):
-        from sgp4.alpha5 import from_alpha5
-
-        return int(from_alpha5(text))
-    if re.fullmatch(r"[0-9]+", text):
-        return int(text)
-    raise ValueError(
-        f"NORAD_CAT_ID {value!r} is neither a catalogue number (digits) nor an alpha-5 number "
-        "(a letter A-Z other than I and O, then four digits, e.g. 'A0001')"
-    )
-
 class Satellite:
     """An Earth satellite described by SGP4 mean elements (from a TLE or an OMM record).
 
@@ -177,11 +160,19 @@ class Satellite:
         Object name (the catalogue number when none was given).
     satrec : sgp4.api.Satrec
         The sgp4 record (WGS-72 constants, improved mode, as in the SGP4 verification set).
+        For a catalogue number above 339,999 its ``satnum`` is the placeholder 0 (sgp4 cannot
+        hold the number); :attr:`satnum` is the real one.
     """
 
-    def __init__(self, satrec, name=None, source=None):
+    def __init__(self, satrec, name=None, source=None, *, satnum=None):
         self.satrec = satrec
-        self.name = str(name).strip() if name else satrec.satnum_str.strip()
+        # a catalogue number above sgp4's alpha-5 limit lives here (sgp4 holds a placeholder:
+        # visviva.satellites.catalog_numbers); None: the record's own
+        self._satnum = None if satnum is None or satnum == satrec.satnum else int(satnum)
+        if name:
+            self.name = str(name).strip()
+        else:
+            self.name = satrec.satnum_str.strip() if self._satnum is None else str(self._satnum)
         self._source = source
 
     # -- constructors ------------------------------------------------------------------------
@@ -280,7 +271,7 @@ class Satellite:
         clean.update({k: v for k, v in fields.items() if v not in (None, "")})
         clean["EPOCH"] = _omm_epoch(clean["EPOCH"])
         try:
-            clean["NORAD_CAT_ID"] = _catalogue_number(clean["NORAD_CAT_ID"])
+            clean["NORAD_CAT_ID"] = catalogue_number(clean["NORAD_CAT_ID"])
             for k in ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",
                       "ARG_OF_PERICENTER", "MEAN_ANOMALY", "BSTAR", "MEAN_MOTION_DOT",
                       "MEAN_MOTION_DDOT"):
@@ -305,19 +296,24 @@ class Satellite:
             InvalidElementsError,
             OMM_KEYS,
         )
+        number = clean["NORAD_CAT_ID"]
         try:
-            omm.initialize(satrec, clean, WGS72)
+            omm.initialize(satrec, {**clean, "NORAD_CAT_ID": sgp4_number(number)}, WGS72)
         except (TypeError, ValueError, OverflowError) as exc:  # (an int field of 1e999, say)
             raise InvalidInputError(
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} has a bad value: {exc}."
             ) from exc
-        return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean))
+        return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
 
     # -- attributes --------------------------------------------------------------------------
     @property
     def satnum(self) -> int:
-        """NORAD catalogue number (alpha-5 numbers decoded, e.g. ``A0001`` -> 100001)."""
-        return int(self.satrec.satnum)
+        """NORAD catalogue number (alpha-5 numbers decoded, e.g. ``A0001`` -> 100001).
+
+        Up to nine digits: an OMM's number above 339,999 (which sgp4's record cannot hold; it
+        carries the placeholder 0 there) is kept here.
+        """
+        return int(self.satrec.satnum) if self._satnum is None else self._satnum
 
     @cached_property
     def epoch(self) -> Time:
@@ -360,11 +356,12 @@ class Satellite:
         Raises
         ------
         InvalidInputError
-            A value that does not fit the TLE's columns (use :meth:`to_omm` instead).
+            A value that does not fit the TLE's columns (use :meth:`to_omm` instead), such as
+            a catalogue number above 339,999 (alpha-5 ``Z9999``): those exist only in OMMs.
         """
         from .tle_export import to_tle
 
-        return to_tle(self.satrec)
+        return to_tle(self.satrec, self.satnum)
 
     def to_omm(self) -> dict:
         """The CCSDS OMM fields (the keys of ``sgp4.exporter.export_omm``), full precision.
@@ -376,7 +373,7 @@ class Satellite:
         """
         from .tle_export import to_omm
 
-        return to_omm(self.satrec, self.name)
+        return to_omm(self.satrec, self.name, self.satnum)
 
     # -- propagation -------------------------------------------------------------------------
     def _sgp4(self, t):

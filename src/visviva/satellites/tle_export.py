@@ -2,8 +2,8 @@
 
 The TLE columns follow the format of Hoots & Roehrich (Spacetrack Report No. 3, 1980) and
 CelesTrak's "NORAD Two-Line Element Set Format"; catalogue numbers above 99999 are written in
-the alpha-5 scheme (a letter for the leading two digits, I and O skipped: 100000 -> A0000, up to
-339999 -> Z9999). The OMM fields are the keys that ``sgp4.exporter.export_omm`` gives, with the
+the alpha-5 scheme (:mod:`visviva.satellites.catalog_numbers`; up to 339999 -> Z9999, larger
+numbers only in OMMs). The OMM fields are the keys that ``sgp4.exporter.export_omm`` gives, with the
 same values, so the OMM reproduces the sgp4 record.
 """
 
@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InvalidInputError
+from .catalog_numbers import tle_number
 from .tle_checks import tle_checksum  # the one checksum rule (read and write)
 
 __all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent", "epoch_text"]
@@ -71,22 +72,16 @@ def _epoch_year(satrec) -> int:
     return (datetime(1949, 12, 31) + timedelta(days=days)).year
 
 
-def _satnum(satnum: int) -> str:
-    from sgp4.alpha5 import to_alpha5
-
-    if not 0 < satnum <= 339999:
-        raise InvalidInputError(f"catalogue number {satnum} cannot be written in a TLE "
-                                "(1 .. 339999 with alpha-5); use to_omm()")
-    return to_alpha5(satnum) if satnum > 99999 else f"{satnum:05d}"
-
-
-def to_tle(satrec) -> tuple[str, str]:
+def to_tle(satrec, satnum: int | None = None) -> tuple[str, str]:
     """The two TLE lines of an sgp4 record, with checksums and alpha-5 catalogue numbers.
 
     Parameters
     ----------
     satrec : sgp4.api.Satrec
         The record (from a TLE, an OMM or a fit).
+    satnum : int, optional
+        Catalogue number (default: the record's; :attr:`visviva.Satellite.satnum` passes
+        numbers above 339,999, which the record cannot hold, and are refused here).
 
     Returns
     -------
@@ -99,7 +94,7 @@ def to_tle(satrec) -> tuple[str, str]:
         A value that the TLE's fixed columns cannot hold (eccentricity >= 1, mean motion >= 100
         rev/day, |mean motion derivative| >= 1 rev/day**2, a catalogue number above 339999).
     """
-    num = _satnum(int(satrec.satnum))
+    num = tle_number(int(satrec.satnum) if satnum is None else satnum)
     cls = (getattr(satrec, "classification", "U") or "U").strip()[:1] or "U"
     intl = (getattr(satrec, "intldesg", "") or "").strip()[:8]
     ndot = satrec.ndot * _XPDOTP * 1440.0  # rev/day**2 (the TLE's n-dot/2)
@@ -187,7 +182,7 @@ def _inverse(target: float, forward) -> float:
     return guess
 
 
-def to_omm(satrec, name: str) -> dict:
+def to_omm(satrec, name: str, satnum: int | None = None) -> dict:
     """The CCSDS OMM fields of an sgp4 record (the keys of ``sgp4.exporter.export_omm``).
 
     Parameters
@@ -196,6 +191,8 @@ def to_omm(satrec, name: str) -> dict:
         The record.
     name : str
         ``OBJECT_NAME``.
+    satnum : int, optional
+        ``NORAD_CAT_ID`` (default: the record's; up to nine digits).
 
     Returns
     -------
@@ -238,7 +235,7 @@ def to_omm(satrec, name: str) -> dict:
         "MEAN_ANOMALY": _inverse(satrec.mo, lambda x: x * rad),
         "EPHEMERIS_TYPE": int(satrec.ephtype),
         "CLASSIFICATION_TYPE": (getattr(satrec, "classification", "U") or "U"),
-        "NORAD_CAT_ID": int(satrec.satnum),
+        "NORAD_CAT_ID": int(satrec.satnum) if satnum is None else int(satnum),
         "ELEMENT_SET_NO": int(satrec.elnum),
         "REV_AT_EPOCH": int(satrec.revnum),
         "BSTAR": satrec.bstar,

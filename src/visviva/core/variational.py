@@ -16,14 +16,14 @@ Partials included, each exact for its force term:
 
 * two-body: da/dr = -GM/r^3 (I - 3 r r^T / r^2);
 * zonal harmonics J_2 .. J_n: the Hessian of the zonal potential of any degree
-  (:func:`_add_zonal_gradient`); for a full spherical-harmonic field its zonal part
-  (J_n = -C_n0) about the propagation z axis, the tesseral terms being left out of the
-  Jacobian (below 1e-3 of J2's partials in low orbit: they slow the convergence of a fit by
-  nothing measurable and do not change its solution, which is set by the residuals computed
-  with the full force model);
+  (:func:`_add_zonal_gradient`); a full spherical-harmonic field (tesseral terms, the body
+  frame's orientation): the Hessian of its potential from Cunningham's recursions
+  (:func:`_add_harmonics_gradient`; before, its zonal part alone, which left the covariance
+  of a LEO day with a degree-4 field 1 % off);
 * drag: da/dv = -rho B/2 (|w| I + w w^T/|w|), w = v - omega x r, and da/dr from the
-  co-rotation and from the altitude gradient of the density, d ln rho / dh = -1/H
-  (exponential table) or the slope of the tabulated ln rho along altitude (NRLMSIS grid);
+  co-rotation and from the gradient of the density: d ln rho / dh = -1/H along the geodetic
+  altitude (exponential table), or central differences of 1 m of the gridded ln rho along
+  x, y, z (NRLMSIS grid: altitude, latitude and hour angle from the Sun);
 * third bodies: da/dr = GM_b (3 d d^T / d^5 - I / d^3), d = r_b - r;
 * SRP (cannonball): da/dr = k nu (I/d^3 - 3 d d^T/d^5), plus in the conical shadow's penumbra
   the change of the visible fraction nu of the Sun, k d grad(nu)^T / d^3
@@ -62,9 +62,10 @@ from .cowell_events import (
 )
 from .perturbations import (
     cowell_rhs,
+    cunningham_vw,
     exponential_density,
     geodetic_altitude,
-    grid_density,
+    grid_density_at,
     hermite_position,
     shadow_fraction,
 )
@@ -77,6 +78,8 @@ _SAFETY = 0.9
 _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
+#: Step of the central differences of the gridded density (NRLMSIS), km.
+_DENSITY_STEP_KM = 1e-3
 
 
 @kernel
@@ -191,13 +194,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     if int(force[fb.ZONAL_DEGREE]) >= 2:
         _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]), dadr)
     elif force[fb.HARMONICS_DEGREE] >= 2.0:
-        # the field's zonal part, J_n = -C_n0 (unnormalised), about the propagation z axis;
-        # the tesseral terms are left out of the partials (see the module notes)
-        n_sh = int(force[fb.HARMONICS_DEGREE])
-        jn = np.zeros(n_sh + 1)
-        for n in range(2, n_sh + 1):
-            jn[n] = -sh[0, n, 0]
-        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], jn, n_sh, dadr)
+        _add_harmonics_gradient(t, x, yy, z, force, sh, dadr)
     sun = int(force[fb.SUN_ROW])
     sun_pos = np.empty(3)
     pos = np.empty(3)
@@ -210,28 +207,39 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         wy = y[4] - omega * x
         wz = y[5]
         w = math.sqrt(wx * wx + wy * wy + wz * wz)
-        h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-        r = math.sqrt(x * x + yy * yy + z * z)
+        grad = np.empty(3)  # d ln(rho) / d r, 1/km
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            lat = math.asin(z / r)
-            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
-            if ha > math.pi:
-                ha -= 2.0 * math.pi
-            elif ha < -math.pi:
-                ha += 2.0 * math.pi
-            rho = grid_density(h, lat, ha, force, atm)
-            # slope of the tabulated ln(rho) along altitude at this point
-            step = force[fb.DENSITY_GRID + 1]
-            up = grid_density(h + 0.5 * step, lat, ha, force, atm)
-            down = grid_density(h - 0.5 * step, lat, ha, force, atm)
-            dlnrho_dh = (math.log(up) - math.log(down)) / step
+            # the gridded ln(rho) is trilinear in (altitude, latitude, hour angle) in each
+            # cell: central differences of 1 m give its gradient along all three (before:
+            # the altitude slope alone, 0.2 % off in the covariance of a LEO day)
+            rho = grid_density_at(x, yy, z, sun_pos, force, atm)
+            for j in range(3):
+                pos[0] = x
+                pos[1] = yy
+                pos[2] = z
+                pos[j] += _DENSITY_STEP_KM
+                up = grid_density_at(pos[0], pos[1], pos[2], sun_pos, force, atm)
+                pos[j] -= 2.0 * _DENSITY_STEP_KM
+                down = grid_density_at(pos[0], pos[1], pos[2], sun_pos, force, atm)
+                grad[j] = (math.log(up) - math.log(down)) / (2.0 * _DENSITY_STEP_KM)
         else:
+            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
+            r = math.sqrt(x * x + yy * yy + z * z)
             rho = exponential_density(h, atm)
             k = 0
             n = atm.shape[0]
             while k + 1 < n and h >= atm[k + 1, 0]:
                 k += 1
             dlnrho_dh = -1.0 / atm[k, 2]
+            # d h / d r = r_hat + R f d(s^2)/d r, s = z / r
+            s = z / r
+            fr = force[fb.RADIUS] * force[fb.FLATTENING]
+            posv = (x, yy, z)
+            for j in range(3):
+                dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
+                if j == 2:
+                    dh += fr * 2.0 * s / r
+                grad[j] = dlnrho_dh * dh
         rho_km = rho * 1e9
         c = -0.5 * rho_km * bc
         wv = (wx, wy, wz)
@@ -243,16 +251,9 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         for i in range(3):
             dadr[i, 0] += dadv[i, 1] * (-omega)
             dadr[i, 1] += dadv[i, 0] * omega
-        # density gradient: d h / d r = r_hat + R f d(s^2)/d r, s = z / r
-        s = z / r
-        fr = force[fb.RADIUS] * force[fb.FLATTENING]
-        posv = (x, yy, z)
         for j in range(3):
-            dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
-            if j == 2:
-                dh += fr * 2.0 * s / r
             for i in range(3):
-                dadr[i, j] += c * w * wv[i] * dlnrho_dh * dh
+                dadr[i, j] += c * w * wv[i] * grad[j]
     n_third = int(force[fb.N_THIRD_BODIES])
     for b in range(n_third):
         if b == sun:
@@ -278,6 +279,102 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         if 0.0 < nu < 1.0 and int(force[fb.SHADOW_MODEL]) == 2:
             _add_penumbra_gradient(x, yy, z, from_sun_x, from_sun_y, from_sun_z, sun_pos,
                                    force, dadr)  # fmt: skip
+
+
+@kernel
+def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
+    """G += d a_field / d r of a full spherical-harmonic field (every degree and order, in its
+    body frame at time t): the Hessian of its potential, analytically from Cunningham's V_nm,
+    W_nm to degree n_max + 2, rotated to the inertial axes, H_in = M^T H_bf M.
+
+    The acceleration sums of :func:`visviva.core.perturbations.accel_harmonics` are the
+    derivative rules d/dz (a V_nm + b W_nm) = -(n - m + 1) (a V_n+1,m + b W_n+1,m) and, with
+    f = (n - m + 2)(n - m + 1), d/dx = 1/2 [-(a V + b W)_n+1,m+1 + f (a V + b W)_n+1,m-1],
+    d/dy = 1/2 [(b V - a W)_n+1,m+1 + f (b V - a W)_n+1,m-1] (lengths in units of R;
+    Montenbruck & Gill 2000, eqs. 3.33, 7.40); applied twice they give the Hessian. An order
+    -1 is folded into order 1: V_N,-1 = -V_N,1 / (N (N + 1)), W_N,-1 = W_N,1 / (N (N + 1)).
+    """
+    th = force[fb.ROTATION_RATE] * t
+    c = math.cos(th)
+    s = math.sin(th)
+    m0 = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
+    M = np.empty((3, 3))  # r_bf = M r, M = Rz(th) M0
+    for j in range(3):
+        M[0, j] = c * m0[j] + s * m0[3 + j]
+        M[1, j] = -s * m0[j] + c * m0[3 + j]
+        M[2, j] = m0[6 + j]
+    bx = M[0, 0] * x + M[0, 1] * yy + M[0, 2] * z
+    by = M[1, 0] * x + M[1, 1] * yy + M[1, 2] * z
+    bz = M[2, 0] * x + M[2, 1] * yy + M[2, 2] * z
+    n_max = int(force[fb.HARMONICS_DEGREE])
+    radius = force[fb.RADIUS]
+    V, W = cunningham_vw(bx, by, bz, radius, n_max + 3)
+    k1 = np.empty(2, np.int64)
+    c1 = np.empty(2)
+    w1 = np.empty(2)
+    k2 = np.empty(2, np.int64)
+    c2 = np.empty(2)
+    w2 = np.empty(2)
+    H = np.zeros((3, 3))  # lower triangle, body frame
+    for n in range(2, n_max + 1):
+        for m in range(n + 1):
+            C = sh[0, n, m]
+            S = sh[1, n, m]
+            if C == 0.0 and S == 0.0:
+                continue
+            for b in range(3):
+                n1 = _derive(b, n, m, C, S, k1, c1, w1)
+                for i in range(n1):
+                    for a in range(b, 3):
+                        n2 = _derive(a, n + 1, k1[i], c1[i], w1[i], k2, c2, w2)
+                        for j in range(n2):
+                            kk = k2[j]
+                            H[a, b] += c2[j] * V[n + 2, kk] + w2[j] * W[n + 2, kk]
+    k = force[fb.GM] / (radius * radius * radius)
+    for a in range(3):
+        for b in range(a):
+            H[b, a] = H[a, b]
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for p in range(3):
+                for q in range(3):
+                    acc += M[p, i] * H[p, q] * M[q, j]
+            G[i, j] += k * acc
+
+
+@kernel
+def _derive(axis, n, m, a, b, ks, cvs, cws):
+    """d/d(axis) (x, y, z = 0, 1, 2) of a V_nm + b W_nm (m >= 0, lengths in units of R): terms
+    (order ks[i], cvs[i] V + cws[i] W) of degree n + 1; returns how many (1 or 2)."""
+    if axis == 2:
+        g = -(n - m + 1.0)
+        ks[0] = m
+        cvs[0] = g * a
+        cws[0] = g * b
+        return 1
+    f = (n - m + 2.0) * (n - m + 1.0)
+    ks[0] = m + 1
+    if axis == 0:
+        cvs[0] = -0.5 * a
+        cws[0] = -0.5 * b
+        cv = 0.5 * f * a
+        cw = 0.5 * f * b
+    else:
+        cvs[0] = 0.5 * b
+        cws[0] = -0.5 * a
+        cv = 0.5 * f * b
+        cw = -0.5 * f * a
+    if m >= 1:
+        ks[1] = m - 1
+        cvs[1] = cv
+        cws[1] = cw
+    else:  # order -1 of degree N = n + 1, folded into order 1
+        fold = 1.0 / ((n + 1.0) * (n + 2.0))
+        ks[1] = 1
+        cvs[1] = -fold * cv
+        cws[1] = fold * cw
+    return 2
 
 
 @kernel

@@ -39,7 +39,7 @@ from .perturbations import (
 from .satellite_states import require_gcrs
 from .surface import check_batch, check_single, watched_body, with_surface
 
-__all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body"]
+__all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body", "output_offsets_s"]
 
 #: Default tolerances: with rtol = 1e-12 the error after one day of LEO is ~0.2 mm
 #: (docs/cowell.md); atol in km and km/s.
@@ -348,7 +348,8 @@ class CowellResult:
         )
 
 
-def _offsets_s(t, epoch):
+def output_offsets_s(t, epoch):
+    """Output times ``t`` (time Quantity or astropy Time) as float64 s from ``epoch``."""
     from astropy.time import Time
 
     if isinstance(t, Time):
@@ -577,7 +578,7 @@ def propagate_cowell(
                 "a batch of states must share one epoch; propagate groups with equal epochs."
             )
         epoch = epoch.ravel()[0]
-    offsets = _offsets_s(t, epoch)
+    offsets = output_offsets_s(t, epoch)
     scalar = offsets.ndim == 0
     offsets = np.atleast_1d(offsets)
     if offsets.ndim != 1:

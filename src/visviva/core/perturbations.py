@@ -307,7 +307,7 @@ def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
     rxy = math.sqrt(rho2)
     # d s / d r = (e_z - s r_hat) / r; d h / d r = r_hat + 2 R f s d s / d r
     # d phi / d r = (-z x, -z y, rxy^2) / (r^2 rxy); d ha / d r = (-y, x, 0) / rxy^2
-    pos = (x, y, z)
+    pos = (float(x), float(y), float(z))
     for j in range(3):
         ds = ((1.0 if j == 2 else 0.0) - s * pos[j] / r) / r
         grad[j] = dh * (pos[j] / r + 2.0 * fr * s * ds)
@@ -373,6 +373,8 @@ def grid_log_density(h, lat, hour_angle, force, atm):
     ga = 0.0
     gl = 0.0
     gh = 0.0
+    gal = 0.0  # d2 / (d alt d lat) and d2 / (d alt d hour angle), for the extrapolation
+    gah = 0.0
     for p in range(4):
         for q in range(4):
             row = (ih + p) * (nl + 2) + il + q
@@ -386,7 +388,12 @@ def grid_log_density(h, lat, hour_angle, force, atm):
             ga += wh[p] * wl[q] * sa
             gl += wh[p] * dl[q] * s
             gh += dh[p] * wl[q] * s
-    val += ga * (fa - fa_in)
+            gal += wh[p] * dl[q] * sa
+            gah += dh[p] * wl[q] * sa
+    beyond = fa - fa_in  # cells beyond the altitude grid (0 inside)
+    val += ga * beyond
+    gl += gal * beyond
+    gh += gah * beyond
     return val, ga / step_a, gl / step_l, gh / step_h
 
 

@@ -39,7 +39,7 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "boundary_models", "boundary_plan"]
+           "boundary_models", "boundary_plan", "step_sample", "dip_vertex"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -308,7 +308,7 @@ def shadow_sides(model, t, y, force, eph_r, eph_v, s):
 
 
 @kernel
-def _sample(k, t, h, y, y_new, F, out):
+def step_sample(k, t, h, y, y_new, F, out):
     """The state at sample ``k`` of :data:`SHADOW_SAMPLES` of the step (t, h) into ``out`` (k = 0:
     ``y``, the last: ``y_new``, between: the dense output); returns its time."""
     if k == 0:
@@ -325,7 +325,7 @@ def _sample(k, t, h, y, y_new, F, out):
 
 
 @kernel
-def _dip_vertex(gs, k):
+def dip_vertex(gs, k):
     """Where the parabola through the samples gs[k - 1], gs[k], gs[k + 1] (distances from a
     boundary, positive on the current side) has a minimum below half their least value, in
     sample units from k (-1..1); 2.0 where it has none."""
@@ -362,7 +362,7 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
     the scale of a step, so the parabola finds the minimum of a dip shorter than the samples'
     spacing)."""
     for k in range(SHADOW_SAMPLES + 1):
-        tk = _sample(k, t, h, y, y_new, F, y_tmp)
+        tk = step_sample(k, t, h, y, y_new, F, y_tmp)
         g0, g1 = shadow_values(model, tk, y_tmp, force, eph_r, eph_v, s)
         gs0[k] = side0 * g0
         gs1[k] = side1 * g1
@@ -385,7 +385,7 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
                 break
         if ka < 0:
             for k in range(1, SHADOW_SAMPLES):
-                u = _dip_vertex(gs, k)
+                u = dip_vertex(gs, k)
                 if u > 1.0:
                     continue
                 tv = t + h * (k + u) / SHADOW_SAMPLES

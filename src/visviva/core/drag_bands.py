@@ -31,10 +31,10 @@ from ._jit import kernel, step_kernel
 from .cowell_events import (
     BOUNDARY_RTOL,
     SHADOW_SAMPLES,
-    _dip_vertex,
-    _sample,
     dense_eval,
+    dip_vertex,
     locate_zero,
+    step_sample,
 )
 from .perturbations import exponential_band, geodetic_altitude
 
@@ -77,7 +77,7 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
     lo = atm[band, 0] if band > 0 else -math.inf
     hi = atm[band + 1, 0] if band + 1 < n else math.inf
     for k in range(SHADOW_SAMPLES + 1):
-        _sample(k, t, h, y, y_new, F, y_tmp)
+        step_sample(k, t, h, y, y_new, F, y_tmp)
         alt = geodetic_altitude(y_tmp[0], y_tmp[1], y_tmp[2], force[fb.RADIUS],
                                 force[fb.FLATTENING])  # fmt: skip
         gs0[k] = alt - lo
@@ -101,7 +101,7 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
                 break
         if ka < 0:
             for k in range(1, SHADOW_SAMPLES):
-                u = _dip_vertex(gs, k)
+                u = dip_vertex(gs, k)
                 if u > 1.0:
                     continue
                 tv = t + h * (k + u) / SHADOW_SAMPLES

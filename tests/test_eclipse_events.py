@@ -224,3 +224,32 @@ def test_grazes_of_the_other_model_are_found_with_srp_and_its_shadow(srp_shadow,
         plain = vv.propagate_cowell(state, t, forces)
         assert (out.events[1].t - out.events[0].t).to_value(u.s) < 0.2 * span / plain.n_steps
     np.testing.assert_allclose(out.r.to_value(u.km), ref.r.to_value(u.km), rtol=0, atol=1e-6)
+
+
+def test_three_eclipse_events_over_a_leo_day_run_the_integration_once(monkeypatch):
+    # the room for events was 64 whatever the run: 90 crossings (penumbra, umbra, cylinder
+    # over 15 orbits) overflowed it and the whole integration was done again (11 ms, now 7)
+    import visviva.satellites.cowell as sc
+    from visviva.satellites.events import event_capacity
+
+    state = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=EPOCH).to_state()
+    events = [Eclipse("conical"), Eclipse("conical", umbra=True), Eclipse("cylindrical")]
+    calls = []
+    original = sc._integrate
+    monkeypatch.setattr(sc, "_integrate", lambda args, info: calls.append(1) or original(args, info))
+    run = vv.propagate_cowell(state, [0, 1] * u.day, [vv.J2(vv.EARTH)], events=events)
+    assert len(run.events) > 64 and len(calls) == 1
+    # the same records as with the old room (the kernel's bits do not depend on it)
+    monkeypatch.setattr(sc, "event_capacity", lambda *a: 64)
+    calls.clear()
+    old = vv.propagate_cowell(state, [0, 1] * u.day, [vv.J2(vv.EARTH)], events=events)
+    assert len(calls) == 2
+    assert [(e.t.value, e.what) for e in old.events] == [(e.t.value, e.what) for e in run.events]
+    assert all(np.array_equal(a.r.value, b.r.value) for a, b in zip(old.events, run.events, strict=True))
+    # room for the crossings of any bound orbit; a minimum of 64, a cap of 2**20
+    y0 = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
+    gm = vv.EARTH.gm_km3_s2
+    assert event_capacity(y0, 86400.0, gm, 3) >= 2 * 3 * 86400.0 / 5830.0
+    assert event_capacity(y0, 0.0, gm, 1) == 64 and event_capacity(y0, 1e12, gm, 9) == 2**20
+    assert event_capacity(np.r_[y0[:3], 3 * y0[3:]], 1e6, gm, 2) == 64  # hyperbolic

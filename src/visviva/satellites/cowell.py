@@ -413,7 +413,7 @@ def _integrate(args: tuple, info: np.ndarray) -> int:
 def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
     A, B, C, E3, E5, D = dop853_tableau()
     kinds, params, dirs, terms = ev
-    cap = event_capacity(y0, t_end, model.gm_km3_s2, len(kinds))
+    cap = event_capacity(y0, t_end, float(model.force[fb.GM]), len(kinds))
     while True:
         y_out = np.zeros((t_out.shape[0], 6))
         ev_t = np.zeros(cap)

@@ -253,3 +253,34 @@ def test_three_eclipse_events_over_a_leo_day_run_the_integration_once(monkeypatc
     assert event_capacity(y0, 86400.0, gm, 3) >= 2 * 3 * 86400.0 / 5830.0
     assert event_capacity(y0, 0.0, gm, 1) == 64 and event_capacity(y0, 1e12, gm, 9) == 2**20
     assert event_capacity(np.r_[y0[:3], 3 * y0[3:]], 1e6, gm, 2) == 64  # hyperbolic
+
+
+def test_eclipse_events_at_a_steps_end_reuse_the_shadow_samples_bit_for_bit():
+    # the integrator takes the events' values at the end of a step from the shadow boundary
+    # samples taken there (one Sun position and one shadow geometry for the three events):
+    # they must be event_function's values exactly, on either side of each boundary
+    from visviva.core.cowell_events import (
+        SHADOW_SAMPLES,
+        end_sample_value,
+        event_function,
+        shadow_values,
+    )
+    from visviva.satellites.cowell import ForceModel
+
+    model = ForceModel(vv.EARTH.gm_km3_s2, [], [Eclipse("conical")], EPOCH, (0.0, 7000.0))
+    force, _, _, er, ev, _, _ = model.arrays()
+    rng = np.random.default_rng(11)
+    s = np.empty(3)
+    gs0, gs1 = np.zeros(SHADOW_SAMPLES + 1), np.zeros(SHADOW_SAMPLES + 1)
+    for _ in range(200):
+        t = rng.uniform(0.0, 7000.0)
+        y = np.r_[rng.normal(size=3) * 7000.0, rng.normal(size=3)]
+        for model_id, kinds in ((1, (1,)), (2, (2, 3))):
+            g0, g1 = shadow_values(model_id, t, y, force, er, ev, s)
+            side0, side1 = rng.choice([-1.0, 1.0], 2)
+            gs0[-1], gs1[-1] = side0 * g0, side1 * g1
+            for kind in (1, 2, 3):
+                ok, value = end_sample_value(kind, model_id, side0, side1, gs0, gs1)
+                assert ok == (kind in kinds)
+                if ok:
+                    assert value == event_function(kind, 0.0, t, y, force, er, ev)

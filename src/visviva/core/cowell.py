@@ -55,6 +55,7 @@ from .cowell_events import (
     boundary_models,
     boundary_plan,
     dense_eval,
+    end_sample_value,
     event_function,
     event_value,
     fix_boundary_events,
@@ -447,6 +448,7 @@ def integrate_cowell(
         # a shadow boundary crossed within the step: redo the step up to it
         flip = -1
         resync = False
+        fresh = 0  # 1: the shadow samples of sh_model are at t_new, 2: those of sh2 too
         if full is not None:
             if n_sh > 0 or band >= 0:
                 at_boundary = bnd_pending and t_new == t_bnd
@@ -463,6 +465,8 @@ def integrate_cowell(
                         ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h,
                                                               y, y_new, F, y_tmp, gs0, gs1, sun_s,
                                                               force, eph_r, eph_v)  # fmt: skip
+                        if t + h == t_new:  # (the last sample's time: the events' own)
+                            fresh = 2 if sh2 > 0 else 1
                     if sh2 > 0:
                         ta_2, tb_2, which_2 = shadow_crossing(sh2, n_sh2, side2, side3, t, h, y,
                                                               y_new, F, y_tmp, gs2, gs3, sun_s,
@@ -509,8 +513,17 @@ def integrate_cowell(
         t_stop = t_new
         if n_ev > 0:
             for e in range(n_ev):
-                g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v,
-                                       full)
+                # eclipse events: the shadow functions' last samples, taken at (t_new, y_new)
+                done = False
+                if full is not None:
+                    if fresh > 0:
+                        done, g_new[e] = end_sample_value(ev_kind[e], sh_model, side0, side1,
+                                                          gs0, gs1)
+                    if fresh > 1 and not done:
+                        done, g_new[e] = end_sample_value(ev_kind[e], sh2, side2, side3, gs2, gs3)
+                if not done:
+                    g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r,
+                                           eph_v, full)
             if full is not None:
                 if flip >= 0:
                     # the step ends at a shadow boundary: an event on the same boundary

@@ -39,7 +39,8 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "boundary_models", "boundary_plan", "step_sample", "dip_vertex"]
+           "boundary_models", "boundary_plan", "step_sample", "dip_vertex",
+           "end_sample_value"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -414,6 +415,20 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
             best_b = tb
             best = which
     return best_a, best_b, best
+
+
+@kernel
+def end_sample_value(kind, model, side0, side1, gs0, gs1):
+    """(True, value) of the eclipse event ``kind`` (1 to 3) at the end of a step from the last
+    samples ``gs0``, ``gs1`` (side * g) that :func:`shadow_crossing` took of the boundary
+    functions of shadow ``model`` there, when the event is one of that model's (kind 1 of the
+    cylindrical, 2 and 3 of the conical); else (False, 0.0). The same bits as
+    :func:`event_function` at the same time and state: the sides are +1 or -1."""
+    if (kind == 1 and model == 1) or ((kind == 2 or kind == 3) and model == 2):
+        if kind == 3:
+            return True, side1 * gs1[SHADOW_SAMPLES]
+        return True, side0 * gs0[SHADOW_SAMPLES]
+    return False, 0.0
 
 
 @kernel

@@ -39,7 +39,7 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "boundary_models", "boundary_plan", "step_sample", "dip_vertex",
+           "boundary_models", "boundary_plan", "step_sample", "dip_vertex", "first_crossing",
            "end_sample_value"]
 
 @kernel
@@ -348,6 +348,57 @@ def dip_vertex(gs, k):
 
 
 @step_kernel
+def first_crossing(kind, param, side, gs, t, h, y, F, y_tmp, tol, force, eph_r, eph_v):
+    """The first crossing in the step (t, t + h) of the zero of event function ``kind``
+    (``param``) away from ``side`` (+1: g >= 0 at t, -1: g < 0), from its samples ``gs`` (side *
+    g at the :data:`SHADOW_SAMPLES` + 1 points of :func:`step_sample`: positive on the current
+    side), located to ``tol`` s on the dense output ``F``. Returns (found, ta, tb): the zero in
+    [ta, tb], tb on the new side.
+
+    A crossing shows as a sample on the other side; one entered and left again between two
+    samples (grazing) as a minimum between them: where the parabola through three neighbouring
+    samples dips below half their least value, its vertex is sampled too (the functions are
+    smooth on the scale of a step, so the parabola finds the minimum of a dip shorter than the
+    samples' spacing). Shared by the shadow boundaries (:func:`shadow_crossing`) and the
+    exponential atmosphere's band edges (:func:`visviva.core.drag_bands.band_crossing`)."""
+    ka = -1  # the crossing lies after sample ka (gs[ka] on the old side) and before tb
+    tb = t
+    gb = 0.0
+    for k in range(1, SHADOW_SAMPLES + 1):
+        if (gs[k] * side >= 0.0) != (side > 0.0):
+            ka = k - 1
+            tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
+            gb = gs[k] * side
+            break
+    if ka < 0:
+        for k in range(1, SHADOW_SAMPLES):
+            u = dip_vertex(gs, k)
+            if u > 1.0:
+                continue
+            tv = t + h * (k + u) / SHADOW_SAMPLES
+            dense_eval(tv, t, h, y, F, y_tmp)
+            g = event_value(kind, param, tv, y_tmp, force, eph_r, eph_v, True)
+            if (g >= 0.0) != (side > 0.0):
+                ka = k - 1 if u < 0.0 else k
+                tb = tv
+                gb = g
+                break
+    if ka < 0:
+        return False, t, t
+    ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
+    # the value at ta on the old side (at t, a value just past the boundary may have the new
+    # side's sign: then take one of the size of gb)
+    ga = side * gs[ka]
+    if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
+        ga = side * abs(gb) if gb != 0.0 else side
+    if gb == 0.0:
+        gb = -side * abs(ga)
+    ta, tb = locate_zero(kind, param, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
+                         eph_v, True)
+    return True, ta, tb
+
+
+@step_kernel
 def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs1, s, force,
                     eph_r, eph_v):  # fmt: skip
     """The first point of the step (t, t + h) where a shadow boundary function of SRP ``model``
@@ -356,12 +407,8 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
     [ta, tb], tb on the new side; which = -1 when no boundary is crossed.
 
     The functions are sampled at :data:`SHADOW_SAMPLES` + 1 points of the step (into ``gs0``,
-    ``gs1``, as side * g: positive on the current side; ``s``: scratch for the Sun). A crossing
-    shows as a sample on the other side; a shadow entered and left again between two samples
-    (grazing) as a minimum between them: where the parabola through three neighbouring samples
-    dips below half their least value, its vertex is sampled too (the functions are smooth on
-    the scale of a step, so the parabola finds the minimum of a dip shorter than the samples'
-    spacing)."""
+    ``gs1``, as side * g: positive on the current side; ``s``: scratch for the Sun), and each
+    crossing found by :func:`first_crossing` (grazes included)."""
     for k in range(SHADOW_SAMPLES + 1):
         tk = step_sample(k, t, h, y, y_new, F, y_tmp)
         g0, g1 = shadow_values(model, tk, y_tmp, force, eph_r, eph_v, s)
@@ -372,45 +419,10 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
     best_a = t + h
     best_b = t + h
     for which in range(n_sh):
-        gs = gs0 if which == 0 else gs1
-        side = side0 if which == 0 else side1
-        kind = shadow_boundary_kind(model, which)
-        ka = -1  # the crossing lies after sample ka (gs[ka] on the old side) and before tb
-        tb = t
-        gb = 0.0
-        for k in range(1, SHADOW_SAMPLES + 1):
-            if (gs[k] * side >= 0.0) != (side > 0.0):
-                ka = k - 1
-                tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
-                gb = gs[k] * side
-                break
-        if ka < 0:
-            for k in range(1, SHADOW_SAMPLES):
-                u = dip_vertex(gs, k)
-                if u > 1.0:
-                    continue
-                tv = t + h * (k + u) / SHADOW_SAMPLES
-                dense_eval(tv, t, h, y, F, y_tmp)
-                g0, g1 = shadow_values(model, tv, y_tmp, force, eph_r, eph_v, s)
-                g = g0 if which == 0 else g1
-                if (g >= 0.0) != (side > 0.0):
-                    ka = k - 1 if u < 0.0 else k
-                    tb = tv
-                    gb = g
-                    break
-        if ka < 0:
-            continue
-        ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
-        # the value at ta on the old side (at t, a value just past the boundary may have the
-        # new side's sign: then take one of the size of gb)
-        ga = side * gs[ka]
-        if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
-            ga = side * abs(gb) if gb != 0.0 else side
-        if gb == 0.0:
-            gb = -side * abs(ga)
-        ta, tb = locate_zero(kind, 0.0, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
-                             eph_v, True)
-        if best < 0 or (tb - best_b) * h < 0.0:
+        found, ta, tb = first_crossing(shadow_boundary_kind(model, which), 0.0,
+                                       side0 if which == 0 else side1, gs0 if which == 0 else gs1,
+                                       t, h, y, F, y_tmp, tol, force, eph_r, eph_v)  # fmt: skip
+        if found and (best < 0 or (tb - best_b) * h < 0.0):
             best_a = ta
             best_b = tb
             best = which

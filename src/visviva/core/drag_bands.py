@@ -31,9 +31,7 @@ from ._jit import kernel, step_kernel
 from .cowell_events import (
     BOUNDARY_RTOL,
     SHADOW_SAMPLES,
-    dense_eval,
-    dip_vertex,
-    locate_zero,
+    first_crossing,
     step_sample,
 )
 from .perturbations import exponential_band, geodetic_altitude
@@ -71,8 +69,9 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
     Returns (ta, tb, which): the edge lies in [ta, tb], tb beyond it; which = 0 for the band's
     lower edge, 1 for its upper one, -1 when the step stays in the band. The distances to the
     edges, positive inside, are sampled at :data:`SHADOW_SAMPLES` + 1 points into ``gs0``
-    (lower) and ``gs1`` (upper), with a dip between samples found as the shadow's are
-    (:func:`visviva.core.cowell_events.shadow_crossing`)."""
+    (lower) and ``gs1`` (upper); each edge is found by
+    :func:`visviva.core.cowell_events.first_crossing` (as the shadow boundaries are, grazes
+    included), on the altitude event function (kind 0) that the density uses."""
     n = atm.shape[0]
     lo = atm[band, 0] if band > 0 else -math.inf
     hi = atm[band + 1, 0] if band + 1 < n else math.inf
@@ -82,54 +81,19 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
                                 force[fb.FLATTENING])  # fmt: skip
         gs0[k] = alt - lo
         gs1[k] = hi - alt
+    # event kind 0, h - edge: >= 0 in the band above its lower edge, < 0 below its upper one
     tol = BOUNDARY_RTOL * abs(h)
-    best = -1
-    best_a = t + h
-    best_b = t + h
-    for which in range(2):
-        edge = lo if which == 0 else hi
-        if math.isinf(edge):
-            continue
-        gs = gs0 if which == 0 else gs1
-        sign = 1.0 if which == 0 else -1.0  # event value h - edge = sign * gs
-        ka = -1
-        tb = t
-        for k in range(1, SHADOW_SAMPLES + 1):
-            if gs[k] < 0.0 or (which == 1 and gs[k] == 0.0):
-                ka = k - 1
-                tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
-                break
-        if ka < 0:
-            for k in range(1, SHADOW_SAMPLES):
-                u = dip_vertex(gs, k)
-                if u > 1.0:
-                    continue
-                tv = t + h * (k + u) / SHADOW_SAMPLES
-                dense_eval(tv, t, h, y, F, y_tmp)
-                alt = geodetic_altitude(y_tmp[0], y_tmp[1], y_tmp[2], force[fb.RADIUS],
-                                        force[fb.FLATTENING])  # fmt: skip
-                if sign * (alt - edge) < 0.0 or (which == 1 and alt == edge):
-                    ka = k - 1 if u < 0.0 else k
-                    tb = tv
-                    break
-        if ka < 0:
-            continue
-        ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
-        ga = sign * gs[ka]
-        if not (sign * ga > 0.0):
-            ga = sign * 1e-300  # at t on the edge (rounding): just inside
-        dense_eval(tb, t, h, y, F, y_tmp)
-        gb = geodetic_altitude(y_tmp[0], y_tmp[1], y_tmp[2], force[fb.RADIUS],
-                               force[fb.FLATTENING]) - edge  # fmt: skip
-        if gb == 0.0 or (gb > 0.0) == (ga > 0.0):
-            gb = -ga if ga != 0.0 else -sign
-        ta, tb = locate_zero(0, edge, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
-                             eph_v, True)  # fmt: skip
-        if best < 0 or (tb - best_b) * h < 0.0:
-            best_a = ta
-            best_b = tb
-            best = which
-    return best_a, best_b, best
+    low = (False, t, t)
+    high = (False, t, t)
+    if not math.isinf(lo):
+        low = first_crossing(0, lo, 1.0, gs0, t, h, y, F, y_tmp, tol, force, eph_r, eph_v)
+    if not math.isinf(hi):
+        high = first_crossing(0, hi, -1.0, gs1, t, h, y, F, y_tmp, tol, force, eph_r, eph_v)
+    if high[0] and (not low[0] or (high[2] - low[2]) * h < 0.0):
+        return high[1], high[2], 1
+    if low[0]:
+        return low[1], low[2], 0
+    return t + h, t + h, -1
 
 
 @kernel

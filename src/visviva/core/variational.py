@@ -542,27 +542,23 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                         ta_b = ta_3
                         tb_b = tb_3
                         which_b = which_3 + 4  # 4, 5: the band's lower, upper edge
-                if which_b >= 4:
-                    at_t, _, _, t_bnd, h_keep, h_abs = boundary_plan(
-                        ta_b, tb_b, 0, t, h, h_abs, min_step, 1.0, 1.0)
-                    if at_t:
-                        band += 2 * which_b - 9
-                        _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh,
-                                    dadr, dadv, scr)  # fmt: skip
-                        nfev += 2
-                        n_here += 1
-                    else:
-                        bnd_pending = True
-                        bnd_which = which_b
-                    continue
                 if which_b >= 0:
                     side_before = side0
-                    at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
-                        ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                    if which_b >= 4:
+                        at_t, _, _, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, 0, t, h, h_abs, min_step, 1.0, 1.0)
+                    else:
+                        at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
                     if at_t:
                         # the boundary is at t: crossed here
-                        _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
-                               eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
+                        if which_b >= 4:
+                            band += 2 * which_b - 9
+                            _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm,
+                                        sh, dadr, dadv, scr)  # fmt: skip
+                        else:
+                            _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
+                                   eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
                         nfev += 2
                         n_here += 1
                     else:

@@ -35,17 +35,17 @@ BC = 0.022 * u.m**2 / u.kg
 ONE_MM = 1e-6  # km
 
 
-def eccentric():
+def eccentric(perigee=290.0, apogee=380.0):
     """Perigee 290 km, apogee 380 km at 53 deg: crosses the 300 and 350 km edges twice an orbit."""
     r_e = vv.EARTH.radius_km
-    rp, ra = r_e + 290.0, r_e + 380.0
+    rp, ra = r_e + perigee, r_e + apogee
     gm = vv.EARTH.gm_km3_s2
     vp = np.sqrt(gm * (1 + (ra - rp) / (ra + rp)) / rp)
     return vv.StateVectors([rp, 0, 0] * u.km, [0, 0.8 * vp, 0.6 * vp] * KMS, vv.EARTH, epoch=EPOCH)
 
 
-def drag():
-    return [vv.J2(vv.EARTH), vv.AtmosphericDrag(BC)]
+def drag(bc=BC):
+    return [vv.J2(vv.EARTH), vv.AtmosphericDrag(bc)]
 
 
 def test_the_published_table_jumps_at_its_band_edges_by_its_rounding():
@@ -77,12 +77,12 @@ def test_a_run_split_at_any_time_equals_the_unsplit_run(tol, sign):
         assert err < 0.05 * ONE_MM  # before: 15 to 387 mm; now ~0.005 mm
 
 
-def _scipy_reference(state, t_end):
+def _scipy_reference(state, t_end, forces):
     """solve_ivp's DOP853 on the same right-hand side, stopped by events at the band edges and
     restarted there in the next band (the band held, as the table defines it)."""
     from visviva.satellites.cowell import ForceModel
 
-    model = ForceModel(vv.EARTH.gm_km3_s2, drag())
+    model = ForceModel(vv.EARTH.gm_km3_s2, forces)
     force, zonal, atm, er, ev, egm, sh = model.arrays()
     flat = force[fb.FLATTENING]
     radius = force[fb.RADIUS]
@@ -115,16 +115,21 @@ def _scipy_reference(state, t_end):
     return y, crossings
 
 
-def test_cowell_matches_scipy_stopped_at_every_band_edge():
-    t_end = 3 * 5500.0  # three orbits
-    y_ref, crossings = _scipy_reference(eccentric(), t_end)
-    assert crossings == 12  # 300 and 350 km, up and down, three times
+@pytest.mark.parametrize("perigee, apogee, bc, t_end, n_edges, before_mm", [
+    (290.0, 380.0, BC, 3 * 5500.0, 12, 1.8),  # three orbits, 300 and 350 km
+    (115.0, 420.0, 0.002 * u.m**2 / u.kg, 5000.0, 18, 68.0),  # the 10 km bands, 120-400 km
+])
+def test_cowell_matches_scipy_stopped_at_every_band_edge(perigee, apogee, bc, t_end, n_edges,
+                                                         before_mm):  # fmt: skip
+    state = eccentric(perigee, apogee)
+    y_ref, crossings = _scipy_reference(state, t_end, drag(bc))
+    assert crossings == n_edges
     for tol in (TIGHT, {}):
-        out = vv.propagate_cowell(eccentric(), [0, t_end] * u.s, drag(), **tol)
+        out = vv.propagate_cowell(state, [0, t_end] * u.s, drag(bc), **tol)
         err = np.linalg.norm(out.r[-1].to_value(u.km) - y_ref[:3])
-        assert err < 0.1 * ONE_MM  # before: 1.8 mm; now 0.02 mm
-    # drag did act: 3.8 km over the three orbits
-    plain = vv.propagate_cowell(eccentric(), [0, t_end] * u.s, [vv.J2(vv.EARTH)], **TIGHT)
+        assert err < 0.1 * ONE_MM  # before: 1.8 and 68 mm at the defaults; now 0.02 mm
+    # drag did act: by kilometres
+    plain = vv.propagate_cowell(state, [0, t_end] * u.s, [vv.J2(vv.EARTH)], **TIGHT)
     assert np.linalg.norm(plain.r[-1].to_value(u.km) - y_ref[:3]) > 1.0
 
 

@@ -60,10 +60,12 @@ from .cowell_events import (
     shadow_sides,
     srp_shadow_model,
 )
+from .drag_bands import altitude_gradient, band_crossing, bands_on, hold_band, start_band
 from .perturbations import (
+    band_density,
     cowell_rhs,
     cunningham_vw,
-    exponential_density,
+    exponential_band,
     geodetic_altitude,
     grid_density_at,
     hermite_position,
@@ -225,11 +227,10 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         else:
             h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
             r = math.sqrt(x * x + yy * yy + z * z)
-            rho = exponential_density(h, atm)
-            k = 0
-            n = atm.shape[0]
-            while k + 1 < n and h >= atm[k + 1, 0]:
-                k += 1
+            k = int(force[fb.DENSITY_BAND]) - 1  # the band held in a step, as cowell_rhs
+            if k < 0:
+                k = exponential_band(h, atm)
+            rho = band_density(h, atm, k)
             dlnrho_dh = -1.0 / atm[k, 2]
             # d h / d r = r_hat + R f d(s^2)/d r, s = z / r
             s = z / r
@@ -430,6 +431,14 @@ def _boundary_jump(model, which, t, y, a_old, a_new, force, eph_r, eph_v, s, gra
     function (:func:`visviva.core.cowell_events.boundary_gradient`, position only) and f the
     derivative of the state, which jumps in its acceleration only."""
     rate = boundary_gradient(model, which, t, y, force, eph_r, eph_v, s, grad)
+    _saltation(y, a_old, a_new, grad, rate)
+
+
+@kernel
+def _saltation(y, a_old, a_new, grad, rate):
+    """Phi+ = (I + (f_new - f_old) grad g^T / g_dot) Phi- on the STM in ``y[6:]``: the jump of
+    the acceleration from ``a_old`` to ``a_new`` at a boundary g = 0 of position gradient
+    ``grad`` crossed at the rate ``rate`` (:func:`_boundary_jump`)."""
     if rate == 0.0:
         return
     for j in range(6):
@@ -501,13 +510,20 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     side0 = 1.0
     side1 = 1.0
     F = np.zeros((7, 6))
-    scr = np.zeros((6, 6))  # rows: the dense state, two sample rows, the Sun, a_old, grad
+    # rows: the dense state, two sample rows, the Sun, a_old, grad, two rows of altitudes
+    scr = np.zeros((8, 6))
     if srp_shadow_model(force) > 0:
         sh_model = srp_shadow_model(force)
         n_sh = 1 if sh_model == 1 else 2
         side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, scr[3])
         rforce = force.copy()
         lock_shadow(rforce, sh_model, side0)
+    # drag in the exponential table: steps end at its band edges (visviva.core.drag_bands)
+    band = -1
+    if bands_on(force):
+        if n_sh == 0:
+            rforce = force.copy()
+        band = start_band(rforce, y, atm)
     bnd_pending = False
     t_bnd = 0.0
     bnd_which = -1
@@ -594,11 +610,11 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         n_steps += 1
         flip = -1
         resync = False
-        if n_sh > 0:
+        if n_sh > 0 or band >= 0:
             bnd_pending = False
             if at_bnd:
                 flip = bnd_which
-            elif n_here > 2 * n_sh:
+            elif n_here > 2 * n_sh + (2 if band >= 0 else 0):
                 resync = True
             else:
                 # the state's dense output (its own three extra stages, state only)
@@ -608,17 +624,38 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                                eph_gm, sh, K[s, :6])  # fmt: skip
                 nfev += 3
                 dense_coefficients(6, h, y, y_new, K, D, F)
-                ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y[:6],
-                                                      y_new[:6], F, scr[0], scr[1], scr[2],
-                                                      scr[3], force, eph_r, eph_v)  # fmt: skip
+                ta_b = t
+                tb_b = t
+                which_b = -1
+                if n_sh > 0:
+                    ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h,
+                                                          y[:6], y_new[:6], F, scr[0], scr[1],
+                                                          scr[2], scr[3], force, eph_r, eph_v)  # fmt: skip
+                if band >= 0:
+                    ta_3, tb_3, which_3 = band_crossing(band, atm, t, h, y[:6], y_new[:6], F,
+                                                        scr[0], scr[6], scr[7], force, eph_r,
+                                                        eph_v)  # fmt: skip
+                    if which_3 >= 0 and (which_b < 0 or (tb_3 - tb_b) * h < 0.0):
+                        ta_b = ta_3
+                        tb_b = tb_3
+                        which_b = which_3 + 4  # 4, 5: the band's lower, upper edge
                 if which_b >= 0:
                     side_before = side0
-                    at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
-                        ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                    if which_b >= 4:
+                        at_t, _, _, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, 0, t, h, h_abs, min_step, 1.0, 1.0)
+                    else:
+                        at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
                     if at_t:
                         # the boundary is at t: crossed here
-                        _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
-                               eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
+                        if which_b >= 4:
+                            band += 2 * which_b - 9
+                            _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm,
+                                        sh, dadr, dadv, scr)  # fmt: skip
+                        else:
+                            _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
+                                   eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
                         nfev += 2
                         n_here += 1
                     else:
@@ -635,8 +672,24 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         for j in range(n):
             y[j] = y_new[j]
             f[j] = K[_N_STAGES, j]
+        if band >= 0 and (flip >= 4 or resync):
+            if flip >= 4:
+                band += 2 * flip - 9  # 4: one band down, 5: one up
+                _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr,
+                            dadv, scr)  # fmt: skip
+                nfev += 2
+                if h_keep > h_abs:
+                    h_abs = h_keep
+            else:
+                band = start_band(rforce, y, atm)
+                variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr,
+                                dadv)  # fmt: skip
+                nfev += 1
+            if flip >= 4:
+                flip = -2  # done: not a shadow boundary
+            n_here = 0
         if n_sh > 0:
-            if flip >= 0 or resync:
+            if 0 <= flip < 4 or resync:
                 if flip >= 0 and sh_model == 2:
                     pen_cap = penumbra_step(scr[1, 0] * side0, scr[2, 0] * side1, flip,
                                             t - t_old, force[fb.SRP_COEFFICIENT],
@@ -660,7 +713,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                         variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f,
                                         dadr, dadv)  # fmt: skip
                         nfev += 1
-            n_here = 0
+        n_here = 0  # a step was taken
     info[0] = written
     info[1] = n_steps
     info[2] = nfev
@@ -682,4 +735,19 @@ def _cross(model, which, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, 
     lock_shadow(rforce, model, -side0)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
     _boundary_jump(model, which, t, y, scr[4, :3], f[3:6], rforce, eph_r, eph_v, scr[3], scr[5])
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+
+
+@kernel
+def _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv, scr):
+    """Cross into band ``band`` of the exponential atmosphere at (t, y) (the state with its
+    STM): the band is held, the density jumps, so the STM takes the saltation matrix of the
+    jump across the altitude boundary (:func:`_saltation`, with the altitude's gradient,
+    :func:`visviva.core.drag_bands.altitude_gradient`) and ``f`` the derivative after it."""
+    for i in range(3):
+        scr[4, i] = f[3 + i]
+    hold_band(rforce, band)
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+    rate = altitude_gradient(y, rforce, scr[5])
+    _saltation(y, scr[4, :3], f[3:6], scr[5, :3], rate)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)

@@ -489,8 +489,8 @@ def test_field_hessian_matches_central_differences_of_the_field():
     from scipy.spatial.transform import Rotation
 
     from visviva.core import force_block as fb
+    from visviva.core.force_partials import _add_harmonics_gradient
     from visviva.core.perturbations import FORCE_SIZE, accel_harmonics_inertial
-    from visviva.core.variational import _add_harmonics_gradient
 
     rng = np.random.default_rng(3)
     n_max = 12

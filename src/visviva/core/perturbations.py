@@ -52,6 +52,8 @@ __all__ = [
     "accel_srp",
     "shadow_fraction",
     "exponential_density",
+    "exponential_band",
+    "band_density",
     "geodetic_altitude",
     "hermite_position",
     "zonal_rhs",
@@ -257,17 +259,36 @@ def geodetic_altitude(x, y, z, radius, flattening):
 
 
 @kernel
+def exponential_band(h, atm):
+    """The row (band) of an exponential table (K, 3) for altitude ``h`` (km): the one whose base
+    altitude is the largest one <= h (the first row below the first base altitude)."""
+    k = 0
+    n = atm.shape[0]
+    while k + 1 < n and h >= atm[k + 1, 0]:
+        k += 1
+    return k
+
+
+@kernel
+def band_density(h, atm, k):
+    """Density in kg/m^3 at altitude ``h`` (km) from row ``k`` of an exponential table (K, 3),
+    rho = rho_0 exp(-(h - h_0)/H), also outside the row's band (the integrators hold a band
+    for a whole step: :mod:`visviva.core.drag_bands`)."""
+    return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+
+
+@kernel
 def exponential_density(h, atm):
     """Density in kg/m^3 at altitude ``h`` (km) from an exponential table (K, 3).
 
     rho = rho_0 exp(-(h - h_0)/H) with the row whose base altitude h_0 is the largest one <= h
     (Vallado 2013, eq. 8-33 and Table 8-4). Below the first base altitude the first row is used.
+    The published table is piecewise: its densities at the band edges jump (by the rounding of
+    rho_0 to four digits, up to 0.14 % at 25 km) and its slope d ln rho / dh = -1/H jumps there
+    (by up to 18 %, at 300 km); the integrators end their steps at the band edges
+    (:mod:`visviva.core.drag_bands`).
     """
-    k = 0
-    n = atm.shape[0]
-    while k + 1 < n and h >= atm[k + 1, 0]:
-        k += 1
-    return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+    return band_density(h, atm, exponential_band(h, atm))
 
 
 @kernel
@@ -597,7 +618,13 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
             rho = grid_density_at(x, yy, z, sun_pos, force, atm)
             accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
         else:
-            accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)
+            # the exponential table's band: held by the integrator for a step (DENSITY_BAND =
+            # band + 1), else (0) the one of the altitude
+            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
+            band = int(force[fb.DENSITY_BAND]) - 1
+            if band < 0:
+                band = exponential_band(h, atm)
+            accel_drag_rho(x, yy, z, y[3], y[4], y[5], band_density(h, atm, band), force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)

@@ -17,6 +17,7 @@ Kinds and their canonical units:
 - ``area_per_mass``: m2 / kg (ballistic and radiation-pressure coefficients)
 - ``spec_angmom``: km2 / s (specific angular momentum)
 - ``spec_energy``: km2 / s2 (specific energy, potential per unit mass)
+- ``accel_psd``: km2 / s3 (spectral density of a white-noise acceleration, process noise)
 - ``dimensionless``: plain numbers or dimensionless Quantities
 
 astropy.units is imported on first need, not with this module: it costs about 0.1 s, and a call
@@ -71,6 +72,7 @@ def _canonical() -> dict:
         "area_per_mass": u.m**2 / u.kg,
         "spec_angmom": u.km**2 / u.s,
         "spec_energy": u.km**2 / u.s**2,
+        "accel_psd": u.km**2 / u.s**3,
         "dimensionless": u.dimensionless_unscaled,
     }
 
@@ -103,6 +105,7 @@ _EXAMPLE = {
     "area_per_mass": "0.01 * u.m**2 / u.kg",
     "spec_angmom": "52000 * u.km**2 / u.s",
     "spec_energy": "-30 * u.km**2 / u.s**2",
+    "accel_psd": "1e-12 * u.km**2 / u.s**3 (an acceleration noise density, (km/s^2)^2 s)",
     "dimensionless": "0.1",
 }
 

@@ -20,6 +20,8 @@ _EXPORTS = {
     "initial_orbit": "first_orbit",
     "Observations": "observations",
     "fit_orbit": "batch",
+    "filter_orbit": "sequential",
+    "FilteredOrbit": "sequential",
     "OrbitFit": "batch",
     "fit_tle": "tle_fit",
     "TLEFit": "tle_fit",

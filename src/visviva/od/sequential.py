@@ -248,8 +248,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         standard deviation sqrt(H P H^T + R) is rejected (not used, reported in
         ``rejected``); None keeps every row.
     divergence_count : int
-        That many consecutive rows beyond ``editing_sigma`` (5 when editing is off) mean the
-        filter has lost the orbit: :class:`~visviva.ConvergenceError` naming the epoch.
+        That many consecutive observation epochs each with a row beyond ``editing_sigma`` (5
+        when editing is off) mean the filter has lost the orbit:
+        :class:`~visviva.ConvergenceError` naming the epoch.
     rtol, atol : float, optional
         Integration tolerances of the variational equations (default 1e-11).
 
@@ -269,8 +270,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     ShapeError
         A covariance that is not 6 x 6, or a process noise of the wrong size.
     ConvergenceError
-        The filter diverged: ``divergence_count`` consecutive rows far outside the predicted
-        spread, or an estimate that cannot be integrated or is not finite.
+        The filter diverged: ``divergence_count`` consecutive epochs with rows far outside the
+        predicted spread, or an estimate that cannot be integrated or is not finite.
 
     Notes
     -----
@@ -402,13 +403,13 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
                 Si = S[np.ix_(sel, sel)]
                 nis[rows[i]] = float(zc[sel] @ np.linalg.solve(Si, zc[sel]))
             bad = ratio > limit
-            for i in range(rows.size):
-                run = run + 1 if bad[i] else 0
-                if run >= divergence_count:
-                    raise diverged(
-                        k, f"{run} consecutive observations are more than {limit:g} sigma from "
-                        f"the prediction (the last, row {int(rows[i])} ({kinds[rows[i]]}), "
-                        f"{ratio[i]:.3g} sigma)")
+            run = run + 1 if bad.any() else 0
+            if run >= divergence_count:
+                worst = int(np.argmax(ratio))
+                raise diverged(
+                    k, f"at {run} consecutive observation epochs some observation is more than "
+                    f"{limit:g} sigma from the prediction (here row {int(rows[worst])} "
+                    f"({kinds[rows[worst]]}), {ratio[worst]:.3g} sigma)")
             rej = bad if editing_sigma is not None else np.zeros(rows.size, dtype=bool)
             rejected[rows] = rej
             use = ~rej[owner]

@@ -1,0 +1,249 @@
+"""Sequential estimation (vv.filter_orbit): the EKF and its smoother against batch least squares
+on a nearly linear problem, consistency (NEES, NIS) on simulated tracking with J2, process noise
+against an unmodelled drag, editing, divergence, a TDM fed to the filter, and bad input."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from scipy import stats
+
+import visviva as vv
+from visviva.od import simulate_observations
+from visviva.od.dynamics import Dynamics
+
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+KMS = u.km / u.s
+GM = vv.EARTH.gm_km3_s2
+Y_ECC = np.r_[6800.0, 100.0, 300.0, -0.1, 5.0, 5.7]  # the od tests' orbit (perigee ~ 400 km)
+Y_LEO = np.r_[6778.0, 0.0, 0.0, 0.0, 4.7645, 6.0102]  # near-circular, 400 km, 51.6 deg
+STATIONS = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km, name="GOLD"),
+            vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km, name="HART")]
+J2 = [vv.J2(vv.EARTH)]
+#: 10 m and 1 cm/s: an initial uncertainty that a linear map carries over a gap between passes
+P0 = np.diag([0.01**2] * 3 + [1e-5**2] * 3)
+
+
+def _state(y, epoch=EPOCH):
+    return vv.StateVectors(y[:3] * u.km, y[3:] * KMS, vv.EARTH, epoch=epoch)
+
+
+def _vec(s):
+    return np.r_[s.r.to_value(u.km), s.v.to_value(KMS)]
+
+
+def _truth_at(y0, forces, offsets):
+    y, _ = Dynamics(GM, forces, EPOCH, (0, offsets.max()), 1e-13, 1e-13).propagate(y0, offsets)
+    return y
+
+
+def _sigmas_apart(d, P):
+    """Largest component of the whitened difference L^-1 d (P = L L^T)."""
+    return float(np.max(np.abs(np.linalg.solve(np.linalg.cholesky(P), d))))
+
+
+def _nees(e, P):
+    return np.einsum("ti,ti->t", e, np.linalg.solve(P, e[..., None])[..., 0])
+
+
+def _noisy(exact, rng):
+    """The exact table with fresh Gaussian noise of its sigmas."""
+    noise = rng.standard_normal((len(exact), 3)) * exact.sigmas[:, None]
+    vals = [exact.values[i, :exact.dims[i]] + noise[i, :exact.dims[i]] for i in range(len(exact))]
+    return vv.Observations(time=exact.times, kind=list(exact.kinds), value=vals,
+                           sigma=list(exact.sigmas), station=exact.stations)
+
+
+@pytest.fixture(scope="module")
+def positions():
+    t = EPOCH + np.arange(60, 3 * 3600, 120) * u.s
+    return simulate_observations(_state(Y_ECC), t, "position", 0.001 * u.km, seed=3)
+
+
+def test_filter_equals_batch_on_a_nearly_linear_problem(positions):
+    """Position fixes, two-body, no process noise: EKF final = batch mapped to the last epoch,
+    RTS smoother's first = batch at the epoch (1e-3 sigma, covariances 1 %)."""
+    guess = _state(Y_ECC + [0.005, -0.003, 0.002, 3e-6, 0.0, -2e-6])
+    prior = np.diag([1.0] * 3 + [1e-4] * 3)  # 1 km, 10 m/s: weak against 90 fixes
+    f = vv.filter_orbit(positions, guess, prior, smoother=True, editing_sigma=None)
+    fit = vv.fit_orbit(positions, guess, outlier_sigma=None)
+    xb = _vec(fit.state)
+    # the smoother at the initial epoch against the batch estimate there
+    assert _sigmas_apart(_vec(f.first_state) - xb, fit.covariance) < 1e-3
+    np.testing.assert_allclose(np.diag(f.first_covariance), np.diag(fit.covariance), rtol=0.01)
+    assert f.first_state.epoch == fit.state.epoch
+    # the filter at the last epoch against the batch estimate mapped there
+    y, phi = Dynamics(GM, None, EPOCH, (0, f.offsets_s[-1]), 1e-13, 1e-13).propagate(
+        xb, f.offsets_s[-1:])
+    Pb = phi[0] @ fit.covariance @ phi[0].T
+    assert _sigmas_apart(f.states[-1] - y[0], Pb) < 1e-3
+    np.testing.assert_allclose(np.diag(f.covariance), np.diag(Pb), rtol=0.01)
+    np.testing.assert_array_equal(_vec(f.state), f.states[-1])
+    assert abs((f.state.epoch - positions.times[-1]).sec) < 1e-6
+    # every covariance of the Joseph update is symmetric positive definite
+    for P in (f.covariances, f.smoothed_covariances):
+        np.testing.assert_array_equal(P, np.swapaxes(P, 1, 2))
+        assert np.all(np.linalg.eigvalsh(P) > 0)
+    # post-fit residuals are smaller than pre-fit ones once the orbit is known
+    late = f.epoch_index > 10
+    assert np.sqrt(np.mean(f.postfit_residuals[late] ** 2)) < np.sqrt(
+        np.mean(f.prefit_residuals[late] ** 2))
+    text = repr(f)
+    assert "91 epochs" in text and "90 observations" in text and "smoothed" in text
+
+
+@pytest.fixture(scope="module")
+def tracking_j2():
+    """Two stations, range / range rate / az-el every 30 s when above 10 deg, 3 h, J2."""
+    grid = EPOCH + np.arange(0, 3 * 3600, 30) * u.s
+    return vv.od.simulate_tracking(_state(Y_ECC), STATIONS, grid, J2, seed=False)
+
+
+def test_filter_is_consistent_on_simulated_tracking(tracking_j2):
+    """NEES averages ~6 within the chi-square band of the runs; NIS per kind within its band."""
+    rng = np.random.default_rng(5)
+    runs = 20
+    nees, smoothed, nis_sum = [], [], {}
+    truth = None
+    for _ in range(runs):
+        obs = _noisy(tracking_j2, rng)
+        x0 = Y_ECC + rng.multivariate_normal(np.zeros(6), P0)
+        f = vv.filter_orbit(obs, _state(x0), P0, J2, smoother=True, editing_sigma=None)
+        if truth is None:
+            truth = _truth_at(Y_ECC, J2, f.offsets_s)
+        nees.append(_nees(f.states - truth, f.covariances))
+        smoothed.append(_nees(f.smoothed_states - truth, f.smoothed_covariances))
+        for k in ("range", "range_rate", "azel"):
+            nis_sum[k] = nis_sum.get(k, 0.0) + f.nis[obs.kinds == k].sum()
+    nees, smoothed = np.array(nees), np.array(smoothed)
+    lo, hi = stats.chi2.ppf([0.001, 0.999], 6 * runs) / runs
+    assert lo < nees.mean() < hi and lo < smoothed.mean() < hi
+    per_epoch = nees.mean(axis=0)  # a Monte Carlo mean at every epoch
+    assert np.all(per_epoch < stats.chi2.ppf(0.9999, 6 * runs) / runs)
+    for k, total in nis_sum.items():
+        dof = runs * int(tracking_j2.dims[tracking_j2.kinds == k].sum())
+        assert stats.chi2.ppf(0.0005, dof) < total < stats.chi2.ppf(0.9995, dof), k
+
+
+@pytest.fixture(scope="module")
+def tracking_drag():
+    """The same tracking of a 400 km orbit over 6 h whose truth has drag (0.05 m^2/kg)."""
+    grid = EPOCH + np.arange(0, 6 * 3600, 30) * u.s
+    forces = J2 + [vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)]
+    obs = vv.od.simulate_tracking(_state(Y_LEO), STATIONS, grid, forces, seed=11)
+    return obs, forces
+
+
+def test_process_noise_absorbs_an_unmodelled_drag_where_none_diverges(tracking_drag):
+    obs, truth_forces = tracking_drag
+    rng = np.random.default_rng(2)
+    x0 = Y_LEO + rng.multivariate_normal(np.zeros(6), P0)
+    # the filter's dynamics lack the drag (3e-9 km/s^2): without process noise it loses the orbit
+    with pytest.raises(vv.ConvergenceError, match=r"diverged at 2024-03-01T0\d:\d\d.*consecutive"):
+        vv.filter_orbit(obs, _state(x0), P0, J2)
+    # and with editing off it still refuses to go on (5 sigma)
+    with pytest.raises(vv.ConvergenceError, match="5 sigma"):
+        vv.filter_orbit(obs, _state(x0), P0, J2, editing_sigma=None)
+    # SNC q = 1e-14 km^2/s^3 ~ a^2 x (the gap between passes, ~5000 s) keeps it consistent
+    f = vv.filter_orbit(obs, _state(x0), P0, J2, process_noise=1e-14)
+    e = f.states - _truth_at(Y_LEO, truth_forces, f.offsets_s)
+    nees = _nees(e, f.covariances)
+    assert 3.0 < nees.mean() < 10.0  # one run, correlated epochs: about 6
+    assert np.mean(nees < stats.chi2.ppf(0.999, 6)) > 0.95
+    dof = int(obs.dims.sum())
+    assert stats.chi2.ppf(0.0005, dof) < f.nis.sum() < stats.chi2.ppf(0.9995, dof)
+    assert not f.rejected.any()
+    assert np.linalg.norm(e[-1, :3]) < 0.03  # 10 m class at the end, where q = 0 had diverged
+    # the density in other units and in GCRS axes is taken too
+    g = vv.filter_orbit(obs, _state(x0), P0, J2, process_noise=[1e-8] * 3 * u.m**2 / u.s**3,
+                        process_noise_frame="gcrs")
+    assert g.process_noise_frame == "GCRS"
+    np.testing.assert_allclose(g.process_noise, 1e-14)
+
+
+def test_an_outlier_is_rejected_and_reported(tracking_j2):
+    rng = np.random.default_rng(9)
+    obs = _noisy(tracking_j2, rng)
+    values = [obs.values[i, :obs.dims[i]].copy() for i in range(len(obs))]
+    bad = 40
+    assert obs.kinds[bad] == "range_rate"
+    values[bad][0] += 100 * obs.sigmas[bad]
+    spoiled = vv.Observations(time=obs.times, kind=list(obs.kinds), value=values,
+                              sigma=list(obs.sigmas), station=obs.stations)
+    clean = vv.filter_orbit(obs, _state(Y_ECC), P0, J2)
+    f = vv.filter_orbit(spoiled, _state(Y_ECC), P0, J2)
+    assert np.flatnonzero(f.rejected).tolist() == [bad]
+    assert f.prefit_ratios[bad] > 50
+    np.testing.assert_allclose(f.prefit_residuals[bad, 0] - clean.prefit_residuals[bad, 0],
+                               100 * obs.sigmas[bad], rtol=1e-6)
+    # the rejected row did not move the estimate: only the other rows at its epoch did
+    assert _sigmas_apart(f.states[-1] - clean.states[-1], clean.covariance) < 0.5
+    kept = vv.filter_orbit(spoiled, _state(Y_ECC), P0, J2, editing_sigma=None,
+                           divergence_count=10**6)
+    assert not kept.rejected.any()
+    assert _sigmas_apart(kept.states[-1] - clean.states[-1], clean.covariance) > 1
+
+
+def test_a_tdm_feeds_the_filter(tracking_j2):
+    obs = _noisy(tracking_j2, np.random.default_rng(4))
+    text = vv.write_tdm(obs, participant="SAT-1")
+    tracked = vv.read_tdm(text).to_observations(
+        {s.name: s for s in STATIONS},
+        {"range": 10 * u.m, "range_rate": 1 * u.cm / u.s, "azel": 0.01 * u.deg})
+    direct = vv.filter_orbit(obs, _state(Y_ECC), P0, J2)
+    f = vv.filter_orbit(tracked, _state(Y_ECC), P0, J2)
+    assert len(f.times) == len(direct.times)
+    assert np.max(np.abs(f.states[-1, :3] - direct.states[-1, :3])) < 1e-6  # 1 mm
+    e = f.states[-1] - _truth_at(Y_ECC, J2, f.offsets_s[-1:])[0]
+    assert _nees(e[None], f.covariance[None])[0] < stats.chi2.ppf(0.999, 6)
+
+
+def test_observations_at_the_epoch_update_the_first_state(positions):
+    t = EPOCH + np.arange(0, 600, 60) * u.s
+    obs = simulate_observations(_state(Y_ECC), t, "position", 0.001 * u.km, seed=1)
+    f = vv.filter_orbit(obs, _state(Y_ECC + [0.02, 0, 0, 0, 0, 0]), np.diag([1e-2] * 3 + [1e-6] * 3))
+    assert len(f.times) == 10 and f.offsets_s[0] == 0.0
+    assert abs(f.states[0, 0] - Y_ECC[0]) < 0.005  # pulled from 20 m off to the fix
+    assert f.covariances[0, 0, 0] < 2e-6
+
+
+def test_filter_bad_input(positions):
+    good = _state(Y_ECC)
+    with pytest.raises(vv.InvalidInputError, match="vv.Observations"):
+        vv.filter_orbit([1, 2], good, P0)
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        vv.filter_orbit(positions, good, np.full((6, 6), np.nan))
+    with pytest.raises(vv.ShapeError, match="6x6"):
+        vv.filter_orbit(positions, good, np.eye(3))
+    not_psd = P0.copy()
+    not_psd[0, 0] = -1e-4
+    with pytest.raises(vv.InvalidInputError, match="positive semi-definite"):
+        vv.filter_orbit(positions, good, not_psd)
+    with pytest.raises(vv.InvalidInputError, match="symmetric"):
+        vv.filter_orbit(positions, good, P0 + np.triu(np.ones((6, 6)), 1) * 1e-6)
+    with pytest.raises(vv.InvalidInputError, match="zero"):
+        vv.filter_orbit(positions, good, np.zeros((6, 6)))
+    with pytest.raises(vv.UnitsError):
+        vv.filter_orbit(positions, good, P0 * u.s)
+    late = _state(Y_ECC, EPOCH + 600 * u.s)
+    with pytest.raises(vv.InvalidInputError, match="observation 0 .* before the initial"):
+        vv.filter_orbit(positions, late, P0)
+    pending = _state(Y_ECC)
+    pending._pending_maneuvers = 1
+    with pytest.raises(vv.InvalidInputError, match="manoeuvre"):
+        vv.filter_orbit(positions, pending, P0)
+    for kw, match in (({"process_noise": -1e-14}, ">= 0"), ({"process_noise": [1e-14] * 2}, "three"),
+                      ({"process_noise": 1e-14, "process_noise_frame": "TNW"}, "RTN"),
+                      ({"process_noise": 1e-14 * u.km}, None), ({"editing_sigma": 0}, "> 0"),
+                      ({"divergence_count": 0}, ">= 1"), ({"smoother": "yes"}, "True or False"),
+                      ({"noise_step": -1 * u.s}, "> 0"), ({"rtol": np.nan}, "finite")):
+        with pytest.raises(vv.VisvivaError, match=match):
+            vv.filter_orbit(positions, good, P0, **kw)
+
+
+def test_covariance_in_other_units_is_the_same_filter(positions):
+    good = _state(Y_ECC)
+    a = vv.filter_orbit(positions, good, P0)
+    b = vv.filter_orbit(positions, good, P0 * 1e6 * u.m**2)  # read in m and s
+    np.testing.assert_allclose(a.states, b.states, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(a.covariances, b.covariances, rtol=1e-9, atol=0)

@@ -423,9 +423,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
                 P = 0.5 * (P + P.T)
             if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
                 raise diverged(k, "the updated estimate is not finite")
-            h2, _ = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)
-            z2 = residuals(kinds[rows], observations.values[rows], h2)
-            postfit[rows] = np.where(comp, z2, 0.0)
+            if use.any():
+                h, _ = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)
+                z = residuals(kinds[rows], observations.values[rows], h)
+            postfit[rows] = np.where(comp, z, 0.0)
         xs[k], Ps[k] = x, P
     sm_x = sm_P = first_state = first_cov = None
     if smoother:

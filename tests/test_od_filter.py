@@ -236,14 +236,24 @@ def test_filter_bad_input(positions):
                       ({"process_noise": 1e-14, "process_noise_frame": "TNW"}, "RTN"),
                       ({"process_noise": 1e-14 * u.km}, None), ({"editing_sigma": 0}, "> 0"),
                       ({"divergence_count": 0}, ">= 1"), ({"smoother": "yes"}, "True or False"),
-                      ({"noise_step": -1 * u.s}, "> 0"), ({"rtol": np.nan}, "finite")):
+                      ({"noise_step": -1 * u.s}, "> 0"), ({"rtol": np.nan}, "finite"),
+                      ({"editing_sigma": True}, "number"), ({"process_noise": np.nan}, "NaN"),
+                      ({"covariance": np.diag([np.inf] * 6)}, "infinite")):
+        args = {"covariance": P0} | kw
         with pytest.raises(vv.VisvivaError, match=match):
-            vv.filter_orbit(positions, good, P0, **kw)
+            vv.filter_orbit(positions, good, **args)
 
 
 def test_covariance_in_other_units_is_the_same_filter(positions):
     good = _state(Y_ECC)
     a = vv.filter_orbit(positions, good, P0)
     b = vv.filter_orbit(positions, good, P0 * 1e6 * u.m**2)  # read in m and s
+    c = vv.filter_orbit(positions, good, P0.tolist())
+    np.testing.assert_array_equal(a.states, c.states)
+    # a plain noise step is seconds, as its Quantity
+    d = vv.filter_orbit(positions, good, P0, process_noise=1e-14, noise_step=30.0)
+    e = vv.filter_orbit(positions, good, P0, process_noise=1e-14, noise_step=0.5 * u.min)
+    np.testing.assert_array_equal(d.covariances, e.covariances)
+    assert np.all(d.covariances[-1].diagonal() > a.covariances[-1].diagonal())
     np.testing.assert_allclose(a.states, b.states, rtol=1e-13, atol=0)
     np.testing.assert_allclose(a.covariances, b.covariances, rtol=1e-9, atol=0)

@@ -177,9 +177,9 @@ def _noise(process_noise, frame):
     return q, name
 
 
-def _positive(name, value, allow_none=False):
-    if value is None and allow_none:
-        return None
+def _positive(name, value):
+    if isinstance(value, bool | np.bool_):
+        raise InvalidInputError(f"{name} must be a finite number > 0; got {value!r}.")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -313,11 +313,14 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     if noise_step is not None:
         from .._units import to_array
 
-        step_s = _positive("noise_step", float(np.ravel(to_array(noise_step, "time",
-                                                                  "noise_step"))[0]))
+        step = np.ravel(to_array(noise_step, "time", "noise_step", allow_plain=True))
+        if step.size != 1:
+            raise ShapeError(f"noise_step must be one interval (s); got {step.size} values.")
+        step_s = _positive("noise_step", float(step[0]))
     if editing_sigma is not None:
         editing_sigma = _positive("editing_sigma", editing_sigma)
-    if not (isinstance(divergence_count, int | np.integer) and divergence_count >= 1):
+    if isinstance(divergence_count, bool) or not (
+            isinstance(divergence_count, int | np.integer) and divergence_count >= 1):
         raise InvalidInputError(
             f"divergence_count must be an integer >= 1; got {divergence_count!r}."
         )

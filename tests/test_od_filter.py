@@ -257,3 +257,67 @@ def test_covariance_in_other_units_is_the_same_filter(positions):
     assert np.all(d.covariances[-1].diagonal() > a.covariances[-1].diagonal())
     np.testing.assert_allclose(a.states, b.states, rtol=1e-13, atol=0)
     np.testing.assert_allclose(a.covariances, b.covariances, rtol=1e-9, atol=0)
+
+
+def test_a_restarted_filter_continues_the_same_run(tracking_drag):
+    """Near real time: filtering the first half, then the rest from the last state and
+    covariance, gives the run over everything (with process noise)."""
+    obs, _ = tracking_drag
+    x0 = Y_LEO + [0.005, -0.002, 0.001, 1e-6, 0.0, -1e-6]
+    whole = vv.filter_orbit(obs, _state(x0), P0, J2, process_noise=1e-14)
+    cut = len(obs) // 2
+    while obs.times[cut] == obs.times[cut - 1]:
+        cut += 1
+
+    def part(sl):
+        return vv.Observations(time=obs.times[sl], kind=list(obs.kinds[sl]),
+                               value=[v[:d] for v, d in zip(obs.values[sl], obs.dims[sl],
+                                                            strict=True)],
+                               sigma=list(obs.sigmas[sl]), station=obs.stations[sl])
+
+    first = vv.filter_orbit(part(slice(0, cut)), _state(x0), P0, J2, process_noise=1e-14)
+    rest = vv.filter_orbit(part(slice(cut, None)), first.state, first.covariance, J2,
+                           process_noise=1e-14)
+    assert len(first.times) + len(rest.times) - 1 == len(whole.times)
+    np.testing.assert_allclose(rest.states[-1], whole.states[-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rest.covariance, whole.covariance, rtol=1e-7,
+                               atol=1e-9 * np.abs(whole.covariance).max())
+    np.testing.assert_array_equal(np.r_[first.rejected, rest.rejected], whole.rejected)
+
+
+def test_snc_is_the_covariance_of_integrated_white_noise():
+    """Q(dt) = int_0^dt Phi_cv(s) B Qc B^T Phi_cv(s)^T ds for constant-velocity motion."""
+    from scipy.integrate import quad_vec
+
+    from visviva.od.sequential import snc_covariance
+
+    a = np.array([[1e-14, 2e-15, 0], [2e-15, 3e-14, 1e-15], [0, 1e-15, 5e-15]])
+    B = np.vstack([np.zeros((3, 3)), np.eye(3)])
+
+    def integrand(s):
+        phi = np.eye(6)
+        phi[:3, 3:] = s * np.eye(3)
+        return phi @ B @ a @ B.T @ phi.T
+
+    for dt in (1.0, 60.0, 5400.0):
+        ref, _ = quad_vec(integrand, 0.0, dt, epsabs=0, epsrel=1e-12)
+        np.testing.assert_allclose(snc_covariance(dt, a), ref, rtol=1e-10, atol=0)
+    assert np.all(np.linalg.eigvalsh(snc_covariance(600.0, a)) > -1e-20)
+
+
+def test_rtn_noise_grows_the_along_track_uncertainty_most(positions):
+    """Noise on the T axis only: the predicted covariance's growth over a short gap lies along
+    the velocity."""
+    t = EPOCH + np.array([0.0, 30.0]) * u.s
+    obs = simulate_observations(_state(Y_ECC), t, "position", 0.001 * u.km, seed=2)
+    q = [0.0, 1e-10, 0.0]
+    f = vv.filter_orbit(obs, _state(Y_ECC), P0, process_noise=q)
+    g = vv.filter_orbit(obs, _state(Y_ECC), P0)
+    growth = f.predicted_covariances[1] - g.predicted_covariances[1]
+    w, vecs = np.linalg.eigh(growth[:3, :3])
+    v_hat = Y_ECC[3:] / np.linalg.norm(Y_ECC[3:])
+    t_hat = np.cross(np.cross(Y_ECC[:3], Y_ECC[3:]), Y_ECC[:3])
+    t_hat /= np.linalg.norm(t_hat)
+    assert abs(vecs[:, -1] @ t_hat) > 0.999
+    np.testing.assert_allclose(w[-1], 1e-10 * 30.0**3 / 3.0, rtol=0.01)
+    assert abs(vecs[:, -1] @ v_hat) > 0.99

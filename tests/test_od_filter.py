@@ -321,3 +321,37 @@ def test_rtn_noise_grows_the_along_track_uncertainty_most(positions):
     assert abs(vecs[:, -1] @ t_hat) > 0.999
     np.testing.assert_allclose(w[-1], 1e-10 * 30.0**3 / 3.0, rtol=0.01)
     assert abs(vecs[:, -1] @ v_hat) > 0.99
+
+
+def test_filter_and_smoother_are_consistent_when_the_truth_has_white_noise_acceleration():
+    """A truth kicked by a white-noise acceleration of density q (velocity kicks N(0, q h) every
+    h = 5 s) and the filter told that q: filtered and smoothed NEES average ~6."""
+    from visviva.od.sequential import _propagate
+
+    q, h, span, sig, runs = 1e-12, 5.0, 5400.0, 0.01, 12
+    dyn = Dynamics(GM, None, EPOCH, (0, span))
+    rng = np.random.default_rng(3)
+    steps = np.arange(1, int(span / h) + 1) * h
+    t_obs = np.arange(60.0, span, 60.0)
+    at_obs = np.searchsorted(steps, t_obs)
+    nees, smoothed = [], []
+    for _ in range(runs):
+        x, t, path = Y_ECC.copy(), 0.0, []
+        for t_next in steps:
+            x = _propagate(dyn, x, t, [t_next])[0][-1].copy()
+            x[3:] += rng.standard_normal(3) * np.sqrt(q * h)
+            path.append(x)
+            t = t_next
+        truth = np.array(path)[at_obs]
+        pos = truth[:, :3] + rng.standard_normal((t_obs.size, 3)) * sig
+        obs = vv.Observations(time=EPOCH + t_obs * u.s, kind="position", value=pos * u.km,
+                              sigma=sig * u.km)
+        x0 = Y_ECC + rng.multivariate_normal(np.zeros(6), P0)
+        f = vv.filter_orbit(obs, _state(x0), P0, process_noise=q, process_noise_frame="GCRS",
+                            noise_step=h * u.s, smoother=True)
+        truth = np.vstack([Y_ECC, truth])  # the a priori epoch first
+        nees.append(_nees(f.states - truth, f.covariances))
+        smoothed.append(_nees(f.smoothed_states - truth, f.smoothed_covariances))
+    lo, hi = stats.chi2.ppf([0.001, 0.999], 6 * runs) / runs
+    assert lo < np.mean(nees) < hi
+    assert lo < np.mean(smoothed) < hi

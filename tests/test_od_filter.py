@@ -355,3 +355,23 @@ def test_filter_and_smoother_are_consistent_when_the_truth_has_white_noise_accel
     lo, hi = stats.chi2.ppf([0.001, 0.999], 6 * runs) / runs
     assert lo < np.mean(nees) < hi
     assert lo < np.mean(smoothed) < hi
+
+
+@pytest.mark.parametrize("light_time, reference", [(True, "gcrs"), (True, "stars"),
+                                                    (False, "gcrs")])
+def test_the_model_of_some_rows_is_those_rows_of_the_whole_model(light_time, reference):
+    """light_time.model(rows=): what the filter evaluates at one epoch."""
+    from visviva.od.light_time import model
+
+    t = EPOCH + np.array([0.0, 0.0, 10.0, 10.0, 20.0]) * u.s
+    kinds = ["range", "radec", "azel", "range_rate", "position"]
+    st = STATIONS[0]
+    obs = simulate_observations(_state(Y_ECC), t, kinds, [0.01, 1e-5, 1e-5, 1e-5, 0.01],
+                                [st, st, st, st, None], seed=False, light_time=light_time,
+                                radec_reference=reference)
+    y = _truth_at(Y_ECC, None, obs.offsets_s(EPOCH) + 1e-9)
+    h, H = model(obs, y, GM)
+    rows = np.array([1, 3, 4])
+    h2, H2 = model(obs, y[rows], GM, rows)
+    np.testing.assert_array_equal(h2, h[rows])
+    np.testing.assert_array_equal(H2, H[rows])

@@ -3,7 +3,8 @@
 ``import visviva as vv`` gives :func:`~visviva.gibbs`, :func:`~visviva.herrick_gibbs`,
 :func:`~visviva.gauss_angles`, :class:`~visviva.Observations`, :func:`~visviva.fit_orbit`,
 :func:`~visviva.filter_orbit` (sequential: EKF and smoother) and :func:`~visviva.fit_tle`,
-:func:`~visviva.read_tdm` and :class:`~visviva.TDM` (tracking data from CCSDS TDM files); the rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
+:func:`~visviva.read_tdm` and :class:`~visviva.TDM` (tracking data from CCSDS TDM files); the
+rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
 Names load lazily (PEP 562): importing ``visviva.od`` compiles nothing.
 """
 

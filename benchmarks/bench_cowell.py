@@ -15,6 +15,9 @@ than the reference):
   boundaries, docs/cowell.md) against ``max_step=10 s``, the step limit that was needed before
   for millimetres across the shadow; the notes give both runs' errors against a
   ``max_step=1 s``, ``rtol=atol=1e-13`` run.
+* ``J2 + 3 eclipse events, one day``: penumbra, umbra and cylindrical eclipses in one run (90
+  crossings), against the same run with the fixed room of 64 events it had before (the run was
+  redone with more room: twice the integration).
 * ``Lambert (Izzo)``: throughput of the vectorised solver on random Earth transfers.
 
 Run: ``python -m benchmarks --only cowell`` or ``python -m benchmarks.bench_cowell``.
@@ -25,9 +28,9 @@ from __future__ import annotations
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import compile_time, quick_from_env, result, skipped, time_call
+    from .common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 except ImportError:  # pragma: no cover
-    from common import compile_time, quick_from_env, result, skipped, time_call
+    from common import compile_time, interleaved, quick_from_env, result, skipped, time_call
 
 TARGET_S = 0.020
 
@@ -142,6 +145,34 @@ def run(quick: bool = False) -> list[dict]:
             tl,
             notes=(f"A/m = 0.02 m2/kg, Cr = 1.5; max error vs max_step=1 s, 1e-13: defaults "
                    f"{errs[0]:.2g} mm, max_step=10 s {errs[1]:.2g} mm"),
+        )
+    )
+    # eclipse events: the three of one run (conical penumbra and umbra, cylindrical), against
+    # the same run with the old fixed room of 64 events (90 found: the run was done twice)
+    from unittest import mock
+
+    from visviva.satellites import Eclipse
+
+    eclipses = [Eclipse("conical"), Eclipse("conical", umbra=True), Eclipse("cylindrical")]
+
+    def with_events():
+        return propagate_cowell(state_e, t, forces, events=eclipses)
+
+    def old_room():
+        with mock.patch("visviva.satellites.cowell.event_capacity", lambda *a: 64):
+            return with_events()
+
+    te, to = interleaved([with_events, old_room], rounds=3 if quick else 9)
+    same = [(e.t.value, e.what) for e in with_events().events] == [
+        (e.t.value, e.what) for e in old_room().events]
+    rows.append(
+        result(
+            "Cowell J2 + 3 eclipse events, 1 day LEO",
+            te,
+            "visviva with the old event room of 64 (run twice)",
+            to,
+            notes=(f"{len(with_events().events)} events (penumbra, umbra, cylindrical); the "
+                   f"same event times: {same}"),
         )
     )
     # many states in parallel

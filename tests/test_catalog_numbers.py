@@ -353,3 +353,50 @@ def test_convert_picks_one_object_of_a_many_omm_kvn_file(tmp_path, capsys):
     assert vv.read_omm(out)["NORAD_CAT_ID"] == 123456789
     assert main(["convert", str(path), str(tmp_path / "big.tle"), "--satnum", "123456789"]) == 2
     assert "cannot be written in a TLE" in capsys.readouterr().err
+
+
+# -- ninth session: the CCSDS readers' missing files, KVN keyword lines, CLI warnings ---------
+@pytest.mark.parametrize("reader", ["read_omm", "read_oem", "read_opm", "read_cdm"])
+def test_ccsds_readers_raise_missing_file_error_like_the_catalogue_readers(reader, tmp_path):
+    # they raised CCSDSFormatError("no such file"), not a FileNotFoundError
+    path = tmp_path / "msg.kvn"
+    with pytest.raises(vv.MissingFileError, match="msg.kvn': no such file; .*message text") as err:
+        getattr(vv, reader)(path)
+    assert isinstance(err.value, FileNotFoundError) and err.value.filename == str(path)
+    with pytest.raises(vv.CCSDSFormatError, match="is a directory"):
+        getattr(vv, reader)(tmp_path)
+
+
+@pytest.mark.parametrize("key, bad", [("ECCENTRICITY", "1.5"), ("INCLINATION", "nan"),
+                                      ("EPOCH", "2024-13-01T00:00:00"), ("NORAD_CAT_ID", "x")])
+def test_a_bad_value_in_a_kvn_catalogue_names_its_own_line(key, bad, tmp_path):
+    # it named the line where its OMM starts (28 here), not the keyword's
+    lines = (_omm_text(25544, "kvn") + _omm_text(123456789, "kvn")).split("\n")
+    start = max(i for i, line in enumerate(lines) if line.startswith("CCSDS_OMM_VERS")) + 1
+    k = max(i for i, line in enumerate(lines) if line.split("=")[0].strip() == key)
+    lines[k] = f"{key} = {bad}"
+    path = tmp_path / "gp.kvn"
+    path.write_text("\n".join(lines))
+    with pytest.raises(vv.InvalidInputError, match=rf"record 2 of .*gp.kvn, line {k + 1} "
+                                                   rf"\({key}; the OMM starts on line {start}\)"):
+        vv.read_catalog_file(path)
+
+
+def test_cli_commands_print_warnings_as_one_clean_line(tmp_path, capsys):
+    # they printed Python's "file.py:65: UserWarning: ..." and the source line after it
+    from visviva.cli import main
+
+    path = tmp_path / "gp.kvn"
+    path.write_text(_omm_text(25544, "kvn") * 2)
+    with warnings.catch_warnings(), pytest.raises(SystemExit, match="pick one"):
+        warnings.simplefilter("always")
+        main(["convert", str(path), str(tmp_path / "x.omm"), "--satnum", "25544"])
+    err = capsys.readouterr().err.splitlines()
+    warned = [line for line in err if "appears more than once" in line]
+    assert len(warned) == 1 and warned[0].startswith("visviva: warning: ")
+    assert not any("UserWarning" in line or ".py:" in line for line in err), err
+    # a warning from outside visviva keeps its category, still on one line
+    from visviva.cli import _show_warning
+
+    _show_warning(RuntimeWarning("overflow\nin exp"), RuntimeWarning, np.__file__, 1)
+    assert capsys.readouterr().err == "visviva: warning: RuntimeWarning: overflow in exp\n"

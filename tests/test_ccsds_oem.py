@@ -271,7 +271,7 @@ def test_byte_order_mark_is_not_part_of_the_message(tmp_path):
 
 
 def test_paths_errors_and_empty():
-    with pytest.raises(vv.CCSDSFormatError, match="no such file"):
+    with pytest.raises(vv.MissingFileError, match="no such file"):  # (a FileNotFoundError)
         vv.read_oem("/nonexistent/file.oem")
     with pytest.raises(vv.CCSDSFormatError, match="empty"):
         vv.read_oem("\n\n")

@@ -374,3 +374,30 @@ def test_3d_agrees_with_two_body_monte_carlo_for_a_slow_encounter():
         dmin = np.minimum(dmin, np.linalg.norm(out[0][0] - out[1][0], axis=1) * 1e3)
     hits = np.count_nonzero(dmin < 20.0)
     assert abs(hits / n - p3) < 3 * math.sqrt(hits) / n
+
+
+def test_3d_method_repairs_a_non_psd_covariance_in_3d_as_pc3d_hall_and_says_how_much():
+    # it warned that "the encounter-plane covariance" was clipped (the 2-D methods' repair)
+    # while the 3-D integral used the non-PSD 3x3 as given, dropping silently the times where
+    # its variance along the relative velocity was <= 0
+    r1, v1, c1, r2, v2, c2 = NPD_CASE
+    with pytest.warns(CovarianceRepairWarning, match=r"not positive semi-definite, and the "
+                      r"relative position covariance is not at \d+ of the 768 times .*smallest "
+                      r"eigenvalue -\d.*Pc3D_Hall.*clipped to \(1e-4 HBR\)\^2 = 2\.792e-05 m\^2"):
+        lp = collision_probability(r1, v1, c1, r2, v2, c2, 52.84, method="3d", log=True)
+    assert -1e13 < lp < -1e9  # Pc = 0, as CARA and the 2-D methods give
+
+
+def test_3d_clip_matches_cara_eigenvalue_clipping():
+    from visviva.conjunctions.probability import _clip_3d
+
+    rng = np.random.default_rng(7)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    cov = (q * [-5.0, 1e-9, 4e4]) @ q.T
+    repairs = []
+    fixed = _clip_3d(cov, 1e-6, repairs)
+    assert np.allclose(np.linalg.eigvalsh(fixed), [1e-6, 1e-6, 4e4], rtol=1e-9, atol=1e-12)
+    assert repairs == [pytest.approx((-5.0, 4e4))]
+    # a positive-definite one is returned as it is (the same bits), and nothing is recorded
+    good = (q * [2.0, 3.0, 4e4]) @ q.T
+    assert _clip_3d(good, 1e-6, repairs) is good and len(repairs) == 1

@@ -224,3 +224,63 @@ def test_grazes_of_the_other_model_are_found_with_srp_and_its_shadow(srp_shadow,
         plain = vv.propagate_cowell(state, t, forces)
         assert (out.events[1].t - out.events[0].t).to_value(u.s) < 0.2 * span / plain.n_steps
     np.testing.assert_allclose(out.r.to_value(u.km), ref.r.to_value(u.km), rtol=0, atol=1e-6)
+
+
+def test_three_eclipse_events_over_a_leo_day_run_the_integration_once(monkeypatch):
+    # the room for events was 64 whatever the run: 90 crossings (penumbra, umbra, cylinder
+    # over 15 orbits) overflowed it and the whole integration was done again (11 ms, now 7)
+    import visviva.satellites.cowell as sc
+    from visviva.satellites.events import event_capacity
+
+    state = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=EPOCH).to_state()
+    events = [Eclipse("conical"), Eclipse("conical", umbra=True), Eclipse("cylindrical")]
+    calls = []
+    original = sc._integrate
+    monkeypatch.setattr(sc, "_integrate", lambda args, info: calls.append(1) or original(args, info))
+    run = vv.propagate_cowell(state, [0, 1] * u.day, [vv.J2(vv.EARTH)], events=events)
+    assert len(run.events) > 64 and len(calls) == 1
+    # the same records as with the old room (the kernel's bits do not depend on it)
+    monkeypatch.setattr(sc, "event_capacity", lambda *a: 64)
+    calls.clear()
+    old = vv.propagate_cowell(state, [0, 1] * u.day, [vv.J2(vv.EARTH)], events=events)
+    assert len(calls) == 2
+    assert [(e.t.value, e.what) for e in old.events] == [(e.t.value, e.what) for e in run.events]
+    assert all(np.array_equal(a.r.value, b.r.value) for a, b in zip(old.events, run.events, strict=True))
+    # room for the crossings of any bound orbit; a minimum of 64, a cap of 2**20
+    y0 = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
+    gm = vv.EARTH.gm_km3_s2
+    assert event_capacity(y0, 86400.0, gm, 3) >= 2 * 3 * 86400.0 / 5830.0
+    assert event_capacity(y0, 0.0, gm, 1) == 64 and event_capacity(y0, 1e12, gm, 9) == 2**20
+    assert event_capacity(np.r_[y0[:3], 3 * y0[3:]], 1e6, gm, 2) == 64  # hyperbolic
+
+
+def test_eclipse_events_at_a_steps_end_reuse_the_shadow_samples_bit_for_bit():
+    # the integrator takes the events' values at the end of a step from the shadow boundary
+    # samples taken there (one Sun position and one shadow geometry for the three events):
+    # they must be event_function's values exactly, on either side of each boundary
+    from visviva.core.cowell_events import (
+        SHADOW_SAMPLES,
+        end_sample_value,
+        event_function,
+        shadow_values,
+    )
+    from visviva.satellites.cowell import ForceModel
+
+    model = ForceModel(vv.EARTH.gm_km3_s2, [], [Eclipse("conical")], EPOCH, (0.0, 7000.0))
+    force, _, _, er, ev, _, _ = model.arrays()
+    rng = np.random.default_rng(11)
+    s = np.empty(3)
+    gs0, gs1 = np.zeros(SHADOW_SAMPLES + 1), np.zeros(SHADOW_SAMPLES + 1)
+    for _ in range(200):
+        t = rng.uniform(0.0, 7000.0)
+        y = np.r_[rng.normal(size=3) * 7000.0, rng.normal(size=3)]
+        for model_id, kinds in ((1, (1,)), (2, (2, 3))):
+            g0, g1 = shadow_values(model_id, t, y, force, er, ev, s)
+            side0, side1 = rng.choice([-1.0, 1.0], 2)
+            gs0[-1], gs1[-1] = side0 * g0, side1 * g1
+            for kind in (1, 2, 3):
+                ok, value = end_sample_value(kind, model_id, side0, side1, gs0, gs1)
+                assert ok == (kind in kinds)
+                if ok:
+                    assert value == event_function(kind, 0.0, t, y, force, er, ev)

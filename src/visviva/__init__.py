@@ -86,6 +86,7 @@ _PUBLIC = {
     "SGP4Error": "visviva.satellites",
     "SatelliteDecayedError": "visviva.satellites",
     "propagate_cowell": "visviva.satellites",
+    "propagate_covariance": "visviva.satellites",
     "J2": "visviva.satellites",
     "Zonal": "visviva.satellites",
     "AtmosphericDrag": "visviva.satellites",

@@ -1,9 +1,48 @@
-"""Decoding the bytes of a text file: the one place that finds the line of a byte that is not
-UTF-8, for every reader (CCSDS messages, OMM catalogues)."""
+"""Reading a user's file: the one place that opens it (a missing file raises
+:class:`~visviva.errors.MissingFileError` naming the path) and the one place that finds the
+line of a byte that is not UTF-8, for every reader (CCSDS messages, TLE and OMM catalogues)."""
 
 from __future__ import annotations
 
-__all__ = ["utf8_text"]
+__all__ = ["utf8_text", "file_bytes"]
+
+
+def file_bytes(path, what: str, todo: str, error=None) -> bytes:
+    """The bytes of the user's file ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    what : str
+        What the file holds, for the messages ("element sets", "a CCSDS message").
+    todo : str
+        What to do when the file does not exist (the message of the
+        :class:`~visviva.errors.MissingFileError` raised then, after the path).
+    error : callable, optional
+        ``error(message) -> Exception`` for a directory or a file that cannot be read (no
+        permission, a device): the reader's own error class; default
+        :class:`~visviva.errors.InvalidInputError`.
+
+    Returns
+    -------
+    bytes
+    """
+    import os
+
+    from .errors import InvalidInputError, MissingFileError
+
+    error = InvalidInputError if error is None else error
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise error(f"{path!r} is a directory; pass the path of a file of {what}.")
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except FileNotFoundError:
+        raise MissingFileError(path, todo) from None
+    except OSError as exc:  # (no permission, a device, ...)
+        raise error(f"{path!r} cannot be read: {exc.strerror or exc}") from None
 
 
 def utf8_text(raw: bytes, error):

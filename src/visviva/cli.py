@@ -71,6 +71,33 @@ _COMMANDS: dict[str, str] = {
 }
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` while a command runs: one line per warning on stderr,
+    ``visviva: warning: <message>`` (visviva's own: a category of visviva, or warned from its
+    code), else ``visviva: warning: <Category>: <message>``, instead of Python's
+    ``file:line: Category: message`` followed by the source line."""
+    import os
+
+    package = os.path.dirname(os.path.abspath(__file__))
+    ours = (category.__module__.split(".")[0] == "visviva"
+            or os.path.abspath(filename).startswith(package + os.sep))
+    text = " ".join(str(message).split())  # (one line)
+    kind = "" if ours else f"{category.__name__}: "
+    print(f"visviva: warning: {kind}{text}", file=sys.stderr if file is None else file)
+
+
+def _run_command(module, args) -> int:
+    """``module.run(args)`` with the warnings shown as :func:`_show_warning` does."""
+    import warnings
+
+    saved = warnings.showwarning
+    warnings.showwarning = _show_warning
+    try:
+        return int(module.run(args))
+    finally:
+        warnings.showwarning = saved
+
+
 def main(argv: list[str] | None = None) -> int:
     import importlib
 
@@ -89,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         module.add_parser(sub)
     args = parser.parse_args(argv)
     if args.command in commands:
-        return int(commands[args.command].run(args))
+        return _run_command(commands[args.command], args)
     if args.command == "validate":
         if args.list:
             from .validation.runner import discover, short_name

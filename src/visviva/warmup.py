@@ -123,6 +123,18 @@ def _satellite():
     sat.gcrs(np.linspace(0.0, 600.0, 3) * u.s)
 
 
+def _variational():
+    # the state + STM kernel of covariance propagation and orbit fits
+    import numpy as np
+    from astropy import units as u
+
+    import visviva as vv
+
+    state = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+    vv.propagate_covariance(state, np.diag([1e-6] * 3 + [1e-12] * 3), [-60.0, 60.0] * u.s,
+                            [vv.J2(vv.EARTH)])
+
+
 def _conjunctions():
     import numpy as np
 
@@ -143,6 +155,7 @@ TASKS = (
     ("Lambert", _lambert),
     ("Cowell propagation", _cowell),
     ("Cowell: full force model, burns, batches", _cowell_full),
+    ("covariance propagation and orbit fits (STM)", _variational),
     ("N-body: IAS15", _simulation("ias15")),
     ("N-body: WHFast", _simulation("whfast", dt=0.01)),
     ("N-body: WHFast, corrector and other coordinates", _simulation("whfast", dt=0.01, corrector=5)),

@@ -9,7 +9,7 @@ order, units and XML element names come from one table.
 
 from __future__ import annotations
 
-from .._text import utf8_text
+from .._text import file_bytes, utf8_text
 from .grammar import CCSDSFormatError, Record, Section, format_value, parse_value
 from .kvn import KVNCursor, KVNWriter
 from .ndmxml import XMLNode, add_text, looks_like_xml, message_root, new_root, parse, to_text
@@ -44,18 +44,12 @@ def read_text(source) -> tuple[str, str]:
             isinstance(source, str) and "\n" not in source and "=" not in source
             and not source.lstrip().startswith("<")):
         path = os.fspath(source)
-        if not os.path.exists(path):
-            raise CCSDSFormatError("no such file; pass a path or the message text",
-                                   source=repr(path))
-        if os.path.isdir(path):
-            raise CCSDSFormatError("a directory; pass the path of a message file",
-                                   source=repr(path))
-        try:
-            with open(path, "rb") as handle:
-                data = handle.read()
-        except OSError as exc:  # (no permission, a device, ...)
-            raise CCSDSFormatError(f"cannot be read: {exc.strerror or exc}",
-                                   source=repr(path)) from None
+        # (one owner for opening a user's file: a missing one raises MissingFileError, also a
+        # FileNotFoundError, as the catalogue readers do)
+        data = file_bytes(path, "a CCSDS message", "check the name, or pass the message text "
+                          "itself (a string with its newlines, or bytes).",
+                          lambda message: CCSDSFormatError(message.removeprefix(repr(path) + " "),
+                                                           source=repr(path)))
         return _decode(data, path), path
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")

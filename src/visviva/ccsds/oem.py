@@ -116,7 +116,7 @@ class OEMSegment(FrameCenterMetadata):
     def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
                     center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
                     interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
-                    mission_epoch=None):  # fmt: skip
+                    mission_epoch=None, covariance=None, covariance_frame=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
 
         Parameters
@@ -145,6 +145,13 @@ class OEMSegment(FrameCenterMetadata):
             Accelerations (km/s**2).
         mission_epoch : astropy.time.Time, optional
             The epoch MET/MRT count from, for those time systems.
+        covariance : array_like or Quantity, shape (N, 6, 6), optional
+            A covariance at each epoch (km^2, km^2/s, km^2/s^2 when plain, or an area Quantity),
+            e.g. ``.covariance`` of :func:`visviva.propagate_covariance`; written as the
+            segment's covariance blocks.
+        covariance_frame : str, optional
+            ``COV_REF_FRAME`` of those blocks (``"RTN"``, ``"TNW"``, ...; ``"GCRS"`` is written
+            ``"GCRF"``); None: the covariances are on the axes of ``frame`` (no keyword).
 
         Returns
         -------
@@ -162,7 +169,22 @@ class OEMSegment(FrameCenterMetadata):
                 "REF_FRAME": frame, "TIME_SYSTEM": time_system, "START_TIME": epochs[0],
                 "STOP_TIME": epochs[-1], "INTERPOLATION": interpolation,
                 "INTERPOLATION_DEGREE": int(degree)}
-        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, mission_epoch=mission_epoch)
+        covs = ()
+        if covariance is not None:
+            from .._covariance import as_covariance, require_psd
+
+            c = as_covariance(covariance, "covariance", length_unit="km")
+            if c.shape != (len(epochs), 6, 6):
+                raise InvalidInputError(
+                    f"covariance must hold one 6x6 matrix per epoch, shape ({len(epochs)}, 6, "
+                    f"6); got {c.shape}.")
+            for k, m in enumerate(c):
+                require_psd(m, f"covariance[{k}]")
+            cf = covariance_frame
+            cf = "GCRF" if cf is not None and str(cf).upper() == "GCRS" else cf
+            covs = [OEMCovariance(e, m, None if cf is None else str(cf).upper())
+                    for e, m in zip(epochs, c, strict=True)]
+        seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, covs, mission_epoch=mission_epoch)
         seg.check()
         return seg
 

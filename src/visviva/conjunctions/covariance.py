@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._covariance import as_covariance, block_rotation
 from .._units import to_array, to_vector
 from ..core.local_frames import RTN, local_axes
 from ..errors import InvalidInputError, ShapeError, raise_for_status
@@ -34,60 +35,6 @@ __all__ = [
 
 def _vec(value, kind, name):
     return to_vector(value, kind, name, allow_plain=True)
-
-
-def as_covariance(cov, name: str = "cov", *, length_unit: str = "m") -> np.ndarray:
-    """A covariance as a float64 array ``(..., 6, 6)`` or ``(..., 3, 3)``, checked.
-
-    Parameters
-    ----------
-    cov : array_like or Quantity
-        Plain numbers are taken as given (m^2, m^2/s, m^2/s^2 by the CCSDS convention). A
-        Quantity must have an area unit; it is converted to ``length_unit`` squared (for a 6 x 6
-        array the whole matrix is scaled by the same factor, i.e. it is read in the length unit of
-        the Quantity and seconds).
-    name : str
-        The argument's name for messages.
-    length_unit : str
-        The length unit of the result (``"m"`` or ``"km"``).
-
-    Raises
-    ------
-    ShapeError
-        Not a square 3 x 3 or 6 x 6 matrix on the last two axes.
-    InvalidInputError
-        NaN or infinite entries, or a matrix that is not symmetric (to 1e-8 of its largest entry).
-    """
-    from .._units import is_quantity
-
-    if is_quantity(cov):
-        from astropy import units as u
-
-        from ..errors import UnitsError
-
-        try:
-            arr = np.array(cov.to_value(u.Unit(length_unit) ** 2), dtype=np.float64)
-        except u.UnitConversionError as exc:
-            raise UnitsError(
-                f"{name} has unit '{cov.unit}'; a covariance Quantity needs an area unit "
-                f"(e.g. m**2), or pass a plain array in m^2, m^2/s, m^2/s^2."
-            ) from exc
-    else:
-        try:
-            arr = np.array(cov, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InvalidInputError(f"{name} must be a numeric 6x6 or 3x3 array.") from exc
-    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2] or arr.shape[-1] not in (3, 6):
-        raise ShapeError(f"{name} must be 6x6 or 3x3 on its last two axes; got {arr.shape}.")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInputError(f"{name} contains NaN or infinite entries; fill them first.")
-    scale = np.max(np.abs(arr)) if arr.size else 0.0
-    if scale > 0 and np.max(np.abs(arr - np.swapaxes(arr, -1, -2))) > 1e-8 * scale:
-        raise InvalidInputError(
-            f"{name} is not symmetric; a covariance must equal its transpose "
-            "(symmetrise it with (C + C.T) / 2 if the asymmetry is round-off)."
-        )
-    return 0.5 * (arr + np.swapaxes(arr, -1, -2))
 
 
 def rtn_basis(r, v) -> np.ndarray:
@@ -119,15 +66,6 @@ def rtn_basis(r, v) -> np.ndarray:
     return local_axes(r, v, RTN)
 
 
-def _block(m, n):
-    if n == 3:
-        return m
-    out = np.zeros(m.shape[:-2] + (6, 6))
-    out[..., :3, :3] = m
-    out[..., 3:, 3:] = m
-    return out
-
-
 def rtn_to_inertial(cov_rtn, r, v) -> np.ndarray:
     """Rotate a covariance from the RTN frame of the state ``(r, v)`` to the inertial frame.
 
@@ -152,7 +90,7 @@ def rtn_to_inertial(cov_rtn, r, v) -> np.ndarray:
     covariance describes inertial velocity errors expressed on RTN axes.
     """
     c = as_covariance(cov_rtn, "cov_rtn")
-    m = _block(rtn_basis(r, v), c.shape[-1])
+    m = block_rotation(rtn_basis(r, v), c.shape[-1])
     return np.swapaxes(m, -1, -2) @ c @ m
 
 
@@ -175,7 +113,7 @@ def inertial_to_rtn(cov, r, v) -> np.ndarray:
         ``M C M^T``.
     """
     c = as_covariance(cov, "cov")
-    m = _block(rtn_basis(r, v), c.shape[-1])
+    m = block_rotation(rtn_basis(r, v), c.shape[-1])
     return m @ c @ np.swapaxes(m, -1, -2)
 
 

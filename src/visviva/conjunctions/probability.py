@@ -16,7 +16,7 @@ import numpy as np
 
 from .._units import is_quantity
 from ..errors import InvalidInputError, ShapeError
-from .covariance import as_covariance, encounter_plane, principal_axes
+from .covariance import CLIP_FACTOR, as_covariance, encounter_plane, principal_axes
 
 __all__ = [
     "collision_probability",
@@ -209,7 +209,10 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     uncertainty), ``p_y`` is the density of the relative position along the relative velocity
     ``u`` at the hard-body cross-section, and ``P_2D`` the Foster integral of the conditional
     in-plane Gaussian (Coppola 2012; the idea of Hall's 3D-Nc, 2021). For rectilinear motion it
-    equals ``"foster"``.
+    equals ``"foster"``. A relative position covariance that is not positive semi-definite at
+    some time of the encounter has its eigenvalues clipped in 3-D at ``(1e-4 HBR)^2`` there, as
+    CARA's ``Pc3D_Hall`` does (the 2-D methods clip the projected 2x2, as ``PcCircle`` does);
+    the warning says at how many times and by how much.
     ``"pc3d_hall"``: Hall's 3D-Nc method (D. Hall, "Expected Collision Rates for Tracked
     Satellites", J. Spacecr. Rockets 58 (2021) 715; NASA CARA's ``Pc3D_Hall``):
     ``Nc = \\int dt R^2 \\oint d^2n N(R n; r_u, A) E[(-n . v)^+ | R n]`` over the HBR sphere, where
@@ -402,9 +405,9 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
 
         gm = EARTH.gm
     gm_km = float(to_array(gm, "gm", "gm", allow_plain=True))
-    npd = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
-    if npd:
-        _warn_repair("an input covariance")
+    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    clip = (CLIP_FACTOR * hbr) ** 2
+    repairs = []  # (smallest eigenvalue, largest) of each non-PSD relative covariance
     a0 = c1[:3, :3] + c2[:3, :3]
     u0 = v1 - v2
     un = float(np.linalg.norm(u0))
@@ -438,6 +441,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
             two_body_stm(r0, v0, gm_km, t, phi)
             states.append((rr.copy() * 1e3, vv.copy() * 1e3))
             cov += (phi @ cf @ phi.T)[:3, :3]
+        cov = _clip_3d(cov, clip, repairs)
         mu = states[0][0] - states[1][0]
         u = states[0][1] - states[1][1]
         speed = float(np.linalg.norm(u))
@@ -470,10 +474,42 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
             t = 0.5 * (a + b) + 0.5 * (b - a) * xk
             logs.append(math.log(0.5 * (b - a) * wk) + log_rate(t))
     logs = np.array(logs)
+    if npd_in or repairs:
+        _warn_repair_3d(npd_in, repairs, len(logs), clip)
     top = float(np.max(logs))
     if top == -math.inf:
         return -math.inf
     return top + math.log(float(np.sum(np.exp(logs - top))))
+
+
+def _clip_3d(cov, clip, repairs):
+    """The relative position covariance ``cov`` (3x3, m^2) with its eigenvalues clipped at
+    ``clip`` where one is below it, as NASA CARA's ``Pc3D_Hall`` repairs its relative position
+    covariance at each time (``CovRemEigValClip``; Hall et al. 2017); a non-PSD one (beyond
+    round-off) is recorded in ``repairs`` as (smallest eigenvalue, largest)."""
+    w, vec = np.linalg.eigh(cov)
+    if w[0] >= clip:
+        return cov
+    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
+        repairs.append((float(w[0]), float(w[-1])))
+    return (vec * np.maximum(w, clip)) @ vec.T
+
+
+def _warn_repair_3d(npd_in, repairs, n_times, clip, stacklevel=4):
+    """The CovarianceRepairWarning of ``method="3d"``: which covariance was not PSD and by how
+    much, and the repair (the 2-D methods clip the projected 2x2 instead)."""
+    what = "an input covariance is not positive semi-definite"
+    if repairs:
+        low, high = min(repairs)
+        what = (f"{what + ', and' if npd_in else 'the inputs are positive semi-definite, but'} the "
+                f"relative position covariance is not at {len(repairs)} of the {n_times} "
+                f"times of the encounter (smallest eigenvalue {low:.4g} m^2, "
+                f"{abs(low) / high:.2g} of the largest)")
+    warnings.warn(
+        f"{what}; repaired as NASA CARA's Pc3D_Hall does: the eigenvalues of the 3x3 relative "
+        f"position covariance clipped to (1e-4 HBR)^2 = {clip:.4g} m^2 at each time (the 2-D "
+        "methods clip the 2x2 projected on the encounter plane). Check the covariance source.",
+        CovarianceRepairWarning, stacklevel=stacklevel)
 
 
 def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):

@@ -55,6 +55,7 @@ from .cowell_events import (
     boundary_models,
     boundary_plan,
     dense_eval,
+    end_sample_value,
     event_function,
     event_value,
     fix_boundary_events,
@@ -65,6 +66,7 @@ from .cowell_events import (
     shadow_crossing,
     shadow_sides,
 )
+from .drag_bands import band_crossing, bands_on, hold_band, start_band
 from .perturbations import cowell_rhs, zonal_rhs
 
 __all__ = ["WORK_ROWS", "integrate_cowell", "integrate_cowell_many", "event_function", "dense_eval"]
@@ -75,8 +77,9 @@ _MAX_FACTOR = 10.0
 _N_STAGES = 12
 #: Rows of the ``work`` array of :func:`integrate_cowell` (16 stages, 7 dense-output rows, 7
 #: state vectors, 2 rows of shadow boundary samples, the Sun's position for them, 2 rows of
-#: samples of a second shadow model's boundaries; 6 columns).
-WORK_ROWS = 35
+#: samples of a second shadow model's boundaries, 2 rows of altitude samples for the
+#: exponential atmosphere's band edges; 6 columns).
+WORK_ROWS = 37
 
 
 @inline_kernel
@@ -253,6 +256,8 @@ def integrate_cowell(
     sun_s = work[32]
     gs2 = work[33]
     gs3 = work[34]
+    gb0 = work[35]
+    gb1 = work[36]
     for i in range(WORK_ROWS):
         for j in range(n):
             work[i, j] = 0.0
@@ -291,9 +296,16 @@ def integrate_cowell(
         if sh2 > 0:
             n_sh2 = 1 if sh2 == 1 else 2
             side2, side3 = shadow_sides(sh2, t, y, force, eph_r, eph_v, sun_s)
-        if lock:
+        if lock or bands_on(force):
             rforce = force.copy()
+        if lock:
             lock_shadow(rforce, sh_model, side0)
+    # drag in the exponential table: steps end at its band edges, the band held in a step
+    # (visviva.core.drag_bands)
+    band = -1
+    if full is not None:
+        if bands_on(force):
+            band = start_band(rforce, y, atm)
     bnd_pending = False  # the step being tried ends at the boundary t_bnd
     t_bnd = 0.0
     bnd_which = -1
@@ -436,18 +448,25 @@ def integrate_cowell(
         # a shadow boundary crossed within the step: redo the step up to it
         flip = -1
         resync = False
+        fresh = 0  # 1: the shadow samples of sh_model are at t_new, 2: those of sh2 too
         if full is not None:
-            if n_sh > 0:
+            if n_sh > 0 or band >= 0:
                 at_boundary = bnd_pending and t_new == t_bnd
                 bnd_pending = False
                 if at_boundary:
                     flip = bnd_which
-                elif n_here > 2 * (n_sh + n_sh2):
+                elif n_here > 2 * (n_sh + n_sh2) + (2 if band >= 0 else 0):
                     resync = True  # found at t again and again: take the step, sides from its end
                 else:
-                    ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y,
-                                                           y_new, F, y_tmp, gs0, gs1, sun_s,
-                                                           force, eph_r, eph_v)
+                    ta_b = t
+                    tb_b = t
+                    which_b = -1
+                    if n_sh > 0:
+                        ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h,
+                                                              y, y_new, F, y_tmp, gs0, gs1, sun_s,
+                                                              force, eph_r, eph_v)  # fmt: skip
+                        if t + h == t_new:  # (the last sample's time: the events' own)
+                            fresh = 2 if sh2 > 0 else 1
                     if sh2 > 0:
                         ta_2, tb_2, which_2 = shadow_crossing(sh2, n_sh2, side2, side3, t, h, y,
                                                               y_new, F, y_tmp, gs2, gs3, sun_s,
@@ -456,8 +475,18 @@ def integrate_cowell(
                             ta_b = ta_2
                             tb_b = tb_2
                             which_b = which_2 + 2  # 2, 3: the second model's boundaries
+                    if band >= 0:
+                        ta_3, tb_3, which_3 = band_crossing(band, atm, t, h, y, y_new, F, y_tmp,
+                                                            gb0, gb1, force, eph_r, eph_v)
+                        if which_3 >= 0 and (which_b < 0 or (tb_3 - tb_b) * h < 0.0):
+                            ta_b = ta_3
+                            tb_b = tb_3
+                            which_b = which_3 + 4  # 4, 5: the band's lower, upper edge
                     if which_b >= 0:
-                        if which_b < 2:
+                        if which_b >= 4:
+                            at_t, _, _, t_bnd, h_keep, h_abs = boundary_plan(
+                                ta_b, tb_b, 0, t, h, h_abs, min_step, 1.0, 1.0)
+                        elif which_b < 2:
                             at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
                                 ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
                         else:
@@ -467,6 +496,11 @@ def integrate_cowell(
                             # the boundary is at t (within the tolerance): crossed here
                             if lock and which_b < 2:
                                 lock_shadow(rforce, sh_model, side0)
+                                _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                                nfev += 1
+                            if which_b >= 4:
+                                band += 2 * which_b - 9  # 4: one band down, 5: one up
+                                hold_band(rforce, band)
                                 _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
                                 nfev += 1
                             n_here += 1
@@ -479,8 +513,17 @@ def integrate_cowell(
         t_stop = t_new
         if n_ev > 0:
             for e in range(n_ev):
-                g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r, eph_v,
-                                       full)
+                # eclipse events: the shadow functions' last samples, taken at (t_new, y_new)
+                done = False
+                if full is not None:
+                    if fresh > 0:
+                        done, g_new[e] = end_sample_value(ev_kind[e], sh_model, side0, side1,
+                                                          gs0, gs1)
+                    if fresh > 1 and not done:
+                        done, g_new[e] = end_sample_value(ev_kind[e], sh2, side2, side3, gs2, gs3)
+                if not done:
+                    g_new[e] = event_value(ev_kind[e], ev_param[e], t_new, y_new, force, eph_r,
+                                           eph_v, full)
             if full is not None:
                 if flip >= 0:
                     # the step ends at a shadow boundary: an event on the same boundary
@@ -489,7 +532,7 @@ def integrate_cowell(
                     if flip < 2:
                         fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh_model, flip),
                                             -(side0 if flip == 0 else side1))
-                    else:
+                    elif flip < 4:
                         fix_boundary_events(ev_kind, g_new, shadow_boundary_kind(sh2, flip - 2),
                                             -(side2 if flip == 2 else side3))
             # find all crossings in this step, ordered in time
@@ -571,10 +614,20 @@ def integrate_cowell(
                     side2 = -side2
                 elif flip == 3:
                     side3 = -side3
+                elif flip >= 4:
+                    band += 2 * flip - 9  # 4: one band down, 5: one up
                 else:
-                    side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
+                    if sh_model > 0:
+                        side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, sun_s)
                     if sh2 > 0:
                         side2, side3 = shadow_sides(sh2, t, y, force, eph_r, eph_v, sun_s)
+                    if band >= 0:
+                        band = start_band(rforce, y, atm)
+                if band >= 0 and (flip >= 4 or resync):
+                    # the density jumps at the edge: the next band, a fresh derivative (no FSAL)
+                    hold_band(rforce, band)
+                    _rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, full)
+                    nfev += 1
                 if sh_model == 1 and lock and flip < 2:
                     # the force changes at the boundary: a fresh derivative (no FSAL)
                     lock_shadow(rforce, sh_model, side0)

@@ -39,7 +39,8 @@ from .perturbations import geodetic_altitude, hermite_position
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
            "shadow_sides", "shadow_crossing", "boundary_gradient", "srp_shadow_model",
-           "boundary_models", "boundary_plan"]
+           "boundary_models", "boundary_plan", "step_sample", "dip_vertex", "first_crossing",
+           "end_sample_value"]
 
 @kernel
 def event_function(kind, param, t, y, force, eph_r, eph_v):
@@ -308,7 +309,7 @@ def shadow_sides(model, t, y, force, eph_r, eph_v, s):
 
 
 @kernel
-def _sample(k, t, h, y, y_new, F, out):
+def step_sample(k, t, h, y, y_new, F, out):
     """The state at sample ``k`` of :data:`SHADOW_SAMPLES` of the step (t, h) into ``out`` (k = 0:
     ``y``, the last: ``y_new``, between: the dense output); returns its time."""
     if k == 0:
@@ -325,7 +326,7 @@ def _sample(k, t, h, y, y_new, F, out):
 
 
 @kernel
-def _dip_vertex(gs, k):
+def dip_vertex(gs, k):
     """Where the parabola through the samples gs[k - 1], gs[k], gs[k + 1] (distances from a
     boundary, positive on the current side) has a minimum below half their least value, in
     sample units from k (-1..1); 2.0 where it has none."""
@@ -347,6 +348,57 @@ def _dip_vertex(gs, k):
 
 
 @step_kernel
+def first_crossing(kind, param, side, gs, t, h, y, F, y_tmp, tol, force, eph_r, eph_v):
+    """The first crossing in the step (t, t + h) of the zero of event function ``kind``
+    (``param``) away from ``side`` (+1: g >= 0 at t, -1: g < 0), from its samples ``gs`` (side *
+    g at the :data:`SHADOW_SAMPLES` + 1 points of :func:`step_sample`: positive on the current
+    side), located to ``tol`` s on the dense output ``F``. Returns (found, ta, tb): the zero in
+    [ta, tb], tb on the new side.
+
+    A crossing shows as a sample on the other side; one entered and left again between two
+    samples (grazing) as a minimum between them: where the parabola through three neighbouring
+    samples dips below half their least value, its vertex is sampled too (the functions are
+    smooth on the scale of a step, so the parabola finds the minimum of a dip shorter than the
+    samples' spacing). Shared by the shadow boundaries (:func:`shadow_crossing`) and the
+    exponential atmosphere's band edges (:func:`visviva.core.drag_bands.band_crossing`)."""
+    ka = -1  # the crossing lies after sample ka (gs[ka] on the old side) and before tb
+    tb = t
+    gb = 0.0
+    for k in range(1, SHADOW_SAMPLES + 1):
+        if (gs[k] * side >= 0.0) != (side > 0.0):
+            ka = k - 1
+            tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
+            gb = gs[k] * side
+            break
+    if ka < 0:
+        for k in range(1, SHADOW_SAMPLES):
+            u = dip_vertex(gs, k)
+            if u > 1.0:
+                continue
+            tv = t + h * (k + u) / SHADOW_SAMPLES
+            dense_eval(tv, t, h, y, F, y_tmp)
+            g = event_value(kind, param, tv, y_tmp, force, eph_r, eph_v, True)
+            if (g >= 0.0) != (side > 0.0):
+                ka = k - 1 if u < 0.0 else k
+                tb = tv
+                gb = g
+                break
+    if ka < 0:
+        return False, t, t
+    ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
+    # the value at ta on the old side (at t, a value just past the boundary may have the new
+    # side's sign: then take one of the size of gb)
+    ga = side * gs[ka]
+    if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
+        ga = side * abs(gb) if gb != 0.0 else side
+    if gb == 0.0:
+        gb = -side * abs(ga)
+    ta, tb = locate_zero(kind, param, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
+                         eph_v, True)
+    return True, ta, tb
+
+
+@step_kernel
 def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs1, s, force,
                     eph_r, eph_v):  # fmt: skip
     """The first point of the step (t, t + h) where a shadow boundary function of SRP ``model``
@@ -355,14 +407,10 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
     [ta, tb], tb on the new side; which = -1 when no boundary is crossed.
 
     The functions are sampled at :data:`SHADOW_SAMPLES` + 1 points of the step (into ``gs0``,
-    ``gs1``, as side * g: positive on the current side; ``s``: scratch for the Sun). A crossing
-    shows as a sample on the other side; a shadow entered and left again between two samples
-    (grazing) as a minimum between them: where the parabola through three neighbouring samples
-    dips below half their least value, its vertex is sampled too (the functions are smooth on
-    the scale of a step, so the parabola finds the minimum of a dip shorter than the samples'
-    spacing)."""
+    ``gs1``, as side * g: positive on the current side; ``s``: scratch for the Sun), and each
+    crossing found by :func:`first_crossing` (grazes included)."""
     for k in range(SHADOW_SAMPLES + 1):
-        tk = _sample(k, t, h, y, y_new, F, y_tmp)
+        tk = step_sample(k, t, h, y, y_new, F, y_tmp)
         g0, g1 = shadow_values(model, tk, y_tmp, force, eph_r, eph_v, s)
         gs0[k] = side0 * g0
         gs1[k] = side1 * g1
@@ -371,49 +419,28 @@ def shadow_crossing(model, n_sh, side0, side1, t, h, y, y_new, F, y_tmp, gs0, gs
     best_a = t + h
     best_b = t + h
     for which in range(n_sh):
-        gs = gs0 if which == 0 else gs1
-        side = side0 if which == 0 else side1
-        kind = shadow_boundary_kind(model, which)
-        ka = -1  # the crossing lies after sample ka (gs[ka] on the old side) and before tb
-        tb = t
-        gb = 0.0
-        for k in range(1, SHADOW_SAMPLES + 1):
-            if (gs[k] * side >= 0.0) != (side > 0.0):
-                ka = k - 1
-                tb = t + h if k == SHADOW_SAMPLES else t + h * k / SHADOW_SAMPLES
-                gb = gs[k] * side
-                break
-        if ka < 0:
-            for k in range(1, SHADOW_SAMPLES):
-                u = _dip_vertex(gs, k)
-                if u > 1.0:
-                    continue
-                tv = t + h * (k + u) / SHADOW_SAMPLES
-                dense_eval(tv, t, h, y, F, y_tmp)
-                g0, g1 = shadow_values(model, tv, y_tmp, force, eph_r, eph_v, s)
-                g = g0 if which == 0 else g1
-                if (g >= 0.0) != (side > 0.0):
-                    ka = k - 1 if u < 0.0 else k
-                    tb = tv
-                    gb = g
-                    break
-        if ka < 0:
-            continue
-        ta = t + h * ka / SHADOW_SAMPLES if ka > 0 else t
-        # the value at ta on the old side (at t, a value just past the boundary may have the
-        # new side's sign: then take one of the size of gb)
-        ga = side * gs[ka]
-        if (ga >= 0.0) != (side > 0.0) or ga == 0.0:
-            ga = side * abs(gb) if gb != 0.0 else side
-        if gb == 0.0:
-            gb = -side * abs(ga)
-        ta, tb = locate_zero(kind, 0.0, ta, tb, ga, gb, tol, t, h, y, F, y_tmp, force, eph_r,
-                             eph_v, True)
-        if best < 0 or (tb - best_b) * h < 0.0:
+        found, ta, tb = first_crossing(shadow_boundary_kind(model, which), 0.0,
+                                       side0 if which == 0 else side1, gs0 if which == 0 else gs1,
+                                       t, h, y, F, y_tmp, tol, force, eph_r, eph_v)  # fmt: skip
+        if found and (best < 0 or (tb - best_b) * h < 0.0):
             best_a = ta
             best_b = tb
             best = which
     return best_a, best_b, best
+
+
+@kernel
+def end_sample_value(kind, model, side0, side1, gs0, gs1):
+    """(True, value) of the eclipse event ``kind`` (1 to 3) at the end of a step from the last
+    samples ``gs0``, ``gs1`` (side * g) that :func:`shadow_crossing` took of the boundary
+    functions of shadow ``model`` there, when the event is one of that model's (kind 1 of the
+    cylindrical, 2 and 3 of the conical); else (False, 0.0). The same bits as
+    :func:`event_function` at the same time and state: the sides are +1 or -1."""
+    if (kind == 1 and model == 1) or ((kind == 2 or kind == 3) and model == 2):
+        if kind == 3:
+            return True, side1 * gs1[SHADOW_SAMPLES]
+        return True, side0 * gs0[SHADOW_SAMPLES]
+    return False, 0.0
 
 
 @kernel

@@ -44,6 +44,7 @@ __all__ = [
     "THRUST_MASS_RATE",
     "THRUST_FRAME",
     "THRUST_DIRECTION",
+    "DENSITY_BAND",
     "TIME_DEPENDENT",
     "with_time_origin",
 ]
@@ -105,8 +106,12 @@ THRUST_MASS_RATE = 39
 THRUST_FRAME = 40
 #: First of 3 slots: the unit thrust direction in that frame.
 THRUST_DIRECTION = 41
+#: The exponential table's band held during a step, plus one (0: the band of the altitude);
+#: written 0 by the drag class, set only in the integrators' copies of the block
+#: (:mod:`visviva.core.drag_bands`).
+DENSITY_BAND = 44
 #: Length of the block.
-FORCE_SIZE = 44
+FORCE_SIZE = 45
 #: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
 TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX")
 
@@ -141,6 +146,7 @@ LAYOUT = (
     ("THRUST_MASS_RATE", THRUST_MASS_RATE, 1, "1/s", "mass flow over the mass at t = 0"),
     ("THRUST_FRAME", THRUST_FRAME, 1, "", "0 inertial, 1 RTN, 2 TNW, 3 VNB"),
     ("THRUST_DIRECTION", THRUST_DIRECTION, 3, "", "unit thrust direction in that frame"),
+    ("DENSITY_BAND", DENSITY_BAND, 1, "", "exponential band held in a step + 1 (0: none)"),
 )
 
 

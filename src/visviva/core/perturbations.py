@@ -41,11 +41,16 @@ __all__ = [
     "accel_two_body",
     "accel_zonal",
     "accel_harmonics",
+    "accel_harmonics_inertial",
+    "cunningham_vw",
+    "grid_density_at",
     "accel_drag",
     "accel_third_body",
     "accel_srp",
     "shadow_fraction",
     "exponential_density",
+    "exponential_band",
+    "band_density",
     "grid_density",
     "geodetic_altitude",
     "hermite_position",
@@ -146,24 +151,18 @@ def accel_zonal(x, y, z, gm, radius, zonal, n_max, out):
 
 
 @kernel
-def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
-    """Add the acceleration of a spherical-harmonic field of degree and order ``n_max``.
+def cunningham_vw(x, y, z, radius, n_rows):
+    """The V_nm, W_nm of Cunningham's recursions for degrees and orders 0 .. ``n_rows`` - 1.
 
-    Body-fixed coordinates in, body-fixed acceleration added to ``out``. Terms of degree 0 and
-    1 are skipped (the central term is the two-body one).
-
-    Notes
-    -----
-    The V_nm, W_nm recursions and the acceleration sums of Montenbruck & Gill (2000),
-    eqs. 3.29-3.33, with unnormalised C_nm = sh[0, n, m], S_nm = sh[1, n, m]
-    (Cunningham 1970).
+    Body-fixed (x, y, z) and the field's reference radius, km; Montenbruck & Gill (2000),
+    eqs. 3.29-3.31. Returns (V, W), each (n_rows, n_rows), zero above the diagonal m > n.
     """
     r2 = x * x + y * y + z * z
     rr = radius * radius / r2
     x0 = radius * x / r2
     y0 = radius * y / r2
     z0 = radius * z / r2
-    N = n_max + 2
+    N = n_rows
     V = np.zeros((N, N))
     W = np.zeros((N, N))
     V[0, 0] = radius / math.sqrt(r2)
@@ -178,6 +177,23 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
         for n in range(m + 2, N):
             V[n, m] = ((2 * n - 1) * z0 * V[n - 1, m] - (n + m - 1) * rr * V[n - 2, m]) / (n - m)
             W[n, m] = ((2 * n - 1) * z0 * W[n - 1, m] - (n + m - 1) * rr * W[n - 2, m]) / (n - m)
+    return V, W
+
+
+@kernel
+def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
+    """Add the acceleration of a spherical-harmonic field of degree and order ``n_max``.
+
+    Body-fixed coordinates in, body-fixed acceleration added to ``out``. Terms of degree 0 and
+    1 are skipped (the central term is the two-body one).
+
+    Notes
+    -----
+    The V_nm, W_nm recursions and the acceleration sums of Montenbruck & Gill (2000),
+    eqs. 3.29-3.33, with unnormalised C_nm = sh[0, n, m], S_nm = sh[1, n, m]
+    (Cunningham 1970).
+    """
+    V, W = cunningham_vw(x, y, z, radius, n_max + 2)
     ax = 0.0
     ay = 0.0
     az = 0.0
@@ -205,7 +221,7 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
 
 
 @kernel
-def _accel_harmonics_inertial(t, x, y, z, force, sh, out):
+def accel_harmonics_inertial(t, x, y, z, force, sh, out):
     """Rotate r to the body frame at time t, add the harmonic acceleration rotated back."""
     th = force[fb.ROTATION_RATE] * t
     c = math.cos(th)
@@ -241,17 +257,51 @@ def geodetic_altitude(x, y, z, radius, flattening):
 
 
 @kernel
+def exponential_band(h, atm):
+    """The row (band) of an exponential table (K, 3) for altitude ``h`` (km): the one whose base
+    altitude is the largest one <= h (the first row below the first base altitude)."""
+    k = 0
+    n = atm.shape[0]
+    while k + 1 < n and h >= atm[k + 1, 0]:
+        k += 1
+    return k
+
+
+@kernel
+def band_density(h, atm, k):
+    """Density in kg/m^3 at altitude ``h`` (km) from row ``k`` of an exponential table (K, 3),
+    rho = rho_0 exp(-(h - h_0)/H), also outside the row's band (the integrators hold a band
+    for a whole step: :mod:`visviva.core.drag_bands`)."""
+    return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+
+
+@kernel
 def exponential_density(h, atm):
     """Density in kg/m^3 at altitude ``h`` (km) from an exponential table (K, 3).
 
     rho = rho_0 exp(-(h - h_0)/H) with the row whose base altitude h_0 is the largest one <= h
     (Vallado 2013, eq. 8-33 and Table 8-4). Below the first base altitude the first row is used.
+    The published table is piecewise: its densities at the band edges jump (by the rounding of
+    rho_0 to four digits, up to 0.14 % at 25 km) and its slope d ln rho / dh = -1/H jumps there
+    (by up to 18 %, at 300 km); the integrators end their steps at the band edges
+    (:mod:`visviva.core.drag_bands`).
     """
-    k = 0
-    n = atm.shape[0]
-    while k + 1 < n and h >= atm[k + 1, 0]:
-        k += 1
-    return atm[k, 1] * math.exp(-(h - atm[k, 0]) / atm[k, 2])
+    return band_density(h, atm, exponential_band(h, atm))
+
+
+@kernel
+def grid_density_at(x, y, z, sun_pos, force, atm):
+    """Density (kg/m^3) of the gridded model at the position (x, y, z) (km, inertial), the Sun
+    at ``sun_pos``: geodetic altitude, geocentric latitude and hour angle from the Sun, then
+    :func:`grid_density`."""
+    h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
+    lat = math.asin(z / math.sqrt(x * x + y * y + z * z))
+    ha = math.atan2(y, x) - math.atan2(sun_pos[1], sun_pos[0])
+    if ha > math.pi:
+        ha -= 2.0 * math.pi
+    elif ha < -math.pi:
+        ha += 2.0 * math.pi
+    return grid_density(h, lat, ha, force, atm)
 
 
 @kernel
@@ -466,7 +516,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     for i in range(3):
         acc[i] = dy[3 + i]
     if force[fb.HARMONICS_DEGREE] >= 2.0:
-        _accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
+        accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     n_third = int(force[fb.N_THIRD_BODIES])
     sun = int(force[fb.SUN_ROW])
     pos = np.empty(3)
@@ -479,17 +529,16 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
     if force[fb.DRAG_ON] != 0.0:
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-            lat = math.asin(z / math.sqrt(x * x + yy * yy + z * z))
-            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
-            if ha > math.pi:
-                ha -= 2.0 * math.pi
-            elif ha < -math.pi:
-                ha += 2.0 * math.pi
-            rho = grid_density(h, lat, ha, force, atm)
+            rho = grid_density_at(x, yy, z, sun_pos, force, atm)
             accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
         else:
-            accel_drag(x, yy, z, y[3], y[4], y[5], force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], force[fb.RADIUS], force[fb.FLATTENING], atm, acc)
+            # the exponential table's band: held by the integrator for a step (DENSITY_BAND =
+            # band + 1), else (0) the one of the altitude
+            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
+            band = int(force[fb.DENSITY_BAND]) - 1
+            if band < 0:
+                band = exponential_band(h, atm)
+            accel_drag_rho(x, yy, z, y[3], y[4], y[5], band_density(h, atm, band), force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)

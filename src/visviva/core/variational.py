@@ -12,23 +12,8 @@ Vallado 2013, sec. 10.4). The force model is the same flat parameter block that
 :func:`visviva.core.cowell.integrate_cowell` reads (see :mod:`visviva.core.perturbations`), so
 the trajectory is the one ``propagate_cowell`` computes, to the integration tolerance.
 
-Partials included, each exact for its force term:
-
-* two-body: da/dr = -GM/r^3 (I - 3 r r^T / r^2);
-* zonal harmonics J_2 .. J_n: the Hessian of the zonal potential of any degree
-  (:func:`_add_zonal_gradient`); for a full spherical-harmonic field its zonal part
-  (J_n = -C_n0) about the propagation z axis, the tesseral terms being left out of the
-  Jacobian (below 1e-3 of J2's partials in low orbit: they slow the convergence of a fit by
-  nothing measurable and do not change its solution, which is set by the residuals computed
-  with the full force model);
-* drag: da/dv = -rho B/2 (|w| I + w w^T/|w|), w = v - omega x r, and da/dr from the
-  co-rotation and from the altitude gradient of the density, d ln rho / dh = -1/H
-  (exponential table) or the slope of the tabulated ln rho along altitude (NRLMSIS grid);
-* third bodies: da/dr = GM_b (3 d d^T / d^5 - I / d^3), d = r_b - r;
-* SRP (cannonball): da/dr = k nu (I/d^3 - 3 d d^T/d^5), plus in the conical shadow's penumbra
-  the change of the visible fraction nu of the Sun, k d grad(nu)^T / d^3
-  (:func:`_add_penumbra_gradient`); the cylindrical shadow's jump enters at its boundary as a
-  saltation matrix (:func:`_boundary_jump`).
+The partials F are :func:`visviva.core.force_partials.acceleration_partials` (each exact for its
+force term; see that module).
 
 Integration is DOP853 (the tableau of :mod:`visviva.core.cowell`) with the step-size control
 on the six state components only; each step is shortened to land on the next output time, so
@@ -60,14 +45,9 @@ from .cowell_events import (
     shadow_sides,
     srp_shadow_model,
 )
-from .perturbations import (
-    cowell_rhs,
-    exponential_density,
-    geodetic_altitude,
-    grid_density,
-    hermite_position,
-    shadow_fraction,
-)
+from .drag_bands import altitude_gradient, band_crossing, bands_on, hold_band, start_band
+from .force_partials import acceleration_partials
+from .perturbations import cowell_rhs
 
 __all__ = ["acceleration_partials", "variational_rhs", "integrate_variational", "N_VAR"]
 
@@ -77,232 +57,6 @@ _SAFETY = 0.9
 _MIN_FACTOR = 0.2
 _MAX_FACTOR = 10.0
 _N_STAGES = 12
-
-
-@kernel
-def _add_point_mass_gradient(dx, dy, dz, k, G):
-    """G += k (3 d d^T / |d|^5 - I / |d|^3), which is -k times the gradient of d / |d|^3.
-
-    The tidal (gravity-gradient) matrix of a point mass: with k = GM and d the vector from
-    the mass, it is the gradient of the attraction -GM d / |d|^3.
-    """
-    d2 = dx * dx + dy * dy + dz * dz
-    d = math.sqrt(d2)
-    inv3 = 1.0 / (d2 * d)
-    inv5 = 3.0 * inv3 / d2
-    dv = (dx, dy, dz)
-    for i in range(3):
-        for j in range(3):
-            G[i, j] += k * inv5 * dv[i] * dv[j]
-        G[i, i] -= k * inv3
-
-
-@kernel
-def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, G):
-    """G += d a_zonal / d r for the zonal terms J_2 .. J_n_max (``zonal[n]`` = J_n).
-
-    With s = z/r, c_n = J_n R^n, alpha_n = (n+1) P_n + s P_n', the acceleration of
-    :func:`visviva.core.perturbations.accel_zonal` is a = GM [A r / r^3 - B z_hat / r^2] with
-    A = sum c_n r^-n alpha_n(s), B = sum c_n r^-n P_n'(s). Its gradient is
-
-        GM [r (f_r r_hat + f_s grad s)^T + f I - z_hat (g_r r_hat + g_s grad s)^T],
-
-    f = A/r^3, g = B/r^2, grad s = (z_hat - s r_hat)/r, with the radial and s-derivatives
-    from the Legendre recursions P_n'' = (n+1) P_{n-1}' + s P_{n-1}''.
-    """
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    s = z / r
-    p_nm2 = 1.0
-    p_nm1 = s
-    dp_nm1 = 1.0
-    ddp_nm1 = 0.0
-    ratio = radius / r
-    rn = ratio
-    A = 0.0
-    A_r = 0.0
-    A_s = 0.0
-    B = 0.0
-    B_r = 0.0
-    B_s = 0.0
-    for n in range(2, n_max + 1):
-        p_n = ((2 * n - 1) * s * p_nm1 - (n - 1) * p_nm2) / n
-        dp_n = n * p_nm1 + s * dp_nm1
-        ddp_n = (n + 1) * dp_nm1 + s * ddp_nm1
-        rn *= ratio
-        jn = zonal[n]
-        if jn != 0.0:
-            c = jn * rn  # J_n (R/r)^n
-            alpha = (n + 1) * p_n + s * dp_n
-            A += c * alpha
-            A_r -= n * c * alpha / r
-            A_s += c * ((n + 2) * dp_n + s * ddp_n)
-            B += c * dp_n
-            B_r -= n * c * dp_n / r
-            B_s += c * ddp_n
-        p_nm2, p_nm1 = p_nm1, p_n
-        dp_nm1 = dp_n
-        ddp_nm1 = ddp_n
-    r3 = r2 * r
-    f = A / r3
-    f_r = A_r / r3 - 3.0 * A / (r3 * r)
-    f_s = A_s / r3
-    g_r = B_r / r2 - 2.0 * B / r3
-    g_s = B_s / r2
-    pos = (x, y, z)
-    for j in range(3):
-        rhat_j = pos[j] / r
-        grad_s_j = ((1.0 if j == 2 else 0.0) - s * rhat_j) / r
-        df_j = f_r * rhat_j + f_s * grad_s_j
-        dg_j = g_r * rhat_j + g_s * grad_s_j
-        for i in range(3):
-            G[i, j] += gm * pos[i] * df_j
-        G[j, j] += gm * f
-        G[2, j] -= gm * dg_j
-
-
-@kernel
-def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv):
-    """Write the partial derivatives of the Cowell acceleration into ``dadr``, ``dadv`` (3, 3).
-
-    Parameters
-    ----------
-    t : float
-        Time from the epoch, s.
-    y : ndarray (6,)
-        Position (km) and velocity (km/s).
-    force, zonal, atm, eph_r, eph_v, eph_gm, sh : ndarray
-        The force model of :mod:`visviva.core.perturbations`.
-    dadr : ndarray (3, 3)
-        Output: d a / d r, 1/s^2.
-    dadv : ndarray (3, 3)
-        Output: d a / d v, 1/s.
-    """
-    x = y[0]
-    yy = y[1]
-    z = y[2]
-    for i in range(3):
-        for j in range(3):
-            dadr[i, j] = 0.0
-            dadv[i, j] = 0.0
-    gm = force[fb.GM]
-    # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
-    _add_point_mass_gradient(x, yy, z, gm, dadr)
-    if int(force[fb.ZONAL_DEGREE]) >= 2:
-        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]), dadr)
-    elif force[fb.HARMONICS_DEGREE] >= 2.0:
-        # the field's zonal part, J_n = -C_n0 (unnormalised), about the propagation z axis;
-        # the tesseral terms are left out of the partials (see the module notes)
-        n_sh = int(force[fb.HARMONICS_DEGREE])
-        jn = np.zeros(n_sh + 1)
-        for n in range(2, n_sh + 1):
-            jn[n] = -sh[0, n, 0]
-        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], jn, n_sh, dadr)
-    sun = int(force[fb.SUN_ROW])
-    sun_pos = np.empty(3)
-    pos = np.empty(3)
-    if sun >= 0:
-        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
-    if force[fb.DRAG_ON] != 0.0:
-        omega = force[fb.ROTATION_RATE]
-        bc = force[fb.BALLISTIC]
-        wx = y[3] + omega * yy
-        wy = y[4] - omega * x
-        wz = y[5]
-        w = math.sqrt(wx * wx + wy * wy + wz * wz)
-        h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-        r = math.sqrt(x * x + yy * yy + z * z)
-        if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            lat = math.asin(z / r)
-            ha = math.atan2(yy, x) - math.atan2(sun_pos[1], sun_pos[0])
-            if ha > math.pi:
-                ha -= 2.0 * math.pi
-            elif ha < -math.pi:
-                ha += 2.0 * math.pi
-            rho = grid_density(h, lat, ha, force, atm)
-            # slope of the tabulated ln(rho) along altitude at this point
-            step = force[fb.DENSITY_GRID + 1]
-            up = grid_density(h + 0.5 * step, lat, ha, force, atm)
-            down = grid_density(h - 0.5 * step, lat, ha, force, atm)
-            dlnrho_dh = (math.log(up) - math.log(down)) / step
-        else:
-            rho = exponential_density(h, atm)
-            k = 0
-            n = atm.shape[0]
-            while k + 1 < n and h >= atm[k + 1, 0]:
-                k += 1
-            dlnrho_dh = -1.0 / atm[k, 2]
-        rho_km = rho * 1e9
-        c = -0.5 * rho_km * bc
-        wv = (wx, wy, wz)
-        for i in range(3):
-            for j in range(3):
-                dadv[i, j] += c * wv[i] * wv[j] / w
-            dadv[i, i] += c * w
-        # d w / d r = [[0, omega, 0], [-omega, 0, 0], [0, 0, 0]]
-        for i in range(3):
-            dadr[i, 0] += dadv[i, 1] * (-omega)
-            dadr[i, 1] += dadv[i, 0] * omega
-        # density gradient: d h / d r = r_hat + R f d(s^2)/d r, s = z / r
-        s = z / r
-        fr = force[fb.RADIUS] * force[fb.FLATTENING]
-        posv = (x, yy, z)
-        for j in range(3):
-            dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
-            if j == 2:
-                dh += fr * 2.0 * s / r
-            for i in range(3):
-                dadr[i, j] += c * w * wv[i] * dlnrho_dh * dh
-    n_third = int(force[fb.N_THIRD_BODIES])
-    for b in range(n_third):
-        if b == sun:
-            bx, by, bz = sun_pos[0], sun_pos[1], sun_pos[2]
-        else:
-            hermite_position(t, b, force, eph_r, eph_v, pos)
-            bx, by, bz = pos[0], pos[1], pos[2]
-        # a = gm_b (d / |d|^3 - ...), d = r_b - r: d a / d r = -gm_b grad_d (d / |d|^3)
-        # = gm_b (3 d d^T / d^5 - I / d^3)
-        _add_point_mass_gradient(bx - x, by - yy, bz - z, eph_gm[b], dadr)
-    if force[fb.SRP_ON] != 0.0 and sun >= 0:
-        from_sun_x = x - sun_pos[0]
-        from_sun_y = yy - sun_pos[1]
-        from_sun_z = z - sun_pos[2]
-        # the shadow fraction of this point, held fixed
-        nu = shadow_fraction(
-            x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
-        )
-        if nu > 0.0:
-            k = nu * force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU]
-            # a = k d / |d|^3 with d = r - r_sun: d a / d r = k (I/d^3 - 3 d d^T/d^5)
-            _add_point_mass_gradient(from_sun_x, from_sun_y, from_sun_z, -k, dadr)
-        if 0.0 < nu < 1.0 and int(force[fb.SHADOW_MODEL]) == 2:
-            _add_penumbra_gradient(x, yy, z, from_sun_x, from_sun_y, from_sun_z, sun_pos,
-                                   force, dadr)  # fmt: skip
-
-
-@kernel
-def _add_penumbra_gradient(x, yy, z, dx, dy, dz, sun_pos, force, G):
-    """G += (a_srp / nu) grad(nu)^T in the conical shadow's penumbra: the change of the visible
-    fraction nu of the Sun with position (d = r - r_sun = (dx, dy, dz)), by central differences
-    of 1e-3 km (nu changes over the penumbra's width, >= 20 km in low orbit; it varies like
-    depth^1.5 near its edges, so the differences are good to ~1e-6 of the gradient there)."""
-    d2 = dx * dx + dy * dy + dz * dz
-    k = force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU] / (d2 * math.sqrt(d2))
-    step = 1e-3
-    radius = force[fb.RADIUS]
-    sun_radius = force[fb.SUN_RADIUS]
-    dv = (dx, dy, dz)
-    for j in range(3):
-        ex = step if j == 0 else 0.0
-        ey = step if j == 1 else 0.0
-        ez = step if j == 2 else 0.0
-        up = shadow_fraction(x + ex, yy + ey, z + ez, sun_pos[0], sun_pos[1], sun_pos[2],
-                             radius, sun_radius, 2)  # fmt: skip
-        down = shadow_fraction(x - ex, yy - ey, z - ez, sun_pos[0], sun_pos[1], sun_pos[2],
-                               radius, sun_radius, 2)  # fmt: skip
-        dnu = (up - down) / (2.0 * step)
-        for i in range(3):
-            G[i, j] += k * dv[i] * dnu
 
 
 @kernel
@@ -333,6 +87,14 @@ def _boundary_jump(model, which, t, y, a_old, a_new, force, eph_r, eph_v, s, gra
     function (:func:`visviva.core.cowell_events.boundary_gradient`, position only) and f the
     derivative of the state, which jumps in its acceleration only."""
     rate = boundary_gradient(model, which, t, y, force, eph_r, eph_v, s, grad)
+    _saltation(y, a_old, a_new, grad, rate)
+
+
+@kernel
+def _saltation(y, a_old, a_new, grad, rate):
+    """Phi+ = (I + (f_new - f_old) grad g^T / g_dot) Phi- on the STM in ``y[6:]``: the jump of
+    the acceleration from ``a_old`` to ``a_new`` at a boundary g = 0 of position gradient
+    ``grad`` crossed at the rate ``rate`` (:func:`_boundary_jump`)."""
     if rate == 0.0:
         return
     for j in range(6):
@@ -404,13 +166,20 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     side0 = 1.0
     side1 = 1.0
     F = np.zeros((7, 6))
-    scr = np.zeros((6, 6))  # rows: the dense state, two sample rows, the Sun, a_old, grad
+    # rows: the dense state, two sample rows, the Sun, a_old, grad, two rows of altitudes
+    scr = np.zeros((8, 6))
     if srp_shadow_model(force) > 0:
         sh_model = srp_shadow_model(force)
         n_sh = 1 if sh_model == 1 else 2
         side0, side1 = shadow_sides(sh_model, t, y, force, eph_r, eph_v, scr[3])
         rforce = force.copy()
         lock_shadow(rforce, sh_model, side0)
+    # drag in the exponential table: steps end at its band edges (visviva.core.drag_bands)
+    band = -1
+    if bands_on(force):
+        if n_sh == 0:
+            rforce = force.copy()
+        band = start_band(rforce, y, atm)
     bnd_pending = False
     t_bnd = 0.0
     bnd_which = -1
@@ -497,11 +266,11 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         n_steps += 1
         flip = -1
         resync = False
-        if n_sh > 0:
+        if n_sh > 0 or band >= 0:
             bnd_pending = False
             if at_bnd:
                 flip = bnd_which
-            elif n_here > 2 * n_sh:
+            elif n_here > 2 * n_sh + (2 if band >= 0 else 0):
                 resync = True
             else:
                 # the state's dense output (its own three extra stages, state only)
@@ -511,17 +280,38 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                                eph_gm, sh, K[s, :6])  # fmt: skip
                 nfev += 3
                 dense_coefficients(6, h, y, y_new, K, D, F)
-                ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h, y[:6],
-                                                      y_new[:6], F, scr[0], scr[1], scr[2],
-                                                      scr[3], force, eph_r, eph_v)  # fmt: skip
+                ta_b = t
+                tb_b = t
+                which_b = -1
+                if n_sh > 0:
+                    ta_b, tb_b, which_b = shadow_crossing(sh_model, n_sh, side0, side1, t, h,
+                                                          y[:6], y_new[:6], F, scr[0], scr[1],
+                                                          scr[2], scr[3], force, eph_r, eph_v)  # fmt: skip
+                if band >= 0:
+                    ta_3, tb_3, which_3 = band_crossing(band, atm, t, h, y[:6], y_new[:6], F,
+                                                        scr[0], scr[6], scr[7], force, eph_r,
+                                                        eph_v)  # fmt: skip
+                    if which_3 >= 0 and (which_b < 0 or (tb_3 - tb_b) * h < 0.0):
+                        ta_b = ta_3
+                        tb_b = tb_3
+                        which_b = which_3 + 4  # 4, 5: the band's lower, upper edge
                 if which_b >= 0:
                     side_before = side0
-                    at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
-                        ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
+                    if which_b >= 4:
+                        at_t, _, _, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, 0, t, h, h_abs, min_step, 1.0, 1.0)
+                    else:
+                        at_t, side0, side1, t_bnd, h_keep, h_abs = boundary_plan(
+                            ta_b, tb_b, which_b, t, h, h_abs, min_step, side0, side1)
                     if at_t:
                         # the boundary is at t: crossed here
-                        _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
-                               eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
+                        if which_b >= 4:
+                            band += 2 * which_b - 9
+                            _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm,
+                                        sh, dadr, dadv, scr)  # fmt: skip
+                        else:
+                            _cross(sh_model, which_b, t, y, f, rforce, zonal, atm, eph_r, eph_v,
+                                   eph_gm, sh, side_before, dadr, dadv, scr)  # fmt: skip
                         nfev += 2
                         n_here += 1
                     else:
@@ -538,8 +328,24 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         for j in range(n):
             y[j] = y_new[j]
             f[j] = K[_N_STAGES, j]
+        if band >= 0 and (flip >= 4 or resync):
+            if flip >= 4:
+                band += 2 * flip - 9  # 4: one band down, 5: one up
+                _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr,
+                            dadv, scr)  # fmt: skip
+                nfev += 2
+                if h_keep > h_abs:
+                    h_abs = h_keep
+            else:
+                band = start_band(rforce, y, atm)
+                variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr,
+                                dadv)  # fmt: skip
+                nfev += 1
+            if flip >= 4:
+                flip = -2  # done: not a shadow boundary
+            n_here = 0
         if n_sh > 0:
-            if flip >= 0 or resync:
+            if 0 <= flip < 4 or resync:
                 if flip >= 0 and sh_model == 2:
                     pen_cap = penumbra_step(scr[1, 0] * side0, scr[2, 0] * side1, flip,
                                             t - t_old, force[fb.SRP_COEFFICIENT],
@@ -563,7 +369,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                         variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f,
                                         dadr, dadv)  # fmt: skip
                         nfev += 1
-            n_here = 0
+        n_here = 0  # a step was taken
     info[0] = written
     info[1] = n_steps
     info[2] = nfev
@@ -585,4 +391,19 @@ def _cross(model, which, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, 
     lock_shadow(rforce, model, -side0)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
     _boundary_jump(model, which, t, y, scr[4, :3], f[3:6], rforce, eph_r, eph_v, scr[3], scr[5])
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+
+
+@kernel
+def _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv, scr):
+    """Cross into band ``band`` of the exponential atmosphere at (t, y) (the state with its
+    STM): the band is held, the density jumps, so the STM takes the saltation matrix of the
+    jump across the altitude boundary (:func:`_saltation`, with the altitude's gradient,
+    :func:`visviva.core.drag_bands.altitude_gradient`) and ``f`` the derivative after it."""
+    for i in range(3):
+        scr[4, i] = f[3 + i]
+    hold_band(rforce, band)
+    variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
+    rate = altitude_gradient(y, rforce, scr[5])
+    _saltation(y, scr[4, :3], f[3:6], scr[5, :3], rate)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)

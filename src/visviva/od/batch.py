@@ -53,6 +53,8 @@ class OrbitFit:
         Sum of squared normalised residuals of the accepted rows.
     dof : int
         Accepted measurement components minus 6.
+    perturbations : list of Perturbation
+        The dynamics of the fit (what :meth:`propagate` uses by default).
     """
 
     def __init__(self, **kw):
@@ -67,6 +69,29 @@ class OrbitFit:
     def sigma_velocity_km_s(self) -> np.ndarray:
         """Formal 1-sigma of vx, vy, vz (km/s)."""
         return np.sqrt(np.diag(self.covariance)[3:])
+
+    def propagate(self, t, perturbations=None, **kwargs):
+        """The estimate and its covariance at other times, with the fit's dynamics.
+
+        Parameters
+        ----------
+        t : Quantity or astropy Time
+            Output times: offsets from the estimate's epoch (any sign, increasing) or Times.
+        perturbations : list of Perturbation, optional
+            Dynamics (default: the fit's own perturbations).
+        **kwargs
+            Passed to :func:`visviva.propagate_covariance` (``output_frame="RTN"``,
+            ``process_noise=...``, ``rtol``, ``atol``).
+
+        Returns
+        -------
+        CovarianceResult
+            ``.r``, ``.v``, ``.covariance`` (km-based), ``.stm`` at ``t``.
+        """
+        from ..satellites.covariance import propagate_covariance
+
+        dyn = self.perturbations if perturbations is None else perturbations
+        return propagate_covariance(self.state, self.covariance, t, dyn, **kwargs)
 
     def __repr__(self):
         return (

@@ -44,6 +44,8 @@ _EXPORTS = {
     # Cowell, perturbations, events, mission design:
     "propagate_cowell": "cowell",
     "CowellResult": "cowell",
+    "propagate_covariance": "covariance",
+    "CovarianceResult": "covariance",
     "J2": "perturbations",
     "Zonal": "perturbations",
     "AtmosphericDrag": "perturbations",

@@ -13,8 +13,8 @@ from __future__ import annotations
 import io
 import os
 
-from .._text import utf8_text
-from ..errors import InvalidInputError, MissingFileError
+from .._text import file_bytes, utf8_text
+from ..errors import InvalidInputError
 from .tle import Satellite, TLEFormatError
 
 __all__ = ["tle_text_satellites", "tle_file_satellites", "omm_file_satellites",
@@ -98,20 +98,13 @@ def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
 
 
 def _file_bytes(path, what: str) -> bytes:
-    """The bytes of a catalogue file; a missing file or a directory raises an error that names
-    the path and says what to do (a :class:`~visviva.errors.MissingFileError` is also a
-    ``FileNotFoundError``)."""
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        raise InvalidInputError(f"{path!r} is a directory; pass the path of a file of {what}.")
-    try:
-        with open(path, "rb") as f:
-            return f.read()
-    except FileNotFoundError:
-        raise MissingFileError(
-            path, f"check the name, or download the {what} first (e.g. CelesTrak's GP data, "
-            "https://celestrak.org/NORAD/elements/, in TLE, JSON, CSV or XML); visviva never "
-            "downloads them itself.") from None
+    """The bytes of a catalogue file (:func:`visviva._text.file_bytes`: a missing file raises a
+    :class:`~visviva.errors.MissingFileError`, also a ``FileNotFoundError``, naming the path
+    and saying what to do)."""
+    return file_bytes(
+        path, what, f"check the name, or download the {what} first (e.g. CelesTrak's GP data, "
+        "https://celestrak.org/NORAD/elements/, in TLE, JSON, CSV or XML); visviva never "
+        "downloads them itself.")
 
 
 def decode_tle_bytes(raw: bytes) -> str:
@@ -157,6 +150,7 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
     from sgp4 import omm
 
     where = []  # the line of each record, where the format tells it (CSV, KVN, XML)
+    key_lines = None  # KVN: the line of each keyword of each record
     try:
         if fmt == "json":
             records = json.loads(text)
@@ -174,7 +168,7 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
                 records.append(rec)
                 where.append(reader.line_num)
         elif fmt == "kvn":
-            records, where = _kvn_omm_records(text, path)
+            records, where, key_lines = _kvn_omm_records(text, path)
         else:
             records, where = _omm_xml_records(text, path)
     except json.JSONDecodeError as exc:
@@ -192,6 +186,8 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
             sats.append(Satellite.from_omm(rec))
         except InvalidInputError as exc:
             line = f", line {where[k - 1]}" if where else ""
+            if key_lines is not None:
+                line = _keyword_line(str(exc), key_lines[k - 1], where[k - 1])
             raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
     warn_duplicates(sats, path)
     return sats
@@ -204,8 +200,9 @@ def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
 
     The layers keep :mod:`visviva.satellites` below :mod:`visviva.ccsds`, so a catalogue file
     is read here; :func:`visviva.read_omm` is the full CCSDS reader (every section checked),
-    and both give the same satellite (tests/test_ccsds_convert.py)."""
-    records, starts = [], []
+    and both give the same satellite (tests/test_ccsds_convert.py). Also returns the line of
+    each keyword of each record (a bad value is reported at its own line)."""
+    records, starts, lines = [], [], []
     fields = None
     for number, line in enumerate(text.replace("\r\n", "\n").split("\n"), start=1):
         stripped = line.strip()
@@ -222,6 +219,7 @@ def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
             fields = {}
             records.append(fields)
             starts.append(number)
+            lines.append({})
         elif key in fields:
             raise InvalidInputError(
                 f"{path}, line {number}: {key} appears twice in the OMM that starts on line "
@@ -231,9 +229,23 @@ def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
         if value.endswith("]") and "[" in value:
             value = value[:value.rindex("[")].strip()
         fields[key] = value
+        lines[-1][key] = number
     if not records:
         raise InvalidInputError(f"{path}: no 'KEYWORD = value' lines; the file is empty.")
-    return records, starts
+    return records, starts, lines
+
+
+def _keyword_line(message: str, key_lines: dict, start: int) -> str:
+    """", line N" of the keyword of a KVN OMM that ``message`` (a record's error) names first,
+    with the line its OMM starts on; ", line {start}" when it names none of them."""
+    import re
+
+    found = [(m.start(), key) for key in key_lines
+             if (m := re.search(rf"(?<![A-Z0-9_]){re.escape(key)}(?![A-Z0-9_])", message))]
+    if not found:
+        return f", line {start}"
+    key = min(found)[1]
+    return f", line {key_lines[key]} ({key}; the OMM starts on line {start})"
 
 
 def catalog_file_satellites(path) -> list:

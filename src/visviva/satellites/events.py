@@ -25,6 +25,7 @@ from .._units import to_array
 from ..errors import InvalidInputError
 
 __all__ = [
+    "event_capacity",
     "Event",
     "EventRecord",
     "AltitudeCrossing",
@@ -192,3 +193,20 @@ class Apsides(Event):
 
     def label(self, sign):
         return "periapsis" if sign > 0 else "apoapsis"
+
+
+def event_capacity(y0, t_end, gm, n_events: int) -> int:
+    """Room for the events of a run: two crossings per orbit of each event over the run (with
+    a quarter more and one orbit spare), at least 64 and at most 2**20; the kernel counts past
+    the room and the run is redone larger then. (With 64 always, three eclipse events over a
+    LEO day, 90 crossings, ran the whole integration twice.)"""
+    import numpy as np
+
+    r = float(np.linalg.norm(y0[:3]))
+    energy = 0.5 * float(np.dot(y0[3:], y0[3:])) - gm / r
+    orbits = 1.0
+    if energy < 0.0 and np.isfinite(t_end):
+        a = -gm / (2.0 * energy)
+        orbits += abs(t_end) / (2.0 * np.pi * np.sqrt(a**3 / gm))
+    need = 2.5 * n_events * (orbits + 1.0)
+    return int(min(max(64.0, need), 2.0**20))

@@ -243,7 +243,8 @@ class AtmosphericDrag(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
-    PARAMETERS = ("DRAG_ON", "BALLISTIC", "DENSITY_MODEL", "DENSITY_GRID", "DENSITY_GRID_SIZES")
+    PARAMETERS = ("DRAG_ON", "BALLISTIC", "DENSITY_MODEL", "DENSITY_GRID", "DENSITY_GRID_SIZES",
+                  "DENSITY_BAND")
 
     #: the NRLMSIS model needs the Sun (its row in the ephemeris tables)
     @property
@@ -253,6 +254,7 @@ class AtmosphericDrag(Perturbation):
     def pack(self, model) -> None:
         model.force[fb.DRAG_ON] = 1.0
         model.force[fb.BALLISTIC] = self.ballistic_coefficient_km2_kg
+        model.force[fb.DENSITY_BAND] = 0.0  # the integrators hold a band per step
         model.atm = self.table
         if self.needs_sun:
             from .ephemeris import sun_position

@@ -1,0 +1,206 @@
+"""Covariance matrices: the checks every reader of one applies, and rotations to local frames.
+
+One owner for what the satellites layer (:func:`visviva.propagate_covariance`) and the layers
+above it (conjunctions, CCSDS messages, orbit determination) all need: a covariance given as an
+array or an area Quantity, checked for shape, finiteness and symmetry
+(:func:`as_covariance`), optionally for positive semi-definiteness (:func:`require_psd`), and
+rotated between an inertial frame and a local orbital frame of the state (RTN, TNW, VNB: the
+axes of :mod:`visviva.core.local_frames`) by :func:`to_local` / :func:`from_local`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InvalidInputError, ShapeError
+
+__all__ = ["as_covariance", "require_psd", "block_rotation", "to_local", "from_local",
+           "frame_code"]
+
+
+def as_covariance(cov, name: str = "cov", *, length_unit: str = "m") -> np.ndarray:
+    """A covariance as a float64 array ``(..., 6, 6)`` or ``(..., 3, 3)``, checked.
+
+    Parameters
+    ----------
+    cov : array_like or Quantity
+        Plain numbers are taken as given (in ``length_unit`` and seconds: m^2, m^2/s, m^2/s^2
+        by the CCSDS convention). A Quantity must have an area unit; it is converted to
+        ``length_unit`` squared (for a 6 x 6 array the whole matrix is scaled by the same
+        factor, i.e. it is read in the length unit of the Quantity and seconds).
+    name : str
+        The argument's name for messages.
+    length_unit : str
+        The length unit of the result (``"m"`` or ``"km"``).
+
+    Returns
+    -------
+    ndarray
+        The symmetrised matrix ``(C + C^T) / 2``.
+
+    Raises
+    ------
+    ShapeError
+        Not a square 3 x 3 or 6 x 6 matrix on the last two axes.
+    InvalidInputError
+        NaN or infinite entries, or a matrix that is not symmetric (to 1e-8 of its largest entry).
+    """
+    from ._units import is_quantity
+
+    plain = f"{length_unit}^2, {length_unit}^2/s, {length_unit}^2/s^2"
+    if is_quantity(cov):
+        from astropy import units as u
+
+        from .errors import UnitsError
+
+        try:
+            arr = np.array(cov.to_value(u.Unit(length_unit) ** 2), dtype=np.float64)
+        except u.UnitConversionError as exc:
+            raise UnitsError(
+                f"{name} has unit '{cov.unit}'; a covariance Quantity needs an area unit "
+                f"(e.g. {length_unit}**2), or pass a plain array in {plain}."
+            ) from exc
+    else:
+        try:
+            arr = np.array(cov, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                f"{name} must be a numeric 6x6 or 3x3 array (in {plain})."
+            ) from exc
+    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2] or arr.shape[-1] not in (3, 6):
+        raise ShapeError(f"{name} must be 6x6 or 3x3 on its last two axes; got {arr.shape}.")
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInputError(f"{name} contains NaN or infinite entries; fill them first.")
+    scale = np.max(np.abs(arr)) if arr.size else 0.0
+    if scale > 0 and np.max(np.abs(arr - np.swapaxes(arr, -1, -2))) > 1e-8 * scale:
+        raise InvalidInputError(
+            f"{name} is not symmetric; a covariance must equal its transpose "
+            "(symmetrise it with (C + C.T) / 2 if the asymmetry is round-off)."
+        )
+    return 0.5 * (arr + np.swapaxes(arr, -1, -2))
+
+
+def require_psd(cov: np.ndarray, name: str = "cov", tol: float = 1e-10) -> None:
+    """Refuse a covariance (square, symmetric) that is not positive semi-definite.
+
+    The test is on the correlation matrix ``D^-1/2 C D^-1/2`` (``D`` the diagonal), so that
+    position variances in km^2 next to velocity variances in km^2/s^2 do not hide a negative
+    eigenvalue: its smallest eigenvalue must be >= ``-tol``. A zero variance needs a zero row.
+
+    Parameters
+    ----------
+    cov : ndarray, shape (n, n)
+        The matrix (any consistent units).
+    name : str
+        The argument's name for messages.
+    tol : float
+        Round-off allowed on the correlation matrix's eigenvalues.
+
+    Raises
+    ------
+    InvalidInputError
+        A negative variance, a correlation above 1, or a negative eigenvalue.
+    """
+    d = np.diag(cov).copy()
+    if np.any(d < 0):
+        k = int(np.argmin(d))
+        raise InvalidInputError(
+            f"{name}[{k}, {k}] = {d[k]:.6g} is a negative variance; a covariance has variances "
+            ">= 0 on its diagonal (check the units and the order x, y, z, vx, vy, vz)."
+        )
+    zero = d == 0
+    if np.any(np.abs(cov[zero]) > 0):
+        k = int(np.flatnonzero(zero)[0])
+        raise InvalidInputError(
+            f"{name}[{k}, {k}] is 0 but its row is not: a component without uncertainty cannot "
+            "be correlated with another; the matrix is not positive semi-definite."
+        )
+    s = np.where(zero, 1.0, np.sqrt(d))
+    corr = cov / np.outer(s, s)
+    lam = float(np.linalg.eigvalsh(corr)[0])
+    if lam < -tol:
+        raise InvalidInputError(
+            f"{name} is not positive semi-definite (the smallest eigenvalue of its correlation "
+            f"matrix is {lam:.3g}); a covariance must have eigenvalues >= 0. Check its "
+            "correlations, or repair it (e.g. clip negative eigenvalues) before propagating."
+        )
+
+
+def frame_code(frame: str, name: str = "frame") -> int:
+    """The local-frame code of :mod:`visviva.core.local_frames` for ``frame`` (0: inertial).
+
+    Parameters
+    ----------
+    frame : str
+        ``"GCRS"`` (also ``"GCRF"``, ``"EME2000"``, ``"ICRF"``, ``"INERTIAL"``: the inertial
+        frame of the states) or a local frame: ``"RTN"`` (``"RSW"``, ``"RIC"``, ``"QSW"``),
+        ``"TNW"``, ``"VNB"``; case-insensitive.
+    name : str
+        The argument's name for messages.
+
+    Returns
+    -------
+    int
+    """
+    from .core.local_frames import FRAME_CODES, INERTIAL
+
+    key = str(frame).upper()
+    if key in ("GCRS", "GCRF", "EME2000", "ICRF", "INERTIAL"):
+        return INERTIAL
+    if key not in FRAME_CODES:
+        raise InvalidInputError(
+            f"{name} = {frame!r}: use 'GCRS' (inertial, the states' frame) or a local frame "
+            f"of the state: {', '.join(sorted(FRAME_CODES))}."
+        )
+    return FRAME_CODES[key]
+
+
+def block_rotation(m: np.ndarray, n: int) -> np.ndarray:
+    """``m`` (..., 3, 3) for a 3 x 3 covariance, ``blockdiag(m, m)`` (..., 6, 6) for a 6 x 6."""
+    if n == 3:
+        return m
+    out = np.zeros(m.shape[:-2] + (6, 6))
+    out[..., :3, :3] = m
+    out[..., 3:, 3:] = m
+    return out
+
+
+def to_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
+    """``M C M^T``: an inertial covariance (..., n, n) on the axes of local frame ``code``.
+
+    ``M = blockdiag(Q, Q)`` with ``Q`` the frame's axes as rows
+    (:func:`visviva.core.local_frames.local_axes`); the velocity block is rotated like the
+    position block, ignoring the frame's rotation (the convention of the CCSDS CDM and of NASA
+    CARA); the result is symmetrised. Code 0 (inertial) returns ``cov`` unchanged.
+    """
+    if code == 0:
+        return cov
+    from .core.local_frames import local_axes
+
+    m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
+    return _symmetric(m @ cov @ np.swapaxes(m, -1, -2))
+
+
+def from_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
+    """``M^T C M``: a covariance on the axes of local frame ``code`` back to inertial axes
+    (the inverse of :func:`to_local`)."""
+    if code == 0:
+        return cov
+    from .core.local_frames import local_axes
+
+    m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
+    return _symmetric(np.swapaxes(m, -1, -2) @ cov @ m)
+
+
+def _symmetric(c):
+    """``(C + C^T) / 2``: a rotated covariance, symmetric to the bit."""
+    return 0.5 * (c + np.swapaxes(c, -1, -2))
+
+
+def check_shape(cov: np.ndarray, name: str) -> None:
+    """Refuse anything but one 6 x 6 matrix."""
+    if cov.shape != (6, 6):
+        raise ShapeError(
+            f"{name} must be one 6x6 position-velocity covariance (x, y, z, vx, vy, vz); got "
+            f"shape {cov.shape}."
+        )

@@ -1,0 +1,363 @@
+"""A state's covariance carried through Cowell's full force model.
+
+:func:`propagate_covariance` integrates the state with its state-transition matrix
+Phi(t, t0) = d y(t) / d y(t0) (the variational equations of :mod:`visviva.core.variational`,
+driven by :class:`visviva.satellites.variational.Dynamics`, the driver orbit determination
+uses) and maps the covariance linearly, P(t) = Phi P0 Phi^T, with every force of
+:func:`visviva.propagate_cowell`: zonal harmonics, drag, third bodies, solar radiation pressure
+with the saltation of a cylindrical shadow's jump. Optional process noise (state noise
+compensation) adds the growth of a white-noise acceleration between steps.
+
+>>> import numpy as np
+>>> import visviva as vv
+>>> from astropy import units as u
+>>> from astropy.time import Time
+>>> state = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 5.0, 5.8] * u.km / u.s, vv.EARTH,
+...                         epoch=Time("2024-01-01T00:00:00", scale="utc"))
+>>> P0 = np.diag([1e-3, 1e-3, 1e-3, 1e-9, 1e-9, 1e-9])  # 30 m and 3 cm/s (km, km/s)
+>>> out = vv.propagate_covariance(state, P0, [0, 1, 2] * u.h, [vv.J2(vv.EARTH)], frame="RTN")
+>>> out.covariance.shape, out.stm.shape
+((3, 6, 6), (3, 6, 6))
+>>> bool(out.position_sigma[2, 1] > out.position_sigma[0, 1])  # along-track grows
+True
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from astropy import units as u
+
+from .._covariance import as_covariance, check_shape, frame_code, from_local, require_psd, to_local
+from .._units import require_finite, to_array, to_quantity, to_vector
+from ..errors import InvalidInputError, ShapeError, StepSizeError, SurfaceImpact
+from .cowell import CowellResult, output_offsets_s, perturbation_list
+from .satellite_states import require_gcrs
+from .surface import altitude_km, watched_body
+
+__all__ = ["propagate_covariance", "CovarianceResult", "DEFAULT_NOISE_STEP_S"]
+
+#: Longest interval (s) over which the process noise is taken as in a straight line (SNC).
+DEFAULT_NOISE_STEP_S = 60.0
+
+
+class CovarianceResult(CowellResult):
+    """States with their covariance and state-transition matrix (:func:`propagate_covariance`).
+
+    Attributes
+    ----------
+    t, r, v, epoch
+        As in :class:`~visviva.satellites.CowellResult`: output times from the epoch (s),
+        positions (km) and velocities (km/s), shape (T, 3) ((3,) for a scalar time).
+    covariance : ndarray (T, 6, 6)
+        The covariance at each output time, km^2, km^2/s, km^2/s^2, on the axes of ``frame``
+        ((6, 6) for a scalar time).
+    stm : ndarray (T, 6, 6)
+        Phi(t, t0) = d y(t) / d y(t0), inertial (GCRS) axes, s and 1/s^2 in its off-diagonal
+        blocks (independent of the length unit).
+    frame : str
+        The frame of ``covariance``: ``"GCRS"`` or a local frame of the state at each time.
+    process_noise : ndarray (3,) or None
+        The acceleration noise density used, km^2/s^3 per axis of ``process_noise_frame``.
+    process_noise_frame : str or None
+        ``"RTN"``, ``"GCRS"``, ... (None without process noise).
+    """
+
+    def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):
+        self.__dict__.update(base.__dict__)
+        self.covariance = covariance
+        self.stm = stm
+        self.frame = frame
+        self.process_noise = process_noise
+        self.process_noise_frame = noise_frame
+
+    @property
+    def position_sigma(self):
+        """1-sigma of the three position components on the axes of ``frame`` (Quantity, km)."""
+        return np.sqrt(np.diagonal(self.covariance, axis1=-2, axis2=-1)[..., :3]) * u.km
+
+    @property
+    def velocity_sigma(self):
+        """1-sigma of the three velocity components on the axes of ``frame`` (Quantity, km/s)."""
+        return np.sqrt(np.diagonal(self.covariance, axis1=-2, axis2=-1)[..., 3:]) * u.km / u.s
+
+    def __repr__(self):
+        return f"CovarianceResult({len(self)} times, frame={self.frame!r})"
+
+
+#: Position sigma, as a fraction of |r|, above which a linear map means nothing (warned).
+HUGE_SIGMA_FRACTION = 0.01
+
+
+def _warn_if_huge(P0, r0):
+    """Warn when the position sigma is a sizable fraction of the orbit (a matrix in m^2 read as
+    km^2 gives this: a CDM's covariance is in m, m/s)."""
+    sigma = float(np.sqrt(np.max(np.diag(P0)[:3])))
+    if sigma > HUGE_SIGMA_FRACTION * float(np.linalg.norm(r0)):
+        import warnings
+
+        warnings.warn(
+            f"the covariance's largest position sigma is {sigma:.6g} km, "
+            f"{sigma / np.linalg.norm(r0):.2g} of |r|: a linear propagation means little at "
+            "that size. Plain numbers are km^2, km^2/s, km^2/s^2; a matrix in m^2 (a CDM's) "
+            "must be passed as a Quantity (cov * u.m**2).", UserWarning, stacklevel=3)
+
+
+def _noise_density(q):
+    """The process-noise density as three values, km^2/s^3, or None."""
+    if q is None:
+        return None
+    arr = np.atleast_1d(to_array(q, "accel_psd", "process_noise", allow_plain=True))
+    if arr.shape == (1,):
+        arr = np.repeat(arr, 3)
+    if arr.shape != (3,):
+        raise ShapeError(
+            f"process_noise must be one density or three (one per axis), km^2/s^3; got shape "
+            f"{arr.shape}."
+        )
+    if np.any(arr < 0):
+        raise InvalidInputError(
+            f"process_noise must be >= 0 (a spectral density, km^2/s^3); got {arr}."
+        )
+    return arr
+
+
+def _noise_grid(offsets, step):
+    """The output times with points every ``step`` s between them and the epoch (both sides)."""
+    pts = [offsets, [0.0]]
+    for side in (offsets[offsets < 0], offsets[offsets > 0]):
+        if side.size:
+            far = float(np.max(np.abs(side)))
+            n = int(np.ceil(far / step))
+            pts.append(np.sign(side[0]) * np.linspace(0.0, far, n + 1))
+    return np.unique(np.concatenate(pts))
+
+
+def _snc(dt, qc):
+    """The covariance (6, 6) a white-noise acceleration of density ``qc`` (3, 3) adds over
+    ``dt`` s of straight-line motion; ``dt < 0`` for a backward step."""
+    a = abs(dt)
+    out = np.empty((6, 6))
+    out[:3, :3] = a**3 / 3.0 * qc
+    out[:3, 3:] = out[3:, :3] = dt * a / 2.0 * qc
+    out[3:, 3:] = a * qc
+    return out
+
+
+def _with_noise(grid, y, phi, P0, q, noise_code):
+    """Covariances at the ``grid`` times (sorted, holding 0) with process noise, by the
+    recursion P_k+1 = Phi_k+1,k P_k Phi_k+1,k^T + Q_k outward from the epoch."""
+    from ..core.local_frames import local_axes
+
+    P = np.empty((grid.size, 6, 6))
+    k0 = int(np.flatnonzero(grid == 0.0)[0])
+    P[k0] = P0
+    diag = np.diag(q)
+    for direction in (1, -1):
+        k = k0
+        while 0 <= k + direction < grid.size:
+            j = k + direction
+            step = np.linalg.solve(phi[k].T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
+            if noise_code:  # the local axes' density, averaged over the interval's ends
+                mk = local_axes(y[k, :3], y[k, 3:], noise_code)
+                mj = local_axes(y[j, :3], y[j, 3:], noise_code)
+                qc = 0.5 * (mk.T @ diag @ mk + mj.T @ diag @ mj)
+            else:
+                qc = diag
+            pj = step @ P[k] @ step.T + _snc(grid[j] - grid[k], qc)
+            P[j] = 0.5 * (pj + pj.T)
+            k = j
+    return P
+
+
+def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str = "GCRS",
+                         output_frame: str | None = None, process_noise=None,
+                         process_noise_frame: str = "RTN", noise_step=None,
+                         rtol: float = 1e-12, atol: float = 1e-12, max_steps: int = 200_000):
+    """Propagate a state and its 6 x 6 covariance with Cowell's full force model.
+
+    Parameters
+    ----------
+    state : StateVectors
+        One GCRS state (``r``, ``v`` of shape (3,)) with its ``epoch`` where the force model
+        needs one (third bodies, SRP, NRLMSIS, harmonics); e.g. ``fit.state`` of
+        :func:`~visviva.fit_orbit` (or call ``fit.propagate(t)``).
+    covariance : array_like or Quantity, shape (6, 6)
+        The covariance of (x, y, z, vx, vy, vz) at the state's epoch: plain numbers in km^2,
+        km^2/s, km^2/s^2 (what ``fit.covariance`` holds), or an area Quantity (the whole matrix
+        read in its length unit and seconds, e.g. a CDM's covariance in m^2). Symmetric,
+        positive semi-definite and finite, else refused.
+    t : Quantity or astropy Time
+        Output times: offsets from the epoch (scalar or 1-D, strictly increasing, any sign:
+        negative times give the covariance at earlier times) or absolute Times.
+    perturbations : list of Perturbation or None
+        As for :func:`~visviva.propagate_cowell`; ``[]`` or None is two-body motion.
+    frame : str
+        Axes of ``covariance``: ``"GCRS"`` (inertial) or a local frame of the state, ``"RTN"``
+        (alias ``"RSW"``, ``"RIC"``), ``"TNW"``, ``"VNB"``.
+    output_frame : str, optional
+        Axes of the result's covariances (default: ``frame``); a local frame is that of the
+        state at each output time.
+    process_noise : float, array_like (3,) or Quantity, optional
+        Spectral density q of a white-noise acceleration on each axis of
+        ``process_noise_frame``, km^2/s^3 (= (km/s^2)^2 per Hz); None: no process noise.
+    process_noise_frame : str
+        ``"RTN"`` (default) or ``"GCRS"``: the axes ``process_noise`` is given on.
+    noise_step : Quantity, optional
+        Longest interval over which the noise is added in straight-line motion (default 60 s).
+    rtol, atol : float
+        Integration tolerances of the state (atol in km and km/s); the defaults are
+        :func:`~visviva.propagate_cowell`'s, so the states equal its states to ~1e-9 relative.
+    max_steps : int
+        Step budget of each direction of time (a LEO day takes ~2000 steps; a decaying orbit
+        exhausts it, and is then reported as the :class:`~visviva.SurfaceImpact` it is).
+
+    Returns
+    -------
+    CovarianceResult
+        ``.t``, ``.r``, ``.v`` (as from :func:`~visviva.propagate_cowell`), ``.covariance``
+        (T, 6, 6) in ``output_frame``, km-based units; ``.stm`` (T, 6, 6) inertial;
+        ``.position_sigma``, ``.velocity_sigma``.
+
+    Warns
+    -----
+    UserWarning
+        A position sigma above 1 % of |r| (where a linear map means little; also what a matrix
+        in m^2 passed as plain numbers looks like).
+
+    Raises
+    ------
+    InvalidInputError
+        A covariance that is not symmetric, not positive semi-definite, or not finite; a state
+        from an OPM with manoeuvres (burns are not propagated through: see Notes); bad frames.
+    ShapeError
+        A covariance that is not 6 x 6, or a batch of states.
+    SurfaceImpact
+        An output state below the central body's surface (with perturbations).
+
+    Notes
+    -----
+    The linear map of a covariance by the state-transition matrix (Tapley, Schutz & Born 2004,
+    sec. 4.2; Montenbruck & Gill 2000, sec. 7.1)::
+
+        P(t) = Phi(t, t0) P0 Phi(t, t0)^T,    Phi' = F(t, y) Phi,  Phi(t0) = I,
+
+    F the Jacobian of the full force model (:mod:`visviva.core.variational`). In a local frame
+    the covariance is rotated, C_local = M C M^T with M = blockdiag(Q, Q) and Q the frame's
+    axes, the velocity block on the same axes as the position block (the CCSDS/CARA
+    convention; :mod:`visviva.core.local_frames`).
+
+    Process noise is the state noise compensation of Tapley, Schutz & Born (2004), sec. 4.9:
+    a white acceleration of density Q_c = diag(q) (rotated from ``process_noise_frame``,
+    averaged over the two ends of each interval) adds, over an interval dt taken in
+    straight-line motion::
+
+        Q(dt) = [[|dt|^3/3 Q_c, dt|dt|/2 Q_c], [dt|dt|/2 Q_c, |dt| Q_c]],
+
+    and P_k+1 = Phi(t_k+1, t_k) P_k Phi(t_k+1, t_k)^T + Q(t_k+1 - t_k) on a grid of at most
+    ``noise_step`` s. Over one LEO orbit with 60-s intervals this is within 0.2 % of the exact
+    integral of Phi(t, tau) B Q_c B^T Phi(t, tau)^T over tau (tested by quadrature).
+
+    The map is linear: it holds while the uncertainty stays small against the orbit's
+    nonlinearity. A large along-track uncertainty after many revolutions bends along the orbit
+    (a "banana"), which a Gaussian in Cartesian coordinates cannot describe; docs/cowell.md,
+    "Covariance propagation", measures where this begins against a Monte Carlo.
+
+    Manoeuvres are not propagated through: an impulse on the axes of a local frame depends on
+    the state, so its STM is not the identity, and its execution error adds its own covariance.
+    Propagate to the burn, apply it to the state (:func:`~visviva.propagate_cowell` with
+    ``maneuvers=``) and its uncertainty to the covariance, and continue from after it.
+    """
+    if not hasattr(state, "r") or not hasattr(state, "v") or not hasattr(state, "gm"):
+        raise InvalidInputError(
+            "state must be a vv.StateVectors (with .r, .v, .gm), e.g. fit.state of vv.fit_orbit."
+        )
+    require_gcrs(state, "propagate_covariance")
+    from .._containers import refuse_pending
+
+    refuse_pending(state, "propagate_covariance", "Propagate the covariance to each burn, apply "
+                   "the burn and its execution error, and continue from after it.")
+    r0 = to_vector(state.r, "length", "state.r")
+    v0 = to_vector(state.v, "speed", "state.v")
+    if r0.shape != (3,) or v0.shape != (3,):
+        raise ShapeError(
+            f"propagate_covariance takes one state (r and v of shape (3,)); got {r0.shape} and "
+            f"{v0.shape}. Loop over the states (state[i]) with their own covariances."
+        )
+    if np.linalg.norm(np.cross(r0, v0)) == 0:
+        raise InvalidInputError("r x v = 0: the state has no orbit plane (a radial or zero state).")
+    gm = float(np.ravel(to_array(state.gm, "gm", "state.gm"))[0])
+    if not gm > 0:
+        raise InvalidInputError("the state's GM must be > 0 (e.g. vv.EARTH.gm).")
+    epoch = getattr(state, "epoch", None)
+    if epoch is not None and not epoch.isscalar:
+        epoch = epoch.ravel()[0]
+    P0 = as_covariance(covariance, "covariance", length_unit="km")
+    check_shape(P0, "covariance")
+    in_code = frame_code(frame, "frame")
+    out_name = frame if output_frame is None else output_frame
+    out_code = frame_code(out_name, "output_frame")
+    P0 = from_local(P0, r0, v0, in_code)
+    require_psd(P0, "covariance")
+    _warn_if_huge(P0, r0)
+    q = _noise_density(process_noise)
+    noise_code = frame_code(process_noise_frame, "process_noise_frame")
+    step_s = DEFAULT_NOISE_STEP_S if noise_step is None else float(
+        to_array(noise_step, "time", "noise_step"))
+    if not step_s > 0:
+        raise InvalidInputError(f"noise_step must be > 0; got {step_s} s.")
+    offsets = output_offsets_s(t, epoch)
+    scalar = offsets.ndim == 0
+    offsets = np.atleast_1d(offsets)
+    if offsets.ndim != 1 or offsets.size == 0:
+        raise ShapeError(f"t must be a scalar or a non-empty 1-D array; got shape {offsets.shape}.")
+    require_finite(offsets, "t")
+    if np.any(np.diff(offsets) <= 0):
+        raise InvalidInputError(
+            "the output times must be strictly increasing; sort them (np.sort) and remove "
+            "duplicates."
+        )
+    if not (np.isfinite(rtol) and 0 < rtol < 1 and np.isfinite(atol) and atol > 0):
+        raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol}, atol={atol}.")
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
+        raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
+    perturbations = list(perturbation_list(perturbations, allow_none=True))
+    body = watched_body(gm, perturbations, r0)
+    from .variational import Dynamics
+
+    grid = offsets if q is None else _noise_grid(offsets, step_s)
+    dyn = Dynamics(gm, perturbations, epoch, (grid.min(), grid.max()), rtol, atol)
+    try:
+        y, phi = dyn.propagate(np.concatenate([r0, v0]), grid, max_steps)
+    except (StepSizeError, InvalidInputError):
+        if body is not None:  # through the surface? propagate_cowell finds where, and says so
+            from .cowell import propagate_cowell
+
+            propagate_cowell(state, grid * u.s, perturbations, rtol=rtol, atol=atol,
+                             max_steps=max_steps, maneuvers=[])
+        raise
+    if q is None:
+        P = phi @ P0 @ np.swapaxes(phi, -1, -2)
+        P = 0.5 * (P + np.swapaxes(P, -1, -2))
+    else:
+        P = _with_noise(grid, y, phi, P0, q, noise_code)
+        keep = np.searchsorted(grid, offsets)
+        y, phi, P = y[keep], phi[keep], P[keep]
+    P = to_local(P, y[:, :3], y[:, 3:], out_code)
+    if body is not None:
+        h = altitude_km(y[:, :3], body)
+        if np.any(h < 0):
+            k = int(np.flatnonzero(h < 0)[0])
+            raise SurfaceImpact(
+                f"the trajectory is below the surface of {body.name} at t = {offsets[k]:.6f} s "
+                "from the epoch, where the force model means nothing; propagate to earlier "
+                "times.", t=offsets[k] * u.s)
+    base = CowellResult(
+        to_quantity(offsets[0] if scalar else offsets, "time"),
+        to_quantity(np.ascontiguousarray(y[0, :3] if scalar else y[:, :3]), "length"),
+        to_quantity(np.ascontiguousarray(y[0, 3:] if scalar else y[:, 3:]), "speed"),
+        gm, epoch, [], False, max(0.0, float(offsets[-1])) * u.s, dyn.n_steps,
+        dyn.n_evaluations, scalar,
+    )
+    out_label = "GCRS" if out_code == 0 else str(out_name).upper()
+    return CovarianceResult(base, P[0] if scalar else P, phi[0] if scalar else phi, out_label,
+                            q, None if q is None else str(process_noise_frame).upper())

@@ -215,9 +215,13 @@ def test_filter_bad_input(positions):
         vv.filter_orbit(positions, good, np.full((6, 6), np.nan))
     with pytest.raises(vv.ShapeError, match="6x6"):
         vv.filter_orbit(positions, good, np.eye(3))
+    negative = P0.copy()
+    negative[0, 0] = -1e-4
+    with pytest.raises(vv.InvalidInputError, match="negative variance"):
+        vv.filter_orbit(positions, good, negative)
     not_psd = P0.copy()
-    not_psd[0, 0] = -1e-4
-    with pytest.raises(vv.InvalidInputError, match="positive semi-definite"):
+    not_psd[0, 1] = not_psd[1, 0] = 2 * P0[0, 0]  # a correlation of 2
+    with pytest.raises(vv.InvalidInputError, match="not positive semi-definite"):
         vv.filter_orbit(positions, good, not_psd)
     with pytest.raises(vv.InvalidInputError, match="symmetric"):
         vv.filter_orbit(positions, good, P0 + np.triu(np.ones((6, 6)), 1) * 1e-6)
@@ -233,7 +237,7 @@ def test_filter_bad_input(positions):
     with pytest.raises(vv.InvalidInputError, match="manoeuvre"):
         vv.filter_orbit(positions, pending, P0)
     for kw, match in (({"process_noise": -1e-14}, ">= 0"), ({"process_noise": [1e-14] * 2}, "three"),
-                      ({"process_noise": 1e-14, "process_noise_frame": "TNW"}, "RTN"),
+                      ({"process_noise": 1e-14, "process_noise_frame": "XYZ"}, "RTN"),
                       ({"process_noise": 1e-14 * u.km}, None), ({"editing_sigma": 0}, "> 0"),
                       ({"divergence_count": 0}, ">= 1"), ({"smoother": "yes"}, "True or False"),
                       ({"noise_step": -1 * u.s}, "> 0"), ({"rtol": np.nan}, "finite"),
@@ -289,7 +293,7 @@ def test_snc_is_the_covariance_of_integrated_white_noise():
     """Q(dt) = int_0^dt Phi_cv(s) B Qc B^T Phi_cv(s)^T ds for constant-velocity motion."""
     from scipy.integrate import quad_vec
 
-    from visviva.od.sequential import snc_covariance
+    from visviva.satellites.covariance import snc_covariance
 
     a = np.array([[1e-14, 2e-15, 0], [2e-15, 3e-14, 1e-15], [0, 1e-15, 5e-15]])
     B = np.vstack([np.zeros((3, 3)), np.eye(3)])

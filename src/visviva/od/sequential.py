@@ -23,10 +23,7 @@ from .light_time import model
 from .measurements import residuals
 from .observations import Observations
 
-__all__ = ["filter_orbit", "FilteredOrbit", "snc_covariance"]
-
-#: Longest interval (s) over which the process noise is added in straight-line motion.
-DEFAULT_NOISE_STEP_S = 60.0
+__all__ = ["filter_orbit", "FilteredOrbit"]
 
 
 class FilteredOrbit:
@@ -82,34 +79,6 @@ class FilteredOrbit:
         )
 
 
-def snc_covariance(dt_s, qc):
-    """Process noise of a white-noise acceleration over ``dt_s`` of straight-line motion.
-
-    Parameters
-    ----------
-    dt_s : float
-        Interval, s (negative for a backward step).
-    qc : ndarray (3, 3)
-        Spectral density of the acceleration in inertial axes, km^2/s^3.
-
-    Returns
-    -------
-    ndarray (6, 6)
-        Q = [[|dt|^3/3 Qc, dt |dt|/2 Qc], [dt |dt|/2 Qc, |dt| Qc]], km^2, km^2/s, km^2/s^2.
-
-    Notes
-    -----
-    The covariance a constant-velocity random walk accumulates (Tapley, Schutz & Born 2004,
-    sec. 4.9, state noise compensation with tau -> infinity).
-    """
-    a = abs(dt_s)
-    out = np.empty((6, 6))
-    out[:3, :3] = a**3 / 3.0 * qc
-    out[:3, 3:] = out[3:, :3] = dt_s * a / 2.0 * qc
-    out[3:, 3:] = a * qc
-    return out
-
-
 class _FromOrigin:
     """A force model whose t = 0 lies ``t0_s`` after the model's own epoch."""
 
@@ -132,49 +101,17 @@ def _propagate(dyn, x, t_from, t_to):
 
 
 def _check_covariance(covariance):
-    from ..conjunctions.covariance import as_covariance
+    from .._covariance import as_covariance, check_shape, require_psd
 
     P = as_covariance(covariance, "covariance", length_unit="km")
-    if P.shape != (6, 6):
-        raise ShapeError(
-            f"covariance must be one 6x6 matrix (x, y, z, vx, vy, vz; km^2, km^2/s, km^2/s^2); "
-            f"got shape {P.shape}."
-        )
-    w = np.linalg.eigvalsh(P)
-    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
-        raise InvalidInputError(
-            f"covariance is not positive semi-definite (smallest eigenvalue {w[0]:.3g}, largest "
-            f"{w[-1]:.3g}); a covariance must be. Check its source (units, symmetry, ordering)."
-        )
-    if w[-1] == 0.0:
+    check_shape(P, "covariance")
+    require_psd(P, "covariance")
+    if not np.any(P):
         raise InvalidInputError(
             "covariance is zero: the filter would trust the initial state completely and ignore "
             "every observation. Give the initial state's uncertainty."
         )
     return P
-
-
-def _noise(process_noise, frame):
-    from .._units import to_array
-
-    if process_noise is None:
-        return None, None
-    q = np.atleast_1d(to_array(process_noise, "accel_psd", "process_noise", allow_plain=True))
-    if q.shape == (1,):
-        q = np.repeat(q, 3)
-    if q.shape != (3,):
-        raise ShapeError(
-            f"process_noise must be one density or three (one per axis), km^2/s^3; got shape "
-            f"{q.shape}."
-        )
-    if np.any(q < 0):
-        raise InvalidInputError(f"process_noise must be >= 0 (a spectral density, km^2/s^3); got {q}.")
-    name = str(frame).upper()
-    if name not in ("RTN", "GCRS"):
-        raise InvalidInputError(
-            f"process_noise_frame must be 'RTN' or 'GCRS'; got {frame!r}."
-        )
-    return q, name
 
 
 def _positive(name, value):
@@ -189,27 +126,15 @@ def _positive(name, value):
     return v
 
 
-def _predict_covariance(x0, grid, y, phi, P, q, frame):
+def _predict_covariance(x0, grid, y, phi, P, q, code):
     """P at grid[-1] from P at the origin (state x0): Phi P Phi^T, plus the SNC noise on each
-    sub-step (its axes taken at the sub-step's start)."""
+    sub-step (:func:`visviva.satellites.covariance.with_process_noise`)."""
     if q is None:
         return phi[-1] @ P @ phi[-1].T
-    from ..core.local_frames import RTN, local_axes
+    from ..satellites.covariance import with_process_noise
 
-    prev_phi = np.eye(6)
-    prev_t = 0.0
-    for j in range(len(grid)):
-        step = np.linalg.solve(prev_phi.T, phi[j].T).T  # Phi(t_j, t_j-1)
-        if frame == "RTN":
-            start = y[j - 1] if j else x0
-            m = local_axes(start[:3], start[3:], RTN)
-            qc = m.T @ np.diag(q) @ m
-        else:
-            qc = np.diag(q)
-        P = step @ P @ step.T + snc_covariance(grid[j] - prev_t, qc)
-        P = 0.5 * (P + P.T)
-        prev_phi, prev_t = phi[j], grid[j]
-    return P
+    return with_process_noise(np.r_[0.0, grid], np.vstack([x0, y]),
+                              np.concatenate([np.eye(6)[None], phi]), P, q, code)[-1]
 
 
 def filter_orbit(observations, initial, covariance, perturbations=None, *, process_noise=None,
@@ -236,8 +161,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         Spectral density q of a white-noise acceleration on each axis of
         ``process_noise_frame``, km^2/s^3 (= (km/s^2)^2 / Hz); None: none. It stands for the
         accelerations the dynamics leave out (drag errors, manoeuvre residuals, SRP).
-    process_noise_frame : {"RTN", "GCRS"}
-        The axes of ``process_noise`` (RTN rotates with the orbit).
+    process_noise_frame : {"RTN", "GCRS", "TNW", "VNB"}
+        The axes of ``process_noise`` (the local frames rotate with the orbit; their density
+        is averaged over each sub-step's ends).
     noise_step : Quantity or float, optional
         Longest interval over which the noise is added in straight-line motion, s (default
         60 s); longer gaps between observations are cut into such steps.
@@ -308,7 +234,12 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         )
     x, gm, epoch = check_initial(initial)
     P = _check_covariance(covariance)
-    q, frame = _noise(process_noise, process_noise_frame)
+    from .._covariance import frame_code
+    from ..satellites.covariance import DEFAULT_NOISE_STEP_S, noise_density
+
+    q = noise_density(process_noise)
+    code = frame_code(process_noise_frame, "process_noise_frame")
+    frame = None if q is None else str(process_noise_frame).upper()
     step_s = DEFAULT_NOISE_STEP_S
     if noise_step is not None:
         from .._units import to_array
@@ -381,7 +312,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
                 y, phi = _propagate(dyn, x, epochs[k - 1], epochs[k - 1] + grid)
             except VisvivaError as exc:
                 raise diverged(k, f"the estimate cannot be integrated ({exc})") from exc
-            P = _predict_covariance(x, grid, y, phi, P, q, frame)
+            P = _predict_covariance(x, grid, y, phi, P, q, code)
             x = y[-1].copy()
             xp[k], Pp[k], phis[k] = x, P, phi[-1]
         rows = order[bounds[k]:bounds[k + 1]]

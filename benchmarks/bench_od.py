@@ -7,6 +7,11 @@ Rows (ratio = visviva time / reference time; below 1 visviva is faster):
   with visviva's ``propagate_cowell`` trajectory and finite-difference Jacobian (what one
   writes without an OD package). Both start from the same guess and reach the same solution.
   Target: ratio <= 0.5.
+* ``filter_orbit vs fit_orbit``: :func:`visviva.filter_orbit` (extended Kalman filter, one
+  pass, state and covariance at every observation epoch; with and without the RTS smoother) vs
+  :func:`visviva.fit_orbit` (batch, iterated to convergence) on the same campaign, from the same
+  first guess (the filter's initial covariance 1 km, 1 m/s). Informational (no target): the
+  notes give both estimates' final position errors against the truth.
 * ``fit_tle per satellite``: :func:`visviva.fit_tle` on one day of SGP4 states (49 points) of
   synthetic catalogue satellites vs ``scipy.optimize.least_squares`` (trust region, 2-point
   Jacobian) on the same residual function. Target: ratio <= 1.5. Reports TLE fits per second.
@@ -25,9 +30,9 @@ import time
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import quick_from_env, result, skipped
+    from .common import interleaved, quick_from_env, result, skipped
 except ImportError:  # pragma: no cover
-    from common import quick_from_env, result, skipped
+    from common import interleaved, quick_from_env, result, skipped
 
 
 def _campaign(hours: float):
@@ -157,6 +162,8 @@ def run(quick: bool = False) -> list[dict]:
         f"{diff_m:.2f} m; machine shared, single runs of the reference",
     ))
 
+    rows += _filter_rows(obs, guess, truth, forces, fit)
+
     n = 20 if quick else 100
     cases = _tle_cases(n)
     _fit_case(cases[0])
@@ -175,6 +182,38 @@ def run(quick: bool = False) -> list[dict]:
     ))
     rows.append(_dask_row(cases if quick else _tle_cases(400)))
     return rows
+
+
+def _filter_rows(obs, guess, truth, forces, fit):
+    """filter_orbit (with and without smoother) vs fit_orbit on one campaign, alternating."""
+    from astropy import units as u
+
+    import visviva as vv
+
+    P0 = np.diag([1.0] * 3 + [1e-6] * 3)
+    t0 = time.perf_counter()
+    f = vv.filter_orbit(obs, guess, P0, forces, smoother=True)
+    first = time.perf_counter() - t0
+    t_filter, t_smooth, t_fit = (t.median for t in interleaved([
+        lambda: vv.filter_orbit(obs, guess, P0, forces),
+        lambda: vv.filter_orbit(obs, guess, P0, forces, smoother=True),
+        lambda: vv.fit_orbit(obs, guess, forces)], rounds=5))
+    end = vv.propagate_cowell(truth, f.state.epoch, forces, rtol=1e-13, atol=1e-13)
+    batch_end = vv.propagate_cowell(fit.state, f.state.epoch, forces, rtol=1e-13, atol=1e-13)
+    err_f = np.linalg.norm((f.state.r - end.r).to_value(u.m))
+    err_b = np.linalg.norm((batch_end.r - end.r).to_value(u.m))
+    sig = np.sqrt(np.trace(f.covariance[:3, :3])) * 1e3
+    n_ep = len(f.times)
+    return [
+        result(f"filter_orbit (EKF), same {len(obs)} obs ({n_ep} epochs)", t_filter,
+               "visviva fit_orbit on the same data", t_fit, compile_s=first,
+               notes=f"{t_filter / n_ep * 1e3:.2f} ms per epoch; final position error: filter "
+               f"{err_f:.2f} m (formal {sig:.2f} m), batch mapped there {err_b:.2f} m; "
+               f"batch {fit.iterations} iterations"),
+        result(f"filter_orbit + RTS smoother, same {len(obs)} obs", t_smooth,
+               "visviva fit_orbit on the same data", t_fit,
+               notes="smoothed state at every epoch; first epoch = the batch estimate's"),
+    ]
 
 
 def _dask_row(cases):

@@ -118,6 +118,7 @@ _PUBLIC = {
     "gauss_angles": "visviva.od",
     "Observations": "visviva.od",
     "fit_orbit": "visviva.od",
+    "filter_orbit": "visviva.od.sequential",
     "fit_tle": "visviva.od",
     # CCSDS orbit data messages
     "CCSDSFormatError": "visviva.ccsds.grammar",

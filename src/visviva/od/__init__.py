@@ -1,9 +1,10 @@
 """Orbit determination: initial orbits, measurement models, batch least squares, TLE fitting.
 
 ``import visviva as vv`` gives :func:`~visviva.gibbs`, :func:`~visviva.herrick_gibbs`,
-:func:`~visviva.gauss_angles`, :class:`~visviva.Observations`, :func:`~visviva.fit_orbit` and
-:func:`~visviva.fit_tle`, :func:`~visviva.read_tdm` and :class:`~visviva.TDM` (tracking data
-from CCSDS TDM files); the rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
+:func:`~visviva.gauss_angles`, :class:`~visviva.Observations`, :func:`~visviva.fit_orbit`,
+:func:`~visviva.filter_orbit` (sequential: EKF and smoother) and :func:`~visviva.fit_tle`,
+:func:`~visviva.read_tdm` and :class:`~visviva.TDM` (tracking data from CCSDS TDM files); the
+rest is here (``vv.od.double_r``, ``vv.od.simulate_observations``).
 Names load lazily (PEP 562): importing ``visviva.od`` compiles nothing.
 """
 
@@ -20,6 +21,8 @@ _EXPORTS = {
     "initial_orbit": "first_orbit",
     "Observations": "observations",
     "fit_orbit": "batch",
+    "filter_orbit": "sequential",
+    "FilteredOrbit": "sequential",
     "OrbitFit": "batch",
     "fit_tle": "tle_fit",
     "TLEFit": "tle_fit",

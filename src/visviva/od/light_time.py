@@ -147,7 +147,7 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     return h, np.einsum("nij,njk->nik", H, jac)
 
 
-def model(observations, y, gm):
+def model(observations, y, gm, rows=None):
     """Predicted values and partials of a whole :class:`~visviva.Observations` table.
 
     Parameters
@@ -155,9 +155,12 @@ def model(observations, y, gm):
     observations : Observations
         The table; its ``light_time`` and ``radec_reference`` choose the model.
     y : ndarray (N, 6)
-        The satellite's GCRS states at the observation (reception) times, km and km/s.
+        The satellite's GCRS states at the observation (reception) times, km and km/s (one per
+        row of ``rows`` when given).
     gm : float
         GM of the central body, km^3/s^2.
+    rows : ndarray of int, optional
+        Only these rows of the table (a sequential filter's rows at one epoch); None: all.
 
     Returns
     -------
@@ -167,7 +170,10 @@ def model(observations, y, gm):
         Partials with respect to the states ``y``.
     """
     site_r, site_v, enu = observations.sites()
+    kinds = observations.kinds
+    pick = slice(None) if rows is None else rows
+    site_r, site_v, enu, kinds = site_r[pick], site_v[pick], enu[pick], kinds[pick]
     if not observations.light_time:
-        return predict(observations.kinds, y, site_r, site_v, enu)
-    ev = observations.earth_velocity() if observations.radec_reference == "stars" else None
-    return predict_light_time(observations.kinds, y, site_r, site_v, enu, gm, ev)
+        return predict(kinds, y, site_r, site_v, enu)
+    ev = observations.earth_velocity()[pick] if observations.radec_reference == "stars" else None
+    return predict_light_time(kinds, y, site_r, site_v, enu, gm, ev)

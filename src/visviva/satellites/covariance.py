@@ -102,8 +102,9 @@ def _warn_if_huge(P0, r0):
             "must be passed as a Quantity (cov * u.m**2).", UserWarning, stacklevel=3)
 
 
-def _noise_density(q):
-    """The process-noise density as three values, km^2/s^3, or None."""
+def noise_density(q):
+    """The process-noise density as three values, km^2/s^3, or None (also for
+    :func:`visviva.filter_orbit`)."""
     if q is None:
         return None
     arr = np.atleast_1d(to_array(q, "accel_psd", "process_noise", allow_plain=True))
@@ -132,9 +133,23 @@ def _noise_grid(offsets, step):
     return np.unique(np.concatenate(pts))
 
 
-def _snc(dt, qc):
-    """The covariance (6, 6) a white-noise acceleration of density ``qc`` (3, 3) adds over
-    ``dt`` s of straight-line motion; ``dt < 0`` for a backward step."""
+def snc_covariance(dt, qc):
+    """Process noise of a white-noise acceleration over ``dt`` s of straight-line motion.
+
+    Parameters
+    ----------
+    dt : float
+        Interval, s (negative for a backward step).
+    qc : ndarray (3, 3)
+        Spectral density of the acceleration in inertial axes, km^2/s^3.
+
+    Returns
+    -------
+    ndarray (6, 6)
+        Q = [[|dt|^3/3 Qc, dt |dt|/2 Qc], [dt |dt|/2 Qc, |dt| Qc]], km^2, km^2/s, km^2/s^2:
+        the covariance a constant-velocity random walk accumulates (Tapley, Schutz & Born
+        2004, sec. 4.9, state noise compensation).
+    """
     a = abs(dt)
     out = np.empty((6, 6))
     out[:3, :3] = a**3 / 3.0 * qc
@@ -143,9 +158,14 @@ def _snc(dt, qc):
     return out
 
 
-def _with_noise(grid, y, phi, P0, q, noise_code):
+def with_process_noise(grid, y, phi, P0, q, noise_code):
     """Covariances at the ``grid`` times (sorted, holding 0) with process noise, by the
-    recursion P_k+1 = Phi_k+1,k P_k Phi_k+1,k^T + Q_k outward from the epoch."""
+    recursion P_k+1 = Phi_k+1,k P_k Phi_k+1,k^T + Q_k outward from the epoch.
+
+    ``y`` (states) and ``phi`` (Phi(t, 0)) are at the grid times, ``P0`` at 0, ``q`` the three
+    densities (km^2/s^3) on the axes of ``noise_code`` (:func:`visviva._covariance.frame_code`;
+    0 inertial). Also the prediction step of :func:`visviva.filter_orbit`.
+    """
     from ..core.local_frames import local_axes
 
     P = np.empty((grid.size, 6, 6))
@@ -163,7 +183,7 @@ def _with_noise(grid, y, phi, P0, q, noise_code):
                 qc = 0.5 * (mk.T @ diag @ mk + mj.T @ diag @ mj)
             else:
                 qc = diag
-            pj = step @ P[k] @ step.T + _snc(grid[j] - grid[k], qc)
+            pj = step @ P[k] @ step.T + snc_covariance(grid[j] - grid[k], qc)
             P[j] = 0.5 * (pj + pj.T)
             k = j
     return P
@@ -299,7 +319,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     P0 = from_local(P0, r0, v0, in_code)
     require_psd(P0, "covariance")
     _warn_if_huge(P0, r0)
-    q = _noise_density(process_noise)
+    q = noise_density(process_noise)
     noise_code = frame_code(process_noise_frame, "process_noise_frame")
     step_s = DEFAULT_NOISE_STEP_S if noise_step is None else float(
         to_array(noise_step, "time", "noise_step"))
@@ -339,7 +359,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         P = phi @ P0 @ np.swapaxes(phi, -1, -2)
         P = 0.5 * (P + np.swapaxes(P, -1, -2))
     else:
-        P = _with_noise(grid, y, phi, P0, q, noise_code)
+        P = with_process_noise(grid, y, phi, P0, q, noise_code)
         keep = np.searchsorted(grid, offsets)
         y, phi, P = y[keep], phi[keep], P[keep]
     P = to_local(P, y[:, :3], y[:, 3:], out_code)

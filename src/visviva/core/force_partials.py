@@ -37,15 +37,12 @@ from .perturbations import (
     cunningham_vw,
     exponential_band,
     geodetic_altitude,
-    grid_density_at,
+    grid_log_density_gradient_at,
     hermite_position,
     shadow_fraction,
 )
 
 __all__ = ["acceleration_partials"]
-
-#: Step of the central differences of the gridded density (NRLMSIS), km.
-_DENSITY_STEP_KM = 1e-3
 
 
 @kernel
@@ -175,19 +172,9 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         w = math.sqrt(wx * wx + wy * wy + wz * wz)
         grad = np.empty(3)  # d ln(rho) / d r, 1/km
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            # the gridded ln(rho) is trilinear in (altitude, latitude, hour angle) in each
-            # cell: central differences of 1 m give its gradient along all three (before:
-            # the altitude slope alone, 0.2 % off in the covariance of a LEO day)
-            rho = grid_density_at(x, yy, z, sun_pos, force, atm)
-            for j in range(3):
-                pos[0] = x
-                pos[1] = yy
-                pos[2] = z
-                pos[j] += _DENSITY_STEP_KM
-                up = grid_density_at(pos[0], pos[1], pos[2], sun_pos, force, atm)
-                pos[j] -= 2.0 * _DENSITY_STEP_KM
-                down = grid_density_at(pos[0], pos[1], pos[2], sun_pos, force, atm)
-                grad[j] = (math.log(up) - math.log(down)) / (2.0 * _DENSITY_STEP_KM)
+            # the gridded ln(rho) is a tricubic B-spline: its analytic gradient along all three
+            # of altitude, latitude and hour angle
+            rho = math.exp(grid_log_density_gradient_at(x, yy, z, sun_pos, force, atm, grad))
         else:
             h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
             r = math.sqrt(x * x + yy * yy + z * z)

@@ -10,9 +10,9 @@ The ``force`` parameter array (float64, :data:`FORCE_SIZE` values) is laid out i
 kernels below read it by those names only, and each perturbation class of
 :mod:`visviva.satellites.perturbations` writes its own slots.
 
-With density model 1, ``atm`` has shape (n_hour_angle * n_latitude, n_altitude) and holds
-ln(rho / (kg/m^3)) at (hour angle from the Sun, geocentric latitude, geodetic altitude), read by
-trilinear interpolation (:func:`grid_density`).
+With density model 1, ``atm`` has shape ((n_hour_angle + 3) * (n_latitude + 2),
+n_altitude + 2) and holds the tricubic B-spline coefficients of ln(rho / (kg/m^3)) over (hour angle from the Sun,
+geocentric latitude, geodetic altitude), read by :func:`grid_log_density`.
 
 ``sh``, shape (2, N+2, N+2): unnormalised C_nm and S_nm of the spherical-harmonic field
 (Montenbruck & Gill 2000, eq. 3.13), used when ``force[fb.HARMONICS_DEGREE]`` is > 0.
@@ -44,6 +44,9 @@ __all__ = [
     "accel_harmonics_inertial",
     "cunningham_vw",
     "grid_density_at",
+    "grid_log_density_gradient_at",
+    "grid_log_density",
+    "grid_density",
     "accel_drag",
     "accel_third_body",
     "accel_srp",
@@ -51,7 +54,6 @@ __all__ = [
     "exponential_density",
     "exponential_band",
     "band_density",
-    "grid_density",
     "geodetic_altitude",
     "hermite_position",
     "zonal_rhs",
@@ -296,40 +298,124 @@ def grid_density_at(x, y, z, sun_pos, force, atm):
     :func:`grid_density`."""
     h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
     lat = math.asin(z / math.sqrt(x * x + y * y + z * z))
+    return grid_density(h, lat, _hour_angle(x, y, sun_pos), force, atm)
+
+
+@kernel
+def grid_density(h, lat, hour_angle, force, atm):
+    """Density (kg/m^3) at geodetic altitude ``h`` (km), geocentric latitude and hour angle
+    from the Sun (rad): the exponential of :func:`grid_log_density`."""
+    return math.exp(grid_log_density(h, lat, hour_angle, force, atm)[0])
+
+
+@kernel
+def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
+    """ln(rho / (kg/m^3)) of the gridded model at (x, y, z) (km, inertial), and its gradient
+    d ln(rho) / d r (1/km) written into ``grad`` (3,), the Sun held at ``sun_pos``.
+
+    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geocentric latitude
+    phi = asin(s) and the hour angle atan2(y, x) - lambda_sun of the spline's analytic partials.
+    """
+    fr = force[fb.RADIUS] * force[fb.FLATTENING]
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    s = z / r
+    h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
+    lat = math.asin(s)
+    ha = _hour_angle(x, y, sun_pos)
+    val, dh, dlat, dha = grid_log_density(h, lat, ha, force, atm)
+    rho2 = x * x + y * y  # squared distance from the z axis
+    rxy = math.sqrt(rho2)
+    # d s / d r = (e_z - s r_hat) / r; d h / d r = r_hat + 2 R f s d s / d r
+    # d phi / d r = (-z x, -z y, rxy^2) / (r^2 rxy); d ha / d r = (-y, x, 0) / rxy^2
+    pos = (float(x), float(y), float(z))
+    for j in range(3):
+        ds = ((1.0 if j == 2 else 0.0) - s * pos[j] / r) / r
+        grad[j] = dh * (pos[j] / r + 2.0 * fr * s * ds)
+    if rxy > 0.0:
+        grad[0] += dlat * (-z * x / (r2 * rxy)) - dha * y / rho2
+        grad[1] += dlat * (-z * y / (r2 * rxy)) + dha * x / rho2
+        grad[2] += dlat * rxy / r2
+    return val
+
+
+@inline_kernel
+def _hour_angle(x, y, sun_pos):
+    """Hour angle from the Sun, rad in [-pi, pi]."""
     ha = math.atan2(y, x) - math.atan2(sun_pos[1], sun_pos[0])
     if ha > math.pi:
         ha -= 2.0 * math.pi
     elif ha < -math.pi:
         ha += 2.0 * math.pi
-    return grid_density(h, lat, ha, force, atm)
+    return ha
+
+
+@inline_kernel
+def _bspline_weights(t):
+    """The four uniform cubic B-spline weights at t in [0, 1] and their derivatives d/dt."""
+    u = 1.0 - t
+    t2 = t * t
+    t3 = t2 * t
+    w = (u * u * u / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
+         (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0)  # fmt: skip
+    d = (-0.5 * u * u, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2)
+    return w, d
 
 
 @kernel
-def grid_density(h, lat, hour_angle, force, atm):
-    """Density (kg/m^3) by trilinear interpolation of the gridded ln(rho), clamped at the edges."""
+def grid_log_density(h, lat, hour_angle, force, atm):
+    """ln(rho / (kg/m^3)) of the gridded model by a tricubic B-spline (C2), with its partials.
+
+    Returns ``(ln_rho, d/dh (1/km), d/dlat (1/rad), d/dhour_angle (1/rad))``. ``atm`` holds
+    the B-spline coefficients (prefiltered in
+    :meth:`visviva.satellites.perturbations.AtmosphericDrag.msis_grid`), one node of margin on
+    each side: rows (hour-angle node + 1) * (n_lat + 2) + latitude node + 1, hour-angle nodes
+    -1 .. n_h + 1 (periodic), latitude nodes -1 .. n_lat (continued across the poles),
+    columns altitude node + 1, nodes -1 .. n_alt. Beyond the altitude grid ln(rho) continues
+    linearly with the slope at its end (exponential extrapolation).
+    """
     na = int(force[fb.DENSITY_GRID_SIZES])
     nl = int(force[fb.DENSITY_GRID_SIZES + 1])
     nh = int(force[fb.DENSITY_GRID_SIZES + 2])
-    fa = (h - force[fb.DENSITY_GRID]) / force[fb.DENSITY_GRID + 1]
-    fl = (lat - force[fb.DENSITY_GRID + 2]) / force[fb.DENSITY_GRID + 3]
-    # hour angle wraps: the grid covers [-pi, pi] with both ends stored
-    fh = (hour_angle - force[fb.DENSITY_GRID + 4]) / force[fb.DENSITY_GRID + 5]
-    ia = min(max(int(math.floor(fa)), 0), na - 2)
-    il = min(max(int(math.floor(fl)), 0), nl - 2)
-    ih = min(max(int(math.floor(fh)), 0), nh - 2)
-    ta = fa - ia  # log-linear (exponential) extrapolation beyond the altitude grid
-    tl = min(max(fl - il, 0.0), 1.0)
-    th = min(max(fh - ih, 0.0), 1.0)
-    acc = 0.0
-    for dh in range(2):
-        wh = th if dh == 1 else 1.0 - th
-        for dl in range(2):
-            wl = tl if dl == 1 else 1.0 - tl
-            row = (ih + dh) * nl + (il + dl)
-            lo = atm[row, ia]
-            hi = atm[row, ia + 1]
-            acc += wh * wl * (lo + ta * (hi - lo))
-    return math.exp(acc)
+    step_a = force[fb.DENSITY_GRID + 1]
+    step_l = force[fb.DENSITY_GRID + 3]
+    step_h = force[fb.DENSITY_GRID + 5]
+    fa = (h - force[fb.DENSITY_GRID]) / step_a
+    fa_in = min(max(fa, 0.0), na - 1.0)
+    fl = min(max((lat - force[fb.DENSITY_GRID + 2]) / step_l, 0.0), nl - 1.0)
+    fh = min(max((hour_angle - force[fb.DENSITY_GRID + 4]) / step_h, 0.0), float(nh))
+    ia = min(int(fa_in), na - 2)
+    il = min(int(fl), nl - 2)
+    ih = min(int(fh), nh - 1)
+    wa, da = _bspline_weights(fa_in - ia)
+    wl, dl = _bspline_weights(fl - il)
+    wh, dh = _bspline_weights(fh - ih)
+    val = 0.0
+    ga = 0.0
+    gl = 0.0
+    gh = 0.0
+    gal = 0.0  # d2 / (d alt d lat) and d2 / (d alt d hour angle), for the extrapolation
+    gah = 0.0
+    for p in range(4):
+        for q in range(4):
+            row = (ih + p) * (nl + 2) + il + q
+            s = 0.0
+            sa = 0.0
+            for k in range(4):
+                c = atm[row, ia + k]
+                s += wa[k] * c
+                sa += da[k] * c
+            val += wh[p] * wl[q] * s
+            ga += wh[p] * wl[q] * sa
+            gl += wh[p] * dl[q] * s
+            gh += dh[p] * wl[q] * s
+            gal += wh[p] * dl[q] * sa
+            gah += dh[p] * wl[q] * sa
+    beyond = fa - fa_in  # cells beyond the altitude grid (0 inside)
+    val += ga * beyond
+    gl += gal * beyond
+    gh += gah * beyond
+    return val, ga / step_a, gl / step_l, gh / step_h
 
 
 @kernel

@@ -635,3 +635,12 @@ def test_an_omm_csv_without_records_header_is_refused_not_an_empty_catalog(tmp_p
     header = "OBJECT_NAME,OBJECT_ID,EPOCH,MEAN_MOTION,NORAD_CAT_ID\n"
     path.write_text(header)  # a query that matched nothing: its header, no rows
     assert len(read_omm_file(path)) == 0
+
+
+@pytest.mark.parametrize("reader", ["read_tdm", "read_cdm", "read_opm", "read_oem", "read_omm"])
+@pytest.mark.parametrize("text", ["", "  ", "\t"])
+def test_an_empty_message_string_is_an_empty_message_not_a_missing_file(reader, text):
+    # was: MissingFileError "'': no such file" (the empty text was taken for a file name),
+    # while b"" and an empty file said "the message is empty"
+    with pytest.raises(CCSDSFormatError, match="the message is empty"):
+        getattr(vv, reader)(text)

@@ -602,3 +602,22 @@ def test_writer_refuses_data_lines_its_reader_would_refuse(keys, epochs, values,
                                    epochs, values))
     with pytest.raises(CCSDSFormatError, match=match):
         vv.write_tdm(tdm, format=fmt)
+
+
+def test_comments_outside_the_blocks_are_kept_not_dropped():
+    # was: read without error and lost, though a TDM read is written back as read: a COMMENT
+    # between META_STOP and DATA_START, and COMMENT lines after the last DATA_STOP
+    text = ANNEX_RANGE.replace("META_STOP\n", "META_STOP\nCOMMENT between the blocks\n")
+    text += "COMMENT after the last segment\n"
+    tdm = vv.read_tdm(text)
+    seg = tdm.segments[-1]
+    assert seg.data_comments[0] == "between the blocks"
+    assert seg.data_comments[-1] == "after the last segment"
+    for fmt in ("kvn", "xml"):
+        again = vv.read_tdm(vv.write_tdm(tdm, format=fmt))
+        assert again.segments[-1].data_comments == seg.data_comments
+    # a comment before a later segment's META_START still joins that segment's metadata
+    two = vv.read_tdm(text + "META_START\n" + TWO_WAY + "META_STOP\nDATA_START\n"
+                      "RANGE = 2024-02-14T10:00:00 1201.25\nDATA_STOP\n")
+    assert two.segments[1].metadata.comments == ["after the last segment"]
+    assert two.segments[0].data_comments[-1] != "after the last segment"

@@ -202,7 +202,9 @@ def _parse(iso, items, scale, line, source):
         raise _bad_epoch(iso, items, scale, line, source) from None
     if True in kinds:  # astropy reads day 366 of a common year as January 1 of the next
         for k, text in enumerate(iso):
-            why = impossible_date(items[k]) if text[4:5] == ":" else ""
+            if text[4:5] != ":" or text[5:8] < "366":  # (fast path: every other day exists)
+                continue
+            why = impossible_date(items[k])
             if why:
                 raise CCSDSFormatError(f"the epoch {items[k]!r} is not a date that exists "
                                        f"({why})", line=_line_at(line, k), source=source)

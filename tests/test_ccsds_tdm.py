@@ -602,3 +602,35 @@ def test_writer_refuses_data_lines_its_reader_would_refuse(keys, epochs, values,
                                    epochs, values))
     with pytest.raises(CCSDSFormatError, match=match):
         vv.write_tdm(tdm, format=fmt)
+
+
+def test_comments_outside_the_blocks_are_kept_not_dropped():
+    # was: read without error and lost, though a TDM read is written back as read: a COMMENT
+    # between META_STOP and DATA_START, and COMMENT lines after the last DATA_STOP
+    text = ANNEX_RANGE.replace("META_STOP\n", "META_STOP\nCOMMENT between the blocks\n")
+    text += "COMMENT after the last segment\n"
+    tdm = vv.read_tdm(text)
+    seg = tdm.segments[-1]
+    assert seg.data_comments[0] == "between the blocks"
+    assert seg.data_comments[-1] == "after the last segment"
+    for fmt in ("kvn", "xml"):
+        again = vv.read_tdm(vv.write_tdm(tdm, format=fmt))
+        assert again.segments[-1].data_comments == seg.data_comments
+    # a comment before a later segment's META_START still joins that segment's metadata
+    two = vv.read_tdm(text + "META_START\n" + TWO_WAY + "META_STOP\nDATA_START\n"
+                      "RANGE = 2024-02-14T10:00:00 1201.25\nDATA_STOP\n")
+    assert two.segments[1].metadata.comments == ["after the last segment"]
+    assert two.segments[0].data_comments[-1] != "after the last segment"
+
+
+@pytest.mark.parametrize("bad, why", [
+    ("2023-366T10:00:10", "not a date that exists \\(day 366 of a year of 365 days"),
+    ("2024-367T10:00:10", "not a valid date-time")])  # (astropy refuses day 367 itself)
+def test_a_day_of_year_past_the_year_end_in_a_data_line_names_its_line(bad, why):
+    # was: astropy's yday format rolled day 366 of 2023 over to 2024-01-01, silently (the
+    # header and metadata epochs were checked, the data lines' were not)
+    text = ANNEX_RANGE.replace("2024-02-14T10:00:10", bad, 1)
+    line = next(k for k, t in enumerate(text.splitlines(), start=1) if bad in t)
+    with pytest.raises(CCSDSFormatError, match=f"line {line}: .*{bad}.* {why}"):
+        vv.read_tdm(text)
+    assert vv.read_tdm(ANNEX_RANGE.replace("2024-02-14T10:00:10", "2024-366T10:00:10", 1))

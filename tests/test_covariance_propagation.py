@@ -262,6 +262,25 @@ def test_bad_arguments_are_refused():
                                 [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)])
 
 
+
+def test_noise_step_is_read_as_filter_orbit_reads_it():
+    # was: TypeError "only 0-dimensional arrays ..." for two steps, UnitsError for plain
+    # seconds (which filter_orbit takes): one reader of noise_step now serves both
+    a = vv.propagate_covariance(leo(), P0, 600 * u.s, [], process_noise=1e-12,
+                                noise_step=30 * u.s)
+    b = vv.propagate_covariance(leo(), P0, 600 * u.s, [], process_noise=1e-12, noise_step=30.0)
+    c = vv.propagate_covariance(leo(), P0, 600 * u.s, [], process_noise=1e-12,
+                                noise_step=0.5 * u.min)
+    assert np.array_equal(a.covariance, b.covariance) and np.array_equal(a.covariance, c.covariance)
+    for step, error, match in (([30.0, 40.0] * u.s, vv.ShapeError, "one interval"),
+                               (-1 * u.s, vv.InvalidInputError, "> 0"),
+                               (0.0, vv.InvalidInputError, "> 0"),
+                               (np.nan * u.s, vv.InvalidInputError, "finite|NaN"),
+                               (30 * u.m, vv.UnitsError, None)):
+        with pytest.raises(error, match=match):
+            vv.propagate_covariance(leo(), P0, 600 * u.s, [], process_noise=1e-12,
+                                    noise_step=step)
+
 def test_a_state_with_pending_manoeuvres_is_refused():
     from visviva._containers import PENDING_MANEUVERS_ATTRIBUTE
 

@@ -617,3 +617,30 @@ def test_cdm_version_2_reads_the_keywords_it_shares_with_1_and_names_a_new_one()
     lines.insert(k + 1, "CONJUNCTION_ID = 20240101-0001")
     with pytest.raises(CCSDSFormatError, match=f"line {k + 2}: unexpected CONJUNCTION_ID"):
         vv.read_cdm("\n".join(lines))
+
+
+@pytest.mark.parametrize("text, match", [
+    ("", "the file is empty"), ("\n\n", "the file is empty"),
+    ("No GP data found\n", "line 1: .*not a CSV of OMM records"),
+])
+def test_an_omm_csv_without_records_header_is_refused_not_an_empty_catalog(tmp_path, text, match):
+    # was: Catalog(0 satellites), silently, for an empty file or CelesTrak's "No GP data found"
+    # saved as .csv (the other formats refuse both)
+    from visviva.satellites.catalog import read_omm_file
+
+    path = tmp_path / "gp.csv"
+    path.write_text(text)
+    with pytest.raises(vv.InvalidInputError, match=match):
+        read_omm_file(path)
+    header = "OBJECT_NAME,OBJECT_ID,EPOCH,MEAN_MOTION,NORAD_CAT_ID\n"
+    path.write_text(header)  # a query that matched nothing: its header, no rows
+    assert len(read_omm_file(path)) == 0
+
+
+@pytest.mark.parametrize("reader", ["read_tdm", "read_cdm", "read_opm", "read_oem", "read_omm"])
+@pytest.mark.parametrize("text", ["", "  ", "\t"])
+def test_an_empty_message_string_is_an_empty_message_not_a_missing_file(reader, text):
+    # was: MissingFileError "'': no such file" (the empty text was taken for a file name),
+    # while b"" and an empty file said "the message is empty"
+    with pytest.raises(CCSDSFormatError, match="the message is empty"):
+        getattr(vv, reader)(text)

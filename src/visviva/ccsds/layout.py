@@ -27,8 +27,8 @@ def read_text(source) -> tuple[str, str]:
     Parameters
     ----------
     source : str, os.PathLike or bytes
-        A file name, the message text (anything containing a newline or ``=``, or starting
-        with ``<``), or the bytes of a message (UTF-8, as a file holds them).
+        A file name, the message text (anything containing a newline or ``=``, starting
+        with ``<``, or empty), or the bytes of a message (UTF-8, as a file holds them).
 
     Returns
     -------
@@ -41,8 +41,8 @@ def read_text(source) -> tuple[str, str]:
     if isinstance(source, (bytes, bytearray, memoryview)):
         return _decode(bytes(source), "<text>"), "<text>"
     if isinstance(source, os.PathLike) or (
-            isinstance(source, str) and "\n" not in source and "=" not in source
-            and not source.lstrip().startswith("<")):
+            isinstance(source, str) and source.strip() and "\n" not in source
+            and "=" not in source and not source.lstrip().startswith("<")):
         path = os.fspath(source)
         # (one owner for opening a user's file: a missing one raises MissingFileError, also a
         # FileNotFoundError, as the catalogue readers do)

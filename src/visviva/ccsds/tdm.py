@@ -117,7 +117,8 @@ class TDMSegment:
     lines : list of int
         1-based line of each data line (None for data built in code).
     data_comments : list of str
-        The COMMENT lines of the data block.
+        The COMMENT lines of the data block (in KVN also those between ``META_STOP`` and
+        ``DATA_START``, and, for the last segment, those after its ``DATA_STOP``).
     source : str
         File name, for error messages.
     mission_epoch : astropy.time.Time, optional
@@ -383,6 +384,10 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
     header = read_kvn_header(cursor, HEADER, "TDM")
     segments = []
     while not cursor.at_end():
+        if segments and all(line.kind == "comment" for line in cursor.lines[cursor.pos:]):
+            # comments after the last DATA_STOP: kept with the last segment's data comments
+            segments[-1].data_comments.extend(cursor.take_comments())
+            break
         units = _take_range_units(cursor)
         block = read_kvn_metadata_block(
             cursor, METADATA, "TDM", not segments,
@@ -391,9 +396,9 @@ def _read_kvn(text: str, name: str, mission_epoch) -> TDM:
         if block is None:
             break
         meta = block[0]
-        cursor.take_comments()
+        between = cursor.take_comments()  # (before DATA_START: kept as data comments)
         cursor.expect_block("DATA", "start")
-        data_comments, raw = [], []
+        data_comments, raw = between, []
         lines = cursor.lines
         while cursor.pos < len(lines) and lines[cursor.pos].kind in ("keyword", "comment"):
             line = lines[cursor.pos]

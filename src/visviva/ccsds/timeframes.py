@@ -26,7 +26,7 @@ import warnings
 import numpy as np
 
 from ..errors import InvalidInputError
-from .grammar import CCSDSFormatError
+from .grammar import CCSDSFormatError, impossible_date
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
            "visviva_frame", "center_body", "FrameCenterMetadata", "ref_frame_of"]
@@ -200,6 +200,14 @@ def _parse(iso, items, scale, line, source):
                      precision=9)
     except ValueError:
         raise _bad_epoch(iso, items, scale, line, source) from None
+    if True in kinds:  # astropy reads day 366 of a common year as January 1 of the next
+        for k, text in enumerate(iso):
+            if text[4:5] != ":" or text[5:8] < "366":  # (fast path: every other day exists)
+                continue
+            why = impossible_date(items[k])
+            if why:
+                raise CCSDSFormatError(f"the epoch {items[k]!r} is not a date that exists "
+                                       f"({why})", line=_line_at(line, k), source=source)
     return t
 
 

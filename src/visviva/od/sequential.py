@@ -17,7 +17,7 @@ import copy
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError, VisvivaError
+from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .batch import check_initial
 from .light_time import model
 from .measurements import residuals
@@ -235,19 +235,12 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     x, gm, epoch = check_initial(initial)
     P = _check_covariance(covariance)
     from .._covariance import frame_code
-    from ..satellites.covariance import DEFAULT_NOISE_STEP_S, noise_density
+    from ..satellites.covariance import noise_density, noise_step_s
 
     q = noise_density(process_noise)
     code = frame_code(process_noise_frame, "process_noise_frame")
     frame = None if q is None else str(process_noise_frame).upper()
-    step_s = DEFAULT_NOISE_STEP_S
-    if noise_step is not None:
-        from .._units import to_array
-
-        step = np.ravel(to_array(noise_step, "time", "noise_step", allow_plain=True))
-        if step.size != 1:
-            raise ShapeError(f"noise_step must be one interval (s); got {step.size} values.")
-        step_s = _positive("noise_step", float(step[0]))
+    step_s = noise_step_s(noise_step)
     if editing_sigma is not None:
         editing_sigma = _positive("editing_sigma", editing_sigma)
     if isinstance(divergence_count, bool) or not (

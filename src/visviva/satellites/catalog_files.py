@@ -167,6 +167,15 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
             for rec in reader:
                 records.append(rec)
                 where.append(reader.line_num)
+            if not reader.fieldnames:
+                raise InvalidInputError(
+                    f"{path}: no header line; the file is empty." if not text.strip() else
+                    f"{path}, line 1: empty; a CSV of OMM records starts with its header line.")
+            if not records and "EPOCH" not in reader.fieldnames:
+                raise InvalidInputError(
+                    f"{path}, line 1: {','.join(reader.fieldnames)[:60]!r} is not a CSV of OMM "
+                    "records (its header has no EPOCH column); is it CelesTrak's GP CSV?"
+                )
         elif fmt == "kvn":
             records, where, key_lines = _kvn_omm_records(text, path)
         else:

@@ -122,6 +122,21 @@ def noise_density(q):
     return arr
 
 
+def noise_step_s(noise_step):
+    """The longest interval of the process noise, s: a time Quantity or plain seconds, one
+    finite value > 0; None gives :data:`DEFAULT_NOISE_STEP_S` (also for
+    :func:`visviva.filter_orbit`)."""
+    if noise_step is None:
+        return DEFAULT_NOISE_STEP_S
+    step = np.ravel(to_array(noise_step, "time", "noise_step", allow_plain=True))
+    if step.size != 1:
+        raise ShapeError(f"noise_step must be one interval (s); got {step.size} values.")
+    require_finite(step, "noise_step")
+    if not step[0] > 0:
+        raise InvalidInputError(f"noise_step must be > 0; got {step[0]} s.")
+    return float(step[0])
+
+
 def _noise_grid(offsets, step):
     """The output times with points every ``step`` s between them and the epoch (both sides)."""
     pts = [offsets, [0.0]]
@@ -222,8 +237,9 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         ``process_noise_frame``, km^2/s^3 (= (km/s^2)^2 per Hz); None: no process noise.
     process_noise_frame : str
         ``"RTN"`` (default) or ``"GCRS"``: the axes ``process_noise`` is given on.
-    noise_step : Quantity, optional
-        Longest interval over which the noise is added in straight-line motion (default 60 s).
+    noise_step : Quantity or float, optional
+        Longest interval over which the noise is added in straight-line motion, s (default
+        60 s).
     rtol, atol : float
         Integration tolerances of the state (atol in km and km/s); the defaults are
         :func:`~visviva.propagate_cowell`'s, so the states equal its states to ~1e-9 relative.
@@ -321,10 +337,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     _warn_if_huge(P0, r0)
     q = noise_density(process_noise)
     noise_code = frame_code(process_noise_frame, "process_noise_frame")
-    step_s = DEFAULT_NOISE_STEP_S if noise_step is None else float(
-        to_array(noise_step, "time", "noise_step"))
-    if not step_s > 0:
-        raise InvalidInputError(f"noise_step must be > 0; got {step_s} s.")
+    step_s = noise_step_s(noise_step)
     offsets = output_offsets_s(t, epoch)
     scalar = offsets.ndim == 0
     offsets = np.atleast_1d(offsets)

@@ -143,7 +143,10 @@ def test_screen_cli_bad_window_is_one_short_reason(tmp_path, capsys, start, hour
     path.write_text("ISS\n" + ISS_L1 + "\n" + ISS_L2 + "\n")
     assert main(["screen", str(path), "--start", start, "--hours", hours, "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert why in err and len(err.strip().splitlines()) == 1
+    # one short reason; astropy's warnings on the way (ERFA's "dubious year" for a window
+    # ending in the year 116,000) come before it, one line each
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("visviva: warning: ")]
+    assert len(lines) == 1 and why in lines[0]
 
 
 def test_an_empty_catalogue_is_refused_not_screened(tmp_path, capsys):

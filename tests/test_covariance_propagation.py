@@ -335,6 +335,40 @@ def test_fit_to_covariance_at_tca_to_collision_probability():
     np.testing.assert_allclose(again, pc, rtol=1e-4)
 
 
+def test_km_covariances_passed_as_returned_are_not_read_as_m2():
+    # fit.covariance and propagate_covariance's .covariance are km-based; collision_probability
+    # and the CDM read plain arrays as m^2: passed as returned they were read 10^6 too small
+    # (a Pc of a well-tracked pair far off, silently); now converted from km, while arithmetic
+    # on them gives a plain array read by the documented convention
+    fit, _, _ = _fit()
+    at_tca = fit.propagate(EPOCH + 1 * u.day)
+    r1, v1 = at_tca.r, at_tca.v
+    up = (r1 / np.linalg.norm(r1)).value
+    normal = np.cross(r1.value, v1.value)
+    r2 = r1 + 0.1 * u.km * up
+    v2 = np.linalg.norm(v1) * normal / np.linalg.norm(normal)
+    cov2 = np.diag([2.5e-3] * 3 + [1e-8] * 3) * u.km**2
+    pc_q = vv.collision_probability(r1, v1, at_tca.covariance * u.km**2, r2, v2, cov2, 20 * u.m)
+    pc = vv.collision_probability(r1, v1, at_tca.covariance, r2, v2, cov2, 20 * u.m)
+    np.testing.assert_allclose(pc, pc_q, rtol=1e-13)
+    pc_m = vv.collision_probability(r1, v1, at_tca.covariance * 1e6, r2, v2, cov2, 20 * u.m)
+    np.testing.assert_allclose(pc_m, pc_q, rtol=1e-13)  # converted by hand: not twice
+    np.testing.assert_allclose(
+        vv.collision_probability(r1, v1, fit.covariance, r1 + 0.05 * u.km * up, v2, cov2,
+                                 20 * u.m),
+        vv.collision_probability(r1, v1, fit.covariance * u.km**2, r1 + 0.05 * u.km * up, v2,
+                                 cov2, 20 * u.m), rtol=1e-13)
+    cdm = vv.ConjunctionDataMessage.from_states(EPOCH + 1 * u.day, r1, v1, at_tca.covariance,
+                                                r2, v2, cov2)
+    assert rel(cdm.object1.covariance, at_tca.covariance * 1e6) < 1e-9
+    # slices keep the unit; the printed form is a plain array's
+    assert repr(at_tca.covariance[0]).startswith("array(")
+    pos = at_tca.covariance[0][:3, :3] if at_tca.covariance.ndim == 3 else \
+        at_tca.covariance[:3, :3]
+    np.testing.assert_allclose(
+        vv.collision_probability(r1, v1, pos, r2, v2, cov2[:3, :3], 20 * u.m), pc, rtol=1e-6)
+
+
 def test_oem_segment_carries_propagated_covariances():
     fit, _, _ = _fit()
     t = EPOCH + np.arange(0, 4) * u.h

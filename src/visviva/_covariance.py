@@ -15,23 +15,62 @@ import numpy as np
 from .errors import InvalidInputError, ShapeError
 
 __all__ = ["as_covariance", "require_psd", "block_rotation", "to_local", "from_local",
-           "frame_code"]
+           "frame_code", "KilometreCovariance", "km_covariance"]
 
 
-def as_covariance(cov, name: str = "cov", *, length_unit: str = "m") -> np.ndarray:
+class KilometreCovariance(np.ndarray):
+    """A covariance array in km and km/s (km^2, km^2/s, km^2/s^2) that remembers its unit.
+
+    It is a plain ndarray in every use, except that :func:`as_covariance` (with
+    ``convert_marked``, where the unit matters) reads it in km: a
+    covariance from :func:`visviva.fit_orbit`, :func:`visviva.propagate_covariance` or
+    :func:`visviva.filter_orbit` passed as it is to a function that reads plain arrays in m^2
+    (:func:`visviva.collision_probability`, the CDM builder) is converted, not read as m^2
+    (which would shrink it 10^6 times). Indexing and slicing keep the mark; any arithmetic
+    (``P * 1e6``, ``R @ P @ R.T``) gives a plain array, read by the documented convention of
+    the function it is passed to.
+    """
+
+    covariance_length_unit = "km"
+
+    def __array_wrap__(self, array, context=None, return_scalar=False):
+        plain = np.asarray(array).view(np.ndarray)
+        return plain[()] if return_scalar else plain
+
+    def __repr__(self):
+        return repr(self.view(np.ndarray))
+
+    def __str__(self):
+        return str(self.view(np.ndarray))
+
+
+def km_covariance(arr) -> KilometreCovariance:
+    """``arr`` (km, km/s) marked as a :class:`KilometreCovariance`."""
+    return np.asarray(arr, dtype=np.float64).view(KilometreCovariance)
+
+
+def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
+                  convert_marked: bool = False) -> np.ndarray:
     """A covariance as a float64 array ``(..., 6, 6)`` or ``(..., 3, 3)``, checked.
 
     Parameters
     ----------
     cov : array_like or Quantity
         Plain numbers are taken as given (in ``length_unit`` and seconds: m^2, m^2/s, m^2/s^2
-        by the CCSDS convention). A Quantity must have an area unit; it is converted to
+        by the CCSDS convention); a :class:`KilometreCovariance` (what visviva's orbit
+        determination and covariance propagation return) is converted from km where
+        ``convert_marked``. A Quantity must have an area unit; it is converted to
         ``length_unit`` squared (for a 6 x 6 array the whole matrix is scaled by the same
         factor, i.e. it is read in the length unit of the Quantity and seconds).
     name : str
         The argument's name for messages.
     length_unit : str
         The length unit of the result (``"m"`` or ``"km"``).
+    convert_marked : bool
+        True where the numbers' unit matters (a collision probability against a hard-body
+        radius, a CDM's m^2 fields): a :class:`KilometreCovariance` is converted from km.
+        False (default) where it does not (rotations, linear propagation): the numbers are
+        taken as they are, so the result keeps the unit the caller gave.
 
     Returns
     -------
@@ -48,6 +87,11 @@ def as_covariance(cov, name: str = "cov", *, length_unit: str = "m") -> np.ndarr
     from ._units import is_quantity
 
     plain = f"{length_unit}^2, {length_unit}^2/s, {length_unit}^2/s^2"
+    marked = getattr(cov, "covariance_length_unit", None) if convert_marked else None
+    if marked is not None and marked != length_unit:
+        # a covariance visviva returned in km (fit_orbit, propagate_covariance, filter_orbit)
+        factor = {"km": 1e3, "m": 1.0}[marked] / {"km": 1e3, "m": 1.0}[length_unit]
+        cov = np.asarray(cov).view(np.ndarray) * factor**2
     if is_quantity(cov):
         from astropy import units as u
 

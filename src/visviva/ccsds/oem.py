@@ -51,7 +51,8 @@ class OEMCovariance:
     epoch : str
         Its epoch as written (in the segment's time system).
     matrix : ndarray, shape (6, 6)
-        Symmetric covariance of (x, y, z, vx, vy, vz) in km and km/s (km**2, km**2/s, km**2/s**2).
+        Symmetric covariance of (x, y, z, vx, vy, vz) in km and km/s (km**2, km**2/s, km**2/s**2),
+        marked as such (:class:`visviva._covariance.KilometreCovariance`).
     frame : str or None
         ``COV_REF_FRAME`` (None: the segment's ``REF_FRAME``).
     comments : list of str
@@ -62,6 +63,11 @@ class OEMCovariance:
     matrix: np.ndarray
     frame: str | None = None
     comments: list = field(default_factory=list)
+
+    def __post_init__(self):
+        from .._covariance import km_covariance
+
+        self.matrix = km_covariance(self.matrix)  # km: converted where m^2 is read
 
 
 class OEMSegment(FrameCenterMetadata):

@@ -81,8 +81,9 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
         if arr.shape != (3,):
             raise ShapeError(f"{name} must be one 3-vector; got shape {arr.shape}.")
         vecs.append(arr)
-    c1 = as_covariance(cov1, "cov1")
-    c2 = as_covariance(cov2, "cov2")
+    # a km covariance returned by visviva (fit_orbit, propagate_covariance) is converted
+    c1 = as_covariance(cov1, "cov1", convert_marked=True)
+    c2 = as_covariance(cov2, "cov2", convert_marked=True)
     for c, name in ((c1, "cov1"), (c2, "cov2")):
         if c.ndim != 2:
             raise ShapeError(f"{name} must be a single 6x6 or 3x3 matrix; got {c.shape}.")

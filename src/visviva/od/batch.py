@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .light_time import model
 from .measurements import residuals
@@ -333,7 +334,7 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     state = StateVectors._from_canonical(x[:3].copy(), x[3:].copy(), np.float64(gm), epoch)
     return OrbitFit(
         state=state,
-        covariance=P,
+        covariance=km_covariance(P),
         residuals=np.where(comp_mask, z, 0.0),
         normalized_residuals=zn,
         rejected=new_rejected,

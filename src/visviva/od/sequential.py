@@ -17,6 +17,7 @@ import copy
 
 import numpy as np
 
+from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .batch import check_initial
 from .light_time import model
@@ -367,11 +368,12 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:].copy(), np.float64(gm),
                                         times[-1])  # fmt: skip
     return FilteredOrbit(
-        times=times, offsets_s=epochs, states=xs, covariances=Ps, predicted_states=xp,
-        predicted_covariances=Pp, smoothed_states=sm_x, smoothed_covariances=sm_P,
+        times=times, offsets_s=epochs, states=xs, covariances=km_covariance(Ps),
+        predicted_states=xp, predicted_covariances=km_covariance(Pp), smoothed_states=sm_x,
+        smoothed_covariances=None if sm_P is None else km_covariance(sm_P),
         prefit_residuals=prefit, postfit_residuals=postfit, prefit_ratios=ratios, nis=nis,
-        rejected=rejected, epoch_index=epoch_index, state=last, covariance=Ps[-1].copy(),
-        first_state=first_state, first_covariance=first_cov, perturbations=dyn.perturbations,
+        rejected=rejected, epoch_index=epoch_index, state=last, covariance=km_covariance(Ps[-1].copy()),
+        first_state=first_state, first_covariance=None if first_cov is None else km_covariance(first_cov), perturbations=dyn.perturbations,
         process_noise=q, process_noise_frame=frame,
     )  # fmt: skip
 

@@ -27,7 +27,15 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
-from .._covariance import as_covariance, check_shape, frame_code, from_local, require_psd, to_local
+from .._covariance import (
+    as_covariance,
+    check_shape,
+    frame_code,
+    from_local,
+    km_covariance,
+    require_psd,
+    to_local,
+)
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..errors import InvalidInputError, ShapeError, StepSizeError, SurfaceImpact
 from .cowell import CowellResult, output_offsets_s, perturbation_list
@@ -64,7 +72,7 @@ class CovarianceResult(CowellResult):
 
     def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):
         self.__dict__.update(base.__dict__)
-        self.covariance = covariance
+        self.covariance = km_covariance(covariance)
         self.stm = stm
         self.frame = frame
         self.process_noise = process_noise

@@ -268,15 +268,23 @@ def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
             S = sh[1, n, m]
             if C == 0.0 and S == 0.0:
                 continue
-            for b in range(3):
-                # first derivative: one or two terms of degree n + 1; each differentiated again
-                # (the same additions into H[a, b], in the same order, as term by term)
-                n1, ka, ca, wa, kb, cb, wb = _derive(b, n, m, C, S)
-                for a in range(b, 3):
-                    _add_derivative(a, n + 1, ka, ca, wa, V, W, H, b)
-                if n1 == 2:
-                    for a in range(b, 3):
-                        _add_derivative(a, n + 1, kb, cb, wb, V, W, H, b)
+            # column b: d/db gives two terms of degree n + 1 (one for z), each differentiated
+            # again along a >= b (the same additions into H[a, b], in the same order, as term
+            # by term); unrolled so that every axis is a constant in the inlined helpers
+            _, ka, ca, wa, kb, cb, wb = _derive(0, n, m, C, S)
+            _add_derivative(0, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(1, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(0, n + 1, kb, cb, wb, V, W, H, 0)
+            _add_derivative(1, n + 1, kb, cb, wb, V, W, H, 0)
+            _add_derivative(2, n + 1, kb, cb, wb, V, W, H, 0)
+            _, ka, ca, wa, kb, cb, wb = _derive(1, n, m, C, S)
+            _add_derivative(1, n + 1, ka, ca, wa, V, W, H, 1)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 1)
+            _add_derivative(1, n + 1, kb, cb, wb, V, W, H, 1)
+            _add_derivative(2, n + 1, kb, cb, wb, V, W, H, 1)
+            _, ka, ca, wa, _, _, _ = _derive(2, n, m, C, S)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 2)
     k = force[fb.GM] / (radius * radius * radius)
     for a in range(3):
         for b in range(a):

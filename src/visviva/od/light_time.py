@@ -120,7 +120,7 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     yb[station] = ysb
     jac[station] = jac_s
     h, H = predict(kinds, yb, site_r, site_v, enu)
-    two_way = np.isin(kinds, ["range", "range_rate"])
+    two_way = (kinds == "range") | (kinds == "range_rate")
     if two_way.any():
         sel = two_way[station]
         rb, vb = ysb[sel, :3], ysb[sel, 3:]

@@ -325,10 +325,11 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
             ratio = np.zeros(rows.size)
             np.maximum.at(ratio, owner, np.abs(zc) / std)
             ratios[rows] = ratio
-            for i in range(rows.size):
-                sel = owner == i
-                Si = S[np.ix_(sel, sel)]
-                nis[rows[i]] = float(zc[sel] @ np.linalg.solve(Si, zc[sel]))
+            start = 0
+            for i, d in enumerate(dims[rows].tolist()):  # a row's components are contiguous
+                sel = slice(start, start + d)
+                start += d
+                nis[rows[i]] = float(zc[sel] @ np.linalg.solve(S[sel, sel], zc[sel]))
             bad = ratio > limit
             run = run + 1 if bad.any() else 0
             if run >= divergence_count:

@@ -123,3 +123,39 @@ def test_field_hessian_is_bitwise_the_term_by_term_form(n_max):
         _hessian_old(t, *pos, force, sh, G_old)
         np.testing.assert_array_equal(G_new, G_old)
         assert np.abs(G_new - 0.25).max() > 0  # the field added something
+
+
+@numba.njit(cache=False)
+def _vw_old(x, y, z, radius, N):
+    # the earlier recursion, one column after the other
+    r2 = x * x + y * y + z * z
+    rr = radius * radius / r2
+    x0 = radius * x / r2
+    y0 = radius * y / r2
+    z0 = radius * z / r2
+    V = np.zeros((N, N))
+    W = np.zeros((N, N))
+    V[0, 0] = radius / np.sqrt(r2)
+    for m in range(N):
+        if m > 0:
+            V[m, m] = (2 * m - 1) * (x0 * V[m - 1, m - 1] - y0 * W[m - 1, m - 1])
+            W[m, m] = (2 * m - 1) * (x0 * W[m - 1, m - 1] + y0 * V[m - 1, m - 1])
+        if m + 1 < N:
+            V[m + 1, m] = (2 * m + 1) * z0 * V[m, m]
+            W[m + 1, m] = (2 * m + 1) * z0 * W[m, m]
+        for n in range(m + 2, N):
+            V[n, m] = ((2 * n - 1) * z0 * V[n - 1, m] - (n + m - 1) * rr * V[n - 2, m]) / (n - m)
+            W[n, m] = ((2 * n - 1) * z0 * W[n - 1, m] - (n + m - 1) * rr * W[n - 2, m]) / (n - m)
+    return V, W
+
+
+@pytest.mark.parametrize("rows", [1, 2, 3, 4, 7, 42, 43])
+def test_cunningham_columns_in_pairs_are_bitwise_the_column_by_column_recursion(rows):
+    rng = np.random.default_rng(rows)
+    for _ in range(20):
+        u = rng.normal(size=3)
+        x, y, z = rng.uniform(6400.0, 42000.0) * u / np.linalg.norm(u)
+        V, W = cunningham_vw(x, y, z, 6378.1363, rows)
+        V0, W0 = _vw_old(x, y, z, 6378.1363, rows)
+        np.testing.assert_array_equal(V, V0)
+        np.testing.assert_array_equal(W, W0)

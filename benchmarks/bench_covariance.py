@@ -12,6 +12,10 @@ Rows (ratio = visviva time / reference time; below 1 visviva is faster):
 * ``propagate_covariance, LEO day, two-body``: the same call with ``[]`` vs
   :func:`visviva.conjunctions.propagate_covariance` (two-body, fixed-step RK4) at the 25
   outputs. No target (the two-body tool has no force model).
+* ``propagate_covariance, LEO day, degree-40 field``: a full spherical-harmonic field of degree
+  and order 40 (coefficients drawn at random with a Kaula-like fall-off, written to a temporary
+  ``.gfc``) vs the same run of ``propagate_cowell``: the price of the field's analytic Hessian
+  at every stage. No target.
 
 Run: ``python -m benchmarks --only covariance`` or ``python -m benchmarks.bench_covariance``.
 """
@@ -40,6 +44,29 @@ def _case():
               vv.ThirdBody(vv.MOON), vv.SolarRadiationPressure(am, 1.3, shadow="conical")]
     P0 = np.diag([1e-3] * 3 + [1e-9] * 3)
     return state, forces, P0
+
+
+def _field_40(directory):
+    """A degree-40 ICGEM field with random fully normalised coefficients (~1e-6 / n^2)."""
+    import os
+
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    rng = np.random.default_rng(1)
+    lines = ["product_type gravity_field", "modelname random_degree_40",
+             "earth_gravity_constant 3.986004415E+14", "radius 6378136.3", "max_degree 40",
+             "norm fully_normalized", "tide_system tide_free", "key n m C S sigmaC sigmaS",
+             "end_of_head", "gfc 0 0 1.0 0.0 0 0", "gfc 2 0 -4.84165e-4 0 0 0"]
+    for n in range(2, 41):
+        for m in range(n + 1):
+            if (n, m) != (2, 0):
+                c = rng.normal() * 1e-6 / n**2
+                s = 0.0 if m == 0 else rng.normal() * 1e-6 / n**2
+                lines.append(f"gfc {n} {m} {c:.15e} {s:.15e} 0 0")
+    path = os.path.join(directory, "random40.gfc")
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    return [SphericalHarmonics(path, 40)]
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -98,6 +125,17 @@ def run(quick: bool = False) -> list[dict]:
     rows.append(result("propagate_covariance, LEO day, two-body (25 outputs)", a,
                        "conjunctions.propagate_covariance (two-body RK4), 25 calls", k,
                        notes="agree to 3e-10 relative after a day"))
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        field = _field_40(tmp)
+        vv.propagate_covariance(state, P0, t, field)
+        vv.propagate_cowell(state, t, field)
+        a, g = interleaved_medians(lambda: vv.propagate_covariance(state, P0, t, field),
+                                   lambda: vv.propagate_cowell(state, t, field), rounds)
+    rows.append(result("propagate_covariance, LEO day, degree-40 field (25 outputs)", a,
+                       "propagate_cowell, same run without covariance", g,
+                       notes="random coefficients; the field's Hessian at every stage"))
     return rows
 
 

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from . import force_block as fb
-from ._jit import kernel
+from ._jit import inline_kernel, kernel
 from .perturbations import (
     band_density,
     cunningham_vw,
@@ -261,12 +261,6 @@ def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
     n_max = int(force[fb.HARMONICS_DEGREE])
     radius = force[fb.RADIUS]
     V, W = cunningham_vw(bx, by, bz, radius, n_max + 3)
-    k1 = np.empty(2, np.int64)
-    c1 = np.empty(2)
-    w1 = np.empty(2)
-    k2 = np.empty(2, np.int64)
-    c2 = np.empty(2)
-    w2 = np.empty(2)
     H = np.zeros((3, 3))  # lower triangle, body frame
     for n in range(2, n_max + 1):
         for m in range(n + 1):
@@ -274,14 +268,23 @@ def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
             S = sh[1, n, m]
             if C == 0.0 and S == 0.0:
                 continue
-            for b in range(3):
-                n1 = _derive(b, n, m, C, S, k1, c1, w1)
-                for i in range(n1):
-                    for a in range(b, 3):
-                        n2 = _derive(a, n + 1, k1[i], c1[i], w1[i], k2, c2, w2)
-                        for j in range(n2):
-                            kk = k2[j]
-                            H[a, b] += c2[j] * V[n + 2, kk] + w2[j] * W[n + 2, kk]
+            # column b: d/db gives two terms of degree n + 1 (one for z), each differentiated
+            # again along a >= b (the same additions into H[a, b], in the same order, as term
+            # by term); unrolled so that every axis is a constant in the inlined helpers
+            _, ka, ca, wa, kb, cb, wb = _derive(0, n, m, C, S)
+            _add_derivative(0, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(1, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 0)
+            _add_derivative(0, n + 1, kb, cb, wb, V, W, H, 0)
+            _add_derivative(1, n + 1, kb, cb, wb, V, W, H, 0)
+            _add_derivative(2, n + 1, kb, cb, wb, V, W, H, 0)
+            _, ka, ca, wa, kb, cb, wb = _derive(1, n, m, C, S)
+            _add_derivative(1, n + 1, ka, ca, wa, V, W, H, 1)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 1)
+            _add_derivative(1, n + 1, kb, cb, wb, V, W, H, 1)
+            _add_derivative(2, n + 1, kb, cb, wb, V, W, H, 1)
+            _, ka, ca, wa, _, _, _ = _derive(2, n, m, C, S)
+            _add_derivative(2, n + 1, ka, ca, wa, V, W, H, 2)
     k = force[fb.GM] / (radius * radius * radius)
     for a in range(3):
         for b in range(a):
@@ -295,38 +298,39 @@ def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
             G[i, j] += k * acc
 
 
-@kernel
-def _derive(axis, n, m, a, b, ks, cvs, cws):
+@inline_kernel
+def _derive(axis, n, m, a, b):
     """d/d(axis) (x, y, z = 0, 1, 2) of a V_nm + b W_nm (m >= 0, lengths in units of R): terms
-    (order ks[i], cvs[i] V + cws[i] W) of degree n + 1; returns how many (1 or 2)."""
+    (order k, c V + w W) of degree n + 1, as (count, k0, c0, w0, k1, c1, w1) (count 1 or 2;
+    the second term is zero when count is 1)."""
     if axis == 2:
         g = -(n - m + 1.0)
-        ks[0] = m
-        cvs[0] = g * a
-        cws[0] = g * b
-        return 1
+        return 1, m, g * a, g * b, 0, 0.0, 0.0
     f = (n - m + 2.0) * (n - m + 1.0)
-    ks[0] = m + 1
     if axis == 0:
-        cvs[0] = -0.5 * a
-        cws[0] = -0.5 * b
+        c0 = -0.5 * a
+        w0 = -0.5 * b
         cv = 0.5 * f * a
         cw = 0.5 * f * b
     else:
-        cvs[0] = 0.5 * b
-        cws[0] = -0.5 * a
+        c0 = 0.5 * b
+        w0 = -0.5 * a
         cv = 0.5 * f * b
         cw = -0.5 * f * a
     if m >= 1:
-        ks[1] = m - 1
-        cvs[1] = cv
-        cws[1] = cw
-    else:  # order -1 of degree N = n + 1, folded into order 1
-        fold = 1.0 / ((n + 1.0) * (n + 2.0))
-        ks[1] = 1
-        cvs[1] = -fold * cv
-        cws[1] = fold * cw
-    return 2
+        return 2, m + 1, c0, w0, m - 1, cv, cw
+    # order -1 of degree N = n + 1, folded into order 1
+    fold = 1.0 / ((n + 1.0) * (n + 2.0))
+    return 2, m + 1, c0, w0, 1, -fold * cv, fold * cw
+
+
+@inline_kernel
+def _add_derivative(axis, n, m, a, b, V, W, H, col):
+    """H[axis, col] += d/d(axis) (a V_nm + b W_nm), from V, W of degree n + 1."""
+    count, k0, c0, w0, k1, c1, w1 = _derive(axis, n, m, a, b)
+    H[axis, col] += c0 * V[n + 1, k0] + w0 * W[n + 1, k0]
+    if count == 2:
+        H[axis, col] += c1 * V[n + 1, k1] + w1 * W[n + 1, k1]
 
 
 @kernel

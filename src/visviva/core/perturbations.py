@@ -176,9 +176,16 @@ def cunningham_vw(x, y, z, radius, n_rows):
         if m + 1 < N:
             V[m + 1, m] = (2 * m + 1) * z0 * V[m, m]
             W[m + 1, m] = (2 * m + 1) * z0 * W[m, m]
+    # the columns m and m + 1 in one loop: two independent chains of divisions interleaved
+    # (each chain is bound by the division's latency); the same operations, the same bits
+    for m in range(0, N, 2):
         for n in range(m + 2, N):
             V[n, m] = ((2 * n - 1) * z0 * V[n - 1, m] - (n + m - 1) * rr * V[n - 2, m]) / (n - m)
             W[n, m] = ((2 * n - 1) * z0 * W[n - 1, m] - (n + m - 1) * rr * W[n - 2, m]) / (n - m)
+            k = m + 1
+            if n >= k + 2:
+                V[n, k] = ((2 * n - 1) * z0 * V[n - 1, k] - (n + k - 1) * rr * V[n - 2, k]) / (n - k)
+                W[n, k] = ((2 * n - 1) * z0 * W[n - 1, k] - (n + k - 1) * rr * W[n - 2, k]) / (n - k)
     return V, W
 
 

@@ -52,8 +52,9 @@ __all__ = ["predict_light_time", "model"]
 ITERATIONS = 3
 
 
-def _shift_back(y, gm, tau):
-    """Two-body Taylor step of states y (N, 6) back by tau (N,) s, and d y(t-tau) / d y(t)."""
+def _shift_back(y, gm, tau, jacobian=True):
+    """Two-body Taylor step of states y (N, 6) back by tau (N,) s, and d y(t-tau) / d y(t)
+    (None with ``jacobian=False``: the flight time's fixed-point steps need the state only)."""
     r, v = y[:, :3], y[:, 3:]
     rn = np.linalg.norm(r, axis=-1)[:, None]
     rv = np.sum(r * v, axis=-1)[:, None]
@@ -63,6 +64,8 @@ def _shift_back(y, gm, tau):
     out = np.empty_like(y)
     out[:, :3] = r - v * t + 0.5 * acc * t * t - jerk * t**3 / 6.0
     out[:, 3:] = v - acc * t + 0.5 * jerk * t * t
+    if not jacobian:
+        return out, None
     n = y.shape[0]
     gradient = gm * (3.0 * np.einsum("ni,nj->nij", r, r) / rn[:, :, None] ** 5
                      - np.eye(3)[None] / rn[:, :, None] ** 3)  # fmt: skip
@@ -111,13 +114,13 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     ys, R, V = y[station], site_r[station], site_v[station]
     tau_d = np.linalg.norm(ys[:, :3] - R, axis=-1) / C_KM_S
     for _ in range(ITERATIONS):
-        ysb, jac_s = _shift_back(ys, gm, tau_d)
+        ysb, _ = _shift_back(ys, gm, tau_d, jacobian=False)
         tau_d = np.linalg.norm(ysb[:, :3] - R, axis=-1) / C_KM_S
     ysb, jac_s = _shift_back(ys, gm, tau_d)
     yb[station] = ysb
     jac[station] = jac_s
     h, H = predict(kinds, yb, site_r, site_v, enu)
-    two_way = np.isin(kinds, ["range", "range_rate"])
+    two_way = (kinds == "range") | (kinds == "range_rate")
     if two_way.any():
         sel = two_way[station]
         rb, vb = ysb[sel, :3], ysb[sel, 3:]

@@ -276,7 +276,6 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     Ps[0] = Pp[0] = P
     phis[0] = np.eye(6)
     prefit = np.zeros((n, 3))
-    postfit = np.zeros((n, 3))
     ratios = np.zeros(n)
     nis = np.zeros(n)
     rejected = np.zeros(n, dtype=bool)
@@ -326,10 +325,11 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
             ratio = np.zeros(rows.size)
             np.maximum.at(ratio, owner, np.abs(zc) / std)
             ratios[rows] = ratio
-            for i in range(rows.size):
-                sel = owner == i
-                Si = S[np.ix_(sel, sel)]
-                nis[rows[i]] = float(zc[sel] @ np.linalg.solve(Si, zc[sel]))
+            start = 0
+            for i, d in enumerate(dims[rows].tolist()):  # a row's components are contiguous
+                sel = slice(start, start + d)
+                start += d
+                nis[rows[i]] = float(zc[sel] @ np.linalg.solve(S[sel, sel], zc[sel]))
             bad = ratio > limit
             run = run + 1 if bad.any() else 0
             if run >= divergence_count:
@@ -351,11 +351,12 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
                 P = 0.5 * (P + P.T)
             if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
                 raise diverged(k, "the updated estimate is not finite")
-            if use.any():
-                h, _ = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)
-                z = residuals(kinds[rows], observations.values[rows], h)
-            postfit[rows] = np.where(comp, z, 0.0)
         xs[k], Ps[k] = x, P
+    # post-fit residuals: every row against the updated state at its epoch, in one call of the
+    # (row by row) model after the pass instead of one per epoch (the same numbers)
+    h, _ = model(observations, xs[epoch_index], gm)
+    z = residuals(kinds, observations.values, h)
+    postfit = np.where(np.arange(3)[None, :] < dims[:, None], z, 0.0)
     sm_x = sm_P = first_state = first_cov = None
     if smoother:
         sm_x, sm_P = _rts(xs, Ps, xp, Pp, phis)

@@ -634,3 +634,12 @@ def test_a_day_of_year_past_the_year_end_in_a_data_line_names_its_line(bad, why)
     with pytest.raises(CCSDSFormatError, match=f"line {line}: .*{bad}.* {why}"):
         vv.read_tdm(text)
     assert vv.read_tdm(ANNEX_RANGE.replace("2024-02-14T10:00:10", "2024-366T10:00:10", 1))
+
+
+@pytest.mark.parametrize("bad", [-1 * u.m, 0.0, float("nan"), 5 * u.s])
+def test_a_bad_sigma_is_named_by_its_kind_not_by_a_row(bad):
+    # sigma is a dict by kind; its errors said "sigma[0] ..." (a row index the user never wrote)
+    sigma = {**SIGMA, "range": bad}
+    with pytest.warns(TrackingDataWarning), pytest.raises(vv.VisvivaError) as exc:
+        vv.read_tdm(ANNEX_RANGE).to_observations({"DSS-65": SITE}, sigma)
+    assert "sigma['range']" in str(exc.value) and "sigma[0]" not in str(exc.value)

@@ -18,7 +18,7 @@ import numpy as np
 from .._units import is_quantity, require_usable_time, to_array
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["Observations", "KINDS"]
+__all__ = ["Observations", "KINDS", "sigma_value"]
 
 #: kind -> (number of components, physical kind of value and sigma, needs a station)
 KINDS = {
@@ -53,6 +53,21 @@ def _row_value(value, kind, i):
             "Plain numbers are radians: pass degrees as a Quantity, e.g. [200, 30] * u.deg."
         )
     return arr
+
+
+def sigma_value(s, kind: str, name: str) -> float:
+    """One measurement standard deviation of ``kind``, canonical (km, km/s, rad), checked.
+
+    ``s`` is a Quantity in the kind's units or a plain number in canonical units; ``name``
+    names it in the error (``"sigma[3]"``, ``"sigma['range']"``).
+    """
+    val = to_array(s, KINDS[kind][1], name, allow_plain=True, finite=False)
+    if val.size != 1 or not np.isfinite(val).all() or not float(val.ravel()[0]) > 0:
+        raise InvalidInputError(
+            f"{name} must be one finite number > 0 ({_UNITS_TEXT[KINDS[kind][1]]}); "
+            f"got {s!r}. A sigma is the measurement's standard deviation."
+        )
+    return float(val.ravel()[0])
 
 
 class Observations:
@@ -209,13 +224,7 @@ class Observations:
             raise ShapeError(f"sigma has {len(items)} entries for {n} rows; give one per row.")
         out = np.empty(n)
         for i, (k, s) in enumerate(zip(kinds, items, strict=True)):
-            val = to_array(s, KINDS[k][1], f"sigma[{i}]", allow_plain=True, finite=False)
-            if val.size != 1 or not np.isfinite(val).all() or not float(val.ravel()[0]) > 0:
-                raise InvalidInputError(
-                    f"sigma[{i}] must be one finite number > 0 ({_UNITS_TEXT[KINDS[k][1]]}); "
-                    f"got {s!r}. A sigma is the measurement's standard deviation."
-                )
-            out[i] = float(val.ravel()[0])
+            out[i] = sigma_value(s, k, f"sigma[{i}]")
         return out
 
     @staticmethod

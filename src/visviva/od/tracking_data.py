@@ -466,7 +466,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
 def _table(parts, sigma, radec_reference):
     from astropy.time import Time
 
-    from .observations import Observations
+    from .observations import Observations, sigma_value
 
     kinds = [k for p in parts for k in p[1]]
     for k in dict.fromkeys(kinds):
@@ -474,6 +474,7 @@ def _table(parts, sigma, radec_reference):
             raise InvalidInputError(
                 f"the TDM has {k!r} data but sigma has no {k!r}: give its standard deviation, "
                 f"e.g. sigma={{{k!r}: ...}} (the TDM carries no weights)")
+        sigma_value(sigma[k], k, f"sigma[{k!r}]")  # named by its kind, not by a row
     jd1 = np.concatenate([np.atleast_1d(p[0].jd1) for p in parts])
     jd2 = np.concatenate([np.atleast_1d(p[0].jd2) for p in parts])
     times = Time(jd1, jd2, format="jd", scale="tt")

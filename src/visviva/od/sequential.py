@@ -13,12 +13,11 @@ then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, sec
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
+from ..satellites.covariance import noise_substeps
 from .batch import check_initial
 from .light_time import model
 from .measurements import residuals
@@ -80,32 +79,11 @@ class FilteredOrbit:
         )
 
 
-class _FromOrigin:
-    """A force model whose t = 0 lies ``t0_s`` after the model's own epoch."""
-
-    def __init__(self, model, t0_s):
-        from ..core.force_block import with_time_origin
-
-        self._arrays = (with_time_origin(model.force, t0_s),) + tuple(model.arrays()[1:])
-
-    def arrays(self):
-        return self._arrays
-
-
 def _propagate(dyn, x, t_from, t_to):
     """States and STMs Phi(t, t_from) at the points of a grid ``t_to`` (s from the epoch)."""
     if t_from == 0.0:
         return dyn.propagate(x, t_to)
-    return _at_origin(dyn, t_from).propagate(x, np.asarray(t_to) - t_from)
-
-
-def _at_origin(dyn, t_from):
-    """The dynamics ``dyn`` with its t = 0 moved ``t_from`` s after its epoch."""
-    if t_from == 0.0:
-        return dyn
-    shifted = copy.copy(dyn)
-    shifted.model = _FromOrigin(dyn.model, t_from)
-    return shifted
+    return dyn.at_origin(t_from).propagate(x, np.asarray(t_to) - t_from)
 
 
 def _method(method, sigma_points):
@@ -351,7 +329,7 @@ def _ekf_pass(dyn, observations, x, P, epochs, screen, q, code, step_s):
     kinds = observations.kinds
     for k in range(n_t):
         if k:
-            grid = _noise_grid(epochs[k] - epochs[k - 1], q, step_s)
+            grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s)
             try:
                 y, phi = _propagate(dyn, x, epochs[k - 1], epochs[k - 1] + grid)
             except VisvivaError as exc:
@@ -378,14 +356,6 @@ def _ekf_pass(dyn, observations, x, P, epochs, screen, q, code, step_s):
             screen.finite(k, x, P)
         xs[k], Ps[k] = x, P
     return xs, Ps, xp, Pp, phis
-
-
-def _noise_grid(dt, q, step_s):
-    """The sub-steps (s from the interval's start) of an interval of ``dt`` s: the interval
-    itself without process noise, else steps of at most ``step_s``."""
-    if q is None:
-        return np.array([dt])
-    return np.linspace(0.0, dt, int(np.ceil(dt / step_s)) + 1)[1:]
 
 
 class _Screen:

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError, VisvivaError
+from ..satellites.covariance import noise_substeps, step_noise
 from .light_time import model
 from .measurements import residuals
 
@@ -100,12 +101,9 @@ def _solve_scaled(P, B):
 def _predict(dyn, x, P, t_from, dt, weights, q, code):
     """Mean, covariance (with the SNC noise of the step) and cov(x(t_from + dt), x(t_from)) of
     the sigma points of (x, P) carried over ``dt`` s."""
-    from ..satellites.covariance import step_noise
-    from .sequential import _at_origin
-
     scale, wm, wc = weights
     X = sigma_points(x, P, scale)
-    Y = _at_origin(dyn, t_from).propagate_many(X, np.array([dt]))[:, 0]
+    Y = dyn.at_origin(t_from).propagate_many(X, np.array([dt]))[:, 0]
     m = Y[0] + wm @ (Y - Y[0])
     dY = Y - m
     Pn = (wc * dY.T) @ dY
@@ -145,8 +143,6 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
 def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters):
     """The unscented Kalman filter forward over ``epochs``: filtered and predicted states and
     covariances, and the cross-covariances cov(x_k^-, x_k-1^+) (the smoother's)."""
-    from .sequential import _noise_grid
-
     weights = unscented_weights(parameters)
     n_t = len(epochs)
     xs = np.empty((n_t, 6))
@@ -160,7 +156,7 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
         if k:
             before = 0.0
             C = None
-            for after in _noise_grid(epochs[k] - epochs[k - 1], q, step_s):
+            for after in noise_substeps(epochs[k] - epochs[k - 1], q, step_s):
                 try:
                     xn, Pn, D = _predict(dyn, x, P, epochs[k - 1] + before, after - before,
                                          weights, q, code)  # fmt: skip

@@ -203,6 +203,15 @@ def with_process_noise(grid, y, phi, P0, q, noise_code):
     return P
 
 
+def noise_substeps(dt, q, step_s):
+    """The sub-steps (s from the interval's start) of a filter's prediction over ``dt`` s: the
+    interval itself without process noise (``q`` None), else equal steps of at most
+    ``step_s``."""
+    if q is None:
+        return np.array([dt])
+    return np.linspace(0.0, dt, int(np.ceil(dt / step_s)) + 1)[1:]
+
+
 def step_noise(y_from, y_to, dt, q, noise_code):
     """The state noise compensation Q (6, 6) of one step of ``dt`` s between the states
     ``y_from`` and ``y_to`` (km, km/s): :func:`snc_covariance` with the density ``q`` (three

@@ -13,6 +13,8 @@ with its STM comes from the variational equations (:mod:`visviva.core.variationa
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from ..errors import InvalidInputError, StepSizeError, raise_for_status
@@ -97,6 +99,16 @@ class Dynamics:
             phi_all[order] = phi_out
         return y_all, phi_all
 
+    def at_origin(self, t0_s):
+        """These dynamics with t = 0 moved ``t0_s`` s after the epoch (a filter's interval
+        started at its own time; the force block's origin-dependent slots shifted by
+        :func:`visviva.core.force_block.with_time_origin`)."""
+        if t0_s == 0.0:
+            return self
+        shifted = copy.copy(self)
+        shifted.model = _FromOrigin(self.model, t0_s)
+        return shifted
+
     def propagate_many(self, y0, offsets_s, max_steps=2_000_000):
         """States (N, T, 6) of N initial states (rows of ``y0``) at ``offsets_s`` (s from the
         epoch, > 0 and increasing): the same force model and DOP853 integrator without the STM,
@@ -127,3 +139,15 @@ class Dynamics:
                 "check the state (units km, km/s; its frame) or start from a better one."
             )
         return y_out
+
+
+class _FromOrigin:
+    """A force model whose t = 0 lies ``t0_s`` after the model's own epoch."""
+
+    def __init__(self, model, t0_s):
+        from ..core.force_block import with_time_origin
+
+        self._arrays = (with_time_origin(model.force, t0_s),) + tuple(model.arrays()[1:])
+
+    def arrays(self):
+        return self._arrays

@@ -8,7 +8,8 @@ pre-fit residuals and partials of the rows there with the fit's measurement mode
 included, :func:`visviva.od.light_time.model`), edits rows whose residual is far outside the
 predicted spread, and updates the state and covariance (Joseph form). The optional smoother
 then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, secs. 4.7, 4.9,
-4.15; Vallado 2013, sec. 10.6).
+4.15; Vallado 2013, sec. 10.6). ``method="ukf"`` runs the unscented filter and smoother of
+:mod:`visviva.od.unscented` instead, with the same bookkeeping (editing, NIS, divergence).
 """
 
 from __future__ import annotations
@@ -65,6 +66,8 @@ class FilteredOrbit:
         The smoothed state at the first time (the initial epoch), with ``smoother=True``.
     first_covariance : ndarray (6, 6) or None
         Its covariance.
+    method : str
+        "ekf" or "ukf", the filter that ran.
     """
 
     def __init__(self, **kw):
@@ -187,6 +190,15 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         :class:`~visviva.ConvergenceError` naming the epoch.
     rtol, atol : float, optional
         Integration tolerances of the variational equations (default 1e-11).
+    method : {"ekf", "ukf"}
+        "ekf" (default): the extended Kalman filter (STM and measurement partials). "ukf": the
+        unscented Kalman filter (13 sigma points through the same dynamics and measurement
+        models; :mod:`visviva.od.unscented`), for an a priori covariance large enough for the
+        problem to be nonlinear across it (km and m/s in LEO), where the extended filter is
+        overconfident; about 4 times the cost per epoch.
+    sigma_points : tuple of float, optional
+        (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
+        (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.
 
     Returns
     -------
@@ -194,7 +206,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         ``.times``, ``.states`` (T, 6), ``.covariances`` (T, 6, 6), ``.prefit_residuals``,
         ``.postfit_residuals``, ``.rejected``, ``.nis``, ``.state``/``.covariance`` at the last
         epoch, and with ``smoother=True`` ``.smoothed_states``, ``.smoothed_covariances`` and
-        ``.first_state``/``.first_covariance`` at the initial epoch.
+        ``.first_state``/``.first_covariance`` at the initial epoch; ``.method``.
 
     Raises
     ------
@@ -231,6 +243,17 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     batch estimate at the epoch (tested to 1e-3 sigma). Use the batch fit for a fixed arc with
     good dynamics; use the filter when the data arrive in sequence, when a state is needed at
     every observation, or when unmodelled accelerations call for process noise.
+
+    ``method="ukf"`` replaces Phi and H by the scaled unscented transform (Julier & Uhlmann
+    2004; Wan & van der Merwe 2000): sigma points X_0 = x, X_i = x +- sqrt(n + lambda) L_i
+    (L L^T = P, lambda = alpha^2 (n + kappa) - n), carried through the dynamics (one compiled
+    call for all 13 per step) and the measurement model; P^- is their weighted covariance plus
+    the same SNC Q on the same sub-steps, S = P_zz + R, K = P_xz S^-1,
+    P^+ = P^- - K S K^T, azimuth and right ascension averaged as angles. Its smoother is
+    Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
+    cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
+    problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
+    NEES averaged 14 (chi-square mean 6), the unscented one's 6.2.
     """
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics

@@ -109,11 +109,15 @@ class Dynamics:
         shifted.model = _FromOrigin(self.model, t0_s)
         return shifted
 
-    def propagate_many(self, y0, offsets_s, max_steps=2_000_000):
+    def propagate_many(self, y0, offsets_s, max_steps=2_000_000, threads=True):
         """States (N, T, 6) of N initial states (rows of ``y0``) at ``offsets_s`` (s from the
         epoch, > 0 and increasing): the same force model and DOP853 integrator without the STM,
         in one compiled call for all N (:func:`visviva.core.cowell.integrate_cowell_many`; an
-        unscented filter's sigma points)."""
+        unscented filter's sigma points). ``threads=False`` runs it on the calling thread:
+        waking numba's workers costs ~0.1-5 ms (a scheduler time slice on a busy machine), more
+        than 13 short arcs take (the same bits either way)."""
+        import numba
+
         from ..core.cowell import integrate_cowell_many, rhs_kind
 
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
@@ -123,10 +127,16 @@ class Dynamics:
         status = np.zeros(n, dtype=np.int64)
         info = np.zeros((n, 6))
         arrays = self.model.arrays()
-        integrate_cowell_many(
-            y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, *arrays,
-            *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
-        )  # fmt: skip
+        before = numba.get_num_threads()
+        if not threads:
+            numba.set_num_threads(1)
+        try:
+            integrate_cowell_many(
+                y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, *arrays,
+                *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
+            )  # fmt: skip
+        finally:
+            numba.set_num_threads(before)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             raise StepSizeError(
                 f"the integration used its whole step budget ({max_steps} steps); use a "

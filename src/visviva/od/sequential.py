@@ -195,7 +195,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         unscented Kalman filter (13 sigma points through the same dynamics and measurement
         models; :mod:`visviva.od.unscented`), for an a priori covariance large enough for the
         problem to be nonlinear across it (km and m/s in LEO), where the extended filter is
-        overconfident; about 4 times the cost per epoch.
+        overconfident, or diverges; about 1.4 times the cost per epoch.
     sigma_points : tuple of float, optional
         (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
         (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.

@@ -89,7 +89,7 @@ def test_ukf_equals_ekf_on_a_nearly_linear_problem(positions):
     for P in (f.covariances, f.smoothed_covariances):
         np.testing.assert_array_equal(P, np.swapaxes(P, 1, 2))
         assert np.all(np.linalg.eigvalsh(P) > 0)
-    assert "smoothed" in repr(f)
+    assert repr(f).endswith("smoothed, unscented)") and "unscented" not in repr(e)
 
 
 @pytest.fixture(scope="module")
@@ -239,3 +239,45 @@ def test_ukf_bad_input(positions):
         vv.filter_orbit(positions, good, P0, method="ukf", sigma_points=(0.0, 2.0, 0.0))
     with pytest.raises(vv.InvalidInputError, match="kappa > -6"):
         vv.filter_orbit(positions, good, P0, method="ukf", sigma_points=(1.0, 2.0, -6.0))
+
+
+@pytest.mark.parametrize("reference", ["gcrs", "stars"])
+def test_the_model_without_partials_gives_the_same_values(tracking_j2, reference):
+    """``model(..., partials=False)`` (the sigma points' predictions) skips only the chain rule
+    through the flight time: the same values, bit for bit, for every kind."""
+    obs = tracking_j2
+    t = obs.times[: 2 * (len(obs) // 2)]
+    radec = vv.Observations(time=t, kind="radec", value=[[1.0, 0.2]] * len(t),
+                            sigma=[1e-5] * len(t), station=obs.stations[: len(t)],
+                            radec_reference=reference)  # fmt: skip
+    for table in (obs, radec):
+        y = _truth_at(Y_ECC, J2, table.offsets_s(EPOCH))
+        h, H = model(table, y, GM)
+        h2, H2 = model(table, y, GM, partials=False)
+        np.testing.assert_array_equal(h2, h)
+        assert H2 is None and H.shape == (len(table), 3, 6)
+
+
+def _part(obs, sl):
+    return vv.Observations(time=obs.times[sl], kind=list(obs.kinds[sl]),
+                           value=[v[:d] for v, d in zip(obs.values[sl], obs.dims[sl], strict=True)],
+                           sigma=list(obs.sigmas[sl]), station=obs.stations[sl])  # fmt: skip
+
+
+def test_a_restarted_ukf_continues_the_same_run(tracking_drag):
+    """Filtering the first half with the UKF, then the rest from its last state and covariance,
+    gives the run over everything (with process noise): the UKF's state is (x, P) alone."""
+    obs, _ = tracking_drag
+    x0 = Y_LEO + [0.005, -0.002, 0.001, 1e-6, 0.0, -1e-6]
+    kw = dict(process_noise=1e-14, method="ukf")
+    whole = vv.filter_orbit(obs, _state(x0), P0, J2, **kw)
+    cut = len(obs) // 2
+    while obs.times[cut] == obs.times[cut - 1]:
+        cut += 1
+    first = vv.filter_orbit(_part(obs, slice(0, cut)), _state(x0), P0, J2, **kw)
+    rest = vv.filter_orbit(_part(obs, slice(cut, None)), first.state, first.covariance, J2, **kw)
+    assert len(first.times) + len(rest.times) - 1 == len(whole.times)
+    np.testing.assert_allclose(rest.states[-1], whole.states[-1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rest.covariance, whole.covariance, rtol=1e-7,
+                               atol=1e-9 * np.abs(whole.covariance).max())  # fmt: skip
+    np.testing.assert_array_equal(np.r_[first.rejected, rest.rejected], whole.rejected)

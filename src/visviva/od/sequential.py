@@ -78,7 +78,8 @@ class FilteredOrbit:
         return (
             f"FilteredOrbit({len(self.times)} epochs, {len(self.rejected)} observations, "
             f"{int(self.rejected.sum())} rejected, final sigma_r={sig:.3g} m"
-            f"{', smoothed' if self.smoothed_states is not None else ''})"
+            f"{', smoothed' if self.smoothed_states is not None else ''}"
+            f"{', unscented' if self.__dict__.get('method') == 'ukf' else ''})"
         )
 
 

@@ -120,7 +120,7 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
     X = sigma_points(x, P, scale)
     m, n_pts = rows.size, X.shape[0]
     kinds = observations.kinds[rows]
-    h, _ = model(observations, np.repeat(X, m, axis=0), gm, np.tile(rows, n_pts))
+    h, _ = model(observations, np.repeat(X, m, axis=0), gm, np.tile(rows, n_pts), partials=False)
     h = h.reshape(n_pts, m, 3)
     # each point's prediction minus the central one's, angles wrapped: a mean of angles
     dev = residuals(np.tile(kinds, n_pts), h.reshape(-1, 3), np.tile(h[0], (n_pts, 1)))

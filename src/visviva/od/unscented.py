@@ -40,15 +40,34 @@ from .measurements import residuals
 
 __all__ = ["unscented_pass", "unscented_weights", "sigma_points", "DEFAULT_SIGMA_POINTS"]
 
-#: (alpha, beta, kappa): points sqrt(6) sigma out, all mean weights 1/12 (none negative), beta =
-#: 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
+#: (alpha, beta, kappa): points sqrt(6) sigma out, mean weights 0 (centre) and 1/12 (none
+#: negative), beta = 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
 DEFAULT_SIGMA_POINTS = (1.0, 2.0, 0.0)
 N_STATE = 6
 
 
 def unscented_weights(parameters=None):
-    """Scale sqrt(n + lambda) and mean and covariance weights (13,) of the scaled unscented
-    transform with ``parameters`` = (alpha, beta, kappa) (None: :data:`DEFAULT_SIGMA_POINTS`)."""
+    """The scaled unscented transform's spread and weights (Wan & van der Merwe 2000).
+
+    Parameters
+    ----------
+    parameters : tuple of float or None
+        (alpha, beta, kappa); None: :data:`DEFAULT_SIGMA_POINTS`. alpha > 0, kappa > -6.
+
+    Returns
+    -------
+    scale : float
+        sqrt(n + lambda), lambda = alpha^2 (n + kappa) - n: how many standard deviations out the
+        points lie (n = 6).
+    wm, wc : ndarray (13,)
+        Mean and covariance weights: W_0^m = lambda / (n + lambda), W_0^c = W_0^m + 1 -
+        alpha^2 + beta, W_i = 1 / (2 (n + lambda)).
+
+    Raises
+    ------
+    InvalidInputError
+        Not three finite numbers, alpha <= 0 or kappa <= -6.
+    """
     if parameters is None:
         parameters = DEFAULT_SIGMA_POINTS
     try:
@@ -86,8 +105,22 @@ def _square_root(P):
 
 
 def sigma_points(x, P, scale):
-    """The 2n + 1 sigma points (13, 6) of mean ``x`` and covariance ``P``, ``scale`` =
-    sqrt(n + lambda) standard deviations out."""
+    """The 2n + 1 sigma points of a mean and covariance.
+
+    Parameters
+    ----------
+    x : ndarray (6,)
+        Mean state, km and km/s.
+    P : ndarray (6, 6)
+        Its covariance, km^2, km^2/s, km^2/s^2 (positive semi-definite).
+    scale : float
+        sqrt(n + lambda) from :func:`unscented_weights`.
+
+    Returns
+    -------
+    ndarray (13, 6)
+        x, then x + scale L_i (i = 1..6), then x - scale L_i, L L^T = P.
+    """
     L = scale * _square_root(P)
     return np.concatenate([x[None], x + L.T, x - L.T])
 

@@ -84,7 +84,7 @@ def _site_back(site_r, site_v, tau):
     return site_r - site_v * t + 0.5 * acc * t * t, site_v - acc * t
 
 
-def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
+def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None, partials=True):
     """Predicted values (N, 3) and partials (N, 3, 6) with the signal's flight time.
 
     Parameters
@@ -98,17 +98,20 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     earth_velocity : ndarray (N, 3), optional
         The Earth's barycentric velocity (km/s) for RA/Dec referred to catalogue stars; None
         models the natural GCRS direction.
+    partials : bool
+        False: skip the chain rule through the flight time (H is then None; an unscented
+        filter's sigma points need the values only).
 
     Returns
     -------
     h : ndarray (N, 3)
         Predicted values (km, km/s, rad).
-    H : ndarray (N, 3, 6)
+    H : ndarray (N, 3, 6) or None
         Partials with respect to the state at the reception time.
     """
     station = kinds != "position"
     yb = y.copy()
-    jac = np.broadcast_to(np.eye(6), (len(kinds), 6, 6)).copy()
+    jac = np.broadcast_to(np.eye(6), (len(kinds), 6, 6)).copy() if partials else None
     if not station.any():
         return predict(kinds, y, site_r, site_v, enu)
     ys, R, V = y[station], site_r[station], site_v[station]
@@ -116,9 +119,10 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
     for _ in range(ITERATIONS):
         ysb, _ = _shift_back(ys, gm, tau_d, jacobian=False)
         tau_d = np.linalg.norm(ysb[:, :3] - R, axis=-1) / C_KM_S
-    ysb, jac_s = _shift_back(ys, gm, tau_d)
+    ysb, jac_s = _shift_back(ys, gm, tau_d, jacobian=partials)
     yb[station] = ysb
-    jac[station] = jac_s
+    if partials:
+        jac[station] = jac_s
     h, H = predict(kinds, yb, site_r, site_v, enu)
     two_way = (kinds == "range") | (kinds == "range_rate")
     if two_way.any():
@@ -147,10 +151,10 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None):
             lon, lat, _ = angles(rho - earth_velocity[m] * tau)
             h[m, 0] = lon
             h[m, 1] = lat
-    return h, np.einsum("nij,njk->nik", H, jac)
+    return h, np.einsum("nij,njk->nik", H, jac) if partials else None
 
 
-def model(observations, y, gm, rows=None):
+def model(observations, y, gm, rows=None, partials=True):
     """Predicted values and partials of a whole :class:`~visviva.Observations` table.
 
     Parameters
@@ -164,6 +168,8 @@ def model(observations, y, gm, rows=None):
         GM of the central body, km^3/s^2.
     rows : ndarray of int, optional
         Only these rows of the table (a sequential filter's rows at one epoch); None: all.
+    partials : bool
+        False: H may be None (light time on), when only the values are needed.
 
     Returns
     -------
@@ -179,4 +185,4 @@ def model(observations, y, gm, rows=None):
     if not observations.light_time:
         return predict(kinds, y, site_r, site_v, enu)
     ev = observations.earth_velocity()[pick] if observations.radec_reference == "stars" else None
-    return predict_light_time(kinds, y, site_r, site_v, enu, gm, ev)
+    return predict_light_time(kinds, y, site_r, site_v, enu, gm, ev, partials)

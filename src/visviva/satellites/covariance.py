@@ -189,27 +189,45 @@ def with_process_noise(grid, y, phi, P0, q, noise_code):
     densities (km^2/s^3) on the axes of ``noise_code`` (:func:`visviva._covariance.frame_code`;
     0 inertial). Also the prediction step of :func:`visviva.filter_orbit`.
     """
-    from ..core.local_frames import local_axes
-
     P = np.empty((grid.size, 6, 6))
     k0 = int(np.flatnonzero(grid == 0.0)[0])
     P[k0] = P0
-    diag = np.diag(q)
     for direction in (1, -1):
         k = k0
         while 0 <= k + direction < grid.size:
             j = k + direction
             step = np.linalg.solve(phi[k].T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
-            if noise_code:  # the local axes' density, averaged over the interval's ends
-                mk = local_axes(y[k, :3], y[k, 3:], noise_code)
-                mj = local_axes(y[j, :3], y[j, 3:], noise_code)
-                qc = 0.5 * (mk.T @ diag @ mk + mj.T @ diag @ mj)
-            else:
-                qc = diag
-            pj = step @ P[k] @ step.T + snc_covariance(grid[j] - grid[k], qc)
+            pj = step @ P[k] @ step.T + step_noise(y[k], y[j], grid[j] - grid[k], q, noise_code)
             P[j] = 0.5 * (pj + pj.T)
             k = j
     return P
+
+
+def noise_substeps(dt, q, step_s):
+    """The sub-steps (s from the interval's start) of a filter's prediction over ``dt`` s: the
+    interval itself without process noise (``q`` None), else equal steps of at most
+    ``step_s``."""
+    if q is None:
+        return np.array([dt])
+    return np.linspace(0.0, dt, int(np.ceil(dt / step_s)) + 1)[1:]
+
+
+def step_noise(y_from, y_to, dt, q, noise_code):
+    """The state noise compensation Q (6, 6) of one step of ``dt`` s between the states
+    ``y_from`` and ``y_to`` (km, km/s): :func:`snc_covariance` with the density ``q`` (three
+    values, km^2/s^3) on the axes of ``noise_code`` (0 inertial), a local frame's density
+    averaged over the step's ends. The noise of :func:`with_process_noise` and of the unscented
+    filter's prediction (:mod:`visviva.od.unscented`)."""
+    from ..core.local_frames import local_axes
+
+    diag = np.diag(q)
+    if noise_code:  # the local axes' density, averaged over the interval's ends
+        mk = local_axes(y_from[:3], y_from[3:], noise_code)
+        mj = local_axes(y_to[:3], y_to[3:], noise_code)
+        qc = 0.5 * (mk.T @ diag @ mk + mj.T @ diag @ mj)
+    else:
+        qc = diag
+    return snc_covariance(dt, qc)
 
 
 def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str = "GCRS",

@@ -127,18 +127,43 @@ def _positive(name, value):
     return v
 
 
-def _predict_covariance(x0, grid, y, phi, P, q, code):
+def _predict_covariance(x0, grid, y, phi, P, q, code, jumps=None):
     """P at grid[-1] from P at the origin (state x0): Phi P Phi^T, plus the SNC noise on each
-    sub-step (:func:`visviva.satellites.covariance.with_process_noise`)."""
+    sub-step (:func:`visviva.satellites.covariance.with_process_noise`) and the execution
+    errors of the burns crossed (``jumps``: {index into (0, *grid): (6, 6)})."""
     if q is None:
-        return phi[-1] @ P @ phi[-1].T
+        out = phi[-1] @ P @ phi[-1].T
+        for extra in (jumps or {}).values():  # one sub-step: each is mapped to grid[-1]
+            out = out + extra
+        return out
     from ..satellites.covariance import with_process_noise
 
     return with_process_noise(np.r_[0.0, grid], np.vstack([x0, y]),
-                              np.concatenate([np.eye(6)[None], phi]), P, q, code)[-1]
+                              np.concatenate([np.eye(6)[None], phi]), P, q, code, jumps)[-1]
 
 
-def filter_orbit(observations, initial, covariance, perturbations=None, *, process_noise=None,
+def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
+    """The state, covariance and Phi(t_from + grid[-1], t_from) predicted from (x, P) at
+    ``t_from`` (s from the epoch) over the sub-steps ``grid`` (s from t_from), through the
+    burns of ``schedule`` (:func:`visviva.satellites.burn_partials.propagate_through`)."""
+    if not schedule:
+        y, phi = _propagate(dyn, x, t_from, t_from + grid)
+        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    from ..satellites.burn_partials import propagate_through
+    from ..satellites.covariance import burn_noise
+
+    y, phi, sens = propagate_through(dyn, schedule, x, t_from + grid, start=t_from,
+                                     apply_at_start=apply_at_start)
+    if grid.size == 1 and grid[0] == 0.0:  # impulses at the epoch itself
+        jumps = burn_noise(schedule, grid + t_from, sens, t_from, apply_at_start)
+        return y[-1].copy(), phi[-1] @ P @ phi[-1].T + sum(jumps.values(), 0.0 * P), phi[-1]
+    sens = np.concatenate([np.zeros((1,) + sens.shape[1:]), sens])
+    jumps = burn_noise(schedule, t_from + np.r_[0.0, grid], sens, t_from, apply_at_start)
+    return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
+
+
+def filter_orbit(observations, initial, covariance, perturbations=None, *, maneuvers=None,
+                 process_noise=None,
                  process_noise_frame="RTN", noise_step=None, smoother=False, editing_sigma=4.0,
                  divergence_count=10, rtol=None, atol=None):  # fmt: skip
     """Estimate an orbit sequentially with an extended Kalman filter (and optional smoother).
@@ -151,13 +176,19 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     initial : StateVectors
         The a priori GCRS state, with an ``epoch`` at or before the first observation (e.g. a
         :func:`~visviva.fit_orbit` estimate, an IOD or a propagated earlier estimate). A state
-        with pending manoeuvres is refused (the dynamics has no burns).
+        from an OPM with manoeuvres needs ``maneuvers=``.
     covariance : array_like (6, 6) or Quantity
         Its covariance in GCRS axes; plain numbers are km^2, km^2/s, km^2/s^2 (order x, y, z,
         vx, vy, vz); a Quantity with an area unit is read in that length unit and seconds.
         Symmetric and positive semi-definite.
     perturbations : list of Perturbation or None
         Dynamics, as for :func:`~visviva.fit_orbit` (None or [] for two-body motion).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Known burns in the arc (as :func:`~visviva.propagate_cowell`'s ``maneuvers=``): the
+        prediction flies them, the covariance crosses each impulse with its Jacobian and
+        adds its ``execution_covariance`` (:func:`~visviva.propagate_covariance`, Notes). An
+        impulse at the initial epoch is applied first (the initial state is before it); an
+        observation at an impulse's epoch sees the state after it.
     process_noise : float, array_like (3,) or Quantity, optional
         Spectral density q of a white-noise acceleration on each axis of
         ``process_noise_frame``, km^2/s^3 (= (km/s^2)^2 / Hz); None: none. It stands for the
@@ -193,7 +224,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     ------
     InvalidInputError
         A covariance that is not symmetric positive semi-definite, or NaN; observations before
-        the initial epoch; bad arguments; a state with pending manoeuvres.
+        the initial epoch; bad arguments; a state from an OPM with manoeuvres without
+        ``maneuvers=``.
     ShapeError
         A covariance that is not 6 x 6, or a process noise of the wrong size.
     ConvergenceError
@@ -233,7 +265,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
             "observations must be a vv.Observations table; build one with "
             "vv.Observations(time=..., kind=..., value=..., sigma=..., station=...)."
         )
-    x, gm, epoch = check_initial(initial)
+    x, gm, epoch = check_initial(initial, maneuvers)
+    from ..satellites.burn_segments import burn_schedule
+
+    schedule = burn_schedule([] if maneuvers is None else maneuvers, initial, epoch)
     P = _check_covariance(covariance)
     from .._covariance import frame_code
     from ..satellites.covariance import noise_density, noise_step_s
@@ -272,6 +307,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     xp = np.empty((n_t, 6))
     Pp = np.empty((n_t, 6, 6))
     phis = np.empty((n_t, 6, 6))
+    if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
+        x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
     xs[0] = xp[0] = x
     Ps[0] = Pp[0] = P
     phis[0] = np.eye(6)
@@ -302,12 +339,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
             else:
                 grid = np.linspace(0.0, dt, int(np.ceil(dt / step_s)) + 1)[1:]
             try:
-                y, phi = _propagate(dyn, x, epochs[k - 1], epochs[k - 1] + grid)
+                x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
             except VisvivaError as exc:
                 raise diverged(k, f"the estimate cannot be integrated ({exc})") from exc
-            P = _predict_covariance(x, grid, y, phi, P, q, code)
-            x = y[-1].copy()
-            xp[k], Pp[k], phis[k] = x, P, phi[-1]
+            xp[k], Pp[k] = x, P
         rows = order[bounds[k]:bounds[k + 1]]
         if rows.size:
             h, H = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)

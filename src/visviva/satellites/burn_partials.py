@@ -92,7 +92,8 @@ def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps):
     """One direction from ``start``: ``t_out`` (s from the epoch) monotonic away from it.
     Returns states (T, 6) and Psi = [Phi(t, start) | d y(t) / d Δv_k ...] (T, 6, 6 + 3n)."""
     t_end = float(t_out[-1])
-    backward = t_end < start
+    start = float(start)
+    backward = bool(t_end < start)
     lo, hi = min(start, t_end), max(start, t_end)
     pts = {start, t_end}
     for a, b, _ in schedule.items:

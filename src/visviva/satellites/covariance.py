@@ -201,32 +201,39 @@ def with_process_noise(grid, y, phi, P0, q, noise_code, jumps=None):
 
     P = np.empty((grid.size, 6, 6))
     k0 = int(np.flatnonzero(grid == 0.0)[0])
+    jumps = jumps or {}
     P[k0] = P0
+    if k0 in jumps or not np.array_equal(phi[k0], np.eye(6)):  # after an impulse at 0
+        p0 = phi[k0] @ P0 @ phi[k0].T + jumps.get(k0, 0.0)
+        P[k0] = 0.5 * (p0 + p0.T)
     diag = np.diag(q)
     for direction in (1, -1):
         k = k0
+        # backwards from the state given, before any impulse at 0 (Phi(t, 0-) on that side)
+        p_k, phi_k = (P[k0], phi[k0]) if direction > 0 else (P0, np.eye(6))
         while 0 <= k + direction < grid.size:
             j = k + direction
-            step = np.linalg.solve(phi[k].T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
+            step = np.linalg.solve(phi_k.T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
             if noise_code:  # the local axes' density, averaged over the interval's ends
                 mk = local_axes(y[k, :3], y[k, 3:], noise_code)
                 mj = local_axes(y[j, :3], y[j, 3:], noise_code)
                 qc = 0.5 * (mk.T @ diag @ mk + mj.T @ diag @ mj)
             else:
                 qc = diag
-            pj = step @ P[k] @ step.T + snc_covariance(grid[j] - grid[k], qc)
-            if jumps and j in jumps:
+            pj = step @ p_k @ step.T + snc_covariance(grid[j] - grid[k], qc)
+            if j in jumps:
                 pj = pj + jumps[j]
             P[j] = 0.5 * (pj + pj.T)
-            k = j
+            k, p_k, phi_k = j, P[j], phi[j]
     return P
 
 
-def burn_noise(schedule, grid, sens, start=0.0):
+def burn_noise(schedule, grid, sens, start=0.0, apply_at_start=True):
     """The execution errors of the impulses of ``schedule``, each mapped to the first time of
     ``grid`` past its burn (away from ``start``): {grid index: S C S^T}, S = d y / d Δv there
     (``sens`` (T, 6, 3 n), :func:`visviva.satellites.burn_partials.propagate_through`), C the
-    burn's ``execution_covariance``. Burns without one, or not crossed, add nothing."""
+    burn's ``execution_covariance``. Burns without one, or not crossed (one at ``start``
+    without ``apply_at_start``), add nothing."""
     from .burn_partials import impulses_of
 
     out = {}
@@ -236,6 +243,8 @@ def burn_noise(schedule, grid, sens, start=0.0):
         if c is None:
             continue
         t_b = times[id(burn)]
+        if t_b == start and not apply_at_start:
+            continue
         if t_b >= start:
             idx = np.flatnonzero(grid >= t_b)
             j = int(idx[0]) if idx.size else None

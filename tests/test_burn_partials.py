@@ -216,3 +216,40 @@ def test_bad_execution_errors_are_refused():
             vv.ImpulsiveBurn(0 * u.s, dv, "RTN", **kw)
     with pytest.raises(vv.InvalidInputError, match="zero"):
         vv.ImpulsiveBurn(0 * u.s, [0, 0, 0] * KMS, magnitude_sigma=0.1)
+
+
+@pytest.mark.parametrize("t_burn", [0.0, 1300.0, -1300.0])
+def test_process_noise_through_a_burn_keeps_its_execution_error(t_burn):
+    """With a vanishing process noise the recursion through the burn (the execution error added
+    on arrival past it) gives the covariance of the plain map, either side of the epoch, with
+    the burn at the epoch too."""
+    burn = vv.ImpulsiveBurn(t_burn * u.s, [0.0, 0.003, 0.001] * KMS, "RTN",
+                            magnitude_sigma=0.05, pointing_sigma=2 * u.deg)
+    t = np.array([-3000.0, -1300.0, 0.0, 1300.0, 3000.0])
+    plain = vv.propagate_covariance(leo(), P0, t * u.s, FORCES, maneuvers=[burn])
+    noisy = vv.propagate_covariance(leo(), P0, t * u.s, FORCES, maneuvers=[burn],
+                                    process_noise=1e-30, noise_step=100 * u.s)
+    assert np.all(rel(noisy.covariance, plain.covariance) < 1e-8)
+    crossed = (t >= t_burn) if t_burn >= 0 else (t < t_burn)
+    grew = np.trace(plain.covariance[:, 3:, 3:], axis1=-2, axis2=-1)
+    base = vv.propagate_covariance(leo(), P0, t * u.s, FORCES,
+                                   maneuvers=[vv.ImpulsiveBurn(t_burn * u.s, burn.delta_v, "RTN")])
+    extra = grew - np.trace(base.covariance[:, 3:, 3:], axis1=-2, axis2=-1)
+    assert np.all(extra[crossed] > 1e-9) and np.allclose(extra[~crossed], 0.0, atol=1e-18)
+
+
+def test_an_opm_covariance_is_carried_through_its_manoeuvre():
+    from visviva.ccsds.opm import OPM, Maneuver
+
+    state = leo()
+    cov = np.diag([1e-4] * 3 + [1e-10] * 3)
+    man = Maneuver(EPOCH + 1200 * u.s, 0 * u.s, 0 * u.kg, "RTN", [0.0, 0.003, 0.0] * KMS)
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="SAT", maneuvers=[man],
+                                                  covariance=cov)))
+    out = vv.propagate_covariance(opm.state, opm.covariance, [600, 3000] * u.s,
+                                  maneuvers=opm.burns())
+    ref = vv.propagate_covariance(leo(), cov, [600, 3000] * u.s,
+                                  maneuvers=[vv.ImpulsiveBurn(1200 * u.s, man.delta_v, "RTN")])
+    assert np.all(rel(out.covariance, ref.covariance) < 1e-9)
+    assert len(out.impulses) == 1 and out.delta_v_partials.shape == (2, 6, 3)
+    assert not out.delta_v_partials[0].any() and out.delta_v_partials[1].any()

@@ -132,9 +132,8 @@ def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps):
         mask = (t_out < a) & (t_out > b) if backward else (t_out > a) & (t_out < b)
         t_rel = np.append(t_out[mask], b) - a
         y_seg, phi_seg = _segment(dyn, schedule, y, a, b, t_rel, max_steps)
-        for k in range(t_rel.size - 1):
-            ys.append(y_seg[k])
-            psis.append(phi_seg[k] @ psi)
+        ys += list(y_seg[:-1])
+        psis += list(phi_seg[:-1] @ psi)
         y = y_seg[-1].copy()
         psi = phi_seg[-1] @ psi
     return np.array(ys), np.array(psis)

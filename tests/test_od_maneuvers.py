@@ -241,3 +241,23 @@ def test_filter_applies_a_burn_at_the_epoch_and_accepts_a_pending_state():
     np.testing.assert_allclose(f.covariances[0], ref.covariance, rtol=1e-12, atol=1e-24)
     assert f.covariances[0][3, 3] > 1e-10 + 0.5e-8  # the 10 cm/s execution error is in
     assert not f.rejected.any()
+
+
+def test_fit_through_a_known_finite_burn_and_a_burn_estimated_before_the_epoch(plan):
+    """A finite RTN burn known in the dynamics (its thrust partials in the STM) and an impulse
+    before the epoch estimated from the tracking before it (the partials carried backwards)."""
+    t, kinds, sigmas, stations = plan
+    finite = vv.FiniteBurn(5 * 3600 * u.s, 300 * u.s, [0.1, 1.0, 0.0], "RTN", thrust=20 * u.N,
+                           mass=500 * u.kg, isp=220 * u.s)
+    early = vv.ImpulsiveBurn(-2 * 3600 * u.s, [0.0, -0.001, 0.0005] * KMS, "TNW")
+    times = t - 4 * u.h  # the same geometry of rows, from 4 h before the epoch
+    obs = simulate_observations(TRUTH, times, kinds, sigmas, stations, FORCES,
+                                maneuvers=[early, finite], seed=6)
+    start = vv.ImpulsiveBurn(-2 * 3600 * u.s, [0, 0, 0] * KMS, "TNW")
+    fit = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[start, finite], estimate_maneuvers=[0])
+    err = fit.delta_v.to_value(KMS)[0] - early.delta_v.to_value(KMS)
+    assert np.all(np.abs(err) < 3.5 * fit.delta_v_sigma.to_value(KMS)[0])
+    e = np.r_[_error(fit), err]
+    assert e @ np.linalg.solve(fit.full_covariance, e) < stats.chi2.ppf(0.999, 9)
+    assert 0.7 < fit.rms < 1.3
+    assert fit.maneuvers[1] is finite

@@ -261,3 +261,39 @@ def test_fit_through_a_known_finite_burn_and_a_burn_estimated_before_the_epoch(p
     assert e @ np.linalg.solve(fit.full_covariance, e) < stats.chi2.ppf(0.999, 9)
     assert 0.7 < fit.rms < 1.3
     assert fit.maneuvers[1] is finite
+
+
+def test_a_planned_burn_with_an_execution_error_is_an_a_priori(plan):
+    obs = _obs(plan, 7)
+    free = vv.fit_orbit(obs, TRUTH, FORCES, estimate_maneuvers=True,
+                        maneuvers=[vv.ImpulsiveBurn(BURN_T, [0, 0, 0] * KMS, "RTN")])
+    loose = vv.fit_orbit(obs, TRUTH, FORCES, estimate_maneuvers=True, maneuvers=[
+        vv.ImpulsiveBurn(BURN_T, [0, 0, 0] * KMS, "RTN",
+                         delta_v_covariance=np.eye(3) * (100 * u.m / u.s) ** 2)])
+    d = (loose.delta_v - free.delta_v).to_value(KMS)[0]
+    assert np.all(np.abs(d) < 1e-3 * free.delta_v_sigma.to_value(KMS)[0])
+    assert loose.dof == free.dof + 3
+    # a burn after the last observation: the estimate is the plan, its covariance the prior's
+    c = np.diag([0.02, 0.05, 0.01]) ** 2 * 1e-6
+    late = vv.ImpulsiveBurn(9 * 3600 * u.s, [0.0, 0.001, 0.0] * KMS, "TNW", delta_v_covariance=c)
+    fit = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[TRUE_BURN, late], estimate_maneuvers=[1])
+    assert np.allclose(fit.delta_v.to_value(KMS)[0], [0.0, 0.001, 0.0], rtol=0, atol=1e-15)
+    assert np.allclose(fit.delta_v_covariance[0], c, rtol=1e-8, atol=0)
+    assert np.abs(fit.full_covariance[:6, 6:]).max() < 1e-12 * np.sqrt(c.max())
+    # a plan drawn around the truth with a prior comparable to the data: NEES chi-square(9)
+    rng = np.random.default_rng(12)
+    tight = np.diag([0.002, 0.0005, 0.005]) ** 2 * 1e-6  # 2, 0.5, 5 mm/s (km^2/s^2)
+    nees = []
+    for seed in range(15):
+        planned = DV_TRUE + rng.multivariate_normal(np.zeros(3), tight)
+        f = vv.fit_orbit(_obs(plan, 200 + seed), TRUTH, FORCES, estimate_maneuvers=True,
+                         outlier_sigma=None, maneuvers=[
+                             vv.ImpulsiveBurn(BURN_T, planned * KMS, "RTN", delta_v_covariance=tight)])
+        e = np.r_[_error(f), f.delta_v.to_value(KMS)[0] - DV_TRUE]
+        nees.append(float(e @ np.linalg.solve(f.full_covariance, e)))
+        assert np.all(f.delta_v_sigma.to_value(KMS)[0] < np.sqrt(np.diag(tight)))
+    lo, hi = stats.chi2.ppf([0.001, 0.999], 9 * 15) / 15
+    assert lo < np.mean(nees) < hi
+    with pytest.raises(vv.InvalidInputError, match="zero execution covariance"):
+        vv.fit_orbit(obs, TRUTH, FORCES, estimate_maneuvers=True, maneuvers=[
+            vv.ImpulsiveBurn(BURN_T, DV_TRUE * KMS, "RTN", delta_v_covariance=np.zeros((3, 3)))])

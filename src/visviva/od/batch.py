@@ -241,7 +241,10 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         or their indices in ``maneuvers``. The three Δv components on each burn's own axes
         join the state as solve-for parameters, starting from the burn's ``delta_v`` (the
         planned value, or zero); ``fit.delta_v``, ``fit.delta_v_sigma``,
-        ``fit.delta_v_covariance`` report them. None or False: every burn is known.
+        ``fit.delta_v_covariance`` report them. A burn with an ``execution_covariance``
+        (``delta_v_covariance=`` or ``magnitude_sigma``/``pointing_sigma``) has its
+        ``delta_v`` as an a priori estimate of that covariance; without one the Δv is
+        determined by the observations alone. None or False: every burn is known.
     max_iterations : int
         Iterations allowed before :class:`~visviva.ConvergenceError` is raised.
     tol : float
@@ -287,8 +290,10 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     A_i = H_i [Phi(t_i, t0), S_i1, ..., S_im] / sigma_i with S_ik = d y(t_i) / d Δv_k
     = Phi(t_i, t_k+) [[0], [M_k^T]] (zero before the burn; M_k the burn's local axes at the
     state before it; :mod:`visviva.satellites.burn_partials`); P = (A^T A)^-1 is then
-    (6 + 3m) x (6 + 3m), and the NEES of the whole estimate follows chi-square(6 + 3m). No a
-    priori constrains the Δv: it is determined by the observations on both sides of the burn.
+    (6 + 3m) x (6 + 3m), and the NEES of the whole estimate follows chi-square(6 + 3m). A burn
+    with an execution covariance C adds the a priori rows W (Δv_plan - Δv) with W^T W = C^-1
+    (directions of C with a variance below 1e-12 of its largest are held at the plan by a
+    variance of that size), as pseudo-observations of the plan (Tapley et al., sec. 4.6).
     """
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
@@ -329,6 +334,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                    DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol,
                    schedule=schedule)
     dv = np.array([burns[i]._dv for i in chosen]).reshape(-1)
+    priors = _maneuver_priors([burns[i] for i in chosen], chosen)
     flown = list(burns)
     kinds = observations.kinds
     dims = observations.dims
@@ -382,9 +388,11 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         if chosen:
             cols = _columns(dyn.schedule, [flown[i] for i in chosen])
             phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
-            _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen)
+            _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
+        if priors:  # the plans as pseudo-observations of the Δv
+            A, b = _with_priors(A, b, priors, dv, n_par)
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the measurement partials are not "
@@ -445,7 +453,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         iterations=len(history),
         history=history,
         chi2=float(np.sum(zn[use] ** 2)),
-        dof=int(use.sum()) - n_par,
+        dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors) - n_par,
         perturbations=dyn.perturbations,
     )
 
@@ -490,11 +498,43 @@ def _columns(schedule, flown):
     return np.concatenate([3 * order.index(id(m)) + np.arange(3) for m in flown])
 
 
-def _check_observable(sens, burns, chosen):
-    """Refuse an estimated burn that no observation follows (its Δv has no information)."""
+def _maneuver_priors(burns, chosen):
+    """(j, W, Δv_plan) for each estimated burn with an execution covariance C: W (3, 3) with
+    W^T W = C^-1 (eigen-directions of C below 1e-12 of its largest variance given that much)."""
+    out = []
     for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
-        if not np.any(sens[:, :, 3 * j:3 * j + 3]):
+        c = burn.execution_covariance
+        if c is None:
+            continue
+        lam, vec = np.linalg.eigh(c)
+        if not lam[-1] > 0:
+            raise InvalidInputError(
+                f"maneuvers[{i}] ({burn!r}) has a zero execution covariance: its Δv is known, so "
+                "leave it out of estimate_maneuvers (or give its uncertainty).")
+        lam = np.maximum(lam, 1e-12 * lam[-1])
+        out.append((j, vec.T / np.sqrt(lam)[:, None], burn._dv.copy()))
+    return out
+
+
+def _with_priors(A, b, priors, dv, n_par):
+    """The whitened system with the a priori rows of the planned Δvs appended."""
+    rows_a, rows_b = [A], [b]
+    for j, w, plan in priors:
+        extra = np.zeros((3, n_par))
+        extra[:, 6 + 3 * j:9 + 3 * j] = w
+        rows_a.append(extra)
+        rows_b.append(w @ (plan - dv[3 * j:3 * j + 3]))
+    return np.vstack(rows_a), np.concatenate(rows_b)
+
+
+def _check_observable(sens, burns, chosen, priors=()):
+    """Refuse an estimated burn that no observation follows (its Δv has no information) and
+    no a priori constrains."""
+    constrained = {j for j, _, _ in priors}
+    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
+        if j not in constrained and not np.any(sens[:, :, 3 * j:3 * j + 3]):
             raise InvalidInputError(
                 f"maneuvers[{i}] ({burn!r}) has no observation after it (or before it, for a "
                 "burn before the epoch): its Δv cannot be estimated from these data. Drop it "
-                "from estimate_maneuvers or add tracking past it.")
+                "from estimate_maneuvers, add tracking past it, or give the burn its execution "
+                "error (delta_v_covariance=...) as an a priori.")

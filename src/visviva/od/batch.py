@@ -333,7 +333,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
                    DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol,
                    schedule=schedule)
-    dv = np.array([burns[i]._dv for i in chosen]).reshape(-1)
+    dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
     priors = _maneuver_priors([burns[i] for i in chosen], chosen)
     flown = list(burns)
     kinds = observations.kinds
@@ -512,7 +512,7 @@ def _maneuver_priors(burns, chosen):
                 f"maneuvers[{i}] ({burn!r}) has a zero execution covariance: its Δv is known, so "
                 "leave it out of estimate_maneuvers (or give its uncertainty).")
         lam = np.maximum(lam, 1e-12 * lam[-1])
-        out.append((j, vec.T / np.sqrt(lam)[:, None], burn._dv.copy()))
+        out.append((j, vec.T / np.sqrt(lam)[:, None], burn.delta_v_km_s))
     return out
 
 

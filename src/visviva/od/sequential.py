@@ -149,6 +149,15 @@ def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
     if not schedule:
         y, phi = _propagate(dyn, x, t_from, t_from + grid)
         return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    t_end = t_from + float(grid[-1])
+    if not any(t_from < edge <= t_end or (apply_at_start and edge == t_from)
+               for a, b, _ in schedule.items for edge in (a, b)):
+        # no burn starts or ends here: one segment (a finite burn's thrust on over it, drag
+        # and SRP scaled to the mass), as the walk would integrate it
+        shifted = copy.copy(dyn)
+        shifted.model = schedule.segment_model(dyn.model, t_from, t_end)
+        y, phi = shifted.propagate(x, grid)
+        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
     from ..satellites.burn_partials import propagate_through
     from ..satellites.covariance import burn_noise
 
@@ -307,6 +316,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     xp = np.empty((n_t, 6))
     Pp = np.empty((n_t, 6, 6))
     phis = np.empty((n_t, 6, 6))
+    if schedule:  # burns within a microsecond of an epoch are at it (as propagate_cowell's)
+        schedule.snap(np.sort(epochs))
     if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
         x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
     xs[0] = xp[0] = x

@@ -65,7 +65,7 @@ def impulse_jacobians(burn, y_minus):
         g[3:] = np.eye(3)
         return phi, g
     jac = np.zeros((3, 6))
-    to_inertial_jacobian(burn.code, y, *burn._dv, jac)
+    to_inertial_jacobian(burn.code, y, *burn.delta_v_km_s, jac)
     phi[3:] += jac
     g[3:] = local_axes(y[:3], y[3:], burn.code).T
     return phi, g

@@ -213,6 +213,11 @@ class ImpulsiveBurn(_Burn):
         return out
 
     @property
+    def delta_v_km_s(self) -> np.ndarray:
+        """The Δv as plain numbers, km/s on the axes of ``frame`` (a copy)."""
+        return self._dv.copy()
+
+    @property
     def end(self):
         """The same as the start (an impulse takes no time)."""
         return self.start

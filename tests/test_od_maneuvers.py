@@ -170,10 +170,14 @@ def _positions(burns, seed, sigma=0.001):
                                  maneuvers=burns, seed=seed)
 
 
-def test_filter_equals_batch_through_a_known_burn():
+@pytest.mark.parametrize("finite", [False, True])
+def test_filter_equals_batch_through_a_known_burn(finite):
     """Two-body position fixes, no process noise: the EKF's last estimate is the batch estimate
-    (burn known) mapped there through the burn, the smoother's first the batch one."""
-    burn = vv.ImpulsiveBurn(FILTER_BURN_T, FILTER_DV * KMS, "RTN")
+    (burn known) mapped there through the burn, the smoother's first the batch one; an impulse,
+    or a 5-minute RTN burn (its thrust's partials in both)."""
+    burn = (vv.FiniteBurn(FILTER_BURN_T, 300 * u.s, FILTER_DV, "RTN",
+                          acceleration=np.linalg.norm(FILTER_DV) / 300 * u.km / u.s**2)
+            if finite else vv.ImpulsiveBurn(FILTER_BURN_T, FILTER_DV * KMS, "RTN"))
     obs = _positions([burn], 3)
     guess = vv.StateVectors(TRUTH.r + [5, -3, 2] * u.m, TRUTH.v + [3, 0, -2] * u.mm / u.s,
                             vv.EARTH, epoch=EPOCH)

@@ -124,7 +124,8 @@ def _satellite():
 
 
 def _variational():
-    # the state + STM kernel of covariance propagation and orbit fits
+    # the state + STM kernel of covariance propagation and orbit fits, and the Jacobian of a
+    # local-frame impulse (through manoeuvres)
     import numpy as np
     from astropy import units as u
 
@@ -132,7 +133,9 @@ def _variational():
 
     state = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
     vv.propagate_covariance(state, np.diag([1e-6] * 3 + [1e-12] * 3), [-60.0, 60.0] * u.s,
-                            [vv.J2(vv.EARTH)])
+                            [vv.J2(vv.EARTH)],
+                            maneuvers=[vv.ImpulsiveBurn(30.0 * u.s, [0.0, 1e-4, 0.0] * u.km / u.s,
+                                                        "RTN")])
 
 
 def _conjunctions():

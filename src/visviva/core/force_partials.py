@@ -21,7 +21,10 @@ Partials included, each exact for its force term:
 * SRP (cannonball): da/dr = k nu (I/d^3 - 3 d d^T/d^5), plus in the conical shadow's penumbra
   the change of the visible fraction nu of the Sun, k d grad(nu)^T / d^3
   (:func:`_add_penumbra_gradient`); the cylindrical shadow's jump enters at its boundary as a
-  saltation matrix (:func:`_boundary_jump`).
+  saltation matrix (:func:`_boundary_jump`);
+* a finite burn's thrust on a local frame's axes (RTN, TNW, VNB): a(t) d(M^T u)/d(r, v)
+  (:func:`_add_thrust_gradient`); drag's and SRP's partials follow the falling mass as their
+  accelerations do.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ import numpy as np
 
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
+from .local_frames import to_inertial_jacobian
 from .perturbations import (
     band_density,
     cunningham_vw,
@@ -163,9 +167,13 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     pos = np.empty(3)
     if sun >= 0:
         hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    # drag's and SRP's area-to-mass follow the mass during a finite burn (as cowell_rhs)
+    mass_scale = 1.0
+    if force[fb.THRUST_ON] != 0.0:
+        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
     if force[fb.DRAG_ON] != 0.0:
         omega = force[fb.ROTATION_RATE]
-        bc = force[fb.BALLISTIC]
+        bc = force[fb.BALLISTIC] * mass_scale
         wx = y[3] + omega * yy
         wy = y[4] - omega * x
         wz = y[5]
@@ -225,12 +233,30 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS], force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL])
         )
         if nu > 0.0:
-            k = nu * force[fb.SRP_COEFFICIENT] * force[fb.AU] * force[fb.AU]
+            k = nu * force[fb.SRP_COEFFICIENT] * mass_scale * force[fb.AU] * force[fb.AU]
             # a = k d / |d|^3 with d = r - r_sun: d a / d r = k (I/d^3 - 3 d d^T/d^5)
             _add_point_mass_gradient(from_sun_x, from_sun_y, from_sun_z, -k, dadr)
         if 0.0 < nu < 1.0 and int(force[fb.SHADOW_MODEL]) == 2:
             _add_penumbra_gradient(x, yy, z, from_sun_x, from_sun_y, from_sun_z, sun_pos,
                                    force, dadr)  # fmt: skip
+    if force[fb.THRUST_ON] != 0.0 and int(force[fb.THRUST_FRAME]) != 0:
+        _add_thrust_gradient(t, y, force, dadr, dadv)
+
+
+@kernel
+def _add_thrust_gradient(t, y, force, dadr, dadv):
+    """dadr, dadv += the partials of a finite burn's thrust held on a local frame's axes:
+    a(t) d(M^T u) / d(r, v) (:func:`visviva.core.local_frames.to_inertial_jacobian`); its
+    magnitude a(t) = F / m(t) depends on time alone."""
+    a = force[fb.THRUST_ACCEL] / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    d = fb.THRUST_DIRECTION
+    jac = np.empty((3, 6))
+    to_inertial_jacobian(int(force[fb.THRUST_FRAME]), y, a * force[d], a * force[d + 1],
+                         a * force[d + 2], jac)
+    for i in range(3):
+        for j in range(3):
+            dadr[i, j] += jac[i, j]
+            dadv[i, j] += jac[i, 3 + j]
 
 
 @kernel

@@ -29,7 +29,8 @@ import numpy as np
 
 from ._jit import kernel
 
-__all__ = ["INERTIAL", "RTN", "TNW", "VNB", "FRAME_CODES", "local_axes", "to_inertial"]
+__all__ = ["INERTIAL", "RTN", "TNW", "VNB", "FRAME_CODES", "local_axes", "to_inertial",
+           "to_inertial_jacobian"]
 
 #: Frame codes (the ``THRUST_FRAME`` slot of :mod:`visviva.core.force_block`).
 INERTIAL = 0
@@ -118,3 +119,110 @@ def to_inertial(frame, y, d0, d1, d2, out):
         out[0] = d0 * ax + d1 * cx + d2 * wx
         out[1] = d0 * ay + d1 * cy + d2 * wy
         out[2] = d0 * az + d1 * cz + d2 * wz
+
+
+@kernel
+def _cross_matrix(a0, a1, a2, out):
+    """out = [a]x, the matrix of a x (.)."""
+    out[0, 0] = 0.0
+    out[0, 1] = -a2
+    out[0, 2] = a1
+    out[1, 0] = a2
+    out[1, 1] = 0.0
+    out[1, 2] = -a0
+    out[2, 0] = -a1
+    out[2, 1] = a0
+    out[2, 2] = 0.0
+
+
+@kernel
+def to_inertial_jacobian(frame, y, d0, d1, d2, jac):
+    """The partials of :func:`to_inertial` with respect to the state: d (M^T d) / d (r, v).
+
+    Parameters
+    ----------
+    frame : int
+        :data:`INERTIAL` (all zeros), :data:`RTN`, :data:`TNW` or :data:`VNB`.
+    y : ndarray (6,)
+        Position (km) and velocity (km/s).
+    d0, d1, d2 : float
+        Components along the frame's axes (any unit u).
+    jac : ndarray (3, 6)
+        Output: d (inertial vector) / d (r, v), u/km and u/(km/s).
+
+    Notes
+    -----
+    With e1 = a / |a| (a = r for RTN, v for TNW and VNB), w = h / |h|, h = r x v and
+    c = w x e1, the vector is d0 e1 + alpha c + beta w (RTN, TNW: alpha = d1, beta = d2;
+    VNB: e2 = w, e3 = e1 x w = -c, so alpha = -d2, beta = d1). Its differential is
+
+        (d0 I + alpha [w]x) de1 + (beta I - alpha [e1]x) dw,
+        de1 = (I - e1 e1^T) da / |a|,    dw = (I - w w^T) (-[v]x dr + [r]x dv) / |h|,
+
+    with [a]x the cross-product matrix (d(w x e1) = -[e1]x dw + [w]x de1). Checked against
+    central differences in tests/test_burn_partials.py.
+    """
+    for i in range(3):
+        for j in range(6):
+            jac[i, j] = 0.0
+    if frame == INERTIAL:
+        return
+    hx = y[1] * y[5] - y[2] * y[4]
+    hy = y[2] * y[3] - y[0] * y[5]
+    hz = y[0] * y[4] - y[1] * y[3]
+    hn = math.sqrt(hx * hx + hy * hy + hz * hz)
+    w = np.empty(3)
+    w[0] = hx / hn
+    w[1] = hy / hn
+    w[2] = hz / hn
+    k = 0 if frame == RTN else 3
+    en = math.sqrt(y[k] * y[k] + y[k + 1] * y[k + 1] + y[k + 2] * y[k + 2])
+    e = np.empty(3)
+    for i in range(3):
+        e[i] = y[k + i] / en
+    if frame == VNB:
+        alpha = -d2
+        beta = d1
+    else:
+        alpha = d1
+        beta = d2
+    cw = np.empty((3, 3))
+    ce = np.empty((3, 3))
+    _cross_matrix(w[0], w[1], w[2], cw)
+    _cross_matrix(e[0], e[1], e[2], ce)
+    # A = (d0 I + alpha [w]x) (I - e e^T) / |a|, B = (beta I - alpha [e]x) (I - w w^T) / |h|
+    pa = np.empty((3, 3))
+    pb = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            pa[i, j] = alpha * cw[i, j]
+            pb[i, j] = -alpha * ce[i, j]
+        pa[i, i] += d0
+        pb[i, i] += beta
+    a_mat = np.zeros((3, 3))
+    b_mat = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            sa = 0.0
+            sb = 0.0
+            for m in range(3):
+                pe = (1.0 if m == j else 0.0) - e[m] * e[j]
+                pw = (1.0 if m == j else 0.0) - w[m] * w[j]
+                sa += pa[i, m] * pe
+                sb += pb[i, m] * pw
+            a_mat[i, j] = sa / en
+            b_mat[i, j] = sb / hn
+    cr = np.empty((3, 3))
+    cv = np.empty((3, 3))
+    _cross_matrix(y[0], y[1], y[2], cr)
+    _cross_matrix(y[3], y[4], y[5], cv)
+    for i in range(3):
+        for j in range(3):
+            sr = 0.0
+            sv = 0.0
+            for m in range(3):
+                sr -= b_mat[i, m] * cv[m, j]
+                sv += b_mat[i, m] * cr[m, j]
+            jac[i, j] += sr
+            jac[i, 3 + j] += sv
+            jac[i, 3 * (k // 3) + j] += a_mat[i, j]

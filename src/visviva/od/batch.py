@@ -56,6 +56,17 @@ class OrbitFit:
         Accepted measurement components minus 6.
     perturbations : list of Perturbation
         The dynamics of the fit (what :meth:`propagate` uses by default).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn
+        The burns of the fit's dynamics, the estimated ones with their estimated Δv (what
+        :meth:`propagate` flies); empty without burns.
+    estimated_maneuvers : list of int
+        Indices (into ``maneuvers``) of the burns whose Δv was estimated.
+    delta_v : Quantity (m, 3)
+        The estimated Δv of those burns, km/s, on each burn's own axes (its ``frame``).
+    delta_v_covariance : ndarray (m, 3, 3)
+        Their formal covariances, km^2/s^2, on the same axes.
+    full_covariance : ndarray (6 + 3 m, 6 + 3 m)
+        The covariance of the whole estimate (state, then each Δv), km and km/s based.
     """
 
     def __init__(self, **kw):
@@ -70,6 +81,14 @@ class OrbitFit:
     def sigma_velocity_km_s(self) -> np.ndarray:
         """Formal 1-sigma of vx, vy, vz (km/s)."""
         return np.sqrt(np.diag(self.covariance)[3:])
+
+    @property
+    def delta_v_sigma(self):
+        """Formal 1-sigma of each estimated Δv component (Quantity (m, 3), km/s, each burn's
+        axes)."""
+        from astropy import units as u
+
+        return np.sqrt(np.diagonal(self.delta_v_covariance, axis1=-2, axis2=-1)) * u.km / u.s
 
     def propagate(self, t, perturbations=None, **kwargs):
         """The estimate and its covariance at other times, with the fit's dynamics.
@@ -88,11 +107,43 @@ class OrbitFit:
         -------
         CovarianceResult
             ``.r``, ``.v``, ``.covariance`` (km-based), ``.stm`` at ``t``.
+
+        Notes
+        -----
+        The fit's burns are flown (``maneuvers``); past an estimated burn the covariance holds
+        its Δv's uncertainty and its correlation with the state,
+        P(t) = [Phi S] P_full [Phi S]^T (S = d y(t) / d Δv), plus any process noise and the
+        execution errors of the burns that were not estimated.
         """
         from ..satellites.covariance import propagate_covariance
 
+        if "maneuvers" in kwargs:
+            raise InvalidInputError("fit.propagate flies the fit's own burns (fit.maneuvers); "
+                                    "call vv.propagate_covariance for other ones.")
         dyn = self.perturbations if perturbations is None else perturbations
-        return propagate_covariance(self.state, self.covariance, t, dyn, **kwargs)
+        if not self.estimated_maneuvers:
+            return propagate_covariance(self.state, self.covariance, t, dyn,
+                                        maneuvers=self.maneuvers, **kwargs)
+        from .._covariance import frame_code, km_covariance, to_local
+
+        out_name = kwargs.pop("output_frame", None) or kwargs.get("frame", "GCRS")
+        out = propagate_covariance(self.state, self.covariance, t, dyn, maneuvers=self.maneuvers,
+                                   output_frame="GCRS", **kwargs)
+        burns = out.impulses
+        cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])
+                               for i in self.estimated_maneuvers])
+        s = out.delta_v_partials[..., cols]
+        pxv = self.full_covariance[:6, 6:]
+        cross = out.stm @ pxv @ np.swapaxes(s, -1, -2)
+        p = out.covariance + s @ self.full_covariance[6:, 6:] @ np.swapaxes(s, -1, -2)
+        p = p + cross + np.swapaxes(cross, -1, -2)
+        code = frame_code(out_name, "output_frame")
+        r = np.atleast_2d(out.r.to_value("km"))
+        v = np.atleast_2d(out.v.to_value("km/s"))
+        out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
+                                       .reshape(p.shape))
+        out.frame = "GCRS" if code == 0 else str(out_name).upper()
+        return out
 
     def __repr__(self):
         return (
@@ -102,7 +153,7 @@ class OrbitFit:
         )
 
 
-def check_initial(initial):
+def check_initial(initial, maneuvers=None):
     from .._units import to_array, to_vector
 
     if not (hasattr(initial, "r") and hasattr(initial, "v") and hasattr(initial, "gm")):
@@ -117,9 +168,10 @@ def check_initial(initial):
     from ..satellites.satellite_states import require_gcrs
 
     require_gcrs(initial, "orbit determination")
-    refuse_pending(initial, "orbit determination (fit_orbit, simulate_observations)", "Its "
-                   "dynamics has no burns: fit or simulate the arcs between manoeuvres, each "
-                   "from a state of its own.")
+    if maneuvers is None:
+        refuse_pending(initial, "orbit determination (fit_orbit, filter_orbit, "
+                       "simulate_observations)", "Pass maneuvers=opm.burns() to fly them (or "
+                       "maneuvers=[] to leave them out).")
     r0 = to_vector(initial.r, "length", "initial.r")
     v0 = to_vector(initial.v, "speed", "initial.v")
     if r0.shape != (3,) or v0.shape != (3,):
@@ -158,8 +210,9 @@ def _solve(A, b):
     return dx, P
 
 
-def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, tol=1e-5,
-              outlier_sigma=4.0, rtol=None, atol=None):  # fmt: skip
+def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
+              estimate_maneuvers=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0,
+              rtol=None, atol=None):  # fmt: skip
     """Estimate an orbit from observations by batch weighted least squares.
 
     Parameters
@@ -175,11 +228,23 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         None: an Earth orbit from the observations themselves
         (:func:`visviva.od.initial_orbit`: Gibbs or Herrick-Gibbs on three position fixes of
         the first pass, or Gauss on three RA/Dec). A state read from an OPM with manoeuvres
-        (or indexed or converted from one) is refused: the dynamics has no burns.
+        (or indexed or converted from one) needs ``maneuvers=`` (``opm.burns()``).
     perturbations : list of Perturbation or None
         Dynamics: None or [] for two-body motion, or Cowell perturbations
         (``[vv.J2(vv.EARTH)]``, ``vv.Zonal``, ``vv.AtmosphericDrag``, ``vv.ThirdBody``,
         ``vv.SolarRadiationPressure``).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Burns in the arc, part of the dynamics (as :func:`~visviva.propagate_cowell`'s
+        ``maneuvers=``; times from the estimate's epoch, either side of it).
+    estimate_maneuvers : bool or list of int, optional
+        Which impulsive burns of ``maneuvers`` have their Δv estimated: True for all of them,
+        or their indices in ``maneuvers``. The three Δv components on each burn's own axes
+        join the state as solve-for parameters, starting from the burn's ``delta_v`` (the
+        planned value, or zero); ``fit.delta_v``, ``fit.delta_v_sigma``,
+        ``fit.delta_v_covariance`` report them. A burn with an ``execution_covariance``
+        (``delta_v_covariance=`` or ``magnitude_sigma``/``pointing_sigma``) has its
+        ``delta_v`` as an a priori estimate of that covariance; without one the Δv is
+        determined by the observations alone. None or False: every burn is known.
     max_iterations : int
         Iterations allowed before :class:`~visviva.ConvergenceError` is raised.
     tol : float
@@ -219,6 +284,16 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     With correct sigmas the normalised estimation error (x0 - x_true)^T P^-1 (x0 - x_true)
     follows a chi-square law with 6 degrees of freedom and ``rms`` is close to 1 (tested over
     many noise seeds).
+
+    Manoeuvre estimation: an estimated impulse's Δv (3 components on its own axes) extends the
+    unknowns to p = (x0, Δv_1, ..., Δv_m), and the design matrix to
+    A_i = H_i [Phi(t_i, t0), S_i1, ..., S_im] / sigma_i with S_ik = d y(t_i) / d Δv_k
+    = Phi(t_i, t_k+) [[0], [M_k^T]] (zero before the burn; M_k the burn's local axes at the
+    state before it; :mod:`visviva.satellites.burn_partials`); P = (A^T A)^-1 is then
+    (6 + 3m) x (6 + 3m), and the NEES of the whole estimate follows chi-square(6 + 3m). A burn
+    with an execution covariance C adds the a priori rows W (Δv_plan - Δv) with W^T W = C^-1
+    (directions of C with a variance below 1e-12 of its largest are held at the plan by a
+    variance of that size), as pseudo-observations of the plan (Tapley et al., sec. 4.6).
     """
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
@@ -233,7 +308,14 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         from .first_orbit import initial_orbit
 
         initial = initial_orbit(observations, EARTH)
-    x, gm, epoch = check_initial(initial)
+    x, gm, epoch = check_initial(initial, maneuvers)
+    from ..satellites.burn_segments import Schedule, burn_schedule
+
+    schedule = burn_schedule([] if maneuvers is None else maneuvers, initial, epoch)
+    burns = [] if maneuvers is None else (
+        [maneuvers] if not isinstance(maneuvers, list | tuple) else list(maneuvers))
+    chosen = _estimated(burns, estimate_maneuvers)
+    n_par = 6 + 3 * len(chosen)
     if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
         raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")
     if outlier_sigma is not None and not outlier_sigma > 0:
@@ -242,14 +324,18 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         if value is not None and not (np.isfinite(value) and value > 0):
             raise InvalidInputError(f"{name} must be a finite number > 0; got {value!r}.")
     n_comp = int(observations.dims.sum())
-    if n_comp < 6:
+    if n_comp < n_par:
         raise InvalidInputError(
             f"{len(observations)} observation(s) give {n_comp} measurement components, fewer than "
-            "the 6 unknowns of the state; add observations."
+            f"the {n_par} unknowns (the state, 3 per estimated Δv); add observations."
         )
     offsets = observations.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
-                   DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol)
+                   DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol,
+                   schedule=schedule)
+    dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
+    priors = _maneuver_priors([burns[i] for i in chosen], chosen)
+    flown = list(burns)
     kinds = observations.kinds
     dims = observations.dims
     comp_mask = np.arange(3)[None, :] < dims[:, None]  # (N, 3) components in use
@@ -259,6 +345,11 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
     rms_prev = None
     converged = False
     for it in range(1, max_iterations + 1):
+        for j, i in enumerate(chosen):  # the estimated burns fly the current Δv
+            flown[i] = burns[i].with_delta_v(dv[3 * j:3 * j + 3])
+        if chosen:
+            swap = {id(burns[i]): flown[i] for i in chosen}
+            dyn.schedule = Schedule([(a, b, swap.get(id(m), m)) for a, b, m in schedule.items])
         try:
             y, phi = dyn.propagate(x, offsets)
         except VisvivaError as exc:
@@ -281,11 +372,11 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         else:
             new_rejected = np.zeros_like(rejected)
         use = comp_mask & ~new_rejected[:, None]
-        if use.sum() < 6:
+        if use.sum() < n_par:
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: outlier editing left "
-                f"{int(use.sum())} measurement components for 6 unknowns. Check the data and "
-                "sigmas, or pass outlier_sigma=None."
+                f"{int(use.sum())} measurement components for {n_par} unknowns. Check the data "
+                "and sigmas, or pass outlier_sigma=None."
             )
             err.history = history
             raise err
@@ -294,8 +385,14 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             err = ConvergenceError(f"the orbit fit diverged at iteration {it} (RMS not finite).")
             err.history = history
             raise err
+        if chosen:
+            cols = _columns(dyn.schedule, [flown[i] for i in chosen])
+            phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
+            _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
+        if priors:  # the plans as pseudo-observations of the Δv
+            A, b = _with_priors(A, b, priors, dv, n_par)
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the measurement partials are not "
@@ -305,7 +402,7 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             err.history = history
             raise err
         dx, P = _solve(A, b)
-        step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / 6.0))
+        step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
                         "correction": step})  # fmt: skip
         settled = rms_prev is not None and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300)
@@ -316,7 +413,8 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
             break
         rejected = new_rejected
         rms_prev = rms
-        x = x + dx
+        x = x + dx[:6]
+        dv = dv + dx[6:]
     if not converged:
         lines = "; ".join(f"{hh['iteration']}: rms {hh['rms']:.4g}" for hh in history)
         err = ConvergenceError(
@@ -332,9 +430,20 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         if m.any():
             rms_by_kind[k] = float(np.sqrt(np.mean(zn[m] ** 2)))
     state = StateVectors._from_canonical(x[:3].copy(), x[3:].copy(), np.float64(gm), epoch)
+    from astropy import units as u
+
+    for i in chosen:  # the estimate's own uncertainty replaces a planned execution error
+        flown[i].execution_covariance = None
+    m = len(chosen)
     return OrbitFit(
         state=state,
-        covariance=km_covariance(P),
+        covariance=km_covariance(P[:6, :6].copy()),
+        full_covariance=km_covariance(P),
+        maneuvers=flown,
+        estimated_maneuvers=list(chosen),
+        delta_v=dv.reshape(m, 3) * u.km / u.s,
+        delta_v_covariance=np.array([P[6 + 3 * j:9 + 3 * j, 6 + 3 * j:9 + 3 * j]
+                                     for j in range(m)]).reshape(m, 3, 3),
         residuals=np.where(comp_mask, z, 0.0),
         normalized_residuals=zn,
         rejected=new_rejected,
@@ -344,6 +453,88 @@ def fit_orbit(observations, initial, perturbations=None, *, max_iterations=25, t
         iterations=len(history),
         history=history,
         chi2=float(np.sum(zn[use] ** 2)),
-        dof=int(use.sum()) - 6,
+        dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors) - n_par,
         perturbations=dyn.perturbations,
     )
+
+
+def _estimated(burns, estimate):
+    """The indices of the burns whose Δv :func:`fit_orbit` estimates (``estimate_maneuvers``)."""
+    from ..satellites.burns import ImpulsiveBurn
+
+    if estimate is None or estimate is False:
+        return []
+    if estimate is True:
+        chosen = [i for i, b in enumerate(burns) if isinstance(b, ImpulsiveBurn)]
+        if not chosen:
+            raise InvalidInputError(
+                "estimate_maneuvers=True but maneuvers= holds no vv.ImpulsiveBurn; give the "
+                "burns to estimate (their delta_v is the starting value, e.g. zero).")
+        return chosen
+    try:
+        chosen = [int(i) for i in estimate]
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"estimate_maneuvers must be True, False/None or a list of indices into maneuvers; "
+            f"got {estimate!r}.") from None
+    for i in chosen:
+        if isinstance(i, bool) or not 0 <= i < len(burns):
+            raise InvalidInputError(
+                f"estimate_maneuvers: index {i} is not one of the {len(burns)} maneuvers.")
+        if not isinstance(burns[i], ImpulsiveBurn):
+            raise InvalidInputError(
+                f"estimate_maneuvers: maneuvers[{i}] is {burns[i]!r}; only an ImpulsiveBurn's "
+                "Δv is estimated (a finite burn's thrust is not a solve-for parameter).")
+    if len(set(chosen)) != len(chosen):
+        raise InvalidInputError(f"estimate_maneuvers lists a burn twice: {chosen}.")
+    return chosen
+
+
+def _columns(schedule, flown):
+    """The columns of ``Dynamics.sensitivity`` that belong to the burns ``flown``."""
+    from ..satellites.burn_partials import impulses_of
+
+    order = [id(m) for m in impulses_of(schedule)]
+    return np.concatenate([3 * order.index(id(m)) + np.arange(3) for m in flown])
+
+
+def _maneuver_priors(burns, chosen):
+    """(j, W, Δv_plan) for each estimated burn with an execution covariance C: W (3, 3) with
+    W^T W = C^-1 (eigen-directions of C below 1e-12 of its largest variance given that much)."""
+    out = []
+    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
+        c = burn.execution_covariance
+        if c is None:
+            continue
+        lam, vec = np.linalg.eigh(c)
+        if not lam[-1] > 0:
+            raise InvalidInputError(
+                f"maneuvers[{i}] ({burn!r}) has a zero execution covariance: its Δv is known, so "
+                "leave it out of estimate_maneuvers (or give its uncertainty).")
+        lam = np.maximum(lam, 1e-12 * lam[-1])
+        out.append((j, vec.T / np.sqrt(lam)[:, None], burn.delta_v_km_s))
+    return out
+
+
+def _with_priors(A, b, priors, dv, n_par):
+    """The whitened system with the a priori rows of the planned Δvs appended."""
+    rows_a, rows_b = [A], [b]
+    for j, w, plan in priors:
+        extra = np.zeros((3, n_par))
+        extra[:, 6 + 3 * j:9 + 3 * j] = w
+        rows_a.append(extra)
+        rows_b.append(w @ (plan - dv[3 * j:3 * j + 3]))
+    return np.vstack(rows_a), np.concatenate(rows_b)
+
+
+def _check_observable(sens, burns, chosen, priors=()):
+    """Refuse an estimated burn that no observation follows (its Δv has no information) and
+    no a priori constrains."""
+    constrained = {j for j, _, _ in priors}
+    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
+        if j not in constrained and not np.any(sens[:, :, 3 * j:3 * j + 3]):
+            raise InvalidInputError(
+                f"maneuvers[{i}] ({burn!r}) has no observation after it (or before it, for a "
+                "burn before the epoch): its Δv cannot be estimated from these data. Drop it "
+                "from estimate_maneuvers, add tracking past it, or give the burn its execution "
+                "error (delta_v_covariance=...) as an a priori.")

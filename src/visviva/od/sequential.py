@@ -14,6 +14,8 @@ then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, sec
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .._covariance import km_covariance
@@ -136,18 +138,52 @@ def _positive(name, value):
     return v
 
 
-def _predict_covariance(x0, grid, y, phi, P, q, code):
+def _predict_covariance(x0, grid, y, phi, P, q, code, jumps=None):
     """P at grid[-1] from P at the origin (state x0): Phi P Phi^T, plus the SNC noise on each
-    sub-step (:func:`visviva.satellites.covariance.with_process_noise`)."""
+    sub-step (:func:`visviva.satellites.covariance.with_process_noise`) and the execution
+    errors of the burns crossed (``jumps``: {index into (0, *grid): (6, 6)})."""
     if q is None:
-        return phi[-1] @ P @ phi[-1].T
+        out = phi[-1] @ P @ phi[-1].T
+        for extra in (jumps or {}).values():  # one sub-step: each is mapped to grid[-1]
+            out = out + extra
+        return out
     from ..satellites.covariance import with_process_noise
 
     return with_process_noise(np.r_[0.0, grid], np.vstack([x0, y]),
-                              np.concatenate([np.eye(6)[None], phi]), P, q, code)[-1]
+                              np.concatenate([np.eye(6)[None], phi]), P, q, code, jumps)[-1]
 
 
-def filter_orbit(observations, initial, covariance, perturbations=None, *, process_noise=None,
+def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
+    """The state, covariance and Phi(t_from + grid[-1], t_from) predicted from (x, P) at
+    ``t_from`` (s from the epoch) over the sub-steps ``grid`` (s from t_from), through the
+    burns of ``schedule`` (:func:`visviva.satellites.burn_partials.propagate_through`)."""
+    if not schedule:
+        y, phi = _propagate(dyn, x, t_from, t_from + grid)
+        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    t_end = t_from + float(grid[-1])
+    if not any(t_from < edge <= t_end or (apply_at_start and edge == t_from)
+               for a, b, _ in schedule.items for edge in (a, b)):
+        # no burn starts or ends here: one segment (a finite burn's thrust on over it, drag
+        # and SRP scaled to the mass), as the walk would integrate it
+        shifted = copy.copy(dyn)
+        shifted.model = schedule.segment_model(dyn.model, t_from, t_end)
+        y, phi = shifted.propagate(x, grid)
+        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    from ..satellites.burn_partials import propagate_through
+    from ..satellites.covariance import burn_noise
+
+    y, phi, sens = propagate_through(dyn, schedule, x, t_from + grid, start=t_from,
+                                     apply_at_start=apply_at_start)
+    if grid.size == 1 and grid[0] == 0.0:  # impulses at the epoch itself
+        jumps = burn_noise(schedule, grid + t_from, sens, t_from, apply_at_start)
+        return y[-1].copy(), phi[-1] @ P @ phi[-1].T + sum(jumps.values(), 0.0 * P), phi[-1]
+    sens = np.concatenate([np.zeros((1,) + sens.shape[1:]), sens])
+    jumps = burn_noise(schedule, t_from + np.r_[0.0, grid], sens, t_from, apply_at_start)
+    return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
+
+
+def filter_orbit(observations, initial, covariance, perturbations=None, *, maneuvers=None,
+                 process_noise=None,
                  process_noise_frame="RTN", noise_step=None, smoother=False, editing_sigma=4.0,
                  divergence_count=10, rtol=None, atol=None, method="ekf",
                  sigma_points=None):  # fmt: skip
@@ -162,13 +198,19 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     initial : StateVectors
         The a priori GCRS state, with an ``epoch`` at or before the first observation (e.g. a
         :func:`~visviva.fit_orbit` estimate, an IOD or a propagated earlier estimate). A state
-        with pending manoeuvres is refused (the dynamics has no burns).
+        from an OPM with manoeuvres needs ``maneuvers=``.
     covariance : array_like (6, 6) or Quantity
         Its covariance in GCRS axes; plain numbers are km^2, km^2/s, km^2/s^2 (order x, y, z,
         vx, vy, vz); a Quantity with an area unit is read in that length unit and seconds.
         Symmetric and positive semi-definite.
     perturbations : list of Perturbation or None
         Dynamics, as for :func:`~visviva.fit_orbit` (None or [] for two-body motion).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Known burns in the arc (as :func:`~visviva.propagate_cowell`'s ``maneuvers=``): the
+        prediction flies them, the covariance crosses each impulse with its Jacobian and
+        adds its ``execution_covariance`` (:func:`~visviva.propagate_covariance`, Notes). An
+        impulse at the initial epoch is applied first (the initial state is before it); an
+        observation at an impulse's epoch sees the state after it.
     process_noise : float, array_like (3,) or Quantity, optional
         Spectral density q of a white-noise acceleration on each axis of
         ``process_noise_frame``, km^2/s^3 (= (km/s^2)^2 / Hz); None: none. It stands for the
@@ -196,7 +238,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         unscented Kalman filter (13 sigma points through the same dynamics and measurement
         models; :mod:`visviva.od.unscented`), for an a priori covariance large enough for the
         problem to be nonlinear across it (km and m/s in LEO), where the extended filter is
-        overconfident, or diverges; about 1.4 times the cost per epoch.
+        overconfident, or diverges; about 1.4 times the cost per epoch. Not with
+        ``maneuvers=`` (refused: filter each arc between burns).
     sigma_points : tuple of float, optional
         (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
         (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.
@@ -213,7 +256,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     ------
     InvalidInputError
         A covariance that is not symmetric positive semi-definite, or NaN; observations before
-        the initial epoch; bad arguments; a state with pending manoeuvres.
+        the initial epoch; bad arguments; a state from an OPM with manoeuvres without
+        ``maneuvers=``.
     ShapeError
         A covariance that is not 6 x 6, or a process noise of the wrong size.
     ConvergenceError
@@ -264,7 +308,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
             "observations must be a vv.Observations table; build one with "
             "vv.Observations(time=..., kind=..., value=..., sigma=..., station=...)."
         )
-    x, gm, epoch = check_initial(initial)
+    x, gm, epoch = check_initial(initial, maneuvers)
+    from ..satellites.burn_segments import burn_schedule
+
+    schedule = burn_schedule([] if maneuvers is None else maneuvers, initial, epoch)
     P = _check_covariance(covariance)
     from .._covariance import frame_code
     from ..satellites.covariance import noise_density, noise_step_s
@@ -283,6 +330,13 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     if not isinstance(smoother, bool | np.bool_):
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
+    if method == "ukf" and schedule:
+        raise InvalidInputError(
+            'method="ukf" does not fly manoeuvres yet (its sigma points are integrated without '
+            'burns): use method="ekf" with maneuvers=, or run the unscented filter on the arcs '
+            "between burns, each from the last arc's estimate carried through the burn by "
+            "vv.propagate_covariance(..., maneuvers=)."
+        )
     rtol = DEFAULT_RTOL if rtol is None else _positive("rtol", rtol)
     atol = DEFAULT_ATOL if atol is None else _positive("atol", atol)
     offsets = observations.offsets_s(epoch)
@@ -298,6 +352,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     if epochs[0] != 0.0:
         epochs = np.concatenate([[0.0], epochs])
         epoch_index = epoch_index + 1
+    if schedule:  # burns within a microsecond of an epoch are at it (as propagate_cowell's)
+        schedule.snap(np.sort(epochs))
+    if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
+        x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
     screen = _Screen(observations, epoch, epochs, epoch_index, editing_sigma, divergence_count)
     if method == "ukf":
         from .unscented import unscented_pass
@@ -305,8 +363,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
         xs, Ps, xp, Pp, cross = unscented_pass(dyn, observations, x, P, epochs, screen, q,
                                                code, step_s, sigma_points)  # fmt: skip
     else:
-        xs, Ps, xp, Pp, phis = _ekf_pass(dyn, observations, x, P, epochs, screen, q, code,
-                                         step_s)  # fmt: skip
+        xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
+                                         code, step_s)  # fmt: skip
     # post-fit residuals: every row against the updated state at its epoch, in one call of the
     # (row by row) model after the pass instead of one per epoch (the same numbers)
     h, _ = model(observations, xs[epoch_index], gm)
@@ -337,9 +395,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, proce
     )  # fmt: skip
 
 
-def _ekf_pass(dyn, observations, x, P, epochs, screen, q, code, step_s):
-    """The extended Kalman filter forward over ``epochs``: filtered and predicted states and
-    covariances, and the STMs Phi(t_k, t_k-1) (the smoother's)."""
+def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s):
+    """The extended Kalman filter forward over ``epochs`` (through the burns of ``schedule``):
+    filtered and predicted states and covariances, and the STMs Phi(t_k, t_k-1) (the
+    smoother's)."""
     n_t = len(epochs)
     xs = np.empty((n_t, 6))
     Ps = np.empty((n_t, 6, 6))
@@ -355,12 +414,10 @@ def _ekf_pass(dyn, observations, x, P, epochs, screen, q, code, step_s):
         if k:
             grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s)
             try:
-                y, phi = _propagate(dyn, x, epochs[k - 1], epochs[k - 1] + grid)
+                x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
             except VisvivaError as exc:
                 raise screen.diverged(k, f"the estimate cannot be integrated ({exc})") from exc
-            P = _predict_covariance(x, grid, y, phi, P, q, code)
-            x = y[-1].copy()
-            xp[k], Pp[k], phis[k] = x, P, phi[-1]
+            xp[k], Pp[k] = x, P
         rows = screen.rows(k)
         if rows.size:
             h, H = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)

@@ -29,7 +29,8 @@ MIN_ELEVATION_RAD = np.radians(10.0)
 
 
 def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
-                          seed=None, light_time=True, radec_reference="gcrs"):  # fmt: skip
+                          maneuvers=None, seed=None, light_time=True,
+                          radec_reference="gcrs"):  # fmt: skip
     """Observations of the orbit through ``state``, with Gaussian noise of standard deviation sigma.
 
     Parameters
@@ -46,6 +47,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         Station per row (needed by every kind but ``"position"``).
     perturbations : list of Perturbation or None
         Dynamics of the truth (None: two-body).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Burns the truth flies (as :func:`~visviva.propagate_cowell`'s ``maneuvers=``; needed
+        for a state from an OPM with manoeuvres, ``[]`` to leave them out).
     seed : int, numpy Generator or False, optional
         Random seed or generator of the noise; ``False`` gives the exact values (the sigmas
         are still recorded).
@@ -70,11 +74,13 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     flags = {"light_time": light_time, "radec_reference": radec_reference}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
+    from ..satellites.burn_segments import burn_schedule
     from .batch import check_initial
 
-    x, gm, epoch = check_initial(state)
+    x, gm, epoch = check_initial(state, maneuvers)
     offsets = exact.offsets_s(epoch)
-    dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13)
+    dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13,
+                   schedule=burn_schedule([] if maneuvers is None else maneuvers, state, epoch))
     y, _ = dyn.propagate(x, offsets)
     h, _ = model(exact, y, gm)
     if seed is False:
@@ -97,7 +103,8 @@ def _placeholder(kind, n):
     return [np.zeros(KINDS[k][0]) if k in KINDS else 0.0 for k in kinds]
 
 def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
-                      min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True):  # fmt: skip
+                      min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True,
+                      maneuvers=None):  # fmt: skip
     """A tracking campaign: every station measures whenever the satellite is high enough.
 
     Parameters
@@ -119,6 +126,8 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         Noise seed (False: no noise).
     light_time : bool
         Include the signal's flight time (default; see :class:`~visviva.Observations`).
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Burns the truth flies (see :func:`simulate_observations`).
 
     Returns
     -------
@@ -136,7 +145,8 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     el_min = float(to_array(min_elevation, "angle", "min_elevation"))
     rows = []
     for order, s in enumerate(stations):
-        look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False)
+        look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False,
+                                     maneuvers=maneuvers)
         for i in np.flatnonzero(look.values[:, 1] > el_min):
             rows += [(i, order, k, sigma, s) for k, sigma in measurements]
     if not rows:
@@ -147,4 +157,5 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     rows.sort(key=lambda row: (row[0], row[1]))
     idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
     return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
-                                 perturbations, seed=seed, light_time=light_time)  # fmt: skip
+                                 perturbations, seed=seed, light_time=light_time,
+                                 maneuvers=maneuvers)  # fmt: skip

@@ -151,14 +151,31 @@ class ImpulsiveBurn(_Burn):
         Spacecraft mass before the burn (kg, > 0): with ``delta_mass``, the result reports the
         masses before and after, and drag and SRP follow the mass
         (:mod:`visviva.satellites.burn_mass`).
+    delta_v_covariance : Quantity or array_like (3, 3), optional
+        The execution error: covariance of the Δv actually flown about ``delta_v``, on the
+        axes of ``frame`` (speed^2, e.g. ``np.diag([1e-4, 1e-4, 1e-4]) * (u.m / u.s)**2``;
+        plain numbers are km^2/s^2). :func:`~visviva.propagate_covariance` and
+        :func:`~visviva.filter_orbit` add it to the velocity covariance at the burn.
+    magnitude_sigma : Quantity or float, optional
+        Instead of ``delta_v_covariance``: 1-sigma of the Δv's magnitude as a fraction of
+        |Δv| (dimensionless, e.g. ``1 * u.percent`` or 0.01; GMAT's and ODTK's
+        proportional error).
+    pointing_sigma : Quantity, optional
+        With or without ``magnitude_sigma``: 1-sigma of the pointing error of the Δv's
+        direction on each of the two axes across it (angle, e.g. ``0.5 * u.deg``).
 
     Notes
     -----
     The state at the burn's epoch is reported after the burn (velocity continuous from the
     right): an output time equal to the epoch gives v + Δv.
+
+    The execution error from ``magnitude_sigma`` s_m and ``pointing_sigma`` s_p is the
+    linearised Gates model (Gates 1963, JPL TR 32-504): with u = Δv / |Δv|,
+    C = (s_m |Δv|)^2 u u^T + (s_p |Δv|)^2 (I - u u^T), on the burn's own axes.
     """
 
-    def __init__(self, epoch, delta_v, frame: str = "GCRS", *, delta_mass=None, mass=None):
+    def __init__(self, epoch, delta_v, frame: str = "GCRS", *, delta_mass=None, mass=None,
+                 delta_v_covariance=None, magnitude_sigma=None, pointing_sigma=None):
         self.start = _when(epoch, "epoch")
         dv = to_vector(delta_v, "speed", "delta_v")
         if dv.shape != (3,):
@@ -182,6 +199,23 @@ class ImpulsiveBurn(_Burn):
                     f"mass must be one mass > 0 kg that the burn does not exhaust; got {m} kg "
                     f"with delta_mass = {self.delta_mass}.")
             self.mass = float(m) * u.kg
+        self.execution_covariance = _execution_covariance(dv, delta_v_covariance,
+                                                          magnitude_sigma, pointing_sigma)
+
+    def with_delta_v(self, delta_v_km_s):
+        """The same burn (epoch, frame, masses, execution error) with another Δv (km/s on
+        its axes): what a fit that estimates the Δv flies at each iteration."""
+        import copy
+
+        out = copy.copy(self)
+        out._dv = np.array(delta_v_km_s, dtype=np.float64).reshape(3)
+        out.delta_v = to_quantity(out._dv.copy(), "speed")
+        return out
+
+    @property
+    def delta_v_km_s(self) -> np.ndarray:
+        """The Δv as plain numbers, km/s on the axes of ``frame`` (a copy)."""
+        return self._dv.copy()
 
     @property
     def end(self):
@@ -290,6 +324,56 @@ class ImpulsiveBurn(_Burn):
     def __repr__(self):
         dv = ", ".join(f"{x:.6g}" for x in self._dv)
         return f"ImpulsiveBurn({_describe(self.start)}, [{dv}] km/s {self.frame})"
+
+
+def _execution_covariance(dv, covariance, magnitude_sigma, pointing_sigma):
+    """The 3 x 3 execution covariance (km^2/s^2, the burn's axes) of :class:`ImpulsiveBurn`,
+    or None."""
+    if covariance is not None:
+        if magnitude_sigma is not None or pointing_sigma is not None:
+            raise InvalidInputError(
+                "give delta_v_covariance or magnitude_sigma/pointing_sigma, not both.")
+        from .._covariance import require_psd
+        from .._units import is_quantity
+
+        try:
+            c = np.array(covariance.to_value((u.km / u.s) ** 2) if is_quantity(covariance)
+                         else covariance, dtype=np.float64)
+        except u.UnitConversionError:
+            raise InvalidInputError(
+                f"delta_v_covariance must be in speed^2 (e.g. (u.m / u.s)**2); got "
+                f"{covariance.unit}.") from None
+        if c.shape != (3, 3) or not np.all(np.isfinite(c)):
+            raise InvalidInputError(
+                f"delta_v_covariance must be a finite 3 x 3 matrix (the Δv's axes, km^2/s^2); "
+                f"got shape {c.shape}.")
+        if not np.allclose(c, c.T, rtol=0.0, atol=1e-8 * np.max(np.abs(c))):
+            raise InvalidInputError("delta_v_covariance is not symmetric.")
+        c = 0.5 * (c + c.T)
+        require_psd(c, "delta_v_covariance")
+        return c
+    if magnitude_sigma is None and pointing_sigma is None:
+        return None
+    n = float(np.linalg.norm(dv))
+    if n == 0.0:
+        raise InvalidInputError(
+            "magnitude_sigma and pointing_sigma are relative to a Δv of zero; give "
+            "delta_v_covariance (km^2/s^2) instead.")
+    u_hat = dv / n
+    out = np.zeros((3, 3))
+    if magnitude_sigma is not None:
+        sm = to_array(magnitude_sigma, "dimensionless", "magnitude_sigma", allow_plain=True)
+        if np.ndim(sm) != 0 or not (np.isfinite(sm) and sm >= 0):
+            raise InvalidInputError(f"magnitude_sigma must be one fraction >= 0 of |Δv| (e.g. "
+                                    f"0.01 or 1 * u.percent); got {magnitude_sigma!r}.")
+        out += (float(sm) * n) ** 2 * np.outer(u_hat, u_hat)
+    if pointing_sigma is not None:
+        sp = to_array(pointing_sigma, "angle", "pointing_sigma")
+        if np.ndim(sp) != 0 or not (np.isfinite(sp) and sp >= 0):
+            raise InvalidInputError(f"pointing_sigma must be one angle >= 0 (e.g. 0.5 * u.deg); "
+                                    f"got {pointing_sigma!r}.")
+        out += (float(sp) * n) ** 2 * (np.eye(3) - np.outer(u_hat, u_hat))
+    return out
 
 
 class FiniteBurn(_Burn):

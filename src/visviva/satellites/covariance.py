@@ -68,6 +68,12 @@ class CovarianceResult(CowellResult):
         The acceleration noise density used, km^2/s^3 per axis of ``process_noise_frame``.
     process_noise_frame : str or None
         ``"RTN"``, ``"GCRS"``, ... (None without process noise).
+    impulses : list of ImpulsiveBurn
+        The impulsive burns flown (``maneuvers=``), by epoch.
+    delta_v_partials : ndarray (T, 6, 3 n)
+        d y(t) / d Δv of each of the ``impulses`` (s in the position rows, dimensionless in
+        the velocity rows; Δv on each burn's own axes, the state on inertial axes; zero
+        before a burn).
     """
 
     def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):
@@ -181,25 +187,35 @@ def snc_covariance(dt, qc):
     return out
 
 
-def with_process_noise(grid, y, phi, P0, q, noise_code):
+def with_process_noise(grid, y, phi, P0, q, noise_code, jumps=None):
     """Covariances at the ``grid`` times (sorted, holding 0) with process noise, by the
     recursion P_k+1 = Phi_k+1,k P_k Phi_k+1,k^T + Q_k outward from the epoch.
 
     ``y`` (states) and ``phi`` (Phi(t, 0)) are at the grid times, ``P0`` at 0, ``q`` the three
     densities (km^2/s^3) on the axes of ``noise_code`` (:func:`visviva._covariance.frame_code`;
-    0 inertial). Also the prediction step of :func:`visviva.filter_orbit`.
+    0 inertial). Also the prediction step of :func:`visviva.filter_orbit`. ``jumps`` (optional,
+    {grid index: (6, 6)}) adds a covariance on arrival at that index (a burn's execution error
+    mapped there, :func:`burn_noise`).
     """
     P = np.empty((grid.size, 6, 6))
     k0 = int(np.flatnonzero(grid == 0.0)[0])
+    jumps = jumps or {}
     P[k0] = P0
+    if k0 in jumps or not np.array_equal(phi[k0], np.eye(6)):  # after an impulse at 0
+        p0 = phi[k0] @ P0 @ phi[k0].T + jumps.get(k0, 0.0)
+        P[k0] = 0.5 * (p0 + p0.T)
     for direction in (1, -1):
         k = k0
+        # backwards from the state given, before any impulse at 0 (Phi(t, 0-) on that side)
+        p_k, phi_k = (P[k0], phi[k0]) if direction > 0 else (P0, np.eye(6))
         while 0 <= k + direction < grid.size:
             j = k + direction
-            step = np.linalg.solve(phi[k].T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
-            pj = step @ P[k] @ step.T + step_noise(y[k], y[j], grid[j] - grid[k], q, noise_code)
+            step = np.linalg.solve(phi_k.T, phi[j].T).T  # Phi(t_j, t_k) = Phi_j Phi_k^-1
+            pj = step @ p_k @ step.T + step_noise(y[k], y[j], grid[j] - grid[k], q, noise_code)
+            if j in jumps:
+                pj = pj + jumps[j]
             P[j] = 0.5 * (pj + pj.T)
-            k = j
+            k, p_k, phi_k = j, P[j], phi[j]
     return P
 
 
@@ -230,7 +246,38 @@ def step_noise(y_from, y_to, dt, q, noise_code):
     return snc_covariance(dt, qc)
 
 
-def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str = "GCRS",
+def burn_noise(schedule, grid, sens, start=0.0, apply_at_start=True):
+    """The execution errors of the impulses of ``schedule``, each mapped to the first time of
+    ``grid`` past its burn (away from ``start``): {grid index: S C S^T}, S = d y / d Δv there
+    (``sens`` (T, 6, 3 n), :func:`visviva.satellites.burn_partials.propagate_through`), C the
+    burn's ``execution_covariance``. Burns without one, or not crossed (one at ``start``
+    without ``apply_at_start``), add nothing."""
+    from .burn_partials import impulses_of
+
+    out = {}
+    times = {id(m): a for a, _, m in (schedule.items if schedule else [])}
+    for k, burn in enumerate(impulses_of(schedule)):
+        c = burn.execution_covariance
+        if c is None:
+            continue
+        t_b = times[id(burn)]
+        if t_b == start and not apply_at_start:
+            continue
+        if t_b >= start:
+            idx = np.flatnonzero(grid >= t_b)
+            j = int(idx[0]) if idx.size else None
+        else:
+            idx = np.flatnonzero(grid < t_b)
+            j = int(idx[-1]) if idx.size else None
+        if j is None:
+            continue
+        s_j = sens[j, :, 3 * k:3 * k + 3]
+        out[j] = out.get(j, 0.0) + s_j @ c @ s_j.T
+    return out
+
+
+def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=None,
+                         frame: str = "GCRS",
                          output_frame: str | None = None, process_noise=None,
                          process_noise_frame: str = "RTN", noise_step=None,
                          rtol: float = 1e-12, atol: float = 1e-12, max_steps: int = 200_000):
@@ -252,6 +299,13 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         negative times give the covariance at earlier times) or absolute Times.
     perturbations : list of Perturbation or None
         As for :func:`~visviva.propagate_cowell`; ``[]`` or None is two-body motion.
+    maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
+        Burns flown through (as :func:`~visviva.propagate_cowell`'s ``maneuvers=``, e.g. an
+        OPM's ``opm.burns()``; ``[]`` for none): the STM crosses each impulse with its
+        Jacobian, and an impulse's ``execution_covariance`` (its ``delta_v_covariance`` or
+        ``magnitude_sigma``/``pointing_sigma``) is added at the burn. Finite burns are
+        integrated with their thrust's partials. Either direction of time. None (default):
+        no burns, and a state from an OPM with manoeuvres is refused.
     frame : str
         Axes of ``covariance``: ``"GCRS"`` (inertial) or a local frame of the state, ``"RTN"``
         (alias ``"RSW"``, ``"RIC"``), ``"TNW"``, ``"VNB"``.
@@ -290,7 +344,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     ------
     InvalidInputError
         A covariance that is not symmetric, not positive semi-definite, or not finite; a state
-        from an OPM with manoeuvres (burns are not propagated through: see Notes); bad frames.
+        from an OPM with manoeuvres without ``maneuvers=``; bad frames.
     ShapeError
         A covariance that is not 6 x 6, or a batch of states.
     SurfaceImpact
@@ -324,20 +378,29 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
     (a "banana"), which a Gaussian in Cartesian coordinates cannot describe; docs/cowell.md,
     "Covariance propagation", measures where this begins against a Monte Carlo.
 
-    Manoeuvres are not propagated through: an impulse on the axes of a local frame depends on
-    the state, so its STM is not the identity, and its execution error adds its own covariance.
-    Propagate to the burn, apply it to the state (:func:`~visviva.propagate_cowell` with
-    ``maneuvers=``) and its uncertainty to the covariance, and continue from after it.
+    Through a burn (:mod:`visviva.satellites.burn_partials`): an impulse Δv held on a local
+    frame's axes turns with the state, v+ = v- + M(r, v-)^T Δv, so its STM is not the identity
+    but Phi_burn = I + [[0, 0], [d(M^T Δv)/dr, d(M^T Δv)/dv]] (analytic). Its execution error,
+    a covariance C of the Δv on the burn's axes, adds S C S^T with S = Phi(t, t_b+)
+    [[0], [M^T]]: at an output time t past the burn::
+
+        P(t) = Phi(t, t0) P0 Phi(t, t0)^T + sum_k S_k(t) C_k S_k(t)^T.
+
+    Backwards across a burn the maps are inverted (Phi_burn^-1, S = -Phi(t, t_b-)
+    Phi_burn^-1 [[0], [M^T]]). A finite burn's thrust on a local frame enters the variational
+    equations with its partials a(t) d(M^T u)/d(r, v); its execution error is not modelled
+    (add process noise over it).
     """
     if not hasattr(state, "r") or not hasattr(state, "v") or not hasattr(state, "gm"):
         raise InvalidInputError(
             "state must be a vv.StateVectors (with .r, .v, .gm), e.g. fit.state of vv.fit_orbit."
         )
     require_gcrs(state, "propagate_covariance")
-    from .._containers import refuse_pending
+    if maneuvers is None:
+        from .._containers import refuse_pending
 
-    refuse_pending(state, "propagate_covariance", "Propagate the covariance to each burn, apply "
-                   "the burn and its execution error, and continue from after it.")
+        refuse_pending(state, "propagate_covariance", "Pass maneuvers=opm.burns() to fly them "
+                       "(with their execution errors), or maneuvers=[] to propagate without.")
     r0 = to_vector(state.r, "length", "state.r")
     v0 = to_vector(state.v, "speed", "state.v")
     if r0.shape != (3,) or v0.shape != (3,):
@@ -381,10 +444,14 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
     perturbations = list(perturbation_list(perturbations, allow_none=True))
     body = watched_body(gm, perturbations, r0)
+    from .burn_partials import impulses_of
+    from .burn_segments import burn_schedule
     from .variational import Dynamics
 
+    schedule = burn_schedule([] if maneuvers is None else maneuvers, state, epoch)
     grid = offsets if q is None else _noise_grid(offsets, step_s)
-    dyn = Dynamics(gm, perturbations, epoch, (grid.min(), grid.max()), rtol, atol)
+    dyn = Dynamics(gm, perturbations, epoch, (grid.min(), grid.max()), rtol, atol,
+                   schedule=schedule)
     try:
         y, phi = dyn.propagate(np.concatenate([r0, v0]), grid, max_steps)
     except (StepSizeError, InvalidInputError):
@@ -392,14 +459,20 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
             from .cowell import propagate_cowell
 
             propagate_cowell(state, grid * u.s, perturbations, rtol=rtol, atol=atol,
-                             max_steps=max_steps, maneuvers=[])
+                             max_steps=max_steps, maneuvers=maneuvers or [])
         raise
     if q is None:
         P = phi @ P0 @ np.swapaxes(phi, -1, -2)
+        for k, burn in enumerate(impulses_of(schedule)):
+            if burn.execution_covariance is not None:
+                s_k = dyn.sensitivity[:, :, 3 * k:3 * k + 3]
+                P = P + s_k @ burn.execution_covariance @ np.swapaxes(s_k, -1, -2)
         P = 0.5 * (P + np.swapaxes(P, -1, -2))
     else:
-        P = with_process_noise(grid, y, phi, P0, q, noise_code)
-        keep = np.searchsorted(grid, offsets)
+        P = with_process_noise(grid, y, phi, P0, q, noise_code,
+                               burn_noise(schedule, grid, dyn.sensitivity))
+    keep = np.searchsorted(grid, offsets)
+    if q is not None:
         y, phi, P = y[keep], phi[keep], P[keep]
     P = to_local(P, y[:, :3], y[:, 3:], out_code)
     if body is not None:
@@ -418,5 +491,9 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, frame: str =
         dyn.n_evaluations, scalar,
     )
     out_label = "GCRS" if out_code == 0 else str(out_name).upper()
-    return CovarianceResult(base, P[0] if scalar else P, phi[0] if scalar else phi, out_label,
-                            q, None if q is None else str(process_noise_frame).upper())
+    out = CovarianceResult(base, P[0] if scalar else P, phi[0] if scalar else phi, out_label,
+                           q, None if q is None else str(process_noise_frame).upper())
+    sens = dyn.sensitivity if q is None else dyn.sensitivity[keep]
+    out.impulses = impulses_of(schedule)
+    out.delta_v_partials = sens[0] if scalar else sens
+    return out

@@ -43,10 +43,17 @@ class Dynamics:
         (earliest, latest) offsets from the epoch the arc needs, s.
     rtol, atol : float
         Integration tolerances (atol in km and km/s).
+    schedule : Schedule, optional
+        Burns (:func:`visviva.satellites.burn_segments.burn_schedule`): the arc is integrated
+        segment by segment through them (:func:`visviva.satellites.burn_partials.
+        propagate_through`), and after :meth:`propagate` ``sensitivity`` (T, 6, 3 n) holds the
+        partials of the states on the Δv of its n impulses (``impulses``).
     """
 
     def __init__(self, gm_km3_s2, perturbations, epoch, span_s, rtol=DEFAULT_RTOL,
-                 atol=DEFAULT_ATOL):  # fmt: skip
+                 atol=DEFAULT_ATOL, schedule=None):  # fmt: skip
+        self.schedule = schedule
+        self.sensitivity = None
         self.perturbations = list(perturbation_list(perturbations, allow_none=True))
         span = (min(0.0, float(span_s[0])) - 60.0, max(0.0, float(span_s[1])) + 60.0)
         self.model = ForceModel(gm_km3_s2, self.perturbations, (), epoch, span)
@@ -61,12 +68,19 @@ class Dynamics:
         integration outward from the epoch. Afterwards ``n_steps`` and ``n_evaluations`` hold the
         steps and right-hand-side evaluations of the call.
         """
+        if self.schedule:
+            from .burn_partials import propagate_through
+
+            y, phi, self.sensitivity = propagate_through(self, self.schedule, y0, offsets_s,
+                                                         max_steps=max_steps)
+            return y, phi
         from ..core.variational import integrate_variational
 
         A, B, C, E3, E5, D = dop853_tableau()
         offsets_s = np.asarray(offsets_s, dtype=np.float64)
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
         self.n_steps = self.n_evaluations = 0
+        self.sensitivity = np.zeros((offsets_s.size, 6, 0))
         y_all = np.empty((offsets_s.size, 6))
         phi_all = np.empty((offsets_s.size, 6, 6))
         for side in (-1.0, 1.0):

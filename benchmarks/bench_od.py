@@ -266,7 +266,8 @@ def _dask_row(cases):
         from visviva.od.tle_batch import _fit_packed, _pack
 
         # warm every worker (imports, first SGP4 and astropy calls), not just the first one
-        client.run(_fit_packed, _pack(list(zip(histories[:2], satnums[:2], strict=True)), "teme"), {})
+        warm = list(zip(histories[:2], satnums[:2], [None, None], strict=True))  # no initials
+        client.run(_fit_packed, _pack(warm, "teme"), {})
         before = client.run(time.process_time)
         c0, t0 = time.process_time(), time.perf_counter()
         sats = vv.od.fit_tle_batch(histories, satnums, client=client, frame="teme")

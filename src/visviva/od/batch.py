@@ -193,6 +193,11 @@ class OrbitFit:
                                    consider=unit, output_frame="GCRS", **kwargs)
         s = out.parameter_partials
         p = out.covariance - s @ np.swapaxes(s, -1, -2)  # less the unit coefficients' part
+        if self.estimated_maneuvers:  # the estimated Δvs' columns come first
+            burns = out.impulses
+            cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])
+                                   for i in self.estimated_maneuvers])
+            s = np.concatenate([out.delta_v_partials[..., cols], s], axis=-1)
         cross = out.stm @ joint[:6, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2) + s @ joint[6:, 6:] @ np.swapaxes(s, -1, -2)
         code = frame_code(out_name, "output_frame")
@@ -375,7 +380,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     Consider parameters c of covariance C (``consider=``; Tapley et al., sec. 6.3; Bierman
     1977, ch. VI): with the whitened partials A_c of the data on c, the estimate's sensitivity
     S_xc = -P A^T A_c and its covariance P_c = P + S_xc C S_xc^T (:mod:`visviva.od.parameters`).
-    Neither is supported with ``maneuvers=`` yet.
+    With burns the coefficients' partials are carried through them like the Δv's.
     """
     from ..satellites.cowell import perturbation_list
     from ..states import StateVectors
@@ -399,10 +404,6 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     burns = [] if maneuvers is None else (
         [maneuvers] if not isinstance(maneuvers, list | tuple) else list(maneuvers))
     chosen = _estimated(burns, estimate_maneuvers)
-    if (estimate or consider) and burns:
-        raise InvalidInputError(
-            "estimate=/consider= of drag or SRP coefficients with maneuvers= is not supported "
-            "yet: fit the arcs between the burns, or hold the coefficients known.")
     from .parameters import coefficients
 
     est, con = coefficients(perturbation_list(perturbations, allow_none=True), estimate,
@@ -430,8 +431,6 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                    schedule=schedule)
     dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
     pv = np.array([c.value for c in est])
-    for c in con:
-        c.write(dyn, c.value)
     priors = _maneuver_priors([burns[i] for i in chosen], chosen)
     flown = list(burns)
     kinds = observations.kinds

@@ -327,7 +327,6 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
         held at their values, their variance C mapped through the sensitivities S(t) = d y(t) /
         d p integrated with the STM and added, P(t) += S C S^T (uncorrelated with the state);
         ``.parameter_partials`` (T, 6, q) holds S (:mod:`visviva.satellites.force_parameters`).
-        Not with ``maneuvers=``.
     rtol, atol : float
         Integration tolerances of the state (atol in km and km/s); the defaults are
         :func:`~visviva.propagate_cowell`'s, so the states equal its states to ~1e-9 relative.

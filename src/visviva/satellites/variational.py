@@ -74,14 +74,14 @@ class Dynamics:
         for a force that is off (:func:`visviva.core.force_partials.parameter_accelerations`).
         """
         if self.schedule:
-            if parameters:
-                raise InvalidInputError(
-                    "drag/SRP coefficient partials through burns are not supported yet: fit "
-                    "the arc between the burns, or leave the coefficients known.")
             from .burn_partials import propagate_through
 
-            y, phi, self.sensitivity = propagate_through(self, self.schedule, y0, offsets_s,
-                                                         max_steps=max_steps)
+            y, phi, sens = propagate_through(self, self.schedule, y0, offsets_s,
+                                             max_steps=max_steps, parameters=parameters)
+            if parameters:  # the coefficients' columns, carried through the burns
+                self.parameter_partials = sens[..., sens.shape[-1] - 2:]
+                sens = sens[..., :sens.shape[-1] - 2]
+            self.sensitivity = sens
             return y, phi
         from ..core.variational import integrate_variational
 

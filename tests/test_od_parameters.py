@@ -343,3 +343,29 @@ def test_fit_estimates_drag_and_a_burn_together():
     err = (out.r[1] - ref.r).to_value(u.km)
     p = out.covariance[1][:3, :3]
     assert err @ np.linalg.solve(p, err) < stats.chi2.ppf(0.999, 3)
+
+
+def test_unobservable_or_runaway_coefficients_are_refused():
+    """Cr from 10 minutes of a LEO (no visible effect) without an a priori: refused up front or
+    as an estimate outside the force's domain, never returned as a silent wrong number; with
+    an a priori it stays at its starting value within its sigma."""
+    obs = _leo_positions(2.2, seed=9, hours=0.2)
+    forces = _leo_forces(2.2) + [vv.SolarRadiationPressure(0.01 * M2KG, reflectivity=1.3,
+                                                           shadow=None), vv.ThirdBody(vv.SUN)]
+    try:
+        fit = vv.fit_orbit(obs, LEO_GUESS, forces, estimate="srp")
+    except (InvalidInputError, vv.ConvergenceError) as exc:
+        assert "srp" in str(exc) or "determine" in str(exc)
+    else:  # the data determine it only loosely: an honest, huge sigma
+        assert fit.parameter_sigma["srp"] > 10
+    held = vv.fit_orbit(obs, LEO_GUESS, forces, estimate="srp", parameter_sigma={"srp": 0.2})
+    assert abs(held.parameters["srp"] - 1.3) < 0.2 * 0.01
+    assert 0.19 < held.parameter_sigma["srp"] <= 0.2
+    # a coefficient with no trace at all in the data (e.g. SRP of an arc in the umbra)
+    from visviva.od.parameters import check_observable, coefficients
+
+    est, _ = coefficients(forces, "srp", None, None)
+    with pytest.raises(InvalidInputError, match="no effect"):
+        check_observable(np.zeros((5, 3, 1)), est)
+    est, _ = coefficients(forces, "srp", {"srp": 0.2}, None)
+    check_observable(np.zeros((5, 3, 1)), est)  # an a priori alone determines it

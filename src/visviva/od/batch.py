@@ -30,7 +30,8 @@ class OrbitFit:
     state : StateVectors
         Estimated GCRS state at ``epoch`` (km, km/s).
     covariance : ndarray (6, 6)
-        Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz).
+        Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz);
+        with ``consider=``, the consider covariance (data and considered coefficients).
     residuals : ndarray (N, 3)
         Observed minus computed for each observation at the estimate (km, km/s, rad; the
         components beyond a row's own are zero).

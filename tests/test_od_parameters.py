@@ -369,3 +369,50 @@ def test_unobservable_or_runaway_coefficients_are_refused():
         check_observable(np.zeros((5, 3, 1)), est)
     est, _ = coefficients(forces, "srp", {"srp": 0.2}, None)
     check_observable(np.zeros((5, 3, 1)), est)  # an a priori alone determines it
+
+
+def test_drag_partial_with_the_nrlmsis_grid_matches_differences():
+    """The NRLMSIS density grid (model 1) gives the drag partial the right-hand side's density."""
+    pytest.importorskip("pymsis")
+    y0 = np.array([6728.0, 10.0, 20.0, -0.01, 4.9, 5.9])
+    t = np.linspace(0, 20000, 8)
+
+    def forces(bc):
+        return [vv.J2(vv.EARTH), vv.AtmosphericDrag(bc * M2KG, model="nrlmsis", f107=150,
+                                                    f107a=150, ap=4)]
+
+    dyn = Dynamics(vv.EARTH.gm_km3_s2, forces(0.026), EPOCH, (0, 20000))
+    dyn.propagate(y0, t, parameters=True)
+    state = vv.StateVectors(y0[:3] * u.km, y0[3:] * KMS, vv.EARTH, epoch=EPOCH)
+    h = 1e-4 * 0.026
+    up = vv.propagate_cowell(state, t * u.s, forces(0.026 + h), rtol=1e-13, atol=1e-13)
+    dn = vv.propagate_cowell(state, t * u.s, forces(0.026 - h), rtol=1e-13, atol=1e-13)
+    fd = np.c_[(up.r - dn.r).to_value(u.km), (up.v - dn.v).to_value(KMS)] / (2 * h * 1e-6)
+    s = dyn.parameter_partials[..., 0]
+    assert np.abs(s[-1, :3]).max() * 0.026e-6 > 0.01  # > 10 m in 5.5 h
+    np.testing.assert_allclose(s, fd, rtol=0, atol=1e-5 * np.abs(fd).max())
+
+
+def test_estimated_and_considered_coefficients_together_propagate_in_their_order():
+    """Cr estimated (with an a priori) while B is considered: fit.propagate maps the joint
+    covariance of (state, Cr, B) with [Phi, S_Cr, S_B] (columns in the fit's order)."""
+    forces = _leo_forces(2.2) + [vv.SolarRadiationPressure(0.01 * M2KG, reflectivity=1.3),
+                                 vv.ThirdBody(vv.SUN)]
+    obs = _leo_positions(2.2, seed=12, hours=3)
+    fit = vv.fit_orbit(obs, LEO_GUESS, forces, estimate="srp", parameter_sigma={"srp": 0.3},
+                       consider={"drag": 0.002 * M2KG})
+    assert list(fit.parameters) == ["srp"] and list(fit.considered) == ["drag"]
+    assert fit.full_covariance.shape == (7, 7) and fit.consider_sensitivity.shape == (7, 1)
+    t = [0.0, 6 * 3600.0] * u.s
+    out = fit.propagate(t)
+    np.testing.assert_allclose(out.covariance[0], fit.covariance, rtol=1e-8, atol=1e-20)
+    unit = vv.propagate_covariance(fit.state, np.zeros((6, 6)), t, fit.perturbations,
+                                   consider={"drag": 1 * M2KG, "srp": 1.0})
+    m = np.concatenate([unit.stm, unit.parameter_partials[..., [1, 0]]], axis=-1)
+    c = 0.002**2
+    joint = np.zeros((8, 8))
+    joint[:7, :7] = fit.full_covariance
+    joint[:7, 7] = joint[7, :7] = fit.consider_sensitivity[:, 0] * c
+    joint[7, 7] = c
+    want = m @ joint @ np.swapaxes(m, -1, -2)
+    np.testing.assert_allclose(out.covariance, want, rtol=1e-7, atol=1e-14)

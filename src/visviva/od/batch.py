@@ -172,6 +172,7 @@ class OrbitFit:
 
         from .._covariance import frame_code, km_covariance, to_local
         from ..satellites.covariance import propagate_covariance
+        from ..satellites.force_parameters import NAMES
 
         if "consider" in kwargs:
             raise InvalidInputError("fit.propagate carries the fit's own considered "
@@ -194,6 +195,8 @@ class OrbitFit:
                                    consider=unit, output_frame="GCRS", **kwargs)
         s = out.parameter_partials
         p = out.covariance - s @ np.swapaxes(s, -1, -2)  # less the unit coefficients' part
+        canonical = [k for k in NAMES if k in names]  # propagate_covariance's column order
+        s = s[..., [canonical.index(k) for k in names]]
         if self.estimated_maneuvers:  # the estimated Δvs' columns come first
             burns = out.impulses
             cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])

@@ -37,8 +37,11 @@ from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .local_frames import to_inertial_jacobian
 from .perturbations import (
+    accel_drag_rho,
+    accel_srp,
     band_density,
     cunningham_vw,
+    drag_density,
     exponential_band,
     geodetic_altitude,
     grid_log_density_gradient_at,
@@ -46,7 +49,11 @@ from .perturbations import (
     shadow_fraction,
 )
 
-__all__ = ["acceleration_partials"]
+__all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
+
+#: solve-for parameters of the variational equations: d a / d force[BALLISTIC], then
+#: d a / d force[SRP_COEFFICIENT] (:func:`parameter_accelerations`)
+N_PARAMETERS = 2
 
 
 @kernel
@@ -241,6 +248,43 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
                                    force, dadr)  # fmt: skip
     if force[fb.THRUST_ON] != 0.0 and int(force[fb.THRUST_FRAME]) != 0:
         _add_thrust_gradient(t, y, force, dadr, dadv)
+
+
+@kernel
+def parameter_accelerations(t, y, force, atm, eph_r, eph_v, out):
+    """Write the partials of the Cowell acceleration on the force block's drag and SRP
+    coefficients into ``out`` (at least (2, 3)).
+
+    ``out[0]`` = d a / d ``force[BALLISTIC]`` (Cd A / m, km^2/kg), the drag acceleration of a
+    unit ballistic coefficient, 1/s^2 x kg/km; ``out[1]`` = d a / d ``force[SRP_COEFFICIENT]``
+    (P(1 AU) Cr A / m, km/s^2), the SRP acceleration of a unit coefficient (dimensionless).
+    Both accelerations are linear in their coefficient, so these are exact, also where the
+    coefficient is zero; each is zero when its force is off. The density, the held band, the
+    shadow and the mass scale of a finite burn are those of
+    :func:`visviva.core.perturbations.cowell_rhs`.
+    """
+    x = y[0]
+    yy = y[1]
+    z = y[2]
+    for i in range(3):
+        out[0, i] = 0.0
+        out[1, i] = 0.0
+    sun = int(force[fb.SUN_ROW])
+    sun_pos = np.zeros(3)
+    if sun >= 0:
+        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    mass_scale = 1.0
+    if force[fb.THRUST_ON] != 0.0:
+        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    if force[fb.DRAG_ON] != 0.0:
+        rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
+        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, mass_scale, force[fb.ROTATION_RATE],
+                       out[0])  # fmt: skip
+    if force[fb.SRP_ON] != 0.0 and sun >= 0:
+        nu = shadow_fraction(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS],
+                             force[fb.SUN_RADIUS], int(force[fb.SHADOW_MODEL]))  # fmt: skip
+        accel_srp(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], mass_scale, force[fb.AU], nu,
+                  out[1])  # fmt: skip
 
 
 @kernel

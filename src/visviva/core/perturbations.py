@@ -48,6 +48,7 @@ __all__ = [
     "grid_log_density",
     "grid_density",
     "accel_drag",
+    "drag_density",
     "accel_third_body",
     "accel_srp",
     "shadow_fraction",
@@ -593,6 +594,21 @@ def zonal_rhs(y, force, zonal, dy):
 
 
 @kernel
+def drag_density(x, yy, z, sun, sun_pos, force, atm):
+    """The density of the block's drag model at (x, yy, z) (km), kg/m^3: the gridded model
+    (NRLMSIS, the Sun at ``sun_pos``, its row ``sun``) or the exponential table, whose band
+    is the one held by the integrator for a step (``DENSITY_BAND`` = band + 1), else (0) the
+    one of the altitude."""
+    if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
+        return grid_density_at(x, yy, z, sun_pos, force, atm)
+    h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
+    band = int(force[fb.DENSITY_BAND]) - 1
+    if band < 0:
+        band = exponential_band(h, atm)
+    return band_density(h, atm, band)
+
+
+@kernel
 def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
@@ -621,17 +637,8 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     if force[fb.THRUST_ON] != 0.0:
         mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
     if force[fb.DRAG_ON] != 0.0:
-        if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-            rho = grid_density_at(x, yy, z, sun_pos, force, atm)
-            accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
-        else:
-            # the exponential table's band: held by the integrator for a step (DENSITY_BAND =
-            # band + 1), else (0) the one of the altitude
-            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-            band = int(force[fb.DENSITY_BAND]) - 1
-            if band < 0:
-                band = exponential_band(h, atm)
-            accel_drag_rho(x, yy, z, y[3], y[4], y[5], band_density(h, atm, band), force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
+        rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
+        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)

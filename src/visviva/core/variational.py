@@ -15,6 +15,15 @@ the trajectory is the one ``propagate_cowell`` computes, to the integration tole
 The partials F are :func:`visviva.core.force_partials.acceleration_partials` (each exact for its
 force term; see that module).
 
+Parameter sensitivities: with ``phi_out`` of 6 + N_PARAMETERS columns the matrix carries two more
+columns, S = d y / d p on the force block's drag coefficient (``BALLISTIC``, Cd A / m) and SRP
+coefficient (``SRP_COEFFICIENT``), integrated with the STM as S' = F S + [0; da/dp], S(t0) = 0
+(the sensitivity matrix of Montenbruck & Gill 2000, sec. 7.1), the
+accelerations being linear in their coefficients (da/dp is the acceleration of a unit coefficient,
+:func:`visviva.core.force_partials.parameter_accelerations`). The steps, their error control on the
+state and the saltation at the boundaries (which do not move with p) are those of the STM alone:
+a run without the columns is bitwise the run it was before they existed.
+
 Integration is DOP853 (the tableau of :mod:`visviva.core.cowell`) with the step-size control
 on the six state components only; each step is shortened to land on the next output time, so
 the STM at every output is that of the integrated trajectory. With SRP and a shadow model the
@@ -46,7 +55,7 @@ from .cowell_events import (
     srp_shadow_model,
 )
 from .drag_bands import altitude_gradient, band_crossing, bands_on, hold_band, start_band
-from .force_partials import acceleration_partials
+from .force_partials import N_PARAMETERS, acceleration_partials, parameter_accelerations
 from .perturbations import cowell_rhs
 
 __all__ = ["acceleration_partials", "variational_rhs", "integrate_variational", "N_VAR"]
@@ -61,18 +70,27 @@ _N_STAGES = 12
 
 @kernel
 def variational_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, dadr, dadv):
-    """Derivative of the augmented state (r, v, Phi): 42 components, Phi row-major."""
+    """Derivative of the augmented state (r, v, Phi): 42 components, Phi row-major; or
+    6 + 6 (6 + N_PARAMETERS) components, Phi with the sensitivities S = d y / d p on the
+    force block's drag and SRP coefficients as its last columns (S' = F S + [0; da/dp])."""
     cowell_rhs(t, y[:6], force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy[:6])
     acceleration_partials(t, y[:6], force, zonal, atm, eph_r, eph_v, eph_gm, sh, dadr, dadv)
+    nc = (y.shape[0] - 6) // 6  # 6, or 6 + N_PARAMETERS with the parameters' columns
     # Phi' = F Phi with F = [[0, I], [dadr, dadv]]
-    for j in range(6):
+    for j in range(nc):
         for i in range(3):
-            dy[6 + i * 6 + j] = y[6 + (i + 3) * 6 + j]
+            dy[6 + i * nc + j] = y[6 + (i + 3) * nc + j]
         for i in range(3):
             acc = 0.0
             for m in range(3):
-                acc += dadr[i, m] * y[6 + m * 6 + j] + dadv[i, m] * y[6 + (m + 3) * 6 + j]
-            dy[6 + (i + 3) * 6 + j] = acc
+                acc += dadr[i, m] * y[6 + m * nc + j] + dadv[i, m] * y[6 + (m + 3) * nc + j]
+            dy[6 + (i + 3) * nc + j] = acc
+    if nc > 6:
+        # S' = F S + [0; d a / d p]: the partials on the coefficients (dadr is free now)
+        parameter_accelerations(t, y[:6], force, atm, eph_r, eph_v, dadr)
+        for p in range(N_PARAMETERS):
+            for i in range(3):
+                dy[6 + (i + 3) * nc + 6 + p] += dadr[p, i]
 
 
 @kernel
@@ -97,10 +115,11 @@ def _saltation(y, a_old, a_new, grad, rate):
     ``grad`` crossed at the rate ``rate`` (:func:`_boundary_jump`)."""
     if rate == 0.0:
         return
-    for j in range(6):
-        w = (grad[0] * y[6 + j] + grad[1] * y[12 + j] + grad[2] * y[18 + j]) / rate
+    nc = (y.shape[0] - 6) // 6  # the boundary does not move with p: S jumps as Phi does
+    for j in range(nc):
+        w = (grad[0] * y[6 + j] + grad[1] * y[6 + nc + j] + grad[2] * y[6 + 2 * nc + j]) / rate
         for i in range(3):
-            y[6 + (3 + i) * 6 + j] += (a_new[i] - a_old[i]) * w
+            y[6 + (3 + i) * nc + j] += (a_new[i] - a_old[i]) * w
 
 
 @kernel
@@ -126,8 +145,10 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         The DOP853 tableau (``D``: the dense output, used with a shadow only).
     y_out : ndarray (T, 6)
         Output: states at ``t_out``.
-    phi_out : ndarray (T, 6, 6)
-        Output: Phi(t_out, 0).
+    phi_out : ndarray (T, 6, 6) or (T, 6, 6 + N_PARAMETERS)
+        Output: Phi(t_out, 0); with 8 columns also the sensitivities d y(t_out) / d p on
+        ``force[BALLISTIC]`` and ``force[SRP_COEFFICIENT]`` (p(0) = 0 columns, integrated
+        alongside Phi with the same steps; the error control is on the state only).
     info : ndarray (3,)
         Output: [outputs written, steps (with a shadow, also those redone up to a boundary),
         right-hand-side evaluations].
@@ -137,12 +158,13 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     int
         ``OK`` or ``STEP_TOO_SMALL``.
     """
-    n = N_VAR
+    nc = phi_out.shape[2]  # 6, or 6 + N_PARAMETERS: the coefficients' sensitivities too
+    n = 6 + 6 * nc
     n_out = t_out.shape[0]
     y = np.zeros(n)
     for j in range(6):
         y[j] = y0[j]
-        y[6 + j * 6 + j] = 1.0
+        y[6 + j * nc + j] = 1.0
     K = np.zeros((16, n))
     y_new = np.empty(n)
     y_tmp = np.empty(n)
@@ -197,8 +219,8 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
         if direction * (target - t) <= 0.0:
             for j in range(6):
                 y_out[written, j] = y[j]
-                for m in range(6):
-                    phi_out[written, j, m] = y[6 + j * 6 + m]
+                for m in range(nc):
+                    phi_out[written, j, m] = y[6 + j * nc + m]
             written += 1
             continue
         if n_steps >= max_steps:

@@ -30,7 +30,8 @@ class OrbitFit:
     state : StateVectors
         Estimated GCRS state at ``epoch`` (km, km/s).
     covariance : ndarray (6, 6)
-        Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz).
+        Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz);
+        with ``consider=``, the consider covariance (data and considered coefficients).
     residuals : ndarray (N, 3)
         Observed minus computed for each observation at the estimate (km, km/s, rad; the
         components beyond a row's own are zero).
@@ -54,8 +55,6 @@ class OrbitFit:
         Sum of squared normalised residuals of the accepted rows.
     dof : int
         Accepted measurement components minus 6.
-    perturbations : list of Perturbation
-        The dynamics of the fit (what :meth:`propagate` uses by default).
     maneuvers : list of ImpulsiveBurn / FiniteBurn
         The burns of the fit's dynamics, the estimated ones with their estimated Δv (what
         :meth:`propagate` flies); empty without burns.
@@ -65,8 +64,26 @@ class OrbitFit:
         The estimated Δv of those burns, km/s, on each burn's own axes (its ``frame``).
     delta_v_covariance : ndarray (m, 3, 3)
         Their formal covariances, km^2/s^2, on the same axes.
-    full_covariance : ndarray (6 + 3 m, 6 + 3 m)
-        The covariance of the whole estimate (state, then each Δv), km and km/s based.
+    full_covariance : ndarray (6 + 3 m + k, 6 + 3 m + k)
+        The covariance of the whole estimate (state, then each Δv, then the k estimated
+        coefficients in ``parameters`` order), km and km/s based, m^2/kg for drag's B,
+        dimensionless for Cr; with ``consider=`` the consider covariance.
+    noise_covariance : ndarray (6, 6)
+        The data-only covariance of the state (the same as ``covariance`` without ``consider=``).
+    parameters : dict
+        The estimated coefficients (``estimate=``): ``"drag"``, the ballistic coefficient
+        B = Cd A / m (Quantity, m^2/kg), ``"srp"``, the reflectivity Cr (float); empty without.
+    parameter_sigma : dict
+        Their formal 1-sigma, same keys and units.
+    parameter_covariance : ndarray (k, k)
+        Their covariance (m^2/kg for B, dimensionless for Cr).
+    considered : dict
+        The consider parameters (``consider=``) and their sigmas.
+    consider_sensitivity : ndarray (6 + 3 m + k, q)
+        S_xc = d x_hat / d c of the estimate on the q consider parameters (their units).
+    perturbations : list of Perturbation
+        The dynamics of the fit (what :meth:`propagate` uses by default), the estimated
+        coefficients in their forces.
     """
 
     def __init__(self, **kw):
@@ -121,6 +138,8 @@ class OrbitFit:
             raise InvalidInputError("fit.propagate flies the fit's own burns (fit.maneuvers); "
                                     "call vv.propagate_covariance for other ones.")
         dyn = self.perturbations if perturbations is None else perturbations
+        if self.parameters or self.considered:
+            return self._propagate_parameters(t, dyn, kwargs)
         if not self.estimated_maneuvers:
             return propagate_covariance(self.state, self.covariance, t, dyn,
                                         maneuvers=self.maneuvers, **kwargs)
@@ -137,6 +156,54 @@ class OrbitFit:
         cross = out.stm @ pxv @ np.swapaxes(s, -1, -2)
         p = out.covariance + s @ self.full_covariance[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2)
+        code = frame_code(out_name, "output_frame")
+        r = np.atleast_2d(out.r.to_value("km"))
+        v = np.atleast_2d(out.v.to_value("km/s"))
+        out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
+                                       .reshape(p.shape))
+        out.frame = "GCRS" if code == 0 else str(out_name).upper()
+        return out
+
+    def _propagate_parameters(self, t, dyn, kwargs):
+        """:meth:`propagate` with estimated or considered coefficients: the state's error and
+        the coefficients' (estimated: their covariance and correlation with the state;
+        considered: C and S_xc C) mapped by [Phi, S_p], S_p = d y(t) / d p."""
+        from astropy import units as u
+
+        from .._covariance import frame_code, km_covariance, to_local
+        from ..satellites.covariance import propagate_covariance
+        from ..satellites.force_parameters import NAMES
+
+        if "consider" in kwargs:
+            raise InvalidInputError("fit.propagate carries the fit's own considered "
+                                    "coefficients (fit.considered); call "
+                                    "vv.propagate_covariance for other ones.")
+        names = list(self.parameters) + list(self.considered)
+        unit = {n: (1.0 * u.m**2 / u.kg if n == "drag" else 1.0) for n in names}
+        out_name = kwargs.pop("output_frame", None) or kwargs.get("frame", "GCRS")
+        n = self.full_covariance.shape[0]
+        q = len(self.considered)
+        joint = np.zeros((n + q, n + q))
+        joint[:n, :n] = self.full_covariance
+        if q:
+            c = np.diag([float(np.square(getattr(v, "value", v)))
+                         for v in self.considered.values()])
+            joint[:n, n:] = self.consider_sensitivity @ c
+            joint[n:, :n] = joint[:n, n:].T
+            joint[n:, n:] = c
+        out = propagate_covariance(self.state, joint[:6, :6], t, dyn, maneuvers=self.maneuvers,
+                                   consider=unit, output_frame="GCRS", **kwargs)
+        s = out.parameter_partials
+        p = out.covariance - s @ np.swapaxes(s, -1, -2)  # less the unit coefficients' part
+        canonical = [k for k in NAMES if k in names]  # propagate_covariance's column order
+        s = s[..., [canonical.index(k) for k in names]]
+        if self.estimated_maneuvers:  # the estimated Δvs' columns come first
+            burns = out.impulses
+            cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])
+                                   for i in self.estimated_maneuvers])
+            s = np.concatenate([out.delta_v_partials[..., cols], s], axis=-1)
+        cross = out.stm @ joint[:6, 6:] @ np.swapaxes(s, -1, -2)
+        p = p + cross + np.swapaxes(cross, -1, -2) + s @ joint[6:, 6:] @ np.swapaxes(s, -1, -2)
         code = frame_code(out_name, "output_frame")
         r = np.atleast_2d(out.r.to_value("km"))
         v = np.atleast_2d(out.v.to_value("km/s"))
@@ -211,8 +278,8 @@ def _solve(A, b):
 
 
 def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
-              estimate_maneuvers=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0,
-              rtol=None, atol=None):  # fmt: skip
+              estimate_maneuvers=None, estimate=None, parameter_sigma=None, consider=None,
+              max_iterations=25, tol=1e-5, outlier_sigma=4.0, rtol=None, atol=None):  # fmt: skip
     """Estimate an orbit from observations by batch weighted least squares.
 
     Parameters
@@ -245,6 +312,22 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         (``delta_v_covariance=`` or ``magnitude_sigma``/``pointing_sigma``) has its
         ``delta_v`` as an a priori estimate of that covariance; without one the Δv is
         determined by the observations alone. None or False: every burn is known.
+    estimate : str or list of str, optional
+        Force-model coefficients solved for with the state: ``"drag"`` (the ballistic
+        coefficient B = Cd A / m of the one :class:`~visviva.AtmosphericDrag` of
+        ``perturbations``, m^2/kg; Cd and A / m are not separable, Cd = B / (A / m)) and
+        ``"srp"`` (the reflectivity Cr of the one :class:`~visviva.SolarRadiationPressure`).
+        Their values in ``perturbations`` are the starting values; ``fit.parameters``,
+        ``fit.parameter_sigma`` report them and ``fit.perturbations`` flies them.
+    parameter_sigma : dict, optional
+        A priori sigmas of estimated coefficients (``{"drag": 0.005 * u.m**2 / u.kg}``, a
+        Quantity for drag; ``{"srp": 0.2}``): pseudo-observations of the starting value, so
+        that a coefficient the data barely determine stays near it. Without one the data
+        alone determine the coefficient.
+    consider : dict, optional
+        Consider parameters and their sigmas (``{"drag": 0.004 * u.m**2 / u.kg}``): held at
+        their value in ``perturbations``, their uncertainty added to the estimate's covariance
+        (``fit.covariance``; ``fit.noise_covariance`` is the data-only one).
     max_iterations : int
         Iterations allowed before :class:`~visviva.ConvergenceError` is raised.
     tol : float
@@ -294,9 +377,19 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     with an execution covariance C adds the a priori rows W (Δv_plan - Δv) with W^T W = C^-1
     (directions of C with a variance below 1e-12 of its largest are held at the plan by a
     variance of that size), as pseudo-observations of the plan (Tapley et al., sec. 4.6).
+
+    Coefficients (``estimate=``): the unknowns gain B and/or Cr, and the design matrix their
+    columns H_i d y(t_i) / d p, integrated with the STM (S' = F S + [0; da/dp],
+    :mod:`visviva.core.variational`); an a priori sigma adds the row (p_0 - p) / sigma.
+    Consider parameters c of covariance C (``consider=``; Tapley et al., sec. 6.3; Bierman
+    1977, ch. VI): with the whitened partials A_c of the data on c, the estimate's sensitivity
+    S_xc = -P A^T A_c and its covariance P_c = P + S_xc C S_xc^T (:mod:`visviva.od.parameters`).
+    With burns the coefficients' partials are carried through them like the Δv's.
     """
+    from ..satellites.cowell import perturbation_list
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
+    from .parameters import check_observable, parameter_results, partials, prior_rows
 
     if not isinstance(observations, Observations):
         raise InvalidInputError(
@@ -315,7 +408,13 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     burns = [] if maneuvers is None else (
         [maneuvers] if not isinstance(maneuvers, list | tuple) else list(maneuvers))
     chosen = _estimated(burns, estimate_maneuvers)
-    n_par = 6 + 3 * len(chosen)
+    from .parameters import coefficients
+
+    est, con = coefficients(perturbation_list(perturbations, allow_none=True), estimate,
+                            parameter_sigma, consider)
+    n_dv = 6 + 3 * len(chosen)
+    n_par = n_dv + len(est)
+    with_params = bool(est or con)
     if not (isinstance(max_iterations, int | np.integer) and max_iterations >= 1):
         raise InvalidInputError(f"max_iterations must be an integer >= 1; got {max_iterations!r}.")
     if outlier_sigma is not None and not outlier_sigma > 0:
@@ -327,13 +426,15 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     if n_comp < n_par:
         raise InvalidInputError(
             f"{len(observations)} observation(s) give {n_comp} measurement components, fewer than "
-            f"the {n_par} unknowns (the state, 3 per estimated Δv); add observations."
+            f"the {n_par} unknowns (the state, 3 per estimated Δv, the estimated "
+            "coefficients); add observations."
         )
     offsets = observations.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
                    DEFAULT_RTOL if rtol is None else rtol, DEFAULT_ATOL if atol is None else atol,
                    schedule=schedule)
     dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
+    pv = np.array([c.value for c in est])
     priors = _maneuver_priors([burns[i] for i in chosen], chosen)
     flown = list(burns)
     kinds = observations.kinds
@@ -350,8 +451,10 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         if chosen:
             swap = {id(burns[i]): flown[i] for i in chosen}
             dyn.schedule = Schedule([(a, b, swap.get(id(m), m)) for a, b, m in schedule.items])
+        for j, c in enumerate(est):  # the estimated coefficients fly their current value
+            c.write(dyn, pv[j])
         try:
-            y, phi = dyn.propagate(x, offsets)
+            y, phi = dyn.propagate(x, offsets, parameters=with_params)
         except VisvivaError as exc:
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the estimate's trajectory cannot be "
@@ -389,10 +492,18 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             cols = _columns(dyn.schedule, [flown[i] for i in chosen])
             phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
             _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
+        if est:
+            sens = partials(dyn, est)
+            check_observable(H @ sens, est)
+            phi = np.concatenate([phi, sens], axis=-1)
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
         if priors:  # the plans as pseudo-observations of the Δv
             A, b = _with_priors(A, b, priors, dv, n_par)
+        n_meas = A.shape[0]
+        if est:  # the a priori coefficients as pseudo-observations
+            pa, pb = prior_rows(est, pv, n_dv, n_par)
+            A, b = np.vstack([A, pa]), np.concatenate([b, pb])
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the measurement partials are not "
@@ -414,7 +525,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         rejected = new_rejected
         rms_prev = rms
         x = x + dx[:6]
-        dv = dv + dx[6:]
+        dv = dv + dx[6:n_dv]
+        pv = pv + dx[n_dv:]
     if not converged:
         lines = "; ".join(f"{hh['iteration']}: rms {hh['rms']:.4g}" for hh in history)
         err = ConvergenceError(
@@ -435,10 +547,16 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     for i in chosen:  # the estimate's own uncertainty replaces a planned execution error
         flown[i].execution_covariance = None
     m = len(chosen)
+    extra = parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv)
+    P_data = P
+    if con:
+        P = extra["_considered"]
     return OrbitFit(
         state=state,
         covariance=km_covariance(P[:6, :6].copy()),
         full_covariance=km_covariance(P),
+        noise_covariance=km_covariance(P_data[:6, :6].copy()),
+        **{k: v for k, v in extra.items() if not k.startswith("_")},
         maneuvers=flown,
         estimated_maneuvers=list(chosen),
         delta_v=dv.reshape(m, 3) * u.km / u.s,
@@ -453,8 +571,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         iterations=len(history),
         history=history,
         chi2=float(np.sum(zn[use] ** 2)),
-        dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors) - n_par,
-        perturbations=dyn.perturbations,
+        dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors)
+        + sum(c.sigma is not None for c in est) - n_par,
     )
 
 

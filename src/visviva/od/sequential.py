@@ -70,6 +70,13 @@ class FilteredOrbit:
         Its covariance.
     method : str
         "ekf" or "ukf", the filter that ran.
+    parameters, parameter_sigma : dict
+        With ``estimate=``: each estimated coefficient's filtered value and 1-sigma at every
+        time (T,) (B as a Quantity in m^2/kg, Cr as numbers); empty without.
+    full_covariances : ndarray (T, 6 + k, 6 + k)
+        The filtered covariances of state and coefficients (``covariances`` without them).
+    perturbations : list of Perturbation
+        The dynamics, the coefficients at their last estimate.
     """
 
     def __init__(self, **kw):
@@ -186,7 +193,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
                  process_noise=None,
                  process_noise_frame="RTN", noise_step=None, smoother=False, editing_sigma=4.0,
                  divergence_count=10, rtol=None, atol=None, method="ekf",
-                 sigma_points=None):  # fmt: skip
+                 sigma_points=None, estimate=None, parameter_sigma=None):  # fmt: skip
     """Estimate an orbit sequentially with an extended or unscented Kalman filter (and optional
     smoother).
 
@@ -243,6 +250,17 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     sigma_points : tuple of float, optional
         (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
         (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.
+    estimate : str or list of str, optional
+        Coefficients estimated with the state, as :func:`~visviva.fit_orbit`'s (``"drag"``:
+        the ballistic coefficient B = Cd A / m, m^2/kg; ``"srp"``: Cr): appended to the
+        filter's state as constants (no process noise on them), starting from their values
+        in ``perturbations``, each with its a priori sigma from ``parameter_sigma`` (required:
+        the filter's initial covariance), uncorrelated with the state. Extended filter only,
+        without ``maneuvers=``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
+        ``.full_covariances`` (T, 6 + k, 6 + k) report them; ``.perturbations`` flies the
+        last estimate.
+    parameter_sigma : dict, optional
+        The a priori sigmas of ``estimate`` (``{"drag": 0.005 * u.m**2 / u.kg}``).
 
     Returns
     -------
@@ -330,6 +348,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     if not isinstance(smoother, bool | np.bool_):
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
+    est = _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule)
     if method == "ukf" and schedule:
         raise InvalidInputError(
             'method="ukf" does not fly manoeuvres yet (its sigma points are integrated without '
@@ -356,6 +375,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         schedule.snap(np.sort(epochs))
     if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
         x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
+    if est:  # the coefficients join the state, uncorrelated with it
+        x = np.r_[x, [c.value for c in est]]
+        P = _augmented(P, np.diag([c.sigma ** 2 for c in est]))
     screen = _Screen(observations, epoch, epochs, epoch_index, editing_sigma, divergence_count)
     if method == "ukf":
         from .unscented import unscented_pass
@@ -364,10 +386,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
                                                code, step_s, sigma_points)  # fmt: skip
     else:
         xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
-                                         code, step_s)  # fmt: skip
+                                         code, step_s, est)  # fmt: skip
     # post-fit residuals: every row against the updated state at its epoch, in one call of the
     # (row by row) model after the pass instead of one per epoch (the same numbers)
-    h, _ = model(observations, xs[epoch_index], gm)
+    h, _ = model(observations, xs[epoch_index, :6], gm)
     z = residuals(observations.kinds, observations.values, h)
     postfit = np.where(np.arange(3)[None, :] < observations.dims[:, None], z, 0.0)
     sm_x = sm_P = first_state = first_cov = None
@@ -376,54 +398,67 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
             sm_x, sm_P = _rts(xs, Ps, xp, Pp, cross=cross)
         else:
             sm_x, sm_P = _rts(xs, Ps, xp, Pp, phis)
-        first_state = StateVectors._from_canonical(sm_x[0, :3].copy(), sm_x[0, 3:].copy(),
+        first_state = StateVectors._from_canonical(sm_x[0, :3].copy(), sm_x[0, 3:6].copy(),
                                                    np.float64(gm), epoch)  # fmt: skip
-        first_cov = sm_P[0]
+        first_cov = sm_P[0, :6, :6]
     from astropy import units as u
 
     times = epoch + epochs * u.s
-    last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:].copy(), np.float64(gm),
+    last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:6].copy(), np.float64(gm),
                                         times[-1])  # fmt: skip
+    extra = _coefficient_fields(est, xs, Ps, dyn.perturbations)
+    full = Ps
+    xs, Ps, xp, Pp = xs[:, :6], Ps[:, :6, :6], xp[:, :6], Pp[:, :6, :6]
+    if sm_x is not None:
+        sm_x, sm_P = sm_x[:, :6], sm_P[:, :6, :6]
     return FilteredOrbit(
         times=times, offsets_s=epochs, states=xs, covariances=km_covariance(Ps),
         predicted_states=xp, predicted_covariances=km_covariance(Pp), smoothed_states=sm_x,
         smoothed_covariances=None if sm_P is None else km_covariance(sm_P),
+        full_covariances=km_covariance(full), **extra,
         prefit_residuals=screen.prefit_residuals, postfit_residuals=postfit,
         prefit_ratios=screen.ratios, nis=screen.nis, rejected=screen.rejected, epoch_index=epoch_index, state=last, covariance=km_covariance(Ps[-1].copy()),
-        first_state=first_state, first_covariance=None if first_cov is None else km_covariance(first_cov), perturbations=dyn.perturbations,
+        first_state=first_state, first_covariance=None if first_cov is None else km_covariance(first_cov),
         process_noise=q, process_noise_frame=frame, method=method,
     )  # fmt: skip
 
 
-def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s):
+def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=()):
     """The extended Kalman filter forward over ``epochs`` (through the burns of ``schedule``):
     filtered and predicted states and covariances, and the STMs Phi(t_k, t_k-1) (the
-    smoother's)."""
+    smoother's); with ``est`` the state carries those coefficients too (6 + k)."""
     n_t = len(epochs)
-    xs = np.empty((n_t, 6))
-    Ps = np.empty((n_t, 6, 6))
-    xp = np.empty((n_t, 6))
-    Pp = np.empty((n_t, 6, 6))
-    phis = np.empty((n_t, 6, 6))
+    n = 6 + len(est)
+    xs = np.empty((n_t, n))
+    Ps = np.empty((n_t, n, n))
+    xp = np.empty((n_t, n))
+    Pp = np.empty((n_t, n, n))
+    phis = np.empty((n_t, n, n))
     xs[0] = xp[0] = x
     Ps[0] = Pp[0] = P
-    phis[0] = np.eye(6)
+    phis[0] = np.eye(n)
     gm = dyn.gm
     kinds = observations.kinds
     for k in range(n_t):
         if k:
             grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s)
             try:
-                x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
+                if est:
+                    x, P, phis[k] = _predict_coefficients(dyn, x, P, epochs[k - 1], grid, q,
+                                                          code, est)  # fmt: skip
+                else:
+                    x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
             except VisvivaError as exc:
                 raise screen.diverged(k, f"the estimate cannot be integrated ({exc})") from exc
             xp[k], Pp[k] = x, P
         rows = screen.rows(k)
         if rows.size:
-            h, H = model(observations, np.repeat(x[None], rows.size, axis=0), gm, rows)
+            h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
             z = residuals(kinds[rows], observations.values[rows], h)
             comp, zc, Rd = screen.prefit(rows, z)
             Hc = H[comp]  # (m, 6) components in use, row-major
+            if n > 6:  # the coefficients enter the measurements through the state only
+                Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
             S = Hc @ P @ Hc.T + np.diag(Rd)
             use = screen.check(k, rows, zc, S)
             if use.any():
@@ -431,7 +466,7 @@ def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s
                 Su = S[np.ix_(use, use)]
                 K = np.linalg.solve(Su, Hu @ P).T  # P H^T S^-1 (S symmetric)
                 x = x + K @ zu
-                ikh = np.eye(6) - K @ Hu
+                ikh = np.eye(n) - K @ Hu
                 P = ikh @ P @ ikh.T + (K * Rd[use]) @ K.T
                 P = 0.5 * (P + P.T)
             screen.finite(k, x, P)
@@ -511,6 +546,77 @@ class _Screen:
     def finite(self, k, x, P):
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
             raise self.diverged(k, "the updated estimate is not finite")
+
+
+def _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule):
+    """The coefficients :func:`filter_orbit` estimates (each with its a priori sigma)."""
+    if not estimate:
+        if parameter_sigma:
+            raise InvalidInputError("parameter_sigma= without estimate=: name the coefficients "
+                                    "to estimate (estimate='drag').")
+        return []
+    from ..satellites.cowell import perturbation_list
+    from ..satellites.force_parameters import coefficients
+
+    if method != "ekf" or schedule:
+        raise InvalidInputError(
+            "filter_orbit estimates coefficients with the extended filter (method='ekf') and "
+            "without maneuvers= only; use vv.fit_orbit(estimate=...) otherwise.")
+    est, _ = coefficients(list(perturbation_list(perturbations, allow_none=True)), estimate,
+                          parameter_sigma, None)
+    missing = [c.name for c in est if c.sigma is None]
+    if missing:
+        raise InvalidInputError(
+            f"filter_orbit needs an a priori sigma for each estimated coefficient (its initial "
+            f"covariance): parameter_sigma={{{missing[0]!r}: ...}}.")
+    return est
+
+
+def _augmented(P, C):
+    """The block-diagonal covariance diag(P, C)."""
+    n, k = P.shape[0], C.shape[0]
+    out = np.zeros((n + k, n + k))
+    out[:n, :n] = P
+    out[n:, n:] = C
+    return out
+
+
+def _predict_coefficients(dyn, z, P, t_from, grid, q, code, est):
+    """:func:`_predict` for the state z = (x, p) with the coefficients p (constants): the
+    dynamics fly p, the transition is [[Phi, S], [0, I]] with S = d x / d p integrated with
+    Phi, and the process noise (on the state alone) is added as its accumulation from zero,
+    P^- = Phi_z P Phi_z^T + blockdiag(Q, 0) (the noise's sum is linear in P)."""
+    from ..satellites.force_parameters import partials
+
+    for j, c in enumerate(est):
+        c.write(dyn, z[6 + j])
+    d = dyn if t_from == 0.0 else dyn.at_origin(t_from)
+    y, phi = d.propagate(z[:6], grid, parameters=True)
+    n = z.size
+    phi_z = np.eye(n)
+    phi_z[:6, :6] = phi[-1]
+    phi_z[:6, 6:] = partials(d, est)[-1]
+    out = phi_z @ P @ phi_z.T
+    if q is not None:
+        out[:6, :6] += _predict_covariance(z[:6], grid, y, phi, np.zeros((6, 6)), q, code)
+    return np.r_[y[-1], z[6:]], 0.5 * (out + out.T), phi_z
+
+
+def _coefficient_fields(est, xs, Ps, perturbations):
+    """The FilteredOrbit fields of the estimated coefficients (empty without)."""
+    from astropy import units as u
+
+    from ..satellites.force_parameters import estimated_perturbations
+
+    def quantity(name, value):
+        return value * u.m**2 / u.kg if name == "drag" else value
+
+    out = {"parameters": {}, "parameter_sigma": {}}
+    for j, c in enumerate(est):
+        out["parameters"][c.name] = quantity(c.name, xs[:, 6 + j].copy())
+        out["parameter_sigma"][c.name] = quantity(c.name, np.sqrt(Ps[:, 6 + j, 6 + j]))
+    out["perturbations"] = estimated_perturbations(perturbations, est, xs[-1, 6:])
+    return out
 
 
 def _rts(xs, Ps, xp, Pp, phis=None, cross=None):

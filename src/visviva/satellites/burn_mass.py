@@ -92,12 +92,22 @@ def scale_area(schedule, force, a: float, b: float) -> None:
     """
     if force[fb.DRAG_ON] == 0.0 and force[fb.SRP_ON] == 0.0:
         return
+    scale = area_scale(schedule, a, b)
+    if scale is None:
+        return
+    force[fb.BALLISTIC] *= scale
+    force[fb.SRP_COEFFICIENT] *= scale
+
+
+def area_scale(schedule, a: float, b: float):
+    """m(epoch) / m(a), the factor of the drag and SRP slots of the segment from ``a`` to ``b``
+    (:func:`scale_area`; also d slot / d slot(epoch) for the coefficients' partials); None
+    when the masses are unknown or equal (no scaling)."""
     m_epoch = mass_at(schedule.items, 0.0, False)
     m_seg = mass_at(schedule.items, a, b > a)
     if m_epoch is None or m_seg is None:
-        return
+        return None
     check_chain(schedule.items)
     if m_seg == m_epoch:
-        return
-    force[fb.BALLISTIC] *= m_epoch / m_seg
-    force[fb.SRP_COEFFICIENT] *= m_epoch / m_seg
+        return None
+    return m_epoch / m_seg

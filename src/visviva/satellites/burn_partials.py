@@ -28,7 +28,9 @@ import copy
 
 import numpy as np
 
+from ..core.force_partials import N_PARAMETERS
 from ..core.local_frames import INERTIAL, local_axes, to_inertial_jacobian
+from .burn_mass import area_scale
 from .burn_segments import DRIFT_S
 from .burns import ImpulsiveBurn
 
@@ -71,26 +73,33 @@ def impulse_jacobians(burn, y_minus):
     return phi, g
 
 
-def _segment(dyn, schedule, y, a, b, t_rel, max_steps):
-    """States and STMs Phi(a + t_rel, a) over one segment from a to b (s from the epoch)."""
+def _segment(dyn, schedule, y, a, b, t_rel, max_steps, parameters=False):
+    """States and STMs Phi(a + t_rel, a) over one segment from a to b (s from the epoch), and
+    with ``parameters`` the partials (T, 6, 2) on the epoch's drag and SRP slots over it (from
+    zero at a; the segment's slots are the epoch's times the mass ratio)."""
+    n_p = N_PARAMETERS if parameters else 0
     if abs(b - a) < DRIFT_S:  # a drift along the velocity (see burn_segments.DRIFT_S)
         ys = np.repeat(y[None], t_rel.size, axis=0)
         ys[:, :3] += y[None, 3:] * t_rel[:, None]
         phis = np.repeat(np.eye(6)[None], t_rel.size, axis=0)
         phis[:, :3, 3:] += t_rel[:, None, None] * np.eye(3)
-        return ys, phis
+        return ys, phis, np.zeros((t_rel.size, 6, n_p))
     seg = copy.copy(dyn)
     seg.schedule = None
     seg.model = schedule.segment_model(dyn.model, a, b)
-    ys, phis = seg.propagate(y, t_rel, max_steps)
+    ys, phis = seg.propagate(y, t_rel, max_steps, parameters=parameters)
     dyn.n_steps += seg.n_steps
     dyn.n_evaluations += seg.n_evaluations
-    return ys, phis
+    if not parameters:
+        return ys, phis, np.zeros((t_rel.size, 6, 0))
+    scale = area_scale(schedule, a, b)
+    return ys, phis, seg.parameter_partials * (1.0 if scale is None else scale)
 
 
-def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps):
+def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps, n_p=0):
     """One direction from ``start``: ``t_out`` (s from the epoch) monotonic away from it.
-    Returns states (T, 6) and Psi = [Phi(t, start) | d y(t) / d Δv_k ...] (T, 6, 6 + 3n)."""
+    Returns states (T, 6) and Psi = [Phi(t, start) | d y(t) / d Δv_k ... | d y(t) / d p]
+    (T, 6, 6 + 3n + n_p), p the drag and SRP slots when ``n_p``."""
     t_end = float(t_out[-1])
     start = float(start)
     backward = bool(t_end < start)
@@ -100,7 +109,7 @@ def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps):
         pts.update(x for x in (a, b) if lo <= x <= hi)
     pts = sorted(pts, reverse=backward)
     y = np.array(y0, dtype=np.float64)
-    psi = np.zeros((6, 6 + 3 * len(cols)))
+    psi = np.zeros((6, 6 + 3 * len(cols) + n_p))
     psi[:, :6] = np.eye(6)
     ys, psis = [], []
     for i, a in enumerate(pts):
@@ -131,16 +140,19 @@ def _leg(dyn, schedule, y0, t_out, start, apply_at_start, cols, max_steps):
         schedule.check_state(a, b, y)
         mask = (t_out < a) & (t_out > b) if backward else (t_out > a) & (t_out < b)
         t_rel = np.append(t_out[mask], b) - a
-        y_seg, phi_seg = _segment(dyn, schedule, y, a, b, t_rel, max_steps)
+        y_seg, phi_seg, p_seg = _segment(dyn, schedule, y, a, b, t_rel, max_steps, n_p > 0)
+        walked = phi_seg @ psi
+        if n_p:  # the coefficients act over the segment too
+            walked[:, :, -n_p:] += p_seg
         ys += list(y_seg[:-1])
-        psis += list(phi_seg[:-1] @ psi)
+        psis += list(walked[:-1])
         y = y_seg[-1].copy()
-        psi = phi_seg[-1] @ psi
+        psi = walked[-1]
     return np.array(ys), np.array(psis)
 
 
 def propagate_through(dyn, schedule, y0, offsets_s, *, start=0.0, apply_at_start=True,
-                      max_steps=2_000_000):
+                      max_steps=2_000_000, parameters=False):
     """States, STMs and Δv partials at ``offsets_s`` through the burns of ``schedule``.
 
     Parameters
@@ -162,6 +174,9 @@ def propagate_through(dyn, schedule, y0, offsets_s, *, start=0.0, apply_at_start
         Whether the impulses at ``start`` are still to be applied (forwards).
     max_steps : int
         Step budget of each segment.
+    parameters : bool
+        Also the partials on the epoch's drag and SRP slots, carried through the segments
+        and the impulses like the Δv partials (the last N_PARAMETERS columns of ``sens``).
 
     Returns
     -------
@@ -177,14 +192,15 @@ def propagate_through(dyn, schedule, y0, offsets_s, *, start=0.0, apply_at_start
     cols = {id(m): k for k, m in enumerate(impulses_of(schedule))}
     dyn.n_steps = dyn.n_evaluations = 0
     y_all = np.empty((offsets.size, 6))
-    psi_all = np.empty((offsets.size, 6, 6 + 3 * len(cols)))
+    n_p = N_PARAMETERS if parameters else 0
+    psi_all = np.empty((offsets.size, 6, 6 + 3 * len(cols) + n_p))
     for side in (-1.0, 1.0):
         idx = np.flatnonzero(offsets < start) if side < 0 else np.flatnonzero(offsets >= start)
         if idx.size == 0:
             continue
         order = idx[np.argsort(side * offsets[idx], kind="stable")]
         ys, psis = _leg(dyn, schedule, y0, offsets[order], start, apply_at_start, cols,
-                        max_steps)
+                        max_steps, n_p)
         y_all[order] = ys
         psi_all[order] = psis
     return y_all, psi_all[:, :, :6].copy(), psi_all[:, :, 6:].copy()

@@ -279,7 +279,7 @@ def burn_noise(schedule, grid, sens, start=0.0, apply_at_start=True):
 def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=None,
                          frame: str = "GCRS",
                          output_frame: str | None = None, process_noise=None,
-                         process_noise_frame: str = "RTN", noise_step=None,
+                         process_noise_frame: str = "RTN", noise_step=None, consider=None,
                          rtol: float = 1e-12, atol: float = 1e-12, max_steps: int = 200_000):
     """Propagate a state and its 6 x 6 covariance with Cowell's full force model.
 
@@ -320,6 +320,13 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
     noise_step : Quantity or float, optional
         Longest interval over which the noise is added in straight-line motion, s (default
         60 s).
+    consider : dict, optional
+        Uncertain force-model coefficients and their sigmas, ``{"drag": 0.004 * u.m**2 /
+        u.kg}`` (the ballistic coefficient of the one :class:`~visviva.AtmosphericDrag`),
+        ``{"srp": 0.2}`` (the reflectivity of the one :class:`~visviva.SolarRadiationPressure`):
+        held at their values, their variance C mapped through the sensitivities S(t) = d y(t) /
+        d p integrated with the STM and added, P(t) += S C S^T (uncorrelated with the state);
+        ``.parameter_partials`` (T, 6, q) holds S (:mod:`visviva.satellites.force_parameters`).
     rtol, atol : float
         Integration tolerances of the state (atol in km and km/s); the defaults are
         :func:`~visviva.propagate_cowell`'s, so the states equal its states to ~1e-9 relative.
@@ -446,14 +453,16 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
     body = watched_body(gm, perturbations, r0)
     from .burn_partials import impulses_of
     from .burn_segments import burn_schedule
+    from .force_parameters import coefficients, partials
     from .variational import Dynamics
 
+    _, con = coefficients(perturbations, None, None, consider)
     schedule = burn_schedule([] if maneuvers is None else maneuvers, state, epoch)
     grid = offsets if q is None else _noise_grid(offsets, step_s)
     dyn = Dynamics(gm, perturbations, epoch, (grid.min(), grid.max()), rtol, atol,
                    schedule=schedule)
     try:
-        y, phi = dyn.propagate(np.concatenate([r0, v0]), grid, max_steps)
+        y, phi = dyn.propagate(np.concatenate([r0, v0]), grid, max_steps, parameters=bool(con))
     except (StepSizeError, InvalidInputError):
         if body is not None:  # through the surface? propagate_cowell finds where, and says so
             from .cowell import propagate_cowell
@@ -474,6 +483,10 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
     keep = np.searchsorted(grid, offsets)
     if q is not None:
         y, phi, P = y[keep], phi[keep], P[keep]
+    s_p = partials(dyn, con)[keep] if con else np.zeros((offsets.size, 6, 0))
+    if con:  # the consider parameters, uncorrelated with the state and the noise
+        c = np.diag([k.sigma ** 2 for k in con])
+        P = P + s_p @ c @ np.swapaxes(s_p, -1, -2)
     P = to_local(P, y[:, :3], y[:, 3:], out_code)
     if body is not None:
         h = altitude_km(y[:, :3], body)
@@ -496,4 +509,5 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
     sens = dyn.sensitivity if q is None else dyn.sensitivity[keep]
     out.impulses = impulses_of(schedule)
     out.delta_v_partials = sens[0] if scalar else sens
+    out.parameter_partials = s_p[0] if scalar else s_p
     return out

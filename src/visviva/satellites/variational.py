@@ -61,20 +61,31 @@ class Dynamics:
         self.rtol = rtol
         self.atol = atol
 
-    def propagate(self, y0, offsets_s, max_steps=2_000_000):
+    def propagate(self, y0, offsets_s, max_steps=2_000_000, parameters=False):
         """States (T, 6) and STMs Phi(t, epoch) (T, 6, 6) at ``offsets_s`` (s from the epoch).
 
         ``offsets_s`` may hold both signs and need not be sorted; each side is one compiled
         integration outward from the epoch. Afterwards ``n_steps`` and ``n_evaluations`` hold the
-        steps and right-hand-side evaluations of the call.
+        steps and right-hand-side evaluations of the call. ``parameters=True`` also integrates
+        the sensitivities on the force model's drag and SRP coefficients, in the same compiled
+        call (two more columns of the variational equations, S' = F S + [0; da/dp]):
+        afterwards ``parameter_partials`` (T, 6, 2) holds d y / d ``force[BALLISTIC]``
+        (Cd A / m, km^2/kg) and d y / d ``force[SRP_COEFFICIENT]`` (P Cr A / m, km/s^2), zero
+        for a force that is off (:func:`visviva.core.force_partials.parameter_accelerations`).
         """
         if self.schedule:
             from .burn_partials import propagate_through
 
-            y, phi, self.sensitivity = propagate_through(self, self.schedule, y0, offsets_s,
-                                                         max_steps=max_steps)
+            y, phi, sens = propagate_through(self, self.schedule, y0, offsets_s,
+                                             max_steps=max_steps, parameters=parameters)
+            if parameters:  # the coefficients' columns, carried through the burns
+                self.parameter_partials = sens[..., sens.shape[-1] - 2:]
+                sens = sens[..., :sens.shape[-1] - 2]
+            self.sensitivity = sens
             return y, phi
         from ..core.variational import integrate_variational
+
+        nc = 8 if parameters else 6
 
         A, B, C, E3, E5, D = dop853_tableau()
         offsets_s = np.asarray(offsets_s, dtype=np.float64)
@@ -82,7 +93,7 @@ class Dynamics:
         self.n_steps = self.n_evaluations = 0
         self.sensitivity = np.zeros((offsets_s.size, 6, 0))
         y_all = np.empty((offsets_s.size, 6))
-        phi_all = np.empty((offsets_s.size, 6, 6))
+        phi_all = np.empty((offsets_s.size, 6, nc))
         for side in (-1.0, 1.0):
             idx = np.flatnonzero(offsets_s < 0) if side < 0 else np.flatnonzero(offsets_s >= 0)
             if idx.size == 0:
@@ -90,7 +101,7 @@ class Dynamics:
             order = idx[np.argsort(side * offsets_s[idx], kind="stable")]
             t = np.ascontiguousarray(offsets_s[order])
             y_out = np.empty((t.size, 6))
-            phi_out = np.empty((t.size, 6, 6))
+            phi_out = np.empty((t.size, 6, nc))
             info = np.zeros(3)
             status = integrate_variational(
                 y0, t, self.rtol, self.atol, np.inf, max_steps, *self.model.arrays(),
@@ -111,6 +122,9 @@ class Dynamics:
                 )
             y_all[order] = y_out
             phi_all[order] = phi_out
+        if parameters:
+            self.parameter_partials = phi_all[..., 6:]
+            return y_all, np.ascontiguousarray(phi_all[..., :6])
         return y_all, phi_all
 
     def at_origin(self, t0_s):

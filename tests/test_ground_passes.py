@@ -205,6 +205,24 @@ def test_bad_input(iss, sites):
         vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, -91 * u.deg)
 
 
+@pytest.mark.parametrize("mag, match", [
+    ([1.0, 2.0], "one per satellite"),  # was numpy's "could not be broadcast"
+    (np.nan, "not a finite magnitude"),  # was: every magnitude masked, silently
+    ([np.inf], "standard_magnitude\\[0\\] is inf"),
+    ("bright", "one number per satellite"),  # was numpy's "could not convert string"
+    (3.0 * u.km, "unit 'km'"),
+])
+def test_bad_standard_magnitude_is_refused_before_the_search(iss, sites, mag, match):
+    with pytest.raises(vv.InvalidInputError, match=match):
+        vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, standard_magnitude=mag)
+
+
+def test_standard_magnitude_per_satellite_and_in_mag(iss, sites, table):
+    one = vv.find_passes(iss, sites, T0, T0 + 1 * u.day, 10 * u.deg,
+                         standard_magnitude=[-1.8] * u.mag)
+    np.testing.assert_array_equal(one["magnitude"].unmasked, table["magnitude"].unmasked)
+
+
 def _omm(epoch):
     return vv.Satellite.from_omm({
         "OBJECT_NAME": "X", "NORAD_CAT_ID": 1, "EPOCH": epoch, "MEAN_MOTION": 15.5,

@@ -23,7 +23,7 @@ import numpy as np
 from ..constants import R_EARTH_KM, R_SUN_KM
 
 __all__ = ["DARK_SUN_ELEVATION_DEG", "sun_fraction", "sun_itrs_km", "sun_elevation_rad",
-           "visual_magnitude", "twilight"]
+           "visual_magnitude", "twilight", "standard_magnitudes"]
 
 #: Sun elevation below which the station counts as dark (end of civil twilight), deg
 DARK_SUN_ELEVATION_DEG = -6.0
@@ -72,6 +72,45 @@ def twilight(sun_elevation_deg) -> np.ndarray:
     e = np.asarray(sun_elevation_deg, dtype=np.float64)
     labels = np.array(["night", "astronomical", "nautical", "civil", "day"])
     return labels[np.digitize(e, [-18.0, -12.0, -6.0, -0.833])]
+
+
+def standard_magnitudes(value, n: int) -> np.ndarray:
+    """``standard_magnitude`` of :func:`visviva.find_passes` -> float64 array of ``n`` (mag).
+
+    One number for every satellite or one per satellite, finite; a Quantity must be in mag.
+    Anything else raises :class:`~visviva.errors.InvalidInputError` naming what is wrong.
+    """
+    from astropy import units as u
+
+    from ..errors import InvalidInputError
+
+    if isinstance(value, u.Quantity):
+        if value.unit != u.mag and value.unit != u.dimensionless_unscaled:
+            raise InvalidInputError(
+                f"standard_magnitude has unit '{value.unit}'; give magnitudes (plain numbers "
+                "or u.mag)."
+            )
+        value = value.value
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"standard_magnitude must be a number or one number per satellite, got {value!r}."
+        ) from None
+    if m.ndim > 1 or (m.ndim == 1 and m.size != n):
+        raise InvalidInputError(
+            f"standard_magnitude must be one number, or one per satellite ({n}); got shape "
+            f"{m.shape}."
+        )
+    flat = np.atleast_1d(m)
+    if not np.all(np.isfinite(flat)):
+        bad = int(np.flatnonzero(~np.isfinite(flat))[0])
+        where = f"[{bad}]" if m.ndim else ""
+        raise InvalidInputError(
+            f"standard_magnitude{where} is {flat[bad]}, not a finite magnitude; give one for "
+            "every satellite (a magnitude estimate needs it)."
+        )
+    return np.ascontiguousarray(np.broadcast_to(m, (n,)))
 
 
 def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarray:

@@ -343,6 +343,26 @@ def test_3d_equals_foster_for_a_fast_encounter():
     assert p3 == pytest.approx(OM_PC, rel=1e-4)
 
 
+@pytest.mark.parametrize("sig_x, sig_y, sig_z, miss, hbr", [
+    (1000.0, 1.0, 100.0, 50.0, 20.0),  # 3d was 5e-4 of foster
+    (300.0, 1.0, 300.0, 100.0, 10.0),  # 0.82 of foster
+    (100.0, 0.1, 100.0, 10.0, 10.0),  # 4.5e-5 of foster
+    (5.0, 1e-9, 5.0, 5.0, 20.0),  # clipped to 1e-4 HBR along u
+])
+def test_3d_equals_foster_for_a_covariance_thin_along_the_relative_velocity(sig_x, sig_y, sig_z,
+                                                                            miss, hbr):
+    # the rate is a spike ~ sigma_y / |u| wide; the time grid scaled with the largest sigma
+    # stepped over it, and "3d" returned a Pc orders of magnitude low, silently (audit10)
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = r1 + [miss, 0.0, 0.0], np.array([0.0, 0.0, 7.5e3])
+    axes = np.array([[1.0, 0, 0], [0, 1, -1], [0, 1, 1]]) / [[1.0], [math.sqrt(2)],
+                                                               [math.sqrt(2)]]
+    c1 = axes.T @ np.diag([sig_x, sig_y, sig_z]) ** 2 @ axes  # y along u = v1 - v2
+    p2 = collision_probability(r1, v1, c1, r2, v2, c1 * 0, hbr)
+    p3 = collision_probability(r1, v1, c1, r2, v2, c1 * 0, hbr, method="3d")
+    assert p3 == pytest.approx(p2, rel=1e-6)
+
+
 def test_alfano_max_probability_circular_limit():
     # circular covariance, R << d: Pc_max = R^2 / (e d^2) (Alfano 2005)
     r1, v1 = np.array([7e6, 0, 0.0]), np.array([0, 7.5e3, 0.0])

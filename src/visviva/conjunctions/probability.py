@@ -421,6 +421,13 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
         (1.0 / (2.0 / np.linalg.norm(r1k) - np.dot(v1k, v1k) / gm_km)) ** 3 / gm_km)
     half = min(10.0 * (math.sqrt(lam) + hbr + float(np.linalg.norm(r1 - r2))) / un,
                0.25 * period)
+    # the rate is a spike of width ~ sigma_t = (sigma along u) / |u| about the crossing of the
+    # hard-body plane, t* = -(r . u) / |u|^2: for a covariance thin along u that is far narrower
+    # than the window (which scales with the largest sigma), so it gets panels of its own
+    y0 = u0 / un
+    sigma_t = math.sqrt(max(float(y0 @ a0 @ y0), clip)) / un
+    t_star = -float(np.dot(r1 - r2, y0)) / un
+    half = min(max(half, abs(t_star) + 12.0 * sigma_t), 0.25 * period)
 
     def full6(c):
         if c.shape == (6, 6):
@@ -469,6 +476,9 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     nodes, weights = np.polynomial.legendre.leggauss(8)
     panels = 96
     edges = np.linspace(-half, half, panels + 1)
+    if 2.0 * half / panels > 2.0 * sigma_t:  # the spike is narrower than a panel
+        fine = t_star + sigma_t * np.linspace(-12.0, 12.0, 49)
+        edges = np.unique(np.concatenate([edges, fine[(fine > -half) & (fine < half)]]))
     logs = []
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         for xk, wk in zip(nodes, weights, strict=True):

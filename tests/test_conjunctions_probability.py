@@ -363,6 +363,20 @@ def test_3d_equals_foster_for_a_covariance_thin_along_the_relative_velocity(sig_
     assert p3 == pytest.approx(p2, rel=1e-6)
 
 
+@pytest.mark.parametrize("miss", [1.0, 5.0, 15.0])
+def test_probability_never_exceeds_one(miss):
+    # a covariance of 1 mm inside a 20 m HBR: Foster gave 1.0000000000000782 (ln Pc > 0),
+    # Alfano's maximum 1.0000000000000346 (audit10)
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = r1 + [miss, 0.0, 0.0], np.array([0.0, 0.0, 7.5e3])
+    c = np.eye(3) * 1e-6
+    for method in ("foster", "chan", "3d"):
+        lp = collision_probability(r1, v1, c, r2, v2, c * 0, 20.0, method=method, log=True)
+        assert -1e-7 < lp <= 0.0, method  # Chan: an approximation, 3e-8 off here
+        assert collision_probability(r1, v1, c, r2, v2, c * 0, 20.0, method=method) <= 1.0
+    assert 1.0 - 1e-12 < max_collision_probability(r1, v1, r2, v2, 20.0) <= 1.0
+
+
 def test_alfano_max_probability_circular_limit():
     # circular covariance, R << d: Pc_max = R^2 / (e d^2) (Alfano 2005)
     r1, v1 = np.array([7e6, 0, 0.0]), np.array([0, 7.5e3, 0.0])

@@ -129,7 +129,7 @@ def _log_pc_2d(xm, zm, sx, sz, hbr, method):
     from ..core import collision as kern
 
     if method == "chan":
-        return float(kern.log_pc_chan(xm, zm, sx, sz, hbr))
+        return min(float(kern.log_pc_chan(xm, zm, sx, sz, hbr)), 0.0)
     lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, _RTOL)
     if status:
         from ..errors import ConvergenceError
@@ -138,7 +138,8 @@ def _log_pc_2d(xm, zm, sx, sz, hbr, method):
             f"the Foster integral did not reach {_RTOL:g} relative accuracy "
             f"(miss {xm:g}, {zm:g} m, sigma {sx:g}, {sz:g} m, HBR {hbr:g} m); report this case."
         )
-    return float(lp)
+    # a probability: near 1 the integral's 1e-13 rounding could put it above
+    return min(float(lp), 0.0)
 
 
 def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,
@@ -490,7 +491,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     top = float(np.max(logs))
     if top == -math.inf:
         return -math.inf
-    return top + math.log(float(np.sum(np.exp(logs - top))))
+    return min(top + math.log(float(np.sum(np.exp(logs - top)))), 0.0)  # a probability
 
 
 def _clip_3d(cov, clip, repairs):

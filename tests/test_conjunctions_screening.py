@@ -163,6 +163,29 @@ def test_an_empty_catalogue_is_refused_not_screened(tmp_path, capsys):
     assert "hold no object" in capsys.readouterr().err
 
 
+def test_an_object_whose_sgp4_fails_inside_the_window_is_named_in_a_warning():
+    # its samples after the failure (decay) were skipped silently: the rest of the window was
+    # not screened for it and the table did not say so (audit10)
+    import importlib.resources
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] for ln in text.splitlines() if ln[:2] in ("1 ", "2 ")]
+    tles = {a[2:7]: (a, b) for a, b in zip(lines[::2], lines[1::2], strict=True)}
+    decaying = vv.Satellite.from_tle(*tles["28350"], name="DECAYING")  # fails 2006-06-17 05:46
+    t0 = decaying.epoch + 0.3 * u.day
+    others = synthetic_catalog(5, seed=1, epoch=t0.isot)
+    with pytest.warns(RuntimeWarning, match=r"SGP4 failed inside the window for 1 object\(s\) "
+                      r"\('DECAYING' from 2006-06-17T05:4"):
+        vv.screen_conjunctions(vv.Catalog([decaying]), others, t0, t0 + 2 * u.day)
+    with pytest.warns(RuntimeWarning, match="'DECAYING' from"):  # as a secondary, self-screen
+        vv.screen_conjunctions(vv.Catalog([*others, decaying]), None, t0, t0 + 2 * u.day)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # before the failure: nothing to say
+        vv.screen_conjunctions(vv.Catalog([decaying]), others, t0, t0 + 0.5 * u.day)
+
+
 def test_screen_threshold_and_step_need_units():
     sat = vv.Satellite.from_tle(ISS_L1, ISS_L2)
     t0 = Time("2024-01-01T00:00:00", scale="utc")

@@ -204,8 +204,41 @@ _WORKER_CACHE: dict = {}
 
 
 def _worker_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows):
-    return screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
-                        cache=_WORKER_CACHE)
+    found = screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
+                         cache=_WORKER_CACHE)
+    return found, _first_failures(_WORKER_CACHE, self_mode)
+
+
+def _first_failures(cache, self_mode):
+    """Per object of each side, the first sample where it failed to propagate (SGP4 error:
+    NaN states), -1 where none did; from the sampled ephemerides in ``cache``."""
+    out = []
+    for r in (cache["eph"][0], cache["eph"][0] if self_mode else cache["eph"][4]):
+        bad = ~np.isfinite(r[..., 0])
+        out.append(np.where(bad.any(axis=1), bad.argmax(axis=1), -1))
+    return out
+
+
+def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> None:
+    """One RuntimeWarning naming the objects whose SGP4 failed inside the window: the
+    screening of each stops there (nothing after it is screened, so a close approach there
+    would be missing from the table without it)."""
+    from astropy import units as u
+
+    sides = [(first1, names1)] if self_mode else [(first1, names1), (first2, names2)]
+    items = [(names[i], int(first[i])) for first, names in sides
+             for i in np.flatnonzero(first >= 0)]
+    if not items:
+        return
+    import warnings
+
+    where = ", ".join(f"{name!r} from {(t0 + max(k, 0) * step_s * u.s).utc.isot[:19]}"
+                      for name, k in items[:5])
+    warnings.warn(
+        f"SGP4 failed inside the window for {len(items)} object(s) ({where}"
+        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets; they are not "
+        "screened from there on (close approaches after that time are not in the table).",
+        RuntimeWarning, stacklevel=3)
 
 
 def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold=None, *,
@@ -312,6 +345,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         for rows in it:
             found.extend(screen_block(cat1, cat2, self_mode, step_s, n_steps, thr, rows,
                                       cache=cache))
+        first1, first2 = _first_failures(cache, self_mode)
     else:
         c1 = client.scatter(cat1, broadcast=True)
         c2 = c1 if self_mode else client.scatter(cat2, broadcast=True)
@@ -321,8 +355,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
             from dask.distributed import progress as dask_progress
 
             dask_progress(futures)
-        for part in client.gather(futures):
+        first1 = first2 = None
+        for part, (f1, f2) in client.gather(futures):
             found.extend(part)
+            first1, first2 = f1, f2  # every worker samples every object
     found.sort(key=lambda row: (row[2], row[0], row[1]))
     arr = np.array([f[2:] for f in found], dtype=np.float64).reshape(-1, 6)
     names1, names2 = cat1.names, cat2.names
@@ -343,6 +379,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
     tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
     _warn_same_object(cat1, cat2, tab)
+    _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
 
 

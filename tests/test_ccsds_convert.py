@@ -147,7 +147,7 @@ def test_convert_reads_gp_data(tmp_path, write_catalog_files):
         assert cli.main(["convert", str(path), str(out), "--satnum", "25544"]) == 0, kind
         assert out.read_text().splitlines() == list(ISS), kind
         with pytest.raises(SystemExit, match="holds 2 satellites"):
-            cli.main(["convert", str(path), str(out)])
+            cli.main(["convert", str(path), str(out), "--overwrite"])
     omm = tmp_path / "iss.omm"
     assert cli.main(["convert", str(paths["ndm"]), str(omm), "--satnum", "25544"]) == 0
     assert vv.read_omm(omm)["NORAD_CAT_ID"] == 25544

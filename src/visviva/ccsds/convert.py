@@ -45,6 +45,9 @@ def add_parser(sub) -> None:
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--originator", default="VISVIVA",
                    help="ORIGINATOR of a new OMM or OEM (default VISVIVA)")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def _kind_of_text(text: str) -> str:
@@ -154,10 +157,11 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ..cli_window import write_output
+    from ..cli_window import check_outputs, write_output
     from ..errors import VisvivaError
 
     try:
+        check_outputs([args.output], [args.input], args.overwrite)
         # (a Path: a file name holding '=' is still a file name, and errors name the file)
         text = _input_text(Path(args.input))
         source = _kind_of_text(text)

@@ -35,6 +35,9 @@ def add_parser(sub) -> None:
     p.add_argument("--to", choices=("tle", "omm"), default="tle",
                    help="output: TLE lines (default) or an OMM in KVN")
     p.add_argument("--output", "-o", default="-", help="file to write (default: standard output)")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def run(args) -> int:
@@ -52,11 +55,12 @@ def run(args) -> int:
     from astropy.time import Time
 
     from ..ccsds.oem_io import read_oem
-    from ..cli_window import write_output
+    from ..cli_window import check_outputs, write_output
     from ..errors import VisvivaError
     from .tle_fit import fit_tle
 
     try:
+        check_outputs([args.output], [args.ephemeris, args.initial], args.overwrite)
         mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
         eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
         initial = _initial(args.initial, args.satnum) if args.initial else None

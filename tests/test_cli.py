@@ -343,6 +343,9 @@ def test_no_command_writes_over_its_input_or_an_existing_file_silently(tmp_path,
     # fit-tle: the ephemeris is never its output; one file is not two outputs
     assert cli.main(["fit-tle", str(oem), "-o", str(oem), "--overwrite"]) == 2
     assert "is the input file" in capsys.readouterr().err
+    # a bad --epoch is bad input (2), not a failed fit (1, with astropy's list of formats)
+    assert cli.main(["fit-tle", str(oem), "--epoch", "2024-13-01"]) == 2
+    assert "--epoch '2024-13-01' is not an ISO time" in capsys.readouterr().err
     assert cli.main(["passes", str(tle), *site, *window, "--csv", str(tmp_path / "x"),
                      "--ecsv", str(tmp_path / "x")]) == 2
     assert "given as two outputs" in capsys.readouterr().err

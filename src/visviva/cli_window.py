@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["window_from_args", "write_output", "add_catalog_argument", "add_overwrite_argument",
-           "check_outputs"]
+__all__ = ["window_from_args", "time_from_arg", "write_output", "add_catalog_argument",
+           "add_overwrite_argument", "check_outputs"]
 
 
 def add_catalog_argument(parser) -> None:
@@ -57,24 +57,37 @@ def window_from_args(start: str, hours: float):
         example), or ``hours`` is not a positive finite number.
     """
     from astropy import units as u
-    from astropy.time import Time
 
     from .errors import InvalidInputError
 
     if not (math.isfinite(hours) and hours > 0):
         raise InvalidInputError(f"--hours must be a positive finite number, got {hours}.")
+    t0 = time_from_arg("--start", start)
+    return t0, t0 + hours * u.hour
+
+
+def time_from_arg(option: str, value: str):
+    """An ISO 8601 time in UTC (or with a UTC offset) given as ``option`` -> astropy Time.
+
+    Raises :class:`visviva.errors.InvalidInputError` with astropy's ISO reason only, and an
+    example, for anything else.
+    """
+    from astropy.time import Time
+
+    from .errors import InvalidInputError
+
     try:
-        t0 = _with_utc_offset(start)
-        if t0 is None:
-            t0 = Time(start, scale="utc")
+        t = _with_utc_offset(value)
+        if t is None:
+            t = Time(value, scale="utc")
     except ValueError as exc:
         # astropy lists why every format failed; the ISO one is the reason that matters here
         lines = str(exc).splitlines()
         why = next((ln.split(":", 1)[1].strip() for ln in lines if "'isot'" in ln), lines[0])
         raise InvalidInputError(
-            f"--start {start!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
+            f"{option} {value!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
         ) from None
-    return t0, t0 + hours * u.hour
+    return t
 
 
 def _with_utc_offset(start: str):

@@ -377,6 +377,20 @@ def test_probability_never_exceeds_one(miss):
     assert 1.0 - 1e-12 < max_collision_probability(r1, v1, r2, v2, 20.0) <= 1.0
 
 
+@pytest.mark.parametrize("kwargs, match", [
+    ({"confidence": 1.5}, "confidence"),  # the interval was (nan, nan), silently
+    ({"confidence": -1.0}, "confidence"),  # low 1, high 0
+    ({"confidence": math.nan}, "confidence"),
+    ({"samples": 2.7}, "whole number"),  # 2 samples, silently
+    ({"samples": "many"}, "whole number"),  # int()'s ValueError
+    ({"samples": math.nan}, "whole number"),
+])
+def test_monte_carlo_refuses_a_bad_level_or_sample_count(kwargs, match):
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    with pytest.raises(InvalidInputError, match=match):
+        monte_carlo_probability(*args, 20.0, seed=1, **{"samples": 1000, **kwargs})
+
+
 def test_alfano_max_probability_circular_limit():
     # circular covariance, R << d: Pc_max = R^2 / (e d^2) (Alfano 2005)
     r1, v1 = np.array([7e6, 0, 0.0]), np.array([0, 7.5e3, 0.0])

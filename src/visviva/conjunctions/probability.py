@@ -310,9 +310,14 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     from scipy import stats
 
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    if not (isinstance(samples, (int, np.integer, float, np.floating))
+            and math.isfinite(samples) and samples == int(samples) and samples >= 1):
+        raise InvalidInputError(f"samples must be a whole number >= 1, got {samples!r}.")
     samples = int(samples)
-    if samples < 1:
-        raise InvalidInputError(f"samples must be >= 1, got {samples}.")
+    if not (isinstance(confidence, (int, float, np.integer, np.floating))
+            and 0.0 < confidence < 1.0):
+        raise InvalidInputError(f"confidence must be a level in (0, 1) such as 0.95, got "
+                                f"{confidence!r}.")
     plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     sx, sz = plane.sigma
     xm, zm = plane.principal_miss

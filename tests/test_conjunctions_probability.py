@@ -391,6 +391,17 @@ def test_monte_carlo_refuses_a_bad_level_or_sample_count(kwargs, match):
         monte_carlo_probability(*args, 20.0, seed=1, **{"samples": 1000, **kwargs})
 
 
+def test_zero_relative_velocity_points_to_the_method_that_handles_it():
+    # the message sent users to method='3d' or 'monte_carlo', which refuse the same case
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    c = np.diag([100.0, 400.0, 100.0, 1e-2, 1e-2, 1e-2])
+    for method in ("foster", "chan", "3d", "monte_carlo"):
+        with pytest.raises(InvalidInputError, match="pc3d_hall"):
+            collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method=method)
+    pc = collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method="pc3d_hall")
+    assert 0.0 < pc < 1.0
+
+
 def test_alfano_max_probability_circular_limit():
     # circular covariance, R << d: Pc_max = R^2 / (e d^2) (Alfano 2005)
     r1, v1 = np.array([7e6, 0, 0.0]), np.array([0, 7.5e3, 0.0])

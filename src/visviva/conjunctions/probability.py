@@ -421,7 +421,8 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     lam = float(np.max(np.linalg.eigvalsh(a0)))
     if un == 0:
         raise InvalidInputError("zero relative velocity at TCA: the 3-D flux method needs the "
-                                "objects to move relative to each other.")
+                                "objects to move relative to each other; use "
+                                "method='pc3d_hall', which handles it.")
     r1k, v1k, r2k, v2k = r1 / 1e3, v1 / 1e3, r2 / 1e3, v2 / 1e3
     period = 2 * math.pi * math.sqrt(
         (1.0 / (2.0 / np.linalg.norm(r1k) - np.dot(v1k, v1k) / gm_km)) ** 3 / gm_km)

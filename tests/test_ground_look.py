@@ -131,6 +131,8 @@ def test_doppler_known_value_and_sign(iss, site, times):
         doppler_shift(437.8e6, 1 * u.km / u.s)
     with pytest.raises(vv.DomainError):
         doppler_shift(-1 * u.MHz, 1 * u.km / u.s)
+    with pytest.raises(vv.ShapeError, match="do not broadcast"):  # was numpy's ValueError
+        doppler_shift([1.0, 2.0, 3.0] * u.MHz, [1.0, 2.0] * u.km / u.s)
 
 
 def test_refraction_saemundsson_against_bennett():

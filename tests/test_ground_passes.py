@@ -125,6 +125,18 @@ def test_visual_magnitude_and_twilight():
                                   ["day", "civil", "nautical", "astronomical", "night"])
 
 
+def test_visual_magnitude_and_twilight_take_quantities_in_any_unit():
+    # a Quantity's unit was dropped: 90 deg read as 90 rad, 1e6 m as 1e6 km, -0.2 rad of Sun
+    # elevation as -0.2 deg ("day" instead of "nautical") (audit10)
+    assert visual_magnitude(4.0, 1e6 * u.m, 90 * u.deg) == pytest.approx(4.0)
+    assert visual_magnitude(4.0 * u.mag, 2000 * u.km, np.pi / 2) == pytest.approx(
+        4.0 + 5 * np.log10(2))
+    assert str(twilight(-0.2 * u.rad)) == "nautical"
+    np.testing.assert_array_equal(twilight([-15.0, 5.0] * u.deg), ["astronomical", "day"])
+    with pytest.raises(vv.UnitsError):
+        twilight(-3 * u.km)
+
+
 def test_export_csv_and_ecsv(table, tmp_path):
     write_passes(table, tmp_path / "p.ecsv")
     back = QTable.read(tmp_path / "p.ecsv")

@@ -301,3 +301,51 @@ def test_top_level_help_speaks_to_users(capsys):
     out = capsys.readouterr().out
     assert "_COMMANDS" not in out and "``" not in out
     assert "visviva COMMAND --help" in out
+
+
+ISS_TLE = ("ISS (ZARYA)\n"
+           "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927\n"
+           "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537\n")
+
+
+def test_no_command_writes_over_its_input_or_an_existing_file_silently(tmp_path, capsys):
+    # `visviva convert a.tle a.tle --to omm`, `visviva passes a.tle ... --csv a.tle` and
+    # `visviva screen a.tle ... --csv a.tle` replaced the element sets they had just read, and
+    # every command replaced an existing output without a word (audit10)
+    tle = tmp_path / "a.tle"
+    tle.write_text(ISS_TLE)
+    window = ["--start", "2008-09-20T12:00", "--hours", "1"]
+    site = ["--lat", "40", "--lon", "-75"]
+    for argv in (["convert", str(tle), str(tle), "--to", "omm"],
+                 ["convert", str(tle), str(tmp_path / "." / "a.tle"), "--to", "omm",
+                  "--overwrite"],
+                 ["passes", str(tle), *site, *window, "--csv", str(tle)],
+                 ["passes", str(tle), *site, *window, "--ecsv", str(tle), "--overwrite"],
+                 ["screen", str(tle), *window, "--csv", str(tle), "--quiet"]):
+        assert cli.main(argv) == 2, argv
+        assert "is the input file" in capsys.readouterr().err
+        assert tle.read_text() == ISS_TLE
+    # an existing output: refused, untouched; replaced with --overwrite
+    oem = tmp_path / "iss.oem"
+    assert cli.main(["convert", str(tle), str(oem), "--to", "oem", "--hours", "1"]) == 0
+    for out, argv in ((oem, ["convert", str(tle), str(oem), "--to", "oem", "--hours", "2"]),
+                      (tmp_path / "p.csv", ["passes", str(tle), *site, *window, "--csv"]),
+                      (tmp_path / "s.csv", ["screen", str(tle), *window, "--quiet", "--csv"])):
+        if not out.exists():
+            out.write_text("precious\n")
+        before = out.read_text()
+        full = argv + ([str(out)] if argv[-1] == "--csv" else [])
+        assert cli.main(full) == 2, argv
+        assert "exists; pass --overwrite" in capsys.readouterr().err
+        assert out.read_text() == before
+        assert cli.main([*full, "--overwrite"]) == 0, argv
+        assert out.read_text() != before
+    # fit-tle: the ephemeris is never its output; one file is not two outputs
+    assert cli.main(["fit-tle", str(oem), "-o", str(oem), "--overwrite"]) == 2
+    assert "is the input file" in capsys.readouterr().err
+    # a bad --epoch is bad input (2), not a failed fit (1, with astropy's list of formats)
+    assert cli.main(["fit-tle", str(oem), "--epoch", "2024-13-01"]) == 2
+    assert "--epoch '2024-13-01' is not an ISO time" in capsys.readouterr().err
+    assert cli.main(["passes", str(tle), *site, *window, "--csv", str(tmp_path / "x"),
+                     "--ecsv", str(tmp_path / "x")]) == 2
+    assert "given as two outputs" in capsys.readouterr().err

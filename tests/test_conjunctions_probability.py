@@ -234,6 +234,60 @@ def test_tiny_probability_keeps_relative_accuracy():
     assert 1e-310 < math.exp(lp) < 1e-290
 
 
+def _tail_reference_log_pc(x0, s, r):
+    """ln Pc for a circular N(0, s^2) and the circle of radius r centred at (r + x0, 0), x0 > 0
+    and s << r: the Gaussian's tail beyond x0 less what the chords near the edge miss,
+    Pc = Q(x0 / s) - int_0 pdf(x0 + d) erfc(h(d) / (s sqrt 2)) dd, h = sqrt(2 r d - d^2)
+    (scipy's quad on a one-sided, rapidly decaying integrand, scaled by pdf(x0))."""
+    from scipy import special
+
+    z = x0 / s
+    q = 0.5 * special.erfcx(z / math.sqrt(2)) * s * math.sqrt(2 * math.pi)  # Q / pdf(x0)
+
+    def g(d):
+        return (math.exp(-(x0 * d + d * d / 2) / s**2)
+                * special.erfc(math.sqrt(2 * r * d - d * d) / (s * math.sqrt(2))))
+
+    c = integrate.quad(g, 0, 1e-3, epsabs=0, epsrel=1e-13, limit=500,
+                       points=[1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4])[0]
+    return -0.5 * z * z - math.log(s * math.sqrt(2 * math.pi)) + math.log(q - c)
+
+
+@pytest.mark.parametrize("xm, zm, sx, sz, hbr, ref", [
+    # thin covariances beside a large HBR, the circle's edge in the tail or near the mean: the
+    # adaptive integration chased rounding noise below 1e-13 and raised ConvergenceError
+    # ("report this case"); references by scipy's quad (x integral, chord mass by ndtr)
+    (15.90469771686402, 29.772161088104593, 0.003375088886962092, 0.003375088886962092,
+     33.750888869620916, -1.7791828916401329),
+    (0.5552847507928528, 6.096439338862985, 0.0015002389014957685, 0.0006120576351375006,
+     6.120576351375005, -3.2403093719416503),
+    (-26.045859784325614, 84.62589961950549, 45314.457706944435, 0.008444591261023895,
+     84.44591261023895, -243.54327071407172),
+])
+def test_foster_kernel_thin_covariance_beside_a_large_hbr_converges(xm, zm, sx, sz, hbr, ref):
+    lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, 1e-13)
+    assert status == 0
+    assert lp == pytest.approx(ref, abs=1e-11)
+
+
+def test_thin_covariance_with_the_miss_just_outside_the_hbr():
+    # combined sigma 1 mm (CARA's clip raises it to 1e-4 HBR = 2 mm), HBR 20 m, miss 20.0355 m:
+    # Pc ~ 1e-70, which collision_probability refused with ConvergenceError (found by audit10)
+    ref = _tail_reference_log_pc(0.0355, 0.002, 20.0)
+    for xm, zm in ((20.0355, 0.0), (0.0, 20.0355)):
+        lp, status = kern.log_pc_circle(xm, zm, 0.002, 0.002, 20.0, kern.GAUSS_LO, kern.GAUSS_HI,
+                                        1e-13)
+        assert status == 0
+        assert lp == pytest.approx(ref, abs=1e-9)
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = r1 + [20.0355, 0.0, 0.0], np.array([0.0, 0.0, 7.5e3])
+    c = np.eye(3) * 1e-6
+    lp = collision_probability(r1, v1, c, r2, v2, c * 0, 20.0, log=True)
+    # the miss as the positions 7000 km out carry it (to ~5e-10 m: 4e-6 in ln Pc here)
+    x0 = float(np.linalg.norm(r2 - r1)) - 20.0
+    assert lp == pytest.approx(_tail_reference_log_pc(x0, 0.002, 20.0), abs=1e-9)
+
+
 @pytest.mark.parametrize("d, s", [(5e3, 3.0), (2e4, 1.0), (1e6, 1.0)])
 def test_chan_series_far_miss_equals_the_exact_rice_integral(d, s):
     # For a circular covariance Chan's series is exact (the Rice distribution), so it must equal
@@ -287,6 +341,65 @@ def test_3d_equals_foster_for_a_fast_encounter():
     args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
     p3 = collision_probability(*args, 20.0, method="3d")
     assert p3 == pytest.approx(OM_PC, rel=1e-4)
+
+
+@pytest.mark.parametrize("sig_x, sig_y, sig_z, miss, hbr", [
+    (1000.0, 1.0, 100.0, 50.0, 20.0),  # 3d was 5e-4 of foster
+    (300.0, 1.0, 300.0, 100.0, 10.0),  # 0.82 of foster
+    (100.0, 0.1, 100.0, 10.0, 10.0),  # 4.5e-5 of foster
+    (5.0, 1e-9, 5.0, 5.0, 20.0),  # clipped to 1e-4 HBR along u
+])
+def test_3d_equals_foster_for_a_covariance_thin_along_the_relative_velocity(sig_x, sig_y, sig_z,
+                                                                            miss, hbr):
+    # the rate is a spike ~ sigma_y / |u| wide; the time grid scaled with the largest sigma
+    # stepped over it, and "3d" returned a Pc orders of magnitude low, silently (audit10)
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = r1 + [miss, 0.0, 0.0], np.array([0.0, 0.0, 7.5e3])
+    axes = np.array([[1.0, 0, 0], [0, 1, -1], [0, 1, 1]]) / [[1.0], [math.sqrt(2)],
+                                                               [math.sqrt(2)]]
+    c1 = axes.T @ np.diag([sig_x, sig_y, sig_z]) ** 2 @ axes  # y along u = v1 - v2
+    p2 = collision_probability(r1, v1, c1, r2, v2, c1 * 0, hbr)
+    p3 = collision_probability(r1, v1, c1, r2, v2, c1 * 0, hbr, method="3d")
+    assert p3 == pytest.approx(p2, rel=1e-6)
+
+
+@pytest.mark.parametrize("miss", [1.0, 5.0, 15.0])
+def test_probability_never_exceeds_one(miss):
+    # a covariance of 1 mm inside a 20 m HBR: Foster gave 1.0000000000000782 (ln Pc > 0),
+    # Alfano's maximum 1.0000000000000346 (audit10)
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = r1 + [miss, 0.0, 0.0], np.array([0.0, 0.0, 7.5e3])
+    c = np.eye(3) * 1e-6
+    for method in ("foster", "chan", "3d"):
+        lp = collision_probability(r1, v1, c, r2, v2, c * 0, 20.0, method=method, log=True)
+        assert -1e-7 < lp <= 0.0, method  # Chan: an approximation, 3e-8 off here
+        assert collision_probability(r1, v1, c, r2, v2, c * 0, 20.0, method=method) <= 1.0
+    assert 1.0 - 1e-12 < max_collision_probability(r1, v1, r2, v2, 20.0) <= 1.0
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"confidence": 1.5}, "confidence"),  # the interval was (nan, nan), silently
+    ({"confidence": -1.0}, "confidence"),  # low 1, high 0
+    ({"confidence": math.nan}, "confidence"),
+    ({"samples": 2.7}, "whole number"),  # 2 samples, silently
+    ({"samples": "many"}, "whole number"),  # int()'s ValueError
+    ({"samples": math.nan}, "whole number"),
+])
+def test_monte_carlo_refuses_a_bad_level_or_sample_count(kwargs, match):
+    args = _km_to_m(OM_R1, OM_V1, OM_C1, OM_R2, OM_V2, OM_C2)
+    with pytest.raises(InvalidInputError, match=match):
+        monte_carlo_probability(*args, 20.0, seed=1, **{"samples": 1000, **kwargs})
+
+
+def test_zero_relative_velocity_points_to_the_method_that_handles_it():
+    # the message sent users to method='3d' or 'monte_carlo', which refuse the same case
+    r1, v1 = np.array([7e6, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    c = np.diag([100.0, 400.0, 100.0, 1e-2, 1e-2, 1e-2])
+    for method in ("foster", "chan", "3d", "monte_carlo"):
+        with pytest.raises(InvalidInputError, match="pc3d_hall"):
+            collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method=method)
+    pc = collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method="pc3d_hall")
+    assert 0.0 < pc < 1.0
 
 
 def test_alfano_max_probability_circular_limit():

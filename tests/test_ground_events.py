@@ -230,3 +230,42 @@ def test_rise_and_set_on_a_leap_second_day_match_skyfield():
     ts, es, topos = _skyfield(L1, L2, 40.0, -75.0, 100)
     ref = _true_crossings(ts, es, topos, times[cross], 0.0)
     assert np.abs((times[cross] - ref).to_value(u.s)).max() < TENTH_SECOND
+
+
+@pytest.mark.parametrize("key, lat, lon, offsets", [
+    ("ISS", 40.0, -75.0, (-90.0, -30.0, -5.0, 5.0, 30.0, 90.0)),
+    ("08195", 67.9, 21.1, (-900.0, -300.0, -20.0, 20.0, 300.0, 900.0)),  # Molniya
+])
+def test_culmination_near_the_window_edge_is_found_as_skyfield_does(key, lat, lon, offsets):
+    """A maximum in the first or last sampling interval of the window (100 s in LEO, 800 s for
+    a Molniya orbit) was not bracketed: the culmination was missing from find_events, and the
+    pass table gave the window edge's elevation as max_elevation (lower, silently)."""
+    l1, l2, sat = _sat(key)
+    site = vv.GroundStation(lat * u.deg, lon * u.deg, 100 * u.m)
+    t0 = sat.epoch + 0.3 * u.day
+    times, kinds = site.find_events(sat, t0, t0 + 1 * u.day, 10 * u.deg)
+    ts, es, topos = _skyfield(l1, l2, lat, lon, 100)
+    diff = es - topos
+
+    def alt(t):
+        return diff.at(ts.from_astropy(t)).altaz()[0].degrees
+
+    culminations = times[kinds == 1][:2]
+    assert len(culminations) == 2
+    span = 3 * u.hour
+    for tc in culminations:
+        for off in offsets:  # edge - culmination, s
+            edge = tc + off * u.s
+            assert alt(edge) > 0.0  # the edge cuts the pass
+            for a, b in ((edge, edge + span), (edge - span, edge)):
+                got_t, got_k = site.find_events(sat, a, b)
+                inside = bool(a < tc < b)
+                # the culmination is reported exactly when it lies inside the window
+                at_tc = (np.abs((got_t - tc).to_value(u.s)) < 1.0) & (got_k == 1)
+                assert at_tc.sum() == int(inside), (key, off, got_k)
+                table = vv.find_passes(sat, site, a, b)
+                cut = table[0] if a == edge else table[-1]  # the pass the edge cuts
+                top = alt(tc) if inside else alt(edge)
+                np.testing.assert_allclose(cut["max_elevation"].to_value(u.deg), top,
+                                           atol=2e-3)
+                assert bool(cut["culmination_time"].mask) != inside

@@ -1,6 +1,8 @@
 """Look angles against astropy's AltAz and Skyfield; rates against finite differences; Doppler
 and refraction against their formulas."""
 
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -129,6 +131,8 @@ def test_doppler_known_value_and_sign(iss, site, times):
         doppler_shift(437.8e6, 1 * u.km / u.s)
     with pytest.raises(vv.DomainError):
         doppler_shift(-1 * u.MHz, 1 * u.km / u.s)
+    with pytest.raises(vv.ShapeError, match="do not broadcast"):  # was numpy's ValueError
+        doppler_shift([1.0, 2.0, 3.0] * u.MHz, [1.0, 2.0] * u.km / u.s)
 
 
 def test_refraction_saemundsson_against_bennett():
@@ -147,6 +151,36 @@ def test_refracted_elevation(iss, site, times):
     app = site.look(iss, times, refraction=True)
     d = (app.elevation - geo.elevation).to_value(u.deg)
     np.testing.assert_allclose(d, refraction_deg(geo.elevation.to_value(u.deg)))
+
+
+def test_refracted_elevation_rate_is_the_derivative_of_the_refracted_elevation(iss, site,
+                                                                               times):
+    # the rate stayed geometric: 15 % off at the horizon, where refraction falls fastest
+    app = site.look(iss, times, refraction=True)
+    half = 0.05 * u.s
+    lp = site.look(iss, times + half, refraction=True)
+    lm = site.look(iss, times - half, refraction=True)
+    fd = (lp.elevation - lm.elevation).to_value(u.deg) / (2 * half.to_value(u.s))
+    up = app.elevation > -1 * u.deg
+    assert up.sum() > 5
+    np.testing.assert_allclose(app.elevation_rate.to_value(u.deg / u.s)[up], fd[up], atol=1e-5)
+
+
+def test_refraction_takes_angle_quantities_and_checks_the_air():
+    # a Quantity's unit was dropped: 0.1 rad read as 0.1 deg (0.47 deg of refraction, not 0.15)
+    np.testing.assert_allclose(refraction_deg(0.1 * u.rad).to_value(u.deg),
+                               refraction_deg(np.degrees(0.1)), rtol=1e-14)
+    assert refraction_deg(10 * u.deg).unit == u.deg
+    with pytest.raises(vv.UnitsError):
+        refraction_deg(10 * u.km)
+    assert abs(refraction_deg(90.0)) < 1e-8  # Meeus' zenith term (was -3.2e-5 deg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert refraction_deg(-5.11) == 0.0  # at the formula's pole: no RuntimeWarning
+    with pytest.raises(vv.InvalidInputError, match="temperature_c"):
+        refraction_deg(10.0, temperature_c=-273.0)  # was ZeroDivisionError
+    with pytest.raises(vv.InvalidInputError, match="pressure_hpa"):
+        refraction_deg(10.0, pressure_hpa=np.nan)
 
 
 def test_bad_targets(iss, site, times):

@@ -125,6 +125,18 @@ def test_visual_magnitude_and_twilight():
                                   ["day", "civil", "nautical", "astronomical", "night"])
 
 
+def test_visual_magnitude_and_twilight_take_quantities_in_any_unit():
+    # a Quantity's unit was dropped: 90 deg read as 90 rad, 1e6 m as 1e6 km, -0.2 rad of Sun
+    # elevation as -0.2 deg ("day" instead of "nautical") (audit10)
+    assert visual_magnitude(4.0, 1e6 * u.m, 90 * u.deg) == pytest.approx(4.0)
+    assert visual_magnitude(4.0 * u.mag, 2000 * u.km, np.pi / 2) == pytest.approx(
+        4.0 + 5 * np.log10(2))
+    assert str(twilight(-0.2 * u.rad)) == "nautical"
+    np.testing.assert_array_equal(twilight([-15.0, 5.0] * u.deg), ["astronomical", "day"])
+    with pytest.raises(vv.UnitsError):
+        twilight(-3 * u.km)
+
+
 def test_export_csv_and_ecsv(table, tmp_path):
     write_passes(table, tmp_path / "p.ecsv")
     back = QTable.read(tmp_path / "p.ecsv")
@@ -203,6 +215,24 @@ def test_bad_input(iss, sites):
         vv.find_passes(iss, sites, T0, T0 - 1 * u.hour)
     with pytest.raises(vv.DomainError):
         vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, -91 * u.deg)
+
+
+@pytest.mark.parametrize("mag, match", [
+    ([1.0, 2.0], "one per satellite"),  # was numpy's "could not be broadcast"
+    (np.nan, "not a finite magnitude"),  # was: every magnitude masked, silently
+    ([np.inf], "standard_magnitude\\[0\\] is inf"),
+    ("bright", "one number per satellite"),  # was numpy's "could not convert string"
+    (3.0 * u.km, "unit 'km'"),
+])
+def test_bad_standard_magnitude_is_refused_before_the_search(iss, sites, mag, match):
+    with pytest.raises(vv.InvalidInputError, match=match):
+        vv.find_passes(iss, sites, T0, T0 + 1 * u.hour, standard_magnitude=mag)
+
+
+def test_standard_magnitude_per_satellite_and_in_mag(iss, sites, table):
+    one = vv.find_passes(iss, sites, T0, T0 + 1 * u.day, 10 * u.deg,
+                         standard_magnitude=[-1.8] * u.mag)
+    np.testing.assert_array_equal(one["magnitude"].unmasked, table["magnitude"].unmasked)
 
 
 def _omm(epoch):

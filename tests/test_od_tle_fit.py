@@ -194,7 +194,8 @@ def test_fit_tle_and_convert_commands_read_mission_elapsed_time(iss, tmp_path, c
                  "--mission-epoch", "2023-12-31T06:00:00"]) == 0
     back = vv.read_oem(xml, mission_epoch=launch).segments[0]
     assert back.epochs == seg.epochs and back.time_system == "MET"
-    assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x"]) == 2
+    assert main(["convert", str(path), str(xml), "--to", "oem", "--mission-epoch", "x",
+                 "--overwrite"]) == 2
     assert "is not an ISO date-time" in capsys.readouterr().err
 
 

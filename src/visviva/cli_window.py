@@ -5,14 +5,18 @@ One owner for parsing the window, so that ``visviva passes`` and ``visviva scree
 window with the same short message instead of astropy's list of every time format it tried; one
 for writing the output, so that ``visviva convert`` and ``visviva fit-tle`` report a file they
 cannot write in one line with exit code 2 instead of a traceback; one for the element-set file
-argument of ``visviva passes`` and ``visviva screen`` (read by :func:`visviva.read_catalog_file`).
+argument of ``visviva passes`` and ``visviva screen`` (read by :func:`visviva.read_catalog_file`);
+and one check of the output paths of every command (:func:`check_outputs`): no output may be an
+input file, no file is written twice, and an existing file is replaced only with
+``--overwrite``.
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["window_from_args", "write_output", "add_catalog_argument"]
+__all__ = ["window_from_args", "time_from_arg", "write_output", "add_catalog_argument",
+           "add_overwrite_argument", "check_outputs"]
 
 
 def add_catalog_argument(parser) -> None:
@@ -53,24 +57,37 @@ def window_from_args(start: str, hours: float):
         example), or ``hours`` is not a positive finite number.
     """
     from astropy import units as u
-    from astropy.time import Time
 
     from .errors import InvalidInputError
 
     if not (math.isfinite(hours) and hours > 0):
         raise InvalidInputError(f"--hours must be a positive finite number, got {hours}.")
+    t0 = time_from_arg("--start", start)
+    return t0, t0 + hours * u.hour
+
+
+def time_from_arg(option: str, value: str):
+    """An ISO 8601 time in UTC (or with a UTC offset) given as ``option`` -> astropy Time.
+
+    Raises :class:`visviva.errors.InvalidInputError` with astropy's ISO reason only, and an
+    example, for anything else.
+    """
+    from astropy.time import Time
+
+    from .errors import InvalidInputError
+
     try:
-        t0 = _with_utc_offset(start)
-        if t0 is None:
-            t0 = Time(start, scale="utc")
+        t = _with_utc_offset(value)
+        if t is None:
+            t = Time(value, scale="utc")
     except ValueError as exc:
         # astropy lists why every format failed; the ISO one is the reason that matters here
         lines = str(exc).splitlines()
         why = next((ln.split(":", 1)[1].strip() for ln in lines if "'isot'" in ln), lines[0])
         raise InvalidInputError(
-            f"--start {start!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
+            f"{option} {value!r} is not an ISO time ({why}); use e.g. 2024-05-01T18:00:00"
         ) from None
-    return t0, t0 + hours * u.hour
+    return t
 
 
 def _with_utc_offset(start: str):
@@ -119,3 +136,58 @@ def write_output(command: str, path: str, text: str) -> int:
         print(f"visviva {command}: cannot write {path}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def add_overwrite_argument(parser) -> None:
+    """Add ``--overwrite`` (``args.overwrite``): replace output files that exist."""
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace output files that exist (an input file is never replaced)")
+
+
+def _same_file(a, b) -> bool:
+    import os
+
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare the absolute paths
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def check_outputs(outputs, inputs, overwrite: bool) -> None:
+    """Refuse output paths that would destroy data, before any work is done.
+
+    Parameters
+    ----------
+    outputs : list of str or None
+        The output paths given (``None`` or ``"-"``, standard output: not checked).
+    inputs : list of str or None
+        The files the command reads.
+    overwrite : bool
+        ``--overwrite``: an existing output file may be replaced.
+
+    Raises
+    ------
+    visviva.errors.InvalidInputError
+        An output is one of the input files (refused even with ``--overwrite``), the same file
+        is given as two outputs, or an output file exists and ``overwrite`` is false.
+    """
+    import os
+
+    from .errors import InvalidInputError
+
+    seen = []
+    for out in outputs:
+        if out is None or out == "-":
+            continue
+        for source in inputs:
+            if source is not None and _same_file(out, source):
+                raise InvalidInputError(
+                    f"the output {out} is the input file {source}: writing it would destroy "
+                    "the input; choose another output path.")
+        for earlier in seen:
+            if _same_file(out, earlier):
+                raise InvalidInputError(f"{out} is given as two outputs; name two files.")
+        if os.path.isfile(out) and not overwrite:
+            raise InvalidInputError(
+                f"{out} exists; pass --overwrite to replace it, or choose another path.")
+        seen.append(out)

@@ -9,6 +9,8 @@ from ``--to`` or the output's suffix (``.tle``, ``.txt``, ``.omm``, ``.oem``); K
 
 from __future__ import annotations
 
+from ..errors import InvalidInputError
+
 _KINDS = ("tle", "omm", "oem")
 _SUFFIX = {".tle": "tle", ".txt": "tle", ".3le": "tle", ".omm": "omm", ".oem": "oem"}
 
@@ -45,6 +47,9 @@ def add_parser(sub) -> None:
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--originator", default="VISVIVA",
                    help="ORIGINATOR of a new OMM or OEM (default VISVIVA)")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def _kind_of_text(text: str) -> str:
@@ -56,8 +61,8 @@ def _kind_of_text(text: str) -> str:
         if f"CCSDS_{kind.upper()}_VERS" in head or f"<{kind}" in head:
             return kind
     if "CCSDS_OPM_VERS" in head or "<opm" in head:
-        raise SystemExit("visviva convert: OPM input is not converted (it holds one state); "
-                         "read it with visviva.read_opm")
+        raise InvalidInputError("OPM input is not converted (it holds one state); "
+                                "read it with visviva.read_opm")
     return "tle"
 
 
@@ -69,8 +74,8 @@ def _output_kind(args) -> str:
     suffix = os.path.splitext(args.output)[1].lower()
     if suffix in _SUFFIX:
         return _SUFFIX[suffix]
-    raise SystemExit(f"visviva convert: cannot tell the output kind from {args.output!r}; "
-                     "pass --to tle, omm or oem")
+    raise InvalidInputError(f"cannot tell the output kind from {args.output!r}; "
+                            "pass --to tle, omm or oem")
 
 
 def _format(args) -> str:
@@ -90,11 +95,12 @@ def _satellite(args, path, text: str, kind: str):
     if args.satnum is not None:
         sats = [s for s in sats if s.satnum == args.satnum]
         if not sats:
-            raise SystemExit(f"visviva convert: no satellite {args.satnum} in {args.input}")
+            raise InvalidInputError(f"no satellite {args.satnum} in {args.input}")
     if len(sats) != 1:
         numbers = ", ".join(str(s.satnum) for s in sats[:10])
-        raise SystemExit(f"visviva convert: {args.input} holds {len(sats)} satellites "
-                         f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with --satnum")
+        raise InvalidInputError(f"{args.input} holds {len(sats)} satellites "
+                                f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with "
+                                "--satnum")
     return sats[0]
 
 
@@ -115,14 +121,15 @@ def _sample_oem(sat, args):
     from astropy import units as u
     from astropy.time import Time
 
+    from ..cli_window import time_from_arg
     from .oem import Ephemeris, OEMSegment
 
-    start = Time(args.start, scale="utc") if args.start else sat.epoch.utc
+    start = time_from_arg("--start", args.start) if args.start else sat.epoch.utc
     if not (args.hours > 0 and args.step > 0):
-        raise SystemExit("visviva convert: --hours and --step must be positive")
+        raise InvalidInputError("--hours and --step must be positive")
     n = int(np.floor(args.hours * 3600.0 / args.step + 1e-9)) + 1
     if n < 2:
-        raise SystemExit("visviva convert: --hours must span at least two --step")
+        raise InvalidInputError("--hours must span at least two --step")
     t = start + (np.arange(n) * args.step) * u.s
     states = {"GCRF": sat.gcrs, "EME2000": sat.gcrs, "TEME": sat.teme, "ITRF": sat.itrs}[
         args.frame](t)
@@ -154,10 +161,11 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ..cli_window import write_output
+    from ..cli_window import check_outputs, write_output
     from ..errors import VisvivaError
 
     try:
+        check_outputs([args.output], [args.input], args.overwrite)
         # (a Path: a file name holding '=' is still a file name, and errors name the file)
         text = _input_text(Path(args.input))
         source = _kind_of_text(text)
@@ -197,11 +205,9 @@ def _convert(args, path, text, source, target, fmt) -> str:
 
     if source == "oem":
         if target != "oem":
-            raise SystemExit("visviva convert: an OEM becomes a TLE or OMM only by a fit; use "
-                             "visviva.fit_tle on the ephemeris")
+            raise InvalidInputError("an OEM becomes a TLE or OMM only by a fit; use "
+                                    "visviva.fit_tle on the ephemeris")
         from astropy.time import Time
-
-        from ..errors import InvalidInputError
 
         try:
             mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None

@@ -26,6 +26,9 @@ def add_parser(sub) -> None:
                    help="screen only this object against the rest")
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def run(args) -> int:
@@ -34,12 +37,13 @@ def run(args) -> int:
 
     from astropy import units as u
 
-    from ..cli_window import window_from_args
+    from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import Catalog, read_catalog_file
     from .screening import screen_conjunctions
 
     try:
+        check_outputs([args.csv], [args.tle_file], args.overwrite)
         cat = read_catalog_file(args.tle_file)
         t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:

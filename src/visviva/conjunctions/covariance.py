@@ -290,7 +290,8 @@ def encounter_plane(r1, v1, cov1, r2, v2, cov2, hard_body_radius=0.0) -> Encount
     if not vn > 0:
         raise InvalidInputError(
             "the relative velocity is zero: there is no encounter plane and the short-encounter "
-            "probability is undefined; use method='3d' or 'monte_carlo' with propagation."
+            "probability is undefined; use method='pc3d_hall' (Hall's 3D-Nc, which follows the "
+            "objects in time; it needs 6x6 position-velocity covariances)."
         )
     y = v / vn
     h = np.cross(r, v)

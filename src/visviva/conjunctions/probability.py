@@ -129,7 +129,7 @@ def _log_pc_2d(xm, zm, sx, sz, hbr, method):
     from ..core import collision as kern
 
     if method == "chan":
-        return float(kern.log_pc_chan(xm, zm, sx, sz, hbr))
+        return min(float(kern.log_pc_chan(xm, zm, sx, sz, hbr)), 0.0)
     lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, _RTOL)
     if status:
         from ..errors import ConvergenceError
@@ -138,7 +138,8 @@ def _log_pc_2d(xm, zm, sx, sz, hbr, method):
             f"the Foster integral did not reach {_RTOL:g} relative accuracy "
             f"(miss {xm:g}, {zm:g} m, sigma {sx:g}, {sz:g} m, HBR {hbr:g} m); report this case."
         )
-    return float(lp)
+    # a probability: near 1 the integral's 1e-13 rounding could put it above
+    return min(float(lp), 0.0)
 
 
 def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,
@@ -309,9 +310,14 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     from scipy import stats
 
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    if not (isinstance(samples, (int, np.integer, float, np.floating))
+            and math.isfinite(samples) and samples == int(samples) and samples >= 1):
+        raise InvalidInputError(f"samples must be a whole number >= 1, got {samples!r}.")
     samples = int(samples)
-    if samples < 1:
-        raise InvalidInputError(f"samples must be >= 1, got {samples}.")
+    if not (isinstance(confidence, (int, float, np.integer, np.floating))
+            and 0.0 < confidence < 1.0):
+        raise InvalidInputError(f"confidence must be a level in (0, 1) such as 0.95, got "
+                                f"{confidence!r}.")
     plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     sx, sz = plane.sigma
     xm, zm = plane.principal_miss
@@ -415,12 +421,20 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     lam = float(np.max(np.linalg.eigvalsh(a0)))
     if un == 0:
         raise InvalidInputError("zero relative velocity at TCA: the 3-D flux method needs the "
-                                "objects to move relative to each other.")
+                                "objects to move relative to each other; use "
+                                "method='pc3d_hall', which handles it.")
     r1k, v1k, r2k, v2k = r1 / 1e3, v1 / 1e3, r2 / 1e3, v2 / 1e3
     period = 2 * math.pi * math.sqrt(
         (1.0 / (2.0 / np.linalg.norm(r1k) - np.dot(v1k, v1k) / gm_km)) ** 3 / gm_km)
     half = min(10.0 * (math.sqrt(lam) + hbr + float(np.linalg.norm(r1 - r2))) / un,
                0.25 * period)
+    # the rate is a spike of width ~ sigma_t = (sigma along u) / |u| about the crossing of the
+    # hard-body plane, t* = -(r . u) / |u|^2: for a covariance thin along u that is far narrower
+    # than the window (which scales with the largest sigma), so it gets panels of its own
+    y0 = u0 / un
+    sigma_t = math.sqrt(max(float(y0 @ a0 @ y0), clip)) / un
+    t_star = -float(np.dot(r1 - r2, y0)) / un
+    half = min(max(half, abs(t_star) + 12.0 * sigma_t), 0.25 * period)
 
     def full6(c):
         if c.shape == (6, 6):
@@ -469,6 +483,9 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     nodes, weights = np.polynomial.legendre.leggauss(8)
     panels = 96
     edges = np.linspace(-half, half, panels + 1)
+    if 2.0 * half / panels > 2.0 * sigma_t:  # the spike is narrower than a panel
+        fine = t_star + sigma_t * np.linspace(-12.0, 12.0, 49)
+        edges = np.unique(np.concatenate([edges, fine[(fine > -half) & (fine < half)]]))
     logs = []
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         for xk, wk in zip(nodes, weights, strict=True):
@@ -480,7 +497,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     top = float(np.max(logs))
     if top == -math.inf:
         return -math.inf
-    return top + math.log(float(np.sum(np.exp(logs - top))))
+    return min(top + math.log(float(np.sum(np.exp(logs - top)))), 0.0)  # a probability
 
 
 def _clip_3d(cov, clip, repairs):

@@ -46,19 +46,61 @@ FILTER_MARGIN_KM = 60.0
 HERMITE_MARGIN_KM = 2.0
 
 
-def _refine(src1, i, src2, j, t_lo, t_hi, window):
-    """TCA in [t_lo, t_hi] (s from t0) by Brent on rho . rho_dot, on the sources' own states."""
+#: half-step (s) of the central difference of SGP4 positions that gives the relative velocity in
+#: the TCA refinement: its error, ~ jerk h^2 / 6, is below 1e-6 km/s in LEO
+_FD_HALF_STEP_S = 0.5
+
+
+def _refine(src1, i, src2, j, t_lo, t_hi, window, step_s):
+    """TCA near [t_lo, t_hi] (s from t0): the root of ``rho . rho_dot`` by Brent (1e-5 s).
+
+    For SGP4 objects ``rho_dot`` is the central difference of SGP4's positions, not SGP4's
+    velocities: those leave out the rates of some periodic terms (the deep-space ones most), so
+    their root is not the minimum of the distance (seconds off for an eccentric deep-space
+    orbit, and a miss distance up to hundreds of metres larger). Its root may then lie just
+    outside the sampled bracket: the bracket widens by one step on the side it points to.
+    Ephemerides use their interpolant's own derivative.
+    """
     from scipy.optimize import brentq
 
-    def f(ts):
+    from .sources import SgpSource
+
+    exact_rate = not (isinstance(src1, SgpSource) and isinstance(src2, SgpSource))
+    h = _FD_HALF_STEP_S
+
+    def rel(ts):
         r1, v1 = src1.state(i, ts)
         r2, v2 = src2.state(j, ts)
         if r1 is None or r2 is None:
-            return math.nan
-        return float(np.dot(r2 - r1, v2 - v1))
+            return None, None
+        return r2 - r1, v2 - v1
+
+    def f(ts):
+        if exact_rate:
+            rho, rho_dot = rel(ts)
+            if rho is None:
+                return math.nan
+        else:  # SGP4 positions at ts - h, ts, ts + h: one call per object
+            three = np.array([ts - h, ts, ts + h])
+            p1 = src1.positions(i, three)
+            p2 = src2.positions(j, three)
+            if p1 is None or p2 is None:
+                return math.nan
+            d = p2 - p1
+            rho, rho_dot = d[1], (d[2] - d[0]) / (2.0 * h)
+        return float(np.dot(rho, rho_dot))
 
     lo, hi = max(t_lo, 0.0), min(t_hi, window)
     fa, fb = f(lo), f(hi)
+    for _ in range(2):  # the positions' root just outside the velocities' bracket
+        if fa < 0.0 and fb < 0.0 and hi < window:
+            lo, fa = hi, fb
+            hi = min(hi + step_s, window)
+            fb = f(hi)
+        elif fa > 0.0 and fb > 0.0 and lo > 0.0:
+            hi, fb = lo, fa
+            lo = max(lo - step_s, 0.0)
+            fa = f(lo)
     if not (math.isfinite(fa) and math.isfinite(fb)):
         return None
     if fa >= 0.0:
@@ -141,9 +183,10 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
                 lo, hi = window - step_s, window
             else:
                 lo, hi = k * step_s, (k + 1) * step_s
-            tca = _refine(src1, int(i), src2, j, lo, hi, window)
-            if tca is None:
-                continue
+            tca = _refine(src1, int(i), src2, j, lo, hi, window, step_s)
+            if tca is None or any(f[0] == i and f[1] == j and abs(f[2] - tca) < 1e-3
+                                  for f in found[-4:]):
+                continue  # (two brackets that widened onto one minimum: once)
             ra, va = src1.state(int(i), tca)
             rb, vb = src2.state(j, tca)
             d = rb - ra
@@ -204,8 +247,41 @@ _WORKER_CACHE: dict = {}
 
 
 def _worker_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows):
-    return screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
-                        cache=_WORKER_CACHE)
+    found = screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
+                         cache=_WORKER_CACHE)
+    return found, _first_failures(_WORKER_CACHE, self_mode)
+
+
+def _first_failures(cache, self_mode):
+    """Per object of each side, the first sample where it failed to propagate (SGP4 error:
+    NaN states), -1 where none did; from the sampled ephemerides in ``cache``."""
+    out = []
+    for r in (cache["eph"][0], cache["eph"][0] if self_mode else cache["eph"][4]):
+        bad = ~np.isfinite(r[..., 0])
+        out.append(np.where(bad.any(axis=1), bad.argmax(axis=1), -1))
+    return out
+
+
+def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> None:
+    """One RuntimeWarning naming the objects whose SGP4 failed inside the window: the
+    screening of each stops there (nothing after it is screened, so a close approach there
+    would be missing from the table without it)."""
+    from astropy import units as u
+
+    sides = [(first1, names1)] if self_mode else [(first1, names1), (first2, names2)]
+    items = [(names[i], int(first[i])) for first, names in sides
+             for i in np.flatnonzero(first >= 0)]
+    if not items:
+        return
+    import warnings
+
+    where = ", ".join(f"{name!r} from {(t0 + max(k, 0) * step_s * u.s).utc.isot[:19]}"
+                      for name, k in items[:5])
+    warnings.warn(
+        f"SGP4 failed inside the window for {len(items)} object(s) ({where}"
+        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets; they are not "
+        "screened from there on (close approaches after that time are not in the table).",
+        RuntimeWarning, stacklevel=3)
 
 
 def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold=None, *,
@@ -258,7 +334,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     change of sign from - to + brackets each local minimum of the distance, so none is skipped,
     and a cubic Hermite model of the relative motion (error ~1 m at 60 s; margin 2 km, growing
     as ``step^4``) rejects those above the threshold. Survivors are refined on SGP4 itself: TCA by Brent's method on
-    ``rho . rho_dot`` to 1e-5 s. Positions are TEME; the RTN components of ``r2 - r1`` use the
+    ``rho . rho_dot`` to 1e-5 s, ``rho_dot`` from SGP4's positions (see :func:`_refine`). Positions are TEME; the RTN components of ``r2 - r1`` use the
     primary's TEME position and velocity. Minima at the edges of the window are reported at the
     edge.
     """
@@ -312,6 +388,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         for rows in it:
             found.extend(screen_block(cat1, cat2, self_mode, step_s, n_steps, thr, rows,
                                       cache=cache))
+        first1, first2 = _first_failures(cache, self_mode)
     else:
         c1 = client.scatter(cat1, broadcast=True)
         c2 = c1 if self_mode else client.scatter(cat2, broadcast=True)
@@ -321,8 +398,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
             from dask.distributed import progress as dask_progress
 
             dask_progress(futures)
-        for part in client.gather(futures):
+        first1 = first2 = None
+        for part, (f1, f2) in client.gather(futures):
             found.extend(part)
+            first1, first2 = f1, f2  # every worker samples every object
     found.sort(key=lambda row: (row[2], row[0], row[1]))
     arr = np.array([f[2:] for f in found], dtype=np.float64).reshape(-1, 6)
     names1, names2 = cat1.names, cat2.names
@@ -343,6 +422,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
     tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
     _warn_same_object(cat1, cat2, tab)
+    _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
 
 

@@ -80,6 +80,14 @@ class SgpSource:
             return None, None
         return np.array(r), np.array(v)
 
+    def positions(self, i, ts):
+        """Positions of object ``i`` at the times ``ts`` (s from t0, array), km, shape
+        ``(len(ts), 3)``, in one SGP4 call; None if SGP4 fails at one of them."""
+        ts = np.asarray(ts, dtype=np.float64)
+        e, r, _ = self.catalog[i].satrec.sgp4_array(np.full(ts.size, self.jd0),
+                                                    self.fr0 + ts / DAY_S)
+        return None if np.any(e) else r
+
     def same(self, i, other, j):
         return self.catalog[i] is other.catalog[j]
 

@@ -134,8 +134,11 @@ def log_pc_circle(xm, zm, sx, sz, hbr, lo_rule, hi_rule, rtol):
 
     Adaptive bisection of ``theta`` in ``x = xm + hbr sin(theta)`` (the substitution removes the
     square-root end points of the chord), with ``lo_rule``/``hi_rule`` Gauss-Legendre pairs
-    (:data:`GAUSS_LO`, :data:`GAUSS_HI`), until the estimated error is below ``rtol`` of the total.
-    The integrand is scaled by its largest value, so nothing underflows.
+    (:data:`GAUSS_LO`, :data:`GAUSS_HI`), until the estimated error is below ``rtol`` of the total
+    (or, where the inputs' rounding allows no more, below the condition floor
+    ``16 eps (hbr + |miss|) / min(sx, sz) (4 + sqrt(2 |ln f_max|))``: a covariance thin beside a
+    large circle whose edge lies in its tail). The integrand is scaled by its largest value, so
+    nothing underflows.
     Returns ``(log_pc, status)``; status 1 means the tolerance was not reached.
     """
     if hbr <= 0.0:
@@ -214,8 +217,16 @@ def log_pc_circle(xm, zm, sx, sz, hbr, lo_rule, hi_rule, rtol):
         w *= 4.0
     b = np.sort(brk[:nb])
     # when ln(Pc) is huge and negative, the log-integrand carries an absolute rounding error of
-    # ~eps |shift|, which bounds the relative accuracy of Pc itself (still exact in ln Pc)
-    rtol = max(rtol, 16.0 * 2.220446049250313e-16 * abs(shift))
+    # ~eps |shift|, which bounds the relative accuracy of Pc itself (still exact in ln Pc);
+    # and the circle's edge is only known to ~eps (hbr + miss), i.e. to that over the smaller
+    # sigma in standard deviations, where the Gaussian's log falls at a rate ~sqrt(2 |shift|):
+    # a covariance thin beside a large HBR with the edge in its tail bounds the accuracy there
+    # (Pc's own condition number for its rounded inputs; demanding more made the adaptive
+    # integration chase rounding noise and fail)
+    eps = 2.220446049250313e-16
+    edge = (hbr + math.hypot(xm, zm)) / min(sx, sz)
+    rtol = max(rtol, 16.0 * eps * abs(shift),
+               16.0 * eps * edge * (4.0 + math.sqrt(2.0 * abs(shift))))
     # global adaptive integration over the pieces
     cap = 4000
     ia = np.empty(cap)

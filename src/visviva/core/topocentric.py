@@ -157,10 +157,42 @@ def _f_at(r, v, i, t, h, nodes, sx, sy, sz, ux, uy, uz, sin_min):
     return (px * ux + py * uy + pz * uz) / math.sqrt(px * px + py * py + pz * pz) - sin_min
 
 
+@inline_kernel
+def _crossing(r, v, i, h, nodes, sx, sy, sz, ux, uy, uz, sin_min, lo, hi, flo, fhi):
+    """The one root of ``f`` in ``[lo, hi]`` (``f`` monotonic there, signs differ): Illinois
+    regula falsi to 1e-2 s."""
+    side = 0
+    for _ in range(200):
+        x = (lo * fhi - hi * flo) / (fhi - flo)
+        if not (lo < x < hi):
+            x = 0.5 * (lo + hi)
+        fx = _f_at(r, v, i, x, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
+        if (fx <= 0.0) == (flo <= 0.0):
+            lo = x
+            flo = fx
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+        else:
+            hi = x
+            fhi = fx
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        if hi - lo < 1e-2:
+            break
+    return 0.5 * (lo + hi)
+
+
 @kernel
-def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, out_k, out_f,
-                 cap):
-    """Stream the samples of one pair; write its events; return how many there are."""
+def _pair_events(r, v, i, h, t_start, t_end, t_reach, m, site, up, sin_min, near, out_t, out_k,
+                 out_f, cap):
+    """Stream the samples of one pair; write its events; return how many there are.
+
+    One sample either side of the window (where the nodes reach, ``[0, t_reach]``) lets a
+    maximum in its first or last sampling interval be bracketed; extrema outside the window
+    are not reported (the caller's window-edge values stand for them).
+    """
     nodes = r.shape[1]
     sx, sy, sz = site[0], site[1], site[2]
     ux, uy, uz = up[0], up[1], up[2]
@@ -178,14 +210,24 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
     f_c = bf
     et = t_start
     ef = bf
+    # a sample before the window, when the nodes reach it with finite states
+    k_first = 2
+    if t_start - dt >= 0.0:
+        t_a = t_start - dt
+        f_a = _f_at(r, v, i, t_a, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
+        k_first = 1
+    has_post = t_end + dt <= t_reach
     for k in range(1, nsamp + 1):
         last = k == nsamp
         if not last:
             t_c = min(t_start + k * dt, t_end)
             f_c = _f_at(r, v, i, t_c, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
+        elif has_post:  # a sample after the window
+            t_c = t_end + dt
+            f_c = _f_at(r, v, i, t_c, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
         is_ext = False
         ext_max = False
-        if k >= 2 and not last:
+        if k >= k_first and (not last or has_post):
             if f_b > f_a and f_b >= f_c:
                 is_ext = True
                 ext_max = True
@@ -214,44 +256,27 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
                     x2 = hi - _GOLDEN * (hi - lo)
                     g2 = sgn * _f_at(r, v, i, x2, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
             et = 0.5 * (lo + hi)
-            ef = _f_at(r, v, i, et, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
-        elif last:
-            et = t_end
-            ef = _f_at(r, v, i, t_end, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
-        if is_ext or last:
+            if et <= t_start or et >= t_end:
+                is_ext = False  # outside the window: its edge's value stands for it
+            else:
+                ef = _f_at(r, v, i, et, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
+        for stage in range(2):  # the extremum (if any), then the window's end (last sample)
+            if stage == 0 and not is_ext:
+                continue
+            if stage == 1:
+                if not last:
+                    break
+                et = t_end
+                ef = _f_at(r, v, i, t_end, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
             # one crossing between the breakpoints when the sign differs (f is monotonic there)
             if (bf <= 0.0) != (ef <= 0.0):
-                lo = bt
-                hi = et
-                flo = bf
-                fhi = ef
-                side = 0
-                x = lo
-                for _ in range(200):
-                    x = (lo * fhi - hi * flo) / (fhi - flo)
-                    if not (lo < x < hi):
-                        x = 0.5 * (lo + hi)
-                    fx = _f_at(r, v, i, x, h, nodes, sx, sy, sz, ux, uy, uz, sin_min)
-                    if (fx <= 0.0) == (flo <= 0.0):
-                        lo = x
-                        flo = fx
-                        if side == -1:
-                            fhi *= 0.5
-                        side = -1
-                    else:
-                        hi = x
-                        fhi = fx
-                        if side == 1:
-                            flo *= 0.5
-                        side = 1
-                    if hi - lo < 1e-2:
-                        break
                 if count < cap:
-                    out_t[count] = 0.5 * (lo + hi)
+                    out_t[count] = _crossing(r, v, i, h, nodes, sx, sy, sz, ux, uy, uz, sin_min,
+                                             bt, et, bf, ef)
                     out_k[count] = RISE if ef > bf else SET
                     out_f[count] = 0.0
                 count += 1
-            if is_ext and ext_max and ef > -near:
+            if stage == 0 and ext_max and ef > -near:
                 if count < cap:
                     out_t[count] = et
                     out_k[count] = CULMINATION if ef > 0.0 else NEAR_MAXIMUM
@@ -267,8 +292,8 @@ def _pair_events(r, v, i, h, t_start, t_end, m, site, up, sin_min, near, out_t, 
 
 
 @parallel_kernel
-def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, out_k, out_f,
-                count, status, f_ends):
+def scan_passes(r, v, h, t_start, t_end, t_reach, m, sites, ups, sin_min, near, out_t, out_k,
+                out_f, count, status, f_ends):
     """Rise, culmination and set of every (satellite, site) pair on Hermite-joined nodes.
 
     Parameters
@@ -281,6 +306,10 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, ou
         Each satellite's search window on the grid's time axis, s
         (``0 <= t_start < t_end <= (T - 1) h``; the caller cuts it where the node states stop
         being finite). A satellite with ``t_end <= t_start`` is skipped.
+    t_reach : ndarray (N,)
+        Each satellite's last grid time with finite node states (``>= t_end``): one sample
+        before ``t_start`` (when ``>= 0``) and one after ``t_end`` (when ``<= t_reach``) bracket
+        a maximum in the window's first or last sampling interval.
     m : int
         Samples per node interval (>= 2).
     sites, ups : ndarray (S, 3)
@@ -322,8 +351,8 @@ def scan_passes(r, v, h, t_start, t_end, m, sites, ups, sin_min, near, out_t, ou
                              u[2], sin_min)
         f_ends[p, 1] = _f_at(r, v, i, te, h, r.shape[1], st[0], st[1], st[2], u[0], u[1],
                              u[2], sin_min)
-        c = _pair_events(r, v, i, h, ts, te, m, st, u, sin_min, near[i], out_t[p], out_k[p],
-                         out_f[p], cap)
+        c = _pair_events(r, v, i, h, ts, te, t_reach[i], m, st, u, sin_min, near[i], out_t[p],
+                         out_k[p], out_f[p], cap)
         count[p] = c
         status[p] = PAIR_OVERFLOW if c > cap else PAIR_OK
 

@@ -43,6 +43,9 @@ def add_parser(sub) -> None:
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
     p.add_argument("--ecsv", default=None, metavar="PATH",
                    help="also write the table as ECSV (keeps units and masks)")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def _fmt_time(t) -> str:
@@ -77,13 +80,14 @@ def format_table(table) -> str:
 def run(args) -> int:
     from astropy import units as u
 
-    from ..cli_window import window_from_args
+    from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import read_catalog_file
     from .passes import find_passes, write_passes
     from .station import GroundStation
 
     try:
+        check_outputs([args.csv, args.ecsv], [args.tle_file], args.overwrite)
         t0, t1 = window_from_args(args.start, args.hours)
         cat = read_catalog_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,

@@ -117,7 +117,9 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         raise InvalidInputError(f"chunk_size must be a positive integer, got {chunk_size!r}.")
     mags = None
     if standard_magnitude is not None:
-        mags = np.broadcast_to(np.asarray(standard_magnitude, dtype=np.float64), (len(cat),))
+        from .visibility import standard_magnitudes
+
+        mags = standard_magnitudes(standard_magnitude, len(cat))
     client = client if client is not None else get_client()
     starts = range(0, len(cat), int(chunk_size))
     futures = [

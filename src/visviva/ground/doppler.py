@@ -57,4 +57,11 @@ def doppler_shift(frequency, range_rate):
     if not np.all(f_hz > 0) or not np.all(np.isfinite(f_hz)):
         raise DomainError(f"frequency must be positive and finite, got {frequency!r}.")
     rr = to_array(range_rate, "speed", "range_rate")
+    try:
+        np.broadcast_shapes(f_hz.shape, rr.shape)
+    except ValueError:
+        from ..errors import ShapeError
+
+        raise ShapeError(f"frequency of shape {f_hz.shape} and range_rate of shape {rr.shape} "
+                         "do not broadcast; give one frequency, or one per range rate.") from None
     return (-f_hz * rr / SPEED_OF_LIGHT_KM_S) * u.Hz

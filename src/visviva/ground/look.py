@@ -10,6 +10,8 @@ the same vector rotated to GCRS axes. Geometric by default: no refraction, no li
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from astropy import units as u
 from astropy.time import Time
@@ -68,15 +70,61 @@ class LookAngles:
 def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
     """Atmospheric refraction to add to a geometric elevation (deg).
 
-    Sæmundsson's formula (Meeus 1998, *Astronomical Algorithms*, eq. 16.4):
-    ``R = 1.02' / tan(h + 10.3 / (h + 5.11))`` with ``h`` the geometric elevation in degrees,
-    scaled by ``(P / 1010 hPa) (283 K / T)``; zero below -1 deg (the formula's range).
-    Consistent with Bennett's inverse formula to 0.07'.
+    Parameters
+    ----------
+    elevation_deg : float, array_like or Quantity (angle)
+        Geometric elevation: plain numbers in degrees, or an angle Quantity (converted).
+    pressure_hpa : float
+        Air pressure at the site, hPa (>= 0; default 1010).
+    temperature_c : float
+        Air temperature at the site, deg C (above -273; default 10).
+
+    Returns
+    -------
+    ndarray (deg), or Quantity (deg) for a Quantity ``elevation_deg``
+
+    Notes
+    -----
+    Sæmundsson's formula (Meeus 1998, *Astronomical Algorithms*, eq. 16.4) with Meeus' zenith
+    term: ``R = 1.02' / tan(h + 10.3 / (h + 5.11)) + 0.0019279'`` (0 at ``h`` = 90 deg) with
+    ``h`` the geometric elevation in degrees, scaled by ``(P / 1010 hPa) (283 K / T)``; zero
+    below -1 deg (the formula's range). Consistent with Bennett's inverse formula to 0.07'.
     """
-    h = np.asarray(elevation_deg, dtype=np.float64)
-    r_arcmin = 1.02 / np.tan(np.radians(h + 10.3 / (h + 5.11)))
-    r_arcmin = r_arcmin * (pressure_hpa / 1010.0) * (283.0 / (273.0 + temperature_c))
-    return np.where(h >= -1.0, r_arcmin / 60.0, 0.0)
+    from astropy import units as u
+
+    from .._units import is_quantity, to_array
+
+    quantity = is_quantity(elevation_deg)
+    if quantity:
+        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
+    else:
+        h = np.asarray(elevation_deg, dtype=np.float64)
+    r_arcmin = _saemundsson_arcmin(h)[0] * _conditions(pressure_hpa, temperature_c)
+    out = np.where(h >= -1.0, r_arcmin / 60.0, 0.0)
+    return out * u.deg if quantity else out
+
+
+def _conditions(pressure_hpa, temperature_c) -> float:
+    """Meeus' factor ``(P / 1010 hPa) (283 K / T)`` for the site's air; checked."""
+    p = float(pressure_hpa)
+    t = float(temperature_c)
+    if not (math.isfinite(p) and p >= 0.0):
+        raise InvalidInputError(f"pressure_hpa must be >= 0 hPa and finite, got {p!r}.")
+    if not (math.isfinite(t) and t > -273.0):
+        raise InvalidInputError(f"temperature_c must be above -273 deg C (the formula's 0 K), "
+                                f"got {t!r}.")
+    return (p / 1010.0) * (283.0 / (273.0 + t))
+
+
+def _saemundsson_arcmin(h):
+    """Sæmundsson's refraction (arcmin, standard air) and its slope dR/dh (arcmin per deg) at
+    geometric elevations ``h`` (deg); finite (not meaningful) below -1 deg."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hh = np.where(h >= -1.0, h, 0.0)  # the formula's pole at -5.11 deg lies outside
+        x = np.radians(hh + 10.3 / (hh + 5.11))
+        r = 1.02 / np.tan(x) + 0.0019279
+        slope = -1.02 / np.sin(x) ** 2 * (np.pi / 180.0) * (1.0 - 10.3 / (hh + 5.11) ** 2)
+    return r, slope
 
 
 #: Largest distance from the geocentre to a station (km): a margin for the light time bound.
@@ -208,7 +256,8 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
         ``t`` at reception); more raises :class:`~visviva.errors.InvalidInputError`.
     refraction : bool
         Add standard atmospheric refraction to the elevation (:func:`refraction_deg`:
-        1010 hPa, 10 deg C; about 0.57 deg at the horizon). Default: geometric.
+        1010 hPa, 10 deg C; about 0.48 deg at the horizon) and its rate to ``elevation_rate``.
+        Default: geometric.
     light_time : bool
         Use the satellite's position when the light received at ``t`` left it
         (``r(t - range/c)``, to first order: under 30 m in LEO). Default: off.
@@ -245,7 +294,10 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
     shape = lead + t.shape
     res = res.reshape(shape + (6,))
     el_deg = np.degrees(res[..., 2])
-    if refraction:
+    el_rate = np.degrees(res[..., 5])
+    if refraction:  # the apparent elevation, and its rate d(el + R(el))/dt
+        slope = _saemundsson_arcmin(el_deg)[1] * _conditions(1010.0, 10.0) / 60.0
+        el_rate = el_rate * (1.0 + np.where(el_deg >= -1.0, slope, 0.0))
         el_deg = el_deg + refraction_deg(el_deg)
     rho_g = np.einsum("tij,ntj->nti", rot_ig, rho)
     ra = np.degrees(np.arctan2(rho_g[..., 1], rho_g[..., 0])) % 360.0
@@ -257,7 +309,7 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
         range=res[..., 0] * u.km,
         range_rate=range_rate,
         azimuth_rate=np.degrees(res[..., 4]) * (u.deg / u.s),
-        elevation_rate=np.degrees(res[..., 5]) * (u.deg / u.s),
+        elevation_rate=el_rate * (u.deg / u.s),
         ra=ra.reshape(shape) * u.deg,
         dec=dec.reshape(shape) * u.deg,
         t=t,

@@ -84,6 +84,10 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     sts = as_stations(stations)
     t0, t1 = check_window(t0, t1)
     el_min = min_elevation_rad(min_elevation)
+    if standard_magnitude is not None:
+        from .visibility import standard_magnitudes
+
+        standard_magnitude = standard_magnitudes(standard_magnitude, len(cat))
     ev = search_events(cat, sts, t0, t1, el_min)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)
 
@@ -154,7 +158,7 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
         "visible": sunlit & dark,
     }
     if standard_magnitude is not None:
-        m_std = np.broadcast_to(np.asarray(standard_magnitude, dtype=np.float64), (len(cat),))
+        m_std = standard_magnitude  # checked by find_passes
         sat_r = ev.r_itrs[top]
         to_sun = sun - sat_r
         to_obs = site - sat_r

@@ -292,14 +292,16 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min, 
     r, v, e, near, times_s = _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min)
     nodes = times_s.size
     bad = (e != 0) | ~np.isfinite(r).all(-1) | ~np.isfinite(v).all(-1)
-    r[bad] = 0.0  # never read: each satellite's window stops before its first failed node
-    v[bad] = 0.0
+    r[bad] = 0.0  # never read: each satellite's window (and t_reach) stops before its first
+    v[bad] = 0.0  # failed node
     r, v = earth.apply(r, v, times_s)
     t_lo = np.full(len(idx), pad_s)
     t_hi = np.full(len(idx), pad_s + span_s)
+    t_reach = np.full(len(idx), (nodes - 1) * h)  # the nodes' reach (finite states)
     if bad.any():
         first_bad = np.where(bad.any(axis=1), bad.argmax(axis=1), nodes)
-        t_hi = np.minimum(t_hi, (first_bad - 1) * h)
+        t_reach = np.minimum(t_reach, (first_bad - 1) * h)
+        t_hi = np.minimum(t_hi, t_reach)
         cut = t_hi < pad_s + span_s
     else:
         cut = np.zeros(len(idx), dtype=bool)
@@ -312,8 +314,8 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min, 
         vc = np.ascontiguousarray(v[lo:hi])
         while True:
             ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
-            _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], _SAMPLES, sites, ups,
-                              sin_min, np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st,
+            _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], t_reach[lo:hi], _SAMPLES,
+                              sites, ups, sin_min, np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st,
                               fe)
             if not (st == _topo.PAIR_OVERFLOW).any():
                 break
@@ -451,6 +453,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     state_r = np.empty((t.size, 3))
     state_v = np.empty((t.size, 3))
     ok_m = np.ones(nm, dtype=bool)
+    inside = np.ones(nm, dtype=bool)
     for it in range(3):
         last = it == 2  # the last round needs f at the vertex only (k from the round before)
         idx = np.concatenate([mi, xi] + ([fixed] if last else []))
@@ -466,7 +469,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
         with np.errstate(divide="ignore", invalid="ignore"):
             step_x = -fd[nm:nm + nx, 0] / fd[nm:nm + nx, 1]
         if last:
-            f_c = np.where(ok_m & (err[:nm] == 0), f0, -1.0)
+            f_c = np.where(ok_m & inside & (err[:nm] == 0), f0, -1.0)
         else:
             fm = fd[n0:n0 + nm, 0]
             fp = fd[n0 + nm:, 0]
@@ -476,7 +479,11 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
             with np.errstate(divide="ignore", invalid="ignore"):
                 step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
             step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
-            t[mi] = np.clip(t[mi] + step_m, 0.0, span_s)
+            moved = t[mi] + step_m
+            # a vertex outside the window (after the last parabola) is no culmination in it: the
+            # window's edge stands for it
+            inside = (moved > 0.0) & (moved < span_s)
+            t[mi] = np.clip(moved, 0.0, span_s)
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)
         step_x = np.where(ok_x, np.clip(step_x, -30.0, 30.0), 0.0)
         t[xi] = np.clip(t[xi] + step_x, 0.0, span_s)

@@ -23,7 +23,7 @@ import numpy as np
 from ..constants import R_EARTH_KM, R_SUN_KM
 
 __all__ = ["DARK_SUN_ELEVATION_DEG", "sun_fraction", "sun_itrs_km", "sun_elevation_rad",
-           "visual_magnitude", "twilight"]
+           "visual_magnitude", "twilight", "standard_magnitudes"]
 
 #: Sun elevation below which the station counts as dark (end of civil twilight), deg
 DARK_SUN_ELEVATION_DEG = -6.0
@@ -68,10 +68,57 @@ def sun_elevation_rad(site_km, up, sun_km) -> np.ndarray:
 
 
 def twilight(sun_elevation_deg) -> np.ndarray:
-    """``"day"``, ``"civil"``, ``"nautical"``, ``"astronomical"`` or ``"night"`` per value."""
-    e = np.asarray(sun_elevation_deg, dtype=np.float64)
+    """``"day"``, ``"civil"``, ``"nautical"``, ``"astronomical"`` or ``"night"`` per value.
+
+    ``sun_elevation_deg``: plain numbers in degrees, or an angle Quantity (converted).
+    """
+    from .._units import is_quantity, to_array
+
+    if is_quantity(sun_elevation_deg):
+        e = np.degrees(to_array(sun_elevation_deg, "angle", "sun_elevation_deg"))
+    else:
+        e = np.asarray(sun_elevation_deg, dtype=np.float64)
     labels = np.array(["night", "astronomical", "nautical", "civil", "day"])
     return labels[np.digitize(e, [-18.0, -12.0, -6.0, -0.833])]
+
+
+def standard_magnitudes(value, n: int) -> np.ndarray:
+    """``standard_magnitude`` of :func:`visviva.find_passes` -> float64 array of ``n`` (mag).
+
+    One number for every satellite or one per satellite, finite; a Quantity must be in mag.
+    Anything else raises :class:`~visviva.errors.InvalidInputError` naming what is wrong.
+    """
+    from astropy import units as u
+
+    from ..errors import InvalidInputError
+
+    if isinstance(value, u.Quantity):
+        if value.unit != u.mag and value.unit != u.dimensionless_unscaled:
+            raise InvalidInputError(
+                f"standard_magnitude has unit '{value.unit}'; give magnitudes (plain numbers "
+                "or u.mag)."
+            )
+        value = value.value
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"standard_magnitude must be a number or one number per satellite, got {value!r}."
+        ) from None
+    if m.ndim > 1 or (m.ndim == 1 and m.size != n):
+        raise InvalidInputError(
+            f"standard_magnitude must be one number, or one per satellite ({n}); got shape "
+            f"{m.shape}."
+        )
+    flat = np.atleast_1d(m)
+    if not np.all(np.isfinite(flat)):
+        bad = int(np.flatnonzero(~np.isfinite(flat))[0])
+        where = f"[{bad}]" if m.ndim else ""
+        raise InvalidInputError(
+            f"standard_magnitude{where} is {flat[bad]}, not a finite magnitude; give one for "
+            "every satellite (a magnitude estimate needs it)."
+        )
+    return np.ascontiguousarray(np.broadcast_to(m, (n,)))
 
 
 def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarray:
@@ -81,19 +128,25 @@ def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarra
     ----------
     standard_magnitude : float or ndarray
         Magnitude at 1000 km range and 90 deg phase angle (mag).
-    range_km : ndarray
-        Observer-satellite distance, km.
-    phase_angle_rad : ndarray
-        Sun-satellite-observer angle, rad (0: fully lit as seen).
+    range_km : ndarray or Quantity
+        Observer-satellite distance: plain numbers in km, or a length Quantity (converted).
+    phase_angle_rad : ndarray or Quantity
+        Sun-satellite-observer angle: plain numbers in rad, or an angle Quantity (converted);
+        0: fully lit as seen.
 
     Returns
     -------
     ndarray
         Magnitude (larger is fainter); ``inf`` at phase 180 deg (unlit side).
     """
-    phi = np.asarray(phase_angle_rad, dtype=np.float64)
+    from .._units import is_quantity, to_array
+
+    phi = to_array(phase_angle_rad, "angle", "phase_angle_rad", finite=False)
+    rng = to_array(range_km, "length", "range_km", allow_plain=True, finite=False)
+    if is_quantity(standard_magnitude):
+        standard_magnitude = standard_magnitude.value  # (mag)
     f = np.sin(phi) + (np.pi - phi) * np.cos(phi)
     with np.errstate(divide="ignore"):
         return (np.asarray(standard_magnitude, dtype=np.float64)
-                + 5.0 * np.log10(np.asarray(range_km) / 1000.0)
+                + 5.0 * np.log10(rng / 1000.0)
                 - 2.5 * np.log10(np.where(f > 1e-12, f, 0.0)))

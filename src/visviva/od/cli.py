@@ -35,6 +35,9 @@ def add_parser(sub) -> None:
     p.add_argument("--to", choices=("tle", "omm"), default="tle",
                    help="output: TLE lines (default) or an OMM in KVN")
     p.add_argument("--output", "-o", default="-", help="file to write (default: standard output)")
+    from ..cli_window import add_overwrite_argument
+
+    add_overwrite_argument(p)
 
 
 def run(args) -> int:
@@ -49,18 +52,19 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from astropy.time import Time
-
     from ..ccsds.oem_io import read_oem
-    from ..cli_window import write_output
+    from ..cli_window import check_outputs, time_from_arg, write_output
     from ..errors import VisvivaError
     from .tle_fit import fit_tle
 
     try:
-        mission = Time(args.mission_epoch, scale="utc") if args.mission_epoch else None
+        check_outputs([args.output], [args.ephemeris, args.initial], args.overwrite)
+        mission = (time_from_arg("--mission-epoch", args.mission_epoch) if args.mission_epoch
+                   else None)
         eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
         initial = _initial(args.initial, args.satnum) if args.initial else None
-    except (VisvivaError, ValueError) as exc:  # the files or --mission-epoch
+        epoch = time_from_arg("--epoch", args.epoch) if args.epoch else None
+    except (VisvivaError, ValueError) as exc:  # the files, --mission-epoch or --epoch
         print(f"visviva fit-tle: {exc}", file=sys.stderr)
         return 2
     try:
@@ -70,7 +74,6 @@ def run(args) -> int:
         object_id = str(eph.segments[0].metadata.get("OBJECT_ID", "")).strip()
         if object_id.upper() in ("", "UNKNOWN") or not object_id[:4].isdigit():
             object_id = None
-        epoch = Time(args.epoch, scale="utc") if args.epoch else None
         sat = fit_tle(eph, satnum=args.satnum, fit_bstar=not args.no_bstar, bstar=args.bstar,
                       epoch=epoch, name=name, object_id=object_id, initial=initial)
         if args.to == "tle":

@@ -1,0 +1,197 @@
+"""``visviva od``: tracking data (TDM) in, an orbit with its covariance out (OPM, OEM, CSV).
+
+The command must give exactly what the library gives (``fit_orbit`` / ``filter_orbit`` on the
+same observations), write an OPM and an OEM that read back to the estimate and its covariance,
+and refuse bad input with one line and exit code 2 (1 for a fit that fails).
+"""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva import cli
+
+ONE_MM = 1e-6  # km
+SIGMA = {"range": 0.010 * u.km, "range_rate": 1e-5 * u.km / u.s, "azel": 0.01 * u.deg}
+SIGMA_ARG = ["--sigma", "range=10m,range_rate=1cm/s", "--sigma", "angle=0.01deg"]
+SITES = {"COLORADO": (40.0, -105.0, 1600.0), "KAROO": (-30.0, 20.0, 300.0),
+         "PACIFIC": (15.0, 150.0, 0.0)}
+STATION_ARGS = [a for name, (lat, lon, h) in SITES.items()
+                for a in ("--station", f"{name}={lat},{lon},{h}")]
+
+
+def _stations():
+    return {name: vv.GroundStation(lat * u.deg, lon * u.deg, h * u.m, name=name)
+            for name, (lat, lon, h) in SITES.items()}
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """Six hours of simulated range, range rate and az/el from three stations (J2 truth),
+    written as a TDM."""
+    folder = tmp_path_factory.mktemp("od")
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * u.km / u.s,
+                            vv.EARTH, epoch=epoch)
+    grid = epoch + np.arange(0, 6 * 3600, 30) * u.s
+    obs = vv.od.simulate_tracking(truth, list(_stations().values()), grid, [vv.J2(vv.EARTH)],
+                                  seed=42)
+    tdm = folder / "passes.tdm"
+    vv.write_tdm(obs, tdm, participant="SAT-1")
+    back = vv.read_tdm(tdm).to_observations(_stations(), SIGMA)
+    return {"folder": folder, "truth": truth, "tdm": str(tdm), "obs": back}
+
+
+def _run(capsys, *argv):
+    code = cli.main(["od", *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _truth_at(campaign, t):
+    res = vv.propagate_cowell(campaign["truth"], t, [vv.J2(vv.EARTH)])
+    return res.r.to_value(u.km).reshape(3)
+
+
+def test_batch_equals_fit_orbit_and_products_read_back(campaign, tmp_path, capsys):
+    opm, oem, res = tmp_path / "o.opm", tmp_path / "o.oem", tmp_path / "r.csv"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--opm", str(opm), "--oem", str(oem), "--span", "2h", "--step",
+                          "10min", "--residuals", str(res))
+    assert code == 0, err
+    fit = vv.fit_orbit(campaign["obs"], None, [vv.J2(vv.EARTH)])  # IOD, as the command
+    msg = vv.read_opm(opm)
+    # the OPM holds the fit's state and covariance (km-based, the OPM's units) exactly
+    assert abs((msg.epoch - fit.state.epoch).to_value(u.s)) < 1e-6
+    np.testing.assert_allclose(msg.state.r.to_value(u.km), fit.state.r.to_value(u.km),
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(msg.state.v.to_value(u.km / u.s),
+                               fit.state.v.to_value(u.km / u.s), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(msg.covariance, fit.covariance, rtol=1e-14, atol=0)
+    # and the estimate is the truth within its own 1-sigma scale (a few metres)
+    err_km = msg.state.r.to_value(u.km) - _truth_at(campaign, fit.state.epoch)
+    assert np.linalg.norm(err_km) < 0.05
+    # the summary names what a flight-dynamics engineer checks
+    assert "batch least squares" in out and "0 rejected" in out
+    assert f"{fit.rms:.3f}" in out and f"{fit.iterations} iterations" in out
+    sig_m = np.sqrt(np.diag(fit.covariance)[:3]) * 1e3
+    assert " ".join(f"{x:16.3f}" for x in sig_m) in out
+    # the OEM: 13 states over 2 h at 10 min, a covariance at each, equal to fit.propagate
+    seg = vv.read_oem(oem).segments[0]
+    assert len(seg.times) == 13 and len(seg.covariances) == 13
+    pred = fit.propagate(seg.times)
+    np.testing.assert_allclose(seg.states.r.to_value(u.km), pred.r.to_value(u.km), rtol=0,
+                               atol=ONE_MM)
+    np.testing.assert_allclose(seg.covariances[0].matrix, fit.covariance, rtol=1e-12)
+    np.testing.assert_allclose(seg.covariances[-1].matrix, pred.covariance[-1], rtol=1e-12)
+    # the residual report: one row per observation, in m, m/s, arcsec
+    rows = list(csv.DictReader(res.open()))
+    assert len(rows) == len(campaign["obs"])
+    for i in (0, 1, 2):
+        f = 1e3 if rows[i]["unit"] in ("m", "m/s") else np.degrees(1) * 3600
+        assert float(rows[i]["residual_1"]) == pytest.approx(fit.residuals[i, 0] * f, rel=1e-5)
+        assert rows[i]["rejected"] == "no"
+
+
+def test_initial_opm_with_covariance_and_xml_output(campaign, tmp_path, capsys):
+    first = tmp_path / "first.opm"
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                        "--opm", str(first))
+    assert code == 0, err
+    out_xml = tmp_path / "second.opm.xml"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--initial", str(first), "--opm", str(out_xml))
+    assert code == 0, err
+    assert "with covariance" in out
+    fit = vv.fit_orbit(campaign["obs"], vv.read_opm(first).state, [vv.J2(vv.EARTH)])
+    back = vv.read_opm(out_xml)
+    np.testing.assert_allclose(back.state.r.to_value(u.km), fit.state.r.to_value(u.km),
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(back.covariance, fit.covariance, rtol=1e-14)
+
+
+def test_filter_ekf_ends_at_the_last_observation(campaign, tmp_path, capsys):
+    opm = tmp_path / "f.opm"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--filter", "ekf", "--opm", str(opm))
+    assert code == 0, err
+    assert "EKF" in out
+    msg = vv.read_opm(opm)
+    last = campaign["obs"].times[-1]
+    assert abs((msg.epoch - last).to_value(u.s)) < 1e-6
+    err_km = msg.state.r.to_value(u.km) - _truth_at(campaign, last)
+    sigma_km = np.sqrt(np.trace(msg.covariance[:3, :3]))
+    assert np.linalg.norm(err_km) < max(5 * sigma_km, 0.02)
+
+
+def test_refusals_are_one_line_with_exit_code_2(campaign, tmp_path, capsys):
+    tdm = campaign["tdm"]
+    base = [*STATION_ARGS, *SIGMA_ARG]
+    cases = [
+        ([str(tmp_path / "nope.tdm"), *base], "nope.tdm"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=5"], "has no unit"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=5m/s"], "is not a length"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=five m"], "not a number with a unit"),
+        ([tdm, *STATION_ARGS, "--sigma", "rnage=5m"], "KIND=VALUE"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=-5m"], "> 0"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=10m,angle=0.01deg"], "range_rate=1mm/s"),
+        ([tdm, *SIGMA_ARG], "--station"),
+        ([tdm, "--station", "COLORADO=40", *SIGMA_ARG], "NAME=LAT,LON"),
+        ([tdm, "--station", "ELSEWHERE=1,2,3", *SIGMA_ARG], "--station COLORADO="),
+        ([tdm, *base, "--force", "j3"], "not a force model"),
+        ([tdm, *base, "--estimate", "drag"], "--force drag:"),
+        ([tdm, *base, "--smooth"], "--filter"),
+        ([tdm, *base, "--oem", str(tmp_path / "x.oem"), "--span", "2"], "--span"),
+        ([tdm, *base, "--opm", tdm], "is the input file"),
+        ([tdm, *base, "--initial", str(tmp_path / "missing.opm")], "missing.opm"),
+    ]
+    for argv, text in cases:
+        code, out, err = _run(capsys, *argv)
+        assert code == 2, (argv, err)
+        assert text in err, (argv, err)
+        assert err.startswith("visviva od: ") and err.count("\n") == 1, err
+        assert out == ""
+
+
+def test_existing_output_needs_overwrite(campaign, tmp_path, capsys):
+    opm = tmp_path / "o.opm"
+    opm.write_text("keep me")
+    argv = [campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2", "--opm", str(opm)]
+    code, _, err = _run(capsys, *argv)
+    assert code == 2 and "--overwrite" in err
+    assert opm.read_text() == "keep me"
+    code, _, err = _run(capsys, *argv, "--overwrite")
+    assert code == 0, err
+    assert vv.read_opm(opm).covariance is not None
+
+
+def test_no_usable_rows(tmp_path, capsys):
+    text = "\n".join([
+        "CCSDS_TDM_VERS = 2.0", "CREATION_DATE = 2024-03-01T00:00:00", "ORIGINATOR = TEST", "",
+        "META_START", "TIME_SYSTEM = UTC", "PARTICIPANT_1 = COLORADO", "PARTICIPANT_2 = SAT-1",
+        "MODE = SEQUENTIAL", "PATH = 1,2,1", "META_STOP", "DATA_START",
+        "RECEIVE_FREQ_1 = 2024-03-01T00:13:00 2.2e9", "DATA_STOP", ""])
+    tdm = tmp_path / "freq.tdm"
+    tdm.write_text(text)
+    code, _, err = _run(capsys, str(tdm), *STATION_ARGS, *SIGMA_ARG)
+    assert code == 2
+    assert "no measurement" in err and "RECEIVE_FREQ_1" in err
+
+
+def test_a_fit_that_does_not_converge_exits_1(campaign, monkeypatch, capsys):
+    from visviva.errors import ConvergenceError
+    from visviva.od import batch
+
+    def diverge(*args, **kwargs):
+        raise ConvergenceError("RMS by iteration: 1: rms 1e6; 2: rms 1e9")
+
+    monkeypatch.setattr(batch, "fit_orbit", diverge)
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG)
+    assert code == 1 and out == ""
+    assert err.startswith("visviva od: the orbit fit did not converge") and err.count("\n") == 1

@@ -154,21 +154,37 @@ def parse_forces(specs):
 
 
 def parse_estimate(text, forces):
-    """``--estimate drag,srp`` -> the list for ``estimate=``, checked against the forces."""
+    """``--estimate drag[:SIGMA],srp[:SIGMA]`` -> (the list for ``estimate=``, the a priori
+    sigmas for ``parameter_sigma=``), checked against the forces. A drag sigma is in m^2/kg
+    (of B = Cd A / m), an SRP one is of Cr (dimensionless)."""
+    from astropy import units as u
+
     if not text:
-        return None
-    names = [s.strip().lower() for s in text.split(",") if s.strip()]
+        return None, None
     kinds = {"drag": "AtmosphericDrag", "srp": "SolarRadiationPressure"}
-    for name in names:
+    names, sigmas = [], {}
+    for item in filter(None, (s.strip().lower() for s in text.split(","))):
+        name, colon, value = item.partition(":")
         if name not in kinds:
-            raise InvalidInputError(f"--estimate {name!r}: the coefficients that can be "
-                                    "estimated are drag (B = Cd A/m) and srp (Cr)")
+            raise InvalidInputError(f"--estimate {item!r}: the coefficients that can be "
+                                    "estimated are drag (B = Cd A/m) and srp (Cr), e.g. "
+                                    "--estimate drag or --estimate drag:0.005,srp:0.2")
+        if name in names:
+            raise InvalidInputError(f"--estimate {text!r} names {name} twice")
         if not any(type(f).__name__ == kinds[name] for f in forces):
             raise InvalidInputError(f"--estimate {name} needs that force in the model, with its "
                                     f"starting value: add --force {name}:VALUE")
-    if len(set(names)) != len(names):
-        raise InvalidInputError(f"--estimate {text!r} names a coefficient twice")
-    return names
+        names.append(name)
+        if colon:
+            try:
+                sd = float(value)
+            except ValueError:
+                sd = float("nan")
+            if not (np.isfinite(sd) and sd > 0):
+                raise InvalidInputError(f"--estimate {item!r}: the a priori sigma must be a "
+                                        "number > 0 (m^2/kg for drag, Cr for srp)")
+            sigmas[name] = sd * u.m**2 / u.kg if name == "drag" else sd
+    return names, (sigmas or None)
 
 
 def read_tracking(paths, stations, sigmas):
@@ -233,7 +249,7 @@ def read_initial(path, first_time):
             raise InvalidInputError(f"--initial {path}: the ephemeris does not cover the first "
                                     f"observation ({first_time.utc.isot} UTC): {exc}") from None
         name = str(eph.segments[0].metadata.get("OBJECT_NAME", "")) or None
-        return _gcrs(_with_epoch(state, first_time), path), None, None, name
+        return _gcrs(state, path), None, None, name
     from ..satellites.catalog import read_catalog_file
 
     cat = read_catalog_file(p)
@@ -241,20 +257,7 @@ def read_initial(path, first_time):
         raise InvalidInputError(f"--initial {path} holds {len(cat)} element sets; give a file "
                                 "with the one object tracked")
     sat = cat[0]
-    return _with_epoch(sat.gcrs(first_time), first_time), None, None, sat.name or None
-
-
-def _with_epoch(state, t):
-    from ..states import StateVectors
-
-    if getattr(state, "epoch", None) is not None and getattr(state, "frame", None) == "gcrs":
-        return state
-    out = StateVectors(state.r.reshape(3), state.v.reshape(3), state.gm, epoch=t)
-    frame = getattr(state, "frame", None)
-    if frame is not None:
-        out = type(state)._wrap(out.r.to_value("km"), out.v.to_value("km/s"), t, frame) \
-            if hasattr(type(state), "_wrap") else out
-    return out
+    return sat.gcrs(first_time), None, None, sat.name or None
 
 
 def _gcrs(state, path):

@@ -57,9 +57,10 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="append", metavar="MODEL[,...]",
                    help="dynamics beyond two-body: j2, zonal:N, drag:B (Cd A/m in m^2/kg, "
                    "exponential atmosphere), srp:A/m[:Cr], sun, moon (default: two-body)")
-    p.add_argument("--estimate", default=None, metavar="drag,srp",
-                   help="also estimate the drag coefficient B and/or the SRP Cr (starting from "
-                   "the --force values)")
+    p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
+                   help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
+                   "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
+                   "for B; required with --filter), keeps a poorly observed one near its start")
     p.add_argument("--filter", default=None, choices=("ekf", "ukf"),
                    help="a sequential filter instead of batch least squares; the estimate is at "
                    "the last observation")
@@ -110,7 +111,7 @@ def run(args) -> int:
     try:
         result = _estimate(args, setup)
     except ConvergenceError as exc:
-        return _fail(f"the orbit fit did not converge: {exc}", 1)
+        return _fail(str(exc), 1)  # "the orbit fit did not converge ..." / "... diverged ..."
     except (VisvivaError, ValueError) as exc:
         return _fail(f"the orbit determination failed: {exc}", 1)
     print(_summary(setup, result))
@@ -148,7 +149,7 @@ def _setup(args) -> dict:
                                 "PARTICIPANT_n; degrees, metres)")
     sigmas = parse_sigmas(args.sigma)
     forces = parse_forces(args.force)
-    estimate = parse_estimate(args.estimate, forces)
+    estimate, parameter_sigma = parse_estimate(args.estimate, forces)
     span = step = None
     if args.oem:
         span = quantity("--span", args.span, "time", "--span 2d")
@@ -156,6 +157,13 @@ def _setup(args) -> dict:
         if (span / step).decompose().value > 200_000:
             raise InvalidInputError(f"--span {args.span} at --step {args.step} is more than "
                                     "200000 states; choose a longer step")
+    if args.filter == "ukf" and estimate:
+        raise InvalidInputError("--estimate goes with the batch fit or --filter ekf (the "
+                                "unscented filter estimates the state only)")
+    if args.filter and estimate and set(estimate) - set(parameter_sigma or ()):
+        raise InvalidInputError("with --filter, each estimated coefficient needs its a priori "
+                                "sigma (the filter's initial uncertainty), e.g. --estimate "
+                                "drag:0.005 (m^2/kg) or srp:0.2 (Cr)")
     apriori = None
     if args.filter:
         parts = args.apriori.split(",")
@@ -172,7 +180,8 @@ def _setup(args) -> dict:
         craft = {n for seg in tdm.segments for n in seg.participants.values()} - set(stations)
         name = sorted(craft)[0] if len(craft) == 1 else "UNKNOWN"
     return {"obs": obs, "initial": initial, "covariance": covariance, "maneuvers": maneuvers,
-            "forces": forces, "estimate": estimate, "name": args.name or name,
+            "forces": forces, "estimate": estimate, "parameter_sigma": parameter_sigma,
+            "name": args.name or name,
             "span": span, "step": step, "apriori": apriori}
 
 
@@ -186,7 +195,7 @@ def _estimate(args, s) -> dict:
         from .batch import fit_orbit
 
         fit = fit_orbit(obs, s["initial"], s["forces"], maneuvers=s["maneuvers"],
-                        estimate=s["estimate"])
+                        estimate=s["estimate"], parameter_sigma=s["parameter_sigma"])
         return {"method": "batch least squares", "state": fit.state,
                 "covariance": np.asarray(fit.covariance), "fit": fit,
                 "residuals": fit.residuals, "normalized": fit.normalized_residuals,
@@ -209,7 +218,8 @@ def _estimate(args, s) -> dict:
     if np.any(obs.offsets_s(initial.epoch) < 0.0):  # a filter starts at or before the data
         initial, cov = _back_to(initial, cov, obs.times[0], s["forces"], s["maneuvers"])
     res = filter_orbit(obs, initial, cov, s["forces"], maneuvers=s["maneuvers"],
-                       smoother=args.smooth, method=args.filter, estimate=s["estimate"])
+                       smoother=args.smooth, method=args.filter, estimate=s["estimate"],
+                       parameter_sigma=s["parameter_sigma"])
     if args.smooth:
         state, covariance = res.first_state, np.asarray(res.first_covariance)
     else:

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva import cli
@@ -164,6 +166,44 @@ def test_filter_ekf_ends_at_the_last_observation(campaign, tmp_path, capsys):
     err_km = msg.state.r.to_value(u.km) - _truth_at(campaign, last)
     sigma_km = np.sqrt(np.trace(msg.covariance[:3, :3]))
     assert np.linalg.norm(err_km) < max(5 * sigma_km, 0.02)
+
+
+def test_smoothed_ukf_from_a_later_opm_with_an_ephemeris(campaign, tmp_path, capsys):
+    """An OPM after the first observation is carried back to it (state and covariance); the
+    smoothed estimate is there, and the OEM starts from it with its covariance."""
+    first = tmp_path / "first.opm"
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                        "--opm", str(first))
+    assert code == 0, err
+    t_first = campaign["obs"].times[0]
+    assert (vv.read_opm(first).epoch - t_first).to_value(u.s) > 0
+    opm, oem = tmp_path / "s.opm", tmp_path / "s.oem"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--initial", str(first), "--filter", "ukf", "--smooth", "--opm",
+                          str(opm), "--oem", str(oem), "--span", "1h", "--step", "30min")
+    assert code == 0, err
+    assert "UKF + RTS smoother" in out and "carried back to the first observation" in out
+    msg = vv.read_opm(opm)
+    assert abs((msg.epoch - t_first).to_value(u.s)) < 1e-6
+    err_km = msg.state.r.to_value(u.km) - _truth_at(campaign, t_first)
+    sigma_km = np.sqrt(np.trace(msg.covariance[:3, :3]))
+    assert np.linalg.norm(err_km) < max(5 * sigma_km, 0.02)
+    seg = vv.read_oem(oem).segments[0]
+    assert len(seg.times) == 3 and len(seg.covariances) == 3
+    np.testing.assert_allclose(seg.states.r.to_value(u.km)[0], msg.state.r.to_value(u.km),
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(seg.covariances[0].matrix, msg.covariance, rtol=1e-12)
+    # the propagated covariance stays positive definite
+    assert np.all(np.linalg.eigvalsh(seg.covariances[-1].matrix) > 0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(value=st.floats(1e-6, 1e6), unit=st.sampled_from(["m", "km", "cm", "mm"]))
+def test_sigma_parsing_keeps_the_unit(value, unit):
+    from visviva.od.cli_inputs import parse_sigmas
+
+    got = parse_sigmas([f"range={value!r}{unit}"])["range"]
+    assert got.to_value(u.km) == pytest.approx((value * u.Unit(unit)).to_value(u.km), rel=1e-15)
 
 
 def test_refusals_are_one_line_with_exit_code_2(campaign, tmp_path, capsys):

@@ -215,8 +215,12 @@ def _estimate(args, s) -> dict:
     if cov is None:
         sr, sv = s["apriori"]
         cov = np.diag([sr.to_value(u.km) ** 2] * 3 + [sv.to_value(u.km / u.s) ** 2] * 3)
+    if s["covariance"] is None:
+        s["note"] = f"a priori sigma {s['apriori'][0]}, {s['apriori'][1]} per axis"
     if np.any(obs.offsets_s(initial.epoch) < 0.0):  # a filter starts at or before the data
         initial, cov = _back_to(initial, cov, obs.times[0], s["forces"], s["maneuvers"])
+        s["note"] = ", ".join(filter(None, [s.get("note"),
+                                            "carried back to the first observation"]))
     res = filter_orbit(obs, initial, cov, s["forces"], maneuvers=s["maneuvers"],
                        smoother=args.smooth, method=args.filter, estimate=s["estimate"],
                        parameter_sigma=s["parameter_sigma"])
@@ -296,9 +300,11 @@ def _summary(s, res) -> str:
 
 def _guess_text(s) -> str:
     if s["initial"] is None:
-        return "initial orbit determination from the data"
-    return f"{_iso(s['initial'].epoch)} UTC" + (
-        " with covariance" if s["covariance"] is not None else "")
+        text = "initial orbit determination from the data"
+    else:
+        text = f"{_iso(s['initial'].epoch)} UTC" + (
+            " with covariance" if s["covariance"] is not None else "")
+    return text + (f" ({s['note']})" if s.get("note") else "")
 
 
 def _write(args, s, res) -> int:

@@ -154,6 +154,36 @@ def test_initial_tle_and_estimated_drag(campaign, tmp_path, capsys):
     assert "object      SAT-1" in out
 
 
+def test_opm_manoeuvre_is_flown_and_written_back(campaign, tmp_path, capsys):
+    """An OPM first guess with an impulse (1 m/s along track, 2 h into the data): the fit
+    flies it as fit_orbit(maneuvers=opm.burns()) does, and the OPM written keeps it."""
+    from visviva.ccsds.opm import OPM, Maneuver
+
+    truth = campaign["truth"]
+    burn = Maneuver(truth.epoch + 2 * u.h, 0 * u.s, 0 * u.kg, "RTN", [0, 1e-3, 0] * u.km / u.s)
+    start = OPM.from_state(truth, object_name="SAT-1", maneuvers=[burn])
+    obs = vv.od.simulate_tracking(truth, list(_stations().values()),
+                                  truth.epoch + np.arange(0, 6 * 3600, 30) * u.s,
+                                  [vv.J2(vv.EARTH)], maneuvers=start.burns(), seed=11)
+    tdm, first, out = tmp_path / "b.tdm", tmp_path / "first.opm", tmp_path / "out.opm"
+    vv.write_tdm(obs, tdm, participant="SAT-1")
+    vv.write_opm(start, first)
+    code, text, err = _run(capsys, str(tdm), *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                           "--initial", str(first), "--opm", str(out))
+    assert code == 0, err
+    assert "0 rejected" in text
+    opm0 = vv.read_opm(first)
+    fit = vv.fit_orbit(vv.read_tdm(tdm).to_observations(_stations(), SIGMA), opm0.state,
+                       [vv.J2(vv.EARTH)], maneuvers=opm0.burns())
+    back = vv.read_opm(out)
+    np.testing.assert_allclose(back.state.r.to_value(u.km), fit.state.r.to_value(u.km),
+                               rtol=0, atol=1e-9)
+    assert np.linalg.norm(back.state.r.to_value(u.km) - truth.r.to_value(u.km)) < 0.05
+    (m,) = back.maneuvers
+    assert abs((m.epoch - burn.epoch).to_value(u.s)) < 1e-6 and m.frame == "RTN"
+    np.testing.assert_allclose(m.delta_v.to_value(u.km / u.s), [0, 1e-3, 0], atol=1e-15)
+
+
 def test_filter_ekf_ends_at_the_last_observation(campaign, tmp_path, capsys):
     opm = tmp_path / "f.opm"
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
@@ -230,6 +260,10 @@ def test_refusals_are_one_line_with_exit_code_2(campaign, tmp_path, capsys):
         ([tdm, *base, "--force", "drag:0.01", "--estimate", "drag:-1"], "> 0"),
         ([tdm, *base, "--oem", str(tmp_path / "x.oem"), "--span", "2"], "--span"),
         ([tdm, *base, "--opm", tdm], "is the input file"),
+        ([tdm, *base, "--opm", str(tmp_path / "a"), "--oem", str(tmp_path / "a")],
+         "given as two outputs"),
+        ([tdm, *base, "--oem", str(tmp_path / "x.oem"), "--span", "1h", "--step", "2h"],
+         "longer than --span"),
         ([tdm, *base, "--initial", str(tmp_path / "missing.opm")], "missing.opm"),
     ]
     for argv, text in cases:

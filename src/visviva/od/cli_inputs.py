@@ -220,7 +220,9 @@ def read_tracking(paths, stations, sigmas):
 
 
 def read_initial(path, first_time):
-    """The first guess from ``--initial``: (state, covariance or None, maneuvers or None, name).
+    """The first guess from ``--initial``: a dict with ``state``, ``covariance`` (km-based, or
+    None), ``burns`` (for ``maneuvers=``, or None), ``maneuvers`` (the OPM's records, to write
+    back), ``name`` (or None).
 
     An OPM gives its state (epoch: the OPM's), covariance and manoeuvres; an OEM its state
     interpolated at ``first_time`` (the first observation); a TLE/OMM its SGP4 state there,
@@ -236,9 +238,9 @@ def read_initial(path, first_time):
         from ..ccsds.opm import read_opm
 
         opm = read_opm(p)
-        burns = opm.burns() if opm.maneuvers else None
-        return (_gcrs(opm.state, path), opm.covariance, burns,
-                str(opm.metadata.get("OBJECT_NAME", "")) or None)
+        return {"state": _gcrs(opm.state, path), "covariance": opm.covariance,
+                "burns": opm.burns() if opm.maneuvers else None, "maneuvers": opm.maneuvers,
+                "name": str(opm.metadata.get("OBJECT_NAME", "")) or None}
     if "CCSDS_OEM_VERS" in head or "<OEM" in head:
         from ..ccsds.oem_io import read_oem
 
@@ -249,7 +251,7 @@ def read_initial(path, first_time):
             raise InvalidInputError(f"--initial {path}: the ephemeris does not cover the first "
                                     f"observation ({first_time.utc.isot} UTC): {exc}") from None
         name = str(eph.segments[0].metadata.get("OBJECT_NAME", "")) or None
-        return _gcrs(state, path), None, None, name
+        return {"state": _gcrs(state, path), "name": name}
     from ..satellites.catalog import read_catalog_file
 
     cat = read_catalog_file(p)
@@ -257,7 +259,7 @@ def read_initial(path, first_time):
         raise InvalidInputError(f"--initial {path} holds {len(cat)} element sets; give a file "
                                 "with the one object tracked")
     sat = cat[0]
-    return sat.gcrs(first_time), None, None, sat.name or None
+    return {"state": sat.gcrs(first_time), "name": sat.name or None}
 
 
 def _gcrs(state, path):

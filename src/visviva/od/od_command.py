@@ -66,7 +66,8 @@ def add_parser(sub) -> None:
                    "the last observation")
     p.add_argument("--smooth", action="store_true",
                    help="with --filter: run the RTS smoother; the estimate is then the smoothed "
-                   "state at the first guess's epoch")
+                   "state where the filter starts (the first guess's epoch, or the first "
+                   "observation when the guess is later)")
     p.add_argument("--apriori", default="1km,10m/s", metavar="SIGMA_R,SIGMA_V",
                    help="with --filter and a first guess without covariance: its 1-sigma per "
                    "axis (default 1km,10m/s)")
@@ -154,6 +155,8 @@ def _setup(args) -> dict:
     if args.oem:
         span = quantity("--span", args.span, "time", "--span 2d")
         step = quantity("--step", args.step, "time", "--step 60s")
+        if step > span:
+            raise InvalidInputError(f"--step {args.step} is longer than --span {args.span}")
         if (span / step).decompose().value > 200_000:
             raise InvalidInputError(f"--span {args.span} at --step {args.step} is more than "
                                     "200000 states; choose a longer step")
@@ -173,13 +176,14 @@ def _setup(args) -> dict:
         apriori = (quantity("--apriori", parts[0], "length", "--apriori 1km,10m/s"),
                    quantity("--apriori", parts[1], "speed", "--apriori 1km,10m/s"))
     obs, tdm = read_tracking(args.tdm, stations, sigmas)
-    initial, covariance, maneuvers, name = (None, None, None, None)
-    if args.initial:
-        initial, covariance, maneuvers, name = read_initial(args.initial, obs.times[0])
+    guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
+    initial, covariance = guess.get("state"), guess.get("covariance")
+    maneuvers, name = guess.get("burns"), guess.get("name")
     if name is None:
         craft = {n for seg in tdm.segments for n in seg.participants.values()} - set(stations)
         name = sorted(craft)[0] if len(craft) == 1 else "UNKNOWN"
     return {"obs": obs, "initial": initial, "covariance": covariance, "maneuvers": maneuvers,
+            "opm_maneuvers": guess.get("maneuvers") or (),
             "forces": forces, "estimate": estimate, "parameter_sigma": parameter_sigma,
             "name": args.name or name,
             "span": span, "step": step, "apriori": apriori}
@@ -335,7 +339,7 @@ def _opm_text(path, s, res) -> str:
     from ..ccsds.opm import OPM, write_opm
 
     opm = OPM.from_state(res["state"], object_name=s["name"], frame="GCRF",
-                         covariance=res["covariance"])
+                         covariance=res["covariance"], maneuvers=s["opm_maneuvers"])
     opm.sections["header"].comments.append(
         f"visviva od: {res['method']}, RMS {res['rms']:.3f}, {len(s['obs'])} observations")
     return write_opm(opm, format=_fmt(path))

@@ -184,6 +184,49 @@ def test_opm_manoeuvre_is_flown_and_written_back(campaign, tmp_path, capsys):
     np.testing.assert_allclose(m.delta_v.to_value(u.km / u.s), [0, 1e-3, 0], atol=1e-15)
 
 
+def test_two_tdm_files_kvn_and_xml_are_one_data_set(campaign, tmp_path, capsys):
+    tdm = vv.read_tdm(campaign["tdm"])
+    half = len(tdm.segments) // 2
+    kvn, xml = tmp_path / "a.tdm", tmp_path / "b.xml"
+    vv.write_tdm(type(tdm)(tdm.header, tdm.segments[:half]), kvn)
+    vv.write_tdm(type(tdm)(tdm.header, tdm.segments[half:]), xml)
+    assert xml.read_text().lstrip().startswith("<")
+    one, two = tmp_path / "one.opm", tmp_path / "two.opm"
+    args = [*STATION_ARGS, *SIGMA_ARG, "--force", "j2", "--opm"]
+    assert _run(capsys, campaign["tdm"], *args, str(one))[0] == 0
+    code, out, err = _run(capsys, str(kvn), str(xml), *args, str(two))
+    assert code == 0, err
+    assert f"{len(campaign['obs'])} observations" in out
+    np.testing.assert_array_equal(vv.read_opm(one).state.r.value, vv.read_opm(two).state.r.value)
+
+
+def test_initial_oem_is_interpolated_at_the_first_observation(campaign, tmp_path, capsys):
+    from visviva.ccsds.oem import OEMSegment
+
+    truth, obs = campaign["truth"], campaign["obs"]
+    t = truth.epoch + np.arange(0, 7 * 3600, 120) * u.s
+    run = vv.propagate_cowell(truth, t, [vv.J2(vv.EARTH)])
+    seg = OEMSegment.from_states(t, run.r.to_value(u.km) + 0.5, run.v.to_value(u.km / u.s),
+                                 object_name="SAT-1")  # 0.5 km off on each axis
+    oem = tmp_path / "guess.oem"
+    vv.write_oem(seg, oem)
+    opm = tmp_path / "o.opm"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--initial", str(oem), "--opm", str(opm))
+    assert code == 0, err
+    first = vv.read_oem(oem).interpolate(obs.times[0])
+    fit = vv.fit_orbit(obs, first, [vv.J2(vv.EARTH)])
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               fit.state.r.to_value(u.km), rtol=0, atol=1e-9)
+    # an ephemeris that does not reach the data is refused, naming the first observation
+    late = OEMSegment.from_states(t[60:], run.r.to_value(u.km)[60:],
+                                  run.v.to_value(u.km / u.s)[60:], object_name="SAT-1")
+    vv.write_oem(late, tmp_path / "late.oem")
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--initial",
+                        str(tmp_path / "late.oem"))
+    assert code == 2 and "does not cover the first observation" in err
+
+
 def test_filter_ekf_ends_at_the_last_observation(campaign, tmp_path, capsys):
     opm = tmp_path / "f.opm"
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",

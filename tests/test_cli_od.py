@@ -227,6 +227,42 @@ def test_initial_oem_is_interpolated_at_the_first_observation(campaign, tmp_path
     assert code == 2 and "does not cover the first observation" in err
 
 
+def test_opm_covariance_in_rtn_is_rotated_to_inertial(campaign, tmp_path, capsys):
+    """An a priori covariance given in RTN (COV_REF_FRAME = RTN) is the same uncertainty as
+    its GCRF rotation: the filter started from either gives the same estimate."""
+    from visviva._covariance import to_local
+    from visviva.ccsds.covariance import values_from_matrix
+    from visviva.ccsds.grammar import Record
+    from visviva.core.local_frames import FRAME_CODES
+
+    gcrf = tmp_path / "gcrf.opm"
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                        "--opm", str(gcrf))
+    assert code == 0, err
+    msg = vv.read_opm(gcrf)
+    inflated = msg.covariance * 1e4  # (a looser a priori than the fit's own)
+    msg.sections["covariance"] = Record(values=values_from_matrix(inflated))
+    vv.write_opm(msg, gcrf)
+    r, v = msg.state.r.to_value(u.km), msg.state.v.to_value(u.km / u.s)
+    rtn = vv.read_opm(gcrf)
+    rtn.sections["covariance"] = Record(values={
+        "COV_REF_FRAME": "RTN",
+        **values_from_matrix(to_local(np.asarray(inflated), r, v, FRAME_CODES["RTN"]))})
+    vv.write_opm(rtn, tmp_path / "rtn.opm")
+    assert "COV_REF_FRAME" in (tmp_path / "rtn.opm").read_text()
+    states = []
+    for name in ("gcrf", "rtn"):
+        out = tmp_path / f"{name}_out.opm"
+        code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                            "--initial", str(tmp_path / f"{name}.opm"), "--filter", "ekf",
+                            "--opm", str(out))
+        assert code == 0, err
+        states.append(vv.read_opm(out))
+    np.testing.assert_allclose(states[0].state.r.to_value(u.km),
+                               states[1].state.r.to_value(u.km), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(states[0].covariance, states[1].covariance, rtol=1e-6)
+
+
 def test_filter_ekf_ends_at_the_last_observation(campaign, tmp_path, capsys):
     opm = tmp_path / "f.opm"
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
@@ -290,6 +326,7 @@ def test_refusals_are_one_line_with_exit_code_2(campaign, tmp_path, capsys):
         ([tdm, *STATION_ARGS, "--sigma", "rnage=5m"], "KIND=VALUE"),
         ([tdm, *STATION_ARGS, "--sigma", "range=-5m"], "> 0"),
         ([tdm, *STATION_ARGS, "--sigma", "range=10m,angle=0.01deg"], "range_rate=1mm/s"),
+        ([tdm, *STATION_ARGS, "--sigma", "range=10m,doppler=1cm/s"], "ANGLE_TYPE = AZEL"),
         ([tdm, *SIGMA_ARG], "--station"),
         ([tdm, "--station", "COLORADO=40", *SIGMA_ARG], "NAME=LAT,LON"),
         ([tdm, "--station", "ELSEWHERE=1,2,3", *SIGMA_ARG], "--station COLORADO="),

@@ -209,12 +209,17 @@ def read_tracking(paths, stations, sigmas):
                 f"{seg.source}, line {seg.metadata.line_of('PATH')}: none of the participants "
                 f"{', '.join(names)} is a --station; give the ground station's place, e.g. "
                 f"--station {names[0]}=LAT,LON,HEIGHT_M")
-    kinds = {k for seg in segments for k in seg.keywords}
     needed = {"RANGE": "range", "DOPPLER_INSTANTANEOUS": "range_rate"}
-    for key, kind in needed.items():
-        if key in kinds and kind not in sigmas:
-            raise InvalidInputError(f"the tracking data hold {key}: give its sigma, e.g. "
-                                    f"--sigma {SIGMA_KINDS[kind][2]}")
+    for seg in segments:
+        present = set(seg.keywords)
+        angle = {"AZEL": "azel", "RADEC": "radec"}.get(seg.metadata.get("ANGLE_TYPE"))
+        if angle is not None and present & {"ANGLE_1", "ANGLE_2"}:
+            present.add(f"ANGLE_TYPE = {seg.metadata.get('ANGLE_TYPE')}")
+            needed[f"ANGLE_TYPE = {seg.metadata.get('ANGLE_TYPE')}"] = angle
+        for key, kind in needed.items():
+            if key in present and kind not in sigmas:
+                raise InvalidInputError(f"the tracking data hold {key}: give its sigma, e.g. "
+                                        f"--sigma {SIGMA_KINDS[kind][2]}")
     tdm = TDM(tdms[0].header, segments, tdms[0].fmt)
     return tdm.to_observations(stations, sigmas), tdm
 
@@ -238,7 +243,8 @@ def read_initial(path, first_time):
         from ..ccsds.opm import read_opm
 
         opm = read_opm(p)
-        return {"state": _gcrs(opm.state, path), "covariance": opm.covariance,
+        state = _gcrs(opm.state, path)
+        return {"state": state, "covariance": _inertial_covariance(opm, state, path),
                 "burns": opm.burns() if opm.maneuvers else None, "maneuvers": opm.maneuvers,
                 "name": str(opm.metadata.get("OBJECT_NAME", "")) or None}
     if "CCSDS_OEM_VERS" in head or "<OEM" in head:
@@ -270,3 +276,26 @@ def _gcrs(state, path):
             "starts from a GCRS (GCRF, EME2000, ICRF) state: convert it first "
             "(visviva convert)")
     return state
+
+
+def _inertial_covariance(opm, state, path):
+    """The OPM's covariance on the state's inertial axes (km-based), rotated from the local
+    frame its ``COV_REF_FRAME`` names (RTN, TNW, VNB ...); None without one."""
+    from .._covariance import frame_code, from_local
+
+    cov = opm.covariance
+    if cov is None:
+        return None
+    frame = opm.sections["covariance"].get("COV_REF_FRAME")
+    if frame is None or str(frame).upper() == str(opm.frame).upper():
+        return cov
+    try:
+        code = frame_code(frame, "COV_REF_FRAME")
+    except InvalidInputError:
+        raise InvalidInputError(
+            f"--initial {path}: COV_REF_FRAME = {frame}; visviva reads a covariance on the "
+            "state's inertial axes (GCRF, EME2000, ICRF) or a local orbital frame (RTN, RSW, "
+            "TNW, VNB)") from None
+    r = state.r.to_value("km").reshape(3)
+    v = state.v.to_value("km/s").reshape(3)
+    return from_local(np.asarray(cov, dtype=np.float64), r, v, code)

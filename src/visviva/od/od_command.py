@@ -198,6 +198,8 @@ def _estimate(args, s) -> dict:
     if not args.filter:
         from .batch import fit_orbit
 
+        if s["covariance"] is not None:
+            s["note"] = "its covariance is not used: the batch fit takes no a priori"
         fit = fit_orbit(obs, s["initial"], s["forces"], maneuvers=s["maneuvers"],
                         estimate=s["estimate"], parameter_sigma=s["parameter_sigma"])
         return {"method": "batch least squares", "state": fit.state,

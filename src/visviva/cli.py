@@ -67,6 +67,7 @@ _COMMANDS: dict[str, str] = {
     "convert": "visviva.ccsds.convert",
     "passes": "visviva.ground.cli",
     "fit-tle": "visviva.od.cli",
+    "od": "visviva.od.od_command",
     "warmup": "visviva.warmup",
 }
 

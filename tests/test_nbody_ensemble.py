@@ -429,3 +429,22 @@ def test_members_with_fused_forces_of_other_parameter_lengths_equal_their_lone_r
     for k, s in enumerate(alone):  # was 4e-4 off for the second member: a silent wrong number
         np.testing.assert_array_equal(ens[k].positions, s.positions)
         np.testing.assert_array_equal(ens[k].velocities, s.velocities)
+
+
+def test_a_plain_time_for_members_of_different_time_units_is_refused():
+    u = pytest.importorskip("astropy.units")
+    in_years = vv.Simulation("ias15", units=("au", "yr", "Msun"))
+    in_days = vv.Simulation("ias15", units=("au", "day", "Msun"))
+    for sim in (in_years, in_days):
+        sim.add(1.0)
+        sim.add(1e-3, a=1.0, primary=0)
+    ens = vv.Ensemble.from_simulations([in_years, in_days])
+    ens.integrate(1.0 * u.yr)  # a Quantity: one instant for every member
+    np.testing.assert_allclose(ens.t, [1.0, 365.25], rtol=1e-15)
+    # 2.0 meant 2 yr for one member and 2 days for the other, which went back 363 days
+    with pytest.raises(InvalidInputError, match="different time units"):
+        ens.integrate(2.0)
+    np.testing.assert_allclose(ens.t, [1.0, 365.25], rtol=1e-15)  # nothing moved
+    same = vv.Ensemble.from_simulations([in_years, in_years])
+    same.integrate(2.0)  # one time unit: a plain number is unambiguous
+    assert same.t.tolist() == [2.0, 2.0]

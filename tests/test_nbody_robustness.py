@@ -242,3 +242,16 @@ def test_remove_and_set_particle_check_the_index():
     assert s.N == 2
     s.remove(np.int64(-1))
     assert s.N == 1 and s.positions[0, 0] == 0.0
+
+
+def test_ambiguous_or_truncated_settings_are_refused():
+    s = _pair(1.0)
+    with pytest.raises(InvalidInputError, match="a or the semi-latus rectum p, not both"):
+        s.add(1e-3, a=2.0, p=1.0, primary=0)  # p used to win silently over a
+    assert s.N == 2
+    with pytest.raises(InvalidInputError, match="corrector must be 0, 3, 5 or 7"):
+        vv.Simulation("whfast", corrector=3.5)  # was truncated to 3
+    assert vv.Simulation("whfast", corrector=5.0).corrector == 5
+    with pytest.raises(InvalidInputError, match="finite"):
+        s.energy_offset = float("nan")  # energy() would have been NaN from then on
+    assert math.isfinite(s.energy())

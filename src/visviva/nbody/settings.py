@@ -219,9 +219,9 @@ def restitution(sim, value, name) -> float:
 
 
 def corrector(sim, order, name) -> int:
-    order = int(order)
-    if order not in (0, 3, 5, 7):
+    if isinstance(order, bool) or order not in (0, 3, 5, 7):  # 3.5 was truncated to 3
         raise InvalidInputError(f"corrector must be 0, 3, 5 or 7; got {order!r}.")
+    order = int(order)
     if order != 0 and sim.coordinates != "jacobi":
         raise InvalidInputError(
             f"corrector={order}: the symplectic correctors are derived for the Jacobi "
@@ -258,5 +258,11 @@ def flag(sim, value, name) -> int:
 
 
 def energy_offset(sim, value, name) -> float:
-    return float(value)
+    try:
+        value = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be a finite number; got {fmt_number(value)}.") from exc
+    if not math.isfinite(value):  # NaN would hide in energy()
+        raise InvalidInputError(f"{name} must be a finite number; got {fmt_number(value)}.")
+    return value
 

@@ -255,3 +255,32 @@ def test_ambiguous_or_truncated_settings_are_refused():
     with pytest.raises(InvalidInputError, match="finite"):
         s.energy_offset = float("nan")  # energy() would have been NaN from then on
     assert math.isfinite(s.energy())
+
+
+@pytest.mark.parametrize("first_dt", [1e6, 30.0, -3.0])
+def test_ias15_first_guess_beyond_the_outputs_is_tried_not_left_waiting(first_dt):
+    # dt=1e6 (any first guess beyond the next output) was never tried: every output came from
+    # a copy integrated from t = 0 again (steps_done stayed 0, dt 1e6, and 300 outputs cost 5x
+    # a normal run, growing with their number)
+    def pair(dt):
+        s = vv.Simulation("ias15", dt=dt)
+        s.add(1.0)
+        s.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0])
+        return s
+
+    s, ref = pair(first_dt), pair(None)
+    for t in np.arange(1.0, 21.0):
+        s.integrate(t)
+    ref.integrate(20.0)
+    assert 100 < s.steps_done < 130 and 100 < ref.steps_done < 130  # ~ 115 natural steps
+    assert 0.17 < s.dt < 0.18  # the step control's own step, not the first guess
+    np.testing.assert_allclose(s.positions, ref.positions, rtol=0, atol=1e-13)
+    # the output times still never change the trajectory
+    direct = pair(first_dt)
+    direct.integrate(20.0)
+    np.testing.assert_array_equal(direct.positions, s.positions)
+    assert direct.steps_done == s.steps_done
+    # a dt set by hand mid-run is tried as well
+    s.dt = 1e6
+    s.integrate(21.0)
+    assert 0.17 < s.dt < 0.18

@@ -3,9 +3,13 @@
 Usage (from the repository root)::
 
     python -m benchmarks [--quick] [--only STR] [--output docs/performance.md] [--no-write]
+                         [--json rows.json]
 
 or ``visviva bench`` with the same options. A benchmark module that fails to import or raises is
-reported as a row with its error; it never stops the others.
+reported as a row with its error; it never stops the others. The exit status is 1 when a row
+failed (a module, or one row of it: its name ends in ``": failed"``); ``--json`` writes the rows
+(a list of dicts with the keys of ``benchmarks.common.ROW_KEYS`` and ``module``) for a test
+(``tests/test_benchmarks.py``, ``pytest -m slow``).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import importlib
+import json
 import os
 import pkgutil
 import platform
@@ -201,6 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default=None, help="run only modules whose name contains this")
     parser.add_argument("--output", default=str(DEFAULT_OUTPUT), help="the Markdown page to write")
     parser.add_argument("--no-write", action="store_true", help="print only; write no page")
+    parser.add_argument("--json", default=None, help="also write the rows to this JSON file")
     parser.add_argument("--threads", type=int, default=None,
                         help="numba threads for the whole run (default: every core)")
     args = parser.parse_args(argv)
@@ -231,6 +237,8 @@ def main(argv: list[str] | None = None) -> int:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(markdown(rows, args.quick, elapsed, out), encoding="utf-8")
         print(f"wrote {out}", file=sys.stderr)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1, default=float), encoding="utf-8")
     failed = [r for r in rows if r["name"].endswith(": failed")]
     return 1 if failed else 0
 

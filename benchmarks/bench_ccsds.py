@@ -30,9 +30,9 @@ import io
 import numpy as np
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import quick_from_env, result, skipped, time_call
+    from .common import quick_from_env, result, time_call
 except ImportError:  # pragma: no cover
-    from common import quick_from_env, result, skipped, time_call
+    from common import quick_from_env, result, time_call
 
 
 def _ephemeris(n: int):
@@ -68,14 +68,11 @@ def _et_write(eph) -> str:
 
 def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
-    try:
-        import xml.etree.ElementTree as ET
+    import xml.etree.ElementTree as ET
 
-        from astropy.time import Time
+    from astropy.time import Time
 
-        import visviva as vv
-    except Exception as exc:  # pragma: no cover
-        return [skipped("read_oem", f"visviva not importable: {exc}")]
+    import visviva as vv
     n = 10_000 if quick else 100_000
     repeat = 3 if quick else 5
     size = f"{n:.0e}".replace("+0", "")

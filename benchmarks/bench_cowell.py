@@ -53,17 +53,14 @@ def _python_rhs(gm, R, j2):
 
 def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
-    try:
-        from astropy import units as u
-        from astropy.time import Time
-
-        import visviva as vv
-        from visviva.satellites import propagate_cowell
-        from visviva.satellites.cowell import DEFAULT_ATOL, DEFAULT_RTOL
-    except Exception as exc:  # pragma: no cover
-        return [skipped("Cowell J2", f"visviva not importable: {exc}")]
     import scipy
+    from astropy import units as u
+    from astropy.time import Time
     from scipy.integrate import solve_ivp
+
+    import visviva as vv
+    from visviva.satellites import propagate_cowell
+    from visviva.satellites.cowell import DEFAULT_ATOL, DEFAULT_RTOL
 
     el = vv.KeplerianElements.from_semi_major_axis(
         7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH

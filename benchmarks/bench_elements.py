@@ -95,25 +95,22 @@ def _direction_rows(label, kernel_name, reference, public, kernel, ref_fn, n, no
 def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     n = 100_000 if quick else 1_000_000
-    try:
-        from astropy import units as u
+    from astropy import units as u
 
-        import visviva as vv
-        from visviva.core.elements import (
-            coe_to_rv_array,
-            empty_elements,
-            empty_states,
-            rv_to_coe_array,
-        )
-    except Exception as exc:  # pragma: no cover
-        return [skipped("states -> elements", f"visviva not importable: {exc}")]
+    import visviva as vv
+    from visviva.core.elements import (
+        coe_to_rv_array,
+        empty_elements,
+        empty_states,
+        rv_to_coe_array,
+    )
     try:
         import skyfield
         from skyfield.elementslib import OsculatingElements
         from skyfield.keplerlib import ele_to_vec
         from skyfield.units import Distance, Velocity
     except ImportError as exc:  # pragma: no cover
-        return [skipped("states -> elements", f"skyfield missing: {exc}", "skyfield")]
+        return [skipped("states -> elements", f"skyfield not installed: {exc}", "skyfield")]
 
     r, v = _orbits(n)
     gm_q = MU * u.km**3 / u.s**2

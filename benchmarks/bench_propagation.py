@@ -46,18 +46,15 @@ def run(quick: bool = False) -> list[dict]:
     quick = quick or quick_from_env()
     n = 100_000 if quick else 1_000_000
     n_sky = min(n, 100_000)
-    try:
-        from astropy import units as u
+    from astropy import units as u
 
-        import visviva as vv
-        from visviva.core.universal import propagate_many
-    except Exception as exc:  # pragma: no cover
-        return [skipped("Kepler propagation", f"visviva not importable: {exc}")]
+    import visviva as vv
+    from visviva.core.universal import propagate_many
     try:
         import skyfield
         from skyfield.keplerlib import propagate as sky_propagate
     except ImportError as exc:  # pragma: no cover
-        return [skipped("Kepler propagation", f"skyfield missing: {exc}", "skyfield")]
+        return [skipped("Kepler propagation", f"skyfield not installed: {exc}", "skyfield")]
 
     sky_ref = f"skyfield {skyfield.__version__} keplerlib.propagate"
     rows = []

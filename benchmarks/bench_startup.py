@@ -41,9 +41,9 @@ import time
 from pathlib import Path
 
 try:  # as part of the package (python -m benchmarks) or as a script
-    from .common import result, skipped
+    from .common import failed, result
 except ImportError:  # pragma: no cover
-    from common import result, skipped
+    from common import failed, result
 
 _IMPORT = """
 import time
@@ -192,7 +192,7 @@ def cold_rows(runs: int = 3, cases: dict | None = None) -> list[dict]:
                 _, compiled_cpu = whole_process_seconds(code, dict(env, VISVIVA_INTERPRET="0"))
                 warm = [whole_process_seconds(code, env) for _ in range(runs)]
             except (subprocess.SubprocessError, OSError) as exc:  # pragma: no cover
-                rows.append(skipped(label, f"the subprocess failed: {exc}"))
+                rows.append(failed(label, exc))
                 continue
         warm_wall = statistics.median(w for w, _ in warm)
         warm_cpu = statistics.median(c for _, c in warm)
@@ -215,6 +215,15 @@ def fresh_process_seconds(code: str, runs: int, cwd: str | None = None) -> list[
     return out
 
 
+def _with_stderr(exc: BaseException) -> BaseException:
+    """``exc``, with the last lines of a failed subprocess's stderr in its message."""
+    err = getattr(exc, "stderr", None)
+    if not err:
+        return exc
+    tail = " | ".join(str(err).strip().splitlines()[-3:])
+    return RuntimeError(f"{exc}; stderr: {tail}")
+
+
 def numba_floor_seconds(runs: int) -> float:
     """Median first-call time of a trivial ``@njit(cache=True)`` function (warm cache)."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -228,8 +237,9 @@ def run(quick: bool = False) -> list[dict]:
     rows = []
     try:
         floor = numba_floor_seconds(runs)
-    except (subprocess.SubprocessError, ValueError):  # pragma: no cover
-        floor = float("nan")
+    except (subprocess.SubprocessError, ValueError) as exc:  # pragma: no cover
+        floor = None
+        rows.append(failed("numba's floor (trivial cached function)", _with_stderr(exc)))
     cases = (("import visviva", _IMPORT, 0.5),
              ("first call, plain floats: solve_kepler(1.0, 0.5)", _FIRST_FLOATS, 0.3),
              ("first call, Quantities: StateVectors(...).to_elements()", _FIRST_QUANTITIES, 0.3),
@@ -239,7 +249,7 @@ def run(quick: bool = False) -> list[dict]:
             fresh_process_seconds(code, 1)  # fills numba's cache if it is cold
             times = fresh_process_seconds(code, runs)
         except (subprocess.SubprocessError, ValueError) as exc:  # pragma: no cover
-            rows.append(skipped(name, f"the subprocess failed: {exc}"))
+            rows.append(failed(name, _with_stderr(exc)))
             continue
         median = statistics.median(times)
         if budget is None:  # the time to a first result, compared with numba's own floor

@@ -40,6 +40,8 @@ __all__ = [
     "threads",
     "result",
     "skipped",
+    "failed",
+    "SKIP_REASONS",
     "n_threads",
     "fmt_seconds",
     "ROW_KEYS",
@@ -222,9 +224,27 @@ def result(name: str, visviva_s: float | None, reference: str, reference_s: floa
 
 
 def skipped(name: str, reason: str, reference: str = "") -> dict:
-    """A row for a benchmark that could not run (missing capability or library)."""
+    """A row for a benchmark that could not run because a reference library or a GPU is absent
+    (``reason`` says which, with one of :data:`SKIP_REASONS`); a failure is :func:`failed`."""
     return {"name": name, "visviva_s": None, "reference": reference, "reference_s": None,
             "ratio": None, "target": None, "met": None, "notes": f"skipped: {reason}"}
+
+
+#: The only acceptable reasons for a skipped row (its ``notes`` after ``skipped:``): a
+#: reference library or a GPU absent on this machine. Anything else that stops a row is a
+#: :func:`failed` row (``tests/test_benchmarks.py`` holds every module to this).
+SKIP_REASONS = ("not installed", "no GPU")
+
+
+def failed(name: str, exc: BaseException, reference: str = "") -> dict:
+    """A row for a benchmark that raised: named ``"<name>: failed"`` with the error in its notes,
+    so that ``python -m benchmarks`` exits with status 1 (the other rows of the module stay)."""
+    import traceback
+
+    last = traceback.format_exception_only(type(exc), exc)[-1].strip()
+    return {"name": f"{name}: failed", "visviva_s": None, "reference": reference,
+            "reference_s": None, "ratio": None, "target": None, "met": False,
+            "notes": f"error: {last}"}
 
 
 def quick_from_env(default: bool = False) -> bool:

@@ -128,3 +128,43 @@ def test_archive_of_format_version_1_still_loads():
     snap.integrate(3.0)
     fresh.integrate(3.0)
     np.testing.assert_allclose(snap.positions, fresh.positions, rtol=0, atol=1e-12)
+
+
+def test_record_keeps_the_snapshots_before_an_event(tmp_path):
+    # an Escape at t ~ 4.75 used to lose every snapshot not yet flushed (here: the whole file)
+    path = tmp_path / "escape.npz"
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.3, 0.0])  # a = 1/(2 - 1.69) = 3.2, e = 0.69
+    sim.exit_max_distance = 3.0
+    with pytest.raises(vv.Escape) as info:
+        vv.nbody.Archive.record(sim, path, interval=0.5, t_end=100.0)
+    assert any("snapshot(s) recorded up to" in note for note in info.value.__notes__)
+    archive = vv.nbody.Archive(path)
+    assert len(archive) == 10  # t = 0, 0.5, ..., 4.5: every interval before the escape
+    np.testing.assert_array_equal(archive.times, 0.5 * np.arange(10))
+    assert archive.times[-1] < sim.t
+    # each snapshot continues bit for bit to the next one
+    again = archive[8]
+    again.integrate(4.5)
+    np.testing.assert_array_equal(again.positions, archive[9].positions)
+
+
+def test_record_continues_an_archive_and_refuses_to_mix_runs(tmp_path):
+    path = tmp_path / "run.npz"
+    sim = two_planets("leapfrog")
+    vv.nbody.Archive.record(sim.copy(), path, interval=1.0, t_end=3.0)
+    # a second run from t = 0 into the same file used to append: times 0 1 2 3 0 1 2 3
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        vv.nbody.Archive.record(sim.copy(), path, interval=1.0, t_end=3.0)
+    assert len(vv.nbody.Archive(path)) == 4  # the file is untouched
+    # continuing from the last snapshot stores it once (it used to appear twice)
+    last = vv.nbody.Archive(path)[-1]
+    archive = vv.nbody.Archive.record(last, path, interval=1.0, t_end=5.0)
+    np.testing.assert_array_equal(archive.times, [0, 1, 2, 3, 4, 5])
+    # recording backwards from the end of a forward archive would also mix directions
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        vv.nbody.Archive.record(archive[-1], path, interval=1.0, t_end=0.0)
+    # a recording to t_end == t stores the one snapshot once
+    single = vv.nbody.Archive.record(sim.copy(), tmp_path / "one.npz", interval=1.0, t_end=0.0)
+    np.testing.assert_array_equal(single.times, [0.0])

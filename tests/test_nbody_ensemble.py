@@ -429,3 +429,78 @@ def test_members_with_fused_forces_of_other_parameter_lengths_equal_their_lone_r
     for k, s in enumerate(alone):  # was 4e-4 off for the second member: a silent wrong number
         np.testing.assert_array_equal(ens[k].positions, s.positions)
         np.testing.assert_array_equal(ens[k].velocities, s.velocities)
+
+
+def test_a_plain_time_for_members_of_different_time_units_is_refused():
+    u = pytest.importorskip("astropy.units")
+    in_years = vv.Simulation("ias15", units=("au", "yr", "Msun"))
+    in_days = vv.Simulation("ias15", units=("au", "day", "Msun"))
+    for sim in (in_years, in_days):
+        sim.add(1.0)
+        sim.add(1e-3, a=1.0, primary=0)
+    ens = vv.Ensemble.from_simulations([in_years, in_days])
+    ens.integrate(1.0 * u.yr)  # a Quantity: one instant for every member
+    np.testing.assert_allclose(ens.t, [1.0, 365.25], rtol=1e-15)
+    # 2.0 meant 2 yr for one member and 2 days for the other, which went back 363 days
+    with pytest.raises(InvalidInputError, match="different time units"):
+        ens.integrate(2.0)
+    np.testing.assert_allclose(ens.t, [1.0, 365.25], rtol=1e-15)  # nothing moved
+    same = vv.Ensemble.from_simulations([in_years, in_years])
+    same.integrate(2.0)  # one time unit: a plain number is unambiguous
+    assert same.t.tolist() == [2.0, 2.0]
+
+
+_SCRIPT_WITH_A_FORCE = '''
+import numba
+import numpy as np
+import visviva as vv
+
+
+@numba.njit
+def drag(t, x, v, m, params, acc):
+    for i in range(x.shape[0]):
+        for c in range(3):
+            acc[i, c] -= params[0] * v[i, c]
+
+
+def worker_threads():
+    return numba.config.NUMBA_NUM_THREADS
+
+
+if __name__ == "__main__":
+    from visviva._dask import close_local_cluster, get_client
+
+    sims = []
+    for k in range(3):
+        s = vv.Simulation("ias15")
+        s.add(1.0)
+        s.add(1e-3, a=1.0 + 0.1 * k, primary=0)
+        s.add_force(drag, params=[1e-3], velocity_dependent=True)
+        sims.append(s)
+    here = vv.Ensemble.from_simulations(sims)
+    here.integrate(2.0)
+    there = vv.Ensemble.from_simulations(sims)
+    there.integrate(2.0, client=True)
+    assert np.array_equal(there.positions, here.positions)
+    print("threads", sorted(set(get_client(n_workers=2, processes=True,
+                                           threads_per_worker=1).run(worker_threads).values())))
+    close_local_cluster()
+'''
+
+
+@pytest.mark.slow
+def test_dask_ensemble_with_a_force_from_a_script_that_imports_numba(tmp_path):
+    # a script defining an @njit force imports numba at the top; the spawned workers import it
+    # before the nanny sets NUMBA_NUM_THREADS=1, and the force's compilation on the worker
+    # raised "Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+    # launched" (InvalidInputError: the force "does not compile")
+    import subprocess
+    import sys
+
+    pytest.importorskip("distributed")
+    script = tmp_path / "run_ensemble.py"
+    script.write_text(_SCRIPT_WITH_A_FORCE)
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=600, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "threads [1]" in proc.stdout  # one numba thread per worker, as configured

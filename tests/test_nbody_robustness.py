@@ -193,3 +193,94 @@ def test_trajectory_energy_raises_on_coincident_or_merged_snapshots():
     merged = Trajectory(traj.t, x_merged, v, traj.masses)
     with pytest.raises(InvalidStateError, match=r"\[1\] had been removed by a merger"):
         merged.energy()
+
+
+# ---- set_particle / remove check their input as add() does ------------------------------------
+def test_set_particle_checks_values_as_add_does():
+    s = _pair(1.0)
+    before = (s.masses, s.positions, s.velocities, s.radii)
+    # each of these used to be stored silently: a negative mass (repulsive gravity, wrong
+    # dynamics without a word), a NaN position, a negative radius
+    with pytest.raises(InvalidInputError, match="mass must be >= 0"):
+        s.set_particle(1, m=-1.0)
+    with pytest.raises(InvalidInputError, match="NaN or infinite"):
+        s.set_particle(1, r=[np.nan, 0.0, 0.0])
+    with pytest.raises(InvalidInputError, match="NaN or infinite"):
+        s.set_particle(1, v=[0.0, np.inf, 0.0])
+    with pytest.raises(InvalidInputError, match="radius must be >= 0"):
+        s.set_particle(1, radius=-0.1)
+    with pytest.raises(ShapeError, match=r"shape \(3,\)"):  # was numpy's broadcast ValueError
+        s.set_particle(1, r=[1.0, 2.0])
+    for got, want in zip((s.masses, s.positions, s.velocities, s.radii), before, strict=True):
+        np.testing.assert_array_equal(got, want)  # nothing half-changed
+    s.set_particle(-1, m=2.0, r=[2.0, 0.0, 0.0], v=[0.0, 0.5, 0.0], radius=0.1)
+    np.testing.assert_array_equal(s.masses, [1.0, 2.0])
+    np.testing.assert_array_equal(s.positions[1], [2.0, 0.0, 0.0])
+    np.testing.assert_array_equal(s.velocities[1], [0.0, 0.5, 0.0])
+    assert s.radii[1] == 0.1
+
+
+def test_set_particle_takes_quantities_like_add():
+    u = pytest.importorskip("astropy.units")
+    s = vv.Simulation(units=("au", "yr", "Msun"))
+    s.add(1.0)
+    s.add(1e-3, r=[1.0, 0, 0] * u.au, v=[0, 6.28, 0] * u.au / u.yr)
+    s.set_particle(1, m=5.0 * u.Mearth, r=[1.496e8, 0, 0] * u.km, radius=7e4 * u.km)
+    assert s.masses[1] == pytest.approx(5 * 3.0034896e-6, rel=1e-6)
+    assert s.positions[1, 0] == pytest.approx(1.496e8 / 1.495978707e8, rel=1e-12)
+    assert s.radii[1] == pytest.approx(7e4 / 1.495978707e8, rel=1e-12)
+
+
+def test_remove_and_set_particle_check_the_index():
+    s = _pair(1.0)
+    with pytest.raises(IndexError, match="out of range: the simulation has 2"):
+        s.remove(2)
+    with pytest.raises(IndexError, match="out of range"):
+        s.set_particle(-3, m=1.0)
+    with pytest.raises(InvalidInputError, match="integer"):  # int(1.7) used to remove particle 1
+        s.remove(1.7)
+    assert s.N == 2
+    s.remove(np.int64(-1))
+    assert s.N == 1 and s.positions[0, 0] == 0.0
+
+
+def test_ambiguous_or_truncated_settings_are_refused():
+    s = _pair(1.0)
+    with pytest.raises(InvalidInputError, match="a or the semi-latus rectum p, not both"):
+        s.add(1e-3, a=2.0, p=1.0, primary=0)  # p used to win silently over a
+    assert s.N == 2
+    with pytest.raises(InvalidInputError, match="corrector must be 0, 3, 5 or 7"):
+        vv.Simulation("whfast", corrector=3.5)  # was truncated to 3
+    assert vv.Simulation("whfast", corrector=5.0).corrector == 5
+    with pytest.raises(InvalidInputError, match="finite"):
+        s.energy_offset = float("nan")  # energy() would have been NaN from then on
+    assert math.isfinite(s.energy())
+
+
+@pytest.mark.parametrize("first_dt", [1e6, 30.0, -3.0])
+def test_ias15_first_guess_beyond_the_outputs_is_tried_not_left_waiting(first_dt):
+    # dt=1e6 (any first guess beyond the next output) was never tried: every output came from
+    # a copy integrated from t = 0 again (steps_done stayed 0, dt 1e6, and 300 outputs cost 5x
+    # a normal run, growing with their number)
+    def pair(dt):
+        s = vv.Simulation("ias15", dt=dt)
+        s.add(1.0)
+        s.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0])
+        return s
+
+    s, ref = pair(first_dt), pair(None)
+    for t in np.arange(1.0, 21.0):
+        s.integrate(t)
+    ref.integrate(20.0)
+    assert 100 < s.steps_done < 130 and 100 < ref.steps_done < 130  # ~ 115 natural steps
+    assert 0.17 < s.dt < 0.18  # the step control's own step, not the first guess
+    np.testing.assert_allclose(s.positions, ref.positions, rtol=0, atol=1e-13)
+    # the output times still never change the trajectory
+    direct = pair(first_dt)
+    direct.integrate(20.0)
+    np.testing.assert_array_equal(direct.positions, s.positions)
+    assert direct.steps_done == s.steps_done
+    # a dt set by hand mid-run is tried as well
+    s.dt = 1e6
+    s.integrate(21.0)
+    assert 0.17 < s.dt < 0.18

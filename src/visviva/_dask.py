@@ -85,8 +85,30 @@ def get_client(address: str | None = None, *, n_workers: int | None = None,
                 dashboard_address=None, **extra,
             )
         client = Client(cluster)
+        if processes:
+            client.run(_reload_numba_config)
         _LOCAL[key] = client
     return client
+
+
+def _reload_numba_config() -> None:
+    """Worker side: make numba read ``NUMBA_NUM_THREADS`` again.
+
+    The nanny sets a worker's environment only after the worker process has started, and a
+    process started by ``spawn`` imports the user's main script first: a script that imports
+    numba at the top (every script defining an ``@numba.njit`` force) left numba configured
+    for every core while the environment said one thread. The first compilation on the worker
+    (a user force, fused into the integrators there) then re-read the environment after the
+    thread pool had started and numba raised "Cannot set NUMBA_NUM_THREADS to a different
+    value once the threads have been launched". Reading it here, before any thread starts,
+    makes the two agree (and the worker use the one thread it was given).
+    """
+    from numba.core import config
+
+    try:
+        config.reload_config()
+    except RuntimeError:  # pragma: no cover - the pool already runs: nothing left to align
+        pass
 
 
 def close_local_cluster() -> None:

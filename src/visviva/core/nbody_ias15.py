@@ -449,17 +449,32 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
             fstate[F_DT_LAST] = 0.0
             fstate[F_DT] = dt
         last = False
+        trial = False
         if abs(dt) >= abs(rem):
             if mode == 0:
-                return OK
-            last = True
-            if mode == 1:
-                dt = rem
+                dl = fstate[F_DT_LAST]
+                if dl != 0.0 and abs(dt) <= abs(dl) / SAFETY:
+                    return OK
+                # a step step control never proposed (a user's dt, a first step, a new
+                # direction) would wait for ever behind the output times while copies do the
+                # work (a dt beyond the run left the integrator at t0 and every output cost
+                # the whole span again): try it now as the natural run will when it gets here.
+                # A rejection is kept (the same one, on the same state); an accepted step is
+                # undone, to be taken by the natural run unchanged
+                trial = True
+                _backup(buf, False)
+            else:
+                last = True
+                if mode == 1:
+                    dt = rem
         status, accepted, dt_new = _step(
             xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, params, t, dt, parallel
         )
         if status != OK:
             return status
+        if trial and accepted:
+            _backup(buf, True)
+            return OK
         # the step floor: min_dt, and a relative floor (below it the run could never finish,
         # or t + dt == t; a singular configuration such as coincident particles ends here
         # instead of looping forever). Not checked after a step shortened to land on target.

@@ -103,7 +103,12 @@ class Archive:
         """Integrate ``sim`` to ``t_end``, storing a snapshot every ``interval`` (and at start).
 
         One compiled call per interval; the file is rewritten atomically every ``flush_every``
-        snapshots and at the end.
+        snapshots and at the end. When ``path`` already holds an archive, the run continues
+        it: ``sim`` must start at its last snapshot's time or beyond it in the direction of
+        the recording (that snapshot is not stored twice); anything else raises
+        :class:`~visviva.errors.InvalidInputError` rather than mixing two runs in one file.
+        When the integration raises (a :class:`visviva.Collision`, ``Escape``, ...), the
+        snapshots taken so far are written before the exception propagates.
         """
         interval = sim.time_value(interval, "interval")
         t_end = sim.time_value(t_end, "t_end")
@@ -114,19 +119,43 @@ class Archive:
         sign = 1.0 if t_end >= t0 else -1.0
         n = int(np.floor(abs(t_end - t0) / interval + 1e-9))
         times = [t0 + sign * k * interval for k in range(1, n + 1)]
-        if not times or times[-1] != t_end and abs(times[-1] - t_end) > 1e-12 * interval:
+        if t_end != t0 and (not times or times[-1] != t_end
+                            and abs(times[-1] - t_end) > 1e-12 * interval):
             times.append(t_end)
-        archive.append(sim, flush=False)
+        if archive._times:
+            archive._check_continues(t0, sign)
+        if not archive._times or archive._times[-1] != t0:
+            archive.append(sim, flush=False)
         iterator = times
         if progress:
             from tqdm.auto import tqdm
 
             iterator = tqdm(times, desc="archive")
-        for k, t in enumerate(iterator):
-            sim.integrate(t)
-            archive.append(sim, flush=(k + 1) % flush_every == 0)
+        try:
+            for k, t in enumerate(iterator):
+                sim.integrate(t)
+                archive.append(sim, flush=(k + 1) % flush_every == 0)
+        except BaseException as exc:
+            archive.flush()  # never lose the snapshots taken before the event
+            exc.add_note(f"{archive.path!r} holds the {len(archive)} snapshot(s) recorded up to "
+                         f"t = {archive._times[-1]!r}; the simulation stopped at t = {sim.t!r}.")
+            raise
         archive.flush()
         return archive
+
+    def _check_continues(self, t0: float, sign: float) -> None:
+        """Raise unless a recording starting at ``t0`` in the direction ``sign`` continues this
+        archive (its times keep going the same way)."""
+        last = self._times[-1]
+        previous = self._times[-2] if len(self._times) > 1 else last
+        backwards = (t0 - last) * sign < 0 or (last - previous) * sign < 0
+        if backwards:
+            raise InvalidInputError(
+                f"{self.path!r} already holds an archive of {len(self)} snapshot(s) ending at "
+                f"t = {fmt_number(last)}; recording from t = {fmt_number(t0)} to t_end in that "
+                "direction would not continue it (its times would go back and forth). Record to "
+                "another path, delete the file first, or continue from its last snapshot: "
+                "sim = Archive(path)[-1].")
 
     # -- reading ----------------------------------------------------------------------------------
     @property

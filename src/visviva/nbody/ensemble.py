@@ -223,6 +223,7 @@ class Ensemble:
                 f"Ensemble.integrate takes one time for every member; got shape {np.shape(t)}. "
                 "For snapshots, call it once per output time."
             )
+        _check_one_time_unit(self._members, t)
         if client is not None:
             from .ensemble_dask import integrate_on_dask
 
@@ -265,6 +266,20 @@ class Ensemble:
         if backend == "cuda":
             check_ensemble(members)
         return cls(members, backend)
+
+
+def _check_one_time_unit(members, t) -> None:
+    """A plain number ``t`` is a time in each member's own units: refuse it when members have
+    different time units (it would send them to different times, some backwards), and say to
+    pass a Quantity."""
+    if hasattr(t, "unit") or type(t).__name__ == "TimeDelta":
+        return
+    scales = {s.units.time: s.units.time_s for s in members if s.units is not None}
+    if len(set(scales.values())) > 1:
+        raise InvalidInputError(
+            f"t = {t!r} is a plain number, but the members have different time units "
+            f"{sorted(scales)}, so it would mean a different time for each; pass a Quantity "
+            "(e.g. t * astropy.units.yr).")
 
 
 def _raise_first(errors) -> None:

@@ -34,6 +34,10 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
     inc, raan, argp = (_angle(val, name) for val, name in ((inc, "inc"), (raan, "raan"), (argp, "argp")))
     if nu is not None and M is not None:
         raise InvalidInputError("give the true anomaly nu or the mean_anomaly, not both.")
+    if a is not None and p is not None:  # p used to win silently over a different a
+        raise InvalidInputError(
+            f"give the semi-major axis a or the semi-latus rectum p, not both (a = "
+            f"{fmt_number(a)}, p = {fmt_number(p)}; p = a (1 - e^2)).")
     if e < 0:
         raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")
     if p is None:

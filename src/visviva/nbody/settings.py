@@ -63,6 +63,41 @@ def length(sim, value, name) -> float:
     return scalar(convert(sim, value, "length", name), name)
 
 
+def mass(sim, value, name="m") -> float:
+    """One mass in simulation units, finite and >= 0 (0: a test particle)."""
+    m = scalar(convert(sim, value, "mass", name), name)
+    if not m >= 0:
+        raise InvalidInputError(f"mass must be >= 0; got {fmt_number(value)}.")
+    return m
+
+
+def vector3(sim, value, kind, name) -> np.ndarray:
+    """A position (``kind="length"``) or velocity (``"speed"``) of shape (3,), simulation units."""
+    arr = np.asarray(convert(sim, value, kind, name), dtype=np.float64).reshape(-1)
+    if arr.shape != (3,):
+        raise ShapeError(f"{name} must have shape (3,); got {arr.shape}.")
+    return arr
+
+
+def radius(sim, value, name="radius") -> float:
+    """A collision radius in simulation units, >= 0."""
+    rad = length(sim, value, name)
+    if not rad >= 0:
+        raise InvalidInputError(f"{name} must be >= 0; got {fmt_number(value)}.")
+    return rad
+
+
+def particle_index(sim, index) -> int:
+    """``index`` as the index of an existing particle of ``sim`` (negative counts from the end)."""
+    if isinstance(index, bool) or not isinstance(index, int | np.integer):
+        raise InvalidInputError(
+            f"a particle index must be an integer; got {index!r} (a {type(index).__name__}).")
+    n = sim.N
+    if not -n <= index < n:
+        raise IndexError(f"particle {index} is out of range: the simulation has {n} particle(s).")
+    return int(index) % n
+
+
 class Setting:
     """A simulation setting stored in the simulation's state object.
 
@@ -184,9 +219,9 @@ def restitution(sim, value, name) -> float:
 
 
 def corrector(sim, order, name) -> int:
-    order = int(order)
-    if order not in (0, 3, 5, 7):
+    if isinstance(order, bool) or order not in (0, 3, 5, 7):  # 3.5 was truncated to 3
         raise InvalidInputError(f"corrector must be 0, 3, 5 or 7; got {order!r}.")
+    order = int(order)
     if order != 0 and sim.coordinates != "jacobi":
         raise InvalidInputError(
             f"corrector={order}: the symplectic correctors are derived for the Jacobi "
@@ -223,5 +258,11 @@ def flag(sim, value, name) -> int:
 
 
 def energy_offset(sim, value, name) -> float:
-    return float(value)
+    try:
+        value = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be a finite number; got {fmt_number(value)}.") from exc
+    if not math.isfinite(value):  # NaN would hide in energy()
+        raise InvalidInputError(f"{name} must be a finite number; got {fmt_number(value)}.")
+    return value
 

@@ -352,36 +352,34 @@ class Simulation:
             if mean_anomaly is not None:
                 raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
             mean_anomaly = M
-        m_val = _s.scalar(_s.convert(self, m, "mass", "m"), "m")
-        if not m_val >= 0:
-            raise InvalidInputError(f"mass must be >= 0; got {fmt_number(m)}.")
+        m_val = _s.mass(self, m)
         if a is not None or p is not None:
             if r is not None or v is not None:
                 raise InvalidInputError("give either r, v or orbital elements, not both.")
             rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
                                        mean_anomaly, p)
         else:
-            rr = np.zeros(3) if r is None else _s.convert(self, r, "length", "r")
-            vv = np.zeros(3) if v is None else _s.convert(self, v, "speed", "v")
-        rr = np.asarray(rr, dtype=np.float64).reshape(-1)
-        vv = np.asarray(vv, dtype=np.float64).reshape(-1)
-        if rr.shape != (3,) or vv.shape != (3,):
-            raise ShapeError(f"r and v must have shape (3,); got {rr.shape} and {vv.shape}.")
-        rad = _s.length(self, radius, "radius")
-        if not rad >= 0:
-            raise InvalidInputError(f"radius must be >= 0; got {fmt_number(radius)}.")
-        self._state.append(rr, vv, m_val, rad)
+            rr = np.zeros(3) if r is None else r
+            vv = np.zeros(3) if v is None else v
+        rr, vv = _s.vector3(self, rr, "length", "r"), _s.vector3(self, vv, "speed", "v")
+        self._state.append(rr, vv, m_val, _s.radius(self, radius))
         return self.N - 1
 
     def remove(self, index: int) -> None:
         """Remove particle ``index`` (later indices shift down by one)."""
-        self._state.remove(index)
+        self._state.remove(_s.particle_index(self, index))
 
     def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
         """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision
-        ``radius`` of particle ``index`` in place (simulation units); the integrator restarts
-        from the changed state (as after a collision)."""
-        self._state.set_particle(int(index), m=m, r=r, v=v, radius=radius)
+        ``radius`` of particle ``index`` in place (simulation units, or Quantities as in
+        :meth:`add`, checked as there); the integrator restarts from the changed state (as
+        after a collision)."""
+        k = _s.particle_index(self, index)
+        self._state.set_particle(
+            k, m=None if m is None else _s.mass(self, m),
+            r=None if r is None else _s.vector3(self, r, "length", "r"),
+            v=None if v is None else _s.vector3(self, v, "speed", "v"),
+            radius=None if radius is None else _s.radius(self, radius))
 
     # ---- forces ---------------------------------------------------------------------------------
     @property

@@ -402,11 +402,11 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
 
         initial = initial_orbit(observations, EARTH)
     x, gm, epoch = check_initial(initial, maneuvers)
-    from ..satellites.burn_segments import Schedule, burn_schedule
+    from ..satellites.burn_segments import Schedule, burn_schedule, distinct_burns
 
-    schedule = burn_schedule([] if maneuvers is None else maneuvers, initial, epoch)
-    burns = [] if maneuvers is None else (
-        [maneuvers] if not isinstance(maneuvers, list | tuple) else list(maneuvers))
+    burns = [] if maneuvers is None else distinct_burns(
+        [maneuvers] if not isinstance(maneuvers, list | tuple) else maneuvers)
+    schedule = burn_schedule(burns, initial, epoch)  # the same objects: swapped by identity
     chosen = _estimated(burns, estimate_maneuvers)
     from .parameters import coefficients
 
@@ -491,7 +491,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         if chosen:
             cols = _columns(dyn.schedule, [flown[i] for i in chosen])
             phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
-            _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
+            _check_observable(H @ phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
         if est:
             sens = partials(dyn, est)
             check_observable(H @ sens, est)
@@ -647,12 +647,13 @@ def _with_priors(A, b, priors, dv, n_par):
 
 def _check_observable(sens, burns, chosen, priors=()):
     """Refuse an estimated burn that no observation follows (its Δv has no information) and
-    no a priori constrains."""
+    no a priori constrains. ``sens`` (N, 3, 3 m): the partials of the measurements on the Δvs
+    (a position fix at the burn's own time sees none of it, though the state's do)."""
     constrained = {j for j, _, _ in priors}
     for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
         if j not in constrained and not np.any(sens[:, :, 3 * j:3 * j + 3]):
             raise InvalidInputError(
                 f"maneuvers[{i}] ({burn!r}) has no observation after it (or before it, for a "
-                "burn before the epoch): its Δv cannot be estimated from these data. Drop it "
-                "from estimate_maneuvers, add tracking past it, or give the burn its execution "
-                "error (delta_v_covariance=...) as an a priori.")
+                "burn before the epoch) that its Δv changes: its Δv cannot be estimated from "
+                "these data. Drop it from estimate_maneuvers, add tracking past it, or give the "
+                "burn its execution error (delta_v_covariance=...) as an a priori.")

@@ -60,3 +60,92 @@ def test_a_position_fix_at_the_burn_time_is_no_information_on_its_delta_v():
     plan = vv.ImpulsiveBurn(t_burn, [0, 0, 0] * KMS, "RTN")
     with pytest.raises(vv.InvalidInputError, match=r"maneuvers\[0\].*no observation after it"):
         vv.fit_orbit(obs, TRUTH, maneuvers=[plan], estimate_maneuvers=True)
+
+
+DV_PLAN = np.array([0.5, 1.5, -1.0]) * 1e-3  # RTN, km/s
+EXEC_COV = np.eye(3) * 0.05e-3**2  # 5 cm/s per axis, km^2/s^2
+Y_TRUE = np.r_[TRUTH.r.to_value(u.km), TRUTH.v.to_value(KMS)]
+
+
+def _planned():
+    return vv.ImpulsiveBurn(EPOCH + 1 * u.h, DV_PLAN * KMS, "RTN", delta_v_covariance=EXEC_COV)
+
+
+def test_a_known_burns_execution_error_is_in_the_fit_covariance():
+    # fit_orbit flew a known burn's plan as exact: over 6 truths whose Δv was drawn from its
+    # execution covariance the fit's NEES averaged 2.6e5 (expect 6), 90 at the end of the arc
+    rng = np.random.default_rng(1)
+    nees, nees_end = [], []
+    for seed in range(6):
+        dv = DV_PLAN + rng.multivariate_normal(np.zeros(3), EXEC_COV)
+        flown = vv.ImpulsiveBurn(EPOCH + 1 * u.h, dv * KMS, "RTN")
+        obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=[flown],
+                                    seed=seed)
+        fit = vv.fit_orbit(obs, TRUTH, maneuvers=[_planned()])
+        assert fit.considered_maneuvers == [0]
+        e = np.r_[fit.state.r.to_value(u.km), fit.state.v.to_value(KMS)] - Y_TRUE
+        nees.append(e @ np.linalg.solve(fit.covariance, e))
+        end = EPOCH + 4 * u.h
+        p = fit.propagate(end)
+        truth = vv.propagate_cowell(TRUTH, end, [], maneuvers=[flown])
+        e = np.r_[(p.r - truth.r).to_value(u.km), (p.v - truth.v).to_value(KMS)]
+        nees_end.append(e @ np.linalg.solve(np.asarray(p.covariance).reshape(6, 6), e))
+    # the sum of 6 NEES is chi-square(36): 99.9 % within [15.3, 67.9]
+    assert 15.3 / 6 < np.mean(nees) < 67.9 / 6
+    assert 15.3 / 6 < np.mean(nees_end) < 67.9 / 6
+    assert np.all(np.linalg.eigvalsh(fit.covariance - fit.noise_covariance) > -1e-18)
+
+
+def test_the_fit_sensitivity_to_a_known_burn_equals_differenced_fits():
+    # S_b = d x_hat / d Δv against fits of noise-free data of truths flying Δv_plan +- h
+    h = 1e-6  # km/s
+    fits = []
+    for sign in (1.0, -1.0):
+        dv = DV_PLAN + sign * np.array([h, 0.0, 0.0])
+        flown = vv.ImpulsiveBurn(EPOCH + 1 * u.h, dv * KMS, "RTN")
+        obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=[flown],
+                                    seed=False)
+        fits.append(vv.fit_orbit(obs, TRUTH, maneuvers=[_planned()], tol=1e-12))
+    diff = np.r_[(fits[0].state.r - fits[1].state.r).to_value(u.km),
+                 (fits[0].state.v - fits[1].state.v).to_value(KMS)] / (2 * h)
+    # S_b is d x_hat / d (the fit's Δv); a truth flying plan + δ fitted with the plan is the
+    # fit's Δv off by -δ: x_hat - x_true = -S_b δ
+    s_b = fits[0].maneuver_consider_sensitivity[:, 0]
+    assert np.abs(diff + s_b).max() < 1e-4 * np.abs(s_b).max()
+
+
+def test_consider_with_an_estimated_planned_burn():
+    # consider= with an estimated burn that has an a priori (execution covariance) raised
+    # numpy's matmul shape error: the consider partials were padded to the coefficients' a
+    # priori rows only, not to the plan's three rows
+    am = 0.01 * u.m**2 / u.kg
+    leo = vv.StateVectors([6728.0, 0.0, 0.0] * u.km, [0.0, 4.80, 6.06] * KMS, vv.EARTH,
+                          epoch=EPOCH)
+    forces = [vv.AtmosphericDrag(2.2 * am)]
+    flown = vv.ImpulsiveBurn(EPOCH + 1 * u.h, DV_PLAN * KMS, "RTN")
+    obs = simulate_observations(leo, TIMES[:60], "position", 10 * u.m, None, forces,
+                                maneuvers=[flown], seed=4)
+    fit = vv.fit_orbit(obs, leo, forces, maneuvers=[_planned()], estimate_maneuvers=True,
+                       consider={"drag": 0.3 * am})
+    plain = vv.fit_orbit(obs, leo, forces, maneuvers=[_planned()], estimate_maneuvers=True)
+    assert np.allclose(fit.noise_covariance, plain.covariance, rtol=1e-9, atol=0)
+    assert np.all(np.diag(fit.covariance) >= np.diag(plain.covariance))
+    sigma = fit.delta_v_sigma.to_value(KMS)
+    assert np.all(np.abs(fit.delta_v.to_value(KMS) - DV_PLAN) < 4 * sigma)
+
+
+def test_an_opm_from_a_fit_takes_its_state_covariance_in_the_right_units():
+    # OPM.from_state wrote np.asarray(covariance): an m^2 Quantity (a CDM's) went out as km^2
+    # (10^6 too large), a fit's full_covariance (state and Δv) was cut to its corner silently
+    flown = _burn()
+    obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=[flown], seed=3)
+    fit = vv.fit_orbit(obs, TRUTH, maneuvers=[_burn((0.0, 0.0, 0.0))], estimate_maneuvers=True)
+    km = vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=fit.covariance)
+    assert np.allclose(km.covariance, fit.covariance, rtol=1e-12, atol=0)
+    metres = np.asarray(fit.covariance) * 1e6 * u.m**2
+    m2 = vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=metres)
+    assert np.allclose(m2.covariance, fit.covariance, rtol=1e-12, atol=0)
+    with pytest.raises(vv.ShapeError, match="fit.covariance"):
+        vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=fit.full_covariance)
+    with pytest.raises(vv.UnitsError):
+        vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=metres.value * u.m)

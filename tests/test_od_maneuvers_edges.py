@@ -149,3 +149,28 @@ def test_an_opm_from_a_fit_takes_its_state_covariance_in_the_right_units():
         vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=fit.full_covariance)
     with pytest.raises(vv.UnitsError):
         vv.ccsds.OPM.from_state(fit.state, object_name="X", covariance=metres.value * u.m)
+
+
+def test_inseparable_delta_vs_are_refused_by_name():
+    # a burn at the epoch with no data before it, or two burns at one time: the SVD refused
+    # with "the observations do not determine the orbit ... add observations of other kinds",
+    # which names neither the burns nor the remedy
+    at_epoch = vv.ImpulsiveBurn(EPOCH, DV_PLAN * KMS, "RTN")
+    obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=[at_epoch],
+                                seed=2)
+    zero = vv.ImpulsiveBurn(EPOCH, [0, 0, 0] * KMS, "RTN")
+    with pytest.raises(vv.InvalidInputError, match=r"maneuvers\[0\].*epoch.*one unknown"):
+        vv.fit_orbit(obs, TRUTH, maneuvers=[zero], estimate_maneuvers=True)
+    two = [_burn((0.5, 0.0, 0.0)), _burn((0.0, 1.5, 0.0))]
+    obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=two, seed=2)
+    plans = [_burn((0.0, 0.0, 0.0)), _burn((0.0, 0.0, 0.0))]
+    with pytest.raises(vv.InvalidInputError, match=r"maneuvers\[0\] and maneuvers\[1\]"):
+        vv.fit_orbit(obs, TRUTH, maneuvers=plans, estimate_maneuvers=True)
+    # with execution errors as a priori the two are separated by their plans
+    planned = [vv.ImpulsiveBurn(EPOCH + 1 * u.h, [0.5, 0.0, 0.0] * u.m / u.s, "RTN",
+                                delta_v_covariance=EXEC_COV),
+               vv.ImpulsiveBurn(EPOCH + 1 * u.h, [0.0, 1.5, 0.0] * u.m / u.s, "RTN",
+                                delta_v_covariance=EXEC_COV)]
+    fit = vv.fit_orbit(obs, TRUTH, maneuvers=planned, estimate_maneuvers=True)
+    total = fit.delta_v.to_value(KMS).sum(axis=0)
+    assert np.abs(total - [0.0005, 0.0015, 0.0]).max() < 2e-5  # the sum is what the data see

@@ -16,7 +16,14 @@ import numpy as np
 from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
-from .burn_estimation import columns, considered_burns, estimated, maneuver_priors, with_priors
+from .burn_estimation import (
+    check_separable,
+    columns,
+    considered_burns,
+    estimated,
+    maneuver_priors,
+    with_priors,
+)
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -466,6 +473,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
     pv = np.array([c.value for c in est])
     priors = maneuver_priors([burns[i] for i in chosen], chosen)
+    check_separable(schedule, burns, chosen, priors, offsets)
     flown = list(burns)
     kinds = observations.kinds
     dims = observations.dims

@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import InvalidInputError
 
 __all__ = ["considered_burns", "estimated", "columns", "maneuver_priors", "with_priors",
-           "check_observable"]
+           "check_observable", "check_separable"]
 
 
 def considered_burns(dyn, flown, chosen, H, use, sig, A, P):
@@ -122,3 +122,27 @@ def check_observable(sens, burns, chosen, priors=()):
                 "burn before the epoch) that its Δv changes: its Δv cannot be estimated from "
                 "these data. Drop it from estimate_maneuvers, add tracking past it, or give the "
                 "burn its execution error (delta_v_covariance=...) as an a priori.")
+
+
+def check_separable(schedule, burns, chosen, priors, offsets):
+    """Refuse estimated Δvs that the data cannot tell from the state or from each other, with
+    no a priori to separate them: a burn at the estimate's epoch with no observation before it
+    (its Δv and the epoch velocity are one unknown), two burns at the same time (only their
+    sum is seen)."""
+    constrained = {chosen[j] for j, _, _ in priors}
+    at = {id(m): a for a, _, m in schedule.items} if schedule else {}
+    free = [i for i in chosen if i not in constrained]
+    for i in free:
+        if at[id(burns[i])] == 0.0 and not np.any(offsets < 0.0):
+            raise InvalidInputError(
+                f"maneuvers[{i}] ({burns[i]!r}) is at the estimate's epoch and no observation "
+                "precedes it: its Δv and the epoch's velocity are one unknown. Give initial an "
+                "epoch before the burn, hold the burn known, or give it its execution error "
+                "(delta_v_covariance=...) as an a priori.")
+    for n, i in enumerate(free):
+        for k in free[n + 1:]:
+            if at[id(burns[i])] == at[id(burns[k])]:
+                raise InvalidInputError(
+                    f"maneuvers[{i}] and maneuvers[{k}] are estimated at the same time: the "
+                    "data see only their sum. Estimate one of them (the other known), or give "
+                    "them execution errors (delta_v_covariance=...) as a priori.")

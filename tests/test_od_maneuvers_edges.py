@@ -174,3 +174,12 @@ def test_inseparable_delta_vs_are_refused_by_name():
     fit = vv.fit_orbit(obs, TRUTH, maneuvers=planned, estimate_maneuvers=True)
     total = fit.delta_v.to_value(KMS).sum(axis=0)
     assert np.abs(total - [0.0005, 0.0015, 0.0]).max() < 2e-5  # the sum is what the data see
+
+
+def test_a_nan_execution_covariance_is_named_as_nan():
+    # the message said "must be a finite 3 x 3 matrix; got shape (3, 3)"
+    with pytest.raises(vv.InvalidInputError, match="NaN or infinite"):
+        vv.ImpulsiveBurn(EPOCH, DV_PLAN * KMS, "RTN",
+                         delta_v_covariance=np.diag([np.nan, 1e-10, 1e-10]))
+    with pytest.raises(vv.InvalidInputError, match=r"got shape \(2, 2\)"):
+        vv.ImpulsiveBurn(EPOCH, DV_PLAN * KMS, "RTN", delta_v_covariance=np.eye(2) * 1e-10)

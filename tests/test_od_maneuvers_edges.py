@@ -183,3 +183,14 @@ def test_a_nan_execution_covariance_is_named_as_nan():
                          delta_v_covariance=np.diag([np.nan, 1e-10, 1e-10]))
     with pytest.raises(vv.InvalidInputError, match=r"got shape \(2, 2\)"):
         vv.ImpulsiveBurn(EPOCH, DV_PLAN * KMS, "RTN", delta_v_covariance=np.eye(2) * 1e-10)
+
+
+@pytest.mark.parametrize("bad", [[0.9], [True], [np.float64(1.0)], 1, "0", [[0]]])
+def test_estimate_maneuvers_takes_integer_indices_only(bad):
+    # [0.9] was int()-ed to 0 and [True] to 1 (another burn's Δv estimated in silence)
+    two = [_burn(), vv.ImpulsiveBurn(EPOCH + 2 * u.h, DV_PLAN * KMS, "RTN")]
+    obs = simulate_observations(TRUTH, TIMES, "position", 10 * u.m, maneuvers=two, seed=2)
+    with pytest.raises(vv.InvalidInputError, match="integer indices"):
+        vv.fit_orbit(obs, TRUTH, maneuvers=two, estimate_maneuvers=bad)
+    fit = vv.fit_orbit(obs, TRUTH, maneuvers=two, estimate_maneuvers=np.array([1]))
+    assert fit.estimated_maneuvers == [1]

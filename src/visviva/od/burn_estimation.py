@@ -54,14 +54,17 @@ def estimated(burns, estimate):
                 "estimate_maneuvers=True but maneuvers= holds no vv.ImpulsiveBurn; give the "
                 "burns to estimate (their delta_v is the starting value, e.g. zero).")
         return chosen
-    try:
-        chosen = [int(i) for i in estimate]
-    except (TypeError, ValueError):
+    given = list(estimate) if isinstance(estimate, list | tuple | np.ndarray) else None
+    # a float or a bool was truncated to an index (1.7 -> 1, [True] -> 1): another burn's Δv
+    # estimated in silence; only integers are indices
+    if given is None or not all(isinstance(i, int | np.integer)
+                                and not isinstance(i, bool | np.bool_) for i in given):
         raise InvalidInputError(
-            f"estimate_maneuvers must be True, False/None or a list of indices into maneuvers; "
-            f"got {estimate!r}.") from None
+            f"estimate_maneuvers must be True, False/None or a list of integer indices into "
+            f"maneuvers; got {estimate!r}.")
+    chosen = [int(i) for i in given]
     for i in chosen:
-        if isinstance(i, bool) or not 0 <= i < len(burns):
+        if not 0 <= i < len(burns):
             raise InvalidInputError(
                 f"estimate_maneuvers: index {i} is not one of the {len(burns)} maneuvers.")
         if not isinstance(burns[i], ImpulsiveBurn):

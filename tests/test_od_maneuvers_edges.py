@@ -194,3 +194,27 @@ def test_estimate_maneuvers_takes_integer_indices_only(bad):
         vv.fit_orbit(obs, TRUTH, maneuvers=two, estimate_maneuvers=bad)
     fit = vv.fit_orbit(obs, TRUTH, maneuvers=two, estimate_maneuvers=np.array([1]))
     assert fit.estimated_maneuvers == [1]
+
+
+def test_the_smoother_reports_the_smoothed_coefficients():
+    # the smoother smoothed the coefficients with the state but dropped them: no output held
+    # them. A constant without process noise smooths to its last filtered value everywhere.
+    am = 0.01 * u.m**2 / u.kg
+    leo = vv.StateVectors([6728.0, 0.0, 0.0] * u.km, [0.0, 4.80, 6.06] * KMS, vv.EARTH,
+                          epoch=EPOCH)
+    obs = simulate_observations(leo, TIMES[:60], "position", 10 * u.m, None,
+                                [vv.AtmosphericDrag(2.6 * am)], seed=7)
+    flt = vv.filter_orbit(obs, leo, np.diag([1e-4] * 3 + [1e-10] * 3),
+                          [vv.AtmosphericDrag(2.2 * am)], estimate="drag",
+                          parameter_sigma={"drag": 0.5 * am}, smoother=True)
+    b = flt.smoothed_parameters["drag"].to_value(u.m**2 / u.kg)
+    sigma = flt.smoothed_parameter_sigma["drag"].to_value(u.m**2 / u.kg)
+    last = flt.parameters["drag"][-1].to_value(u.m**2 / u.kg)
+    assert b.shape == (len(flt.times),)
+    assert np.abs(b - last).max() < 1e-3 * sigma[-1]
+    assert np.allclose(sigma, flt.parameter_sigma["drag"][-1].to_value(u.m**2 / u.kg),
+                       rtol=1e-3)
+    assert abs(b[0] / 0.01 - 2.6) < 4 * sigma[0] / 0.01
+    plain = vv.filter_orbit(obs, leo, np.diag([1e-4] * 3 + [1e-10] * 3),
+                            [vv.AtmosphericDrag(2.6 * am)])
+    assert plain.smoothed_parameters is None

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, ShapeError
 from .covariance import COVARIANCE_KEYWORDS, check_record_variances, matrix_from_values
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
@@ -152,8 +152,10 @@ class OPM(FrameCenterMetadata):
         maneuvers : iterable of Maneuver
             Manoeuvres (``epoch`` a Time, ``duration`` s, ``delta_mass`` kg, ``frame``,
             ``delta_v`` km/s Quantities).
-        covariance : array_like, shape (6, 6), optional
-            Covariance in km and km/s.
+        covariance : array_like or Quantity, shape (6, 6), optional
+            Covariance of the state: plain numbers in km and km/s (what ``fit.covariance`` and
+            ``propagate_covariance`` give), or an area Quantity (e.g. m^2: the whole matrix in
+            its length unit and seconds), converted to km.
         originator : str
             ``ORIGINATOR``.
         mission_epoch : astropy.time.Time, optional
@@ -190,8 +192,17 @@ class OPM(FrameCenterMetadata):
                 raise InvalidInputError(f"mass must be > 0 kg; got {mass}.")
             sections["spacecraft_parameters"] = {"MASS": m_kg}
         if covariance is not None:
-            diag = np.diagonal(np.asarray(covariance, dtype=np.float64))
-            if not (np.isfinite(covariance).all() and (diag >= 0).all()):
+            from .._covariance import as_covariance
+
+            # an area Quantity (a CDM's m^2) is converted: its numbers were written as km^2
+            if np.shape(covariance) != (6, 6):
+                raise ShapeError(
+                    f"covariance must be the 6 x 6 of the state (km, km/s); got "
+                    f"{np.shape(covariance)} (a fit's full_covariance also holds its Δvs and "
+                    "coefficients: give fit.covariance).")
+            covariance = as_covariance(covariance, "covariance", length_unit="km")
+            diag = np.diagonal(covariance)
+            if not (diag >= 0).all():
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
                                         f"diagonal; got diagonal {diag}.")
             sections["covariance"] = values_from_matrix(covariance)

@@ -15,6 +15,15 @@ import numpy as np
 
 from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
+from .burn_estimation import check_observable as check_burn_observable
+from .burn_estimation import (
+    check_separable,
+    columns,
+    considered_burns,
+    estimated,
+    maneuver_priors,
+    with_priors,
+)
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -31,7 +40,8 @@ class OrbitFit:
         Estimated GCRS state at ``epoch`` (km, km/s).
     covariance : ndarray (6, 6)
         Formal covariance of the estimate, km^2, km^2/s, km^2/s^2 (order x, y, z, vx, vy, vz);
-        with ``consider=``, the consider covariance (data and considered coefficients).
+        with ``consider=``, the consider covariance (data and considered coefficients), and
+        with the execution errors of known burns (``considered_maneuvers``).
     residuals : ndarray (N, 3)
         Observed minus computed for each observation at the estimate (km, km/s, rad; the
         components beyond a row's own are zero).
@@ -60,6 +70,13 @@ class OrbitFit:
         :meth:`propagate` flies); empty without burns.
     estimated_maneuvers : list of int
         Indices (into ``maneuvers``) of the burns whose Δv was estimated.
+    considered_maneuvers : list of int
+        Indices (into ``maneuvers``) of the known impulses with an execution covariance that
+        the data see: their execution errors are consider parameters, held in ``covariance``
+        and ``full_covariance`` (not in ``noise_covariance``) and correlated with the
+        estimate past the burn by :meth:`propagate`.
+    maneuver_consider_sensitivity : ndarray (6 + 3 m + k, 3 q)
+        S_b = d x_hat / d Δv of the estimate on the Δvs of those burns (on their axes).
     delta_v : Quantity (m, 3)
         The estimated Δv of those burns, km/s, on each burn's own axes (its ``frame``).
     delta_v_covariance : ndarray (m, 3, 3)
@@ -69,7 +86,8 @@ class OrbitFit:
         coefficients in ``parameters`` order), km and km/s based, m^2/kg for drag's B,
         dimensionless for Cr; with ``consider=`` the consider covariance.
     noise_covariance : ndarray (6, 6)
-        The data-only covariance of the state (the same as ``covariance`` without ``consider=``).
+        The data-only covariance of the state (the same as ``covariance`` without ``consider=``
+        and without known burns' execution errors).
     parameters : dict
         The estimated coefficients (``estimate=``): ``"drag"``, the ballistic coefficient
         B = Cd A / m (Quantity, m^2/kg), ``"srp"``, the reflectivity Cr (float); empty without.
@@ -140,7 +158,7 @@ class OrbitFit:
         dyn = self.perturbations if perturbations is None else perturbations
         if self.parameters or self.considered:
             return self._propagate_parameters(t, dyn, kwargs)
-        if not self.estimated_maneuvers:
+        if not (self.estimated_maneuvers or self.considered_maneuvers):
             return propagate_covariance(self.state, self.covariance, t, dyn,
                                         maneuvers=self.maneuvers, **kwargs)
         from .._covariance import frame_code, km_covariance, to_local
@@ -148,14 +166,12 @@ class OrbitFit:
         out_name = kwargs.pop("output_frame", None) or kwargs.get("frame", "GCRS")
         out = propagate_covariance(self.state, self.covariance, t, dyn, maneuvers=self.maneuvers,
                                    output_frame="GCRS", **kwargs)
-        burns = out.impulses
-        cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])
-                               for i in self.estimated_maneuvers])
-        s = out.delta_v_partials[..., cols]
+        s = out.delta_v_partials[..., self._burn_columns(out, self.estimated_maneuvers)]
         pxv = self.full_covariance[:6, 6:]
         cross = out.stm @ pxv @ np.swapaxes(s, -1, -2)
         p = out.covariance + s @ self.full_covariance[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2)
+        p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s], axis=-1))
         code = frame_code(out_name, "output_frame")
         r = np.atleast_2d(out.r.to_value("km"))
         v = np.atleast_2d(out.v.to_value("km/s"))
@@ -198,12 +214,12 @@ class OrbitFit:
         canonical = [k for k in NAMES if k in names]  # propagate_covariance's column order
         s = s[..., [canonical.index(k) for k in names]]
         if self.estimated_maneuvers:  # the estimated Δvs' columns come first
-            burns = out.impulses
-            cols = np.concatenate([np.arange(3) + 3 * burns.index(self.maneuvers[i])
-                                   for i in self.estimated_maneuvers])
+            cols = self._burn_columns(out, self.estimated_maneuvers)
             s = np.concatenate([out.delta_v_partials[..., cols], s], axis=-1)
         cross = out.stm @ joint[:6, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2) + s @ joint[6:, 6:] @ np.swapaxes(s, -1, -2)
+        p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s[..., :n - 6]],
+                                                              axis=-1))
         code = frame_code(out_name, "output_frame")
         r = np.atleast_2d(out.r.to_value("km"))
         v = np.atleast_2d(out.v.to_value("km/s"))
@@ -211,6 +227,27 @@ class OrbitFit:
                                        .reshape(p.shape))
         out.frame = "GCRS" if code == 0 else str(out_name).upper()
         return out
+
+    def _burn_columns(self, out, indices):
+        """The columns of ``out.delta_v_partials`` of the fit's burns ``indices``."""
+        burns = [id(b) for b in out.impulses]
+        return np.concatenate([np.arange(3) + 3 * burns.index(id(self.maneuvers[i]))
+                               for i in indices] or [np.zeros(0, dtype=int)])
+
+    def _burn_consider_cross(self, out, g):
+        """G K C S_b^T + its transpose: the correlation of the estimate (mapped by ``g`` =
+        [Phi, S...] in ``full_covariance``'s order) with the considered execution errors of
+        the known burns (K = ``maneuver_consider_sensitivity``, C their execution covariances,
+        S_b = d y(t) / d Δv_b; their own S_b C S_b^T is propagate_covariance's burn noise)."""
+        if not self.considered_maneuvers:
+            return 0.0
+        sb = out.delta_v_partials[..., self._burn_columns(out, self.considered_maneuvers)]
+        q = len(self.considered_maneuvers)
+        c = np.zeros((3 * q, 3 * q))
+        for j, i in enumerate(self.considered_maneuvers):
+            c[3 * j:3 * j + 3, 3 * j:3 * j + 3] = self.maneuvers[i].execution_covariance
+        cross = g @ self.maneuver_consider_sensitivity @ c @ np.swapaxes(sb, -1, -2)
+        return cross + np.swapaxes(cross, -1, -2)
 
     def __repr__(self):
         return (
@@ -402,12 +439,12 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
 
         initial = initial_orbit(observations, EARTH)
     x, gm, epoch = check_initial(initial, maneuvers)
-    from ..satellites.burn_segments import Schedule, burn_schedule
+    from ..satellites.burn_segments import Schedule, burn_schedule, distinct_burns
 
-    schedule = burn_schedule([] if maneuvers is None else maneuvers, initial, epoch)
-    burns = [] if maneuvers is None else (
-        [maneuvers] if not isinstance(maneuvers, list | tuple) else list(maneuvers))
-    chosen = _estimated(burns, estimate_maneuvers)
+    burns = [] if maneuvers is None else distinct_burns(
+        [maneuvers] if not isinstance(maneuvers, list | tuple) else maneuvers)
+    schedule = burn_schedule(burns, initial, epoch)  # the same objects: swapped by identity
+    chosen = estimated(burns, estimate_maneuvers)
     from .parameters import coefficients
 
     est, con = coefficients(perturbation_list(perturbations, allow_none=True), estimate,
@@ -435,7 +472,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                    schedule=schedule)
     dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
     pv = np.array([c.value for c in est])
-    priors = _maneuver_priors([burns[i] for i in chosen], chosen)
+    priors = maneuver_priors([burns[i] for i in chosen], chosen)
+    check_separable(schedule, burns, chosen, priors, offsets)
     flown = list(burns)
     kinds = observations.kinds
     dims = observations.dims
@@ -489,9 +527,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             err.history = history
             raise err
         if chosen:
-            cols = _columns(dyn.schedule, [flown[i] for i in chosen])
+            cols = columns(dyn.schedule, [flown[i] for i in chosen])
             phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
-            _check_observable(phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
+            check_burn_observable(H @ phi[:, :, 6:], [burns[i] for i in chosen], chosen, priors)
         if est:
             sens = partials(dyn, est)
             check_observable(H @ sens, est)
@@ -499,7 +537,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
         if priors:  # the plans as pseudo-observations of the Δv
-            A, b = _with_priors(A, b, priors, dv, n_par)
+            A, b = with_priors(A, b, priors, dv, n_par)
         n_meas = A.shape[0]
         if est:  # the a priori coefficients as pseudo-observations
             pa, pb = prior_rows(est, pv, n_dv, n_par)
@@ -551,6 +589,12 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     P_data = P
     if con:
         P = extra["_considered"]
+    known, k_burn = considered_burns(dyn, flown, chosen, H, use, sig, A, P_data)
+    if known:  # the known burns' execution errors, considered
+        c_burn = np.zeros((3 * len(known), 3 * len(known)))
+        for j, i in enumerate(known):
+            c_burn[3 * j:3 * j + 3, 3 * j:3 * j + 3] = flown[i].execution_covariance
+        P = P + k_burn @ c_burn @ k_burn.T
     return OrbitFit(
         state=state,
         covariance=km_covariance(P[:6, :6].copy()),
@@ -559,6 +603,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         **{k: v for k, v in extra.items() if not k.startswith("_")},
         maneuvers=flown,
         estimated_maneuvers=list(chosen),
+        considered_maneuvers=known,
+        maneuver_consider_sensitivity=k_burn,
         delta_v=dv.reshape(m, 3) * u.km / u.s,
         delta_v_covariance=np.array([P[6 + 3 * j:9 + 3 * j, 6 + 3 * j:9 + 3 * j]
                                      for j in range(m)]).reshape(m, 3, 3),
@@ -574,85 +620,3 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors)
         + sum(c.sigma is not None for c in est) - n_par,
     )
-
-
-def _estimated(burns, estimate):
-    """The indices of the burns whose Δv :func:`fit_orbit` estimates (``estimate_maneuvers``)."""
-    from ..satellites.burns import ImpulsiveBurn
-
-    if estimate is None or estimate is False:
-        return []
-    if estimate is True:
-        chosen = [i for i, b in enumerate(burns) if isinstance(b, ImpulsiveBurn)]
-        if not chosen:
-            raise InvalidInputError(
-                "estimate_maneuvers=True but maneuvers= holds no vv.ImpulsiveBurn; give the "
-                "burns to estimate (their delta_v is the starting value, e.g. zero).")
-        return chosen
-    try:
-        chosen = [int(i) for i in estimate]
-    except (TypeError, ValueError):
-        raise InvalidInputError(
-            f"estimate_maneuvers must be True, False/None or a list of indices into maneuvers; "
-            f"got {estimate!r}.") from None
-    for i in chosen:
-        if isinstance(i, bool) or not 0 <= i < len(burns):
-            raise InvalidInputError(
-                f"estimate_maneuvers: index {i} is not one of the {len(burns)} maneuvers.")
-        if not isinstance(burns[i], ImpulsiveBurn):
-            raise InvalidInputError(
-                f"estimate_maneuvers: maneuvers[{i}] is {burns[i]!r}; only an ImpulsiveBurn's "
-                "Δv is estimated (a finite burn's thrust is not a solve-for parameter).")
-    if len(set(chosen)) != len(chosen):
-        raise InvalidInputError(f"estimate_maneuvers lists a burn twice: {chosen}.")
-    return chosen
-
-
-def _columns(schedule, flown):
-    """The columns of ``Dynamics.sensitivity`` that belong to the burns ``flown``."""
-    from ..satellites.burn_partials import impulses_of
-
-    order = [id(m) for m in impulses_of(schedule)]
-    return np.concatenate([3 * order.index(id(m)) + np.arange(3) for m in flown])
-
-
-def _maneuver_priors(burns, chosen):
-    """(j, W, Δv_plan) for each estimated burn with an execution covariance C: W (3, 3) with
-    W^T W = C^-1 (eigen-directions of C below 1e-12 of its largest variance given that much)."""
-    out = []
-    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
-        c = burn.execution_covariance
-        if c is None:
-            continue
-        lam, vec = np.linalg.eigh(c)
-        if not lam[-1] > 0:
-            raise InvalidInputError(
-                f"maneuvers[{i}] ({burn!r}) has a zero execution covariance: its Δv is known, so "
-                "leave it out of estimate_maneuvers (or give its uncertainty).")
-        lam = np.maximum(lam, 1e-12 * lam[-1])
-        out.append((j, vec.T / np.sqrt(lam)[:, None], burn.delta_v_km_s))
-    return out
-
-
-def _with_priors(A, b, priors, dv, n_par):
-    """The whitened system with the a priori rows of the planned Δvs appended."""
-    rows_a, rows_b = [A], [b]
-    for j, w, plan in priors:
-        extra = np.zeros((3, n_par))
-        extra[:, 6 + 3 * j:9 + 3 * j] = w
-        rows_a.append(extra)
-        rows_b.append(w @ (plan - dv[3 * j:3 * j + 3]))
-    return np.vstack(rows_a), np.concatenate(rows_b)
-
-
-def _check_observable(sens, burns, chosen, priors=()):
-    """Refuse an estimated burn that no observation follows (its Δv has no information) and
-    no a priori constrains."""
-    constrained = {j for j, _, _ in priors}
-    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
-        if j not in constrained and not np.any(sens[:, :, 3 * j:3 * j + 3]):
-            raise InvalidInputError(
-                f"maneuvers[{i}] ({burn!r}) has no observation after it (or before it, for a "
-                "burn before the epoch): its Δv cannot be estimated from these data. Drop it "
-                "from estimate_maneuvers, add tracking past it, or give the burn its execution "
-                "error (delta_v_covariance=...) as an a priori.")

@@ -77,7 +77,7 @@ def parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv):
     }
     if con:
         Ac = (H @ partials(dyn, con))[use] / np.broadcast_to(sig, use.shape)[use][:, None]
-        Ac = np.vstack([Ac, np.zeros((A.shape[0] - n_meas, len(con)))])
+        Ac = np.vstack([Ac, np.zeros((A.shape[0] - Ac.shape[0], len(con)))])  # a priori rows
         C = np.diag([c.sigma ** 2 for c in con])
         out["_considered"], out["consider_sensitivity"] = consider_covariance(P, A, Ac, C)
     return out

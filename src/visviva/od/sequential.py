@@ -73,6 +73,8 @@ class FilteredOrbit:
     parameters, parameter_sigma : dict
         With ``estimate=``: each estimated coefficient's filtered value and 1-sigma at every
         time (T,) (B as a Quantity in m^2/kg, Cr as numbers); empty without.
+    smoothed_parameters, smoothed_parameter_sigma : dict or None
+        The same, smoothed (``smoother=True``), else None.
     full_covariances : ndarray (T, 6 + k, 6 + k)
         The filtered covariances of state and coefficients (``covariances`` without them).
     perturbations : list of Perturbation
@@ -406,7 +408,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     times = epoch + epochs * u.s
     last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:6].copy(), np.float64(gm),
                                         times[-1])  # fmt: skip
-    extra = _coefficient_fields(est, xs, Ps, dyn.perturbations)
+    extra = _coefficient_fields(est, xs, Ps, dyn.perturbations, sm_x, sm_P)
     full = Ps
     xs, Ps, xp, Pp = xs[:, :6], Ps[:, :6, :6], xp[:, :6], Pp[:, :6, :6]
     if sm_x is not None:
@@ -602,8 +604,9 @@ def _predict_coefficients(dyn, z, P, t_from, grid, q, code, est):
     return np.r_[y[-1], z[6:]], 0.5 * (out + out.T), phi_z
 
 
-def _coefficient_fields(est, xs, Ps, perturbations):
-    """The FilteredOrbit fields of the estimated coefficients (empty without)."""
+def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):
+    """The FilteredOrbit fields of the estimated coefficients (empty without), smoothed too
+    with the smoother's (``sm_x``, ``sm_P``)."""
     from astropy import units as u
 
     from ..satellites.force_parameters import estimated_perturbations
@@ -616,6 +619,12 @@ def _coefficient_fields(est, xs, Ps, perturbations):
         out["parameters"][c.name] = quantity(c.name, xs[:, 6 + j].copy())
         out["parameter_sigma"][c.name] = quantity(c.name, np.sqrt(Ps[:, 6 + j, 6 + j]))
     out["perturbations"] = estimated_perturbations(perturbations, est, xs[-1, 6:])
+    out["smoothed_parameters"] = out["smoothed_parameter_sigma"] = None
+    if sm_x is not None:
+        out["smoothed_parameters"] = {c.name: quantity(c.name, sm_x[:, 6 + j].copy())
+                                      for j, c in enumerate(est)}
+        out["smoothed_parameter_sigma"] = {
+            c.name: quantity(c.name, np.sqrt(sm_P[:, 6 + j, 6 + j])) for j, c in enumerate(est)}
     return out
 
 

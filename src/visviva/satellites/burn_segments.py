@@ -23,7 +23,8 @@ from ..core.local_frames import INERTIAL, local_axes
 from ..errors import InvalidInputError, InvalidStateError
 from .burns import BurnRecord, FiniteBurn, ImpulsiveBurn, refuse_pending
 
-__all__ = ["Schedule", "SNAP_S", "burn_schedule", "run_segments", "run_segments_many"]
+__all__ = ["Schedule", "SNAP_S", "burn_schedule", "distinct_burns", "run_segments",
+           "run_segments_many"]
 
 #: A segment shorter than this (burn epochs less than a nanosecond apart) is not integrated (the
 #: integrator cannot step below ~1e-322 s from t = 0): the state drifts along its velocity over
@@ -398,6 +399,20 @@ class _SegmentModel:
         return (self.force,) + self._model.arrays()[1:]
 
 
+def distinct_burns(maneuvers) -> list:
+    """``maneuvers`` as a list in which a burn object given more than once is a copy from its
+    second occurrence on: each entry is flown (twice for a burn listed twice, as
+    :func:`visviva.propagate_cowell` does) and has columns of its own in the partials on Δv
+    (:mod:`visviva.satellites.burn_partials` tells the impulses apart by identity)."""
+    import copy
+
+    seen, out = set(), []
+    for m in maneuvers:
+        out.append(copy.copy(m) if id(m) in seen else m)
+        seen.add(id(m))
+    return out
+
+
 def burn_schedule(maneuvers, state, epoch):
     """Check ``maneuvers`` of :func:`visviva.propagate_cowell` and order them.
 
@@ -422,7 +437,7 @@ def burn_schedule(maneuvers, state, epoch):
         return None
     if isinstance(maneuvers, ImpulsiveBurn | FiniteBurn):
         maneuvers = [maneuvers]
-    maneuvers = list(maneuvers)
+    maneuvers = distinct_burns(maneuvers)
     if not maneuvers:
         return Schedule([])  # nothing to split at; the result reports no burns
     for m in maneuvers:

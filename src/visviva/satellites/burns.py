@@ -343,10 +343,14 @@ def _execution_covariance(dv, covariance, magnitude_sigma, pointing_sigma):
             raise InvalidInputError(
                 f"delta_v_covariance must be in speed^2 (e.g. (u.m / u.s)**2); got "
                 f"{covariance.unit}.") from None
-        if c.shape != (3, 3) or not np.all(np.isfinite(c)):
+        if c.shape != (3, 3):
             raise InvalidInputError(
                 f"delta_v_covariance must be a finite 3 x 3 matrix (the Δv's axes, km^2/s^2); "
                 f"got shape {c.shape}.")
+        if not np.all(np.isfinite(c)):
+            raise InvalidInputError(
+                "delta_v_covariance has NaN or infinite entries; give a finite 3 x 3 matrix "
+                "(the Δv's axes, km^2/s^2).")
         if not np.allclose(c, c.T, rtol=0.0, atol=1e-8 * np.max(np.abs(c))):
             raise InvalidInputError("delta_v_covariance is not symmetric.")
         c = 0.5 * (c + c.T)

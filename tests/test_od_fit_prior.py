@@ -53,6 +53,7 @@ def test_a_vague_prior_gives_the_fit_of_the_data_alone():
     assert alone.apriori_covariance is None
     np.testing.assert_array_equal(vague.apriori_covariance, np.diag([1e6] * 3 + [1.0] * 3))
     assert vague.dof == alone.dof + 6
+    assert "with a priori" in repr(vague) and "a priori" not in repr(alone)
 
 
 def test_a_previous_fit_as_prior_plus_new_data_is_the_fit_of_all_the_data():
@@ -183,3 +184,28 @@ def test_apriori_refusals():
         vv.fit_orbit(obs, GUESS, apriori_covariance=np.full((6, 6), np.nan))
     with pytest.raises(InvalidInputError, match="covariance of the initial state"):
         vv.fit_orbit(obs, None, apriori_covariance=P_BAR)
+
+
+@pytest.mark.parametrize("prior", [None, P_BAR])
+def test_consider_with_an_a_priori_burn_lines_up_the_rows(prior):
+    """Regression: a consider parameter with an estimated burn that has an execution covariance
+    (a priori rows) raised a shape error; the consider sensitivity S_xc = d x / d Cr now matches
+    the difference of two fits with Cr moved, and the state prior joins them."""
+    m2kg = u.m**2 / u.kg
+
+    def forces(cr):
+        return [vv.SolarRadiationPressure(0.02 * m2kg, reflectivity=cr)]
+
+    burn = vv.ImpulsiveBurn(1800 * u.s, [0.0, 0.001, 0.0] * KMS, "RTN",
+                            delta_v_covariance=np.eye(3) * 1e-8)
+    obs = simulate_observations(TRUTH, EPOCH + np.linspace(0, 5400, 30) * u.s, "position",
+                                0.01 * u.km, None, forces(1.3), maneuvers=[burn], seed=1)
+    kw = {"maneuvers": [burn], "estimate_maneuvers": True, "outlier_sigma": None,
+          "apriori_covariance": prior}
+    fit = vv.fit_orbit(obs, TRUTH, forces(1.3), consider={"srp": 0.2}, **kw)
+    moved = vv.fit_orbit(obs, TRUTH, forces(1.4), **kw)
+    base = vv.fit_orbit(obs, TRUTH, forces(1.3), **kw)
+    fd = (_vec(moved.state) - _vec(base.state)) / 0.1
+    np.testing.assert_allclose(fit.consider_sensitivity[:6, 0], fd, rtol=1e-3,
+                               atol=1e-3 * np.abs(fd).max())
+    assert np.all(np.diag(fit.covariance) >= np.diag(fit.noise_covariance))

@@ -219,7 +219,8 @@ class OrbitFit:
         return (
             f"OrbitFit(rms={self.rms:.3f}, {self.iterations} iterations, "
             f"{int(self.rejected.sum())} rejected of {len(self.rejected)}, "
-            f"sigma_r={np.linalg.norm(self.sigma_position_km) * 1e3:.3g} m)"
+            f"sigma_r={np.linalg.norm(self.sigma_position_km) * 1e3:.3g} m"
+            f"{', with a priori' if getattr(self, 'apriori_covariance', None) is not None else ''})"
         )
 
 
@@ -282,7 +283,8 @@ def _solve(A, b):
 
 def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
               estimate_maneuvers=None, estimate=None, parameter_sigma=None, consider=None,
-              apriori_covariance=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0, rtol=None, atol=None):  # fmt: skip
+              apriori_covariance=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0,
+              rtol=None, atol=None):  # fmt: skip
     """Estimate an orbit from observations by batch weighted least squares.
 
     Parameters

@@ -112,12 +112,48 @@ def test_initial_opm_with_covariance_and_xml_output(campaign, tmp_path, capsys):
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
                           "--initial", str(first), "--opm", str(out_xml))
     assert code == 0, err
-    assert "with covariance (its covariance is not used" in out
-    fit = vv.fit_orbit(campaign["obs"], vv.read_opm(first).state, [vv.J2(vv.EARTH)])
+    assert "with covariance (combined with the data as an a priori" in out
+    prior = vv.read_opm(first)
+    fit = vv.fit_orbit(campaign["obs"], prior.state, [vv.J2(vv.EARTH)],
+                       apriori_covariance=prior.covariance)
+    assert fit.apriori_covariance is not None
     back = vv.read_opm(out_xml)
     np.testing.assert_allclose(back.state.r.to_value(u.km), fit.state.r.to_value(u.km),
                                rtol=0, atol=1e-9)
-    np.testing.assert_allclose(back.covariance, fit.covariance, rtol=1e-14)
+    np.testing.assert_allclose(back.covariance, fit.covariance, rtol=1e-12)
+    # the same data counted twice (prior and data): the covariance halves
+    np.testing.assert_allclose(np.diag(back.covariance), np.diag(prior.covariance) / 2,
+                               rtol=0.02)
+    # --no-apriori: the data alone, as before
+    alone = tmp_path / "alone.opm"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--initial", str(first), "--opm", str(alone), "--no-apriori")
+    assert code == 0, err
+    assert "its covariance ignored: --no-apriori" in out
+    fit = vv.fit_orbit(campaign["obs"], prior.state, [vv.J2(vv.EARTH)])
+    np.testing.assert_allclose(vv.read_opm(alone).covariance, fit.covariance, rtol=1e-12)
+    np.testing.assert_allclose(vv.read_opm(alone).covariance, prior.covariance, rtol=1e-4)
+
+
+def test_an_opm_covariance_with_a_zero_variance_needs_no_apriori(campaign, tmp_path, capsys):
+    from visviva.ccsds.covariance import values_from_matrix
+    from visviva.ccsds.grammar import Record
+
+    first = tmp_path / "first.opm"
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                        "--opm", str(first))
+    assert code == 0, err
+    msg = vv.read_opm(first)
+    cov = np.array(msg.covariance)
+    cov[5, :] = cov[:, 5] = 0.0
+    msg.sections["covariance"] = Record(values=values_from_matrix(cov))
+    vv.write_opm(msg, first)
+    code, _, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                        "--initial", str(first))
+    assert code == 2 and "zero variance" in err and "--no-apriori" in err
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--initial", str(first), "--no-apriori")
+    assert code == 0, err
 
 
 def test_initial_tle_and_estimated_drag(campaign, tmp_path, capsys):

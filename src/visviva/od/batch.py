@@ -16,14 +16,7 @@ import numpy as np
 from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
-from .burn_estimation import (
-    check_separable,
-    columns,
-    considered_burns,
-    estimated,
-    maneuver_priors,
-    with_priors,
-)
+from .burn_estimation import check_separable, columns, considered_burns, estimated
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -102,6 +95,9 @@ class OrbitFit:
     perturbations : list of Perturbation
         The dynamics of the fit (what :meth:`propagate` uses by default), the estimated
         coefficients in their forces.
+    apriori_covariance : ndarray (6, 6) or None
+        The a priori covariance of the initial state the fit combined with the data
+        (``apriori_covariance=``), km-based; None for a fit of the data alone.
     """
 
     def __init__(self, **kw):
@@ -253,7 +249,8 @@ class OrbitFit:
         return (
             f"OrbitFit(rms={self.rms:.3f}, {self.iterations} iterations, "
             f"{int(self.rejected.sum())} rejected of {len(self.rejected)}, "
-            f"sigma_r={np.linalg.norm(self.sigma_position_km) * 1e3:.3g} m)"
+            f"sigma_r={np.linalg.norm(self.sigma_position_km) * 1e3:.3g} m"
+            f"{', with a priori' if getattr(self, 'apriori_covariance', None) is not None else ''})"
         )
 
 
@@ -316,7 +313,8 @@ def _solve(A, b):
 
 def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
               estimate_maneuvers=None, estimate=None, parameter_sigma=None, consider=None,
-              max_iterations=25, tol=1e-5, outlier_sigma=4.0, rtol=None, atol=None):  # fmt: skip
+              apriori_covariance=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0,
+              rtol=None, atol=None):  # fmt: skip
     """Estimate an orbit from observations by batch weighted least squares.
 
     Parameters
@@ -365,6 +363,14 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         Consider parameters and their sigmas (``{"drag": 0.004 * u.m**2 / u.kg}``): held at
         their value in ``perturbations``, their uncertainty added to the estimate's covariance
         (``fit.covariance``; ``fit.noise_covariance`` is the data-only one).
+    apriori_covariance : array_like (6, 6) or Quantity, optional
+        Covariance of ``initial`` (read as :func:`~visviva.filter_orbit`'s ``covariance``:
+        plain km^2, km^2/s, km^2/s^2 or an area Quantity; e.g. a previous fit's
+        ``fit.covariance``): ``initial`` becomes an a priori estimate that the fit combines
+        with the observations (Tapley et al., sec. 4.6), the deviation measured from
+        ``initial`` over all iterations. Symmetric positive semi-definite; a zero variance is
+        refused, a singular correlation is held (``fit.apriori_covariance``). None: the data
+        alone determine the state (``initial`` is only the starting point).
     max_iterations : int
         Iterations allowed before :class:`~visviva.ConvergenceError` is raised.
     tol : float
@@ -422,17 +428,30 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     1977, ch. VI): with the whitened partials A_c of the data on c, the estimate's sensitivity
     S_xc = -P A^T A_c and its covariance P_c = P + S_xc C S_xc^T (:mod:`visviva.od.parameters`).
     With burns the coefficients' partials are carried through them like the Δv's.
+
+    A priori state (``apriori_covariance=`` P_bar): J = chi^2 + (x_bar - x0)^T P_bar^-1
+    (x_bar - x0) with x_bar = ``initial``, fixed over the iterations; the rows W (x_bar - x0)
+    with W^T W = P_bar^-1 join the system (:mod:`visviva.od.priors`), and
+    P = (A^T A + P_bar^-1)^-1. On a linear problem this is the Bayes (Kalman) combination of
+    the prior with the data, so fitting new data from a previous fit's state and covariance
+    gives the fit of all the data at once, and the smoother of :func:`~visviva.filter_orbit`
+    with the same prior agrees with it (both tested).
     """
     from ..satellites.cowell import perturbation_list
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
     from .parameters import check_observable, parameter_results, partials, prior_rows
+    from .priors import maneuver_priors, state_prior, with_priors
 
     if not isinstance(observations, Observations):
         raise InvalidInputError(
             "observations must be a vv.Observations table; build one with "
             "vv.Observations(time=..., kind=..., value=..., sigma=..., station=...)."
         )
+    if initial is None and apriori_covariance is not None:
+        raise InvalidInputError(
+            "apriori_covariance is the covariance of the initial state: give that state as "
+            "initial= (e.g. a previous fit's fit.state with its fit.covariance).")
     if initial is None:
         from ..bodies import EARTH
         from .first_orbit import initial_orbit
@@ -459,12 +478,19 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     for name, value in (("tol", tol), ("rtol", rtol), ("atol", atol)):
         if value is not None and not (np.isfinite(value) and value > 0):
             raise InvalidInputError(f"{name} must be a finite number > 0; got {value!r}.")
+    priors = maneuver_priors([burns[i] for i in chosen], chosen)
+    apriori = None
+    if apriori_covariance is not None:  # the initial state as a pseudo-observation
+        apriori, w0 = state_prior(apriori_covariance)
+        priors.insert(0, (0, w0, x.copy()))
+    n_prior = sum(w.shape[0] for _, w, _ in priors) + sum(c.sigma is not None for c in est)
     n_comp = int(observations.dims.sum())
-    if n_comp < n_par:
+    if n_comp + n_prior < n_par:
         raise InvalidInputError(
             f"{len(observations)} observation(s) give {n_comp} measurement components, fewer than "
             f"the {n_par} unknowns (the state, 3 per estimated Δv, the estimated "
-            "coefficients); add observations."
+            "coefficients); add observations, or give the initial state's covariance "
+            "(apriori_covariance=)."
         )
     offsets = observations.offsets_s(epoch)
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()),
@@ -472,7 +498,6 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                    schedule=schedule)
     dv = np.array([burns[i].delta_v_km_s for i in chosen]).reshape(-1)
     pv = np.array([c.value for c in est])
-    priors = maneuver_priors([burns[i] for i in chosen], chosen)
     check_separable(schedule, burns, chosen, priors, offsets)
     flown = list(burns)
     kinds = observations.kinds
@@ -513,7 +538,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         else:
             new_rejected = np.zeros_like(rejected)
         use = comp_mask & ~new_rejected[:, None]
-        if use.sum() < n_par:
+        if use.sum() + n_prior < n_par:
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: outlier editing left "
                 f"{int(use.sum())} measurement components for {n_par} unknowns. Check the data "
@@ -536,9 +561,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             phi = np.concatenate([phi, sens], axis=-1)
         A = (H @ phi)[use] / np.broadcast_to(sig, use.shape)[use][:, None]
         b = zn[use]
-        if priors:  # the plans as pseudo-observations of the Δv
-            A, b = with_priors(A, b, priors, dv, n_par)
         n_meas = A.shape[0]
+        if priors:  # the a priori state and planned Δvs as pseudo-observations
+            A, b = with_priors(A, b, priors, np.r_[x, dv, pv], n_par)
         if est:  # the a priori coefficients as pseudo-observations
             pa, pb = prior_rows(est, pv, n_dv, n_par)
             A, b = np.vstack([A, pa]), np.concatenate([b, pb])
@@ -617,6 +642,6 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         iterations=len(history),
         history=history,
         chi2=float(np.sum(zn[use] ** 2)),
-        dof=int(use.sum()) + sum(w.shape[0] for _, w, _ in priors)
-        + sum(c.sigma is not None for c in est) - n_par,
+        dof=int(use.sum()) + n_prior - n_par,
+        apriori_covariance=None if apriori is None else km_covariance(apriori),
     )

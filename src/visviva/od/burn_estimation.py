@@ -1,6 +1,6 @@
-"""Burns in a batch fit (:func:`visviva.fit_orbit`): which impulses' Δvs are estimated, the a
-priori rows of their plans, the refusal of a Δv the data cannot see, and the known impulses'
-execution errors as consider parameters.
+"""Burns in a batch fit (:func:`visviva.fit_orbit`): which impulses' Δvs are estimated, the
+refusal of a Δv the data cannot see, and the known impulses' execution errors as consider
+parameters (the a priori rows of the plans are :func:`visviva.od.priors.maneuver_priors`).
 
 An estimated impulse's Δv (3 components on its own axes) adds the columns H S_k of the
 measurements' partials on it (S_k = d y / d Δv_k, :mod:`visviva.satellites.burn_partials`); a
@@ -16,8 +16,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["considered_burns", "estimated", "columns", "maneuver_priors", "with_priors",
-           "check_observable", "check_separable"]
+__all__ = ["considered_burns", "estimated", "columns", "check_observable", "check_separable"]
 
 
 def considered_burns(dyn, flown, chosen, H, use, sig, A, P):
@@ -84,40 +83,11 @@ def columns(schedule, flown):
     return np.concatenate([3 * order.index(id(m)) + np.arange(3) for m in flown])
 
 
-def maneuver_priors(burns, chosen):
-    """(j, W, Δv_plan) for each estimated burn with an execution covariance C: W (3, 3) with
-    W^T W = C^-1 (eigen-directions of C below 1e-12 of its largest variance given that much)."""
-    out = []
-    for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
-        c = burn.execution_covariance
-        if c is None:
-            continue
-        lam, vec = np.linalg.eigh(c)
-        if not lam[-1] > 0:
-            raise InvalidInputError(
-                f"maneuvers[{i}] ({burn!r}) has a zero execution covariance: its Δv is known, so "
-                "leave it out of estimate_maneuvers (or give its uncertainty).")
-        lam = np.maximum(lam, 1e-12 * lam[-1])
-        out.append((j, vec.T / np.sqrt(lam)[:, None], burn.delta_v_km_s))
-    return out
-
-
-def with_priors(A, b, priors, dv, n_par):
-    """The whitened system with the a priori rows of the planned Δvs appended."""
-    rows_a, rows_b = [A], [b]
-    for j, w, plan in priors:
-        extra = np.zeros((3, n_par))
-        extra[:, 6 + 3 * j:9 + 3 * j] = w
-        rows_a.append(extra)
-        rows_b.append(w @ (plan - dv[3 * j:3 * j + 3]))
-    return np.vstack(rows_a), np.concatenate(rows_b)
-
-
 def check_observable(sens, burns, chosen, priors=()):
     """Refuse an estimated burn that no observation follows (its Δv has no information) and
     no a priori constrains. ``sens`` (N, 3, 3 m): the partials of the measurements on the Δvs
     (a position fix at the burn's own time sees none of it, though the state's do)."""
-    constrained = {j for j, _, _ in priors}
+    constrained = _constrained(priors)
     for j, (burn, i) in enumerate(zip(burns, chosen, strict=True)):
         if j not in constrained and not np.any(sens[:, :, 3 * j:3 * j + 3]):
             raise InvalidInputError(
@@ -132,7 +102,7 @@ def check_separable(schedule, burns, chosen, priors, offsets):
     no a priori to separate them: a burn at the estimate's epoch with no observation before it
     (its Δv and the epoch velocity are one unknown), two burns at the same time (only their
     sum is seen)."""
-    constrained = {chosen[j] for j, _, _ in priors}
+    constrained = {chosen[j] for j in _constrained(priors)}
     at = {id(m): a for a, _, m in schedule.items} if schedule else {}
     free = [i for i in chosen if i not in constrained]
     for i in free:
@@ -149,3 +119,10 @@ def check_separable(schedule, burns, chosen, priors, offsets):
                     f"maneuvers[{i}] and maneuvers[{k}] are estimated at the same time: the "
                     "data see only their sum. Estimate one of them (the other known), or give "
                     "them execution errors (delta_v_covariance=...) as a priori.")
+
+
+def _constrained(priors):
+    """The positions (in the estimated list) of the burns whose Δv has an a priori: the priors
+    are (first column, W, value) of :func:`visviva.od.priors.maneuver_priors`, a burn's columns
+    following the 6 of the state, 3 each."""
+    return {(col - 6) // 3 for col, _, _ in priors if col >= 6}

@@ -71,6 +71,10 @@ def add_parser(sub) -> None:
     p.add_argument("--apriori", default="1km,10m/s", metavar="SIGMA_R,SIGMA_V",
                    help="with --filter and a first guess without covariance: its 1-sigma per "
                    "axis (default 1km,10m/s)")
+    p.add_argument("--no-apriori", action="store_true",
+                   help="ignore the --initial OPM's covariance: the batch fit then uses the "
+                   "data alone (by default it combines them with the OPM's state and "
+                   "covariance), a filter starts from --apriori")
     p.add_argument("--name", default=None,
                    help="OBJECT_NAME of the outputs (default: the --initial file's, else the "
                    "TDM's spacecraft participant)")
@@ -178,6 +182,13 @@ def _setup(args) -> dict:
     obs, tdm = read_tracking(args.tdm, stations, sigmas)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")
+    ignored = covariance is not None and args.no_apriori
+    if ignored:
+        covariance = None
+    if covariance is not None and not args.filter and np.any(np.diag(covariance) == 0):
+        raise InvalidInputError(f"--initial {args.initial}: its covariance has a zero variance, "
+                                "which the batch fit cannot take as an a priori; pass "
+                                "--no-apriori to fit the data alone")
     maneuvers, name = guess.get("burns"), guess.get("name")
     if name is None:
         craft = {n for seg in tdm.segments for n in seg.participants.values()} - set(stations)
@@ -186,7 +197,8 @@ def _setup(args) -> dict:
             "opm_maneuvers": guess.get("maneuvers") or (),
             "forces": forces, "estimate": estimate, "parameter_sigma": parameter_sigma,
             "name": args.name or name,
-            "span": span, "step": step, "apriori": apriori}
+            "span": span, "step": step, "apriori": apriori,
+            "note": "its covariance ignored: --no-apriori" if ignored else None}
 
 
 def _estimate(args, s) -> dict:
@@ -199,9 +211,10 @@ def _estimate(args, s) -> dict:
         from .batch import fit_orbit
 
         if s["covariance"] is not None:
-            s["note"] = "its covariance is not used: the batch fit takes no a priori"
+            s["note"] = "combined with the data as an a priori; --no-apriori to fit the data alone"
         fit = fit_orbit(obs, s["initial"], s["forces"], maneuvers=s["maneuvers"],
-                        estimate=s["estimate"], parameter_sigma=s["parameter_sigma"])
+                        estimate=s["estimate"], parameter_sigma=s["parameter_sigma"],
+                        apriori_covariance=s["covariance"])
         return {"method": "batch least squares", "state": fit.state,
                 "covariance": np.asarray(fit.covariance), "fit": fit,
                 "residuals": fit.residuals, "normalized": fit.normalized_residuals,
@@ -222,7 +235,8 @@ def _estimate(args, s) -> dict:
         sr, sv = s["apriori"]
         cov = np.diag([sr.to_value(u.km) ** 2] * 3 + [sv.to_value(u.km / u.s) ** 2] * 3)
     if s["covariance"] is None:
-        s["note"] = f"a priori sigma {s['apriori'][0]}, {s['apriori'][1]} per axis"
+        s["note"] = ", ".join(filter(None, [
+            s.get("note"), f"a priori sigma {s['apriori'][0]}, {s['apriori'][1]} per axis"]))
     if np.any(obs.offsets_s(initial.epoch) < 0.0):  # a filter starts at or before the data
         initial, cov = _back_to(initial, cov, obs.times[0], s["forces"], s["maneuvers"])
         s["note"] = ", ".join(filter(None, [s.get("note"),

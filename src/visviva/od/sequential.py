@@ -122,11 +122,9 @@ def _method(method, sigma_points):
 
 
 def _check_covariance(covariance):
-    from .._covariance import as_covariance, check_shape, require_psd
+    from .priors import state_covariance
 
-    P = as_covariance(covariance, "covariance", length_unit="km")
-    check_shape(P, "covariance")
-    require_psd(P, "covariance")
+    P = state_covariance(covariance)
     if not np.any(P):
         raise InvalidInputError(
             "covariance is zero: the filter would trust the initial state completely and ignore "

@@ -47,6 +47,7 @@ from .perturbations import (
     grid_log_density_gradient_at,
     hermite_position,
     shadow_fraction,
+    sun_and_mass_scale,
 )
 
 __all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
@@ -169,15 +170,10 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]), dadr)
     elif force[fb.HARMONICS_DEGREE] >= 2.0:
         _add_harmonics_gradient(t, x, yy, z, force, sh, dadr)
-    sun = int(force[fb.SUN_ROW])
     sun_pos = np.empty(3)
     pos = np.empty(3)
-    if sun >= 0:
-        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
     # drag's and SRP's area-to-mass follow the mass during a finite burn (as cowell_rhs)
-    mass_scale = 1.0
-    if force[fb.THRUST_ON] != 0.0:
-        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
         omega = force[fb.ROTATION_RATE]
         bc = force[fb.BALLISTIC] * mass_scale
@@ -269,13 +265,8 @@ def parameter_accelerations(t, y, force, atm, eph_r, eph_v, out):
     for i in range(3):
         out[0, i] = 0.0
         out[1, i] = 0.0
-    sun = int(force[fb.SUN_ROW])
     sun_pos = np.zeros(3)
-    if sun >= 0:
-        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
-    mass_scale = 1.0
-    if force[fb.THRUST_ON] != 0.0:
-        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
         rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
         accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, mass_scale, force[fb.ROTATION_RATE],

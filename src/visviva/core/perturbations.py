@@ -57,6 +57,7 @@ __all__ = [
     "band_density",
     "geodetic_altitude",
     "hermite_position",
+    "sun_and_mass_scale",
     "zonal_rhs",
     "cowell_rhs",
     "cowell_rhs_array",
@@ -593,6 +594,21 @@ def zonal_rhs(y, force, zonal, dy):
         accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, acc)
 
 
+@inline_kernel
+def sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos):
+    """The Sun's ephemeris row in ``force`` (-1 without one), its position at ``t`` s written to
+    ``sun_pos`` (km), and the factor m(0) / m(t) by which drag's and SRP's area-to-mass follow
+    the mass during a finite burn (1 without thrust): the preamble of the acceleration, of its
+    partials and of the coefficients' accelerations."""
+    sun = int(force[fb.SUN_ROW])
+    if sun >= 0:
+        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
+    mass_scale = 1.0
+    if force[fb.THRUST_ON] != 0.0:
+        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    return sun, mass_scale
+
+
 @kernel
 def drag_density(x, yy, z, sun, sun_pos, force, atm):
     """The density of the block's drag model at (x, yy, z) (km), kg/m^3: the gridded model
@@ -627,15 +643,10 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     if force[fb.HARMONICS_DEGREE] >= 2.0:
         accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     n_third = int(force[fb.N_THIRD_BODIES])
-    sun = int(force[fb.SUN_ROW])
     pos = np.empty(3)
     sun_pos = np.empty(3)
-    if sun >= 0:
-        hermite_position(t, sun, force, eph_r, eph_v, sun_pos)
     # drag's and SRP's area-to-mass follow the mass during a finite burn: m(0) / m(t)
-    mass_scale = 1.0
-    if force[fb.THRUST_ON] != 0.0:
-        mass_scale = 1.0 / (1.0 - force[fb.THRUST_MASS_RATE] * t)
+    sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
         rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
         accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)

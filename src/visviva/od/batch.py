@@ -157,8 +157,6 @@ class OrbitFit:
         if not (self.estimated_maneuvers or self.considered_maneuvers):
             return propagate_covariance(self.state, self.covariance, t, dyn,
                                         maneuvers=self.maneuvers, **kwargs)
-        from .._covariance import frame_code, km_covariance, to_local
-
         out_name = kwargs.pop("output_frame", None) or kwargs.get("frame", "GCRS")
         out = propagate_covariance(self.state, self.covariance, t, dyn, maneuvers=self.maneuvers,
                                    output_frame="GCRS", **kwargs)
@@ -168,13 +166,7 @@ class OrbitFit:
         p = out.covariance + s @ self.full_covariance[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2)
         p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s], axis=-1))
-        code = frame_code(out_name, "output_frame")
-        r = np.atleast_2d(out.r.to_value("km"))
-        v = np.atleast_2d(out.v.to_value("km/s"))
-        out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
-                                       .reshape(p.shape))
-        out.frame = "GCRS" if code == 0 else str(out_name).upper()
-        return out
+        return _in_frame(out, p, out_name)
 
     def _propagate_parameters(self, t, dyn, kwargs):
         """:meth:`propagate` with estimated or considered coefficients: the state's error and
@@ -182,7 +174,6 @@ class OrbitFit:
         considered: C and S_xc C) mapped by [Phi, S_p], S_p = d y(t) / d p."""
         from astropy import units as u
 
-        from .._covariance import frame_code, km_covariance, to_local
         from ..satellites.covariance import propagate_covariance
         from ..satellites.force_parameters import NAMES
 
@@ -216,13 +207,7 @@ class OrbitFit:
         p = p + cross + np.swapaxes(cross, -1, -2) + s @ joint[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s[..., :n - 6]],
                                                               axis=-1))
-        code = frame_code(out_name, "output_frame")
-        r = np.atleast_2d(out.r.to_value("km"))
-        v = np.atleast_2d(out.v.to_value("km/s"))
-        out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
-                                       .reshape(p.shape))
-        out.frame = "GCRS" if code == 0 else str(out_name).upper()
-        return out
+        return _in_frame(out, p, out_name)
 
     def _burn_columns(self, out, indices):
         """The columns of ``out.delta_v_partials`` of the fit's burns ``indices``."""
@@ -645,3 +630,17 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         dof=int(use.sum()) + n_prior - n_par,
         apriori_covariance=None if apriori is None else km_covariance(apriori),
     )
+
+
+def _in_frame(out, p, out_name):
+    """``out`` (a GCRS :class:`~visviva.satellites.covariance.CovarianceResult`) with its
+    covariance set to the GCRS covariances ``p`` (T, 6, 6) rotated to ``out_name``'s axes."""
+    from .._covariance import frame_code, km_covariance, to_local
+
+    code = frame_code(out_name, "output_frame")
+    r = np.atleast_2d(out.r.to_value("km"))
+    v = np.atleast_2d(out.v.to_value("km/s"))
+    out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
+                                   .reshape(p.shape))
+    out.frame = "GCRS" if code == 0 else str(out_name).upper()
+    return out

@@ -119,11 +119,12 @@ def coefficients(perturbations, estimate, parameter_sigma, consider):
                     f"starting value); found {len(found)}.")
             p = perturbations[found[0]]
             if name == "drag":
-                value, factor = p._bc_m2_kg, 1e-6
+                value, factor = p.ballistic_coefficient_m2_kg, 1e-6
             else:
                 from .perturbations import SOLAR_PRESSURE_1AU_N_M2
 
-                value, factor = p._cr, SOLAR_PRESSURE_1AU_N_M2 * p._am_m2_kg * 1e-3
+                value = p.radiation_pressure_coefficient
+                factor = SOLAR_PRESSURE_1AU_N_M2 * p.area_to_mass_m2_kg * 1e-3
             if group == 0:
                 given = (parameter_sigma or {}).get(name)
                 sigma = None if given is None else _sigma(name, given, "parameter_sigma")

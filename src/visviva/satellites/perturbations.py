@@ -308,6 +308,11 @@ class AtmosphericDrag(Perturbation):
         return table, meta
 
     @property
+    def ballistic_coefficient_m2_kg(self) -> float:
+        """B = Cd A / m, m^2/kg (the drag parameter that orbit determination estimates)."""
+        return self._bc_m2_kg
+
+    @property
     def ballistic_coefficient_km2_kg(self) -> float:
         """Cd*A/m in km^2/kg."""
         return self._bc_m2_kg * 1e-6
@@ -424,6 +429,17 @@ class SolarRadiationPressure(Perturbation):
         model.force[fb.SRP_ON] = 1.0
         model.force[fb.SRP_COEFFICIENT] = self.coefficient_km_s2
         model.force[fb.SHADOW_MODEL] = self.shadow_code
+
+    @property
+    def radiation_pressure_coefficient(self) -> float:
+        """Cr as a float (``reflectivity`` as given, a number or a dimensionless Quantity):
+        1 absorbing, 2 mirror-like; the SRP parameter that orbit determination estimates."""
+        return self._cr
+
+    @property
+    def area_to_mass_m2_kg(self) -> float:
+        """A / m of the illuminated area, m^2/kg."""
+        return self._am_m2_kg
 
     @property
     def coefficient_km_s2(self) -> float:

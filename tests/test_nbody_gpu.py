@@ -212,11 +212,23 @@ def _check_ias15_ensemble(out, tolerance, bits):
     # between steps, continued and backwards; saved from the GPU and continued on the CPU (and
     # the other way); a step below min_dt raises the CPU's exception. The simulator runs the
     # CPU's arithmetic: bit for bit there
-    for key in ("ens_pos", "ens_vel", "ens_t", "restart_pos", "restart_vel", "to_gpu_pos"):
+    # On a GPU the step sizes follow b6, a coefficient at the level of round-off, through
+    # libdevice's pow: a member that lands on its output time by its own steps (no exact
+    # finish) ends a few 1e-12 of the time away from the CPU's (the lone check allows 1e-9 in
+    # the step size); its state is compared with the CPU's carried to the GPU's time
+    # (``*_same_t``: x + v dt, v + a dt). Under the simulator every key is 0 (the same bits).
+    for key in ("ens_pos_same_t", "ens_vel_same_t", "restart_pos_same_t", "restart_vel_same_t",
+                "to_gpu_pos_same_t", "to_gpu_vel_same_t"):
         assert float(out[key]) <= tolerance, (key, out[key])
+    assert float(out["ens_t"]) <= (tolerance if bits else 1e-10), out["ens_t"]
+    if bits:
+        for key in ("ens_pos", "ens_vel", "restart_pos", "restart_vel", "to_gpu_pos"):
+            assert float(out[key]) == 0.0, (key, out[key])
     for key in ("ens_steps_equal", "ens_packed", "restart_steps_equal", "to_gpu_steps_equal",
-                "each_bits_vs_packed", "min_dt_same_error"):
+                "each_bits_vs_packed", "min_dt_same_kind"):
         assert out[key] == "True", key
+    if bits:  # on a GPU the message's step size may differ in its last digits
+        assert out["min_dt_same_error"] == "True"
     assert out["min_dt_error"].startswith("'StepSizeError")
     assert int(out["ens_steps"]) >= 3
     if bits:
@@ -246,7 +258,9 @@ def test_ias15_ensemble_on_the_cuda_simulator_matches_the_cpu_ensemble():
 @pytest.mark.skipif(not _has_gpu(), reason="needs an NVIDIA GPU and numba-cuda")
 def test_ias15_ensemble_on_a_real_gpu_matches_the_cpu_ensemble():
     # libdevice's pow in the step control and fused multiply-adds the compiler may form: the
-    # steps may differ in the last bits, the state agrees to round-off
+    # steps may differ in the last bits, the state agrees to round-off at the same time
+    # (measured on an H200, 2026-11-26: 1.5e-12 in positions at times 1.3e-11 apart before the
+    # same-time comparison)
     _check_ias15_ensemble(_run({"NUMBA_ENABLE_CUDASIM": "0"}, IAS15_ENSEMBLE_SCRIPT), 1e-12,
                           False)
 

@@ -22,9 +22,19 @@ def _check(out, tolerance, messages_equal):
         # ensemble's, and the ensemble raises the CPU's exception (type, message, members)
         # (then saved on the GPU and continued on the CPU, and saved on the CPU and continued
         # on the GPU)
+        # the states compared at the same time (``*_same_t``: the CPU's carried to the GPU's
+        # time, x + v dt, v + a dt): on a GPU an IAS15 member that stops at an event ends a
+        # few 1e-12 of the time away from the CPU's (its step sizes follow a coefficient at
+        # the level of round-off through libdevice's pow); under the simulator all 0
+        for key in ("pos_same_t", "vel_same_t", "restart_pos_same_t", "restart_vel_same_t",
+                    "to_gpu_pos_same_t", "to_gpu_vel_same_t"):
+            assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])
+        fixed_steps = prefix == "lf" or messages_equal
         for key in ("pos", "vel", "t", "restart_pos", "restart_vel", "restart_t", "to_gpu_pos",
                     "to_gpu_vel", "to_gpu_t"):
-            assert float(out[f"{prefix}_{key}"]) <= tolerance, (prefix, key, out[f"{prefix}_{key}"])
+            limit = tolerance if fixed_steps or not key.endswith("t") else 1e-10
+            if fixed_steps or key.endswith("t"):
+                assert float(out[f"{prefix}_{key}"]) <= limit, (prefix, key, out[f"{prefix}_{key}"])
         for key in ("raised_kind_equal", "steps_equal", "n_equal", "restart_raised_kind_equal",
                     "restart_steps_equal", "restart_n_equal", "to_gpu_raised_kind_equal",
                     "to_gpu_steps_equal", "to_gpu_n_equal"):

@@ -12,7 +12,7 @@ import tempfile
 
 import numba
 import numpy as np
-from check_whfast_ensemble import rel  # (this folder)
+from check_whfast_ensemble import rel, rel_same_time  # (this folder)
 
 import visviva as vv
 from visviva.nbody import GeneralRelativity, J2Force
@@ -86,6 +86,9 @@ def compare(gpu, cpu, key):
     print(f"{key}_pos={rel(gpu.positions, cpu.positions)!r}")
     print(f"{key}_vel={rel(gpu.velocities, cpu.velocities)!r}")
     print(f"{key}_t={rel(gpu.t, cpu.t)!r}")
+    pos, vel = rel_same_time(gpu, cpu)
+    print(f"{key}_pos_same_t={pos!r}")
+    print(f"{key}_vel_same_t={vel!r}")
     print(f"{key}_steps_equal={[s.steps_done for s in gpu] == [s.steps_done for s in cpu]!r}")
     print(f"{key}_n_equal={np.array_equal(gpu.n_particles, cpu.n_particles)!r}")
 

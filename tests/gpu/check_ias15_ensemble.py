@@ -4,7 +4,13 @@ NUMBA_ENABLE_CUDASIM=1) beside the same ensemble on the CPU and print ``key=valu
 from __future__ import annotations
 
 import numpy as np
-from check_whfast_ensemble import continue_on, each_vs_packed, rel, same  # (this folder)
+from check_whfast_ensemble import (  # (this folder)
+    continue_on,
+    each_vs_packed,
+    rel,
+    rel_same_time,
+    same,
+)
 
 import visviva as vv
 
@@ -40,6 +46,9 @@ def main():
     print(f"ens_vel={rel(gpu.velocities, cpu.velocities)!r}")
     print(f"ens_bits={same(gpu, cpu)!r}")
     print(f"ens_t={rel(gpu.t, cpu.t)!r}")
+    pos, vel = rel_same_time(gpu, cpu)
+    print(f"ens_pos_same_t={pos!r}")
+    print(f"ens_vel_same_t={vel!r}")
     print(f"ens_steps_equal={[s.steps_done for s in gpu] == [s.steps_done for s in cpu]!r}")
     print(f"ens_steps={min(s.steps_done for s in gpu)!r}")
     print(f"ens_packed={gpu._pack is not None!r}")
@@ -60,6 +69,9 @@ def main():
         except Exception as exc:  # the ensemble raises the member's error
             errs.append(f"{type(exc).__name__}: {exc}")
     print(f"min_dt_same_error={errs[0] == errs[1] and errs[0] != 'none'!r}")
+    # the type and the text before the numbers (the step size's last digits may differ)
+    print(f"min_dt_same_kind={errs[0].split(' at t')[0] == errs[1].split(' at t')[0]!r}")
+    print(f"min_dt_errors={errs!r}")
     print(f"min_dt_error={errs[1][:80]!r}")
     alone()
 

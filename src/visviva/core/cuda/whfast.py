@@ -152,10 +152,10 @@ def build_general(force):
     compiled for the device, its members adding the additional force ``force`` (a device
     function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op
     force for gravity only; see the module notes)."""
-    from .. import gravity, nbody_common
+    from .. import gravity, nbody_common, universal
     from .. import nbody_whfast as W
     from ..nbody_common import F_G, F_SOFT2
-    from .twins import device_twin
+    from .twins import device_twin, never_inlined
 
     rows = device_twin(gravity._plain_rows)
 
@@ -170,8 +170,10 @@ def build_general(force):
         rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
         force(t, x, v, m, params, acc)
 
-    run = device_twin(W._whfast, {gravity.gravity: gravity_few,
-                                  nbody_common.accelerations: accelerations})
+    replace = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations}
+    run = device_twin(W._whfast, replace)
+    # one copy of the Kepler solver, called from the run body's 23 drift sites
+    never_inlined(device_twin(universal.propagate_scalar, replace))
     n_buf = W.N_BUF
 
     @cuda.jit

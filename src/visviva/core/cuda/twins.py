@@ -22,6 +22,8 @@ from .. import _intrinsics
 __all__ = ["device_twin", "never_inlined"]
 
 _TWINS: dict = {}
+#: ids of the twins :func:`never_inlined` has marked (twins live as long as ``_TWINS``)
+_NEVER_INLINED: set = set()
 
 
 def _fma():
@@ -98,7 +100,7 @@ def never_inlined(twin):
     simulator (nothing is compiled) it is returned untouched."""
     from . import simulator
 
-    if simulator() or getattr(twin, "_never_inlined", False):
+    if simulator() or id(twin) in _NEVER_INLINED:
         return twin
     compile_device = twin.compile_device
 
@@ -110,5 +112,5 @@ def never_inlined(twin):
         return cres
 
     twin.compile_device = compile_never_inlined
-    twin._never_inlined = True
+    _NEVER_INLINED.add(id(twin))
     return twin

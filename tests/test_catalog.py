@@ -312,3 +312,27 @@ def test_a_kvn_omm_file_is_read_one_message_or_many(tmp_path):
     with pytest.raises(vv.InvalidInputError, match=f"line {k + 2}: MEAN_MOTION appears twice "
                                                    f"in the OMM that starts on line {start}"):
         read_omm_file(broken)
+
+
+def test_sgp4_batch_nan_mode_leaves_no_decayed_state_with_numbers():
+    """sgp4 fills a decayed object's states (code 6) with points below the surface; with
+    on_error="nan" they were returned as numbers, 4500 km inside the Earth (audit of
+    2026-11-26): every state whose status is not 0 is NaN, in every frame."""
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2)
+    line1 = ISS_1[:53] + " 50000-1" + ISS_1[61:]  # B* = 0.05: decays within days
+    line1 = line1[:68] + str(sum(int(c) if c.isdigit() else c == "-" for c in line1[:68]) % 10)
+    falling = vv.Satellite.from_tle(line1, ISS_2, name="FALLING")
+    cat = Catalog([iss, falling])
+    t = iss.epoch + np.linspace(0, 20, 21) * u.day
+    with pytest.raises(vv.SatelliteDecayedError):
+        propagate_sgp4_batch(cat, t)
+    for frame in ("teme", "gcrs", "itrs"):
+        batch = cat.propagate(t, frame=frame, on_error="nan")
+        bad = batch.status != 0
+        assert (batch.status[1] == 6).sum() >= 3 and not bad[0].any()
+        assert np.isnan(batch.r.value[bad]).all() and np.isnan(batch.v.value[bad]).all()
+        assert np.isfinite(batch.r.value[~bad]).all() and np.isfinite(batch.v.value[~bad]).all()
+        good = ~bad[1]  # the states before the decay are sgp4's, unchanged
+        ref = getattr(falling, frame)(t[good])
+        np.testing.assert_allclose(batch.r.value[1][good], ref.r.to_value(u.km), rtol=0,
+                                   atol=ONE_MM)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.resources
+import re
 
 import numpy as np
 import pytest
@@ -312,3 +313,69 @@ def test_a_kvn_omm_file_is_read_one_message_or_many(tmp_path):
     with pytest.raises(vv.InvalidInputError, match=f"line {k + 2}: MEAN_MOTION appears twice "
                                                    f"in the OMM that starts on line {start}"):
         read_omm_file(broken)
+
+
+def test_sgp4_batch_nan_mode_leaves_no_decayed_state_with_numbers():
+    """sgp4 fills a decayed object's states (code 6) with points below the surface; with
+    on_error="nan" they were returned as numbers, 4500 km inside the Earth (audit of
+    2026-11-26): every state whose status is not 0 is NaN, in every frame."""
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2)
+    line1 = ISS_1[:53] + " 50000-1" + ISS_1[61:]  # B* = 0.05: decays within days
+    line1 = line1[:68] + str(sum(int(c) if c.isdigit() else c == "-" for c in line1[:68]) % 10)
+    falling = vv.Satellite.from_tle(line1, ISS_2, name="FALLING")
+    cat = Catalog([iss, falling])
+    t = iss.epoch + np.linspace(0, 20, 21) * u.day
+    with pytest.raises(vv.SatelliteDecayedError):
+        propagate_sgp4_batch(cat, t)
+    for frame in ("teme", "gcrs", "itrs"):
+        batch = cat.propagate(t, frame=frame, on_error="nan")
+        bad = batch.status != 0
+        assert (batch.status[1] == 6).sum() >= 3 and not bad[0].any()
+        assert np.isnan(batch.r.value[bad]).all() and np.isnan(batch.v.value[bad]).all()
+        assert np.isfinite(batch.r.value[~bad]).all() and np.isfinite(batch.v.value[~bad]).all()
+        good = ~bad[1]  # the states before the decay are sgp4's, unchanged
+        ref = getattr(falling, frame)(t[good])
+        np.testing.assert_allclose(batch.r.value[1][good], ref.r.to_value(u.km), rtol=0,
+                                   atol=ONE_MM)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+@pytest.mark.parametrize(("key", "good", "bad", "value"), [
+    ("INCLINATION", "deg", "rad", "0.9013"),
+    ("MEAN_MOTION", "rev/day", "rad/s", "0.0011271"),
+])
+def test_omm_file_with_another_unit_is_refused_not_misread(tmp_path, fmt, key, good, bad, value):
+    """read_omm_file / read_catalog_file dropped a KVN '[unit]' (and an XML units= attribute)
+    unread, so 'INCLINATION = 0.9013 [rad]' became 0.9013 deg, while vv.read_omm refuses it
+    (audit of 2026-11-26). The standard's own unit, in any spelling, still reads."""
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    text = vv.write_omm(sat.to_omm(), None, fmt, originator="AUDIT")
+    if fmt == "kvn":
+        lines = [f"{key} = {value} [{bad}]" if ln.startswith(key + " ") else ln
+                 for ln in text.splitlines()]
+        ok = text.replace(f"[{good}]", f"[{good.upper()}]")
+    else:
+        lines = [f'<{key} units="{bad}">{value}</{key}>' if f"<{key} " in ln else ln
+                 for ln in text.splitlines()]
+        ok = text
+    path = tmp_path / f"bad.{fmt}"
+    path.write_text("\n".join(lines) + "\n")
+    for reader in (vv.read_omm_file, vv.read_catalog_file):
+        with pytest.raises(vv.InvalidInputError, match=rf"{key} must be in \[{good}\], not "
+                                                       rf"\[{re.escape(bad)}\]"):
+            reader(path)
+    with pytest.raises(Exception, match=rf"\[{re.escape(bad)}\]"):  # the CCSDS reader agrees
+        vv.read_omm(path)
+    path.write_text(ok)
+    again = vv.read_omm_file(path)[0]
+    t = np.arange(3) * u.h
+    np.testing.assert_array_equal(again.teme(t).r.value, sat.teme(t).r.value)
+
+
+def test_omm_unit_table_is_the_ccsds_readers():
+    from visviva.ccsds.omm import SECTIONS
+    from visviva.satellites.catalog_files import OMM_UNITS
+
+    ccsds = {k.name: k.unit for section in SECTIONS for k in section.keywords
+             if k.unit and section.name != "covariance"}
+    assert ccsds == OMM_UNITS

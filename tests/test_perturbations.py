@@ -567,3 +567,14 @@ def test_nrlmsis_drag_day_at_default_tolerances_matches_a_fine_step_run():
     kepler = state.propagate(1 * u.day)
     assert np.linalg.norm((a.r - b.r).to_value(u.m)) < 5e-3
     assert np.linalg.norm((a.r - kepler.r).to_value(u.km)) > 1.0  # drag matters here
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"area_to_mass": [0.02, 0.03] * u.m**2 / u.kg},
+    {"area_to_mass": 0.02 * u.m**2 / u.kg, "reflectivity": [1.2, 1.5]},
+])
+def test_srp_with_arrays_is_refused_with_a_clear_error(kwargs):
+    # float() of the array raised "TypeError: only 0-dimensional arrays can be converted to
+    # Python scalars" (audit of 2026-11-26); AtmosphericDrag already said what to do
+    with pytest.raises(vv.InvalidInputError, match="must be scalars"):
+        vv.SolarRadiationPressure(**kwargs)

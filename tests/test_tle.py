@@ -550,3 +550,27 @@ def test_to_tle_epoch_rounding_into_the_next_year(epoch, line1_epoch, tol_s):
     assert abs(((again.satrec.jdsatepoch - ref.jdsatepoch)
                 + (again.satrec.jdsatepochF - ref.jdsatepochF)) * 86400.0) < 1e-6
     assert abs((again.epoch - sat.epoch).to_value(u.s)) < tol_s
+
+
+@pytest.mark.parametrize(("key", "value", "line", "columns", "written"), [
+    ("MEAN_MOTION", 99.999999999, 1, slice(52, 63), "99.99999999"),   # was '100.00000000'
+    ("MEAN_MOTION_DOT", 0.999999999, 0, slice(33, 43), " .99999999"),  # was ' 1.00000000'
+    ("MEAN_MOTION_DOT", -0.999999999, 0, slice(33, 43), "-.99999999"),  # was '-1.00000000'
+])
+def test_to_tle_value_rounding_past_its_columns_stays_in_them(key, value, line, columns, written):
+    """A value just below a column's limit rounded up into a 70-character line (found by the
+    audit of 2026-11-26); it is written as the column's largest value, within 1e-8 of it."""
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), key: value})
+    lines = sat.to_tle()
+    assert [len(text) for text in lines] == [69, 69]
+    assert lines[line][columns] == written
+    assert abs(float(written.replace(" .", "0.").replace("-.", "-0.")) - value) < 1e-8
+    again = vv.Satellite.from_tle(*lines)  # our reader and sgp4's take the lines back
+    ref = Satrec.twoline2rv(*lines, WGS72)
+    assert again.satrec.no_kozai == ref.no_kozai and again.satrec.ndot == ref.ndot
+
+
+def test_to_tle_refuses_a_mean_motion_that_rounds_to_zero():
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "MEAN_MOTION": 1e-10})
+    with pytest.raises(vv.InvalidInputError, match="mean motion"):
+        sat.to_tle()

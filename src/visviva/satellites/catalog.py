@@ -478,7 +478,8 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         Absolute times (any scale; converted to UTC Julian dates once).
     on_error : {"raise", "nan"}
         Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
-        (default), or return NaN there with sgp4's code in ``status``.
+        (default), or return NaN in ``r`` and ``v`` wherever ``status`` (sgp4's code) is not
+        0 (sgp4 itself returns a state below the surface for a decayed object, code 6).
     out : (status, r, v), optional
         C-contiguous arrays of shapes (N, T) uint8, (N, T, 3) and (N, T, 3) float64 that sgp4
         writes into (e.g. slices of a larger result); the returned states wrap them.
@@ -509,8 +510,14 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
                     f"{[(a.shape, str(a.dtype)) for a in out]}."
                 )
         cat.satrec_array._sgp4(jd, fr, e, r, v)
-    if on_error == "raise" and e.any():
-        raise_for_sgp4_status(e, cat.names, tsince, t)
+    if e.any():
+        if on_error == "raise":
+            raise_for_sgp4_status(e, cat.names, tsince, t)
+        # sgp4 fills some failed states with numbers (code 6, decayed: a point below the
+        # surface) and others with NaN: no failed state leaves with numbers in it
+        failed = e != 0
+        r[failed] = np.nan
+        v[failed] = np.nan
     # fast path: one summation each (NaN and inf propagate); the full mask only when it fails
     clean = np.isfinite(np.add.reduce(r, axis=None)) and np.isfinite(np.add.reduce(v, axis=None))
     bad = None if clean else ~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)) & (e == 0)

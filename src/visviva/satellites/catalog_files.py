@@ -202,6 +202,33 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
     return sats
 
 
+#: the unit CCSDS 502.0 fixes for each OMM keyword with one (visviva.ccsds.omm holds the same
+#: table for the full reader, which this layer may not import; tests/test_catalog.py compares)
+OMM_UNITS = {"SEMI_MAJOR_AXIS": "km", "MEAN_MOTION": "rev/day", "INCLINATION": "deg",
+             "RA_OF_ASC_NODE": "deg", "ARG_OF_PERICENTER": "deg", "MEAN_ANOMALY": "deg",
+             "GM": "km**3/s**2", "MASS": "kg", "SOLAR_RAD_AREA": "m**2", "DRAG_AREA": "m**2",
+             "BSTAR": "1/ER", "BTERM": "m**2/kg",
+             "MEAN_MOTION_DOT": "rev/day**2", "MEAN_MOTION_DDOT": "rev/day**3",
+             "AGOM": "m**2/kg"}
+
+
+def check_omm_unit(key: str, unit, where: str) -> None:
+    """Refuse a unit written with an OMM keyword (KVN ``[unit]``, XML ``units=``) other than
+    the one the standard fixes: the value is read in the standard's unit, so
+    ``INCLINATION = 0.9 [rad]`` would be read as 0.9 deg (as :func:`visviva.read_omm` does,
+    case and blanks ignored, ``^`` for ``**``; keywords without a fixed unit pass)."""
+    if unit is None or unit.strip() in ("", "n/a") or key not in OMM_UNITS:
+        return
+    def norm(text):
+        return text.replace(" ", "").replace("^", "**").lower()
+
+    if norm(unit) != norm(OMM_UNITS[key]):
+        raise InvalidInputError(
+            f"{where}: {key} must be in [{OMM_UNITS[key]}], not [{unit}]; the value would be "
+            f"read as {OMM_UNITS[key]}. Convert the value (and its unit) first."
+        )
+
+
 def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
     """The ``KEYWORD = value`` pairs (units in brackets dropped) of each CCSDS KVN OMM in
     ``text`` (one message, or many one after another as Space-Track's and CelesTrak's KVN GP
@@ -236,7 +263,8 @@ def _kvn_omm_records(text: str, path: str) -> tuple[list, list]:
             )
         value = value.strip()
         if value.endswith("]") and "[" in value:
-            value = value[:value.rindex("[")].strip()
+            value, unit = value[:value.rindex("[")].strip(), value[value.rindex("[") + 1:-1]
+            check_omm_unit(key, unit, f"{path}, line {number}")
         fields[key] = value
         lines[-1][key] = number
     if not records:
@@ -323,8 +351,10 @@ def _omm_xml_records(text: str, path: str) -> tuple[list, list]:
         fields = {}
         for section in ("metadata", "data/meanElements", "data/tleParameters"):
             for element in segment.path(section):
-                fields.update((c.tag, c.text) for c in element.children
-                              if c.tag != "COMMENT" and not c.children)
+                for c in element.children:
+                    if c.tag != "COMMENT" and not c.children:
+                        check_omm_unit(c.tag, c.attrib.get("units"), f"{path}, line {c.line}")
+                        fields[c.tag] = c.text
         records.append(fields)
         lines.append(segment.line)
     if not records:

@@ -406,8 +406,14 @@ class SolarRadiationPressure(Perturbation):
                 "SolarRadiationPressure(0.02 * u.m**2 / u.kg)."
             )
         am = to_array(self.area_to_mass, "area_per_mass", "area_to_mass")
-        require_positive(am, "area_to_mass")
         cr = to_array(self.reflectivity, "dimensionless", "reflectivity")
+        if am.ndim != 0 or cr.ndim != 0:  # (float() of an array raised a bare TypeError)
+            raise InvalidInputError(
+                "area_to_mass and reflectivity must be scalars (one spacecraft), e.g. "
+                "SolarRadiationPressure(0.02 * u.m**2 / u.kg, reflectivity=1.3); propagate "
+                "spacecraft with other values in separate calls."
+            )
+        require_positive(am, "area_to_mass")
         if not 0.0 <= float(cr) <= 2.0:
             raise InvalidInputError(f"reflectivity Cr must lie in [0, 2]; got {float(cr)}.")
         if self.shadow not in _SHADOWS:

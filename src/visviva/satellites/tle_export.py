@@ -58,6 +58,14 @@ def format_exponent(value: float, what: str, zero_sign: str = "+") -> str:
     return f"{sign}{mantissa:05d}{exp_sign}{abs(exponent)}"
 
 
+def _fit_column(value: float, decimals: int, largest: float) -> float:
+    """``value``, or ``largest`` (with its sign) where rounding to ``decimals`` decimals would
+    carry into a column the field lacks: a mean motion of 99.999999996 rev/day would be written
+    ``100.00000000``, 12 characters in an 11-column field. The written number stays within one
+    unit of its last decimal of ``value``."""
+    return value if abs(round(value, decimals)) <= largest else math.copysign(largest, value)
+
+
 def _angle(rad: float) -> str:
     deg = math.degrees(rad) % 360.0
     text = f"{deg:8.4f}"
@@ -100,7 +108,7 @@ def to_tle(satrec, satnum: int | None = None) -> tuple[str, str]:
     ndot = satrec.ndot * _XPDOTP * 1440.0  # rev/day**2 (the TLE's n-dot/2)
     if not abs(ndot) < 1.0:
         raise InvalidInputError(f"mean motion derivative {ndot} rev/day**2 does not fit a TLE")
-    ndot_text = f"{ndot: .8f}".replace("0.", ".", 1)
+    ndot_text = f"{_fit_column(ndot, 8, 0.99999999): .8f}".replace("0.", ".", 1)
     nddot = satrec.nddot * _XPDOTP * 1440.0 * 1440.0  # rev/day**3 (n-ddot/6)
     year = _epoch_year(satrec)
     if not 1957 <= year <= 2056:
@@ -115,13 +123,14 @@ def to_tle(satrec, satnum: int | None = None) -> tuple[str, str]:
     if not 0.0 <= satrec.ecco < 1.0 or not ecc.startswith("0."):
         raise InvalidInputError(f"eccentricity {satrec.ecco} does not fit a TLE (0 <= e < 1)")
     n = satrec.no_kozai * _XPDOTP
-    if not 0.0 < n < 100.0:
-        raise InvalidInputError(f"mean motion {n} rev/day does not fit a TLE (0 < n < 100)")
+    if not 0.0 < n < 100.0 or float(f"{n:.8f}") == 0.0:
+        raise InvalidInputError(f"mean motion {n} rev/day does not fit a TLE (0 < n < 100); "
+                                "use to_omm()")
     incl = math.degrees(satrec.inclo)
     if not -1e-9 <= incl <= 180.0 + 1e-9:
         raise InvalidInputError(f"inclination {incl} deg is outside [0, 180]")
     line2 = (f"2 {num} {incl:8.4f} {_angle(satrec.nodeo)} {ecc[2:]} "
-             f"{_angle(satrec.argpo)} {_angle(satrec.mo)} {n:11.8f}"
+             f"{_angle(satrec.argpo)} {_angle(satrec.mo)} {_fit_column(n, 8, 99.99999999):11.8f}"
              f"{int(satrec.revnum) % 100000:5d}")
     return line1 + str(tle_checksum(line1)), line2 + str(tle_checksum(line2))
 

@@ -349,13 +349,6 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
     est = _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule)
-    if method == "ukf" and schedule:
-        raise InvalidInputError(
-            'method="ukf" does not fly manoeuvres yet (its sigma points are integrated without '
-            'burns): use method="ekf" with maneuvers=, or run the unscented filter on the arcs '
-            "between burns, each from the last arc's estimate carried through the burn by "
-            "vv.propagate_covariance(..., maneuvers=)."
-        )
     rtol = DEFAULT_RTOL if rtol is None else _positive("rtol", rtol)
     atol = DEFAULT_ATOL if atol is None else _positive("atol", atol)
     offsets = observations.offsets_s(epoch)
@@ -373,7 +366,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         epoch_index = epoch_index + 1
     if schedule:  # burns within a microsecond of an epoch are at it (as propagate_cowell's)
         schedule.snap(np.sort(epochs))
-    if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
+    if method == "ekf" and schedule and schedule.impulses_at(0.0):  # after the state given
         x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
     if est:  # the coefficients join the state, uncorrelated with it
         x = np.r_[x, [c.value for c in est]]
@@ -383,7 +376,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         from .unscented import unscented_pass
 
         xs, Ps, xp, Pp, cross = unscented_pass(dyn, observations, x, P, epochs, screen, q,
-                                               code, step_s, sigma_points)  # fmt: skip
+                                               code, step_s, sigma_points, schedule, est,
+                                               apply_at_start=True)  # fmt: skip
     else:
         xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
                                          code, step_s, est)  # fmt: skip
@@ -558,10 +552,11 @@ def _estimated_coefficients(perturbations, estimate, parameter_sigma, method, sc
     from ..satellites.cowell import perturbation_list
     from ..satellites.force_parameters import coefficients
 
-    if method != "ekf" or schedule:
+    if method == "ekf" and schedule:
         raise InvalidInputError(
-            "filter_orbit estimates coefficients with the extended filter (method='ekf') and "
-            "without maneuvers= only; use vv.fit_orbit(estimate=...) otherwise.")
+            "the extended filter (method='ekf') estimates coefficients without maneuvers= "
+            "only; use method='ukf' (it flies burns with estimated coefficients), or "
+            "vv.fit_orbit(estimate=..., maneuvers=...).")
     est, _ = coefficients(list(perturbation_list(perturbations, allow_none=True)), estimate,
                           parameter_sigma, None)
     missing = [c.name for c in est if c.sigma is None]

@@ -245,8 +245,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         unscented Kalman filter (13 sigma points through the same dynamics and measurement
         models; :mod:`visviva.od.unscented`), for an a priori covariance large enough for the
         problem to be nonlinear across it (km and m/s in LEO), where the extended filter is
-        overconfident, or diverges; about 1.4 times the cost per epoch. Not with
-        ``maneuvers=`` (refused: filter each arc between burns).
+        overconfident, or diverges; about 1.4 times the cost per epoch (about 2 with drag or
+        SRP). It flies ``maneuvers=`` (each sigma point through each burn in its own local
+        frame) and ``estimate=`` (each sigma point with its own coefficients), also together.
     sigma_points : tuple of float, optional
         (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
         (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.
@@ -255,8 +256,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         the ballistic coefficient B = Cd A / m, m^2/kg; ``"srp"``: Cr): appended to the
         filter's state as constants (no process noise on them), starting from their values
         in ``perturbations``, each with its a priori sigma from ``parameter_sigma`` (required:
-        the filter's initial covariance), uncorrelated with the state. Extended filter only,
-        without ``maneuvers=``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
+        the filter's initial covariance), uncorrelated with the state. With ``maneuvers=``
+        only with ``method="ukf"``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
         ``.full_covariances`` (T, 6 + k, 6 + k) report them; ``.perturbations`` flies the
         last estimate.
     parameter_sigma : dict, optional
@@ -316,7 +317,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
     cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
     problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
-    NEES averaged 14 (chi-square mean 6), the unscented one's 6.2.
+    NEES averaged 14 (chi-square mean 6), the unscented one's 6.2. Through burns the sigma points
+    are redrawn at every burn start and end, each impulse is applied to each point on its own
+    local axes and its execution error added as sum_i W_i^m G_i C G_i^T; with ``estimate=``
+    the points carry (x, p), each flying its own p (:mod:`visviva.od.unscented`).
     """
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics

@@ -1,7 +1,8 @@
 """The unscented Kalman filter of :func:`visviva.filter_orbit` (``method="ukf"``).
 
 Instead of the state-transition matrix and the measurement partials, the unscented filter
-carries 2n + 1 = 13 sigma points of the 6-state through the dynamics and the measurement models
+carries 2n + 1 = 13 sigma points of the 6-state (2n + 1 of the 6 + k-state with k estimated
+coefficients) through the dynamics and the measurement models
 and takes their weighted mean and covariance (the scaled unscented transform: Julier & Uhlmann
 2004, Proc. IEEE 92(3), 401-422; Wan & van der Merwe 2000, IEEE AS-SPCC, 153-158). It keeps
 the second-order terms of a mean that the extended filter drops, which matters when the a
@@ -23,6 +24,17 @@ overconfident.
   wrapped into (-pi, pi], then averaged and added back), so that points on both sides of 0 /
   2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z,
   P+ = P- - K S K^T. Editing, NIS and divergence are the extended filter's rules on this S.
+* Burns (``maneuvers=``): every burn start and end inside an interval cuts it (fresh sigma
+  points on each piece); a piece flies the force model of its segment
+  (:meth:`visviva.satellites.burn_segments.Schedule.segment_model`: a finite burn's thrust,
+  in each point's own local frame, and the mass ratio of drag and SRP), and the impulses at
+  its end are applied to every point on the point's own local axes
+  (:func:`through_impulses`), which adds the execution error C as sum_i W_i^m G_i C G_i^T
+  (G_i = [[0], [M_i^T]]): the exact second moment of an error independent of the state.
+* Coefficients (``estimate=``): the state is (x, p), n = 6 + k, 2 n + 1 points; the force
+  block holds unit coefficients and each point scales them by its own p in the same compiled
+  call (:meth:`visviva.od.dynamics.Dynamics.propagate_many`, ``per_state``); p is constant
+  over a step and enters the measurements through x only.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the

@@ -7,6 +7,8 @@ compiled propagation, and the combinations still refused."""
 import numpy as np
 import pytest
 from astropy import units as u
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 import visviva as vv
@@ -14,6 +16,9 @@ from test_od_maneuvers import EPOCH, FILTER_BURN_T, FILTER_DV, KMS, TRUTH, Y_TRU
 from test_od_parameters import AM, LEO, M2KG, _leo_forces, _leo_positions
 from visviva.core import force_block as fb
 from visviva.od.dynamics import Dynamics
+from visviva.od.unscented import sigma_points, through_impulses, unscented_weights
+from visviva.satellites.burn_partials import impulse_jacobians
+from visviva.satellites.burn_segments import burn_schedule
 
 
 def _whitened(d, P):
@@ -214,3 +219,46 @@ def test_ukf_estimates_cd_through_a_burn_and_the_ekf_refuses_it():
     assert not f.rejected.any()
     with pytest.raises(vv.InvalidInputError, match="method='ukf'"):
         vv.filter_orbit(obs, LEO, p0, _leo_forces(2.2), **kw)
+
+
+@given(st.integers(6, 8), st.floats(0.3, 2.0), st.integers(0, 2**32 - 1))
+@settings(max_examples=30, deadline=None)
+def test_sigma_points_of_an_augmented_state_keep_mean_and_covariance(n, alpha, seed):
+    """With k = n - 6 coefficients the 2n + 1 points and weights still stand for (x, P)."""
+    scale, wm, wc = unscented_weights((alpha, 2.0, 0.0), n)
+    assert wm.shape == (2 * n + 1,) and wm.sum() == pytest.approx(1.0, abs=1e-12)
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n)) * np.r_[[1.0] * 3, [1e-3] * 3, [1e-4] * (n - 6)]
+    x = np.r_[7000.0, 10.0, -20.0, 0.1, 7.5, 0.3, [0.02] * (n - 6)]
+    X = sigma_points(x, A @ A.T, scale)
+    np.testing.assert_allclose(x + wm @ (X - x), x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose((wc * (X - x).T) @ (X - x), A @ A.T, rtol=0,
+                               atol=1e-9 * np.abs(A @ A.T).max())
+
+
+@given(st.sampled_from(["RTN", "TNW", "VNB", "GCRS"]), st.integers(0, 2**32 - 1))
+@settings(max_examples=30, deadline=None)
+def test_an_impulse_on_sigma_points_moves_each_on_its_own_axes(frame, seed):
+    """Every point gets the Δv on its own local axes (the burn's delta_v_inertial at its r, v);
+    the noise added is sum W_i G_i C G_i^T, which for points that coincide is the EKF's
+    G C G^T at the state (impulse_jacobians)."""
+    rng = np.random.default_rng(seed)
+    dv = rng.normal(0.0, 1e-3, 3)
+    a = rng.standard_normal((3, 3)) * 1e-5
+    c = a @ a.T
+    burn = vv.ImpulsiveBurn(0 * u.s, dv * KMS, frame, delta_v_covariance=c)
+    schedule = burn_schedule([burn], TRUTH, EPOCH)
+    x = Y_TRUE + rng.normal(0.0, [1.0] * 3 + [1e-3] * 3)
+    scale, wm, _ = unscented_weights()
+    X = sigma_points(x, np.diag([1.0] * 3 + [1e-6] * 3), scale)
+    Y, noise = through_impulses(schedule, 0.0, X, wm)
+    for i in range(X.shape[0]):
+        want = X[i, 3:] + burn.delta_v_inertial(X[i, :3], X[i, 3:])
+        np.testing.assert_allclose(Y[i, 3:], want, rtol=0, atol=1e-15)
+    assert np.array_equal(Y[:, :3], X[:, :3]) and np.all(noise[:3] == 0)
+    same = np.repeat(x[None], X.shape[0], axis=0)
+    _, one = through_impulses(schedule, 0.0, same, wm)
+    g = impulse_jacobians(burn, x)[1]
+    np.testing.assert_allclose(one, g @ c @ g.T, rtol=1e-12, atol=1e-30)
+    # the points' own frames: the average differs from the central point's by their spread
+    assert np.allclose(noise, one, rtol=0.05, atol=1e-3 * np.abs(one).max())

@@ -445,9 +445,6 @@ def test_filter_orbit_estimates_drag_as_an_augmented_state(leo_tracking):
         vv.filter_orbit(leo_tracking, guess, p0, _leo_forces(2.2))
     with pytest.raises(InvalidInputError, match="a priori sigma"):
         vv.filter_orbit(leo_tracking, guess, p0, _leo_forces(2.2), estimate="drag")
-    with pytest.raises(InvalidInputError, match="ekf"):
-        vv.filter_orbit(leo_tracking, guess, p0, _leo_forces(2.2), estimate="drag",
-                        parameter_sigma={"drag": 0.005 * M2KG}, method="ukf")
     with pytest.raises(InvalidInputError, match="without estimate"):
         vv.filter_orbit(leo_tracking, guess, p0, _leo_forces(2.2),
                         parameter_sigma={"drag": 0.005 * M2KG})

@@ -247,9 +247,6 @@ def test_ukf_bad_input(positions):
         vv.filter_orbit(positions, good, P0, method="ukf", sigma_points=(0.0, 2.0, 0.0))
     with pytest.raises(vv.InvalidInputError, match="kappa > -6"):
         vv.filter_orbit(positions, good, P0, method="ukf", sigma_points=(1.0, 2.0, -6.0))
-    burn = vv.ImpulsiveBurn(600 * u.s, [0.0, 0.001, 0.0] * u.km / u.s, "RTN")
-    with pytest.raises(vv.InvalidInputError, match='"ukf" does not fly manoeuvres'):
-        vv.filter_orbit(positions, good, P0, method="ukf", maneuvers=[burn])
 
 
 @pytest.mark.parametrize("reference", ["gcrs", "stars"])

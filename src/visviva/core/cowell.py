@@ -654,9 +654,12 @@ def integrate_cowell_many(
 ):  # fmt: skip
     """:func:`integrate_cowell` for N initial states (rows of ``y0``) in parallel, no events.
 
+    ``force`` is (1, F), one block for every state, or (N, F), state k flying row k (an
+    unscented filter's sigma points each with its own drag or SRP coefficient).
     ``y_out`` (N, T, 6), ``status`` (N,), ``info`` (N, 6) are written per state.
     """
     for k in prange(y0.shape[0]):
+        force_k = force[k % force.shape[0]]  # row 0 for all, or row k
         ev_kind = np.zeros(0, dtype=np.int64)
         ev_param = np.zeros(0)
         ev_t = np.zeros(1)
@@ -664,7 +667,7 @@ def integrate_cowell_many(
         ev_which = np.zeros(1)
         work = np.zeros((WORK_ROWS, 6))
         status[k] = integrate_cowell(
-            y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v,
-            eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
+            y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force_k, zonal, atm, eph_r,
+            eph_v, eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
             y_out[k], ev_t, ev_y, ev_which, info[k], full, work,
         )  # fmt: skip

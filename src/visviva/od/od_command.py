@@ -164,9 +164,6 @@ def _setup(args) -> dict:
         if (span / step).decompose().value > 200_000:
             raise InvalidInputError(f"--span {args.span} at --step {args.step} is more than "
                                     "200000 states; choose a longer step")
-    if args.filter == "ukf" and estimate:
-        raise InvalidInputError("--estimate goes with the batch fit or --filter ekf (the "
-                                "unscented filter estimates the state only)")
     if args.filter and estimate and set(estimate) - set(parameter_sigma or ()):
         raise InvalidInputError("with --filter, each estimated coefficient needs its a priori "
                                 "sigma (the filter's initial uncertainty), e.g. --estimate "

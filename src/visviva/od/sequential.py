@@ -245,8 +245,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         unscented Kalman filter (13 sigma points through the same dynamics and measurement
         models; :mod:`visviva.od.unscented`), for an a priori covariance large enough for the
         problem to be nonlinear across it (km and m/s in LEO), where the extended filter is
-        overconfident, or diverges; about 1.4 times the cost per epoch. Not with
-        ``maneuvers=`` (refused: filter each arc between burns).
+        overconfident, or diverges; about 1.4 times the cost per epoch (about 2 with drag or
+        SRP). It flies ``maneuvers=`` (each sigma point through each burn in its own local
+        frame) and ``estimate=`` (each sigma point with its own coefficients), also together.
     sigma_points : tuple of float, optional
         (alpha, beta, kappa) of the unscented filter's scaled unscented transform (default
         (1, 2, 0): points sqrt(6) sigma out, no negative weight); only with ``method="ukf"``.
@@ -255,8 +256,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         the ballistic coefficient B = Cd A / m, m^2/kg; ``"srp"``: Cr): appended to the
         filter's state as constants (no process noise on them), starting from their values
         in ``perturbations``, each with its a priori sigma from ``parameter_sigma`` (required:
-        the filter's initial covariance), uncorrelated with the state. Extended filter only,
-        without ``maneuvers=``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
+        the filter's initial covariance), uncorrelated with the state. With ``maneuvers=``
+        only with ``method="ukf"``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
         ``.full_covariances`` (T, 6 + k, 6 + k) report them; ``.perturbations`` flies the
         last estimate.
     parameter_sigma : dict, optional
@@ -316,7 +317,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
     cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
     problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
-    NEES averaged 14 (chi-square mean 6), the unscented one's 6.2.
+    NEES averaged 14 (chi-square mean 6), the unscented one's 6.2. Through burns the sigma points
+    are redrawn at every burn start and end, each impulse is applied to each point on its own
+    local axes and its execution error added as sum_i W_i^m G_i C G_i^T; with ``estimate=``
+    the points carry (x, p), each flying its own p (:mod:`visviva.od.unscented`).
     """
     from ..states import StateVectors
     from .dynamics import DEFAULT_ATOL, DEFAULT_RTOL, Dynamics
@@ -349,13 +353,6 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
     est = _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule)
-    if method == "ukf" and schedule:
-        raise InvalidInputError(
-            'method="ukf" does not fly manoeuvres yet (its sigma points are integrated without '
-            'burns): use method="ekf" with maneuvers=, or run the unscented filter on the arcs '
-            "between burns, each from the last arc's estimate carried through the burn by "
-            "vv.propagate_covariance(..., maneuvers=)."
-        )
     rtol = DEFAULT_RTOL if rtol is None else _positive("rtol", rtol)
     atol = DEFAULT_ATOL if atol is None else _positive("atol", atol)
     offsets = observations.offsets_s(epoch)
@@ -373,7 +370,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         epoch_index = epoch_index + 1
     if schedule:  # burns within a microsecond of an epoch are at it (as propagate_cowell's)
         schedule.snap(np.sort(epochs))
-    if schedule and schedule.impulses_at(0.0):  # burns at the epoch, after the state given
+    if method == "ekf" and schedule and schedule.impulses_at(0.0):  # after the state given
         x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
     if est:  # the coefficients join the state, uncorrelated with it
         x = np.r_[x, [c.value for c in est]]
@@ -383,7 +380,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         from .unscented import unscented_pass
 
         xs, Ps, xp, Pp, cross = unscented_pass(dyn, observations, x, P, epochs, screen, q,
-                                               code, step_s, sigma_points)  # fmt: skip
+                                               code, step_s, sigma_points, schedule, est,
+                                               apply_at_start=True)  # fmt: skip
     else:
         xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
                                          code, step_s, est)  # fmt: skip
@@ -558,10 +556,11 @@ def _estimated_coefficients(perturbations, estimate, parameter_sigma, method, sc
     from ..satellites.cowell import perturbation_list
     from ..satellites.force_parameters import coefficients
 
-    if method != "ekf" or schedule:
+    if method == "ekf" and schedule:
         raise InvalidInputError(
-            "filter_orbit estimates coefficients with the extended filter (method='ekf') and "
-            "without maneuvers= only; use vv.fit_orbit(estimate=...) otherwise.")
+            "the extended filter (method='ekf') estimates coefficients without maneuvers= "
+            "only; use method='ukf' (it flies burns with estimated coefficients), or "
+            "vv.fit_orbit(estimate=..., maneuvers=...).")
     est, _ = coefficients(list(perturbation_list(perturbations, allow_none=True)), estimate,
                           parameter_sigma, None)
     missing = [c.name for c in est if c.sigma is None]

@@ -1,7 +1,8 @@
 """The unscented Kalman filter of :func:`visviva.filter_orbit` (``method="ukf"``).
 
 Instead of the state-transition matrix and the measurement partials, the unscented filter
-carries 2n + 1 = 13 sigma points of the 6-state through the dynamics and the measurement models
+carries 2n + 1 = 13 sigma points of the 6-state (2n + 1 of the 6 + k-state with k estimated
+coefficients) through the dynamics and the measurement models
 and takes their weighted mean and covariance (the scaled unscented transform: Julier & Uhlmann
 2004, Proc. IEEE 92(3), 401-422; Wan & van der Merwe 2000, IEEE AS-SPCC, 153-158). It keeps
 the second-order terms of a mean that the extended filter drops, which matters when the a
@@ -23,6 +24,17 @@ overconfident.
   wrapped into (-pi, pi], then averaged and added back), so that points on both sides of 0 /
   2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z,
   P+ = P- - K S K^T. Editing, NIS and divergence are the extended filter's rules on this S.
+* Burns (``maneuvers=``): every burn start and end inside an interval cuts it (fresh sigma
+  points on each piece); a piece flies the force model of its segment
+  (:meth:`visviva.satellites.burn_segments.Schedule.segment_model`: a finite burn's thrust,
+  in each point's own local frame, and the mass ratio of drag and SRP), and the impulses at
+  its end are applied to every point on the point's own local axes
+  (:func:`through_impulses`), which adds the execution error C as sum_i W_i^m G_i C G_i^T
+  (G_i = [[0], [M_i^T]]): the exact second moment of an error independent of the state.
+* Coefficients (``estimate=``): the state is (x, p), n = 6 + k, 2 n + 1 points; the force
+  block holds unit coefficients and each point scales them by its own p in the same compiled
+  call (:meth:`visviva.od.dynamics.Dynamics.propagate_many`, ``per_state``); p is constant
+  over a step and enters the measurements through x only.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the
@@ -31,14 +43,18 @@ overconfident.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from ..errors import InvalidInputError, VisvivaError
+from ..satellites.burn_segments import DRIFT_S
 from ..satellites.covariance import noise_substeps, step_noise
 from .light_time import model
 from .measurements import residuals
 
-__all__ = ["unscented_pass", "unscented_weights", "sigma_points", "DEFAULT_SIGMA_POINTS"]
+__all__ = ["unscented_pass", "unscented_weights", "sigma_points", "through_impulses",
+           "DEFAULT_SIGMA_POINTS"]
 
 #: (alpha, beta, kappa): points sqrt(6) sigma out, mean weights 0 (centre) and 1/12 (none
 #: negative), beta = 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
@@ -46,27 +62,29 @@ DEFAULT_SIGMA_POINTS = (1.0, 2.0, 0.0)
 N_STATE = 6
 
 
-def unscented_weights(parameters=None):
+def unscented_weights(parameters=None, n=N_STATE):
     """The scaled unscented transform's spread and weights (Wan & van der Merwe 2000).
 
     Parameters
     ----------
     parameters : tuple of float or None
-        (alpha, beta, kappa); None: :data:`DEFAULT_SIGMA_POINTS`. alpha > 0, kappa > -6.
+        (alpha, beta, kappa); None: :data:`DEFAULT_SIGMA_POINTS`. alpha > 0, kappa > -n.
+    n : int
+        Dimension of the state (6; 6 + k with k estimated coefficients).
 
     Returns
     -------
     scale : float
         sqrt(n + lambda), lambda = alpha^2 (n + kappa) - n: how many standard deviations out the
-        points lie (n = 6).
-    wm, wc : ndarray (13,)
+        points lie.
+    wm, wc : ndarray (2 n + 1,)
         Mean and covariance weights: W_0^m = lambda / (n + lambda), W_0^c = W_0^m + 1 -
         alpha^2 + beta, W_i = 1 / (2 (n + lambda)).
 
     Raises
     ------
     InvalidInputError
-        Not three finite numbers, alpha <= 0 or kappa <= -6.
+        Not three finite numbers, alpha <= 0 or kappa <= -n.
     """
     if parameters is None:
         parameters = DEFAULT_SIGMA_POINTS
@@ -76,15 +94,15 @@ def unscented_weights(parameters=None):
         raise InvalidInputError(
             f"sigma_points must be three numbers (alpha, beta, kappa); got {parameters!r}."
         ) from None
-    if not (np.isfinite([alpha, beta, kappa]).all() and alpha > 0 and N_STATE + kappa > 0):
+    if not (np.isfinite([alpha, beta, kappa]).all() and alpha > 0 and n + kappa > 0):
         raise InvalidInputError(
             f"sigma_points (alpha, beta, kappa) = {parameters!r} needs finite values with "
-            f"alpha > 0 and kappa > -{N_STATE} (the points lie sqrt(alpha^2 (6 + kappa)) "
+            f"alpha > 0 and kappa > -{n} (the points lie sqrt(alpha^2 ({n} + kappa)) "
             "sigma out); the default is (1, 2, 0)."
         )
-    c = alpha**2 * (N_STATE + kappa)  # n + lambda
-    wm = np.full(2 * N_STATE + 1, 0.5 / c)
-    wm[0] = 1.0 - N_STATE / c
+    c = alpha**2 * (n + kappa)  # n + lambda
+    wm = np.full(2 * n + 1, 0.5 / c)
+    wm[0] = 1.0 - n / c
     wc = wm.copy()
     wc[0] += 1.0 - alpha**2 + beta
     return np.sqrt(c), wm, wc
@@ -131,20 +149,84 @@ def _solve_scaled(P, B):
     return d[:, None] * np.linalg.solve(P * np.outer(d, d), d[:, None] * B)
 
 
-def _predict(dyn, x, P, t_from, dt, weights, q, code):
-    """Mean, covariance (with the SNC noise of the step) and cov(x(t_from + dt), x(t_from)) of
-    the sigma points of (x, P) carried over ``dt`` s."""
-    scale, wm, wc = weights
-    X = sigma_points(x, P, scale)
+def _fly(dyn, schedule, est, X, a, b, dt):
+    """The sigma points X (N, 6 + k) at ``a`` carried to ``b`` = a + ``dt`` (s from the epoch;
+    no burn starts or ends between them): one compiled call, each point flying its own
+    coefficients (columns 6 on, on a block holding unit coefficients) and the thrust of a finite
+    burn on over the interval in its own local frame; the coefficients are constants."""
+    Y = X.copy()
+    if dt < DRIFT_S:  # burn edges less than a nanosecond apart (burn_segments.DRIFT_S)
+        Y[:, :3] += X[:, 3:6] * dt
+        return Y
+    if schedule:
+        schedule.check_state(a, b, X[:, :6])
+        d = copy.copy(dyn)
+        d.model = schedule.segment_model(dyn.model, a, b)
+    else:
+        d = dyn.at_origin(a)
+    per_state = {c.slot: X[:, 6 + j] for j, c in enumerate(est)}
     # on the calling thread: 13 arcs take 0.2 ms (60 s) to 0.9 ms (90 min), waking numba's
     # workers 8 ms on the shared 2-core machine
-    Y = dyn.at_origin(t_from).propagate_many(X, np.array([dt]), threads=False)[:, 0]
+    Y[:, :6] = d.propagate_many(X[:, :6], np.array([dt]), threads=False,
+                                per_state=per_state)[:, 0]
+    return Y
+
+
+def through_impulses(schedule, t, Y, wm):
+    """The impulses of ``schedule`` at ``t`` applied to every sigma point (rows of ``Y``), each
+    Δv on the point's own local axes, in the schedule's order; with the noise of their
+    execution errors, sum_i W_i^m G_i C G_i^T (G_i = d y+ / d Δv = [[0], [M_i^T]] at point i;
+    zero without an ``execution_covariance``): the exact second moment of the error's
+    contribution y+ = y- + M(y-)^T (Δv + e), e ~ (0, C) independent of the state."""
+    from ..satellites.burn_partials import impulse_jacobians
+
+    Y = Y.copy()
+    noise = np.zeros((Y.shape[1], Y.shape[1]))
+    for burn in schedule.impulses_at(t) if schedule else []:
+        c = burn.execution_covariance
+        if c is not None:
+            for w, y in zip(wm, Y, strict=True):
+                g = impulse_jacobians(burn, y[:6])[1]
+                noise[:6, :6] += w * (g @ c @ g.T)
+        Y[:, 3:6] += burn.delta_v_inertial(Y[:, :3], Y[:, 3:6])
+    return Y, noise
+
+
+def _moments(X, x, Y, wm, wc):
+    """Weighted mean and covariance of the points Y and cov(Y, X) (X the points of mean x)."""
     m = Y[0] + wm @ (Y - Y[0])
     dY = Y - m
-    Pn = (wc * dY.T) @ dY
+    return m, (wc * dY.T) @ dY, (wc * dY.T) @ (X - x)
+
+
+def _predict(dyn, schedule, est, x, P, step, weights, q, code):
+    """Mean, covariance (with the SNC noise of the step and the execution errors of the
+    impulses at its end) and cov(x(b), x(a)) of the sigma points of (x, P) carried over the
+    sub-step ``step`` = (a, b, b - a) (s from the epoch), through the impulses at b."""
+    scale, wm, wc = weights
+    a, b, dt = step
+    X = sigma_points(x, P, scale)
+    Y = _fly(dyn, schedule, est, X, a, b, dt)
+    Y, noise = through_impulses(schedule, b, Y, wm)
+    m, Pn, D = _moments(X, x, Y, wm, wc)
+    Pn = Pn + noise
     if q is not None:
-        Pn = Pn + step_noise(x, m, dt, q, code)
-    return m, 0.5 * (Pn + Pn.T), (wc * dY.T) @ (X - x)
+        Pn[:6, :6] += step_noise(x[:6], m[:6], dt, q, code)
+    return m, 0.5 * (Pn + Pn.T), D
+
+
+def _substeps(t_from, t_to, q, step_s, schedule):
+    """The sub-steps (a, b, b - a) (s from the epoch) of a prediction from ``t_from`` to
+    ``t_to``: the noise steps, cut at every burn start and end inside the interval (the sigma
+    points are redrawn there, after an impulse's execution error is added). The ends are the
+    burns' and epochs' own numbers (an impulse is found at b by equality)."""
+    grid = noise_substeps(t_to - t_from, q, step_s)
+    if not schedule:
+        before = np.r_[0.0, grid[:-1]]
+        return [(t_from + p, t_from + n, n - p) for p, n in zip(before, grid, strict=True)]
+    cuts = [e for a, b, _ in schedule.items for e in (a, b) if t_from < e < t_to]
+    ts = np.unique(np.r_[t_from, t_from + grid[:-1], cuts, t_to])
+    return [(float(p), float(n), float(n - p)) for p, n in zip(ts[:-1], ts[1:], strict=True)]
 
 
 def _update(observations, x, P, rows, k, screen, gm, weights):
@@ -153,7 +235,8 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
     X = sigma_points(x, P, scale)
     m, n_pts = rows.size, X.shape[0]
     kinds = observations.kinds[rows]
-    h, _ = model(observations, np.repeat(X, m, axis=0), gm, np.tile(rows, n_pts), partials=False)
+    h, _ = model(observations, np.repeat(X[:, :6], m, axis=0), gm, np.tile(rows, n_pts),
+                 partials=False)
     h = h.reshape(n_pts, m, 3)
     # each point's prediction minus the central one's, angles wrapped: a mean of angles
     dev = residuals(np.tile(kinds, n_pts), h.reshape(-1, 3), np.tile(h[0], (n_pts, 1)))
@@ -175,32 +258,41 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
     return x, P
 
 
-def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters):
-    """The unscented Kalman filter forward over ``epochs``: filtered and predicted states and
-    covariances, and the cross-covariances cov(x_k^-, x_k-1^+) (the smoother's)."""
-    weights = unscented_weights(parameters)
+def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters,
+                   schedule=None, est=(), apply_at_start=False):
+    """The unscented Kalman filter forward over ``epochs`` (through the burns of ``schedule``;
+    the first state before the impulses at epochs[0] when ``apply_at_start``; with ``est`` the
+    state carries those coefficients, 6 + k): filtered and predicted states and covariances, and
+    the cross-covariances cov(x_k^-, x_k-1^+) (the smoother's)."""
+    n = x.size
+    weights = unscented_weights(parameters, n)
+    for c in est:  # the block flies unit coefficients, each point scaling them by its own
+        c.write(dyn, 1.0)
     n_t = len(epochs)
-    xs = np.empty((n_t, 6))
-    Ps = np.empty((n_t, 6, 6))
-    xp = np.empty((n_t, 6))
-    Pp = np.empty((n_t, 6, 6))
-    cross = np.empty((n_t, 6, 6))
+    xs = np.empty((n_t, n))
+    Ps = np.empty((n_t, n, n))
+    xp = np.empty((n_t, n))
+    Pp = np.empty((n_t, n, n))
+    cross = np.empty((n_t, n, n))
+    if apply_at_start and schedule and schedule.impulses_at(epochs[0]):
+        X = sigma_points(x, P, weights[0])
+        Y, noise = through_impulses(schedule, epochs[0], X, weights[1])
+        x, P, _ = _moments(X, x, Y, weights[1], weights[2])
+        P = 0.5 * (P + P.T) + noise
     xs[0] = xp[0] = x
     Ps[0] = Pp[0] = cross[0] = P
     for k in range(n_t):
         if k:
-            before = 0.0
             C = None
-            for after in noise_substeps(epochs[k] - epochs[k - 1], q, step_s):
+            for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule):
                 try:
-                    xn, Pn, D = _predict(dyn, x, P, epochs[k - 1] + before, after - before,
-                                         weights, q, code)  # fmt: skip
+                    xn, Pn, D = _predict(dyn, schedule, est, x, P, step, weights, q, code)
                 except VisvivaError as exc:
                     raise screen.diverged(
                         k, f"the sigma points cannot be integrated ({exc})") from exc
-                # cov(x_after, x_k-1) through the statistical linearisation D P^-1 of the step
+                # cov(x_b, x_k-1) through the statistical linearisation D P^-1 of the step
                 C = D if C is None else D @ _solve_scaled(P, C)
-                x, P, before = xn, Pn, after
+                x, P = xn, Pn
             xp[k], Pp[k], cross[k] = x, P, C
         rows = screen.rows(k)
         if rows.size:

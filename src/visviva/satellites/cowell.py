@@ -443,9 +443,10 @@ def _run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps):
     y_out = np.zeros((n, t_out.size, 6))
     status = np.zeros(n, dtype=np.int64)
     info = np.zeros((n, 6))
+    arrays = model.arrays()  # one force block (1, F) for all N
     integrate_cowell_many(
-        y0, t_out, t_end, rtol, atol, h_max, max_steps, *model.arrays(), *dop853_tableau(),
-        y_out, status, info, rhs_kind(model.force),
+        y0, t_out, t_end, rtol, atol, h_max, max_steps, arrays[0][None], *arrays[1:],
+        *dop853_tableau(), y_out, status, info, rhs_kind(model.force),
     )  # fmt: skip
     return y_out, status, info
 

@@ -47,10 +47,14 @@ class Coefficient:
     def column(self) -> int:
         return NAMES.index(self.name)
 
+    @property
+    def slot(self) -> int:
+        """Its force-block slot (which flies ``factor`` times the value)."""
+        return fb.BALLISTIC if self.name == "drag" else fb.SRP_COEFFICIENT
+
     def write(self, dyn, value):
         """Fly ``value`` in the dynamics ``dyn`` (its force block's slot)."""
-        slot = fb.BALLISTIC if self.name == "drag" else fb.SRP_COEFFICIENT
-        dyn.model.force[slot] = self.factor * value
+        dyn.model.force[self.slot] = self.factor * value
 
 
 def _names(arg, what):

@@ -137,13 +137,16 @@ class Dynamics:
         shifted.model = _FromOrigin(self.model, t0_s)
         return shifted
 
-    def propagate_many(self, y0, offsets_s, max_steps=2_000_000, threads=True):
+    def propagate_many(self, y0, offsets_s, max_steps=2_000_000, threads=True, per_state=None):
         """States (N, T, 6) of N initial states (rows of ``y0``) at ``offsets_s`` (s from the
         epoch, > 0 and increasing): the same force model and DOP853 integrator without the STM,
         in one compiled call for all N (:func:`visviva.core.cowell.integrate_cowell_many`; an
         unscented filter's sigma points). ``threads=False`` runs it on the calling thread:
         waking numba's workers costs ~0.1-5 ms (a scheduler time slice on a busy machine), more
-        than 13 short arcs take (the same bits either way)."""
+        than 13 short arcs take (the same bits either way). ``per_state`` ({force-block slot:
+        (N,) factors}, e.g. ``{force_block.BALLISTIC: B_i}`` on a block holding a unit
+        coefficient) flies state i with those slots multiplied by its factors (each sigma point
+        its own coefficients); None: one block for all (the same bits as before)."""
         import numba
 
         from ..core.cowell import integrate_cowell_many, rhs_kind
@@ -155,13 +158,18 @@ class Dynamics:
         status = np.zeros(n, dtype=np.int64)
         info = np.zeros((n, 6))
         arrays = self.model.arrays()
+        force = arrays[0][None]
+        if per_state:
+            force = np.repeat(force, n, axis=0)
+            for slot, factors in per_state.items():
+                force[:, slot] *= factors
         before = numba.get_num_threads()
         if not threads:
             numba.set_num_threads(1)
         try:
             integrate_cowell_many(
-                y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, *arrays,
-                *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
+                y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, force,
+                *arrays[1:], *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
             )  # fmt: skip
         finally:
             numba.set_num_threads(before)

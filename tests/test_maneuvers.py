@@ -276,6 +276,36 @@ def test_manoeuvre_keeps_the_frame_of_satellite_states():
         vv.propagate_cowell(teme, 60 * u.s)
 
 
+def test_manoeuvre_apply_keeps_a_foreign_frame_and_refuses_what_it_cannot_fly():
+    """Maneuver.apply rebuilt plain states: a TOD state (an OEM or OPM in REF_FRAME = TOD) came
+    back unmarked, which the GCRS-only tools then took for GCRS; an OPM state's manoeuvres were
+    flown through (the first impulse at t = 0 dropped the mark before the coast); ITRS states
+    coasted on Kepler arcs in the rotating frame and came back labelled ITRS (audit13)."""
+    from visviva._containers import PENDING_MANEUVERS_ATTRIBUTE
+    from visviva.satellites.satellite_states import framed_states
+
+    epoch = Time("2025-01-01T12:00:00", scale="utc")
+    v_circ = np.sqrt(MU / 7000.0)
+    tod = framed_states(np.array([7000.0, 0, 0]), np.array([0, v_circ, 0]), MU, epoch, "TOD",
+                        foreign="TOD")
+    for man in (Maneuver.plane_change(tod, 10 * u.deg), Maneuver.hohmann(tod, 42164 * u.km)):
+        out = man.apply(tod)
+        plain = man.apply(vv.StateVectors(tod.r, tod.v, tod.gm, epoch=epoch))
+        assert np.array_equal(out.r, plain.r) and np.array_equal(out.v, plain.v)
+        with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
+            vv.propagate_cowell(out, 60 * u.s)
+    pending = vv.StateVectors(tod.r, tod.v, tod.gm, epoch=epoch)
+    setattr(pending, PENDING_MANEUVERS_ATTRIBUTE, 1)  # as an OPM's state carries it
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\).*Maneuver.apply"):
+        Maneuver.hohmann(pending, 42164 * u.km).apply(pending)
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    coast = Maneuver([(0 * u.s, [0, 0, 0.01] * KMS), (600 * u.s, [0, 0, -0.01] * KMS)])
+    with pytest.raises(InvalidInputError, match="ITRS rotates"):
+        coast.apply(sat.itrs(sat.epoch))
+
+
 def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
     # Maneuver.lambert(sat1.teme(t), sat2.gcrs(t), tof) aimed at a target 40 km off by frame alone
     sat = vv.Satellite.from_tle(

@@ -219,11 +219,20 @@ class Maneuver:
         """Coast and burn through the impulses; the state just after the last impulse.
 
         The returned state's epoch (if any) is advanced to the time of the last impulse; satellite
-        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame.
-        """
-        from ..states import StateVectors
-        from .satellite_states import with_frame
+        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame, and states in a frame visviva
+        cannot rotate (an OEM or OPM in ``REF_FRAME = TOD``) stay marked as such.
 
+        Raises
+        ------
+        InvalidInputError
+            ITRS states (the coasts are Kepler motion, which does not hold in a rotating frame)
+            and an OPM's states with manoeuvres (the plan would fly through them).
+        """
+        from .._containers import carry_frame_mark
+        from ..states import StateVectors
+        from .satellite_states import require_kepler_frame, with_frame
+
+        require_kepler_frame(state, "Maneuver.apply")
         t_prev = 0.0
         cur = state
         for t, dv in self._items:
@@ -231,7 +240,7 @@ class Maneuver:
                 cur = cur.propagate((t - t_prev) * u.s)
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
-        return with_frame(cur, getattr(state, "frame", None))
+        return with_frame(carry_frame_mark(state, cur), getattr(state, "frame", None))
 
     def burns(self) -> list:
         """The impulses as :class:`~visviva.satellites.burns.ImpulsiveBurn` (inertial Δv, times

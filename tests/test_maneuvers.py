@@ -314,6 +314,17 @@ def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
     chaser, target = sat.teme(sat.epoch), sat.gcrs(sat.epoch + 20 * u.min)
     with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
         Maneuver.lambert(chaser, target, 30 * u.min)
+    # a state of an OEM or OPM in REF_FRAME = TOD (plain, marked) against GCRS was combined
+    # silently: 0.35 deg of precession between the axes, ~40 km at the target (audit13)
+    from visviva.satellites.satellite_states import framed_states
+
+    g = sat.gcrs(sat.epoch)
+    tod = framed_states(g.r.value, g.v.value, g.gm_km3_s2, g.epoch, "TOD", foreign="TOD")
+    with pytest.raises(InvalidInputError, match="TOD.*GCRS"):
+        Maneuver.lambert(tod, target, 30 * u.min)
+    with pytest.raises(InvalidInputError, match="GCRS.*TOD"):
+        Maneuver.lambert(g, tod.propagate(20 * u.min), 30 * u.min)
+    assert Maneuver.lambert(tod, tod.propagate(20 * u.min), 30 * u.min).frame == "TOD"
     same = Maneuver.lambert(sat.gcrs(sat.epoch), target, 30 * u.min)
     arrived = same.apply(sat.gcrs(sat.epoch))
     assert np.linalg.norm((arrived.r - target.propagate(10 * u.min).r).to_value(u.km)) < 1e-6

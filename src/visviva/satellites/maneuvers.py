@@ -193,10 +193,10 @@ class Maneuver:
 
     def _planned_from(self, *states):
         """This plan, labelled with the frame of the ``states`` it was made from."""
-        from .._containers import FOREIGN_FRAME_ATTRIBUTE
+        from .satellite_states import frame_of
 
         for state in states:
-            frame = getattr(state, "frame", None) or getattr(state, FOREIGN_FRAME_ATTRIBUTE, None)
+            frame = frame_of(state)
             if frame is not None:
                 self.frame = frame
         return self
@@ -372,8 +372,11 @@ class Maneuver:
                 f"Maneuver.lambert needs the chaser and the target about the same attractor; "
                 f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
             )
-        frames = (getattr(state_from, "frame", None), getattr(state_to, "frame", None))
-        if None not in frames and frames[0] != frames[1]:
+        from .satellite_states import frame_of
+
+        # framed states and those marked with a frame visviva cannot rotate (TOD) must agree
+        frames = tuple(frame_of(s) for s in (state_from, state_to))
+        if None not in frames and frames[0].lower() != frames[1].lower():
             raise InvalidInputError(
                 f"Maneuver.lambert: the chaser is in {frames[0].upper()}, the target in "
                 f"{frames[1].upper()}; give both in one frame (e.g. sat.gcrs(t) for both)."

@@ -20,7 +20,7 @@ from ..errors import (
 from ..states import StateVectors
 
 __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
-           "require_gcrs", "require_kepler_frame", "framed_states", "with_frame"]
+           "require_gcrs", "require_kepler_frame", "frame_of", "framed_states", "with_frame"]
 
 #: visviva's Earth frames, the labels a framed container may carry
 FRAMES = ("gcrs", "teme", "itrs")
@@ -112,6 +112,26 @@ def require_gcrs(states, what: str) -> None:
         )
 
 
+def frame_of(states):
+    """The frame that ``states`` say they are in, or None for plain states (taken as GCRS).
+
+    Parameters
+    ----------
+    states : StateVectors or element set
+        Framed (``.frame``: ``"gcrs"``, ``"teme"``, ``"itrs"``), marked with a frame visviva
+        cannot rotate (an OEM's or OPM's ``REF_FRAME = TOD``: ``"TOD"``), or plain.
+
+    Returns
+    -------
+    str or None
+    """
+    frame = getattr(states, "frame", None)
+    if frame is not None:
+        return str(frame)
+    foreign = getattr(states, FOREIGN_FRAME_ATTRIBUTE, None)
+    return None if foreign is None else str(foreign)
+
+
 def require_kepler_frame(states, what: str) -> str:
     """Refuse states that two-body (Kepler) motion cannot carry; return the frame it runs in.
 
@@ -137,16 +157,14 @@ def require_kepler_frame(states, what: str) -> str:
     InvalidInputError
         ITRS states, or states carrying an OPM's manoeuvres.
     """
-    frame = getattr(states, "frame", None)
+    frame = frame_of(states)
     if frame == "itrs":
         raise InvalidInputError(
             f"{what}: ITRS rotates with the Earth, so Kepler motion does not hold in it: use "
             "sat.gcrs(t) or sat.teme(t) instead."
         )
     refuse_pending(states, what)
-    if frame is not None:
-        return str(frame)
-    return str(getattr(states, FOREIGN_FRAME_ATTRIBUTE, None) or "gcrs").lower()
+    return (frame or "gcrs").lower()
 
 
 # --------------------------------------------------------------------------------------------

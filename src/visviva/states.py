@@ -334,6 +334,7 @@ class StateVectors(TwoBodyContainer):
         from .core.elements import empty_elements, rv_to_mee_array
         from .equinoctial import ModifiedEquinoctialElements
 
+        retrograde = _units.require_flag(retrograde, "retrograde")
         retro = -1.0 if retrograde else 1.0
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)

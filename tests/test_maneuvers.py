@@ -184,6 +184,26 @@ def test_bielliptic_from_a_nearly_circular_state_arrives_on_the_target_circle():
     assert final.to_elements().eccentricity < 1e-9
 
 
+def test_a_plane_change_in_plain_degrees_is_refused():
+    # plane_change_delta_v(7.5 km/s, 60) took 60 rad: 14.8 km/s instead of 7.5, silently; a
+    # plain 5 (meant as degrees) gave 1.2 v (audit13). No plane change exceeds pi rad.
+    leo = circular_state(7000.0)
+    for plain in (60, 28.5, 5.0, -4.0, [0.1, 30.0]):
+        with pytest.raises(InvalidInputError, match=r"delta_inc = -?[0-9.]+ is a plain number"):
+            plane_change_delta_v(7.5 * KMS, plain)
+    for plain in (60, 5.0):
+        with pytest.raises(InvalidInputError, match=r"\* u.deg"):
+            Maneuver.plane_change(leo, plain)
+    # radians as plain numbers up to pi, and Quantities of any size, are taken as given
+    assert plane_change_delta_v(7.5 * KMS, np.pi).to_value(KMS) == pytest.approx(15.0)
+    assert plane_change_delta_v(7.5 * KMS, 60 * u.deg).to_value(KMS) == pytest.approx(7.5)
+    assert plane_change_delta_v(7.5 * KMS, 350 * u.deg).to_value(KMS) == pytest.approx(
+        15.0 * np.sin(np.radians(5.0)))
+    plan = Maneuver.plane_change(leo, 0.1)
+    assert plan.total_delta_v.to_value(KMS) == pytest.approx(
+        2 * np.linalg.norm(leo.v.to_value(KMS)) * np.sin(0.05), rel=1e-12)
+
+
 def test_maneuver_constructors_say_what_is_wrong_with_arrays():
     leo = circular_state(6678.0)
     # arrays where one value is needed gave "TypeError: only 0-dimensional arrays ..."

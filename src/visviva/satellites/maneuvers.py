@@ -44,6 +44,24 @@ def _one_value(value, kind, name):
     return float(arr)
 
 
+def _inclination_change(delta_inc):
+    """``delta_inc`` in rad; a plain number beyond pi (60 for 60 deg) is refused.
+
+    No change of inclination exceeds pi, so a plain number above it is degrees typed without
+    their unit: taken in radians it gave another Δv without a word (60 -> 14.8 km/s at 7.5 km/s
+    instead of 7.5 km/s). Quantities of any size are taken as given.
+    """
+    di = to_array(delta_inc, "angle", "delta_inc")
+    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > np.pi):
+        big = float(di[np.abs(di) > np.pi].ravel()[0])
+        raise InvalidInputError(
+            f"delta_inc = {big:g} is a plain number, so it would be taken in radians: more than "
+            f"pi, which no plane change exceeds. Pass delta_inc={big:g} * u.deg if you meant "
+            "degrees (or a Quantity in rad)."
+        )
+    return di
+
+
 def hohmann_delta_v(r1, r2, gm):
     """Δv of the two burns and the transfer time of a Hohmann transfer between circles.
 
@@ -119,7 +137,8 @@ def plane_change_delta_v(speed, delta_inc):
     speed : Quantity, speed
         Speed at the burn (>= 0).
     delta_inc : Quantity or float
-        Change of inclination (angle; rad for plain floats); broadcasts against ``speed``.
+        Change of inclination (angle; rad for plain floats, which must not exceed pi: a plain
+        60 is refused as degrees without their unit); broadcasts against ``speed``.
 
     Returns
     -------
@@ -127,7 +146,7 @@ def plane_change_delta_v(speed, delta_inc):
         The Δv magnitude.
     """
     v = to_array(speed, "speed", "speed")
-    di = to_array(delta_inc, "angle", "delta_inc")
+    di = _inclination_change(delta_inc)
     require_positive(v, "speed", strict=False)
     broadcast_or_raise("plane_change_delta_v", speed=v, delta_inc=di)
     return to_quantity(2 * v * np.abs(np.sin(di / 2)), "speed")
@@ -346,7 +365,7 @@ class Maneuver:
             raise InvalidInputError(
                 f"Maneuver.plane_change takes one state (shape (3,)); got r {r.shape}."
             )
-        di = _one_value(delta_inc, "angle", "delta_inc")
+        di = _one_value(_inclination_change(delta_inc), "angle", "delta_inc")
         k = r / np.linalg.norm(r)
         # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
         # so at the ascending node a positive di raises the inclination

@@ -616,6 +616,26 @@ def test_an_oem_state_in_tod_is_refused_after_indexing_too():
             propagate_cowell(state, 60 * u.s)
 
 
+def test_a_tod_state_stays_tod_after_two_body_propagation():
+    # seg.states[0].propagate(60 s) came back unmarked, so propagate_cowell with the Moon (and
+    # every GCRS-only function) took the TOD state for GCRS, silently (audit13)
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    t = EPOCH + np.linspace(0, 600, 11) * u.s
+    orbit = propagate_cowell(leo(EPOCH), t)
+    seg = OEMSegment.from_states(t, orbit.r.to_value(u.km), orbit.v.to_value(KMS),
+                                 object_name="SAT", frame="TOD", center="EARTH")
+    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    for state in (back.states[3].propagate(60 * u.s), vv.propagate_kepler(back.states, 1 * u.h),
+                  back.states.propagate(60 * u.s).to_elements().to_state()):
+        with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
+            propagate_cowell(state, 60 * u.s, [vv.ThirdBody("moon")])
+    # the motion itself is unchanged: a TOD state rebuilt from the arrays propagates alike
+    plain = vv.StateVectors(back.states[3].r, back.states[3].v, back.states[3].gm)
+    assert np.array_equal(plain.propagate(60 * u.s).r, back.states[3].propagate(60 * u.s).r)
+
+
 def test_an_empty_manoeuvre_list_reports_no_burns():
     # maneuvers=[] (an OPM without manoeuvres: opm.burns()) gave a result without .burns and
     # .final_mass (AttributeError); the run itself is unchanged to the bit

@@ -145,6 +145,35 @@ def test_kepler_batch_conserves_energy_and_starts_at_sgp4(catalog):
                                    atol=ONE_MM)
 
 
+def test_kepler_batch_refuses_what_two_body_motion_cannot_carry():
+    # propagate_kepler_batch took ITRS states as inertial (thousands of km off within the hour,
+    # where sat.itrs(t).propagate refuses), flew through an OPM state's manoeuvres, and
+    # labelled TOD states "gcrs" (audit13)
+    from visviva._containers import PENDING_MANEUVERS_ATTRIBUTE
+    from visviva.satellites.satellite_states import framed_states
+
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2)
+    t0 = sat.epoch
+    times = t0 + [0, 600] * u.s
+    with pytest.raises(vv.InvalidInputError, match="ITRS rotates with the Earth"):
+        propagate_kepler_batch(sat.itrs(t0 + [0, 1] * u.s), times)
+    teme = sat.teme(t0 + [0, 1] * u.s)
+    batch = propagate_kepler_batch(teme, times)
+    assert batch.frame == "teme"
+    # (the batch's offsets come from Time differences: equal to ~1e-12 s)
+    np.testing.assert_allclose(batch.r[0, 1].value, teme[0].propagate(600 * u.s).r.value,
+                               rtol=0, atol=ONE_MM * 1e-3)
+    pending = vv.StateVectors(teme.r, teme.v, teme.gm, epoch=teme.epoch)
+    setattr(pending, PENDING_MANEUVERS_ATTRIBUTE, 2)  # as an OPM's state carries it
+    with pytest.raises(vv.InvalidInputError, match=r"2 manoeuvre\(s\).*propagate_kepler_batch"):
+        propagate_kepler_batch(pending, times)
+    tod = framed_states(teme.r.value, teme.v.value, 398600.4418, teme.epoch, "TOD",
+                        foreign="TOD")
+    assert propagate_kepler_batch(tod, times).frame == "tod"
+    assert propagate_kepler_batch(vv.StateVectors(teme.r, teme.v, teme.gm, epoch=teme.epoch),
+                                  times).frame == "gcrs"  # plain states are taken as GCRS
+
+
 def test_j2_batch_tracks_sgp4_for_a_day():
     pytest.importorskip("visviva.satellites.secular")
     cat = Catalog([vv.Satellite.from_tle(ISS_1, ISS_2)])

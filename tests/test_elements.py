@@ -355,6 +355,21 @@ def test_broadcasting_and_indexing():
     assert scalar.to_state().r.shape == (3,)
 
 
+@pytest.mark.parametrize("flag", ["False", "no", 0, 2, np.array([False, True]), None])
+def test_the_retrograde_factor_takes_only_booleans(flag):
+    """retrograde="False" is truthy: the elements were read with I = -1, a different orbit
+    (9,300 km from the one meant, no error); an array raised numpy's ValueError (audit13)."""
+    with pytest.raises(vv.InvalidInputError, match="retrograde must be True or False"):
+        vv.ModifiedEquinoctialElements(7000 * KM, 0.1, 0.2, 0.3, 0.4, 1.0, MU, retrograde=flag)
+    s = vv.StateVectors([7000.0, 0, 0] * KM, [0, 7.5, 0.1] * KMS, MU)
+    with pytest.raises(vv.InvalidInputError, match="retrograde must be True or False"):
+        s.to_equinoctial(retrograde=flag)
+    with pytest.raises(vv.InvalidInputError, match="retrograde must be True or False"):
+        s.to_elements().to_equinoctial(retrograde=flag)
+    for ok in (True, np.bool_(True)):  # numpy's booleans are booleans
+        assert s.to_equinoctial(retrograde=ok).retrograde is True
+
+
 def test_modified_equinoctial_container():
     el = vv.KeplerianElements(9000 * KM, 0.2, 0.4, 0.5, 0.6, 0.7, MU)
     m = el.to_equinoctial()

@@ -184,6 +184,26 @@ def test_bielliptic_from_a_nearly_circular_state_arrives_on_the_target_circle():
     assert final.to_elements().eccentricity < 1e-9
 
 
+def test_a_plane_change_in_plain_degrees_is_refused():
+    # plane_change_delta_v(7.5 km/s, 60) took 60 rad: 14.8 km/s instead of 7.5, silently; a
+    # plain 5 (meant as degrees) gave 1.2 v (audit13). No plane change exceeds pi rad.
+    leo = circular_state(7000.0)
+    for plain in (60, 28.5, 5.0, -4.0, [0.1, 30.0]):
+        with pytest.raises(InvalidInputError, match=r"delta_inc = -?[0-9.]+ is a plain number"):
+            plane_change_delta_v(7.5 * KMS, plain)
+    for plain in (60, 5.0):
+        with pytest.raises(InvalidInputError, match=r"\* u.deg"):
+            Maneuver.plane_change(leo, plain)
+    # radians as plain numbers up to pi, and Quantities of any size, are taken as given
+    assert plane_change_delta_v(7.5 * KMS, np.pi).to_value(KMS) == pytest.approx(15.0)
+    assert plane_change_delta_v(7.5 * KMS, 60 * u.deg).to_value(KMS) == pytest.approx(7.5)
+    assert plane_change_delta_v(7.5 * KMS, 350 * u.deg).to_value(KMS) == pytest.approx(
+        15.0 * np.sin(np.radians(5.0)))
+    plan = Maneuver.plane_change(leo, 0.1)
+    assert plan.total_delta_v.to_value(KMS) == pytest.approx(
+        2 * np.linalg.norm(leo.v.to_value(KMS)) * np.sin(0.05), rel=1e-12)
+
+
 def test_maneuver_constructors_say_what_is_wrong_with_arrays():
     leo = circular_state(6678.0)
     # arrays where one value is needed gave "TypeError: only 0-dimensional arrays ..."
@@ -276,6 +296,36 @@ def test_manoeuvre_keeps_the_frame_of_satellite_states():
         vv.propagate_cowell(teme, 60 * u.s)
 
 
+def test_manoeuvre_apply_keeps_a_foreign_frame_and_refuses_what_it_cannot_fly():
+    """Maneuver.apply rebuilt plain states: a TOD state (an OEM or OPM in REF_FRAME = TOD) came
+    back unmarked, which the GCRS-only tools then took for GCRS; an OPM state's manoeuvres were
+    flown through (the first impulse at t = 0 dropped the mark before the coast); ITRS states
+    coasted on Kepler arcs in the rotating frame and came back labelled ITRS (audit13)."""
+    from visviva._containers import PENDING_MANEUVERS_ATTRIBUTE
+    from visviva.satellites.satellite_states import framed_states
+
+    epoch = Time("2025-01-01T12:00:00", scale="utc")
+    v_circ = np.sqrt(MU / 7000.0)
+    tod = framed_states(np.array([7000.0, 0, 0]), np.array([0, v_circ, 0]), MU, epoch, "TOD",
+                        foreign="TOD")
+    for man in (Maneuver.plane_change(tod, 10 * u.deg), Maneuver.hohmann(tod, 42164 * u.km)):
+        out = man.apply(tod)
+        plain = man.apply(vv.StateVectors(tod.r, tod.v, tod.gm, epoch=epoch))
+        assert np.array_equal(out.r, plain.r) and np.array_equal(out.v, plain.v)
+        with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
+            vv.propagate_cowell(out, 60 * u.s)
+    pending = vv.StateVectors(tod.r, tod.v, tod.gm, epoch=epoch)
+    setattr(pending, PENDING_MANEUVERS_ATTRIBUTE, 1)  # as an OPM's state carries it
+    with pytest.raises(InvalidInputError, match=r"1 manoeuvre\(s\).*Maneuver.apply"):
+        Maneuver.hohmann(pending, 42164 * u.km).apply(pending)
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    coast = Maneuver([(0 * u.s, [0, 0, 0.01] * KMS), (600 * u.s, [0, 0, -0.01] * KMS)])
+    with pytest.raises(InvalidInputError, match="ITRS rotates"):
+        coast.apply(sat.itrs(sat.epoch))
+
+
 def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
     # Maneuver.lambert(sat1.teme(t), sat2.gcrs(t), tof) aimed at a target 40 km off by frame alone
     sat = vv.Satellite.from_tle(
@@ -284,6 +334,17 @@ def test_lambert_manoeuvre_refuses_chaser_and_target_in_different_frames():
     chaser, target = sat.teme(sat.epoch), sat.gcrs(sat.epoch + 20 * u.min)
     with pytest.raises(InvalidInputError, match="TEME.*GCRS"):
         Maneuver.lambert(chaser, target, 30 * u.min)
+    # a state of an OEM or OPM in REF_FRAME = TOD (plain, marked) against GCRS was combined
+    # silently: 0.35 deg of precession between the axes, ~40 km at the target (audit13)
+    from visviva.satellites.satellite_states import framed_states
+
+    g = sat.gcrs(sat.epoch)
+    tod = framed_states(g.r.value, g.v.value, g.gm_km3_s2, g.epoch, "TOD", foreign="TOD")
+    with pytest.raises(InvalidInputError, match="TOD.*GCRS"):
+        Maneuver.lambert(tod, target, 30 * u.min)
+    with pytest.raises(InvalidInputError, match="GCRS.*TOD"):
+        Maneuver.lambert(g, tod.propagate(20 * u.min), 30 * u.min)
+    assert Maneuver.lambert(tod, tod.propagate(20 * u.min), 30 * u.min).frame == "TOD"
     same = Maneuver.lambert(sat.gcrs(sat.epoch), target, 30 * u.min)
     arrived = same.apply(sat.gcrs(sat.epoch))
     assert np.linalg.norm((arrived.r - target.propagate(10 * u.min).r).to_value(u.km)) < 1e-6

@@ -15,7 +15,7 @@ from . import _units
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
 __all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
-           "carry_marks", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
+           "carry_marks", "carry_frame_mark", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
            "canonical_arrays", "flat_elements"]
 
 
@@ -27,7 +27,8 @@ FOREIGN_FRAME_ATTRIBUTE = "_foreign_frame"
 #: so that what cannot apply them refuses them (:func:`refuse_pending`).
 PENDING_MANEUVERS_ATTRIBUTE = "_pending_maneuvers"
 #: The marks that say where states came from: kept by indexing and by every conversion between
-#: states and elements (:func:`carry_marks`), never by propagation (a new state).
+#: states and elements (:func:`carry_marks`). Propagation refuses pending manoeuvres and keeps
+#: the foreign frame (two-body motion stays in the frame it starts in: :func:`carry_frame_mark`).
 MARKS = (FOREIGN_FRAME_ATTRIBUTE, PENDING_MANEUVERS_ATTRIBUTE)
 
 
@@ -54,6 +55,28 @@ def carry_marks(source, result):
         value = getattr(source, name, None)
         if value is not None:
             setattr(result, name, value)
+    return result
+
+
+def carry_frame_mark(source, result):
+    """``result`` (states propagated from ``source``), with the foreign frame of ``source``.
+
+    Two-body motion from a state in a frame visviva cannot rotate (``REF_FRAME = TOD``) gives
+    states in that frame, which the GCRS-only functions must refuse as they refuse ``source``.
+
+    Parameters
+    ----------
+    source, result : TwoBodyContainer
+        The initial states and the propagated ones.
+
+    Returns
+    -------
+    TwoBodyContainer
+        ``result``, marked in place.
+    """
+    value = getattr(source, FOREIGN_FRAME_ATTRIBUTE, None)
+    if value is not None:
+        setattr(result, FOREIGN_FRAME_ATTRIBUTE, value)
     return result
 
 

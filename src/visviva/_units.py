@@ -44,6 +44,7 @@ __all__ = [
     "to_si",
     "require_finite",
     "require_positive",
+    "require_flag",
 ]
 
 
@@ -315,6 +316,17 @@ def require_positive(arr, name: str, *, strict: bool = True) -> None:
             f"{name} must be {relation}; got {_errors.fmt_number(arr[bad].ravel()[0])}"
             f"{' (and more)' if np.count_nonzero(bad) > 1 else ''}."
         )
+
+
+def require_flag(value, name: str) -> bool:
+    """``value`` as a Python bool; raise :class:`InvalidInputError` unless it is True or False.
+
+    A string such as ``"False"`` is truthy and an array has no single truth value: a switch
+    that changes what numbers mean (the retrograde factor, the way round) takes only booleans.
+    """
+    if not isinstance(value, bool | np.bool_):
+        raise InvalidInputError(f"{name} must be True or False; got {value!r}.")
+    return bool(value)
 
 
 def to_si(value, unit, name: str, *, finite: bool = True, angles_dimensionless: bool = True):

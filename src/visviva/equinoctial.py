@@ -61,6 +61,7 @@ class ModifiedEquinoctialElements(TwoBodyContainer):
     _ITEM = "set of elements"
 
     def __init__(self, p, f, g, h, k, L, gm, epoch=None, retrograde=False):
+        retrograde = _units.require_flag(retrograde, "retrograde")
         p_km = _units.to_array(p, "length", "p")
         f = _units.to_array(f, "dimensionless", "f")
         g = _units.to_array(g, "dimensionless", "g")
@@ -90,7 +91,7 @@ class ModifiedEquinoctialElements(TwoBodyContainer):
                 "beyond the asymptote of the open orbit. Choose L with "
                 "|L - atan2(g, f)| < arccos(-1/e), e = hypot(f, g)."
             )
-        self._init_canonical(p_km, f, g, h, k, L, gm, epoch, bool(retrograde), shape)
+        self._init_canonical(p_km, f, g, h, k, L, gm, epoch, retrograde, shape)
 
     def _init_canonical(self, p, f, g, h, k, L, gm, epoch, retrograde, shape):
         self._shape = tuple(shape)

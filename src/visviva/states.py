@@ -15,6 +15,7 @@ from . import _units
 from ._containers import (
     TwoBodyContainer,
     broadcast_shape,
+    carry_frame_mark,
     carry_marks,
     flat,
     gm_positive,
@@ -333,6 +334,7 @@ class StateVectors(TwoBodyContainer):
         from .core.elements import empty_elements, rv_to_mee_array
         from .equinoctial import ModifiedEquinoctialElements
 
+        retrograde = _units.require_flag(retrograde, "retrograde")
         retro = -1.0 if retrograde else 1.0
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)
@@ -368,7 +370,7 @@ class StateVectors(TwoBodyContainer):
             epoch = epoch + _units.to_quantity(dt_s, "time")
             if epoch.shape not in ((), shape):
                 epoch = np.broadcast_to(epoch, shape, subok=True)
-        return StateVectors._from_canonical(r, v, gm, epoch)
+        return carry_frame_mark(self, StateVectors._from_canonical(r, v, gm, epoch))
 
 
 def states_from_kernel(elements, r, v, status, context, inputs, result_inputs=None):

@@ -33,6 +33,7 @@ from .catalog_files import (
     tle_file_satellites,
     tle_text_satellites,
 )
+from .satellite_states import require_kepler_frame
 from .secular_batch import secular_grid, secular_setup
 from .tle import (
     MINUTES_PER_DAY,
@@ -599,7 +600,7 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
             raise InvalidInputError("states needs an .epoch (astropy Time) for absolute times t.")
         ep = ep.reshape(-1) if ep.ndim == 0 else ep
         names = [str(i) for i in range(r0.shape[0])]
-        frame = getattr(states, "frame", "gcrs")
+        frame = require_kepler_frame(states, "propagate_kepler_batch")
     n, m = r0.shape[0], len(t)
     dt = _offsets_s(ep, t)
     dt = np.ascontiguousarray(np.broadcast_to(dt, (n, m))).reshape(-1)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._units import to_array, to_quantity, to_vector
+from .._units import require_flag, to_array, to_quantity, to_vector
 from ..core import status as st
 from ..core import tier
 from ..core.lambert import izzo_many, universal_many
@@ -95,8 +95,7 @@ def lambert(
     R2 = to_vector(r2, "length", "r2")
     T = to_array(tof, "time", "tof")
     mu = to_array(gm, "gm", "gm")
-    if not isinstance(prograde, bool | np.bool_):
-        raise InvalidInputError(f"prograde must be True or False; got {prograde!r}.")
+    prograde = require_flag(prograde, "prograde")
     if (
         isinstance(revolutions, bool)
         or not isinstance(revolutions, int | np.integer)

@@ -44,6 +44,24 @@ def _one_value(value, kind, name):
     return float(arr)
 
 
+def _inclination_change(delta_inc):
+    """``delta_inc`` in rad; a plain number beyond pi (60 for 60 deg) is refused.
+
+    No change of inclination exceeds pi, so a plain number above it is degrees typed without
+    their unit: taken in radians it gave another Δv without a word (60 -> 14.8 km/s at 7.5 km/s
+    instead of 7.5 km/s). Quantities of any size are taken as given.
+    """
+    di = to_array(delta_inc, "angle", "delta_inc")
+    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > np.pi):
+        big = float(di[np.abs(di) > np.pi].ravel()[0])
+        raise InvalidInputError(
+            f"delta_inc = {big:g} is a plain number, so it would be taken in radians: more than "
+            f"pi, which no plane change exceeds. Pass delta_inc={big:g} * u.deg if you meant "
+            "degrees (or a Quantity in rad)."
+        )
+    return di
+
+
 def hohmann_delta_v(r1, r2, gm):
     """Δv of the two burns and the transfer time of a Hohmann transfer between circles.
 
@@ -119,7 +137,8 @@ def plane_change_delta_v(speed, delta_inc):
     speed : Quantity, speed
         Speed at the burn (>= 0).
     delta_inc : Quantity or float
-        Change of inclination (angle; rad for plain floats); broadcasts against ``speed``.
+        Change of inclination (angle; rad for plain floats, which must not exceed pi: a plain
+        60 is refused as degrees without their unit); broadcasts against ``speed``.
 
     Returns
     -------
@@ -127,7 +146,7 @@ def plane_change_delta_v(speed, delta_inc):
         The Δv magnitude.
     """
     v = to_array(speed, "speed", "speed")
-    di = to_array(delta_inc, "angle", "delta_inc")
+    di = _inclination_change(delta_inc)
     require_positive(v, "speed", strict=False)
     broadcast_or_raise("plane_change_delta_v", speed=v, delta_inc=di)
     return to_quantity(2 * v * np.abs(np.sin(di / 2)), "speed")
@@ -193,10 +212,10 @@ class Maneuver:
 
     def _planned_from(self, *states):
         """This plan, labelled with the frame of the ``states`` it was made from."""
-        from .._containers import FOREIGN_FRAME_ATTRIBUTE
+        from .satellite_states import frame_of
 
         for state in states:
-            frame = getattr(state, "frame", None) or getattr(state, FOREIGN_FRAME_ATTRIBUTE, None)
+            frame = frame_of(state)
             if frame is not None:
                 self.frame = frame
         return self
@@ -219,11 +238,20 @@ class Maneuver:
         """Coast and burn through the impulses; the state just after the last impulse.
 
         The returned state's epoch (if any) is advanced to the time of the last impulse; satellite
-        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame.
-        """
-        from ..states import StateVectors
-        from .satellite_states import with_frame
+        states (``sat.teme(t)``, ``sat.gcrs(t)``) keep their frame, and states in a frame visviva
+        cannot rotate (an OEM or OPM in ``REF_FRAME = TOD``) stay marked as such.
 
+        Raises
+        ------
+        InvalidInputError
+            ITRS states (the coasts are Kepler motion, which does not hold in a rotating frame)
+            and an OPM's states with manoeuvres (the plan would fly through them).
+        """
+        from .._containers import carry_frame_mark
+        from ..states import StateVectors
+        from .satellite_states import require_kepler_frame, with_frame
+
+        require_kepler_frame(state, "Maneuver.apply")
         t_prev = 0.0
         cur = state
         for t, dv in self._items:
@@ -231,7 +259,7 @@ class Maneuver:
                 cur = cur.propagate((t - t_prev) * u.s)
             cur = StateVectors(cur.r, cur.v + dv * (u.km / u.s), cur.gm, epoch=cur.epoch)
             t_prev = t
-        return with_frame(cur, getattr(state, "frame", None))
+        return with_frame(carry_frame_mark(state, cur), getattr(state, "frame", None))
 
     def burns(self) -> list:
         """The impulses as :class:`~visviva.satellites.burns.ImpulsiveBurn` (inertial Δv, times
@@ -337,7 +365,7 @@ class Maneuver:
             raise InvalidInputError(
                 f"Maneuver.plane_change takes one state (shape (3,)); got r {r.shape}."
             )
-        di = _one_value(delta_inc, "angle", "delta_inc")
+        di = _one_value(_inclination_change(delta_inc), "angle", "delta_inc")
         k = r / np.linalg.norm(r)
         # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
         # so at the ascending node a positive di raises the inclination
@@ -363,8 +391,11 @@ class Maneuver:
                 f"Maneuver.lambert needs the chaser and the target about the same attractor; "
                 f"their GM differ ({float(np.max(mu_from))} and {float(np.max(mu_to))} km^3/s^2)."
             )
-        frames = (getattr(state_from, "frame", None), getattr(state_to, "frame", None))
-        if None not in frames and frames[0] != frames[1]:
+        from .satellite_states import frame_of
+
+        # framed states and those marked with a frame visviva cannot rotate (TOD) must agree
+        frames = tuple(frame_of(s) for s in (state_from, state_to))
+        if None not in frames and frames[0].lower() != frames[1].lower():
             raise InvalidInputError(
                 f"Maneuver.lambert: the chaser is in {frames[0].upper()}, the target in "
                 f"{frames[1].upper()}; give both in one frame (e.g. sat.gcrs(t) for both)."

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
-from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks
+from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks, refuse_pending
 from ..elements import KeplerianElements
 from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
@@ -20,7 +20,7 @@ from ..errors import (
 from ..states import StateVectors
 
 __all__ = ["SatelliteStates", "SatelliteElements", "SatelliteEquinoctialElements",
-           "require_gcrs", "framed_states", "with_frame"]
+           "require_gcrs", "require_kepler_frame", "frame_of", "framed_states", "with_frame"]
 
 #: visviva's Earth frames, the labels a framed container may carry
 FRAMES = ("gcrs", "teme", "itrs")
@@ -110,6 +110,61 @@ def require_gcrs(states, what: str) -> None:
             f"{what} works in the GCRS (where the Sun, the Moon and the Earth's pole are "
             f"placed), but these states are in {str(frame).upper()}: pass sat.gcrs(t) instead."
         )
+
+
+def frame_of(states):
+    """The frame that ``states`` say they are in, or None for plain states (taken as GCRS).
+
+    Parameters
+    ----------
+    states : StateVectors or element set
+        Framed (``.frame``: ``"gcrs"``, ``"teme"``, ``"itrs"``), marked with a frame visviva
+        cannot rotate (an OEM's or OPM's ``REF_FRAME = TOD``: ``"TOD"``), or plain.
+
+    Returns
+    -------
+    str or None
+    """
+    frame = getattr(states, "frame", None)
+    if frame is not None:
+        return str(frame)
+    foreign = getattr(states, FOREIGN_FRAME_ATTRIBUTE, None)
+    return None if foreign is None else str(foreign)
+
+
+def require_kepler_frame(states, what: str) -> str:
+    """Refuse states that two-body (Kepler) motion cannot carry; return the frame it runs in.
+
+    Kepler motion holds in an inertial frame (GCRS, TEME, or one visviva cannot rotate such as
+    TOD, which the result keeps), not in the rotating ITRS; states read from an OPM with
+    manoeuvres are refused too (:func:`visviva._containers.refuse_pending`).
+
+    Parameters
+    ----------
+    states : StateVectors
+        The initial states (framed, marked or plain).
+    what : str
+        The function that propagates them, for the message.
+
+    Returns
+    -------
+    str
+        The frame of the states, lower case: ``.frame``, else the foreign frame's name
+        (``"tod"``), else ``"gcrs"`` (plain states are taken as GCRS).
+
+    Raises
+    ------
+    InvalidInputError
+        ITRS states, or states carrying an OPM's manoeuvres.
+    """
+    frame = frame_of(states)
+    if frame == "itrs":
+        raise InvalidInputError(
+            f"{what}: ITRS rotates with the Earth, so Kepler motion does not hold in it: use "
+            "sat.gcrs(t) or sat.teme(t) instead."
+        )
+    refuse_pending(states, what)
+    return (frame or "gcrs").lower()
 
 
 # --------------------------------------------------------------------------------------------
@@ -219,10 +274,7 @@ class SatelliteStates(_Framed, StateVectors):
             The states are in the rotating ITRS, where Kepler motion does not hold, or come
             from an OPM with manoeuvres (:meth:`visviva.ccsds.opm.OPM.propagate` applies them).
         """
-        self._refuse_itrs("Kepler motion does not hold in it")
-        from .burns import refuse_pending
-
-        refuse_pending(self, "two-body propagation")
+        require_kepler_frame(self, "two-body propagation")
         return self._in_my_frame(super().propagate(dt))
 
     @property

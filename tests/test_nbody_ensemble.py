@@ -198,15 +198,25 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     path = tmp_path / "e.npz"
     vv.Ensemble.from_simulations([planets("ias15"), crowd]).save(path)
     assert vv.Ensemble.load(path, backend="cuda").backend == "cuda"
-    # WHFast ensembles: any coordinates, corrector, event checks and position-dependent forces
-    # on the GPU (tests/test_nbody_gpu_whfast.py)
+    # WHFast ensembles: the plain case on a real GPU; any coordinates, corrector, event checks
+    # and position-dependent forces run under the simulator (tests/test_nbody_gpu_whfast.py) and,
+    # on a real GPU, only with the debugging switch (that kernel was measured wrong on an H200:
+    # gpu_ensemble_whfast.refuse_general)
+    from visviva.errors import BackendUnavailableError
+    from visviva.nbody.gpu_ensemble_whfast import DEBUG_GENERAL
+
+    plain = vv.Ensemble.from_simulations([planets("whfast"), planets("whfast")], backend="cuda")
+    assert plain.backend == "cuda"
     forced = planets("whfast")
     forced.add_force(GeneralRelativityPotential(c=30.0))
     for options in ({}, {"coordinates": "democraticheliocentric"}, {"corrector": 5},
                     {"collision": "merge"}):
-        ens = vv.Ensemble.from_simulations([planets("whfast", **options), forced],
-                                           backend="cuda")
-        assert ens.backend == "cuda"
+        members = [planets("whfast", **options), forced]
+        with pytest.raises(BackendUnavailableError, match="plain case only"):
+            vv.Ensemble.from_simulations(members, backend="cuda")
+        monkeypatch.setenv(DEBUG_GENERAL, "1")
+        assert vv.Ensemble.from_simulations(members, backend="cuda").backend == "cuda"
+        monkeypatch.delenv(DEBUG_GENERAL)
     # (one leapfrog simulation with forces or events runs on the GPU: tests/test_nbody_gpu.py)
     # (an array of output times runs on the GPU: tests/test_nbody_gpu.py)
 

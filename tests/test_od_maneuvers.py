@@ -198,9 +198,12 @@ def test_filter_equals_batch_through_a_known_burn(finite):
         vv.filter_orbit(obs, guess, prior, maneuvers=[])
 
 
-def test_filter_with_execution_error_is_consistent_across_the_burn():
+@pytest.mark.parametrize("method", ["ekf", "ukf"])
+def test_filter_with_execution_error_is_consistent_across_the_burn(method):
     """The truth flies the planned Δv plus an error drawn from the burn's execution covariance;
-    the filter's NEES after the burn stays chi-square(6) (and is far off without it)."""
+    the filter's NEES after the burn stays chi-square(6) (and is far off without it), for the
+    EKF (the burn's Jacobian) and the UKF (every sigma point through the burn, the execution
+    error added as the points' mean of G C G^T)."""
     rng = np.random.default_rng(8)
     c = np.diag([0.05, 0.05, 0.05]) ** 2 * 1e-6  # 5 cm/s per RTN axis (km^2/s^2)
     planned = vv.ImpulsiveBurn(FILTER_BURN_T, FILTER_DV * KMS, "RTN", delta_v_covariance=c)
@@ -219,7 +222,7 @@ def test_filter_with_execution_error_is_consistent_across_the_burn():
         after = slice(46, 49)  # the three fixes just after the burn (at 5460 s ...)
         for burn, out in ((planned, nees), (blind, nees_blind)):
             f = vv.filter_orbit(obs, s0, p0, maneuvers=[burn], editing_sigma=None,
-                                divergence_count=1000)
+                                divergence_count=1000, method=method)
             e = f.predicted_states[1:][after] - y[after]
             P = f.predicted_covariances[1:][after]
             out.append(np.einsum("ti,ti->t", e, np.linalg.solve(P, e[..., None])[..., 0]))

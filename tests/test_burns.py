@@ -601,8 +601,8 @@ def test_a_finite_burn_shorter_than_the_snap_near_an_output_keeps_its_thrust():
     assert np.abs((out.r[2] - ref.r[2]).to_value(u.km)).max() < ONE_MM
 
 
-def test_an_oem_state_in_tod_is_refused_after_indexing_too():
-    # seg.states[i] of a TOD ephemeris lost its frame on indexing and was propagated as GCRS
+def _tod_segment():
+    """An 11-state OEM segment in TOD (a LEO over 10 min), written and read back."""
     from visviva.ccsds.oem import OEMSegment
     from visviva.ccsds.oem_io import Ephemeris
 
@@ -610,7 +610,12 @@ def test_an_oem_state_in_tod_is_refused_after_indexing_too():
     orbit = propagate_cowell(leo(EPOCH), t)
     seg = OEMSegment.from_states(t, orbit.r.to_value(u.km), orbit.v.to_value(KMS),
                                  object_name="SAT", frame="TOD", center="EARTH")
-    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    return vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+
+
+def test_an_oem_state_in_tod_is_refused_after_indexing_too():
+    # seg.states[i] of a TOD ephemeris lost its frame on indexing and was propagated as GCRS
+    back = _tod_segment()
     for state in (back.states, back.states[3], back.states[2:5]):
         with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):
             propagate_cowell(state, 60 * u.s)
@@ -619,14 +624,7 @@ def test_an_oem_state_in_tod_is_refused_after_indexing_too():
 def test_a_tod_state_stays_tod_after_two_body_propagation():
     # seg.states[0].propagate(60 s) came back unmarked, so propagate_cowell with the Moon (and
     # every GCRS-only function) took the TOD state for GCRS, silently (audit13)
-    from visviva.ccsds.oem import OEMSegment
-    from visviva.ccsds.oem_io import Ephemeris
-
-    t = EPOCH + np.linspace(0, 600, 11) * u.s
-    orbit = propagate_cowell(leo(EPOCH), t)
-    seg = OEMSegment.from_states(t, orbit.r.to_value(u.km), orbit.v.to_value(KMS),
-                                 object_name="SAT", frame="TOD", center="EARTH")
-    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    back = _tod_segment()
     for state in (back.states[3].propagate(60 * u.s), vv.propagate_kepler(back.states, 1 * u.h),
                   back.states.propagate(60 * u.s).to_elements().to_state()):
         with pytest.raises(InvalidInputError, match="REF_FRAME = TOD"):

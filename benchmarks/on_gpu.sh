@@ -48,7 +48,8 @@ SECONDS=0
 # every real-GPU check script at once (the GPU and 16 host cores take them together; most of
 # each is numba compiling), each with its output and exit status in $OUT; and the diagnosis of
 # the general WHFast ensemble kernel (wrong on an H200, refused on real GPUs until found:
-# tests/gpu/diagnose_whfast_general.py; `--inline` by hand for the inlined Kepler solver)
+# tests/gpu/diagnose_whfast_general.py; `--inline` by hand for the inlined Kepler solver;
+# tests/gpu/diagnose_dh_pieces.py: each democratic heliocentric piece alone, device vs CPU)
 PIDS=""
 for check in tests/gpu/check_*.py tests/gpu/diagnose_*.py; do
     name=$OUT/$(basename "$check" .py)

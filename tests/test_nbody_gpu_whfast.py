@@ -170,3 +170,18 @@ def test_the_general_whfast_ensemble_kernel_is_refused_on_a_real_gpu(monkeypatch
     monkeypatch.delenv(G.DEBUG_GENERAL)
     monkeypatch.setattr(vcuda, "simulator", lambda: True)
     G.refuse_general()
+
+
+PIECES_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "diagnose_dh_pieces.py")
+
+
+@pytest.mark.slow
+def test_the_democratic_heliocentric_pieces_diagnosis_runs_and_agrees_on_the_simulator():
+    # tests/gpu/diagnose_dh_pieces.py (run by benchmarks/on_gpu.sh on a lent GPU, where it
+    # names the piece of the general WHFast kernel that goes wrong) must not rot: under the
+    # simulator each piece's device twin, built as build_general builds it, equals the CPU
+    # kernel's function bit for bit, and every piece runs
+    out = _run({"NUMBA_ENABLE_CUDASIM": "1"}, PIECES_SCRIPT)
+    pieces = ("to_dh", "from_dh", "jump", "dh_kick", "drift_dh", "gravity_rest", "zero_slice",
+              "dh_step", "kick_dh", "kick_jacobi", "first_half_dh", "synchronise_dh")
+    assert {k: out.get(k) for k in pieces} == {k: "0.0" for k in pieces}, out

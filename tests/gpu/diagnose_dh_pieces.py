@@ -1,0 +1,266 @@
+"""Each democratic heliocentric piece of the general WHFast GPU kernel, alone, on the device and
+on the CPU (a diagnosis for the next lent GPU, not a test: ``python tests/gpu/diagnose_dh_pieces.py``).
+
+On an NVIDIA H200 (2026-11-26) :func:`visviva.core.cuda.whfast.build_general`'s kernel was wrong
+for democratic heliocentric (DH) members (1.3 relative in positions) and right for Jacobi
+members with correctors (1e-16). The lone ``Simulation(backend="cuda")`` runs that were checked
+right on that GPU run the CPU kernel with the GPU's gravity, so the device twins of the DH
+pieces (the coordinate transforms, the jump, the DH interaction kick, the Kepler drift about the
+central body, the gravity over ``massive[1:]``, the zeroing ``aj[:, :] = 0.0``) had never run
+on a GPU. This script builds each piece's twin exactly as ``build_general`` builds the tree
+(the same swaps, the same ``buf`` slicing and reshaping, the strided ``eta`` view), runs it in
+a one-thread kernel on one member and prints ``piece=largest relative difference`` from the
+CPU kernel's own function on the same arrays (0 expected; a Jacobi kick as the control).
+Under numba's CUDA simulator every line prints 0.0.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+from numba import cuda
+
+sys.path.insert(0, os.path.dirname(__file__))
+from check_whfast_ensemble import member  # noqa: E402
+
+from visviva.core import gravity, nbody_common, universal  # noqa: E402
+from visviva.core import nbody_whfast as W  # noqa: E402
+from visviva.core.cuda.twins import device_twin, never_inlined  # noqa: E402
+from visviva.core.gravity import FEW, GWORK_ROWS  # noqa: E402
+from visviva.core.nbody_common import F_G, F_SOFT2  # noqa: E402
+
+NB, XJ, VJ, ACC, AJ, ETA, XS, VS = W.N_BUF, W._XJ, W._VJ, W._ACC, W._AJ, W._ETA, W._XS, W._VS
+H = 0.01
+
+force = device_twin(gravity.no_force)
+rows = device_twin(gravity._plain_rows)
+
+
+@cuda.jit(device=True)
+def gravity_few(x, m, G, soft2, massive, acc, work, parallel):
+    rows(x, m, G, soft2, massive, acc)
+
+
+@cuda.jit(device=True)
+def accelerations(t, x, v, m, massive, fstate, gwork, unused, params, acc, parallel):
+    rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
+    force(t, x, v, m, params, acc)
+
+
+REPLACE = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations}
+
+
+def twin(fn):
+    return device_twin(fn, REPLACE)
+
+
+never_inlined(twin(universal.propagate_scalar))
+to_dh = twin(W.to_democratic_heliocentric)
+from_dh = twin(W.from_democratic_heliocentric)
+jump = twin(W._jump)
+dh_kick = twin(W._dh_interaction_kick)
+drift = twin(W._kepler_drift)
+dh_step = twin(W._dh_step)
+kick = twin(W._kick)
+first_half = twin(W._first_half)
+synchronise = twin(W._synchronise)
+
+
+@cuda.jit(device=True)
+def layout(flat, m):
+    """``buf`` and ``eta`` as the general kernel makes them (eta filled as ``_whfast`` does)."""
+    n = m.shape[0]
+    buf = flat.reshape((NB, n, 3))
+    eta = buf[ETA, :, 0]
+    s = 0.0
+    for i in range(n):
+        s += m[i]
+        eta[i] = s
+    return buf, eta
+
+
+@cuda.jit
+def k_to_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    to_dh(x, m, eta, buf[XJ], False)
+    to_dh(v, m, eta, buf[VJ], True)
+
+
+@cuda.jit
+def k_from_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    from_dh(buf[XJ], m, eta, x, False)
+    from_dh(buf[VJ], m, eta, v, True)
+
+
+@cuda.jit
+def k_jump(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    jump(buf[XJ], buf[VJ], m, 0.5 * H)
+
+
+@cuda.jit
+def k_dh_kick(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh_kick(buf[VJ], buf[ACC], buf[AJ], m, eta, H)
+
+
+@cuda.jit
+def k_drift_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = drift(buf[XJ], buf[VJ], eta, fstate[F_G], H, True)
+
+
+@cuda.jit
+def k_gravity_rest(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    gravity_few(x, m, fstate[F_G], fstate[F_SOFT2], massive[1:], buf[ACC], x, 0)
+
+
+@cuda.jit
+def k_zero_slice(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    aj = buf[AJ]
+    aj[:, :] = 0.0
+
+
+@cuda.jit
+def k_dh_step(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = dh_step(0.5 * H, buf[XJ], buf[VJ], m, eta, fstate[F_G], H, x, v, massive, fstate,
+                    istate, x, force, params, buf[ACC], buf[AJ], 0)
+
+
+@cuda.jit
+def k_kick_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    kick(0.0, buf[XJ], buf[VJ], m, eta, fstate[F_G], H, x, v, massive, fstate, istate, x,
+         force, params, buf[ACC], buf[AJ], True, 0)
+
+
+@cuda.jit
+def k_kick_jacobi(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    kick(0.0, buf[XJ], buf[VJ], m, eta, fstate[F_G], H, x, v, massive, fstate, istate, x,
+         force, params, buf[ACC], buf[AJ], False, 0)
+
+
+@cuda.jit
+def k_first_half_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = first_half(x, v, m, eta, fstate[F_G], H, 0.0, buf[XJ], buf[VJ], massive, fstate,
+                       istate, x, force, params, buf[ACC], buf[AJ], 0, True, 0)
+
+
+@cuda.jit
+def k_synchronise_dh(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = synchronise(buf[XJ], buf[VJ], buf[XS], buf[VS], m, eta, fstate[F_G], 0.5 * H, x, v,
+                        0, 0.0, massive, fstate, istate, x, force, params, buf[ACC], buf[AJ],
+                        True, 0)
+
+
+def cpu_layout(flat, m):
+    n = m.shape[0]
+    buf = flat.reshape((NB, n, 3))
+    eta = buf[ETA, :, 0]
+    eta[:] = np.cumsum(m)  # the same sums, in the same order, as the loop
+    return buf, eta
+
+
+def cpu_piece(name, flat, x, v, m, massive, fstate, istate, params):
+    """The CPU kernel's own function for piece ``name``: returns its status code (0: none)."""
+    buf, eta = cpu_layout(flat, m)
+    G = fstate[F_G]
+    gwork = np.zeros((GWORK_ROWS, m.shape[0]))
+    rest = (massive, fstate, istate, gwork, gravity.no_force, params, buf[ACC], buf[AJ])
+    if name == "to_dh":
+        W.to_democratic_heliocentric(x, m, eta, buf[XJ], False)
+        W.to_democratic_heliocentric(v, m, eta, buf[VJ], True)
+    elif name == "from_dh":
+        W.from_democratic_heliocentric(buf[XJ], m, eta, x, False)
+        W.from_democratic_heliocentric(buf[VJ], m, eta, v, True)
+    elif name == "jump":
+        W._jump(buf[XJ], buf[VJ], m, 0.5 * H)
+    elif name == "dh_kick":
+        W._dh_interaction_kick(buf[VJ], buf[ACC], buf[AJ], m, eta, H)
+    elif name == "drift_dh":
+        return W._kepler_drift(buf[XJ], buf[VJ], eta, G, H, True)
+    elif name == "gravity_rest":
+        gravity.gravity(x, m, G, fstate[F_SOFT2], massive[1:], buf[ACC], gwork, FEW)
+    elif name == "zero_slice":
+        buf[AJ][:, :] = 0.0
+    elif name == "dh_step":
+        return W._dh_step(0.5 * H, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, FEW)
+    elif name == "kick_dh":
+        W._kick(0.0, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, True, FEW)
+    elif name == "kick_jacobi":
+        W._kick(0.0, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, False, FEW)
+    elif name == "first_half_dh":
+        return W._first_half(x, v, m, eta, G, H, 0.0, buf[XJ], buf[VJ], *rest, 0, True, FEW)
+    elif name == "synchronise_dh":
+        return W._synchronise(buf[XJ], buf[VJ], buf[XS], buf[VS], m, eta, G, 0.5 * H, x, v, 0,
+                              0.0, massive, fstate, istate, gwork, gravity.no_force, params,
+                              buf[ACC], buf[AJ], True, FEW)
+    return 0
+
+
+PIECES = {"to_dh": k_to_dh, "from_dh": k_from_dh, "jump": k_jump, "dh_kick": k_dh_kick,
+          "drift_dh": k_drift_dh, "gravity_rest": k_gravity_rest, "zero_slice": k_zero_slice,
+          "dh_step": k_dh_step, "kick_dh": k_kick_dh, "kick_jacobi": k_kick_jacobi,
+          "first_half_dh": k_first_half_dh, "synchronise_dh": k_synchronise_dh}
+
+
+def inputs():
+    """One member (a star, three planets, a test particle) with a filled ``buf``: its DH
+    coordinates in the XJ/VJ slots and made-up numbers of the right size in ACC/AJ/XS/VS."""
+    sim = member(1)
+    x = np.ascontiguousarray(sim.positions, dtype=float)
+    v = np.ascontiguousarray(sim.velocities, dtype=float)
+    m = np.ascontiguousarray(sim.masses, dtype=float)
+    n = len(m)
+    massive = np.flatnonzero(m > 0.0).astype(np.int64)
+    fstate = sim.state_arrays()["fstate"].copy()
+    fstate[F_G] = sim.G
+    fstate[F_SOFT2] = 0.0
+    istate = sim.state_arrays()["istate"].copy()
+    flat = np.zeros(NB * n * 3)
+    buf, eta = cpu_layout(flat, m)
+    W.to_democratic_heliocentric(x, m, eta, buf[XJ], False)
+    W.to_democratic_heliocentric(v, m, eta, buf[VJ], True)
+    rng = np.random.default_rng(7)
+    for slot in (ACC, AJ, XS, VS):
+        buf[slot] = rng.normal(size=(n, 3))
+    return flat, x, v, m, massive, fstate, istate, np.zeros(1)
+
+
+def rel(a, b):
+    scale = np.max(np.abs(b)) or 1.0
+    return float(np.max(np.abs(np.nan_to_num(a, nan=1e300) - b)) / scale)
+
+
+def main():
+    base = inputs()
+    for name, kernel in PIECES.items():
+        flat, x, v, m, massive, fstate, istate, params = (a.copy() for a in base)
+        try:
+            d = [cuda.to_device(a) for a in (flat, x, v, m, massive, fstate, istate, params)]
+            st = cuda.to_device(np.zeros(1, dtype=np.int64))
+            kernel[1, 1](*d, st)
+            got = [d[0].copy_to_host(), d[1].copy_to_host(), d[2].copy_to_host()]
+            got_st = int(st.copy_to_host()[0])
+        except Exception as exc:  # print and go on to the next piece
+            print(f"{name}_error={type(exc).__name__}: {str(exc).splitlines()[0][:150]}")
+            continue
+        want_st = cpu_piece(name, flat, x, v, m, massive, fstate, istate, params)
+        diffs = [rel(g, w) for g, w in zip(got, (flat, x, v), strict=True)]
+        print(f"{name}={max(diffs)!r}")
+        if max(diffs) != 0.0 or got_st != want_st:
+            print(f"{name}_detail=buf {diffs[0]!r} x {diffs[1]!r} v {diffs[2]!r} "
+                  f"status {got_st}/{want_st}")
+
+
+if __name__ == "__main__":
+    main()

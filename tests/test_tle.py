@@ -192,6 +192,23 @@ def test_omm_equals_tle():
     )
 
 
+@pytest.mark.parametrize("object_id, field", [
+    ("1998-067A", "98067A  "), ("2024-001ABC", "24001ABC"), ("1998-067a", "98067A  "),
+    ("98067A", "98067A  "),  # already a TLE designator
+    ("UNKNOWN", "        "), ("", "        "), ("ISS", "        "), ("1998-67A", "        "),
+])
+def test_omm_object_id_becomes_the_tle_designator_or_a_blank_field(object_id, field):
+    # sgp4's OMM reader keeps OBJECT_ID[2:] without hyphens: "UNKNOWN" (what OEM/OPM writers
+    # put when the designator is not known) was written into the TLE as the designator "KNOWN"
+    sat = vv.Satellite.from_omm({**_omm_of(ISS_1, ISS_2), "OBJECT_ID": object_id})
+    line1, _ = sat.to_tle()
+    assert line1[9:17] == field
+    back = sat.to_omm()["OBJECT_ID"]
+    year = int(field[:2].strip() or 0)
+    full = year + (1900 if year >= 57 else 2000)  # the TLE's two-digit years: 1957 .. 2056
+    assert back == ("" if not field.strip() else f"{full}-{field[2:].strip()}")
+
+
 def test_omm_missing_field_is_named():
     fields = _omm_of(ISS_1, ISS_2)
     del fields["MEAN_MOTION"]

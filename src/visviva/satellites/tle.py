@@ -44,6 +44,7 @@ from .tle_checks import (
     raise_for_sgp4_status,
     sgp4_times,
 )
+from .tle_export import tle_designator
 from .utc_days import utc_days_to_time
 
 #: names also importable from here (their modules: tle_checks, satellite_states)
@@ -303,6 +304,7 @@ class Satellite:
             raise InvalidInputError(
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} has a bad value: {exc}."
             ) from exc
+        satrec.intldesg = tle_designator(clean.get("OBJECT_ID"))  # not sgp4's OBJECT_ID[2:]
         return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
 
     # -- attributes --------------------------------------------------------------------------

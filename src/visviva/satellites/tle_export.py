@@ -10,10 +10,17 @@ same values, so the OMM reproduces the sgp4 record.
 from __future__ import annotations
 
 import math
+import re
 
 from ..errors import InvalidInputError
 from .catalog_numbers import tle_number
 from .tle_checks import tle_checksum  # the one checksum rule (read and write)
+
+#: A COSPAR international designator as OMM's OBJECT_ID writes it: launch year, launch number
+#: of the year, piece (one to three letters)
+_COSPAR_ID = re.compile(r"(\d{4})-(\d{3})([A-Z]{1,3})")
+#: The same designator in a TLE's columns 10-17: two-digit year, launch number, piece
+_TLE_DESIGNATOR = re.compile(r"\d{5}[A-Z]{1,3}")
 
 __all__ = ["to_tle", "to_omm", "tle_checksum", "format_exponent", "epoch_text"]
 
@@ -189,6 +196,22 @@ def _inverse(target: float, forward) -> float:
         if forward(x) == target:
             return x
     return guess
+
+
+def tle_designator(object_id) -> str:
+    """The TLE's international designator field (``YYNNNPPP``) for an OMM ``OBJECT_ID``.
+
+    A COSPAR identifier ``YYYY-NNNP{PP}`` (CCSDS 502.0-B-3, 3.2.3.3; e.g. ``1998-067A``) becomes
+    ``98067A`` (kept as it is when already written so); anything else (``UNKNOWN``, a name, an
+    empty field) becomes an empty field.
+    sgp4's OMM reader keeps ``OBJECT_ID[2:]`` without its hyphens, which turns ``UNKNOWN`` into
+    the designator ``KNOWN``: a TLE written from such a record would carry it.
+    """
+    text = str(object_id or "").strip().upper()
+    if _TLE_DESIGNATOR.fullmatch(text):
+        return text  # already the TLE's own form
+    match = _COSPAR_ID.fullmatch(text)
+    return "" if match is None else match[1][2:] + match[2] + match[3]
 
 
 def to_omm(satrec, name: str, satnum: int | None = None) -> dict:

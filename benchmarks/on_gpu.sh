@@ -16,7 +16,10 @@
 # them (pytest-gpu.txt), and one JSON line per benchmark row (rows.jsonl), written as each row
 # is measured.
 # Environment: CHECK_S / BENCH_S (time limits, s; the defaults, 280 + 260, fit one 10-minute call
-# with the start), SECTIONS (bench_gpu sections, comma-separated).
+# with the start; BENCH_S=0 measures nothing), SECTIONS (bench_gpu sections, comma-separated),
+# CHECKS (which scripts of tests/gpu/ to run, globs without .py; default "check_* diagnose_*").
+# A short first call of a lease, to find a fault before the full run:
+#   CHECKS="diagnose_*" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
 set -u
 # the files are written in a work folder and bundled into $OUT/gpu-out.tgz every 30 s and at the
 # end (a lent machine sends back a few files only, and what a cut-off call left); rows.jsonl
@@ -50,15 +53,19 @@ SECONDS=0
 # the general WHFast ensemble kernel (wrong on an H200, refused on real GPUs until found:
 # tests/gpu/diagnose_whfast_general.py; `--inline` by hand for the inlined Kepler solver;
 # tests/gpu/diagnose_dh_pieces.py: each democratic heliocentric piece alone, device vs CPU)
+SCRIPTS=""
+for pattern in ${CHECKS:-check_* diagnose_*}; do
+    SCRIPTS="$SCRIPTS $(ls tests/gpu/$pattern.py 2>/dev/null)"
+done
 PIDS=""
-for check in tests/gpu/check_*.py tests/gpu/diagnose_*.py; do
+for check in $SCRIPTS; do
     name=$OUT/$(basename "$check" .py)
     ( timeout "${CHECK_S:-280}" python3 "$check" > "$name.txt" 2>&1; echo $? > "$name.rc" ) &
     PIDS="$PIDS $!"
 done
 wait $PIDS  # (not the bundler)
 echo "checks: $SECONDS s"
-for check in tests/gpu/check_*.py tests/gpu/diagnose_*.py; do
+for check in $SCRIPTS; do
     name=$OUT/$(basename "$check" .py)
     echo "$check rc=$(cat "$name.rc")"; grep "=" "$name.txt"
 done
@@ -66,11 +73,12 @@ done
 # check_ensemble_events: events and forces in leapfrog and IAS15 ensembles at 1e-12;
 # check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12;
 # check_whfast_forces: WHFast ensembles with additional forces at 1e-12)
-if python3 -c "import pytest" 2>/dev/null; then
+if [[ "$SCRIPTS" == *check_* ]] && python3 -c "import pytest" 2>/dev/null; then
     VISVIVA_GPU_OUTPUTS=$OUT python3 -m pytest -q -p no:cacheprovider -m gpu -o addopts="" \
         tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py 2>&1 \
         | tee "$OUT/pytest-gpu.txt" | tail -15
 fi
+[ "${BENCH_S:-260}" = 0 ] && exit 0
 SECONDS=0
 VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-260}" python3 -c "
 import sys

@@ -14,9 +14,10 @@ sec. 10.6):
 
 so the estimate decays towards p0 by m, its variance P_pp -> m^2 P_pp + sigma^2 (1 - m^2)
 (which keeps sigma^2 when it starts there), and its covariance with the orbit state is scaled
-by m (the transition's p row). The filter cuts each prediction into steps of at most
-``noise_step`` and flies each step with the coefficient it had at the step's start; the decay
-and the noise are applied at the step's end.
+by m (the transition's p row). The filter cuts each prediction into steps of at most tau / 50
+(of the shortest tau; with ``process_noise`` also at most ``noise_step``) and flies each step
+with the coefficient it had at the step's start (1 % of the deviation p - p0 off its mean over
+the step); the decay and the noise are applied at the step's end.
 """
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ import numpy as np
 from ..errors import InvalidInputError
 
 __all__ = ["GaussMarkov", "gauss_markov"]
+
+#: sub-steps per correlation time: the orbit flies the coefficient of each step's start
+STEPS_PER_TAU = 50
 
 
 class GaussMarkov:
@@ -45,6 +49,13 @@ class GaussMarkov:
         self.prior = np.asarray(prior, dtype=float)
         self.sigma = np.asarray(sigma, dtype=float)
         self.tau_s = np.asarray(tau_s, dtype=float)
+
+    def longest_step_s(self, q, step_s):
+        """The longest sub-step of a prediction, s: tau / :data:`STEPS_PER_TAU` of the shortest
+        tau (inf when no coefficient has noise), and at most ``step_s`` with process noise
+        ``q``."""
+        longest = float(np.min(self.tau_s)) / STEPS_PER_TAU
+        return longest if q is None else min(longest, step_s)
 
     def step(self, dt):
         """(m, d, v): the decay factors m = exp(-dt / tau) (k,), 1 - m, and the noise variances

@@ -450,6 +450,8 @@ def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s
     phis[0] = np.eye(n)
     gm = dyn.gm
     kinds = observations.kinds
+    if gauss is not None:
+        step_s = gauss.longest_step_s(q, step_s)
     for k in range(n_t):
         if k:
             grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)

@@ -270,6 +270,8 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     Gauss-Markov models (:class:`visviva.od.gauss_markov.GaussMarkov`), or None."""
     n = x.size
     weights = unscented_weights(parameters, n)
+    if gm is not None:
+        step_s = gm.longest_step_s(q, step_s)
     for c in est:  # the block flies unit coefficients, each point scaling them by its own
         c.write(dyn, 1.0)
     n_t = len(epochs)

@@ -167,6 +167,7 @@ def test_state_block_and_cross_covariance():
     ({"drag": (-0.001 * M2KG, 3600)}, "sigma must be a finite number >= 0"),
     ({"drag": (np.nan * M2KG, 3600)}, "sigma must be a finite number >= 0"),
     ({"drag": (0.001 * M2KG, 0 * u.s)}, "tau must be a finite time > 0"),
+    ({"drag": (0.001 * M2KG, 30 * u.s)}, "give it as process_noise"),
     ({"drag": (0.001 * M2KG, np.inf * u.s)}, "leave it out of parameter_noise"),
     ({"drag": (0.001 * M2KG, None)}, "time"),
     ({"drag": (0.001 * M2KG, -5 * u.min)}, "tau must be a finite time > 0"),
@@ -179,6 +180,21 @@ def test_bad_parameter_noise_is_refused(jump, noise, match):
     with pytest.raises((InvalidInputError, UnitsError), match=match):
         vv.filter_orbit(obs, LEO, P0, _forces(CD_BEFORE), estimate="drag",
                         parameter_sigma=SIGMA_B, parameter_noise=noise)
+
+
+def test_a_variance_decayed_to_zero_is_refused_by_the_smoother(jump):
+    """sigma 0 with tau 1 min: the coefficient's variance decays to 0 (the filter runs); the
+    unscented smoother's gain cannot invert that, and says so instead of a NaN sigma."""
+    obs, _ = jump
+    obs = vv.Observations(time=obs.times[:20], kind="position", value=obs.values[:20, :3],
+                          sigma=0.01)
+    kw = {"estimate": "drag", "parameter_sigma": SIGMA_B, "method": "ukf",
+          "parameter_noise": {"drag": (0.0 * M2KG, 60 * u.s)}}
+    flt = vv.filter_orbit(obs, LEO, P0, _forces(CD_BEFORE), **kw)
+    sd = flt.parameter_sigma["drag"].to_value(M2KG)
+    assert sd[-1] < 1e-10 * sd[0] and np.all(np.isfinite(flt.states))
+    with pytest.raises(vv.ConvergenceError, match="give sigma > 0, or smoother=False"):
+        vv.filter_orbit(obs, LEO, P0, _forces(CD_BEFORE), **kw, smoother=True)
 
 
 def test_parameter_noise_needs_estimate_and_units(jump):
@@ -214,3 +230,24 @@ def test_only_the_named_coefficient_gets_noise(jump):
     s_const, s_noisy = const.parameter_sigma["srp"], noisy.parameter_sigma["srp"]
     assert np.all(s_noisy[1:] > s_const[1:]) and np.all(s_noisy <= 0.3 + 1e-12)
     assert np.all(np.isfinite(noisy.parameters["srp"]))
+
+
+@pytest.mark.parametrize("method", ["ekf", "ukf"])
+def test_estimate_decays_to_the_prior_over_a_gap(jump, method):
+    """One hour of data (truth Cd 2.2, nominal 2.6), a two-hour gap, then one row too coarse
+    (1000 km) to move anything: across the gap the filtered Cd decays towards the nominal by
+    exp(-2 h / tau) and its variance relaxes, m^2 P + sigma^2 (1 - m^2), as the 1-D model."""
+    obs, _ = jump
+    rows = np.r_[np.arange(30), 90]  # 0-58 min, then 3 h
+    obs = vv.Observations(time=obs.times[rows], kind="position", value=obs.values[rows, :3],
+                          sigma=[0.01] * 30 + [1000.0])
+    sigma, tau = 0.5, 3600.0
+    flt = vv.filter_orbit(obs, LEO, P0, _forces(2.6), estimate="drag", method=method,
+                          parameter_sigma=SIGMA_B,
+                          parameter_noise={"drag": (sigma * AM * M2KG, tau * u.s)})
+    cd = flt.parameters["drag"].to_value(M2KG) / AM
+    sd = flt.parameter_sigma["drag"].to_value(M2KG) / AM
+    m = np.exp(-(flt.offsets_s[-1] - flt.offsets_s[-2]) / tau)
+    assert abs(cd[-2] - 2.6) > 0.05  # the data moved it towards the truth
+    assert cd[-1] - 2.6 == pytest.approx(m * (cd[-2] - 2.6), rel=1e-6)
+    assert sd[-1] ** 2 == pytest.approx(m**2 * sd[-2] ** 2 + sigma**2 * (1 - m**2), rel=1e-6)

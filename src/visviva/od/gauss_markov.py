@@ -30,6 +30,9 @@ __all__ = ["GaussMarkov", "gauss_markov"]
 
 #: sub-steps per correlation time: the orbit flies the coefficient of each step's start
 STEPS_PER_TAU = 50
+#: the shortest correlation time, s: a coefficient that decorrelates within a minute is white
+#: noise on the acceleration at the time scales of orbit determination (``process_noise``)
+MIN_TAU_S = 60.0
 
 
 class GaussMarkov:
@@ -114,6 +117,11 @@ def _pair(name, value):
             "coefficient is a constant and gets no noise: leave it out of parameter_noise. A "
             "random walk of rate r (variance per second) is the limit of a large tau with "
             "sigma = sqrt(r tau / 2).)")
+    if t < MIN_TAU_S:
+        raise InvalidInputError(
+            f"{what}: tau = {t:g} s is shorter than {MIN_TAU_S:g} s; a coefficient that "
+            "decorrelates that fast is white noise on the acceleration: give it as "
+            "process_noise= instead (or a tau of minutes to days, as drag and SRP vary).")
     return s, t
 
 

@@ -266,7 +266,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     parameter_noise : dict, optional
         First-order Gauss-Markov noise on estimated coefficients, {name: (sigma, tau)}: the
         steady-state 1-sigma (as ``parameter_sigma``'s, >= 0) and the correlation time (a time
-        Quantity or s, finite > 0). Between epochs the coefficient decays towards its value
+        Quantity or s, finite, >= 60 s). Between epochs the coefficient decays towards its value
         in ``perturbations`` by exp(-dt/tau) and its variance relaxes towards sigma^2, so the
         filter follows a coefficient that changes over the arc
         (:mod:`visviva.od.gauss_markov`); the names left out stay constants.
@@ -672,6 +672,12 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
         Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
         sP[k] = 0.5 * (Pk + Pk.T)
+    if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
+            and np.all(np.diagonal(sP, axis1=1, axis2=2)[:, 6:] >= 0)):  # coefficients' sigma
+        raise ConvergenceError(
+            "the smoother's estimate is not finite or has negative variances: a predicted "
+            "covariance is singular (e.g. a parameter_noise sigma of 0 decays a coefficient's "
+            "variance to 0); give sigma > 0, or smoother=False.")
     return sx, sP
 
 

@@ -487,6 +487,8 @@ def test_filter_with_process_and_gauss_markov_noise(campaign, tmp_path, capsys):
     b = f.parameters["drag"].to_value(u.m**2 / u.kg)[-1]
     sb = f.parameter_sigma["drag"].to_value(u.m**2 / u.kg)[-1]
     assert f"drag B      {b:.6g} +- {sb:.2g} m^2/kg" in out
+    assert ("EKF, process noise 1e-13 km^2/s^3 TNW, drag Gauss-Markov sigma 0.004 m^2/kg "
+            "tau 7200 s") in out
     assert abs(b - 0.02) < 4 * sb
     # the noise left the coefficient less certain than the constant-B filter
     assert sb > 1.2 * plain.parameter_sigma["drag"].to_value(u.m**2 / u.kg)[-1]

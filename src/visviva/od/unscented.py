@@ -34,7 +34,9 @@ overconfident.
 * Coefficients (``estimate=``): the state is (x, p), n = 6 + k, 2 n + 1 points; the force
   block holds unit coefficients and each point scales them by its own p in the same compiled
   call (:meth:`visviva.od.dynamics.Dynamics.propagate_many`, ``per_state``); p is constant
-  over a step and enters the measurements through x only.
+  over a step and enters the measurements through x only. With Gauss-Markov coefficients
+  (:mod:`visviva.od.gauss_markov`) the steps are at most tau / 50, and at each step's end every
+  point's p decays towards p0 and the noise sigma^2 (1 - m^2) is added to the p block.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the

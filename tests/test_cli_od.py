@@ -454,3 +454,71 @@ def test_a_fit_that_does_not_converge_exits_1(campaign, monkeypatch, capsys):
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG)
     assert code == 1 and out == ""
     assert err.startswith("visviva od: the orbit fit did not converge") and err.count("\n") == 1
+
+
+def test_filter_with_process_and_gauss_markov_noise(campaign, tmp_path, capsys):
+    """--process-noise Q,FRAME and --parameter-noise drag:SIGMA,TAU reach filter_orbit: the
+    command reports the B that filter_orbit(process_noise=, parameter_noise=) gives, which is
+    not the B of the filter without them."""
+    from visviva.ccsds.opm import OPM
+
+    forces = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)]
+    truth = campaign["truth"]
+    obs = vv.od.simulate_tracking(truth, list(_stations().values()),
+                                  truth.epoch + np.arange(0, 3 * 3600, 60) * u.s, forces,
+                                  seed=8)
+    tdm, first = tmp_path / "drag.tdm", tmp_path / "first.opm"
+    vv.write_tdm(obs, tdm, participant="SAT-1")
+    vv.write_opm(OPM.from_state(truth, object_name="SAT-1"), first)
+    opm = tmp_path / "out.opm"
+    code, out, err = _run(capsys, str(tdm), *STATION_ARGS, *SIGMA_ARG, "--initial", str(first),
+                          "--force", "j2,drag:0.015", "--estimate", "drag:0.01", "--filter",
+                          "ekf", "--apriori", "100m,10cm/s", "--process-noise", "1e-13,TNW",
+                          "--parameter-noise", "drag:0.004,2h", "--opm", str(opm))
+    assert code == 0, err
+    obs = vv.read_tdm(tdm).to_observations(_stations(), SIGMA)
+    p0 = np.diag([0.1**2] * 3 + [1e-4**2] * 3)
+    kw = {"estimate": "drag", "parameter_sigma": {"drag": 0.01 * u.m**2 / u.kg}}
+    start = [forces[0], vv.AtmosphericDrag(0.015 * u.m**2 / u.kg)]
+    f = vv.filter_orbit(obs, vv.read_opm(first).state, p0, start, process_noise=1e-13,
+                        process_noise_frame="TNW", **kw,
+                        parameter_noise={"drag": (0.004 * u.m**2 / u.kg, 2 * u.hour)})
+    plain = vv.filter_orbit(obs, vv.read_opm(first).state, p0, start, **kw)
+    b = f.parameters["drag"].to_value(u.m**2 / u.kg)[-1]
+    sb = f.parameter_sigma["drag"].to_value(u.m**2 / u.kg)[-1]
+    assert f"drag B      {b:.6g} +- {sb:.2g} m^2/kg" in out
+    assert ("EKF, process noise 1e-13 km^2/s^3 TNW, drag Gauss-Markov sigma 0.004 m^2/kg "
+            "tau 7200 s") in out
+    assert abs(b - 0.02) < 4 * sb
+    # the noise left the coefficient less certain than the constant-B filter
+    assert sb > 1.2 * plain.parameter_sigma["drag"].to_value(u.m**2 / u.kg)[-1]
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               f.state.r.to_value(u.km), rtol=0, atol=1e-6)
+
+
+def test_noise_options_are_refused_with_exit_code_2(campaign, capsys):
+    base = [campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2,drag:0.01"]
+    ekf = ["--filter", "ekf"]
+    cases = [
+        (["--process-noise", "1e-12"], "goes with --filter"),
+        (["--estimate", "drag:0.01", "--parameter-noise", "drag:0.001,3h"], "goes with --filter"),
+        ([*ekf, "--process-noise", "lots"], "spectral density"),
+        ([*ekf, "--process-noise=-1e-12"], "spectral density"),
+        ([*ekf, "--process-noise", "0"], "not all zero"),
+        ([*ekf, "--process-noise", "1e-12:1e-12"], "three joined by ':'"),
+        ([*ekf, "--process-noise", "1e-12,XYZ"], "frame must be RTN"),
+        ([*ekf, "--parameter-noise", "drag:0.001,3h"], "'drag' is not estimated"),
+        ([*ekf, "--estimate", "drag:0.01", "--parameter-noise", "drag:0.001"],
+         "NAME:SIGMA,TAU"),
+        ([*ekf, "--estimate", "drag:0.01", "--parameter-noise", "drag:0.001,3"], "has no unit"),
+        ([*ekf, "--estimate", "drag:0.01", "--parameter-noise", "drag:-1,3h"], ">= 0"),
+        ([*ekf, "--estimate", "drag:0.01", "--parameter-noise", "drag:0.001,3m"],
+         "is not a time"),
+        ([*ekf, "--estimate", "drag:0.01", "--parameter-noise", "drag:0.001,1h",
+          "--parameter-noise", "drag:0.002,1h"], "twice"),
+    ]
+    for argv, text in cases:
+        code, out, err = _run(capsys, *base, *argv)
+        assert code == 2, (argv, err)
+        assert text in err, (argv, err)
+        assert err.startswith("visviva od: ") and err.count("\n") == 1, err

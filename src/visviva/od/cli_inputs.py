@@ -187,6 +187,63 @@ def parse_estimate(text, forces):
     return names, (sigmas or None)
 
 
+def parse_process_noise(text):
+    """``--process-noise Q[,FRAME]`` -> (the densities (3,), km^2/s^3, the frame): Q one value
+    for every axis or three joined by ``:`` (R:T:N), FRAME RTN (default), TNW, VNB or GCRS."""
+    from .._covariance import frame_code
+
+    example = "--process-noise 1e-12 or --process-noise 1e-12:1e-11:1e-12,RTN"
+    values, _, frame = text.partition(",")
+    frame = frame.strip().upper() or "RTN"
+    try:
+        q = np.array([float(v) for v in values.split(":")])
+    except ValueError:
+        q = np.array([np.nan])
+    if q.size not in (1, 3) or not (np.all(np.isfinite(q)) and np.all(q >= 0) and q.any()):
+        raise InvalidInputError(f"--process-noise {text!r}: the white-noise acceleration's "
+                                "spectral density, km^2/s^3 (one number >= 0 for every axis, or "
+                                f"three joined by ':'), not all zero; write e.g. {example}")
+    try:
+        frame_code(frame, "--process-noise")
+    except InvalidInputError:
+        raise InvalidInputError(f"--process-noise {text!r}: the frame must be RTN, TNW, VNB or "
+                                f"GCRS; write e.g. {example}") from None
+    return np.repeat(q, 3 // q.size), frame
+
+
+def parse_parameter_noise(specs, estimate):
+    """``--parameter-noise NAME:SIGMA,TAU`` (repeated) -> ``parameter_noise=`` of
+    :func:`visviva.filter_orbit`: SIGMA the steady-state 1-sigma (m^2/kg for drag, Cr for srp),
+    TAU the correlation time with its unit; NAME one of ``estimate``."""
+    from astropy import units as u
+
+    example = "--parameter-noise drag:0.002,3h"
+    out = {}
+    for text in specs or []:
+        name, colon, rest = text.strip().lower().partition(":")
+        sigma, comma, tau = rest.partition(",")
+        if not (colon and comma):
+            raise InvalidInputError(f"--parameter-noise {text!r}: write NAME:SIGMA,TAU, e.g. "
+                                    f"{example} (B's steady-state sigma 0.002 m^2/kg, "
+                                    "correlation time 3 hours)")
+        if name not in (estimate or []):
+            raise InvalidInputError(f"--parameter-noise {text!r}: {name!r} is not estimated; "
+                                    "the noise goes on a coefficient of --estimate (drag or "
+                                    "srp), e.g. --estimate drag:0.005 " + example)
+        if name in out:
+            raise InvalidInputError(f"--parameter-noise gives {name} twice")
+        try:
+            sd = float(sigma)
+        except ValueError:
+            sd = float("nan")
+        if not (np.isfinite(sd) and sd >= 0):
+            raise InvalidInputError(f"--parameter-noise {text!r}: SIGMA must be a number >= 0 "
+                                    "(m^2/kg for drag, Cr for srp)")
+        t = quantity("--parameter-noise", tau, "time", example)
+        out[name] = (sd * u.m**2 / u.kg if name == "drag" else sd, t)
+    return out or None
+
+
 def read_tracking(paths, stations, sigmas):
     """The observations of the TDM files ``paths`` as one table (their segments together)."""
     from pathlib import Path

@@ -64,6 +64,14 @@ def add_parser(sub) -> None:
     p.add_argument("--filter", default=None, choices=("ekf", "ukf"),
                    help="a sequential filter instead of batch least squares; the estimate is at "
                    "the last observation")
+    p.add_argument("--process-noise", default=None, metavar="Q[,FRAME]",
+                   help="with --filter: white-noise acceleration for the dynamics the model "
+                   "leaves out, spectral density in km^2/s^3 (one value, or R:T:N), on the axes "
+                   "of FRAME (RTN default, TNW, VNB, GCRS), e.g. 1e-12")
+    p.add_argument("--parameter-noise", action="append", metavar="NAME:SIGMA,TAU",
+                   help="with --filter: a Gauss-Markov process for an estimated coefficient "
+                   "(drag or srp of --estimate): steady-state 1-sigma (m^2/kg for B, Cr) and "
+                   "correlation time, e.g. drag:0.002,3h; repeat for each")
     p.add_argument("--smooth", action="store_true",
                    help="with --filter: run the RTS smoother; the estimate is then the smoothed "
                    "state where the filter starts (the first guess's epoch, or the first "
@@ -137,6 +145,8 @@ def _setup(args) -> dict:
     from .cli_inputs import (
         parse_estimate,
         parse_forces,
+        parse_parameter_noise,
+        parse_process_noise,
         parse_sigmas,
         parse_stations,
         quantity,
@@ -155,6 +165,13 @@ def _setup(args) -> dict:
     sigmas = parse_sigmas(args.sigma)
     forces = parse_forces(args.force)
     estimate, parameter_sigma = parse_estimate(args.estimate, forces)
+    for option, given in (("--process-noise", args.process_noise),
+                          ("--parameter-noise", args.parameter_noise)):
+        if given and not args.filter:
+            raise InvalidInputError(f"{option} goes with --filter ekf|ukf (the batch fit "
+                                    "estimates constants and has no process noise)")
+    noise = parse_process_noise(args.process_noise) if args.process_noise else (None, "RTN")
+    parameter_noise = parse_parameter_noise(args.parameter_noise, estimate)
     span = step = None
     if args.oem:
         span = quantity("--span", args.span, "time", "--span 2d")
@@ -193,6 +210,7 @@ def _setup(args) -> dict:
     return {"obs": obs, "initial": initial, "covariance": covariance, "maneuvers": maneuvers,
             "opm_maneuvers": guess.get("maneuvers") or (),
             "forces": forces, "estimate": estimate, "parameter_sigma": parameter_sigma,
+            "process_noise": noise, "parameter_noise": parameter_noise,
             "name": args.name or name,
             "span": span, "step": step, "apriori": apriori,
             "note": "its covariance ignored: --no-apriori" if ignored else None}
@@ -240,7 +258,9 @@ def _estimate(args, s) -> dict:
                                             "carried back to the first observation"]))
     res = filter_orbit(obs, initial, cov, s["forces"], maneuvers=s["maneuvers"],
                        smoother=args.smooth, method=args.filter, estimate=s["estimate"],
-                       parameter_sigma=s["parameter_sigma"])
+                       parameter_sigma=s["parameter_sigma"], process_noise=s["process_noise"][0],
+                       process_noise_frame=s["process_noise"][1],
+                       parameter_noise=s["parameter_noise"])
     if args.smooth:
         state, covariance = res.first_state, np.asarray(res.first_covariance)
     else:
@@ -251,7 +271,8 @@ def _estimate(args, s) -> dict:
     by_kind = {k: float(np.sqrt(np.mean(zn[(obs.kinds == k)[:, None] & use] ** 2)))
                for k in dict.fromkeys(obs.kinds) if np.any((obs.kinds == k)[:, None] & use)}
     last = {k: v[-1] for k, v in res.parameters.items()}
-    return {"method": f"{args.filter.upper()}{' + RTS smoother' if args.smooth else ''}",
+    return {"method": f"{args.filter.upper()}{' + RTS smoother' if args.smooth else ''}"
+                      + _noise_text(s),
             "state": state, "covariance": covariance, "fit": None, "residuals": z,
             "normalized": zn, "rejected": res.rejected,
             "rms": float(np.sqrt(np.mean(zn[use] ** 2))), "rms_by_kind": by_kind,
@@ -275,6 +296,20 @@ def _iso(t) -> str:
     t = t.utc.copy()
     t.precision = 3
     return t.isot
+
+
+def _noise_text(s) -> str:
+    """The filter's process noise and Gauss-Markov coefficients, for the method line."""
+    from astropy import units as u
+
+    q, frame = s["process_noise"]
+    out = ""
+    if q is not None:
+        out += f", process noise {':'.join(f'{v:g}' for v in dict.fromkeys(q))} km^2/s^3 {frame}"
+    for name, (sd, tau) in (s["parameter_noise"] or {}).items():
+        sd = f"{u.Quantity(sd).value:g}{' m^2/kg' if name == 'drag' else ''}"
+        out += f", {name} Gauss-Markov sigma {sd} tau {tau.to_value(u.s):g} s"
+    return out
 
 
 def _summary(s, res) -> str:

@@ -193,7 +193,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
                  process_noise=None,
                  process_noise_frame="RTN", noise_step=None, smoother=False, editing_sigma=4.0,
                  divergence_count=10, rtol=None, atol=None, method="ekf",
-                 sigma_points=None, estimate=None, parameter_sigma=None):  # fmt: skip
+                 sigma_points=None, estimate=None, parameter_sigma=None,
+                 parameter_noise=None):  # fmt: skip
     """Estimate an orbit sequentially with an extended or unscented Kalman filter (and optional
     smoother).
 
@@ -254,7 +255,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     estimate : str or list of str, optional
         Coefficients estimated with the state, as :func:`~visviva.fit_orbit`'s (``"drag"``:
         the ballistic coefficient B = Cd A / m, m^2/kg; ``"srp"``: Cr): appended to the
-        filter's state as constants (no process noise on them), starting from their values
+        filter's state as constants (unless ``parameter_noise=``), starting from their values
         in ``perturbations``, each with its a priori sigma from ``parameter_sigma`` (required:
         the filter's initial covariance), uncorrelated with the state. With ``maneuvers=``
         only with ``method="ukf"``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
@@ -262,6 +263,13 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         last estimate.
     parameter_sigma : dict, optional
         The a priori sigmas of ``estimate`` (``{"drag": 0.005 * u.m**2 / u.kg}``).
+    parameter_noise : dict, optional
+        First-order Gauss-Markov noise on estimated coefficients, {name: (sigma, tau)}: the
+        steady-state 1-sigma (as ``parameter_sigma``'s, >= 0) and the correlation time (a time
+        Quantity or s, finite, >= 60 s). Between epochs the coefficient decays towards its value
+        in ``perturbations`` by exp(-dt/tau) and its variance relaxes towards sigma^2, so the
+        filter follows a coefficient that changes over the arc
+        (:mod:`visviva.od.gauss_markov`); the names left out stay constants.
 
     Returns
     -------
@@ -353,6 +361,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
     est = _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule)
+    from .gauss_markov import gauss_markov
+
+    gm_noise = gauss_markov(parameter_noise, est)
     rtol = DEFAULT_RTOL if rtol is None else _positive("rtol", rtol)
     atol = DEFAULT_ATOL if atol is None else _positive("atol", atol)
     offsets = observations.offsets_s(epoch)
@@ -381,10 +392,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
 
         xs, Ps, xp, Pp, cross = unscented_pass(dyn, observations, x, P, epochs, screen, q,
                                                code, step_s, sigma_points, schedule, est,
-                                               apply_at_start=True)  # fmt: skip
+                                               apply_at_start=True, gm=gm_noise)  # fmt: skip
     else:
         xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
-                                         code, step_s, est)  # fmt: skip
+                                         code, step_s, est, gm_noise)  # fmt: skip
     # post-fit residuals: every row against the updated state at its epoch, in one call of the
     # (row by row) model after the pass instead of one per epoch (the same numbers)
     h, _ = model(observations, xs[epoch_index, :6], gm)
@@ -421,10 +432,12 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     )  # fmt: skip
 
 
-def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=()):
+def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=(),
+              gauss=None):
     """The extended Kalman filter forward over ``epochs`` (through the burns of ``schedule``):
     filtered and predicted states and covariances, and the STMs Phi(t_k, t_k-1) (the
-    smoother's); with ``est`` the state carries those coefficients too (6 + k)."""
+    smoother's); with ``est`` the state carries those coefficients too (6 + k), with ``gauss``
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes."""
     n_t = len(epochs)
     n = 6 + len(est)
     xs = np.empty((n_t, n))
@@ -437,11 +450,16 @@ def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s
     phis[0] = np.eye(n)
     gm = dyn.gm
     kinds = observations.kinds
+    if gauss is not None:
+        step_s = gauss.longest_step_s(q, step_s)
     for k in range(n_t):
         if k:
-            grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s)
+            grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)
             try:
-                if est:
+                if gauss is not None:
+                    x, P, phis[k] = _predict_gauss_markov(dyn, x, P, epochs[k - 1], grid, q,
+                                                          code, est, gauss)  # fmt: skip
+                elif est:
                     x, P, phis[k] = _predict_coefficients(dyn, x, P, epochs[k - 1], grid, q,
                                                           code, est)  # fmt: skip
                 else:
@@ -601,6 +619,18 @@ def _predict_coefficients(dyn, z, P, t_from, grid, q, code, est):
     return np.r_[y[-1], z[6:]], 0.5 * (out + out.T), phi_z
 
 
+def _predict_gauss_markov(dyn, z, P, t_from, grid, q, code, est, gm):
+    """:func:`_predict_coefficients` step by step over ``grid``, each step flying the
+    coefficients of its start, which then decay with their Gauss-Markov noise (``gm``); the
+    transition is the product of the steps'."""
+    phi = np.eye(z.size)
+    for a, b in zip(np.r_[0.0, grid[:-1]], grid, strict=True):
+        z, P, f = _predict_coefficients(dyn, z, P, t_from + a, np.array([b - a]), q, code, est)
+        z, P, f = gm.apply(z, P, f, b - a)
+        phi = f @ phi
+    return z, 0.5 * (P + P.T), phi
+
+
 def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):
     """The FilteredOrbit fields of the estimated coefficients (empty without), smoothed too
     with the smoother's (``sm_x``, ``sm_P``)."""
@@ -642,6 +672,12 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
         Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
         sP[k] = 0.5 * (Pk + Pk.T)
+    if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
+            and np.all(np.diagonal(sP, axis1=1, axis2=2)[:, 6:] >= 0)):  # coefficients' sigma
+        raise ConvergenceError(
+            "the smoother's estimate is not finite or has negative variances: a predicted "
+            "covariance is singular (e.g. a parameter_noise sigma of 0 decays a coefficient's "
+            "variance to 0); give sigma > 0, or smoother=False.")
     return sx, sP
 
 

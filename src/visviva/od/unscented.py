@@ -34,7 +34,9 @@ overconfident.
 * Coefficients (``estimate=``): the state is (x, p), n = 6 + k, 2 n + 1 points; the force
   block holds unit coefficients and each point scales them by its own p in the same compiled
   call (:meth:`visviva.od.dynamics.Dynamics.propagate_many`, ``per_state``); p is constant
-  over a step and enters the measurements through x only.
+  over a step and enters the measurements through x only. With Gauss-Markov coefficients
+  (:mod:`visviva.od.gauss_markov`) the steps are at most tau / 50, and at each step's end every
+  point's p decays towards p0 and the noise sigma^2 (1 - m^2) is added to the p block.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the
@@ -199,7 +201,7 @@ def _moments(X, x, Y, wm, wc):
     return m, (wc * dY.T) @ dY, (wc * dY.T) @ (X - x)
 
 
-def _predict(dyn, schedule, est, x, P, step, weights, q, code):
+def _predict(dyn, schedule, est, x, P, step, weights, q, code, gm=None):
     """Mean, covariance (with the SNC noise of the step and the execution errors of the
     impulses at its end) and cov(x(b), x(a)) of the sigma points of (x, P) carried over the
     sub-step ``step`` = (a, b, b - a) (s from the epoch), through the impulses at b."""
@@ -208,6 +210,9 @@ def _predict(dyn, schedule, est, x, P, step, weights, q, code):
     X = sigma_points(x, P, scale)
     Y = _fly(dyn, schedule, est, X, a, b, dt)
     Y, noise = through_impulses(schedule, b, Y, wm)
+    if gm is not None:  # each point's coefficients decay, the Gauss-Markov noise is added
+        Y, extra = gm.apply_points(Y, dt)
+        noise = noise + extra
     m, Pn, D = _moments(X, x, Y, wm, wc)
     Pn = Pn + noise
     if q is not None:
@@ -215,12 +220,12 @@ def _predict(dyn, schedule, est, x, P, step, weights, q, code):
     return m, 0.5 * (Pn + Pn.T), D
 
 
-def _substeps(t_from, t_to, q, step_s, schedule):
+def _substeps(t_from, t_to, q, step_s, schedule, cut=False):
     """The sub-steps (a, b, b - a) (s from the epoch) of a prediction from ``t_from`` to
     ``t_to``: the noise steps, cut at every burn start and end inside the interval (the sigma
     points are redrawn there, after an impulse's execution error is added). The ends are the
     burns' and epochs' own numbers (an impulse is found at b by equality)."""
-    grid = noise_substeps(t_to - t_from, q, step_s)
+    grid = noise_substeps(t_to - t_from, q, step_s, cut)
     if not schedule:
         before = np.r_[0.0, grid[:-1]]
         return [(t_from + p, t_from + n, n - p) for p, n in zip(before, grid, strict=True)]
@@ -259,13 +264,16 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
 
 
 def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters,
-                   schedule=None, est=(), apply_at_start=False):
+                   schedule=None, est=(), apply_at_start=False, gm=None):
     """The unscented Kalman filter forward over ``epochs`` (through the burns of ``schedule``;
     the first state before the impulses at epochs[0] when ``apply_at_start``; with ``est`` the
     state carries those coefficients, 6 + k): filtered and predicted states and covariances, and
-    the cross-covariances cov(x_k^-, x_k-1^+) (the smoother's)."""
+    the cross-covariances cov(x_k^-, x_k-1^+) (the smoother's); ``gm``: the coefficients'
+    Gauss-Markov models (:class:`visviva.od.gauss_markov.GaussMarkov`), or None."""
     n = x.size
     weights = unscented_weights(parameters, n)
+    if gm is not None:
+        step_s = gm.longest_step_s(q, step_s)
     for c in est:  # the block flies unit coefficients, each point scaling them by its own
         c.write(dyn, 1.0)
     n_t = len(epochs)
@@ -284,9 +292,9 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     for k in range(n_t):
         if k:
             C = None
-            for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule):
+            for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule, gm is not None):
                 try:
-                    xn, Pn, D = _predict(dyn, schedule, est, x, P, step, weights, q, code)
+                    xn, Pn, D = _predict(dyn, schedule, est, x, P, step, weights, q, code, gm)
                 except VisvivaError as exc:
                     raise screen.diverged(
                         k, f"the sigma points cannot be integrated ({exc})") from exc

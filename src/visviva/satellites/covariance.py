@@ -219,11 +219,11 @@ def with_process_noise(grid, y, phi, P0, q, noise_code, jumps=None):
     return P
 
 
-def noise_substeps(dt, q, step_s):
+def noise_substeps(dt, q, step_s, cut=False):
     """The sub-steps (s from the interval's start) of a filter's prediction over ``dt`` s: the
-    interval itself without process noise (``q`` None), else equal steps of at most
-    ``step_s``."""
-    if q is None:
+    interval itself without process noise (``q`` None) unless ``cut`` (Gauss-Markov
+    coefficients), else equal steps of at most ``step_s`` (which may be infinite)."""
+    if (q is None and not cut) or dt <= step_s:
         return np.array([dt])
     return np.linspace(0.0, dt, int(np.ceil(dt / step_s)) + 1)[1:]
 

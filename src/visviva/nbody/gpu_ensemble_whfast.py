@@ -130,14 +130,13 @@ def run(pack, target: float, t) -> list:
     from numba import cuda
 
     from ..core.cuda import kernels as K
+    from ..core.cuda import resident as R
     from ..core.cuda import whfast as W
 
     if pack.members[0].forces or not all(
             _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
         refuse_general()
         return run_general(pack, target, t)
-    if not _KERNEL:
-        _KERNEL.append(W.build())
     fs, ist = pack.fstate, pack.istate
     mode, n, h, rem, t_final = plan(fs, ist, target)
     xj_at, vj_at = pack.slot(_wh._XJ), pack.slot(_wh._VJ)
@@ -149,12 +148,18 @@ def run(pack, target: float, t) -> list:
     d = {"x": dev(pack.x), "v": dev(pack.v), "xj": dev(pack.buf[xj_at]),
          "vj": dev(pack.buf[vj_at])}
     status = cuda.device_array(M, dtype=np.int64)
-    _KERNEL[0][K.blocks(M), K.THREADS](
-        d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
-        *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P),
-        dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
-        dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status,
-    )
+    shared = (dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
+              dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status)
+    nmax = R.bucket(int(np.diff(pack.poff).max())) if R.enabled() else None
+    if nmax is not None:  # each thread's rows in its local memory for the call
+        R.whfast(nmax)[K.blocks(M), K.THREADS](
+            d["x"], d["v"], dev(pack.m), d["xj"], d["vj"], *shared)
+    else:
+        if not _KERNEL:
+            _KERNEL.append(W.build())
+        _KERNEL[0][K.blocks(M), K.THREADS](
+            d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
+            *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P), *shared)
     pack.x[:] = d["x"].copy_to_host()
     pack.v[:] = d["v"].copy_to_host()
     pack.buf[xj_at] = d["xj"].copy_to_host()

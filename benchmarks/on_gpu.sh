@@ -16,7 +16,8 @@
 # them (pytest-gpu.txt), and one JSON line per benchmark row (rows.jsonl), written as each row
 # is measured.
 # Environment: CHECK_S / BENCH_S (time limits, s; the defaults, 280 + 260, fit one 10-minute call
-# with the start), SECTIONS (bench_gpu sections, comma-separated).
+# with the start), SECTIONS (bench_gpu sections, comma-separated; gpu-ensemble first: its rows
+# with the resident kernels, VISVIVA_GPU_RESIDENT=1 for those rows only, are the ones awaited).
 set -u
 # the files are written in a work folder and bundled into $OUT/gpu-out.tgz every 30 s and at the
 # end (a lent machine sends back a few files only, and what a cut-off call left); rows.jsonl
@@ -64,10 +65,12 @@ done
 # the tolerances of the gpu-marked tests, applied to those outputs (pytest among the wheels;
 # check_ensemble_events: events and forces in leapfrog and IAS15 ensembles at 1e-12;
 # check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12;
-# check_whfast_forces: WHFast ensembles with additional forces at 1e-12)
+# check_whfast_forces: WHFast ensembles with additional forces at 1e-12;
+# check_resident: the resident ensemble kernels, VISVIVA_GPU_RESIDENT=1, at 1e-12)
 if python3 -c "import pytest" 2>/dev/null; then
     VISVIVA_GPU_OUTPUTS=$OUT python3 -m pytest -q -p no:cacheprovider -m gpu -o addopts="" \
-        tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py 2>&1 \
+        tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py \
+        tests/test_nbody_gpu_resident.py 2>&1 \
         | tee "$OUT/pytest-gpu.txt" | tail -15
 fi
 SECONDS=0
@@ -75,6 +78,6 @@ VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-260}" python3 -c "
 import sys
 import benchmarks.bench_gpu as b
 print('GPU:', b.gpu_model(), file=sys.stderr)
-b.run(sections=tuple(sys.argv[1].split(',')))" "${SECTIONS:-direct,kepler,gpu-ensemble,whfast,ias15}" 2>&1 \
+b.run(sections=tuple(sys.argv[1].split(',')))" "${SECTIONS:-gpu-ensemble,direct,kepler,whfast,ias15}" 2>&1 \
     | grep -v "NumbaPerformanceWarning\|warn(errors" | tee "$OUT/bench.log"
 echo "bench: $SECONDS s"

@@ -18,13 +18,17 @@ INTEGRATORS = ("leapfrog", "whfast")
 def _check(out, tolerance, bits):
     for integrator in INTEGRATORS:
         # ragged members of 3 to 8 particles (test particles among them) through the start
-        # time, off the grid, on it, backwards and forwards again: the bucket of 8 launched;
-        # a pack with a member of 32 particles: the bucket of 32; one of 33: no resident
-        # kernel (the global-memory one runs it), the same numbers
-        assert out[f"{integrator}_launched"] == f"[('{integrator}', 8)]"
-        assert out[f"{integrator}_n32_launched"] == f"[('{integrator}', 32)]"
+        # time, off the grid, on it, backwards and forwards again: the bucket of 8; packs of
+        # 3 and of 8 bodies, all massive: the kernels for exactly 3 and 8 (their loops
+        # unrolled); of 4 with test particles: the bucket of 4; of 9, all massive: the bucket
+        # of 16; a member of 32 particles: the bucket of 32; one of 33: no resident kernel
+        # (the global-memory one runs it); everywhere the same numbers
+        launched = {"": "8, False", "_exact3": "3, True", "_n4": "4, False",
+                    "_exact8": "8, True", "_n9": "16, False", "_n32": "32, False"}
+        for suffix, kernel in launched.items():
+            assert out[f"{integrator}{suffix}_launched"] == f"[('{integrator}', {kernel})]"
         assert out[f"{integrator}_n33_launched"] == "[]"
-        for key in (integrator, f"{integrator}_n32", f"{integrator}_n33"):
+        for key in [integrator + suffix for suffix in (*launched, "_n33")]:
             assert out[f"{key}_packed"] == "True", key
             for what in ("pos", "vel"):
                 assert float(out[f"{key}_{what}"]) <= tolerance, (key, what, out[f"{key}_{what}"])
@@ -59,6 +63,7 @@ def test_buckets_and_the_switch(monkeypatch):
     from visviva.core.cuda import resident as R
 
     # the smallest bucket holding the largest member; above the largest: None (global kernel)
+    assert R.EXACT_MAX <= R.BUCKETS[-1]
     assert [R.bucket(n) for n in (1, 3, 4, 5, 8, 9, 16, 17, 32, 33, 1000)] == [
         4, 4, 4, 8, 8, 16, 16, 32, 32, None, None]
     # unset: on under the simulator only (opt-in on a real GPU until checked there)

@@ -74,6 +74,9 @@ def main():
                                                        i1, f1, f1)) for b in (4, 32)},
         **{f"resident_whfast_{b}": (R.whfast(b), (a2, a2, f1, a2, a2, i1, i1, i1, f1, f1, f1,
                                                    i1, i1, f1, i1)) for b in (4, 32)},
+        # and the leapfrog's for exactly three massive bodies (its loops unrolled)
+        "resident_leapfrog_exact3": (R.leapfrog(3, True), (a2, a2, a2, a2, f1, f1, i1, i1, i1,
+                                                           f1, i1, f1, f1)),
         "ensemble_ias15": (I.build(device_twin(no_force)), ias15),
         "ensemble_ias15_forces": (I.build(forces), ias15),
     }

@@ -26,9 +26,9 @@ LAUNCHED: list = []
 
 
 def _record(builder, name):
-    def wrapped(nmax):
-        LAUNCHED.append((name, nmax))
-        return builder(nmax)
+    def wrapped(nmax, exact=False):
+        LAUNCHED.append((name, nmax, exact))
+        return builder(nmax, exact)
 
     return wrapped
 
@@ -37,16 +37,17 @@ R.leapfrog = _record(R.leapfrog, "leapfrog")
 R.whfast = _record(R.whfast, "whfast")
 
 
-def member(k, integrator, n=None):
-    """A star and ``n - 1`` planets (the last a test particle in odd members), its own step;
-    member 2 softened, member 4 lands on its output times by grid points only."""
+def member(k, integrator, n=None, test_particle=True):
+    """A star and ``n - 1`` planets (the last a test particle in odd members unless not
+    ``test_particle``), its own step; member 2 softened, member 4 lands on its output times by
+    grid points only."""
     n = SIZES[k % len(SIZES)] if n is None else n
     rng = np.random.default_rng(k)
     sim = vv.Simulation(integrator, dt=0.01 + 0.002 * (k % 3), softening=0.01 * (k == 2),
                         exact_finish_time=k != 4)
     sim.add(1.0)
     for j in range(1, n):
-        mass = 0.0 if (k % 2 and j == n - 1) else 1e-3 * rng.uniform(0.1, 1.0)
+        mass = 0.0 if (test_particle and k % 2 and j == n - 1) else 1e-3 * rng.uniform(0.1, 1.0)
         sim.add(mass, a=1.0 + 0.3 * j, e=0.1 * rng.uniform(), inc=0.05 * rng.uniform(),
                 mean_anomaly=rng.uniform(0, 6.28), primary=0)
     sim.move_to_com()
@@ -117,12 +118,19 @@ def main():
         members = [member(k, integrator) for k in range(20)]
         cpu, res = compare(integrator, members, TIMES)
         restart(f"{integrator}_restart", res, cpu, 0.55)
-        # a member of 32 particles (the largest bucket) and, apart, one of 33 (larger than
-        # every bucket: the global-memory kernel runs its pack); a short span (the simulator
-        # runs device code as Python)
-        for n in (R.BUCKETS[-1], R.BUCKETS[-1] + 1):
-            compare(f"{integrator}_n{n}", [member(k, integrator, n if k == 1 else None)
-                                          for k in range(3)], (0.0, 0.031, 0.05))
+        # packs at the edges of the kernels' choice (R.select), each three calls off and on
+        # the grid, and backwards (a short span: the simulator runs device code as Python):
+        # members of 3 bodies, all massive (the kernel for exactly 3); of 4 bodies with test
+        # particles (the bucket of 4); of 8 and of 9 bodies, all massive (exactly 8 = EXACT_MAX;
+        # the bucket of 16); a member of 32 bodies (the largest bucket) and one of 33 (larger
+        # than every bucket: the global-memory kernel runs its pack)
+        short = (0.0, 0.031, 0.05, 0.02)
+        for key, n, tp, where in (("exact3", 3, False, None), ("n4", 4, True, None),
+                                  ("exact8", 8, False, None), ("n9", 9, False, None),
+                                  ("n32", 32, True, 1), ("n33", 33, True, 1)):
+            compare(f"{integrator}_{key}",
+                    [member(k, integrator, n if where in (None, k) else None, tp)
+                     for k in range(3)], short)
 
 
 if __name__ == "__main__":

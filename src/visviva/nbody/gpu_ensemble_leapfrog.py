@@ -14,6 +14,10 @@ time is its grid point, the internal state is marked invalid, the event's partic
 the CPU kernel's. :meth:`~visviva.nbody.ensemble_pack.Pack.finish` then finishes such a member
 as the CPU ensemble does (a merger or bounce resolved and the member continued alone; a halt,
 encounter or escape raised for that member); the other members run on undisturbed.
+
+A pack of members with gravity only and no checks runs the resident kernel instead when it is
+switched on (:func:`resident_kernel`, :mod:`visviva.core.cuda.resident`: each member's state in
+its thread's local arrays for the call; the same numbers; opt-in on a real GPU).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from ..core import status as _st
 from .gpu_forces import kernel_for, launch
 from .gpu_plan import plan_many
 
-__all__ = ["run", "resident_bucket"]
+__all__ = ["run", "resident_kernel"]
 
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -39,7 +43,6 @@ def run(pack, target: float, t) -> list:
     from numba import cuda
 
     from ..core.cuda import kernels as K
-    from ..core.cuda import resident as R
 
     fs, ist = pack.fstate, pack.istate
     n, h, rem, t_final, restart = plan_many(fs, ist, target)
@@ -50,9 +53,9 @@ def run(pack, target: float, t) -> list:
     M = len(pack.members)
     d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
         ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
-    nmax = resident_bucket(pack)
-    if nmax is not None:  # gravity only, no checks: every step taken, nothing stops
-        R.leapfrog(nmax)[K.blocks(M), K.THREADS](
+    resident = resident_kernel(pack)
+    if resident is not None:  # gravity only, no checks: every step taken, nothing stops
+        resident[K.blocks(M), K.THREADS](
             d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m),
             cuda.to_device(fs[:, _nc.F_G][pack.member_of] * pack.m),
             cuda.to_device(pack.massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
@@ -81,20 +84,19 @@ def run(pack, target: float, t) -> list:
     return pack.finish(status, t)
 
 
-def resident_bucket(pack) -> int | None:
-    """The member size of the resident kernel (:mod:`visviva.core.cuda.resident`) that runs
-    ``pack``, or None for the global-memory kernel: it runs members with an additional force or
-    with collision, encounter or escape checks, packs with a member larger than the largest
-    bucket, and every pack while the resident kernels are off (:func:`~visviva.core.cuda.
-    resident.enabled`)."""
+def resident_kernel(pack):
+    """The resident kernel (:func:`visviva.core.cuda.resident.select`) that runs ``pack``, or
+    None for the global-memory kernel: it runs members with an additional force or with
+    collision, encounter or escape checks, packs with a member larger than the largest bucket,
+    and every pack while the resident kernels are off."""
     from ..core.cuda import resident as R
 
     fs, ist = pack.fstate, pack.istate
-    if not R.enabled() or pack.members[0].forces or np.any(
+    if pack.members[0].forces or np.any(
             (ist[:, _nc.I_COLLISIONS] != 0) | (fs[:, _nc.F_ENCOUNTER] > 0.0)
             | (fs[:, _nc.F_EXIT] > 0.0)):
         return None
-    return R.bucket(int(np.diff(pack.poff).max()))
+    return R.select("leapfrog", pack.poff, pack.moff)
 
 
 def _global(pack, d, fs, n, h, rem):

@@ -8,7 +8,9 @@ host, for all members at once and with the CPU kernel's expressions, whether a m
 internal state is still valid or must be built again (the grid origin then moves to the
 member's current time), how many fused steps it takes and the length of the shortened step of
 its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
-counter, grid index, clock: :func:`account`). Any other pack (democratic heliocentric
+counter, grid index, clock: :func:`account`); with the resident kernels switched on
+(:mod:`visviva.core.cuda.resident`: opt-in on a real GPU) and no member of more than 32
+particles, the plain kernel's resident variant runs instead (the same numbers). Any other pack (democratic heliocentric
 coordinates, a corrector, event checks, additional forces, in any mix) runs
 :func:`run_general`: the CPU kernel's whole run body on the device, on the members' whole
 state, bookkeeping included, with the members' force compiled for the device (the members of
@@ -150,9 +152,9 @@ def run(pack, target: float, t) -> list:
     status = cuda.device_array(M, dtype=np.int64)
     shared = (dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
               dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status)
-    nmax = R.bucket(int(np.diff(pack.poff).max())) if R.enabled() else None
-    if nmax is not None:  # each thread's rows in its local memory for the call
-        R.whfast(nmax)[K.blocks(M), K.THREADS](
+    resident = R.select("whfast", pack.poff, pack.moff)
+    if resident is not None:  # each thread's rows in its local memory for the call
+        resident[K.blocks(M), K.THREADS](
             d["x"], d["v"], dev(pack.m), d["xj"], d["vj"], *shared)
     else:
         if not _KERNEL:

@@ -12,8 +12,12 @@ the hardware (the same local address of the 32 threads of a warp is one contiguo
 in L1, and its fixed-size arrays may live in registers.
 
 ``NMAX`` must be a compile-time constant: one kernel per bucket of :data:`BUCKETS` (the smallest
-bucket at least the pack's largest member, :func:`bucket`), built on first use and kept. A pack
-with a member of more than ``BUCKETS[-1]`` particles runs the global-memory kernels.
+bucket at least the pack's largest member, :func:`bucket`), built on first use and kept; the
+loops run to each member's own ``N``, so the arrays stay in (cached) local memory. A pack whose
+members all have the same ``N <= EXACT_MAX``, all massive, takes a kernel compiled for exactly
+that ``N``: the compiler unrolls its loops and keeps the arrays in registers (the leapfrog's
+PTX for ``N = 3`` declares no local memory). A pack with a member of more than
+``BUCKETS[-1]`` particles runs the global-memory kernels (:func:`select` chooses).
 
 The steps are the same device functions as the global-memory kernels (the leapfrog's
 :func:`visviva.core.cuda.arith.member_dkd` with the no-op force; WHFast's
@@ -31,12 +35,14 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 from numba import cuda, float64, int64
 
 from ..status import OK
 from . import simulator
 
-__all__ = ["RESIDENT", "BUCKETS", "enabled", "bucket", "leapfrog", "whfast"]
+__all__ = ["RESIDENT", "BUCKETS", "EXACT_MAX", "enabled", "bucket", "select", "leapfrog",
+           "whfast"]
 
 #: The environment variable that switches the resident kernels on ("1") or off ("0"). Unset:
 #: on under numba's CUDA simulator (CI runs them in every GPU test), off on a real GPU until
@@ -45,6 +51,9 @@ RESIDENT = "VISVIVA_GPU_RESIDENT"
 
 #: The compile-time member sizes (particles) of the resident kernels, smallest first.
 BUCKETS = (4, 8, 16, 32)
+#: Packs whose members all have the same number of particles, at most this many, all massive,
+#: take a kernel compiled for exactly that number (:func:`select`).
+EXACT_MAX = 8
 
 _BUILT: dict = {}
 
@@ -66,9 +75,30 @@ def bucket(n_max: int) -> int | None:
     return None
 
 
-def leapfrog(nmax: int):
+def select(kind: str, poff, moff):
+    """The resident kernel of ``kind`` ("leapfrog" or "whfast") for a pack whose members'
+    particles and massive particles start at the offsets ``poff`` and ``moff``, built on first
+    use, or None (switched off: :func:`enabled`; or a member larger than every bucket).
+
+    Members all of one size ``N <= EXACT_MAX``, every particle massive, take the kernel compiled
+    for exactly ``N`` (``exact``: every loop bound known to the compiler, which unrolls the
+    loops and can keep the arrays in registers); other packs the bucket of their largest member.
+    """
+    if not enabled():
+        return None
+    n = np.diff(poff)
+    big = int(n.max())
+    build = leapfrog if kind == "leapfrog" else whfast
+    if big <= EXACT_MAX and bool(np.all(n == big)) and np.array_equal(np.diff(moff), n):
+        return build(big, True)
+    size = bucket(big)
+    return None if size is None else build(size)
+
+
+def leapfrog(nmax: int, exact: bool = False):
     """The resident leapfrog kernel for members of at most ``nmax`` particles (one of
-    :data:`BUCKETS`), built once per ``nmax``: ``kernel[blocks, THREADS](xi, vi, x, v, m, gm,
+    :data:`BUCKETS`; with ``exact``, members of exactly ``nmax`` particles, all massive), built
+    once per ``(nmax, exact)``: ``kernel[blocks, THREADS](xi, vi, x, v, m, gm,
     massive, moff, poff, soft2, nsteps, h, rem)``.
 
     Member ``k`` (one thread): ``nsteps[k]`` drift-kick-drift steps ``h[k]`` of its internal
@@ -78,7 +108,7 @@ def leapfrog(nmax: int):
     event checks. ``gm``: ``G m`` of every particle; ``massive``: the members' massive
     particles, indices local to the member (``moff``); ``soft2``: one per member.
     """
-    key = ("leapfrog", nmax)
+    key = ("leapfrog", nmax, exact)
     if key in _BUILT:
         return _BUILT[key]
     from ..gravity import no_force
@@ -94,9 +124,12 @@ def leapfrog(nmax: int):
         if k >= nsteps.shape[0]:
             return
         lo = poff[k]
-        n = poff[k + 1] - lo
         mlo = moff[k]
-        nm = moff[k + 1] - mlo
+        if exact:  # every member has nmax particles, all massive: the loops' bounds known
+            n = nm = nmax
+        else:
+            n = poff[k + 1] - lo
+            nm = moff[k + 1] - mlo
         X = cuda.local.array((nmax, 3), float64)
         V = cuda.local.array((nmax, 3), float64)
         A = cuda.local.array((nmax, 3), float64)
@@ -110,7 +143,7 @@ def leapfrog(nmax: int):
                 X[i, c] = xi[lo + i, c]
                 V[i, c] = vi[lo + i, c]
         for b in range(nm):
-            MS[b] = massive[mlo + b]
+            MS[b] = b if exact else massive[mlo + b]
         s2 = soft2[k]
         step = h[k]
         # the no-op force ignores the time and its parameters (GM stands in for them)
@@ -132,15 +165,16 @@ def leapfrog(nmax: int):
     return ensemble_leapfrog_resident
 
 
-def whfast(nmax: int):
+def whfast(nmax: int, exact: bool = False):
     """The resident plain WHFast kernel for members of at most ``nmax`` particles (one of
-    :data:`BUCKETS`), built once per ``nmax``: ``kernel[blocks, THREADS](x, v, m, xj, vj,
+    :data:`BUCKETS`; with ``exact``, members of exactly ``nmax`` particles, all massive), built
+    once per ``(nmax, exact)``: ``kernel[blocks, THREADS](x, v, m, xj, vj,
     massive, moff, poff, G, soft2, h, mode, nsteps, rem, status)``, the arguments of
     :func:`visviva.core.cuda.whfast.build`'s kernel less its scratch arrays (each thread's
     are local). Member ``k`` runs :func:`visviva.core.cuda.whfast.plain_member` on local copies
     of its rows; ``x, v, xj, vj`` are written back whatever its status (as the global-memory
     kernel leaves them in place)."""
-    key = ("whfast", nmax)
+    key = ("whfast", nmax, exact)
     if key in _BUILT:
         return _BUILT[key]
     from .whfast import SKIP, plain_member
@@ -157,9 +191,12 @@ def whfast(nmax: int):
         if mode[k] == SKIP:
             return
         lo = poff[k]
-        n = poff[k + 1] - lo
         mlo = moff[k]
-        nm = moff[k + 1] - mlo
+        if exact:  # every member has nmax particles, all massive: the loops' bounds known
+            n = nm = nmax
+        else:
+            n = poff[k + 1] - lo
+            nm = moff[k + 1] - mlo
         X = cuda.local.array((nmax, 3), float64)
         V = cuda.local.array((nmax, 3), float64)
         XJ = cuda.local.array((nmax, 3), float64)
@@ -179,7 +216,7 @@ def whfast(nmax: int):
                 XJ[i, c] = xj[lo + i, c]
                 VJ[i, c] = vj[lo + i, c]
         for b in range(nm):
-            MS[b] = massive[mlo + b]
+            MS[b] = b if exact else massive[mlo + b]
         status[k] = member(X[:n], V[:n], M[:n], E[:n], XJ[:n], VJ[:n], XS[:n], VS[:n], A[:n],
                            AJ[:n], MS[:nm], G[k], soft2[k], h[k], mode[k], nsteps[k], rem[k])
         for i in range(n):

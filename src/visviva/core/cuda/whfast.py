@@ -7,7 +7,9 @@ build the internal state ``P`` when it is not valid (``_first_half``: inertial -
 drift ``h/2``, kick ``h``), ``nsteps`` fused steps ``P <- Kick(h) Kepler(h) P``, a synchronised
 copy (Kepler ``h/2`` and back to inertial coordinates) and, for an output time between grid
 points, one shortened drift-kick-drift step of the copy. The host plans the steps with the CPU
-kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`). The per-member body is the
+device function :func:`plain_member`: the kernel calls it on slices of the packed global arrays,
+:mod:`.resident` on each thread's local copies of its member's rows.
 
 :func:`build_general` returns :func:`ensemble_whfast_general`, every other case (additional
 forces included): each thread runs the CPU kernel's run body itself,

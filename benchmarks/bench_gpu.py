@@ -22,6 +22,9 @@ Rows
 
 from __future__ import annotations
 
+import contextlib
+import os
+
 import numpy as np
 
 from benchmarks.common import (
@@ -394,9 +397,10 @@ def _one_gpu_ensemble(rows, quick, integrator):
             rows.append(skipped(resident, f"no GPU ({problem})"))
         return
     gens = vv.Ensemble.from_simulations(lf, backend="cuda")
-    c = compile_time(gens.integrate, 0.01)
-    t_gpu, _ = taken(gens)
-    call_gpu = timed(gens, 1).median
+    with _resident("0"):  # the global-memory kernels, whatever the environment says
+        c = compile_time(gens.integrate, 0.01)
+        t_gpu, _ = taken(gens)
+        call_gpu = timed(gens, 1).median
     rows.append(result(name, t_gpu, "CPU ensemble, every core", t_cpu, target=0.02,
                        compile_s=c,
                        notes=f"{members * per_call / t_gpu.median:.3g} system-steps/s (CPU "
@@ -407,20 +411,32 @@ def _one_gpu_ensemble(rows, quick, integrator):
                       per_call, model)
 
 
+@contextlib.contextmanager
+def _resident(value):
+    """The resident GPU ensemble kernels switched on ("1") or off ("0") inside the block
+    (``VISVIVA_GPU_RESIDENT``), as before it afterwards."""
+    from visviva.core.cuda.resident import RESIDENT
+
+    before = os.environ.get(RESIDENT)
+    os.environ[RESIDENT] = value
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[RESIDENT]
+        else:
+            os.environ[RESIDENT] = before
+
+
 def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
     """The same ensemble with the resident kernel (visviva.core.cuda.resident: each member's
     state in its thread's local arrays for a call; opt-in on a real GPU, switched on here for
     this row only), timed as the row before; then the three ensembles (CPU, global-memory
     kernel, resident kernel) carried on to one later time and compared (relative, positions)."""
-    import os
-
     import visviva as vv
-    from visviva.core.cuda import resident as R
 
     (ens, gens), (t_cpu, rate_cpu), (members, steps) = ensembles, cpu, size
-    before = os.environ.get(R.RESIDENT)
-    os.environ[R.RESIDENT] = "1"
-    try:
+    with _resident("1"):
         rens = vv.Ensemble.from_simulations(lf, backend="cuda")
         c = compile_time(rens.integrate, 0.01)
         t_res = time_call(lambda: rens.integrate(float(rens.t.max()) + steps * 0.01),
@@ -429,12 +445,8 @@ def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
                              number=1).median
         end = max(float(e.t.max()) for e in (ens, gens, rens)) + 0.05
         rens.integrate(end)
-    finally:
-        if before is None:
-            del os.environ[R.RESIDENT]
-        else:
-            os.environ[R.RESIDENT] = before
-    gens.integrate(end)  # the global-memory kernel
+    with _resident("0"):
+        gens.integrate(end)  # the global-memory kernel
     with threads(None):
         ens.integrate(end)
 

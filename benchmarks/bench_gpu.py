@@ -22,6 +22,9 @@ Rows
 
 from __future__ import annotations
 
+import contextlib
+import os
+
 import numpy as np
 
 from benchmarks.common import (
@@ -385,20 +388,79 @@ def _one_gpu_ensemble(rows, quick, integrator):
     span = (f"{steps} steps" if integrator != "ias15"
             else f"{steps * 0.01:g} time units (~{per_call:.3g} adaptive steps)")
     name = f"ensemble of {members} 3-body {integrator} systems on the GPU, {span}"
+    resident = name.replace("on the GPU,", "on the GPU, resident kernel,")
     if problem:
         rows.append(skipped(name, f"no GPU ({problem}); CPU ensemble: {rate_cpu:.3g} "
                                   f"system-steps/s on every core; a 1-step call "
                                   f"{call_cpu * 1e3:.3g} ms"))
+        if integrator != "ias15":
+            rows.append(skipped(resident, f"no GPU ({problem})"))
         return
     gens = vv.Ensemble.from_simulations(lf, backend="cuda")
-    c = compile_time(gens.integrate, 0.01)
-    t_gpu, _ = taken(gens)
-    call_gpu = timed(gens, 1).median
+    with _resident("0"):  # the global-memory kernels, whatever the environment says
+        c = compile_time(gens.integrate, 0.01)
+        t_gpu, _ = taken(gens)
+        call_gpu = timed(gens, 1).median
     rows.append(result(name, t_gpu, "CPU ensemble, every core", t_cpu, target=0.02,
                        compile_s=c,
                        notes=f"{members * per_call / t_gpu.median:.3g} system-steps/s (CPU "
                              f"{rate_cpu:.3g}); a 1-step call {call_gpu * 1e3:.3g} ms (CPU "
                              f"{call_cpu * 1e3:.3g}); fp64; {model}"))
+    if integrator != "ias15":
+        _resident_row(rows, resident, lf, (ens, gens), (t_cpu, rate_cpu), (members, steps),
+                      per_call, model)
+
+
+@contextlib.contextmanager
+def _resident(value):
+    """The resident GPU ensemble kernels switched on ("1") or off ("0") inside the block
+    (``VISVIVA_GPU_RESIDENT``), as before it afterwards."""
+    from visviva.core.cuda.resident import RESIDENT
+
+    before = os.environ.get(RESIDENT)
+    os.environ[RESIDENT] = value
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[RESIDENT]
+        else:
+            os.environ[RESIDENT] = before
+
+
+def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
+    """The same ensemble with the resident kernel (visviva.core.cuda.resident: each member's
+    state in its thread's local arrays for a call; opt-in on a real GPU, switched on here for
+    this row only), timed as the row before; then the three ensembles (CPU, global-memory
+    kernel, resident kernel) carried on to one later time and compared (relative, positions)."""
+    import visviva as vv
+
+    (ens, gens), (t_cpu, rate_cpu), (members, steps) = ensembles, cpu, size
+    with _resident("1"):
+        rens = vv.Ensemble.from_simulations(lf, backend="cuda")
+        c = compile_time(rens.integrate, 0.01)
+        t_res = time_call(lambda: rens.integrate(float(rens.t.max()) + steps * 0.01),
+                          repeat=3, number=1)
+        call_res = time_call(lambda: rens.integrate(float(rens.t.max()) + 0.01), repeat=3,
+                             number=1).median
+        end = max(float(e.t.max()) for e in (ens, gens, rens)) + 0.05
+        rens.integrate(end)
+    with _resident("0"):
+        gens.integrate(end)  # the global-memory kernel
+    with threads(None):
+        ens.integrate(end)
+
+    def rel(a, b):
+        return float(np.max(np.abs(a.positions - b.positions)) / np.max(np.abs(b.positions)))
+
+    rows.append(result(name, t_res, "CPU ensemble, every core", t_cpu, target=0.02,
+                       compile_s=c,
+                       notes=f"{members * per_call / t_res.median:.3g} system-steps/s (CPU "
+                             f"{rate_cpu:.3g}); a 1-step call {call_res * 1e3:.3g} ms; at "
+                             f"t={end:.4g} relative to the CPU ensemble {rel(rens, ens):.2g}, "
+                             f"to the global-memory kernel {rel(rens, gens):.2g} (the global "
+                             f"kernel to the CPU {rel(gens, ens):.2g}); VISVIVA_GPU_RESIDENT=1; "
+                             f"fp64; {model}"))
 
 
 def _kepler(rows, quick):

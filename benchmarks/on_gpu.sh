@@ -16,9 +16,11 @@
 # them (pytest-gpu.txt), and one JSON line per benchmark row (rows.jsonl), written as each row
 # is measured.
 # Environment: CHECK_S / BENCH_S (time limits, s; the defaults, 280 + 260, fit one 10-minute call
-# with the start; BENCH_S=0 measures nothing), SECTIONS (bench_gpu sections, comma-separated),
-# CHECKS (which scripts of tests/gpu/ to run, globs without .py; default "check_* diagnose_*").
-# A short first call of a lease, to find a fault before the full run:
+# with the start; BENCH_S=0 measures nothing), SECTIONS (bench_gpu sections, comma-separated;
+# gpu-ensemble first: its rows with the resident kernels, VISVIVA_GPU_RESIDENT=1 for those rows
+# only, are the ones awaited), CHECKS (which scripts of tests/gpu/ to run, globs without .py;
+# default "check_* diagnose_*"). A short first call of a lease, to find a fault before the
+# full run:
 #   CHECKS="diagnose_*" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
 set -u
 # the files are written in a work folder and bundled into $OUT/gpu-out.tgz every 30 s and at the
@@ -72,10 +74,12 @@ done
 # the tolerances of the gpu-marked tests, applied to those outputs (pytest among the wheels;
 # check_ensemble_events: events and forces in leapfrog and IAS15 ensembles at 1e-12;
 # check_whfast_general: WHFast ensembles, democratic heliocentric, correctors, events at 1e-12;
-# check_whfast_forces: WHFast ensembles with additional forces at 1e-12)
+# check_whfast_forces: WHFast ensembles with additional forces at 1e-12;
+# check_resident: the resident ensemble kernels, VISVIVA_GPU_RESIDENT=1, at 1e-12)
 if [[ "$SCRIPTS" == *check_* ]] && python3 -c "import pytest" 2>/dev/null; then
     VISVIVA_GPU_OUTPUTS=$OUT python3 -m pytest -q -p no:cacheprovider -m gpu -o addopts="" \
-        tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py 2>&1 \
+        tests/test_nbody_gpu.py tests/test_nbody_gpu_events.py tests/test_nbody_gpu_whfast.py \
+        tests/test_nbody_gpu_resident.py 2>&1 \
         | tee "$OUT/pytest-gpu.txt" | tail -15
 fi
 [ "${BENCH_S:-260}" = 0 ] && exit 0
@@ -84,6 +88,6 @@ VISVIVA_BENCH_ROWS=$OUT/rows.jsonl timeout "${BENCH_S:-260}" python3 -c "
 import sys
 import benchmarks.bench_gpu as b
 print('GPU:', b.gpu_model(), file=sys.stderr)
-b.run(sections=tuple(sys.argv[1].split(',')))" "${SECTIONS:-direct,kepler,gpu-ensemble,whfast,ias15}" 2>&1 \
+b.run(sections=tuple(sys.argv[1].split(',')))" "${SECTIONS:-gpu-ensemble,direct,kepler,whfast,ias15}" 2>&1 \
     | grep -v "NumbaPerformanceWarning\|warn(errors" | tee "$OUT/bench.log"
 echo "bench: $SECONDS s"

@@ -291,11 +291,26 @@ def test_every_gpu_kernel_compiles_to_ptx():
     # ensembles' kernels with additional forces among them
     assert {"accelerations", "accelerations_rsqrt", "ensemble_leapfrog", "propagate_many",
             "ensemble_whfast", "ensemble_whfast_general_forces", "ensemble_ias15",
-            "ensemble_leapfrog_forces", "ensemble_ias15_forces"} <= set(out) and len(out) >= 13
+            "ensemble_leapfrog_forces", "ensemble_ias15_forces", "resident_leapfrog_4",
+            "resident_leapfrog_32", "resident_whfast_4", "resident_whfast_32",
+            "resident_leapfrog_exact3"} <= set(out)
+    assert len(out) >= 18
     # the general WHFast kernel keeps one out-of-line copy of the Kepler solver
     # (twins.never_inlined): 1.4 MB of PTX instead of 6.4 MB, seconds of NVVM and ptxas
     # instead of minutes at its first launch
     assert 0.1 < float(out.pop("size_general_whfast_mb")) < 3.0
+    # the resident kernels compile for the smallest and largest bucket; their per-thread
+    # frame holds the member's local arrays (leapfrog: x, v, acc, G m, massive; WHFast: eight
+    # (NMAX, 3) arrays and three of NMAX), growing with the bucket
+    frame = {k: int(out.pop(k)) for k in list(out) if k.endswith("_local_bytes")}
+    # the leapfrog for exactly three massive bodies: every loop unrolled, no local array left
+    # (the state in registers for the whole call)
+    assert frame.pop("resident_leapfrog_exact3_local_bytes") == 0
+    assert set(frame) == {f"resident_{i}_{b}_local_bytes" for i in ("leapfrog", "whfast")
+                          for b in (4, 32)}, frame
+    for integrator in ("leapfrog", "whfast"):
+        small, large = (frame[f"resident_{integrator}_{b}_local_bytes"] for b in (4, 32))
+        assert 0 < small < large <= 8 * small, (integrator, small, large)
     for kernel, result in out.items():
         assert result == "ok", (kernel, result)
 

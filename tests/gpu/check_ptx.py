@@ -30,6 +30,7 @@ def main():
     import visviva as vv
     from visviva.core.cuda import ias15 as I
     from visviva.core.cuda import kernels as K
+    from visviva.core.cuda import resident as R
     from visviva.core.cuda import whfast as W
     from visviva.core.cuda.twins import device_twin
     from visviva.core.gravity import no_force
@@ -67,6 +68,15 @@ def main():
         # compile is enough here)
         "ensemble_whfast_general_forces": (W.build_general(forces), (
             a2, a2, f1, i1, i1, f1, i1, a2, i2, f1, f1, i1, f1, a2, f1, f1, i1)),
+        # the resident kernels (each member's rows in its thread's local arrays), the smallest
+        # and the largest bucket
+        **{f"resident_leapfrog_{b}": (R.leapfrog(b), (a2, a2, a2, a2, f1, f1, i1, i1, i1, f1,
+                                                       i1, f1, f1)) for b in (4, 32)},
+        **{f"resident_whfast_{b}": (R.whfast(b), (a2, a2, f1, a2, a2, i1, i1, i1, f1, f1, f1,
+                                                   i1, i1, f1, i1)) for b in (4, 32)},
+        # and the leapfrog's for exactly three massive bodies (its loops unrolled)
+        "resident_leapfrog_exact3": (R.leapfrog(3, True), (a2, a2, a2, a2, f1, f1, i1, i1, i1,
+                                                           f1, i1, f1, f1)),
         "ensemble_ias15": (I.build(device_twin(no_force)), ias15),
         "ensemble_ias15_forces": (I.build(forces), ias15),
     }
@@ -76,11 +86,21 @@ def main():
             ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
             print(f"{name}={'ok' if '.entry' in ptx else 'no entry'}")
             sizes[name] = len(ptx)
+            if name.startswith("resident"):  # local memory the resident kernels declare
+                print(f"{name}_local_bytes={_local_bytes(ptx)!r}")
         except Exception as exc:
             print(f"{name}={type(exc).__name__}: {str(exc).splitlines()[0][:200]}")
     # the general WHFast kernel's PTX (its size is what its first launch compiles: with the
     # Kepler solver inlined at its 23 call sites 6.4 MB and minutes, out of line 1.4 MB)
     print(f"size_general_whfast_mb={sizes.get('ensemble_whfast_general_forces', 0) / 1e6!r}")
+
+
+def _local_bytes(ptx):
+    """The bytes of the ``.local`` arrays the kernel's PTX declares (its per-thread frame)."""
+    import re
+
+    return sum(int(n) for n in re.findall(r"\.local\s+\.align\s+\d+\s+\.b8\s+\w+\[(\d+)\]",
+                                           ptx))
 
 
 def _user_force():

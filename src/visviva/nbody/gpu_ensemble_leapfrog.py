@@ -14,6 +14,10 @@ time is its grid point, the internal state is marked invalid, the event's partic
 the CPU kernel's. :meth:`~visviva.nbody.ensemble_pack.Pack.finish` then finishes such a member
 as the CPU ensemble does (a merger or bounce resolved and the member continued alone; a halt,
 encounter or escape raised for that member); the other members run on undisturbed.
+
+A pack of members with gravity only and no checks runs the resident kernel instead when it is
+switched on (:func:`resident_kernel`, :mod:`visviva.core.cuda.resident`: each member's state in
+its thread's local arrays for the call; the same numbers; opt-in on a real GPU).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from ..core import status as _st
 from .gpu_forces import kernel_for, launch
 from .gpu_plan import plan_many
 
-__all__ = ["run"]
+__all__ = ["run", "resident_kernel"]
 
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -48,29 +52,22 @@ def run(pack, target: float, t) -> list:
     pack.buf[vi_at[fresh]] = pack.v[fresh]
     M = len(pack.members)
     d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v),
-        ("istate", ist))}
-    done = cuda.device_array(M, dtype=np.int64)
-    status = cuda.device_array(M, dtype=np.int64)
-    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
-    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
-    first = pack.members[0]
-    kernel = K.ensemble_leapfrog if not first.forces else kernel_for(
-        "leapfrog", first, K.leapfrog_kernel)
-    launch(kernel, first, K.blocks(M), K.THREADS,
-           d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(gm),
-           cuda.to_device(massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
-           cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
-           cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
-           cuda.to_device(rem), cuda.to_device(pack.radius), cuda.to_device(fs), d["istate"],
-           cuda.to_device(pack.params), cuda.to_device(pack.qoff), done, status)
+        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
+    resident = resident_kernel(pack)
+    if resident is not None:  # gravity only, no checks: every step taken, nothing stops
+        resident[K.blocks(M), K.THREADS](
+            d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m),
+            cuda.to_device(fs[:, _nc.F_G][pack.member_of] * pack.m),
+            cuda.to_device(pack.massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
+            cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])), cuda.to_device(n),
+            cuda.to_device(h), cuda.to_device(rem))
+        done, status = n.copy(), np.full(M, _st.OK, dtype=np.int64)
+    else:
+        done, status = _global(pack, d, fs, n, h, rem)
     pack.buf[xi_at] = d["xi"].copy_to_host()
     pack.buf[vi_at] = d["vi"].copy_to_host()
     pack.x[:] = d["x"].copy_to_host()
     pack.v[:] = d["v"].copy_to_host()
-    ist[:] = d["istate"].copy_to_host()  # the event's particles (I_EVENT_A, I_EVENT_B)
-    done = done.copy_to_host()
-    status = status.copy_to_host()
     # the clock and counters as the CPU kernel leaves them (nbody_leapfrog._leapfrog)
     ist[:, _nc.I_K] += np.where(h > 0.0, done, -done)
     ist[:, _nc.I_STEPS] += done
@@ -85,3 +82,45 @@ def run(pack, target: float, t) -> list:
     ist[bad, _nc.I_INT_VALID] = 0
     ist[status == _st.OK, _nc.I_NOUT] = 1
     return pack.finish(status, t)
+
+
+def resident_kernel(pack):
+    """The resident kernel (:func:`visviva.core.cuda.resident.select`) that runs ``pack``, or
+    None for the global-memory kernel: it runs members with an additional force or with
+    collision, encounter or escape checks, packs with a member larger than the largest bucket,
+    and every pack while the resident kernels are off."""
+    from ..core.cuda import resident as R
+
+    fs, ist = pack.fstate, pack.istate
+    if pack.members[0].forces or np.any(
+            (ist[:, _nc.I_COLLISIONS] != 0) | (fs[:, _nc.F_ENCOUNTER] > 0.0)
+            | (fs[:, _nc.F_EXIT] > 0.0)):
+        return None
+    return R.select("leapfrog", pack.poff, pack.moff)
+
+
+def _global(pack, d, fs, n, h, rem):
+    """Launch the global-memory kernel (:func:`visviva.core.cuda.kernels.leapfrog_kernel`) on
+    the device arrays ``d``; returns the steps taken and the status of every member."""
+    from numba import cuda
+
+    from ..core.cuda import kernels as K
+
+    M = len(pack.members)
+    done = cuda.device_array(M, dtype=np.int64)
+    status = cuda.device_array(M, dtype=np.int64)
+    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
+    massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
+    first = pack.members[0]
+    kernel = K.ensemble_leapfrog if not first.forces else kernel_for(
+        "leapfrog", first, K.leapfrog_kernel)
+    d_ist = cuda.to_device(np.ascontiguousarray(pack.istate))
+    launch(kernel, first, K.blocks(M), K.THREADS,
+           d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m), cuda.to_device(gm),
+           cuda.to_device(massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
+           cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])),
+           cuda.device_array((len(pack.x), 3)), cuda.to_device(n), cuda.to_device(h),
+           cuda.to_device(rem), cuda.to_device(pack.radius), cuda.to_device(fs), d_ist,
+           cuda.to_device(pack.params), cuda.to_device(pack.qoff), done, status)
+    pack.istate[:] = d_ist.copy_to_host()  # the event's particles (I_EVENT_A, I_EVENT_B)
+    return done.copy_to_host(), status.copy_to_host()

@@ -8,7 +8,9 @@ host, for all members at once and with the CPU kernel's expressions, whether a m
 internal state is still valid or must be built again (the grid origin then moves to the
 member's current time), how many fused steps it takes and the length of the shortened step of
 its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
-counter, grid index, clock: :func:`account`). Any other pack (democratic heliocentric
+counter, grid index, clock: :func:`account`); with the resident kernels switched on
+(:mod:`visviva.core.cuda.resident`: opt-in on a real GPU) and no member of more than 32
+particles, the plain kernel's resident variant runs instead (the same numbers). Any other pack (democratic heliocentric
 coordinates, a corrector, event checks, additional forces, in any mix) runs
 :func:`run_general`: the CPU kernel's whole run body on the device, on the members' whole
 state, bookkeeping included, with the members' force compiled for the device (the members of
@@ -130,14 +132,13 @@ def run(pack, target: float, t) -> list:
     from numba import cuda
 
     from ..core.cuda import kernels as K
+    from ..core.cuda import resident as R
     from ..core.cuda import whfast as W
 
     if pack.members[0].forces or not all(
             _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
         refuse_general()
         return run_general(pack, target, t)
-    if not _KERNEL:
-        _KERNEL.append(W.build())
     fs, ist = pack.fstate, pack.istate
     mode, n, h, rem, t_final = plan(fs, ist, target)
     xj_at, vj_at = pack.slot(_wh._XJ), pack.slot(_wh._VJ)
@@ -149,12 +150,18 @@ def run(pack, target: float, t) -> list:
     d = {"x": dev(pack.x), "v": dev(pack.v), "xj": dev(pack.buf[xj_at]),
          "vj": dev(pack.buf[vj_at])}
     status = cuda.device_array(M, dtype=np.int64)
-    _KERNEL[0][K.blocks(M), K.THREADS](
-        d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
-        *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P),
-        dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
-        dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status,
-    )
+    shared = (dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
+              dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status)
+    resident = R.select("whfast", pack.poff, pack.moff)
+    if resident is not None:  # each thread's rows in its local memory for the call
+        resident[K.blocks(M), K.THREADS](
+            d["x"], d["v"], dev(pack.m), d["xj"], d["vj"], *shared)
+    else:
+        if not _KERNEL:
+            _KERNEL.append(W.build())
+        _KERNEL[0][K.blocks(M), K.THREADS](
+            d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
+            *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P), *shared)
     pack.x[:] = d["x"].copy_to_host()
     pack.v[:] = d["v"].copy_to_host()
     pack.buf[xj_at] = d["xj"].copy_to_host()

@@ -7,7 +7,9 @@ build the internal state ``P`` when it is not valid (``_first_half``: inertial -
 drift ``h/2``, kick ``h``), ``nsteps`` fused steps ``P <- Kick(h) Kepler(h) P``, a synchronised
 copy (Kepler ``h/2`` and back to inertial coordinates) and, for an output time between grid
 points, one shortened drift-kick-drift step of the copy. The host plans the steps with the CPU
-kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`).
+kernel's expressions (:mod:`visviva.nbody.gpu_ensemble_whfast`). The per-member body is the
+device function :func:`plain_member`: the kernel calls it on slices of the packed global arrays,
+:mod:`.resident` on each thread's local copies of its member's rows.
 
 :func:`build_general` returns :func:`ensemble_whfast_general`, every other case (additional
 forces included): each thread runs the CPU kernel's run body itself,
@@ -40,15 +42,24 @@ from __future__ import annotations
 
 from numba import cuda
 
-__all__ = ["build", "build_general"]
+__all__ = ["build", "build_general", "plain_member"]
 
 #: Values of the ``mode`` argument: nothing to do (an output at the current time of a member
 #: without an internal state), continue the internal state, or build it first.
 SKIP, CONTINUE, RESTART = 0, 1, 2
 
 
-def build():
-    """Compile (lazily, on first launch) and return the kernel :func:`ensemble_whfast`."""
+_PARTS: list = []
+
+
+def plain_member():
+    """The device function ``member(X, V, M, E, XJ, VJ, XS, VS, A, AJ, ms, G, soft2, h, mode,
+    nsteps, rem) -> status``: one member of :func:`ensemble_whfast` through one output time, on
+    the member's own rows (any arrays of ``N`` rows: slices of the packed global arrays here,
+    the thread's local arrays in :mod:`.resident`), in place; ``mode`` not ``SKIP``. Built once.
+    """
+    if _PARTS:
+        return _PARTS[0]
     from .. import gravity, nbody_whfast
     from ..status import OK
     from .twins import device_twin
@@ -84,6 +95,49 @@ def build():
         kick(xj, vj, x, m, eta, G, soft2, massive, acc, aj, h)
         return OK
 
+    @cuda.jit(device=True)
+    def member(X, V, M, E, XJ, VJ, XS, VS, A, AJ, ms, g, s2, step, mode, nsteps, r):
+        total = 0.0
+        for i in range(X.shape[0]):
+            total += M[i]
+            E[i] = total
+        if mode == RESTART:
+            st = first_half(X, V, M, E, g, s2, ms, step, XJ, VJ, A, AJ)
+            if st != OK:
+                return st
+        for _ in range(nsteps):  # the fused step of the CPU kernel's loop
+            st = kepler_drift(XJ, VJ, E, g, step, False)
+            if st != OK:
+                return st
+            kick(XJ, VJ, X, M, E, g, s2, ms, A, AJ, step)
+        # nbody_whfast._synchronise: a copy of P drifted by the last half step
+        for i in range(X.shape[0]):
+            for c in range(3):
+                XS[i, c] = XJ[i, c]
+                VS[i, c] = VJ[i, c]
+        st = kepler_drift(XS, VS, E, g, 0.5 * step, False)
+        if st != OK:
+            return st
+        from_internal(XS, VS, M, E, X, V)
+        if r != 0.0:  # nbody_whfast._dkd_step of the copy, without a corrector
+            st = first_half(X, V, M, E, g, s2, ms, r, XS, VS, A, AJ)
+            if st == OK:
+                st = kepler_drift(XS, VS, E, g, 0.5 * r, False)
+            if st != OK:
+                return st
+            from_internal(XS, VS, M, E, X, V)
+        return OK
+
+    _PARTS.append(member)
+    return member
+
+
+def build():
+    """Compile (lazily, on first launch) and return the kernel :func:`ensemble_whfast`."""
+    from ..status import OK
+
+    member = plain_member()
+
     @cuda.jit
     def ensemble_whfast(x, v, m, xj, vj, xs, vs, acc, aj, eta, massive, moff, poff, G, soft2,
                         h, mode, nsteps, rem, status):
@@ -102,46 +156,10 @@ def build():
             return
         lo = poff[k]
         hi = poff[k + 1]
-        X, V, M, E = x[lo:hi], v[lo:hi], m[lo:hi], eta[lo:hi]
-        XJ, VJ, XS, VS, A, AJ = xj[lo:hi], vj[lo:hi], xs[lo:hi], vs[lo:hi], acc[lo:hi], aj[lo:hi]
-        ms = massive[moff[k]:moff[k + 1]]
-        g = G[k]
-        s2 = soft2[k]
-        step = h[k]
-        total = 0.0
-        for i in range(hi - lo):
-            total += M[i]
-            E[i] = total
-        if mode[k] == RESTART:
-            st = first_half(X, V, M, E, g, s2, ms, step, XJ, VJ, A, AJ)
-            if st != OK:
-                status[k] = st
-                return
-        for _ in range(nsteps[k]):  # the fused step of the CPU kernel's loop
-            st = kepler_drift(XJ, VJ, E, g, step, False)
-            if st != OK:
-                status[k] = st
-                return
-            kick(XJ, VJ, X, M, E, g, s2, ms, A, AJ, step)
-        # nbody_whfast._synchronise: a copy of P drifted by the last half step
-        for i in range(hi - lo):
-            for c in range(3):
-                XS[i, c] = XJ[i, c]
-                VS[i, c] = VJ[i, c]
-        st = kepler_drift(XS, VS, E, g, 0.5 * step, False)
-        if st != OK:
-            status[k] = st
-            return
-        from_internal(XS, VS, M, E, X, V)
-        r = rem[k]
-        if r != 0.0:  # nbody_whfast._dkd_step of the copy, without a corrector
-            st = first_half(X, V, M, E, g, s2, ms, r, XS, VS, A, AJ)
-            if st == OK:
-                st = kepler_drift(XS, VS, E, g, 0.5 * r, False)
-            if st != OK:
-                status[k] = st
-                return
-            from_internal(XS, VS, M, E, X, V)
+        status[k] = member(x[lo:hi], v[lo:hi], m[lo:hi], eta[lo:hi], xj[lo:hi], vj[lo:hi],
+                           xs[lo:hi], vs[lo:hi], acc[lo:hi], aj[lo:hi],
+                           massive[moff[k]:moff[k + 1]], G[k], soft2[k], h[k], mode[k],
+                           nsteps[k], rem[k])
 
     return ensemble_whfast
 

@@ -44,7 +44,7 @@ from .twins import device_twin
 
 __all__ = ["accelerations", "accelerations_split", "accelerations_rsqrt", "tight_pairs", "drift",
            "kick_drift", "ensemble_leapfrog", "leapfrog_kernel", "propagate_many", "on_device",
-           "THREADS"]
+           "member_dkd", "THREADS"]
 
 #: Threads per block of every kernel (and the tile length of the direct sum): 128 on a GPU; 16
 #: under numba's CUDA simulator, which runs every thread of a block as a Python thread (a launch
@@ -55,7 +55,8 @@ _device = cuda.jit(device=True)
 _pair = _device(arith.pair_acceleration)
 _particle = _device(arith.rebind(arith.particle_acceleration, _pair=_pair))
 _member_acc = _device(arith.rebind(arith.member_accelerations, _particle=_particle))
-_member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
+#: one leapfrog drift-kick-drift step of one member (the ensemble kernels, global and resident)
+member_dkd = _device(arith.rebind(arith.member_dkd, _member_acc=_member_acc))
 #: the CPU kernels' collision, encounter and escape check, compiled for the device
 _check_events = device_twin(check_events)
 
@@ -244,7 +245,7 @@ def leapfrog_kernel(force):
             done[k] = 0
             for j in range(nsteps[k]):
                 t_grid = fs[F_T0] + (ist[I_K] + sign * j) * adt  # the CPU kernel's clock
-                _member_dkd(xi, vi, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                member_dkd(xi, vi, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
                             t_grid, h[k], force, p)
                 done[k] += 1
                 if events:
@@ -258,7 +259,7 @@ def leapfrog_kernel(force):
                     v[i, c] = vi[i, c]
             if rem[k] != 0.0 and status[k] == OK:
                 t_grid = fs[F_T0] + (ist[I_K] + sign * done[k]) * adt
-                _member_dkd(x, v, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
+                member_dkd(x, v, m, gm, massive, moff[k], moff[k + 1], lo, hi, soft2[k], acc,
                             t_grid, rem[k], force, p)
 
     return ensemble_leapfrog

@@ -112,7 +112,7 @@ def leapfrog(nmax: int, exact: bool = False):
     if key in _BUILT:
         return _BUILT[key]
     from ..gravity import no_force
-    from .kernels import _member_dkd
+    from .kernels import member_dkd
     from .twins import device_twin
 
     force = device_twin(no_force)
@@ -148,14 +148,14 @@ def leapfrog(nmax: int, exact: bool = False):
         step = h[k]
         # the no-op force ignores the time and its parameters (GM stands in for them)
         for _ in range(nsteps[k]):
-            _member_dkd(X, V, M, GM, MS, 0, nm, 0, n, s2, A, 0.0, step, force, GM)
+            member_dkd(X, V, M, GM, MS, 0, nm, 0, n, s2, A, 0.0, step, force, GM)
         for i in range(n):
             for c in range(3):
                 xi[lo + i, c] = X[i, c]
                 vi[lo + i, c] = V[i, c]
         r = rem[k]
         if r != 0.0:  # the output copy's shortened step (the internal state is saved above)
-            _member_dkd(X, V, M, GM, MS, 0, nm, 0, n, s2, A, 0.0, r, force, GM)
+            member_dkd(X, V, M, GM, MS, 0, nm, 0, n, s2, A, 0.0, r, force, GM)
         for i in range(n):
             for c in range(3):
                 x[lo + i, c] = X[i, c]

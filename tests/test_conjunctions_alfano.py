@@ -231,3 +231,27 @@ def test_pc3d_hall_bad_input_is_refused():
     with pytest.raises(InvalidInputError, match="elliptic"):
         collision_probability(c["r1"], c["v1"] * 2, c["c1"], c["r2"], c["v2"], c["c2"], 10.0,
                               method="pc3d_hall")
+
+
+@pytest.mark.parametrize("n", [4, 9, 11])
+def test_chan_far_from_foster_warns_with_both_values(n):
+    # Chan's equivalent-area circle on Alfano's thin covariances (aspect ratios 43-2000, HBR
+    # beside the minor sigma) was silently off by up to 15 orders of magnitude (case 4: 7.9e-17
+    # for CARA's 4.93e-2); it now warns and names Foster's exact value
+    from visviva.conjunctions.probability import ChanAccuracyWarning
+
+    c = CASES[n]
+    with pytest.warns(ChanAccuracyWarning, match="method='foster'") as record:
+        pc_chan = collision_probability(*_args(c), method="chan")
+    assert abs(math.log(pc_chan / c["cara_pc2d"])) > math.log(1.1)
+    assert f"{c['cara_pc2d']:.4g}" in str(record[0].message)
+
+
+def test_chan_close_to_foster_does_not_warn():
+    import warnings
+
+    c = CASES[7]  # Chan within 3.5 % of CARA's Pc2D_Foster
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc_chan = collision_probability(*_args(c), method="chan")
+    assert pc_chan == pytest.approx(c["cara_pc2d"], rel=0.1)

@@ -255,3 +255,44 @@ def test_chan_close_to_foster_does_not_warn():
         warnings.simplefilter("error")
         pc_chan = collision_probability(*_args(c), method="chan")
     assert pc_chan == pytest.approx(c["cara_pc2d"], rel=0.1)
+
+
+def _velocity_npd(c):
+    """``c`` with its smallest eigenvalue made negative: the position block stays positive
+    definite, the velocity block (and the whole 6x6) does not."""
+    w, vec = np.linalg.eigh(c)
+    w[0] = -1e-3 * abs(w).max()
+    out = vec @ np.diag(w) @ vec.T
+    return 0.5 * (out + out.T)
+
+
+@pytest.mark.parametrize("method", ["3d", "pc3d_hall"])
+def test_methods_using_velocities_say_a_non_psd_six_by_six_input_is_not_psd(method):
+    # the input check looked at the 3x3 position block only, so "3d" said "the inputs are
+    # positive semi-definite, but ..." for a covariance with a velocity variance of -16 m^2/s^2,
+    # and "pc3d_hall" said nothing before failing on a singular equinoctial covariance
+    from visviva.conjunctions import CovarianceRepairWarning
+    from visviva.errors import ConvergenceError
+
+    c = CASES[5]
+    c1 = _velocity_npd(c["c1"])
+    assert np.linalg.eigvalsh(c1[:3, :3])[0] > 0 > np.linalg.eigvalsh(c1[3:, 3:])[0]
+    with pytest.warns(CovarianceRepairWarning, match="an input covariance") as record:
+        try:
+            collision_probability(c["r1"], c["v1"], c1, c["r2"], c["v2"], c["c2"], c["hbr"],
+                                  method=method)
+        except ConvergenceError:
+            pass
+    assert not any("inputs are positive semi-definite" in str(w.message) for w in record)
+
+
+def test_two_d_methods_ignore_the_velocity_block():
+    # Foster uses the position block only: a bad velocity block changes nothing and says nothing
+    import warnings
+
+    c = CASES[5]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc = collision_probability(c["r1"], c["v1"], _velocity_npd(c["c1"]), c["r2"], c["v2"],
+                                   c["c2"], c["hbr"])
+    assert pc == pytest.approx(c["cara_pc2d"], rel=1e-6)

@@ -102,10 +102,19 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
     return vecs[0], vecs[1], c1, vecs[2], vecs[3], c2, hbr
 
 
-def _check_psd(c, name):
+def _check_psd(c, name, full=False):
+    """True when ``c`` is not positive semi-definite: its position block, or (``full``, for
+    the methods that use the velocities too) also the whole matrix, tested on its correlation
+    matrix so that m^2 beside m^2/s^2 hides no negative eigenvalue, down to -1e-3: the
+    rounding of tabulated covariances leaves a few 1e-5 (CARA's Alfano case 6, symmetrised),
+    a CDM's four or five digits up to ~1e-3, and the flux integrals clip at each time anyway."""
     w = np.linalg.eigvalsh(c[:3, :3])
     if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
         return True
+    if full and c.shape[-1] == 6:
+        d = np.sqrt(np.abs(np.diag(c)))
+        d = np.where(d > 0, d, 1.0)
+        return bool(np.linalg.eigvalsh(c / np.outer(d, d))[0] < -1e-3)
     return False
 
 
@@ -450,7 +459,8 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
 
         gm = EARTH.gm
     gm_km = float(to_array(gm, "gm", "gm", allow_plain=True))
-    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    # the flux integral propagates the velocity block too: test the whole 6x6
+    npd_in = _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True)
     clip = (CLIP_FACTOR * hbr) ** 2
     repairs = []  # (smallest eigenvalue, largest) of each non-PSD relative covariance
     a0 = c1[:3, :3] + c2[:3, :3]
@@ -580,8 +590,8 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     gm_m = float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
-    if _check_psd(c1, "cov1") or _check_psd(c2, "cov2"):
-        _warn_repair("an input covariance")
+    if _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True):
+        _warn_repair("an input covariance (position-velocity, 6x6)")
     if window is not None:
         try:
             ta, tb = window

@@ -296,3 +296,24 @@ def test_two_d_methods_ignore_the_velocity_block():
         pc = collision_probability(c["r1"], c["v1"], _velocity_npd(c["c1"]), c["r2"], c["v2"],
                                    c["c2"], c["hbr"])
     assert pc == pytest.approx(c["cara_pc2d"], rel=1e-6)
+
+
+def test_pc_against_hbr_plot_compares_chan_and_foster_without_warning():
+    # the plot exists to show how far Chan's curve is from Foster's: no warning per radius
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from visviva.conjunctions.plots import plot_pc_vs_hbr
+
+    c = CASES[4]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ax = plot_pc_vs_hbr(c["r1"], c["v1"], c["c1"], c["r2"], c["v2"], c["c2"], [5.0, 15.0])
+    foster, chan = (line.get_ydata() for line in ax.get_lines())
+    assert foster[1] == pytest.approx(c["cara_pc2d"], rel=1e-9)
+    assert chan[1] < 1e-10  # Chan's value, as computed
+    import matplotlib.pyplot as plt
+
+    plt.close(ax.figure)

@@ -180,6 +180,9 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
 VISIBILITY_STEP_S = 10.0
 #: passes longer than this (s) are always sampled for visibility (see _seen_in_pass)
 LONG_PASS_S = 1800.0
+#: most samples of one pass (longer passes get a longer step) and of one chunk of passes
+MAX_PASS_SAMPLES = 2000
+CHUNK_SAMPLES = 400_000
 
 
 def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
@@ -217,23 +220,32 @@ def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
     todo = np.flatnonzero(~out & ((np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass))
     if todo.size == 0:
         return out
-    t_a, t_b = ev.t_s[starts[todo]], ev.t_s[last[todo]]
-    n = np.maximum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64), 1) + 1
-    pid = np.repeat(np.arange(todo.size), n)
-    frac_k = (np.arange(pid.size) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
-    t_s = t_a[pid] + frac_k * (t_b - t_a)[pid]
-    sta = ev.station[starts[todo]][pid]
-    sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
-    k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
-                       < DARK_SUN_ELEVATION_DEG)
-    if k.size == 0:
-        return out
     satrecs = [s.satrec for s in cat.satellites]
-    r, v, err = _sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
-    ok = err == 0
-    r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
-    seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)
-    out[todo[np.unique(pid[k][seen])]] = True
+    t_a, t_b = ev.t_s[starts[todo]], ev.t_s[last[todo]]
+    # every 10 s, at most MAX_PASS_SAMPLES per pass (a geosynchronous pass of days: ~5 min)
+    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64),
+                   MAX_PASS_SAMPLES - 1)
+    n = np.maximum(n, 1) + 1
+    # in chunks of passes of ~CHUNK_SAMPLES samples, to bound the memory
+    bounds = np.searchsorted(np.cumsum(n), np.arange(CHUNK_SAMPLES, n.sum(), CHUNK_SAMPLES))
+    for chunk in np.split(np.arange(todo.size), np.unique(bounds[bounds > 0])):
+        if chunk.size == 0:
+            continue
+        nc = n[chunk]
+        pid = np.repeat(chunk, nc)
+        frac_k = (np.arange(pid.size) - np.repeat(np.cumsum(nc) - nc, nc)) / np.repeat(nc - 1, nc)
+        t_s = t_a[pid] + frac_k * (t_b - t_a)[pid]
+        sta = ev.station[starts[todo]][pid]
+        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+        k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+                           < DARK_SUN_ELEVATION_DEG)
+        if k.size == 0:
+            continue
+        r, _, err = _sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
+        ok = err == 0
+        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
+        seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)
+        out[todo[np.unique(pid[k][seen])]] = True
     return out
 
 

@@ -219,3 +219,17 @@ def test_an_itrf_message_rotates_its_covariance_with_the_inertial_rtn_axes():
 
     assert itrf.object1.frame == "ITRF"
     assert log_pc(itrf) == pytest.approx(log_pc(gcrf), abs=1e-3)  # Pc to 0.1 %
+
+
+@pytest.mark.parametrize("frame", ["EFG", "ECF", "J2000-ISH"])
+def test_an_unknown_ref_frame_refuses_the_inertial_covariance_but_keeps_the_rtn_one(frame):
+    # an unknown REF_FRAME was taken as inertial: for an Earth-fixed one under another name
+    # (EFG, ECF) the RTN axes came from the Earth-fixed velocity, tilted by ~3.5 deg in LEO
+    text = SAMPLE.read_text().replace("REF_FRAME                          = EME2000",
+                                      f"REF_FRAME = {frame}", 1)
+    msg = read_cdm(text)
+    assert msg.object1.frame == frame
+    assert msg.object1.covariance_rtn[0, 0] == pytest.approx(41.42)
+    with pytest.raises(vv.InvalidInputError, match=f"REF_FRAME = '{frame}'.*rtn_to_inertial"):
+        msg.object1.covariance  # noqa: B018
+    assert msg.object2.covariance.shape == (6, 6)  # EME2000

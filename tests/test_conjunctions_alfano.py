@@ -231,3 +231,89 @@ def test_pc3d_hall_bad_input_is_refused():
     with pytest.raises(InvalidInputError, match="elliptic"):
         collision_probability(c["r1"], c["v1"] * 2, c["c1"], c["r2"], c["v2"], c["c2"], 10.0,
                               method="pc3d_hall")
+
+
+@pytest.mark.parametrize("n", [4, 9, 11])
+def test_chan_far_from_foster_warns_with_both_values(n):
+    # Chan's equivalent-area circle on Alfano's thin covariances (aspect ratios 43-2000, HBR
+    # beside the minor sigma) was silently off by up to 15 orders of magnitude (case 4: 7.9e-17
+    # for CARA's 4.93e-2); it now warns and names Foster's exact value
+    from visviva.conjunctions.probability import ChanAccuracyWarning
+
+    c = CASES[n]
+    with pytest.warns(ChanAccuracyWarning, match="method='foster'") as record:
+        pc_chan = collision_probability(*_args(c), method="chan")
+    assert abs(math.log(pc_chan / c["cara_pc2d"])) > math.log(1.1)
+    assert f"{c['cara_pc2d']:.4g}" in str(record[0].message)
+
+
+def test_chan_close_to_foster_does_not_warn():
+    import warnings
+
+    c = CASES[7]  # Chan within 3.5 % of CARA's Pc2D_Foster
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc_chan = collision_probability(*_args(c), method="chan")
+    assert pc_chan == pytest.approx(c["cara_pc2d"], rel=0.1)
+
+
+def _velocity_npd(c):
+    """``c`` with its smallest eigenvalue made negative: the position block stays positive
+    definite, the velocity block (and the whole 6x6) does not."""
+    w, vec = np.linalg.eigh(c)
+    w[0] = -1e-3 * abs(w).max()
+    out = vec @ np.diag(w) @ vec.T
+    return 0.5 * (out + out.T)
+
+
+@pytest.mark.parametrize("method", ["3d", "pc3d_hall"])
+def test_methods_using_velocities_say_a_non_psd_six_by_six_input_is_not_psd(method):
+    # the input check looked at the 3x3 position block only, so "3d" said "the inputs are
+    # positive semi-definite, but ..." for a covariance with a velocity variance of -16 m^2/s^2,
+    # and "pc3d_hall" said nothing before failing on a singular equinoctial covariance
+    from visviva.conjunctions import CovarianceRepairWarning
+    from visviva.errors import ConvergenceError
+
+    c = CASES[5]
+    c1 = _velocity_npd(c["c1"])
+    assert np.linalg.eigvalsh(c1[:3, :3])[0] > 0 > np.linalg.eigvalsh(c1[3:, 3:])[0]
+    with pytest.warns(CovarianceRepairWarning, match="an input covariance") as record:
+        try:
+            collision_probability(c["r1"], c["v1"], c1, c["r2"], c["v2"], c["c2"], c["hbr"],
+                                  method=method)
+        except ConvergenceError:
+            pass
+    assert not any("inputs are positive semi-definite" in str(w.message) for w in record)
+
+
+def test_two_d_methods_ignore_the_velocity_block():
+    # Foster uses the position block only: a bad velocity block changes nothing and says nothing
+    import warnings
+
+    c = CASES[5]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc = collision_probability(c["r1"], c["v1"], _velocity_npd(c["c1"]), c["r2"], c["v2"],
+                                   c["c2"], c["hbr"])
+    assert pc == pytest.approx(c["cara_pc2d"], rel=1e-6)
+
+
+def test_pc_against_hbr_plot_compares_chan_and_foster_without_warning():
+    # the plot exists to show how far Chan's curve is from Foster's: no warning per radius
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from visviva.conjunctions.plots import plot_pc_vs_hbr
+
+    c = CASES[4]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ax = plot_pc_vs_hbr(c["r1"], c["v1"], c["c1"], c["r2"], c["v2"], c["c2"], [5.0, 15.0])
+    foster, chan = (line.get_ydata() for line in ax.get_lines())
+    assert foster[1] == pytest.approx(c["cara_pc2d"], rel=1e-9)
+    assert chan[1] < 1e-10  # Chan's value, as computed
+    import matplotlib.pyplot as plt
+
+    plt.close(ax.figure)

@@ -164,13 +164,21 @@ class CDMObject:
         For ``REF_FRAME = ITRF`` the RTN axes are those of the inertial velocity on ITRF axes,
         ``v + omega x r`` (as NASA CARA's ``cdmobj_J2Kstatecov`` converts an ITRF state to J2000
         before rotating the RTN covariance): the Earth-fixed velocity would tilt the in-track and
-        cross-track axes by ~3.5 deg in LEO.
+        cross-track axes by ~3.5 deg in LEO. A ``REF_FRAME`` visviva does not know raises
+        :class:`~visviva.errors.InvalidInputError` (it cannot tell whether it rotates).
         """
         from ..conjunctions.covariance import rtn_to_inertial
         from .timeframes import visviva_frame
 
+        kind = visviva_frame(self.frame)
+        if kind is None:
+            raise InvalidInputError(
+                f"REF_FRAME = {self.frame!r} of {self.name!r} is not a frame visviva knows "
+                "(EME2000, GCRF, ICRF, TEME or ITRF...): whether it rotates with the Earth sets "
+                "the RTN axes of the covariance. Rotate covariance_rtn (RTN, m, m/s) yourself "
+                "with visviva.conjunctions.rtn_to_inertial, or correct REF_FRAME.")
         v = self.v
-        if visviva_frame(self.frame) == "itrs":
+        if kind == "itrs":
             from astropy import units as u
 
             from ..constants import EARTH_ROTATION_RAD_S

@@ -56,8 +56,10 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         ``set_azimuth`` (deg, masked when cut), ``sunlit`` (the satellite is outside the
         Earth's umbra at the highest point), ``sun_fraction`` (of the solar disc seen from
         the satellite there: 1 sunlit, 0 umbra), ``sun_elevation`` (deg, at the station),
-        ``station_dark`` (Sun below -6 deg at the station) and ``visible`` (``sunlit`` and
-        ``station_dark``).
+        ``station_dark`` (Sun below -6 deg at the station; all four at the highest point)
+        and ``visible`` (the satellite is sunlit while the station is dark at some time of
+        the pass, sampled every 10 s: an evening pass that enters the shadow before its
+        culmination is visible on its way up).
 
     Notes
     -----
@@ -155,7 +157,7 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
         "sun_fraction": frac,
         "sun_elevation": sun_el * u.deg,
         "station_dark": dark,
-        "visible": sunlit & dark,
+        "visible": _seen_in_pass(cat, sts, ev, starts, top, last),
     }
     if standard_magnitude is not None:
         m_std = standard_magnitude  # checked by find_passes
@@ -172,6 +174,79 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
     table = table[sort_key]
     table.meta.update({"t0": t0.utc.isot, "t1": t1.utc.isot})
     return table
+
+
+#: sampling step of the visibility test along a pass, s
+VISIBILITY_STEP_S = 10.0
+#: passes longer than this (s) are always sampled for visibility (see _seen_in_pass)
+LONG_PASS_S = 1800.0
+#: most samples of one pass (longer passes get a longer step) and of one chunk of passes
+MAX_PASS_SAMPLES = 2000
+CHUNK_SAMPLES = 400_000
+
+
+def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
+    """Per pass: is the satellite sunlit while the station is dark at some time of it?
+
+    Tested first at the pass's first, highest and last events. In a pass shorter than
+    :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
+    most once, so an overlap missed there lies inside the pass only when the satellite is lit
+    at one of those events and the station dark at another: those passes, and long (MEO, HEO)
+    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark).
+    """
+    from .search import _sgp4_teme
+    from .visibility import (
+        DARK_SUN_ELEVATION_DEG,
+        sun_elevation_rad,
+        sun_fraction,
+        sun_itrs_km,
+    )
+
+    npass = starts.size
+    if npass == 0:
+        return np.zeros(0, dtype=bool)
+    sites = np.array([s.itrs_km for s in sts])
+    ups = np.array([s.enu_matrix[2] for s in sts])
+
+    def lit_dark(sta, t_s, r_itrs):
+        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+        el = np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+        return sun_fraction(r_itrs, sun) > 0.0, el < DARK_SUN_ELEVATION_DEG, sun
+
+    idx = np.stack([starts, top, last])  # (3, npass)
+    lit, dark, _ = lit_dark(ev.station[idx], ev.t_s[idx], ev.r_itrs[idx])
+    out = np.any(lit & dark, axis=0)
+    long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
+    todo = np.flatnonzero(~out & ((np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass))
+    if todo.size == 0:
+        return out
+    satrecs = [s.satrec for s in cat.satellites]
+    t_a, t_b = ev.t_s[starts[todo]], ev.t_s[last[todo]]
+    # every 10 s, at most MAX_PASS_SAMPLES per pass (a geosynchronous pass of days: ~5 min)
+    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64),
+                   MAX_PASS_SAMPLES - 1)
+    n = np.maximum(n, 1) + 1
+    # in chunks of passes of ~CHUNK_SAMPLES samples, to bound the memory
+    bounds = np.searchsorted(np.cumsum(n), np.arange(CHUNK_SAMPLES, n.sum(), CHUNK_SAMPLES))
+    for chunk in np.split(np.arange(todo.size), np.unique(bounds[bounds > 0])):
+        if chunk.size == 0:
+            continue
+        nc = n[chunk]
+        pid = np.repeat(chunk, nc)
+        frac_k = (np.arange(pid.size) - np.repeat(np.cumsum(nc) - nc, nc)) / np.repeat(nc - 1, nc)
+        t_s = t_a[pid] + frac_k * (t_b - t_a)[pid]
+        sta = ev.station[starts[todo]][pid]
+        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+        k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+                           < DARK_SUN_ELEVATION_DEG)
+        if k.size == 0:
+            continue
+        r, _, err = _sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
+        ok = err == 0
+        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
+        seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)
+        out[todo[np.unique(pid[k][seen])]] = True
+    return out
 
 
 def write_passes(table, path, format: str | None = None) -> None:

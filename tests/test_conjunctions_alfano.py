@@ -238,7 +238,7 @@ def test_chan_far_from_foster_warns_with_both_values(n):
     # Chan's equivalent-area circle on Alfano's thin covariances (aspect ratios 43-2000, HBR
     # beside the minor sigma) was silently off by up to 15 orders of magnitude (case 4: 7.9e-17
     # for CARA's 4.93e-2); it now warns and names Foster's exact value
-    from visviva.conjunctions.probability import ChanAccuracyWarning
+    from visviva import ChanAccuracyWarning
 
     c = CASES[n]
     with pytest.warns(ChanAccuracyWarning, match="method='foster'") as record:

@@ -46,6 +46,7 @@ _PUBLIC = {
     "BackendUnavailableError": "visviva.errors",
     "SurfaceImpact": "visviva.errors",
     "EarthOrientationWarning": "visviva.errors",
+    "ChanAccuracyWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

@@ -33,6 +33,7 @@ __all__ = [
     "SurfaceImpact",
     "EarthOrientationWarning",
     "TrackingDataWarning",
+    "ChanAccuracyWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -234,6 +235,14 @@ class TrackingDataWarning(UserWarning):
     model (frequencies, phase counts, media, clocks, signal strength ...), or metadata the
     caller asked to ignore. The message lists each keyword and how many lines it had; the
     data stay in the :class:`~visviva.TDM` object.
+    """
+
+
+class ChanAccuracyWarning(UserWarning):
+    """``collision_probability(method="chan")``: Chan's equivalent-area series is more than
+    10 % from the exact 2-D (Foster) integral of the same encounter plane (an elongated
+    covariance, or a hard-body radius not small beside the minor sigma). The message gives
+    both values; use ``method="foster"``.
     """
 
 

@@ -82,7 +82,8 @@ def plot_pc_vs_hbr(r1, v1, cov1, r2, v2, cov2, radii, ax=None, methods=("foster"
     """
     import matplotlib.pyplot as plt
 
-    from .probability import ChanAccuracyWarning, collision_probability, si_value
+    from ..errors import ChanAccuracyWarning
+    from .probability import collision_probability, si_value
 
     radii = np.atleast_1d(si_value(radii, "m", "radii"))
     if ax is None:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._units import is_quantity
-from ..errors import InvalidInputError, ShapeError
+from ..errors import ChanAccuracyWarning, InvalidInputError, ShapeError
 from .covariance import CLIP_FACTOR, as_covariance, encounter_plane, principal_axes
 
 __all__ = [
@@ -266,10 +266,6 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     if method == "chan":
         _check_chan(lp, xm, zm, sx, sz, hbr)
     return lp if log else math.exp(lp)
-
-
-class ChanAccuracyWarning(UserWarning):
-    """Chan's equivalent-area series is far from the exact 2-D (Foster) integral here."""
 
 
 #: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)

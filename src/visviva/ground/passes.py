@@ -194,7 +194,7 @@ def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
     at one of those events and the station dark at another: those passes, and long (MEO, HEO)
     ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark).
     """
-    from .search import _sgp4_teme
+    from .search import sgp4_teme
     from .visibility import (
         DARK_SUN_ELEVATION_DEG,
         sun_elevation_rad,
@@ -241,7 +241,7 @@ def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
                            < DARK_SUN_ELEVATION_DEG)
         if k.size == 0:
             continue
-        r, _, err = _sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
+        r, _, err = sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
         ok = err == 0
         r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
         seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)

@@ -37,7 +37,7 @@ from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
 __all__ = ["EventSet", "search_events", "as_catalog", "check_window", "min_elevation_rad",
-           "WINDOW_START", "WINDOW_END"]
+           "WINDOW_START", "WINDOW_END", "sgp4_teme"]
 
 _BASE_STEP_S = 75.0
 _SAMPLES = 6
@@ -194,7 +194,7 @@ class _Clock:
                 np.ascontiguousarray(jd2, dtype=np.float64))
 
 
-def _sgp4_teme(satrecs, sat_idx, clock, t_s):
+def sgp4_teme(satrecs, sat_idx, clock, t_s):
     """TEME states of ``satrecs[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 OK).
 
     One ``sgp4_array`` call per satellite with events (the sgp4 library takes per-satellite
@@ -338,7 +338,7 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end):
     e, r, v = cat.satrec_array.sgp4(jd, fr)
     if (t_end < span_s).any():  # decayed inside the window: its own end
         cut = np.flatnonzero(t_end < span_s)
-        r2, v2, e2 = _sgp4_teme(cat.__dict__["_pass_setup"][0], cut, clock, t_end[cut])
+        r2, v2, e2 = sgp4_teme(cat.__dict__["_pass_setup"][0], cut, clock, t_end[cut])
         e[cut, 1], r[cut, 1], v[cut, 1] = e2, r2, v2
     ri, vi = earth.apply(r, v, np.array([0.0, span_s])[None, :].repeat(n, 0)
                         if not (t_end < span_s).any()
@@ -414,7 +414,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
 
 def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, sin_min):
     """SGP4 -> Earth-fixed state, and f, f' at the given events."""
-    r, v, err = _sgp4_teme(satrecs, sat_i, clock, t_s)
+    r, v, err = sgp4_teme(satrecs, sat_i, clock, t_s)
     ri, vi = earth.apply(r, v, t_s)
     fd = np.empty((len(t_s), 2))
     _topo.elevation_rate_many(ri, vi, sites, ups,

@@ -22,6 +22,7 @@ from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from ..satellites.covariance import noise_substeps
 from .batch import check_initial
+from .coefficient_prediction import predict_coefficients, predict_covariance
 from .light_time import model
 from .measurements import residuals
 from .observations import Observations
@@ -145,28 +146,13 @@ def _positive(name, value):
     return v
 
 
-def _predict_covariance(x0, grid, y, phi, P, q, code, jumps=None):
-    """P at grid[-1] from P at the origin (state x0): Phi P Phi^T, plus the SNC noise on each
-    sub-step (:func:`visviva.satellites.covariance.with_process_noise`) and the execution
-    errors of the burns crossed (``jumps``: {index into (0, *grid): (6, 6)})."""
-    if q is None:
-        out = phi[-1] @ P @ phi[-1].T
-        for extra in (jumps or {}).values():  # one sub-step: each is mapped to grid[-1]
-            out = out + extra
-        return out
-    from ..satellites.covariance import with_process_noise
-
-    return with_process_noise(np.r_[0.0, grid], np.vstack([x0, y]),
-                              np.concatenate([np.eye(6)[None], phi]), P, q, code, jumps)[-1]
-
-
 def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
     """The state, covariance and Phi(t_from + grid[-1], t_from) predicted from (x, P) at
     ``t_from`` (s from the epoch) over the sub-steps ``grid`` (s from t_from), through the
     burns of ``schedule`` (:func:`visviva.satellites.burn_partials.propagate_through`)."""
     if not schedule:
         y, phi = _propagate(dyn, x, t_from, t_from + grid)
-        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
     t_end = t_from + float(grid[-1])
     if not any(t_from < edge <= t_end or (apply_at_start and edge == t_from)
                for a, b, _ in schedule.items for edge in (a, b)):
@@ -175,7 +161,7 @@ def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
         shifted = copy.copy(dyn)
         shifted.model = schedule.segment_model(dyn.model, t_from, t_end)
         y, phi = shifted.propagate(x, grid)
-        return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
     from ..satellites.burn_partials import propagate_through
     from ..satellites.covariance import burn_noise
 
@@ -186,7 +172,7 @@ def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
         return y[-1].copy(), phi[-1] @ P @ phi[-1].T + sum(jumps.values(), 0.0 * P), phi[-1]
     sens = np.concatenate([np.zeros((1,) + sens.shape[1:]), sens])
     jumps = burn_noise(schedule, t_from + np.r_[0.0, grid], sens, t_from, apply_at_start)
-    return y[-1].copy(), _predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
+    return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
 
 
 def filter_orbit(observations, initial, covariance, perturbations=None, *, maneuvers=None,
@@ -257,8 +243,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         the ballistic coefficient B = Cd A / m, m^2/kg; ``"srp"``: Cr): appended to the
         filter's state as constants (unless ``parameter_noise=``), starting from their values
         in ``perturbations``, each with its a priori sigma from ``parameter_sigma`` (required:
-        the filter's initial covariance), uncorrelated with the state. With ``maneuvers=``
-        only with ``method="ukf"``. ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
+        the filter's initial covariance), uncorrelated with the state; through ``maneuvers=``
+        too (:mod:`visviva.od.coefficient_prediction`). ``.parameters``, ``.parameter_sigma`` (each (T,) per name),
         ``.full_covariances`` (T, 6 + k, 6 + k) report them; ``.perturbations`` flies the
         last estimate.
     parameter_sigma : dict, optional
@@ -360,7 +346,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     if not isinstance(smoother, bool | np.bool_):
         raise InvalidInputError(f"smoother must be True or False; got {smoother!r}.")
     method = _method(method, sigma_points)
-    est = _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule)
+    est = _estimated_coefficients(perturbations, estimate, parameter_sigma)
     from .gauss_markov import gauss_markov
 
     gm_noise = gauss_markov(parameter_noise, est)
@@ -456,12 +442,9 @@ def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s
         if k:
             grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)
             try:
-                if gauss is not None:
-                    x, P, phis[k] = _predict_gauss_markov(dyn, x, P, epochs[k - 1], grid, q,
-                                                          code, est, gauss)  # fmt: skip
-                elif est:
-                    x, P, phis[k] = _predict_coefficients(dyn, x, P, epochs[k - 1], grid, q,
-                                                          code, est)  # fmt: skip
+                if est:  # the coefficients, constants or Gauss-Markov, through the burns
+                    x, P, phis[k] = predict_coefficients(dyn, schedule, x, P, epochs[k - 1],
+                                                         grid, q, code, est, gauss)
                 else:
                     x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
             except VisvivaError as exc:
@@ -564,7 +547,7 @@ class _Screen:
             raise self.diverged(k, "the updated estimate is not finite")
 
 
-def _estimated_coefficients(perturbations, estimate, parameter_sigma, method, schedule):
+def _estimated_coefficients(perturbations, estimate, parameter_sigma):
     """The coefficients :func:`filter_orbit` estimates (each with its a priori sigma)."""
     if not estimate:
         if parameter_sigma:
@@ -574,11 +557,6 @@ def _estimated_coefficients(perturbations, estimate, parameter_sigma, method, sc
     from ..satellites.cowell import perturbation_list
     from ..satellites.force_parameters import coefficients
 
-    if method == "ekf" and schedule:
-        raise InvalidInputError(
-            "the extended filter (method='ekf') estimates coefficients without maneuvers= "
-            "only; use method='ukf' (it flies burns with estimated coefficients), or "
-            "vv.fit_orbit(estimate=..., maneuvers=...).")
     est, _ = coefficients(list(perturbation_list(perturbations, allow_none=True)), estimate,
                           parameter_sigma, None)
     missing = [c.name for c in est if c.sigma is None]
@@ -596,39 +574,6 @@ def _augmented(P, C):
     out[:n, :n] = P
     out[n:, n:] = C
     return out
-
-
-def _predict_coefficients(dyn, z, P, t_from, grid, q, code, est):
-    """:func:`_predict` for the state z = (x, p) with the coefficients p (constants): the
-    dynamics fly p, the transition is [[Phi, S], [0, I]] with S = d x / d p integrated with
-    Phi, and the process noise (on the state alone) is added as its accumulation from zero,
-    P^- = Phi_z P Phi_z^T + blockdiag(Q, 0) (the noise's sum is linear in P)."""
-    from ..satellites.force_parameters import partials
-
-    for j, c in enumerate(est):
-        c.write(dyn, z[6 + j])
-    d = dyn if t_from == 0.0 else dyn.at_origin(t_from)
-    y, phi = d.propagate(z[:6], grid, parameters=True)
-    n = z.size
-    phi_z = np.eye(n)
-    phi_z[:6, :6] = phi[-1]
-    phi_z[:6, 6:] = partials(d, est)[-1]
-    out = phi_z @ P @ phi_z.T
-    if q is not None:
-        out[:6, :6] += _predict_covariance(z[:6], grid, y, phi, np.zeros((6, 6)), q, code)
-    return np.r_[y[-1], z[6:]], 0.5 * (out + out.T), phi_z
-
-
-def _predict_gauss_markov(dyn, z, P, t_from, grid, q, code, est, gm):
-    """:func:`_predict_coefficients` step by step over ``grid``, each step flying the
-    coefficients of its start, which then decay with their Gauss-Markov noise (``gm``); the
-    transition is the product of the steps'."""
-    phi = np.eye(z.size)
-    for a, b in zip(np.r_[0.0, grid[:-1]], grid, strict=True):
-        z, P, f = _predict_coefficients(dyn, z, P, t_from + a, np.array([b - a]), q, code, est)
-        z, P, f = gm.apply(z, P, f, b - a)
-        phi = f @ phi
-    return z, 0.5 * (P + P.T), phi
 
 
 def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):

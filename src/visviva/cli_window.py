@@ -122,16 +122,19 @@ def write_output(command: str, path: str, text: str) -> int:
     -------
     int
         0, or 2 after a one-line message on standard error when the file cannot be written (a
-        folder, a missing folder, no permission).
+        folder, a missing folder, no permission). The file is replaced in one step
+        (:func:`visviva._text.replace_text_file`): a failed or interrupted write leaves an
+        existing file as it was.
     """
     import sys
 
     if path == "-":
         sys.stdout.write(text)
         return 0
+    from ._text import replace_text_file
+
     try:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        replace_text_file(path, text)  # whole or not at all: never a half-written file
     except OSError as exc:
         print(f"visviva {command}: cannot write {path}: {exc.strerror or exc}", file=sys.stderr)
         return 2
@@ -169,7 +172,9 @@ def check_outputs(outputs, inputs, overwrite: bool) -> None:
     ------
     visviva.errors.InvalidInputError
         An output is one of the input files (refused even with ``--overwrite``), the same file
-        is given as two outputs, or an output file exists and ``overwrite`` is false.
+        is given as two outputs, an output is a folder or in a folder that does not exist
+        (refused before hours of work, not after), or an output file exists and ``overwrite``
+        is false.
     """
     import os
 
@@ -187,6 +192,12 @@ def check_outputs(outputs, inputs, overwrite: bool) -> None:
         for earlier in seen:
             if _same_file(out, earlier):
                 raise InvalidInputError(f"{out} is given as two outputs; name two files.")
+        if os.path.isdir(out):
+            raise InvalidInputError(f"cannot write {out}: it is a folder; name a file to write.")
+        folder = os.path.dirname(os.path.abspath(out))
+        if not os.path.isdir(folder):
+            raise InvalidInputError(
+                f"cannot write {out}: the folder {folder} does not exist; create it first.")
         if os.path.isfile(out) and not overwrite:
             raise InvalidInputError(
                 f"{out} exists; pass --overwrite to replace it, or choose another path.")

@@ -33,10 +33,12 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Run ``visviva screen``; returns the exit code (0, or 2 for bad input)."""
+    import io
     import sys
 
     from astropy import units as u
 
+    from .._text import replace_text_file
     from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import Catalog, read_catalog_file
@@ -73,7 +75,9 @@ def run(args) -> int:
               f"{row['cross_track'].to_value(u.km):8.3f}) km")
     if args.csv:
         try:
-            tab.write(args.csv, format="ascii.csv", overwrite=True)
+            text = io.StringIO()
+            tab.write(text, format="ascii.csv")
+            replace_text_file(args.csv, text.getvalue())  # whole or not at all
         except OSError as exc:
             print(f"visviva screen: cannot write {args.csv}: {exc}", file=sys.stderr)
             return 2

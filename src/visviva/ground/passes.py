@@ -9,10 +9,13 @@ SGP4. A pass table has one row per pass, with the visibility columns of
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._text import replace_text_file
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
 from .search import (
@@ -182,7 +185,7 @@ def write_passes(table, path, format: str | None = None) -> None:
     table : astropy.table.QTable
         A table from :func:`find_passes`.
     path : str or path-like
-        The file to write (overwritten).
+        The file to write (replaced in one step: an interrupted write leaves no partial file).
     format : {"csv", "ecsv"}, optional
         ECSV keeps units and masks; CSV writes ISO times and plain numbers (empty where
         masked).
@@ -197,4 +200,6 @@ def write_passes(table, path, format: str | None = None) -> None:
     for name in out.colnames:
         if isinstance(out[name], Time):
             out[name].format = "isot"
-    out.write(path, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv", overwrite=True)
+    text = io.StringIO()
+    out.write(text, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv")
+    replace_text_file(path, text.getvalue())

@@ -1,0 +1,110 @@
+"""The first minutes with the command line and the file readers (audit14): an empty element-set
+file, an output in a folder that does not exist, and outputs written whole or not at all."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import pytest
+
+import visviva as vv
+from visviva import cli
+from visviva.cli_window import write_output
+
+ISS_TLE = ("ISS (ZARYA)\n"
+           "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927\n"
+           "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537\n")
+WINDOW = ["--start", "2008-09-20T12:00", "--hours", "1"]
+SITE = ["--lat", "40", "--lon", "-75"]
+
+
+@pytest.mark.parametrize("content", ["", "\n\n", "  \r\n", "\ufeff\n"])
+@pytest.mark.parametrize("reader", [vv.read_catalog_file, vv.read_tle_file])
+def test_an_empty_element_set_file_is_refused_naming_it(tmp_path, reader, content):
+    # was: Catalog(0 satellites), silently; `visviva passes` then said "the catalogue is empty;
+    # pass at least one Satellite" (the Python API's words, no file named) and `visviva
+    # convert` "holds 0 satellites (); pick one with --satnum"
+    path = tmp_path / "active.txt"
+    path.write_text(content, encoding="utf-8")
+    with pytest.raises(vv.InvalidInputError, match=r"active\.txt: the file is empty"):
+        reader(path)
+
+
+def test_the_commands_name_an_empty_file(tmp_path, capsys):
+    path = tmp_path / "gp.tle"
+    path.write_text("")
+    for argv in (["passes", str(path), *SITE, *WINDOW],
+                 ["screen", str(path), *WINDOW, "--quiet"],
+                 ["convert", str(path), str(tmp_path / "x.omm")]):
+        assert cli.main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "gp.tle: the file is empty" in err, (argv, err)
+        assert "Traceback" not in err
+
+
+def test_an_output_in_a_missing_folder_or_a_folder_is_refused_before_the_work(
+        tmp_path, capsys, monkeypatch):
+    # was: the passes were searched (minutes for a catalogue), printed, and only then "cannot
+    # write ...: No such file or directory"
+    import visviva.ground.passes as passes
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the search ran before the output path was checked")
+
+    monkeypatch.setattr(passes, "find_passes", no_work)
+    tle = tmp_path / "a.tle"
+    tle.write_text(ISS_TLE)
+    missing = tmp_path / "no" / "such" / "p.csv"
+    assert cli.main(["passes", str(tle), *SITE, *WINDOW, "--csv", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert f"the folder {missing.parent} does not exist" in err
+    assert cli.main(["passes", str(tle), *SITE, *WINDOW, "--ecsv", str(tmp_path)]) == 2
+    assert "cannot write" in (err := capsys.readouterr().err) and "is a folder; name a file" in err
+    assert cli.main(["convert", str(tle), str(missing.with_suffix(".omm"))]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not missing.parent.exists()
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_partial_one(tmp_path):
+    # was: open(path, "w") emptied the file first, so a write that failed half-way (a full
+    # disk, Ctrl-C; here a character that UTF-8 cannot encode) destroyed the file that
+    # --overwrite was about to replace and left a truncated one
+    path = tmp_path / "orbit.oem"
+    path.write_text("precious\n")
+    with pytest.raises(UnicodeEncodeError):
+        write_output("convert", str(path), "CCSDS_OEM_VERS = 3.0\n" * 1000 + "\ud800")
+    assert path.read_text() == "precious\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["orbit.oem"]
+
+
+def test_a_replaced_output_keeps_its_permissions_and_a_new_one_gets_the_usual(tmp_path):
+    path = tmp_path / "shared.omm"
+    path.write_text("old\n")
+    os.chmod(path, 0o640)
+    assert write_output("convert", str(path), "new\n") == 0
+    assert path.read_text() == "new\n"
+    assert stat.S_IMODE(os.stat(path).st_mode) == 0o640
+    fresh = tmp_path / "fresh.omm"
+    assert write_output("convert", str(fresh), "x\n") == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(os.stat(fresh).st_mode) == 0o666 & ~umask
+
+
+def test_pass_and_screen_tables_are_written_whole(tmp_path):
+    # the tables go through the same whole-or-nothing write; the CSV reads back row for row
+    from astropy.table import Table
+
+    tle = tmp_path / "a.tle"
+    tle.write_text(ISS_TLE)
+    csv = tmp_path / "p.csv"
+    ecsv = tmp_path / "p.ecsv"
+    argv = ["passes", str(tle), *SITE, "--start", "2008-09-20T00:00", "--hours", "24",
+            "--csv", str(csv), "--ecsv", str(ecsv)]
+    assert cli.main(argv) == 0
+    rows = Table.read(csv, format="ascii.csv")
+    back = Table.read(ecsv, format="ascii.ecsv")
+    assert len(rows) == len(back) > 0
+    assert list(rows["satnum"]) == [25544] * len(rows)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.tle", "p.csv", "p.ecsv"]

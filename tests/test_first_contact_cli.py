@@ -108,3 +108,45 @@ def test_pass_and_screen_tables_are_written_whole(tmp_path):
     assert len(rows) == len(back) > 0
     assert list(rows["satnum"]) == [25544] * len(rows)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.tle", "p.csv", "p.ecsv"]
+
+
+def _checksum(line: str) -> str:
+    return str(sum(int(c) if c.isdigit() else c == "-" for c in line[:68]) % 10)
+
+
+def _pair_file(tmp_path):
+    """The ISS and a copy 0.5 deg of mean anomaly behind it (about 59 km apart all along)."""
+    lines = ISS_TLE.splitlines()
+    other = [line.replace("25544", "25545").replace("325.0288", "325.5288")
+             for line in lines[1:]]
+    other = [line[:68] + _checksum(line) for line in other]
+    path = tmp_path / "pair.tle"
+    path.write_text(ISS_TLE + "OTHER\n" + "\n".join(other) + "\n")
+    return path
+
+
+def test_a_screening_step_too_long_to_bracket_every_minimum_is_refused(tmp_path, capsys):
+    # was: `--step 3600` (or any step of an orbit's length) printed "1 close approaches"
+    # where the 60 s default finds 2 (the one at 12:47 fell between the two samples), exit 0
+    from astropy import units as u
+    from astropy.time import Time
+
+    path = _pair_file(tmp_path)
+    cat = vv.read_catalog_file(path)
+    t0 = Time("2008-09-20T12:00:00", scale="utc")
+    found = vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.h, 5000 * u.km)
+    for step in (60, 600):
+        again = vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.h, 5000 * u.km,
+                                       step=step * u.s)
+        assert len(again) == len(found) >= 2
+        assert abs(again["tca"] - found["tca"]).max().to_value(u.ms) < 1.0
+    for step in (1800, 3600, 1e9):
+        with pytest.raises(vv.InvalidInputError, match=r"1/8 of the shortest orbital period"):
+            vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.h, 5000 * u.km, step=step * u.s)
+    argv = ["screen", str(path), "--start", "2008-09-20T12:00", "--hours", "1", "--threshold",
+            "5000", "--quiet"]
+    assert cli.main([*argv, "--step", "3600"]) == 2
+    err = capsys.readouterr().err
+    assert "step = 3600 s is longer than" in err and "at most 6" in err
+    assert cli.main(argv) == 0
+    assert f"{len(found)} close approaches" in capsys.readouterr().out

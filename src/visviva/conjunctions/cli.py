@@ -21,7 +21,8 @@ def add_parser(sub) -> None:
     p.add_argument("--start", required=True, metavar="ISO", help="start of the window (UTC)")
     p.add_argument("--hours", type=float, required=True, metavar="H", help="window length")
     p.add_argument("--step", type=float, default=60.0, metavar="S",
-                   help="sampling step of the filters in seconds (default 60)")
+                   help="sampling step of the filters in seconds (default 60; at most 1/8 of "
+                        "the shortest orbital period)")
     p.add_argument("--primary", default=None, metavar="NAME",
                    help="screen only this object against the rest")
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")

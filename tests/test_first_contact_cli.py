@@ -150,3 +150,20 @@ def test_a_screening_step_too_long_to_bracket_every_minimum_is_refused(tmp_path,
     assert "step = 3600 s is longer than" in err and "at most 6" in err
     assert cli.main(argv) == 0
     assert f"{len(found)} close approaches" in capsys.readouterr().out
+
+
+def test_a_checksum_error_gives_advice_that_the_reader_and_the_commands_can_follow(tmp_path,
+                                                                                    capsys):
+    # was: "(or pass verify_checksum=False for hand-made element sets)", from
+    # read_catalog_file and `visviva passes`/`screen`/`convert`, none of which takes it
+    lines = ISS_TLE.splitlines()
+    bad = lines[1][:68] + str((int(lines[1][68]) + 1) % 10)
+    path = tmp_path / "bad.tle"
+    path.write_text("\n".join([lines[0], bad, lines[2]]) + "\n")
+    with pytest.raises(vv.TLEFormatError, match="download the element set again") as exc:
+        vv.read_catalog_file(path)
+    assert "line 2 of" in str(exc.value) and "vv.read_tle_file" in str(exc.value)
+    assert len(vv.read_tle_file(path, verify_checksum=False)) == 1  # the advice works
+    assert cli.main(["passes", str(path), *SITE, *WINDOW]) == 2
+    err = capsys.readouterr().err
+    assert "bad.tle: checksum mismatch" in err and "download the element set again" in err

@@ -167,3 +167,14 @@ def test_a_checksum_error_gives_advice_that_the_reader_and_the_commands_can_foll
     assert cli.main(["passes", str(path), *SITE, *WINDOW]) == 2
     err = capsys.readouterr().err
     assert "bad.tle: checksum mismatch" in err and "download the element set again" in err
+
+
+def test_a_missing_input_gets_advice_for_the_shell(tmp_path, capsys, monkeypatch):
+    # was: "'x.oem': no such file ...; check the name, or pass the message text itself (a
+    # string with its newlines, or bytes)": the readers' advice for Python callers
+    monkeypatch.chdir(tmp_path)
+    for argv in (["convert", "missing.oem", "x.omm"], ["fit-tle", "missing.oem"]):
+        assert cli.main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err == (f"visviva {argv[0]}: 'missing.oem': no such file (relative to "
+                       f"{str(tmp_path)!r}); check the name."), err

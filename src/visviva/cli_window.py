@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 __all__ = ["window_from_args", "time_from_arg", "write_output", "add_catalog_argument",
-           "add_overwrite_argument", "check_outputs"]
+           "add_overwrite_argument", "check_outputs", "check_inputs"]
 
 
 def add_catalog_argument(parser) -> None:
@@ -202,3 +202,28 @@ def check_outputs(outputs, inputs, overwrite: bool) -> None:
             raise InvalidInputError(
                 f"{out} exists; pass --overwrite to replace it, or choose another path.")
         seen.append(out)
+
+
+def check_inputs(inputs) -> None:
+    """Refuse an input file that does not exist, with advice for the shell.
+
+    The CCSDS readers take a path or the message text itself, and say so when a path does not
+    exist ("or pass the message text itself"), which a command-line user cannot do.
+
+    Parameters
+    ----------
+    inputs : list of str or None
+        The files the command reads (``None``: not given).
+
+    Raises
+    ------
+    visviva.errors.MissingFileError
+        Naming the first missing file (relative to the working folder when relative).
+    """
+    import os
+
+    from .errors import MissingFileError
+
+    for path in inputs:
+        if path is not None and not os.path.exists(path):
+            raise MissingFileError(path, "check the name.")

@@ -161,10 +161,11 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ..cli_window import check_outputs, write_output
+    from ..cli_window import check_inputs, check_outputs, write_output
     from ..errors import VisvivaError
 
     try:
+        check_inputs([args.input])
         check_outputs([args.output], [args.input], args.overwrite)
         # (a Path: a file name holding '=' is still a file name, and errors name the file)
         text = _input_text(Path(args.input))

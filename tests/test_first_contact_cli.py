@@ -178,3 +178,20 @@ def test_a_missing_input_gets_advice_for_the_shell(tmp_path, capsys, monkeypatch
         err = capsys.readouterr().err.strip()
         assert err == (f"visviva {argv[0]}: 'missing.oem': no such file (relative to "
                        f"{str(tmp_path)!r}); check the name."), err
+
+
+def test_ctrl_c_is_one_line_and_exit_code_130(tmp_path, capsys, monkeypatch):
+    # was: a KeyboardInterrupt traceback from inside sgp4's wrapper (a long `visviva screen`)
+    import visviva.conjunctions.screening as screening
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(screening, "screen_conjunctions", interrupted)
+    tle = tmp_path / "a.tle"
+    tle.write_text(ISS_TLE)
+    csv = tmp_path / "s.csv"
+    assert cli.main(["screen", str(tle), *WINDOW, "--quiet", "--csv", str(csv)]) == 130
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("visviva screen: interrupted") and "\n" not in err
+    assert not csv.exists()

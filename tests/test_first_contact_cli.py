@@ -195,3 +195,12 @@ def test_ctrl_c_is_one_line_and_exit_code_130(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err.strip()
     assert err.startswith("visviva screen: interrupted") and "\n" not in err
     assert not csv.exists()
+
+
+def test_an_output_behind_a_symbolic_link_is_written_where_the_link_points(tmp_path):
+    target = tmp_path / "real.omm"
+    target.write_text("old\n")
+    link = tmp_path / "link.omm"
+    link.symlink_to(target)
+    assert write_output("convert", str(link), "new\n") == 0
+    assert link.is_symlink() and target.read_text() == "new\n"

@@ -81,7 +81,8 @@ def replace_text_file(path, text: str) -> None:
     Parameters
     ----------
     path : str or os.PathLike
-        The file to write (replaced when it exists; its permission bits are kept).
+        The file to write (replaced when it exists; its permission bits are kept; a symbolic
+        link is followed: the file it points to is replaced, the link stays).
     text : str
         The whole content.
 
@@ -94,6 +95,8 @@ def replace_text_file(path, text: str) -> None:
     import tempfile
 
     path = os.fspath(path)
+    if os.path.islink(path):  # write where the link points, as open(path, "w") did
+        path = os.path.realpath(path)
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".visviva-", suffix=".tmp", dir=folder)
     try:

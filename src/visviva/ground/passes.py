@@ -184,8 +184,9 @@ def write_passes(table, path, format: str | None = None) -> None:
     ----------
     table : astropy.table.QTable
         A table from :func:`find_passes`.
-    path : str or path-like
-        The file to write (replaced in one step: an interrupted write leaves no partial file).
+    path : str, path-like or text file object
+        The file to write (replaced in one step: an interrupted write leaves no partial file),
+        or an open text file to write into (then ``format`` is required).
     format : {"csv", "ecsv"}, optional
         ECSV keeps units and masks; CSV writes ISO times and plain numbers (empty where
         masked).
@@ -202,4 +203,7 @@ def write_passes(table, path, format: str | None = None) -> None:
             out[name].format = "isot"
     text = io.StringIO()
     out.write(text, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv")
-    replace_text_file(path, text.getvalue())
+    if hasattr(path, "write"):  # an open text file (as astropy's writer takes)
+        path.write(text.getvalue())
+    else:
+        replace_text_file(path, text.getvalue())

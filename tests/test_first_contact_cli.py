@@ -204,3 +204,26 @@ def test_an_output_behind_a_symbolic_link_is_written_where_the_link_points(tmp_p
     link.symlink_to(target)
     assert write_output("convert", str(link), "new\n") == 0
     assert link.is_symlink() and target.read_text() == "new\n"
+
+
+def test_write_passes_writes_a_file_whole_or_into_an_open_text_file(tmp_path):
+    import io
+
+    from astropy import units as u
+    from astropy.table import Table
+    from astropy.time import Time
+
+    from visviva.ground import write_passes
+
+    lines = ISS_TLE.splitlines()
+    iss = vv.Satellite.from_tle(lines[1], lines[2], name=lines[0])
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg, 0 * u.m)
+    t0 = Time("2008-09-20T00:00:00", scale="utc")
+    table = vv.find_passes(iss, site, t0, t0 + 1 * u.day)
+    buffer = io.StringIO()
+    write_passes(table, buffer, format="csv")
+    path = tmp_path / "p.csv"
+    write_passes(table, path)
+    assert path.read_text() == buffer.getvalue()
+    assert len(Table.read(path, format="ascii.csv")) == len(table) > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv"]

@@ -227,3 +227,18 @@ def test_write_passes_writes_a_file_whole_or_into_an_open_text_file(tmp_path):
     assert path.read_text() == buffer.getvalue()
     assert len(Table.read(path, format="ascii.csv")) == len(table) > 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv"]
+
+
+def test_convert_never_converts_another_object_than_satnum_asks_for(tmp_path, capsys):
+    # was: a file with one OMM ignored --satnum and converted the object it held, exit 0
+    tle = tmp_path / "a.tle"
+    tle.write_text(ISS_TLE)
+    omm = tmp_path / "a.omm"
+    assert cli.main(["convert", str(tle), str(omm)]) == 0
+    for source in (omm, tle):
+        assert cli.main(["convert", str(source), "-", "--to", "tle", "--satnum", "99999"]) == 2
+        captured = capsys.readouterr()
+        assert captured.out == ""
+        assert f"no satellite 99999 in {source} (it holds 25544)" in captured.err
+        assert cli.main(["convert", str(source), "-", "--to", "tle", "--satnum", "25544"]) == 0
+        assert capsys.readouterr().out.splitlines()[1:] == ISS_TLE.splitlines()[1:]

@@ -160,7 +160,7 @@ def test_an_empty_catalogue_is_refused_not_screened(tmp_path, capsys):
     path.write_text("")
     assert main(["screen", str(path), "--start", "2024-01-01T00:00:00", "--hours", "1",
                  "--quiet"]) == 2
-    assert "hold no object" in capsys.readouterr().err
+    assert "empty.tle: the file is empty" in capsys.readouterr().err  # (named: audit14)
 
 
 def test_an_object_whose_sgp4_fails_inside_the_window_is_named_in_a_warning():

@@ -57,6 +57,25 @@ def test_compile_notice_says_once_what_compiles(monkeypatch, capsys):
     assert "compiling slow_kernel" in err and "once" in err and "visviva warmup" in err
 
 
+def test_a_long_first_use_compilation_is_never_silent_for_long(monkeypatch, capsys):
+    # was: one line at 2 s, then silence: a cold find_passes compiled six kernels one after
+    # another for 25 s (secular_grid 11 s, scan_passes 7 s, ...) with nothing after that line
+    monkeypatch.setattr(_jit, "COMPILE_NOTICE_S", 0.01)
+    monkeypatch.setattr(_jit, "STILL_COMPILING_S", 0.25, raising=False)
+    monkeypatch.setitem(_jit.notices, "said", set())
+    monkeypatch.setitem(_jit.notices, "compiling_s", 0.0)
+    with _jit.compile_notice("slow_kernel"):
+        time.sleep(0.4)
+    with _jit.compile_notice("next_kernel"):
+        time.sleep(0.9)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("visviva: compiling slow_kernel") and len(lines) >= 3, lines
+    assert all(ln.startswith("visviva: still compiling (") for ln in lines[1:]), lines
+    assert any("next_kernel" in ln for ln in lines[1:]), lines
+    # the total counts the process's compiling: the last line says more than 1 s
+    assert float(lines[-1].split("; ")[1].split(" s ")[0]) >= 1.0, lines[-1]
+
+
 def test_compile_notice_silent_when_fast_or_disabled(monkeypatch, capsys):
     monkeypatch.setitem(_jit.notices, "said", set())
     with _jit.compile_notice("fast_kernel"):

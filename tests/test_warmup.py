@@ -110,3 +110,22 @@ print(sorted(compiled))
     out = subprocess.run([sys.executable, "-c", use], env=env, check=True, capture_output=True,
                          text=True).stdout
     assert out.strip() == "[]"
+
+
+def test_warmup_covers_the_pass_search_and_screening_kernels():
+    # was: `visviva warmup` ("compile every numba kernel") left out the pass search and the
+    # catalogue screening: after it, a first find_passes still compiled for 10 s (25 s on an
+    # empty cache) and a first screen_conjunctions for 7 s (audit14)
+    from visviva.core import screening, topocentric
+    from visviva.satellites import groundtrack, secular_batch
+
+    tasks = dict(warmup.TASKS)
+    chosen = [(label, fn) for label, fn in warmup.TASKS
+              if label.startswith(("ground stations", "conjunctions: catalogue"))]
+    assert len(chosen) == 2, sorted(tasks)
+    results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None, None]
+    for kernel in (secular_batch.secular_grid, topocentric.scan_passes, topocentric.razel_many,
+                   topocentric.elevation_rate_many, groundtrack.shadow_fraction_many,
+                   screening.screen_rows):
+        assert kernel.signatures, kernel.py_func.__name__

@@ -1,10 +1,12 @@
 """Reading a user's file: the one place that opens it (a missing file raises
 :class:`~visviva.errors.MissingFileError` naming the path) and the one place that finds the
-line of a byte that is not UTF-8, for every reader (CCSDS messages, TLE and OMM catalogues)."""
+line of a byte that is not UTF-8, for every reader (CCSDS messages, TLE and OMM catalogues);
+and writing a text file whole or not at all (:func:`replace_text_file`), for the command-line
+tools' outputs."""
 
 from __future__ import annotations
 
-__all__ = ["utf8_text", "file_bytes"]
+__all__ = ["utf8_text", "file_bytes", "replace_text_file"]
 
 
 def file_bytes(path, what: str, todo: str, error=None) -> bytes:
@@ -67,3 +69,50 @@ def utf8_text(raw: bytes, error):
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise error(raw[:exc.start].count(b"\n") + 1, raw[exc.start]) from None
+
+
+def replace_text_file(path, text: str) -> None:
+    """Write ``text`` to ``path`` (UTF-8) whole or not at all.
+
+    The text goes to a temporary file in the same folder, which then replaces ``path`` in one
+    step (:func:`os.replace`): an interrupted or failed write (Ctrl-C, a full disk) leaves the
+    earlier file, if any, as it was and no partial file; the temporary file is removed.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write (replaced when it exists; its permission bits are kept; a symbolic
+        link is followed: the file it points to is replaced, the link stays).
+    text : str
+        The whole content.
+
+    Raises
+    ------
+    OSError
+        The folder does not exist or cannot be written, or ``path`` is a folder.
+    """
+    import os
+    import tempfile
+
+    path = os.fspath(path)
+    if os.path.islink(path):  # write where the link points, as open(path, "w") did
+        path = os.path.realpath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".visviva-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        try:
+            mode = os.stat(path).st_mode & 0o7777
+        except OSError:  # a new file: the usual permissions (mkstemp's are 0o600)
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise

@@ -88,13 +88,20 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def _run_command(module, args) -> int:
-    """``module.run(args)`` with the warnings shown as :func:`_show_warning` does."""
+    """``module.run(args)`` with the warnings shown as :func:`_show_warning` does; Ctrl-C is
+    one line on stderr and exit code 130 (128 + SIGINT, as shells report it), not a traceback
+    from wherever the work was (every output file is written whole or not at all, so none is
+    left half-written)."""
     import warnings
 
     saved = warnings.showwarning
     warnings.showwarning = _show_warning
     try:
         return int(module.run(args))
+    except KeyboardInterrupt:
+        print(f"visviva {args.command}: interrupted; each output file is either complete or "
+              "was not written.", file=sys.stderr)
+        return 130
     finally:
         warnings.showwarning = saved
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 __all__ = ["window_from_args", "time_from_arg", "write_output", "add_catalog_argument",
-           "add_overwrite_argument", "check_outputs"]
+           "add_overwrite_argument", "check_outputs", "check_inputs"]
 
 
 def add_catalog_argument(parser) -> None:
@@ -122,16 +122,19 @@ def write_output(command: str, path: str, text: str) -> int:
     -------
     int
         0, or 2 after a one-line message on standard error when the file cannot be written (a
-        folder, a missing folder, no permission).
+        folder, a missing folder, no permission). The file is replaced in one step
+        (:func:`visviva._text.replace_text_file`): a failed or interrupted write leaves an
+        existing file as it was.
     """
     import sys
 
     if path == "-":
         sys.stdout.write(text)
         return 0
+    from ._text import replace_text_file
+
     try:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        replace_text_file(path, text)  # whole or not at all: never a half-written file
     except OSError as exc:
         print(f"visviva {command}: cannot write {path}: {exc.strerror or exc}", file=sys.stderr)
         return 2
@@ -169,7 +172,9 @@ def check_outputs(outputs, inputs, overwrite: bool) -> None:
     ------
     visviva.errors.InvalidInputError
         An output is one of the input files (refused even with ``--overwrite``), the same file
-        is given as two outputs, or an output file exists and ``overwrite`` is false.
+        is given as two outputs, an output is a folder or in a folder that does not exist
+        (refused before hours of work, not after), or an output file exists and ``overwrite``
+        is false.
     """
     import os
 
@@ -187,7 +192,38 @@ def check_outputs(outputs, inputs, overwrite: bool) -> None:
         for earlier in seen:
             if _same_file(out, earlier):
                 raise InvalidInputError(f"{out} is given as two outputs; name two files.")
+        if os.path.isdir(out):
+            raise InvalidInputError(f"cannot write {out}: it is a folder; name a file to write.")
+        folder = os.path.dirname(os.path.abspath(out))
+        if not os.path.isdir(folder):
+            raise InvalidInputError(
+                f"cannot write {out}: the folder {folder} does not exist; create it first.")
         if os.path.isfile(out) and not overwrite:
             raise InvalidInputError(
                 f"{out} exists; pass --overwrite to replace it, or choose another path.")
         seen.append(out)
+
+
+def check_inputs(inputs) -> None:
+    """Refuse an input file that does not exist, with advice for the shell.
+
+    The CCSDS readers take a path or the message text itself, and say so when a path does not
+    exist ("or pass the message text itself"), which a command-line user cannot do.
+
+    Parameters
+    ----------
+    inputs : list of str or None
+        The files the command reads (``None``: not given).
+
+    Raises
+    ------
+    visviva.errors.MissingFileError
+        Naming the first missing file (relative to the working folder when relative).
+    """
+    import os
+
+    from .errors import MissingFileError
+
+    for path in inputs:
+        if path is not None and not os.path.exists(path):
+            raise MissingFileError(path, "check the name.")

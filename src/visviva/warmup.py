@@ -150,6 +150,35 @@ def _conjunctions():
     collision_probability(*args, method="pc3d_hall", window=(-60.0, 60.0))
 
 
+def _passes():
+    # the pass search (secular node grid, pass scan, elevation rates, look angles, the Earth's
+    # shadow), what `visviva passes` and vv.find_passes compile on first use (about 25 s cold)
+    from astropy import units as u
+
+    import visviva as vv
+
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+        "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482")
+    site = vv.GroundStation(52.0 * u.deg, 0.0 * u.deg, 0.0 * u.m)
+    vv.find_passes(sat, site, sat.epoch, sat.epoch + 3 * u.h)
+
+
+def _screening():
+    # the catalogue screening kernel of `visviva screen` and vv.screen_conjunctions
+    from astropy import units as u
+
+    import visviva as vv
+
+    sats = vv.Catalog([vv.Satellite.from_tle(
+        "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+        "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482"),
+        vv.Satellite.from_tle(
+        "1 25545U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9992",
+        "2 25545  51.6439 211.2001 0007417  17.6667  86.1398 15.50103472202489")])
+    vv.screen_conjunctions(sats, None, sats[0].epoch, sats[0].epoch + 1 * u.h, 100 * u.km)
+
+
 #: (label, function): what ``visviva warmup`` runs, in order.
 TASKS = (
     ("states <-> elements", _elements),
@@ -166,6 +195,8 @@ TASKS = (
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),
     ("conjunctions: Foster and 3D-Nc (pc3d_hall)", _conjunctions),
+    ("ground stations: look angles and pass search", _passes),
+    ("conjunctions: catalogue screening", _screening),
 )
 
 
@@ -233,7 +264,7 @@ def add_parser(sub) -> None:
         "warmup", help="compile every numba kernel once (run after installing)",
         description="Compile visviva's numba kernels and fill numba's on-disk cache, so that "
         "the first call in every later process loads machine code instead of compiling "
-        "(about 1-2 minutes of CPU once; later first calls take about 0.1 s).")
+        "(a few minutes of CPU once; later first calls take about 0.1 s).")
     p.add_argument("--quiet", action="store_true", help="no progress bar, one line per task")
 
 

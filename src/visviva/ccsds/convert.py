@@ -90,12 +90,16 @@ def _satellite(args, path, text: str, kind: str):
     from .omm import read_omm
 
     if kind == "omm" and not _is_ndm(text) and _one_omm(text):
-        return Satellite.from_omm(read_omm(path))
-    sats = list(read_catalog_file(path))
-    if args.satnum is not None:
+        sats = [Satellite.from_omm(read_omm(path))]
+    else:
+        sats = list(read_catalog_file(path))
+    if args.satnum is not None:  # (a one-OMM file too: never another object than asked for)
+        held = sorted({s.satnum for s in sats})
         sats = [s for s in sats if s.satnum == args.satnum]
         if not sats:
-            raise InvalidInputError(f"no satellite {args.satnum} in {args.input}")
+            shown = ", ".join(str(n) for n in held[:10]) + (", ..." if len(held) > 10 else "")
+            raise InvalidInputError(f"no satellite {args.satnum} in {args.input} (it holds "
+                                    f"{shown})")
     if len(sats) != 1:
         numbers = ", ".join(str(s.satnum) for s in sats[:10])
         raise InvalidInputError(f"{args.input} holds {len(sats)} satellites "
@@ -161,10 +165,11 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from ..cli_window import check_outputs, write_output
+    from ..cli_window import check_inputs, check_outputs, write_output
     from ..errors import VisvivaError
 
     try:
+        check_inputs([args.input])
         check_outputs([args.output], [args.input], args.overwrite)
         # (a Path: a file name holding '=' is still a file name, and errors name the file)
         text = _input_text(Path(args.input))

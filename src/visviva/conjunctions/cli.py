@@ -21,7 +21,8 @@ def add_parser(sub) -> None:
     p.add_argument("--start", required=True, metavar="ISO", help="start of the window (UTC)")
     p.add_argument("--hours", type=float, required=True, metavar="H", help="window length")
     p.add_argument("--step", type=float, default=60.0, metavar="S",
-                   help="sampling step of the filters in seconds (default 60)")
+                   help="sampling step of the filters in seconds (default 60; at most 1/8 of "
+                        "the shortest orbital period)")
     p.add_argument("--primary", default=None, metavar="NAME",
                    help="screen only this object against the rest")
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
@@ -33,10 +34,12 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Run ``visviva screen``; returns the exit code (0, or 2 for bad input)."""
+    import io
     import sys
 
     from astropy import units as u
 
+    from .._text import replace_text_file
     from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
     from ..satellites.catalog import Catalog, read_catalog_file
@@ -73,7 +76,9 @@ def run(args) -> int:
               f"{row['cross_track'].to_value(u.km):8.3f}) km")
     if args.csv:
         try:
-            tab.write(args.csv, format="ascii.csv", overwrite=True)
+            text = io.StringIO()
+            tab.write(text, format="ascii.csv")
+            replace_text_file(args.csv, text.getvalue())  # whole or not at all
         except OSError as exc:
             print(f"visviva screen: cannot write {args.csv}: {exc}", file=sys.stderr)
             return 2

@@ -161,23 +161,44 @@ _THREADS = {"up": False}
 
 #: A call from Python that is still compiling after this many seconds says so on stderr.
 COMPILE_NOTICE_S = 2.0
+#: After that first line, a compilation still running says so again once this many seconds have
+#: passed without a line: a cold ``find_passes`` compiles six kernels one after another for
+#: about 25 s, and one line at 2 s followed by 20 s of silence looks like a hang.
+STILL_COMPILING_S = 10.0
 #: ``enabled``: set to False to print nothing (``visviva warmup`` does: its bar says what is
 #: compiling); ``write``: an optional function that prints the line instead of stderr (``visviva
-#: validate`` routes it through its progress bar).
-notices = {"enabled": True, "said": set(), "depth": 0}
+#: validate`` routes it through its progress bar); ``last``: when the last line was written
+#: (``time.perf_counter``); ``compiling_s``: seconds spent in announced compilations so far.
+notices = {"enabled": True, "said": set(), "depth": 0, "last": None, "compiling_s": 0.0}
+
+
+def _write(text: str) -> None:
+    write = notices.get("write") or sys.stderr.write
+    write(text)
+    if write is sys.stderr.write:
+        sys.stderr.flush()
+    notices["last"] = time.perf_counter()
 
 
 def _say(name: str, t0: float) -> None:
     if not notices["enabled"] or notices["said"]:
         return  # one line per process: the first long compilation says it for all
     notices["said"].add(name)
-    write = notices.get("write") or sys.stderr.write
-    write(
+    _write(
         f"visviva: compiling {name} for its first use ({time.perf_counter() - t0:.0f} s so "
         "far; numba's cache was empty). This happens once: the machine code is cached on disk. "
         "Run `visviva warmup` after installing to compile every kernel ahead.\n")
-    if write is sys.stderr.write:
-        sys.stderr.flush()
+
+
+def _say_still(name: str, t0: float) -> None:
+    """A short line when a compilation runs on STILL_COMPILING_S after the last line."""
+    last = notices["last"]
+    if (not notices["enabled"] or not notices["said"] or last is None
+            or time.perf_counter() - last < STILL_COMPILING_S):
+        return
+    total = notices["compiling_s"] + time.perf_counter() - t0
+    _write(f"visviva: still compiling ({name}; {total:.0f} s of first-use compiling in this "
+           "process); once only, the machine code is cached.\n")
 
 
 @contextlib.contextmanager
@@ -185,18 +206,30 @@ def compile_notice(name: str):
     """Print one line on stderr if the block (a kernel's compilation) runs past COMPILE_NOTICE_S.
 
     The line names the kernel and says that the compilation happens once; it is printed once
-    per process (the first kernel to compile for long speaks for the ones after it). Loading the machine
-    code from numba's cache takes milliseconds and prints nothing. Nested compilations
-    (a kernel's callees) happen inside the outer block and add no line.
+    per process (the first kernel to compile for long speaks for the ones after it). After it,
+    a compilation that is still running STILL_COMPILING_S after the last line adds a short
+    "still compiling" line, so that a first call that compiles for half a minute never sits
+    silent for long. Loading the machine code from numba's cache takes milliseconds and prints
+    nothing. Nested compilations (a kernel's callees) happen inside the outer block and add no
+    line.
     """
     t0 = time.perf_counter()
-    timer = threading.Timer(COMPILE_NOTICE_S, _say, (name, t0))
-    timer.daemon = True
-    timer.start()
+    done = threading.Event()
+
+    def watch():
+        if done.wait(COMPILE_NOTICE_S):
+            return
+        _say(name, t0)
+        while not done.wait(min(1.0, STILL_COMPILING_S)):
+            _say_still(name, t0)
+
+    watcher = threading.Thread(target=watch, name="visviva-compile-notice", daemon=True)
+    watcher.start()
     try:
         yield
     finally:
-        timer.cancel()
+        done.set()
+        notices["compiling_s"] += time.perf_counter() - t0
 
 
 def _njit(**flags):

@@ -9,10 +9,13 @@ SGP4. A pass table has one row per pass, with the visibility columns of
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._text import replace_text_file
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
 from .search import (
@@ -256,8 +259,9 @@ def write_passes(table, path, format: str | None = None) -> None:
     ----------
     table : astropy.table.QTable
         A table from :func:`find_passes`.
-    path : str or path-like
-        The file to write (overwritten).
+    path : str, path-like or text file object
+        The file to write (replaced in one step: an interrupted write leaves no partial file),
+        or an open text file to write into (then ``format`` is required).
     format : {"csv", "ecsv"}, optional
         ECSV keeps units and masks; CSV writes ISO times and plain numbers (empty where
         masked).
@@ -272,4 +276,9 @@ def write_passes(table, path, format: str | None = None) -> None:
     for name in out.colnames:
         if isinstance(out[name], Time):
             out[name].format = "isot"
-    out.write(path, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv", overwrite=True)
+    text = io.StringIO()
+    out.write(text, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv")
+    if hasattr(path, "write"):  # an open text file (as astropy's writer takes)
+        path.write(text.getvalue())
+    else:
+        replace_text_file(path, text.getvalue())

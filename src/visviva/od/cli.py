@@ -53,11 +53,12 @@ def run(args) -> int:
     from pathlib import Path
 
     from ..ccsds.oem_io import read_oem
-    from ..cli_window import check_outputs, time_from_arg, write_output
+    from ..cli_window import check_inputs, check_outputs, time_from_arg, write_output
     from ..errors import VisvivaError
     from .tle_fit import fit_tle
 
     try:
+        check_inputs([args.ephemeris])
         check_outputs([args.output], [args.ephemeris, args.initial], args.overwrite)
         mission = (time_from_arg("--mission-epoch", args.mission_epoch) if args.mission_epoch
                    else None)

@@ -335,6 +335,8 @@ def read_tle_file(path, *, verify_checksum: bool = True) -> Catalog:
     ------
     TLEFormatError
         Naming the file and the line number of the first bad line.
+    InvalidInputError
+        The file is empty (nothing but white space): a failed download, not a catalogue.
     """
     return Catalog(tle_file_satellites(path, verify_checksum=verify_checksum))
 
@@ -395,8 +397,8 @@ def read_catalog_file(path) -> Catalog:
     TLEFormatError
         A file that is not OMM, naming its first bad TLE line.
     InvalidInputError
-        An OMM file naming the line or record (as :func:`read_omm_file`), or another CCSDS
-        message (an OEM, an OPM) or XML document.
+        An OMM file naming the line or record (as :func:`read_omm_file`), another CCSDS
+        message (an OEM, an OPM) or XML document, or an empty file (nothing but white space).
     """
     return Catalog(catalog_file_satellites(path))
 

@@ -100,11 +100,19 @@ def tle_file_satellites(path, *, verify_checksum: bool = True) -> list:
 def _file_bytes(path, what: str) -> bytes:
     """The bytes of a catalogue file (:func:`visviva._text.file_bytes`: a missing file raises a
     :class:`~visviva.errors.MissingFileError`, also a ``FileNotFoundError``, naming the path
-    and saying what to do)."""
-    return file_bytes(
+    and saying what to do). An empty file (nothing but white space) raises an
+    :class:`~visviva.errors.InvalidInputError` naming it: it is a failed download or save far
+    more often than an empty catalogue, and an empty catalogue would pass on as 0 passes or 0
+    conjunctions without a word."""
+    raw = file_bytes(
         path, what, f"check the name, or download the {what} first (e.g. CelesTrak's GP data, "
         "https://celestrak.org/NORAD/elements/, in TLE, JSON, CSV or XML); visviva never "
         "downloads them itself.")
+    if not raw.lstrip(b"\xef\xbb\xbf").strip():
+        raise InvalidInputError(
+            f"{os.fspath(path)}: the file is empty (no {what}); download or save it again, or "
+            "check the name.")
+    return raw
 
 
 def decode_tle_bytes(raw: bytes) -> str:

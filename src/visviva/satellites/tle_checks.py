@@ -301,8 +301,9 @@ def check_tle_lines(
             if int(line[68]) != expected:
                 raise TLEFormatError(
                     f"{name}: checksum mismatch, column 69 says {line[68]} but the line sums to "
-                    f"{expected}: {line!r}. The line is corrupted (or pass "
-                    "verify_checksum=False for hand-made element sets)."
+                    f"{expected}: {line!r}. The line is corrupted: download the element set "
+                    "again (a hand-made one is read by vv.Satellite.from_tle, "
+                    "vv.parse_tle_text or vv.read_tle_file with verify_checksum=False)."
                 )
         lines.append(line)
     if lines[0][2:7] != lines[1][2:7]:

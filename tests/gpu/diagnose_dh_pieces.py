@@ -25,9 +25,10 @@ from numba import cuda
 sys.path.insert(0, os.path.dirname(__file__))
 from check_whfast_ensemble import member  # noqa: E402
 
-from visviva.core import gravity, nbody_common, universal  # noqa: E402
+from visviva.core import gravity  # noqa: E402
 from visviva.core import nbody_whfast as W  # noqa: E402
-from visviva.core.cuda.twins import device_twin, never_inlined  # noqa: E402
+from visviva.core.cuda.twins import device_twin  # noqa: E402
+from visviva.core.cuda.whfast import general_swaps  # noqa: E402
 from visviva.core.gravity import FEW, GWORK_ROWS  # noqa: E402
 from visviva.core.nbody_common import F_G, F_SOFT2  # noqa: E402
 
@@ -35,28 +36,14 @@ NB, XJ, VJ, ACC, AJ, ETA, XS, VS = W.N_BUF, W._XJ, W._VJ, W._ACC, W._AJ, W._ETA,
 H = 0.01
 
 force = device_twin(gravity.no_force)
-rows = device_twin(gravity._plain_rows)
-
-
-@cuda.jit(device=True)
-def gravity_few(x, m, G, soft2, massive, acc, work, parallel):
-    rows(x, m, G, soft2, massive, acc)
-
-
-@cuda.jit(device=True)
-def accelerations(t, x, v, m, massive, fstate, gwork, unused, params, acc, parallel):
-    rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
-    force(t, x, v, m, params, acc)
-
-
-REPLACE = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations}
+REPLACE = general_swaps(force)  # as build_general swaps them (the solver never inlined)
+gravity_few = REPLACE[gravity.gravity]
 
 
 def twin(fn):
     return device_twin(fn, REPLACE)
 
 
-never_inlined(twin(universal.propagate_scalar))
 to_dh = twin(W.to_democratic_heliocentric)
 from_dh = twin(W.from_democratic_heliocentric)
 jump = twin(W._jump)

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 from numba import cuda
 
-__all__ = ["build", "build_general", "plain_member"]
+__all__ = ["build", "build_general", "general_swaps", "plain_member"]
 
 #: Values of the ``mode`` argument: nothing to do (an output at the current time of a member
 #: without an internal state), continue the internal state, or build it first.
@@ -164,14 +164,12 @@ def build():
     return ensemble_whfast
 
 
-def build_general(force):
-    """Compile (lazily, on first launch) and return :func:`ensemble_whfast_general`: every
-    member through the CPU kernel's own run body, :func:`visviva.core.nbody_whfast._whfast`,
-    compiled for the device, its members adding the additional force ``force`` (a device
-    function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op
-    force for gravity only; see the module notes)."""
+def general_swaps(force):
+    """The helpers :func:`build_general` swaps in the CPU kernel's run body (a ``replace``
+    mapping of :func:`.twins.device_twin`, the Kepler solver's twin marked never inlined):
+    ``gravity.gravity`` and ``nbody_common.accelerations`` become the plain few-body rows (the
+    bits of the CPU's few-body kernels), the latter adding the device force ``force``."""
     from .. import gravity, nbody_common, universal
-    from .. import nbody_whfast as W
     from ..nbody_common import F_G, F_SOFT2
     from .twins import device_twin, never_inlined
 
@@ -189,9 +187,21 @@ def build_general(force):
         force(t, x, v, m, params, acc)
 
     replace = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations}
-    run = device_twin(W._whfast, replace)
     # one copy of the Kepler solver, called from the run body's 23 drift sites
     never_inlined(device_twin(universal.propagate_scalar, replace))
+    return replace
+
+
+def build_general(force):
+    """Compile (lazily, on first launch) and return :func:`ensemble_whfast_general`: every
+    member through the CPU kernel's own run body, :func:`visviva.core.nbody_whfast._whfast`,
+    compiled for the device, its members adding the additional force ``force`` (a device
+    function of the signature of :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op
+    force for gravity only; see the module notes and :func:`general_swaps`)."""
+    from .. import nbody_whfast as W
+    from .twins import device_twin
+
+    run = device_twin(W._whfast, general_swaps(force))
     n_buf = W.N_BUF
 
     @cuda.jit

@@ -349,3 +349,32 @@ def test_no_command_writes_over_its_input_or_an_existing_file_silently(tmp_path,
     assert cli.main(["passes", str(tle), *site, *window, "--csv", str(tmp_path / "x"),
                      "--ecsv", str(tmp_path / "x")]) == 2
     assert "given as two outputs" in capsys.readouterr().err
+
+
+def test_only_matching_nothing_is_refused_before_running(monkeypatch, capsys):
+    """Regression: ``--only <typo>`` ran every module (95 s) before saying nothing matched."""
+    ran = []
+
+    def record(module, full=False, timeout_s=None):
+        ran.append(module)
+        raise AssertionError("no module may run")
+
+    monkeypatch.setattr(runner, "run_module", record)
+    code = runner.run(report_dir=None, progress=False, only="no_such_check_xyz")
+    err = capsys.readouterr().err
+    assert code == 2 and ran == []
+    line = err.strip()
+    assert "\n" not in line and "no_such_check_xyz" in line
+    for topic in ("units", "nbody", "anomalies"):
+        assert topic in line
+    # a term naming a real check (not a topic) is not refused: it is written in a module
+    assert runner.unmatched_only("vs mpmath", runner.discover()) is None
+    assert runner.unmatched_only("UNITS", runner.discover()) is None
+
+
+def test_cli_only_matching_nothing_exits_2_at_once():
+    proc = subprocess.run(
+        [sys.executable, "-m", "visviva.cli", "validate", "--only", "no_such_check_xyz",
+         "--no-report", "--quiet"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert "matches no check module" in proc.stderr and "check modules" not in proc.stdout

@@ -297,3 +297,52 @@ def test_tca_is_the_minimum_of_sgp4_positions_for_deep_space_orbits():
         d = np.linalg.norm((b.teme(t).r - a.teme(t).r).to_value(u.km), axis=-1)
         assert d[1] <= d[0] + 1e-9 and d[1] <= d[2] + 1e-9, (row["object1"], row["object2"])
         assert row["miss_distance"].to_value(u.km) == pytest.approx(d[1], abs=1e-9)
+
+
+def _same_rows(a, b):
+    assert len(a) == len(b)
+    assert list(a["index1"]) == list(b["index1"]) and list(a["index2"]) == list(b["index2"])
+    assert list(a["object1"]) == list(b["object1"]) and list(a["object2"]) == list(b["object2"])
+    for col in ("miss_distance", "relative_speed", "radial", "in_track", "cross_track"):
+        assert np.array_equal(a[col].value, b[col].value), col
+    assert np.array_equal((a["tca"] - b["tca"]).to_value(u.s), np.zeros(len(a)))
+
+
+def test_a_catalogue_against_itself_reports_each_pair_once(catalog, screened):
+    """Regression: screen_conjunctions(cat, cat) reported every pair twice (once from each
+    object's side) where screen_conjunctions(cat, None) reports it once."""
+    t0 = catalog.epochs[0]
+    twice = vv.screen_conjunctions(catalog, catalog, t0, t0 + 3 * u.hour, threshold=20 * u.km)
+    assert len(screened) >= 4
+    _same_rows(twice, screened)
+    assert np.all(twice["index1"] < twice["index2"])
+
+
+def test_one_file_read_twice_is_one_catalogue(tmp_path):
+    """Distinct Satellite objects with equal element sets are one object each: no pair of an
+    object with itself, each pair once, the rows of the all-against-all screening."""
+    from sgp4.exporter import export_tle
+
+    cat = synthetic_catalog(10, crossing_pairs=2, seed=1)
+    text = "".join(f"{s.name}\n" + "\n".join(export_tle(s.satrec)) + "\n" for s in cat)
+    path = tmp_path / "cat.tle"
+    path.write_text(text)
+    a, b = vv.read_tle_file(path), vv.read_tle_file(path)
+    assert a[0] is not b[0]
+    t0 = a.epochs[0]
+    window = (t0, t0 + 2 * u.hour)
+    alone = vv.screen_conjunctions(a, None, *window, threshold=20 * u.km)
+    assert len(alone) >= 2
+    _same_rows(vv.screen_conjunctions(a, b, *window, threshold=20 * u.km), alone)
+    # overlapping lists: the pairs inside the overlap once, an object never against itself
+    k1, k2 = int(alone["index1"][0]), int(alone["index2"][0])
+    prim = vv.Catalog([a[k1], a[k2]])
+    both = vv.screen_conjunctions(prim, b, *window, threshold=20 * u.km)
+    names = {frozenset((r["object1"], r["object2"])) for r in both}
+    assert len(names) == len(both)  # no unordered pair twice
+    assert all(r["object1"] != r["object2"] for r in both)
+    expect = alone[(alone["index1"] == k1) | (alone["index2"] == k1)
+                   | (alone["index1"] == k2) | (alone["index2"] == k2)]
+    assert len(both) == len(expect)
+    assert np.allclose(np.sort(both["miss_distance"].value),
+                       np.sort(expect["miss_distance"].value), rtol=0, atol=1e-9)

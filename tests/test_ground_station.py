@@ -24,7 +24,7 @@ def test_vallado_example_7_1_site_ecef():
 
 
 def test_attributes_and_repr():
-    site = GroundStation(52.2 * u.deg, 360.12 * u.deg, 30 * u.m, name="Cambridge")
+    site = GroundStation(52.2 * u.deg, -359.88 * u.deg, 30 * u.m, name="Cambridge")
     assert site.lat.unit == u.deg and site.lat.value == pytest.approx(52.2)
     assert site.lon.value == pytest.approx(0.12)
     assert site.height.to_value(u.m) == pytest.approx(30.0)
@@ -90,6 +90,9 @@ def test_gcrs_scalar_time():
     ({"lat": [1, 2] * u.deg, "lon": 0.0 * u.deg}, vv.ShapeError),
     ({"lat": 1 * u.deg, "lon": 0.0 * u.deg, "height": 5.0}, vv.UnitsError),
     ({"lat": 1 * u.deg, "lon": 0.0 * u.deg, "height": -500 * u.km}, vv.DomainError),
+    ({"lat": 1 * u.deg, "lon": 0.0 * u.deg, "height": np.inf * u.m}, vv.InvalidInputError),
+    ({"lat": 1 * u.deg, "lon": np.inf * u.deg}, vv.InvalidInputError),
+    ({"lat": 1 * u.deg, "lon": np.nan * u.deg}, vv.InvalidInputError),
 ])
 def test_bad_input(kwargs, error):
     with pytest.raises(error):
@@ -116,3 +119,51 @@ def test_pickle_and_equality():
     again = pickle.loads(pickle.dumps(site))
     assert again == site and hash(again) == hash(site)
     np.testing.assert_array_equal(again.itrs_km, site.itrs_km)
+
+
+@pytest.mark.parametrize(("height", "lon"), [
+    (1e6 * u.km, 0 * u.deg),      # regression: accepted (a site 1e6 km above the ellipsoid)
+    (100.001 * u.km, 0 * u.deg),
+    (-12.001 * u.km, 0 * u.deg),
+    (-100 * u.km, 0 * u.deg),     # accepted before (the old floor was -100 km)
+    (30 * u.m, 400 * u.deg),      # regression: accepted and wrapped to 40 deg
+    (30 * u.m, -360.5 * u.deg),
+    (30 * u.m, 7 * u.rad),
+])
+def test_heights_off_the_earth_and_longitudes_beyond_a_turn_are_refused(height, lon):
+    with pytest.raises(vv.DomainError) as info:
+        GroundStation(10 * u.deg, lon, height)
+    msg = str(info.value)
+    assert ("[-12, 100] km" in msg) if "height" in msg else ("[-360, 360] deg" in msg)
+
+
+@pytest.mark.parametrize(("height", "lon", "wrapped"), [
+    (-11 * u.km, 142.2 * u.deg, 142.2),     # Challenger Deep sea floor
+    (8.849 * u.km, 86.925 * u.deg, 86.925),  # Everest
+    (20 * u.km, 360 * u.deg, 0.0),           # a high-altitude platform, lon 360 = 0
+    (53 * u.km, -360 * u.deg, 0.0),          # a balloon's record height
+    (100 * u.km, 270 * u.deg, -90.0),        # the Karman line; 0..360 east longitude
+    (-12 * u.km, -180 * u.deg, -180.0),
+])
+def test_sites_on_or_near_the_earth_are_accepted(height, lon, wrapped):
+    site = GroundStation(10 * u.deg, lon, height)
+    assert site.height.to_value(u.km) == pytest.approx(height.to_value(u.km), rel=1e-15)
+    assert site.lon.to_value(u.deg) == pytest.approx(wrapped, abs=1e-12)
+    # the position is that of astropy's geodetic conversion at that height
+    loc = EarthLocation.from_geodetic(lon, 10 * u.deg, height)
+    np.testing.assert_allclose(site.itrs_km, loc.get_itrs().cartesian.xyz.to_value(u.km),
+                               atol=1e-9)
+
+
+def test_cli_passes_refuses_a_site_off_the_earth_in_one_line(tmp_path, capsys):
+    from visviva.cli import main
+
+    tle = tmp_path / "iss.tle"
+    tle.write_text("ISS\n1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927\n"
+                   "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537\n")
+    for extra, why in ((["--lon", "-75", "--height", "1e9"], "[-12, 100] km"),
+                       (["--lon", "400"], "[-360, 360] deg")):
+        code = main(["passes", str(tle), "--lat", "40", *extra, "--start", "2008-09-20",
+                     "--hours", "1"])
+        err = capsys.readouterr().err
+        assert code == 2 and why in err and len(err.strip().splitlines()) == 1

@@ -326,7 +326,13 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         :mod:`visviva.conjunctions.sources`.
     secondaries : same kinds, optional
         The objects screened against them (of the same kind as ``primaries``); ``None`` screens
-        ``primaries`` against itself.
+        ``primaries`` against itself. An object in both lists is never paired with itself, and
+        a pair of objects that are both in both lists is reported once, from the side of the
+        one that comes first among the primaries: ``screen_conjunctions(cat, cat)`` returns
+        the rows of ``screen_conjunctions(cat, None)``. One object means equal element sets
+        (catalogue number, epoch, mean elements, drag terms, gravity model), or for
+        ephemerides equal sample times, positions and velocities; not merely the same
+        catalogue number (two element sets of one object are screened, with a warning).
     t0, t1 : astropy Time
         The window.
     threshold : Quantity
@@ -397,6 +403,8 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     self_mode = secondaries is None
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
     check_same_kind(cat1, cat2)
+    if not self_mode and cat1.keys() == cat2.keys():
+        self_mode, cat2 = True, cat1  # the same objects twice: all against all, pairs once
     for which, src in (("primaries", cat1), ("secondaries", cat2)):
         if len(src) == 0:
             raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
@@ -434,6 +442,8 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         for part, (f1, f2) in client.gather(futures):
             found.extend(part)
             first1, first2 = f1, f2  # every worker samples every object
+    if not self_mode:
+        found = _once_per_pair(found, cat1.keys(), cat2.keys())
     found.sort(key=lambda row: (row[2], row[0], row[1]))
     arr = np.array([f[2:] for f in found], dtype=np.float64).reshape(-1, 6)
     names1, names2 = cat1.names, cat2.names
@@ -456,6 +466,27 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     _warn_same_object(cat1, cat2, tab)
     _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
+
+
+def _once_per_pair(found, keys1, keys2):
+    """Drop the second report of a pair whose two objects are in both lists.
+
+    Objects ``a`` and ``b`` that are both primaries and secondaries are screened twice: ``a``
+    against ``b`` and ``b`` against ``a``. The row whose primary comes first among the
+    primaries is kept (as the all-against-all screening keeps ``j > i``).
+    """
+    first1: dict = {}
+    for i, k in enumerate(keys1):
+        first1.setdefault(k, i)
+    in2 = set(keys2)
+    out = []
+    for row in found:
+        i, j = row[0], row[1]
+        other = first1.get(keys2[j])  # the secondary's index among the primaries
+        if other is not None and keys1[i] in in2 and other < i:
+            continue  # reported from the other object's side
+        out.append(row)
+    return out
 
 
 def _warn_same_object(cat1, cat2, tab) -> None:

@@ -88,8 +88,23 @@ class SgpSource:
                                                     self.fr0 + ts / DAY_S)
         return None if np.any(e) else r
 
+    def keys(self):
+        """One hashable identity per object: its element set (catalogue number, epoch, mean
+        elements, drag terms and gravity model). Two equal element sets propagate to the same
+        states, so they are one object (see :meth:`same`)."""
+        if getattr(self, "_keys", None) is None:
+            self._keys = [_element_key(sat.satrec) for sat in self.catalog]
+        return self._keys
+
     def same(self, i, other, j):
-        return self.catalog[i] is other.catalog[j]
+        """Whether object ``i`` here and ``j`` of ``other`` are one object (equal keys)."""
+        return other is self and i == j or self.keys()[i] == other.keys()[j]
+
+
+def _element_key(s):
+    return (str(getattr(s, "satnum_str", s.satnum)).strip(), s.jdsatepoch, s.jdsatepochF,
+            s.no_kozai, s.ecco, s.inclo, s.nodeo, s.argpo, s.mo, s.bstar, s.ndot, s.nddot,
+            s.radiusearthkm, s.mu)
 
 
 class SampledSource:
@@ -162,8 +177,18 @@ class SampledSource:
             return None, None
         return r[0], v[0]
 
+    def keys(self):
+        """One hashable identity per object: its ephemeris (sample times, positions and
+        velocities, bit for bit); two equal ephemerides are one object (see :meth:`same`)."""
+        if getattr(self, "_keys", None) is None:
+            self._keys = [(np.asarray(t, np.float64).tobytes(), np.asarray(r, np.float64).tobytes(),
+                           np.asarray(v, np.float64).tobytes())
+                          for t, r, v in zip(self.times, self.r, self.v, strict=True)]
+        return self._keys
+
     def same(self, i, other, j):
-        return other is self and i == j
+        """Whether object ``i`` here and ``j`` of ``other`` are one object (equal keys)."""
+        return other is self and i == j or self.keys()[i] == other.keys()[j]
 
 
 def _history(obj, t0, name):

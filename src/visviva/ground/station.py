@@ -20,6 +20,14 @@ from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["GroundStation", "as_stations"]
 
+#: Lowest height accepted (km above the WGS-84 ellipsoid): below the deepest ocean floor
+#: (Challenger Deep, about -11 km), so sea-floor and borehole sensors fit.
+MIN_HEIGHT_KM = -12.0
+#: Highest height accepted (km): the Karman line. Aircraft (~20 km), high-altitude platforms
+#: (~20 km) and balloons (record ~53 km) fit; above it an object is a spacecraft, which does
+#: not co-rotate with the Earth as an Earth-fixed site does.
+MAX_HEIGHT_KM = 100.0
+
 
 def _angle_rad(value, name: str) -> float:
     """A scalar angle Quantity -> float radians; plain numbers are refused (deg/rad confusion)."""
@@ -53,9 +61,16 @@ class GroundStation:
     lat : Quantity (angle)
         Geodetic latitude, in [-90, 90] deg. A plain number is refused (``UnitsError``).
     lon : Quantity (angle)
-        Longitude, east positive; any value (wrapped to [-180, 180) deg).
+        Longitude, east positive, in [-360, 360] deg (so both the [-180, 180] and the
+        [0, 360] conventions), wrapped to [-180, 180) deg; a value outside, a typo or a
+        wrong unit, is refused (``DomainError``).
     height : Quantity (length), optional
-        Height above the WGS-84 ellipsoid (default 0 m); values below -100 km are refused.
+        Height above the WGS-84 ellipsoid (default 0 m), in [-12, 100] km
+        (:data:`MIN_HEIGHT_KM`, :data:`MAX_HEIGHT_KM`): the deepest ocean floor to the Karman
+        line, which covers sea-floor sensors, mountain sites, aircraft, balloons and
+        high-altitude platforms. A height outside is refused (``DomainError``): mostly a
+        wrong unit (30 * u.km for 30 m), and above 100 km an object is a spacecraft, not an
+        Earth-fixed site.
     name : str, optional
         A label used in pass tables and plots.
 
@@ -97,10 +112,19 @@ class GroundStation:
                 f"lat = {math.degrees(lat_rad):.6g} deg is outside [-90, 90] deg; "
                 "check the order (lat, lon) and the unit."
             )
-        if float(h) < -100.0:
+        if abs(lon_rad) > 2 * math.pi * (1 + 1e-15):
             raise DomainError(
-                f"height = {float(h):.6g} km is far below the ellipsoid; pass a height above "
-                "the WGS-84 ellipsoid with its unit, e.g. 30 * u.m."
+                f"lon = {math.degrees(lon_rad):.6g} deg is outside [-360, 360] deg: a typo or "
+                "a wrong unit, not a longitude; pass east longitude in [-180, 180] or "
+                "[0, 360] deg, e.g. lon=-104.9 * u.deg."
+            )
+        if not MIN_HEIGHT_KM <= float(h) <= MAX_HEIGHT_KM:
+            raise DomainError(
+                f"height = {float(h):.6g} km is outside [{MIN_HEIGHT_KM:g}, {MAX_HEIGHT_KM:g}] "
+                "km above the WGS-84 ellipsoid, the range of a site on or near the Earth "
+                "(the deepest ocean floor to the Karman line: sea-floor sensors, mountains, "
+                "aircraft, balloons, high-altitude platforms). Check the unit (30 * u.m, not "
+                "30 * u.km); a spacecraft is a Satellite or a StateVectors, not a station."
             )
         if name is not None and not isinstance(name, str):
             raise InvalidInputError(f"name must be a str or None, got {type(name).__name__}.")

@@ -20,6 +20,7 @@ Robustness rules:
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import json
 import math
 import os
@@ -165,6 +166,39 @@ def _matches(text: str, only: str | None) -> bool:
         return True
     terms = [t.strip().lower() for t in only.split(",") if t.strip()]
     return any(t in text.lower() for t in terms)
+
+
+def _module_source(module: str) -> str | None:
+    """The source text of ``module`` without importing it (None when it cannot be read)."""
+    try:
+        spec = importlib.util.find_spec(module)
+        origin = spec.origin if spec is not None else None
+        return Path(origin).read_text(encoding="utf-8") if origin else None
+    except (ImportError, ValueError, OSError, UnicodeDecodeError):
+        return None
+
+
+def unmatched_only(only: str | None, names: list[str]) -> str | None:
+    """The error message when no term of ``only`` can match a module topic or a check name.
+
+    Checked before anything runs, so a typo costs no run: a term can match a check name only
+    if it occurs (case-insensitively) in the source text of a check module, where the names
+    are written. A module whose source cannot be read counts as a possible match (no
+    refusal then: the run filters the check names as before).
+    """
+    terms = [t.strip().lower() for t in (only or "").split(",") if t.strip()]
+    if not terms or not names:
+        return None
+    for name in names:
+        source = _module_source(name)
+        if source is None:
+            return None
+        text = short_name(name).lower() + "\n" + source.lower()
+        if any(t in text for t in terms):
+            return None
+    topics = ", ".join(short_name(n) for n in names)
+    return (f"visviva validate: --only {only!r} matches no check module ({topics}) and no "
+            "check name; use one of these topics or a piece of a check name")
 
 
 def format_line(check: Check, width: int = 64) -> str:
@@ -380,6 +414,8 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
     only : str, optional
         Comma-separated, case-insensitive terms. Modules whose topic matches a term run whole;
         when no topic matches, every module runs and only the checks whose name matches are kept.
+        A term found in no topic and nowhere in the check modules' source (so in no check
+        name) returns 2 at once, with a one-line message on stderr listing the topics.
     json_path : path, optional
         Also write the results as JSON (``-`` for stdout; the per-check lines then go to
         stderr).
@@ -399,7 +435,8 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
     Returns
     -------
     int
-        0 when every check passed (and at least one ran), 1 otherwise.
+        0 when every check passed (and at least one ran), 2 when ``only`` can match nothing
+        (nothing ran), 1 otherwise.
     """
     out = stream if stream is not None else sys.stdout
     json_out = out
@@ -408,6 +445,10 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
     t_start = time.perf_counter()
     names = discover() if modules is None else list(modules)
     filter_checks = False
+    refusal = unmatched_only(only, names)
+    if refusal is not None:
+        print(refusal, file=sys.stderr, flush=True)
+        return 2
     if only:
         by_topic = [n for n in names if _matches(short_name(n), only)]
         if by_topic:

@@ -317,3 +317,100 @@ def test_pc_against_hbr_plot_compares_chan_and_foster_without_warning():
     import matplotlib.pyplot as plt
 
     plt.close(ax.figure)
+
+
+# --- method="3d" checked against 3D-Nc -------------------------------------------------------
+def _flux_window(c):
+    """The time span of the "3d" flux integral (s about TCA) on an Alfano case."""
+    from visviva.conjunctions.probability import _log_pc_3d
+
+    return _log_pc_3d(*_args(c), 3.986004418e5)[1]
+
+
+@pytest.mark.parametrize("n", [4, 9, 11])
+def test_3d_far_from_pc3d_hall_warns_with_both_values(n):
+    # Alfano's slow, curved encounters (relative speeds of mm/s to cm/s over a quarter orbit):
+    # the flux integral was silently off by 2x to 57x (case 11: 0.14 for CARA's Pc3D_Hall
+    # 2.44e-3); it now warns, giving 3D-Nc's value over the same span, which is CARA's
+    import re
+
+    from visviva import Pc3dAccuracyWarning
+
+    c = CASES[n]
+    with pytest.warns(Pc3dAccuracyWarning, match="method='pc3d_hall'") as record:
+        pc = collision_probability(*_args(c), method="3d", gm=3.986004418e5)
+    assert abs(math.log(pc / c["cara_pc3d"])) > math.log(2)  # the flux integral is that far off
+    msg = str(record[0].message)
+    flux, hall = (float(x) for x in re.findall(r"gives (?:Pc = )?([-+.e0-9]+) \(ln Pc", msg))
+    assert flux == pytest.approx(pc, rel=1e-3)
+    assert hall == pytest.approx(c["cara_pc3d"], rel=5e-3)  # 4 digits printed
+    # the window it names gives that value from method="pc3d_hall"
+    half = _flux_window(c)
+    assert f"window=({-half:.6g}, {half:.6g})" in msg
+    pc_hall = collision_probability(*_args(c), method="pc3d_hall", gm=3.986004418e5,
+                                    window=(-half, half))
+    assert pc_hall == pytest.approx(c["cara_pc3d"], rel=5e-3)
+
+
+@pytest.mark.parametrize("n", [3, 5, 6, 7])
+def test_3d_close_to_pc3d_hall_does_not_warn(n):
+    # the faster (0.2-16 m/s), nearly linear encounters: the flux integral is within 1.1 % of CARA (case 7)
+    import warnings
+
+    c = CASES[n]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc = collision_probability(*_args(c), method="3d", gm=3.986004418e5)
+    assert pc == pytest.approx(c["cara_pc3d"], rel=0.015)
+
+
+def test_3d_with_position_only_covariances_is_checked_too():
+    # 3x3 covariances: the velocities are taken as exact on both sides (3D-Nc's 6x6 padded with
+    # a velocity sigma that moves the position by 1e-3 sigma over the window; zeros make its
+    # position covariance singular); on case 11 the flux integral and 3D-Nc then agree (2.680e-3
+    # and 2.676e-3, no warning). The check runs: a doctored 3D-Nc value makes it warn.
+    import warnings
+
+    from visviva.conjunctions.nc3d import log_pc3d_hall
+
+    c = CASES[11]
+    args = list(_args(c))
+    args[2], args[5] = args[2][:3, :3], args[5][:3, :3]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pc = collision_probability(*args, method="3d", gm=3.986004418e5)
+    half = _flux_window(c)
+    pad = [np.pad(a, ((0, 3), (0, 3))) for a in (args[2], args[5])]
+    for p in pad:
+        p[3:, 3:] = np.eye(3) * np.linalg.eigvalsh(p[:3, :3])[0] * (1e-3 / half) ** 2
+    ref = math.exp(log_pc3d_hall(args[0], args[1], pad[0], args[3], args[4], pad[1], args[6],
+                                 3.986004418e14, (-half, half)))
+    assert pc == pytest.approx(ref, rel=0.01)
+    assert ref == pytest.approx(2.6756e-3, rel=1e-3)
+    from visviva import Pc3dAccuracyWarning
+    from visviva.conjunctions import probability
+
+    with pytest.warns(Pc3dAccuracyWarning):
+        probability._check_3d(math.log(2 * pc), *args[:6], args[6], 3.986004418e5, half)
+
+
+def test_pc_against_hbr_plot_compares_3d_without_warning():
+    # plotting "3d" beside Foster on a case where it is off warns for none of the radii
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from visviva.conjunctions.plots import plot_pc_vs_hbr
+
+    c = CASES[11]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ax = plot_pc_vs_hbr(c["r1"], c["v1"], c["c1"], c["r2"], c["v2"], c["c2"],
+                            [c["hbr"] / 2, c["hbr"]], methods=("foster", "3d"))
+    foster, flux = (line.get_ydata() for line in ax.get_lines())
+    assert foster[1] == pytest.approx(c["cara_pc2d"], rel=1e-9)
+    assert flux[1] > 10 * c["cara_pc3d"]  # the flux integral's value, as computed
+    plt.close(ax.figure)

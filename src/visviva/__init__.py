@@ -47,6 +47,7 @@ _PUBLIC = {
     "SurfaceImpact": "visviva.errors",
     "EarthOrientationWarning": "visviva.errors",
     "ChanAccuracyWarning": "visviva.errors",
+    "Pc3dAccuracyWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

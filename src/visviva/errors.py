@@ -34,6 +34,7 @@ __all__ = [
     "EarthOrientationWarning",
     "TrackingDataWarning",
     "ChanAccuracyWarning",
+    "Pc3dAccuracyWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -245,6 +246,15 @@ class ChanAccuracyWarning(UserWarning):
     both values; use ``method="foster"``.
     """
 
+
+
+class Pc3dAccuracyWarning(UserWarning):
+    """``collision_probability(method="3d")``: the 3-D flux integral is more than 10 % from
+    Hall's 3D-Nc (``method="pc3d_hall"``, NASA CARA's ``Pc3D_Hall``) over the same time span (a
+    slow or curved encounter, where the crossings of the plane normal to the relative velocity
+    and the linearly propagated Cartesian covariances do not describe the collision rate). The
+    message gives both values; use ``method="pc3d_hall"``.
+    """
 
 #: status code -> (exception class, what happened, what to do). The single table of the project.
 STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {

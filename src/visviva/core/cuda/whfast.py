@@ -24,11 +24,13 @@ bookkeeping included. Only the gravity dispatch is swapped (``gravity.gravity`` 
 kernels) and the additional force is the members' force compiled for the device (built once
 per set of force functions by :func:`visviva.nbody.gpu_forces.kernel_for`: the run body calls
 it through the CPU's first-class force argument, on each member's parameters
-``params[qoff[k]:qoff[k + 1]]``; the no-op force for gravity only). The device inlines
-the universal-variable Kepler solver at each of the run body's 23 call sites (the corrector's
-maps and the solver's retry in power-of-two units each go through one call site for that
-reason): the PTX is about 6 MB, and the first launch in a process compiles for about a minute
-(NVVM; once per set of force functions; the plain kernel: 2 MB, 10 s).
+``params[qoff[k]:qoff[k + 1]]``; the no-op force for gravity only). The universal-variable
+Kepler solver is kept out of line (:func:`.twins.never_inlined`): one copy called from the run
+body's 23 drift sites (the corrector's maps and the solver's retry in power-of-two units each
+go through one call site), 1.4 MB of PTX instead of 6.4 MB inlined; the first launch in a
+process compiles for about 50 s on an H200 (NVVM 28 s, ptxas 22 s; once per set of force
+functions; the plain kernel: 2 MB, 10 s). On real GPUs this kernel is refused for now
+(:func:`visviva.nbody.gpu_ensemble_whfast.refuse_general`: wrong numbers on an H200).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable

@@ -157,6 +157,7 @@ def _check(out):
     assert nan_cpu == nan_gpu and int(nan_cpu) > 0
 
 
+@pytest.mark.slow  # 130-180 s on CI's two cores: the default run stays under 30 min
 def test_ias15_on_the_cuda_simulator_matches_the_cpu_backend():
     out = _run({"NUMBA_ENABLE_CUDASIM": "1"}, IAS15_SCRIPT)
     _check(out)
@@ -250,6 +251,7 @@ def _check_ias15_ensemble(out, tolerance, bits):
         assert out["alone_others_bits"] == "True"
 
 
+@pytest.mark.slow  # 130-180 s on CI's two cores: the default run stays under 30 min
 def test_ias15_ensemble_on_the_cuda_simulator_matches_the_cpu_ensemble():
     _check_ias15_ensemble(_run({"NUMBA_ENABLE_CUDASIM": "1"}, IAS15_ENSEMBLE_SCRIPT), 0.0, True)
 
@@ -280,6 +282,7 @@ def test_the_drivers_know_the_kernels_buf_layouts():
 PTX_SCRIPT = os.path.join(os.path.dirname(__file__), "gpu", "check_ptx.py")
 
 
+@pytest.mark.slow  # 130-180 s on CI's two cores: the default run stays under 30 min
 def test_every_gpu_kernel_compiles_to_ptx():
     # the simulator runs the kernels as Python and cannot see what numba-cuda does not compile
     # (np.fmod in the Kepler twin did not, until twins.py mapped it to libdevice); NVVM can,

@@ -190,20 +190,29 @@ def test_initial_tle_and_estimated_drag(campaign, tmp_path, capsys):
     assert "object      SAT-1" in out
 
 
-def test_ukf_estimates_drag_from_the_command_line(campaign, tmp_path, capsys):
-    """--filter ukf --estimate drag:SIGMA (refused before this session): the unscented filter
-    with B in its state, from B = 0.015 +- 0.01 (truth 0.02 m^2/kg), ends within 4 sigma of
-    the truth, and the command reports it as filter_orbit(method="ukf") gives it."""
+def _drag_tracking(campaign, tmp_path, hours, step_s, seed):
+    """The campaign's truth flown with J2 and drag (B 0.02 m^2/kg), tracked by the stations every
+    ``step_s`` s for ``hours``: (forces, truth, observations, its TDM file, the truth as an OPM
+    file for --initial)."""
     from visviva.ccsds.opm import OPM
 
     forces = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)]
     truth = campaign["truth"]
     obs = vv.od.simulate_tracking(truth, list(_stations().values()),
-                                  truth.epoch + np.arange(0, 6 * 3600, 30) * u.s, forces,
-                                  seed=7)
+                                  truth.epoch + np.arange(0, hours * 3600, step_s) * u.s, forces,
+                                  seed=seed)
     tdm, first = tmp_path / "drag.tdm", tmp_path / "first.opm"
     vv.write_tdm(obs, tdm, participant="SAT-1")
     vv.write_opm(OPM.from_state(truth, object_name="SAT-1"), first)
+    return forces, truth, obs, tdm, first
+
+
+def test_ukf_estimates_drag_from_the_command_line(campaign, tmp_path, capsys):
+    """--filter ukf --estimate drag:SIGMA (refused before this session): the unscented filter
+    with B in its state, from B = 0.015 +- 0.01 (truth 0.02 m^2/kg), ends within 4 sigma of
+    the truth, and the command reports it as filter_orbit(method="ukf") gives it."""
+
+    forces, truth, obs, tdm, first = _drag_tracking(campaign, tmp_path, 6, 30, seed=7)
     code, out, err = _run(capsys, str(tdm), *STATION_ARGS, *SIGMA_ARG, "--initial", str(first),
                           "--force", "j2,drag:0.015", "--estimate", "drag:0.01", "--filter",
                           "ukf", "--apriori", "100m,10cm/s")
@@ -460,16 +469,8 @@ def test_filter_with_process_and_gauss_markov_noise(campaign, tmp_path, capsys):
     """--process-noise Q,FRAME and --parameter-noise drag:SIGMA,TAU reach filter_orbit: the
     command reports the B that filter_orbit(process_noise=, parameter_noise=) gives, which is
     not the B of the filter without them."""
-    from visviva.ccsds.opm import OPM
 
-    forces = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)]
-    truth = campaign["truth"]
-    obs = vv.od.simulate_tracking(truth, list(_stations().values()),
-                                  truth.epoch + np.arange(0, 3 * 3600, 60) * u.s, forces,
-                                  seed=8)
-    tdm, first = tmp_path / "drag.tdm", tmp_path / "first.opm"
-    vv.write_tdm(obs, tdm, participant="SAT-1")
-    vv.write_opm(OPM.from_state(truth, object_name="SAT-1"), first)
+    forces, truth, obs, tdm, first = _drag_tracking(campaign, tmp_path, 3, 60, seed=8)
     opm = tmp_path / "out.opm"
     code, out, err = _run(capsys, str(tdm), *STATION_ARGS, *SIGMA_ARG, "--initial", str(first),
                           "--force", "j2,drag:0.015", "--estimate", "drag:0.01", "--filter",

@@ -407,8 +407,8 @@ def _one_gpu_ensemble(rows, quick, integrator):
                              f"{rate_cpu:.3g}); a 1-step call {call_gpu * 1e3:.3g} ms (CPU "
                              f"{call_cpu * 1e3:.3g}); fp64; {model}"))
     if integrator != "ias15":
-        _resident_row(rows, resident, lf, (ens, gens), (t_cpu, rate_cpu), (members, steps),
-                      per_call, model)
+        _resident_row(rows, resident, lf, (ens, gens), (t_cpu, rate_cpu, call_cpu),
+                      (members, steps), per_call, model)
 
 
 @contextlib.contextmanager
@@ -435,7 +435,7 @@ def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
     kernel, resident kernel) carried on to one later time and compared (relative, positions)."""
     import visviva as vv
 
-    (ens, gens), (t_cpu, rate_cpu), (members, steps) = ensembles, cpu, size
+    (ens, gens), (t_cpu, rate_cpu, call_cpu), (members, steps) = ensembles, cpu, size
     with _resident("1"):
         rens = vv.Ensemble.from_simulations(lf, backend="cuda")
         c = compile_time(rens.integrate, 0.01)
@@ -443,6 +443,8 @@ def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
                           repeat=3, number=1)
         call_res = time_call(lambda: rens.integrate(float(rens.t.max()) + 0.01), repeat=3,
                              number=1).median
+        t_long = time_call(lambda: rens.integrate(float(rens.t.max()) + LONG * steps * 0.01),
+                           repeat=3, number=1)
         end = max(float(e.t.max()) for e in (ens, gens, rens)) + 0.05
         rens.integrate(end)
     with _resident("0"):
@@ -461,6 +463,22 @@ def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
                              f"to the global-memory kernel {rel(rens, gens):.2g} (the global "
                              f"kernel to the CPU {rel(gens, ens):.2g}); VISVIVA_GPU_RESIDENT=1; "
                              f"fp64; {model}"))
+    # a long call (a stability map's run): the per-call cost (checks, packing, host-device
+    # copies) spread over LONG times the steps; the CPU reference is its measured call
+    # extrapolated from its per-step cost (the 1000-step call less a 1-step call) plus one
+    # call's cost: its own per-call cost is not multiplied (conservative for the GPU)
+    cpu_long = (float(t_cpu) - call_cpu) * LONG + call_cpu
+    rows.append(result(name.replace(f"{steps} steps", f"{LONG * steps} steps per call"),
+                       t_long, "CPU ensemble, every core (per-step cost measured at "
+                       f"{steps} steps, times {LONG}, plus one call's cost)", cpu_long,
+                       target=0.02,
+                       notes=f"{members * per_call * LONG / t_long.median:.3g} system-steps/s "
+                             f"(CPU {members * per_call * LONG / cpu_long:.3g}); "
+                             f"VISVIVA_GPU_RESIDENT=1; fp64; {model}"))
+
+
+#: the long resident call's steps, in units of the timed call's
+LONG = 10
 
 
 def _kepler(rows, quick):

@@ -9,6 +9,7 @@ on a real GPU until this script has passed there) and off (=0) for the global-me
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 
 import numpy as np
@@ -118,6 +119,15 @@ def main():
     # (R.select): on a real GPU each kernel compiles at its first launch, and the lines printed
     # so far come back if the script runs out of time
     short = (0.0, 0.031, 0.05, 0.02)  # (the simulator runs device code as Python)
+    if sys.argv[1:]:  # only the cases named (e.g. ``whfast_n32 whfast_n33``)
+        for key in sys.argv[1:]:
+            integrator, size = key.split("_")
+            n, tp, where = {"exact3": (3, False, None), "n4": (4, True, None),
+                            "exact8": (8, False, None), "n9": (9, False, None),
+                            "n32": (32, True, 1), "n33": (33, True, 1)}[size]
+            compare(key, [member(k, integrator, n if where in (None, k) else None, tp)
+                          for k in range(3)], short)
+        return
     for integrator in ("leapfrog", "whfast"):
         compare(f"{integrator}_exact3", [member(k, integrator, 3, False) for k in range(3)],
                 short)

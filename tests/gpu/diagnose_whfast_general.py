@@ -12,6 +12,13 @@ error is there from the first step (a logic or lowering error) or grows (arithme
 ``--inline`` builds the kernel with the Kepler solver inlined at every call site as before
 :func:`visviva.core.cuda.twins.never_inlined` (its first launch then compiles for minutes),
 to tell whether keeping it out of line matters.
+Each ``-`` option below tests one suspect (on 2026-11-27 every democratic heliocentric piece
+alone, in a one-thread kernel, agreed with the CPU to 7e-19 on the H200:
+``diagnose_dh_pieces.py``): ``--alone`` runs each member as its own one-member ensemble (one
+thread; against interference between the threads of a launch), ``--stack BYTES`` raises the
+CUDA stack limit of every thread first (against an overflowing call stack: the Kepler solver is
+a real call), ``--opt0`` compiles the kernel without NVVM's optimisations (against a
+miscompilation), ``--cases a,b`` runs only those cases.
 """
 
 from __future__ import annotations
@@ -57,28 +64,71 @@ def build(k, settings):
     return sim
 
 
+def option(name, default=None):
+    """The value after ``name`` on the command line (``default`` without it)."""
+    return sys.argv[sys.argv.index(name) + 1] if name in sys.argv else default
+
+
+def raise_stack_limit(size):
+    """Set the CUDA stack limit of every thread to ``size`` bytes (the driver's own call, on
+    numba's context) and print it before and after."""
+    from cuda.bindings import driver
+    from numba import cuda
+
+    cuda.current_context()  # numba's context, made current on this thread
+    limit = driver.CUlimit.CU_LIMIT_STACK_SIZE
+    print(f"stack_before={driver.cuCtxGetLimit(limit)}")
+    print(f"stack_set={driver.cuCtxSetLimit(limit, size)}")
+    print(f"stack_after={driver.cuCtxGetLimit(limit)}")
+
+
+def without_optimisation():
+    """Make every later ``cuda.jit`` kernel compile with ``opt=False``."""
+    from numba import cuda
+
+    jit = cuda.jit
+
+    def unoptimised(*args, **kwargs):
+        if not kwargs.get("device"):
+            kwargs.setdefault("opt", False)
+        return jit(*args, **kwargs)
+
+    cuda.jit = unoptimised
+
+
 def main():
     os.environ["VISVIVA_GPU_WHFAST_GENERAL"] = "1"
     if "--inline" in sys.argv:
         from visviva.core.cuda import twins
 
         twins.never_inlined = lambda twin: twin  # build_general imports it when it builds
-    for case, settings in CASES.items():
-        members = [build(k, settings) for k in (0, 1, 2)]
+    if "--stack" in sys.argv:
+        raise_stack_limit(int(option("--stack")))
+    if "--opt0" in sys.argv:
+        without_optimisation()
+    cases = option("--cases", ",".join(CASES)).split(",")
+    for case in cases:
+        members = [build(k, CASES[case]) for k in (0, 1, 2)]
         cpu = vv.Ensemble.from_simulations(members)
-        gpu = vv.Ensemble.from_simulations(members, backend="cuda")
+        if "--alone" in sys.argv:  # one thread per launch
+            gpu = [vv.Ensemble.from_simulations([s], backend="cuda") for s in members]
+        else:
+            gpu = [vv.Ensemble.from_simulations(members, backend="cuda")]
         for steps in (1, 10):
             t = steps * 0.0125  # past the members' own dt (0.01 + 0.002 k): 1 and ~10 steps
             try:
                 cpu.integrate(t)
-                gpu.integrate(t)
+                for ens in gpu:
+                    ens.integrate(t)
             except Exception as exc:  # print and go on to the next case
                 print(f"{case}_error={type(exc).__name__}: {str(exc)[:120]}")
                 break
+            done = [s for ens in gpu for s in ens]
             for k in range(3):
-                print(f"{case}_{k}_{steps}={rel(gpu[k].positions, cpu[k].positions)!r}")
-            print(f"{case}_steps_{steps}={[s.steps_done for s in gpu]}/"
-                  f"{[s.steps_done for s in cpu]}")
+                print(f"{case}_{k}_{steps}={rel(done[k].positions, cpu[k].positions)!r}",
+                      flush=True)
+            print(f"{case}_steps_{steps}={[s.steps_done for s in done]}/"
+                  f"{[s.steps_done for s in cpu]}", flush=True)
 
 
 if __name__ == "__main__":

@@ -430,8 +430,8 @@ def _resident(value):
 
 def _resident_row(rows, name, lf, ensembles, cpu, size, per_call, model):
     """The same ensemble with the resident kernel (visviva.core.cuda.resident: each member's
-    state in its thread's local arrays for a call; opt-in on a real GPU, switched on here for
-    this row only), timed as the row before; then the three ensembles (CPU, global-memory
+    state in its thread's local arrays for a call; the default, switched on here explicitly for
+    this row), timed as the row before; then the three ensembles (CPU, global-memory
     kernel, resident kernel) carried on to one later time and compared (relative, positions)."""
     import visviva as vv
 

@@ -12,6 +12,16 @@ on a GPU. This script builds each piece's twin exactly as ``build_general`` buil
 a one-thread kernel on one member and prints ``piece=largest relative difference`` from the
 CPU kernel's own function on the same arrays (0 expected; a Jacobi kick as the control).
 Under numba's CUDA simulator every line prints 0.0.
+
+On the H200 (2026-11-27) all twelve agreed to 7e-19, while the whole kernel run for one DH
+member alone (one thread) was 0.4-67% off after one step (``diagnose_whfast_general.py
+--alone``), the same without NVVM's optimisations and with a 64 kB stack. Those twelve take
+``dh`` (and the corrector ``order``) as the literal constants ``True`` (and 0), so numba prunes
+the Jacobi branches; the kernel computes them at run time from ``istate``, as
+``_whfast`` does. The ``rt_*`` pieces take them at run time the same way, the ``lit_*`` ones as
+literals (the transforms, the drift with its jumps and the synchronised step, which the twelve
+do not cover): the first ``rt_*`` piece that differs while its ``lit_*`` twin agrees names the
+fault.
 """
 
 from __future__ import annotations
@@ -30,7 +40,7 @@ from visviva.core import nbody_whfast as W  # noqa: E402
 from visviva.core.cuda.twins import device_twin  # noqa: E402
 from visviva.core.cuda.whfast import general_swaps  # noqa: E402
 from visviva.core.gravity import FEW, GWORK_ROWS  # noqa: E402
-from visviva.core.nbody_common import F_G, F_SOFT2  # noqa: E402
+from visviva.core.nbody_common import F_G, F_SOFT2, I_CORRECTOR, I_WH_COORDINATES  # noqa: E402
 
 NB, XJ, VJ, ACC, AJ, ETA, XS, VS = W.N_BUF, W._XJ, W._VJ, W._ACC, W._AJ, W._ETA, W._XS, W._VS
 H = 0.01
@@ -53,6 +63,10 @@ dh_step = twin(W._dh_step)
 kick = twin(W._kick)
 first_half = twin(W._first_half)
 synchronise = twin(W._synchronise)
+to_internal = twin(W._to_internal)
+from_internal = twin(W._from_internal)
+drift_jumps = twin(W._drift)
+dkd_step = twin(W._dkd_step)
 
 
 @cuda.jit(device=True)
@@ -149,6 +163,100 @@ def k_synchronise_dh(flat, x, v, m, massive, fstate, istate, params, st):
                         True, 0)
 
 
+@cuda.jit(device=True)
+def flags(istate):
+    """``dh`` and the corrector order at run time, as ``_whfast`` computes them."""
+    dh = istate[I_WH_COORDINATES] == W.DEMOCRATIC_HELIOCENTRIC
+    order = 0 if dh else istate[I_CORRECTOR]
+    return dh, order
+
+
+@cuda.jit
+def k_rt_to_internal(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    to_internal(x, v, m, eta, buf[XJ], buf[VJ], dh)
+
+
+@cuda.jit
+def k_lit_to_internal(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    to_internal(x, v, m, eta, buf[XJ], buf[VJ], True)
+
+
+@cuda.jit
+def k_rt_from_internal(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    from_internal(buf[XJ], buf[VJ], m, eta, x, v, dh)
+
+
+@cuda.jit
+def k_lit_from_internal(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    from_internal(buf[XJ], buf[VJ], m, eta, x, v, True)
+
+
+@cuda.jit
+def k_rt_kepler_drift(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    st[0] = drift(buf[XJ], buf[VJ], eta, fstate[F_G], H, dh)
+
+
+@cuda.jit
+def k_rt_drift_jumps(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    st[0] = drift_jumps(buf[XJ], buf[VJ], m, eta, fstate[F_G], H, 0.5 * H, 0.5 * H, dh)
+
+
+@cuda.jit
+def k_lit_drift_jumps(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = drift_jumps(buf[XJ], buf[VJ], m, eta, fstate[F_G], H, 0.5 * H, 0.5 * H, True)
+
+
+@cuda.jit
+def k_rt_kick(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    kick(0.0, buf[XJ], buf[VJ], m, eta, fstate[F_G], H, x, v, massive, fstate, istate, x,
+         force, params, buf[ACC], buf[AJ], dh, 0)
+
+
+@cuda.jit
+def k_rt_first_half(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    st[0] = first_half(x, v, m, eta, fstate[F_G], H, 0.0, buf[XJ], buf[VJ], massive, fstate,
+                       istate, x, force, params, buf[ACC], buf[AJ], order, dh, 0)
+
+
+@cuda.jit
+def k_rt_synchronise(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    st[0] = synchronise(buf[XJ], buf[VJ], buf[XS], buf[VS], m, eta, fstate[F_G], 0.5 * H, x, v,
+                        order, 0.0, massive, fstate, istate, x, force, params, buf[ACC],
+                        buf[AJ], dh, 0)
+
+
+@cuda.jit
+def k_rt_dkd_step(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    dh, order = flags(istate)
+    st[0] = dkd_step(x, v, m, eta, fstate[F_G], H, 0.0, buf[XJ], buf[VJ], massive, fstate,
+                     istate, x, force, params, buf[ACC], buf[AJ], order, dh, 0)
+
+
+@cuda.jit
+def k_lit_dkd_step(flat, x, v, m, massive, fstate, istate, params, st):
+    buf, eta = layout(flat, m)
+    st[0] = dkd_step(x, v, m, eta, fstate[F_G], H, 0.0, buf[XJ], buf[VJ], massive, fstate,
+                     istate, x, force, params, buf[ACC], buf[AJ], 0, True, 0)
+
+
 def cpu_layout(flat, m):
     n = m.shape[0]
     buf = flat.reshape((NB, n, 3))
@@ -185,6 +293,24 @@ def cpu_piece(name, flat, x, v, m, massive, fstate, istate, params):
         W._kick(0.0, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, True, FEW)
     elif name == "kick_jacobi":
         W._kick(0.0, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, False, FEW)
+    elif name.endswith("to_internal"):
+        W._to_internal(x, v, m, eta, buf[XJ], buf[VJ], True)
+    elif name.endswith("from_internal"):
+        W._from_internal(buf[XJ], buf[VJ], m, eta, x, v, True)
+    elif name == "rt_kepler_drift":
+        return W._kepler_drift(buf[XJ], buf[VJ], eta, G, H, True)
+    elif name.endswith("drift_jumps"):
+        return W._drift(buf[XJ], buf[VJ], m, eta, G, H, 0.5 * H, 0.5 * H, True)
+    elif name == "rt_kick":
+        W._kick(0.0, buf[XJ], buf[VJ], m, eta, G, H, x, v, *rest, True, FEW)
+    elif name == "rt_first_half":
+        return W._first_half(x, v, m, eta, G, H, 0.0, buf[XJ], buf[VJ], *rest, 0, True, FEW)
+    elif name == "rt_synchronise":
+        return W._synchronise(buf[XJ], buf[VJ], buf[XS], buf[VS], m, eta, G, 0.5 * H, x, v, 0,
+                              0.0, massive, fstate, istate, gwork, gravity.no_force, params,
+                              buf[ACC], buf[AJ], True, FEW)
+    elif name.endswith("dkd_step"):
+        return W._dkd_step(x, v, m, eta, G, H, 0.0, buf[XJ], buf[VJ], *rest, 0, True, FEW)
     elif name == "first_half_dh":
         return W._first_half(x, v, m, eta, G, H, 0.0, buf[XJ], buf[VJ], *rest, 0, True, FEW)
     elif name == "synchronise_dh":
@@ -197,7 +323,15 @@ def cpu_piece(name, flat, x, v, m, massive, fstate, istate, params):
 PIECES = {"to_dh": k_to_dh, "from_dh": k_from_dh, "jump": k_jump, "dh_kick": k_dh_kick,
           "drift_dh": k_drift_dh, "gravity_rest": k_gravity_rest, "zero_slice": k_zero_slice,
           "dh_step": k_dh_step, "kick_dh": k_kick_dh, "kick_jacobi": k_kick_jacobi,
-          "first_half_dh": k_first_half_dh, "synchronise_dh": k_synchronise_dh}
+          "first_half_dh": k_first_half_dh, "synchronise_dh": k_synchronise_dh,
+          # the same with ``dh`` and ``order`` computed at run time, as the kernel does, and
+          # literal controls for the pieces not above
+          "rt_to_internal": k_rt_to_internal, "lit_to_internal": k_lit_to_internal,
+          "rt_from_internal": k_rt_from_internal, "lit_from_internal": k_lit_from_internal,
+          "rt_kepler_drift": k_rt_kepler_drift, "rt_drift_jumps": k_rt_drift_jumps,
+          "lit_drift_jumps": k_lit_drift_jumps, "rt_kick": k_rt_kick,
+          "rt_first_half": k_rt_first_half, "rt_synchronise": k_rt_synchronise,
+          "rt_dkd_step": k_rt_dkd_step, "lit_dkd_step": k_lit_dkd_step}
 
 
 def inputs():
@@ -213,6 +347,7 @@ def inputs():
     fstate[F_G] = sim.G
     fstate[F_SOFT2] = 0.0
     istate = sim.state_arrays()["istate"].copy()
+    istate[I_WH_COORDINATES] = W.DEMOCRATIC_HELIOCENTRIC  # the rt_* pieces read it
     flat = np.zeros(NB * n * 3)
     buf, eta = cpu_layout(flat, m)
     W.to_democratic_heliocentric(x, m, eta, buf[XJ], False)
@@ -231,6 +366,8 @@ def rel(a, b):
 def main():
     base = inputs()
     for name, kernel in PIECES.items():
+        if sys.argv[1:] and not name.startswith(tuple(sys.argv[1:])):
+            continue  # only the pieces whose names start as the arguments (``rt_ lit_``)
         flat, x, v, m, massive, fstate, istate, params = (a.copy() for a in base)
         try:
             d = [cuda.to_device(a) for a in (flat, x, v, m, massive, fstate, istate, params)]

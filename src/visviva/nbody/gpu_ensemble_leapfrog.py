@@ -15,9 +15,9 @@ the CPU kernel's. :meth:`~visviva.nbody.ensemble_pack.Pack.finish` then finishes
 as the CPU ensemble does (a merger or bounce resolved and the member continued alone; a halt,
 encounter or escape raised for that member); the other members run on undisturbed.
 
-A pack of members with gravity only and no checks runs the resident kernel instead when it is
-switched on (:func:`resident_kernel`, :mod:`visviva.core.cuda.resident`: each member's state in
-its thread's local arrays for the call; the same numbers; opt-in on a real GPU).
+A pack of members with gravity only and no checks runs the resident kernel instead unless it is
+switched off (:func:`resident_kernel`, :mod:`visviva.core.cuda.resident`: each member's state in
+its thread's local arrays for the call; the same numbers; on by default since an H200 checked them).
 """
 
 from __future__ import annotations

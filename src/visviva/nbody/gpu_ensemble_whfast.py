@@ -8,8 +8,8 @@ host, for all members at once and with the CPU kernel's expressions, whether a m
 internal state is still valid or must be built again (the grid origin then moves to the
 member's current time), how many fused steps it takes and the length of the shortened step of
 its output copy; :func:`run` launches the kernel and does the CPU kernel's bookkeeping (step
-counter, grid index, clock: :func:`account`); with the resident kernels switched on
-(:mod:`visviva.core.cuda.resident`: opt-in on a real GPU) and no member of more than 32
+counter, grid index, clock: :func:`account`); unless the resident kernels are switched off
+(:mod:`visviva.core.cuda.resident`: on by default) and no member of more than 32
 particles, the plain kernel's resident variant runs instead (the same numbers). Any other pack (democratic heliocentric
 coordinates, a corrector, event checks, additional forces, in any mix) runs
 :func:`run_general`: the CPU kernel's whole run body on the device, on the members' whole

@@ -198,10 +198,10 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     path = tmp_path / "e.npz"
     vv.Ensemble.from_simulations([planets("ias15"), crowd]).save(path)
     assert vv.Ensemble.load(path, backend="cuda").backend == "cuda"
-    # WHFast ensembles: the plain case on a real GPU; any coordinates, corrector, event checks
-    # and position-dependent forces run under the simulator (tests/test_nbody_gpu_whfast.py) and,
-    # on a real GPU, only with the debugging switch (that kernel was measured wrong on an H200:
-    # gpu_ensemble_whfast.refuse_general)
+    # WHFast ensembles: on a real GPU any setting in Jacobi coordinates (correctors, event
+    # checks, position-dependent forces); democratic heliocentric members run under the
+    # simulator (tests/test_nbody_gpu_whfast.py) and, on a real GPU, only with the debugging
+    # switch (the kernel is wrong for them on H200s: gpu_ensemble_whfast.refuse_general)
     from visviva.errors import BackendUnavailableError
     from visviva.nbody.gpu_ensemble_whfast import DEBUG_GENERAL
 
@@ -209,10 +209,12 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     assert plain.backend == "cuda"
     forced = planets("whfast")
     forced.add_force(GeneralRelativityPotential(c=30.0))
-    for options in ({}, {"coordinates": "democraticheliocentric"}, {"corrector": 5},
-                    {"collision": "merge"}):
+    for options in ({}, {"corrector": 5}, {"collision": "merge"}):
         members = [planets("whfast", **options), forced]
-        with pytest.raises(BackendUnavailableError, match="plain case only"):
+        assert vv.Ensemble.from_simulations(members, backend="cuda").backend == "cuda"
+    for name in ("democraticheliocentric", "democratic_heliocentric"):
+        members = [planets("whfast", coordinates=name), forced]
+        with pytest.raises(BackendUnavailableError, match="democratic heliocentric"):
             vv.Ensemble.from_simulations(members, backend="cuda")
         monkeypatch.setenv(DEBUG_GENERAL, "1")
         assert vv.Ensemble.from_simulations(members, backend="cuda").backend == "cuda"

@@ -131,9 +131,9 @@ def check_ensemble(members) -> None:
         except InvalidInputError as exc:
             raise InvalidInputError(f"ensemble member {k}: {exc}") from None
     if members and members[0].integrator == "whfast":
-        from .gpu_ensemble_whfast import general_member, refuse_general
+        from .gpu_ensemble_whfast import refuse_general, refused_member
 
-        if any(general_member(sim) for sim in members):
+        if any(refused_member(sim) for sim in members):
             refuse_general()
 
 
@@ -259,9 +259,9 @@ def _packed_each(members, t) -> list:
     from .gpu_ensemble_ias15 import runs_alone
 
     if members[0].integrator == "whfast":
-        from .gpu_ensemble_whfast import general_member, refuse_general
+        from .gpu_ensemble_whfast import refuse_general, refused_member
 
-        if any(general_member(sim) for sim in members):
+        if any(refused_member(sim) for sim in members):
             refuse_general()  # before any member moves
     run = _pack_runner(members[0].integrator)
     errors, groups = [], {}

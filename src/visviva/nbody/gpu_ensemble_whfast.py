@@ -34,7 +34,8 @@ from ..core import status as _st
 from .gpu_forces import kernel_for, launch
 from .gpu_plan import count_steps
 
-__all__ = ["plan", "account", "run", "run_general", "general_member", "refuse_general",
+__all__ = ["plan", "account", "run", "run_general", "general_member", "refused_member",
+           "refuse_general",
            "DEBUG_GENERAL"]
 
 _KERNEL: list = []
@@ -53,28 +54,37 @@ def general_member(sim) -> bool:
                 or (sim.exit_max_distance or 0.0) > 0.0)
 
 
+def refused_member(sim) -> bool:
+    """True when the WHFast simulation ``sim`` uses democratic heliocentric coordinates: the
+    general kernel's results for such members are wrong on a real GPU (:func:`refuse_general`)."""
+    return sim.coordinates != "jacobi"
+
+
 def refuse_general() -> None:
     """Raise :class:`~visviva.errors.BackendUnavailableError` on a real GPU, before anything
-    moves, for members that need :func:`run_general`.
+    moves, for members in democratic heliocentric coordinates (:func:`refused_member`).
 
-    On an NVIDIA H200 (2026-11-26) the general kernel's results disagreed with the CPU
-    ensemble's by 0.5-1.3 (relative, positions) for democratic heliocentric members and for
-    members with additional forces, and for event checks, while the symplectic correctors in
-    Jacobi coordinates agreed to 1e-16; the cause is not found yet. Under numba's CUDA
-    simulator the kernel equals the CPU ensemble bit for bit, so it runs there (CI tests it);
-    ``VISVIVA_GPU_WHFAST_GENERAL=1`` runs it on a GPU anyway, to debug it."""
+    On NVIDIA H200s the general kernel (:func:`run_general`) gave wrong numbers for democratic
+    heliocentric members, 0.4-130 % (relative, positions) after one step, the same for a member
+    alone in its launch, compiled without NVVM's optimisations or with a 64 kB stack
+    (2026-11-27, ``tests/gpu/diagnose_whfast_general.py``), while every democratic heliocentric
+    piece alone agreed with the CPU to 7e-19 (``tests/gpu/diagnose_dh_pieces.py``); its Jacobi
+    members agreed with the CPU ensemble to 5e-17: symplectic correctors, the event-checking
+    path (every step synchronised), J2 and a user's force, packed and alone, and so run. The
+    cause is not found yet. Under numba's CUDA simulator the kernel equals the CPU ensemble bit
+    for bit, so it runs there (CI tests it); ``VISVIVA_GPU_WHFAST_GENERAL=1`` runs it on a GPU
+    anyway, to debug it."""
     from ..core.cuda import simulator
     from ..errors import BackendUnavailableError
 
     if simulator() or os.environ.get(DEBUG_GENERAL) == "1":
         return
     raise BackendUnavailableError(
-        "WHFast ensembles on the GPU run the plain case only (Jacobi coordinates, no "
-        "symplectic corrector, no collision, encounter or escape checks, no additional "
-        "forces): the kernel for the other settings gave wrong numbers on a real GPU and is "
-        "switched off until fixed. Run this ensemble with backend='cpu' (the same integrator "
-        "and settings), or, for democratic heliocentric coordinates, correctors and J2, "
-        "each member as its own Simulation(backend='cuda') (checked on a real GPU)."
+        "WHFast ensembles on the GPU do not run democratic heliocentric coordinates: their "
+        "kernel gave wrong numbers for them on a real GPU and they are switched off until "
+        "fixed. Run this ensemble with backend='cpu' (the same settings), with "
+        "coordinates='jacobi' on the GPU (correctors, checks and forces run there), or each "
+        "member as its own Simulation(backend='cuda') (checked on a real GPU)."
     )
 
 
@@ -137,7 +147,8 @@ def run(pack, target: float, t) -> list:
 
     if pack.members[0].forces or not all(
             _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
-        refuse_general()
+        if np.any(pack.istate[:, _nc.I_WH_COORDINATES] != _wh.JACOBI):
+            refuse_general()
         return run_general(pack, target, t)
     fs, ist = pack.fstate, pack.istate
     mode, n, h, rem, t_final = plan(fs, ist, target)

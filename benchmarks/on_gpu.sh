@@ -20,8 +20,8 @@
 # gpu-ensemble first: its rows with the resident kernels, VISVIVA_GPU_RESIDENT=1 for those rows
 # only, are the ones awaited), CHECKS (which scripts of tests/gpu/ to run, globs without .py;
 # default "check_* diagnose_*"). A short first call of a lease, to find a fault before the
-# full run:
-#   CHECKS="diagnose_*" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
+# full run (the democratic heliocentric WHFast ensembles' fault: docs/nbody.md):
+#   CHECKS="diagnose_dh_pieces" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
 set -u
 # the files are written in a work folder and bundled into $OUT/gpu-out.tgz every 30 s and at the
 # end (a lent machine sends back a few files only, and what a cut-off call left); rows.jsonl

@@ -193,5 +193,7 @@ def test_the_democratic_heliocentric_pieces_diagnosis_runs_and_agrees_on_the_sim
               "dh_step", "kick_dh", "kick_jacobi", "first_half_dh", "synchronise_dh",
               "rt_to_internal", "lit_to_internal", "rt_from_internal", "lit_from_internal",
               "rt_kepler_drift", "rt_drift_jumps", "lit_drift_jumps", "rt_kick",
-              "rt_first_half", "rt_synchronise", "rt_dkd_step", "lit_dkd_step")
+              "rt_first_half", "rt_synchronise", "rt_dkd_step", "lit_dkd_step", "body",
+              "body_jacobi")
+    pieces += tuple(f"{k}_m{m}" for k in pieces for m in (0, 2))
     assert {k: out.get(k) for k in pieces} == {k: "0.0" for k in pieces}, out

@@ -21,7 +21,13 @@ the Jacobi branches; the kernel computes them at run time from ``istate``, as
 ``_whfast`` does. The ``rt_*`` pieces take them at run time the same way, the ``lit_*`` ones as
 literals (the transforms, the drift with its jumps and the synchronised step, which the twelve
 do not cover): the first ``rt_*`` piece that differs while its ``lit_*`` twin agrees names the
-fault.
+fault. ``body`` runs the kernel's whole run body (``_whfast``'s twin, built as the kernel builds
+it) for one member and one output time in a one-thread kernel, on the member's own arrays
+(not through the ensemble's packing): wrong here, the fault is inside the body; right here, in
+what the ensemble kernel passes it. Every piece runs for the members 1 (a star, three planets, a
+test particle), 0 (a star, two planets) and 2 (a star, four planets) of
+``check_whfast_ensemble.member``: ``name``, ``name_m0``, ``name_m2`` lines. Arguments: only the
+pieces whose names start so (``rt_ lit_ body``).
 """
 
 from __future__ import annotations
@@ -67,6 +73,7 @@ to_internal = twin(W._to_internal)
 from_internal = twin(W._from_internal)
 drift_jumps = twin(W._drift)
 dkd_step = twin(W._dkd_step)
+body = twin(W._whfast)
 
 
 @cuda.jit(device=True)
@@ -257,6 +264,49 @@ def k_lit_dkd_step(flat, x, v, m, massive, fstate, istate, params, st):
                      istate, x, force, params, buf[ACC], buf[AJ], 0, True, 0)
 
 
+@cuda.jit
+def k_body(x, v, m, massive, radius, fstate, istate, flat, params, t_out, out_t, out_x, out_v,
+           st):
+    """The run body for one member through ``t_out``, as the ensemble kernel calls it."""
+    n = x.shape[0]
+    T = t_out.shape[0]
+    st[0] = body(x, v, m, massive, radius, fstate, istate, flat.reshape((NB, n, 3)), x, force,
+                 params, t_out, out_t, out_x.reshape((T, n, 3)), out_v.reshape((T, n, 3)), 0,
+                 True)
+
+
+def run_body(sim, coordinates="democratic_heliocentric", t_end=0.0125):
+    """``body`` on the device and the CPU's run body (``whfast_run_few``) on copies of ``sim``'s
+    arrays (in ``coordinates``), one output time ``t_end`` (about one step): the largest
+    relative difference of positions, velocities and the internal state, and both statuses."""
+    sim = sim.copy()
+    sim.coordinates = coordinates
+    t_out = np.array([t_end])
+    sim.begin_run(t_out)
+    fn, params, massive = sim.kernel_inputs(parallel=False)
+    arrays = sim.state_arrays()
+    names = ("x", "v", "m", "radius", "fstate", "istate", "buf")
+    cpu = {k: np.ascontiguousarray(arrays[k]).copy() for k in names}
+    gpu = {k: a.copy() for k, a in cpu.items()}
+    n = len(cpu["m"])
+    massive = np.ascontiguousarray(massive, dtype=np.int64)
+    params = np.ascontiguousarray(params, dtype=float) if len(params) else np.zeros(1)
+    out = [np.zeros(1), np.zeros((1, n, 3)), np.zeros((1, n, 3))]
+    want = W.whfast_run_few(cpu["x"], cpu["v"], cpu["m"], massive, cpu["radius"], cpu["fstate"],
+                            cpu["istate"], cpu["buf"].reshape(NB, n, 3),
+                            np.zeros((GWORK_ROWS, n)), gravity.no_force, params, t_out, *out)
+    d = {k: cuda.to_device(gpu[k].reshape(-1) if k == "buf" else gpu[k]) for k in names}
+    st = cuda.to_device(np.zeros(1, dtype=np.int64))
+    k_body[1, 1](d["x"], d["v"], d["m"], cuda.to_device(massive), d["radius"], d["fstate"],
+                 d["istate"], d["buf"], cuda.to_device(params), cuda.to_device(t_out),
+                 cuda.to_device(np.zeros(1)), cuda.to_device(np.zeros(3 * n)),
+                 cuda.to_device(np.zeros(3 * n)), st)
+    got = {k: d[k].copy_to_host() for k in ("x", "v", "buf")}
+    diffs = [rel(got["x"], cpu["x"]), rel(got["v"], cpu["v"]),
+             rel(got["buf"], cpu["buf"].reshape(-1))]
+    return diffs, int(st.copy_to_host()[0]), int(want)
+
+
 def cpu_layout(flat, m):
     n = m.shape[0]
     buf = flat.reshape((NB, n, 3))
@@ -334,10 +384,10 @@ PIECES = {"to_dh": k_to_dh, "from_dh": k_from_dh, "jump": k_jump, "dh_kick": k_d
           "rt_dkd_step": k_rt_dkd_step, "lit_dkd_step": k_lit_dkd_step}
 
 
-def inputs():
-    """One member (a star, three planets, a test particle) with a filled ``buf``: its DH
+def inputs(k=1):
+    """Member ``k`` (1: a star, three planets, a test particle) with a filled ``buf``: its DH
     coordinates in the XJ/VJ slots and made-up numbers of the right size in ACC/AJ/XS/VS."""
-    sim = member(1)
+    sim = member(k)
     x = np.ascontiguousarray(sim.positions, dtype=float)
     v = np.ascontiguousarray(sim.velocities, dtype=float)
     m = np.ascontiguousarray(sim.masses, dtype=float)
@@ -363,26 +413,48 @@ def rel(a, b):
     return float(np.max(np.abs(np.nan_to_num(a, nan=1e300) - b)) / scale)
 
 
+def wanted(name):
+    """True when ``name`` is among the pieces the command line asks for (all without one)."""
+    return not sys.argv[1:] or name.startswith(tuple(sys.argv[1:]))
+
+
 def main():
-    base = inputs()
-    for name, kernel in PIECES.items():
-        if sys.argv[1:] and not name.startswith(tuple(sys.argv[1:])):
-            continue  # only the pieces whose names start as the arguments (``rt_ lit_``)
-        flat, x, v, m, massive, fstate, istate, params = (a.copy() for a in base)
-        try:
-            d = [cuda.to_device(a) for a in (flat, x, v, m, massive, fstate, istate, params)]
-            st = cuda.to_device(np.zeros(1, dtype=np.int64))
-            kernel[1, 1](*d, st)
-            got = [d[0].copy_to_host(), d[1].copy_to_host(), d[2].copy_to_host()]
-            got_st = int(st.copy_to_host()[0])
-        except Exception as exc:  # print and go on to the next piece
-            print(f"{name}_error={type(exc).__name__}: {str(exc).splitlines()[0][:150]}")
-            continue
-        want_st = cpu_piece(name, flat, x, v, m, massive, fstate, istate, params)
-        diffs = [rel(g, w) for g, w in zip(got, (flat, x, v), strict=True)]
-        print(f"{name}={max(diffs)!r}")
-        if max(diffs) != 0.0 or got_st != want_st:
-            print(f"{name}_detail=buf {diffs[0]!r} x {diffs[1]!r} v {diffs[2]!r} "
+    for k in (1, 0, 2):
+        tag = "" if k == 1 else f"_m{k}"
+        base = inputs(k)
+        for name, kernel in PIECES.items():
+            if not wanted(name):
+                continue
+            flat, x, v, m, massive, fstate, istate, params = (a.copy() for a in base)
+            try:
+                d = [cuda.to_device(a) for a in (flat, x, v, m, massive, fstate, istate,
+                                                  params)]
+                st = cuda.to_device(np.zeros(1, dtype=np.int64))
+                kernel[1, 1](*d, st)
+                got = [d[0].copy_to_host(), d[1].copy_to_host(), d[2].copy_to_host()]
+                got_st = int(st.copy_to_host()[0])
+            except Exception as exc:  # print and go on to the next piece
+                print(f"{name}{tag}_error={type(exc).__name__}: "
+                      f"{str(exc).splitlines()[0][:150]}")
+                continue
+            want_st = cpu_piece(name, flat, x, v, m, massive, fstate, istate, params)
+            diffs = [rel(g, w) for g, w in zip(got, (flat, x, v), strict=True)]
+            print(f"{name}{tag}={max(diffs)!r}", flush=True)
+            if max(diffs) != 0.0 or got_st != want_st:
+                print(f"{name}{tag}_detail=buf {diffs[0]!r} x {diffs[1]!r} v {diffs[2]!r} "
+                      f"status {got_st}/{want_st}")
+        for coordinates in ("democratic_heliocentric", "jacobi"):
+            name = "body" if coordinates != "jacobi" else "body_jacobi"
+            if not wanted(name):
+                continue
+            try:
+                diffs, got_st, want_st = run_body(member(k), coordinates)
+            except Exception as exc:
+                print(f"{name}{tag}_error={type(exc).__name__}: "
+                      f"{str(exc).splitlines()[0][:150]}")
+                continue
+            print(f"{name}{tag}={max(diffs)!r}", flush=True)
+            print(f"{name}{tag}_detail=x {diffs[0]!r} v {diffs[1]!r} buf {diffs[2]!r} "
                   f"status {got_st}/{want_st}")
 
 

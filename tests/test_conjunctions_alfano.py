@@ -93,6 +93,95 @@ def test_pc3d_hall_sees_the_curvature_the_2d_method_misses(n):
     assert c["cara_pc_mc_lo95"] * 0.998 < pc3 < c["cara_pc_mc_hi95"] * 1.002
 
 
+@functools.cache
+def _pc3d_default(n):
+    import warnings
+
+    c = CASES[n]
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        pc = collision_probability(*_args(c), method="pc3d_hall", gm=3.986004418e5)
+    return pc, [w for w in record if issubclass(w.category, UserWarning)]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6, 7, 8, 10])
+def test_pc3d_hall_default_window_matches_cara(n):
+    # The default window is this conjunction: the segment between the separation maxima about
+    # TCA (within half the shorter period), the encounter at TCA and every other one wholly
+    # inside. It was the encounter at TCA alone: on GEO cases 1 and 2 CARA's +-6 h holds a second
+    # close approach 3 h after TCA (the rate nil in between), which it dropped (0.150 for 0.217,
+    # 6.2e-3 for 1.56e-2). Now every case whose A09 window holds the whole conjunction agrees with
+    # CARA as the explicit window does (measured: 5.2e-4 at worst, case 2), and says nothing.
+    pc, warned = _pc3d_default(n)
+    assert pc == pytest.approx(CASES[n]["cara_pc3d"], rel=1e-3)
+    assert pc == pytest.approx(_pc3d(n), rel=1e-4)
+    assert warned == []
+
+
+def test_pc3d_hall_default_case_9_is_case_10_whose_window_holds_the_whole_encounter():
+    # cases 9 and 10 are the same conjunction (same states, covariances, HBR); CARA ran them over
+    # +-3 h and +-6 h and got 0.280 and 0.364: the encounter runs from 17,000 s before TCA to
+    # 5,000 s after it (the rate within 1 % of its peak for 3.5 h), so +-3 h cuts it. No default
+    # can give both; ours is the whole encounter, case 10's value, and window= gives case 9's.
+    c9, c10 = CASES[9], CASES[10]
+    for key in ("r1", "v1", "c1", "r2", "v2", "c2", "hbr"):
+        assert np.array_equal(c9[key], c10[key])
+    pc, warned = _pc3d_default(9)
+    assert pc == pytest.approx(c10["cara_pc3d"], rel=1e-5)
+    assert pc > 1.25 * c9["cara_pc3d"]
+    assert warned == []
+    assert _pc3d(9) == pytest.approx(c9["cara_pc3d"], rel=1e-4)
+
+
+@pytest.mark.parametrize("n", [11, 12])
+def test_pc3d_hall_default_window_warns_where_the_encounter_never_ends(n):
+    # cases 11 and 12: two LEO objects 76 m apart on the same orbit (formation flight): the
+    # collision rate stays within 10 % of its peak over the whole orbit, so the expected number
+    # of collisions grows with the time span (half an orbit either side: 4.98e-3; CARA's +-1420 s:
+    # 2.44e-3). The default gave the half-orbit value silently, 2x CARA's; it now warns, naming
+    # the window it used and window=.
+    from visviva import Pc3dWindowWarning
+
+    c = CASES[n]
+    pc, warned = _pc3d_default(n)
+    assert [w.category for w in warned] == [Pc3dWindowWarning]
+    msg = str(warned[0].message)
+    assert "window=(t_a, t_b)" in msg and "grows with the time span" in msg
+    half = 0.5 * 2 * math.pi * math.sqrt(np.linalg.norm(c["r1"]) ** 3 / 3.986004418e14)
+    assert f"({-half:.6g}, {half:.6g})" in msg
+    assert pc == pytest.approx(2.0 * c["cara_pc3d"], rel=0.03)  # twice CARA's +-1420 s
+    pc_half = collision_probability(*_args(c), method="pc3d_hall", gm=3.986004418e5,
+                                    window=(-half, half))
+    assert pc == pytest.approx(pc_half, rel=1e-4)
+
+
+def test_pc3d_hall_default_segment_ends_at_separation_maxima():
+    # case 7 (LEO, nearly equal orbits): the segment starts at the maximum of the distance
+    # between the mean positions before TCA (2723 s before) and ends at half the period (the
+    # maximum after TCA lies beyond, 2966 s after); the re-encounters at those ends (rate within
+    # e^-1.2 of TCA's) belong to the neighbouring conjunctions
+    from visviva.conjunctions import nc3d
+    from visviva.core.nc3d import mean_separations
+
+    c = CASES[7]
+    gm = 3.986004418e14
+    (x1, x2), _ = nc3d._orient([np.r_[c["r1"], c["v1"]], np.r_[c["r2"], c["v2"]]],
+                               [c["c1"], c["c2"]])
+    e1, e2 = nc3d.state_to_elements(x1, gm), nc3d.state_to_elements(x2, gm)
+    half = math.pi / max(e1[0], e2[0])
+    ta, tb = nc3d._segment(e1, e2, gm, 0.0, half)
+    assert ta == pytest.approx(-2722.8, abs=0.5)
+    assert tb == half
+    d = np.empty(3)
+    mean_separations(ta + np.array([-0.5, 0.0, 0.5]), e1, e2, gm, d)
+    assert d[1] > d[0] and d[1] > d[2]
+    t = np.linspace(ta, 0.0, 1001)
+    dd = np.empty(t.size)
+    mean_separations(t, e1, e2, gm, dd)
+    assert np.argmax(dd) == 0  # the last maximum before TCA
+    assert _pc3d_default(7)[0] == pytest.approx(c["cara_pc3d"], rel=1e-4)
+
+
 def test_pc3d_hall_linear_case_equals_foster():
     # case 5 is a linear encounter: 3D-Nc and the 2-D integral agree to 2e-4 (CARA: 6e-5)
     c = CASES[5]

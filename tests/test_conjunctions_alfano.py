@@ -121,8 +121,9 @@ def test_pc3d_hall_default_window_matches_cara(n):
 def test_pc3d_hall_default_case_9_is_case_10_whose_window_holds_the_whole_encounter():
     # cases 9 and 10 are the same conjunction (same states, covariances, HBR); CARA ran them over
     # +-3 h and +-6 h and got 0.280 and 0.364: the encounter runs from 17,000 s before TCA to
-    # 5,000 s after it (the rate within 1 % of its peak for 3.5 h), so +-3 h cuts it. No default
-    # can give both; ours is the whole encounter, case 10's value, and window= gives case 9's.
+    # 5,000 s after it (the rate within a factor 3 of its peak from -14,000 to -1,000 s), so
+    # +-3 h cuts it. No default can give both; ours is the whole encounter, case 10's value, and
+    # window= gives case 9's.
     c9, c10 = CASES[9], CASES[10]
     for key in ("r1", "v1", "c1", "r2", "v2", "c2", "hbr"):
         assert np.array_equal(c9[key], c10[key])
@@ -136,9 +137,9 @@ def test_pc3d_hall_default_case_9_is_case_10_whose_window_holds_the_whole_encoun
 @pytest.mark.parametrize("n", [11, 12])
 def test_pc3d_hall_default_window_warns_where_the_encounter_never_ends(n):
     # cases 11 and 12: two LEO objects 76 m apart on the same orbit (formation flight): the
-    # collision rate stays within 10 % of its peak over the whole orbit, so the expected number
-    # of collisions grows with the time span (half an orbit either side: 4.98e-3; CARA's +-1420 s:
-    # 2.44e-3). The default gave the half-orbit value silently, 2x CARA's; it now warns, naming
+    # collision rate stays within a factor 10 of its peak over the whole orbit, so the expected
+    # number of collisions grows with the time span (half an orbit either side: 4.98e-3; CARA's
+    # +-1420 s: 2.44e-3). The default gave the half-orbit value silently, 2x CARA's; it now warns, naming
     # the window it used and window=.
     from visviva import Pc3dWindowWarning
 

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from visviva.conjunctions import collision_probability
 
@@ -181,6 +183,55 @@ def test_pc3d_hall_default_segment_ends_at_separation_maxima():
     mean_separations(t, e1, e2, gm, dd)
     assert np.argmax(dd) == 0  # the last maximum before TCA
     assert _pc3d_default(7)[0] == pytest.approx(c["cara_pc3d"], rel=1e-4)
+
+
+def test_default_window_keeps_inner_encounters_and_drops_those_at_the_segment_ends():
+    # a rate profile over a segment: the encounter at TCA, a second one wholly inside (counted,
+    # as CARA's +-6 h counts it on case 1), and the neighbouring conjunction's at the end (not)
+    from visviva.conjunctions.nc3d import _conjunction
+
+    t = np.linspace(-1000.0, 1000.0, 2001)
+    lr = np.maximum.reduce([-((t - 10.0) / 30.0) ** 2, -2.0 - ((t - 500.0) / 20.0) ** 2,
+                            -1.0 - ((t - 1000.0) / 40.0) ** 2]) - 10.0
+    lr[lr < -200.0] = -np.inf
+    edges, peak, cut = _conjunction(t, lr, 0.0)
+    assert peak == pytest.approx(-10.0)
+    assert cut is None
+    assert len(edges) == 2
+    (a0, b0), (a1, b1) = edges
+    assert a0 < 10.0 < b0 < a1 < 500.0 < b1 < 680.0
+    # the same profile with the TCA encounter running into the segment's start: cut, and said
+    edges, peak, cut = _conjunction(t, np.maximum(lr, -10.5 - 1e-3 * (t + 1000.0)), 0.0)
+    assert cut == -1000.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1000.0, 1000.0), st.floats(5.0, 300.0),
+                          st.floats(0.0, 80.0)), min_size=1, max_size=5),
+       st.floats(-900.0, 900.0))
+def test_default_window_always_holds_the_encounter_at_tca(bumps, tc):
+    # whatever the profile: the peak reached uphill from TCA is inside the kept stretches, and a
+    # kept stretch that reaches an end of the segment is the one holding that peak
+    from visviva.conjunctions.nc3d import _conjunction
+
+    t = np.linspace(-1000.0, 1000.0, 801)
+    lr = np.max([-h - ((t - c) / w) ** 2 for c, w, h in bumps], axis=0)
+    edges, peak, cut = _conjunction(t, lr, tc)
+    assert edges
+    i = int(np.argmin(np.abs(t - tc)))
+    while True:  # uphill from TCA, as the rule climbs
+        j = max((k for k in (i - 1, i, i + 1) if 0 <= k < t.size), key=lambda k: lr[k])
+        if lr[j] <= lr[i]:
+            break
+        i = j
+    holding = [e for e in edges if e[0] <= t[i] <= e[1]]
+    assert len(holding) == 1
+    for e in edges:
+        if e[0] <= t[0] or e[1] >= t[-1]:
+            assert e is holding[0]
+    assert peak >= lr[i]
+    if cut is not None:
+        assert cut in (t[0], t[-1]) and (holding[0][0] <= t[0] or holding[0][1] >= t[-1])
 
 
 def test_pc3d_hall_linear_case_equals_foster():

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from visviva.conjunctions import collision_probability
 
@@ -91,6 +93,145 @@ def test_pc3d_hall_sees_the_curvature_the_2d_method_misses(n):
     pc2 = collision_probability(*_args(c))
     assert abs(pc2 / c["cara_pc_mc"] - 1) > 0.03
     assert c["cara_pc_mc_lo95"] * 0.998 < pc3 < c["cara_pc_mc_hi95"] * 1.002
+
+
+@functools.cache
+def _pc3d_default(n):
+    import warnings
+
+    c = CASES[n]
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        pc = collision_probability(*_args(c), method="pc3d_hall", gm=3.986004418e5)
+    return pc, [w for w in record if issubclass(w.category, UserWarning)]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6, 7, 8, 10])
+def test_pc3d_hall_default_window_matches_cara(n):
+    # The default window is this conjunction: the segment between the separation maxima about
+    # TCA (within half the shorter period), the encounter at TCA and every other one wholly
+    # inside. It was the encounter at TCA alone: on GEO cases 1 and 2 CARA's +-6 h holds a second
+    # close approach 3 h after TCA (the rate nil in between), which it dropped (0.150 for 0.217,
+    # 6.2e-3 for 1.56e-2). Now every case whose A09 window holds the whole conjunction agrees with
+    # CARA as the explicit window does (measured: 5.2e-4 at worst, case 2), and says nothing.
+    pc, warned = _pc3d_default(n)
+    assert pc == pytest.approx(CASES[n]["cara_pc3d"], rel=1e-3)
+    assert pc == pytest.approx(_pc3d(n), rel=1e-4)
+    assert warned == []
+
+
+def test_pc3d_hall_default_case_9_is_case_10_whose_window_holds_the_whole_encounter():
+    # cases 9 and 10 are the same conjunction (same states, covariances, HBR); CARA ran them over
+    # +-3 h and +-6 h and got 0.280 and 0.364: the encounter runs from 17,000 s before TCA to
+    # 5,000 s after it (the rate within a factor 3 of its peak from -14,000 to -1,000 s), so
+    # +-3 h cuts it. No default can give both; ours is the whole encounter, case 10's value, and
+    # window= gives case 9's.
+    c9, c10 = CASES[9], CASES[10]
+    for key in ("r1", "v1", "c1", "r2", "v2", "c2", "hbr"):
+        assert np.array_equal(c9[key], c10[key])
+    pc, warned = _pc3d_default(9)
+    assert pc == pytest.approx(c10["cara_pc3d"], rel=1e-5)
+    assert pc > 1.25 * c9["cara_pc3d"]
+    assert warned == []
+    assert _pc3d(9) == pytest.approx(c9["cara_pc3d"], rel=1e-4)
+
+
+@pytest.mark.parametrize("n", [11, 12])
+def test_pc3d_hall_default_window_warns_where_the_encounter_never_ends(n):
+    # cases 11 and 12: two LEO objects 76 m apart on the same orbit (formation flight): the
+    # collision rate stays within a factor 10 of its peak over the whole orbit, so the expected
+    # number of collisions grows with the time span (half an orbit either side: 4.98e-3; CARA's
+    # +-1420 s: 2.44e-3). The default gave the half-orbit value silently, 2x CARA's; it now warns, naming
+    # the window it used and window=.
+    from visviva import Pc3dWindowWarning
+
+    c = CASES[n]
+    pc, warned = _pc3d_default(n)
+    assert [w.category for w in warned] == [Pc3dWindowWarning]
+    msg = str(warned[0].message)
+    assert "window=(t_a, t_b)" in msg and "grows with the time span" in msg
+    half = 0.5 * 2 * math.pi * math.sqrt(np.linalg.norm(c["r1"]) ** 3 / 3.986004418e14)
+    assert f"({-half:.6g}, {half:.6g})" in msg
+    assert pc == pytest.approx(2.0 * c["cara_pc3d"], rel=0.03)  # twice CARA's +-1420 s
+    pc_half = collision_probability(*_args(c), method="pc3d_hall", gm=3.986004418e5,
+                                    window=(-half, half))
+    assert pc == pytest.approx(pc_half, rel=1e-4)
+
+
+def test_pc3d_hall_default_segment_ends_at_separation_maxima():
+    # case 7 (LEO, nearly equal orbits): the segment starts at the maximum of the distance
+    # between the mean positions before TCA (2723 s before) and ends at half the period (the
+    # maximum after TCA lies beyond, 2966 s after); the re-encounters at those ends (rate within
+    # e^-1.2 of TCA's) belong to the neighbouring conjunctions
+    from visviva.conjunctions import nc3d
+    from visviva.core.nc3d import mean_separations
+
+    c = CASES[7]
+    gm = 3.986004418e14
+    (x1, x2), _ = nc3d._orient([np.r_[c["r1"], c["v1"]], np.r_[c["r2"], c["v2"]]],
+                               [c["c1"], c["c2"]])
+    e1, e2 = nc3d.state_to_elements(x1, gm), nc3d.state_to_elements(x2, gm)
+    half = math.pi / max(e1[0], e2[0])
+    ta, tb = nc3d._segment(e1, e2, gm, 0.0, half)
+    assert ta == pytest.approx(-2722.8, abs=0.5)
+    assert tb == half
+    d = np.empty(3)
+    mean_separations(ta + np.array([-0.5, 0.0, 0.5]), e1, e2, gm, d)
+    assert d[1] > d[0] and d[1] > d[2]
+    t = np.linspace(ta, 0.0, 1001)
+    dd = np.empty(t.size)
+    mean_separations(t, e1, e2, gm, dd)
+    assert np.argmax(dd) == 0  # the last maximum before TCA
+    assert _pc3d_default(7)[0] == pytest.approx(c["cara_pc3d"], rel=1e-4)
+
+
+def test_default_window_keeps_inner_encounters_and_drops_those_at_the_segment_ends():
+    # a rate profile over a segment: the encounter at TCA, a second one wholly inside (counted,
+    # as CARA's +-6 h counts it on case 1), and the neighbouring conjunction's at the end (not)
+    from visviva.conjunctions.nc3d import _conjunction
+
+    t = np.linspace(-1000.0, 1000.0, 2001)
+    lr = np.maximum.reduce([-((t - 10.0) / 30.0) ** 2, -2.0 - ((t - 500.0) / 20.0) ** 2,
+                            -1.0 - ((t - 1000.0) / 40.0) ** 2]) - 10.0
+    lr[lr < -200.0] = -np.inf
+    edges, peak, cut = _conjunction(t, lr, 0.0)
+    assert peak == pytest.approx(-10.0)
+    assert cut is None
+    assert len(edges) == 2
+    (a0, b0), (a1, b1) = edges
+    assert a0 < 10.0 < b0 < a1 < 500.0 < b1 < 680.0
+    # the same profile with the TCA encounter running into the segment's start: cut, and said
+    edges, peak, cut = _conjunction(t, np.maximum(lr, -10.5 - 1e-3 * (t + 1000.0)), 0.0)
+    assert cut == -1000.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1000.0, 1000.0), st.floats(5.0, 300.0),
+                          st.floats(0.0, 80.0)), min_size=1, max_size=5),
+       st.floats(-900.0, 900.0))
+def test_default_window_always_holds_the_encounter_at_tca(bumps, tc):
+    # whatever the profile: the peak reached uphill from TCA is inside the kept stretches, and a
+    # kept stretch that reaches an end of the segment is the one holding that peak
+    from visviva.conjunctions.nc3d import _conjunction
+
+    t = np.linspace(-1000.0, 1000.0, 801)
+    lr = np.max([-h - ((t - c) / w) ** 2 for c, w, h in bumps], axis=0)
+    edges, peak, cut = _conjunction(t, lr, tc)
+    assert edges
+    i = int(np.argmin(np.abs(t - tc)))
+    while True:  # uphill from TCA, as the rule climbs
+        j = max((k for k in (i - 1, i, i + 1) if 0 <= k < t.size), key=lambda k: lr[k])
+        if lr[j] <= lr[i]:
+            break
+        i = j
+    holding = [e for e in edges if e[0] <= t[i] <= e[1]]
+    assert len(holding) == 1
+    for e in edges:
+        if e[0] <= t[0] or e[1] >= t[-1]:
+            assert e is holding[0]
+    assert peak >= lr[i]
+    if cut is not None:
+        assert cut in (t[0], t[-1]) and (holding[0][0] <= t[0] or holding[0][1] >= t[-1])
 
 
 def test_pc3d_hall_linear_case_equals_foster():

@@ -398,7 +398,12 @@ def test_zero_relative_velocity_points_to_the_method_that_handles_it():
     for method in ("foster", "chan", "3d", "monte_carlo"):
         with pytest.raises(InvalidInputError, match="pc3d_hall"):
             collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method=method)
-    pc = collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method="pc3d_hall")
+    # co-moving 10 m apart: the rate never falls off over the orbit, so the default window's
+    # value (half an orbit either side) comes with a Pc3dWindowWarning naming window=
+    from visviva import Pc3dWindowWarning
+
+    with pytest.warns(Pc3dWindowWarning, match="window="):
+        pc = collision_probability(r1, v1, c, r1 + [10.0, 0, 0], v1, c, 5.0, method="pc3d_hall")
     assert 0.0 < pc < 1.0
 
 

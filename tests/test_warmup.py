@@ -129,3 +129,20 @@ def test_warmup_covers_the_pass_search_and_screening_kernels():
                    topocentric.elevation_rate_many, groundtrack.shadow_fraction_many,
                    screening.screen_rows):
         assert kernel.signatures, kernel.py_func.__name__
+
+
+def test_warmup_covers_the_default_window_of_pc3d_hall():
+    # the default window of method="pc3d_hall" scans the mean separation with its own kernel;
+    # the warm-up ran an explicit window only, so a first default call still compiled it
+    import warnings
+
+    from visviva.core import nc3d
+
+    chosen = [(label, fn) for label, fn in warmup.TASKS if label.startswith("conjunctions: Foster")]
+    assert len(chosen) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None]
+    for kernel in (nc3d.mean_separations, nc3d.pop_linearise, nc3d.log_rates):
+        assert kernel.signatures, kernel.py_func.__name__

@@ -35,6 +35,7 @@ __all__ = [
     "TrackingDataWarning",
     "ChanAccuracyWarning",
     "Pc3dAccuracyWarning",
+    "Pc3dWindowWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -255,6 +256,16 @@ class Pc3dAccuracyWarning(UserWarning):
     and the linearly propagated Cartesian covariances do not describe the collision rate). The
     message gives both values; use ``method="pc3d_hall"``.
     """
+
+
+class Pc3dWindowWarning(UserWarning):
+    """``collision_probability(method="pc3d_hall")`` with its default window (this conjunction:
+    the conjunction segment about TCA): the collision rate is still appreciable at an end of the
+    segment, so the encounter does not end there (orbits flown in formation, where the rate
+    barely changes over an orbit) and the expected number of collisions depends on the time
+    span. The message gives the window used and the rate there; pass ``window=(t_a, t_b)``.
+    """
+
 
 #: status code -> (exception class, what happened, what to do). The single table of the project.
 STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {

@@ -147,7 +147,7 @@ def _conjunctions():
     c = np.diag([1e4, 4e4, 1e4, 1.0, 1.0, 1.0])
     args = (r1, v1, c, r1 + np.array([100.0, 50.0, 0.0]), np.array([0.0, 0.0, 7500.0]), c, 20.0)
     collision_probability(*args)
-    collision_probability(*args, method="pc3d_hall", window=(-60.0, 60.0))
+    collision_probability(*args, method="pc3d_hall")  # the default window: the segment scan too
 
 
 def _passes():

@@ -17,11 +17,19 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 
 import numpy as np
 
-from ..core.nc3d import POP_OK, POP_SINGULAR, log_rates, pop_linearise, state_jacobian
-from ..errors import ConvergenceError, InvalidInputError
+from ..core.nc3d import (
+    POP_OK,
+    POP_SINGULAR,
+    log_rates,
+    mean_separations,
+    pop_linearise,
+    state_jacobian,
+)
+from ..errors import ConvergenceError, InvalidInputError, Pc3dWindowWarning
 
 __all__ = ["log_pc3d_hall"]
 
@@ -129,10 +137,10 @@ def _rates(t, el, hbr, clip, gm, n_u=_N_U, n_phi=_N_PHI):
     return out, ok
 
 
-def _support(t, lr, margin=60.0):
-    """Intervals of the sorted grid ``t`` where the rate is within ``e^-margin`` of its peak
-    (padded by one cell on either side)."""
-    keep = lr > float(np.max(lr)) - margin
+def _support(t, lr, floor):
+    """Intervals of the sorted grid ``t`` where the ln rate ``lr`` is above ``floor`` (padded by
+    one cell on either side)."""
+    keep = lr > floor
     cells = keep[:-1] | keep[1:]
     cells = cells | np.r_[cells[1:], False] | np.r_[False, cells[:-1]]
     out = []
@@ -171,6 +179,80 @@ def _encounter(t, lr, tc, margin=60.0):
     while hi < t.size - 1 and lr[hi + 1] > peak - margin:
         hi += 1
     return float(t[max(lo - 1, 0)]), float(t[min(hi + 1, t.size - 1)]), peak
+
+
+# --- the default window: the conjunction segment about TCA ---------------------------------------
+
+_SEG_POINTS = 257  # scan of the mean separation over +-half the shorter period
+_SEG_ZOOM = 4  # rounds of a 65-point scan about each separation maximum (to ~1e-7 of the scan)
+#: a separation maximum must stand this far (m) above the separations between it and TCA; a
+#: separation flatter than that (orbits flown in formation) bounds nothing
+_SEG_PROMINENCE = 1e-3
+#: the rate at an end of the default window within e^-_CUT of its peak: the encounter is cut
+_CUT = 12.0
+
+
+def _separation(t, e1, e2, gm):
+    out = np.empty(t.size)
+    mean_separations(np.ascontiguousarray(t, dtype=float), e1, e2, gm, out)
+    return np.sqrt(out)
+
+
+def _segment(e1, e2, gm, tc, half):
+    """The conjunction segment about TCA: from the last maximum of the distance between the two
+    mean (two-body) positions before TCA to the first one after it (Hall 2021's conjunction
+    segment; CARA's ``Pc3D_Hall`` bounds its default search the same way), within ``+-half``
+    (half the shorter period: nearly equal orbits meet again half an orbit later, another
+    conjunction). A side with no maximum (or only maxima within ``_SEG_PROMINENCE`` of the
+    separations between them and TCA) is bounded by ``half``. ``tc``: the linear closest
+    approach (s), which the segment holds too. Returns ``(t_a, t_b)`` in s from TCA."""
+    tc = min(max(tc, -half), half)
+    t = np.linspace(-half, half, _SEG_POINTS)
+    d = _separation(t, e1, e2, gm)
+    ia = int(np.searchsorted(t, min(0.0, tc)))
+    ib = int(np.searchsorted(t, max(0.0, tc)))
+    peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] > d[2:])) + 1
+
+    def bound(candidates, inner):
+        for i in candidates:
+            j0, j1 = sorted((i, inner))
+            if d[i] - float(np.min(d[j0:j1 + 1])) > _SEG_PROMINENCE:
+                lo, hi = t[i - 1], t[i + 1]
+                for _ in range(_SEG_ZOOM):
+                    tz = np.linspace(lo, hi, 65)
+                    k = int(np.argmax(_separation(tz, e1, e2, gm)))
+                    lo, hi = tz[max(k - 1, 0)], tz[min(k + 1, 64)]
+                return 0.5 * (lo + hi)
+        return None
+
+    ta = bound(peaks[t[peaks] < min(0.0, tc)][::-1], ia)
+    tb = bound(peaks[t[peaks] > max(0.0, tc)], ib)
+    return -half if ta is None else ta, half if tb is None else tb
+
+
+def _conjunction(t, lr, tc, margin=60.0):
+    """The stretches of the grid ``t`` (the conjunction segment) that count by default: the
+    encounter at TCA (:func:`_encounter`) and every other stretch where the rate is within
+    ``e^-margin`` of that encounter's peak and which lies inside the segment (one that reaches an
+    end belongs to the neighbouring conjunction). Returns ``(edges, peak, cut)``: the intervals,
+    the largest ln rate in them, and the end (s) where the encounter at TCA is cut (its rate
+    still within ``e^-_CUT`` of the peak there), else None; ``edges`` is None when the rate is
+    nil about TCA."""
+    lo, hi, local = _encounter(t, lr, tc, margin)
+    if not np.isfinite(local):
+        return None, local, None
+    edges = [iv for iv in _support(t, lr, local - margin)
+             if (iv[1] >= lo and iv[0] <= hi) or (iv[0] > t[0] and iv[1] < t[-1])]
+    inside = np.zeros(t.size, dtype=bool)
+    for a, b in edges:
+        inside |= (t >= a) & (t <= b)
+    peak = float(np.max(lr[inside]))
+    cut = None
+    if lo <= t[0] and lr[0] > peak - _CUT:
+        cut = float(t[0])
+    elif hi >= t[-1] and lr[-1] > peak - _CUT:
+        cut = float(t[-1])
+    return edges, peak, cut
 
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -239,9 +321,13 @@ def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
     """ln Pc by Hall's 3D-Nc method (inputs in m, m/s, m^2...; ``gm`` in m^3/s^2).
 
     ``window``: ``(ta, tb)`` in s relative to TCA bounding the time integral (every encounter
-    in it counts), or ``None``: the encounter at TCA alone, searched for within half the
-    shorter orbital period on either side (orbits of nearly equal periods meet again half an
-    orbit later; that re-encounter is another conjunction). Returns ``ln Pc``.
+    in it counts), or ``None``: this conjunction, i.e. the conjunction segment about TCA
+    (:func:`_segment`: between the maxima of the mean separation bracketing TCA, within half the
+    shorter orbital period) and in it the encounter at TCA and every other encounter that lies
+    wholly inside (:func:`_conjunction`). Where the encounter at TCA does not end within the
+    segment (orbits flown in formation: the rate barely changes over an orbit, so the expected
+    number of collisions grows with the time span) a :class:`~visviva.errors.Pc3dWindowWarning`
+    says so and names ``window=``. Returns ``ln Pc``.
     """
     if hbr == 0:
         return -math.inf
@@ -257,25 +343,28 @@ def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
         q = kinv @ c @ kinv.T
         el += [e0, 0.5 * (q + q.T)]
         periods.append(2.0 * math.pi / e0[0])
-    if window is None:
-        ta, tb = -0.5 * min(periods), 0.5 * min(periods)
-    else:
-        ta, tb = float(window[0]), float(window[1])
-        if not tb > ta:
-            raise InvalidInputError(f"window must be (ta, tb) with ta < tb, got {window}.")
     clip = (1e-4 * hbr) ** 2
-    # where the rate lives: a coarse scan of the window on a uniform grid and, around the
-    # linear-motion closest approach, on its time scale (short for fast encounters)
+    # the linear-motion closest approach and its time scale (short for fast encounters)
     rel = x2 - x1
     arel = k1[:3, :3] + k2[:3, :3]
-    grid = [np.linspace(ta, tb, 2049)]
     vel = rel[3:]
     tc = 0.0
+    st = None
     if float(np.linalg.norm(vel)) > 0:
         ainv = np.linalg.inv(arel + clip * np.eye(3))
         curv = float(vel @ ainv @ vel)
         tc = -float(vel @ ainv @ rel[:3]) / curv
         st = 1.0 / math.sqrt(curv) + hbr / float(np.linalg.norm(vel))
+    if window is None:
+        ta, tb = _segment(el[0], el[2], gm, tc, 0.5 * min(periods))
+    else:
+        ta, tb = float(window[0]), float(window[1])
+        if not tb > ta:
+            raise InvalidInputError(f"window must be (ta, tb) with ta < tb, got {window}.")
+    # where the rate lives: a coarse scan of the window on a uniform grid and, around the
+    # linear-motion closest approach, on its time scale
+    grid = [np.linspace(ta, tb, 2049)]
+    if st is not None:
         grid.append(np.clip(tc + st * np.linspace(-40.0, 40.0, 513), ta, tb))
     t = np.unique(np.concatenate(grid))
     lr, conv = _rates(t, el, hbr, clip, gm, 16, 16)
@@ -283,21 +372,39 @@ def log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window=None, rtol=1e-6):
     if not np.isfinite(peak):
         return -math.inf
     edges = None
-    if window is None:  # the encounter at TCA, not a re-encounter half an orbit away
-        lo, hi, local = _encounter(t, lr, tc)
-        if np.isfinite(local):
-            peak, edges = local, [(lo, hi)]
-            conv = conv | (t < lo) | (t > hi)
+    cut = None
+    if window is None:  # this conjunction, not the neighbouring ones
+        found, local, cut = _conjunction(t, lr, tc)
+        if found is not None:
+            peak, edges = local, found
+            inside = np.zeros(t.size, dtype=bool)
+            for a, b in edges:
+                inside |= (t >= a) & (t <= b)
+            conv = conv | ~inside
     if np.any(~conv & (lr > peak - 30.0)):
         _pop_failed()
 
     def log_rate(tt):
         return _rates(tt, el, hbr, clip, gm)
 
-    lp, worst = _adaptive(edges or _support(t, lr), log_rate, rtol)
+    lp, worst = _adaptive(edges or _support(t, lr, peak - 60.0), log_rate, rtol)
     if worst > peak - 30.0:
         _pop_failed()
+    if cut is not None:
+        _warn_cut(cut, float(lr[0] if cut == t[0] else lr[-1]) - peak, ta, tb, lp)
     return lp
+
+
+def _warn_cut(cut, drop, ta, tb, lp):
+    warnings.warn(
+        f"method='pc3d_hall': the collision rate at {cut:.6g} s from TCA, an end of the default "
+        f"window ({ta:.6g}, {tb:.6g}) s (the conjunction segment: between the separation maxima "
+        f"about TCA, at most half the shorter orbital period either side), is still "
+        f"{math.exp(drop):.2g} of its peak: the encounter does not end there (orbits flown in "
+        "formation or a slow drift), so the expected number of collisions grows with the time "
+        f"span and Pc = {math.exp(lp):.4g} holds for this window only. Pass window=(t_a, t_b) "
+        "(s from TCA) for the span you mean (CARA's Pc3D_Hall: Tmin_limit, Tmax_limit).",
+        Pc3dWindowWarning, stacklevel=5)
 
 
 def _pop_failed():

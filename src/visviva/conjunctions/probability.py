@@ -190,9 +190,11 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     window : tuple of Quantity or float, optional
         ``(t_a, t_b)``, the time span relative to TCA (plain numbers: s) over which
         ``method="pc3d_hall"`` integrates the collision rate; every encounter in it counts.
-        Default: the encounter at TCA alone (the stretch of the rate around TCA, searched for
-        within half the shorter orbital period on either side; orbits of nearly equal periods
-        meet again half an orbit later, and that is another conjunction).
+        Default: this conjunction, bounded as CARA's ``Pc3D_Hall`` bounds its default search:
+        the segment between the maxima of the mean two-body separation before and after TCA
+        (at most half the shorter orbital period either side: nearly equal orbits meet again
+        half an orbit later, another conjunction), with the encounter at TCA and every other
+        encounter wholly inside it.
     log : bool
         Return the natural logarithm of Pc instead (represents values below 1e-308).
 
@@ -214,6 +216,11 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         ``method="3d"`` only: the flux integral is more than 10 % from Hall's 3D-Nc
         (``"pc3d_hall"``) over the same time span (a slow, curved encounter: Alfano's case 11
         gives 0.14 for 2.4e-3); the message gives both and the window.
+    Pc3dWindowWarning
+        ``method="pc3d_hall"`` with the default window only: the encounter at TCA does not end
+        within it (orbits flown in formation; the expected number of collisions grows with the
+        time span, Alfano's cases 11 and 12); the message gives the window used; pass
+        ``window=``.
 
     Raises
     ------

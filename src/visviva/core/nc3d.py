@@ -9,6 +9,8 @@ integrates it over time; these kernels do the work per time point, in metres and
   (Hall 2021, sec. III; a fixed-point iteration, accelerated by an Anderson step of depth one).
   A time point whose iteration leaves the elliptic domain or makes a position covariance
   singular keeps the linearisation about the mean elements and is flagged.
+* :func:`mean_separations`: the squared distance between the two objects' mean (two-body)
+  positions at each time, which bounds the conjunction segment.
 * :func:`log_rates`: ln of the collision rate at each time point, the flux of the relative
   position into the hard-body sphere integrated over the sphere by a product Gauss-Legendre rule
   adapted to the position density (the caller passes the covariance's eigen-decomposition).
@@ -25,7 +27,8 @@ import numpy as np
 
 from ._jit import inline_kernel, kernel
 
-__all__ = ["pop_linearise", "log_rates", "state_jacobian", "POP_OK", "POP_FAILED", "POP_SINGULAR"]
+__all__ = ["pop_linearise", "log_rates", "mean_separations", "state_jacobian", "POP_OK",
+           "POP_FAILED", "POP_SINGULAR"]
 
 #: status per time point: converged; kept about the mean (left the domain, or did not converge);
 #: the position covariance at the mean elements is singular (the caller refuses the case)
@@ -324,6 +327,20 @@ def pop_linearise(t, e1, q1, e2, q2, gm, xu, p, status):
             cen[0, m] = e1[m]
             cen[1, m] = e2[m]
         status[i] = _pop_point(t[i], e1, q1, e2, q2, gm, cen, xu[i], p[i])
+
+
+@kernel
+def mean_separations(t, e1, e2, gm, out):
+    """Squared distance (m^2) between the mean positions of the elements ``e1`` and ``e2`` at TCA
+    (equinoctial, as in :func:`state_jacobian`), carried by two-body motion to the times ``t``
+    (N,) (s from TCA), into ``out`` (N,)."""
+    x1 = np.empty(6)
+    x2 = np.empty(6)
+    jac = np.empty((6, 6))
+    for i in range(t.size):
+        state_jacobian(e1, t[i], gm, x1, jac)
+        state_jacobian(e2, t[i], gm, x2, jac)
+        out[i] = (x2[0] - x1[0]) ** 2 + (x2[1] - x1[1]) ** 2 + (x2[2] - x1[2]) ** 2
 
 
 @kernel

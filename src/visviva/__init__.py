@@ -48,6 +48,7 @@ _PUBLIC = {
     "EarthOrientationWarning": "visviva.errors",
     "ChanAccuracyWarning": "visviva.errors",
     "Pc3dAccuracyWarning": "visviva.errors",
+    "ImplausibleVelocityWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

@@ -35,6 +35,7 @@ __all__ = [
     "TrackingDataWarning",
     "ChanAccuracyWarning",
     "Pc3dAccuracyWarning",
+    "ImplausibleVelocityWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -255,6 +256,16 @@ class Pc3dAccuracyWarning(UserWarning):
     and the linearly propagated Cartesian covariances do not describe the collision rate). The
     message gives both values; use ``method="pc3d_hall"``.
     """
+
+class ImplausibleVelocityWarning(UserWarning):
+    """A state's speed is far above the escape speed at its radius: more than 100 km/s and more
+    than ten times the escape speed sqrt(2 mu / r) (Earth: > ~110 km/s in low orbit, where any bound
+    orbit has v < 11.2 km/s). The usual cause is velocities in m/s given where km/s are read
+    (plain numbers, or ``[7500, ...] * u.km / u.s``), which makes a LEO state look hyperbolic
+    with e ~ 1e6. The state is kept (a hyperbolic flyby is legitimate); the message names the
+    first such state. Check the velocity's unit.
+    """
+
 
 #: status code -> (exception class, what happened, what to do). The single table of the project.
 STATUS_TABLE: dict[int, tuple[type[Exception], str, str]] = {

@@ -332,7 +332,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     (L L^T = P, lambda = alpha^2 (n + kappa) - n), carried through the dynamics (one compiled
     call for all 13 per step) and the measurement model; P^- is their weighted covariance plus
     the same SNC Q on the same sub-steps, S = P_zz + R, K = P_xz S^-1,
-    P^+ = P^- - K S K^T, azimuth and right ascension averaged as angles. Its smoother is
+    P^+ = P^- - K S K^T computed in the Joseph-equivalent form
+    sum_i W_i^c (dX_i - K dZ_i)(dX_i - K dZ_i)^T + K R K^T (positive semi-definite by
+    construction), azimuth and right ascension averaged as angles. Its smoother is
     Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
     cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
     problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
@@ -629,6 +631,11 @@ def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None, gauss=
     return out
 
 
+#: how far (relative) a smoothed variance may exceed the filtered one (round-off) before the
+#: smoother is refused
+SMOOTHED_VARIANCE_RTOL = 1e-3
+
+
 def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
     """Rauch-Tung-Striebel pass backwards over filtered (xs, Ps) and predicted (xp, Pp), with
     the cross-covariances cov(x_k+1^-, x_k) = Phi_k+1,k P_k from the STMs ``phis`` (extended
@@ -646,12 +653,17 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
         Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
         sP[k] = 0.5 * (Pk + Pk.T)
+    # the smoothed variances cannot exceed the filtered ones (P^s = P^+ + C (P^s - P^-) C^T
+    # with P^s - P^- <= 0): far above them, the gain came from a near-singular P^-
+    var_s = np.diagonal(sP, axis1=1, axis2=2)
+    var_f = np.diagonal(Ps, axis1=1, axis2=2)
     if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
-            and np.all(np.diagonal(sP, axis1=1, axis2=2)[:, 6:] >= 0)):  # coefficients' sigma
+            and np.all(var_s[:, 6:] >= 0)  # coefficients' sigma
+            and np.all(var_s <= var_f * (1.0 + SMOOTHED_VARIANCE_RTOL))):
         raise ConvergenceError(
-            "the smoother's estimate is not finite or has negative variances: a predicted "
-            "covariance is singular (e.g. a parameter_noise sigma of 0 decays a coefficient's "
-            "variance to 0); give sigma > 0, or smoother=False.")
+            "the smoother's estimate is not finite, has negative variances or variances above "
+            "the filter's: a predicted covariance is singular (e.g. a parameter_noise sigma of 0 "
+            "decays a coefficient's variance to 0); give sigma > 0, or smoother=False.")
     return sx, sP
 
 

@@ -251,3 +251,35 @@ def test_estimate_decays_to_the_prior_over_a_gap(jump, method):
     assert abs(cd[-2] - 2.6) > 0.05  # the data moved it towards the truth
     assert cd[-1] - 2.6 == pytest.approx(m * (cd[-2] - 2.6), rel=1e-6)
     assert sd[-1] ** 2 == pytest.approx(m**2 * sd[-2] ** 2 + sigma**2 * (1 - m**2), rel=1e-6)
+
+
+@pytest.mark.parametrize("method", ["ekf", "ukf"])
+def test_filtered_orbit_records_the_parameter_noise_it_used(method):
+    """was: FilteredOrbit recorded process_noise but not parameter_noise, so a printed or kept
+    result could not say which Gauss-Markov noise its coefficients had. Now .parameter_noise
+    holds {name: (sigma, tau)} for the coefficients that had noise (B in m^2/kg, tau in s),
+    {} without, and the repr names it with the process noise."""
+    t = EPOCH + np.arange(0.0, 1200.0, STEP_S) * u.s
+    obs = simulate_observations(LEO, t, "position", 0.01 * u.km,
+                                perturbations=_forces(CD_BEFORE), seed=3)
+    obs = vv.Observations(time=t, kind="position", value=obs.values[:, :3], sigma=0.01)
+    forces = [*_forces(CD_BEFORE), vv.SolarRadiationPressure(0.01 * M2KG, reflectivity=1.3)]
+    kw = {"estimate": ["drag", "srp"], "parameter_sigma": {**SIGMA_B, "srp": 0.3},
+          "method": method}
+    noisy = vv.filter_orbit(obs, LEO, P0, forces, **kw, process_noise=1e-12,
+                            process_noise_frame="rtn",
+                            parameter_noise={"drag": (0.004 * M2KG, 3 * u.hour)})
+    assert set(noisy.parameter_noise) == {"drag"}  # srp was a constant
+    sigma, tau = noisy.parameter_noise["drag"]
+    assert sigma.to_value(M2KG) == pytest.approx(0.004, rel=1e-15)
+    assert tau.to_value(u.s) == pytest.approx(10800.0, rel=1e-15)
+    text = repr(noisy)
+    assert "process noise 1e-12 km^2/s^3 RTN" in text
+    assert "drag Gauss-Markov sigma 0.004 m^2/kg tau 10800 s" in text
+    srp = vv.filter_orbit(obs, LEO, P0, forces, **kw, parameter_noise={"srp": (0.2, 600.0)})
+    assert srp.parameter_noise["srp"][0] == pytest.approx(0.2)
+    assert srp.parameter_noise["srp"][1].to_value(u.s) == pytest.approx(600.0)
+    assert "srp Gauss-Markov sigma 0.2 tau 600 s" in repr(srp)
+    plain = vv.filter_orbit(obs, LEO, P0, forces, **kw)
+    assert plain.parameter_noise == {} and "Gauss-Markov" not in repr(plain)
+    assert "process noise" not in repr(plain)

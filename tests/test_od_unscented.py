@@ -289,3 +289,53 @@ def test_a_restarted_ukf_continues_the_same_run(tracking_drag):
     np.testing.assert_allclose(rest.covariance, whole.covariance, rtol=1e-7,
                                atol=1e-9 * np.abs(whole.covariance).max())  # fmt: skip
     np.testing.assert_array_equal(np.r_[first.rejected, rest.rejected], whole.rejected)
+
+
+def _least_correlation_eigenvalue(P):
+    d = np.sqrt(np.abs(np.diag(P)))
+    return float(np.linalg.eigvalsh(P / np.outer(d, d))[0])
+
+
+@pytest.mark.parametrize("sigma_km", [1e-8, 1e-10, 1e-12])
+def test_a_precise_measurement_leaves_a_positive_definite_covariance(sigma_km):
+    """was: P+ = P- - K S K^T cancelled to round-off when 10 um - 1 nm positions met a 1 km
+    prior, and went negative: four negative position variances (a correlation eigenvalue of
+    -3.6; NaN sigmas, silently). The Joseph-equivalent form keeps every filtered covariance
+    symmetric positive definite; the estimate stays within its sigma of the truth."""
+    leo = vv.StateVectors(Y_LEO[:3] * u.km, Y_LEO[3:] * u.km / u.s, vv.EARTH, epoch=EPOCH)
+    t = EPOCH + np.arange(0.0, 600.0, 60.0) * u.s
+    obs = simulate_observations(leo, t, "position", sigma_km * u.km, seed=1)
+    obs = vv.Observations(time=t, kind="position", value=obs.values[:, :3], sigma=sigma_km)
+    prior = np.diag([1.0] * 3 + [1e-6] * 3)  # 1 km, 1 m/s
+    flt = vv.filter_orbit(obs, leo, prior, method="ukf", editing_sigma=None)
+    P = np.asarray(flt.covariances)
+    np.testing.assert_array_equal(P, np.swapaxes(P, 1, 2))
+    assert np.all(np.diagonal(P, axis1=1, axis2=2) > 0)
+    assert min(_least_correlation_eigenvalue(p) for p in P) > 0
+    sig_r = np.sqrt(np.diag(P[-1])[:3])
+    assert np.all(sig_r < 2 * sigma_km)  # the data fixed the position to their own precision
+    err = flt.states[-1] - _truth_at(Y_LEO, None, flt.offsets_s)[-1]
+    assert np.all(np.abs(err[:3]) < 5 * sig_r + 1e-12)
+
+
+def test_the_joseph_equivalent_update_equals_the_textbook_one():
+    """On a well-conditioned case sum W^c (dX - K dZ)(dX - K dZ)^T + K R K^T is P - K S K^T
+    (the same covariance, to round-off), for any sigma-point weights."""
+    from visviva.od.unscented import _joseph_update
+
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((6, 6)) * np.r_[1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3]
+    P = A @ A.T
+    H = rng.standard_normal((3, 6))
+    for alpha, beta, kappa in ((1.0, 2.0, 0.0), (0.5, 2.0, 1.0)):
+        scale, wm, wc = unscented_weights((alpha, beta, kappa))
+        X = sigma_points(np.zeros(6), P, scale)
+        Z = X @ H.T + 0.1 * (X[:, :3] ** 2)  # mildly nonlinear
+        dZ = Z - wm @ Z
+        R = np.array([0.5, 0.2, 0.1])
+        S = (wc * dZ.T) @ dZ + np.diag(R)
+        Pxz = (wc * X.T) @ dZ
+        K = np.linalg.solve(S, Pxz.T).T
+        textbook = P - K @ S @ K.T
+        np.testing.assert_allclose(_joseph_update(X, dZ, wc, K, R), textbook, rtol=0,
+                                   atol=1e-12 * np.abs(P).max())

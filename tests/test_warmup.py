@@ -146,3 +146,82 @@ def test_warmup_covers_the_default_window_of_pc3d_hall():
     assert [r[2] for r in results] == [None]
     for kernel in (nc3d.mean_separations, nc3d.pop_linearise, nc3d.log_rates):
         assert kernel.signatures, kernel.py_func.__name__
+
+
+def test_warmup_covers_lambert_universal_the_stm_foster_many_and_the_path_filter():
+    # was: `visviva warmup` left out lambert(method="universal") (universal_many), the two-body
+    # STM of state_transition_matrix / propagate_covariance / collision_probability("3d")
+    # (two_body_stm), the Foster kernel over arrays (log_pc_many) and the screening filters'
+    # pair counts (count_filter_survivors): after it, their first calls still compiled
+    # (cold, 2 cores: log_pc_many 19 s, count_filter_survivors 20 s, two_body_stm 4.6 s)
+    from visviva.core import collision, lambert, orbit_path, stm
+
+    chosen = [(label, fn) for label, fn in warmup.TASKS
+              if label.startswith(("Lambert", "conjunctions: two-body", "conjunctions: catalogue"))]
+    assert len(chosen) == 3, sorted(dict(warmup.TASKS))
+    results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None, None, None]
+    for kernel in (lambert.izzo_many, lambert.universal_many, stm.two_body_stm,
+                   collision.log_pc_many, orbit_path.count_filter_survivors):
+        assert kernel.signatures, kernel.py_func.__name__
+
+
+def test_dense_output_is_compiled_inside_the_warmed_integrators():
+    # dense_coefficients (DOP853's dense output) is an inline kernel: it has no machine code of
+    # its own but is compiled into integrate_cowell and integrate_variational, which the Cowell
+    # and covariance tasks warm (a first call from Python would compile it alone, for nothing)
+    import inspect
+
+    from visviva.core import cowell, variational
+
+    assert cowell.dense_coefficients.targetoptions.get("forceinline")
+    for caller in (cowell.integrate_cowell, variational.integrate_variational):
+        assert "dense_coefficients(" in inspect.getsource(caller.py_func)
+    labels = [label for label, _ in warmup.TASKS]
+    assert "Cowell propagation" in labels
+    assert "covariance propagation and orbit fits (STM)" in labels
+
+
+@pytest.mark.slow
+def test_after_warmup_a_new_process_compiles_none_of_the_added_entry_points(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "VISVIVA_INTERPRET": "0"}
+    fill = "from visviva import warmup\nfor label, task in warmup.TASKS:\n" \
+           "    if label.startswith(('Lambert', 'conjunctions: two-body', " \
+           "'conjunctions: catalogue')):\n        task()\n"
+    subprocess.run([sys.executable, "-c", fill], env=env, check=True)
+    use = """
+import gc
+import numpy as np
+from astropy import units as u
+import visviva as vv
+from visviva.conjunctions import state_transition_matrix
+from visviva.conjunctions.screening import filter_statistics
+from visviva.conjunctions.sources import SgpSource
+from visviva.core import collision as kern
+from visviva.core._jit import _Kernel
+x = np.array([12.0, 150.0]); out = np.empty(2); st = np.empty(2, dtype=np.int64)
+kern.log_pc_many(x, x, np.array([120.0, 300.0]), np.array([40.0, 90.0]), np.array([3.0, 10.0]),
+                 kern.GAUSS_LO, kern.GAUSS_HI, 1e-13, out, st)
+vv.lambert([7100.0, 0, 0] * u.km, [0, 7900.0, 10.0] * u.km, 2800 * u.s, vv.EARTH,
+           method="universal")
+state_transition_matrix([7100.0, 0, 0] * u.km, [0, 7.4, 1.1] * u.km / u.s, 100 * u.s, vv.EARTH)
+cat = vv.Catalog([vv.Satellite.from_tle(
+    "1 25544U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9991",
+    "2 25544  51.6439 211.2001 0007417  17.6667  85.6398 15.50103472202482"),
+    vv.Satellite.from_tle(
+    "1 25545U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9992",
+    "2 25545  51.6439 211.2001 0007417  17.6667  86.1398 15.50103472202489")])
+t0 = cat[0].epoch.utc
+src = SgpSource(cat, float(t0.jd1), float(t0.jd2))
+filter_statistics(src, src, 7200.0, 50.0)
+compiled = [k.py_func.__name__ for k in gc.get_objects() if isinstance(k, _Kernel)
+            and sum(k.stats.cache_misses.values())]
+print(sorted(compiled))
+"""
+    out = subprocess.run([sys.executable, "-c", use], env=env, check=True, capture_output=True,
+                         text=True).stdout
+    assert out.strip() == "[]"

@@ -49,6 +49,7 @@ _PUBLIC = {
     "ChanAccuracyWarning": "visviva.errors",
     "Pc3dAccuracyWarning": "visviva.errors",
     "Pc3dWindowWarning": "visviva.errors",
+    "ImplausibleVelocityWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

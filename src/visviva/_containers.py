@@ -16,7 +16,7 @@ from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_num
 
 __all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
            "carry_marks", "carry_frame_mark", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
-           "canonical_arrays", "flat_elements"]
+           "canonical_arrays", "flat_elements", "warn_implausible_velocity"]
 
 
 #: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
@@ -174,6 +174,80 @@ def gm_positive(gm: np.ndarray) -> None:
             f"gm must be > 0 (the gravitational parameter of the central body); got {fmt_number(bad)} "
             "km3/s2. Pass e.g. gm=vv.EARTH.gm or gm=398600.4418 * u.km**3 / u.s**2."
         )
+
+
+#: a speed above both of these (km/s; times the escape speed) is taken for m/s read as km/s
+IMPLAUSIBLE_SPEED_KM_S = 100.0
+IMPLAUSIBLE_ESCAPE_FACTOR = 10.0
+_SPEED_COMPONENT_KM_S = IMPLAUSIBLE_SPEED_KM_S / math.sqrt(3.0)
+
+
+def warn_implausible_velocity(r_km, v_kms, gm_km3_s2, what: str = "the state",
+                              stacklevel: int = 3) -> bool:
+    """Warn once when a speed is far above the escape speed at its radius (m/s read as km/s?).
+
+    Parameters
+    ----------
+    r_km : ndarray, shape (..., 3)
+        Positions (km).
+    v_kms : ndarray, shape (..., 3)
+        Velocities (km/s), broadcasting against ``r_km``.
+    gm_km3_s2 : float or ndarray
+        Gravitational parameter (km3/s2), broadcasting against the leading shape.
+    what : str
+        What the states are, for the message.
+    stacklevel : int
+        Passed to :func:`warnings.warn` (3: the caller of the function that calls this one).
+
+    Returns
+    -------
+    bool
+        Whether a warning was given.
+
+    Notes
+    -----
+    A state is flagged when ``v > 100 km/s`` and ``v > 10 sqrt(2 gm / r)``: no bound orbit, and
+    no natural flyby of the Earth (< 73 km/s), comes near; a velocity in m/s taken as km/s is
+    1000 times its true value. A first numpy pass looks for a velocity component above
+    100/sqrt(3) km/s (without one, v < 100 km/s), so that ordinary states cost one
+    comparison. NaN and inf are left to the caller's own checks. The state is kept
+    (:class:`~visviva.errors.ImplausibleVelocityWarning`).
+    """
+    v = np.asarray(v_kms, dtype=np.float64)
+    # fast path, no overflow possible: v > 100 km/s needs a component above 100/sqrt(3) km/s
+    if not (np.abs(v) > _SPEED_COMPONENT_KM_S).any():
+        return False
+    with np.errstate(over="ignore", invalid="ignore"):
+        v2 = np.einsum("...i,...i->...", v, v)
+        r = np.asarray(r_km, dtype=np.float64)
+        rn = np.sqrt(np.einsum("...i,...i->...", r, r))
+        bad = (v2 > IMPLAUSIBLE_SPEED_KM_S**2) & (
+            v2 * rn > 2.0 * IMPLAUSIBLE_ESCAPE_FACTOR**2 * np.asarray(gm_km3_s2))
+    if not np.any(bad):
+        return False
+    import warnings
+
+    from .errors import ImplausibleVelocityWarning
+
+    gm = np.broadcast_to(np.asarray(gm_km3_s2, dtype=np.float64), bad.shape).ravel()
+    first = int(np.flatnonzero(bad.ravel())[0])
+    where = tuple(int(i) for i in np.unravel_index(first, bad.shape)) if bad.ndim else ()
+    # math.hypot does not overflow where v2 did
+    speed = math.hypot(*np.broadcast_to(v, bad.shape + (3,)).reshape(-1, 3)[first])
+    radius = math.hypot(*np.broadcast_to(r, bad.shape + (3,)).reshape(-1, 3)[first])
+    g = gm[first]
+    v_esc = math.sqrt(2.0 * g / radius)
+    count = int(np.count_nonzero(bad))
+    more = f" ({count} states in all)" if count > 1 else ""
+    warnings.warn(
+        f"{what}{' at index ' + str(where) if where else ''}: velocity {speed:.6g} km/s is far "
+        f"above escape speed ({v_esc:.4g} km/s) at this radius ({radius:.6g} km){more}; were "
+        "m/s given as km/s? Velocities are read in km/s when plain, and "
+        "[7500, ...] * u.km / u.s means 7500 km/s; write [7.5, ...] * u.km / u.s or "
+        "[7500, ...] * u.m / u.s. (Kept as given: a fast hyperbolic state is legitimate.)",
+        ImplausibleVelocityWarning, stacklevel=stacklevel,
+    )
+    return True
 
 
 def validate_epoch(epoch, shape=None, what="the container"):

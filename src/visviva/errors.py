@@ -36,6 +36,7 @@ __all__ = [
     "ChanAccuracyWarning",
     "Pc3dAccuracyWarning",
     "Pc3dWindowWarning",
+    "ImplausibleVelocityWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -264,6 +265,16 @@ class Pc3dWindowWarning(UserWarning):
     segment, so the encounter does not end there (orbits flown in formation, where the rate
     barely changes over an orbit) and the expected number of collisions depends on the time
     span. The message gives the window used and the rate there; pass ``window=(t_a, t_b)``.
+    """
+
+
+class ImplausibleVelocityWarning(UserWarning):
+    """A state's speed is far above the escape speed at its radius: more than 100 km/s and more
+    than ten times the escape speed sqrt(2 mu / r) (Earth: > ~110 km/s in low orbit, where any bound
+    orbit has v < 11.2 km/s). The usual cause is velocities in m/s given where km/s are read
+    (plain numbers, or ``[7500, ...] * u.km / u.s``), which makes a LEO state look hyperbolic
+    with e ~ 1e6. The state is kept (a hyperbolic flyby is legitimate); the message names the
+    first such state. Check the velocity's unit.
     """
 
 

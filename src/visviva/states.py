@@ -23,6 +23,7 @@ from ._containers import (
     normalise_key,
     refuse_pending,
     validate_epoch,
+    warn_implausible_velocity,
 )
 from .errors import (
     InvalidStateError,
@@ -83,6 +84,12 @@ class StateVectors(TwoBodyContainer):
     InvalidStateError
         A zero position vector (the body sits on the attractor).
 
+    Warns
+    -----
+    ImplausibleVelocityWarning
+        A speed above 100 km/s and ten times the escape speed at its radius (velocities in m/s
+        given as km/s?); the states are kept.
+
     Notes
     -----
     The arrays are stored in canonical units (km, km/s, km3/s2) as float64; the Quantities and
@@ -130,6 +137,7 @@ class StateVectors(TwoBodyContainer):
                 "the body would sit on the attractor, where the two-body problem is singular. "
                 "Give a non-zero position relative to the central body."
             )
+        warn_implausible_velocity(r_km, v_kms, gm_arr, "StateVectors")
         self._init_canonical(r_km, v_kms, gm_arr, epoch, shape)
 
     def _init_canonical(self, r_km, v_kms, gm_km3_s2, epoch, shape):

@@ -55,7 +55,10 @@ def _lambert():
 
     import visviva as vv
 
-    vv.lambert([7000.0, 0.0, 0.0] * u.km, [0.0, 8000.0, 0.0] * u.km, 3000 * u.s, vv.EARTH)
+    # one kernel per solver (LAMBERT_METHODS): Izzo's and the universal-variable one
+    for method in ("izzo", "universal"):
+        vv.lambert([7000.0, 0.0, 0.0] * u.km, [0.0, 8000.0, 0.0] * u.km, 3000 * u.s, vv.EARTH,
+                   method=method)
 
 
 def _cowell():
@@ -150,6 +153,24 @@ def _conjunctions():
     collision_probability(*args, method="pc3d_hall")  # the default window: the segment scan too
 
 
+def _conjunction_kernels():
+    # the two-body STM of state_transition_matrix / propagate_covariance (conjunctions) and of
+    # collision_probability(method="3d"), and the Foster kernel over arrays (visviva.core)
+    import numpy as np
+    from astropy import units as u
+
+    import visviva as vv
+    from visviva.conjunctions import state_transition_matrix
+    from visviva.core import collision as kern
+
+    state_transition_matrix([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s,
+                            60.0 * u.s, vv.EARTH)
+    x = np.array([10.0, 200.0])
+    out, status = np.empty(2), np.empty(2, dtype=np.int64)
+    kern.log_pc_many(x, x, np.array([100.0, 400.0]), np.array([50.0, 80.0]),
+                     np.array([5.0, 20.0]), kern.GAUSS_LO, kern.GAUSS_HI, 1e-13, out, status)
+
+
 def _passes():
     # the pass search (secular node grid, pass scan, elevation rates, look angles, the Earth's
     # shadow), what `visviva passes` and vv.find_passes compile on first use (about 25 s cold)
@@ -177,6 +198,13 @@ def _screening():
         "1 25545U 98067A   19343.69339541  .00001764  00000-0  38792-4 0  9992",
         "2 25545  51.6439 211.2001 0007417  17.6667  86.1398 15.50103472202489")])
     vv.screen_conjunctions(sats, None, sats[0].epoch, sats[0].epoch + 1 * u.h, 100 * u.km)
+    # the filters' pair counts (apogee/perigee, orbit path) of the screening diagnostics
+    from visviva.conjunctions.screening import filter_statistics
+    from visviva.conjunctions.sources import SgpSource
+
+    t0 = sats[0].epoch.utc
+    src = SgpSource(sats, float(t0.jd1), float(t0.jd2))
+    filter_statistics(src, src, 3600.0, 100.0)
 
 
 #: (label, function): what ``visviva warmup`` runs, in order.
@@ -195,6 +223,7 @@ TASKS = (
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
     ("satellites: SGP4 and frames", _satellite),
     ("conjunctions: Foster and 3D-Nc (pc3d_hall)", _conjunctions),
+    ("conjunctions: two-body STM, Foster over arrays", _conjunction_kernels),
     ("ground stations: look angles and pass search", _passes),
     ("conjunctions: catalogue screening", _screening),
 )

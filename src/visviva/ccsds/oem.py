@@ -192,6 +192,12 @@ class OEMSegment(FrameCenterMetadata):
                     for e, m in zip(epochs, c, strict=True)]
         seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, covs, mission_epoch=mission_epoch)
         seg.check()
+        body = center_body(str(center))
+        if body is not None:
+            from .._containers import warn_implausible_velocity
+
+            warn_implausible_velocity(seg.r_km, seg.v_km_s, body.gm.to_value("km3 / s2"),
+                                      "OEMSegment.from_states")
         return seg
 
     # ---- metadata (frame, visviva_frame, center: FrameCenterMetadata) --------------------

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._containers import warn_implausible_velocity
 from .._covariance import as_covariance, block_rotation
 from .._units import to_array, to_vector
 from ..core.local_frames import RTN, local_axes
@@ -156,6 +157,7 @@ def state_transition_matrix(r, v, dt, gm):
     gm_v = float(to_array(gm, "gm", "gm", allow_plain=True))
     if not gm_v > 0:
         raise InvalidInputError(f"gm must be > 0, got {gm_v}.")
+    warn_implausible_velocity(r0, v0, gm_v, "state_transition_matrix")
     phi = np.empty((6, 6))
     r1, v1, status = two_body_stm(r0, v0, gm_v, dt_s, phi)
     raise_for_status(status, "two-body STM")

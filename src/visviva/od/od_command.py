@@ -272,7 +272,7 @@ def _estimate(args, s) -> dict:
                for k in dict.fromkeys(obs.kinds) if np.any((obs.kinds == k)[:, None] & use)}
     last = {k: v[-1] for k, v in res.parameters.items()}
     return {"method": f"{args.filter.upper()}{' + RTS smoother' if args.smooth else ''}"
-                      + _noise_text(s),
+                      + res._noise_text(),
             "state": state, "covariance": covariance, "fit": None, "residuals": z,
             "normalized": zn, "rejected": res.rejected,
             "rms": float(np.sqrt(np.mean(zn[use] ** 2))), "rms_by_kind": by_kind,
@@ -296,20 +296,6 @@ def _iso(t) -> str:
     t = t.utc.copy()
     t.precision = 3
     return t.isot
-
-
-def _noise_text(s) -> str:
-    """The filter's process noise and Gauss-Markov coefficients, for the method line."""
-    from astropy import units as u
-
-    q, frame = s["process_noise"]
-    out = ""
-    if q is not None:
-        out += f", process noise {':'.join(f'{v:g}' for v in dict.fromkeys(q))} km^2/s^3 {frame}"
-    for name, (sd, tau) in (s["parameter_noise"] or {}).items():
-        sd = f"{u.Quantity(sd).value:g}{' m^2/kg' if name == 'drag' else ''}"
-        out += f", {name} Gauss-Markov sigma {sd} tau {tau.to_value(u.s):g} s"
-    return out
 
 
 def _summary(s, res) -> str:

@@ -80,6 +80,16 @@ class FilteredOrbit:
         The filtered covariances of state and coefficients (``covariances`` without them).
     perturbations : list of Perturbation
         The dynamics, the coefficients at their last estimate.
+    process_noise : ndarray (3,) or None
+        The white-noise acceleration density q used, km^2/s^3 per axis of
+        ``process_noise_frame`` (None: none).
+    process_noise_frame : str or None
+        Its axes ("RTN", "GCRS", "TNW", "VNB"; None without process noise).
+    parameter_noise : dict
+        The Gauss-Markov noise used on each estimated coefficient that had one,
+        {name: (sigma, tau)}: the steady-state 1-sigma (B as a Quantity in m^2/kg, Cr as a
+        number) and the correlation time (Quantity, s); empty when every coefficient was a
+        constant (no ``parameter_noise=``).
     """
 
     def __init__(self, **kw):
@@ -91,8 +101,23 @@ class FilteredOrbit:
             f"FilteredOrbit({len(self.times)} epochs, {len(self.rejected)} observations, "
             f"{int(self.rejected.sum())} rejected, final sigma_r={sig:.3g} m"
             f"{', smoothed' if self.smoothed_states is not None else ''}"
-            f"{', unscented' if self.__dict__.get('method') == 'ukf' else ''})"
+            f"{', unscented' if self.__dict__.get('method') == 'ukf' else ''}"
+            f"{self._noise_text()})"
         )
+
+    def _noise_text(self) -> str:
+        """The process noise and the coefficients' Gauss-Markov noise, for the repr."""
+        from astropy import units as u
+
+        out = ""
+        q = self.__dict__.get("process_noise")
+        if q is not None:
+            out += (f", process noise {':'.join(f'{v:g}' for v in dict.fromkeys(np.ravel(q)))} "
+                    f"km^2/s^3 {self.__dict__.get('process_noise_frame')}")
+        for name, (sd, tau) in (self.__dict__.get("parameter_noise") or {}).items():
+            sd = f"{u.Quantity(sd).value:g}{' m^2/kg' if name == 'drag' else ''}"
+            out += f", {name} Gauss-Markov sigma {sd} tau {tau.to_value(u.s):g} s"
+        return out
 
 
 def _propagate(dyn, x, t_from, t_to):
@@ -307,7 +332,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     (L L^T = P, lambda = alpha^2 (n + kappa) - n), carried through the dynamics (one compiled
     call for all 13 per step) and the measurement model; P^- is their weighted covariance plus
     the same SNC Q on the same sub-steps, S = P_zz + R, K = P_xz S^-1,
-    P^+ = P^- - K S K^T, azimuth and right ascension averaged as angles. Its smoother is
+    P^+ = P^- - K S K^T computed in the Joseph-equivalent form
+    sum_i W_i^c (dX_i - K dZ_i)(dX_i - K dZ_i)^T + K R K^T (positive semi-definite by
+    construction), azimuth and right ascension averaged as angles. Its smoother is
     Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
     cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
     problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
@@ -401,7 +428,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     times = epoch + epochs * u.s
     last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:6].copy(), np.float64(gm),
                                         times[-1])  # fmt: skip
-    extra = _coefficient_fields(est, xs, Ps, dyn.perturbations, sm_x, sm_P)
+    extra = _coefficient_fields(est, xs, Ps, dyn.perturbations, sm_x, sm_P, gm_noise)
     full = Ps
     xs, Ps, xp, Pp = xs[:, :6], Ps[:, :6, :6], xp[:, :6], Pp[:, :6, :6]
     if sm_x is not None:
@@ -576,9 +603,10 @@ def _augmented(P, C):
     return out
 
 
-def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):
+def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None, gauss=None):
     """The FilteredOrbit fields of the estimated coefficients (empty without), smoothed too
-    with the smoother's (``sm_x``, ``sm_P``)."""
+    with the smoother's (``sm_x``, ``sm_P``), and the Gauss-Markov noise ``gauss``
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) of those that had one."""
     from astropy import units as u
 
     from ..satellites.force_parameters import estimated_perturbations
@@ -590,6 +618,9 @@ def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):
     for j, c in enumerate(est):
         out["parameters"][c.name] = quantity(c.name, xs[:, 6 + j].copy())
         out["parameter_sigma"][c.name] = quantity(c.name, np.sqrt(Ps[:, 6 + j, 6 + j]))
+    out["parameter_noise"] = {} if gauss is None else {
+        c.name: (quantity(c.name, float(gauss.sigma[j])), float(gauss.tau_s[j]) * u.s)
+        for j, c in enumerate(est) if np.isfinite(gauss.tau_s[j])}
     out["perturbations"] = estimated_perturbations(perturbations, est, xs[-1, 6:])
     out["smoothed_parameters"] = out["smoothed_parameter_sigma"] = None
     if sm_x is not None:
@@ -598,6 +629,11 @@ def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None):
         out["smoothed_parameter_sigma"] = {
             c.name: quantity(c.name, np.sqrt(sm_P[:, 6 + j, 6 + j])) for j, c in enumerate(est)}
     return out
+
+
+#: how far (relative) a smoothed variance may exceed the filtered one (round-off) before the
+#: smoother is refused
+SMOOTHED_VARIANCE_RTOL = 1e-3
 
 
 def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
@@ -617,12 +653,17 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
         Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
         sP[k] = 0.5 * (Pk + Pk.T)
+    # the smoothed variances cannot exceed the filtered ones (P^s = P^+ + C (P^s - P^-) C^T
+    # with P^s - P^- <= 0): far above them, the gain came from a near-singular P^-
+    var_s = np.diagonal(sP, axis1=1, axis2=2)
+    var_f = np.diagonal(Ps, axis1=1, axis2=2)
     if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
-            and np.all(np.diagonal(sP, axis1=1, axis2=2)[:, 6:] >= 0)):  # coefficients' sigma
+            and np.all(var_s[:, 6:] >= 0)  # coefficients' sigma
+            and np.all(var_s <= var_f * (1.0 + SMOOTHED_VARIANCE_RTOL))):
         raise ConvergenceError(
-            "the smoother's estimate is not finite or has negative variances: a predicted "
-            "covariance is singular (e.g. a parameter_noise sigma of 0 decays a coefficient's "
-            "variance to 0); give sigma > 0, or smoother=False.")
+            "the smoother's estimate is not finite, has negative variances or variances above "
+            "the filter's: a predicted covariance is singular (e.g. a parameter_noise sigma of 0 "
+            "decays a coefficient's variance to 0); give sigma > 0, or smoother=False.")
     return sx, sP
 
 

@@ -22,8 +22,11 @@ overconfident.
   epoch's rows (:func:`visviva.od.light_time.model`, one call for all 13 x rows); azimuth and
   right ascension are averaged as angles (each point's value minus the central point's,
   wrapped into (-pi, pi], then averaged and added back), so that points on both sides of 0 /
-  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z,
-  P+ = P- - K S K^T. Editing, NIS and divergence are the extended filter's rules on this S.
+  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z, and
+  P+ = P- - K S K^T in its Joseph-equivalent form sum_i W_i^c (dX_i - K dZ_i)(dX_i -
+  K dZ_i)^T + K R K^T (:func:`_joseph_update`), positive semi-definite by construction where
+  the difference goes negative after a precise measurement. Editing, NIS and divergence are
+  the extended filter's rules on this S.
 * Burns (``maneuvers=``): every burn start and end inside an interval cuts it (fresh sigma
   points on each piece); a piece flies the force model of its segment
   (:meth:`visviva.satellites.burn_segments.Schedule.segment_model`: a finite burn's thrust,
@@ -256,11 +259,71 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
     if use.any():
         Su = S[np.ix_(use, use)]
         K = np.linalg.solve(Su, Pxz[:, use].T).T  # P_xz S^-1 (S symmetric)
+        P = _joseph_update(X - x, dZ[:, use], wc, K, Rd[use])
         x = x + K @ zc[use]
-        P = P - K @ Su @ K.T
-        P = 0.5 * (P + P.T)
+        screen.finite(k, x, P)
+        _require_psd(P, screen, k)
     screen.finite(k, x, P)
     return x, P
+
+
+def _joseph_update(dX, dZ, wc, K, R):
+    """The updated covariance in the Joseph-equivalent form of the unscented filter.
+
+    Parameters
+    ----------
+    dX : ndarray (N, n)
+        The sigma points' deviations from their mean (state units).
+    dZ : ndarray (N, m)
+        Their predicted measurements' deviations from the mean prediction (the components in
+        use).
+    wc : ndarray (N,)
+        Covariance weights.
+    K : ndarray (n, m)
+        The gain P_xz S^-1.
+    R : ndarray (m,)
+        The measurement variances.
+
+    Returns
+    -------
+    ndarray (n, n)
+        P+ = sum_i W_i^c (dX_i - K dZ_i)(dX_i - K dZ_i)^T + K R K^T, symmetric.
+
+    Notes
+    -----
+    This is cov(x - K z) + K R K^T, the Joseph form (I - K H) P (I - K H)^T + K R K^T with
+    the sigma points in place of H (exact for any gain K); with K = P_xz S^-1 it equals the
+    textbook P - K S K^T (expand: P - K P_xz^T - P_xz K^T + K (P_zz + R) K^T, and
+    K S K^T = K P_xz^T). Unlike that difference, which cancels to round-off where a precise
+    measurement (R << H P H^T) leaves a small posterior and then goes negative (10 um
+    positions from a 1 km prior gave negative position variances), it is a sum of weighted
+    outer products and K R K^T: positive semi-definite by construction when every W_i^c >= 0
+    (the default (1, 2, 0) weights; Tapley, Schutz & Born 2004, eq. 4.7.19 for the extended
+    filter's form).
+    """
+    E = dX - dZ @ K.T
+    P = (wc * E.T) @ E + (K * R) @ K.T
+    return 0.5 * (P + P.T)
+
+
+def _require_psd(P, screen, k):
+    """Refuse an updated covariance that is not positive semi-definite beyond round-off
+    (possible only with a negative covariance weight W_0^c: ``sigma_points`` alpha < 1)."""
+    diag = np.diag(P)
+    live = diag > 0.0  # a coefficient with sigma 0 has a zero row and column
+    w = float(np.min(diag)) if np.any(diag < 0.0) else 0.0
+    if w == 0.0 and np.any(live):
+        d = np.sqrt(diag[live])
+        w = min(0.0, float(np.linalg.eigvalsh(P[np.ix_(live, live)] / np.outer(d, d))[0]))
+        if w >= -1e-9:  # the correlation matrix (unit diagonal) to round-off
+            return
+    if w == 0.0:
+        return
+    raise screen.diverged(
+        k, f"the updated covariance is not positive semi-definite (eigenvalue {w:.3g} of the "
+        "correlation matrix, or a negative variance); with a negative centre weight "
+        "(sigma_points alpha < 1) the unscented update is not positive by construction: use "
+        "alpha = 1 (the default)")
 
 
 def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters,

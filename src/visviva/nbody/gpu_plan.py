@@ -86,10 +86,11 @@ def plan_many(fstate, istate, target: float):
     restart = ~((istate[:, _nc.I_INT_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
                 & (fstate[:, _nc.F_DT_REF] == adt))
     istate[:, _nc.I_FRESH] = 0
-    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
-    fstate[restart, _nc.F_DT_REF] = adt[restart]
-    istate[restart, _nc.I_K] = 0
-    istate[restart, _nc.I_INT_VALID] = 1
+    if restart.any():
+        fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
+        fstate[restart, _nc.F_DT_REF] = adt[restart]
+        istate[restart, _nc.I_K] = 0
+        istate[restart, _nc.I_INT_VALID] = 1
     n, t_grid = count_steps(target, fstate[:, _nc.F_T0], istate[:, _nc.I_K], adt, direction,
                             exact)
     rem = target - t_grid
@@ -102,7 +103,13 @@ def count_steps(target: float, t0, k0, adt, direction, exact):
     the stopping rule of the CPU kernels' fixed-step loops (the grid point reached is at or
     past the target, or, with ``exact``, less than a step before it); element by element over
     members. Returns the steps ``n`` (int64) and the grid time reached ``t0 + (k0 +- n) |dt|``.
+
+    Members on one grid (the same ``t0, k0, |dt|``, direction and ``exact``: an ensemble's
+    usual state) are counted once, with the same expressions, and the answer repeated.
     """
+    if len(t0) > 1 and all(bool(np.all(a == a[0])) for a in (t0, k0, adt, direction, exact)):
+        n, t_grid = count_steps(target, t0[:1], k0[:1], adt[:1], direction[:1], exact[:1])
+        return np.full(len(t0), n[0]), np.full(len(t0), t_grid[0])
     sign = np.where(direction > 0.0, 1, -1)
 
     def stops(j):

@@ -239,3 +239,18 @@ def test_gpu_packs_of_one_size_and_ragged_give_the_cpu_ensembles_bits(tmp_path):
     for integrator in ("leapfrog", "whfast"):
         for layout in ("same", "ragged"):
             assert out[f"{integrator}_{layout}_bits"] == "True", (integrator, layout)
+
+
+def test_put_writes_the_chosen_rows_of_a_strided_column_only():
+    from visviva.nbody.gpu_plan import put
+
+    fstate = np.zeros((4, nc.N_FSTATE))
+    h = np.array([0.1, 0.2, 0.3, 0.4])
+    put(fstate[:, nc.F_DT_LAST], np.array([True, False, True, False]), h)
+    put(fstate[:, nc.F_T], np.ones(4, dtype=bool), h)
+    put(fstate[:, nc.F_T0], np.zeros(4, dtype=bool), h)
+    put(fstate[:, nc.F_DT], np.array([False, True, False, False]), 7.0)
+    assert fstate[:, nc.F_DT_LAST].tolist() == [0.1, 0.0, 0.3, 0.0]
+    assert fstate[:, nc.F_T].tolist() == h.tolist() and not fstate[:, nc.F_T0].any()
+    assert fstate[:, nc.F_DT].tolist() == [0.0, 7.0, 0.0, 0.0]
+    assert np.count_nonzero(fstate) == 7  # no other column touched

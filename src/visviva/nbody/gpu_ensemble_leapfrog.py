@@ -27,7 +27,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from .gpu_forces import kernel_for, launch
-from .gpu_plan import plan_many
+from .gpu_plan import plan_many, put
 
 __all__ = ["run", "resident_kernel"]
 
@@ -71,7 +71,7 @@ def run(pack, target: float, t) -> list:
     # the clock and counters as the CPU kernel leaves them (nbody_leapfrog._leapfrog)
     ist[:, _nc.I_K] += np.where(h > 0.0, done, -done)
     ist[:, _nc.I_STEPS] += done
-    fs[done != 0, _nc.F_DT_LAST] = h[done != 0]
+    put(fs[:, _nc.F_DT_LAST], done != 0, h)
     stopped = status != _st.OK
     if stopped.any():
         at_event = fs[:, _nc.F_T0] + ist[:, _nc.I_K] * np.abs(fs[:, _nc.F_DT])
@@ -83,7 +83,7 @@ def run(pack, target: float, t) -> list:
     if bad.any():
         status[bad] = _st.NON_FINITE  # overflow or a singular force, as the CPU kernel says
         ist[bad, _nc.I_INT_VALID] = 0
-    ist[status == _st.OK, _nc.I_NOUT] = 1
+    put(ist[:, _nc.I_NOUT], status == _st.OK, 1)
     return pack.finish(status, t)
 
 

@@ -32,7 +32,7 @@ from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
 from ..core import status as _st
 from .gpu_forces import kernel_for, launch
-from .gpu_plan import count_steps
+from .gpu_plan import count_steps, put
 
 __all__ = ["plan", "account", "run", "run_general", "general_member", "refuse_general",
            "DEBUG_GENERAL"]
@@ -103,9 +103,10 @@ def plan(fstate, istate, target: float):
     exact = istate[:, _nc.I_EXACT_FINISH] != 0
     direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
     h = np.copysign(adt, direction)
-    valid = ((istate[:, _nc.I_WH_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
+    fresh = istate[:, _nc.I_FRESH] != 0
+    valid = ((istate[:, _nc.I_WH_VALID] != 0) & ~fresh
              & (fstate[:, _nc.F_WH_H] == h) & (fstate[:, _nc.F_DT_REF] == adt))
-    istate[:, _nc.I_FRESH] = 0
+    put(istate[:, _nc.I_FRESH], fresh, 0)
     skip = ~valid & (fstate[:, _nc.F_T] == target)
     restart = ~valid & ~skip
     if restart.any():
@@ -178,7 +179,7 @@ def account(fstate, istate, n, h, t_final) -> None:
     counter, last step, clock and output count (``n, h, t_final`` from :func:`plan`)."""
     istate[:, _nc.I_K] += np.where(h > 0.0, n, -n)
     istate[:, _nc.I_STEPS] += n
-    fstate[n != 0, _nc.F_DT_LAST] = h[n != 0]
+    put(fstate[:, _nc.F_DT_LAST], n != 0, h)
     fstate[:, _nc.F_T] = t_final
     istate[:, _nc.I_NOUT] = 1
 

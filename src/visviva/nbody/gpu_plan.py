@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core import nbody_common as _nc
 
-__all__ = ["plan", "plan_many", "count_steps"]
+__all__ = ["plan", "plan_many", "count_steps", "put"]
 
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -83,9 +83,9 @@ def plan_many(fstate, istate, target: float):
     exact = istate[:, _nc.I_EXACT_FINISH] != 0
     direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
     h = np.copysign(adt, direction)
-    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
-                & (fstate[:, _nc.F_DT_REF] == adt))
-    istate[:, _nc.I_FRESH] = 0
+    fresh = istate[:, _nc.I_FRESH] != 0
+    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & ~fresh & (fstate[:, _nc.F_DT_REF] == adt))
+    put(istate[:, _nc.I_FRESH], fresh, 0)
     if restart.any():
         fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
         fstate[restart, _nc.F_DT_REF] = adt[restart]
@@ -96,6 +96,16 @@ def plan_many(fstate, istate, target: float):
     rem = target - t_grid
     rem = np.where(exact & (rem * direction > 1e-9 * adt), rem, 0.0)
     return n, h, rem, np.where(exact, target, t_grid), restart
+
+
+def put(column, rows, values) -> None:
+    """``column[rows] = values[rows]`` (``values`` an array over the members, or one number),
+    written as a whole column when every row is chosen and skipped when none is (a column of
+    a pack's ``fstate``/``istate`` is a strided view: each pass over it costs)."""
+    if rows.all():
+        column[:] = values
+    elif rows.any():
+        column[rows] = values[rows] if np.ndim(values) else values
 
 
 def count_steps(target: float, t0, k0, adt, direction, exact):

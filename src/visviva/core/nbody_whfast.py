@@ -509,12 +509,13 @@ PLAIN = None
 ANY_CASE = True
 
 
-def is_plain(istate, fstate) -> bool:
+def is_plain(istate, fstate):
     """True when a run may use :func:`whfast_run_plain` (plain Python, not compiled): Jacobi
-    coordinates, no corrector, and none of collisions, encounters or an escape radius."""
-    return (int(istate[I_WH_COORDINATES]) == JACOBI and int(istate[I_CORRECTOR]) == 0
-            and int(istate[I_COLLISIONS]) == 0 and fstate[F_ENCOUNTER] <= 0.0
-            and fstate[F_EXIT] <= 0.0)
+    coordinates, no corrector, and none of collisions, encounters or an escape radius. On an
+    ensemble's stacked rows (2-D ``istate``/``fstate``) an array: the answer for each row."""
+    return ((istate[..., I_WH_COORDINATES] == JACOBI) & (istate[..., I_CORRECTOR] == 0)
+            & (istate[..., I_COLLISIONS] == 0) & (fstate[..., F_ENCOUNTER] <= 0.0)
+            & (fstate[..., F_EXIT] <= 0.0))
 
 
 @kernel

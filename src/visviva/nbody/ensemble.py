@@ -223,7 +223,8 @@ class Ensemble:
                 f"Ensemble.integrate takes one time for every member; got shape {np.shape(t)}. "
                 "For snapshots, call it once per output time."
             )
-        _check_one_time_unit(self._members, t)
+        if self._pack is None:  # a pack holds members of one set of units (Pack.build)
+            _check_one_time_unit(self._members, t)
         if client is not None:
             from .ensemble_dask import integrate_on_dask
 

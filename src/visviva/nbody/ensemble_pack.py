@@ -18,6 +18,15 @@ softening, a status other than OK, additional forces) goes the per-member way, w
 raises the exceptions; the ensemble then drops the pack and builds it again at its next call.
 
 The members are the ensemble's own (users get copies), so nothing else changes their arrays.
+
+What depends on the layout alone (the particle and massive-particle offsets, ``n_buf``) is fixed
+for a pack's life: a call that may change a member's size or arrays (a merger, a member
+finished alone) marks the pack :attr:`~Pack.stale` and the ensemble builds a new one. So a pack
+derives the indices of its internal slots once (:meth:`Pack.read_slot`), and when every member
+has the same number of particles (:attr:`Pack.same_n`, the usual ensemble) reads and writes its
+arrays as (members, N, ...) views instead of gathering them by index: the same numbers, without
+the per-call index arithmetic. Values (positions, masses, settings in ``fstate``) are never
+cached: every call reads them afresh.
 """
 
 from __future__ import annotations
@@ -29,6 +38,10 @@ from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
 
 __all__ = ["Pack", "ensemble_kernel", "finish_member"]
+
+#: Members of up to this many particles are checked for shared coordinates pair by pair
+#: (:meth:`Pack._maybe_coincident`), larger ones by sorting each member's row.
+_PAIRWISE_MAX = 8
 
 
 def ensemble_kernel():
@@ -70,6 +83,9 @@ class Pack:
         self.n_buf = n_buf
         self.stale = False
         n = np.array([len(st["m"]) for st in states], dtype=np.int64)
+        #: the members' common number of particles, or 0 when they differ (ragged)
+        self.same_n = int(n[0]) if bool(np.all(n == n[0])) else 0
+        self._slot_at: dict = {}  # slot -> its indices into buf (ragged packs; read_slot)
         self.poff = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
         self.member_of = np.repeat(np.arange(len(members)), n)
         self.x = np.concatenate([st["x"] for st in states])
@@ -109,6 +125,64 @@ class Pack:
         n = np.diff(self.poff)[self.member_of]
         base = 3 * self.n_buf * lo + 3 * s * n + 3 * (np.arange(len(self.x)) - lo)
         return base[:, None] + np.arange(3)
+
+    def _slots(self) -> np.ndarray | None:
+        """``buf`` as (members, n_buf, N, 3), a view, when every member has N particles."""
+        if not self.same_n:
+            return None
+        return self.buf.reshape(len(self.members), self.n_buf, self.same_n, 3)
+
+    def by_member(self, packed: np.ndarray) -> np.ndarray:
+        """A view of ``packed`` (one row per particle) as (members, N, ...), for a pack whose
+        members all have N particles (:attr:`same_n`)."""
+        return packed.reshape((len(self.members), self.same_n) + packed.shape[1:])
+
+    def read_slot(self, s: int) -> np.ndarray:
+        """Slot ``s`` of every particle's internal arrays, a new contiguous (P, 3) array (the
+        rows of :meth:`slot`, read as a strided view when the members are all of one size)."""
+        slots = self._slots()
+        if slots is not None:
+            return np.ascontiguousarray(slots[:, s]).reshape(len(self.x), 3)
+        if s not in self._slot_at:
+            self._slot_at[s] = self.slot(s)
+        return self.buf[self._slot_at[s]]
+
+    def write_slot(self, s: int, values: np.ndarray, members=None) -> None:
+        """Set slot ``s`` of every particle to ``values`` (P, 3), or, with ``members`` (a
+        boolean mask over the members), of those members' particles only."""
+        slots = self._slots()
+        if slots is not None:
+            rows = self.by_member(values)
+            if members is None:
+                slots[:, s] = rows
+            else:
+                slots[members, s] = rows[members]
+            return
+        if s not in self._slot_at:
+            self._slot_at[s] = self.slot(s)
+        at = self._slot_at[s]
+        if members is None:
+            self.buf[at] = values
+        else:
+            rows = members[self.member_of]
+            self.buf[at[rows]] = values[rows]
+
+    def per_particle(self, column: np.ndarray) -> np.ndarray:
+        """A per-member ``column`` (M,) repeated for each member's particles, (P,)."""
+        if self.same_n:
+            return np.repeat(column, self.same_n)
+        return column[self.member_of]
+
+    def all_finite(self) -> np.ndarray:
+        """Per member: True when its positions and velocities are all finite."""
+        # a finite sum means every term is finite (an infinity or NaN anywhere makes it inf or
+        # NaN); only when it is not (or it overflowed) is each member looked at
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = np.add.reduce(self.x, axis=None) + np.add.reduce(self.v, axis=None)
+        if np.isfinite(total):
+            return np.ones(len(self.members), dtype=bool)
+        finite = np.isfinite(self.x).all(axis=1) & np.isfinite(self.v).all(axis=1)
+        return np.logical_and.reduceat(finite, self.poff[:-1])
 
     def to_device(self, names) -> dict:
         """The packed arrays ``names`` (``"x"``, ``"fstate"``, ...) copied to the GPU, by name
@@ -157,9 +231,20 @@ class Pack:
     def _maybe_coincident(self) -> bool:
         """True when two particles of one unsoftened member share their first coordinate (the
         per-member check then decides: :func:`visviva.nbody.events.check_not_coincident`)."""
-        hard = self.fstate[:, _nc.F_SOFT2][self.member_of] <= 0.0
-        if not hard.any():
+        hard_member = self.fstate[:, _nc.F_SOFT2] <= 0.0
+        if not hard_member.any():
             return False
+        if self.same_n:  # every pair of each member's particles compared, or its sorted row
+            x0 = self.by_member(self.x)[:, :, 0]
+            if not hard_member.all():
+                x0 = x0[hard_member]
+            N = self.same_n
+            if N <= _PAIRWISE_MAX:
+                return any(bool(np.any(x0[:, i] == x0[:, j]))
+                           for i in range(N) for j in range(i + 1, N))
+            row = np.sort(x0, axis=1)
+            return bool(np.any(row[:, 1:] == row[:, :-1]))
+        hard = hard_member[self.member_of]
         owner, x0 = self.member_of[hard], self.x[hard, 0]
         order = np.lexsort((x0, owner))
         owner, x0 = owner[order], x0[order]
@@ -198,8 +283,7 @@ class Pack:
     def finish(self, status: np.ndarray, t) -> list:
         """After a packed call: members with status OK and finite numbers are done; the others
         are finished (or raise) one by one as a lone run would."""
-        finite = np.isfinite(self.x).all(axis=1) & np.isfinite(self.v).all(axis=1)
-        good = np.logical_and.reduceat(finite, self.poff[:-1]) & (status == _st.OK)
+        good = self.all_finite() & (status == _st.OK)
         errors: list = []
         for k in np.flatnonzero(~good).tolist():
             self.stale |= finish_member(self.members[k], int(status[k]), t, errors, k)

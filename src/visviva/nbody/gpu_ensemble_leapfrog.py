@@ -27,7 +27,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from .gpu_forces import kernel_for, launch
-from .gpu_plan import plan_many
+from .gpu_plan import plan_many, put
 
 __all__ = ["run", "resident_kernel"]
 
@@ -46,41 +46,44 @@ def run(pack, target: float, t) -> list:
 
     fs, ist = pack.fstate, pack.istate
     n, h, rem, t_final, restart = plan_many(fs, ist, target)
-    xi_at, vi_at = pack.slot(_XI), pack.slot(_VI)
-    fresh = restart[pack.member_of]
-    pack.buf[xi_at[fresh]] = pack.x[fresh]
-    pack.buf[vi_at[fresh]] = pack.v[fresh]
+    if restart.any():
+        pack.write_slot(_XI, pack.x, restart)
+        pack.write_slot(_VI, pack.v, restart)
     M = len(pack.members)
     d = {name: cuda.to_device(np.ascontiguousarray(a)) for name, a in (
-        ("xi", pack.buf[xi_at]), ("vi", pack.buf[vi_at]), ("x", pack.x), ("v", pack.v))}
+        ("xi", pack.read_slot(_XI)), ("vi", pack.read_slot(_VI)), ("x", pack.x),
+        ("v", pack.v))}
     resident = resident_kernel(pack)
     if resident is not None:  # gravity only, no checks: every step taken, nothing stops
         resident[K.blocks(M), K.THREADS](
             d["xi"], d["vi"], d["x"], d["v"], cuda.to_device(pack.m),
-            cuda.to_device(fs[:, _nc.F_G][pack.member_of] * pack.m),
+            cuda.to_device(pack.per_particle(fs[:, _nc.F_G]) * pack.m),
             cuda.to_device(pack.massive), cuda.to_device(pack.moff), cuda.to_device(pack.poff),
             cuda.to_device(np.ascontiguousarray(fs[:, _nc.F_SOFT2])), cuda.to_device(n),
             cuda.to_device(h), cuda.to_device(rem))
         done, status = n.copy(), np.full(M, _st.OK, dtype=np.int64)
     else:
         done, status = _global(pack, d, fs, n, h, rem)
-    pack.buf[xi_at] = d["xi"].copy_to_host()
-    pack.buf[vi_at] = d["vi"].copy_to_host()
-    pack.x[:] = d["x"].copy_to_host()
-    pack.v[:] = d["v"].copy_to_host()
+    pack.write_slot(_XI, d["xi"].copy_to_host())
+    pack.write_slot(_VI, d["vi"].copy_to_host())
+    d["x"].copy_to_host(pack.x)  # into the packed array the members view
+    d["v"].copy_to_host(pack.v)
     # the clock and counters as the CPU kernel leaves them (nbody_leapfrog._leapfrog)
     ist[:, _nc.I_K] += np.where(h > 0.0, done, -done)
     ist[:, _nc.I_STEPS] += done
-    fs[done != 0, _nc.F_DT_LAST] = h[done != 0]
+    put(fs[:, _nc.F_DT_LAST], done != 0, h)
     stopped = status != _st.OK
-    at_event = fs[:, _nc.F_T0] + ist[:, _nc.I_K] * np.abs(fs[:, _nc.F_DT])
-    fs[:, _nc.F_T] = np.where(stopped, at_event, t_final)
-    ist[stopped, _nc.I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
-    finite = np.isfinite(pack.x).all(axis=1) & np.isfinite(pack.v).all(axis=1)
-    bad = ~np.logical_and.reduceat(finite, pack.poff[:-1]) & ~stopped
-    status[bad] = _st.NON_FINITE  # overflow or a singular force, as the CPU kernel reports it
-    ist[bad, _nc.I_INT_VALID] = 0
-    ist[status == _st.OK, _nc.I_NOUT] = 1
+    if stopped.any():
+        at_event = fs[:, _nc.F_T0] + ist[:, _nc.I_K] * np.abs(fs[:, _nc.F_DT])
+        fs[:, _nc.F_T] = np.where(stopped, at_event, t_final)
+        ist[stopped, _nc.I_INT_VALID] = 0  # the caller may change the state (merge, bounce)
+    else:
+        fs[:, _nc.F_T] = t_final
+    bad = ~pack.all_finite() & ~stopped
+    if bad.any():
+        status[bad] = _st.NON_FINITE  # overflow or a singular force, as the CPU kernel says
+        ist[bad, _nc.I_INT_VALID] = 0
+    put(ist[:, _nc.I_NOUT], status == _st.OK, 1)
     return pack.finish(status, t)
 
 
@@ -109,7 +112,7 @@ def _global(pack, d, fs, n, h, rem):
     M = len(pack.members)
     done = cuda.device_array(M, dtype=np.int64)
     status = cuda.device_array(M, dtype=np.int64)
-    gm = fs[:, _nc.F_G][pack.member_of] * pack.m
+    gm = pack.per_particle(fs[:, _nc.F_G]) * pack.m
     massive = pack.massive + pack.poff[:-1].repeat(np.diff(pack.moff))
     first = pack.members[0]
     kernel = K.ensemble_leapfrog if not first.forces else kernel_for(

@@ -32,7 +32,7 @@ from ..core import nbody_common as _nc
 from ..core import nbody_whfast as _wh
 from ..core import status as _st
 from .gpu_forces import kernel_for, launch
-from .gpu_plan import count_steps
+from .gpu_plan import count_steps, put
 
 __all__ = ["plan", "account", "run", "run_general", "general_member", "refused_member",
            "refuse_general",
@@ -113,17 +113,19 @@ def plan(fstate, istate, target: float):
     exact = istate[:, _nc.I_EXACT_FINISH] != 0
     direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
     h = np.copysign(adt, direction)
-    valid = ((istate[:, _nc.I_WH_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
+    fresh = istate[:, _nc.I_FRESH] != 0
+    valid = ((istate[:, _nc.I_WH_VALID] != 0) & ~fresh
              & (fstate[:, _nc.F_WH_H] == h) & (fstate[:, _nc.F_DT_REF] == adt))
-    istate[:, _nc.I_FRESH] = 0
+    put(istate[:, _nc.I_FRESH], fresh, 0)
     skip = ~valid & (fstate[:, _nc.F_T] == target)
     restart = ~valid & ~skip
-    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
-    fstate[restart, _nc.F_DT_REF] = adt[restart]
-    istate[restart, _nc.I_K] = np.where(h[restart] > 0.0, 1, -1)
-    istate[restart, _nc.I_STEPS] += 1
-    fstate[restart, _nc.F_WH_H] = h[restart]
-    istate[restart, _nc.I_WH_VALID] = 1
+    if restart.any():
+        fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
+        fstate[restart, _nc.F_DT_REF] = adt[restart]
+        istate[restart, _nc.I_K] = np.where(h[restart] > 0.0, 1, -1)
+        istate[restart, _nc.I_STEPS] += 1
+        fstate[restart, _nc.F_WH_H] = h[restart]
+        istate[restart, _nc.I_WH_VALID] = 1
     n, t_grid = count_steps(target, fstate[:, _nc.F_T0], istate[:, _nc.I_K], adt, direction,
                             exact)
     n[skip] = 0
@@ -145,21 +147,19 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import resident as R
     from ..core.cuda import whfast as W
 
-    if pack.members[0].forces or not all(
-            _wh.is_plain(i, f) for i, f in zip(pack.istate, pack.fstate, strict=True)):
+    if pack.members[0].forces or not _wh.is_plain(pack.istate, pack.fstate).all():
         if np.any(pack.istate[:, _nc.I_WH_COORDINATES] != _wh.JACOBI):
             refuse_general()
         return run_general(pack, target, t)
     fs, ist = pack.fstate, pack.istate
     mode, n, h, rem, t_final = plan(fs, ist, target)
-    xj_at, vj_at = pack.slot(_wh._XJ), pack.slot(_wh._VJ)
     P, M = len(pack.x), len(pack.members)
 
     def dev(a):
         return cuda.to_device(np.ascontiguousarray(a))
 
-    d = {"x": dev(pack.x), "v": dev(pack.v), "xj": dev(pack.buf[xj_at]),
-         "vj": dev(pack.buf[vj_at])}
+    d = {"x": dev(pack.x), "v": dev(pack.v), "xj": dev(pack.read_slot(_wh._XJ)),
+         "vj": dev(pack.read_slot(_wh._VJ))}
     status = cuda.device_array(M, dtype=np.int64)
     shared = (dev(pack.massive), dev(pack.moff), dev(pack.poff), dev(fs[:, _nc.F_G]),
               dev(fs[:, _nc.F_SOFT2]), dev(h), dev(mode), dev(n), dev(rem), status)
@@ -173,13 +173,15 @@ def run(pack, target: float, t) -> list:
         _KERNEL[0][K.blocks(M), K.THREADS](
             d["x"], d["v"], dev(pack.m), d["xj"], d["vj"],
             *(cuda.device_array((P, 3)) for _ in range(4)), cuda.device_array(P), *shared)
-    pack.x[:] = d["x"].copy_to_host()
-    pack.v[:] = d["v"].copy_to_host()
-    pack.buf[xj_at] = d["xj"].copy_to_host()
-    pack.buf[vj_at] = d["vj"].copy_to_host()
+    d["x"].copy_to_host(pack.x)  # into the packed array the members view
+    d["v"].copy_to_host(pack.v)
+    pack.write_slot(_wh._XJ, d["xj"].copy_to_host())
+    pack.write_slot(_wh._VJ, d["vj"].copy_to_host())
     status = status.copy_to_host()
     account(fs, ist, n, h, t_final)
-    ist[status != _st.OK, _nc.I_WH_VALID] = 0  # a failed member builds P again next time
+    failed = status != _st.OK
+    if failed.any():
+        ist[failed, _nc.I_WH_VALID] = 0  # a failed member builds P again next time
     return pack.finish(status, t)
 
 
@@ -188,7 +190,7 @@ def account(fstate, istate, n, h, t_final) -> None:
     counter, last step, clock and output count (``n, h, t_final`` from :func:`plan`)."""
     istate[:, _nc.I_K] += np.where(h > 0.0, n, -n)
     istate[:, _nc.I_STEPS] += n
-    fstate[n != 0, _nc.F_DT_LAST] = h[n != 0]
+    put(fstate[:, _nc.F_DT_LAST], n != 0, h)
     fstate[:, _nc.F_T] = t_final
     istate[:, _nc.I_NOUT] = 1
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core import nbody_common as _nc
 
-__all__ = ["plan", "plan_many", "count_steps"]
+__all__ = ["plan", "plan_many", "count_steps", "put"]
 
 # slots of the leapfrog's buf (see visviva.core.nbody_leapfrog)
 _XI, _VI = 1, 2
@@ -83,13 +83,14 @@ def plan_many(fstate, istate, target: float):
     exact = istate[:, _nc.I_EXACT_FINISH] != 0
     direction = np.where(target >= fstate[:, _nc.F_T], 1.0, -1.0)
     h = np.copysign(adt, direction)
-    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & (istate[:, _nc.I_FRESH] == 0)
-                & (fstate[:, _nc.F_DT_REF] == adt))
-    istate[:, _nc.I_FRESH] = 0
-    fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
-    fstate[restart, _nc.F_DT_REF] = adt[restart]
-    istate[restart, _nc.I_K] = 0
-    istate[restart, _nc.I_INT_VALID] = 1
+    fresh = istate[:, _nc.I_FRESH] != 0
+    restart = ~((istate[:, _nc.I_INT_VALID] != 0) & ~fresh & (fstate[:, _nc.F_DT_REF] == adt))
+    put(istate[:, _nc.I_FRESH], fresh, 0)
+    if restart.any():
+        fstate[restart, _nc.F_T0] = fstate[restart, _nc.F_T]
+        fstate[restart, _nc.F_DT_REF] = adt[restart]
+        istate[restart, _nc.I_K] = 0
+        istate[restart, _nc.I_INT_VALID] = 1
     n, t_grid = count_steps(target, fstate[:, _nc.F_T0], istate[:, _nc.I_K], adt, direction,
                             exact)
     rem = target - t_grid
@@ -97,12 +98,28 @@ def plan_many(fstate, istate, target: float):
     return n, h, rem, np.where(exact, target, t_grid), restart
 
 
+def put(column, rows, values) -> None:
+    """``column[rows] = values[rows]`` (``values`` an array over the members, or one number),
+    written as a whole column when every row is chosen and skipped when none is (a column of
+    a pack's ``fstate``/``istate`` is a strided view: each pass over it costs)."""
+    if rows.all():
+        column[:] = values
+    elif rows.any():
+        column[rows] = values[rows] if np.ndim(values) else values
+
+
 def count_steps(target: float, t0, k0, adt, direction, exact):
     """Full steps each member takes from grid point ``t0 + k0 |dt|`` towards ``target``, with
     the stopping rule of the CPU kernels' fixed-step loops (the grid point reached is at or
     past the target, or, with ``exact``, less than a step before it); element by element over
     members. Returns the steps ``n`` (int64) and the grid time reached ``t0 + (k0 +- n) |dt|``.
+
+    Members on one grid (the same ``t0, k0, |dt|``, direction and ``exact``: an ensemble's
+    usual state) are counted once, with the same expressions, and the answer repeated.
     """
+    if len(t0) > 1 and all(bool(np.all(a == a[0])) for a in (t0, k0, adt, direction, exact)):
+        n, t_grid = count_steps(target, t0[:1], k0[:1], adt[:1], direction[:1], exact[:1])
+        return np.full(len(t0), n[0]), np.full(len(t0), t_grid[0])
     sign = np.where(direction > 0.0, 1, -1)
 
     def stops(j):

@@ -272,7 +272,7 @@ def _estimate(args, s) -> dict:
                for k in dict.fromkeys(obs.kinds) if np.any((obs.kinds == k)[:, None] & use)}
     last = {k: v[-1] for k, v in res.parameters.items()}
     return {"method": f"{args.filter.upper()}{' + RTS smoother' if args.smooth else ''}"
-                      + res._noise_text(),
+                      + res.noise_summary(),
             "state": state, "covariance": covariance, "fit": None, "residuals": z,
             "normalized": zn, "rejected": res.rejected,
             "rms": float(np.sqrt(np.mean(zn[use] ** 2))), "rms_by_kind": by_kind,

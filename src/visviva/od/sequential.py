@@ -102,11 +102,13 @@ class FilteredOrbit:
             f"{int(self.rejected.sum())} rejected, final sigma_r={sig:.3g} m"
             f"{', smoothed' if self.smoothed_states is not None else ''}"
             f"{', unscented' if self.__dict__.get('method') == 'ukf' else ''}"
-            f"{self._noise_text()})"
+            f"{self.noise_summary()})"
         )
 
-    def _noise_text(self) -> str:
-        """The process noise and the coefficients' Gauss-Markov noise, for the repr."""
+    def noise_summary(self) -> str:
+        """The process noise (km^2/s^3, with its frame) and the coefficients' Gauss-Markov noise
+        (sigma, tau in s) the filter used, as ``", process noise ..."`` text ("" for none): the
+        tail of the repr and of ``visviva od``'s method line."""
         from astropy import units as u
 
         out = ""

@@ -141,9 +141,27 @@ def test_one_dimensional_recursion(sigma, tau, dt, dt2, p):
     z1, P1, f1 = gm.apply(*gm.apply(z, start, eye, dt), dt2)
     z2, P2, f2 = gm.apply(z, start, eye, dt + dt2)
     assert P1[6, 6] == pytest.approx(P2[6, 6], rel=1e-10)
-    assert z1[6] - 1.0 == pytest.approx(z2[6] - 1.0, rel=1e-10, abs=1e-300)
+    # the coefficient is held as prior + deviation: the deviation is known to the coefficient's
+    # round-off (1 + |p| ulps), not relative to itself once it has decayed (dt >> tau)
+    ulp = 4e-16 * (1.0 + abs(p))
+    assert z1[6] - 1.0 == pytest.approx(z2[6] - 1.0, rel=1e-10, abs=ulp)
+    # the decay factors keep their relative precision however far they decay (was: 1 - d
+    # lost them: 1.3e-10 relative for dt = 1 then 16 with tau = 1)
     assert f1[6, 6] == pytest.approx(np.exp(-(dt + dt2) / tau), rel=1e-10, abs=1e-300)
-    assert z2[6] - 1.0 == pytest.approx(p * np.exp(-(dt + dt2) / tau), rel=1e-12, abs=1e-300)
+    assert z2[6] - 1.0 == pytest.approx(p * np.exp(-(dt + dt2) / tau), rel=1e-12, abs=ulp)
+
+
+def test_decay_factor_keeps_its_relative_precision_far_out():
+    """was: m = 1 - (1 - m) lost m's digits once dt >> tau (two steps of 1 and 16 tau gave
+    exp(-17) to 1.3e-10 relative)."""
+    gm = GaussMarkov([1.0], [1.0], [1.0])
+    eye = np.eye(7)
+    z = np.r_[np.zeros(6), 1.0]
+    start = np.eye(7)
+    _, _, f1 = gm.apply(*gm.apply(z, start, eye, 1.0), 16.0)
+    assert f1[6, 6] == pytest.approx(np.exp(-17.0), rel=1e-14)
+    m, d, v = gm.step(40.0)
+    assert m[0] == pytest.approx(np.exp(-40.0), rel=1e-15) and d[0] == 1.0
 
 
 def test_state_block_and_cross_covariance():

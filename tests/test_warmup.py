@@ -78,16 +78,28 @@ def test_warmup_compiles_the_full_cowell_kernels(monkeypatch):
     assert {("one", False), ("one", True), ("many", False), ("many", True)} <= seen
 
 
-@pytest.mark.slow
-def test_after_warmup_a_new_process_compiles_no_cowell_kernel(tmp_path):
+def _nothing_compiles_after(tmp_path, labels, use, **env):
+    """Run the warm-up tasks whose labels start with ``labels`` in a fresh process on an empty
+    numba cache (``tmp_path``), then the script ``use`` in another: returns the names of the
+    kernels ``use`` compiled (should be none). ``use`` must import ``gc`` and ``_Kernel``."""
     import os
     import subprocess
     import sys
 
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    fill = "from visviva import warmup\nfor label, task in warmup.TASKS:\n" \
-           "    if label.startswith('Cowell'):\n        task()\n"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), **env}
+    fill = ("from visviva import warmup\nfor label, task in warmup.TASKS:\n"
+            f"    if label.startswith({tuple(labels)!r}):\n        task()\n")
     subprocess.run([sys.executable, "-c", fill], env=env, check=True)
+    listing = ("\ncompiled = [k.py_func.__name__ for k in gc.get_objects() if isinstance(k, "
+               "_Kernel)\n            and sum(k.stats.cache_misses.values())]\n"
+               "print(sorted(compiled))\n")
+    out = subprocess.run([sys.executable, "-c", use + listing], env=env, check=True,
+                         capture_output=True, text=True).stdout
+    return out.strip()
+
+
+@pytest.mark.slow
+def test_after_warmup_a_new_process_compiles_no_cowell_kernel(tmp_path):
     use = """
 import gc
 import numpy as np
@@ -103,13 +115,8 @@ burn = vv.FiniteBurn(60 * u.s, 100 * u.s, [1, 0, 0], "RTN", thrust=1 * u.N, mass
 srp = vv.SolarRadiationPressure(0.02 * u.m**2 / u.kg, shadow="conical")
 vv.propagate_cowell(one, 3600 * u.s, [srp], events=[vv.satellites.Eclipse()], maneuvers=[burn])
 vv.propagate_cowell(many, 3600 * u.s, [vv.J2(vv.EARTH)], maneuvers=[burn])
-compiled = [k.py_func.__name__ for k in gc.get_objects() if isinstance(k, _Kernel)
-            and sum(k.stats.cache_misses.values())]
-print(sorted(compiled))
 """
-    out = subprocess.run([sys.executable, "-c", use], env=env, check=True, capture_output=True,
-                         text=True).stdout
-    assert out.strip() == "[]"
+    assert _nothing_compiles_after(tmp_path, ["Cowell"], use) == "[]"
 
 
 def test_warmup_covers_the_pass_search_and_screening_kernels():
@@ -184,15 +191,6 @@ def test_dense_output_is_compiled_inside_the_warmed_integrators():
 
 @pytest.mark.slow
 def test_after_warmup_a_new_process_compiles_none_of_the_added_entry_points(tmp_path):
-    import os
-    import subprocess
-    import sys
-
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "VISVIVA_INTERPRET": "0"}
-    fill = "from visviva import warmup\nfor label, task in warmup.TASKS:\n" \
-           "    if label.startswith(('Lambert', 'conjunctions: two-body', " \
-           "'conjunctions: catalogue')):\n        task()\n"
-    subprocess.run([sys.executable, "-c", fill], env=env, check=True)
     use = """
 import gc
 import numpy as np
@@ -218,10 +216,6 @@ cat = vv.Catalog([vv.Satellite.from_tle(
 t0 = cat[0].epoch.utc
 src = SgpSource(cat, float(t0.jd1), float(t0.jd2))
 filter_statistics(src, src, 7200.0, 50.0)
-compiled = [k.py_func.__name__ for k in gc.get_objects() if isinstance(k, _Kernel)
-            and sum(k.stats.cache_misses.values())]
-print(sorted(compiled))
 """
-    out = subprocess.run([sys.executable, "-c", use], env=env, check=True, capture_output=True,
-                         text=True).stdout
-    assert out.strip() == "[]"
+    labels = ["Lambert", "conjunctions: two-body", "conjunctions: catalogue"]
+    assert _nothing_compiles_after(tmp_path, labels, use, VISVIVA_INTERPRET="0") == "[]"

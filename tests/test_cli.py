@@ -279,6 +279,7 @@ def test_energy_histories_share_one_figure_and_reference_is_dashed():
     assert _is_reference("energy_error_rebound") and not _is_reference("energy_error_visviva")
 
 
+@pytest.mark.slow  # the section's CPU baseline: 49 s of CI's two cores
 def test_bench_gpu_sections_return_their_rows(monkeypatch):
     # run() must hand its rows to the page writer (it printed them and returned None, so
     # `python -m benchmarks --only gpu` reported "bench_gpu: failed")

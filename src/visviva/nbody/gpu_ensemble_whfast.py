@@ -34,8 +34,7 @@ from ..core import status as _st
 from .gpu_forces import kernel_for, launch
 from .gpu_plan import count_steps, put
 
-__all__ = ["plan", "account", "run", "run_general", "general_member", "refused_member",
-           "refuse_general",
+__all__ = ["plan", "account", "run", "run_general", "refused_member", "refuse_general",
            "DEBUG_GENERAL"]
 
 _KERNEL: list = []
@@ -43,15 +42,6 @@ _KERNEL: list = []
 #: The environment variable that lets :func:`run_general` run on a real GPU anyway ("1"), to
 #: debug it: see :func:`refuse_general`.
 DEBUG_GENERAL = "VISVIVA_GPU_WHFAST_GENERAL"
-
-
-def general_member(sim) -> bool:
-    """True when the WHFast simulation ``sim`` needs :func:`run_general` (democratic
-    heliocentric coordinates, a symplectic corrector, collision, encounter or escape checks,
-    additional forces); False in the plain case."""
-    return bool(sim.forces or sim.coordinates != "jacobi" or sim.corrector
-                or sim.collision != "none" or (sim.encounter_distance or 0.0) > 0.0
-                or (sim.exit_max_distance or 0.0) > 0.0)
 
 
 def refused_member(sim) -> bool:

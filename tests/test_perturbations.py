@@ -384,9 +384,10 @@ def test_force_block_layout_tiles_the_block_and_every_slot_has_one_writer():
         covered.extend(range(first, first + size))
     assert covered == list(range(fb.FORCE_SIZE))  # in order, no gap, no overlap
     from visviva.satellites.burns import FiniteBurn
+    from visviva.satellites.relativity import Relativity
 
     classes = [pm.Zonal, pm.AtmosphericDrag, pm.ThirdBody, pm.SolarRadiationPressure,
-               pm.SphericalHarmonics]
+               pm.SphericalHarmonics, Relativity]
     writers = list(ForceModel.SHARED_PARAMETERS) + list(FiniteBurn.PARAMETERS)
     for cls in classes:
         assert cls.PARAMETERS, cls
@@ -404,7 +405,7 @@ def test_each_perturbation_writes_only_its_own_slots():
     base = ForceModel(vv.EARTH.gm_km3_s2, [], epoch=epoch).force
     rows = {row[0]: row for row in fb.LAYOUT}
     for p in (vv.Zonal(vv.EARTH, 4), vv.AtmosphericDrag(0.02 * u.m**2 / u.kg),
-              vv.SolarRadiationPressure(area_to_mass=0.02 * u.m**2 / u.kg)):
+              vv.SolarRadiationPressure(area_to_mass=0.02 * u.m**2 / u.kg), vv.Relativity()):
         force = ForceModel(vv.EARTH.gm_km3_s2, [p], epoch=epoch, span_s=(0.0, 600.0)).force
         own = set()
         for name in type(p).PARAMETERS:

@@ -96,6 +96,7 @@ _PUBLIC = {
     "AtmosphericDrag": "visviva.satellites",
     "ThirdBody": "visviva.satellites",
     "SolarRadiationPressure": "visviva.satellites",
+    "Relativity": "visviva.satellites",
     "lambert": "visviva.satellites",
     "Maneuver": "visviva.satellites",
     "ImpulsiveBurn": "visviva.satellites",

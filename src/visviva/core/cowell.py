@@ -130,7 +130,8 @@ def rhs_kind(force, ev_kind=()):
     ``ReEntry``), else :data:`FULL` (plain Python, not compiled)."""
     zonal_only = (all(int(k) == 0 for k in ev_kind) and force[fb.HARMONICS_DEGREE] < 2.0
                   and force[fb.DRAG_ON] == 0.0 and int(force[fb.N_THIRD_BODIES]) == 0
-                  and force[fb.SRP_ON] == 0.0 and force[fb.THRUST_ON] == 0.0)
+                  and force[fb.SRP_ON] == 0.0 and force[fb.THRUST_ON] == 0.0
+                  and force[fb.RELATIVITY_ON] == 0.0)
     return ZONAL_ONLY if zonal_only else FULL
 
 

@@ -45,6 +45,8 @@ __all__ = [
     "THRUST_FRAME",
     "THRUST_DIRECTION",
     "DENSITY_BAND",
+    "RELATIVITY_ON",
+    "LENSE_THIRRING_J",
     "TIME_DEPENDENT",
     "with_time_origin",
 ]
@@ -110,8 +112,14 @@ THRUST_DIRECTION = 41
 #: written 0 by the drag class, set only in the integrators' copies of the block
 #: (:mod:`visviva.core.drag_bands`).
 DENSITY_BAND = 44
+#: The post-Newtonian (Schwarzschild) term of the central body on/off
+#: (:mod:`visviva.core.relativity`).
+RELATIVITY_ON = 45
+#: The central body's angular momentum per unit mass along the frame's z axis, km^2/s, for the
+#: Lense-Thirring term (0: none).
+LENSE_THIRRING_J = 46
 #: Length of the block.
-FORCE_SIZE = 45
+FORCE_SIZE = 47
 #: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
 TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX")
 
@@ -147,6 +155,9 @@ LAYOUT = (
     ("THRUST_FRAME", THRUST_FRAME, 1, "", "0 inertial, 1 RTN, 2 TNW, 3 VNB"),
     ("THRUST_DIRECTION", THRUST_DIRECTION, 3, "", "unit thrust direction in that frame"),
     ("DENSITY_BAND", DENSITY_BAND, 1, "", "exponential band held in a step + 1 (0: none)"),
+    ("RELATIVITY_ON", RELATIVITY_ON, 1, "flag", "post-Newtonian Schwarzschild term on/off"),
+    ("LENSE_THIRRING_J", LENSE_THIRRING_J, 1, "km2/s",
+     "angular momentum per unit mass of the central body along z (Lense-Thirring; 0: none)"),
 )
 
 

@@ -22,6 +22,8 @@ Partials included, each exact for its force term:
   the change of the visible fraction nu of the Sun, k d grad(nu)^T / d^3
   (:func:`_add_penumbra_gradient`); the cylindrical shadow's jump enters at its boundary as a
   saltation matrix (:func:`_boundary_jump`);
+* the post-Newtonian Schwarzschild and Lense-Thirring terms
+  (:func:`visviva.core.relativity.add_relativity_partials`);
 * a finite burn's thrust on a local frame's axes (RTN, TNW, VNB): a(t) d(M^T u)/d(r, v)
   (:func:`_add_thrust_gradient`); drag's and SRP's partials follow the falling mass as their
   accelerations do.
@@ -49,6 +51,7 @@ from .perturbations import (
     shadow_fraction,
     sun_and_mass_scale,
 )
+from .relativity import add_relativity_partials
 
 __all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
 
@@ -244,6 +247,9 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
                                    force, dadr)  # fmt: skip
     if force[fb.THRUST_ON] != 0.0 and int(force[fb.THRUST_FRAME]) != 0:
         _add_thrust_gradient(t, y, force, dadr, dadv)
+    if force[fb.RELATIVITY_ON] != 0.0:
+        add_relativity_partials(x, yy, z, y[3], y[4], y[5], gm, force[fb.LENSE_THIRRING_J],
+                                dadr, dadv)
 
 
 @kernel

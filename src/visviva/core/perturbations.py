@@ -35,6 +35,7 @@ from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
 from .hermite import hermite_basis
 from .local_frames import to_inertial
+from .relativity import accel_relativity
 
 __all__ = [
     "FORCE_SIZE",
@@ -629,7 +630,8 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
     Sums, in this fixed order: two-body, zonal harmonics (:func:`zonal_rhs`), full spherical
-    harmonics, drag, third bodies, SRP, thrust. During a finite burn drag's and SRP's
+    harmonics, drag, third bodies, SRP, thrust, the post-Newtonian correction
+    (:mod:`visviva.core.relativity`). During a finite burn drag's and SRP's
     area-to-mass ratios follow the falling mass (divided by 1 - ``THRUST_MASS_RATE`` t);
     otherwise they are the block's (multiplied by exactly 1.0: the same bits).
     """
@@ -665,6 +667,8 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         accel_thrust(t, y, force, pos)
         for i in range(3):
             acc[i] += pos[i]
+    if force[fb.RELATIVITY_ON] != 0.0:
+        accel_relativity(x, yy, z, y[3], y[4], y[5], force[fb.GM], force[fb.LENSE_THIRRING_J], acc)
     dy[3] = acc[0]
     dy[4] = acc[1]
     dy[5] = acc[2]

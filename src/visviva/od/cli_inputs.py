@@ -97,7 +97,8 @@ def parse_sigmas(specs):
 
 
 def parse_forces(specs):
-    """``--force j2,zonal:6,drag:0.022,srp:0.01[:1.3],sun,moon`` -> list of Perturbation.
+    """``--force j2,zonal:6,drag:0.022,srp:0.01[:1.3],sun,moon,relativity`` -> list of
+    Perturbation (``relativity``: :class:`~visviva.Relativity` of the Earth).
 
     ``drag:B`` is the ballistic coefficient Cd A / m in m^2/kg (exponential atmosphere),
     ``srp:A/m[:Cr]`` the area-to-mass ratio in m^2/kg and the reflectivity (default 1.3).
@@ -112,9 +113,10 @@ def parse_forces(specs):
         ThirdBody,
         Zonal,
     )
+    from ..satellites.relativity import Relativity
 
     help_ = ("use j2, zonal:N (J2..JN), drag:B (Cd A/m, m^2/kg), srp:A/m[:Cr] (m^2/kg), sun, "
-             "moon; e.g. --force zonal:6,sun,moon,drag:0.022")
+             "moon, relativity; e.g. --force zonal:6,sun,moon,drag:0.022")
     out, seen = [], set()
     for spec in specs or ():
         for item in filter(None, (s.strip().lower() for s in spec.split(","))):
@@ -128,7 +130,7 @@ def parse_forces(specs):
             if name in seen or (name in ("j2", "zonal") and seen & {"j2", "zonal"}):
                 raise InvalidInputError(f"--force {item!r}: that force is given twice")
             want = {"j2": (0, 0), "zonal": (1, 1), "drag": (1, 1), "srp": (1, 2), "sun": (0, 0),
-                    "moon": (0, 0)}.get(name)
+                    "moon": (0, 0), "relativity": (0, 0)}.get(name)
             if want is None or not want[0] <= len(numbers) <= want[1]:
                 raise InvalidInputError(f"--force {item!r} is not a force model: {help_}")
             if any(not (np.isfinite(x) and x > 0) for x in numbers):
@@ -146,6 +148,8 @@ def parse_forces(specs):
                 elif name == "srp":
                     out.append(SolarRadiationPressure(numbers[0] * u.m**2 / u.kg,
                                                       *(numbers[1:] or [1.3])))
+                elif name == "relativity":
+                    out.append(Relativity())
                 else:
                     out.append(ThirdBody(SUN if name == "sun" else MOON))
             except InvalidInputError as exc:

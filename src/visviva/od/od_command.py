@@ -56,7 +56,7 @@ def add_parser(sub) -> None:
                    "there); default: initial orbit determination from the data")
     p.add_argument("--force", action="append", metavar="MODEL[,...]",
                    help="dynamics beyond two-body: j2, zonal:N, drag:B (Cd A/m in m^2/kg, "
-                   "exponential atmosphere), srp:A/m[:Cr], sun, moon (default: two-body)")
+                   "exponential atmosphere), srp:A/m[:Cr], sun, moon, relativity (default: two-body)")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "

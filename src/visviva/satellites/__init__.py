@@ -52,6 +52,7 @@ _EXPORTS = {
     "ThirdBody": "perturbations",
     "SolarRadiationPressure": "perturbations",
     "SphericalHarmonics": "perturbations",
+    "Relativity": "relativity",
     "Eclipse": "events",
     "ReEntry": "events",
     "AltitudeCrossing": "events",

@@ -36,6 +36,7 @@ from .perturbations import (
     Zonal,
     flattening_of,
 )
+from .relativity import Relativity
 from .satellite_states import require_gcrs
 from .surface import check_batch, check_single, watched_body, with_surface
 
@@ -117,15 +118,14 @@ def _check_combination(perturbations, central):
             "give one gravity field: SphericalHarmonics already includes the zonal terms, "
             "so do not add J2 or Zonal to it."
         )
-    if sum(isinstance(p, AtmosphericDrag) for p in perturbations) > 1:
-        raise InvalidInputError("give at most one AtmosphericDrag.")
+    for kind in (AtmosphericDrag, SolarRadiationPressure, Relativity):
+        if sum(isinstance(p, kind) for p in perturbations) > 1:
+            raise InvalidInputError(f"give at most one {kind.__name__}.")
     names = [p.body.name for p in perturbations if isinstance(p, ThirdBody)]
     if len(set(names)) != len(names):
         raise InvalidInputError(f"a third body is listed twice: {names}.")
     if central.name in names:
         raise InvalidInputError(f"{central.name} is the central body, not a third body.")
-    if sum(isinstance(p, SolarRadiationPressure) for p in perturbations) > 1:
-        raise InvalidInputError("give at most one SolarRadiationPressure.")
 
 
 def central_body(gm_km3_s2, perturbations):
@@ -174,7 +174,7 @@ class ForceModel:
         self.sh = np.zeros((2, 3, 3))
         perturbations = _all_instances(
             perturbations, Perturbation, "a perturbation",
-            "vv.J2, vv.Zonal, vv.AtmosphericDrag, vv.ThirdBody or vv.SolarRadiationPressure",
+            "vv.J2, vv.Zonal, vv.AtmosphericDrag, vv.ThirdBody, vv.SolarRadiationPressure, vv.Relativity",
         )
         centrals = {p.central_body.name for p in perturbations if p.central_body is not None}
         if len(centrals) > 1:
@@ -511,7 +511,8 @@ def propagate_cowell(
         increasing, any sign) or absolute astropy Times.
     perturbations : list of Perturbation
         Any of :class:`~visviva.J2`, :class:`~visviva.Zonal`, :class:`~visviva.AtmosphericDrag`,
-        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`. The central
+        :class:`~visviva.ThirdBody`, :class:`~visviva.SolarRadiationPressure`,
+        :class:`~visviva.Relativity`. The central
         body is the one they name (J2, drag, SRP's shadow), else the known body whose GM the
         state has (third bodies are then tabulated relative to it), else the Earth; a state
         whose GM is another known body's than the one they name is refused.

@@ -38,6 +38,7 @@ __all__ = [
     "SolarRadiationPressure",
     "SphericalHarmonics",
     "SOLAR_PRESSURE_1AU_N_M2",
+    "require_body",
 ]
 
 #: Solar radiation pressure on an absorbing surface at 1 AU, N/m^2 (= W/m^2 / c with a solar
@@ -45,7 +46,9 @@ __all__ = [
 SOLAR_PRESSURE_1AU_N_M2 = 4.56e-6
 
 
-def _require_body(body, what: str) -> Body:
+def require_body(body, what: str) -> Body:
+    """``body`` as a :class:`~visviva.bodies.Body` (a Body, or a known body's name), else a
+    clear error naming ``what`` needs it."""
     if isinstance(body, Body):
         return body
     if isinstance(body, str) and body.lower() in BODIES:
@@ -109,7 +112,7 @@ class Zonal(Perturbation):
     degree: int = 2
 
     def __post_init__(self):
-        body = _require_body(self.body, "Zonal")
+        body = require_body(self.body, "Zonal")
         object.__setattr__(self, "body", body)
         nmax = 1 + len(body.zonal)
         if not isinstance(self.degree, int | np.integer) or not 2 <= self.degree <= nmax:
@@ -226,7 +229,7 @@ class AtmosphericDrag(Perturbation):
         if bc.ndim != 0:
             raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
         require_positive(bc, "ballistic_coefficient")
-        object.__setattr__(self, "body", _require_body(self.body, "AtmosphericDrag"))
+        object.__setattr__(self, "body", require_body(self.body, "AtmosphericDrag"))
         table = VALLADO_EXPONENTIAL_TABLE if self.table is None else self.table
         table = np.ascontiguousarray(table, dtype=np.float64)
         if table.ndim != 2 or table.shape[1] != 3 or not np.all(np.isfinite(table)):
@@ -351,7 +354,7 @@ class ThirdBody(Perturbation):
     def __post_init__(self):
         from .ephemeris import KNOWN_BODIES
 
-        body = _require_body(self.body, "ThirdBody")
+        body = require_body(self.body, "ThirdBody")
         if body.name not in KNOWN_BODIES or body.name == "earth":
             raise InvalidInputError(
                 f"ThirdBody({body.name}) is not available; use vv.SUN, vv.MOON or a planet."
@@ -420,7 +423,7 @@ class SolarRadiationPressure(Perturbation):
             raise InvalidInputError(
                 f"shadow must be 'conical', 'cylindrical' or None; got {self.shadow!r}."
             )
-        object.__setattr__(self, "body", _require_body(self.body, "SolarRadiationPressure"))
+        object.__setattr__(self, "body", require_body(self.body, "SolarRadiationPressure"))
         object.__setattr__(self, "_am_m2_kg", float(am))
         object.__setattr__(self, "_cr", float(cr))
 
@@ -493,7 +496,7 @@ class SphericalHarmonics(Perturbation):
     """
 
     def __init__(self, path, degree: int | None = None, body: Body = EARTH):
-        body = _require_body(body, "SphericalHarmonics")
+        body = require_body(body, "SphericalHarmonics")
         if body.name != "earth":
             raise InvalidInputError("SphericalHarmonics is implemented for the Earth (ITRS) only.")
         self.body = body

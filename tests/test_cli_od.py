@@ -523,3 +523,21 @@ def test_noise_options_are_refused_with_exit_code_2(campaign, capsys):
         assert code == 2, (argv, err)
         assert text in err, (argv, err)
         assert err.startswith("visviva od: ") and err.count("\n") == 1, err
+
+
+def test_troposphere_flag_fits_as_the_library_does(campaign, tmp_path, capsys):
+    # --troposphere: the observations modelled with the standard atmosphere at each station,
+    # the same estimate as fit_orbit on to_observations(..., troposphere=True)
+    opm = tmp_path / "t.opm"
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--troposphere", "--opm", str(opm))
+    assert code == 0, err
+    obs = vv.read_tdm(campaign["tdm"]).to_observations(_stations(), SIGMA, troposphere=True)
+    assert obs.troposphere is not None
+    fit = vv.fit_orbit(obs, None, [vv.J2(vv.EARTH)])
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               fit.state.r.to_value(u.km), rtol=0, atol=1e-9)
+    # the data hold no delay: modelling one moves the orbit by metres, not kilometres
+    plain = vv.fit_orbit(campaign["obs"], None, [vv.J2(vv.EARTH)])
+    shift = np.linalg.norm((fit.state.r - plain.state.r).to_value(u.km))
+    assert 1e-4 < shift < 0.1

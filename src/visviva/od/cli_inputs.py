@@ -248,7 +248,7 @@ def parse_parameter_noise(specs, estimate):
     return out or None
 
 
-def read_tracking(paths, stations, sigmas):
+def read_tracking(paths, stations, sigmas, troposphere=False):
     """The observations of the TDM files ``paths`` as one table (their segments together)."""
     from pathlib import Path
 
@@ -282,7 +282,7 @@ def read_tracking(paths, stations, sigmas):
                 raise InvalidInputError(f"the tracking data hold {key}: give its sigma, e.g. "
                                         f"--sigma {SIGMA_KINDS[kind][2]}")
     tdm = TDM(tdms[0].header, segments, tdms[0].fmt)
-    return tdm.to_observations(stations, sigmas), tdm
+    return tdm.to_observations(stations, sigmas, troposphere=troposphere), tdm
 
 
 def read_initial(path, first_time):

@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import C_KM_S, EARTH_ROTATION_RAD_S
+from . import troposphere
 from .measurements import angles, predict
 
 __all__ = ["predict_light_time", "model"]
@@ -183,6 +184,12 @@ def model(observations, y, gm, rows=None, partials=True):
     pick = slice(None) if rows is None else rows
     site_r, site_v, enu, kinds = site_r[pick], site_v[pick], enu[pick], kinds[pick]
     if not observations.light_time:
-        return predict(kinds, y, site_r, site_v, enu)
-    ev = observations.earth_velocity()[pick] if observations.radec_reference == "stars" else None
-    return predict_light_time(kinds, y, site_r, site_v, enu, gm, ev, partials)
+        h, H = predict(kinds, y, site_r, site_v, enu)
+    else:
+        ev = (observations.earth_velocity()[pick] if observations.radec_reference == "stars"
+              else None)
+        h, H = predict_light_time(kinds, y, site_r, site_v, enu, gm, ev, partials)
+    if observations.troposphere is not None:
+        rows_idx = np.arange(len(observations))[pick]
+        troposphere.apply(observations, kinds, y, site_r, site_v, enu, h, H, rows_idx)
+    return h, H

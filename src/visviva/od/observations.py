@@ -102,6 +102,12 @@ class Observations:
         in the GCRS; ``"stars"`` optical astrometry reduced against catalogue stars (the
         barycentric direction: differs by up to 20.5 arcsec, the Earth's velocity times the
         flight time). ``"stars"`` needs ``light_time=True``.
+    troposphere : bool or dict
+        False (default): geometric signal paths, for data already corrected. True: the models
+        add the neutral atmosphere as the station measures it (range delay, its rate in range
+        rates, refraction of azel elevations; :mod:`visviva.od.troposphere`) with the
+        standard atmosphere at each station's height; a dict of ``pressure_hpa``,
+        ``temperature_c``, ``relative_humidity`` (0..1) gives the air at every station.
 
     Attributes
     ----------
@@ -117,6 +123,8 @@ class Observations:
         Station of each row (None for positions).
     light_time : bool
     radec_reference : str
+    troposphere : visviva.od.troposphere.Weather or None
+        The stations' air (None: no troposphere in the models).
 
     Raises
     ------
@@ -131,8 +139,12 @@ class Observations:
     """
 
     def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,
-                 radec_reference="gcrs"):  # fmt: skip
+                 radec_reference="gcrs", troposphere=False):  # fmt: skip
         from astropy.time import Time
+
+        from .troposphere import weather_from
+
+        weather = weather_from(troposphere)
 
         if not isinstance(light_time, bool | np.bool_):
             raise InvalidInputError(
@@ -210,6 +222,7 @@ class Observations:
         self.stations = stations
         self.light_time = bool(light_time)
         self.radec_reference = radec_reference
+        self.troposphere = weather
         self._cache = {}
 
     @staticmethod
@@ -284,7 +297,7 @@ class Observations:
             ri, vi = s.gcrs_position_velocity(self.times[idx])
             r[idx] = ri
             v[idx] = vi
-            if np.any(self.kinds[idx] == "azel"):
+            if self.troposphere is not None or np.any(self.kinds[idx] == "azel"):
                 from ..satellites.frames import transform_matrices
 
                 m = transform_matrices(self.times[idx], "gcrs", "itrs")[:, :3, :3]

@@ -57,6 +57,9 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="append", metavar="MODEL[,...]",
                    help="dynamics beyond two-body: j2, zonal:N, drag:B (Cd A/m in m^2/kg, "
                    "exponential atmosphere), srp:A/m[:Cr], sun, moon, relativity (default: two-body)")
+    p.add_argument("--troposphere", action="store_true",
+                   help="model the neutral atmosphere (range delay, refraction; standard "
+                   "atmosphere at each station) for data not corrected for it")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -193,7 +196,7 @@ def _setup(args) -> dict:
                                     "--apriori 1km,10m/s")
         apriori = (quantity("--apriori", parts[0], "length", "--apriori 1km,10m/s"),
                    quantity("--apriori", parts[1], "speed", "--apriori 1km,10m/s"))
-    obs, tdm = read_tracking(args.tdm, stations, sigmas)
+    obs, tdm = read_tracking(args.tdm, stations, sigmas, args.troposphere)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")
     ignored = covariance is not None and args.no_apriori

@@ -30,7 +30,7 @@ MIN_ELEVATION_RAD = np.radians(10.0)
 
 def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
                           maneuvers=None, seed=None, light_time=True,
-                          radec_reference="gcrs"):  # fmt: skip
+                          radec_reference="gcrs", troposphere=False):  # fmt: skip
     """Observations of the orbit through ``state``, with Gaussian noise of standard deviation sigma.
 
     Parameters
@@ -57,12 +57,14 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         Include the signal's flight time (default; see :class:`~visviva.Observations`).
     radec_reference : {"gcrs", "stars"}
         What RA/Dec rows are (see :class:`~visviva.Observations`).
+    troposphere : bool or dict
+        Put the neutral atmosphere in the data (see :class:`~visviva.Observations`).
 
     Returns
     -------
     Observations
-        The noisy table (angles wrapped into range), with the same ``light_time`` and
-        ``radec_reference``.
+        The noisy table (angles wrapped into range), with the same ``light_time``,
+        ``radec_reference`` and ``troposphere``.
 
     Notes
     -----
@@ -71,7 +73,8 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     """
     from .dynamics import Dynamics
 
-    flags = {"light_time": light_time, "radec_reference": radec_reference}
+    flags = {"light_time": light_time, "radec_reference": radec_reference,
+             "troposphere": troposphere}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
     from ..satellites.burn_segments import burn_schedule

@@ -96,7 +96,7 @@ class TDM(_tdm.TDM):
             standard deviation (Quantity, or km, km/s, rad).
         **options
             ``quality``, ``range_units_km``, ``integrated_doppler``, ``corrections_applied``,
-            ``ignore``, ``radec_reference``: see :func:`to_observations`.
+            ``ignore``, ``radec_reference``, ``troposphere``: see :func:`to_observations`.
 
         Returns
         -------
@@ -131,7 +131,7 @@ def read_tdm(source, *, mission_epoch=None) -> TDM:
 
 def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
                     integrated_doppler="refuse", corrections_applied=None, ignore=(),
-                    radec_reference="gcrs"):  # fmt: skip
+                    radec_reference="gcrs", troposphere=False):  # fmt: skip
     """The range, Doppler and angle data of a TDM as an :class:`~visviva.Observations` table.
 
     Parameters
@@ -164,6 +164,9 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         keywords to drop (``"DOPPLER_INTEGRATED"``). They are named in the warning.
     radec_reference : {"gcrs", "stars"}
         What the RA/Dec data are (see :class:`~visviva.Observations`).
+    troposphere : bool or dict
+        Model the neutral atmosphere in the fit (see :class:`~visviva.Observations`): for data
+        whose tropospheric delay is neither in the data nor in ``CORRECTION_RANGE``.
 
     Returns
     -------
@@ -214,7 +217,7 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     if unused:
         warnings.warn("read but not used for orbit determination: " + ", ".join(
             f"{k} ({n})" for k, n in unused.items()), TrackingDataWarning, stacklevel=3)
-    return _table(parts, sigma, radec_reference)
+    return _table(parts, sigma, radec_reference, troposphere)
 
 
 def _count(unused, key, n):
@@ -463,7 +466,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
     return rows
 
 
-def _table(parts, sigma, radec_reference):
+def _table(parts, sigma, radec_reference, troposphere=False):
     from astropy.time import Time
 
     from .observations import Observations, sigma_value
@@ -487,4 +490,4 @@ def _table(parts, sigma, radec_reference):
     return Observations(
         time=times, kind=[kinds[i] for i in order], value=[values[i] for i in order],
         sigma=[sigma[kinds[i]] for i in order], station=[sites[i] for i in order],
-        light_time=True, radec_reference=radec_reference)
+        light_time=True, radec_reference=radec_reference, troposphere=troposphere)

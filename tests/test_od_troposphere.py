@@ -143,3 +143,19 @@ def test_troposphere_options_are_checked():
         vv.Observations(**args, troposphere={"relative_humidity": 50})
     with pytest.raises(vv.InvalidInputError, match="troposphere must be"):
         vv.Observations(**args, troposphere="saastamoinen")
+
+
+def test_a_diverging_fit_says_so(visible, recwarn):
+    # a first guess 2 km and 2 m/s off, a day of passes, two-body: the iteration wanders off;
+    # before, numpy's overflow warnings, then "the observations do not determine the orbit
+    # ... add observations", which blamed the data
+    t = visible[::3]
+    tt = t[np.repeat(np.arange(len(t)), 2)]
+    obs = simulate_observations(TRUTH, tt, ["range", "azel"] * len(t),
+                                [0.002, np.radians(0.002)] * len(t), STATION, seed=5)
+    guess = vv.StateVectors((Y0[:3] + [2.0, -1.0, 1.0]) * u.km, (Y0[3:] + 2e-3) * KMS,
+                            vv.EARTH, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError, match="diverged at iteration") as info:
+        vv.fit_orbit(obs, guess)
+    assert "better initial state" in str(info.value) and len(info.value.history) >= 1
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]

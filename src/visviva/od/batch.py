@@ -511,7 +511,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             )
             err.history = history
             raise err from exc
-        h, H = model(observations, y, gm)
+        with np.errstate(over="ignore", invalid="ignore"):  # a wild estimate: checked below
+            h, H = model(observations, y, gm)
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if outlier_sigma is not None and rms_prev is not None:
@@ -560,7 +561,19 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             )
             err.history = history
             raise err
-        dx, P = _solve(A, b)
+        try:
+            dx, P = _solve(A, b)
+        except InvalidInputError as exc:
+            if it == 1:  # the data themselves
+                raise
+            err = ConvergenceError(  # the estimate has wandered where the data say nothing
+                f"the orbit fit diverged at iteration {it} (RMS by iteration: "
+                + "; ".join(f"{hh['iteration']}: {hh['rms']:.4g}" for hh in history)
+                + f"; now {rms:.4g}): the estimate went where the data no longer determine "
+                "it (singular normal equations). Start from a better initial state (IOD) or "
+                "fit a shorter arc first.")
+            err.history = history
+            raise err from exc
         step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
                         "correction": step})  # fmt: skip

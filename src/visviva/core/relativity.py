@@ -24,13 +24,29 @@ from __future__ import annotations
 
 import math
 
-from ._jit import kernel
+from ._jit import inline_kernel, kernel
 
-__all__ = ["C_KM_S", "accel_relativity", "add_relativity_partials"]
+__all__ = ["C_KM_S", "schwarzschild", "accel_relativity", "add_relativity_partials"]
 
 #: Speed of light, km/s (exact, SI; the same value as :data:`visviva.constants.C_KM_S`, which
 #: this layer may not import).
 C_KM_S = 299_792.458
+
+
+@inline_kernel
+def schwarzschild(dx, dy, dz, dvx, dvy, dvz, mu, c2):
+    """The Schwarzschild (1PN, single-body) acceleration ``(ax, ay, az)`` at ``d`` moving at
+    ``dv`` relative to a mass of gravitational parameter ``mu``, with ``c2`` = c^2 in the same
+    units: ``mu / (c2 r^3) [(4 mu / r - v^2) d + 4 (d . dv) dv]`` (also the N-body
+    :class:`visviva.nbody.forces.GeneralRelativity`'s pair term)."""
+    r2 = dx * dx + dy * dy + dz * dz
+    r = math.sqrt(r2)
+    v2 = dvx * dvx + dvy * dvy + dvz * dvz
+    rv = dx * dvx + dy * dvy + dz * dvz
+    k = mu / (c2 * r2 * r)
+    fr = 4.0 * mu / r - v2
+    return (k * (fr * dx + 4.0 * rv * dvx), k * (fr * dy + 4.0 * rv * dvy),
+            k * (fr * dz + 4.0 * rv * dvz))
 
 
 @kernel
@@ -51,17 +67,13 @@ def accel_relativity(x, y, z, vx, vy, vz, gm, jz, out):
     out : ndarray (3,)
         Acceleration, km/s^2, added to in place.
     """
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    v2 = vx * vx + vy * vy + vz * vz
-    rv = x * vx + y * vy + z * vz
-    f = gm / (C_KM_S * C_KM_S * r2 * r)
-    s = 4.0 * gm / r - v2
-    out[0] += f * (s * x + 4.0 * rv * vx)
-    out[1] += f * (s * y + 4.0 * rv * vy)
-    out[2] += f * (s * z + 4.0 * rv * vz)
+    ax, ay, az = schwarzschild(x, y, z, vx, vy, vz, gm, C_KM_S * C_KM_S)
+    out[0] += ax
+    out[1] += ay
+    out[2] += az
     if jz != 0.0:
-        g = 2.0 * f
+        r2 = x * x + y * y + z * z
+        g = 2.0 * gm / (C_KM_S * C_KM_S * r2 * math.sqrt(r2))
         q = 3.0 * z * jz / r2  # 3 (r . J) / r^2 with J = (0, 0, jz)
         # (r x v) q + v x J
         out[0] += g * ((y * vz - z * vy) * q + vy * jz)

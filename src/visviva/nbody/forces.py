@@ -35,6 +35,7 @@ import numpy as np
 
 from ..constants import C_KM_S
 from ..core._jit import inline_kernel, kernel
+from ..core.relativity import schwarzschild
 from ..errors import InvalidInputError
 
 __all__ = [
@@ -205,14 +206,7 @@ def j2_force(t, x, v, m, params, acc):
 @inline_kernel
 def _gr_pair(dx, dy, dz, dvx, dvy, dvz, mu, c2, unused):
     """1PN acceleration at ``d``, ``dv`` (see :class:`GeneralRelativity`); ``c2 = c**2``."""
-    r2 = dx * dx + dy * dy + dz * dz
-    r = math.sqrt(r2)
-    v2 = dvx * dvx + dvy * dvy + dvz * dvz
-    rv = dx * dvx + dy * dvy + dz * dvz
-    k = mu / (c2 * r2 * r)
-    fr = 4.0 * mu / r - v2
-    return (k * (fr * dx + 4.0 * rv * dvx), k * (fr * dy + 4.0 * rv * dvy),
-            k * (fr * dz + 4.0 * rv * dvz))
+    return schwarzschild(dx, dy, dz, dvx, dvy, dvz, mu, c2)
 
 
 @kernel

@@ -168,3 +168,58 @@ def test_record_continues_an_archive_and_refuses_to_mix_runs(tmp_path):
     # a recording to t_end == t stores the one snapshot once
     single = vv.nbody.Archive.record(sim.copy(), tmp_path / "one.npz", interval=1.0, t_end=0.0)
     np.testing.assert_array_equal(single.times, [0.0])
+
+
+def test_save_refuses_to_replace_a_file_of_another_kind(tmp_path):
+    # Simulation.save and Ensemble.save over an archive (or a user's .npz, or any other file)
+    # replaced it silently: six snapshots (or the user's data) were lost without a word
+    archive_path = tmp_path / "run.npz"
+    vv.nbody.Archive.record(two_planets(), archive_path, interval=1.0, t_end=5.0)
+    user_npz = tmp_path / "data.npz"
+    np.savez(user_npz, a=np.arange(5))
+    notes = tmp_path / "notes.txt"
+    notes.write_text("precious")
+    ensemble = vv.Ensemble.from_simulations([two_planets(), two_planets()])
+    for save in (two_planets().save, ensemble.save):
+        for path in (archive_path, user_npz, notes):
+            with pytest.raises(vv.InvalidInputError, match="would be replaced and lost"):
+                save(path)
+    assert len(vv.nbody.Archive(archive_path)) == 6
+    np.testing.assert_array_equal(np.load(user_npz)["a"], np.arange(5))
+    assert notes.read_text() == "precious"
+    ensemble.save(tmp_path / "ens.npz")
+    with pytest.raises(vv.InvalidInputError, match="is a visviva.nbody.ensemble file"):
+        two_planets().save(tmp_path / "ens.npz")
+    # a checkpoint saved again over itself is replaced (the same kind of file)
+    sim = two_planets()
+    sim.save(tmp_path / "sim.npz")
+    sim.integrate(1.0)
+    sim.save(tmp_path / "sim.npz")
+    assert vv.Simulation.load(tmp_path / "sim.npz").t == 1.0
+    ensemble.save(tmp_path / "ens.npz")
+
+
+def test_archive_append_refuses_a_time_that_goes_back(tmp_path):
+    # record() refused to mix runs, append() took any simulation: an archive ending at t = 3
+    # took a snapshot at t = 0 (times 0 1 2 3 0)
+    path = tmp_path / "run.npz"
+    archive = vv.nbody.Archive.record(two_planets("leapfrog"), path, interval=1.0, t_end=3.0)
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        archive.append(two_planets("leapfrog"))
+    assert len(vv.nbody.Archive(path)) == 4 and len(archive) == 4
+    later = archive[-1]
+    later.integrate(3.5)
+    archive.append(later)
+    archive.append(later)  # the same time again (e.g. after changing a particle) is kept
+    np.testing.assert_array_equal(vv.nbody.Archive(path).times, [0, 1, 2, 3, 3.5, 3.5])
+    # backwards archives keep their direction
+    back = vv.nbody.Archive.record(two_planets("leapfrog"), tmp_path / "b.npz", 1.0, -2.0)
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        back.append(two_planets("leapfrog"))
+
+
+def test_record_refuses_an_interval_that_makes_too_many_snapshots(tmp_path):
+    # interval = 1e-300 looped (and filled the memory) building 1e300 output times
+    with pytest.raises(vv.InvalidInputError, match="1e\\+300 snapshots"):
+        vv.nbody.Archive.record(two_planets(), tmp_path / "x.npz", interval=1e-300, t_end=1.0)
+    assert not (tmp_path / "x.npz").exists()

@@ -251,6 +251,8 @@ def test_dask_process_workers_give_identical_results(monkeypatch):
         with pytest.raises(vv.Escape) as info:
             far.integrate(5.0, client=client)
         assert info.value.member == 2 and info.value.members == [2]
+        # plain ints, as in this process (they were numpy.int64 from the block bounds)
+        assert type(info.value.member) is int and type(info.value.members[0]) is int
         alone = wide[0].copy()
         alone.integrate(5.0)
         assert far.t[[0, 1, 3]].tolist() == [5.0] * 3 and far.t[2] < 5.0

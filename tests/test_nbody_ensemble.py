@@ -149,6 +149,10 @@ def test_bad_input_says_what_to_do():
     with pytest.raises(IndexError, match="member 1 is out of range: the ensemble has 1"):
         ens[1]
     assert ens[-1].N == ens[0].N
+    assert ens[np.int64(0)].N == ens[0].N
+    for index in (0.7, "0"):  # int(index) picked member 0 without a word
+        with pytest.raises(InvalidInputError, match="indexed by an integer"):
+            ens[index]
     with pytest.raises(ShapeError, match="one time"):
         ens.integrate([1.0, 2.0])
     with pytest.raises(InvalidInputError, match="client"):

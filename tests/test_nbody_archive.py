@@ -223,3 +223,17 @@ def test_record_refuses_an_interval_that_makes_too_many_snapshots(tmp_path):
     with pytest.raises(vv.InvalidInputError, match="1e\\+300 snapshots"):
         vv.nbody.Archive.record(two_planets(), tmp_path / "x.npz", interval=1e-300, t_end=1.0)
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_record_ends_exactly_at_t_end_and_never_goes_back(tmp_path):
+    # t_end = 0.3 by 0.1 ended at 0.30000000000000004; t_end = 3 - 5e-10 by 1 recorded
+    # 1, 2, 3 and then went back to t_end
+    sim = two_planets("leapfrog")
+    archive = vv.nbody.Archive.record(sim, tmp_path / "a.npz", interval=0.1, t_end=0.3)
+    assert archive.times.tolist() == [0.0, 0.1, 0.2, 0.3] and sim.t == 0.3
+    sim = two_planets("leapfrog")
+    t_end = 3.0 - 5e-10
+    archive = vv.nbody.Archive.record(sim, tmp_path / "b.npz", interval=1.0, t_end=t_end)
+    assert archive.times.tolist() == [0.0, 1.0, 2.0, t_end] and sim.t == t_end
+    back = vv.nbody.Archive.record(two_planets("leapfrog"), tmp_path / "c.npz", 0.1, -0.3)
+    assert back.times.tolist() == [0.0, -0.1, -0.2, -0.3]

@@ -138,8 +138,14 @@ class Archive:
                 "larger interval, or record a shorter span per archive.")
         n = int(count)
         times = [t0 + sign * k * interval for k in range(1, n + 1)]
-        if t_end != t0 and (not times or times[-1] != t_end
-                            and abs(times[-1] - t_end) > 1e-12 * interval):
+        # the grid up to t_end: a time past it (the floor's slack of 1e-9 intervals let one
+        # through, and t_end was appended after it: the run went back) is dropped, and a last
+        # one within 1e-12 intervals of it IS t_end (the run ended at 0.30000000000000004)
+        while times and (times[-1] - t_end) * sign > 1e-12 * interval:
+            times.pop()
+        if times and abs(times[-1] - t_end) <= 1e-12 * interval:
+            times[-1] = t_end
+        elif t_end != t0:
             times.append(t_end)
         if archive._times:
             archive._check_continues(t0, sign)

@@ -267,3 +267,25 @@ def test_j2_force_with_a_quantity_radius_saves_and_loads(tmp_path):
     np.testing.assert_array_equal(back.positions, sim.positions)
     with pytest.raises(vv.InvalidInputError, match="equatorial radius"):
         J2Force(primary=0, j2=1e-2, radius=None)
+
+
+def test_a_file_with_a_null_j2_radius_says_how_to_load_it(tmp_path):
+    # files saved before 2026-11-27 stored a Quantity radius as null; loading said the force
+    # was "defined in __main__ or a closure" (or, before that, died later with a TypeError)
+    import json
+
+    sim = _planet()
+    sim.add_force(J2Force(primary=0, j2=1e-2, radius=0.1))
+    sim.save(tmp_path / "sim.npz")
+    with np.load(tmp_path / "sim.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta["forces"][0]["init"]["radius"] = None
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(tmp_path / "old.npz", **arrays)
+    with pytest.raises(vv.InvalidInputError, match=r"cannot be rebuilt.*forces=\[J2Force"):
+        vv.Simulation.load(tmp_path / "old.npz")
+    back = vv.Simulation.load(tmp_path / "old.npz", forces=[J2Force(0, 1e-2, 0.1)])
+    sim.integrate(1.0)
+    back.integrate(1.0)
+    np.testing.assert_array_equal(back.positions, sim.positions)

@@ -157,6 +157,10 @@ def build_simulation(cls, get, forces=None, path="the file"):
         for spec in meta["forces"]:
             try:
                 forces.append(Force.from_spec(spec))
+            except InvalidInputError as exc:  # a built-in refusing the stored arguments
+                raise InvalidInputError(
+                    f"{path!r}: its force {spec.get('name')!r} cannot be rebuilt from the "
+                    f"file ({exc})") from exc
             except (ImportError, AttributeError, KeyError, TypeError, ValueError) as exc:
                 fn = spec.get("fn") if isinstance(spec, dict) else spec
                 raise InvalidInputError(

@@ -237,3 +237,20 @@ def test_record_ends_exactly_at_t_end_and_never_goes_back(tmp_path):
     assert archive.times.tolist() == [0.0, 1.0, 2.0, t_end] and sim.t == t_end
     back = vv.nbody.Archive.record(two_planets("leapfrog"), tmp_path / "c.npz", 0.1, -0.3)
     assert back.times.tolist() == [0.0, -0.1, -0.2, -0.3]
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_record_without_exact_finish_time_samples_as_a_trajectory_does(sign, tmp_path):
+    # with exact_finish_time=False and an interval below IAS15's step, the run passed the next
+    # time and the following call went back (0, 0.021, -0.043, ...: now refused by append);
+    # the archive now holds what integrate(times) returns: the first step at or past each time
+    sim = vv.Simulation("ias15", exact_finish_time=False)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    reference = sim.copy()
+    archive = vv.nbody.Archive.record(sim, tmp_path / "a.npz", 0.01, sign * 0.2)
+    traj = reference.integrate(sign * 0.01 * np.arange(1, 21))
+    np.testing.assert_array_equal(archive.times[1:], traj.t)
+    assert archive.times[1] == archive.times[2] and (np.diff(archive.times) * sign >= 0).all()
+    for k in range(20):
+        np.testing.assert_array_equal(archive[k + 1].positions, traj.positions[k])

@@ -158,7 +158,8 @@ class Archive:
             iterator = tqdm(times, desc="archive")
         try:
             for k, t in enumerate(iterator):
-                sim.integrate(t)
+                if (t - sim.t) * sign > 0:  # exact_finish_time=False may have passed t: a
+                    sim.integrate(t)  # call would go back (the snapshot repeats, as there)
                 archive.append(sim, flush=(k + 1) % flush_every == 0)
         except BaseException as exc:
             archive.flush()  # never lose the snapshots taken before the event

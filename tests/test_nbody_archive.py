@@ -168,3 +168,89 @@ def test_record_continues_an_archive_and_refuses_to_mix_runs(tmp_path):
     # a recording to t_end == t stores the one snapshot once
     single = vv.nbody.Archive.record(sim.copy(), tmp_path / "one.npz", interval=1.0, t_end=0.0)
     np.testing.assert_array_equal(single.times, [0.0])
+
+
+def test_save_refuses_to_replace_a_file_of_another_kind(tmp_path):
+    # Simulation.save and Ensemble.save over an archive (or a user's .npz, or any other file)
+    # replaced it silently: six snapshots (or the user's data) were lost without a word
+    archive_path = tmp_path / "run.npz"
+    vv.nbody.Archive.record(two_planets(), archive_path, interval=1.0, t_end=5.0)
+    user_npz = tmp_path / "data.npz"
+    np.savez(user_npz, a=np.arange(5))
+    notes = tmp_path / "notes.txt"
+    notes.write_text("precious")
+    ensemble = vv.Ensemble.from_simulations([two_planets(), two_planets()])
+    for save in (two_planets().save, ensemble.save):
+        for path in (archive_path, user_npz, notes):
+            with pytest.raises(vv.InvalidInputError, match="would be replaced and lost"):
+                save(path)
+    assert len(vv.nbody.Archive(archive_path)) == 6
+    np.testing.assert_array_equal(np.load(user_npz)["a"], np.arange(5))
+    assert notes.read_text() == "precious"
+    ensemble.save(tmp_path / "ens.npz")
+    with pytest.raises(vv.InvalidInputError, match="is a visviva.nbody.ensemble file"):
+        two_planets().save(tmp_path / "ens.npz")
+    # a checkpoint saved again over itself is replaced (the same kind of file)
+    sim = two_planets()
+    sim.save(tmp_path / "sim.npz")
+    sim.integrate(1.0)
+    sim.save(tmp_path / "sim.npz")
+    assert vv.Simulation.load(tmp_path / "sim.npz").t == 1.0
+    ensemble.save(tmp_path / "ens.npz")
+
+
+def test_archive_append_refuses_a_time_that_goes_back(tmp_path):
+    # record() refused to mix runs, append() took any simulation: an archive ending at t = 3
+    # took a snapshot at t = 0 (times 0 1 2 3 0)
+    path = tmp_path / "run.npz"
+    archive = vv.nbody.Archive.record(two_planets("leapfrog"), path, interval=1.0, t_end=3.0)
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        archive.append(two_planets("leapfrog"))
+    assert len(vv.nbody.Archive(path)) == 4 and len(archive) == 4
+    later = archive[-1]
+    later.integrate(3.5)
+    archive.append(later)
+    archive.append(later)  # the same time again (e.g. after changing a particle) is kept
+    np.testing.assert_array_equal(vv.nbody.Archive(path).times, [0, 1, 2, 3, 3.5, 3.5])
+    # backwards archives keep their direction
+    back = vv.nbody.Archive.record(two_planets("leapfrog"), tmp_path / "b.npz", 1.0, -2.0)
+    with pytest.raises(vv.InvalidInputError, match="would not continue it"):
+        back.append(two_planets("leapfrog"))
+
+
+def test_record_refuses_an_interval_that_makes_too_many_snapshots(tmp_path):
+    # interval = 1e-300 looped (and filled the memory) building 1e300 output times
+    with pytest.raises(vv.InvalidInputError, match="1e\\+300 snapshots"):
+        vv.nbody.Archive.record(two_planets(), tmp_path / "x.npz", interval=1e-300, t_end=1.0)
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_record_ends_exactly_at_t_end_and_never_goes_back(tmp_path):
+    # t_end = 0.3 by 0.1 ended at 0.30000000000000004; t_end = 3 - 5e-10 by 1 recorded
+    # 1, 2, 3 and then went back to t_end
+    sim = two_planets("leapfrog")
+    archive = vv.nbody.Archive.record(sim, tmp_path / "a.npz", interval=0.1, t_end=0.3)
+    assert archive.times.tolist() == [0.0, 0.1, 0.2, 0.3] and sim.t == 0.3
+    sim = two_planets("leapfrog")
+    t_end = 3.0 - 5e-10
+    archive = vv.nbody.Archive.record(sim, tmp_path / "b.npz", interval=1.0, t_end=t_end)
+    assert archive.times.tolist() == [0.0, 1.0, 2.0, t_end] and sim.t == t_end
+    back = vv.nbody.Archive.record(two_planets("leapfrog"), tmp_path / "c.npz", 0.1, -0.3)
+    assert back.times.tolist() == [0.0, -0.1, -0.2, -0.3]
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_record_without_exact_finish_time_samples_as_a_trajectory_does(sign, tmp_path):
+    # with exact_finish_time=False and an interval below IAS15's step, the run passed the next
+    # time and the following call went back (0, 0.021, -0.043, ...: now refused by append);
+    # the archive now holds what integrate(times) returns: the first step at or past each time
+    sim = vv.Simulation("ias15", exact_finish_time=False)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    reference = sim.copy()
+    archive = vv.nbody.Archive.record(sim, tmp_path / "a.npz", 0.01, sign * 0.2)
+    traj = reference.integrate(sign * 0.01 * np.arange(1, 21))
+    np.testing.assert_array_equal(archive.times[1:], traj.t)
+    assert archive.times[1] == archive.times[2] and (np.diff(archive.times) * sign >= 0).all()
+    for k in range(20):
+        np.testing.assert_array_equal(archive[k + 1].positions, traj.positions[k])

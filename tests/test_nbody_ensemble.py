@@ -149,6 +149,10 @@ def test_bad_input_says_what_to_do():
     with pytest.raises(IndexError, match="member 1 is out of range: the ensemble has 1"):
         ens[1]
     assert ens[-1].N == ens[0].N
+    assert ens[np.int64(0)].N == ens[0].N
+    for index in (0.7, "0"):  # int(index) picked member 0 without a word
+        with pytest.raises(InvalidInputError, match="indexed by an integer"):
+            ens[index]
     with pytest.raises(ShapeError, match="one time"):
         ens.integrate([1.0, 2.0])
     with pytest.raises(InvalidInputError, match="client"):
@@ -251,6 +255,8 @@ def test_dask_process_workers_give_identical_results(monkeypatch):
         with pytest.raises(vv.Escape) as info:
             far.integrate(5.0, client=client)
         assert info.value.member == 2 and info.value.members == [2]
+        # plain ints, as in this process (they were numpy.int64 from the block bounds)
+        assert type(info.value.member) is int and type(info.value.members[0]) is int
         alone = wide[0].copy()
         alone.integrate(5.0)
         assert far.t[[0, 1, 3]].tolist() == [5.0] * 3 and far.t[2] < 5.0

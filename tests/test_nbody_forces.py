@@ -192,3 +192,100 @@ def test_add_mean_anomaly_and_its_deprecated_alias_M():
     np.testing.assert_array_equal(sims[0].positions, sims[1].positions)
     with pytest.warns(DeprecationWarning), pytest.raises(vv.InvalidInputError, match="mean_anomaly"):
         vv.Simulation().add(1.0, M=1.0, mean_anomaly=1.0)
+
+
+def _planet(units=None):
+    sim = vv.Simulation("ias15", units=units)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, e=0.1, inc=0.3, primary=0)
+    return sim
+
+
+def test_copies_own_their_forces():
+    # Simulation.copy() (and so Ensemble members, ens[i], to_simulations) shared the Force
+    # objects: a Monte Carlo over J2 set every copy (and the original) to the last value
+    base = _planet()
+    base.add_force(J2Force(primary=0, j2=1e-3, radius=0.1))
+    base.add_force(constant_push, params=[0.0])
+    copies = []
+    for j2 in (0.0, 1e-2):
+        sim = base.copy()
+        sim.forces[0].j2 = j2
+        sim.forces[1].params[0] = j2
+        copies.append(sim)
+    assert [s.forces[0].j2 for s in copies] == [0.0, 1e-2] and base.forces[0].j2 == 1e-3
+    assert [s.forces[1].params[0] for s in copies] == [0.0, 1e-2]
+    assert base.forces[1].params[0] == 0.0
+    ens = vv.Ensemble.from_simulations(copies)
+    copies[1].forces[0].j2 = 5.0  # the ensemble holds copies: nothing changes there
+    ens.integrate(2.0)
+    alone = base.copy()
+    alone.forces[0].j2 = 1e-2
+    alone.forces[1].params[0] = 1e-2
+    alone.integrate(2.0)
+    np.testing.assert_array_equal(ens[1].positions, alone.positions)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: J2Force(primary=0, j2=1e-3, radius=0.1),
+    lambda: LinearDrag(0.01),
+    lambda: GeneralRelativity(primary=0, c=1e4),
+])
+def test_a_changed_builtin_force_saves_as_it_is(make, tmp_path):
+    # the file stored the constructor's arguments, not the changed ones: a J2 raised to 5e-2
+    # after add_force ran with 5e-2 and continued from the file with 1e-3 (5.7e-3 off by t = 10)
+    sim = _planet()
+    force = sim.add_force(make())
+    if isinstance(force, J2Force):
+        force.j2 = 5e-2
+    elif isinstance(force, LinearDrag):
+        force.params[0] = 0.05
+    else:
+        force.c = 30.0
+    sim.integrate(2.0)
+    sim.save(tmp_path / "sim.npz")
+    back = vv.Simulation.load(tmp_path / "sim.npz")
+    np.testing.assert_array_equal(back.forces[0].parameters(back), force.parameters(sim))
+    sim.integrate(4.0)
+    back.integrate(4.0)
+    np.testing.assert_array_equal(back.positions, sim.positions)
+
+
+def test_j2_force_with_a_quantity_radius_saves_and_loads(tmp_path):
+    # the Quantity radius was stored as null: the loaded force had radius None and the next
+    # integrate died with "TypeError: float() argument must be ... not 'NoneType'"
+    from astropy import units as u
+
+    sim = _planet(units=("au", "yr", "Msun"))
+    sim.add_force(J2Force(primary=0, j2=1e-2, radius=0.1 * u.au))
+    sim.integrate(1.0)
+    sim.save(tmp_path / "sim.npz")
+    back = vv.Simulation.load(tmp_path / "sim.npz")
+    assert back.forces[0].radius == 0.1 * u.au
+    sim.integrate(2.0)
+    back.integrate(2.0)
+    np.testing.assert_array_equal(back.positions, sim.positions)
+    with pytest.raises(vv.InvalidInputError, match="equatorial radius"):
+        J2Force(primary=0, j2=1e-2, radius=None)
+
+
+def test_a_file_with_a_null_j2_radius_says_how_to_load_it(tmp_path):
+    # files saved before 2026-11-27 stored a Quantity radius as null; loading said the force
+    # was "defined in __main__ or a closure" (or, before that, died later with a TypeError)
+    import json
+
+    sim = _planet()
+    sim.add_force(J2Force(primary=0, j2=1e-2, radius=0.1))
+    sim.save(tmp_path / "sim.npz")
+    with np.load(tmp_path / "sim.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta["forces"][0]["init"]["radius"] = None
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(tmp_path / "old.npz", **arrays)
+    with pytest.raises(vv.InvalidInputError, match=r"cannot be rebuilt.*forces=\[J2Force"):
+        vv.Simulation.load(tmp_path / "old.npz")
+    back = vv.Simulation.load(tmp_path / "old.npz", forces=[J2Force(0, 1e-2, 0.1)])
+    sim.integrate(1.0)
+    back.integrate(1.0)
+    np.testing.assert_array_equal(back.positions, sim.positions)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -439,3 +440,32 @@ def test_solar_system_epoch_keeps_the_two_part_julian_date():
         r, _ = eph.position_and_velocity("earthmoon", t.tdb.jd1, t.tdb.jd2)
         worst = max(worst, float(np.max(np.abs(sim.positions[3] * au_km - np.ravel(r)))))
     assert worst < 1e-5  # km (measured 3e-8); was 5e-4 km (0.53 m) over these 20 epochs
+
+
+def test_whfast_softening_differs_in_rebound_and_both_copies_say_so():
+    # REBOUND 5.2.2's WHFast with softening converges to neither its softened nor its plain
+    # IAS15 run; visviva's converges to the softened IAS15 at second order. to_rebound and
+    # from_rebound copied the softening without a word (the copies ran different dynamics)
+    rebound = pytest.importorskip("rebound")
+    r = rebound.Simulation()
+    r.add(m=1.0)
+    r.add(m=0.5, a=0.3, e=0.5)
+    r.add(m=0.2, a=2.0, e=0.3)
+    r.move_to_com()
+    r.softening = 0.2
+    reference = vv.Simulation.from_rebound(r)  # IAS15, softened
+    reference.integrate(5.0)
+    errors = []
+    for dt in (1e-3, 2.5e-4):
+        r.integrator, r.dt = "whfast", dt
+        with pytest.warns(UserWarning, match="WHFast does not soften"):
+            sim = vv.Simulation.from_rebound(r)
+        sim.integrate(5.0)
+        errors.append(np.abs(sim.positions - reference.positions).max())
+    assert errors[1] < 1e-4 and 12 < errors[0] / errors[1] < 20  # second order (16)
+    with pytest.warns(UserWarning, match="Plummer softening in WHFast"):
+        sim.to_rebound()
+    sim.softening = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.to_rebound()

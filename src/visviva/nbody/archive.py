@@ -8,6 +8,7 @@ file (format ``visviva.nbody.simulation``, described in :mod:`visviva.nbody.snap
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 
@@ -32,6 +33,9 @@ __all__ = ["save_simulation", "load_simulation", "Archive", "FORMAT", "FORMAT_VE
 
 ARCHIVE_FORMAT = "visviva.nbody.archive"
 ARCHIVE_VERSION = 1
+#: Most snapshots :meth:`Archive.record` takes in one call (an interval mistyped by a few powers
+#: of ten would otherwise fill the memory, or never end: 1e-300 of a span is 1e300 snapshots).
+MAX_SNAPSHOTS = 10**6
 
 
 class Archive:
@@ -79,7 +83,15 @@ class Archive:
 
     # -- writing ----------------------------------------------------------------------------------
     def append(self, sim, flush: bool = True) -> None:
-        """Add a snapshot of ``sim`` (and rewrite the file atomically when ``flush``)."""
+        """Add a snapshot of ``sim`` (and rewrite the file atomically when ``flush``).
+
+        Its time must continue the archive's (the same time as the last snapshot, or beyond it
+        in the direction the times go); a time that goes back raises
+        :class:`~visviva.errors.InvalidInputError`, as :meth:`record` does."""
+        last = self._times[-1] if self._times else None
+        before = next((t for t in reversed(self._times) if t != last), None)
+        if before is not None:  # the times' direction, from the last earlier time
+            self._check_continues(sim.t, math.copysign(1.0, last - before))
         self._snapshots.append({k: np.array(v, copy=True) for k, v in state_dict(sim).items()})
         self._times.append(sim.t)
         if flush:
@@ -117,10 +129,23 @@ class Archive:
         archive = cls(path)
         t0 = sim.t
         sign = 1.0 if t_end >= t0 else -1.0
-        n = int(np.floor(abs(t_end - t0) / interval + 1e-9))
+        count = math.floor(abs(t_end - t0) / interval + 1e-9)
+        if count > MAX_SNAPSHOTS:
+            raise InvalidInputError(
+                f"interval = {fmt_number(interval)} from t = {fmt_number(t0)} to t_end = "
+                f"{fmt_number(t_end)} makes {count:.3g} snapshots (more than "
+                f"{MAX_SNAPSHOTS:,}, each held in memory and rewritten into one file): give a "
+                "larger interval, or record a shorter span per archive.")
+        n = int(count)
         times = [t0 + sign * k * interval for k in range(1, n + 1)]
-        if t_end != t0 and (not times or times[-1] != t_end
-                            and abs(times[-1] - t_end) > 1e-12 * interval):
+        # the grid up to t_end: a time past it (the floor's slack of 1e-9 intervals let one
+        # through, and t_end was appended after it: the run went back) is dropped, and a last
+        # one within 1e-12 intervals of it IS t_end (the run ended at 0.30000000000000004)
+        while times and (times[-1] - t_end) * sign > 1e-12 * interval:
+            times.pop()
+        if times and abs(times[-1] - t_end) <= 1e-12 * interval:
+            times[-1] = t_end
+        elif t_end != t0:
             times.append(t_end)
         if archive._times:
             archive._check_continues(t0, sign)
@@ -133,7 +158,8 @@ class Archive:
             iterator = tqdm(times, desc="archive")
         try:
             for k, t in enumerate(iterator):
-                sim.integrate(t)
+                if (t - sim.t) * sign > 0:  # exact_finish_time=False may have passed t: a
+                    sim.integrate(t)  # call would go back (the snapshot repeats, as there)
                 archive.append(sim, flush=(k + 1) % flush_every == 0)
         except BaseException as exc:
             archive.flush()  # never lose the snapshots taken before the event

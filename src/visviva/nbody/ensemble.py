@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 
 import numpy as np
 
@@ -132,7 +133,11 @@ class Ensemble:
     def __getitem__(self, index):
         if isinstance(index, slice):
             return Ensemble([s.copy() for s in self._members[index]], self.backend)
-        k = int(index)
+        try:
+            k = operator.index(index)  # int(0.7) picked member 0 without a word
+        except TypeError:
+            raise InvalidInputError(
+                f"an ensemble is indexed by an integer (or a slice); got {index!r}.") from None
         if not -len(self) <= k < len(self):
             raise IndexError(f"member {k} is out of range: the ensemble has {len(self)} members.")
         return self._members[k].copy()

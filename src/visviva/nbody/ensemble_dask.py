@@ -92,5 +92,5 @@ def integrate_on_dask(members: list, t, client, advance) -> list:
     for a, blob in zip(bounds[:-1], client.gather(futures), strict=True):
         done, block_errors = pickle.loads(blob)
         members[a:a + len(done)] = done
-        errors.extend((a + k, exc) for k, exc in block_errors)
+        errors.extend((int(a) + k, exc) for k, exc in block_errors)
     return errors

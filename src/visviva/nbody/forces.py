@@ -28,6 +28,7 @@ symplectic integrators) and :class:`LinearDrag`.
 
 from __future__ import annotations
 
+import copy
 import importlib
 import math
 
@@ -87,15 +88,28 @@ class Force:
             "params": self.params.tolist(),
             "velocity_dependent": self.velocity_dependent,
             "name": self.name,
-            "init": getattr(self, "_init", None),
+            "init": self._init_args(),
         }
+
+    def _init_args(self):
+        """The constructor arguments that rebuild this force as it is NOW (its attributes may
+        have been changed since it was made), JSON-ready; None: rebuild from ``fn`` and
+        ``params``. Quantities are stored as ``{"value": ..., "unit": ...}``."""
+        return None
+
+    def copy(self) -> Force:
+        """An independent copy (its own parameter array): changing the copy's parameters or
+        attributes leaves this force alone (:meth:`visviva.Simulation.copy` copies its forces)."""
+        new = copy.copy(self)
+        new.params = self.params.copy()
+        return new
 
     @staticmethod
     def from_spec(spec) -> Force:
         cls_mod, cls_name = spec["class"].split(":")
         cls = getattr(importlib.import_module(cls_mod), cls_name)
         if spec.get("init") is not None and cls is not Force:
-            return cls(**spec["init"])
+            return cls(**{k: _decode(v) for k, v in spec["init"].items()})
         mod, name = spec["fn"].split(":")
         if "<locals>" in name or mod == "__main__":
             raise ImportError(name)
@@ -106,6 +120,22 @@ class Force:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, velocity_dependent={self.velocity_dependent})"
+
+
+def _encode(value):
+    """A constructor argument for JSON: a Quantity as ``{"value", "unit"}``, else itself."""
+    if hasattr(value, "unit"):
+        return {"value": float(value.value), "unit": value.unit.to_string()}
+    return value
+
+
+def _decode(value):
+    """The inverse of :func:`_encode`."""
+    if isinstance(value, dict) and set(value) == {"value", "unit"}:
+        from astropy import units as u
+
+        return float(value["value"]) * u.Unit(value["unit"])
+    return value
 
 
 def combine(fns, sizes, jit=None):
@@ -272,9 +302,16 @@ class J2Force(Force):
 
     def __init__(self, primary, j2, radius):
         super().__init__(j2_force, (), False, "J2")
-        self._init = {"primary": int(primary), "j2": float(j2), "radius": radius
-                      if not hasattr(radius, "unit") else None}
+        if radius is None:  # files saved before 2026-11-27 stored a Quantity radius as null
+            raise InvalidInputError(
+                "J2Force needs the primary's equatorial radius (simulation units or a "
+                "Quantity); got None. For a file saved with a Quantity radius by an older "
+                "visviva, pass the force again: Simulation.load(path, forces=[J2Force(...)]).")
         self.primary, self.j2, self.radius = int(primary), float(j2), radius
+
+    def _init_args(self):
+        return {"primary": int(self.primary), "j2": float(self.j2),
+                "radius": _encode(self.radius)}
 
     def parameters(self, sim):
         return np.array([sim.G, self.primary, self.j2, _length(sim, self.radius, "radius")])
@@ -295,8 +332,10 @@ class _Relativistic(Force):
 
     def __init__(self, primary=0, c=None):
         super().__init__(type(self)._kernel, (), self._velocity_dependent, self._label)
-        self._init = {"primary": int(primary), "c": c}
         self.primary, self.c = int(primary), c
+
+    def _init_args(self):
+        return {"primary": int(self.primary), "c": None if self.c is None else float(self.c)}
 
     def parameters(self, sim):
         return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
@@ -327,7 +366,9 @@ class LinearDrag(Force):
 
     def __init__(self, gamma):
         super().__init__(linear_drag_force, (float(gamma),), True, "linear drag")
-        self._init = {"gamma": float(gamma)}
+
+    def _init_args(self):
+        return {"gamma": float(self.params[0])}
 
 
 def __getattr__(name):

@@ -617,12 +617,13 @@ class Simulation:
         self._state.replace("v", self._state.v - vc)
 
     def copy(self) -> Simulation:
-        """A deep copy (same state, same integrator internals)."""
+        """A deep copy (same state, same integrator internals, copies of the forces: changing a
+        copy's force parameters leaves this simulation's alone)."""
         import copy
 
         new = copy.copy(self)
         new._state = self._state.copy()
-        new._forces = list(self._forces)
+        new._forces = [f.copy() for f in self._forces]  # shared, a copy's change was everyone's
         return new
 
     def __getstate__(self):

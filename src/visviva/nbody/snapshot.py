@@ -68,7 +68,8 @@ def state_dict(sim) -> dict:
 
 def atomic_savez(path, arrays: dict) -> None:
     """``np.savez`` of ``arrays`` to a temporary file in the same folder, then renamed to
-    ``path``: a reader never sees half a file."""
+    ``path``: a reader never sees half a file. An existing ``path`` is replaced only when it
+    holds a file of the same format (``arrays["format"]``): see :func:`_check_replaceable`."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):  # else the error names the temporary file
@@ -78,6 +79,7 @@ def atomic_savez(path, arrays: dict) -> None:
             f"cannot write {path!r}: it is a folder; give a file name in it, e.g. "
             f"{os.path.join(path, 'simulation.npz')!r}"
         )
+    _check_replaceable(path, str(arrays["format"]))
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
     try:
         with os.fdopen(fd, "wb") as fh:
@@ -89,6 +91,30 @@ def atomic_savez(path, arrays: dict) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _check_replaceable(path: str, fmt: str) -> None:
+    """Raise :class:`~visviva.errors.InvalidInputError` when ``path`` exists and is not a
+    ``fmt`` file.
+
+    Saving again over a file of the same kind (a checkpoint written by an earlier save) replaces
+    it; anything else there (an archive of many snapshots, an ensemble, a user's own ``.npz`` or
+    text file, an unreadable file) would be lost without a word, so it is refused."""
+    if not os.path.lexists(path):
+        return
+    found = None
+    try:
+        with np.load(path, allow_pickle=False) as data:  # reads the format entry only
+            if "format" in getattr(data, "files", ()) and np.ndim(data["format"]) == 0:
+                found = str(data["format"])
+    except Exception:  # noqa: BLE001 (not a readable .npz at all: found stays None)
+        found = None
+    if found == fmt:
+        return
+    what = f"a {found} file" if found and found.startswith("visviva.") else "not a visviva file"
+    raise InvalidInputError(
+        f"cannot write a {fmt} file to {path!r}: it exists and is {what}, which would be "
+        "replaced and lost. Give another path, or delete that file first.")
 
 
 def save_simulation(sim, path) -> None:
@@ -131,6 +157,10 @@ def build_simulation(cls, get, forces=None, path="the file"):
         for spec in meta["forces"]:
             try:
                 forces.append(Force.from_spec(spec))
+            except InvalidInputError as exc:  # a built-in refusing the stored arguments
+                raise InvalidInputError(
+                    f"{path!r}: its force {spec.get('name')!r} cannot be rebuilt from the "
+                    f"file ({exc})") from exc
             except (ImportError, AttributeError, KeyError, TypeError, ValueError) as exc:
                 fn = spec.get("fn") if isinstance(spec, dict) else spec
                 raise InvalidInputError(

@@ -1,0 +1,111 @@
+"""Square-root covariance forms of the extended Kalman filter's updates and of its smoother.
+
+The filter carries a square root L of its covariance, P = L L^T, and never P itself: every
+update is an orthogonal triangularisation (Householder QR) of a stacked "pre-array" whose
+Gram matrix is the new covariance, so that the new factor exists whatever the round-off and
+P = L L^T is symmetric positive semi-definite by construction (Bierman 1977, ch. V; Tapley,
+Schutz & Born 2004, sec. 5.4; Carpenter & D'Souza 2018, NASA/TM-2018-219822, sec. 3.3). The
+covariance form, even the Joseph form, subtracts: once a 1 nm measurement meets a 1 km prior
+(a condition number ~1e24) P+ loses its smallest eigenvalues to round-off and comes out with
+negative variances. The factor's condition number is the square root of P's, and Householder
+QR is backward stable column by column, i.e. per state component, whatever the components'
+units (km next to km/s).
+
+* Time update, P- = Phi P Phi^T + N: the R factor of [(Phi L)^T; N^(1/2)T] (2n x n) is U with
+  U^T U = P-, and L- = U^T.
+* Measurement update (Carlson's array form): the R factor of
+
+      A = [[R^(1/2),  0  ],          U = [[U11, U12],     U^T U = A^T A gives
+           [(H L)^T, L^T]]                [  0, U22]]     S = U11^T U11, P H^T = U12^T U11,
+
+  so K = U12^T U11^-T, x+ = x + U12^T (U11^-T z) and L+ = U22^T: P+ = P - K S K^T, the
+  optimal update, without the subtraction.
+* Smoother: the Rauch-Tung-Striebel covariance P^s_k = P_k + C (P^s_k+1 - P-_k+1) C^T in its
+  Joseph form (I - C Phi) P_k (I - C Phi)^T + C N C^T + C P^s_k+1 C^T (equal for the smoother
+  gain C = P_k Phi^T (P-_k+1)^-1, and the covariance of x^s_k for any C), as the R factor of
+  the three factors stacked.
+
+The input covariance and the process noise N are factored once by an eigen-decomposition of
+their correlation matrix (:func:`psd_factor`), which holds semi-definite matrices (an exactly
+known component, a rank-3 noise) that a Cholesky factorisation refuses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import qr, solve_triangular
+
+__all__ = ["psd_factor", "predict_factor", "update_factor", "smoother_gain", "smooth_factor",
+           "covariance"]
+
+
+def psd_factor(P):
+    """A square root L (n, n) of a symmetric positive semi-definite P: L L^T = P.
+
+    The correlation matrix D^-1/2 P D^-1/2 of the components of nonzero variance (D the
+    diagonal) is decomposed as V Lambda V^T and L = D^1/2 V Lambda^1/2, the eigenvalues below
+    zero (round-off of a semi-definite P; callers check larger ones beforehand, e.g.
+    :func:`visviva._covariance.require_psd`) taken as zero; a component of zero variance (whose
+    row must be zero) gets an exact zero row, which the updates keep.
+    """
+    d = np.sqrt(np.diag(P))
+    on = np.flatnonzero(d > 0)
+    lam, vec = np.linalg.eigh(P[np.ix_(on, on)] / np.outer(d[on], d[on]))
+    L = np.zeros(P.shape)
+    L[on[:, None], np.arange(on.size)[None, :]] = d[on, None] * vec * np.sqrt(np.maximum(lam, 0.0))
+    return L
+
+
+def covariance(L):
+    """P = L L^T, symmetrised (the product is symmetric only to round-off)."""
+    P = L @ L.T
+    return 0.5 * (P + P.T)
+
+
+def _triangular(pre, n):
+    """The n x n upper-triangular R factor of the stacked ``pre`` (rows >= n) as a lower L."""
+    return qr(pre, mode="r", check_finite=False)[0][:n, :n].T
+
+
+def predict_factor(L, phi, noise=None):
+    """The square root of P- = Phi P Phi^T + N from L (P = L L^T), ``phi`` (n, n) and the
+    square root ``noise`` of N (None: no noise)."""
+    pre = (phi @ L).T if noise is None else np.vstack([(phi @ L).T, noise.T])
+    return _triangular(pre, L.shape[0])
+
+
+def update_factor(x, L, H, r, z):
+    """The measurement update in array form: (x+, L+) from the state x (n,), the square root
+    L of its covariance, the partials H (m, n), the measurement variances r (m,) (> 0,
+    uncorrelated) and the pre-fit residuals z (m,)."""
+    m, n = H.shape
+    pre = np.zeros((m + n, m + n))
+    pre[np.arange(m), np.arange(m)] = np.sqrt(r)
+    pre[m:, :m] = (H @ L).T
+    pre[m:, m:] = L.T
+    U = qr(pre, mode="r", check_finite=False)[0]
+    w = solve_triangular(U[:m, :m], z, trans="T", check_finite=False)  # U11^-T z
+    return x + U[:m, m:].T @ w, U[m:, m:].T
+
+
+def smoother_gain(L, phi, L_pred):
+    """The Rauch-Tung-Striebel gain C = P Phi^T (P-)^-1 from the filtered square root L, the
+    transition ``phi`` and the lower-triangular square root ``L_pred`` of P- (two triangular
+    solves, on the square roots' condition number rather than P-'s); a singular P- (a
+    component of zero predicted variance): :class:`numpy.linalg.LinAlgError`."""
+    if not np.all(np.diag(L_pred)):
+        raise np.linalg.LinAlgError("the predicted covariance is singular")
+    W = solve_triangular(L_pred, phi @ L, lower=True, check_finite=False)
+    return solve_triangular(L_pred, W @ L.T, lower=True, trans="T", check_finite=False).T
+
+
+def smooth_factor(L, phi, noise, C, L_next):
+    """The square root of the smoothed covariance (I - C Phi) P (I - C Phi)^T + C N C^T +
+    C P^s C^T from the filtered factor L, the transition ``phi`` to the next epoch, the
+    square root ``noise`` of the prediction's noise (None: none), the smoother gain C and the
+    next epoch's smoothed factor ``L_next``."""
+    n = L.shape[0]
+    blocks = [((np.eye(n) - C @ phi) @ L).T, (C @ L_next).T]
+    if noise is not None:
+        blocks.append((C @ noise).T)
+    return _triangular(np.vstack(blocks), n)

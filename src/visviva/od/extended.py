@@ -73,8 +73,14 @@ def initial_impulses(dyn, schedule, x, P, q, code):
 
 
 def _noise_factor(N):
-    """The square root of a prediction's noise N, None for none."""
-    return psd_factor(N) if np.any(N) else None
+    """The square root of a prediction's noise N, None for none (Cholesky when N is definite,
+    as it is over two sub-steps of process noise; else the semi-definite factor)."""
+    if not np.any(N):
+        return None
+    try:
+        return np.linalg.cholesky(N)
+    except np.linalg.LinAlgError:
+        return psd_factor(N)
 
 
 def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=(),

@@ -33,7 +33,7 @@ known component, a rank-3 noise) that a Cholesky factorisation refuses.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import qr, solve_triangular
+from scipy.linalg import lapack
 
 __all__ = ["psd_factor", "predict_factor", "update_factor", "smoother_gain", "smooth_factor",
            "covariance"]
@@ -62,9 +62,24 @@ def covariance(L):
     return 0.5 * (P + P.T)
 
 
+# LAPACK's dgeqrf called directly: scipy.linalg.qr's checks and workspace query cost 3-5 times
+# the factorisation of these 6-9 column matrices
+_GEQRF = lapack.get_lapack_funcs("geqrf", (np.zeros(1),))
+
+
+def _r_factor(pre):
+    """The upper-triangular R (columns x columns) of the QR factorisation of ``pre``
+    (Householder; rows >= columns)."""
+    n = pre.shape[1]
+    qr, _, _, info = _GEQRF(pre, lwork=64 * n)
+    if info:
+        raise np.linalg.LinAlgError(f"LAPACK dgeqrf failed (info {info})")
+    return np.triu(qr[:n])
+
+
 def _triangular(pre, n):
     """The n x n upper-triangular R factor of the stacked ``pre`` (rows >= n) as a lower L."""
-    return qr(pre, mode="r", check_finite=False)[0][:n, :n].T
+    return _r_factor(pre)[:n, :n].T
 
 
 def predict_factor(L, phi, noise=None):
@@ -83,20 +98,21 @@ def update_factor(x, L, H, r, z):
     pre[np.arange(m), np.arange(m)] = np.sqrt(r)
     pre[m:, :m] = (H @ L).T
     pre[m:, m:] = L.T
-    U = qr(pre, mode="r", check_finite=False)[0]
-    w = solve_triangular(U[:m, :m], z, trans="T", check_finite=False)  # U11^-T z
+    U = _r_factor(pre)
+    w = np.linalg.solve(U[:m, :m].T, z)  # U11^-T z (numpy's LU: LAPACK's trtrs through scipy
+    # took milliseconds a call with a loaded machine's OpenBLAS threads)
     return x + U[:m, m:].T @ w, U[m:, m:].T
 
 
 def smoother_gain(L, phi, L_pred):
     """The Rauch-Tung-Striebel gain C = P Phi^T (P-)^-1 from the filtered square root L, the
-    transition ``phi`` and the lower-triangular square root ``L_pred`` of P- (two triangular
-    solves, on the square roots' condition number rather than P-'s); a singular P- (a
+    transition ``phi`` and the lower-triangular square root ``L_pred`` of P- (two solves with
+    the square root, on its condition number rather than P-'s); a singular P- (a
     component of zero predicted variance): :class:`numpy.linalg.LinAlgError`."""
     if not np.all(np.diag(L_pred)):
         raise np.linalg.LinAlgError("the predicted covariance is singular")
-    W = solve_triangular(L_pred, phi @ L, lower=True, check_finite=False)
-    return solve_triangular(L_pred, W @ L.T, lower=True, trans="T", check_finite=False).T
+    W = np.linalg.solve(L_pred, phi @ L)
+    return np.linalg.solve(L_pred.T, W @ L.T).T
 
 
 def smooth_factor(L, phi, noise, C, L_next):

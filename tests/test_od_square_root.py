@@ -19,6 +19,7 @@ from visviva.od.square_root import (
     predict_factor,
     psd_factor,
     smooth_factor,
+    smooth_factor_joint,
     smoother_gain,
     update_factor,
 )
@@ -105,6 +106,10 @@ def test_the_square_root_updates_equal_the_covariance_forms_when_well_conditione
         smoothed = joseph + C @ (Ps_next - Pp) @ C.T
         Ls = smooth_factor(L_new, phi, psd_factor(N), C, psd_factor(Ps_next))
         np.testing.assert_allclose(covariance(Ls), smoothed, rtol=0,
+                                   atol=1e-10 * np.abs(smoothed).max())  # fmt: skip
+        # the unscented smoother's form, from the joint covariance of (x_k, x-_k+1)
+        Lj = smooth_factor_joint(joseph, phi @ joseph, Pp, C, psd_factor(Ps_next))
+        np.testing.assert_allclose(covariance(Lj), smoothed, rtol=0,
                                    atol=1e-10 * np.abs(smoothed).max())  # fmt: skip
 
 
@@ -283,3 +288,57 @@ def test_square_root_updates_stay_psd_at_any_conditioning(log_sigma, log_prior, 
     for group in (filtered, predicted, smoothed):
         _assert_psd(np.array([covariance(f) for f in group]), tol=1e-10)
     assert np.all(np.isfinite(x))
+
+
+def test_the_unscented_smoother_never_returns_a_negative_variance():
+    """was: Saerkkae's smoother P + C (P^s - P^-) C^T after 1 nm positions against a 1 km
+    prior returned a position variance of -7e-19 km^2 (a correlation eigenvalue of -2.4)
+    silently, and at 1e-12 km stopped. In the square-root form of the joint covariance
+    (:func:`visviva.od.square_root.smooth_factor_joint`) it is PSD at 1e-12 km; at 1 nm the
+    unscented filter's own covariance is singular to round-off (correlation eigenvalue 3e-16),
+    the gain from it is meaningless, and the smoother says so."""
+    prior = np.diag([1.0] * 3 + [1e-6] * 3)
+    flt = vv.filter_orbit(_positions(1e-12), _leo(), prior, editing_sigma=None, smoother=True,
+                          method="ukf")  # fmt: skip
+    _assert_psd(flt.smoothed_covariances)
+    with pytest.raises(vv.ConvergenceError, match="method='ekf'"):
+        vv.filter_orbit(_positions(1e-9), _leo(), prior, editing_sigma=None, smoother=True,
+                        method="ukf")  # fmt: skip
+
+
+def test_an_unobserved_direction_keeps_its_prior_and_a_psd_covariance():
+    """One right ascension/declination pair of 1 nrad at the epoch against a 1 km prior: the
+    range along the line of sight is unobservable and keeps its 1 km^2, the two directions
+    across it fall to centimetres: a covariance with one direction untouched, PSD, and PSD
+    again after predicting it over 10 min and smoothing."""
+    station = vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km, name="GOLD")
+    t = EPOCH + np.array([0.0, 600.0]) * u.s
+    obs = simulate_observations(_leo(), t, "radec", 1e-9 * u.rad, station=station, seed=6)
+    flt = vv.filter_orbit(obs, _leo(), np.diag([1.0] * 3 + [1e-6] * 3), editing_sigma=None,
+                          smoother=True)  # fmt: skip
+    for covs in (flt.covariances, flt.predicted_covariances, flt.smoothed_covariances):
+        _assert_psd(covs)
+    lam = np.linalg.eigvalsh(flt.covariances[0][:3, :3])
+    np.testing.assert_allclose(lam[-1], 1.0, rtol=1e-6)
+    # across it: the angles fix the position at the transmit time, r - v tau, so the 1 m/s
+    # velocity prior times the light time (~0.03 s) leaves a few cm
+    assert np.all(lam[:2] > 0) and np.all(lam[:2] < 1e-4**2)
+
+
+@settings(max_examples=30, deadline=None)
+@given(log_sigma=st.floats(-9.0, 3.0), log_prior=st.floats(-6.0, 4.0),
+       noise=st.sampled_from([None, 1e-12]))
+def test_the_filter_and_smoother_covariances_are_psd_at_any_conditioning(log_sigma, log_prior,
+                                                                          noise):
+    """Property, through vv.filter_orbit: positions of sigma 1e-9 .. 1e3 km against a prior of
+    1e-6 .. 1e4 km (and 1e-3 of it in km/s), with or without process noise: every filtered,
+    predicted and smoothed covariance symmetric PSD."""
+    s, p = 10.0**log_sigma, 10.0**log_prior
+    t = EPOCH + np.arange(0.0, 300.0, 60.0) * u.s
+    obs = simulate_observations(_leo(), t, "position", s * u.km, seed=2)
+    obs = vv.Observations(time=t, kind="position", value=obs.values[:, :3], sigma=s)
+    prior = np.diag([p**2] * 3 + [(1e-3 * p) ** 2] * 3)
+    flt = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None, smoother=True,
+                          process_noise=noise)  # fmt: skip
+    for covs in (flt.covariances, flt.predicted_covariances, flt.smoothed_covariances):
+        _assert_psd(covs, tol=1e-10)

@@ -551,37 +551,38 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None, roots=None):
     unscented RTS smoother, the same recursion). With ``roots`` (the extended filter's
     filtered and predicted square roots and its noises', :func:`visviva.od.extended.ekf_pass`)
     in square-root form (:func:`visviva.od.square_root.smooth_factor`)."""
+    from . import square_root as sr
+
     sx = xs.copy()
     sP = Ps.copy()
     if roots is not None:
-        from .square_root import covariance, smooth_factor, smoother_gain
-
         Lf, Lp, noises = roots
         Ls = Lf.copy()
+    else:
+        Ls = np.empty_like(Ps)
+        Ls[-1] = sr.psd_factor(Ps[-1])
     for k in range(len(xs) - 2, -1, -1):
-        if roots is not None:
-            try:
-                C = smoother_gain(Lf[k], phis[k + 1], Lp[k + 1])
-            except np.linalg.LinAlgError:
-                raise _singular() from None
-            Ls[k] = smooth_factor(Lf[k], phis[k + 1], noises[k + 1], C, Ls[k + 1])
-            sP[k] = covariance(Ls[k])
-            sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
-            continue
-        # C = P_k Phi^T (P_k+1^-)^-1, from the symmetric system P_k+1^- C^T = Phi P_k
-        # (scaled to unit diagonal first: position and velocity variances differ by 1e6+)
-        d = 1.0 / np.sqrt(np.diag(Pp[k + 1]))
-        M = Pp[k + 1] * np.outer(d, d)
-        C = (d[:, None] * np.linalg.solve(M, d[:, None] * cross[k + 1])).T
+        try:
+            if roots is not None:
+                C = sr.smoother_gain(Lf[k], phis[k + 1], Lp[k + 1])
+                Ls[k] = sr.smooth_factor(Lf[k], phis[k + 1], noises[k + 1], C, Ls[k + 1])
+            else:
+                # C = cross^T (P_k+1^-)^-1, from the symmetric system P_k+1^- C^T = cross
+                # (scaled to unit diagonal first: position and velocity variances differ by 1e6+)
+                d = 1.0 / np.sqrt(np.diag(Pp[k + 1]))
+                M = Pp[k + 1] * np.outer(d, d)
+                C = (d[:, None] * np.linalg.solve(M, d[:, None] * cross[k + 1])).T
+                Ls[k] = sr.smooth_factor_joint(Ps[k], cross[k + 1], Pp[k + 1], C, Ls[k + 1])
+        except np.linalg.LinAlgError:
+            raise _singular() from None
+        sP[k] = sr.covariance(Ls[k])
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
-        Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
-        sP[k] = 0.5 * (Pk + Pk.T)
     # the smoothed variances cannot exceed the filtered ones (P^s = P^+ + C (P^s - P^-) C^T
     # with P^s - P^- <= 0): far above them, the gain came from a near-singular P^-
     var_s = np.diagonal(sP, axis1=1, axis2=2)
     var_f = np.diagonal(Ps, axis1=1, axis2=2)
     if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
-            and np.all(var_s[:, 6:] >= 0)  # coefficients' sigma
+            and np.all(var_s >= 0)
             and np.all(var_s <= var_f * (1.0 + SMOOTHED_VARIANCE_RTOL))):
         raise _singular()
     return sx, sP
@@ -590,8 +591,10 @@ def _rts(xs, Ps, xp, Pp, phis=None, cross=None, roots=None):
 def _singular():
     return ConvergenceError(
         "the smoother's estimate is not finite, has negative variances or variances above "
-        "the filter's: a predicted covariance is singular (e.g. a parameter_noise sigma of 0 "
-        "decays a coefficient's variance to 0); give sigma > 0, or smoother=False.")
+        "the filter's: a predicted covariance is singular or nearly so (a parameter_noise "
+        "sigma of 0 decays a coefficient's variance to 0; the unscented filter's after data "
+        "far more precise than the prior: use method='ekf', whose square-root smoother "
+        "holds it); give sigma > 0, or smoother=False.")
 
 
 def _isot(epoch, offset_s):

@@ -6,7 +6,8 @@ estimate and its state-transition matrix with the fit's own dynamics
 adding state-noise compensation for accelerations the model lacks; at each epoch it forms the
 pre-fit residuals and partials of the rows there with the fit's measurement models (light time
 included, :func:`visviva.od.light_time.model`), edits rows whose residual is far outside the
-predicted spread, and updates the state and covariance (Joseph form). The optional smoother
+predicted spread, and updates the state and covariance (square-root form:
+:mod:`visviva.od.extended`, :mod:`visviva.od.square_root`). The optional smoother
 then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, secs. 4.7, 4.9,
 4.15; Vallado 2013, sec. 10.6). ``method="ukf"`` runs the unscented filter and smoother of
 :mod:`visviva.od.unscented` instead, with the same bookkeeping (editing, NIS, divergence).
@@ -276,12 +277,15 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         Q(dt) = [[dt^3/3 Qc, dt^2/2 Qc], [dt^2/2 Qc, dt Qc]].
 
     At t_k the rows there give z = y - h(x_k^-), H = dh/dx (light time included), S = H P^- H^T
-    + R, K = P^- H^T S^-1, x_k^+ = x_k^- + K z and the Joseph form
-    P_k^+ = (I - K H) P^- (I - K H)^T + K R K^T, which stays symmetric positive definite under
-    round-off (Tapley et al., eq. 4.7.19; Bucy & Joseph 1968). Rows at one epoch are processed
-    together. The smoother (Rauch, Tung & Striebel 1965; Tapley et al., sec. 4.15) runs back
-    with C_k = P_k^+ Phi^T (P_k+1^-)^-1, x_k^s = x_k^+ + C_k (x_k+1^s - x_k+1^-),
-    P_k^s = P_k^+ + C_k (P_k+1^s - P_k+1^-) C_k^T.
+    + R, K = P^- H^T S^-1, x_k^+ = x_k^- + K z and P_k^+ = P^- - K S K^T. Rows at one epoch
+    are processed together. The smoother (Rauch, Tung & Striebel 1965; Tapley et al., sec.
+    4.15) runs back with C_k = P_k^+ Phi^T (P_k+1^-)^-1, x_k^s = x_k^+ + C_k (x_k+1^s -
+    x_k+1^-), P_k^s = P_k^+ + C_k (P_k+1^s - P_k+1^-) C_k^T. The filter carries a square root
+    L of P (P = L L^T) and computes each of these covariances as the Gram matrix of a QR
+    factor (Carlson's array update, Bierman 1977; Tapley et al., sec. 5.4; the smoother in
+    its Joseph form, :mod:`visviva.od.square_root`): symmetric positive semi-definite by
+    construction, also when nanometre data meet a kilometre prior, where the Joseph form
+    (I - K H) P^- (I - K H)^T + K R K^T lost definiteness to round-off.
 
     With two-body dynamics, position observations and no process noise the problem is nearly
     linear, and the filter's final estimate equals the batch estimate

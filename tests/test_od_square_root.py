@@ -114,8 +114,10 @@ def test_the_square_root_updates_equal_the_covariance_forms_when_well_conditione
 
 
 def _covariance_form(monkeypatch):
-    """The filter's old covariance form (Joseph update, Phi P Phi^T + N prediction) in place of
+    """The filter's old covariance form (Joseph update, Phi P Phi^T + N prediction, the
+    smoother's P + C (P^s - P^-) C^T with C from the scaled predicted covariance) in place of
     the square-root updates, each result handed on as a factor."""
+    from visviva.od import square_root
 
     def joseph(x, L, H, r, z):
         P = covariance(L)
@@ -129,8 +131,30 @@ def _covariance_form(monkeypatch):
         P = phi @ covariance(L) @ phi.T + (0.0 if noise is None else covariance(noise))
         return np.linalg.cholesky(0.5 * (P + P.T))
 
+    def gain(L, phi, L_pred):
+        Pp = covariance(L_pred)
+        d = 1.0 / np.sqrt(np.diag(Pp))
+        return (d[:, None] * np.linalg.solve(Pp * np.outer(d, d),
+                                             d[:, None] * (phi @ covariance(L)))).T
+
+    def smooth(L, phi, noise, C, L_next):
+        P = covariance(L)
+        Pp = phi @ P @ phi.T + (0.0 if noise is None else covariance(noise))
+        Ps = P + C @ (covariance(L_next) - Pp) @ C.T
+        return psd_factor(0.5 * (Ps + Ps.T))
+
     monkeypatch.setattr(extended, "update_factor", joseph)
     monkeypatch.setattr(extended, "predict_factor", predict)
+    monkeypatch.setattr(square_root, "smoother_gain", gain)
+    monkeypatch.setattr(square_root, "smooth_factor", smooth)
+
+
+def _same_covariances(a, b, tol=1e-10):
+    """Equal covariances to ``tol`` relative to their standard deviations."""
+    s = np.sqrt(np.diagonal(b, axis1=1, axis2=2))
+    s = np.where(s > 0, s, 1.0)
+    np.testing.assert_allclose(a / s[:, :, None] / s[:, None, :],
+                               b / s[:, :, None] / s[:, None, :], rtol=0, atol=tol)
 
 
 def test_the_filter_gives_the_covariance_forms_numbers_on_a_normal_case(monkeypatch):
@@ -151,11 +175,35 @@ def test_the_filter_gives_the_covariance_forms_numbers_on_a_normal_case(monkeypa
         _covariance_form(mp)
         old = vv.filter_orbit(obs, start, P0, **kw)
     np.testing.assert_allclose(new.states, old.states, rtol=1e-10)
-    scale = np.sqrt(np.diagonal(old.covariances, axis1=1, axis2=2))
-    np.testing.assert_allclose(new.covariances / scale[:, :, None] / scale[:, None, :],
-                               old.covariances / scale[:, :, None] / scale[:, None, :],
-                               rtol=0, atol=1e-10)  # fmt: skip
+    _same_covariances(new.covariances, old.covariances)
     np.testing.assert_allclose(new.nis, old.nis, rtol=1e-9)
+
+
+def test_coefficients_burns_and_smoother_give_the_covariance_forms_numbers(monkeypatch):
+    """The prediction's noise taken as the prediction from P = 0 (burn execution error,
+    Gauss-Markov drag, process noise) and the smoother: the same states and covariances,
+    filtered and smoothed, as the covariance form, to 1e-10 relative."""
+    m2kg = u.m**2 / u.kg
+    forces = [vv.J2(vv.EARTH), vv.AtmosphericDrag(2.2 * 0.01 * m2kg)]
+    burn = vv.ImpulsiveBurn(900 * u.s, [0.0, 0.002, 0.0] * u.km / u.s, "RTN",
+                            delta_v_covariance=np.eye(3) * 1e-10)  # fmt: skip
+    t = EPOCH + np.arange(60.0, 1800.0, 60.0) * u.s
+    obs = simulate_observations(_leo(), t, "position", 0.01 * u.km, perturbations=forces,
+                                maneuvers=[burn], seed=5)  # fmt: skip
+    kw = dict(maneuvers=[burn], estimate="drag", parameter_sigma={"drag": 0.005 * m2kg},
+              parameter_noise={"drag": (0.002 * m2kg, 3600 * u.s)}, process_noise=1e-14,
+              editing_sigma=None, smoother=True)
+    P0 = np.diag([0.1**2] * 3 + [1e-4**2] * 3)
+    new = vv.filter_orbit(obs, _leo(), P0, forces, **kw)
+    with monkeypatch.context() as mp:
+        _covariance_form(mp)
+        old = vv.filter_orbit(obs, _leo(), P0, forces, **kw)
+    for a, b in ((new.states, old.states), (new.smoothed_states, old.smoothed_states)):
+        np.testing.assert_allclose(a, b, rtol=1e-10)
+    _same_covariances(new.full_covariances, old.full_covariances)
+    _same_covariances(new.smoothed_covariances, old.smoothed_covariances)
+    np.testing.assert_allclose(new.smoothed_parameter_sigma["drag"].value,
+                               old.smoothed_parameter_sigma["drag"].value, rtol=1e-9)
 
 
 def _positions(sigma_km, span_s=600.0):

@@ -330,7 +330,7 @@ def test_rtn_noise_grows_the_along_track_uncertainty_most(positions):
 def test_filter_and_smoother_are_consistent_when_the_truth_has_white_noise_acceleration():
     """A truth kicked by a white-noise acceleration of density q (velocity kicks N(0, q h) every
     h = 5 s) and the filter told that q: filtered and smoothed NEES average ~6."""
-    from visviva.od.sequential import _propagate
+    from visviva.od.extended import _propagate
 
     q, h, span, sig, runs = 1e-12, 5.0, 5400.0, 0.01, 12
     dyn = Dynamics(GM, None, EPOCH, (0, span))

@@ -6,7 +6,8 @@ estimate and its state-transition matrix with the fit's own dynamics
 adding state-noise compensation for accelerations the model lacks; at each epoch it forms the
 pre-fit residuals and partials of the rows there with the fit's measurement models (light time
 included, :func:`visviva.od.light_time.model`), edits rows whose residual is far outside the
-predicted spread, and updates the state and covariance (Joseph form). The optional smoother
+predicted spread, and updates the state and covariance (square-root form:
+:mod:`visviva.od.extended`, :mod:`visviva.od.square_root`). The optional smoother
 then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, secs. 4.7, 4.9,
 4.15; Vallado 2013, sec. 10.6). ``method="ukf"`` runs the unscented filter and smoother of
 :mod:`visviva.od.unscented` instead, with the same bookkeeping (editing, NIS, divergence).
@@ -14,15 +15,12 @@ then runs backwards over the stored predictions (Tapley, Schutz & Born 2004, sec
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from .._covariance import km_covariance
-from ..errors import ConvergenceError, InvalidInputError, VisvivaError
-from ..satellites.covariance import noise_substeps
+from ..errors import ConvergenceError, InvalidInputError
 from .batch import check_initial
-from .coefficient_prediction import predict_coefficients, predict_covariance
+from .extended import ekf_pass, initial_impulses
 from .light_time import model
 from .measurements import residuals
 from .observations import Observations
@@ -122,13 +120,6 @@ class FilteredOrbit:
         return out
 
 
-def _propagate(dyn, x, t_from, t_to):
-    """States and STMs Phi(t, t_from) at the points of a grid ``t_to`` (s from the epoch)."""
-    if t_from == 0.0:
-        return dyn.propagate(x, t_to)
-    return dyn.at_origin(t_from).propagate(x, np.asarray(t_to) - t_from)
-
-
 def _method(method, sigma_points):
     """The filter's name, "ekf" or "ukf", with ``sigma_points`` checked against it."""
     name = method.lower() if isinstance(method, str) else None
@@ -171,35 +162,6 @@ def _positive(name, value):
     if not (np.isfinite(v) and v > 0):
         raise InvalidInputError(f"{name} must be a finite number > 0; got {value!r}.")
     return v
-
-
-def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
-    """The state, covariance and Phi(t_from + grid[-1], t_from) predicted from (x, P) at
-    ``t_from`` (s from the epoch) over the sub-steps ``grid`` (s from t_from), through the
-    burns of ``schedule`` (:func:`visviva.satellites.burn_partials.propagate_through`)."""
-    if not schedule:
-        y, phi = _propagate(dyn, x, t_from, t_from + grid)
-        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
-    t_end = t_from + float(grid[-1])
-    if not any(t_from < edge <= t_end or (apply_at_start and edge == t_from)
-               for a, b, _ in schedule.items for edge in (a, b)):
-        # no burn starts or ends here: one segment (a finite burn's thrust on over it, drag
-        # and SRP scaled to the mass), as the walk would integrate it
-        shifted = copy.copy(dyn)
-        shifted.model = schedule.segment_model(dyn.model, t_from, t_end)
-        y, phi = shifted.propagate(x, grid)
-        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
-    from ..satellites.burn_partials import propagate_through
-    from ..satellites.covariance import burn_noise
-
-    y, phi, sens = propagate_through(dyn, schedule, x, t_from + grid, start=t_from,
-                                     apply_at_start=apply_at_start)
-    if grid.size == 1 and grid[0] == 0.0:  # impulses at the epoch itself
-        jumps = burn_noise(schedule, grid + t_from, sens, t_from, apply_at_start)
-        return y[-1].copy(), phi[-1] @ P @ phi[-1].T + sum(jumps.values(), 0.0 * P), phi[-1]
-    sens = np.concatenate([np.zeros((1,) + sens.shape[1:]), sens])
-    jumps = burn_noise(schedule, t_from + np.r_[0.0, grid], sens, t_from, apply_at_start)
-    return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
 
 
 def filter_orbit(observations, initial, covariance, perturbations=None, *, maneuvers=None,
@@ -315,12 +277,15 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         Q(dt) = [[dt^3/3 Qc, dt^2/2 Qc], [dt^2/2 Qc, dt Qc]].
 
     At t_k the rows there give z = y - h(x_k^-), H = dh/dx (light time included), S = H P^- H^T
-    + R, K = P^- H^T S^-1, x_k^+ = x_k^- + K z and the Joseph form
-    P_k^+ = (I - K H) P^- (I - K H)^T + K R K^T, which stays symmetric positive definite under
-    round-off (Tapley et al., eq. 4.7.19; Bucy & Joseph 1968). Rows at one epoch are processed
-    together. The smoother (Rauch, Tung & Striebel 1965; Tapley et al., sec. 4.15) runs back
-    with C_k = P_k^+ Phi^T (P_k+1^-)^-1, x_k^s = x_k^+ + C_k (x_k+1^s - x_k+1^-),
-    P_k^s = P_k^+ + C_k (P_k+1^s - P_k+1^-) C_k^T.
+    + R, K = P^- H^T S^-1, x_k^+ = x_k^- + K z and P_k^+ = P^- - K S K^T. Rows at one epoch
+    are processed together. The smoother (Rauch, Tung & Striebel 1965; Tapley et al., sec.
+    4.15) runs back with C_k = P_k^+ Phi^T (P_k+1^-)^-1, x_k^s = x_k^+ + C_k (x_k+1^s -
+    x_k+1^-), P_k^s = P_k^+ + C_k (P_k+1^s - P_k+1^-) C_k^T. The filter carries a square root
+    L of P (P = L L^T) and computes each of these covariances as the Gram matrix of a QR
+    factor (Carlson's array update, Bierman 1977; Tapley et al., sec. 5.4; the smoother in
+    its Joseph form, :mod:`visviva.od.square_root`): symmetric positive semi-definite by
+    construction, also when nanometre data meet a kilometre prior, where the Joseph form
+    (I - K H) P^- (I - K H)^T + K R K^T lost definiteness to round-off.
 
     With two-body dynamics, position observations and no process noise the problem is nearly
     linear, and the filter's final estimate equals the batch estimate
@@ -397,7 +362,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     if schedule:  # burns within a microsecond of an epoch are at it (as propagate_cowell's)
         schedule.snap(np.sort(epochs))
     if method == "ekf" and schedule and schedule.impulses_at(0.0):  # after the state given
-        x, P, _ = _predict(dyn, schedule, x, P, 0.0, np.zeros(1), q, code, apply_at_start=True)
+        x, P = initial_impulses(dyn, schedule, x, P, q, code)
     if est:  # the coefficients join the state, uncorrelated with it
         x = np.r_[x, [c.value for c in est]]
         P = _augmented(P, np.diag([c.sigma ** 2 for c in est]))
@@ -409,8 +374,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
                                                code, step_s, sigma_points, schedule, est,
                                                apply_at_start=True, gm=gm_noise)  # fmt: skip
     else:
-        xs, Ps, xp, Pp, phis = _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q,
-                                         code, step_s, est, gm_noise)  # fmt: skip
+        xs, Ps, xp, Pp, phis, roots = ekf_pass(dyn, schedule, observations, x, P, epochs,
+                                               screen, q, code, step_s, est, gm_noise)  # fmt: skip
     # post-fit residuals: every row against the updated state at its epoch, in one call of the
     # (row by row) model after the pass instead of one per epoch (the same numbers)
     h, _ = model(observations, xs[epoch_index, :6], gm)
@@ -421,7 +386,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         if method == "ukf":
             sm_x, sm_P = _rts(xs, Ps, xp, Pp, cross=cross)
         else:
-            sm_x, sm_P = _rts(xs, Ps, xp, Pp, phis)
+            sm_x, sm_P = _rts(xs, Ps, xp, Pp, phis, roots=roots)
         first_state = StateVectors._from_canonical(sm_x[0, :3].copy(), sm_x[0, 3:6].copy(),
                                                    np.float64(gm), epoch)  # fmt: skip
         first_cov = sm_P[0, :6, :6]
@@ -445,61 +410,6 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         first_state=first_state, first_covariance=None if first_cov is None else km_covariance(first_cov),
         process_noise=q, process_noise_frame=frame, method=method,
     )  # fmt: skip
-
-
-def _ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=(),
-              gauss=None):
-    """The extended Kalman filter forward over ``epochs`` (through the burns of ``schedule``):
-    filtered and predicted states and covariances, and the STMs Phi(t_k, t_k-1) (the
-    smoother's); with ``est`` the state carries those coefficients too (6 + k), with ``gauss``
-    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes."""
-    n_t = len(epochs)
-    n = 6 + len(est)
-    xs = np.empty((n_t, n))
-    Ps = np.empty((n_t, n, n))
-    xp = np.empty((n_t, n))
-    Pp = np.empty((n_t, n, n))
-    phis = np.empty((n_t, n, n))
-    xs[0] = xp[0] = x
-    Ps[0] = Pp[0] = P
-    phis[0] = np.eye(n)
-    gm = dyn.gm
-    kinds = observations.kinds
-    if gauss is not None:
-        step_s = gauss.longest_step_s(q, step_s)
-    for k in range(n_t):
-        if k:
-            grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)
-            try:
-                if est:  # the coefficients, constants or Gauss-Markov, through the burns
-                    x, P, phis[k] = predict_coefficients(dyn, schedule, x, P, epochs[k - 1],
-                                                         grid, q, code, est, gauss)
-                else:
-                    x, P, phis[k] = _predict(dyn, schedule, x, P, epochs[k - 1], grid, q, code)
-            except VisvivaError as exc:
-                raise screen.diverged(k, f"the estimate cannot be integrated ({exc})") from exc
-            xp[k], Pp[k] = x, P
-        rows = screen.rows(k)
-        if rows.size:
-            h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
-            z = residuals(kinds[rows], observations.values[rows], h)
-            comp, zc, Rd = screen.prefit(rows, z)
-            Hc = H[comp]  # (m, 6) components in use, row-major
-            if n > 6:  # the coefficients enter the measurements through the state only
-                Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
-            S = Hc @ P @ Hc.T + np.diag(Rd)
-            use = screen.check(k, rows, zc, S)
-            if use.any():
-                Hu, zu = Hc[use], zc[use]
-                Su = S[np.ix_(use, use)]
-                K = np.linalg.solve(Su, Hu @ P).T  # P H^T S^-1 (S symmetric)
-                x = x + K @ zu
-                ikh = np.eye(n) - K @ Hu
-                P = ikh @ P @ ikh.T + (K * Rd[use]) @ K.T
-                P = 0.5 * (P + P.T)
-            screen.finite(k, x, P)
-        xs[k], Ps[k] = x, P
-    return xs, Ps, xp, Pp, phis
 
 
 class _Screen:
@@ -638,35 +548,57 @@ def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None, gauss=
 SMOOTHED_VARIANCE_RTOL = 1e-3
 
 
-def _rts(xs, Ps, xp, Pp, phis=None, cross=None):
+def _rts(xs, Ps, xp, Pp, phis=None, cross=None, roots=None):
     """Rauch-Tung-Striebel pass backwards over filtered (xs, Ps) and predicted (xp, Pp), with
     the cross-covariances cov(x_k+1^-, x_k) = Phi_k+1,k P_k from the STMs ``phis`` (extended
     filter) or given as ``cross`` (the unscented filter's sigma-point estimates: Saerkkae's
-    unscented RTS smoother, the same recursion)."""
+    unscented RTS smoother, the same recursion). With ``roots`` (the extended filter's
+    filtered and predicted square roots and its noises', :func:`visviva.od.extended.ekf_pass`)
+    in square-root form (:func:`visviva.od.square_root.smooth_factor`)."""
+    from . import square_root as sr
+
     sx = xs.copy()
     sP = Ps.copy()
+    if roots is not None:
+        Lf, Lp, noises = roots
+        Ls = Lf.copy()
+    else:
+        Ls = np.empty_like(Ps)
+        Ls[-1] = sr.psd_factor(Ps[-1])
     for k in range(len(xs) - 2, -1, -1):
-        # C = P_k Phi^T (P_k+1^-)^-1, from the symmetric system P_k+1^- C^T = Phi P_k
-        # (scaled to unit diagonal first: position and velocity variances differ by 1e6+)
-        d = 1.0 / np.sqrt(np.diag(Pp[k + 1]))
-        M = Pp[k + 1] * np.outer(d, d)
-        D = phis[k + 1] @ Ps[k] if cross is None else cross[k + 1]
-        C = (d[:, None] * np.linalg.solve(M, d[:, None] * D)).T
+        try:
+            if roots is not None:
+                C = sr.smoother_gain(Lf[k], phis[k + 1], Lp[k + 1])
+                Ls[k] = sr.smooth_factor(Lf[k], phis[k + 1], noises[k + 1], C, Ls[k + 1])
+            else:
+                # C = cross^T (P_k+1^-)^-1, from the symmetric system P_k+1^- C^T = cross
+                # (scaled to unit diagonal first: position and velocity variances differ by 1e6+)
+                d = 1.0 / np.sqrt(np.diag(Pp[k + 1]))
+                M = Pp[k + 1] * np.outer(d, d)
+                C = (d[:, None] * np.linalg.solve(M, d[:, None] * cross[k + 1])).T
+                Ls[k] = sr.smooth_factor_joint(Ps[k], cross[k + 1], Pp[k + 1], C, Ls[k + 1])
+        except np.linalg.LinAlgError:
+            raise _singular() from None
+        sP[k] = sr.covariance(Ls[k])
         sx[k] = xs[k] + C @ (sx[k + 1] - xp[k + 1])
-        Pk = Ps[k] + C @ (sP[k + 1] - Pp[k + 1]) @ C.T
-        sP[k] = 0.5 * (Pk + Pk.T)
     # the smoothed variances cannot exceed the filtered ones (P^s = P^+ + C (P^s - P^-) C^T
     # with P^s - P^- <= 0): far above them, the gain came from a near-singular P^-
     var_s = np.diagonal(sP, axis1=1, axis2=2)
     var_f = np.diagonal(Ps, axis1=1, axis2=2)
     if not (np.all(np.isfinite(sx)) and np.all(np.isfinite(sP))
-            and np.all(var_s[:, 6:] >= 0)  # coefficients' sigma
+            and np.all(var_s >= 0)
             and np.all(var_s <= var_f * (1.0 + SMOOTHED_VARIANCE_RTOL))):
-        raise ConvergenceError(
-            "the smoother's estimate is not finite, has negative variances or variances above "
-            "the filter's: a predicted covariance is singular (e.g. a parameter_noise sigma of 0 "
-            "decays a coefficient's variance to 0); give sigma > 0, or smoother=False.")
+        raise _singular()
     return sx, sP
+
+
+def _singular():
+    return ConvergenceError(
+        "the smoother's estimate is not finite, has negative variances or variances above "
+        "the filter's: a predicted covariance is singular or nearly so (a parameter_noise "
+        "sigma of 0 decays a coefficient's variance to 0; the unscented filter's after data "
+        "far more precise than the prior: use method='ekf', whose square-root smoother "
+        "holds it); give sigma > 0, or smoother=False.")
 
 
 def _isot(epoch, offset_s):

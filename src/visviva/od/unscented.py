@@ -43,7 +43,8 @@ overconfident.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the
-  statistical linearisation of each).
+  statistical linearisation of each); its covariance in square-root Joseph form from the
+  joint covariance of (x_k, x_k+1^-) (:func:`visviva.od.square_root.smooth_factor_joint`).
 """
 
 from __future__ import annotations

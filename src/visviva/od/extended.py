@@ -1,0 +1,142 @@
+"""The extended Kalman filter's forward pass, in square-root covariance form.
+
+:func:`visviva.filter_orbit` (``method="ekf"``) walks the observation epochs with the state and
+a square root L of its covariance (P = L L^T): between epochs it integrates the state and its
+transition Phi with the fit's dynamics (through known burns, with estimated coefficients) and
+predicts L from the prediction's transition and noise, at each epoch it updates (x, L) with the
+rows kept by the editing, both by orthogonal triangularisation
+(:mod:`visviva.od.square_root`), so that every covariance it reports is symmetric positive
+semi-definite by construction, also when nanometre measurements meet a kilometre prior. The
+prediction's noise N (process noise, the execution errors of burns, the coefficients'
+Gauss-Markov noise) is that of the covariance prediction started from zero: the prediction is
+affine in P, P- = Phi P Phi^T + N.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from ..errors import VisvivaError
+from ..satellites.covariance import noise_substeps
+from .coefficient_prediction import predict_coefficients, predict_covariance
+from .light_time import model
+from .measurements import residuals
+from .square_root import covariance, predict_factor, psd_factor, update_factor
+
+__all__ = ["ekf_pass", "initial_impulses"]
+
+
+def _propagate(dyn, x, t_from, t_to):
+    """States and STMs Phi(t, t_from) at the points of a grid ``t_to`` (s from the epoch)."""
+    if t_from == 0.0:
+        return dyn.propagate(x, t_to)
+    return dyn.at_origin(t_from).propagate(x, np.asarray(t_to) - t_from)
+
+
+def _predict(dyn, schedule, x, P, t_from, grid, q, code, apply_at_start=False):
+    """The state, covariance and Phi(t_from + grid[-1], t_from) predicted from (x, P) at
+    ``t_from`` (s from the epoch) over the sub-steps ``grid`` (s from t_from), through the
+    burns of ``schedule`` (:func:`visviva.satellites.burn_partials.propagate_through`)."""
+    if not schedule:
+        y, phi = _propagate(dyn, x, t_from, t_from + grid)
+        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    t_end = t_from + float(grid[-1])
+    if not any(t_from < edge <= t_end or (apply_at_start and edge == t_from)
+               for a, b, _ in schedule.items for edge in (a, b)):
+        # no burn starts or ends here: one segment (a finite burn's thrust on over it, drag
+        # and SRP scaled to the mass), as the walk would integrate it
+        shifted = copy.copy(dyn)
+        shifted.model = schedule.segment_model(dyn.model, t_from, t_end)
+        y, phi = shifted.propagate(x, grid)
+        return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code), phi[-1]
+    from ..satellites.burn_partials import propagate_through
+    from ..satellites.covariance import burn_noise
+
+    y, phi, sens = propagate_through(dyn, schedule, x, t_from + grid, start=t_from,
+                                     apply_at_start=apply_at_start)
+    if grid.size == 1 and grid[0] == 0.0:  # impulses at the epoch itself
+        jumps = burn_noise(schedule, grid + t_from, sens, t_from, apply_at_start)
+        return y[-1].copy(), phi[-1] @ P @ phi[-1].T + sum(jumps.values(), 0.0 * P), phi[-1]
+    sens = np.concatenate([np.zeros((1,) + sens.shape[1:]), sens])
+    jumps = burn_noise(schedule, t_from + np.r_[0.0, grid], sens, t_from, apply_at_start)
+    return y[-1].copy(), predict_covariance(x, grid, y, phi, P, q, code, jumps), phi[-1]
+
+
+def initial_impulses(dyn, schedule, x, P, q, code):
+    """The state and covariance just after the impulses of ``schedule`` at the epoch (the
+    initial state is before them)."""
+    x, N, phi = _predict(dyn, schedule, x, np.zeros_like(P), 0.0, np.zeros(1), q, code,
+                         apply_at_start=True)  # fmt: skip
+    return x, covariance(predict_factor(psd_factor(P), phi, _noise_factor(N)))
+
+
+def _noise_factor(N):
+    """The square root of a prediction's noise N, None for none (Cholesky when N is definite,
+    as it is over two sub-steps of process noise; else the semi-definite factor)."""
+    if not np.any(N):
+        return None
+    try:
+        return np.linalg.cholesky(N)
+    except np.linalg.LinAlgError:
+        return psd_factor(N)
+
+
+def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=(),
+             gauss=None):
+    """The extended Kalman filter forward over ``epochs`` (through the burns of ``schedule``):
+    filtered and predicted states and covariances, the STMs Phi(t_k, t_k-1), and the filtered
+    and predicted square roots and the predictions' noise square roots (None: none) that the
+    smoother takes;
+    with ``est`` the state carries those coefficients too (6 + k), with ``gauss``
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes."""
+    n_t = len(epochs)
+    n = 6 + len(est)
+    xs = np.empty((n_t, n))
+    Ps = np.empty((n_t, n, n))
+    xp = np.empty((n_t, n))
+    Pp = np.empty((n_t, n, n))
+    phis = np.empty((n_t, n, n))
+    Ls = np.empty((n_t, n, n))
+    Lp = np.empty((n_t, n, n))
+    noises = [None] * n_t
+    xs[0] = xp[0] = x
+    Ps[0] = Pp[0] = P
+    phis[0] = np.eye(n)
+    L = Lp[0] = psd_factor(P)
+    gm = dyn.gm
+    kinds = observations.kinds
+    if gauss is not None:
+        step_s = gauss.longest_step_s(q, step_s)
+    zero = np.zeros((n, n))
+    for k in range(n_t):
+        if k:
+            grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)
+            try:  # the prediction from P = 0 is its noise N
+                if est:  # the coefficients, constants or Gauss-Markov, through the burns
+                    x, N, phis[k] = predict_coefficients(dyn, schedule, x, zero, epochs[k - 1],
+                                                         grid, q, code, est, gauss)
+                else:
+                    x, N, phis[k] = _predict(dyn, schedule, x, zero, epochs[k - 1], grid, q,
+                                             code)  # fmt: skip
+            except VisvivaError as exc:
+                raise screen.diverged(k, f"the estimate cannot be integrated ({exc})") from exc
+            noises[k] = _noise_factor(N)
+            L = Lp[k] = predict_factor(L, phis[k], noises[k])
+            xp[k], Pp[k] = x, covariance(L)
+        rows = screen.rows(k)
+        if rows.size:
+            h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
+            z = residuals(kinds[rows], observations.values[rows], h)
+            comp, zc, Rd = screen.prefit(rows, z)
+            Hc = H[comp]  # (m, 6) components in use, row-major
+            if n > 6:  # the coefficients enter the measurements through the state only
+                Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
+            HL = Hc @ L
+            use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
+            if use.any():
+                x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])
+            screen.finite(k, x, L)
+        xs[k], Ps[k], Ls[k] = x, covariance(L), L
+    return xs, Ps, xp, Pp, phis, (Ls, Lp, noises)

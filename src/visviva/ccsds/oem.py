@@ -298,6 +298,29 @@ class OEMSegment(FrameCenterMetadata):
         text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
         return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
+    def covered_seconds(self, t0) -> tuple[float, float]:
+        """The span interpolation serves, in seconds of the file's scale since ``t0``: the
+        useable span (``USEABLE_START_TIME`` .. ``USEABLE_STOP_TIME``, else ``START_TIME`` ..
+        ``STOP_TIME``) cut to the states' own span, since nothing outside it is interpolated
+        (a ``START_TIME`` before the first state would have the polynomial extrapolate).
+
+        Parameters
+        ----------
+        t0 : astropy.time.Time
+            The origin (in the segment's scale).
+
+        Returns
+        -------
+        (float, float)
+        """
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            nodes = self._seconds_since(t0)
+            lo = (self.start - t0).to_value("s")
+            hi = (self.stop - t0).to_value("s")
+        return max(float(lo), float(nodes[0])), min(float(hi), float(nodes[-1]))
+
     def __len__(self) -> int:
         return len(self.epochs)
 
@@ -330,6 +353,20 @@ class OEMSegment(FrameCenterMetadata):
             k = int(np.flatnonzero(steps <= 0)[0])
             raise InvalidInputError(f"{where}: the epochs must increase; {self.epochs[k + 1]} "
                                     f"follows {self.epochs[k]}")
+
+    def _span_text(self) -> str:
+        """The covered span in words, saying when the states end before the metadata's span."""
+        from astropy import units as u
+
+        t0 = self.times[0]
+        lo, hi = self.covered_seconds(t0)
+        text = f"{(t0 + lo * u.s).isot} .. {(t0 + hi * u.s).isot}, {self.time_system}"
+        start, stop = self.start, self.stop
+        if lo > (start - t0).to_value("s") + 1e-6 or hi < (stop - t0).to_value("s") - 1e-6:
+            text += (f"; its metadata says {start.isot} .. {stop.isot}, but its states span "
+                     f"only {self.epochs[0]} .. {self.epochs[-1]}, and visviva does not "
+                     "extrapolate")
+        return text
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.
@@ -386,15 +423,14 @@ class OEMSegment(FrameCenterMetadata):
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             t = getattr(t, t0.scale)
             query = np.atleast_1d((t - t0).to_value("s")).ravel()
-            lo = (self.start - t0).to_value("s")
-            hi = (self.stop - t0).to_value("s")
+        lo, hi = self.covered_seconds(t0)
         tol = 1e-6  # s: epochs written to the microsecond
         outside = (query < lo - tol) | (query > hi + tol)
         if outside.any():
             bad = np.atleast_1d(t.ravel())[int(np.flatnonzero(outside)[0])]
             raise InvalidInputError(
-                f"{bad.isot} lies outside the segment ({self.start.isot} .. {self.stop.isot}, "
-                f"{self.time_system}); interpolate only within it.")
+                f"{bad.isot} lies outside the segment ({self._span_text()}); interpolate only "
+                "within it.")
         method, degree = self.interpolation
         if method == "LINEAR":
             method, degree = "LAGRANGE", 1
@@ -485,12 +521,14 @@ class Ephemeris:
         which = np.full(flat.shape, -1)
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             for k, seg in enumerate(self.segments):
-                inside = ((flat - seg.start).to_value("s") >= -1e-6) & (
-                    (flat - seg.stop).to_value("s") <= 1e-6)
+                t0 = seg.times[0]
+                lo, hi = seg.covered_seconds(t0)
+                offset = (getattr(flat, t0.scale) - t0).to_value("s")
+                inside = (offset >= lo - 1e-6) & (offset <= hi + 1e-6)
                 which[inside] = k
         if (which < 0).any():
             bad = flat[int(np.flatnonzero(which < 0)[0])]
-            spans = ", ".join(f"{s.start.isot} .. {s.stop.isot}" for s in self.segments)
+            spans = "; ".join(s._span_text() for s in self.segments)
             raise InvalidInputError(f"{bad.isot} is covered by no segment ({spans}).")
         r = np.empty(flat.shape + (3,))
         v = np.empty(flat.shape + (3,))

@@ -244,6 +244,19 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
     if stop < start:
         raise CCSDSFormatError("STOP_TIME is before START_TIME",
                                line=meta.line_of("STOP_TIME"), source=name)
+    # the useable span lies within START_TIME .. STOP_TIME (502.0-B-3, table 5-3)
+    useable_start = offset("USEABLE_START_TIME") if "USEABLE_START_TIME" in meta else start
+    useable_stop = offset("USEABLE_STOP_TIME") if "USEABLE_STOP_TIME" in meta else stop
+    for key, bad in (("USEABLE_START_TIME", useable_start < start - 1e-6),
+                     ("USEABLE_STOP_TIME", useable_stop > stop + 1e-6)):
+        if bad:
+            raise CCSDSFormatError(
+                f"{key} = {meta[key]} lies outside START_TIME .. STOP_TIME ({meta['START_TIME']} "
+                f".. {meta['STOP_TIME']}); the useable span is part of the segment's span",
+                line=meta.line_of(key), source=name)
+    if useable_stop < useable_start:
+        raise CCSDSFormatError("USEABLE_STOP_TIME is before USEABLE_START_TIME",
+                               line=meta.line_of("USEABLE_STOP_TIME"), source=name)
     outside = (sec < start - 1e-6) | (sec > stop + 1e-6)
     if outside.any():
         k = int(np.flatnonzero(outside)[0])

@@ -1,0 +1,76 @@
+"""CCSDS messages exchanged with other tools: spans, user-defined units, SGP4-XP element sets.
+
+Regression tests of the second CCSDS audit (audit16); the messages are written by hand in the
+layout of CCSDS 502.0-B-3.
+"""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+
+# a two-body arc sampled every minute (exact states: interpolation errors are the method's)
+_T0 = Time("2024-01-31T00:00:00", scale="utc")
+
+
+def _segment_text(start="2024-01-31T00:00:00", stop="2024-01-31T00:10:00", extra=""):
+    state = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.546, 1.0] * u.km / u.s,
+                            vv.EARTH)
+    lines = []
+    for k in range(11):
+        s = state.propagate(k * 60 * u.s)
+        r, v = s.r.to_value(u.km), s.v.to_value(u.km / u.s)
+        epoch = (_T0 + k * 60 * u.s).isot
+        lines.append(f"{epoch} " + " ".join(repr(float(x)) for x in (*r, *v)))
+    return (f"CCSDS_OEM_VERS = 2.0\nCREATION_DATE = 2024-01-31T00:00:00\nORIGINATOR = TEST\n"
+            f"META_START\nOBJECT_NAME = SAT\nOBJECT_ID = 2024-999A\nCENTER_NAME = EARTH\n"
+            f"REF_FRAME = EME2000\nTIME_SYSTEM = UTC\nSTART_TIME = {start}\n{extra}"
+            f"STOP_TIME = {stop}\nINTERPOLATION = LAGRANGE\nINTERPOLATION_DEGREE = 5\n"
+            f"META_STOP\n" + "\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("start, stop, query", [
+    ("2024-01-30T23:00:00", "2024-01-31T00:10:00", "2024-01-30T23:30:00"),
+    ("2024-01-31T00:00:00", "2024-01-31T01:00:00", "2024-01-31T00:40:00"),
+    ("2024-01-31T00:00:00", "2024-01-31T01:00:00", "2024-01-31T00:10:00.5"),
+])
+def test_a_span_wider_than_the_states_is_not_extrapolated(start, stop, query):
+    """START_TIME/STOP_TIME beyond the first/last state: a time there was extrapolated by the
+    interpolating polynomial (1e12 m off, silently); now refused, saying where the states end."""
+    oem = vv.read_oem(_segment_text(start, stop))
+    t = Time(query, scale="utc")
+    for call in (oem.interpolate, oem.segments[0].interpolate):
+        with pytest.raises(vv.InvalidInputError, match="does not extrapolate"):
+            call(t)
+    # inside the states it still interpolates (two-body truth to 1 cm at degree 5)
+    inside = Time("2024-01-31T00:05:30", scale="utc")
+    truth = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.546, 1.0] * u.km / u.s,
+                            vv.EARTH).propagate((inside - _T0).to(u.s))
+    got = oem.interpolate(inside)
+    assert np.linalg.norm((got.r - truth.r).to_value(u.m)) < 1e-2
+
+
+def test_the_segment_boundary_still_picks_the_later_segment_within_its_states():
+    """Two segments whose metadata spans overlap the other's states: each time takes a segment
+    whose states cover it (the later one at a shared boundary)."""
+    a = vv.read_oem(_segment_text(stop="2024-01-31T00:20:00"))
+    b = vv.read_oem(_segment_text())
+    eph = vv.ccsds.Ephemeris([a.segments[0], b.segments[0]])
+    with pytest.raises(vv.InvalidInputError, match="covered by no segment"):
+        eph.interpolate(Time("2024-01-31T00:15:00", scale="utc"))
+
+
+@pytest.mark.parametrize("extra, line, words", [
+    ("USEABLE_START_TIME = 2024-01-30T23:59:00\n", 11, "USEABLE_START_TIME = 2024-01-30T23:59"),
+    ("USEABLE_STOP_TIME = 2024-01-31T00:11:00\n", 11, "USEABLE_STOP_TIME = 2024-01-31T00:11"),
+    ("USEABLE_START_TIME = 2024-01-31T00:06:00\nUSEABLE_STOP_TIME = 2024-01-31T00:04:00\n", 12,
+     "USEABLE_STOP_TIME is before USEABLE_START_TIME"),
+])
+def test_a_useable_span_outside_the_segment_names_its_line(extra, line, words):
+    """A USEABLE_START/STOP_TIME outside START_TIME .. STOP_TIME was read, and times there
+    extrapolated; now a CCSDSFormatError naming the line."""
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_oem(_segment_text(extra=extra))
+    assert info.value.line == line

@@ -74,3 +74,76 @@ def test_a_useable_span_outside_the_segment_names_its_line(extra, line, words):
     with pytest.raises(vv.CCSDSFormatError, match=words) as info:
         vv.read_oem(_segment_text(extra=extra))
     assert info.value.line == line
+
+
+_OPM = """CCSDS_OPM_VERS = 3.0
+CREATION_DATE = 2024-03-01T10:00:00
+ORIGINATOR = TEST
+OBJECT_NAME = SAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = GCRF
+TIME_SYSTEM = UTC
+EPOCH = 2024-03-01T00:00:00
+X = 6503.514 [km]
+Y = 1239.647 [km]
+Z = -717.490 [km]
+X_DOT = -0.873160 [km/s]
+Y_DOT = 8.740420 [km/s]
+Z_DOT = -4.191076 [km/s]
+COMMENT spacecraft
+MASS = 3000.0 [kg]
+COMMENT user-defined
+USER_DEFINED_ALTITUDE_BIAS = 12.5 [km]
+USER_DEFINED_EARTH_MODEL = WGS-84
+"""
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_the_unit_of_a_user_defined_parameter_is_kept(fmt):
+    """USER_DEFINED_X = 12.5 [km]: the unit was dropped when read, so written back as a bare
+    12.5 (a Space-Track/Orekit user reading it in m would be off by 1000)."""
+    opm = vv.read_opm(_OPM)
+    assert opm.sections["user_defined"].units == {"ALTITUDE_BIAS": "km"}
+    text = vv.write_opm(opm, format=fmt)
+    back = vv.read_opm(text)
+    assert back.sections["user_defined"].values == {"ALTITUDE_BIAS": "12.5",
+                                                    "EARTH_MODEL": "WGS-84"}
+    assert back.sections["user_defined"].units == {"ALTITUDE_BIAS": "km"}
+    if fmt == "kvn":
+        assert "USER_DEFINED_ALTITUDE_BIAS = 12.5 [km]" in " ".join(text.split())
+    # the OMM (a dict of keywords) keeps it too
+    omm_text = vv.write_omm(vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001").to_omm(),
+        originator="TEST") + "USER_DEFINED_ALTITUDE_BIAS = 12.5 [km]\n"
+    omm = vv.read_omm(vv.write_omm(vv.read_omm(omm_text), format=fmt))
+    assert omm.units == {"USER_DEFINED_ALTITUDE_BIAS": "km"}
+    assert omm["USER_DEFINED_ALTITUDE_BIAS"] == "12.5"
+
+
+def test_a_user_defined_parameter_given_twice_names_its_line():
+    """The second USER_DEFINED_X replaced the first silently (one value lost)."""
+    text = _OPM + "USER_DEFINED_EARTH_MODEL = EGM-96\n"
+    with pytest.raises(vv.CCSDSFormatError, match="given twice") as info:
+        vv.read_opm(text)
+    assert info.value.line == 21
+    xml = vv.write_opm(vv.read_opm(_OPM), format="xml")
+    twice = xml.replace('<USER_DEFINED parameter="EARTH_MODEL">WGS-84</USER_DEFINED>',
+                        '<USER_DEFINED parameter="EARTH_MODEL">WGS-84</USER_DEFINED>'
+                        '<USER_DEFINED parameter="EARTH_MODEL">EGM-96</USER_DEFINED>')
+    assert twice != xml
+    with pytest.raises(vv.CCSDSFormatError, match="given twice"):
+        vv.read_opm(twice)
+
+
+def test_an_unknown_keyword_after_a_comment_names_its_own_line():
+    """The error named the COMMENT line before the unknown keyword ('unexpected
+    'spacecraft' here: out of order'), not the keyword."""
+    text = _OPM.replace("MASS = 3000.0 [kg]", "MASS_AT_LAUNCH = 3000.0 [kg]")
+    with pytest.raises(vv.CCSDSFormatError, match="MASS_AT_LAUNCH: not a keyword of an OPM") as e:
+        vv.read_opm(text)
+    assert e.value.line == 17
+    with pytest.raises(vv.CCSDSFormatError, match="belong to no section") as e:
+        vv.read_opm(_OPM + "COMMENT end of file\n")
+    assert e.value.line == 21

@@ -168,7 +168,7 @@ def test_opm_round_trip_every_field(fmt, tmp_path):
     (("MAN_DELTA_MASS = -18.418 [kg]", "MAN_DELTA_MASS = 18.418 [kg]"), "MAN_DELTA_MASS",
      "a manoeuvre spends mass"),
     (("CY_Y = 6.782", "CY_Y = -6.782"), "CY_Y", "CY_Y = -0.000678.* is a variance"),
-    (("DRAG_COEFF = 2.5", "DRAG_COEF = 2.5"), "DRAG_COEF ", "DRAG_COEF: not a keyword of a OPM"),
+    (("DRAG_COEFF = 2.5", "DRAG_COEF = 2.5"), "DRAG_COEF ", "DRAG_COEF: not a keyword of an OPM"),
     (("EPOCH = 2024-03-01T00:00:00.000", "EPOCH = 2024-03-01 00:00"), "EPOCH =",
      "not a CCSDS epoch"),
     (("MASS = 3000.0 [kg]\n", "MASS = 3000.0 [kg]\nMASS = 1 [kg]\n"), "MASS = 1 ",

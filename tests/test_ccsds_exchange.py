@@ -147,3 +147,38 @@ def test_an_unknown_keyword_after_a_comment_names_its_own_line():
     with pytest.raises(vv.CCSDSFormatError, match="belong to no section") as e:
         vv.read_opm(_OPM + "COMMENT end of file\n")
     assert e.value.line == 21
+
+
+_L1 = "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009"
+_L2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001"
+
+
+def _with_checksum(line: str) -> str:
+    body = line[:68]
+    return body + str(sum(int(c) if c.isdigit() else c == "-" for c in body) % 10)
+
+
+@pytest.mark.parametrize("kind", [1, 4, 5])
+def test_an_element_set_for_another_theory_is_refused(kind):
+    """EPHEMERIS_TYPE 4 (Space-Track's SGP4-XP elements; SGP8 in Spacetrack Report #3) was
+    propagated with SGP4 as if it were SGP4's, with no word (STK's Sgp4Propagator refuses it)."""
+    line1 = _with_checksum(_L1[:62] + str(kind) + _L1[63:])
+    with pytest.raises(vv.TLEFormatError, match=f"column 63: ephemeris type {kind}"):
+        vv.Satellite.from_tle(line1, _L2)
+    fields = {**vv.Satellite.from_tle(_L1, _L2).to_omm(), "EPHEMERIS_TYPE": kind}
+    with pytest.raises(vv.InvalidInputError, match=f"EPHEMERIS_TYPE = {kind}"):
+        vv.Satellite.from_omm(fields)
+    text = vv.write_omm(fields, originator="TEST")  # the message itself is read and written
+    with pytest.raises(vv.InvalidInputError, match="ephemeris type"):
+        vv.Satellite.from_omm(vv.read_omm(text))
+
+
+@pytest.mark.parametrize("kind", [0, 2, 3])
+def test_sgp4_ephemeris_types_still_propagate_as_before(kind):
+    """Types 0 (today's), 2 and 3 (SGP4 and SDP4 in Spacetrack Report #3) are SGP4's."""
+    line1 = _with_checksum(_L1[:62] + str(kind) + _L1[63:])
+    sat = vv.Satellite.from_tle(line1, _L2)
+    ref = vv.Satellite.from_tle(_L1, _L2)
+    t = Time("2024-01-02T00:00:00", scale="utc")
+    assert np.array_equal(sat.teme(t).r.to_value(u.km), ref.teme(t).r.to_value(u.km))
+    assert sat.to_tle()[0] == line1

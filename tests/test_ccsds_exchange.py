@@ -182,3 +182,21 @@ def test_sgp4_ephemeris_types_still_propagate_as_before(kind):
     t = Time("2024-01-02T00:00:00", scale="utc")
     assert np.array_equal(sat.teme(t).r.to_value(u.km), ref.teme(t).r.to_value(u.km))
     assert sat.to_tle()[0] == line1
+
+
+@pytest.mark.parametrize("row, line, words", [
+    ("7.0E-1\n", 29, "row 2 of the covariance (lower triangle) holds 2 numbers, but this line has 1"),
+    ("1.0E-6 [km**2]\n0 4.0E-6\n", 28, "holds 1 number, but this line has 2 ('1.0E-6 [km**2]'; a "
+     "covariance row has no units)"),
+])
+def test_a_covariance_row_of_the_wrong_length_says_which_is_which(row, line, words):
+    """The message said 'row 2 ... has 2 numbers, not 1' of a row of 1 number (the counts
+    swapped)."""
+    text = _segment_text()  # (25 lines: the covariance block starts on line 26)
+    cov = ("COVARIANCE_START\nEPOCH = 2024-01-31T00:00:00\n" + (
+        row if "[" in row else "1.0E-6\n" + row)
+        + "0 0 1.0E-6\n0 0 0 1.0E-12\n0 0 0 0 1.0E-12\n0 0 0 0 0 1.0E-12\nCOVARIANCE_STOP\n")
+    with pytest.raises(vv.CCSDSFormatError) as info:
+        vv.read_oem(text + cov)
+    assert words in str(info.value)
+    assert info.value.line == line

@@ -207,8 +207,12 @@ def _kvn_covariances(cursor: KVNCursor) -> list:
                                    "is missing")
             cursor.pos += 1
             if len(line.tokens) != i + 1:
-                raise cursor.error(f"row {i + 1} of the covariance (lower triangle) has "
-                                   f"{i + 1} numbers, not {len(line.tokens)}", line=line.line)
+                raise cursor.error(
+                    f"row {i + 1} of the covariance (lower triangle) holds {i + 1} "
+                    f"number{'s' if i else ''}, but this line has {len(line.tokens)} "
+                    f"({line.value[:60]!r}"
+                    + ("; a covariance row has no units" if "[" in line.value else "") + ")",
+                    line=line.line)
             lower += [parse_float(x, "a covariance value", line.line, cursor.source)
                       for x in line.tokens]
             check_variance(lower[-1], i, line.line, cursor.source)

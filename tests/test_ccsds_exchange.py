@@ -200,3 +200,29 @@ def test_a_covariance_row_of_the_wrong_length_says_which_is_which(row, line, wor
         vv.read_oem(text + cov)
     assert words in str(info.value)
     assert info.value.line == line
+
+
+def test_states_given_to_from_states_keep_their_frame():
+    """OEM -> states -> OEM: a TEME segment's states rebuilt with from_states(t, r, v) were
+    written REF_FRAME = GCRF (the default), 0.3 deg of rotation off with no word; the states
+    themselves now carry their frame in, and a contradicting frame is refused."""
+    from visviva.ccsds.oem import OEMSegment
+
+    sat = vv.Satellite.from_tle(_L1, _L2)
+    t = Time("2024-01-01T12:00:00", scale="utc") + np.arange(0, 600, 60) * u.s
+    teme = sat.teme(t)
+    seg = OEMSegment.from_states(teme, object_name="ISS")
+    assert seg.frame == "TEME"
+    states = vv.read_oem(vv.write_oem(seg)).segments[0].states
+    again = OEMSegment.from_states(states, object_name="ISS")
+    assert again.frame == "TEME" and again.epochs == seg.epochs
+    assert np.array_equal(again.r_km, teme.r.to_value(u.km))
+    assert OEMSegment.from_states(sat.itrs(t), object_name="ISS").frame == "ITRF"
+    with pytest.raises(vv.InvalidInputError, match="states are in TEME"):
+        OEMSegment.from_states(teme, object_name="ISS", frame="GCRF")
+    with pytest.raises(vv.InvalidInputError, match="no r_km"):
+        OEMSegment.from_states(teme, teme.r, teme.v, object_name="ISS")
+    with pytest.raises(vv.InvalidInputError, match="needs times, r_km and v_km_s"):
+        OEMSegment.from_states(t, object_name="ISS")
+    # arrays, as before: GCRF unless told
+    assert OEMSegment.from_states(t, teme.r, teme.v, object_name="ISS").frame == "GCRF"

@@ -119,28 +119,32 @@ class OEMSegment(FrameCenterMetadata):
         self._seconds = None
 
     @classmethod
-    def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
-                    center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+    def from_states(cls, times, r_km=None, v_km_s=None, *, object_name: str,
+                    object_id: str = "UNKNOWN",
+                    center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
                     interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
                     mission_epoch=None, covariance=None, covariance_frame=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
 
         Parameters
         ----------
-        times : astropy.time.Time, shape (N,)
-            Increasing epochs.
+        times : astropy.time.Time, shape (N,), or StateVectors
+            Increasing epochs; or the states themselves (shape ``(N,)`` with their ``epoch``,
+            e.g. ``sat.teme(t)`` or an OEM's ``seg.states``), whose own frame is then written.
         r_km : array_like, shape (N, 3)
-            Positions (km) in ``frame``.
+            Positions (km) in ``frame`` (not given with states).
         v_km_s : array_like, shape (N, 3)
-            Velocities (km/s).
+            Velocities (km/s) (not given with states).
         object_name : str
             ``OBJECT_NAME``.
         object_id : str
             ``OBJECT_ID`` (international designator, e.g. ``"1998-067A"``).
         center : str
             ``CENTER_NAME``.
-        frame : str
+        frame : str, optional
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
+            Default: the states' own frame when given states that know it (TEME states are
+            written ``TEME``), else ``"GCRF"``; a frame that contradicts the states' is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -163,6 +167,20 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
+            from .timeframes import ref_frame_of
+
+            states = times
+            if r_km is not None or v_km_s is not None or getattr(states, "epoch", None) is None:
+                raise InvalidInputError(
+                    "from_states(states, ...) takes states with their epochs (and no r_km, "
+                    "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
+            frame = ref_frame_of(states, frame)
+            times, r_km, v_km_s = states.epoch, states.r, states.v
+        elif r_km is None or v_km_s is None:
+            raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
+                                    "their epochs).")
+        frame = "GCRF" if frame is None else frame
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
                                     "integer >= 1 (a reader refuses anything else).")

@@ -226,3 +226,16 @@ def test_states_given_to_from_states_keep_their_frame():
         OEMSegment.from_states(t, object_name="ISS")
     # arrays, as before: GCRF unless told
     assert OEMSegment.from_states(t, teme.r, teme.v, object_name="ISS").frame == "GCRF"
+
+
+def test_write_cdm_picks_xml_for_an_xml_path_as_the_other_writers(tmp_path):
+    """write_cdm(msg, "c.xml") wrote KVN text into the .xml file (the other writers pick XML
+    for that suffix); a tool that reads it as XML refused it."""
+    from pathlib import Path
+
+    msg = vv.read_cdm(Path(__file__).parent / "data" / "sample_cdm.kvn")
+    text = vv.ccsds.cdm.write_cdm(msg, tmp_path / "c.xml")
+    assert text.startswith("<?xml") and (tmp_path / "c.xml").read_text() == text
+    assert vv.read_cdm(tmp_path / "c.xml") == msg
+    assert not vv.ccsds.cdm.write_cdm(msg, tmp_path / "c.kvn").startswith("<")
+    assert vv.ccsds.cdm.write_cdm(msg, tmp_path / "k.xml", format="kvn").startswith("CCSDS")

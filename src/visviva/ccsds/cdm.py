@@ -548,7 +548,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
     return ConjunctionDataMessage(sections, name)
 
 
-def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -> str:  # noqa: A002
+def write_cdm(message: ConjunctionDataMessage, path=None, format: str | None = None) -> str:  # noqa: A002
     """Write a CDM as KVN or XML text, to ``path`` when given.
 
     Parameters
@@ -557,8 +557,9 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
         The message.
     path : str or os.PathLike, optional
         File to write.
-    format : {"kvn", "xml"}
-        Output format.
+    format : {"kvn", "xml"}, optional
+        Output format. Default: ``"xml"`` for a path ending in ``.xml``, else ``"kvn"`` (as
+        the other writers).
 
     Returns
     -------
@@ -569,12 +570,14 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
         raise InvalidInputError(
             f"write_cdm needs a ConjunctionDataMessage, got {type(message).__name__} (read one "
             "with vv.read_cdm).")
+    import os
+
+    if format is None:  # (a .xml file of KVN text was written before; other tools refuse it)
+        format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
     if format not in ("kvn", "xml"):
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     text = message.to_kvn() if format == "kvn" else message.to_xml()
     if path is not None:
-        import os
-
         with open(os.fspath(path), "w", encoding="utf-8") as handle:
             handle.write(text)
     return text

@@ -234,8 +234,8 @@ def test_write_cdm_picks_xml_for_an_xml_path_as_the_other_writers(tmp_path):
     from pathlib import Path
 
     msg = vv.read_cdm(Path(__file__).parent / "data" / "sample_cdm.kvn")
-    text = vv.ccsds.cdm.write_cdm(msg, tmp_path / "c.xml")
+    text = vv.write_cdm(msg, tmp_path / "c.xml")
     assert text.startswith("<?xml") and (tmp_path / "c.xml").read_text() == text
     assert vv.read_cdm(tmp_path / "c.xml") == msg
-    assert not vv.ccsds.cdm.write_cdm(msg, tmp_path / "c.kvn").startswith("<")
-    assert vv.ccsds.cdm.write_cdm(msg, tmp_path / "k.xml", format="kvn").startswith("CCSDS")
+    assert not vv.write_cdm(msg, tmp_path / "c.kvn").startswith("<")
+    assert vv.write_cdm(msg, tmp_path / "k.xml", format="kvn").startswith("CCSDS")

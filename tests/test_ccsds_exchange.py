@@ -239,3 +239,48 @@ def test_write_cdm_picks_xml_for_an_xml_path_as_the_other_writers(tmp_path):
     assert vv.read_cdm(tmp_path / "c.xml") == msg
     assert not vv.write_cdm(msg, tmp_path / "c.kvn").startswith("<")
     assert vv.write_cdm(msg, tmp_path / "k.xml", format="kvn").startswith("CCSDS")
+
+
+_TDM = """CCSDS_TDM_VERS = 2.0
+CREATION_DATE = 2024-045T12:00:00
+ORIGINATOR = TEST
+META_START
+TIME_SYSTEM = UTC
+START_TIME = 2024-02-14T10:00:00
+STOP_TIME = 2024-02-14T10:00:10
+PARTICIPANT_1 = DSS-65
+PARTICIPANT_2 = SAT
+MODE = SEQUENTIAL
+PATH = 1,2,1
+META_STOP
+DATA_START
+RANGE = 2024-02-14T10:00:00 1201.25
+RANGE = 2024-02-14T10:00:10 1176.26
+DATA_STOP
+"""
+
+
+@pytest.mark.parametrize("old, new, line, xml, words", [
+    ("STOP_TIME = 2024-02-14T10:00:10", "STOP_TIME = 2024-02-14T09:00:10", 7,
+     ("<STOP_TIME>2024-02-14T10:00:10", "<STOP_TIME>2024-02-14T09:00:10"),
+     "STOP_TIME = 2024-02-14T09:00:10 is before START_TIME"),
+    ("RANGE = 2024-02-14T10:00:10", "RANGE = 2024-02-14T10:00:11", 15,
+     ("<EPOCH>2024-02-14T10:00:10", "<EPOCH>2024-02-14T10:00:11"),
+     "2024-02-14T10:00:11 lies outside START_TIME .. STOP_TIME"),
+    ("RANGE = 2024-02-14T10:00:00", "RANGE = 2024-02-14T09:59:59", 14,
+     ("<EPOCH>2024-02-14T10:00:00", "<EPOCH>2024-02-14T09:59:59"),
+     "2024-02-14T09:59:59 lies outside START_TIME .. STOP_TIME"),
+])
+def test_a_tdm_span_that_contradicts_itself_or_its_data_names_the_line(old, new, line, xml,
+                                                                        words):
+    """START_TIME after STOP_TIME, or data outside them, were read without a word (the OEM
+    reader refuses both)."""
+    good = vv.read_tdm(_TDM)
+    assert good.keyword_counts() == {"RANGE": 2}
+    with pytest.raises(vv.CCSDSFormatError, match=words) as info:
+        vv.read_tdm(_TDM.replace(old, new))
+    assert info.value.line == line
+    text = vv.write_tdm(good, format="xml")
+    assert xml[0] in text
+    with pytest.raises(vv.CCSDSFormatError, match=words):
+        vv.read_tdm(text.replace(*xml))

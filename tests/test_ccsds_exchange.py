@@ -284,3 +284,14 @@ def test_a_tdm_span_that_contradicts_itself_or_its_data_names_the_line(old, new,
     assert xml[0] in text
     with pytest.raises(vv.CCSDSFormatError, match=words):
         vv.read_tdm(text.replace(*xml))
+
+
+def test_a_segment_of_one_state_says_so():
+    """The message of a one-state segment said 'use a degree between 1 and 0'."""
+    lines = _segment_text().splitlines()
+    text = "\n".join(lines[:14] + lines[14:15]).replace(
+        "STOP_TIME = 2024-01-31T00:10:00", "STOP_TIME = 2024-01-31T00:00:00") + "\n"
+    seg = vv.read_oem(text).segments[0]
+    assert len(seg) == 1
+    with pytest.raises(vv.InvalidInputError, match="holds one state"):
+        seg.interpolate(_T0)

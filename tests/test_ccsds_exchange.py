@@ -295,3 +295,18 @@ def test_a_segment_of_one_state_says_so():
     assert len(seg) == 1
     with pytest.raises(vv.InvalidInputError, match="holds one state"):
         seg.interpolate(_T0)
+
+
+def test_a_path_with_an_equals_sign_is_read_as_a_path(tmp_path):
+    """A file in 'run=1/' (a partitioned data folder) was taken for the message text: 'line 1:
+    ... is not KEYWORD = value'; a missing one there now says the file is missing."""
+    folder = tmp_path / "run=1"
+    folder.mkdir()
+    (folder / "sat.oem").write_text(_segment_text())
+    assert len(vv.read_oem(str(folder / "sat.oem")).segments[0]) == 11
+    (folder / "sat.opm").write_text(_OPM)
+    assert vv.read_opm(str(folder / "sat.opm")).sections["state_vector"]["X"] == 6503.514
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        vv.read_omm(str(folder / "missing.omm"))
+    with pytest.raises(vv.CCSDSFormatError, match="lacks the mandatory"):
+        vv.read_omm("CCSDS_OMM_VERS = 3.0")  # one line of text is still text

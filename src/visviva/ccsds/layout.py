@@ -40,9 +40,7 @@ def read_text(source) -> tuple[str, str]:
 
     if isinstance(source, (bytes, bytearray, memoryview)):
         return _decode(bytes(source), "<text>"), "<text>"
-    if isinstance(source, os.PathLike) or (
-            isinstance(source, str) and source.strip() and "\n" not in source
-            and "=" not in source and not source.lstrip().startswith("<")):
+    if isinstance(source, os.PathLike) or (isinstance(source, str) and _is_path(source)):
         path = os.fspath(source)
         # (one owner for opening a user's file: a missing one raises MissingFileError, also a
         # FileNotFoundError, as the catalogue readers do)
@@ -54,6 +52,21 @@ def read_text(source) -> tuple[str, str]:
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
     return source.removeprefix("\ufeff"), "<text>"
+
+
+def _is_path(text: str) -> bool:
+    """Whether a string is a file name rather than a message: one line, not XML, and no
+    ``KEYWORD =`` line, unless it names a file that exists (``data/run=1/iss.oem``) or holds a
+    folder separator before any ``=``."""
+    import os
+    import re
+
+    if not text.strip() or "\n" in text or "\r" in text or text.lstrip().startswith("<"):
+        return False
+    if "=" not in text or os.path.exists(text):
+        return True
+    return (re.match(r"\s*[A-Z][A-Z0-9_]*\s*=", text) is None
+            and any(sep in text.partition("=")[0] for sep in "/\\"))
 
 
 def _decode(data: bytes, name: str) -> str:

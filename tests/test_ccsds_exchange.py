@@ -310,3 +310,23 @@ def test_a_path_with_an_equals_sign_is_read_as_a_path(tmp_path):
         vv.read_omm(str(folder / "missing.omm"))
     with pytest.raises(vv.CCSDSFormatError, match="lacks the mandatory"):
         vv.read_omm("CCSDS_OMM_VERS = 3.0")  # one line of text is still text
+
+
+@pytest.mark.parametrize("center", ["EARTH BARYCENTER", "JUPITER BARYCENTER", "PLUTO BARYCENTER"])
+def test_a_barycentre_is_not_taken_for_its_body(center):
+    """CENTER_NAME = EARTH BARYCENTER (the Earth-Moon barycentre, 4,671 km from the geocentre)
+    gave states with the Earth's GM at the origin, as if Earth-centred: propagated, they fell
+    about the wrong point; now refused, saying why."""
+    from visviva.ccsds.timeframes import center_body
+
+    assert center_body(center) is None
+    assert center_body("MARS BARYCENTER") is vv.MARS and center_body("earth") is vv.EARTH
+    oem = vv.read_oem(_segment_text().replace("CENTER_NAME = EARTH", f"CENTER_NAME = {center}"))
+    seg = oem.segments[0]
+    assert seg.r_km.shape == (11, 3)  # the numbers are there
+    for call in (lambda: seg.states, lambda: oem.interpolate(_T0 + 90 * u.s)):
+        with pytest.raises(vv.InvalidInputError, match="barycentre"):
+            call()
+    opm = vv.read_opm(_OPM.replace("CENTER_NAME = EARTH", f"CENTER_NAME = {center}"))
+    with pytest.raises(vv.InvalidInputError, match="barycentre"):
+        opm.state  # noqa: B018

@@ -299,9 +299,12 @@ class OEMSegment(FrameCenterMetadata):
         """GM of ``CENTER_NAME``, km^3/s^2 (raises for a centre visviva does not know)."""
         body = center_body(self.center)
         if body is None:
+            from .timeframes import barycentre_note
+
             raise InvalidInputError(
-                f"CENTER_NAME = {self.center} is not a body visviva knows, so the states have "
-                "no GM; use .r_km and .v_km_s, or a centre such as EARTH, MOON, SUN, MARS.")
+                f"CENTER_NAME = {self.center} is not a body visviva knows"
+                f"{barycentre_note(self.center)}, so the states have no GM; use .r_km and "
+                ".v_km_s, or a centre such as EARTH, MOON, SUN, MARS.")
         return body.gm_km3_s2
 
     @property

@@ -246,8 +246,10 @@ class OPM(FrameCenterMetadata):
             return float(kep["GM"])
         body = center_body(self.center)
         if body is None:
-            raise InvalidInputError(f"CENTER_NAME = {self.center} is not a body visviva knows "
-                                    "and the OPM gives no GM")
+            from .timeframes import barycentre_note
+
+            raise InvalidInputError(f"CENTER_NAME = {self.center} is not a body visviva knows"
+                                    f"{barycentre_note(self.center)} and the OPM gives no GM")
         return body.gm_km3_s2
 
     @property

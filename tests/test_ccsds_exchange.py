@@ -330,3 +330,14 @@ def test_a_barycentre_is_not_taken_for_its_body(center):
     opm = vv.read_opm(_OPM.replace("CENTER_NAME = EARTH", f"CENTER_NAME = {center}"))
     with pytest.raises(vv.InvalidInputError, match="barycentre"):
         opm.state  # noqa: B018
+
+
+@pytest.mark.parametrize("object_id", ["UNKNOWN", "1998-67A", "ISS"])
+def test_an_omm_object_id_no_tle_holds_survives_the_satellite(object_id):
+    """OMM -> Satellite -> OMM dropped an OBJECT_ID that is no COSPAR designator to "" (which
+    write_omm then refused as empty): the text is kept; the TLE's field stays blank."""
+    fields = {**vv.Satellite.from_tle(_L1, _L2).to_omm(), "OBJECT_ID": object_id}
+    sat = vv.Satellite.from_omm(vv.read_omm(vv.write_omm(fields, originator="TEST")))
+    assert sat.to_tle()[0][9:17] == " " * 8
+    assert sat.to_omm()["OBJECT_ID"] == object_id
+    assert vv.read_omm(vv.write_omm(sat.to_omm(), originator="TEST"))["OBJECT_ID"] == object_id

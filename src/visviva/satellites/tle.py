@@ -407,10 +407,17 @@ class Satellite:
         -------
         dict
             For :meth:`from_omm` or :func:`visviva.write_omm` (with ``originator=``).
+            ``OBJECT_ID`` is the COSPAR designator of the record (``""`` when a TLE has
+            none), or, for a satellite read from an OMM whose ``OBJECT_ID`` no TLE designator
+            holds (``UNKNOWN``, a name), that text as given, so that OMM -> satellite -> OMM
+            keeps it.
         """
         from .tle_export import to_omm
 
-        return to_omm(self.satrec, self.name, self.satnum)
+        fields = to_omm(self.satrec, self.name, self.satnum)
+        if not fields["OBJECT_ID"] and self._source and self._source[0] == "omm":
+            fields["OBJECT_ID"] = str(self._source[1].get("OBJECT_ID") or "").strip()
+        return fields
 
     # -- propagation -------------------------------------------------------------------------
     def _sgp4(self, t):

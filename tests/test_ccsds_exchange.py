@@ -341,3 +341,27 @@ def test_an_omm_object_id_no_tle_holds_survives_the_satellite(object_id):
     assert sat.to_tle()[0][9:17] == " " * 8
     assert sat.to_omm()["OBJECT_ID"] == object_id
     assert vv.read_omm(vv.write_omm(sat.to_omm(), originator="TEST"))["OBJECT_ID"] == object_id
+
+
+@pytest.mark.parametrize("old, new, line", [
+    ("STOP_SCREEN_PERIOD                 = 2010-03-15T18:29:32.212",
+     "STOP_SCREEN_PERIOD                 = 2010-03-11T18:29:32.212", 17),
+    ("SCREEN_EXIT_TIME                   = 2010-03-13T22:37:52.824",
+     "SCREEN_EXIT_TIME                   = 2010-03-13T22:37:50.824", 24),
+])
+def test_a_cdm_span_that_runs_backwards_names_its_line(old, new, line):
+    """A screening period (or a passage through the screening volume) ending before it starts
+    was read without a word."""
+    from pathlib import Path
+
+    text = (Path(__file__).parent / "data" / "sample_cdm.kvn").read_text()
+    assert old in text
+    key = new.split()[0]
+    with pytest.raises(vv.CCSDSFormatError, match=f"{key} = .* is before") as info:
+        vv.read_cdm(text.replace(old, new))
+    assert info.value.line == line
+    xml = vv.write_cdm(vv.read_cdm(text), format="xml")
+    old_xml = f"<{key}>{old.split('= ')[1]}</{key}>"
+    assert old_xml in xml
+    with pytest.raises(vv.CCSDSFormatError, match=f"{key} = .* is before"):
+        vv.read_cdm(xml.replace(old_xml, f"<{key}>{new.split('= ')[1]}</{key}>"))

@@ -477,6 +477,25 @@ def _check_values(sections: dict, source: str) -> None:
                 raise CCSDSFormatError(f"{key} = {value!r} is a negative variance (a diagonal "
                                        "element of the covariance is a squared sigma, >= 0)",
                                        line=line, source=source)
+    _check_spans(sections["relative"], source)
+
+
+#: (start, stop) keyword pairs of the relative metadata whose span cannot run backwards
+_SPANS = (("START_SCREEN_PERIOD", "STOP_SCREEN_PERIOD"), ("SCREEN_ENTRY_TIME", "SCREEN_EXIT_TIME"))
+
+
+def _check_spans(record, source: str) -> None:
+    """Refuse a screening period or a screening-volume passage that ends before it starts."""
+    from .timeframes import epochs_to_time
+
+    for start, stop in _SPANS:
+        if start in record and stop in record:
+            t0, t1 = (epochs_to_time(record[k], "UTC", record.line_of(k), source)
+                      for k in (start, stop))
+            if (t1 - t0).to_value("s") < 0:
+                raise CCSDSFormatError(f"{stop} = {record[stop]} is before {start} = "
+                                       f"{record[start]}", line=record.line_of(stop),
+                                       source=source)
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS

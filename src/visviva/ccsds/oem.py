@@ -336,11 +336,13 @@ class OEMSegment(FrameCenterMetadata):
         """
         from ..satellites.frames import offline_iers
 
+        times = self.times
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
-            nodes = self._seconds_since(t0)
+            first = (times[0] - t0).to_value("s")
+            last = (times[-1] - t0).to_value("s")
             lo = (self.start - t0).to_value("s")
             hi = (self.stop - t0).to_value("s")
-        return max(float(lo), float(nodes[0])), min(float(hi), float(nodes[-1]))
+        return max(float(lo), float(first)), min(float(hi), float(last))
 
     def __len__(self) -> int:
         return len(self.epochs)

@@ -365,3 +365,38 @@ def test_a_cdm_span_that_runs_backwards_names_its_line(old, new, line):
     assert old_xml in xml
     with pytest.raises(vv.CCSDSFormatError, match=f"{key} = .* is before"):
         vv.read_cdm(xml.replace(old_xml, f"<{key}>{new.split('= ')[1]}</{key}>"))
+
+
+def test_an_opm_covariance_in_rtn_goes_with_the_state():
+    """COV_REF_FRAME = RTN: opm.covariance returned the RTN numbers, which
+    vv.propagate_covariance(opm.state, opm.covariance, t) (the call docs/ccsds.md shows) took
+    for inertial ones; it is now on the state's axes, as the od command rotated it."""
+    from visviva._covariance import to_local
+    from visviva.ccsds.covariance import values_from_matrix
+    from visviva.ccsds.opm import OPM
+    from visviva.core.local_frames import FRAME_CODES
+
+    base = vv.read_opm(_OPM)
+    r, v = base.state.r.to_value(u.km), base.state.v.to_value(u.km / u.s)
+    inertial = np.diag([1e-2, 4e-2, 9e-2, 1e-8, 4e-8, 9e-8])
+    inertial[0, 1] = inertial[1, 0] = 5e-3
+    for name in ("RTN", "TNW", "VNB", "RSW"):
+        local = to_local(inertial, r, v, FRAME_CODES[name])
+        sections = {**base.sections, "covariance": {"COV_REF_FRAME": name,
+                                                    **values_from_matrix(local)}}
+        opm = vv.read_opm(vv.write_opm(OPM(sections)))
+        got = opm.covariance
+        assert np.allclose(got[:3, :3], inertial[:3, :3], rtol=1e-12, atol=1e-15), name
+        assert np.allclose(got[3:, :], inertial[3:, :], rtol=1e-12, atol=1e-20), name
+        assert opm.sections["covariance"]["CX_X"] == local[0, 0]  # as written
+    same = {**base.sections, "covariance": {"COV_REF_FRAME": "EME2000",
+                                            **values_from_matrix(inertial)}}
+    assert np.array_equal(OPM(same).covariance, inertial)  # GCRF state, EME2000 axes
+    other = {**base.sections, "covariance": {"COV_REF_FRAME": "ITRF",
+                                             **values_from_matrix(inertial)}}
+    with pytest.raises(vv.InvalidInputError, match="COV_REF_FRAME = ITRF is neither"):
+        OPM(other).covariance  # noqa: B018
+    itrf = {**base.sections, "metadata": {**base.metadata.values, "REF_FRAME": "ITRF"},
+            "covariance": {"COV_REF_FRAME": "RTN", **values_from_matrix(inertial)}}
+    with pytest.raises(vv.InvalidInputError, match="Earth-fixed"):
+        OPM(itrf).covariance  # noqa: B018

@@ -400,3 +400,23 @@ def test_an_opm_covariance_in_rtn_goes_with_the_state():
             "covariance": {"COV_REF_FRAME": "RTN", **values_from_matrix(inertial)}}
     with pytest.raises(vv.InvalidInputError, match="Earth-fixed"):
         OPM(itrf).covariance  # noqa: B018
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("START_TIME", "2024-01-31T00:05:00", "lies outside START_TIME .. STOP_TIME"),
+    ("USEABLE_START_TIME", "2024-01-30T00:00:00", "USEABLE_START_TIME = 2024-01-30T00:00:00"),
+    ("STOP_TIME", "2024-01-30T00:00:00", "STOP_TIME is before START_TIME"),
+    ("START_TIME", None, "the metadata lacks START_TIME"),
+])
+def test_write_oem_refuses_spans_its_reader_refuses(key, value, words):
+    """A segment built in code with contradictory spans was written, and the file then refused
+    by read_oem."""
+    from visviva.ccsds.oem import OEMSegment
+
+    seg = vv.read_oem(_segment_text()).segments[0]
+    meta = {**seg.metadata.values, key: value}
+    if value is None:
+        del meta[key]
+    bad = OEMSegment(meta, seg.epochs, seg.r_km, seg.v_km_s)
+    with pytest.raises(vv.InvalidInputError, match=words):
+        vv.write_oem(bad)

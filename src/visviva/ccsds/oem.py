@@ -319,6 +319,49 @@ class OEMSegment(FrameCenterMetadata):
         text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
         return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
 
+    def span_problem(self, source: str = "<text>"):
+        """What is wrong with the segment's spans, or None: ``STOP_TIME`` before
+        ``START_TIME``, a useable span outside them or reversed (502.0-B-3, table 5-3), a state
+        outside ``START_TIME .. STOP_TIME`` (to the microsecond).
+
+        Parameters
+        ----------
+        source : str
+            File name, for errors in the epochs themselves.
+
+        Returns
+        -------
+        (str or int, str) or None
+            The keyword (or the index of the state) at fault and the message.
+        """
+        meta = self.metadata
+        t = self.times
+        sec = (t - t[0]).to_value("s")
+
+        def offset(key):
+            return (epochs_to_time(meta[key], self.time_system, meta.line_of(key), source,
+                                   self.mission_epoch) - t[0]).to_value("s")
+
+        start, stop = offset("START_TIME"), offset("STOP_TIME")
+        if stop < start:
+            return "STOP_TIME", "STOP_TIME is before START_TIME"
+        useable_start = offset("USEABLE_START_TIME") if "USEABLE_START_TIME" in meta else start
+        useable_stop = offset("USEABLE_STOP_TIME") if "USEABLE_STOP_TIME" in meta else stop
+        for key, bad in (("USEABLE_START_TIME", useable_start < start - 1e-6),
+                         ("USEABLE_STOP_TIME", useable_stop > stop + 1e-6)):
+            if bad:
+                return key, (f"{key} = {meta[key]} lies outside START_TIME .. STOP_TIME "
+                             f"({meta['START_TIME']} .. {meta['STOP_TIME']}); the useable span "
+                             "is part of the segment's span")
+        if useable_stop < useable_start:
+            return "USEABLE_STOP_TIME", "USEABLE_STOP_TIME is before USEABLE_START_TIME"
+        outside = (sec < start - 1e-6) | (sec > stop + 1e-6)
+        if outside.any():
+            k = int(np.flatnonzero(outside)[0])
+            return k, (f"the epoch {self.epochs[k]} lies outside START_TIME .. STOP_TIME "
+                       f"({meta['START_TIME']} .. {meta['STOP_TIME']})")
+        return None
+
     def covered_seconds(self, t0) -> tuple[float, float]:
         """The span interpolation serves, in seconds of the file's scale since ``t0``: the
         useable span (``USEABLE_START_TIME`` .. ``USEABLE_STOP_TIME``, else ``START_TIME`` ..
@@ -376,6 +419,15 @@ class OEMSegment(FrameCenterMetadata):
             k = int(np.flatnonzero(steps <= 0)[0])
             raise InvalidInputError(f"{where}: the epochs must increase; {self.epochs[k + 1]} "
                                     f"follows {self.epochs[k]}")
+        missing = [k.name for k in METADATA.keywords if k.mandatory and k.name not in self.metadata]
+        if missing:  # (what the reader refuses, a writer does not write)
+            raise InvalidInputError(f"{where}: the metadata lacks {', '.join(missing)}")
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():
+            problem = self.span_problem()
+        if problem is not None:
+            raise InvalidInputError(f"{where}: {problem[1]}")
 
     def _span_text(self) -> str:
         """The covered span in words, saying when the states end before the metadata's span."""

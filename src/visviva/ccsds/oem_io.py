@@ -239,34 +239,11 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise CCSDSFormatError(f"the epochs must increase: {seg.epochs[k]} follows "
                                f"{seg.epochs[k - 1]}", line=lines[k], source=name)
-    def offset(key):
-        text = meta[key]
-        return (epochs_to_time(text, seg.time_system, meta.line_of(key), name,
-                               seg.mission_epoch) - t[0]).to_value("s")  # fmt: skip
-
-    start, stop = offset("START_TIME"), offset("STOP_TIME")
-    if stop < start:
-        raise CCSDSFormatError("STOP_TIME is before START_TIME",
-                               line=meta.line_of("STOP_TIME"), source=name)
-    # the useable span lies within START_TIME .. STOP_TIME (502.0-B-3, table 5-3)
-    useable_start = offset("USEABLE_START_TIME") if "USEABLE_START_TIME" in meta else start
-    useable_stop = offset("USEABLE_STOP_TIME") if "USEABLE_STOP_TIME" in meta else stop
-    for key, bad in (("USEABLE_START_TIME", useable_start < start - 1e-6),
-                     ("USEABLE_STOP_TIME", useable_stop > stop + 1e-6)):
-        if bad:
-            raise CCSDSFormatError(
-                f"{key} = {meta[key]} lies outside START_TIME .. STOP_TIME ({meta['START_TIME']} "
-                f".. {meta['STOP_TIME']}); the useable span is part of the segment's span",
-                line=meta.line_of(key), source=name)
-    if useable_stop < useable_start:
-        raise CCSDSFormatError("USEABLE_STOP_TIME is before USEABLE_START_TIME",
-                               line=meta.line_of("USEABLE_STOP_TIME"), source=name)
-    outside = (sec < start - 1e-6) | (sec > stop + 1e-6)
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise CCSDSFormatError(f"the epoch {seg.epochs[k]} lies outside START_TIME .. STOP_TIME "
-                               f"({meta['START_TIME']} .. {meta['STOP_TIME']})",
-                               line=lines[k], source=name)
+    problem = seg.span_problem(name)
+    if problem is not None:
+        where, message = problem
+        line = meta.line_of(where) if isinstance(where, str) else lines[where]
+        raise CCSDSFormatError(message, line=line, source=name)
     method = meta.get("INTERPOLATION")
     if method is not None and method.upper() not in INTERPOLATION_METHODS:
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "

@@ -420,3 +420,12 @@ def test_write_oem_refuses_spans_its_reader_refuses(key, value, words):
     bad = OEMSegment(meta, seg.epochs, seg.r_km, seg.v_km_s)
     with pytest.raises(vv.InvalidInputError, match=words):
         vv.write_oem(bad)
+
+
+def test_write_tdm_refuses_a_span_its_reader_refuses():
+    """A TDM whose STOP_TIME was edited to before its START_TIME was written, and the file then
+    refused by read_tdm."""
+    tdm = vv.read_tdm(_TDM)
+    tdm.segments[0].metadata.values["STOP_TIME"] = "2024-02-14T09:00:00"
+    with pytest.raises(vv.CCSDSFormatError, match="STOP_TIME = 2024-02-14T09:00:00 is before"):
+        vv.write_tdm(tdm)

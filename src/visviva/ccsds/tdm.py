@@ -400,7 +400,8 @@ def check_data(seg: TDMSegment) -> None:
     Raises
     ------
     CCSDSFormatError
-        An unknown data keyword, an epoch that is no CCSDS epoch, a NaN or infinite value.
+        An unknown data keyword, an epoch that is no CCSDS epoch, a NaN or infinite value, a
+        ``STOP_TIME`` before ``START_TIME`` or data outside them.
     """
     unknown = set(seg.keywords) - set(DATA_KEYWORDS)
     if unknown:
@@ -410,6 +411,7 @@ def check_data(seg: TDMSegment) -> None:
         raise CCSDSFormatError(f"{bad!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000")
     if not np.isfinite(seg.values).all():
         raise CCSDSFormatError("a TDM data value is NaN or infinite; remove that line")
+    _check_span(seg, seg.source)
 
 
 # ---- KVN ---------------------------------------------------------------------------------

@@ -429,3 +429,14 @@ def test_write_tdm_refuses_a_span_its_reader_refuses():
     tdm.segments[0].metadata.values["STOP_TIME"] = "2024-02-14T09:00:00"
     with pytest.raises(vv.CCSDSFormatError, match="STOP_TIME = 2024-02-14T09:00:00 is before"):
         vv.write_tdm(tdm)
+
+
+def test_an_omm_with_a_semi_major_axis_says_sgp4_needs_a_mean_motion():
+    """The message said the record 'lacks MEAN_MOTION; pass every mean element (CelesTrak's GP
+    data ...)' of a message that gives its SEMI_MAJOR_AXIS (CCSDS allows either)."""
+    fields = vv.Satellite.from_tle(_L1, _L2).to_omm()
+    del fields["MEAN_MOTION"]
+    fields["SEMI_MAJOR_AXIS"] = 6796.0
+    omm = vv.read_omm(vv.write_omm(fields, originator="TEST"))
+    with pytest.raises(vv.InvalidInputError, match="gives SEMI_MAJOR_AXIS, not MEAN_MOTION"):
+        vv.Satellite.from_omm(omm)

@@ -293,6 +293,12 @@ class Satellite:
                 "file or a message text, pass vv.read_omm(path))."
             )
         missing = [k for k in _OMM_REQUIRED if k not in fields or fields[k] in (None, "")]
+        if "MEAN_MOTION" in missing and fields.get("SEMI_MAJOR_AXIS") not in (None, ""):
+            raise InvalidInputError(
+                f"OMM record {fields.get('OBJECT_NAME', '')!r} gives SEMI_MAJOR_AXIS, not "
+                "MEAN_MOTION: SGP4 elements are a Kozai mean motion (rev/day), which a mean "
+                "semi-major axis does not fix uniquely; ask for the SGP4 element set (with "
+                "MEAN_MOTION) of the object.")
         if missing:
             raise InvalidInputError(
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} lacks {', '.join(missing)}; "

@@ -440,3 +440,15 @@ def test_an_omm_with_a_semi_major_axis_says_sgp4_needs_a_mean_motion():
     omm = vv.read_omm(vv.write_omm(fields, originator="TEST"))
     with pytest.raises(vv.InvalidInputError, match="gives SEMI_MAJOR_AXIS, not MEAN_MOTION"):
         vv.Satellite.from_omm(omm)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_comments_at_the_end_of_an_oem_after_its_covariance_are_kept(fmt):
+    """COMMENT lines after the last COVARIANCE_STOP were dropped (no segment took them)."""
+    cov = ("COVARIANCE_START\nEPOCH = 2024-01-31T00:00:00\n1.0E-6\n0 1.0E-6\n0 0 1.0E-6\n"
+           "0 0 0 1.0E-12\n0 0 0 0 1.0E-12\n0 0 0 0 0 1.0E-12\nCOVARIANCE_STOP\n")
+    text = _segment_text() + cov + "COMMENT produced by the test\nCOMMENT end of file\n"
+    seg = vv.read_oem(text).segments[0]
+    assert seg.state_comments == {11: ["produced by the test", "end of file"]}
+    back = vv.read_oem(vv.write_oem(vv.read_oem(text), format=fmt)).segments[0]
+    assert back.state_comments == seg.state_comments and len(back.covariances) == 1

@@ -125,6 +125,11 @@ def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
         covariances = []
         if cursor.at_block("COVARIANCE"):
             covariances = _kvn_covariances(cursor)
+            if not cursor.at_end() and all(line.kind == "comment"
+                                           for line in cursor.lines[cursor.pos:]):
+                # comments after the last block of the file: kept with the segment's last
+                # state (they were dropped), and written back after it
+                state_comments.setdefault(len(rows), []).extend(cursor.take_comments())
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
                          numbers[:, 6:9] if numbers.shape[1] == 9 else None, covariances,
                          data_comments, state_comments, mission_epoch)

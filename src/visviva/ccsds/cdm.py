@@ -477,6 +477,25 @@ def _check_values(sections: dict, source: str) -> None:
                 raise CCSDSFormatError(f"{key} = {value!r} is a negative variance (a diagonal "
                                        "element of the covariance is a squared sigma, >= 0)",
                                        line=line, source=source)
+    _check_spans(sections["relative"], source)
+
+
+#: (start, stop) keyword pairs of the relative metadata whose span cannot run backwards
+_SPANS = (("START_SCREEN_PERIOD", "STOP_SCREEN_PERIOD"), ("SCREEN_ENTRY_TIME", "SCREEN_EXIT_TIME"))
+
+
+def _check_spans(record, source: str) -> None:
+    """Refuse a screening period or a screening-volume passage that ends before it starts."""
+    from .timeframes import epochs_to_time
+
+    for start, stop in _SPANS:
+        if start in record and stop in record:
+            t0, t1 = (epochs_to_time(record[k], "UTC", record.line_of(k), source)
+                      for k in (start, stop))
+            if (t1 - t0).to_value("s") < 0:
+                raise CCSDSFormatError(f"{stop} = {record[stop]} is before {start} = "
+                                       f"{record[start]}", line=record.line_of(stop),
+                                       source=source)
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS
@@ -548,7 +567,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
     return ConjunctionDataMessage(sections, name)
 
 
-def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -> str:  # noqa: A002
+def write_cdm(message: ConjunctionDataMessage, path=None, format: str | None = None) -> str:  # noqa: A002
     """Write a CDM as KVN or XML text, to ``path`` when given.
 
     Parameters
@@ -557,8 +576,9 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
         The message.
     path : str or os.PathLike, optional
         File to write.
-    format : {"kvn", "xml"}
-        Output format.
+    format : {"kvn", "xml"}, optional
+        Output format. Default: ``"xml"`` for a path ending in ``.xml``, else ``"kvn"`` (as
+        the other writers).
 
     Returns
     -------
@@ -569,12 +589,14 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str = "kvn") -
         raise InvalidInputError(
             f"write_cdm needs a ConjunctionDataMessage, got {type(message).__name__} (read one "
             "with vv.read_cdm).")
+    import os
+
+    if format is None:  # (a .xml file of KVN text was written before; other tools refuse it)
+        format = "xml" if path is not None and os.fspath(path).lower().endswith(".xml") else "kvn"
     if format not in ("kvn", "xml"):
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     text = message.to_kvn() if format == "kvn" else message.to_xml()
     if path is not None:
-        import os
-
         with open(os.fspath(path), "w", encoding="utf-8") as handle:
             handle.write(text)
     return text

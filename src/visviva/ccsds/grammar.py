@@ -160,12 +160,17 @@ class Record:
         Keyword -> 1-based line number where it was read (absent for records built in code).
     line : int or None
         Line where the section starts.
+    units : dict
+        Parameter -> unit of the user-defined parameters written with one
+        (``USER_DEFINED_X = 1.5 [km]``, ``<USER_DEFINED parameter="X" units="km">``), which
+        have no table to take it from; written back with them.
     """
 
     values: dict = field(default_factory=dict)
     comments: list = field(default_factory=list)
     lines: dict = field(default_factory=dict)
     line: int | None = None
+    units: dict = field(default_factory=dict)
 
     def __getitem__(self, key):
         return self.values[key]

@@ -197,6 +197,10 @@ def check_degree(method: str, degree: int, n_nodes: int, where: str) -> None:
         raise InvalidInputError(
             f"{where}: INTERPOLATION_DEGREE = {degree}: the degree of an interpolating polynomial "
             "is at least 1.")
+    if n_nodes < 2:
+        raise InvalidInputError(
+            f"{where} holds one state, which no polynomial interpolates: use that state "
+            "(seg.states[0]), or an OEM with at least two states per segment.")
     if degree + 1 > n_nodes:
         raise InvalidInputError(
             f"{where}: INTERPOLATION_DEGREE = {degree} needs {degree + 1} states, the segment "

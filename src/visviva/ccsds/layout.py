@@ -40,9 +40,7 @@ def read_text(source) -> tuple[str, str]:
 
     if isinstance(source, (bytes, bytearray, memoryview)):
         return _decode(bytes(source), "<text>"), "<text>"
-    if isinstance(source, os.PathLike) or (
-            isinstance(source, str) and source.strip() and "\n" not in source
-            and "=" not in source and not source.lstrip().startswith("<")):
+    if isinstance(source, os.PathLike) or (isinstance(source, str) and _is_path(source)):
         path = os.fspath(source)
         # (one owner for opening a user's file: a missing one raises MissingFileError, also a
         # FileNotFoundError, as the catalogue readers do)
@@ -54,6 +52,21 @@ def read_text(source) -> tuple[str, str]:
     if not isinstance(source, str):
         raise CCSDSFormatError(f"expected a path or the message text, got {type(source).__name__}")
     return source.removeprefix("\ufeff"), "<text>"
+
+
+def _is_path(text: str) -> bool:
+    """Whether a string is a file name rather than a message: one line, not XML, and no
+    ``KEYWORD =`` line, unless it names a file that exists (``data/run=1/iss.oem``) or holds a
+    folder separator before any ``=``."""
+    import os
+    import re
+
+    if not text.strip() or "\n" in text or "\r" in text or text.lstrip().startswith("<"):
+        return False
+    if "=" not in text or os.path.exists(text):
+        return True
+    return (re.match(r"\s*[A-Z][A-Z0-9_]*\s*=", text) is None
+            and any(sep in text.partition("=")[0] for sep in "/\\"))
 
 
 def _decode(data: bytes, name: str) -> str:
@@ -113,6 +126,11 @@ def read_kvn_section(cursor: KVNCursor, section: Section, check: bool = True) ->
         if section.user_defined:
             key = line.key[len("USER_DEFINED_"):]
             value = line.value
+            if key in record.values:
+                raise cursor.error(f"{line.key} is given twice (first on line "
+                                   f"{record.lines[key]})")
+            if line.unit:  # (no table gives its unit: kept as written)
+                record.units[key] = line.unit
         else:
             key = line.key
             if key in record.values:
@@ -265,8 +283,13 @@ def read_xml_section(node: XMLNode, section: Section, source: str) -> Record:
             if not key:
                 raise CCSDSFormatError("<USER_DEFINED> needs a 'parameter' attribute",
                                        line=child.line, source=source)
+            if key in record.values:
+                raise CCSDSFormatError(f"<USER_DEFINED parameter=\"{key}\"> is given twice",
+                                       line=child.line, source=source)
             record.values[key] = child.text
             record.lines[key] = child.line
+            if child.attrib.get("units"):
+                record.units[key] = child.attrib["units"]
             continue
         keyword = section.by_name.get(child.tag)
         if keyword is None:
@@ -309,7 +332,7 @@ def write_kvn_section(writer: KVNWriter, section: Section, record) -> None:
     writer.comment(record.comments)
     if section.user_defined:
         for key, value in record.values.items():
-            writer.keyword(f"USER_DEFINED_{key}", str(value))
+            writer.keyword(f"USER_DEFINED_{key}", str(value), record.units.get(key))
         return
     for keyword in keywords:
         if keyword.name in record.values:
@@ -363,7 +386,9 @@ def write_xml_section(parent, section: Section, record, skip=()):
         add_text(element, "COMMENT", text)
     if section.user_defined:
         for key, value in record.values.items():
-            ET.SubElement(element, "USER_DEFINED", {"parameter": key}).text = str(value)
+            unit = record.units.get(key)
+            ET.SubElement(element, "USER_DEFINED",
+                          {"parameter": key, **({"units": unit} if unit else {})}).text = str(value)
         return element
     for keyword in section.keywords:
         if keyword.name in record.values and keyword.name not in skip:
@@ -440,20 +465,35 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
             parsed[section.name] = records if section.repeat else records[0]
         elif not section.optional:
             _unexpected(cursor, sections, root_tag)
+            nxt = _after_comments(cursor)
             raise cursor.error(f"the {section.name.replace('_', ' ')} section is missing "
                                f"(expected {section.keywords[0].name} or another of its "
-                               f"keywords, found {_describe(cursor.peek())})")
+                               f"keywords, found {_describe(nxt)})",
+                               line=None if nxt is None else nxt.line)
     if not cursor.at_end():
-        nxt = cursor.peek()
+        nxt = _after_comments(cursor)
+        if nxt is None:  # COMMENT lines after the last section: no section to keep them
+            raise cursor.error("COMMENT lines after the last keyword belong to no section (a "
+                               "comment comes before what it describes): move them or remove "
+                               "them")
         if nxt.kind == "keyword" and nxt.key == version_key:  # messages one after another
             hint = (" (for many OMMs, as in Space-Track's KVN GP data, use vv.read_omm_file)"
                     if root_tag == "omm" else "")
             raise cursor.error(f"a second {root_tag.upper()} starts here; this reader takes "
-                               f"one message{hint}")
+                               f"one message{hint}", line=nxt.line)
         _unexpected(cursor, sections, root_tag)
-        raise cursor.error(f"unexpected {_describe(cursor.peek())} here: out of order (the "
-                           "sections go header, metadata, data in the CCSDS order)")
+        raise cursor.error(f"unexpected {_describe(nxt)} here: out of order (the "
+                           "sections go header, metadata, data in the CCSDS order)",
+                           line=nxt.line)
     return parsed, "kvn", name
+
+
+def _after_comments(cursor: KVNCursor):
+    """The first line at or after the cursor that is not a COMMENT (None at the end)."""
+    ahead = cursor.pos
+    while ahead < len(cursor.lines) and cursor.lines[ahead].kind == "comment":
+        ahead += 1
+    return cursor.lines[ahead] if ahead < len(cursor.lines) else None
 
 
 def _check_xml_elements(root: XMLNode, sections: tuple, source: str) -> None:
@@ -486,13 +526,15 @@ def _describe(line) -> str:
 
 
 def _unexpected(cursor: KVNCursor, sections: tuple, root_tag: str) -> None:
-    """Raise when the line at the cursor belongs to no section of the message."""
-    line = cursor.peek()
-    if line is None or line.kind == "comment":
+    """Raise when the line at the cursor (after its comments) belongs to no section of the
+    message, naming that line."""
+    line = _after_comments(cursor)
+    if line is None:
         return
     if line.kind != "keyword" or not any(s.owns(line.key) for s in sections):
-        raise cursor.error(f"unexpected {_describe(line)}: not a keyword of a "
-                           f"{root_tag.upper()} message (check its spelling)")
+        kind = root_tag.upper()
+        raise cursor.error(f"unexpected {_describe(line)}: not a keyword of {article_of(kind)} "
+                           f"{kind} message (check its spelling)", line=line.line)
 
 
 def with_version(node: XMLNode, key: str, root: XMLNode) -> XMLNode:

@@ -119,28 +119,32 @@ class OEMSegment(FrameCenterMetadata):
         self._seconds = None
 
     @classmethod
-    def from_states(cls, times, r_km, v_km_s, *, object_name: str, object_id: str = "UNKNOWN",
-                    center: str = "EARTH", frame: str = "GCRF", time_system: str = "UTC",
+    def from_states(cls, times, r_km=None, v_km_s=None, *, object_name: str,
+                    object_id: str = "UNKNOWN",
+                    center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
                     interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
                     mission_epoch=None, covariance=None, covariance_frame=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
 
         Parameters
         ----------
-        times : astropy.time.Time, shape (N,)
-            Increasing epochs.
+        times : astropy.time.Time, shape (N,), or StateVectors
+            Increasing epochs; or the states themselves (shape ``(N,)`` with their ``epoch``,
+            e.g. ``sat.teme(t)`` or an OEM's ``seg.states``), whose own frame is then written.
         r_km : array_like, shape (N, 3)
-            Positions (km) in ``frame``.
+            Positions (km) in ``frame`` (not given with states).
         v_km_s : array_like, shape (N, 3)
-            Velocities (km/s).
+            Velocities (km/s) (not given with states).
         object_name : str
             ``OBJECT_NAME``.
         object_id : str
             ``OBJECT_ID`` (international designator, e.g. ``"1998-067A"``).
         center : str
             ``CENTER_NAME``.
-        frame : str
+        frame : str, optional
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
+            Default: the states' own frame when given states that know it (TEME states are
+            written ``TEME``), else ``"GCRF"``; a frame that contradicts the states' is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -163,6 +167,20 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
+            from .timeframes import ref_frame_of
+
+            states = times
+            if r_km is not None or v_km_s is not None or getattr(states, "epoch", None) is None:
+                raise InvalidInputError(
+                    "from_states(states, ...) takes states with their epochs (and no r_km, "
+                    "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
+            frame = ref_frame_of(states, frame)
+            times, r_km, v_km_s = states.epoch, states.r, states.v
+        elif r_km is None or v_km_s is None:
+            raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
+                                    "their epochs).")
+        frame = "GCRF" if frame is None else frame
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
                                     "integer >= 1 (a reader refuses anything else).")
@@ -281,9 +299,12 @@ class OEMSegment(FrameCenterMetadata):
         """GM of ``CENTER_NAME``, km^3/s^2 (raises for a centre visviva does not know)."""
         body = center_body(self.center)
         if body is None:
+            from .timeframes import barycentre_note
+
             raise InvalidInputError(
-                f"CENTER_NAME = {self.center} is not a body visviva knows, so the states have "
-                "no GM; use .r_km and .v_km_s, or a centre such as EARTH, MOON, SUN, MARS.")
+                f"CENTER_NAME = {self.center} is not a body visviva knows"
+                f"{barycentre_note(self.center)}, so the states have no GM; use .r_km and "
+                ".v_km_s, or a centre such as EARTH, MOON, SUN, MARS.")
         return body.gm_km3_s2
 
     @property
@@ -297,6 +318,74 @@ class OEMSegment(FrameCenterMetadata):
         """``USEABLE_STOP_TIME`` (else ``STOP_TIME``) as a Time."""
         text = self.metadata.get("USEABLE_STOP_TIME") or self.metadata["STOP_TIME"]
         return epochs_to_time(text, self.time_system, mission_epoch=self.mission_epoch)
+
+    def span_problem(self, source: str = "<text>"):
+        """What is wrong with the segment's spans, or None: ``STOP_TIME`` before
+        ``START_TIME``, a useable span outside them or reversed (502.0-B-3, table 5-3), a state
+        outside ``START_TIME .. STOP_TIME`` (to the microsecond).
+
+        Parameters
+        ----------
+        source : str
+            File name, for errors in the epochs themselves.
+
+        Returns
+        -------
+        (str or int, str) or None
+            The keyword (or the index of the state) at fault and the message.
+        """
+        meta = self.metadata
+        t = self.times
+        sec = (t - t[0]).to_value("s")
+
+        def offset(key):
+            return (epochs_to_time(meta[key], self.time_system, meta.line_of(key), source,
+                                   self.mission_epoch) - t[0]).to_value("s")
+
+        start, stop = offset("START_TIME"), offset("STOP_TIME")
+        if stop < start:
+            return "STOP_TIME", "STOP_TIME is before START_TIME"
+        useable_start = offset("USEABLE_START_TIME") if "USEABLE_START_TIME" in meta else start
+        useable_stop = offset("USEABLE_STOP_TIME") if "USEABLE_STOP_TIME" in meta else stop
+        for key, bad in (("USEABLE_START_TIME", useable_start < start - 1e-6),
+                         ("USEABLE_STOP_TIME", useable_stop > stop + 1e-6)):
+            if bad:
+                return key, (f"{key} = {meta[key]} lies outside START_TIME .. STOP_TIME "
+                             f"({meta['START_TIME']} .. {meta['STOP_TIME']}); the useable span "
+                             "is part of the segment's span")
+        if useable_stop < useable_start:
+            return "USEABLE_STOP_TIME", "USEABLE_STOP_TIME is before USEABLE_START_TIME"
+        outside = (sec < start - 1e-6) | (sec > stop + 1e-6)
+        if outside.any():
+            k = int(np.flatnonzero(outside)[0])
+            return k, (f"the epoch {self.epochs[k]} lies outside START_TIME .. STOP_TIME "
+                       f"({meta['START_TIME']} .. {meta['STOP_TIME']})")
+        return None
+
+    def covered_seconds(self, t0) -> tuple[float, float]:
+        """The span interpolation serves, in seconds of the file's scale since ``t0``: the
+        useable span (``USEABLE_START_TIME`` .. ``USEABLE_STOP_TIME``, else ``START_TIME`` ..
+        ``STOP_TIME``) cut to the states' own span, since nothing outside it is interpolated
+        (a ``START_TIME`` before the first state would have the polynomial extrapolate).
+
+        Parameters
+        ----------
+        t0 : astropy.time.Time
+            The origin (in the segment's scale).
+
+        Returns
+        -------
+        (float, float)
+        """
+        from ..satellites.frames import offline_iers
+
+        times = self.times
+        with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+            first = (times[0] - t0).to_value("s")
+            last = (times[-1] - t0).to_value("s")
+            lo = (self.start - t0).to_value("s")
+            hi = (self.stop - t0).to_value("s")
+        return max(float(lo), float(first)), min(float(hi), float(last))
 
     def __len__(self) -> int:
         return len(self.epochs)
@@ -330,6 +419,29 @@ class OEMSegment(FrameCenterMetadata):
             k = int(np.flatnonzero(steps <= 0)[0])
             raise InvalidInputError(f"{where}: the epochs must increase; {self.epochs[k + 1]} "
                                     f"follows {self.epochs[k]}")
+        missing = [k.name for k in METADATA.keywords if k.mandatory and k.name not in self.metadata]
+        if missing:  # (what the reader refuses, a writer does not write)
+            raise InvalidInputError(f"{where}: the metadata lacks {', '.join(missing)}")
+        from ..satellites.frames import offline_iers
+
+        with offline_iers():
+            problem = self.span_problem()
+        if problem is not None:
+            raise InvalidInputError(f"{where}: {problem[1]}")
+
+    def _span_text(self) -> str:
+        """The covered span in words, saying when the states end before the metadata's span."""
+        from astropy import units as u
+
+        t0 = self.times[0]
+        lo, hi = self.covered_seconds(t0)
+        text = f"{(t0 + lo * u.s).isot} .. {(t0 + hi * u.s).isot}, {self.time_system}"
+        start, stop = self.start, self.stop
+        if lo > (start - t0).to_value("s") + 1e-6 or hi < (stop - t0).to_value("s") - 1e-6:
+            text += (f"; its metadata says {start.isot} .. {stop.isot}, but its states span "
+                     f"only {self.epochs[0]} .. {self.epochs[-1]}, and visviva does not "
+                     "extrapolate")
+        return text
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.
@@ -386,15 +498,14 @@ class OEMSegment(FrameCenterMetadata):
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             t = getattr(t, t0.scale)
             query = np.atleast_1d((t - t0).to_value("s")).ravel()
-            lo = (self.start - t0).to_value("s")
-            hi = (self.stop - t0).to_value("s")
+        lo, hi = self.covered_seconds(t0)
         tol = 1e-6  # s: epochs written to the microsecond
         outside = (query < lo - tol) | (query > hi + tol)
         if outside.any():
             bad = np.atleast_1d(t.ravel())[int(np.flatnonzero(outside)[0])]
             raise InvalidInputError(
-                f"{bad.isot} lies outside the segment ({self.start.isot} .. {self.stop.isot}, "
-                f"{self.time_system}); interpolate only within it.")
+                f"{bad.isot} lies outside the segment ({self._span_text()}); interpolate only "
+                "within it.")
         method, degree = self.interpolation
         if method == "LINEAR":
             method, degree = "LAGRANGE", 1
@@ -485,12 +596,14 @@ class Ephemeris:
         which = np.full(flat.shape, -1)
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             for k, seg in enumerate(self.segments):
-                inside = ((flat - seg.start).to_value("s") >= -1e-6) & (
-                    (flat - seg.stop).to_value("s") <= 1e-6)
+                t0 = seg.times[0]
+                lo, hi = seg.covered_seconds(t0)
+                offset = (getattr(flat, t0.scale) - t0).to_value("s")
+                inside = (offset >= lo - 1e-6) & (offset <= hi + 1e-6)
                 which[inside] = k
         if (which < 0).any():
             bad = flat[int(np.flatnonzero(which < 0)[0])]
-            spans = ", ".join(f"{s.start.isot} .. {s.stop.isot}" for s in self.segments)
+            spans = "; ".join(s._span_text() for s in self.segments)
             raise InvalidInputError(f"{bad.isot} is covered by no segment ({spans}).")
         r = np.empty(flat.shape + (3,))
         v = np.empty(flat.shape + (3,))

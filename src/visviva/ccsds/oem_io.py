@@ -125,6 +125,11 @@ def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
         covariances = []
         if cursor.at_block("COVARIANCE"):
             covariances = _kvn_covariances(cursor)
+            if not cursor.at_end() and all(line.kind == "comment"
+                                           for line in cursor.lines[cursor.pos:]):
+                # comments after the last block of the file: kept with the segment's last
+                # state (they were dropped), and written back after it
+                state_comments.setdefault(len(rows), []).extend(cursor.take_comments())
         seg = OEMSegment(meta, epochs, numbers[:, 0:3], numbers[:, 3:6],
                          numbers[:, 6:9] if numbers.shape[1] == 9 else None, covariances,
                          data_comments, state_comments, mission_epoch)
@@ -207,8 +212,12 @@ def _kvn_covariances(cursor: KVNCursor) -> list:
                                    "is missing")
             cursor.pos += 1
             if len(line.tokens) != i + 1:
-                raise cursor.error(f"row {i + 1} of the covariance (lower triangle) has "
-                                   f"{i + 1} numbers, not {len(line.tokens)}", line=line.line)
+                raise cursor.error(
+                    f"row {i + 1} of the covariance (lower triangle) holds {i + 1} "
+                    f"number{'s' if i else ''}, but this line has {len(line.tokens)} "
+                    f"({line.value[:60]!r}"
+                    + ("; a covariance row has no units" if "[" in line.value else "") + ")",
+                    line=line.line)
             lower += [parse_float(x, "a covariance value", line.line, cursor.source)
                       for x in line.tokens]
             check_variance(lower[-1], i, line.line, cursor.source)
@@ -235,21 +244,11 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise CCSDSFormatError(f"the epochs must increase: {seg.epochs[k]} follows "
                                f"{seg.epochs[k - 1]}", line=lines[k], source=name)
-    def offset(key):
-        text = meta[key]
-        return (epochs_to_time(text, seg.time_system, meta.line_of(key), name,
-                               seg.mission_epoch) - t[0]).to_value("s")  # fmt: skip
-
-    start, stop = offset("START_TIME"), offset("STOP_TIME")
-    if stop < start:
-        raise CCSDSFormatError("STOP_TIME is before START_TIME",
-                               line=meta.line_of("STOP_TIME"), source=name)
-    outside = (sec < start - 1e-6) | (sec > stop + 1e-6)
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise CCSDSFormatError(f"the epoch {seg.epochs[k]} lies outside START_TIME .. STOP_TIME "
-                               f"({meta['START_TIME']} .. {meta['STOP_TIME']})",
-                               line=lines[k], source=name)
+    problem = seg.span_problem(name)
+    if problem is not None:
+        where, message = problem
+        line = meta.line_of(where) if isinstance(where, str) else lines[where]
+        raise CCSDSFormatError(message, line=line, source=name)
     method = meta.get("INTERPOLATION")
     if method is not None and method.upper() not in INTERPOLATION_METHODS:
         raise CCSDSFormatError(f"INTERPOLATION = {method}: visviva reads LAGRANGE, HERMITE or "

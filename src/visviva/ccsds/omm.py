@@ -53,11 +53,13 @@ class OMM(dict):
 
     User-defined parameters appear as ``USER_DEFINED_<name>``. Pass it to
     :meth:`visviva.Satellite.from_omm` or :func:`write_omm`; ``.comments`` maps each section
-    name to its COMMENT lines, ``.lines`` each keyword to the line it was read from.
+    name to its COMMENT lines, ``.lines`` each keyword to the line it was read from, ``.units``
+    each user-defined parameter written with a unit to that unit.
     """
 
     comments: dict
     lines: dict
+    units: dict
     source: str
 
     @classmethod
@@ -77,13 +79,14 @@ class OMM(dict):
         OMM
         """
         out = cls()
-        out.comments, out.lines, out.source = {}, {}, source
+        out.comments, out.lines, out.units, out.source = {}, {}, {}, source
         for name, record in sections.items():
             prefix = _USER if name == "user_defined" else ""
             for key, value in record.values.items():
                 out[prefix + key] = value
                 out.lines[prefix + key] = record.lines.get(key)
             out.comments[name] = list(record.comments)
+            out.units.update({prefix + key: unit for key, unit in record.units.items()})
         return out
 
 
@@ -161,6 +164,7 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
         raise InvalidInputError(f"write_omm needs a mapping of OMM keywords, got "
                                 f"{type(omm).__name__} (for a Satellite, pass sat.to_omm()).")
     comments = getattr(omm, "comments", {}) or {}
+    units = getattr(omm, "units", {}) or {}  # (of the user-defined parameters, as read)
     records = {s.name: Record(comments=list(comments.get(s.name, []))) for s in SECTIONS}
     for key, value in omm.items():
         if key == "COMMENT":
@@ -168,6 +172,8 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
             continue
         if key.startswith(_USER):
             records["user_defined"].values[key[len(_USER):]] = value
+            if key in units:
+                records["user_defined"].units[key[len(_USER):]] = units[key]
             continue
         owner = next((s for s in SECTIONS if key in s.by_name), None)
         if owner is None:

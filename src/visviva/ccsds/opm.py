@@ -246,8 +246,10 @@ class OPM(FrameCenterMetadata):
             return float(kep["GM"])
         body = center_body(self.center)
         if body is None:
-            raise InvalidInputError(f"CENTER_NAME = {self.center} is not a body visviva knows "
-                                    "and the OPM gives no GM")
+            from .timeframes import barycentre_note
+
+            raise InvalidInputError(f"CENTER_NAME = {self.center} is not a body visviva knows"
+                                    f"{barycentre_note(self.center)} and the OPM gives no GM")
         return body.gm_km3_s2
 
     @property
@@ -277,9 +279,50 @@ class OPM(FrameCenterMetadata):
 
     @property
     def covariance(self) -> np.ndarray | None:
-        """The 6 x 6 covariance (km, km/s) or None."""
+        """The 6 x 6 covariance of :attr:`state` (km, km/s) on the state's axes, or None.
+
+        A ``COV_REF_FRAME`` naming a local orbital frame of the state (``RTN``/``RSW``/
+        ``RIC``/``QSW``, ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` (the velocity
+        block as the position block, the CCSDS convention), so that the matrix goes with
+        :attr:`state` wherever a covariance is taken (``vv.propagate_covariance(opm.state,
+        opm.covariance, t)``); the matrix as written is ``opm.sections["covariance"]``.
+
+        Raises
+        ------
+        InvalidInputError
+            A ``COV_REF_FRAME`` that is another frame than ``REF_FRAME`` and no local frame
+            (the rotation between them is not applied here), or a local frame of a state on
+            Earth-fixed axes (its velocity does not give the orbital axes).
+        """
         cov = self.sections.get("covariance")
-        return None if cov is None else matrix_from_values(cov.values)
+        if cov is None:
+            return None
+        matrix = matrix_from_values(cov.values)
+        frame = cov.get("COV_REF_FRAME")
+        if frame is None or str(frame).strip().upper() == str(self.frame).strip().upper():
+            return matrix
+        from .._covariance import from_local
+        from ..core.local_frames import FRAME_CODES
+        from .timeframes import visviva_frame
+
+        key = str(frame).strip().upper()
+        where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
+        if key not in FRAME_CODES:
+            if visviva_frame(key) is not None and visviva_frame(key) == self.visviva_frame:
+                return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
+            raise InvalidInputError(
+                f"{where} is neither REF_FRAME = {self.frame} nor a local orbital frame "
+                f"({', '.join(sorted(FRAME_CODES))}); rotate opm.sections['covariance'] to "
+                "the state's axes yourself.")
+        if self.visviva_frame == "itrs":
+            raise InvalidInputError(
+                f"{where} of a state on Earth-fixed axes ({self.frame}): its Earth-fixed "
+                "velocity does not give the orbital axes; rotate the state and "
+                "opm.sections['covariance'] to an inertial frame first.")
+        sv = self.sections["state_vector"]
+        r = np.array([sv["X"], sv["Y"], sv["Z"]], dtype=np.float64)
+        v = np.array([sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]], dtype=np.float64)
+        return from_local(matrix, r, v, FRAME_CODES[key])
 
     @property
     def maneuvers(self) -> list[Maneuver]:

@@ -352,7 +352,41 @@ def _segment(meta, rows, data_comments, name, mission_epoch, units):
         [], [], [], [])
     seg = TDMSegment(meta, keywords, epochs, values, lines, data_comments, name, mission_epoch)
     seg.times  # noqa: B018 -- parse the epochs now, so a bad one is reported on reading
+    _check_span(seg, name)
     return seg
+
+
+def _check_span(seg: TDMSegment, name: str) -> None:
+    """``START_TIME`` <= ``STOP_TIME``, and the data within them (when the metadata gives
+    them: "the start/end of the total time span covered by the data", 503.0-B-2 table 3-3)."""
+    from .timeframes import epochs_to_time
+
+    meta = seg.metadata
+    span = {}
+    for key in ("START_TIME", "STOP_TIME"):
+        if key in meta:
+            span[key] = epochs_to_time(meta[key], seg.time_system, meta.line_of(key), name,
+                                       seg._mission_epoch,
+                                       system_line=meta.line_of("TIME_SYSTEM"))
+    start, stop = span.get("START_TIME"), span.get("STOP_TIME")
+    if start is not None and stop is not None and (stop - start).to_value("s") < 0:
+        raise CCSDSFormatError(f"STOP_TIME = {meta['STOP_TIME']} is before START_TIME = "
+                               f"{meta['START_TIME']}", line=meta.line_of("STOP_TIME"),
+                               source=name)
+    if not len(seg) or not span:
+        return
+    t = seg.times
+    outside = np.zeros(len(seg), dtype=bool)
+    if start is not None:
+        outside |= (t - start).to_value("s") < -1e-6
+    if stop is not None:
+        outside |= (t - stop).to_value("s") > 1e-6
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise CCSDSFormatError(
+            f"the epoch {seg.epochs[k]} lies outside START_TIME .. STOP_TIME "
+            f"({meta.get('START_TIME', '...')} .. {meta.get('STOP_TIME', '...')}), the span the "
+            "metadata says the data cover", line=seg.lines[k] if seg.lines else None, source=name)
 
 
 def check_data(seg: TDMSegment) -> None:
@@ -366,7 +400,8 @@ def check_data(seg: TDMSegment) -> None:
     Raises
     ------
     CCSDSFormatError
-        An unknown data keyword, an epoch that is no CCSDS epoch, a NaN or infinite value.
+        An unknown data keyword, an epoch that is no CCSDS epoch, a NaN or infinite value, a
+        ``STOP_TIME`` before ``START_TIME`` or data outside them.
     """
     unknown = set(seg.keywords) - set(DATA_KEYWORDS)
     if unknown:
@@ -376,6 +411,7 @@ def check_data(seg: TDMSegment) -> None:
         raise CCSDSFormatError(f"{bad!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000")
     if not np.isfinite(seg.values).all():
         raise CCSDSFormatError("a TDM data value is NaN or infinite; remove that line")
+    _check_span(seg, seg.source)
 
 
 # ---- KVN ---------------------------------------------------------------------------------

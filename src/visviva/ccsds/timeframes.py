@@ -399,6 +399,39 @@ def center_body(name: str):
     """
     from .. import bodies
 
-    key = name.strip().upper().replace(" BARYCENTER", "")
+    key = name.strip().upper()
+    if key.endswith(" BARYCENTER"):
+        key = key.removesuffix(" BARYCENTER").strip()
+        if key not in _BODY_AT_BARYCENTER:  # (the moons pull it away: no body sits there)
+            return None
     body = getattr(bodies, key, None)
     return body if isinstance(body, bodies.Body) else None
+
+
+#: the systems whose barycentre is the body's centre to better than a metre (no moons, or
+#: Mars's two small ones); the Earth-Moon barycentre is 4,671 km from the geocentre, Pluto's
+#: ~2,100 km from Pluto, Saturn's and Jupiter's hundreds of km from the planet, and the planet's
+#: GM is not the system's: states about them are not states about the body
+_BODY_AT_BARYCENTER = frozenset({"MERCURY", "VENUS", "MARS"})
+
+
+def barycentre_note(name: str) -> str:
+    """Why a ``CENTER_NAME`` that is a barycentre has no body (``""`` for other names).
+
+    Parameters
+    ----------
+    name : str
+        A ``CENTER_NAME``.
+
+    Returns
+    -------
+    str
+    """
+    key = str(name).strip().upper()
+    if not key.endswith(" BARYCENTER") or center_body(key) is not None:
+        return ""
+    system = key.removesuffix(" BARYCENTER").strip()
+    where = ("the Earth-Moon barycentre, 4,671 km from the Earth's centre" if system == "EARTH"
+             else f"the barycentre of the {system.title()} system, not the centre of a body")
+    return (f" ({where}: a central-body GM there would propagate the states wrongly; "
+            "transform them to the body's centre first)")

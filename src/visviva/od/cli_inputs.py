@@ -340,23 +340,9 @@ def _gcrs(state, path):
 
 
 def _inertial_covariance(opm, state, path):
-    """The OPM's covariance on the state's inertial axes (km-based), rotated from the local
-    frame its ``COV_REF_FRAME`` names (RTN, TNW, VNB ...); None without one."""
-    from .._covariance import frame_code, from_local
-
-    cov = opm.covariance
-    if cov is None:
-        return None
-    frame = opm.sections["covariance"].get("COV_REF_FRAME")
-    if frame is None or str(frame).upper() == str(opm.frame).upper():
-        return cov
+    """The OPM's covariance on the state's inertial axes (km-based): ``opm.covariance``, which
+    rotates a local ``COV_REF_FRAME`` (RTN, TNW, VNB ...); None without one."""
     try:
-        code = frame_code(frame, "COV_REF_FRAME")
-    except InvalidInputError:
-        raise InvalidInputError(
-            f"--initial {path}: COV_REF_FRAME = {frame}; visviva reads a covariance on the "
-            "state's inertial axes (GCRF, EME2000, ICRF) or a local orbital frame (RTN, RSW, "
-            "TNW, VNB)") from None
-    r = state.r.to_value("km").reshape(3)
-    v = state.v.to_value("km/s").reshape(3)
-    return from_local(np.asarray(cov, dtype=np.float64), r, v, code)
+        return opm.covariance
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"--initial {path}: {exc}") from None

@@ -149,6 +149,34 @@ def _check_sgp4_metadata(fields) -> None:
         )
 
 
+#: ephemeris types of element sets that are not SGP4's: 4 is SGP4-XP at Space-Track (SGP8 in
+#: Spacetrack Report #3, as 1 is SGP and 5 SDP8); 0 (today's), 2 and 3 (SGP4, SDP4) are SGP4's
+_NOT_SGP4_TYPES = {1: "SGP", 4: "SGP4-XP (SGP8 in Spacetrack Report #3)", 5: "SDP8"}
+
+
+def not_sgp4_ephemeris_type(value) -> str:
+    """Why an element set's ephemeris type says it is not for SGP4 (``""`` when it is).
+
+    Parameters
+    ----------
+    value : int or str
+        The TLE's column 63, or an OMM's ``EPHEMERIS_TYPE``.
+
+    Returns
+    -------
+    str
+    """
+    try:
+        kind = int(value)
+    except (TypeError, ValueError):
+        return ""  # (a malformed value is the readers' to refuse)
+    if kind not in _NOT_SGP4_TYPES:
+        return ""
+    return (f"ephemeris type {kind} marks {_NOT_SGP4_TYPES[kind]} elements, which SGP4 "
+            "does not propagate correctly: propagate them with the theory they were "
+            "fitted for, or use an SGP4 element set of the object (ephemeris type 0)")
+
+
 class Satellite:
     """An Earth satellite described by SGP4 mean elements (from a TLE or an OMM record).
 
@@ -214,6 +242,9 @@ class Satellite:
         line1, line2 = check_tle_lines(line1, line2, verify_checksum=verify_checksum, where=where)
         satrec = Satrec.twoline2rv(line1, line2, WGS72)
         where = where or ("TLE line 1", "TLE line 2")
+        why = not_sgp4_ephemeris_type(line1[62])
+        if why:
+            raise TLEFormatError(f"{where[0]}, column 63: {why}.")
         check_tle_epoch(line1, int(satrec.epochyr), float(satrec.epochdays), where[0])
         deg = 180.0 / math.pi
         check_element_ranges(
@@ -262,12 +293,22 @@ class Satellite:
                 "file or a message text, pass vv.read_omm(path))."
             )
         missing = [k for k in _OMM_REQUIRED if k not in fields or fields[k] in (None, "")]
+        if "MEAN_MOTION" in missing and fields.get("SEMI_MAJOR_AXIS") not in (None, ""):
+            raise InvalidInputError(
+                f"OMM record {fields.get('OBJECT_NAME', '')!r} gives SEMI_MAJOR_AXIS, not "
+                "MEAN_MOTION: SGP4 elements are a Kozai mean motion (rev/day), which a mean "
+                "semi-major axis does not fix uniquely; ask for the SGP4 element set (with "
+                "MEAN_MOTION) of the object.")
         if missing:
             raise InvalidInputError(
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} lacks {', '.join(missing)}; "
                 "pass every mean element (CelesTrak's GP data in JSON or CSV has them)."
             )
         _check_sgp4_metadata(fields)
+        why = not_sgp4_ephemeris_type(fields.get("EPHEMERIS_TYPE"))
+        if why:
+            raise InvalidInputError(f"OMM record {fields.get('OBJECT_NAME', '')!r}: "
+                                    f"EPHEMERIS_TYPE = {fields['EPHEMERIS_TYPE']}: {why}.")
         clean = dict(_OMM_DEFAULTS)
         clean.update({k: v for k, v in fields.items() if v not in (None, "")})
         clean["EPOCH"] = _omm_epoch(clean["EPOCH"])
@@ -372,10 +413,17 @@ class Satellite:
         -------
         dict
             For :meth:`from_omm` or :func:`visviva.write_omm` (with ``originator=``).
+            ``OBJECT_ID`` is the COSPAR designator of the record (``""`` when a TLE has
+            none), or, for a satellite read from an OMM whose ``OBJECT_ID`` no TLE designator
+            holds (``UNKNOWN``, a name), that text as given, so that OMM -> satellite -> OMM
+            keeps it.
         """
         from .tle_export import to_omm
 
-        return to_omm(self.satrec, self.name, self.satnum)
+        fields = to_omm(self.satrec, self.name, self.satnum)
+        if not fields["OBJECT_ID"] and self._source and self._source[0] == "omm":
+            fields["OBJECT_ID"] = str(self._source[1].get("OBJECT_ID") or "").strip()
+        return fields
 
     # -- propagation -------------------------------------------------------------------------
     def _sgp4(self, t):

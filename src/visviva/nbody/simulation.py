@@ -18,7 +18,7 @@ from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core._jit import interpreted
-from ..errors import InvalidInputError, ShapeError, fmt_number
+from ..errors import InvalidInputError, InvalidStateError, ShapeError, fmt_number
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
@@ -556,32 +556,44 @@ class Simulation:
             When IAS15's step falls below ``min_dt`` or the relative floor (see the class).
         InvalidStateError
             When massive particles sit at exactly the same position without softening, or a
-            force gives NaN/infinite accelerations.
+            force gives NaN/infinite accelerations; the simulation is then left as it was
+            before the call.
         """
         if self.backend == "cuda":
             from .gpu import integrate_simulation
 
             return integrate_simulation(self, t, progress=progress)
         scalar = np.ndim(t) == 0
-        times = self.begin_run(t)
         st = self._state
+        saved = st.copy()  # taken back when the run breaks (a few us; ~1 % of a call)
+        times = self.begin_run(t)
         info = self._integrator
-        with Recording(self, times, progress) as rec:
-            while True:
-                fn, params, _ = self.kernel_inputs()
-                done0 = rec.before_call()
-                few = few_bodies(st.istate, st.massive)
-                args = (st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate, st.buf,
-                        st.gwork, fn, params, times, rec.out_t, rec.chunk_x, rec.chunk_v)
-                status = None
-                slow = _tier.interpreted_kernel(info, few, st.istate, st.fstate, len(st.massive))
-                if slow is not None:  # a cold first run: the interpreter tier (nbody/tier.py)
-                    status = _tier.run_slice(slow, args[:9] + (interpreted(fn),) + args[10:],
-                                             st.istate, int(st.istate[_nc.I_STOP_AT_STEP]))
-                if status is None:
-                    status = int(info.kernel(few, st.istate, st.fstate)(*args))
-                if rec.after_call(status, done0):
-                    break
+        try:
+            with Recording(self, times, progress) as rec:
+                while True:
+                    fn, params, _ = self.kernel_inputs()
+                    done0 = rec.before_call()
+                    few = few_bodies(st.istate, st.massive)
+                    args = (st.x, st.v, st.m, st.massive, st.radius, st.fstate, st.istate,
+                            st.buf, st.gwork, fn, params, times, rec.out_t, rec.chunk_x,
+                            rec.chunk_v)
+                    status = None
+                    slow = _tier.interpreted_kernel(info, few, st.istate, st.fstate,
+                                                    len(st.massive))
+                    if slow is not None:  # a cold first run: the interpreter tier (tier.py)
+                        status = _tier.run_slice(slow, args[:9] + (interpreted(fn),) + args[10:],
+                                                 st.istate, int(st.istate[_nc.I_STOP_AT_STEP]))
+                    if status is None:
+                        status = int(info.kernel(few, st.istate, st.fstate)(*args))
+                    if rec.after_call(status, done0):
+                        break
+        except InvalidStateError as exc:
+            # NaN/inf values: what is left mixes times (WHFast: t unchanged, positions moved on)
+            # or is NaN; the state before the call is the last one that is right
+            st.restore(saved)
+            raise InvalidStateError(
+                f"{exc} The simulation is left as it was before this call, at t = "
+                f"{fmt_number(self.t)}.") from None
         return None if scalar else rec.trajectory()
 
     # ---- diagnostics -----------------------------------------------------------------------------

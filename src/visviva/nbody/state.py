@@ -161,6 +161,20 @@ class SimulationState:
             energy_offset=self.energy_offset,
         )
 
+    def restore(self, saved: SimulationState) -> None:
+        """Take back the values of ``saved`` (a :meth:`copy` of this state): in place where the
+        shapes still match (views into an ensemble's packed arrays stay views), else by
+        replacing the arrays (a merger removed particles since)."""
+        for key in ARRAY_KEYS + ("buf",):
+            old, new = getattr(self, key), getattr(saved, key)
+            if old is not None and new is not None and old.shape == new.shape:
+                old[...] = new
+            else:
+                setattr(self, key, None if new is None else new.copy())
+        self.energy_offset = saved.energy_offset
+        self.massive = None
+        self.gwork = None
+
     def arrays(self) -> dict:
         """The arrays under their archive keys (``buf`` only when allocated); not copies."""
         out = {k: getattr(self, k) for k in ARRAY_KEYS}

@@ -159,3 +159,36 @@ def test_a_diverging_fit_says_so(visible, recwarn):
         vv.fit_orbit(obs, guess)
     assert "better initial state" in str(info.value) and len(info.value.history) >= 1
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+def test_the_standard_air_above_the_tropopause_is_isothermal():
+    # ICAO standard atmosphere: 226.32 hPa at 11 km, 54.75 hPa at 20 km, -56.5 deg C between;
+    # the lapse-rate formula alone gave 43.3 hPa and -115 deg C at 20 km, a complex pressure
+    # above 44.3 km (a station there died with numpy's UFuncTypeError)
+    from visviva.od.troposphere import standard_atmosphere
+
+    p11, t11 = standard_atmosphere(11_000.0)
+    p20, t20 = standard_atmosphere(20_000.0)
+    assert p11 == pytest.approx(226.32, rel=1e-3) and t11 == pytest.approx(-56.5)
+    assert p20 == pytest.approx(54.75, rel=2e-3) and t20 == pytest.approx(-56.5)
+    assert standard_atmosphere(10_999.0)[0] == pytest.approx(p11, rel=2e-4)
+    for h in (45_000.0, 60_000.0, 100_000.0):
+        p, t_k, e = Weather(None).at(h)
+        zhd, zwd = zenith_delays_m(p, t_k, e, 0.7, h)
+        assert np.isrealobj(zhd) and 0.0 <= zhd + zwd < 3e-3  # metres: a few mm at most
+    high = vv.GroundStation(40 * u.deg, -10 * u.deg, 50 * u.km)
+    t = EPOCH + np.arange(0, 600, 20.0) * u.s
+    a = simulate_observations(TRUTH, t, "range", 1e-9, high, seed=False)
+    b = simulate_observations(TRUTH, t, "range", 1e-9, high, seed=False, troposphere=True)
+    d_m = (b.values[:, 0] - a.values[:, 0]) * 1000.0
+    assert np.all(np.isfinite(d_m)) and np.all((d_m > 0) & (d_m < 0.05))
+
+
+def test_troposphere_dict_values_are_numbers_not_bools():
+    # True read as 1 (a 100 % humidity, 1 deg C) without a word; numpy scalars were refused
+    for key in ("relative_humidity", "temperature_c"):
+        with pytest.raises(vv.InvalidInputError, match=key):
+            vv.od.troposphere.weather_from({key: True})
+    w = vv.od.troposphere.weather_from({"pressure_hpa": np.float32(1000.0),
+                                        "temperature_c": np.int64(12)})
+    assert w.given == {"pressure_hpa": 1000.0, "temperature_c": 12.0}

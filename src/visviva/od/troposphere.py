@@ -21,9 +21,9 @@ hPa, T in K), the mapping function of Black & Eisner (1984) ``m(E) = 1.001 / sqr
 sin^2 E)`` (the RTCA DO-229 one; within a few cm of Niell's above 5 deg), and the station's air
 from the standard atmosphere at its height (``P = 1013.25 (1 - 2.2557e-5 h)^5.2568`` hPa,
 ``T = 15 - 0.0065 h`` deg C up to the tropopause at 11 km, isothermal above it; 50 % relative
-humidity) unless given. The range partials carry the
-delay's slope with the elevation; the range rate's partials are the geometric ones (the rate
-of the delay moves them by less than 1e-6).
+humidity) unless given. The range partials carry the delay's slope with the elevation, the
+elevation's partials the refraction's slope; the range rate's partials are the geometric ones
+(the rate of the delay moves them by less than 1e-6).
 """
 
 from __future__ import annotations
@@ -142,7 +142,7 @@ def _station_air(stations, weather):
 def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     """Add the troposphere to the predicted values ``h`` (and the range partials ``H``) of the
     rows ``rows`` of ``observations``, in place; ``enu`` holds each row's east-north-up axes."""
-    from ..ground.look import refraction_deg
+    from ..ground.look import _conditions, _saemundsson_arcmin, refraction_deg
 
     weather = observations.troposphere
     stations = [observations.stations[i] for i in rows]
@@ -176,4 +176,10 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
         for key, (_, p, t_c) in air.items():
             idx = np.flatnonzero(pointed & np.array([id(s) == key for s in stations]))
             if idx.size:
-                h[idx, 1] += np.radians(refraction_deg(np.degrees(h[idx, 1]), p, t_c))
+                el_deg = np.degrees(h[idx, 1])
+                h[idx, 1] += np.radians(refraction_deg(el_deg, p, t_c))
+                if H is not None:
+                    # d(E + R(E)) = (1 + dR/dE) dE: R's slope (arcmin per deg) / 60, in the
+                    # formula's range (above -1 deg); -0.04 at 2.5 deg, -0.02 at 5 deg
+                    slope = _saemundsson_arcmin(el_deg)[1] / 60.0 * _conditions(p, t_c)
+                    H[idx, 1, :] *= (1.0 + np.where(el_deg >= -1.0, slope, 0.0))[:, None]

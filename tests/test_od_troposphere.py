@@ -213,3 +213,20 @@ def test_elevation_partials_carry_the_refraction_slope(visible):
         ym[:, j] -= 1e-3
         fd = (model(obs, yp, gm)[0] - model(obs, ym, gm)[0])[:, 1] / 2e-3
         assert np.abs(H[:, 1, j] - fd).max() < 1e-7 * np.abs(H[:, 1, :3]).max()
+
+
+def test_a_fit_whose_residuals_overflow_says_what_to_do(visible):
+    # a first guess 100 km and 50 m/s off: the predicted values overflow at iteration 5;
+    # the error read "the orbit fit diverged at iteration 5 (RMS not finite)." only
+    t = visible[::3]
+    tt = t[np.repeat(np.arange(len(t)), 2)]
+    obs = simulate_observations(TRUTH, tt, ["range", "azel"] * len(t),
+                                [0.002, np.radians(0.002)] * len(t), STATION, seed=5,
+                                troposphere=True)
+    guess = vv.StateVectors((Y0[:3] + [100.0, 50.0, -30.0]) * u.km,
+                            (Y0[3:] + [0.05, 0.0, 0.0]) * KMS, vv.EARTH, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError, match="diverged at iteration") as info:
+        vv.fit_orbit(obs, guess)
+    msg = str(info.value)
+    assert "RMS by iteration: 1: " in msg and "better initial state" in msg
+    assert len(info.value.history) >= 1

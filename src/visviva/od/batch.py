@@ -534,7 +534,12 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             raise err
         rms = float(np.sqrt(np.mean(zn[use] ** 2)))
         if not np.isfinite(rms):
-            err = ConvergenceError(f"the orbit fit diverged at iteration {it} (RMS not finite).")
+            err = ConvergenceError(
+                f"the orbit fit diverged at iteration {it} (RMS by iteration: "
+                + "".join(f"{hh['iteration']}: {hh['rms']:.4g}; " for hh in history)
+                + "now not finite): the estimate's trajectory left the measurement model's "
+                "domain (predicted values not finite). Start from a better initial state (IOD) "
+                "or fit a shorter arc first.")
             err.history = history
             raise err
         if chosen:

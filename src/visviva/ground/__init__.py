@@ -17,6 +17,7 @@ _EXPORTS = {
     "visual_magnitude": "visibility",
     "LookAngles": "look",
     "refraction_deg": "look",
+    "refraction_slope": "look",
     "doppler_shift": "doppler",
     "plot_sky_track": "plots",
     "find_passes_dask": "dask_passes",

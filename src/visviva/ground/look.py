@@ -21,7 +21,7 @@ from ..errors import InvalidInputError
 from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift
 from .earthfixed import GMST_RATE_RAD_S
 
-__all__ = ["LookAngles", "look", "refraction_deg"]
+__all__ = ["LookAngles", "look", "refraction_deg", "refraction_slope"]
 
 
 class LookAngles:
@@ -102,6 +102,28 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
     r_arcmin = _saemundsson_arcmin(h)[0] * _conditions(pressure_hpa, temperature_c)
     out = np.where(h >= -1.0, r_arcmin / 60.0, 0.0)
     return out * u.deg if quantity else out
+
+
+def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
+    """dR/dE of :func:`refraction_deg` (deg of refraction per deg of geometric elevation,
+    negative: -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below -1 deg where the refraction is 0.
+
+    Parameters
+    ----------
+    elevation_deg : float or array_like
+        Geometric elevation, deg.
+    pressure_hpa, temperature_c : float
+        The site's air, as :func:`refraction_deg`.
+
+    Returns
+    -------
+    ndarray
+        The slope; ``1 + slope`` maps a change of geometric elevation (or its rate) to the
+        apparent one.
+    """
+    h = np.asarray(elevation_deg, dtype=np.float64)
+    slope = _saemundsson_arcmin(h)[1] * _conditions(pressure_hpa, temperature_c) / 60.0
+    return np.where(h >= -1.0, slope, 0.0)
 
 
 def _conditions(pressure_hpa, temperature_c) -> float:
@@ -296,8 +318,7 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
     el_deg = np.degrees(res[..., 2])
     el_rate = np.degrees(res[..., 5])
     if refraction:  # the apparent elevation, and its rate d(el + R(el))/dt
-        slope = _saemundsson_arcmin(el_deg)[1] * _conditions(1010.0, 10.0) / 60.0
-        el_rate = el_rate * (1.0 + np.where(el_deg >= -1.0, slope, 0.0))
+        el_rate = el_rate * (1.0 + refraction_slope(el_deg))
         el_deg = el_deg + refraction_deg(el_deg)
     rho_g = np.einsum("tij,ntj->nti", rot_ig, rho)
     ra = np.degrees(np.arctan2(rho_g[..., 1], rho_g[..., 0])) % 360.0

@@ -144,7 +144,7 @@ def _station_air(stations, weather):
 def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     """Add the troposphere to the predicted values ``h`` (and the range partials ``H``) of the
     rows ``rows`` of ``observations``, in place; ``enu`` holds each row's east-north-up axes."""
-    from ..ground.look import _conditions, _saemundsson_arcmin, refraction_deg
+    from ..ground.look import refraction_deg, refraction_slope
 
     weather = observations.troposphere
     stations = [observations.stations[i] for i in rows]
@@ -183,5 +183,4 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
                 if H is not None:
                     # d(E + R(E)) = (1 + dR/dE) dE: R's slope (arcmin per deg) / 60, in the
                     # formula's range (above -1 deg); -0.04 at 2.5 deg, -0.02 at 5 deg
-                    slope = _saemundsson_arcmin(el_deg)[1] / 60.0 * _conditions(p, t_c)
-                    H[idx, 1, :] *= (1.0 + np.where(el_deg >= -1.0, slope, 0.0))[:, None]
+                    H[idx, 1, :] *= (1.0 + refraction_slope(el_deg, p, t_c))[:, None]

@@ -35,8 +35,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["psd_factor", "predict_factor", "update_factor", "smoother_gain", "smooth_factor",
-           "smooth_factor_joint", "covariance"]
+__all__ = ["psd_factor", "predict_factor", "update_factor", "update_rows", "downdate",
+           "noise_factor", "stacked_factor", "smoother_gain", "smooth_factor",
+           "smooth_factor_joint", "smooth_factor_from_joint",
+           "covariance"]
 
 
 def psd_factor(P):
@@ -82,6 +84,15 @@ def _triangular(pre, n):
     return _r_factor(pre)[:n, :n].T
 
 
+def stacked_factor(rows, downdate_row=None):
+    """The lower-triangular L (n, n) with L L^T = rows^T rows - d d^T (``rows`` (>= n, n), d
+    the ``downdate_row`` (n,) or none): the unscented filter's predicted factor from its
+    weighted sigma-point deviations and noise factor (van der Merwe & Wan 2001, eqs. 20-21);
+    :class:`numpy.linalg.LinAlgError` where the downdate leaves no factor."""
+    U = _r_factor(rows)
+    return (U if downdate_row is None else downdate(U, downdate_row)).T
+
+
 def predict_factor(L, phi, noise=None):
     """The square root of P- = Phi P Phi^T + N from L (P = L L^T), ``phi`` (n, n) and the
     square root ``noise`` of N (None: no noise)."""
@@ -93,25 +104,74 @@ def update_factor(x, L, H, r, z):
     """The measurement update in array form: (x+, L+) from the state x (n,), the square root
     L of its covariance, the partials H (m, n), the measurement variances r (m,) (> 0,
     uncorrelated) and the pre-fit residuals z (m,)."""
-    m, n = H.shape
-    pre = np.zeros((m + n, m + n))
-    pre[np.arange(m), np.arange(m)] = np.sqrt(r)
-    pre[m:, :m] = (H @ L).T
-    pre[m:, m:] = L.T
+    return update_rows(x, L, H @ L, np.diag(np.sqrt(r)), z)
+
+
+def update_rows(x, L, HL, noise_rows, z, downdate_row=None):
+    """:func:`update_factor` from the measurement's image ``HL`` (m, n) of the factor L and
+    ``noise_rows`` (k >= m, m) whose Gram matrix is the measurement noise R (rows^T rows = R;
+    the unscented filter's holds its linearisation error as well), less the outer product of
+    ``downdate_row`` (m,) when given (a negative zeroth sigma-point weight;
+    :func:`downdate`)."""
+    k, m = noise_rows.shape
+    n = L.shape[0]
+    pre = np.zeros((k + n, m + n))
+    pre[:k, :m] = noise_rows
+    pre[k:, :m] = HL.T
+    pre[k:, m:] = L.T
     U = _r_factor(pre)
+    if downdate_row is not None:
+        U = downdate(U, np.r_[downdate_row, np.zeros(n)])
     w = np.linalg.solve(U[:m, :m].T, z)  # U11^-T z (numpy's LU: LAPACK's trtrs through scipy
     # took milliseconds a call with a loaded machine's OpenBLAS threads)
     return x + U[:m, m:].T @ w, U[m:, m:].T
 
 
-def smoother_gain(L, phi, L_pred):
+def downdate(U, v):
+    """The upper-triangular U' with U'^T U' = U^T U - v v^T (a rank-one Cholesky downdate by
+    hyperbolic rotations, Golub & Van Loan 2013, sec. 6.5.4); :class:`numpy.linalg.LinAlgError`
+    where the difference is not positive semi-definite (beyond round-off of a zero pivot)."""
+    U = U * np.where(np.diag(U) < 0, -1.0, 1.0)[:, None]  # rows of a nonnegative diagonal
+    v = np.array(v, dtype=float)
+    n = U.shape[0]
+    for k in range(n):
+        a, b = U[k, k], v[k]
+        if b == 0.0:
+            continue
+        r2 = (a - b) * (a + b)
+        if r2 <= 0.0:
+            if r2 < 0.0 and abs(b) > 1e-7 * a:
+                raise np.linalg.LinAlgError("the downdated matrix is not positive definite")
+            U[k] = 0.0  # a zero pivot to round-off: the row's direction is exhausted
+            continue
+        r = np.sqrt(r2)
+        c, s = r / a, b / a
+        U[k, k] = r
+        U[k, k + 1:] = (U[k, k + 1:] - s * v[k + 1:]) / c
+        v[k + 1:] = c * v[k + 1:] - s * U[k, k + 1:]
+    return U
+
+
+def noise_factor(N):
+    """The square root of a prediction's noise N, None for none (Cholesky when N is definite,
+    as it is over two sub-steps of process noise; else the semi-definite factor)."""
+    if not np.any(N):
+        return None
+    try:
+        return np.linalg.cholesky(N)
+    except np.linalg.LinAlgError:
+        return psd_factor(N)
+
+
+def smoother_gain(L, phi, L_pred, image=None):
     """The Rauch-Tung-Striebel gain C = P Phi^T (P-)^-1 from the filtered square root L, the
     transition ``phi`` and the lower-triangular square root ``L_pred`` of P- (two solves with
-    the square root, on its condition number rather than P-'s); a singular P- (a
+    the square root, on its condition number rather than P-'s); ``image``: Phi L given (the
+    unscented smoother's L21 of the joint factor, ``phi`` unused); a singular P- (a
     component of zero predicted variance): :class:`numpy.linalg.LinAlgError`."""
     if not np.all(np.diag(L_pred)):
         raise np.linalg.LinAlgError("the predicted covariance is singular")
-    W = np.linalg.solve(L_pred, phi @ L)
+    W = np.linalg.solve(L_pred, phi @ L if image is None else image)
     return np.linalg.solve(L_pred.T, W @ L.T).T
 
 
@@ -138,8 +198,13 @@ def smooth_factor_joint(P, cross, P_pred, C, L_next):
     transition A = cross P^-1 (A L11 = L21), so that the Joseph form's (I - C A) L and C N^1/2
     are L11 - C L21 and C L22 (no inverse of P, which may be singular).
     """
-    n = P.shape[0]
     J = np.block([[P, cross.T], [cross, P_pred]])
-    T = _r_factor(psd_factor(0.5 * (J + J.T)).T).T
+    return smooth_factor_from_joint(_r_factor(psd_factor(0.5 * (J + J.T)).T).T, C, L_next)
+
+
+def smooth_factor_from_joint(T, C, L_next):
+    """:func:`smooth_factor_joint` from the lower-triangular square root T = [[L11, 0], [L21,
+    L22]] of the joint covariance itself (the square-root unscented filter's)."""
+    n = T.shape[0] // 2
     L11, L21, L22 = T[:n, :n], T[n:, :n], T[n:, n:]
     return _triangular(np.vstack([(L11 - C @ L21).T, (C @ L22).T, (C @ L_next).T]), n)

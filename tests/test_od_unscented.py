@@ -318,24 +318,31 @@ def test_a_precise_measurement_leaves_a_positive_definite_covariance(sigma_km):
     assert np.all(np.abs(err[:3]) < 5 * sig_r + 1e-12)
 
 
-def test_the_joseph_equivalent_update_equals_the_textbook_one():
-    """On a well-conditioned case sum W^c (dX - K dZ)(dX - K dZ)^T + K R K^T is P - K S K^T
-    (the same covariance, to round-off), for any sigma-point weights."""
-    from visviva.od.unscented import _joseph_update
+def test_the_square_root_update_equals_the_textbook_one():
+    """On a well-conditioned case the array update through the factor
+    (:func:`visviva.od.unscented.array_update`) gives x + K z and P - K S K^T (K = P_xz S^-1),
+    for any sigma-point weights: W_0^c > 0 (1, 2, 0) and (0.5, 2, 1), and W_0^c < 0 (0.5, 2, 0:
+    a rank-one downdate)."""
+    from visviva.od.square_root import covariance
+    from visviva.od.unscented import _points, array_update
 
     rng = np.random.default_rng(3)
     A = rng.standard_normal((6, 6)) * np.r_[1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3]
     P = A @ A.T
+    L = np.linalg.cholesky(P)
     H = rng.standard_normal((3, 6))
-    for alpha, beta, kappa in ((1.0, 2.0, 0.0), (0.5, 2.0, 1.0)):
-        scale, wm, wc = unscented_weights((alpha, beta, kappa))
-        X = sigma_points(np.zeros(6), P, scale)
+    for params in ((1.0, 2.0, 0.0), (0.5, 2.0, 1.0), (0.5, 2.0, 0.0)):
+        weights = unscented_weights(params)
+        scale, wm, wc = weights
+        X = _points(np.zeros(6), L, scale)
         Z = X @ H.T + 0.1 * (X[:, :3] ** 2)  # mildly nonlinear
         dZ = Z - wm @ Z
         R = np.array([0.5, 0.2, 0.1])
         S = (wc * dZ.T) @ dZ + np.diag(R)
         Pxz = (wc * X.T) @ dZ
         K = np.linalg.solve(S, Pxz.T).T
-        textbook = P - K @ S @ K.T
-        np.testing.assert_allclose(_joseph_update(X, dZ, wc, K, R), textbook, rtol=0,
+        z = np.array([0.3, -0.2, 0.1])
+        x, Lp = array_update(np.zeros(6), L, dZ, weights, R, z)
+        np.testing.assert_allclose(x, K @ z, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(covariance(Lp), P - K @ S @ K.T, rtol=0,
                                    atol=1e-12 * np.abs(P).max())

@@ -22,11 +22,14 @@ overconfident.
   epoch's rows (:func:`visviva.od.light_time.model`, one call for all 13 x rows); azimuth and
   right ascension are averaged as angles (each point's value minus the central point's,
   wrapped into (-pi, pi], then averaged and added back), so that points on both sides of 0 /
-  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z, and
-  P+ = P- - K S K^T in its Joseph-equivalent form sum_i W_i^c (dX_i - K dZ_i)(dX_i -
-  K dZ_i)^T + K R K^T (:func:`_joseph_update`), positive semi-definite by construction where
-  the difference goes negative after a precise measurement. Editing, NIS and divergence are
-  the extended filter's rules on this S.
+  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z, P+ = P- -
+  K S K^T, computed in square-root form (van der Merwe & Wan 2001, ICASSP): the filter carries
+  L (P = L L^T), draws the points from it, and both the prediction (QR of the weighted
+  deviations and the noise's square root, :func:`_linearised`) and the update
+  (:func:`array_update`, the extended filter's array form with the statistically linearised
+  H L) are orthogonal triangularisations, positive semi-definite by construction at any
+  conditioning (1 nm positions against a 1 km prior). Editing, NIS and divergence are the
+  extended filter's rules on this S.
 * Burns (``maneuvers=``): every burn start and end inside an interval cuts it (fresh sigma
   points on each piece); a piece flies the force model of its segment
   (:meth:`visviva.satellites.burn_segments.Schedule.segment_model`: a finite burn's thrust,
@@ -43,8 +46,9 @@ overconfident.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the
-  statistical linearisation of each); its covariance in square-root Joseph form from the
-  joint covariance of (x_k, x_k+1^-) (:func:`visviva.od.square_root.smooth_factor_joint`).
+  statistical linearisation of each, as the square root of the joint covariance of (x_k,
+  x_k+1^-)); its covariance in square-root Joseph form from that joint factor
+  (:func:`visviva.od.square_root.smooth_factor_from_joint`).
 """
 
 from __future__ import annotations

@@ -361,6 +361,26 @@ def test_the_square_root_unscented_filter_and_smoother_at_nanometres(sigma_km):
         assert np.all(np.isfinite(nees)) and np.mean(nees) < 30.0
 
 
+def test_a_negative_centre_weight_needs_no_downdate_at_nanometres():
+    """sigma_points (0.5, 2, 0): W_0^c = -0.25. was: a Cholesky downdate of the factor by the
+    centre point (van der Merwe & Wan's form) failed at 1 mm and 1 nm positions against a 1 km
+    prior (on the deterministic prediction's joint factor, where that term is round-off). The
+    residue's positive form needs none: PSD covariances, and the state within 0.3 sigma of the
+    extended filter's (measured 0.28). Weights whose unscented covariance is not positive by
+    construction (beta + alpha^2 kappa / n < 0) are refused with the reason."""
+    prior = np.diag([1.0] * 3 + [1e-6] * 3)
+    obs = _positions(1e-9)
+    flt = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None, smoother=True, method="ukf",
+                          sigma_points=(0.5, 2.0, 0.0))  # fmt: skip
+    ekf = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None)
+    _assert_psd(flt.covariances)
+    _assert_psd(flt.smoothed_covariances)
+    assert np.all(np.abs(flt.states[-1] - ekf.states[-1])
+                  < 0.5 * np.sqrt(np.diag(ekf.covariance)))  # fmt: skip
+    with pytest.raises(vv.InvalidInputError, match="beta \\+ alpha\\^2 kappa"):
+        vv.filter_orbit(obs, _leo(), prior, method="ukf", sigma_points=(0.5, -1.0, 0.0))
+
+
 def test_an_unobserved_direction_keeps_its_prior_and_a_psd_covariance():
     """One right ascension/declination pair of 1 nrad at the epoch against a 1 km prior: the
     range along the line of sight is unobservable and keeps its 1 km^2, the two directions

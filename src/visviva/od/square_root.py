@@ -35,10 +35,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["psd_factor", "predict_factor", "update_factor", "update_rows", "downdate",
-           "noise_factor", "stacked_factor", "smoother_gain", "smooth_factor",
-           "smooth_factor_joint", "smooth_factor_from_joint",
-           "covariance"]
+__all__ = ["psd_factor", "predict_factor", "update_factor", "update_rows", "noise_factor",
+           "stacked_factor", "smoother_gain", "smooth_factor", "smooth_factor_joint",
+           "smooth_factor_from_joint", "covariance"]
 
 
 def psd_factor(P):
@@ -84,13 +83,11 @@ def _triangular(pre, n):
     return _r_factor(pre)[:n, :n].T
 
 
-def stacked_factor(rows, downdate_row=None):
-    """The lower-triangular L (n, n) with L L^T = rows^T rows - d d^T (``rows`` (>= n, n), d
-    the ``downdate_row`` (n,) or none): the unscented filter's predicted factor from its
-    weighted sigma-point deviations and noise factor (van der Merwe & Wan 2001, eqs. 20-21);
-    :class:`numpy.linalg.LinAlgError` where the downdate leaves no factor."""
-    U = _r_factor(rows)
-    return (U if downdate_row is None else downdate(U, downdate_row)).T
+def stacked_factor(rows):
+    """The lower-triangular L (n, n) with L L^T = rows^T rows (``rows`` (>= n, n)): the
+    unscented filter's predicted factor from its weighted sigma-point deviations and noise
+    factor (van der Merwe & Wan 2001, eq. 20)."""
+    return _r_factor(rows).T
 
 
 def predict_factor(L, phi, noise=None):
@@ -107,12 +104,10 @@ def update_factor(x, L, H, r, z):
     return update_rows(x, L, H @ L, np.diag(np.sqrt(r)), z)
 
 
-def update_rows(x, L, HL, noise_rows, z, downdate_row=None):
+def update_rows(x, L, HL, noise_rows, z):
     """:func:`update_factor` from the measurement's image ``HL`` (m, n) of the factor L and
     ``noise_rows`` (k >= m, m) whose Gram matrix is the measurement noise R (rows^T rows = R;
-    the unscented filter's holds its linearisation error as well), less the outer product of
-    ``downdate_row`` (m,) when given (a negative zeroth sigma-point weight;
-    :func:`downdate`)."""
+    the unscented filter's holds its linearisation error as well)."""
     k, m = noise_rows.shape
     n = L.shape[0]
     pre = np.zeros((k + n, m + n))
@@ -120,36 +115,9 @@ def update_rows(x, L, HL, noise_rows, z, downdate_row=None):
     pre[k:, :m] = HL.T
     pre[k:, m:] = L.T
     U = _r_factor(pre)
-    if downdate_row is not None:
-        U = downdate(U, np.r_[downdate_row, np.zeros(n)])
     w = np.linalg.solve(U[:m, :m].T, z)  # U11^-T z (numpy's LU: LAPACK's trtrs through scipy
     # took milliseconds a call with a loaded machine's OpenBLAS threads)
     return x + U[:m, m:].T @ w, U[m:, m:].T
-
-
-def downdate(U, v):
-    """The upper-triangular U' with U'^T U' = U^T U - v v^T (a rank-one Cholesky downdate by
-    hyperbolic rotations, Golub & Van Loan 2013, sec. 6.5.4); :class:`numpy.linalg.LinAlgError`
-    where the difference is not positive semi-definite (beyond round-off of a zero pivot)."""
-    U = U * np.where(np.diag(U) < 0, -1.0, 1.0)[:, None]  # rows of a nonnegative diagonal
-    v = np.array(v, dtype=float)
-    n = U.shape[0]
-    for k in range(n):
-        a, b = U[k, k], v[k]
-        if b == 0.0:
-            continue
-        r2 = (a - b) * (a + b)
-        if r2 <= 0.0:
-            if r2 < 0.0 and abs(b) > 1e-7 * a:
-                raise np.linalg.LinAlgError("the downdated matrix is not positive definite")
-            U[k] = 0.0  # a zero pivot to round-off: the row's direction is exhausted
-            continue
-        r = np.sqrt(r2)
-        c, s = r / a, b / a
-        U[k, k] = r
-        U[k, k + 1:] = (U[k, k + 1:] - s * v[k + 1:]) / c
-        v[k + 1:] = c * v[k + 1:] - s * U[k, k + 1:]
-    return U
 
 
 def noise_factor(N):

@@ -207,28 +207,48 @@ def _moments(Y, wm):
 
 
 def _linearised(dY, weights, noise=None):
-    """The statistical linearisation of a transform of the sigma points of (x, L L^T):
-    the image F = (dY_j+ - dY_j-) / (2 scale) of the factor (column j; the points are x +-
-    scale L_j) and the rows whose Gram matrix is its error sum_i W_i^c e_i e_i^T (e_0 =
-    dY_0, e_j+- = (dY_j+ + dY_j-) / 2) plus the ``noise`` N (its square root's rows), and the
-    row to downdate when W_0^c < 0 (else None). sum_i W_i^c dY_i dY_i^T + N = F F^T + rows^T
-    rows - d d^T: the transform's covariance (van der Merwe & Wan 2001, eqs. 20-21), as
-    factors."""
-    scale, _, wc = weights
+    """The statistical linearisation of a transform of the sigma points of (x, L L^T).
+
+    Returns the image F = (dY_j+ - dY_j-) / (2 scale) of the factor (column j; the points are
+    x +- scale L_j) and rows whose Gram matrix is the second-order residue sum_i W_i^c e_i
+    e_i^T (e_0 = dY_0, e_j+- = (dY_j+ + dY_j-) / 2) plus the ``noise`` N (its square root's
+    rows): sum_i W_i^c dY_i dY_i^T + N = F F^T + rows^T rows, the transform's covariance (van
+    der Merwe & Wan 2001, eq. 20) as factors. With W_0^c >= 0 the rows are the weighted e_i
+    themselves. With W_0^c < 0 (alpha < 1) the centre's negative term is not downdated (van
+    der Merwe & Wan's Cholesky downdate of the factor by sqrt(-W_0^c) dY_0 failed at 1 nm,
+    and on a deterministic prediction's joint factor, where that term is round-off): since
+    the points are symmetric, sum_j s_j = W_0^m sum_j delta_j (s_j = e_j+-, delta_j their
+    curvature terms, dY_0 = -sum_j delta_j / c, c = n + lambda), and the residue is exactly
+    (1/c) sum_j (s_j - s_bar)(s_j - s_bar)^T + gamma dY_0 dY_0^T with s_bar the mean of the
+    s_j and gamma = c (W_0^m)^2 / n + W_0^c (beta for kappa = 0): rows again, positive
+    semi-definite by construction when gamma >= 0, which :func:`unscented_pass` requires
+    (gamma = beta + alpha^2 kappa / n; below 0 the unscented covariance itself is not positive
+    by construction).
+    """
+    scale, wm, wc = weights
     n = (dY.shape[0] - 1) // 2
     F = ((dY[1:n + 1] - dY[n + 1:]) / (2.0 * scale)).T
-    rows = [np.sqrt(2.0 * wc[1]) * 0.5 * (dY[1:n + 1] + dY[n + 1:])]
-    if wc[0] > 0:
-        rows.append(np.sqrt(wc[0]) * dY[:1])
+    E = np.sqrt(2.0 * wc[1]) * 0.5 * (dY[1:n + 1] + dY[n + 1:])  # sqrt(1/c) s_j
+    if wc[0] >= 0:
+        rows = [E, np.sqrt(wc[0]) * dY[:1]]
+    else:  # sqrt(1/c) (s_j - s_bar), and gamma = c (W_0^m)^2 / n + W_0^c
+        rows = [E - E.mean(axis=0), np.sqrt(max(_gamma(weights, n), 0.0)) * dY[:1]]
     root = None if noise is None else noise_factor(noise)
     if root is not None:
         rows.append(root.T)
-    return F, np.vstack(rows), (np.sqrt(-wc[0]) * dY[0] if wc[0] < 0 else None)
+    return F, np.vstack(rows)
 
 
-def _factor(F, rows, down):
-    """The lower-triangular square root of F F^T + rows^T rows - down down^T."""
-    return stacked_factor(np.vstack([F.T, rows]), down)
+def _gamma(weights, n):
+    """c (W_0^m)^2 / n + W_0^c (= beta + alpha^2 kappa / n): the weight of the centre's term
+    in the residue's positive form (:func:`_linearised`)."""
+    scale, wm, wc = weights
+    return scale**2 * wm[0] ** 2 / n + wc[0]
+
+
+def _factor(F, rows):
+    """The lower-triangular square root of F F^T + rows^T rows."""
+    return stacked_factor(np.vstack([F.T, rows]))
 
 
 def _predict(dyn, schedule, est, x, L, step, weights, q, code, gm=None):
@@ -250,21 +270,25 @@ def _predict(dyn, schedule, est, x, L, step, weights, q, code, gm=None):
     return (m,) + _linearised(dY, weights, noise)
 
 
-def _chain(T, L, F, rows, down):
+def _chain(T, L, F, rows):
     """The joint square root of (x_k, x_b) from T, (x_k, x_a)'s, and a step x_a -> x_b
-    linearised as x_b = A x_a + e (A L = F, e of the Gram matrix ``rows``^T ``rows`` - ``down``
-    ``down``^T), L the factor the step's points were drawn from; T None: x_a = x_k, L its
+    linearised as x_b = A x_a + e (A L = F, e of the Gram matrix ``rows``^T ``rows``), L the
+    factor the step's points were drawn from; T None: x_a = x_k, L its
     factor. Lower-triangular [[L11, 0], [L21, L22]], L11 a factor of P_k."""
     n = F.shape[0]
     if T is None:
         top, image = L, F
     else:  # A [T21, T22] = F L^-1 [T21, T22]
-        top, image = T[:n], F @ np.linalg.solve(L, T[n:])
+        try:
+            q = np.linalg.solve(L, T[n:])
+        except np.linalg.LinAlgError:  # a component known exactly: [T21, T22] = L Q still
+            q = np.linalg.lstsq(L, T[n:], rcond=None)[0]
+        top, image = T[:n], F @ q
     pre = np.zeros((top.shape[1] + rows.shape[0], 2 * n))
     pre[:top.shape[1], :n] = top.T
     pre[:top.shape[1], n:] = image.T
     pre[top.shape[1]:, n:] = rows
-    return stacked_factor(pre, None if down is None else np.r_[np.zeros(n), down])
+    return stacked_factor(pre)
 
 
 def _substeps(t_from, t_to, q, step_s, schedule, cut=False):
@@ -299,13 +323,7 @@ def _update(observations, x, L, rows, k, screen, gm, weights):
     dZ = (dev - shift)[:, comp]  # (13, components in use)
     use = screen.check(k, rows, zc, (wc * dZ.T) @ dZ + np.diag(Rd))
     if use.any():
-        try:
-            x, L = array_update(x, L, dZ[:, use], weights, Rd[use], zc[use])
-        except np.linalg.LinAlgError:
-            raise screen.diverged(
-                k, "the updated covariance is not positive semi-definite: with a negative "
-                "centre weight (sigma_points alpha < 1) the unscented update is not positive "
-                "by construction; use alpha = 1 (the default)") from None
+        x, L = array_update(x, L, dZ[:, use], weights, Rd[use], zc[use])
     screen.finite(k, x, L)
     return x, L
 
@@ -344,11 +362,10 @@ def array_update(x, L, dZ, weights, R, z):
     P_xz S^-1 P_xz^T (S = P_zz + R) from one QR, with no subtraction. This replaces van der
     Merwe & Wan's (2001, eq. 29) Cholesky downdates of the predicted factor by the columns of
     K S_y, which subtract (they fail where a 1 nm position meets a 1 km prior). A negative
-    W_0^c (alpha < 1) enters as a rank-one downdate; :class:`numpy.linalg.LinAlgError` where it
-    leaves no factor.
+    W_0^c (alpha < 1) enters through the residue's positive form (:func:`_linearised`).
     """
-    HL, rows, down = _linearised(dZ, weights)
-    return update_rows(x, L, HL, np.vstack([np.diag(np.sqrt(R)), rows]), z, down)
+    HL, rows = _linearised(dZ, weights)
+    return update_rows(x, L, HL, np.vstack([np.diag(np.sqrt(R)), rows]), z)
 
 
 def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters,
@@ -360,6 +377,12 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     Gauss-Markov models (:class:`visviva.od.gauss_markov.GaussMarkov`), or None."""
     n = x.size
     weights = unscented_weights(parameters, n)
+    if _gamma(weights, n) < -1e-12:
+        raise InvalidInputError(
+            f"sigma_points (alpha, beta, kappa) = {parameters!r} give a negative centre "
+            f"covariance weight whose unscented covariance is not positive semi-definite by "
+            f"construction (beta + alpha^2 kappa / {n} < 0); use beta >= 0 with kappa >= 0, "
+            "e.g. the default (1, 2, 0).")
     if gm is not None:
         step_s = gm.longest_step_s(q, step_s)
     for c in est:  # the block flies unit coefficients, each point scaling them by its own
@@ -387,20 +410,14 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
             T = None
             for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule, gm is not None):
                 try:
-                    xn, F, rows, down = _predict(dyn, schedule, est, x, L, step, weights, q,
-                                                 code, gm)  # fmt: skip
+                    xn, F, rows = _predict(dyn, schedule, est, x, L, step, weights, q, code,
+                                           gm)  # fmt: skip
                     # the joint factor of (x_k-1, x_b), the smoother's
-                    T = _chain(T, L, F, rows, down)
-                    Ln = _factor(F, rows, down)
+                    T = _chain(T, L, F, rows)
+                    Ln = _factor(F, rows)
                 except VisvivaError as exc:
                     raise screen.diverged(
                         k, f"the sigma points cannot be integrated ({exc})") from exc
-                except np.linalg.LinAlgError:
-                    raise screen.diverged(
-                        k, "the predicted covariance is not positive semi-definite: with a "
-                        "negative centre weight (sigma_points alpha < 1) the unscented "
-                        "prediction is not positive by construction; use alpha = 1 (the "
-                        "default)") from None
                 x, L = xn, Ln
             xp[k], Pp[k], Lp[k], joints[k] = x, covariance(L), L, T
         rows = screen.rows(k)

@@ -214,7 +214,7 @@ def _linearised(dY, weights, noise=None):
     e_i^T (e_0 = dY_0, e_j+- = (dY_j+ + dY_j-) / 2) plus the ``noise`` N (its square root's
     rows): sum_i W_i^c dY_i dY_i^T + N = F F^T + rows^T rows, the transform's covariance (van
     der Merwe & Wan 2001, eq. 20) as factors. With W_0^c >= 0 the rows are the weighted e_i
-    themselves. With W_0^c < 0 (alpha < 1) the centre's negative term is not downdated (van
+    themselves. With W_0^c < 0 (alpha = 0.5, kappa = 0) the centre's term is not downdated (van
     der Merwe & Wan's Cholesky downdate of the factor by sqrt(-W_0^c) dY_0 failed at 1 nm,
     and on a deterministic prediction's joint factor, where that term is round-off): since
     the points are symmetric, sum_j s_j = W_0^m sum_j delta_j (s_j = e_j+-, delta_j their

@@ -36,7 +36,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 __all__ = ["psd_factor", "predict_factor", "update_factor", "update_rows", "noise_factor",
-           "stacked_factor", "smoother_gain", "smooth_factor", "smooth_factor_joint",
+           "stacked_factor", "smoother_gain", "smooth_factor",
            "smooth_factor_from_joint", "covariance"]
 
 
@@ -155,24 +155,16 @@ def smooth_factor(L, phi, noise, C, L_next):
     return _triangular(np.vstack(blocks), n)
 
 
-def smooth_factor_joint(P, cross, P_pred, C, L_next):
-    """:func:`smooth_factor` from covariances (the unscented smoother's): the filtered P, the
-    cross-covariance ``cross`` = cov(x-_k+1, x_k) and the predicted ``P_pred`` of the next
-    epoch, the gain C and the next smoothed factor ``L_next``.
-
-    The joint covariance [[P, cross^T], [cross, P-]] is factored (:func:`psd_factor`) and
-    triangularised to [[L11, 0], [L21, L22]]: L21 L11^T = cross, and L22 L22^T is the Schur
-    complement P- - cross P^-1 cross^T, the effective noise N of the statistically linearised
-    transition A = cross P^-1 (A L11 = L21), so that the Joseph form's (I - C A) L and C N^1/2
-    are L11 - C L21 and C L22 (no inverse of P, which may be singular).
-    """
-    J = np.block([[P, cross.T], [cross, P_pred]])
-    return smooth_factor_from_joint(_r_factor(psd_factor(0.5 * (J + J.T)).T).T, C, L_next)
-
-
 def smooth_factor_from_joint(T, C, L_next):
-    """:func:`smooth_factor_joint` from the lower-triangular square root T = [[L11, 0], [L21,
-    L22]] of the joint covariance itself (the square-root unscented filter's)."""
+    """:func:`smooth_factor` for the unscented smoother: from the lower-triangular square root
+    T = [[L11, 0], [L21, L22]] of the joint covariance [[P, cross^T], [cross, P-]] of (x_k,
+    x_k+1^-) (cross = L21 L11^T), the gain C and the next epoch's smoothed factor ``L_next``.
+
+    L21 L11^T = cross, and L22 L22^T is the Schur complement P- - cross P^-1 cross^T, the
+    effective noise N of the statistically linearised transition A = cross P^-1 (A L11 =
+    L21), so that the Joseph form's (I - C A) L and C N^1/2 are L11 - C L21 and C L22 (no
+    inverse of P, which may be singular).
+    """
     n = T.shape[0] // 2
     L11, L21, L22 = T[:n, :n], T[n:, :n], T[n:, n:]
     return _triangular(np.vstack([(L11 - C @ L21).T, (C @ L22).T, (C @ L_next).T]), n)

@@ -1,5 +1,5 @@
-"""The extended Kalman filter's square-root covariance form (visviva.od.square_root,
-visviva.od.extended): the same numbers as the covariance (Joseph) form when the problem is
+"""The extended and unscented Kalman filters' square-root covariance forms
+(visviva.od.square_root, visviva.od.extended, visviva.od.unscented): the same numbers as the covariance (Joseph) form when the problem is
 well conditioned, and symmetric positive semi-definite covariances, filtered and smoothed, at
 any conditioning (1 nm positions or 1 urad angles against a 1-100 km prior, rank-deficient
 measurements, a component known exactly)."""
@@ -19,7 +19,7 @@ from visviva.od.square_root import (
     predict_factor,
     psd_factor,
     smooth_factor,
-    smooth_factor_joint,
+    smooth_factor_from_joint,
     smoother_gain,
     update_factor,
 )
@@ -107,8 +107,10 @@ def test_the_square_root_updates_equal_the_covariance_forms_when_well_conditione
         Ls = smooth_factor(L_new, phi, psd_factor(N), C, psd_factor(Ps_next))
         np.testing.assert_allclose(covariance(Ls), smoothed, rtol=0,
                                    atol=1e-10 * np.abs(smoothed).max())  # fmt: skip
-        # the unscented smoother's form, from the joint covariance of (x_k, x-_k+1)
-        Lj = smooth_factor_joint(joseph, phi @ joseph, Pp, C, psd_factor(Ps_next))
+        # the unscented smoother's form, from the joint square root of (x_k, x-_k+1)
+        J = np.block([[joseph, joseph @ phi.T], [phi @ joseph, Pp]])
+        Lj = smooth_factor_from_joint(np.linalg.cholesky(0.5 * (J + J.T)), C,
+                                      psd_factor(Ps_next))
         np.testing.assert_allclose(covariance(Lj), smoothed, rtol=0,
                                    atol=1e-10 * np.abs(smoothed).max())  # fmt: skip
 
@@ -338,20 +340,112 @@ def test_square_root_updates_stay_psd_at_any_conditioning(log_sigma, log_prior, 
     assert np.all(np.isfinite(x))
 
 
-def test_the_unscented_smoother_never_returns_a_negative_variance():
-    """was: Saerkkae's smoother P + C (P^s - P^-) C^T after 1 nm positions against a 1 km
-    prior returned a position variance of -7e-19 km^2 (a correlation eigenvalue of -2.4)
-    silently, and at 1e-12 km stopped. In the square-root form of the joint covariance
-    (:func:`visviva.od.square_root.smooth_factor_joint`) it is PSD at 1e-12 km; at 1 nm the
-    unscented filter's own covariance is singular to round-off (correlation eigenvalue 3e-16),
-    the gain from it is meaningless, and the smoother says so."""
+@settings(max_examples=40, deadline=None)
+@given(log_sigma=st.floats(-9.0, 3.0), log_prior=st.floats(-6.0, 4.0),
+       seed=st.integers(0, 2**32 - 1),
+       params=st.sampled_from([(1.0, 2.0, 0.0), (0.5, 2.0, 0.0), (0.7, 2.0, 1.0)]))
+def test_square_root_unscented_steps_stay_psd_at_any_conditioning(log_sigma, log_prior, seed,
+                                                                   params):
+    """Property, the unscented filter's steps (:mod:`visviva.od.unscented`): position fixes
+    of sigma 1e-9 .. 1e3 km (through a mildly nonlinear model) updating a correlated prior of
+    1e-6 .. 1e4 km through the sigma points (:func:`array_update`), predictions over 60 s of a
+    mildly nonlinear transition (factor and joint factor), and the smoother from the joint
+    factors: symmetric PSD covariances, filtered, predicted and smoothed, for weights with
+    W_0^c > 0 and < 0."""
+    from visviva.od.unscented import (
+        _chain,
+        _factor,
+        _linearised,
+        _moments,
+        _points,
+        array_update,
+        unscented_weights,
+    )
+
+    rng = np.random.default_rng(seed)
+    s, p = 10.0**log_sigma, 10.0**log_prior
+    P = _random_covariance(rng, scales=[p] * 3 + [1e-3 * p] * 3) + np.diag([p**2] * 3 + [1e-6 * p**2] * 3)
+    weights = unscented_weights(params)
+    scale, wm, _ = weights
+    x = np.r_[7000.0, 0.0, 0.0, 0.0, 7.5, 0.0]
+    L = psd_factor(P)
+
+    def measured(X):
+        return X[:, :3] + 1e-6 * X[:, :3] ** 2 / 7000.0
+
+    def flown(X):
+        Y = X.copy()
+        Y[:, :3] += 60.0 * X[:, 3:]
+        Y[:, 3:] -= 60.0 * 1e-6 * X[:, :3]
+        return Y
+
+    filtered, predicted, joints = [], [L], [None]
+    for k in range(6):
+        X = _points(x, L, scale)
+        Z = measured(X)
+        _, dZ = _moments(Z, wm)
+        x, L = array_update(x, L, dZ, weights, np.full(3, s**2), rng.standard_normal(3) * s)
+        filtered.append(L)
+        if k == 5:
+            break
+        X = _points(x, L, scale)
+        x, dY = _moments(flown(X), wm)
+        F, rows = _linearised(dY, weights)
+        joints.append(_chain(None, L, F, rows))
+        L = _factor(F, rows)
+        predicted.append(L)
+    n = 6
+    smoothed = [filtered[-1]]
+    for k in range(len(filtered) - 2, -1, -1):
+        T = joints[k + 1]
+        C = smoother_gain(T[:n, :n], None, predicted[k + 1], image=T[n:, :n])
+        smoothed.insert(0, smooth_factor_from_joint(T, C, smoothed[0]))
+    for group in (filtered, predicted, smoothed):
+        _assert_psd(np.array([covariance(f) for f in group]), tol=1e-10)
+    assert np.all(np.isfinite(x))
+
+
+@pytest.mark.parametrize("sigma_km", [1e-9, 1e-12])
+def test_the_square_root_unscented_filter_and_smoother_at_nanometres(sigma_km):
+    """was: the unscented filter's Joseph-equivalent update on the full covariance left it
+    singular to round-off after 1 nm positions against a 1 km prior (correlation eigenvalue
+    3e-16) and its smoother raised ConvergenceError ("use method='ekf'"). In square-root form
+    (:mod:`visviva.od.unscented`) every filtered and smoothed covariance is PSD with a least
+    correlation eigenvalue far from round-off (measured 0.063 at 1 nm, 5e-7 at 1e-12 km),
+    the position sigma is the data's and the NEES is finite (mean 4.4 / 6.3 filtered /
+    smoothed at 1 nm, 9.4 / 11.6 at 1e-12 km)."""
     prior = np.diag([1.0] * 3 + [1e-6] * 3)
-    flt = vv.filter_orbit(_positions(1e-12), _leo(), prior, editing_sigma=None, smoother=True,
-                          method="ukf")  # fmt: skip
+    flt = vv.filter_orbit(_positions(sigma_km), _leo(), prior, editing_sigma=None,
+                          smoother=True, method="ukf")  # fmt: skip
+    _assert_psd(flt.covariances)
     _assert_psd(flt.smoothed_covariances)
-    with pytest.raises(vv.ConvergenceError, match="method='ekf'"):
-        vv.filter_orbit(_positions(1e-9), _leo(), prior, editing_sigma=None, smoother=True,
-                        method="ukf")  # fmt: skip
+    assert min(_least_eigenvalue_ratio(p) for p in flt.smoothed_covariances) > 1e-8
+    assert np.all(np.sqrt(np.diag(flt.covariance)[:3]) < 2 * sigma_km)
+    truth = _truth(flt.offsets_s)
+    for states, covs in ((flt.states, flt.covariances),
+                         (flt.smoothed_states, flt.smoothed_covariances)):
+        nees = [_nees(e, p) for e, p in zip(states[1:] - truth[1:], covs[1:], strict=True)]
+        assert np.all(np.isfinite(nees)) and np.mean(nees) < 30.0
+
+
+def test_a_negative_centre_weight_needs_no_downdate_at_nanometres():
+    """sigma_points (0.5, 2, 0): W_0^c = -0.25. was: a Cholesky downdate of the factor by the
+    centre point (van der Merwe & Wan's form) failed at 1 mm and 1 nm positions against a 1 km
+    prior (on the deterministic prediction's joint factor, where that term is round-off). The
+    residue's positive form needs none: PSD covariances, and the state within 0.3 sigma of the
+    extended filter's (measured 0.28). Weights whose unscented covariance is not positive by
+    construction (beta + alpha^2 kappa / n < 0) are refused with the reason."""
+    prior = np.diag([1.0] * 3 + [1e-6] * 3)
+    obs = _positions(1e-9)
+    flt = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None, smoother=True, method="ukf",
+                          sigma_points=(0.5, 2.0, 0.0))  # fmt: skip
+    ekf = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None)
+    _assert_psd(flt.covariances)
+    _assert_psd(flt.smoothed_covariances)
+    assert np.all(np.abs(flt.states[-1] - ekf.states[-1])
+                  < 0.5 * np.sqrt(np.diag(ekf.covariance)))  # fmt: skip
+    with pytest.raises(vv.InvalidInputError, match="beta \\+ alpha\\^2 kappa"):
+        vv.filter_orbit(obs, _leo(), prior, method="ukf", sigma_points=(0.5, -1.0, 0.0))
 
 
 def test_an_unobserved_direction_keeps_its_prior_and_a_psd_covariance():
@@ -375,18 +469,19 @@ def test_an_unobserved_direction_keeps_its_prior_and_a_psd_covariance():
 
 @settings(max_examples=30, deadline=None)
 @given(log_sigma=st.floats(-9.0, 3.0), log_prior=st.floats(-6.0, 4.0),
-       noise=st.sampled_from([None, 1e-12]))
+       noise=st.sampled_from([None, 1e-12]), method=st.sampled_from(["ekf", "ukf"]))
 def test_the_filter_and_smoother_covariances_are_psd_at_any_conditioning(log_sigma, log_prior,
-                                                                          noise):
+                                                                          noise, method):
     """Property, through vv.filter_orbit: positions of sigma 1e-9 .. 1e3 km against a prior of
-    1e-6 .. 1e4 km (and 1e-3 of it in km/s), with or without process noise: every filtered,
-    predicted and smoothed covariance symmetric PSD."""
+    1e-6 .. 1e4 km (and 1e-3 of it in km/s), with or without process noise, extended or
+    unscented (both in square-root form): every filtered, predicted and smoothed covariance
+    symmetric PSD."""
     s, p = 10.0**log_sigma, 10.0**log_prior
     t = EPOCH + np.arange(0.0, 300.0, 60.0) * u.s
     obs = simulate_observations(_leo(), t, "position", s * u.km, seed=2)
     obs = vv.Observations(time=t, kind="position", value=obs.values[:, :3], sigma=s)
     prior = np.diag([p**2] * 3 + [(1e-3 * p) ** 2] * 3)
     flt = vv.filter_orbit(obs, _leo(), prior, editing_sigma=None, smoother=True,
-                          process_noise=noise)  # fmt: skip
+                          process_noise=noise, method=method)  # fmt: skip
     for covs in (flt.covariances, flt.predicted_covariances, flt.smoothed_covariances):
         _assert_psd(covs, tol=1e-10)

@@ -318,24 +318,85 @@ def test_a_precise_measurement_leaves_a_positive_definite_covariance(sigma_km):
     assert np.all(np.abs(err[:3]) < 5 * sig_r + 1e-12)
 
 
-def test_the_joseph_equivalent_update_equals_the_textbook_one():
-    """On a well-conditioned case sum W^c (dX - K dZ)(dX - K dZ)^T + K R K^T is P - K S K^T
-    (the same covariance, to round-off), for any sigma-point weights."""
-    from visviva.od.unscented import _joseph_update
+def test_the_square_root_update_equals_the_textbook_one():
+    """On a well-conditioned case the array update through the factor
+    (:func:`visviva.od.unscented.array_update`) gives x + K z and P - K S K^T (K = P_xz S^-1),
+    for the sigma-point weights the filter takes: W_0^c > 0 (1, 2, 0) and (0.5, 2, 1), W_0^c < 0
+    (0.5, 2, 0: the centred residue rows; and (0.5, 0, 0), gamma = 0)."""
+    from visviva.od.square_root import covariance
+    from visviva.od.unscented import _points, array_update
 
     rng = np.random.default_rng(3)
     A = rng.standard_normal((6, 6)) * np.r_[1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3]
     P = A @ A.T
+    L = np.linalg.cholesky(P)
     H = rng.standard_normal((3, 6))
-    for alpha, beta, kappa in ((1.0, 2.0, 0.0), (0.5, 2.0, 1.0)):
-        scale, wm, wc = unscented_weights((alpha, beta, kappa))
-        X = sigma_points(np.zeros(6), P, scale)
+    for params in WEIGHT_CASES:
+        weights = unscented_weights(params)
+        scale, wm, wc = weights
+        X = _points(np.zeros(6), L, scale)
         Z = X @ H.T + 0.1 * (X[:, :3] ** 2)  # mildly nonlinear
         dZ = Z - wm @ Z
         R = np.array([0.5, 0.2, 0.1])
         S = (wc * dZ.T) @ dZ + np.diag(R)
         Pxz = (wc * X.T) @ dZ
         K = np.linalg.solve(S, Pxz.T).T
-        textbook = P - K @ S @ K.T
-        np.testing.assert_allclose(_joseph_update(X, dZ, wc, K, R), textbook, rtol=0,
+        z = np.array([0.3, -0.2, 0.1])
+        x, Lp = array_update(np.zeros(6), L, dZ, weights, R, z)
+        np.testing.assert_allclose(x, K @ z, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(covariance(Lp), P - K @ S @ K.T, rtol=0,
                                    atol=1e-12 * np.abs(P).max())
+
+
+WEIGHT_CASES = ((1.0, 2.0, 0.0), (0.5, 2.0, 1.0), (0.5, 2.0, 0.0), (0.5, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("params", WEIGHT_CASES)
+def test_the_predicted_factor_is_the_sigma_points_covariance(params):
+    """The square root from the statistically linearised split (F, residue rows, noise root)
+    of a nonlinear transform of the points is a factor of sum_i W_i^c dY_i dY_i^T + N, for
+    every weight case (W_0^c < 0 without a Cholesky downdate)."""
+    from visviva.od.square_root import covariance
+    from visviva.od.unscented import _factor, _linearised, _moments, _points
+
+    rng = np.random.default_rng(8)
+    A = rng.standard_normal((6, 6)) * np.r_[1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3]
+    L = np.linalg.cholesky(A @ A.T)
+    N = np.zeros((6, 6))
+    N[3:, 3:] = np.diag([1e-8, 2e-8, 3e-8])  # rank 3, as SNC
+    weights = unscented_weights(params)
+    _, wm, wc = weights
+    X = _points(np.r_[7000.0, 0, 0, 0, 7.5, 0], L, weights[0])
+    Y = X + 1e-4 * np.c_[X[:, 3:] ** 2, X[:, :3] ** 2 * 1e-6]  # nonlinear
+    m, dY = _moments(Y, wm)
+    want = (wc * dY.T) @ dY + N
+    got = covariance(_factor(*_linearised(dY, weights, N)))
+    s = np.sqrt(np.diag(want))
+    np.testing.assert_allclose(got / np.outer(s, s), want / np.outer(s, s), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("params", WEIGHT_CASES)
+def test_the_joint_factor_chained_over_linear_steps_is_exact(params):
+    """Two linear steps x_a = A1 x_k + e1, x_b = A2 x_a + e2 (the unscented transform is exact
+    for them): the joint factor of (x_k, x_b) chained through each step's linearisation
+    (:func:`visviva.od.unscented._chain`) has the Gram matrix [[P, P A^T], [A P, A P A^T +
+    A2 N1 A2^T + N2]], A = A2 A1."""
+    from visviva.od.unscented import _chain, _factor, _linearised, _moments, _points
+
+    rng = np.random.default_rng(9)
+    B = rng.standard_normal((6, 6))
+    P = B @ B.T
+    A1, A2 = np.eye(6) + 0.3 * rng.standard_normal((2, 6, 6))
+    N1, N2 = (C @ C.T for C in 0.1 * rng.standard_normal((2, 6, 6)))
+    weights = unscented_weights(params)
+    L = np.linalg.cholesky(P)
+    T = None
+    for A_, N_ in ((A1, N1), (A2, N2)):
+        X = _points(np.zeros(6), L, weights[0])
+        _, dY = _moments(X @ A_.T, weights[1])
+        F, rows = _linearised(dY, weights, N_)
+        T = _chain(T, L, F, rows)
+        L = _factor(F, rows)
+    A = A2 @ A1
+    want = np.block([[P, P @ A.T], [A @ P, A @ P @ A.T + A2 @ N1 @ A2.T + N2]])
+    np.testing.assert_allclose(T @ T.T, want, rtol=0, atol=1e-11 * np.abs(want).max())

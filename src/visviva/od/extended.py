@@ -23,7 +23,7 @@ from ..satellites.covariance import noise_substeps
 from .coefficient_prediction import predict_coefficients, predict_covariance
 from .light_time import model
 from .measurements import residuals
-from .square_root import covariance, predict_factor, psd_factor, update_factor
+from .square_root import covariance, noise_factor, predict_factor, psd_factor, update_factor
 
 __all__ = ["ekf_pass", "initial_impulses"]
 
@@ -69,18 +69,7 @@ def initial_impulses(dyn, schedule, x, P, q, code):
     initial state is before them)."""
     x, N, phi = _predict(dyn, schedule, x, np.zeros_like(P), 0.0, np.zeros(1), q, code,
                          apply_at_start=True)  # fmt: skip
-    return x, covariance(predict_factor(psd_factor(P), phi, _noise_factor(N)))
-
-
-def _noise_factor(N):
-    """The square root of a prediction's noise N, None for none (Cholesky when N is definite,
-    as it is over two sub-steps of process noise; else the semi-definite factor)."""
-    if not np.any(N):
-        return None
-    try:
-        return np.linalg.cholesky(N)
-    except np.linalg.LinAlgError:
-        return psd_factor(N)
+    return x, covariance(predict_factor(psd_factor(P), phi, noise_factor(N)))
 
 
 def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s, est=(),
@@ -122,7 +111,7 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
                                              code)  # fmt: skip
             except VisvivaError as exc:
                 raise screen.diverged(k, f"the estimate cannot be integrated ({exc})") from exc
-            noises[k] = _noise_factor(N)
+            noises[k] = noise_factor(N)
             L = Lp[k] = predict_factor(L, phis[k], noises[k])
             xp[k], Pp[k] = x, covariance(L)
         rows = screen.rows(k)

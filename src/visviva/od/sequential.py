@@ -299,10 +299,10 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     (L L^T = P, lambda = alpha^2 (n + kappa) - n), carried through the dynamics (one compiled
     call for all 13 per step) and the measurement model; P^- is their weighted covariance plus
     the same SNC Q on the same sub-steps, S = P_zz + R, K = P_xz S^-1,
-    P^+ = P^- - K S K^T computed in the Joseph-equivalent form
-    sum_i W_i^c (dX_i - K dZ_i)(dX_i - K dZ_i)^T + K R K^T (positive semi-definite by
-    construction), azimuth and right ascension averaged as angles. Its smoother is
-    Saerkkae's (2008) unscented RTS smoother, C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
+    P^+ = P^- - K S K^T, all in square-root form (van der Merwe & Wan 2001: the points drawn
+    from a carried factor L, prediction and update by QR, positive semi-definite by
+    construction at any conditioning), azimuth and right ascension averaged as angles. Its
+    smoother is Saerkkae's (2008) unscented RTS smoother (on factors too), C_k = D_k+1 (P_k+1^-)^-1 with the sigma points'
     cross-covariance D_k+1 = cov(x_k, x_k+1^-) in place of P_k Phi^T. On a nearly linear
     problem both filters agree to 1e-4 sigma; from a 1 km, 1 m/s prior the extended filter's
     NEES averaged 14 (chi-square mean 6), the unscented one's 6.2. Through burns the sigma points
@@ -370,9 +370,9 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     if method == "ukf":
         from .unscented import unscented_pass
 
-        xs, Ps, xp, Pp, cross = unscented_pass(dyn, observations, x, P, epochs, screen, q,
-                                               code, step_s, sigma_points, schedule, est,
-                                               apply_at_start=True, gm=gm_noise)  # fmt: skip
+        xs, Ps, xp, Pp, joints = unscented_pass(dyn, observations, x, P, epochs, screen, q,
+                                                code, step_s, sigma_points, schedule, est,
+                                                apply_at_start=True, gm=gm_noise)  # fmt: skip
     else:
         xs, Ps, xp, Pp, phis, roots = ekf_pass(dyn, schedule, observations, x, P, epochs,
                                                screen, q, code, step_s, est, gm_noise)  # fmt: skip
@@ -384,7 +384,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     sm_x = sm_P = first_state = first_cov = None
     if smoother:
         if method == "ukf":
-            sm_x, sm_P = _rts(xs, Ps, xp, Pp, cross=cross)
+            sm_x, sm_P = _rts(xs, Ps, xp, Pp, joints=joints)
         else:
             sm_x, sm_P = _rts(xs, Ps, xp, Pp, phis, roots=roots)
         first_state = StateVectors._from_canonical(sm_x[0, :3].copy(), sm_x[0, 3:6].copy(),
@@ -548,35 +548,30 @@ def _coefficient_fields(est, xs, Ps, perturbations, sm_x=None, sm_P=None, gauss=
 SMOOTHED_VARIANCE_RTOL = 1e-3
 
 
-def _rts(xs, Ps, xp, Pp, phis=None, cross=None, roots=None):
-    """Rauch-Tung-Striebel pass backwards over filtered (xs, Ps) and predicted (xp, Pp), with
-    the cross-covariances cov(x_k+1^-, x_k) = Phi_k+1,k P_k from the STMs ``phis`` (extended
-    filter) or given as ``cross`` (the unscented filter's sigma-point estimates: Saerkkae's
-    unscented RTS smoother, the same recursion). With ``roots`` (the extended filter's
-    filtered and predicted square roots and its noises', :func:`visviva.od.extended.ekf_pass`)
-    in square-root form (:func:`visviva.od.square_root.smooth_factor`)."""
+def _rts(xs, Ps, xp, Pp, phis=None, roots=None, joints=None):
+    """Rauch-Tung-Striebel pass backwards over filtered (xs, Ps) and predicted (xp, Pp), in
+    square-root form: with the STMs ``phis`` and ``roots``, the extended filter's filtered and
+    predicted square roots and its noises' (:func:`visviva.od.extended.ekf_pass`;
+    :func:`visviva.od.square_root.smooth_factor`), or with ``joints``, the unscented filter's
+    filtered and predicted square roots and the joint square roots of (x_k, x_k+1^-) from its
+    sigma points (Saerkkae's unscented RTS smoother, the same recursion;
+    :func:`visviva.od.square_root.smooth_factor_from_joint`)."""
     from . import square_root as sr
 
     sx = xs.copy()
     sP = Ps.copy()
-    if roots is not None:
-        Lf, Lp, noises = roots
-        Ls = Lf.copy()
-    else:
-        Ls = np.empty_like(Ps)
-        Ls[-1] = sr.psd_factor(Ps[-1])
+    Lf, Lp, extra = roots if roots is not None else joints
+    Ls = Lf.copy()
+    n = xs.shape[1]
     for k in range(len(xs) - 2, -1, -1):
         try:
             if roots is not None:
                 C = sr.smoother_gain(Lf[k], phis[k + 1], Lp[k + 1])
-                Ls[k] = sr.smooth_factor(Lf[k], phis[k + 1], noises[k + 1], C, Ls[k + 1])
-            else:
-                # C = cross^T (P_k+1^-)^-1, from the symmetric system P_k+1^- C^T = cross
-                # (scaled to unit diagonal first: position and velocity variances differ by 1e6+)
-                d = 1.0 / np.sqrt(np.diag(Pp[k + 1]))
-                M = Pp[k + 1] * np.outer(d, d)
-                C = (d[:, None] * np.linalg.solve(M, d[:, None] * cross[k + 1])).T
-                Ls[k] = sr.smooth_factor_joint(Ps[k], cross[k + 1], Pp[k + 1], C, Ls[k + 1])
+                Ls[k] = sr.smooth_factor(Lf[k], phis[k + 1], extra[k + 1], C, Ls[k + 1])
+            else:  # C = cross^T (P_k+1^-)^-1, cross = L21 L11^T
+                T = extra[k + 1]
+                C = sr.smoother_gain(T[:n, :n], None, Lp[k + 1], image=T[n:, :n])
+                Ls[k] = sr.smooth_factor_from_joint(T, C, Ls[k + 1])
         except np.linalg.LinAlgError:
             raise _singular() from None
         sP[k] = sr.covariance(Ls[k])
@@ -596,9 +591,7 @@ def _singular():
     return ConvergenceError(
         "the smoother's estimate is not finite, has negative variances or variances above "
         "the filter's: a predicted covariance is singular or nearly so (a parameter_noise "
-        "sigma of 0 decays a coefficient's variance to 0; the unscented filter's after data "
-        "far more precise than the prior: use method='ekf', whose square-root smoother "
-        "holds it); give sigma > 0, or smoother=False.")
+        "sigma of 0 decays a coefficient's variance to 0); give sigma > 0, or smoother=False.")
 
 
 def _isot(epoch, offset_s):

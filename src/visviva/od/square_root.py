@@ -35,8 +35,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["psd_factor", "predict_factor", "update_factor", "smoother_gain", "smooth_factor",
-           "smooth_factor_joint", "covariance"]
+__all__ = ["psd_factor", "predict_factor", "update_factor", "update_rows", "noise_factor",
+           "stacked_factor", "smoother_gain", "smooth_factor",
+           "smooth_factor_from_joint", "covariance"]
 
 
 def psd_factor(P):
@@ -82,6 +83,13 @@ def _triangular(pre, n):
     return _r_factor(pre)[:n, :n].T
 
 
+def stacked_factor(rows):
+    """The lower-triangular L (n, n) with L L^T = rows^T rows (``rows`` (>= n, n)): the
+    unscented filter's predicted factor from its weighted sigma-point deviations and noise
+    factor (van der Merwe & Wan 2001, eq. 20)."""
+    return _r_factor(rows).T
+
+
 def predict_factor(L, phi, noise=None):
     """The square root of P- = Phi P Phi^T + N from L (P = L L^T), ``phi`` (n, n) and the
     square root ``noise`` of N (None: no noise)."""
@@ -93,25 +101,45 @@ def update_factor(x, L, H, r, z):
     """The measurement update in array form: (x+, L+) from the state x (n,), the square root
     L of its covariance, the partials H (m, n), the measurement variances r (m,) (> 0,
     uncorrelated) and the pre-fit residuals z (m,)."""
-    m, n = H.shape
-    pre = np.zeros((m + n, m + n))
-    pre[np.arange(m), np.arange(m)] = np.sqrt(r)
-    pre[m:, :m] = (H @ L).T
-    pre[m:, m:] = L.T
+    return update_rows(x, L, H @ L, np.diag(np.sqrt(r)), z)
+
+
+def update_rows(x, L, HL, noise_rows, z):
+    """:func:`update_factor` from the measurement's image ``HL`` (m, n) of the factor L and
+    ``noise_rows`` (k >= m, m) whose Gram matrix is the measurement noise R (rows^T rows = R;
+    the unscented filter's holds its linearisation error as well)."""
+    k, m = noise_rows.shape
+    n = L.shape[0]
+    pre = np.zeros((k + n, m + n))
+    pre[:k, :m] = noise_rows
+    pre[k:, :m] = HL.T
+    pre[k:, m:] = L.T
     U = _r_factor(pre)
     w = np.linalg.solve(U[:m, :m].T, z)  # U11^-T z (numpy's LU: LAPACK's trtrs through scipy
     # took milliseconds a call with a loaded machine's OpenBLAS threads)
     return x + U[:m, m:].T @ w, U[m:, m:].T
 
 
-def smoother_gain(L, phi, L_pred):
+def noise_factor(N):
+    """The square root of a prediction's noise N, None for none (Cholesky when N is definite,
+    as it is over two sub-steps of process noise; else the semi-definite factor)."""
+    if not np.any(N):
+        return None
+    try:
+        return np.linalg.cholesky(N)
+    except np.linalg.LinAlgError:
+        return psd_factor(N)
+
+
+def smoother_gain(L, phi, L_pred, image=None):
     """The Rauch-Tung-Striebel gain C = P Phi^T (P-)^-1 from the filtered square root L, the
     transition ``phi`` and the lower-triangular square root ``L_pred`` of P- (two solves with
-    the square root, on its condition number rather than P-'s); a singular P- (a
+    the square root, on its condition number rather than P-'s); ``image``: Phi L given (the
+    unscented smoother's L21 of the joint factor, ``phi`` unused); a singular P- (a
     component of zero predicted variance): :class:`numpy.linalg.LinAlgError`."""
     if not np.all(np.diag(L_pred)):
         raise np.linalg.LinAlgError("the predicted covariance is singular")
-    W = np.linalg.solve(L_pred, phi @ L)
+    W = np.linalg.solve(L_pred, phi @ L if image is None else image)
     return np.linalg.solve(L_pred.T, W @ L.T).T
 
 
@@ -127,19 +155,16 @@ def smooth_factor(L, phi, noise, C, L_next):
     return _triangular(np.vstack(blocks), n)
 
 
-def smooth_factor_joint(P, cross, P_pred, C, L_next):
-    """:func:`smooth_factor` from covariances (the unscented smoother's): the filtered P, the
-    cross-covariance ``cross`` = cov(x-_k+1, x_k) and the predicted ``P_pred`` of the next
-    epoch, the gain C and the next smoothed factor ``L_next``.
+def smooth_factor_from_joint(T, C, L_next):
+    """:func:`smooth_factor` for the unscented smoother: from the lower-triangular square root
+    T = [[L11, 0], [L21, L22]] of the joint covariance [[P, cross^T], [cross, P-]] of (x_k,
+    x_k+1^-) (cross = L21 L11^T), the gain C and the next epoch's smoothed factor ``L_next``.
 
-    The joint covariance [[P, cross^T], [cross, P-]] is factored (:func:`psd_factor`) and
-    triangularised to [[L11, 0], [L21, L22]]: L21 L11^T = cross, and L22 L22^T is the Schur
-    complement P- - cross P^-1 cross^T, the effective noise N of the statistically linearised
-    transition A = cross P^-1 (A L11 = L21), so that the Joseph form's (I - C A) L and C N^1/2
-    are L11 - C L21 and C L22 (no inverse of P, which may be singular).
+    L21 L11^T = cross, and L22 L22^T is the Schur complement P- - cross P^-1 cross^T, the
+    effective noise N of the statistically linearised transition A = cross P^-1 (A L11 =
+    L21), so that the Joseph form's (I - C A) L and C N^1/2 are L11 - C L21 and C L22 (no
+    inverse of P, which may be singular).
     """
-    n = P.shape[0]
-    J = np.block([[P, cross.T], [cross, P_pred]])
-    T = _r_factor(psd_factor(0.5 * (J + J.T)).T).T
+    n = T.shape[0] // 2
     L11, L21, L22 = T[:n, :n], T[n:, :n], T[n:, n:]
     return _triangular(np.vstack([(L11 - C @ L21).T, (C @ L22).T, (C @ L_next).T]), n)

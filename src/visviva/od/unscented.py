@@ -22,11 +22,14 @@ overconfident.
   epoch's rows (:func:`visviva.od.light_time.model`, one call for all 13 x rows); azimuth and
   right ascension are averaged as angles (each point's value minus the central point's,
   wrapped into (-pi, pi], then averaged and added back), so that points on both sides of 0 /
-  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z, and
-  P+ = P- - K S K^T in its Joseph-equivalent form sum_i W_i^c (dX_i - K dZ_i)(dX_i -
-  K dZ_i)^T + K R K^T (:func:`_joseph_update`), positive semi-definite by construction where
-  the difference goes negative after a precise measurement. Editing, NIS and divergence are
-  the extended filter's rules on this S.
+  2 pi give the right mean and spread. S = P_zz + R, K = P_xz S^-1, x+ = x- + K z, P+ = P- -
+  K S K^T, computed in square-root form (van der Merwe & Wan 2001, ICASSP): the filter carries
+  L (P = L L^T), draws the points from it, and both the prediction (QR of the weighted
+  deviations and the noise's square root, :func:`_linearised`) and the update
+  (:func:`array_update`, the extended filter's array form with the statistically linearised
+  H L) are orthogonal triangularisations, positive semi-definite by construction at any
+  conditioning (1 nm positions against a 1 km prior). Editing, NIS and divergence are the
+  extended filter's rules on this S.
 * Burns (``maneuvers=``): every burn start and end inside an interval cuts it (fresh sigma
   points on each piece); a piece flies the force model of its segment
   (:meth:`visviva.satellites.burn_segments.Schedule.segment_model`: a finite burn's thrust,
@@ -43,8 +46,9 @@ overconfident.
 * Smoother: Saerkkae's unscented Rauch-Tung-Striebel smoother (Saerkkae 2008, IEEE TAC 53(3),
   845-849), whose gain uses the cross-covariance D_k+1 = cov(x_k, x_k+1^-) of the prediction's
   sigma points, stored during the forward pass (over several sub-steps chained through the
-  statistical linearisation of each); its covariance in square-root Joseph form from the
-  joint covariance of (x_k, x_k+1^-) (:func:`visviva.od.square_root.smooth_factor_joint`).
+  statistical linearisation of each, as the square root of the joint covariance of (x_k,
+  x_k+1^-)); its covariance in square-root Joseph form from that joint factor
+  (:func:`visviva.od.square_root.smooth_factor_from_joint`).
 """
 
 from __future__ import annotations
@@ -58,9 +62,10 @@ from ..satellites.burn_segments import DRIFT_S
 from ..satellites.covariance import noise_substeps, step_noise
 from .light_time import model
 from .measurements import residuals
+from .square_root import covariance, noise_factor, psd_factor, stacked_factor, update_rows
 
 __all__ = ["unscented_pass", "unscented_weights", "sigma_points", "through_impulses",
-           "DEFAULT_SIGMA_POINTS"]
+           "array_update", "DEFAULT_SIGMA_POINTS"]
 
 #: (alpha, beta, kappa): points sqrt(6) sigma out, mean weights 0 (centre) and 1/12 (none
 #: negative), beta = 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
@@ -116,16 +121,20 @@ def unscented_weights(parameters=None, n=N_STATE):
 
 def _square_root(P):
     """L with L L^T = P: Cholesky of P scaled to unit diagonal (position and velocity variances
-    differ by 1e6 and more), or the symmetric root from the eigenvalues (negative round-off
-    ones set to 0) for a singular P."""
+    differ by 1e6 and more), or :func:`visviva.od.square_root.psd_factor` for a singular P."""
     d = np.sqrt(np.diag(P))
     if np.all(d > 0):
         try:
             return d[:, None] * np.linalg.cholesky(P / np.outer(d, d))
         except np.linalg.LinAlgError:
             pass
-    w, V = np.linalg.eigh(P)
-    return V * np.sqrt(np.clip(w, 0.0, None))
+    return psd_factor(P)
+
+
+def _points(x, L, scale):
+    """The 2n + 1 sigma points of the mean x and the square root L of its covariance."""
+    L = scale * L
+    return np.concatenate([x[None], x + L.T, x - L.T])
 
 
 def sigma_points(x, P, scale):
@@ -145,14 +154,7 @@ def sigma_points(x, P, scale):
     ndarray (13, 6)
         x, then x + scale L_i (i = 1..6), then x - scale L_i, L L^T = P.
     """
-    L = scale * _square_root(P)
-    return np.concatenate([x[None], x + L.T, x - L.T])
-
-
-def _solve_scaled(P, B):
-    """P^-1 B for a covariance P, through its unit-diagonal scaling."""
-    d = 1.0 / np.sqrt(np.diag(P))
-    return d[:, None] * np.linalg.solve(P * np.outer(d, d), d[:, None] * B)
+    return _points(x, _square_root(P), scale)
 
 
 def _fly(dyn, schedule, est, X, a, b, dt):
@@ -198,30 +200,95 @@ def through_impulses(schedule, t, Y, wm):
     return Y, noise
 
 
-def _moments(X, x, Y, wm, wc):
-    """Weighted mean and covariance of the points Y and cov(Y, X) (X the points of mean x)."""
+def _moments(Y, wm):
+    """Weighted mean of the points Y and their deviations from it."""
     m = Y[0] + wm @ (Y - Y[0])
-    dY = Y - m
-    return m, (wc * dY.T) @ dY, (wc * dY.T) @ (X - x)
+    return m, Y - m
 
 
-def _predict(dyn, schedule, est, x, P, step, weights, q, code, gm=None):
-    """Mean, covariance (with the SNC noise of the step and the execution errors of the
-    impulses at its end) and cov(x(b), x(a)) of the sigma points of (x, P) carried over the
-    sub-step ``step`` = (a, b, b - a) (s from the epoch), through the impulses at b."""
+def _linearised(dY, weights, noise=None):
+    """The statistical linearisation of a transform of the sigma points of (x, L L^T).
+
+    Returns the image F = (dY_j+ - dY_j-) / (2 scale) of the factor (column j; the points are
+    x +- scale L_j) and rows whose Gram matrix is the second-order residue sum_i W_i^c e_i
+    e_i^T (e_0 = dY_0, e_j+- = (dY_j+ + dY_j-) / 2) plus the ``noise`` N (its square root's
+    rows): sum_i W_i^c dY_i dY_i^T + N = F F^T + rows^T rows, the transform's covariance (van
+    der Merwe & Wan 2001, eq. 20) as factors. With W_0^c >= 0 the rows are the weighted e_i
+    themselves. With W_0^c < 0 (alpha = 0.5, kappa = 0) the centre's term is not downdated (van
+    der Merwe & Wan's Cholesky downdate of the factor by sqrt(-W_0^c) dY_0 failed at 1 nm,
+    and on a deterministic prediction's joint factor, where that term is round-off): since
+    the points are symmetric, sum_j s_j = W_0^m sum_j delta_j (s_j = e_j+-, delta_j their
+    curvature terms, dY_0 = -sum_j delta_j / c, c = n + lambda), and the residue is exactly
+    (1/c) sum_j (s_j - s_bar)(s_j - s_bar)^T + gamma dY_0 dY_0^T with s_bar the mean of the
+    s_j and gamma = c (W_0^m)^2 / n + W_0^c (beta for kappa = 0): rows again, positive
+    semi-definite by construction when gamma >= 0, which :func:`unscented_pass` requires
+    (gamma = beta + alpha^2 kappa / n; below 0 the unscented covariance itself is not positive
+    by construction).
+    """
+    scale, wm, wc = weights
+    n = (dY.shape[0] - 1) // 2
+    F = ((dY[1:n + 1] - dY[n + 1:]) / (2.0 * scale)).T
+    E = np.sqrt(2.0 * wc[1]) * 0.5 * (dY[1:n + 1] + dY[n + 1:])  # sqrt(1/c) s_j
+    if wc[0] >= 0:
+        rows = [E, np.sqrt(wc[0]) * dY[:1]]
+    else:  # sqrt(1/c) (s_j - s_bar), and gamma = c (W_0^m)^2 / n + W_0^c
+        rows = [E - E.mean(axis=0), np.sqrt(max(_gamma(weights, n), 0.0)) * dY[:1]]
+    root = None if noise is None else noise_factor(noise)
+    if root is not None:
+        rows.append(root.T)
+    return F, np.vstack(rows)
+
+
+def _gamma(weights, n):
+    """c (W_0^m)^2 / n + W_0^c (= beta + alpha^2 kappa / n): the weight of the centre's term
+    in the residue's positive form (:func:`_linearised`)."""
+    scale, wm, wc = weights
+    return scale**2 * wm[0] ** 2 / n + wc[0]
+
+
+def _factor(F, rows):
+    """The lower-triangular square root of F F^T + rows^T rows."""
+    return stacked_factor(np.vstack([F.T, rows]))
+
+
+def _predict(dyn, schedule, est, x, L, step, weights, q, code, gm=None):
+    """The mean of the sigma points of (x, L L^T) carried over the sub-step ``step`` = (a, b,
+    b - a) (s from the epoch), through the impulses at b, and the statistical linearisation
+    of the step (:func:`_linearised`) with the SNC noise of the step and the execution errors
+    of the impulses at its end."""
     scale, wm, wc = weights
     a, b, dt = step
-    X = sigma_points(x, P, scale)
+    X = _points(x, L, scale)
     Y = _fly(dyn, schedule, est, X, a, b, dt)
     Y, noise = through_impulses(schedule, b, Y, wm)
     if gm is not None:  # each point's coefficients decay, the Gauss-Markov noise is added
         Y, extra = gm.apply_points(Y, dt)
         noise = noise + extra
-    m, Pn, D = _moments(X, x, Y, wm, wc)
-    Pn = Pn + noise
+    m, dY = _moments(Y, wm)
     if q is not None:
-        Pn[:6, :6] += step_noise(x[:6], m[:6], dt, q, code)
-    return m, 0.5 * (Pn + Pn.T), D
+        noise[:6, :6] += step_noise(x[:6], m[:6], dt, q, code)
+    return (m,) + _linearised(dY, weights, noise)
+
+
+def _chain(T, L, F, rows):
+    """The joint square root of (x_k, x_b) from T, (x_k, x_a)'s, and a step x_a -> x_b
+    linearised as x_b = A x_a + e (A L = F, e of the Gram matrix ``rows``^T ``rows``), L the
+    factor the step's points were drawn from; T None: x_a = x_k, L its
+    factor. Lower-triangular [[L11, 0], [L21, L22]], L11 a factor of P_k."""
+    n = F.shape[0]
+    if T is None:
+        top, image = L, F
+    else:  # A [T21, T22] = F L^-1 [T21, T22]
+        try:
+            q = np.linalg.solve(L, T[n:])
+        except np.linalg.LinAlgError:  # a component known exactly: [T21, T22] = L Q still
+            q = np.linalg.lstsq(L, T[n:], rcond=None)[0]
+        top, image = T[:n], F @ q
+    pre = np.zeros((top.shape[1] + rows.shape[0], 2 * n))
+    pre[:top.shape[1], :n] = top.T
+    pre[:top.shape[1], n:] = image.T
+    pre[top.shape[1]:, n:] = rows
+    return stacked_factor(pre)
 
 
 def _substeps(t_from, t_to, q, step_s, schedule, cut=False):
@@ -238,10 +305,10 @@ def _substeps(t_from, t_to, q, step_s, schedule, cut=False):
     return [(float(p), float(n), float(n - p)) for p, n in zip(ts[:-1], ts[1:], strict=True)]
 
 
-def _update(observations, x, P, rows, k, screen, gm, weights):
-    """The measurement update with the rows at epoch ``k``: (x+, P+)."""
+def _update(observations, x, L, rows, k, screen, gm, weights):
+    """The measurement update with the rows at epoch ``k``: (x+, L+)."""
     scale, wm, wc = weights
-    X = sigma_points(x, P, scale)
+    X = _points(x, L, scale)
     m, n_pts = rows.size, X.shape[0]
     kinds = observations.kinds[rows]
     h, _ = model(observations, np.repeat(X[:, :6], m, axis=0), gm, np.tile(rows, n_pts),
@@ -254,77 +321,51 @@ def _update(observations, x, P, rows, k, screen, gm, weights):
     z = residuals(kinds, observations.values[rows], h[0] + shift)
     comp, zc, Rd = screen.prefit(rows, z)
     dZ = (dev - shift)[:, comp]  # (13, components in use)
-    S = (wc * dZ.T) @ dZ + np.diag(Rd)
-    Pxz = (wc * (X - x).T) @ dZ
-    use = screen.check(k, rows, zc, S)
+    use = screen.check(k, rows, zc, (wc * dZ.T) @ dZ + np.diag(Rd))
     if use.any():
-        Su = S[np.ix_(use, use)]
-        K = np.linalg.solve(Su, Pxz[:, use].T).T  # P_xz S^-1 (S symmetric)
-        P = _joseph_update(X - x, dZ[:, use], wc, K, Rd[use])
-        x = x + K @ zc[use]
-        screen.finite(k, x, P)
-        _require_psd(P, screen, k)
-    screen.finite(k, x, P)
-    return x, P
+        x, L = array_update(x, L, dZ[:, use], weights, Rd[use], zc[use])
+    screen.finite(k, x, L)
+    return x, L
 
 
-def _joseph_update(dX, dZ, wc, K, R):
-    """The updated covariance in the Joseph-equivalent form of the unscented filter.
+def array_update(x, L, dZ, weights, R, z):
+    """The unscented measurement update through the square root of the covariance.
 
     Parameters
     ----------
-    dX : ndarray (N, n)
-        The sigma points' deviations from their mean (state units).
-    dZ : ndarray (N, m)
-        Their predicted measurements' deviations from the mean prediction (the components in
-        use).
-    wc : ndarray (N,)
-        Covariance weights.
-    K : ndarray (n, m)
-        The gain P_xz S^-1.
+    x : ndarray (n,)
+        Predicted state.
+    L : ndarray (n, n)
+        A square root of its covariance (L L^T = P-), whose columns drew the sigma points.
+    dZ : ndarray (2 n + 1, m)
+        The points' predicted measurements less their weighted mean.
+    weights : tuple
+        (scale, wm, wc) from :func:`unscented_weights`.
     R : ndarray (m,)
-        The measurement variances.
+        Measurement variances.
+    z : ndarray (m,)
+        Pre-fit residuals.
 
     Returns
     -------
-    ndarray (n, n)
-        P+ = sum_i W_i^c (dX_i - K dZ_i)(dX_i - K dZ_i)^T + K R K^T, symmetric.
+    x, L : ndarray (n,), (n, n)
+        The updated state and the square root of its covariance.
 
     Notes
     -----
-    This is cov(x - K z) + K R K^T, the Joseph form (I - K H) P (I - K H)^T + K R K^T with
-    the sigma points in place of H (exact for any gain K); with K = P_xz S^-1 it equals the
-    textbook P - K S K^T (expand: P - K P_xz^T - P_xz K^T + K (P_zz + R) K^T, and
-    K S K^T = K P_xz^T). Unlike that difference, which cancels to round-off where a precise
-    measurement (R << H P H^T) leaves a small posterior and then goes negative (10 um
-    positions from a 1 km prior gave negative position variances), it is a sum of weighted
-    outer products and K R K^T: positive semi-definite by construction when every W_i^c >= 0
-    (the default (1, 2, 0) weights; Tapley, Schutz & Born 2004, eq. 4.7.19 for the extended
-    filter's form).
+    The points are X_0 = x and x +- scale L_j, so the cross-covariance P_xz = sum_i W_i^c
+    (X_i - x) dZ_i^T is L G^T with G = (dZ_j+ - dZ_j-) / (2 scale) column by column: G is
+    the image H L of the factor under the statistically linearised measurement, and P_zz - G
+    G^T = sum_i W_i^c e_i e_i^T (e_0 = dZ_0, e_j+- = (dZ_j+ + dZ_j-) / 2) its linearisation
+    error, which joins R. The update is then the extended filter's array form
+    (:func:`visviva.od.square_root.update_rows`): x + P_xz S^-1 z and the factor of P- -
+    P_xz S^-1 P_xz^T (S = P_zz + R) from one QR, with no subtraction. This replaces van der
+    Merwe & Wan's (2001, eq. 29) Cholesky downdates of the predicted factor by the columns of
+    K S_y, which subtract (they fail where a 1 nm position meets a 1 km prior). A negative
+    W_0^c (alpha < 1) enters through the residue's positive form (:func:`_linearised`).
     """
-    E = dX - dZ @ K.T
-    P = (wc * E.T) @ E + (K * R) @ K.T
-    return 0.5 * (P + P.T)
-
-
-def _require_psd(P, screen, k):
-    """Refuse an updated covariance that is not positive semi-definite beyond round-off
-    (possible only with a negative covariance weight W_0^c: ``sigma_points`` alpha < 1)."""
-    diag = np.diag(P)
-    live = diag > 0.0  # a coefficient with sigma 0 has a zero row and column
-    w = float(np.min(diag)) if np.any(diag < 0.0) else 0.0
-    if w == 0.0 and np.any(live):
-        d = np.sqrt(diag[live])
-        w = min(0.0, float(np.linalg.eigvalsh(P[np.ix_(live, live)] / np.outer(d, d))[0]))
-        if w >= -1e-9:  # the correlation matrix (unit diagonal) to round-off
-            return
-    if w == 0.0:
-        return
-    raise screen.diverged(
-        k, f"the updated covariance is not positive semi-definite (eigenvalue {w:.3g} of the "
-        "correlation matrix, or a negative variance); with a negative centre weight "
-        "(sigma_points alpha < 1) the unscented update is not positive by construction: use "
-        "alpha = 1 (the default)")
+    HL, rows = _linearised(dZ, weights)
+    return update_rows(x, L, HL, np.vstack([np.diag(np.sqrt(R)), rows]), z)
 
 
 def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, parameters,
@@ -336,6 +377,12 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     Gauss-Markov models (:class:`visviva.od.gauss_markov.GaussMarkov`), or None."""
     n = x.size
     weights = unscented_weights(parameters, n)
+    if _gamma(weights, n) < -1e-12:
+        raise InvalidInputError(
+            f"sigma_points (alpha, beta, kappa) = {parameters!r} give a negative centre "
+            f"covariance weight whose unscented covariance is not positive semi-definite by "
+            f"construction (beta + alpha^2 kappa / {n} < 0); use beta >= 0 with kappa >= 0, "
+            "e.g. the default (1, 2, 0).")
     if gm is not None:
         step_s = gm.longest_step_s(q, step_s)
     for c in est:  # the block flies unit coefficients, each point scaling them by its own
@@ -345,29 +392,36 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     Ps = np.empty((n_t, n, n))
     xp = np.empty((n_t, n))
     Pp = np.empty((n_t, n, n))
-    cross = np.empty((n_t, n, n))
+    L = _square_root(P)
     if apply_at_start and schedule and schedule.impulses_at(epochs[0]):
-        X = sigma_points(x, P, weights[0])
+        X = _points(x, L, weights[0])
         Y, noise = through_impulses(schedule, epochs[0], X, weights[1])
-        x, P, _ = _moments(X, x, Y, weights[1], weights[2])
-        P = 0.5 * (P + P.T) + noise
+        x, dY = _moments(Y, weights[1])
+        L = _factor(*_linearised(dY, weights, noise))
+        P = covariance(L)
     xs[0] = xp[0] = x
-    Ps[0] = Pp[0] = cross[0] = P
+    Ps[0] = Pp[0] = P
+    Lf = np.empty((n_t, n, n))
+    Lp = np.empty((n_t, n, n))
+    joints = np.zeros((n_t, 2 * n, 2 * n))
+    Lf[0] = Lp[0] = L
     for k in range(n_t):
         if k:
-            C = None
+            T = None
             for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule, gm is not None):
                 try:
-                    xn, Pn, D = _predict(dyn, schedule, est, x, P, step, weights, q, code, gm)
+                    xn, F, rows = _predict(dyn, schedule, est, x, L, step, weights, q, code,
+                                           gm)  # fmt: skip
+                    # the joint factor of (x_k-1, x_b), the smoother's
+                    T = _chain(T, L, F, rows)
+                    Ln = _factor(F, rows)
                 except VisvivaError as exc:
                     raise screen.diverged(
                         k, f"the sigma points cannot be integrated ({exc})") from exc
-                # cov(x_b, x_k-1) through the statistical linearisation D P^-1 of the step
-                C = D if C is None else D @ _solve_scaled(P, C)
-                x, P = xn, Pn
-            xp[k], Pp[k], cross[k] = x, P, C
+                x, L = xn, Ln
+            xp[k], Pp[k], Lp[k], joints[k] = x, covariance(L), L, T
         rows = screen.rows(k)
         if rows.size:
-            x, P = _update(observations, x, P, rows, k, screen, dyn.gm, weights)
-        xs[k], Ps[k] = x, P
-    return xs, Ps, xp, Pp, cross
+            x, L = _update(observations, x, L, rows, k, screen, dyn.gm, weights)
+        xs[k], Ps[k], Lf[k] = x, covariance(L), L
+    return xs, Ps, xp, Pp, (Lf, Lp, joints)

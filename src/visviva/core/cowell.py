@@ -124,14 +124,13 @@ FULL = True
 
 
 def rhs_kind(force, ev_kind=()):
-    """:data:`ZONAL_ONLY` when ``force`` (the force block) has no term beyond the two-body and
-    zonal ones (no thrust either) and every event of ``ev_kind`` is an altitude crossing (kind 0: the surface of
+    """:data:`ZONAL_ONLY` when ``force`` (the force block) has no term beyond the two-body,
+    zonal and relativistic ones (no thrust either) and every event of ``ev_kind`` is an altitude crossing (kind 0: the surface of
     :mod:`visviva.satellites.surface` that bounds every perturbed run, ``AltitudeCrossing``,
     ``ReEntry``), else :data:`FULL` (plain Python, not compiled)."""
     zonal_only = (all(int(k) == 0 for k in ev_kind) and force[fb.HARMONICS_DEGREE] < 2.0
                   and force[fb.DRAG_ON] == 0.0 and int(force[fb.N_THIRD_BODIES]) == 0
-                  and force[fb.SRP_ON] == 0.0 and force[fb.THRUST_ON] == 0.0
-                  and force[fb.RELATIVITY_ON] == 0.0)
+                  and force[fb.SRP_ON] == 0.0 and force[fb.THRUST_ON] == 0.0)
     return ZONAL_ONLY if zonal_only else FULL
 
 

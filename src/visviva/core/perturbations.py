@@ -578,8 +578,9 @@ def accel_thrust(t, y, force, out):
 
 @kernel
 def zonal_rhs(y, force, zonal, dy):
-    """The derivative dy = (v, a) with the two-body and zonal-harmonic terms alone (the first
-    two terms of :func:`cowell_rhs`, same bits). Returns nothing; writes ``dy`` (not ``y``).
+    """The derivative dy = (v, a) with the two-body and zonal-harmonic terms and, when switched
+    on, the post-Newtonian correction (:mod:`visviva.core.relativity`) alone: the first terms
+    of :func:`cowell_rhs`, same bits. Returns nothing; writes ``dy`` (not ``y``).
 
     The accelerations are summed in ``dy[3:]`` itself: no array is allocated, so neither this
     kernel nor the integrator above it compiles numba's ``np.zeros``/``np.empty`` (a cost paid
@@ -593,6 +594,9 @@ def zonal_rhs(y, force, zonal, dy):
     n_max = int(force[fb.ZONAL_DEGREE])
     if n_max >= 2:
         accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, acc)
+    if force[fb.RELATIVITY_ON] != 0.0:
+        accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
+                         force[fb.LENSE_THIRRING_J], acc)
 
 
 @inline_kernel
@@ -629,19 +633,16 @@ def drag_density(x, yy, z, sun, sun_pos, force, atm):
 def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     """The full derivative dy = (v, a) of the state y = (r, v) at time t (s from the epoch).
 
-    Sums, in this fixed order: two-body, zonal harmonics (:func:`zonal_rhs`), full spherical
-    harmonics, drag, third bodies, SRP, thrust, the post-Newtonian correction
-    (:mod:`visviva.core.relativity`). During a finite burn drag's and SRP's
-    area-to-mass ratios follow the falling mass (divided by 1 - ``THRUST_MASS_RATE`` t);
+    Sums, in this fixed order: two-body, zonal harmonics and relativity (:func:`zonal_rhs`),
+    full spherical harmonics, drag, third bodies, SRP, thrust. During a finite burn drag's and
+    SRP's area-to-mass ratios follow the falling mass (divided by 1 - ``THRUST_MASS_RATE`` t);
     otherwise they are the block's (multiplied by exactly 1.0: the same bits).
     """
     x = y[0]
     yy = y[1]
     z = y[2]
     zonal_rhs(y, force, zonal, dy)
-    acc = np.empty(3)
-    for i in range(3):
-        acc[i] = dy[3 + i]
+    acc = dy[3:]  # the sum goes on in dy itself (no array allocated per evaluation)
     if force[fb.HARMONICS_DEGREE] >= 2.0:
         accel_harmonics_inertial(t, x, yy, z, force, sh, acc)
     n_third = int(force[fb.N_THIRD_BODIES])
@@ -667,11 +668,6 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
         accel_thrust(t, y, force, pos)
         for i in range(3):
             acc[i] += pos[i]
-    if force[fb.RELATIVITY_ON] != 0.0:
-        accel_relativity(x, yy, z, y[3], y[4], y[5], force[fb.GM], force[fb.LENSE_THIRRING_J], acc)
-    dy[3] = acc[0]
-    dy[4] = acc[1]
-    dy[5] = acc[2]
 
 
 @kernel

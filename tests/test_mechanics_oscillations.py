@@ -5,6 +5,7 @@ import pytest
 from astropy import units as u
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import linalg
 from scipy.integrate import solve_ivp
 
 from visviva import mechanics as mech
@@ -230,3 +231,39 @@ def test_normal_modes_accepts_mass_vector():
 def test_overflow_is_a_typed_error_not_inf():
     with pytest.raises(DomainError, match="overflows"):
         mech.damped_oscillator(1.0, 0.0, 1.0, 1000.0, -10.0)
+
+
+@pytest.mark.parametrize(
+    "masses, springs",
+    [
+        ([1.0, 2.0, 3.0], [0.0, 1.0, 1.0, 0.0]),
+        ([1e-3, 5.0, 0.2, 40.0], [0.0, 7.0, 0.01, 300.0, 0.0]),
+    ],
+)
+def test_normal_modes_free_chain_zero_mode_is_exactly_zero(masses, springs):
+    # audit19: the translation mode came back as sqrt(rounding) ~ 5e-9 rad/s, not 0 as documented
+    M, K = mech.chain_matrices(masses, springs)
+    omega, modes = mech.normal_modes(M, K)
+    assert omega[0] == 0.0
+    assert np.all(omega[1:] > 0)
+    # the zero mode is the rigid translation: all entries equal, M-normalised
+    np.testing.assert_allclose(modes[:, 0], 1.0 / np.sqrt(np.sum(masses)), rtol=1e-10)
+    lam = linalg.eigh(K, M, eigvals_only=True)
+    np.testing.assert_allclose(omega[1:], np.sqrt(lam[1:]), rtol=1e-9)
+
+
+def test_normal_modes_small_genuine_frequency_kept():
+    # a soft spring far above rounding (omega ratio 1e-4) is not mistaken for a zero mode
+    M, K = mech.chain_matrices([1.0, 1.0], [1e-8, 1.0, 1e-8])
+    omega, _ = mech.normal_modes(M, K)
+    np.testing.assert_allclose(omega, np.sqrt([1e-8, 2.0 + 1e-8]), rtol=1e-6)
+
+
+def test_damping_regime_refuses_arrays_clearly():
+    # audit19: arrays raised a bare TypeError ("only 0-dimensional arrays ...")
+    with pytest.raises(ShapeError, match="one oscillator"):
+        mech.damping_regime([1.0, 2.0], [1.0, 1.0])
+    with pytest.raises(ShapeError, match="one oscillator"):
+        mech.damping_regime(1.0, np.array([0.5]))
+    assert mech.damping_regime(np.float64(2.0), 2.0 / u.s) == "critical"
+    assert mech.damping_regime(2.0, 2.0 * (1 + 1e-15)) == "overdamped"

@@ -244,3 +244,15 @@ def test_asymmetric_top_period_is_the_elliptic_integral():
     np.testing.assert_allclose(L, np.broadcast_to(L[0], L.shape), atol=1e-9 * np.linalg.norm(L[0]))
     omega_ref = tr.rotation.apply(tr.omega)
     np.testing.assert_allclose(np.sum(omega_ref * L, axis=1), E2, rtol=1e-9)
+
+
+def test_parallel_axis_refuses_batches_instead_of_broadcasting():
+    # audit19: a mass array of 3 broadcast against the (3, 3) tensor column-wise and returned a
+    # non-symmetric, wrong tensor silently; several displacements raised a bare numpy ValueError
+    with pytest.raises(ShapeError, match="one inertia tensor"):
+        mech.parallel_axis(np.eye(3), [1.0, 2.0, 3.0], [1.0, 0.0, 0.0])
+    with pytest.raises(ShapeError, match="one inertia tensor"):
+        mech.parallel_axis(np.eye(3), 1.0, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    # Steiner for a rod about its end: m L^2 / 12 + m (L/2)^2 = m L^2 / 3
+    rod = mech.parallel_axis(mech.inertia_thin_rod(3.0, 2.0), 3.0 * u.kg, [0, 0, 100.0] * u.cm)
+    np.testing.assert_allclose(rod.to_value(u.kg * u.m**2).diagonal(), [4.0, 4.0, 0.0], atol=1e-14)

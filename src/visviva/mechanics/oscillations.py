@@ -222,9 +222,20 @@ def damped_oscillator_velocity(x0, v0, omega0, gamma, t):
 
 
 def damping_regime(omega0, gamma) -> str:
-    """``"undamped"``, ``"underdamped"``, ``"critical"`` or ``"overdamped"`` (scalars) [1/s]."""
+    """``"undamped"``, ``"underdamped"``, ``"critical"`` or ``"overdamped"`` (scalars) [1/s].
+
+    Raises :class:`~visviva.errors.ShapeError` for arrays (one regime per call: loop, or
+    compare gamma with omega0 directly for arrays).
+    """
     ins = Inputs()
-    w0, g = (float(x) for x in _rates(ins, omega0, gamma))
+    w0, g = _rates(ins, omega0, gamma)
+    if w0.ndim or g.ndim:
+        raise ShapeError(
+            "damping_regime classifies one oscillator: omega0 and gamma must be scalars; got "
+            f"shapes {w0.shape} and {g.shape}. Call it once per oscillator (or compare gamma "
+            "with omega0 directly for arrays)."
+        )
+    w0, g = float(w0), float(g)
     if g == 0:
         return "undamped"
     if g < w0:
@@ -420,7 +431,9 @@ def normal_modes(M, K):
     Returns
     -------
     omega : (n,) ndarray or Quantity
-        Angular frequencies, ascending [1/s]; zero modes (free translation) give 0.
+        Angular frequencies, ascending [1/s]; zero modes (free translation) give exactly 0
+        (an eigenvalue omega^2 within 8 n eps max(omega^2) of zero, eigh's rounding, is taken
+        as 0: frequencies below ~1e-7 max(omega) cannot be resolved from rounding anyway).
     modes : (n, n) ndarray
         Mode shapes as columns, normalised so that ``modes.T @ M @ modes = I`` (and
         ``modes.T @ K @ modes = diag(omega**2)``); the largest-magnitude entry of each column is
@@ -471,7 +484,10 @@ def normal_modes(M, K):
             "equilibrium is unstable (imaginary frequency). Check the sign of K (the potential "
             "energy is q.T K q / 2, K must be positive semidefinite)."
         )
-    lam = np.clip(lam, 0.0, None)
+    # an eigenvalue within eigh's rounding of zero (|error| ~ n eps max|lam|) is a zero mode
+    # (free translation or rotation): return exactly 0, not the square root of the rounding
+    # noise (~1e-8 max(omega) for a free chain)
+    lam = np.where(lam <= 8.0 * lam.size * np.finfo(float).eps * scale, 0.0, lam)
     order = np.argsort(lam, kind="stable")
     lam, modes = lam[order], modes[:, order]
     pivot = modes[np.argmax(np.abs(modes), axis=0), np.arange(modes.shape[1])]

@@ -170,6 +170,11 @@ def parallel_axis(I_cm, mass, displacement):
         raise ShapeError(f"I_cm must have shape (3, 3); got {I.shape}.")
     m = ins.get(mass, "kg", "mass", nonnegative=True)
     d = ins.vector(displacement, "m", "displacement")
+    if d.shape != (3,) or m.ndim:
+        raise ShapeError(
+            "parallel_axis shifts one inertia tensor: displacement must have shape (3,) and mass "
+            f"be a scalar; got shapes {d.shape} and {m.shape}. Call it once per reference point."
+        )
     return ins.out(I + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d)), "inertia")
 
 

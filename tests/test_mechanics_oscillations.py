@@ -267,3 +267,24 @@ def test_damping_regime_refuses_arrays_clearly():
         mech.damping_regime(1.0, np.array([0.5]))
     assert mech.damping_regime(np.float64(2.0), 2.0 / u.s) == "critical"
     assert mech.damping_regime(2.0, 2.0 * (1 + 1e-15)) == "overdamped"
+
+
+def test_angular_frequencies_refuse_hertz():
+    # audit19: omega0 = 1 Hz was read as 1 rad/s (astropy: Hz = 1/s), 2 pi too slow, silently:
+    # damped_oscillator(1 m, 0, 1 Hz, 0, 0.5 s) gave cos(0.5) = 0.878 m, not cos(pi) = -1 m
+    with pytest.raises(UnitsError, match="angular frequency"):
+        mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, 1 * u.Hz, 0 / u.s, 0.5 * u.s)
+    with pytest.raises(UnitsError, match="2 pi"):
+        mech.driven_response(2 * u.kHz, 1.0 / u.s, 0.1 / u.s)
+    with pytest.raises(UnitsError, match="omega1"):
+        mech.beats(1.0 * u.m, 10 * u.Hz, 11 / u.s, 1 * u.s)
+    with pytest.raises(UnitsError, match="omega3"):
+        mech.torque_free_precession_rate(1.0, 2.0, 3 * u.Hz)
+    # cycles per second and rad/s convert correctly: 1 cycle/s for 0.5 s is half a turn
+    x = mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, 1 * u.cycle / u.s, 0 / u.s, 0.5 * u.s)
+    assert x.to_value(u.m) == pytest.approx(-1.0, abs=1e-15)
+    x = mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, np.pi * u.rad / u.s, 0 / u.s, 0.5 * u.s)
+    assert x.to_value(u.m) == pytest.approx(0.0, abs=1e-15)
+    # a damping rate is a rate, not an angle: gamma in Hz (= 1/s) stays accepted
+    x = mech.damped_oscillator(1.0, 0.0, 2.0, 2.0 * u.Hz, 1.0)
+    assert x.to_value(u.m) == pytest.approx(3.0 * np.exp(-2.0), rel=1e-14)

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from visviva import mechanics as mech
-from visviva.errors import DomainError, InvalidInputError, ShapeError
+from visviva.errors import DomainError, InvalidInputError, ShapeError, UnitsError
 
 
 def test_inertia_tensor_point_masses():
@@ -256,3 +256,9 @@ def test_parallel_axis_refuses_batches_instead_of_broadcasting():
     # Steiner for a rod about its end: m L^2 / 12 + m (L/2)^2 = m L^2 / 3
     rod = mech.parallel_axis(mech.inertia_thin_rod(3.0, 2.0), 3.0 * u.kg, [0, 0, 100.0] * u.cm)
     np.testing.assert_allclose(rod.to_value(u.kg * u.m**2).diagonal(), [4.0, 4.0, 0.0], atol=1e-14)
+
+
+def test_angular_velocity_refuses_hertz():
+    # audit19: omega in Hz was silently read as rad/s (2 pi too slow)
+    with pytest.raises(UnitsError, match="angular frequency"):
+        mech.euler_equations(np.diag([1.0, 2.0, 3.0]), [0.1, 0.2, 0.3] * u.Hz)

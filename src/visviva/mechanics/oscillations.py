@@ -133,7 +133,7 @@ def _rates(ins, omega0, gamma):
     omega0, gamma : ndarray
         In 1/s.
     """
-    omega0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
+    omega0 = ins.get(omega0, "angular_rate", "omega0", nonnegative=True)
     return omega0, ins.get(gamma, "rate", "gamma", nonnegative=True)
 
 
@@ -262,8 +262,9 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     amplitude : ndarray or Quantity
         A = f0 / sqrt((omega0^2 - omega^2)^2 + 4 gamma^2 omega^2) [m].
     phase : ndarray
-        Lag delta = atan2(2 gamma omega, omega0^2 - omega^2) in [0, pi] [rad]; the steady
-        motion is x = A cos(omega t - delta).
+        Lag delta = atan2(2 gamma omega, omega0^2 - omega^2) in [0, pi] [rad] (pi more, in
+        [pi, 2 pi], for f0 < 0, A staying positive); the steady motion is
+        x = A cos(omega t - delta).
 
     Raises
     ------
@@ -275,7 +276,7 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     Taylor, *Classical Mechanics* (2005), eqs. 5.64-5.65. The resonance curve is A(omega).
     """
     ins = Inputs()
-    w = ins.get(omega, "rate", "omega", nonnegative=True)
+    w = ins.get(omega, "angular_rate", "omega", nonnegative=True)
     w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
     detuning = (w0 - w) * (w0 + w)
@@ -337,7 +338,7 @@ def driven_oscillator(x0, v0, omega0, gamma, f0, omega, t):
     x0, v0 = _initial_state(ins, x0, v0)
     w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
-    w = ins.get(omega, "rate", "omega", nonnegative=True)
+    w = ins.get(omega, "angular_rate", "omega", nonnegative=True)
     t = ins.get(t, "s", "t")
     _broadcast("driven_oscillator", x0=x0, v0=v0, omega0=w0, gamma=g, f0=f0, omega=w, t=t)
     c, s, _ = _propagator(w0, g, t)
@@ -532,8 +533,8 @@ def beats(amplitude, omega1, omega2, t):
     """
     ins = Inputs()
     a = ins.get(amplitude, "m", "amplitude")
-    w1 = ins.get(omega1, "rate", "omega1")
-    w2 = ins.get(omega2, "rate", "omega2")
+    w1 = ins.get(omega1, "angular_rate", "omega1")
+    w2 = ins.get(omega2, "angular_rate", "omega2")
     t = ins.get(t, "s", "t")
     slow = np.cos(0.5 * (w1 - w2) * t)
     x = 2.0 * a * slow * np.cos(0.5 * (w1 + w2) * t)

@@ -341,7 +341,7 @@ def euler_equations(I, omega, torque=None):
     """
     ins = Inputs()
     I = _body_inertia(ins.get(I, "inertia", "I"))
-    w = ins.vector(omega, "rate", "omega")
+    w = ins.vector(omega, "angular_rate", "omega")
     tau = np.zeros_like(w) if torque is None else ins.vector(torque, "torque", "torque")
     Iw = w @ I.T
     return np.linalg.solve(I, (tau - np.cross(w, Iw))[..., None])[..., 0]
@@ -471,7 +471,7 @@ def integrate_rigid_body(
 
     ins = Inputs()
     Ib = _body_inertia(ins.get(I, "inertia", "I"))
-    w0 = ins.vector(omega0, "rate", "omega0")
+    w0 = ins.vector(omega0, "angular_rate", "omega0")
     if w0.shape != (3,):
         raise ShapeError(f"omega0 must have shape (3,); got {w0.shape}.")
     t = np.atleast_1d(ins.get(t, "s", "t"))
@@ -562,7 +562,7 @@ def torque_free_precession_rate(I1, I3, omega3):
     ins = Inputs()
     I1 = ins.get(I1, "inertia", "I1", positive=True)
     I3 = ins.get(I3, "inertia", "I3", positive=True)
-    w3 = ins.get(omega3, "rate", "omega3")
+    w3 = ins.get(omega3, "angular_rate", "omega3")
     return ins.out((I3 - I1) * w3 / I1, "rate")
 
 
@@ -638,7 +638,7 @@ def heavy_top_precession_rate(I1, I3, mass, g, length, omega3, theta, *, branch:
     m = scalar(mass, "kg", "mass", positive=True)
     gg = scalar(g, "accel", "g")
     ell = scalar(length, "m", "length")
-    w3 = scalar(omega3, "rate", "omega3")
+    w3 = scalar(omega3, "angular_rate", "omega3")
     th = scalar(theta, "rad", "theta")
     a = I1 * np.cos(th)
     b = I3 * w3

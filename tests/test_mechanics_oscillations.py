@@ -288,3 +288,16 @@ def test_angular_frequencies_refuse_hertz():
     # a damping rate is a rate, not an angle: gamma in Hz (= 1/s) stays accepted
     x = mech.damped_oscillator(1.0, 0.0, 2.0, 2.0 * u.Hz, 1.0)
     assert x.to_value(u.m) == pytest.approx(3.0 * np.exp(-2.0), rel=1e-14)
+
+
+def test_driven_response_free_damped_particle_message():
+    # audit19: omega = omega0 = 0 with gamma > 0 was reported as "undamped ... at resonance"
+    with pytest.raises(DomainError, match="terminal velocity"):
+        mech.driven_response(0.0, 0.0, 0.1)
+    with pytest.raises(DomainError, match="undamped"):
+        mech.driven_response([1.0, 2.0], 2.0, 0.0)
+    # the motion itself: x'' + 2 gamma x' = f0 from rest drifts at f0 / (2 gamma)
+    g, f0, t = 0.1, 1.0, 200.0
+    x = mech.driven_oscillator(0.0, 0.0, 0.0, g, f0, 0.0, t)
+    exact = f0 / (2 * g) * (t - (1 - np.exp(-2 * g * t)) / (2 * g))
+    assert x == pytest.approx(exact, rel=1e-12)

@@ -282,6 +282,12 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     detuning = (w0 - w) * (w0 + w)
     denom = np.hypot(detuning, 2.0 * g * w)
     if np.any(denom == 0):
+        if np.any((denom == 0) & (np.broadcast_to(g, np.shape(denom)) > 0)):
+            raise DomainError(
+                "driven_response: omega = omega0 = 0 is a constant force on a free damped "
+                "particle, which drifts at the terminal velocity f0 / (2 gamma): there is no "
+                "bounded steady state. Use driven_oscillator for the motion."
+            )
         raise DomainError(
             "driven_response: undamped oscillator driven exactly at resonance has no steady "
             "state (the amplitude grows linearly). Give gamma > 0 or omega != omega0."

@@ -262,3 +262,16 @@ def test_angular_velocity_refuses_hertz():
     # audit19: omega in Hz was silently read as rad/s (2 pi too slow)
     with pytest.raises(UnitsError, match="angular frequency"):
         mech.euler_equations(np.diag([1.0, 2.0, 3.0]), [0.1, 0.2, 0.3] * u.Hz)
+
+
+def test_heavy_top_horizontal_axis_at_float_half_pi():
+    # audit19: theta = np.pi / 2 (cos = 6e-17) returned a fast precession of 1.6e18 rad/s
+    # instead of the documented DomainError; the slow branch is m g l / (I3 w3) exactly
+    args = (0.02, 0.01, 1.0, 9.81, 0.1, 200.0)
+    with pytest.raises(DomainError, match="pi/2"):
+        mech.heavy_top_precession_rate(*args, np.pi / 2, branch="fast")
+    slow = mech.heavy_top_precession_rate(*args, np.pi / 2, branch="slow")
+    assert slow == pytest.approx(1.0 * 9.81 * 0.1 / (0.01 * 200.0), rel=1e-15)
+    # a tilt resolvable in double precision keeps its (large, finite) fast root
+    fast = mech.heavy_top_precession_rate(*args, np.pi / 2 - 1e-9, branch="fast")
+    assert fast == pytest.approx(0.01 * 200.0 / (0.02 * np.sin(1e-9)), rel=1e-6)

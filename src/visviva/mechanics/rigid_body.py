@@ -640,7 +640,10 @@ def heavy_top_precession_rate(I1, I3, mass, g, length, omega3, theta, *, branch:
     ell = scalar(length, "m", "length")
     w3 = scalar(omega3, "angular_rate", "omega3")
     th = scalar(theta, "rad", "theta")
-    a = I1 * np.cos(th)
+    cos_th = np.cos(th)
+    # theta within rounding of pi/2 (np.pi / 2 has cos = 6e-17, not 0) is the horizontal axis:
+    # the fast branch I3 w3 / (I1 cos theta) would be ~1e18 rad/s instead of the error below
+    a = 0.0 if abs(cos_th) <= 4.0 * np.finfo(float).eps else I1 * cos_th
     b = I3 * w3
     c = m * gg * ell
     disc = b * b - 4.0 * a * c

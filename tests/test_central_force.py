@@ -263,3 +263,20 @@ def test_near_circular_apsidal_angle_of_a_yukawa_force(lam):
     orbit = orbit_equation(lambda r: -(1.0 + r / lam) * math.exp(-r / lam) / r**2,
                            r0=r_c * (1 + 1e-5), h=h, theta_max=20.0)
     assert orbit.apsidal_angle == pytest.approx(math.pi / math.sqrt(3.0 + dlnf), rel=1e-7)
+
+
+def test_quantity_potential_with_plain_radii_says_what_to_do():
+    # audit19: the error said the potential's km3/s2 "cannot be converted to length" and
+    # suggested "potential(r)=7000 * u.km"; it now says to give r and h as Quantities
+    from visviva.errors import UnitsError
+
+    V = kepler_potential(vv.EARTH)
+    with pytest.raises(UnitsError, match="r and h as Quantities"):
+        effective_potential(7000.0, 52000.0, V)
+    with pytest.raises(UnitsError, match="r and h as Quantities"):
+        turning_points(-20.0, 60000.0, V, 100.0, 1e6)
+    # the same orbit with Quantities: a(1 -+ e) from E = -20 km2/s2, h = 60000 km2/s
+    radii = turning_points(-20 * KM**2 / u.s**2, 60000 * KM**2 / u.s, V, 100 * KM, 1e6 * KM)
+    a = MU / 40.0
+    e = math.sqrt(1.0 - 60000.0**2 / (MU * a))
+    np.testing.assert_allclose(radii.to_value(KM), [a * (1 - e), a * (1 + e)], rtol=1e-12)

@@ -5,6 +5,7 @@ import pytest
 from astropy import units as u
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import linalg
 from scipy.integrate import solve_ivp
 
 from visviva import mechanics as mech
@@ -230,3 +231,73 @@ def test_normal_modes_accepts_mass_vector():
 def test_overflow_is_a_typed_error_not_inf():
     with pytest.raises(DomainError, match="overflows"):
         mech.damped_oscillator(1.0, 0.0, 1.0, 1000.0, -10.0)
+
+
+@pytest.mark.parametrize(
+    "masses, springs",
+    [
+        ([1.0, 2.0, 3.0], [0.0, 1.0, 1.0, 0.0]),
+        ([1e-3, 5.0, 0.2, 40.0], [0.0, 7.0, 0.01, 300.0, 0.0]),
+    ],
+)
+def test_normal_modes_free_chain_zero_mode_is_exactly_zero(masses, springs):
+    # audit19: the translation mode came back as sqrt(rounding) ~ 5e-9 rad/s, not 0 as documented
+    M, K = mech.chain_matrices(masses, springs)
+    omega, modes = mech.normal_modes(M, K)
+    assert omega[0] == 0.0
+    assert np.all(omega[1:] > 0)
+    # the zero mode is the rigid translation: all entries equal, M-normalised
+    np.testing.assert_allclose(modes[:, 0], 1.0 / np.sqrt(np.sum(masses)), rtol=1e-10)
+    lam = linalg.eigh(K, M, eigvals_only=True)
+    np.testing.assert_allclose(omega[1:], np.sqrt(lam[1:]), rtol=1e-9)
+
+
+def test_normal_modes_small_genuine_frequency_kept():
+    # a soft spring far above rounding (omega ratio 1e-4) is not mistaken for a zero mode
+    M, K = mech.chain_matrices([1.0, 1.0], [1e-8, 1.0, 1e-8])
+    omega, _ = mech.normal_modes(M, K)
+    np.testing.assert_allclose(omega, np.sqrt([1e-8, 2.0 + 1e-8]), rtol=1e-6)
+
+
+def test_damping_regime_refuses_arrays_clearly():
+    # audit19: arrays raised a bare TypeError ("only 0-dimensional arrays ...")
+    with pytest.raises(ShapeError, match="one oscillator"):
+        mech.damping_regime([1.0, 2.0], [1.0, 1.0])
+    with pytest.raises(ShapeError, match="one oscillator"):
+        mech.damping_regime(1.0, np.array([0.5]))
+    assert mech.damping_regime(np.float64(2.0), 2.0 / u.s) == "critical"
+    assert mech.damping_regime(2.0, 2.0 * (1 + 1e-15)) == "overdamped"
+
+
+def test_angular_frequencies_refuse_hertz():
+    # audit19: omega0 = 1 Hz was read as 1 rad/s (astropy: Hz = 1/s), 2 pi too slow, silently:
+    # damped_oscillator(1 m, 0, 1 Hz, 0, 0.5 s) gave cos(0.5) = 0.878 m, not cos(pi) = -1 m
+    with pytest.raises(UnitsError, match="angular frequency"):
+        mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, 1 * u.Hz, 0 / u.s, 0.5 * u.s)
+    with pytest.raises(UnitsError, match="2 pi"):
+        mech.driven_response(2 * u.kHz, 1.0 / u.s, 0.1 / u.s)
+    with pytest.raises(UnitsError, match="omega1"):
+        mech.beats(1.0 * u.m, 10 * u.Hz, 11 / u.s, 1 * u.s)
+    with pytest.raises(UnitsError, match="omega3"):
+        mech.torque_free_precession_rate(1.0, 2.0, 3 * u.Hz)
+    # cycles per second and rad/s convert correctly: 1 cycle/s for 0.5 s is half a turn
+    x = mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, 1 * u.cycle / u.s, 0 / u.s, 0.5 * u.s)
+    assert x.to_value(u.m) == pytest.approx(-1.0, abs=1e-15)
+    x = mech.damped_oscillator(1 * u.m, 0 * u.m / u.s, np.pi * u.rad / u.s, 0 / u.s, 0.5 * u.s)
+    assert x.to_value(u.m) == pytest.approx(0.0, abs=1e-15)
+    # a damping rate is a rate, not an angle: gamma in Hz (= 1/s) stays accepted
+    x = mech.damped_oscillator(1.0, 0.0, 2.0, 2.0 * u.Hz, 1.0)
+    assert x.to_value(u.m) == pytest.approx(3.0 * np.exp(-2.0), rel=1e-14)
+
+
+def test_driven_response_free_damped_particle_message():
+    # audit19: omega = omega0 = 0 with gamma > 0 was reported as "undamped ... at resonance"
+    with pytest.raises(DomainError, match="terminal velocity"):
+        mech.driven_response(0.0, 0.0, 0.1)
+    with pytest.raises(DomainError, match="undamped"):
+        mech.driven_response([1.0, 2.0], 2.0, 0.0)
+    # the motion itself: x'' + 2 gamma x' = f0 from rest drifts at f0 / (2 gamma)
+    g, f0, t = 0.1, 1.0, 200.0
+    x = mech.driven_oscillator(0.0, 0.0, 0.0, g, f0, 0.0, t)
+    exact = f0 / (2 * g) * (t - (1 - np.exp(-2 * g * t)) / (2 * g))
+    assert x == pytest.approx(exact, rel=1e-12)

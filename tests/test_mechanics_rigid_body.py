@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from visviva import mechanics as mech
-from visviva.errors import DomainError, InvalidInputError, ShapeError
+from visviva.errors import DomainError, InvalidInputError, ShapeError, UnitsError
 
 
 def test_inertia_tensor_point_masses():
@@ -244,3 +244,34 @@ def test_asymmetric_top_period_is_the_elliptic_integral():
     np.testing.assert_allclose(L, np.broadcast_to(L[0], L.shape), atol=1e-9 * np.linalg.norm(L[0]))
     omega_ref = tr.rotation.apply(tr.omega)
     np.testing.assert_allclose(np.sum(omega_ref * L, axis=1), E2, rtol=1e-9)
+
+
+def test_parallel_axis_refuses_batches_instead_of_broadcasting():
+    # audit19: a mass array of 3 broadcast against the (3, 3) tensor column-wise and returned a
+    # non-symmetric, wrong tensor silently; several displacements raised a bare numpy ValueError
+    with pytest.raises(ShapeError, match="one inertia tensor"):
+        mech.parallel_axis(np.eye(3), [1.0, 2.0, 3.0], [1.0, 0.0, 0.0])
+    with pytest.raises(ShapeError, match="one inertia tensor"):
+        mech.parallel_axis(np.eye(3), 1.0, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    # Steiner for a rod about its end: m L^2 / 12 + m (L/2)^2 = m L^2 / 3
+    rod = mech.parallel_axis(mech.inertia_thin_rod(3.0, 2.0), 3.0 * u.kg, [0, 0, 100.0] * u.cm)
+    np.testing.assert_allclose(rod.to_value(u.kg * u.m**2).diagonal(), [4.0, 4.0, 0.0], atol=1e-14)
+
+
+def test_angular_velocity_refuses_hertz():
+    # audit19: omega in Hz was silently read as rad/s (2 pi too slow)
+    with pytest.raises(UnitsError, match="angular frequency"):
+        mech.euler_equations(np.diag([1.0, 2.0, 3.0]), [0.1, 0.2, 0.3] * u.Hz)
+
+
+def test_heavy_top_horizontal_axis_at_float_half_pi():
+    # audit19: theta = np.pi / 2 (cos = 6e-17) returned a fast precession of 1.6e18 rad/s
+    # instead of the documented DomainError; the slow branch is m g l / (I3 w3) exactly
+    args = (0.02, 0.01, 1.0, 9.81, 0.1, 200.0)
+    with pytest.raises(DomainError, match="pi/2"):
+        mech.heavy_top_precession_rate(*args, np.pi / 2, branch="fast")
+    slow = mech.heavy_top_precession_rate(*args, np.pi / 2, branch="slow")
+    assert slow == pytest.approx(1.0 * 9.81 * 0.1 / (0.01 * 200.0), rel=1e-15)
+    # a tilt resolvable in double precision keeps its (large, finite) fast root
+    fast = mech.heavy_top_precession_rate(*args, np.pi / 2 - 1e-9, branch="fast")
+    assert fast == pytest.approx(0.01 * 200.0 / (0.02 * np.sin(1e-9)), rel=1e-6)

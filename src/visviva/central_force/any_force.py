@@ -131,7 +131,15 @@ def effective_potential(r, h, potential):
         return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
-    V = to_array(_call_potential(potential, r), "length", "potential(r)", allow_plain=True)
+    V = _call_potential(potential, r)
+    if isinstance(V, u.Quantity):
+        raise UnitsError(
+            f"potential(r) returned a Quantity (unit '{V.unit}') for plain-number radii: a "
+            "potential built from Quantities (e.g. kepler_potential(vv.EARTH)) needs r and h as "
+            "Quantities too (r in km, h in km2 / s, the energy in km2 / s2); or build it from "
+            "plain numbers (kepler_potential(398600.4418)) in one consistent unit system."
+        )
+    V = to_array(V, "length", "potential(r)", allow_plain=True)
     broadcast_or_raise("effective_potential", r=r, h=h, V=V)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         out = h**2 / (2.0 * r**2) + V

@@ -26,6 +26,7 @@ class _SIUnits:
         "speed": "m / s",
         "accel": "m / s2",
         "rate": "1 / s",
+        "angular_rate": "1 / s",
         "force": "N",
         "impulse": "N s",
         "energy": "J",
@@ -76,9 +77,22 @@ class Inputs:
         nonnegative: bool = False,
         finite: bool = True,
     ) -> np.ndarray:
-        """Convert ``value`` (Quantity -> SI ``unit`` from :data:`SI`; plain number as is)."""
+        """Convert ``value`` (Quantity -> SI ``unit`` from :data:`SI`; plain number as is).
+
+        ``unit="angular_rate"`` (an angular frequency or angular velocity, rad/s) refuses
+        Quantities in hertz: astropy converts 1 Hz to 1 rad/s, not 2 pi rad/s, so a frequency
+        in Hz would silently be 2 pi too slow.
+        """
         if value is None:
             raise InvalidInputError(f"{name} is required; pass a number or a Quantity.")
+        if unit == "angular_rate" and "Hz" in str(getattr(value, "unit", "")):
+            from ..errors import UnitsError
+
+            raise UnitsError(
+                f"{name} is an angular frequency (rad/s) but was given in '{value.unit}': "
+                "astropy converts 1 Hz to 1 rad/s, not 2 pi rad/s. Pass rad/s (or 1/s), or "
+                "2 * np.pi * f for a frequency f in Hz (u.cycle / u.s also converts correctly)."
+            )
         arr, was_q = to_si(value, getattr(SI, unit), name, finite=finite)
         self.any_quantity |= was_q
         if positive and np.any(~(arr > 0)):

@@ -133,7 +133,7 @@ def _rates(ins, omega0, gamma):
     omega0, gamma : ndarray
         In 1/s.
     """
-    omega0 = ins.get(omega0, "rate", "omega0", nonnegative=True)
+    omega0 = ins.get(omega0, "angular_rate", "omega0", nonnegative=True)
     return omega0, ins.get(gamma, "rate", "gamma", nonnegative=True)
 
 
@@ -222,9 +222,20 @@ def damped_oscillator_velocity(x0, v0, omega0, gamma, t):
 
 
 def damping_regime(omega0, gamma) -> str:
-    """``"undamped"``, ``"underdamped"``, ``"critical"`` or ``"overdamped"`` (scalars) [1/s]."""
+    """``"undamped"``, ``"underdamped"``, ``"critical"`` or ``"overdamped"`` (scalars) [1/s].
+
+    Raises :class:`~visviva.errors.ShapeError` for arrays (one regime per call: loop, or
+    compare gamma with omega0 directly for arrays).
+    """
     ins = Inputs()
-    w0, g = (float(x) for x in _rates(ins, omega0, gamma))
+    w0, g = _rates(ins, omega0, gamma)
+    if w0.ndim or g.ndim:
+        raise ShapeError(
+            "damping_regime classifies one oscillator: omega0 and gamma must be scalars; got "
+            f"shapes {w0.shape} and {g.shape}. Call it once per oscillator (or compare gamma "
+            "with omega0 directly for arrays)."
+        )
+    w0, g = float(w0), float(g)
     if g == 0:
         return "undamped"
     if g < w0:
@@ -251,8 +262,9 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     amplitude : ndarray or Quantity
         A = f0 / sqrt((omega0^2 - omega^2)^2 + 4 gamma^2 omega^2) [m].
     phase : ndarray
-        Lag delta = atan2(2 gamma omega, omega0^2 - omega^2) in [0, pi] [rad]; the steady
-        motion is x = A cos(omega t - delta).
+        Lag delta = atan2(2 gamma omega, omega0^2 - omega^2) in [0, pi] [rad] (pi more, in
+        [pi, 2 pi], for f0 < 0, A staying positive); the steady motion is
+        x = A cos(omega t - delta).
 
     Raises
     ------
@@ -264,12 +276,18 @@ def driven_response(omega, omega0, gamma, f0=1.0):
     Taylor, *Classical Mechanics* (2005), eqs. 5.64-5.65. The resonance curve is A(omega).
     """
     ins = Inputs()
-    w = ins.get(omega, "rate", "omega", nonnegative=True)
+    w = ins.get(omega, "angular_rate", "omega", nonnegative=True)
     w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
     detuning = (w0 - w) * (w0 + w)
     denom = np.hypot(detuning, 2.0 * g * w)
     if np.any(denom == 0):
+        if np.any((denom == 0) & (np.broadcast_to(g, np.shape(denom)) > 0)):
+            raise DomainError(
+                "driven_response: omega = omega0 = 0 is a constant force on a free damped "
+                "particle, which drifts at the terminal velocity f0 / (2 gamma): there is no "
+                "bounded steady state. Use driven_oscillator for the motion."
+            )
         raise DomainError(
             "driven_response: undamped oscillator driven exactly at resonance has no steady "
             "state (the amplitude grows linearly). Give gamma > 0 or omega != omega0."
@@ -326,7 +344,7 @@ def driven_oscillator(x0, v0, omega0, gamma, f0, omega, t):
     x0, v0 = _initial_state(ins, x0, v0)
     w0, g = _rates(ins, omega0, gamma)
     f0 = ins.get(f0, "accel", "f0")
-    w = ins.get(omega, "rate", "omega", nonnegative=True)
+    w = ins.get(omega, "angular_rate", "omega", nonnegative=True)
     t = ins.get(t, "s", "t")
     _broadcast("driven_oscillator", x0=x0, v0=v0, omega0=w0, gamma=g, f0=f0, omega=w, t=t)
     c, s, _ = _propagator(w0, g, t)
@@ -420,7 +438,9 @@ def normal_modes(M, K):
     Returns
     -------
     omega : (n,) ndarray or Quantity
-        Angular frequencies, ascending [1/s]; zero modes (free translation) give 0.
+        Angular frequencies, ascending [1/s]; zero modes (free translation) give exactly 0
+        (an eigenvalue omega^2 within 8 n eps max(omega^2) of zero, eigh's rounding, is taken
+        as 0: frequencies below ~1e-7 max(omega) cannot be resolved from rounding anyway).
     modes : (n, n) ndarray
         Mode shapes as columns, normalised so that ``modes.T @ M @ modes = I`` (and
         ``modes.T @ K @ modes = diag(omega**2)``); the largest-magnitude entry of each column is
@@ -471,7 +491,10 @@ def normal_modes(M, K):
             "equilibrium is unstable (imaginary frequency). Check the sign of K (the potential "
             "energy is q.T K q / 2, K must be positive semidefinite)."
         )
-    lam = np.clip(lam, 0.0, None)
+    # an eigenvalue within eigh's rounding of zero (|error| ~ n eps max|lam|) is a zero mode
+    # (free translation or rotation): return exactly 0, not the square root of the rounding
+    # noise (~1e-8 max(omega) for a free chain)
+    lam = np.where(lam <= 8.0 * lam.size * np.finfo(float).eps * scale, 0.0, lam)
     order = np.argsort(lam, kind="stable")
     lam, modes = lam[order], modes[:, order]
     pivot = modes[np.argmax(np.abs(modes), axis=0), np.arange(modes.shape[1])]
@@ -516,8 +539,8 @@ def beats(amplitude, omega1, omega2, t):
     """
     ins = Inputs()
     a = ins.get(amplitude, "m", "amplitude")
-    w1 = ins.get(omega1, "rate", "omega1")
-    w2 = ins.get(omega2, "rate", "omega2")
+    w1 = ins.get(omega1, "angular_rate", "omega1")
+    w2 = ins.get(omega2, "angular_rate", "omega2")
     t = ins.get(t, "s", "t")
     slow = np.cos(0.5 * (w1 - w2) * t)
     x = 2.0 * a * slow * np.cos(0.5 * (w1 + w2) * t)

@@ -170,6 +170,11 @@ def parallel_axis(I_cm, mass, displacement):
         raise ShapeError(f"I_cm must have shape (3, 3); got {I.shape}.")
     m = ins.get(mass, "kg", "mass", nonnegative=True)
     d = ins.vector(displacement, "m", "displacement")
+    if d.shape != (3,) or m.ndim:
+        raise ShapeError(
+            "parallel_axis shifts one inertia tensor: displacement must have shape (3,) and mass "
+            f"be a scalar; got shapes {d.shape} and {m.shape}. Call it once per reference point."
+        )
     return ins.out(I + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d)), "inertia")
 
 
@@ -336,7 +341,7 @@ def euler_equations(I, omega, torque=None):
     """
     ins = Inputs()
     I = _body_inertia(ins.get(I, "inertia", "I"))
-    w = ins.vector(omega, "rate", "omega")
+    w = ins.vector(omega, "angular_rate", "omega")
     tau = np.zeros_like(w) if torque is None else ins.vector(torque, "torque", "torque")
     Iw = w @ I.T
     return np.linalg.solve(I, (tau - np.cross(w, Iw))[..., None])[..., 0]
@@ -466,7 +471,7 @@ def integrate_rigid_body(
 
     ins = Inputs()
     Ib = _body_inertia(ins.get(I, "inertia", "I"))
-    w0 = ins.vector(omega0, "rate", "omega0")
+    w0 = ins.vector(omega0, "angular_rate", "omega0")
     if w0.shape != (3,):
         raise ShapeError(f"omega0 must have shape (3,); got {w0.shape}.")
     t = np.atleast_1d(ins.get(t, "s", "t"))
@@ -557,7 +562,7 @@ def torque_free_precession_rate(I1, I3, omega3):
     ins = Inputs()
     I1 = ins.get(I1, "inertia", "I1", positive=True)
     I3 = ins.get(I3, "inertia", "I3", positive=True)
-    w3 = ins.get(omega3, "rate", "omega3")
+    w3 = ins.get(omega3, "angular_rate", "omega3")
     return ins.out((I3 - I1) * w3 / I1, "rate")
 
 
@@ -633,9 +638,12 @@ def heavy_top_precession_rate(I1, I3, mass, g, length, omega3, theta, *, branch:
     m = scalar(mass, "kg", "mass", positive=True)
     gg = scalar(g, "accel", "g")
     ell = scalar(length, "m", "length")
-    w3 = scalar(omega3, "rate", "omega3")
+    w3 = scalar(omega3, "angular_rate", "omega3")
     th = scalar(theta, "rad", "theta")
-    a = I1 * np.cos(th)
+    cos_th = np.cos(th)
+    # theta within rounding of pi/2 (np.pi / 2 has cos = 6e-17, not 0) is the horizontal axis:
+    # the fast branch I3 w3 / (I1 cos theta) would be ~1e18 rad/s instead of the error below
+    a = 0.0 if abs(cos_th) <= 4.0 * np.finfo(float).eps else I1 * cos_th
     b = I3 * w3
     c = m * gg * ell
     disc = b * b - 4.0 * a * c

@@ -290,6 +290,11 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
 
 #: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)
 _CHAN_LOG_TOL = math.log(1.1)
+#: Below this Pc (both values compared) the accuracy checks stay silent: 1e-30 is twenty
+#: orders under any manoeuvre threshold (1e-4 .. 1e-7), and there one method's log-space
+#: integral may underflow to 0 where the other still gives 1e-52 (a spurious warning on every
+#: fast, well-separated encounter).
+_NEGLIGIBLE_LN_PC = math.log(1e-30)
 
 
 def _check_chan(lp_chan, xm, zm, sx, sz, hbr):
@@ -304,7 +309,8 @@ def _check_chan(lp_chan, xm, zm, sx, sz, hbr):
         lp_foster = _log_pc_2d(xm, zm, sx, sz, hbr, "foster")
     except ArithmeticError:  # ConvergenceError: no reference to compare with
         return
-    if lp_chan == lp_foster or abs(lp_chan - lp_foster) <= _CHAN_LOG_TOL:
+    if (lp_chan == lp_foster or abs(lp_chan - lp_foster) <= _CHAN_LOG_TOL
+            or max(lp_chan, lp_foster) < _NEGLIGIBLE_LN_PC):
         return
     warnings.warn(
         f"Chan's approximation gives Pc = {math.exp(lp_chan):.4g} (ln Pc = {lp_chan:.6g}) where "
@@ -354,7 +360,8 @@ def _check_3d(lp_3d, r1, v1, c1, r2, v2, c2, hbr, gm_km, half):
                                     (-half, half))
     except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
         return
-    if lp_3d == lp_hall or abs(lp_3d - lp_hall) <= _3D_LOG_TOL:
+    if (lp_3d == lp_hall or abs(lp_3d - lp_hall) <= _3D_LOG_TOL
+            or max(lp_3d, lp_hall) < _NEGLIGIBLE_LN_PC):
         return
     speed = float(np.linalg.norm(np.asarray(v1) - np.asarray(v2)))
     warnings.warn(

@@ -452,3 +452,43 @@ def test_comments_at_the_end_of_an_oem_after_its_covariance_are_kept(fmt):
     assert seg.state_comments == {11: ["produced by the test", "end of file"]}
     back = vv.read_oem(vv.write_oem(vv.read_oem(text), format=fmt)).segments[0]
     assert back.state_comments == seg.state_comments and len(back.covariances) == 1
+
+
+def test_oem_covariance_on_the_state_axes_as_the_opm_gives_it():
+    # seg.covariance(k): an RTN covariance rotated with the segment's state at its epoch (a
+    # state epoch or an interpolated one), the same matrix the OPM's covariance gives for that
+    # state; the frame itself or another name of the same axes kept; others refused
+    from visviva._covariance import from_local
+    from visviva.core.local_frames import FRAME_CODES
+
+    rtn = np.diag([1e-6, 4e-6, 9e-6, 1e-12, 4e-12, 9e-12])
+    rtn[0, 1] = rtn[1, 0] = 1e-6
+    lines = ["CCSDS_OEM_VERS = 2.0", "CREATION_DATE = 2024-01-31T00:00:00", "ORIGINATOR = T",
+             "META_START", "OBJECT_NAME = S", "OBJECT_ID = 2024-001A", "CENTER_NAME = EARTH",
+             "REF_FRAME = EME2000", "TIME_SYSTEM = UTC", "START_TIME = 2024-01-31T00:00:00",
+             "STOP_TIME = 2024-01-31T00:04:00", "INTERPOLATION = HERMITE",
+             "INTERPOLATION_DEGREE = 1", "META_STOP",
+             "2024-01-31T00:00:00 7000.0 0.0 0.0 0.0 7.546 0.0",
+             "2024-01-31T00:02:00 6968.0 904.4 0.0 -0.532 7.512 0.0",
+             "2024-01-31T00:04:00 6873.0 1799.9 0.0 -1.061 7.410 0.0", "COVARIANCE_START"]
+    for epoch, frame in (("2024-01-31T00:02:00", "RTN"), ("2024-01-31T00:01:00", "RTN"),
+                         ("2024-01-31T00:03:00", "EME2000"), ("2024-01-31T00:03:00", "GCRF"),
+                         ("2024-01-31T00:03:00", "ITRF")):
+        lines += [f"EPOCH = {epoch}", f"COV_REF_FRAME = {frame}"]
+        lines += [" ".join(f"{rtn[i, j]:.6e}" for j in range(i + 1)) for i in range(6)]
+    lines.append("COVARIANCE_STOP")
+    seg = vv.read_oem("\n".join(lines) + "\n").segments[0]
+    # at a state epoch: that state's RTN axes
+    want = from_local(rtn, seg.r_km[1], seg.v_km_s[1], FRAME_CODES["RTN"])
+    np.testing.assert_allclose(seg.covariance(0), want, rtol=1e-12, atol=0)
+    assert not np.allclose(seg.covariance(0), rtn)  # the axes turned (7.4 deg)
+    # between states: the interpolated state's axes
+    t = Time("2024-01-31T00:01:00", scale="utc")
+    s = seg.interpolate(t)
+    want = from_local(rtn, s.r.to_value(u.km), s.v.to_value(u.km / u.s), FRAME_CODES["RTN"])
+    np.testing.assert_allclose(seg.covariance(1), want, rtol=1e-12, atol=0)
+    # REF_FRAME, or another name of its axes, as written; an Earth-fixed one refused
+    assert np.array_equal(seg.covariance(2), seg.covariances[2].matrix)
+    assert np.array_equal(seg.covariance(3), seg.covariances[3].matrix)
+    with pytest.raises(vv.InvalidInputError, match="neither REF_FRAME = EME2000"):
+        seg.covariance(4)

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Keyword
 
 __all__ = ["AXES", "COVARIANCE_KEYWORDS", "matrix_from_values", "values_from_matrix",
-           "matrix_from_rows", "check_variance", "check_record_variances"]
+           "matrix_from_rows", "check_variance", "check_record_variances", "on_state_axes"]
 
 AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
 
@@ -113,3 +114,60 @@ def check_record_variances(record, source: str) -> None:
         key = f"C{a}_{a}"
         if key in record:
             check_variance(record[key], axis, record.line_of(key), source)
+
+
+def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
+    """A covariance written in ``COV_REF_FRAME = cov_frame`` on the axes of its state.
+
+    A local orbital frame of the state (``RTN``/``RSW``/``RIC``/``QSW``, ``TNW``, ``VNB``) is
+    rotated to the state's axes (the velocity block as the position block, the CCSDS
+    convention); ``REF_FRAME`` itself, or another name of the same axes, is kept.
+
+    Parameters
+    ----------
+    matrix : ndarray (6, 6)
+        The covariance as written (km, km/s).
+    cov_frame : str or None
+        ``COV_REF_FRAME`` (None: ``REF_FRAME``).
+    ref_frame : str
+        The message's ``REF_FRAME``.
+    state_frame : str or None
+        visviva's name of ``REF_FRAME`` (``"itrs"`` for Earth-fixed axes).
+    r, v : ndarray (3,)
+        The state the local frame belongs to (km, km/s).
+    where : str
+        Where the keyword is, for messages (source, line, keyword).
+    raw : str
+        How the user reaches the matrix as written, for messages.
+
+    Returns
+    -------
+    ndarray (6, 6)
+
+    Raises
+    ------
+    InvalidInputError
+        Another frame than ``REF_FRAME`` and no local frame, or a local frame of a state on
+        Earth-fixed axes (its velocity does not give the orbital axes).
+    """
+    if cov_frame is None or str(cov_frame).strip().upper() == str(ref_frame).strip().upper():
+        return matrix
+    from .._covariance import from_local
+    from ..core.local_frames import FRAME_CODES
+    from .timeframes import visviva_frame
+
+    key = str(cov_frame).strip().upper()
+    if key not in FRAME_CODES:
+        if visviva_frame(key) is not None and visviva_frame(key) == state_frame:
+            return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
+        raise InvalidInputError(
+            f"{where} is neither REF_FRAME = {ref_frame} nor a local orbital frame "
+            f"({', '.join(sorted(FRAME_CODES))}); rotate {raw} to the state's axes yourself.")
+    if state_frame == "itrs":
+        raise InvalidInputError(
+            f"{where} of a state on Earth-fixed axes ({ref_frame}): its Earth-fixed velocity "
+            f"does not give the orbital axes; rotate the state and {raw} to an inertial frame "
+            "first.")
+    return from_local(matrix, np.asarray(r, dtype=np.float64), np.asarray(v, dtype=np.float64),
+                      FRAME_CODES[key])
+

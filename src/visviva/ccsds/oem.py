@@ -443,6 +443,45 @@ class OEMSegment(FrameCenterMetadata):
                      "extrapolate")
         return text
 
+    def covariance(self, k: int) -> np.ndarray:
+        """Covariance ``k`` (km, km/s) on the axes of the segment's states, as
+        :attr:`visviva.OPM.covariance` gives the OPM's.
+
+        A ``COV_REF_FRAME`` naming a local orbital frame (``RTN``/``RSW``/``RIC``/``QSW``,
+        ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` with the segment's state at
+        the covariance's epoch (the state there, else interpolated); the matrix as written is
+        ``seg.covariances[k].matrix``.
+
+        Parameters
+        ----------
+        k : int
+            Index into :attr:`covariances`.
+
+        Returns
+        -------
+        ndarray, shape (6, 6)
+
+        Raises
+        ------
+        InvalidInputError
+            A ``COV_REF_FRAME`` that is neither ``REF_FRAME`` nor a local frame, a local frame
+            of states on Earth-fixed axes, or an epoch the states do not cover.
+        """
+        from .covariance import on_state_axes
+
+        cov = self.covariances[k]
+        if cov.frame is None:
+            return cov.matrix
+        if cov.epoch in self.epochs:
+            i = self.epochs.index(cov.epoch)
+            r, v = self.r_km[i], self.v_km_s[i]
+        else:
+            t = epochs_to_time(cov.epoch, self.time_system, mission_epoch=self.mission_epoch)
+            r, v = (a[0] for a in self.interpolate_arrays(t))
+        where = f"covariance {k} (EPOCH = {cov.epoch}): COV_REF_FRAME = {cov.frame}"
+        return on_state_axes(cov.matrix, cov.frame, self.frame, self.visviva_frame, r, v, where,
+                             f"seg.covariances[{k}].matrix")
+
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.
 

@@ -12,7 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidInputError, ShapeError
-from .covariance import COVARIANCE_KEYWORDS, check_record_variances, matrix_from_values
+from .covariance import (
+    COVARIANCE_KEYWORDS,
+    check_record_variances,
+    matrix_from_values,
+    on_state_axes,
+)
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .layout import read_message, write_message
@@ -299,30 +304,12 @@ class OPM(FrameCenterMetadata):
             return None
         matrix = matrix_from_values(cov.values)
         frame = cov.get("COV_REF_FRAME")
-        if frame is None or str(frame).strip().upper() == str(self.frame).strip().upper():
-            return matrix
-        from .._covariance import from_local
-        from ..core.local_frames import FRAME_CODES
-        from .timeframes import visviva_frame
-
-        key = str(frame).strip().upper()
-        where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
-        if key not in FRAME_CODES:
-            if visviva_frame(key) is not None and visviva_frame(key) == self.visviva_frame:
-                return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
-            raise InvalidInputError(
-                f"{where} is neither REF_FRAME = {self.frame} nor a local orbital frame "
-                f"({', '.join(sorted(FRAME_CODES))}); rotate opm.sections['covariance'] to "
-                "the state's axes yourself.")
-        if self.visviva_frame == "itrs":
-            raise InvalidInputError(
-                f"{where} of a state on Earth-fixed axes ({self.frame}): its Earth-fixed "
-                "velocity does not give the orbital axes; rotate the state and "
-                "opm.sections['covariance'] to an inertial frame first.")
         sv = self.sections["state_vector"]
-        r = np.array([sv["X"], sv["Y"], sv["Z"]], dtype=np.float64)
-        v = np.array([sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]], dtype=np.float64)
-        return from_local(matrix, r, v, FRAME_CODES[key])
+        r = [sv["X"], sv["Y"], sv["Z"]]
+        v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
+        where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
+        return on_state_axes(matrix, frame, self.frame, self.visviva_frame, r, v, where,
+                             "opm.sections['covariance']")
 
     @property
     def maneuvers(self) -> list[Maneuver]:

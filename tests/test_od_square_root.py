@@ -219,6 +219,16 @@ def _truth(offsets):
     return y
 
 
+def _assert_consistent(flt, bound=30.0):
+    """Finite NEES, mean below ``bound``, of the filtered and the smoothed states (the first
+    epoch, the prior's, left out)."""
+    truth = _truth(flt.offsets_s)
+    for states, covs in ((flt.states, flt.covariances),
+                         (flt.smoothed_states, flt.smoothed_covariances)):
+        nees = [_nees(e, p) for e, p in zip(states[1:] - truth[1:], covs[1:], strict=True)]
+        assert np.all(np.isfinite(nees)) and np.mean(nees) < bound
+
+
 def _nees(e, P):
     """e^T P^+ e, through the pseudo-inverse at the matrix's own round-off."""
     d = np.sqrt(np.diag(P))
@@ -242,11 +252,7 @@ def test_nanometre_positions_against_a_kilometre_prior_stay_positive_definite(si
     assert min(_least_eigenvalue_ratio(p) for p in flt.covariances) > 1e-3
     sig_r = np.sqrt(np.diag(flt.covariance)[:3])
     assert np.all(sig_r < 2 * sigma_km)  # the data fixed the position to their own precision
-    truth = _truth(flt.offsets_s)
-    for states, covs in ((flt.states, flt.covariances),
-                         (flt.smoothed_states, flt.smoothed_covariances)):
-        nees = [_nees(e, p) for e, p in zip(states[1:] - truth[1:], covs[1:], strict=True)]
-        assert np.all(np.isfinite(nees)) and np.mean(nees) < 30.0
+    _assert_consistent(flt)
 
 
 def test_microradian_angles_against_a_100_km_prior_stay_positive_definite():
@@ -421,11 +427,7 @@ def test_the_square_root_unscented_filter_and_smoother_at_nanometres(sigma_km):
     _assert_psd(flt.smoothed_covariances)
     assert min(_least_eigenvalue_ratio(p) for p in flt.smoothed_covariances) > 1e-8
     assert np.all(np.sqrt(np.diag(flt.covariance)[:3]) < 2 * sigma_km)
-    truth = _truth(flt.offsets_s)
-    for states, covs in ((flt.states, flt.covariances),
-                         (flt.smoothed_states, flt.smoothed_covariances)):
-        nees = [_nees(e, p) for e, p in zip(states[1:] - truth[1:], covs[1:], strict=True)]
-        assert np.all(np.isfinite(nees)) and np.mean(nees) < 30.0
+    _assert_consistent(flt)
 
 
 def test_a_negative_centre_weight_needs_no_downdate_at_nanometres():

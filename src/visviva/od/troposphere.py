@@ -175,8 +175,9 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
         h[rated, 0] += zenith[rated] * dm[rated] * dsin
     pointed = kinds == "azel"
     if pointed.any():
+        owner = np.array([id(s) for s in stations])  # once, not per station
         for key, (_, p, t_c) in air.items():
-            idx = np.flatnonzero(pointed & np.array([id(s) == key for s in stations]))
+            idx = np.flatnonzero(pointed & (owner == key))
             if idx.size:
                 el_deg = np.degrees(h[idx, 1])
                 h[idx, 1] += np.radians(refraction_deg(el_deg, p, t_c))

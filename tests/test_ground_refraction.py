@@ -69,6 +69,33 @@ def test_the_bending_integral_against_an_independent_quadrature():
                                rtol=2e-8)
 
 
+def test_the_bending_integral_against_a_ray_trace():
+    # the ray equation d/ds (n dr/ds) = grad n, integrated through the atmosphere: the angle
+    # between the ray's first and last directions is the total bending (no Snell invariant used)
+    from scipy.integrate import solve_ivp
+
+    r0, eps = 6370.0, 311e-6
+
+    def rhs(_, y):
+        r = np.hypot(y[0], y[1])
+        n = 1.0 + eps * np.exp(-ITU_DECAY_PER_KM * (r - r0))
+        g = -ITU_DECAY_PER_KM * (n - 1.0) / r
+        return [y[2] / n, y[3] / n, g * y[0], g * y[1]]
+
+    def top(_, y):
+        return np.hypot(y[0], y[1]) - (r0 + 150.0)
+
+    top.terminal = True
+    for theta in (0.0, 2.0, 10.0):
+        t = np.radians(theta)
+        n0 = 1.0 + eps
+        sol = solve_ivp(rhs, [0, 5000], [0.0, r0, n0 * np.cos(t), n0 * np.sin(t)], events=top,
+                        rtol=1e-12, atol=1e-12, max_step=10.0)
+        px, pz = sol.y_events[0][0][2:]
+        bending = np.degrees(np.arctan2(pz, px)) - theta
+        assert -bending == pytest.approx(radio_bending_deg([theta], 311.0)[0], rel=1e-6)
+
+
 @pytest.mark.parametrize("h_km", [0.0, 1.0, 2.0, 4.0])
 def test_radio_refraction_against_itu_r_p834(h_km):
     # the ITU-R reference atmosphere at the station's height: N_s = 315 exp(-0.1361 h)
@@ -151,6 +178,18 @@ def test_refraction_is_finite_positive_and_decreasing(e, p, t, rh, model):
     assert np.all(np.isfinite(r)) and np.all(r >= 0.0) and np.all(r < 1.5)
     assert np.all(np.diff(r) <= 1e-12)
     assert np.all(np.isfinite(slope)) and np.all(slope <= 1e-12) and np.all(slope > -1.0)
+
+
+@pytest.mark.parametrize("air", [(1100.0, 45.0, 1.0), (1100.0, -90.0, 0.0), (100.0, -56.5, 0.5)])
+def test_radio_refraction_in_extreme_air(air):
+    # hot saturated air (N = 622): the rays aimed below the horizon pass under the station into
+    # the profile's ducting layer; the table raised ValueError (x not increasing) from NaNs
+    p, t, rh = air
+    e = np.linspace(-1.0, 90.0, 2001)
+    r = refraction_deg(e, p, t, relative_humidity=rh, model="radio")
+    slope = refraction_slope(e, p, t, relative_humidity=rh, model="radio")
+    assert np.all(np.isfinite(r)) and np.all(r >= 0.0) and np.all(np.diff(r) <= 1e-12)
+    assert np.all(np.isfinite(slope)) and np.all(slope <= 1e-12)
 
 
 # look(): the station's air ------------------------------------------------------------------

@@ -14,9 +14,10 @@ appears higher than its geometric elevation ``E`` by the refraction ``R(E)``. Tw
   ITU-R reference atmosphere (0.577 deg in the standard air with 50 % humidity) where the
   optical formula gives 0.48 deg.
 
-Both are the bending of a ray from a target far outside the atmosphere (a star, GEO); for a
-LEO satellite near the horizon the pointing offset is somewhat smaller (the bent ray's lever
-arm over the range). Both are zero below -1 deg of geometric elevation.
+Both are the bending of a ray from a target far outside the atmosphere (a star; GEO sees 0.995
+of it); a nearer target is offset less by the bent ray's lever arm over the range: a satellite
+500 km up sees 0.93 of the bending at the horizon, 0.97 at 5 deg, 0.98 at 10 deg (a ray trace
+of the radio profile). Both are zero below -1 deg of geometric elevation.
 """
 
 from __future__ import annotations
@@ -149,13 +150,14 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity):
         r, slope = _saemundsson_arcmin(h)
         r, slope = r * scale / 60.0, slope * scale / 60.0
     elif model == "radio":
-        spline = _radio_table(_surface_refractivity(pressure_hpa, temperature_c,
-                                                    relative_humidity))
-        if spline is None:  # no air
+        table = _radio_table(_surface_refractivity(pressure_hpa, temperature_c,
+                                                   relative_humidity))
+        if table is None:  # no air
             r = slope = np.zeros_like(h)
         else:
-            hh = np.clip(h, _LOWEST_DEG, 90.0)
-            r, slope = spline(hh), spline(hh, 1)
+            spline, lowest = table
+            hh = np.clip(h, lowest, 90.0)
+            r, slope = spline(hh), np.where(h < lowest, 0.0, spline(hh, 1))
     else:
         raise InvalidInputError(
             f"model must be 'optical' (light: Saemundsson's formula) or 'radio' (antennas); "
@@ -253,7 +255,8 @@ _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(16)
 #: Top of the integration above the station (km): exp(-0.1361 * 120) = 8e-8 of N_s.
 _TOP_KM = 120.0
 #: Apparent elevations of the table (deg): dense near the horizon, where the bending bends.
-_TABLE_DEG = np.concatenate([np.linspace(-1.6, 12.0, 341)[:-1], np.linspace(12.0, 90.0, 160)])
+#: From -1 deg, whose geometric elevation -1 deg - R lies below the models' range.
+_TABLE_DEG = np.concatenate([np.linspace(-1.0, 12.0, 341)[:-1], np.linspace(12.0, 90.0, 160)])
 
 
 def radio_bending_deg(theta_deg, n_s):
@@ -297,11 +300,19 @@ def radio_bending_deg(theta_deg, n_s):
 
 @functools.lru_cache(maxsize=64)
 def _radio_table(n_s: float):
-    """A cubic spline of the radio refraction (deg) over the geometric elevation (deg) for the
-    surface refractivity ``n_s``; None for no air."""
+    """The radio refraction (deg) over the geometric elevation (deg) for the surface
+    refractivity ``n_s``: a cubic spline and the lowest geometric elevation it covers (below
+    it the refraction stays at the spline's first value); None for no air."""
     from scipy.interpolate import CubicSpline
 
     if n_s <= 0.0:
         return None
-    tau = radio_bending_deg(_TABLE_DEG, n_s)
-    return CubicSpline(_TABLE_DEG - tau, tau)
+    with np.errstate(all="ignore"):
+        tau = radio_bending_deg(_TABLE_DEG, n_s)
+    geometric = _TABLE_DEG - tau
+    # rays aimed below the horizon pass under the station, where the profile grows; in dense
+    # air they reach its ducting layer (no tangent point): keep the apparent elevations above
+    ok = np.isfinite(geometric) & (tau >= 0.0)
+    ok[:-1] &= np.diff(geometric) > 0.0
+    first = _TABLE_DEG.size - np.argmin(ok[::-1]) if not ok.all() else 0
+    return CubicSpline(geometric[first:], tau[first:]), float(geometric[first])

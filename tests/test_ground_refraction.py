@@ -279,6 +279,16 @@ def test_od_azel_rows_take_the_radio_bending():
     np.testing.assert_allclose(lift(True), refraction_deg(el, p, t_c), atol=1e-12)
 
 
+def test_nan_geometry_stays_nan_inside_look():
+    # look() and the OD model pass their geometry through bend(): a NaN elevation (an SGP4
+    # failure) must not come back as a finite refraction (the optical formula gave 0.48 deg)
+    from visviva.ground.refraction import bend
+
+    for model in ("optical", "radio"):
+        r, slope = bend(np.array([np.nan, 10.0]), model, 1010.0, 10.0, 0.5)
+        assert np.isnan(r[0]) and np.isnan(slope[0]) and np.isfinite(r[1])
+
+
 def test_bad_input_is_refused_clearly():
     with pytest.raises(vv.InvalidInputError, match="NaN"):
         refraction_deg(np.array([1.0, np.nan]))  # was 0 refraction, silently

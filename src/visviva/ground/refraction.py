@@ -163,8 +163,11 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity):
             f"model must be 'optical' (light: Saemundsson's formula) or 'radio' (antennas); "
             f"got {model!r}.")
     below = h < _LOWEST_DEG
+    nan = np.isnan(h)
     # >= 0: the fits reach the zenith within 1e-9 deg, on either side
-    return np.where(below, 0.0, np.maximum(r, 0.0)), np.where(below, 0.0, slope)
+    r = np.where(below, 0.0, np.maximum(r, 0.0))
+    slope = np.where(below, 0.0, slope)
+    return np.where(nan, np.nan, r), np.where(nan, np.nan, slope)
 
 
 def station_air(refraction, height_m):

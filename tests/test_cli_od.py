@@ -541,3 +541,20 @@ def test_troposphere_flag_fits_as_the_library_does(campaign, tmp_path, capsys):
     plain = vv.fit_orbit(campaign["obs"], None, [vv.J2(vv.EARTH)])
     shift = np.linalg.norm((fit.state.r - plain.state.r).to_value(u.km))
     assert 1e-4 < shift < 0.1
+    # --refraction radio: the AZEL rows bent by the radio model, as troposphere={"refraction":
+    # "radio"} in the library; without --troposphere it is refused
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--force", "j2",
+                          "--troposphere", "--refraction", "radio", "--opm", str(opm),
+                          "--overwrite")
+    assert code == 0, err
+    obs = vv.read_tdm(campaign["tdm"]).to_observations(_stations(), SIGMA,
+                                                       troposphere={"refraction": "radio"})
+    assert obs.troposphere.refraction == "radio"
+    radio = vv.fit_orbit(obs, None, [vv.J2(vv.EARTH)])
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               radio.state.r.to_value(u.km), rtol=0, atol=1e-9)
+    moved = np.linalg.norm((radio.state.r - fit.state.r).to_value(u.km))
+    assert moved > 1e-6  # 2.8 mm: the metre-level range rows dominate the 36-arcsec angles
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG,
+                          "--refraction", "radio")
+    assert code == 2 and "add --troposphere" in err

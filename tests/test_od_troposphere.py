@@ -194,15 +194,17 @@ def test_troposphere_dict_values_are_numbers_not_bools():
     assert w.given == {"pressure_hpa": 1000.0, "temperature_c": 12.0}
 
 
-def test_elevation_partials_carry_the_refraction_slope(visible):
+@pytest.mark.parametrize("tropo", [True, {"refraction": "radio", "relative_humidity": 0.9}])
+def test_elevation_partials_carry_the_refraction_slope(visible, tropo):
     # the refracted elevation E + R(E) moves by (1 + dR/dE) dE: the partials were the geometric
-    # ones, 2-4 % off below 5 deg (a wrong gain and covariance for low-elevation angles)
+    # ones, 2-4 % off below 5 deg (a wrong gain and covariance for low-elevation angles); the
+    # radio bending's slope too (tests/test_ground_refraction.py)
     from visviva.od.dynamics import Dynamics
     from visviva.od.light_time import model
 
     gm = vv.EARTH.gm_km3_s2
     t = visible[:20]
-    obs = simulate_observations(TRUTH, t, "azel", 1e-6, STATION, seed=False, troposphere=True,
+    obs = simulate_observations(TRUTH, t, "azel", 1e-6, STATION, seed=False, troposphere=tropo,
                                 light_time=False)
     dyn = Dynamics(gm, [], EPOCH, (0, 86400), 1e-13, 1e-13)
     y = dyn.propagate(Y0, obs.offsets_s(EPOCH))[0]

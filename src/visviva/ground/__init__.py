@@ -16,8 +16,8 @@ _EXPORTS = {
     "write_passes": "passes",
     "visual_magnitude": "visibility",
     "LookAngles": "look",
-    "refraction_deg": "look",
-    "refraction_slope": "look",
+    "refraction_deg": "refraction",
+    "refraction_slope": "refraction",
     "doppler_shift": "doppler",
     "plot_sky_track": "plots",
     "find_passes_dask": "dask_passes",
@@ -28,7 +28,7 @@ __all__ = sorted(_EXPORTS)
 
 #: submodules reachable as attributes (``vv.ground.search``, ...)
 _SUBMODULES = {"station", "look", "doppler", "search", "passes", "visibility", "plots",
-               "earthfixed", "dask_passes", "cli"}
+               "earthfixed", "dask_passes", "cli", "air", "refraction"}
 
 __getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, _SUBMODULES,
                                              prefix="visviva.ground.")

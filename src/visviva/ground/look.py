@@ -10,8 +10,6 @@ the same vector rotated to GCRS axes. Geometric by default: no refraction, no li
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from astropy import units as u
 from astropy.time import Time
@@ -20,6 +18,7 @@ from ..core import topocentric as _topo
 from ..errors import InvalidInputError
 from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift
 from .earthfixed import GMST_RATE_RAD_S
+from .refraction import bend, refraction_deg, refraction_slope, station_air
 
 __all__ = ["LookAngles", "look", "refraction_deg", "refraction_slope"]
 
@@ -65,88 +64,6 @@ class LookAngles:
                     f"elevation={self.elevation.ravel()[0]:.4f}, "
                     f"range={self.range.ravel()[0]:.3f})")
         return f"LookAngles(shape={self.shape})"
-
-
-def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
-    """Atmospheric refraction to add to a geometric elevation (deg).
-
-    Parameters
-    ----------
-    elevation_deg : float, array_like or Quantity (angle)
-        Geometric elevation: plain numbers in degrees, or an angle Quantity (converted).
-    pressure_hpa : float
-        Air pressure at the site, hPa (>= 0; default 1010).
-    temperature_c : float
-        Air temperature at the site, deg C (above -273; default 10).
-
-    Returns
-    -------
-    ndarray (deg), or Quantity (deg) for a Quantity ``elevation_deg``
-
-    Notes
-    -----
-    Sæmundsson's formula (Meeus 1998, *Astronomical Algorithms*, eq. 16.4) with Meeus' zenith
-    term: ``R = 1.02' / tan(h + 10.3 / (h + 5.11)) + 0.0019279'`` (0 at ``h`` = 90 deg) with
-    ``h`` the geometric elevation in degrees, scaled by ``(P / 1010 hPa) (283 K / T)``; zero
-    below -1 deg (the formula's range). Consistent with Bennett's inverse formula to 0.07'.
-    """
-    from astropy import units as u
-
-    from .._units import is_quantity, to_array
-
-    quantity = is_quantity(elevation_deg)
-    if quantity:
-        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
-    else:
-        h = np.asarray(elevation_deg, dtype=np.float64)
-    r_arcmin = _saemundsson_arcmin(h)[0] * _conditions(pressure_hpa, temperature_c)
-    out = np.where(h >= -1.0, r_arcmin / 60.0, 0.0)
-    return out * u.deg if quantity else out
-
-
-def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0):
-    """dR/dE of :func:`refraction_deg` (deg of refraction per deg of geometric elevation,
-    negative: -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below -1 deg where the refraction is 0.
-
-    Parameters
-    ----------
-    elevation_deg : float or array_like
-        Geometric elevation, deg.
-    pressure_hpa, temperature_c : float
-        The site's air, as :func:`refraction_deg`.
-
-    Returns
-    -------
-    ndarray
-        The slope; ``1 + slope`` maps a change of geometric elevation (or its rate) to the
-        apparent one.
-    """
-    h = np.asarray(elevation_deg, dtype=np.float64)
-    slope = _saemundsson_arcmin(h)[1] * _conditions(pressure_hpa, temperature_c) / 60.0
-    return np.where(h >= -1.0, slope, 0.0)
-
-
-def _conditions(pressure_hpa, temperature_c) -> float:
-    """Meeus' factor ``(P / 1010 hPa) (283 K / T)`` for the site's air; checked."""
-    p = float(pressure_hpa)
-    t = float(temperature_c)
-    if not (math.isfinite(p) and p >= 0.0):
-        raise InvalidInputError(f"pressure_hpa must be >= 0 hPa and finite, got {p!r}.")
-    if not (math.isfinite(t) and t > -273.0):
-        raise InvalidInputError(f"temperature_c must be above -273 deg C (the formula's 0 K), "
-                                f"got {t!r}.")
-    return (p / 1010.0) * (283.0 / (273.0 + t))
-
-
-def _saemundsson_arcmin(h):
-    """Sæmundsson's refraction (arcmin, standard air) and its slope dR/dh (arcmin per deg) at
-    geometric elevations ``h`` (deg); finite (not meaningful) below -1 deg."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        hh = np.where(h >= -1.0, h, 0.0)  # the formula's pole at -5.11 deg lies outside
-        x = np.radians(hh + 10.3 / (hh + 5.11))
-        r = 1.02 / np.tan(x) + 0.0019279
-        slope = -1.02 / np.sin(x) ** 2 * (np.pi / 180.0) * (1.0 - 10.3 / (hh + 5.11) ** 2)
-    return r, slope
 
 
 #: Largest distance from the geocentre to a station (km): a margin for the light time bound.
@@ -262,7 +179,7 @@ def _target_states(target, t):
     return r_i, v_i, t, lead, rot_ig
 
 
-def look(station, target, t=None, *, refraction: bool = False, light_time: bool = False,
+def look(station, target, t=None, *, refraction=False, light_time: bool = False,
          frequency=None) -> LookAngles:
     """Azimuth, elevation, range, range rate, their rates and topocentric RA/Dec of a target.
 
@@ -276,10 +193,16 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
         Times, scalar or any shape; for states it defaults to their epoch, and a given ``t``
         may differ from the epoch by at most the light time to a station (states at emission,
         ``t`` at reception); more raises :class:`~visviva.errors.InvalidInputError`.
-    refraction : bool
-        Add standard atmospheric refraction to the elevation (:func:`refraction_deg`:
-        1010 hPa, 10 deg C; about 0.48 deg at the horizon) and its rate to ``elevation_rate``.
-        Default: geometric.
+    refraction : bool, {"optical", "radio"} or dict
+        Add atmospheric refraction (:func:`refraction_deg`) to the elevation and its rate to
+        ``elevation_rate``. False (default): geometric. True or ``"optical"``: light
+        (Sæmundsson's formula) in the standard atmosphere at the station's height (ICAO:
+        1013.25 hPa, 15 deg C at sea level; about 0.48 deg at the horizon, 0.30 deg from
+        4200 m). ``"radio"``: an antenna's angles, the radio bending of the same air with 50 %
+        humidity (about 0.57 deg at the horizon at sea level). A dict gives the station's
+        weather with the keys of ``Observations(troposphere=...)``: ``pressure_hpa``,
+        ``temperature_c``, ``relative_humidity`` (0..1) and ``refraction`` (``"optical"``,
+        the default, or ``"radio"``); the standard air fills the keys left out.
     light_time : bool
         Use the satellite's position when the light received at ``t`` left it
         (``r(t - range/c)``, to first order: under 30 m in LEO). Default: off.
@@ -301,6 +224,7 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
     """
     from ..satellites.frames import offline_iers
 
+    air = station_air(refraction, station.height.to_value(u.m))
     with offline_iers():  # one block: an Earth-orientation warning once per call
         r_i, v_i, t, lead, rot_ig = _target_states(target, t)
     rho = r_i - station.itrs_km
@@ -317,9 +241,10 @@ def look(station, target, t=None, *, refraction: bool = False, light_time: bool 
     res = res.reshape(shape + (6,))
     el_deg = np.degrees(res[..., 2])
     el_rate = np.degrees(res[..., 5])
-    if refraction:  # the apparent elevation, and its rate d(el + R(el))/dt
-        el_rate = el_rate * (1.0 + refraction_slope(el_deg))
-        el_deg = el_deg + refraction_deg(el_deg)
+    if air is not None:  # the apparent elevation, and its rate d(el + R(el))/dt
+        r_deg, slope = bend(el_deg, *air)
+        el_rate = el_rate * (1.0 + slope)
+        el_deg = el_deg + r_deg
     rho_g = np.einsum("tij,ntj->nti", rot_ig, rho)
     ra = np.degrees(np.arctan2(rho_g[..., 1], rho_g[..., 0])) % 360.0
     dec = np.degrees(np.arcsin(np.clip(rho_g[..., 2] / np.linalg.norm(rho_g, axis=-1), -1, 1)))

@@ -251,11 +251,14 @@ class GroundStation:
         return r, v
 
     # look angles ----------------------------------------------------------------------------
-    def look(self, target, t=None, *, refraction: bool = False, light_time: bool = False,
+    def look(self, target, t=None, *, refraction=False, light_time: bool = False,
              frequency=None):
         """Azimuth, elevation, range and their rates, and topocentric RA/Dec of a target.
 
-        See :func:`visviva.ground.look.look` for the parameters and the conventions.
+        See :func:`visviva.ground.look.look` for the parameters and the conventions;
+        ``refraction`` takes False, True (the standard air at the station's height),
+        ``"optical"``, ``"radio"`` or a weather dict (``pressure_hpa``, ``temperature_c``,
+        ``relative_humidity``, ``refraction``), as ``Observations(troposphere=...)``.
         """
         from .look import look
 

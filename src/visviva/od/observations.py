@@ -107,7 +107,11 @@ class Observations:
         add the neutral atmosphere as the station measures it (range delay, its rate in range
         rates, refraction of azel elevations; :mod:`visviva.od.troposphere`) with the
         standard atmosphere at each station's height; a dict of ``pressure_hpa``,
-        ``temperature_c``, ``relative_humidity`` (0..1) gives the air at every station.
+        ``temperature_c``, ``relative_humidity`` (0..1) gives the air at every station (the
+        keys left out from the standard air), and its ``refraction`` the model of azel
+        elevations: ``"optical"`` (default, Saemundsson's formula) or ``"radio"`` (antenna
+        angles, :func:`visviva.ground.refraction_deg`); ``look(refraction=...)`` takes the
+        same dict.
 
     Attributes
     ----------

@@ -60,6 +60,9 @@ def add_parser(sub) -> None:
     p.add_argument("--troposphere", action="store_true",
                    help="model the neutral atmosphere (range delay, refraction; standard "
                    "atmosphere at each station) for data not corrected for it")
+    p.add_argument("--refraction", default=None, choices=("optical", "radio"),
+                   help="with --troposphere: the refraction of AZEL angles, optical (default; "
+                   "light) or radio (antennas: the bending of the air's radio refractivity)")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -196,7 +199,12 @@ def _setup(args) -> dict:
                                     "--apriori 1km,10m/s")
         apriori = (quantity("--apriori", parts[0], "length", "--apriori 1km,10m/s"),
                    quantity("--apriori", parts[1], "speed", "--apriori 1km,10m/s"))
-    obs, tdm = read_tracking(args.tdm, stations, sigmas, args.troposphere)
+    if args.refraction is not None and not args.troposphere:
+        raise InvalidInputError("--refraction applies to the modelled troposphere: add "
+                                "--troposphere (data not corrected for the atmosphere)")
+    troposphere = ({"refraction": args.refraction} if args.troposphere and args.refraction
+                   else args.troposphere)
+    obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")
     ignored = covariance is not None and args.no_apriori

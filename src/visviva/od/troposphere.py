@@ -11,7 +11,9 @@ what the station measures:
   ``ZHD m(E) + ZWD m(E)``, the same up and down, so once in the two-way mean;
 * ``range_rate``: plus the delay's rate ``d/dt [(ZHD + ZWD) m(E)]`` along the pass;
 * ``azel``: the elevation plus the refraction of :func:`visviva.ground.refraction_deg` for the
-  station's pressure and temperature;
+  station's air: optical (Saemundsson's formula) by default, the radio bending of the
+  station's refractivity with ``troposphere={"refraction": "radio", ...}`` for antenna angles
+  (0.1 deg more at the horizon, ~1 arcmin more at 5 deg in humid air);
 * ``radec`` and ``position`` rows are left alone (astrometry reduced against catalogue stars has
   its refraction removed with the stars').
 
@@ -20,67 +22,24 @@ Model: Saastamoinen's zenith delays (hydrostatic ``ZHD = 0.0022768 P / (1 - 0.00
 hPa, T in K), the mapping function of Black & Eisner (1984) ``m(E) = 1.001 / sqrt(0.002001 +
 sin^2 E)`` (the RTCA DO-229 one; its slant delay differs from Niell's mapping functions at
 45 deg latitude and sea level by 15 cm at 5 deg, 6 cm at 10 deg, 2 cm at 15 deg of elevation and
-0.4 m at 3 deg), and the station's air
-from the standard atmosphere at its height (``P = 1013.25 (1 - 2.2557e-5 h)^5.2568`` hPa,
+0.4 m at 3 deg), and the station's air from the standard atmosphere at its height
+(:func:`visviva.ground.air.standard_atmosphere`: ``P = 1013.25 (1 - 2.2557e-5 h)^5.2568`` hPa,
 ``T = 15 - 0.0065 h`` deg C up to the tropopause at 11 km, isothermal above it; 50 % relative
-humidity) unless given. The range partials carry the delay's slope with the elevation, the
+humidity) unless given: the same air and the same dict keys as ``look(refraction=...)``
+(:mod:`visviva.ground.air`). The range partials carry the delay's slope with the elevation, the
 elevation's partials the refraction's slope; the range rate's partials are the geometric ones
 (the rate of the delay moves them by less than 1e-6).
 """
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
 from ..constants import EARTH_ROTATION_RAD_S
 from ..errors import InvalidInputError
+from ..ground.air import Weather, check_air, standard_atmosphere
 
 __all__ = ["Weather", "standard_atmosphere", "weather_from", "zenith_delays_m", "mapping", "apply"]
-
-#: Keys of a ``troposphere`` mapping and their checks (name -> (low, high, unit)).
-_KEYS = {"pressure_hpa": (100.0, 1100.0, "hPa"), "temperature_c": (-90.0, 60.0, "deg C"),
-         "relative_humidity": (0.0, 1.0, "(0..1)")}
-
-
-class Weather:
-    """The air at the stations: None for the standard atmosphere at each station's height, or
-    the given ``pressure_hpa``, ``temperature_c``, ``relative_humidity`` for every station."""
-
-    def __init__(self, given: dict | None):
-        self.given = given
-
-    def at(self, height_m):
-        """Pressure (hPa), temperature (K) and water-vapour pressure (hPa) at ``height_m``."""
-        g = self.given or {}
-        p_std, t_std = standard_atmosphere(height_m)
-        p = g.get("pressure_hpa", p_std)
-        t_c = g.get("temperature_c", t_std)
-        rh = g.get("relative_humidity", 0.5)
-        # saturation vapour pressure over water (Magnus form), hPa
-        e = rh * 6.1078 * np.exp(17.27 * t_c / (t_c + 237.3))
-        return p, t_c + 273.15, e
-
-
-#: Top of the standard atmosphere's troposphere (the tropopause), m, and its air there.
-_TROPOPAUSE_M = 11_000.0
-_P_TROPOPAUSE_HPA = 1013.25 * (1.0 - 2.2557e-5 * _TROPOPAUSE_M) ** 5.2568
-_T_TROPOPAUSE_C = 15.0 - 0.0065 * _TROPOPAUSE_M
-#: g0 M / (R T) of the isothermal layer above the tropopause (216.65 K), 1/m.
-_ISOTHERMAL_SCALE_PER_M = 9.80665 * 0.0289644 / (8.31432 * 216.65)
-
-
-def standard_atmosphere(height_m):
-    """Pressure (hPa) and temperature (deg C) of the standard atmosphere (ICAO 1993) at
-    ``height_m``: the 6.5 K/km lapse rate up to the tropopause at 11 km, isothermal
-    (-56.5 deg C, pressure falling exponentially) above it. The lapse-rate formula alone turns
-    negative (NaN or complex pressures) above 44 km and reached absolute zero at 44.3 km."""
-    h = float(height_m)
-    if h <= _TROPOPAUSE_M:
-        return 1013.25 * (1.0 - 2.2557e-5 * h) ** 5.2568, 15.0 - 0.0065 * h
-    return (_P_TROPOPAUSE_HPA * np.exp(-_ISOTHERMAL_SCALE_PER_M * (h - _TROPOPAUSE_M)),
-            _T_TROPOPAUSE_C)
 
 
 def weather_from(troposphere):
@@ -90,21 +49,12 @@ def weather_from(troposphere):
     if troposphere is True:
         return Weather(None)
     if isinstance(troposphere, dict):
-        unknown = set(troposphere) - set(_KEYS)
-        if unknown:
-            raise InvalidInputError(
-                f"troposphere has unknown keys {sorted(unknown)}; use {', '.join(_KEYS)}.")
-        for key, value in troposphere.items():
-            lo, hi, unit = _KEYS[key]
-            # a number (numpy scalars too), not a bool (True would read as 1)
-            if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) \
-                    or not lo <= float(value) <= hi:
-                raise InvalidInputError(
-                    f"troposphere {key} must be a number in [{lo}, {hi}] {unit}; got {value!r}.")
-        return Weather({key: float(value) for key, value in troposphere.items()})
+        given, model = check_air(troposphere, "troposphere")
+        return Weather(given, model)
     raise InvalidInputError(
         "troposphere must be False (no model), True (the standard atmosphere at each station) "
-        f"or a dict of pressure_hpa, temperature_c, relative_humidity; got {troposphere!r}.")
+        "or a dict of pressure_hpa, temperature_c, relative_humidity and refraction ('optical' "
+        f"or 'radio' for az/el rows); got {troposphere!r}.")
 
 
 def zenith_delays_m(pressure_hpa, temperature_k, vapour_hpa, lat_rad, height_m):
@@ -123,7 +73,7 @@ def mapping(sin_el):
 
 
 def _station_air(stations, weather):
-    """Per station object: (zenith delay km, pressure hPa, temperature deg C)."""
+    """Per station object: (zenith delay km, pressure hPa, temperature deg C, humidity)."""
     out = {}
     for s in stations:
         if s is None or id(s) in out:
@@ -137,14 +87,14 @@ def _station_air(stations, weather):
                 f"vv.GroundStation); {s!r} has none.") from None
         p, t_k, e = weather.at(height)
         zhd, zwd = zenith_delays_m(p, t_k, e, lat, height)
-        out[id(s)] = ((zhd + zwd) / 1000.0, p, t_k - 273.15)
+        out[id(s)] = ((zhd + zwd) / 1000.0, *weather.conditions(height))
     return out
 
 
 def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     """Add the troposphere to the predicted values ``h`` (and the range partials ``H``) of the
     rows ``rows`` of ``observations``, in place; ``enu`` holds each row's east-north-up axes."""
-    from ..ground.look import refraction_deg, refraction_slope
+    from ..ground.refraction import bend
 
     weather = observations.troposphere
     stations = [observations.stations[i] for i in rows]
@@ -176,12 +126,12 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     pointed = kinds == "azel"
     if pointed.any():
         owner = np.array([id(s) for s in stations])  # once, not per station
-        for key, (_, p, t_c) in air.items():
+        for key, (_, p, t_c, rh) in air.items():
             idx = np.flatnonzero(pointed & (owner == key))
             if idx.size:
-                el_deg = np.degrees(h[idx, 1])
-                h[idx, 1] += np.radians(refraction_deg(el_deg, p, t_c))
+                r_deg, slope = bend(np.degrees(h[idx, 1]), weather.refraction, p, t_c, rh)
+                h[idx, 1] += np.radians(r_deg)
                 if H is not None:
-                    # d(E + R(E)) = (1 + dR/dE) dE: R's slope (arcmin per deg) / 60, in the
-                    # formula's range (above -1 deg); -0.04 at 2.5 deg, -0.02 at 5 deg
-                    H[idx, 1, :] *= (1.0 + refraction_slope(el_deg, p, t_c))[:, None]
+                    # d(E + R(E)) = (1 + dR/dE) dE, in the models' range (above -1 deg);
+                    # optical -0.04 at 2.5 deg, -0.02 at 5 deg
+                    H[idx, 1, :] *= (1.0 + slope)[:, None]

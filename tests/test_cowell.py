@@ -363,3 +363,22 @@ def test_satellite_states_in_another_frame_than_gcrs_are_refused(frame):
         vv.propagate_cowell(getattr(sat, frame)(sat.epoch), 600 * u.s, [vv.J2()])
     out = vv.propagate_cowell(sat.gcrs(sat.epoch), 600 * u.s, [vv.J2()])
     assert np.linalg.norm((out.r - sat.gcrs(sat.epoch + 600 * u.s).r).to_value(u.km)) < 0.1
+
+
+def test_tolerances_as_quantities_are_refused_not_read_by_their_value():
+    """atol=1 * u.m was read as 1 (km): a run 200 km off after a day, silently (audit21)."""
+    state = leo(EPOCH)
+    for kw in (dict(atol=1 * u.m), dict(atol=1e-9 * u.km / u.s), dict(rtol=1e-10 * u.one)):
+        with pytest.raises(InvalidInputError, match="plain number"):
+            propagate_cowell(state, 1 * u.hour, [vv.J2(vv.EARTH)], **kw)
+        with pytest.raises(InvalidInputError, match="plain number"):
+            vv.propagate_covariance(state, np.eye(6) * 1e-6, 1 * u.hour, [vv.J2(vv.EARTH)], **kw)
+    with pytest.raises(InvalidInputError, match=r"atol=0\.001"):
+        propagate_cowell(state, 1 * u.hour, [], atol=1 * u.m)
+    for bad in (True, "1e-12", [1e-12], float("nan"), 0.0):
+        with pytest.raises(InvalidInputError, match="atol"):
+            propagate_cowell(state, 1 * u.hour, [], atol=bad)
+    # numpy scalars are numbers, the same run as the float
+    a = propagate_cowell(state, 1 * u.hour, [], rtol=np.float32(1e-10), atol=np.float64(1e-10))
+    b = propagate_cowell(state, 1 * u.hour, [], rtol=float(np.float32(1e-10)), atol=1e-10)
+    assert np.array_equal(a.r.value, b.r.value)

@@ -24,7 +24,7 @@ from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
 from .burn_segments import burn_schedule
-from .dop853 import dop853_tableau
+from .dop853 import dop853_tableau, integration_tolerances
 from .events import Event, EventRecord, event_capacity
 from .frames import offline_iers
 from .perturbations import (
@@ -601,8 +601,7 @@ def propagate_cowell(
             f"the output times must be strictly increasing; t[{i + 1}] = {offsets[i + 1]} s "
             f"comes after t[{i}] = {offsets[i]} s. Sort them (np.sort) and remove duplicates."
         )
-    if not (np.isfinite(rtol) and 0 < rtol < 1 and np.isfinite(atol) and atol > 0):
-        raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol}, atol={atol}.")
+    rtol, atol = integration_tolerances(rtol, atol)
     h_max = np.inf
     if max_step is not None:
         h_max = float(to_array(max_step, "time", "max_step"))

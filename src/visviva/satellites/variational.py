@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InvalidInputError, StepSizeError, raise_for_status
 from .cowell import ForceModel, perturbation_list
-from .dop853 import dop853_tableau
+from .dop853 import dop853_tableau, integration_tolerances
 
 __all__ = ["Dynamics", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
@@ -58,8 +58,7 @@ class Dynamics:
         span = (min(0.0, float(span_s[0])) - 60.0, max(0.0, float(span_s[1])) + 60.0)
         self.model = ForceModel(gm_km3_s2, self.perturbations, (), epoch, span)
         self.gm = float(gm_km3_s2)
-        self.rtol = rtol
-        self.atol = atol
+        self.rtol, self.atol = integration_tolerances(rtol, atol)
 
     def propagate(self, y0, offsets_s, max_steps=2_000_000, parameters=False):
         """States (T, 6) and STMs Phi(t, epoch) (T, 6, 6) at ``offsets_s`` (s from the epoch).

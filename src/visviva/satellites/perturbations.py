@@ -561,15 +561,23 @@ class SphericalHarmonics(Perturbation):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
 
 
+#: data keys of time-variable ICGEM fields (format 2.0): reference values, trends, periodic terms
+_TIME_VARIABLE_KEYS = ("gfct", "trnd", "acos", "asin")
+
+
 def _read_gfc(path):
     """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...]).
 
     Every error names the file and the line: a header number that does not parse or is not
-    positive, a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n, a
-    coefficient that is NaN or infinite."""
+    positive, a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n or
+    given twice, a coefficient that is NaN or infinite, a data line of a time-variable field
+    (``gfct``, ``trnd``, ``acos``, ``asin``: its coefficients are not on ``gfc`` lines) or of
+    no known kind. Secular rates (``dot`` lines of format 1.0) are left out: the field is the
+    one at the model's reference epoch."""
     gm = radius = None
     norm = True
     rows = []
+    seen = {}
     in_head = True
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
@@ -605,14 +613,28 @@ def _read_gfc(path):
             elif key == "norm" and len(parts) > 1:
                 norm = parts[1].lower() != "unnormalized"
             continue
-        if key == "gfc":
-            try:
-                n, m = int(parts[1]), int(parts[2])
-            except (IndexError, ValueError):
-                raise bad(number, "a 'gfc n m C S' line needs the integers n and m") from None
-            if not 0 <= m <= n:
-                raise bad(number, f"degree n = {n} and order m = {m} need 0 <= m <= n")
-            rows.append((n, m, number_in(parts, 3, number, "C"), number_in(parts, 4, number, "S")))
+        if key in _TIME_VARIABLE_KEYS:
+            raise bad(
+                number,
+                f"'{parts[0]}' is a term of a time-variable field (ICGEM format 2.0), which is not "
+                "implemented (reading its 'gfc' lines alone would leave these coefficients out): "
+                "use a static field such as EGM2008 or EIGEN-6C4",
+            )
+        if key == "dot":  # format 1.0 secular rates: the field at its reference epoch is used
+            continue
+        if key != "gfc":
+            raise bad(number, f"'{parts[0]}' is not a data line of an ICGEM file ('gfc n m C S')")
+        try:
+            n, m = int(parts[1]), int(parts[2])
+        except (IndexError, ValueError):
+            raise bad(number, "a 'gfc n m C S' line needs the integers n and m") from None
+        if not 0 <= m <= n:
+            raise bad(number, f"degree n = {n} and order m = {m} need 0 <= m <= n")
+        if (n, m) in seen:
+            raise bad(number, f"C and S of degree {n}, order {m} are given again (first on line "
+                              f"{seen[n, m]}): one value per coefficient")  # fmt: skip
+        seen[n, m] = number
+        rows.append((n, m, number_in(parts, 3, number, "C"), number_in(parts, 4, number, "S")))
     if gm is None or radius is None or not rows or in_head:
         raise InvalidInputError(
             f"{path!r} is not an ICGEM .gfc file: it needs earth_gravity_constant, radius and "

@@ -23,6 +23,8 @@ from .dop853 import dop853_tableau, integration_tolerances
 
 __all__ = ["Dynamics", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
+#: no events for the parallel kernel (kinds / directions, parameters)
+_NO_EVENTS = (np.zeros(0, dtype=np.int64), np.zeros(0))
 #: Tolerances of the variational integration: the trajectory is good to ~1 mm over a day of LEO.
 DEFAULT_RTOL = 1e-11
 DEFAULT_ATOL = 1e-11
@@ -169,6 +171,7 @@ class Dynamics:
             integrate_cowell_many(
                 y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, force,
                 *arrays[1:], *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
+                _NO_EVENTS[0], _NO_EVENTS[1], _NO_EVENTS[0],
             )  # fmt: skip
         finally:
             numba.set_num_threads(before)

@@ -579,3 +579,29 @@ def test_srp_with_arrays_is_refused_with_a_clear_error(kwargs):
     # Python scalars" (audit of 2026-11-26); AtmosphericDrag already said what to do
     with pytest.raises(vv.InvalidInputError, match="must be scalars"):
         vv.SolarRadiationPressure(**kwargs)
+
+
+def test_drag_about_another_body_needs_its_own_atmosphere():
+    """audit21: AtmosphericDrag(bc, body=vv.MOON) flew the Moon through the Earth's atmosphere
+    (Vallado's table): a 100 km lunar orbit hit the ground within an hour, silently."""
+    from visviva.bodies import MARS, MOON
+
+    for body in (MOON, MARS, "mars"):
+        with pytest.raises(vv.InvalidInputError, match="the Earth's atmosphere, not"):
+            vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=body)
+    with pytest.raises(vv.InvalidInputError, match="NRLMSIS is the Earth's atmosphere"):
+        vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=MARS, model="nrlmsis", f107=150,
+                           f107a=150, ap=4)
+    # a body's own table is used as given: a Mars orbit decays by the predicted amount,
+    # da = -rho B sqrt(GM a) dt (circular orbit, an atmosphere at rest: Mars has no rotation
+    # rate here), with a constant density of 1e-11 kg/m^3 over one orbit
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=MARS, table=[[0.0, 1e-11, 1e9]])
+    assert drag.body is MARS
+    a0 = MARS.radius_km + 300.0
+    state = vv.KeplerianElements.from_semi_major_axis(a0 * u.km, 0.0, 0.5, 0, 0, 0,
+                                                      MARS).to_state()
+    period = 2 * np.pi * np.sqrt(a0**3 / MARS.gm_km3_s2)
+    out = vv.propagate_cowell(state, [0.0, period] * u.s, [drag])
+    a = out.to_states().to_elements().semi_major_axis.to_value(u.km)
+    expected = -1e-11 * 1e9 * 0.02e-6 * np.sqrt(MARS.gm_km3_s2 * a0) * period
+    assert a[1] - a[0] == pytest.approx(expected, rel=1e-3)

@@ -166,10 +166,11 @@ class AtmosphericDrag(Perturbation):
         by m(epoch) / m(t) (:mod:`visviva.satellites.burn_mass`).
     body : Body
         Central body (default Earth): its radius and flattening define the geodetic altitude,
-        its rotation rate the co-rotating atmosphere.
+        its rotation rate the co-rotating atmosphere (a body without a ``rotation_rate``: an
+        atmosphere at rest in the frame).
     table : array_like (K, 3), optional
-        Base altitude (km), density at the base (kg/m^3), scale height (km). Default: Vallado
-        (2013), Table 8-4 (0 to 1000+ km).
+        Base altitude (km), density at the base (kg/m^3), scale height (km). Default, for the
+        Earth only: Vallado (2013), Table 8-4 (0 to 1000+ km); another body needs its own.
 
     Notes
     -----
@@ -203,6 +204,17 @@ class AtmosphericDrag(Perturbation):
             raise InvalidInputError(
                 f"model must be 'exponential' or 'nrlmsis'; got {self.model!r}."
             )
+        body = require_body(self.body, "AtmosphericDrag")
+        object.__setattr__(self, "body", body)
+        if body.name != "earth" and (self.model == "nrlmsis" or self.table is None):
+            what = "NRLMSIS" if self.model == "nrlmsis" else "the default table (Vallado 2013, " \
+                "Table 8-4)"
+            raise InvalidInputError(
+                f"{what} is the Earth's atmosphere, not {body.name}'s: give {body.name}'s own "
+                "exponential table, AtmosphericDrag(bc, body=..., table=[[base altitude km, "
+                "density kg/m^3, scale height km], ...]) (a body without an atmosphere has no "
+                "drag)."
+            )
         if self.model == "nrlmsis":
             if self.f107 is None or self.f107a is None or self.ap is None:
                 raise InvalidInputError(
@@ -229,7 +241,6 @@ class AtmosphericDrag(Perturbation):
         if bc.ndim != 0:
             raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
         require_positive(bc, "ballistic_coefficient")
-        object.__setattr__(self, "body", require_body(self.body, "AtmosphericDrag"))
         table = VALLADO_EXPONENTIAL_TABLE if self.table is None else self.table
         table = np.ascontiguousarray(table, dtype=np.float64)
         if table.ndim != 2 or table.shape[1] != 3 or not np.all(np.isfinite(table)):

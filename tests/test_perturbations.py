@@ -605,3 +605,33 @@ def test_drag_about_another_body_needs_its_own_atmosphere():
     a = out.to_states().to_elements().semi_major_axis.to_value(u.km)
     expected = -1e-11 * 1e9 * 0.02e-6 * np.sqrt(MARS.gm_km3_s2 * a0) * period
     assert a[1] - a[0] == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("shadow", ["conical", "cylindrical", None])
+def test_srp_about_the_sun_is_never_in_the_suns_own_shadow(shadow):
+    """audit21: a heliocentric state with SolarRadiationPressure(body=vv.SUN) and the default
+    conical shadow sat in the umbra of the Sun itself (the occulting body at the light's
+    source): no SRP at all (0.2 km after 30 days of a sail's 213,000 km; 0 km cylindrical)."""
+    from scipy.integrate import solve_ivp
+
+    from visviva.constants import AU_KM
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    state = vv.KeplerianElements.from_semi_major_axis(
+        1.0 * u.AU, 0.0167, 0.0, 0, 0, 0, vv.SUN, epoch=epoch).to_state()
+    srp = vv.SolarRadiationPressure(10 * u.m**2 / u.kg, shadow=shadow, body=vv.SUN)
+    assert srp.shadow is None
+    t = 30 * 86400.0
+    out = vv.propagate_cowell(state, t * u.s, [srp])
+    gm = vv.SUN.gm_km3_s2
+    k = SOLAR_PRESSURE_1AU_N_M2 * 1.3 * 10.0 * 1e-3 * AU_KM**2  # km^3/s^2, pushing outward
+
+    def rhs(_, y):
+        r = np.linalg.norm(y[:3])
+        return np.concatenate([y[3:], (k - gm) * y[:3] / r**3])
+
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(u.km / u.s)])
+    ref = solve_ivp(rhs, (0.0, t), y0, method="DOP853", rtol=1e-12, atol=1e-6).y[:3, -1]
+    kepler = state.propagate(t * u.s).r.to_value(u.km)
+    assert np.linalg.norm(ref - kepler) > 1e5  # the sail's push: ~2e5 km in a month
+    assert np.linalg.norm(out.r.to_value(u.km) - ref) < 1e-3

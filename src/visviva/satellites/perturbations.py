@@ -400,7 +400,8 @@ class SolarRadiationPressure(Perturbation):
         Shadow model: conical with penumbra (Montenbruck & Gill 2000, sec. 3.4.2), cylindrical
         (Vallado 2013, Algorithm 34), or none.
     body : Body
-        The occulting central body (default Earth).
+        The occulting central body (default Earth). For the Sun (a heliocentric orbit, a
+        solar sail) the shadow is None whatever is given: no central body occults the Sun.
 
     Notes
     -----
@@ -435,6 +436,9 @@ class SolarRadiationPressure(Perturbation):
                 f"shadow must be 'conical', 'cylindrical' or None; got {self.shadow!r}."
             )
         object.__setattr__(self, "body", require_body(self.body, "SolarRadiationPressure"))
+        if self.body.name == "sun":  # nothing occults the Sun's light from the Sun's centre: a
+            # shadow model there put every point in the umbra of the Sun itself (no SRP at all)
+            object.__setattr__(self, "shadow", None)
         object.__setattr__(self, "_am_m2_kg", float(am))
         object.__setattr__(self, "_cr", float(cr))
 

@@ -378,6 +378,10 @@ def test_tolerances_as_quantities_are_refused_not_read_by_their_value():
     for bad in (True, "1e-12", [1e-12], float("nan"), 0.0):
         with pytest.raises(InvalidInputError, match="atol"):
             propagate_cowell(state, 1 * u.hour, [], atol=bad)
+    # below the float64 precision: was 10 million steps, then 'raise max_steps'
+    with pytest.raises(InvalidInputError, match="below the float64 precision"):
+        propagate_cowell(state, 1 * u.day, [vv.J2(vv.EARTH)], rtol=1e-20, atol=1e-20,
+                         max_steps=1000)
     # numpy scalars are numbers, the same run as the float
     a = propagate_cowell(state, 1 * u.hour, [], rtol=np.float32(1e-10), atol=np.float64(1e-10))
     b = propagate_cowell(state, 1 * u.hour, [], rtol=float(np.float32(1e-10)), atol=1e-10)

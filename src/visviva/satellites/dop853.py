@@ -8,7 +8,11 @@ import numbers
 
 import numpy as np
 
-__all__ = ["dop853_tableau", "integration_tolerances"]
+__all__ = ["dop853_tableau", "integration_tolerances", "RTOL_FLOOR"]
+
+#: The smallest relative tolerance accepted: the float64 precision (rtol = 1e-20 with atol = 1e-20
+#: ran a LEO day's 10 million steps, then raised "raise max_steps").
+RTOL_FLOOR = float(np.finfo(np.float64).eps)
 
 
 def integration_tolerances(rtol, atol) -> tuple[float, float]:
@@ -22,7 +26,8 @@ def integration_tolerances(rtol, atol) -> tuple[float, float]:
     Raises
     ------
     InvalidInputError
-        A Quantity, a boolean, something not a real number, or a value out of range.
+        A Quantity, a boolean, something not a real number, or a value out of range (rtol
+        below :data:`RTOL_FLOOR` too).
     """
     from astropy import units as u
 
@@ -48,6 +53,12 @@ def integration_tolerances(rtol, atol) -> tuple[float, float]:
     rtol_f, atol_f = values
     if not (np.isfinite(rtol_f) and 0 < rtol_f < 1 and np.isfinite(atol_f) and atol_f > 0):
         raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol!r}, atol={atol!r}.")
+    if rtol_f < RTOL_FLOOR:
+        raise InvalidInputError(
+            f"rtol = {rtol_f:g} is below the float64 precision ({RTOL_FLOOR:.3g}), which no "
+            "step can meet: the steps shrink until the step budget is spent (10 million steps, "
+            "minutes). Give rtol >= 1e-15 (1e-13 to 1e-14 is the integrator's accuracy floor)."
+        )
     return rtol_f, atol_f
 
 

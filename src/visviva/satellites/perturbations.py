@@ -183,7 +183,7 @@ class AtmosphericDrag(Perturbation):
     ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
     space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
     ``ap``: daily Ap; never downloaded). The density is tabulated once at the state's epoch on a
-    grid of geodetic altitude (80-1000 km, 10 km), geocentric latitude (5 deg) and hour angle
+    grid of geodetic altitude (80-1000 km, 10 km), geodetic latitude (5 deg) and hour angle
     from the Sun (15 deg), and interpolated in ln(rho) during the run by a tricubic B-spline (C2,
     periodic in hour angle, continued over the poles, linear in ln(rho) beyond the altitude
     grid; within 0.4 % of direct NRLMSIS calls in 150-900 km); the bulge

@@ -386,3 +386,18 @@ def test_tolerances_as_quantities_are_refused_not_read_by_their_value():
     a = propagate_cowell(state, 1 * u.hour, [], rtol=np.float32(1e-10), atol=np.float64(1e-10))
     b = propagate_cowell(state, 1 * u.hour, [], rtol=float(np.float32(1e-10)), atol=1e-10)
     assert np.array_equal(a.r.value, b.r.value)
+
+
+def test_t_final_of_a_backward_run_is_where_it_ended():
+    """audit21: a run with only negative output times reported t_final = 0 (the epoch), not
+    the time it integrated back to; one state and a batch alike."""
+    state = leo(EPOCH)
+    f = [vv.J2(vv.EARTH)]
+    assert propagate_cowell(state, [-3600.0, -1800.0] * u.s, f).t_final == -3600.0 * u.s
+    assert propagate_cowell(state, -600.0 * u.s, f).t_final == -600.0 * u.s
+    assert propagate_cowell(state, [-3600.0, 0.0] * u.s, f).t_final == 0.0 * u.s
+    assert propagate_cowell(state, [-3600.0, 600.0] * u.s, f).t_final == 600.0 * u.s
+    batch = vv.StateVectors(np.stack([state.r, state.r * 1.01]), np.stack([state.v, state.v]),
+                            vv.EARTH, epoch=EPOCH)
+    for t, end in (([-3600.0, -1800.0], -3600.0), ([-3600.0, 0.0], 0.0), ([-60.0, 600.0], 600.0)):
+        assert propagate_cowell(batch, t * u.s, f).t_final == end * u.s

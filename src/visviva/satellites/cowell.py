@@ -265,7 +265,8 @@ class CowellResult:
     terminated : bool
         Whether a terminal event (re-entry) stopped the propagation early.
     t_final : Quantity
-        The last time integrated to.
+        The last time integrated to: the forward end, or for a run with only negative
+        output times the backward end (where a terminal event stopped the run, its time).
     n_steps, n_evaluations : int
         Accepted steps and right-hand-side evaluations.
     burns : list of BurnRecord
@@ -571,7 +572,8 @@ def propagate_cowell(
         if scalar:
             y_all, t_all = y_all[:, 0], offsets[0]
         result = CowellResult._from_arrays(t_all, y_all, gm, epoch, [], False,
-                                           float(max(offsets[-1], 0.0)), n_steps, nfev, scalar)
+                                           float(offsets[-1] if offsets[-1] >= 0 else
+                                                 offsets[0]), n_steps, nfev, scalar)
         if schedule is not None:
             schedule.annotate(result)
         if impact is not None:
@@ -627,8 +629,8 @@ def propagate_cowell(
             t_final = info[4]
             if t_end >= 0:
                 break
-        else:
-            t_final = info[4] if t_end >= 0 else t_final
+        elif t_end >= 0 or fwd.size == 0:  # the forward end, else a backward-only run's
+            t_final = info[4]
     y_all = np.concatenate(pieces_y) if pieces_y else np.zeros((0, 6))
     t_all = np.concatenate(pieces_t) if pieces_t else np.zeros(0)
     records.sort(key=lambda rec: rec.t.value)

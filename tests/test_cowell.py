@@ -401,3 +401,4 @@ def test_t_final_of_a_backward_run_is_where_it_ended():
                             vv.EARTH, epoch=EPOCH)
     for t, end in (([-3600.0, -1800.0], -3600.0), ([-3600.0, 0.0], 0.0), ([-60.0, 600.0], 600.0)):
         assert propagate_cowell(batch, t * u.s, f).t_final == end * u.s
+        assert vv.propagate_covariance(state, np.eye(6) * 1e-8, t * u.s, f).t_final == end * u.s

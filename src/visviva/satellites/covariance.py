@@ -500,7 +500,8 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
         to_quantity(offsets[0] if scalar else offsets, "time"),
         to_quantity(np.ascontiguousarray(y[0, :3] if scalar else y[:, :3]), "length"),
         to_quantity(np.ascontiguousarray(y[0, 3:] if scalar else y[:, 3:]), "speed"),
-        gm, epoch, [], False, max(0.0, float(offsets[-1])) * u.s, dyn.n_steps,
+        gm, epoch, [], False,
+        float(offsets[-1] if offsets[-1] >= 0 else offsets[0]) * u.s, dyn.n_steps,
         dyn.n_evaluations, scalar,
     )
     out_label = "GCRS" if out_code == 0 else str(out_name).upper()

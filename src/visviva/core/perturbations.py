@@ -303,17 +303,15 @@ def exponential_density(h, atm):
 
 @inline_kernel
 def _geodetic_latitude(s, r, radius, flattening):
-    """Geodetic latitude (rad) of a point at distance ``r`` with sin(geocentric latitude) ``s``,
-    to first order in the flattening: phi + f (R / r) sin(2 phi) (from tan(phi_geodetic) =
-    tan(phi) / (1 - e^2 N / (N + h)), e^2 = 2 f, N = R, N + h = r)."""
+    """Geodetic latitude (rad) at distance ``r``, sin(geocentric latitude phi) ``s``, to first
+    order in f: phi + f (R / r) sin(2 phi) (tan phi_d = tan phi / (1 - 2 f R / r))."""
     return math.asin(s) + flattening * (radius / r) * 2.0 * s * math.sqrt(max(0.0, 1.0 - s * s))
 
 
 @kernel
 def grid_density_at(x, y, z, sun_pos, force, atm):
-    """Density (kg/m^3) of the gridded model at the position (x, y, z) (km, inertial), the Sun
-    at ``sun_pos``: geodetic altitude, geodetic latitude (NRLMSIS's, to first order in the
-    flattening) and hour angle from the Sun, then :func:`grid_density`."""
+    """Density (kg/m^3) of the gridded model at (x, y, z) (km, inertial), the Sun at ``sun_pos``:
+    geodetic altitude and latitude (NRLMSIS's), hour angle from the Sun, :func:`grid_density`."""
     h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
     r = math.sqrt(x * x + y * y + z * z)
     lat = _geodetic_latitude(z / r, r, force[fb.RADIUS], force[fb.FLATTENING])
@@ -332,9 +330,8 @@ def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
     """ln(rho / (kg/m^3)) of the gridded model at (x, y, z) (km, inertial), and its gradient
     d ln(rho) / d r (1/km) written into ``grad`` (3,), the Sun held at ``sun_pos``.
 
-    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geodetic latitude
-    phi_d = phi + f (R / r) sin(2 phi) of the geocentric one phi = asin(s)
-    (:func:`_geodetic_latitude`) and the hour angle atan2(y, x) - lambda_sun of the spline's
+    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geodetic latitude of
+    :func:`_geodetic_latitude` and the hour angle atan2(y, x) - lambda_sun of the spline's
     analytic partials.
     """
     fr = force[fb.RADIUS] * force[fb.FLATTENING]
@@ -350,9 +347,8 @@ def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
     # d s / d r = (e_z - s r_hat) / r; d h / d r = r_hat + 2 R f s d s / d r
     # d phi / d r = (-z x, -z y, rxy^2) / (r^2 rxy); d ha / d r = (-y, x, 0) / rxy^2
     # d phi_d / d r = (1 + 2 f (R / r) cos(2 phi)) d phi / d r - f R sin(2 phi) / r^2 r_hat
-    c = rxy / r  # cos(phi)
-    k_phi = 1.0 + 2.0 * fr / r * (c * c - s * s)
-    k_r = -fr * 2.0 * s * c / r2
+    k_phi = 1.0 + 2.0 * fr / r * (rho2 / r2 - s * s)  # cos(phi) = rxy / r
+    k_r = -fr * 2.0 * s * rxy / (r2 * r)
     pos = (float(x), float(y), float(z))
     for j in range(3):
         ds = ((1.0 if j == 2 else 0.0) - s * pos[j] / r) / r

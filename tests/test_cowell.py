@@ -363,3 +363,42 @@ def test_satellite_states_in_another_frame_than_gcrs_are_refused(frame):
         vv.propagate_cowell(getattr(sat, frame)(sat.epoch), 600 * u.s, [vv.J2()])
     out = vv.propagate_cowell(sat.gcrs(sat.epoch), 600 * u.s, [vv.J2()])
     assert np.linalg.norm((out.r - sat.gcrs(sat.epoch + 600 * u.s).r).to_value(u.km)) < 0.1
+
+
+def test_tolerances_as_quantities_are_refused_not_read_by_their_value():
+    """atol=1 * u.m was read as 1 (km): a run 200 km off after a day, silently (audit21)."""
+    state = leo(EPOCH)
+    for kw in (dict(atol=1 * u.m), dict(atol=1e-9 * u.km / u.s), dict(rtol=1e-10 * u.one)):
+        with pytest.raises(InvalidInputError, match="plain number"):
+            propagate_cowell(state, 1 * u.hour, [vv.J2(vv.EARTH)], **kw)
+        with pytest.raises(InvalidInputError, match="plain number"):
+            vv.propagate_covariance(state, np.eye(6) * 1e-6, 1 * u.hour, [vv.J2(vv.EARTH)], **kw)
+    with pytest.raises(InvalidInputError, match=r"atol=0\.001"):
+        propagate_cowell(state, 1 * u.hour, [], atol=1 * u.m)
+    for bad in (True, "1e-12", [1e-12], float("nan"), 0.0):
+        with pytest.raises(InvalidInputError, match="atol"):
+            propagate_cowell(state, 1 * u.hour, [], atol=bad)
+    # below the float64 precision: was 10 million steps, then 'raise max_steps'
+    with pytest.raises(InvalidInputError, match="below the float64 precision"):
+        propagate_cowell(state, 1 * u.day, [vv.J2(vv.EARTH)], rtol=1e-20, atol=1e-20,
+                         max_steps=1000)
+    # numpy scalars are numbers, the same run as the float
+    a = propagate_cowell(state, 1 * u.hour, [], rtol=np.float32(1e-10), atol=np.float64(1e-10))
+    b = propagate_cowell(state, 1 * u.hour, [], rtol=float(np.float32(1e-10)), atol=1e-10)
+    assert np.array_equal(a.r.value, b.r.value)
+
+
+def test_t_final_of_a_backward_run_is_where_it_ended():
+    """audit21: a run with only negative output times reported t_final = 0 (the epoch), not
+    the time it integrated back to; one state and a batch alike."""
+    state = leo(EPOCH)
+    f = [vv.J2(vv.EARTH)]
+    assert propagate_cowell(state, [-3600.0, -1800.0] * u.s, f).t_final == -3600.0 * u.s
+    assert propagate_cowell(state, -600.0 * u.s, f).t_final == -600.0 * u.s
+    assert propagate_cowell(state, [-3600.0, 0.0] * u.s, f).t_final == 0.0 * u.s
+    assert propagate_cowell(state, [-3600.0, 600.0] * u.s, f).t_final == 600.0 * u.s
+    batch = vv.StateVectors(np.stack([state.r, state.r * 1.01]), np.stack([state.v, state.v]),
+                            vv.EARTH, epoch=EPOCH)
+    for t, end in (([-3600.0, -1800.0], -3600.0), ([-3600.0, 0.0], 0.0), ([-60.0, 600.0], 600.0)):
+        assert propagate_cowell(batch, t * u.s, f).t_final == end * u.s
+        assert vv.propagate_covariance(state, np.eye(6) * 1e-8, t * u.s, f).t_final == end * u.s

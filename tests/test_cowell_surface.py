@@ -98,13 +98,45 @@ def test_a_batch_names_the_state_that_went_below_the_surface():
         vv.propagate_cowell(states, t, [vv.J2(vv.EARTH)])
     exc = info.value
     assert exc.state == 1
-    assert exc.t.to_value(u.s) == 240.0  # the first output time below the surface
+    # the impact itself, as one state's run finds it (was: the first output time below, 240 s)
+    with pytest.raises(vv.SurfaceImpact) as one:
+        vv.propagate_cowell(FALLING, t, [vv.J2(vv.EARTH)])
+    assert exc.t.to_value(u.s) == pytest.approx(one.value.t.to_value(u.s), abs=1e-9)
     assert exc.result.r.shape == (3, 11, 3)  # every state at every output time
     alone = vv.propagate_cowell(CIRCULAR, t, [vv.J2(vv.EARTH)])
     np.testing.assert_array_equal(exc.result.r[0].to_value(u.km), alone.r.to_value(u.km))
+    # the falling state: its outputs before the impact as one state's, NaN after it
+    reached = one.value.result.r.to_value(u.km)
+    np.testing.assert_array_equal(exc.result.r[1, :len(reached)].to_value(u.km), reached)
+    assert np.isnan(exc.result.r[1, len(reached):].value).all()
     # what a Dask worker sends back keeps the attributes
     import pickle
 
     back = pickle.loads(pickle.dumps(exc))
     assert str(back) == str(exc) and back.state == 1 and back.t == exc.t
     np.testing.assert_array_equal(back.result.r.to_value(u.km), exc.result.r.to_value(u.km))
+
+
+@pytest.mark.parametrize("burn", [False, True])
+def test_a_batch_state_that_decays_between_two_outputs_stops_at_the_surface(burn):
+    """audit21: a batch was checked at its output times only, so a state decaying between two
+    outputs (days apart) flew on underground through the extrapolated atmosphere until the
+    10-million-step budget ran out (60 s, then StepSizeError 'raise max_steps')."""
+    low = vv.KeplerianElements.from_semi_major_axis(
+        6678.0 * u.km, 0.0, np.radians(51.6), 0.0, 0.0, 0.0, vv.EARTH, epoch=EPOCH).to_state()
+    high = vv.KeplerianElements.from_semi_major_axis(
+        7078.0 * u.km, 0.0, np.radians(51.6), 0.0, 0.0, 0.0, vv.EARTH, epoch=EPOCH).to_state()
+    states = vv.StateVectors(np.stack([high.r, low.r]), np.stack([high.v, low.v]), vv.EARTH,
+                             epoch=EPOCH)
+    forces = [vv.AtmosphericDrag(0.05 * u.m**2 / u.kg)]
+    # an impulse of 0 m/s after a day splits the run into segments (the burns' path)
+    burns = [vv.ImpulsiveBurn(1 * u.day, [0.0, 0.0, 0.0] * u.m / u.s, "RTN")] if burn else None
+    t = [0.0, 20.0] * u.day
+    with pytest.raises(vv.SurfaceImpact, match="state 1 of the batch") as info:
+        vv.propagate_cowell(states, t, forces, max_steps=200_000, maneuvers=burns)
+    with pytest.raises(vv.SurfaceImpact) as one:
+        vv.propagate_cowell(low, t, forces, maneuvers=burns)
+    assert 8.0 < info.value.t.to_value(u.day) < 11.0
+    assert info.value.t.to_value(u.s) == pytest.approx(one.value.t.to_value(u.s), abs=1e-6)
+    r = info.value.result.r.to_value(u.km)
+    assert np.isnan(r[1, 1]).all() and np.isfinite(r[:, 0]).all()

@@ -215,3 +215,11 @@ def test_cowell_dask_refuses_what_it_cannot_do(catalog, leo_states, times):
         with pytest.raises(vv.InvalidInputError, match=match):
             propagate_dask(states, np.arange(3) * u.min, method="cowell",
                            perturbations=perturbations)
+    # audit21: states with different epochs, and a tolerance with a unit, raised in a worker
+    shifted = vv.StateVectors(leo_states.r, leo_states.v, vv.EARTH,
+                              epoch=leo_states.epoch + np.arange(7) * u.s)
+    for states, options, match in ((shifted, {}, "share one epoch"),
+                                   (leo_states, {"atol": 1 * u.m}, "plain number")):
+        with pytest.raises(vv.InvalidInputError, match=match):
+            propagate_dask(states, np.arange(3) * u.min, method="cowell",
+                           perturbations=[vv.J2(vv.EARTH)], **options)

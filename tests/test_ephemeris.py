@@ -65,3 +65,16 @@ def test_times_of_any_shape_keep_their_shape():
     assert r.shape == v.shape == (2, 3, 3)
     assert ephemeris.moon_position(Time("2024-01-01")).shape == (3,)
     assert ephemeris.moon_position(t[:0, :]).shape == (0, 3, 3)
+
+
+def test_the_de421_span_refused_is_the_one_named():
+    """audit21: the message said DE421 covers 1900 to 2050, while 2100 was served (the de421
+    package tabulates 1899-12-04 to 2200-02-01): the check and the message now say the same."""
+    if ephemeris.backend() != "de421":
+        pytest.skip("needs the ephem extra (jplephem + de421)")
+    from visviva.errors import InvalidInputError
+
+    assert np.all(np.isfinite(ephemeris.sun_position(Time("2150-01-01", scale="tdb")).value))
+    for iso in ("1899-12-01", "2200-03-01"):
+        with pytest.raises(InvalidInputError, match="1899-12-04 to 2200-02-01"):
+            ephemeris.sun_position(Time(iso, scale="tdb"))

@@ -276,3 +276,18 @@ def test_umbra_with_the_cylindrical_model_is_refused():
     with pytest.raises(InvalidInputError, match="conical"):
         Eclipse("cylindrical", umbra=True)
     assert Eclipse("conical", umbra=True).umbra
+
+
+def test_event_switches_take_booleans_only():
+    """audit21: the switches took any truthy value: Eclipse('conical', umbra='False') gave the
+    umbra's records instead of the penumbra's and AltitudeCrossing(h, terminal='no') stopped
+    the run; a direction of True passed as +1."""
+    for bad in ("False", "no", 1, None):
+        with pytest.raises(vv.InvalidInputError, match="umbra must be True or False"):
+            Eclipse("conical", umbra=bad)
+        with pytest.raises(vv.InvalidInputError, match="terminal must be True or False"):
+            AltitudeCrossing(100 * u.km, terminal=bad)
+    with pytest.raises(vv.InvalidInputError, match="direction"):
+        AltitudeCrossing(100 * u.km, direction=True)
+    assert not Eclipse("conical", umbra=np.False_).umbra
+    assert AltitudeCrossing(100 * u.km, -1, terminal=np.True_).terminal is True

@@ -104,6 +104,12 @@ def test_ensemble_file_with_inconsistent_content_is_refused(saved, tmp_path, key
     ("radius 6378136.3", "radius 63781x36.3", "radius is not a number"),  # was: ValueError
     ("radius 6378136.3", "radius -1", "radius must be positive"),
     ("earth_gravity_constant 3.986004415E+14", "earth_gravity_constant 0", "must be positive"),
+    # audit21: a time-variable field (ICGEM 2.0) gives C20 on a 'gfct' line, which was skipped:
+    # a field without J2, silently; an unknown data key and a repeated (n, m) were read too
+    ("gfc 2 0 ", "gfct 2 0 ", "time-variable field"),
+    ("gfc 3 1 ", "trnd 3 1 ", "time-variable field"),
+    ("gfc 3 1 ", "gcf 3 1 ", "'gcf' is not a data line"),
+    ("gfc 3 1 ", "gfc 3 0 ", "degree 3, order 0 are given again .first on line"),
 ])
 def test_gfc_file_error_names_the_line(tmp_path, old, new, match):
     from test_perturbations import GFC_HEADER, GFC_ROWS
@@ -116,3 +122,16 @@ def test_gfc_file_error_names_the_line(tmp_path, old, new, match):
     (tmp_path / "f.gfc").write_text(text.replace(old, new, 1))
     with pytest.raises(vv.InvalidInputError, match=f"f.gfc, line {k}: .*{match}"):
         SphericalHarmonics(tmp_path / "f.gfc")
+
+
+def test_gfc_secular_rates_are_left_out(tmp_path):
+    """'dot' lines (ICGEM 1.0 secular rates) do not change the field (its reference epoch)."""
+    from test_perturbations import GFC_HEADER, GFC_ROWS
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    lines = [f"gfc {n} {m} {c:.15e} {s:.15e} 0 0" for n, m, c, s in GFC_ROWS]
+    (tmp_path / "a.gfc").write_text(GFC_HEADER + "\n".join(lines) + "\n")
+    (tmp_path / "b.gfc").write_text(GFC_HEADER + "\n".join(lines + ["dot 2 0 1.16e-11 0 0 0"]))
+    a = SphericalHarmonics(tmp_path / "a.gfc").coefficients
+    np.testing.assert_array_equal(a, SphericalHarmonics(tmp_path / "b.gfc").coefficients)
+    assert a[0, 2, 0] == pytest.approx(-vv.EARTH.jn(2), rel=1e-5)

@@ -327,9 +327,9 @@ def test_nrlmsis_grid_matches_pymsis_and_decays():
     pytest.importorskip("pymsis")
     from pymsis import msis
 
-    from visviva.core.perturbations import grid_density
+    from visviva.core.perturbations import grid_density_at
     from visviva.satellites import propagate_cowell
-    from visviva.satellites.frames import gcrs_to_itrs
+    from visviva.satellites.frames import gcrs_to_itrs, itrs_to_geodetic
 
     drag = vv.AtmosphericDrag(
         0.02 * u.m**2 / u.kg, model="nrlmsis", f107=150.0, f107a=150.0, ap=4.0
@@ -337,23 +337,21 @@ def test_nrlmsis_grid_matches_pymsis_and_decays():
     model = ForceModel(GM, [drag], (), EPOCH, (0.0, 3600.0))
     sun = ephemeris.sun_position(EPOCH).to_value(u.km)
     rng = np.random.default_rng(3)
-    for _ in range(40):
-        r = rng.normal(size=3)
-        r *= (R + rng.uniform(150.0, 900.0)) / np.linalg.norm(r)
-        ri, _ = gcrs_to_itrs(r, np.zeros(3), EPOCH)
-        lon = np.degrees(np.arctan2(ri[1], ri[0]))
-        lat = np.arcsin(r[2] / np.linalg.norm(r))
-        h = np.linalg.norm(r) - R * (1 - vv.constants.EARTH_FLATTENING * np.sin(lat) ** 2)
-        ref = msis.run(
-            np.array([np.datetime64(EPOCH.utc.isot[:19])]), [lon], [np.degrees(lat)], [h],
-            f107s=[150.0], f107as=[150.0], aps=[[4.0] * 7],
-        )[..., 0].ravel()[0]  # fmt: skip
-        ha = np.arctan2(r[1], r[0]) - np.arctan2(sun[1], sun[0])
-        ha = (ha + np.pi) % (2 * np.pi) - np.pi
-        rho = grid_density(h, lat, ha, model.force, model.atm)
-        # tricubic B-spline of ln(rho) on 10 km x 5 deg x 15 deg: measured 3.7e-3 at most over
-        # 3000 points in 150-900 km (trilinear, before: 1.7e-2)
-        assert abs(rho / ref - 1) < 0.005
+    n = 400
+    r = rng.normal(size=(n, 3))
+    r *= ((R + rng.uniform(150.0, 900.0, n)) / np.linalg.norm(r, axis=1))[:, None]
+    # NRLMSIS at each point's own WGS-84 geodetic latitude, longitude and height (pymsis
+    # takes geodetic coordinates; one fly-through call)
+    ri = np.array([gcrs_to_itrs(x, np.zeros(3), EPOCH)[0] for x in r])
+    lat, lon, h = itrs_to_geodetic(ri * u.km)
+    ref = msis.run(np.full(n, np.datetime64(EPOCH.utc.isot[:19])), lon.value, lat.value, h.value,
+                   f107s=np.full(n, 150.0), f107as=np.full(n, 150.0),
+                   aps=np.full((n, 7), 4.0))[:, 0]  # fmt: skip
+    rho = np.array([grid_density_at(*x, sun, model.force, model.atm) for x in r])
+    # tricubic B-spline of ln(rho) on 10 km x 5 deg x 15 deg: 4.0e-3 at most here (trilinear,
+    # before: 1.7e-2); the geocentric latitude read on the geodetic grid (audit21): 8.0e-3
+    err = np.abs(rho / ref - 1)
+    assert err.max() < 0.005 and np.median(err) < 1e-3
     state = vv.KeplerianElements.from_semi_major_axis(
         (R + 400) * u.km, 0.0, 51.6 * u.deg, 0, 0, 0, vv.EARTH, epoch=EPOCH
     ).to_state()
@@ -579,3 +577,59 @@ def test_srp_with_arrays_is_refused_with_a_clear_error(kwargs):
     # Python scalars" (audit of 2026-11-26); AtmosphericDrag already said what to do
     with pytest.raises(vv.InvalidInputError, match="must be scalars"):
         vv.SolarRadiationPressure(**kwargs)
+
+
+def test_drag_about_another_body_needs_its_own_atmosphere():
+    """audit21: AtmosphericDrag(bc, body=vv.MOON) flew the Moon through the Earth's atmosphere
+    (Vallado's table): a 100 km lunar orbit hit the ground within an hour, silently."""
+    from visviva.bodies import MARS, MOON
+
+    for body in (MOON, MARS, "mars"):
+        with pytest.raises(vv.InvalidInputError, match="the Earth's atmosphere, not"):
+            vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=body)
+    with pytest.raises(vv.InvalidInputError, match="NRLMSIS is the Earth's atmosphere"):
+        vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=MARS, model="nrlmsis", f107=150,
+                           f107a=150, ap=4)
+    # a body's own table is used as given: a Mars orbit decays by the predicted amount,
+    # da = -rho B sqrt(GM a) dt (circular orbit, an atmosphere at rest: Mars has no rotation
+    # rate here), with a constant density of 1e-11 kg/m^3 over one orbit
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, body=MARS, table=[[0.0, 1e-11, 1e9]])
+    assert drag.body is MARS
+    a0 = MARS.radius_km + 300.0
+    state = vv.KeplerianElements.from_semi_major_axis(a0 * u.km, 0.0, 0.5, 0, 0, 0,
+                                                      MARS).to_state()
+    period = 2 * np.pi * np.sqrt(a0**3 / MARS.gm_km3_s2)
+    out = vv.propagate_cowell(state, [0.0, period] * u.s, [drag])
+    a = out.to_states().to_elements().semi_major_axis.to_value(u.km)
+    expected = -1e-11 * 1e9 * 0.02e-6 * np.sqrt(MARS.gm_km3_s2 * a0) * period
+    assert a[1] - a[0] == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("shadow", ["conical", "cylindrical", None])
+def test_srp_about_the_sun_is_never_in_the_suns_own_shadow(shadow):
+    """audit21: a heliocentric state with SolarRadiationPressure(body=vv.SUN) and the default
+    conical shadow sat in the umbra of the Sun itself (the occulting body at the light's
+    source): no SRP at all (0.2 km after 30 days of a sail's 213,000 km; 0 km cylindrical)."""
+    from scipy.integrate import solve_ivp
+
+    from visviva.constants import AU_KM
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    state = vv.KeplerianElements.from_semi_major_axis(
+        1.0 * u.AU, 0.0167, 0.0, 0, 0, 0, vv.SUN, epoch=epoch).to_state()
+    srp = vv.SolarRadiationPressure(10 * u.m**2 / u.kg, shadow=shadow, body=vv.SUN)
+    assert srp.shadow is None
+    t = 30 * 86400.0
+    out = vv.propagate_cowell(state, t * u.s, [srp])
+    gm = vv.SUN.gm_km3_s2
+    k = SOLAR_PRESSURE_1AU_N_M2 * 1.3 * 10.0 * 1e-3 * AU_KM**2  # km^3/s^2, pushing outward
+
+    def rhs(_, y):
+        r = np.linalg.norm(y[:3])
+        return np.concatenate([y[3:], (k - gm) * y[:3] / r**3])
+
+    y0 = np.concatenate([state.r.to_value(u.km), state.v.to_value(u.km / u.s)])
+    ref = solve_ivp(rhs, (0.0, t), y0, method="DOP853", rtol=1e-12, atol=1e-6).y[:3, -1]
+    kepler = state.propagate(t * u.s).r.to_value(u.km)
+    assert np.linalg.norm(ref - kepler) > 1e5  # the sail's push: ~2e5 km in a month
+    assert np.linalg.norm(out.r.to_value(u.km) - ref) < 1e-3

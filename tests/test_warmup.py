@@ -62,17 +62,20 @@ def test_warmup_compiles_the_full_cowell_kernels(monkeypatch):
     # the warm-up ran only the two-body + J2 kernel: a later process compiled the full force
     # model (SRP, drag, third bodies, events, a finite burn's thrust) for ~19 s and the batch
     # kernel for ~10 s on its first call
-    from visviva.satellites import cowell
+    from visviva.satellites import cowell, cowell_batch
 
     seen = set()
     kind = cowell.rhs_kind
 
-    def spy(force, *ev_kind):  # one state passes its event kinds, a batch none
-        full = kind(force, *ev_kind)
-        seen.add(("one" if ev_kind else "many", full is not None))  # None: zonal only
-        return full
+    def spy(which):
+        def rhs_kind(force, *ev_kind):
+            full = kind(force, *ev_kind)
+            seen.add((which, full is not None))  # None: zonal only
+            return full
+        return rhs_kind
 
-    monkeypatch.setattr(cowell, "rhs_kind", spy)
+    monkeypatch.setattr(cowell, "rhs_kind", spy("one"))
+    monkeypatch.setattr(cowell_batch, "rhs_kind", spy("many"))
     tasks = [(label, task) for label, task in warmup.TASKS if label.startswith("Cowell")]
     assert all(r[2] is None for r in warmup.warmup(tasks, progress=False, stream=io.StringIO()))
     assert {("one", False), ("one", True), ("many", False), ("many", True)} <= seen

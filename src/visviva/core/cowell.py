@@ -650,24 +650,28 @@ def integrate_cowell(
 @parallel_kernel
 def integrate_cowell_many(
     y0, t_out, t_end, rtol, atol, h_max, max_steps, force, zonal, atm, eph_r, eph_v, eph_gm, sh,
-    A, B, C, E3, E5, D, y_out, status, info, full,
+    A, B, C, E3, E5, D, y_out, status, info, full, ev_kind, ev_param, ev_dir,
 ):  # fmt: skip
-    """:func:`integrate_cowell` for N initial states (rows of ``y0``) in parallel, no events.
+    """:func:`integrate_cowell` for N initial states (rows of ``y0``) in parallel.
 
     ``force`` is (1, F), one block for every state, or (N, F), state k flying row k (an
     unscented filter's sigma points each with its own drag or SRP coefficient).
     ``y_out`` (N, T, 6), ``status`` (N,), ``info`` (N, 6) are written per state.
+    ``ev_kind``, ``ev_param``, ``ev_dir`` (E,): terminal events only, the same for every state
+    (the surface of :mod:`visviva.satellites.surface` that bounds a perturbed run; none: empty
+    arrays): a state that meets one stops there, ``info[k, 5]`` its index (else -1),
+    ``info[k, 4]`` the time, ``info[k, 0]`` the outputs written before it (the rest of
+    ``y_out[k]`` is left as it was). Their records are not returned.
     """
     for k in prange(y0.shape[0]):
         force_k = force[k % force.shape[0]]  # row 0 for all, or row k
-        ev_kind = np.zeros(0, dtype=np.int64)
-        ev_param = np.zeros(0)
-        ev_t = np.zeros(1)
-        ev_y = np.zeros((1, 6))
-        ev_which = np.zeros(1)
+        ev_t = np.zeros(2)  # one terminal crossing is recorded, then the run stops
+        ev_y = np.zeros((2, 6))
+        ev_which = np.zeros(2)
+        ev_terminal = np.ones(ev_kind.shape[0], dtype=np.int64)
         work = np.zeros((WORK_ROWS, 6))
         status[k] = integrate_cowell(
             y0[k], t_out, t_end, rtol, atol, h_max, max_steps, force_k, zonal, atm, eph_r,
-            eph_v, eph_gm, sh, ev_kind, ev_param, ev_kind, ev_kind, 1e-6, A, B, C, E3, E5, D,
+            eph_v, eph_gm, sh, ev_kind, ev_param, ev_dir, ev_terminal, 1e-6, A, B, C, E3, E5, D,
             y_out[k], ev_t, ev_y, ev_which, info[k], full, work,
         )  # fmt: skip

@@ -12,7 +12,7 @@ kernels below read it by those names only, and each perturbation class of
 
 With density model 1, ``atm`` has shape ((n_hour_angle + 3) * (n_latitude + 2),
 n_altitude + 2) and holds the tricubic B-spline coefficients of ln(rho / (kg/m^3)) over (hour angle from the Sun,
-geocentric latitude, geodetic altitude), read by :func:`grid_log_density`.
+geodetic latitude, geodetic altitude), read by :func:`grid_log_density`.
 
 ``sh``, shape (2, N+2, N+2): unnormalised C_nm and S_nm of the spherical-harmonic field
 (Montenbruck & Gill 2000, eq. 3.13), used when ``force[fb.HARMONICS_DEGREE]`` is > 0.
@@ -301,19 +301,26 @@ def exponential_density(h, atm):
     return band_density(h, atm, exponential_band(h, atm))
 
 
+@inline_kernel
+def _geodetic_latitude(s, r, radius, flattening):
+    """Geodetic latitude (rad) at distance ``r``, sin(geocentric latitude phi) ``s``, to first
+    order in f: phi + f (R / r) sin(2 phi) (tan phi_d = tan phi / (1 - 2 f R / r))."""
+    return math.asin(s) + flattening * (radius / r) * 2.0 * s * math.sqrt(max(0.0, 1.0 - s * s))
+
+
 @kernel
 def grid_density_at(x, y, z, sun_pos, force, atm):
-    """Density (kg/m^3) of the gridded model at the position (x, y, z) (km, inertial), the Sun
-    at ``sun_pos``: geodetic altitude, geocentric latitude and hour angle from the Sun, then
-    :func:`grid_density`."""
+    """Density (kg/m^3) of the gridded model at (x, y, z) (km, inertial), the Sun at ``sun_pos``:
+    geodetic altitude and latitude (NRLMSIS's), hour angle from the Sun, :func:`grid_density`."""
     h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
-    lat = math.asin(z / math.sqrt(x * x + y * y + z * z))
+    r = math.sqrt(x * x + y * y + z * z)
+    lat = _geodetic_latitude(z / r, r, force[fb.RADIUS], force[fb.FLATTENING])
     return grid_density(h, lat, _hour_angle(x, y, sun_pos), force, atm)
 
 
 @kernel
 def grid_density(h, lat, hour_angle, force, atm):
-    """Density (kg/m^3) at geodetic altitude ``h`` (km), geocentric latitude and hour angle
+    """Density (kg/m^3) at geodetic altitude ``h`` (km), geodetic latitude and hour angle
     from the Sun (rad): the exponential of :func:`grid_log_density`."""
     return math.exp(grid_log_density(h, lat, hour_angle, force, atm)[0])
 
@@ -323,29 +330,33 @@ def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
     """ln(rho / (kg/m^3)) of the gridded model at (x, y, z) (km, inertial), and its gradient
     d ln(rho) / d r (1/km) written into ``grad`` (3,), the Sun held at ``sun_pos``.
 
-    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geocentric latitude
-    phi = asin(s) and the hour angle atan2(y, x) - lambda_sun of the spline's analytic partials.
+    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geodetic latitude of
+    :func:`_geodetic_latitude` and the hour angle atan2(y, x) - lambda_sun of the spline's
+    analytic partials.
     """
     fr = force[fb.RADIUS] * force[fb.FLATTENING]
     r2 = x * x + y * y + z * z
     r = math.sqrt(r2)
     s = z / r
     h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
-    lat = math.asin(s)
+    lat = _geodetic_latitude(s, r, force[fb.RADIUS], force[fb.FLATTENING])
     ha = _hour_angle(x, y, sun_pos)
     val, dh, dlat, dha = grid_log_density(h, lat, ha, force, atm)
     rho2 = x * x + y * y  # squared distance from the z axis
     rxy = math.sqrt(rho2)
     # d s / d r = (e_z - s r_hat) / r; d h / d r = r_hat + 2 R f s d s / d r
     # d phi / d r = (-z x, -z y, rxy^2) / (r^2 rxy); d ha / d r = (-y, x, 0) / rxy^2
+    # d phi_d / d r = (1 + 2 f (R / r) cos(2 phi)) d phi / d r - f R sin(2 phi) / r^2 r_hat
+    k_phi = 1.0 + 2.0 * fr / r * (rho2 / r2 - s * s)  # cos(phi) = rxy / r
+    k_r = -fr * 2.0 * s * rxy / (r2 * r)
     pos = (float(x), float(y), float(z))
     for j in range(3):
         ds = ((1.0 if j == 2 else 0.0) - s * pos[j] / r) / r
-        grad[j] = dh * (pos[j] / r + 2.0 * fr * s * ds)
+        grad[j] = dh * (pos[j] / r + 2.0 * fr * s * ds) + dlat * k_r * pos[j] / r
     if rxy > 0.0:
-        grad[0] += dlat * (-z * x / (r2 * rxy)) - dha * y / rho2
-        grad[1] += dlat * (-z * y / (r2 * rxy)) + dha * x / rho2
-        grad[2] += dlat * rxy / r2
+        grad[0] += dlat * k_phi * (-z * x / (r2 * rxy)) - dha * y / rho2
+        grad[1] += dlat * k_phi * (-z * y / (r2 * rxy)) + dha * x / rho2
+        grad[2] += dlat * k_phi * rxy / r2
     return val
 
 

@@ -1,8 +1,8 @@
 """A leg of a Cowell run with burns (forward or backward from the epoch), segment by segment.
 
 The leg is split at 0, every burn's start and end, and its last output time. Each segment is
-one call of the compiled integrator (``cowell._run`` for one state, ``cowell._run_many`` for N)
-from a fresh start: its own t = 0 (the force block's time origin moved there,
+one call of the compiled integrator (``cowell._run`` for one state,
+``cowell_batch.run_many`` for N) from a fresh start: its own t = 0 (the force block's time origin moved there,
 :func:`visviva.core.force_block.with_time_origin`), a fresh first derivative and step size,
 the thrust slots of the finite burn that is on over it. Impulses are added between segments.
 Backwards, impulses are taken off and finite burns' thrust is integrated with the mass growing
@@ -224,9 +224,9 @@ def run_segments_many(schedule, run_many, y0, t_out, t_end, model, rtol, atol, h
     schedule : Schedule
         The burns; each applies to every state (a local frame at each state's own r, v).
     run_many : callable
-        ``cowell._run_many``: one segment for all states.
+        ``cowell_batch.run_many``: one segment for all states.
     y0, t_out, t_end, model, rtol, atol, h_max, max_steps
-        As for ``cowell._run_many``.
+        As for ``cowell_batch.run_many``.
 
     Returns
     -------
@@ -235,6 +235,7 @@ def run_segments_many(schedule, run_many, y0, t_out, t_end, model, rtol, atol, h
     """
     n = y0.shape[0]
     info = np.zeros((n, 6))
+    info[:, 5] = -1.0
     status = np.zeros(n, dtype=np.int64)
 
     def segment(y, t_seg, a, b, seg):
@@ -245,6 +246,10 @@ def run_segments_many(schedule, run_many, y0, t_out, t_end, model, rtol, atol, h
         if np.any(st != 0):
             status[:] = st
             return y_seg, a + float(seg_info[:, 4].min())
+        hit = seg_info[:, 5] >= 0  # a terminal event (the surface): the batch stops there
+        if hit.any():
+            info[hit, 5] = seg_info[hit, 5]
+            return y_seg, a + float(seg_info[hit, 4][0])
         return y_seg, None
 
     y_out, _ = _drive(schedule, model, t_out, t_end, y0, segment)
@@ -360,8 +365,8 @@ class Schedule:
                     t0 == start and t1 == end, t_reached < 0))
 
     def _leg(self, plain, segmented):
-        """``plain`` (``cowell._run`` or ``_run_many``) for a leg that meets no burn (the same
-        bits as a run without burns), else ``segmented`` with this schedule."""
+        """``plain`` (``cowell._run`` or ``cowell_batch.run_many``) for a leg that meets no burn
+        (the same bits as a run without burns), else ``segmented`` with this schedule."""
         def run(*args):
             self.snap(np.sort(np.append(args[1], 0.0)))
             if not self.crosses(float(args[2])):
@@ -376,7 +381,7 @@ class Schedule:
         return self._leg(run_one, run_segments)
 
     def run_many(self, run_many):
-        """The same for N states and ``cowell._run_many``."""
+        """The same for N states and ``cowell_batch.run_many``."""
         return self._leg(run_many, run_segments_many)
 
     def annotate(self, result) -> None:

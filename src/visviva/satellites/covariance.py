@@ -39,6 +39,7 @@ from .._covariance import (
 from .._units import require_finite, to_array, to_quantity, to_vector
 from ..errors import InvalidInputError, ShapeError, StepSizeError, SurfaceImpact
 from .cowell import CowellResult, output_offsets_s, perturbation_list
+from .dop853 import integration_tolerances
 from .satellite_states import require_gcrs
 from .surface import altitude_km, watched_body
 
@@ -445,8 +446,7 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
             "the output times must be strictly increasing; sort them (np.sort) and remove "
             "duplicates."
         )
-    if not (np.isfinite(rtol) and 0 < rtol < 1 and np.isfinite(atol) and atol > 0):
-        raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol}, atol={atol}.")
+    rtol, atol = integration_tolerances(rtol, atol)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps <= 0:
         raise InvalidInputError(f"max_steps must be an integer > 0; got {max_steps!r}.")
     perturbations = list(perturbation_list(perturbations, allow_none=True))
@@ -500,7 +500,8 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
         to_quantity(offsets[0] if scalar else offsets, "time"),
         to_quantity(np.ascontiguousarray(y[0, :3] if scalar else y[:, :3]), "length"),
         to_quantity(np.ascontiguousarray(y[0, 3:] if scalar else y[:, 3:]), "speed"),
-        gm, epoch, [], False, max(0.0, float(offsets[-1])) * u.s, dyn.n_steps,
+        gm, epoch, [], False,
+        float(offsets[-1] if offsets[-1] >= 0 else offsets[0]) * u.s, dyn.n_steps,
         dyn.n_evaluations, scalar,
     )
     out_label = "GCRS" if out_code == 0 else str(out_name).upper()

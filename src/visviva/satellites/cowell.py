@@ -22,9 +22,10 @@ from ..bodies import EARTH, SUN
 from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
 from ..core.perturbations import FORCE_SIZE, VALLADO_EXPONENTIAL_TABLE
-from ..errors import InvalidInputError, ShapeError, StepSizeError, fmt_number, raise_for_status
+from ..errors import InvalidInputError, ShapeError, fmt_number, raise_for_status
 from .burn_segments import burn_schedule
-from .dop853 import dop853_tableau
+from .cowell_batch import propagate_batch, raise_budget
+from .dop853 import dop853_tableau, integration_tolerances
 from .events import Event, EventRecord, event_capacity
 from .frames import offline_iers
 from .perturbations import (
@@ -38,7 +39,7 @@ from .perturbations import (
 )
 from .relativity import Relativity
 from .satellite_states import require_gcrs
-from .surface import check_batch, check_single, watched_body, with_surface
+from .surface import batch_impact, check_single, watched_body, with_surface
 
 __all__ = ["propagate_cowell", "CowellResult", "ForceModel", "central_body", "output_offsets_s"]
 
@@ -264,7 +265,8 @@ class CowellResult:
     terminated : bool
         Whether a terminal event (re-entry) stopped the propagation early.
     t_final : Quantity
-        The last time integrated to.
+        The last time integrated to: the forward end, or for a run with only negative
+        output times the backward end (where a terminal event stopped the run, its time).
     n_steps, n_evaluations : int
         Accepted steps and right-hand-side evaluations.
     burns : list of BurnRecord
@@ -365,14 +367,6 @@ def output_offsets_s(t, epoch):
     return to_array(t, "time", "t")
 
 
-def _raise_budget(max_steps, t_reached_s, where):
-    raise StepSizeError(
-        f"Cowell propagation used its whole step budget (max_steps={max_steps}){where} and "
-        f"stopped at t = {t_reached_s:.6f} s before the last output time. To fix: raise "
-        "max_steps, loosen rtol/atol, or propagate a shorter span."
-    )
-
-
 #: CPU seconds per step of an interpreted Cowell run (core/tier.py), first guess (measured 0.6
 #: ms for two-body + J2); updated from each interpreted run.
 _INTERPRETED_STEP_S = {"s": 1e-3}
@@ -433,56 +427,6 @@ def _run(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol):
         cap = 2 * n_found
     written = int(info[0])
     return status, y_out[:written], ev_t[:n_found], ev_y[:n_found], ev_which[:n_found], info
-
-
-def _run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps):
-    """N states (rows of ``y0``) through the parallel kernel: ``(y_out, status, info)``."""
-    from ..core.cowell import integrate_cowell_many
-
-    n = y0.shape[0]
-    y_out = np.zeros((n, t_out.size, 6))
-    status = np.zeros(n, dtype=np.int64)
-    info = np.zeros((n, 6))
-    arrays = model.arrays()  # one force block (1, F) for all N
-    integrate_cowell_many(
-        y0, t_out, t_end, rtol, atol, h_max, max_steps, arrays[0][None], *arrays[1:],
-        *dop853_tableau(), y_out, status, info, rhs_kind(model.force),
-    )  # fmt: skip
-    return y_out, status, info
-
-
-def _propagate_batch(r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max,
-                     max_steps, schedule):  # fmt: skip
-    """N states through the parallel kernel; results (N, T, 3)."""
-    y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
-    pieces = []
-    n_steps = nfev = 0
-    back = offsets[offsets < 0][::-1]
-    fwd = offsets[offsets >= 0]
-    for part, t_end in ((back, span[0]), (fwd, span[1])):
-        if part.size == 0:
-            continue
-        run = schedule.run_many(_run_many) if schedule else _run_many
-        y_out, status, info = run(y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max,
-                                  max_steps)
-        if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
-            k = int(np.flatnonzero(info[:, 2] >= max_steps)[0])
-            _raise_budget(max_steps, info[k, 4], f" for state {k}")
-        raise_for_status(status, "Cowell propagation (batch)", t_reached_s=info[:, 4])
-        n_steps += int(info[:, 2].sum())
-        nfev += int(info[:, 3].sum())
-        pieces.append(y_out[:, ::-1] if t_end < 0 else y_out)
-    y_all = np.concatenate(pieces, axis=1)
-    t_all = offsets
-    if scalar:
-        y_all, t_all = y_all[:, 0], offsets[0]
-    t_final = float(offsets[-1] if offsets[-1] > 0 else 0.0)
-    result = CowellResult._from_arrays(
-        t_all, y_all, gm, epoch, [], False, t_final, n_steps, nfev, scalar
-    )
-    if schedule is not None:
-        schedule.annotate(result)
-    return result
 
 
 def propagate_cowell(
@@ -601,8 +545,7 @@ def propagate_cowell(
             f"the output times must be strictly increasing; t[{i + 1}] = {offsets[i + 1]} s "
             f"comes after t[{i}] = {offsets[i]} s. Sort them (np.sort) and remove duplicates."
         )
-    if not (np.isfinite(rtol) and 0 < rtol < 1 and np.isfinite(atol) and atol > 0):
-        raise InvalidInputError(f"need 0 < rtol < 1 and atol > 0; got rtol={rtol}, atol={atol}.")
+    rtol, atol = integration_tolerances(rtol, atol)
     h_max = np.inf
     if max_step is not None:
         h_max = float(to_array(max_step, "time", "max_step"))
@@ -622,9 +565,20 @@ def propagate_cowell(
     model = ForceModel(gm, perturbations, events, epoch, span)
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
-        return check_batch(_propagate_batch(
-            r0, v0, gm, epoch, offsets, scalar, span, model, rtol, atol, h_max, max_steps,
-            schedule), body)
+        y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))
+        y_all, n_steps, nfev, impact = propagate_batch(
+            y0, offsets, span, model, rtol, atol, h_max, max_steps, schedule, body is not None)
+        t_all = offsets
+        if scalar:
+            y_all, t_all = y_all[:, 0], offsets[0]
+        result = CowellResult._from_arrays(t_all, y_all, gm, epoch, [], False,
+                                           float(offsets[-1] if offsets[-1] >= 0 else
+                                                 offsets[0]), n_steps, nfev, scalar)
+        if schedule is not None:
+            schedule.annotate(result)
+        if impact is not None:
+            raise batch_impact(body, impact[0], impact[1], result)
+        return result
     events = with_surface(events, body)
     ev = (
         np.array([e.kind for e in events], dtype=np.int64),
@@ -649,7 +603,7 @@ def propagate_cowell(
             y0, np.ascontiguousarray(part), t_end, model, rtol, atol, h_max, max_steps, ev, ev_tol
         )
         if status != 0 and int(info[2]) >= max_steps:
-            _raise_budget(max_steps, info[4], "")
+            raise_budget(max_steps, info[4], "")
         raise_for_status(
             np.int64(status),
             f"Cowell propagation stopped at t = {info[4]:.6f} s after {int(info[2])} steps",
@@ -675,8 +629,8 @@ def propagate_cowell(
             t_final = info[4]
             if t_end >= 0:
                 break
-        else:
-            t_final = info[4] if t_end >= 0 else t_final
+        elif t_end >= 0 or fwd.size == 0:  # the forward end, else a backward-only run's
+            t_final = info[4]
     y_all = np.concatenate(pieces_y) if pieces_y else np.zeros((0, 6))
     t_all = np.concatenate(pieces_t) if pieces_t else np.zeros(0)
     records.sort(key=lambda rec: rec.t.value)

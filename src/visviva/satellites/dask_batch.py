@@ -406,6 +406,10 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
         raise InvalidInputError(
             f"unknown Cowell options {sorted(unknown)}; use rtol, atol, max_step, max_steps."
         )
+    from .cowell import DEFAULT_ATOL, DEFAULT_RTOL
+    from .dop853 import integration_tolerances
+
+    integration_tolerances(options.get("rtol", DEFAULT_RTOL), options.get("atol", DEFAULT_ATOL))
     r0 = to_vector(states.r, "length", "states.r").reshape(-1, 3)
     v0 = to_vector(states.v, "speed", "states.v").reshape(-1, 3)
     gm = np.ravel(to_array(states.gm, "gm", "states.gm"))
@@ -414,6 +418,13 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
             "method='cowell' needs N states with r, v of shape (N, 3) and one GM for all."
         )
     epoch = getattr(states, "epoch", None)
+    if epoch is not None and not epoch.isscalar:  # checked here, not in every worker's block
+        if np.any((epoch - epoch.ravel()[0]).to_value(u.s) != 0):
+            raise InvalidInputError(
+                "method='cowell' needs states that share one epoch; propagate groups with "
+                "equal epochs."
+            )
+        epoch = epoch.ravel()[0]
     if isinstance(t, Time):
         if epoch is None:
             raise InvalidInputError(
@@ -427,7 +438,7 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
         dt = to_array(t, "time", "t")
         if dt.ndim != 1:
             raise InvalidInputError(f"t must be a 1-D array of times; got shape {dt.shape}.")
-        times = t if epoch is None else epoch.ravel()[0] + dt * u.s
+        times = t if epoch is None else epoch + dt * u.s
     if isinstance(chunks, (tuple, list)):
         chunks = chunks[0]
     n_chunk = _COWELL_CHUNK if chunks is None else int(chunks)
@@ -438,7 +449,7 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
     from .cowell import ForceModel, perturbation_list
 
     perturbations = list(perturbation_list(perturbations))
-    ForceModel(g, perturbations, (), None if epoch is None else epoch.ravel()[0], (0.0, 0.0))
+    ForceModel(g, perturbations, (), epoch, (0.0, 0.0))
     for a, b in _splits(r0.shape[0], n_chunk):
         blk = dask.delayed(_cowell_block, pure=False, nout=3)(
             r0[a:b], v0[a:b], g, epoch, t, perturbations, dict(options))

@@ -3,8 +3,9 @@
 Source, in order of preference:
 
 1. **JPL DE421** through ``jplephem`` (the ``ephem`` extra: ``pip install visviva[ephem]``),
-   valid 1900-2050. DE421 agrees with the current DE440 to about 0.3 km for the Earth and Mars
-   and a few metres for the Moon over 1950-2050 (Folkner et al. 2009, 2021).
+   whose ``de421`` package tabulates 1899-12-04 to 2200-02-01 (TDB; times outside are
+   refused). DE421 agrees with the current DE440 to about 0.3 km for the Earth and Mars and
+   a few metres for the Moon over 1950-2050 (Folkner et al. 2009, 2021).
 2. Otherwise astropy's built-in ephemeris (ERFA ``epv00`` for the Earth and Sun, ``moon98`` for
    the Moon, ``plan94`` for the planets): a few km for the Sun, ~10-30 km for the Moon and
    arcsecond-level directions for the planets; enough for perturbations, not for navigation.
@@ -147,11 +148,12 @@ def position_velocity(name, t, center="earth"):
         tdb = tt
         jd1 = np.asarray(tdb.jd1, dtype=float)
         jd2 = np.asarray(tdb.jd2, dtype=float)
-        lo, hi = 2414992.5, 2524624.5
+        lo, hi = eph.jalpha, eph.jomega  # the package's span: 1899-12-04 to 2200-02-01 TDB
         if np.any(jd1 + jd2 < lo) or np.any(jd1 + jd2 > hi):
             raise InvalidInputError(
-                "DE421 covers 1900-01-01 to 2050-01-01 (TDB); the requested times fall outside. "
-                "Uninstall the ephem extra to use astropy's built-in (lower-accuracy) ephemeris."
+                "the DE421 tables cover 1899-12-04 to 2200-02-01 (TDB); the requested times "
+                "fall outside. Uninstall the ephem extra to use astropy's built-in "
+                "(lower-accuracy) ephemeris."
             )
         r, v = _barycentric_de421(eph, key, jd1, jd2)
         if ckey != "ssb":

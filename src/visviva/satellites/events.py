@@ -19,9 +19,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 from astropy import units as u
 
-from .._units import to_array
+from .._units import require_flag, to_array
 from ..errors import InvalidInputError
 
 __all__ = [
@@ -98,11 +99,11 @@ class AltitudeCrossing(Event):
         h = to_array(altitude, "length", "altitude")
         if h.ndim != 0:
             raise InvalidInputError("altitude must be a scalar Quantity, e.g. 100 * u.km.")
-        if direction not in (-1, 0, 1):
+        if isinstance(direction, bool | np.bool_) or direction not in (-1, 0, 1):
             raise InvalidInputError(f"direction must be -1, 0 or +1; got {direction!r}.")
         self.param = float(h)
         self.direction = int(direction)
-        self.terminal = bool(terminal)
+        self.terminal = require_flag(terminal, "terminal")  # "False" is truthy: a stopped run
 
     def label(self, sign):
         return "ascending" if sign > 0 else "descending"
@@ -146,6 +147,7 @@ class Eclipse(Event):
     def __init__(self, model: str = "cylindrical", umbra: bool = False):
         if model not in ("cylindrical", "conical"):
             raise InvalidInputError(f"model must be 'cylindrical' or 'conical'; got {model!r}.")
+        umbra = require_flag(umbra, "umbra")  # "False" is truthy: umbra events, not penumbra
         if umbra and model != "conical":
             raise InvalidInputError(
                 "umbra=True needs model='conical': the cylindrical shadow has no umbra and "

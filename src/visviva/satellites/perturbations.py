@@ -16,7 +16,6 @@ perturbation is one class here (its slots, its ``pack``) plus its term in
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +27,7 @@ from ..bodies import BODIES, EARTH, Body
 from ..core import force_block as fb
 from ..core.perturbations import VALLADO_EXPONENTIAL_TABLE
 from ..errors import InvalidInputError, fmt_number
+from .icgem import read_gfc
 
 __all__ = [
     "Perturbation",
@@ -166,10 +166,11 @@ class AtmosphericDrag(Perturbation):
         by m(epoch) / m(t) (:mod:`visviva.satellites.burn_mass`).
     body : Body
         Central body (default Earth): its radius and flattening define the geodetic altitude,
-        its rotation rate the co-rotating atmosphere.
+        its rotation rate the co-rotating atmosphere (a body without a ``rotation_rate``: an
+        atmosphere at rest in the frame).
     table : array_like (K, 3), optional
-        Base altitude (km), density at the base (kg/m^3), scale height (km). Default: Vallado
-        (2013), Table 8-4 (0 to 1000+ km).
+        Base altitude (km), density at the base (kg/m^3), scale height (km). Default, for the
+        Earth only: Vallado (2013), Table 8-4 (0 to 1000+ km); another body needs its own.
 
     Notes
     -----
@@ -182,7 +183,7 @@ class AtmosphericDrag(Perturbation):
     ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
     space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
     ``ap``: daily Ap; never downloaded). The density is tabulated once at the state's epoch on a
-    grid of geodetic altitude (80-1000 km, 10 km), geocentric latitude (5 deg) and hour angle
+    grid of geodetic altitude (80-1000 km, 10 km), geodetic latitude (5 deg) and hour angle
     from the Sun (15 deg), and interpolated in ln(rho) during the run by a tricubic B-spline (C2,
     periodic in hour angle, continued over the poles, linear in ln(rho) beyond the altitude
     grid; within 0.4 % of direct NRLMSIS calls in 150-900 km); the bulge
@@ -202,6 +203,17 @@ class AtmosphericDrag(Perturbation):
         if self.model not in ("exponential", "nrlmsis"):
             raise InvalidInputError(
                 f"model must be 'exponential' or 'nrlmsis'; got {self.model!r}."
+            )
+        body = require_body(self.body, "AtmosphericDrag")
+        object.__setattr__(self, "body", body)
+        if body.name != "earth" and (self.model == "nrlmsis" or self.table is None):
+            what = "NRLMSIS" if self.model == "nrlmsis" else "the default table (Vallado 2013, " \
+                "Table 8-4)"
+            raise InvalidInputError(
+                f"{what} is the Earth's atmosphere, not {body.name}'s: give {body.name}'s own "
+                "exponential table, AtmosphericDrag(bc, body=..., table=[[base altitude km, "
+                "density kg/m^3, scale height km], ...]) (a body without an atmosphere has no "
+                "drag)."
             )
         if self.model == "nrlmsis":
             if self.f107 is None or self.f107a is None or self.ap is None:
@@ -229,7 +241,6 @@ class AtmosphericDrag(Perturbation):
         if bc.ndim != 0:
             raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
         require_positive(bc, "ballistic_coefficient")
-        object.__setattr__(self, "body", require_body(self.body, "AtmosphericDrag"))
         table = VALLADO_EXPONENTIAL_TABLE if self.table is None else self.table
         table = np.ascontiguousarray(table, dtype=np.float64)
         if table.ndim != 2 or table.shape[1] != 3 or not np.all(np.isfinite(table)):
@@ -389,7 +400,8 @@ class SolarRadiationPressure(Perturbation):
         Shadow model: conical with penumbra (Montenbruck & Gill 2000, sec. 3.4.2), cylindrical
         (Vallado 2013, Algorithm 34), or none.
     body : Body
-        The occulting central body (default Earth).
+        The occulting central body (default Earth). For the Sun (a heliocentric orbit, a
+        solar sail) the shadow is None whatever is given: no central body occults the Sun.
 
     Notes
     -----
@@ -424,6 +436,9 @@ class SolarRadiationPressure(Perturbation):
                 f"shadow must be 'conical', 'cylindrical' or None; got {self.shadow!r}."
             )
         object.__setattr__(self, "body", require_body(self.body, "SolarRadiationPressure"))
+        if self.body.name == "sun":  # nothing occults the Sun's light from the Sun's centre: a
+            # shadow model there put every point in the umbra of the Sun itself (no SRP at all)
+            object.__setattr__(self, "shadow", None)
         object.__setattr__(self, "_am_m2_kg", float(am))
         object.__setattr__(self, "_cr", float(cr))
 
@@ -501,7 +516,7 @@ class SphericalHarmonics(Perturbation):
             raise InvalidInputError("SphericalHarmonics is implemented for the Earth (ITRS) only.")
         self.body = body
         self.path = str(path)
-        gm, radius, norm, rows = _read_gfc(self.path)
+        gm, radius, norm, rows = read_gfc(self.path)
         n_file = max(int(n) for n, _, _, _ in rows)
         n_max = n_file if degree is None else degree
         if not isinstance(n_max, int | np.integer) or not 2 <= n_max <= min(n_file, 80):
@@ -559,66 +574,6 @@ class SphericalHarmonics(Perturbation):
 
     def __repr__(self):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
-
-
-def _read_gfc(path):
-    """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...]).
-
-    Every error names the file and the line: a header number that does not parse or is not
-    positive, a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n, a
-    coefficient that is NaN or infinite."""
-    gm = radius = None
-    norm = True
-    rows = []
-    in_head = True
-    try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            text = fh.read().replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    except OSError as exc:
-        raise InvalidInputError(f"cannot read the gravity-field file {path!r}: {exc}") from exc
-
-    def bad(number, what):
-        return InvalidInputError(f"{path}, line {number}: {what}: {text[number - 1][:80]!r}")
-
-    def number_in(parts, k, number, what):
-        try:
-            value = float(parts[k].replace("D", "E").replace("d", "e"))
-        except (IndexError, ValueError):
-            raise bad(number, f"{what} is not a number") from None
-        if not math.isfinite(value):
-            raise bad(number, f"{what} is not finite")
-        return value
-
-    for number, line in enumerate(text, start=1):
-        parts = line.split()
-        if not parts:
-            continue
-        key = parts[0].lower()
-        if in_head:
-            if key == "end_of_head":
-                in_head = False
-            elif key in ("earth_gravity_constant", "radius") and len(parts) > 1:
-                value = number_in(parts, 1, number, key)
-                if value <= 0:
-                    raise bad(number, f"{key} must be positive")
-                gm, radius = (value, radius) if key == "earth_gravity_constant" else (gm, value)
-            elif key == "norm" and len(parts) > 1:
-                norm = parts[1].lower() != "unnormalized"
-            continue
-        if key == "gfc":
-            try:
-                n, m = int(parts[1]), int(parts[2])
-            except (IndexError, ValueError):
-                raise bad(number, "a 'gfc n m C S' line needs the integers n and m") from None
-            if not 0 <= m <= n:
-                raise bad(number, f"degree n = {n} and order m = {m} need 0 <= m <= n")
-            rows.append((n, m, number_in(parts, 3, number, "C"), number_in(parts, 4, number, "S")))
-    if gm is None or radius is None or not rows or in_head:
-        raise InvalidInputError(
-            f"{path!r} is not an ICGEM .gfc file: it needs earth_gravity_constant, radius and "
-            "end_of_head in the header and 'gfc n m C S' lines after it."
-        )
-    return gm, radius, norm, rows
 
 
 def flattening_of(body: Body) -> float:

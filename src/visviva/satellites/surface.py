@@ -10,12 +10,9 @@ therefore watches the geodetic altitude ``h = |r| - R (1 - f sin^2 phi)`` (the b
 attached (``exc.result``). A terminal event of the user's that comes first (``ReEntry()`` at
 100 km) ends the run as before, without an error.
 
-One state: a terminal altitude-0 event of its own (:class:`SurfaceCrossing`) is found on the
-integrator's dense output, to the event tolerance (1e-6 s). A batch of states (no events in the
-parallel kernel): the output times are checked, so an impact is found at the first output time
-below the surface (a trajectory that dips below the surface and comes out again between two
-outputs, i.e. passes through the body, is not seen there; give denser output times or
-propagate that state alone).
+A terminal altitude-0 event (:class:`SurfaceCrossing`) is found on the integrator's dense
+output, to the event tolerance (1e-6 s), for one state and for each state of a batch (the
+parallel kernel carries it: :mod:`visviva.satellites.cowell_batch`).
 
 Pure two-body motion (no perturbations) and a GM of no known body are not watched: a conic
 through the attractor is the exact solution of the two-body problem, as
@@ -32,7 +29,7 @@ from .events import AltitudeCrossing
 from .perturbations import flattening_of
 
 __all__ = ["SurfaceCrossing", "watched_body", "altitude_km", "with_surface", "check_single",
-           "check_batch"]
+           "batch_impact"]
 
 
 class SurfaceCrossing(AltitudeCrossing):
@@ -111,20 +108,13 @@ def check_single(result, body):
                   "(exc.result.t, .r, .v, .events).")
 
 
-def check_batch(result, body):
-    """``result`` of a batch, or :class:`~visviva.errors.SurfaceImpact` naming the first state
-    below the surface at an output time (and its first such time)."""
-    if body is None:
-        return result
-    r = result.r.to_value(u.km)
-    below = altitude_km(r.reshape(r.shape[0], -1, 3), body) < 0.0
-    if not below.any():
-        return result
-    k = int(np.flatnonzero(below.any(axis=1))[0])
-    j = int(np.flatnonzero(below[k])[0])
-    exc = _impact(body, float(np.ravel(result.t.to_value(u.s))[j]), result,
-                  f"state {k} of the batch was below it at this output time (the batch kernel "
-                  "checks the output times only). exc.result holds every state at every output "
-                  "time as integrated.")
+def batch_impact(body, k: int, t_s: float, result) -> SurfaceImpact:
+    """The :class:`~visviva.errors.SurfaceImpact` of state ``k`` of a batch, which reached the
+    surface at ``t_s`` (s from the epoch); ``result`` the batch's run (NaN where a state did not
+    get to), ``exc.state`` = ``k``."""
+    exc = _impact(body, t_s, result,
+                  f"state {k} of the batch stopped there (the first state, by index, that did). "
+                  "exc.result holds every state at every output time it reached (NaN after an "
+                  "impact).")
     exc.state = k
-    raise exc
+    return exc

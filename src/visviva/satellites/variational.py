@@ -19,10 +19,12 @@ import numpy as np
 
 from ..errors import InvalidInputError, StepSizeError, raise_for_status
 from .cowell import ForceModel, perturbation_list
-from .dop853 import dop853_tableau
+from .dop853 import dop853_tableau, integration_tolerances
 
 __all__ = ["Dynamics", "DEFAULT_RTOL", "DEFAULT_ATOL"]
 
+#: no events for the parallel kernel (kinds / directions, parameters)
+_NO_EVENTS = (np.zeros(0, dtype=np.int64), np.zeros(0))
 #: Tolerances of the variational integration: the trajectory is good to ~1 mm over a day of LEO.
 DEFAULT_RTOL = 1e-11
 DEFAULT_ATOL = 1e-11
@@ -58,8 +60,7 @@ class Dynamics:
         span = (min(0.0, float(span_s[0])) - 60.0, max(0.0, float(span_s[1])) + 60.0)
         self.model = ForceModel(gm_km3_s2, self.perturbations, (), epoch, span)
         self.gm = float(gm_km3_s2)
-        self.rtol = rtol
-        self.atol = atol
+        self.rtol, self.atol = integration_tolerances(rtol, atol)
 
     def propagate(self, y0, offsets_s, max_steps=2_000_000, parameters=False):
         """States (T, 6) and STMs Phi(t, epoch) (T, 6, 6) at ``offsets_s`` (s from the epoch).
@@ -170,6 +171,7 @@ class Dynamics:
             integrate_cowell_many(
                 y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, force,
                 *arrays[1:], *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
+                _NO_EVENTS[0], _NO_EVENTS[1], _NO_EVENTS[0],
             )  # fmt: skip
         finally:
             numba.set_num_threads(before)

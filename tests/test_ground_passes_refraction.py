@@ -73,7 +73,8 @@ def test_rise_and_set_on_the_apparent_horizon_brute_force(iss, sites, refraction
                       < 60)]
         if len(same):
             dt = (same["culmination_time"][0] - row["culmination_time"]).to_value(u.s)
-            assert abs(dt) < 1e-6
+            # (the refraction's dependence on the range moves the apparent maximum by ~1e-5 s)
+            assert abs(dt) < 1e-4
         # (the search and look() turn the states Earth-fixed by two routes: ~1e-7 deg apart)
         seen = site.look(iss, row["culmination_time"], refraction=refraction)
         assert row["max_elevation"].to_value(u.deg) == pytest.approx(
@@ -83,8 +84,9 @@ def test_rise_and_set_on_the_apparent_horizon_brute_force(iss, sites, refraction
 
 def test_shift_is_the_refraction_over_the_elevation_rate(iss, sites):
     """Rise earlier and set later by the depth of the apparent horizon below the geometric
-    one over the elevation rate: ~10 s for the ISS at 0 deg (the refraction of the
-    horizon, 0.57 deg at sea level, at ~0.05 deg/s), less from the mountain (thinner air)."""
+    one over the elevation rate: ~9 s for the ISS at 0 deg (the refraction of the horizon,
+    0.57 deg at sea level for a star, 0.92 of it for a satellite 350 km up, at ~0.05 deg/s),
+    less from the mountain (thinner air)."""
     geo = vv.find_passes(iss, sites, T0, T1)
     app = vv.find_passes(iss, sites, T0, T1, refraction=True)
     for site in sites:
@@ -92,9 +94,12 @@ def test_shift_is_the_refraction_over_the_elevation_rate(iss, sites):
         a = app[app["station"] == site.name]
         assert len(g) == len(a) > 0
         air = station_air(True, site.height.to_value(u.m))
-        depth = -_geometric_threshold_deg(0.0, air, [site.name])  # = R there
-        assert depth == pytest.approx(float(bend(np.array(-depth), *air)[0]), abs=1e-9)
-        assert 0.3 < depth < 0.6
+        star = -_geometric_threshold_deg(0.0, air, [site.name])  # = R there, for a star
+        assert star == pytest.approx(float(bend(np.array(-star), *air)[0]), abs=1e-9)
+        assert 0.3 < star < 0.6
+        # the satellite's apparent horizon: its geometric elevation at the apparent rise
+        depth = -site.look(iss, a["rise_time"]).elevation.to_value(u.deg)
+        assert np.all((depth > 0.88 * star) & (depth < 0.96 * star))  # the range's share
         early = (g["rise_time"] - a["rise_time"]).to_value(u.s)
         # the geometric elevation rate halfway (second order: a low pass's rate changes)
         look = site.look(iss, g["rise_time"] - 0.5 * early * u.s)

@@ -69,19 +69,32 @@ class Horizon:
             return self.min_el_rad
         return float(np.arcsin(np.min(self.sin_geo)))
 
-    def f(self, r, v, sites, ups, site_index) -> np.ndarray:
+    def f(self, r, v, sites, ups, site_index, geometric=None) -> np.ndarray:
         """``(f, df/dt)`` (M, 2) at Earth-fixed states ``r, v`` (M, 3) seen from
         ``sites[site_index]``; ``f = sin(el) - sin(min_elevation)``, ``el`` apparent when
-        refracted (``d sin(el_app)/dt = cos(el_app) (1 + R') d el/dt``)."""
+        refracted (``d sin(el_app)/dt = cos(el_app) (1 + R') d el/dt``; the range's change is
+        left out of the rate, a Newton slope), except in the rows where ``geometric`` (M,
+        bool) is set: the culminations are the geometric maxima, found on ``f`` as without
+        refraction."""
         fd = np.empty((len(r), 2))
         idx = np.ascontiguousarray(site_index, dtype=np.int64)
         if not self.refracted:
             _topo.elevation_rate_many(r, v, sites, ups, idx, self.sin_min, fd)
             return fd
+        if geometric is not None and geometric.any():
+            out = self.f(r[~geometric], v[~geometric], sites, ups, idx[~geometric])
+            fd[~geometric] = out
+            _topo.elevation_rate_many(np.ascontiguousarray(r[geometric]),
+                                      np.ascontiguousarray(v[geometric]), sites, ups,
+                                      idx[geometric], self.sin_min, out := np.empty(
+                                          (int(geometric.sum()), 2)))
+            fd[geometric] = out
+            return fd
         _topo.elevation_rate_many(r, v, sites, ups, idx, 0.0, fd)
         s = np.clip(fd[:, 0], -1.0, 1.0)
         el = np.arcsin(s)
-        r_deg, slope = self.bend(np.degrees(el), idx)
+        rng = np.linalg.norm(r - sites[idx], axis=-1)
+        r_deg, slope = self.bend(np.degrees(el), idx, rng)
         app = el + np.radians(r_deg)
         cos_el = np.cos(el)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -90,23 +103,23 @@ class Horizon:
         fd[:, 0] = np.sin(app) - self.sin_min
         return fd
 
-    def bend(self, el_deg, site_index):
-        """Refraction (deg) and its slope at geometric elevations ``el_deg`` (deg) seen from
-        stations ``site_index``: each station's air."""
+    def bend(self, el_deg, site_index, range_km):
+        """Refraction (deg) and its slope at geometric elevations ``el_deg`` (deg) of targets
+        at ``range_km`` (km) seen from stations ``site_index``: each station's air."""
         r_deg = np.zeros_like(el_deg)
         slope = np.zeros_like(el_deg)
         for air, members in self._groups:
             m = np.isin(site_index, members)
             if m.any():
-                r_deg[m], slope[m] = bend(el_deg[m], *air)
+                r_deg[m], slope[m] = bend(el_deg[m], *air, range_km=range_km[m])
         return r_deg, slope
 
-    def apparent_rad(self, el_rad, site_index) -> np.ndarray:
-        """The elevations ``el_rad`` (geometric, rad) as the events report them: apparent when
-        refracted, else unchanged (the same array)."""
+    def apparent_rad(self, el_rad, site_index, range_km) -> np.ndarray:
+        """The elevations ``el_rad`` (geometric, rad) of targets at ``range_km`` as the events
+        report them: apparent when refracted, else unchanged (the same array)."""
         if not self.refracted:
             return el_rad
-        return el_rad + np.radians(self.bend(np.degrees(el_rad), site_index)[0])
+        return el_rad + np.radians(self.bend(np.degrees(el_rad), site_index, range_km)[0])
 
 
 def _geometric_threshold_deg(min_el_deg: float, air, names) -> float:

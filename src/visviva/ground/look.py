@@ -241,9 +241,9 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
     res = res.reshape(shape + (6,))
     el_deg = np.degrees(res[..., 2])
     el_rate = np.degrees(res[..., 5])
-    if air is not None:  # the apparent elevation, and its rate d(el + R(el))/dt
-        r_deg, slope = bend(el_deg, *air)
-        el_rate = el_rate * (1.0 + slope)
+    if air is not None:  # the apparent elevation, and its rate d(el + R(el, range))/dt
+        r_deg, slope, d_range = bend(el_deg, *air, range_km=res[..., 0], range_slope=True)
+        el_rate = el_rate * (1.0 + slope) + d_range * res[..., 3]
         el_deg = el_deg + r_deg
     rho_g = np.einsum("tij,ntj->nti", rot_ig, rho)
     ra = np.degrees(np.arctan2(rho_g[..., 1], rho_g[..., 0])) % 360.0

@@ -422,7 +422,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False) ->
             "events stop there.", RuntimeWarning, stacklevel=3)
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon,
                   span_s, near_sat)
-    ev.el = horizon.apparent_rad(ev.el, ev.station)
+    ev.el = horizon.apparent_rad(ev.el, ev.station, ev.rng)
     ev.elevation = horizon.label
     ev.earth = earth
     ev.clock = clock
@@ -430,11 +430,12 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False) ->
     return ev
 
 
-def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, horizon):
-    """SGP4 -> Earth-fixed state, and f, f' at the given events."""
+def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, horizon, geometric=None):
+    """SGP4 -> Earth-fixed state, and f, f' at the given events (``geometric``: see
+    :meth:`Horizon.f <visviva.ground.horizon.Horizon.f>`)."""
     r, v, err = sgp4_teme(satrecs, sat_i, clock, t_s)
     ri, vi = earth.apply(r, v, t_s)
-    fd = horizon.f(ri, vi, sites, ups, sta_i)
+    fd = horizon.f(ri, vi, sites, ups, sta_i, geometric)
     return r, ri, vi, fd, err
 
 
@@ -476,8 +477,15 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
         side = [] if last else [t[mi] - delta, t[mi] + delta]
         tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else []) + side)
         ii = np.concatenate([idx] + ([] if last else [mi, mi]))
+        # the maxima's parabolas on the geometric elevation (its highest point); their f
+        # at the vertex, in the last round, on the threshold's (apparent) one
+        geometric = None
+        if not last and horizon.refracted:
+            geometric = np.zeros(ii.size, dtype=bool)
+            geometric[:nm] = True
+            geometric[idx.size:] = True
         _, ri, vi, fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites,
-                                       ups, horizon)
+                                       ups, horizon, geometric)
         n0 = idx.size
         state_r[idx] = ri[:n0]
         state_v[idx] = vi[:n0]

@@ -43,6 +43,8 @@ _LOWEST_TARGET_KM = 1.0
 #: (a fraction of it).
 _STEP_DEG = 1e-3
 _RANGE_STEP = 1e-3
+#: Most Newton steps of the apparent elevation (3-4 reach 1e-12 rad).
+_NEWTON = 8
 
 
 @functools.lru_cache(maxsize=64)
@@ -95,15 +97,25 @@ def _ray_elevation_rad(theta_deg, r_t, n_s):
 
 def _offset_deg(el_deg, r_t, n_s, r_inf, slope_inf):
     """``theta - E`` (deg) of targets at geometric elevations ``el_deg`` and radii ``r_t``."""
-    theta = el_deg + r_inf
+    # first guess: the flat-Earth lever arm of an exponential profile of scale height H_s,
+    # k = 1 - (H_s / H) (1 - exp(-H / H_s)) for a target H above the station
+    hs = 1.0 / _DECAY_PER_KM
+    height = np.maximum(r_t - _EARTH_RADIUS_KM, _LOWEST_TARGET_KM)
+    share = 1.0 - hs / height * (1.0 - np.exp(-height / hs))
+    theta = el_deg + share * r_inf
     el = np.radians(el_deg)
-    for _ in range(4):  # Newton: d E_ray / d theta = 1 / (1 + R'(E)) to first order
+    for _ in range(_NEWTON):
+        # Newton: d E_ray / d theta ~ 1 / (1 + k R'(E)), k the offset's share so far
         miss = el - _ray_elevation_rad(theta, r_t, n_s)
-        theta = theta + np.degrees(miss) * (1.0 + slope_inf)
+        theta = theta + np.degrees(miss) * (1.0 + share * slope_inf)
+        if np.all(np.abs(miss) < 1e-12):
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.clip(np.where(r_inf > 1e-12, (theta - el_deg) / r_inf, 1.0), 0.0, 1.0)
     return theta - el_deg
 
 
-def range_factor(el_deg, range_km, n_s, spline):
+def range_factor(el_deg, range_km, n_s, spline, slopes: bool = True):
     """The share ``k`` of the refraction ``R(E)`` that offsets a target at the range
     ``range_km`` (km), and ``dk/dE`` (per deg), at geometric elevations ``el_deg`` (deg, in the
     models' range: -1 deg and up).
@@ -118,6 +130,8 @@ def range_factor(el_deg, range_km, n_s, spline):
         Surface refractivity of the traced ray's air (> 0).
     spline : callable
         ``R(E)`` of that air for a target at infinity (the radio table's spline), deg.
+    slopes : bool
+        Compute ``dk/dE`` and ``dk/d range`` (four more ray solutions); else zeros.
 
     Returns
     -------
@@ -146,7 +160,8 @@ def range_factor(el_deg, range_km, n_s, spline):
             "models are for satellites above the air; pass refraction=False.")
     ks = []
     d_rho = _RANGE_STEP * rho
-    for de, dr in ((0.0, 0.0), (-_STEP_DEG, 0.0), (_STEP_DEG, 0.0), (0.0, -1.0), (0.0, 1.0)):
+    steps = ((0.0, 0.0), (-_STEP_DEG, 0.0), (_STEP_DEG, 0.0), (0.0, -1.0), (0.0, 1.0))
+    for de, dr in steps if slopes else steps[:1]:
         ee = e + de
         rr = rho + dr * d_rho
         r_t = np.sqrt(r0 * r0 + rr * rr + 2.0 * r0 * rr * np.sin(np.radians(ee)))
@@ -156,6 +171,7 @@ def range_factor(el_deg, range_km, n_s, spline):
         with np.errstate(divide="ignore", invalid="ignore"):
             ks.append(np.where(r_inf > 1e-12, delta / r_inf, 1.0))
     out_k[top] = ks[0]
-    out_dk[top] = (ks[2] - ks[1]) / (2.0 * _STEP_DEG)
-    out_dr[top] = (ks[4] - ks[3]) / (2.0 * d_rho)
+    if slopes:
+        out_dk[top] = (ks[2] - ks[1]) / (2.0 * _STEP_DEG)
+        out_dr[top] = (ks[4] - ks[3]) / (2.0 * d_rho)
     return out_k, out_dk, out_dr

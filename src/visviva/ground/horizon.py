@@ -94,7 +94,7 @@ class Horizon:
         s = np.clip(fd[:, 0], -1.0, 1.0)
         el = np.arcsin(s)
         rng = np.linalg.norm(r - sites[idx], axis=-1)
-        r_deg, slope = self.bend(np.degrees(el), idx, rng)
+        r_deg, slope = self.bend(np.degrees(el), idx, rng, exact_slope=False)
         app = el + np.radians(r_deg)
         cos_el = np.cos(el)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -103,7 +103,7 @@ class Horizon:
         fd[:, 0] = np.sin(app) - self.sin_min
         return fd
 
-    def bend(self, el_deg, site_index, range_km):
+    def bend(self, el_deg, site_index, range_km, exact_slope=True):
         """Refraction (deg) and its slope at geometric elevations ``el_deg`` (deg) of targets
         at ``range_km`` (km) seen from stations ``site_index``: each station's air."""
         r_deg = np.zeros_like(el_deg)
@@ -111,7 +111,8 @@ class Horizon:
         for air, members in self._groups:
             m = np.isin(site_index, members)
             if m.any():
-                r_deg[m], slope[m] = bend(el_deg[m], *air, range_km=range_km[m])
+                r_deg[m], slope[m] = bend(el_deg[m], *air, range_km=range_km[m],
+                                          exact_slope=exact_slope)
         return r_deg, slope
 
     def apparent_rad(self, el_rad, site_index, range_km) -> np.ndarray:
@@ -119,7 +120,8 @@ class Horizon:
         report them: apparent when refracted, else unchanged (the same array)."""
         if not self.refracted:
             return el_rad
-        return el_rad + np.radians(self.bend(np.degrees(el_rad), site_index, range_km)[0])
+        return el_rad + np.radians(self.bend(np.degrees(el_rad), site_index, range_km,
+                                             exact_slope=False)[0])
 
 
 def _geometric_threshold_deg(min_el_deg: float, air, names) -> float:

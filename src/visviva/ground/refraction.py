@@ -14,10 +14,10 @@ appears higher than its geometric elevation ``E`` by the refraction ``R(E)``. Tw
   ITU-R reference atmosphere (0.577 deg in the standard air with 50 % humidity) where the
   optical formula gives 0.48 deg.
 
-Both are the bending of a ray from a target far outside the atmosphere (a star; GEO sees 0.995
-of it); a nearer target is offset less by the bent ray's lever arm over the range: a satellite
-500 km up sees 0.93 of the bending at the horizon, 0.97 at 5 deg, 0.98 at 10 deg (a ray trace
-of the radio profile). Both are zero below -1 deg of geometric elevation.
+Both are the bending of a ray from a target far outside the atmosphere (a star); a satellite at
+a finite range is offset less, by the bent ray's lever arm over the range (``range_km=``,
+:mod:`visviva.ground.finite_range`: 500 km up 0.947 of the bending at the horizon, 0.968 at
+5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below -1 deg of geometric elevation.
 """
 
 from __future__ import annotations

@@ -223,3 +223,25 @@ def test_dask_path_equals_in_memory(iss, sites):
     assert sorted(out["rise_time"].jd2.tolist()) == sorted(mem["rise_time"].jd2.tolist())
     assert math.isclose(float(out["max_elevation"].value.max()),
                         float(mem["max_elevation"].value.max()))
+
+
+def test_search_leaves_targets_on_the_ground_geometric(sites):
+    """An SGP4 failure's position (decayed: inside the Earth, or at the station) must not stop
+    a catalogue's search with look()'s 'less than 1 km above the station' refusal: the
+    search's f stays geometric there; a satellite above the air is refracted."""
+    from visviva.ground.horizon import Horizon
+
+    hz = Horizon(sites, 0.0, True)
+    site = np.array([s.itrs_km for s in sites])
+    ups = np.array([s.enu_matrix[2] for s in sites])
+    east = np.array([s.enu_matrix[0] for s in sites])
+    r = np.array([site[0] + 0.3 * east[0] + 0.001 * ups[0],  # 300 m away, 1 m up
+                  site[0] + 2000.0 * east[0] + 200.0 * ups[0]])  # a satellite
+    v = np.zeros_like(r)
+    fd = hz.f(r, v, site, ups, np.array([0, 0]))
+    geo = np.empty((2, 2))
+    vv.ground.search._topo.elevation_rate_many(r, v, site, ups, np.array([0, 0]), 0.0, geo)
+    assert fd[0, 0] == geo[0, 0]
+    assert fd[1, 0] > geo[1, 0] + 1e-4  # lifted by refraction
+    with pytest.raises(vv.InvalidInputError, match="above the station"):
+        vv.ground.refraction_deg(0.2, range_km=0.3)

@@ -33,9 +33,9 @@ import math
 import numpy as np
 
 from ..errors import InvalidInputError
-from .radioray import _DECAY_PER_KM, _EARTH_RADIUS_KM, _TABLE_DEG, _TOP_KM, radio_ray_deg
+from .radioray import DECAY_PER_KM, EARTH_RADIUS_KM, TABLE_DEG, TOP_KM, radio_ray_deg
 
-__all__ = ["range_factor"]
+__all__ = ["range_factor", "height_above_station_km"]
 
 #: Below this height above the station (km) a target is not refracted by the models.
 _LOWEST_TARGET_KM = 1.0
@@ -47,6 +47,20 @@ _RANGE_STEP = 1e-3
 _NEWTON = 8
 
 
+def height_above_station_km(el_deg, range_km):
+    """Height (km) of a target at the geometric elevation ``el_deg`` (deg) and the range
+    ``range_km`` (km) above the station's sphere (radius 6370 km)."""
+    r0 = EARTH_RADIUS_KM
+    return (np.sqrt(r0 * r0 + range_km * range_km
+                    + 2.0 * r0 * range_km * np.sin(np.radians(el_deg))) - r0)
+
+
+def refracts(el_deg, range_km):
+    """Whether the models refract a target at ``(el_deg, range_km)``: at least 1 km above the
+    station (elsewhere :func:`range_factor` refuses it)."""
+    return height_above_station_km(el_deg, range_km) >= _LOWEST_TARGET_KM
+
+
 @functools.lru_cache(maxsize=64)
 def _exit_table(n_s: float):
     """Splines of the bending and the central angle (deg) at the profile's top over the
@@ -54,30 +68,30 @@ def _exit_table(n_s: float):
     from scipy.interpolate import CubicSpline
 
     with np.errstate(all="ignore"):
-        tau, beta = radio_ray_deg(_TABLE_DEG, n_s)
+        tau, beta = radio_ray_deg(TABLE_DEG, n_s)
     ok = np.isfinite(tau) & np.isfinite(beta) & (tau >= 0.0)
-    geometric = _TABLE_DEG - tau
+    geometric = TABLE_DEG - tau
     ok[:-1] &= np.diff(geometric) > 0.0
-    first = _TABLE_DEG.size - np.argmin(ok[::-1]) if not ok.all() else 0
-    theta = _TABLE_DEG[first:]
+    first = TABLE_DEG.size - np.argmin(ok[::-1]) if not ok.all() else 0
+    theta = TABLE_DEG[first:]
     return CubicSpline(theta, tau[first:]), CubicSpline(theta, beta[first:]), float(theta[0])
 
 
 def _ray_elevation_rad(theta_deg, r_t, n_s):
     """Geometric elevation (rad) from the station of the point at radius ``r_t`` (km) on the
     ray that leaves it at the apparent elevation ``theta_deg`` (deg)."""
-    r0 = _EARTH_RADIUS_KM
+    r0 = EARTH_RADIUS_KM
     eps = n_s * 1e-6
     tau_s, beta_s, lowest = _exit_table(n_s)
     theta = np.clip(theta_deg, lowest, 90.0)
     x = np.empty_like(theta)
     y = np.empty_like(theta)
-    above = r_t - r0 >= _TOP_KM
+    above = r_t - r0 >= TOP_KM
     if above.any():  # a straight line from the ray's exit at the top
         th = np.radians(theta[above])
         beta = np.radians(beta_s(theta[above]))
-        r_top = r0 + _TOP_KM
-        n_top = 1.0 + eps * math.exp(-_DECAY_PER_KM * _TOP_KM)
+        r_top = r0 + TOP_KM
+        n_top = 1.0 + eps * math.exp(-DECAY_PER_KM * TOP_KM)
         cos_phi = np.clip((1.0 + eps) * r0 * np.cos(th) / (n_top * r_top), -1.0, 1.0)
         sin_phi = np.sqrt(1.0 - cos_phi * cos_phi)  # going up at the exit
         rt = r_t[above]
@@ -99,8 +113,8 @@ def _offset_deg(el_deg, r_t, n_s, r_inf, slope_inf):
     """``theta - E`` (deg) of targets at geometric elevations ``el_deg`` and radii ``r_t``."""
     # first guess: the flat-Earth lever arm of an exponential profile of scale height H_s,
     # k = 1 - (H_s / H) (1 - exp(-H / H_s)) for a target H above the station
-    hs = 1.0 / _DECAY_PER_KM
-    height = np.maximum(r_t - _EARTH_RADIUS_KM, _LOWEST_TARGET_KM)
+    hs = 1.0 / DECAY_PER_KM
+    height = np.maximum(r_t - EARTH_RADIUS_KM, _LOWEST_TARGET_KM)
     share = 1.0 - hs / height * (1.0 - np.exp(-height / hs))
     theta = el_deg + share * r_inf
     el = np.radians(el_deg)
@@ -143,7 +157,7 @@ def range_factor(el_deg, range_km, n_s, spline, slopes: bool = True):
     if not np.all(np.isfinite(rng) & (rng > 0.0)):
         raise InvalidInputError("range_km must be finite and positive (km) to refract a target "
                                 "at a finite range.")
-    r0 = _EARTH_RADIUS_KM
+    r0 = EARTH_RADIUS_KM
     out_k = np.ones(el_deg.shape)
     out_dk = np.zeros(el_deg.shape)
     out_dr = np.zeros(el_deg.shape)
@@ -152,7 +166,7 @@ def range_factor(el_deg, range_km, n_s, spline, slopes: bool = True):
         return out_k, out_dk, out_dr
     e = el_deg[top]
     rho = rng[top]
-    low = rho * np.sin(np.radians(e)) + rho * rho / (2.0 * r0) < _LOWEST_TARGET_KM
+    low = ~refracts(e, rho)
     if low.any():
         raise InvalidInputError(
             f"a target {float(rho[low][0]):.6g} km away at {float(e[low][0]):.4g} deg of "

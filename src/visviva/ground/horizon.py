@@ -106,10 +106,16 @@ class Horizon:
     def bend(self, el_deg, site_index, range_km, exact_slope=True):
         """Refraction (deg) and its slope at geometric elevations ``el_deg`` (deg) of targets
         at ``range_km`` (km) seen from stations ``site_index``: each station's air."""
+        from .finite_range import refracts
+
         r_deg = np.zeros_like(el_deg)
         slope = np.zeros_like(el_deg)
+        # a "target" less than 1 km above the station is an SGP4 failure (decayed, inside the
+        # Earth): left geometric, never refused in the middle of a catalogue's search
+        ok = np.isfinite(el_deg) & np.isfinite(range_km)
+        ok[ok] = refracts(el_deg[ok], range_km[ok])
         for air, members in self._groups:
-            m = np.isin(site_index, members)
+            m = np.isin(site_index, members) & ok
             if m.any():
                 r_deg[m], slope[m] = bend(el_deg[m], *air, range_km=range_km[m],
                                           exact_slope=exact_slope)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from .air import Weather, check_air, check_humidity, radio_refractivity, saturation_vapour_hpa
-from .radioray import _radio_table, radio_bending_deg  # noqa: F401 (radio_bending_deg: re-export)
+from .radioray import radio_bending_deg, radio_table  # noqa: F401 (radio_bending_deg: re-export)
 
 __all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
 
@@ -176,7 +176,7 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
         r, slope = _saemundsson_arcmin(h)
         r, slope = r * scale / 60.0, slope * scale / 60.0
     elif model == "radio":
-        table = _radio_table(_surface_refractivity(pressure_hpa, temperature_c,
+        table = radio_table(_surface_refractivity(pressure_hpa, temperature_c,
                                                    relative_humidity))
         if table is None:  # no air
             r = slope = np.zeros_like(h)
@@ -218,7 +218,7 @@ def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relativ
     else:
         p, t = _check_pt(pressure_hpa, temperature_c)
         n_ray = float(radio_refractivity(p, t + 273.15, 0.0))
-    table = _radio_table(n_ray)
+    table = radio_table(n_ray)
     on = np.isfinite(h) & (h >= _LOWEST_DEG)
     if table is None or not on.any():
         return r, slope, d_range

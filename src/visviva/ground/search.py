@@ -458,6 +458,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
     """
     t = t_s.copy()
+    t_seed = t_s.copy()  # the scan's order of the events, for the orphans (see below)
     kind = kind.copy()
     delta = 1.0  # s, half-width of the parabola
     mi = np.flatnonzero((kind == _topo.CULMINATION) | (kind == _topo.NEAR_MAXIMUM))
@@ -547,6 +548,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
         if new:
             ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
             nw_ = nw_.astype(np.float64)
+            t_seed = np.concatenate([t_seed, nw_])
             for _ in range(5):
                 _, ri, vi, fd, err = _evaluate(satrecs, ns_, nt_, nw_, clock, earth, sites, ups,
                                                horizon)
@@ -561,7 +563,11 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
             keep = np.concatenate([keep, np.ones(nw_.size, dtype=bool)])
             state_r = np.concatenate([state_r, ri])
             state_v = np.concatenate([state_v, vi])
+    # a rise and a set left with no culmination between them: in the scan's order too, since
+    # Newton steps on a pass that does not reach the threshold (no root) can carry its rise
+    # past its set (a "set, rise" pair with no culmination, kept before)
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
+    keep &= ~_orphans(sat_i, sta_i, t_seed, kind, keep)
     keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)
     sel = np.flatnonzero(keep)
     sat_i, sta_i, t, kind = sat_i[sel], sta_i[sel], t[sel], kind[sel]

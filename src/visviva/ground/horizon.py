@@ -82,13 +82,12 @@ class Horizon:
             _topo.elevation_rate_many(r, v, sites, ups, idx, self.sin_min, fd)
             return fd
         if geometric is not None and geometric.any():
-            out = self.f(r[~geometric], v[~geometric], sites, ups, idx[~geometric])
-            fd[~geometric] = out
+            fd[~geometric] = self.f(r[~geometric], v[~geometric], sites, ups, idx[~geometric])
+            plain = np.empty((int(geometric.sum()), 2))
             _topo.elevation_rate_many(np.ascontiguousarray(r[geometric]),
                                       np.ascontiguousarray(v[geometric]), sites, ups,
-                                      idx[geometric], self.sin_min, out := np.empty(
-                                          (int(geometric.sum()), 2)))
-            fd[geometric] = out
+                                      idx[geometric], self.sin_min, plain)
+            fd[geometric] = plain
             return fd
         _topo.elevation_rate_many(r, v, sites, ups, idx, 0.0, fd)
         s = np.clip(fd[:, 0], -1.0, 1.0)

@@ -7,18 +7,19 @@ chord from the station to it, and the chord leaves the ray's bent part behind by
 ``rho``. For a ray leaving at the apparent elevation ``theta`` the bending ``psi(s)`` accrued
 over the path ``s`` gives the offset ``delta = theta - E = (1/rho) int_0^rho psi ds`` (to
 first order): each bit of bending counts with the weight ``1 - s/rho``, and the bending beyond
-the target not at all. At 500 km up the offset is 0.93 of ``R`` at the horizon, 0.97 at
-5 deg, 0.98 at 10 deg; at GEO 0.995.
+the target not at all. At 500 km up the offset is 0.947 of ``R`` at the horizon, 0.968 at
+5 deg, 0.977 at 10 deg; at GEO 0.997.
 
 The offset is found by tracing the ray through the radio profile of
-:func:`~visviva.ground.radioray.radio_ray_deg` (Snell's law on a sphere, Bean & Dutton 1966
-sec. 3.5, whose "elevation angle error" of a target at a finite height this is): up to the
+:func:`~visviva.ground.radioray.radio_ray_deg` (Snell's law on a sphere; the "elevation
+angle error" of a radar target at a finite height in Bean & Dutton 1966, ch. 3): up to the
 profile's top (120 km) the bending ``tau`` and the central angle ``beta`` of the ray come from
 one table per air (cubic splines over 500 apparent elevations, cached); beyond, the ray is a
 straight line to the target's radius ``r_t``, found from the geometric elevation and range
 (``r_t^2 = r_0^2 + rho^2 + 2 r_0 rho sin E``); a target inside the profile takes the integral
 to its own height. The apparent elevation ``theta`` of a target seen at ``(E, rho)`` solves
-``E_ray(theta, r_t) = E`` by Newton's method, from ``theta = E + R(E)``. The offset's share of
+``E_ray(theta, r_t) = E`` by Newton's method (3-5 steps to 1e-12 rad), from the flat-Earth
+share ``1 - (H_s / H)(1 - exp(-H / H_s))`` of ``R(E)``. The offset's share of
 ``R(E)``, ``k = delta / R``, multiplies either model's refraction: for the optical one the
 ray is traced through the dry (optical) refractivity ``77.6 P / T`` of the same air. The
 share depends on the profile's decay (7.35 km) more than on its size: a real atmosphere's
@@ -35,7 +36,7 @@ import numpy as np
 from ..errors import InvalidInputError
 from .radioray import DECAY_PER_KM, EARTH_RADIUS_KM, TABLE_DEG, TOP_KM, radio_ray_deg
 
-__all__ = ["range_factor", "height_above_station_km"]
+__all__ = ["range_factor", "height_above_station_km", "refracts"]
 
 #: Below this height above the station (km) a target is not refracted by the models.
 _LOWEST_TARGET_KM = 1.0

@@ -14,7 +14,7 @@ from scipy.integrate import quad
 import visviva as vv
 from visviva.ground import refraction_deg, refraction_slope
 from visviva.ground.air import radio_refractivity, saturation_vapour_hpa, standard_atmosphere
-from visviva.ground.refraction import radio_bending_deg
+from visviva.ground.refraction import bend, radio_bending_deg
 
 ITU_DECAY_PER_KM = 0.1361  # P.834-9 eq. 8: n(h) = 1 + 315e-6 exp(-0.1361 h)
 ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
@@ -203,11 +203,23 @@ def times():
     return Time("2008-09-20T22:49:00", scale="utc") + np.arange(0, 600, 20) * u.s
 
 
-def _lift(station, iss, times, refraction):
+def _lift(station, iss, times, refraction, star=True):
+    """Geometric elevation and look()'s refraction; ``star``: scaled back to a target at
+    infinity (look() gives the offset of the satellite at its range, tests/
+    test_ground_finite_range.py), for the air's own checks."""
     geo = station.look(iss, times)
     app = station.look(iss, times, refraction=refraction)
     el = geo.elevation.to_value(u.deg)
-    return el, (app.elevation - geo.elevation).to_value(u.deg)
+    lift = (app.elevation - geo.elevation).to_value(u.deg)
+    if star:
+        from visviva.ground.refraction import station_air
+
+        air = station_air(refraction, station.height.to_value(u.m))
+        rng = geo.range.to_value(u.km)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            k = bend(el, *air, range_km=rng)[0] / bend(el, *air)[0]
+        lift = np.where(el > -1.0, lift / np.where(el > -1.0, k, 1.0), lift)
+    return el, lift
 
 
 def test_look_takes_the_standard_air_at_the_station_height(iss, times):
@@ -273,10 +285,15 @@ def test_od_azel_rows_take_the_radio_bending():
         return np.degrees(obs.values[:, 1]) - np.degrees(geo.values[keep, 1])
 
     el = np.degrees(geo.values[keep, 1])
+    # the satellite's offset at its range (tests/test_ground_finite_range.py)
+    rng = simulate_observations(truth, t, "range", 1e-9, station, seed=False,
+                                light_time=False).values[:, 0]
     p, t_c = standard_atmosphere(1600.0)
     np.testing.assert_allclose(lift({"refraction": "radio"}),
-                               refraction_deg(el, p, t_c, model="radio"), atol=1e-12)
-    np.testing.assert_allclose(lift(True), refraction_deg(el, p, t_c), atol=1e-12)
+                               refraction_deg(el, p, t_c, model="radio", range_km=rng),
+                               atol=1e-11)
+    np.testing.assert_allclose(lift(True), refraction_deg(el, p, t_c, range_km=rng), atol=1e-11)
+    assert np.all(lift(True) < refraction_deg(el, p, t_c))
 
 
 def test_nan_geometry_stays_nan_inside_look():

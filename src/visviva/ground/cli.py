@@ -38,6 +38,10 @@ def add_parser(sub) -> None:
                    help="length of the window, hours (default 24)")
     p.add_argument("--min-elevation", type=float, default=0.0, metavar="DEG",
                    help="minimum elevation, degrees (default 0)")
+    p.add_argument("--refraction", choices=("optical", "radio"), default=None,
+                   help="rise and set on the apparent (refracted) horizon, the standard air at "
+                   "the site's height: 'optical' (light) or 'radio' (antennas); default: "
+                   "geometric elevations")
     p.add_argument("--visible", action="store_true",
                    help="only passes with the satellite sunlit and the site dark")
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
@@ -92,7 +96,8 @@ def run(args) -> int:
         cat = read_catalog_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
                              name=f"{args.lat:g}, {args.lon:g}")
-        table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg)
+        table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg,
+                            refraction=args.refraction or False)
     except (VisvivaError, OSError) as exc:  # bad arguments: the file, the site, the window
         print(f"visviva passes: {exc}", file=sys.stderr)
         return 2
@@ -100,7 +105,7 @@ def run(args) -> int:
         table = table[table["visible"]]
     print(format_table(table))
     print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
-          f"{args.min_elevation:g} deg between {t0.isot} and "
+          f"{args.min_elevation:g} deg ({table.meta['elevation']}) between {t0.isot} and "
           f"{t1.isot} UTC")
     for path, fmt in ((args.csv, "csv"), (args.ecsv, "ecsv")):
         if path:

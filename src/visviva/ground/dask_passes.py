@@ -15,7 +15,7 @@ import numpy as np
 from astropy import units as u
 
 from ..errors import InvalidInputError
-from .passes import find_passes
+from .passes import describe_elevations, find_passes
 from .search import as_catalog, check_window, min_elevation_rad
 from .station import as_stations
 
@@ -68,18 +68,19 @@ def _table_from_wire(wire):
     return table
 
 
-def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude):
+def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude, refraction):
     from .._dask import NUMBA_LOCK
 
     # numba's workqueue threading layer must not be entered from two threads at once
     with NUMBA_LOCK:
         table = find_passes(chunk, stations, t0, t1, min_elevation,
-                            standard_magnitude=standard_magnitude)
+                            standard_magnitude=standard_magnitude, refraction=refraction)
     return _table_to_wire(table)
 
 
 def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
-                     chunk_size: int = 500, client=None, standard_magnitude=None):
+                     chunk_size: int = 500, client=None, standard_magnitude=None,
+                     refraction=False):
     """:func:`visviva.find_passes` chunked over the satellites on a Dask cluster.
 
     Parameters
@@ -97,6 +98,8 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         (:func:`visviva.satellites.dask_batch.get_client`).
     standard_magnitude : float or array_like (mag), optional
         As in :func:`visviva.find_passes` (one value, or one per satellite).
+    refraction : bool, {"optical", "radio"} or dict
+        As in :func:`visviva.find_passes`: rise and set on the apparent horizon.
 
     Returns
     -------
@@ -112,7 +115,10 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     cat = as_catalog(satellites)
     sts = as_stations(stations)
     t0, t1 = check_window(t0, t1)
-    min_elevation_rad(min_elevation)
+    from .horizon import Horizon
+
+    # bad input refused here, not on the workers
+    horizon = Horizon(sts, min_elevation_rad(min_elevation), refraction)
     if not (isinstance(chunk_size, (int, np.integer)) and chunk_size > 0):
         raise InvalidInputError(f"chunk_size must be a positive integer, got {chunk_size!r}.")
     mags = None
@@ -125,7 +131,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     futures = [
         client.submit(_chunk_passes, Catalog(cat.satellites[a:a + chunk_size]), sts, t0, t1,
                       min_elevation, None if mags is None else mags[a:a + chunk_size].copy(),
-                      pure=False)
+                      refraction, pure=False)
         for a in starts
     ]
     tables = [_table_from_wire(w) for w in client.gather(futures)]
@@ -136,4 +142,5 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         begin = np.where(np.asarray(rise.mask, dtype=bool), t0.utc.jd, jd)
         out = out[np.argsort(begin, kind="stable")]
     out.meta.update({"t0": t0.utc.isot, "t1": t1.utc.isot})
+    describe_elevations(out, horizon.label)
     return out

@@ -202,7 +202,11 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
         humidity (about 0.57 deg at the horizon at sea level). A dict gives the station's
         weather with the keys of ``Observations(troposphere=...)``: ``pressure_hpa``,
         ``temperature_c``, ``relative_humidity`` (0..1) and ``refraction`` (``"optical"``,
-        the default, or ``"radio"``); the standard air fills the keys left out.
+        the default, or ``"radio"``); the standard air fills the keys left out. The offset is
+        the satellite's at its range, less than a star's bending by the bent ray's lever arm
+        (0.947 of it at the horizon 500 km up; :mod:`visviva.ground.finite_range`), and
+        ``elevation_rate`` carries the range's change too. A target less than 1 km above the
+        station is refused.
     light_time : bool
         Use the satellite's position when the light received at ``t`` left it
         (``r(t - range/c)``, to first order: under 30 m in LEO). Default: off.
@@ -241,9 +245,9 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
     res = res.reshape(shape + (6,))
     el_deg = np.degrees(res[..., 2])
     el_rate = np.degrees(res[..., 5])
-    if air is not None:  # the apparent elevation, and its rate d(el + R(el))/dt
-        r_deg, slope = bend(el_deg, *air)
-        el_rate = el_rate * (1.0 + slope)
+    if air is not None:  # the apparent elevation, and its rate d(el + R(el, range))/dt
+        r_deg, slope, d_range = bend(el_deg, *air, range_km=res[..., 0], range_slope=True)
+        el_rate = el_rate * (1.0 + slope) + d_range * res[..., 3]
         el_deg = el_deg + r_deg
     rho_g = np.einsum("tij,ntj->nti", rot_ig, rho)
     ra = np.degrees(np.arctan2(rho_g[..., 1], rho_g[..., 0])) % 360.0

@@ -32,7 +32,7 @@ __all__ = ["find_passes", "write_passes"]
 
 
 def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
-                standard_magnitude=None):
+                standard_magnitude=None, refraction=False):
     """Every pass of every satellite over every station in a window, as a table.
 
     Parameters
@@ -46,6 +46,15 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     standard_magnitude : float or array_like (mag), optional
         Standard visual magnitude (at 1000 km, 90 deg phase) of all satellites or of each; adds
         a ``magnitude`` column (estimate at culmination, masked when in the umbra).
+    refraction : bool, {"optical", "radio"} or dict
+        Rise and set on the APPARENT horizon: where the refracted elevation (as
+        :func:`visviva.ground.look.look` gives it with the same ``refraction``: False, True or
+        ``"optical"``, ``"radio"``, or a weather dict; each station's air at its height)
+        crosses ``min_elevation``. False (default): the geometric elevation. Refraction
+        raises the satellite: the rise comes earlier and the set later, by the refraction at
+        the threshold over the elevation rate (about 20-30 s in LEO at 0 deg); the
+        culmination is the same. A ``min_elevation`` below the apparent elevation of -1 deg
+        geometric (about -0.3 deg at sea level), where the models end, is refused.
 
     Returns
     -------
@@ -62,7 +71,10 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         ``station_dark`` (Sun below -6 deg at the station; all four at the highest point)
         and ``visible`` (the satellite is sunlit while the station is dark at some time of
         the pass, sampled every 10 s: an evening pass that enters the shadow before its
-        culmination is visible on its way up).
+        culmination is visible on its way up). ``max_elevation`` is apparent with
+        ``refraction`` (its column description and ``table.meta["elevation"]`` say which:
+        ``"geometric"`` or ``"apparent (optical refraction)"`` / ``"apparent (radio
+        refraction)"``); ``sun_elevation`` is always geometric.
 
     Notes
     -----
@@ -93,7 +105,7 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         from .visibility import standard_magnitudes
 
         standard_magnitude = standard_magnitudes(standard_magnitude, len(cat))
-    ev = search_events(cat, sts, t0, t1, el_min)
+    ev = search_events(cat, sts, t0, t1, el_min, refraction)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)
 
 
@@ -176,7 +188,16 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
     sort_key = np.argsort(ev.t_s[starts], kind="stable")
     table = table[sort_key]
     table.meta.update({"t0": t0.utc.isot, "t1": t1.utc.isot})
+    describe_elevations(table, ev.elevation)
     return table
+
+
+def describe_elevations(table, elevation: str) -> None:
+    """Say in ``table`` which elevations it holds (``elevation``: ``"geometric"`` or
+    ``"apparent (... refraction)"``): ``meta["elevation"]`` and the column descriptions."""
+    table["max_elevation"].info.description = f"{elevation} elevation at culmination"
+    table["sun_elevation"].info.description = "geometric elevation of the Sun at culmination"
+    table.meta["elevation"] = elevation
 
 
 #: sampling step of the visibility test along a pass, s

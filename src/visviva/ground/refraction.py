@@ -14,28 +14,24 @@ appears higher than its geometric elevation ``E`` by the refraction ``R(E)``. Tw
   ITU-R reference atmosphere (0.577 deg in the standard air with 50 % humidity) where the
   optical formula gives 0.48 deg.
 
-Both are the bending of a ray from a target far outside the atmosphere (a star; GEO sees 0.995
-of it); a nearer target is offset less by the bent ray's lever arm over the range: a satellite
-500 km up sees 0.93 of the bending at the horizon, 0.97 at 5 deg, 0.98 at 10 deg (a ray trace
-of the radio profile). Both are zero below -1 deg of geometric elevation.
+Both are the bending of a ray from a target far outside the atmosphere (a star); a satellite at
+a finite range is offset less, by the bent ray's lever arm over the range (``range_km=``,
+:mod:`visviva.ground.finite_range`: 500 km up 0.947 of the bending at the horizon, 0.968 at
+5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below -1 deg of geometric elevation.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
 from ..errors import InvalidInputError
 from .air import Weather, check_air, check_humidity, radio_refractivity, saturation_vapour_hpa
+from .radioray import radio_bending_deg, radio_table  # noqa: F401 (radio_bending_deg: re-export)
 
 __all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
 
-#: Earth radius of ITU-R P.834-9 (km) and the refractivity's decay rate of its reference
-#: atmosphere (P.453-14 eq. 8, P.834-9 eq. 8: ``N(h) = 315 exp(-0.1361 h)``), 1/km.
-_EARTH_RADIUS_KM = 6370.0
-_DECAY_PER_KM = 0.1361
 #: Above this surface refractivity an exponential profile with the P.453 decay traps rays
 #: (ducting: dN/dz < -157 per km) and the model stops meaning anything.
 _MAX_RADIO_N = 1000.0
@@ -44,7 +40,7 @@ _LOWEST_DEG = -1.0
 
 
 def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
-                   relative_humidity=0.5, model: str = "optical"):
+                   relative_humidity=0.5, model: str = "optical", range_km=None):
     """Atmospheric refraction to add to a geometric elevation (deg).
 
     Parameters
@@ -63,6 +59,12 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
         ``"optical"`` (default): Sæmundsson's formula for light. ``"radio"``: the bending of a
         radio ray through the exponential refractivity profile of ITU-R P.453/P.834 with the
         site's surface refractivity (antennas; humid air bends radio waves 10-20 % more).
+    range_km : float, array_like or Quantity (length), optional
+        The target's range (km, broadcast with ``elevation_deg``; > 0): the offset of a
+        satellite at that range, less than a star's by the bent ray's lever arm
+        (:mod:`visviva.ground.finite_range`: 0.95 of it at the horizon 500 km up, 0.97 at
+        5 deg). Default: a target at infinity (a star). A target less than 1 km above the
+        station is refused.
 
     Returns
     -------
@@ -112,12 +114,13 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     else:
         h = np.asarray(elevation_deg, dtype=np.float64)
     _check_elevations(h)
-    out = bend(h, model, pressure_hpa, temperature_c, relative_humidity)[0]
+    out = bend(h, model, pressure_hpa, temperature_c, relative_humidity,
+               _check_range(range_km))[0]
     return out * u.deg if quantity else out
 
 
 def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
-                     relative_humidity=0.5, model: str = "optical"):
+                     relative_humidity=0.5, model: str = "optical", range_km=None):
     """dR/dE of :func:`refraction_deg` (deg of refraction per deg of geometric elevation,
     negative: optical -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below -1 deg where the refraction
     is 0.
@@ -126,8 +129,9 @@ def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     ----------
     elevation_deg : float or array_like
         Geometric elevation, deg, in [-90, 90] (NaN refused).
-    pressure_hpa, temperature_c, relative_humidity, model
-        The site's air and the model, as :func:`refraction_deg`.
+    pressure_hpa, temperature_c, relative_humidity, model, range_km
+        The site's air, the model and the target's range, as :func:`refraction_deg` (the
+        slope at a fixed range).
 
     Returns
     -------
@@ -137,12 +141,34 @@ def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     """
     h = np.asarray(elevation_deg, dtype=np.float64)
     _check_elevations(h)
-    return bend(h, model, pressure_hpa, temperature_c, relative_humidity)[1]
+    return bend(h, model, pressure_hpa, temperature_c, relative_humidity,
+                _check_range(range_km))[1]
 
 
-def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity):
+def _check_range(range_km):
+    """``range_km`` as float km (None stays None): a length Quantity converted; finite and
+    positive."""
+    if range_km is None:
+        return None
+    from .._units import is_quantity, to_array
+
+    rng = (to_array(range_km, "length", "range_km") if is_quantity(range_km)
+           else np.asarray(range_km, dtype=np.float64))
+    if not np.all(np.isfinite(rng) & (rng > 0.0)):
+        raise InvalidInputError("range_km must be finite and positive (km); omit it for a "
+                                "target at infinity (a star).")
+    return rng
+
+
+def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
+         range_km=None, range_slope=False, exact_slope=True):
     """Refraction (deg) and its slope dR/dE at geometric elevations ``elevation_deg`` (deg,
-    ndarray), for the checked air; NaN elevations stay NaN (look() on NaN geometry)."""
+    ndarray), for the checked air; NaN elevations stay NaN (look() on NaN geometry). With
+    ``range_km`` (km, broadcast): the offset of a target at that range
+    (:mod:`visviva.ground.finite_range`), and its slope at a fixed range; ``range_slope``
+    adds a third output, dR/d range (deg per km; zeros without ``range_km``). ``exact_slope``
+    False (a Newton step's slope): at a range, the star's slope times the range's share
+    (without the share's own change: 5x cheaper)."""
     h = np.asarray(elevation_deg, dtype=np.float64)
     if model == "optical":
         scale = _meeus_factor(pressure_hpa, temperature_c)
@@ -150,7 +176,7 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity):
         r, slope = _saemundsson_arcmin(h)
         r, slope = r * scale / 60.0, slope * scale / 60.0
     elif model == "radio":
-        table = _radio_table(_surface_refractivity(pressure_hpa, temperature_c,
+        table = radio_table(_surface_refractivity(pressure_hpa, temperature_c,
                                                    relative_humidity))
         if table is None:  # no air
             r = slope = np.zeros_like(h)
@@ -167,7 +193,40 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity):
     # >= 0: the fits reach the zenith within 1e-9 deg, on either side
     r = np.where(below, 0.0, np.maximum(r, 0.0))
     slope = np.where(below, 0.0, slope)
-    return np.where(nan, np.nan, r), np.where(nan, np.nan, slope)
+    d_range = np.zeros_like(r)
+    if range_km is not None:
+        r, slope, d_range = _at_range(h, r, slope, range_km, model, pressure_hpa,
+                                      temperature_c, relative_humidity,
+                                      exact_slope or range_slope)
+        nan = np.broadcast_to(nan, r.shape)
+    out = np.where(nan, np.nan, r), np.where(nan, np.nan, slope)
+    return (*out, np.where(nan, np.nan, d_range)) if range_slope else out
+
+
+def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relative_humidity,
+              slopes=True):
+    """``r`` and ``slope`` (of a target at infinity) for targets at ``range_km``: times the
+    share ``k`` of :func:`visviva.ground.finite_range.range_factor`, traced through the
+    station's radio refractivity, or the dry one for light."""
+    from .finite_range import range_factor
+
+    h, rng = np.broadcast_arrays(h, np.asarray(range_km, dtype=np.float64))
+    r, slope = np.broadcast_to(r, h.shape).copy(), np.broadcast_to(slope, h.shape).copy()
+    d_range = np.zeros(h.shape)
+    if model == "radio":
+        n_ray = _surface_refractivity(pressure_hpa, temperature_c, relative_humidity)
+    else:
+        p, t = _check_pt(pressure_hpa, temperature_c)
+        n_ray = float(radio_refractivity(p, t + 273.15, 0.0))
+    table = radio_table(n_ray)
+    on = np.isfinite(h) & (h >= _LOWEST_DEG)
+    if table is None or not on.any():
+        return r, slope, d_range
+    k, dk, dk_range = range_factor(h[on], rng[on], n_ray, table[0], slopes)
+    slope[on] = slope[on] * k + r[on] * dk
+    d_range[on] = r[on] * dk_range
+    r[on] = r[on] * k
+    return r, slope, d_range
 
 
 def station_air(refraction, height_m):
@@ -248,74 +307,3 @@ def _saemundsson_arcmin(h):
         r = 1.02 / np.tan(x) + 0.0019279
         slope = -1.02 / np.sin(x) ** 2 * (np.pi / 180.0) * (1.0 - 10.3 / (hh + 5.11) ** 2)
     return r, slope
-
-
-# radio -----------------------------------------------------------------------------------
-#: Panels of the quadrature in s (km from its lower end): the integrand decays over ~7 km of s
-#: at the zenith and ~200 km at the horizon; 16 Gauss-Legendre nodes per panel.
-_PANELS_KM = np.array([0.0, 1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048])
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(16)
-#: Top of the integration above the station (km): exp(-0.1361 * 120) = 8e-8 of N_s.
-_TOP_KM = 120.0
-#: Apparent elevations of the table (deg): dense near the horizon, where the bending bends.
-#: From -1 deg, whose geometric elevation -1 deg - R lies below the models' range.
-_TABLE_DEG = np.concatenate([np.linspace(-1.0, 12.0, 341)[:-1], np.linspace(12.0, 90.0, 160)])
-
-
-def radio_bending_deg(theta_deg, n_s):
-    """Total bending (deg) of a ray leaving the station at apparent elevations ``theta_deg``
-    (deg, 1-d) through ``n = 1 + n_s 1e-6 exp(-0.1361 z)``: the integral of
-    :func:`refraction_deg`'s Notes; a negative ``theta`` goes down to its tangent point below
-    the station first and counts that leg twice."""
-    theta = np.radians(np.asarray(theta_deg, dtype=np.float64))[:, None]
-    eps = n_s * 1e-6
-    n0, r0 = 1.0 + eps, _EARTH_RADIUS_KM
-    a = n0 * r0 * np.cos(theta)  # Snell's invariant n r cos(phi)
-    s0 = n0 * r0 * np.sin(theta)
-    r_top = r0 + _TOP_KM
-    s_top = np.sqrt(((1.0 + eps * math.exp(-_DECAY_PER_KM * _TOP_KM)) * r_top) ** 2 - a * a)
-
-    def integral(lo, hi, a):
-        total = np.zeros(lo.shape)
-        for p0, p1 in zip(_PANELS_KM[:-1], _PANELS_KM[1:], strict=True):
-            s_lo, s_hi = np.minimum(lo + p0, hi), np.minimum(lo + p1, hi)
-            half = 0.5 * (s_hi - s_lo)
-            s = 0.5 * (s_hi + s_lo) + half * _NODES
-            m = np.sqrt(s * s + a * a)  # = n(r) r: solve for r by Newton's method
-            r = m
-            for _ in range(4):
-                n = 1.0 + eps * np.exp(-_DECAY_PER_KM * (r - r0))
-                dn = -_DECAY_PER_KM * (n - 1.0)
-                r = r - (n * r - m) / (n + r * dn)
-            n = 1.0 + eps * np.exp(-_DECAY_PER_KM * (r - r0))
-            dn = -_DECAY_PER_KM * (n - 1.0)
-            f = -dn * a / (n * n * r * (n + r * dn))  # d(tau)/ds
-            total += (f * _WEIGHTS).sum(axis=-1, keepdims=True) * half
-        return total
-
-    up = np.maximum(s0, 0.0)
-    tau = integral(up, s_top, a)
-    down = s0[:, 0] < 0.0
-    if down.any():  # the leg from the station down to the tangent point (s = 0) and back up
-        tau[down] += integral(np.zeros_like(s0[down]), -s0[down], a[down])
-    return np.degrees(tau[:, 0])
-
-
-@functools.lru_cache(maxsize=64)
-def _radio_table(n_s: float):
-    """The radio refraction (deg) over the geometric elevation (deg) for the surface
-    refractivity ``n_s``: a cubic spline and the lowest geometric elevation it covers (below
-    it the refraction stays at the spline's first value); None for no air."""
-    from scipy.interpolate import CubicSpline
-
-    if n_s <= 0.0:
-        return None
-    with np.errstate(all="ignore"):
-        tau = radio_bending_deg(_TABLE_DEG, n_s)
-    geometric = _TABLE_DEG - tau
-    # rays aimed below the horizon pass under the station, where the profile grows; in dense
-    # air they reach its ducting layer (no tangent point): keep the apparent elevations above
-    ok = np.isfinite(geometric) & (tau >= 0.0)
-    ok[:-1] &= np.diff(geometric) > 0.0
-    first = _TABLE_DEG.size - np.argmin(ok[::-1]) if not ok.all() else 0
-    return CubicSpline(geometric[first:], tau[first:]), float(geometric[first])

@@ -144,7 +144,9 @@ class EventSet:
         Seconds after ``t_ref``.
     t_ref : astropy Time
     az, el, rng, rng_rate : ndarray (E,)
-        rad, rad, km, km/s at the event.
+        rad, rad, km, km/s at the event; ``el`` apparent when the search was refracted.
+    elevation : str
+        What ``el`` is: ``"geometric"`` or ``"apparent (optical refraction)"`` (or radio).
     r_itrs : ndarray (E, 3)
         Earth-fixed position at the event (for the Sun and the shadow), km.
     kind : also :data:`WINDOW_START` / :data:`WINDOW_END` at ``t0`` / ``t1`` for pairs above
@@ -286,9 +288,12 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
     return r, v, e, near, times_s
 
 
-def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min, secular,
+def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_geo, secular,
                  rho_min):
-    """Scan satellites ``idx`` (one node spacing ``h``) against all sites; raw events."""
+    """Scan satellites ``idx`` (one node spacing ``h``) against all sites; raw events.
+
+    ``sin_geo`` (S,): each site's geometric threshold; one scan per distinct value (one in
+    all for a geometric threshold, or refracted stations sharing their air)."""
     r, v, e, near, times_s = _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min)
     nodes = times_s.size
     bad = (e != 0) | ~np.isfinite(r).all(-1) | ~np.isfinite(v).all(-1)
@@ -305,33 +310,39 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_min, 
         cut = t_hi < pad_s + span_s
     else:
         cut = np.zeros(len(idx), dtype=bool)
-    ns = len(sites)
     out_sat, out_sta, out_t, out_k = [], [], [], []
     cap = max(8, int(3 * span_s / h / 4) + 8)
-    for lo in range(0, len(idx), max(1, _CHUNK_PAIRS // ns)):
-        hi = min(len(idx), lo + max(1, _CHUNK_PAIRS // ns))
-        rc = np.ascontiguousarray(r[lo:hi])
-        vc = np.ascontiguousarray(v[lo:hi])
-        while True:
-            ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
-            _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], t_reach[lo:hi], _SAMPLES,
-                              sites, ups, sin_min, np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st,
-                              fe)
-            if not (st == _topo.PAIR_OVERFLOW).any():
-                break
-            cap = int(cnt.max()) + 8
-        sel = np.arange(ot.shape[1])[None, :] < cnt[:, None]
-        p_local, col = np.nonzero(sel)
-        p = p_local + lo * ns
-        out_sat.append(idx[p // ns])
-        out_sta.append(p % ns)
-        out_t.append(ot[p_local, col] - pad_s)
-        out_k.append(ok[p_local, col].astype(np.int64))
+    levels = np.unique(sin_geo)
+    for level in levels:
+        group = (np.arange(len(sites)) if levels.size == 1
+                 else np.flatnonzero(sin_geo == level))
+        g_sites = sites if levels.size == 1 else np.ascontiguousarray(sites[group])
+        g_ups = ups if levels.size == 1 else np.ascontiguousarray(ups[group])
+        ns = len(group)
+        for lo in range(0, len(idx), max(1, _CHUNK_PAIRS // ns)):
+            hi = min(len(idx), lo + max(1, _CHUNK_PAIRS // ns))
+            rc = np.ascontiguousarray(r[lo:hi])
+            vc = np.ascontiguousarray(v[lo:hi])
+            while True:
+                ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
+                _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], t_reach[lo:hi],
+                                  _SAMPLES, g_sites, g_ups, float(level),
+                                  np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st, fe)
+                if not (st == _topo.PAIR_OVERFLOW).any():
+                    break
+                cap = int(cnt.max()) + 8
+            sel = np.arange(ot.shape[1])[None, :] < cnt[:, None]
+            p_local, col = np.nonzero(sel)
+            p = p_local + lo * ns
+            out_sat.append(idx[p // ns])
+            out_sta.append(group[p % ns])
+            out_t.append(ot[p_local, col] - pad_s)
+            out_k.append(ok[p_local, col].astype(np.int64))
     return (np.concatenate(out_sat), np.concatenate(out_sta), np.concatenate(out_t),
             np.concatenate(out_k), near, t_hi - pad_s, cut)
 
 
-def _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end):
+def _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end):
     """``f`` on SGP4 at the window's start and at each satellite's end, (N, S, 2)."""
     n = len(cat)
     jd, fr = clock.parts(np.array([0.0, span_s]))
@@ -345,17 +356,23 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end):
                         else np.stack([np.zeros(n), t_end], axis=1))
     ns = len(sites)
     out = np.empty((n, ns, 2))
-    fd = np.empty((n * 2, 2))
     for s in range(ns):
-        _topo.elevation_rate_many(ri.reshape(-1, 3), vi.reshape(-1, 3), sites, ups,
-                                  np.full(n * 2, s, dtype=np.int64), sin_min, fd)
+        fd = horizon.f(ri.reshape(-1, 3), vi.reshape(-1, 3), sites, ups,
+                       np.full(n * 2, s, dtype=np.int64))
         out[:, s, :] = fd[:, 0].reshape(n, 2)
     out[(e != 0)[:, None, :].repeat(ns, 1)] = -1.0
     return out
 
 
-def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
-    """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1]."""
+def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False) -> EventSet:
+    """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1].
+
+    ``refraction`` (as :func:`visviva.ground.look.look`'s; False: geometric) puts the rise and
+    the set where the apparent elevation crosses ``min_el_rad``
+    (:class:`~visviva.ground.horizon.Horizon`); the events' ``el`` is then apparent too."""
+    from .horizon import Horizon
+
+    horizon = Horizon(stations, min_el_rad, refraction)
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]
@@ -363,11 +380,10 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
         setup = (satrecs, node_step_s(satrecs), secular)
         cat.__dict__["_pass_setup"] = setup
     satrecs, steps, secular = setup
-    rho_min = _slant_range_km(satrecs, min_el_rad)
+    rho_min = _slant_range_km(satrecs, min(min_el_rad, horizon.lowest_geometric_rad))
     sites = np.ascontiguousarray([s.itrs_km for s in stations], dtype=np.float64)
     enu = np.ascontiguousarray([s.enu_matrix for s in stations], dtype=np.float64)
     ups = np.ascontiguousarray(enu[:, 2])
-    sin_min = math.sin(min_el_rad)
     t_ref = t0.tai
     span_s = float((t1 - t0).to_value(u.s))
     pad_max = float(steps.max())
@@ -381,14 +397,14 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
     for h in np.unique(steps):
         idx = np.flatnonzero(steps == h)
         s_i, s_s, s_t, s_k, near, t_e, cut = _coarse_scan(
-            cat, idx, float(h), clock, span_s, float(h), earth, sites, ups, sin_min, secular,
-            rho_min)
+            cat, idx, float(h), clock, span_s, float(h), earth, sites, ups, horizon.sin_geo,
+            secular, rho_min)
         parts.append((s_i, s_s, s_t, s_k))
         near_sat[idx] = near
         t_end[idx] = t_e
         skipped.extend((int(i), float(te)) for i, te in zip(idx[cut], t_e[cut], strict=True))
     # pairs above the threshold at t0 or at the end (on SGP4): WINDOW_START / WINDOW_END
-    f_edge = _window_edges(cat, clock, earth, span_s, sites, ups, sin_min, t_end)
+    f_edge = _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end)
     for col, kind in ((0, WINDOW_START), (1, WINDOW_END)):
         i_s, s_s = np.nonzero(f_edge[:, :, col] > 0.0)
         when = np.zeros(i_s.size) if col == 0 else t_end[i_s]
@@ -404,25 +420,26 @@ def search_events(cat, stations, t0, t1, min_el_rad: float) -> EventSet:
             f"SGP4 failed inside the window for {len(skipped)} satellite(s) ({names}"
             f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets; their "
             "events stop there.", RuntimeWarning, stacklevel=3)
-    ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min,
+    ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon,
                   span_s, near_sat)
+    ev.el = horizon.apparent_rad(ev.el, ev.station, ev.rng)
+    ev.elevation = horizon.label
     ev.earth = earth
     ev.clock = clock
     ev.skipped = skipped
     return ev
 
 
-def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, sin_min):
-    """SGP4 -> Earth-fixed state, and f, f' at the given events."""
+def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, horizon, geometric=None):
+    """SGP4 -> Earth-fixed state, and f, f' at the given events (``geometric``: see
+    :meth:`Horizon.f <visviva.ground.horizon.Horizon.f>`)."""
     r, v, err = sgp4_teme(satrecs, sat_i, clock, t_s)
     ri, vi = earth.apply(r, v, t_s)
-    fd = np.empty((len(t_s), 2))
-    _topo.elevation_rate_many(ri, vi, sites, ups,
-                              np.ascontiguousarray(sta_i, dtype=np.int64), sin_min, fd)
+    fd = horizon.f(ri, vi, sites, ups, sta_i, geometric)
     return r, ri, vi, fd, err
 
 
-def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, sin_min, span_s,
+def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon, span_s,
              near_sat):
     """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
 
@@ -441,6 +458,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
     the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
     """
     t = t_s.copy()
+    t_seed = t_s.copy()  # the scan's order of the events, for the orphans (see below)
     kind = kind.copy()
     delta = 1.0  # s, half-width of the parabola
     mi = np.flatnonzero((kind == _topo.CULMINATION) | (kind == _topo.NEAR_MAXIMUM))
@@ -460,8 +478,15 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
         side = [] if last else [t[mi] - delta, t[mi] + delta]
         tt = np.concatenate([t[mi], t[xi]] + ([t[fixed]] if last else []) + side)
         ii = np.concatenate([idx] + ([] if last else [mi, mi]))
+        # the maxima's parabolas on the geometric elevation (its highest point); their f
+        # at the vertex, in the last round, on the threshold's (apparent) one
+        geometric = None
+        if not last and horizon.refracted:
+            geometric = np.zeros(ii.size, dtype=bool)
+            geometric[:nm] = True
+            geometric[idx.size:] = True
         _, ri, vi, fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites,
-                                       ups, sin_min)
+                                       ups, horizon, geometric)
         n0 = idx.size
         state_r[idx] = ri[:n0]
         state_v[idx] = vi[:n0]
@@ -493,7 +518,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
         if pending.size == 0:
             break
         _, ri, vi, fd, err = _evaluate(satrecs, sat_i[pending], sta_i[pending], t[pending],
-                                       clock, earth, sites, ups, sin_min)
+                                       clock, earth, sites, ups, horizon)
         state_r[pending] = ri
         state_v[pending] = vi
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -523,9 +548,10 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
         if new:
             ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
             nw_ = nw_.astype(np.float64)
+            t_seed = np.concatenate([t_seed, nw_])
             for _ in range(5):
                 _, ri, vi, fd, err = _evaluate(satrecs, ns_, nt_, nw_, clock, earth, sites, ups,
-                                               sin_min)
+                                               horizon)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     step = -fd[:, 0] / fd[:, 1]
                 nw_ = np.clip(nw_ + np.where((err == 0) & np.isfinite(step),
@@ -537,7 +563,11 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, si
             keep = np.concatenate([keep, np.ones(nw_.size, dtype=bool)])
             state_r = np.concatenate([state_r, ri])
             state_v = np.concatenate([state_v, vi])
+    # a rise and a set left with no culmination between them: in the scan's order too, since
+    # Newton steps on a pass that does not reach the threshold (no root) can carry its rise
+    # past its set (a "set, rise" pair with no culmination, kept before)
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
+    keep &= ~_orphans(sat_i, sta_i, t_seed, kind, keep)
     keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)
     sel = np.flatnonzero(keep)
     sat_i, sta_i, t, kind = sat_i[sel], sta_i[sel], t[sel], kind[sel]

@@ -265,7 +265,7 @@ class GroundStation:
         return look(self, target, t, refraction=refraction, light_time=light_time,
                     frequency=frequency)
 
-    def find_events(self, satellite, t0, t1, min_elevation=0.0 * u.deg):
+    def find_events(self, satellite, t0, t1, min_elevation=0.0 * u.deg, *, refraction=False):
         """Rise, culmination and set of a satellite through ``min_elevation`` in [t0, t1].
 
         Parameters
@@ -276,6 +276,10 @@ class GroundStation:
             The window, ``t1 > t0``.
         min_elevation : Quantity (angle)
             Elevation threshold in [-90, 90] deg (default 0 deg).
+        refraction : bool, {"optical", "radio"} or dict
+            Rise and set where the apparent (refracted) elevation crosses the threshold, the
+            station's air as :meth:`look` takes it (see :func:`visviva.find_passes`); False
+            (default): the geometric elevation.
 
         Returns
         -------
@@ -301,7 +305,7 @@ class GroundStation:
             )
         t0, t1 = check_window(t0, t1)
         el = min_elevation_rad(min_elevation)
-        ev = search_events(as_catalog(satellite), [self], t0, t1, el)
+        ev = search_events(as_catalog(satellite), [self], t0, t1, el, refraction)
         real = ev.kind <= SET
         return ev.times(np.flatnonzero(real)), ev.kind[real].astype(np.int64)
 

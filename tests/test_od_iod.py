@@ -141,6 +141,40 @@ def test_herrick_gibbs_rejects_unsorted_times():
                          Time("2024-01-01"), 20, 30, GM)
 
 
+def test_herrick_gibbs_refuses_times_in_another_unit():
+    # audit20: times in minutes (or days) as plain numbers are read as seconds and gave a
+    # velocity 60 times too large with no complaint; the positions' bend (gravity's on a
+    # two-body arc) now tells the times' scale
+    r1 = [3419.85564, 6019.82602, 2784.60022]
+    r2 = [2935.91195, 6326.18324, 2660.59584]
+    r3 = [2434.95202, 6597.38674, 2521.52311]
+    gm = 398600.4418
+    ok = vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48, 153.04, gm)
+    assert np.linalg.norm(ok) == pytest.approx(7.66, abs=0.01)
+    for scale in (1 / 60, 1 / 86400, 1000.0):   # minutes, days, milliseconds as seconds
+        with pytest.raises(vv.DomainError, match="times do not fit the positions"):
+            vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48 * scale, 153.04 * scale, gm)
+    with pytest.raises(vv.DomainError, match="times do not fit the positions"):  # metres as km
+        vv.herrick_gibbs(np.multiply(r1, 1e3), np.multiply(r2, 1e3), np.multiply(r3, 1e3),
+                         0.0, 76.48, 153.04, gm)
+
+
+def test_herrick_gibbs_noisy_short_arc_accepted():
+    # 100 m noise on fixes 20 s apart (a 40 s arc) is still a usable first orbit: the
+    # time-scale check must not refuse it
+    el = vv.KeplerianElements.from_semi_major_axis(6900 * u.km, 0.002, 1.0 * u.rad, 0.3 * u.rad,
+                                                    0.2 * u.rad, 1.0 * u.rad, vv.EARTH)
+    s = el.to_state()
+    r2, v2 = s.r.to_value(u.km), s.v.to_value(KMS)
+    r1, _ = _prop(r2, v2, -20.0)
+    r3, _ = _prop(r2, v2, 20.0)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        n = rng.normal(0.0, 0.1, (3, 3))
+        got = vv.herrick_gibbs(r1 + n[0], r2 + n[1], r3 + n[2], -20.0, 0.0, 20.0, vv.EARTH)
+        assert np.linalg.norm(got - v2) < 0.05   # km/s: the noise over the arc, not a unit slip
+
+
 # -- angles only ---------------------------------------------------------------------------------
 
 

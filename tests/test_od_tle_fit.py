@@ -153,6 +153,16 @@ def test_fit_tle_batch_serial_and_on_dask(iss):
         vv.od.fit_tle_batch(days, satnums=[1, 2])
 
 
+def test_fit_tle_batch_refuses_satnums_that_are_not_integers(iss):
+    # audit20: int() truncated 25544.7 to 25544 (a real object's number) and read "25544"
+    days = [iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors()]
+    for bad in (25544.7, "25544", True):
+        with pytest.raises(vv.InvalidInputError, match=r"satnums\[0\]"):
+            vv.od.fit_tle_batch(days, satnums=[bad])
+    sat, = vv.od.fit_tle_batch(days, satnums=np.array([25544]))
+    assert sat.satnum == 25544
+
+
 def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
     """What travels to a Dask worker (a few flat arrays) gives bit for bit the serial fits."""
     from visviva.ccsds.oem import OEMSegment

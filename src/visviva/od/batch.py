@@ -263,6 +263,16 @@ def check_initial(initial, maneuvers=None):
     if r0.shape != (3,) or v0.shape != (3,):
         raise InvalidInputError(f"initial must be one state (r shape (3,)); got {r0.shape}.")
     gm = float(np.ravel(to_array(initial.gm, "gm", "initial.gm"))[0])
+    from ..satellites.cowell import central_body
+
+    body = central_body(gm, [])
+    if body.name != "earth":  # audit20: a Moon-centred guess "converged" on Earth tracking
+        raise InvalidInputError(
+            f"the state's gm = {gm:.10g} km3/s2 is the {body.name.capitalize()}'s: orbit "
+            "determination works in the GCRS, about the Earth (ground stations are on the "
+            "Earth, position rows are geocentric). Give a geocentric state (gm=vv.EARTH), "
+            f"converted from the {body.name.capitalize()}-centred one."
+        )
     epoch = getattr(initial, "epoch", None)
     if epoch is None:
         raise InvalidInputError(

@@ -371,8 +371,12 @@ def test_fit_orbit_with_an_impossible_first_guess_raises_convergence_error():
     # converge" (LinAlgError) escaped
     obs = _position_obs(1, n=30)
     sun_guess = vv.StateVectors(GUESS.r, GUESS.v, vv.SUN, epoch=EPOCH)
-    with pytest.raises(vv.ConvergenceError, match="diverged"):
+    with pytest.raises(vv.InvalidInputError, match="Sun's"):  # refused up front (audit20)
         vv.fit_orbit(obs, sun_guess)
+    # a gm of no known body, as large: still a clear ConvergenceError, not numpy's LinAlgError
+    odd_guess = vv.StateVectors(GUESS.r, GUESS.v, 1e11 * u.km**3 / u.s**2, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError, match="diverged"):
+        vv.fit_orbit(obs, odd_guess)
 
 
 def test_fit_orbit_refuses_bad_tolerances():
@@ -422,3 +426,29 @@ def test_od_refuses_a_state_about_another_body():
     # a geocentric GM of another convention (WGS-84, textbook 398600) is the Earth's
     wgs84 = vv.StateVectors(TRUTH.r, TRUTH.v, 398600.4418 * u.km**3 / u.s**2, epoch=EPOCH)
     assert vv.fit_orbit(_position_obs(1, n=30), wgs84).rms < 3
+
+
+def test_rows_from_below_the_horizon_are_named():
+    # audit20: a ground station's rows taken while the orbit is under its horizon (a wrong
+    # station, east/west longitude, a time-tag slip) were fitted without a word; now a
+    # TrackingDataWarning names the count and the lowest row, for the batch fit and filters
+    st = STATIONS[0]
+    times = EPOCH + np.arange(0, 6 * 3600, 120) * u.s
+    obs = vv.od.simulate_observations(TRUTH, times, "azel", np.radians(0.01), st, seed=2,
+                                      light_time=False)
+    el = obs.elevations(vv.propagate_cowell(TRUTH, times, []).r.to_value(u.km))
+    np.testing.assert_allclose(el, obs.values[:, 1], atol=np.radians(0.05))  # the azel's own
+    low = int(np.sum(el < -np.radians(1.0)))
+    assert 0 < low < len(obs)
+    with pytest.warns(vv.errors.TrackingDataWarning, match=f"{low} row.*below their horizon"):
+        vv.fit_orbit(obs, TRUTH)
+    for method in ("ekf", "ukf"):
+        with pytest.warns(vv.errors.TrackingDataWarning, match="filtered orbit: it is below"):
+            vv.filter_orbit(obs, TRUTH, np.diag([1e-4] * 3 + [1e-8] * 3), method=method)
+    # the stations' own passes (simulate_tracking, 10 deg mask) give no warning
+    seen = vv.od.simulate_tracking(TRUTH, STATIONS, times, seed=2)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.errors.TrackingDataWarning)
+        vv.fit_orbit(seen, TRUTH)

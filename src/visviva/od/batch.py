@@ -612,6 +612,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         )
         err.history = history
         raise err
+    observations.warn_below_horizon(y[:, :3], ~new_rejected, "the fitted orbit")
     rms_by_kind = {}
     for k in KINDS:
         m = (kinds == k)[:, None] & use

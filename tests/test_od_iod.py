@@ -472,3 +472,31 @@ def test_iod_tolerances_take_angle_quantities():
         vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, max_arc=-1.0)
     with pytest.raises(vv.UnitsError):
         vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=1 * u.km)
+
+
+# -- a first orbit from a table ------------------------------------------------------------------
+
+
+def test_initial_orbit_from_fixes_spread_over_revolutions():
+    # audit20: a day of position fixes every minute is one "pass" (gaps <= 5 min), and Gibbs
+    # on its first, middle and last fix (hours apart) gave an orbit flown backwards, 15 km/s
+    # off, so fit_orbit(obs, None) did not converge; three fixes spread over two revolutions
+    # gave the same orbit and a "converged" fit 1500 km off at RMS 68000
+    from visviva.od import initial_orbit
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.arange(0, 86400, 60) * u.s
+    fixes = vv.propagate_cowell(truth, t, [vv.J2(vv.EARTH)])
+    obs = vv.Observations(time=t, kind="position", value=fixes.r, sigma=0.01 * u.km)
+    first = initial_orbit(obs, vv.EARTH)
+    there = vv.propagate_cowell(truth, first.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((first.r - there.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((first.v - there.v).to_value(KMS)) < 0.01   # J2 over minutes
+    spread = t[[0, 46, 200]]
+    obs3 = vv.Observations(time=spread, kind="position", value=fixes.r[[0, 46, 200]],
+                           sigma=0.01 * u.km)
+    for call in (lambda: initial_orbit(obs3, vv.EARTH), lambda: vv.fit_orbit(obs3, None)):
+        with pytest.raises(vv.InvalidInputError, match="not one short two-body arc"):
+            call()

@@ -452,3 +452,24 @@ def test_rows_from_below_the_horizon_are_named():
     with warnings.catch_warnings():
         warnings.simplefilter("error", vv.errors.TrackingDataWarning)
         vv.fit_orbit(seen, TRUTH)
+
+
+@pytest.mark.parametrize("kind", ["azel", "radec"])
+def test_simulated_angle_noise_over_the_pole_reads_as_its_direction(kind):
+    # audit20: noise that carried an elevation past 90 deg (a zenith pass) raised "an
+    # elevation left [-90, 90] deg", and a declination past 90 deg a DomainError of the table;
+    # such a draw is the direction over the pole, at the opposite azimuth / right ascension
+    times = EPOCH + np.arange(0, 3000, 100) * u.s
+    sigma = np.radians(60.0)                       # so that many draws cross the pole
+    got = vv.od.simulate_observations(TRUTH, times, kind, sigma, STATIONS[0], seed=5)
+    exact = vv.od.simulate_observations(TRUTH, times, kind, sigma, STATIONS[0], seed=False)
+    raw = exact.values[:, :2] + np.random.default_rng(5).standard_normal((len(times), 3))[:, :2] * sigma
+    assert np.any(np.abs(raw[:, 1]) > np.pi / 2)
+
+    def unit(a):
+        return np.stack([np.cos(a[:, 1]) * np.cos(a[:, 0]), np.cos(a[:, 1]) * np.sin(a[:, 0]),
+                         np.sin(a[:, 1])], -1)
+
+    assert np.all(np.abs(got.values[:, 1]) <= np.pi / 2)
+    assert np.all((got.values[:, 0] >= 0) & (got.values[:, 0] < 2 * np.pi))
+    np.testing.assert_allclose(unit(got.values), unit(raw), atol=1e-12)

@@ -63,7 +63,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     Returns
     -------
     Observations
-        The noisy table (angles wrapped into range), with the same ``light_time``,
+        The noisy table (angles wrapped into range: an elevation or declination that the
+        noise carries past +-90 deg is read over the pole, at the opposite azimuth or right
+        ascension), with the same ``light_time``,
         ``radec_reference`` and ``troposphere``.
 
     Notes
@@ -93,10 +95,14 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         noise = rng.standard_normal(h.shape) * exact.sigmas[:, None]
     values = h + noise
     ang = np.isin(exact.kinds, ["azel", "radec"])
+    # noise that carries an elevation or declination past +-90 deg reads as the direction it
+    # is: over the pole, at the opposite azimuth / right ascension (was an error near the
+    # zenith, or a DomainError of the table for a declination; audit20)
+    over = ang & (np.abs(values[:, 1]) > np.pi / 2)
+    values[over, 1] = np.copysign(np.pi, values[over, 1]) - values[over, 1]
+    values[over, 0] += np.pi
     values[ang, 0] = np.mod(values[ang, 0], 2 * np.pi)
     rows = [values[i, : exact.dims[i]] for i in range(len(exact))]
-    if np.any(exact.kinds == "azel") and np.any(np.abs(values[exact.kinds == "azel", 1]) > np.pi / 2):
-        raise InvalidInputError("an elevation left [-90, 90] deg; lower the angle noise.")
     return Observations(time=exact.times, kind=list(exact.kinds), value=rows,
                         sigma=list(exact.sigmas), station=exact.stations, **flags)  # fmt: skip
 

@@ -473,3 +473,18 @@ def test_simulated_angle_noise_over_the_pole_reads_as_its_direction(kind):
     assert np.all(np.abs(got.values[:, 1]) <= np.pi / 2)
     assert np.all((got.values[:, 0] >= 0) & (got.values[:, 0] < 2 * np.pi))
     np.testing.assert_allclose(unit(got.values), unit(raw), atol=1e-12)
+
+
+def test_simulate_tracking_takes_measurements_as_a_dict():
+    # audit20: a dict {kind: sigma} (the form of read_tdm(...).to_observations's sigma) made
+    # a ValueError "too many values to unpack" deep inside
+    times = EPOCH + np.arange(0, 3 * 3600, 60) * u.s
+    as_dict = vv.od.simulate_tracking(TRUTH, STATIONS, times, seed=3,
+                                      measurements={"range": 5 * u.m, "azel": 20 * u.arcsec})
+    as_pairs = vv.od.simulate_tracking(TRUTH, STATIONS, times, seed=3,
+                                       measurements=[("range", 5 * u.m), ("azel", 20 * u.arcsec)])
+    np.testing.assert_array_equal(as_dict.values, as_pairs.values)
+    for bad, match in (({"rnage": 0.01}, "unknown kind 'rnage'"), (["range"], "pairs"),
+                       ({}, "empty")):
+        with pytest.raises(vv.InvalidInputError, match=match):
+            vv.od.simulate_tracking(TRUTH, STATIONS, times, measurements=bad)

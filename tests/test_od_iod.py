@@ -500,3 +500,26 @@ def test_initial_orbit_from_fixes_spread_over_revolutions():
     for call in (lambda: initial_orbit(obs3, vv.EARTH), lambda: vv.fit_orbit(obs3, None)):
         with pytest.raises(vv.InvalidInputError, match="not one short two-body arc"):
             call()
+
+
+def test_initial_orbit_from_az_el_only():
+    # audit20: an optical station's az/el alone (no range) had no first orbit ("give ... three
+    # RA/Dec rows"), so fit_orbit(obs, None) and `visviva od` without --initial refused them;
+    # the az/el directions, turned to GCRS RA/Dec, now go to Gauss's method
+    from visviva.od import initial_orbit
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                            epoch=epoch)
+    sites = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km),
+             vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km)]
+    obs = vv.od.simulate_tracking(truth, sites, epoch + np.arange(0, 6 * 3600, 30) * u.s,
+                                  measurements={"azel": 2 * u.arcsec}, seed=1)
+    assert set(obs.kinds) == {"azel"}
+    first = initial_orbit(obs, vv.EARTH)
+    there = vv.propagate_cowell(truth, first.epoch, [])
+    assert np.linalg.norm((first.r - there.r).to_value(u.km)) < 1.0   # 74 m: light time, noise
+    fit = vv.fit_orbit(obs, None)
+    there = vv.propagate_cowell(truth, fit.state.epoch, [])
+    assert np.linalg.norm((fit.state.r - there.r).to_value(u.km)) < 0.05
+    assert fit.rms < 1.3

@@ -28,7 +28,7 @@ def initial_orbit(observations, gm):
     ----------
     observations : Observations
         Positions, or az/el or RA/Dec rows with a range row of the same station at the same
-        time (together a position), or at least three RA/Dec rows of one station.
+        time (together a position), or at least three RA/Dec or az/el rows in one pass.
     gm : Quantity (km^3/s^2), Body or float (km^3/s^2)
         Gravitational parameter.
 
@@ -50,7 +50,8 @@ def initial_orbit(observations, gm):
     last. Gibbs when they span more than 5 deg of arc, Herrick-Gibbs otherwise; the orbit must
     reach the first and last fix at their times (two-body, within a tenth of their distance),
     else :class:`~visviva.InvalidInputError` (fixes a revolution apart). With only angles,
-    Gauss's method on the first, middle and last RA/Dec of the first pass.
+    Gauss's method on the first, middle and last RA/Dec or az/el (turned to GCRS RA/Dec) of
+    the first pass.
     """
     g = gm_value(gm)
     kinds = observations.kinds
@@ -96,18 +97,31 @@ def initial_orbit(observations, gm):
             _check_on_time(r1, r2, r3, v2, secs[i1] - secs[i2], secs[i3] - secs[i2], g,
                            observations.times[[i1, i3]])
             return state_at(r2, v2, g, observations.times[i2])
-    radec = np.flatnonzero(kinds == "radec")
-    if radec.size >= 3:
-        group = _first_group(radec, secs)
+    sights = np.flatnonzero((kinds == "radec") | (kinds == "azel"))
+    if sights.size >= 3:
+        group = _first_group(sights, secs)
         if group.size >= 3:
             pick = [group[0], group[len(group) // 2], group[-1]]
-            return gauss_angles(vals[pick, 0], vals[pick, 1], observations.times[pick],
-                                site_r[pick], g)  # fmt: skip
+            ra, dec = _gcrs_angles(kinds[pick], vals[pick], enu[pick])
+            return gauss_angles(ra, dec, observations.times[pick], site_r[pick], g)
     raise InvalidInputError(
         "cannot find a first orbit in these observations: give three positions, az/el or RA/Dec "
-        "rows each with a range from the same station at the same time, or three RA/Dec rows "
-        "within one pass; or pass initial=vv.StateVectors(...) yourself."
+        "rows each with a range from the same station at the same time, or three RA/Dec or "
+        "az/el rows within one pass; or pass initial=vv.StateVectors(...) yourself."
     )
+
+
+def _gcrs_angles(kinds, vals, enu):
+    """GCRS right ascension and declination (rad) of RA/Dec and az/el rows (an az/el's
+    direction turned from the station's east-north-up axes; refraction and light time, which a
+    first orbit can ignore, left in)."""
+    a, b = vals[:, 0], vals[:, 1]
+    up = np.stack([np.cos(b) * np.sin(a), np.cos(b) * np.cos(a), np.sin(b)], axis=-1)
+    los = np.einsum("nji,nj->ni", enu, up)  # ENU -> GCRS: the rows' transpose
+    azel = kinds == "azel"
+    ra = np.where(azel, np.mod(np.arctan2(los[:, 1], los[:, 0]), 2 * np.pi), a)
+    dec = np.where(azel, np.arcsin(np.clip(los[:, 2], -1.0, 1.0)), b)
+    return ra, dec
 
 
 #: the first orbit's fixes span at most this fraction of the circular period at the first

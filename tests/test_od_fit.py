@@ -488,3 +488,18 @@ def test_simulate_tracking_takes_measurements_as_a_dict():
                        ({}, "empty")):
         with pytest.raises(vv.InvalidInputError, match=match):
             vv.od.simulate_tracking(TRUTH, STATIONS, times, measurements=bad)
+
+
+def test_a_wild_iteration_raises_convergence_error_not_linalg_error():
+    # audit20: a first guess 50 km and 50 m/s off: the step size sqrt(dx^T P^-1 dx / n) solved
+    # the ill-conditioned covariance P of a wild iteration and numpy's LinAlgError ("Singular
+    # matrix") escaped; it is |A dx| (P^-1 = A^T A), and the fit says it did not converge
+    obs = vv.od.simulate_tracking(TRUTH, STATIONS, EPOCH + np.arange(0, 6 * 3600, 60) * u.s,
+                                  [vv.J2(vv.EARTH)], seed=1,
+                                  measurements={"range": 0.01, "range_rate": 1e-5,
+                                                "azel": np.radians(0.01)})
+    d = np.array([-48.386670468911241, -10.024888394924920, -7.6309719959053872])
+    dv = np.array([0.039661744438627806, 0.015741563764845135, 0.026060491137395912])
+    guess = vv.StateVectors(TRUTH.r + d * u.km, TRUTH.v + dv * KMS, vv.EARTH, epoch=EPOCH)
+    with pytest.raises(vv.ConvergenceError):
+        vv.fit_orbit(obs, guess, [vv.J2(vv.EARTH)])

@@ -589,7 +589,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 "fit a shorter arc first.")
             err.history = history
             raise err from exc
-        step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / n_par))
+        # the step in its own sigmas, sqrt(dx^T P^-1 dx / n) with P^-1 = A^T A: |A dx| needs
+        # no inverse (solving P raised numpy's LinAlgError on an ill-conditioned step; audit20)
+        step = float(np.linalg.norm(A @ dx) / np.sqrt(n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
                         "correction": step})  # fmt: skip
         settled = rms_prev is not None and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300)

@@ -503,3 +503,17 @@ def test_a_wild_iteration_raises_convergence_error_not_linalg_error():
     guess = vv.StateVectors(TRUTH.r + d * u.km, TRUTH.v + dv * KMS, vv.EARTH, epoch=EPOCH)
     with pytest.raises(vv.ConvergenceError):
         vv.fit_orbit(obs, guess, [vv.J2(vv.EARTH)])
+
+
+def test_a_coefficient_out_of_its_domain_raises_with_the_history():
+    # audit20: TRUTH's perigee is low and 24 rows of two stations barely see drag: the
+    # estimated B runs to -54 m^2/kg, refused (ConvergenceError) at the end of the fit, but
+    # that error had no .history, which the docs promise for a fit that fails
+    stations = STATIONS[:2]
+    forces = [vv.J2(vv.EARTH), vv.AtmosphericDrag(0.01 * u.m**2 / u.kg)]
+    obs = vv.od.simulate_tracking(TRUTH, stations, EPOCH + np.arange(0, 6 * 3600, 60) * u.s,
+                                  forces, seed=1)
+    with pytest.raises(vv.ConvergenceError, match="domain") as exc:
+        vv.fit_orbit(obs, TRUTH, forces, estimate="drag")
+    history = exc.value.history
+    assert len(history) >= 2 and {"iteration", "rms", "n_rejected", "correction"} <= set(history[0])

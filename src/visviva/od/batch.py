@@ -626,7 +626,11 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     for i in chosen:  # the estimate's own uncertainty replaces a planned execution error
         flown[i].execution_covariance = None
     m = len(chosen)
-    extra = parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv)
+    try:
+        extra = parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv)
+    except ConvergenceError as exc:  # a coefficient out of its domain: the report goes with it
+        exc.history = history
+        raise
     P_data = P
     if con:
         P = extra["_considered"]

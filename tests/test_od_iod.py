@@ -523,3 +523,28 @@ def test_initial_orbit_from_az_el_only():
     there = vv.propagate_cowell(truth, fit.state.epoch, [])
     assert np.linalg.norm((fit.state.r - there.r).to_value(u.km)) < 0.05
     assert fit.rms < 1.3
+
+
+def test_gauss_says_when_it_returns_an_unbound_orbit():
+    # audit20: a geostationary satellite seen from the equator (lines of sight nearly in one
+    # plane, D0 = 4e-10): the only orbit found through the three directions is an escape
+    # orbit 27 million km out at 2000 km/s, returned without a word; now a RuntimeWarning
+    t0 = Time("2024-03-01T00:00:00", scale="utc")
+    lon = np.radians(-100.0)
+    geo = vv.StateVectors([42164.0 * np.cos(lon), 42164.0 * np.sin(lon), 0.0] * u.km,
+                          3.0747 * np.array([-np.sin(lon), np.cos(lon), 0.0]) * KMS, vv.EARTH,
+                          epoch=t0)
+    site = vv.GroundStation(0.0 * u.deg, -100.0 * u.deg, 0.0 * u.km)
+    t = t0 + np.array([0.0, 1800.0, 3600.0]) * u.s
+    sr, _ = site.gcrs_position_velocity(t)
+    d = vv.propagate_cowell(geo, t, []).r.to_value(u.km) - sr
+    ra, dec = np.arctan2(d[:, 1], d[:, 0]), np.arcsin(d[:, 2] / np.linalg.norm(d, axis=1))
+    every = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH, return_all=True)  # no warning
+    if all(s.to_elements().eccentricity >= 1 for s in every):
+        with pytest.warns(RuntimeWarning, match="no bound orbit passes through"):
+            s = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH)
+        assert s.to_elements().eccentricity >= 1
+    else:  # a bound solution found (another IERS table): it must then be the truth
+        s = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH)
+        mid = vv.propagate_cowell(geo, t[1], [])
+        assert np.linalg.norm((s.r - mid.r).to_value(u.km)) < 1.0

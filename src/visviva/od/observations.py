@@ -134,7 +134,8 @@ class Observations:
     ------
     InvalidInputError
         No observations, an unknown kind, an unknown ``radec_reference``, a non-positive or non-finite sigma, a row needing a
-        station without one, times that go backwards, or a time that is not an astropy Time.
+        station without one, times that go backwards, a time that is not an astropy Time, or
+        ``troposphere`` with an observer that is not a ground station.
     ShapeError
         A value with the wrong number of components.
     DomainError
@@ -218,6 +219,14 @@ class Observations:
             dims[i] = arr.size
         sig = self._sigmas(sigma, kinds, n)
         stations = self._stations(station, kinds, n)
+        if weather is not None:  # audit20: an AttributeError from deep inside before
+            for i, st in enumerate(stations):
+                if st is not None and not hasattr(st, "enu_matrix"):
+                    raise InvalidInputError(
+                        f"observation {i} ({kinds[i]}): troposphere=True models the air above "
+                        f"a ground station, and its observer {type(st).__name__} has no "
+                        "horizon (no enu_matrix): give it a vv.GroundStation, or keep the "
+                        "rows of other observers in a table with troposphere=False.")
         self.times = times
         self.kinds = np.array(kinds)
         self.values = vals

@@ -438,7 +438,8 @@ def test_rows_from_below_the_horizon_are_named():
                                       light_time=False)
     el = obs.elevations(vv.propagate_cowell(TRUTH, times, []).r.to_value(u.km))
     np.testing.assert_allclose(el, obs.values[:, 1], atol=np.radians(0.05))  # the azel's own
-    low = int(np.sum(el < -np.radians(1.0)))
+    dip = np.arccos(6371.0 / (6371.0 + 1.6))  # the station is 1.6 km up: 1.28 deg
+    low = int(np.sum(el < -np.radians(1.0) - dip))
     assert 0 < low < len(obs)
     with pytest.warns(vv.errors.TrackingDataWarning, match=f"{low} row.*below their horizon"):
         vv.fit_orbit(obs, TRUTH)
@@ -517,3 +518,31 @@ def test_a_coefficient_out_of_its_domain_raises_with_the_history():
         vv.fit_orbit(obs, TRUTH, forces, estimate="drag")
     history = exc.value.history
     assert len(history) >= 2 and {"iteration", "rms", "n_rejected", "correction"} <= set(history[0])
+
+
+def test_the_horizon_check_allows_for_a_high_station_s_dip():
+    # a station 30 km up (a balloon; GroundStation takes up to 100 km) sees 5.6 deg below its
+    # horizontal plane: a row at -4 deg is real there, and impossible from the ground
+    import warnings
+
+    t = EPOCH + [0.0] * u.s
+
+    def row_at(elevation_deg, height_km):
+        st = vv.GroundStation(40 * u.deg, -105 * u.deg, height_km * u.km, name="H")
+        obs = vv.Observations(time=t, kind="range", value=[1000.0], sigma=0.01, station=st)
+        obs.elevations(np.zeros((1, 3)))
+        site, up = obs.sites()[0][0], obs._cache["up"][0]
+        side = np.cross(up, [0.0, 0.0, 1.0])
+        side /= np.linalg.norm(side)
+        e = np.radians(elevation_deg)
+        r_sat = site + 1000.0 * (np.cos(e) * side + np.sin(e) * up)
+        assert np.degrees(obs.elevations(r_sat[None])[0]) == pytest.approx(elevation_deg)
+        return obs, r_sat[None]
+
+    obs, r = row_at(-4.0, 0.0)
+    with pytest.warns(vv.errors.TrackingDataWarning, match="below their horizon"):
+        obs.warn_below_horizon(r, np.array([True]), "the orbit")
+    obs, r = row_at(-4.0, 30.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.errors.TrackingDataWarning)
+        obs.warn_below_horizon(r, np.array([True]), "the orbit")

@@ -74,6 +74,12 @@ def sigma_value(s, kind: str, name: str) -> float:
     return float(val.ravel()[0])
 
 
+def _height_km(station):
+    """A station's height above the ellipsoid in km (0 when it gives none)."""
+    h = getattr(station, "height", None)
+    return float(h.to_value("km")) if is_quantity(h) else 0.0
+
+
 class Observations:
     """A table of observations of one object: times, kinds, values, sigmas and stations.
 
@@ -346,9 +352,14 @@ class Observations:
     def warn_below_horizon(self, r_sat, used, what):
         """Warn (TrackingDataWarning) when rows ``used`` come from ground stations that cannot
         see the satellite at ``r_sat``: more than 1 deg below their horizon (refraction lifts
-        at most 0.6 deg). ``what`` names the estimate ("the fitted orbit")."""
+        at most 0.6 deg) and the horizon's dip from their height. ``what`` names the estimate
+        ("the fitted orbit")."""
         el = self.elevations(r_sat)
-        low = np.flatnonzero(used & (el < -np.radians(BELOW_HORIZON_DEG)))
+        # a station above the ellipsoid sees below its horizontal plane by the horizon's dip,
+        # acos(R / (R + h)): 2 deg from 4 km, 10 deg from 100 km
+        h_km = np.array([_height_km(s) for s in self.stations])
+        dip = np.arccos(6371.0 / (6371.0 + np.maximum(h_km, 0.0)))
+        low = np.flatnonzero(used & (el < -np.radians(BELOW_HORIZON_DEG) - dip))
         if low.size == 0:
             return
         import warnings

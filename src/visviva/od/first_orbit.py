@@ -134,13 +134,13 @@ ON_TIME_FRACTION = 0.1
 
 def _check_on_time(r1, r2, r3, v2, dt1, dt3, gm, ends):
     """Refuse a first orbit that does not reach r1 and r3 at their times (two-body)."""
-    from .angles import _propagate
+    from ..core.universal import propagate_scalar
 
     chord = float(np.linalg.norm(r3 - r1))
     miss = 0.0
     for r, dt in ((r1, dt1), (r3, dt3)):
-        out = _propagate(np.asarray(r2, dtype=np.float64), v2, gm, float(dt))
-        miss = max(miss, math.inf if out is None else float(np.linalg.norm(out[0] - r)))
+        out = propagate_scalar(*(float(x) for x in r2), *(float(x) for x in v2), gm, float(dt))
+        miss = max(miss, math.inf if out[0] != 0 else float(np.linalg.norm(np.array(out[1:4]) - r)))
     if not miss <= ON_TIME_FRACTION * chord:
         raise InvalidInputError(
             f"cannot find a first orbit: the three fixes used ({ends[0].utc.isot} to "

@@ -546,3 +546,19 @@ def test_the_horizon_check_allows_for_a_high_station_s_dip():
     with warnings.catch_warnings():
         warnings.simplefilter("error", vv.errors.TrackingDataWarning)
         obs.warn_below_horizon(r, np.array([True]), "the orbit")
+
+
+def test_a_fit_that_settles_far_from_its_data_warns():
+    # audit20: three fixes two revolutions apart, started from the orbit Gibbs draws through
+    # them (flown backwards), "converged" at RMS 68000 and came back 1500 km off with a formal
+    # 13 m sigma and not a word; a converged RMS above 10 now warns
+    t = EPOCH + np.array([0.0, 2760.0, 12000.0]) * u.s
+    fixes = vv.propagate_cowell(TRUTH, t, []).r.to_value(u.km)
+    obs = vv.Observations(time=t, kind="position", value=fixes, sigma=0.01)
+    v2 = vv.gibbs(fixes[0], fixes[1], fixes[2], vv.EARTH)
+    guess = vv.StateVectors(fixes[1] * u.km, v2 * KMS, vv.EARTH, epoch=t[1])
+    with pytest.warns(RuntimeWarning, match="converged with an RMS of") as record:
+        fit = vv.fit_orbit(obs, guess)
+    assert fit.rms > 1e3 and f"{fit.rms:.4g}" in str(record[0].message)
+    ok = vv.fit_orbit(_position_obs(1, n=30), GUESS)  # a good fit says nothing
+    assert ok.rms < 2

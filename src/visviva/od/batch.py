@@ -17,6 +17,7 @@ from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
+from .fit_checks import warn_misfit
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -615,6 +616,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         err.history = history
         raise err
     observations.warn_below_horizon(y[:, :3], ~new_rejected, "the fitted orbit")
+    warn_misfit(rms)
     rms_by_kind = {}
     for k in KINDS:
         m = (kinds == k)[:, None] & use

@@ -588,6 +588,23 @@ def test_radec_round_trip_in_other_time_systems(system, reference):
     assert back.radec_reference == reference
 
 
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_two_angle_rows_at_one_epoch_round_trip(fmt):
+    # audit20: two az/el (or RA/Dec) rows of one station at one time were written into one
+    # segment, which the reader (pairing ANGLE_1 and ANGLE_2 by epoch) refused: a file written
+    # that could not be read back. Each repeat now goes to a segment of its own
+    times = EPOCH + np.array([600.0, 600.0, 660.0, 660.0, 660.0]) * u.s
+    for kind in ("azel", "radec"):
+        obs = vv.od.simulate_observations(TRUTH, times, kind, np.radians(1e-3), STATIONS[0],
+                                          seed=4)
+        text = vv.write_tdm(obs, format=fmt)
+        assert len(vv.read_tdm(text).segments) == 3
+        back = vv.read_tdm(text).to_observations({"Colorado": STATIONS[0]}, SIGMA)
+        assert np.abs((back.times.tt - obs.times.tt).sec).max() < 1e-9
+        got = sorted(map(tuple, back.values))
+        np.testing.assert_allclose(got, sorted(map(tuple, obs.values)), rtol=4e-16, atol=0)
+
+
 @pytest.mark.parametrize("keys, epochs, values, match", [
     (["RANGE"], ["2024-01-01T00:00:00"], [np.nan], "NaN"),
     (["RANGES"], ["2024-01-01T00:00:00"], [1.0], "not a TDM data keyword"),

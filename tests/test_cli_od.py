@@ -426,6 +426,20 @@ def test_refusals_are_one_line_with_exit_code_2(campaign, tmp_path, capsys):
         assert out == ""
 
 
+def test_an_initial_state_about_another_body_is_bad_input(campaign, tmp_path, capsys):
+    # audit20: a Moon-centred OPM as --initial exited 1 ("the orbit determination failed"),
+    # as a fit that did not converge; it is bad input (exit 2) naming the file
+    from visviva.ccsds.opm import OPM
+
+    moon = vv.StateVectors([2000.0, 0, 0] * u.km, [0, 1.5, 0] * u.km / u.s, vv.MOON,
+                           epoch=Time("2024-03-01T00:10:00", scale="utc"))
+    path = tmp_path / "moon.opm"
+    vv.write_opm(OPM.from_state(moon, object_name="LRO", center="MOON", frame="EME2000"), path)
+    code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG, "--initial",
+                          str(path))
+    assert code == 2 and "moon.opm: the state is centred on the Moon" in err and out == ""
+
+
 def test_existing_output_needs_overwrite(campaign, tmp_path, capsys):
     opm = tmp_path / "o.opm"
     opm.write_text("keep me")

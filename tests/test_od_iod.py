@@ -141,6 +141,40 @@ def test_herrick_gibbs_rejects_unsorted_times():
                          Time("2024-01-01"), 20, 30, GM)
 
 
+def test_herrick_gibbs_refuses_times_in_another_unit():
+    # audit20: times in minutes (or days) as plain numbers are read as seconds and gave a
+    # velocity 60 times too large with no complaint; the positions' bend (gravity's on a
+    # two-body arc) now tells the times' scale
+    r1 = [3419.85564, 6019.82602, 2784.60022]
+    r2 = [2935.91195, 6326.18324, 2660.59584]
+    r3 = [2434.95202, 6597.38674, 2521.52311]
+    gm = 398600.4418
+    ok = vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48, 153.04, gm)
+    assert np.linalg.norm(ok) == pytest.approx(7.66, abs=0.01)
+    for scale in (1 / 60, 1 / 86400, 1000.0):   # minutes, days, milliseconds as seconds
+        with pytest.raises(vv.DomainError, match="times do not fit the positions"):
+            vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48 * scale, 153.04 * scale, gm)
+    with pytest.raises(vv.DomainError, match="times do not fit the positions"):  # metres as km
+        vv.herrick_gibbs(np.multiply(r1, 1e3), np.multiply(r2, 1e3), np.multiply(r3, 1e3),
+                         0.0, 76.48, 153.04, gm)
+
+
+def test_herrick_gibbs_noisy_short_arc_accepted():
+    # 100 m noise on fixes 20 s apart (a 40 s arc) is still a usable first orbit: the
+    # time-scale check must not refuse it
+    el = vv.KeplerianElements.from_semi_major_axis(6900 * u.km, 0.002, 1.0 * u.rad, 0.3 * u.rad,
+                                                    0.2 * u.rad, 1.0 * u.rad, vv.EARTH)
+    s = el.to_state()
+    r2, v2 = s.r.to_value(u.km), s.v.to_value(KMS)
+    r1, _ = _prop(r2, v2, -20.0)
+    r3, _ = _prop(r2, v2, 20.0)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        n = rng.normal(0.0, 0.1, (3, 3))
+        got = vv.herrick_gibbs(r1 + n[0], r2 + n[1], r3 + n[2], -20.0, 0.0, 20.0, vv.EARTH)
+        assert np.linalg.norm(got - v2) < 0.05   # km/s: the noise over the arc, not a unit slip
+
+
 # -- angles only ---------------------------------------------------------------------------------
 
 
@@ -438,3 +472,79 @@ def test_iod_tolerances_take_angle_quantities():
         vv.herrick_gibbs(r1, r2, r3, 0, 60, 120, vv.EARTH, max_arc=-1.0)
     with pytest.raises(vv.UnitsError):
         vv.gibbs(r1, r2, r3, vv.EARTH, coplanar_tol=1 * u.km)
+
+
+# -- a first orbit from a table ------------------------------------------------------------------
+
+
+def test_initial_orbit_from_fixes_spread_over_revolutions():
+    # audit20: a day of position fixes every minute is one "pass" (gaps <= 5 min), and Gibbs
+    # on its first, middle and last fix (hours apart) gave an orbit flown backwards, 15 km/s
+    # off, so fit_orbit(obs, None) did not converge; three fixes spread over two revolutions
+    # gave the same orbit and a "converged" fit 1500 km off at RMS 68000
+    from visviva.od import initial_orbit
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.arange(0, 86400, 60) * u.s
+    fixes = vv.propagate_cowell(truth, t, [vv.J2(vv.EARTH)])
+    obs = vv.Observations(time=t, kind="position", value=fixes.r, sigma=0.01 * u.km)
+    first = initial_orbit(obs, vv.EARTH)
+    there = vv.propagate_cowell(truth, first.epoch, [vv.J2(vv.EARTH)])
+    assert np.linalg.norm((first.r - there.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((first.v - there.v).to_value(KMS)) < 0.01   # J2 over minutes
+    spread = t[[0, 46, 200]]
+    obs3 = vv.Observations(time=spread, kind="position", value=fixes.r[[0, 46, 200]],
+                           sigma=0.01 * u.km)
+    for call in (lambda: initial_orbit(obs3, vv.EARTH), lambda: vv.fit_orbit(obs3, None)):
+        with pytest.raises(vv.InvalidInputError, match="not one short two-body arc"):
+            call()
+
+
+def test_initial_orbit_from_az_el_only():
+    # audit20: an optical station's az/el alone (no range) had no first orbit ("give ... three
+    # RA/Dec rows"), so fit_orbit(obs, None) and `visviva od` without --initial refused them;
+    # the az/el directions, turned to GCRS RA/Dec, now go to Gauss's method
+    from visviva.od import initial_orbit
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                            epoch=epoch)
+    sites = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km),
+             vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km)]
+    obs = vv.od.simulate_tracking(truth, sites, epoch + np.arange(0, 6 * 3600, 30) * u.s,
+                                  measurements={"azel": 2 * u.arcsec}, seed=1)
+    assert set(obs.kinds) == {"azel"}
+    first = initial_orbit(obs, vv.EARTH)
+    there = vv.propagate_cowell(truth, first.epoch, [])
+    assert np.linalg.norm((first.r - there.r).to_value(u.km)) < 1.0   # 74 m: light time, noise
+    fit = vv.fit_orbit(obs, None)
+    there = vv.propagate_cowell(truth, fit.state.epoch, [])
+    assert np.linalg.norm((fit.state.r - there.r).to_value(u.km)) < 0.05
+    assert fit.rms < 1.3
+
+
+def test_gauss_says_when_it_returns_an_unbound_orbit():
+    # audit20: a geostationary satellite seen from the equator (lines of sight nearly in one
+    # plane, D0 = 4e-10): the only orbit found through the three directions is an escape
+    # orbit 27 million km out at 2000 km/s, returned without a word; now a RuntimeWarning
+    t0 = Time("2024-03-01T00:00:00", scale="utc")
+    lon = np.radians(-100.0)
+    geo = vv.StateVectors([42164.0 * np.cos(lon), 42164.0 * np.sin(lon), 0.0] * u.km,
+                          3.0747 * np.array([-np.sin(lon), np.cos(lon), 0.0]) * KMS, vv.EARTH,
+                          epoch=t0)
+    site = vv.GroundStation(0.0 * u.deg, -100.0 * u.deg, 0.0 * u.km)
+    t = t0 + np.array([0.0, 1800.0, 3600.0]) * u.s
+    sr, _ = site.gcrs_position_velocity(t)
+    d = vv.propagate_cowell(geo, t, []).r.to_value(u.km) - sr
+    ra, dec = np.arctan2(d[:, 1], d[:, 0]), np.arcsin(d[:, 2] / np.linalg.norm(d, axis=1))
+    every = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH, return_all=True)  # no warning
+    if all(s.to_elements().eccentricity >= 1 for s in every):
+        with pytest.warns(RuntimeWarning, match="no bound orbit passes through"):
+            s = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH)
+        assert s.to_elements().eccentricity >= 1
+    else:  # a bound solution found (another IERS table): it must then be the truth
+        s = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH)
+        mid = vv.propagate_cowell(geo, t[1], [])
+        assert np.linalg.norm((s.r - mid.r).to_value(u.km)) < 1.0

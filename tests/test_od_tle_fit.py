@@ -153,6 +153,16 @@ def test_fit_tle_batch_serial_and_on_dask(iss):
         vv.od.fit_tle_batch(days, satnums=[1, 2])
 
 
+def test_fit_tle_batch_refuses_satnums_that_are_not_integers(iss):
+    # audit20: int() truncated 25544.7 to 25544 (a real object's number) and read "25544"
+    days = [iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors()]
+    for bad in (25544.7, "25544", True):
+        with pytest.raises(vv.InvalidInputError, match=r"satnums\[0\]"):
+            vv.od.fit_tle_batch(days, satnums=[bad])
+    sat, = vv.od.fit_tle_batch(days, satnums=np.array([25544]))
+    assert sat.satnum == 25544
+
+
 def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
     """What travels to a Dask worker (a few flat arrays) gives bit for bit the serial fits."""
     from visviva.ccsds.oem import OEMSegment
@@ -290,3 +300,17 @@ def test_fit_across_a_leap_second_recovers_the_tle_and_its_epoch():
     ep = Time("2016-12-31T18:00:00.123456", scale="utc")
     fit3 = vv.fit_tle(states, epoch=ep, satnum=25544, fit_bstar=False, bstar=sat.satrec.bstar)
     assert abs((fit3.epoch - ep).to_value(u.s)) < 1e-6
+
+
+def test_fit_tle_refuses_times_that_contradict_the_states_own(iss):
+    # audit20: states with their own epoch array and times= an hour later were fitted at the
+    # later times without a word (an element set an hour off); the same times are accepted
+    t = iss.epoch + np.linspace(0, 1, 25) * u.day
+    states = iss.gcrs(t).to_state_vectors()
+    with pytest.raises(vv.InvalidInputError, match="by up to 3600 s"):
+        vv.fit_tle(states, times=t + 1 * u.h, satnum=25544)
+    with pytest.raises(vv.InvalidInputError, match="differs from them"):
+        vv.fit_tle(states, times=t[:-1], satnum=25544)
+    assert vv.fit_tle(states, times=t, satnum=25544).fit.max_position_km < ONE_METER
+    bare = vv.StateVectors(states.r, states.v, vv.EARTH)  # no times of its own: times= gives them
+    assert vv.fit_tle(bare, times=t, satnum=25544).fit.max_position_km < ONE_METER

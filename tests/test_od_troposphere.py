@@ -250,3 +250,24 @@ def test_the_mapping_against_niell_at_low_elevation():
         wet = _niell(s, 5.8021897e-4, 1.4275268e-3, 4.3472961e-2)
         diff = abs((m - hyd) * 2.3 + (m - wet) * 0.1)
         assert most / 3 < diff < most
+
+
+def test_an_observer_without_a_horizon_is_refused_with_the_troposphere():
+    # audit20: a space-based observer (only gcrs_position_velocity) with troposphere=True
+    # raised AttributeError ("no attribute 'enu_matrix'") from deep inside; without the
+    # troposphere its rows still work
+    class SpaceObserver:
+        name = "SBV"
+
+        def gcrs_position_velocity(self, t):
+            n = 1 if t.isscalar else len(t)
+            return np.tile([0.0, 0.0, 42164.0], (n, 1)), np.zeros((n, 3))
+
+    t = EPOCH + np.arange(0, 600, 60) * u.s
+    with pytest.raises(vv.InvalidInputError, match="has no horizon"):
+        simulate_observations(TRUTH, t, "range", 1e-3, SpaceObserver(), troposphere=True)
+    with pytest.raises(vv.InvalidInputError, match="observation 0 .range.: troposphere"):
+        vv.Observations(time=t, kind="range", value=np.full(len(t), 40000.0), sigma=1e-3,
+                        station=SpaceObserver(), troposphere=True)
+    plain = simulate_observations(TRUTH, t, "range", 1e-3, SpaceObserver(), seed=1)
+    assert len(plain) == len(t) and plain.troposphere is None

@@ -137,10 +137,17 @@ def tdm_from_observations(obs, *, participant="SATELLITE", originator="VISVIVA",
                                     "GroundStation its own name= (PARTICIPANT_1 names it)")
     epochs = time_to_epochs(obs.times, time_system)
     groups: dict = {}
+    seen: dict = {}  # angle epochs of each segment: a reader pairs ANGLE_1/ANGLE_2 by epoch
     for i, (kind, s) in enumerate(zip(obs.kinds, obs.stations, strict=True)):
-        groups.setdefault((s.name, _FAMILIES[str(kind)][0]), []).append(i)
+        family = _FAMILIES[str(kind)][0]
+        copy = 0
+        if family != "ranging":  # a second angle row at one epoch goes to another segment
+            while epochs[i] in seen.setdefault((s.name, family, copy), set()):
+                copy += 1
+            seen[(s.name, family, copy)].add(epochs[i])
+        groups.setdefault((s.name, family, copy), []).append(i)
     segments = []
-    for (name, family), idx in groups.items():
+    for (name, family, _), idx in groups.items():
         meta = Record(values={"TIME_SYSTEM": time_system.upper(), "PARTICIPANT_1": name,
                               "PARTICIPANT_2": participant, "MODE": "SEQUENTIAL"})
         if family == "ranging":

@@ -262,7 +262,8 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
     Warns
     -----
     RuntimeWarning
-        When more than one bound orbit passes through the three lines of sight.
+        When more than one bound orbit passes through the three lines of sight, or none (the
+        orbit returned is then unbound).
 
     Raises
     ------
@@ -347,6 +348,16 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
     if return_all:
         return states
     bound = [c for c in distinct if not c[0]]
+    if not bound:  # audit20: an escape orbit 27 million km out, returned without a word
+        r2v, v2v = distinct[0][2], distinct[0][3]
+        warnings.warn(
+            f"no bound orbit passes through the three lines of sight: returning an unbound one "
+            f"(|r2| = {np.linalg.norm(r2v):.6g} km, speed {np.linalg.norm(v2v):.4g} km/s, "
+            f"above escape speed {math.sqrt(2.0 * g / np.linalg.norm(r2v)):.4g} km/s). For a "
+            "satellite this says the directions do not determine its orbit (lines of sight "
+            "nearly in one plane, as for a geostationary object seen from the equator; too "
+            "short an arc; noise): take observations further apart or from another site.",
+            RuntimeWarning, stacklevel=2)  # fmt: skip
     if len(bound) > 1:
         radii = ", ".join(f"{np.linalg.norm(c[2]):.1f}" for c in bound)
         warnings.warn(

@@ -17,6 +17,7 @@ from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
+from .fit_checks import warn_misfit
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -263,6 +264,16 @@ def check_initial(initial, maneuvers=None):
     if r0.shape != (3,) or v0.shape != (3,):
         raise InvalidInputError(f"initial must be one state (r shape (3,)); got {r0.shape}.")
     gm = float(np.ravel(to_array(initial.gm, "gm", "initial.gm"))[0])
+    from ..satellites.cowell import central_body
+
+    body = central_body(gm, [])
+    if body.name != "earth":  # audit20: a Moon-centred guess "converged" on Earth tracking
+        raise InvalidInputError(
+            f"the state's gm = {gm:.10g} km3/s2 is the {body.name.capitalize()}'s: orbit "
+            "determination works in the GCRS, about the Earth (ground stations are on the "
+            "Earth, position rows are geocentric). Give a geocentric state (gm=vv.EARTH), "
+            f"converted from the {body.name.capitalize()}-centred one."
+        )
     epoch = getattr(initial, "epoch", None)
     if epoch is None:
         raise InvalidInputError(
@@ -579,7 +590,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 "fit a shorter arc first.")
             err.history = history
             raise err from exc
-        step = float(np.sqrt(max(dx @ np.linalg.solve(P, dx), 0.0) / n_par))
+        # the step in its own sigmas, sqrt(dx^T P^-1 dx / n) with P^-1 = A^T A: |A dx| needs
+        # no inverse (solving P raised numpy's LinAlgError on an ill-conditioned step; audit20)
+        step = float(np.linalg.norm(A @ dx) / np.sqrt(n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
                         "correction": step})  # fmt: skip
         settled = rms_prev is not None and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300)
@@ -602,6 +615,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         )
         err.history = history
         raise err
+    observations.warn_below_horizon(y[:, :3], ~new_rejected, "the fitted orbit")
+    warn_misfit(rms)
     rms_by_kind = {}
     for k in KINDS:
         m = (kinds == k)[:, None] & use
@@ -613,7 +628,11 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     for i in chosen:  # the estimate's own uncertainty replaces a planned execution error
         flown[i].execution_covariance = None
     m = len(chosen)
-    extra = parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv)
+    try:
+        extra = parameter_results(dyn, est, con, pv, P, A, H, use, sig, n_meas, n_dv)
+    except ConvergenceError as exc:  # a coefficient out of its domain: the report goes with it
+        exc.history = history
+        raise
     P_data = P
     if con:
         P = extra["_considered"]

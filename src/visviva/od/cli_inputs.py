@@ -336,6 +336,14 @@ def _gcrs(state, path):
             f"--initial {path}: the state is in {str(frame).upper()}; orbit determination "
             "starts from a GCRS (GCRF, EME2000, ICRF) state: convert it first "
             "(visviva convert)")
+    from ..satellites.cowell import central_body
+
+    body = central_body(float(np.ravel(state.gm.to_value("km3 / s2"))[0]), [])
+    if body.name != "earth":  # a bad input (exit 2), not a failed fit (audit20)
+        raise InvalidInputError(
+            f"--initial {path}: the state is centred on the {body.name.capitalize()}; orbit "
+            "determination from ground stations starts from a geocentric state "
+            "(CENTER_NAME = EARTH)")
     return state
 
 

@@ -217,8 +217,10 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
     InvalidInputError
         Times not strictly increasing.
     DomainError
-        The positions are not coplanar within ``coplanar_tol``, or an arc is longer than
-        ``max_arc``.
+        The positions are not coplanar within ``coplanar_tol``, an arc is longer than
+        ``max_arc``, or the times do not fit the positions: the acceleration their second
+        difference implies is more than 100 times larger or smaller than the attractor's
+        gravity at r2 (times in another unit, e.g. minutes passed as plain seconds).
 
     Notes
     -----
@@ -251,12 +253,36 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
             "like the fourth power of the arc): use vv.gibbs for arcs this long, or raise "
             "max_arc."
         )
+    _check_time_scale(a, b, c, d21, d32, rb, g)
     v2 = (
         -d32 * (1.0 / (d21 * d31) + g / (12.0 * ra**3)) * a
         + (d32 - d21) * (1.0 / (d21 * d32) + g / (12.0 * rb**3)) * b
         + d21 * (1.0 / (d32 * d31) + g / (12.0 * rc**3)) * c
     )
     return _out(v2, quantity)
+
+
+#: largest factor between the acceleration the positions' second difference implies and the
+#: attractor's gravity at r2 that Herrick-Gibbs accepts (noise-free arcs: 1 to a few %)
+TIME_SCALE_FACTOR = 100.0
+
+
+def _check_time_scale(r1, r2, r3, d21, d32, r2_norm, gm):
+    """Refuse times that do not fit the positions: their bend is gravity's, a k^-2 off when the
+    times are k times too long (minutes read as seconds: k = 1/60, a velocity 60 times too big)."""
+    bend = 2.0 * ((r3 - r2) / d32 - (r2 - r1) / d21) / (d21 + d32)
+    ratio = np.linalg.norm(bend, axis=-1) / (gm / r2_norm[..., 0] ** 2)
+    bad = ~((ratio >= 1.0 / TIME_SCALE_FACTOR) & (ratio <= TIME_SCALE_FACTOR))
+    if np.any(bad):
+        k = float(np.ravel(ratio)[np.flatnonzero(np.ravel(bad))[0]])
+        raise DomainError(
+            f"the times do not fit the positions: over these intervals the three positions bend "
+            f"as an acceleration {k:.3g} times the attractor's gravity at r2 (a two-body arc "
+            "bends with gravity itself). The times are probably in another unit than the data's "
+            "(plain numbers are seconds: a time k times too short makes the velocity k times "
+            "too large), or the positions are in another unit than gm's (plain numbers are km), "
+            "or belong to other times. Pass times as astropy Times or time Quantities."
+        )
 
 
 def _angle_between(a, b):

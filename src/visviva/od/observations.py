@@ -31,6 +31,10 @@ KINDS = {
 
 _UNITS_TEXT = {"length": "km", "speed": "km/s", "angle": "rad"}
 
+#: rows with the estimate more than this below their ground station's horizon are warned about,
+#: deg (refraction lifts the apparent horizon by at most 0.6 deg)
+BELOW_HORIZON_DEG = 1.0
+
 
 def _row_value(value, kind, i):
     dim, phys, _ = KINDS[kind]
@@ -68,6 +72,12 @@ def sigma_value(s, kind: str, name: str) -> float:
             f"got {s!r}. A sigma is the measurement's standard deviation."
         )
     return float(val.ravel()[0])
+
+
+def _height_km(station):
+    """A station's height above the ellipsoid in km (0 when it gives none)."""
+    h = getattr(station, "height", None)
+    return float(h.to_value("km")) if is_quantity(h) else 0.0
 
 
 class Observations:
@@ -134,7 +144,8 @@ class Observations:
     ------
     InvalidInputError
         No observations, an unknown kind, an unknown ``radec_reference``, a non-positive or non-finite sigma, a row needing a
-        station without one, times that go backwards, or a time that is not an astropy Time.
+        station without one, times that go backwards, a time that is not an astropy Time, or
+        ``troposphere`` with an observer that is not a ground station.
     ShapeError
         A value with the wrong number of components.
     DomainError
@@ -218,6 +229,14 @@ class Observations:
             dims[i] = arr.size
         sig = self._sigmas(sigma, kinds, n)
         stations = self._stations(station, kinds, n)
+        if weather is not None:  # audit20: an AttributeError from deep inside before
+            for i, st in enumerate(stations):
+                if st is not None and not hasattr(st, "enu_matrix"):
+                    raise InvalidInputError(
+                        f"observation {i} ({kinds[i]}): troposphere=True models the air above "
+                        f"a ground station, and its observer {type(st).__name__} has no "
+                        "horizon (no enu_matrix): give it a vv.GroundStation, or keep the "
+                        "rows of other observers in a table with troposphere=False.")
         self.times = times
         self.kinds = np.array(kinds)
         self.values = vals
@@ -308,6 +327,58 @@ class Observations:
                 enu[idx] = np.asarray(s.enu_matrix) @ m
         self._cache["sites"] = (r, v, enu)
         return r, v, enu
+
+    def elevations(self, r_sat):
+        """Geometric elevation (rad) of the satellite at ``r_sat`` (N, 3; GCRS, km) above each
+        row's ground station (NaN for rows without one, or a station without a horizon)."""
+        out = np.full(len(self), np.nan)
+        site_r, _, _ = self.sites()
+        if "up" not in self._cache:
+            up = np.full((len(self), 3), np.nan)
+            groups = {}
+            for i, s in enumerate(self.stations):
+                if s is not None and hasattr(s, "enu_matrix"):
+                    groups.setdefault(id(s), (s, []))[1].append(i)
+            if groups:
+                from ..satellites.frames import transform_matrices
+
+            for s, idx in groups.values():
+                m = transform_matrices(self.times[idx], "gcrs", "itrs")[:, :3, :3]
+                up[idx] = np.asarray(s.enu_matrix)[2] @ m  # the ITRS up in GCRS axes
+            self._cache["up"] = up
+        up = self._cache["up"]
+        d = np.asarray(r_sat, dtype=np.float64) - site_r
+        ok = np.isfinite(up[:, 0])
+        out[ok] = np.arcsin(np.clip(np.sum(d[ok] * up[ok], axis=1)
+                                    / np.linalg.norm(d[ok], axis=1), -1.0, 1.0))
+        return out
+
+    def warn_below_horizon(self, r_sat, used, what):
+        """Warn (TrackingDataWarning) when rows ``used`` come from ground stations that cannot
+        see the satellite at ``r_sat``: more than 1 deg below their horizon (refraction lifts
+        at most 0.6 deg) and the horizon's dip from their height. ``what`` names the estimate
+        ("the fitted orbit")."""
+        el = self.elevations(r_sat)
+        # a station above the ellipsoid sees below its horizontal plane by the horizon's dip,
+        # acos(R / (R + h)): 2 deg from 4 km, 10 deg from 100 km
+        h_km = np.array([_height_km(s) for s in self.stations])
+        dip = np.arccos(6371.0 / (6371.0 + np.maximum(h_km, 0.0)))
+        low = np.flatnonzero(used & (el < -np.radians(BELOW_HORIZON_DEG) - dip))
+        if low.size == 0:
+            return
+        import warnings
+
+        from ..errors import TrackingDataWarning
+
+        i = int(low[np.argmin(el[low])])
+        name = getattr(self.stations[i], "name", None) or "its station"
+        warnings.warn(
+            f"{low.size} row(s) used come from ground stations that cannot see {what}: it is "
+            f"below their horizon (lowest {np.degrees(el[i]):.1f} deg, row {i} ({self.kinds[i]}, "
+            f"{name}, {self.times[i].utc.isot} UTC)). A station does not track through the Earth: "
+            "check the stations' coordinates (east longitude, geodetic latitude), the station "
+            "of each row and the time tags; drop rows that are not real.",
+            TrackingDataWarning, stacklevel=3)
 
     def earth_velocity(self):
         """The Earth's barycentric velocity at each time, km/s in ICRS (= GCRS) axes (N, 3).

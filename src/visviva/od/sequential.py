@@ -381,6 +381,7 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     h, _ = model(observations, xs[epoch_index, :6], gm)
     z = residuals(observations.kinds, observations.values, h)
     postfit = np.where(np.arange(3)[None, :] < observations.dims[:, None], z, 0.0)
+    observations.warn_below_horizon(xs[epoch_index, :3], ~screen.rejected, "the filtered orbit")
     sm_x = sm_P = first_state = first_cov = None
     if smoother:
         if method == "ukf":

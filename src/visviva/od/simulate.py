@@ -63,7 +63,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     Returns
     -------
     Observations
-        The noisy table (angles wrapped into range), with the same ``light_time``,
+        The noisy table (angles wrapped into range: an elevation or declination that the
+        noise carries past +-90 deg is read over the pole, at the opposite azimuth or right
+        ascension), with the same ``light_time``,
         ``radec_reference`` and ``troposphere``.
 
     Notes
@@ -93,10 +95,14 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         noise = rng.standard_normal(h.shape) * exact.sigmas[:, None]
     values = h + noise
     ang = np.isin(exact.kinds, ["azel", "radec"])
+    # noise that carries an elevation or declination past +-90 deg reads as the direction it
+    # is: over the pole, at the opposite azimuth / right ascension (was an error near the
+    # zenith, or a DomainError of the table for a declination; audit20)
+    over = ang & (np.abs(values[:, 1]) > np.pi / 2)
+    values[over, 1] = np.copysign(np.pi, values[over, 1]) - values[over, 1]
+    values[over, 0] += np.pi
     values[ang, 0] = np.mod(values[ang, 0], 2 * np.pi)
     rows = [values[i, : exact.dims[i]] for i in range(len(exact))]
-    if np.any(exact.kinds == "azel") and np.any(np.abs(values[exact.kinds == "azel", 1]) > np.pi / 2):
-        raise InvalidInputError("an elevation left [-90, 90] deg; lower the angle noise.")
     return Observations(time=exact.times, kind=list(exact.kinds), value=rows,
                         sigma=list(exact.sigmas), station=exact.stations, **flags)  # fmt: skip
 
@@ -120,9 +126,10 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         Candidate measurement times (increasing), e.g. every 30 s.
     perturbations : list of Perturbation or None
         Dynamics of the truth (None: two-body).
-    measurements : sequence of (kind, sigma)
-        What each station measures at each visible time, with the noise standard deviation in
-        km, km/s or rad (default: range 10 m, range rate 1 cm/s, az/el 0.01 deg).
+    measurements : dict or sequence of (kind, sigma)
+        What each station measures at each visible time, with the noise standard deviation
+        (a Quantity, or km, km/s, rad), e.g. ``{"range": 5 * u.m, "azel": 20 * u.arcsec}``
+        (default: range 10 m, range rate 1 cm/s, az/el 0.01 deg).
     min_elevation : Quantity (angle) or float (rad)
         Elevation above which a station sees the satellite (default 10 deg).
     seed : int, numpy Generator or False, optional
@@ -146,6 +153,7 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     from .._units import to_array
 
     el_min = float(to_array(min_elevation, "angle", "min_elevation"))
+    measurements = _measurement_pairs(measurements)
     rows = []
     for order, s in enumerate(stations):
         look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False,
@@ -162,3 +170,20 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
                                  perturbations, seed=seed, light_time=light_time,
                                  maneuvers=maneuvers)  # fmt: skip
+
+
+def _measurement_pairs(measurements):
+    """``measurements`` of :func:`simulate_tracking` as a list of (kind, sigma) pairs (a dict
+    made a ValueError "too many values to unpack" deep inside; audit20)."""
+    items = list(measurements.items()) if isinstance(measurements, dict) else list(measurements)
+    for item in items:
+        if not (isinstance(item, tuple | list) and len(item) == 2 and isinstance(item[0], str)):
+            raise InvalidInputError(
+                f"measurements must be {{kind: sigma}} or (kind, sigma) pairs, e.g. "
+                f"{{'range': 5 * u.m, 'azel': 20 * u.arcsec}}; got the item {item!r}.")
+        if item[0] not in KINDS:
+            raise InvalidInputError(
+                f"measurements: unknown kind {item[0]!r}; use one of {', '.join(KINDS)}.")
+    if not items:
+        raise InvalidInputError("measurements is empty: name at least one kind with its sigma.")
+    return items

@@ -117,13 +117,19 @@ def fit_tle_batch(histories, satnums=None, *, initials=None, client=None, chunks
     Raises
     ------
     InvalidInputError
-        ``satnums`` or ``initials`` of another length than ``histories``; ``initial=`` (one
+        ``satnums`` or ``initials`` of another length than ``histories``, a satnum that is
+        not an integer; ``initial=`` (one
         set for every history) instead of ``initials=``.
     """
     from .tle_fit import TLEFit, satellite_from_fields
 
     histories = list(histories)
-    satnums = [99999] * len(histories) if satnums is None else [int(s) for s in satnums]
+    satnums = [99999] * len(histories) if satnums is None else list(satnums)
+    for k, s in enumerate(satnums):
+        if isinstance(s, bool) or not isinstance(s, int | np.integer):
+            # int(s) made 25544.7 catalogue number 25544 (audit20)
+            raise InvalidInputError(
+                f"satnums[{k}] = {s!r} is not a catalogue number: give integers (1..999999999).")
     if len(satnums) != len(histories):
         raise InvalidInputError(
             f"{len(satnums)} satnums for {len(histories)} histories; give one per history."

@@ -111,6 +111,10 @@ def states_and_times(states, times, frame):
     from .._units import to_vector
 
     src = states
+    if hasattr(src, "segments") and times is not None:
+        raise InvalidInputError(
+            "times= is for StateVectors without their own times; an ephemeris carries its "
+            "states' times: leave times out.")
     if hasattr(src, "segments"):  # an OEM ephemeris (duck-typed)
         rs, vs, ts = [], [], []
         frames = set()
@@ -163,8 +167,16 @@ def states_and_times(states, times, frame):
     v = to_vector(src.v, "speed", "states.v")
     if r.ndim != 2:
         raise ShapeError(f"states must be a history of shape (N, 3); got {r.shape}.")
+    own = getattr(src, "epoch", None)
+    if times is not None and own is not None and not own.isscalar:
+        # audit20: times= replaced the states' own times without a word (a shifted history)
+        gap = _largest_gap_s(own, times) if isinstance(times, Time) else np.inf
+        if not gap <= 1e-6:
+            raise InvalidInputError(
+                f"the states carry their own times (an epoch array) and times= differs from "
+                f"them (by up to {gap:.6g} s): give the times once, leave times= out.")
     if times is None:
-        times = getattr(src, "epoch", None)
+        times = own
         if times is None or times.isscalar:
             raise InvalidInputError(
                 "the states' times are unknown: give StateVectors whose epoch is a Time array "
@@ -173,6 +185,16 @@ def states_and_times(states, times, frame):
     if not isinstance(times, Time) or times.shape != (r.shape[0],):
         raise ShapeError(f"times must be an astropy Time of shape ({r.shape[0]},).")
     return r, v, times, frame
+
+
+def _largest_gap_s(a, b):
+    """Largest |a - b| in seconds of two Time arrays (inf when their shapes differ)."""
+    if a.shape != b.shape:
+        return np.inf
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # times in UT1 need the installed IERS table, never a download
+        return float(np.max(np.abs((a.tt - b.tt).sec), initial=0.0))
 
 
 def _elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN"):

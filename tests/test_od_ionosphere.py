@@ -218,3 +218,52 @@ def test_bad_input_is_refused():
             vv.Observations(**kw, **extra)
     ok = vv.Observations(**kw, ionosphere={"vtec_tecu": 0.0}, frequency_hz=2.2 * u.GHz)
     assert ok.ionosphere.frequency_hz == pytest.approx(2.2e9)
+
+
+def test_the_tdm_reader_and_the_cli_carry_the_ionosphere(visible, tmp_path, capsys):
+    # a TDM of S-band range from one station written with the delay of 30 TECU in it: the
+    # od command with --ionosphere fits it as fit_orbit does on to_observations(ionosphere=)
+    from visviva import cli
+
+    station = vv.GroundStation(40 * u.deg, -10 * u.deg, 100 * u.m, name="SITE")
+    plan = vv.od.simulate_tracking(TRUTH, [station], visible[::2], seed=False,
+                                   measurements={"range": 0.002, "azel": 0.01 * u.deg},
+                                   min_elevation=5 * u.deg)
+    iono = {"vtec_tecu": 30.0}
+    delayed = simulate_observations(TRUTH, plan.times, list(plan.kinds), list(plan.sigmas),
+                                    plan.stations, seed=3, ionosphere=iono, frequency_hz=S_BAND)
+    tdm = tmp_path / "s.tdm"
+    vv.write_tdm(delayed, tdm)
+    sigma = {"range": 2 * u.m, "azel": 0.01 * u.deg}
+    read = vv.read_tdm(tdm).to_observations({"SITE": station}, sigma, ionosphere=iono,
+                                            frequency_hz=S_BAND)
+    assert read.ionosphere.vtec_tecu == 30.0 and read.ionosphere.frequency_hz == S_BAND
+    from visviva.ccsds.opm import OPM
+
+    guess = vv.StateVectors((Y0[:3] + [0.2, -0.1, 0.1]) * u.km, (Y0[3:] + 2e-4) * KMS,
+                            vv.EARTH, epoch=EPOCH)
+    first = tmp_path / "guess.opm"
+    vv.write_opm(OPM.from_state(guess, object_name="SAT-1"), first)
+    fit = vv.fit_orbit(read, vv.read_opm(first).state)
+    plain = vv.fit_orbit(vv.read_tdm(tdm).to_observations({"SITE": station}, sigma),
+                         vv.read_opm(first).state, outlier_sigma=None)
+    assert np.linalg.norm((plain.state.r - fit.state.r).to_value(u.km)) > 3e-4  # metres
+    opm = tmp_path / "s.opm"
+    args = [str(tdm), "--station", "SITE=40,-10,100", "--sigma", "range=2m,angle=0.01deg",
+            "--initial", str(first), "--opm", str(opm)]
+    code = cli.main(["od", *args, "--ionosphere", "vtec=30,shell=350km", "--frequency",
+                     "2.2GHz"])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               fit.state.r.to_value(u.km), rtol=0, atol=1e-9)
+    for extra, words in ((["--ionosphere", "vtec=30"], "--frequency"),
+                         (["--frequency", "2.2GHz"], "add --ionosphere"),
+                         (["--ionosphere", "vtec=-3", "--frequency", "2.2GHz"], ">= 0"),
+                         (["--ionosphere", "tec=3", "--frequency", "2.2GHz"], "vtec=TECU"),
+                         (["--ionosphere", "vtec=3", "--frequency", "2.2"], "no unit"),
+                         (["--ionosphere", "klobuchar=1,2,3", "--frequency", "2GHz"],
+                          "klobuchar=A0")):
+        code = cli.main(["od", *args, "--overwrite", *extra])
+        err = capsys.readouterr().err
+        assert code == 2 and words in err, (extra, err)

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 import visviva as vv
@@ -107,6 +109,19 @@ def test_the_mapping_is_one_at_the_zenith_and_grows_toward_the_horizon():
     assert vtec_mapping(0.1, 450.0)[0] < vtec_mapping(0.1, 350.0)[0]
 
 
+@settings(max_examples=200, deadline=None)
+@given(lat=st.floats(-89.9, 89.9), lon=st.floats(-180, 180), az=st.floats(0, 359.9),
+       el=st.floats(0, 90), gps=st.floats(0, 604800), f=st.floats(1e8, 3e10))
+def test_klobuchar_is_bounded_and_scales_with_frequency(lat, lon, az, el, gps, f):
+    # between the night floor (5 ns times F) and F (5 ns + alpha_0 + ...) at any place and time
+    args = (math.radians(lat), math.radians(lon), math.radians(az), math.radians(el), gps)
+    t = klobuchar_l1_s(*args, ALPHA, BETA)
+    floor = 5e-9 * (1 + 16 * (0.53 - el / 180) ** 3)
+    assert floor * (1 - 1e-12) <= t <= floor * (1 + 20)
+    delay = ionosphere_from({"klobuchar": (ALPHA, BETA)}, f).slant_delay_m(*args)
+    assert delay == pytest.approx(t * C_M_S * (1575.42e6 / f) ** 2, rel=1e-12)
+
+
 IONO = {"vtec": {"vtec_tecu": 25.0, "shell_km": 350.0}, "klobuchar": {"klobuchar": (ALPHA, BETA)}}
 
 
@@ -199,6 +214,7 @@ def test_bad_input_is_refused():
         ({"ionosphere": {"vtec_tecu": 20.0}}, "frequency_hz"),  # no frequency
         ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": 0.0}, "> 0"),
         ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": -2e9}, "> 0"),
+        ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": [2e9, 3e9]}, "one number"),
         ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": float("nan")}, "finite"),
         ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": 2.2 * u.km}, "Hz"),
         ({"ionosphere": {"vtec_tecu": -1.0}, "frequency_hz": S_BAND}, ">= 0"),
@@ -207,7 +223,12 @@ def test_bad_input_is_refused():
         ({"ionosphere": {"klobuchar": (ALPHA, BETA[:3])}, "frequency_hz": S_BAND}, "beta"),
         ({"ionosphere": {"klobuchar": ((np.nan, 0, 0, 0), BETA)}, "frequency_hz": S_BAND},
          "alpha"),
-        ({"ionosphere": {"klobuchar": ALPHA}, "frequency_hz": S_BAND}, "alpha[4], beta[4]"),
+        ({"ionosphere": {"klobuchar": ALPHA}, "frequency_hz": S_BAND},
+         r"\(alpha\[4\], beta\[4\]\)"),
+        ({"ionosphere": {"vtec_tecu": True}, "frequency_hz": S_BAND}, "finite number"),
+        ({"ionosphere": {"vtec_tecu": "20"}, "frequency_hz": S_BAND}, "finite number"),
+        ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": True}, "one number"),
+        ({"ionosphere": {"vtec_tecu": 20.0}, "frequency_hz": "2.2e9"}, "one number"),
         ({"ionosphere": {"tec": 20.0}, "frequency_hz": S_BAND}, "vtec_tecu"),
         ({"ionosphere": {"vtec_tecu": 20.0, "doppler": "carrier"}, "frequency_hz": S_BAND},
          "phase"),

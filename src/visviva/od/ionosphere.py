@@ -2,7 +2,7 @@
 
 The free electrons of the ionosphere delay a radio signal's group (the ranging code or tones)
 by ``40.3 TEC / f^2`` metres, TEC in electrons per m^2 along the path and f in Hz: 1 TECU
-(1e16 el/m^2) is 0.16 m at GPS L1 (1575.42 MHz), 0.083 m at S band (2.2 GHz), 0.0055 m at X band
+(1e16 el/m^2) is 0.16 m at GPS L1 (1575.42 MHz), 0.083 m at S band (2.2 GHz), 0.0057 m at X band
 (8.4 GHz); a vertical TEC of 5-50 TECU gives 0.4-4 m at the zenith in S band and three times that
 near the horizon. The carrier phase is advanced by the same amount. With ``ionosphere`` and
 ``frequency_hz`` on, the models predict what the station measures:
@@ -21,7 +21,7 @@ Two models of the electron content, each a thin shell:
 * ``{"vtec_tecu": V, "shell_km": H}`` (H 350 km by default): a vertical TEC V (TECU) mapped to
   the slant by ``1 / cos z'``, ``sin z' = R / (R + H) sin z`` (z the zenith angle at the
   station, R = 6371 km): the standard single-layer mapping function (Schaer 1999, IGS IONEX);
-  it is 1 at the zenith and 1 / sqrt(1 - (R / (R + H))^2) = 3.0 at the horizon for 350 km;
+  it is 1 at the zenith and 1 / sqrt(1 - (R / (R + H))^2) = 3.14 at the horizon for 350 km;
 * ``{"klobuchar": (alpha, beta)}``: the GPS broadcast model of IS-GPS-200 (sec.
   20.3.3.5.2.5, figure 20-4; Klobuchar 1987) with the 4 alpha (s, s/semicircle, ...) and 4
   beta (s, s/semicircle, ...) coefficients of a GPS navigation message: the pierce point of a
@@ -108,6 +108,8 @@ def _positive(value, name, unit):
         except Exception:
             raise InvalidInputError(f"{name} must be in {unit}; got {value!r}.") from None
     try:
+        if isinstance(value, bool | np.bool_ | str):
+            raise TypeError
         out = float(value)
     except (TypeError, ValueError):
         raise InvalidInputError(f"{name} must be one number ({unit}); got {value!r}.") from None
@@ -150,8 +152,13 @@ def ionosphere_from(ionosphere, frequency_hz):
                                 f"ranging) or 'phase' (carrier Doppler); got {doppler!r}.")
     if keys <= {"vtec_tecu", "shell_km", "doppler"} and "vtec_tecu" in keys:
         tec = ionosphere["vtec_tecu"]
-        if hasattr(tec, "unit") or not np.isfinite(np.asarray(tec, dtype=float)).all() or \
-                np.ndim(tec) or float(tec) < 0:
+        try:
+            bad = isinstance(tec, bool | np.bool_) or not isinstance(
+                tec, int | float | np.integer | np.floating) or not np.isfinite(float(tec)) \
+                or float(tec) < 0
+        except (TypeError, ValueError):
+            bad = True
+        if bad:
             raise InvalidInputError(f"ionosphere's vtec_tecu must be one finite number >= 0 "
                                     f"(TEC units, 1e16 electrons/m^2); got {tec!r}.")
         shell = _positive(ionosphere.get("shell_km", 350.0), "ionosphere's shell_km", "km")

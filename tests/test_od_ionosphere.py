@@ -288,3 +288,30 @@ def test_the_tdm_reader_and_the_cli_carry_the_ionosphere(visible, tmp_path, caps
         code = cli.main(["od", *args, "--overwrite", *extra])
         err = capsys.readouterr().err
         assert code == 2 and words in err, (extra, err)
+
+
+@pytest.mark.parametrize("method", ["ekf", "ukf"])
+def test_the_filters_carry_the_ionosphere(visible, method):
+    # S-band range (1 m) and range rate (1 mm/s) with the Klobuchar delay (5-12 m): a filter
+    # from the truth with the model accepts every row and ends within its sigmas of the truth;
+    # the same filter without the model rejects rows or diverges
+    t = visible[::2]
+    kinds = ["range", "range_rate"] * len(t)
+    tt = t[np.repeat(np.arange(len(t)), 2)]
+    obs = simulate_observations(TRUTH, tt, kinds, [0.001, 1e-6] * len(t), STATION, seed=11,
+                                ionosphere=IONO["klobuchar"], frequency_hz=S_BAND)
+    p0 = np.diag([1e-4] * 3 + [1e-10] * 3)
+    f = vv.filter_orbit(obs, TRUTH, p0, method=method)
+    assert f.rejected.sum() == 0
+    truth = vv.propagate_cowell(TRUTH, f.times[-1:], [])
+    e = np.r_[f.state.r.to_value(u.km) - truth.r.to_value(u.km).reshape(3),
+              f.state.v.to_value(KMS) - truth.v.to_value(KMS).reshape(3)]
+    assert e @ np.linalg.solve(f.covariance, e) < stats.chi2.ppf(0.999, 6)
+    flat = vv.Observations(time=obs.times, kind=list(obs.kinds),
+                           value=[obs.values[i, :obs.dims[i]] for i in range(len(obs))],
+                           sigma=list(obs.sigmas), station=obs.stations)
+    try:
+        bad = vv.filter_orbit(flat, TRUTH, p0, method=method)
+    except vv.ConvergenceError:
+        return
+    assert bad.rejected.sum() > 10

@@ -27,7 +27,7 @@ SIGMA_KINDS = {
 
 def quantity(option: str, text: str, physical: str, example: str):
     """``text`` (a number with its unit, ``5m``, ``1 mm/s``) as a Quantity of ``physical`` type
-    (``"length"``, ``"speed"``, ``"angle"``, ``"time"``), finite and > 0."""
+    (``"length"``, ``"speed"``, ``"angle"``, ``"time"``, ``"frequency"``), finite and > 0."""
     from astropy import units as u
 
     try:
@@ -35,7 +35,8 @@ def quantity(option: str, text: str, physical: str, example: str):
     except (TypeError, ValueError):
         raise InvalidInputError(f"{option}: {text!r} is not a number with a unit; write e.g. "
                                 f"{example}") from None
-    want = {"length": u.m, "speed": u.m / u.s, "angle": u.rad, "time": u.s}[physical]
+    want = {"length": u.m, "speed": u.m / u.s, "angle": u.rad, "time": u.s,
+            "frequency": u.Hz}[physical]
     if q.unit == u.dimensionless_unscaled:
         raise InvalidInputError(f"{option}: {text!r} has no unit (a plain number could be "
                                 f"read in the wrong one); write e.g. {example}")
@@ -248,8 +249,45 @@ def parse_parameter_noise(specs, estimate):
     return out or None
 
 
-def read_tracking(paths, stations, sigmas, troposphere=False):
-    """The observations of the TDM files ``paths`` as one table (their segments together)."""
+def parse_ionosphere(spec, frequency):
+    """``--ionosphere vtec=TECU[,shell=KM]`` or ``klobuchar=A0,A1,A2,A3,B0,B1,B2,B3`` and
+    ``--frequency 2.2GHz`` -> the ``ionosphere`` and ``frequency_hz`` arguments (None, None
+    without ``--ionosphere``)."""
+    example = "--ionosphere vtec=20 --frequency 2.2GHz"
+    if spec is None:
+        if frequency is not None:
+            raise InvalidInputError("--frequency applies to the modelled ionosphere: add "
+                                    f"--ionosphere, e.g. {example}")
+        return None, None
+    if frequency is None:
+        raise InvalidInputError("--ionosphere needs the signal's --frequency (the delay is "
+                                f"40.3 TEC / f^2), e.g. {example}")
+    freq = quantity("--frequency", frequency, "frequency", "--frequency 2.2GHz").to_value("Hz")
+    name, _, rest = spec.partition("=")
+    parts = [p.strip() for p in rest.split(",")] if rest else []
+    try:
+        if name == "vtec" and len(parts) in (1, 2):
+            out = {"vtec_tecu": float(parts[0])}
+            if len(parts) == 2:
+                key, _, value = parts[1].partition("=")
+                if key != "shell":
+                    raise ValueError
+                out["shell_km"] = quantity("--ionosphere", value, "length",
+                                           "shell=350km").to_value("km")
+            return out, freq
+        if name == "klobuchar" and len(parts) == 8:
+            values = [float(p) for p in parts]
+            return {"klobuchar": (values[:4], values[4:])}, freq
+    except ValueError:
+        pass
+    raise InvalidInputError(f"--ionosphere {spec!r}: write vtec=TECU[,shell=KM] (a vertical "
+                            "TEC in TEC units on a thin shell, e.g. vtec=20,shell=350km) or "
+                            "klobuchar=A0,A1,A2,A3,B0,B1,B2,B3 (the GPS broadcast coefficients)")
+
+
+def read_tracking(paths, stations, sigmas, troposphere=False, media=None):
+    """The observations of the TDM files ``paths`` as one table (their segments together);
+    ``media`` the ``ionosphere`` and ``frequency_hz`` keywords, if any."""
     from pathlib import Path
 
     from .tracking_data import TDM, read_tdm
@@ -282,7 +320,7 @@ def read_tracking(paths, stations, sigmas, troposphere=False):
                 raise InvalidInputError(f"the tracking data hold {key}: give its sigma, e.g. "
                                         f"--sigma {SIGMA_KINDS[kind][2]}")
     tdm = TDM(tdms[0].header, segments, tdms[0].fmt)
-    return tdm.to_observations(stations, sigmas, troposphere=troposphere), tdm
+    return tdm.to_observations(stations, sigmas, troposphere=troposphere, **(media or {})), tdm
 
 
 def read_initial(path, first_time):

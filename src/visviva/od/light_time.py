@@ -35,8 +35,8 @@ satellite shares, is calibrated away, but the satellite's light time there inclu
 motion): the model for ``radec_reference="stars"`` subtracts the Earth's barycentric velocity
 times the flight time, ``rho - V_E tau``, a shift of up to V_E / c = 20.5 arcsec. Diurnal
 aberration (the station's own 0.46 km/s, <= 0.32 arcsec) is removed by the same reduction and
-is not modelled in either case. Atmospheric refraction and the troposphere's path delay are not
-modelled (correct the data first).
+is not modelled in either case. Atmospheric refraction and the media's path delays are added
+after the light time, by :mod:`visviva.od.troposphere` and :mod:`visviva.od.ionosphere`.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import C_KM_S, EARTH_ROTATION_RAD_S
-from . import troposphere
+from . import ionosphere, troposphere
 from .measurements import angles, predict
 
 __all__ = ["predict_light_time", "model"]
@@ -192,4 +192,7 @@ def model(observations, y, gm, rows=None, partials=True):
     if observations.troposphere is not None:
         rows_idx = np.arange(len(observations))[pick]
         troposphere.apply(observations, kinds, y, site_r, site_v, enu, h, H, rows_idx)
+    if observations.ionosphere is not None:
+        rows_idx = np.arange(len(observations))[pick]
+        ionosphere.apply(observations, kinds, y, site_r, site_v, enu, h, H, rows_idx)
     return h, H

@@ -122,6 +122,16 @@ class Observations:
         elevations: ``"optical"`` (default, Saemundsson's formula) or ``"radio"`` (antenna
         angles, :func:`visviva.ground.refraction_deg`); ``look(refraction=...)`` takes the
         same dict.
+    ionosphere : dict, optional
+        None (default): no ionosphere (data corrected for it, or optical). ``{"vtec_tecu": V,
+        "shell_km": 350.0}``: a vertical electron content V (TEC units) on a thin shell;
+        ``{"klobuchar": (alpha, beta)}``: the GPS broadcast model's 4 + 4 coefficients; an
+        optional ``"doppler"`` key, ``"group"`` (default) or ``"phase"`` (carrier Doppler),
+        gives the sign of the delay's rate in range rates. Range rows get the group delay
+        ``40.3 TEC / f^2``, range rates its rate; angles are left alone
+        (:mod:`visviva.od.ionosphere`). Needs ``frequency_hz``.
+    frequency_hz : float or Quantity, optional
+        The signal's frequency (Hz, > 0), e.g. 2.2e9 for S band: required by ``ionosphere``.
 
     Attributes
     ----------
@@ -139,13 +149,16 @@ class Observations:
     radec_reference : str
     troposphere : visviva.od.troposphere.Weather or None
         The stations' air (None: no troposphere in the models).
+    ionosphere : visviva.od.ionosphere.Ionosphere or None
+        The checked ionosphere model with its frequency (None: none in the models).
 
     Raises
     ------
     InvalidInputError
         No observations, an unknown kind, an unknown ``radec_reference``, a non-positive or non-finite sigma, a row needing a
         station without one, times that go backwards, a time that is not an astropy Time, or
-        ``troposphere`` with an observer that is not a ground station.
+        ``troposphere`` or ``ionosphere`` with an observer that is not a ground station, an
+        ionosphere without a frequency or with bad numbers.
     ShapeError
         A value with the wrong number of components.
     DomainError
@@ -154,12 +167,15 @@ class Observations:
     """
 
     def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,
-                 radec_reference="gcrs", troposphere=False):  # fmt: skip
+                 radec_reference="gcrs", troposphere=False, ionosphere=None,
+                 frequency_hz=None):  # fmt: skip
         from astropy.time import Time
 
+        from .ionosphere import ionosphere_from
         from .troposphere import weather_from
 
         weather = weather_from(troposphere)
+        iono = ionosphere_from(ionosphere, frequency_hz)
 
         if not isinstance(light_time, bool | np.bool_):
             raise InvalidInputError(
@@ -229,14 +245,16 @@ class Observations:
             dims[i] = arr.size
         sig = self._sigmas(sigma, kinds, n)
         stations = self._stations(station, kinds, n)
-        if weather is not None:  # audit20: an AttributeError from deep inside before
+        for name, on in (("troposphere", weather), ("ionosphere", iono)):
+            if on is None:  # audit20: an AttributeError from deep inside before
+                continue
             for i, st in enumerate(stations):
                 if st is not None and not hasattr(st, "enu_matrix"):
                     raise InvalidInputError(
-                        f"observation {i} ({kinds[i]}): troposphere=True models the air above "
+                        f"observation {i} ({kinds[i]}): {name} models the air above "
                         f"a ground station, and its observer {type(st).__name__} has no "
                         "horizon (no enu_matrix): give it a vv.GroundStation, or keep the "
-                        "rows of other observers in a table with troposphere=False.")
+                        f"rows of other observers in a table without {name}.")
         self.times = times
         self.kinds = np.array(kinds)
         self.values = vals
@@ -246,6 +264,7 @@ class Observations:
         self.light_time = bool(light_time)
         self.radec_reference = radec_reference
         self.troposphere = weather
+        self.ionosphere = iono
         self._cache = {}
 
     @staticmethod
@@ -320,7 +339,8 @@ class Observations:
             ri, vi = s.gcrs_position_velocity(self.times[idx])
             r[idx] = ri
             v[idx] = vi
-            if self.troposphere is not None or np.any(self.kinds[idx] == "azel"):
+            media = self.troposphere is not None or self.ionosphere is not None
+            if media or np.any(self.kinds[idx] == "azel"):
                 from ..satellites.frames import transform_matrices
 
                 m = transform_matrices(self.times[idx], "gcrs", "itrs")[:, :3, :3]

@@ -63,6 +63,13 @@ def add_parser(sub) -> None:
     p.add_argument("--refraction", default=None, choices=("optical", "radio"),
                    help="with --troposphere: the refraction of AZEL angles, optical (default; "
                    "light) or radio (antennas: the bending of the air's radio refractivity)")
+    p.add_argument("--ionosphere", default=None,
+                   metavar="vtec=TECU[,shell=KM] | klobuchar=A0,..,A3,B0,..,B3",
+                   help="model the ionosphere's delay in range and range-rate data not "
+                   "corrected for it: a vertical TEC (TEC units) on a thin shell (350 km "
+                   "default), or the GPS broadcast (Klobuchar) coefficients; needs --frequency")
+    p.add_argument("--frequency", default=None, metavar="FREQ",
+                   help="with --ionosphere: the signal's frequency with its unit, e.g. 2.2GHz")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -151,6 +158,7 @@ def _setup(args) -> dict:
     from .cli_inputs import (
         parse_estimate,
         parse_forces,
+        parse_ionosphere,
         parse_parameter_noise,
         parse_process_noise,
         parse_sigmas,
@@ -204,7 +212,9 @@ def _setup(args) -> dict:
                                 "--troposphere (data not corrected for the atmosphere)")
     troposphere = ({"refraction": args.refraction} if args.troposphere and args.refraction
                    else args.troposphere)
-    obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere)
+    iono, freq = parse_ionosphere(args.ionosphere, args.frequency)
+    media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else None
+    obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere, media)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")
     ignored = covariance is not None and args.no_apriori

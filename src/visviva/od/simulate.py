@@ -30,7 +30,8 @@ MIN_ELEVATION_RAD = np.radians(10.0)
 
 def simulate_observations(state, times, kind, sigma, station=None, perturbations=None, *,
                           maneuvers=None, seed=None, light_time=True,
-                          radec_reference="gcrs", troposphere=False):  # fmt: skip
+                          radec_reference="gcrs", troposphere=False, ionosphere=None,
+                          frequency_hz=None):  # fmt: skip
     """Observations of the orbit through ``state``, with Gaussian noise of standard deviation sigma.
 
     Parameters
@@ -59,6 +60,11 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         What RA/Dec rows are (see :class:`~visviva.Observations`).
     troposphere : bool or dict
         Put the neutral atmosphere in the data (see :class:`~visviva.Observations`).
+    ionosphere : dict, optional
+        Put the ionosphere's delay in the data (``{"vtec_tecu": 20.0}`` or ``{"klobuchar":
+        (alpha, beta)}``; see :class:`~visviva.Observations`); needs ``frequency_hz``.
+    frequency_hz : float or Quantity, optional
+        The signal's frequency, Hz.
 
     Returns
     -------
@@ -66,7 +72,7 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         The noisy table (angles wrapped into range: an elevation or declination that the
         noise carries past +-90 deg is read over the pole, at the opposite azimuth or right
         ascension), with the same ``light_time``,
-        ``radec_reference`` and ``troposphere``.
+        ``radec_reference``, ``troposphere``, ``ionosphere`` and ``frequency_hz``.
 
     Notes
     -----
@@ -76,7 +82,7 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     from .dynamics import Dynamics
 
     flags = {"light_time": light_time, "radec_reference": radec_reference,
-             "troposphere": troposphere}
+             "troposphere": troposphere, "ionosphere": ionosphere, "frequency_hz": frequency_hz}
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
     from ..satellites.burn_segments import burn_schedule

@@ -96,7 +96,8 @@ class TDM(_tdm.TDM):
             standard deviation (Quantity, or km, km/s, rad).
         **options
             ``quality``, ``range_units_km``, ``integrated_doppler``, ``corrections_applied``,
-            ``ignore``, ``radec_reference``, ``troposphere``: see :func:`to_observations`.
+            ``ignore``, ``radec_reference``, ``troposphere``, ``ionosphere``,
+            ``frequency_hz``: see :func:`to_observations`.
 
         Returns
         -------
@@ -131,7 +132,8 @@ def read_tdm(source, *, mission_epoch=None) -> TDM:
 
 def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
                     integrated_doppler="refuse", corrections_applied=None, ignore=(),
-                    radec_reference="gcrs", troposphere=False):  # fmt: skip
+                    radec_reference="gcrs", troposphere=False, ionosphere=None,
+                    frequency_hz=None):  # fmt: skip
     """The range, Doppler and angle data of a TDM as an :class:`~visviva.Observations` table.
 
     Parameters
@@ -167,6 +169,13 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     troposphere : bool or dict
         Model the neutral atmosphere in the fit (see :class:`~visviva.Observations`): for data
         whose tropospheric delay is neither in the data nor in ``CORRECTION_RANGE``.
+    ionosphere : dict, optional
+        Model the ionosphere's delay in the fit (``{"vtec_tecu": V}`` or ``{"klobuchar":
+        (alpha, beta)}``; see :class:`~visviva.Observations`), for radio data not corrected
+        for it (single frequency, no ``CORRECTION_RANGE``).
+    frequency_hz : float or Quantity, optional
+        The signal's frequency (Hz), required by ``ionosphere``: the TDM's ``TRANSMIT_FREQ_n``
+        and ``RECEIVE_FREQ_n`` lines (offsets from ``FREQ_OFFSET``) are not read for it.
 
     Returns
     -------
@@ -217,7 +226,8 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     if unused:
         warnings.warn("read but not used for orbit determination: " + ", ".join(
             f"{k} ({n})" for k, n in unused.items()), TrackingDataWarning, stacklevel=3)
-    return _table(parts, sigma, radec_reference, troposphere)
+    return _table(parts, sigma, radec_reference, troposphere,
+                  {"ionosphere": ionosphere, "frequency_hz": frequency_hz})
 
 
 def _count(unused, key, n):
@@ -466,7 +476,7 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
     return rows
 
 
-def _table(parts, sigma, radec_reference, troposphere=False):
+def _table(parts, sigma, radec_reference, troposphere=False, media=None):
     from astropy.time import Time
 
     from .observations import Observations, sigma_value
@@ -490,4 +500,5 @@ def _table(parts, sigma, radec_reference, troposphere=False):
     return Observations(
         time=times, kind=[kinds[i] for i in order], value=[values[i] for i in order],
         sigma=[sigma[kinds[i]] for i in order], station=[sites[i] for i in order],
-        light_time=True, radec_reference=radec_reference, troposphere=troposphere)
+        light_time=True, radec_reference=radec_reference, troposphere=troposphere,
+        **(media or {}))

@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..constants import EARTH_ROTATION_RAD_S
 from ..errors import InvalidInputError
 from ..ground.air import Weather, check_air, standard_atmosphere
+from .slant import line_of_sight
 
 __all__ = ["Weather", "standard_atmosphere", "weather_from", "zenith_delays_m", "mapping", "apply"]
 
@@ -100,28 +100,20 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     stations = [observations.stations[i] for i in rows]
     air = _station_air(stations, weather)
     zenith = np.array([air[id(s)][0] if s is not None else 0.0 for s in stations])
-    rho = y[:, :3] - site_r
-    rhod = y[:, 3:] - site_v
-    rng = np.linalg.norm(rho, axis=-1)
-    up = enu[:, 2, :]
-    sin_el = np.einsum("ni,ni->n", rho, up) / rng
+    sight = line_of_sight(y, site_r, site_v, enu)
+    rng = sight.rng
+    sin_el, cos_el = np.sin(sight.el), np.cos(sight.el)
     m, dm = mapping(sin_el)
     ranged = kinds == "range"
     if ranged.any():
         h[ranged, 0] += zenith[ranged] * m[ranged]
-        # d sin E / d r = (up - sin E rho_hat) / |rho|
-        ds = (up[ranged] - sin_el[ranged, None] * rho[ranged] / rng[ranged, None]) \
-            / rng[ranged, None]
         if H is not None:
+            ds = cos_el[ranged, None] * sight.d_dr[ranged, 1]  # d sin E / d r
             H[ranged, 0, :3] += (zenith[ranged] * dm[ranged])[:, None] * ds
     rated = kinds == "range_rate"
     if rated.any():
-        # d sin E / dt with the station's up turning with the Earth (omega x up)
-        omega = np.array([0.0, 0.0, EARTH_ROTATION_RAD_S])
-        dup = np.cross(omega, up[rated])
-        r_, rd, s_ = rho[rated], rhod[rated], sin_el[rated]
-        dsin = (np.einsum("ni,ni->n", rd, up[rated]) + np.einsum("ni,ni->n", r_, dup)) \
-            / rng[rated] - s_ * np.einsum("ni,ni->n", r_, rd) / rng[rated] ** 2
+        # d sin E / dt with the station's axes turning with the Earth
+        dsin = cos_el[rated] * sight.rate[rated, 1]
         h[rated, 0] += zenith[rated] * dm[rated] * dsin
     pointed = kinds == "azel"
     if pointed.any():
@@ -139,4 +131,4 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
                     # (above -1 deg); optical -0.04 at 2.5 deg, -0.02 at 5 deg; the range's
                     # share ~5e-5 of the elevation's
                     H[idx, 1, :] *= (1.0 + slope)[:, None]
-                    H[idx, 1, :3] += (np.radians(d_range) / rng[idx])[:, None] * rho[idx]
+                    H[idx, 1, :3] += (np.radians(d_range) / rng[idx])[:, None] * sight.rho[idx]

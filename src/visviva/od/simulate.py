@@ -63,8 +63,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     ionosphere : dict, optional
         Put the ionosphere's delay in the data (``{"vtec_tecu": 20.0}`` or ``{"klobuchar":
         (alpha, beta)}``; see :class:`~visviva.Observations`); needs ``frequency_hz``.
-    frequency_hz : float or Quantity, optional
-        The signal's frequency, Hz.
+    frequency_hz : float or Quantity, or one per row, optional
+        The signal's frequency, Hz (a two-way link's:
+        :func:`visviva.od.ionosphere.two_way_frequency_hz`).
 
     Returns
     -------

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.ccsds.grammar import CCSDSFormatError
@@ -160,3 +162,62 @@ def test_no_frequency_anywhere_is_refused_and_frequency_hz_still_serves(plan):
         tdm.to_observations({"SITE": SITE}, SIGMA, ionosphere=IONO)
     read = tdm.to_observations({"SITE": SITE}, SIGMA, ionosphere=IONO, frequency_hz=2.2e9)
     assert read.ionosphere.frequency_hz == 2.2e9  # one number, as before
+
+
+def test_the_cli_takes_the_tdm_frequencies_without_frequency(plan, tmp_path, capsys):
+    # visviva od --ionosphere without --frequency: the TDM's lines give it, and the fit is
+    # fit_orbit's on to_observations(ionosphere=); a TDM without lines still needs --frequency
+    from visviva import cli
+    from visviva.ccsds.opm import OPM
+
+    want = np.full(len(plan), two_way_frequency_hz(F_UP, F_DOWN))
+    text = _kvn(plan, [("TRANSMIT_FREQ_1", plan.times[0], F_UP)],
+                ["TURNAROUND_NUMERATOR = 240", "TURNAROUND_DENOMINATOR = 221"], want)
+    tdm = tmp_path / "link.tdm"
+    tdm.write_text(text)
+    guess = vv.StateVectors((Y0[:3] + [0.2, -0.1, 0.1]) * u.km, (Y0[3:] + 2e-4) * KMS,
+                            vv.EARTH, epoch=EPOCH)
+    first = tmp_path / "guess.opm"
+    vv.write_opm(OPM.from_state(guess, object_name="SAT-1"), first)
+    read = vv.read_tdm(tdm).to_observations({"SITE": SITE}, SIGMA, ionosphere=IONO)
+    fit = vv.fit_orbit(read, vv.read_opm(first).state)
+    opm = tmp_path / "fit.opm"
+    args = ["od", str(tdm), "--station", "SITE=40,-10,100", "--sigma",
+            "range=2m,range_rate=1mm/s", "--initial", str(first), "--ionosphere", "vtec=30"]
+    code = cli.main([*args, "--opm", str(opm)])
+    assert code == 0, capsys.readouterr().err
+    np.testing.assert_allclose(vv.read_opm(opm).state.r.to_value(u.km),
+                               fit.state.r.to_value(u.km), rtol=0, atol=1e-9)
+    plain = tmp_path / "plain.tdm"
+    vv.write_tdm(plan, plain)
+    capsys.readouterr()
+    code = cli.main(["od", str(plain), *args[2:], "--opm", str(tmp_path / "x.opm")])
+    assert code == 2 and "--frequency" in capsys.readouterr().err
+
+
+def test_a_segment_without_lines_takes_frequency_hz(plan):
+    # segment 1 with an uplink line, segment 2 without: its rows are at frequency_hz
+    half = len(plan) // 2
+    a, b = [vv.Observations(time=plan.times[s], kind=list(plan.kinds[s]),
+                            value=[plan.values[i, :1] for i in range(len(plan))[s]],
+                            sigma=list(plan.sigmas[s]), station=plan.stations[s])
+            for s in (slice(0, half), slice(half, None))]
+    f_a = two_way_frequency_hz(F_UP, F_DOWN)
+    text = _kvn(a, [("TRANSMIT_FREQ_1", a.times[0], F_UP)],
+                ["TURNAROUND_NUMERATOR = 240", "TURNAROUND_DENOMINATOR = 221"],
+                np.full(len(a), f_a))
+    text += "\n" + _kvn(b, [], [], F_DOWN).split("\n\n", 1)[1]  # its segment only
+    read = vv.read_tdm(text).to_observations({"SITE": SITE}, SIGMA, ionosphere=IONO,
+                                             frequency_hz=F_DOWN)
+    expected = np.where((read.times - b.times[0]).sec >= 0, F_DOWN, f_a)
+    np.testing.assert_allclose(read.ionosphere.frequency_hz, expected, rtol=1e-15)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(1e8, 4e10), st.floats(0.5, 2.0))
+def test_two_way_frequency_lies_between_the_legs(f_up, ratio):
+    f_down = f_up * ratio
+    f = two_way_frequency_hz(f_up, f_down)
+    assert min(f_up, f_down) * (1 - 1e-12) <= f <= max(f_up, f_down) * (1 + 1e-12)
+    assert 1 / f**2 == pytest.approx(0.5 / f_up**2 + 0.5 / f_down**2, rel=1e-12)
+    assert two_way_frequency_hz(f_up, f_up) == pytest.approx(f_up, rel=1e-15)

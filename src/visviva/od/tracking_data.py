@@ -353,7 +353,8 @@ def _row_frequencies(seg, link, index, idx, kinds, unused, ignore, src):
         raise InvalidInputError(
             f"{src}, line {meta.line}: the segment has range or Doppler data but no "
             "TRANSMIT_FREQ_n / RECEIVE_FREQ_n lines: the ionosphere's delay (40.3 TEC / f^2) "
-            "needs the link's frequency; give frequency_hz, e.g. 2.2e9 for S band")
+            "needs the link's frequency; give frequency_hz, e.g. 2.2e9 for S band (--frequency "
+            "2.2GHz on the command line)")
     freqs[delayed] = link["hz"] if f is None else f
     return freqs
 

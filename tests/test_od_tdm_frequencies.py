@@ -221,3 +221,27 @@ def test_two_way_frequency_lies_between_the_legs(f_up, ratio):
     assert min(f_up, f_down) * (1 - 1e-12) <= f <= max(f_up, f_down) * (1 + 1e-12)
     assert 1 / f**2 == pytest.approx(0.5 / f_up**2 + 0.5 / f_down**2, rel=1e-12)
     assert two_way_frequency_hz(f_up, f_up) == pytest.approx(f_up, rel=1e-15)
+
+
+def test_a_filter_s_rows_keep_their_own_frequencies(plan):
+    # light_time.model on a subset of rows (as the filters call it) uses those rows'
+    # frequencies: equal to the whole table's prediction at those rows
+    from visviva.od.light_time import model
+
+    f = np.linspace(2.0e9, 8.4e9, len(plan))
+    obs = simulate_observations(TRUTH, plan.times, list(plan.kinds), list(plan.sigmas),
+                                plan.stations, seed=False, ionosphere=IONO, frequency_hz=f)
+    sec = (plan.times - EPOCH).sec
+    once, back = np.unique(sec, return_inverse=True)
+    sv = vv.propagate_cowell(TRUTH, EPOCH + once * u.s, [])
+    r, v = sv.r.to_value(u.km), sv.v.to_value(KMS)
+    y = (np.c_[r.T, v.T] if r.shape[0] == 3 and r.shape[1] != 3 else np.c_[r, v])[back]
+    gm = vv.EARTH.gm_km3_s2
+    whole, _ = model(obs, y, gm)
+    rows = np.arange(len(obs))[5::7]
+    part, _ = model(obs, y[rows], gm, rows=rows)
+    np.testing.assert_allclose(part, whole[rows], rtol=0, atol=1e-12)
+    # and the rows differ as 1/f^2: the high-frequency rows carry less delay
+    assert not np.allclose(whole, model(simulate_observations(
+        TRUTH, plan.times, list(plan.kinds), list(plan.sigmas), plan.stations, seed=False,
+        ionosphere=IONO, frequency_hz=2.0e9), y, gm)[0], rtol=0, atol=1e-6)

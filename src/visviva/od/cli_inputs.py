@@ -252,17 +252,16 @@ def parse_parameter_noise(specs, estimate):
 def parse_ionosphere(spec, frequency):
     """``--ionosphere vtec=TECU[,shell=KM]`` or ``klobuchar=A0,A1,A2,A3,B0,B1,B2,B3`` and
     ``--frequency 2.2GHz`` -> the ``ionosphere`` and ``frequency_hz`` arguments (None, None
-    without ``--ionosphere``)."""
+    without ``--ionosphere``; the frequency None without ``--frequency``: the TDM's
+    ``TRANSMIT_FREQ_n``/``RECEIVE_FREQ_n`` lines give it, else reading it is refused)."""
     example = "--ionosphere vtec=20 --frequency 2.2GHz"
     if spec is None:
         if frequency is not None:
             raise InvalidInputError("--frequency applies to the modelled ionosphere: add "
                                     f"--ionosphere, e.g. {example}")
         return None, None
-    if frequency is None:
-        raise InvalidInputError("--ionosphere needs the signal's --frequency (the delay is "
-                                f"40.3 TEC / f^2), e.g. {example}")
-    freq = quantity("--frequency", frequency, "frequency", "--frequency 2.2GHz").to_value("Hz")
+    freq = None if frequency is None else quantity(
+        "--frequency", frequency, "frequency", "--frequency 2.2GHz").to_value("Hz")
     name, _, rest = spec.partition("=")
     parts = [p.strip() for p in rest.split(",")] if rest else []
     try:

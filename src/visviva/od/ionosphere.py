@@ -8,8 +8,12 @@ near the horizon. The carrier phase is advanced by the same amount. With ``ionos
 ``frequency_hz`` on, the models predict what the station measures:
 
 * ``range``: plus the slant group delay (the same up and down at one frequency, so once in the
-  two-way mean; an uplink and a downlink at different frequencies are modelled at the one
-  ``frequency_hz`` given: take their effective value, ``2 / (1/f_up^2 + 1/f_down^2)``);
+  two-way mean). An uplink at ``f_up`` and a downlink at ``f_down`` are each delayed by their
+  own ``40.3 TEC / f^2``, and the two-way range (half the round trip) by the mean of the two,
+  ``0.5 * 40.3 TEC (1/f_up^2 + 1/f_down^2)``: the delay at the effective frequency
+  :func:`two_way_frequency_hz` ``= (0.5 (1/f_up^2 + 1/f_down^2))^-1/2``, which is what
+  ``frequency_hz`` holds for such a link (one number, or one per row: a TDM's frequency lines
+  give one per row, :mod:`visviva.od.link_frequencies`);
 * ``range_rate``: plus the delay's rate along the pass (``"doppler": "group"``, the default:
   a range rate from ranging, whose group delay grows) or minus it (``"doppler": "phase"``:
   Doppler counted on the carrier, whose phase is advanced);
@@ -45,7 +49,8 @@ from ..constants import C_KM_S
 from ..errors import InvalidInputError
 from .slant import line_of_sight
 
-__all__ = ["Ionosphere", "ionosphere_from", "vtec_mapping", "klobuchar_l1_s", "slopes", "apply"]
+__all__ = ["Ionosphere", "ionosphere_from", "two_way_frequency_hz", "vtec_mapping",
+           "klobuchar_l1_s", "slopes", "apply"]
 
 #: group delay per electron content: 40.3 TEC / f^2 m (TEC in el/m^2, f in Hz), m^3/s^2
 K_GROUP = 40.3
@@ -72,7 +77,9 @@ class Ionosphere:
     Attributes
     ----------
     model : {"vtec", "klobuchar"}
-    frequency_hz : float
+    frequency_hz : float or tuple of float
+        The signal's frequency, Hz: one for every row, or one per row of the table (NaN on
+        rows the ionosphere leaves alone: angles, positions).
     vtec_tecu, shell_km : float
         The vertical TEC (TECU) and the shell's height (km) of ``"vtec"``.
     alpha, beta : tuple of 4 floats
@@ -82,22 +89,29 @@ class Ionosphere:
     """
 
     model: str
-    frequency_hz: float
+    frequency_hz: float | tuple
     vtec_tecu: float = 0.0
     shell_km: float = 350.0
     alpha: tuple = ()
     beta: tuple = ()
     doppler: str = "group"
 
-    def slant_delay_m(self, lat_rad, lon_rad, az, el, gps_seconds):
+    def slant_delay_m(self, lat_rad, lon_rad, az, el, gps_seconds, frequency_hz=None):
         """The slant group delay (m) at the station's geodetic ``lat_rad``, ``lon_rad`` for the
         satellite at azimuth ``az`` and elevation ``el`` (rad), at GPS seconds
-        ``gps_seconds`` (only their time of day counts)."""
+        ``gps_seconds`` (only their time of day counts), at ``frequency_hz`` (Hz, one or one
+        per element; default: the model's one frequency)."""
+        f = self.frequency_hz if frequency_hz is None else frequency_hz
         if self.model == "vtec":
             m, _ = vtec_mapping(el, self.shell_km)
-            return K_GROUP * self.vtec_tecu * TECU / self.frequency_hz**2 * m
+            return K_GROUP * self.vtec_tecu * TECU / np.square(f) * m
         t = klobuchar_l1_s(lat_rad, lon_rad, az, el, gps_seconds, self.alpha, self.beta)
-        return t * C_KM_S * 1000.0 * (L1_HZ / self.frequency_hz) ** 2
+        return t * C_KM_S * 1000.0 * np.square(L1_HZ / np.asarray(f))
+
+    def row_frequencies(self, rows):
+        """The frequency (Hz) of each of the table's rows ``rows``."""
+        f = np.asarray(self.frequency_hz, dtype=np.float64)
+        return np.full(len(rows), float(f)) if f.ndim == 0 else f[np.asarray(rows, dtype=int)]
 
 
 def _positive(value, name, unit):
@@ -132,9 +146,47 @@ def _coefficients(values, name):
     return tuple(float(a) for a in arr)
 
 
-def ionosphere_from(ionosphere, frequency_hz):
+def two_way_frequency_hz(f_up, f_down):
+    """The one frequency (Hz) whose delay ``40.3 TEC / f^2`` is a two-way link's: the mean of the
+    uplink's at ``f_up`` and the downlink's at ``f_down``, ``(0.5 (1/f_up^2 + 1/f_down^2))^-1/2``
+    (the two-way range is half the round trip; the same TEC both ways)."""
+    return 1.0 / np.sqrt(0.5 * (1.0 / np.square(f_up) + 1.0 / np.square(f_down)))
+
+
+def _frequencies(frequency_hz, kinds):
+    """``frequency_hz`` checked: one number > 0, or one per row (> 0 on the range and
+    range-rate rows, which the ionosphere delays; NaN allowed elsewhere) as a tuple."""
+    if np.ndim(frequency_hz) == 0 or kinds is None:
+        return _positive(frequency_hz, "frequency_hz", "Hz")
+    f = frequency_hz
+    if hasattr(f, "unit"):
+        try:
+            f = f.to_value("Hz")
+        except Exception:
+            raise InvalidInputError(f"frequency_hz must be in Hz; got {frequency_hz!r}.") from None
+    try:
+        if any(isinstance(x, bool | np.bool_ | str) for x in np.ravel(np.asarray(f, dtype=object))):
+            raise TypeError
+        f = np.asarray(f, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"frequency_hz must be one number (Hz) or one per row; got "
+                                f"{frequency_hz!r}.") from None
+    if f.shape != (len(kinds),):
+        raise InvalidInputError(f"frequency_hz must be one number (Hz) or one per row: it has "
+                                f"shape {f.shape} for {len(kinds)} rows.")
+    delayed = np.isin(np.asarray(kinds), ["range", "range_rate"])
+    bad = delayed & ~(np.isfinite(f) & (f > 0))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InvalidInputError(f"frequency_hz of row {i} ({kinds[i]}) must be finite and > 0 "
+                                f"(Hz); got {f[i]!r}.")
+    return tuple(float(x) for x in f)
+
+
+def ionosphere_from(ionosphere, frequency_hz, kinds=None):
     """The ``ionosphere`` and ``frequency_hz`` arguments checked: None (off) or an
-    :class:`Ionosphere`. A frequency without an ionosphere is accepted and unused."""
+    :class:`Ionosphere`. A frequency without an ionosphere is accepted and unused. With the
+    rows' ``kinds``, ``frequency_hz`` may hold one frequency per row."""
     if ionosphere is None or ionosphere is False:
         return None
     if not isinstance(ionosphere, dict):
@@ -144,7 +196,7 @@ def ionosphere_from(ionosphere, frequency_hz):
         raise InvalidInputError(
             "the ionosphere's delay depends on the signal's frequency (40.3 TEC / f^2): give "
             "frequency_hz, e.g. 2.2e9 for S band (a Quantity in Hz or a number of Hz).")
-    freq = _positive(frequency_hz, "frequency_hz", "Hz")
+    freq = _frequencies(frequency_hz, kinds)
     keys = set(ionosphere)
     doppler = ionosphere.get("doppler", "group")
     if doppler not in ("group", "phase"):
@@ -241,22 +293,24 @@ def _station_lat_lon(stations):
     return out
 
 
-def slopes(iono, lat, lon, az, el, gps):
-    """The delay (m) and its partials ``d / d(az, el)`` (m/rad, (N, 2)) and ``d / dt`` (m/s)."""
-    d0 = iono.slant_delay_m(lat, lon, az, el, gps)
+def slopes(iono, lat, lon, az, el, gps, frequency_hz=None):
+    """The delay (m) and its partials ``d / d(az, el)`` (m/rad, (N, 2)) and ``d / dt`` (m/s),
+    at ``frequency_hz`` (Hz, one per element; default: the model's one frequency)."""
+    f = iono.frequency_hz if frequency_hz is None else frequency_hz
+    d0 = iono.slant_delay_m(lat, lon, az, el, gps, f)
     n = np.shape(d0)[0]
     grad = np.zeros((n, 2))
     if iono.model == "vtec":
         _, dm = vtec_mapping(el, iono.shell_km)
-        grad[:, 1] = K_GROUP * iono.vtec_tecu * TECU / iono.frequency_hz**2 * dm
+        grad[:, 1] = K_GROUP * iono.vtec_tecu * TECU / np.square(f) * dm
         return d0, grad, np.zeros(n)
     h, ht = _STEP_RAD, _STEP_S
-    grad[:, 0] = (iono.slant_delay_m(lat, lon, az + h, el, gps)
-                  - iono.slant_delay_m(lat, lon, az - h, el, gps)) / (2 * h)
-    grad[:, 1] = (iono.slant_delay_m(lat, lon, az, el + h, gps)
-                  - iono.slant_delay_m(lat, lon, az, el - h, gps)) / (2 * h)
-    dt = (iono.slant_delay_m(lat, lon, az, el, gps + ht)
-          - iono.slant_delay_m(lat, lon, az, el, gps - ht)) / (2 * ht)
+    grad[:, 0] = (iono.slant_delay_m(lat, lon, az + h, el, gps, f)
+                  - iono.slant_delay_m(lat, lon, az - h, el, gps, f)) / (2 * h)
+    grad[:, 1] = (iono.slant_delay_m(lat, lon, az, el + h, gps, f)
+                  - iono.slant_delay_m(lat, lon, az, el - h, gps, f)) / (2 * h)
+    dt = (iono.slant_delay_m(lat, lon, az, el, gps + ht, f)
+          - iono.slant_delay_m(lat, lon, az, el, gps - ht, f)) / (2 * ht)
     return d0, grad, dt
 
 
@@ -271,7 +325,8 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     sight = line_of_sight(y[idx], site_r[idx], site_v[idx], enu[idx])
     ll = _station_lat_lon([observations.stations[i] for i in np.asarray(rows)[idx]])
     gps = _gps_seconds(observations, np.asarray(rows)[idx])
-    delay, grad, d_dt = slopes(iono, ll[:, 0], ll[:, 1], sight.az, sight.el, gps)
+    freq = iono.row_frequencies(np.asarray(rows)[idx])
+    delay, grad, d_dt = slopes(iono, ll[:, 0], ll[:, 1], sight.az, sight.el, gps, freq)
     delay, grad, d_dt = delay / 1000.0, grad / 1000.0, d_dt / 1000.0  # km
     ranged = kinds[idx] == "range"
     r = idx[ranged]

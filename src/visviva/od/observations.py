@@ -130,8 +130,11 @@ class Observations:
         gives the sign of the delay's rate in range rates. Range rows get the group delay
         ``40.3 TEC / f^2``, range rates its rate; angles are left alone
         (:mod:`visviva.od.ionosphere`). Needs ``frequency_hz``.
-    frequency_hz : float or Quantity, optional
+    frequency_hz : float or Quantity, or a sequence of them, optional
         The signal's frequency (Hz, > 0), e.g. 2.2e9 for S band: required by ``ionosphere``.
+        One for every row, or one per row (NaN allowed on rows the ionosphere leaves alone);
+        a two-way link with different uplink and downlink frequencies takes
+        :func:`visviva.od.ionosphere.two_way_frequency_hz` of the two.
 
     Attributes
     ----------
@@ -175,7 +178,6 @@ class Observations:
         from .troposphere import weather_from
 
         weather = weather_from(troposphere)
-        iono = ionosphere_from(ionosphere, frequency_hz)
 
         if not isinstance(light_time, bool | np.bool_):
             raise InvalidInputError(
@@ -243,6 +245,7 @@ class Observations:
             arr = _row_value(v, k, i)
             vals[i, : arr.size] = arr
             dims[i] = arr.size
+        iono = ionosphere_from(ionosphere, frequency_hz, kinds)
         sig = self._sigmas(sigma, kinds, n)
         stations = self._stations(station, kinds, n)
         for name, on in (("troposphere", weather), ("ionosphere", iono)):

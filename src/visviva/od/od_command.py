@@ -67,9 +67,11 @@ def add_parser(sub) -> None:
                    metavar="vtec=TECU[,shell=KM] | klobuchar=A0,..,A3,B0,..,B3",
                    help="model the ionosphere's delay in range and range-rate data not "
                    "corrected for it: a vertical TEC (TEC units) on a thin shell (350 km "
-                   "default), or the GPS broadcast (Klobuchar) coefficients; needs --frequency")
+                   "default), or the GPS broadcast (Klobuchar) coefficients; at --frequency, or at the "
+                   "TDM's TRANSMIT_FREQ/RECEIVE_FREQ lines")
     p.add_argument("--frequency", default=None, metavar="FREQ",
-                   help="with --ionosphere: the signal's frequency with its unit, e.g. 2.2GHz")
+                   help="with --ionosphere: the signal's frequency with its unit, e.g. 2.2GHz "
+                   "(for TDM segments without frequency lines; checked against them)")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "

@@ -63,8 +63,9 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     ionosphere : dict, optional
         Put the ionosphere's delay in the data (``{"vtec_tecu": 20.0}`` or ``{"klobuchar":
         (alpha, beta)}``; see :class:`~visviva.Observations`); needs ``frequency_hz``.
-    frequency_hz : float or Quantity, optional
-        The signal's frequency, Hz.
+    frequency_hz : float or Quantity, or one per row, optional
+        The signal's frequency, Hz (a two-way link's:
+        :func:`visviva.od.ionosphere.two_way_frequency_hz`).
 
     Returns
     -------
@@ -119,7 +120,8 @@ def _placeholder(kind, n):
 
 def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
                       min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True,
-                      maneuvers=None):  # fmt: skip
+                      maneuvers=None, troposphere=False, ionosphere=None,
+                      frequency_hz=None):  # fmt: skip
     """A tracking campaign: every station measures whenever the satellite is high enough.
 
     Parameters
@@ -144,12 +146,22 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         Include the signal's flight time (default; see :class:`~visviva.Observations`).
     maneuvers : list of ImpulsiveBurn / FiniteBurn, optional
         Burns the truth flies (see :func:`simulate_observations`).
+    troposphere : bool or dict
+        Put the neutral atmosphere in the data (see :class:`~visviva.Observations`); the
+        elevation mask then applies to the refracted (apparent) elevation, as an antenna
+        pointing at the satellite sees it.
+    ionosphere : dict, optional
+        Put the ionosphere's delay in the range and range-rate data (see
+        :func:`simulate_observations`); needs ``frequency_hz``.
+    frequency_hz : float or Quantity, optional
+        The signal's frequency, Hz (one for every row).
 
     Returns
     -------
     Observations
         Rows sorted by time (at one time: stations in the given order, then ``measurements``
-        in order).
+        in order), with ``troposphere``, ``ionosphere`` and ``frequency_hz``: each value is
+        what :func:`simulate_observations` gives at its time with the same arguments.
 
     Raises
     ------
@@ -160,10 +172,12 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
 
     el_min = float(to_array(min_elevation, "angle", "min_elevation"))
     measurements = _measurement_pairs(measurements)
+    # one set of media for the look (the mask) and the data: simulate_observations checks it
+    media = {"troposphere": troposphere, "ionosphere": ionosphere, "frequency_hz": frequency_hz}
     rows = []
     for order, s in enumerate(stations):
         look = simulate_observations(state, times, "azel", 1e-9, s, perturbations, seed=False,
-                                     maneuvers=maneuvers)
+                                     maneuvers=maneuvers, **media)
         for i in np.flatnonzero(look.values[:, 1] > el_min):
             rows += [(i, order, k, sigma, s) for k, sigma in measurements]
     if not rows:
@@ -175,7 +189,7 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
     return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
                                  perturbations, seed=seed, light_time=light_time,
-                                 maneuvers=maneuvers)  # fmt: skip
+                                 maneuvers=maneuvers, **media)  # fmt: skip
 
 
 def _measurement_pairs(measurements):

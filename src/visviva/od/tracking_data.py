@@ -35,9 +35,15 @@ standard leaves a choice), each applied or refused with a message saying what to
   (RADEC) and nonzero ``TRANSMIT_DELAY_n``/``RECEIVE_DELAY_n`` (range) are refused unless listed
   in ``ignore`` (say so when they are already in ``CORRECTION_RANGE``).
 * **DATA_QUALITY** is kept on each segment; ``quality=("VALIDATED",)`` keeps only those.
-* Every other data keyword (frequencies, phase counts, ``CLOCK_*``, ``TROPO_*``, ``STEC``,
-  ``PC_N0``, ``MAG``, ``RCS`` ...) stays in the :class:`~visviva.TDM` and is named, with its
-  line count, in one :class:`~visviva.errors.TrackingDataWarning`.
+* **Frequencies.** With ``ionosphere=``, the delay of each range and Doppler row is at the
+  link's frequency read from the segment's ``TRANSMIT_FREQ_n`` / ``RECEIVE_FREQ_n`` lines
+  (``RECEIVE_FREQ`` plus ``FREQ_OFFSET``; ``TURNAROUND_NUMERATOR/DENOMINATOR``; the last line
+  at or before the row's epoch; the two-way frequency of uplink and downlink:
+  :mod:`visviva.od.link_frequencies`), else at ``frequency_hz``; both given and more than 1 %
+  apart is refused, naming the line.
+* Every other data keyword (frequencies without ``ionosphere=``, phase counts, ``CLOCK_*``,
+  ``TROPO_*``, ``STEC``, ``PC_N0``, ``MAG``, ``RCS`` ...) stays in the :class:`~visviva.TDM`
+  and is named, with its line count, in one :class:`~visviva.errors.TrackingDataWarning`.
 """
 
 from __future__ import annotations
@@ -174,8 +180,11 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         (alpha, beta)}``; see :class:`~visviva.Observations`), for radio data not corrected
         for it (single frequency, no ``CORRECTION_RANGE``).
     frequency_hz : float or Quantity, optional
-        The signal's frequency (Hz), required by ``ionosphere``: the TDM's ``TRANSMIT_FREQ_n``
-        and ``RECEIVE_FREQ_n`` lines (offsets from ``FREQ_OFFSET``) are not read for it.
+        The signal's frequency (Hz), for ``ionosphere`` in segments without frequency lines.
+        Where a segment has ``TRANSMIT_FREQ_n`` / ``RECEIVE_FREQ_n`` lines, each range and
+        Doppler row is delayed at the link's two-way frequency read from them (see the module
+        notes and :mod:`visviva.od.link_frequencies`), and a ``frequency_hz`` more than 1 %
+        from both that row's downlink and its two-way frequency is refused.
 
     Returns
     -------
@@ -186,9 +195,11 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     ------
     CCSDSFormatError
         A segment whose data cannot be used as written (one-way path, lone angle, missing
-        ``ANGLE_TYPE`` ...), naming the line.
+        ``ANGLE_TYPE`` ...), or a frequency that disagrees with ``frequency_hz``, naming the line.
     InvalidInputError
-        A participant without a station, a kind without a sigma, no usable measurement.
+        A participant without a station, a kind without a sigma, no usable measurement, an
+        ``ionosphere`` with range or Doppler in a segment without frequency lines and no
+        ``frequency_hz``.
 
     Warns
     -----
@@ -210,6 +221,7 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         if bad:
             raise InvalidInputError(f"quality {bad[0]!r} is none of {', '.join(_QUALITIES)}")
     ignore = frozenset((ignore,) if isinstance(ignore, str) else ignore)
+    link = _link_option(ionosphere, frequency_hz)
     unused: dict = {}
     parts = []
     for seg in tdm.segments:
@@ -217,7 +229,7 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
             _count(unused, f"segments with DATA_QUALITY {seg.data_quality or '(none)'}", 1)
             continue
         parts += _segment_rows(seg, stations, ignore, unused, range_units_km,
-                               integrated_doppler, corrections_applied)
+                               integrated_doppler, corrections_applied, link)
     if not parts:
         raise InvalidInputError(
             "the TDM holds no measurement visviva models (RANGE, DOPPLER_INSTANTANEOUS, "
@@ -226,17 +238,33 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     if unused:
         warnings.warn("read but not used for orbit determination: " + ", ".join(
             f"{k} ({n})" for k, n in unused.items()), TrackingDataWarning, stacklevel=3)
+    if link is not None and link["read"]:  # some segment's frequency lines were read
+        frequency_hz = np.concatenate([p[4] for p in parts])  # one per row, sorted in _table
     return _table(parts, sigma, radec_reference, troposphere,
                   {"ionosphere": ionosphere, "frequency_hz": frequency_hz})
 
 
+def _link_option(ionosphere, frequency_hz):
+    """None (no ionosphere: frequency lines unused), or ``{"hz": the checked frequency_hz or
+    None, "read": whether a segment's frequency lines were read}``."""
+    if ionosphere is None or ionosphere is False:
+        return None
+    from .ionosphere import ionosphere_from
+
+    hz = None if frequency_hz is None else ionosphere_from(ionosphere, frequency_hz).frequency_hz
+    return {"hz": hz, "read": False}
+
+
 def _count(unused, key, n):
     unused[key] = unused.get(key, 0) + n
+    if unused[key] == 0:
+        del unused[key]
 
 
 def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_doppler,
-                  corrections_applied):  # fmt: skip
-    """[(times (TT), kinds, values, stations)] of one segment ([] if none); unused lines counted."""
+                  corrections_applied, link=None):  # fmt: skip
+    """[(times (TT), kinds, values, stations, frequencies (Hz, NaN where none))] of one
+    segment ([] if none); unused lines counted."""
     use = []
     for key in dict.fromkeys(seg.keywords):
         n = seg.keywords.count(key)
@@ -251,7 +279,7 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     for key in sorted(ignore):
         if key in meta:
             _count(unused, key, 1)
-    station, two_way = _station(seg, stations, src)
+    station, two_way, index = _station(seg, stations, src)
     ranging = [k for k in use if MODELLED[k] is not None]
     if ranging and not two_way:
         raise CCSDSFormatError(
@@ -295,6 +323,7 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     if "ANGLE_1" in use or "ANGLE_2" in use:
         rows += _angle_rows(seg, keys, values, lines, station, use, src)
     idx = np.array([r[0] for r in rows])
+    freqs = _row_frequencies(seg, link, index, idx, [r[1] for r in rows], unused, ignore, src)
     from ..satellites.frames import offline_iers
 
     with offline_iers():  # times in UT1 need the installed IERS table, never a download
@@ -303,11 +332,36 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
         from astropy import units as u
 
         t = t + shift[idx] * u.s
-    return [(t, [r[1] for r in rows], [r[2] for r in rows], [r[3] for r in rows])]
+    return [(t, [r[1] for r in rows], [r[2] for r in rows], [r[3] for r in rows], freqs)]
+
+
+def _row_frequencies(seg, link, index, idx, kinds, unused, ignore, src):
+    """The frequency (Hz) of each row for the ionosphere (NaN where none is needed)."""
+    freqs = np.full(len(idx), np.nan)
+    delayed = np.flatnonzero(np.isin(kinds, ["range", "range_rate"]))
+    if link is None or delayed.size == 0:
+        return freqs
+    from .link_frequencies import link_frequencies
+
+    path = seg.path
+    f, used = link_frequencies(seg, index, path[1], idx[delayed], link["hz"], src, ignore)
+    link["read"] = link["read"] or f is not None
+    for key in used:
+        _count(unused, key, -seg.keywords.count(key))
+    if f is None and link["hz"] is None:
+        meta = seg.metadata
+        raise InvalidInputError(
+            f"{src}, line {meta.line}: the segment has range or Doppler data but no "
+            "TRANSMIT_FREQ_n / RECEIVE_FREQ_n lines: the ionosphere's delay (40.3 TEC / f^2) "
+            "needs the link's frequency; give frequency_hz, e.g. 2.2e9 for S band (--frequency "
+            "2.2GHz on the command line)")
+    freqs[delayed] = link["hz"] if f is None else f
+    return freqs
 
 
 def _station(seg, stations, src):
-    """The GroundStation of the segment's path, and whether the path is two-way from it."""
+    """The GroundStation of the segment's path, whether the path is two-way from it, and its
+    participant number."""
     meta = seg.metadata
     mode = meta.get("MODE", "SEQUENTIAL")
     if mode != "SEQUENTIAL":
@@ -338,7 +392,7 @@ def _station(seg, stations, src):
         raise InvalidInputError(f"stations[{names[known[0]]!r}] is a "
                                 f"{type(station).__name__}, not a GroundStation")
     two_way = len(path) == 3 and path[0] == path[2] == known[0]
-    return station, two_way
+    return station, two_way, known[0]
 
 
 def _applied(meta, use, ignore, override, src):
@@ -497,6 +551,9 @@ def _table(parts, sigma, radec_reference, troposphere=False, media=None):
     times.precision = 9
     values = [v for p in parts for v in p[2]]
     sites = [s for p in parts for s in p[3]]
+    media = dict(media or {})
+    if np.ndim(media.get("frequency_hz")) == 1:  # one per row: sorted with the rows
+        media["frequency_hz"] = np.asarray(media["frequency_hz"])[order]
     return Observations(
         time=times, kind=[kinds[i] for i in order], value=[values[i] for i in order],
         sigma=[sigma[kinds[i]] for i in order], station=[sites[i] for i in order],

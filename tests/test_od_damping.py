@@ -112,3 +112,32 @@ def test_damping_refuses_unknown_values(obs):
     for bad in ("lm", True, 1.0):
         with pytest.raises(vv.InvalidInputError, match="damping must be"):
             vv.fit_orbit(obs, TRUTH, J2, damping=bad)
+
+
+def test_a_measurement_model_refusal_mid_fit_is_a_convergence_error(obs, monkeypatch):
+    # an iterate < 1 km above a station: the az/el refraction's finite-range correction
+    # (ground/finite_range.py) raised InvalidInputError mid-fit, "invalid input" for an
+    # iteration that wandered off; it is a ConvergenceError naming the iteration (no damping)
+    # or a rejected iterate (damping)
+    import visviva.od.batch as batch
+
+    real, calls = batch.model, []
+
+    def refuses_second(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise vv.InvalidInputError("range_km must be finite and positive (km) to refract")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(batch, "model", refuses_second)
+    near = _guess([1.0, -2.0, 0.5], [0.001, 0.0, -0.002])
+    with pytest.raises(vv.ConvergenceError, match="diverged at iteration 2") as info:
+        vv.fit_orbit(obs, near, J2, damping=None)
+    assert len(info.value.history) == 1 and "refract" in str(info.value)
+    calls.clear()
+    fit = vv.fit_orbit(obs, near, J2)
+    assert fit.history[1]["accepted"] is False and fit.history[1]["rms"] == np.inf
+    assert 0.7 < fit.rms < 1.3 and _nees(fit) < stats.chi2.ppf(0.999, 6)
+    calls[:] = [1]  # the first guess itself refused: the user's input, InvalidInputError
+    with pytest.raises(vv.InvalidInputError, match="refract"):
+        vv.fit_orbit(obs, near, J2)

@@ -280,3 +280,24 @@ def test_an_observer_without_a_horizon_is_refused_with_the_troposphere():
                         station=SpaceObserver(), troposphere=True)
     plain = simulate_observations(TRUTH, t, "range", 1e-3, SpaceObserver(), seed=1)
     assert len(plain) == len(t) and plain.troposphere is None
+
+
+def test_troposphere_takes_quantities_converted_once():
+    # the troposphere dict refused 1000 * u.hPa ("must be a number"): Quantities of the right
+    # kind are converted (hPa, K or deg_C, percent), wrong units refused with UnitsError
+    t = EPOCH + [0, 60] * u.s
+    args = dict(time=t, kind="range", value=[7000, 7001] * u.km, sigma=0.01, station=STATION)
+    plain = vv.Observations(**args, troposphere={"pressure_hpa": 900.0, "temperature_c": 5.0,
+                                                 "relative_humidity": 0.4})
+    given = vv.Observations(**args, troposphere={"pressure_hpa": 0.9 * u.bar,
+                                                 "temperature_c": 278.15 * u.K,
+                                                 "relative_humidity": 40 * u.percent})
+    np.testing.assert_allclose(given.troposphere.at(1600.0), plain.troposphere.at(1600.0),
+                               rtol=1e-12)
+    assert given.troposphere.at(0.0)[0] == pytest.approx(900.0, rel=1e-12)
+    for bad in ({"pressure_hpa": 900 * u.m}, {"temperature_c": 5 * u.s},
+                {"relative_humidity": 0.4 * u.kg}):
+        with pytest.raises(vv.errors.UnitsError, match="which is not a"):
+            vv.Observations(**args, troposphere=bad)
+    with pytest.raises(vv.InvalidInputError, match=r"\[100, 1100\] hPa"):
+        vv.Observations(**args, troposphere={"pressure_hpa": 5 * u.Pa})

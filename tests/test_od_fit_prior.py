@@ -209,3 +209,13 @@ def test_consider_with_an_a_priori_burn_lines_up_the_rows(prior):
     np.testing.assert_allclose(fit.consider_sensitivity[:6, 0], fd, rtol=1e-3,
                                atol=1e-3 * np.abs(fd).max())
     assert np.all(np.diag(fit.covariance) >= np.diag(fit.noise_covariance))
+
+
+@pytest.mark.parametrize("size", [3, 7])
+def test_an_apriori_covariance_of_another_size_is_refused_as_6x6_only(size):
+    # a 7x7 got "must be 6x6 or 3x3", then a 3x3 was refused as well: the message names 6x6
+    obs = vv.Observations(time=EPOCH + [0.0, 60.0] * u.s, kind="position",
+                          value=np.zeros((2, 3)) + [7000.0, 0, 0], sigma=0.01)
+    with pytest.raises(vv.errors.ShapeError, match="must be 6x6 on") as info:
+        vv.fit_orbit(obs, TRUTH, apriori_covariance=np.eye(size))
+    assert "3x3" not in str(info.value)

@@ -505,11 +505,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             err.history = history
             raise err
         rms = float(np.sqrt(np.mean(zn[use] ** 2)))
-        if lm.armed:  # on the accepted iterate's rows: a worse fit is stepped back from
-            cost = np.r_[zn[comp_mask & ~rejected[:, None]], pseudo(np.r_[x, dv, pv])]
-            if lm.rejects(float(np.sqrt(np.mean(cost**2)))):
-                x, dv, pv = retreat(it, rms, "the RMS grew")
-                continue
+        if lm.armed and lm.rejects(zn, comp_mask, pseudo(np.r_[x, dv, pv])):  # a worse fit
+            x, dv, pv = retreat(it, rms, "the RMS grew")
+            continue
         if not np.isfinite(rms):
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it} (RMS by iteration: "
@@ -573,7 +571,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             break
         rejected = new_rejected
         rms_prev = rms
-        lm.accept(A, b, np.r_[x, dv, pv])
+        lm.accept(A, b, np.r_[x, dv, pv], zn, use, n_meas)
         dx = lm.step(A, b, dx)  # Gauss-Newton's dx unless a step was rejected lately
         x = x + dx[:6]
         dv = dv + dx[6:n_dv]

@@ -89,7 +89,8 @@ def test_fit_with_the_burn_known_equals_the_truth_to_noise(plan):
     assert e @ np.linalg.solve(fit.covariance, e) < stats.chi2.ppf(0.999, 6)
     assert 0.7 < fit.rms < 1.3 and fit.estimated_maneuvers == [] and fit.delta_v.shape == (0, 3)
     # the burn left out: no orbit fits the data
-    blind = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[], outlier_sigma=None)
+    with pytest.warns(RuntimeWarning, match="converged with an RMS of"):  # and says so
+        blind = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[], outlier_sigma=None)
     assert blind.rms > 20 * fit.rms
 
 
@@ -264,7 +265,11 @@ def test_fit_through_a_known_finite_burn_and_a_burn_estimated_before_the_epoch(p
     obs = simulate_observations(TRUTH, times, kinds, sigmas, stations, FORCES,
                                 maneuvers=[early, finite], seed=6)
     start = vv.ImpulsiveBurn(-2 * 3600 * u.s, [0, 0, 0] * KMS, "TNW")
-    fit = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[start, finite], estimate_maneuvers=[0])
+    # rows shifted 4 h keep their stations but not their passes: synthetic through-the-Earth
+    # rows (the burns' partials are under test, not visibility), which the fit names
+    with pytest.warns(vv.errors.TrackingDataWarning, match="below their horizon"):
+        fit = vv.fit_orbit(obs, TRUTH, FORCES, maneuvers=[start, finite],
+                           estimate_maneuvers=[0])
     err = fit.delta_v.to_value(KMS)[0] - early.delta_v.to_value(KMS)
     assert np.all(np.abs(err) < 3.5 * fit.delta_v_sigma.to_value(KMS)[0])
     e = np.r_[_error(fit), err]

@@ -125,7 +125,8 @@ def test_fits_need_the_troposphere_of_the_data(visible):
     flat = vv.Observations(time=obs.times, kind=list(obs.kinds),
                            value=[obs.values[i, :obs.dims[i]] for i in range(len(obs))],
                            sigma=list(obs.sigmas), station=obs.stations)
-    bad = vv.fit_orbit(flat, guess, outlier_sigma=None)
+    with pytest.warns(RuntimeWarning, match="converged with an RMS of"):  # and says so
+        bad = vv.fit_orbit(flat, guess, outlier_sigma=None)
     e_bad = np.r_[bad.state.r.to_value(u.km), bad.state.v.to_value(KMS)] - Y0
     # measured: RMS 21.0 and NEES 688, 8.7 m from the truth (against 1.9 m with the model)
     assert bad.rms > 10 and e_bad @ np.linalg.solve(bad.covariance, e_bad) > 100
@@ -156,8 +157,13 @@ def test_a_diverging_fit_says_so(visible, recwarn):
     guess = vv.StateVectors((Y0[:3] + [2.0, -1.0, 1.0]) * u.km, (Y0[3:] + 2e-3) * KMS,
                             vv.EARTH, epoch=EPOCH)
     with pytest.raises(vv.ConvergenceError, match="diverged at iteration") as info:
-        vv.fit_orbit(obs, guess)
+        vv.fit_orbit(obs, guess, damping=None)
     assert "better initial state" in str(info.value) and len(info.value.history) >= 1
+    # damped (the default), the RMS falls slowly from 1.8e5: not within 25 iterations (it
+    # reaches the truth to 2 m in 79), and the error says so with its history
+    with pytest.raises(vv.ConvergenceError, match="did not converge in 25") as info:
+        vv.fit_orbit(obs, guess)
+    assert "better initial state" in str(info.value) and len(info.value.history) == 25
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
 
 
@@ -228,10 +234,14 @@ def test_a_fit_whose_residuals_overflow_says_what_to_do(visible):
     guess = vv.StateVectors((Y0[:3] + [100.0, 50.0, -30.0]) * u.km,
                             (Y0[3:] + [0.05, 0.0, 0.0]) * KMS, vv.EARTH, epoch=EPOCH)
     with pytest.raises(vv.ConvergenceError, match="diverged at iteration") as info:
-        vv.fit_orbit(obs, guess)
+        vv.fit_orbit(obs, guess, damping=None)
     msg = str(info.value)
     assert "RMS by iteration: 1: " in msg and "better initial state" in msg
     assert len(info.value.history) >= 1
+    # damped (the default), the overflowing iterates are rejected; the fit still fails, saying so
+    with pytest.raises(vv.ConvergenceError, match="better initial state") as info:
+        vv.fit_orbit(obs, guess)
+    assert any(not h["accepted"] for h in info.value.history)
 
 
 def _niell(sin_el, a, b, c):
@@ -271,3 +281,24 @@ def test_an_observer_without_a_horizon_is_refused_with_the_troposphere():
                         station=SpaceObserver(), troposphere=True)
     plain = simulate_observations(TRUTH, t, "range", 1e-3, SpaceObserver(), seed=1)
     assert len(plain) == len(t) and plain.troposphere is None
+
+
+def test_troposphere_takes_quantities_converted_once():
+    # the troposphere dict refused 1000 * u.hPa ("must be a number"): Quantities of the right
+    # kind are converted (hPa, K or deg_C, percent), wrong units refused with UnitsError
+    t = EPOCH + [0, 60] * u.s
+    args = dict(time=t, kind="range", value=[7000, 7001] * u.km, sigma=0.01, station=STATION)
+    plain = vv.Observations(**args, troposphere={"pressure_hpa": 900.0, "temperature_c": 5.0,
+                                                 "relative_humidity": 0.4})
+    given = vv.Observations(**args, troposphere={"pressure_hpa": 0.9 * u.bar,
+                                                 "temperature_c": 278.15 * u.K,
+                                                 "relative_humidity": 40 * u.percent})
+    np.testing.assert_allclose(given.troposphere.at(1600.0), plain.troposphere.at(1600.0),
+                               rtol=1e-12)
+    assert given.troposphere.at(0.0)[0] == pytest.approx(900.0, rel=1e-12)
+    for bad in ({"pressure_hpa": 900 * u.m}, {"temperature_c": 5 * u.s},
+                {"relative_humidity": 0.4 * u.kg}):
+        with pytest.raises(vv.errors.UnitsError, match="which is not a"):
+            vv.Observations(**args, troposphere=bad)
+    with pytest.raises(vv.InvalidInputError, match=r"\[100, 1100\] hPa"):
+        vv.Observations(**args, troposphere={"pressure_hpa": 5 * u.Pa})

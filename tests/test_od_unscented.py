@@ -400,3 +400,19 @@ def test_the_joint_factor_chained_over_linear_steps_is_exact(params):
     A = A2 @ A1
     want = np.block([[P, P @ A.T], [A @ P, A @ P @ A.T + A2 @ N1 @ A2.T + N2]])
     np.testing.assert_allclose(T @ T.T, want, rtol=0, atol=1e-11 * np.abs(want).max())
+
+
+def test_sigma_points_that_reach_the_surface_say_so():
+    # audit21 left propagate_many (the UKF's sigma points) unwatched: a point on an orbit
+    # through the Earth was integrated on below the surface (or ran out of steps with "a
+    # decaying orbit?"); it stops at the surface, naming the point and the time
+    from visviva.od.dynamics import Dynamics
+
+    y = np.array([[6878.0, 0.0, 0.0, 0.0, 4.7, 5.9],  # 500 km, perigee about 230 km
+                  [6878.0, 0.0, 0.0, 0.0, 2.0, 2.5]])  # perigee deep inside the Earth
+    dyn = Dynamics(vv.EARTH.gm_km3_s2, [vv.J2(vv.EARTH)], EPOCH, (0, 3000))
+    with pytest.raises(vv.errors.SurfaceImpact, match="state 1 of 2") as info:
+        dyn.propagate_many(y, np.array([3000.0]), threads=False)
+    assert info.value.state == 1 and 0 < info.value.t.to_value(u.s) < 3000
+    ok = dyn.propagate_many(y[:1], np.array([3000.0]), threads=False)  # the other one flies
+    assert np.all(np.isfinite(ok)) and np.linalg.norm(ok[0, 0, :3]) > 6500

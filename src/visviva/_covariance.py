@@ -50,7 +50,7 @@ def km_covariance(arr) -> KilometreCovariance:
 
 
 def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
-                  convert_marked: bool = False) -> np.ndarray:
+                  convert_marked: bool = False, sizes: tuple = (6, 3)) -> np.ndarray:
     """A covariance as a float64 array ``(..., 6, 6)`` or ``(..., 3, 3)``, checked.
 
     Parameters
@@ -71,6 +71,8 @@ def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
         radius, a CDM's m^2 fields): a :class:`KilometreCovariance` is converted from km.
         False (default) where it does not (rotations, linear propagation): the numbers are
         taken as they are, so the result keeps the unit the caller gave.
+    sizes : tuple of int
+        The matrix sizes the caller takes (default 6 and 3); others are refused, naming these.
 
     Returns
     -------
@@ -109,10 +111,13 @@ def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
             arr = np.array(cov, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(
-                f"{name} must be a numeric 6x6 or 3x3 array (in {plain})."
+                f"{name} must be a numeric {' or '.join(f'{k}x{k}' for k in sizes)} array "
+                f"(in {plain})."
             ) from exc
-    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2] or arr.shape[-1] not in (3, 6):
-        raise ShapeError(f"{name} must be 6x6 or 3x3 on its last two axes; got {arr.shape}.")
+    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2] or arr.shape[-1] not in sizes:
+        # the sizes the caller takes (a state's a priori: 6x6 only; audit20)
+        allowed = " or ".join(f"{k}x{k}" for k in sizes)
+        raise ShapeError(f"{name} must be {allowed} on its last two axes; got {arr.shape}.")
     if not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} contains NaN or infinite entries; fill them first.")
     scale = np.max(np.abs(arr)) if arr.size else 0.0

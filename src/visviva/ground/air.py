@@ -71,6 +71,34 @@ def radio_refractivity(pressure_hpa, temperature_k, vapour_hpa):
     return 77.6 / temperature_k * (pressure_hpa + 4810.0 * vapour_hpa / temperature_k)
 
 
+#: the unit each weather key's Quantity is converted to (astropy unit names), and its kind
+_AIR_UNITS = {"pressure_hpa": ("hPa", "pressure (hPa, Pa, bar)"),
+              "temperature_c": ("deg_C", "temperature (deg_C, K)"),
+              "relative_humidity": ("", "fraction (dimensionless or percent)")}
+
+
+def _air_value(key, value, name):
+    """A weather value as a plain number in its key's unit: a Quantity (``1000 * u.hPa``,
+    ``288 * u.K``, ``50 * u.percent``) converted once; plain numbers pass as they are."""
+    from .._units import is_quantity
+
+    if not is_quantity(value):
+        return value
+    from astropy import units as u
+
+    from ..errors import UnitsError
+
+    if value.size != 1:
+        raise InvalidInputError(f"{name} {key} must be one value; got shape {value.shape}.")
+    unit, kind = _AIR_UNITS[key]
+    try:
+        return float(value.to_value(u.Unit(unit), equivalencies=u.temperature()))
+    except u.UnitConversionError as exc:
+        raise UnitsError(
+            f"{name} {key} has unit '{value.unit}', which is not a {kind}; pass a Quantity "
+            f"of that kind or a plain number in {AIR_KEYS[key][2]}.") from exc
+
+
 def check_air(air, name: str):
     """A weather dict checked: ``(given, model)`` with ``given`` the numbers among
     ``pressure_hpa``, ``temperature_c``, ``relative_humidity`` as floats (absent keys are
@@ -85,6 +113,7 @@ def check_air(air, name: str):
         if key == "refraction":
             continue
         lo, hi, unit = AIR_KEYS[key]
+        value = _air_value(key, value, name)
         # a number (numpy scalars too), not a bool (True would read as 1)
         bad = isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) \
             or not lo <= float(value) <= hi

@@ -17,7 +17,9 @@ from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
+from .damping import Marquardt, solve
 from .fit_checks import warn_misfit
+from .initial_state import check_initial
 from .light_time import model
 from .measurements import residuals
 from .observations import KINDS, Observations
@@ -240,77 +242,10 @@ class OrbitFit:
         )
 
 
-def check_initial(initial, maneuvers=None):
-    from .._units import to_array, to_vector
-
-    if not (hasattr(initial, "r") and hasattr(initial, "v") and hasattr(initial, "gm")):
-        raise InvalidInputError(
-            "initial must be a vv.StateVectors first guess (e.g. from vv.gauss_angles or "
-            "vv.gibbs); got " + type(initial).__name__ + "."
-        )
-    if hasattr(initial, "to_states") and hasattr(initial, "times"):
-        # a CowellResult: its r, v are at .times (its .epoch is where the propagation began)
-        initial = initial.to_states()
-    from .._containers import refuse_pending
-    from ..satellites.satellite_states import require_gcrs
-
-    require_gcrs(initial, "orbit determination")
-    if maneuvers is None:
-        refuse_pending(initial, "orbit determination (fit_orbit, filter_orbit, "
-                       "simulate_observations)", "Pass maneuvers=opm.burns() to fly them (or "
-                       "maneuvers=[] to leave them out).")
-    r0 = to_vector(initial.r, "length", "initial.r")
-    v0 = to_vector(initial.v, "speed", "initial.v")
-    if r0.shape != (3,) or v0.shape != (3,):
-        raise InvalidInputError(f"initial must be one state (r shape (3,)); got {r0.shape}.")
-    gm = float(np.ravel(to_array(initial.gm, "gm", "initial.gm"))[0])
-    from ..satellites.cowell import central_body
-
-    body = central_body(gm, [])
-    if body.name != "earth":  # audit20: a Moon-centred guess "converged" on Earth tracking
-        raise InvalidInputError(
-            f"the state's gm = {gm:.10g} km3/s2 is the {body.name.capitalize()}'s: orbit "
-            "determination works in the GCRS, about the Earth (ground stations are on the "
-            "Earth, position rows are geocentric). Give a geocentric state (gm=vv.EARTH), "
-            f"converted from the {body.name.capitalize()}-centred one."
-        )
-    epoch = getattr(initial, "epoch", None)
-    if epoch is None:
-        raise InvalidInputError(
-            "initial has no epoch: build it with epoch=Time(...) (the estimate is the state at "
-            "that epoch)."
-        )
-    if not epoch.isscalar:
-        epoch = epoch.ravel()[0]
-    return np.concatenate([r0, v0]), gm, epoch
-
-
-def _solve(A, b):
-    """Least-squares step and covariance of the whitened system A dx = b (SVD, scaled)."""
-    scale = np.linalg.norm(A, axis=0)
-    if np.any(scale == 0):
-        raise InvalidInputError(
-            "the observations carry no information on some state component; add observations "
-            "of other kinds, from other stations or over a longer arc."
-        )
-    As = A / scale
-    U, s, Vt = np.linalg.svd(As, full_matrices=False)
-    if s[-1] <= s[0] * 1e-13:
-        raise InvalidInputError(
-            f"the observations do not determine the orbit (condition number "
-            f"{s[0] / max(s[-1], 1e-300):.2e}): add observations of other kinds, from other "
-            "stations or over a longer arc."
-        )
-    dx = (Vt.T @ ((U.T @ b) / s)) / scale
-    Vs = Vt.T / s
-    P = (Vs @ Vs.T) / np.outer(scale, scale)
-    return dx, P
-
-
 def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
               estimate_maneuvers=None, estimate=None, parameter_sigma=None, consider=None,
               apriori_covariance=None, max_iterations=25, tol=1e-5, outlier_sigma=4.0,
-              rtol=None, atol=None):  # fmt: skip
+              rtol=None, atol=None, damping="auto"):  # fmt: skip
     """Estimate an orbit from observations by batch weighted least squares.
 
     Parameters
@@ -504,6 +439,26 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     history = []
     rms_prev = None
     converged = False
+    lm = Marquardt(damping, tol)
+
+    def retreat(it, rms, why):  # a rejected iterate: a damped step from the accepted one
+        history.append({"iteration": it, "rms": rms, "n_rejected": int(rejected.sum()),
+                        "correction": None, "damping": lm.used, "accepted": False})
+        p = lm.retreat()
+        if p is None:
+            err = ConvergenceError(
+                f"the orbit fit diverged at iteration {it}: no damped step (up to lambda "
+                f"{lm.lam / 10:.3g}) from the last accepted iterate lowers the RMS ({why}). "
+                "Start from a better initial state (IOD) or fit a shorter arc first.")
+            err.history = history
+            raise err
+        return p[:6], p[6:n_dv], p[n_dv:]
+
+    def pseudo(p):  # the a priori rows' residuals at the unknowns p
+        out = [w @ (value - p[col:col + w.shape[1]]) for col, w, value in priors]
+        return np.concatenate(out + ([prior_rows(est, p[n_dv:], n_dv, n_par)[1]] if est else [])
+                              + [np.zeros(0)])
+
     for it in range(1, max_iterations + 1):
         for j, i in enumerate(chosen):  # the estimated burns fly the current Δv
             flown[i] = burns[i].with_delta_v(dv[3 * j:3 * j + 3])
@@ -512,18 +467,24 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             dyn.schedule = Schedule([(a, b, swap.get(id(m), m)) for a, b, m in schedule.items])
         for j, c in enumerate(est):  # the estimated coefficients fly their current value
             c.write(dyn, pv[j])
+        y = None
         try:
             y, phi = dyn.propagate(x, offsets, parameters=with_params)
+            with np.errstate(over="ignore", invalid="ignore"):  # a wild estimate: checked below
+                h, H = model(observations, y, gm)
         except VisvivaError as exc:
+            if it == 1 and y is not None and isinstance(exc, InvalidInputError):
+                raise  # the measurement model refuses the first guess itself
+            if lm.armed:
+                x, dv, pv = retreat(it, float("inf"), f"iteration {it}: {exc}")
+                continue
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the estimate's trajectory cannot be "
-                f"integrated ({exc}). Start from a better initial state (IOD) or fit a shorter "
-                "arc."
+                f"integrated or measured ({exc}). Start from a better initial state (IOD) or "
+                "fit a shorter arc."
             )
             err.history = history
             raise err from exc
-        with np.errstate(over="ignore", invalid="ignore"):  # a wild estimate: checked below
-            h, H = model(observations, y, gm)
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if outlier_sigma is not None and rms_prev is not None:
@@ -544,6 +505,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             err.history = history
             raise err
         rms = float(np.sqrt(np.mean(zn[use] ** 2)))
+        if lm.armed and lm.rejects(zn, comp_mask, pseudo(np.r_[x, dv, pv])):  # a worse fit
+            x, dv, pv = retreat(it, rms, "the RMS grew")
+            continue
         if not np.isfinite(rms):
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it} (RMS by iteration: "
@@ -570,6 +534,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             pa, pb = prior_rows(est, pv, n_dv, n_par)
             A, b = np.vstack([A, pa]), np.concatenate([b, pb])
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+            if lm.armed:
+                x, dv, pv = retreat(it, rms, "the partials are not finite")
+                continue
             err = ConvergenceError(
                 f"the orbit fit diverged at iteration {it}: the measurement partials are not "
                 "finite (the trajectory left the model's domain). Start from a better initial "
@@ -578,7 +545,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             err.history = history
             raise err
         try:
-            dx, P = _solve(A, b)
+            dx, P = solve(A, b)
         except InvalidInputError as exc:
             if it == 1:  # the data themselves
                 raise
@@ -594,8 +561,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         # no inverse (solving P raised numpy's LinAlgError on an ill-conditioned step; audit20)
         step = float(np.linalg.norm(A @ dx) / np.sqrt(n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
-                        "correction": step})  # fmt: skip
-        settled = rms_prev is not None and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300)
+                        "correction": step, "damping": lm.used, "accepted": True})  # fmt: skip
+        settled = (rms_prev is not None and lm.used == 0.0  # a damped step is short: not settled
+                   and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300))
         if (settled or step < 1e-4) and np.array_equal(new_rejected, rejected) and it > 1:
             converged = True
             break
@@ -603,6 +571,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             break
         rejected = new_rejected
         rms_prev = rms
+        lm.accept(A, b, np.r_[x, dv, pv], zn, use, n_meas)
+        dx = lm.step(A, b, dx)  # Gauss-Newton's dx unless a step was rejected lately
         x = x + dx[:6]
         dv = dv + dx[6:n_dv]
         pv = pv + dx[n_dv:]

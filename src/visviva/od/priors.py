@@ -63,7 +63,7 @@ def state_covariance(covariance, name="covariance"):
     semi-definite."""
     from .._covariance import as_covariance, check_shape, require_psd
 
-    P = as_covariance(covariance, name, length_unit="km")
+    P = as_covariance(covariance, name, length_unit="km", sizes=(6,))
     check_shape(P, name)
     require_psd(P, name)
     return P

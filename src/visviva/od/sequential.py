@@ -19,8 +19,8 @@ import numpy as np
 
 from .._covariance import km_covariance
 from ..errors import ConvergenceError, InvalidInputError
-from .batch import check_initial
 from .extended import ekf_pass, initial_impulses
+from .initial_state import check_initial
 from .light_time import model
 from .measurements import residuals
 from .observations import Observations

@@ -87,7 +87,7 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     exact = Observations(time=times, kind=kind, value=_placeholder(kind, len(times)),
                          sigma=sigma, station=station, **flags)  # fmt: skip
     from ..satellites.burn_segments import burn_schedule
-    from .batch import check_initial
+    from .initial_state import check_initial
 
     x, gm, epoch = check_initial(state, maneuvers)
     offsets = exact.offsets_s(epoch)

@@ -151,6 +151,8 @@ class Dynamics:
         import numba
 
         from ..core.cowell import integrate_cowell_many, rhs_kind
+        from .cowell_batch import _NONE, _SURFACE
+        from .surface import watched_body
 
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
         t = np.ascontiguousarray(offsets_s, dtype=np.float64)
@@ -164,17 +166,33 @@ class Dynamics:
             force = np.repeat(force, n, axis=0)
             for slot, factors in per_state.items():
                 force[:, slot] *= factors
+        # each state stops at the surface, as propagate_cowell's batches do (audit21)
+        watched = watched_body(self.gm, self.perturbations, y0[:, :3]) is not None
+        kinds, params, dirs = _SURFACE if watched else _NONE
         before = numba.get_num_threads()
         if not threads:
             numba.set_num_threads(1)
         try:
             integrate_cowell_many(
                 y0, t, float(t[-1]), self.rtol, self.atol, np.inf, max_steps, force,
-                *arrays[1:], *dop853_tableau(), y_out, status, info, rhs_kind(arrays[0]),
-                _NO_EVENTS[0], _NO_EVENTS[1], _NO_EVENTS[0],
+                *arrays[1:], *dop853_tableau(), y_out, status, info,
+                rhs_kind(arrays[0], kinds), kinds, params, dirs,
             )  # fmt: skip
         finally:
             numba.set_num_threads(before)
+        hit = np.flatnonzero(info[:, 5] >= 0)
+        if hit.size:
+            from astropy import units as u
+
+            from ..errors import SurfaceImpact
+
+            k = int(hit[0])
+            raise SurfaceImpact(
+                f"state {k} of {n} (a sigma point) reached the central body's surface "
+                f"{info[k, 4]:.3f} s after the start of the step: the orbit (or the spread of "
+                "the covariance about it) decays or passes below the surface; the force model "
+                "means nothing there. Check the state and covariance (a perigee this low?), or "
+                "shorten the arc.", t=info[k, 4] * u.s, state=k)
         if np.any(status != 0) and np.any(info[:, 2] >= max_steps):
             raise StepSizeError(
                 f"the integration used its whole step budget ({max_steps} steps); use a "

@@ -1,0 +1,143 @@
+"""Levenberg-Marquardt damping of the batch fit (fit_orbit(damping=)): far first guesses
+converge to the truth within its sigmas, fits that converge without damping are unchanged bit
+for bit, the covariance is the undamped one, and a failed fit still reports its history."""
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+from scipy import stats
+
+import visviva as vv
+from visviva.od.damping import solve
+
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+KMS = u.km / u.s
+TRUTH = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                        epoch=EPOCH)
+Y_TRUE = np.r_[TRUTH.r.to_value(u.km), TRUTH.v.to_value(KMS)]
+STATIONS = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km),
+            vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km),
+            vv.GroundStation(15 * u.deg, 150 * u.deg, 0.0 * u.km)]
+J2 = [vv.J2(vv.EARTH)]
+# 50 km / 50 m/s and 200 km off: plain Gauss-Newton diverges from these or settles in a
+# local minimum at an RMS of thousands
+FAR = {"50 km a": ([18.243, 46.203, -5.697], [0.0438, -0.02132, 0.01127]),
+       "50 km b": ([38.484, 4.004, -31.67], [-0.04379, -0.02175, 0.01046]),
+       "50 km c": ([-48.387, -10.025, -7.631], [0.03966, 0.01574, 0.02606]),
+       "200 km": ([-127.076, -25.191, 152.371], [0.0, 0.0, 0.0])}
+
+
+@pytest.fixture(scope="module")
+def obs():
+    """Six hours of range, range rate and az/el from three stations (their passes), J2."""
+    return vv.od.simulate_tracking(TRUTH, STATIONS, EPOCH + np.arange(0, 6 * 3600, 60) * u.s,
+                                   J2, seed=1, measurements={"range": 0.01, "range_rate": 1e-5,
+                                                             "azel": np.radians(0.01)})
+
+
+def _guess(dr, dv):
+    return vv.StateVectors(TRUTH.r + np.array(dr) * u.km, TRUTH.v + np.array(dv) * KMS,
+                           vv.EARTH, epoch=EPOCH)
+
+
+def _nees(fit):
+    e = np.r_[fit.state.r.to_value(u.km), fit.state.v.to_value(KMS)] - Y_TRUE
+    return float(e @ np.linalg.solve(fit.covariance, e))
+
+
+@pytest.mark.parametrize("name", list(FAR))
+def test_far_guesses_converge_with_damping_and_not_without(obs, name):
+    guess = _guess(*FAR[name])
+    import warnings
+
+    with warnings.catch_warnings():  # Gauss-Newton fails, or settles far off (and warns)
+        warnings.simplefilter("ignore")
+        try:
+            plain = vv.fit_orbit(obs, guess, J2, damping=None)
+        except vv.ConvergenceError:
+            plain = None
+    assert plain is None or plain.rms > 1e3
+    fit = vv.fit_orbit(obs, guess, J2)
+    assert 0.7 < fit.rms < 1.3
+    assert _nees(fit) < stats.chi2.ppf(0.999, 6)  # within its sigmas of the truth
+    assert np.linalg.norm(fit.state.r.to_value(u.km) - Y_TRUE[:3]) < 0.05
+    rejected = [h for h in fit.history if not h["accepted"]]
+    assert rejected and all(h["correction"] is None and h["damping"] >= 0 for h in rejected)
+    assert any(h["damping"] > 0 for h in fit.history if h["accepted"])
+    # the accepted iterates' RMS never grows (beyond tol); the rejected ones are stepped back
+    acc = [h["rms"] for h in fit.history if h["accepted"]]
+    assert [h["iteration"] for h in fit.history] == list(range(1, fit.iterations + 1))
+    assert acc[-1] < acc[0]
+
+
+def test_damped_fit_reports_the_undamped_covariance(obs):
+    fit = vv.fit_orbit(obs, _guess(*FAR["50 km c"]), J2)
+    assert any(not h["accepted"] for h in fit.history)
+    again = vv.fit_orbit(obs, fit.state, J2, damping=None)  # Gauss-Newton at the solution
+    np.testing.assert_allclose(fit.covariance, again.covariance, rtol=1e-5)
+    # a damped solve would shrink it
+    A = np.array([[1.0, 2.0], [0.5, -1.0], [0.1, 0.3]])
+    b = np.array([1.0, 2.0, 3.0])
+    dx0, p0 = solve(A, b)
+    dx1, p1 = solve(A, b, 1e-1)
+    np.testing.assert_array_equal(p0, p1)
+    np.testing.assert_allclose(dx0, np.linalg.lstsq(A, b, rcond=None)[0], rtol=1e-12)
+    d = np.diag(A.T @ A)
+    np.testing.assert_allclose(dx1, np.linalg.solve(A.T @ A + 0.1 * np.diag(d), A.T @ b),
+                               rtol=1e-12)
+
+
+def test_converging_fits_are_unchanged_bit_for_bit(obs):
+    near = _guess([1.0, -2.0, 0.5], [0.001, 0.0, -0.002])
+    for kw in ({}, {"outlier_sigma": None}):
+        a = vv.fit_orbit(obs, near, J2, **kw)
+        b = vv.fit_orbit(obs, near, J2, damping=None, **kw)
+        assert all(h["accepted"] and h["damping"] == 0 for h in a.history)
+        np.testing.assert_array_equal(a.state.r.to_value(u.km), b.state.r.to_value(u.km))
+        np.testing.assert_array_equal(a.state.v.to_value(KMS), b.state.v.to_value(KMS))
+        np.testing.assert_array_equal(a.covariance, b.covariance)
+        assert a.history == b.history and a.iterations == b.iterations
+
+
+def test_a_damped_fit_that_fails_reports_its_history(obs):
+    with pytest.raises(vv.ConvergenceError, match="did not converge") as info:
+        vv.fit_orbit(obs, _guess(*FAR["50 km a"]), J2, max_iterations=4)
+    hist = info.value.history
+    assert len(hist) == 4 and any(not h["accepted"] for h in hist)
+    assert {"iteration", "rms", "n_rejected", "correction", "damping", "accepted"} <= set(hist[0])
+
+
+def test_damping_refuses_unknown_values(obs):
+    for bad in ("lm", True, 1.0):
+        with pytest.raises(vv.InvalidInputError, match="damping must be"):
+            vv.fit_orbit(obs, TRUTH, J2, damping=bad)
+
+
+def test_a_measurement_model_refusal_mid_fit_is_a_convergence_error(obs, monkeypatch):
+    # an iterate < 1 km above a station: the az/el refraction's finite-range correction
+    # (ground/finite_range.py) raised InvalidInputError mid-fit, "invalid input" for an
+    # iteration that wandered off; it is a ConvergenceError naming the iteration (no damping)
+    # or a rejected iterate (damping)
+    import visviva.od.batch as batch
+
+    real, calls = batch.model, []
+
+    def refuses_second(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise vv.InvalidInputError("range_km must be finite and positive (km) to refract")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(batch, "model", refuses_second)
+    near = _guess([1.0, -2.0, 0.5], [0.001, 0.0, -0.002])
+    with pytest.raises(vv.ConvergenceError, match="diverged at iteration 2") as info:
+        vv.fit_orbit(obs, near, J2, damping=None)
+    assert len(info.value.history) == 1 and "refract" in str(info.value)
+    calls.clear()
+    fit = vv.fit_orbit(obs, near, J2)
+    assert fit.history[1]["accepted"] is False and fit.history[1]["rms"] == np.inf
+    assert 0.7 < fit.rms < 1.3 and _nees(fit) < stats.chi2.ppf(0.999, 6)
+    calls[:] = [1]  # the first guess itself refused: the user's input, InvalidInputError
+    with pytest.raises(vv.InvalidInputError, match="refract"):
+        vv.fit_orbit(obs, near, J2)

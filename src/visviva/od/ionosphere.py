@@ -268,17 +268,6 @@ def klobuchar_l1_s(lat_rad, lon_rad, az, el, gps_seconds, alpha, beta):
     return f * (5e-9 + day)
 
 
-def _gps_seconds(observations, rows):
-    """GPS seconds of the table's rows (cached)."""
-    if "gps_seconds" not in observations._cache:
-        from ..satellites.frames import offline_iers
-
-        with offline_iers():
-            observations._cache["gps_seconds"] = np.asarray(observations.times.gps,
-                                                            dtype=np.float64).reshape(-1)
-    return observations._cache["gps_seconds"][rows]
-
-
 def _station_lat_lon(stations):
     out = np.zeros((len(stations), 2))
     for i, s in enumerate(stations):
@@ -324,7 +313,7 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
     idx = np.flatnonzero(media)
     sight = line_of_sight(y[idx], site_r[idx], site_v[idx], enu[idx])
     ll = _station_lat_lon([observations.stations[i] for i in np.asarray(rows)[idx]])
-    gps = _gps_seconds(observations, np.asarray(rows)[idx])
+    gps = observations.gps_seconds()[np.asarray(rows)[idx]]
     freq = iono.row_frequencies(np.asarray(rows)[idx])
     delay, grad, d_dt = slopes(iono, ll[:, 0], ll[:, 1], sight.az, sight.el, gps, freq)
     delay, grad, d_dt = delay / 1000.0, grad / 1000.0, d_dt / 1000.0  # km

@@ -416,3 +416,15 @@ class Observations:
             self._cache["earth_velocity"] = np.asarray(
                 vel.xyz.to_value("km/s"), dtype=np.float64).T.reshape(len(self), 3)  # fmt: skip
         return self._cache["earth_velocity"]
+
+    def gps_seconds(self):
+        """Each row's time as seconds of the GPS time scale since 1980-01-06 (N,), float64:
+        the clock of the Klobuchar ionosphere (:mod:`visviva.od.ionosphere`); cached, with
+        astropy's bundled IERS data (no download)."""
+        if "gps_seconds" not in self._cache:
+            from ..satellites.frames import offline_iers
+
+            with offline_iers():
+                self._cache["gps_seconds"] = np.asarray(self.times.gps,
+                                                        dtype=np.float64).reshape(-1)
+        return self._cache["gps_seconds"]

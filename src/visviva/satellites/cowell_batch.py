@@ -17,12 +17,18 @@ from ..core.cowell import integrate_cowell_many, rhs_kind
 from ..errors import StepSizeError, raise_for_status
 from .dop853 import dop853_tableau
 
-__all__ = ["propagate_batch", "run_many", "raise_budget"]
+__all__ = ["propagate_batch", "run_many", "raise_budget", "terminal_events"]
 
 #: the terminal events of the parallel kernel: none, or the surface (kind 0, altitude 0, both
 #: directions; :class:`visviva.satellites.surface.SurfaceCrossing`)
 _NONE = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64))
 _SURFACE = (np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros(1, dtype=np.int64))
+
+
+def terminal_events(surface: bool) -> tuple:
+    """The parallel kernel's terminal-event arrays ``(kinds, params, directions)``: the surface
+    (geodetic altitude 0) when ``surface``, else none (shared, read-only)."""
+    return _SURFACE if surface else _NONE
 
 
 def run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, surface=False):
@@ -36,7 +42,7 @@ def run_many(y0, t_out, t_end, model, rtol, atol, h_max, max_steps, surface=Fals
     status = np.zeros(n, dtype=np.int64)
     info = np.zeros((n, 6))
     arrays = model.arrays()  # one force block (1, F) for all N
-    kinds, params, dirs = _SURFACE if surface else _NONE
+    kinds, params, dirs = terminal_events(surface)
     integrate_cowell_many(
         y0, t_out, t_end, rtol, atol, h_max, max_steps, arrays[0][None], *arrays[1:],
         *dop853_tableau(), y_out, status, info, rhs_kind(model.force, kinds), kinds, params, dirs,

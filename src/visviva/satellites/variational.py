@@ -151,7 +151,7 @@ class Dynamics:
         import numba
 
         from ..core.cowell import integrate_cowell_many, rhs_kind
-        from .cowell_batch import _NONE, _SURFACE
+        from .cowell_batch import terminal_events
         from .surface import watched_body
 
         y0 = np.ascontiguousarray(y0, dtype=np.float64)
@@ -168,7 +168,7 @@ class Dynamics:
                 force[:, slot] *= factors
         # each state stops at the surface, as propagate_cowell's batches do (audit21)
         watched = watched_body(self.gm, self.perturbations, y0[:, :3]) is not None
-        kinds, params, dirs = _SURFACE if watched else _NONE
+        kinds, params, dirs = terminal_events(watched)
         before = numba.get_num_threads()
         if not threads:
             numba.set_num_threads(1)

@@ -3,6 +3,8 @@ ITU-R P.834-9's fits and the textbook high-elevation limit; humid against dry ai
 refractivity says; slopes against central differences; the standard air at the station's
 height in look(); the weather dict shared with Observations(troposphere=...); bad input."""
 
+import math
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -325,7 +327,7 @@ def test_bad_input_is_refused_clearly():
         refraction_deg(5.0, model="microwave")
     with pytest.raises(vv.InvalidInputError, match="exceeds the air pressure"):
         refraction_deg(5.0, 20.0, 40.0, relative_humidity=1.0, model="radio")
-    with pytest.raises(vv.InvalidInputError, match="ducting"):
+    with pytest.raises(vv.InvalidInputError, match="pressure_hpa"):
         refraction_deg(5.0, 5000.0, 0.0, model="radio")  # Pa read as hPa
     site = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg)
     sat = vv.Satellite.from_tle(ISS_1, ISS_2)
@@ -338,3 +340,38 @@ def test_bad_input_is_refused_clearly():
             site.look(sat, t, refraction=bad)
     with pytest.raises(vv.InvalidInputError, match="percentage"):
         vv.od.troposphere.weather_from({"relative_humidity": 50})
+
+
+def test_weather_in_the_wrong_units_is_refused_not_scaled():
+    # audit22: the optical formula scales with P / T, so a pressure in Pa gave 8.9 deg of
+    # refraction at 10 deg (100 times too much) and a temperature in K 10 times too little,
+    # silently; a Quantity or an array of pressures crashed with a TypeError
+    for model in ("optical", "radio"):
+        with pytest.raises(vv.InvalidInputError, match="looks like Pa: pass 1013.25 hPa"):
+            refraction_deg(10.0, 101325.0, 15.0, model=model)
+        with pytest.raises(vv.InvalidInputError, match="looks like kelvin: pass 15 deg C"):
+            refraction_deg(10.0, 1013.25, 288.15, model=model)
+        with pytest.raises(vv.InvalidInputError, match="looks like Pa"):
+            refraction_slope(10.0, 101325.0, 15.0, model=model)
+    with pytest.raises(vv.InvalidInputError, match="plain number in hPa"):
+        refraction_deg(10.0, 1013.0 * u.hPa)
+    with pytest.raises(vv.InvalidInputError, match="plain number in deg C"):
+        refraction_deg(10.0, 1013.0, 15.0 * u.deg_C)
+    with pytest.raises(vv.InvalidInputError, match="one number"):
+        refraction_deg([10.0, 20.0], np.array([1013.0, 900.0]))
+    with pytest.raises(vv.InvalidInputError, match="temperature_c"):
+        refraction_deg(10.0, 1013.0, np.nan)
+    # the range's ends still work: no air, and the coldest and warmest air of a weather dict
+    assert refraction_deg(10.0, 0.0, 15.0) == 0.0
+    assert 0.0 < refraction_deg(10.0, 1100.0, -90.0) < refraction_deg(0.0, 1100.0, 60.0)
+
+
+def test_refraction_slope_converts_an_angle_quantity():
+    # audit22: refraction_slope read 0.1 rad as 0.1 deg (-0.140 instead of -0.0184), silently
+    np.testing.assert_allclose(refraction_slope(0.1 * u.rad),
+                               refraction_slope(math.degrees(0.1)), rtol=1e-13)
+    np.testing.assert_allclose(refraction_slope(5.0 * u.deg), refraction_slope(5.0), rtol=1e-13)
+    e = np.array([2.0, 5.0, 30.0])
+    np.testing.assert_allclose(
+        refraction_slope(np.radians(e) * u.rad, model="radio", range_km=800.0 * u.km),
+        refraction_slope(e, model="radio", range_km=800.0), rtol=1e-6)

@@ -27,7 +27,14 @@ import math
 import numpy as np
 
 from ..errors import InvalidInputError
-from .air import Weather, check_air, check_humidity, radio_refractivity, saturation_vapour_hpa
+from .air import (
+    AIR_KEYS,
+    Weather,
+    check_air,
+    check_humidity,
+    radio_refractivity,
+    saturation_vapour_hpa,
+)
 from .radioray import radio_bending_deg, radio_table  # noqa: F401 (radio_bending_deg: re-export)
 
 __all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
@@ -35,6 +42,10 @@ __all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
 #: Above this surface refractivity an exponential profile with the P.453 decay traps rays
 #: (ducting: dN/dz < -157 per km) and the model stops meaning anything.
 _MAX_RADIO_N = 1000.0
+#: Highest pressure refraction_deg takes (hPa): above the densest real air (1085 hPa), room
+#: for a synthetic air (the ITU-R reference N_s = 315 dry is 1170 hPa at 15 deg C); a value in
+#: Pa (1e4 and up) is refused.
+_MAX_HPA = 1500.0
 #: Lowest geometric elevation the models cover (deg); the refraction is 0 below.
 _LOWEST_DEG = -1.0
 
@@ -49,9 +60,11 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
         Geometric elevation in [-90, 90] deg: plain numbers in degrees, or an angle Quantity
         (converted). NaN or infinite values are refused.
     pressure_hpa : float
-        Air pressure at the site, hPa (>= 0; default 1010).
+        Air pressure at the site, hPa, in [0, 1500] (default 1010; 0: no air). A plain number:
+        a value in Pa is refused.
     temperature_c : float
-        Air temperature at the site, deg C (above -273; default 10).
+        Air temperature at the site, deg C, in [-90, 60] (default 10; a value in K is
+        refused).
     relative_humidity : float
         Relative humidity at the site, a fraction in [0, 1] (default 0.5; a percentage such as
         70 is refused). Used by the radio model only.
@@ -106,14 +119,7 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     """
     from astropy import units as u
 
-    from .._units import is_quantity, to_array
-
-    quantity = is_quantity(elevation_deg)
-    if quantity:
-        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
-    else:
-        h = np.asarray(elevation_deg, dtype=np.float64)
-    _check_elevations(h)
+    h, quantity = _elevations_deg(elevation_deg)
     out = bend(h, model, pressure_hpa, temperature_c, relative_humidity,
                _check_range(range_km))[0]
     return out * u.deg if quantity else out
@@ -127,8 +133,9 @@ def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
 
     Parameters
     ----------
-    elevation_deg : float or array_like
-        Geometric elevation, deg, in [-90, 90] (NaN refused).
+    elevation_deg : float, array_like or Quantity (angle)
+        Geometric elevation in [-90, 90] deg: plain degrees or an angle Quantity (converted;
+        NaN refused).
     pressure_hpa, temperature_c, relative_humidity, model, range_km
         The site's air, the model and the target's range, as :func:`refraction_deg` (the
         slope at a fixed range).
@@ -139,8 +146,7 @@ def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
         The slope; ``1 + slope`` maps a change of geometric elevation (or its rate) to the
         apparent one.
     """
-    h = np.asarray(elevation_deg, dtype=np.float64)
-    _check_elevations(h)
+    h = _elevations_deg(elevation_deg)[0]
     return bend(h, model, pressure_hpa, temperature_c, relative_humidity,
                 _check_range(range_km))[1]
 
@@ -251,6 +257,20 @@ def station_air(refraction, height_m):
     return (model, *Weather(given, model).conditions(height_m))
 
 
+def _elevations_deg(elevation_deg):
+    """``elevation_deg`` as float degrees (an angle Quantity converted: 0.1 rad is 5.73 deg,
+    not 0.1 deg) and whether it was a Quantity; checked."""
+    from .._units import is_quantity, to_array
+
+    quantity = is_quantity(elevation_deg)
+    if quantity:
+        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
+    else:
+        h = np.asarray(elevation_deg, dtype=np.float64)
+    _check_elevations(h)
+    return h, quantity
+
+
 def _check_elevations(h) -> None:
     if not np.all(np.isfinite(h)):
         raise InvalidInputError(
@@ -263,14 +283,40 @@ def _check_elevations(h) -> None:
 
 
 def _check_pt(pressure_hpa, temperature_c) -> tuple[float, float]:
-    p = float(pressure_hpa)
-    t = float(temperature_c)
-    if not (math.isfinite(p) and p >= 0.0):
-        raise InvalidInputError(f"pressure_hpa must be >= 0 hPa and finite, got {p!r}.")
-    if not (math.isfinite(t) and t > -273.0):
-        raise InvalidInputError(f"temperature_c must be above -273 deg C (the formula's 0 K), "
-                                f"got {t!r}.")
-    return p, t
+    """The site's pressure (hPa) and temperature (deg C) as floats: plain scalars in the ranges
+    of a weather dict (:data:`visviva.ground.air.AIR_KEYS`; a pressure of 0 is no air). A
+    pressure in Pa or a temperature in K is refused with a hint, not turned into a refraction
+    100 times or 10 times off (the optical formula scales with P / T)."""
+    return (_check_weather_value(pressure_hpa, "pressure_hpa", (0.0, _MAX_HPA)),
+            _check_weather_value(temperature_c, "temperature_c"))
+
+
+def _check_weather_value(value, key: str, bounds=None) -> float:
+    from .._units import is_quantity
+
+    lo, hi, unit = AIR_KEYS[key]
+    lo, hi = (lo, hi) if bounds is None else bounds
+    if is_quantity(value):
+        raise InvalidInputError(
+            f"{key} takes a plain number in {unit}, got the Quantity {value!r}; pass e.g. "
+            f"value.to_value(u.{'hPa' if key == 'pressure_hpa' else 'deg_C'}"
+            f"{'' if key == 'pressure_hpa' else ', equivalencies=u.temperature()'}).")
+    if isinstance(value, bool | np.bool_) or np.ndim(value) != 0:
+        raise InvalidInputError(f"{key} must be one number in {unit} (the site's air), got "
+                                f"{value!r}.")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not lo <= x <= hi:
+        hint = ""
+        if key == "pressure_hpa" and 1e4 <= x <= 1.1e5:
+            hint = f" ({value!r} looks like Pa: pass {x / 100:g} hPa)"
+        elif key == "temperature_c" and 173.15 <= x <= 333.15:
+            hint = f" ({value!r} looks like kelvin: pass {x - 273.15:g} deg C)"
+        raise InvalidInputError(
+            f"{key} must be a finite number in [{lo:g}, {hi:g}] {unit}; got {value!r}{hint}.")
+    return x
 
 
 def _meeus_factor(pressure_hpa, temperature_c) -> float:

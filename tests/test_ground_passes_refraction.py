@@ -110,8 +110,10 @@ def test_shift_is_the_refraction_over_the_elevation_rate(iss, sites):
         assert np.all(early > 3.0)
 
 
-# the geometric search of the code before refraction (main at d11ffc4), ISS, 5 deg, both sites
-OLD_RISE_JD2 = [0.024784849519881025, 0.09008712265084662, 0.4518227596944542,
+# the geometric search of the code before refraction (main at d11ffc4), ISS, 5 deg, both sites;
+# the first rise 1 ulp (1e-11 s) later since the scan starts one sampling interval before the
+# window (audit22: rises just inside the window were lost), its polynomial's first breakpoint
+OLD_RISE_JD2 = [0.024784849519881136, 0.09008712265084662, 0.4518227596944542,
                 -0.4827417422029867, -0.4154626259504406, -0.36191589334217467,
                 -0.3481868990105941, -0.29434181710271856, -0.28211585054921606,
                 -0.21604717769707027]
@@ -294,3 +296,33 @@ def test_every_pass_reaches_its_threshold(iss, min_el, refraction):
     if len(rows):
         look = site.look(iss, rows["rise_time"], refraction=refraction)
         np.testing.assert_allclose(look.elevation.to_value(u.deg), min_el, atol=1e-4)
+
+
+@pytest.mark.parametrize("refraction", [False, True, "radio"])
+@pytest.mark.parametrize("offset_s", [0.5, 3.0])
+def test_rise_and_set_just_inside_the_window_are_kept(iss, sites, refraction, offset_s):
+    # audit22: a rise 0.5 s (geometric) or 3 s (apparent: the scan looks for a star's
+    # geometric threshold, up to 0.1 deg below a satellite's) after the window's start was
+    # lost: the scan's crossing fell before the window, SGP4 said "below" at t0, and the
+    # table showed the pass up at the window's start (a masked rise); the same at the end
+    site = sites[0]
+    full = vv.find_passes(iss, site, T0, T1, refraction=refraction)
+    for row in full[:2]:
+        rise, set_ = row["rise_time"], row["set_time"]
+        start = vv.find_passes(iss, site, rise - offset_s * u.s, rise + 1 * u.hour,
+                               refraction=refraction)
+        assert not start["rise_time"].mask[0], "the rise inside the window is reported"
+        assert abs((start["rise_time"][0] - rise).to_value(u.s)) < 1e-5
+        end = vv.find_passes(iss, site, set_ - 1 * u.hour, set_ + offset_s * u.s,
+                             refraction=refraction)
+        assert not end["set_time"].mask[-1], "the set inside the window is reported"
+        assert abs((end["set_time"][-1] - set_).to_value(u.s)) < 1e-5
+        # just after the rise / before the set: the pass is up at the window's edge
+        late = vv.find_passes(iss, site, rise + offset_s * u.s, rise + 1 * u.hour,
+                              refraction=refraction)
+        assert late["rise_time"].mask[0] and not late["culmination_time"].mask[0]
+        assert abs((late["set_time"][0] - set_).to_value(u.s)) < 1e-5
+        early = vv.find_passes(iss, site, set_ - 1 * u.hour, set_ - offset_s * u.s,
+                               refraction=refraction)
+        assert early["set_time"].mask[-1] and not early["culmination_time"].mask[-1]
+        assert len(early) == len(end) and len(late) == len(start)

@@ -310,6 +310,15 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_geo, 
         cut = t_hi < pad_s + span_s
     else:
         cut = np.zeros(len(idx), dtype=bool)
+    # the scan reaches one sampling interval (100 s in LEO) past each edge of the window: its
+    # crossings can be seconds off SGP4's, more under refraction (it scans for a star's
+    # geometric threshold, and a satellite's, less lifted, lies up to ~0.1 deg higher), and a
+    # rise a few seconds after the start was lost when its scan crossing fell before it. The
+    # correction clips to the window and drops what stays outside. Whole sampling intervals
+    # (multiples of 12.5 s, exact in binary) keep the samples where they were.
+    margin = h / _SAMPLES
+    scan_lo = t_lo - margin
+    scan_hi = np.minimum(t_hi + margin, t_reach)
     out_sat, out_sta, out_t, out_k = [], [], [], []
     cap = max(8, int(3 * span_s / h / 4) + 8)
     levels = np.unique(sin_geo)
@@ -325,7 +334,7 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_geo, 
             vc = np.ascontiguousarray(v[lo:hi])
             while True:
                 ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
-                _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], t_reach[lo:hi],
+                _topo.scan_passes(rc, vc, h, scan_lo[lo:hi], scan_hi[lo:hi], t_reach[lo:hi],
                                   _SAMPLES, g_sites, g_ups, float(level),
                                   np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st, fe)
                 if not (st == _topo.PAIR_OVERFLOW).any():

@@ -174,11 +174,12 @@ def test_bad_input_refused(iss, sites):
         vv.find_passes(iss, sites, T0, T1, refraction="visual")
     with pytest.raises(vv.InvalidInputError, match="relative_humidity"):
         vv.find_passes(iss, sites, T0, T1, refraction={"relative_humidity": 70})
-    # below the apparent elevation of -1 deg geometric (where the models end): refused
+    # below the apparent elevation of the models' end (optical: -1 deg geometric; radio: -1
+    # deg apparent): refused
     with pytest.raises(vv.InvalidInputError, match="lowest apparent elevation"):
         vv.find_passes(iss, sites, T0, T1, -0.5 * u.deg, refraction=True)
     with pytest.raises(vv.InvalidInputError, match="lowest apparent elevation"):
-        sites[0].find_events(iss, T0, T1, -0.5 * u.deg, refraction="radio")
+        sites[0].find_events(iss, T0, T1, -1.05 * u.deg, refraction="radio")
     # the same threshold without refraction is a geometric one, as before
     assert len(vv.find_passes(iss, sites[0], T0, T1, -0.5 * u.deg)) > 0
 
@@ -326,3 +327,25 @@ def test_rise_and_set_just_inside_the_window_are_kept(iss, sites, refraction, of
                                refraction=refraction)
         assert early["set_time"].mask[-1] and not early["culmination_time"].mask[-1]
         assert len(early) == len(end) and len(late) == len(start)
+
+
+
+def test_passes_in_tropical_radio_air_at_the_default_threshold(iss, sites):
+    # audit22: 31 deg C, 80 % humidity (N_s = 402) bends an antenna's ray 1.01 deg at -1 deg
+    # geometric: the search refused min_elevation 0 (the default) as below the models' range
+    air = {"pressure_hpa": 1009.0, "temperature_c": 31.0, "relative_humidity": 0.8,
+           "refraction": "radio"}
+    site = sites[0]
+    app = vv.find_passes(iss, site, T0, T1, refraction=air)
+    geo = vv.find_passes(iss, site, T0, T1)
+    assert len(app) >= len(geo) > 0
+    for col in ("rise_time", "set_time"):
+        t = app[col][~app[col].mask]
+        el = site.look(iss, t, refraction=air).elevation.to_value(u.deg)
+        np.testing.assert_allclose(el, 0.0, atol=1e-6)
+    # rises earlier than a standard air's radio horizon, which is earlier than the geometric
+    std = vv.find_passes(iss, site, T0, T1, refraction="radio")
+    assert np.all((app["rise_time"][:3] - std["rise_time"][:3]).to_value(u.s) < 0)
+    assert np.all((std["rise_time"][:3] - geo["rise_time"][:3]).to_value(u.s) < 0)
+    # down to -1 deg apparent for the radio model
+    assert len(vv.find_passes(iss, site, T0, T1, -0.9 * u.deg, refraction="radio")) >= len(std)

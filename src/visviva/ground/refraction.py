@@ -17,7 +17,11 @@ appears higher than its geometric elevation ``E`` by the refraction ``R(E)``. Tw
 Both are the bending of a ray from a target far outside the atmosphere (a star); a satellite at
 a finite range is offset less, by the bent ray's lever arm over the range (``range_km=``,
 :mod:`visviva.ground.finite_range`: 500 km up 0.947 of the bending at the horizon, 0.968 at
-5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below -1 deg of geometric elevation.
+5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below their lower end: -1 deg of geometric
+elevation for the optical formula; for the radio model the geometric elevation seen at -1 deg
+apparent (-2.37 deg at sea level in the standard air, -3.0 deg in tropical air), so that the
+bending of hot, humid air (1.0 deg at -1 deg geometric for 31 deg C, 80 %) is never cut off
+above the horizon.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from .air import (
 )
 from .radioray import radio_bending_deg, radio_table  # noqa: F401 (radio_bending_deg: re-export)
 
-__all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
+__all__ = ["refraction_deg", "refraction_slope", "station_air", "bend", "lowest_geometric_deg"]
 
 #: Above this surface refractivity an exponential profile with the P.453 decay traps rays
 #: (ducting: dN/dz < -157 per km) and the model stops meaning anything.
@@ -82,7 +86,8 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     Returns
     -------
     ndarray (deg), or Quantity (deg) for a Quantity ``elevation_deg``
-        ``>= 0``, decreasing with the elevation, 0 below -1 deg.
+        ``>= 0``, decreasing with the elevation, 0 below the model's lower end (optical:
+        -1 deg; radio: the geometric elevation seen at -1 deg apparent).
 
     Notes
     -----
@@ -128,8 +133,8 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
 def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
                      relative_humidity=0.5, model: str = "optical", range_km=None):
     """dR/dE of :func:`refraction_deg` (deg of refraction per deg of geometric elevation,
-    negative: optical -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below -1 deg where the refraction
-    is 0.
+    negative: optical -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below the model's lower end where
+    the refraction is 0.
 
     Parameters
     ----------
@@ -181,20 +186,22 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
         check_humidity(relative_humidity)
         r, slope = _saemundsson_arcmin(h)
         r, slope = r * scale / 60.0, slope * scale / 60.0
+        low = _LOWEST_DEG
     elif model == "radio":
         table = radio_table(_surface_refractivity(pressure_hpa, temperature_c,
                                                    relative_humidity))
         if table is None:  # no air
             r = slope = np.zeros_like(h)
+            low = _LOWEST_DEG
         else:
-            spline, lowest = table
-            hh = np.clip(h, lowest, 90.0)
-            r, slope = spline(hh), np.where(h < lowest, 0.0, spline(hh, 1))
+            spline, low = table  # down to the apparent elevation of -1 deg
+            hh = np.clip(h, low, 90.0)
+            r, slope = spline(hh), np.where(h < low, 0.0, spline(hh, 1))
     else:
         raise InvalidInputError(
             f"model must be 'optical' (light: Saemundsson's formula) or 'radio' (antennas); "
             f"got {model!r}.")
-    below = h < _LOWEST_DEG
+    below = h < low
     nan = np.isnan(h)
     # >= 0: the fits reach the zenith within 1e-9 deg, on either side
     r = np.where(below, 0.0, np.maximum(r, 0.0))
@@ -203,14 +210,14 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
     if range_km is not None:
         r, slope, d_range = _at_range(h, r, slope, range_km, model, pressure_hpa,
                                       temperature_c, relative_humidity,
-                                      exact_slope or range_slope)
+                                      exact_slope or range_slope, low)
         nan = np.broadcast_to(nan, r.shape)
     out = np.where(nan, np.nan, r), np.where(nan, np.nan, slope)
     return (*out, np.where(nan, np.nan, d_range)) if range_slope else out
 
 
 def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relative_humidity,
-              slopes=True):
+              slopes=True, low=-1.0):
     """``r`` and ``slope`` (of a target at infinity) for targets at ``range_km``: times the
     share ``k`` of :func:`visviva.ground.finite_range.range_factor`, traced through the
     station's radio refractivity, or the dry one for light."""
@@ -225,7 +232,7 @@ def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relativ
         p, t = _check_pt(pressure_hpa, temperature_c)
         n_ray = float(radio_refractivity(p, t + 273.15, 0.0))
     table = radio_table(n_ray)
-    on = np.isfinite(h) & (h >= _LOWEST_DEG)
+    on = np.isfinite(h) & (h >= low)
     if table is None or not on.any():
         return r, slope, d_range
     k, dk, dk_range = range_factor(h[on], rng[on], n_ray, table[0], slopes)
@@ -255,6 +262,16 @@ def station_air(refraction, height_m):
             f"Observations(troposphere=...) takes; got {refraction!r}.")
     given, model = check_air(spec, "refraction")
     return (model, *Weather(given, model).conditions(height_m))
+
+
+def lowest_geometric_deg(model, pressure_hpa, temperature_c, relative_humidity) -> float:
+    """The lower end of a model's refraction (deg of geometric elevation; 0 refraction below):
+    -1 deg for the optical formula, the geometric elevation seen at -1 deg apparent for the
+    radio table (-1 deg without air)."""
+    if model != "radio":
+        return _LOWEST_DEG
+    table = radio_table(_surface_refractivity(pressure_hpa, temperature_c, relative_humidity))
+    return _LOWEST_DEG if table is None else float(table[1])
 
 
 def _elevations_deg(elevation_deg):

@@ -349,3 +349,29 @@ def test_passes_in_tropical_radio_air_at_the_default_threshold(iss, sites):
     assert np.all((std["rise_time"][:3] - geo["rise_time"][:3]).to_value(u.s) < 0)
     # down to -1 deg apparent for the radio model
     assert len(vv.find_passes(iss, site, T0, T1, -0.9 * u.deg, refraction="radio")) >= len(std)
+
+
+@pytest.mark.parametrize("refraction", [False, True])
+@pytest.mark.parametrize("below", [1e-3, 1e-5])
+def test_a_threshold_just_below_a_high_maximum_keeps_rise_and_set(iss, sites, refraction,
+                                                                  below):
+    # audit22: with min_elevation 1e-3 deg under the 48.1 deg pass's maximum, the pass came out
+    # with masked rise and set (as if up at both edges of the window) and no duration, and at
+    # 1e-5 deg under the 12.1 deg pass it went missing from the day's table: its grazing
+    # crossings (+-0.35 s) were placed by their own times among the scan's, where the
+    # culmination sat 0.9 s early, and dropped as a rise-set pair without a culmination
+    site = sites[0]
+    full = vv.find_passes(iss, site, T0, T1, refraction=refraction)
+    for row in full:
+        top = row["max_elevation"].to_value(u.deg)
+        c = row["culmination_time"]
+        tab = vv.find_passes(iss, site, T0, T1, (top - below) * u.deg, refraction=refraction)
+        near = tab[np.abs((tab["culmination_time"] - c).to_value(u.s)) < 60.0]
+        assert len(near) == 1, f"the {top:.2f} deg pass is kept"
+        r = near[0]
+        assert not (r["rise_time"].mask or r["set_time"].mask)
+        assert 0.0 < (c - r["rise_time"]).to_value(u.s) < 3.0
+        assert 0.0 < (r["set_time"] - c).to_value(u.s) < 3.0
+        times = r["rise_time"] + np.array([0.0, (r["set_time"] - r["rise_time"]).to_value(u.s)]) * u.s
+        el = site.look(iss, times, refraction=refraction).elevation.to_value(u.deg)
+        np.testing.assert_allclose(el, top - below, atol=1e-6)

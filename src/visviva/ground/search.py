@@ -551,13 +551,18 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
             half = float(np.sqrt(2.0 * f_c[g] / k_c[g]))
             keep[cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
                  & (np.abs(t - t[e]) < half + 120.0)] = False
-            new += [(sat_i[e], sta_i[e], when, kk)
-                    for when, kk in ((t[e] - half, _topo.RISE), (t[e] + half, _topo.SET))
+            # in the scan's order (the orphans below) the new crossings sit either side of
+            # the culmination's scan time, which can be a second off its vertex: placed by
+            # their own times, the crossings of a pass shorter than that (a threshold within
+            # 1e-3 deg of a high pass's maximum) came out as an orphan pair and were dropped
+            new += [(sat_i[e], sta_i[e], when, kk, t_seed[e] + sign * half)
+                    for when, kk, sign in ((t[e] - half, _topo.RISE, -1.0),
+                                           (t[e] + half, _topo.SET, 1.0))
                     if 0.0 < when < span_s]
         if new:
-            ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
+            ns_, nt_, nw_, nk_, seed_ = (np.array(c) for c in zip(*new, strict=True))
             nw_ = nw_.astype(np.float64)
-            t_seed = np.concatenate([t_seed, nw_])
+            t_seed = np.concatenate([t_seed, seed_.astype(np.float64)])
             for _ in range(5):
                 _, ri, vi, fd, err = _evaluate(satrecs, ns_, nt_, nw_, clock, earth, sites, ups,
                                                horizon)

@@ -375,3 +375,31 @@ def test_a_threshold_just_below_a_high_maximum_keeps_rise_and_set(iss, sites, re
         times = r["rise_time"] + np.array([0.0, (r["set_time"] - r["rise_time"]).to_value(u.s)]) * u.s
         el = site.look(iss, times, refraction=refraction).elevation.to_value(u.deg)
         np.testing.assert_allclose(el, top - below, atol=1e-6)
+
+
+@pytest.mark.parametrize("refraction", [False, True])
+def test_a_short_pass_cut_by_the_window_keeps_its_kinds(iss, sites, refraction):
+    # the scan's margin past the window's edges (audit22) must not turn the rise of a short
+    # pass, found before t0, into a second "rise" at its set inside the window (two rows, one
+    # with a rise at the set time, before the elevation-rate check on margin crossings)
+    site = sites[0]
+    low = [r for r in vv.find_passes(iss, site, T0, T1)
+           if r["max_elevation"] < 3 * u.deg][0]
+    threshold = low["max_elevation"] - 0.2 * u.deg  # a pass of 2 min
+    ref = vv.find_passes(iss, site, T0, T1, threshold, refraction=refraction)
+    row = ref[np.argmin(np.abs((ref["culmination_time"]
+                                - low["culmination_time"]).to_value(u.s)))]
+    rise, cul, set_ = row["rise_time"], row["culmination_time"], row["set_time"]
+    for frac in (0.6, 0.75, 0.9):
+        t0 = rise + frac * (set_ - rise)
+        tab = vv.find_passes(iss, site, t0, t0 + 30 * u.min, threshold, refraction=refraction)
+        first = tab[0]
+        assert first["rise_time"].mask and first["culmination_time"].mask
+        assert abs((first["set_time"] - set_).to_value(u.s)) < 1e-4
+        assert all((r["rise_time"] - set_).to_value(u.s) > 600 for r in tab[1:])
+        t1 = rise + (1 - frac) * (set_ - rise)
+        tab = vv.find_passes(iss, site, t1 - 30 * u.min, t1, threshold, refraction=refraction)
+        last = tab[-1]
+        assert last["set_time"].mask and last["culmination_time"].mask == (t1 < cul)
+        assert abs((last["rise_time"] - rise).to_value(u.s)) < 1e-4
+        assert all((rise - r["set_time"]).to_value(u.s) > 600 for r in tab[:-1])

@@ -580,6 +580,17 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     # a rise and a set left with no culmination between them: in the scan's order too, since
     # Newton steps on a pass that does not reach the threshold (no root) can carry its rise
     # past its set (a "set, rise" pair with no culmination, kept before)
+    # a crossing the scan found past the window's edge (its margin) whose Newton steps went
+    # in may have reached the other crossing of a short pass (a rise before t0 on the set
+    # after it): its elevation rate has the wrong sign; the edge pseudo-events stand for it
+    out = np.flatnonzero(keep & ((kind == _topo.RISE) | (kind == _topo.SET))
+                         & ((t_seed < 0.0) | (t_seed > span_s)))
+    if out.size:
+        rates = np.empty((out.size, 6))
+        _topo.razel_many(np.ascontiguousarray(state_r[out] - sites[sta_i[out]]),
+                         np.ascontiguousarray(state_v[out]), enu,
+                         np.ascontiguousarray(sta_i[out], dtype=np.int64), rates)
+        keep[out[np.where(kind[out] == _topo.RISE, rates[:, 5] < 0.0, rates[:, 5] > 0.0)]] = False
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
     keep &= ~_orphans(sat_i, sta_i, t_seed, kind, keep)
     keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)

@@ -110,8 +110,10 @@ def test_shift_is_the_refraction_over_the_elevation_rate(iss, sites):
         assert np.all(early > 3.0)
 
 
-# the geometric search of the code before refraction (main at d11ffc4), ISS, 5 deg, both sites
-OLD_RISE_JD2 = [0.024784849519881025, 0.09008712265084662, 0.4518227596944542,
+# the geometric search of the code before refraction (main at d11ffc4), ISS, 5 deg, both sites;
+# the first rise 1 ulp (1e-11 s) later since the scan starts one sampling interval before the
+# window (audit22: rises just inside the window were lost), its polynomial's first breakpoint
+OLD_RISE_JD2 = [0.024784849519881136, 0.09008712265084662, 0.4518227596944542,
                 -0.4827417422029867, -0.4154626259504406, -0.36191589334217467,
                 -0.3481868990105941, -0.29434181710271856, -0.28211585054921606,
                 -0.21604717769707027]
@@ -172,11 +174,12 @@ def test_bad_input_refused(iss, sites):
         vv.find_passes(iss, sites, T0, T1, refraction="visual")
     with pytest.raises(vv.InvalidInputError, match="relative_humidity"):
         vv.find_passes(iss, sites, T0, T1, refraction={"relative_humidity": 70})
-    # below the apparent elevation of -1 deg geometric (where the models end): refused
+    # below the apparent elevation of the models' end (optical: -1 deg geometric; radio: -1
+    # deg apparent): refused
     with pytest.raises(vv.InvalidInputError, match="lowest apparent elevation"):
         vv.find_passes(iss, sites, T0, T1, -0.5 * u.deg, refraction=True)
     with pytest.raises(vv.InvalidInputError, match="lowest apparent elevation"):
-        sites[0].find_events(iss, T0, T1, -0.5 * u.deg, refraction="radio")
+        sites[0].find_events(iss, T0, T1, -1.05 * u.deg, refraction="radio")
     # the same threshold without refraction is a geometric one, as before
     assert len(vv.find_passes(iss, sites[0], T0, T1, -0.5 * u.deg)) > 0
 
@@ -294,3 +297,109 @@ def test_every_pass_reaches_its_threshold(iss, min_el, refraction):
     if len(rows):
         look = site.look(iss, rows["rise_time"], refraction=refraction)
         np.testing.assert_allclose(look.elevation.to_value(u.deg), min_el, atol=1e-4)
+
+
+@pytest.mark.parametrize("refraction", [False, True, "radio"])
+@pytest.mark.parametrize("offset_s", [0.5, 3.0])
+def test_rise_and_set_just_inside_the_window_are_kept(iss, sites, refraction, offset_s):
+    # audit22: a rise 0.5 s (geometric) or 3 s (apparent: the scan looks for a star's
+    # geometric threshold, up to 0.1 deg below a satellite's) after the window's start was
+    # lost: the scan's crossing fell before the window, SGP4 said "below" at t0, and the
+    # table showed the pass up at the window's start (a masked rise); the same at the end
+    site = sites[0]
+    full = vv.find_passes(iss, site, T0, T1, refraction=refraction)
+    for row in full[:2]:
+        rise, set_ = row["rise_time"], row["set_time"]
+        start = vv.find_passes(iss, site, rise - offset_s * u.s, rise + 1 * u.hour,
+                               refraction=refraction)
+        assert not start["rise_time"].mask[0], "the rise inside the window is reported"
+        assert abs((start["rise_time"][0] - rise).to_value(u.s)) < 1e-5
+        end = vv.find_passes(iss, site, set_ - 1 * u.hour, set_ + offset_s * u.s,
+                             refraction=refraction)
+        assert not end["set_time"].mask[-1], "the set inside the window is reported"
+        assert abs((end["set_time"][-1] - set_).to_value(u.s)) < 1e-5
+        # just after the rise / before the set: the pass is up at the window's edge
+        late = vv.find_passes(iss, site, rise + offset_s * u.s, rise + 1 * u.hour,
+                              refraction=refraction)
+        assert late["rise_time"].mask[0] and not late["culmination_time"].mask[0]
+        assert abs((late["set_time"][0] - set_).to_value(u.s)) < 1e-5
+        early = vv.find_passes(iss, site, set_ - 1 * u.hour, set_ - offset_s * u.s,
+                               refraction=refraction)
+        assert early["set_time"].mask[-1] and not early["culmination_time"].mask[-1]
+        assert len(early) == len(end) and len(late) == len(start)
+
+
+
+def test_passes_in_tropical_radio_air_at_the_default_threshold(iss, sites):
+    # audit22: 31 deg C, 80 % humidity (N_s = 402) bends an antenna's ray 1.01 deg at -1 deg
+    # geometric: the search refused min_elevation 0 (the default) as below the models' range
+    air = {"pressure_hpa": 1009.0, "temperature_c": 31.0, "relative_humidity": 0.8,
+           "refraction": "radio"}
+    site = sites[0]
+    app = vv.find_passes(iss, site, T0, T1, refraction=air)
+    geo = vv.find_passes(iss, site, T0, T1)
+    assert len(app) >= len(geo) > 0
+    for col in ("rise_time", "set_time"):
+        t = app[col][~app[col].mask]
+        el = site.look(iss, t, refraction=air).elevation.to_value(u.deg)
+        np.testing.assert_allclose(el, 0.0, atol=1e-6)
+    # rises earlier than a standard air's radio horizon, which is earlier than the geometric
+    std = vv.find_passes(iss, site, T0, T1, refraction="radio")
+    assert np.all((app["rise_time"][:3] - std["rise_time"][:3]).to_value(u.s) < 0)
+    assert np.all((std["rise_time"][:3] - geo["rise_time"][:3]).to_value(u.s) < 0)
+    # down to -1 deg apparent for the radio model
+    assert len(vv.find_passes(iss, site, T0, T1, -0.9 * u.deg, refraction="radio")) >= len(std)
+
+
+@pytest.mark.parametrize("refraction", [False, True])
+@pytest.mark.parametrize("below", [1e-3, 1e-5])
+def test_a_threshold_just_below_a_high_maximum_keeps_rise_and_set(iss, sites, refraction,
+                                                                  below):
+    # audit22: with min_elevation 1e-3 deg under the 48.1 deg pass's maximum, the pass came out
+    # with masked rise and set (as if up at both edges of the window) and no duration, and at
+    # 1e-5 deg under the 12.1 deg pass it went missing from the day's table: its grazing
+    # crossings (+-0.35 s) were placed by their own times among the scan's, where the
+    # culmination sat 0.9 s early, and dropped as a rise-set pair without a culmination
+    site = sites[0]
+    full = vv.find_passes(iss, site, T0, T1, refraction=refraction)
+    for row in full:
+        top = row["max_elevation"].to_value(u.deg)
+        c = row["culmination_time"]
+        tab = vv.find_passes(iss, site, T0, T1, (top - below) * u.deg, refraction=refraction)
+        near = tab[np.abs((tab["culmination_time"] - c).to_value(u.s)) < 60.0]
+        assert len(near) == 1, f"the {top:.2f} deg pass is kept"
+        r = near[0]
+        assert not (r["rise_time"].mask or r["set_time"].mask)
+        assert 0.0 < (c - r["rise_time"]).to_value(u.s) < 3.0
+        assert 0.0 < (r["set_time"] - c).to_value(u.s) < 3.0
+        times = r["rise_time"] + np.array([0.0, (r["set_time"] - r["rise_time"]).to_value(u.s)]) * u.s
+        el = site.look(iss, times, refraction=refraction).elevation.to_value(u.deg)
+        np.testing.assert_allclose(el, top - below, atol=1e-6)
+
+
+@pytest.mark.parametrize("refraction", [False, True])
+def test_a_short_pass_cut_by_the_window_keeps_its_kinds(iss, sites, refraction):
+    # the scan's margin past the window's edges (audit22) must not turn the rise of a short
+    # pass, found before t0, into a second "rise" at its set inside the window (two rows, one
+    # with a rise at the set time, before the elevation-rate check on margin crossings)
+    site = sites[0]
+    low = [r for r in vv.find_passes(iss, site, T0, T1)
+           if r["max_elevation"] < 3 * u.deg][0]
+    threshold = low["max_elevation"] - 0.2 * u.deg  # a pass of 2 min
+    ref = vv.find_passes(iss, site, T0, T1, threshold, refraction=refraction)
+    row = ref[np.argmin(np.abs((ref["culmination_time"]
+                                - low["culmination_time"]).to_value(u.s)))]
+    rise, cul, set_ = row["rise_time"], row["culmination_time"], row["set_time"]
+    for frac in (0.6, 0.75, 0.9):
+        t0 = rise + frac * (set_ - rise)
+        tab = vv.find_passes(iss, site, t0, t0 + 30 * u.min, threshold, refraction=refraction)
+        first = tab[0]
+        assert first["rise_time"].mask and first["culmination_time"].mask
+        assert abs((first["set_time"] - set_).to_value(u.s)) < 1e-4
+        assert all((r["rise_time"] - set_).to_value(u.s) > 600 for r in tab[1:])
+        t1 = rise + (1 - frac) * (set_ - rise)
+        tab = vv.find_passes(iss, site, t1 - 30 * u.min, t1, threshold, refraction=refraction)
+        last = tab[-1]
+        assert last["set_time"].mask and last["culmination_time"].mask == (t1 < cul)
+        assert abs((last["rise_time"] - rise).to_value(u.s)) < 1e-4
+        assert all((rise - r["set_time"]).to_value(u.s) > 600 for r in tab[:-1])

@@ -3,6 +3,8 @@ ITU-R P.834-9's fits and the textbook high-elevation limit; humid against dry ai
 refractivity says; slopes against central differences; the standard air at the station's
 height in look(); the weather dict shared with Observations(troposphere=...); bad input."""
 
+import math
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -14,7 +16,7 @@ from scipy.integrate import quad
 import visviva as vv
 from visviva.ground import refraction_deg, refraction_slope
 from visviva.ground.air import radio_refractivity, saturation_vapour_hpa, standard_atmosphere
-from visviva.ground.refraction import bend, radio_bending_deg
+from visviva.ground.refraction import bend, lowest_geometric_deg, radio_bending_deg
 
 ITU_DECAY_PER_KM = 0.1361  # P.834-9 eq. 8: n(h) = 1 + 315e-6 exp(-0.1361 h)
 ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
@@ -164,7 +166,8 @@ def test_the_slope_against_central_differences(model, air):
     d = 1e-4
     fd = (refraction_deg(e + d, p, t, **kw) - refraction_deg(e - d, p, t, **kw)) / (2 * d)
     np.testing.assert_allclose(refraction_slope(e, p, t, **kw), fd, rtol=2e-5, atol=1e-8)
-    assert np.all(refraction_slope(np.array([-1.5, -3.0]), p, t, **kw) == 0.0)
+    below = lowest_geometric_deg(model, p, t, rh) - np.array([0.5, 2.0])
+    assert np.all(refraction_slope(below, p, t, **kw) == 0.0)
 
 
 @settings(max_examples=60, deadline=None)
@@ -218,7 +221,8 @@ def _lift(station, iss, times, refraction, star=True):
         rng = geo.range.to_value(u.km)
         with np.errstate(invalid="ignore", divide="ignore"):
             k = bend(el, *air, range_km=rng)[0] / bend(el, *air)[0]
-        lift = np.where(el > -1.0, lift / np.where(el > -1.0, k, 1.0), lift)
+        on = el > lowest_geometric_deg(*air)  # the model's end (radio: -1 deg apparent)
+        lift = np.where(on, lift / np.where(on, k, 1.0), lift)
     return el, lift
 
 
@@ -325,7 +329,7 @@ def test_bad_input_is_refused_clearly():
         refraction_deg(5.0, model="microwave")
     with pytest.raises(vv.InvalidInputError, match="exceeds the air pressure"):
         refraction_deg(5.0, 20.0, 40.0, relative_humidity=1.0, model="radio")
-    with pytest.raises(vv.InvalidInputError, match="ducting"):
+    with pytest.raises(vv.InvalidInputError, match="pressure_hpa"):
         refraction_deg(5.0, 5000.0, 0.0, model="radio")  # Pa read as hPa
     site = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg)
     sat = vv.Satellite.from_tle(ISS_1, ISS_2)
@@ -338,3 +342,60 @@ def test_bad_input_is_refused_clearly():
             site.look(sat, t, refraction=bad)
     with pytest.raises(vv.InvalidInputError, match="percentage"):
         vv.od.troposphere.weather_from({"relative_humidity": 50})
+
+
+def test_weather_in_the_wrong_units_is_refused_not_scaled():
+    # audit22: the optical formula scales with P / T, so a pressure in Pa gave 8.9 deg of
+    # refraction at 10 deg (100 times too much) and a temperature in K 10 times too little,
+    # silently; a Quantity or an array of pressures crashed with a TypeError
+    for model in ("optical", "radio"):
+        with pytest.raises(vv.InvalidInputError, match="looks like Pa: pass 1013.25 hPa"):
+            refraction_deg(10.0, 101325.0, 15.0, model=model)
+        with pytest.raises(vv.InvalidInputError, match="looks like kelvin: pass 15 deg C"):
+            refraction_deg(10.0, 1013.25, 288.15, model=model)
+        with pytest.raises(vv.InvalidInputError, match="looks like Pa"):
+            refraction_slope(10.0, 101325.0, 15.0, model=model)
+    with pytest.raises(vv.InvalidInputError, match="plain number in hPa"):
+        refraction_deg(10.0, 1013.0 * u.hPa)
+    with pytest.raises(vv.InvalidInputError, match="plain number in deg C"):
+        refraction_deg(10.0, 1013.0, 15.0 * u.deg_C)
+    with pytest.raises(vv.InvalidInputError, match="one number"):
+        refraction_deg([10.0, 20.0], np.array([1013.0, 900.0]))
+    with pytest.raises(vv.InvalidInputError, match="temperature_c"):
+        refraction_deg(10.0, 1013.0, np.nan)
+    # the range's ends still work: no air, and the coldest and warmest air of a weather dict
+    assert refraction_deg(10.0, 0.0, 15.0) == 0.0
+    assert 0.0 < refraction_deg(10.0, 1100.0, -90.0) < refraction_deg(0.0, 1100.0, 60.0)
+
+
+def test_refraction_slope_converts_an_angle_quantity():
+    # audit22: refraction_slope read 0.1 rad as 0.1 deg (-0.140 instead of -0.0184), silently
+    np.testing.assert_allclose(refraction_slope(0.1 * u.rad),
+                               refraction_slope(math.degrees(0.1)), rtol=1e-13)
+    np.testing.assert_allclose(refraction_slope(5.0 * u.deg), refraction_slope(5.0), rtol=1e-13)
+    e = np.array([2.0, 5.0, 30.0])
+    np.testing.assert_allclose(
+        refraction_slope(np.radians(e) * u.rad, model="radio", range_km=800.0 * u.km),
+        refraction_slope(e, model="radio", range_km=800.0), rtol=1e-6)
+
+
+def test_radio_refraction_of_tropical_air_is_not_cut_off_above_the_horizon():
+    # audit22: the radio model was zero below -1 deg geometric; in hot, humid air (31 deg C,
+    # 80 %: N_s = 402) the bending there is 1.01 deg, so a satellite at -1.01 deg geometric,
+    # seen 0.0 deg above the horizon, came back at -1.01 deg (a 1-deg jump in look()), and a
+    # pass search at the default min_elevation 0 was refused as "below the models' range"
+    p, t, rh = 1009.0, 31.0, 0.8
+    low = lowest_geometric_deg("radio", p, t, rh)
+    assert -3.1 < low < -2.9
+    e = np.linspace(low + 1e-6, 3.0, 4001)
+    app = e + refraction_deg(e, p, t, relative_humidity=rh, model="radio")
+    assert np.all(np.diff(app) > 0.0)  # monotonic, no jump
+    assert app[0] == pytest.approx(-1.0, abs=1e-5)  # the table's end: -1 deg apparent
+    r = refraction_deg(np.array([-1.01, -1.5, -2.5]), p, t, relative_humidity=rh, model="radio")
+    np.testing.assert_allclose(r, radio_bending_deg(
+        np.array([-1.01, -1.5, -2.5]) + r, radio_refractivity(p, t + 273.15, rh * float(
+            saturation_vapour_hpa(t)))), rtol=1e-6)
+    assert r[0] > 1.0
+    # the optical formula's end is still -1 deg geometric
+    assert lowest_geometric_deg("optical", p, t, rh) == -1.0
+    assert float(refraction_deg(-1.01, p, t)) == 0.0

@@ -133,7 +133,7 @@ def _offset_deg(el_deg, r_t, n_s, r_inf, slope_inf):
 def range_factor(el_deg, range_km, n_s, spline, slopes: bool = True):
     """The share ``k`` of the refraction ``R(E)`` that offsets a target at the range
     ``range_km`` (km), and ``dk/dE`` (per deg), at geometric elevations ``el_deg`` (deg, in the
-    models' range: -1 deg and up).
+    models' range: from -1 deg, or the radio table's end).
 
     Parameters
     ----------

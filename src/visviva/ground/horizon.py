@@ -4,7 +4,8 @@ With ``refraction`` the rise and the set of a pass are where the APPARENT elevat
 ``E + R(E)`` (:func:`visviva.ground.refraction.bend`, the station's air as in
 :func:`visviva.ground.look.look`) crosses ``min_elevation``, as Skyfield's
 ``find_events(altitude_degrees=...)`` on refracted altitudes and STK's apparent access do.
-``E + R(E)`` grows with the geometric elevation ``E`` from -1 deg (the models' lower end) up,
+``E + R(E)`` grows with the geometric elevation ``E`` from the model's lower end up (optical:
+-1 deg; radio: the geometric elevation seen at -1 deg apparent),
 so the apparent threshold is a geometric one per station, ``E_s + R(E_s) = min_elevation``
 (the root of a monotonic function, by bisection): the coarse scan looks for crossings of
 ``E_s``, and the final Newton steps on SGP4 solve ``sin(E + R(E)) = sin(min_elevation)``
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
-from .refraction import bend, station_air
+from .refraction import bend, lowest_geometric_deg, station_air
 
 __all__ = ["Horizon"]
 
@@ -131,15 +132,16 @@ class Horizon:
 
 def _geometric_threshold_deg(min_el_deg: float, air, names) -> float:
     """The geometric elevation ``E`` (deg) with ``E + R(E) = min_el_deg`` in the air ``air``;
-    refuses a threshold below the apparent elevation of -1 deg geometric (the models' end)."""
-    lo, hi = -1.0, min_el_deg
+    refuses a threshold below the apparent elevation of the model's lower end (optical: -1 deg
+    geometric; radio: -1 deg apparent)."""
+    lo, hi = lowest_geometric_deg(*air), min_el_deg
     lowest = lo + float(bend(np.array(lo), *air)[0])
     if min_el_deg < lowest:
         raise InvalidInputError(
             f"min_elevation = {min_el_deg:.6g} deg is below the lowest apparent elevation the "
             f"refraction models cover at station(s) {', '.join(map(str, names))} "
-            f"({lowest:.4g} deg, the apparent elevation of -1 deg geometric in "
-            f"{air[0]} refraction): raise min_elevation, or pass refraction=False for a "
+            f"({lowest:.4g} deg, the apparent elevation of {lo:.4g} deg geometric, the lower "
+            f"end of {air[0]} refraction): raise min_elevation, or pass refraction=False for a "
             "geometric threshold.")
     if min_el_deg >= 90.0:
         return 90.0

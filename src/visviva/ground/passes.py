@@ -53,8 +53,9 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         crosses ``min_elevation``. False (default): the geometric elevation. Refraction
         raises the satellite: the rise comes earlier and the set later, by the refraction at
         the threshold over the elevation rate (about 20-30 s in LEO at 0 deg); the
-        culmination is the same. A ``min_elevation`` below the apparent elevation of -1 deg
-        geometric (about -0.3 deg at sea level), where the models end, is refused.
+        culmination is the same. A ``min_elevation`` below the lowest apparent elevation the
+        model covers (optical: that of -1 deg geometric, about -0.36 deg at sea level; radio:
+        -1 deg) is refused.
 
     Returns
     -------

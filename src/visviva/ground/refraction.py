@@ -17,7 +17,11 @@ appears higher than its geometric elevation ``E`` by the refraction ``R(E)``. Tw
 Both are the bending of a ray from a target far outside the atmosphere (a star); a satellite at
 a finite range is offset less, by the bent ray's lever arm over the range (``range_km=``,
 :mod:`visviva.ground.finite_range`: 500 km up 0.947 of the bending at the horizon, 0.968 at
-5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below -1 deg of geometric elevation.
+5 deg, 0.977 at 10 deg; GEO 0.997). Both are zero below their lower end: -1 deg of geometric
+elevation for the optical formula; for the radio model the geometric elevation seen at -1 deg
+apparent (-2.37 deg at sea level in the standard air, -3.0 deg in tropical air), so that the
+bending of hot, humid air (1.0 deg at -1 deg geometric for 31 deg C, 80 %) is never cut off
+above the horizon.
 """
 
 from __future__ import annotations
@@ -27,14 +31,25 @@ import math
 import numpy as np
 
 from ..errors import InvalidInputError
-from .air import Weather, check_air, check_humidity, radio_refractivity, saturation_vapour_hpa
+from .air import (
+    AIR_KEYS,
+    Weather,
+    check_air,
+    check_humidity,
+    radio_refractivity,
+    saturation_vapour_hpa,
+)
 from .radioray import radio_bending_deg, radio_table  # noqa: F401 (radio_bending_deg: re-export)
 
-__all__ = ["refraction_deg", "refraction_slope", "station_air", "bend"]
+__all__ = ["refraction_deg", "refraction_slope", "station_air", "bend", "lowest_geometric_deg"]
 
 #: Above this surface refractivity an exponential profile with the P.453 decay traps rays
 #: (ducting: dN/dz < -157 per km) and the model stops meaning anything.
 _MAX_RADIO_N = 1000.0
+#: Highest pressure refraction_deg takes (hPa): above the densest real air (1085 hPa), room
+#: for a synthetic air (the ITU-R reference N_s = 315 dry is 1170 hPa at 15 deg C); a value in
+#: Pa (1e4 and up) is refused.
+_MAX_HPA = 1500.0
 #: Lowest geometric elevation the models cover (deg); the refraction is 0 below.
 _LOWEST_DEG = -1.0
 
@@ -49,9 +64,11 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
         Geometric elevation in [-90, 90] deg: plain numbers in degrees, or an angle Quantity
         (converted). NaN or infinite values are refused.
     pressure_hpa : float
-        Air pressure at the site, hPa (>= 0; default 1010).
+        Air pressure at the site, hPa, in [0, 1500] (default 1010; 0: no air). A plain number:
+        a value in Pa is refused.
     temperature_c : float
-        Air temperature at the site, deg C (above -273; default 10).
+        Air temperature at the site, deg C, in [-90, 60] (default 10; a value in K is
+        refused).
     relative_humidity : float
         Relative humidity at the site, a fraction in [0, 1] (default 0.5; a percentage such as
         70 is refused). Used by the radio model only.
@@ -69,7 +86,8 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     Returns
     -------
     ndarray (deg), or Quantity (deg) for a Quantity ``elevation_deg``
-        ``>= 0``, decreasing with the elevation, 0 below -1 deg.
+        ``>= 0``, decreasing with the elevation, 0 below the model's lower end (optical:
+        -1 deg; radio: the geometric elevation seen at -1 deg apparent).
 
     Notes
     -----
@@ -106,14 +124,7 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
     """
     from astropy import units as u
 
-    from .._units import is_quantity, to_array
-
-    quantity = is_quantity(elevation_deg)
-    if quantity:
-        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
-    else:
-        h = np.asarray(elevation_deg, dtype=np.float64)
-    _check_elevations(h)
+    h, quantity = _elevations_deg(elevation_deg)
     out = bend(h, model, pressure_hpa, temperature_c, relative_humidity,
                _check_range(range_km))[0]
     return out * u.deg if quantity else out
@@ -122,13 +133,14 @@ def refraction_deg(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
 def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
                      relative_humidity=0.5, model: str = "optical", range_km=None):
     """dR/dE of :func:`refraction_deg` (deg of refraction per deg of geometric elevation,
-    negative: optical -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below -1 deg where the refraction
-    is 0.
+    negative: optical -0.02 at 5 deg, -0.04 at 2.5 deg), 0 below the model's lower end where
+    the refraction is 0.
 
     Parameters
     ----------
-    elevation_deg : float or array_like
-        Geometric elevation, deg, in [-90, 90] (NaN refused).
+    elevation_deg : float, array_like or Quantity (angle)
+        Geometric elevation in [-90, 90] deg: plain degrees or an angle Quantity (converted;
+        NaN refused).
     pressure_hpa, temperature_c, relative_humidity, model, range_km
         The site's air, the model and the target's range, as :func:`refraction_deg` (the
         slope at a fixed range).
@@ -139,8 +151,7 @@ def refraction_slope(elevation_deg, pressure_hpa=1010.0, temperature_c=10.0, *,
         The slope; ``1 + slope`` maps a change of geometric elevation (or its rate) to the
         apparent one.
     """
-    h = np.asarray(elevation_deg, dtype=np.float64)
-    _check_elevations(h)
+    h = _elevations_deg(elevation_deg)[0]
     return bend(h, model, pressure_hpa, temperature_c, relative_humidity,
                 _check_range(range_km))[1]
 
@@ -175,20 +186,22 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
         check_humidity(relative_humidity)
         r, slope = _saemundsson_arcmin(h)
         r, slope = r * scale / 60.0, slope * scale / 60.0
+        low = _LOWEST_DEG
     elif model == "radio":
         table = radio_table(_surface_refractivity(pressure_hpa, temperature_c,
                                                    relative_humidity))
         if table is None:  # no air
             r = slope = np.zeros_like(h)
+            low = _LOWEST_DEG
         else:
-            spline, lowest = table
-            hh = np.clip(h, lowest, 90.0)
-            r, slope = spline(hh), np.where(h < lowest, 0.0, spline(hh, 1))
+            spline, low = table  # down to the apparent elevation of -1 deg
+            hh = np.clip(h, low, 90.0)
+            r, slope = spline(hh), np.where(h < low, 0.0, spline(hh, 1))
     else:
         raise InvalidInputError(
             f"model must be 'optical' (light: Saemundsson's formula) or 'radio' (antennas); "
             f"got {model!r}.")
-    below = h < _LOWEST_DEG
+    below = h < low
     nan = np.isnan(h)
     # >= 0: the fits reach the zenith within 1e-9 deg, on either side
     r = np.where(below, 0.0, np.maximum(r, 0.0))
@@ -197,14 +210,14 @@ def bend(elevation_deg, model, pressure_hpa, temperature_c, relative_humidity,
     if range_km is not None:
         r, slope, d_range = _at_range(h, r, slope, range_km, model, pressure_hpa,
                                       temperature_c, relative_humidity,
-                                      exact_slope or range_slope)
+                                      exact_slope or range_slope, low)
         nan = np.broadcast_to(nan, r.shape)
     out = np.where(nan, np.nan, r), np.where(nan, np.nan, slope)
     return (*out, np.where(nan, np.nan, d_range)) if range_slope else out
 
 
 def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relative_humidity,
-              slopes=True):
+              slopes=True, low=-1.0):
     """``r`` and ``slope`` (of a target at infinity) for targets at ``range_km``: times the
     share ``k`` of :func:`visviva.ground.finite_range.range_factor`, traced through the
     station's radio refractivity, or the dry one for light."""
@@ -219,7 +232,7 @@ def _at_range(h, r, slope, range_km, model, pressure_hpa, temperature_c, relativ
         p, t = _check_pt(pressure_hpa, temperature_c)
         n_ray = float(radio_refractivity(p, t + 273.15, 0.0))
     table = radio_table(n_ray)
-    on = np.isfinite(h) & (h >= _LOWEST_DEG)
+    on = np.isfinite(h) & (h >= low)
     if table is None or not on.any():
         return r, slope, d_range
     k, dk, dk_range = range_factor(h[on], rng[on], n_ray, table[0], slopes)
@@ -251,6 +264,30 @@ def station_air(refraction, height_m):
     return (model, *Weather(given, model).conditions(height_m))
 
 
+def lowest_geometric_deg(model, pressure_hpa, temperature_c, relative_humidity) -> float:
+    """The lower end of a model's refraction (deg of geometric elevation; 0 refraction below):
+    -1 deg for the optical formula, the geometric elevation seen at -1 deg apparent for the
+    radio table (-1 deg without air)."""
+    if model != "radio":
+        return _LOWEST_DEG
+    table = radio_table(_surface_refractivity(pressure_hpa, temperature_c, relative_humidity))
+    return _LOWEST_DEG if table is None else float(table[1])
+
+
+def _elevations_deg(elevation_deg):
+    """``elevation_deg`` as float degrees (an angle Quantity converted: 0.1 rad is 5.73 deg,
+    not 0.1 deg) and whether it was a Quantity; checked."""
+    from .._units import is_quantity, to_array
+
+    quantity = is_quantity(elevation_deg)
+    if quantity:
+        h = np.degrees(to_array(elevation_deg, "angle", "elevation_deg"))
+    else:
+        h = np.asarray(elevation_deg, dtype=np.float64)
+    _check_elevations(h)
+    return h, quantity
+
+
 def _check_elevations(h) -> None:
     if not np.all(np.isfinite(h)):
         raise InvalidInputError(
@@ -263,14 +300,40 @@ def _check_elevations(h) -> None:
 
 
 def _check_pt(pressure_hpa, temperature_c) -> tuple[float, float]:
-    p = float(pressure_hpa)
-    t = float(temperature_c)
-    if not (math.isfinite(p) and p >= 0.0):
-        raise InvalidInputError(f"pressure_hpa must be >= 0 hPa and finite, got {p!r}.")
-    if not (math.isfinite(t) and t > -273.0):
-        raise InvalidInputError(f"temperature_c must be above -273 deg C (the formula's 0 K), "
-                                f"got {t!r}.")
-    return p, t
+    """The site's pressure (hPa) and temperature (deg C) as floats: plain scalars in the ranges
+    of a weather dict (:data:`visviva.ground.air.AIR_KEYS`; a pressure of 0 is no air). A
+    pressure in Pa or a temperature in K is refused with a hint, not turned into a refraction
+    100 times or 10 times off (the optical formula scales with P / T)."""
+    return (_check_weather_value(pressure_hpa, "pressure_hpa", (0.0, _MAX_HPA)),
+            _check_weather_value(temperature_c, "temperature_c"))
+
+
+def _check_weather_value(value, key: str, bounds=None) -> float:
+    from .._units import is_quantity
+
+    lo, hi, unit = AIR_KEYS[key]
+    lo, hi = (lo, hi) if bounds is None else bounds
+    if is_quantity(value):
+        raise InvalidInputError(
+            f"{key} takes a plain number in {unit}, got the Quantity {value!r}; pass e.g. "
+            f"value.to_value(u.{'hPa' if key == 'pressure_hpa' else 'deg_C'}"
+            f"{'' if key == 'pressure_hpa' else ', equivalencies=u.temperature()'}).")
+    if isinstance(value, bool | np.bool_) or np.ndim(value) != 0:
+        raise InvalidInputError(f"{key} must be one number in {unit} (the site's air), got "
+                                f"{value!r}.")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not lo <= x <= hi:
+        hint = ""
+        if key == "pressure_hpa" and 1e4 <= x <= 1.1e5:
+            hint = f" ({value!r} looks like Pa: pass {x / 100:g} hPa)"
+        elif key == "temperature_c" and 173.15 <= x <= 333.15:
+            hint = f" ({value!r} looks like kelvin: pass {x - 273.15:g} deg C)"
+        raise InvalidInputError(
+            f"{key} must be a finite number in [{lo:g}, {hi:g}] {unit}; got {value!r}{hint}.")
+    return x
 
 
 def _meeus_factor(pressure_hpa, temperature_c) -> float:

@@ -310,6 +310,15 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_geo, 
         cut = t_hi < pad_s + span_s
     else:
         cut = np.zeros(len(idx), dtype=bool)
+    # the scan reaches one sampling interval (100 s in LEO) past each edge of the window: its
+    # crossings can be seconds off SGP4's, more under refraction (it scans for a star's
+    # geometric threshold, and a satellite's, less lifted, lies up to ~0.1 deg higher), and a
+    # rise a few seconds after the start was lost when its scan crossing fell before it. The
+    # correction clips to the window and drops what stays outside. Whole sampling intervals
+    # (multiples of 12.5 s, exact in binary) keep the samples where they were.
+    margin = h / _SAMPLES
+    scan_lo = t_lo - margin
+    scan_hi = np.minimum(t_hi + margin, t_reach)
     out_sat, out_sta, out_t, out_k = [], [], [], []
     cap = max(8, int(3 * span_s / h / 4) + 8)
     levels = np.unique(sin_geo)
@@ -325,7 +334,7 @@ def _coarse_scan(cat, idx, h, clock, span_s, pad_s, earth, sites, ups, sin_geo, 
             vc = np.ascontiguousarray(v[lo:hi])
             while True:
                 ot, ok, of, cnt, st, fe = _topo.empty_outputs((hi - lo) * ns, cap)
-                _topo.scan_passes(rc, vc, h, t_lo[lo:hi], t_hi[lo:hi], t_reach[lo:hi],
+                _topo.scan_passes(rc, vc, h, scan_lo[lo:hi], scan_hi[lo:hi], t_reach[lo:hi],
                                   _SAMPLES, g_sites, g_ups, float(level),
                                   np.ascontiguousarray(near[lo:hi]), ot, ok, of, cnt, st, fe)
                 if not (st == _topo.PAIR_OVERFLOW).any():
@@ -542,13 +551,18 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
             half = float(np.sqrt(2.0 * f_c[g] / k_c[g]))
             keep[cross & (sat_i == sat_i[e]) & (sta_i == sta_i[e])
                  & (np.abs(t - t[e]) < half + 120.0)] = False
-            new += [(sat_i[e], sta_i[e], when, kk)
-                    for when, kk in ((t[e] - half, _topo.RISE), (t[e] + half, _topo.SET))
+            # in the scan's order (the orphans below) the new crossings sit either side of
+            # the culmination's scan time, which can be a second off its vertex: placed by
+            # their own times, the crossings of a pass shorter than that (a threshold within
+            # 1e-3 deg of a high pass's maximum) came out as an orphan pair and were dropped
+            new += [(sat_i[e], sta_i[e], when, kk, t_seed[e] + sign * half)
+                    for when, kk, sign in ((t[e] - half, _topo.RISE, -1.0),
+                                           (t[e] + half, _topo.SET, 1.0))
                     if 0.0 < when < span_s]
         if new:
-            ns_, nt_, nw_, nk_ = (np.array(c) for c in zip(*new, strict=True))
+            ns_, nt_, nw_, nk_, seed_ = (np.array(c) for c in zip(*new, strict=True))
             nw_ = nw_.astype(np.float64)
-            t_seed = np.concatenate([t_seed, nw_])
+            t_seed = np.concatenate([t_seed, seed_.astype(np.float64)])
             for _ in range(5):
                 _, ri, vi, fd, err = _evaluate(satrecs, ns_, nt_, nw_, clock, earth, sites, ups,
                                                horizon)
@@ -566,6 +580,17 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     # a rise and a set left with no culmination between them: in the scan's order too, since
     # Newton steps on a pass that does not reach the threshold (no root) can carry its rise
     # past its set (a "set, rise" pair with no culmination, kept before)
+    # a crossing the scan found past the window's edge (its margin) whose Newton steps went
+    # in may have reached the other crossing of a short pass (a rise before t0 on the set
+    # after it): its elevation rate has the wrong sign; the edge pseudo-events stand for it
+    out = np.flatnonzero(keep & ((kind == _topo.RISE) | (kind == _topo.SET))
+                         & ((t_seed < 0.0) | (t_seed > span_s)))
+    if out.size:
+        rates = np.empty((out.size, 6))
+        _topo.razel_many(np.ascontiguousarray(state_r[out] - sites[sta_i[out]]),
+                         np.ascontiguousarray(state_v[out]), enu,
+                         np.ascontiguousarray(sta_i[out], dtype=np.int64), rates)
+        keep[out[np.where(kind[out] == _topo.RISE, rates[:, 5] < 0.0, rates[:, 5] > 0.0)]] = False
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
     keep &= ~_orphans(sat_i, sta_i, t_seed, kind, keep)
     keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)

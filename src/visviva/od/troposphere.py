@@ -128,7 +128,7 @@ def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):
                 h[idx, 1] += np.radians(r_deg)
                 if H is not None:
                     # d(E + R(E, rho)) = (1 + dR/dE) dE + dR/drho drho, in the models' range
-                    # (above -1 deg); optical -0.04 at 2.5 deg, -0.02 at 5 deg; the range's
+                    # (optical above -1 deg geometric, radio above -1 deg apparent); optical -0.04 at 2.5 deg, -0.02 at 5 deg; the range's
                     # share ~5e-5 of the elevation's
                     H[idx, 1, :] *= (1.0 + slope)[:, None]
                     H[idx, 1, :3] += (np.radians(d_range) / rng[idx])[:, None] * sight.rho[idx]

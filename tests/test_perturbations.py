@@ -197,7 +197,7 @@ def test_perturbation_reprs_and_bad_inputs():
     with pytest.raises(vv.InvalidInputError, match="area_to_mass"):
         vv.SolarRadiationPressure()
     with pytest.raises(vv.InvalidInputError, match="ThirdBody"):
-        vv.ThirdBody(vv.EARTH)
+        vv.ThirdBody("pluto_charon")
 
 
 # ------------------------------------------------------------------ spherical harmonics

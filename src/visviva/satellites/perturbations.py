@@ -350,8 +350,10 @@ class ThirdBody(Perturbation):
     Parameters
     ----------
     body : Body or str
-        ``vv.SUN``, ``vv.MOON`` or a planet. Positions come from
-        :mod:`visviva.satellites.ephemeris` (JPL DE421 when installed).
+        ``vv.SUN``, ``vv.MOON``, a planet, or ``vv.EARTH`` for a state about another body (a
+        lunar orbiter feels the Earth's tide, ~1e-8 km/s^2 at 100 km above the Moon). Positions
+        come from :mod:`visviva.satellites.ephemeris` (JPL DE421 when installed), relative to
+        the central body; the central body itself is refused as a third body.
 
     Notes
     -----
@@ -366,9 +368,10 @@ class ThirdBody(Perturbation):
         from .ephemeris import KNOWN_BODIES
 
         body = require_body(self.body, "ThirdBody")
-        if body.name not in KNOWN_BODIES or body.name == "earth":
+        if body.name not in KNOWN_BODIES:
             raise InvalidInputError(
-                f"ThirdBody({body.name}) is not available; use vv.SUN, vv.MOON or a planet."
+                f"ThirdBody({body.name}) is not available; use vv.SUN, vv.MOON, vv.EARTH (for a "
+                "state about another body) or a planet."
             )
         object.__setattr__(self, "body", body)
 

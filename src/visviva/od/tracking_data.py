@@ -41,7 +41,7 @@ standard leaves a choice), each applied or refused with a message saying what to
 * **Frequencies.** With ``ionosphere=``, the delay of each range and Doppler row is at the
   link's frequency read from the segment's ``TRANSMIT_FREQ_n`` / ``RECEIVE_FREQ_n`` lines
   (``RECEIVE_FREQ`` plus ``FREQ_OFFSET``; ``TURNAROUND_NUMERATOR/DENOMINATOR``; the last line
-  at or before the row's epoch; the two-way frequency of uplink and downlink:
+  at or before the row's epoch, ramped by ``TRANSMIT_FREQ_RATE_n``; the two-way frequency of uplink and downlink:
   :mod:`visviva.od.link_frequencies`), else at ``frequency_hz``; both given and more than 1 %
   apart is refused, naming the line.
 * Every other data keyword (frequencies without ``ionosphere=``, phase counts, ``CLOCK_*``,

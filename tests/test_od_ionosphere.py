@@ -315,3 +315,31 @@ def test_the_filters_carry_the_ionosphere(visible, method):
     except vv.ConvergenceError:
         return
     assert bad.rejected.sum() > 10
+
+
+def test_klobuchar_partials_are_one_sided_at_the_night_switch():
+    # the Klobuchar delay jumps at |x| = 1.57 (its cosine's 4th-order series is 0.0213 of the
+    # amplitude there, the night value 0): a central difference across it is no derivative
+    from visviva.od.ionosphere import _klobuchar, slopes
+
+    iono = ionosphere_from({"klobuchar": (ALPHA, BETA)}, S_BAND)
+    lat, lon, az, el = math.radians(40), math.radians(-10), math.radians(120), math.radians(30)
+    grid = 50400.0 + np.arange(0.0, 43200.0, 60.0)  # from local noon on: the evening switch
+    day = _klobuchar(lat, lon, az, el, grid, ALPHA, BETA)[1] % 2 == 1
+    k = int(np.flatnonzero(day[:-1] & ~day[1:])[0])
+    lo, hi = grid[k], grid[k + 1]
+    for _ in range(50):  # bisect to the switch
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _klobuchar(lat, lon, az, el, mid, ALPHA, BETA)[1] % 2 else (lo, mid)
+    args = [np.array([v]) for v in (lat, lon, az, el)]
+
+    def fd(t, step):  # a one-sided finite difference of 1 ms that stays on t's side
+        return (iono.slant_delay_m(*args, np.array([t + step]))
+                - iono.slant_delay_m(*args, np.array([t]))) / step
+
+    jump = (iono.slant_delay_m(*args, np.array([lo])) - iono.slant_delay_m(*args, np.array([hi])))
+    assert jump[0] > 1e-3  # m: the switch is a jump, not a kink
+    for t, step in ((lo - 0.3, -1e-3), (hi + 0.3, 1e-3)):  # day side, then night side
+        _, _, dt = slopes(iono, *args, np.array([t]))
+        np.testing.assert_allclose(dt, fd(t, step), rtol=1e-3, atol=1e-9)
+    assert abs(fd(lo - 0.3, -1e-3)[0]) > 1e-7  # m/s: the day side does move

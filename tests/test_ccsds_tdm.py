@@ -673,3 +673,20 @@ def test_a_bad_sigma_is_named_by_its_kind_not_by_a_row(bad):
     with pytest.warns(TrackingDataWarning), pytest.raises(vv.VisvivaError) as exc:
         vv.read_tdm(ANNEX_RANGE).to_observations({"DSS-65": SITE}, sigma)
     assert "sigma['range']" in str(exc.value) and "sigma[0]" not in str(exc.value)
+
+
+def test_the_cli_needs_range_seconds_for_range_in_seconds(tmp_path, capsys):
+    from visviva import cli
+    from visviva.od.cli_inputs import read_tracking
+
+    path = tmp_path / "seconds.tdm"
+    path.write_text(tdm_text(TWO_WAY + "RANGE_UNITS = s", "RANGE = 2024-02-14T10:00:00 0.01\n"
+                             "RANGE = 2024-02-14T10:01:00 0.0101"))
+    code = cli.main(["od", str(path), "--station", "DSS-65=40.4,-4.25,800", "--sigma",
+                     "range=5m"])
+    assert code == 2 and "--range-seconds" in capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrackingDataWarning)
+        obs, _ = read_tracking([str(path)], {"DSS-65": SITE}, {"range": 0.005},
+                               media={"range_seconds": "one_way"})
+    assert obs.values[1, 0] == pytest.approx(0.0101 * C_KM_S, rel=1e-15)

@@ -455,7 +455,8 @@ def _range_km(seg, times, values, range_units, ignore, src):
             raise CCSDSFormatError(
                 "RANGE_UNITS = s: CCSDS 503.0-B-2 does not say whether the seconds are the "
                 "round-trip or the one-way light time (readers differ by a factor 2); pass "
-                "range_seconds='round_trip' (range c t / 2) or 'one_way' (range c t)",
+                "range_seconds='round_trip' (range c t / 2) or 'one_way' (range c t); "
+                "--range-seconds on the command line",
                 line=meta.line_of("RANGE_UNITS"), source=src)
         return (0.5 if range_seconds == "round_trip" else 1.0) * C_KM_S * values
     if range_units_km is None:

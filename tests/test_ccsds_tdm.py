@@ -186,7 +186,7 @@ def test_leap_second_accepted_in_utc_and_refused_elsewhere():
 
 
 def test_range_in_seconds_is_refused_until_the_light_time_is_named():
-    # CCSDS 503.0-B-2 names the unit (s) but not whose light time; Orekit 12 reads c t, a
+    # CCSDS 503.0-B-2 names the unit (s) but not whose light time; Orekit reads c t, Nyx a
     # round-trip reading c t / 2: a factor 2 in every range, so the user must say which
     text = tdm_text(TWO_WAY + "RANGE_UNITS = s", "RANGE = 2024-02-14T10:00:00 0.01")
     with pytest.raises(CCSDSFormatError, match="range_seconds") as exc:

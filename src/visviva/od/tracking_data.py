@@ -15,8 +15,9 @@ standard leaves a choice), each applied or refused with a message saying what to
   and angles are refused (their flight time needs the orbit).
 * **RANGE** in ``RANGE_UNITS`` (default ``km``): km is visviva's range (half the round-trip
   light path, as Orekit's two-way ``Range``). ``s`` is ambiguous: 503.0-B-2 names the unit
-  (seconds) but not whose light time it is, and readers differ (Orekit 12 multiplies by c, a
-  round-trip reading divides by 2); it is refused unless ``range_seconds=`` says which:
+  (seconds) but not whose light time it is, and readers differ (Orekit's
+  ``ObservationType.RANGE`` multiplies by c; Nyx divides c t by the path's legs, 2 on
+  ``1,2,1``); it is refused unless ``range_seconds=`` says which:
   ``"round_trip"`` (``c t / 2``) or ``"one_way"`` (``c t``). ``RU`` (mission-defined range
   units) needs ``range_units_km=`` (km per RU, or a function). A ``RANGE_MODULUS`` (ambiguous
   range) is refused unless listed in ``ignore``.

@@ -303,28 +303,29 @@ def slopes(iono, lat, lon, az, el, gps, frequency_hz=None):
         _, dm = vtec_mapping(el, iono.shell_km)
         grad[:, 1] = K_GROUP * iono.vtec_tecu * TECU / np.square(f) * dm
         return d0, grad, np.zeros(n)
-    h, ht = _STEP_RAD, _STEP_S
-    b0 = _branch(iono, lat, lon, az, el, gps)
-    grad[:, 0] = _difference(iono, f, d0, b0, h, lat, lon, az, el, gps, 2)
-    grad[:, 1] = _difference(iono, f, d0, b0, h, lat, lon, az, el, gps, 3)
-    dt = _difference(iono, f, d0, b0, ht, lat, lon, az, el, gps, 4)
+    scale = C_KM_S * 1000.0 * np.square(L1_HZ / np.asarray(f))  # s at L1 -> m at f
+
+    def delay(*point):  # (m, branch) of the Klobuchar delay
+        t, branch = _klobuchar(*point, iono.alpha, iono.beta)
+        return t * scale, branch
+
+    centre = (lat, lon, az, el, gps)
+    d0, b0 = delay(*centre)
+    grad[:, 0] = _difference(delay, d0, b0, _STEP_RAD, centre, 2)
+    grad[:, 1] = _difference(delay, d0, b0, _STEP_RAD, centre, 3)
+    dt = _difference(delay, d0, b0, _STEP_S, centre, 4)
     return d0, grad, dt
 
 
-def _branch(iono, lat, lon, az, el, gps):
-    return _klobuchar(lat, lon, az, el, gps, iono.alpha, iono.beta)[1]
-
-
-def _difference(iono, f, d0, b0, h, *args):
-    """The Klobuchar delay's derivative in argument ``args[-1]`` (2: az, 3: el, 4: time):
+def _difference(delay, d0, b0, h, centre, k):
+    """The derivative of ``delay`` in argument ``k`` of ``centre`` (2: az, 3: el, 4: time):
     central, or one-sided on the centre's branch where the stencil straddles the night switch
-    (``|x| = 1.57``, where the delay jumps) or the local time's wrap."""
-    *point, k = args
-    lo, hi = list(point), list(point)
-    lo[k], hi[k] = point[k] - h, point[k] + h
-    d_lo, d_hi = iono.slant_delay_m(*lo, f), iono.slant_delay_m(*hi, f)
-    lo_same = _branch(iono, *lo) == b0
-    hi_same = _branch(iono, *hi) == b0
+    (``|x| = 1.57``, where the Klobuchar delay jumps) or the local time's wrap (0 if both
+    sides are other branches, a stencil wider than a branch)."""
+    lo, hi = list(centre), list(centre)
+    lo[k], hi[k] = centre[k] - h, centre[k] + h
+    (d_lo, b_lo), (d_hi, b_hi) = delay(*lo), delay(*hi)
+    lo_same, hi_same = b_lo == b0, b_hi == b0
     return np.where(lo_same & hi_same, (d_hi - d_lo) / (2 * h),
                     np.where(hi_same, (d_hi - d0) / h, np.where(lo_same, (d0 - d_lo) / h, 0.0)))
 

@@ -63,6 +63,27 @@ def cold_and_warm(tmp_path):
 
 
 @pytest.fixture(scope="session")
+def visible_times():
+    """``f(truth, station, span_s=86400, step_s=20, min_elevation_deg=5)``: the times (every
+    ``step_s`` over ``span_s`` from the truth's epoch) when ``station`` sees ``truth`` (two-body)
+    above ``min_elevation_deg`` (geometric); at least 40 of them."""
+    import numpy as np
+    from astropy import units as u
+
+    from visviva.od import simulate_observations
+
+    def visible(truth, station, span_s=86400.0, step_s=20.0, min_elevation_deg=5.0):
+        t = truth.epoch + np.arange(0, span_s, step_s) * u.s
+        look = simulate_observations(truth, t, "azel", 1e-9, station, seed=False,
+                                     light_time=False)
+        idx = np.flatnonzero(look.values[:, 1] > np.radians(min_elevation_deg))
+        assert idx.size > 40
+        return t[idx]
+
+    return visible
+
+
+@pytest.fixture(scope="session")
 def skyfield_ts():
     """A Skyfield timescale with the polar motion of astropy's offline IERS-A file."""
     import astropy_iers_data

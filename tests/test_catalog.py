@@ -190,7 +190,8 @@ def test_j2_batch_refuses_a_decayed_satellite():
     # (error 6) but the secular batch returned positions 140 km underground as numbers
     line1 = "1 99999U          21067.00000000  .00000000  00000-0  00000+0 0    03"
     line2 = "2 99999  51.5662   0.0000 0010000   0.0000   0.0000 17.60000000    07"
-    sat = vv.Satellite.from_tle(line1, line2)
+    with pytest.warns(vv.errors.SubsurfacePerigeeWarning, match="140.8 km below"):
+        sat = vv.Satellite.from_tle(line1, line2)
     with pytest.raises(vv.InvalidInputError, match="99999.*decayed"):
         propagate_j2_batch(Catalog([sat]), sat.epoch)
 

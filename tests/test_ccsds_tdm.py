@@ -126,7 +126,8 @@ def test_corrections_applied_flag_and_override(flag, override, expected):
 def test_correction_range_may_carry_the_range_units():
     text = tdm_text(TWO_WAY + "RANGE_UNITS = s\nCORRECTION_RANGE = 1.0E-8 [s]\n"
                     "CORRECTIONS_APPLIED = NO", "RANGE = 2024-02-14T10:00:00 0.01")
-    assert read_obs(text).values[0, 0] == pytest.approx((0.01 + 1e-8) * C_KM_S / 2, rel=1e-15)
+    obs = read_obs(text, range_seconds="round_trip")
+    assert obs.values[0, 0] == pytest.approx((0.01 + 1e-8) * C_KM_S / 2, rel=1e-15)
     wrong = text.replace("[s]", "[km]")
     with pytest.raises(CCSDSFormatError, match="RANGE_UNITS") as exc:
         vv.read_tdm(wrong)
@@ -184,9 +185,21 @@ def test_leap_second_accepted_in_utc_and_refused_elsewhere():
     assert exc.value.line == line_of(utc, "23:59:60.5")
 
 
-def test_range_in_seconds_is_round_trip_light_time():
-    obs = read_obs(tdm_text(TWO_WAY + "RANGE_UNITS = s", "RANGE = 2024-02-14T10:00:00 0.01"))
+def test_range_in_seconds_is_refused_until_the_light_time_is_named():
+    # CCSDS 503.0-B-2 names the unit (s) but not whose light time; Orekit reads c t, Nyx a
+    # round-trip reading c t / 2: a factor 2 in every range, so the user must say which
+    text = tdm_text(TWO_WAY + "RANGE_UNITS = s", "RANGE = 2024-02-14T10:00:00 0.01")
+    with pytest.raises(CCSDSFormatError, match="range_seconds") as exc:
+        read_obs(text)
+    assert exc.value.line == line_of(text, "RANGE_UNITS")
+    obs = read_obs(text, range_seconds="round_trip")
     assert obs.values[0, 0] == pytest.approx(0.005 * C_KM_S, rel=1e-15)
+    obs = read_obs(text, range_seconds="one_way")
+    assert obs.values[0, 0] == pytest.approx(0.01 * C_KM_S, rel=1e-15)
+    with pytest.raises(InvalidInputError, match="range_seconds"):
+        read_obs(text, range_seconds="two_way")
+    km = tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1000")
+    assert read_obs(km, range_seconds="one_way").values[0, 0] == 1000.0  # km: unaffected
 
 
 def test_range_units_ru_need_the_conversion():
@@ -660,3 +673,20 @@ def test_a_bad_sigma_is_named_by_its_kind_not_by_a_row(bad):
     with pytest.warns(TrackingDataWarning), pytest.raises(vv.VisvivaError) as exc:
         vv.read_tdm(ANNEX_RANGE).to_observations({"DSS-65": SITE}, sigma)
     assert "sigma['range']" in str(exc.value) and "sigma[0]" not in str(exc.value)
+
+
+def test_the_cli_needs_range_seconds_for_range_in_seconds(tmp_path, capsys):
+    from visviva import cli
+    from visviva.od.cli_inputs import read_tracking
+
+    path = tmp_path / "seconds.tdm"
+    path.write_text(tdm_text(TWO_WAY + "RANGE_UNITS = s", "RANGE = 2024-02-14T10:00:00 0.01\n"
+                             "RANGE = 2024-02-14T10:01:00 0.0101"))
+    code = cli.main(["od", str(path), "--station", "DSS-65=40.4,-4.25,800", "--sigma",
+                     "range=5m"])
+    assert code == 2 and "--range-seconds" in capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrackingDataWarning)
+        obs, _ = read_tracking([str(path)], {"DSS-65": SITE}, {"range": 0.005},
+                               media={"range_seconds": "one_way"})
+    assert obs.values[1, 0] == pytest.approx(0.0101 * C_KM_S, rel=1e-15)

@@ -542,6 +542,8 @@ def _tle_strategy():
                      st.booleans())
 
 
+# a mutated digit can move the mean perigee below the surface: warned, and still read as sgp4
+@pytest.mark.filterwarnings("ignore::visviva.errors.SubsurfacePerigeeWarning")
 @settings(max_examples=1000, derandomize=True, deadline=None)
 @given(_tle_strategy())
 def test_mutated_tle_reads_as_sgp4s_column_reader_or_names_the_line(case):

@@ -399,3 +399,26 @@ def test_radio_refraction_of_tropical_air_is_not_cut_off_above_the_horizon():
     # the optical formula's end is still -1 deg geometric
     assert lowest_geometric_deg("optical", p, t, rh) == -1.0
     assert float(refraction_deg(-1.01, p, t)) == 0.0
+
+
+def test_radio_refraction_at_a_station_above_the_atmosphere_says_so():
+    # the standard air at 80 km: 0.0105 hPa, below the 0.0139 hPa of 50 % humidity at
+    # -56.5 deg C; this read "not air; check pressure_hpa" for a pressure nobody gave
+    from visviva.ground.air import _TOP_KM, Weather
+    from visviva.ground.refraction import station_air
+
+    p80, t80 = standard_atmosphere(80e3)
+    assert p80 < 0.5 * saturation_vapour_hpa(t80)
+    assert 72.0 < _TOP_KM < 73.0  # where the two meet
+    for call in (lambda: station_air("radio", 80e3),
+                 lambda: Weather(None, "radio").at(80e3)):
+        with pytest.raises(vv.InvalidInputError, match=r"80\.0 km up, above the atmosphere.*"
+                           r"refraction=False.*troposphere=False"):
+            call()
+    model, p, t, rh = station_air("radio", 72e3)  # below the end: refraction ~0, no error
+    assert abs(refraction_deg(10.0, p, t, relative_humidity=rh, model="radio")) < 1e-4  # deg
+    assert station_air("optical", 80e3)[0] == "optical"  # optical needs no vapour: ~0
+    given = station_air({"refraction": "radio", "pressure_hpa": 500.0}, 80e3)
+    assert given[1] == 500.0  # air the user gives is used as given
+    with pytest.raises(vv.InvalidInputError, match="above the atmosphere.*relative_humidity=0"):
+        refraction_deg(10.0, 0.01, -56.5, relative_humidity=0.5, model="radio")

@@ -37,13 +37,9 @@ BETA = (1.43e5, 0.0, -3.28e5, 1.13e5)
 
 
 @pytest.fixture(scope="module")
-def visible():
+def visible(visible_times):
     """Times over a day when the station sees the satellite above 5 deg (every 20 s)."""
-    t = EPOCH + np.arange(0, 86400, 20.0) * u.s
-    look = simulate_observations(TRUTH, t, "azel", 1e-9, STATION, seed=False, light_time=False)
-    idx = np.flatnonzero(look.values[:, 1] > np.radians(5))
-    assert idx.size > 40
-    return t[idx]
+    return visible_times(TRUTH, STATION)
 
 
 def test_klobuchar_against_a_hand_computation_from_the_spec():
@@ -195,9 +191,7 @@ def test_fits_of_s_band_range_need_the_ionosphere(visible):
     e = np.r_[fit.state.r.to_value(u.km), fit.state.v.to_value(KMS)] - Y0
     assert 0.8 < fit.rms < 1.2
     assert e @ np.linalg.solve(fit.covariance, e) < stats.chi2.ppf(0.999, 6)
-    flat = vv.Observations(time=obs.times, kind=list(obs.kinds),
-                           value=[obs.values[i, :obs.dims[i]] for i in range(len(obs))],
-                           sigma=list(obs.sigmas), station=obs.stations)
+    flat = obs.without_media()
     bad = vv.fit_orbit(flat, guess, outlier_sigma=None)
     e_bad = np.r_[bad.state.r.to_value(u.km), bad.state.v.to_value(KMS)] - Y0
     # measured: with the model RMS 0.94, 0.72 m from the truth; without it RMS 7.7, 1.9 m off
@@ -307,11 +301,37 @@ def test_the_filters_carry_the_ionosphere(visible, method):
     e = np.r_[f.state.r.to_value(u.km) - truth.r.to_value(u.km).reshape(3),
               f.state.v.to_value(KMS) - truth.v.to_value(KMS).reshape(3)]
     assert e @ np.linalg.solve(f.covariance, e) < stats.chi2.ppf(0.999, 6)
-    flat = vv.Observations(time=obs.times, kind=list(obs.kinds),
-                           value=[obs.values[i, :obs.dims[i]] for i in range(len(obs))],
-                           sigma=list(obs.sigmas), station=obs.stations)
+    flat = obs.without_media()
     try:
         bad = vv.filter_orbit(flat, TRUTH, p0, method=method)
     except vv.ConvergenceError:
         return
     assert bad.rejected.sum() > 10
+
+
+def test_klobuchar_partials_are_one_sided_at_the_night_switch():
+    # the Klobuchar delay jumps at |x| = 1.57 (its cosine's 4th-order series is 0.0213 of the
+    # amplitude there, the night value 0): a central difference across it is no derivative
+    from visviva.od.ionosphere import _klobuchar, slopes
+
+    iono = ionosphere_from({"klobuchar": (ALPHA, BETA)}, S_BAND)
+    lat, lon, az, el = math.radians(40), math.radians(-10), math.radians(120), math.radians(30)
+    grid = 50400.0 + np.arange(0.0, 43200.0, 60.0)  # from local noon on: the evening switch
+    day = _klobuchar(lat, lon, az, el, grid, ALPHA, BETA)[1] % 2 == 1
+    k = int(np.flatnonzero(day[:-1] & ~day[1:])[0])
+    lo, hi = grid[k], grid[k + 1]
+    for _ in range(50):  # bisect to the switch
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _klobuchar(lat, lon, az, el, mid, ALPHA, BETA)[1] % 2 else (lo, mid)
+    args = [np.array([v]) for v in (lat, lon, az, el)]
+
+    def fd(t, step):  # a one-sided finite difference of 1 ms that stays on t's side
+        return (iono.slant_delay_m(*args, np.array([t + step]))
+                - iono.slant_delay_m(*args, np.array([t]))) / step
+
+    jump = (iono.slant_delay_m(*args, np.array([lo])) - iono.slant_delay_m(*args, np.array([hi])))
+    assert jump[0] > 1e-3  # m: the switch is a jump, not a kink
+    for t, step in ((lo - 0.3, -1e-3), (hi + 0.3, 1e-3)):  # day side, then night side
+        _, _, dt = slopes(iono, *args, np.array([t]))
+        np.testing.assert_allclose(dt, fd(t, step), rtol=1e-3, atol=1e-9)
+    assert abs(fd(lo - 0.3, -1e-3)[0]) > 1e-7  # m/s: the day side does move

@@ -245,3 +245,32 @@ def test_a_filter_s_rows_keep_their_own_frequencies(plan):
     assert not np.allclose(whole, model(simulate_observations(
         TRUTH, plan.times, list(plan.kinds), list(plan.sigmas), plan.stations, seed=False,
         ionosphere=IONO, frequency_hz=2.0e9), y, gm)[0], rtol=0, atol=1e-6)
+
+
+def test_uplink_ramp_transmit_freq_rate_moves_the_frequency():
+    # 503.0-B-2 3.5.2: TRANSMIT_FREQ_RATE_n is the linear rate of change of TRANSMIT_FREQ_n
+    # from its epoch to the next rate line. Uplink at t: the line's value + the integrated rate.
+    from visviva.od.link_frequencies import link_frequencies
+
+    text = ("CCSDS_TDM_VERS = 2.0\nCREATION_DATE = 2024-045T12:00:00\nORIGINATOR = TESTS\n"
+            "META_START\nTIME_SYSTEM = UTC\nPARTICIPANT_1 = SITE\nPARTICIPANT_2 = SAT\n"
+            "MODE = SEQUENTIAL\nPATH = 1,2,1\nTURNAROUND_NUMERATOR = 240\n"
+            "TURNAROUND_DENOMINATOR = 221\nMETA_STOP\nDATA_START\n"
+            f"TRANSMIT_FREQ_1 = 2024-03-01T00:00:00 {F_UP!r}\n"
+            "TRANSMIT_FREQ_RATE_1 = 2024-03-01T00:00:00 100.0\n"
+            "RANGE = 2024-03-01T00:00:30 1000.0\n"
+            "TRANSMIT_FREQ_RATE_1 = 2024-03-01T00:01:00 -50.0\n"
+            "RANGE = 2024-03-01T00:01:30 1000.0\n"
+            f"TRANSMIT_FREQ_1 = 2024-03-01T00:02:00 {F_UP + 1e6!r}\n"
+            "RANGE = 2024-03-01T00:02:10 1000.0\nDATA_STOP\n")
+    seg = vv.read_tdm(text).segments[0]
+    rows = np.flatnonzero(np.array(seg.keywords) == "RANGE")
+    f, used = link_frequencies(seg, 1, 2, rows, None, "test")
+    up = np.array([F_UP + 100 * 30, F_UP + 100 * 60 - 50 * 30, F_UP + 1e6 - 50 * 10])
+    np.testing.assert_allclose(f, two_way_frequency_hz(up, up * 240 / 221), rtol=1e-15)
+    assert "TRANSMIT_FREQ_RATE_1" in used  # read, so not in the unused warning
+    # ignored: the frequency lines as written
+    f0, used0 = link_frequencies(seg, 1, 2, rows, None, "test", ignore=("TRANSMIT_FREQ_RATE_1",))
+    up0 = np.array([F_UP, F_UP, F_UP + 1e6])
+    np.testing.assert_allclose(f0, two_way_frequency_hz(up0, up0 * 240 / 221), rtol=1e-15)
+    assert "TRANSMIT_FREQ_RATE_1" not in used0

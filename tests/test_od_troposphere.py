@@ -21,13 +21,9 @@ STATION = vv.GroundStation(40 * u.deg, -10 * u.deg, 1.6 * u.km)
 
 
 @pytest.fixture(scope="module")
-def visible():
+def visible(visible_times):
     """Times over a day when the station sees the satellite above 5 deg (every 20 s)."""
-    t = EPOCH + np.arange(0, 86400, 20.0) * u.s
-    look = simulate_observations(TRUTH, t, "azel", 1e-9, STATION, seed=False, light_time=False)
-    idx = np.flatnonzero(look.values[:, 1] > np.radians(5))
-    assert idx.size > 40
-    return t[idx]
+    return visible_times(TRUTH, STATION)
 
 
 def test_zenith_delays_and_mapping_are_the_published_values():
@@ -122,9 +118,7 @@ def test_fits_need_the_troposphere_of_the_data(visible):
     assert 0.8 < fit.rms < 1.2
     assert e @ np.linalg.solve(fit.covariance, e) < stats.chi2.ppf(0.999, 6)
     # the same data modelled without the troposphere: metres of delay pushed into the orbit
-    flat = vv.Observations(time=obs.times, kind=list(obs.kinds),
-                           value=[obs.values[i, :obs.dims[i]] for i in range(len(obs))],
-                           sigma=list(obs.sigmas), station=obs.stations)
+    flat = obs.without_media()
     with pytest.warns(RuntimeWarning, match="converged with an RMS of"):  # and says so
         bad = vv.fit_orbit(flat, guess, outlier_sigma=None)
     e_bad = np.r_[bad.state.r.to_value(u.km), bad.state.v.to_value(KMS)] - Y0
@@ -302,3 +296,21 @@ def test_troposphere_takes_quantities_converted_once():
             vv.Observations(**args, troposphere=bad)
     with pytest.raises(vv.InvalidInputError, match=r"\[100, 1100\] hPa"):
         vv.Observations(**args, troposphere={"pressure_hpa": 5 * u.Pa})
+
+
+def test_without_media_copies_the_rows_and_drops_only_the_media():
+    t = EPOCH + np.arange(0, 180, 60.0) * u.s
+    obs = vv.Observations(time=t, kind="range", value=np.array([1000.0, 1010.0, 1020.0]) * u.km,
+                          sigma=0.01, station=STATION, troposphere=True,
+                          ionosphere={"vtec_tecu": 20.0}, frequency_hz=2.2e9, light_time=False)
+    _, _, enu = obs.sites()  # cached with the media: the ENU rows are filled
+    assert np.abs(enu).sum() > 0
+    plain = obs.without_media()
+    assert plain.troposphere is None and plain.ionosphere is None
+    assert obs.troposphere is not None and obs.ionosphere is not None  # the original keeps them
+    np.testing.assert_array_equal(plain.values, obs.values)
+    np.testing.assert_array_equal(plain.sigmas, obs.sigmas)
+    assert list(plain.kinds) == list(obs.kinds) and plain.stations == obs.stations
+    assert plain.light_time is False and (plain.times == obs.times).all()
+    r, _, enu_plain = plain.sites()  # recomputed, not the media's cache
+    assert np.abs(enu_plain).sum() == 0 and np.allclose(r, obs.sites()[0])

@@ -50,6 +50,7 @@ _PUBLIC = {
     "Pc3dAccuracyWarning": "visviva.errors",
     "Pc3dWindowWarning": "visviva.errors",
     "ImplausibleVelocityWarning": "visviva.errors",
+    "SubsurfacePerigeeWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

@@ -37,6 +37,7 @@ __all__ = [
     "Pc3dAccuracyWarning",
     "Pc3dWindowWarning",
     "ImplausibleVelocityWarning",
+    "SubsurfacePerigeeWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -265,6 +266,16 @@ class Pc3dWindowWarning(UserWarning):
     segment, so the encounter does not end there (orbits flown in formation, where the rate
     barely changes over an orbit) and the expected number of collisions depends on the time
     span. The message gives the window used and the rate there; pass ``window=(t_a, t_b)``.
+    """
+
+
+class SubsurfacePerigeeWarning(UserWarning):
+    """An SGP4 element set (TLE or OMM) whose mean perigee ``a (1 - e)`` lies below the Earth's
+    surface: sgp4 accepts it, flags only the times when the satellite is below one Earth radius
+    (error 6, "decayed") and propagates the rest of the orbit without a word. The last element
+    sets of re-entering objects can be like this (the SGP4 verification set's 28872), so the
+    set is kept; a mistyped one (an eccentricity or a mean motion in the wrong columns) is the
+    other cause. The message names the element set's line, the perigee and what to check.
     """
 
 

@@ -148,6 +148,13 @@ def check_humidity(relative_humidity) -> float:
     return rh
 
 
+def _standard_top_km() -> float:
+    """The height (km) where the standard air's pressure falls to the water vapour of the
+    standard humidity (the isothermal layer's saturation pressure): the air's end."""
+    e = STANDARD_HUMIDITY * saturation_vapour_hpa(_T_TROPOPAUSE_C)
+    return (_TROPOPAUSE_M + math.log(_P_TROPOPAUSE_HPA / e) / _ISOTHERMAL_SCALE_PER_M) / 1000.0
+
+
 class Weather:
     """The air at the stations: the standard atmosphere at each station's height (50 %
     relative humidity) where ``given`` (a checked weather dict, or None) says nothing, and
@@ -158,13 +165,36 @@ class Weather:
         self.refraction = refraction
 
     def conditions(self, height_m):
-        """Pressure (hPa), temperature (deg C) and relative humidity (0..1) at ``height_m``."""
+        """Pressure (hPa), temperature (deg C) and relative humidity (0..1) at ``height_m``.
+
+        Raises
+        ------
+        InvalidInputError
+            Radio refraction at a station above the atmosphere (the standard air's pressure
+            there below its water vapour's: above ~73 km at 50 % humidity), where no pressure
+            and humidity were given.
+        """
         g = self.given or {}
         p_std, t_std = standard_atmosphere(height_m)
-        return (g.get("pressure_hpa", p_std), g.get("temperature_c", t_std),
-                g.get("relative_humidity", STANDARD_HUMIDITY))
+        p, t_c = g.get("pressure_hpa", p_std), g.get("temperature_c", t_std)
+        rh = g.get("relative_humidity", STANDARD_HUMIDITY)
+        if self.refraction == "radio" and "pressure_hpa" not in g \
+                and rh * saturation_vapour_hpa(t_c) > p:
+            raise InvalidInputError(
+                f"the station is {height_m / 1000:.1f} km up, above the atmosphere: the "
+                f"standard air's pressure there ({p:.3g} hPa) is below the water vapour of "
+                f"{rh:.0%} humidity (the standard air ends near {_TOP_KM:.0f} km), and the "
+                "refraction of a station in space means nothing. Leave refraction off for "
+                "this observer (refraction=False in look() and pass searches, "
+                "troposphere=False in Observations; an observer in orbit is no station), "
+                "or check the station's height (m, not km?).")
+        return p, t_c, rh
 
     def at(self, height_m):
         """Pressure (hPa), temperature (K) and water-vapour pressure (hPa) at ``height_m``."""
         p, t_c, rh = self.conditions(height_m)
         return p, t_c + 273.15, rh * saturation_vapour_hpa(t_c)
+
+
+#: where the standard air ends (km): its pressure equals the 50 % humidity's vapour
+_TOP_KM = _standard_top_km()

@@ -351,7 +351,8 @@ def _surface_refractivity(pressure_hpa, temperature_c, relative_humidity) -> flo
         raise InvalidInputError(
             f"the water-vapour pressure ({e:.4g} hPa at {t:g} deg C and {rh:g} humidity) "
             f"exceeds the air pressure ({p:.4g} hPa): not air; check pressure_hpa and "
-            "temperature_c.")
+            "temperature_c (a pressure this low is above the atmosphere, where refraction "
+            "means nothing: leave refraction off there, or pass relative_humidity=0).")
     n_s = float(radio_refractivity(p, t + 273.15, e))
     if n_s > _MAX_RADIO_N:
         raise InvalidInputError(

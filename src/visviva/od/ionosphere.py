@@ -35,8 +35,9 @@ Two models of the electron content, each a thin shell:
   by design; fit data with a measured TEC where one exists.
 
 The range partials carry the delay's slope with the elevation and (Klobuchar) the azimuth
-through the pierce point; the range rate's partials are the geometric ones, as the
-troposphere's (the delay's rate moves them by less than 1e-6).
+through the pierce point (Klobuchar: central differences, one-sided where the stencil
+straddles the night switch ``|x| = 1.57``, where the delay jumps); the range rate's partials
+are the geometric ones, as the troposphere's (the delay's rate moves them by less than 1e-6).
 """
 
 from __future__ import annotations
@@ -254,18 +255,27 @@ def klobuchar_l1_s(lat_rad, lon_rad, az, el, gps_seconds, alpha, beta):
     float or ndarray
         The vertical delay at the pierce point times the obliquity factor, s.
     """
+    return _klobuchar(lat_rad, lon_rad, az, el, gps_seconds, alpha, beta)[0]
+
+
+def _klobuchar(lat_rad, lon_rad, az, el, gps_seconds, alpha, beta):
+    """:func:`klobuchar_l1_s` and the branch of each element: the day (``|x| < 1.57``) or
+    night form, and the day count of the local time before its ``mod 86400`` (the model jumps
+    between branches, so a difference across two branches is no derivative)."""
     e = np.asarray(el) / np.pi  # semicircles
     psi = 0.0137 / (e + 0.11) - 0.022  # Earth's central angle user-pierce point, semicircles
     phi_i = np.clip(lat_rad / np.pi + psi * np.cos(az), -0.416, 0.416)
     lam_i = lon_rad / np.pi + psi * np.sin(az) / np.cos(phi_i * np.pi)
     phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * np.pi)  # geomagnetic latitude
-    t = np.mod(4.32e4 * lam_i + gps_seconds, 86400.0)  # local time at the pierce point
+    local = 4.32e4 * lam_i + gps_seconds
+    t = np.mod(local, 86400.0)  # local time at the pierce point
     amp = np.maximum(sum(a * phi_m**n for n, a in enumerate(alpha)), 0.0)
     per = np.maximum(sum(b * phi_m**n for n, b in enumerate(beta)), 72000.0)
     x = 2.0 * np.pi * (t - 50400.0) / per
     f = 1.0 + 16.0 * (0.53 - e) ** 3  # obliquity factor
-    day = np.where(np.abs(x) < 1.57, amp * (1.0 - x * x / 2.0 + x**4 / 24.0), 0.0)
-    return f * (5e-9 + day)
+    is_day = np.abs(x) < 1.57
+    day = np.where(is_day, amp * (1.0 - x * x / 2.0 + x**4 / 24.0), 0.0)
+    return f * (5e-9 + day), 2 * np.floor_divide(local, 86400.0) + is_day
 
 
 def _station_lat_lon(stations):
@@ -293,14 +303,31 @@ def slopes(iono, lat, lon, az, el, gps, frequency_hz=None):
         _, dm = vtec_mapping(el, iono.shell_km)
         grad[:, 1] = K_GROUP * iono.vtec_tecu * TECU / np.square(f) * dm
         return d0, grad, np.zeros(n)
-    h, ht = _STEP_RAD, _STEP_S
-    grad[:, 0] = (iono.slant_delay_m(lat, lon, az + h, el, gps, f)
-                  - iono.slant_delay_m(lat, lon, az - h, el, gps, f)) / (2 * h)
-    grad[:, 1] = (iono.slant_delay_m(lat, lon, az, el + h, gps, f)
-                  - iono.slant_delay_m(lat, lon, az, el - h, gps, f)) / (2 * h)
-    dt = (iono.slant_delay_m(lat, lon, az, el, gps + ht, f)
-          - iono.slant_delay_m(lat, lon, az, el, gps - ht, f)) / (2 * ht)
+    scale = C_KM_S * 1000.0 * np.square(L1_HZ / np.asarray(f))  # s at L1 -> m at f
+
+    def delay(*point):  # (m, branch) of the Klobuchar delay
+        t, branch = _klobuchar(*point, iono.alpha, iono.beta)
+        return t * scale, branch
+
+    centre = (lat, lon, az, el, gps)
+    d0, b0 = delay(*centre)
+    grad[:, 0] = _difference(delay, d0, b0, _STEP_RAD, centre, 2)
+    grad[:, 1] = _difference(delay, d0, b0, _STEP_RAD, centre, 3)
+    dt = _difference(delay, d0, b0, _STEP_S, centre, 4)
     return d0, grad, dt
+
+
+def _difference(delay, d0, b0, h, centre, k):
+    """The derivative of ``delay`` in argument ``k`` of ``centre`` (2: az, 3: el, 4: time):
+    central, or one-sided on the centre's branch where the stencil straddles the night switch
+    (``|x| = 1.57``, where the Klobuchar delay jumps) or the local time's wrap (0 if both
+    sides are other branches, a stencil wider than a branch)."""
+    lo, hi = list(centre), list(centre)
+    lo[k], hi[k] = centre[k] - h, centre[k] + h
+    (d_lo, b_lo), (d_hi, b_hi) = delay(*lo), delay(*hi)
+    lo_same, hi_same = b_lo == b0, b_hi == b0
+    return np.where(lo_same & hi_same, (d_hi - d_lo) / (2 * h),
+                    np.where(hi_same, (d_hi - d0) / h, np.where(lo_same, (d0 - d_lo) / h, 0.0)))
 
 
 def apply(observations, kinds, y, site_r, site_v, enu, h, H, rows):

@@ -15,7 +15,10 @@ For a two-way path ``s, c, s`` (station s, spacecraft c) the uplink is ``TRANSMI
 ``RECEIVE_FREQ_c``, the downlink ``RECEIVE_FREQ_s``, ``RECEIVE_FREQ`` or ``TRANSMIT_FREQ_c``.
 Each range or Doppler row takes, on each leg, **the last frequency line at or before its
 epoch** (its epoch as written, before any re-tagging), or the leg's first line when the row
-comes before all of them. A leg without lines is the other leg through the turnaround ratio,
+comes before all of them. A transmitted frequency is ramped: ``TRANSMIT_FREQ_RATE_n`` (Hz/s)
+is the linear rate of change of ``TRANSMIT_FREQ_n`` from its epoch to the next rate line
+(503.0-B-2, 3.5.2), so the row's frequency is the line's plus the rates integrated from the
+line's epoch to the row's (no rate before the first rate line). A leg without lines is the other leg through the turnaround ratio,
 or, without a ratio, the other leg's frequency (a link at one frequency). The row's frequency
 is the two-way one, :func:`visviva.od.ionosphere.two_way_frequency_hz` of the two legs (each
 leg delayed by its own ``40.3 TEC / f^2``). A segment without frequency lines takes the
@@ -64,6 +67,46 @@ def _leg(seg, names, offset, src):
     return sec[order], hz[order], [seg.lines[i] for i in idx], keys[idx]
 
 
+def _ramp(seg, key, t0, t1, ignore):
+    """The integral (Hz) of ``TRANSMIT_FREQ_RATE_n`` from ``t0`` to ``t1`` (seconds from the
+    segment's first epoch, arrays) for the frequency line ``key`` (``TRANSMIT_FREQ_n``), and
+    whether rate lines were read. A rate holds from its epoch to the next rate line (0 before
+    the first): 503.0-B-2, 3.5.2."""
+    rate_key = key.replace("TRANSMIT_FREQ_", "TRANSMIT_FREQ_RATE_", 1)
+    keys = np.array(seg.keywords)
+    idx = np.flatnonzero(keys == rate_key)
+    if not key.startswith("TRANSMIT_FREQ_") or idx.size == 0 or rate_key in ignore:
+        return 0.0, False
+    sec = (seg.times[idx] - seg.times[0]).sec
+    order = np.argsort(sec, kind="stable")
+    sec, rate = sec[order], seg.values[idx][order]
+    # integral from sec[0] to each rate epoch, then to any t
+    knots = np.concatenate([[0.0], np.cumsum(rate[:-1] * np.diff(sec))])
+
+    def integral(t):
+        j = np.searchsorted(sec, t, side="right") - 1
+        inside = j >= 0
+        jj = np.maximum(j, 0)
+        return np.where(inside, knots[jj] + rate[jj] * (t - sec[jj]), 0.0)
+
+    return integral(np.asarray(t1, float)) - integral(np.asarray(t0, float)), True
+
+
+def _ramped(seg, leg, j, sec, ignore):
+    """The leg's frequency (Hz) at each time ``sec`` from its lines ``j``: the line's value
+    plus the uplink ramp (``TRANSMIT_FREQ_RATE_n``) since the line's epoch; and the rate
+    keywords read."""
+    f = leg[1][j].astype(np.float64)
+    used = []
+    for key in dict.fromkeys(leg[3][j]):
+        m = leg[3][j] == key
+        df, read = _ramp(seg, str(key), leg[0][j][m], sec[m], ignore)
+        f[m] += df
+        if read:
+            used.append(str(key).replace("TRANSMIT_FREQ_", "TRANSMIT_FREQ_RATE_", 1))
+    return f, used
+
+
 def _at(leg, sec):
     """Index in ``leg`` of the line used at each time ``sec``: the last at or before it, else
     the first."""
@@ -108,12 +151,15 @@ def link_frequencies(seg, station, spacecraft, rows, frequency_hz, src, ignore=(
             line=meta.line_of(key), source=src)
     ratio = 1.0 if num is None else num / den
     sec = (seg.times[rows] - seg.times[0]).sec
+    ramps = []
     if up is not None:
         ju = _at(up, sec)
-        f_up = up[1][ju]
+        f_up, r = _ramped(seg, up, ju, sec, ignore)
+        ramps += r
     if down is not None:
         jd = _at(down, sec)
-        f_down = down[1][jd]
+        f_down, r = _ramped(seg, down, jd, sec, ignore)
+        ramps += r
     if up is None:
         f_up = f_down / ratio
     if down is None:
@@ -131,5 +177,5 @@ def link_frequencies(seg, station, spacecraft, rows, frequency_hz, src, ignore=(
                 f"more than {AGREEMENT:.0%}: one of them is wrong. Leave frequency_hz out to "
                 "use the TDM's frequencies, or correct the one that is wrong",
                 line=leg[2][j], source=src)
-    used = tuple(k for k in up_names + down_names if k in seg.keywords)
+    used = tuple(k for k in up_names + down_names if k in seg.keywords) + tuple(ramps)
     return f, used

@@ -315,6 +315,40 @@ class Observations:
         span = self.offsets_s(self.times[0])[-1] if len(self) else 0.0
         return f"Observations({len(self)} rows {counts}, span {span:.1f} s)"
 
+    def without_media(self):
+        """The same rows without the troposphere and the ionosphere in their models.
+
+        The times, kinds, values, sigmas, stations, ``light_time`` and ``radec_reference`` are
+        shared (arrays not copied: the table is not modified in place); only ``troposphere``
+        and ``ionosphere`` become None. For fitting the same data with geometric models only,
+        e.g. to see what the media move.
+
+        Returns
+        -------
+        Observations
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from astropy import units as u
+        >>> from astropy.time import Time
+        >>> import visviva as vv
+        >>> site = vv.GroundStation(40 * u.deg, -4 * u.deg, 0.8 * u.km)
+        >>> obs = vv.Observations(time=Time("2024-01-01") + [0, 60] * u.s, kind="range",
+        ...                       value=[1000.0, 1010.0] * u.km, sigma=0.01, station=site,
+        ...                       troposphere=True)
+        >>> plain = obs.without_media()
+        >>> plain.troposphere is None, obs.troposphere is not None, len(plain)
+        (True, True, 2)
+        """
+        import copy
+
+        out = copy.copy(self)
+        out.troposphere = None
+        out.ionosphere = None
+        out._cache = {}  # the sites' ENU rows depend on the media
+        return out
+
     def offsets_s(self, epoch):
         """Times as seconds from ``epoch`` (differences in TT)."""
         from ..satellites.frames import offline_iers

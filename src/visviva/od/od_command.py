@@ -72,6 +72,10 @@ def add_parser(sub) -> None:
     p.add_argument("--frequency", default=None, metavar="FREQ",
                    help="with --ionosphere: the signal's frequency with its unit, e.g. 2.2GHz "
                    "(for TDM segments without frequency lines; checked against them)")
+    p.add_argument("--range-seconds", default=None, choices=("round_trip", "one_way"),
+                   help="for TDM range in seconds (RANGE_UNITS = s, which CCSDS 503.0-B-2 does "
+                   "not define further): round-trip light time (range c t / 2) or one-way "
+                   "(c t); such data are refused without it")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -215,7 +219,9 @@ def _setup(args) -> dict:
     troposphere = ({"refraction": args.refraction} if args.troposphere and args.refraction
                    else args.troposphere)
     iono, freq = parse_ionosphere(args.ionosphere, args.frequency)
-    media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else None
+    media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else {}
+    if args.range_seconds is not None:
+        media["range_seconds"] = args.range_seconds
     obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere, media)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")

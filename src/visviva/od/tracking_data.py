@@ -14,9 +14,13 @@ standard leaves a choice), each applied or refused with a message saying what to
   ``t_r = t_t + 2 rho / c`` (the round trip is the measurement itself); ``TRANSMIT`` Doppler
   and angles are refused (their flight time needs the orbit).
 * **RANGE** in ``RANGE_UNITS`` (default ``km``): km is visviva's range (half the round-trip
-  light path, as Orekit's two-way ``Range``); ``s`` is the round-trip light time, converted to
-  ``c t / 2``; ``RU`` (mission-defined range units) needs ``range_units_km=`` (km per RU, or a
-  function). A ``RANGE_MODULUS`` (ambiguous range) is refused unless listed in ``ignore``.
+  light path, as Orekit's two-way ``Range``). ``s`` is ambiguous: 503.0-B-2 names the unit
+  (seconds) but not whose light time it is, and readers differ (Orekit's
+  ``ObservationType.RANGE`` multiplies by c; Nyx divides c t by the path's legs, 2 on
+  ``1,2,1``); it is refused unless ``range_seconds=`` says which:
+  ``"round_trip"`` (``c t / 2``) or ``"one_way"`` (``c t``). ``RU`` (mission-defined range
+  units) needs ``range_units_km=`` (km per RU, or a function). A ``RANGE_MODULUS`` (ambiguous
+  range) is refused unless listed in ``ignore``.
 * **DOPPLER_INSTANTANEOUS** (km/s) is the range rate, positive when the range grows
   (receding), as visviva's ``"range_rate"`` (two-way). **DOPPLER_INTEGRATED** is the mean range
   rate over ``INTEGRATION_INTERVAL``; visviva models the instantaneous rate, and the mean
@@ -38,7 +42,7 @@ standard leaves a choice), each applied or refused with a message saying what to
 * **Frequencies.** With ``ionosphere=``, the delay of each range and Doppler row is at the
   link's frequency read from the segment's ``TRANSMIT_FREQ_n`` / ``RECEIVE_FREQ_n`` lines
   (``RECEIVE_FREQ`` plus ``FREQ_OFFSET``; ``TURNAROUND_NUMERATOR/DENOMINATOR``; the last line
-  at or before the row's epoch; the two-way frequency of uplink and downlink:
+  at or before the row's epoch, ramped by ``TRANSMIT_FREQ_RATE_n``; the two-way frequency of uplink and downlink:
   :mod:`visviva.od.link_frequencies`), else at ``frequency_hz``; both given and more than 1 %
   apart is refused, naming the line.
 * Every other data keyword (frequencies without ``ionosphere=``, phase counts, ``CLOCK_*``,
@@ -101,8 +105,8 @@ class TDM(_tdm.TDM):
             Observation kind (``"range"``, ``"range_rate"``, ``"azel"``, ``"radec"``) ->
             standard deviation (Quantity, or km, km/s, rad).
         **options
-            ``quality``, ``range_units_km``, ``integrated_doppler``, ``corrections_applied``,
-            ``ignore``, ``radec_reference``, ``troposphere``, ``ionosphere``,
+            ``quality``, ``range_units_km``, ``range_seconds``, ``integrated_doppler``,
+            ``corrections_applied``, ``ignore``, ``radec_reference``, ``troposphere``, ``ionosphere``,
             ``frequency_hz``: see :func:`to_observations`.
 
         Returns
@@ -137,6 +141,7 @@ def read_tdm(source, *, mission_epoch=None) -> TDM:
 
 
 def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
+                    range_seconds=None,
                     integrated_doppler="refuse", corrections_applied=None, ignore=(),
                     radec_reference="gcrs", troposphere=False, ionosphere=None,
                     frequency_hz=None):  # fmt: skip
@@ -160,6 +165,11 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     range_units_km : float or callable, optional
         For ``RANGE_UNITS = RU``: km per range unit, or ``f(segment, times, values_ru)``
         returning the ranges in km (visviva's range: half the round-trip light path).
+    range_seconds : {"round_trip", "one_way"}, optional
+        For ``RANGE_UNITS = s`` (required there, since CCSDS 503.0-B-2 does not say whose
+        light time the seconds are): ``"round_trip"`` reads t as the round-trip light time
+        (range ``c t / 2``); ``"one_way"`` as the one-way light time (range ``c t``, Orekit's
+        reading). ``CORRECTION_RANGE`` in seconds is read the same way.
     integrated_doppler : {"refuse", "midpoint"}
         What to do with ``DOPPLER_INTEGRATED`` (see the module notes): refuse it (default), or
         take it as the range rate at the middle of its integration interval.
@@ -212,6 +222,9 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
     if not isinstance(sigma, dict):
         raise InvalidInputError("sigma must be a dict {kind: standard deviation}, e.g. "
                                 "{'range': 0.01 * u.km, 'azel': 0.01 * u.deg}")
+    if range_seconds not in (None, "round_trip", "one_way"):
+        raise InvalidInputError(
+            f"range_seconds must be 'round_trip' or 'one_way', got {range_seconds!r}")
     if integrated_doppler not in ("refuse", "midpoint"):
         raise InvalidInputError(
             f"integrated_doppler must be 'refuse' or 'midpoint', got {integrated_doppler!r}")
@@ -228,8 +241,9 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         if quality is not None and (seg.data_quality or "RAW") not in quality:
             _count(unused, f"segments with DATA_QUALITY {seg.data_quality or '(none)'}", 1)
             continue
-        parts += _segment_rows(seg, stations, ignore, unused, range_units_km,
-                               integrated_doppler, corrections_applied, link)
+        parts += _segment_rows(seg, stations, ignore, unused,
+                               (range_units_km, range_seconds), integrated_doppler,
+                               corrections_applied, link)
     if not parts:
         raise InvalidInputError(
             "the TDM holds no measurement visviva models (RANGE, DOPPLER_INSTANTANEOUS, "
@@ -261,7 +275,7 @@ def _count(unused, key, n):
         del unused[key]
 
 
-def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_doppler,
+def _segment_rows(seg, stations, ignore, unused, range_units, integrated_doppler,
                   corrections_applied, link=None):  # fmt: skip
     """[(times (TT), kinds, values, stations, frequencies (Hz, NaN where none))] of one
     segment ([] if none); unused lines counted."""
@@ -306,7 +320,7 @@ def _segment_rows(seg, stations, ignore, unused, range_units_km, integrated_dopp
     rows = []
     if "RANGE" in use:
         m = keys == "RANGE"
-        km = _range_km(seg, times[m], values[m], range_units_km, ignore, src)
+        km = _range_km(seg, times[m], values[m], range_units, ignore, src)
         if np.any(km < 0):
             i = int(np.flatnonzero(km < 0)[0])
             raise CCSDSFormatError(f"RANGE = {float(values[m][i])!r} is negative", line=int(lines[m][i]),
@@ -426,7 +440,8 @@ def _applied(meta, use, ignore, override, src):
     return True
 
 
-def _range_km(seg, times, values, range_units_km, ignore, src):
+def _range_km(seg, times, values, range_units, ignore, src):
+    range_units_km, range_seconds = range_units
     meta = seg.metadata
     if meta.get("RANGE_MODULUS") and "RANGE_MODULUS" not in ignore:
         raise CCSDSFormatError(
@@ -437,7 +452,14 @@ def _range_km(seg, times, values, range_units_km, ignore, src):
     if units == "km":
         return values
     if units == "s":
-        return 0.5 * C_KM_S * values  # round-trip light time
+        if range_seconds is None:
+            raise CCSDSFormatError(
+                "RANGE_UNITS = s: CCSDS 503.0-B-2 does not say whether the seconds are the "
+                "round-trip or the one-way light time (readers differ by a factor 2); pass "
+                "range_seconds='round_trip' (range c t / 2) or 'one_way' (range c t); "
+                "--range-seconds on the command line",
+                line=meta.line_of("RANGE_UNITS"), source=src)
+        return (0.5 if range_seconds == "round_trip" else 1.0) * C_KM_S * values
     if range_units_km is None:
         raise CCSDSFormatError(
             "RANGE_UNITS = RU: range units are defined by the mission's ICD; pass "

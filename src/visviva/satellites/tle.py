@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from datetime import datetime, timedelta
 from functools import cached_property
 
@@ -23,6 +24,7 @@ from astropy.time import Time
 from ..errors import (
     InvalidElementsError,
     InvalidInputError,
+    SubsurfacePerigeeWarning,
 )
 from .catalog_numbers import catalogue_number, sgp4_number
 from .satellite_states import SatelliteStates
@@ -43,6 +45,7 @@ from .tle_checks import (
     check_tsince,
     raise_for_sgp4_status,
     sgp4_times,
+    warn_subsurface_perigee,
 )
 from .tle_export import tle_designator
 from .utc_days import utc_days_to_time
@@ -260,6 +263,8 @@ class Satellite:
             TLEFormatError,
             TLE_COLUMNS,
         )
+        warn_subsurface_perigee(satrec, where[1], "the eccentricity (columns 27-33) and the "
+                                "mean motion (columns 53-63)")
         return cls(satrec, name, ("tle", line1, line2))
 
     @classmethod
@@ -346,6 +351,8 @@ class Satellite:
                 f"OMM record {fields.get('OBJECT_NAME', '')!r} has a bad value: {exc}."
             ) from exc
         satrec.intldesg = tle_designator(clean.get("OBJECT_ID"))  # not sgp4's OBJECT_ID[2:]
+        warn_subsurface_perigee(satrec, f"OMM record {fields.get('OBJECT_NAME', '')!r}",
+                                "ECCENTRICITY and MEAN_MOTION")
         return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
 
     # -- attributes --------------------------------------------------------------------------
@@ -536,10 +543,14 @@ class Satellite:
 
 
 def _rebuild_tle(line1, line2, name):
-    return Satellite.from_tle(line1, line2, name, verify_checksum=False)
+    with warnings.catch_warnings():  # warned when it was first built
+        warnings.simplefilter("ignore", SubsurfacePerigeeWarning)
+        return Satellite.from_tle(line1, line2, name, verify_checksum=False)
 
 
 def _rebuild_omm(fields, name):
-    sat = Satellite.from_omm(fields)
+    with warnings.catch_warnings():  # warned when it was first built
+        warnings.simplefilter("ignore", SubsurfacePerigeeWarning)
+        sat = Satellite.from_omm(fields)
     sat.name = name
     return sat

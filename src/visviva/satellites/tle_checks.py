@@ -20,6 +20,7 @@ from ..constants import DAY_S
 from ..errors import (
     DomainError,
     InvalidInputError,
+    SubsurfacePerigeeWarning,
     UnitsError,
     VisvivaError,
 )
@@ -36,6 +37,7 @@ __all__ = [
     "check_tsince",
     "sgp4_times",
     "raise_for_sgp4_status",
+    "warn_subsurface_perigee",
 ]
 
 MINUTES_PER_DAY = 1440.0
@@ -127,6 +129,33 @@ SGP4_ERROR_TYPES: dict[int, tuple[type[SGP4Error], str, str]] = {
         "element set",
     ),
 }
+
+
+def warn_subsurface_perigee(satrec, where: str, fields: str) -> None:
+    """Warn (:class:`~visviva.errors.SubsurfacePerigeeWarning`) when the element set's mean
+    perigee lies below the Earth's surface.
+
+    Parameters
+    ----------
+    satrec : sgp4.api.Satrec
+        The initialised element set (``altp``: its mean perigee height, Earth radii).
+    where : str
+        How the message names the element set (``"TLE line 2"``, a file's line, an OMM
+        record).
+    fields : str
+        The fields to check (their columns or keywords).
+    """
+    height_km = float(satrec.altp) * float(satrec.radiusearthkm)
+    if not height_km < 0.0:
+        return
+    n = float(satrec.no_kozai) * 1440.0 / (2.0 * math.pi)
+    warnings.warn(
+        f"{where}: the mean perigee a(1 - e) is {-height_km:.1f} km below the Earth's surface "
+        f"(eccentricity {float(satrec.ecco):.7f}, mean motion {n:.8f} rev/day): SGP4 flags only "
+        "the times below one Earth radius (error 6, decayed) and propagates the rest of the "
+        f"orbit as if it flew. Check {fields} (a mistyped element set), or use a newer one if "
+        "the object has re-entered.",
+        SubsurfacePerigeeWarning, stacklevel=3)
 
 
 def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:

@@ -139,3 +139,38 @@ def test_timedelta_durations_are_accepted_like_quantities_everywhere():
     np.testing.assert_array_equal(np.asarray(a.positions), np.asarray(b.positions))
     with pytest.raises(vv.UnitsError, match="no units"):
         vv.Simulation().integrate(TimeDelta(1.0, format="jd"))
+
+
+@pytest.mark.parametrize("scale", ["tdb", "tcb", "tcg", "ut1"])
+def test_a_propagated_epoch_is_the_time_cowell_and_the_batch_reach(scale):
+    """Elapsed times are TT seconds everywhere: the epoch label advances by them too.
+
+    ``StateVectors.propagate(dt)`` labelled its states ``epoch + dt`` added in the epoch's own
+    scale (TDB seconds for a TDB epoch), while ``propagate_cowell`` and the Kepler batch count
+    ``t.tt - epoch.tt``: at the label of a 180-day Kepler state, the batch put the orbiter 74 m
+    away (heliocentric, 30 km/s), and ``CowellResult.times`` were 2.7 ms off the asked ``t``.
+    """
+    from visviva.satellites.catalog import propagate_kepler_batch
+
+    epoch = getattr(Time("2024-03-01T00:00:00", scale="tt"), scale)
+    s = vv.StateVectors([1.0, 0.2, 0.0] * u.AU, [-5, 29.5, 0.3] * u.km / u.s, vv.SUN,
+                        epoch=epoch)
+    dt = [50.0, 180.0] * u.day
+    moved = s.propagate(dt)
+    assert moved.epoch.scale == scale
+    np.testing.assert_allclose((moved.epoch.tt - epoch.tt).to_value(u.day), dt.value,
+                               rtol=0, atol=1e-9 / 86400)
+    batch = propagate_kepler_batch(s, moved.epoch)
+    gap_m = np.linalg.norm((batch.r[0] - moved.r).to_value(u.m), axis=-1)
+    assert gap_m.max() < 1e-3  # was 74 m for TDB
+    t = epoch + dt  # asked in the epoch's scale
+    res = vv.propagate_cowell(s, t, [])
+    np.testing.assert_allclose((res.times.tt - t.tt).to_value(u.s), 0.0, atol=1e-8)  # was 2.7 ms
+
+
+def test_utc_epochs_advance_exactly_as_astropy_adds():
+    epoch = Time("2016-12-31T23:59:30", scale="utc")
+    s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH, epoch=epoch)
+    later = s.propagate([0.0, 60.0, 3600.0] * u.s)
+    assert np.all(later.epoch == epoch + [0.0, 60.0, 3600.0] * u.s)  # across the leap second
+    assert later.epoch.scale == "utc"

@@ -38,8 +38,10 @@ def propagate_kepler(state, dt):
     -------
     StateVectors
         Shape ``np.broadcast_shapes(S, dt.shape)``. Same GM; the epoch, when set, advances by
-        ``dt`` (``epoch + dt`` as an astropy ``Time``, broadcast to the result's shape when
-        either is an array).
+        ``dt`` counted in TT seconds and stays in its own scale (``(epoch.tt + dt).tdb`` for a
+        TDB epoch: the offset ``t.tt - epoch.tt`` that ``propagate_cowell`` and the batches
+        use; ``epoch + dt`` for utc, tai and tt epochs), broadcast to the result's shape when
+        either is an array.
 
     Raises
     ------

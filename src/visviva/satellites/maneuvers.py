@@ -20,7 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
-from .._units import broadcast_or_raise, require_positive, to_array, to_quantity, to_vector
+from .._units import (
+    broadcast_or_raise,
+    require_positive,
+    seconds_since,
+    to_array,
+    to_quantity,
+    to_vector,
+)
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = [
@@ -402,7 +409,7 @@ class Maneuver:
             )
         coast = to_array(tof, "time", "tof")
         if state_from.epoch is not None and state_to.epoch is not None:
-            coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)
+            coast = coast + seconds_since(state_from.epoch, state_to.epoch)
         target = state_to.propagate(coast * u.s)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
         return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])._planned_from(

@@ -361,10 +361,15 @@ class Maneuver:
 
     @classmethod
     def plane_change(cls, state, delta_inc):
-        """Rotate the velocity about the position vector by ``delta_inc`` (now).
+        """Rotate the velocity about the position vector so the inclination changes by ``delta_inc``.
 
-        Applied at a node this changes the inclination by ``delta_inc`` at the cost
-        2 v sin(Δi/2) for a horizontal velocity.
+        Applied at either node this changes the inclination by ``delta_inc`` (positive raises
+        it) and leaves the node where it is, at the cost 2 v sin(Δi/2) for a horizontal
+        velocity (Vallado 2013, eq. 6-23). The sense of the rotation is chosen by the half of
+        the orbit the state is on: about +r on the ascending half (the node line's projection
+        r . n >= 0, n = z x h; also for equatorial orbits), about -r on the descending half.
+        Away from the nodes the same rotation tilts the plane about r: the inclination changes
+        by less and the node moves (at the highest latitude only the node moves).
         """
         r = to_vector(state.r, "length", "state.r")
         v = to_vector(state.v, "speed", "state.v")
@@ -374,9 +379,13 @@ class Maneuver:
             )
         di = _one_value(_inclination_change(delta_inc), "angle", "delta_inc")
         k = r / np.linalg.norm(r)
-        # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
-        # so at the ascending node a positive di raises the inclination
-        th = di
+        # Rodrigues' rotation of v about r_hat by di turns h = r x v about r_hat by di too: at
+        # the ascending node a positive di raises the inclination, at the descending node it
+        # lowers it, so there the rotation turns the other way (it lowered it silently: +10 deg
+        # at the descending node of a 30 deg orbit gave 20 deg)
+        h = np.cross(r, v)
+        node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
+        th = -di if np.dot(k, node) < 0 else di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
         return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
 

@@ -158,6 +158,7 @@ def test_a_propagated_epoch_is_the_time_cowell_and_the_batch_reach(scale):
     dt = [50.0, 180.0] * u.day
     moved = s.propagate(dt)
     assert moved.epoch.scale == scale
+    assert s.propagate(0 * u.s).epoch == epoch  # no offset keeps the epoch's bits
     np.testing.assert_allclose((moved.epoch.tt - epoch.tt).to_value(u.day), dt.value,
                                rtol=0, atol=1e-9 / 86400)
     batch = propagate_kepler_batch(s, moved.epoch)

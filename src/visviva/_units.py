@@ -264,10 +264,12 @@ def advance_epoch(epoch, dt_s):
     Returns
     -------
     astropy.time.Time
-        In ``epoch.scale``; for utc, tai and tt epochs exactly ``epoch + dt_s * u.s``.
+        In ``epoch.scale``; for utc, tai and tt epochs (or ``dt_s`` all zero) exactly
+        ``epoch + dt_s * u.s``.
     """
     dt = to_quantity(dt_s, "time")
-    if epoch.scale in ("utc", "tai", "tt"):
+    if epoch.scale in ("utc", "tai", "tt") or not np.any(dt.value):
+        # (no offset keeps the epoch's bits: through TT and back, UT1 moved by one ulp)
         return epoch + dt  # astropy adds these in TAI seconds already
     from ._offline_iers import offline_iers
 

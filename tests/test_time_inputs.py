@@ -175,3 +175,27 @@ def test_utc_epochs_advance_exactly_as_astropy_adds():
     later = s.propagate([0.0, 60.0, 3600.0] * u.s)
     assert np.all(later.epoch == epoch + [0.0, 60.0, 3600.0] * u.s)  # across the leap second
     assert later.epoch.scale == "utc"
+
+
+def test_masked_quantities_are_refused_not_computed_with_their_hidden_values():
+    # a MaskedQuantity (a QTable column with missing entries, e.g. a pass table's duration)
+    # or a numpy.ma array kept its hidden values and every two-body function used them: a
+    # state 1e9 s later, a Lambert arc for the hidden tof, a speed at the hidden radius
+    from astropy.utils.masked import Masked
+
+    s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH)
+    dt = Masked([60.0, 1e9] * u.s, mask=[False, True])
+    with pytest.raises(vv.InvalidInputError, match=r"dt has 1 masked .* index \(1,\)"):
+        s.propagate(dt)
+    with pytest.raises(vv.InvalidInputError, match="tof has 1 masked"):
+        vv.lambert([7000, 0, 0] * u.km, [0, 8000, 0] * u.km, Masked([3e3, 4e3] * u.s, [0, 1]),
+                   vv.EARTH)
+    with pytest.raises(vv.InvalidInputError, match="r has 1 masked"):
+        vv.vis_viva(Masked([7000.0, 8000.0] * u.km, [False, True]), 8000 * u.km, vv.EARTH)
+    with pytest.raises(vv.InvalidInputError, match="M has 1 masked"):
+        vv.solve_kepler(np.ma.masked_array([1.0, 2.0], [False, True]), 0.1)
+    # nothing masked: the values are used as given
+    np.testing.assert_array_equal(
+        s.propagate(Masked([60.0, 120.0] * u.s, mask=False)).r.value,
+        s.propagate([60.0, 120.0] * u.s).r.value)
+    assert vv.solve_kepler(np.ma.masked_array([1.0], [False]), 0.1) == vv.solve_kepler([1.0], 0.1)

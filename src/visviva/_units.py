@@ -142,6 +142,7 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     InvalidInputError
         NaN or infinite entries when ``finite`` is true.
     """
+    value = _unmasked(value, name)
     quantity = is_quantity(value)
     if not quantity and isinstance(value, (list, tuple)) and _holds_quantity(value):
         value = _list_to_quantity(value, kind, name)
@@ -181,6 +182,29 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     if finite:
         require_finite(arr, name)
     return arr
+
+
+def _unmasked(value, name: str):
+    """``value`` without its mask; InvalidInputError when any entry is masked.
+
+    A masked entry (a MaskedQuantity from a QTable column with missing values, e.g. a pass
+    table's ``duration``; a ``numpy.ma`` array) keeps a value under its mask, and every
+    function computed with it silently: a state at the hidden time, a speed at the hidden
+    radius. As for masked Times (:func:`require_usable_time`), they are refused.
+    """
+    mask = getattr(value, "mask", None)
+    if mask is None or mask is np.ma.nomask or type(value).__name__ in ("Time", "TimeDelta"):
+        return value
+    mask = np.asarray(mask, dtype=bool)
+    if mask.any():
+        first = tuple(int(i) for i in np.argwhere(mask)[0]) if mask.ndim else ()
+        raise InvalidInputError(
+            f"{name} has {int(mask.sum())} masked (missing) value(s), the first at index "
+            f"{first}; a masked entry has no value to compute with (the one hidden under the "
+            f"mask would be used). Drop or fill them first, e.g. {name}[~{name}.mask] or "
+            f"{name}.filled(...)."
+        )
+    return value.unmasked if hasattr(value, "unmasked") else np.ma.getdata(value)
 
 
 def _holds_quantity(seq) -> bool:

@@ -409,3 +409,20 @@ def test_omm_unit_table_is_the_ccsds_readers():
     ccsds = {k.name: k.unit for section in SECTIONS for k in section.keywords
              if k.unit and section.name != "covariance"}
     assert ccsds == OMM_UNITS
+
+
+def test_kepler_batch_refuses_states_on_more_than_one_axis_with_a_shape_error():
+    # (2, 3) states were flattened to six while their (2, 3) epochs stayed: numpy's "input
+    # operand has more dimensions than allowed by the axis remapping" from deep inside
+    from visviva.errors import ShapeError
+
+    epoch = Time("2024-01-01", scale="utc") + np.arange(3) * u.h
+    el = vv.KeplerianElements(np.full((2, 3), 7000.0) * u.km, 0.1, 0.5, 0.1, 0.2,
+                              np.linspace(-3, 3, 6).reshape(2, 3), vv.EARTH, epoch=epoch)
+    t = Time("2024-01-02", scale="utc") + np.arange(4) * u.h
+    with pytest.raises(ShapeError, match="one axis"):
+        propagate_kepler_batch(el.to_state(), t)
+    flat = el[0].to_state()  # (3,) states with (3,) epochs: the documented form still works
+    out = propagate_kepler_batch(flat, t)
+    one = flat[2].propagate((t - epoch[2]).to(u.s))
+    np.testing.assert_allclose(out.r[2].to_value(u.km), one.r.to_value(u.km), rtol=0, atol=1e-6)

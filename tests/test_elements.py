@@ -481,3 +481,16 @@ def test_equinoctial_definitions_and_round_trip_every_conic(ecc, inc, raan, argp
     np.testing.assert_allclose(back.r.to_value(KM), state.r.to_value(KM), rtol=0, atol=1e-13 * r0)
     v0 = np.linalg.norm(state.v.to_value(KMS))
     np.testing.assert_allclose(back.v.to_value(KMS), state.v.to_value(KMS), rtol=0, atol=1e-13 * v0)
+
+
+def test_a_plain_true_longitude_beyond_two_pi_warns_as_keplerian_angles_do():
+    # KeplerianElements(raan=400) warns that a plain 400 is taken in radians; the equinoctial
+    # L = 400 (degrees meant) was taken as 400 rad without a word: another point of the orbit
+    with pytest.warns(UserWarning, match=r"L = 400.0 is a plain number.*L=400.0 \* u.deg"):
+        vv.ModifiedEquinoctialElements(7000 * u.km, 0.1, 0, 0, 0, 400, vv.EARTH)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.ModifiedEquinoctialElements(7000 * u.km, 0.1, 0, 0, 0, 400 * u.deg, vv.EARTH)
+        vv.ModifiedEquinoctialElements(7000 * u.km, 0.1, 0, 0, 0, 6.0, vv.EARTH)

@@ -78,3 +78,15 @@ def test_the_de421_span_refused_is_the_one_named():
     for iso in ("1899-12-01", "2200-03-01"):
         with pytest.raises(InvalidInputError, match="1899-12-04 to 2200-02-01"):
             ephemeris.sun_position(Time(iso, scale="tdb"))
+
+
+def test_tabulated_bodies_sit_at_the_tt_offsets_cowell_integrates_for_a_tdb_epoch():
+    # the table of a third body was evaluated at epoch + grid added in TDB seconds while Cowell
+    # counts TT seconds from the epoch: the Moon 2.7 ms late after 180 days (~3 m of its orbit)
+    from visviva.satellites import ephemeris
+
+    epoch = Time("2024-03-01", scale="tdb")
+    t0, step, r, _ = ephemeris.tabulate(["moon"], epoch, 180 * 86400.0, 180 * 86400.0 + 60, 60.0)
+    at = (epoch.tt + (t0 + step * np.arange(r.shape[1])) * u.s)  # the TT offsets themselves
+    want = ephemeris.moon_position(at).to_value(u.km)
+    np.testing.assert_allclose(r[0], want, rtol=0, atol=1e-6)

@@ -373,3 +373,39 @@ def test_burns_of_a_plan_made_from_teme_states_are_refused_not_labelled_gcrs():
     assert out.burns[0].burn.frame == "GCRS"
     # a plan of plain numbers (no frame) is taken as GCRS, as plain states are everywhere
     assert Maneuver([(0 * u.s, [0, 0.1, 0] * KMS)]).frame is None
+
+
+@pytest.mark.parametrize("u_deg", [0.0, 180.0, 170.0, -20.0])
+@pytest.mark.parametrize("inc_deg", [30.0, 120.0])
+def test_a_plane_change_raises_the_inclination_at_either_node(u_deg, inc_deg):
+    # the velocity was rotated about +r always: at the descending node +10 deg lowered the
+    # inclination of a 30 deg orbit to 20 deg, silently; now +di raises it at both nodes
+    from visviva import KeplerianElements
+
+    el = KeplerianElements(7000 * u.km, 0.0, inc_deg * u.deg, 40 * u.deg, 0.0, u_deg * u.deg,
+                           vv.EARTH)
+    state = el.to_state()
+    after = Maneuver.plane_change(state, 10 * u.deg).apply(state).to_elements()
+    if u_deg in (0.0, 180.0):
+        assert after.inclination.to_value(u.deg) == pytest.approx(inc_deg + 10, abs=1e-9)
+        assert after.longitude_of_ascending_node.to_value(u.deg) == pytest.approx(40, abs=1e-9)
+    else:  # near a node: mostly an inclination change of the asked sign
+        assert 9 < after.inclination.to_value(u.deg) - inc_deg < 10
+    lowered = Maneuver.plane_change(state, -10 * u.deg).apply(state).to_elements()
+    assert lowered.inclination.to_value(u.deg) < inc_deg
+
+
+@pytest.mark.parametrize("inc_deg", [51.6, 98.0, 150.0])
+def test_lambert_rendezvous_turns_the_way_the_chaser_moves(inc_deg):
+    # lambert's default (h_z > 0) sent a sun-synchronous chaser (i = 98 deg) the other way
+    # round: 29.7 km/s instead of 1.88 km/s, silently
+    from visviva import KeplerianElements
+
+    chaser = KeplerianElements(7000 * u.km, 0.0, inc_deg * u.deg, 0.3, 0.0, 0.0, vv.EARTH)
+    target = KeplerianElements(7050 * u.km, 0.0, inc_deg * u.deg, 0.3, 0.0, 0.3, vv.EARTH)
+    man = Maneuver.lambert(chaser.to_state(), target.to_state(), 2000 * u.s)
+    assert man.total_delta_v.to_value(u.km / u.s) == pytest.approx(1.8762573, rel=1e-6)
+    after = man.apply(chaser.to_state())  # arrives on the target, moving with it
+    there = target.to_state().propagate(2000 * u.s)
+    assert np.abs((after.r - there.r).to_value(u.km)).max() < 1e-6
+    assert np.abs((after.v - there.v).to_value(u.km / u.s)).max() < 1e-9

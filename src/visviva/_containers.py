@@ -16,7 +16,7 @@ from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_num
 
 __all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
            "carry_marks", "carry_frame_mark", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
-           "canonical_arrays", "flat_elements", "warn_implausible_velocity"]
+           "canonical_arrays", "flat_elements", "warn_implausible_velocity", "warn_if_degrees"]
 
 
 #: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
@@ -332,7 +332,7 @@ def _wrap_pi(x: np.ndarray) -> np.ndarray:
     return np.where(inside, x, math.pi - _wrap_2pi(math.pi - x)) + 0.0
 
 
-def _warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
+def warn_if_degrees(value, arr: np.ndarray, name: str) -> None:
     """Warn once per call when a plain-number angle looks like degrees (|x| > 2 pi)."""
     if _units.is_quantity(value) or not np.any(np.abs(arr) > _TWO_PI):
         return

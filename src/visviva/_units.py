@@ -45,6 +45,8 @@ __all__ = [
     "require_finite",
     "require_positive",
     "require_flag",
+    "advance_epoch",
+    "seconds_since",
 ]
 
 
@@ -140,6 +142,7 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     InvalidInputError
         NaN or infinite entries when ``finite`` is true.
     """
+    value = _unmasked(value, name)
     quantity = is_quantity(value)
     if not quantity and isinstance(value, (list, tuple)) and _holds_quantity(value):
         value = _list_to_quantity(value, kind, name)
@@ -179,6 +182,29 @@ def to_array(value, kind: str, name: str, *, allow_plain: bool = False, finite: 
     if finite:
         require_finite(arr, name)
     return arr
+
+
+def _unmasked(value, name: str):
+    """``value`` without its mask; InvalidInputError when any entry is masked.
+
+    A masked entry (a MaskedQuantity from a QTable column with missing values, e.g. a pass
+    table's ``duration``; a ``numpy.ma`` array) keeps a value under its mask, and every
+    function computed with it silently: a state at the hidden time, a speed at the hidden
+    radius. As for masked Times (:func:`require_usable_time`), they are refused.
+    """
+    mask = getattr(value, "mask", None)
+    if mask is None or mask is np.ma.nomask or type(value).__name__ in ("Time", "TimeDelta"):
+        return value
+    mask = np.asarray(mask, dtype=bool)
+    if mask.any():
+        first = tuple(int(i) for i in np.argwhere(mask)[0]) if mask.ndim else ()
+        raise InvalidInputError(
+            f"{name} has {int(mask.sum())} masked (missing) value(s), the first at index "
+            f"{first}; a masked entry has no value to compute with (the one hidden under the "
+            f"mask would be used). Drop or fill them first, e.g. {name}[~{name}.mask] or "
+            f"{name}.filled(...)."
+        )
+    return value.unmasked if hasattr(value, "unmasked") else np.ma.getdata(value)
 
 
 def _holds_quantity(seq) -> bool:
@@ -227,6 +253,52 @@ def require_finite(arr, name: str) -> None:
             f"{name} contains NaN or infinite values (first at index {where}, "
             f"{len(bad) if arr.ndim else 1} in all). Remove or fill them before calling."
         )
+
+
+def seconds_since(t, epoch):
+    """TT seconds from ``epoch`` to ``t`` (astropy Times of any scales), float64 ndarray.
+
+    SI seconds whatever the scales (a TDB difference drifts ~1.7 ms a year from TT's): the
+    elapsed time of every propagation, the inverse of :func:`advance_epoch`.
+    """
+    from ._offline_iers import offline_iers
+
+    with offline_iers():  # UT1 needs the installed IERS table, never a download
+        return np.asarray((t.tt - epoch.tt).to_value(_astropy_units().s), dtype=np.float64)
+
+
+def advance_epoch(epoch, dt_s):
+    """``epoch`` moved by ``dt_s`` SI seconds of TT, returned in ``epoch``'s own scale and format.
+
+    Elapsed times in visviva are TT (= TAI) differences whatever the scales: Cowell's output
+    offsets are ``(t.tt - epoch.tt)`` and the batches' TAI Julian-date differences. astropy's
+    ``epoch + dt`` adds ``dt`` in the epoch's scale (TDB, TCB, TCG or UT1 seconds; TAI for a
+    UTC epoch), so a state propagated by ``dt`` from a TDB epoch was labelled with a time
+    whose TT offset is not ``dt`` (up to 2.7 ms after 180 days: 74 m along a heliocentric
+    orbit against ``propagate_cowell`` or the Kepler batch at that label). This is the one
+    owner of the inverse of those offsets.
+
+    Parameters
+    ----------
+    epoch : astropy.time.Time
+        The epoch (any scale but ``local``, any shape).
+    dt_s : float or ndarray
+        Seconds of TT to add, broadcasting against ``epoch``.
+
+    Returns
+    -------
+    astropy.time.Time
+        In ``epoch.scale``; for utc, tai and tt epochs (or ``dt_s`` all zero) exactly
+        ``epoch + dt_s * u.s``.
+    """
+    dt = to_quantity(dt_s, "time")
+    if epoch.scale in ("utc", "tai", "tt") or not np.any(dt.value):
+        # (no offset keeps the epoch's bits: through TT and back, UT1 moved by one ulp)
+        return epoch + dt  # astropy adds these in TAI seconds already
+    from ._offline_iers import offline_iers
+
+    with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+        return getattr(epoch.tt + dt, epoch.scale)
 
 
 def require_usable_time(t, name: str) -> None:

@@ -24,7 +24,6 @@ from ._containers import (
     _index_elements,
     _require_positive_p,
     _scalar_or_array,
-    _warn_if_degrees,
     _wrap_2pi,
     _wrap_pi,
     broadcast_shape,
@@ -34,6 +33,7 @@ from ._containers import (
     flat_elements,
     gm_positive,
     validate_epoch,
+    warn_if_degrees,
 )
 from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_for_result
 from .states import states_from_kernel
@@ -126,7 +126,7 @@ class KeplerianElements(TwoBodyContainer):
             inc = np.minimum(inc, math.pi)
         # docs/conventions.md: raan, argp in [0, 2 pi), nu in (-pi, pi], from any input
         for value, arr, name in ((raan_in, raan, "raan"), (argp_in, argp, "argp"), (nu_in, nu, "nu")):
-            _warn_if_degrees(value, arr, name)
+            warn_if_degrees(value, arr, name)
         raan, argp, nu = _wrap_2pi(raan), _wrap_2pi(argp), _wrap_pi(nu)
         self._init_canonical(p_km, ecc, inc, raan, argp, nu, gm, epoch, shape)
 

@@ -24,6 +24,7 @@ from ._containers import (
     flat_elements,
     gm_positive,
     validate_epoch,
+    warn_if_degrees,
 )
 from .errors import InvalidElementsError
 from .states import states_from_kernel
@@ -67,7 +68,8 @@ class ModifiedEquinoctialElements(TwoBodyContainer):
         g = _units.to_array(g, "dimensionless", "g")
         h = _units.to_array(h, "dimensionless", "h")
         k = _units.to_array(k, "dimensionless", "k")
-        L = _units.to_array(L, "angle", "L")
+        L_in, L = L, _units.to_array(L, "angle", "L")
+        warn_if_degrees(L_in, L, "L")  # as KeplerianElements does for its angles
         gm = _units.to_array(gm, "gm", "gm")
         gm_positive(gm)
         shape = broadcast_shape(

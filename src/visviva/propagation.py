@@ -38,8 +38,10 @@ def propagate_kepler(state, dt):
     -------
     StateVectors
         Shape ``np.broadcast_shapes(S, dt.shape)``. Same GM; the epoch, when set, advances by
-        ``dt`` (``epoch + dt`` as an astropy ``Time``, broadcast to the result's shape when
-        either is an array).
+        ``dt`` counted in TT seconds and stays in its own scale (``(epoch.tt + dt).tdb`` for a
+        TDB epoch: the offset ``t.tt - epoch.tt`` that ``propagate_cowell`` and the batches
+        use; ``epoch + dt`` for utc, tai and tt epochs), broadcast to the result's shape when
+        either is an array.
 
     Raises
     ------
@@ -61,8 +63,12 @@ def propagate_kepler(state, dt):
     Kepler equation ``dt = r0 G1 + (r0 . v0) G2 + mu G3`` is solved for ``s`` by safeguarded
     Laguerre-Conway iteration, and Lagrange's coefficients give
     ``r = f r0 + g v0``, ``v = fdot r0 + gdot v0``. Elliptic ``dt`` is reduced modulo the period
-    first, so many revolutions keep full accuracy. The first call compiles the kernel (or loads
-    it from numba's cache).
+    first (exact ``fmod``), so the error is the problem's own conditioning: the period carries
+    the rounding of ``r0`` and ``v0``, and the position is off by ~ eps n |dt| relative (60-digit
+    checks: 1.3e-12 after 1.7e3 LEO revolutions, 4e-9 after 5.7e6; GTO and e = 0.99 alike).
+    Beyond ~1e13 revolutions the phase is rounding noise and the returned point, on the right
+    conic, is anywhere along it. The first call compiles the kernel (or loads it from numba's
+    cache).
 
     Examples
     --------

@@ -375,7 +375,7 @@ class StateVectors(TwoBodyContainer):
         r, v, gm, dt_s, shape = propagate_canonical(self._r, self._v, self._gm, self._shape, dt)
         epoch = self.epoch
         if epoch is not None:
-            epoch = epoch + _units.to_quantity(dt_s, "time")
+            epoch = _units.advance_epoch(epoch, dt_s)
             if epoch.shape not in ((), shape):
                 epoch = np.broadcast_to(epoch, shape, subok=True)
         return carry_frame_mark(self, StateVectors._from_canonical(r, v, gm, epoch))

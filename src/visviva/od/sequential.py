@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._covariance import km_covariance
+from .._units import advance_epoch
 from ..errors import ConvergenceError, InvalidInputError
 from .extended import ekf_pass, initial_impulses
 from .initial_state import check_initial
@@ -391,9 +392,8 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
         first_state = StateVectors._from_canonical(sm_x[0, :3].copy(), sm_x[0, 3:6].copy(),
                                                    np.float64(gm), epoch)  # fmt: skip
         first_cov = sm_P[0, :6, :6]
-    from astropy import units as u
 
-    times = epoch + epochs * u.s
+    times = advance_epoch(epoch, epochs)  # the offsets are TT seconds (Observations.offsets_s)
     last = StateVectors._from_canonical(xs[-1, :3].copy(), xs[-1, 3:6].copy(), np.float64(gm),
                                         times[-1])  # fmt: skip
     extra = _coefficient_fields(est, xs, Ps, dyn.perturbations, sm_x, sm_P, gm_noise)

@@ -545,6 +545,20 @@ def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
     return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
 
 
+def _require_one_axis(r, v, gm, epoch) -> None:
+    """ShapeError unless the states lie on one axis of N, with gm and epoch scalar or (N,).
+
+    (2, 3) states were flattened, their epochs and gm not: a raw numpy ValueError."""
+    n = r.shape[:-1]
+    if r.shape != v.shape or len(n) > 1 or any(np.shape(x) not in ((), n) for x in (gm, epoch)):
+        raise ShapeError(
+            f"propagate_kepler_batch takes N states on one axis: r, v of shape (N, 3) with gm "
+            f"and epoch scalar or (N,); got r {r.shape}, v {v.shape}, gm {np.shape(gm)}, epoch "
+            f"{np.shape(epoch)}. Flatten the states first (states[i] for each, or build them "
+            "from r.reshape(-1, 3), v.reshape(-1, 3) and epochs of shape (N,))."
+        )
+
+
 def propagate_kepler_batch(states, t, *, on_error: str = "raise",
                            backend: str = "cpu") -> BatchStates:
     """Two-body motion of N states to T times (universal variables, every conic).
@@ -594,12 +608,15 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         gm = np.array([s.satrec.mu for s in cat.satellites])
         names, frame = cat.names, "teme"
     else:
-        r0 = to_vector(states.r, "length", "states.r").reshape(-1, 3)
-        v0 = to_vector(states.v, "speed", "states.v").reshape(-1, 3)
-        gm = np.broadcast_to(to_array(states.gm, "gm", "states.gm"), (r0.shape[0],))
+        r0 = to_vector(states.r, "length", "states.r")
+        v0 = to_vector(states.v, "speed", "states.v")
+        gm = to_array(states.gm, "gm", "states.gm")
         ep = getattr(states, "epoch", None)
         if not isinstance(ep, Time):
             raise InvalidInputError("states needs an .epoch (astropy Time) for absolute times t.")
+        _require_one_axis(r0, v0, gm, ep)
+        r0, v0 = r0.reshape(-1, 3), v0.reshape(-1, 3)
+        gm = np.broadcast_to(gm, (r0.shape[0],))
         ep = ep.reshape(-1) if ep.ndim == 0 else ep
         names = [str(i) for i in range(r0.shape[0])]
         frame = require_kepler_frame(states, "propagate_kepler_batch")

@@ -17,7 +17,15 @@ import numpy as np
 from astropy import units as u
 
 from .. import constants as c
-from .._units import require_finite, require_usable_time, to_array, to_quantity, to_vector
+from .._units import (
+    advance_epoch,
+    require_finite,
+    require_usable_time,
+    seconds_since,
+    to_array,
+    to_quantity,
+    to_vector,
+)
 from ..bodies import EARTH, SUN
 from ..core import force_block as fb
 from ..core.cowell import WORK_ROWS, integrate_cowell, rhs_kind
@@ -27,7 +35,6 @@ from .burn_segments import burn_schedule
 from .cowell_batch import propagate_batch, raise_budget
 from .dop853 import dop853_tableau, integration_tolerances
 from .events import Event, EventRecord, event_capacity
-from .frames import offline_iers
 from .perturbations import (
     AtmosphericDrag,
     Perturbation,
@@ -326,7 +333,7 @@ class CowellResult:
     @property
     def times(self):
         """Absolute output times (astropy Time), or None when the state had no epoch."""
-        return None if self.epoch is None else self.epoch + self.t
+        return None if self.epoch is None else advance_epoch(self.epoch, self.t.to_value(u.s))
 
     def to_states(self):
         """The outputs as :class:`visviva.StateVectors` (shape (T,))."""
@@ -361,9 +368,7 @@ def output_offsets_s(t, epoch):
                 "epoch=..., or pass t as offsets from the initial state (e.g. 3600 * u.s)."
             )
         require_usable_time(t, "t")
-        # TT differences: SI seconds whatever the scales (TDB seconds drift ~1.7 ms a year);
-        with offline_iers():  # UT1 needs the installed IERS table, never a download
-            return np.asarray((t.tt - epoch.tt).to_value(u.s), dtype=np.float64)
+        return seconds_since(t, epoch)  # TT seconds; advance_epoch (times) is its inverse
     return to_array(t, "time", "t")
 
 

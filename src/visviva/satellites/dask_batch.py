@@ -31,7 +31,7 @@ from astropy.time import Time
 
 from .._dask import NUMBA_LOCK, close_local_cluster, get_client
 from .._dask import require_dask as _require_dask
-from .._units import to_quantity
+from .._units import advance_epoch, to_quantity
 from ..errors import InvalidInputError
 from .catalog import (
     BatchStates,
@@ -438,7 +438,7 @@ def _cowell_dask(states, t, perturbations, chunks, client, options) -> DaskBatch
         dt = to_array(t, "time", "t")
         if dt.ndim != 1:
             raise InvalidInputError(f"t must be a 1-D array of times; got shape {dt.shape}.")
-        times = t if epoch is None else epoch + dt * u.s
+        times = t if epoch is None else advance_epoch(epoch, dt)  # TT seconds, as Cowell
     if isinstance(chunks, (tuple, list)):
         chunks = chunks[0]
     n_chunk = _COWELL_CHUNK if chunks is None else int(chunks)

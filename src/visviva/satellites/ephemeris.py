@@ -20,7 +20,7 @@ import functools
 
 import numpy as np
 
-from .._units import to_quantity
+from .._units import advance_epoch, to_quantity
 from ..constants import DAY_S
 from ..errors import InvalidInputError
 
@@ -200,7 +200,7 @@ def tabulate(names, epoch, t_start_s, t_end_s, step_s, center="earth"):
     n = max(2, int(np.ceil((t_end_s - t_start_s) / step_s)) + 3)
     t0 = t_start_s - step_s
     grid = t0 + step_s * np.arange(n)
-    times = epoch + grid * u.s
+    times = advance_epoch(epoch, grid)  # Cowell's offsets are TT seconds from the epoch
     r = np.empty((len(names), n, 3))
     v = np.empty((len(names), n, 3))
     for i, name in enumerate(names):

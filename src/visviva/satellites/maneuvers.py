@@ -20,7 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 from astropy import units as u
 
-from .._units import broadcast_or_raise, require_positive, to_array, to_quantity, to_vector
+from .._units import (
+    broadcast_or_raise,
+    require_positive,
+    seconds_since,
+    to_array,
+    to_quantity,
+    to_vector,
+)
 from ..errors import InvalidInputError, InvalidStateError
 
 __all__ = [
@@ -60,6 +67,20 @@ def _inclination_change(delta_inc):
             "degrees (or a Quantity in rad)."
         )
     return di
+
+
+def _chaser_sense(chaser, target) -> bool:
+    """lambert's ``prograde`` flag for the transfer that turns the way ``chaser`` moves.
+
+    lambert's True is the transfer with h_z > 0; here the short way is wanted when r1 x r2 lies
+    on the side of the chaser's r x v, the long way otherwise, expressed in that flag (True is
+    the short way when (r1 x r2)_z >= 0, the long way when it is < 0).
+    """
+    r1 = to_vector(chaser.r, "length", "state_from.r")
+    r2 = to_vector(target.r, "length", "target r")
+    normal = np.cross(r1, r2)
+    short = bool(np.dot(normal, np.cross(r1, to_vector(chaser.v, "speed", "state_from.v"))) >= 0)
+    return short == bool(normal[2] >= 0)
 
 
 def hohmann_delta_v(r1, r2, gm):
@@ -354,10 +375,15 @@ class Maneuver:
 
     @classmethod
     def plane_change(cls, state, delta_inc):
-        """Rotate the velocity about the position vector by ``delta_inc`` (now).
+        """Rotate the velocity about the position vector so the inclination changes by ``delta_inc``.
 
-        Applied at a node this changes the inclination by ``delta_inc`` at the cost
-        2 v sin(Δi/2) for a horizontal velocity.
+        Applied at either node this changes the inclination by ``delta_inc`` (positive raises
+        it) and leaves the node where it is, at the cost 2 v sin(Δi/2) for a horizontal
+        velocity (Vallado 2013, eq. 6-23). The sense of the rotation is chosen by the half of
+        the orbit the state is on: about +r on the ascending half (the node line's projection
+        r . n >= 0, n = z x h; also for equatorial orbits), about -r on the descending half.
+        Away from the nodes the same rotation tilts the plane about r: the inclination changes
+        by less and the node moves (at the highest latitude only the node moves).
         """
         r = to_vector(state.r, "length", "state.r")
         v = to_vector(state.v, "speed", "state.v")
@@ -367,9 +393,13 @@ class Maneuver:
             )
         di = _one_value(_inclination_change(delta_inc), "angle", "delta_inc")
         k = r / np.linalg.norm(r)
-        # Rodrigues' rotation of v about r_hat by di: it turns h = r x v about r_hat by di too,
-        # so at the ascending node a positive di raises the inclination
-        th = di
+        # Rodrigues' rotation of v about r_hat by di turns h = r x v about r_hat by di too: at
+        # the ascending node a positive di raises the inclination, at the descending node it
+        # lowers it, so there the rotation turns the other way (it lowered it silently: +10 deg
+        # at the descending node of a 30 deg orbit gave 20 deg)
+        h = np.cross(r, v)
+        node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
+        th = -di if np.dot(k, node) < 0 else di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
         return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
 
@@ -380,7 +410,11 @@ class Maneuver:
         ``state_to`` is the target's state at the start; it is propagated by ``tof`` on its
         own conic. When both states carry epochs, the target is first carried from its epoch to
         the chaser's (the start). Both must orbit the same attractor (equal GM). Extra keywords
-        go to :func:`visviva.lambert` (revolutions, prograde, ...).
+        go to :func:`visviva.lambert` (revolutions, branch, method, prograde). Without
+        ``prograde`` the transfer turns the way the chaser moves (its angular momentum and the
+        transfer's point to the same side of the plane of r1 and r2): lambert's own default
+        (h_z > 0) sent a chaser on a retrograde orbit, e.g. sun-synchronous, the other way
+        round (29.7 km/s instead of 1.9 km/s at 98 deg, silently).
         """
         from .lambert_solvers import lambert
 
@@ -402,8 +436,10 @@ class Maneuver:
             )
         coast = to_array(tof, "time", "tof")
         if state_from.epoch is not None and state_to.epoch is not None:
-            coast = coast + (state_from.epoch - state_to.epoch).to_value(u.s)
+            coast = coast + seconds_since(state_from.epoch, state_to.epoch)
         target = state_to.propagate(coast * u.s)
+        if "prograde" not in lambert_kwargs and np.shape(state_from.r) == (3,):
+            lambert_kwargs["prograde"] = _chaser_sense(state_from, target)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
         return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])._planned_from(
             state_from, state_to)

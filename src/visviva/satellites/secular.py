@@ -20,7 +20,7 @@ import numpy as np
 from astropy import units as u
 
 from .. import constants as c
-from .._units import broadcast_or_raise, to_array, to_quantity
+from .._units import advance_epoch, broadcast_or_raise, to_array, to_quantity
 from ..bodies import EARTH
 from ..errors import DomainError, InvalidInputError
 
@@ -178,7 +178,7 @@ def propagate_j2_secular(elements, dt, body=EARTH):
         np.mod(argp, 2 * np.pi),
         nu,
         elements.gm,
-        epoch=None if elements.epoch is None else elements.epoch + dt_s * u.s,
+        epoch=None if elements.epoch is None else advance_epoch(elements.epoch, dt_s),
     )
     frame = getattr(elements, "frame", None)
     return drifted if frame is None else with_frame(drifted, frame)

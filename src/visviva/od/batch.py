@@ -586,7 +586,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         err.history = history
         raise err
     observations.warn_below_horizon(y[:, :3], ~new_rejected, "the fitted orbit")
-    warn_misfit(rms)
+    warn_misfit(rms, int(new_rejected.sum()), len(new_rejected))
     rms_by_kind = {}
     for k in KINDS:
         m = (kinds == k)[:, None] & use

@@ -50,6 +50,13 @@ def _row_value(value, kind, i):
             f"observation {i}: a range is a distance, >= 0; got {float(arr[0]):g} km. Check the sign "
             "and the unit (plain numbers are km)."
         )
+    if phys == "angle" and not abs(arr[0]) <= 2 * np.pi:  # audit24: [200, 1] rad accepted
+        name = "azimuth" if kind == "azel" else "right ascension"
+        raise DomainError(
+            f"observation {i} ({kind}): the {name} {float(arr[0]):g} rad is outside "
+            "[-2 pi, 2 pi]. Plain numbers are radians: pass degrees as a Quantity, e.g. "
+            "[200, 30] * u.deg."
+        )
     if phys == "angle" and abs(arr[1]) > np.pi / 2:
         name = "elevation" if kind == "azel" else "declination"
         raise DomainError(
@@ -72,6 +79,32 @@ def sigma_value(s, kind: str, name: str) -> float:
             f"got {s!r}. A sigma is the measurement's standard deviation."
         )
     return float(val.ravel()[0])
+
+
+def _warn_repeated_rows(offsets_s, kinds, vals, stations, times):
+    """TrackingDataWarning when a row repeats an earlier one exactly (time, kind, station and
+    value): real measurements differ by their noise, so such a copy is data read or appended
+    twice, which the fits count twice (a covariance sqrt(2) too small)."""
+    seen = {}
+    repeats = []
+    for i, (t, k, v, st) in enumerate(zip(offsets_s, kinds, vals, stations, strict=True)):
+        key = (float(t), k, v.tobytes())
+        if any(stations[j] is st or stations[j] == st for j in seen.get(key, ())):
+            repeats.append(i)
+        seen.setdefault(key, []).append(i)
+    if not repeats:
+        return
+    import warnings
+
+    from ..errors import TrackingDataWarning
+
+    i = repeats[0]
+    warnings.warn(
+        f"{len(repeats)} observation row(s) repeat an earlier row exactly (the same time, kind, "
+        f"station and value; first row {i}, {kinds[i]} at {times[i].utc.isot} UTC): the data "
+        "were probably read or appended twice (the same TDM given twice?). Each copy counts as "
+        "a measurement, so the fit's covariance comes out too small: drop the duplicates.",
+        TrackingDataWarning, stacklevel=3)
 
 
 def _height_km(station):
@@ -258,6 +291,7 @@ class Observations:
                         f"a ground station, and its observer {type(st).__name__} has no "
                         "horizon (no enu_matrix): give it a vv.GroundStation, or keep the "
                         f"rows of other observers in a table without {name}.")
+        _warn_repeated_rows((tt - tt[0]).sec, kinds, vals, stations, times)
         self.times = times
         self.kinds = np.array(kinds)
         self.values = vals

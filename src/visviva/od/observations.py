@@ -50,18 +50,18 @@ def _row_value(value, kind, i):
             f"observation {i}: a range is a distance, >= 0; got {float(arr[0]):g} km. Check the sign "
             "and the unit (plain numbers are km)."
         )
+    if phys == "angle" and abs(arr[1]) > np.pi / 2:
+        name = "elevation" if kind == "azel" else "declination"
+        raise DomainError(
+            f"observation {i} ({kind}): the {name} {float(arr[1]):g} rad is outside [-pi/2, pi/2]. "
+            "Plain numbers are radians: pass degrees as a Quantity, e.g. [200, 30] * u.deg."
+        )
     if phys == "angle" and not abs(arr[0]) <= 2 * np.pi:  # audit24: [200, 1] rad accepted
         name = "azimuth" if kind == "azel" else "right ascension"
         raise DomainError(
             f"observation {i} ({kind}): the {name} {float(arr[0]):g} rad is outside "
             "[-2 pi, 2 pi]. Plain numbers are radians: pass degrees as a Quantity, e.g. "
             "[200, 30] * u.deg."
-        )
-    if phys == "angle" and abs(arr[1]) > np.pi / 2:
-        name = "elevation" if kind == "azel" else "declination"
-        raise DomainError(
-            f"observation {i} ({kind}): the {name} {float(arr[1]):g} rad is outside [-pi/2, pi/2]. "
-            "Plain numbers are radians: pass degrees as a Quantity, e.g. [200, 30] * u.deg."
         )
     return arr
 
@@ -198,8 +198,15 @@ class Observations:
     ShapeError
         A value with the wrong number of components.
     DomainError
-        An impossible value: a negative range, or an elevation or declination outside
-        [-90, 90] deg (often degrees passed as plain numbers, which are read as radians).
+        An impossible value: a negative range, an elevation or declination outside
+        [-90, 90] deg, or an azimuth or right ascension outside [-360, 360] deg (often degrees
+        passed as plain numbers, which are read as radians).
+
+    Warns
+    -----
+    TrackingDataWarning
+        A row that repeats an earlier one exactly (time, kind, station and value): data read
+        or appended twice, which a fit would count twice.
     """
 
     def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,

@@ -168,3 +168,22 @@ def test_a_fit_from_its_iod_keeps_a_good_pass_it_met_while_far_off():
     monday.values[bad, 0] += 1.0  # 100 sigma of 10 m
     fit = vv.fit_orbit(monday, None, forces)
     assert sorted(np.flatnonzero(fit.rejected)) == sorted(bad)
+
+
+ISS_2024 = ("ISS (ZARYA)\n"
+            "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009\n"
+            "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340\n")
+
+
+@pytest.mark.parametrize("start, noted", [("2026-06-01T12:00", True), ("2024-01-10T12:00", False),
+                                          ("2023-11-01T12:00", True)])
+def test_passes_notes_element_sets_far_from_the_window(tmp_path, capsys, start, noted):
+    # was: a 2024 TLE over a 2026 window listed 0 passes with exit code 0 and no word that
+    # SGP4 was run 882 days past the epoch
+    path = tmp_path / "iss.tle"
+    path.write_text(ISS_2024)
+    code = cli.main(["passes", str(path), "--lat", "52.2", "--lon", "0.12", "--start", start,
+                     "--hours", "1"])
+    out, err = capsys.readouterr()
+    assert code == 0 and "pass(es) of 1 satellite(s)" in out
+    assert ("note: 1 of 1 element set(s) lie more than 30 days from the window" in err) is noted

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 import warnings
 
 import numpy as np
@@ -187,3 +188,40 @@ def test_passes_notes_element_sets_far_from_the_window(tmp_path, capsys, start, 
     out, err = capsys.readouterr()
     assert code == 0 and "pass(es) of 1 satellite(s)" in out
     assert ("note: 1 of 1 element set(s) lie more than 30 days from the window" in err) is noted
+
+
+def _range_and_angles_tdm(folder):
+    site = vv.GroundStation(40 * u.deg, -105 * u.deg, 1600 * u.m, name="COLORADO")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.05, 5.75] * u.km / u.s,
+                            vv.EARTH, epoch=T0)
+    times = T0 + np.arange(780, 1260, 60) * u.s  # the first Colorado pass
+    kinds = ["range", "azel"] * len(times)
+    obs = vv.od.simulate_observations(truth, times[np.repeat(np.arange(len(times)), 2)], kinds,
+                                      [0.01, 1e-4] * len(times), site, seed=1)
+    path = folder / "pass.tdm"
+    vv.write_tdm(obs, path, participant="SAT-1")
+    return path
+
+
+ARGS = ["--station", "COLORADO=40,-105,1600", "--sigma", "range=10m,angle=0.01deg"]
+
+
+def test_od_gives_advice_a_shell_user_can_follow(tmp_path, capsys):
+    # was: "drop these with ignore=('ANGLE_1', 'ANGLE_2')", "pass range_units_km=" and "pass
+    # initial=vv.StateVectors(...) yourself": Python keywords the command does not take
+    text = _range_and_angles_tdm(tmp_path).read_text()
+    assert "ANGLE_TYPE" in text and "RANGE_UNITS" in text
+    xeyn = tmp_path / "xeyn.tdm"
+    xeyn.write_text(re.sub(r"ANGLE_TYPE(\s*)= AZEL", r"ANGLE_TYPE\1= XEYN", text))
+    assert cli.main(["od", str(xeyn), *ARGS]) == 2
+    err = capsys.readouterr().err
+    assert "drop these with --ignore ANGLE_1,ANGLE_2" in err and "ignore=(" not in err
+    # the option exists and does what the advice says: the angles are left out
+    code = cli.main(["od", str(xeyn), *ARGS, "--ignore", "ANGLE_1,ANGLE_2"])
+    err = capsys.readouterr().err
+    assert "XEYN" not in err and "ANGLE_1 (8), ANGLE_2 (8)" in err
+    assert code == 1 and "--initial FILE" in err and "initial=vv." not in err  # range alone
+    ru = tmp_path / "ru.tdm"
+    ru.write_text(re.sub(r"RANGE_UNITS(\s*)= km", r"RANGE_UNITS\1= RU", text))
+    assert cli.main(["od", str(ru), *ARGS]) == 2
+    assert "visviva od does not take it" in capsys.readouterr().err

@@ -286,7 +286,7 @@ def parse_ionosphere(spec, frequency):
 
 def read_tracking(paths, stations, sigmas, troposphere=False, media=None):
     """The observations of the TDM files ``paths`` as one table (their segments together);
-    ``media`` the ``ionosphere`` and ``frequency_hz`` keywords, if any."""
+    ``media`` the ``ionosphere``, ``frequency_hz`` and ``ignore`` keywords, if any."""
     from pathlib import Path
 
     from .tracking_data import TDM, read_tdm

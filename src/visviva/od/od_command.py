@@ -72,6 +72,10 @@ def add_parser(sub) -> None:
     p.add_argument("--frequency", default=None, metavar="FREQ",
                    help="with --ionosphere: the signal's frequency with its unit, e.g. 2.2GHz "
                    "(for TDM segments without frequency lines; checked against them)")
+    p.add_argument("--ignore", default=None, metavar="KEYWORD[,...]",
+                   help="TDM keywords to leave out: data (e.g. ANGLE_1,ANGLE_2 of an angle type "
+                   "visviva does not model, one-way RANGE, RANGE_MODULUS) or corrections; the "
+                   "messages that refuse a keyword name it")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -150,8 +154,30 @@ def run(args) -> int:
 
 
 def _fail(message: str, code: int) -> int:
-    print("visviva od: " + " ".join(message.split()), file=sys.stderr)
+    print("visviva od: " + _shell_advice(" ".join(message.split())), file=sys.stderr)
     return code
+
+
+#: keywords of TDM.to_observations that the command line does not take
+_PYTHON_ONLY = ("range_units_km=", "integrated_doppler=", "corrections_applied=", "quality=")
+
+
+def _shell_advice(message: str) -> str:
+    """The readers' advice in the command's words: ``ignore=('A', 'B')`` is ``--ignore A,B``
+    (audit24: the shell user was told to pass Python keywords)."""
+    import re
+
+    def option(match):
+        keys = re.findall(r"['\"]([A-Z0-9_]+)['\"]", match.group(1))
+        return f"--ignore {','.join(keys)}"
+
+    message = re.sub(r"ignore=\(([^)]*)\)", option, message)
+    message = message.replace("pass initial=vv.StateVectors(...) yourself",
+                              "give a first guess with --initial FILE (an OPM, OEM, TLE or OMM)")
+    if any(key in message for key in _PYTHON_ONLY):
+        message += (" (that keyword is an option of vv.read_tdm(path).to_observations(...) in "
+                    "Python; visviva od does not take it: convert the file, or fit in Python)")
+    return message
 
 
 def _setup(args) -> dict:
@@ -215,7 +241,9 @@ def _setup(args) -> dict:
     troposphere = ({"refraction": args.refraction} if args.troposphere and args.refraction
                    else args.troposphere)
     iono, freq = parse_ionosphere(args.ionosphere, args.frequency)
-    media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else None
+    media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else {}
+    if args.ignore:
+        media["ignore"] = tuple(k.strip().upper() for k in args.ignore.split(",") if k.strip())
     obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere, media)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")

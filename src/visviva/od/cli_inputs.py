@@ -286,7 +286,8 @@ def parse_ionosphere(spec, frequency):
 
 def read_tracking(paths, stations, sigmas, troposphere=False, media=None):
     """The observations of the TDM files ``paths`` as one table (their segments together);
-    ``media`` the ``ionosphere``, ``frequency_hz`` and ``range_seconds`` keywords, if any."""
+    ``media`` the ``ionosphere``, ``frequency_hz``, ``range_seconds`` and ``ignore`` keywords, if
+    any."""
     from pathlib import Path
 
     from .tracking_data import TDM, read_tdm

@@ -10,15 +10,23 @@ from __future__ import annotations
 
 import warnings
 
-__all__ = ["MISFIT_RMS", "warn_misfit"]
+__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
 #: are the noise the sigmas describe, the RMS is 1 +- 1/sqrt(2 dof))
 MISFIT_RMS = 10.0
 
 
-def warn_misfit(rms, stacklevel=3):
-    """RuntimeWarning when a converged fit's RMS of normalised residuals exceeds MISFIT_RMS."""
+#: a converged fit that rejects more than this fraction of its rows as outliers warns (noise
+#: as the sigmas describe it puts well under 1 % of the rows past the editing limit; audit24:
+#: station heights given in km to `visviva od`, which reads metres, rejected 36 % of the rows
+#: at an RMS of 8.9, without a word)
+MISFIT_REJECTED = 0.2
+
+
+def warn_misfit(rms, n_rejected=0, n_rows=1, stacklevel=3):
+    """RuntimeWarning when a converged fit's RMS of normalised residuals exceeds MISFIT_RMS,
+    or when it rejected more than MISFIT_REJECTED of its ``n_rows`` rows."""
     if rms > MISFIT_RMS:  # audit20: a local minimum at RMS 68000 came back with a 13 m sigma
         warnings.warn(
             f"the fit converged with an RMS of {rms:.4g}: its residuals are that many times "
@@ -27,3 +35,11 @@ def warn_misfit(rms, stacklevel=3):
             "or a first guess that led to another minimum) and fit.covariance, scaled to the "
             "sigmas, understates the error about as many times.", RuntimeWarning,
             stacklevel=stacklevel)
+    elif n_rejected > MISFIT_REJECTED * n_rows:
+        warnings.warn(
+            f"the fit rejected {n_rejected} of its {n_rows} observations "
+            f"({100 * n_rejected / n_rows:.0f} %) as outliers: the model does not explain a "
+            f"large part of the data (RMS {rms:.4g} of those kept). Check the stations' "
+            "coordinates (heights in metres on the command line), the time tags, the sigmas "
+            "and the force model, or look for a burn; fit.rejected marks the rows.",
+            RuntimeWarning, stacklevel=stacklevel)

@@ -56,6 +56,13 @@ def _row_value(value, kind, i):
             f"observation {i} ({kind}): the {name} {float(arr[1]):g} rad is outside [-pi/2, pi/2]. "
             "Plain numbers are radians: pass degrees as a Quantity, e.g. [200, 30] * u.deg."
         )
+    if phys == "angle" and not abs(arr[0]) <= 2 * np.pi:  # audit24: [200, 1] rad accepted
+        name = "azimuth" if kind == "azel" else "right ascension"
+        raise DomainError(
+            f"observation {i} ({kind}): the {name} {float(arr[0]):g} rad is outside "
+            "[-2 pi, 2 pi]. Plain numbers are radians: pass degrees as a Quantity, e.g. "
+            "[200, 30] * u.deg."
+        )
     return arr
 
 
@@ -72,6 +79,32 @@ def sigma_value(s, kind: str, name: str) -> float:
             f"got {s!r}. A sigma is the measurement's standard deviation."
         )
     return float(val.ravel()[0])
+
+
+def _warn_repeated_rows(offsets_s, kinds, vals, stations, times):
+    """TrackingDataWarning when a row repeats an earlier one exactly (time, kind, station and
+    value): real measurements differ by their noise, so such a copy is data read or appended
+    twice, which the fits count twice (a covariance sqrt(2) too small)."""
+    seen = {}
+    repeats = []
+    for i, (t, k, v, st) in enumerate(zip(offsets_s, kinds, vals, stations, strict=True)):
+        key = (float(t), k, v.tobytes())
+        if any(stations[j] is st or stations[j] == st for j in seen.get(key, ())):
+            repeats.append(i)
+        seen.setdefault(key, []).append(i)
+    if not repeats:
+        return
+    import warnings
+
+    from ..errors import TrackingDataWarning
+
+    i = repeats[0]
+    warnings.warn(
+        f"{len(repeats)} observation row(s) repeat an earlier row exactly (the same time, kind, "
+        f"station and value; first row {i}, {kinds[i]} at {times[i].utc.isot} UTC): the data "
+        "were probably read or appended twice (the same TDM given twice?). Each copy counts as "
+        "a measurement, so the fit's covariance comes out too small: drop the duplicates.",
+        TrackingDataWarning, stacklevel=3)
 
 
 def _height_km(station):
@@ -165,8 +198,15 @@ class Observations:
     ShapeError
         A value with the wrong number of components.
     DomainError
-        An impossible value: a negative range, or an elevation or declination outside
-        [-90, 90] deg (often degrees passed as plain numbers, which are read as radians).
+        An impossible value: a negative range, an elevation or declination outside
+        [-90, 90] deg, or an azimuth or right ascension outside [-360, 360] deg (often degrees
+        passed as plain numbers, which are read as radians).
+
+    Warns
+    -----
+    TrackingDataWarning
+        A row that repeats an earlier one exactly (time, kind, station and value): data read
+        or appended twice, which a fit would count twice.
     """
 
     def __init__(self, time, kind, value, sigma, station=None, *, light_time=True,
@@ -258,6 +298,7 @@ class Observations:
                         f"a ground station, and its observer {type(st).__name__} has no "
                         "horizon (no enu_matrix): give it a vv.GroundStation, or keep the "
                         f"rows of other observers in a table without {name}.")
+        _warn_repeated_rows((tt - tt[0]).sec, kinds, vals, stations, times)
         self.times = times
         self.kinds = np.array(kinds)
         self.values = vals

@@ -76,6 +76,10 @@ def add_parser(sub) -> None:
                    help="for TDM range in seconds (RANGE_UNITS = s, which CCSDS 503.0-B-2 does "
                    "not define further): round-trip light time (range c t / 2) or one-way "
                    "(c t); such data are refused without it")
+    p.add_argument("--ignore", default=None, metavar="KEYWORD[,...]",
+                   help="TDM keywords to leave out: data (e.g. ANGLE_1,ANGLE_2 of an angle type "
+                   "visviva does not model, one-way RANGE, RANGE_MODULUS) or corrections; the "
+                   "messages that refuse a keyword name it")
     p.add_argument("--estimate", default=None, metavar="drag[:SIGMA],srp[:SIGMA]",
                    help="also estimate the drag coefficient B = Cd A/m and/or the SRP Cr, "
                    "starting from the --force values; SIGMA, their a priori 1-sigma (m^2/kg "
@@ -154,8 +158,30 @@ def run(args) -> int:
 
 
 def _fail(message: str, code: int) -> int:
-    print("visviva od: " + " ".join(message.split()), file=sys.stderr)
+    print("visviva od: " + _shell_advice(" ".join(message.split())), file=sys.stderr)
     return code
+
+
+#: keywords of TDM.to_observations that the command line does not take
+_PYTHON_ONLY = ("range_units_km=", "integrated_doppler=", "corrections_applied=", "quality=")
+
+
+def _shell_advice(message: str) -> str:
+    """The readers' advice in the command's words: ``ignore=('A', 'B')`` is ``--ignore A,B``
+    (audit24: the shell user was told to pass Python keywords)."""
+    import re
+
+    def option(match):
+        keys = re.findall(r"['\"]([A-Z0-9_]+)['\"]", match.group(1))
+        return f"--ignore {','.join(keys)}"
+
+    message = re.sub(r"ignore=\(([^)]*)\)", option, message)
+    message = message.replace("pass initial=vv.StateVectors(...) yourself",
+                              "give a first guess with --initial FILE (an OPM, OEM, TLE or OMM)")
+    if any(key in message for key in _PYTHON_ONLY):
+        message += (" (that keyword is an option of vv.read_tdm(path).to_observations(...) in "
+                    "Python; visviva od does not take it: convert the file, or fit in Python)")
+    return message
 
 
 def _setup(args) -> dict:
@@ -222,6 +248,8 @@ def _setup(args) -> dict:
     media = {"ionosphere": iono, "frequency_hz": freq} if iono is not None else {}
     if args.range_seconds is not None:
         media["range_seconds"] = args.range_seconds
+    if args.ignore:
+        media["ignore"] = tuple(k.strip().upper() for k in args.ignore.split(",") if k.strip())
     obs, tdm = read_tracking(args.tdm, stations, sigmas, troposphere, media)
     guess = read_initial(args.initial, obs.times[0]) if args.initial else {}
     initial, covariance = guess.get("state"), guess.get("covariance")

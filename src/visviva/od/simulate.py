@@ -115,8 +115,11 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
 
 
 def _placeholder(kind, n):
+    """Stand-in values, one per row, all different (rows at one time are no repeats: those
+    warn) and in every kind's range (a range >= 0, an azimuth within 2 pi)."""
     kinds = [kind] * n if isinstance(kind, str) else list(kind)
-    return [np.zeros(KINDS[k][0]) if k in KINDS else 0.0 for k in kinds]
+    return [np.r_[(i % 10**6) * 1e-6, np.zeros(KINDS[k][0] - 1)] if k in KINDS else 0.0
+            for i, k in enumerate(kinds)]
 
 def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
                       min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True,

@@ -293,6 +293,12 @@ def _keyword_line(message: str, key_lines: dict, start: int) -> str:
     return f", line {key_lines[key]} ({key}; the OMM starts on line {start})"
 
 
+#: column names of which one in a comma-separated first line makes it an OMM CSV header
+#: (CelesTrak's GP CSV), whatever else it lacks
+_CSV_HEADER_KEYS = (b"NORAD_CAT_ID", b"MEAN_MOTION", b"ECCENTRICITY", b"INCLINATION",
+                    b"OBJECT_NAME", b"EPOCH")
+
+
 def catalog_file_satellites(path) -> list:
     """The satellites of :func:`visviva.satellites.catalog.read_catalog_file` (which see)."""
     if isinstance(path, io.TextIOBase) or hasattr(path, "read"):
@@ -313,8 +319,8 @@ def catalog_file_satellites(path) -> list:
                 f"{path}, line 1: an XML file without <omm> or <ndm>; visviva reads element "
                 "sets from OMM XML (CelesTrak's or CCSDS), not other messages."
             )
-    elif b"NORAD_CAT_ID" in first and b"," in first:
-        fmt = "csv"
+    elif b"," in first and any(key in first for key in _CSV_HEADER_KEYS):
+        fmt = "csv"  # a header missing NORAD_CAT_ID is still CSV: its reader names the gap
     else:
         kind = _ccsds_kind(head)
         if kind is None:

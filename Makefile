@@ -29,8 +29,11 @@ lint: install
 	$(UV) run --frozen --no-sync ruff check .
 	$(UV) run --frozen --no-sync lint-imports
 
+# the tests run on every core (pytest-xdist, at most 4 processes; each test file in one process,
+# so a file's tests keep their order): on CI's two cores most tests are single-threaded Python
+# and numba compilation, which left the second core idle
 test: lint docs
-	$(UV) run --frozen --no-sync pytest --durations=20
+	$(UV) run --frozen --no-sync pytest -n auto --maxprocesses=4 --dist loadfile --durations=20
 
 # the documentation site; warnings fail the build, docstring markup problems included
 # (VISVIVA_DOCS_STRICT=1; see docs/conf.py)
@@ -38,7 +41,7 @@ docs: install
 	VISVIVA_DOCS_STRICT=1 $(UV) run --frozen --no-sync sphinx-build -W --keep-going -q -b html docs docs/_build/html
 
 test-slow: install
-	$(UV) run --frozen --no-sync pytest -m "slow or live"
+	$(UV) run --frozen --no-sync pytest -n auto --maxprocesses=4 --dist loadfile -m "slow or live"
 
 bench: install
 	$(UV) run --frozen --no-sync python -m benchmarks

@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 from .._xmltree import XMLNode, parse_xml
 from .grammar import CCSDSFormatError
 
-__all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "add_text",
+__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "looks_like_xml", "new_root", "add_text",
            "to_text"]
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -77,6 +77,12 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
     Returns
     -------
     XMLNode
+
+    Raises
+    ------
+    CCSDSFormatError
+        No such message, or its ``id`` names another type (:func:`check_attributes`, which
+        also warns about attributes the readers do not keep).
     """
     if root.tag == "ndm":  # a combined instantiation (505.0-B, 3.4), e.g. CelesTrak's OMM XML
         inner = root.findall(tag)
@@ -84,11 +90,71 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
             raise CCSDSFormatError(
                 f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
                 "OMMs use vv.read_omm_file)", line=root.line, source=source)
-        return inner[0]
-    if root.tag != tag:
+        message = inner[0]
+    elif root.tag != tag:
         raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",
                                line=root.line, source=source)
-    return root
+    else:
+        message = root
+    check_attributes(root, message, source)
+    return message
+
+
+_SCHEMA_ATTRIBUTES = frozenset({"noNamespaceSchemaLocation", "schemaLocation"})
+_ROOT_ATTRIBUTES = _SCHEMA_ATTRIBUTES | {"id", "version"}
+
+
+def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
+    """Refuse a wrong ``id`` on the message and warn about attributes NDM/XML does not define.
+
+    The NDM/XML schemas (505.0-B) define ``id`` and ``version`` on the message element,
+    ``units`` on a value's element, ``parameter`` on ``<USER_DEFINED>`` and the schema location
+    (``xsi:noNamespaceSchemaLocation``); the readers keep those. Any other attribute (``<segment
+    foo="1">``) has no place in the message objects and is not written back: a
+    :class:`UserWarning` names each one with its line, so none is dropped silently.
+
+    Parameters
+    ----------
+    root : XMLNode
+        The document's root element (the message, or the ``<ndm>`` around it).
+    message : XMLNode
+        The ``<oem>``/``<opm>``/... element.
+    source : str
+        File name, for the messages.
+
+    Raises
+    ------
+    CCSDSFormatError
+        The message's ``id`` names another message type (``<opm id="CCSDS_OEM_VERS">``).
+    """
+    key = f"CCSDS_{message.tag.upper()}_VERS"
+    given = message.attrib.get("id")
+    if given is not None and given.strip() != key:
+        raise CCSDSFormatError(
+            f"<{message.tag}> has id=\"{given}\"; the id of an <{message.tag}> message is "
+            f"\"{key}\" (is the file another message type?)", line=message.line, source=source)
+    dropped = []
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if node is message:
+            allowed = _ROOT_ATTRIBUTES
+        elif node is root:  # the <ndm> wrapper
+            allowed = _SCHEMA_ATTRIBUTES
+        elif node.tag == "USER_DEFINED":
+            allowed = {"parameter", "units"}
+        else:
+            allowed = {"units"} if not node.children else set()
+        dropped.extend(f'{name}="{value}" on <{node.tag}> (line {node.line})'
+                       for name, value in node.attrib.items() if name not in allowed)
+        stack.extend(reversed(node.children))
+    if dropped:
+        import warnings
+
+        shown = "; ".join(dropped[:5]) + (f"; and {len(dropped) - 5} more" if len(dropped) > 5
+                                           else "")
+        warnings.warn(f"{source}: XML attributes that CCSDS NDM/XML does not define are not kept "
+                      f"(nor written back): {shown}", UserWarning, stacklevel=4)
 
 
 def new_root(tag: str, version_key: str, version: str) -> ET.Element:

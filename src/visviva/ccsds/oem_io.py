@@ -407,8 +407,9 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
         raise CCSDSFormatError(f"the ephemeris header lacks {', '.join(missing)}")
     text = _write_kvn(ephemeris) if format == "kvn" else _write_xml(ephemeris)
     if path is not None:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text
 
 

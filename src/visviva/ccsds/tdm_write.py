@@ -92,8 +92,9 @@ def write_tdm(tdm, path=None, format: str | None = None, *, participant: str = "
                                     time_system=time_system)
     text = _kvn(tdm) if format == "kvn" else _xml(tdm)
     if path is not None:
-        with open(os.fspath(path), "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text
 
 

@@ -1,0 +1,85 @@
+"""Nothing a user gave is lost without a word: NDM/XML attributes the readers do not keep are
+named in a warning, a wrong message ``id`` is refused, and a CCSDS writer that fails leaves the
+file it was to replace as it was (audit25)."""
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+import visviva as vv
+from test_ccsds_oem import OEM_KVN
+from test_ccsds_opm_omm import OMM_KVN, OPM_KVN
+from test_ccsds_tdm import XML as TDM_XML
+
+CDM_KVN = (Path(__file__).parent / "data" / "sample_cdm.kvn").read_text()
+
+# (reader, writer, a message) for every CCSDS message type
+MESSAGES = {
+    "opm": (vv.read_opm, vv.write_opm, OPM_KVN),
+    "omm": (vv.read_omm, vv.write_omm, OMM_KVN),
+    "oem": (vv.read_oem, vv.write_oem, OEM_KVN),
+    "cdm": (vv.read_cdm, vv.write_cdm, CDM_KVN),
+    "tdm": (vv.read_tdm, vv.write_tdm, TDM_XML),
+}
+
+
+def _xml(kind):
+    read, write, text = MESSAGES[kind]
+    return write(read(text), format="xml")
+
+
+@pytest.mark.parametrize("kind", MESSAGES)
+def test_written_xml_reads_back_without_a_warning(kind):
+    # the writer's own attributes (xmlns:xsi, the schema location, id, version, units,
+    # USER_DEFINED parameter) are the schema's: no false alarm on a clean round trip
+    read = MESSAGES[kind][0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read(_xml(kind))
+
+
+@pytest.mark.parametrize("kind", MESSAGES)
+def test_attributes_the_schema_does_not_define_are_named(kind):
+    read = MESSAGES[kind][0]
+    text = _xml(kind).replace("<segment>", '<segment origin="ops">', 1)
+    text = text.replace(" id=", ' flavour="mine" id=', 1)
+    text = text.replace("<CREATION_DATE>", '<CREATION_DATE zone="UTC">', 1)
+    with pytest.warns(UserWarning, match="not kept") as record:
+        read(text)
+    message = str(record[0].message)
+    for words in ('origin="ops" on <segment>', f'flavour="mine" on <{kind}>',
+                  'zone="UTC" on <CREATION_DATE>'):
+        assert words in message
+
+
+def test_attributes_of_the_ndm_wrapper_are_named():
+    text = _xml("omm").replace('<?xml version="1.0" encoding="UTF-8"?>\n', "")
+    text = f'<ndm batch="7">\n{text}</ndm>\n'
+    with pytest.warns(UserWarning, match='batch="7" on <ndm>'):
+        omm = vv.read_omm(text)
+    assert omm == vv.read_omm(OMM_KVN)
+
+
+@pytest.mark.parametrize("kind", MESSAGES)
+def test_an_id_of_another_message_type_is_refused(kind):
+    text = _xml(kind).replace(f'id="CCSDS_{kind.upper()}_VERS"', 'id="CCSDS_AEM_VERS"')
+    with pytest.raises(vv.CCSDSFormatError, match=f"CCSDS_{kind.upper()}_VERS"):
+        MESSAGES[kind][0](text)
+
+
+@pytest.mark.parametrize("kind", MESSAGES)
+def test_a_failed_write_keeps_the_old_file(kind, tmp_path):
+    # a lone surrogate (left by a file decoded with surrogateescape) cannot be written as
+    # UTF-8: the writer used to truncate the file first and leave it empty
+    read, write, text = MESSAGES[kind]
+    message = read(text)
+    path = tmp_path / f"message.{kind}"
+    write(message, path)
+    before = path.read_bytes()
+    comments = message.comments["header"] if kind == "omm" else message.header.comments
+    comments.append("bad \udc80 byte")
+    with pytest.raises(vv.InvalidInputError, match="cannot encode"):
+        write(message, path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left

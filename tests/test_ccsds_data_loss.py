@@ -83,3 +83,30 @@ def test_a_failed_write_keeps_the_old_file(kind, tmp_path):
         write(message, path)
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left
+
+
+@pytest.mark.parametrize(("kind", "tag"), [
+    ("opm", "data"), ("opm", "body"), ("opm", "segment"), ("omm", "data"), ("omm", "omm"),
+    ("oem", "body"), ("oem", "segment"), ("oem", "stateVector"), ("cdm", "data"),
+    ("cdm", "segment"), ("cdm", "body"), ("tdm", "body"), ("tdm", "observation"),
+    ("tdm", "tdm")])
+def test_xml_comments_outside_a_section_are_kept(kind, tag, recwarn):
+    # NDM/XML lets <COMMENT> open an OPM's, OMM's or CDM's <data>; such comments (and those
+    # of <body>, <segment>, the message element, an OEM <stateVector>, a TDM <observation>)
+    # were dropped without a word. Each joins the section after it, in both formats.
+    read, write, _ = MESSAGES[kind]
+    text = _xml(kind)
+    opening = f'<{tag} ' if tag == kind else f"<{tag}>"
+    at = text.index(">", text.rindex(opening) if tag == "stateVector" else text.index(opening))
+    text = text[:at + 1] + "<COMMENT>keep me</COMMENT>" + text[at + 1:]
+    message = read(text)
+    for fmt in ("kvn", "xml"):
+        out = write(message, format=fmt)
+        assert out.count("keep me") == 1
+        assert write(read(out), format=fmt) == out
+
+
+def test_a_comment_after_the_last_section_is_refused():
+    text = _xml("opm").replace("</data>", "<COMMENT>orphan</COMMENT></data>")
+    with pytest.raises(vv.CCSDSFormatError, match="belongs to no section"):
+        vv.read_opm(text)

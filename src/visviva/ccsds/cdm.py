@@ -524,7 +524,7 @@ def _describe(line) -> str:
 def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
     from .layout import with_version
 
-    root = message_root(parse(text, name), "cdm", name)
+    root = message_root(parse(text, name), "cdm", name, ("body", "segment", "data"))
     version = root.attrib.get("version")
     header = root.path("header")
     if not version or not header:

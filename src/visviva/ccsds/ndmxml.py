@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 from .._xmltree import XMLNode, parse_xml
 from .grammar import CCSDSFormatError
 
-__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "looks_like_xml", "new_root", "add_text",
+__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "hoist_comments", "looks_like_xml", "new_root", "add_text",
            "to_text"]
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -62,7 +62,7 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
                                                                    source=source))
 
 
-def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
+def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode:
     """The ``<tag>`` message element: the root itself, or the one inside an ``<ndm>`` wrapper.
 
     Parameters
@@ -73,6 +73,10 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
         ``"oem"``, ``"opm"``, ``"omm"``, ``"cdm"``.
     source : str
         File name, for error messages.
+    containers : iterable of str
+        Tags of the elements that hold sections rather than keywords (``"body"``,
+        ``"segment"``, an OPM's ``"data"``): their ``<COMMENT>`` elements move into the
+        element after them (:func:`hoist_comments`).
 
     Returns
     -------
@@ -97,7 +101,54 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
     else:
         message = root
     check_attributes(root, message, source)
+    hoist_comments(message, {tag, *containers}, source)
     return message
+
+
+def hoist_comments(node: XMLNode, containers: set, source: str) -> None:
+    """Move the ``<COMMENT>`` elements of container elements into the element after them.
+
+    NDM/XML lets ``<COMMENT>`` open an OPM's, OMM's or CDM's ``<data>`` (505.0-B), before any
+    section; a comment describes what follows it (as in KVN, where such a comment opens the
+    first data section), so it joins the first section after it, where the readers keep it and
+    the writers write it back. The readers took comments from section elements only, and those
+    of ``<data>``, ``<segment>``, ``<body>`` or the message element were dropped without a
+    word. Works from the top down, so a comment in ``<body>`` reaches the first ``<metadata>``.
+
+    Parameters
+    ----------
+    node : XMLNode
+        The message element (changed in place: the parse tree is the reader's own).
+    containers : set of str
+        Tags of the elements whose comments move (the message's own tag among them).
+    source : str
+        File name, for error messages.
+
+    Raises
+    ------
+    CCSDSFormatError
+        A comment after the last element of a container: it describes nothing, and no
+        section would keep it (the same rule as for KVN).
+    """
+    if node.tag not in containers or not node.children:
+        return
+    pending, children = [], []
+    for child in node.children:
+        if child.tag == "COMMENT":
+            pending.append(child)
+            continue
+        if pending:
+            child.children[:0] = pending
+            pending = []
+        children.append(child)
+    if pending:
+        raise CCSDSFormatError(
+            f"a <COMMENT> after the last element of <{node.tag}> belongs to no section (a "
+            "comment comes before what it describes): move it or remove it",
+            line=pending[0].line, source=source)
+    node.children = children
+    for child in children:
+        hoist_comments(child, containers, source)
 
 
 _SCHEMA_ATTRIBUTES = frozenset({"noNamespaceSchemaLocation", "schemaLocation"})

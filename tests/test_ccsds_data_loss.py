@@ -110,3 +110,11 @@ def test_a_comment_after_the_last_section_is_refused():
     text = _xml("opm").replace("</data>", "<COMMENT>orphan</COMMENT></data>")
     with pytest.raises(vv.CCSDSFormatError, match="belongs to no section"):
         vv.read_opm(text)
+
+
+@pytest.mark.parametrize("kind", MESSAGES)
+def test_text_beside_elements_is_refused(kind):
+    # text in an element that holds elements (<body>stray<segment>) was dropped without a word
+    text = _xml(kind).replace("<segment>", "<segment>stray note", 1)
+    with pytest.raises(vv.CCSDSFormatError, match="stray note"):
+        MESSAGES[kind][0](text)

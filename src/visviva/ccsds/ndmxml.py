@@ -176,7 +176,9 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
     Raises
     ------
     CCSDSFormatError
-        The message's ``id`` names another message type (``<opm id="CCSDS_OEM_VERS">``).
+        The message's ``id`` names another message type (``<opm id="CCSDS_OEM_VERS">``), or
+        an element that holds elements holds text too (``<data>stray<stateVector>``: it
+        would be dropped).
     """
     key = f"CCSDS_{message.tag.upper()}_VERS"
     given = message.attrib.get("id")
@@ -198,6 +200,12 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
             allowed = {"units"} if not node.children else set()
         dropped.extend(f'{name}="{value}" on <{node.tag}> (line {node.line})'
                        for name, value in node.attrib.items() if name not in allowed)
+        # (structure elements are lower camel case; an upper-case keyword element holding an
+        # element is refused by the section reader, naming that element)
+        if node.children and node.text and node.tag[:1].islower():
+            raise CCSDSFormatError(
+                f"<{node.tag}> holds the text {node.text[:40]!r} beside its elements; text "
+                "belongs in a keyword element (or a <COMMENT>)", line=node.line, source=source)
         stack.extend(reversed(node.children))
     if dropped:
         import warnings

@@ -118,3 +118,16 @@ def test_text_beside_elements_is_refused(kind):
     text = _xml(kind).replace("<segment>", "<segment>stray note", 1)
     with pytest.raises(vv.CCSDSFormatError, match="stray note"):
         MESSAGES[kind][0](text)
+
+
+def test_an_ndm_holding_more_than_the_message_read_names_the_rest():
+    # read_opm of a combined <ndm> kept the <opm> and dropped an <oem>, a MESSAGE_ID and the
+    # comments beside it without a word
+    opm = _xml("opm").replace('<?xml version="1.0" encoding="UTF-8"?>\n', "")
+    oem = _xml("oem").replace('<?xml version="1.0" encoding="UTF-8"?>\n', "")
+    text = (f"<ndm>\n<MESSAGE_ID>NDM-7</MESSAGE_ID>\n<COMMENT>both products</COMMENT>\n"
+            f"{opm}{oem}</ndm>\n")
+    with pytest.warns(UserWarning, match=r"<MESSAGE_ID> \(line 2\), <COMMENT> \(line 3\), "
+                                         r"<oem> \(line \d+\)"):
+        message = vv.read_opm(text)
+    assert vv.write_opm(message, format="xml") == _xml("opm")

@@ -95,6 +95,17 @@ def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode
                 f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
                 "OMMs use vv.read_omm_file)", line=root.line, source=source)
         message = inner[0]
+        others = [c for c in root.children if c is not message]
+        if others:  # (the combined instantiation may hold other messages, a MESSAGE_ID, ...)
+            import warnings
+
+            shown = ", ".join(f"<{c.tag}> (line {c.line})" for c in others[:5])
+            more = f" and {len(others) - 5} more" if len(others) > 5 else ""
+            warnings.warn(
+                f"{source}: the <ndm> also holds {shown}{more}, which this reader does not "
+                f"keep: it reads the <{tag}> only (read another message with its own reader, "
+                "e.g. vv.read_oem, after taking it out of the <ndm>)", UserWarning,
+                stacklevel=3)
     elif root.tag != tag:
         raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",
                                line=root.line, source=source)
@@ -197,7 +208,7 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
         elif node.tag == "USER_DEFINED":
             allowed = {"parameter", "units"}
         else:
-            allowed = {"units"} if not node.children else set()
+            allowed = {"units"} if not node.children or node.tag[:1].isupper() else set()
         dropped.extend(f'{name}="{value}" on <{node.tag}> (line {node.line})'
                        for name, value in node.attrib.items() if name not in allowed)
         # (structure elements are lower camel case; an upper-case keyword element holding an
@@ -206,7 +217,9 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
             raise CCSDSFormatError(
                 f"<{node.tag}> holds the text {node.text[:40]!r} beside its elements; text "
                 "belongs in a keyword element (or a <COMMENT>)", line=node.line, source=source)
-        stack.extend(reversed(node.children))
+        # (the other children of an <ndm> are named by message_root's warning)
+        wrapper = node is root and root is not message
+        stack.extend([message] if wrapper else reversed(node.children))
     if dropped:
         import warnings
 

@@ -115,9 +115,12 @@ def _one_omm(text: str) -> bool:
 
 
 def _is_ndm(text: str) -> bool:
-    """Whether an XML input is an ``<ndm>`` (CelesTrak's GP XML: many OMMs, read as a
-    catalogue) rather than one ``<omm>``."""
-    return "<ndm" in text.lstrip()[:2000]
+    """Whether an XML input is an ``<ndm>`` of several OMMs (CelesTrak's GP XML, read as a
+    catalogue) rather than one ``<omm>``, bare or in an ``<ndm>`` (read as a message, so its
+    comments, user-defined parameters, covariance ... are kept: they were dropped)."""
+    import re
+
+    return "<ndm" in text.lstrip()[:2000] and len(re.findall(r"<omm[\s>/]", text)) != 1
 
 
 def _sample_oem(sat, args):

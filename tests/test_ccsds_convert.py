@@ -171,3 +171,24 @@ def test_an_ndm_of_one_omm_converts_as_the_message(tmp_path):
     assert cli.main(["convert", str(ndm), str(out)]) == 0
     assert vv.read_omm(out) == vv.read_omm(text)
     assert vv.read_omm(out).comments == vv.read_omm(text).comments
+
+
+def test_one_omm_picked_from_kvn_gp_data_keeps_the_whole_message(tmp_path, capsys):
+    # Space-Track's KVN GP data: an OMM picked with --satnum went through its SGP4 elements,
+    # dropping its comments and USER_DEFINED_* parameters (object type, size ...) (audit25)
+    from test_ccsds_opm_omm import OMM_KVN
+
+    iss = OMM_KVN.rstrip("\n") + "\nCOMMENT user block\nUSER_DEFINED_OBJECT_TYPE = PAYLOAD\n"
+    other = OMM_KVN.replace("25544", "25545").replace("ISS (ZARYA)", "OTHER")
+    assert "NORAD_CAT_ID" in OMM_KVN and other != OMM_KVN
+    gp = tmp_path / "gp.kvn"
+    gp.write_text(other + iss)
+    out = tmp_path / "iss.omm"
+    assert cli.main(["convert", str(gp), str(out), "--satnum", "25544"]) == 0
+    assert vv.read_omm(out) == vv.read_omm(iss)
+    assert vv.read_omm(out).comments == vv.read_omm(iss).comments
+    # an error in the message names the file's line
+    gp.write_text(other + iss.replace("PAYLOAD", ""))
+    bad = other.count("\n") + iss.count("\n")
+    assert cli.main(["convert", str(gp), str(out), "--satnum", "25544", "--overwrite"]) == 2
+    assert f"line {bad}" in capsys.readouterr().err

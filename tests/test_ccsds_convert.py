@@ -191,4 +191,4 @@ def test_one_omm_picked_from_kvn_gp_data_keeps_the_whole_message(tmp_path, capsy
     gp.write_text(other + iss.replace("PAYLOAD", ""))
     bad = other.count("\n") + iss.count("\n")
     assert cli.main(["convert", str(gp), str(out), "--satnum", "25544", "--overwrite"]) == 2
-    assert f"line {bad}" in capsys.readouterr().err
+    assert f"{gp}, line {bad}: " in capsys.readouterr().err

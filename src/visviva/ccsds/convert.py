@@ -252,7 +252,14 @@ def _convert(args, path, text, source, target, fmt) -> str:
     if source == "omm" and target == "omm" and args.satnum is not None:
         message = _kvn_message(text, args.satnum)
         if message is not None:  # the whole message, not only what SGP4 takes
-            return write_omm(read_omm(message), format=fmt, originator=args.originator)
+            from .grammar import CCSDSFormatError
+
+            try:
+                omm = read_omm(message)
+            except CCSDSFormatError as exc:  # (named by the file, not "<text>")
+                raise CCSDSFormatError(str(exc).split(": ", 1)[1], exc.line,
+                                       str(path)) from None
+            return write_omm(omm, format=fmt, originator=args.originator)
     sat = _satellite(args, path, text, source)
     if target == "tle":
         line1, line2 = sat.to_tle()

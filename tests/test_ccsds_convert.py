@@ -156,3 +156,39 @@ def test_convert_reads_gp_data(tmp_path, write_catalog_files, capsys):
     omm = tmp_path / "iss.omm"
     assert cli.main(["convert", str(paths["ndm"]), str(omm), "--satnum", "25544"]) == 0
     assert vv.read_omm(omm)["NORAD_CAT_ID"] == 25544
+
+
+def test_an_ndm_of_one_omm_converts_as_the_message(tmp_path):
+    # an <ndm> wrapping one OMM went through a Satellite: its comments, USER_DEFINED
+    # parameters (and covariance, spacecraft data ...) were dropped without a word (audit25)
+    from test_ccsds_opm_omm import OMM_KVN
+
+    text = OMM_KVN.rstrip("\n") + "\nCOMMENT user block\nUSER_DEFINED_FOO = 12.5\n"
+    xml = vv.write_omm(vv.read_omm(text), format="xml").split("\n", 1)[1]
+    ndm = tmp_path / "one.xml"
+    ndm.write_text(f"<ndm>\n{xml}</ndm>\n")
+    out = tmp_path / "one.omm"
+    assert cli.main(["convert", str(ndm), str(out)]) == 0
+    assert vv.read_omm(out) == vv.read_omm(text)
+    assert vv.read_omm(out).comments == vv.read_omm(text).comments
+
+
+def test_one_omm_picked_from_kvn_gp_data_keeps_the_whole_message(tmp_path, capsys):
+    # Space-Track's KVN GP data: an OMM picked with --satnum went through its SGP4 elements,
+    # dropping its comments and USER_DEFINED_* parameters (object type, size ...) (audit25)
+    from test_ccsds_opm_omm import OMM_KVN
+
+    iss = OMM_KVN.rstrip("\n") + "\nCOMMENT user block\nUSER_DEFINED_OBJECT_TYPE = PAYLOAD\n"
+    other = OMM_KVN.replace("25544", "25545").replace("ISS (ZARYA)", "OTHER")
+    assert "NORAD_CAT_ID" in OMM_KVN and other != OMM_KVN
+    gp = tmp_path / "gp.kvn"
+    gp.write_text(other + iss)
+    out = tmp_path / "iss.omm"
+    assert cli.main(["convert", str(gp), str(out), "--satnum", "25544"]) == 0
+    assert vv.read_omm(out) == vv.read_omm(iss)
+    assert vv.read_omm(out).comments == vv.read_omm(iss).comments
+    # an error in the message names the file's line
+    gp.write_text(other + iss.replace("PAYLOAD", ""))
+    bad = other.count("\n") + iss.count("\n")
+    assert cli.main(["convert", str(gp), str(out), "--satnum", "25544", "--overwrite"]) == 2
+    assert f"{gp}, line {bad}: " in capsys.readouterr().err

@@ -690,3 +690,17 @@ def test_the_cli_needs_range_seconds_for_range_in_seconds(tmp_path, capsys):
         obs, _ = read_tracking([str(path)], {"DSS-65": SITE}, {"range": 0.005},
                                media={"range_seconds": "one_way"})
     assert obs.values[1, 0] == pytest.approx(0.0101 * C_KM_S, rel=1e-15)
+
+
+@pytest.mark.parametrize("troposphere", [True, {"pressure_hpa": 900.0, "refraction": "radio"}])
+def test_a_tdm_of_uncorrected_data_says_which_media_they_hold(troposphere):
+    # a table fitted with troposphere= was written with nothing saying so: read back without
+    # it, the same data fitted metres of range differently (audit25)
+    times = EPOCH + np.array([600.0, 660.0]) * u.s
+    obs = vv.od.simulate_observations(TRUTH, times, "range", 1e-3, STATIONS[0], seed=3,
+                                      troposphere=troposphere)
+    seg = vv.read_tdm(vv.write_tdm(obs)).segments[0]
+    note = next(c for c in seg.metadata.comments if "neutral atmosphere" in c)
+    assert f"troposphere={troposphere!r}" in note
+    plain = vv.od.simulate_observations(TRUTH, times, "range", 1e-3, STATIONS[0], seed=3)
+    assert not vv.read_tdm(vv.write_tdm(plain)).segments[0].metadata.comments

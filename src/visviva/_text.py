@@ -2,7 +2,7 @@
 :class:`~visviva.errors.MissingFileError` naming the path) and the one place that finds the
 line of a byte that is not UTF-8, for every reader (CCSDS messages, TLE and OMM catalogues);
 and writing a text file whole or not at all (:func:`replace_text_file`), for the command-line
-tools' outputs."""
+tools' outputs and the CCSDS writers."""
 
 from __future__ import annotations
 
@@ -88,12 +88,25 @@ def replace_text_file(path, text: str) -> None:
 
     Raises
     ------
+    InvalidInputError
+        The text holds a character UTF-8 cannot encode (a lone surrogate such as ``"\\ud800"``,
+        left by a file decoded with ``errors="surrogateescape"``); nothing is written.
     OSError
         The folder does not exist or cannot be written, or ``path`` is a folder.
     """
     import os
     import tempfile
 
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        from .errors import InvalidInputError
+
+        line = text.count("\n", 0, exc.start) + 1
+        raise InvalidInputError(
+            f"cannot write {os.fspath(path)}: line {line} of the text holds "
+            f"{text[exc.start]!r}, which UTF-8 cannot encode (a lone surrogate); remove or "
+            "replace it. Nothing was written (an existing file is as it was).") from None
     path = os.fspath(path)
     if os.path.islink(path):  # write where the link points, as open(path, "w") did
         path = os.path.realpath(path)

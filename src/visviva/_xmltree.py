@@ -29,7 +29,8 @@ class XMLNode:
     tag : str
         Element name with any namespace prefix removed.
     attrib : dict
-        Attributes (names without prefixes).
+        Attributes (names without prefixes; namespace declarations ``xmlns``/``xmlns:*`` are
+        left out).
     text : str
         The element's own character data, stripped.
     children : list of XMLNode
@@ -100,8 +101,10 @@ def parse_xml(text: str, error) -> XMLNode:
         return out
 
     def start(name, attrs):
-        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()} if attrs else {},
-                       parser.CurrentLineNumber)
+        # namespace declarations (xmlns, xmlns:xsi) are not attributes of the element
+        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()
+                                     if k != "xmlns" and not k.startswith("xmlns:")}
+                       if attrs else {}, parser.CurrentLineNumber)
         if stack:
             stack[-1].children.append(node)
         else:

@@ -24,7 +24,7 @@ from .layout import (
     write_xml_section,
     xml_child,
 )
-from .ndmxml import XMLNode, looks_like_xml, new_root, parse, to_text
+from .ndmxml import XMLNode, looks_like_xml, message_root, new_root, parse, to_text
 
 __all__ = ["ConjunctionDataMessage", "CDMObject", "read_cdm", "write_cdm", "HEADER", "RELATIVE",
            "SEGMENT_SECTIONS"]
@@ -524,10 +524,7 @@ def _describe(line) -> str:
 def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
     from .layout import with_version
 
-    root = parse(text, name)
-    if root.tag != "cdm":
-        raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <cdm>",
-                               line=root.line, source=name)
+    root = message_root(parse(text, name), "cdm", name, ("body", "segment", "data"))
     version = root.attrib.get("version")
     header = root.path("header")
     if not version or not header:
@@ -597,6 +594,7 @@ def write_cdm(message: ConjunctionDataMessage, path=None, format: str | None = N
         raise CCSDSFormatError(f"format must be 'kvn' or 'xml', not {format!r}")
     text = message.to_kvn() if format == "kvn" else message.to_xml()
     if path is not None:
-        with open(os.fspath(path), "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text

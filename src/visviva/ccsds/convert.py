@@ -114,10 +114,37 @@ def _one_omm(text: str) -> bool:
     return text.count("CCSDS_OMM_VERS") <= 1
 
 
+def _kvn_message(text: str, satnum: int) -> str | None:
+    """The one KVN OMM of ``satnum`` among several (Space-Track's KVN GP data), preceded by
+    as many blank lines as come before it in the file (so errors name the file's lines); None
+    when the file is XML, holds one message, or holds none or several of ``satnum``.
+
+    Such a message read as a catalogue keeps only its SGP4 fields: its comments and
+    ``USER_DEFINED_*`` parameters (Space-Track's object type, size, country) were dropped.
+    """
+    import re
+
+    if text.lstrip().startswith("<"):
+        return None
+    starts = [m.start() for m in re.finditer(r"(?m)^[ \t]*CCSDS_OMM_VERS\b", text)]
+    if len(starts) < 2:
+        return None
+    own = re.compile(rf"(?m)^[ \t]*NORAD_CAT_ID[ \t]*=[ \t]*0*{int(satnum)}[ \t]*$")
+    hits = [(a, b) for a, b in zip(starts, [*starts[1:], len(text)], strict=True)
+            if own.search(text, a, b)]
+    if len(hits) != 1:
+        return None
+    a, b = hits[0]
+    return "\n" * text.count("\n", 0, a) + text[a:b]
+
+
 def _is_ndm(text: str) -> bool:
-    """Whether an XML input is an ``<ndm>`` (CelesTrak's GP XML: many OMMs, read as a
-    catalogue) rather than one ``<omm>``."""
-    return "<ndm" in text.lstrip()[:2000]
+    """Whether an XML input is an ``<ndm>`` of several OMMs (CelesTrak's GP XML, read as a
+    catalogue) rather than one ``<omm>``, bare or in an ``<ndm>`` (read as a message, so its
+    comments, user-defined parameters, covariance ... are kept: they were dropped)."""
+    import re
+
+    return "<ndm" in text.lstrip()[:2000] and len(re.findall(r"<omm[\s>/]", text)) != 1
 
 
 def _sample_oem(sat, args):
@@ -222,6 +249,17 @@ def _convert(args, path, text, source, target, fmt) -> str:
         return write_oem(read_oem(path, mission_epoch=mission), format=fmt)
     if source == "omm" and target == "omm" and not _is_ndm(text) and _one_omm(text):
         return write_omm(read_omm(path), format=fmt, originator=args.originator)
+    if source == "omm" and target == "omm" and args.satnum is not None:
+        message = _kvn_message(text, args.satnum)
+        if message is not None:  # the whole message, not only what SGP4 takes
+            from .grammar import CCSDSFormatError
+
+            try:
+                omm = read_omm(message)
+            except CCSDSFormatError as exc:  # (named by the file, not "<text>")
+                raise CCSDSFormatError(str(exc).split(": ", 1)[1], exc.line,
+                                       str(path)) from None
+            return write_omm(omm, format=fmt, originator=args.originator)
     sat = _satellite(args, path, text, source)
     if target == "tle":
         line1, line2 = sat.to_tle()

@@ -423,7 +423,9 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
     """
     text, name = read_text(source)
     if looks_like_xml(text):
-        root = message_root(parse(text, name), root_tag, name)
+        inner = {t for sec in sections for t in sec.xml_path.split("/")[:-1]}
+        root = message_root(parse(text, name), root_tag, name,
+                            inner - {sec.xml_path.rsplit("/", 1)[-1] for sec in sections})
         _check_xml_elements(root, sections, name)
         parsed = {}
         for section in sections:

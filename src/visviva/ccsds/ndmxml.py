@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 from .._xmltree import XMLNode, parse_xml
 from .grammar import CCSDSFormatError
 
-__all__ = ["XMLNode", "parse", "message_root", "looks_like_xml", "new_root", "add_text",
+__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "hoist_comments", "looks_like_xml", "new_root", "add_text",
            "to_text"]
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -62,7 +62,7 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
                                                                    source=source))
 
 
-def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
+def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode:
     """The ``<tag>`` message element: the root itself, or the one inside an ``<ndm>`` wrapper.
 
     Parameters
@@ -73,10 +73,20 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
         ``"oem"``, ``"opm"``, ``"omm"``, ``"cdm"``.
     source : str
         File name, for error messages.
+    containers : iterable of str
+        Tags of the elements that hold sections rather than keywords (``"body"``,
+        ``"segment"``, an OPM's ``"data"``): their ``<COMMENT>`` elements move into the
+        element after them (:func:`hoist_comments`).
 
     Returns
     -------
     XMLNode
+
+    Raises
+    ------
+    CCSDSFormatError
+        No such message, or its ``id`` names another type (:func:`check_attributes`, which
+        also warns about attributes the readers do not keep).
     """
     if root.tag == "ndm":  # a combined instantiation (505.0-B, 3.4), e.g. CelesTrak's OMM XML
         inner = root.findall(tag)
@@ -84,11 +94,139 @@ def message_root(root: XMLNode, tag: str, source: str) -> XMLNode:
             raise CCSDSFormatError(
                 f"the <ndm> holds {len(inner)} <{tag}> messages; this reader takes one (for many "
                 "OMMs use vv.read_omm_file)", line=root.line, source=source)
-        return inner[0]
-    if root.tag != tag:
+        message = inner[0]
+        others = [c for c in root.children if c is not message]
+        if others:  # (the combined instantiation may hold other messages, a MESSAGE_ID, ...)
+            import warnings
+
+            shown = ", ".join(f"<{c.tag}> (line {c.line})" for c in others[:5])
+            more = f" and {len(others) - 5} more" if len(others) > 5 else ""
+            warnings.warn(
+                f"{source}: the <ndm> also holds {shown}{more}, which this reader does not "
+                f"keep: it reads the <{tag}> only (read another message with its own reader, "
+                "e.g. vv.read_oem, after taking it out of the <ndm>)", UserWarning,
+                stacklevel=3)
+    elif root.tag != tag:
         raise CCSDSFormatError(f"the root element is <{root.tag}>, expected <{tag}>",
                                line=root.line, source=source)
-    return root
+    else:
+        message = root
+    check_attributes(root, message, source)
+    hoist_comments(message, {tag, *containers}, source)
+    return message
+
+
+def hoist_comments(node: XMLNode, containers: set, source: str) -> None:
+    """Move the ``<COMMENT>`` elements of container elements into the element after them.
+
+    NDM/XML lets ``<COMMENT>`` open an OPM's, OMM's or CDM's ``<data>`` (505.0-B), before any
+    section; a comment describes what follows it (as in KVN, where such a comment opens the
+    first data section), so it joins the first section after it, where the readers keep it and
+    the writers write it back. The readers took comments from section elements only, and those
+    of ``<data>``, ``<segment>``, ``<body>`` or the message element were dropped without a
+    word. Works from the top down, so a comment in ``<body>`` reaches the first ``<metadata>``.
+
+    Parameters
+    ----------
+    node : XMLNode
+        The message element (changed in place: the parse tree is the reader's own).
+    containers : set of str
+        Tags of the elements whose comments move (the message's own tag among them).
+    source : str
+        File name, for error messages.
+
+    Raises
+    ------
+    CCSDSFormatError
+        A comment after the last element of a container: it describes nothing, and no
+        section would keep it (the same rule as for KVN).
+    """
+    if node.tag not in containers or not node.children:
+        return
+    pending, children = [], []
+    for child in node.children:
+        if child.tag == "COMMENT":
+            pending.append(child)
+            continue
+        if pending:
+            child.children[:0] = pending
+            pending = []
+        children.append(child)
+    if pending:
+        raise CCSDSFormatError(
+            f"a <COMMENT> after the last element of <{node.tag}> belongs to no section (a "
+            "comment comes before what it describes): move it or remove it",
+            line=pending[0].line, source=source)
+    node.children = children
+    for child in children:
+        hoist_comments(child, containers, source)
+
+
+_SCHEMA_ATTRIBUTES = frozenset({"noNamespaceSchemaLocation", "schemaLocation"})
+_ROOT_ATTRIBUTES = _SCHEMA_ATTRIBUTES | {"id", "version"}
+
+
+def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
+    """Refuse a wrong ``id`` on the message and warn about attributes NDM/XML does not define.
+
+    The NDM/XML schemas (505.0-B) define ``id`` and ``version`` on the message element,
+    ``units`` on a value's element, ``parameter`` on ``<USER_DEFINED>`` and the schema location
+    (``xsi:noNamespaceSchemaLocation``); the readers keep those. Any other attribute (``<segment
+    foo="1">``) has no place in the message objects and is not written back: a
+    :class:`UserWarning` names each one with its line, so none is dropped silently.
+
+    Parameters
+    ----------
+    root : XMLNode
+        The document's root element (the message, or the ``<ndm>`` around it).
+    message : XMLNode
+        The ``<oem>``/``<opm>``/... element.
+    source : str
+        File name, for the messages.
+
+    Raises
+    ------
+    CCSDSFormatError
+        The message's ``id`` names another message type (``<opm id="CCSDS_OEM_VERS">``), or
+        an element that holds elements holds text too (``<data>stray<stateVector>``: it
+        would be dropped).
+    """
+    key = f"CCSDS_{message.tag.upper()}_VERS"
+    given = message.attrib.get("id")
+    if given is not None and given.strip() != key:
+        raise CCSDSFormatError(
+            f"<{message.tag}> has id=\"{given}\"; the id of an <{message.tag}> message is "
+            f"\"{key}\" (is the file another message type?)", line=message.line, source=source)
+    dropped = []
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if node is message:
+            allowed = _ROOT_ATTRIBUTES
+        elif node is root:  # the <ndm> wrapper
+            allowed = _SCHEMA_ATTRIBUTES
+        elif node.tag == "USER_DEFINED":
+            allowed = {"parameter", "units"}
+        else:
+            allowed = {"units"} if not node.children or node.tag[:1].isupper() else set()
+        dropped.extend(f'{name}="{value}" on <{node.tag}> (line {node.line})'
+                       for name, value in node.attrib.items() if name not in allowed)
+        # (structure elements are lower camel case; an upper-case keyword element holding an
+        # element is refused by the section reader, naming that element)
+        if node.children and node.text and node.tag[:1].islower():
+            raise CCSDSFormatError(
+                f"<{node.tag}> holds the text {node.text[:40]!r} beside its elements; text "
+                "belongs in a keyword element (or a <COMMENT>)", line=node.line, source=source)
+        # (the other children of an <ndm> are named by message_root's warning)
+        wrapper = node is root and root is not message
+        stack.extend([message] if wrapper else reversed(node.children))
+    if dropped:
+        import warnings
+
+        shown = "; ".join(dropped[:5]) + (f"; and {len(dropped) - 5} more" if len(dropped) > 5
+                                           else "")
+        warnings.warn(f"{source}: XML attributes that CCSDS NDM/XML does not define are not kept "
+                      f"(nor written back): {shown}", UserWarning, stacklevel=4)
 
 
 def new_root(tag: str, version_key: str, version: str) -> ET.Element:

@@ -262,7 +262,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
 
 # ---- XML ---------------------------------------------------------------------------------
 def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
-    root = message_root(parse(text, name), "oem", name)
+    root = message_root(parse(text, name), "oem", name, ("body", "segment"))
     header_node = root.find("header")
     if header_node is None or not root.attrib.get("version"):
         raise CCSDSFormatError("<oem> needs a version attribute and a <header>",
@@ -282,6 +282,13 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
             elif child.tag == "COMMENT":
                 comments.append(child.text)
             elif child.tag == "stateVector":
+                inner = [c.text for c in child.children if c.tag == "COMMENT"]
+                if inner:  # (not in the schema; kept where the same comment before it goes)
+                    if state_nodes or covariances:
+                        among.setdefault(len(state_nodes), []).extend(inner)
+                    else:
+                        comments.extend(inner)
+                    child.children = [c for c in child.children if c.tag != "COMMENT"]
                 state_nodes.append(child)
             elif child.tag == "covarianceMatrix":
                 rec = read_xml_section(child, COVARIANCE_XML, name)
@@ -407,8 +414,9 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
         raise CCSDSFormatError(f"the ephemeris header lacks {', '.join(missing)}")
     text = _write_kvn(ephemeris) if format == "kvn" else _write_xml(ephemeris)
     if path is not None:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text
 
 

@@ -569,6 +569,7 @@ def write_sections(sections, table, root, version_key, path, format):  # noqa: A
         sections = {**sections, "header": header}
     text = write_message(sections, table, root, version_key, fmt=format)
     if path is not None:
-        with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text

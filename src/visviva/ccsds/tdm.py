@@ -510,7 +510,7 @@ def _checked_row(line, name):
 
 # ---- XML ---------------------------------------------------------------------------------
 def _read_xml(text: str, name: str, mission_epoch) -> TDM:
-    root = message_root(parse(text, name), "tdm", name)
+    root = message_root(parse(text, name), "tdm", name, ("body", "segment"))
     version = root.attrib.get("version")
     if not version:
         raise CCSDSFormatError("<tdm> lacks its version attribute", line=root.line, source=name)
@@ -551,6 +551,8 @@ def _read_xml(text: str, name: str, mission_epoch) -> TDM:
             if obs.tag != "observation":
                 raise CCSDSFormatError(f"<{obs.tag}> does not belong in <data> (expected "
                                        "<observation>)", line=obs.line, source=name)
+            # a comment inside an <observation> (not in the schema) joins the data comments
+            comments.extend(c.text for c in obs.children if c.tag == "COMMENT")
             rows.append(_xml_observation(obs, name))
         if not rows:
             raise CCSDSFormatError("the <data> is empty: a TDM segment holds at least one "

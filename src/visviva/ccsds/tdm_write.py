@@ -92,8 +92,9 @@ def write_tdm(tdm, path=None, format: str | None = None, *, participant: str = "
                                     time_system=time_system)
     text = _kvn(tdm) if format == "kvn" else _xml(tdm)
     if path is not None:
-        with open(os.fspath(path), "w", encoding="utf-8") as handle:
-            handle.write(text)
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
     return text
 
 
@@ -159,6 +160,7 @@ def tdm_from_observations(obs, *, participant="SATELLITE", originator="VISVIVA",
                 if obs.radec_reference == "stars":
                     meta.comments.append("RA/Dec reduced against catalogue stars: read with "
                                          "radec_reference='stars'")
+        meta.comments.extend(_media_notes(obs, family))
         keywords, ep, values = [], [], []
         for i in idx:
             kind = str(obs.kinds[i])
@@ -172,6 +174,24 @@ def tdm_from_observations(obs, *, participant="SATELLITE", originator="VISVIVA",
                             "CREATION_DATE": time_to_epochs(Time.now(), "UTC")[0][:23],
                             "ORIGINATOR": originator})
     return TDM(header, segments)
+
+
+def _media_notes(obs, family: str) -> list:
+    """COMMENT lines saying which media the values hold (the table's ``troposphere`` and
+    ``ionosphere``: the fit models them, the data are not corrected); a TDM has no keyword for
+    that, and a table read back without them fits other numbers (metres of range)."""
+    notes = []
+    weather = obs.troposphere
+    if weather is not None:
+        given = dict(weather.given or {})
+        if weather.refraction != "optical":
+            given["refraction"] = weather.refraction
+        notes.append("the values hold the neutral atmosphere (not corrected): read with "
+                     f"troposphere={given or True!r}")
+    if obs.ionosphere is not None and family == "ranging":
+        notes.append(f"the values hold the ionosphere (not corrected; {obs.ionosphere.model} "
+                     "model): read with the ionosphere= and frequency_hz= they were fitted with")
+    return notes
 
 
 def _same_site(a, b) -> bool:

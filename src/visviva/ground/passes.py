@@ -285,8 +285,9 @@ def write_passes(table, path, format: str | None = None) -> None:
         The file to write (replaced in one step: an interrupted write leaves no partial file),
         or an open text file to write into (then ``format`` is required).
     format : {"csv", "ecsv"}, optional
-        ECSV keeps units and masks; CSV writes ISO times and plain numbers (empty where
-        masked).
+        ECSV keeps units, masks, time scales and the times to the nanosecond (ISO with nine
+        decimals; read back with ``QTable.read``); CSV writes ISO times to the millisecond and
+        plain numbers (empty where masked).
     """
     from pathlib import Path
 
@@ -298,6 +299,8 @@ def write_passes(table, path, format: str | None = None) -> None:
     for name in out.colnames:
         if isinstance(out[name], Time):
             out[name].format = "isot"
+            if fmt == "ecsv":  # (astropy's default, 3 decimals, cut the times to the ms)
+                out[name].precision = 9
     text = io.StringIO()
     out.write(text, format="ascii.ecsv" if fmt == "ecsv" else "ascii.csv")
     if hasattr(path, "write"):  # an open text file (as astropy's writer takes)

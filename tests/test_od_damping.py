@@ -64,7 +64,8 @@ def test_far_guesses_converge_with_damping_and_not_without(obs, name):
     assert np.linalg.norm(fit.state.r.to_value(u.km) - Y_TRUE[:3]) < 0.05
     rejected = [h for h in fit.history if not h["accepted"]]
     assert rejected and all(h["correction"] is None and h["damping"] >= 0 for h in rejected)
-    assert any(h["damping"] > 0 for h in fit.history if h["accepted"])
+    # damped steps, or (a long step rejected) the arc continued from the rows near the epoch
+    assert any(h["damping"] > 0 or h["window"] for h in fit.history if h["accepted"])
     # the accepted iterates' RMS never grows (beyond tol); the rejected ones are stepped back
     acc = [h["rms"] for h in fit.history if h["accepted"]]
     assert [h["iteration"] for h in fit.history] == list(range(1, fit.iterations + 1))

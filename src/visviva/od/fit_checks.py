@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import warnings
 
-__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "warn_misfit"]
+from ..errors import ConvergenceError
+
+__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "failed", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
 #: are the noise the sigmas describe, the RMS is 1 +- 1/sqrt(2 dof))
@@ -43,3 +45,11 @@ def warn_misfit(rms, n_rejected=0, n_rows=1, stacklevel=3):
             "coordinates (heights in metres on the command line), the time tags, the sigmas "
             "and the force model, or look for a burn; fit.rejected marks the rows.",
             RuntimeWarning, stacklevel=stacklevel)
+
+
+def failed(history, message):
+    """A :class:`~visviva.ConvergenceError` with ``message`` and the fit's per-iteration
+    ``history`` attached (``err.history``)."""
+    err = ConvergenceError(message)
+    err.history = history
+    return err

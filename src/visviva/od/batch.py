@@ -17,8 +17,8 @@ from .._covariance import in_frame, km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
-from .damping import Marquardt, Window, solve
-from .fit_checks import failed, warn_misfit
+from .damping import WINDOW_FIT, Marquardt, Window, solve
+from .fit_checks import failed, stall_message, stalled, warn_misfit
 from .initial_state import check_initial
 from .light_time import model
 from .measurements import residuals
@@ -324,6 +324,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         to.
     rtol, atol : float, optional
         Integration tolerances of the variational equations (default 1e-11).
+    damping : {"auto", None}
+        "auto": damped steps, and the arc fitted outward from the epoch, after a step that
+        fits worse (:mod:`visviva.od.damping`); None: plain Gauss-Newton steps.
 
     Returns
     -------
@@ -334,8 +337,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     Raises
     ------
     ConvergenceError
-        The iteration diverged or did not settle within ``max_iterations``; the exception's
-        ``history`` attribute holds the per-iteration report.
+        The iteration diverged, stalled or did not settle within ``max_iterations``; the
+        exception's ``history`` attribute holds the per-iteration report.
     InvalidInputError
         Fewer measurement components than the 6 unknowns, observations that do not determine
         the orbit, or bad arguments.
@@ -468,7 +471,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         history.append({"iteration": it, "rms": rms, "n_rejected": int(rejected.sum()),
                         "correction": None, "damping": lm.used, "accepted": False,
                         "window": win.seconds})
-        if win.open(last_step):  # far off: fit the rows near the epoch first, from there
+        if lm.lam > 0 and win.open(last_step):  # far off: fit the rows near the epoch first
             p = lm.base[2]
             restart()
             return p[:6], p[6:n_dv], p[n_dv:]
@@ -512,7 +515,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if readmitted is None:  # editing from the second iteration (far guesses need it)
-            editing = outlier_sigma is not None and rms_prev is not None
+            editing = outlier_sigma is not None and rms_prev is not None and not win.active
         else:  # every row back in: editing resumes once settled, and stays on
             editing = editing or last_step < EDIT_AFTER_STEP
         if editing:
@@ -523,7 +526,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             new_rejected = np.max(np.abs(zn), axis=1) > limit
         else:
             new_rejected = np.zeros_like(rejected)
-        inside = comp_mask & win.rows()[:, None]
+        inside = comp_mask & win.rows()[:, None]  # every row unless a window is open
         use = inside & ~new_rejected[:, None]
         if use.sum() + n_prior < n_par and win.active:
             restart(wider=True)
@@ -593,7 +596,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         settled = (rms_prev is not None and lm.used == 0.0  # a damped step is short: not settled
                    and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300))
         if win.active and (settled or step < EDIT_AFTER_STEP):  # the window's fit settled
-            restart(wider=True)
+            win.widen(np.max(np.abs(zn), axis=1) <= WINDOW_FIT * max(1.0, rms))
+            restart()
             continue
         if ((settled or step < 1e-4) and np.array_equal(new_rejected, rejected) and it > 1
                 and (editing or outlier_sigma is None)):
@@ -607,6 +611,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 continue
             converged = True
             break
+        if stalled(history[since:]):  # creeping towards max_iterations: say why now
+            raise failed(history, stall_message(it, rms, step, [c.name for c in est]))
         if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history[since:]) and it > 3:
             break
         rejected = new_rejected

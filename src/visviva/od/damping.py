@@ -26,12 +26,13 @@ the guess's satellite is on another part of its orbit; their residuals are not l
 state, a Gauss-Newton step fits them worse than the guess (rejected), damped steps creep, and
 outlier editing keeps whichever late rows the wrong orbit happens to match (a local minimum
 at an RMS of thousands). Hence arc continuation (:class:`Window`; the "fit a shorter arc
-first" of Tapley, Schutz & Born 2004, sec. 4.3, automated): the first rejected step of more
-than ``WINDOW_STEP`` sigmas restarts the fit from the accepted iterate on the rows nearest the
-epoch (the nearest 1/``WINDOW_FRACTION`` of them), where the linearisation holds; each time
-that fit settles (a correction under 3 of its own sigmas, or an RMS that stopped changing)
-the window doubles its span, until it holds every row and the fit goes on as before. A fit
-without a rejected step never opens one (the same bits as ``damping=None``).
+first" of Tapley, Schutz & Born 2004, sec. 4.3, automated): when a damped step is rejected
+too, after a Gauss-Newton step of over ``WINDOW_STEP`` of its own sigmas, the fit restarts
+from the accepted iterate on the rows nearest the epoch (the nearest 1/``WINDOW_FRACTION`` of
+them), where the linearisation holds; each time that fit settles (a correction under 3 of its
+own sigmas, or an RMS that stopped changing) the window doubles its span (on past gaps, and
+past the rows the estimate already fits), until it holds every row and the fit goes on as
+before. A fit without a rejected step never opens one (the same bits as ``damping=None``).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["DAMPINGS", "Marquardt", "Window", "solve"]
+__all__ = ["DAMPINGS", "WINDOW_FIT", "Marquardt", "Window", "solve"]
 
 #: the values of ``fit_orbit(damping=...)``
 DAMPINGS = ("auto", None)
@@ -55,10 +56,13 @@ LAMBDA_MAX = 1e12
 #: a rejected step longer than this many of its own sigmas opens the window (a step of a few
 #: sigmas, rejected near the minimum by outliers, does not restart the fit)
 WINDOW_STEP = 100.0
-#: the first window holds the 1/WINDOW_FRACTION of the rows nearest the epoch (1/4 and 1/8
-#: reached the minimum from 200 km off in 19 and 23 of 24 cases, 1/16 in 24; sec. 6 of
-#: docs/orbit_determination.md)
+#: the first window holds the 1/WINDOW_FRACTION of the rows nearest the epoch, and at least
+#: twice as many components as unknowns (from 200 km off, 20 random directions, 1/4 reached
+#: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/orbit_determination.md)
 WINDOW_FRACTION = 16
+#: a row beyond the window fits (the window widens past it without an iteration) when its
+#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS)
+WINDOW_FIT = 4.0
 
 
 def solve(A, b, lam=0.0):
@@ -188,7 +192,8 @@ class Window:
         self.opened = False  # a fit opens it once
         order = np.argsort(self.dist, kind="stable")
         enough = np.cumsum(dims[order]) >= 2 * n_unknowns
-        first = max(len(order) // WINDOW_FRACTION, int(np.argmax(enough)))
+        first = max(len(order) // WINDOW_FRACTION,
+                    int(np.argmax(enough)) if enough[-1] else len(order) - 1)
         self.first = float(self.dist[order[min(first, len(order) - 1)]])
 
     @property
@@ -206,13 +211,23 @@ class Window:
         return self.dist <= self.span
 
     def open(self, step):
-        """Open the window after a rejected step of ``step`` sigmas, once per fit, when the step
-        was long (``WINDOW_STEP``) and the first window leaves rows out; True if opened."""
+        """Open the window after a rejected damped step (the Gauss-Newton step from the accepted
+        iterate was ``step`` of its sigmas), once per fit, when that step was long
+        (``WINDOW_STEP``) and the first window leaves rows out; True if opened."""
         if self.opened or not step > WINDOW_STEP or self.first >= self.dist.max():
             return False
         self.opened, self.span = True, max(self.first, 1e-9)
         return True
 
-    def widen(self):
-        """Double the span (every row once it reaches the farthest)."""
-        self.span = 2.0 * self.span if 2.0 * self.span < self.dist.max() else np.inf
+    def widen(self, fits=None):
+        """Double the span, past any gap without rows, and on while every row it adds fits
+        (``fits``, (N,) bool: the estimate already explains them); every row once it reaches
+        the farthest."""
+        while self.active:
+            before = self.rows()
+            beyond = self.dist[~before]
+            self.span = max(2.0 * self.span, float(beyond.min()))
+            if self.span >= self.dist.max():
+                self.span = np.inf
+            if fits is None or not np.all(fits[self.rows() & ~before]):
+                return

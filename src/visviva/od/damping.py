@@ -58,7 +58,7 @@ LAMBDA_MAX = 1e12
 WINDOW_STEP = 100.0
 #: the first window holds the 1/WINDOW_FRACTION of the rows nearest the epoch, and at least
 #: twice as many components as unknowns (from 200 km off, 20 random directions, 1/4 reached
-#: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/orbit_determination.md)
+#: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/performance.md)
 WINDOW_FRACTION = 16
 #: a row beyond the window fits (the window widens past it without an iteration) when its
 #: normalised residuals are under WINDOW_FIT x max(1, the window's RMS)

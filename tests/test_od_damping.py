@@ -234,3 +234,21 @@ def test_a_stalled_fit_fails_fast_and_says_why():
     acc = [h for h in hist if h["accepted"]][-5:]
     assert max(h["rms"] for h in acc) < 1.001 * min(h["rms"] for h in acc)
     assert all(h["correction"] > 3 for h in acc)
+
+
+def test_stall_rule_and_message():
+    from visviva.od.fit_checks import stall_message, stalled
+
+    def hist(rms, corr, accepted=True):
+        return [{"rms": r, "correction": c, "accepted": accepted} for r, c in zip(rms, corr, strict=True)]
+
+    flat = hist([100.0, 99.99, 99.98, 99.97, 99.96], [30.0] * 5)
+    assert stalled(flat)
+    assert not stalled(flat[1:])  # four iterates are three changes: not yet
+    assert not stalled(hist([100.0, 99.0, 98.0, 97.0, 96.0], [30.0] * 5))  # 1 % a step: progress
+    assert not stalled(hist([1.0] * 5, [30.0] * 4 + [2.0]))  # the corrections have settled
+    # rejected iterates in between do not break the run of accepted ones
+    assert stalled(flat[:2] + hist([500.0], [None], accepted=False) + flat[2:])
+    msg = stall_message(12, 99.96, 30.0, ["drag"])
+    assert "iteration 12" in msg and "drag" in msg and "parameter_sigma=" in msg
+    assert "parameter_sigma" not in stall_message(12, 99.96, 30.0, [])

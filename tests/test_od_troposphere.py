@@ -153,11 +153,14 @@ def test_a_diverging_fit_says_so(visible, recwarn):
     with pytest.raises(vv.ConvergenceError, match="diverged at iteration") as info:
         vv.fit_orbit(obs, guess, damping=None)
     assert "better initial state" in str(info.value) and len(info.value.history) >= 1
-    # damped (the default), the RMS falls slowly from 1.8e5: not within 25 iterations (it
-    # reaches the truth to 2 m in 79), and the error says so with its history
-    with pytest.raises(vv.ConvergenceError, match="did not converge in 25") as info:
-        vv.fit_orbit(obs, guess)
-    assert "better initial state" in str(info.value) and len(info.value.history) == 25
+    # damped (the default), the RMS fell slowly from 1.8e5: it reached the truth to 2 m in 79
+    # iterations, ConvergenceError in 25; fitted outward from the epoch (od.damping.Window,
+    # opened after a rejected damped step) it takes 13, every row kept
+    fit = vv.fit_orbit(obs, guess)
+    assert fit.iterations <= 15 and 0.7 < fit.rms < 1.3 and not fit.rejected.any()
+    assert any(h["window"] for h in fit.history) and fit.history[-1]["window"] is None
+    err = np.linalg.norm(fit.state.r.to_value(u.km) - Y0[:3])
+    assert err < 3 * np.linalg.norm(fit.sigma_position_km)
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
 
 
@@ -232,10 +235,14 @@ def test_a_fit_whose_residuals_overflow_says_what_to_do(visible):
     msg = str(info.value)
     assert "RMS by iteration: 1: " in msg and "better initial state" in msg
     assert len(info.value.history) >= 1
-    # damped (the default), the overflowing iterates are rejected; the fit still fails, saying so
-    with pytest.raises(vv.ConvergenceError, match="better initial state") as info:
-        vv.fit_orbit(obs, guess)
-    assert any(not h["accepted"] for h in info.value.history)
+    # damped (the default), the overflowing iterates are rejected; the fit failed, saying so
+    # ("better initial state"); fitted outward from the epoch after a rejected damped step
+    # (od.damping.Window) it reaches the truth within its sigmas, every row kept
+    fit = vv.fit_orbit(obs, guess)
+    assert any(not h["accepted"] for h in fit.history) and any(h["window"] for h in fit.history)
+    assert fit.iterations <= 20 and 0.7 < fit.rms < 1.3 and not fit.rejected.any()
+    err = np.linalg.norm(fit.state.r.to_value(u.km) - Y0[:3])
+    assert err < 3 * np.linalg.norm(fit.sigma_position_km)
 
 
 def _niell(sin_el, a, b, c):

@@ -15,7 +15,7 @@ import numpy as np
 from .errors import InvalidInputError, ShapeError
 
 __all__ = ["as_covariance", "require_psd", "block_rotation", "to_local", "from_local",
-           "frame_code", "KilometreCovariance", "km_covariance"]
+           "frame_code", "KilometreCovariance", "km_covariance", "in_frame"]
 
 
 class KilometreCovariance(np.ndarray):
@@ -253,3 +253,15 @@ def check_shape(cov: np.ndarray, name: str) -> None:
             f"{name} must be one 6x6 position-velocity covariance (x, y, z, vx, vy, vz); got "
             f"shape {cov.shape}."
         )
+
+
+def in_frame(out, p, out_name):
+    """``out`` (a GCRS :class:`~visviva.satellites.covariance.CovarianceResult`) with its
+    covariance set to the GCRS covariances ``p`` (T, 6, 6) rotated to ``out_name``'s axes."""
+    code = frame_code(out_name, "output_frame")
+    r = np.atleast_2d(out.r.to_value("km"))
+    v = np.atleast_2d(out.v.to_value("km/s"))
+    out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
+                                   .reshape(p.shape))
+    out.frame = "GCRS" if code == 0 else str(out_name).upper()
+    return out

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._covariance import km_covariance
+from .._covariance import in_frame, km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
-from .damping import Marquardt, solve
-from .fit_checks import warn_misfit
+from .damping import WINDOW_FIT, Marquardt, Window, solve
+from .fit_checks import failed, stall_message, stalled, warn_misfit
 from .initial_state import check_initial
 from .light_time import model
 from .measurements import residuals
@@ -62,7 +62,8 @@ class OrbitFit:
         Iterations used.
     history : list of dict
         Per iteration: ``iteration``, ``rms``, ``n_rejected``, ``correction`` (the step's size
-        relative to the covariance, sqrt(dx^T P^-1 dx / 6)).
+        relative to the covariance, sqrt(dx^T P^-1 dx / 6)), ``damping`` (lambda),
+        ``accepted``, ``window`` (s: the rows within it of the epoch were fitted; None: all).
     chi2 : float
         Sum of squared normalised residuals of the accepted rows.
     dof : int
@@ -175,7 +176,7 @@ class OrbitFit:
         p = out.covariance + s @ self.full_covariance[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + cross + np.swapaxes(cross, -1, -2)
         p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s], axis=-1))
-        return _in_frame(out, p, out_name)
+        return in_frame(out, p, out_name)
 
     def _propagate_parameters(self, t, dyn, kwargs):
         """:meth:`propagate` with estimated or considered coefficients: the state's error and
@@ -216,7 +217,7 @@ class OrbitFit:
         p = p + cross + np.swapaxes(cross, -1, -2) + s @ joint[6:, 6:] @ np.swapaxes(s, -1, -2)
         p = p + self._burn_consider_cross(out, np.concatenate([out.stm, s[..., :n - 6]],
                                                               axis=-1))
-        return _in_frame(out, p, out_name)
+        return in_frame(out, p, out_name)
 
     def _burn_columns(self, out, indices):
         """The columns of ``out.delta_v_partials`` of the fit's burns ``indices``."""
@@ -323,6 +324,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         to.
     rtol, atol : float, optional
         Integration tolerances of the variational equations (default 1e-11).
+    damping : {"auto", None}
+        "auto": damped steps, and the arc fitted outward from the epoch, after a step that
+        fits worse (:mod:`visviva.od.damping`); None: plain Gauss-Newton steps.
 
     Returns
     -------
@@ -333,8 +337,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     Raises
     ------
     ConvergenceError
-        The iteration diverged or did not settle within ``max_iterations``; the exception's
-        ``history`` attribute holds the per-iteration report.
+        The iteration diverged, stalled or did not settle within ``max_iterations``; the
+        exception's ``history`` attribute holds the per-iteration report.
     InvalidInputError
         Fewer measurement components than the 6 unknowns, observations that do not determine
         the orbit, or bad arguments.
@@ -453,18 +457,30 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     readmitted = None  # the iteration that put the rejected rows back, once
     converged = False
     lm = Marquardt(damping, tol)
+    win = Window(offsets, dims, n_par)  # arc continuation after a long rejected step
+    since = 0  # the history entry from which the rows are the current ones
+
+    def restart(wider=False):  # the rows changed (a window opened or widened): start over
+        nonlocal rms_prev, rejected, since
+        if wider:
+            win.widen()
+        lm.reset()
+        rms_prev, rejected, since = None, np.zeros_like(rejected), len(history)
 
     def retreat(it, rms, why):  # a rejected iterate: a damped step from the accepted one
         history.append({"iteration": it, "rms": rms, "n_rejected": int(rejected.sum()),
-                        "correction": None, "damping": lm.used, "accepted": False})
+                        "correction": None, "damping": lm.used, "accepted": False,
+                        "window": win.seconds})
+        if lm.lam > 0 and win.open(last_step):  # far off: fit the rows near the epoch first
+            p = lm.base[2]
+            restart()
+            return p[:6], p[6:n_dv], p[n_dv:]
         p = lm.retreat()
         if p is None:
-            err = ConvergenceError(
+            raise failed(history,
                 f"the orbit fit diverged at iteration {it}: no damped step (up to lambda "
                 f"{lm.lam / 10:.3g}) from the last accepted iterate lowers the RMS ({why}). "
                 "Start from a better initial state (IOD) or fit a shorter arc first.")
-            err.history = history
-            raise err
         return p[:6], p[6:n_dv], p[n_dv:]
 
     def pseudo(p):  # the a priori rows' residuals at the unknowns p
@@ -491,17 +507,15 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             if lm.armed:
                 x, dv, pv = retreat(it, float("inf"), f"iteration {it}: {exc}")
                 continue
-            err = ConvergenceError(
+            raise failed(history,
                 f"the orbit fit diverged at iteration {it}: the estimate's trajectory cannot be "
                 f"integrated or measured ({exc}). Start from a better initial state (IOD) or "
                 "fit a shorter arc."
-            )
-            err.history = history
-            raise err from exc
+            ) from exc
         z = residuals(kinds, observations.values, h)
         zn = np.where(comp_mask, z / sig, 0.0)
         if readmitted is None:  # editing from the second iteration (far guesses need it)
-            editing = outlier_sigma is not None and rms_prev is not None
+            editing = outlier_sigma is not None and rms_prev is not None and not win.active
         else:  # every row back in: editing resumes once settled, and stays on
             editing = editing or last_step < EDIT_AFTER_STEP
         if editing:
@@ -512,28 +526,28 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             new_rejected = np.max(np.abs(zn), axis=1) > limit
         else:
             new_rejected = np.zeros_like(rejected)
-        use = comp_mask & ~new_rejected[:, None]
+        inside = comp_mask & win.rows()[:, None]  # every row unless a window is open
+        use = inside & ~new_rejected[:, None]
+        if use.sum() + n_prior < n_par and win.active:
+            restart(wider=True)
+            continue
         if use.sum() + n_prior < n_par:
-            err = ConvergenceError(
+            raise failed(history,
                 f"the orbit fit diverged at iteration {it}: outlier editing left "
                 f"{int(use.sum())} measurement components for {n_par} unknowns. Check the data "
                 "and sigmas, or pass outlier_sigma=None."
             )
-            err.history = history
-            raise err
         rms = float(np.sqrt(np.mean(zn[use] ** 2)))
-        if lm.armed and lm.rejects(zn, comp_mask, pseudo(np.r_[x, dv, pv])):  # a worse fit
+        if lm.armed and lm.rejects(zn, inside, pseudo(np.r_[x, dv, pv])):  # a worse fit
             x, dv, pv = retreat(it, rms, "the RMS grew")
             continue
         if not np.isfinite(rms):
-            err = ConvergenceError(
+            raise failed(history,
                 f"the orbit fit diverged at iteration {it} (RMS by iteration: "
                 + "".join(f"{hh['iteration']}: {hh['rms']:.4g}; " for hh in history)
                 + "now not finite): the estimate's trajectory left the measurement model's "
                 "domain (predicted values not finite). Start from a better initial state (IOD) "
                 "or fit a shorter arc first.")
-            err.history = history
-            raise err
         if chosen:
             cols = columns(dyn.schedule, [flown[i] for i in chosen])
             phi = np.concatenate([phi, dyn.sensitivity[..., cols]], axis=-1)
@@ -554,33 +568,37 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
             if lm.armed:
                 x, dv, pv = retreat(it, rms, "the partials are not finite")
                 continue
-            err = ConvergenceError(
+            raise failed(history,
                 f"the orbit fit diverged at iteration {it}: the measurement partials are not "
                 "finite (the trajectory left the model's domain). Start from a better initial "
                 "state (IOD); check that its gm is the observed body's."
             )
-            err.history = history
-            raise err
         try:
             dx, P = solve(A, b)
         except InvalidInputError as exc:
             if it == 1:  # the data themselves
                 raise
-            err = ConvergenceError(  # the estimate has wandered where the data say nothing
+            if win.active:  # the window's rows do not determine the unknowns: more rows
+                restart(wider=True)
+                continue
+            raise failed(history,  # the estimate has wandered where the data say nothing
                 f"the orbit fit diverged at iteration {it} (RMS by iteration: "
                 + "; ".join(f"{hh['iteration']}: {hh['rms']:.4g}" for hh in history)
                 + f"; now {rms:.4g}): the estimate went where the data no longer determine "
                 "it (singular normal equations). Start from a better initial state (IOD) or "
-                "fit a shorter arc first.")
-            err.history = history
-            raise err from exc
+                "fit a shorter arc first.") from exc
         # the step in its own sigmas, sqrt(dx^T P^-1 dx / n) with P^-1 = A^T A: |A dx| needs
         # no inverse (solving P raised numpy's LinAlgError on an ill-conditioned step; audit20)
         step = float(np.linalg.norm(A @ dx) / np.sqrt(n_par))
         history.append({"iteration": it, "rms": rms, "n_rejected": int(new_rejected.sum()),
-                        "correction": step, "damping": lm.used, "accepted": True})  # fmt: skip
+                        "correction": step, "damping": lm.used, "accepted": True,
+                        "window": win.seconds})  # fmt: skip
         settled = (rms_prev is not None and lm.used == 0.0  # a damped step is short: not settled
                    and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300))
+        if win.active and (settled or step < EDIT_AFTER_STEP):  # the window's fit settled
+            win.widen(np.max(np.abs(zn), axis=1) <= WINDOW_FIT * max(1.0, rms))
+            restart()
+            continue
         if ((settled or step < 1e-4) and np.array_equal(new_rejected, rejected) and it > 1
                 and (editing or outlier_sigma is None)):
             if new_rejected.any() and readmitted is None and max_iterations - it >= 5:
@@ -593,7 +611,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 continue
             converged = True
             break
-        if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history) and it > 3:
+        if stalled(history[since:]):  # creeping towards max_iterations: say why now
+            raise failed(history, stall_message(it, rms, step, [c.name for c in est]))
+        if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history[since:]) and it > 3:
             break
         rejected = new_rejected
         rms_prev = rms
@@ -605,13 +625,11 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         pv = pv + dx[n_dv:]
     if not converged:
         lines = "; ".join(f"{hh['iteration']}: rms {hh['rms']:.4g}" for hh in history)
-        err = ConvergenceError(
+        raise failed(history,
             f"the orbit fit did not converge in {len(history)} iterations (RMS by iteration: "
             f"{lines}). Start from a better initial state (IOD), check the sigmas and the "
             "station of each row, raise max_iterations, or choose dynamics closer to the data."
         )
-        err.history = history
-        raise err
     observations.warn_below_horizon(y[:, :3], ~new_rejected, "the fitted orbit")
     warn_misfit(rms, int(new_rejected.sum()), len(new_rejected))
     rms_by_kind = {}
@@ -665,16 +683,3 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         apriori_covariance=None if apriori is None else km_covariance(apriori),
     )
 
-
-def _in_frame(out, p, out_name):
-    """``out`` (a GCRS :class:`~visviva.satellites.covariance.CovarianceResult`) with its
-    covariance set to the GCRS covariances ``p`` (T, 6, 6) rotated to ``out_name``'s axes."""
-    from .._covariance import frame_code, km_covariance, to_local
-
-    code = frame_code(out_name, "output_frame")
-    r = np.atleast_2d(out.r.to_value("km"))
-    v = np.atleast_2d(out.v.to_value("km/s"))
-    out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
-                                   .reshape(p.shape))
-    out.frame = "GCRS" if code == 0 else str(out_name).upper()
-    return out

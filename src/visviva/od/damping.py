@@ -18,6 +18,21 @@ evaluated: the trajectory cannot be integrated, or leaves the measurement model'
 that iterate is rejected, lambda is raised (to ``LAMBDA_START``, then tenfold) and a shorter
 step is taken from the accepted one; each accepted step lowers it tenfold (``LAMBDA_DOWN``), back to 0
 below ``LAMBDA_OFF``. The covariance is always the undamped (A^T A)^-1 at the solution.
+
+Damping alone does not reach the data's minimum from a guess hundreds of km off a long arc:
+the along-track error grows over the arc (a 200 km error in the radius is one of ~400 km in the
+semi-major axis, ~0.5 rad of drift per LEO revolution), so the late passes are measured where
+the guess's satellite is on another part of its orbit; their residuals are not linear in the
+state, a Gauss-Newton step fits them worse than the guess (rejected), damped steps creep, and
+outlier editing keeps whichever late rows the wrong orbit happens to match (a local minimum
+at an RMS of thousands). Hence arc continuation (:class:`Window`; the "fit a shorter arc
+first" of Tapley, Schutz & Born 2004, sec. 4.3, automated): when a damped step is rejected
+too, after a Gauss-Newton step of over ``WINDOW_STEP`` of its own sigmas, the fit restarts
+from the accepted iterate on the rows nearest the epoch (the nearest 1/``WINDOW_FRACTION`` of
+them), where the linearisation holds; each time that fit settles (a correction under 3 of its
+own sigmas, or an RMS that stopped changing) the window doubles its span (on past gaps, and
+past the rows the estimate already fits), until it holds every row and the fit goes on as
+before. A fit without a rejected step never opens one (the same bits as ``damping=None``).
 """
 
 from __future__ import annotations
@@ -26,7 +41,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["DAMPINGS", "Marquardt", "solve"]
+__all__ = ["DAMPINGS", "WINDOW_FIT", "Marquardt", "Window", "solve"]
 
 #: the values of ``fit_orbit(damping=...)``
 DAMPINGS = ("auto", None)
@@ -38,6 +53,16 @@ LAMBDA_OFF = 1e-6
 LAMBDA_DOWN = 10.0
 #: lambda above which the fit gives up: no step shorter than this lowers the RMS
 LAMBDA_MAX = 1e12
+#: a rejected step longer than this many of its own sigmas opens the window (a step of a few
+#: sigmas, rejected near the minimum by outliers, does not restart the fit)
+WINDOW_STEP = 100.0
+#: the first window holds the 1/WINDOW_FRACTION of the rows nearest the epoch, and at least
+#: twice as many components as unknowns (from 200 km off, 20 random directions, 1/4 reached
+#: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/performance.md)
+WINDOW_FRACTION = 16
+#: a row beyond the window fits (the window widens past it without an iteration) when its
+#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS)
+WINDOW_FIT = 4.0
 
 
 def solve(A, b, lam=0.0):
@@ -131,6 +156,12 @@ class Marquardt:
         self.used = self.lam
         return dx if self.lam == 0.0 else solve(A, b, self.lam)[0]
 
+    def reset(self):
+        """Forget the accepted iterate and return to Gauss-Newton (the rows changed: the next
+        iterate is accepted and compared with from then on)."""
+        self.lam = self.used = 0.0
+        self.base = self.rows = None
+
     def retreat(self):
         """The unknowns after a rejected iterate: a shorter step from the accepted one; None
         when lambda has grown past ``LAMBDA_MAX`` (no step lowers the RMS)."""
@@ -140,3 +171,63 @@ class Marquardt:
         A, b, unknowns = self.base
         self.used = self.lam
         return unknowns + solve(A, b, self.lam)[0]
+
+
+class Window:
+    """Arc continuation of one fit: the rows within ``span`` seconds of the epoch.
+
+    Parameters
+    ----------
+    offsets : ndarray (N,)
+        The rows' times from the epoch (s).
+    dims : ndarray of int (N,)
+        The rows' measurement components.
+    n_unknowns : int
+        The fit's unknowns: the first window holds at least twice as many components.
+    """
+
+    def __init__(self, offsets, dims, n_unknowns):
+        self.dist = np.abs(np.asarray(offsets, dtype=float))
+        self.span = np.inf  # every row: no window open
+        self.opened = False  # a fit opens it once
+        order = np.argsort(self.dist, kind="stable")
+        enough = np.cumsum(dims[order]) >= 2 * n_unknowns
+        first = max(len(order) // WINDOW_FRACTION,
+                    int(np.argmax(enough)) if enough[-1] else len(order) - 1)
+        self.first = float(self.dist[order[min(first, len(order) - 1)]])
+
+    @property
+    def active(self):
+        """True while the fit sees only part of the arc."""
+        return self.span < np.inf
+
+    @property
+    def seconds(self):
+        """The span (s) while open, else None (history's ``window``)."""
+        return self.span if self.active else None
+
+    def rows(self):
+        """(N,) mask of the rows inside the window."""
+        return self.dist <= self.span
+
+    def open(self, step):
+        """Open the window after a rejected damped step (the Gauss-Newton step from the accepted
+        iterate was ``step`` of its sigmas), once per fit, when that step was long
+        (``WINDOW_STEP``) and the first window leaves rows out; True if opened."""
+        if self.opened or not step > WINDOW_STEP or self.first >= self.dist.max():
+            return False
+        self.opened, self.span = True, max(self.first, 1e-9)
+        return True
+
+    def widen(self, fits=None):
+        """Double the span, past any gap without rows, and on while every row it adds fits
+        (``fits``, (N,) bool: the estimate already explains them); every row once it reaches
+        the farthest."""
+        while self.active:
+            before = self.rows()
+            beyond = self.dist[~before]
+            self.span = max(2.0 * self.span, float(beyond.min()))
+            if self.span >= self.dist.max():
+                self.span = np.inf
+            if fits is None or not np.all(fits[self.rows() & ~before]):
+                return

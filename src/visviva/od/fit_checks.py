@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import warnings
 
-__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "warn_misfit"]
+from ..errors import ConvergenceError
+
+__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "STALL_CHANGE", "STALL_ITERATIONS", "STALL_STEP",
+           "failed", "stall_message", "stalled", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
 #: are the noise the sigmas describe, the RMS is 1 +- 1/sqrt(2 dof))
@@ -22,6 +25,38 @@ MISFIT_RMS = 10.0
 #: station heights given in km to `visviva od`, which reads metres, rejected 36 % of the rows
 #: at an RMS of 8.9, without a word)
 MISFIT_REJECTED = 0.2
+
+#: a fit has stalled when its RMS changed by less than STALL_CHANGE (relative) from each accepted
+#: iterate to the next over STALL_ITERATIONS of them in a row, while each correction was over
+#: STALL_STEP of its own sigmas: a linear model that predicts a chi^2 drop of n x STALL_STEP^2
+#: that never comes (a flat, curved valley: an unknown the data barely see, or a guess far off)
+STALL_CHANGE = 1e-3
+STALL_ITERATIONS = 4
+STALL_STEP = 3.0
+
+
+def stalled(history):
+    """Whether the accepted iterates at the end of ``history`` (entries of one set of rows)
+    have stalled (``STALL_*``): the fit would creep to max_iterations."""
+    acc = [h for h in history if h["accepted"]][-(STALL_ITERATIONS + 1):]
+    if len(acc) <= STALL_ITERATIONS:
+        return False
+    rms = [h["rms"] for h in acc]
+    return (all(abs(b - a) <= STALL_CHANGE * a for a, b in zip(rms, rms[1:], strict=False))
+            and all(h["correction"] > STALL_STEP for h in acc[1:]))
+
+
+def stall_message(it, rms, step, estimated):
+    """What a stalled fit (:func:`stalled`) says: where, and what to do (``estimated``: the
+    names of the coefficients it estimates)."""
+    todo = ("fix the estimated coefficients (" + ", ".join(estimated) + ": leave them out of "
+            "estimate=) or give them an a priori sigma (parameter_sigma=); or " if estimated
+            else "")
+    return (f"the orbit fit stalled at iteration {it}: over {STALL_ITERATIONS} iterations its "
+            f"RMS ({rms:.4g}) changed by under {100 * STALL_CHANGE:.2g} % while each correction "
+            f"was {step:.3g} of its own sigmas, so the data barely determine a direction of the "
+            f"estimate: {todo}start from a better initial state (IOD), or fit a shorter arc "
+            "first.")
 
 
 def warn_misfit(rms, n_rejected=0, n_rows=1, stacklevel=3):
@@ -43,3 +78,11 @@ def warn_misfit(rms, n_rejected=0, n_rows=1, stacklevel=3):
             "coordinates (heights in metres on the command line), the time tags, the sigmas "
             "and the force model, or look for a burn; fit.rejected marks the rows.",
             RuntimeWarning, stacklevel=stacklevel)
+
+
+def failed(history, message):
+    """A :class:`~visviva.ConvergenceError` with ``message`` and the fit's per-iteration
+    ``history`` attached (``err.history``)."""
+    err = ConvergenceError(message)
+    err.history = history
+    return err

@@ -176,3 +176,20 @@ def test_kepler_orbit_from_hamiltons_equations():
     np.testing.assert_allclose(tr.q[2], [a * (1 - e), 2 * np.pi], rtol=1e-9)
     np.testing.assert_allclose(kepler.energy(tr.q, tr.p), -1 / (2 * a), rtol=1e-10)
     np.testing.assert_allclose(tr.p[:, 1], h, rtol=1e-12)
+
+
+def test_quantities_are_converted_to_si_not_stripped():
+    # audit26: np.asarray stripped units: 100 cm ran as 100 m, a step of 0.6 s / 60 as 0.6
+    import astropy.units as u
+
+    q, p, k = sp.symbols("q p k")
+    osc = mech.HamiltonianSystem(p**2 / 2 + k * q**2 / 2, [q], [p], {k: 4.0 * u.N / u.m})
+    si = osc.symplectic([1.0], [0.0], 0.01, 100)
+    mixed = mech.symplectic_integrate(osc._grad_T, osc._grad_V, [100.0] * u.cm, [0.0],
+                                      0.6 * u.s / 60, 100)
+    np.testing.assert_allclose(mixed.q, si.q, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(mixed.t, si.t, rtol=1e-14)
+    np.testing.assert_allclose(si.q[-1, 0], np.cos(2.0), atol=1e-8)  # omega = sqrt(k) = 2
+    tr = osc.simulate([100.0] * u.cm, [0.0], [0.0, 1.0 / 60] * u.min)
+    np.testing.assert_allclose(tr.q[-1, 0], np.cos(2.0), atol=1e-10)
+    np.testing.assert_allclose(osc.energy([[100.0]] * u.cm, [[0.0]]), 2.0, rtol=1e-14)

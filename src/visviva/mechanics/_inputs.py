@@ -12,7 +12,7 @@ import numpy as np
 from .._units import broadcast_or_raise, require_finite_result, to_si
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["Inputs", "SI", "callable_result", "finite_rhs"]
+__all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value"]
 
 
 class _SIUnits:
@@ -130,6 +130,27 @@ class Inputs:
 
             return u.Quantity(arr, getattr(SI, unit), copy=False)
         return arr[()] if arr.ndim == 0 else arr
+
+
+def si_array(value, name: str) -> np.ndarray:
+    """``value`` as a float64 array, a Quantity converted to its SI form (NaN/inf pass through).
+
+    For arguments whose physical type is not fixed (generalised coordinates q0 in m or deg, their
+    rates, momenta, times, parameters of a sympy model): ``30 * u.deg`` becomes 0.5236 (rad),
+    ``1 * u.min`` 60 (s), ``1 * u.km`` 1000 (m). ``np.asarray`` would strip the unit and keep
+    30, 1, 1: a silently wrong number. Plain numbers are taken as they are (consistent units).
+    """
+    return to_si(value, None, name, finite=False)[0]
+
+
+def si_value(value, name: str):
+    """A model parameter: a Quantity converted to its SI form (a float), anything else as is."""
+    if hasattr(value, "unit"):
+        arr = si_array(value, name)
+        if arr.size != 1:
+            raise ShapeError(f"parameter {name} must be a scalar; got shape {arr.shape}.")
+        return float(arr.reshape(()))
+    return value
 
 
 def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs
+from ._inputs import finite_rhs, si_array, si_value
 
 __all__ = [
     "HamiltonianSystem",
@@ -99,18 +99,19 @@ def symplectic_integrate(
     ----------
     dT_dp, dV_dq : callable
         Gradients of the kinetic and potential parts (see :func:`leapfrog`).
-    q0, p0 : array_like
-        Initial coordinates and momenta (same shape; any shape).
-    dt : float
-        Step [s] (negative integrates backwards).
+    q0, p0 : array_like or Quantity
+        Initial coordinates and momenta (same shape; any shape): plain numbers in the units of
+        the gradients, or Quantities, converted to SI (``30 * u.deg`` is 0.5236 rad).
+    dt : float or Quantity
+        Step [s] (negative integrates backwards; a Quantity is converted to s).
     n_steps : int
         Number of steps.
     method : {"yoshida4", "leapfrog", "forest_ruth"}
         Integrator ("forest_ruth" is the same 4th-order triple jump).
     save_every : int
         Keep every k-th step (the initial state is always kept).
-    t0 : float
-        Initial time.
+    t0 : float or Quantity
+        Initial time [s].
 
     Returns
     -------
@@ -120,8 +121,10 @@ def symplectic_integrate(
     if method not in _STEPPERS:
         raise InvalidInputError(f"method must be one of {sorted(_STEPPERS)}; got {method!r}.")
     step = _STEPPERS[method]
-    q = np.array(q0, dtype=float)
-    p = np.array(p0, dtype=float)
+    q = si_array(q0, "q0")
+    p = si_array(p0, "p0")
+    dt = float(si_array(dt, "dt"))
+    t0 = float(si_array(t0, "t0"))
     if q.shape != p.shape:
         raise ShapeError(f"q0 and p0 must have the same shape; got {q.shape} and {p.shape}.")
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p)) and np.isfinite(dt)):
@@ -238,7 +241,7 @@ class HamiltonianSystem:
         self.dof = len(self.coordinates)
         self._q = sp.symbols(f"q0:{self.dof}")
         H = sp.sympify(hamiltonian).subs(dict(zip(self.coordinates, self._q, strict=True)))
-        H = H.subs(dict(parameters or {}))
+        H = H.subs({key: si_value(val, str(key)) for key, val in dict(parameters or {}).items()})
         free = H.free_symbols - set(self._q) - set(self.momenta) - {self.time}
         if free:
             raise InvalidInputError(
@@ -269,8 +272,8 @@ class HamiltonianSystem:
 
     def energy(self, q, p, t=0.0):
         """H at arrays q, p of shape (..., dof)."""
-        q = np.asarray(q, float)
-        p = np.asarray(p, float)
+        q = si_array(q, "q")
+        p = si_array(p, "p")
         out = self._H(t, *np.moveaxis(q, -1, 0), *np.moveaxis(p, -1, 0))
         return np.broadcast_to(np.asarray(out, float), q.shape[:-1]).copy()
 
@@ -300,15 +303,15 @@ class HamiltonianSystem:
         """Integrate Hamilton's equations with solve_ivp; returns a SymplecticTrajectory-like record."""
         from scipy.integrate import solve_ivp
 
-        q0 = np.atleast_1d(np.asarray(q0, dtype=float))
-        p0 = np.atleast_1d(np.asarray(p0, dtype=float))
+        q0 = np.atleast_1d(si_array(q0, "q0"))
+        p0 = np.atleast_1d(si_array(p0, "p0"))
         if q0.shape != (self.dof,) or p0.shape != (self.dof,):
             raise ShapeError(
                 f"q0 and p0 must have shape ({self.dof},); got {q0.shape} and {p0.shape}."
             )
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(p0))):
             raise InvalidInputError("q0 and p0 must be finite.")
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        t = np.atleast_1d(si_array(t, "t"))
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         y0 = np.concatenate([q0, p0])

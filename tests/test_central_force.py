@@ -280,3 +280,22 @@ def test_quantity_potential_with_plain_radii_says_what_to_do():
     a = MU / 40.0
     e = math.sqrt(1.0 - 60000.0**2 / (MU * a))
     np.testing.assert_allclose(radii.to_value(KM), [a * (1 - e), a * (1 + e)], rtol=1e-12)
+
+
+@pytest.mark.parametrize("dh", [0.0, 1e-12, 1e-10, 1e-8])
+def test_orbit_equation_parabola_and_just_unbound_raise(dh):
+    # audit26: the parabola (h^2 = 2 mu r0 at periapsis) came back as a "closed" bound orbit
+    # with apsidal angle pi and an apoapsis of 1e14 r0, and a hyperbola with e - 1 = 4e-8 as a
+    # bound orbit with a NEGATIVE apoapsis: u = 1/r dips below 0 over an arc narrower than a step
+    h = math.sqrt(2.0) * (1.0 + dh)
+    with pytest.raises(vv.DomainError, match="escapes to r = infinity"):
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=h)
+
+
+def test_orbit_equation_very_eccentric_bound_orbit_still_resolved():
+    # e = 1 - 4e-10 just below the parabola: apoapsis h^2 / (1 - e) = 5e9 r0
+    h = math.sqrt(2.0) * (1.0 - 1e-10)
+    orbit = orbit_equation(power_law_force(1.0, -2), r0=1.0, h=h)
+    e = h * h - 1.0
+    np.testing.assert_allclose(orbit.apsis_r[1], h * h / (1.0 - e), rtol=1e-4)
+    np.testing.assert_allclose(orbit.apsidal_angle, math.pi, rtol=1e-9)

@@ -299,3 +299,12 @@ def test_orbit_equation_very_eccentric_bound_orbit_still_resolved():
     e = h * h - 1.0
     np.testing.assert_allclose(orbit.apsis_r[1], h * h / (1.0 - e), rtol=1e-4)
     np.testing.assert_allclose(orbit.apsidal_angle, math.pi, rtol=1e-9)
+
+
+def test_turning_points_plain_energy_refuses_quantity_interval():
+    # audit26: a plain energy with r_min, r_max as Quantities read the interval in km whatever the
+    # potential's units (1 m became 0.001), silently; effective_potential refuses such a mix
+    with pytest.raises(vv.UnitsError, match="plain numbers"):
+        turning_points(-0.3, 0.9, kepler_potential(1.0), 10 * u.m, 100 * u.km)
+    np.testing.assert_allclose(turning_points(-0.3, 0.9, kepler_potential(1.0), 0.01, 100.0),
+                               np.sort(np.roots([-0.6, 2.0, -0.81])), rtol=1e-13)

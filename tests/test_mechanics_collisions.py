@@ -135,3 +135,11 @@ def test_collision_impulse_properties(m1, m2, d, v1, v2, e):
 def test_kinetic_energy():
     assert mech.kinetic_energy(2.0, [3.0, 4.0, 0.0]) == pytest.approx(25.0)
     np.testing.assert_allclose(mech.kinetic_energy([1.0, 2.0], [1.0, 1.0]), [0.5, 1.0])
+
+
+def test_kinetic_energy_mismatched_masses_is_a_shape_error():
+    # audit26: 3 masses against 2 velocity vectors raised a bare numpy ValueError
+    with pytest.raises(ShapeError, match="kinetic_energy"):
+        mech.kinetic_energy([2.0, 1.0, 1.0], [[3.0, 4.0, 0.0], [1.0, 1.0, 1.0]])
+    np.testing.assert_allclose(mech.kinetic_energy([2.0, 1.0], [[3.0, 4.0, 0.0], [1.0, 1.0, 1.0]]),
+                               [25.0, 1.5])

@@ -301,3 +301,9 @@ def test_driven_response_free_damped_particle_message():
     x = mech.driven_oscillator(0.0, 0.0, 0.0, g, f0, 0.0, t)
     exact = f0 / (2 * g) * (t - (1 - np.exp(-2 * g * t)) / (2 * g))
     assert x == pytest.approx(exact, rel=1e-12)
+
+
+def test_beats_shape_mismatch_is_a_shape_error():
+    # audit26: a bare numpy ValueError from deep inside
+    with pytest.raises(ShapeError, match="beats"):
+        mech.beats(1.0, [1.0, 2.0], 3.0, [0.0, 1.0, 2.0])

@@ -275,3 +275,17 @@ def test_heavy_top_horizontal_axis_at_float_half_pi():
     # a tilt resolvable in double precision keeps its (large, finite) fast root
     fast = mech.heavy_top_precession_rate(*args, np.pi / 2 - 1e-9, branch="fast")
     assert fast == pytest.approx(0.01 * 200.0 / (0.02 * np.sin(1e-9)), rel=1e-6)
+
+
+def test_mismatched_shapes_are_shape_errors():
+    # audit26: bare numpy ValueErrors ("operands could not be broadcast together")
+    with pytest.raises(ShapeError, match="euler_equations"):
+        mech.euler_equations([1.0, 2.0, 3.0], np.ones((4, 3)), np.ones((2, 3)))
+    with pytest.raises(ShapeError, match="torque_free_precession_rate"):
+        mech.torque_free_precession_rate([2.0, 1.0], [3.0, 1.0, 1.0], 1.5)
+    with pytest.raises(ShapeError, match="origin must be one point"):
+        mech.inertia_tensor([1.0, 1.0], [[1, 0, 0], [0, 1, 0]], origin=np.zeros((3, 3)))
+    # what still broadcasts keeps working: Euler's equations for a batch with one torque
+    w = np.array([[1.0, 2.0, 3.0], [0.5, 0.0, 1.0]])
+    got = mech.euler_equations([1.0, 2.0, 3.0], w, [0.0, 0.0, 3.0])
+    np.testing.assert_allclose(got[0], [(2 - 3) * 6 / 1, (3 - 1) * 3 / 2, (1 - 2) * 2 / 3 + 1.0])

@@ -187,6 +187,12 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
             r = to_quantity(np.asarray(r, dtype=float), "length")
             return to_array(effective_potential(r, h_q, potential), "spec_energy", "V_eff") - E
     else:
+        if any(isinstance(x, u.Quantity) for x in (h, r_min, r_max)):
+            raise UnitsError(
+                "energy is a plain number, so h, r_min and r_max must be plain numbers in the same "
+                "consistent units (a Quantity r_min was read in km, whatever the potential's "
+                "units); or give the energy as a Quantity (km2 / s2) too."
+            )
         E = _real(energy, "energy")
         lo, hi = float(to_array(r_min, "length", "r_min", allow_plain=True, finite=False)), float(
             to_array(r_max, "length", "r_max", allow_plain=True, finite=False)

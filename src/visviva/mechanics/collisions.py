@@ -244,4 +244,5 @@ def kinetic_energy(m, v):
         v2 = np.sum(v * v, axis=-1)
     else:
         v2 = v * v
+    ins.broadcast("kinetic_energy", m=m, v2=v2)
     return ins.out(0.5 * m * v2, "energy")

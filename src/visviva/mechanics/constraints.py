@@ -340,7 +340,7 @@ def pendulum_constraint(length, pivot=None):
 
     def f(r, t):
         d = r - (0.0 if p is None else p)
-        return np.array([(np.dot(d, d) - L * L) / (2 * L)])
+        return np.array([(np.sum(d * d) - L * L) / (2 * L)])  # r of shape (d,) or (1, d)
 
     def jac(r, t):
         d = r - (0.0 if p is None else p)

@@ -542,6 +542,7 @@ def beats(amplitude, omega1, omega2, t):
     w1 = ins.get(omega1, "angular_rate", "omega1")
     w2 = ins.get(omega2, "angular_rate", "omega2")
     t = ins.get(t, "s", "t")
+    ins.broadcast("beats", amplitude=a, omega1=w1, omega2=w2, t=t)
     slow = np.cos(0.5 * (w1 - w2) * t)
     x = 2.0 * a * slow * np.cos(0.5 * (w1 + w2) * t)
     return ins.out(x, "m"), ins.out(2.0 * np.abs(a) * np.abs(slow), "m")

@@ -88,7 +88,10 @@ def inertia_tensor(masses, positions, origin=None):
             f"masses must have shape (N,) = ({r.shape[0]},) to match positions; got {m.shape}."
         )
     if origin is not None:
-        r = r - ins.vector(origin, "m", "origin")
+        o = ins.vector(origin, "m", "origin")
+        if o.shape != (3,):
+            raise ShapeError(f"origin must be one point, shape (3,); got {o.shape}.")
+        r = r - o
     with np.errstate(over="ignore", invalid="ignore"):
         r2 = np.einsum("i,ij,ij->", m, r, r)
         I = r2 * np.eye(3) - np.einsum("i,ij,ik->jk", m, r, r)
@@ -343,6 +346,7 @@ def euler_equations(I, omega, torque=None):
     I = _body_inertia(ins.get(I, "inertia", "I"))
     w = ins.vector(omega, "angular_rate", "omega")
     tau = np.zeros_like(w) if torque is None else ins.vector(torque, "torque", "torque")
+    ins.broadcast("euler_equations", omega=w, torque=tau)
     Iw = w @ I.T
     return np.linalg.solve(I, (tau - np.cross(w, Iw))[..., None])[..., 0]
 
@@ -563,6 +567,7 @@ def torque_free_precession_rate(I1, I3, omega3):
     I1 = ins.get(I1, "inertia", "I1", positive=True)
     I3 = ins.get(I3, "inertia", "I3", positive=True)
     w3 = ins.get(omega3, "angular_rate", "omega3")
+    ins.broadcast("torque_free_precession_rate", I1=I1, I3=I3, omega3=w3)
     return ins.out((I3 - I1) * w3 / I1, "rate")
 
 

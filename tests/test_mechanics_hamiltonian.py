@@ -193,3 +193,19 @@ def test_quantities_are_converted_to_si_not_stripped():
     tr = osc.simulate([100.0] * u.cm, [0.0], [0.0, 1.0 / 60] * u.min)
     np.testing.assert_allclose(tr.q[-1, 0], np.cos(2.0), atol=1e-10)
     np.testing.assert_allclose(osc.energy([[100.0]] * u.cm, [[0.0]]), 2.0, rtol=1e-14)
+
+
+def test_step_counts_are_not_truncated():
+    # audit26: n_steps = int(n_steps) truncated 0.3 / 0.1 = 2.9999999999999996 to 2 steps, so the
+    # integration silently stopped at t = 0.2 instead of 0.3
+    grad = (lambda p: p, lambda q: q)
+    with pytest.raises(InvalidInputError, match="round"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 0.3 / 0.1)
+    with pytest.raises(InvalidInputError, match="save_every"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 4, save_every=1.5)
+    with pytest.raises(InvalidInputError, match="n_steps"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, -1)
+    tr = mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, round(0.3 / 0.1))
+    np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(tr.q[-1, 0], np.cos(0.3), atol=1e-6)
+    assert mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 3.0).t.size == 4

@@ -129,10 +129,8 @@ def symplectic_integrate(
         raise ShapeError(f"q0 and p0 must have the same shape; got {q.shape} and {p.shape}.")
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p)) and np.isfinite(dt)):
         raise InvalidInputError("q0, p0 and dt must be finite.")
-    n_steps = int(n_steps)
-    save_every = int(save_every)
-    if n_steps < 0 or save_every < 1:
-        raise InvalidInputError("n_steps must be >= 0 and save_every >= 1.")
+    n_steps = _count(n_steps, "n_steps", 0)
+    save_every = _count(save_every, "save_every", 1)
     ts, qs, ps = [t0], [q.copy()], [p.copy()]
     for i in range(1, n_steps + 1):
         q, p = step(dT_dp, dV_dq, q, p, dt)
@@ -159,6 +157,23 @@ def symplectic_integrate(
             "before it."
         )
     return SymplecticTrajectory(np.array(ts), Q, P)
+
+
+def _count(value, name: str, minimum: int) -> int:
+    """A step count: an integer (or an integer-valued float) >= ``minimum``.
+
+    ``int()`` truncated silently: n_steps = 0.3 / 0.1 = 2.9999999999999996 ran 2 steps, not 3.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | np.integer | float | np.floating):
+        raise InvalidInputError(f"{name} must be an integer; got {value!r}.")
+    if not (np.isfinite(value) and float(value).is_integer()):
+        raise InvalidInputError(
+            f"{name} must be a whole number; got {value!r}. Round it yourself, e.g. "
+            f"{name}=round(t_end / dt), rather than let it be truncated."
+        )
+    if value < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}; got {value!r}.")
+    return int(value)
 
 
 def legendre_transform(lagrangian, coordinates):

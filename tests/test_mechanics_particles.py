@@ -217,3 +217,24 @@ def test_force_builders_reject_negative_drag_and_nan_gravity():
     tr = mech.projectile([0, 0], [10, 10], [0.0, 1.0], drag="linear", k=0.5 / u.s)
     r, _ = mech.projectile_linear_drag([0, 0], [10, 10], [1.0], 0.5)
     np.testing.assert_allclose(tr.r[-1], r[0], atol=1e-9)
+
+
+def test_force_returning_a_quantity_is_converted_not_stripped():
+    # audit26: np.asarray stripped the unit of a force callable's Quantity: 9.81e-3 kN fell as
+    # 9.81e-3 N (1000 times too slowly), and an acceleration passed for a force silently
+    import astropy.units as u
+
+    from visviva.errors import UnitsError
+
+    t = [0.0, 0.5, 1.0]
+    plain = mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81]), 1.0,
+                                 [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    kilo = mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81e-3]) * u.kN, 1.0,
+                                [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    np.testing.assert_allclose(kilo.r[-1], [0.0, 0.0, -9.81 / 2], rtol=1e-12)
+    np.testing.assert_allclose(kilo.r, plain.r, rtol=1e-12, atol=1e-15)
+    with pytest.raises(UnitsError, match="force"):
+        mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81]) * u.m / u.s**2, 1.0,
+                             [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81e-3]) * u.kN, plain)
+    np.testing.assert_allclose(W, 9.81 * 9.81 / 2, rtol=1e-10)

@@ -289,3 +289,13 @@ def test_mismatched_shapes_are_shape_errors():
     w = np.array([[1.0, 2.0, 3.0], [0.5, 0.0, 1.0]])
     got = mech.euler_equations([1.0, 2.0, 3.0], w, [0.0, 0.0, 3.0])
     np.testing.assert_allclose(got[0], [(2 - 3) * 6 / 1, (3 - 1) * 3 / 2, (1 - 2) * 2 / 3 + 1.0])
+
+
+def test_torque_returning_a_quantity_is_converted_not_stripped():
+    # audit26: a torque of 100 N cm spun the body up as 100 N m (omega3 34.3 instead of 1.33)
+    tr = mech.integrate_rigid_body([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 1.0],
+                                   torque=lambda t, R, w: np.array([0.0, 0.0, 100.0]) * u.N * u.cm)
+    np.testing.assert_allclose(tr.omega[-1], [0.0, 0.0, 1.0 + 1.0 / 3.0], rtol=1e-10, atol=1e-15)
+    with pytest.raises(UnitsError, match="torque"):
+        mech.integrate_rigid_body([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 1.0],
+                                  torque=lambda t, R, w: np.array([0.0, 0.0, 1.0]) * u.N)

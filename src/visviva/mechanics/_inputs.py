@@ -171,7 +171,9 @@ def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.ndarray:
+def callable_result(
+    value, shape: tuple, what: str, time, at: str = "t", unit: str | None = None
+) -> np.ndarray:
     """The float64 array a user callable returned, checked to have ``shape`` and be finite.
 
     Parameters
@@ -186,13 +188,22 @@ def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.n
         The time [s] (or curve parameter) of the call, named in the errors.
     at : str
         The name of ``time`` in the errors (``"t"``, or ``"s"`` for a curve parameter).
+    unit : str, optional
+        The key in :data:`SI` of what the callable returns (``"force"``, ``"torque"``, ...): a
+        Quantity result is converted to it (:class:`~visviva.errors.UnitsError` if it cannot
+        be); without ``unit`` a Quantity is converted to its SI form. ``np.asarray`` would strip
+        the unit: a force in kN was read as N.
 
     Returns
     -------
     ndarray
         ``value`` as float64 of ``shape``.
     """
-    arr = np.asarray(value, dtype=float)
+    if hasattr(value, "unit"):
+        target = None if unit is None else getattr(SI, unit)
+        arr = to_si(value, target, what, finite=False)[0]
+    else:
+        arr = np.asarray(value, dtype=float)
     if arr.size != int(np.prod(shape)):
         raise ShapeError(
             f"{what.split('(')[0]} returned shape {arr.shape}; {what} must return shape {shape}."

@@ -257,7 +257,7 @@ def solve_constrained(
         if force is None:
             return np.zeros(n)
         F = callable_result(force(time, x.reshape(shape), v.reshape(shape)), shape,
-                            "force(t, r, v)", time)
+                            "force(t, r, v)", time, unit="force")
         return F.ravel()
 
     def multipliers(time, x, v):

@@ -214,7 +214,8 @@ def _power(force, trajectory):
     t, r, v = trajectory.t, trajectory.r, trajectory.v
     P = np.empty(t.size)
     for i in range(t.size):
-        F = callable_result(force(t[i], r[i], v[i]), r[i].shape, "force(t, r, v)", t[i])
+        F = callable_result(force(t[i], r[i], v[i]), r[i].shape, "force(t, r, v)", t[i],
+                            unit="force")
         P[i] = np.sum(F * v[i])
     return P
 
@@ -306,7 +307,7 @@ def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
 
     def integrand(s):
         r = np.asarray(curve(s), dtype=float)
-        F = callable_result(field(r), r.shape, "field(r)", s, at="s")
+        F = callable_result(field(r), r.shape, "field(r)", s, at="s", unit="force")
         value = float(np.dot(F, dr_ds(s)))
         if not np.isfinite(value):
             raise InvalidInputError(
@@ -342,7 +343,8 @@ def conservation_report(trajectory, potential=None):
     for pot in pots:
         for i, (ti, ri) in enumerate(zip(trajectory.t, trajectory.r, strict=True)):
             value = pot(ri)
-            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti))
+            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti,
+                                           unit="energy"))
     E = T + V
     scale_E = max(abs(E[0]), np.max(np.abs(T)), np.finfo(float).tiny)
     m = trajectory.masses[..., None]

@@ -193,7 +193,7 @@ def solve_particles(
     def rhs(time, y):
         r = y[:size].reshape(shape)
         v = y[size:].reshape(shape)
-        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time)
+        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time, unit="force")
         return np.concatenate([y[size:], (F * inv_m).ravel()])
 
     wrapped = None

@@ -526,7 +526,8 @@ def integrate_rigid_body(
                     [2 * (x * z - yq * s), 2 * (yq * z + x * s), 1 - 2 * (x * x + yq * yq)],
                 ]
             )
-            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time)
+            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time,
+                                  unit="torque")
         dw = I_inv @ (tau - np.cross(w, Ib @ w))
         return np.concatenate([dq, dw])
 

@@ -209,3 +209,15 @@ def test_step_counts_are_not_truncated():
     np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3])
     np.testing.assert_allclose(tr.q[-1, 0], np.cos(0.3), atol=1e-6)
     assert mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 3.0).t.size == 4
+
+
+def test_grid_and_crossing_counts_are_not_truncated():
+    # audit26: int() truncated phase_portrait's n = 5.5 to 5 and max_points = 2.5 to 2
+    with pytest.raises(InvalidInputError, match="whole number"):
+        mech.phase_portrait(lambda q, p: q * q + p * p, (-1, 1), (-1, 1), n=5.5)
+    with pytest.raises(InvalidInputError, match="max_points"):
+        mech.poincare_section(lambda t, y: [y[1], -y[0]], [1.0, 0.0], 20.0, 1, max_points=2.5)
+    t_cross, _ = mech.poincare_section(lambda t, y: [y[1], -y[0]], [1.0, 0.0], 20.0, 1,
+                                       max_points=2)
+    np.testing.assert_allclose(t_cross, [np.pi, 3 * np.pi], rtol=1e-9)
+    assert mech.phase_portrait(lambda q, p: q * q + p * p, (-1, 1), (-1, 1), n=(5, 7))[2].shape == (7, 5)

@@ -238,3 +238,11 @@ def test_force_returning_a_quantity_is_converted_not_stripped():
                              [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
     W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81e-3]) * u.kN, plain)
     np.testing.assert_allclose(W, 9.81 * 9.81 / 2, rtol=1e-10)
+
+
+def test_projectile_linear_drag_shapes():
+    # audit26: r0 (3,) with v0 (2,) raised a bare numpy ValueError; a 2-D t gave a (1, 1, 2) r
+    with pytest.raises(ShapeError, match="r0 and v0"):
+        mech.projectile_linear_drag([0.0, 0.0, 0.0], [10.0, 10.0], [1.0], 0.5)
+    with pytest.raises(ShapeError, match="1-D"):
+        mech.projectile_linear_drag([0.0, 0.0], [10.0, 10.0], [[1.0, 2.0]], 0.5)

@@ -299,3 +299,39 @@ def test_torque_returning_a_quantity_is_converted_not_stripped():
     with pytest.raises(UnitsError, match="torque"):
         mech.integrate_rigid_body([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 1.0],
                                   torque=lambda t, R, w: np.array([0.0, 0.0, 1.0]) * u.N)
+
+
+def test_solids_broadcast_one_tensor_per_body():
+    # audit26: three spheres of masses 1, 2, 3 gave ONE tensor diag(0.4, 0.8, 1.2) (the batch was
+    # spread over the axes); two cylinders gave a (2,) array; three rods a bare ValueError
+    spheres = mech.inertia_solid_sphere([1.0, 2.0, 3.0], 1.0)
+    assert spheres.shape == (3, 3, 3)
+    for m, I in zip([1.0, 2.0, 3.0], spheres, strict=True):
+        np.testing.assert_array_equal(I, 0.4 * m * np.eye(3))
+    shells = mech.inertia_spherical_shell(1.0, [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(shells[2], 6.0 * np.eye(3))
+    cylinders = mech.inertia_solid_cylinder([1.0, 2.0], 1.0, 1.0)
+    np.testing.assert_allclose(cylinders[1], np.diag([2 * 4 / 12, 2 * 4 / 12, 1.0]))
+    rods = mech.inertia_thin_rod([1.0, 2.0, 3.0], 1.0)
+    np.testing.assert_allclose(rods[2], np.diag([0.25, 0.25, 0.0]))
+    boxes = mech.inertia_box([12.0, 24.0], 1.0, 2.0, 3.0)
+    np.testing.assert_allclose(boxes[1], 2 * np.diag([13.0, 10.0, 5.0]))
+    one = mech.inertia_box(12.0 * u.kg, 100 * u.cm, 2 * u.m, 3 * u.m)
+    assert one.shape == (3, 3) and one.unit == u.kg * u.m**2
+    np.testing.assert_allclose(one.value, np.diag([13.0, 10.0, 5.0]))
+    with pytest.raises(ShapeError, match="inertia_solid_sphere"):
+        mech.inertia_solid_sphere([1.0, 2.0], [1.0, 2.0, 3.0])
+
+
+def test_non_symmetric_inertia_tensors_are_refused():
+    # audit26: parallel_axis passed the asymmetry on; euler_equations and integrate_rigid_body
+    # symmetrised [[1, 0.5, 0], [0, 2, 0], [0, 0, 3]] silently into a tensor nobody gave
+    bad = [[1.0, 0.5, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.parallel_axis(bad, 1.0, [1.0, 0.0, 0.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.euler_equations(bad, [1.0, 0.0, 0.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.integrate_rigid_body(bad, [1.0, 0.0, 0.0], [0.0, 1.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.principal_axes(bad)

@@ -168,8 +168,8 @@ def _count(value, name: str, minimum: int) -> int:
         raise InvalidInputError(f"{name} must be an integer; got {value!r}.")
     if not (np.isfinite(value) and float(value).is_integer()):
         raise InvalidInputError(
-            f"{name} must be a whole number; got {value!r}. Round it yourself, e.g. "
-            f"{name}=round(t_end / dt), rather than let it be truncated."
+            f"{name} must be a whole number; got {value!r}. Pass round(...) of it rather than "
+            "have it truncated (0.3 / 0.1 is 2.9999999999999996, which int() makes 2)."
         )
     if value < minimum:
         raise InvalidInputError(f"{name} must be >= {minimum}; got {value!r}.")
@@ -357,8 +357,8 @@ def phase_portrait(H, q_range, p_range, n=201):
         contour being a trajectory (energy is conserved).
     """
     nq, npts = (n, n) if np.isscalar(n) else n
-    q = np.linspace(*q_range, int(nq))
-    p = np.linspace(*p_range, int(npts))
+    q = np.linspace(*q_range, _count(nq, "n", 2))
+    p = np.linspace(*p_range, _count(npts, "n", 2))
     Q, P = np.meshgrid(q, p)
     if isinstance(H, HamiltonianSystem):
         if H.dof != 1:
@@ -429,6 +429,8 @@ def poincare_section(
         event = lambda t, y: y[idx]  # noqa: E731
     event.direction = direction
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
+    if max_points is not None:
+        max_points = _count(max_points, "max_points", 1)
     event.terminal = int(max_points) + int(on_section) if max_points else False
     sol = solve_ivp(
         finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"

@@ -308,7 +308,13 @@ def projectile_linear_drag(r0, v0, t, k, g=9.81):
     ins = Inputs()
     r0 = ins.vector(r0, "m", "r0", dim=None)
     v0 = ins.vector(v0, "speed", "v0", dim=None)
-    t = np.atleast_1d(ins.get(t, "s", "t"))[:, None]
+    t = np.atleast_1d(ins.get(t, "s", "t"))
+    if r0.shape != v0.shape or r0.ndim != 1 or t.ndim != 1:
+        raise ShapeError(
+            "projectile_linear_drag flies one projectile: r0 and v0 must both have shape (d,) and "
+            f"t be 1-D; got {r0.shape}, {v0.shape} and {t.shape}."
+        )
+    t = t[:, None]
     k = float(ins.get(k, "rate", "k", nonnegative=True))
     g = float(ins.get(g, "accel", "g"))
     gvec = np.zeros(r0.shape[-1])

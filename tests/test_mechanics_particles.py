@@ -246,3 +246,20 @@ def test_projectile_linear_drag_shapes():
         mech.projectile_linear_drag([0.0, 0.0, 0.0], [10.0, 10.0], [1.0], 0.5)
     with pytest.raises(ShapeError, match="1-D"):
         mech.projectile_linear_drag([0.0, 0.0], [10.0, 10.0], [[1.0, 2.0]], 0.5)
+
+
+def test_conservative_fields_convert_quantity_positions():
+    # audit26: np.asarray stripped units: UniformGravity(1).potential([0, 0, 100] cm) was 981 J
+    # (100 m), and InverseSquarePairs read charges in microcoulomb as coulomb (1e12 times the
+    # energy)
+    grav = mech.UniformGravity(1.0, 9.81)
+    assert grav.potential([0.0, 0.0, 100.0] * u.cm).to_value(u.J) == pytest.approx(9.81, rel=1e-15)
+    assert grav.potential([0.0, 0.0, 1.0]) == pytest.approx(9.81, rel=1e-15)
+    spring = mech.Spring(2.0, rest_length=1.0)
+    np.testing.assert_allclose(spring.force([200.0, 0.0, 0.0] * u.cm).to_value(u.N), [-2.0, 0, 0])
+    assert mech.InverseSquare(1.0).potential([1.0, 0.0, 0.0] * u.km).to_value(u.J) == -1e-3
+    r = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    micro = mech.InverseSquarePairs([1.0, 1.0], charges=[1.0, 1.0] * u.uC)
+    coulomb = mech.InverseSquarePairs([1.0, 1.0], charges=[1e-6, 1e-6])
+    assert micro.potential(r) == pytest.approx(coulomb.potential(r), rel=1e-15)
+    assert coulomb.potential(r) == pytest.approx(8.9875517923e9 * 1e-12, rel=1e-12)

@@ -28,6 +28,7 @@ class _SIUnits:
         "rate": "1 / s",
         "angular_rate": "1 / s",
         "force": "N",
+        "charge": "C",
         "impulse": "N s",
         "energy": "J",
         "energy_length": "J m",

@@ -263,3 +263,11 @@ def test_conservative_fields_convert_quantity_positions():
     coulomb = mech.InverseSquarePairs([1.0, 1.0], charges=[1e-6, 1e-6])
     assert micro.potential(r) == pytest.approx(coulomb.potential(r), rel=1e-15)
     assert coulomb.potential(r) == pytest.approx(8.9875517923e9 * 1e-12, rel=1e-12)
+
+
+def test_uniform_gravity_axis_outside_the_positions_is_a_shape_error():
+    # audit26: axis=5 on 3-D positions raised a bare IndexError from inside the force
+    with pytest.raises(ShapeError, match="axis 5"):
+        mech.uniform_gravity(2.0, 9.81, axis=5)(0.0, np.zeros(3), np.zeros(3))
+    np.testing.assert_array_equal(mech.uniform_gravity(2.0, 9.81, axis=1)(0.0, np.zeros(3), None),
+                                  [0.0, -19.62, 0.0])

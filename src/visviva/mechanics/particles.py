@@ -243,8 +243,16 @@ def uniform_gravity(masses, g=9.81, axis: int = -1):
     (N, d); ``g`` [m/s^2] finite.
     """
     m, g = _gravity_inputs(masses, g)
+    if isinstance(axis, bool) or not isinstance(axis, int | np.integer):
+        raise InvalidInputError(f"axis must be an integer (the vertical coordinate); got {axis!r}.")
 
     def force(t, r, v):
+        d = np.shape(r)[-1] if np.ndim(r) else 0
+        if not -d <= axis < d:
+            raise ShapeError(
+                f"uniform_gravity: axis {axis} is not a coordinate of positions with d = {d} "
+                f"components; give axis in [-{d}, {d - 1}] (the vertical one)."
+            )
         return _weight(m, r, g, axis)
 
     return force

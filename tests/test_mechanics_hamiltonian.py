@@ -221,3 +221,15 @@ def test_grid_and_crossing_counts_are_not_truncated():
                                        max_points=2)
     np.testing.assert_allclose(t_cross, [np.pi, 3 * np.pi], rtol=1e-9)
     assert mech.phase_portrait(lambda q, p: q * q + p * p, (-1, 1), (-1, 1), n=(5, 7))[2].shape == (7, 5)
+
+
+def test_direction_and_method_are_checked():
+    # audit26: direction=5 was taken as 1 silently; method="euler" gave scipy's raw ValueError
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(InvalidInputError, match="direction"):
+        mech.poincare_section(osc, [1.0, 0.0], 10.0, 0, direction=5)
+    with pytest.raises(InvalidInputError, match="method"):
+        osc.simulate([1.0], [0.0], [0.0, 1.0], method="euler")
+    with pytest.raises(InvalidInputError, match="method"):
+        mech.pendulum().simulate([1.0], [0.0], [0.0, 1.0], method="euler")

@@ -218,6 +218,16 @@ def callable_result(
     return arr.reshape(shape)
 
 
+IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+
+
+def ivp_method(method, context: str) -> str:
+    """``method`` if it names a :func:`scipy.integrate.solve_ivp` method, else InvalidInputError."""
+    if method not in IVP_METHODS:
+        raise InvalidInputError(f"{context}: method must be one of {IVP_METHODS}; got {method!r}.")
+    return method
+
+
 def finite_rhs(rhs, context: str):
     """``rhs(t, y)`` for :func:`scipy.integrate.solve_ivp` that raises instead of returning NaN.
 

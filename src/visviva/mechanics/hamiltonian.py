@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs, si_array, si_value
+from ._inputs import finite_rhs, ivp_method, si_array, si_value
 
 __all__ = [
     "HamiltonianSystem",
@@ -330,6 +330,7 @@ class HamiltonianSystem:
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         y0 = np.concatenate([q0, p0])
+        method = ivp_method(method, "HamiltonianSystem.simulate")
         sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
                         t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
@@ -427,6 +428,10 @@ def poincare_section(
                 "the component whose zero is the section, or a function g(t, y)."
             )
         event = lambda t, y: y[idx]  # noqa: E731
+    if isinstance(direction, bool) or direction not in (1, -1, 0):
+        raise InvalidInputError(
+            f"direction must be 1 (increasing), -1 (decreasing) or 0 (both); got {direction!r}."
+        )
     event.direction = direction
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
     if max_points is not None:

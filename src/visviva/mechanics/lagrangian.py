@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs, si_array, si_value
+from ._inputs import Inputs, callable_result, finite_rhs, ivp_method, si_array, si_value
 
 __all__ = [
     "LagrangianSystem",
@@ -216,6 +216,7 @@ class LagrangianSystem:
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(qdot0))):
             raise InvalidInputError("q0 and qdot0 must be finite.")
+        method = ivp_method(method, "LagrangianSystem.simulate")
         sol = solve_ivp(
             finite_rhs(self.rhs, "LagrangianSystem.simulate"),
             (t[0], t[-1]),

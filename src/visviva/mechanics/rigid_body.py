@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs, callable_result
+from ._inputs import Inputs, callable_result, ivp_method
 from .inertia import _require_symmetric
 
 __all__ = [
@@ -318,9 +318,7 @@ def integrate_rigid_body(
                 "build it with rotation_matrix_313(phi, theta, psi) or pass a scipy Rotation."
             )
         q0 = Rotation.from_matrix(R0).as_quat()
-    _methods = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-    if method not in _methods:
-        raise InvalidInputError(f"method must be one of {_methods}; got {method!r}.")
+    method = ivp_method(method, "integrate_rigid_body")
     for name, tol in (("rtol", rtol), ("atol", atol)):
         if not (isinstance(tol, float | int) and np.isfinite(tol) and tol > 0):
             raise InvalidInputError(f"{name} must be a finite float > 0; got {fmt_number(tol)}.")

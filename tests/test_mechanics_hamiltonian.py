@@ -233,3 +233,14 @@ def test_direction_and_method_are_checked():
         osc.simulate([1.0], [0.0], [0.0, 1.0], method="euler")
     with pytest.raises(InvalidInputError, match="method"):
         mech.pendulum().simulate([1.0], [0.0], [0.0, 1.0], method="euler")
+
+
+def test_energy_of_nan_states_raises():
+    # audit26: HamiltonianSystem.energy and LagrangianSystem.energy returned NaN for NaN input
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(InvalidInputError, match="q contains NaN"):
+        osc.energy([[np.nan]], [[0.0]])
+    with pytest.raises(InvalidInputError, match="qdot contains NaN"):
+        mech.pendulum().energy([[0.1]], [[np.nan]])
+    assert osc.energy([[1.0]], [[1.0]])[0] == 1.0

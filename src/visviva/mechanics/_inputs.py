@@ -133,15 +133,17 @@ class Inputs:
         return arr[()] if arr.ndim == 0 else arr
 
 
-def si_array(value, name: str) -> np.ndarray:
-    """``value`` as a float64 array, a Quantity converted to its SI form (NaN/inf pass through).
+def si_array(value, name: str, *, finite: bool = False) -> np.ndarray:
+    """``value`` as a float64 array, a Quantity converted to its SI form.
+
+    NaN/inf pass through unless ``finite`` (then :class:`~visviva.errors.InvalidInputError`).
 
     For arguments whose physical type is not fixed (generalised coordinates q0 in m or deg, their
     rates, momenta, times, parameters of a sympy model): ``30 * u.deg`` becomes 0.5236 (rad),
     ``1 * u.min`` 60 (s), ``1 * u.km`` 1000 (m). ``np.asarray`` would strip the unit and keep
     30, 1, 1: a silently wrong number. Plain numbers are taken as they are (consistent units).
     """
-    return to_si(value, None, name, finite=False)[0]
+    return to_si(value, None, name, finite=finite)[0]
 
 
 def si_value(value, name: str):

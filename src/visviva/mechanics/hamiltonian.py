@@ -287,8 +287,8 @@ class HamiltonianSystem:
 
     def energy(self, q, p, t=0.0):
         """H at arrays q, p of shape (..., dof)."""
-        q = si_array(q, "q")
-        p = si_array(p, "p")
+        q = si_array(q, "q", finite=True)
+        p = si_array(p, "p", finite=True)
         out = self._H(t, *np.moveaxis(q, -1, 0), *np.moveaxis(p, -1, 0))
         return np.broadcast_to(np.asarray(out, float), q.shape[:-1]).copy()
 

@@ -176,8 +176,8 @@ class LagrangianSystem:
     def energy(self, q, qdot, t=0.0):
         """Energy function h = sum q' dL/dq' - L at arrays q, qdot of shape (..., dof)."""
         _, energy = self._compiled
-        q = si_array(q, "q")
-        qdot = si_array(qdot, "qdot")
+        q = si_array(q, "q", finite=True)
+        qdot = si_array(qdot, "qdot", finite=True)
         out = energy(t, *np.moveaxis(q, -1, 0), *np.moveaxis(qdot, -1, 0))
         return np.broadcast_to(np.asarray(out, dtype=float), q.shape[:-1]).copy()
 

@@ -308,3 +308,18 @@ def test_turning_points_plain_energy_refuses_quantity_interval():
         turning_points(-0.3, 0.9, kepler_potential(1.0), 10 * u.m, 100 * u.km)
     np.testing.assert_allclose(turning_points(-0.3, 0.9, kepler_potential(1.0), 0.01, 100.0),
                                np.sort(np.roots([-0.6, 2.0, -0.81])), rtol=1e-13)
+
+
+def test_orbit_equation_force_may_return_a_quantity():
+    # audit26: a force returning a Quantity in km/s2 (or m/s2) was refused with "must return one
+    # float"; it is converted now, and a wrong unit is named
+    def force_m(r):
+        return -MU * 1e3 / r**2 * u.m / u.s**2
+
+    orbit = orbit_equation(force_m, r0=7000 * KM, h=55000 * u.km**2 / u.s)
+    plain = orbit_equation(lambda r: -MU / r**2, r0=7000.0, h=55000.0)
+    np.testing.assert_allclose(orbit.apsis_r, plain.apsis_r, rtol=1e-12)
+    with pytest.raises(vv.UnitsError, match="km / s2"):
+        orbit_equation(lambda r: -vv.EARTH.gm / r**2, r0=7000 * KM, h=55000 * u.km**2 / u.s)
+    with pytest.raises(vv.UnitsError, match="plain numbers"):
+        orbit_equation(force_m, r0=7000.0, h=55000.0)

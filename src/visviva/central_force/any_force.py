@@ -311,7 +311,8 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     ----------
     force : callable
         Radial force per unit mass ``F(r)`` (negative = attractive), called with a float ``r``
-        (in km when the other inputs are Quantities), returning a float (km / s2).
+        (in km when the other inputs are Quantities), returning a float (km / s2) or, with
+        Quantity inputs, a Quantity of acceleration (converted to km / s2).
     r0 : Quantity (length) or float
         Radius at theta = 0 (> 0).
     h : Quantity (km2 / s) or float
@@ -384,6 +385,19 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         if uu <= 0:
             return [du, 0.0]
         F = force(1.0 / uu)
+        if isinstance(F, u.Quantity):  # e.g. -vv.EARTH.gm / r**2 with r in km: km3 / s2 / 1
+            if not quantity:
+                raise UnitsError(
+                    f"force(r) returned a Quantity ('{F.unit}') but r0 and h are plain numbers: "
+                    "return plain numbers in their units, or give r0 and h as Quantities."
+                )
+            try:
+                F = F.to_value(u.km / u.s**2) if F.unit.physical_type != "dimensionless" else F.value
+            except u.UnitConversionError as exc:
+                raise UnitsError(
+                    f"force(r) returned '{F.unit}', not a force per unit mass (km / s2); r is "
+                    "passed as a plain number in km."
+                ) from exc
         try:
             F = float(F)
         except (TypeError, ValueError) as exc:

@@ -12,7 +12,8 @@ import numpy as np
 from .._units import broadcast_or_raise, require_finite_result, to_si
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value"]
+__all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value",
+           "require_symmetric"]
 
 
 class _SIUnits:
@@ -154,6 +155,17 @@ def si_value(value, name: str):
             raise ShapeError(f"parameter {name} must be a scalar; got shape {arr.shape}.")
         return float(arr.reshape(()))
     return value
+
+
+def require_symmetric(I, name: str) -> None:
+    """InvalidInputError unless the (3, 3) tensor I is symmetric to rounding (1e-12 relative)."""
+    asym = np.max(np.abs(I - I.T))
+    if asym > 1e-12 * max(np.max(np.abs(I)), 1e-300):
+        raise InvalidInputError(
+            f"{name} must be symmetric (an inertia tensor is); |{name} - {name}.T| reaches "
+            f"{asym:.3g}. Pass (I + I.T) / 2 if this is rounding, or check the off-diagonal "
+            "products of inertia."
+        )
 
 
 def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:

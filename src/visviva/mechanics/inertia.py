@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError, ShapeError
-from ._inputs import Inputs
+from ..errors import ShapeError
+from ._inputs import Inputs, require_symmetric
 
 __all__ = [
     "inertia_tensor",
@@ -176,7 +176,7 @@ def parallel_axis(I_cm, mass, displacement):
     I = ins.get(I_cm, "inertia", "I_cm")
     if I.shape != (3, 3):
         raise ShapeError(f"I_cm must have shape (3, 3); got {I.shape}.")
-    _require_symmetric(I, "I_cm")
+    require_symmetric(I, "I_cm")
     m = ins.get(mass, "kg", "mass", nonnegative=True)
     d = ins.vector(displacement, "m", "displacement")
     if d.shape != (3,) or m.ndim:
@@ -208,19 +208,8 @@ def principal_axes(I):
     I = ins.get(I, "inertia", "I")
     if I.shape != (3, 3):
         raise ShapeError(f"I must have shape (3, 3); got {I.shape}.")
-    _require_symmetric(I, "I")
+    require_symmetric(I, "I")
     moments, axes = np.linalg.eigh(0.5 * (I + I.T))
     if np.linalg.det(axes) < 0:
         axes[:, 2] = -axes[:, 2]
     return ins.out(moments, "inertia"), axes
-
-
-def _require_symmetric(I, name):
-    """InvalidInputError unless the (3, 3) tensor I is symmetric to rounding (1e-12 relative)."""
-    asym = np.max(np.abs(I - I.T))
-    if asym > 1e-12 * max(np.max(np.abs(I)), 1e-300):
-        raise InvalidInputError(
-            f"{name} must be symmetric (an inertia tensor is); |{name} - {name}.T| reaches "
-            f"{asym:.3g}. Pass (I + I.T) / 2 if this is rounding, or check the off-diagonal "
-            "products of inertia."
-        )

@@ -17,8 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs, callable_result, ivp_method
-from .inertia import _require_symmetric
+from ._inputs import Inputs, callable_result, ivp_method, require_symmetric
 
 __all__ = [
     "rotation_matrix_313",
@@ -178,7 +177,7 @@ def _body_inertia(I):
         I = np.diag(I)
     if I.shape != (3, 3):
         raise ShapeError(f"I must be a (3, 3) tensor or 3 principal moments; got {I.shape}.")
-    _require_symmetric(I, "I")
+    require_symmetric(I, "I")
     moments = np.linalg.eigvalsh(0.5 * (I + I.T))
     if moments[0] <= 0:
         raise DomainError(

@@ -280,3 +280,46 @@ def test_quantity_potential_with_plain_radii_says_what_to_do():
     a = MU / 40.0
     e = math.sqrt(1.0 - 60000.0**2 / (MU * a))
     np.testing.assert_allclose(radii.to_value(KM), [a * (1 - e), a * (1 + e)], rtol=1e-12)
+
+
+@pytest.mark.parametrize("dh", [0.0, 1e-12, 1e-10, 1e-8])
+def test_orbit_equation_parabola_and_just_unbound_raise(dh):
+    # audit26: the parabola (h^2 = 2 mu r0 at periapsis) came back as a "closed" bound orbit
+    # with apsidal angle pi and an apoapsis of 1e14 r0, and a hyperbola with e - 1 = 4e-8 as a
+    # bound orbit with a NEGATIVE apoapsis: u = 1/r dips below 0 over an arc narrower than a step
+    h = math.sqrt(2.0) * (1.0 + dh)
+    with pytest.raises(vv.DomainError, match="escapes to r = infinity"):
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=h)
+
+
+def test_orbit_equation_very_eccentric_bound_orbit_still_resolved():
+    # e = 1 - 4e-10 just below the parabola: apoapsis h^2 / (1 - e) = 5e9 r0
+    h = math.sqrt(2.0) * (1.0 - 1e-10)
+    orbit = orbit_equation(power_law_force(1.0, -2), r0=1.0, h=h)
+    e = h * h - 1.0
+    np.testing.assert_allclose(orbit.apsis_r[1], h * h / (1.0 - e), rtol=1e-4)
+    np.testing.assert_allclose(orbit.apsidal_angle, math.pi, rtol=1e-9)
+
+
+def test_turning_points_plain_energy_refuses_quantity_interval():
+    # audit26: a plain energy with r_min, r_max as Quantities read the interval in km whatever the
+    # potential's units (1 m became 0.001), silently; effective_potential refuses such a mix
+    with pytest.raises(vv.UnitsError, match="plain numbers"):
+        turning_points(-0.3, 0.9, kepler_potential(1.0), 10 * u.m, 100 * u.km)
+    np.testing.assert_allclose(turning_points(-0.3, 0.9, kepler_potential(1.0), 0.01, 100.0),
+                               np.sort(np.roots([-0.6, 2.0, -0.81])), rtol=1e-13)
+
+
+def test_orbit_equation_force_may_return_a_quantity():
+    # audit26: a force returning a Quantity in km/s2 (or m/s2) was refused with "must return one
+    # float"; it is converted now, and a wrong unit is named
+    def force_m(r):
+        return -MU * 1e3 / r**2 * u.m / u.s**2
+
+    orbit = orbit_equation(force_m, r0=7000 * KM, h=55000 * u.km**2 / u.s)
+    plain = orbit_equation(lambda r: -MU / r**2, r0=7000.0, h=55000.0)
+    np.testing.assert_allclose(orbit.apsis_r, plain.apsis_r, rtol=1e-12)
+    with pytest.raises(vv.UnitsError, match="km / s2"):
+        orbit_equation(lambda r: -vv.EARTH.gm / r**2, r0=7000 * KM, h=55000 * u.km**2 / u.s)
+    with pytest.raises(vv.UnitsError, match="plain numbers"):
+        orbit_equation(force_m, r0=7000.0, h=55000.0)

@@ -135,3 +135,22 @@ def test_collision_impulse_properties(m1, m2, d, v1, v2, e):
 def test_kinetic_energy():
     assert mech.kinetic_energy(2.0, [3.0, 4.0, 0.0]) == pytest.approx(25.0)
     np.testing.assert_allclose(mech.kinetic_energy([1.0, 2.0], [1.0, 1.0]), [0.5, 1.0])
+
+
+def test_kinetic_energy_mismatched_masses_is_a_shape_error():
+    # audit26: 3 masses against 2 velocity vectors raised a bare numpy ValueError
+    with pytest.raises(ShapeError, match="kinetic_energy"):
+        mech.kinetic_energy([2.0, 1.0, 1.0], [[3.0, 4.0, 0.0], [1.0, 1.0, 1.0]])
+    np.testing.assert_allclose(mech.kinetic_energy([2.0, 1.0], [[3.0, 4.0, 0.0], [1.0, 1.0, 1.0]]),
+                               [25.0, 1.5])
+
+
+def test_kinetic_energy_of_one_mass_with_many_velocity_vectors():
+    # audit26: m = 2 with v of shape (2, 3) returned the per-component array
+    # [[9, 16, 0], [1, 1, 1]] instead of the energies [25, 3]
+    np.testing.assert_allclose(mech.kinetic_energy(2.0, [[3.0, 4.0, 0.0], [1.0, 1.0, 1.0]]),
+                               [25.0, 3.0])
+    assert mech.kinetic_energy(2.0, [3.0, 4.0, 0.0]) == 25.0
+    np.testing.assert_allclose(mech.kinetic_energy([2.0, 1.0], [3.0, 4.0]), [9.0, 8.0])
+    np.testing.assert_allclose(mech.kinetic_energy([2.0, 1.0], np.ones((5, 2, 3))),
+                               np.tile([3.0, 1.5], (5, 1)))

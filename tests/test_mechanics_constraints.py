@@ -129,3 +129,17 @@ def test_nan_constraint_or_jacobian_is_named():
     with pytest.raises(InvalidInputError, match=r"constraint\(r, t\) returned NaN"):
         mech.solve_constrained(1.0, r0, [0, 0], t,
                                lambda r, t: np.array([r @ r - 1.0, np.nan]), None, gravity)
+
+
+def test_pendulum_constraint_takes_one_particle_as_n_by_d():
+    # audit26: r0 of shape (1, 3) (one particle in the (N, d) layout of solve_particles) crashed
+    # inside pendulum_constraint with "shapes (1,3) and (1,3) not aligned" (np.dot)
+    from scipy.special import ellipk
+
+    g, length, theta0 = 9.81, 1.0, 2.5
+    period = 4 * np.sqrt(length / g) * ellipk(np.sin(theta0 / 2) ** 2)
+    r0 = [length * np.sin(theta0), 0.0, -length * np.cos(theta0)]
+    f, jac = mech.pendulum_constraint(length)
+    tr = mech.solve_constrained([1.0], [r0], [[0.0, 0.0, 0.0]], [0.0, period], f, jac,
+                                lambda t, r, v: np.array([[0.0, 0.0, -g]]))
+    np.testing.assert_allclose(tr.r[-1, 0], r0, atol=1e-8)

@@ -176,3 +176,71 @@ def test_kepler_orbit_from_hamiltons_equations():
     np.testing.assert_allclose(tr.q[2], [a * (1 - e), 2 * np.pi], rtol=1e-9)
     np.testing.assert_allclose(kepler.energy(tr.q, tr.p), -1 / (2 * a), rtol=1e-10)
     np.testing.assert_allclose(tr.p[:, 1], h, rtol=1e-12)
+
+
+def test_quantities_are_converted_to_si_not_stripped():
+    # audit26: np.asarray stripped units: 100 cm ran as 100 m, a step of 0.6 s / 60 as 0.6
+    import astropy.units as u
+
+    q, p, k = sp.symbols("q p k")
+    osc = mech.HamiltonianSystem(p**2 / 2 + k * q**2 / 2, [q], [p], {k: 4.0 * u.N / u.m})
+    si = osc.symplectic([1.0], [0.0], 0.01, 100)
+    mixed = mech.symplectic_integrate(osc._grad_T, osc._grad_V, [100.0] * u.cm, [0.0],
+                                      0.6 * u.s / 60, 100)
+    np.testing.assert_allclose(mixed.q, si.q, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(mixed.t, si.t, rtol=1e-14)
+    np.testing.assert_allclose(si.q[-1, 0], np.cos(2.0), atol=1e-8)  # omega = sqrt(k) = 2
+    tr = osc.simulate([100.0] * u.cm, [0.0], [0.0, 1.0 / 60] * u.min)
+    np.testing.assert_allclose(tr.q[-1, 0], np.cos(2.0), atol=1e-10)
+    np.testing.assert_allclose(osc.energy([[100.0]] * u.cm, [[0.0]]), 2.0, rtol=1e-14)
+
+
+def test_step_counts_are_not_truncated():
+    # audit26: n_steps = int(n_steps) truncated 0.3 / 0.1 = 2.9999999999999996 to 2 steps, so the
+    # integration silently stopped at t = 0.2 instead of 0.3
+    grad = (lambda p: p, lambda q: q)
+    with pytest.raises(InvalidInputError, match="round"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 0.3 / 0.1)
+    with pytest.raises(InvalidInputError, match="save_every"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 4, save_every=1.5)
+    with pytest.raises(InvalidInputError, match="n_steps"):
+        mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, -1)
+    tr = mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, round(0.3 / 0.1))
+    np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(tr.q[-1, 0], np.cos(0.3), atol=1e-6)
+    assert mech.symplectic_integrate(*grad, [1.0], [0.0], 0.1, 3.0).t.size == 4
+
+
+def test_grid_and_crossing_counts_are_not_truncated():
+    # audit26: int() truncated phase_portrait's n = 5.5 to 5 and max_points = 2.5 to 2
+    with pytest.raises(InvalidInputError, match="whole number"):
+        mech.phase_portrait(lambda q, p: q * q + p * p, (-1, 1), (-1, 1), n=5.5)
+    with pytest.raises(InvalidInputError, match="max_points"):
+        mech.poincare_section(lambda t, y: [y[1], -y[0]], [1.0, 0.0], 20.0, 1, max_points=2.5)
+    t_cross, _ = mech.poincare_section(lambda t, y: [y[1], -y[0]], [1.0, 0.0], 20.0, 1,
+                                       max_points=2)
+    np.testing.assert_allclose(t_cross, [np.pi, 3 * np.pi], rtol=1e-9)
+    assert mech.phase_portrait(lambda q, p: q * q + p * p, (-1, 1), (-1, 1), n=(5, 7))[2].shape == (7, 5)
+
+
+def test_direction_and_method_are_checked():
+    # audit26: direction=5 was taken as 1 silently; method="euler" gave scipy's raw ValueError
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(InvalidInputError, match="direction"):
+        mech.poincare_section(osc, [1.0, 0.0], 10.0, 0, direction=5)
+    with pytest.raises(InvalidInputError, match="method"):
+        osc.simulate([1.0], [0.0], [0.0, 1.0], method="euler")
+    with pytest.raises(InvalidInputError, match="method"):
+        mech.pendulum().simulate([1.0], [0.0], [0.0, 1.0], method="euler")
+
+
+def test_energy_of_nan_states_raises():
+    # audit26: HamiltonianSystem.energy and LagrangianSystem.energy returned NaN for NaN input
+    q, p = sp.symbols("q p")
+    osc = mech.HamiltonianSystem(p**2 / 2 + q**2 / 2, [q], [p])
+    with pytest.raises(InvalidInputError, match="q contains NaN"):
+        osc.energy([[np.nan]], [[0.0]])
+    with pytest.raises(InvalidInputError, match="qdot contains NaN"):
+        mech.pendulum().energy([[0.1]], [[np.nan]])
+    assert osc.energy([[1.0]], [[1.0]])[0] == 1.0

@@ -172,3 +172,17 @@ def test_degenerate_lagrangian_raises_a_domain_error():
         mech.LagrangianSystem(x.diff() - x**2, [x]).simulate([1.0], [0.0], [0.0, 1.0])
     with pytest.raises(InvalidInputError, match="finite"):  # was a DomainError at t = nan
         mech.pendulum().simulate([1.0], [0.0], [0.0, np.nan])
+
+
+def test_simulate_converts_quantities_instead_of_stripping_them():
+    # audit26: np.asarray stripped units: 30 deg ran as 30 rad and [0, 1] min as [0, 1] s
+    import astropy.units as u
+
+    sys = mech.pendulum(length=1.0, g=G)
+    in_deg = sys.simulate([30.0] * u.deg, [0.0] * u.deg / u.s, [0.0, 0.5] * u.min)
+    in_rad = sys.simulate([np.radians(30.0)], [0.0], [0.0, 30.0])
+    np.testing.assert_array_equal(in_deg.t, [0.0, 30.0])
+    np.testing.assert_allclose(in_deg.q, in_rad.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(in_deg.energy, in_rad.energy, rtol=1e-14)
+    np.testing.assert_allclose(sys.energy([[30.0]] * u.deg, [[0.0]] / u.s),
+                               -G * np.cos(np.radians(30.0)), rtol=1e-14)

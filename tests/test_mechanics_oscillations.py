@@ -301,3 +301,18 @@ def test_driven_response_free_damped_particle_message():
     x = mech.driven_oscillator(0.0, 0.0, 0.0, g, f0, 0.0, t)
     exact = f0 / (2 * g) * (t - (1 - np.exp(-2 * g * t)) / (2 * g))
     assert x == pytest.approx(exact, rel=1e-12)
+
+
+def test_beats_shape_mismatch_is_a_shape_error():
+    # audit26: a bare numpy ValueError from deep inside
+    with pytest.raises(ShapeError, match="beats"):
+        mech.beats(1.0, [1.0, 2.0], 3.0, [0.0, 1.0, 2.0])
+
+
+def test_chain_matrices_keep_quantities():
+    # audit26: Quantities in gave plain arrays out (the only mechanics function to drop them)
+    M, K = mech.chain_matrices([2000.0, 2000.0] * u.g, [3.0, 3.0, 3.0] * u.N / u.cm)
+    assert M.unit == u.kg and K.unit == u.N / u.m
+    omega, _ = mech.normal_modes(M, K)
+    np.testing.assert_allclose(omega.to_value(1 / u.s), [np.sqrt(300 / 2), np.sqrt(900 / 2)],
+                               rtol=1e-14)

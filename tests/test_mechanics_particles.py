@@ -217,3 +217,57 @@ def test_force_builders_reject_negative_drag_and_nan_gravity():
     tr = mech.projectile([0, 0], [10, 10], [0.0, 1.0], drag="linear", k=0.5 / u.s)
     r, _ = mech.projectile_linear_drag([0, 0], [10, 10], [1.0], 0.5)
     np.testing.assert_allclose(tr.r[-1], r[0], atol=1e-9)
+
+
+def test_force_returning_a_quantity_is_converted_not_stripped():
+    # audit26: np.asarray stripped the unit of a force callable's Quantity: 9.81e-3 kN fell as
+    # 9.81e-3 N (1000 times too slowly), and an acceleration passed for a force silently
+    import astropy.units as u
+
+    from visviva.errors import UnitsError
+
+    t = [0.0, 0.5, 1.0]
+    plain = mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81]), 1.0,
+                                 [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    kilo = mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81e-3]) * u.kN, 1.0,
+                                [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    np.testing.assert_allclose(kilo.r[-1], [0.0, 0.0, -9.81 / 2], rtol=1e-12)
+    np.testing.assert_allclose(kilo.r, plain.r, rtol=1e-12, atol=1e-15)
+    with pytest.raises(UnitsError, match="force"):
+        mech.solve_particles(lambda t, r, v: np.array([0.0, 0.0, -9.81]) * u.m / u.s**2, 1.0,
+                             [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t)
+    W = mech.work(lambda t, r, v: np.array([0.0, 0.0, -9.81e-3]) * u.kN, plain)
+    np.testing.assert_allclose(W, 9.81 * 9.81 / 2, rtol=1e-10)
+
+
+def test_projectile_linear_drag_shapes():
+    # audit26: r0 (3,) with v0 (2,) raised a bare numpy ValueError; a 2-D t gave a (1, 1, 2) r
+    with pytest.raises(ShapeError, match="r0 and v0"):
+        mech.projectile_linear_drag([0.0, 0.0, 0.0], [10.0, 10.0], [1.0], 0.5)
+    with pytest.raises(ShapeError, match="1-D"):
+        mech.projectile_linear_drag([0.0, 0.0], [10.0, 10.0], [[1.0, 2.0]], 0.5)
+
+
+def test_conservative_fields_convert_quantity_positions():
+    # audit26: np.asarray stripped units: UniformGravity(1).potential([0, 0, 100] cm) was 981 J
+    # (100 m), and InverseSquarePairs read charges in microcoulomb as coulomb (1e12 times the
+    # energy)
+    grav = mech.UniformGravity(1.0, 9.81)
+    assert grav.potential([0.0, 0.0, 100.0] * u.cm).to_value(u.J) == pytest.approx(9.81, rel=1e-15)
+    assert grav.potential([0.0, 0.0, 1.0]) == pytest.approx(9.81, rel=1e-15)
+    spring = mech.Spring(2.0, rest_length=1.0)
+    np.testing.assert_allclose(spring.force([200.0, 0.0, 0.0] * u.cm).to_value(u.N), [-2.0, 0, 0])
+    assert mech.InverseSquare(1.0).potential([1.0, 0.0, 0.0] * u.km).to_value(u.J) == -1e-3
+    r = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    micro = mech.InverseSquarePairs([1.0, 1.0], charges=[1.0, 1.0] * u.uC)
+    coulomb = mech.InverseSquarePairs([1.0, 1.0], charges=[1e-6, 1e-6])
+    assert micro.potential(r) == pytest.approx(coulomb.potential(r), rel=1e-15)
+    assert coulomb.potential(r) == pytest.approx(8.9875517923e9 * 1e-12, rel=1e-12)
+
+
+def test_uniform_gravity_axis_outside_the_positions_is_a_shape_error():
+    # audit26: axis=5 on 3-D positions raised a bare IndexError from inside the force
+    with pytest.raises(ShapeError, match="axis 5"):
+        mech.uniform_gravity(2.0, 9.81, axis=5)(0.0, np.zeros(3), np.zeros(3))
+    np.testing.assert_array_equal(mech.uniform_gravity(2.0, 9.81, axis=1)(0.0, np.zeros(3), None),
+                                  [0.0, -19.62, 0.0])

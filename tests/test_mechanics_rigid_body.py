@@ -275,3 +275,63 @@ def test_heavy_top_horizontal_axis_at_float_half_pi():
     # a tilt resolvable in double precision keeps its (large, finite) fast root
     fast = mech.heavy_top_precession_rate(*args, np.pi / 2 - 1e-9, branch="fast")
     assert fast == pytest.approx(0.01 * 200.0 / (0.02 * np.sin(1e-9)), rel=1e-6)
+
+
+def test_mismatched_shapes_are_shape_errors():
+    # audit26: bare numpy ValueErrors ("operands could not be broadcast together")
+    with pytest.raises(ShapeError, match="euler_equations"):
+        mech.euler_equations([1.0, 2.0, 3.0], np.ones((4, 3)), np.ones((2, 3)))
+    with pytest.raises(ShapeError, match="torque_free_precession_rate"):
+        mech.torque_free_precession_rate([2.0, 1.0], [3.0, 1.0, 1.0], 1.5)
+    with pytest.raises(ShapeError, match="origin must be one point"):
+        mech.inertia_tensor([1.0, 1.0], [[1, 0, 0], [0, 1, 0]], origin=np.zeros((3, 3)))
+    # what still broadcasts keeps working: Euler's equations for a batch with one torque
+    w = np.array([[1.0, 2.0, 3.0], [0.5, 0.0, 1.0]])
+    got = mech.euler_equations([1.0, 2.0, 3.0], w, [0.0, 0.0, 3.0])
+    np.testing.assert_allclose(got[0], [(2 - 3) * 6 / 1, (3 - 1) * 3 / 2, (1 - 2) * 2 / 3 + 1.0])
+
+
+def test_torque_returning_a_quantity_is_converted_not_stripped():
+    # audit26: a torque of 100 N cm spun the body up as 100 N m (omega3 34.3 instead of 1.33)
+    tr = mech.integrate_rigid_body([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 1.0],
+                                   torque=lambda t, R, w: np.array([0.0, 0.0, 100.0]) * u.N * u.cm)
+    np.testing.assert_allclose(tr.omega[-1], [0.0, 0.0, 1.0 + 1.0 / 3.0], rtol=1e-10, atol=1e-15)
+    with pytest.raises(UnitsError, match="torque"):
+        mech.integrate_rigid_body([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 1.0],
+                                  torque=lambda t, R, w: np.array([0.0, 0.0, 1.0]) * u.N)
+
+
+def test_solids_broadcast_one_tensor_per_body():
+    # audit26: three spheres of masses 1, 2, 3 gave ONE tensor diag(0.4, 0.8, 1.2) (the batch was
+    # spread over the axes); two cylinders gave a (2,) array; three rods a bare ValueError
+    spheres = mech.inertia_solid_sphere([1.0, 2.0, 3.0], 1.0)
+    assert spheres.shape == (3, 3, 3)
+    for m, I in zip([1.0, 2.0, 3.0], spheres, strict=True):
+        np.testing.assert_array_equal(I, 0.4 * m * np.eye(3))
+    shells = mech.inertia_spherical_shell(1.0, [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(shells[2], 6.0 * np.eye(3))
+    cylinders = mech.inertia_solid_cylinder([1.0, 2.0], 1.0, 1.0)
+    np.testing.assert_allclose(cylinders[1], np.diag([2 * 4 / 12, 2 * 4 / 12, 1.0]))
+    rods = mech.inertia_thin_rod([1.0, 2.0, 3.0], 1.0)
+    np.testing.assert_allclose(rods[2], np.diag([0.25, 0.25, 0.0]))
+    boxes = mech.inertia_box([12.0, 24.0], 1.0, 2.0, 3.0)
+    np.testing.assert_allclose(boxes[1], 2 * np.diag([13.0, 10.0, 5.0]))
+    one = mech.inertia_box(12.0 * u.kg, 100 * u.cm, 2 * u.m, 3 * u.m)
+    assert one.shape == (3, 3) and one.unit == u.kg * u.m**2
+    np.testing.assert_allclose(one.value, np.diag([13.0, 10.0, 5.0]))
+    with pytest.raises(ShapeError, match="inertia_solid_sphere"):
+        mech.inertia_solid_sphere([1.0, 2.0], [1.0, 2.0, 3.0])
+
+
+def test_non_symmetric_inertia_tensors_are_refused():
+    # audit26: parallel_axis passed the asymmetry on; euler_equations and integrate_rigid_body
+    # symmetrised [[1, 0.5, 0], [0, 2, 0], [0, 0, 3]] silently into a tensor nobody gave
+    bad = [[1.0, 0.5, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.parallel_axis(bad, 1.0, [1.0, 0.0, 0.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.euler_equations(bad, [1.0, 0.0, 0.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.integrate_rigid_body(bad, [1.0, 0.0, 0.0], [0.0, 1.0])
+    with pytest.raises(InvalidInputError, match="symmetric"):
+        mech.principal_axes(bad)

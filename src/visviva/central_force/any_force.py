@@ -187,6 +187,12 @@ def turning_points(energy, h, potential, r_min, r_max, n_grid=4000):
             r = to_quantity(np.asarray(r, dtype=float), "length")
             return to_array(effective_potential(r, h_q, potential), "spec_energy", "V_eff") - E
     else:
+        if any(isinstance(x, u.Quantity) for x in (h, r_min, r_max)):
+            raise UnitsError(
+                "energy is a plain number, so h, r_min and r_max must be plain numbers in the same "
+                "consistent units (a Quantity r_min was read in km, whatever the potential's "
+                "units); or give the energy as a Quantity (km2 / s2) too."
+            )
         E = _real(energy, "energy")
         lo, hi = float(to_array(r_min, "length", "r_min", allow_plain=True, finite=False)), float(
             to_array(r_max, "length", "r_max", allow_plain=True, finite=False)
@@ -305,7 +311,8 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     ----------
     force : callable
         Radial force per unit mass ``F(r)`` (negative = attractive), called with a float ``r``
-        (in km when the other inputs are Quantities), returning a float (km / s2).
+        (in km when the other inputs are Quantities), returning a float (km / s2) or, with
+        Quantity inputs, a Quantity of acceleration (converted to km / s2).
     r0 : Quantity (length) or float
         Radius at theta = 0 (> 0).
     h : Quantity (km2 / s) or float
@@ -378,6 +385,19 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         if uu <= 0:
             return [du, 0.0]
         F = force(1.0 / uu)
+        if isinstance(F, u.Quantity):  # e.g. -vv.EARTH.gm / r**2 with r in km: km3 / s2 / 1
+            if not quantity:
+                raise UnitsError(
+                    f"force(r) returned a Quantity ('{F.unit}') but r0 and h are plain numbers: "
+                    "return plain numbers in their units, or give r0 and h as Quantities."
+                )
+            try:
+                F = F.to_value(u.km / u.s**2) if F.unit.physical_type != "dimensionless" else F.value
+            except u.UnitConversionError as exc:
+                raise UnitsError(
+                    f"force(r) returned '{F.unit}', not a force per unit mass (km / s2); r is "
+                    "passed as a plain number in km."
+                ) from exc
         try:
             F = float(F)
         except (TypeError, ValueError) as exc:
@@ -403,8 +423,9 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     u0 = 1.0 / r0
     du0 = -dr_dtheta0 / r0**2
     theta = np.linspace(0.0, theta_max, int(n_points))
+    atol = rtol * u0 * 1e-3
     sol = solve_ivp(rhs, (0.0, theta_max), [u0, du0], method="DOP853", t_eval=theta,
-                    events=(apsis, escaped), rtol=rtol, atol=rtol * u0 * 1e-3, dense_output=True)
+                    events=(apsis, escaped), rtol=rtol, atol=atol, dense_output=True)
     if not sol.success:
         raise InvalidInputError(f"the orbit equation could not be integrated: {sol.message}")
     u_s = sol.y[0]
@@ -414,6 +435,22 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
             "theta_max or more angular momentum/less energy for a bound orbit."
         )
     apsis_theta = sol.t_events[0]
+    # u = 1/r is smallest at an apsis (du/dtheta = 0) or at the ends. An orbit that just escapes
+    # dips below u = 0 over an arc narrower than one step (missed by the escape event and by the
+    # samples) and a parabola touches u = 0: its apsis "r" was negative or ~1e14 r0, reported as
+    # a bound orbit (a parabola came out "closed" with apsidal angle pi). Below 1e4 atol, u is
+    # not resolved from 0: bound, parabolic and hyperbolic cannot be told apart.
+    u_floor = 1e4 * atol
+    u_apsis = sol.sol(apsis_theta)[0] if apsis_theta.size else np.empty(0)
+    u_far = float(np.min(np.concatenate([u_s, u_apsis])))
+    if u_far <= u_floor:
+        raise DomainError(
+            f"orbit_equation: u = 1/r falls to {u_far:.3g} (r0 = {r0:.6g}), within the integration "
+            f"tolerance ({u_floor:.3g}) of u = 0 or below it: the orbit escapes to r = infinity "
+            "(parabolic or unbound), or is a bound orbit with r_max / r0 beyond "
+            f"{1.0 / (u_floor * r0):.3g}, which rtol = {rtol:.3g} does not resolve. Give less "
+            "energy (smaller h at an apsis) for a bound orbit, or a smaller rtol."
+        )
     # an apsis exactly at theta = 0 (dr/dtheta0 = 0) is not reported as an event: add it
     if du0 == 0.0:
         apsis_theta = np.concatenate([[0.0], apsis_theta[apsis_theta > 0]])

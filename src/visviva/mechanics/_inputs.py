@@ -12,7 +12,8 @@ import numpy as np
 from .._units import broadcast_or_raise, require_finite_result, to_si
 from ..errors import DomainError, InvalidInputError, ShapeError
 
-__all__ = ["Inputs", "SI", "callable_result", "finite_rhs"]
+__all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value",
+           "require_symmetric"]
 
 
 class _SIUnits:
@@ -28,6 +29,7 @@ class _SIUnits:
         "rate": "1 / s",
         "angular_rate": "1 / s",
         "force": "N",
+        "charge": "C",
         "impulse": "N s",
         "energy": "J",
         "energy_length": "J m",
@@ -132,6 +134,40 @@ class Inputs:
         return arr[()] if arr.ndim == 0 else arr
 
 
+def si_array(value, name: str, *, finite: bool = False) -> np.ndarray:
+    """``value`` as a float64 array, a Quantity converted to its SI form.
+
+    NaN/inf pass through unless ``finite`` (then :class:`~visviva.errors.InvalidInputError`).
+
+    For arguments whose physical type is not fixed (generalised coordinates q0 in m or deg, their
+    rates, momenta, times, parameters of a sympy model): ``30 * u.deg`` becomes 0.5236 (rad),
+    ``1 * u.min`` 60 (s), ``1 * u.km`` 1000 (m). ``np.asarray`` would strip the unit and keep
+    30, 1, 1: a silently wrong number. Plain numbers are taken as they are (consistent units).
+    """
+    return to_si(value, None, name, finite=finite)[0]
+
+
+def si_value(value, name: str):
+    """A model parameter: a Quantity converted to its SI form (a float), anything else as is."""
+    if hasattr(value, "unit"):
+        arr = si_array(value, name)
+        if arr.size != 1:
+            raise ShapeError(f"parameter {name} must be a scalar; got shape {arr.shape}.")
+        return float(arr.reshape(()))
+    return value
+
+
+def require_symmetric(I, name: str) -> None:
+    """InvalidInputError unless the (3, 3) tensor I is symmetric to rounding (1e-12 relative)."""
+    asym = np.max(np.abs(I - I.T))
+    if asym > 1e-12 * max(np.max(np.abs(I)), 1e-300):
+        raise InvalidInputError(
+            f"{name} must be symmetric (an inertia tensor is); |{name} - {name}.T| reaches "
+            f"{asym:.3g}. Pass (I + I.T) / 2 if this is rounding, or check the off-diagonal "
+            "products of inertia."
+        )
+
+
 def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     """A finite square (n, n) matrix, symmetric to rounding, as float64."""
     arr = ins.get(value, unit, name)
@@ -150,7 +186,9 @@ def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     return 0.5 * (arr + arr.T)
 
 
-def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.ndarray:
+def callable_result(
+    value, shape: tuple, what: str, time, at: str = "t", unit: str | None = None
+) -> np.ndarray:
     """The float64 array a user callable returned, checked to have ``shape`` and be finite.
 
     Parameters
@@ -165,13 +203,22 @@ def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.n
         The time [s] (or curve parameter) of the call, named in the errors.
     at : str
         The name of ``time`` in the errors (``"t"``, or ``"s"`` for a curve parameter).
+    unit : str, optional
+        The key in :data:`SI` of what the callable returns (``"force"``, ``"torque"``, ...): a
+        Quantity result is converted to it (:class:`~visviva.errors.UnitsError` if it cannot
+        be); without ``unit`` a Quantity is converted to its SI form. ``np.asarray`` would strip
+        the unit: a force in kN was read as N.
 
     Returns
     -------
     ndarray
         ``value`` as float64 of ``shape``.
     """
-    arr = np.asarray(value, dtype=float)
+    if hasattr(value, "unit"):
+        target = None if unit is None else getattr(SI, unit)
+        arr = to_si(value, target, what, finite=False)[0]
+    else:
+        arr = np.asarray(value, dtype=float)
     if arr.size != int(np.prod(shape)):
         raise ShapeError(
             f"{what.split('(')[0]} returned shape {arr.shape}; {what} must return shape {shape}."
@@ -183,6 +230,16 @@ def callable_result(value, shape: tuple, what: str, time, at: str = "t") -> np.n
             "negative number) and its units."
         )
     return arr.reshape(shape)
+
+
+IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+
+
+def ivp_method(method, context: str) -> str:
+    """``method`` if it names a :func:`scipy.integrate.solve_ivp` method, else InvalidInputError."""
+    if method not in IVP_METHODS:
+        raise InvalidInputError(f"{context}: method must be one of {IVP_METHODS}; got {method!r}.")
+    return method
 
 
 def finite_rhs(rhs, context: str):

@@ -234,14 +234,18 @@ def collision_impulse(m1, m2, r1, r2, v1, v2, restitution, *, explosive: bool = 
 def kinetic_energy(m, v):
     """Kinetic energy m ‖v‖^2 / 2 [J].
 
-    ``v`` has the shape of ``m`` (1-D velocities) or one more axis holding the vector components
-    (then summed over the last axis).
+    ``v`` has the shape of ``m`` (1-D velocities) or more axes, the last holding the vector
+    components (summed): one mass m with velocities (N, 3) gives N energies, m of shape (N,)
+    with v of shape (N, 3) one energy per particle.
     """
     ins = Inputs()
     m = ins.get(m, "kg", "m", nonnegative=True)
     v = ins.get(v, "speed", "v")
-    if v.ndim == m.ndim + 1:
+    # a scalar mass with (N, 3) velocities is N vectors, not 3 N speeds (it gave [[9, 16, 0], ...]
+    # for m = 2, v = [[3, 4, 0], ...] instead of [25, ...])
+    if v.ndim > m.ndim:
         v2 = np.sum(v * v, axis=-1)
     else:
         v2 = v * v
+    ins.broadcast("kinetic_energy", m=m, v2=v2)
     return ins.out(0.5 * m * v2, "energy")

@@ -257,7 +257,7 @@ def solve_constrained(
         if force is None:
             return np.zeros(n)
         F = callable_result(force(time, x.reshape(shape), v.reshape(shape)), shape,
-                            "force(t, r, v)", time)
+                            "force(t, r, v)", time, unit="force")
         return F.ravel()
 
     def multipliers(time, x, v):
@@ -340,7 +340,7 @@ def pendulum_constraint(length, pivot=None):
 
     def f(r, t):
         d = r - (0.0 if p is None else p)
-        return np.array([(np.dot(d, d) - L * L) / (2 * L)])
+        return np.array([(np.sum(d * d) - L * L) / (2 * L)])  # r of shape (d,) or (1, d)
 
     def jac(r, t):
         d = r - (0.0 if p is None else p)

@@ -9,6 +9,8 @@ examples); Quantities are converted to SI.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
@@ -28,6 +30,27 @@ __all__ = [
 
 #: Coulomb constant 1 / (4 pi eps0) [N m^2 / C^2] (CODATA 2018 via eps0).
 COULOMB_K = 8.9875517923e9
+
+
+def _si_field(unit: str):
+    """Decorate ``potential(r)``/``force(r)``: a Quantity r is converted to m, and the result is
+    then an SI Quantity (``unit``: "energy" or "force").
+
+    ``np.asarray`` stripped the unit: UniformGravity(1).potential([0, 0, 100] * u.cm) was 981 J.
+    Plain arrays (the integrators' calls) pass straight through.
+    """
+
+    def decorate(method):
+        @functools.wraps(method)
+        def wrapped(self, r):
+            if not hasattr(r, "unit"):
+                return method(self, r)
+            ins = Inputs()
+            return ins.out(method(self, ins.get(r, "m", "r")), unit)
+
+        return wrapped
+
+    return decorate
 
 
 class _Conservative:
@@ -59,10 +82,12 @@ class UniformGravity(_Conservative):
         self.masses = ins.get(masses, "kg", "masses", positive=True)
         self.g = float(ins.get(g, "accel", "g"))
 
+    @_si_field("energy")
     def potential(self, r):
         r = np.asarray(r, dtype=float)
         return self.masses * self.g * r[..., -1]
 
+    @_si_field("force")
     def force(self, r):
         r = np.asarray(r, dtype=float)
         F = np.zeros_like(r)
@@ -89,12 +114,14 @@ class Spring(_Conservative):
         self.anchor = ins.vector(anchor, "m", "anchor", dim=None)
         self.rest_length = float(ins.get(rest_length, "m", "rest_length", nonnegative=True))
 
+    @_si_field("energy")
     def potential(self, r):
         d = np.asarray(r, dtype=float) - self.anchor
         if self.rest_length == 0:
             return 0.5 * self.k * np.sum(d * d, axis=-1)
         return 0.5 * self.k * (np.linalg.norm(d, axis=-1) - self.rest_length) ** 2
 
+    @_si_field("force")
     def force(self, r):
         d = np.asarray(r, dtype=float) - self.anchor
         if self.rest_length == 0:
@@ -129,10 +156,12 @@ class InverseSquare(_Conservative):
             )
         return d, dist
 
+    @_si_field("energy")
     def potential(self, r):
         d, dist = self._d(r)
         return -self.k / dist[..., 0]
 
+    @_si_field("force")
     def force(self, r):
         d, dist = self._d(r)
         return -self.k * d / dist**3
@@ -181,7 +210,7 @@ class InverseSquarePairs:
         if charges is None:
             self.coupling = -G * np.outer(m, m)
         else:
-            q = np.atleast_1d(np.asarray(charges, dtype=float))
+            q = np.atleast_1d(ins.get(charges, "charge", "charges"))
             if q.shape != m.shape:
                 raise ShapeError("charges must have the same shape as masses.")
             self.coupling = k_e * np.outer(q, q)
@@ -197,10 +226,12 @@ class InverseSquarePairs:
             raise InvalidStateError("two particles coincide; the pair force is singular.")
         return d, dist
 
+    @_si_field("energy")
     def potential(self, r):
         d, dist = self._pairs(r)
         return 0.5 * np.sum(self.coupling / dist)
 
+    @_si_field("force")
     def force(self, r):
         d, dist = self._pairs(r)
         # F_i = sum_j c_ij (r_i - r_j) / r_ij^3 (c < 0 attracts)
@@ -214,7 +245,8 @@ def _power(force, trajectory):
     t, r, v = trajectory.t, trajectory.r, trajectory.v
     P = np.empty(t.size)
     for i in range(t.size):
-        F = callable_result(force(t[i], r[i], v[i]), r[i].shape, "force(t, r, v)", t[i])
+        F = callable_result(force(t[i], r[i], v[i]), r[i].shape, "force(t, r, v)", t[i],
+                            unit="force")
         P[i] = np.sum(F * v[i])
     return P
 
@@ -306,7 +338,7 @@ def work_along_curve(field, curve, s_range, tangent=None, *, rtol=1e-11):
 
     def integrand(s):
         r = np.asarray(curve(s), dtype=float)
-        F = callable_result(field(r), r.shape, "field(r)", s, at="s")
+        F = callable_result(field(r), r.shape, "field(r)", s, at="s", unit="force")
         value = float(np.dot(F, dr_ds(s)))
         if not np.isfinite(value):
             raise InvalidInputError(
@@ -342,7 +374,8 @@ def conservation_report(trajectory, potential=None):
     for pot in pots:
         for i, (ti, ri) in enumerate(zip(trajectory.t, trajectory.r, strict=True)):
             value = pot(ri)
-            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti))
+            V[i] += np.sum(callable_result(value, np.shape(value), "potential(r)", ti,
+                                           unit="energy"))
     E = T + V
     scale_E = max(abs(E[0]), np.max(np.abs(T)), np.finfo(float).tiny)
     m = trajectory.masses[..., None]

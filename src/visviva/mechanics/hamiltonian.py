@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs
+from ._inputs import finite_rhs, ivp_method, si_array, si_value
 
 __all__ = [
     "HamiltonianSystem",
@@ -99,18 +99,19 @@ def symplectic_integrate(
     ----------
     dT_dp, dV_dq : callable
         Gradients of the kinetic and potential parts (see :func:`leapfrog`).
-    q0, p0 : array_like
-        Initial coordinates and momenta (same shape; any shape).
-    dt : float
-        Step [s] (negative integrates backwards).
+    q0, p0 : array_like or Quantity
+        Initial coordinates and momenta (same shape; any shape): plain numbers in the units of
+        the gradients, or Quantities, converted to SI (``30 * u.deg`` is 0.5236 rad).
+    dt : float or Quantity
+        Step [s] (negative integrates backwards; a Quantity is converted to s).
     n_steps : int
         Number of steps.
     method : {"yoshida4", "leapfrog", "forest_ruth"}
         Integrator ("forest_ruth" is the same 4th-order triple jump).
     save_every : int
         Keep every k-th step (the initial state is always kept).
-    t0 : float
-        Initial time.
+    t0 : float or Quantity
+        Initial time [s].
 
     Returns
     -------
@@ -120,16 +121,16 @@ def symplectic_integrate(
     if method not in _STEPPERS:
         raise InvalidInputError(f"method must be one of {sorted(_STEPPERS)}; got {method!r}.")
     step = _STEPPERS[method]
-    q = np.array(q0, dtype=float)
-    p = np.array(p0, dtype=float)
+    q = si_array(q0, "q0")
+    p = si_array(p0, "p0")
+    dt = float(si_array(dt, "dt"))
+    t0 = float(si_array(t0, "t0"))
     if q.shape != p.shape:
         raise ShapeError(f"q0 and p0 must have the same shape; got {q.shape} and {p.shape}.")
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p)) and np.isfinite(dt)):
         raise InvalidInputError("q0, p0 and dt must be finite.")
-    n_steps = int(n_steps)
-    save_every = int(save_every)
-    if n_steps < 0 or save_every < 1:
-        raise InvalidInputError("n_steps must be >= 0 and save_every >= 1.")
+    n_steps = _count(n_steps, "n_steps", 0)
+    save_every = _count(save_every, "save_every", 1)
     ts, qs, ps = [t0], [q.copy()], [p.copy()]
     for i in range(1, n_steps + 1):
         q, p = step(dT_dp, dV_dq, q, p, dt)
@@ -156,6 +157,23 @@ def symplectic_integrate(
             "before it."
         )
     return SymplecticTrajectory(np.array(ts), Q, P)
+
+
+def _count(value, name: str, minimum: int) -> int:
+    """A step count: an integer (or an integer-valued float) >= ``minimum``.
+
+    ``int()`` truncated silently: n_steps = 0.3 / 0.1 = 2.9999999999999996 ran 2 steps, not 3.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | np.integer | float | np.floating):
+        raise InvalidInputError(f"{name} must be an integer; got {value!r}.")
+    if not (np.isfinite(value) and float(value).is_integer()):
+        raise InvalidInputError(
+            f"{name} must be a whole number; got {value!r}. Pass round(...) of it rather than "
+            "have it truncated (0.3 / 0.1 is 2.9999999999999996, which int() makes 2)."
+        )
+    if value < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}; got {value!r}.")
+    return int(value)
 
 
 def legendre_transform(lagrangian, coordinates):
@@ -238,7 +256,7 @@ class HamiltonianSystem:
         self.dof = len(self.coordinates)
         self._q = sp.symbols(f"q0:{self.dof}")
         H = sp.sympify(hamiltonian).subs(dict(zip(self.coordinates, self._q, strict=True)))
-        H = H.subs(dict(parameters or {}))
+        H = H.subs({key: si_value(val, str(key)) for key, val in dict(parameters or {}).items()})
         free = H.free_symbols - set(self._q) - set(self.momenta) - {self.time}
         if free:
             raise InvalidInputError(
@@ -269,8 +287,8 @@ class HamiltonianSystem:
 
     def energy(self, q, p, t=0.0):
         """H at arrays q, p of shape (..., dof)."""
-        q = np.asarray(q, float)
-        p = np.asarray(p, float)
+        q = si_array(q, "q", finite=True)
+        p = si_array(p, "p", finite=True)
         out = self._H(t, *np.moveaxis(q, -1, 0), *np.moveaxis(p, -1, 0))
         return np.broadcast_to(np.asarray(out, float), q.shape[:-1]).copy()
 
@@ -300,18 +318,19 @@ class HamiltonianSystem:
         """Integrate Hamilton's equations with solve_ivp; returns a SymplecticTrajectory-like record."""
         from scipy.integrate import solve_ivp
 
-        q0 = np.atleast_1d(np.asarray(q0, dtype=float))
-        p0 = np.atleast_1d(np.asarray(p0, dtype=float))
+        q0 = np.atleast_1d(si_array(q0, "q0"))
+        p0 = np.atleast_1d(si_array(p0, "p0"))
         if q0.shape != (self.dof,) or p0.shape != (self.dof,):
             raise ShapeError(
                 f"q0 and p0 must have shape ({self.dof},); got {q0.shape} and {p0.shape}."
             )
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(p0))):
             raise InvalidInputError("q0 and p0 must be finite.")
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        t = np.atleast_1d(si_array(t, "t"))
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         y0 = np.concatenate([q0, p0])
+        method = ivp_method(method, "HamiltonianSystem.simulate")
         sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
                         t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
@@ -339,8 +358,8 @@ def phase_portrait(H, q_range, p_range, n=201):
         contour being a trajectory (energy is conserved).
     """
     nq, npts = (n, n) if np.isscalar(n) else n
-    q = np.linspace(*q_range, int(nq))
-    p = np.linspace(*p_range, int(npts))
+    q = np.linspace(*q_range, _count(nq, "n", 2))
+    p = np.linspace(*p_range, _count(npts, "n", 2))
     Q, P = np.meshgrid(q, p)
     if isinstance(H, HamiltonianSystem):
         if H.dof != 1:
@@ -409,8 +428,14 @@ def poincare_section(
                 "the component whose zero is the section, or a function g(t, y)."
             )
         event = lambda t, y: y[idx]  # noqa: E731
+    if isinstance(direction, bool) or direction not in (1, -1, 0):
+        raise InvalidInputError(
+            f"direction must be 1 (increasing), -1 (decreasing) or 0 (both); got {direction!r}."
+        )
     event.direction = direction
     on_section = event(0.0, y0) == 0  # a crossing at t = 0 is reported by solve_ivp: skip it
+    if max_points is not None:
+        max_points = _count(max_points, "max_points", 1)
     event.terminal = int(max_points) + int(on_section) if max_points else False
     sol = solve_ivp(
         finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"

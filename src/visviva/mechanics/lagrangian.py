@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs
+from ._inputs import Inputs, callable_result, finite_rhs, ivp_method, si_array, si_value
 
 __all__ = [
     "LagrangianSystem",
@@ -35,15 +35,6 @@ def _sympy():
             "the Lagrangian tools need sympy: pip install 'visviva[mechanics]'"
         ) from exc
     return sympy, mechanics
-
-
-def _si_value(value, name):
-    """A parameter value: Quantities are converted to SI (through visviva._units), else as is."""
-    if hasattr(value, "unit"):
-        from .._units import to_si
-
-        return float(to_si(value, None, name)[0])
-    return value
 
 
 @dataclass(frozen=True)
@@ -121,7 +112,7 @@ class LagrangianSystem:
         if not self.coordinates:
             raise InvalidInputError("coordinates must list at least one generalised coordinate.")
         self.parameters = {
-            key: _si_value(value, str(key)) for key, value in dict(parameters or {}).items()
+            key: si_value(value, str(key)) for key, value in dict(parameters or {}).items()
         }
         self.forces = forces
         self.time = me.dynamicsymbols._t
@@ -185,8 +176,8 @@ class LagrangianSystem:
     def energy(self, q, qdot, t=0.0):
         """Energy function h = sum q' dL/dq' - L at arrays q, qdot of shape (..., dof)."""
         _, energy = self._compiled
-        q = np.asarray(q, dtype=float)
-        qdot = np.asarray(qdot, dtype=float)
+        q = si_array(q, "q", finite=True)
+        qdot = si_array(qdot, "qdot", finite=True)
         out = energy(t, *np.moveaxis(q, -1, 0), *np.moveaxis(qdot, -1, 0))
         return np.broadcast_to(np.asarray(out, dtype=float), q.shape[:-1]).copy()
 
@@ -204,24 +195,28 @@ class LagrangianSystem:
 
         Parameters
         ----------
-        q0, qdot0 : (dof,) array_like
-            Initial coordinates and velocities (consistent units, angles in radians).
-        t : (n,) array_like
-            Output times; integration from t[0].
+        q0, qdot0 : (dof,) array_like or Quantity
+            Initial coordinates and velocities: plain numbers in the units of the parameters
+            (angles in radians), or Quantities, converted to SI (``30 * u.deg`` is 0.5236 rad,
+            ``u.deg / u.s`` becomes rad/s).
+        t : (n,) array_like or Quantity
+            Output times (a Quantity is converted to s); integration from t[0]. The trajectory
+            holds plain SI numbers.
         method, rtol, atol
             solve_ivp settings (default DOP853 with tight tolerances 1e-12).
         """
         from scipy.integrate import solve_ivp
 
-        q0 = np.atleast_1d(np.asarray(q0, dtype=float))
-        qdot0 = np.atleast_1d(np.asarray(qdot0, dtype=float))
+        q0 = np.atleast_1d(si_array(q0, "q0"))
+        qdot0 = np.atleast_1d(si_array(qdot0, "qdot0"))
         if q0.shape != (self.dof,) or qdot0.shape != (self.dof,):
             raise ShapeError(f"q0 and qdot0 must have shape ({self.dof},).")
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        t = np.atleast_1d(si_array(t, "t"))
         if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
             raise InvalidInputError("t must hold at least 2 finite, strictly increasing times.")
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(qdot0))):
             raise InvalidInputError("q0 and qdot0 must be finite.")
+        method = ivp_method(method, "LagrangianSystem.simulate")
         sol = solve_ivp(
             finite_rhs(self.rhs, "LagrangianSystem.simulate"),
             (t[0], t[-1]),

@@ -515,8 +515,9 @@ def chain_matrices(masses, springs):
 
     Returns
     -------
-    M, K : (n, n) ndarray
-        ``diag(masses)`` and the tridiagonal stiffness matrix, for :func:`normal_modes`.
+    M, K : (n, n) ndarray or Quantity
+        ``diag(masses)`` [kg] and the tridiagonal stiffness matrix [N/m], for
+        :func:`normal_modes` (SI Quantities when any input was a Quantity).
     """
     ins = Inputs()
     m = np.atleast_1d(ins.get(masses, "kg", "masses", positive=True))
@@ -527,7 +528,9 @@ def chain_matrices(masses, springs):
             f"{k.shape}. Include the wall springs at both ends (0 for a free end)."
         )
     K = np.diag(k[:-1] + k[1:]) - np.diag(k[1:-1], 1) - np.diag(k[1:-1], -1)
-    return np.diag(m), K
+    # Quantities in: SI Quantities out, like every mechanics function (normal_modes then
+    # returns omega in 1/s as a Quantity too)
+    return ins.out(np.diag(m), "kg"), ins.out(K, "stiffness")
 
 
 def beats(amplitude, omega1, omega2, t):
@@ -542,6 +545,7 @@ def beats(amplitude, omega1, omega2, t):
     w1 = ins.get(omega1, "angular_rate", "omega1")
     w2 = ins.get(omega2, "angular_rate", "omega2")
     t = ins.get(t, "s", "t")
+    ins.broadcast("beats", amplitude=a, omega1=w1, omega2=w2, t=t)
     slow = np.cos(0.5 * (w1 - w2) * t)
     x = 2.0 * a * slow * np.cos(0.5 * (w1 + w2) * t)
     return ins.out(x, "m"), ins.out(2.0 * np.abs(a) * np.abs(slow), "m")

@@ -193,7 +193,7 @@ def solve_particles(
     def rhs(time, y):
         r = y[:size].reshape(shape)
         v = y[size:].reshape(shape)
-        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time)
+        F = callable_result(force(time, r, v), shape, "force(t, r, v)", time, unit="force")
         return np.concatenate([y[size:], (F * inv_m).ravel()])
 
     wrapped = None
@@ -243,8 +243,16 @@ def uniform_gravity(masses, g=9.81, axis: int = -1):
     (N, d); ``g`` [m/s^2] finite.
     """
     m, g = _gravity_inputs(masses, g)
+    if isinstance(axis, bool) or not isinstance(axis, int | np.integer):
+        raise InvalidInputError(f"axis must be an integer (the vertical coordinate); got {axis!r}.")
 
     def force(t, r, v):
+        d = np.shape(r)[-1] if np.ndim(r) else 0
+        if not -d <= axis < d:
+            raise ShapeError(
+                f"uniform_gravity: axis {axis} is not a coordinate of positions with d = {d} "
+                f"components; give axis in [-{d}, {d - 1}] (the vertical one)."
+            )
         return _weight(m, r, g, axis)
 
     return force
@@ -308,7 +316,13 @@ def projectile_linear_drag(r0, v0, t, k, g=9.81):
     ins = Inputs()
     r0 = ins.vector(r0, "m", "r0", dim=None)
     v0 = ins.vector(v0, "speed", "v0", dim=None)
-    t = np.atleast_1d(ins.get(t, "s", "t"))[:, None]
+    t = np.atleast_1d(ins.get(t, "s", "t"))
+    if r0.shape != v0.shape or r0.ndim != 1 or t.ndim != 1:
+        raise ShapeError(
+            "projectile_linear_drag flies one projectile: r0 and v0 must both have shape (d,) and "
+            f"t be 1-D; got {r0.shape}, {v0.shape} and {t.shape}."
+        )
+    t = t[:, None]
     k = float(ins.get(k, "rate", "k", nonnegative=True))
     g = float(ins.get(g, "accel", "g"))
     gvec = np.zeros(r0.shape[-1])

@@ -1,4 +1,4 @@
-"""Rigid bodies: inertia tensors, principal axes, Euler angles (3-1-3), Euler's equations.
+"""Rigid bodies: Euler angles (3-1-3), Euler's equations, tops (inertia tensors: inertia.py).
 
 Conventions
 -----------
@@ -17,17 +17,9 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs, callable_result
+from ._inputs import Inputs, callable_result, ivp_method, require_symmetric
 
 __all__ = [
-    "inertia_tensor",
-    "inertia_solid_sphere",
-    "inertia_spherical_shell",
-    "inertia_solid_cylinder",
-    "inertia_thin_rod",
-    "inertia_box",
-    "parallel_axis",
-    "principal_axes",
     "rotation_matrix_313",
     "euler_angles_313",
     "euler_equations",
@@ -37,174 +29,6 @@ __all__ = [
     "heavy_top_torque",
     "heavy_top_precession_rate",
 ]
-
-
-# --------------------------------------------------------------------------- inertia tensors
-def inertia_tensor(masses, positions, origin=None):
-    """Inertia tensor of point masses about ``origin``.
-
-    Parameters
-    ----------
-    masses : (N,) array_like or Quantity
-        Masses [kg], >= 0 (a scalar for a single particle).
-    positions : (N, 3) array_like or Quantity
-        Positions [m] ((3,) for a single particle).
-    origin : (3,) array_like or Quantity, optional
-        Reference point [m]; the coordinate origin by default. Pass the centre of mass for the
-        central inertia tensor.
-
-    Returns
-    -------
-    I : (3, 3) ndarray or Quantity
-        I_jk = sum_i m_i (‖r_i‖^2 delta_jk - r_ij r_ik) [kg m^2], symmetric.
-
-    Raises
-    ------
-    ShapeError
-        positions not (N, 3), or masses not (N,).
-    DomainError
-        Negative masses.
-
-    Notes
-    -----
-    Goldstein, Poole & Safko, *Classical Mechanics*, 3rd ed. (2002), eq. 5.7.
-
-    Examples
-    --------
-    >>> I = inertia_tensor([1.0, 1.0], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
-    >>> print(I.diagonal())
-    [0. 2. 2.]
-    """
-    ins = Inputs()
-    m = ins.get(masses, "kg", "masses", nonnegative=True)
-    r = ins.vector(positions, "m", "positions")
-    if r.ndim == 1:
-        r = r[None, :]
-    if r.ndim != 2:
-        raise ShapeError(f"positions must have shape (N, 3); got {r.shape}.")
-    m = np.broadcast_to(m, (r.shape[0],)) if m.ndim == 0 else m
-    if m.shape != (r.shape[0],):
-        raise ShapeError(
-            f"masses must have shape (N,) = ({r.shape[0]},) to match positions; got {m.shape}."
-        )
-    if origin is not None:
-        r = r - ins.vector(origin, "m", "origin")
-    with np.errstate(over="ignore", invalid="ignore"):
-        r2 = np.einsum("i,ij,ij->", m, r, r)
-        I = r2 * np.eye(3) - np.einsum("i,ij,ik->jk", m, r, r)
-    return ins.out(ins.finite(0.5 * (I + I.T), "inertia_tensor"), "inertia")
-
-
-def _solid(values, names, ins):
-    return [
-        ins.get(v, unit, n, nonnegative=True) for v, (n, unit) in zip(values, names, strict=True)
-    ]
-
-
-def inertia_solid_sphere(mass, radius):
-    """Central inertia tensor of a uniform solid sphere: (2/5) m R^2 on the diagonal [kg m^2]."""
-    ins = Inputs()
-    m, R = _solid((mass, radius), (("mass", "kg"), ("radius", "m")), ins)
-    return ins.out(0.4 * m * R**2 * np.eye(3), "inertia")
-
-
-def inertia_spherical_shell(mass, radius):
-    """Central inertia tensor of a thin uniform spherical shell: (2/3) m R^2 [kg m^2]."""
-    ins = Inputs()
-    m, R = _solid((mass, radius), (("mass", "kg"), ("radius", "m")), ins)
-    return ins.out((2.0 / 3.0) * m * R**2 * np.eye(3), "inertia")
-
-
-def inertia_solid_cylinder(mass, radius, height):
-    """Central inertia tensor of a uniform solid cylinder with its axis along z [kg m^2].
-
-    I_xx = I_yy = m (3 R^2 + h^2) / 12, I_zz = m R^2 / 2.
-    """
-    ins = Inputs()
-    m, R, h = _solid(
-        (mass, radius, height), (("mass", "kg"), ("radius", "m"), ("height", "m")), ins
-    )
-    a = m * (3 * R**2 + h**2) / 12.0
-    return ins.out(np.diag([a, a, 0.5 * m * R**2]), "inertia")
-
-
-def inertia_thin_rod(mass, length):
-    """Central inertia tensor of a thin uniform rod along z: diag(m L^2/12, m L^2/12, 0)."""
-    ins = Inputs()
-    m, L = _solid((mass, length), (("mass", "kg"), ("length", "m")), ins)
-    a = m * L**2 / 12.0
-    return ins.out(np.diag([a, a, 0.0]), "inertia")
-
-
-def inertia_box(mass, a, b, c):
-    """Central inertia tensor of a uniform box with edges a, b, c along x, y, z [kg m^2].
-
-    diag(m (b^2 + c^2), m (a^2 + c^2), m (a^2 + b^2)) / 12.
-    """
-    ins = Inputs()
-    m, a, b, c = _solid((mass, a, b, c), (("mass", "kg"), ("a", "m"), ("b", "m"), ("c", "m")), ins)
-    return ins.out(np.diag([b**2 + c**2, a**2 + c**2, a**2 + b**2]) * m / 12.0, "inertia")
-
-
-def parallel_axis(I_cm, mass, displacement):
-    """Parallel-axis (Steiner) theorem: inertia about a point displaced by d from the centre of mass.
-
-    Parameters
-    ----------
-    I_cm : (3, 3) array_like or Quantity
-        Inertia tensor about the centre of mass [kg m^2].
-    mass : float or Quantity
-        Total mass [kg].
-    displacement : (3,) array_like or Quantity
-        d = (centre of mass) - (new reference point) [m] (only d d^T enters, so the sign is
-        immaterial).
-
-    Returns
-    -------
-    (3, 3) ndarray or Quantity
-        I = I_cm + m (‖d‖^2 1 - d d^T) [kg m^2] (Goldstein 3rd ed. eq. 5.17).
-    """
-    ins = Inputs()
-    I = ins.get(I_cm, "inertia", "I_cm")
-    if I.shape != (3, 3):
-        raise ShapeError(f"I_cm must have shape (3, 3); got {I.shape}.")
-    m = ins.get(mass, "kg", "mass", nonnegative=True)
-    d = ins.vector(displacement, "m", "displacement")
-    if d.shape != (3,) or m.ndim:
-        raise ShapeError(
-            "parallel_axis shifts one inertia tensor: displacement must have shape (3,) and mass "
-            f"be a scalar; got shapes {d.shape} and {m.shape}. Call it once per reference point."
-        )
-    return ins.out(I + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d)), "inertia")
-
-
-def principal_axes(I):
-    """Principal moments (ascending) and principal axes of an inertia tensor.
-
-    Parameters
-    ----------
-    I : (3, 3) array_like or Quantity
-        Symmetric inertia tensor [kg m^2].
-
-    Returns
-    -------
-    moments : (3,) ndarray or Quantity
-        Principal moments I1 <= I2 <= I3 [kg m^2].
-    axes : (3, 3) ndarray
-        Orthonormal principal axes as columns, right-handed (det = +1), so ``axes`` is the
-        rotation matrix from the principal (body) frame to the frame of ``I``:
-        ``axes.T @ I @ axes = diag(moments)``.
-    """
-    ins = Inputs()
-    I = ins.get(I, "inertia", "I")
-    if I.shape != (3, 3):
-        raise ShapeError(f"I must have shape (3, 3); got {I.shape}.")
-    if np.max(np.abs(I - I.T)) > 1e-12 * max(np.max(np.abs(I)), 1e-300):
-        raise InvalidInputError("I must be symmetric; pass (I + I.T) / 2 if this is rounding.")
-    moments, axes = np.linalg.eigh(0.5 * (I + I.T))
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return ins.out(moments, "inertia"), axes
 
 
 # --------------------------------------------------------------------------- Euler angles
@@ -343,6 +167,7 @@ def euler_equations(I, omega, torque=None):
     I = _body_inertia(ins.get(I, "inertia", "I"))
     w = ins.vector(omega, "angular_rate", "omega")
     tau = np.zeros_like(w) if torque is None else ins.vector(torque, "torque", "torque")
+    ins.broadcast("euler_equations", omega=w, torque=tau)
     Iw = w @ I.T
     return np.linalg.solve(I, (tau - np.cross(w, Iw))[..., None])[..., 0]
 
@@ -352,6 +177,7 @@ def _body_inertia(I):
         I = np.diag(I)
     if I.shape != (3, 3):
         raise ShapeError(f"I must be a (3, 3) tensor or 3 principal moments; got {I.shape}.")
+    require_symmetric(I, "I")
     moments = np.linalg.eigvalsh(0.5 * (I + I.T))
     if moments[0] <= 0:
         raise DomainError(
@@ -491,9 +317,7 @@ def integrate_rigid_body(
                 "build it with rotation_matrix_313(phi, theta, psi) or pass a scipy Rotation."
             )
         q0 = Rotation.from_matrix(R0).as_quat()
-    _methods = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
-    if method not in _methods:
-        raise InvalidInputError(f"method must be one of {_methods}; got {method!r}.")
+    method = ivp_method(method, "integrate_rigid_body")
     for name, tol in (("rtol", rtol), ("atol", atol)):
         if not (isinstance(tol, float | int) and np.isfinite(tol) and tol > 0):
             raise InvalidInputError(f"{name} must be a finite float > 0; got {fmt_number(tol)}.")
@@ -522,7 +346,8 @@ def integrate_rigid_body(
                     [2 * (x * z - yq * s), 2 * (yq * z + x * s), 1 - 2 * (x * x + yq * yq)],
                 ]
             )
-            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time)
+            tau = callable_result(torque(time, R, w), (3,), "torque(t, R, omega)", time,
+                                  unit="torque")
         dw = I_inv @ (tau - np.cross(w, Ib @ w))
         return np.concatenate([dq, dw])
 
@@ -563,6 +388,7 @@ def torque_free_precession_rate(I1, I3, omega3):
     I1 = ins.get(I1, "inertia", "I1", positive=True)
     I3 = ins.get(I3, "inertia", "I3", positive=True)
     w3 = ins.get(omega3, "angular_rate", "omega3")
+    ins.broadcast("torque_free_precession_rate", I1=I1, I3=I3, omega3=w3)
     return ins.out((I3 - I1) * w3 / I1, "rate")
 
 

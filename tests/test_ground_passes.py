@@ -323,3 +323,25 @@ def test_visible_means_sunlit_over_a_dark_station_at_some_time_of_the_pass(iss, 
         assert seen == bool(row["visible"]), row
         partial += seen and not (row["sunlit"] and row["station_dark"])
     assert partial >= 2  # passes visible although their culmination is not
+
+
+def test_a_satellite_decaying_in_the_window_has_its_passes_up_to_the_decay():
+    # 28872 (SGP4-VER: perigee below the surface, decays ~1 h after its epoch): its secular
+    # check raised inside the scan and the search died with UnboundLocalError (audit28); now
+    # SGP4 takes every node, the events stop at the decay with a warning naming the satellite
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text().splitlines()
+    lines = [ln[:69] for ln in text if ln[2:7] == "28872" and ln[:2] in ("1 ", "2 ")]
+    with pytest.warns(vv.SubsurfacePerigeeWarning):
+        sat = vv.Satellite.from_tle(*lines)
+    t0 = sat.epoch
+    lat, lon = sat.geodetic(t0 + 20 * u.min)[:2]  # under it 20 min after the epoch
+    station = vv.GroundStation(lat, lon)
+    with pytest.warns(RuntimeWarning, match="28872.*events stop there"):
+        times, kinds = station.find_events(sat, t0, t0 + 0.5 * u.day)
+    assert list(kinds) == [0, 1, 2]  # the one pass before the decay, kept
+    assert abs((times[1] - (t0 + 20 * u.min)).to_value(u.s)) < 5
+    assert station.look(sat, times[1]).elevation > 85 * u.deg
+    assert times[2] < t0 + 1 * u.hour
+    with pytest.warns(RuntimeWarning, match="28872"):
+        table = vv.find_passes(sat, station, t0, t0 + 0.5 * u.day)
+    assert len(table) == 1 and table["max_elevation"][0] > 85 * u.deg

@@ -274,11 +274,12 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
             eps = np.linalg.norm(r3 - r_sec[:, k3], axis=-1).max(axis=1)
             good = (e3 == 0).all(axis=1) & (b.status == 0).all(axis=1) & (eps < 50.0)
         except Exception:  # noqa: BLE001 (an orbit outside the secular theory: use SGP4)
-            good = np.zeros(js.size, dtype=bool)
-        ok = js[good]
-        r[ok] = r_sec[good]
-        v[ok] = v_sec[good]
-        near[ok] = np.maximum(_NEAR, (2.0 * eps[good] + 15.0) / rho_min[idx[ok]])
+            good = np.zeros(js.size, dtype=bool)  # (r_sec, eps may not exist: not read)
+        if good.any():
+            ok = js[good]
+            r[ok] = r_sec[good]
+            v[ok] = v_sec[good]
+            near[ok] = np.maximum(_NEAR, (2.0 * eps[good] + 15.0) / rho_min[idx[ok]])
         exact[js[~good]] = True
     je = np.flatnonzero(exact)
     if je.size:

@@ -38,6 +38,7 @@ __all__ = [
     "Pc3dWindowWarning",
     "ImplausibleVelocityWarning",
     "SubsurfacePerigeeWarning",
+    "StaleElementSetWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -266,6 +267,15 @@ class Pc3dWindowWarning(UserWarning):
     segment, so the encounter does not end there (orbits flown in formation, where the rate
     barely changes over an orbit) and the expected number of collisions depends on the time
     span. The message gives the window used and the rate there; pass ``window=(t_a, t_b)``.
+    """
+
+
+class StaleElementSetWarning(UserWarning):
+    """A pass or event search (``find_passes``, ``GroundStation.find_events``) runs SGP4 more
+    than 30 days from an element set's epoch (before or after the window). SGP4's along-track
+    error grows by kilometres a day in low orbit, so rise and set times drift by minutes and
+    passes appear or vanish: a 2024 TLE over a 2026 window can give no pass at all. The message
+    says how many element sets and how far; use element sets from near the window.
     """
 
 

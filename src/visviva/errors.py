@@ -477,9 +477,16 @@ def raise_for_result(
     inputs : dict of str to ndarray
         Inputs quoted in the messages (canonical units: km, km/s, s, rad).
     result_context, result_inputs : str or dict, optional
-        Other context or inputs for the message about non-finite outputs (default: the same).
+        Other context or inputs for the message about non-finite outputs (default: the same);
+        ``result_context`` also heads the message when the kernel itself reported ``OVERFLOW``
+        first (an intermediate such as |r|^2 beyond float64).
     """
-    raise_for_status(status.reshape(shape), context, **inputs)
+    status = status.reshape(shape)
+    if result_context is not None and status.any():
+        flat = status.ravel()
+        if flat[np.flatnonzero(flat)[0]] == _st.OVERFLOW:
+            context = result_context
+    raise_for_status(status, context, **inputs)
     require_finite_result(
         context if result_context is None else result_context,
         outputs,

@@ -346,7 +346,12 @@ class StateVectors(TwoBodyContainer):
         retro = -1.0 if retrograde else 1.0
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)
-        elements = self._checked_results(elements, status, "state vectors -> equinoctial elements")
+        elements = self._checked_results(
+            elements,
+            status,
+            "state vectors -> equinoctial elements",
+            "state vectors -> equinoctial elements (scale r, v and gm to other units)",
+        )
         return carry_marks(self, ModifiedEquinoctialElements._from_canonical(
             *elements, self._gm, self._epoch, bool(retrograde)
         ))

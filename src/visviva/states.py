@@ -298,6 +298,9 @@ class StateVectors(TwoBodyContainer):
         ------
         InvalidStateError
             Radial motion (r x v = 0): the orbital plane is undefined.
+        DomainError
+            |r|^2, |v|^2 or |r x v|^2 / gm beyond float64 (|r| or |v| above ~1.3e154 in the
+            given units): the message says to scale r, v and gm to other units.
 
         Notes
         -----
@@ -335,7 +338,8 @@ class StateVectors(TwoBodyContainer):
         Raises
         ------
         DomainError
-            The orbit is exactly at the singularity of the chosen set.
+            The orbit is exactly at the singularity of the chosen set, or the magnitudes
+            overflow float64 (as in :meth:`to_elements`).
         InvalidStateError
             Radial motion.
         """

@@ -232,15 +232,19 @@ def main(argv: list[str] | None = None) -> int:
     with_target = [r for r in rows if r.get("met") is not None]
     print(f"{sum(1 for r in with_target if r['met'])} of {len(with_target)} targets met "
           f"in {elapsed:.0f} s", flush=True)
+    # each file whole or not at all: a crash or a full disk keeps the earlier page
+    from visviva._text import replace_text_file
+
     if not args.no_write:
         out = Path(args.output)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(markdown(rows, args.quick, elapsed, out), encoding="utf-8")
+        replace_text_file(out, markdown(rows, args.quick, elapsed, out))
         print(f"wrote {out}", file=sys.stderr)
     if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1, default=float), encoding="utf-8")
+        replace_text_file(args.json, json.dumps(rows, indent=1, default=float))
     failed = [r for r in rows if r["name"].endswith(": failed")]
     return 1 if failed else 0
+
 
 
 if __name__ == "__main__":

@@ -50,6 +50,7 @@ def _field_40(directory):
     """A degree-40 ICGEM field with random fully normalised coefficients (~1e-6 / n^2)."""
     import os
 
+    from visviva._text import replace_text_file
     from visviva.satellites.perturbations import SphericalHarmonics
 
     rng = np.random.default_rng(1)
@@ -64,8 +65,7 @@ def _field_40(directory):
                 s = 0.0 if m == 0 else rng.normal() * 1e-6 / n**2
                 lines.append(f"gfc {n} {m} {c:.15e} {s:.15e} 0 0")
     path = os.path.join(directory, "random40.gfc")
-    with open(path, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
+    replace_text_file(path, "\n".join(lines) + "\n")
     return [SphericalHarmonics(path, 40)]
 
 

@@ -117,8 +117,18 @@ class _Rows(list):
         print(f"row: {json.dumps(row)}", file=sys.stderr, flush=True)
         path = os.environ.get("VISVIVA_BENCH_ROWS")
         if path:
-            with open(path, "a", encoding="utf-8") as fh:
-                fh.write(json.dumps(row) + "\n")
+            from visviva._text import replace_text_file
+
+            # the file rewritten whole with the new line (a few rows): a run cut off while
+            # writing leaves the earlier rows intact, never a half line
+            try:
+                with open(path, encoding="utf-8") as fh:
+                    before = fh.read()
+            except FileNotFoundError:
+                before = ""
+            if before and not before.endswith("\n"):
+                before += "\n"
+            replace_text_file(path, before + json.dumps(row) + "\n")
 
 
 #: the sections, in the order :func:`run` takes them (``sections=`` picks some)

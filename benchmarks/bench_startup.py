@@ -226,8 +226,10 @@ def _with_stderr(exc: BaseException) -> BaseException:
 
 def numba_floor_seconds(runs: int) -> float:
     """Median first-call time of a trivial ``@njit(cache=True)`` function (warm cache)."""
+    from visviva._text import replace_text_file
+
     with tempfile.TemporaryDirectory() as tmp:
-        Path(tmp, "numba_floor_module.py").write_text(_NUMBA_FLOOR_MODULE)
+        replace_text_file(Path(tmp, "numba_floor_module.py"), _NUMBA_FLOOR_MODULE)
         fresh_process_seconds(_NUMBA_FLOOR, 1, cwd=tmp)  # compiles and fills the cache
         return statistics.median(fresh_process_seconds(_NUMBA_FLOOR, runs, cwd=tmp))
 

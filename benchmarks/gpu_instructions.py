@@ -66,6 +66,7 @@ def main() -> int:
     # no device here: name the compute capability numba-cuda would ask the device for
     sys.modules["numba.cuda.dispatcher"].get_current_device = (
         lambda: types.SimpleNamespace(compute_capability=(9, 0)))
+    from visviva._text import replace_text_file
     from visviva.core.cuda import kernels
 
     a2 = float64[:, ::1]
@@ -74,8 +75,7 @@ def main() -> int:
         for name in KERNELS:
             ptx, _ = cuda.compile_ptx(getattr(kernels, name).py_func, signature, cc=(9, 0))
             src, cubin = os.path.join(tmp, f"{name}.ptx"), os.path.join(tmp, f"{name}.cubin")
-            with open(src, "w") as fh:
-                fh.write(ptx)
+            replace_text_file(src, ptx)
             subprocess.run([ptxas, "-arch=sm_90", "-O3", src, "-o", cubin], check=True)
             sass = subprocess.run([nvdisasm, "-c", cubin], check=True, capture_output=True,
                                   text=True).stdout

@@ -137,3 +137,47 @@ def write_catalog_files(tmp_path):
         return paths
 
     return write
+
+
+class _FullDisk:
+    """A file handle that writes half of what it is given, then fails as a full disk does."""
+
+    def __init__(self, handle):
+        self._handle = handle
+
+    def write(self, data):
+        self._handle.write(data[: len(data) // 2])
+        self._handle.flush()
+        import errno
+
+        raise OSError(errno.ENOSPC, "No space left on device (simulated)")
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._handle.close()
+
+    def __getattr__(self, name):
+        return getattr(self._handle, name)
+
+
+@pytest.fixture
+def full_disk(monkeypatch):
+    """``full_disk()``: from then on every file opened for writing (``open``,
+    ``Path.write_text``, ``os.fdopen``: the builtin and ``io.open``) takes half of its first
+    write and then raises ``OSError(ENOSPC)``, as a disk that fills up mid-write does."""
+    import builtins
+    import io
+
+    real_open = io.open
+
+    def failing_open(file, mode="r", *args, **kwargs):
+        handle = real_open(file, mode, *args, **kwargs)
+        return _FullDisk(handle) if any(c in mode for c in "wax+") else handle
+
+    def start():
+        monkeypatch.setattr(io, "open", failing_open)
+        monkeypatch.setattr(builtins, "open", failing_open)
+
+    return start

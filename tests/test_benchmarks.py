@@ -134,3 +134,43 @@ def test_runner_exits_1_on_a_failed_row_and_writes_json(monkeypatch, tmp_path):
     assert [r["name"] for r in rows] == ["ok", "dask row: failed"]
     assert rows[1]["notes"] == "error: RuntimeError: no workers"
     assert rows[0]["module"] == "bench_zz_fake"
+
+
+def test_runner_keeps_the_earlier_page_and_json_when_a_write_fails(monkeypatch, tmp_path,
+                                                                   full_disk):
+    # was: Path.write_text over docs/performance.md and --json: a full disk (or a crash)
+    # mid-write left a truncated page in place of the earlier one
+    main, common = _bench()
+    fake = type(sys)("benchmarks.bench_zz_fake")
+    fake.run = lambda quick=False: [common.result("ok", 1e-3, "ref", 1e-3)]
+    monkeypatch.setitem(sys.modules, "benchmarks.bench_zz_fake", fake)
+    monkeypatch.setattr(main, "discover", lambda: ["bench_zz_fake"])
+    page, rows = tmp_path / "performance.md", tmp_path / "rows.json"
+    args = ["--quick", "--output", str(page), "--json", str(rows)]
+    assert main.main(args) == 0
+    before = {p: p.read_bytes() for p in (page, rows)}
+    assert b"ok" in before[page] and json.loads(before[rows])[0]["name"] == "ok"
+    full_disk()
+    with pytest.raises(OSError, match="No space left"):
+        main.main(args)
+    for p, data in before.items():
+        assert p.read_bytes() == data, p
+    assert not [p.name for p in tmp_path.iterdir() if p.suffix == ".tmp"]
+
+
+def test_gpu_rows_file_keeps_whole_lines_when_a_write_fails(monkeypatch, tmp_path, full_disk):
+    # was: appended with open(path, "a"): a run cut off mid-write left half a JSON line
+    _bench()
+    bench_gpu = importlib.import_module("benchmarks.bench_gpu")
+    path = tmp_path / "rows.jsonl"
+    monkeypatch.setenv("VISVIVA_BENCH_ROWS", str(path))
+    rows = bench_gpu._Rows()
+    rows.append({"name": "first", "visviva_s": 1.0})
+    rows.append({"name": "second", "visviva_s": 2.0})
+    before = path.read_bytes()
+    full_disk()
+    with pytest.raises(OSError, match="No space left"):
+        rows.append({"name": "third", "visviva_s": 3.0})
+    assert path.read_bytes() == before
+    assert [json.loads(line)["name"] for line in before.decode().splitlines()] == ["first",
+                                                                                 "second"]

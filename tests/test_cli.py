@@ -379,3 +379,27 @@ def test_cli_only_matching_nothing_exits_2_at_once():
          "--no-report", "--quiet"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert "matches no check module" in proc.stderr and "check modules" not in proc.stdout
+
+
+def test_validate_keeps_the_earlier_report_and_json_when_a_write_fails(monkeypatch, tmp_path,
+                                                                        capsys, full_disk):
+    # was: Path.write_text over the old files: a full disk (or a crash) mid-write left a
+    # truncated report.md / results.json / --json file in place of the previous run's
+    good = _fake_module(monkeypatch, "pass", _passing)
+    bad = _fake_module(monkeypatch, "fail", _failing)
+    out_json = tmp_path / "out.json"
+    report = tmp_path / "report"
+    assert runner.run(modules=[good], report_dir=report, progress=False,
+                      json_path=out_json) == 0
+    files = [report / "report.md", report / "results.json", out_json,
+             *sorted(report.glob("plot_*.png"))]
+    before = {p: p.read_bytes() for p in files}
+    assert len(before) == 5 and json.loads(before[out_json])["exit_code"] == 0
+    full_disk()
+    with pytest.raises(OSError, match="No space left"):
+        runner.run(modules=[good, bad], report_dir=report, progress=False, json_path=out_json)
+    assert "report could not be written" in capsys.readouterr().err
+    for p, data in before.items():
+        assert p.read_bytes() == data, p  # the earlier run's file, whole
+    leftovers = [p.name for p in (*tmp_path.iterdir(), *report.iterdir()) if p.suffix == ".tmp"]
+    assert not leftovers

@@ -345,3 +345,29 @@ def test_a_satellite_decaying_in_the_window_has_its_passes_up_to_the_decay():
     with pytest.warns(RuntimeWarning, match="28872"):
         table = vv.find_passes(sat, station, t0, t0 + 0.5 * u.day)
     assert len(table) == 1 and table["max_elevation"][0] > 85 * u.deg
+
+
+@pytest.mark.parametrize("shift_days, stale", [(-45.0, True), (-29.0, False), (0.0, False),
+                                               (29.5, False), (31.0, True)])
+def test_find_passes_and_find_events_warn_on_element_sets_far_from_the_window(
+        iss, sites, shift_days, stale):
+    # was: only the `visviva passes` command said so; the library listed 0 passes of a 2024
+    # TLE over a 2026 window without a word. One hour windows, ending at t0 + 1 h: the set is
+    # stale when the window starts > 30 days after the epoch or ends > 30 days before it
+    import warnings
+
+    t0 = iss.epoch + shift_days * u.day
+    t1 = t0 + 1 * u.h
+    for call in (lambda: vv.find_passes(iss, sites[0], t0, t1),
+                 lambda: sites[0].find_events(iss, t0, t1)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            call()
+        ours = [w for w in caught if issubclass(w.category, vv.StaleElementSetWarning)]
+        assert len(ours) == int(stale), [str(w.message) for w in caught]
+        if stale:
+            assert issubclass(vv.StaleElementSetWarning, UserWarning)
+            assert "1 of 1 element set(s) lie more than 30 days from the window" in str(
+                ours[0].message)
+            assert f"up to {abs(shift_days):.0f} days" in str(ours[0].message)
+            assert ours[0].filename == __file__  # points at the caller's line

@@ -255,3 +255,68 @@ def test_izzo_within_nanoradians_of_360_deg_arrives_at_r2(offset):
         r, v = arrive(r1, v1.to_value(KMS), 4536.0)
         assert np.linalg.norm(r - r2) < ONE_MM / 100
         assert np.linalg.norm(v - v2.to_value(KMS)) < ONE_MM / 4536.0
+
+
+def _mixed_batch():
+    """A (3, 4) batch: row 0 feasible except a collinear column; row 1 tof < 0; row 2 too
+    short (tof = 1 us) except the collinear column."""
+    r1 = [7000.0, 0, 0] * u.km
+    r2 = np.array([[0, 9000.0, 1000], [-9000.0, 0, 0], [0, 8000, 0], [0, 8000, 10]]) * u.km
+    tof = np.array([[3000.0], [-5.0], [1e-6]]) * u.s
+    return r1, r2, tof
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+def test_lambert_batch_error_names_every_failing_index_and_why(method):
+    # was: the first failing index only ("tof must be > 0" for the whole call, or "too short ...
+    # at index 8"), nothing about the other eight failures
+    r1, r2, tof = _mixed_batch()
+    with pytest.raises(DomainError) as err:
+        vv.lambert(r1, r2, tof, GM, method=method)
+    text = str(err.value)
+    assert "9 of 12 transfers have no solution" in text and "on_failure='mask'" in text
+    failures = err.value.failures
+    assert sorted(failures) == [(0, 1), (1, 0), (1, 1), (1, 2), (1, 3), (2, 0), (2, 1), (2, 2),
+                                (2, 3)]
+    for index in failures:
+        assert str(index) in text
+    assert all("tof must be > 0" in failures[(1, j)] for j in range(4))
+    assert "collinear" in failures[(0, 1)] and "collinear" in failures[(2, 1)]
+    assert all("too short" in failures[(2, j)] for j in (0, 2, 3))
+    # the order of the causes in the message: tof <= 0, collinear, too short
+    assert text.index("tof <= 0 at 4") < text.index("collinear at 2") < text.index(
+        "too short to resolve at 3")
+
+
+def test_lambert_on_failure_mask_solves_the_others_and_masks_the_failures():
+    r1, r2, tof = _mixed_batch()
+    v1, v2 = vv.lambert(r1, r2, tof, GM, on_failure="mask")
+    expect = np.ones((3, 4), dtype=bool)
+    expect[0, [0, 2, 3]] = False
+    for v in (v1, v2):
+        assert v.shape == (3, 4, 3) and v.unit == KMS
+        np.testing.assert_array_equal(v.mask, np.repeat(expect[..., None], 3, axis=-1))
+        assert np.all(np.isnan(v.unmasked[expect]))  # nothing plausible under the mask
+    # the feasible transfers are exactly what a call on them alone gives
+    for j in (0, 2, 3):
+        w1, w2 = vv.lambert(r1, r2[j], tof[0, 0], GM)
+        np.testing.assert_array_equal(v1.unmasked[0, j].to_value(KMS), w1.to_value(KMS))
+        np.testing.assert_array_equal(v2.unmasked[0, j].to_value(KMS), w2.to_value(KMS))
+    # an all-feasible call: masked type, nothing masked; a scalar failure: masked, no raise
+    v1, _ = vv.lambert(r1, r2[0], tof[0, 0], GM, on_failure="mask")
+    assert v1.shape == (3,) and not v1.mask.any()
+    v1, _ = vv.lambert(r1, r2[0], -tof[0, 0], GM, on_failure="mask")
+    assert v1.mask.all()
+    with pytest.raises(InvalidInputError, match="on_failure must be 'raise' or 'mask'"):
+        vv.lambert(r1, r2, tof, GM, on_failure="nan")
+    chaser = vv.StateVectors(r1, [0, 7.5, 0] * KMS, GM)
+    target = vv.StateVectors(r2[0], [-7.0, 0, 0] * KMS, GM)
+    with pytest.raises(InvalidInputError, match="drop on_failure='mask'"):
+        vv.Maneuver.lambert(chaser, target, 3000 * u.s, on_failure="mask")
+
+
+def test_lambert_single_failure_keeps_its_one_message():
+    r1, r2, tof = _mixed_batch()
+    with pytest.raises(DomainError, match=r"^Lambert at index \(1,\): r1 and r2 are collinear") as e:
+        vv.lambert(r1, r2[:2], tof[0], GM)
+    assert list(e.value.failures) == [(1,)]

@@ -206,6 +206,41 @@ def test_tiny_gm_elements_raise_instead_of_inf():
         s.to_elements()
 
 
+@pytest.mark.filterwarnings("ignore::visviva.ImplausibleVelocityWarning")  # meant
+@pytest.mark.parametrize("r, v", [
+    ([1.4e154, 0, 0], [0, 1.7e-72, 0]),  # a circular orbit just past |r|^2 = 1.8e308
+    ([1e200, 0, 0], [0, 1e-3, 0]),
+    ([7000.0, 0, 0], [0, 1e160, 0]),  # |v|^2 overflows
+    ([1e200, 1e200, 0], [1e200, 1e200, 1.0]),  # r x v = inf - inf = NaN in a component
+])
+def test_magnitudes_beyond_float64_are_an_overflow_not_a_radial_orbit(r, v):
+    # was: InvalidStateError "the angular momentum r x v is zero (radial, rectilinear motion)":
+    # |r|^2 (or |v|^2, |r x v|) overflowed, and the radial test compared |h| with inf
+    s = vv.StateVectors(r * KM, v * KMS, MU)
+    for convert in (s.to_elements, s.to_equinoctial, lambda: s.to_equinoctial(True)):
+        with pytest.raises(vv.errors.DomainError,
+                           match=r"\(scale r, v and gm to other units\): the result overflows "
+                                 r"float64") as err:
+            convert()
+        assert not isinstance(err.value, vv.errors.InvalidStateError)
+        assert "radial" not in str(err.value)
+
+
+def test_largest_circular_orbit_before_overflow_still_converts():
+    # the overflow test must not move the boundary: |r| = 1.3e154 km (|r|^2 < 1.8e308) works
+    r = 1.3e154
+    vc = math.sqrt(MU.to_value(KM**3 / u.s**2) / r)
+    s = vv.StateVectors([[r, 0, 0], [7000.0, 0, 0]] * KM, [[0, vc, 0], [0, 7.5, 1.0]] * KMS, MU)
+    el = s.to_elements()
+    assert el.eccentricity[0] == 0.0
+    assert el.semi_latus_rectum[0].to_value(KM) == pytest.approx(r, rel=1e-14)
+    np.testing.assert_allclose(el.to_state().r.to_value(KM), s.r.to_value(KM), rtol=1e-13)
+    bad = vv.StateVectors([[7000.0, 0, 0], [1.4e154, 0, 0]] * KM,
+                          [[0, 7.5, 1.0], [0, 1.7e-72, 0]] * KMS, MU)
+    with pytest.raises(vv.errors.DomainError, match=r"overflows float64 .*at index \(1,\)"):
+        bad.to_elements()
+
+
 @pytest.mark.parametrize("epoch", ["yesterday", 2451545.0])
 def test_epoch_must_be_time(epoch):
     with pytest.raises(vv.errors.InvalidInputError, match="astropy.time.Time"):

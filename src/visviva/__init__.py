@@ -51,6 +51,7 @@ _PUBLIC = {
     "Pc3dWindowWarning": "visviva.errors",
     "ImplausibleVelocityWarning": "visviva.errors",
     "SubsurfacePerigeeWarning": "visviva.errors",
+    "StaleElementSetWarning": "visviva.errors",
     # two-body core
     "StateVectors": "visviva.states",
     "KeplerianElements": "visviva.elements",

@@ -6,7 +6,7 @@ tools' outputs and the CCSDS writers."""
 
 from __future__ import annotations
 
-__all__ = ["utf8_text", "file_bytes", "replace_text_file"]
+__all__ = ["utf8_text", "file_bytes", "replace_text_file", "replace_binary_file"]
 
 
 def file_bytes(path, what: str, todo: str, error=None) -> bytes:
@@ -95,7 +95,6 @@ def replace_text_file(path, text: str) -> None:
         The folder does not exist or cannot be written, or ``path`` is a folder.
     """
     import os
-    import tempfile
 
     try:
         text.encode("utf-8")
@@ -107,21 +106,41 @@ def replace_text_file(path, text: str) -> None:
             f"cannot write {os.fspath(path)}: line {line} of the text holds "
             f"{text[exc.start]!r}, which UTF-8 cannot encode (a lone surrogate); remove or "
             "replace it. Nothing was written (an existing file is as it was).") from None
+    _replace_file(path, text, "w")
+
+
+def replace_binary_file(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` whole or not at all, as :func:`replace_text_file` does for
+    text (a PNG plot, an archive).
+
+    Raises
+    ------
+    OSError
+        The folder does not exist or cannot be written, or ``path`` is a folder.
+    """
+    _replace_file(path, bytes(data), "wb")
+
+
+def _replace_file(path, content, mode: str) -> None:
+    """The temporary file and :func:`os.replace` of :func:`replace_text_file`."""
+    import os
+    import tempfile
+
     path = os.fspath(path)
     if os.path.islink(path):  # write where the link points, as open(path, "w") did
         path = os.path.realpath(path)
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".visviva-", suffix=".tmp", dir=folder)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        with os.fdopen(fd, mode, encoding=None if "b" in mode else "utf-8") as handle:
+            handle.write(content)
         try:
-            mode = os.stat(path).st_mode & 0o7777
+            perm = os.stat(path).st_mode & 0o7777
         except OSError:  # a new file: the usual permissions (mkstemp's are 0o600)
             umask = os.umask(0)
             os.umask(umask)
-            mode = 0o666 & ~umask
-        os.chmod(tmp, mode)
+            perm = 0o666 & ~umask
+        os.chmod(tmp, perm)
         os.replace(tmp, path)
     except BaseException:
         try:

@@ -38,6 +38,7 @@ __all__ = [
     "Pc3dWindowWarning",
     "ImplausibleVelocityWarning",
     "SubsurfacePerigeeWarning",
+    "StaleElementSetWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -269,6 +270,15 @@ class Pc3dWindowWarning(UserWarning):
     """
 
 
+class StaleElementSetWarning(UserWarning):
+    """A pass or event search (``find_passes``, ``GroundStation.find_events``) runs SGP4 more
+    than 30 days from an element set's epoch (before or after the window). SGP4's along-track
+    error grows by kilometres a day in low orbit, so rise and set times drift by minutes and
+    passes appear or vanish: a 2024 TLE over a 2026 window can give no pass at all. The message
+    says how many element sets and how far; use element sets from near the window.
+    """
+
+
 class SubsurfacePerigeeWarning(UserWarning):
     """An SGP4 element set (TLE or OMM) whose mean perigee ``a (1 - e)`` lies below the Earth's
     surface: sgp4 accepts it, flags only the times when the satellite is below one Earth radius
@@ -467,9 +477,16 @@ def raise_for_result(
     inputs : dict of str to ndarray
         Inputs quoted in the messages (canonical units: km, km/s, s, rad).
     result_context, result_inputs : str or dict, optional
-        Other context or inputs for the message about non-finite outputs (default: the same).
+        Other context or inputs for the message about non-finite outputs (default: the same);
+        ``result_context`` also heads the message when the kernel itself reported ``OVERFLOW``
+        first (an intermediate such as |r|^2 beyond float64).
     """
-    raise_for_status(status.reshape(shape), context, **inputs)
+    status = status.reshape(shape)
+    if result_context is not None and status.any():
+        flat = status.ravel()
+        if flat[np.flatnonzero(flat)[0]] == _st.OVERFLOW:
+            context = result_context
+    raise_for_status(status, context, **inputs)
     require_finite_result(
         context if result_context is None else result_context,
         outputs,

@@ -298,6 +298,9 @@ class StateVectors(TwoBodyContainer):
         ------
         InvalidStateError
             Radial motion (r x v = 0): the orbital plane is undefined.
+        DomainError
+            |r|^2, |v|^2 or |r x v|^2 / gm beyond float64 (|r| or |v| above ~1.3e154 in the
+            given units): the message says to scale r, v and gm to other units.
 
         Notes
         -----
@@ -335,7 +338,8 @@ class StateVectors(TwoBodyContainer):
         Raises
         ------
         DomainError
-            The orbit is exactly at the singularity of the chosen set.
+            The orbit is exactly at the singularity of the chosen set, or the magnitudes
+            overflow float64 (as in :meth:`to_elements`).
         InvalidStateError
             Radial motion.
         """
@@ -346,7 +350,12 @@ class StateVectors(TwoBodyContainer):
         retro = -1.0 if retrograde else 1.0
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)
-        elements = self._checked_results(elements, status, "state vectors -> equinoctial elements")
+        elements = self._checked_results(
+            elements,
+            status,
+            "state vectors -> equinoctial elements",
+            "state vectors -> equinoctial elements (scale r, v and gm to other units)",
+        )
         return carry_marks(self, ModifiedEquinoctialElements._from_canonical(
             *elements, self._gm, self._epoch, bool(retrograde)
         ))

@@ -120,9 +120,11 @@ def _sin_cos_inc(inc):
 
 @inline_kernel
 def _check_state(rx, ry, rz, vx, vy, vz, gm):
-    """Status of a state given to rv_to_coe / rv_to_mee, and |r| when it is usable.
+    """Status of a state given to rv_to_coe / rv_to_mee, and |r| and v^2 when it is usable.
 
-    NON_FINITE for NaN or inf, BAD_GM for gm <= 0, ZERO_POSITION for r = 0, else OK.
+    NON_FINITE for NaN or inf, BAD_GM for gm <= 0, ZERO_POSITION for r = 0, OVERFLOW when
+    |r|^2 or |v|^2 exceeds float64 (|r| or |v| beyond ~1.3e154: the radial-orbit test would
+    otherwise compare against inf and call every such state radial), else OK.
     """
     if not (
         math.isfinite(rx)
@@ -133,13 +135,16 @@ def _check_state(rx, ry, rz, vx, vy, vz, gm):
         and math.isfinite(vz)
         and math.isfinite(gm)
     ):
-        return st.NON_FINITE, 0.0
+        return st.NON_FINITE, 0.0, 0.0
     if not gm > 0.0:
-        return st.BAD_GM, 0.0
+        return st.BAD_GM, 0.0, 0.0
     rm = math.sqrt(rx * rx + ry * ry + rz * rz)
     if rm == 0.0:
-        return st.ZERO_POSITION, 0.0
-    return st.OK, rm
+        return st.ZERO_POSITION, 0.0, 0.0
+    v2 = vx * vx + vy * vy + vz * vz
+    if not (rm < math.inf and v2 < math.inf):
+        return st.OVERFLOW, 0.0, 0.0
+    return st.OK, rm, v2
 
 @kernel
 def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
@@ -160,8 +165,8 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
         Semi-latus rectum (km), eccentricity, inclination in [0, pi], longitude of the ascending
         node and argument of periapsis in [0, 2 pi), true anomaly in (-pi, pi] (rad).
     status : int
-        ``OK``; ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION`` or ``RADIAL_ORBIT`` (then the
-        elements are NaN). ``RADIAL_ORBIT`` means |r x v| <= eps |r| |v|, or p <= 16 eps r (a
+        ``OK``; ``NON_FINITE``, ``BAD_GM``, ``ZERO_POSITION``, ``OVERFLOW`` (|r|^2, |v|^2 or
+        |r x v| beyond float64) or ``RADIAL_ORBIT`` (then the elements are NaN). ``RADIAL_ORBIT`` means |r x v| <= eps |r| |v|, or p <= 16 eps r (a
         nearly radial fall whose 1 + e cos(nu) = p/r rounds to zero).
 
     Notes
@@ -171,15 +176,17 @@ def rv_to_coe(rx, ry, rz, vx, vy, vz, gm):
     longitude in the equinoctial frame (module docstring). Undefined angles follow
     docs/conventions.md. Vallado (2013) Algorithm 9; Walker et al. (1985).
     """
-    code, rm = _check_state(rx, ry, rz, vx, vy, vz, gm)
+    code, rm, v2 = _check_state(rx, ry, rz, vx, vy, vz, gm)
     if code != st.OK:
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, code
-    vm = math.sqrt(vx * vx + vy * vy + vz * vz)
+    vm = math.sqrt(v2)
     hx = ry * vz - rz * vy
     hy = rz * vx - rx * vz
     hz = rx * vy - ry * vx
     hxy = math.sqrt(hx * hx + hy * hy)
     hm = math.sqrt(hxy * hxy + hz * hz)
+    if not hm < math.inf:  # |r| |v| beyond ~1e154 (or inf - inf = NaN in a component)
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.OVERFLOW
     if hm <= RADIAL_TOL * rm * vm:
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.RADIAL_ORBIT
 
@@ -374,15 +381,16 @@ def rv_to_mee(rx, ry, rz, vx, vy, vz, gm, retro):
     1 + f cos L + g sin L = p/r consistent to rounding). h = -h_y/d and k = h_x/d with
     d = |h| + I h_z, evaluated without cancellation as (h_x^2 + h_y^2)/(|h| - I h_z) when I h_z < 0.
     """
-    code, rm = _check_state(rx, ry, rz, vx, vy, vz, gm)
+    code, rm, v2 = _check_state(rx, ry, rz, vx, vy, vz, gm)
     if code != st.OK:
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, code
-    v2 = vx * vx + vy * vy + vz * vz
     hx = ry * vz - rz * vy
     hy = rz * vx - rx * vz
     hz = rx * vy - ry * vx
     hxy2 = hx * hx + hy * hy
     hm = math.sqrt(hxy2 + hz * hz)
+    if not hm < math.inf:  # as in rv_to_coe
+        return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.OVERFLOW
     if hm <= RADIAL_TOL * rm * math.sqrt(v2) or hm * hm / gm <= P_OVER_R_MIN * rm:
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, st.RADIAL_ORBIT
     ihz = retro * hz

@@ -101,7 +101,6 @@ def run(args) -> int:
     except (VisvivaError, OSError) as exc:  # bad arguments: the file, the site, the window
         print(f"visviva passes: {exc}", file=sys.stderr)
         return 2
-    _note_stale_element_sets(cat, t0, t1)
     if args.visible:
         table = table[table["visible"]]
     print(format_table(table))
@@ -117,24 +116,3 @@ def run(args) -> int:
                 return 2
     return 0
 
-
-#: element sets further than this from the window get a note on stderr, days
-STALE_DAYS = 30.0
-
-
-def _note_stale_element_sets(cat, t0, t1) -> None:
-    """One stderr line when element sets lie more than STALE_DAYS from the window: SGP4's
-    along-track error grows by kilometres a day in low orbit, so rise and set times drift by
-    minutes and passes appear or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a
-    2026 window, exit 0, without a word)."""
-    import numpy as np
-
-    epochs = cat.epochs
-    away = np.maximum.reduce([np.zeros(len(cat)), (t0 - epochs).to_value("day"),
-                              (epochs - t1).to_value("day")])
-    stale = away > STALE_DAYS
-    if stale.any():
-        print(f"visviva passes: note: {int(stale.sum())} of {len(cat)} element set(s) lie more "
-              f"than {STALE_DAYS:g} days from the window (up to {away.max():.0f} days); SGP4's "
-              "errors grow by kilometres a day in low orbit, so these passes can be minutes off, "
-              "or missing: use element sets from near the window.", file=sys.stderr)

@@ -32,12 +32,12 @@ from astropy.time import Time
 
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
-from ..errors import DomainError, InvalidInputError
+from ..errors import DomainError, InvalidInputError, StaleElementSetWarning
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
 __all__ = ["EventSet", "search_events", "as_catalog", "check_window", "min_elevation_rad",
-           "WINDOW_START", "WINDOW_END", "sgp4_teme"]
+           "WINDOW_START", "WINDOW_END", "sgp4_teme", "warn_stale_element_sets", "STALE_DAYS"]
 
 _BASE_STEP_S = 75.0
 _SAMPLES = 6
@@ -45,6 +45,8 @@ _CHUNK_PAIRS = 4096
 #: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.3 deg, far above
 #: the polynomial's error (~0.05 deg in LEO with 600 s nodes)
 _NEAR = 5e-3
+#: element sets further than this from the window warn (StaleElementSetWarning), days
+STALE_DAYS = 30.0
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
@@ -103,6 +105,26 @@ def check_window(t0, t1):
             "window."
         )
     return t0, t1
+
+
+def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
+    """Warn (:class:`~visviva.errors.StaleElementSetWarning`) when element sets of ``cat`` lie
+    more than :data:`STALE_DAYS` before ``t0`` or after ``t1``: SGP4's along-track error grows
+    by kilometres a day in low orbit, so rise and set times drift by minutes and passes appear
+    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word)."""
+    jd, fr = cat.epoch_days
+    days = []
+    for t in (t0, t1):
+        tj, tf = time_to_utc_days(t)
+        days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
+    away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
+    stale = away > STALE_DAYS
+    if stale.any():
+        warnings.warn(
+            f"{int(stale.sum())} of {len(cat)} element set(s) lie more than {STALE_DAYS:g} days "
+            f"from the window (up to {away.max():.0f} days); SGP4's errors grow by kilometres a "
+            "day in low orbit, so these passes can be minutes off, or missing: use element sets "
+            "from near the window.", StaleElementSetWarning, stacklevel=stacklevel + 1)
 
 
 def min_elevation_rad(value) -> float:
@@ -383,6 +405,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False) ->
     from .horizon import Horizon
 
     horizon = Horizon(stations, min_el_rad, refraction)
+    warn_stale_element_sets(cat, t0, t1, stacklevel=3)
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]

@@ -17,7 +17,7 @@ from .._units import require_flag, to_array, to_quantity, to_vector
 from ..core import status as st
 from ..core import tier
 from ..core.lambert import izzo_many, universal_many
-from ..errors import DomainError, InvalidInputError, ShapeError, raise_for_status
+from ..errors import STATUS_TABLE, DomainError, InvalidInputError, ShapeError, VisvivaError
 
 __all__ = ["lambert", "LAMBERT_METHODS"]
 
@@ -39,7 +39,8 @@ LAMBERT_METHODS = {
 
 
 def lambert(
-    r1, r2, tof, gm, revolutions: int = 0, prograde: bool = True, *, branch="left", method="izzo"
+    r1, r2, tof, gm, revolutions: int = 0, prograde: bool = True, *, branch="left", method="izzo",
+    on_failure: str = "raise",
 ):
     """Solve Lambert's problem: the velocities at r1 and r2 of the conic from r1 to r2 in ``tof``.
 
@@ -78,17 +79,26 @@ def lambert(
         0.028 km); 1e8 s with 3 revolutions (right branch) 125 m off against 0.08 m; at 1e7 s
         both are within a few ulp of v1 (checked with 60-digit propagation). Keep the default
         for such arcs.
+    on_failure : {"raise", "mask"}
+        What a batch does with transfers that have no solution (tof <= 0, r1 and r2 collinear,
+        no M-revolution solution in that time, a tof too short or too long to resolve).
+        ``"raise"`` (default): one error naming every failing index and why each failed.
+        ``"mask"``: ``v1`` and ``v2`` come back as masked Quantities
+        (``astropy.utils.masked.Masked``; ``v1.mask`` is True on all three components of each
+        failed transfer, whose values underneath are NaN) and the others are solved as usual.
 
     Returns
     -------
     v1, v2 : Quantity (..., 3), km/s
-        Velocities at departure and arrival.
+        Velocities at departure and arrival (masked Quantities with ``on_failure="mask"``).
 
     Raises
     ------
     DomainError
         r1 and r2 collinear (transfer plane undefined), tof <= 0, or no M-revolution solution
-        in that time.
+        in that time (with ``on_failure="raise"``). The message lists every failing index, by
+        cause, and the exception's ``failures`` attribute maps each failing index (a tuple
+        into the broadcast shape) to its reason.
 
     Notes
     -----
@@ -113,8 +123,8 @@ def lambert(
         raise InvalidInputError(f"branch must be 'left' or 'right'; got {branch!r}.")
     if method not in LAMBERT_METHODS:
         raise InvalidInputError(f"method must be one of {sorted(LAMBERT_METHODS)}; got {method!r}.")
-    if np.any(T <= 0):
-        raise DomainError("tof must be > 0; for a backward arc swap r1 and r2.")
+    if on_failure not in ("raise", "mask"):
+        raise InvalidInputError(f"on_failure must be 'raise' or 'mask'; got {on_failure!r}.")
     if np.any(mu <= 0):
         raise InvalidInputError("gm must be > 0 (e.g. vv.SUN.gm).")
     try:
@@ -160,42 +170,105 @@ def lambert(
     )  # fmt: skip
     v1 = np.where(rescale[:, None], v1 * speed[:, None], v1)
     v2 = np.where(rescale[:, None], v2 * speed[:, None], v2)
-    short = (status == st.NO_CONVERGENCE) & scaled & (tn < TOF_TOO_SHORT)
-    if np.any(short):
-        k = int(np.flatnonzero(short)[0])
-        raise DomainError(
-            f"tof = {tf[k]} s at index {k} is too short for this geometry: it is "
-            f"{tn[k]:.3g} times the time unit sqrt(L^3/GM) = {time_unit[k]:.6g} s of the "
-            f"problem (L = {length[k]:.6g} km), so the transfer is a straight line at "
-            f"~{np.linalg.norm(r2n[k] - r1n[k]) * length[k] / tf[k]:.3g} km/s and the solver "
-            "cannot resolve the conic. Give a longer tof (a tof above "
-            f"~{TOF_TOO_SHORT * time_unit[k]:.3g} s always works)."
-        )
-    long = (status == st.NO_CONVERGENCE) & scaled & (tn > TOF_TOO_LONG)
-    if np.any(long):
-        k = int(np.flatnonzero(long)[0])
-        raise DomainError(
-            f"tof = {tf[k]} s at index {k} is too long for a {revolutions}-revolution transfer "
-            f"in this geometry: it is {tn[k]:.3g} times the time unit sqrt(L^3/GM) = "
-            f"{time_unit[k]:.6g} s of the problem (L = {length[k]:.6g} km), so the transfer "
-            "orbit is a nearly parabolic ellipse that double precision cannot resolve. Allow "
-            "more revolutions or give a shorter tof."
-        )
-    if np.any(status == st.DOMAIN):
-        k = int(np.flatnonzero(status == st.DOMAIN)[0])
-        cross = np.linalg.norm(np.cross(r1n[k], r2n[k]))
-        if cross <= 1e-12 * np.linalg.norm(r1n[k]) * np.linalg.norm(r2n[k]):
-            raise DomainError(
-                f"r1 and r2 are collinear (transfer angle 0 or 180 deg) at index {k}: the "
-                "transfer plane is undefined. Offset one position slightly out of the line."
-            )
-        raise DomainError(
-            f"no {revolutions}-revolution transfer exists in tof = {tf[k]} s at index {k}: the "
-            "time of flight is below the minimum for that many revolutions. Use fewer "
-            "revolutions or a longer tof."
-        )
-    raise_for_status(status.reshape(shape), "Lambert", tof=tf.reshape(shape))
-    return (
-        to_quantity(v1.reshape(shape + (3,)), "speed"),
-        to_quantity(v2.reshape(shape + (3,)), "speed"),
-    )
+    # a solved transfer whose speeds overflowed (finite inputs): a failure like the others
+    status = np.where((status == st.OK) & ~np.isfinite(v1 + v2).all(axis=1), st.OVERFLOW, status)
+    bad = (status != st.OK) | ~(tf > 0)
+    if on_failure == "raise" and bad.any():
+        problem = {"tof": tf, "tn": tn, "time_unit": time_unit, "length": length, "r1n": r1n,
+                   "r2n": r2n, "scaled": scaled, "revolutions": revolutions}
+        _raise_failures(_failures(status, bad, problem), shape)
+    v1 = to_quantity(v1.reshape(shape + (3,)), "speed")
+    v2 = to_quantity(v2.reshape(shape + (3,)), "speed")
+    if on_failure == "raise":
+        return v1, v2
+    from astropy.utils.masked import Masked
+
+    mask = np.broadcast_to(bad.reshape(shape)[..., None], shape + (3,))
+    v1[mask] = np.nan  # under the mask: never a plausible number
+    v2[mask] = np.nan
+    return Masked(v1, mask=mask.copy()), Masked(v2, mask=mask.copy())
+
+
+#: failure causes in the order the message lists them: (key, heading)
+_CAUSES = (
+    ("tof", "tof <= 0"),
+    ("collinear", "r1 and r2 collinear"),
+    ("revolutions", "no M-revolution solution in that time"),
+    ("short", "tof too short to resolve"),
+    ("long", "tof too long to resolve"),
+    ("other", "solver status"),
+)
+
+
+def _failures(status, bad, pb) -> list:
+    """Every failed transfer (``bad``) as ``(flat index, cause, reason, exception class)``."""
+    tf, tn, time_unit, length = pb["tof"], pb["tn"], pb["time_unit"], pb["length"]
+    r1n, r2n, revolutions = pb["r1n"], pb["r2n"], pb["revolutions"]
+    out = []
+    for k in np.flatnonzero(bad):
+        k = int(k)
+        code = int(status[k])
+        if not tf[k] > 0 and np.isfinite(tf[k]):
+            out.append((k, "tof", f"tof = {tf[k]:.6g} s: tof must be > 0; for a backward arc "
+                        "swap r1 and r2", DomainError))
+        elif code == st.NO_CONVERGENCE and pb["scaled"][k] and tn[k] < TOF_TOO_SHORT:
+            out.append((k, "short", (
+                f"tof = {tf[k]} s is too short for this geometry: it is {tn[k]:.3g} times the "
+                f"time unit sqrt(L^3/GM) = {time_unit[k]:.6g} s of the problem (L = "
+                f"{length[k]:.6g} km), so the transfer is a straight line at "
+                f"~{np.linalg.norm(r2n[k] - r1n[k]) * length[k] / tf[k]:.3g} km/s and the solver "
+                "cannot resolve the conic; give a longer tof (a tof above "
+                f"~{TOF_TOO_SHORT * time_unit[k]:.3g} s always works)"), DomainError))
+        elif code == st.NO_CONVERGENCE and pb["scaled"][k] and tn[k] > TOF_TOO_LONG:
+            out.append((k, "long", (
+                f"tof = {tf[k]} s is too long for a {revolutions}-revolution transfer in this "
+                f"geometry: it is {tn[k]:.3g} times the time unit sqrt(L^3/GM) = "
+                f"{time_unit[k]:.6g} s of the problem (L = {length[k]:.6g} km), so the transfer "
+                "orbit is a nearly parabolic ellipse that double precision cannot resolve; allow "
+                "more revolutions or give a shorter tof"), DomainError))
+        elif code == st.DOMAIN and np.linalg.norm(np.cross(r1n[k], r2n[k])) <= (
+                1e-12 * np.linalg.norm(r1n[k]) * np.linalg.norm(r2n[k])):
+            out.append((k, "collinear", "r1 and r2 are collinear (transfer angle 0 or 180 deg): "
+                        "the transfer plane is undefined; offset one position slightly out of "
+                        "the line", DomainError))
+        elif code == st.DOMAIN:
+            out.append((k, "revolutions", (
+                f"no {revolutions}-revolution transfer exists in tof = {tf[k]} s: the time of "
+                "flight is below the minimum for that many revolutions; use fewer revolutions "
+                "or a longer tof"), DomainError))
+        else:
+            exc, what, todo = STATUS_TABLE.get(
+                code, (VisvivaError, f"unknown status code {code}", "report this as a bug"))
+            out.append((k, "other", f"{what} (tof = {tf[k]} s); {todo}", exc))
+    return out
+
+
+def _raise_failures(failures, shape) -> None:
+    """One error for all failed transfers: every index, grouped by cause, each with its reason
+    (the first of a cause in full, the others by their tof); ``exc.failures`` maps them all."""
+
+    def where(k):
+        return tuple(int(i) for i in np.unravel_index(k, shape)) if shape else ()
+
+    n = int(np.prod(shape))
+    exc_type = failures[0][3]
+    if len(failures) == 1:
+        k, _, reason, _ = failures[0]
+        at = f" at index {where(k)}" if shape else ""
+        exc = exc_type(f"Lambert{at}: {reason}.")
+    else:
+        parts = []
+        for cause, heading in _CAUSES:
+            group = [f for f in failures if f[1] == cause]
+            if not group:
+                continue
+            k0, _, reason, _ = group[0]
+            others = ", ".join(str(where(k)) for k, *_ in group[1:])
+            parts.append(f"{heading} at {len(group)} index(es): {where(k0)}: {reason}"
+                         + (f"; likewise {others}" if others else ""))
+        exc = exc_type(
+            f"Lambert: {len(failures)} of {n} transfers have no solution (every failing index "
+            "follows, by cause; on_failure='mask' returns the others with these masked): "
+            + " | ".join(parts) + ".")
+    exc.failures = {where(k): reason for k, _, reason, _ in failures}
+    raise exc

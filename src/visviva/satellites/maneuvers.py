@@ -418,6 +418,11 @@ class Maneuver:
         """
         from .lambert_solvers import lambert
 
+        if lambert_kwargs.get("on_failure", "raise") != "raise":
+            raise InvalidInputError(
+                "Maneuver.lambert plans burns from the solution, so a failed transfer must raise: "
+                f"drop on_failure={lambert_kwargs['on_failure']!r} (it is for vv.lambert batches)."
+            )
         mu_from = to_array(state_from.gm, "gm", "state_from.gm")
         mu_to = to_array(state_to.gm, "gm", "state_to.gm")
         if not np.allclose(mu_from, mu_to, rtol=1e-12, atol=0.0):

@@ -36,6 +36,7 @@ Tolerance reasons and hints
 from __future__ import annotations
 
 import datetime as _dt
+import io
 import json
 import math
 import re
@@ -43,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._text import replace_binary_file, replace_text_file
 from .base import Check
 from .results import environment, fmt_value, short_name, status_of, to_json
 
@@ -248,7 +250,9 @@ def _render(title: str, panels: list[tuple[Check, dict]], path: Path) -> bool:
         return False
     if n > 1:
         fig.suptitle(_short(title, 100), fontsize=10)
-    fig.savefig(path, dpi=90)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=90)
+    replace_binary_file(path, buffer.getvalue())  # whole or not at all
     return True
 
 
@@ -268,8 +272,6 @@ def write_report(outcome, folder) -> Path:
     """Write ``report.md``, ``results.json`` and the plots into ``folder``; return the report path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    for old in folder.glob("plot_*.png"):
-        old.unlink()
     counts = outcome.counts()
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     env = environment()
@@ -333,6 +335,7 @@ def write_report(outcome, folder) -> Path:
             lines += [f"- {markdown_escape(short_name(m.module))}: {markdown_escape(w)}"
                       for w in m.warnings[:20]]
     plot_lines: list[str] = []
+    plots = set()
     for i, (title, panels) in enumerate(_figures(outcome), 1):
         name = f"plot_{i:02d}_{_slug(title)}.png"
         try:
@@ -341,11 +344,16 @@ def write_report(outcome, folder) -> Path:
             ok = False
         if ok:
             plot_lines += [f"![{markdown_escape(title)}]({name})", ""]
+            plots.add(name)
     if plot_lines:
         lines += ["", "## Plots", "", *plot_lines]
     lines.append("")
     path = folder / "report.md"
-    path.write_text("\n".join(lines), encoding="utf-8")
-    (folder / "results.json").write_text(json.dumps(to_json(outcome), indent=1, allow_nan=False),
-                                         encoding="utf-8")
+    # each file whole or not at all: a crash or a full disk keeps the previous run's file
+    replace_text_file(path, "\n".join(lines))
+    replace_text_file(folder / "results.json",
+                      json.dumps(to_json(outcome), indent=1, allow_nan=False))
+    for old in folder.glob("plot_*.png"):  # the earlier run's plots, once the report is new
+        if old.name not in plots:
+            old.unlink()
     return path

@@ -33,6 +33,7 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
+from .._text import replace_text_file
 from .base import Check
 from .results import (
     PREFIX,
@@ -499,5 +500,5 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
             print(payload, file=json_out, flush=True)
         else:
             Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-            Path(json_path).write_text(payload, encoding="utf-8")
+            replace_text_file(json_path, payload)  # whole or not at all
     return outcome.exit_code

@@ -30,7 +30,7 @@ first" of Tapley, Schutz & Born 2004, sec. 4.3, automated): when a damped step i
 too, after a Gauss-Newton step of over ``WINDOW_STEP`` of its own sigmas, the fit restarts
 from the accepted iterate on the rows nearest the epoch (the nearest 1/``WINDOW_FRACTION`` of
 them), where the linearisation holds; each time that fit settles (a correction under 3 of its
-own sigmas, or an RMS that stopped changing) the window doubles its span (on past gaps, and
+own sigmas, ``WINDOW_SETTLE``, or an RMS that stopped changing) the window doubles its span (on past gaps, and
 past the rows the estimate already fits), until it holds every row and the fit goes on as
 before. A fit without a rejected step never opens one (the same bits as ``damping=None``).
 """
@@ -41,7 +41,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["DAMPINGS", "WINDOW_FIT", "Marquardt", "Window", "solve"]
+__all__ = ["DAMPINGS", "WINDOW_FIT", "WINDOW_SETTLE", "Marquardt", "Window", "solve"]
 
 #: the values of ``fit_orbit(damping=...)``
 DAMPINGS = ("auto", None)
@@ -60,9 +60,15 @@ WINDOW_STEP = 100.0
 #: twice as many components as unknowns (from 200 km off, 20 random directions, 1/4 reached
 #: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/performance.md)
 WINDOW_FRACTION = 16
+#: the window's fit has settled (the window widens) when a correction is under this many of its
+#: own sigmas: the wider window's fit goes on from there, so the last few sigmas of the narrow
+#: one are not worth an iteration each (3 cost one to two iterations per widening)
+WINDOW_SETTLE = 10.0
 #: a row beyond the window fits (the window widens past it without an iteration) when its
-#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS)
-WINDOW_FIT = 4.0
+#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS): rows that far off are
+#: still in the linear regime (a far guess's late rows are off by 10^3-10^7 sigmas), and the
+#: next Gauss-Newton step fits them (4 cost two iterations per pass of a one-station arc)
+WINDOW_FIT = 100.0
 
 
 def solve(A, b, lam=0.0):

@@ -611,14 +611,14 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 continue
             converged = True
             break
-        if stalled(history[since:]):  # creeping towards max_iterations: say why now
-            raise failed(history, stall_message(it, rms, step, [c.name for c in est]))
         if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history[since:]) and it > 3:
             break
         rejected = new_rejected
         rms_prev = rms
         last_step = step
         lm.accept(A, b, np.r_[x, dv, pv], zn, use, n_meas)
+        if why := stalled(history[since:], lm.gains):  # creeping to max_iterations: say why now
+            raise failed(history, stall_message(it, rms, step, [c.name for c in est], why))
         dx = lm.step(A, b, dx)  # Gauss-Newton's dx unless a step was rejected lately
         x = x + dx[:6]
         dv = dv + dx[6:n_dv]

@@ -122,6 +122,8 @@ class Marquardt:
         self.used = 0.0  # lambda of the step that led to the current iterate
         self.base = None  # (A, b, unknowns) of the last accepted iterate
         self.rows = None  # (normalised residuals, rows used, a priori rows' residuals) there
+        self.predicted = self.gain = None  # chi^2 drop Gauss-Newton promised; got / promised
+        self.gains = []  # the gain of each accepted iterate since the rows changed (None: first)
 
     @property
     def armed(self):
@@ -137,9 +139,13 @@ class Marquardt:
         reads as a worse fit there (the 24 h LEO benchmark campaign, from 1.5 km off, was
         damped to a standstill that way); on every row alone the true outliers move the
         minimum away from the edited fit's, and its converging steps read as worse."""
+        self.gain = None
         if not self.armed:
             return False
         zn0, kept0, prior0 = self.rows
+        then = np.sum(zn0[kept0] ** 2) + np.sum(prior0 ** 2)  # chi^2 there, on its rows
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.gain = (then - np.sum(zn[kept0] ** 2) - np.sum(prior ** 2)) / self.predicted
 
         def grew(rows):
             now = np.sqrt(np.mean(np.r_[zn[rows], prior] ** 2))
@@ -153,6 +159,7 @@ class Marquardt:
         ``kept`` by editing; the rows of ``b`` past ``n_meas`` are the a priori ones) and lower
         lambda."""
         if self.on:
+            self.gains.append(self.gain)
             self.base = (A, b, unknowns)
             self.rows = (zn, kept, b[n_meas:])
             self.lam = self.lam / LAMBDA_DOWN if self.lam / LAMBDA_DOWN >= LAMBDA_OFF else 0.0
@@ -160,6 +167,7 @@ class Marquardt:
     def step(self, A, b, dx):
         """The step to take from the accepted iterate: ``dx`` (Gauss-Newton) or damped."""
         self.used = self.lam
+        self.predicted = float(np.sum((A @ dx) ** 2))  # Gauss-Newton's chi^2 drop, n step^2
         return dx if self.lam == 0.0 else solve(A, b, self.lam)[0]
 
     def reset(self):
@@ -167,6 +175,7 @@ class Marquardt:
         iterate is accepted and compared with from then on)."""
         self.lam = self.used = 0.0
         self.base = self.rows = None
+        self.gains = []
 
     def retreat(self):
         """The unknowns after a rejected iterate: a shorter step from the accepted one; None

@@ -316,3 +316,21 @@ def test_a_poorly_observed_drag_coefficient_stalls_with_the_coefficient_advice()
         fit = vv.fit_orbit(obs2, guess, forces, **kw)
         assert 0.7 < fit.rms < 1.3 and fit.iterations < 10
         assert np.linalg.norm(fit.state.r.to_value(u.km) - Y_TRUE[:3]) < 0.5
+
+
+def test_no_window_when_the_rows_nearest_the_epoch_are_far_from_it():
+    """One station whose passes come 3 h and 4.6 h into a 6 h arc (19 rows of az/el), 100 km
+    off: the first window (at least 12 components: the nearest 6 rows) was 4.6 h wide, its fit
+    as far from linear as the whole arc's, and the fit ran out of the default iterations
+    (damping alone converges)."""
+    from visviva.od.damping import Window
+
+    t = 16000.0 + np.arange(40) * 60.0  # every row hours from the epoch
+    assert not Window(t, np.full(t.size, 2), 6).open(1e9)
+    azel = vv.od.simulate_tracking(TRUTH, STATIONS[2:], EPOCH + np.arange(0, 6 * 3600, 30) * u.s,
+                                   J2, seed=1, measurements={"azel": np.radians(0.01)})
+    assert azel.offsets_s(EPOCH).min() > 3 * 3600
+    fit = vv.fit_orbit(azel, _guess([18.122, 96.33, 19.802], [0.0, 0.0, 0.0]), J2)
+    assert fit.iterations <= 14 and all(h["window"] is None for h in fit.history)
+    assert any(not h["accepted"] for h in fit.history)
+    assert 0.7 < fit.rms < 1.3 and _nees(fit) < stats.chi2.ppf(0.999, 6)

@@ -17,7 +17,7 @@ from .._covariance import in_frame, km_covariance
 from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
-from .damping import WINDOW_FIT, Marquardt, Window, solve
+from .damping import WINDOW_FIT, WINDOW_SETTLE, Marquardt, Window, solve
 from .fit_checks import failed, stall_message, stalled, warn_misfit
 from .initial_state import check_initial
 from .light_time import model
@@ -595,7 +595,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                         "window": win.seconds})  # fmt: skip
         settled = (rms_prev is not None and lm.used == 0.0  # a damped step is short: not settled
                    and abs(rms - rms_prev) <= tol * max(rms_prev, 1e-300))
-        if win.active and (settled or step < EDIT_AFTER_STEP):  # the window's fit settled
+        if win.active and (settled or step < WINDOW_SETTLE):  # the window's fit settled
             win.widen(np.max(np.abs(zn), axis=1) <= WINDOW_FIT * max(1.0, rms))
             restart()
             continue
@@ -611,14 +611,14 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
                 continue
             converged = True
             break
-        if stalled(history[since:]):  # creeping towards max_iterations: say why now
-            raise failed(history, stall_message(it, rms, step, [c.name for c in est]))
         if rms_prev is not None and rms > 1e3 * min(hh["rms"] for hh in history[since:]) and it > 3:
             break
         rejected = new_rejected
         rms_prev = rms
         last_step = step
         lm.accept(A, b, np.r_[x, dv, pv], zn, use, n_meas)
+        if why := stalled(history[since:], lm.gains):  # creeping to max_iterations: say why now
+            raise failed(history, stall_message(it, rms, step, [c.name for c in est], why))
         dx = lm.step(A, b, dx)  # Gauss-Newton's dx unless a step was rejected lately
         x = x + dx[:6]
         dv = dv + dx[6:n_dv]

@@ -29,10 +29,11 @@ at an RMS of thousands). Hence arc continuation (:class:`Window`; the "fit a sho
 first" of Tapley, Schutz & Born 2004, sec. 4.3, automated): when a damped step is rejected
 too, after a Gauss-Newton step of over ``WINDOW_STEP`` of its own sigmas, the fit restarts
 from the accepted iterate on the rows nearest the epoch (the nearest 1/``WINDOW_FRACTION`` of
-them), where the linearisation holds; each time that fit settles (a correction under 3 of its
-own sigmas, or an RMS that stopped changing) the window doubles its span (on past gaps, and
-past the rows the estimate already fits), until it holds every row and the fit goes on as
-before. A fit without a rejected step never opens one (the same bits as ``damping=None``).
+them), where the linearisation holds; each time that fit settles (a correction under
+``WINDOW_SETTLE`` of its own sigmas, or an RMS that stopped changing) the window doubles its
+span (on past gaps, and past the rows the estimate already fits, ``WINDOW_FIT``), until it
+holds every row and the fit goes on as before. A fit without a rejected step never opens one
+(the same bits as ``damping=None``).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["DAMPINGS", "WINDOW_FIT", "Marquardt", "Window", "solve"]
+__all__ = ["DAMPINGS", "WINDOW_FIT", "WINDOW_SETTLE", "Marquardt", "Window", "solve"]
 
 #: the values of ``fit_orbit(damping=...)``
 DAMPINGS = ("auto", None)
@@ -60,9 +61,20 @@ WINDOW_STEP = 100.0
 #: twice as many components as unknowns (from 200 km off, 20 random directions, 1/4 reached
 #: the data's minimum 15 times, 1/8 19 times, 1/16 20 times; docs/performance.md)
 WINDOW_FRACTION = 16
+#: the window's fit has settled (the window widens) when a correction is under this many of its
+#: own sigmas: the wider window's fit goes on from there, so the last few sigmas of the narrow
+#: one are not worth an iteration each (3 cost one to two iterations per widening)
+WINDOW_SETTLE = 10.0
 #: a row beyond the window fits (the window widens past it without an iteration) when its
-#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS)
-WINDOW_FIT = 4.0
+#: normalised residuals are under WINDOW_FIT x max(1, the window's RMS): rows that far off are
+#: still in the linear regime (a far guess's late rows are off by 10^3-10^7 sigmas), and the
+#: next Gauss-Newton step fits them (4 cost two iterations per pass of a one-station arc)
+WINDOW_FIT = 100.0
+#: no window when its first one reaches past WINDOW_NEAR of the farthest row's distance from the
+#: epoch: the rows nearest the epoch are then no nearer than the rest, and their fit is as far
+#: from linear as the whole arc's (one station whose first pass comes 4.5 h into a 6 h arc:
+#: az/el from 100 km off, 13 of 20 within 60 iterations against 8 with the window)
+WINDOW_NEAR = 0.5
 
 
 def solve(A, b, lam=0.0):
@@ -116,6 +128,8 @@ class Marquardt:
         self.used = 0.0  # lambda of the step that led to the current iterate
         self.base = None  # (A, b, unknowns) of the last accepted iterate
         self.rows = None  # (normalised residuals, rows used, a priori rows' residuals) there
+        self.predicted = self.gain = None  # chi^2 drop Gauss-Newton promised; got / promised
+        self.gains = []  # the gain of each accepted iterate since the rows changed (None: first)
 
     @property
     def armed(self):
@@ -131,9 +145,13 @@ class Marquardt:
         reads as a worse fit there (the 24 h LEO benchmark campaign, from 1.5 km off, was
         damped to a standstill that way); on every row alone the true outliers move the
         minimum away from the edited fit's, and its converging steps read as worse."""
+        self.gain = None
         if not self.armed:
             return False
         zn0, kept0, prior0 = self.rows
+        then = np.sum(zn0[kept0] ** 2) + np.sum(prior0 ** 2)  # chi^2 there, on its rows
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.gain = (then - np.sum(zn[kept0] ** 2) - np.sum(prior ** 2)) / self.predicted
 
         def grew(rows):
             now = np.sqrt(np.mean(np.r_[zn[rows], prior] ** 2))
@@ -147,6 +165,7 @@ class Marquardt:
         ``kept`` by editing; the rows of ``b`` past ``n_meas`` are the a priori ones) and lower
         lambda."""
         if self.on:
+            self.gains.append(self.gain)
             self.base = (A, b, unknowns)
             self.rows = (zn, kept, b[n_meas:])
             self.lam = self.lam / LAMBDA_DOWN if self.lam / LAMBDA_DOWN >= LAMBDA_OFF else 0.0
@@ -154,6 +173,7 @@ class Marquardt:
     def step(self, A, b, dx):
         """The step to take from the accepted iterate: ``dx`` (Gauss-Newton) or damped."""
         self.used = self.lam
+        self.predicted = float(np.sum((A @ dx) ** 2))  # Gauss-Newton's chi^2 drop, n step^2
         return dx if self.lam == 0.0 else solve(A, b, self.lam)[0]
 
     def reset(self):
@@ -161,6 +181,7 @@ class Marquardt:
         iterate is accepted and compared with from then on)."""
         self.lam = self.used = 0.0
         self.base = self.rows = None
+        self.gains = []
 
     def retreat(self):
         """The unknowns after a rejected iterate: a shorter step from the accepted one; None
@@ -213,8 +234,10 @@ class Window:
     def open(self, step):
         """Open the window after a rejected damped step (the Gauss-Newton step from the accepted
         iterate was ``step`` of its sigmas), once per fit, when that step was long
-        (``WINDOW_STEP``) and the first window leaves rows out; True if opened."""
-        if self.opened or not step > WINDOW_STEP or self.first >= self.dist.max():
+        (``WINDOW_STEP``) and the first window leaves rows out and stays near the epoch
+        (``WINDOW_NEAR``); True if opened."""
+        if (self.opened or not step > WINDOW_STEP or self.first >= self.dist.max()
+                or self.first > WINDOW_NEAR * self.dist.max()):
             return False
         self.opened, self.span = True, max(self.first, 1e-9)
         return True

@@ -12,7 +12,7 @@ import warnings
 
 from ..errors import ConvergenceError
 
-__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "STALL_CHANGE", "STALL_ITERATIONS", "STALL_STEP",
+__all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "STALL_CHANGE", "STALL_GAIN", "STALL_ITERATIONS", "STALL_STEP",
            "failed", "stall_message", "stalled", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
@@ -33,28 +33,47 @@ MISFIT_REJECTED = 0.2
 STALL_CHANGE = 1e-3
 STALL_ITERATIONS = 4
 STALL_STEP = 3.0
+#: ... or when each of STALL_ITERATIONS accepted iterates in a row lowered chi^2 by under
+#: STALL_GAIN of what its step's linear model promised (Madsen, Nielsen & Tingleff 2004's gain
+#: ratio; about 1 near a minimum): damped steps creeping down a curved valley, the RMS falling
+#: a few % per iterate, never settling (a drag coefficient two stations barely see: 273
+#: iterations to leave its domain)
+STALL_GAIN = 0.1
 
 
-def stalled(history):
+def stalled(history, gains=()):
     """Whether the accepted iterates at the end of ``history`` (entries of one set of rows)
-    have stalled (``STALL_*``): the fit would creep to max_iterations."""
+    have stalled (``STALL_*``): the fit would creep to max_iterations ("flat" or "creeping",
+    else False). ``gains``: each accepted
+    iterate's drop in chi^2 over the drop its step's linear model promised (None where unknown;
+    a damped fit's), the last ``STALL_ITERATIONS`` under ``STALL_GAIN`` after corrections over
+    ``STALL_STEP`` sigmas are a stall too (damped steps creeping down a valley)."""
     acc = [h for h in history if h["accepted"]][-(STALL_ITERATIONS + 1):]
     if len(acc) <= STALL_ITERATIONS:
         return False
     rms = [h["rms"] for h in acc]
-    return (all(abs(b - a) <= STALL_CHANGE * a for a, b in zip(rms, rms[1:], strict=False))
-            and all(h["correction"] > STALL_STEP for h in acc[1:]))
+    if (all(abs(b - a) <= STALL_CHANGE * a for a, b in zip(rms, rms[1:], strict=False))
+            and all(h["correction"] > STALL_STEP for h in acc[1:])):
+        return "flat"
+    last = list(gains)[-STALL_ITERATIONS:]
+    if (len(last) == STALL_ITERATIONS and all(g is not None and g < STALL_GAIN for g in last)
+            and all(h["correction"] > STALL_STEP for h in acc[:-1])):
+        return "creeping"
+    return False
 
 
-def stall_message(it, rms, step, estimated):
-    """What a stalled fit (:func:`stalled`) says: where, and what to do (``estimated``: the
-    names of the coefficients it estimates)."""
+def stall_message(it, rms, step, estimated, why="flat"):
+    """What a stalled fit (:func:`stalled`, which said ``why``) says: where, and what to do
+    (``estimated``: the names of the coefficients it estimates)."""
     todo = ("fix the estimated coefficients (" + ", ".join(estimated) + ": leave them out of "
             "estimate=) or give them an a priori sigma (parameter_sigma=); or " if estimated
             else "")
-    return (f"the orbit fit stalled at iteration {it}: over {STALL_ITERATIONS} iterations its "
-            f"RMS ({rms:.4g}) changed by under {100 * STALL_CHANGE:.2g} % while each correction "
-            f"was {step:.3g} of its own sigmas, so the data barely determine a direction of the "
+    how = (f"its RMS ({rms:.4g}) changed by under {100 * STALL_CHANGE:.2g} %" if why == "flat"
+           else f"each accepted step lowered chi^2 by under {100 * STALL_GAIN:.2g} % of what "
+           f"the Gauss-Newton step promised (RMS now {rms:.4g})")
+    return (f"the orbit fit stalled at iteration {it}: over {STALL_ITERATIONS} iterations {how} "
+            f"while each correction was {step:.3g} of its own sigmas, so the data barely "
+            "determine a direction of the "
             f"estimate: {todo}start from a better initial state (IOD), or fit a shorter arc "
             "first.")
 

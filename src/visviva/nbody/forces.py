@@ -46,6 +46,7 @@ __all__ = [
     "GeneralRelativityPotential",
     "LinearDrag",
     "combine",
+    "follow_removal",
     "force_key",
 ]
 
@@ -96,6 +97,11 @@ class Force:
         have been changed since it was made), JSON-ready; None: rebuild from ``fn`` and
         ``params``. Quantities are stored as ``{"value": ..., "unit": ...}``."""
         return None
+
+    def particle_removed(self, index: int, merged_into: int | None = None) -> None:
+        """Follow the removal of particle ``index`` (later indices shift down by one; a merger
+        passes the particle it went into). A plain force knows no particle indices: a user's
+        force whose parameters name particles must be updated by its owner."""
 
     def copy(self) -> Force:
         """An independent copy (its own parameter array): changing the copy's parameters or
@@ -289,7 +295,52 @@ def _speed_of_light(sim, c):
     return C_KM_S / (sim.units.length_km / sim.units.time_s)
 
 
-class J2Force(Force):
+def _primary_index(sim, force) -> int:
+    """The primary of ``force`` (a :class:`J2Force` or relativistic force) as an index of a
+    massive particle of ``sim``, checked: the kernels do not check indices, so a primary out of
+    range read another particle's or unallocated memory, and a massless one added nothing."""
+    p = force.primary
+    if not 0 <= p < sim.N:
+        raise InvalidInputError(
+            f"the {force.name} force's primary is particle {p}, but the simulation has {sim.N} "
+            f"particle(s) (indices 0 to {sim.N - 1}): set force.primary to the index of the "
+            "body it belongs to.")
+    if not sim.masses[p] > 0:
+        raise InvalidInputError(
+            f"the {force.name} force's primary, particle {p}, has no mass, so the force would be "
+            "zero: set force.primary to the index of the massive body it belongs to.")
+    return p
+
+
+class _OfPrimary(Force):
+    """A force of one particle, ``self.primary``, whose index follows removals and mergers."""
+
+    primary: int
+
+    def particle_removed(self, index, merged_into=None):
+        if self.primary == index:
+            if merged_into is None:
+                raise InvalidInputError(
+                    f"particle {index} is the primary of the {self.name} force: remove that "
+                    "force first (sim.clear_forces(), then add the others again), or point it "
+                    "at another body (force.primary = ...).")
+            self.primary = int(merged_into)
+        elif self.primary > index:
+            self.primary -= 1
+
+
+def follow_removal(forces, index: int, merged_into: int | None = None) -> None:
+    """Let every force follow the removal of particle ``index`` (``merged_into``: the particle
+    a merger put it into); a force that would lose its body raises before any force changes."""
+    if merged_into is None:
+        for force in forces:
+            if getattr(force, "primary", None) == index:
+                force.particle_removed(index)  # raises, saying what to do
+    for force in forces:
+        force.particle_removed(index, merged_into)
+
+
+class J2Force(_OfPrimary):
     """Oblateness (J2) of particle ``primary``, pole along the z axis (an N-body force).
 
     Not to be confused with :class:`visviva.J2`, the Cowell perturbation of a satellite's orbit.
@@ -314,10 +365,11 @@ class J2Force(Force):
                 "radius": _encode(self.radius)}
 
     def parameters(self, sim):
-        return np.array([sim.G, self.primary, self.j2, _length(sim, self.radius, "radius")])
+        return np.array([sim.G, _primary_index(sim, self), self.j2,
+                         _length(sim, self.radius, "radius")])
 
 
-class _Relativistic(Force):
+class _Relativistic(_OfPrimary):
     """A relativistic correction of the mass ``primary``; ``c`` in simulation units or None.
 
     Parameters
@@ -338,7 +390,7 @@ class _Relativistic(Force):
         return {"primary": int(self.primary), "c": None if self.c is None else float(self.c)}
 
     def parameters(self, sim):
-        return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
+        return np.array([sim.G, _primary_index(sim, self), _speed_of_light(sim, self.c)])
 
 
 class GeneralRelativity(_Relativistic):

@@ -365,9 +365,11 @@ class Simulation:
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
         return self.N - 1
 
-    def remove(self, index: int) -> None:
-        """Remove particle ``index`` (later indices shift down by one)."""
-        self._state.remove(_s.particle_index(self, index))
+    def remove(self, index: int, *, merged_into: int | None = None) -> None:
+        """Remove particle ``index``: later indices, and a force's primary, shift down by one
+        (removing a force's primary raises unless ``merged_into`` names where it went)."""
+        _forces.follow_removal(self._forces, k := _s.particle_index(self, index), merged_into)
+        self._state.remove(k)
 
     def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
         """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision

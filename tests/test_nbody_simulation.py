@@ -469,3 +469,28 @@ def test_whfast_softening_differs_in_rebound_and_both_copies_say_so():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.to_rebound()
+
+
+def test_from_rebound_says_what_it_cannot_carry_of_the_dynamics():
+    # REBOUND's additional forces (a callback or REBOUNDx) and gravity = 'none' were dropped
+    # without a word: the copy integrated plain Newtonian gravity
+    rebound = pytest.importorskip("rebound")
+    r = rebound.Simulation()
+    r.add(m=1.0)
+    r.add(m=1e-3, a=1.0, e=0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.Simulation.from_rebound(r)  # nothing to say
+
+    def push(reb_sim):
+        reb_sim.contents.particles[1].ax += 1e-3
+
+    r.additional_forces = push
+    with pytest.warns(UserWarning, match="additional forces .* gravity alone"):
+        vv.Simulation.from_rebound(r)
+    r2 = rebound.Simulation()
+    r2.add(m=1.0)
+    r2.add(m=1e-3, a=1.0)
+    r2.gravity = "none"
+    with pytest.raises(vv.InvalidInputError, match="gravity = 'none'"):
+        vv.Simulation.from_rebound(r2)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import warnings
 from pathlib import Path
 
@@ -494,3 +495,24 @@ def test_from_rebound_says_what_it_cannot_carry_of_the_dynamics():
     r2.gravity = "none"
     with pytest.raises(vv.InvalidInputError, match="gravity = 'none'"):
         vv.Simulation.from_rebound(r2)
+
+
+def test_solar_system_without_de421_warns_how_far_off_the_builtin_ephemeris_is(monkeypatch):
+    # astropy's built-in ephemeris (plan94) was used in silence, documented as ~1e-5: Saturn's
+    # velocity is 3.6e-3 off DE421 (its period ~1 % off); Pluto raised astropy's KeyError
+    from astropy.time import Time
+
+    epoch = Time("2030-06-01", scale="tdb")
+    de421_sim = vv.solar_system(epoch)
+    monkeypatch.setitem(sys.modules, "de421", None)  # import de421 -> ImportError
+    with pytest.warns(UserWarning, match="DE421 is not installed"):
+        sim = vv.solar_system(epoch)
+    dv = np.linalg.norm(sim.velocities - de421_sim.velocities, axis=1)
+    assert 1e-3 < dv[6] / np.linalg.norm(de421_sim.velocities[6]) < 4e-3  # Saturn, as stated
+    with pytest.raises(vv.InvalidInputError, match="no Pluto"):
+        vv.solar_system(epoch, pluto=True)
+
+
+def test_solar_system_outside_de421_says_so():
+    with pytest.raises(vv.InvalidInputError, match="outside DE421"):
+        vv.solar_system(2025.0)  # a year given as a Julian date: 4707 BC

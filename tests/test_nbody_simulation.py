@@ -516,3 +516,17 @@ def test_solar_system_without_de421_warns_how_far_off_the_builtin_ephemeris_is(m
 def test_solar_system_outside_de421_says_so():
     with pytest.raises(vv.InvalidInputError, match="outside DE421"):
         vv.solar_system(2025.0)  # a year given as a Julian date: 4707 BC
+
+
+def test_solar_system_names_follow_a_removal(tmp_path):
+    # remove() left sim.names as it was: after removing Mercury, names[1] still said 'mercury'
+    # for Venus (and every later label was one body off, in the saved file too)
+    sim = vv.solar_system()
+    venus = sim.positions[2]
+    copy = sim.copy()
+    sim.remove(1)
+    assert sim.names[1] == "venus" and len(sim.names) == sim.N == 8
+    assert np.array_equal(sim.positions[sim.names.index("venus")], venus)
+    assert copy.names[1] == "mercury"  # the copy keeps its own labels
+    sim.save(tmp_path / "s.npz")
+    assert vv.Simulation.load(tmp_path / "s.npz").names == sim.names

@@ -366,10 +366,12 @@ class Simulation:
         return self.N - 1
 
     def remove(self, index: int, *, merged_into: int | None = None) -> None:
-        """Remove particle ``index``: later indices, and a force's primary, shift down by one
-        (removing a force's primary raises unless ``merged_into`` names where it went)."""
+        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down
+        by one (removing a force's primary raises unless ``merged_into`` names where it went)."""
         _forces.follow_removal(self._forces, k := _s.particle_index(self, index), merged_into)
         self._state.remove(k)
+        if getattr(self, "names", None) is not None:  # solar_system's labels (a new list:
+            self.names = self.names[:k] + self.names[k + 1:]  # a copy's are not changed)
 
     def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
         """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision
@@ -640,10 +642,8 @@ class Simulation:
         new._forces = [f.copy() for f in self._forces]  # shared, a copy's change was everyone's
         return new
 
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        state["_fused"] = None  # a compiled closure: rebuilt on first use after unpickling
-        return state
+    def __getstate__(self):  # the fused force is a compiled closure: rebuilt after unpickling
+        return {**self.__dict__, "_fused": None}
 
     def __repr__(self) -> str:
         return (f"<Simulation {self.integrator} N={self.N} (active {self.N_active}) "

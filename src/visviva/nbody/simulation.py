@@ -22,6 +22,7 @@ from ..errors import InvalidInputError, InvalidStateError, ShapeError, fmt_numbe
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
+from . import step_check as _step_check
 from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
@@ -405,8 +406,7 @@ class Simulation:
         return force
 
     def clear_forces(self) -> None:
-        self._forces = []
-        self._fused = None
+        self._forces, self._fused = [], None
 
     def _check_force(self, force):
         if force.velocity_dependent and not self._integrator.velocity_dependent_forces:
@@ -484,8 +484,9 @@ class Simulation:
         if info.name == "whfast" and self._state.m[0] <= 0:
             raise InvalidInputError(
                 f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
-                "coordinates): add the star first."
-            )
+                "coordinates): add the star first.")
+        if info.name == "whfast":  # a step too long for the orbits: warned (step_check.py)
+            _step_check.check_step(self)
         if info.adaptive and self.dt == 0.0:
             self._state.fstate[_nc.F_DT] = self._initial_dt()
         self._state.istate[_nc.I_NOUT] = 0
@@ -567,8 +568,7 @@ class Simulation:
             from .gpu import integrate_simulation
 
             return integrate_simulation(self, t, progress=progress)
-        scalar = np.ndim(t) == 0
-        st = self._state
+        scalar, st = np.ndim(t) == 0, self._state
         saved = st.copy()  # taken back when the run breaks (a few us; ~1 % of a call)
         times = self.begin_run(t)
         info = self._integrator

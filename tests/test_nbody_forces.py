@@ -354,3 +354,44 @@ def test_a_merger_keeps_the_force_on_the_merged_body():
     ref.integrate(2.0)
     rel = sim.positions[1] - sim.positions[0]
     assert np.abs(rel - (ref.positions[1] - ref.positions[0])).max() < 1e-9
+
+
+def test_speed_of_light_as_a_quantity_is_converted_and_saved(tmp_path):
+    # c=299792.458 * u.km / u.s raised a bare TypeError (float() of a Quantity); J2Force's
+    # radius took Quantities already
+    from astropy import units as u
+
+    def mercury(c):
+        sim = vv.Simulation("ias15", units=("au", "yr", "Msun"))
+        sim.add(1.0)
+        sim.add(0.0, a=0.387, e=0.2, primary=0)
+        sim.add_force(GeneralRelativity(0, c=c))
+        return sim
+
+    a, b = mercury(299792.458 * u.km / u.s), mercury(None)  # None: c from the units
+    a.integrate(1.0)
+    b.integrate(1.0)
+    assert np.array_equal(a.positions, b.positions)
+    a.save(tmp_path / "gr.npz")
+    c = vv.Simulation.load(tmp_path / "gr.npz")
+    c.integrate(2.0)
+    b.integrate(2.0)
+    assert np.array_equal(c.positions, b.positions)
+
+
+@pytest.mark.parametrize("make", [
+    lambda bad: GeneralRelativity(0, c=bad),
+    lambda bad: GeneralRelativityPotential(0, c=bad),
+    lambda bad: J2Force(0, 1e-3, bad),
+])
+@pytest.mark.parametrize("bad", [-1.0, 0.0])
+def test_a_nonpositive_radius_or_speed_of_light_is_refused(make, bad):
+    # -1 squared to +1 in silence; 0 made J2 vanish and GR infinite (reported as a NaN run)
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(0.0, a=1.0, e=0.1, primary=0)
+    sim.add_force(make(bad))
+    with pytest.raises(vv.InvalidInputError, match="must be finite and > 0"):
+        sim.integrate(1.0)
+    with pytest.raises(vv.InvalidInputError, match="j2 must be a finite"):
+        J2Force(0, float("nan"), 0.1)

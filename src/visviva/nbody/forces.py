@@ -37,7 +37,8 @@ import numpy as np
 from ..constants import C_KM_S
 from ..core._jit import inline_kernel, kernel
 from ..core.relativity import schwarzschild
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
+from . import settings as _s
 
 __all__ = [
     "Force",
@@ -129,10 +130,10 @@ class Force:
 
 
 def _encode(value):
-    """A constructor argument for JSON: a Quantity as ``{"value", "unit"}``, else itself."""
+    """A constructor argument for JSON: a Quantity as ``{"value", "unit"}``, else a float."""
     if hasattr(value, "unit"):
         return {"value": float(value.value), "unit": value.unit.to_string()}
-    return value
+    return float(value)
 
 
 def _decode(value):
@@ -278,15 +279,19 @@ def linear_drag_force(t, x, v, m, params, acc):
         acc[i, 2] -= g * v[i, 2]
 
 
-def _length(sim, value, name):
-    if sim.units is None:
-        return float(value)
-    return float(sim.units.length_value(value, name)) if hasattr(value, "unit") else float(value)
+def _positive(sim, value, kind: str, what: str) -> float:
+    """``value`` (simulation units, or a Quantity of ``kind`` when the simulation has units) as
+    a finite float > 0, or an InvalidInputError naming ``what`` (a zero radius or ``c`` made
+    the force vanish or blow up, and a negative one squared to a positive one in silence)."""
+    x = _s.scalar(_s.convert(sim, value, kind, what), what)
+    if not (math.isfinite(x) and x > 0):
+        raise InvalidInputError(f"{what} must be finite and > 0; got {fmt_number(x)}.")
+    return x
 
 
 def _speed_of_light(sim, c):
     if c is not None:
-        return float(c)
+        return _positive(sim, c, "speed", "the speed of light c")
     if sim.units is None:
         raise InvalidInputError(
             "the speed of light in simulation units is unknown: pass c=... or create the "
@@ -359,6 +364,8 @@ class J2Force(_OfPrimary):
                 "Quantity); got None. For a file saved with a Quantity radius by an older "
                 "visviva, pass the force again: Simulation.load(path, forces=[J2Force(...)]).")
         self.primary, self.j2, self.radius = int(primary), float(j2), radius
+        if not math.isfinite(self.j2):
+            raise InvalidInputError(f"J2Force: j2 must be a finite number; got {j2!r}.")
 
     def _init_args(self):
         return {"primary": int(self.primary), "j2": float(self.j2),
@@ -366,7 +373,7 @@ class J2Force(_OfPrimary):
 
     def parameters(self, sim):
         return np.array([sim.G, _primary_index(sim, self), self.j2,
-                         _length(sim, self.radius, "radius")])
+                         _positive(sim, self.radius, "length", "the J2Force radius")])
 
 
 class _Relativistic(_OfPrimary):
@@ -376,8 +383,9 @@ class _Relativistic(_OfPrimary):
     ----------
     primary : int
         Index of the dominant mass.
-    c : float, optional
-        Speed of light in simulation units; derived from the simulation's units when None.
+    c : float or Quantity, optional
+        Speed of light in simulation units (or a Quantity of speed); derived from the
+        simulation's units when None.
     """
 
     _kernel = _velocity_dependent = _label = None  # set by each subclass
@@ -387,7 +395,7 @@ class _Relativistic(_OfPrimary):
         self.primary, self.c = int(primary), c
 
     def _init_args(self):
-        return {"primary": int(self.primary), "c": None if self.c is None else float(self.c)}
+        return {"primary": int(self.primary), "c": None if self.c is None else _encode(self.c)}
 
     def parameters(self, sim):
         return np.array([sim.G, _primary_index(sim, self), _speed_of_light(sim, self.c)])

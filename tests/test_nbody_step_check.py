@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import visviva as vv
-from visviva.nbody.step_check import MAX_STEP_FRACTION, shortest_period
+from visviva.nbody.step_check import MAX_STEP_FRACTION, shortest_timescale
 
 
 def two_planets(integrator="whfast", dt=None, coordinates="jacobi"):
@@ -27,7 +27,7 @@ def test_a_step_of_a_third_of_the_period_is_warned_about_and_is_wrong():
     ref = two_planets("ias15")
     ref.integrate(100.0)
     sim = two_planets(dt=P / 3)
-    with pytest.warns(UserWarning, match=r"step dt = .* 0\.33 of the shortest orbital period"):
+    with pytest.warns(UserWarning, match=r"step dt = .* 0\.39 of the shortest orbital timescale"):
         sim.integrate(100.0)
     assert np.abs(sim.positions - ref.positions).max() > 0.1  # what the warning is about
     with warnings.catch_warnings():
@@ -51,12 +51,46 @@ def test_two_bodies_are_exact_in_jacobi_coordinates_at_any_step_but_not_in_dh():
         sim.integrate(50.0)
 
 
-def test_shortest_period_is_the_two_body_period_and_skips_unbound_orbits():
+def test_the_timescale_is_the_period_at_the_pericentre_distance():
     sim = two_planets()
-    sim.add(0.0, r=[5.0, 0.0, 0.0], v=[0.0, 2.0, 0.0])  # hyperbolic: no period
+    sim.add(0.0, r=[5.0, 0.0, 0.0], v=[0.0, 2.0, 0.0])  # hyperbolic, pericentre 5: not the least
     x, v, m = sim.positions, sim.velocities, sim.masses
-    inner = 2 * math.pi * math.sqrt(1.0 / 1.001)  # placed at a = 1 about particle 0, G (m0 + m1)
+    # particle 1 placed at a = 1, e = 0.1 about particle 0 with G (m0 + m1)
+    inner = 2 * math.pi * math.sqrt(0.9**3 / 1.001)
     for jacobi in (True, False):
-        assert shortest_period(x, v, m, sim.G, jacobi) == pytest.approx(inner, rel=1e-12)
-    assert shortest_period(x[[0, 3]], v[[0, 3]], m[[0, 3]], 1.0) == math.inf
+        assert shortest_timescale(x, v, m, sim.G, jacobi) == pytest.approx(inner, rel=1e-12)
+    assert shortest_timescale(x[[0, 3]], v[[0, 3]], m[[0, 3]], 1.0) == pytest.approx(
+        2 * math.pi * 5.0**1.5, rel=1e-12)
     assert 0 < MAX_STEP_FRACTION < 0.5
+
+
+def test_a_test_particle_falling_onto_the_star_is_warned_about():
+    # it came out of the pericentre unbound (specific energy -1 -> +0.78 at t = 2, dt = 0.01 =
+    # 1/200 of its period) in silence: the total energy, which it does not enter, was fine
+    sim = vv.Simulation("whfast", dt=0.01)
+    sim.add(1.0)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(0.0, r=[1.0, 0.0, 0.0])
+    with pytest.warns(UserWarning, match="comes out of its pericentre unbound"):
+        sim.integrate(2.0)
+    w = sim.velocities[2] - sim.velocities[0]
+    assert 0.5 * w @ w - 1 / np.linalg.norm(sim.positions[2] - sim.positions[0]) > 0  # unbound
+
+
+def test_a_plunge_that_ends_in_a_collision_is_not_warned_about():
+    # a body falling straight onto the star (pericentre 0: a timescale of 0, which divided by
+    # zero in the message) is fine when collisions are on and the radii will meet first
+    sim = vv.Simulation("whfast", dt=0.01, collision="merge")
+    sim.add(1.0, radius=0.05)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(1e-6, r=[1.0, 0.0, 0.0], radius=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.integrate(2.0)
+    assert sim.N == 2  # merged with the star
+    sim = vv.Simulation("whfast", dt=0.01, coordinates="democratic_heliocentric")
+    sim.add(1.0)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(1e-6, r=[1.0, 0.0, 0.0])  # at rest beside the star at rest: q = 0 exactly
+    with pytest.warns(UserWarning, match="is inf of the shortest"):
+        sim.integrate(0.1)

@@ -94,3 +94,18 @@ def test_a_plunge_that_ends_in_a_collision_is_not_warned_about():
     sim.add(1e-6, r=[1.0, 0.0, 0.0])  # at rest beside the star at rest: q = 0 exactly
     with pytest.warns(UserWarning, match="is inf of the shortest"):
         sim.integrate(0.1)
+
+
+@pytest.mark.parametrize("integrator", ["leapfrog", "whfast"])
+def test_a_run_of_more_than_1e15_fixed_steps_is_refused(integrator):
+    # integrate(1e300) with dt = 0.01 hung in one uninterruptible compiled call (IAS15 has a
+    # relative step floor; the fixed-step integrators had none)
+    sim = two_planets(integrator, dt=0.01)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps"):
+        sim.integrate(1e300)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps"):
+        sim.integrate(np.array([1.0, 1e16]))
+    assert sim.t == 0.0
+    sim.integrate(np.array([]))  # nothing to do
+    sim.integrate(1.0)
+    assert sim.t == 1.0

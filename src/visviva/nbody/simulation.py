@@ -485,8 +485,8 @@ class Simulation:
             raise InvalidInputError(
                 f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
                 "coordinates): add the star first.")
-        if info.name == "whfast":  # a step too long for the orbits: warned (step_check.py)
-            _step_check.check_step(self)
+        if info.needs_dt:  # a step too short for the run, or too long for the orbits
+            _step_check.check_step(self, times)
         if info.adaptive and self.dt == 0.0:
             self._state.fstate[_nc.F_DT] = self._initial_dt()
         self._state.istate[_nc.I_NOUT] = 0

@@ -1,4 +1,4 @@
-"""A warning when WHFast's fixed step is too long for the orbits it integrates.
+"""Checks of a fixed step: too short for the run (refused), too long for WHFast's orbits (warned).
 
 WHFast solves each Kepler drift exactly, so the step only has to resolve the interaction between
 the bodies; but with a step beyond a fraction of the shortest orbital timescale the map stops
@@ -32,12 +32,15 @@ import warnings
 import numpy as np
 
 from ..core import nbody_common as _nc
-from ..errors import fmt_number
+from ..errors import InvalidInputError, fmt_number
 
-__all__ = ["MAX_STEP_FRACTION", "shortest_timescale", "check_step"]
+__all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step"]
 
 #: A WHFast step longer than this fraction of the shortest pericentre timescale is warned about.
 MAX_STEP_FRACTION = 0.2
+#: A fixed step below this fraction of a run's time scale is refused (IAS15's relative floor,
+#: :data:`visviva.core.nbody_ias15.DT_FLOOR_REL`).
+MIN_STEP_REL = 1e-15
 
 
 def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> float:
@@ -79,9 +82,23 @@ def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> f
     return float(tau[ok].min()) if ok.any() else math.inf
 
 
-def check_step(sim) -> None:
-    """Warn when ``sim`` (a WHFast :class:`~visviva.Simulation`) steps longer than
-    :data:`MAX_STEP_FRACTION` of its shortest pericentre timescale."""
+def check_step(sim, times) -> None:
+    """Check the fixed step of ``sim`` (a leapfrog or WHFast :class:`~visviva.Simulation`) for a
+    run through ``times``: refuse one shorter than :data:`MIN_STEP_REL` of the larger of the
+    run's time span and its largest |t| (the run would take over 10^15 steps: a typo such as
+    ``integrate(1e300)`` hung without end in one uninterruptible compiled call), and warn when
+    a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale."""
+    t0 = sim.t
+    scale = max(abs(t0), float(np.abs(times).max()), float(np.abs(times - t0).max())) if len(
+        times) else 0.0
+    if abs(sim.dt) < MIN_STEP_REL * scale:
+        raise InvalidInputError(
+            f"the {sim.integrator} step dt = {fmt_number(sim.dt)} is below 1e-15 of this run's "
+            f"time scale ({fmt_number(scale)}: from t = {fmt_number(t0)} to "
+            f"{fmt_number(times[-1])}), so it would take over 10^15 steps and never finish; "
+            "check the output times (and their units) or use a longer dt.")
+    if sim.integrator != "whfast":
+        return
     jacobi = sim.coordinates == "jacobi"
     key = (sim.dt, sim.N, jacobi)  # checked again when these or the particles change
     if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and getattr(sim, "_step_checked",

@@ -109,3 +109,13 @@ def test_a_run_of_more_than_1e15_fixed_steps_is_refused(integrator):
     sim.integrate(np.array([]))  # nothing to do
     sim.integrate(1.0)
     assert sim.t == 1.0
+
+
+def test_an_ensemble_member_with_a_step_too_short_is_named():
+    # only member 0 was checked on the ensemble's fast path: member 1 would hang
+    sims = [two_planets("leapfrog", dt=0.01), two_planets("leapfrog", dt=1e-17)]
+    ens = vv.Ensemble.from_simulations(sims)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps") as info:
+        ens.integrate(1.0)
+    assert info.value.member == 1
+    assert ens.t.tolist() == [1.0, 0.0]

@@ -89,8 +89,8 @@ def check_step(sim, times) -> None:
     ``integrate(1e300)`` hung without end in one uninterruptible compiled call), and warn when
     a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale."""
     t0 = sim.t
-    scale = max(abs(t0), float(np.abs(times).max()), float(np.abs(times - t0).max())) if len(
-        times) else 0.0
+    t1 = float(times[-1]) if len(times) else t0  # times run monotonically from t0 to here
+    scale = max(abs(t0), abs(t1), abs(t1 - t0))
     if abs(sim.dt) < MIN_STEP_REL * scale:
         raise InvalidInputError(
             f"the {sim.integrator} step dt = {fmt_number(sim.dt)} is below 1e-15 of this run's "

@@ -395,3 +395,5 @@ def test_a_nonpositive_radius_or_speed_of_light_is_refused(make, bad):
         sim.integrate(1.0)
     with pytest.raises(vv.InvalidInputError, match="j2 must be a finite"):
         J2Force(0, float("nan"), 0.1)
+    with pytest.raises(vv.InvalidInputError, match="gamma must be a finite"):
+        LinearDrag(float("inf"))

@@ -425,6 +425,8 @@ class LinearDrag(Force):
     """Linear drag ``a = -gamma v`` on every particle (velocity-dependent; IAS15 only)."""
 
     def __init__(self, gamma):
+        if not math.isfinite(float(gamma)):  # a NaN run otherwise, blamed on the integration
+            raise InvalidInputError(f"LinearDrag: gamma must be a finite number; got {gamma!r}.")
         super().__init__(linear_drag_force, (float(gamma),), True, "linear drag")
 
     def _init_args(self):

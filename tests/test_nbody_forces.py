@@ -289,3 +289,111 @@ def test_a_file_with_a_null_j2_radius_says_how_to_load_it(tmp_path):
     sim.integrate(1.0)
     back.integrate(1.0)
     np.testing.assert_array_equal(back.positions, sim.positions)
+
+
+# ---- a force's primary is a particle index: checked, and it follows removals and mergers ------
+
+
+def planet_and_moon(sim, impactor=True):
+    """A planet with J2 (index 1 after an impactor at index 0) and a moon on an inclined orbit."""
+    if impactor:  # falls on the planet at t ~ 0.1
+        sim.add(1e-12, r=[0.0, 0.0, 0.5], v=[0.0, 0.0, -5.0], radius=1e-3)
+    planet = sim.add(1.0, radius=0.01)
+    sim.add(0.0, a=0.05, e=0.01, inc=0.5, primary=planet)
+    sim.add_force(J2Force(planet, 1e-2, 0.01))
+    return sim
+
+
+@pytest.mark.parametrize("primary", [3, -1])
+def test_a_force_primary_out_of_range_is_refused(primary):
+    # the kernel does not check indices: 3 read past the arrays, -1 wrapped to the moon itself
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(0.0, a=1.0, e=0.1, primary=0)
+    sim.add_force(J2Force(primary, 1e-3, 0.1))
+    with pytest.raises(vv.InvalidInputError, match="primary is particle"):
+        sim.integrate(1.0)
+    assert sim.t == 0.0
+
+
+def test_a_massless_force_primary_is_refused():
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(0.0, a=1.0, e=0.1, primary=0)
+    sim.add_force(GeneralRelativity(primary=1, c=100.0))  # would add exactly nothing
+    with pytest.raises(vv.InvalidInputError, match="has no mass"):
+        sim.integrate(1.0)
+
+
+def test_removing_a_particle_keeps_the_force_on_its_body():
+    # remove(0) shifted the planet to index 0 while J2Force kept primary=1, now the massless
+    # moon: the J2 vanished without a word (the moon's position off by 1e-2 at t = 2)
+    sim = planet_and_moon(vv.Simulation("ias15"))
+    sim.remove(0)
+    assert sim.forces[0].primary == 0
+    ref = planet_and_moon(vv.Simulation("ias15"), impactor=False)
+    sim.integrate(2.0)
+    ref.integrate(2.0)
+    assert np.abs(sim.positions - ref.positions).max() < 1e-12
+
+
+def test_removing_a_force_primary_is_refused():
+    sim = planet_and_moon(vv.Simulation("ias15"))
+    with pytest.raises(vv.InvalidInputError, match="primary of the J2 force"):
+        sim.remove(1)
+    assert sim.N == 3 and sim.forces[0].primary == 1  # nothing changed
+
+
+def test_a_merger_keeps_the_force_on_the_merged_body():
+    # the impactor (index 0) merges with the planet (index 1) into index 0: J2Force followed
+    # it (it kept primary=1, the moon, so the moon's J2 precession stopped at the merger)
+    sim = planet_and_moon(vv.Simulation("ias15", collision="merge"))
+    sim.integrate(2.0)
+    assert sim.N == 2 and sim.forces[0].primary == 0
+    ref = planet_and_moon(vv.Simulation("ias15"), impactor=False)
+    ref.integrate(2.0)
+    rel = sim.positions[1] - sim.positions[0]
+    assert np.abs(rel - (ref.positions[1] - ref.positions[0])).max() < 1e-9
+
+
+def test_speed_of_light_as_a_quantity_is_converted_and_saved(tmp_path):
+    # c=299792.458 * u.km / u.s raised a bare TypeError (float() of a Quantity); J2Force's
+    # radius took Quantities already
+    from astropy import units as u
+
+    def mercury(c):
+        sim = vv.Simulation("ias15", units=("au", "yr", "Msun"))
+        sim.add(1.0)
+        sim.add(0.0, a=0.387, e=0.2, primary=0)
+        sim.add_force(GeneralRelativity(0, c=c))
+        return sim
+
+    a, b = mercury(299792.458 * u.km / u.s), mercury(None)  # None: c from the units
+    a.integrate(1.0)
+    b.integrate(1.0)
+    assert np.array_equal(a.positions, b.positions)
+    a.save(tmp_path / "gr.npz")
+    c = vv.Simulation.load(tmp_path / "gr.npz")
+    c.integrate(2.0)
+    b.integrate(2.0)
+    assert np.array_equal(c.positions, b.positions)
+
+
+@pytest.mark.parametrize("make", [
+    lambda bad: GeneralRelativity(0, c=bad),
+    lambda bad: GeneralRelativityPotential(0, c=bad),
+    lambda bad: J2Force(0, 1e-3, bad),
+])
+@pytest.mark.parametrize("bad", [-1.0, 0.0])
+def test_a_nonpositive_radius_or_speed_of_light_is_refused(make, bad):
+    # -1 squared to +1 in silence; 0 made J2 vanish and GR infinite (reported as a NaN run)
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(0.0, a=1.0, e=0.1, primary=0)
+    sim.add_force(make(bad))
+    with pytest.raises(vv.InvalidInputError, match="must be finite and > 0"):
+        sim.integrate(1.0)
+    with pytest.raises(vv.InvalidInputError, match="j2 must be a finite"):
+        J2Force(0, float("nan"), 0.1)
+    with pytest.raises(vv.InvalidInputError, match="gamma must be a finite"):
+        LinearDrag(float("inf"))

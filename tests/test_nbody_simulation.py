@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import warnings
 from pathlib import Path
 
@@ -469,3 +470,63 @@ def test_whfast_softening_differs_in_rebound_and_both_copies_say_so():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim.to_rebound()
+
+
+def test_from_rebound_says_what_it_cannot_carry_of_the_dynamics():
+    # REBOUND's additional forces (a callback or REBOUNDx) and gravity = 'none' were dropped
+    # without a word: the copy integrated plain Newtonian gravity
+    rebound = pytest.importorskip("rebound")
+    r = rebound.Simulation()
+    r.add(m=1.0)
+    r.add(m=1e-3, a=1.0, e=0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.Simulation.from_rebound(r)  # nothing to say
+
+    def push(reb_sim):
+        reb_sim.contents.particles[1].ax += 1e-3
+
+    r.additional_forces = push
+    with pytest.warns(UserWarning, match="additional forces .* gravity alone"):
+        vv.Simulation.from_rebound(r)
+    r2 = rebound.Simulation()
+    r2.add(m=1.0)
+    r2.add(m=1e-3, a=1.0)
+    r2.gravity = "none"
+    with pytest.raises(vv.InvalidInputError, match="gravity = 'none'"):
+        vv.Simulation.from_rebound(r2)
+
+
+def test_solar_system_without_de421_warns_how_far_off_the_builtin_ephemeris_is(monkeypatch):
+    # astropy's built-in ephemeris (plan94) was used in silence, documented as ~1e-5: Saturn's
+    # velocity is 3.6e-3 off DE421 (its period ~1 % off); Pluto raised astropy's KeyError
+    from astropy.time import Time
+
+    epoch = Time("2030-06-01", scale="tdb")
+    de421_sim = vv.solar_system(epoch)
+    monkeypatch.setitem(sys.modules, "de421", None)  # import de421 -> ImportError
+    with pytest.warns(UserWarning, match="DE421 is not installed"):
+        sim = vv.solar_system(epoch)
+    dv = np.linalg.norm(sim.velocities - de421_sim.velocities, axis=1)
+    assert 1e-3 < dv[6] / np.linalg.norm(de421_sim.velocities[6]) < 4e-3  # Saturn, as stated
+    with pytest.raises(vv.InvalidInputError, match="no Pluto"):
+        vv.solar_system(epoch, pluto=True)
+
+
+def test_solar_system_outside_de421_says_so():
+    with pytest.raises(vv.InvalidInputError, match="outside DE421"):
+        vv.solar_system(2025.0)  # a year given as a Julian date: 4707 BC
+
+
+def test_solar_system_names_follow_a_removal(tmp_path):
+    # remove() left sim.names as it was: after removing Mercury, names[1] still said 'mercury'
+    # for Venus (and every later label was one body off, in the saved file too)
+    sim = vv.solar_system()
+    venus = sim.positions[2]
+    copy = sim.copy()
+    sim.remove(1)
+    assert sim.names[1] == "venus" and len(sim.names) == sim.N == 8
+    assert np.array_equal(sim.positions[sim.names.index("venus")], venus)
+    assert copy.names[1] == "mercury"  # the copy keeps its own labels
+    sim.save(tmp_path / "s.npz")
+    assert vv.Simulation.load(tmp_path / "s.npz").names == sim.names

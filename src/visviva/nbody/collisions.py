@@ -40,7 +40,7 @@ def merge(sim, i: int, j: int) -> int:
         xm = 0.5 * (x[i] + x[j])
         vm = 0.5 * (v[i] + v[j])
     sim.set_particle(i, m=M, r=xm, v=vm, radius=np.cbrt(radius[i] ** 3 + radius[j] ** 3))
-    sim.remove(j)
+    sim.remove(j, merged_into=i)  # a force of j's (J2, GR) now belongs to the merged body
     sim.energy_offset += E0 - sim.energy(include_offset=False)
     return j
 

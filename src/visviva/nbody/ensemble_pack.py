@@ -36,6 +36,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
+from .step_check import MIN_STEP_REL
 
 __all__ = ["Pack", "ensemble_kernel", "finish_member"]
 
@@ -219,6 +220,10 @@ class Pack:
         dt = self.fstate[:, _nc.F_DT]
         if (info.needs_dt or info.adaptive) and not np.all(dt != 0.0):
             return None
+        t0 = self.fstate[:, _nc.F_T]
+        scale = np.maximum(np.maximum(np.abs(t0), abs(target)), np.abs(target - t0))
+        if info.needs_dt and np.any(np.abs(dt) < MIN_STEP_REL * scale):
+            return None  # a step too short to finish (step_check): the member is named there
         if info.name == "whfast" and not np.all(self.m[self.poff[:-1]] > 0.0):
             return None
         if self._maybe_coincident():

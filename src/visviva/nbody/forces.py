@@ -37,7 +37,8 @@ import numpy as np
 from ..constants import C_KM_S
 from ..core._jit import inline_kernel, kernel
 from ..core.relativity import schwarzschild
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, fmt_number
+from . import settings as _s
 
 __all__ = [
     "Force",
@@ -46,6 +47,7 @@ __all__ = [
     "GeneralRelativityPotential",
     "LinearDrag",
     "combine",
+    "follow_removal",
     "force_key",
 ]
 
@@ -97,6 +99,11 @@ class Force:
         ``params``. Quantities are stored as ``{"value": ..., "unit": ...}``."""
         return None
 
+    def particle_removed(self, index: int, merged_into: int | None = None) -> None:
+        """Follow the removal of particle ``index`` (later indices shift down by one; a merger
+        passes the particle it went into). A plain force knows no particle indices: a user's
+        force whose parameters name particles must be updated by its owner."""
+
     def copy(self) -> Force:
         """An independent copy (its own parameter array): changing the copy's parameters or
         attributes leaves this force alone (:meth:`visviva.Simulation.copy` copies its forces)."""
@@ -123,10 +130,10 @@ class Force:
 
 
 def _encode(value):
-    """A constructor argument for JSON: a Quantity as ``{"value", "unit"}``, else itself."""
+    """A constructor argument for JSON: a Quantity as ``{"value", "unit"}``, else a float."""
     if hasattr(value, "unit"):
         return {"value": float(value.value), "unit": value.unit.to_string()}
-    return value
+    return float(value)
 
 
 def _decode(value):
@@ -272,15 +279,19 @@ def linear_drag_force(t, x, v, m, params, acc):
         acc[i, 2] -= g * v[i, 2]
 
 
-def _length(sim, value, name):
-    if sim.units is None:
-        return float(value)
-    return float(sim.units.length_value(value, name)) if hasattr(value, "unit") else float(value)
+def _positive(sim, value, kind: str, what: str) -> float:
+    """``value`` (simulation units, or a Quantity of ``kind`` when the simulation has units) as
+    a finite float > 0, or an InvalidInputError naming ``what`` (a zero radius or ``c`` made
+    the force vanish or blow up, and a negative one squared to a positive one in silence)."""
+    x = _s.scalar(_s.convert(sim, value, kind, what), what)
+    if not (math.isfinite(x) and x > 0):
+        raise InvalidInputError(f"{what} must be finite and > 0; got {fmt_number(x)}.")
+    return x
 
 
 def _speed_of_light(sim, c):
     if c is not None:
-        return float(c)
+        return _positive(sim, c, "speed", "the speed of light c")
     if sim.units is None:
         raise InvalidInputError(
             "the speed of light in simulation units is unknown: pass c=... or create the "
@@ -289,7 +300,52 @@ def _speed_of_light(sim, c):
     return C_KM_S / (sim.units.length_km / sim.units.time_s)
 
 
-class J2Force(Force):
+def _primary_index(sim, force) -> int:
+    """The primary of ``force`` (a :class:`J2Force` or relativistic force) as an index of a
+    massive particle of ``sim``, checked: the kernels do not check indices, so a primary out of
+    range read another particle's or unallocated memory, and a massless one added nothing."""
+    p = force.primary
+    if not 0 <= p < sim.N:
+        raise InvalidInputError(
+            f"the {force.name} force's primary is particle {p}, but the simulation has {sim.N} "
+            f"particle(s) (indices 0 to {sim.N - 1}): set force.primary to the index of the "
+            "body it belongs to.")
+    if not sim.masses[p] > 0:
+        raise InvalidInputError(
+            f"the {force.name} force's primary, particle {p}, has no mass, so the force would be "
+            "zero: set force.primary to the index of the massive body it belongs to.")
+    return p
+
+
+class _OfPrimary(Force):
+    """A force of one particle, ``self.primary``, whose index follows removals and mergers."""
+
+    primary: int
+
+    def particle_removed(self, index, merged_into=None):
+        if self.primary == index:
+            if merged_into is None:
+                raise InvalidInputError(
+                    f"particle {index} is the primary of the {self.name} force: remove that "
+                    "force first (sim.clear_forces(), then add the others again), or point it "
+                    "at another body (force.primary = ...).")
+            self.primary = int(merged_into)
+        elif self.primary > index:
+            self.primary -= 1
+
+
+def follow_removal(forces, index: int, merged_into: int | None = None) -> None:
+    """Let every force follow the removal of particle ``index`` (``merged_into``: the particle
+    a merger put it into); a force that would lose its body raises before any force changes."""
+    if merged_into is None:
+        for force in forces:
+            if getattr(force, "primary", None) == index:
+                force.particle_removed(index)  # raises, saying what to do
+    for force in forces:
+        force.particle_removed(index, merged_into)
+
+
+class J2Force(_OfPrimary):
     """Oblateness (J2) of particle ``primary``, pole along the z axis (an N-body force).
 
     Not to be confused with :class:`visviva.J2`, the Cowell perturbation of a satellite's orbit.
@@ -308,24 +364,28 @@ class J2Force(Force):
                 "Quantity); got None. For a file saved with a Quantity radius by an older "
                 "visviva, pass the force again: Simulation.load(path, forces=[J2Force(...)]).")
         self.primary, self.j2, self.radius = int(primary), float(j2), radius
+        if not math.isfinite(self.j2):
+            raise InvalidInputError(f"J2Force: j2 must be a finite number; got {j2!r}.")
 
     def _init_args(self):
         return {"primary": int(self.primary), "j2": float(self.j2),
                 "radius": _encode(self.radius)}
 
     def parameters(self, sim):
-        return np.array([sim.G, self.primary, self.j2, _length(sim, self.radius, "radius")])
+        return np.array([sim.G, _primary_index(sim, self), self.j2,
+                         _positive(sim, self.radius, "length", "the J2Force radius")])
 
 
-class _Relativistic(Force):
+class _Relativistic(_OfPrimary):
     """A relativistic correction of the mass ``primary``; ``c`` in simulation units or None.
 
     Parameters
     ----------
     primary : int
         Index of the dominant mass.
-    c : float, optional
-        Speed of light in simulation units; derived from the simulation's units when None.
+    c : float or Quantity, optional
+        Speed of light in simulation units (or a Quantity of speed); derived from the
+        simulation's units when None.
     """
 
     _kernel = _velocity_dependent = _label = None  # set by each subclass
@@ -335,10 +395,10 @@ class _Relativistic(Force):
         self.primary, self.c = int(primary), c
 
     def _init_args(self):
-        return {"primary": int(self.primary), "c": None if self.c is None else float(self.c)}
+        return {"primary": int(self.primary), "c": None if self.c is None else _encode(self.c)}
 
     def parameters(self, sim):
-        return np.array([sim.G, self.primary, _speed_of_light(sim, self.c)])
+        return np.array([sim.G, _primary_index(sim, self), _speed_of_light(sim, self.c)])
 
 
 class GeneralRelativity(_Relativistic):
@@ -365,6 +425,8 @@ class LinearDrag(Force):
     """Linear drag ``a = -gamma v`` on every particle (velocity-dependent; IAS15 only)."""
 
     def __init__(self, gamma):
+        if not math.isfinite(float(gamma)):  # a NaN run otherwise, blamed on the integration
+            raise InvalidInputError(f"LinearDrag: gamma must be a finite number; got {gamma!r}.")
         super().__init__(linear_drag_force, (float(gamma),), True, "linear drag")
 
     def _init_args(self):

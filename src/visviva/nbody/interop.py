@@ -18,7 +18,9 @@ keeps stepping), ``exact_finish_time``, ``softening``, ``encounter_distance`` <-
 become REBOUND's direct detection with the ``"halt"``/``"merge"``/``"hardsphere"`` resolver.
 What cannot travel is said, not dropped in silence: ``to_rebound`` warns about additional forces
 and inelastic bounces, ``from_rebound`` about REBOUND's collision detection (its resolver function
-cannot be read back) and refuses massive test particles that pull (``testparticle_type = 1``).
+cannot be read back) and its additional forces and timestep modifications (a callback or
+REBOUNDx: the copy integrates gravity alone), and refuses massive test particles that pull
+(``testparticle_type = 1``) and ``gravity = "none"``.
 Integrator internals (IAS15's b arrays, ...) are not transferred: the first step in the other
 code starts fresh.
 """
@@ -196,6 +198,7 @@ def from_rebound(cls, rsim, integrator=None):
     if name == "whfast" and sim.softening > 0:
         warnings.warn(f"from_rebound: {_WHFAST_SOFTENING}; the visviva copy, softened "
                       "throughout, integrates different dynamics.", UserWarning, stacklevel=3)
+    _check_dynamics(rsim)
     n_active = rsim.N_active if rsim.N_active >= 0 else rsim.N
     if n_active < rsim.N and int(rsim.testparticle_type) != 0 and any(
         float(p.m) != 0.0 for p in rsim.particles[n_active:]
@@ -214,6 +217,30 @@ def from_rebound(cls, rsim, integrator=None):
     sim.t = float(rsim.t)
     sim.dt = float(rsim.dt)
     return sim
+
+
+def _check_dynamics(rsim):
+    """Refuse REBOUND's ``gravity = "none"`` and warn about its additional forces and
+    per-step modifications (a Python callback, REBOUNDx): none of them can be read back, and the
+    visviva copy would integrate Newtonian gravity alone without a word."""
+    if str(rsim.gravity).lower() == "none":
+        raise InvalidInputError(
+            "from_rebound: the REBOUND simulation has gravity = 'none' (no mutual gravity), "
+            "which visviva does not have: every visviva integrator adds Newtonian gravity. Set "
+            "rsim.gravity = 'basic' first if that is what you mean."
+        )
+    hooks = [name for name, field in (("additional forces", "_additional_forces"),
+                                      ("pre-timestep modifications", "_pre_timestep_modifications"),
+                                      ("post-timestep modifications", "_post_timestep_modifications"))
+             if bool(getattr(rsim, field, None))]
+    if hooks:
+        warnings.warn(
+            "from_rebound: the REBOUND simulation has " + " and ".join(hooks) + " (a Python "
+            "callback or REBOUNDx), which cannot be read back: the visviva copy integrates "
+            "gravity alone, i.e. different dynamics. Add the forces to the copy with "
+            "sim.add_force (J2Force, GeneralRelativity, ... or your own numba.njit force).",
+            UserWarning, stacklevel=4,
+        )
 
 
 def _settings_from_rebound(rsim, sim):

@@ -22,6 +22,7 @@ from ..errors import InvalidInputError, InvalidStateError, ShapeError, fmt_numbe
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
+from . import step_check as _step_check
 from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
@@ -365,9 +366,13 @@ class Simulation:
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
         return self.N - 1
 
-    def remove(self, index: int) -> None:
-        """Remove particle ``index`` (later indices shift down by one)."""
-        self._state.remove(_s.particle_index(self, index))
+    def remove(self, index: int, *, merged_into: int | None = None) -> None:
+        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down
+        by one (removing a force's primary raises unless ``merged_into`` names where it went)."""
+        _forces.follow_removal(self._forces, k := _s.particle_index(self, index), merged_into)
+        self._state.remove(k)
+        if getattr(self, "names", None) is not None:  # solar_system's labels (a new list:
+            self.names = self.names[:k] + self.names[k + 1:]  # a copy's are not changed)
 
     def set_particle(self, index: int, *, m=None, r=None, v=None, radius=None) -> None:
         """Change the mass ``m``, position ``r`` (3,), velocity ``v`` (3,) or collision
@@ -401,8 +406,7 @@ class Simulation:
         return force
 
     def clear_forces(self) -> None:
-        self._forces = []
-        self._fused = None
+        self._forces, self._fused = [], None
 
     def _check_force(self, force):
         if force.velocity_dependent and not self._integrator.velocity_dependent_forces:
@@ -480,8 +484,9 @@ class Simulation:
         if info.name == "whfast" and self._state.m[0] <= 0:
             raise InvalidInputError(
                 f"WHFast needs particle 0 to be the massive central body ({self.coordinates} "
-                "coordinates): add the star first."
-            )
+                "coordinates): add the star first.")
+        if info.needs_dt:  # a step too short for the run, or too long for the orbits
+            _step_check.check_step(self, times)
         if info.adaptive and self.dt == 0.0:
             self._state.fstate[_nc.F_DT] = self._initial_dt()
         self._state.istate[_nc.I_NOUT] = 0
@@ -563,8 +568,7 @@ class Simulation:
             from .gpu import integrate_simulation
 
             return integrate_simulation(self, t, progress=progress)
-        scalar = np.ndim(t) == 0
-        st = self._state
+        scalar, st = np.ndim(t) == 0, self._state
         saved = st.copy()  # taken back when the run breaks (a few us; ~1 % of a call)
         times = self.begin_run(t)
         info = self._integrator
@@ -638,10 +642,8 @@ class Simulation:
         new._forces = [f.copy() for f in self._forces]  # shared, a copy's change was everyone's
         return new
 
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        state["_fused"] = None  # a compiled closure: rebuilt on first use after unpickling
-        return state
+    def __getstate__(self):  # the fused force is a compiled closure: rebuilt after unpickling
+        return {**self.__dict__, "_fused": None}
 
     def __repr__(self) -> str:
         return (f"<Simulation {self.integrator} N={self.N} (active {self.N_active}) "

@@ -4,7 +4,8 @@ At J2000 (the default) the states come from ``visviva/data/solar_system_j2000.js
 evaluated with jplephem; GM from DE440), barycentric ICRF. For another epoch, the states are read
 from DE421 with jplephem when the ``de421`` and ``jplephem`` packages are installed (the ``ephem``
 extra); the positions then carry DE421's accuracy (sub-km for the planets over 1900-2050), and
-otherwise astropy's built-in ephemeris (VSOP87-based, ~ a few arcseconds ~ 1e-5 relative) is used.
+otherwise astropy's built-in ephemeris is used, with a warning: its planets (ERFA plan94) are off
+by up to 4e-4 in position and 4e-3 in velocity (relative; Saturn, Uranus, Neptune, 1950-2050).
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ def _states_at(epoch, names):
     """Barycentric states (km, km/s) of ``names`` at an astropy Time other than J2000.
 
     DE421 through jplephem when installed (sub-km for the planets), else astropy's built-in
-    ephemeris (VSOP87-based: about 1e-5 relative in position).
+    ephemeris, with a warning (:func:`_builtin_states`).
     """
     _jd(epoch)  # checked
     # two-part TDB Julian date: one float64 JD is only good to ~20 us (~0.6 m of the Earth's
@@ -55,18 +56,42 @@ def _states_at(epoch, names):
             float(epoch), 0.0)
     try:
         import de421
-        from jplephem import Ephemeris
-
-        eph = Ephemeris(de421)
-        out = {}
-        for name in names:
-            r, v = eph.position_and_velocity(name, jd, jd2)
-            out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / DAY_S)
-        return out
+        from jplephem import DateError, Ephemeris
     except ImportError:
-        pass
+        return _builtin_states(epoch, names)
+    eph = Ephemeris(de421)
+    out = {}
+    for name in names:
+        try:
+            r, v = eph.position_and_velocity(name, jd, jd2)
+        except DateError as exc:
+            raise InvalidInputError(
+                f"solar_system: the epoch (TDB JD {jd + jd2:.1f}) is outside DE421 "
+                f"({exc}); give an epoch between 1900 and 2199.") from None
+        out[name] = (np.asarray(r).ravel(), np.asarray(v).ravel() / DAY_S)
+    return out
+
+
+def _builtin_states(epoch, names):
+    """The states from astropy's built-in ephemeris, with a warning saying how far off they are.
+
+    Its planets come from ERFA's plan94: largest relative errors against DE421 over 25 epochs
+    1950-2050, position / velocity: Mars 6.9e-5 / 1.4e-4, Jupiter 1.6e-4 / 1.1e-3, Saturn
+    3.2e-4 / 3.6e-3, Uranus 4.2e-4 / 3.9e-3, Neptune 5.2e-5 / 3.9e-3 (the Sun and the inner
+    planets 1e-5 to 7e-5); a velocity 4e-3 off makes the period about 1 % off."""
+    import warnings
+
     from astropy.coordinates import get_body_barycentric_posvel
 
+    if "pluto" in names:
+        raise InvalidInputError(
+            "solar_system(pluto=True) at an epoch other than J2000 needs DE421: pip install "
+            "de421 jplephem (the 'ephem' extra); astropy's built-in ephemeris has no Pluto.")
+    warnings.warn(
+        "solar_system: DE421 is not installed (pip install de421 jplephem, the 'ephem' extra), "
+        "so the states come from astropy's built-in ephemeris (ERFA plan94), off by up to "
+        "4e-4 in position and 4e-3 in velocity (Saturn, Uranus, Neptune; periods ~1 % off).",
+        UserWarning, stacklevel=4)
     astro = {"earthmoon": "earth-moon-barycenter"}
     out = {}
     for name in names:

@@ -1,0 +1,121 @@
+"""WHFast warns about a step too long for the orbits (visviva.nbody.step_check)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import visviva as vv
+from visviva.nbody.step_check import MAX_STEP_FRACTION, shortest_timescale
+
+
+def two_planets(integrator="whfast", dt=None, coordinates="jacobi"):
+    sim = vv.Simulation(integrator, dt=dt, coordinates=coordinates)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, e=0.1, primary=0)
+    sim.add(1e-3, a=1.6, e=0.05, primary=0)
+    return sim
+
+
+def test_a_step_of_a_third_of_the_period_is_warned_about_and_is_wrong():
+    # dt = P/3 ran without a word: positions 0.5 off (the orbits' size) after 100 time units,
+    # with a relative energy error of only 1.7e-3
+    P = 2 * math.pi
+    ref = two_planets("ias15")
+    ref.integrate(100.0)
+    sim = two_planets(dt=P / 3)
+    with pytest.warns(UserWarning, match=r"step dt = .* 0\.39 of the shortest orbital timescale"):
+        sim.integrate(100.0)
+    assert np.abs(sim.positions - ref.positions).max() > 0.1  # what the warning is about
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.integrate(110.0)  # checked once for these particles and this dt
+        good = two_planets(dt=P / 20)
+        good.integrate(10.0)
+
+
+def test_two_bodies_are_exact_in_jacobi_coordinates_at_any_step_but_not_in_dh():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim = vv.Simulation("whfast", dt=5.0)  # 0.8 of the period: exact for two bodies
+        sim.add(1.0)
+        sim.add(1e-3, a=1.0, e=0.3, primary=0)
+        sim.integrate(50.0)
+    sim = vv.Simulation("whfast", dt=5.0, coordinates="democratic_heliocentric")
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, e=0.3, primary=0)
+    with pytest.warns(UserWarning, match="democratic_heliocentric coordinates"):
+        sim.integrate(50.0)
+
+
+def test_the_timescale_is_the_period_at_the_pericentre_distance():
+    sim = two_planets()
+    sim.add(0.0, r=[5.0, 0.0, 0.0], v=[0.0, 2.0, 0.0])  # hyperbolic, pericentre 5: not the least
+    x, v, m = sim.positions, sim.velocities, sim.masses
+    # particle 1 placed at a = 1, e = 0.1 about particle 0 with G (m0 + m1)
+    inner = 2 * math.pi * math.sqrt(0.9**3 / 1.001)
+    for jacobi in (True, False):
+        assert shortest_timescale(x, v, m, sim.G, jacobi) == pytest.approx(inner, rel=1e-12)
+    assert shortest_timescale(x[[0, 3]], v[[0, 3]], m[[0, 3]], 1.0) == pytest.approx(
+        2 * math.pi * 5.0**1.5, rel=1e-12)
+    assert 0 < MAX_STEP_FRACTION < 0.5
+
+
+def test_a_test_particle_falling_onto_the_star_is_warned_about():
+    # it came out of the pericentre unbound (specific energy -1 -> +0.78 at t = 2, dt = 0.01 =
+    # 1/200 of its period) in silence: the total energy, which it does not enter, was fine
+    sim = vv.Simulation("whfast", dt=0.01)
+    sim.add(1.0)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(0.0, r=[1.0, 0.0, 0.0])
+    with pytest.warns(UserWarning, match="comes out of its pericentre unbound"):
+        sim.integrate(2.0)
+    w = sim.velocities[2] - sim.velocities[0]
+    assert 0.5 * w @ w - 1 / np.linalg.norm(sim.positions[2] - sim.positions[0]) > 0  # unbound
+
+
+def test_a_plunge_that_ends_in_a_collision_is_not_warned_about():
+    # a body falling straight onto the star (pericentre 0: a timescale of 0, which divided by
+    # zero in the message) is fine when collisions are on and the radii will meet first
+    sim = vv.Simulation("whfast", dt=0.01, collision="merge")
+    sim.add(1.0, radius=0.05)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(1e-6, r=[1.0, 0.0, 0.0], radius=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sim.integrate(2.0)
+    assert sim.N == 2  # merged with the star
+    sim = vv.Simulation("whfast", dt=0.01, coordinates="democratic_heliocentric")
+    sim.add(1.0)
+    sim.add(1e-3, a=3.0, primary=0)
+    sim.add(1e-6, r=[1.0, 0.0, 0.0])  # at rest beside the star at rest: q = 0 exactly
+    with pytest.warns(UserWarning, match="is inf of the shortest"):
+        sim.integrate(0.1)
+
+
+@pytest.mark.parametrize("integrator", ["leapfrog", "whfast"])
+def test_a_run_of_more_than_1e15_fixed_steps_is_refused(integrator):
+    # integrate(1e300) with dt = 0.01 hung in one uninterruptible compiled call (IAS15 has a
+    # relative step floor; the fixed-step integrators had none)
+    sim = two_planets(integrator, dt=0.01)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps"):
+        sim.integrate(1e300)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps"):
+        sim.integrate(np.array([1.0, 1e16]))
+    assert sim.t == 0.0
+    sim.integrate(np.array([]))  # nothing to do
+    sim.integrate(1.0)
+    assert sim.t == 1.0
+
+
+def test_an_ensemble_member_with_a_step_too_short_is_named():
+    # only member 0 was checked on the ensemble's fast path: member 1 would hang
+    sims = [two_planets("leapfrog", dt=0.01), two_planets("leapfrog", dt=1e-17)]
+    ens = vv.Ensemble.from_simulations(sims)
+    with pytest.raises(vv.InvalidInputError, match="over 10\\^15 steps") as info:
+        ens.integrate(1.0)
+    assert info.value.member == 1
+    assert ens.t.tolist() == [1.0, 0.0]

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import warnings
+import weakref
 
 import numpy as np
 
@@ -82,6 +83,11 @@ def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> f
     return float(tau[ok].min()) if ok.any() else math.inf
 
 
+# the (dt, N, coordinates) each simulation was last checked with; this module owns it (weak
+# keys: a simulation leaves it when it is freed; a copy is checked afresh)
+_CHECKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def check_step(sim, times) -> None:
     """Check the fixed step of ``sim`` (a leapfrog or WHFast :class:`~visviva.Simulation`) for a
     run through ``times``: refuse one shorter than :data:`MIN_STEP_REL` of the larger of the
@@ -101,10 +107,9 @@ def check_step(sim, times) -> None:
         return
     jacobi = sim.coordinates == "jacobi"
     key = (sim.dt, sim.N, jacobi)  # checked again when these or the particles change
-    if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and getattr(sim, "_step_checked",
-                                                                    None) == key:
+    if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and _CHECKED.get(sim) == key:
         return
-    sim._step_checked = key
+    _CHECKED[sim] = key
     if sim.N < (3 if jacobi else 2):
         return
     tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,

@@ -7,7 +7,7 @@ from astropy import units as u
 
 import visviva as vv
 from visviva.cli import main
-from visviva.od.tle_fit import naive_fields
+from visviva.od.tle_elements import naive_fields
 from visviva.satellites.frames import transform_matrices
 
 ONE_METER = 1e-3  # km
@@ -314,3 +314,43 @@ def test_fit_tle_refuses_times_that_contradict_the_states_own(iss):
     assert vv.fit_tle(states, times=t, satnum=25544).fit.max_position_km < ONE_METER
     bare = vv.StateVectors(states.r, states.v, vv.EARTH)  # no times of its own: times= gives them
     assert vv.fit_tle(bare, times=t, satnum=25544).fit.max_position_km < ONE_METER
+
+
+#: a GPS-like element set (SDP4) without drag, B* = 0 (checksums not kept)
+GPS_LIKE = ("1 99995U 24001A   24100.50000000  .00000000  00000-0  00000+0 0  9990",
+            "2 99995  55.0000 100.0000 0050000  30.0000  10.0000  2.00560000  1000")
+
+
+def test_bstar_the_states_do_not_see_is_held_not_the_whole_fit():
+    # half a day of a high orbit: B* moves no position by a rounding step, its column of the
+    # normal matrix is zero, and the singular solve ended the fit at its first guess "converged":
+    # the naive TLE came back 16 km off the states SGP4 itself made, sigma_bstar 0, no warning
+    # (audit31). B* is now held where the states do not see it and reported undetermined.
+    truth = vv.Satellite.from_tle(*GPS_LIKE, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 0.5, 40) * u.day).to_state_vectors()
+    with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
+        fit = vv.fit_tle(states)
+    assert fit.fit.max_position_km < ONE_METER
+    assert _rms_km(fit, states) < ONE_METER
+    assert fit.fit.sigma_bstar == np.inf
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-10)
+    assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-10)
+
+
+@pytest.mark.parametrize("lines", [
+    ("1 99990U 24001A   24100.50000000 -.00000100  00000-0  00000+0 0  9990",
+     "2 99990   0.0150  85.1000 0001200 200.0000 120.0000  1.00270000  1000"),
+    ("1 99993U 24001A   24100.50000000  .00001000  00000-0  50000-4 0  9990",
+     "2 99993  98.7000 300.0000 0012000  90.0000 120.0000 14.30000000  1000")])
+def test_near_equatorial_and_retrograde_sets_fitted_in_equinoctial_elements(lines):
+    # the unknowns i and the node are singular at i = 0; equinoctial elements are not (the
+    # retrograde form, tan((pi - i)/2), for i > 90 deg): a geostationary set 0.015 deg
+    # inclined comes back in 19 iterations (was ConvergenceError after 50 at 23 m RMS), a
+    # sun-synchronous one as before
+    truth = vv.Satellite.from_tle(*lines, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 2, 40) * u.day).to_state_vectors()
+    fit = vv.fit_tle(states, fit_bstar=truth.satrec.bstar != 0)
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.fit.iterations <= 30
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-9)
+    assert fit.satrec.nodeo == pytest.approx(truth.satrec.nodeo, abs=1e-5)

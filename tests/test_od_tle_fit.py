@@ -321,20 +321,43 @@ GPS_LIKE = ("1 99995U 24001A   24100.50000000  .00000000  00000-0  00000+0 0  99
             "2 99995  55.0000 100.0000 0050000  30.0000  10.0000  2.00560000  1000")
 
 
-def test_bstar_the_states_do_not_see_is_held_not_the_whole_fit():
-    # half a day of a high orbit: B* moves no position by a rounding step, its column of the
-    # normal matrix is zero, and the singular solve ended the fit at its first guess "converged":
-    # the naive TLE came back 16 km off the states SGP4 itself made, sigma_bstar 0, no warning
-    # (audit31). B* is now held where the states do not see it and reported undetermined.
-    truth = vv.Satellite.from_tle(*GPS_LIKE, verify_checksum=False)
-    states = truth.gcrs(np.linspace(0, 0.5, 40) * u.day).to_state_vectors()
+#: a geostationary set 5 deg inclined, B* = 0 (SDP4; checksum not kept)
+GEO_5DEG = ("1 99990U 24001A   24100.50000000 -.00000100  00000-0  00000+0 0  9990",
+            "2 99990   5.0000  85.1000 0001200 200.0000 120.0000  1.00270000  1000")
+
+
+@pytest.mark.parametrize("lines, days", [(GPS_LIKE, 0.5), (GEO_5DEG, 1.0)])
+def test_bstar_the_states_do_not_see_is_reported_not_the_whole_fit(lines, days):
+    # half a day of a high orbit: B* moved no position by a rounding step, its column of the
+    # normal matrix was zero, and the singular solve ended the fit at its first guess
+    # "converged": the naive TLE came back 16-20 km off the states SGP4 itself made, sigma_bstar
+    # 0, no warning (audit31). The other elements are now fitted and B* reported undetermined
+    # (a GEO's B* moves nothing at all: held, sigma inf)
+    truth = vv.Satellite.from_tle(*lines, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, days, 40) * u.day).to_state_vectors()
     with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
         fit = vv.fit_tle(states)
     assert fit.fit.max_position_km < ONE_METER
     assert _rms_km(fit, states) < ONE_METER
-    assert fit.fit.sigma_bstar == np.inf
+    assert fit.fit.sigma_bstar > 1e-4
     assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-10)
     assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-10)
+
+
+def test_a_weak_deep_space_bstar_is_stepped_above_rounding():
+    # a 3300 km perigee HEO (SDP4): B*'s finite-difference step (1e-9) moved the states by
+    # 3e-11 km, SGP4's rounding, and the fit followed that noise column for 48 iterations to
+    # B* = -6e-4 (truth 0) with a formal sigma of 5e-19 from a pseudo-inverse that had cut
+    # B*'s direction off (audit31). The step now grows until B* moves the states by 1 mm
+    line1 = "1 99995U 24001A   24100.50000000  .00000000  00000-0  00000+0 0  9990"
+    line2 = "2 99995  63.0000 100.0000 6000000 270.0000  10.0000  2.30000000  1000"
+    truth = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 0.25, 40) * u.day).to_state_vectors()
+    fit = vv.fit_tle(states)
+    assert fit.fit.iterations <= 10
+    assert fit.fit.max_position_km < 1e-4  # 0.1 mm
+    assert abs(fit.satrec.bstar) < 1e-4  # moves these states by < 1 mm
+    assert fit.fit.sigma_bstar > 1e-7
 
 
 @pytest.mark.parametrize("lines", [

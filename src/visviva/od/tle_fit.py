@@ -497,13 +497,22 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         J = np.empty((z.size, free.size))
         for c, j in enumerate(free):
             h = steps[j] * (max(abs(p[j]), 1e-3) if j in (0, 6) else 1.0)
-            pp = p.copy()
-            pp[j] += h
-            zp = resid(pp)
-            if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
-                pp[j] -= 2 * h
+            while True:
+                pp = p.copy()
+                pp[j] += h
                 zp = resid(pp)
-                h = -h
+                if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
+                    pp[j] -= 2 * h
+                    zp = resid(pp)
+                    h = -h
+                # B* of a high orbit moves the states by less than SGP4's rounding over the
+                # step: its column was noise, which the fit followed (a deep-space B* of 0
+                # came back -6e-4 after 48 creeping iterations; audit31). Widen the step
+                # until it moves them by BSTAR_EFFECT_KM (drag is about linear in B*)
+                if (j != 6 or zp is None or abs(h) >= BSTAR_STEP_MAX
+                        or np.max(np.abs(zp - z)) >= BSTAR_EFFECT_KM):
+                    break
+                h = 100.0 * abs(h)
             J[:, c] = 0.0 if zp is None else (zp - z) / h
         g = J.T @ z
         N = J.T @ J
@@ -596,6 +605,11 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     return sat
 
 
+#: the smallest change of the states (km) a finite-difference step of B* must make, and the
+#: largest step it may take (1/earth radii) to make it: below, B* is not seen (held)
+BSTAR_EFFECT_KM = 1e-6
+BSTAR_STEP_MAX = 1e-2
+
 #: a column of the normal matrix under this fraction of the largest is an element the states
 #: do not see (held for that iteration)
 DEAD_COLUMN = 1e-24
@@ -622,8 +636,13 @@ def _sigma_bstar(J, cost, fit_bstar, live):
         return math.inf
     m, k = J.shape
     s2 = cost / max(m - k, 1)
+    # columns scaled to unit length first: the mean motion's column is ~1e9 times B*'s, and
+    # the pseudo-inverse of the unscaled J^T J cut B*'s direction off as rounding (a deep-space
+    # B* 6e-4 off the truth was given +- 5e-19; audit31)
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
     try:
-        cov = np.linalg.pinv(J.T @ J)
+        cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale)
     except np.linalg.LinAlgError:
         return math.inf
     return float(math.sqrt(max(s2 * cov[-1, -1], 0.0)))

@@ -377,3 +377,22 @@ def test_near_equatorial_and_retrograde_sets_fitted_in_equinoctial_elements(line
     assert fit.fit.iterations <= 30
     assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-9)
     assert fit.satrec.nodeo == pytest.approx(truth.satrec.nodeo, abs=1e-5)
+
+
+def test_a_fit_with_no_downhill_step_left_far_from_its_minimum_is_not_converged(iss, monkeypatch):
+    # SGP4 refusing every trial step (here forced) left the fit at its first guess, the naive
+    # TLE kilometres off, reported converged ("no downhill step left: at the minimum"); it is
+    # converged only when Gauss-Newton's step promised under 0.1 % of the misfit (audit31)
+    import visviva.od.tle_fit as tle_fit
+
+    states = iss.gcrs(np.linspace(0, 30, 20) * u.min).to_state_vectors()
+    calls = []
+    real = tle_fit.sgp4_states
+
+    def failing_trials(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs) if len(calls) <= 8 else None  # guess + 7 columns
+
+    monkeypatch.setattr(tle_fit, "sgp4_states", failing_trials)
+    with pytest.raises(vv.ConvergenceError, match="no step lowers the misfit"):
+        vv.fit_tle(states)

@@ -123,17 +123,18 @@ def _scipy_tle(case):
     """The same TLE fit with scipy's least_squares on the element residuals (reference)."""
     from scipy.optimize import least_squares
 
-    from visviva.od.tle_fit import _epoch_days, _initial_elements, _sgp4_states
+    from visviva.od.tle_elements import epoch_days, initial_elements, is_retrograde, sgp4_states
 
     r, v, t, satnum = case
-    epoch_days = _epoch_days(t[0].utc.isot + "000")
+    days = epoch_days(t[0].utc.isot + "000")
     jd, fr = t.utc.jd1, t.utc.jd2
-    p0 = _initial_elements(r[0], v[0], 0.0)
+    retro = is_retrograde(r[0], v[0])
+    p0 = initial_elements(r[0], v[0], 0.0, retro)
     w_v = 60.0 / p0[0]
     target = np.concatenate([r, v * w_v], axis=1).ravel()
 
     def fun(p):
-        out = _sgp4_states(p, epoch_days, satnum, jd, fr)
+        out = sgp4_states(p, days, satnum, jd, fr, retro)
         if out is None:
             return np.full(target.size, 1e6)
         return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()

@@ -548,3 +548,20 @@ def test_gauss_says_when_it_returns_an_unbound_orbit():
         s = vv.gauss_angles(ra, dec, t, sr * u.km, vv.EARTH)
         mid = vv.propagate_cowell(geo, t[1], [])
         assert np.linalg.norm((s.r - mid.r).to_value(u.km)) < 1.0
+
+
+def test_double_r_says_when_other_orbits_pass_through_the_lines_of_sight():
+    # a HEO (a = 60000 km, e = 0.5) seen over 24 min: two bound orbits pass through the three
+    # lines of sight. gauss_angles warned; double_r returned the other one, 7500 km from the
+    # truth, without a word (audit31). It now warns as gauss_angles does.
+    r2 = [-70548.297, 52709.76, -5754.844]
+    v2 = [-1.141884, -1.004801, 0.276259]
+    dts = [-731.3, 0.0, 731.3]
+    ra, dec, sites = _directions(r2, v2, 0.2499, 1.7141, dts)
+    args = (ra * u.rad, dec * u.rad, np.asarray(dts) * u.s, sites * u.km, vv.EARTH)
+    every = vv.gauss_angles(*args, return_all=True)
+    assert min(np.linalg.norm(s.r.to_value(u.km) - r2) for s in every) < ONE_METER
+    with pytest.warns(RuntimeWarning, match="2 bound orbits pass through"):
+        s = double_r(*args)
+    # what it returns is one of them
+    assert min(np.linalg.norm(s.r.to_value(u.km) - e.r.to_value(u.km)) for e in every) < 1e-3

@@ -7,7 +7,7 @@ from astropy import units as u
 
 import visviva as vv
 from visviva.cli import main
-from visviva.od.tle_fit import naive_fields
+from visviva.od.tle_elements import naive_fields
 from visviva.satellites.frames import transform_matrices
 
 ONE_METER = 1e-3  # km
@@ -314,3 +314,85 @@ def test_fit_tle_refuses_times_that_contradict_the_states_own(iss):
     assert vv.fit_tle(states, times=t, satnum=25544).fit.max_position_km < ONE_METER
     bare = vv.StateVectors(states.r, states.v, vv.EARTH)  # no times of its own: times= gives them
     assert vv.fit_tle(bare, times=t, satnum=25544).fit.max_position_km < ONE_METER
+
+
+#: a GPS-like element set (SDP4) without drag, B* = 0 (checksums not kept)
+GPS_LIKE = ("1 99995U 24001A   24100.50000000  .00000000  00000-0  00000+0 0  9990",
+            "2 99995  55.0000 100.0000 0050000  30.0000  10.0000  2.00560000  1000")
+
+
+#: a geostationary set 5 deg inclined, B* = 0 (SDP4; checksum not kept)
+GEO_5DEG = ("1 99990U 24001A   24100.50000000 -.00000100  00000-0  00000+0 0  9990",
+            "2 99990   5.0000  85.1000 0001200 200.0000 120.0000  1.00270000  1000")
+
+
+@pytest.mark.parametrize("lines, days", [(GPS_LIKE, 0.5), (GEO_5DEG, 1.0)])
+def test_bstar_the_states_do_not_see_is_reported_not_the_whole_fit(lines, days):
+    # half a day of a high orbit: B* moved no position by a rounding step, its column of the
+    # normal matrix was zero, and the singular solve ended the fit at its first guess
+    # "converged": the naive TLE came back 16-20 km off the states SGP4 itself made, sigma_bstar
+    # 0, no warning (audit31). The other elements are now fitted and B* reported undetermined
+    # (a GEO's B* moves nothing at all: held, sigma inf)
+    truth = vv.Satellite.from_tle(*lines, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, days, 40) * u.day).to_state_vectors()
+    with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
+        fit = vv.fit_tle(states)
+    assert fit.fit.max_position_km < ONE_METER
+    assert _rms_km(fit, states) < ONE_METER
+    assert fit.fit.sigma_bstar > 1e-4
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-10)
+    assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-10)
+
+
+def test_a_weak_deep_space_bstar_is_stepped_above_rounding():
+    # a 3300 km perigee HEO (SDP4): B*'s finite-difference step (1e-9) moved the states by
+    # 3e-11 km, SGP4's rounding, and the fit followed that noise column for 48 iterations to
+    # B* = -6e-4 (truth 0) with a formal sigma of 5e-19 from a pseudo-inverse that had cut
+    # B*'s direction off (audit31). The step now grows until B* moves the states by 1 mm
+    line1 = "1 99995U 24001A   24100.50000000  .00000000  00000-0  00000+0 0  9990"
+    line2 = "2 99995  63.0000 100.0000 6000000 270.0000  10.0000  2.30000000  1000"
+    truth = vv.Satellite.from_tle(line1, line2, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 0.25, 40) * u.day).to_state_vectors()
+    fit = vv.fit_tle(states)
+    assert fit.fit.iterations <= 10
+    assert fit.fit.max_position_km < 1e-4  # 0.1 mm
+    assert abs(fit.satrec.bstar) < 1e-4  # moves these states by < 1 mm
+    assert fit.fit.sigma_bstar > 1e-7
+
+
+@pytest.mark.parametrize("lines", [
+    ("1 99990U 24001A   24100.50000000 -.00000100  00000-0  00000+0 0  9990",
+     "2 99990   0.0150  85.1000 0001200 200.0000 120.0000  1.00270000  1000"),
+    ("1 99993U 24001A   24100.50000000  .00001000  00000-0  50000-4 0  9990",
+     "2 99993  98.7000 300.0000 0012000  90.0000 120.0000 14.30000000  1000")])
+def test_near_equatorial_and_retrograde_sets_fitted_in_equinoctial_elements(lines):
+    # the unknowns i and the node are singular at i = 0; equinoctial elements are not (the
+    # retrograde form, tan((pi - i)/2), for i > 90 deg): a geostationary set 0.015 deg
+    # inclined comes back in 19 iterations (was ConvergenceError after 50 at 23 m RMS), a
+    # sun-synchronous one as before
+    truth = vv.Satellite.from_tle(*lines, verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 2, 40) * u.day).to_state_vectors()
+    fit = vv.fit_tle(states, fit_bstar=truth.satrec.bstar != 0)
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.fit.iterations <= 30
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-9)
+    assert fit.satrec.nodeo == pytest.approx(truth.satrec.nodeo, abs=1e-5)
+
+
+def test_a_fit_with_no_downhill_step_left_far_from_its_minimum_is_not_converged(iss, monkeypatch):
+    # SGP4 refusing every trial step (here forced) left the fit at its first guess, the naive
+    # TLE kilometres off, reported converged ("no downhill step left: at the minimum"); it is
+    # converged only when Gauss-Newton's step promised under 0.1 % of the misfit (audit31)
+    import visviva.od.tle_fit as tle_fit
+
+    states = iss.gcrs(np.linspace(0, 30, 20) * u.min).to_state_vectors()
+    calls = []
+    real = tle_fit.sgp4_states
+
+    def failing_trials(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs) if len(calls) <= 8 else None  # guess + 7 columns
+
+    monkeypatch.setattr(tle_fit, "sgp4_states", failing_trials)
+    with pytest.raises(vv.ConvergenceError, match="no step lowers the misfit"):
+        vv.fit_tle(states)

@@ -466,11 +466,40 @@ def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, ma
                 resid_d = _los_residual(r2v, v2v, g, los, taus, sites)
                 if resid_p <= resid_d:
                     r2v, v2v = polished[0], polished[1]
+            _warn_other_orbits(r2v, (ra, dec, t, site_positions, gm))
             return state_at(r2v, v2v, g, epoch)
     raise ConvergenceError(
         f"double-r iteration did not converge from r1, r2 = {x} km; give better distance guesses "
         "(r1_guess, r2_guess) or use gauss_angles."
     )
+
+
+def _warn_other_orbits(r2v, args):
+    """Warn when other bound orbits than double-r's (position ``r2v`` at the middle time) pass
+    through the three lines of sight: those :func:`gauss_angles` finds with the same ``args``.
+    double-r returned whichever its distance guesses led to, without a word, where Gauss's
+    method warned on the same data (a HEO 7500 km off the truth; audit31)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            every = gauss_angles(*args, return_all=True)
+    except (ConvergenceError, DomainError):
+        return
+    g = gm_value(args[4])
+    others = []
+    for s in every:
+        r, v = s.r.to_value("km"), s.v.to_value("km/s")
+        bound = float(v @ v) / 2.0 - g / float(np.linalg.norm(r)) < 0.0
+        if bound and np.linalg.norm(r - r2v) > 1e-4 * np.linalg.norm(r2v):
+            others.append(float(np.linalg.norm(r)))
+    if others:
+        radii = ", ".join(f"{x:.1f}" for x in [float(np.linalg.norm(r2v)), *others])
+        warnings.warn(
+            f"{len(others) + 1} bound orbits pass through the three lines of sight (|r2| = "
+            f"{radii} km): three directions cannot tell them apart. double-r returns the one its "
+            "distance guesses led to (the first); see them all with "
+            "vv.gauss_angles(..., return_all=True), and settle it with more observations "
+            "(vv.fit_orbit).", RuntimeWarning, stacklevel=3)
 
 
 def _double_r_orbit(x, los, taus, sites, gm):

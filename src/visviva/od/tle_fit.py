@@ -25,15 +25,21 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ..satellites.catalog_numbers import CATALOGUE_MAX, sgp4_number
+from ..satellites.catalog_numbers import CATALOGUE_MAX
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
+from .tle_elements import (
+    GM_WGS72,
+    elements_to_fields,
+    epoch_days,
+    initial_elements,
+    is_retrograde,
+    sgp4_states,
+)
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
 
 _MIN_PER_DAY = 1440.0
-#: WGS-72 GM (km^3/s^2), the constant SGP4 uses
-_GM_WGS72 = 398600.8
 
 
 class TLEFit:
@@ -197,89 +203,6 @@ def _largest_gap_s(a, b):
         return float(np.max(np.abs((a.tt - b.tt).sec), initial=0.0))
 
 
-def _elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN"):
-    n_rad_min, ex, ey, inc, raan, lam, bstar = p
-    ecc = math.hypot(ex, ey)
-    argp = math.atan2(ey, ex) if ecc > 0 else 0.0
-    mean = lam - argp
-    deg = 180.0 / math.pi
-    return {
-        "OBJECT_NAME": name or f"FIT {satnum}",
-        "OBJECT_ID": object_id,
-        "EPOCH": epoch_str,
-        "MEAN_MOTION": n_rad_min * 720.0 / math.pi,
-        "ECCENTRICITY": ecc,
-        "INCLINATION": inc * deg,
-        "RA_OF_ASC_NODE": (raan * deg) % 360.0,
-        "ARG_OF_PERICENTER": (argp * deg) % 360.0,
-        "MEAN_ANOMALY": (mean * deg) % 360.0,
-        "EPHEMERIS_TYPE": 0,
-        "CLASSIFICATION_TYPE": "U",
-        "NORAD_CAT_ID": int(satnum),
-        "ELEMENT_SET_NO": 999,
-        "REV_AT_EPOCH": 0,
-        "BSTAR": bstar,
-        "MEAN_MOTION_DOT": 0.0,
-        "MEAN_MOTION_DDOT": 0.0,
-    }
-
-
-def _epoch_days(epoch_str):
-    """Days since 1949-12-31 00:00 UTC of an OMM epoch string, as sgp4's OMM reader computes."""
-    from datetime import datetime
-
-    from sgp4.omm import _epoch0
-
-    when = datetime.strptime(epoch_str, "%Y-%m-%dT%H:%M:%S.%f")
-    return (when - _epoch0).total_seconds() / 86400.0
-
-
-def _sgp4_states(p, epoch_days, satnum, jd, fr):
-    """TEME r, v (N, 3) of the element vector p, or None if SGP4 fails."""
-    from sgp4.api import WGS72, Satrec
-
-    ecc = math.hypot(p[1], p[2])
-    if not (0.0 <= ecc < 0.99 and p[0] > 0 and 0 <= p[3] <= math.pi):
-        return None
-    argp = math.atan2(p[2], p[1]) if ecc > 0 else 0.0
-    sat = Satrec()
-    sat.sgp4init(WGS72, "i", sgp4_number(satnum), epoch_days, p[6], 0.0, 0.0, ecc,
-                 argp % (2 * math.pi), p[3], (p[5] - argp) % (2 * math.pi), p[0],
-                 p[4] % (2 * math.pi))  # fmt: skip
-    e, r, v = sat.sgp4_array(jd, fr)
-    if e.any() or not np.isfinite(r).all():
-        return None
-    return r, v
-
-
-def _initial_elements(r, v, bstar):
-    """Element vector p from an osculating TEME state (the naive TLE)."""
-    gm = _GM_WGS72
-    h = np.cross(r, v)
-    rn = np.linalg.norm(r)
-    e_vec = np.cross(v, h) / gm - r / rn
-    ecc = float(np.linalg.norm(e_vec))
-    energy = float(v @ v) / 2 - gm / rn
-    if energy >= 0 or ecc >= 1:
-        raise InvalidInputError("the states are not on a bound orbit (e >= 1); SGP4 needs e < 1.")
-    a = -gm / (2 * energy)
-    inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
-    node = np.array([-h[1], h[0], 0.0])
-    nn = np.linalg.norm(node)
-    raan = math.atan2(node[1], node[0]) if nn > 1e-12 else 0.0
-    n_hat = node / nn if nn > 1e-12 else np.array([1.0, 0.0, 0.0])
-    h_hat = h / np.linalg.norm(h)
-    m_hat = np.cross(h_hat, n_hat)
-    # argument of latitude u and argument of perigee w, measured from the node
-    u_lat = math.atan2(float(r @ m_hat), float(r @ n_hat))
-    w = math.atan2(float(e_vec @ m_hat), float(e_vec @ n_hat)) if ecc > 1e-12 else 0.0
-    nu = u_lat - w
-    E = 2 * math.atan2(math.sqrt(1 - ecc) * math.sin(nu / 2), math.sqrt(1 + ecc) * math.cos(nu / 2))
-    M = E - ecc * math.sin(E)
-    n_rad_min = math.sqrt(gm / a**3) * 60.0
-    return np.array([n_rad_min, ecc * math.cos(w), ecc * math.sin(w), inc, raan, w + M, bstar])
-
-
 def satellite_from_fields(fields):
     """A Satellite from fitted OMM fields (a blank OBJECT_ID leaves the designator blank)."""
     from ..satellites.tle import Satellite
@@ -325,12 +248,6 @@ def _fill_unused_fields(sat, fields, initial):
             rev = int(initial.satrec.revnum) + crossings
             fields["REV_AT_EPOCH"] = rev if rev >= 0 else rev % 100000  # a wrapped 5-digit field
     return satellite_from_fields(fields)
-
-
-def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
-    """OMM fields made directly from an osculating TEME state: the naive TLE, for comparison."""
-    p = _initial_elements(np.asarray(r_teme), np.asarray(v_teme), bstar)
-    return _elements_to_fields(p, epoch_str, satnum, None)
 
 
 def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
@@ -404,8 +321,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
 
     Notes
     -----
-    The unknowns are the mean motion n, the eccentricity vector (e cos w, e sin w), i, the
-    node and the mean argument of latitude M + w (non-singular at e = 0), and B*. The first
+    The unknowns are the mean motion n, the equinoctial elements (e cos(w + W), e sin(w + W),
+    tan(i/2) cos W, tan(i/2) sin W) and the mean longitude M + w + W (Broucke & Cefola 1972;
+    for a retrograde orbit tan((pi - i)/2) and w - W), non-singular at e = 0 and i = 0 as
+    geostationary sets have them, and B*. The first
     guess is the osculating state at the epoch (the "naive" TLE). Each Levenberg-Marquardt
     step solves the weighted least-squares problem on the TEME position and velocity
     differences (velocities weighted by 1/n, so that both count in km) with partials from
@@ -546,17 +465,18 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     if dt != 0.0:
         from ..core.universal import propagate_scalar
 
-        out = propagate_scalar(*r0, *v0, _GM_WGS72, dt)
+        out = propagate_scalar(*r0, *v0, GM_WGS72, dt)
         r0, v0 = np.array(out[1:4]), np.array(out[4:7])
-    p = _initial_elements(r0, v0, float(bstar))
+    retro = is_retrograde(r0, v0)
+    p = initial_elements(r0, v0, float(bstar), retro)
     free = np.arange(7 if fit_bstar else 6)
     w_v = 1.0 / (p[0] / 60.0)  # s: velocity residuals weighted by 1/n
     target = np.concatenate([r, v * w_v], axis=1).ravel()
 
-    epoch_days = _epoch_days(epoch_str)
+    days = epoch_days(epoch_str)
 
     def resid(pp):
-        out = _sgp4_states(pp, epoch_days, satnum, jd, fr)
+        out = sgp4_states(pp, days, satnum, jd, fr, retro)
         if out is None:
             return None
         return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()
@@ -571,26 +491,46 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     cost = float(z @ z)
     lam = 1e-3
     history = []
-    converged = False
+    converged = stalled = False
+    gain = 0.0
     for it in range(1, max_iterations + 1):
         J = np.empty((z.size, free.size))
         for c, j in enumerate(free):
             h = steps[j] * (max(abs(p[j]), 1e-3) if j in (0, 6) else 1.0)
-            pp = p.copy()
-            pp[j] += h
-            zp = resid(pp)
-            if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
-                pp[j] -= 2 * h
+            while True:
+                pp = p.copy()
+                pp[j] += h
                 zp = resid(pp)
-                h = -h
+                if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
+                    pp[j] -= 2 * h
+                    zp = resid(pp)
+                    h = -h
+                # B* of a high orbit moves the states by less than SGP4's rounding over the
+                # step: its column was noise, which the fit followed (a deep-space B* of 0
+                # came back -6e-4 after 48 creeping iterations; audit31). Widen the step
+                # until it moves them by BSTAR_EFFECT_KM (drag is about linear in B*)
+                if (j != 6 or zp is None or abs(h) >= BSTAR_STEP_MAX
+                        or np.max(np.abs(zp - z)) >= BSTAR_EFFECT_KM):
+                    break
+                h = 100.0 * abs(h)
             J[:, c] = 0.0 if zp is None else (zp - z) / h
         g = J.T @ z
         N = J.T @ J
+        d = np.diag(N)
+        # an element the states do not see at all (B* of a high orbit over a short arc: its
+        # column is zero to rounding) stays where it is; the solve with it was singular at
+        # every damping, which ended the fit at its first guess as if converged (audit31)
+        live = d > DEAD_COLUMN * max(float(d.max()), 1e-300)
+        Nl, gl = N[np.ix_(live, live)], g[live]
+        try:
+            gain = float(-gl @ np.linalg.lstsq(Nl, -gl, rcond=None)[0])  # Gauss-Newton's promise
+        except np.linalg.LinAlgError:
+            gain = math.inf
         improved = False
         while lam < 1e12:
-            D = np.diag(np.diag(N))
+            dp = np.zeros(free.size)
             try:
-                dp = np.linalg.solve(N + lam * D, -g)
+                dp[live] = np.linalg.solve(Nl + lam * np.diag(d[live]), -gl)
             except np.linalg.LinAlgError:
                 lam *= 10
                 continue
@@ -604,7 +544,10 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         rms_pos = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
         history.append({"iteration": it, "rms_position_km": rms_pos, "damping": lam})
         if not improved:
-            converged = True  # no downhill step left: at the minimum to rounding
+            # no downhill step left: the minimum to rounding, unless the linear model still
+            # promises a real drop (a Jacobian the step cannot follow: not a converged fit)
+            converged = gain <= STALLED_GAIN * cost or rms_pos < 1e-7
+            stalled = not converged
             break
         new_cost = float(zt @ zt)
         rel = (cost - new_cost) / max(cost, 1e-300)
@@ -614,17 +557,21 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         if rel < tol or rms_new < 1e-7:
             converged = True
             break
-    if not converged:
+    rms_final = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+    size = float(np.mean(np.linalg.norm(r, axis=1)))
+    if converged and rms_final <= MAX_RMS_FRACTION * size:
+        pass
+    elif rms_final <= MAX_RMS_FRACTION * size:
+        why = (f"stopped at iteration {len(history)}: no step lowers the misfit though the "
+               f"linear model promises {gain / max(cost, 1e-300):.0%} of it" if stalled else
+               f"did not converge in {max_iterations} iterations")
         err = ConvergenceError(
-            f"the TLE fit did not converge in {max_iterations} iterations (position RMS "
-            f"{history[-1]['rms_position_km']:.4g} km). Fit a shorter arc, give an epoch inside "
-            "the arc, or raise max_iterations."
+            f"the TLE fit {why} (position RMS {rms_final:.4g} km). Fit a shorter arc, give an "
+            "epoch inside the arc, or raise max_iterations."
         )
         err.history = history
         raise err
-    rms_final = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
-    size = float(np.mean(np.linalg.norm(r, axis=1)))
-    if rms_final > MAX_RMS_FRACTION * size:
+    else:
         err = ConvergenceError(
             f"SGP4 cannot reproduce these states: the best element set misses them by "
             f"{rms_final:.4g} km RMS ({rms_final / size:.1%} of the orbit's radius). Check "
@@ -633,13 +580,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         )
         err.history = history
         raise err
-    sigma_bstar = _sigma_bstar(J, cost, fit_bstar)
+    sigma_bstar = _sigma_bstar(J, cost, fit_bstar, live)
     if sigma_bstar is not None and sigma_bstar > max(1e-4, 0.5 * abs(p[6])):
         warnings.warn(
             f"B* is not determined by these states: fitted {p[6]:.3g} +- {sigma_bstar:.2g} "
             "1/earth radii (1 sigma, from the residuals); drag needs a longer arc to show. "
             "Hold it with fit_bstar=False, bstar=<a known value>.", RuntimeWarning, stacklevel=3)
-    fields = _elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN")
+    fields = elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN", retro)
     if not object_id:
         fields["OBJECT_ID"] = ""
     sat = _fill_unused_fields(satellite_from_fields(fields), fields, initial)
@@ -658,23 +605,44 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     return sat
 
 
+#: the smallest change of the states (km) a finite-difference step of B* must make, and the
+#: largest step it may take (1/earth radii) to make it: below, B* is not seen (held)
+BSTAR_EFFECT_KM = 1e-6
+BSTAR_STEP_MAX = 1e-2
+
+#: a column of the normal matrix under this fraction of the largest is an element the states
+#: do not see (held for that iteration)
+DEAD_COLUMN = 1e-24
+
+#: a fit with no downhill step left ends converged when Gauss-Newton's step promised to lower
+#: the sum of squares by less than this fraction of it (else ConvergenceError)
+STALLED_GAIN = 1e-3
+
 #: largest position RMS of a fit, as a fraction of the orbit's mean radius, before fit_tle
 #: reports that SGP4 cannot reproduce the states (good fits are ~1e-4 of it or far less)
 MAX_RMS_FRACTION = 0.01
 
 
-def _sigma_bstar(J, cost, fit_bstar):
+def _sigma_bstar(J, cost, fit_bstar, live):
     """Formal standard deviation of a fitted B* (1/earth radii), residuals as the noise scale.
 
     P = s^2 (J^T J)^-1 with s^2 = cost / (m - k), the weighted sum of squares per degree of
-    freedom; None when B* was held.
+    freedom; None when B* was held, inf when the states do not see it at all (``live``: the
+    columns of J that are not zero to rounding; B* is the last).
     """
     if not fit_bstar:
         return None
+    if not live[-1]:
+        return math.inf
     m, k = J.shape
     s2 = cost / max(m - k, 1)
+    # columns scaled to unit length first: the mean motion's column is ~1e9 times B*'s, and
+    # the pseudo-inverse of the unscaled J^T J cut B*'s direction off as rounding (a deep-space
+    # B* 6e-4 off the truth was given +- 5e-19; audit31)
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
     try:
-        cov = np.linalg.pinv(J.T @ J)
+        cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale)
     except np.linalg.LinAlgError:
         return math.inf
     return float(math.sqrt(max(s2 * cov[-1, -1], 0.0)))

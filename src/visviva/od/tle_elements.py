@@ -1,0 +1,138 @@
+"""The element vector of the SGP4 fit (:func:`visviva.od.tle_fit.fit_tle`): equinoctial mean
+elements to and from the classical ones, the first guess from an osculating state, SGP4 states
+of an element vector, and the OMM fields of the result.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from ..satellites.catalog_numbers import sgp4_number
+
+__all__ = ["classical", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
+           "is_retrograde", "naive_fields"]
+
+#: WGS-72 GM (km^3/s^2), the constant SGP4 uses
+GM_WGS72 = 398600.8
+
+
+def classical(p, retrograde=False):
+    """Classical SGP4 elements (n rad/min, e, argp, i, node, M, B*; angles in rad) of the
+    element vector p of the fit.
+
+    p = (n, e cos(w + s W), e sin(w + s W), t cos W, t sin W, M + w + s W, B*), the equinoctial
+    elements (Broucke & Cefola 1972) with t = tan(i / 2) and s = +1, or for a retrograde orbit
+    t = tan((pi - i) / 2) and s = -1: non-singular at e = 0 and at i = 0 (or 180 deg), where
+    the classical node and argument of perigee are undefined (a fit in i and the node ran out
+    of iterations 23 m off a geostationary set 0.015 deg inclined that SGP4 itself made;
+    audit31).
+    """
+    n, ex, ey, q1, q2, lam, bstar = p
+    s = -1.0 if retrograde else 1.0
+    ecc = math.hypot(ex, ey)
+    node = math.atan2(q2, q1) if (q1 or q2) else 0.0
+    half = math.atan(math.hypot(q1, q2))
+    inc = math.pi - 2.0 * half if retrograde else 2.0 * half
+    varpi = math.atan2(ey, ex) if ecc > 0 else 0.0  # w + s W
+    return n, ecc, varpi - s * node, inc, node, lam - varpi, bstar
+
+
+def elements_to_fields(p, epoch_str, satnum, name, object_id="UNKNOWN", retrograde=False):
+    n_rad_min, ecc, argp, inc, raan, mean, bstar = classical(p, retrograde)
+    deg = 180.0 / math.pi
+    return {
+        "OBJECT_NAME": name or f"FIT {satnum}",
+        "OBJECT_ID": object_id,
+        "EPOCH": epoch_str,
+        "MEAN_MOTION": n_rad_min * 720.0 / math.pi,
+        "ECCENTRICITY": ecc,
+        "INCLINATION": inc * deg,
+        "RA_OF_ASC_NODE": (raan * deg) % 360.0,
+        "ARG_OF_PERICENTER": (argp * deg) % 360.0,
+        "MEAN_ANOMALY": (mean * deg) % 360.0,
+        "EPHEMERIS_TYPE": 0,
+        "CLASSIFICATION_TYPE": "U",
+        "NORAD_CAT_ID": int(satnum),
+        "ELEMENT_SET_NO": 999,
+        "REV_AT_EPOCH": 0,
+        "BSTAR": bstar,
+        "MEAN_MOTION_DOT": 0.0,
+        "MEAN_MOTION_DDOT": 0.0,
+    }
+
+
+def epoch_days(epoch_str):
+    """Days since 1949-12-31 00:00 UTC of an OMM epoch string, as sgp4's OMM reader computes."""
+    from datetime import datetime
+
+    from sgp4.omm import _epoch0
+
+    when = datetime.strptime(epoch_str, "%Y-%m-%dT%H:%M:%S.%f")
+    return (when - _epoch0).total_seconds() / 86400.0
+
+
+def sgp4_states(p, days, satnum, jd, fr, retrograde=False):
+    """TEME r, v (N, 3) of the element vector p (see :func:`classical`), or None if SGP4
+    fails."""
+    from sgp4.api import WGS72, Satrec
+
+    n, ecc, argp, inc, node, mean, bstar = classical(p, retrograde)
+    if not (0.0 <= ecc < 0.99 and n > 0 and math.isfinite(inc)):
+        return None
+    sat = Satrec()
+    sat.sgp4init(WGS72, "i", sgp4_number(satnum), days, bstar, 0.0, 0.0, ecc,
+                 argp % (2 * math.pi), inc, mean % (2 * math.pi), n,
+                 node % (2 * math.pi))  # fmt: skip
+    e, r, v = sat.sgp4_array(jd, fr)
+    if e.any() or not np.isfinite(r).all():
+        return None
+    return r, v
+
+
+def initial_elements(r, v, bstar, retrograde=False):
+    """Element vector p (see :func:`classical`) from an osculating TEME state (the naive
+    TLE)."""
+    gm = GM_WGS72
+    h = np.cross(r, v)
+    rn = np.linalg.norm(r)
+    e_vec = np.cross(v, h) / gm - r / rn
+    ecc = float(np.linalg.norm(e_vec))
+    energy = float(v @ v) / 2 - gm / rn
+    if energy >= 0 or ecc >= 1:
+        raise InvalidInputError("the states are not on a bound orbit (e >= 1); SGP4 needs e < 1.")
+    a = -gm / (2 * energy)
+    inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
+    node = np.array([-h[1], h[0], 0.0])
+    nn = np.linalg.norm(node)
+    raan = math.atan2(node[1], node[0]) if nn > 1e-12 else 0.0
+    n_hat = node / nn if nn > 1e-12 else np.array([1.0, 0.0, 0.0])
+    h_hat = h / np.linalg.norm(h)
+    m_hat = np.cross(h_hat, n_hat)
+    # argument of latitude u and argument of perigee w, measured from the node
+    u_lat = math.atan2(float(r @ m_hat), float(r @ n_hat))
+    w = math.atan2(float(e_vec @ m_hat), float(e_vec @ n_hat)) if ecc > 1e-12 else 0.0
+    nu = u_lat - w
+    E = 2 * math.atan2(math.sqrt(1 - ecc) * math.sin(nu / 2), math.sqrt(1 + ecc) * math.cos(nu / 2))
+    M = E - ecc * math.sin(E)
+    n_rad_min = math.sqrt(gm / a**3) * 60.0
+    s = -1.0 if retrograde else 1.0
+    t = math.tan(0.5 * (math.pi - inc if retrograde else inc))
+    varpi = w + s * raan
+    return np.array([n_rad_min, ecc * math.cos(varpi), ecc * math.sin(varpi), t * math.cos(raan),
+                     t * math.sin(raan), varpi + M, bstar])  # fmt: skip
+
+
+def is_retrograde(r, v):
+    """Whether the orbit through the TEME state (r, v) is retrograde (i > 90 deg)."""
+    return bool(np.cross(r, v)[2] < 0)
+
+
+def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
+    """OMM fields made directly from an osculating TEME state: the naive TLE, for comparison."""
+    r, v = np.asarray(r_teme), np.asarray(v_teme)
+    retro = is_retrograde(r, v)
+    p = initial_elements(r, v, bstar, retro)
+    return elements_to_fields(p, epoch_str, satnum, None, retrograde=retro)

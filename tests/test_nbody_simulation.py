@@ -258,6 +258,29 @@ def test_rebound_round_trip():
     assert back.integrator == "ias15"
 
 
+def test_rebound_interop_carries_the_particle_names():
+    # to_rebound dropped sim.names (rsim.particles["jupiter"] raised ParticleNotFound) and
+    # from_rebound left the copy without names
+    rebound = pytest.importorskip("rebound")
+    sim = vv.solar_system(integrator="ias15")
+    r = sim.to_rebound()
+    assert [p.name for p in r.particles] == sim.names
+    assert r.particles["jupiter"].m == sim.masses[sim.names.index("jupiter")]
+    jupiter = r.particles["jupiter"]
+    assert jupiter.a == pytest.approx(5.2, rel=0.01)  # au: the right body, not just a label
+    assert vv.Simulation.from_rebound(r).names == sim.names
+    mixed = rebound.Simulation()
+    mixed.add(m=1.0, name="star")
+    mixed.add(m=1e-3, a=1.0)  # no name: "" in sim.names, and none again in REBOUND
+    mixed.add(m=0.0, a=2.0, name="comet")
+    back = vv.Simulation.from_rebound(mixed)
+    assert back.names == ["star", "", "comet"]
+    assert [p.name for p in back.to_rebound().particles] == ["star", None, "comet"]
+    plain = rebound.Simulation()
+    plain.add(m=1.0)
+    assert getattr(vv.Simulation.from_rebound(plain), "names", None) is None
+
+
 
 def test_rebound_interop_carries_the_units():
     # from_rebound and to_rebound dropped the units: the copy took no Quantities in add() and a

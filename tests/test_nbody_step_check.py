@@ -119,3 +119,33 @@ def test_an_ensemble_member_with_a_step_too_short_is_named():
         ens.integrate(1.0)
     assert info.value.member == 1
     assert ens.t.tolist() == [1.0, 0.0]
+
+
+def _user_warnings(run) -> list:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run()
+    caught = [w for w in caught if issubclass(w.category, UserWarning)]
+    assert all(w.filename == __file__ for w in caught)  # at the user's call
+    return [str(w.message) for w in caught]
+
+
+def test_ensemble_members_with_a_step_too_long_are_named_in_one_warning():
+    # the ensemble's fast path checked member 0 alone: members 1 and 3 (dt = P/3 and P/2, off
+    # by the orbits' size) ran without a word; the per-member path warned once per member
+    P = 2 * math.pi
+    third = two_planets(dt=P / 40)
+    third.add(1e-4, a=3.0, primary=0)  # four particles: members of different N
+    sims = [two_planets(dt=P / 40), two_planets(dt=P / 3), third,
+            two_planets(dt=P / 2, coordinates="democratic_heliocentric")]
+    ens = vv.Ensemble.from_simulations(sims)
+    messages = _user_warnings(lambda: ens.integrate(10.0))
+    assert len(messages) == 1, messages
+    assert "too long for the orbits of 2 of the 4 ensemble members (1, 3)" in messages[0]
+    lone = _user_warnings(lambda: sims[3].copy().integrate(10.0))  # the worst member, alone
+    assert len(lone) == 1 and "0.59 of the shortest" in lone[0]
+    assert f"the worst, member 3: {lone[0]}" in messages[0]  # the same numbers and advice
+    assert _user_warnings(lambda: ens.integrate(20.0)) == []  # checked once, as a lone run
+    assert ens.t.tolist() == [20.0] * 4
+    fine = vv.Ensemble.from_simulations([sims[0], third])
+    assert _user_warnings(lambda: fine.integrate(10.0)) == []

@@ -379,6 +379,28 @@ def test_near_equatorial_and_retrograde_sets_fitted_in_equinoctial_elements(line
     assert fit.satrec.nodeo == pytest.approx(truth.satrec.nodeo, abs=1e-5)
 
 
+def test_a_slow_near_equatorial_geo_fit_is_told_to_iterate_longer_not_to_shorten_the_arc():
+    # half a day of a GEO 0.015 deg inclined needs 58 iterations (2 days: 19): SDP4's lunisolar
+    # inclination periodics are as large as the inclination there, a curved valley the fit
+    # crawls along while B* is held (unseen). The ConvergenceError at the default 50 told the
+    # user to "fit a shorter arc", which converges slower still
+    truth = vv.Satellite.from_tle(
+        "1 99990U 24001A   24100.50000000 -.00000100  00000-0  00000+0 0  9990",
+        "2 99990   0.0150  85.1000 0001200 200.0000 120.0000  1.00270000  1000",
+        verify_checksum=False)
+    states = truth.gcrs(np.linspace(0, 0.5, 40) * u.day).to_state_vectors()
+    with pytest.raises(vv.ConvergenceError) as info:
+        vv.fit_tle(states, fit_bstar=False)
+    text = str(info.value)
+    assert "still falling" in text and "max_iterations=100" in text and "longer arc" in text
+    assert "near-equatorial (i = 0.0157 deg)" in text and "shorter arc" not in text
+    assert info.value.history[-1]["rms_position_km"] < 0.1 * info.value.history[1][
+        "rms_position_km"]
+    fit = vv.fit_tle(states, fit_bstar=False, max_iterations=100)  # as the message says
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-9)
+
+
 def test_a_fit_with_no_downhill_step_left_far_from_its_minimum_is_not_converged(iss, monkeypatch):
     # SGP4 refusing every trial step (here forced) left the fit at its first guess, the naive
     # TLE kilometres off, reported converged ("no downhill step left: at the minimum"); it is

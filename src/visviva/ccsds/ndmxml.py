@@ -172,8 +172,11 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
     The NDM/XML schemas (505.0-B) define ``id`` and ``version`` on the message element,
     ``units`` on a value's element, ``parameter`` on ``<USER_DEFINED>`` and the schema location
     (``xsi:noNamespaceSchemaLocation``); the readers keep those. Any other attribute (``<segment
-    foo="1">``) has no place in the message objects and is not written back: a
-    :class:`UserWarning` names each one with its line, so none is dropped silently.
+    foo="1">``) has no place in the message objects and is dropped on write: a
+    :class:`UserWarning` names each one with its line and says so, so none is dropped silently.
+    (Keeping them per element through a read and a write was left out: the OEM and TDM writers
+    write text, not a tree, and a message changed between the two would leave an attribute on
+    another element than the one it came from.)
 
     Parameters
     ----------
@@ -226,7 +229,10 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
         shown = "; ".join(dropped[:5]) + (f"; and {len(dropped) - 5} more" if len(dropped) > 5
                                            else "")
         warnings.warn(f"{source}: XML attributes that CCSDS NDM/XML does not define are not kept "
-                      f"(nor written back): {shown}", UserWarning, stacklevel=4)
+                      f"and are dropped on write (writing this message back, as XML or KVN, "
+                      f"leaves them out): {shown}. Only the schema's attributes have a place "
+                      "in the message objects; keep the original file where these matter.",
+                      UserWarning, stacklevel=4)
 
 
 def new_root(tag: str, version_key: str, version: str) -> ET.Element:

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
+from . import step_check as _step_check
 from . import tier as _tier
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
@@ -230,14 +231,18 @@ class Ensemble:
             )
         if self._pack is None:  # a pack holds members of one set of units (Pack.build)
             _check_one_time_unit(self._members, t)
-        if client is not None:
-            from .ensemble_dask import integrate_on_dask
+        # WHFast steps too long for the orbits: one warning naming the members, not one each
+        with _step_check.members_checked():
+            if client is not None:
+                from .ensemble_dask import integrate_on_dask
 
-            advance = functools.partial(_advance_block, backend=self.backend)
-            self._pack = None  # the members come back as new objects
-            errors = integrate_on_dask(self._members, t, client, advance)
-        else:
-            errors, self._pack = advance_members(self._members, t, self.backend, self._pack)
+                _step_check.check_members(self, self._members)  # here: the workers say nothing
+                advance = functools.partial(_advance_block, backend=self.backend)
+                self._pack = None  # the members come back as new objects
+                errors = integrate_on_dask(self._members, t, client, advance)
+            else:
+                errors, self._pack = advance_members(self._members, t, self.backend, self._pack,
+                                                     owner=self)
         _raise_first(errors)
 
     # ---- files -----------------------------------------------------------------------------------
@@ -307,18 +312,23 @@ def _raise_first(errors) -> None:
 
 
 def _advance_block(members, t, backend):
-    """Dask worker side: advance a block of members as an ensemble; returns them and the errors."""
-    return members, advance_members(members, t, backend)[0]
+    """Dask worker side: advance a block of members as an ensemble; returns them and the errors
+    (the client checked their steps: :func:`~visviva.nbody.step_check.check_members`)."""
+    with _step_check.members_checked():
+        return members, advance_members(members, t, backend)[0]
 
 
-def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
+def advance_members(members: list, t, backend: str = "cpu", pack=None, owner=None) -> tuple:
     """Advance the simulations ``members`` (in place) to ``t`` in this process, as one ensemble.
 
     The worker side of :meth:`Ensemble.integrate` and its in-process path (numba threads over
     the members on ``backend="cpu"``, one GPU thread per member on ``"cuda"``). The members are
     packed (:class:`~visviva.nbody.ensemble_pack.Pack`, or ``pack``, the one a previous call
     returned for the same members) and advanced in one call; what the pack does not clear runs
-    member by member, with the same results.
+    member by member, with the same results. With ``owner`` (the ensemble), the members' WHFast
+    steps are checked on the packed arrays first
+    (:func:`~visviva.nbody.step_check.check_members`; call it inside
+    :func:`~visviva.nbody.step_check.members_checked`, so that the members do not warn again).
 
     Returns
     -------
@@ -328,9 +338,13 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None) -> tuple:
         The pack to pass to the next call for these members (None: build it again).
     """
     if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
+        if owner is not None:
+            _step_check.check_members(owner, members, stacklevel=4)
         return _advance_alone(members, t), None  # a fresh install's first small ensemble
     if pack is None:
         pack = Pack.build(members)
+    if owner is not None:
+        _step_check.check_members(owner, members, pack, stacklevel=4)
     errors = None
     if pack is not None:
         if backend == "cuda":

@@ -21,6 +21,10 @@ and inelastic bounces, ``from_rebound`` about REBOUND's collision detection (its
 cannot be read back) and its additional forces and timestep modifications (a callback or
 REBOUNDx: the copy integrates gravity alone), and refuses massive test particles that pull
 (``testparticle_type = 1``) and ``gravity = "none"``.
+The particles' names (``sim.names``, as :func:`~visviva.nbody.solar_system` sets them) travel
+as REBOUND's particle names (``particle.name``, so ``rsim.particles["earth"]`` finds them) and
+come back into ``sim.names`` (``""`` for a particle REBOUND has no name for); a REBOUND without
+``particle.name`` (older versions) gets them as hashes, which cannot be read back.
 Integrator internals (IAS15's b arrays, ...) are not transferred: the first step in the other
 code starts fresh.
 """
@@ -128,6 +132,7 @@ def to_rebound(sim):
         x, v = xs[k], vs[k]
         r.add(m=float(m[k]), x=float(x[0]), y=float(x[1]), z=float(x[2]),
               vx=float(v[0]), vy=float(v[1]), vz=float(v[2]), r=float(radii[k]))
+    _names_to_rebound(getattr(sim, "names", None), r)
     r.t = sim.t
     r.integrator = sim.integrator
     if sim.integrator == "whfast":
@@ -140,6 +145,27 @@ def to_rebound(sim):
         r.N_active = sim.N_active
     _settings_to_rebound(sim, r)
     return r
+
+
+def _names_to_rebound(names, r):
+    """``sim.names`` as the names of the REBOUND particles (hashes in a REBOUND without names);
+    ``""`` (no name) is skipped."""
+    if not names:
+        return
+    has_names = isinstance(getattr(type(r.particles[0]), "name", None), property)
+    for k, name in enumerate(names[: r.N]):
+        if name:
+            if has_names:
+                r.particles[k].name = str(name)
+            else:  # pragma: no cover - older REBOUND: a hash, which cannot be read back
+                r.particles[k].hash = str(name)
+
+
+def _names_from_rebound(rsim):
+    """The REBOUND particles' names as a list for ``sim.names`` (``""`` where a particle has
+    none), or None when none has a name (or REBOUND keeps only hashes)."""
+    names = [getattr(p, "name", None) or "" for p in rsim.particles]
+    return names if any(names) else None
 
 
 def _settings_to_rebound(sim, r):
@@ -216,6 +242,8 @@ def from_rebound(cls, rsim, integrator=None):
         sim.add(m, [p.x, p.y, p.z], [p.vx, p.vy, p.vz], radius=float(p.r))
     sim.t = float(rsim.t)
     sim.dt = float(rsim.dt)
+    if (names := _names_from_rebound(rsim)) is not None:
+        sim.names = names
     return sim
 
 

@@ -26,6 +26,8 @@ MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import warnings
 import weakref
@@ -35,7 +37,8 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, fmt_number
 
-__all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step"]
+__all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step",
+           "check_members", "members_checked"]
 
 #: A WHFast step longer than this fraction of the shortest pericentre timescale is warned about.
 MAX_STEP_FRACTION = 0.2
@@ -62,30 +65,60 @@ def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> f
         Collision radii, when collisions are detected: an orbit whose pericentre lies within
         the radii of its body and of particle 0 ends in a collision and is skipped.
     """
+    collide = None if radius is None else np.ones(1, dtype=bool)
+    return float(_timescales(x[None], v[None], m[None], np.array([G]), jacobi,
+                             None if radius is None else radius[None], collide)[0])
+
+
+def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None) -> np.ndarray:
+    """:func:`shortest_timescale` of B systems of N particles at once: ``x, v`` (B, N, 3),
+    ``m`` and ``radius`` (B, N), ``G`` and ``collide`` (whether a system detects collisions)
+    (B,); returns (B,)."""
     if jacobi:
-        mass = np.cumsum(m)  # mass[i - 1]: inside body i
-        mx, mv = np.cumsum(m[:, None] * x, axis=0), np.cumsum(m[:, None] * v, axis=0)
+        mass = np.cumsum(m, axis=1)  # mass[:, i - 1]: inside body i
+        mx = np.cumsum(m[..., None] * x, axis=1)
+        mv = np.cumsum(m[..., None] * v, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            inner_x, inner_v = mx[:-1] / mass[:-1, None], mv[:-1] / mass[:-1, None]
-        r, w, gm = x[1:] - inner_x, v[1:] - inner_v, G * mass[1:]
+            inner_x, inner_v = mx[:, :-1] / mass[:, :-1, None], mv[:, :-1] / mass[:, :-1, None]
+        r, w, gm = x[:, 1:] - inner_x, v[:, 1:] - inner_v, G[:, None] * mass[:, 1:]
     else:
-        r, w, gm = x[1:] - x[0], v[1:] - v[0], G * (m[0] + m[1:])
+        r, w = x[:, 1:] - x[:, :1], v[:, 1:] - v[:, :1]
+        gm = G[:, None] * (m[:, :1] + m[:, 1:])
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        energy = 0.5 * np.einsum("ij,ij->i", w, w) - gm / np.linalg.norm(r, axis=1)
-        h2 = np.einsum("ij,ij->i", *(np.cross(r, w),) * 2)
-        p = h2 / gm  # semi-latus rectum
+        energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / np.linalg.norm(r, axis=-1)
+        h = np.cross(r, w)
+        p = np.einsum("bij,bij->bi", h, h) / gm  # semi-latus rectum
         e = np.sqrt(np.maximum(1.0 + 2.0 * energy * p / gm, 0.0))
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
         tau = 2.0 * math.pi * np.sqrt(q**3 / gm)
     ok = np.isfinite(tau) & (gm > 0)
     if radius is not None:
-        ok &= ~(q <= radius[1:] + radius[0])
-    return float(tau[ok].min()) if ok.any() else math.inf
+        ok &= ~(collide[:, None] & (q <= radius[:, 1:] + radius[:, :1]))
+    return np.where(ok, tau, math.inf).min(axis=1)
+
+
+def _too_long(dt: float, tau: float, coordinates: str) -> str:
+    """What is wrong with a WHFast step ``dt`` against the shortest timescale ``tau``."""
+    ratio = abs(dt) / tau if tau > 0 else math.inf  # tau = 0: a radial plunge
+    return (f"WHFast's step dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
+            f"timescale, 2 pi sqrt(q^3 / GM) = {fmt_number(tau)} at a pericentre q "
+            f"({coordinates} coordinates; the period for a circular orbit)")
+
+
+_ADVICE = (f"beyond {MAX_STEP_FRACTION:g} of it the positions are wrong by up to the orbits' "
+           "size (a plunging orbit comes out of its pericentre unbound) while the energy error "
+           "can stay small. Use dt of about 1/20 of that timescale, or IAS15.")
 
 
 # the (dt, N, coordinates) each simulation was last checked with; this module owns it (weak
 # keys: a simulation leaves it when it is freed; a copy is checked afresh)
 _CHECKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+# True while an ensemble advances members that check_members has checked (per thread/task)
+_MEMBERS_CHECKED: contextvars.ContextVar = contextvars.ContextVar("members_checked",
+                                                                  default=False)
+# per ensemble: the (N, dt, coordinates) of each member at its last check
+_CHECKED_ENSEMBLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
 
 
 def check_step(sim, times) -> None:
@@ -103,7 +136,7 @@ def check_step(sim, times) -> None:
             f"time scale ({fmt_number(scale)}: from t = {fmt_number(t0)} to "
             f"{fmt_number(times[-1])}), so it would take over 10^15 steps and never finish; "
             "check the output times (and their units) or use a longer dt.")
-    if sim.integrator != "whfast":
+    if sim.integrator != "whfast" or _MEMBERS_CHECKED.get():
         return
     jacobi = sim.coordinates == "jacobi"
     key = (sim.dt, sim.N, jacobi)  # checked again when these or the particles change
@@ -115,12 +148,74 @@ def check_step(sim, times) -> None:
     tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,
                              None if sim.collision == "none" else sim.radii)
     if abs(sim.dt) > MAX_STEP_FRACTION * tau:
-        ratio = abs(sim.dt) / tau if tau > 0 else math.inf  # tau = 0: a radial plunge
-        warnings.warn(
-            f"WHFast's step dt = {fmt_number(sim.dt)} is {ratio:.2g} of the "
-            f"shortest orbital timescale, 2 pi sqrt(q^3 / GM) = {fmt_number(tau)} at a "
-            f"pericentre q ({sim.coordinates} coordinates; the period for a circular orbit): "
-            f"beyond {MAX_STEP_FRACTION:g} of it the positions are wrong by up to the orbits' "
-            "size (a plunging orbit comes out of its pericentre unbound) while the energy "
-            "error can stay small. Use dt of about 1/20 of that timescale, or IAS15.",
-            UserWarning, stacklevel=4)
+        warnings.warn(f"{_too_long(sim.dt, tau, sim.coordinates)}: {_ADVICE}", UserWarning,
+                      stacklevel=4)
+
+
+@contextlib.contextmanager
+def members_checked():
+    """Within: :func:`check_step` leaves the WHFast step to :func:`check_members`, which has
+    checked the ensemble's members and warned once for all of them (a short step is still
+    refused)."""
+    token = _MEMBERS_CHECKED.set(True)
+    try:
+        yield
+    finally:
+        _MEMBERS_CHECKED.reset(token)
+
+
+def check_members(owner, members, pack=None, stacklevel: int = 3) -> None:
+    """Warn once (one :class:`UserWarning` naming the members) when the WHFast step of any of
+    an ensemble's ``members`` exceeds :data:`MAX_STEP_FRACTION` of its shortest pericentre
+    timescale, as :func:`check_step` does for a lone simulation; run it before advancing them
+    inside :func:`members_checked`. ``owner`` (the ensemble) keeps each member's ``(N, dt,
+    coordinates)``: a member is checked again when those change or its integrator restarts.
+    Works on whole arrays (``pack``: the members' packed arrays, when there is one): a call
+    whose members were all checked costs a few comparisons of length-M arrays. ``stacklevel``:
+    as :func:`warnings.warn`'s, counted from the caller (the user's call, 3 levels up)."""
+    if members[0].integrator != "whfast":
+        return
+    if pack is not None:
+        x, v, m, radius, fstate, istate, poff = (pack.x, pack.v, pack.m, pack.radius,
+                                                 pack.fstate, pack.istate, pack.poff)
+    else:
+        states = [s.state_arrays() for s in members]
+        x, v, m, radius = (np.concatenate([st[k] for st in states])
+                           for k in ("x", "v", "m", "radius"))
+        fstate, istate = (np.stack([st[k] for st in states]) for k in ("fstate", "istate"))
+        poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
+    n, dt = np.diff(poff), fstate[:, _nc.F_DT].copy()
+    coords = istate[:, _nc.I_WH_COORDINATES].copy()
+    todo = istate[:, _nc.I_FRESH] != 0
+    last = _CHECKED_ENSEMBLES.get(owner)
+    if last is None or len(last[0]) != len(n):
+        todo[:] = True
+    else:
+        todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2])
+    _CHECKED_ENSEMBLES[owner] = (n, dt, coords)
+    jacobi = coords == 0
+    todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
+    if not todo.any():
+        return
+    ks = np.flatnonzero(todo)
+    tau = np.full(len(n), math.inf)
+    for size in np.unique(n[ks]).tolist():
+        for jac in (True, False):
+            group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
+            if len(group):
+                idx = poff[group][:, None] + np.arange(size)
+                tau[group] = _timescales(x[idx], v[idx], m[idx], fstate[group, _nc.F_G], jac,
+                                         radius[idx], istate[group, _nc.I_COLLISIONS] != 0)
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
+    if not len(bad):
+        return
+    with np.errstate(divide="ignore"):
+        worst = int(bad[np.argmax(np.abs(dt[bad]) / tau[bad])])
+    listed = ", ".join(map(str, bad[:20].tolist())) + (", ..." if len(bad) > 20 else "")
+    name = "jacobi" if jacobi[worst] else "democratic_heliocentric"
+    warnings.warn(
+        f"WHFast's step is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
+        f"members ({listed}); the worst, member {worst}: "
+        f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
+        UserWarning, stacklevel=stacklevel)

@@ -45,15 +45,20 @@ class Reference:
                             "de430-2015-03-02.bsp")  # fmt: skip
         if not os.path.exists(path):
             pytest.skip("skyfield's DE430 test excerpt is not installed")
-        mu, j2c = vv.EARTH.gm_km3_s2, vv.EARTH.j2 if j2 else 0.0
+        from visviva.satellites.perturbations import earth_pole_slots
 
-        def rhs(_t, y):
+        mu, j2c = vv.EARTH.gm_km3_s2, vv.EARTH.j2 if j2 else 0.0
+        px, py, dpx, dpy = earth_pole_slots(state.epoch)  # J2 is about the Earth's pole
+
+        def rhs(t, y):
             r = y[:3]
             rn = np.linalg.norm(r)
-            z2 = (r[2] / rn) ** 2
-            k = -1.5 * j2c * mu * R_E**2 / rn**5
+            p = np.array([px + dpx * t, py + dpy * t, 0.0])
+            p[2] = np.sqrt(1.0 - p[0] ** 2 - p[1] ** 2)
+            s = r @ p / rn
+            k = -1.5 * j2c * mu * R_E**2 / rn**4
             return np.r_[y[3:], -mu * r / rn**3
-                         + k * r * np.array([1 - 5 * z2, 1 - 5 * z2, 3 - 5 * z2])]  # fmt: skip
+                         + k * ((1 - 5 * s * s) * r / rn + 2 * s * p)]  # fmt: skip
 
         y0 = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
         self.sol = solve_ivp(rhs, (0.0, t_end), y0, method="DOP853", rtol=1e-13, atol=1e-12,

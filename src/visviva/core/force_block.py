@@ -47,6 +47,7 @@ __all__ = [
     "DENSITY_BAND",
     "RELATIVITY_ON",
     "LENSE_THIRRING_J",
+    "ZONAL_POLE",
     "TIME_DEPENDENT",
     "with_time_origin",
 ]
@@ -118,10 +119,14 @@ RELATIVITY_ON = 45
 #: The central body's angular momentum per unit mass along the frame's z axis, km^2/s, for the
 #: Lense-Thirring term (0: none).
 LENSE_THIRRING_J = 46
+#: First of 4 slots: x and y of the unit vector of the body's pole (the axis of its zonal
+#: harmonics) in the propagation frame at t = 0 and their rates (1/s), p(t) = p(0) + rate t,
+#: z = sqrt(1 - x^2 - y^2); all 0: the frame's z axis.
+ZONAL_POLE = 47
 #: Length of the block.
-FORCE_SIZE = 47
+FORCE_SIZE = 51
 #: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
-TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX")
+TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX", "ZONAL_POLE")
 
 #: ``(name, first index, size, unit, meaning)`` of every slot, in index order.
 LAYOUT = (
@@ -158,6 +163,8 @@ LAYOUT = (
     ("RELATIVITY_ON", RELATIVITY_ON, 1, "flag", "post-Newtonian Schwarzschild term on/off"),
     ("LENSE_THIRRING_J", LENSE_THIRRING_J, 1, "km2/s",
      "angular momentum per unit mass of the central body along z (Lense-Thirring; 0: none)"),
+    ("ZONAL_POLE", ZONAL_POLE, 4, ", 1/s", "x, y of the body's pole (zonal axis) in the "
+     "frame at t = 0 and their rates (all 0: the frame's z axis)"),
 )
 
 
@@ -174,10 +181,10 @@ def with_time_origin(force, t0_s: float):
     Returns
     -------
     ndarray (FORCE_SIZE,)
-        The ephemeris grid start moved by ``-t0_s`` and the body-fixed frame matrix at t = 0
+        The ephemeris grid start moved by ``-t0_s``, the body-fixed frame matrix at t = 0
         turned by the body's rotation over ``t0_s`` (r_bf = Rz(w (t' + t0)) M0 r =
-        Rz(w t') [Rz(w t0) M0] r), the only slots that depend on the origin
-        (:data:`TIME_DEPENDENT`).
+        Rz(w t') [Rz(w t0) M0] r) and the zonal pole moved along its rate to ``t0_s``, the
+        only slots that depend on the origin (:data:`TIME_DEPENDENT`).
     """
     import math
 
@@ -190,4 +197,7 @@ def with_time_origin(force, t0_s: float):
     rz = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     m = force[FRAME_MATRIX:FRAME_MATRIX + 9].reshape(3, 3)
     out[FRAME_MATRIX:FRAME_MATRIX + 9] = (rz @ m).ravel()
+    for k in range(2):
+        if force[ZONAL_POLE + 2 + k] != 0.0:  # (a pole without a rate keeps its bits)
+            out[ZONAL_POLE + k] = force[ZONAL_POLE + k] + force[ZONAL_POLE + 2 + k] * t0_s
     return out

@@ -127,11 +127,14 @@ class Zonal(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
-    PARAMETERS = ("ZONAL_DEGREE",)
+    PARAMETERS = ("ZONAL_DEGREE", "ZONAL_POLE")
 
     def pack(self, model) -> None:
         model.zonal = self.coefficients()
         model.force[fb.ZONAL_DEGREE] = self.degree
+        if model.epoch is not None and self.body.name == "earth":
+            model.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4] = earth_pole_slots(model.epoch)
+        # else the frame's z axis: no epoch, or another body, whose pole visviva does not know
 
     def coefficients(self) -> np.ndarray:
         """J_n indexed by n (entries 0 and 1 are zero), dimensionless."""
@@ -577,6 +580,30 @@ class SphericalHarmonics(Perturbation):
 
     def __repr__(self):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
+
+
+def earth_pole_slots(epoch) -> np.ndarray:
+    """The ``ZONAL_POLE`` slots for the Earth: x, y of its pole in GCRS at ``epoch`` and their
+    rates (1/s).
+
+    The pole is the celestial intermediate pole (IAU 2006/2000A precession-nutation, ERFA
+    ``xys06a`` at the epoch's TT), the Earth's axis of rotation seen in the GCRS: 0.13 deg from
+    the GCRS z axis in 2024 (precession since J2000). It moves by about 0.05" a day; the rate is
+    the central difference over +-12 h, so that a run restarted at a later epoch (after a burn,
+    from a fit's state) sees the same pole to ~1e-5". Polar motion (~0.3" between this axis
+    and the ITRS z axis of EGM2008's coefficients, turning with the Earth) is left out.
+    """
+    import erfa
+
+    from .frames import offline_iers
+
+    with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+        tt = epoch.tt
+    jd1 = np.asarray(tt.jd1, dtype=np.float64)
+    jd2 = np.asarray(tt.jd2, dtype=np.float64) + np.array([0.0, -0.5, 0.5])
+    x, y, _ = erfa.xys06a(jd1, jd2)
+    rate = np.array([x[2] - x[1], y[2] - y[1]]) / c.DAY_S
+    return np.array([x[0], y[0], rate[0], rate[1]])
 
 
 def flattening_of(body: Body) -> float:

@@ -680,18 +680,30 @@ def test_zonal_harmonics_are_about_the_earths_pole_not_the_gcrs_z_axis(inc_deg):
     assert np.linalg.norm(out.r.to_value(u.km) - ref) < 2e-5  # 2 cm (was 116 m and 252 m)
 
 
-def test_zonal_pole_follows_precession_across_restarts():
-    """A run restarted at a later epoch sees nearly the same pole (a linear function of time,
-    moved with the time origin): 6 h later within 0.002" (the curvature of the nutation)."""
+def test_zonal_pole_is_the_same_in_runs_from_other_epochs():
+    """Runs from other epochs (after a burn, from a fit's state, backwards) see the same pole at
+    the same instant: its knots are fixed in absolute time (0h TT), and it follows the
+    precession-nutation series (ERFA xys06a) to 0.003" between them."""
+    import erfa
+
     from visviva.core import force_block as fb
+    from visviva.core.zonal import zonal_pole
     from visviva.satellites.cowell import ForceModel
 
-    epoch = Time("2024-03-01T00:00:00", scale="utc")
-    whole = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch).force
-    later = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch + 6 * u.h).force
-    moved = fb.with_time_origin(whole, 6 * 3600.0)
-    k = fb.ZONAL_POLE
-    assert np.hypot(*(moved[k:k + 2] - later[k:k + 2])) < 1e-8  # rad (0.002"; 3e-9 measured)
-    assert np.hypot(*(whole[k:k + 2] - later[k:k + 2])) > 5e-9  # it moved (0.012")
+    epoch = Time("2024-03-01T05:00:00", scale="utc")
+    first = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch, span_s=(-43200.0, 86400.0))
+    later = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch + 6 * u.h, span_s=(0.0, 3600.0))
+    shifted = fb.with_time_origin(first.force, 6 * 3600.0)
+    for dt in (-30000.0, 0.0, 9000.0, 50000.0):  # s after epoch + 6 h
+        a = np.array(zonal_pole(dt + 21600.0, first.force, first.zonal))
+        b = np.array(zonal_pole(dt, later.force, later.zonal))
+        c = np.array(zonal_pole(dt, shifted, first.zonal))
+        assert np.abs(a - b).max() < 1e-15 and np.abs(a - c).max() < 1e-15
+        tt = (epoch + (dt + 21600.0) * u.s).tt
+        x, y, _ = erfa.xys06a(tt.jd1, tt.jd2)
+        assert np.hypot(a[0] - x, a[1] - y) < 1.5e-8  # rad (0.003")
+    assert np.degrees(np.arcsin(np.hypot(*a))) == pytest.approx(0.134, abs=0.001)
     # without an epoch the frame's z axis, as before
-    assert not ForceModel(GM, [vv.J2(vv.EARTH)]).force[k:k + 4].any()
+    plain = ForceModel(GM, [vv.J2(vv.EARTH)])
+    assert not plain.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4].any()
+    assert zonal_pole(100.0, plain.force, plain.zonal) == (0.0, 0.0)

@@ -176,7 +176,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
     _add_point_mass_gradient(x, yy, z, gm, dadr)
     if int(force[fb.ZONAL_DEGREE]) >= 2:
-        px, py = zonal_pole(t, force)
+        px, py = zonal_pole(t, force, zonal)
         _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]),
                             px, py, dadr)
     elif force[fb.HARMONICS_DEGREE] >= 2.0:

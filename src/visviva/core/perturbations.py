@@ -563,7 +563,7 @@ def zonal_rhs(t, y, force, zonal, dy):
     accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
     n_max = int(force[fb.ZONAL_DEGREE])
     if n_max >= 2:
-        px, py = zonal_pole(t, force)
+        px, py = zonal_pole(t, force, zonal)
         accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py, acc)
     if force[fb.RELATIVITY_ON] != 0.0:
         accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],

@@ -2,8 +2,9 @@
 
 The zonal field J_2 .. J_n is symmetric about the body's axis, which need not be the z axis of
 the propagation frame: the Earth's pole is 0.13 deg from the GCRS z axis in 2024 (precession
-since J2000). The force block's ``ZONAL_POLE`` slots (:mod:`visviva.core.force_block`) give
-the pole as a linear function of time (:func:`zonal_pole`); zero slots are the frame's z axis.
+since J2000). The force block's ``ZONAL_POLE`` slots (:mod:`visviva.core.force_block`) point
+to a table of the pole after the J_n in the ``zonal`` array, on knots fixed in absolute time,
+interpolated linearly (:func:`zonal_pole`); without one the frame's z axis.
 """
 
 from __future__ import annotations
@@ -17,11 +18,20 @@ __all__ = ["accel_zonal", "zonal_pole"]
 
 
 @inline_kernel
-def zonal_pole(t, force):
-    """x and y of the zonal field's pole in the propagation frame at ``t`` s (the block's
-    ``ZONAL_POLE`` slots: p(0) + rate t; (0, 0) is the frame's z axis)."""
+def zonal_pole(t, force, zonal):
+    """x and y of the zonal field's pole in the propagation frame at ``t`` s: linear
+    interpolation in the table of the block's ``ZONAL_POLE`` slots (continued linearly past
+    its ends); (0, 0), the frame's z axis, without a table."""
     k = fb.ZONAL_POLE
-    return force[k] + force[k + 2] * t, force[k + 1] + force[k + 3] * t
+    n = int(force[k + 2])
+    if n < 2:
+        return 0.0, 0.0
+    u = (t - force[k]) / force[k + 1]
+    i = min(max(int(math.floor(u)), 0), n - 2)
+    w = u - i
+    j = int(force[k + 3]) + 2 * i
+    return (zonal[j] + w * (zonal[j + 2] - zonal[j]),
+            zonal[j + 1] + w * (zonal[j + 3] - zonal[j + 1]))
 
 
 @kernel

@@ -133,7 +133,10 @@ class Zonal(Perturbation):
         model.zonal = self.coefficients()
         model.force[fb.ZONAL_DEGREE] = self.degree
         if model.epoch is not None and self.body.name == "earth":
-            model.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4] = earth_pole_slots(model.epoch)
+            t0, step, knots = earth_pole_table(model.epoch, *model.span_s)
+            model.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4] = (t0, step, len(knots),
+                                                            len(model.zonal))
+            model.zonal = np.concatenate([model.zonal, knots.ravel()])
         # else the frame's z axis: no epoch, or another body, whose pole visviva does not know
 
     def coefficients(self) -> np.ndarray:
@@ -582,16 +585,26 @@ class SphericalHarmonics(Perturbation):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
 
 
-def earth_pole_slots(epoch) -> np.ndarray:
-    """The ``ZONAL_POLE`` slots for the Earth: x, y of its pole in GCRS at ``epoch`` and their
-    rates (1/s).
+def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):
+    """The Earth's pole in GCRS on knots at every 0h TT over a run: ``(t0, step, knots)``.
 
     The pole is the celestial intermediate pole (IAU 2006/2000A precession-nutation, ERFA
-    ``xys06a`` at the epoch's TT), the Earth's axis of rotation seen in the GCRS: 0.13 deg from
-    the GCRS z axis in 2024 (precession since J2000). It moves by about 0.05" a day; the rate is
-    the central difference over +-12 h, so that a run restarted at a later epoch (after a burn,
-    from a fit's state) sees the same pole to ~1e-5". Polar motion (~0.3" between this axis
-    and the ITRS z axis of EGM2008's coefficients, turning with the Earth) is left out.
+    ``xys06a``), the Earth's axis of rotation seen in the GCRS: 0.134 deg from the GCRS z axis
+    in 2024 (precession since J2000), moving by about 0.05" a day. The knots are fixed in
+    absolute time (whole TT days, one spare on each side of [t_start_s, t_end_s] s after
+    ``epoch``), so that every run, whatever its epoch (restarted after a burn, from a fit's
+    state, backwards), sees the same pole; between them it is linear (within 0.003" of the
+    series). Polar motion (~0.3" between this axis and the ITRS z axis of EGM2008's
+    coefficients, turning with the Earth) is left out.
+
+    Returns
+    -------
+    t0 : float
+        Time of the first knot, s (TT) after ``epoch``.
+    step : float
+        86400 s.
+    knots : ndarray (K, 2)
+        x and y of the pole's unit vector at the knots.
     """
     import erfa
 
@@ -599,11 +612,14 @@ def earth_pole_slots(epoch) -> np.ndarray:
 
     with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
         tt = epoch.tt
-    jd1 = np.asarray(tt.jd1, dtype=np.float64)
-    jd2 = np.asarray(tt.jd2, dtype=np.float64) + np.array([0.0, -0.5, 0.5])
-    x, y, _ = erfa.xys06a(jd1, jd2)
-    rate = np.array([x[2] - x[1], y[2] - y[1]]) / c.DAY_S
-    return np.array([x[0], y[0], rate[0], rate[1]])
+    jd1, jd2 = float(tt.jd1), float(tt.jd2)
+    base = np.floor(jd1 - 0.5) + 0.5  # a 0h TT at or before the epoch, exact in float64
+    frac = (jd1 - base) + jd2  # days from it to the epoch
+    lo = int(np.floor(frac + min(t_start_s, t_end_s, 0.0) / c.DAY_S)) - 1
+    hi = int(np.ceil(frac + max(t_start_s, t_end_s, 0.0) / c.DAY_S)) + 1
+    days = np.arange(lo, hi + 1, dtype=np.float64)
+    x, y, _ = erfa.xys06a(np.full(days.shape, base), days)
+    return (lo - frac) * c.DAY_S, c.DAY_S, np.column_stack([x, y])
 
 
 def flattening_of(body: Body) -> float:

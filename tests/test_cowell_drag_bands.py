@@ -82,7 +82,7 @@ def _scipy_reference(state, t_end, forces):
     restarted there in the next band (the band held, as the table defines it)."""
     from visviva.satellites.cowell import ForceModel
 
-    model = ForceModel(vv.EARTH.gm_km3_s2, forces)
+    model = ForceModel(vv.EARTH.gm_km3_s2, forces, (), state.epoch, (0.0, t_end))  # its pole
     force, zonal, atm, er, ev, egm, sh = model.arrays()
     flat = force[fb.FLATTENING]
     radius = force[fb.RADIUS]

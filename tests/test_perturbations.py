@@ -44,7 +44,7 @@ def test_j2_matches_closed_form():
     r = np.array([4000.0, -3000.0, 5000.0])
     a = np.zeros(3)
     zonal = np.array([0.0, 0.0, vv.EARTH.j2])
-    accel_zonal(*r, GM, R, zonal, 2, a)
+    accel_zonal(*r, GM, R, zonal, 2, 0.0, 0.0, a)
     x, y, z = r
     rn = np.linalg.norm(r)
     k = -1.5 * vv.EARTH.j2 * GM * R**2 / rn**5
@@ -58,7 +58,7 @@ def test_zonal_is_the_gradient_of_its_potential(degree):
     r = np.array([-5200.0, 2100.0, 4300.0])
     zonal = np.array([0.0, 0.0] + [vv.EARTH.jn(n) for n in range(2, degree + 1)])
     a = np.zeros(3)
-    accel_zonal(*r, GM, R, zonal, degree, a)
+    accel_zonal(*r, GM, R, zonal, degree, 0.0, 0.0, a)
     h = 1e-3
     grad = np.array(
         [
@@ -273,7 +273,7 @@ def test_harmonics_zonal_part_equals_zonal_kernel():
     a = np.zeros(3)
     accel_harmonics(*r, GM, R, sh, 4, a)
     b = np.zeros(3)
-    accel_zonal(*r, GM, R, np.array([0, 0] + [vv.EARTH.jn(n) for n in range(2, 5)]), 4, b)
+    accel_zonal(*r, GM, R, np.array([0, 0] + [vv.EARTH.jn(n) for n in range(2, 5)]), 4, 0.0, 0.0, b)
     assert np.allclose(a, b, rtol=1e-12, atol=1e-20)
 
 
@@ -633,3 +633,77 @@ def test_srp_about_the_sun_is_never_in_the_suns_own_shadow(shadow):
     kepler = state.propagate(t * u.s).r.to_value(u.km)
     assert np.linalg.norm(ref - kepler) > 1e5  # the sail's push: ~2e5 km in a month
     assert np.linalg.norm(out.r.to_value(u.km) - ref) < 1e-3
+
+
+def _cip_in_gcrs(epoch):
+    """The Earth's rotation axis (the CIRS z axis) as a GCRS unit vector, through astropy's
+    frame graph (independent of visviva's ERFA call)."""
+    from astropy.coordinates import CIRS, GCRS, CartesianRepresentation
+
+    z = CIRS(CartesianRepresentation(0.0, 0.0, 1.0, unit=u.km), obstime=epoch)
+    g = z.transform_to(GCRS(obstime=epoch)).cartesian.xyz.to_value(u.km)
+    return g / np.linalg.norm(g)
+
+
+@pytest.mark.parametrize("inc_deg", [51.6, 98.0])
+def test_zonal_harmonics_are_about_the_earths_pole_not_the_gcrs_z_axis(inc_deg):
+    """The zonal field is symmetric about the Earth's axis, 0.134 deg from the GCRS z axis in
+    2024 (precession since J2000). J2/Zonal used the GCRS z axis: a LEO state was 2.1 km
+    (51.6 deg) and 3.8 km (98 deg) off after a day, 116 m and 252 m after one orbit, silently
+    (SphericalHarmonics, which rotates GCRS -> ITRS, had it right). Reference: scipy's DOP853
+    with J2..J4 written out about astropy's CIRS pole."""
+    from scipy.integrate import solve_ivp
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    el = vv.KeplerianElements.from_semi_major_axis(
+        6878.0 * u.km, 0.001, inc_deg * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=epoch)
+    state = el.to_state()
+    pole = _cip_in_gcrs(epoch)
+    assert np.degrees(np.arccos(pole[2])) == pytest.approx(0.134, abs=0.001)
+    jn = {n: vv.EARTH.jn(n) for n in (2, 3, 4)}
+
+    def rhs(t, y):
+        r = y[:3]
+        rn = np.linalg.norm(r)
+        s = r @ pole / rn
+        p = [1.0, s, 1.5 * s * s - 0.5, 2.5 * s**3 - 1.5 * s, (35 * s**4 - 30 * s * s + 3) / 8]
+        dp = [0.0, 1.0, 3.0 * s, 7.5 * s * s - 1.5, (140 * s**3 - 60 * s) / 8]
+        radial = sum(jn[n] * (R / rn) ** n * ((n + 1) * p[n] + s * dp[n]) for n in jn)
+        axial = sum(jn[n] * (R / rn) ** n * dp[n] for n in jn)
+        a = -GM * r / rn**3 + GM / rn**2 * (radial * r / rn - axial * pole)
+        return np.r_[y[3:], a]
+
+    t_end = 5700.0  # one orbit
+    y0 = np.r_[state.r.to_value(u.km), state.v.to_value(u.km / u.s)]
+    ref = solve_ivp(rhs, (0.0, t_end), y0, method="DOP853", rtol=1e-12, atol=1e-12).y[:3, -1]
+    out = vv.propagate_cowell(state, t_end * u.s, [vv.Zonal(vv.EARTH, 4)])
+    assert np.linalg.norm(out.r.to_value(u.km) - ref) < 2e-5  # 2 cm (was 116 m and 252 m)
+
+
+def test_zonal_pole_is_the_same_in_runs_from_other_epochs():
+    """Runs from other epochs (after a burn, from a fit's state, backwards) see the same pole at
+    the same instant: its knots are fixed in absolute time (0h TT), and it follows the
+    precession-nutation series (ERFA xys06a) to 0.003" between them."""
+    import erfa
+
+    from visviva.core import force_block as fb
+    from visviva.core.zonal import zonal_pole
+    from visviva.satellites.cowell import ForceModel
+
+    epoch = Time("2024-03-01T05:00:00", scale="utc")
+    first = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch, span_s=(-43200.0, 86400.0))
+    later = ForceModel(GM, [vv.J2(vv.EARTH)], epoch=epoch + 6 * u.h, span_s=(0.0, 3600.0))
+    shifted = fb.with_time_origin(first.force, 6 * 3600.0)
+    for dt in (-30000.0, 0.0, 9000.0, 50000.0):  # s after epoch + 6 h
+        a = np.array(zonal_pole(dt + 21600.0, first.force, first.zonal))
+        b = np.array(zonal_pole(dt, later.force, later.zonal))
+        c = np.array(zonal_pole(dt, shifted, first.zonal))
+        assert np.abs(a - b).max() < 1e-15 and np.abs(a - c).max() < 1e-15
+        tt = (epoch + (dt + 21600.0) * u.s).tt
+        x, y, _ = erfa.xys06a(tt.jd1, tt.jd2)
+        assert np.hypot(a[0] - x, a[1] - y) < 1.5e-8  # rad (0.003")
+    assert np.degrees(np.arcsin(np.hypot(*a))) == pytest.approx(0.134, abs=0.001)
+    # without an epoch the frame's z axis, as before
+    plain = ForceModel(GM, [vv.J2(vv.EARTH)])
+    assert not plain.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4].any()
+    assert zonal_pole(100.0, plain.force, plain.zonal) == (0.0, 0.0)

@@ -238,3 +238,30 @@ def test_secular_arguments_that_do_not_broadcast_raise_shape_error():
     )
     with pytest.raises(ShapeError, match="propagate_j2_secular"):
         propagate_j2_secular(el, [0, 1, 2] * u.day)
+
+
+def test_secular_node_drift_is_about_the_earths_pole_for_gcrs_elements():
+    """Under secular J2 the orbit normal precesses about the Earth's pole (0.134 deg from the
+    GCRS z axis in 2024), keeping its angle to that pole. GCRS elements with an epoch were
+    drifted about the GCRS z axis: after 10 days the angle to the pole had changed by 0.1 deg
+    and a LEO state was 2.2 km off after a day, silently. The pole: astropy's CIRS z axis."""
+    from astropy.coordinates import CIRS, GCRS, CartesianRepresentation
+    from astropy.time import Time
+
+    from visviva.satellites import propagate_j2_secular
+
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    z = CIRS(CartesianRepresentation(0.0, 0.0, 1.0, unit=u.km), obstime=epoch)
+    pole = z.transform_to(GCRS(obstime=epoch)).cartesian.xyz.to_value(u.km)
+    pole /= np.linalg.norm(pole)
+    el = vv.KeplerianElements.from_semi_major_axis(
+        6878 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=epoch)
+
+    def tilt(elements):
+        st = elements.to_state()
+        h = np.cross(st.r.to_value(u.km), st.v.to_value(u.km / u.s), axis=-1)
+        return np.arccos(h @ pole / np.linalg.norm(h, axis=-1))
+
+    later = propagate_j2_secular(el, [1.0, 5.0, 10.0] * u.day)
+    assert np.abs(tilt(later) - tilt(el)).max() < 1e-9  # rad (was 1.9e-3 after 10 days)
+    assert later.semi_major_axis.to_value(u.km) == pytest.approx(6878.0, rel=1e-12)

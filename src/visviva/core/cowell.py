@@ -138,7 +138,7 @@ def rhs_kind(force, ev_kind=()):
 def _rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy, full):
     # cowell_rhs, or zonal_rhs alone when full is ZONAL_ONLY (numba drops the other branch)
     if full is None:
-        zonal_rhs(y, force, zonal, dy)
+        zonal_rhs(t, y, force, zonal, dy)
     else:
         cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy)
 

@@ -47,6 +47,7 @@ __all__ = [
     "DENSITY_BAND",
     "RELATIVITY_ON",
     "LENSE_THIRRING_J",
+    "ZONAL_POLE",
     "TIME_DEPENDENT",
     "with_time_origin",
 ]
@@ -118,10 +119,15 @@ RELATIVITY_ON = 45
 #: The central body's angular momentum per unit mass along the frame's z axis, km^2/s, for the
 #: Lense-Thirring term (0: none).
 LENSE_THIRRING_J = 46
+#: First of 4 slots: the table of the body's pole (the axis of its zonal harmonics) in the
+#: propagation frame, kept in the ``zonal`` array after J_n: time of its first knot (s from
+#: t = 0), knot step (s), number of knots (0: the frame's z axis), index of the first knot's
+#: x in ``zonal`` (knots hold x, y of the unit vector; z = sqrt(1 - x^2 - y^2)).
+ZONAL_POLE = 47
 #: Length of the block.
-FORCE_SIZE = 47
+FORCE_SIZE = 51
 #: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
-TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX")
+TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX", "ZONAL_POLE")
 
 #: ``(name, first index, size, unit, meaning)`` of every slot, in index order.
 LAYOUT = (
@@ -158,6 +164,8 @@ LAYOUT = (
     ("RELATIVITY_ON", RELATIVITY_ON, 1, "flag", "post-Newtonian Schwarzschild term on/off"),
     ("LENSE_THIRRING_J", LENSE_THIRRING_J, 1, "km2/s",
      "angular momentum per unit mass of the central body along z (Lense-Thirring; 0: none)"),
+    ("ZONAL_POLE", ZONAL_POLE, 4, "s, s", "pole table in the zonal array: first knot's "
+     "time, step, number of knots (0: the frame's z axis), index"),
 )
 
 
@@ -174,10 +182,10 @@ def with_time_origin(force, t0_s: float):
     Returns
     -------
     ndarray (FORCE_SIZE,)
-        The ephemeris grid start moved by ``-t0_s`` and the body-fixed frame matrix at t = 0
-        turned by the body's rotation over ``t0_s`` (r_bf = Rz(w (t' + t0)) M0 r =
-        Rz(w t') [Rz(w t0) M0] r), the only slots that depend on the origin
-        (:data:`TIME_DEPENDENT`).
+        The ephemeris grid's and the pole table's starts moved by ``-t0_s`` and the
+        body-fixed frame matrix at t = 0 turned by the body's rotation over ``t0_s``
+        (r_bf = Rz(w (t' + t0)) M0 r = Rz(w t') [Rz(w t0) M0] r), the only slots that depend
+        on the origin (:data:`TIME_DEPENDENT`).
     """
     import math
 
@@ -190,4 +198,6 @@ def with_time_origin(force, t0_s: float):
     rz = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     m = force[FRAME_MATRIX:FRAME_MATRIX + 9].reshape(3, 3)
     out[FRAME_MATRIX:FRAME_MATRIX + 9] = (rz @ m).ravel()
+    if force[ZONAL_POLE + 2] > 0.0:
+        out[ZONAL_POLE] = force[ZONAL_POLE] - t0_s
     return out

@@ -52,6 +52,7 @@ from .perturbations import (
     sun_and_mass_scale,
 )
 from .relativity import add_relativity_partials
+from .zonal import zonal_pole
 
 __all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
 
@@ -79,21 +80,23 @@ def _add_point_mass_gradient(dx, dy, dz, k, G):
 
 
 @kernel
-def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, G):
-    """G += d a_zonal / d r for the zonal terms J_2 .. J_n_max (``zonal[n]`` = J_n).
+def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, px, py, G):
+    """G += d a_zonal / d r for the zonal terms J_2 .. J_n_max (``zonal[n]`` = J_n) about the
+    pole p = (px, py, sqrt(1 - px^2 - py^2)) ((0, 0): the frame's z axis).
 
-    With s = z/r, c_n = J_n R^n, alpha_n = (n+1) P_n + s P_n', the acceleration of
-    :func:`visviva.core.perturbations.accel_zonal` is a = GM [A r / r^3 - B z_hat / r^2] with
+    With s = r_hat . p, c_n = J_n R^n, alpha_n = (n+1) P_n + s P_n', the acceleration of
+    :func:`visviva.core.perturbations.accel_zonal` is a = GM [A r / r^3 - B p / r^2] with
     A = sum c_n r^-n alpha_n(s), B = sum c_n r^-n P_n'(s). Its gradient is
 
-        GM [r (f_r r_hat + f_s grad s)^T + f I - z_hat (g_r r_hat + g_s grad s)^T],
+        GM [r (f_r r_hat + f_s grad s)^T + f I - p (g_r r_hat + g_s grad s)^T],
 
-    f = A/r^3, g = B/r^2, grad s = (z_hat - s r_hat)/r, with the radial and s-derivatives
+    f = A/r^3, g = B/r^2, grad s = (p - s r_hat)/r, with the radial and s-derivatives
     from the Legendre recursions P_n'' = (n+1) P_{n-1}' + s P_{n-1}''.
     """
     r2 = x * x + y * y + z * z
     r = math.sqrt(r2)
-    s = z / r
+    pz = math.sqrt(1.0 - px * px - py * py)
+    s = (x * px + y * py + z * pz) / r
     p_nm2 = 1.0
     p_nm1 = s
     dp_nm1 = 1.0
@@ -131,15 +134,18 @@ def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, G):
     g_r = B_r / r2 - 2.0 * B / r3
     g_s = B_s / r2
     pos = (x, y, z)
+    pole = (px, py, pz)
     for j in range(3):
         rhat_j = pos[j] / r
-        grad_s_j = ((1.0 if j == 2 else 0.0) - s * rhat_j) / r
+        grad_s_j = (pole[j] - s * rhat_j) / r
         df_j = f_r * rhat_j + f_s * grad_s_j
         dg_j = g_r * rhat_j + g_s * grad_s_j
         for i in range(3):
             G[i, j] += gm * pos[i] * df_j
         G[j, j] += gm * f
-        G[2, j] -= gm * dg_j
+        for i in range(3):
+            if pole[i] != 0.0:
+                G[i, j] -= gm * pole[i] * dg_j
 
 
 @kernel
@@ -170,7 +176,9 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
     _add_point_mass_gradient(x, yy, z, gm, dadr)
     if int(force[fb.ZONAL_DEGREE]) >= 2:
-        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]), dadr)
+        px, py = zonal_pole(t, force, zonal)
+        _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]),
+                            px, py, dadr)
     elif force[fb.HARMONICS_DEGREE] >= 2.0:
         _add_harmonics_gradient(t, x, yy, z, force, sh, dadr)
     sun_pos = np.empty(3)

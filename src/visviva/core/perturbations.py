@@ -36,6 +36,7 @@ from .force_block import FORCE_SIZE
 from .hermite import hermite_basis
 from .local_frames import to_inertial
 from .relativity import accel_relativity
+from .zonal import accel_zonal, zonal_pole
 
 __all__ = [
     "FORCE_SIZE",
@@ -60,6 +61,7 @@ __all__ = [
     "hermite_position",
     "sun_and_mass_scale",
     "zonal_rhs",
+    "zonal_pole",
     "cowell_rhs",
     "cowell_rhs_array",
 ]
@@ -110,49 +112,6 @@ def accel_two_body(x, y, z, gm, out):
     out[0] += k * x
     out[1] += k * y
     out[2] += k * z
-
-
-@kernel
-def accel_zonal(x, y, z, gm, radius, zonal, n_max, out):
-    """Add the acceleration of the zonal harmonics J_2 .. J_n_max to ``out``.
-
-    Notes
-    -----
-    With s = z/r and the potential U = -GM/r * sum_n J_n (R/r)^n P_n(s), the gradient is
-    (Vallado 2013, eq. 8-19, generalised to any degree)
-
-        a = GM J_n R^n / r^(n+2) * [((n+1) P_n(s) + s P_n'(s)) r_hat - P_n'(s) z_hat],
-
-    with the Legendre recursions n P_n = (2n-1) s P_{n-1} - (n-1) P_{n-2} and
-    P_n' = n P_{n-1} + s P_{n-1}'. For n = 2 this is the familiar J2 acceleration
-    a_x = -3/2 J2 GM R^2 x / r^5 (1 - 5 z^2/r^2), a_z = -3/2 J2 GM R^2 z / r^5 (3 - 5 z^2/r^2).
-    """
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    s = z / r
-    # P_0, P_1 and derivatives
-    p_nm2 = 1.0
-    p_nm1 = s
-    dp_nm1 = 1.0
-    ratio = radius / r
-    rn = ratio  # (R/r)^1
-    radial = 0.0
-    axial = 0.0
-    for n in range(2, n_max + 1):
-        p_n = ((2 * n - 1) * s * p_nm1 - (n - 1) * p_nm2) / n
-        dp_n = n * p_nm1 + s * dp_nm1
-        rn *= ratio
-        jn = zonal[n]
-        if jn != 0.0:
-            c = jn * rn
-            radial += c * ((n + 1) * p_n + s * dp_n)
-            axial += c * dp_n
-        p_nm2, p_nm1 = p_nm1, p_n
-        dp_nm1 = dp_n
-    k = gm / r2
-    out[0] += k * radial * x / r
-    out[1] += k * radial * y / r
-    out[2] += k * (radial * s - axial)
 
 
 @kernel
@@ -588,7 +547,7 @@ def accel_thrust(t, y, force, out):
 
 
 @kernel
-def zonal_rhs(y, force, zonal, dy):
+def zonal_rhs(t, y, force, zonal, dy):
     """The derivative dy = (v, a) with the two-body and zonal-harmonic terms and, when switched
     on, the post-Newtonian correction (:mod:`visviva.core.relativity`) alone: the first terms
     of :func:`cowell_rhs`, same bits. Returns nothing; writes ``dy`` (not ``y``).
@@ -604,7 +563,8 @@ def zonal_rhs(y, force, zonal, dy):
     accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
     n_max = int(force[fb.ZONAL_DEGREE])
     if n_max >= 2:
-        accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, acc)
+        px, py = zonal_pole(t, force, zonal)
+        accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py, acc)
     if force[fb.RELATIVITY_ON] != 0.0:
         accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
                          force[fb.LENSE_THIRRING_J], acc)
@@ -652,7 +612,7 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     x = y[0]
     yy = y[1]
     z = y[2]
-    zonal_rhs(y, force, zonal, dy)
+    zonal_rhs(t, y, force, zonal, dy)
     acc = dy[3:]  # the sum goes on in dy itself (no array allocated per evaluation)
     if force[fb.HARMONICS_DEGREE] >= 2.0:
         accel_harmonics_inertial(t, x, yy, z, force, sh, acc)

@@ -174,6 +174,7 @@ class ForceModel:
     def __init__(self, gm_km3_s2, perturbations, events=(), epoch=None, span_s=(0.0, 0.0)):
         self.gm_km3_s2 = gm_km3_s2
         self.epoch = epoch
+        self.span_s = (float(span_s[0]), float(span_s[1]))
         self.force = np.zeros(FORCE_SIZE)
         self.force[fb.GM] = gm_km3_s2
         self.force[fb.SUN_ROW] = -1.0

@@ -127,11 +127,17 @@ class Zonal(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
-    PARAMETERS = ("ZONAL_DEGREE",)
+    PARAMETERS = ("ZONAL_DEGREE", "ZONAL_POLE")
 
     def pack(self, model) -> None:
         model.zonal = self.coefficients()
         model.force[fb.ZONAL_DEGREE] = self.degree
+        if model.epoch is not None and self.body.name == "earth":
+            t0, step, knots = earth_pole_table(model.epoch, *model.span_s)
+            model.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4] = (t0, step, len(knots),
+                                                            len(model.zonal))
+            model.zonal = np.concatenate([model.zonal, knots.ravel()])
+        # else the frame's z axis: no epoch, or another body, whose pole visviva does not know
 
     def coefficients(self) -> np.ndarray:
         """J_n indexed by n (entries 0 and 1 are zero), dimensionless."""
@@ -577,6 +583,43 @@ class SphericalHarmonics(Perturbation):
 
     def __repr__(self):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
+
+
+def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):
+    """The Earth's pole in GCRS on knots at every 0h TT over a run: ``(t0, step, knots)``.
+
+    The pole is the celestial intermediate pole (IAU 2006/2000A precession-nutation, ERFA
+    ``xys06a``), the Earth's axis of rotation seen in the GCRS: 0.134 deg from the GCRS z axis
+    in 2024 (precession since J2000), moving by about 0.05" a day. The knots are fixed in
+    absolute time (whole TT days, one spare on each side of [t_start_s, t_end_s] s after
+    ``epoch``), so that every run, whatever its epoch (restarted after a burn, from a fit's
+    state, backwards), sees the same pole; between them it is linear (within 0.003" of the
+    series). Polar motion (~0.3" between this axis and the ITRS z axis of EGM2008's
+    coefficients, turning with the Earth) is left out.
+
+    Returns
+    -------
+    t0 : float
+        Time of the first knot, s (TT) after ``epoch``.
+    step : float
+        86400 s.
+    knots : ndarray (K, 2)
+        x and y of the pole's unit vector at the knots.
+    """
+    import erfa
+
+    from .frames import offline_iers
+
+    with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+        tt = epoch.tt
+    jd1, jd2 = float(tt.jd1), float(tt.jd2)
+    base = np.floor(jd1 - 0.5) + 0.5  # a 0h TT at or before the epoch, exact in float64
+    frac = (jd1 - base) + jd2  # days from it to the epoch
+    lo = int(np.floor(frac + min(t_start_s, t_end_s, 0.0) / c.DAY_S)) - 1
+    hi = int(np.ceil(frac + max(t_start_s, t_end_s, 0.0) / c.DAY_S)) + 1
+    days = np.arange(lo, hi + 1, dtype=np.float64)
+    x, y, _ = erfa.xys06a(np.full(days.shape, base), days)
+    return (lo - frac) * c.DAY_S, c.DAY_S, np.column_stack([x, y])
 
 
 def flattening_of(body: Body) -> float:

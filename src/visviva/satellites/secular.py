@@ -135,6 +135,13 @@ def propagate_j2_secular(elements, dt, body=EARTH):
         a, e, i unchanged; RAAN, argp and mean anomaly advanced linearly, true anomaly from the
         new mean anomaly (Kepler's equation); in the frame of the input when it has one
         (elements or states of a satellite, e.g. ``sat.teme(t).to_elements()``).
+
+    Notes
+    -----
+    The rates turn the orbit about the Earth's pole. Elements about the Earth with an epoch,
+    GCRS or plain (taken as GCRS), are drifted in the equator of the epoch's celestial
+    intermediate pole (0.134 deg from the GCRS z axis in 2024) and turned back; TEME elements
+    (true equator) and elements without an epoch, about their frame's z axis.
     """
     from ..anomalies import mean_to_true
     from ..elements import KeplerianElements
@@ -153,6 +160,10 @@ def propagate_j2_secular(elements, dt, body=EARTH):
                 "propagate_j2_secular takes vv.KeplerianElements; convert with .to_elements()."
             )
     dt_s = to_array(dt, "time", "dt")
+    frame = getattr(elements, "frame", None)
+    to_equator = _equator_rotation(elements, body)
+    if to_equator is not None:  # GCRS elements: the theory's angles are about the Earth's pole
+        elements = _rotated_elements(elements, to_equator)
     e = np.asarray(elements.eccentricity, dtype=float)
     if np.any(~(e < 1)):
         raise DomainError(
@@ -180,8 +191,46 @@ def propagate_j2_secular(elements, dt, body=EARTH):
         elements.gm,
         epoch=None if elements.epoch is None else advance_epoch(elements.epoch, dt_s),
     )
-    frame = getattr(elements, "frame", None)
+    if to_equator is not None:  # back to the GCRS
+        drifted = _rotated_elements(drifted, np.swapaxes(to_equator, -1, -2))
     return drifted if frame is None else with_frame(drifted, frame)
+
+
+def _equator_rotation(elements, body):
+    """Matrices (..., 3, 3) from GCRS to the Earth's equator and pole of the elements' epoch, or
+    None where the elements' angles are already about that pole (TEME, a true-of-date frame
+    such as an OPM's TOD), about another body, or without an epoch.
+
+    The pole is the celestial intermediate pole (IAU 2006/2000A, ERFA ``xys06a``/``c2ixys``),
+    0.134 deg from the GCRS z axis in 2024: secular rates about the GCRS z axis put a LEO
+    orbit 2.2 km off after a day. It is held at the epoch (it moves by 0.05" a day).
+    """
+    from .satellite_states import frame_of
+
+    if body.name != "earth" or elements.epoch is None:
+        return None
+    if frame_of(elements) not in (None, "gcrs"):
+        return None
+    if abs(float(np.max(elements.gm.to_value(u.km**3 / u.s**2))) / body.gm_km3_s2 - 1) > 1e-6:
+        return None  # elements about another body
+    import erfa
+
+    from .frames import offline_iers
+
+    with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
+        tt = elements.epoch.tt
+    x, y, s = erfa.xys06a(tt.jd1, tt.jd2)
+    return erfa.c2ixys(x, y, s)
+
+
+def _rotated_elements(elements, matrices):
+    """The Keplerian elements of the states of ``elements`` turned by ``matrices``."""
+    from ..states import StateVectors
+
+    st = elements.to_state()
+    r = np.einsum("...ij,...j->...i", matrices, st.r.to_value(u.km))
+    v = np.einsum("...ij,...j->...i", matrices, st.v.to_value(u.km / u.s))
+    return StateVectors(r * u.km, v * u.km / u.s, elements.gm, epoch=elements.epoch).to_elements()
 
 
 def sun_synchronous_inclination(a, ecc=0.0, body=EARTH):

@@ -20,7 +20,7 @@ from _output import figure_path
 from astropy.time import Time
 
 import visviva as vv
-from visviva.od.tle_fit import naive_fields
+from visviva.od.tle_elements import naive_fields
 from visviva.satellites.frames import transform_matrices
 
 epoch = Time("2024-03-01T00:00:00", scale="utc")

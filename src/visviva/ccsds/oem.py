@@ -285,6 +285,14 @@ class OEMSegment(FrameCenterMetadata):
             raise InvalidInputError(
                 f"states_in: from REF_FRAME {self.frame} to {frame!r} is not supported; "
                 "visviva rotates between 'gcrs' (EME2000/ICRF/GCRF), 'teme' and 'itrs' (ITRF)")
+        if str(self.center).strip().upper() != "EARTH":
+            # (the three are geocentric frames: about another centre the rotation is on the
+            # wrong origin, the Earth's spin term v - w x r meaningless, and the result labelled
+            # Earth-centred for everything downstream)
+            raise InvalidInputError(
+                f"states_in: CENTER_NAME = {self.center}, but 'gcrs', 'teme' and 'itrs' are "
+                "Earth-centred frames; translate the states to the Earth's centre first (use "
+                ".r_km and .v_km_s with an ephemeris of the centre)")
         if frame == source:
             return self.states
         from ..satellites.frames import offline_iers

@@ -402,6 +402,25 @@ def test_an_opm_covariance_in_rtn_goes_with_the_state():
         OPM(itrf).covariance  # noqa: B018
 
 
+@pytest.mark.parametrize("frame", ["TDR", "GRC", "GTOD", "ITRF1993"])
+def test_a_local_covariance_about_other_earth_fixed_frames_is_refused(frame):
+    """COV_REF_FRAME = RTN about a state in SANA's other Earth-fixed frames (TDR, GRC, GTOD)
+    was rotated with the Earth-fixed velocity, whose in-track and cross-track axes are tilted
+    by degrees in LEO: a 1 km in-track sigma put ~60 m into the cross-track variance, silently
+    (only REF_FRAME names that map to 'itrs' were refused); the OEM's covariance(k) too."""
+    from visviva.ccsds.covariance import values_from_matrix
+    from visviva.ccsds.opm import OPM
+
+    base = vv.read_opm(_OPM)
+    rtn = np.diag([1e-4, 1.0, 1e-4, 1e-8, 1e-8, 1e-8])
+    sections = {**base.sections, "metadata": {**base.metadata.values, "REF_FRAME": frame},
+                "covariance": {"COV_REF_FRAME": "RTN", **values_from_matrix(rtn)}}
+    with pytest.raises(vv.InvalidInputError, match="Earth-fixed"):
+        OPM(sections).covariance  # noqa: B018
+    tod = {**sections, "metadata": {**base.metadata.values, "REF_FRAME": "TOD"}}
+    assert OPM(tod).covariance[1, 1] != rtn[1, 1]  # quasi-inertial: rotated, as before
+
+
 @pytest.mark.parametrize("key, value, words", [
     ("START_TIME", "2024-01-31T00:05:00", "lies outside START_TIME .. STOP_TIME"),
     ("USEABLE_START_TIME", "2024-01-30T00:00:00", "USEABLE_START_TIME = 2024-01-30T00:00:00"),

@@ -29,7 +29,7 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
-           "visviva_frame", "center_body", "FrameCenterMetadata", "ref_frame_of"]
+           "visviva_frame", "earth_fixed", "center_body", "FrameCenterMetadata", "ref_frame_of"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -284,6 +284,29 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     out = out.copy(format="isot")
     out.precision = 9
     return list(np.atleast_1d(out.value))
+
+
+#: REF_FRAMEs that rotate with the Earth but are not the ITRS (no polar motion, or other
+#: names of Earth-fixed axes): SANA's GRC (Greenwich rotating) and TDR (true of date rotating),
+#: GTOD, PEF, and the EFG / ECF / ECEF of other tools
+_EARTH_FIXED = frozenset({"GRC", "TDR", "GTOD", "PEF", "EFG", "ECF", "ECEF"})
+
+
+def earth_fixed(name: str) -> bool:
+    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, GRC,
+    TDR, GTOD, PEF, EFG, ECF, ECEF): a velocity on its axes is not the inertial velocity.
+
+    Parameters
+    ----------
+    name : str
+        The CCSDS frame name.
+
+    Returns
+    -------
+    bool
+    """
+    key = str(name).strip().upper()
+    return visviva_frame(key) == "itrs" or key.startswith("ITRF") or key in _EARTH_FIXED
 
 
 def visviva_frame(name: str) -> str | None:

@@ -511,3 +511,33 @@ def test_oem_covariance_on_the_state_axes_as_the_opm_gives_it():
     assert np.array_equal(seg.covariance(3), seg.covariances[3].matrix)
     with pytest.raises(vv.InvalidInputError, match="neither REF_FRAME = EME2000"):
         seg.covariance(4)
+
+
+def test_writers_take_the_centre_from_the_states_gm():
+    """OPM.from_state and OEMSegment.from_states wrote CENTER_NAME = EARTH for a Moon- or
+    Sun-centred state (the default), and the message read back with the Earth's GM: 81 times
+    the Moon's, silently. The centre now comes from the states' GM, and one that contradicts
+    it is refused."""
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.opm import OPM
+
+    t0 = Time("2024-03-01T12:00:00", scale="utc")
+    moon = vv.StateVectors([1838.0, 0, 0] * u.km, [0, 1.633, 0] * u.km / u.s, vv.MOON, epoch=t0)
+    back = vv.read_opm(vv.write_opm(OPM.from_state(moon, object_name="LRO")))
+    assert back.center == "MOON"
+    assert back.state.gm.to_value(u.km**3 / u.s**2) == pytest.approx(4902.800118, rel=1e-9)
+    states = moon.propagate(np.arange(3) * 60.0 * u.s)
+    seg = OEMSegment.from_states(states, object_name="LRO", degree=2)
+    assert vv.read_oem(vv.write_oem(seg)).segments[0].center == "MOON"
+    sun = vv.StateVectors([1.496e8, 0, 0] * u.km, [0, 29.78, 0] * u.km / u.s, vv.SUN, epoch=t0)
+    assert OPM.from_state(sun, object_name="X").center == "SUN"
+    with pytest.raises(vv.InvalidInputError, match="center = 'EARTH' has GM"):
+        OPM.from_state(moon, object_name="LRO", center="EARTH")
+    with pytest.raises(vv.InvalidInputError, match="no body's"):
+        OPM.from_state(vv.StateVectors([1.0, 0, 0] * u.km, [0, 1.0, 0] * u.km / u.s,
+                                       1.0 * u.km**3 / u.s**2, epoch=t0), object_name="X")
+    earth = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s,
+                            398600.4418 * u.km**3 / u.s**2, epoch=t0)  # another Earth GM
+    assert OPM.from_state(earth, object_name="X").center == "EARTH"
+    assert OPM.from_state(moon, object_name="LRO", center="EARTH BARYCENTER").center == \
+        "EARTH BARYCENTER"  # (no body: the user's word)

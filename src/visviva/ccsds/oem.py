@@ -121,7 +121,8 @@ class OEMSegment(FrameCenterMetadata):
     @classmethod
     def from_states(cls, times, r_km=None, v_km_s=None, *, object_name: str,
                     object_id: str = "UNKNOWN",
-                    center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
+                    center: str | None = None, frame: str | None = None,
+                    time_system: str = "UTC",
                     interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
                     mission_epoch=None, covariance=None, covariance_frame=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
@@ -139,8 +140,10 @@ class OEMSegment(FrameCenterMetadata):
             ``OBJECT_NAME``.
         object_id : str
             ``OBJECT_ID`` (international designator, e.g. ``"1998-067A"``).
-        center : str
-            ``CENTER_NAME``.
+        center : str, optional
+            ``CENTER_NAME``. Default: for states, the body whose GM is theirs (``"EARTH"``,
+            ``"MOON"``, ``"SUN"`` ...; a centre whose GM is not theirs is refused, as the file
+            would read back with the centre's GM); for arrays ``"EARTH"``.
         frame : str, optional
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
             Default: the states' own frame when given states that know it (TEME states are
@@ -167,6 +170,9 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        from .timeframes import center_of
+
+        states = None
         if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
             from .timeframes import ref_frame_of
 
@@ -180,6 +186,7 @@ class OEMSegment(FrameCenterMetadata):
         elif r_km is None or v_km_s is None:
             raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
                                     "their epochs).")
+        center = center_of(states, center)
         frame = "GCRF" if frame is None else frame
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "

@@ -29,7 +29,8 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
-           "visviva_frame", "earth_fixed", "center_body", "FrameCenterMetadata", "ref_frame_of"]
+           "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
+           "ref_frame_of"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -406,6 +407,64 @@ class FrameCenterMetadata:
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
                              self.visviva_frame if earth else None,
                              foreign=self.frame if earth else None)
+
+
+#: the centres a state's GM names when the writer is not told (the bodies of :mod:`visviva.bodies`)
+_CENTRES = ("EARTH", "MOON", "SUN", "MERCURY", "VENUS", "MARS", "JUPITER", "SATURN", "URANUS",
+            "NEPTUNE", "PLUTO")
+#: relative difference below which a state's GM is a body's (Earth models differ by 2e-8, a
+#: planet and its system's barycentre by up to 2e-4; two bodies by a factor 1.2 at least)
+_GM_RTOL = 1e-3
+
+
+def center_of(states, center: str | None) -> str:
+    """The ``CENTER_NAME`` to write for ``states``: ``center`` checked against their GM, else
+    the body whose GM is theirs (``"EARTH"`` for bare arrays, which carry no GM).
+
+    Parameters
+    ----------
+    states : StateVectors or None
+        The states written (their ``gm``), or None for bare arrays.
+    center : str or None
+        The centre asked for.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InvalidInputError
+        A ``center`` whose body has another GM than the states (a Moon-centred state written
+        ``CENTER_NAME = EARTH`` would read back with the Earth's GM), or, with no ``center``, a
+        GM that is no body's.
+    """
+    gm = getattr(states, "gm", None)
+    if gm is None:
+        return "EARTH" if center is None else center
+    gm = np.atleast_1d(np.asarray(gm.to_value("km3 / s2"), dtype=np.float64))
+
+    def same(body):
+        ref = body.gm_km3_s2
+        return bool(np.all(np.abs(gm - ref) <= _GM_RTOL * ref))
+
+    if center is not None:
+        body = center_body(str(center))
+        if body is not None and not same(body):
+            raise InvalidInputError(
+                f"center = {center!r} has GM {body.gm_km3_s2:.10g} km3/s2, but the states' gm "
+                f"is {gm[0]:.10g} km3/s2: the message would read back with the centre's GM. "
+                "Pass the centre the states are about (leave center out to take it from their "
+                "gm).")
+        return center
+    from .. import bodies
+
+    for name in _CENTRES:
+        if same(getattr(bodies, name)):
+            return name
+    raise InvalidInputError(
+        f"the states' gm = {gm[0]:.10g} km3/s2 is no body's visviva knows, so CENTER_NAME "
+        "cannot be told from it: pass center='...' (e.g. 'EARTH', 'MOON', 'MARS BARYCENTER').")
 
 
 def center_body(name: str):

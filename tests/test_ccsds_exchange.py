@@ -525,10 +525,15 @@ def test_writers_take_the_centre_from_the_states_gm():
     moon = vv.StateVectors([1838.0, 0, 0] * u.km, [0, 1.633, 0] * u.km / u.s, vv.MOON, epoch=t0)
     back = vv.read_opm(vv.write_opm(OPM.from_state(moon, object_name="LRO")))
     assert back.center == "MOON"
+    assert back.frame == "ICRF"  # (the GCRF is geocentric)
     assert back.state.gm.to_value(u.km**3 / u.s**2) == pytest.approx(4902.800118, rel=1e-9)
     states = moon.propagate(np.arange(3) * 60.0 * u.s)
     seg = OEMSegment.from_states(states, object_name="LRO", degree=2)
     assert vv.read_oem(vv.write_oem(seg)).segments[0].center == "MOON"
+    assert seg.frame == "ICRF"
+    arrays = OEMSegment.from_states(states.epoch, states.r, states.v, object_name="LRO",
+                                    center="MOON", degree=2)
+    assert arrays.frame == "ICRF" and arrays.center == "MOON"
     sun = vv.StateVectors([1.496e8, 0, 0] * u.km, [0, 29.78, 0] * u.km / u.s, vv.SUN, epoch=t0)
     assert OPM.from_state(sun, object_name="X").center == "SUN"
     with pytest.raises(vv.InvalidInputError, match="center = 'EARTH' has GM"):

@@ -147,7 +147,8 @@ class OEMSegment(FrameCenterMetadata):
         frame : str, optional
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
             Default: the states' own frame when given states that know it (TEME states are
-            written ``TEME``), else ``"GCRF"``; a frame that contradicts the states' is refused.
+            written ``TEME``), else ``"GCRF"`` (``"ICRF"`` about another centre than the
+            Earth); a frame that contradicts the states' is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -181,13 +182,14 @@ class OEMSegment(FrameCenterMetadata):
                 raise InvalidInputError(
                     "from_states(states, ...) takes states with their epochs (and no r_km, "
                     "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
-            frame = ref_frame_of(states, frame)
+            frame = ref_frame_of(states, frame, center_of(states, center))
             times, r_km, v_km_s = states.epoch, states.r, states.v
         elif r_km is None or v_km_s is None:
             raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
                                     "their epochs).")
         center = center_of(states, center)
-        frame = "GCRF" if frame is None else frame
+        if frame is None:  # (the GCRF is geocentric: about another centre, the ICRF's axes)
+            frame = "GCRF" if str(center).strip().upper() == "EARTH" else "ICRF"
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
                                     "integer >= 1 (a reader refuses anything else).")

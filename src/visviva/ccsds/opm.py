@@ -154,7 +154,8 @@ class OPM(FrameCenterMetadata):
         frame : str, optional
             ``REF_FRAME`` of the state (CCSDS name). Default: the state's own frame when it
             knows it (``sat.teme(t)`` gives ``"TEME"``, ``sat.gcrs(t)`` ``"GCRF"``), else
-            ``"GCRF"``; a frame that contradicts the state's own is refused.
+            ``"GCRF"`` (``"ICRF"`` about another centre than the Earth); a frame that
+            contradicts the state's own is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         maneuvers : iterable of Maneuver
@@ -182,8 +183,8 @@ class OPM(FrameCenterMetadata):
 
         if getattr(state, "shape", None) != () or state.epoch is None:
             raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
-        frame = ref_frame_of(state, frame)
         center = center_of(state, center)
+        frame = ref_frame_of(state, frame, center)
         r = state.r.to_value(u.km)
         v = state.v.to_value(u.km / u.s)
         sections = {

@@ -330,10 +330,10 @@ def visviva_frame(name: str) -> str | None:
 _CCSDS_NAME = {"teme": "TEME", "gcrs": "GCRF", "itrs": "ITRF"}
 
 
-def ref_frame_of(states, frame: str | None) -> str:
+def ref_frame_of(states, frame: str | None, center: str = "EARTH") -> str:
     """The ``REF_FRAME`` to write for ``states``: ``frame``, or their own when they know it
-    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"``; a ``frame`` that contradicts theirs is
-    refused.
+    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"`` about the Earth and ``"ICRF"`` about another
+    centre (the GCRF is geocentric); a ``frame`` that contradicts theirs is refused.
 
     Parameters
     ----------
@@ -341,6 +341,8 @@ def ref_frame_of(states, frame: str | None) -> str:
         The states to write (satellite states carry ``.frame``).
     frame : str or None
         The CCSDS frame asked for.
+    center : str
+        The ``CENTER_NAME`` written with them.
 
     Returns
     -------
@@ -348,7 +350,8 @@ def ref_frame_of(states, frame: str | None) -> str:
     """
     own = getattr(states, "frame", None)
     if frame is None:
-        return _CCSDS_NAME.get(own, "GCRF")
+        earth = str(center).strip().upper() == "EARTH"
+        return _CCSDS_NAME.get(own, "GCRF" if earth else "ICRF")
     if own is not None and visviva_frame(str(frame)) != own:
         raise InvalidInputError(
             f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was asked "

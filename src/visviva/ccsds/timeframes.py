@@ -332,7 +332,8 @@ _CCSDS_NAME = {"teme": "TEME", "gcrs": "GCRF", "itrs": "ITRF"}
 
 def ref_frame_of(states, frame: str | None, center: str = "EARTH") -> str:
     """The ``REF_FRAME`` to write for ``states``: ``frame``, or their own when they know it
-    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"`` about the Earth and ``"ICRF"`` about another
+    (``sat.teme(t)``: ``"TEME"``; a message's ``TOD`` states: ``"TOD"``), else ``"GCRF"`` about
+    the Earth and ``"ICRF"`` about another
     centre (the GCRF is geocentric); a ``frame`` that contradicts theirs is refused.
 
     Parameters
@@ -348,11 +349,23 @@ def ref_frame_of(states, frame: str | None, center: str = "EARTH") -> str:
     -------
     str
     """
-    own = getattr(states, "frame", None)
+    from ..satellites.satellite_states import frame_of
+
+    # (their visviva frame, or the REF_FRAME they were read in when visviva has no rotation for
+    # it, "TOD": such states were written GCRF, 0.33 deg of precession away in 2024)
+    own = frame_of(states)
+    foreign = own is not None and own not in _CCSDS_NAME
     if frame is None:
+        if foreign:
+            return own
         earth = str(center).strip().upper() == "EARTH"
         return _CCSDS_NAME.get(own, "GCRF" if earth else "ICRF")
-    if own is not None and visviva_frame(str(frame)) != own:
+    if foreign and str(frame).strip().upper() != own.strip().upper():
+        raise InvalidInputError(
+            f"the states were read in REF_FRAME = {own} (they say so) but frame={frame!r} was "
+            f"asked for: visviva cannot rotate {own}; leave frame out to write {own}, or pass "
+            f"states in {frame}.")
+    if own is not None and not foreign and visviva_frame(str(frame)) != own:
         raise InvalidInputError(
             f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was asked "
             f"for: leave frame out to write {_CCSDS_NAME.get(own, own)}, or pass states in "

@@ -227,9 +227,30 @@ def test_an_unknown_ref_frame_refuses_the_inertial_covariance_but_keeps_the_rtn_
     # (EFG, ECF) the RTN axes came from the Earth-fixed velocity, tilted by ~3.5 deg in LEO
     text = SAMPLE.read_text().replace("REF_FRAME                          = EME2000",
                                       f"REF_FRAME = {frame}", 1)
-    msg = read_cdm(text)
+    with pytest.warns(UserWarning, match=f"OBJECT1's in {frame}"):  # (object 2: EME2000)
+        msg = read_cdm(text)
     assert msg.object1.frame == frame
     assert msg.object1.covariance_rtn[0, 0] == pytest.approx(41.42)
     with pytest.raises(vv.InvalidInputError, match=f"REF_FRAME = '{frame}'.*rtn_to_inertial"):
         msg.object1.covariance  # noqa: B018
     assert msg.object2.covariance.shape == (6, 6)  # EME2000
+
+
+def test_objects_in_different_frames_are_named_in_a_warning():
+    # 508.0-B-1 lets each object name its REF_FRAME; OBJECT1 in EME2000 beside OBJECT2 in ITRF
+    # gave, through the documented collision_probability(o1.r, ..., o2.r, ...), a miss vector
+    # thousands of km long and a Pc of 0 without a word
+    import warnings
+
+    text = SAMPLE.read_text()
+    at = text.index("OBJECT                             = OBJECT2")
+    mixed = text[:at] + text[at:].replace("REF_FRAME                          = EME2000",
+                                          "REF_FRAME = ITRF", 1)
+    with pytest.warns(UserWarning, match="OBJECT2's state is in REF_FRAME = ITRF, OBJECT1's in "
+                                         "EME2000"):
+        msg = read_cdm(mixed)
+    assert msg.object2.frame == "ITRF"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_cdm(text)  # one frame: no warning
+        read_cdm(text.replace("EME2000", "GCRF", 1))  # (the same axes, within 23 mas)

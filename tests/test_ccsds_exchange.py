@@ -402,6 +402,25 @@ def test_an_opm_covariance_in_rtn_goes_with_the_state():
         OPM(itrf).covariance  # noqa: B018
 
 
+@pytest.mark.parametrize("frame", ["TDR", "GRC", "GTOD", "ITRF1993"])
+def test_a_local_covariance_about_other_earth_fixed_frames_is_refused(frame):
+    """COV_REF_FRAME = RTN about a state in SANA's other Earth-fixed frames (TDR, GRC, GTOD)
+    was rotated with the Earth-fixed velocity, whose in-track and cross-track axes are tilted
+    by degrees in LEO: a 1 km in-track sigma put ~60 m into the cross-track variance, silently
+    (only REF_FRAME names that map to 'itrs' were refused); the OEM's covariance(k) too."""
+    from visviva.ccsds.covariance import values_from_matrix
+    from visviva.ccsds.opm import OPM
+
+    base = vv.read_opm(_OPM)
+    rtn = np.diag([1e-4, 1.0, 1e-4, 1e-8, 1e-8, 1e-8])
+    sections = {**base.sections, "metadata": {**base.metadata.values, "REF_FRAME": frame},
+                "covariance": {"COV_REF_FRAME": "RTN", **values_from_matrix(rtn)}}
+    with pytest.raises(vv.InvalidInputError, match="Earth-fixed"):
+        OPM(sections).covariance  # noqa: B018
+    tod = {**sections, "metadata": {**base.metadata.values, "REF_FRAME": "TOD"}}
+    assert OPM(tod).covariance[1, 1] != rtn[1, 1]  # quasi-inertial: rotated, as before
+
+
 @pytest.mark.parametrize("key, value, words", [
     ("START_TIME", "2024-01-31T00:05:00", "lies outside START_TIME .. STOP_TIME"),
     ("USEABLE_START_TIME", "2024-01-30T00:00:00", "USEABLE_START_TIME = 2024-01-30T00:00:00"),
@@ -492,3 +511,62 @@ def test_oem_covariance_on_the_state_axes_as_the_opm_gives_it():
     assert np.array_equal(seg.covariance(3), seg.covariances[3].matrix)
     with pytest.raises(vv.InvalidInputError, match="neither REF_FRAME = EME2000"):
         seg.covariance(4)
+
+
+def test_writers_take_the_centre_from_the_states_gm():
+    """OPM.from_state and OEMSegment.from_states wrote CENTER_NAME = EARTH for a Moon- or
+    Sun-centred state (the default), and the message read back with the Earth's GM: 81 times
+    the Moon's, silently. The centre now comes from the states' GM, and one that contradicts
+    it is refused."""
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.opm import OPM
+
+    t0 = Time("2024-03-01T12:00:00", scale="utc")
+    moon = vv.StateVectors([1838.0, 0, 0] * u.km, [0, 1.633, 0] * u.km / u.s, vv.MOON, epoch=t0)
+    back = vv.read_opm(vv.write_opm(OPM.from_state(moon, object_name="LRO")))
+    assert back.center == "MOON"
+    assert back.frame == "ICRF"  # (the GCRF is geocentric)
+    assert back.state.gm.to_value(u.km**3 / u.s**2) == pytest.approx(4902.800118, rel=1e-9)
+    states = moon.propagate(np.arange(3) * 60.0 * u.s)
+    seg = OEMSegment.from_states(states, object_name="LRO", degree=2)
+    assert vv.read_oem(vv.write_oem(seg)).segments[0].center == "MOON"
+    assert seg.frame == "ICRF"
+    arrays = OEMSegment.from_states(states.epoch, states.r, states.v, object_name="LRO",
+                                    center="MOON", degree=2)
+    assert arrays.frame == "ICRF" and arrays.center == "MOON"
+    sun = vv.StateVectors([1.496e8, 0, 0] * u.km, [0, 29.78, 0] * u.km / u.s, vv.SUN, epoch=t0)
+    assert OPM.from_state(sun, object_name="X").center == "SUN"
+    with pytest.raises(vv.InvalidInputError, match="center = 'EARTH' has GM"):
+        OPM.from_state(moon, object_name="LRO", center="EARTH")
+    with pytest.raises(vv.InvalidInputError, match="no body's"):
+        OPM.from_state(vv.StateVectors([1.0, 0, 0] * u.km, [0, 1.0, 0] * u.km / u.s,
+                                       1.0 * u.km**3 / u.s**2, epoch=t0), object_name="X")
+    earth = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s,
+                            398600.4418 * u.km**3 / u.s**2, epoch=t0)  # another Earth GM
+    assert OPM.from_state(earth, object_name="X").center == "EARTH"
+    assert OPM.from_state(moon, object_name="LRO", center="EARTH BARYCENTER").center == \
+        "EARTH BARYCENTER"  # (no body: the user's word)
+
+
+def test_states_read_in_a_frame_visviva_cannot_rotate_are_written_back_in_it():
+    """An OPM's or OEM's state in REF_FRAME = TOD (Earth-centred, no visviva rotation) given to
+    OPM.from_state / OEMSegment.from_states was written REF_FRAME = GCRF: 0.33 deg of
+    precession in 2024, ~40 km at LEO, silently. Its frame is now kept, and another asked for
+    is refused."""
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.opm import OPM
+
+    base = vv.read_opm(_OPM)
+    tod = OPM({**base.sections, "metadata": {**base.metadata.values, "REF_FRAME": "TOD"}})
+    again = vv.read_opm(vv.write_opm(OPM.from_state(tod.state, object_name="X")))
+    assert again.frame == "TOD"
+    assert np.array_equal(again.state.r.to_value(u.km), tod.state.r.to_value(u.km))
+    assert OPM.from_state(tod.state, object_name="X", frame="tod").frame == "tod"
+    with pytest.raises(vv.InvalidInputError, match="read in REF_FRAME = TOD"):
+        OPM.from_state(tod.state, object_name="X", frame="GCRF")
+    t = base.epoch + np.arange(3) * 60.0 * u.s
+    seg = OEMSegment.from_states(t, np.array([[7000.0, 450.0 * k, 0] for k in range(3)]),
+                                 np.array([[0, 7.5, 0]] * 3), object_name="X", frame="TOD",
+                                 degree=2)
+    read = vv.read_oem(vv.write_oem(seg)).segments[0]
+    assert OEMSegment.from_states(read.states, object_name="X", degree=2).frame == "TOD"

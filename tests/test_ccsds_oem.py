@@ -585,3 +585,22 @@ def test_a_second_60_that_is_no_leap_second_names_its_line(system, epoch):
     with pytest.raises(vv.CCSDSFormatError, match="second 60") as info:
         vv.read_oem(text)
     assert "line 14" in str(info.value) or "line 11" in str(info.value)
+
+
+def test_states_in_refuses_a_centre_other_than_the_earth():
+    # a Moon-centred EME2000 segment was rotated about the geocentre's axes with the Earth's
+    # spin term and came back labelled 'teme' / 'itrs' (geocentric frames) without a word
+    sat = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+    t = sat.epoch + np.arange(0, 180, 60.0) * u.s
+    r = np.array([[1838.0, 97.8 * k, 0.0] for k in range(3)])
+    v = np.array([[0.0, 1.63, 0.0]] * 3)
+    seg = OEMSegment.from_states(t, r, v, object_name="LRO", center="MOON", frame="EME2000",
+                                 degree=2)
+    for frame in ("teme", "itrs", "gcrs"):
+        with pytest.raises(vv.InvalidInputError, match="CENTER_NAME = MOON"):
+            seg.states_in(frame)
+    earth = OEMSegment.from_states(t, r * 4, v * 4.6, object_name="X", frame="EME2000",
+                                   degree=2)
+    assert earth.states_in("gcrs").frame == "gcrs"

@@ -284,6 +284,14 @@ def test_omm_errors():
         vv.write_omm(vv.Satellite.from_tle(*ISS).to_omm())
     with pytest.raises(vv.InvalidInputError, match="BSTAR = 'x' is not a valid float"):
         vv.write_omm({**vv.read_omm(OMM_KVN), "BSTAR": "x"})
+    # both (or neither) of SEMI_MAJOR_AXIS and MEAN_MOTION were written, into a file that
+    # read_omm refuses
+    with pytest.raises(vv.InvalidInputError, match="exactly one of SEMI_MAJOR_AXIS"):
+        vv.write_omm({**vv.read_omm(OMM_KVN), "SEMI_MAJOR_AXIS": 6790.0})
+    neither = dict(vv.read_omm(OMM_KVN))
+    del neither["MEAN_MOTION"]
+    with pytest.raises(vv.InvalidInputError, match="refuses neither"):
+        vv.write_omm(neither)
 
 
 def test_to_tle_reproduces_the_lines_and_sgp4_exporter():

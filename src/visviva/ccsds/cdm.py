@@ -478,6 +478,27 @@ def _check_values(sections: dict, source: str) -> None:
                                        "element of the covariance is a squared sigma, >= 0)",
                                        line=line, source=source)
     _check_spans(sections["relative"], source)
+    _check_frames(sections, source)
+
+
+def _check_frames(sections: dict, source: str) -> None:
+    """Warn when the two objects' states are on different axes (508.0-B-1 lets each segment
+    name its REF_FRAME): ``collision_probability(o1.r, o1.v, o1.covariance, o2.r, ...)``
+    takes both in one frame, and EME2000 beside ITRF puts them thousands of km apart."""
+    import warnings
+
+    from .timeframes import visviva_frame
+
+    meta = [sections[k]["metadata"] for k in ("object1", "object2")]
+    names = [str(m["REF_FRAME"]).strip().upper() for m in meta]
+    kinds = [visviva_frame(n) or n for n in names]
+    if kinds[0] != kinds[1]:
+        warnings.warn(
+            f"{source}, line {meta[1].line_of('REF_FRAME')}: OBJECT2's state is in REF_FRAME = "
+            f"{names[1]}, OBJECT1's in {names[0]} (line {meta[0].line_of('REF_FRAME')}): "
+            "rotate one state and its covariance to the other's frame before combining them "
+            "(the miss vector and a collision probability need both in one frame).",
+            UserWarning, stacklevel=4)
 
 
 #: (start, stop) keyword pairs of the relative metadata whose span cannot run backwards

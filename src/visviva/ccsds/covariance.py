@@ -148,13 +148,14 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
     ------
     InvalidInputError
         Another frame than ``REF_FRAME`` and no local frame, or a local frame of a state on
-        Earth-fixed axes (its velocity does not give the orbital axes).
+        Earth-fixed axes (ITRF, GRC, TDR, GTOD ...: its velocity does not give the orbital
+        axes).
     """
     if cov_frame is None or str(cov_frame).strip().upper() == str(ref_frame).strip().upper():
         return matrix
     from .._covariance import from_local
     from ..core.local_frames import FRAME_CODES
-    from .timeframes import visviva_frame
+    from .timeframes import earth_fixed, visviva_frame
 
     key = str(cov_frame).strip().upper()
     if key not in FRAME_CODES:
@@ -163,7 +164,7 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
         raise InvalidInputError(
             f"{where} is neither REF_FRAME = {ref_frame} nor a local orbital frame "
             f"({', '.join(sorted(FRAME_CODES))}); rotate {raw} to the state's axes yourself.")
-    if state_frame == "itrs":
+    if state_frame == "itrs" or earth_fixed(ref_frame):  # (GRC, TDR, GTOD: Earth-fixed too)
         raise InvalidInputError(
             f"{where} of a state on Earth-fixed axes ({ref_frame}): its Earth-fixed velocity "
             f"does not give the orbital axes; rotate the state and {raw} to an inertial frame "

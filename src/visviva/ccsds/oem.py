@@ -121,7 +121,8 @@ class OEMSegment(FrameCenterMetadata):
     @classmethod
     def from_states(cls, times, r_km=None, v_km_s=None, *, object_name: str,
                     object_id: str = "UNKNOWN",
-                    center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
+                    center: str | None = None, frame: str | None = None,
+                    time_system: str = "UTC",
                     interpolation: str = "HERMITE", degree: int = 5, a_km_s2=None,
                     mission_epoch=None, covariance=None, covariance_frame=None):  # fmt: skip
         """A segment from arrays (what a writer needs to make an OEM from computed states).
@@ -139,12 +140,15 @@ class OEMSegment(FrameCenterMetadata):
             ``OBJECT_NAME``.
         object_id : str
             ``OBJECT_ID`` (international designator, e.g. ``"1998-067A"``).
-        center : str
-            ``CENTER_NAME``.
+        center : str, optional
+            ``CENTER_NAME``. Default: for states, the body whose GM is theirs (``"EARTH"``,
+            ``"MOON"``, ``"SUN"`` ...; a centre whose GM is not theirs is refused, as the file
+            would read back with the centre's GM); for arrays ``"EARTH"``.
         frame : str, optional
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
             Default: the states' own frame when given states that know it (TEME states are
-            written ``TEME``), else ``"GCRF"``; a frame that contradicts the states' is refused.
+            written ``TEME``), else ``"GCRF"`` (``"ICRF"`` about another centre than the
+            Earth); a frame that contradicts the states' is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -167,6 +171,9 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
+        from .timeframes import center_of
+
+        states = None
         if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
             from .timeframes import ref_frame_of
 
@@ -175,12 +182,14 @@ class OEMSegment(FrameCenterMetadata):
                 raise InvalidInputError(
                     "from_states(states, ...) takes states with their epochs (and no r_km, "
                     "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
-            frame = ref_frame_of(states, frame)
+            frame = ref_frame_of(states, frame, center_of(states, center))
             times, r_km, v_km_s = states.epoch, states.r, states.v
         elif r_km is None or v_km_s is None:
             raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
                                     "their epochs).")
-        frame = "GCRF" if frame is None else frame
+        center = center_of(states, center)
+        if frame is None:  # (the GCRF is geocentric: about another centre, the ICRF's axes)
+            frame = "GCRF" if str(center).strip().upper() == "EARTH" else "ICRF"
         if int(degree) != degree or degree < 1:
             raise InvalidInputError(f"degree = {degree!r}: the interpolation degree is an "
                                     "integer >= 1 (a reader refuses anything else).")
@@ -285,6 +294,14 @@ class OEMSegment(FrameCenterMetadata):
             raise InvalidInputError(
                 f"states_in: from REF_FRAME {self.frame} to {frame!r} is not supported; "
                 "visviva rotates between 'gcrs' (EME2000/ICRF/GCRF), 'teme' and 'itrs' (ITRF)")
+        if str(self.center).strip().upper() != "EARTH":
+            # (the three are geocentric frames: about another centre the rotation is on the
+            # wrong origin, the Earth's spin term v - w x r meaningless, and the result labelled
+            # Earth-centred for everything downstream)
+            raise InvalidInputError(
+                f"states_in: CENTER_NAME = {self.center}, but 'gcrs', 'teme' and 'itrs' are "
+                "Earth-centred frames; translate the states to the Earth's centre first (use "
+                ".r_km and .v_km_s with an ephemeris of the centre)")
         if frame == source:
             return self.states
         from ..satellites.frames import offline_iers

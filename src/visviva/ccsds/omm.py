@@ -180,6 +180,12 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
             raise InvalidInputError(f"{key} is not an OMM keyword; remove it or write it as "
                                     f"{_USER}{key}")
         records[owner.name].values[key] = _coerce(owner.by_name[key], value)
+    mean = records["mean_elements"].values
+    if ("SEMI_MAJOR_AXIS" in mean) == ("MEAN_MOTION" in mean):  # (what read_omm refuses)
+        raise InvalidInputError(
+            "an OMM gives exactly one of SEMI_MAJOR_AXIS and MEAN_MOTION (read_omm refuses "
+            f"{'both' if 'MEAN_MOTION' in mean else 'neither'}); remove one: SGP4 elements "
+            "(Satellite.to_omm) are MEAN_MOTION.")
     header = records["header"].values
     header.setdefault("CCSDS_OMM_VERS", version)
     if originator is not None:

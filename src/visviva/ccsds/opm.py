@@ -133,8 +133,9 @@ class OPM(FrameCenterMetadata):
 
     @classmethod
     def from_state(cls, state, *, object_name: str, object_id: str = "UNKNOWN",
-                   center: str = "EARTH", frame: str | None = None, time_system: str = "UTC",
-                   maneuvers=(), covariance=None, originator: str = "VISVIVA",
+                   center: str | None = None, frame: str | None = None,
+                   time_system: str = "UTC", maneuvers=(), covariance=None,
+                   originator: str = "VISVIVA",
                    mission_epoch=None, mass=None):  # fmt: skip
         """An OPM for one state computed in visviva.
 
@@ -146,12 +147,15 @@ class OPM(FrameCenterMetadata):
             ``OBJECT_NAME``.
         object_id : str
             ``OBJECT_ID`` (international designator).
-        center : str
-            ``CENTER_NAME``.
+        center : str, optional
+            ``CENTER_NAME``. Default: the body whose GM is the state's (``"EARTH"``,
+            ``"MOON"``, ``"SUN"`` ...); a centre whose GM is not the state's is refused (the
+            message would read back with the centre's GM).
         frame : str, optional
             ``REF_FRAME`` of the state (CCSDS name). Default: the state's own frame when it
             knows it (``sat.teme(t)`` gives ``"TEME"``, ``sat.gcrs(t)`` ``"GCRF"``), else
-            ``"GCRF"``; a frame that contradicts the state's own is refused.
+            ``"GCRF"`` (``"ICRF"`` about another centre than the Earth); a frame that
+            contradicts the state's own is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         maneuvers : iterable of Maneuver
@@ -175,11 +179,12 @@ class OPM(FrameCenterMetadata):
         from astropy import units as u
 
         from .covariance import values_from_matrix
-        from .timeframes import ref_frame_of, time_to_epochs
+        from .timeframes import center_of, ref_frame_of, time_to_epochs
 
         if getattr(state, "shape", None) != () or state.epoch is None:
             raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
-        frame = ref_frame_of(state, frame)
+        center = center_of(state, center)
+        frame = ref_frame_of(state, frame, center)
         r = state.r.to_value(u.km)
         v = state.v.to_value(u.km / u.s)
         sections = {

@@ -29,7 +29,8 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
-           "visviva_frame", "center_body", "FrameCenterMetadata", "ref_frame_of"]
+           "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
+           "ref_frame_of"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -286,6 +287,29 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     return list(np.atleast_1d(out.value))
 
 
+#: REF_FRAMEs that rotate with the Earth but are not the ITRS (no polar motion, or other
+#: names of Earth-fixed axes): SANA's GRC (Greenwich rotating) and TDR (true of date rotating),
+#: GTOD, PEF, and the EFG / ECF / ECEF of other tools
+_EARTH_FIXED = frozenset({"GRC", "TDR", "GTOD", "PEF", "EFG", "ECF", "ECEF"})
+
+
+def earth_fixed(name: str) -> bool:
+    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, GRC,
+    TDR, GTOD, PEF, EFG, ECF, ECEF): a velocity on its axes is not the inertial velocity.
+
+    Parameters
+    ----------
+    name : str
+        The CCSDS frame name.
+
+    Returns
+    -------
+    bool
+    """
+    key = str(name).strip().upper()
+    return visviva_frame(key) == "itrs" or key.startswith("ITRF") or key in _EARTH_FIXED
+
+
 def visviva_frame(name: str) -> str | None:
     """The visviva frame (``"gcrs"``, ``"teme"``, ``"itrs"``) of a CCSDS ``REF_FRAME``.
 
@@ -306,10 +330,11 @@ def visviva_frame(name: str) -> str | None:
 _CCSDS_NAME = {"teme": "TEME", "gcrs": "GCRF", "itrs": "ITRF"}
 
 
-def ref_frame_of(states, frame: str | None) -> str:
+def ref_frame_of(states, frame: str | None, center: str = "EARTH") -> str:
     """The ``REF_FRAME`` to write for ``states``: ``frame``, or their own when they know it
-    (``sat.teme(t)``: ``"TEME"``), else ``"GCRF"``; a ``frame`` that contradicts theirs is
-    refused.
+    (``sat.teme(t)``: ``"TEME"``; a message's ``TOD`` states: ``"TOD"``), else ``"GCRF"`` about
+    the Earth and ``"ICRF"`` about another
+    centre (the GCRF is geocentric); a ``frame`` that contradicts theirs is refused.
 
     Parameters
     ----------
@@ -317,15 +342,30 @@ def ref_frame_of(states, frame: str | None) -> str:
         The states to write (satellite states carry ``.frame``).
     frame : str or None
         The CCSDS frame asked for.
+    center : str
+        The ``CENTER_NAME`` written with them.
 
     Returns
     -------
     str
     """
-    own = getattr(states, "frame", None)
+    from ..satellites.satellite_states import frame_of
+
+    # (their visviva frame, or the REF_FRAME they were read in when visviva has no rotation for
+    # it, "TOD": such states were written GCRF, 0.33 deg of precession away in 2024)
+    own = frame_of(states)
+    foreign = own is not None and own not in _CCSDS_NAME
     if frame is None:
-        return _CCSDS_NAME.get(own, "GCRF")
-    if own is not None and visviva_frame(str(frame)) != own:
+        if foreign:
+            return own
+        earth = str(center).strip().upper() == "EARTH"
+        return _CCSDS_NAME.get(own, "GCRF" if earth else "ICRF")
+    if foreign and str(frame).strip().upper() != own.strip().upper():
+        raise InvalidInputError(
+            f"the states were read in REF_FRAME = {own} (they say so) but frame={frame!r} was "
+            f"asked for: visviva cannot rotate {own}; leave frame out to write {own}, or pass "
+            f"states in {frame}.")
+    if own is not None and not foreign and visviva_frame(str(frame)) != own:
         raise InvalidInputError(
             f"the states are in {str(own).upper()} (they say so) but frame={frame!r} was asked "
             f"for: leave frame out to write {_CCSDS_NAME.get(own, own)}, or pass states in "
@@ -383,6 +423,64 @@ class FrameCenterMetadata:
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
                              self.visviva_frame if earth else None,
                              foreign=self.frame if earth else None)
+
+
+#: the centres a state's GM names when the writer is not told (the bodies of :mod:`visviva.bodies`)
+_CENTRES = ("EARTH", "MOON", "SUN", "MERCURY", "VENUS", "MARS", "JUPITER", "SATURN", "URANUS",
+            "NEPTUNE", "PLUTO")
+#: relative difference below which a state's GM is a body's (Earth models differ by 2e-8, a
+#: planet and its system's barycentre by up to 2e-4; two bodies by a factor 1.2 at least)
+_GM_RTOL = 1e-3
+
+
+def center_of(states, center: str | None) -> str:
+    """The ``CENTER_NAME`` to write for ``states``: ``center`` checked against their GM, else
+    the body whose GM is theirs (``"EARTH"`` for bare arrays, which carry no GM).
+
+    Parameters
+    ----------
+    states : StateVectors or None
+        The states written (their ``gm``), or None for bare arrays.
+    center : str or None
+        The centre asked for.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InvalidInputError
+        A ``center`` whose body has another GM than the states (a Moon-centred state written
+        ``CENTER_NAME = EARTH`` would read back with the Earth's GM), or, with no ``center``, a
+        GM that is no body's.
+    """
+    gm = getattr(states, "gm", None)
+    if gm is None:
+        return "EARTH" if center is None else center
+    gm = np.atleast_1d(np.asarray(gm.to_value("km3 / s2"), dtype=np.float64))
+
+    def same(body):
+        ref = body.gm_km3_s2
+        return bool(np.all(np.abs(gm - ref) <= _GM_RTOL * ref))
+
+    if center is not None:
+        body = center_body(str(center))
+        if body is not None and not same(body):
+            raise InvalidInputError(
+                f"center = {center!r} has GM {body.gm_km3_s2:.10g} km3/s2, but the states' gm "
+                f"is {gm[0]:.10g} km3/s2: the message would read back with the centre's GM. "
+                "Pass the centre the states are about (leave center out to take it from their "
+                "gm).")
+        return center
+    from .. import bodies
+
+    for name in _CENTRES:
+        if same(getattr(bodies, name)):
+            return name
+    raise InvalidInputError(
+        f"the states' gm = {gm[0]:.10g} km3/s2 is no body's visviva knows, so CENTER_NAME "
+        "cannot be told from it: pass center='...' (e.g. 'EARTH', 'MOON', 'MARS BARYCENTER').")
 
 
 def center_body(name: str):

@@ -66,3 +66,28 @@ def test_dask_pass_table_equals_in_memory():
             np.testing.assert_array_equal(np.asarray(ca), np.asarray(cb), err_msg=name)
     with pytest.raises(vv.InvalidInputError, match="chunk_size"):
         find_passes_dask(cat, sites, t0, t1, chunk_size=0, client=object())
+
+
+def test_dask_passes_warn_about_stale_element_sets_once_on_the_client():
+    # was: each chunk warned on its worker ("1 of 1 element set(s)" once per chunk on threads,
+    # pointing into dask_passes.py; nothing at all reached the caller from process workers)
+    import warnings
+
+    from distributed import Client, LocalCluster
+
+    iss_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
+    iss_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
+    sats = [vv.Satellite.from_tle(iss_1, iss_2, name=f"ISS-{k}") for k in range(3)]
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg)
+    t0 = sats[0].epoch + 45 * u.day
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                      dashboard_address=None) as cl, Client(cl) as client:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            find_passes_dask(sats, site, t0, t0 + 1 * u.h, chunk_size=1, client=client)
+    ours = [w for w in caught if issubclass(w.category, vv.StaleElementSetWarning)]
+    assert len(ours) == 1, [str(w.message) for w in ours]
+    text = str(ours[0].message)
+    assert "3 of 3 element set(s) lie more than 30 days" in text
+    assert "ISS-0 (45 d), ISS-1 (45 d), ISS-2 (45 d)" in text
+    assert ours[0].filename == __file__

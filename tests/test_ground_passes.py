@@ -371,3 +371,32 @@ def test_find_passes_and_find_events_warn_on_element_sets_far_from_the_window(
                 ours[0].message)
             assert f"up to {abs(shift_days):.0f} days" in str(ours[0].message)
             assert ours[0].filename == __file__  # points at the caller's line
+
+
+
+def _tle_line1_at_day(day: float) -> str:
+    """ISS_1 with its epoch moved to ``day`` of 2008 (checksum redone)."""
+    body = ISS_1[:18] + f"08{day:012.8f}" + ISS_1[32:68]
+    digits = sum(int(c) if c.isdigit() else (1 if c == "-" else 0) for c in body)
+    return body + str(digits % 10)
+
+
+def test_stale_element_set_warning_names_the_stalest_satellites(iss, sites):
+    # a catalogue of mixed ages (was: "7 of 8 element set(s)" and no name): the warning names
+    # the stale ones, stalest first, five at most
+    import warnings
+
+    t0 = iss.epoch + 40 * u.day  # 40 days after ISS_1's epoch (day 264.51782528)
+    sats = [vv.Satellite.from_tle(_tle_line1_at_day(264.51782528 + 39), ISS_2, name="FRESH")]
+    for k, age in enumerate((35, 50, 31, 60, 33, 45, 38)):  # epochs `age` days before t0
+        line1 = _tle_line1_at_day(264.51782528 + 40 - age)
+        sats.append(vv.Satellite.from_tle(line1, ISS_2, name=f"OLD{k}"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        vv.find_passes(sats, sites[0], t0, t0 + 1 * u.h)
+    ours = [w for w in caught if issubclass(w.category, vv.StaleElementSetWarning)]
+    assert len(ours) == 1
+    text = str(ours[0].message)
+    assert ("7 of 8 element set(s) lie more than 30 days from the window (up to 60 days: "
+            "OLD3 (60 d), OLD1 (50 d), OLD5 (45 d), OLD6 (38 d), OLD0 (35 d) and 2 more)") in text
+    assert "FRESH" not in text

@@ -356,6 +356,30 @@ def test_a_merger_keeps_the_force_on_the_merged_body():
     assert np.abs(rel - (ref.positions[1] - ref.positions[0])).max() < 1e-9
 
 
+def test_remove_merged_into_names_the_body_as_numbered_before_the_removal():
+    # sim.remove(0, merged_into=2) put the J2 on particle 2 of the new numbering (the old
+    # particle 3, not the body it merged into), merged_into=0 (the removed particle itself) on
+    # the old particle 1, and merged_into=1.5 was taken as 1, all without a word
+    def four():
+        sim = vv.Simulation("ias15")
+        for m, a in ((1.0, None), (1e-3, 1.0), (1e-3, 2.0), (1e-3, 3.0)):
+            sim.add(m) if a is None else sim.add(m, a=a, primary=0)
+        sim.add_force(J2Force(0, 1e-3, 0.01))
+        return sim
+
+    for merged_into, primary in ((2, 1), (-1, 2), (1, 0)):
+        sim = four()
+        sim.remove(0, merged_into=merged_into)
+        assert sim.forces[0].primary == primary and sim.N == 3
+    sim = four()
+    sim.remove(3, merged_into=0)  # a force of another body is left where it is
+    assert sim.forces[0].primary == 0
+    for bad, err in ((0, vv.InvalidInputError), (1.5, vv.InvalidInputError), (9, IndexError)):
+        sim = four()
+        with pytest.raises(err, match="being removed|integer|out of range"):
+            sim.remove(0, merged_into=bad)
+        assert sim.N == 4 and sim.forces[0].primary == 0  # nothing changed
+
 def test_speed_of_light_as_a_quantity_is_converted_and_saved(tmp_path):
     # c=299792.458 * u.km / u.s raised a bare TypeError (float() of a Quantity); J2Force's
     # radius took Quantities already

@@ -541,6 +541,19 @@ def test_solar_system_outside_de421_says_so():
         vv.solar_system(2025.0)  # a year given as a Julian date: 4707 BC
 
 
+def test_solar_system_without_de421_outside_plan94_says_so(monkeypatch):
+    # with DE421 an epoch outside it raises; without it, the year 3500 or a year given as a
+    # Julian date (4707 BC) ran plan94 far outside its 1000-3000 AD with the 1950-2050 accuracy
+    # quoted in the warning (and 18 ErfaWarnings)
+    from astropy.time import Time
+
+    monkeypatch.setitem(sys.modules, "de421", None)
+    for epoch in (Time("3500-01-01", scale="tdb"), Time("0800-01-01", scale="tdb"), 2025.0):
+        with pytest.raises(vv.InvalidInputError, match="outside astropy's built-in ephemeris"):
+            vv.solar_system(epoch)
+    with pytest.warns(UserWarning, match="DE421 is not installed"):
+        vv.solar_system(Time("2999-06-01", scale="tdb"))  # inside: warned, as before
+
 def test_solar_system_names_follow_a_removal(tmp_path):
     # remove() left sim.names as it was: after removing Mercury, names[1] still said 'mercury'
     # for Venus (and every later label was one body off, in the saved file too)

@@ -149,3 +149,32 @@ def test_ensemble_members_with_a_step_too_long_are_named_in_one_warning():
     assert ens.t.tolist() == [20.0] * 4
     fine = vv.Ensemble.from_simulations([sims[0], third])
     assert _user_warnings(lambda: fine.integrate(10.0)) == []
+
+
+def _flyby(nu: float, dt: float = 0.05):
+    """A star, a planet at a = 1 and a test particle on a hyperbola (q = 0.01, e = 2) at true
+    anomaly ``nu`` (> 0: receding from the star, 0.18 from it at nu = 2)."""
+    sim = vv.Simulation("whfast", dt=dt)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(0.0, p=0.03, e=2.0, nu=nu, primary=0)
+    return sim
+
+
+def test_an_open_orbit_receding_along_the_run_is_not_warned_about_its_past_pericentre():
+    # was: a flyby leaving the star (0.18 from it, q = 0.01 behind it) was warned at dt = 0.05,
+    # "8 of the shortest orbital timescale", with the advice of a step 160 times shorter; its
+    # timescale along this run is that of its present distance. The same orbit approaching,
+    # or run backward in time (towards its pericentre), is still warned about.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _flyby(2.0).integrate(1.0)
+        ens = vv.Ensemble.from_simulations([_flyby(2.0), _flyby(2.05)])
+        ens.integrate(1.0)
+    for sim, t in ((_flyby(-2.0), 1.0), (_flyby(2.0), -1.0)):
+        assert len(_user_warnings(lambda s=sim, t=t: s.integrate(t))) == 1
+    ens = vv.Ensemble.from_simulations([_flyby(2.0), _flyby(-2.0)])
+    messages = _user_warnings(lambda: ens.integrate(1.0))
+    assert len(messages) == 1 and "of the 2 ensemble members (1)" in messages[0]
+    back = _user_warnings(lambda: vv.Ensemble.from_simulations([_flyby(2.0)]).integrate(-1.0))
+    assert len(back) == 1

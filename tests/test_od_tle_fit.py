@@ -1,6 +1,8 @@
 """fit_tle: SGP4 recovers itself to metres, a precise ephemeris beats the naive TLE, every input
 kind (StateVectors GCRS/TEME, CowellResult, OEM), bad input; the fit-tle command."""
 
+import math
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -335,11 +337,18 @@ def test_bstar_the_states_do_not_see_is_reported_not_the_whole_fit(lines, days):
     # (a GEO's B* moves nothing at all: held, sigma inf)
     truth = vv.Satellite.from_tle(*lines, verify_checksum=False)
     states = truth.gcrs(np.linspace(0, days, 40) * u.day).to_state_vectors()
-    with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
+    with pytest.warns(RuntimeWarning, match="B\\* is not determined") as said:
         fit = vv.fit_tle(states)
     assert fit.fit.max_position_km < ONE_METER
     assert _rms_km(fit, states) < ONE_METER
     assert fit.fit.sigma_bstar > 1e-4
+    # a B* held because nothing sees it is said to be held, not "fitted 0 +- inf" (audit33)
+    text = " ".join(str(w.message) for w in said if "B*" in str(w.message))
+    if math.isinf(fit.fit.sigma_bstar):
+        assert "held at its first guess, 0 1/earth radii (sigma_bstar = inf)" in text
+        assert "fitted" not in text and fit.satrec.bstar == 0.0
+    else:
+        assert f"fitted {fit.satrec.bstar:.3g} +- " in text
     assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-10)
     assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-10)
 

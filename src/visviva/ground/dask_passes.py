@@ -15,8 +15,8 @@ import numpy as np
 from astropy import units as u
 
 from ..errors import InvalidInputError
-from .passes import describe_elevations, find_passes
-from .search import as_catalog, check_window, min_elevation_rad
+from .passes import describe_elevations, passes_of
+from .search import as_catalog, check_window, min_elevation_rad, warn_stale_element_sets
 from .station import as_stations
 
 __all__ = ["find_passes_dask"]
@@ -73,8 +73,10 @@ def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude, re
 
     # numba's workqueue threading layer must not be entered from two threads at once
     with NUMBA_LOCK:
-        table = find_passes(chunk, stations, t0, t1, min_elevation,
-                            standard_magnitude=standard_magnitude, refraction=refraction)
+        # stale element sets were warned about once, on the client (a warning raised on a
+        # process worker never reaches the caller; on threads it came once per chunk)
+        table = passes_of(chunk, stations, t0, t1, min_elevation, standard_magnitude,
+                          refraction, stale_stacklevel=None)
     return _table_to_wire(table)
 
 
@@ -126,6 +128,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         from .visibility import standard_magnitudes
 
         mags = standard_magnitudes(standard_magnitude, len(cat))
+    warn_stale_element_sets(cat, t0, t1)
     client = client if client is not None else get_client()
     starts = range(0, len(cat), int(chunk_size))
     futures = [

@@ -47,6 +47,8 @@ _CHUNK_PAIRS = 4096
 _NEAR = 5e-3
 #: element sets further than this from the window warn (StaleElementSetWarning), days
 STALE_DAYS = 30.0
+#: the stale-element-set warning names this many satellites, the stalest first
+_STALE_NAMED = 5
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
@@ -118,13 +120,19 @@ def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
         tj, tf = time_to_utc_days(t)
         days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
-    stale = away > STALE_DAYS
-    if stale.any():
+    stale = np.flatnonzero(away > STALE_DAYS)
+    if stale.size:
+        worst = stale[np.argsort(-away[stale], kind="stable")]
+        sats = cat.satellites
+        named = ", ".join(f"{sats[k].name or sats[k].satnum} ({away[k]:.0f} d)"
+                          for k in worst[:_STALE_NAMED])
+        more = f" and {stale.size - _STALE_NAMED} more" if stale.size > _STALE_NAMED else ""
         warnings.warn(
-            f"{int(stale.sum())} of {len(cat)} element set(s) lie more than {STALE_DAYS:g} days "
-            f"from the window (up to {away.max():.0f} days); SGP4's errors grow by kilometres a "
-            "day in low orbit, so these passes can be minutes off, or missing: use element sets "
-            "from near the window.", StaleElementSetWarning, stacklevel=stacklevel + 1)
+            f"{stale.size} of {len(cat)} element set(s) lie more than {STALE_DAYS:g} days "
+            f"from the window (up to {away.max():.0f} days: {named}{more}); SGP4's errors grow "
+            "by kilometres a day in low orbit, so these passes can be minutes off, or missing: "
+            "use element sets from near the window.", StaleElementSetWarning,
+            stacklevel=stacklevel + 1)
 
 
 def min_elevation_rad(value) -> float:
@@ -396,16 +404,20 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end):
     return out
 
 
-def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False) -> EventSet:
+def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
+                  stale_stacklevel: int | None = 3) -> EventSet:
     """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1].
 
     ``refraction`` (as :func:`visviva.ground.look.look`'s; False: geometric) puts the rise and
     the set where the apparent elevation crosses ``min_el_rad``
-    (:class:`~visviva.ground.horizon.Horizon`); the events' ``el`` is then apparent too."""
+    (:class:`~visviva.ground.horizon.Horizon`); the events' ``el`` is then apparent too.
+    Stale element sets warn at ``stale_stacklevel`` (:func:`warn_stale_element_sets`); None:
+    the caller has warned already (a Dask chunk of a catalogue the client checked whole)."""
     from .horizon import Horizon
 
     horizon = Horizon(stations, min_el_rad, refraction)
-    warn_stale_element_sets(cat, t0, t1, stacklevel=3)
+    if stale_stacklevel is not None:
+        warn_stale_element_sets(cat, t0, t1, stacklevel=stale_stacklevel)
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]

@@ -236,7 +236,8 @@ class Ensemble:
             if client is not None:
                 from .ensemble_dask import integrate_on_dask
 
-                _step_check.check_members(self, self._members)  # here: the workers say nothing
+                _step_check.check_members(  # here: the workers say nothing
+                    self, self._members, t=_time(self._members[0], t))
                 advance = functools.partial(_advance_block, backend=self.backend)
                 self._pack = None  # the members come back as new objects
                 errors = integrate_on_dask(self._members, t, client, advance)
@@ -339,12 +340,12 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None, owner=Non
     """
     if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
         if owner is not None:
-            _step_check.check_members(owner, members, stacklevel=4)
+            _step_check.check_members(owner, members, stacklevel=4, t=_time(members[0], t))
         return _advance_alone(members, t), None  # a fresh install's first small ensemble
     if pack is None:
         pack = Pack.build(members)
     if owner is not None:
-        _step_check.check_members(owner, members, pack, stacklevel=4)
+        _step_check.check_members(owner, members, pack, stacklevel=4, t=_time(members[0], t))
     errors = None
     if pack is not None:
         if backend == "cuda":

@@ -98,6 +98,21 @@ def particle_index(sim, index) -> int:
     return int(index) % n
 
 
+def removal(sim, index, merged_into) -> tuple:
+    """``(k, j)`` for ``sim.remove(index, merged_into=...)``: the index ``k`` of the particle to
+    remove, and ``merged_into`` (another particle, numbered before the removal) in the
+    numbering after it, which the forces keep (None stays None)."""
+    k = particle_index(sim, index)
+    if merged_into is None:
+        return k, None
+    j = particle_index(sim, merged_into)
+    if j == k:
+        raise InvalidInputError(
+            f"merged_into = {merged_into!r} is the particle being removed (index {k}); name "
+            "the particle it went into.")
+    return k, j - (j > k)
+
+
 class Setting:
     """A simulation setting stored in the simulation's state object.
 

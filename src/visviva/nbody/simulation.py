@@ -367,10 +367,10 @@ class Simulation:
         return self.N - 1
 
     def remove(self, index: int, *, merged_into: int | None = None) -> None:
-        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down
-        by one (removing a force's primary raises unless ``merged_into`` names where it went)."""
-        _forces.follow_removal(self._forces, k := _s.particle_index(self, index), merged_into)
-        self._state.remove(k)
+        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down by
+        one (removing a primary raises unless ``merged_into``, numbered as now, gets it)."""
+        _forces.follow_removal(self._forces, *(k := _s.removal(self, index, merged_into)))
+        self._state.remove(k := k[0])
         if getattr(self, "names", None) is not None:  # solar_system's labels (a new list:
             self.names = self.names[:k] + self.names[k + 1:]  # a copy's are not changed)
 

@@ -58,7 +58,7 @@ def _states_at(epoch, names):
         import de421
         from jplephem import DateError, Ephemeris
     except ImportError:
-        return _builtin_states(epoch, names)
+        return _builtin_states(epoch, names, jd + jd2)
     eph = Ephemeris(de421)
     out = {}
     for name in names:
@@ -72,7 +72,11 @@ def _states_at(epoch, names):
     return out
 
 
-def _builtin_states(epoch, names):
+#: ERFA's plan94 (astropy's built-in planets) covers J2000 +- this many days (1000-3000 AD)
+PLAN94_SPAN_DAYS = 365250.0
+
+
+def _builtin_states(epoch, names, jd_tdb: float):
     """The states from astropy's built-in ephemeris, with a warning saying how far off they are.
 
     Its planets come from ERFA's plan94: largest relative errors against DE421 over 25 epochs
@@ -87,10 +91,17 @@ def _builtin_states(epoch, names):
         raise InvalidInputError(
             "solar_system(pluto=True) at an epoch other than J2000 needs DE421: pip install "
             "de421 jplephem (the 'ephem' extra); astropy's built-in ephemeris has no Pluto.")
+    if not abs(jd_tdb - J2000_JD) <= PLAN94_SPAN_DAYS:
+        raise InvalidInputError(
+            f"solar_system: the epoch (TDB JD {jd_tdb:.1f}) is outside astropy's built-in "
+            "ephemeris (ERFA plan94: the years 1000 to 3000, where DE421 is not installed); "
+            "give an epoch in that range, or install DE421 (pip install de421 jplephem) for "
+            "1900 to 2199.")
     warnings.warn(
         "solar_system: DE421 is not installed (pip install de421 jplephem, the 'ephem' extra), "
         "so the states come from astropy's built-in ephemeris (ERFA plan94), off by up to "
-        "4e-4 in position and 4e-3 in velocity (Saturn, Uranus, Neptune; periods ~1 % off).",
+        "4e-4 in position and 4e-3 in velocity (Saturn, Uranus, Neptune; periods ~1 % off; "
+        "measured 1950-2050).",
         UserWarning, stacklevel=4)
     astro = {"earthmoon": "earth-moon-barycenter"}
     out = {}

@@ -18,7 +18,8 @@ orbits too), for the osculating two-body orbits of the splitting: in Jacobi coor
 body about the centre of mass of the bodies before it (the mass inside it plus its own); in
 democratic heliocentric coordinates each body about particle 0. The integrator goes on (a user
 may want it), with a :class:`UserWarning` once the step exceeds :data:`MAX_STEP_FRACTION` of the
-shortest timescale. Jacobi WHFast integrates two bodies exactly at any step, so it is checked
+shortest timescale (an open orbit receding from its pericentre along the run is timed at its
+present distance: the pericentre is behind it). Jacobi WHFast integrates two bodies exactly at any step, so it is checked
 from three particles on. Only the state at the start of a call is checked: an orbit that turns
 eccentric during the run is not seen. Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
@@ -47,7 +48,8 @@ MAX_STEP_FRACTION = 0.2
 MIN_STEP_REL = 1e-15
 
 
-def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> float:
+def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None,
+                       direction: float = 0.0) -> float:
     """The shortest pericentre timescale ``2 pi sqrt(q**3 / GM)`` of the splitting's osculating
     two-body orbits (``inf`` when there is none: no mass inside any orbit).
 
@@ -64,16 +66,23 @@ def shortest_timescale(x, v, m, G: float, jacobi: bool = True, radius=None) -> f
     radius : ndarray, shape (N,), optional
         Collision radii, when collisions are detected: an orbit whose pericentre lies within
         the radii of its body and of particle 0 ends in a collision and is skipped.
+    direction : float
+        The sign of the run (+1 forward, -1 backward in time, 0 unknown): an open orbit
+        (e >= 1) that recedes in that direction has its pericentre behind it, so its timescale
+        is that of its present distance r >= q (a flyby leaving the star is not warned about
+        the pericentre it has passed).
     """
     collide = None if radius is None else np.ones(1, dtype=bool)
     return float(_timescales(x[None], v[None], m[None], np.array([G]), jacobi,
-                             None if radius is None else radius[None], collide)[0])
+                             None if radius is None else radius[None], collide,
+                             np.array([direction], dtype=float))[0])
 
 
-def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None) -> np.ndarray:
+def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None,
+                direction=None) -> np.ndarray:
     """:func:`shortest_timescale` of B systems of N particles at once: ``x, v`` (B, N, 3),
-    ``m`` and ``radius`` (B, N), ``G`` and ``collide`` (whether a system detects collisions)
-    (B,); returns (B,)."""
+    ``m`` and ``radius`` (B, N), ``G``, ``collide`` (whether a system detects collisions) and
+    ``direction`` (the sign of each run, 0 unknown) (B,); returns (B,)."""
     if jacobi:
         mass = np.cumsum(m, axis=1)  # mass[:, i - 1]: inside body i
         mx = np.cumsum(m[..., None] * x, axis=1)
@@ -90,7 +99,11 @@ def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None) -> np.ndarr
         p = np.einsum("bij,bij->bi", h, h) / gm  # semi-latus rectum
         e = np.sqrt(np.maximum(1.0 + 2.0 * energy * p / gm, 0.0))
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
-        tau = 2.0 * math.pi * np.sqrt(q**3 / gm)
+        closest = q
+        if direction is not None:  # an open orbit receding along the run: q is behind it
+            receding = (e >= 1.0) & (direction[:, None] * np.einsum("bij,bij->bi", r, w) > 0)
+            closest = np.where(receding, np.linalg.norm(r, axis=-1), q)
+        tau = 2.0 * math.pi * np.sqrt(closest**3 / gm)
     ok = np.isfinite(tau) & (gm > 0)
     if radius is not None:
         ok &= ~(collide[:, None] & (q <= radius[:, 1:] + radius[:, :1]))
@@ -102,7 +115,8 @@ def _too_long(dt: float, tau: float, coordinates: str) -> str:
     ratio = abs(dt) / tau if tau > 0 else math.inf  # tau = 0: a radial plunge
     return (f"WHFast's step dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
             f"timescale, 2 pi sqrt(q^3 / GM) = {fmt_number(tau)} at a pericentre q "
-            f"({coordinates} coordinates; the period for a circular orbit)")
+            f"({coordinates} coordinates; the period for a circular orbit; for an open orbit "
+            "receding along the run, q is its present distance)")
 
 
 _ADVICE = (f"beyond {MAX_STEP_FRACTION:g} of it the positions are wrong by up to the orbits' "
@@ -139,14 +153,15 @@ def check_step(sim, times) -> None:
     if sim.integrator != "whfast" or _MEMBERS_CHECKED.get():
         return
     jacobi = sim.coordinates == "jacobi"
-    key = (sim.dt, sim.N, jacobi)  # checked again when these or the particles change
+    direction = float(np.sign(t1 - t0))
+    key = (sim.dt, sim.N, jacobi, direction)  # checked again when these or the particles change
     if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and _CHECKED.get(sim) == key:
         return
     _CHECKED[sim] = key
     if sim.N < (3 if jacobi else 2):
         return
     tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,
-                             None if sim.collision == "none" else sim.radii)
+                             None if sim.collision == "none" else sim.radii, direction)
     if abs(sim.dt) > MAX_STEP_FRACTION * tau:
         warnings.warn(f"{_too_long(sim.dt, tau, sim.coordinates)}: {_ADVICE}", UserWarning,
                       stacklevel=4)
@@ -164,7 +179,7 @@ def members_checked():
         _MEMBERS_CHECKED.reset(token)
 
 
-def check_members(owner, members, pack=None, stacklevel: int = 3) -> None:
+def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> None:
     """Warn once (one :class:`UserWarning` naming the members) when the WHFast step of any of
     an ensemble's ``members`` exceeds :data:`MAX_STEP_FRACTION` of its shortest pericentre
     timescale, as :func:`check_step` does for a lone simulation; run it before advancing them
@@ -172,7 +187,8 @@ def check_members(owner, members, pack=None, stacklevel: int = 3) -> None:
     coordinates)``: a member is checked again when those change or its integrator restarts.
     Works on whole arrays (``pack``: the members' packed arrays, when there is one): a call
     whose members were all checked costs a few comparisons of length-M arrays. ``stacklevel``:
-    as :func:`warnings.warn`'s, counted from the caller (the user's call, 3 levels up)."""
+    as :func:`warnings.warn`'s, counted from the caller (the user's call, 3 levels up). ``t``:
+    the time the members are advanced to (the direction of each run; None: unknown)."""
     if members[0].integrator != "whfast":
         return
     if pack is not None:
@@ -186,13 +202,15 @@ def check_members(owner, members, pack=None, stacklevel: int = 3) -> None:
         poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
     n, dt = np.diff(poff), fstate[:, _nc.F_DT].copy()
     coords = istate[:, _nc.I_WH_COORDINATES].copy()
+    direction = (np.zeros(len(n)) if t is None
+                 else np.sign(float(t) - fstate[:, _nc.F_T]))
     todo = istate[:, _nc.I_FRESH] != 0
     last = _CHECKED_ENSEMBLES.get(owner)
     if last is None or len(last[0]) != len(n):
         todo[:] = True
     else:
-        todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2])
-    _CHECKED_ENSEMBLES[owner] = (n, dt, coords)
+        todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2]) | (direction != last[3])
+    _CHECKED_ENSEMBLES[owner] = (n, dt, coords, direction)
     jacobi = coords == 0
     todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
     if not todo.any():
@@ -205,7 +223,8 @@ def check_members(owner, members, pack=None, stacklevel: int = 3) -> None:
             if len(group):
                 idx = poff[group][:, None] + np.arange(size)
                 tau[group] = _timescales(x[idx], v[idx], m[idx], fstate[group, _nc.F_G], jac,
-                                         radius[idx], istate[group, _nc.I_COLLISIONS] != 0)
+                                         radius[idx], istate[group, _nc.I_COLLISIONS] != 0,
+                                         direction[group])
     with np.errstate(invalid="ignore"):
         bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
     if not len(bad):

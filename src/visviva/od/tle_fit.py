@@ -581,9 +581,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         raise err
     sigma_bstar = _sigma_bstar(J, cost, fit_bstar, live)
     if sigma_bstar is not None and sigma_bstar > max(1e-4, 0.5 * abs(p[6])):
+        how = (f"fitted {p[6]:.3g} +- {sigma_bstar:.2g} 1/earth radii (1 sigma, from the "
+               "residuals)" if math.isfinite(sigma_bstar) else
+               f"no B* up to {BSTAR_STEP_MAX:g} moves them by {BSTAR_EFFECT_KM * 1e6:g} mm, "
+               f"so it was held at its first guess, {p[6]:.3g} 1/earth radii (sigma_bstar = "
+               "inf)")
         warnings.warn(
-            f"B* is not determined by these states: fitted {p[6]:.3g} +- {sigma_bstar:.2g} "
-            "1/earth radii (1 sigma, from the residuals); drag needs a longer arc to show. "
+            f"B* is not determined by these states: {how}; drag needs a longer arc to show. "
             "Hold it with fit_bstar=False, bstar=<a known value>.", RuntimeWarning, stacklevel=3)
     fields = elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN", retro)
     if not object_id:

@@ -566,3 +566,21 @@ def test_solar_system_names_follow_a_removal(tmp_path):
     assert copy.names[1] == "mercury"  # the copy keeps its own labels
     sim.save(tmp_path / "s.npz")
     assert vv.Simulation.load(tmp_path / "s.npz").names == sim.names
+
+
+def test_a_particle_added_to_a_named_simulation_keeps_the_names_aligned():
+    # solar_system(...) then add(...) left sim.names one short (9 names for 10 particles): the
+    # new particle had no entry and to_rebound left it unnamed by accident, not by design;
+    # it is now named "" (unnamed), as from_rebound names a particle REBOUND has no name for
+    sim = vv.solar_system(integrator="ias15")
+    twin = sim.copy()
+    k = sim.add(m=0.0, primary=0, a=2.5, e=0.1)
+    assert len(sim.names) == sim.N == 10 and sim.names[k] == "" and sim.names[:k] == twin.names
+    assert len(twin.names) == twin.N == 9  # a copy's names are its own
+    sim.remove(sim.names.index("mars"))  # still one name per particle after a removal
+    assert len(sim.names) == sim.N and sim.names[-1] == "" and "mars" not in sim.names
+    pytest.importorskip("rebound")
+    r = sim.to_rebound()
+    assert [p.name for p in r.particles] == [n or None for n in sim.names]
+    assert r.particles["jupiter"].m == sim.masses[sim.names.index("jupiter")]
+    assert vv.Simulation.from_rebound(r).names == sim.names

@@ -427,3 +427,51 @@ def test_a_fit_with_no_downhill_step_left_far_from_its_minimum_is_not_converged(
     monkeypatch.setattr(tle_fit, "sgp4_states", failing_trials)
     with pytest.raises(vv.ConvergenceError, match="no step lowers the misfit"):
         vv.fit_tle(states)
+
+
+#: SGP4-VER set 20413 (sgp4's verification file): e = 0.786, i = 12.35 deg, 5.8-day orbit (SDP4)
+HEO_20413 = ("1 20413U 83020D   05363.79166667  .00000000  00000-0  00000+0 0  7041",
+             "2 20413  12.3514 187.4253 7864447 196.3027 356.5478  0.24690082  7978")
+
+
+def test_a_fit_across_sgp4s_own_jump_at_0_2_rad_inclination_recovers_the_set():
+    # SDP4 applies its lunisolar periodics directly while the perturbed inclination is at least
+    # 0.2 rad and in Lyddane's form below: 20413 crosses it between minutes 1843 and 1844, where
+    # SGP4's own position jumps 1,655 km at apogee. The fit's set crossed elsewhere, missed the
+    # two states in between by 1,500 km and settled 351 km RMS off, inside the 1 %-of-the-radius
+    # check, without a word (audit33). Refitted without them it finds the set, and they fit it
+    truth = vv.Satellite.from_tle(*HEO_20413)
+    jump = truth.teme(np.array([1843.0, 1844.0]) * u.min)
+    step = np.linalg.norm(np.diff(jump.r.to_value(u.km), axis=0))
+    assert step > 1000.0  # km in one minute, 60x the speed there: SGP4's jump, not the orbit
+    states = truth.teme(np.linspace(0, 2, 40) * u.day)
+    with pytest.warns(RuntimeWarning) as said:
+        fit = vv.fit_tle(states)
+    assert all("B* is not determined" in str(w.message) for w in said)  # nothing else
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.fit.excluded.size == 0
+    assert fit.satrec.inclo == pytest.approx(truth.satrec.inclo, abs=1e-9)
+    assert fit.satrec.no_kozai == pytest.approx(truth.satrec.no_kozai, rel=1e-10)
+
+
+def test_states_far_off_the_set_that_fits_the_others_are_left_out_and_named(iss):
+    # one state 30 km off (a bad state, a manoeuvre or SGP4's own jump in a precise
+    # ephemeris): the fit bent every element towards it and came back km off everywhere,
+    # silently. It is now left out, named with its time, and the others fit to the metre
+    states = iss.teme(np.linspace(0, 0.5, 30) * u.day)
+    from visviva.states import StateVectors
+
+    r = states.r.to_value(u.km).copy()
+    r[11, 0] += 30.0
+    sv = StateVectors(r * u.km, states.v, vv.EARTH, epoch=states.t)
+    with pytest.warns(RuntimeWarning, match="far off") as said:
+        fit = vv.fit_tle(sv, frame="teme", fit_bstar=False, bstar=iss.satrec.bstar)
+    text = " ".join(str(w.message) for w in said)
+    assert "1 of the 30 states is far off" in text and "state 11 (minute 273.103, 30 km)" in text
+    assert "Left out of the fit (fit.excluded" in text and "split the arc" in text
+    assert [h["iteration"] for h in fit.fit.history] == list(range(1, fit.fit.iterations + 1))
+    assert list(fit.fit.excluded) == [11]
+    assert fit.fit.max_position_km == pytest.approx(30.0, rel=1e-6)  # it counts them
+    others = np.delete(np.arange(30), 11)
+    d = fit.teme(states.t[others]).r.to_value(u.km) - r[others]
+    assert np.max(np.linalg.norm(d, axis=1)) < ONE_METER

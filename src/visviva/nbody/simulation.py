@@ -344,7 +344,8 @@ class Simulation:
         Returns
         -------
         int
-            The index of the new particle.
+            The index of the new particle (named ``""`` in ``sim.names`` when the simulation
+            has names, as :func:`~visviva.nbody.solar_system` gives it).
         """
         if M is not None:
             from .._deprecation import warn_renamed
@@ -360,10 +361,11 @@ class Simulation:
             rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
                                        mean_anomaly, p)
         else:
-            rr = np.zeros(3) if r is None else r
-            vv = np.zeros(3) if v is None else v
+            rr, vv = (np.zeros(3) if r is None else r), (np.zeros(3) if v is None else v)
         rr, vv = _s.vector3(self, rr, "length", "r"), _s.vector3(self, vv, "speed", "v")
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
+        if getattr(self, "names", None) is not None:  # solar_system's labels stay aligned: the
+            self.names = [*self.names, ""]  # new one unnamed (a new list: a copy's unchanged)
         return self.N - 1
 
     def remove(self, index: int, *, merged_into: int | None = None) -> None:
@@ -651,11 +653,8 @@ class Simulation:
 
     # ---- persistence and interop (defined in snapshot.py / interop.py) ------------------------------
     def save(self, path) -> None:
-        """Write the complete state (integrator internals included) atomically to ``path``.
-
-        A simulation loaded with :meth:`load` continues bit for bit. Format: see
-        :mod:`visviva.nbody.snapshot`.
-        """
+        """Write the complete state (integrator internals included) atomically to ``path``; a
+        simulation loaded with :meth:`load` continues bit for bit (:mod:`visviva.nbody.snapshot`)."""
         from .snapshot import save_simulation
 
         save_simulation(self, path)

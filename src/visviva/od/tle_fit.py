@@ -28,6 +28,7 @@ from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ..satellites.catalog_numbers import CATALOGUE_MAX
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
+from .tle_correction import BSTAR_EFFECT_KM, BSTAR_STEP_MAX, robust_correct, warn_far_states
 from .tle_elements import (
     GM_WGS72,
     classical,
@@ -66,6 +67,9 @@ class TLEFit:
     sigma_bstar : float or None
         Formal 1-sigma of the fitted B* (1/earth radii), the residuals taken as the noise;
         None when B* was held.
+    excluded : ndarray of int
+        Indices of the states left out of the fit: far off the set that fits the others (see
+        :func:`fit_tle`'s warnings); usually empty.
     """
 
     def __init__(self, **kw):
@@ -318,7 +322,12 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         exceeds 1e-4 1/earth radii and half its value): an arc too short for drag to show. Or
         the revolution number carried from ``initial`` may be off (the two sets disagree along
         track, or drag over the gap between them is large: see
-        :func:`visviva.satellites.tle_fields.revolutions_between`).
+        :func:`visviva.satellites.tle_fields.revolutions_between`). Or a few states (at most
+        a fifth) are over 10 times the median residual and 1 km off the fitted set: SGP4's
+        own jump where a deep-space orbit's perturbed inclination crosses 0.2 rad, a
+        manoeuvre or a bad state; they are named, and left out of the fit when the others
+        then fit better (``fit.excluded``). States across SGP4's jump that a refit without
+        them brings back are not warned about.
 
     Notes
     -----
@@ -482,83 +491,18 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             return None
         return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()
 
-    steps = np.array([1e-9, 1e-7, 1e-7, 1e-7, 1e-7, 1e-7, 1e-6])
     z = resid(p)
     if z is None:
         raise InvalidInputError(
             "SGP4 cannot propagate the first guess over the given times (a decaying or "
             "deep-space orbit out of SGP4's range?)."
         )
-    cost = float(z @ z)
-    lam = 1e-3
-    history = []
-    converged = stalled = False
-    gain = 0.0
-    for it in range(1, max_iterations + 1):
-        J = np.empty((z.size, free.size))
-        for c, j in enumerate(free):
-            h = steps[j] * (max(abs(p[j]), 1e-3) if j in (0, 6) else 1.0)
-            while True:
-                pp = p.copy()
-                pp[j] += h
-                zp = resid(pp)
-                if zp is None:  # e.g. e < 0 or i > pi on this side: step the other way
-                    pp[j] -= 2 * h
-                    zp = resid(pp)
-                    h = -h
-                # B* of a high orbit moves the states by less than SGP4's rounding over the
-                # step: its column was noise, which the fit followed (a deep-space B* of 0
-                # came back -6e-4 after 48 creeping iterations; audit31). Widen the step
-                # until it moves them by BSTAR_EFFECT_KM (drag is about linear in B*)
-                if (j != 6 or zp is None or abs(h) >= BSTAR_STEP_MAX
-                        or np.max(np.abs(zp - z)) >= BSTAR_EFFECT_KM):
-                    break
-                h = 100.0 * abs(h)
-            J[:, c] = 0.0 if zp is None else (zp - z) / h
-        g = J.T @ z
-        N = J.T @ J
-        d = np.diag(N)
-        # an element the states do not see at all (B* of a high orbit over a short arc: its
-        # column is zero to rounding) stays where it is; the solve with it was singular at
-        # every damping, which ended the fit at its first guess as if converged (audit31)
-        live = d > DEAD_COLUMN * max(float(d.max()), 1e-300)
-        Nl, gl = N[np.ix_(live, live)], g[live]
-        try:
-            gain = float(-gl @ np.linalg.lstsq(Nl, -gl, rcond=None)[0])  # Gauss-Newton's promise
-        except np.linalg.LinAlgError:
-            gain = math.inf
-        improved = False
-        while lam < 1e12:
-            dp = np.zeros(free.size)
-            try:
-                dp[live] = np.linalg.solve(Nl + lam * np.diag(d[live]), -gl)
-            except np.linalg.LinAlgError:
-                lam *= 10
-                continue
-            trial = p.copy()
-            trial[free] += dp
-            zt = resid(trial)
-            if zt is not None and float(zt @ zt) <= cost:
-                improved = True
-                break
-            lam *= 10
-        rms_pos = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
-        history.append({"iteration": it, "rms_position_km": rms_pos, "damping": lam})
-        if not improved:
-            # no downhill step left: the minimum to rounding, unless the linear model still
-            # promises a real drop (a Jacobian the step cannot follow: not a converged fit)
-            converged = gain <= STALLED_GAIN * cost or rms_pos < 1e-7
-            stalled = not converged
-            break
-        new_cost = float(zt @ zt)
-        rel = (cost - new_cost) / max(cost, 1e-300)
-        p, z, cost = trial, zt, new_cost
-        lam = max(lam / 10, 1e-9)
-        rms_new = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
-        if rel < tol or rms_new < 1e-7:
-            converged = True
-            break
-    rms_final = float(np.sqrt(np.mean(np.sum(z.reshape(n, 6)[:, :3] ** 2, axis=1))))
+    # the states a converged fit misses by far more than the rest (across SGP4's own jump at
+    # i = 0.2 rad, or bad states) are refitted without (audit33; tle_correction)
+    fit, left_out, far = robust_correct(p, z, resid, free, n, need, max_iterations, tol)
+    p, z, cost, history = fit.p, fit.z, fit.cost, fit.history
+    converged, stalled, gain, J, live = fit.converged, fit.stalled, fit.gain, fit.J, fit.live
+    rms_final = float(np.sqrt(np.mean(np.sum(np.delete(z.reshape(n, 6), far, 0)[:, :3] ** 2, 1))))
     size = float(np.mean(np.linalg.norm(r, axis=1)))
     if converged and rms_final <= MAX_RMS_FRACTION * size:
         pass
@@ -589,6 +533,8 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         warnings.warn(
             f"B* is not determined by these states: {how}; drag needs a longer arc to show. "
             "Hold it with fit_bstar=False, bstar=<a known value>.", RuntimeWarning, stacklevel=3)
+    if far.size:
+        warn_far_states(z, n, far, left_out, secs / 60.0)
     fields = elements_to_fields(p, epoch_str, satnum, name, object_id or "UNKNOWN", retro)
     if not object_id:
         fields["OBJECT_ID"] = ""
@@ -604,22 +550,10 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         n_states=n,
         fields=fields,
         sigma_bstar=sigma_bstar,
+        excluded=left_out,
     )
     return sat
 
-
-#: the smallest change of the states (km) a finite-difference step of B* must make, and the
-#: largest step it may take (1/earth radii) to make it: below, B* is not seen (held)
-BSTAR_EFFECT_KM = 1e-6
-BSTAR_STEP_MAX = 1e-2
-
-#: a column of the normal matrix under this fraction of the largest is an element the states
-#: do not see (held for that iteration)
-DEAD_COLUMN = 1e-24
-
-#: a fit with no downhill step left ends converged when Gauss-Newton's step promised to lower
-#: the sum of squares by less than this fraction of it (else ConvergenceError)
-STALLED_GAIN = 1e-3
 
 #: largest position RMS of a fit, as a fraction of the orbit's mean radius, before fit_tle
 #: reports that SGP4 cannot reproduce the states (good fits are ~1e-4 of it or far less)

@@ -27,7 +27,8 @@ def zonal_pole(t, force, zonal):
     if n < 2:
         return 0.0, 0.0
     u = (t - force[k]) / force[k + 1]
-    i = min(max(int(math.floor(u)), 0), n - 2)
+    i = int(math.floor(u))  # plain comparisons, not min/max: numba compiles its min/max
+    i = 0 if i < 0 else (n - 2 if i > n - 2 else i)  # overloads anew in every process
     w = u - i
     j = int(force[k + 3]) + 2 * i
     return (zonal[j] + w * (zonal[j + 2] - zonal[j]),

@@ -52,7 +52,7 @@ from .perturbations import (
     sun_and_mass_scale,
 )
 from .relativity import add_relativity_partials
-from .zonal import zonal_pole
+from .zonal import pole_sine, zonal_pole
 
 __all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
 
@@ -93,10 +93,7 @@ def _add_zonal_gradient(x, y, z, gm, radius, zonal, n_max, px, py, G):
     f = A/r^3, g = B/r^2, grad s = (p - s r_hat)/r, with the radial and s-derivatives
     from the Legendre recursions P_n'' = (n+1) P_{n-1}' + s P_{n-1}''.
     """
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    pz = math.sqrt(1.0 - px * px - py * py)
-    s = (x * px + y * py + z * pz) / r
+    r2, r, pz, s = pole_sine(x, y, z, px, py)
     p_nm2 = 1.0
     p_nm1 = s
     dp_nm1 = 1.0

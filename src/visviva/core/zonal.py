@@ -14,7 +14,7 @@ import math
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 
-__all__ = ["accel_zonal", "zonal_pole"]
+__all__ = ["accel_zonal", "pole_sine", "zonal_pole"]
 
 
 @inline_kernel
@@ -33,6 +33,18 @@ def zonal_pole(t, force, zonal):
     j = int(force[k + 3]) + 2 * i
     return (zonal[j] + w * (zonal[j + 2] - zonal[j]),
             zonal[j + 1] + w * (zonal[j + 3] - zonal[j + 1]))
+
+
+@inline_kernel
+def pole_sine(x, y, z, px, py):
+    """|r|^2, |r|, the pole's z component pz = sqrt(1 - px^2 - py^2) and s = r_hat . p (the
+    sine of the latitude of (x, y, z) above the equator of the pole p = (px, py, pz)): the
+    variables of the zonal field (:func:`accel_zonal`) and of its gradient
+    (``force_partials``)."""
+    r2 = x * x + y * y + z * z
+    r = math.sqrt(r2)
+    pz = math.sqrt(1.0 - px * px - py * py)
+    return r2, r, pz, (x * px + y * py + z * pz) / r
 
 
 @kernel
@@ -54,10 +66,7 @@ def accel_zonal(x, y, z, gm, radius, zonal, n_max, px, py, out):
     P_n' = n P_{n-1} + s P_{n-1}'. For n = 2 and p = z_hat this is the familiar J2 acceleration
     a_x = -3/2 J2 GM R^2 x / r^5 (1 - 5 z^2/r^2), a_z = -3/2 J2 GM R^2 z / r^5 (3 - 5 z^2/r^2).
     """
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    pz = math.sqrt(1.0 - px * px - py * py)
-    s = (x * px + y * py + z * pz) / r
+    r2, r, pz, s = pole_sine(x, y, z, px, py)
     # P_0, P_1 and derivatives
     p_nm2 = 1.0
     p_nm1 = s

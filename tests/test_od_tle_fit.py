@@ -179,7 +179,7 @@ def test_fit_tle_batch_packs_each_kind_of_history_exactly(iss, tmp_path):
     items = list(zip(histories, [25544, 25545], [None, iss], strict=True))
     packed = _pack(items, "gcrs")
     assert packed["frame"] == ["gcrs", "itrs"] and packed["r"].shape == (50, 3)
-    assert [f for f, _ in _fit_packed(packed, {})] == [f for f, _ in _fit_chunk(items, {})]
+    assert [r[0] for r in _fit_packed(packed, {})] == [r[0] for r in _fit_chunk(items, {})]
     assert _fit_chunk(items, {})[1][0]["REV_AT_EPOCH"] == iss.satrec.revnum  # carried
 
 
@@ -475,3 +475,28 @@ def test_states_far_off_the_set_that_fits_the_others_are_left_out_and_named(iss)
     others = np.delete(np.arange(30), 11)
     d = fit.teme(states.t[others]).r.to_value(u.km) - r[others]
     assert np.max(np.linalg.norm(d, axis=1)) < ONE_METER
+
+
+def test_fit_tle_batch_shows_each_fits_warnings_naming_the_history(iss):
+    """A fit's warnings on a Dask worker process stayed in the worker's log (left item): each
+    fit's warnings are recorded where it runs and shown by the caller, naming the history."""
+    import warnings
+
+    from visviva.od.tle_batch import _fit_packed, _pack
+
+    good = iss.gcrs(np.linspace(0, 1, 25) * u.day).to_state_vectors()
+    r = good.r.to_value(u.km).copy()
+    r[7] += 200.0  # one bad state: the fit leaves it out and says so
+    bad = vv.StateVectors(r * u.km, good.v, good.gm, epoch=good.epoch)
+    items = list(zip([good, bad], [25544, 25544], [None, None], strict=True))
+    said = [w for _, _, w in _fit_packed(_pack(items, "gcrs", 10), {})]  # what a worker returns
+    assert said[0] == [] and len(said[1]) == 1 and said[1][0][0] is RuntimeWarning
+    assert "state 7" in said[1][0][1]
+    with pytest.warns(RuntimeWarning, match=r"histories\[1\]: 1 of the 25 states is far"):
+        sats = vv.od.fit_tle_batch([good, bad], satnums=[25544] * 2)
+    assert sats[1].fit.excluded.tolist() == [7]
+    short = vv.StateVectors(r[:2] * u.km, good.v[:2], good.gm[:2], epoch=good.epoch[:2])
+    with pytest.raises(vv.InvalidInputError) as err, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        vv.od.fit_tle_batch([good, short], satnums=[25544] * 2)
+    assert err.value.__notes__ == ["(fitting histories[1] of fit_tle_batch)"]

@@ -13,6 +13,8 @@ True
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..errors import InvalidInputError
@@ -20,19 +22,34 @@ from ..errors import InvalidInputError
 __all__ = ["fit_tle_batch"]
 
 
-def _fit_chunk(items, kwargs):
-    """Fit each (states, satnum, initial) of a chunk; return picklable (OMM fields, fit report)
-    pairs."""
+def _fit_recording(index, fit, *args, **kwargs):
+    """History ``index``'s fit as a picklable result: (OMM fields, fit report, its warnings as
+    (category, text)).
+
+    The warnings are recorded, not shown, so that a fit on a Dask worker process (whose
+    warnings would stay in the worker's log) reports them to the caller, who re-emits each one
+    naming its history; an error carries the history's index as a note."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            sat = fit(*args, **kwargs)
+        except Exception as exc:
+            exc.add_note(f"(fitting histories[{index}] of fit_tle_batch)")
+            raise
+    said = [(w.category, str(w.message)) for w in caught]
+    return sat.fit.fields, dict(sat.fit.__dict__), said
+
+
+def _fit_chunk(items, kwargs, start=0):
+    """Fit each (states, satnum, initial) of a chunk whose first is history ``start``; return
+    picklable (OMM fields, fit report, warnings) triples."""
     from .tle_fit import fit_tle
 
-    out = []
-    for states, satnum, initial in items:
-        sat = fit_tle(states, satnum=satnum, initial=initial, **kwargs)
-        out.append((sat.fit.fields, dict(sat.fit.__dict__)))
-    return out
+    return [_fit_recording(start + k, fit_tle, states, satnum=satnum, initial=initial, **kwargs)
+            for k, (states, satnum, initial) in enumerate(items)]
 
 
-def _pack(items, frame):
+def _pack(items, frame, start=0):
     """A chunk of (history, satnum, initial) as a few flat arrays (one pickle frame each, not four per
     history: Dask's transfer cost is per frame), read here with fit_tle's own input reader."""
     from .tle_fit import states_and_times
@@ -49,7 +66,7 @@ def _pack(items, frame):
         counts.append(len(r))
     return {"r": np.concatenate(rs), "v": np.concatenate(vs), "jd1": np.concatenate(jd1),
             "jd2": np.concatenate(jd2), "scale": scales, "frame": frames,
-            "count": np.asarray(counts), "satnum": [s for _, s, _ in items],
+            "count": np.asarray(counts), "satnum": [s for _, s, _ in items], "start": start,
             "initial": [i for _, _, i in items]}  # fmt: skip
 
 
@@ -64,9 +81,9 @@ def _fit_packed(packed, kwargs):
     for k, (stop, satnum) in enumerate(zip(ends, packed["satnum"], strict=True)):
         sl = slice(stop - packed["count"][k], stop)
         t = Time(packed["jd1"][sl], packed["jd2"][sl], format="jd", scale=packed["scale"][k])
-        sat = fit_tle_arrays(packed["r"][sl], packed["v"][sl], t, packed["frame"][k], satnum,
-                             initial=packed["initial"][k], **kwargs)  # fmt: skip
-        out.append((sat.fit.fields, dict(sat.fit.__dict__)))
+        out.append(_fit_recording(packed["start"] + k, fit_tle_arrays, packed["r"][sl],
+                                  packed["v"][sl], t, packed["frame"][k], satnum,
+                                  initial=packed["initial"][k], **kwargs))  # fmt: skip
     return out
 
 
@@ -120,6 +137,14 @@ def fit_tle_batch(histories, satnums=None, *, initials=None, client=None, chunks
         ``satnums`` or ``initials`` of another length than ``histories``, a satnum that is
         not an integer; ``initial=`` (one
         set for every history) instead of ``initials=``.
+    ConvergenceError, SGP4Error, ...
+        As :func:`~visviva.fit_tle`, with a note naming the history (``histories[k]``).
+
+    Warns
+    -----
+    RuntimeWarning, ...
+        Each fit's warnings (a B* not determined, states left out, ...), shown here also for
+        fits run on Dask worker processes, each prefixed with ``histories[k]:``.
     """
     from .tle_fit import TLEFit, satellite_from_fields
 
@@ -151,11 +176,13 @@ def fit_tle_batch(histories, satnums=None, *, initials=None, client=None, chunks
         frame = kwargs.pop("frame", None)
         if frame not in (None, "gcrs", "teme"):
             raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
-        parts = [_pack(items[i:i + size], frame) for i in range(0, len(items), size)]
+        parts = [_pack(items[i:i + size], frame, i) for i in range(0, len(items), size)]
         futures = client.map(_fit_packed, parts, [kwargs] * len(parts), pure=False)
         results = [r for part in client.gather(futures) for r in part]
     sats = []
-    for fields, report in results:
+    for k, (fields, report, said) in enumerate(results):
+        for category, text in said:  # a Dask worker's warnings, shown here (leftfix: were lost)
+            warnings.warn(f"histories[{k}]: {text}", category, stacklevel=2)
         sat = satellite_from_fields(fields)
         sat.fit = TLEFit(**report)
         sats.append(sat)

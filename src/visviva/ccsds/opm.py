@@ -585,7 +585,8 @@ def write_sections(sections, table, root, version_key, path, format):  # noqa: A
         from astropy.time import Time
 
         header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
-                        header.comments, header.lines, header.line)
+                        header.comments, header.lines, header.line,
+                        header.units, header.attributes)
         sections = {**sections, "header": header}
     text = write_message(sections, table, root, version_key, fmt=format)
     if path is not None:

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import visviva as vv
 from visviva._covariance import from_local, local_jacobian, to_local
@@ -176,3 +178,18 @@ def test_an_oem_covariance_in_tnw_rotating_and_unknown_sana_names():
             OPM(sections).covariance  # noqa: B018
     with pytest.raises(vv.InvalidInputError, match="not a local orbital frame"):
         OPM.from_state(state, object_name="SAT", covariance=cov, covariance_frame="LVLH")
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(6600.0, 45000.0), st.floats(0.3, 1.4), st.floats(0.0, 3.1),
+       st.floats(-0.4, 0.4), st.sampled_from([RTN, TNW]))
+def test_the_inverse_jacobian_inverts_it(radius, speed_ratio, inc, gamma, code):
+    """For any bound orbit state, from_local's closed-form inverse [[Q^T, 0], [-Q^T B Q^T,
+    Q^T]] is the matrix inverse of the rotating Jacobian (to 1e-12)."""
+    from visviva._covariance import _inverse_jacobian
+
+    v = speed_ratio * np.sqrt(MU / radius)
+    r = np.array([radius, 0.0, 0.0])
+    vel = v * np.array([np.sin(gamma), np.cos(gamma) * np.cos(inc), np.cos(gamma) * np.sin(inc)])
+    jac = local_jacobian(r, vel, code, rotating=True)
+    assert np.allclose(_inverse_jacobian(jac) @ jac, np.eye(6), rtol=0, atol=1e-12)

@@ -295,6 +295,47 @@ class ConjunctionDataMessage:
         """The message's own ``COLLISION_PROBABILITY`` (float), or None."""
         return self.relative.get("COLLISION_PROBABILITY")
 
+    def states(self, frame: str = "GCRF"):
+        """Both objects' states and covariances at TCA on one inertial frame.
+
+        Each object's ``REF_FRAME`` may differ (508.0-B-1); this rotates an ITRF or TEME
+        object to GCRF at TCA and each RTN covariance with its object's GCRF state
+        (:func:`visviva.ccsds.cdm_states.states_on_one_frame`), so that ``r1 - r2`` is the
+        miss vector and ``vv.collision_probability(*msg.states(), hbr)`` the Pc.
+
+        Parameters
+        ----------
+        frame : {"GCRF", "EME2000", "ICRF"}
+            The frame of the result.
+
+        Returns
+        -------
+        r1, v1, cov1, r2, v2, cov2
+            Quantity km, Quantity km/s, ndarray (6, 6) in m^2, m^2/s, m^2/s^2.
+        """
+        from .cdm_states import states_on_one_frame
+
+        return states_on_one_frame(self, frame)
+
+    def probability(self, hard_body_radius, method: str = "foster", **kwargs) -> float:
+        """The collision probability computed from the message's states and covariances, both
+        put on GCRF first (:meth:`states`); ``kwargs`` as :func:`visviva.collision_probability`.
+
+        Parameters
+        ----------
+        hard_body_radius : Quantity or float
+            Radius of the sphere enclosing both objects (plain numbers: m).
+        method : str
+            As :func:`visviva.collision_probability`.
+
+        Returns
+        -------
+        float
+        """
+        from ..conjunctions.probability import collision_probability
+
+        return collision_probability(*self.states(), hard_body_radius, method, **kwargs)
+
     def sections(self) -> dict:
         """Every section as a dict of records (what the constructor takes)."""
         return {"header": self.header, "relative": self.relative,
@@ -496,8 +537,8 @@ def _check_frames(sections: dict, source: str) -> None:
         warnings.warn(
             f"{source}, line {meta[1].line_of('REF_FRAME')}: OBJECT2's state is in REF_FRAME = "
             f"{names[1]}, OBJECT1's in {names[0]} (line {meta[0].line_of('REF_FRAME')}): "
-            "rotate one state and its covariance to the other's frame before combining them "
-            "(the miss vector and a collision probability need both in one frame).",
+            "msg.states() and msg.probability(hbr) put both on GCRF; o1.r - o2.r, or "
+            "collision_probability(o1.r, ..., o2.r, ...) as written, mixes the two frames.",
             UserWarning, stacklevel=4)
 
 

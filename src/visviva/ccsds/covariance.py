@@ -13,9 +13,51 @@ from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Keyword
 
 __all__ = ["AXES", "COVARIANCE_KEYWORDS", "matrix_from_values", "values_from_matrix",
-           "matrix_from_rows", "check_variance", "check_record_variances", "on_state_axes"]
+           "matrix_from_rows", "check_variance", "check_record_variances", "on_state_axes",
+           "ORBIT_RELATIVE_FRAMES", "local_frame", "from_state_axes"]
 
 AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
+
+
+#: SANA's orbit-relative reference frames (the ``COV_REF_FRAME`` values of CCSDS 502.0-B-3)
+#: visviva reads: name -> (axes, rotating). ``*_INERTIAL`` is the quasi-inertial form (the
+#: velocity block rotated like the position block), ``*_ROTATING`` takes the frame's rotation
+#: ``omega = (r x v)/|r|**2`` into the velocity block (:func:`visviva._covariance.local_jacobian`).
+#: The plain names RTN/RSW/RIC/QSW, TNW, VNB are read quasi-inertial, as the CDM defines RTN
+#: (docs/design.md, "RTN / TNW covariances").
+ORBIT_RELATIVE_FRAMES = {"RSW_INERTIAL": ("RTN", False), "RSW_ROTATING": ("RTN", True),
+                         "TNW_INERTIAL": ("TNW", False), "TNW_ROTATING": ("TNW", True)}
+
+
+def local_frame(name) -> tuple[int, bool] | None:
+    """``(code, rotating)`` of a local orbital frame named in a message, None for another name.
+
+    Parameters
+    ----------
+    name : str
+        ``COV_REF_FRAME`` as written: a SANA name (``RSW_ROTATING``, ``TNW_INERTIAL`` ...) or
+        a plain one (``RTN``, ``RSW``, ``RIC``, ``QSW``, ``TNW``, ``VNB``: quasi-inertial).
+
+    Returns
+    -------
+    tuple of (int, bool) or None
+        The :mod:`visviva.core.local_frames` code and whether the frame rotates.
+    """
+    from ..core.local_frames import FRAME_CODES
+
+    key = str(name).strip().upper()
+    if key in ORBIT_RELATIVE_FRAMES:
+        axes, rotating = ORBIT_RELATIVE_FRAMES[key]
+        return FRAME_CODES[axes], rotating
+    if key in FRAME_CODES:
+        return FRAME_CODES[key], False
+    return None
+
+
+def _local_names() -> str:
+    from ..core.local_frames import FRAME_CODES
+
+    return ", ".join(sorted(FRAME_CODES) + sorted(ORBIT_RELATIVE_FRAMES))
 
 
 def _unit(i: int, j: int) -> str:
@@ -119,9 +161,11 @@ def check_record_variances(record, source: str) -> None:
 def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
     """A covariance written in ``COV_REF_FRAME = cov_frame`` on the axes of its state.
 
-    A local orbital frame of the state (``RTN``/``RSW``/``RIC``/``QSW``, ``TNW``, ``VNB``) is
-    rotated to the state's axes (the velocity block as the position block, the CCSDS
-    convention); ``REF_FRAME`` itself, or another name of the same axes, is kept.
+    A local orbital frame of the state (``RTN``/``RSW``/``RIC``/``QSW``, ``TNW``, ``VNB``,
+    SANA's ``RSW_INERTIAL``, ``TNW_INERTIAL``) is rotated to the state's axes (the velocity
+    block as the position block, the CCSDS convention); ``RSW_ROTATING`` / ``TNW_ROTATING``
+    add the frame's rotation to the velocity block (:func:`visviva._covariance.local_jacobian`);
+    ``REF_FRAME`` itself, or another name of the same axes, is kept.
 
     Parameters
     ----------
@@ -154,21 +198,54 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
     if cov_frame is None or str(cov_frame).strip().upper() == str(ref_frame).strip().upper():
         return matrix
     from .._covariance import from_local
-    from ..core.local_frames import FRAME_CODES
     from .timeframes import earth_fixed, visviva_frame
 
     key = str(cov_frame).strip().upper()
-    if key not in FRAME_CODES:
+    local = local_frame(key)
+    if local is None:
         if visviva_frame(key) is not None and visviva_frame(key) == state_frame:
             return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
         raise InvalidInputError(
             f"{where} is neither REF_FRAME = {ref_frame} nor a local orbital frame "
-            f"({', '.join(sorted(FRAME_CODES))}); rotate {raw} to the state's axes yourself.")
+            f"({_local_names()}); rotate {raw} to the state's axes yourself.")
     if state_frame == "itrs" or earth_fixed(ref_frame):  # (GRC, TDR, GTOD: Earth-fixed too)
         raise InvalidInputError(
             f"{where} of a state on Earth-fixed axes ({ref_frame}): its Earth-fixed velocity "
             f"does not give the orbital axes; rotate the state and {raw} to an inertial frame "
             "first.")
     return from_local(matrix, np.asarray(r, dtype=np.float64), np.asarray(v, dtype=np.float64),
-                      FRAME_CODES[key])
+                      *local)
+
+
+def from_state_axes(matrix, cov_frame, r, v) -> np.ndarray:
+    """A covariance on the axes of its state written in local frame ``cov_frame`` (the inverse
+    of :func:`on_state_axes`, for writing ``COV_REF_FRAME = cov_frame``).
+
+    Parameters
+    ----------
+    matrix : ndarray (6, 6)
+        Covariance on the state's (inertial) axes, km and km/s.
+    cov_frame : str
+        A local orbital frame (:func:`local_frame`): ``RTN``, ``TNW``, ``RSW_ROTATING`` ...
+    r, v : ndarray (3,)
+        The state (km, km/s).
+
+    Returns
+    -------
+    ndarray (6, 6)
+
+    Raises
+    ------
+    InvalidInputError
+        ``cov_frame`` names no local orbital frame.
+    """
+    from .._covariance import to_local
+
+    local = local_frame(cov_frame)
+    if local is None:
+        raise InvalidInputError(f"covariance_frame = {cov_frame!r} is not a local orbital "
+                                f"frame; use one of {_local_names()} (or None: the state's "
+                                "axes).")
+    return to_local(np.asarray(matrix, dtype=np.float64), np.asarray(r, dtype=np.float64),
+                    np.asarray(v, dtype=np.float64), *local)
 

@@ -164,6 +164,10 @@ class Record:
         Parameter -> unit of the user-defined parameters written with one
         (``USER_DEFINED_X = 1.5 [km]``, ``<USER_DEFINED parameter="X" units="km">``), which
         have no table to take it from; written back with them.
+    attributes : dict
+        Keyword -> ``{name: value}``: the XML attributes of the keyword's element that the
+        NDM/XML schema does not define (``<CREATION_DATE zone="UTC">``), written back on the
+        same element by the XML writers (a KVN write has no place for them and warns).
     """
 
     values: dict = field(default_factory=dict)
@@ -171,6 +175,7 @@ class Record:
     lines: dict = field(default_factory=dict)
     line: int | None = None
     units: dict = field(default_factory=dict)
+    attributes: dict = field(default_factory=dict)
 
     def __getitem__(self, key):
         return self.values[key]

@@ -290,6 +290,7 @@ def read_xml_section(node: XMLNode, section: Section, source: str) -> Record:
             record.lines[key] = child.line
             if child.attrib.get("units"):
                 record.units[key] = child.attrib["units"]
+            _keep_attributes(record, key, child, ("parameter", "units"))
             continue
         keyword = section.by_name.get(child.tag)
         if keyword is None:
@@ -303,8 +304,27 @@ def read_xml_section(node: XMLNode, section: Section, source: str) -> Record:
         record.values[child.tag] = parse_value(keyword, child.text, child.attrib.get("units"),
                                                child.line, source)
         record.lines[child.tag] = child.line
+        _keep_attributes(record, child.tag, child, ("units",))
     check_mandatory(record, section, source)
     return record
+
+
+def _keep_attributes(record: Record, key: str, child: XMLNode, schema: tuple) -> None:
+    """Keep the attributes of a keyword element that the schema does not define (warned about
+    by :func:`visviva.ccsds.ndmxml.check_attributes`), to write them back on the same element."""
+    extra = {k: v for k, v in child.attrib.items() if k not in schema}
+    if extra:
+        record.attributes[key] = extra
+
+
+def _warn_attributes_dropped(record: Record) -> None:
+    """A KVN write of a record holding XML attributes: KVN has no place for them."""
+    import warnings
+
+    shown = "; ".join(f"{k}: " + ", ".join(f'{n}="{v}"' for n, v in a.items())
+                      for k, a in record.attributes.items())
+    warnings.warn(f"KVN has no place for XML attributes; writing as KVN leaves out {shown} "
+                  "(an XML write keeps them)", UserWarning, stacklevel=4)
 
 
 def _as_record(record) -> Record:
@@ -324,6 +344,8 @@ def write_kvn_section(writer: KVNWriter, section: Section, record) -> None:
         The values (a dict is taken as keyword -> value without comments).
     """
     record = _as_record(record)
+    if record.attributes:
+        _warn_attributes_dropped(record)
     keywords = section.keywords
     if keywords and keywords[0].name.endswith("_VERS") and keywords[0].name in record.values:
         # a header: the version line comes first, its comments after it (502.0-B-3, 7.8.5)
@@ -388,12 +410,14 @@ def write_xml_section(parent, section: Section, record, skip=()):
         for key, value in record.values.items():
             unit = record.units.get(key)
             ET.SubElement(element, "USER_DEFINED",
-                          {"parameter": key, **({"units": unit} if unit else {})}).text = str(value)
+                          {"parameter": key, **({"units": unit} if unit else {}),
+                           **record.attributes.get(key, {})}).text = str(value)
         return element
     for keyword in section.keywords:
         if keyword.name in record.values and keyword.name not in skip:
-            add_text(element, keyword.name, format_value(keyword, record.values[keyword.name]),
-                     keyword.unit)
+            child = add_text(element, keyword.name,
+                             format_value(keyword, record.values[keyword.name]), keyword.unit)
+            child.attrib.update(record.attributes.get(keyword.name, {}))
     return element
 
 

@@ -62,7 +62,8 @@ def parse(text: str, source: str = "<text>") -> XMLNode:
                                                                    source=source))
 
 
-def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode:
+def message_root(root: XMLNode, tag: str, source: str, containers=(),
+                 data_lines=()) -> XMLNode:
     """The ``<tag>`` message element: the root itself, or the one inside an ``<ndm>`` wrapper.
 
     Parameters
@@ -77,6 +78,10 @@ def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode
         Tags of the elements that hold sections rather than keywords (``"body"``,
         ``"segment"``, an OPM's ``"data"``): their ``<COMMENT>`` elements move into the
         element after them (:func:`hoist_comments`).
+    data_lines : iterable of str
+        Tags of the elements whose keyword elements are data lines the message keeps as
+        numbers, not records (an OEM's ``stateVector``/``covarianceMatrix``, a TDM's
+        ``observation``): attributes there are not kept (:func:`check_attributes`).
 
     Returns
     -------
@@ -111,7 +116,7 @@ def message_root(root: XMLNode, tag: str, source: str, containers=()) -> XMLNode
                                line=root.line, source=source)
     else:
         message = root
-    check_attributes(root, message, source)
+    check_attributes(root, message, source, data_lines)
     hoist_comments(message, {tag, *containers}, source)
     return message
 
@@ -166,17 +171,19 @@ _SCHEMA_ATTRIBUTES = frozenset({"noNamespaceSchemaLocation", "schemaLocation"})
 _ROOT_ATTRIBUTES = _SCHEMA_ATTRIBUTES | {"id", "version"}
 
 
-def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
+def check_attributes(root: XMLNode, message: XMLNode, source: str, data_lines=()) -> None:
     """Refuse a wrong ``id`` on the message and warn about attributes NDM/XML does not define.
 
     The NDM/XML schemas (505.0-B) define ``id`` and ``version`` on the message element,
     ``units`` on a value's element, ``parameter`` on ``<USER_DEFINED>`` and the schema location
-    (``xsi:noNamespaceSchemaLocation``); the readers keep those. Any other attribute (``<segment
-    foo="1">``) has no place in the message objects and is dropped on write: a
-    :class:`UserWarning` names each one with its line and says so, so none is dropped silently.
-    (Keeping them per element through a read and a write was left out: the OEM and TDM writers
-    write text, not a tree, and a message changed between the two would leave an attribute on
-    another element than the one it came from.)
+    (``xsi:noNamespaceSchemaLocation``); the readers keep those. Another attribute on a
+    keyword element of a section (``<CREATION_DATE zone="UTC">``) is kept with its keyword
+    (``Record.attributes``) and written back on the same element by an XML write (a KVN write
+    warns that it leaves it out). Any other attribute -- on a structure element (``<segment
+    foo="1">``, ``<body>``, a section element), a ``<COMMENT>``, or a data line of
+    ``data_lines`` (an OEM state or covariance, a TDM observation, which are kept as numbers)
+    -- has no place in the message objects and is dropped on write: a :class:`UserWarning`
+    names each one with its line and says so, so none is dropped silently.
 
     Parameters
     ----------
@@ -186,6 +193,8 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
         The ``<oem>``/``<opm>``/... element.
     source : str
         File name, for the messages.
+    data_lines : iterable of str
+        Tags whose keyword elements are data lines (not kept: see above).
 
     Raises
     ------
@@ -201,9 +210,12 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
             f"<{message.tag}> has id=\"{given}\"; the id of an <{message.tag}> message is "
             f"\"{key}\" (is the file another message type?)", line=message.line, source=source)
     dropped = []
-    stack = [root]
+    stack = [(root, None)]
     while stack:
-        node = stack.pop()
+        node, parent = stack.pop()
+        if (node.tag[:1].isupper() and not node.children and node.tag != "COMMENT"
+                and parent is not None and parent.tag not in data_lines):
+            continue  # a keyword element: its attributes are kept (Record.attributes)
         if node is message:
             allowed = _ROOT_ATTRIBUTES
         elif node is root:  # the <ndm> wrapper
@@ -222,7 +234,7 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str) -> None:
                 "belongs in a keyword element (or a <COMMENT>)", line=node.line, source=source)
         # (the other children of an <ndm> are named by message_root's warning)
         wrapper = node is root and root is not message
-        stack.extend([message] if wrapper else reversed(node.children))
+        stack.extend([(message, node)] if wrapper else [(c, node) for c in reversed(node.children)])
     if dropped:
         import warnings
 

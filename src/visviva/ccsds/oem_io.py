@@ -262,7 +262,8 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
 
 # ---- XML ---------------------------------------------------------------------------------
 def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
-    root = message_root(parse(text, name), "oem", name, ("body", "segment"))
+    root = message_root(parse(text, name), "oem", name, ("body", "segment"),
+                        ("stateVector", "covarianceMatrix"))
     header_node = root.find("header")
     if header_node is None or not root.attrib.get("version"):
         raise CCSDSFormatError("<oem> needs a version attribute and a <header>",
@@ -407,7 +408,8 @@ def write_oem(ephemeris, path=None, format: str | None = None) -> str:  # noqa: 
         from astropy.time import Time
 
         header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
-                        header.comments, header.lines, header.line)
+                        header.comments, header.lines, header.line,
+                        header.units, header.attributes)
         ephemeris = Ephemeris(ephemeris.segments, header)
     missing = [k for k in ("CCSDS_OEM_VERS", "ORIGINATOR") if k not in header]
     if missing:

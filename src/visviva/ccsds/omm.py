@@ -54,12 +54,14 @@ class OMM(dict):
     User-defined parameters appear as ``USER_DEFINED_<name>``. Pass it to
     :meth:`visviva.Satellite.from_omm` or :func:`write_omm`; ``.comments`` maps each section
     name to its COMMENT lines, ``.lines`` each keyword to the line it was read from, ``.units``
-    each user-defined parameter written with a unit to that unit.
+    each user-defined parameter written with a unit to that unit, ``.attributes`` each keyword
+    read from XML with attributes the schema does not define to them (written back on XML).
     """
 
     comments: dict
     lines: dict
     units: dict
+    attributes: dict
     source: str
 
     @classmethod
@@ -80,6 +82,7 @@ class OMM(dict):
         """
         out = cls()
         out.comments, out.lines, out.units, out.source = {}, {}, {}, source
+        out.attributes = {}
         for name, record in sections.items():
             prefix = _USER if name == "user_defined" else ""
             for key, value in record.values.items():
@@ -87,6 +90,7 @@ class OMM(dict):
                 out.lines[prefix + key] = record.lines.get(key)
             out.comments[name] = list(record.comments)
             out.units.update({prefix + key: unit for key, unit in record.units.items()})
+            out.attributes.update({prefix + key: dict(a) for key, a in record.attributes.items()})
         return out
 
 
@@ -165,6 +169,7 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
                                 f"{type(omm).__name__} (for a Satellite, pass sat.to_omm()).")
     comments = getattr(omm, "comments", {}) or {}
     units = getattr(omm, "units", {}) or {}  # (of the user-defined parameters, as read)
+    attributes = getattr(omm, "attributes", {}) or {}  # (XML attributes kept, as read)
     records = {s.name: Record(comments=list(comments.get(s.name, []))) for s in SECTIONS}
     for key, value in omm.items():
         if key == "COMMENT":
@@ -174,12 +179,16 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
             records["user_defined"].values[key[len(_USER):]] = value
             if key in units:
                 records["user_defined"].units[key[len(_USER):]] = units[key]
+            if key in attributes:
+                records["user_defined"].attributes[key[len(_USER):]] = attributes[key]
             continue
         owner = next((s for s in SECTIONS if key in s.by_name), None)
         if owner is None:
             raise InvalidInputError(f"{key} is not an OMM keyword; remove it or write it as "
                                     f"{_USER}{key}")
         records[owner.name].values[key] = _coerce(owner.by_name[key], value)
+        if key in attributes:
+            records[owner.name].attributes[key] = attributes[key]
     mean = records["mean_elements"].values
     if ("SEMI_MAJOR_AXIS" in mean) == ("MEAN_MOTION" in mean):  # (what read_omm refuses)
         raise InvalidInputError(

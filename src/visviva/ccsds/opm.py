@@ -136,7 +136,7 @@ class OPM(FrameCenterMetadata):
                    center: str | None = None, frame: str | None = None,
                    time_system: str = "UTC", maneuvers=(), covariance=None,
                    originator: str = "VISVIVA",
-                   mission_epoch=None, mass=None):  # fmt: skip
+                   mission_epoch=None, mass=None, covariance_frame=None):  # fmt: skip
         """An OPM for one state computed in visviva.
 
         Parameters
@@ -171,6 +171,11 @@ class OPM(FrameCenterMetadata):
             The epoch MET/MRT count from, for those time systems.
         mass : Quantity, optional
             Spacecraft ``MASS`` (kg, > 0) at the epoch: its spacecraft parameters section.
+        covariance_frame : str, optional
+            Write ``covariance`` (on the state's axes) in this local orbital frame, as
+            ``COV_REF_FRAME``: ``"RTN"``, ``"TNW"``, ``"VNB"`` ... (quasi-inertial), SANA's
+            ``"RSW_INERTIAL"``, ``"TNW_INERTIAL"``, ``"RSW_ROTATING"``, ``"TNW_ROTATING"``
+            (:func:`visviva.ccsds.covariance.from_state_axes`). None: the state's axes.
 
         Returns
         -------
@@ -215,7 +220,17 @@ class OPM(FrameCenterMetadata):
             if not (diag >= 0).all():
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
                                         f"diagonal; got diagonal {diag}.")
-            sections["covariance"] = values_from_matrix(covariance)
+            if covariance_frame is None:
+                sections["covariance"] = values_from_matrix(covariance)
+            else:
+                from .covariance import from_state_axes
+
+                local = from_state_axes(covariance, covariance_frame, r, v)
+                sections["covariance"] = {"COV_REF_FRAME": str(covariance_frame).upper(),
+                                          **values_from_matrix(local)}
+        elif covariance_frame is not None:
+            raise InvalidInputError("covariance_frame is the frame to write covariance in; "
+                                    "give covariance= too.")
         records = [_maneuver_record(k, m, time_system, mission_epoch)
                    for k, m in enumerate(maneuvers or ())]  # once: a generator is used up
         if records:
@@ -570,7 +585,8 @@ def write_sections(sections, table, root, version_key, path, format):  # noqa: A
         from astropy.time import Time
 
         header = Record({**header.values, "CREATION_DATE": Time.now().utc.isot},
-                        header.comments, header.lines, header.line)
+                        header.comments, header.lines, header.line,
+                        header.units, header.attributes)
         sections = {**sections, "header": header}
     text = write_message(sections, table, root, version_key, fmt=format)
     if path is not None:

@@ -510,7 +510,7 @@ def _checked_row(line, name):
 
 # ---- XML ---------------------------------------------------------------------------------
 def _read_xml(text: str, name: str, mission_epoch) -> TDM:
-    root = message_root(parse(text, name), "tdm", name, ("body", "segment"))
+    root = message_root(parse(text, name), "tdm", name, ("body", "segment"), ("observation",))
     version = root.attrib.get("version")
     if not version:
         raise CCSDSFormatError("<tdm> lacks its version attribute", line=root.line, source=name)

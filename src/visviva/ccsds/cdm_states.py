@@ -1,0 +1,80 @@
+"""The two objects of a CDM on one inertial frame: what a miss distance or a Pc needs.
+
+CCSDS 508.0-B-1 lets each object's segment name its own ``REF_FRAME`` (section 3.5.1: e.g.
+``EME2000`` for one object, ``ITRF`` for the other). A miss vector or a collision probability
+combines both states and covariances, so both are first put on one inertial frame (GCRF):
+a state on ITRF axes by the IAU 2006/2000A chain of :mod:`visviva.satellites.frames` at TCA
+(with its Earth-rotation velocity term), a TEME state likewise, and each covariance rotated
+from the message's RTN matrix with the RTN axes of the object's *GCRF* state (as NASA CARA's
+``cdmobj_J2Kstatecov`` converts the state to J2000 first, then rotates the RTN covariance).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["states_on_one_frame", "COMMON_FRAMES"]
+
+#: the frame the two objects are put on, by its CCSDS names (all three name the GCRS's axes
+#: within visviva's 23 mas: docs/ccsds.md, "Frames")
+COMMON_FRAMES = ("GCRF", "EME2000", "ICRF")
+
+
+def _gcrs_state(obj, tca):
+    """(r km, v km/s) of a CDMObject on GCRS axes, from its REF_FRAME."""
+    from astropy import units as u
+
+    from ..satellites.frames import itrs_to_gcrs, teme_to_gcrs
+    from .timeframes import visviva_frame
+
+    kind = visviva_frame(obj.frame)
+    r, v = obj.r.to_value(u.km), obj.v.to_value(u.km / u.s)
+    if kind == "gcrs":
+        return r, v
+    if kind == "itrs":
+        return itrs_to_gcrs(r, v, tca)
+    if kind == "teme":
+        return teme_to_gcrs(r, v, tca)
+    raise InvalidInputError(
+        f"REF_FRAME = {obj.frame!r} of {obj.name!r} is not a frame visviva can rotate to GCRF "
+        "(EME2000, GCRF, ICRF, TEME or ITRF...); rotate its state and covariance_rtn (RTN, m, "
+        "m/s) yourself, or correct REF_FRAME.")
+
+
+def states_on_one_frame(msg, frame: str = "GCRF"):
+    """Both objects' states and 6x6 covariances at TCA on one inertial frame.
+
+    Parameters
+    ----------
+    msg : ConjunctionDataMessage
+        The message (each object with its own ``REF_FRAME``).
+    frame : {"GCRF", "EME2000", "ICRF"}
+        The frame to put both on (one set of axes in visviva).
+
+    Returns
+    -------
+    r1, v1, cov1, r2, v2, cov2
+        Positions (Quantity, km), velocities (Quantity, km/s) and covariances (ndarray,
+        m^2, m^2/s, m^2/s^2), what :func:`visviva.collision_probability` takes.
+
+    Raises
+    ------
+    InvalidInputError
+        Another ``frame``, or a ``REF_FRAME`` visviva cannot rotate (e.g. ``EFG``).
+    """
+    from astropy import units as u
+
+    from ..conjunctions.covariance import rtn_to_inertial
+
+    if str(frame).strip().upper() not in COMMON_FRAMES:
+        raise InvalidInputError(f"frame = {frame!r}: the objects are put on one inertial frame, "
+                                f"one of {', '.join(COMMON_FRAMES)}.")
+    out = []
+    tca = msg.tca
+    for obj in (msg.object1, msg.object2):
+        r, v = (np.asarray(x, dtype=np.float64) for x in _gcrs_state(obj, tca))
+        out += [r * u.km, v * (u.km / u.s),
+                rtn_to_inertial(obj.covariance_rtn, r * u.km, v * (u.km / u.s))]
+    return tuple(out)

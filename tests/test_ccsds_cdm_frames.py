@@ -1,0 +1,81 @@
+"""A CDM whose two objects name different REF_FRAMEs (CCSDS 508.0-B-1 lets each segment name
+its own): ``msg.states()`` / ``msg.probability()`` put both on GCRF before combining them.
+Before, only a warning was given and ``o1.r - o2.r`` mixed GCRF with ITRF."""
+
+import warnings
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.conjunctions import rtn_to_inertial
+from visviva.satellites.frames import gcrs_to_itrs
+
+TCA = Time("2024-05-01T12:00:00", scale="utc")
+KM, KMS = u.km, u.km / u.s
+
+
+def _gcrf_message():
+    """Two crossing LEO objects at TCA (relative position normal to the relative velocity,
+    miss 104 m), each with an RTN covariance; all in GCRF."""
+    r1, v1 = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    r2, v2 = r1 + np.array([0.1, 0.02, 0.02]), np.array([0.0, 0.0, 7.5])
+    rtn = np.diag([30.0, 200.0, 20.0, 0.2, 0.03, 0.02]) ** 2  # m, m/s
+    c1 = rtn_to_inertial(rtn, r1 * KM, v1 * KMS)
+    c2 = rtn_to_inertial(4 * rtn, r2 * KM, v2 * KMS)
+    return vv.ConjunctionDataMessage.from_states(TCA, r1 * KM, v1 * KMS, c1, r2 * KM, v2 * KMS,
+                                                 c2, names=("A", "B"))
+
+
+def _with_object2_in_itrf(msg):
+    sections = vv.read_cdm(msg.to_kvn()).sections()  # a copy to edit
+    state = sections["object2"]["state_vector"].values
+    r = np.array([state[k] for k in ("X", "Y", "Z")])
+    v = np.array([state[k] for k in ("X_DOT", "Y_DOT", "Z_DOT")])
+    ri, vi = gcrs_to_itrs(r, v, TCA)
+    for k, axis in enumerate("XYZ"):
+        state[axis], state[f"{axis}_DOT"] = float(ri[k]), float(vi[k])
+    sections["object2"]["metadata"].values["REF_FRAME"] = "ITRF"
+    with pytest.warns(UserWarning, match="msg.states"):
+        return vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())
+
+
+def test_object2_in_itrf_gives_the_all_gcrf_miss_and_pc():
+    gcrf = _gcrf_message()
+    mixed = _with_object2_in_itrf(gcrf)
+    assert (mixed.object1.frame, mixed.object2.frame) == ("GCRF", "ITRF")
+    a, b = gcrf.states(), mixed.states()
+    for k in (0, 1, 3, 4):  # r1, v1, r2, v2: the ITRF state back on GCRF to < 1 um, 1e-9 m/s
+        assert np.abs((b[k] - a[k]).to_value(KM if k in (0, 3) else KMS)).max() < 1e-9
+    for k in (2, 5):  # covariances, in units of their sigmas
+        d = np.sqrt(np.diag(a[k]))
+        assert np.abs((b[k] - a[k]) / np.outer(d, d)).max() < 1e-8
+    miss = np.linalg.norm((b[0] - b[3]).to_value(u.m))
+    assert miss == pytest.approx(gcrf.miss_distance.to_value(u.m), abs=1e-3)
+    assert miss == pytest.approx(np.sqrt(0.1**2 + 2 * 0.02**2) * 1e3, rel=1e-6)
+    pc = gcrf.probability(20 * u.m)
+    assert 1e-6 < pc < 1e-1
+    assert mixed.probability(20 * u.m) == pytest.approx(pc, rel=1e-7)
+    # as written, the two states are thousands of km apart: the old path's Pc was 0
+    o1, o2 = mixed.object1, mixed.object2
+    assert np.linalg.norm((o1.r - o2.r).to_value(KM)) > 1000
+    old = vv.collision_probability(o1.r, o1.v, o1.covariance, o2.r, o2.v, o2.covariance,
+                                   20 * u.m)
+    assert old == 0.0
+
+
+def test_states_refuse_frames_visviva_cannot_rotate():
+    gcrf = _gcrf_message()
+    sections = vv.read_cdm(gcrf.to_kvn()).sections()  # a copy to edit
+    sections["object2"]["metadata"].values["REF_FRAME"] = "EFG"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        msg = vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())
+    with pytest.raises(vv.InvalidInputError, match="REF_FRAME = 'EFG'.*rotate"):
+        msg.states()
+    with pytest.raises(vv.InvalidInputError, match="one inertial frame"):
+        gcrf.states("ITRF")
+    # EME2000 beside GCRF: one set of axes, no rotation
+    assert np.array_equal(gcrf.states("EME2000")[0], gcrf.object1.r)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from . import status as st
+from ._intrinsics import EPS
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .stumpff import stumpff_c2c3
 
@@ -331,8 +332,35 @@ def _uv_tof(psi, r1n, r2n, A, gm):
     y = r1n + r2n + A * (psi * c3 - 1.0) / math.sqrt(c2)
     if y < 0.0:
         return -math.inf, y
+    if psi < -1.0:
+        # hyperbolic: with s = sqrt(-psi), S = sinh(s/2), C = cosh(s/2), chi^3 c3 + A sqrt(y)
+        # = sqrt(y) [(r1 + r2)(sinh s - s) - sqrt(2) A (2 S - s C)] / (2 sqrt(2) S^3), a sum of
+        # terms of one sign on either way; chi^3 c3 and A sqrt(y) nearly cancel on a short
+        # long-way transfer (A < 0), resolving tof only to eps sinh^2(s/2) (v1 2e-8 off)
+        s = math.sqrt(-psi)
+        sh = math.sinh(0.5 * s)
+        ch = math.cosh(0.5 * s)
+        sh2 = sh * sh
+        sh3 = sh2 * sh
+        bracket = (r1n + r2n) * (2.0 * ch / sh2 - s / sh3) - math.sqrt(2.0) * A * (
+            2.0 / sh2 - s * ch / sh3)
+        return math.sqrt(y) * bracket / (2.0 * math.sqrt(2.0) * math.sqrt(gm)), y
     chi = math.sqrt(y / c2)
     return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm), y
+
+
+@inline_kernel
+def _uv_tof_of_y(y, r1n, r2n, A, gm):
+    """t(y) on the hyperbolic short way (A > 0, psi < 0), with y itself the unknown.
+
+    From y = r1 + r2 - A (1 - psi c3)/sqrt(c2) = r1 + r2 - sqrt(2) A cosh(sqrt(-psi)/2), psi
+    follows from y without cancellation: cosh(s/2) = (r1 + r2 - y)/(sqrt(2) A), psi = -s^2.
+    """
+    q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
+    s = 2.0 * math.acosh(max(q, 1.0))
+    c2, c3 = stumpff_c2c3(-s * s)
+    chi = math.sqrt(y / c2)
+    return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm)
 
 
 @kernel
@@ -406,6 +434,31 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         if hi - lo <= 4e-16 * max(1.0, abs(psi)):
             break
     t, y = _uv_tof(psi, r1n, r2n, A, gm)
+    if M == 0 and A > 0.0 and psi < 0.0 and 0.0 < y < 1e-3 * (r1n + r2n):
+        # a short, fast hyperbolic transfer: y = r1 + r2 - A (1 - psi c3)/sqrt(c2) is a
+        # difference of nearly equal terms, so y(psi) moves in steps of eps (r1 + r2) and
+        # t(psi) resolves tof only to eps (r1 + r2)/y (1e-8 of v1 silently at y ~ 1e-8 r):
+        # finish by bisection in y itself, where t(y) is smooth and increasing
+        ylo = 0.0
+        yhi = r1n + r2n - math.sqrt(2.0) * A  # the parabola (psi = 0)
+        slack = 64.0 * EPS * (r1n + r2n)  # the rounding of y(psi), with room
+        if y - slack > 0.0 and _uv_tof_of_y(y - slack, r1n, r2n, A, gm) < tof:
+            ylo = y - slack
+        if y + slack < yhi and _uv_tof_of_y(y + slack, r1n, r2n, A, gm) >= tof:
+            yhi = y + slack
+        for _ in range(200):
+            ym = 0.5 * (ylo + yhi)
+            if ym <= ylo or ym >= yhi:
+                break
+            if _uv_tof_of_y(ym, r1n, r2n, A, gm) < tof:
+                ylo = ym
+            else:
+                yhi = ym
+        y = 0.5 * (ylo + yhi)
+        t = _uv_tof_of_y(y, r1n, r2n, A, gm)
+        q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
+        s = 2.0 * math.acosh(max(q, 1.0))
+        psi = -s * s
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and

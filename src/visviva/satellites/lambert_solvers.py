@@ -72,6 +72,8 @@ def lambert(
         kernels form 1 + cos(dnu) and g without cancellation, so both arrive at r2 to
         ~1e-10 km in LEO from 1e-8 to 1e-4 rad off 180 deg (tests/test_lambert.py) and to
         ~1e-6 km (3e-15 relative) on a 2.2e8 km heliocentric arc 1e-9 deg off 180 deg.
+        On short, fast hyperbolic transfers the universal method keeps full precision (t(psi)
+        summed from terms of one sign, a final bisection in y), to a few ulp of v1.
         On long, nearly parabolic arcs the universal method loses digits that Izzo keeps: psi
         approaches 4 pi^2 (M + 1)^2 and the Stumpff functions are resolved only to
         ulp(psi) / (4 pi^2 (M + 1)^2 - psi). From 7000 km to 8000 km (90 deg, Earth) a 1e9 s

@@ -363,6 +363,25 @@ def _uv_tof_of_y(y, r1n, r2n, A, gm):
     return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm)
 
 
+@inline_kernel
+def _uv_tof_near_top(w, top, r1n, r2n, A, gm):
+    """t and y at psi = (top - w)^2 from w = top - sqrt(psi) itself (top = 2 pi (M + 1)).
+
+    Near psi = top^2 (long, nearly parabolic arcs) psi cannot carry w to better than
+    ulp(psi)/top, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w: sin^2(x/2) =
+    sin^2(w/2), x - sin x = x + sin w and (psi c3 - 1)/sqrt(c2) = sqrt(2) cos(w/2).
+    """
+    x = top - w
+    sw = math.sin(0.5 * w)
+    c2 = 2.0 * sw * sw / (x * x)
+    c3 = (x + math.sin(w)) / (x * x * x)
+    y = r1n + r2n + math.sqrt(2.0) * A * math.cos(0.5 * w)
+    if y < 0.0:
+        return -math.inf, y
+    chi = math.sqrt(y / c2)
+    return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm), y
+
+
 @kernel
 def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     """Universal-variable Lambert solver (Vallado 2013, Algorithm 58) by bisection in psi.
@@ -459,6 +478,24 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
         s = 2.0 * math.acosh(max(q, 1.0))
         psi = -s * s
+    top = 2.0 * _PI * (M + 1)
+    w_final = -1.0
+    if increasing and psi > (top - 1.0) * (top - 1.0):
+        # a long, nearly parabolic arc: finish by bisection in w = top - sqrt(psi), t
+        # decreasing in w from t(0) = inf (see _uv_tof_near_top)
+        wlo = 0.0
+        whi = 1.0
+        if _uv_tof_near_top(whi, top, r1n, r2n, A, gm)[0] < tof:
+            for _ in range(2000):
+                wm = 0.5 * (wlo + whi)
+                if wm <= wlo or wm >= whi:
+                    break
+                if _uv_tof_near_top(wm, top, r1n, r2n, A, gm)[0] < tof:
+                    whi = wm
+                else:
+                    wlo = wm
+            w_final = 0.5 * (wlo + whi)
+            t, y = _uv_tof_near_top(w_final, top, r1n, r2n, A, gm)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and
@@ -468,9 +505,12 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # The component of r1_hat + r2_hat along r1_hat (or r2_hat) is 1 + cos dnu = 2 cos^2(dnu/2),
     # O(eps^2) near 180 deg: it is taken from cos_half, not from the rounded sum, whose
     # rounding noise (1e-16) divided by g ~ eps would tilt the radial velocity.
-    c2, c3 = stumpff_c2c3(psi)
     root = math.sqrt(y / gm)
-    d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)
+    if w_final >= 0.0:
+        d_over_g = math.sqrt(2.0) * math.cos(0.5 * w_final) / root
+    else:
+        c2, c3 = stumpff_c2c3(psi)
+        d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)
     sum_over_g = 1.0 / (A * root)
     par = 2.0 * cos_half * cos_half
     sx = ir1[0] + ir2[0]

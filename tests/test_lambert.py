@@ -378,3 +378,16 @@ def test_lambert_universal_long_nearly_parabolic_arc_is_exact(tof):
     v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM)
     np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-15, atol=0)
     np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-15, atol=0)
+
+
+def test_lambert_universal_right_branch_long_multi_rev_is_exact():
+    # audit34: the right branch of M >= 1 ends at psi = 4 pi^2 M^2, where t(psi) is singular as
+    # at the top: 1e8 s with 3 revolutions arrived 115 m off (Izzo 0.08 m); the final
+    # bisection runs in sqrt(psi) - 2 pi M itself (now 0.1 m off, 60-digit propagation)
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = np.array([0.0, 8000.0, 0.0])
+    kw = {"revolutions": 3, "branch": "right"}
+    v_univ, v2_univ = vv.lambert(r1 * u.km, r2 * u.km, 1e8 * u.s, GM, method="universal", **kw)
+    v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, 1e8 * u.s, GM, **kw)
+    np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-14, atol=0)
+    np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-14, atol=0)

@@ -364,18 +364,19 @@ def _uv_tof_of_y(y, r1n, r2n, A, gm):
 
 
 @inline_kernel
-def _uv_tof_near_top(w, top, r1n, r2n, A, gm):
-    """t and y at psi = (top - w)^2 from w = top - sqrt(psi) itself (top = 2 pi (M + 1)).
+def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm):
+    """t and y at psi = (end + sgn w)^2 from w = |sqrt(psi) - end| itself.
 
-    Near psi = top^2 (long, nearly parabolic arcs) psi cannot carry w to better than
-    ulp(psi)/top, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w: sin^2(x/2) =
-    sin^2(w/2), x - sin x = x + sin w and (psi c3 - 1)/sqrt(c2) = sqrt(2) cos(w/2).
+    ``end`` is 2 pi (M + 1) (``sgn = -1``: long, nearly parabolic arcs) or 2 pi M
+    (``sgn = +1``: the right branch's low end), where t(psi) is singular. There psi cannot
+    carry w to better than ulp(psi)/end, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w:
+    sin^2(x/2) = sin^2(w/2), sin x = sgn sin w and (psi c3 - 1)/sqrt(c2) = -sgn sqrt(2) cos(w/2).
     """
-    x = top - w
+    x = end + sgn * w
     sw = math.sin(0.5 * w)
     c2 = 2.0 * sw * sw / (x * x)
-    c3 = (x + math.sin(w)) / (x * x * x)
-    y = r1n + r2n + math.sqrt(2.0) * A * math.cos(0.5 * w)
+    c3 = (x - sgn * math.sin(w)) / (x * x * x)
+    y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
     if y < 0.0:
         return -math.inf, y
     chi = math.sqrt(y / c2)
@@ -478,24 +479,29 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
         s = 2.0 * math.acosh(max(q, 1.0))
         psi = -s * s
-    top = 2.0 * _PI * (M + 1)
     w_final = -1.0
+    sgn = 0.0
+    top = 2.0 * _PI * (M + 1)
+    bottom = 2.0 * _PI * M
     if increasing and psi > (top - 1.0) * (top - 1.0):
-        # a long, nearly parabolic arc: finish by bisection in w = top - sqrt(psi), t
-        # decreasing in w from t(0) = inf (see _uv_tof_near_top)
+        end, sgn = top, -1.0  # a long, nearly parabolic arc
+    elif not increasing and psi < (bottom + 1.0) * (bottom + 1.0):
+        end, sgn = bottom, 1.0  # the right branch near its low end
+    if sgn != 0.0:
+        # finish by bisection in w = |sqrt(psi) - end|, t decreasing in w from t(0) = inf
         wlo = 0.0
         whi = 1.0
-        if _uv_tof_near_top(whi, top, r1n, r2n, A, gm)[0] < tof:
+        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm)[0] < tof:
             for _ in range(2000):
                 wm = 0.5 * (wlo + whi)
                 if wm <= wlo or wm >= whi:
                     break
-                if _uv_tof_near_top(wm, top, r1n, r2n, A, gm)[0] < tof:
+                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm)[0] < tof:
                     whi = wm
                 else:
                     wlo = wm
             w_final = 0.5 * (wlo + whi)
-            t, y = _uv_tof_near_top(w_final, top, r1n, r2n, A, gm)
+            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and
@@ -507,7 +513,7 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # rounding noise (1e-16) divided by g ~ eps would tilt the radial velocity.
     root = math.sqrt(y / gm)
     if w_final >= 0.0:
-        d_over_g = math.sqrt(2.0) * math.cos(0.5 * w_final) / root
+        d_over_g = -sgn * math.sqrt(2.0) * math.cos(0.5 * w_final) / root
     else:
         c2, c3 = stumpff_c2c3(psi)
         d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)

@@ -200,12 +200,30 @@ def test_lambert_is_scale_free_at_extreme_magnitudes(method, scale):
 def test_lambert_extreme_inputs_get_the_right_message(method):
     r1 = [7000.0, 0, 0] * u.km
     r2 = [0, 7000.0, 0] * u.km
-    with pytest.raises(DomainError, match="too short"):
-        vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
+    if method == "izzo":
+        with pytest.raises(DomainError, match="too short"):
+            vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
+    else:
+        # the universal solver's final bisection in y (audit34) resolves any short tof: the
+        # straight line at 7e9 km/s, gravity's 2e-9 km/s below its last digit
+        v1, v2 = vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
+        line = (r2 - r1).to_value(u.km) / 1e-6
+        np.testing.assert_allclose(v1.to_value(KMS), line, rtol=1e-15, atol=0)
+        np.testing.assert_allclose(v2.to_value(KMS), line, rtol=1e-15, atol=0)
     with pytest.raises(DomainError, match="too short"):  # not "collinear"
         vv.lambert([1e200, 0, 0] * u.km, [0, 1e200, 0] * u.km, 3000 * u.s, GM, method=method)
-    with pytest.raises(DomainError, match="too long"):  # not "zero length"
-        vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM, method=method)
+    if method == "izzo":
+        with pytest.raises(DomainError, match="too long"):  # not "zero length"
+            vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM,
+                       method=method)  # fmt: skip
+    else:
+        # the universal solver's final bisection in 2 pi - sqrt(psi) (audit34) resolves the
+        # 2e306 time units: the limit of an infinitely long arc, 1e100 times that at 1 km
+        v1, _ = vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM,
+                           method=method)  # fmt: skip
+        w1, _ = vv.lambert([1.0, 0, 0] * u.km, [0, 1.0, 0] * u.km, 1e20 / np.sqrt(MU_EARTH) * u.s,
+                           GM)  # fmt: skip
+        np.testing.assert_allclose(v1.to_value(KMS), 1e100 * w1.to_value(KMS), rtol=1e-12, atol=0)
 
 
 def test_lambert_long_zero_rev_transfer_agrees_between_methods():
@@ -320,3 +338,56 @@ def test_lambert_single_failure_keeps_its_one_message():
     with pytest.raises(DomainError, match=r"^Lambert at index \(1,\): r1 and r2 are collinear") as e:
         vv.lambert(r1, r2[:2], tof[0], GM)
     assert list(e.value.failures) == [(1,)]
+
+
+@pytest.mark.parametrize(
+    ("r1", "r2", "tof", "propagate"),
+    [
+        ([7000.0, 0.0, 0.0], [0.0, 12000.0, 3000.0], 1.0, True),  # short way
+        # long way, periapsis 6 cm from the centre at 71000 km/s: one ulp of v1 misses r2 by
+        # 0.1 m, so only the velocities are compared (Izzo's within 1e-16 of 60 digits here)
+        ([12014.1, 8683.2, -12238.1], [14135.7, -32680.7, 12143.7], 0.8, False),
+    ],
+)
+def test_lambert_universal_short_fast_hyperbola_is_exact(r1, r2, tof, propagate):
+    # audit34: on a short, fast hyperbolic transfer the universal solver resolved tof only to
+    # eps (r1 + r2)/y on the short way (y = r1 + r2 - A (1 - psi c3)/sqrt(c2) a difference of
+    # nearly equal terms) and to eps sinh^2(s/2) on the long way (chi^3 c3 + A sqrt(y), A < 0):
+    # v1 came back 2e-10 (first case) and 9e-9 (second) off the 60-digit solution without a
+    # word; now t(psi) is a sum of one-signed terms and a final bisection runs in y itself
+    r1, r2 = np.array(r1), np.array(r2)
+    v_univ, v2_univ = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM, method="universal")
+    v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM)
+    np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-14)
+    np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-14)
+    if propagate:
+        arrived = vv.StateVectors(r1 * u.km, v_univ, GM).propagate(tof * u.s)
+        assert np.linalg.norm(arrived.r.to_value(u.km) - r2) < 1e-13 * np.linalg.norm(r2)
+
+
+@pytest.mark.parametrize("tof", [1e9, 1e13, 1e17])
+def test_lambert_universal_long_nearly_parabolic_arc_is_exact(tof):
+    # audit34: near psi = 4 pi^2 (a long, nearly parabolic arc) psi could not carry
+    # w = 2 pi - sqrt(psi) better than ulp(psi)/(2 pi), and 1 - cos sqrt(psi), psi c3 - 1
+    # cancelled: v1 came back 2.8e-15 (1e9 s), 2.4e-14 (1e13 s), 1.2e-12 (1e17 s) off the
+    # 60-digit solution, where Izzo's is within 1e-16 (one ulp of v1 moves the arrival
+    # 0.028 km at 1e9 s); the final bisection now runs in w itself
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = np.array([0.0, 8000.0, 0.0])
+    v_univ, v2_univ = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM, method="universal")
+    v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM)
+    np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-15, atol=0)
+    np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-15, atol=0)
+
+
+def test_lambert_universal_right_branch_long_multi_rev_is_exact():
+    # audit34: the right branch of M >= 1 ends at psi = 4 pi^2 M^2, where t(psi) is singular as
+    # at the top: 1e8 s with 3 revolutions arrived 115 m off (Izzo 0.08 m); the final
+    # bisection runs in sqrt(psi) - 2 pi M itself (now 0.1 m off, 60-digit propagation)
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = np.array([0.0, 8000.0, 0.0])
+    kw = {"revolutions": 3, "branch": "right"}
+    v_univ, v2_univ = vv.lambert(r1 * u.km, r2 * u.km, 1e8 * u.s, GM, method="universal", **kw)
+    v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, 1e8 * u.s, GM, **kw)
+    np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-14, atol=0)
+    np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-14, atol=0)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from . import status as st
+from ._intrinsics import EPS
 from ._jit import inline_kernel, kernel, parallel_kernel, prange
 from .stumpff import stumpff_c2c3
 
@@ -331,6 +332,53 @@ def _uv_tof(psi, r1n, r2n, A, gm):
     y = r1n + r2n + A * (psi * c3 - 1.0) / math.sqrt(c2)
     if y < 0.0:
         return -math.inf, y
+    if psi < -1.0:
+        # hyperbolic: with s = sqrt(-psi), S = sinh(s/2), C = cosh(s/2), chi^3 c3 + A sqrt(y)
+        # = sqrt(y) [(r1 + r2)(sinh s - s) - sqrt(2) A (2 S - s C)] / (2 sqrt(2) S^3), a sum of
+        # terms of one sign on either way; chi^3 c3 and A sqrt(y) nearly cancel on a short
+        # long-way transfer (A < 0), resolving tof only to eps sinh^2(s/2) (v1 2e-8 off)
+        s = math.sqrt(-psi)
+        sh = math.sinh(0.5 * s)
+        ch = math.cosh(0.5 * s)
+        sh2 = sh * sh
+        sh3 = sh2 * sh
+        bracket = (r1n + r2n) * (2.0 * ch / sh2 - s / sh3) - math.sqrt(2.0) * A * (
+            2.0 / sh2 - s * ch / sh3)
+        return math.sqrt(y) * bracket / (2.0 * math.sqrt(2.0) * math.sqrt(gm)), y
+    chi = math.sqrt(y / c2)
+    return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm), y
+
+
+@inline_kernel
+def _uv_tof_of_y(y, r1n, r2n, A, gm):
+    """t(y) on the hyperbolic short way (A > 0, psi < 0), with y itself the unknown.
+
+    From y = r1 + r2 - A (1 - psi c3)/sqrt(c2) = r1 + r2 - sqrt(2) A cosh(sqrt(-psi)/2), psi
+    follows from y without cancellation: cosh(s/2) = (r1 + r2 - y)/(sqrt(2) A), psi = -s^2.
+    """
+    q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
+    s = 2.0 * math.acosh(max(q, 1.0))
+    c2, c3 = stumpff_c2c3(-s * s)
+    chi = math.sqrt(y / c2)
+    return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm)
+
+
+@inline_kernel
+def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm):
+    """t and y at psi = (end + sgn w)^2 from w = |sqrt(psi) - end| itself.
+
+    ``end`` is 2 pi (M + 1) (``sgn = -1``: long, nearly parabolic arcs) or 2 pi M
+    (``sgn = +1``: the right branch's low end), where t(psi) is singular. There psi cannot
+    carry w to better than ulp(psi)/end, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w:
+    sin^2(x/2) = sin^2(w/2), sin x = sgn sin w and (psi c3 - 1)/sqrt(c2) = -sgn sqrt(2) cos(w/2).
+    """
+    x = end + sgn * w
+    sw = math.sin(0.5 * w)
+    c2 = 2.0 * sw * sw / (x * x)
+    c3 = (x - sgn * math.sin(w)) / (x * x * x)
+    y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
+    if y < 0.0:
+        return -math.inf, y
     chi = math.sqrt(y / c2)
     return (chi * chi * chi * c3 + A * math.sqrt(y)) / math.sqrt(gm), y
 
@@ -406,6 +454,54 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         if hi - lo <= 4e-16 * max(1.0, abs(psi)):
             break
     t, y = _uv_tof(psi, r1n, r2n, A, gm)
+    if M == 0 and A > 0.0 and psi < 0.0 and 0.0 < y < 1e-3 * (r1n + r2n):
+        # a short, fast hyperbolic transfer: y = r1 + r2 - A (1 - psi c3)/sqrt(c2) is a
+        # difference of nearly equal terms, so y(psi) moves in steps of eps (r1 + r2) and
+        # t(psi) resolves tof only to eps (r1 + r2)/y (1e-8 of v1 silently at y ~ 1e-8 r):
+        # finish by bisection in y itself, where t(y) is smooth and increasing
+        ylo = 0.0
+        yhi = r1n + r2n - math.sqrt(2.0) * A  # the parabola (psi = 0)
+        slack = 64.0 * EPS * (r1n + r2n)  # the rounding of y(psi), with room
+        if y - slack > 0.0 and _uv_tof_of_y(y - slack, r1n, r2n, A, gm) < tof:
+            ylo = y - slack
+        if y + slack < yhi and _uv_tof_of_y(y + slack, r1n, r2n, A, gm) >= tof:
+            yhi = y + slack
+        for _ in range(200):
+            ym = 0.5 * (ylo + yhi)
+            if ym <= ylo or ym >= yhi:
+                break
+            if _uv_tof_of_y(ym, r1n, r2n, A, gm) < tof:
+                ylo = ym
+            else:
+                yhi = ym
+        y = 0.5 * (ylo + yhi)
+        t = _uv_tof_of_y(y, r1n, r2n, A, gm)
+        q = (r1n + r2n - y) / (math.sqrt(2.0) * A)
+        s = 2.0 * math.acosh(max(q, 1.0))
+        psi = -s * s
+    w_final = -1.0
+    sgn = 0.0
+    top = 2.0 * _PI * (M + 1)
+    bottom = 2.0 * _PI * M
+    if increasing and psi > (top - 1.0) * (top - 1.0):
+        end, sgn = top, -1.0  # a long, nearly parabolic arc
+    elif not increasing and psi < (bottom + 1.0) * (bottom + 1.0):
+        end, sgn = bottom, 1.0  # the right branch near its low end
+    if sgn != 0.0:
+        # finish by bisection in w = |sqrt(psi) - end|, t decreasing in w from t(0) = inf
+        wlo = 0.0
+        whi = 1.0
+        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm)[0] < tof:
+            for _ in range(2000):
+                wm = 0.5 * (wlo + whi)
+                if wm <= wlo or wm >= whi:
+                    break
+                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm)[0] < tof:
+                    whi = wm
+                else:
+                    wlo = wm
+            w_final = 0.5 * (wlo + whi)
+            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and
@@ -415,9 +511,12 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # The component of r1_hat + r2_hat along r1_hat (or r2_hat) is 1 + cos dnu = 2 cos^2(dnu/2),
     # O(eps^2) near 180 deg: it is taken from cos_half, not from the rounded sum, whose
     # rounding noise (1e-16) divided by g ~ eps would tilt the radial velocity.
-    c2, c3 = stumpff_c2c3(psi)
     root = math.sqrt(y / gm)
-    d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)
+    if w_final >= 0.0:
+        d_over_g = -sgn * math.sqrt(2.0) * math.cos(0.5 * w_final) / root
+    else:
+        c2, c3 = stumpff_c2c3(psi)
+        d_over_g = (psi * c3 - 1.0) / (math.sqrt(c2) * root)
     sum_over_g = 1.0 / (A * root)
     par = 2.0 * cos_half * cos_half
     sx = ir1[0] + ir2[0]

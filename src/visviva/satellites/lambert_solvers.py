@@ -72,13 +72,14 @@ def lambert(
         kernels form 1 + cos(dnu) and g without cancellation, so both arrive at r2 to
         ~1e-10 km in LEO from 1e-8 to 1e-4 rad off 180 deg (tests/test_lambert.py) and to
         ~1e-6 km (3e-15 relative) on a 2.2e8 km heliocentric arc 1e-9 deg off 180 deg.
-        On long, nearly parabolic arcs the universal method loses digits that Izzo keeps: psi
-        approaches 4 pi^2 (M + 1)^2 and the Stumpff functions are resolved only to
-        ulp(psi) / (4 pi^2 (M + 1)^2 - psi). From 7000 km to 8000 km (90 deg, Earth) a 1e9 s
-        arc arrives 0.42 km off with it, 0.016 km with Izzo (one ulp of v1 moves the arrival
-        0.028 km); 1e8 s with 3 revolutions (right branch) 125 m off against 0.08 m; at 1e7 s
-        both are within a few ulp of v1 (checked with 60-digit propagation). Keep the default
-        for such arcs.
+        On short, fast hyperbolic transfers the universal method keeps full precision (t(psi)
+        summed from terms of one sign, a final bisection in y), to a few ulp of v1.
+        On long, nearly parabolic arcs (psi -> 4 pi^2 (M + 1)^2, or 4 pi^2 M^2 on the right
+        branch of M >= 1) the universal method finishes by bisection in |sqrt(psi) - 2 pi k|
+        itself, which psi could not carry: from 7000 km to 8000 km (90 deg, Earth) a 1e9 s
+        arc arrives 0.5 m off with it (0.42 km before), 28 m with Izzo (one ulp of v1 moves
+        the arrival 28 m); 1e8 s with 3 revolutions, right branch, 0.1 m (115 m before)
+        against 0.08 m; v1 within a few ulp of the 60-digit solution.
     on_failure : {"raise", "mask"}
         What a batch does with transfers that have no solution (tof <= 0, r1 and r2 collinear,
         no M-revolution solution in that time, a tof too short or too long to resolve).

@@ -57,3 +57,89 @@ def test_checksum_error_names_a_reader_that_exists():
 
     sat = getattr(catalog, named[0])(line1 + "\n" + line2, verify_checksum=False).satellites[0]
     assert sat.satnum == 25544
+
+
+# --- a CDM whose states contradict its own MISS_DISTANCE / RELATIVE_SPEED -------------------
+
+CDM_SAMPLE = Path(__file__).parent / "data" / "sample_cdm.kvn"
+X1 = "X                                  = 2570.097065 [km]"
+
+
+def _no_warning_read(text):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return vv.read_cdm(text)
+
+
+def test_cdm_position_in_metres_without_unit_is_warned():
+    # was: X = 2570097.065 (metres, no [km]) read as km put object 1 2.57 million km away; the
+    # message said MISS_DISTANCE = 715 m and msg.probability(10 m) returned 0 without a word
+    import numpy as np
+    from astropy import units as u
+
+    text = CDM_SAMPLE.read_text()
+    assert X1 in text
+    bad = text.replace(X1, "X                                  = 2570097.065", 1)
+    with pytest.warns(UserWarning, match=r"line 8: MISS_DISTANCE = 715 m, but the two "
+                                         r"objects' states at TCA give 2\.5675\de\+09 m"):
+        msg = vv.read_cdm(bad)
+    assert np.linalg.norm((msg.object1.r - msg.object2.r).to_value(u.km)) > 1e6
+    # the XML encoding of the same message warns the same way
+    xml = msg.to_xml()
+    with pytest.warns(UserWarning, match="MISS_DISTANCE = 715 m"):
+        vv.read_cdm(xml)
+    # the genuine message, KVN and XML, is consistent (states 715.75 m apart): no warning
+    good = _no_warning_read(text)
+    _no_warning_read(good.to_xml())
+
+
+def test_cdm_velocity_in_metres_per_second_is_warned():
+    # X_DOT = 4418.769571 (m/s written as km/s numbers): the miss distance still matched, the
+    # relative speed of the states was 4.4e3 km/s against RELATIVE_SPEED = 14762 m/s
+    text = CDM_SAMPLE.read_text()
+    old = "X_DOT                              = 4.418769571 [km/s]"
+    assert old in text
+    bad = text.replace(old, "X_DOT                              = 4418.769571", 1)
+    with pytest.warns(UserWarning, match=r"line 9: RELATIVE_SPEED = 14762 m/s"):
+        vv.read_cdm(bad)
+
+
+def test_cdm_objects_on_different_frames_are_compared_on_gcrf():
+    # object 2 on ITRF (rotated properly): its state as written is thousands of km from object
+    # 1's, but on GCRF the miss is the message's 104 m; no false alarm
+    import numpy as np
+    from astropy import units as u
+    from astropy.time import Time
+
+    from visviva.conjunctions import rtn_to_inertial
+    from visviva.satellites.frames import gcrs_to_itrs
+
+    tca = Time("2024-05-01T12:00:00", scale="utc")
+    r1, v1 = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    r2, v2 = r1 + np.array([0.1, 0.02, 0.02]), np.array([0.0, 0.0, 7.5])
+    cov = np.diag([30.0, 200.0, 20.0, 0.2, 0.03, 0.02]) ** 2
+    msg = vv.ConjunctionDataMessage.from_states(
+        tca, r1 * u.km, v1 * u.km / u.s, rtn_to_inertial(cov, r1 * u.km, v1 * u.km / u.s),
+        r2 * u.km, v2 * u.km / u.s, rtn_to_inertial(cov, r2 * u.km, v2 * u.km / u.s))
+    sections = _no_warning_read(msg.to_kvn()).sections()
+    state = sections["object2"]["state_vector"].values
+    ri, vi = gcrs_to_itrs(r2, v2, tca)
+    for k, axis in enumerate("XYZ"):
+        state[axis], state[f"{axis}_DOT"] = float(ri[k]), float(vi[k])
+    sections["object2"]["metadata"].values["REF_FRAME"] = "ITRF"
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())
+    texts = [str(w.message) for w in caught]
+    assert any("REF_FRAME = ITRF" in t for t in texts)  # the frames warning, as before
+    assert not any("MISS_DISTANCE" in t or "RELATIVE_SPEED" in t for t in texts), texts
+    # relabelled without rotating (the GCRF numbers called ITRF): 4742 km apart on GCRF
+    sections["object2"]["state_vector"].values.update(
+        {a: float(x) for a, x in zip(("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT"),
+                                     (*r2, *v2), strict=True)})
+    with pytest.warns(UserWarning, match=r"MISS_DISTANCE = 103\.923 m, but .* give 4\.74\d+e\+06 m"):
+        vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())

@@ -143,3 +143,42 @@ def test_cdm_objects_on_different_frames_are_compared_on_gcrf():
                                      (*r2, *v2), strict=True)})
     with pytest.warns(UserWarning, match=r"MISS_DISTANCE = 103\.923 m, but .* give 4\.74\d+e\+06 m"):
         vv.read_cdm(vv.ConjunctionDataMessage(sections).to_kvn())
+
+
+# --- visviva od: --span / --step without --oem -----------------------------------------------
+
+TDM = """CCSDS_TDM_VERS = 2.0
+CREATION_DATE = 2024-045T12:00:00
+ORIGINATOR = DOCS
+META_START
+TIME_SYSTEM = UTC
+PARTICIPANT_1 = DSS-65
+PARTICIPANT_2 = DOCSAT
+MODE = SEQUENTIAL
+PATH = 1,2,1
+META_STOP
+DATA_START
+RANGE = 2024-02-14T10:00:00 1201.2500
+RANGE = 2024-02-14T10:00:10 1176.2600
+DATA_STOP
+"""
+
+
+@pytest.mark.parametrize(("extra", "named"), [
+    (["--span", "2x"], "--span shapes the ephemeris of --oem OUT"),
+    (["--step", "30s"], "--step shapes"),
+    (["--span", "2d", "--step", "1min"], "--span and --step shape"),
+])
+def test_od_span_and_step_without_oem_are_refused(tmp_path, capsys, extra, named):
+    # was: ignored in silence (a misspelt --span 2x ran the whole fit; a user asking for a
+    # two-day ephemeris got none and no word of it)
+    from visviva import cli
+
+    tdm = tmp_path / "a.tdm"
+    tdm.write_text(TDM)
+    code = cli.main(["od", str(tdm), "--station", "DSS-65=40.43,-4.25,830", "--sigma",
+                     "range=5m", *extra])
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert err.startswith("visviva od: ") and err.count("\n") == 1, err
+    assert named in err and out == ""

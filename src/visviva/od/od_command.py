@@ -113,9 +113,9 @@ def add_parser(sub) -> None:
                    "covariance as an OPM (KVN; XML for a name ending in .xml)")
     p.add_argument("--oem", default=None, metavar="OUT", help="write an ephemeris from the "
                    "estimate's epoch over --span, with covariance blocks")
-    p.add_argument("--span", default="1d", metavar="DURATION",
+    p.add_argument("--span", default=None, metavar="DURATION",
                    help="length of the OEM (default 1d; e.g. 2d, 12h)")
-    p.add_argument("--step", default="60s", metavar="DURATION",
+    p.add_argument("--step", default=None, metavar="DURATION",
                    help="step of the OEM (default 60s)")
     p.add_argument("--residuals", default=None, metavar="OUT.csv",
                    help="write one row per observation: time, station, kind, residuals (m, m/s, "
@@ -219,7 +219,13 @@ def _setup(args) -> dict:
     noise = parse_process_noise(args.process_noise) if args.process_noise else (None, "RTN")
     parameter_noise = parse_parameter_noise(args.parameter_noise, estimate)
     span = step = None
+    if not args.oem and (args.span is not None or args.step is not None):
+        given = " and ".join(o for o, v in (("--span", args.span), ("--step", args.step)) if v)
+        verb = "shape" if " and " in given else "shapes"
+        raise InvalidInputError(f"{given} {verb} the ephemeris of --oem OUT; give --oem (without "
+                                "it nothing reads them)")
     if args.oem:
+        args.span, args.step = args.span or "1d", args.step or "60s"
         span = quantity("--span", args.span, "time", "--span 2d")
         step = quantity("--step", args.step, "time", "--step 60s")
         if step > span:

@@ -182,3 +182,46 @@ def test_od_span_and_step_without_oem_are_refused(tmp_path, capsys, extra, named
     assert code == 2
     assert err.startswith("visviva od: ") and err.count("\n") == 1, err
     assert named in err and out == ""
+
+
+# --- visviva convert: options the conversion would not read ---------------------------------
+
+ISS_TLE = ("ISS (ZARYA)\n"
+           "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009\n"
+           "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340\n")
+
+
+def test_convert_refuses_options_it_would_ignore(tmp_path, capsys):
+    # was: `visviva convert in.oem out.oem --frame GCRF` wrote the input's ITRF with exit 0, and
+    # --hours/--step/--start/--frame on a TLE -> OMM/TLE, --mission-epoch on a TLE, were dropped
+    from visviva import cli
+
+    tle = tmp_path / "iss.tle"
+    tle.write_text(ISS_TLE)
+    oem = tmp_path / "itrf.oem"
+    assert cli.main(["convert", str(tle), str(oem), "--hours", "1", "--frame", "ITRF"]) == 0
+    assert "REF_FRAME            = ITRF" in oem.read_text()
+    capsys.readouterr()
+    cases = [
+        ([str(oem), str(tmp_path / "a.oem"), "--frame", "GCRF"],
+         "--frame shapes an OEM sampled from a TLE or OMM; an OEM is re-encoded with its own "
+         "frame"),
+        ([str(tle), str(tmp_path / "b.omm"), "--hours", "48"], "an OMM output holds the mean"),
+        ([str(tle), str(tmp_path / "c.tle"), "--step", "10", "--frame", "ITRF"],
+         "--step and --frame shape an OEM"),
+        ([str(tle), str(tmp_path / "d.omm"), "--mission-epoch", "2024-01-01"],
+         "--mission-epoch reads an OEM input"),
+    ]
+    for argv, text in cases:
+        assert cli.main(["convert", *argv]) == 2, argv
+        out, err = capsys.readouterr()
+        assert err.startswith("visviva convert: ") and err.count("\n") == 1, err
+        assert text in err, err
+        assert not Path(argv[1]).exists()
+    # the defaults still apply where they are read: 24 h at 60 s in GCRF, and a plain re-encode
+    assert cli.main(["convert", str(tle), str(tmp_path / "e.oem")]) == 0
+    text = (tmp_path / "e.oem").read_text()
+    assert "REF_FRAME            = GCRF" in text
+    assert "STOP_TIME            = 2024-01-02T12:00:00" in text
+    assert cli.main(["convert", str(oem), str(tmp_path / "f.oem")]) == 0
+    assert "REF_FRAME            = ITRF" in (tmp_path / "f.oem").read_text()

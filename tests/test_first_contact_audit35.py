@@ -225,3 +225,33 @@ def test_convert_refuses_options_it_would_ignore(tmp_path, capsys):
     assert "STOP_TIME            = 2024-01-02T12:00:00" in text
     assert cli.main(["convert", str(oem), str(tmp_path / "f.oem")]) == 0
     assert "REF_FRAME            = ITRF" in (tmp_path / "f.oem").read_text()
+
+
+def test_od_apriori_where_nothing_reads_it_is_refused(tmp_path, capsys):
+    # was: --apriori without --filter (the batch fit has no such input) and --apriori beside an
+    # --initial OPM covariance (the filter starts from the OPM's) were ignored in silence
+    import numpy as np
+    from astropy import units as u
+    from astropy.time import Time
+
+    from visviva import cli
+    from visviva.ccsds.opm import OPM
+
+    tdm = tmp_path / "a.tdm"
+    tdm.write_text(TDM)
+    base = ["od", str(tdm), "--station", "DSS-65=40.43,-4.25,830", "--sigma", "range=5m"]
+    assert cli.main([*base, "--apriori", "100m,10cm/s"]) == 2
+    out, err = capsys.readouterr()
+    assert err.startswith("visviva od: --apriori is the starting uncertainty of --filter")
+    assert err.count("\n") == 1 and out == ""
+
+    state = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 0.0] * u.km / u.s, vv.EARTH,
+                            epoch=Time("2024-02-14T09:59:00", scale="utc"))
+    opm = tmp_path / "first.opm"
+    cov = np.diag([1.0] * 3 + [1e-6] * 3)
+    vv.write_opm(OPM.from_state(state, object_name="DOCSAT", covariance=cov), opm)
+    assert cli.main([*base, "--initial", str(opm), "--filter", "ekf",
+                     "--apriori", "100m,10cm/s"]) == 2
+    out, err = capsys.readouterr()
+    assert "has a covariance, which the filter starts from" in err and "--no-apriori" in err
+    assert err.count("\n") == 1 and out == ""

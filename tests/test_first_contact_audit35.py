@@ -255,3 +255,53 @@ def test_od_apriori_where_nothing_reads_it_is_refused(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert "has a covariance, which the filter starts from" in err and "--no-apriori" in err
     assert err.count("\n") == 1 and out == ""
+
+
+# --- TDM.to_observations: range units as a Quantity, ignore= typos, quality= dropping all --
+
+TDM_RU = TDM.replace("PATH = 1,2,1\n", "PATH = 1,2,1\nRANGE_UNITS = RU\n")
+
+
+def _site():
+    from astropy import units as u
+
+    return {"DSS-65": vv.GroundStation(40.43 * u.deg, -4.25 * u.deg, 0.83 * u.km,
+                                       name="DSS-65")}
+
+
+def test_range_units_km_takes_a_length_quantity():
+    # was: range_units_km=1 * u.m raised a bare TypeError ('only dimensionless scalar
+    # quantities can be converted to Python scalars') from deep inside the reader
+    from astropy import units as u
+
+    tdm = vv.read_tdm(TDM_RU)
+    sigma = {"range": 5 * u.m}
+    plain = tdm.to_observations(_site(), sigma, range_units_km=0.001).values[:, 0]
+    metres = tdm.to_observations(_site(), sigma, range_units_km=1 * u.m).values[:, 0]
+    assert list(plain) == list(metres) == [1.20125, 1.17626]  # km: 1201.25 RU of 1 m
+    with pytest.raises(vv.UnitsError, match="range_units_km"):
+        tdm.to_observations(_site(), sigma, range_units_km=1 * u.s)
+    with pytest.raises(vv.InvalidInputError, match="range_units_km must be > 0"):
+        tdm.to_observations(_site(), sigma, range_units_km=-1.0)
+
+
+def test_ignore_refuses_a_keyword_that_is_not_one():
+    # was: ignore=("RANGEE",) or ignore=("range",) left the RANGE data in, without a word
+    from astropy import units as u
+
+    tdm = vv.read_tdm(TDM)
+    for bad in ("RANGEE", "range"):
+        with pytest.raises(vv.InvalidInputError, match=f"'{bad}' is not a TDM data or metadata"):
+            tdm.to_observations(_site(), {"range": 5 * u.m}, ignore=(bad,))
+
+
+def test_quality_that_leaves_out_every_segment_says_so():
+    # was: 'the TDM holds no measurement visviva models (...); it has RANGE (2)', which blamed
+    # the data for what the quality filter did (a segment without DATA_QUALITY counts as RAW)
+    from astropy import units as u
+
+    tdm = vv.read_tdm(TDM)
+    with pytest.raises(vv.InvalidInputError, match=r"quality=\('VALIDATED',\) left out every "
+                                                   r"segment \(1 segments with DATA_QUALITY"):
+        tdm.to_observations(_site(), {"range": 5 * u.m}, quality="VALIDATED")
+    assert len(tdm.to_observations(_site(), {"range": 5 * u.m}, quality=("RAW",))) == 2

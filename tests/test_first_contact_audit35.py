@@ -305,3 +305,15 @@ def test_quality_that_leaves_out_every_segment_says_so():
                                                    r"segment \(1 segments with DATA_QUALITY"):
         tdm.to_observations(_site(), {"range": 5 * u.m}, quality="VALIDATED")
     assert len(tdm.to_observations(_site(), {"range": 5 * u.m}, quality=("RAW",))) == 2
+
+
+def test_sigma_key_that_is_no_kind_is_named():
+    # was: sigma={'range': ..., 'doppler': ...} said "the TDM has 'range_rate' data but sigma
+    # has no 'range_rate'", and a stray key beside the right ones was dropped without a word
+    from astropy import units as u
+
+    tdm = vv.read_tdm(TDM)
+    for key in ("doppler", "rangerate", "angle"):
+        with pytest.raises(vv.InvalidInputError, match=f"sigma has the key '{key}', which is "
+                                                       "no observation kind"):
+            tdm.to_observations(_site(), {"range": 5 * u.m, key: 1 * u.mm / u.s})

@@ -579,6 +579,12 @@ def _table(parts, sigma, radec_reference, troposphere=False, media=None):
     from .observations import Observations, sigma_value
 
     kinds = [k for p in parts for k in p[1]]
+    known = ("range", "range_rate", "azel", "radec")
+    unknown = [k for k in sigma if k not in known]
+    if unknown:  # (sigma={'doppler': ...} or {'angle': ...}: blamed the TDM for a missing kind)
+        raise InvalidInputError(
+            f"sigma has the key {unknown[0]!r}, which is no observation kind; use "
+            f"{', '.join(known)} (range_rate for Doppler, azel or radec for angles)")
     for k in dict.fromkeys(kinds):
         if k not in sigma:
             raise InvalidInputError(

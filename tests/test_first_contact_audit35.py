@@ -317,3 +317,18 @@ def test_sigma_key_that_is_no_kind_is_named():
         with pytest.raises(vv.InvalidInputError, match=f"sigma has the key '{key}', which is "
                                                        "no observation kind"):
             tdm.to_observations(_site(), {"range": 5 * u.m, key: 1 * u.mm / u.s})
+
+
+def test_fit_tle_refuses_states_about_another_body():
+    # was: StateVectors(..., vv.MOON) were fitted as geocentric without a word (an OEM about
+    # the Moon and fit_orbit's Moon-centred first guess were already refused)
+    import numpy as np
+    from astropy import units as u
+    from astropy.time import Time
+
+    times = Time("2024-01-01T12:00:00", scale="utc") + np.arange(10) * 60 * u.s
+    r = np.tile([2000.0, 0.0, 0.0], (10, 1)) * u.km
+    v = np.tile([0.0, 1.6, 0.0], (10, 1)) * u.km / u.s
+    with pytest.raises(vv.InvalidInputError, match="is the Moon's; SGP4 mean elements describe "
+                                                   "Earth orbits"):
+        vv.fit_tle(vv.StateVectors(r, v, vv.MOON, epoch=times))

@@ -332,3 +332,28 @@ def test_fit_tle_refuses_states_about_another_body():
     with pytest.raises(vv.InvalidInputError, match="is the Moon's; SGP4 mean elements describe "
                                                    "Earth orbits"):
         vv.fit_tle(vv.StateVectors(r, v, vv.MOON, epoch=times))
+
+
+def test_collision_probability_warns_on_km_given_as_plain_numbers():
+    # was: r = [7000, 0, 0], v = [0, 7.5, 0] (km, km/s, the units of the rest of visviva) read
+    # as m and m/s gave Pc = 0.0025 instead of 0.0019, silently
+    import warnings
+
+    import numpy as np
+    from astropy import units as u
+
+    cov = np.eye(3) * 1e4  # m^2
+    r1, v1, r2, v2 = [7000, 0, 0], [0, 7.5, 0], [7000.1, 0, 0], [0, 0, 7.5]
+    with pytest.warns(UserWarning, match=r"\|r1\| = 7000 m and \|v1\| = 7\.5 m/s .* look like "
+                                         r"km and km/s"):
+        wrong = vv.collision_probability(r1, v1, cov, r2, v2, cov, 10)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        right = vv.collision_probability(r1 * u.km, v1 * u.km / u.s, cov, r2 * u.km,
+                                         v2 * u.km / u.s, cov, 10 * u.m)
+        metres = vv.collision_probability(np.multiply(r1, 1e3), np.multiply(v1, 1e3), cov,
+                                          np.multiply(r2, 1e3), np.multiply(v2, 1e3), cov, 10)
+        # relative states (object 1 at the origin) and proximity operations stay quiet
+        vv.collision_probability([0, 0, 0], [0, 0, 0], cov, [100, 0, 0], [0, 0, 7500], cov, 10)
+    assert right == pytest.approx(metres, rel=1e-12)
+    assert abs(wrong / right - 1) > 0.2

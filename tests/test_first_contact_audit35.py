@@ -357,3 +357,14 @@ def test_collision_probability_warns_on_km_given_as_plain_numbers():
         vv.collision_probability([0, 0, 0], [0, 0, 0], cov, [100, 0, 0], [0, 0, 7500], cov, 10)
     assert right == pytest.approx(metres, rel=1e-12)
     assert abs(wrong / right - 1) > 0.2
+
+
+def test_a_perturbation_class_instead_of_an_instance_says_to_call_it():
+    # was: "<class 'visviva.satellites.perturbations.J2'> is not a perturbation; use vv.J2,
+    # ...", which named vv.J2 as the fix for passing vv.J2
+    from astropy import units as u
+
+    state = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH)
+    with pytest.raises(vv.InvalidInputError, match=r"the class J2 was given, not a "
+                                                   r"perturbation: call it \(e\.g\. vv\.J2"):
+        vv.propagate_cowell(state, 60 * u.s, [vv.J2])

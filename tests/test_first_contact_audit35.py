@@ -368,3 +368,18 @@ def test_a_perturbation_class_instead_of_an_instance_says_to_call_it():
     with pytest.raises(vv.InvalidInputError, match=r"the class J2 was given, not a "
                                                    r"perturbation: call it \(e\.g\. vv\.J2"):
         vv.propagate_cowell(state, 60 * u.s, [vv.J2])
+
+
+def test_from_omm_names_the_field_that_is_not_a_plain_number():
+    # was: "OMM record '25544' has a bad value: only dimensionless scalar quantities can be
+    # converted to Python scalars" (which field, and what to give, unsaid)
+    from astropy import units as u
+
+    line1 = "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009"
+    line2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340"
+    fields = vv.Satellite.from_tle(line1, line2).to_omm()
+    with pytest.raises(vv.InvalidInputError, match=r"INCLINATION = <Quantity 51\.6416 deg> is "
+                                                   r"a Quantity; .* give INCLINATION in deg"):
+        vv.Satellite.from_omm({**fields, "INCLINATION": 51.6416 * u.deg})
+    with pytest.raises(vv.InvalidInputError, match="MEAN_MOTION = 'fifteen' is not a number"):
+        vv.Satellite.from_omm({**fields, "MEAN_MOTION": "fifteen"})

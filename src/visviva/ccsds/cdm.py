@@ -472,7 +472,15 @@ def read_cdm(source) -> ConjunctionDataMessage:
         raise cursor.error(f"unexpected {_describe(cursor.peek())} after the two objects "
                            "(misspelt or out-of-order keyword)")
     _check_values(sections, name)
-    return ConjunctionDataMessage(sections, name)
+    return _checked(ConjunctionDataMessage(sections, name))
+
+
+def _checked(msg: ConjunctionDataMessage) -> ConjunctionDataMessage:
+    """``msg``, after a warning when its states contradict its MISS_DISTANCE/RELATIVE_SPEED."""
+    from .cdm_states import check_states_against_summary
+
+    check_states_against_summary(msg)
+    return msg
 
 
 #: keywords whose value cannot be negative (CCSDS 508.0-B-1, tables 3-2 and 3-3)
@@ -623,7 +631,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
                                    line=seg["metadata"].line_of("OBJECT"), source=name)
         sections[label.lower()] = seg
     _check_values(sections, name)
-    return ConjunctionDataMessage(sections, name)
+    return _checked(ConjunctionDataMessage(sections, name))
 
 
 def write_cdm(message: ConjunctionDataMessage, path=None, format: str | None = None) -> str:  # noqa: A002

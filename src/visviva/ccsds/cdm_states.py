@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["states_on_one_frame", "COMMON_FRAMES"]
+__all__ = ["states_on_one_frame", "COMMON_FRAMES", "check_states_against_summary"]
 
 #: the frame the two objects are put on, by its CCSDS names (all three name the GCRS's axes
 #: within visviva's 23 mas: docs/ccsds.md, "Frames")
@@ -78,3 +78,60 @@ def states_on_one_frame(msg, frame: str = "GCRF"):
         out += [r * u.km, v * (u.km / u.s),
                 rtn_to_inertial(obj.covariance_rtn, r * u.km, v * (u.km / u.s))]
     return tuple(out)
+
+
+#: how far the states' separation may stray from ``MISS_DISTANCE`` (and their relative speed
+#: from ``RELATIVE_SPEED``) before the message is called inconsistent: the larger of an absolute
+#: floor and a share of the stated value. The floors hold a TCA rounded to 1 ms (up to 7.5 m
+#: along a 15 km/s relative velocity) and states rounded to 1 m; the shares, the messages that
+#: round their summary. A unit slip (metres read as km), a sign or a digit gone wrong is
+#: thousands of times larger.
+MISS_TOLERANCE_M, MISS_SHARE = 100.0, 0.1
+SPEED_TOLERANCE_M_S, SPEED_SHARE = 10.0, 0.1
+
+
+def check_states_against_summary(msg) -> None:
+    """Warn when the two objects' states at TCA contradict the message's own ``MISS_DISTANCE``
+    or ``RELATIVE_SPEED`` (508.0-B-1 gives both from the same states).
+
+    A coordinate written in metres without its ``[km]`` (read as km), or with a slipped digit or
+    sign, put an object millions of km away: ``msg.probability(hbr)`` then returned 0 without a
+    word while the message said 715 m. States on different frames are compared on GCRF
+    (:func:`states_on_one_frame`); a ``REF_FRAME`` visviva cannot rotate is not compared.
+
+    Parameters
+    ----------
+    msg : ConjunctionDataMessage
+        The message just read.
+    """
+    import warnings
+
+    from astropy import units as u
+
+    from .timeframes import visviva_frame
+
+    kinds = [visviva_frame(str(o.frame)) for o in (msg.object1, msg.object2)]
+    if kinds[0] is not None and kinds[0] == kinds[1]:
+        # one frame: a rotation keeps the separation, and the relative velocity to ~0.1 m/s
+        r1, v1, r2, v2 = msg.object1.r, msg.object1.v, msg.object2.r, msg.object2.v
+    elif None not in kinds:
+        r1, v1, _, r2, v2, _ = states_on_one_frame(msg)
+    else:
+        return
+    miss = float(np.linalg.norm((r1 - r2).to_value(u.m)))
+    speed = float(np.linalg.norm((v1 - v2).to_value(u.m / u.s)))
+    stated = [("MISS_DISTANCE", miss, msg.miss_distance.to_value(u.m), "m", MISS_TOLERANCE_M,
+               MISS_SHARE)]
+    if msg.relative_speed is not None:
+        stated.append(("RELATIVE_SPEED", speed, msg.relative_speed.to_value(u.m / u.s), "m/s",
+                       SPEED_TOLERANCE_M_S, SPEED_SHARE))
+    for key, got, said, unit, floor, share in stated:
+        if abs(got - said) > max(floor, share * said):
+            where = msg.relative.line_of(key)
+            lines = f", line {where}" if where else ""
+            warnings.warn(
+                f"{msg.source}{lines}: {key} = {said:g} {unit}, but the two objects' states at "
+                f"TCA give {got:.6g} {unit}; one of them is wrong (a position written in m "
+                "without [km] is read as km), and a Pc from these states describes another "
+                "encounter. Check X, Y, Z, X_DOT, Y_DOT, Z_DOT of both objects and their units.",
+                UserWarning, stacklevel=4)

@@ -38,9 +38,9 @@ def add_parser(sub) -> None:
                    help="catalogue number to take from a file with several satellites")
     p.add_argument("--start", default=None, metavar="ISO",
                    help="OEM start, UTC (default: the element set's epoch)")
-    p.add_argument("--hours", type=float, default=24.0, help="OEM span in hours (default 24)")
-    p.add_argument("--step", type=float, default=60.0, help="OEM step in seconds (default 60)")
-    p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default="GCRF",
+    p.add_argument("--hours", type=float, default=None, help="OEM span in hours (default 24)")
+    p.add_argument("--step", type=float, default=None, help="OEM step in seconds (default 60)")
+    p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default=None,
                    help="OEM reference frame (default GCRF; EME2000 is written from the same "
                         "GCRS states, which differ from it by the 23 mas frame bias)")
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
@@ -202,12 +202,42 @@ def run(args) -> int:
         text = _input_text(Path(args.input))
         source = _kind_of_text(text)
         target = _output_kind(args)
+        _check_options(args, source, target)
         fmt = _format(args)
         out = _convert(args, Path(args.input), text, source, target, fmt)
     except VisvivaError as exc:
         print(f"visviva convert: {exc}", file=sys.stderr)
         return 2
     return write_output("convert", args.output, out)
+
+
+#: the options that shape an OEM sampled from a TLE or OMM, and their defaults
+_SAMPLING = (("--start", "start", None), ("--hours", "hours", 24.0), ("--step", "step", 60.0),
+             ("--frame", "frame", "GCRF"))
+
+
+def _check_options(args, source: str, target: str) -> None:
+    """Refuse options this conversion would not read, then fill in the sampling defaults.
+
+    ``--frame ITRF`` on an OEM -> OEM re-encoding, or ``--hours 48`` on a TLE -> OMM, was
+    ignored in silence (exit 0, the input's frame and span written)."""
+    samples = target == "oem" and source != "oem"
+    unused = [] if samples else [o for o, name, _ in _SAMPLING if getattr(args, name) is not None]
+    if unused:
+        why = ("an OEM is re-encoded with its own frame and times (rotate one in Python with "
+               "vv.read_oem(path).segments[k].states_in(frame))" if source == "oem" else
+               f"{'a' if target == 'tle' else 'an'} {target.upper()} output holds the mean "
+               "elements, not sampled states")
+        named = ", ".join(unused[:-1]) + " and " + unused[-1] if len(unused) > 1 else unused[0]
+        raise InvalidInputError(f"{named} shape{'s' if len(unused) == 1 else ''} "
+                                f"an OEM sampled from a TLE or OMM; {why}. Leave "
+                                f"{'it' if len(unused) == 1 else 'them'} out.")
+    if args.mission_epoch is not None and source != "oem":
+        raise InvalidInputError("--mission-epoch reads an OEM input in TIME_SYSTEM MET or MRT; "
+                                f"this input is a {source.upper()}. Leave it out.")
+    for _, name, default in _SAMPLING:
+        if getattr(args, name) is None:
+            setattr(args, name, default)
 
 
 def _input_text(path) -> str:

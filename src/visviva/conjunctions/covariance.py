@@ -365,3 +365,19 @@ def principal_axes(miss, cov2, hard_body_radius):
     m0, m1 = float(miss[0]), float(miss[1])
     principal = np.array([abs(m0 * ca + m1 * sa), abs(-m0 * sa + m1 * ca)])
     return np.array([math.sqrt(l1), math.sqrt(l2)]), principal, angle, repaired, npd
+
+
+def warn_km_as_metres(r1, v1, r2, v2):
+    """Warn when plain states (read as m, m/s) look like an Earth orbit's km and km/s: both
+    objects 6,000 to 500,000 "m" from the origin at 0.5 to 12 "m/s" (inside the Earth, at
+    walking pace). Given in km, a LEO conjunction's Pc came out 0.0025 for 0.0019 silently."""
+    import warnings
+
+    radii = [float(np.linalg.norm(x)) for x in (r1, r2)]
+    speeds = [float(np.linalg.norm(x)) for x in (v1, v2)]
+    if all(6e3 <= r <= 5e5 for r in radii) and all(0.5 <= v <= 12.0 for v in speeds):
+        warnings.warn(
+            f"plain r1, r2, v1, v2 are read as m and m/s: |r1| = {radii[0]:.6g} m and |v1| = "
+            f"{speeds[0]:.4g} m/s (and the same for object 2) look like km and km/s of an Earth "
+            "orbit. If they are, pass Quantities (r1 * u.km, v1 * u.km / u.s) or multiply by "
+            "1000; the covariance stays in m^2 when plain.", UserWarning, stacklevel=4)

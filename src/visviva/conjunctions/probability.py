@@ -22,7 +22,13 @@ from ..errors import (
     ShapeError,
     VisvivaError,
 )
-from .covariance import CLIP_FACTOR, as_covariance, encounter_plane, principal_axes
+from .covariance import (
+    CLIP_FACTOR,
+    as_covariance,
+    encounter_plane,
+    principal_axes,
+    warn_km_as_metres,
+)
 
 __all__ = [
     "collision_probability",
@@ -89,6 +95,8 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
         if arr.shape != (3,):
             raise ShapeError(f"{name} must be one 3-vector; got shape {arr.shape}.")
         vecs.append(arr)
+    if not any(is_quantity(x) for x in (r1, v1, r2, v2)):
+        warn_km_as_metres(*vecs)
     # a km covariance returned by visviva (fit_orbit, propagate_covariance) is converted
     c1 = as_covariance(cov1, "cov1", convert_marked=True)
     c2 = as_covariance(cov2, "cov2", convert_marked=True)

@@ -99,7 +99,7 @@ def add_parser(sub) -> None:
                    help="with --filter: run the RTS smoother; the estimate is then the smoothed "
                    "state where the filter starts (the first guess's epoch, or the first "
                    "observation when the guess is later)")
-    p.add_argument("--apriori", default="1km,10m/s", metavar="SIGMA_R,SIGMA_V",
+    p.add_argument("--apriori", default=None, metavar="SIGMA_R,SIGMA_V",
                    help="with --filter and a first guess without covariance: its 1-sigma per "
                    "axis (default 1km,10m/s)")
     p.add_argument("--no-apriori", action="store_true",
@@ -113,9 +113,9 @@ def add_parser(sub) -> None:
                    "covariance as an OPM (KVN; XML for a name ending in .xml)")
     p.add_argument("--oem", default=None, metavar="OUT", help="write an ephemeris from the "
                    "estimate's epoch over --span, with covariance blocks")
-    p.add_argument("--span", default="1d", metavar="DURATION",
+    p.add_argument("--span", default=None, metavar="DURATION",
                    help="length of the OEM (default 1d; e.g. 2d, 12h)")
-    p.add_argument("--step", default="60s", metavar="DURATION",
+    p.add_argument("--step", default=None, metavar="DURATION",
                    help="step of the OEM (default 60s)")
     p.add_argument("--residuals", default=None, metavar="OUT.csv",
                    help="write one row per observation: time, station, kind, residuals (m, m/s, "
@@ -219,7 +219,13 @@ def _setup(args) -> dict:
     noise = parse_process_noise(args.process_noise) if args.process_noise else (None, "RTN")
     parameter_noise = parse_parameter_noise(args.parameter_noise, estimate)
     span = step = None
+    if not args.oem and (args.span is not None or args.step is not None):
+        given = " and ".join(o for o, v in (("--span", args.span), ("--step", args.step)) if v)
+        verb = "shape" if " and " in given else "shapes"
+        raise InvalidInputError(f"{given} {verb} the ephemeris of --oem OUT; give --oem (without "
+                                "it nothing reads them)")
     if args.oem:
+        args.span, args.step = args.span or "1d", args.step or "60s"
         span = quantity("--span", args.span, "time", "--span 2d")
         step = quantity("--step", args.step, "time", "--step 60s")
         if step > span:
@@ -232,7 +238,13 @@ def _setup(args) -> dict:
                                 "sigma (the filter's initial uncertainty), e.g. --estimate "
                                 "drag:0.005 (m^2/kg) or srp:0.2 (Cr)")
     apriori = None
+    apriori_given = args.apriori is not None
+    if apriori_given and not args.filter:
+        raise InvalidInputError("--apriori is the starting uncertainty of --filter ekf|ukf; the "
+                                "batch fit takes an a priori only from an --initial OPM's "
+                                "covariance (without one it fits the data alone)")
     if args.filter:
+        args.apriori = args.apriori or "1km,10m/s"
         parts = args.apriori.split(",")
         if len(parts) != 2:
             raise InvalidInputError(f"--apriori {args.apriori!r}: write SIGMA_R,SIGMA_V, e.g. "
@@ -256,6 +268,10 @@ def _setup(args) -> dict:
     ignored = covariance is not None and args.no_apriori
     if ignored:
         covariance = None
+    if covariance is not None and args.filter and apriori_given:
+        raise InvalidInputError(f"--initial {args.initial} has a covariance, which the filter "
+                                "starts from; --apriori is used only without one: pass "
+                                "--no-apriori as well to start from --apriori instead")
     if covariance is not None and not args.filter and np.any(np.diag(covariance) == 0):
         raise InvalidInputError(f"--initial {args.initial}: its covariance has a zero variance, "
                                 "which the batch fit cannot take as an a priori; pass "

@@ -174,6 +174,7 @@ def states_and_times(states, times, frame):
             f"OEM ephemeris with .segments; got {type(states).__name__}."
         )
     frame = _frame_of(src, frame)
+    _require_earth(src)
     r = to_vector(src.r, "length", "states.r")
     v = to_vector(src.v, "speed", "states.v")
     if r.ndim != 2:
@@ -621,3 +622,22 @@ def _sigma_bstar(J, cost, fit_bstar, live):
     except np.linalg.LinAlgError:
         return math.inf
     return float(math.sqrt(max(s2 * cov[-1, -1], 0.0)))
+
+
+def _require_earth(states) -> None:
+    """Refuse states about another body (their gm): SGP4 mean elements are Earth orbits, and a
+    Moon-centred StateVectors was fitted as if geocentric without a word (an OEM about another
+    CENTER_NAME, and fit_orbit's first guess, are refused the same way)."""
+    from .._units import to_array
+    from ..satellites.cowell import central_body
+
+    gm = getattr(states, "gm", None)
+    if gm is None:
+        return
+    gm = float(np.ravel(to_array(gm, "gm", "states.gm"))[0])
+    body = central_body(gm, [])
+    if body.name != "earth":
+        raise InvalidInputError(
+            f"the states' gm = {gm:.10g} km3/s2 is the {body.name.capitalize()}'s; SGP4 mean "
+            "elements describe Earth orbits: give geocentric GCRS states (gm=vv.EARTH), "
+            f"converted from the {body.name.capitalize()}-centred ones.")

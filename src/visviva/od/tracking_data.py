@@ -162,8 +162,8 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         Keep only segments whose ``DATA_QUALITY`` is one of these (``"RAW"``,
         ``"VALIDATED"``, ``"DEGRADED"``); a segment without it counts as ``"RAW"``. None
         (default): every segment.
-    range_units_km : float or callable, optional
-        For ``RANGE_UNITS = RU``: km per range unit, or ``f(segment, times, values_ru)``
+    range_units_km : float, length Quantity or callable, optional
+        For ``RANGE_UNITS = RU``: km per range unit (plain: km), or ``f(segment, times, values_ru)``
         returning the ranges in km (visviva's range: half the round-trip light path).
     range_seconds : {"round_trip", "one_way"}, optional
         For ``RANGE_UNITS = s`` (required there, since CCSDS 503.0-B-2 does not say whose
@@ -234,6 +234,21 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         if bad:
             raise InvalidInputError(f"quality {bad[0]!r} is none of {', '.join(_QUALITIES)}")
     ignore = frozenset((ignore,) if isinstance(ignore, str) else ignore)
+    unknown = sorted(str(k) for k in ignore
+                     if k not in _tdm.DATA_KEYWORDS and k not in _tdm.METADATA.by_name)
+    if unknown:  # (a misspelt or lower-case keyword left the data it named in, silently)
+        raise InvalidInputError(
+            f"ignore: {unknown[0]!r} is not a TDM data or metadata keyword (503.0-B-2, sections "
+            "3.3 and 3.5); write it as in the file, in capitals, e.g. ignore=('RANGE_MODULUS',)")
+    if range_units_km is not None and not callable(range_units_km):
+        from .._units import require_positive, to_array
+
+        # (km per RU: a length Quantity such as 1 * u.m is converted; it raised a bare TypeError)
+        range_units_km = to_array(range_units_km, "length", "range_units_km", allow_plain=True)
+        if range_units_km.shape != ():
+            raise InvalidInputError("range_units_km must be one number (km per RU) or a "
+                                    f"function; got shape {range_units_km.shape}")
+        require_positive(range_units_km, "range_units_km")
     link = _link_option(ionosphere, frequency_hz)
     unused: dict = {}
     parts = []
@@ -244,6 +259,12 @@ def to_observations(tdm, stations, sigma, *, quality=None, range_units_km=None,
         parts += _segment_rows(seg, stations, ignore, unused,
                                (range_units_km, range_seconds), integrated_doppler,
                                corrections_applied, link)
+    dropped = {k: n for k, n in unused.items() if k.startswith("segments with DATA_QUALITY")}
+    if not parts and dropped:
+        raise InvalidInputError(
+            f"quality={quality} left out every segment (" + ", ".join(
+                f"{n} {k}" for k, n in dropped.items()) + "; a segment without DATA_QUALITY "
+            "counts as RAW); widen quality, or pass quality=None to keep them all")
     if not parts:
         raise InvalidInputError(
             "the TDM holds no measurement visviva models (RANGE, DOPPLER_INSTANTANEOUS, "
@@ -558,6 +579,12 @@ def _table(parts, sigma, radec_reference, troposphere=False, media=None):
     from .observations import Observations, sigma_value
 
     kinds = [k for p in parts for k in p[1]]
+    known = ("range", "range_rate", "azel", "radec")
+    unknown = [k for k in sigma if k not in known]
+    if unknown:  # (sigma={'doppler': ...} or {'angle': ...}: blamed the TDM for a missing kind)
+        raise InvalidInputError(
+            f"sigma has the key {unknown[0]!r}, which is no observation kind; use "
+            f"{', '.join(known)} (range_rate for Doppler, azel or radec for angles)")
     for k in dict.fromkeys(kinds):
         if k not in sigma:
             raise InvalidInputError(

@@ -79,6 +79,9 @@ def _all_instances(items, cls, what, hint):
     """
     items = list(items)
     for item in items:
+        if isinstance(item, type) and issubclass(item, cls):  # vv.J2 for vv.J2(vv.EARTH)
+            raise InvalidInputError(f"the class {item.__name__} was given, not {what}: call it "
+                                    f"(e.g. vv.{item.__name__}(...)) and pass the instance.")
         if not isinstance(item, cls):
             raise InvalidInputError(f"{item!r} is not {what}; use {hint}.")
     return items

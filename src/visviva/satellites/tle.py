@@ -81,6 +81,11 @@ _OMM_REQUIRED = (
     "NORAD_CAT_ID",
     "BSTAR",
 )
+#: the units of the OMM's numeric mean elements (CCSDS 502.0-B-3 table 4-3; sgp4's OMM)
+_OMM_UNITS = {"MEAN_MOTION": "rev/day", "ECCENTRICITY": "dimensionless",
+             "INCLINATION": "deg", "RA_OF_ASC_NODE": "deg", "ARG_OF_PERICENTER": "deg",
+             "MEAN_ANOMALY": "deg", "BSTAR": "1/earth radii", "MEAN_MOTION_DOT": "rev/day^2",
+             "MEAN_MOTION_DDOT": "rev/day^3"}
 _OMM_DEFAULTS = {
     "CLASSIFICATION_TYPE": "U",
     "EPHEMERIS_TYPE": 0,
@@ -322,7 +327,14 @@ class Satellite:
             for k in ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",
                       "ARG_OF_PERICENTER", "MEAN_ANOMALY", "BSTAR", "MEAN_MOTION_DOT",
                       "MEAN_MOTION_DDOT"):
-                clean[k] = float(clean[k])
+                if hasattr(clean[k], "unit"):  # a Quantity: which unit the OMM means is fixed
+                    raise ValueError(f"{k} = {clean[k]!r} is a Quantity; OMM fields are plain "
+                                     f"numbers in the OMM's units: give {k} in "
+                                     f"{_OMM_UNITS.get(k, '')}")
+                try:
+                    clean[k] = float(clean[k])
+                except (TypeError, ValueError):
+                    raise ValueError(f"{k} = {clean[k]!r} is not a number") from None
                 if not math.isfinite(clean[k]):
                     raise ValueError(f"{k} is not finite")
             satrec = Satrec()

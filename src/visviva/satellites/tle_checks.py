@@ -332,7 +332,8 @@ def check_tle_lines(
                     f"{name}: checksum mismatch, column 69 says {line[68]} but the line sums to "
                     f"{expected}: {line!r}. The line is corrupted: download the element set "
                     "again (a hand-made one is read by vv.Satellite.from_tle, "
-                    "vv.parse_tle_text or vv.read_tle_file with verify_checksum=False)."
+                    "vv.read_tle_file or visviva.satellites.catalog.parse_tle_text with "
+                    "verify_checksum=False)."
                 )
         lines.append(line)
     if lines[0][2:7] != lines[1][2:7]:

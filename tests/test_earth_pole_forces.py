@@ -170,7 +170,7 @@ def test_drag_partials_about_the_pole_match_central_differences():
 
     def drag(yy):  # the drag term alone (cowell_rhs's kernels), no two-body round-off
         out = np.zeros(3)
-        rho = drag_density(t, *yy[:3], -1, np.zeros(3), force, model.atm)
+        rho = drag_density(t, *yy[:3], px, py, -1, np.zeros(3), force, model.atm)
         accel_drag_rho(*yy, rho, force[fb.BALLISTIC], omega, px, py, out)
         return out
 

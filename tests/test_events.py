@@ -160,7 +160,7 @@ def test_event_times_agree_with_root_finding_on_a_dense_sampling_and_skyfield_su
     """Every event kind against roots of the same function on the 2 s samples of the same
     trajectory (cubic splines, Brent), with the Sun from Skyfield reading JPL DE430 and the
     altitude from astropy's WGS-84 geodetic conversion. Measured: shadows 2.5e-6 s, nodes
-    6e-7 s, apsides 3e-7 s; altitudes ALT s (exact geodetic height about the Earth's pole since the
+    6e-7 s, apsides 3e-7 s; altitudes 1.8e-4 s (exact geodetic height about the Earth's pole since the
     eighteenth session; 0.15 s before, first order in f about the GCRS z axis)."""
     import os
 
@@ -220,7 +220,7 @@ def test_event_times_agree_with_root_finding_on_a_dense_sampling_and_skyfield_su
         (lambda x: (lambda a, b, c: c - (b - a))(*cones(x)), found("eclipse", ("umbra entry", "umbra exit")), 1e-3),
         (lambda x: rs(x)[2], nodes, 1e-3),
         (lambda x: rs(x) @ vs(x), found("apsis", ("periapsis", "apoapsis")), 1e-3),
-        (lambda x: hs(x) - 700.0, found("altitude", ("ascending", "descending")), 0.01),
+        (lambda x: hs(x) - 700.0, found("altitude", ("ascending", "descending")), 2e-3),
     ]  # fmt: skip
     for f, ours, tol in checks:
         ref = roots(f)

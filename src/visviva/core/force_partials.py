@@ -280,8 +280,8 @@ def parameter_accelerations(t, y, force, atm, eph_r, eph_v, out):
     sun_pos = np.zeros(3)
     sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
-        rho = drag_density(t, x, yy, z, sun, sun_pos, force, atm)
         px, py = body_pole(t, force)
+        rho = drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm)
         accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, mass_scale, force[fb.ROTATION_RATE], px, py,
                        out[0])  # fmt: skip
     if force[fb.SRP_ON] != 0.0 and sun >= 0:

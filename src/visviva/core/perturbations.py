@@ -33,7 +33,7 @@ import numpy as np
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
-from .geodetic import body_pole, geodetic, geodetic_altitude, pole_altitude
+from .geodetic import body_pole, geodetic, geodetic_altitude
 from .hermite import hermite_basis
 from .local_frames import to_inertial
 from .relativity import accel_relativity
@@ -542,12 +542,14 @@ def zonal_rhs(t, y, force, zonal, dy):
     acc = dy[3:]
     accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
     n_max = int(force[fb.ZONAL_DEGREE])
-    px, py = body_pole(t, force)
-    if n_max >= 2:
-        accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py, acc)
-    if force[fb.RELATIVITY_ON] != 0.0:
-        accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
-                         force[fb.LENSE_THIRRING_J], px, py, acc)
+    if n_max >= 2 or force[fb.RELATIVITY_ON] != 0.0:
+        px, py = body_pole(t, force)
+        if n_max >= 2:
+            accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py,
+                        acc)  # fmt: skip
+        if force[fb.RELATIVITY_ON] != 0.0:
+            accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
+                             force[fb.LENSE_THIRRING_J], px, py, acc)
 
 
 @inline_kernel
@@ -566,15 +568,15 @@ def sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos):
 
 
 @kernel
-def drag_density(t, x, yy, z, sun, sun_pos, force, atm):
-    """The density of the block's drag model at (x, yy, z) (km) at ``t`` s (the geodetic
-    altitude about the body's pole then), kg/m^3: the gridded model
+def drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm):
+    """The density of the block's drag model at (x, yy, z) (km) at ``t`` s, the body's pole
+    then (px, py) (:func:`body_pole`; the geodetic altitude about it), kg/m^3: the gridded model
     (NRLMSIS, the Sun at ``sun_pos``, its row ``sun``) or the exponential table, whose band
     is the one held by the integrator for a step (``DENSITY_BAND`` = band + 1), else (0) the
     one of the altitude."""
     if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
         return grid_density_at(t, x, yy, z, sun_pos, force, atm)
-    h = pole_altitude(t, x, yy, z, force)
+    h = geodetic_altitude(x, yy, z, force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING], px, py)
     band = int(force[fb.DENSITY_BAND]) - 1
     if band < 0:
         band = exponential_band(h, atm)
@@ -603,8 +605,8 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     # drag's and SRP's area-to-mass follow the mass during a finite burn: m(0) / m(t)
     sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
-        rho = drag_density(t, x, yy, z, sun, sun_pos, force, atm)
         px, py = body_pole(t, force)
+        rho = drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm)
         accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale,
                        force[fb.ROTATION_RATE], px, py, acc)
     for b in range(n_third):

@@ -25,9 +25,9 @@ from __future__ import annotations
 import math
 
 from . import force_block as fb
-from ._jit import inline_kernel
+from ._jit import inline_kernel, kernel
 
-__all__ = ["body_pole", "geodetic", "geodetic_altitude", "pole_altitude"]
+__all__ = ["body_pole", "geodetic", "geodetic_altitude", "geodetic_altitudes", "pole_altitude"]
 
 
 @inline_kernel
@@ -95,3 +95,10 @@ def pole_altitude(t, x, y, z, force):
     central body's radius and flattening: the altitude of drag and of altitude events."""
     px, py = body_pole(t, force)
     return geodetic(x, y, z, force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING], px, py)[0]
+
+
+@kernel
+def geodetic_altitudes(r, radius, flattening, px, py, out):
+    """:func:`geodetic_altitude` of each row of ``r`` (N, 3), km, into ``out`` (N,)."""
+    for i in range(r.shape[0]):
+        out[i] = geodetic(r[i, 0], r[i, 1], r[i, 2], radius, flattening, px, py)[0]

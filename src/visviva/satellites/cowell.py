@@ -43,6 +43,7 @@ from .perturbations import (
     ThirdBody,
     Zonal,
     earth_pole_table,
+    ellipsoid_radius_of,
     flattening_of,
 )
 from .relativity import Relativity
@@ -197,8 +198,7 @@ class ForceModel:
         self.central_body = central
         self.force[fb.RADIUS] = central.radius_km
         self.force[fb.FLATTENING] = flattening_of(central)
-        self.force[fb.ELLIPSOID_RADIUS] = (c.EARTH_ELLIPSOID_RADIUS_KM if central.name == "earth"
-                                           else central.radius_km)
+        self.force[fb.ELLIPSOID_RADIUS] = ellipsoid_radius_of(central)
         rot = central.rotation_rate
         self.force[fb.ROTATION_RATE] = 0.0 if rot is None else float(rot.to_value(u.rad / u.s))
         self.force[fb.SUN_RADIUS] = SUN.radius_km

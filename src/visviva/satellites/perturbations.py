@@ -632,6 +632,12 @@ def flattening_of(body: Body) -> float:
     return c.EARTH_FLATTENING if body.name == "earth" else 0.0
 
 
+def ellipsoid_radius_of(body: Body) -> float:
+    """Equatorial radius (km) of the ellipsoid of geodetic altitude: WGS-84's for the Earth
+    (0.7 m longer than the gravity field's reference radius), the body's radius otherwise."""
+    return c.EARTH_ELLIPSOID_RADIUS_KM if body.name == "earth" else body.radius_km
+
+
 def _spline_coefficients(values: np.ndarray, pad: int = 8) -> np.ndarray:
     """Cubic B-spline coefficients of ``values`` (n_h, n_lat, n_alt) on a global grid: hour
     angles periodic, latitudes -90..90 deg both poles included, altitudes uniform.

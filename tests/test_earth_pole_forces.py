@@ -194,3 +194,28 @@ def test_one_pole_table_shared_and_absent_without_a_user():
     assert np.degrees(np.hypot(*body_pole(0.0, both.force))) == pytest.approx(0.1354, abs=5e-4)
     third = ForceModel(GM, [vv.ThirdBody(vv.MOON)], (), EPOCH, (0.0, 86400.0))
     assert third.force.size == fb.FORCE_SIZE and third.force[fb.POLE + 2] == 0
+
+
+def test_nrlmsis_log_density_gradient_about_the_pole_matches_central_differences():
+    """The analytic gradient of the gridded ln(rho) through the exact geodetic height,
+    latitude and hour angle about the CIP (what the STM of a fit with NRLMSIS drag uses)."""
+    pytest.importorskip("pymsis")
+    from visviva.core.perturbations import grid_density_at, grid_log_density_gradient_at
+    from visviva.satellites import ephemeris
+
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="nrlmsis", f107=150.0, f107a=150.0,
+                              ap=4.0)  # fmt: skip
+    model = ForceModel(GM, [drag], (), EPOCH, (0.0, 3600.0))
+    assert model.force[fb.POLE + 2] > 0
+    sun = ephemeris.sun_position(EPOCH).to_value(u.km)
+    for pos in POINTS:
+        g = np.zeros(3)
+        grid_log_density_gradient_at(600.0, *pos, sun, model.force, model.atm, g)
+        fd = np.zeros(3)
+        for k in range(3):
+            d = np.zeros(3)
+            d[k] = 0.05  # km
+            up = grid_density_at(600.0, *(pos + d), sun, model.force, model.atm)
+            down = grid_density_at(600.0, *(pos - d), sun, model.force, model.atm)
+            fd[k] = (np.log(up) - np.log(down)) / 0.1
+        assert np.abs(g - fd).max() < 1e-4 * np.linalg.norm(fd)

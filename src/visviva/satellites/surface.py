@@ -81,13 +81,15 @@ def altitude_km(r_km, body, pole=(0.0, 0.0)) -> np.ndarray:
     """Geodetic altitude (km) of positions ``r_km`` (..., 3): the exact height above ``body``'s
     ellipsoid about the pole whose unit vector has x, y ``pole`` (default the frame's z axis),
     the compiled altitude event's (:func:`visviva.core.geodetic.geodetic`)."""
+    from ..core import tier
     from ..core.geodetic import geodetic_altitudes
 
     r = np.asarray(r_km, dtype=np.float64)
     flat = np.ascontiguousarray(r.reshape(-1, 3))
     out = np.empty(flat.shape[0])
-    geodetic_altitudes(flat, ellipsoid_radius_of(body), flattening_of(body), float(pole[0]),
-                       float(pole[1]), out)  # fmt: skip
+    tier.call(  # a small call on a fresh install runs interpreted (core/tier.py)
+        geodetic_altitudes, flat, float(ellipsoid_radius_of(body)), float(flattening_of(body)),
+        float(pole[0]), float(pole[1]), out, small=flat.shape[0] <= tier.SMALL_ITEMS)
     return out.reshape(r.shape[:-1])
 
 

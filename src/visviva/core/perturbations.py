@@ -5,10 +5,11 @@ Every kernel works on plain float64 values in km, km/s, s and km^3/s^2, writes i
 :func:`cowell_rhs` sums the two-body term and every perturbation switched on in the ``force``
 parameter array, in a fixed order, so that one compiled call gives the full derivative.
 
-The ``force`` parameter array (float64, :data:`FORCE_SIZE` values) is laid out in
+The ``force`` parameter array (float64, :data:`FORCE_SIZE` values, then the table of the
+central body's pole when a force or event turns with it) is laid out in
 :mod:`visviva.core.force_block`, which names every slot (``fb.GM``, ``fb.DRAG_ON``, ...): the
-kernels below read it by those names only, and each perturbation class of
-:mod:`visviva.satellites.perturbations` writes its own slots.
+kernels below read it by those names only (the pole through :mod:`visviva.core.geodetic`), and
+each perturbation class of :mod:`visviva.satellites.perturbations` writes its own slots.
 
 With density model 1, ``atm`` has shape ((n_hour_angle + 3) * (n_latitude + 2),
 n_altitude + 2) and holds the tricubic B-spline coefficients of ln(rho / (kg/m^3)) over (hour angle from the Sun,

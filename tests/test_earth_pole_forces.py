@@ -55,7 +55,7 @@ def _cip(t):
 def test_drag_altitude_is_astropy_geodetic_height():
     """The altitude of drag and events (the block's pole, exact geodetic height) is astropy's
     ITRS WGS-84 height to 5 cm (polar motion, left out, moves it by ~3 cm at 400 km); it was
-    first order in f about GCRS z: 15-60 m off at these points."""
+    first order in f about GCRS z: 14-73 m low at these points."""
     model = ForceModel(GM, [vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)], (), EPOCH, (0.0, 86400.0))
     for dt in (0.0, 50000.0):
         want = _astropy_height_km(POINTS, EPOCH + dt * u.s)

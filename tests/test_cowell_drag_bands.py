@@ -20,12 +20,12 @@ from scipy.integrate import solve_ivp
 
 import visviva as vv
 from visviva.core import force_block as fb
+from visviva.core.geodetic import pole_altitude
 from visviva.core.perturbations import (
     VALLADO_EXPONENTIAL_TABLE,
     cowell_rhs_array,
     exponential_band,
     exponential_density,
-    geodetic_altitude,
 )
 
 EPOCH = Time("2024-03-01T00:00:00", scale="utc")
@@ -84,12 +84,10 @@ def _scipy_reference(state, t_end, forces):
 
     model = ForceModel(vv.EARTH.gm_km3_s2, forces, (), state.epoch, (0.0, t_end))  # its pole
     force, zonal, atm, er, ev, egm, sh = model.arrays()
-    flat = force[fb.FLATTENING]
-    radius = force[fb.RADIUS]
     y = np.r_[state.r.to_value(u.km), state.v.to_value(KMS)]
     t = 0.0
     held = force.copy()
-    band = exponential_band(geodetic_altitude(*y[:3], radius, flat), atm)
+    band = exponential_band(pole_altitude(t, *y[:3], force), atm)
     crossings = 0
     while t < t_end:
         held[fb.DENSITY_BAND] = band + 1
@@ -99,10 +97,10 @@ def _scipy_reference(state, t_end, forces):
                                     egm, sh)[0]  # fmt: skip
 
         def lower(tt, yy, lo=atm[band, 0]):
-            return geodetic_altitude(*yy[:3], radius, flat) - lo
+            return pole_altitude(tt, *yy[:3], force) - lo
 
         def upper(tt, yy, hi=atm[band + 1, 0]):
-            return geodetic_altitude(*yy[:3], radius, flat) - hi
+            return pole_altitude(tt, *yy[:3], force) - hi
 
         lower.terminal = upper.terminal = True
         lower.direction, upper.direction = -1, 1

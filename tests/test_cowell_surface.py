@@ -37,7 +37,12 @@ def test_a_falling_state_raises_at_the_surface_with_the_run_up_to_it():
     res = exc.result
     assert res.terminated and res.t.size == 1 and res.t[0] == 0.0 * u.s
     hit = res.events[-1]
-    assert hit.name == "surface" and abs(altitude_km(hit.r.to_value(u.km), vv.EARTH)) < 1e-6
+    # on the surface about the Earth's pole of the run (the CIP: J2 tabulates it; ERFA here)
+    import erfa
+
+    tt = (EPOCH + hit.t).tt
+    pole = erfa.xys06a(tt.jd1, tt.jd2)[:2]
+    assert hit.name == "surface" and abs(altitude_km(hit.r.to_value(u.km), vv.EARTH, pole)) < 1e-6
     np.testing.assert_array_equal(res.r.to_value(u.km), user.r.to_value(u.km))
 
 
@@ -51,7 +56,10 @@ def test_a_decaying_orbit_with_drag_raises_where_it_would_have_gone_underground(
     res = info.value.result
     assert 3500.0 < info.value.t.to_value(u.s) < 4500.0
     assert res.t.size == int(info.value.t.to_value(u.s) // 100) + 1
-    assert altitude_km(res.r.to_value(u.km), vv.EARTH).min() > 0.0
+    import erfa
+
+    pole = erfa.xys06a(EPOCH.tt.jd1, EPOCH.tt.jd2)[:2]  # the run's (J2 and drag tabulate it)
+    assert altitude_km(res.r.to_value(u.km), vv.EARTH, pole).min() > -1e-9  # the last: impact
     # a terminal ReEntry of the user's comes first: a normal, terminated result
     run = vv.propagate_cowell(s, np.linspace(0.0, 6000.0, 61) * u.s, forces,
                               events=[ReEntry()])
@@ -82,7 +90,7 @@ def test_two_body_motion_and_orbits_above_the_surface_are_not_touched():
 def test_a_start_below_the_surface_is_refused():
     inside = vv.StateVectors([6000.0, 0.0, 0.0] * u.km, [0.0, 8.0, 0.0] * KMS, vv.EARTH,
                              epoch=EPOCH)
-    with pytest.raises(vv.InvalidStateError, match="378.136 km below the surface of earth"):
+    with pytest.raises(vv.InvalidStateError, match="378.137 km below the surface of earth"):
         vv.propagate_cowell(inside, 1.0 * u.hour, [vv.J2(vv.EARTH)])
     both = vv.StateVectors(np.stack([CIRCULAR.r, inside.r]), np.stack([CIRCULAR.v, inside.v]),
                            vv.EARTH, epoch=EPOCH)

@@ -45,7 +45,7 @@ class Reference:
                             "de430-2015-03-02.bsp")  # fmt: skip
         if not os.path.exists(path):
             pytest.skip("skyfield's DE430 test excerpt is not installed")
-        from visviva.core.zonal import zonal_pole
+        from visviva.core.geodetic import body_pole
         from visviva.satellites.cowell import ForceModel
 
         mu, j2c = vv.EARTH.gm_km3_s2, vv.EARTH.j2 if j2 else 0.0
@@ -55,7 +55,7 @@ class Reference:
         def rhs(t, y):
             r = y[:3]
             rn = np.linalg.norm(r)
-            p = np.array(zonal_pole(t, pole.force, pole.zonal) + (0.0,))
+            p = np.array(body_pole(t, pole.force) + (0.0,))
             p[2] = np.sqrt(1.0 - p[0] ** 2 - p[1] ** 2)
             s = r @ p / rn
             k = -1.5 * j2c * mu * R_E**2 / rn**4

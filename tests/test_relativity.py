@@ -50,7 +50,7 @@ def _state(s):
 def test_acceleration_is_the_iers_formula(s, j):
     r, v = _state(s)
     out = np.zeros(3)
-    accel_relativity(*r, *v, MU, j, out)
+    accel_relativity(*r, *v, MU, j, 0.0, 0.0, out)
     want = formula(r, v, MU, j)
     assert np.abs(out - want).max() <= 1e-12 * np.abs(want).max()
 
@@ -60,7 +60,7 @@ def test_acceleration_is_the_iers_formula(s, j):
 def test_partials_match_central_differences(s, j):
     r, v = _state(s)
     dadr, dadv = np.zeros((3, 3)), np.zeros((3, 3))
-    add_relativity_partials(*r, *v, MU, j, dadr, dadv)
+    add_relativity_partials(*r, *v, MU, j, 0.0, 0.0, dadr, dadv)
     fdr, fdv = np.zeros((3, 3)), np.zeros((3, 3))
     for k in range(3):
         dr = np.zeros(3)
@@ -95,7 +95,7 @@ def test_force_model_rhs_and_stm_partials_carry_the_term():
     acceleration_partials(0.0, y, *with_rel.arrays(), p[0], p[1])
     acceleration_partials(0.0, y, *without.arrays(), p[2], p[3])
     dadr, dadv = np.zeros((3, 3)), np.zeros((3, 3))
-    add_relativity_partials(*y[:3], *y[3:], MU, J_EARTH, dadr, dadv)
+    add_relativity_partials(*y[:3], *y[3:], MU, J_EARTH, 0.0, 0.0, dadr, dadv)
     assert np.abs((p[0] - p[2]) - dadr).max() <= 1e-6 * np.abs(dadr).max()
     assert np.array_equal(p[1] - p[3], dadv)
 

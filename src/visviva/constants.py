@@ -59,3 +59,6 @@ EARTH_J6 = 5.406665762838132e-7
 EARTH_ROTATION_RAD_S = 7.292115e-5
 #: WGS-84 flattening of the Earth.
 EARTH_FLATTENING = 1.0 / 298.257223563
+#: WGS-84 semi-major axis (equatorial radius of the ellipsoid of geodetic heights), km; the
+#: gravity field's reference radius (EGM2008, 6378.1363 km) is 0.7 m shorter.
+EARTH_ELLIPSOID_RADIUS_KM = 6378.137

@@ -305,7 +305,7 @@ def integrate_cowell(
     band = -1
     if full is not None:
         if bands_on(force):
-            band = start_band(rforce, y, atm)
+            band = start_band(t, rforce, y, atm)
     bnd_pending = False  # the step being tried ends at the boundary t_bnd
     t_bnd = 0.0
     bnd_which = -1
@@ -622,7 +622,7 @@ def integrate_cowell(
                     if sh2 > 0:
                         side2, side3 = shadow_sides(sh2, t, y, force, eph_r, eph_v, sun_s)
                     if band >= 0:
-                        band = start_band(rforce, y, atm)
+                        band = start_band(t, rforce, y, atm)
                 if band >= 0 and (flip >= 4 or resync):
                     # the density jumps at the edge: the next band, a fresh derivative (no FSAL)
                     hold_band(rforce, band)

@@ -34,7 +34,8 @@ import numpy as np
 
 from . import force_block as fb
 from ._jit import inline_kernel, kernel, step_kernel
-from .perturbations import geodetic_altitude, hermite_position
+from .geodetic import pole_altitude
+from .perturbations import hermite_position
 
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
            "PENUMBRA_STEPS", "PENUMBRA_IMPULSE", "penumbra_step", "shadow_boundary_kind", "lock_shadow", "fix_boundary_events", "shadow_values",
@@ -49,7 +50,7 @@ def event_function(kind, param, t, y, force, eph_r, eph_v):
     yy = y[1]
     z = y[2]
     if kind == 0:
-        return geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING]) - param
+        return pole_altitude(t, x, yy, z, force) - param
     if kind == 4:
         return z
     if kind == 5:
@@ -124,7 +125,7 @@ def event_value(kind, param, t, y, force, eph_r, eph_v, full):
     :func:`visviva.core.cowell.rhs_kind`) the altitude function alone, so that numba compiles
     none of the other kinds there (same value: kind 0 of :func:`event_function`)."""
     if full is None:
-        return geodetic_altitude(y[0], y[1], y[2], force[fb.RADIUS], force[fb.FLATTENING]) - param
+        return pole_altitude(t, y[0], y[1], y[2], force) - param
     return event_function(kind, param, t, y, force, eph_r, eph_v)
 
 

@@ -34,7 +34,8 @@ from .cowell_events import (
     first_crossing,
     step_sample,
 )
-from .perturbations import exponential_band, geodetic_altitude
+from .geodetic import body_pole, geodetic, pole_altitude
+from .perturbations import exponential_band
 
 __all__ = ["bands_on", "hold_band", "start_band", "band_crossing", "altitude_gradient"]
 
@@ -53,9 +54,9 @@ def hold_band(rforce, band):
 
 
 @kernel
-def start_band(rforce, y, atm):
-    """The band of the altitude of state ``y``, held in ``rforce``; returns it."""
-    h = geodetic_altitude(y[0], y[1], y[2], rforce[fb.RADIUS], rforce[fb.FLATTENING])
+def start_band(t, rforce, y, atm):
+    """The band of the altitude of state ``y`` at ``t`` s, held in ``rforce``; returns it."""
+    h = pole_altitude(t, y[0], y[1], y[2], rforce)
     band = exponential_band(h, atm)
     hold_band(rforce, band)
     return band
@@ -76,9 +77,8 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
     lo = atm[band, 0] if band > 0 else -math.inf
     hi = atm[band + 1, 0] if band + 1 < n else math.inf
     for k in range(SHADOW_SAMPLES + 1):
-        step_sample(k, t, h, y, y_new, F, y_tmp)
-        alt = geodetic_altitude(y_tmp[0], y_tmp[1], y_tmp[2], force[fb.RADIUS],
-                                force[fb.FLATTENING])  # fmt: skip
+        tk = step_sample(k, t, h, y, y_new, F, y_tmp)
+        alt = pole_altitude(tk, y_tmp[0], y_tmp[1], y_tmp[2], force)
         gs0[k] = alt - lo
         gs1[k] = hi - alt
     # event kind 0, h - edge: >= 0 in the band above its lower edge, < 0 below its upper one
@@ -97,19 +97,17 @@ def band_crossing(band, atm, t, h, y, y_new, F, y_tmp, gs0, gs1, force, eph_r, e
 
 
 @kernel
-def altitude_gradient(y, force, grad):
-    """The gradient of the geodetic altitude h = |r| - R (1 - f (z/r)^2) with respect to the
-    position (into ``grad``, 3 values) and its rate along the trajectory dh/dt, km/s
-    (returned): the boundary function of a band edge, for the saltation matrix of the
-    density's jump there (:func:`visviva.core.variational._boundary_jump`)."""
-    x = y[0]
-    yy = y[1]
-    z = y[2]
-    r = math.sqrt(x * x + yy * yy + z * z)
-    s2 = z * z / (r * r)
-    # d(z^2/r^2)/dr_i = 2 z delta_iz / r^2 - 2 z^2 r_i / r^4
-    rf = force[fb.RADIUS] * force[fb.FLATTENING]
+def altitude_gradient(t, y, force, grad):
+    """The gradient of the geodetic altitude with respect to the position at ``t`` s, the
+    ellipsoid's normal about the body's pole (:func:`visviva.core.geodetic.geodetic`; into
+    ``grad``, 3 values), and its rate along the trajectory dh/dt, km/s (returned): the
+    boundary function of a band edge, for the saltation matrix of the density's jump there
+    (:func:`visviva.core.variational._boundary_jump`)."""
+    px, py = body_pole(t, force)
+    _, s, c, zp, rho, pz = geodetic(y[0], y[1], y[2], force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING],
+                                    px, py)  # fmt: skip
+    pole = (px, py, pz)
     for i in range(3):
-        dzz = (2.0 * z if i == 2 else 0.0) / (r * r) - 2.0 * s2 * y[i] / (r * r)
-        grad[i] = y[i] / r + rf * dzz
+        rh = (y[i] - zp * pole[i]) / rho if rho > 0.0 else 0.0
+        grad[i] = c * rh + s * pole[i]
     return grad[0] * y[3] + grad[1] * y[4] + grad[2] * y[5]

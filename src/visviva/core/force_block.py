@@ -47,7 +47,8 @@ __all__ = [
     "DENSITY_BAND",
     "RELATIVITY_ON",
     "LENSE_THIRRING_J",
-    "ZONAL_POLE",
+    "POLE",
+    "ELLIPSOID_RADIUS",
     "TIME_DEPENDENT",
     "with_time_origin",
 ]
@@ -62,7 +63,8 @@ ZONAL_DEGREE = 2
 DRAG_ON = 3
 #: Ballistic coefficient Cd A / m, km^2/kg.
 BALLISTIC = 4
-#: Rotation rate of the central body about +z, rad/s (co-rotating atmosphere, body-fixed frame).
+#: Rotation rate of the central body, rad/s: about its pole (:data:`POLE`) for the co-rotating
+#: atmosphere, about the body-fixed z axis for the spherical-harmonic field.
 ROTATION_RATE = 5
 #: Flattening f of the central body (geodetic altitude to first order in f).
 FLATTENING = 6
@@ -116,18 +118,24 @@ DENSITY_BAND = 44
 #: The post-Newtonian (Schwarzschild) term of the central body on/off
 #: (:mod:`visviva.core.relativity`).
 RELATIVITY_ON = 45
-#: The central body's angular momentum per unit mass along the frame's z axis, km^2/s, for the
-#: Lense-Thirring term (0: none).
+#: The central body's angular momentum per unit mass along its pole (:data:`POLE`), km^2/s, for
+#: the Lense-Thirring term (0: none).
 LENSE_THIRRING_J = 46
-#: First of 4 slots: the table of the body's pole (the axis of its zonal harmonics) in the
-#: propagation frame, kept in the ``zonal`` array after J_n: time of its first knot (s from
-#: t = 0), knot step (s), number of knots (0: the frame's z axis), index of the first knot's
-#: x in ``zonal`` (knots hold x, y of the unit vector; z = sqrt(1 - x^2 - y^2)).
-ZONAL_POLE = 47
-#: Length of the block.
-FORCE_SIZE = 51
+#: First of 4 slots: the table of the central body's pole (the axis of its zonal harmonics,
+#: of its co-rotating atmosphere, of its geodetic altitude and of its Lense-Thirring spin) in
+#: the propagation frame, kept in the block itself after its :data:`FORCE_SIZE` values: time of
+#: its first knot (s from t = 0), knot step (s), number of knots (0: the frame's z axis), index
+#: of the first knot's x in the block (knots hold x, y of the unit vector; z = sqrt(1 - x^2 -
+#: y^2); :func:`visviva.core.geodetic.body_pole`).
+POLE = 47
+#: Equatorial radius of the central body's ellipsoid of geodetic heights, km (WGS-84's for the
+#: Earth, 0.7 m longer than :data:`RADIUS`, EGM2008's reference radius; the body's radius
+#: otherwise): the altitude of drag and of altitude events (:mod:`visviva.core.geodetic`).
+ELLIPSOID_RADIUS = 51
+#: Length of the block's fixed slots (the pole's table, when there is one, follows them).
+FORCE_SIZE = 52
 #: Slots that depend on where t = 0 is (see :func:`with_time_origin`).
-TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX", "ZONAL_POLE")
+TIME_DEPENDENT = ("EPH_T0", "FRAME_MATRIX", "POLE")
 
 #: ``(name, first index, size, unit, meaning)`` of every slot, in index order.
 LAYOUT = (
@@ -164,8 +172,10 @@ LAYOUT = (
     ("RELATIVITY_ON", RELATIVITY_ON, 1, "flag", "post-Newtonian Schwarzschild term on/off"),
     ("LENSE_THIRRING_J", LENSE_THIRRING_J, 1, "km2/s",
      "angular momentum per unit mass of the central body along z (Lense-Thirring; 0: none)"),
-    ("ZONAL_POLE", ZONAL_POLE, 4, "s, s", "pole table in the zonal array: first knot's "
-     "time, step, number of knots (0: the frame's z axis), index"),
+    ("POLE", POLE, 4, "s, s", "the body's pole, a table after the block's slots: first "
+     "knot's time, step, number of knots (0: the frame's z axis), index"),
+    ("ELLIPSOID_RADIUS", ELLIPSOID_RADIUS, 1, "km", "equatorial radius of the ellipsoid of "
+     "geodetic heights"),
 )
 
 
@@ -174,8 +184,8 @@ def with_time_origin(force, t0_s: float):
 
     Parameters
     ----------
-    force : ndarray (FORCE_SIZE,)
-        The block.
+    force : ndarray (FORCE_SIZE + 2 K,)
+        The block (and its pole's table of K knots).
     t0_s : float
         The new origin, s after the old one.
 
@@ -198,6 +208,6 @@ def with_time_origin(force, t0_s: float):
     rz = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     m = force[FRAME_MATRIX:FRAME_MATRIX + 9].reshape(3, 3)
     out[FRAME_MATRIX:FRAME_MATRIX + 9] = (rz @ m).ravel()
-    if force[ZONAL_POLE + 2] > 0.0:
-        out[ZONAL_POLE] = force[ZONAL_POLE] - t0_s
+    if force[POLE + 2] > 0.0:
+        out[POLE] = force[POLE] - t0_s
     return out

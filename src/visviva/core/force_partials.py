@@ -37,6 +37,7 @@ import numpy as np
 
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
+from .geodetic import body_pole, geodetic
 from .local_frames import to_inertial_jacobian
 from .perturbations import (
     accel_drag_rho,
@@ -45,14 +46,13 @@ from .perturbations import (
     cunningham_vw,
     drag_density,
     exponential_band,
-    geodetic_altitude,
     grid_log_density_gradient_at,
     hermite_position,
     shadow_fraction,
     sun_and_mass_scale,
 )
 from .relativity import add_relativity_partials
-from .zonal import pole_sine, zonal_pole
+from .zonal import pole_sine
 
 __all__ = ["acceleration_partials", "parameter_accelerations", "N_PARAMETERS"]
 
@@ -172,8 +172,9 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     gm = force[fb.GM]
     # two-body: the gradient of -gm r / r^3 is gm (3 r r^T / r^5 - I / r^3)
     _add_point_mass_gradient(x, yy, z, gm, dadr)
+    px, py = body_pole(t, force)  # the body's pole: zonal field, atmosphere, spin
+    pz = math.sqrt(1.0 - px * px - py * py)
     if int(force[fb.ZONAL_DEGREE]) >= 2:
-        px, py = zonal_pole(t, force, zonal)
         _add_zonal_gradient(x, yy, z, gm, force[fb.RADIUS], zonal, int(force[fb.ZONAL_DEGREE]),
                             px, py, dadr)
     elif force[fb.HARMONICS_DEGREE] >= 2.0:
@@ -185,32 +186,31 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     if force[fb.DRAG_ON] != 0.0:
         omega = force[fb.ROTATION_RATE]
         bc = force[fb.BALLISTIC] * mass_scale
-        wx = y[3] + omega * yy
-        wy = y[4] - omega * x
-        wz = y[5]
+        # v_rel = v - omega p x r
+        wx = y[3] - omega * (py * z - pz * yy)
+        wy = y[4] - omega * (pz * x - px * z)
+        wz = y[5] - omega * (px * yy - py * x)
         w = math.sqrt(wx * wx + wy * wy + wz * wz)
         grad = np.empty(3)  # d ln(rho) / d r, 1/km
         if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
             # the gridded ln(rho) is a tricubic B-spline: its analytic gradient along all three
             # of altitude, latitude and hour angle
-            rho = math.exp(grid_log_density_gradient_at(x, yy, z, sun_pos, force, atm, grad))
+            rho = math.exp(grid_log_density_gradient_at(t, x, yy, z, sun_pos, force, atm,
+                                                        grad))  # fmt: skip
         else:
-            h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
-            r = math.sqrt(x * x + yy * yy + z * z)
+            h, s, cl, zp, rh, _ = geodetic(x, yy, z, force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING],
+                                           px, py)  # fmt: skip
             k = int(force[fb.DENSITY_BAND]) - 1  # the band held in a step, as cowell_rhs
             if k < 0:
                 k = exponential_band(h, atm)
             rho = band_density(h, atm, k)
             dlnrho_dh = -1.0 / atm[k, 2]
-            # d h / d r = r_hat + R f d(s^2)/d r, s = z / r
-            s = z / r
-            fr = force[fb.RADIUS] * force[fb.FLATTENING]
+            # d h / d r: the ellipsoid's normal cos(lat) rho_hat + sin(lat) p
             posv = (x, yy, z)
+            pole = (px, py, pz)
             for j in range(3):
-                dh = posv[j] / r + fr * 2.0 * s * (-s * posv[j] / r) / r
-                if j == 2:
-                    dh += fr * 2.0 * s / r
-                grad[j] = dlnrho_dh * dh
+                rj = (posv[j] - zp * pole[j]) / rh if rh > 0.0 else 0.0
+                grad[j] = dlnrho_dh * (cl * rj + s * pole[j])
         rho_km = rho * 1e9
         c = -0.5 * rho_km * bc
         wv = (wx, wy, wz)
@@ -218,10 +218,11 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
             for j in range(3):
                 dadv[i, j] += c * wv[i] * wv[j] / w
             dadv[i, i] += c * w
-        # d w / d r = [[0, omega, 0], [-omega, 0, 0], [0, 0, 0]]
+        # d w / d r = -omega [p]x = omega [[0, pz, -py], [-pz, 0, px], [py, -px, 0]]
         for i in range(3):
-            dadr[i, 0] += dadv[i, 1] * (-omega)
-            dadr[i, 1] += dadv[i, 0] * omega
+            dadr[i, 0] += omega * (-pz * dadv[i, 1] + py * dadv[i, 2])
+            dadr[i, 1] += omega * (pz * dadv[i, 0] - px * dadv[i, 2])
+            dadr[i, 2] += omega * (-py * dadv[i, 0] + px * dadv[i, 1])
         for j in range(3):
             for i in range(3):
                 dadr[i, j] += c * w * wv[i] * grad[j]
@@ -253,7 +254,7 @@ def acceleration_partials(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
     if force[fb.THRUST_ON] != 0.0 and int(force[fb.THRUST_FRAME]) != 0:
         _add_thrust_gradient(t, y, force, dadr, dadv)
     if force[fb.RELATIVITY_ON] != 0.0:
-        add_relativity_partials(x, yy, z, y[3], y[4], y[5], gm, force[fb.LENSE_THIRRING_J],
+        add_relativity_partials(x, yy, z, y[3], y[4], y[5], gm, force[fb.LENSE_THIRRING_J], px, py,
                                 dadr, dadv)
 
 
@@ -279,8 +280,9 @@ def parameter_accelerations(t, y, force, atm, eph_r, eph_v, out):
     sun_pos = np.zeros(3)
     sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
-        rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
-        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, mass_scale, force[fb.ROTATION_RATE],
+        px, py = body_pole(t, force)
+        rho = drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm)
+        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, mass_scale, force[fb.ROTATION_RATE], px, py,
                        out[0])  # fmt: skip
     if force[fb.SRP_ON] != 0.0 and sun >= 0:
         nu = shadow_fraction(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], force[fb.RADIUS],

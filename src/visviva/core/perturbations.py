@@ -5,10 +5,11 @@ Every kernel works on plain float64 values in km, km/s, s and km^3/s^2, writes i
 :func:`cowell_rhs` sums the two-body term and every perturbation switched on in the ``force``
 parameter array, in a fixed order, so that one compiled call gives the full derivative.
 
-The ``force`` parameter array (float64, :data:`FORCE_SIZE` values) is laid out in
+The ``force`` parameter array (float64, :data:`FORCE_SIZE` values, then the table of the
+central body's pole when a force or event turns with it) is laid out in
 :mod:`visviva.core.force_block`, which names every slot (``fb.GM``, ``fb.DRAG_ON``, ...): the
-kernels below read it by those names only, and each perturbation class of
-:mod:`visviva.satellites.perturbations` writes its own slots.
+kernels below read it by those names only (the pole through :mod:`visviva.core.geodetic`), and
+each perturbation class of :mod:`visviva.satellites.perturbations` writes its own slots.
 
 With density model 1, ``atm`` has shape ((n_hour_angle + 3) * (n_latitude + 2),
 n_altitude + 2) and holds the tricubic B-spline coefficients of ln(rho / (kg/m^3)) over (hour angle from the Sun,
@@ -33,10 +34,11 @@ import numpy as np
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
+from .geodetic import body_pole, geodetic, geodetic_altitude
 from .hermite import hermite_basis
 from .local_frames import to_inertial
 from .relativity import accel_relativity
-from .zonal import accel_zonal, zonal_pole
+from .zonal import accel_zonal
 
 __all__ = [
     "FORCE_SIZE",
@@ -61,7 +63,7 @@ __all__ = [
     "hermite_position",
     "sun_and_mass_scale",
     "zonal_rhs",
-    "zonal_pole",
+    "body_pole",
     "cowell_rhs",
     "cowell_rhs_array",
 ]
@@ -215,18 +217,6 @@ def accel_harmonics_inertial(t, x, y, z, force, sh, out):
     out[2] += m[2] * qx + m[5] * qy + m[8] * qz
 
 
-@inline_kernel
-def geodetic_altitude(x, y, z, radius, flattening):
-    """Height above the oblate body to first order in the flattening f, km.
-
-    h = |r| - R (1 - f sin^2 phi), with phi the geocentric latitude (the ellipsoid radius to
-    first order in f; error below 0.1 km for the Earth).
-    """
-    r = math.sqrt(x * x + y * y + z * z)
-    s = z / r
-    return r - radius * (1.0 - flattening * s * s)
-
-
 @kernel
 def exponential_band(h, atm):
     """The row (band) of an exponential table (K, 3) for altitude ``h`` (km): the one whose base
@@ -260,21 +250,15 @@ def exponential_density(h, atm):
     return band_density(h, atm, exponential_band(h, atm))
 
 
-@inline_kernel
-def _geodetic_latitude(s, r, radius, flattening):
-    """Geodetic latitude (rad) at distance ``r``, sin(geocentric latitude phi) ``s``, to first
-    order in f: phi + f (R / r) sin(2 phi) (tan phi_d = tan phi / (1 - 2 f R / r))."""
-    return math.asin(s) + flattening * (radius / r) * 2.0 * s * math.sqrt(max(0.0, 1.0 - s * s))
-
-
 @kernel
-def grid_density_at(x, y, z, sun_pos, force, atm):
-    """Density (kg/m^3) of the gridded model at (x, y, z) (km, inertial), the Sun at ``sun_pos``:
-    geodetic altitude and latitude (NRLMSIS's), hour angle from the Sun, :func:`grid_density`."""
-    h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
-    r = math.sqrt(x * x + y * y + z * z)
-    lat = _geodetic_latitude(z / r, r, force[fb.RADIUS], force[fb.FLATTENING])
-    return grid_density(h, lat, _hour_angle(x, y, sun_pos), force, atm)
+def grid_density_at(t, x, y, z, sun_pos, force, atm):
+    """Density (kg/m^3) of the gridded model at (x, y, z) (km, inertial) at ``t`` s, the Sun at
+    ``sun_pos``: geodetic altitude and latitude (NRLMSIS's) about the body's pole, hour angle
+    from the Sun about it (:func:`_pole_hour_angle`), :func:`grid_density`."""
+    px, py = body_pole(t, force)
+    h, s, c, _, _, pz = geodetic(x, y, z, force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING], px, py)
+    ha = _pole_hour_angle(x, y, z, sun_pos, px, py, pz)
+    return grid_density(h, math.atan2(s, c), ha, force, atm)
 
 
 @kernel
@@ -285,49 +269,41 @@ def grid_density(h, lat, hour_angle, force, atm):
 
 
 @kernel
-def grid_log_density_gradient_at(x, y, z, sun_pos, force, atm, grad):
-    """ln(rho / (kg/m^3)) of the gridded model at (x, y, z) (km, inertial), and its gradient
-    d ln(rho) / d r (1/km) written into ``grad`` (3,), the Sun held at ``sun_pos``.
+def grid_log_density_gradient_at(t, x, y, z, sun_pos, force, atm, grad):
+    """ln(rho / (kg/m^3)) of the gridded model at (x, y, z) (km, inertial) at ``t`` s, and its
+    gradient d ln(rho) / d r (1/km) written into ``grad`` (3,), the Sun held at ``sun_pos``.
 
-    The chain rule through h = |r| - R (1 - f s^2) (s = z / |r|), the geodetic latitude of
-    :func:`_geodetic_latitude` and the hour angle atan2(y, x) - lambda_sun of the spline's
-    analytic partials.
+    The chain rule through the exact geodetic coordinates about the pole p
+    (:func:`visviva.core.geodetic.geodetic`): d h / d r the ellipsoid's normal
+    c rho_hat + s p, d lat / d r = (-s rho_hat + c p) / (M + h), d ha / d r = (p x r) / rho^2,
+    with the spline's analytic partials.
     """
-    fr = force[fb.RADIUS] * force[fb.FLATTENING]
-    r2 = x * x + y * y + z * z
-    r = math.sqrt(r2)
-    s = z / r
-    h = geodetic_altitude(x, y, z, force[fb.RADIUS], force[fb.FLATTENING])
-    lat = _geodetic_latitude(s, r, force[fb.RADIUS], force[fb.FLATTENING])
-    ha = _hour_angle(x, y, sun_pos)
-    val, dh, dlat, dha = grid_log_density(h, lat, ha, force, atm)
-    rho2 = x * x + y * y  # squared distance from the z axis
-    rxy = math.sqrt(rho2)
-    # d s / d r = (e_z - s r_hat) / r; d h / d r = r_hat + 2 R f s d s / d r
-    # d phi / d r = (-z x, -z y, rxy^2) / (r^2 rxy); d ha / d r = (-y, x, 0) / rxy^2
-    # d phi_d / d r = (1 + 2 f (R / r) cos(2 phi)) d phi / d r - f R sin(2 phi) / r^2 r_hat
-    k_phi = 1.0 + 2.0 * fr / r * (rho2 / r2 - s * s)  # cos(phi) = rxy / r
-    k_r = -fr * 2.0 * s * rxy / (r2 * r)
+    px, py = body_pole(t, force)
+    radius = force[fb.ELLIPSOID_RADIUS]
+    h, s, c, zp, rho, pz = geodetic(x, y, z, radius, force[fb.FLATTENING], px, py)
+    ha = _pole_hour_angle(x, y, z, sun_pos, px, py, pz)
+    val, dh, dlat, dha = grid_log_density(h, math.atan2(s, c), ha, force, atm)
+    e2 = force[fb.FLATTENING] * (2.0 - force[fb.FLATTENING])
+    m_curv = radius * (1.0 - e2) / (1.0 - e2 * s * s) ** 1.5
     pos = (float(x), float(y), float(z))
+    pole = (px, py, pz)
+    cross = (py * z - pz * y, pz * x - px * z, px * y - py * x)  # p x r
     for j in range(3):
-        ds = ((1.0 if j == 2 else 0.0) - s * pos[j] / r) / r
-        grad[j] = dh * (pos[j] / r + 2.0 * fr * s * ds) + dlat * k_r * pos[j] / r
-    if rxy > 0.0:
-        grad[0] += dlat * k_phi * (-z * x / (r2 * rxy)) - dha * y / rho2
-        grad[1] += dlat * k_phi * (-z * y / (r2 * rxy)) + dha * x / rho2
-        grad[2] += dlat * k_phi * rxy / r2
+        rh = (pos[j] - zp * pole[j]) / rho if rho > 0.0 else 0.0
+        grad[j] = dh * (c * rh + s * pole[j]) + dlat * (-s * rh + c * pole[j]) / (m_curv + h)
+        if rho > 0.0:
+            grad[j] += dha * cross[j] / (rho * rho)
     return val
 
 
 @inline_kernel
-def _hour_angle(x, y, sun_pos):
-    """Hour angle from the Sun, rad in [-pi, pi]."""
-    ha = math.atan2(y, x) - math.atan2(sun_pos[1], sun_pos[0])
-    if ha > math.pi:
-        ha -= 2.0 * math.pi
-    elif ha < -math.pi:
-        ha += 2.0 * math.pi
-    return ha
+def _pole_hour_angle(x, y, z, sun_pos, px, py, pz):
+    """Hour angle of (x, y, z) from the Sun about the pole p, rad in [-pi, pi]: the angle from
+    the Sun's meridian to the point's, atan2(p . (s x r), s . r - (s . p)(r . p))."""
+    sx, sy, sz = sun_pos[0], sun_pos[1], sun_pos[2]
+    triple = px * (sy * z - sz * y) + py * (sz * x - sx * z) + pz * (sx * y - sy * x)
+    dot = sx * x + sy * y + sz * z - (sx * px + sy * py + sz * pz) * (x * px + y * py + z * pz)
+    return math.atan2(triple, dot)
 
 
 @inline_kernel
@@ -399,12 +375,15 @@ def grid_log_density(h, lat, hour_angle, force, atm):
 
 
 @kernel
-def accel_drag_rho(x, y, z, vx, vy, vz, rho_kg_m3, bc_km2_kg, omega, out):
-    """Add drag for a given density (kg/m^3): a = -1/2 rho (Cd A/m) |v_rel| v_rel."""
+def accel_drag_rho(x, y, z, vx, vy, vz, rho_kg_m3, bc_km2_kg, omega, px, py, out):
+    """Add drag for a given density (kg/m^3): a = -1/2 rho (Cd A/m) |v_rel| v_rel, v_rel =
+    v - omega p x r, the atmosphere turning at ``omega`` (rad/s) about the body's pole
+    p = (px, py, sqrt(1 - px^2 - py^2)) (:func:`visviva.core.geodetic.body_pole`)."""
     rho = rho_kg_m3 * 1e9  # kg/km^3
-    wx = vx + omega * y
-    wy = vy - omega * x
-    wz = vz
+    pz = math.sqrt(1.0 - px * px - py * py)
+    wx = vx - omega * (py * z - pz * y)
+    wy = vy - omega * (pz * x - px * z)
+    wz = vz - omega * (px * y - py * x)
     w = math.sqrt(wx * wx + wy * wy + wz * wz)
     k = -0.5 * rho * bc_km2_kg * w
     out[0] += k * wx
@@ -413,15 +392,17 @@ def accel_drag_rho(x, y, z, vx, vy, vz, rho_kg_m3, bc_km2_kg, omega, out):
 
 
 @kernel
-def accel_drag(x, y, z, vx, vy, vz, bc_km2_kg, omega, radius, flattening, atm, out):
+def accel_drag(x, y, z, vx, vy, vz, bc_km2_kg, omega, radius, flattening, atm, px, py, out):
     """Add atmospheric drag a = -1/2 rho (Cd A/m) |v_rel| v_rel to ``out``.
 
     v_rel = v - omega x r is the velocity relative to an atmosphere co-rotating with the body
-    about +z (Vallado 2013, eq. 8-31). rho in kg/m^3 times Cd*A/m in km^2/kg is converted to
+    about its pole (px, py) (Vallado 2013, eq. 8-31), rho the exponential table's at the
+    geodetic altitude about that pole. rho in kg/m^3 times Cd*A/m in km^2/kg is converted to
     1/km with the factor 1e9.
     """
-    h = geodetic_altitude(x, y, z, radius, flattening)
-    accel_drag_rho(x, y, z, vx, vy, vz, exponential_density(h, atm), bc_km2_kg, omega, out)
+    h = geodetic_altitude(x, y, z, radius, flattening, px, py)
+    accel_drag_rho(x, y, z, vx, vy, vz, exponential_density(h, atm), bc_km2_kg, omega, px, py,
+                   out)
 
 
 @inline_kernel
@@ -562,12 +543,14 @@ def zonal_rhs(t, y, force, zonal, dy):
     acc = dy[3:]
     accel_two_body(y[0], y[1], y[2], force[fb.GM], acc)
     n_max = int(force[fb.ZONAL_DEGREE])
-    if n_max >= 2:
-        px, py = zonal_pole(t, force, zonal)
-        accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py, acc)
-    if force[fb.RELATIVITY_ON] != 0.0:
-        accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
-                         force[fb.LENSE_THIRRING_J], acc)
+    if n_max >= 2 or force[fb.RELATIVITY_ON] != 0.0:
+        px, py = body_pole(t, force)
+        if n_max >= 2:
+            accel_zonal(y[0], y[1], y[2], force[fb.GM], force[fb.RADIUS], zonal, n_max, px, py,
+                        acc)  # fmt: skip
+        if force[fb.RELATIVITY_ON] != 0.0:
+            accel_relativity(y[0], y[1], y[2], y[3], y[4], y[5], force[fb.GM],
+                             force[fb.LENSE_THIRRING_J], px, py, acc)
 
 
 @inline_kernel
@@ -586,14 +569,15 @@ def sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos):
 
 
 @kernel
-def drag_density(x, yy, z, sun, sun_pos, force, atm):
-    """The density of the block's drag model at (x, yy, z) (km), kg/m^3: the gridded model
+def drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm):
+    """The density of the block's drag model at (x, yy, z) (km) at ``t`` s, the body's pole
+    then (px, py) (:func:`body_pole`; the geodetic altitude about it), kg/m^3: the gridded model
     (NRLMSIS, the Sun at ``sun_pos``, its row ``sun``) or the exponential table, whose band
     is the one held by the integrator for a step (``DENSITY_BAND`` = band + 1), else (0) the
     one of the altitude."""
     if force[fb.DENSITY_MODEL] == 1.0 and sun >= 0:
-        return grid_density_at(x, yy, z, sun_pos, force, atm)
-    h = geodetic_altitude(x, yy, z, force[fb.RADIUS], force[fb.FLATTENING])
+        return grid_density_at(t, x, yy, z, sun_pos, force, atm)
+    h = geodetic_altitude(x, yy, z, force[fb.ELLIPSOID_RADIUS], force[fb.FLATTENING], px, py)
     band = int(force[fb.DENSITY_BAND]) - 1
     if band < 0:
         band = exponential_band(h, atm)
@@ -622,8 +606,10 @@ def cowell_rhs(t, y, force, zonal, atm, eph_r, eph_v, eph_gm, sh, dy):
     # drag's and SRP's area-to-mass follow the mass during a finite burn: m(0) / m(t)
     sun, mass_scale = sun_and_mass_scale(t, force, eph_r, eph_v, sun_pos)
     if force[fb.DRAG_ON] != 0.0:
-        rho = drag_density(x, yy, z, sun, sun_pos, force, atm)
-        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale, force[fb.ROTATION_RATE], acc)
+        px, py = body_pole(t, force)
+        rho = drag_density(t, x, yy, z, px, py, sun, sun_pos, force, atm)
+        accel_drag_rho(x, yy, z, y[3], y[4], y[5], rho, force[fb.BALLISTIC] * mass_scale,
+                       force[fb.ROTATION_RATE], px, py, acc)
     for b in range(n_third):
         if b == sun:
             accel_third_body(x, yy, z, sun_pos[0], sun_pos[1], sun_pos[2], eph_gm[b], acc)

@@ -201,7 +201,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
     if bands_on(force):
         if n_sh == 0:
             rforce = force.copy()
-        band = start_band(rforce, y, atm)
+        band = start_band(t, rforce, y, atm)
     bnd_pending = False
     t_bnd = 0.0
     bnd_which = -1
@@ -359,7 +359,7 @@ def integrate_variational(y0, t_out, rtol, atol, h_max, max_steps, force, zonal,
                 if h_keep > h_abs:
                     h_abs = h_keep
             else:
-                band = start_band(rforce, y, atm)
+                band = start_band(t, rforce, y, atm)
                 variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr,
                                 dadv)  # fmt: skip
                 nfev += 1
@@ -426,6 +426,6 @@ def _cross_band(band, t, y, f, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, dad
         scr[4, i] = f[3 + i]
     hold_band(rforce, band)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)
-    rate = altitude_gradient(y, rforce, scr[5])
+    rate = altitude_gradient(t, y, rforce, scr[5])
     _saltation(y, scr[4, :3], f[3:6], scr[5, :3], rate)
     variational_rhs(t, y, rforce, zonal, atm, eph_r, eph_v, eph_gm, sh, f, dadr, dadv)

@@ -2,37 +2,18 @@
 
 The zonal field J_2 .. J_n is symmetric about the body's axis, which need not be the z axis of
 the propagation frame: the Earth's pole is 0.13 deg from the GCRS z axis in 2024 (precession
-since J2000). The force block's ``ZONAL_POLE`` slots (:mod:`visviva.core.force_block`) point
-to a table of the pole after the J_n in the ``zonal`` array, on knots fixed in absolute time,
-interpolated linearly (:func:`zonal_pole`); without one the frame's z axis.
+since J2000). The pole at a time is :func:`visviva.core.geodetic.body_pole` (the force block's
+``POLE`` table, shared with drag, altitude events and relativity); without one the frame's z
+axis.
 """
 
 from __future__ import annotations
 
 import math
 
-from . import force_block as fb
 from ._jit import inline_kernel, kernel
 
-__all__ = ["accel_zonal", "pole_sine", "zonal_pole"]
-
-
-@inline_kernel
-def zonal_pole(t, force, zonal):
-    """x and y of the zonal field's pole in the propagation frame at ``t`` s: linear
-    interpolation in the table of the block's ``ZONAL_POLE`` slots (continued linearly past
-    its ends); (0, 0), the frame's z axis, without a table."""
-    k = fb.ZONAL_POLE
-    n = int(force[k + 2])
-    if n < 2:
-        return 0.0, 0.0
-    u = (t - force[k]) / force[k + 1]
-    i = int(math.floor(u))  # plain comparisons, not min/max: numba compiles its min/max
-    i = 0 if i < 0 else (n - 2 if i > n - 2 else i)  # overloads anew in every process
-    w = u - i
-    j = int(force[k + 3]) + 2 * i
-    return (zonal[j] + w * (zonal[j + 2] - zonal[j]),
-            zonal[j + 1] + w * (zonal[j + 3] - zonal[j + 1]))
+__all__ = ["accel_zonal", "pole_sine"]
 
 
 @inline_kernel

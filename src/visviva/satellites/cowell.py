@@ -42,6 +42,8 @@ from .perturbations import (
     SphericalHarmonics,
     ThirdBody,
     Zonal,
+    earth_pole_table,
+    ellipsoid_radius_of,
     flattening_of,
 )
 from .relativity import Relativity
@@ -172,7 +174,8 @@ class ForceModel:
 
     #: slots written here, not by a perturbation
     SHARED_PARAMETERS = ("GM", "RADIUS", "ROTATION_RATE", "FLATTENING", "SUN_RADIUS", "AU",
-                         "SUN_ROW", "EPH_T0", "EPH_STEP", "EPH_N")
+                         "SUN_ROW", "EPH_T0", "EPH_STEP", "EPH_N", "POLE",
+                         "ELLIPSOID_RADIUS")
 
     def __init__(self, gm_km3_s2, perturbations, events=(), epoch=None, span_s=(0.0, 0.0)):
         self.gm_km3_s2 = gm_km3_s2
@@ -198,6 +201,7 @@ class ForceModel:
         self.central_body = central
         self.force[fb.RADIUS] = central.radius_km
         self.force[fb.FLATTENING] = flattening_of(central)
+        self.force[fb.ELLIPSOID_RADIUS] = ellipsoid_radius_of(central)
         rot = central.rotation_rate
         self.force[fb.ROTATION_RATE] = 0.0 if rot is None else float(rot.to_value(u.rad / u.s))
         self.force[fb.SUN_RADIUS] = SUN.radius_km
@@ -242,6 +246,13 @@ class ForceModel:
             self.force[fb.EPH_N] = 2
             self.eph_r = np.zeros((0, 2, 3))
             self.eph_v = np.zeros((0, 2, 3))
+        if epoch is not None and central.name == "earth" and any(
+            getattr(p, "uses_pole", False) for p in (*perturbations, *events)
+        ):  # one table of the Earth's pole for every force and event that turns with it
+            t0, step, knots = earth_pole_table(epoch, *self.span_s)
+            self.force[fb.POLE:fb.POLE + 4] = (t0, step, len(knots), FORCE_SIZE)
+            self.force = np.concatenate([self.force, knots.ravel()])
+        # else the frame's z axis: no epoch, or another body, whose pole visviva does not know
         for p in perturbations:
             p.pack(self)
         self.eph_gm = np.asarray(gms, dtype=np.float64)

@@ -66,6 +66,9 @@ class Perturbation:
     central_body: Body | None = None
     #: names (:mod:`visviva.core.force_block`) of the parameter-block slots this class writes
     PARAMETERS: tuple = ()
+    #: whether the force turns with the central body's pole (the force model then tabulates
+    #: the Earth's pole over the run once, :func:`earth_pole_table`, shared by all of them)
+    uses_pole: bool = False
 
     @classmethod
     def parameters(cls) -> list:
@@ -127,17 +130,12 @@ class Zonal(Perturbation):
     def central_body(self) -> Body:
         return self.body
 
-    PARAMETERS = ("ZONAL_DEGREE", "ZONAL_POLE")
+    PARAMETERS = ("ZONAL_DEGREE",)
+    uses_pole = True  # about the Earth's pole (the force model's table), else the frame's z
 
     def pack(self, model) -> None:
         model.zonal = self.coefficients()
         model.force[fb.ZONAL_DEGREE] = self.degree
-        if model.epoch is not None and self.body.name == "earth":
-            t0, step, knots = earth_pole_table(model.epoch, *model.span_s)
-            model.force[fb.ZONAL_POLE:fb.ZONAL_POLE + 4] = (t0, step, len(knots),
-                                                            len(model.zonal))
-            model.zonal = np.concatenate([model.zonal, knots.ravel()])
-        # else the frame's z axis: no epoch, or another body, whose pole visviva does not know
 
     def coefficients(self) -> np.ndarray:
         """J_n indexed by n (entries 0 and 1 are zero), dimensionless."""
@@ -181,10 +179,14 @@ class AtmosphericDrag(Perturbation):
     Notes
     -----
     a = -1/2 rho(h) (Cd A / m) |v_rel| v_rel, v_rel = v - omega x r,
-    rho(h) = rho_0 exp(-(h - h_0)/H) (Vallado 2013, eqs. 8-29, 8-31, 8-33). The atmosphere
-    rotates about the z axis of the propagation frame (the GCRS pole differs from the
-    true pole by < 0.5 deg in 1950-2050, a negligible change of v_rel). The altitude is
-    h = |r| - R (1 - f sin^2 phi) (ellipsoid to first order in the flattening f).
+    rho(h) = rho_0 exp(-(h - h_0)/H) (Vallado 2013, eqs. 8-29, 8-31, 8-33). For a GCRS state
+    with an epoch the atmosphere rotates about the Earth's pole (the celestial intermediate
+    pole of :func:`earth_pole_table`, 0.134 deg from the GCRS z axis in 2024, the table the
+    zonal field shares), and h is the exact geodetic height above the WGS-84 ellipsoid about
+    that pole (:func:`visviva.core.geodetic.geodetic`; polar motion, < 10 m on the ground, left
+    out); without an epoch, or about another body, the frame's z axis. Neither density model
+    depends on the Earth's rotation angle (the table on h alone, NRLMSIS on h, the geodetic
+    latitude and the hour angle from the Sun, measured about the same pole).
 
     ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
     space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
@@ -267,6 +269,7 @@ class AtmosphericDrag(Perturbation):
 
     PARAMETERS = ("DRAG_ON", "BALLISTIC", "DENSITY_MODEL", "DENSITY_GRID", "DENSITY_GRID_SIZES",
                   "DENSITY_BAND")
+    uses_pole = True  # the co-rotating atmosphere and the geodetic altitude
 
     #: the NRLMSIS model needs the Sun (its row in the ephemeris tables)
     @property
@@ -595,7 +598,9 @@ def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):
     ``epoch``), so that every run, whatever its epoch (restarted after a burn, from a fit's
     state, backwards), sees the same pole; between them it is linear (within 0.003" of the
     series). Polar motion (~0.3" between this axis and the ITRS z axis of EGM2008's
-    coefficients, turning with the Earth) is left out.
+    coefficients, turning with the Earth) is left out. One table per run, built by the force
+    model (:class:`visviva.satellites.cowell.ForceModel`) when a force or event turns with the
+    pole (``uses_pole``: the zonal field, drag, the Lense-Thirring spin, altitude events).
 
     Returns
     -------
@@ -625,6 +630,12 @@ def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):
 def flattening_of(body: Body) -> float:
     """Flattening used for geodetic altitude (WGS-84 for the Earth, 0 otherwise)."""
     return c.EARTH_FLATTENING if body.name == "earth" else 0.0
+
+
+def ellipsoid_radius_of(body: Body) -> float:
+    """Equatorial radius (km) of the ellipsoid of geodetic altitude: WGS-84's for the Earth
+    (0.7 m longer than the gravity field's reference radius), the body's radius otherwise."""
+    return c.EARTH_ELLIPSOID_RADIUS_KM if body.name == "earth" else body.radius_km
 
 
 def _spline_coefficients(values: np.ndarray, pad: int = 8) -> np.ndarray:

@@ -41,9 +41,11 @@ class Relativity(Perturbation):
     forwards by ``6 pi GM / (c^2 a (1 - e^2))`` per revolution (1.2e-8 rad in LEO, about 3 m of
     along-track position after a day of a LEO orbit's 1.7e-8 m/s^2). The Lense-Thirring term
     ``2 GM / (c^2 r^3) [3 / r^2 (r x v)(r . J) + v x J]`` (about 2e-10 m/s^2 in LEO) takes the
-    Earth's angular momentum per unit mass ``J`` = 9.8e8 m^2/s along the propagation frame's z
-    axis: the GCRS pole is within 0.4 degrees of the Earth's (precession since J2000), a
-    0.6 % error in a term that small. The de Sitter term (about 5e-11 m/s^2 in LEO) is left
+    Earth's angular momentum per unit mass ``J`` = 9.8e8 m^2/s along the Earth's pole: for a
+    GCRS state with an epoch the celestial intermediate pole of the run's table
+    (:func:`visviva.satellites.perturbations.earth_pole_table`, shared with the zonal field and
+    drag; 0.134 deg from the GCRS z axis in 2024, whose use before the eighteenth session was a
+    2e-3 error of the term), without an epoch the frame's z axis. The de Sitter term (about 5e-11 m/s^2 in LEO) is left
     out. Both terms have their analytic partials in the state-transition matrix
     (:func:`visviva.core.relativity.add_relativity_partials`).
 
@@ -57,6 +59,11 @@ class Relativity(Perturbation):
     lense_thirring: bool = True
 
     PARAMETERS = ("RELATIVITY_ON", "LENSE_THIRRING_J")
+
+    @property
+    def uses_pole(self) -> bool:
+        """The Lense-Thirring spin lies along the Earth's pole (the force model's table)."""
+        return self.lense_thirring
 
     def __post_init__(self):
         body = require_body(self.body, "Relativity")

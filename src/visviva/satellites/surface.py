@@ -4,8 +4,8 @@ A trajectory that reaches the surface of its central body under a force model of
 (zonal harmonics, drag, solar radiation pressure with its shadow, third bodies about it) has
 left the model's domain: below the surface the field expansion and the atmosphere mean nothing,
 and a drag run would go on through an extrapolated atmosphere. :func:`visviva.propagate_cowell`
-therefore watches the geodetic altitude ``h = |r| - R (1 - f sin^2 phi)`` (the body's radius
-``R`` and flattening ``f``, as :class:`~visviva.satellites.AltitudeCrossing` does) and raises
+therefore watches the geodetic altitude (the exact height above the body's ellipsoid, as
+:class:`~visviva.satellites.AltitudeCrossing` does; WGS-84 for the Earth) and raises
 :class:`visviva.errors.SurfaceImpact` when it reaches 0, with the propagation up to that point
 attached (``exc.result``). A terminal event of the user's that comes first (``ReEntry()`` at
 100 km) ends the run as before, without an error.
@@ -26,7 +26,7 @@ from astropy import units as u
 
 from ..errors import InvalidStateError, SurfaceImpact
 from .events import AltitudeCrossing
-from .perturbations import flattening_of
+from .perturbations import ellipsoid_radius_of, flattening_of
 
 __all__ = ["SurfaceCrossing", "watched_body", "altitude_km", "with_surface", "check_single",
            "batch_impact"]
@@ -36,6 +36,9 @@ class SurfaceCrossing(AltitudeCrossing):
     """The geodetic altitude reaches 0 (either direction of time): the run stops there."""
 
     name = "surface"
+    #: a guard, not a measurement: it does not make the force model tabulate the Earth's pole
+    #: (about the pole when a force did, else about the frame's z axis: < 60 m apart)
+    uses_pole = False
 
     def __init__(self):
         super().__init__(0.0 * u.km, direction=0, terminal=True)
@@ -66,21 +69,28 @@ def watched_body(gm_km3_s2: float, perturbations, r0_km):
         where = f"state {k} starts" if np.ndim(r0_km) == 2 else "the initial state is"
         raise InvalidStateError(
             f"{where} {-float(h[k]):.6g} km below the surface of {body.name} (geodetic "
-            f"altitude from its radius {body.radius_km} km and flattening): the perturbations "
+            f"altitude above its ellipsoid, equatorial radius {ellipsoid_radius_of(body)} km): the "
+            "perturbations "
             "of that body mean nothing there. Check the position's units and frame (km, "
             "centred on the body), or propagate without perturbations for a conic."
         )
     return body
 
 
-def altitude_km(r_km, body) -> np.ndarray:
-    """Geodetic altitude (km) of positions ``r_km`` (..., 3), to first order in the flattening
-    (the expression of the compiled altitude event)."""
+def altitude_km(r_km, body, pole=(0.0, 0.0)) -> np.ndarray:
+    """Geodetic altitude (km) of positions ``r_km`` (..., 3): the exact height above ``body``'s
+    ellipsoid about the pole whose unit vector has x, y ``pole`` (default the frame's z axis),
+    the compiled altitude event's (:func:`visviva.core.geodetic.geodetic`)."""
+    from ..core import tier
+    from ..core.geodetic import geodetic_altitudes
+
     r = np.asarray(r_km, dtype=np.float64)
-    rn = np.linalg.norm(r, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s2 = (r[..., 2] / rn) ** 2
-    return rn - body.radius_km * (1.0 - flattening_of(body) * s2)
+    flat = np.ascontiguousarray(r.reshape(-1, 3))
+    out = np.empty(flat.shape[0])
+    tier.call(  # a small call on a fresh install runs interpreted (core/tier.py)
+        geodetic_altitudes, flat, float(ellipsoid_radius_of(body)), float(flattening_of(body)),
+        float(pole[0]), float(pole[1]), out, small=flat.shape[0] <= tier.SMALL_ITEMS)
+    return out.reshape(r.shape[:-1])
 
 
 def with_surface(events, body) -> list:

@@ -164,6 +164,11 @@ def test_mission_elapsed_time_needs_the_mission_epoch():
         warnings.simplefilter("ignore", TrackingDataWarning)
         obs = vv.read_tdm(text, mission_epoch=launch).to_observations({"DSS-65": SITE}, SIGMA)
     assert abs((obs.times[0] - launch).sec - 86430.0) < ONE_NS
+    # leftfix4: given for a TDM in UTC, mission_epoch was ignored in silence
+    utc = tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1000")
+    with pytest.raises(vv.InvalidInputError, match=r"line \d+: mission_epoch was given, but the "
+                       r"message's TIME_SYSTEM is UTC, not MET or MRT"):
+        vv.read_tdm(utc, mission_epoch=launch)
 
 
 def test_tdm_inside_an_ndm_wrapper():

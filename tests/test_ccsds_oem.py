@@ -463,6 +463,33 @@ def test_met_and_mrt_count_from_the_mission_epoch_the_user_gives():
                     mission_epoch=ref)
 
 
+def test_a_mission_epoch_for_a_message_without_met_or_mrt_is_refused(tmp_path, capsys):
+    # leftfix4: read_oem(utc_text, mission_epoch=launch) read the UTC epochs and dropped the
+    # launch epoch in silence (and so did `visviva fit-tle --mission-epoch`, read_opm)
+    from test_ccsds_opm_omm import OPM_KVN
+    from visviva.cli import main
+
+    launch = Time("2024-01-30T22:00:00", scale="utc")
+    with pytest.raises(vv.InvalidInputError,
+                       match=r"line 13: mission_epoch was given, but the message's TIME_SYSTEM "
+                             r"is UTC, not MET or MRT"):
+        vv.read_oem(OEM_KVN, mission_epoch=launch)
+    with pytest.raises(vv.InvalidInputError, match="TIME_SYSTEM is UTC, not MET or MRT"):
+        vv.read_oem(vv.write_oem(vv.read_oem(OEM_KVN), format="xml"), mission_epoch=launch)
+    with pytest.raises(vv.InvalidInputError, match="TIME_SYSTEM is UTC, not MET or MRT"):
+        vv.read_opm(OPM_KVN, mission_epoch=launch)
+    # one MET segment beside a UTC one still takes it (the epoch is used there)
+    mixed = _met_oem() + "\nMETA_START" + OEM_KVN.split("\nMETA_START", 2)[2]
+    assert [s.time_system for s in vv.read_oem(mixed, mission_epoch=launch).segments] == [
+        "MET", "UTC"]
+    path = tmp_path / "utc.oem"
+    path.write_text(OEM_KVN)
+    assert main(["fit-tle", str(path), "--mission-epoch", "2024-01-30T22:00:00"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("visviva fit-tle: ") and "not MET or MRT" in err
+    assert err.count("\n") == 1
+
+
 # -- audit -----------------------------------------------------------------------------------------
 
 

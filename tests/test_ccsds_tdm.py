@@ -164,6 +164,11 @@ def test_mission_elapsed_time_needs_the_mission_epoch():
         warnings.simplefilter("ignore", TrackingDataWarning)
         obs = vv.read_tdm(text, mission_epoch=launch).to_observations({"DSS-65": SITE}, SIGMA)
     assert abs((obs.times[0] - launch).sec - 86430.0) < ONE_NS
+    # leftfix4: given for a TDM in UTC, mission_epoch was ignored in silence
+    utc = tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1000")
+    with pytest.raises(vv.InvalidInputError, match=r"line \d+: mission_epoch was given, but the "
+                       r"message's TIME_SYSTEM is UTC, not MET or MRT"):
+        vv.read_tdm(utc, mission_epoch=launch)
 
 
 def test_tdm_inside_an_ndm_wrapper():
@@ -690,6 +695,17 @@ def test_the_cli_needs_range_seconds_for_range_in_seconds(tmp_path, capsys):
         obs, _ = read_tracking([str(path)], {"DSS-65": SITE}, {"range": 0.005},
                                media={"range_seconds": "one_way"})
     assert obs.values[1, 0] == pytest.approx(0.0101 * C_KM_S, rel=1e-15)
+    # leftfix4: --range-seconds on range in km (RANGE_UNITS = km, or no RANGE_UNITS) was
+    # ignored in silence, the user believing the file was in seconds
+    for units in ("RANGE_UNITS = km", ""):  # km, written or by default
+        path.write_text(tdm_text(TWO_WAY + units, "RANGE = 2024-02-14T10:00:00 1201.25\n"
+                                 "RANGE = 2024-02-14T10:01:00 1176.26"))
+        code = cli.main(["od", str(path), "--station", "DSS-65=40.4,-4.25,800", "--sigma",
+                         "range=5m", "--range-seconds", "round_trip"])
+        out, err = capsys.readouterr()
+        assert code == 2 and out == "" and err.count("\n") == 1, err
+        assert err.startswith("visviva od: --range-seconds reads RANGE in seconds") and (
+            "their RANGE is in km (RANGE_UNITS); omit --range-seconds" in err)
 
 
 @pytest.mark.parametrize("troposphere", [True, {"pressure_hpa": 900.0, "refraction": "radio"}])

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.cli import main
+from visviva.ground.air import check_air
 from visviva.ground.horizon import _geometric_threshold_deg
 from visviva.ground.refraction import bend, station_air
 
@@ -170,8 +171,12 @@ def test_geometric_threshold_is_the_apparent_one(min_el, height, model):
 
 
 def test_bad_input_refused(iss, sites):
-    with pytest.raises(vv.InvalidInputError, match="refraction must be"):
+    with pytest.raises(vv.InvalidInputError, match="refraction must be") as exc:
         vv.find_passes(iss, sites, T0, T1, refraction="visual")
+    # leftfix4: the message began "refraction refraction must be"
+    assert str(exc.value).startswith("refraction must be 'optical'")
+    with pytest.raises(vv.InvalidInputError, match=r"^troposphere refraction must be 'optical'"):
+        check_air({"refraction": "visual"}, "troposphere")
     with pytest.raises(vv.InvalidInputError, match="relative_humidity"):
         vv.find_passes(iss, sites, T0, T1, refraction={"relative_humidity": 70})
     # below the apparent elevation of the models' end (optical: -1 deg geometric; radio: -1

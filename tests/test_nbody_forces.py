@@ -356,6 +356,42 @@ def test_a_merger_keeps_the_force_on_the_merged_body():
     assert np.abs(rel - (ref.positions[1] - ref.positions[0])).max() < 1e-9
 
 
+def test_remove_warns_about_a_plain_force_that_cannot_renumber_its_particles():
+    # leftfix4: a user's Force whose params name particle indices was left pointing at the
+    # next particle after sim.remove(i), in silence (J2Force etc. follow, a plain Force cannot)
+    import warnings
+
+    class Renumbering(vv.nbody.Force):
+        def particle_removed(self, index, merged_into=None):
+            self.params[0] -= self.params[0] > index
+
+    sim = vv.Simulation("ias15")
+    for k in range(4):
+        sim.add(1e-3, r=[float(k + 1), 0.0, 0.0], v=[0.0, 1.0, 0.0])
+    sim.add_force(constant_push, params=(2.0,))  # its params[0] reads like an index
+    sim.add_force(vv.nbody.Force(user_drag, (3.0,), True, name="drag of particle 3"))
+    sim.add_force(Renumbering(constant_push, (3.0,), name="renumbered"))
+    sim.add_force(LinearDrag(0.1))
+    sim.add_force(J2Force(3, 1e-3, 0.01))
+    with pytest.warns(RuntimeWarning) as rec:
+        sim.remove(1)
+    assert len(rec) == 1 and rec[0].filename == __file__
+    msg = str(rec[0].message)
+    assert ("particle 1 was removed" in msg and "'constant_push', 'drag of particle 3'" in msg
+            and "override particle_removed" in msg)
+    assert "renumbered" not in msg and "linear drag" not in msg and "J2" not in msg
+    assert sim.forces[2].params[0] == 2.0 and sim.forces[4].primary == 2
+    clean = vv.Simulation("ias15")
+    clean.add(1.0)
+    clean.add(1e-3, a=1.0, primary=0)
+    clean.add(1e-3, a=2.0, primary=0)
+    clean.add_force(J2Force(0, 1e-3, 0.01))
+    clean.add_force(LinearDrag(0.1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        clean.remove(2)  # forces that follow removals: no warning
+
+
 def test_remove_merged_into_names_the_body_as_numbered_before_the_removal():
     # sim.remove(0, merged_into=2) put the J2 on particle 2 of the new numbering (the old
     # particle 3, not the body it merged into), merged_into=0 (the removed particle itself) on

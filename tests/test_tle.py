@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from astropy import units as u
 from astropy.time import Time
+from erfa import ErfaWarning
 from sgp4.api import WGS72, Satrec
 
 import visviva as vv
@@ -623,3 +624,31 @@ def test_a_perigee_below_the_surface_warns_naming_the_line():
         warnings.simplefilter("error")
         pickle.loads(pickle.dumps(sat))  # warned once, when built
         vv.Satellite.from_tle(ISS_1, ISS_2)  # a perigee 340 km up: no warning
+
+
+def test_propagation_far_from_the_epoch_warns_once_and_refuses_no_orbit():
+    # leftfix4: the ISS's 2024 TLE propagated to 1900 gave |r| ~ 3e8 km with only ERFA's
+    # "dubious year"; 2024-06 (152 days out) gave a state without a word
+    from visviva.satellites.tle_checks import STALE_DAYS
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.StaleElementSetWarning)
+        near = iss.gcrs(iss.epoch + np.linspace(-STALE_DAYS, STALE_DAYS, 5) * u.day)
+    assert np.all(np.linalg.norm(near.r.to_value(u.km), axis=-1) < 7000.0)
+    t = Time(["2024-01-15", "2024-06-01", "2024-06-02"], scale="utc")
+    for method in (iss.teme, iss.gcrs, iss.itrs, iss.geodetic):
+        with pytest.warns(vv.StaleElementSetWarning) as rec:
+            method(t)
+        stale = [w for w in rec if w.category is vv.StaleElementSetWarning]
+        assert len(stale) == 1 and "2 of 3 time(s)" in str(stale[0].message)
+        assert "152 days after" in str(stale[0].message)
+        assert stale[0].filename == __file__  # points at the caller
+    with pytest.warns(vv.StaleElementSetWarning), warnings.catch_warnings():
+        warnings.simplefilter("ignore", ErfaWarning)
+        with pytest.raises(vv.SGP4Error, match=r"2\.969e\+08 km from the geocentre") as exc:
+            iss.teme(Time("1900-01-01", scale="utc"))
+    assert exc.value.reason == "position beyond any Earth orbit"
+    assert exc.value.tsince_min == pytest.approx(-45290.5 * 1440.0)

@@ -271,8 +271,10 @@ class Pc3dWindowWarning(UserWarning):
 
 
 class StaleElementSetWarning(UserWarning):
-    """A pass or event search (``find_passes``, ``GroundStation.find_events``) runs SGP4 more
-    than 30 days from an element set's epoch (before or after the window). SGP4's along-track
+    """A pass or event search (``find_passes``, ``GroundStation.find_events``) or a
+    :class:`~visviva.Satellite` propagation (``teme``, ``gcrs``, ``itrs``, ``geodetic``; once
+    per call) runs SGP4 more than 30 days from an element set's epoch (before or after the
+    window). SGP4's along-track
     error grows by kilometres a day in low orbit, so rise and set times drift by minutes and
     passes appear or vanish: a 2024 TLE over a 2026 window can give no pass at all. The message
     says how many element sets and how far; use element sets from near the window.

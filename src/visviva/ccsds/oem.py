@@ -462,7 +462,7 @@ class OEMSegment(FrameCenterMetadata):
 
     def covariance(self, k: int) -> np.ndarray:
         """Covariance ``k`` (km, km/s) on the axes of the segment's states, as
-        :attr:`visviva.OPM.covariance` gives the OPM's.
+        :attr:`visviva.ccsds.OPM.covariance` gives the OPM's.
 
         A ``COV_REF_FRAME`` naming a local orbital frame (``RTN``/``RSW``/``RIC``/``QSW``,
         ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` with the segment's state at

@@ -62,7 +62,8 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
         A path, the message text, or its bytes (UTF-8).
     mission_epoch : astropy.time.Time, optional
         The epoch that ``TIME_SYSTEM = MET`` (launch) or ``MRT`` (the mission's reference)
-        counts from; such messages cannot be read without it.
+        counts from; such messages cannot be read without it, and it is refused for a message
+        with no MET/MRT segment.
 
     Returns
     -------
@@ -98,10 +99,17 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
     >>> seg.frame, seg.center, len(seg)
     ('EME2000', 'EARTH', 3)
     """
+    from .timeframes import refuse_unused_mission_epoch
+
     text, name = read_text(source)
     if looks_like_xml(text):
-        return _read_xml(text, name, mission_epoch)
-    return _read_kvn(text, name, mission_epoch)
+        eph = _read_xml(text, name, mission_epoch)
+    else:
+        eph = _read_kvn(text, name, mission_epoch)
+    segs = eph.segments
+    refuse_unused_mission_epoch(mission_epoch, [seg.time_system for seg in segs], name,
+                                segs[0].metadata.line_of("TIME_SYSTEM") if segs else None)
+    return eph
 
 
 # ---- KVN ---------------------------------------------------------------------------------

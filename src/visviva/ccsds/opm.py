@@ -21,7 +21,12 @@ from .covariance import (
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .layout import read_message, write_message
-from .timeframes import FrameCenterMetadata, center_body, epochs_to_time
+from .timeframes import (
+    FrameCenterMetadata,
+    center_body,
+    epochs_to_time,
+    refuse_unused_mission_epoch,
+)
 
 __all__ = ["OPM", "Maneuver", "read_opm", "write_opm", "SECTIONS", "header_section"]
 
@@ -520,6 +525,8 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
                                    line=man.line_of("MAN_DELTA_MASS"), source=name)
     _check_values(sections, name)
     opm = OPM(sections, name, mission_epoch)
+    refuse_unused_mission_epoch(mission_epoch, [opm.metadata["TIME_SYSTEM"]], name,
+                                opm.metadata.line_of("TIME_SYSTEM"))
     opm.epoch  # noqa: B018  (checks TIME_SYSTEM and the epoch now, naming the line)
     opm.maneuvers  # noqa: B018  (and the manoeuvre epochs)
     return opm

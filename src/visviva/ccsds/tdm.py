@@ -297,6 +297,11 @@ def read_tdm(source, *, mission_epoch=None, cls=None) -> TDM:
     text, name = read_text(source)
     read = _read_xml if looks_like_xml(text) else _read_kvn
     tdm = read(text, name, mission_epoch)
+    from .timeframes import refuse_unused_mission_epoch
+
+    segs = tdm.segments
+    refuse_unused_mission_epoch(mission_epoch, [seg.time_system for seg in segs], name,
+                                segs[0].metadata.line_of("TIME_SYSTEM") if segs else None)
     return tdm if cls is None else cls(tdm.header, tdm.segments, tdm.fmt)
 
 

@@ -30,7 +30,7 @@ from .grammar import CCSDSFormatError, impossible_date
 
 __all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
            "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
-           "ref_frame_of"]
+           "ref_frame_of", "refuse_unused_mission_epoch"]
 
 #: CCSDS TIME_SYSTEM -> astropy scale (GPS is handled as TAI - 19 s)
 TIME_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCB": "tcb", "TCG": "tcg",
@@ -79,6 +79,26 @@ def _check_mission_epoch(mission_epoch):
         raise InvalidInputError(
             f"mission_epoch must be one astropy Time (the epoch MET/MRT count from); got "
             f"{type(mission_epoch).__name__}")
+
+
+def refuse_unused_mission_epoch(mission_epoch, time_systems, source, line=None) -> None:
+    """Raise InvalidInputError when a reader was given ``mission_epoch`` and no
+    ``TIME_SYSTEM`` of the message is MET or MRT: the epoch would be ignored in silence (a
+    user who believed the file counted from launch would read its UTC epochs unchanged).
+
+    ``time_systems``: the message's TIME_SYSTEM values (one per OEM segment); ``line``: the
+    first one's line, quoted in the message."""
+    if mission_epoch is None:
+        return
+    names = [str(ts).strip().upper() for ts in time_systems]
+    if any(n in RELATIVE_TIME_SYSTEMS for n in names):
+        return
+    where = f"{source}" + (f", line {line}" if line is not None else "")
+    raise InvalidInputError(
+        f"{where}: mission_epoch was given, but the message's TIME_SYSTEM is "
+        f"{', '.join(dict.fromkeys(names))}, not MET or MRT, so no epoch counts from it; omit "
+        "mission_epoch (--mission-epoch on the command line), or check that this is the file "
+        "you meant.")
 
 
 def _line_at(line, k):

@@ -16,7 +16,7 @@ branch-free (the self term and coincident particles without softening are masked
 arithmetically: ``r2 == 0`` is replaced by 1 and the term is ``0 * ...``): each ``a_i`` is the
 strict left-to-right sum over ``j``, and LLVM vectorises the inner loop across particles without
 any fast-math flag. Every path (serial, multi-threaded with ``prange`` over chunks of ``i``, and
-the interpreter of :mod:`visviva.core.tiers`) runs the same loop, so they return the same bits
+the interpreter of :mod:`visviva.core.tier`) runs the same loop, so they return the same bits
 whatever the number of threads or the width of the CPU's vectors.
 
 Large N: each pair once, fixed work items
@@ -150,7 +150,7 @@ def sum_rows(xm, ym, zm, gmm, soft2, xs, ys, zs, sx, sy, sz):
     as the plain left-to-right loop would, and the inner loop over ``i`` has no reduction, so
     LLVM vectorises it without reassociating anything (IEEE semantics, no fast-math flags).
     The bits are therefore those of the strict sum on every CPU (any vector width) and in the
-    interpreter (:mod:`visviva.core.tiers`), and as fast as the reassociated row sum it replaced
+    interpreter (:mod:`visviva.core.tier`), and as fast as the reassociated row sum it replaced
     (2.4 against 3.2 ns per interaction for 9 bodies, 1.1 against 1.0 at 100, on one thread).
     Branch-free: a zero ``r2`` (the particle itself, or a coincident one without softening,
     where ``d = 0`` exactly) is replaced by 1, so its term is exactly ``0``.

@@ -128,8 +128,9 @@ def check_air(air, name: str):
         given[key] = float(value)
     model = air.get("refraction", "optical")
     if model not in REFRACTION_MODELS:
+        label = name if name == "refraction" else f"{name} refraction"  # not "refraction" twice
         raise InvalidInputError(
-            f"{name} refraction must be 'optical' (light: Saemundsson's formula) or 'radio' "
+            f"{label} must be 'optical' (light: Saemundsson's formula) or 'radio' "
             f"(antennas: the bending of the radio refractivity); got {model!r}.")
     return given, model
 

@@ -33,6 +33,7 @@ from astropy.time import Time
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError, StaleElementSetWarning
+from ..satellites.tle_checks import STALE_DAYS, is_stale
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
@@ -45,8 +46,6 @@ _CHUNK_PAIRS = 4096
 #: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.3 deg, far above
 #: the polynomial's error (~0.05 deg in LEO with 600 s nodes)
 _NEAR = 5e-3
-#: element sets further than this from the window warn (StaleElementSetWarning), days
-STALE_DAYS = 30.0
 #: the stale-element-set warning names this many satellites, the stalest first
 _STALE_NAMED = 5
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
@@ -120,7 +119,7 @@ def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
         tj, tf = time_to_utc_days(t)
         days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
-    stale = np.flatnonzero(away > STALE_DAYS)
+    stale = np.flatnonzero(is_stale(away))
     if stale.size:
         worst = stale[np.argsort(-away[stale], kind="stable")]
         sats = cat.satellites

@@ -102,7 +102,8 @@ class Force:
     def particle_removed(self, index: int, merged_into: int | None = None) -> None:
         """Follow the removal of particle ``index`` (later indices shift down by one; a merger
         passes the particle it went into). A plain force knows no particle indices: a user's
-        force whose parameters name particles must be updated by its owner."""
+        force whose parameters name particles must be updated by its owner, or override this
+        method (:meth:`visviva.Simulation.remove` warns while one does not)."""
 
     def copy(self) -> Force:
         """An independent copy (its own parameter array): changing the copy's parameters or
@@ -334,15 +335,31 @@ class _OfPrimary(Force):
             self.primary -= 1
 
 
-def follow_removal(forces, index: int, merged_into: int | None = None) -> None:
+def follow_removal(forces, index: int, merged_into: int | None = None, *,
+                   stacklevel: int = 2) -> None:
     """Let every force follow the removal of particle ``index`` (``merged_into``: the particle
-    a merger put it into); a force that would lose its body raises before any force changes."""
+    a merger put it into); a force that would lose its body raises before any force changes.
+
+    Forces that do not override :meth:`Force.particle_removed` (a user's plain ``Force``) cannot
+    follow: one RuntimeWarning names them, since parameters naming particle indices above
+    ``index`` now point at the next particle (``stacklevel``: where the warning points; 2:
+    the caller of :meth:`visviva.Simulation.remove`)."""
     if merged_into is None:
         for force in forces:
             if getattr(force, "primary", None) == index:
                 force.particle_removed(index)  # raises, saying what to do
     for force in forces:
         force.particle_removed(index, merged_into)
+    blind = [f.name for f in forces if type(f).particle_removed is Force.particle_removed]
+    if blind:
+        import warnings
+
+        warnings.warn(
+            f"particle {index} was removed and the indices above it shifted down by one, but "
+            f"the force(s) {', '.join(repr(n) for n in blind)} cannot follow (a Force that does "
+            "not override particle_removed): if their params name particle indices, update "
+            "them (force.params), or subclass Force and override particle_removed(index, "
+            "merged_into) to renumber them.", RuntimeWarning, stacklevel=stacklevel + 1)
 
 
 class J2Force(_OfPrimary):
@@ -431,6 +448,9 @@ class LinearDrag(Force):
 
     def _init_args(self):
         return {"gamma": float(self.params[0])}
+
+    def particle_removed(self, index, merged_into=None):
+        """Nothing to renumber: the drag acts on every particle alike."""
 
 
 def __getattr__(name):

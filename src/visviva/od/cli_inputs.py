@@ -319,6 +319,14 @@ def read_tracking(paths, stations, sigmas, troposphere=False, media=None):
             if key in present and kind not in sigmas:
                 raise InvalidInputError(f"the tracking data hold {key}: give its sigma, e.g. "
                                         f"--sigma {SIGMA_KINDS[kind][2]}")
+    if (media or {}).get("range_seconds") is not None:
+        units = {str(seg.metadata.get("RANGE_UNITS", "km")) for seg in segments
+                 if "RANGE" in seg.keywords}
+        if "s" not in units:
+            held = (f"their RANGE is in {', '.join(sorted(units))} (RANGE_UNITS)" if units
+                    else "they hold no RANGE")
+            raise InvalidInputError(f"--range-seconds reads RANGE in seconds (RANGE_UNITS = s), "
+                                    f"but {held}; omit --range-seconds")
     tdm = TDM(tdms[0].header, segments, tdms[0].fmt)
     return tdm.to_observations(stations, sigmas, troposphere=troposphere, **(media or {})), tdm
 

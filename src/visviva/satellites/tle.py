@@ -40,11 +40,13 @@ from .tle_checks import (
     SGP4SemiLatusRectumError,
     TLEFormatError,
     check_element_ranges,
+    check_sgp4_radius,
     check_tle_epoch,
     check_tle_lines,
     check_tsince,
     raise_for_sgp4_status,
     sgp4_times,
+    warn_stale_tsince,
     warn_subsurface_perigee,
 )
 from .tle_export import tle_designator
@@ -449,14 +451,14 @@ class Satellite:
         """One sgp4 array call: TEME r (km), v (km/s) of shape t.shape + (3,), and times."""
         s = self.satrec
         jd, fr, shape, times = sgp4_times(t, s.jdsatepoch, s.jdsatepochF)
-        check_tsince(((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY, [self.name])
+        tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
+        check_tsince(tsince, [self.name])
+        warn_stale_tsince(tsince, self.name, stacklevel=3)  # at the caller of teme/gcrs/...
         e, r, v = s.sgp4_array(jd, fr)
         if e.any():
-            tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
             when = times if times is not None else utc_days_to_time(jd, fr)
             raise_for_sgp4_status(e, [self.name], tsince, when)
         if not (np.isfinite(r).all() and np.isfinite(v).all()):
-            tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
             k = int(np.flatnonzero(~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)))[0])
             raise SGP4Error(
                 f"SGP4 returned a non-finite state for satellite {self.name!r} at "
@@ -464,6 +466,7 @@ class Satellite:
                 "to times nearer the element-set epoch or check the element set.",
                 satellite=self.name, reason="non-finite state", tsince_min=float(tsince[k]),
             )
+        check_sgp4_radius(r, tsince, self.name)
         if times is None:
             times = utc_days_to_time(jd, fr).reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times

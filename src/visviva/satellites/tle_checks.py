@@ -20,6 +20,7 @@ from ..constants import DAY_S
 from ..errors import (
     DomainError,
     InvalidInputError,
+    StaleElementSetWarning,
     SubsurfacePerigeeWarning,
     UnitsError,
     VisvivaError,
@@ -38,12 +39,22 @@ __all__ = [
     "sgp4_times",
     "raise_for_sgp4_status",
     "warn_subsurface_perigee",
+    "STALE_DAYS",
+    "is_stale",
+    "warn_stale_tsince",
+    "check_sgp4_radius",
 ]
 
 MINUTES_PER_DAY = 1440.0
 #: Largest |t - epoch| SGP4 is asked for (days, ~270 years): sgp4's deep-space integrator steps
 #: 720 min at a time from the epoch, so far larger offsets would run for hours.
 MAX_TSINCE_DAYS = 100_000.0
+#: Element sets used further than this from their epoch warn (StaleElementSetWarning), days:
+#: the one threshold of Satellite's propagation, find_passes and find_events
+STALE_DAYS = 30.0
+#: An SGP4 position further than this from the geocentre is no Earth orbit (km): two and a half
+#: times the Moon's distance, two thirds of the Earth's Hill radius (~1.5e6 km)
+MAX_SGP4_RADIUS_KM = 1.0e6
 
 
 # --------------------------------------------------------------------------------------------
@@ -431,6 +442,54 @@ def check_tsince(tsince_min, names) -> None:
             f"and visviva refuses offsets beyond {MAX_TSINCE_DAYS:g} days. Use times near the "
             "epoch (or a newer element set)."
         )
+
+
+def is_stale(away_days):
+    """True where an element set is used more than :data:`STALE_DAYS` from its epoch.
+
+    ``away_days``: how far (days, >= 0, before or after) the times lie from the epoch."""
+    return np.asarray(away_days) > STALE_DAYS
+
+
+def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:
+    """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of the times
+    ``tsince_min`` (minutes from the element-set epoch) lie more than :data:`STALE_DAYS` from
+    it: SGP4's along-track error grows by kilometres a day in low orbit (audit leftfix4: the
+    ISS's 2024 TLE propagated to 1900 gave |r| = 3e8 km, with only ERFA's "dubious year")."""
+    days = np.abs(np.asarray(tsince_min, dtype=np.float64)) / MINUTES_PER_DAY
+    stale = is_stale(days)
+    if not stale.any():
+        return
+    k = int(np.argmax(days))
+    side = "after" if float(np.ravel(tsince_min)[k]) > 0 else "before"
+    warnings.warn(
+        f"satellite {name!r}: {int(stale.sum())} of {stale.size} time(s) lie more than "
+        f"{STALE_DAYS:g} days from the element-set epoch (up to {days.ravel()[k]:.0f} days "
+        f"{side} it); SGP4's errors grow by kilometres a day in low orbit, so these positions "
+        "can be far off: use an element set from near these times.", StaleElementSetWarning,
+        stacklevel=stacklevel + 1)
+
+
+def check_sgp4_radius(r, tsince_min, name) -> None:
+    """Raise :class:`SGP4Error` where SGP4 returned, without an error code, a position more than
+    :data:`MAX_SGP4_RADIUS_KM` from the geocentre (no Earth orbit: SGP4 run far outside its
+    span). A position below the surface is sgp4's own error 6, raised before this.
+
+    ``r``: positions (km), shape (T, 3); ``tsince_min``: minutes from the epoch, shape (T,)."""
+    rr = np.einsum("ij,ij->i", r, r)
+    far = ~(rr <= MAX_SGP4_RADIUS_KM**2)
+    if not far.any():
+        return
+    k = int(np.flatnonzero(far)[0])
+    raise SGP4Error(
+        f"SGP4 returned a position {math.sqrt(rr[k]):.4g} km from the geocentre for satellite "
+        f"{name!r} at {tsince_min[k] / MINUTES_PER_DAY:.6g} days from its epoch, without an "
+        f"error code: beyond {MAX_SGP4_RADIUS_KM:.0e} km no Earth orbit is left, SGP4 was run "
+        "far outside its span. To fix: propagate to times near the element-set epoch (days to "
+        "weeks) or use an element set from near these times.",
+        satellite=name, reason="position beyond any Earth orbit",
+        tsince_min=float(tsince_min[k]),
+    )
 
 
 def sgp4_times(t, jd_epoch: float, fr_epoch: float):

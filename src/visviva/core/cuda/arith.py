@@ -3,7 +3,7 @@
 These are plain Python functions on scalars and arrays, compiled by :mod:`.kernels` with
 ``numba.cuda.jit(device=True)`` and here with ``numba.njit`` (the CPU twins, ``*_cpu``). They use
 only arithmetic, ``math.sqrt`` and indexing, which both targets compile alike. The formula is the
-one of the CPU gravity kernel :func:`visviva.core.gravity.row_acceleration`:
+one of the CPU gravity kernel :func:`visviva.core.gravity.row_acceleration_fast`:
 
     a_i = sum_{j massive, j != i} G m_j (x_j - x_i) / (|x_j - x_i|**2 + eps**2)**(3/2)
 

@@ -28,7 +28,7 @@ from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ..satellites.catalog_numbers import CATALOGUE_MAX
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
-from .tle_correction import BSTAR_EFFECT_KM, BSTAR_STEP_MAX, robust_correct, warn_far_states
+from .tle_correction import BSTAR_EFFECT_KM, BSTAR_STEP_MAX, staged_correct, warn_far_states
 from .tle_elements import (
     GM_WGS72,
     classical,
@@ -500,11 +500,15 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         )
     # the states a converged fit misses by far more than the rest (across SGP4's own jump at
     # i = 0.2 rad, or bad states) are refitted without (audit33; tle_correction)
-    fit, left_out, far = robust_correct(p, z, resid, free, n, need, max_iterations, tol)
+    size = float(np.mean(np.linalg.norm(r, axis=1)))
+    # a fit that fails or ends over 0.1 % of the radius off is tried again from the fits of
+    # widening windows about the epoch (B* of a low-perigee HEO over days; tle_correction)
+    fit, left_out, far = staged_correct(
+        p, z, resid, free, n, need, max_iterations, tol, from_epoch,
+        lambda c: not c.converged or _rms_kept(c.z, n) > 0.1 * MAX_RMS_FRACTION * size)
     p, z, cost, history = fit.p, fit.z, fit.cost, fit.history
     converged, stalled, gain, J, live = fit.converged, fit.stalled, fit.gain, fit.J, fit.live
-    rms_final = float(np.sqrt(np.mean(np.sum(np.delete(z.reshape(n, 6), far, 0)[:, :3] ** 2, 1))))
-    size = float(np.mean(np.linalg.norm(r, axis=1)))
+    rms_final = _rms_kept(z, n, far)
     if converged and rms_final <= MAX_RMS_FRACTION * size:
         pass
     elif rms_final <= MAX_RMS_FRACTION * size:
@@ -554,6 +558,11 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         excluded=left_out,
     )
     return sat
+
+
+def _rms_kept(z, n, far=()):
+    """Position RMS (km) of the residuals ``z`` of ``n`` states without the states ``far``."""
+    return float(np.sqrt(np.mean(np.sum(np.delete(z.reshape(n, 6), far, 0)[:, :3] ** 2, 1))))
 
 
 #: largest position RMS of a fit, as a fraction of the orbit's mean radius, before fit_tle

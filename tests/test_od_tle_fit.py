@@ -558,3 +558,24 @@ def test_a_24_hour_resonant_set_converges_over_two_days():
     assert fit.fit.max_position_km < 1e-3 * ONE_METER
     assert fit.fit.iterations < 10
     assert fit.satrec.no_kozai == pytest.approx(truth.satrec.no_kozai, rel=1e-10)
+
+
+def test_a_near_equatorial_deep_space_false_minimum_is_warned_about():
+    # SGP4-VER 28626 (GEO, i = 0.0019 deg), half a day of its own states: the fit settles on
+    # i = 0.023 deg, 28 m RMS and 77 m at worst off, and called itself converged without a
+    # word (SDP4's mean inclination vector is ill-determined below 0.1 deg). It now says so
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(28626)
+    r, v, t = _sgp4_states(truth, 0.5)
+    with pytest.warns(RuntimeWarning) as said:
+        fit = fit_tle_arrays(r, v, t, "teme", 28626)
+    text = " ".join(str(w.message) for w in said)
+    assert "near-equatorial" in text and "false minimum" in text
+    assert fit.fit.rms_position_km > 1e-3  # the false minimum it names (m-level, not 0)
+    # a near-equatorial set that is fitted to the micrometre is not warned about
+    other = _sgp4_ver(26900)
+    r, v, t = _sgp4_states(other, 0.5)
+    with pytest.warns(RuntimeWarning) as said:
+        fit_tle_arrays(r, v, t, "teme", 26900)
+    assert not any("false minimum" in str(w.message) for w in said)

@@ -592,8 +592,8 @@ def test_every_sgp4_ver_set_is_recovered_or_refused(days):
     # 40 of each set's own SGP4 states over half a day and 2 days (the table in
     # docs/orbit_determination.md): each comes back to under a millimetre, except the
     # near-equatorial GEO 28626 (i = 0.0019 deg: a false minimum, warned about; 2 days: a
-    # ConvergenceError) and 20413 over 2 days, whose state 25 lies 2.6 minutes after SGP4's own
-    # 1,655 km jump at the 0.2 rad crossing: 0.37 km off, a known limitation
+    # ConvergenceError) and 20413 over 2 days, a local minimum 0.37 km off near SGP4's own
+    # 1,655 km jump at the 0.2 rad crossing (not understood: an open limitation)
     import importlib.resources
     import warnings
 

@@ -495,8 +495,9 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     z = resid(p)
     if z is None:
         raise InvalidInputError(
-            "SGP4 cannot propagate the first guess over the given times (a decaying or "
-            "deep-space orbit out of SGP4's range?)."
+            f"SGP4 cannot propagate the first guess (e = {math.hypot(p[1], p[2]):.4g}, "
+            f"period {2 * math.pi / p[0]:.6g} min) over the given times: a decaying orbit, or "
+            "one beyond SGP4's range (e < 0.99); fit a shorter arc or give another epoch=."
         )
     # the states a converged fit misses by far more than the rest (across SGP4's own jump at
     # i = 0.2 rad, or bad states) are refitted without (audit33; tle_correction)

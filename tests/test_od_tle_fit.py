@@ -402,7 +402,7 @@ def test_a_slow_near_equatorial_geo_fit_is_told_to_iterate_longer_not_to_shorten
         vv.fit_tle(states, fit_bstar=False)
     text = str(info.value)
     assert "still falling" in text and "max_iterations=100" in text and "longer arc" in text
-    assert "near-equatorial (i = 0.0157 deg)" in text and "shorter arc" not in text
+    assert "near-equatorial (i = 0.015" in text and "shorter arc" not in text
     assert info.value.history[-1]["rms_position_km"] < 0.1 * info.value.history[1][
         "rms_position_km"]
     fit = vv.fit_tle(states, fit_bstar=False, max_iterations=100)  # as the message says
@@ -500,3 +500,149 @@ def test_fit_tle_batch_shows_each_fits_warnings_naming_the_history(iss):
         warnings.simplefilter("ignore")
         vv.od.fit_tle_batch([good, short], satnums=[25544] * 2)
     assert err.value.__notes__ == ["(fitting histories[1] of fit_tle_batch)"]
+
+
+def _sgp4_ver(number):
+    """The SGP4-VER set ``number`` (sgp4's verification file, read as tests/test_catalog.py)."""
+    import importlib.resources
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] if ln.startswith("2 ") else ln for ln in text.splitlines()
+             if not ln.startswith("#")]
+    for one, two in zip(lines, lines[1:], strict=False):
+        if one.startswith(f"1 {number:05d}") and two.startswith("2 "):
+            return vv.Satellite.from_tle(one, two, verify_checksum=False)
+    raise LookupError(number)
+
+
+def _sgp4_states(sat, days, count=40):
+    """TEME states of ``sat`` from its epoch over ``days``, straight from its satrec."""
+    from astropy.time import Time
+
+    s = sat.satrec
+    jd = np.full(count, s.jdsatepoch)
+    fr = s.jdsatepochF + np.linspace(0.0, days, count)
+    err, r, v = s.sgp4_array(jd, fr)
+    assert not err.any()
+    return r, v, Time(jd, fr, format="jd", scale="utc")
+
+
+@pytest.mark.parametrize("number", [16925, 28623])
+def test_a_low_perigee_heo_with_strong_drag_is_recovered_over_two_days(number):
+    # 40 SGP4 states over 2 days of SGP4-VER 16925 (e = 0.56, B* 1.9e-4) and 28623 (e = 0.62,
+    # B* 9.6e-4): from the osculating guess with B* = 0 the correction crept and ended
+    # 315 km RMS (ConvergenceError "cannot reproduce") and 15 km off (out of iterations).
+    # Drag over days is far from linear in B* there (held at the truth, both converge in
+    # 5-7 iterations); fitted over widening windows about the epoch they come back
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(number)
+    r, v, t = _sgp4_states(truth, 2.0)
+    fit = fit_tle_arrays(r, v, t, "teme", number)
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.satrec.bstar == pytest.approx(truth.satrec.bstar, rel=1e-6)
+    assert fit.satrec.no_kozai == pytest.approx(truth.satrec.no_kozai, rel=1e-10)
+    assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-9)
+
+
+def test_a_24_hour_resonant_set_converges_over_two_days():
+    # SGP4-VER 14128 (n = 0.989 rev/day, SDP4's 24-hour resonance terms): the finite-difference
+    # steps of 1e-7 missed the curvature and the fit crept 1 cm off for 400 iterations
+    # (ConvergenceError); with steps of 1e-8 it converges in a few
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(14128)
+    r, v, t = _sgp4_states(truth, 2.0)
+    with pytest.warns(RuntimeWarning, match="B\\* is not determined"):
+        fit = fit_tle_arrays(r, v, t, "teme", 14128)
+    assert fit.fit.max_position_km < 1e-3 * ONE_METER
+    assert fit.fit.iterations < 10
+    assert fit.satrec.no_kozai == pytest.approx(truth.satrec.no_kozai, rel=1e-10)
+
+
+def test_a_near_equatorial_deep_space_false_minimum_is_warned_about():
+    # SGP4-VER 28626 (GEO, i = 0.0019 deg), half a day of its own states: the fit settles on
+    # i = 0.023 deg, 28 m RMS and 77 m at worst off, and called itself converged without a
+    # word (SDP4's mean inclination vector is ill-determined below 0.1 deg). It now says so
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(28626)
+    r, v, t = _sgp4_states(truth, 0.5)
+    with pytest.warns(RuntimeWarning) as said:
+        fit = fit_tle_arrays(r, v, t, "teme", 28626)
+    text = " ".join(str(w.message) for w in said)
+    assert "near-equatorial" in text and "false minimum" in text
+    assert fit.fit.rms_position_km > 1e-3  # the false minimum it names (m-level, not 0)
+    # a near-equatorial set that is fitted to the micrometre is not warned about
+    other = _sgp4_ver(26900)
+    r, v, t = _sgp4_states(other, 0.5)
+    with pytest.warns(RuntimeWarning) as said:
+        fit_tle_arrays(r, v, t, "teme", 26900)
+    assert not any("false minimum" in str(w.message) for w in said)
+
+
+#: SGP4-VER sets left out of the table: SGP4 fails on them within 2 days (decay, e >= 1)
+_VER_UNFITTABLE = {22312, 28350, 28872, 29141, 33333, 33334, 33335}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("days", [0.5, 2.0])
+def test_every_sgp4_ver_set_is_recovered_or_refused(days):
+    # 40 of each set's own SGP4 states over half a day and 2 days (the table in
+    # docs/orbit_determination.md): each comes back to under a millimetre, except the
+    # near-equatorial GEO 28626 (i = 0.0019 deg: a false minimum, warned about; 2 days: a
+    # ConvergenceError) and 20413 over 2 days, a local minimum 0.37 km off near SGP4's own
+    # 1,655 km jump at the 0.2 rad crossing (not understood: an open limitation)
+    import importlib.resources
+    import warnings
+
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    numbers = sorted({int(ln[2:7]) for ln in text.splitlines() if ln.startswith("1 ")})
+    worst = {}
+    for number in numbers:
+        truth = _sgp4_ver(number)
+        s = truth.satrec
+        jd = np.full(40, s.jdsatepoch)
+        fr = s.jdsatepochF + np.linspace(0.0, days, 40)
+        err, r, v = s.sgp4_array(jd, fr)
+        if number in _VER_UNFITTABLE or err.any():
+            continue
+        from astropy.time import Time
+
+        t = Time(jd, fr, format="jd", scale="utc")
+        if number == 23333 and days == 0.5:  # the first guess dips under the surface
+            with pytest.raises(vv.InvalidInputError, match="e < 0.99"):
+                fit_tle_arrays(r, v, t, "teme", number)
+            continue
+        if number == 28626 and days == 2.0:
+            with pytest.raises(vv.ConvergenceError, match="near-equatorial"):
+                fit_tle_arrays(r, v, t, "teme", number)
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = fit_tle_arrays(r, v, t, "teme", number)
+        worst[number] = fit.fit.max_position_km
+    assert len(worst) >= 22
+    known = {28626: 0.1, 20413: 0.5 if days == 2.0 else 1e-6}
+    for number, miss in worst.items():
+        assert miss < known.get(number, 1e-6), (number, miss)
+
+
+def test_a_first_guess_past_sgp4s_eccentricity_limit_starts_inside_it():
+    # SGP4-VER 23333 (mean e = 0.973, a 13.7-day orbit): the osculating e at its epoch, near
+    # perigee, is 0.9905, past SGP4's 0.99, and the fit refused with "SGP4 cannot propagate the
+    # first guess". Started at e = 0.975 it recovers the set over 2 days
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(23333)
+    r, v, t = _sgp4_states(truth, 2.0)
+    fit = fit_tle_arrays(r, v, t, "teme", 23333)
+    assert fit.fit.max_position_km < ONE_METER
+    assert fit.satrec.ecco == pytest.approx(truth.satrec.ecco, abs=1e-9)
+    # half a day: that start dips under the Earth's surface between the states; said so,
+    # with its eccentricity and what to do
+    r, v, t = _sgp4_states(truth, 0.5)
+    with pytest.raises(vv.InvalidInputError, match=r"e = 0\.975.*e < 0\.99.*epoch="):
+        fit_tle_arrays(r, v, t, "teme", 23333)

@@ -18,6 +18,9 @@ __all__ = ["classical", "elements_to_fields", "epoch_days", "sgp4_states", "init
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
 GM_WGS72 = 398600.8
 
+#: the largest eccentricity of a first guess (an osculating e above SGP4's 0.99 starts here)
+ECC_START_MAX = 0.975
+
 
 def classical(p, retrograde=False):
     """Classical SGP4 elements (n rad/min, e, argp, i, node, M, B*; angles in rad) of the
@@ -121,6 +124,9 @@ def initial_elements(r, v, bstar, retrograde=False):
     s = -1.0 if retrograde else 1.0
     t = math.tan(0.5 * (math.pi - inc if retrograde else inc))
     varpi = w + s * raan
+    # SGP4 takes mean e < 0.99 only; an osculating e past it (near perigee of SGP4-VER 23333,
+    # mean e 0.973: 0.9905) was no first guess at all (InvalidInputError). Start inside
+    ecc = min(ecc, ECC_START_MAX)
     return np.array([n_rad_min, ecc * math.cos(varpi), ecc * math.sin(varpi), t * math.cos(raan),
                      t * math.sin(raan), varpi + M, bstar])  # fmt: skip
 

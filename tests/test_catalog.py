@@ -426,3 +426,27 @@ def test_kepler_batch_refuses_states_on_more_than_one_axis_with_a_shape_error():
     out = propagate_kepler_batch(flat, t)
     one = flat[2].propagate((t - epoch[2]).to(u.s))
     np.testing.assert_allclose(out.r[2].to_value(u.km), one.r.to_value(u.km), rtol=0, atol=1e-6)
+
+
+def test_sgp4_batch_warns_once_naming_stale_element_sets():
+    """propagate_sgp4_batch (and Catalog.propagate) ran element sets any distance from their
+    epochs without a word, while Satellite.teme and find_passes warned: one warning per call
+    now, naming the stalest sets, pointing at the caller."""
+    import warnings
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    unnamed = vv.Satellite.from_tle(
+        "1 25544U 98067A   24100.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+    t = iss.epoch + np.array([0.0, 10.0, 20.0]) * u.day
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.StaleElementSetWarning)
+        propagate_sgp4_batch([iss], t)  # within 30 days: quiet
+    with pytest.warns(vv.StaleElementSetWarning) as rec:
+        propagate_sgp4_batch([iss, unnamed], t)
+    ours = [w for w in rec if w.category is vv.StaleElementSetWarning]
+    assert len(ours) == 1 and ours[0].filename == __file__
+    assert ("1 of 2 element set(s) lie more than 30 days from the requested times (up to 99 "
+            "days: 25544 (99 d))") in str(ours[0].message)

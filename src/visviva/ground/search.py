@@ -32,8 +32,8 @@ from astropy.time import Time
 
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
-from ..errors import DomainError, InvalidInputError, StaleElementSetWarning
-from ..satellites.tle_checks import STALE_DAYS, is_stale
+from ..errors import DomainError, InvalidInputError
+from ..satellites.tle_checks import STALE_DAYS, warn_stale_sets
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
@@ -46,8 +46,6 @@ _CHUNK_PAIRS = 4096
 #: maxima within this of the threshold (in sin(el)) are settled on SGP4: ~0.3 deg, far above
 #: the polynomial's error (~0.05 deg in LEO with 600 s nodes)
 _NEAR = 5e-3
-#: the stale-element-set warning names this many satellites, the stalest first
-_STALE_NAMED = 5
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
@@ -119,19 +117,9 @@ def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
         tj, tf = time_to_utc_days(t)
         days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
-    stale = np.flatnonzero(is_stale(away))
-    if stale.size:
-        worst = stale[np.argsort(-away[stale], kind="stable")]
-        sats = cat.satellites
-        named = ", ".join(f"{sats[k].name or sats[k].satnum} ({away[k]:.0f} d)"
-                          for k in worst[:_STALE_NAMED])
-        more = f" and {stale.size - _STALE_NAMED} more" if stale.size > _STALE_NAMED else ""
-        warnings.warn(
-            f"{stale.size} of {len(cat)} element set(s) lie more than {STALE_DAYS:g} days "
-            f"from the window (up to {away.max():.0f} days: {named}{more}); SGP4's errors grow "
-            "by kilometres a day in low orbit, so these passes can be minutes off, or missing: "
-            "use element sets from near the window.", StaleElementSetWarning,
-            stacklevel=stacklevel + 1)
+    sats = cat.satellites
+    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window",
+                    "these passes can be minutes off, or missing", stacklevel=stacklevel + 1)
 
 
 def min_elevation_rad(value) -> float:

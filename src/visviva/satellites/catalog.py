@@ -4,16 +4,13 @@
   (a bad line raises :class:`~visviva.satellites.tle.TLEFormatError` naming its line number);
   :func:`read_omm_file` reads CelesTrak's GP data (JSON, CSV, XML); the parsing is in
   :mod:`visviva.satellites.catalog_files`.
-* :func:`propagate_sgp4_batch` propagates N satellites to T times with one call of sgp4's
-  ``SatrecArray`` (C++), returning ``(N, T, 3)`` positions and velocities. It is a thin wrapper:
-  the arrays sgp4 writes are the arrays returned (no copy), and it agrees bit for bit with
-  :meth:`visviva.Satellite.teme` at the same times.
-* :func:`propagate_kepler_batch` propagates two-body states (universal variables,
-  :func:`visviva.core.universal.propagate_many`).
-* :func:`propagate_j2_batch` propagates SGP4 mean elements with the secular J2 drift of the
-  node, perigee and mean anomaly (rates from :mod:`visviva.satellites.secular`), one compiled
-  loop over the N x T pairs built from the core kernels (Kepler's equation, elements -> state)
-  in :mod:`visviva.satellites.secular_batch`.
+* :func:`propagate_sgp4_batch`: N satellites at T times in one call of sgp4's ``SatrecArray``
+  (C++), ``(N, T, 3)`` positions and velocities in the arrays sgp4 writes (no copy), bit for
+  bit :meth:`visviva.Satellite.teme` at the same times.
+* :func:`propagate_kepler_batch`: two-body states (:func:`visviva.core.universal.propagate_many`).
+* :func:`propagate_j2_batch`: SGP4 mean elements with the secular J2 drift of the node, perigee
+  and mean anomaly (:mod:`visviva.satellites.secular`), one compiled loop over the N x T pairs
+  (:mod:`visviva.satellites.secular_batch`).
 """
 
 from __future__ import annotations
@@ -35,13 +32,14 @@ from .catalog_files import (
 )
 from .satellite_states import require_kepler_frame
 from .secular_batch import secular_grid, secular_setup
-from .tle import (
+from .tle import Satellite
+from .tle_checks import (
     MINUTES_PER_DAY,
-    Satellite,
     SGP4Error,
     check_tsince,
     raise_for_sgp4_status,
     sgp4_times,
+    warn_stale_sets,
 )
 from .utc_days import utc_days_to_time
 
@@ -478,7 +476,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     satellites : Catalog or sequence of Satellite
         The N objects.
     t : astropy Time, shape (T,) or scalar
-        Absolute times (any scale; converted to UTC Julian dates once).
+        Absolute times (any scale; converted to UTC Julian dates once). Element sets used more
+        than 30 days from their epochs warn (:class:`~visviva.StaleElementSetWarning`, once
+        per call, naming the stalest).
     on_error : {"raise", "nan"}
         Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
         (default), or return NaN in ``r`` and ``v`` wherever ``status`` (sgp4's code) is not
@@ -500,18 +500,19 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     ep_jd, ep_fr = cat.epoch_days
     tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
+    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum,
+                    np.abs(tsince).max(axis=1, initial=0.0) / MINUTES_PER_DAY,
+                    "the requested times", "these positions can be far off", stacklevel=2)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
     else:
         e, r, v = out
         shapes = ((len(cat), len(t)), (len(cat), len(t), 3), (len(cat), len(t), 3))
-        for arr, shape, dtype in zip(out, shapes, (np.uint8, np.float64, np.float64),
-                                     strict=True):
-            if arr.shape != shape or arr.dtype != dtype or not arr.flags.c_contiguous:
-                raise ShapeError(
-                    f"out arrays must be C-contiguous {shapes} of uint8, float64, float64; got "
-                    f"{[(a.shape, str(a.dtype)) for a in out]}."
-                )
+        dtypes = (np.uint8, np.float64, np.float64)
+        if any(a.shape != sh or a.dtype != d or not a.flags.c_contiguous
+               for a, sh, d in zip(out, shapes, dtypes, strict=True)):
+            raise ShapeError(f"out arrays must be C-contiguous {shapes} of uint8, float64, "
+                             f"float64; got {[(a.shape, str(a.dtype)) for a in out]}.")
         cat.satrec_array._sgp4(jd, fr, e, r, v)
     if e.any():
         if on_error == "raise":

@@ -41,6 +41,7 @@ __all__ = [
     "warn_subsurface_perigee",
     "STALE_DAYS",
     "is_stale",
+    "warn_stale_sets",
     "warn_stale_tsince",
     "check_sgp4_radius",
 ]
@@ -55,6 +56,8 @@ STALE_DAYS = 30.0
 #: An SGP4 position further than this from the geocentre is no Earth orbit (km): two and a half
 #: times the Moon's distance, two thirds of the Earth's Hill radius (~1.5e6 km)
 MAX_SGP4_RADIUS_KM = 1.0e6
+#: a warning about stale element sets names this many of them, the stalest first
+STALE_NAMED = 5
 
 
 # --------------------------------------------------------------------------------------------
@@ -449,6 +452,40 @@ def is_stale(away_days):
 
     ``away_days``: how far (days, >= 0, before or after) the times lie from the epoch."""
     return np.asarray(away_days) > STALE_DAYS
+
+
+def warn_stale_sets(label, away_days, where: str, consequence: str,
+                    stacklevel: int = 2) -> None:
+    """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of N element sets
+    are used more than :data:`STALE_DAYS` from their epochs, naming the stalest
+    (:data:`STALE_NAMED` at most): the one message of the catalogue-wide uses (pass and event
+    searches, :func:`~visviva.propagate_sgp4_batch`).
+
+    Parameters
+    ----------
+    label : callable
+        ``label(k)``: a name for set ``k`` (its name or catalogue number), called only for the
+        sets named.
+    away_days : array_like, shape (N,)
+        How far (days, >= 0) each set's epoch lies from the times it is used at.
+    where, consequence : str
+        What the times are ("the window") and what the user risks ("these passes can be
+        minutes off, or missing").
+    stacklevel : int
+        Of the warning, counted from the caller of this function.
+    """
+    away = np.asarray(away_days, dtype=np.float64)
+    stale = np.flatnonzero(is_stale(away))
+    if not stale.size:
+        return
+    worst = stale[np.argsort(-away[stale], kind="stable")]
+    named = ", ".join(f"{label(k)} ({away[k]:.0f} d)" for k in worst[:STALE_NAMED])
+    more = f" and {stale.size - STALE_NAMED} more" if stale.size > STALE_NAMED else ""
+    warnings.warn(
+        f"{stale.size} of {away.size} element set(s) lie more than {STALE_DAYS:g} days from "
+        f"{where} (up to {away[stale].max():.0f} days: {named}{more}); SGP4's errors grow by "
+        f"kilometres a day in low orbit, so {consequence}: use element sets from near "
+        f"{where}.", StaleElementSetWarning, stacklevel=stacklevel + 1)
 
 
 def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:

@@ -459,7 +459,7 @@ def warn_stale_sets(label, away_days, where: str, consequence: str,
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of N element sets
     are used more than :data:`STALE_DAYS` from their epochs, naming the stalest
     (:data:`STALE_NAMED` at most): the one message of the catalogue-wide uses (pass and event
-    searches, :func:`~visviva.propagate_sgp4_batch`).
+    searches, :func:`~visviva.satellites.catalog.propagate_sgp4_batch`).
 
     Parameters
     ----------

@@ -484,7 +484,7 @@ class OEMSegment(FrameCenterMetadata):
             A ``COV_REF_FRAME`` that is neither ``REF_FRAME`` nor a local frame, a local frame
             of states on Earth-fixed axes, or an epoch the states do not cover.
         """
-        from .covariance import on_state_axes
+        from .covariance import on_state_axes, sun_from
 
         cov = self.covariances[k]
         if cov.frame is None:
@@ -497,7 +497,10 @@ class OEMSegment(FrameCenterMetadata):
             r, v = (a[0] for a in self.interpolate_arrays(t))
         where = f"covariance {k} (EPOCH = {cov.epoch}): COV_REF_FRAME = {cov.frame}"
         return on_state_axes(cov.matrix, cov.frame, self.frame, self.visviva_frame, r, v, where,
-                             f"seg.covariances[{k}].matrix")
+                             f"seg.covariances[{k}].matrix", gm=lambda: self.gm_km3_s2,
+                             sun=sun_from(lambda: epochs_to_time(
+                                 cov.epoch, self.time_system, mission_epoch=self.mission_epoch),
+                                 self.center, self.frame))
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.

@@ -17,6 +17,7 @@ from .covariance import (
     check_record_variances,
     matrix_from_values,
     on_state_axes,
+    sun_from,
 )
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
@@ -230,7 +231,9 @@ class OPM(FrameCenterMetadata):
             else:
                 from .covariance import from_state_axes
 
-                local = from_state_axes(covariance, covariance_frame, r, v)
+                local = from_state_axes(covariance, covariance_frame, r, v,
+                                        gm=lambda: state.gm.to_value(u.km**3 / u.s**2),
+                                        sun=sun_from(state.epoch, center, frame))
                 sections["covariance"] = {"COV_REF_FRAME": str(covariance_frame).upper(),
                                           **values_from_matrix(local)}
         elif covariance_frame is not None:
@@ -334,7 +337,8 @@ class OPM(FrameCenterMetadata):
         v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
         where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
         return on_state_axes(matrix, frame, self.frame, self.visviva_frame, r, v, where,
-                             "opm.sections['covariance']")
+                             "opm.sections['covariance']", gm=lambda: self.gm,
+                             sun=sun_from(lambda: self.epoch, self.center, self.frame))
 
     @property
     def maneuvers(self) -> list[Maneuver]:

@@ -464,10 +464,11 @@ class OEMSegment(FrameCenterMetadata):
         """Covariance ``k`` (km, km/s) on the axes of the segment's states, as
         :attr:`visviva.ccsds.OPM.covariance` gives the OPM's.
 
-        A ``COV_REF_FRAME`` naming a local orbital frame (``RTN``/``RSW``/``RIC``/``QSW``,
-        ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` with the segment's state at
-        the covariance's epoch (the state there, else interpolated); the matrix as written is
-        ``seg.covariances[k].matrix``.
+        A ``COV_REF_FRAME`` naming an orbit-relative frame (``RTN``/``RSW``/``RIC``/``QSW``,
+        ``TNW``, ``NTW``, ``VNB``, SANA's ``LVLH_ROTATING``, ``PQW_INERTIAL`` ...:
+        :mod:`visviva.ccsds.orbit_frames`) is rotated to the axes of ``REF_FRAME`` with the
+        segment's state at the covariance's epoch (the state there, else interpolated); the
+        matrix as written is ``seg.covariances[k].matrix``.
 
         Parameters
         ----------
@@ -482,7 +483,8 @@ class OEMSegment(FrameCenterMetadata):
         ------
         InvalidInputError
             A ``COV_REF_FRAME`` that is neither ``REF_FRAME`` nor a local frame, a local frame
-            of states on Earth-fixed axes, or an epoch the states do not cover.
+            of states on Earth-fixed axes, axes the state does not define (``PQW_INERTIAL``
+            of a circular orbit ...), or an epoch the states do not cover.
         """
         from .covariance import on_state_axes, sun_from
 

@@ -179,9 +179,10 @@ class OPM(FrameCenterMetadata):
             Spacecraft ``MASS`` (kg, > 0) at the epoch: its spacecraft parameters section.
         covariance_frame : str, optional
             Write ``covariance`` (on the state's axes) in this local orbital frame, as
-            ``COV_REF_FRAME``: ``"RTN"``, ``"TNW"``, ``"VNB"`` ... (quasi-inertial), SANA's
-            ``"RSW_INERTIAL"``, ``"TNW_INERTIAL"``, ``"RSW_ROTATING"``, ``"TNW_ROTATING"``
-            (:func:`visviva.ccsds.covariance.from_state_axes`). None: the state's axes.
+            ``COV_REF_FRAME``: ``"RTN"``, ``"TNW"``, ``"NTW"``, ``"VNB"`` ... (quasi-inertial),
+            SANA's ``"RSW_INERTIAL"``, ``"LVLH_ROTATING"``, ``"PQW_INERTIAL"`` ...
+            (:mod:`visviva.ccsds.orbit_frames`,
+            :func:`visviva.ccsds.covariance.from_state_axes`). None: the state's axes.
 
         Returns
         -------
@@ -314,9 +315,11 @@ class OPM(FrameCenterMetadata):
     def covariance(self) -> np.ndarray | None:
         """The 6 x 6 covariance of :attr:`state` (km, km/s) on the state's axes, or None.
 
-        A ``COV_REF_FRAME`` naming a local orbital frame of the state (``RTN``/``RSW``/
-        ``RIC``/``QSW``, ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` (the velocity
-        block as the position block, the CCSDS convention), so that the matrix goes with
+        A ``COV_REF_FRAME`` naming an orbit-relative frame of the state (``RTN``/``RSW``/
+        ``RIC``/``QSW``, ``TNW``, ``NTW``, ``VNB``, SANA's ``*_INERTIAL`` and ``*_ROTATING``:
+        :mod:`visviva.ccsds.orbit_frames`) is rotated to the axes of ``REF_FRAME`` (the
+        velocity block as the position block for the quasi-inertial ones, the CCSDS
+        convention; with the frame's rotation for ``*_ROTATING``), so that the matrix goes with
         :attr:`state` wherever a covariance is taken (``vv.propagate_covariance(opm.state,
         opm.covariance, t)``); the matrix as written is ``opm.sections["covariance"]``.
 

@@ -223,8 +223,7 @@ def test_an_opm_covariance_in_a_sana_frame_round_trips(frame, fmt):
         assert abs(written["CX_X"] - from_local(cov, *_eccentric(), RTN)[0, 0]) > 1e-9
 
 
-@pytest.mark.parametrize("frame", ["LVLH_ROTATING", "NTW_ROTATING", "PQW_INERTIAL",
-                                   "EQW_INERTIAL", "NSW_ROTATING"])
+@pytest.mark.parametrize("frame", ROTATING + INERTIAL + ["NSW_INERTIAL", "NSW_ROTATING"])
 @pytest.mark.parametrize("fmt", ["kvn", "xml"])
 def test_an_oem_covariance_in_a_sana_frame_reads_on_the_state_axes(frame, fmt):
     """OEM COV_REF_FRAME = LVLH_ROTATING ...: seg.covariance(k) gives the state-axes matrix
@@ -309,3 +308,16 @@ def test_the_inverse_jacobian_inverts_it(radius, speed_ratio, inc, gamma, name):
     vel = v * np.array([np.sin(gamma), np.cos(gamma) * np.cos(inc), np.cos(gamma) * np.sin(inc)])
     jac = jacobian(frame_spec(name), r, vel, MU)
     assert np.allclose(inverse_jacobian(jac) @ jac, np.eye(6), rtol=0, atol=1e-12)
+
+
+def test_the_frames_core_local_frames_also_builds_are_the_same_axes():
+    """RSW, TNW and VNC here are core.local_frames' RTN, TNW and VNB (the thrust and
+    propagate_covariance frames) to the last bits, and NTW / LVLH their signed permutations."""
+    from visviva.core.local_frames import TNW, VNB
+
+    r, v = _eccentric()
+    rtn, tnw, vnb = (local_axes(r, v, code) for code in (RTN, TNW, VNB))
+    for name, want in (("RSW", rtn), ("TNW", tnw), ("VNC", vnb),
+                       ("NTW", np.stack([-tnw[1], tnw[0], tnw[2]])),
+                       ("LVLH_INERTIAL", np.stack([rtn[1], -rtn[2], -rtn[0]]))):
+        assert np.allclose(axes(frame_spec(name), r, v), want, rtol=0, atol=4e-16)

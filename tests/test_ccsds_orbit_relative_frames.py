@@ -321,3 +321,18 @@ def test_the_frames_core_local_frames_also_builds_are_the_same_axes():
                        ("NTW", np.stack([-tnw[1], tnw[0], tnw[2]])),
                        ("LVLH_INERTIAL", np.stack([rtn[1], -rtn[2], -rtn[0]]))):
         assert np.allclose(axes(frame_spec(name), r, v), want, rtol=0, atol=4e-16)
+
+
+def test_nsw_with_the_sun_on_the_vertical_is_refused():
+    """The Sun 1e-5 rad from the zenith: the S axis is undefined (refused), 1e-3 rad: built."""
+    r, v = _eccentric()
+    up = r / np.linalg.norm(r)
+    side = np.cross(up, np.cross(r, v))
+    side /= np.linalg.norm(side)
+    for angle, ok in ((1e-5, False), (1e-3, True)):
+        sun = (r + 1.5e8 * (np.cos(angle) * up + np.sin(angle) * side), np.zeros(3))
+        if ok:
+            assert axes(frame_spec("NSW_INERTIAL"), r, v, MU, sun)[1] @ side > 0.99
+        else:
+            with pytest.raises(vv.InvalidInputError, match="from the local vertical"):
+                axes(frame_spec("NSW_INERTIAL"), r, v, MU, sun)

@@ -95,6 +95,9 @@ _REFUSED = {
 PQW_MIN_ECCENTRICITY = 1e-6
 #: below this sine of the inclination, a retrograde orbit has no equinoctial f axis
 EQW_MIN_SINE = 1e-6
+#: below this sine of the Sun's angle from the vertical the NSW axes are not fixed: the Sun
+#: seen from the spacecraft or from the centre differ by up to 2.8e-4 rad at GEO
+NSW_MIN_SINE = 1e-4
 
 
 def frame_spec(name) -> FrameSpec | None:
@@ -175,10 +178,13 @@ def _axes_and_rate(spec: FrameSpec, r, v, gm, sun):
     elif spec.kind == "NSW":
         s, s_dot = sun
         e, d = _triad(-r, -v, s - r, s_dot - v)
-        if np.linalg.norm(np.cross(e[0], s - r)) < 1e-9 * np.linalg.norm(s - r):
+        sine = np.linalg.norm(np.cross(e[0], s - r)) / np.linalg.norm(s - r)
+        if sine < NSW_MIN_SINE:
             raise InvalidInputError(
-                "NSW: the Sun is along the local vertical, so the Sun axis (normal to the "
-                "nadir) is undefined; write the covariance in RSW or on the state's axes.")
+                f"NSW: the Sun is {np.degrees(np.arcsin(sine)):.3g} deg from the local "
+                "vertical, so the Sun axis (normal to the nadir) turns with the ephemeris "
+                "and with where the Sun is seen from; write the covariance in RSW or on the "
+                "state's axes.")
     else:  # PQW
         ecc = _eccentricity_vector(r, v, gm)
         if np.linalg.norm(ecc) < PQW_MIN_ECCENTRICITY:

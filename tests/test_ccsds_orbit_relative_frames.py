@@ -336,3 +336,14 @@ def test_nsw_with_the_sun_on_the_vertical_is_refused():
         else:
             with pytest.raises(vv.InvalidInputError, match="from the local vertical"):
                 axes(frame_spec("NSW_INERTIAL"), r, v, MU, sun)
+
+
+def test_an_oem_writer_refuses_the_ambiguous_lvlh():
+    """OEMSegment.from_states(covariance_frame="LVLH") wrote a name its reader refuses."""
+    from visviva.ccsds.oem import OEMSegment
+
+    state, cov = _state(), _gcrs_covariance()
+    with pytest.raises(vv.InvalidInputError, match="ambiguous"):
+        OEMSegment.from_states(state.epoch.reshape(1), state.r.to_value(u.km)[None],
+                               state.v.to_value(u.km / u.s)[None], covariance=cov[None],
+                               covariance_frame="lvlh", degree=1, object_name="SAT")

@@ -215,6 +215,10 @@ class OEMSegment(FrameCenterMetadata):
                 require_psd(m, f"covariance[{k}]")
             cf = covariance_frame
             cf = "GCRF" if cf is not None and str(cf).upper() == "GCRS" else cf
+            if cf is not None:
+                from .covariance import local_frame
+
+                local_frame(cf)  # refuses an ambiguous name (plain LVLH) a reader would refuse
             covs = [OEMCovariance(e, m, None if cf is None else str(cf).upper())
                     for e, m in zip(epochs, c, strict=True)]
         seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, covs, mission_epoch=mission_epoch)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import InvalidInputError, ShapeError
 
-__all__ = ["as_covariance", "require_psd", "block_rotation", "local_jacobian", "to_local",
+__all__ = ["as_covariance", "require_psd", "block_rotation", "to_local",
            "from_local", "frame_code", "KilometreCovariance", "km_covariance", "in_frame"]
 
 
@@ -214,82 +214,32 @@ def block_rotation(m: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def local_jacobian(r_km, v_km_s, code: int, rotating: bool = False) -> np.ndarray:
-    """``d(local state) / d(inertial state)``, (..., 6, 6), at the state (r, v) for frame ``code``.
-
-    Quasi-inertial (``rotating=False``, CCSDS ``*_INERTIAL``, the CDM's RTN, NASA CARA):
-    ``blockdiag(Q, Q)`` with ``Q`` the frame's axes as rows. Rotating (CCSDS ``*_ROTATING``):
-    the velocity is seen from the turning axes, ``dv_local = Q (dv - omega x dr)``, so
-
-        J = [[Q, 0], [-Q [omega]x, Q]],   omega = (r x v) / |r|**2
-
-    (rad/s, along the orbit normal: the exact rate of the RTN/RSW axes in Keplerian motion,
-    and the rate Orekit's ``LOF.transformFromInertial`` uses for every local frame; for TNW it
-    is exact on a circular orbit only, the velocity's own turn rate being
-    ``|r x v| mu / (|r|**3 |v|**2)`` in Keplerian motion).
-
-    References: CCSDS 502.0-B-3 (ODM) ``COV_REF_FRAME`` and the SANA orbit-relative reference
-    frames registry (``RSW_INERTIAL`` / ``RSW_ROTATING``, ``TNW_INERTIAL`` / ``TNW_ROTATING``);
-    Vallado, AAS 03-526, "Covariance transformations for satellite flight dynamics operations".
-    """
-    from .core.local_frames import local_axes
-
-    r = np.asarray(r_km, dtype=np.float64)
-    v = np.asarray(v_km_s, dtype=np.float64)
-    q = local_axes(r, v, code)
-    jac = block_rotation(q, 6)
-    if rotating:
-        omega = np.cross(r, v) / np.sum(r * r, axis=-1, keepdims=True)
-        wx = np.zeros(omega.shape[:-1] + (3, 3))
-        wx[..., 0, 1], wx[..., 0, 2], wx[..., 1, 2] = -omega[..., 2], omega[..., 1], -omega[..., 0]
-        wx = wx - np.swapaxes(wx, -1, -2)
-        jac[..., 3:, :3] = -q @ wx
-    return jac
-
-
-def _inverse_jacobian(jac: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`local_jacobian`'s ``[[Q, 0], [B, Q]]``: ``[[Q^T, 0], [-Q^T B Q^T,
-    Q^T]]`` (``Q`` orthonormal)."""
-    qt = np.swapaxes(jac[..., :3, :3], -1, -2)
-    out = np.zeros_like(jac)
-    out[..., :3, :3] = qt
-    out[..., 3:, 3:] = qt
-    out[..., 3:, :3] = -qt @ jac[..., 3:, :3] @ qt
-    return out
-
-
-def to_local(cov, r_km, v_km_s, code: int, rotating: bool = False) -> np.ndarray:
+def to_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
     """``M C M^T``: an inertial covariance (..., n, n) on the axes of local frame ``code``.
 
     ``M = blockdiag(Q, Q)`` with ``Q`` the frame's axes as rows
     (:func:`visviva.core.local_frames.local_axes`); the velocity block is rotated like the
     position block, ignoring the frame's rotation (the convention of the CCSDS CDM and of NASA
-    CARA); the result is symmetrised. ``rotating=True`` (a 6 x 6 only) takes the frame's
-    rotation into the velocity block (:func:`local_jacobian`, CCSDS ``*_ROTATING``). Code 0
-    (inertial) returns ``cov`` unchanged.
+    CARA); the result is symmetrised. (The rotating frames of a CCSDS ``COV_REF_FRAME``,
+    ``*_ROTATING``, are :func:`visviva.ccsds.orbit_frames.jacobian`.) Code 0 (inertial)
+    returns ``cov`` unchanged.
     """
     if code == 0:
         return cov
     from .core.local_frames import local_axes
 
-    if rotating:
-        m = local_jacobian(r_km, v_km_s, code, rotating=True)
-    else:
-        m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
+    m = block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1])
     return _symmetric(m @ cov @ np.swapaxes(m, -1, -2))
 
 
-def from_local(cov, r_km, v_km_s, code: int, rotating: bool = False) -> np.ndarray:
-    """``M^-1 C M^-T``: a covariance on the axes of local frame ``code`` back to inertial axes
-    (the inverse of :func:`to_local`; ``M^-1 = M^T`` unless ``rotating``)."""
+def from_local(cov, r_km, v_km_s, code: int) -> np.ndarray:
+    """``M^T C M``: a covariance on the axes of local frame ``code`` back to inertial axes
+    (the inverse of :func:`to_local`)."""
     if code == 0:
         return cov
     from .core.local_frames import local_axes
 
-    if rotating:
-        m = _inverse_jacobian(local_jacobian(r_km, v_km_s, code, rotating=True))
-    else:
-        m = np.swapaxes(block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1]), -1, -2)
+    m = np.swapaxes(block_rotation(local_axes(r_km, v_km_s, code), cov.shape[-1]), -1, -2)
     return _symmetric(m @ cov @ np.swapaxes(m, -1, -2))
 
 

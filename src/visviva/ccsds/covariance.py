@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._covariance import _symmetric
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Keyword
+from .orbit_frames import READ_NAMES, FrameSpec, frame_spec, inverse_jacobian, jacobian
 
 __all__ = ["AXES", "COVARIANCE_KEYWORDS", "matrix_from_values", "values_from_matrix",
            "matrix_from_rows", "check_variance", "check_record_variances", "on_state_axes",
-           "ORBIT_RELATIVE_FRAMES", "local_frame", "from_state_axes"]
+           "ORBIT_RELATIVE_FRAMES", "local_frame", "from_state_axes", "sun_from"]
 
 AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
 
@@ -22,42 +24,52 @@ AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
 #: SANA's orbit-relative reference frames (the ``COV_REF_FRAME`` values of CCSDS 502.0-B-3)
 #: visviva reads: name -> (axes, rotating). ``*_INERTIAL`` is the quasi-inertial form (the
 #: velocity block rotated like the position block), ``*_ROTATING`` takes the frame's rotation
-#: ``omega = (r x v)/|r|**2`` into the velocity block (:func:`visviva._covariance.local_jacobian`).
-#: The plain names RTN/RSW/RIC/QSW, TNW, VNB are read quasi-inertial, as the CDM defines RTN
-#: (docs/design.md, "RTN / TNW covariances").
-ORBIT_RELATIVE_FRAMES = {"RSW_INERTIAL": ("RTN", False), "RSW_ROTATING": ("RTN", True),
-                         "TNW_INERTIAL": ("TNW", False), "TNW_ROTATING": ("TNW", True)}
+#: into the velocity block (:func:`visviva.ccsds.orbit_frames.jacobian`). The plain names
+#: RTN/RSW/RIC/QSW, TNW, NTW, VNB/VNC are read quasi-inertial, as the CDM defines RTN
+#: (docs/design.md, "RTN / TNW covariances"). Axes: :mod:`visviva.ccsds.orbit_frames`.
+ORBIT_RELATIVE_FRAMES = {name: (spec.kind, spec.rotating) for name, spec in
+                         ((n, frame_spec(n)) for n in READ_NAMES) if "_" in name}
 
 
-def local_frame(name) -> tuple[int, bool] | None:
-    """``(code, rotating)`` of a local orbital frame named in a message, None for another name.
+def local_frame(name) -> FrameSpec | None:
+    """The :class:`~visviva.ccsds.orbit_frames.FrameSpec` of a local orbital frame named in a
+    message, None for another name.
 
     Parameters
     ----------
     name : str
-        ``COV_REF_FRAME`` as written: a SANA name (``RSW_ROTATING``, ``TNW_INERTIAL`` ...) or
-        a plain one (``RTN``, ``RSW``, ``RIC``, ``QSW``, ``TNW``, ``VNB``: quasi-inertial).
+        ``COV_REF_FRAME`` as written: a SANA name (``RSW_ROTATING``, ``LVLH_INERTIAL``,
+        ``PQW_INERTIAL`` ...) or a plain one (``RTN``, ``RSW``, ``RIC``, ``QSW``, ``TNW``,
+        ``NTW``, ``VNB``, ``VNC``: quasi-inertial).
 
     Returns
     -------
-    tuple of (int, bool) or None
-        The :mod:`visviva.core.local_frames` code and whether the frame rotates.
-    """
-    from ..core.local_frames import FRAME_CODES
+    FrameSpec or None
 
-    key = str(name).strip().upper()
-    if key in ORBIT_RELATIVE_FRAMES:
-        axes, rotating = ORBIT_RELATIVE_FRAMES[key]
-        return FRAME_CODES[axes], rotating
-    if key in FRAME_CODES:
-        return FRAME_CODES[key], False
-    return None
+    Raises
+    ------
+    InvalidInputError
+        A name whose axes are ambiguous or not built (plain ``LVLH``, ``SEZ_*``).
+    """
+    return frame_spec(name)
 
 
 def _local_names() -> str:
-    from ..core.local_frames import FRAME_CODES
+    return ", ".join(READ_NAMES)
 
-    return ", ".join(sorted(FRAME_CODES) + sorted(ORBIT_RELATIVE_FRAMES))
+
+def _rotation(spec, r, v, gm, sun) -> np.ndarray:
+    """The 6 x 6 Jacobian of ``spec`` at (r, v), fetching the GM and the Sun only when needed
+    (``gm`` and ``sun`` may be callables)."""
+    gm_value = (gm() if callable(gm) else gm) if spec.needs_gm else None
+    sun_value = None
+    if spec.needs_sun:
+        if sun is None:
+            raise InvalidInputError("the NSW axes need the Sun's position at the epoch: give "
+                                    "sun=(position km, velocity km/s) from the central body.")
+        sun_value = sun() if callable(sun) else sun
+    return jacobian(spec, np.asarray(r, dtype=np.float64), np.asarray(v, dtype=np.float64),
+                    gm_value, sun_value)
 
 
 def _unit(i: int, j: int) -> str:
@@ -158,14 +170,15 @@ def check_record_variances(record, source: str) -> None:
             check_variance(record[key], axis, record.line_of(key), source)
 
 
-def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
+def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw, gm=None,
+                  sun=None):
     """A covariance written in ``COV_REF_FRAME = cov_frame`` on the axes of its state.
 
-    A local orbital frame of the state (``RTN``/``RSW``/``RIC``/``QSW``, ``TNW``, ``VNB``,
-    SANA's ``RSW_INERTIAL``, ``TNW_INERTIAL``) is rotated to the state's axes (the velocity
-    block as the position block, the CCSDS convention); ``RSW_ROTATING`` / ``TNW_ROTATING``
-    add the frame's rotation to the velocity block (:func:`visviva._covariance.local_jacobian`);
-    ``REF_FRAME`` itself, or another name of the same axes, is kept.
+    An orbit-relative frame of the state (:mod:`visviva.ccsds.orbit_frames`: the plain
+    ``RTN``/``RSW``/``RIC``/``QSW``, ``TNW``, ``NTW``, ``VNB``/``VNC`` and SANA's ``*_INERTIAL``
+    quasi-inertial, SANA's ``*_ROTATING`` with the frame's rotation in the velocity block) is
+    rotated to the state's axes; ``REF_FRAME`` itself, or another name of the same axes, is
+    kept.
 
     Parameters
     ----------
@@ -183,6 +196,12 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
         Where the keyword is, for messages (source, line, keyword).
     raw : str
         How the user reaches the matrix as written, for messages.
+    gm : float or callable, optional
+        The central body's GM (km^3/s^2), or a function giving it; asked for only by the
+        frames that need it (``PQW_INERTIAL``, ``TNW/NTW/VNC/NSW_ROTATING``).
+    sun : tuple or callable, optional
+        The Sun's position (km) and velocity (km/s) from the central body on the state's axes,
+        or a function giving them (:func:`sun_from`); ``NSW_*`` only.
 
     Returns
     -------
@@ -191,17 +210,20 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
     Raises
     ------
     InvalidInputError
-        Another frame than ``REF_FRAME`` and no local frame, or a local frame of a state on
+        Another frame than ``REF_FRAME`` and no local frame, a local frame of a state on
         Earth-fixed axes (ITRF, GRC, TDR, GTOD ...: its velocity does not give the orbital
-        axes).
+        axes), an ambiguous name (plain ``LVLH``), or axes the state does not define
+        (``PQW_INERTIAL`` of a circular orbit, ``EQW_INERTIAL`` of a retrograde equatorial one).
     """
     if cov_frame is None or str(cov_frame).strip().upper() == str(ref_frame).strip().upper():
         return matrix
-    from .._covariance import from_local
     from .timeframes import earth_fixed, visviva_frame
 
     key = str(cov_frame).strip().upper()
-    local = local_frame(key)
+    try:
+        local = local_frame(key)
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"{where}: {exc}") from None
     if local is None:
         if visviva_frame(key) is not None and visviva_frame(key) == state_frame:
             return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
@@ -213,11 +235,14 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw):
             f"{where} of a state on Earth-fixed axes ({ref_frame}): its Earth-fixed velocity "
             f"does not give the orbital axes; rotate the state and {raw} to an inertial frame "
             "first.")
-    return from_local(matrix, np.asarray(r, dtype=np.float64), np.asarray(v, dtype=np.float64),
-                      *local)
+    try:
+        m = inverse_jacobian(_rotation(local, r, v, gm, sun))
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"{where}: {exc}") from None
+    return _symmetric(m @ np.asarray(matrix, dtype=np.float64) @ m.T)
 
 
-def from_state_axes(matrix, cov_frame, r, v) -> np.ndarray:
+def from_state_axes(matrix, cov_frame, r, v, gm=None, sun=None) -> np.ndarray:
     """A covariance on the axes of its state written in local frame ``cov_frame`` (the inverse
     of :func:`on_state_axes`, for writing ``COV_REF_FRAME = cov_frame``).
 
@@ -226,9 +251,12 @@ def from_state_axes(matrix, cov_frame, r, v) -> np.ndarray:
     matrix : ndarray (6, 6)
         Covariance on the state's (inertial) axes, km and km/s.
     cov_frame : str
-        A local orbital frame (:func:`local_frame`): ``RTN``, ``TNW``, ``RSW_ROTATING`` ...
+        A local orbital frame (:func:`local_frame`): ``RTN``, ``TNW``, ``RSW_ROTATING``,
+        ``LVLH_INERTIAL``, ``PQW_INERTIAL`` ...
     r, v : ndarray (3,)
         The state (km, km/s).
+    gm, sun : optional
+        As for :func:`on_state_axes`.
 
     Returns
     -------
@@ -237,15 +265,51 @@ def from_state_axes(matrix, cov_frame, r, v) -> np.ndarray:
     Raises
     ------
     InvalidInputError
-        ``cov_frame`` names no local orbital frame.
+        ``cov_frame`` names no local orbital frame, or one the state does not define.
     """
-    from .._covariance import to_local
-
     local = local_frame(cov_frame)
     if local is None:
         raise InvalidInputError(f"covariance_frame = {cov_frame!r} is not a local orbital "
                                 f"frame; use one of {_local_names()} (or None: the state's "
                                 "axes).")
-    return to_local(np.asarray(matrix, dtype=np.float64), np.asarray(r, dtype=np.float64),
-                    np.asarray(v, dtype=np.float64), *local)
+    m = _rotation(local, r, v, gm, sun)
+    return _symmetric(m @ np.asarray(matrix, dtype=np.float64) @ m.T)
 
+
+def sun_from(epoch, center, ref_frame):
+    """A function giving the Sun's position (km) and velocity (km/s) from ``center`` at
+    ``epoch`` on the axes of ``ref_frame`` (the NSW axes' Sun), refusing frames whose axes are
+    not the ICRF's (EME2000, GCRF, ICRF: the same within 23 mas).
+
+    Parameters
+    ----------
+    epoch : astropy.time.Time or callable
+        The covariance's epoch (or a function giving it).
+    center : str
+        ``CENTER_NAME``.
+    ref_frame : str
+        ``REF_FRAME`` of the state.
+
+    Returns
+    -------
+    callable
+    """
+    def get():
+        from astropy import units as u
+
+        from ..satellites.ephemeris import position_velocity
+        from .timeframes import center_body, visviva_frame
+
+        if visviva_frame(ref_frame) != "gcrs":
+            raise InvalidInputError(
+                f"the NSW axes need the Sun on the state's axes; visviva has it on ICRF axes "
+                f"(EME2000, GCRF, ICRF), not on REF_FRAME = {ref_frame}")
+        body = center_body(center)
+        if body is None:
+            raise InvalidInputError(f"the NSW axes need the Sun seen from CENTER_NAME = "
+                                    f"{center}, a body visviva does not know")
+        t = epoch() if callable(epoch) else epoch
+        p, vel = position_velocity("sun", t, body)
+        return p.to_value(u.km), vel.to_value(u.km / u.s)
+
+    return get

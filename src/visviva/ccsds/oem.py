@@ -215,6 +215,10 @@ class OEMSegment(FrameCenterMetadata):
                 require_psd(m, f"covariance[{k}]")
             cf = covariance_frame
             cf = "GCRF" if cf is not None and str(cf).upper() == "GCRS" else cf
+            if cf is not None:
+                from .covariance import local_frame
+
+                local_frame(cf)  # refuses an ambiguous name (plain LVLH) a reader would refuse
             covs = [OEMCovariance(e, m, None if cf is None else str(cf).upper())
                     for e, m in zip(epochs, c, strict=True)]
         seg = cls(meta, epochs, r_km, v_km_s, a_km_s2, covs, mission_epoch=mission_epoch)
@@ -464,10 +468,11 @@ class OEMSegment(FrameCenterMetadata):
         """Covariance ``k`` (km, km/s) on the axes of the segment's states, as
         :attr:`visviva.ccsds.OPM.covariance` gives the OPM's.
 
-        A ``COV_REF_FRAME`` naming a local orbital frame (``RTN``/``RSW``/``RIC``/``QSW``,
-        ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` with the segment's state at
-        the covariance's epoch (the state there, else interpolated); the matrix as written is
-        ``seg.covariances[k].matrix``.
+        A ``COV_REF_FRAME`` naming an orbit-relative frame (``RTN``/``RSW``/``RIC``/``QSW``,
+        ``TNW``, ``NTW``, ``VNB``, SANA's ``LVLH_ROTATING``, ``PQW_INERTIAL`` ...:
+        :mod:`visviva.ccsds.orbit_frames`) is rotated to the axes of ``REF_FRAME`` with the
+        segment's state at the covariance's epoch (the state there, else interpolated); the
+        matrix as written is ``seg.covariances[k].matrix``.
 
         Parameters
         ----------
@@ -482,9 +487,10 @@ class OEMSegment(FrameCenterMetadata):
         ------
         InvalidInputError
             A ``COV_REF_FRAME`` that is neither ``REF_FRAME`` nor a local frame, a local frame
-            of states on Earth-fixed axes, or an epoch the states do not cover.
+            of states on Earth-fixed axes, axes the state does not define (``PQW_INERTIAL``
+            of a circular orbit ...), or an epoch the states do not cover.
         """
-        from .covariance import on_state_axes
+        from .covariance import on_state_axes, sun_from
 
         cov = self.covariances[k]
         if cov.frame is None:
@@ -497,7 +503,10 @@ class OEMSegment(FrameCenterMetadata):
             r, v = (a[0] for a in self.interpolate_arrays(t))
         where = f"covariance {k} (EPOCH = {cov.epoch}): COV_REF_FRAME = {cov.frame}"
         return on_state_axes(cov.matrix, cov.frame, self.frame, self.visviva_frame, r, v, where,
-                             f"seg.covariances[{k}].matrix")
+                             f"seg.covariances[{k}].matrix", gm=lambda: self.gm_km3_s2,
+                             sun=sun_from(lambda: epochs_to_time(
+                                 cov.epoch, self.time_system, mission_epoch=self.mission_epoch),
+                                 self.center, self.frame))
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.

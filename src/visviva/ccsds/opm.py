@@ -17,6 +17,7 @@ from .covariance import (
     check_record_variances,
     matrix_from_values,
     on_state_axes,
+    sun_from,
 )
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
@@ -178,9 +179,10 @@ class OPM(FrameCenterMetadata):
             Spacecraft ``MASS`` (kg, > 0) at the epoch: its spacecraft parameters section.
         covariance_frame : str, optional
             Write ``covariance`` (on the state's axes) in this local orbital frame, as
-            ``COV_REF_FRAME``: ``"RTN"``, ``"TNW"``, ``"VNB"`` ... (quasi-inertial), SANA's
-            ``"RSW_INERTIAL"``, ``"TNW_INERTIAL"``, ``"RSW_ROTATING"``, ``"TNW_ROTATING"``
-            (:func:`visviva.ccsds.covariance.from_state_axes`). None: the state's axes.
+            ``COV_REF_FRAME``: ``"RTN"``, ``"TNW"``, ``"NTW"``, ``"VNB"`` ... (quasi-inertial),
+            SANA's ``"RSW_INERTIAL"``, ``"LVLH_ROTATING"``, ``"PQW_INERTIAL"`` ...
+            (:mod:`visviva.ccsds.orbit_frames`,
+            :func:`visviva.ccsds.covariance.from_state_axes`). None: the state's axes.
 
         Returns
         -------
@@ -230,7 +232,9 @@ class OPM(FrameCenterMetadata):
             else:
                 from .covariance import from_state_axes
 
-                local = from_state_axes(covariance, covariance_frame, r, v)
+                local = from_state_axes(covariance, covariance_frame, r, v,
+                                        gm=lambda: state.gm.to_value(u.km**3 / u.s**2),
+                                        sun=sun_from(state.epoch, center, frame))
                 sections["covariance"] = {"COV_REF_FRAME": str(covariance_frame).upper(),
                                           **values_from_matrix(local)}
         elif covariance_frame is not None:
@@ -311,9 +315,11 @@ class OPM(FrameCenterMetadata):
     def covariance(self) -> np.ndarray | None:
         """The 6 x 6 covariance of :attr:`state` (km, km/s) on the state's axes, or None.
 
-        A ``COV_REF_FRAME`` naming a local orbital frame of the state (``RTN``/``RSW``/
-        ``RIC``/``QSW``, ``TNW``, ``VNB``) is rotated to the axes of ``REF_FRAME`` (the velocity
-        block as the position block, the CCSDS convention), so that the matrix goes with
+        A ``COV_REF_FRAME`` naming an orbit-relative frame of the state (``RTN``/``RSW``/
+        ``RIC``/``QSW``, ``TNW``, ``NTW``, ``VNB``, SANA's ``*_INERTIAL`` and ``*_ROTATING``:
+        :mod:`visviva.ccsds.orbit_frames`) is rotated to the axes of ``REF_FRAME`` (the
+        velocity block as the position block for the quasi-inertial ones, the CCSDS
+        convention; with the frame's rotation for ``*_ROTATING``), so that the matrix goes with
         :attr:`state` wherever a covariance is taken (``vv.propagate_covariance(opm.state,
         opm.covariance, t)``); the matrix as written is ``opm.sections["covariance"]``.
 
@@ -334,7 +340,8 @@ class OPM(FrameCenterMetadata):
         v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
         where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
         return on_state_axes(matrix, frame, self.frame, self.visviva_frame, r, v, where,
-                             "opm.sections['covariance']")
+                             "opm.sections['covariance']", gm=lambda: self.gm,
+                             sun=sun_from(lambda: self.epoch, self.center, self.frame))
 
     @property
     def maneuvers(self) -> list[Maneuver]:

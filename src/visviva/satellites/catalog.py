@@ -1,14 +1,19 @@
 """Catalogue scale: many satellites at many times in one call.
 
-* :class:`Catalog`: a list of :class:`~visviva.Satellite` propagated together
-  (:meth:`Catalog.propagate`).
 * :func:`read_tle_file` reads a file of two- or three-line element sets into a :class:`Catalog`
   (a bad line raises :class:`~visviva.satellites.tle.TLEFormatError` naming its line number);
   :func:`read_omm_file` reads CelesTrak's GP data (JSON, CSV, XML); the parsing is in
   :mod:`visviva.satellites.catalog_files`.
-* :func:`propagate_sgp4_batch`, :func:`propagate_kepler_batch`, :func:`propagate_j2_batch` and
-  their result :class:`BatchStates` live in :mod:`visviva.satellites.catalog_batch` and are
-  imported here (their public path).
+* :func:`propagate_sgp4_batch`: N satellites at T times in one call of sgp4's ``SatrecArray``
+  (C++), ``(N, T, 3)`` positions and velocities in the arrays sgp4 writes (no copy), bit for
+  bit :meth:`visviva.Satellite.teme` at the same times.
+* :func:`propagate_kepler_batch`: two-body states (:func:`visviva.core.universal.propagate_many`).
+* :func:`propagate_j2_batch`: SGP4 mean elements with the secular J2 drift of the node, perigee
+  and mean anomaly (:mod:`visviva.satellites.secular`), one compiled loop over the N x T pairs
+  (:mod:`visviva.satellites.secular_batch`).
+
+Their result, :class:`BatchStates`, and the checks of their shared arguments are in
+:mod:`visviva.satellites.batch_states` (imported here: ``visviva.satellites.catalog.BatchStates``).
 """
 
 from __future__ import annotations
@@ -18,20 +23,26 @@ from functools import cached_property
 import numpy as np
 from astropy.time import Time
 
-from ..errors import InvalidInputError
-from .catalog_batch import (
-    BatchStates,
-    propagate_j2_batch,
-    propagate_kepler_batch,
-    propagate_sgp4_batch,
-)
+from .._units import to_array, to_quantity, to_vector
+from ..errors import InvalidInputError, ShapeError, raise_for_status
+from .batch_states import BatchStates, absolute_times, check_on_error, offsets_s
 from .catalog_files import (
     catalog_file_satellites,
     omm_file_satellites,
     tle_file_satellites,
     tle_text_satellites,
 )
+from .satellite_states import require_kepler_frame
+from .secular_batch import secular_grid, secular_setup
 from .tle import Satellite
+from .tle_checks import (
+    MINUTES_PER_DAY,
+    SGP4Error,
+    check_tsince,
+    raise_for_sgp4_status,
+    sgp4_times,
+    warn_stale_sets,
+)
 from .utc_days import utc_days_to_time
 
 __all__ = [
@@ -337,3 +348,216 @@ def as_catalog(satellites) -> Catalog:
     if isinstance(satellites, Satellite):
         return Catalog([satellites])
     return Catalog(satellites)
+
+
+
+def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) -> BatchStates:
+    """SGP4 for N satellites at T times in one call of sgp4's ``SatrecArray``.
+
+    Parameters
+    ----------
+    satellites : Catalog or sequence of Satellite
+        The N objects.
+    t : astropy Time, shape (T,) or scalar
+        Absolute times (any scale; converted to UTC Julian dates once). Element sets used more
+        than 30 days from their epochs warn (:class:`~visviva.StaleElementSetWarning`, once
+        per call, naming the stalest).
+    on_error : {"raise", "nan"}
+        Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
+        (default), or return NaN in ``r`` and ``v`` wherever ``status`` (sgp4's code) is not
+        0 (sgp4 itself returns a state below the surface for a decayed object, code 6).
+    out : (status, r, v), optional
+        C-contiguous arrays of shapes (N, T) uint8, (N, T, 3) and (N, T, 3) float64 that sgp4
+        writes into (e.g. slices of a larger result); the returned states wrap them.
+
+    Returns
+    -------
+    BatchStates
+        TEME ``r`` (km) and ``v`` (km/s), shape (N, T, 3); identical bit for bit to
+        ``Satellite.teme(t)`` of each satellite.
+    """
+    check_on_error(on_error)
+    cat = as_catalog(satellites)
+    t = absolute_times(t, "propagate_sgp4_batch")
+    jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
+    ep_jd, ep_fr = cat.epoch_days
+    tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
+    check_tsince(tsince, cat.names)
+    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum,
+                    np.abs(tsince).max(axis=1, initial=0.0) / MINUTES_PER_DAY,
+                    "the requested times", "these positions can be far off", stacklevel=2)
+    if out is None:
+        e, r, v = cat.satrec_array.sgp4(jd, fr)
+    else:
+        e, r, v = out
+        shapes = ((len(cat), len(t)), (len(cat), len(t), 3), (len(cat), len(t), 3))
+        dtypes = (np.uint8, np.float64, np.float64)
+        if any(a.shape != sh or a.dtype != d or not a.flags.c_contiguous
+               for a, sh, d in zip(out, shapes, dtypes, strict=True)):
+            raise ShapeError(f"out arrays must be C-contiguous {shapes} of uint8, float64, "
+                             f"float64; got {[(a.shape, str(a.dtype)) for a in out]}.")
+        cat.satrec_array._sgp4(jd, fr, e, r, v)
+    if e.any():
+        if on_error == "raise":
+            raise_for_sgp4_status(e, cat.names, tsince, t)
+        # sgp4 fills some failed states with numbers (code 6, decayed: a point below the
+        # surface) and others with NaN: no failed state leaves with numbers in it
+        failed = e != 0
+        r[failed] = np.nan
+        v[failed] = np.nan
+    # fast path: one summation each (NaN and inf propagate); the full mask only when it fails
+    clean = np.isfinite(np.add.reduce(r, axis=None)) and np.isfinite(np.add.reduce(v, axis=None))
+    bad = None if clean else ~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)) & (e == 0)
+    if bad is not None and bad.any():  # never seen from sgp4, but no NaN leaves without a reason
+        i, j = np.unravel_index(int(np.flatnonzero(bad)[0]), bad.shape)
+        raise SGP4Error(
+            f"SGP4 returned a non-finite state without an error code for satellite "
+            f"{cat.names[i]!r} at {tsince[i, j]:.6f} min from its epoch. To fix: propagate to "
+            "times nearer the element-set epoch or check the element set.",
+            satellite=cat.names[i], reason="non-finite state", tsince_min=float(tsince[i, j]),
+        )
+    return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), t, e, cat.names, "teme")
+
+
+def _require_one_axis(r, v, gm, epoch) -> None:
+    """ShapeError unless the states lie on one axis of N, with gm and epoch scalar or (N,).
+
+    (2, 3) states were flattened, their epochs and gm not: a raw numpy ValueError."""
+    n = r.shape[:-1]
+    if r.shape != v.shape or len(n) > 1 or any(np.shape(x) not in ((), n) for x in (gm, epoch)):
+        raise ShapeError(
+            f"propagate_kepler_batch takes N states on one axis: r, v of shape (N, 3) with gm "
+            f"and epoch scalar or (N,); got r {r.shape}, v {v.shape}, gm {np.shape(gm)}, epoch "
+            f"{np.shape(epoch)}. Flatten the states first (states[i] for each, or build them "
+            "from r.reshape(-1, 3), v.reshape(-1, 3) and epochs of shape (N,))."
+        )
+
+
+def propagate_kepler_batch(states, t, *, on_error: str = "raise",
+                           backend: str = "cpu") -> BatchStates:
+    """Two-body motion of N states to T times (universal variables, every conic).
+
+    Parameters
+    ----------
+    states : Catalog, sequence of Satellite, or StateVectors-like of shape (N,)
+        For satellites the osculating TEME state at each element-set epoch (from SGP4) with
+        sgp4's WGS-72 GM; otherwise any object with ``.r``, ``.v`` Quantities (N, 3), ``.gm`` and
+        ``.epoch`` (astropy Time, scalar or (N,)).
+    t : astropy Time, shape (T,) or scalar
+        Absolute times.
+    on_error : {"raise", "nan"}
+        As in :func:`propagate_sgp4_batch`.
+    backend : {"cpu", "cuda"}
+        ``"cuda"``: the same solver compiled for an NVIDIA GPU from the same source
+        (:mod:`visviva.core.cuda.twins`; extra ``visviva[gpu]``), one thread per pair; raises
+        :class:`visviva.errors.BackendUnavailableError` saying what is missing without one.
+
+    Returns
+    -------
+    BatchStates
+        ``r`` (km), ``v`` (km/s), shape (N, T, 3), in the frame of the input states.
+
+    Notes
+    -----
+    Calls :func:`visviva.core.universal.propagate_many` once over the N*T pairs (Danby 1992,
+    sec. 6.9; Vallado 2013, Algorithm 8).
+    """
+    from .._backends import check_backend
+
+    if check_backend(backend) == "cuda":
+        from ..core.cuda.kernels import propagate_many
+    else:
+        from ..core.universal import propagate_many
+    check_on_error(on_error)
+    t = absolute_times(t, "propagate_kepler_batch")
+    if isinstance(states, (Catalog, Satellite, list, tuple)):
+        cat = as_catalog(states)
+        ep = cat.epochs
+        # each satellite at its own epoch (one sgp4 call per element set, not per step)
+        out = [s.satrec.sgp4(s.satrec.jdsatepoch, s.satrec.jdsatepochF) for s in cat]
+        e = np.array([o[0] for o in out], dtype=np.uint8)
+        r0 = np.array([o[1] for o in out], dtype=np.float64).reshape(-1, 3)
+        v0 = np.array([o[2] for o in out], dtype=np.float64).reshape(-1, 3)
+        raise_for_sgp4_status(e[:, None], cat.names, 0.0)
+        gm = np.array([s.satrec.mu for s in cat.satellites])
+        names, frame = cat.names, "teme"
+    else:
+        r0 = to_vector(states.r, "length", "states.r")
+        v0 = to_vector(states.v, "speed", "states.v")
+        gm = to_array(states.gm, "gm", "states.gm")
+        ep = getattr(states, "epoch", None)
+        if not isinstance(ep, Time):
+            raise InvalidInputError("states needs an .epoch (astropy Time) for absolute times t.")
+        _require_one_axis(r0, v0, gm, ep)
+        r0, v0 = r0.reshape(-1, 3), v0.reshape(-1, 3)
+        gm = np.broadcast_to(gm, (r0.shape[0],))
+        ep = ep.reshape(-1) if ep.ndim == 0 else ep
+        names = [str(i) for i in range(r0.shape[0])]
+        frame = require_kepler_frame(states, "propagate_kepler_batch")
+    n, m = r0.shape[0], len(t)
+    dt = offsets_s(ep, t)
+    dt = np.ascontiguousarray(np.broadcast_to(dt, (n, m))).reshape(-1)
+    r0f = np.ascontiguousarray(np.broadcast_to(r0[:, None, :], (n, m, 3))).reshape(-1, 3)
+    v0f = np.ascontiguousarray(np.broadcast_to(v0[:, None, :], (n, m, 3))).reshape(-1, 3)
+    gmf = np.ascontiguousarray(np.broadcast_to(np.asarray(gm, float)[:, None], (n, m))).reshape(-1)
+    r = np.empty((n * m, 3))
+    v = np.empty((n * m, 3))
+    status = np.empty(n * m, dtype=np.int64)
+    propagate_many(r0f, v0f, gmf, dt, r, v, status)
+    status = status.reshape(n, m)
+    if on_error == "raise":
+        raise_for_status(status, "Kepler batch propagation", dt_s=dt.reshape(n, m))
+    return BatchStates(
+        to_quantity(r.reshape(n, m, 3), "length"), to_quantity(v.reshape(n, m, 3), "speed"), t,
+        status.astype(np.uint8), names, frame,
+    )
+
+
+def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates:
+    """Secular J2 propagation of SGP4 mean elements for N satellites at T times.
+
+    The node, perigee and mean anomaly drift at the first-order secular J2 rates of
+    :func:`visviva.satellites.secular.j2_secular_rates` (Brouwer 1959; Vallado 2013, eqs. 9-41)
+    with SGP4's WGS-72 constants; a, e, i stay at their mean values (no drag, no periodic
+    terms) and each state comes from Kepler's equation, in one compiled loop over the N x T
+    pairs. A fast screening propagator (a few to tens of km from SGP4 over a day in LEO, since
+    mean elements are used as if osculating), not a replacement for SGP4.
+
+    Parameters
+    ----------
+    satellites : Catalog or sequence of Satellite
+    t : astropy Time, shape (T,) or scalar
+        Absolute times.
+    on_error : {"raise", "nan"}
+
+    Returns
+    -------
+    BatchStates
+        TEME ``r`` (km), ``v`` (km/s), shape (N, T, 3).
+    """
+    check_on_error(on_error)
+    cat = as_catalog(satellites)
+    t = absolute_times(t, "propagate_j2_batch")
+    setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
+    if setup is None:
+        setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
+        cat.__dict__["_j2_setup"] = setup
+    (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
+    from .frames import offline_iers
+
+    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
+        tt = t.tai
+    n, m = len(cat), len(t)
+    r = np.empty((n, m, 3))
+    v = np.empty((n, m, 3))
+    status = np.empty((n, m), dtype=np.int64)
+    secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, ep1, ep2,
+                  np.ascontiguousarray(tt.jd1, dtype=np.float64),
+                  np.ascontiguousarray(tt.jd2, dtype=np.float64), gm, r, v, status)
+    if on_error == "raise" and status.any():
+        raise_for_status(status, "secular J2 batch propagation", dt_s=offsets_s(cat.epochs, t))
+    return BatchStates(
+        to_quantity(r, "length"), to_quantity(v, "speed"), t, status.astype(np.uint8),
+        cat.names, "teme",
+    )
+

@@ -33,11 +33,10 @@ from .._dask import NUMBA_LOCK, close_local_cluster, get_client
 from .._dask import require_dask as _require_dask
 from .._units import advance_epoch, to_quantity
 from ..errors import InvalidInputError
-from .catalog import Catalog, as_catalog
-from .catalog_batch import (
-    BatchStates,
-    absolute_times,
-    check_on_error,
+from .batch_states import BatchStates, absolute_times, check_on_error
+from .catalog import (
+    Catalog,
+    as_catalog,
     propagate_j2_batch,
     propagate_kepler_batch,
     propagate_sgp4_batch,

@@ -450,3 +450,39 @@ def test_sgp4_batch_warns_once_naming_stale_element_sets():
     assert len(ours) == 1 and ours[0].filename == __file__
     assert ("1 of 2 element set(s) lie more than 30 days from the requested times (up to 99 "
             "days: 25544 (99 d))") in str(ours[0].message)
+
+
+def test_sgp4_batch_flags_or_refuses_positions_beyond_any_earth_orbit(catalog, times):
+    """Satellite.teme refused an SGP4 position more than 1e6 km from the geocentre (no Earth
+    orbit: SGP4 far outside its span); propagate_sgp4_batch and Catalog.propagate returned it
+    with status 0: 29141 of the verification set, six to seven days past its epoch, came back
+    4e9 to 2.3e10 km away between sgp4's error-1 states. Now status 100
+    (SGP4_BEYOND_EARTH_ORBIT) and NaN, or the typed error naming the satellite and the time."""
+    from visviva.core import status as core_status
+    from visviva.satellites.tle_checks import (
+        MAX_SGP4_RADIUS_KM,
+        SGP4_BEYOND_EARTH_ORBIT,
+        sgp4_times,
+    )
+
+    # the code collides with none of sgp4's (1-6) nor visviva.core.status's
+    core_codes = {v for k, v in vars(core_status).items() if k.isupper() and isinstance(v, int)}
+    assert SGP4_BEYOND_EARTH_ORBIT not in set(range(7)) | core_codes
+    k = catalog.names.index("29141")
+    one = Catalog([catalog[k]])
+    e, r, _ = one.satrec_array.sgp4(*sgp4_times(times, 0.0, 0.0)[:2])  # sgp4 itself
+    far = (e[0] == 0) & (np.linalg.norm(r[0], axis=-1) > MAX_SGP4_RADIUS_KM)
+    assert far.sum() == 8 and ((e[0] != 0) | far).all()
+    for batch in (propagate_sgp4_batch(catalog, times, on_error="nan"),
+                  catalog.propagate(times, on_error="nan")):
+        row = batch.status[k]
+        assert (row[far] == SGP4_BEYOND_EARTH_ORBIT).all()
+        assert (row[~far] == e[0][~far]).all()  # sgp4's own codes kept
+        assert np.isnan(batch.r.value[k][far]).all() and np.isnan(batch.v.value[k][far]).all()
+    with pytest.raises(SGP4Error, match=r"4\.139e\+09 km from the geocentre for satellite "
+                       r"'29141' at 2006-06-24T16:48:00\.000 UTC") as info:
+        propagate_sgp4_batch(one, times)
+    assert info.value.code == SGP4_BEYOND_EARTH_ORBIT
+    assert info.value.reason == "position beyond any Earth orbit"
+    with pytest.raises(SGP4Error, match="beyond any Earth orbit"):  # the single path agrees
+        catalog[k].teme(times[:1])

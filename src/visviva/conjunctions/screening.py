@@ -279,8 +279,9 @@ def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> Non
                       for name, k in items[:5])
     warnings.warn(
         f"SGP4 failed inside the window for {len(items)} object(s) ({where}"
-        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets; they are not "
-        "screened from there on (close approaches after that time are not in the table).",
+        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets, or sets run "
+        "so far from their epochs that SGP4 left every Earth orbit; they are not screened "
+        "from there on (close approaches after that time are not in the table).",
         RuntimeWarning, stacklevel=3)
 
 

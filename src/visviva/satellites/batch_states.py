@@ -33,8 +33,10 @@ class BatchStates:
     t : astropy Time, shape (T,)
         The times.
     status : ndarray of uint8, shape (N, T)
-        0 where the propagation succeeded; otherwise sgp4's error code (1-6) for SGP4 or a
-        :mod:`visviva.core.status` code for the Kepler and J2 propagators.
+        0 where the propagation succeeded; otherwise, for SGP4, sgp4's error code (1-6) or
+        visviva's :data:`~visviva.satellites.tle_checks.SGP4_BEYOND_EARTH_ORBIT` (100: a
+        position more than 1e6 km from the geocentre, returned by sgp4 without a code), and
+        for the Kepler and J2 propagators a :mod:`visviva.core.status` code (0-16).
     names : list of str
         The N object names.
     frame : str

@@ -39,6 +39,7 @@ from .tle_checks import (
     MINUTES_PER_DAY,
     SGP4Error,
     check_tsince,
+    flag_beyond_earth_orbit,
     raise_for_sgp4_status,
     sgp4_times,
     warn_stale_sets,
@@ -364,8 +365,11 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         per call, naming the stalest).
     on_error : {"raise", "nan"}
         Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
-        (default), or return NaN in ``r`` and ``v`` wherever ``status`` (sgp4's code) is not
-        0 (sgp4 itself returns a state below the surface for a decayed object, code 6).
+        (default), or return NaN in ``r`` and ``v`` wherever ``status`` is not 0: sgp4's code
+        (1-6; sgp4 itself returns a state below the surface for a decayed object, code 6),
+        or :data:`~visviva.satellites.tle_checks.SGP4_BEYOND_EARTH_ORBIT` (100) where sgp4
+        returned, without a code, a position more than 1e6 km from the geocentre (no Earth
+        orbit: SGP4 far outside its span), the rule of :meth:`visviva.Satellite.teme`.
     out : (status, r, v), optional
         C-contiguous arrays of shapes (N, T) uint8, (N, T, 3) and (N, T, 3) float64 that sgp4
         writes into (e.g. slices of a larger result); the returned states wrap them.
@@ -397,9 +401,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
             raise ShapeError(f"out arrays must be C-contiguous {shapes} of uint8, float64, "
                              f"float64; got {[(a.shape, str(a.dtype)) for a in out]}.")
         cat.satrec_array._sgp4(jd, fr, e, r, v)
-    if e.any():
+    if flag_beyond_earth_orbit(e, r) or e.any():  # (the far rule of Satellite.teme too)
         if on_error == "raise":
-            raise_for_sgp4_status(e, cat.names, tsince, t)
+            raise_for_sgp4_status(e, cat.names, tsince, t, r)
         # sgp4 fills some failed states with numbers (code 6, decayed: a point below the
         # surface) and others with NaN: no failed state leaves with numbers in it
         failed = e != 0

@@ -486,3 +486,27 @@ def test_sgp4_batch_flags_or_refuses_positions_beyond_any_earth_orbit(catalog, t
     assert info.value.reason == "position beyond any Earth orbit"
     with pytest.raises(SGP4Error, match="beyond any Earth orbit"):  # the single path agrees
         catalog[k].teme(times[:1])
+
+
+def test_stale_warning_of_catalogue_calls_points_at_the_users_line():
+    """Catalog.propagate's StaleElementSetWarning pointed at catalog.py (the fixed stacklevel
+    of propagate_sgp4_batch, one frame short), ground_track's and eclipse_fraction's at
+    groundtrack.py: now at the caller, the first frame outside visviva."""
+    import warnings
+
+    from visviva.satellites.groundtrack import eclipse_fraction, ground_track
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    cat = Catalog([iss])
+    t = Time("2024-06-01T00:00:00", scale="utc") + np.arange(3) * u.min  # 152 days out
+    calls = (lambda: cat.propagate(t), lambda: cat.propagate(t, frame="gcrs"),
+             lambda: ground_track(iss, t), lambda: ground_track(cat, t),
+             lambda: eclipse_fraction(iss, t))
+    for call in calls:
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            call()
+        stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+        assert len(stale) == 1 and stale[0].filename == __file__, stale[0].filename

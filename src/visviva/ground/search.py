@@ -30,6 +30,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._callsite import outside_stacklevel
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
@@ -106,11 +107,12 @@ def check_window(t0, t1):
     return t0, t1
 
 
-def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
+def warn_stale_element_sets(cat, t0, t1) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) when element sets of ``cat`` lie
     more than :data:`STALE_DAYS` before ``t0`` or after ``t1``: SGP4's along-track error grows
     by kilometres a day in low orbit, so rise and set times drift by minutes and passes appear
-    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word)."""
+    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word).
+    The warning points at the user's line (:func:`~visviva.satellites.tle_checks.warn_stale_sets`)."""
     jd, fr = cat.epoch_days
     days = []
     for t in (t0, t1):
@@ -119,7 +121,7 @@ def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
     sats = cat.satellites
     warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window",
-                    "these passes can be minutes off, or missing", stacklevel=stacklevel + 1)
+                    "these passes can be minutes off, or missing")
 
 
 def min_elevation_rad(value) -> float:
@@ -397,19 +399,20 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end):
 
 
 def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
-                  stale_stacklevel: int | None = 3) -> EventSet:
+                  warn_stale: bool = True) -> EventSet:
     """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1].
 
     ``refraction`` (as :func:`visviva.ground.look.look`'s; False: geometric) puts the rise and
     the set where the apparent elevation crosses ``min_el_rad``
     (:class:`~visviva.ground.horizon.Horizon`); the events' ``el`` is then apparent too.
-    Stale element sets warn at ``stale_stacklevel`` (:func:`warn_stale_element_sets`); None:
-    the caller has warned already (a Dask chunk of a catalogue the client checked whole)."""
+    Stale element sets warn (:func:`warn_stale_element_sets`) unless ``warn_stale`` is False:
+    the caller has warned already (a Dask chunk of a catalogue the client checked whole).
+    Warnings point at the user's line, the first frame outside visviva."""
     from .horizon import Horizon
 
     horizon = Horizon(stations, min_el_rad, refraction)
-    if stale_stacklevel is not None:
-        warn_stale_element_sets(cat, t0, t1, stacklevel=stale_stacklevel)
+    if warn_stale:
+        warn_stale_element_sets(cat, t0, t1)
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]
@@ -457,7 +460,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
             f"SGP4 failed inside the window for {len(skipped)} satellite(s) ({names}"
             f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets, or sets "
             "run so far from their epochs that SGP4 left every Earth orbit; their events stop "
-            "there.", RuntimeWarning, stacklevel=3)
+            "there.", RuntimeWarning, stacklevel=outside_stacklevel())
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon,
                   span_s, near_sat)
     ev.el = horizon.apparent_rad(ev.el, ev.station, ev.rng)

@@ -389,7 +389,7 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
     check_tsince(tsince, cat.names)
     warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum,
                     np.abs(tsince).max(axis=1, initial=0.0) / MINUTES_PER_DAY,
-                    "the requested times", "these positions can be far off", stacklevel=2)
+                    "the requested times", "these positions can be far off")
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
     else:

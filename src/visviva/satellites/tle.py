@@ -453,7 +453,7 @@ class Satellite:
         jd, fr, shape, times = sgp4_times(t, s.jdsatepoch, s.jdsatepochF)
         tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
         check_tsince(tsince, [self.name])
-        warn_stale_tsince(tsince, self.name, stacklevel=3)  # at the caller of teme/gcrs/...
+        warn_stale_tsince(tsince, self.name)  # (pointing at the user's line)
         e, r, v = s.sgp4_array(jd, fr)
         if flag_beyond_earth_orbit(e, r) or e.any():
             when = times if times is not None else utc_days_to_time(jd, fr)

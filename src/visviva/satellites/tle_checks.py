@@ -15,6 +15,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._callsite import outside_stacklevel
 from .._units import to_array
 from ..constants import DAY_S
 from ..errors import (
@@ -476,8 +477,7 @@ def is_stale(away_days):
     return np.asarray(away_days) > STALE_DAYS
 
 
-def warn_stale_sets(label, away_days, where: str, consequence: str,
-                    stacklevel: int = 2) -> None:
+def warn_stale_sets(label, away_days, where: str, consequence: str) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of N element sets
     are used more than :data:`STALE_DAYS` from their epochs, naming the stalest
     (:data:`STALE_NAMED` at most): the one message of the catalogue-wide uses (pass and event
@@ -493,8 +493,11 @@ def warn_stale_sets(label, away_days, where: str, consequence: str,
     where, consequence : str
         What the times are ("the window") and what the user risks ("these passes can be
         minutes off, or missing").
-    stacklevel : int
-        Of the warning, counted from the caller of this function.
+
+    Notes
+    -----
+    The warning points at the user's line, the first frame outside visviva
+    (:func:`visviva._callsite.outside_stacklevel`), whichever path led here.
     """
     away = np.asarray(away_days, dtype=np.float64)
     stale = np.flatnonzero(is_stale(away))
@@ -507,14 +510,15 @@ def warn_stale_sets(label, away_days, where: str, consequence: str,
         f"{stale.size} of {away.size} element set(s) lie more than {STALE_DAYS:g} days from "
         f"{where} (up to {away[stale].max():.0f} days: {named}{more}); SGP4's errors grow by "
         f"kilometres a day in low orbit, so {consequence}: use element sets from near "
-        f"{where}.", StaleElementSetWarning, stacklevel=stacklevel + 1)
+        f"{where}.", StaleElementSetWarning, stacklevel=outside_stacklevel())
 
 
-def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:
+def warn_stale_tsince(tsince_min, name) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of the times
     ``tsince_min`` (minutes from the element-set epoch) lie more than :data:`STALE_DAYS` from
     it: SGP4's along-track error grows by kilometres a day in low orbit (audit leftfix4: the
-    ISS's 2024 TLE propagated to 1900 gave |r| = 3e8 km, with only ERFA's "dubious year")."""
+    ISS's 2024 TLE propagated to 1900 gave |r| = 3e8 km, with only ERFA's "dubious year").
+    The warning points at the user's line, as :func:`warn_stale_sets`'s."""
     days = np.abs(np.asarray(tsince_min, dtype=np.float64)) / MINUTES_PER_DAY
     stale = is_stale(days)
     if not stale.any():
@@ -526,7 +530,7 @@ def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:
         f"{STALE_DAYS:g} days from the element-set epoch (up to {days.ravel()[k]:.0f} days "
         f"{side} it); SGP4's errors grow by kilometres a day in low orbit, so these positions "
         "can be far off: use an element set from near these times.", StaleElementSetWarning,
-        stacklevel=stacklevel + 1)
+        stacklevel=outside_stacklevel())
 
 
 def flag_beyond_earth_orbit(status, r) -> bool:

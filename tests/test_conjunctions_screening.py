@@ -364,3 +364,27 @@ def test_screening_samples_beyond_any_earth_orbit_are_failures():
     r, v = src.sample(ts)
     assert np.all(np.linalg.norm(r[0, :2], axis=-1) < 7000.0)
     assert np.isnan(r[0, 2]).all() and np.isnan(v[0, 2]).all()
+
+
+def test_screening_stale_element_sets_warns_at_the_callers_line():
+    """find_passes warned about element sets far from its window; screen_conjunctions screened
+    the ISS's 2024-01 set in June 2024 (152 days out, SGP4 kilometres to tens of km off)
+    without a word. Now the same StaleElementSetWarning, pointing at the caller."""
+    import warnings
+
+    iss24 = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    other = vv.Satellite.from_tle(
+        "1 25544U 98067A   24150.50000000  .00016717  00000-0  10270-3 0  9001",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="FRESH",
+        verify_checksum=False)
+    t0 = Time("2024-06-01T00:00:00", scale="utc")
+    for args in ((vv.Catalog([iss24, other]), None), ([other], [iss24])):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            vv.screen_conjunctions(*args, t0, t0 + 1 * u.h)
+        stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+        assert len(stale) == 1 and stale[0].filename == __file__
+        assert "1 of " in str(stale[0].message) and "ISS (152 d)" in str(stale[0].message)
+        assert "close approaches can be kilometres off" in str(stale[0].message)

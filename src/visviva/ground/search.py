@@ -34,7 +34,7 @@ from .._callsite import outside_stacklevel
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
-from ..satellites.tle_checks import STALE_DAYS, flag_beyond_earth_orbit, warn_stale_sets
+from ..satellites.tle_checks import STALE_DAYS, flag_beyond_earth_orbit, warn_stale_window
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
@@ -112,16 +112,9 @@ def warn_stale_element_sets(cat, t0, t1) -> None:
     more than :data:`STALE_DAYS` before ``t0`` or after ``t1``: SGP4's along-track error grows
     by kilometres a day in low orbit, so rise and set times drift by minutes and passes appear
     or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word).
-    The warning points at the user's line (:func:`~visviva.satellites.tle_checks.warn_stale_sets`)."""
-    jd, fr = cat.epoch_days
-    days = []
-    for t in (t0, t1):
-        tj, tf = time_to_utc_days(t)
-        days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
-    away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
-    sats = cat.satellites
-    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window",
-                    "these passes can be minutes off, or missing")
+    The warning points at the user's line
+    (:func:`~visviva.satellites.tle_checks.warn_stale_window`)."""
+    warn_stale_window(cat, t0, t1, "these passes can be minutes off, or missing")
 
 
 def min_elevation_rad(value) -> float:

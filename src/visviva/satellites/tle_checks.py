@@ -44,6 +44,7 @@ __all__ = [
     "is_stale",
     "warn_stale_sets",
     "warn_stale_tsince",
+    "warn_stale_window",
     "MAX_SGP4_RADIUS_KM",
     "SGP4_BEYOND_EARTH_ORBIT",
     "flag_beyond_earth_orbit",
@@ -511,6 +512,32 @@ def warn_stale_sets(label, away_days, where: str, consequence: str) -> None:
         f"{where} (up to {away[stale].max():.0f} days: {named}{more}); SGP4's errors grow by "
         f"kilometres a day in low orbit, so {consequence}: use element sets from near "
         f"{where}.", StaleElementSetWarning, stacklevel=outside_stacklevel())
+
+
+def warn_stale_window(cat, t0, t1, consequence: str) -> None:
+    """Warn (:class:`~visviva.errors.StaleElementSetWarning`, :func:`warn_stale_sets`) when
+    element sets of the catalogue ``cat`` lie more than :data:`STALE_DAYS` before ``t0`` or
+    after ``t1``: the window of a pass search or a conjunction screening.
+
+    Parameters
+    ----------
+    cat : Catalog
+        The element sets (its ``epoch_days`` and ``satellites``).
+    t0, t1 : astropy Time, scalar
+        The window.
+    consequence : str
+        What the user risks ("these passes can be minutes off, or missing").
+    """
+    from .utc_days import time_to_utc_days
+
+    jd, fr = cat.epoch_days
+    days = []
+    for t in (t0, t1):
+        tj, tf = time_to_utc_days(t)
+        days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
+    away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
+    sats = cat.satellites
+    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window", consequence)
 
 
 def warn_stale_tsince(tsince_min, name) -> None:

@@ -381,15 +381,35 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         ``Satellite.teme(t)`` of each satellite.
     """
     check_on_error(on_error)
-    cat = as_catalog(satellites)
-    t = absolute_times(t, "propagate_sgp4_batch")
+    return sgp4_grid(as_catalog(satellites), absolute_times(t, "propagate_sgp4_batch"),
+                     on_error, out)
+
+
+def warn_stale_times(cat: Catalog, jd, fr) -> None:
+    """Warn (:class:`~visviva.StaleElementSetWarning`, once, naming the stalest) when element
+    sets of ``cat`` are used more than 30 days from their epochs at the times ``jd + fr``
+    (UTC days, :func:`~visviva.satellites.tle_checks.sgp4_times`): the warning of
+    :func:`propagate_sgp4_batch`, also given once by ``propagate_dask`` before its blocks run."""
+    day = np.asarray(jd, dtype=np.float64) + np.asarray(fr, dtype=np.float64)
+    if day.size == 0:
+        return
+    ep_jd, ep_fr = cat.epoch_days
+    epoch = ep_jd + ep_fr  # (days: rounding far below the 30-day threshold)
+    away = np.maximum(np.abs(day.min() - epoch), np.abs(day.max() - epoch))
+    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum, away,
+                    "the requested times", "these positions can be far off")
+
+
+def sgp4_grid(cat: Catalog, t: Time, on_error: str, out=None,
+              warn_stale: bool = True) -> BatchStates:
+    """:func:`propagate_sgp4_batch` on a :class:`Catalog` and 1-D times already checked;
+    ``warn_stale=False`` for a block of a batch whose caller warned once, whole (Dask)."""
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
     ep_jd, ep_fr = cat.epoch_days
     tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
-    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum,
-                    np.abs(tsince).max(axis=1, initial=0.0) / MINUTES_PER_DAY,
-                    "the requested times", "these positions can be far off")
+    if warn_stale:
+        warn_stale_times(cat, jd, fr)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
     else:

@@ -510,3 +510,13 @@ def test_stale_warning_of_catalogue_calls_points_at_the_users_line():
             call()
         stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
         assert len(stale) == 1 and stale[0].filename == __file__, stale[0].filename
+
+
+@pytest.mark.parametrize("method", ["sgp4", "j2", "kepler"])
+def test_an_empty_catalogue_propagates_to_empty_states(method):
+    # the J2 batch raised a bare IndexError (its setup read the first element set); SGP4 and
+    # Kepler returned (0, T, 3)
+    t = Time("2024-01-01T00:00:00", scale="utc") + np.arange(4) * u.min
+    out = Catalog([]).propagate(t, method=method, frame="gcrs")
+    assert out.r.shape == out.v.shape == (0, 4, 3) and out.status.shape == (0, 4)
+    assert out.names == [] and out.frame == "gcrs"

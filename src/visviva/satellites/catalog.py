@@ -562,6 +562,10 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     check_on_error(on_error)
     cat = as_catalog(satellites)
     t = absolute_times(t, "propagate_j2_batch")
+    if len(cat) == 0:  # as the SGP4 and Kepler batches (the setup reads a first element set)
+        return BatchStates(to_quantity(np.empty((0, len(t), 3)), "length"),
+                           to_quantity(np.empty((0, len(t), 3)), "speed"), t,
+                           np.empty((0, len(t)), dtype=np.uint8), [], "teme")
     setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
     if setup is None:
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)

@@ -520,3 +520,19 @@ def test_an_empty_catalogue_propagates_to_empty_states(method):
     out = Catalog([]).propagate(t, method=method, frame="gcrs")
     assert out.r.shape == out.v.shape == (0, 4, 3) and out.status.shape == (0, 4)
     assert out.names == [] and out.frame == "gcrs"
+
+
+def test_kepler_batch_nan_mode_keeps_the_other_satellites(catalog, times):
+    # on_error="nan" raised the SGP4 error of 33334 (error 3 at its own epoch) for the whole
+    # catalogue; now that satellite's row is NaN with NON_FINITE and the others propagate
+    from visviva.core.status import NON_FINITE
+
+    k = catalog.names.index("33334")
+    with pytest.raises(SGP4Error, match="'33334'"):
+        propagate_kepler_batch(catalog, times[:2])
+    out = propagate_kepler_batch(catalog, times[:2], on_error="nan")
+    assert (out.status[k] == NON_FINITE).all() and np.isnan(out.r.value[k]).all()
+    others = np.delete(np.arange(len(catalog)), k)
+    one = propagate_kepler_batch(catalog[:k], times[:2], on_error="nan")
+    np.testing.assert_array_equal(out.r.value[:k], one.r.value)
+    assert np.isfinite(out.r.value[others][out.status[others] == 0]).all()

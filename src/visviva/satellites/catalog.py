@@ -470,7 +470,9 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
     t : astropy Time, shape (T,) or scalar
         Absolute times.
     on_error : {"raise", "nan"}
-        As in :func:`propagate_sgp4_batch`.
+        As in :func:`propagate_sgp4_batch`; with ``"nan"`` a satellite whose SGP4 fails at its
+        own epoch (it has no osculating state there) gives NaN and status
+        :data:`~visviva.core.status.NON_FINITE` at every time instead of the SGP4 error.
     backend : {"cpu", "cuda"}
         ``"cuda"``: the same solver compiled for an NVIDIA GPU from the same source
         (:mod:`visviva.core.cuda.twins`; extra ``visviva[gpu]``), one thread per pair; raises
@@ -502,7 +504,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         e = np.array([o[0] for o in out], dtype=np.uint8)
         r0 = np.array([o[1] for o in out], dtype=np.float64).reshape(-1, 3)
         v0 = np.array([o[2] for o in out], dtype=np.float64).reshape(-1, 3)
-        raise_for_sgp4_status(e[:, None], cat.names, 0.0)
+        if on_error == "raise":
+            raise_for_sgp4_status(e[:, None], cat.names, 0.0)
+        r0[e != 0] = np.nan  # no state at its epoch: NON_FINITE (4) at every time, NaN
+        v0[e != 0] = np.nan
         gm = np.array([s.satrec.mu for s in cat.satellites])
         names, frame = cat.names, "teme"
     else:

@@ -580,6 +580,14 @@ def flag_beyond_earth_orbit(status, r) -> bool:
     bool
         Whether any state was flagged.
     """
+    r = np.asarray(r)
+    if r.size == 0:
+        return False
+    # fast path, two reductions without temporaries (NaN ignored): every component within
+    # MAX / sqrt(3) puts every |r| within MAX (a third of the cost of the norms)
+    bound = MAX_SGP4_RADIUS_KM / math.sqrt(3.0)
+    if np.fmax.reduce(r, axis=None) <= bound and np.fmin.reduce(r, axis=None) >= -bound:
+        return False
     rr = np.einsum("...i,...i->...", r, r)
     far = (rr > MAX_SGP4_RADIUS_KM**2) & (status == 0)
     if not far.any():

@@ -536,3 +536,26 @@ def test_kepler_batch_nan_mode_keeps_the_other_satellites(catalog, times):
     one = propagate_kepler_batch(catalog[:k], times[:2], on_error="nan")
     np.testing.assert_array_equal(out.r.value[:k], one.r.value)
     assert np.isfinite(out.r.value[others][out.status[others] == 0]).all()
+
+
+def test_a_catalogue_cannot_be_changed_in_place_under_its_cached_arrays():
+    # Catalog.satellites was a plain list: after cat.satellites[0] = geo, propagate() returned
+    # the cached SatrecArray's ISS positions (|r| = 6720 km) labelled 'GEO' (42136 km)
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+    cat = Catalog([iss])
+    t = iss.epoch + np.arange(2) * u.min
+    before = cat.propagate(t)
+    with pytest.raises((TypeError, AttributeError)):
+        cat.satellites[0] = iss
+    with pytest.raises(AttributeError):
+        cat.satellites = [iss]
+    with pytest.raises(AttributeError):
+        cat.satellites.append(iss)
+    assert isinstance(cat.satellites, tuple)
+    grown = Catalog([*cat, iss])  # the way to change one: a new catalogue
+    np.testing.assert_array_equal(grown.propagate(t).r.value[1], before.r.value[0])
+    import pickle
+
+    again = pickle.loads(pickle.dumps(cat))
+    assert isinstance(again.satellites, tuple)
+    np.testing.assert_array_equal(again.propagate(t).r.value, before.r.value)

@@ -60,7 +60,7 @@ __all__ = [
 
 
 class Catalog:
-    """A list of :class:`~visviva.Satellite` propagated together.
+    """A sequence of :class:`~visviva.Satellite` propagated together (fixed once built).
 
     Parameters
     ----------
@@ -76,13 +76,25 @@ class Catalog:
     """
 
     def __init__(self, satellites):
-        self.satellites = list(satellites)
-        for s in self.satellites:
+        sats = tuple(satellites)
+        for s in sats:
             if not isinstance(s, Satellite):
                 raise InvalidInputError(
                     f"a Catalog holds vv.Satellite objects, got {type(s).__name__}; build them "
                     "with vv.Satellite.from_tle or from_omm."
                 )
+        self._satellites = sats
+
+    @property
+    def satellites(self) -> tuple:
+        """The satellites, in order (a tuple).
+
+        A catalogue does not change once built: its SGP4 arrays, epochs and search setups are
+        computed once and kept, so a list changed in place (``cat.satellites[0] = other`` was
+        accepted) went on propagating the old element sets under the new names. Build a new
+        one instead: ``Catalog([*cat, sat])``, ``cat[1:]``, ``cat.latest()``.
+        """
+        return self._satellites
 
     def __reduce__(self):
         # sgp4's SatrecArray does not pickle, and rebuilding thousands of Satellites costs
@@ -212,7 +224,7 @@ def _catalog_from_payload(token: str, data: bytes) -> Catalog:
     cat = _UNPICKLED.pop(token, None)
     if cat is None:
         cat = Catalog.__new__(Catalog)
-        cat.satellites = pickle.loads(data)
+        cat._satellites = tuple(pickle.loads(data))
         cat.__dict__["_payload"] = (token, data)
     _UNPICKLED[token] = cat
     while len(_UNPICKLED) > _UNPICKLED_MAX:

@@ -184,7 +184,7 @@ def warn_subsurface_perigee(satrec, where: str, fields: str) -> None:
         "the times below one Earth radius (error 6, decayed) and propagates the rest of the "
         f"orbit as if it flew. Check {fields} (a mistyped element set), or use a newer one if "
         "the object has re-entered.",
-        SubsurfacePerigeeWarning, stacklevel=3)
+        SubsurfacePerigeeWarning, stacklevel=outside_stacklevel())  # the user's line
 
 
 def raise_for_sgp4_status(status, names, tsince_min, times=None, r=None) -> None:

@@ -450,3 +450,112 @@ def test_sgp4_batch_warns_once_naming_stale_element_sets():
     assert len(ours) == 1 and ours[0].filename == __file__
     assert ("1 of 2 element set(s) lie more than 30 days from the requested times (up to 99 "
             "days: 25544 (99 d))") in str(ours[0].message)
+
+
+def test_sgp4_batch_flags_or_refuses_positions_beyond_any_earth_orbit(catalog, times):
+    """Satellite.teme refused an SGP4 position more than 1e6 km from the geocentre (no Earth
+    orbit: SGP4 far outside its span); propagate_sgp4_batch and Catalog.propagate returned it
+    with status 0: 29141 of the verification set, six to seven days past its epoch, came back
+    4e9 to 2.3e10 km away between sgp4's error-1 states. Now status 100
+    (SGP4_BEYOND_EARTH_ORBIT) and NaN, or the typed error naming the satellite and the time."""
+    from visviva.core import status as core_status
+    from visviva.satellites.tle_checks import (
+        MAX_SGP4_RADIUS_KM,
+        SGP4_BEYOND_EARTH_ORBIT,
+        sgp4_times,
+    )
+
+    # the code collides with none of sgp4's (1-6) nor visviva.core.status's
+    core_codes = {v for k, v in vars(core_status).items() if k.isupper() and isinstance(v, int)}
+    assert SGP4_BEYOND_EARTH_ORBIT not in set(range(7)) | core_codes
+    k = catalog.names.index("29141")
+    one = Catalog([catalog[k]])
+    e, r, _ = one.satrec_array.sgp4(*sgp4_times(times, 0.0, 0.0)[:2])  # sgp4 itself
+    far = (e[0] == 0) & (np.linalg.norm(r[0], axis=-1) > MAX_SGP4_RADIUS_KM)
+    assert far.sum() == 8 and ((e[0] != 0) | far).all()
+    for batch in (propagate_sgp4_batch(catalog, times, on_error="nan"),
+                  catalog.propagate(times, on_error="nan")):
+        row = batch.status[k]
+        assert (row[far] == SGP4_BEYOND_EARTH_ORBIT).all()
+        assert (row[~far] == e[0][~far]).all()  # sgp4's own codes kept
+        assert np.isnan(batch.r.value[k][far]).all() and np.isnan(batch.v.value[k][far]).all()
+    with pytest.raises(SGP4Error, match=r"4\.139e\+09 km from the geocentre for satellite "
+                       r"'29141' at 2006-06-24T16:48:00\.000 UTC") as info:
+        propagate_sgp4_batch(one, times)
+    assert info.value.code == SGP4_BEYOND_EARTH_ORBIT
+    assert info.value.reason == "position beyond any Earth orbit"
+    with pytest.raises(SGP4Error, match="beyond any Earth orbit"):  # the single path agrees
+        catalog[k].teme(times[:1])
+
+
+def test_stale_warning_of_catalogue_calls_points_at_the_users_line():
+    """Catalog.propagate's StaleElementSetWarning pointed at catalog.py (the fixed stacklevel
+    of propagate_sgp4_batch, one frame short), ground_track's and eclipse_fraction's at
+    groundtrack.py: now at the caller, the first frame outside visviva."""
+    import warnings
+
+    from visviva.satellites.groundtrack import eclipse_fraction, ground_track
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    cat = Catalog([iss])
+    t = Time("2024-06-01T00:00:00", scale="utc") + np.arange(3) * u.min  # 152 days out
+    calls = (lambda: cat.propagate(t), lambda: cat.propagate(t, frame="gcrs"),
+             lambda: ground_track(iss, t), lambda: ground_track(cat, t),
+             lambda: eclipse_fraction(iss, t))
+    for call in calls:
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            call()
+        stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+        assert len(stale) == 1 and stale[0].filename == __file__, stale[0].filename
+
+
+@pytest.mark.parametrize("method", ["sgp4", "j2", "kepler"])
+def test_an_empty_catalogue_propagates_to_empty_states(method):
+    # the J2 batch raised a bare IndexError (its setup read the first element set); SGP4 and
+    # Kepler returned (0, T, 3)
+    t = Time("2024-01-01T00:00:00", scale="utc") + np.arange(4) * u.min
+    out = Catalog([]).propagate(t, method=method, frame="gcrs")
+    assert out.r.shape == out.v.shape == (0, 4, 3) and out.status.shape == (0, 4)
+    assert out.names == [] and out.frame == "gcrs"
+
+
+def test_kepler_batch_nan_mode_keeps_the_other_satellites(catalog, times):
+    # on_error="nan" raised the SGP4 error of 33334 (error 3 at its own epoch) for the whole
+    # catalogue; now that satellite's row is NaN with NON_FINITE and the others propagate
+    from visviva.core.status import NON_FINITE
+
+    k = catalog.names.index("33334")
+    with pytest.raises(SGP4Error, match="'33334'"):
+        propagate_kepler_batch(catalog, times[:2])
+    out = propagate_kepler_batch(catalog, times[:2], on_error="nan")
+    assert (out.status[k] == NON_FINITE).all() and np.isnan(out.r.value[k]).all()
+    others = np.delete(np.arange(len(catalog)), k)
+    one = propagate_kepler_batch(catalog[:k], times[:2], on_error="nan")
+    np.testing.assert_array_equal(out.r.value[:k], one.r.value)
+    assert np.isfinite(out.r.value[others][out.status[others] == 0]).all()
+
+
+def test_a_catalogue_cannot_be_changed_in_place_under_its_cached_arrays():
+    # Catalog.satellites was a plain list: after cat.satellites[0] = geo, propagate() returned
+    # the cached SatrecArray's ISS positions (|r| = 6720 km) labelled 'GEO' (42136 km)
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+    cat = Catalog([iss])
+    t = iss.epoch + np.arange(2) * u.min
+    before = cat.propagate(t)
+    with pytest.raises((TypeError, AttributeError)):
+        cat.satellites[0] = iss
+    with pytest.raises(AttributeError):
+        cat.satellites = [iss]
+    with pytest.raises(AttributeError):
+        cat.satellites.append(iss)
+    assert isinstance(cat.satellites, tuple)
+    grown = Catalog([*cat, iss])  # the way to change one: a new catalogue
+    np.testing.assert_array_equal(grown.propagate(t).r.value[1], before.r.value[0])
+    import pickle
+
+    again = pickle.loads(pickle.dumps(cat))
+    assert isinstance(again.satellites, tuple)
+    np.testing.assert_array_equal(again.propagate(t).r.value, before.r.value)

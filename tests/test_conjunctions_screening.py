@@ -346,3 +346,45 @@ def test_one_file_read_twice_is_one_catalogue(tmp_path):
     assert len(both) == len(expect)
     assert np.allclose(np.sort(both["miss_distance"].value),
                        np.sort(expect["miss_distance"].value), rtol=0, atol=1e-9)
+
+
+def test_screening_samples_beyond_any_earth_orbit_are_failures():
+    """SGP4 positions ~3e8 km away (the ISS's 2024 set run back to 1900) came back with error
+    code 0 and were screened as states; Satellite.teme refuses them. The screening source now
+    marks them failed (NaN), as it does sgp4's errors, so the failure warning names them."""
+    from visviva.conjunctions.sources import SgpSource
+    from visviva.satellites.utc_days import time_to_utc_days
+
+    iss24 = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    jd0, fr0 = (float(x) for x in time_to_utc_days(iss24.epoch))
+    src = SgpSource(vv.Catalog([iss24]), jd0, fr0)
+    ts = np.array([0.0, 600.0, -45290.5 * 86400.0])  # the epoch, 10 min later, 1900
+    r, v = src.sample(ts)
+    assert np.all(np.linalg.norm(r[0, :2], axis=-1) < 7000.0)
+    assert np.isnan(r[0, 2]).all() and np.isnan(v[0, 2]).all()
+
+
+def test_screening_stale_element_sets_warns_at_the_callers_line():
+    """find_passes warned about element sets far from its window; screen_conjunctions screened
+    the ISS's 2024-01 set in June 2024 (152 days out, SGP4 kilometres to tens of km off)
+    without a word. Now the same StaleElementSetWarning, pointing at the caller."""
+    import warnings
+
+    iss24 = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    other = vv.Satellite.from_tle(
+        "1 25544U 98067A   24150.50000000  .00016717  00000-0  10270-3 0  9001",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="FRESH",
+        verify_checksum=False)
+    t0 = Time("2024-06-01T00:00:00", scale="utc")
+    for args in ((vv.Catalog([iss24, other]), None), ([other], [iss24])):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            vv.screen_conjunctions(*args, t0, t0 + 1 * u.h)
+        stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+        assert len(stale) == 1 and stale[0].filename == __file__
+        assert "1 of " in str(stale[0].message) and "ISS (152 d)" in str(stale[0].message)
+        assert "close approaches can be kilometres off" in str(stale[0].message)

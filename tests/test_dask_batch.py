@@ -108,10 +108,17 @@ def test_dask_graph_and_in_place_paths_agree(catalog, times):
 
 
 def _graph_and_in_place(client, catalog, times, mem):
+    import warnings
+
+    from visviva.errors import StaleElementSetWarning
+
     for chunks in [(8, 1000), (5, 7)]:
-        lazy = propagate_dask(catalog, times, chunks=chunks, on_error="nan")
-        in_place = lazy.compute(client=client)
-        r_graph, v_graph = client.compute([lazy.r, lazy.v], sync=True)
+        with pytest.warns(StaleElementSetWarning):  # once, on the client (the set: 1957-2006)
+            lazy = propagate_dask(catalog, times, chunks=chunks, on_error="nan")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", StaleElementSetWarning)  # not again per block
+            in_place = lazy.compute(client=client)
+            r_graph, v_graph = client.compute([lazy.r, lazy.v], sync=True)
         for r, v in [(in_place.r.value, in_place.v.value), (r_graph, v_graph)]:
             np.testing.assert_array_equal(r, mem.r.value)
             np.testing.assert_array_equal(v, mem.v.value)
@@ -238,3 +245,22 @@ def test_cowell_dask_labels_offsets_in_tt_seconds_for_a_tdb_epoch():
     assert batch.t.scale == "tdb"
     np.testing.assert_allclose((batch.t.tt - epoch.tt).to_value(u.s), dt.to_value(u.s),
                                rtol=0, atol=1e-6)
+
+
+def test_stale_element_sets_warn_once_on_the_client(cluster, catalog, times):
+    """propagate_dask(method="sgp4") said nothing about element sets years from the times: the
+    blocks' warnings stayed on the process workers. Now one warning when the batch is built,
+    at the caller's line, as propagate_sgp4_batch gives."""
+    import warnings
+
+    from visviva.errors import StaleElementSetWarning
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        lazy = propagate_dask(catalog, times, chunks=(8, 10), on_error="nan")
+        propagate_sgp4_batch(catalog, times, on_error="nan")
+    stale = [x for x in w if issubclass(x.category, StaleElementSetWarning)]
+    assert len(stale) == 2 and all(x.filename == __file__ for x in stale)
+    assert str(stale[0].message) == str(stale[1].message)  # the in-memory batch's own words
+    assert "of 33 element set(s)" in str(stale[0].message)
+    assert lazy.r.shape == (33, 23, 3)

@@ -11,6 +11,7 @@ from astropy.time import Time
 
 import visviva as vv
 from visviva.ground import doppler_shift, refraction_deg
+from visviva.ground.look import look
 
 ISS_1 = "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927"
 ISS_2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537"
@@ -240,3 +241,33 @@ def test_razel_against_vallados_rv2razel():
     assert rdot == pytest.approx(3.1216042513457634, abs=3e-6)
     assert azdot == pytest.approx(5.093097833129788e-05, rel=1e-4)
     assert eldot == pytest.approx(0.0015655515448868324, rel=1e-5)
+
+
+_ISS_2024 = ("1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+             "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340")
+
+
+_CALLS = {  # the user's calls, written in this file
+    "look Satellite": lambda site, sat, t: site.look(sat, t),
+    "look function": lambda site, sat, t: look(site, sat, t),
+    "look Catalog": lambda site, sat, t: site.look(vv.Catalog([sat]), t),
+    "find_events": lambda site, sat, t: site.find_events(sat, t[0], t[0] + 2 * u.h),
+    "find_passes": lambda site, sat, t: vv.find_passes(sat, site, t[0], t[0] + 2 * u.h),
+    "find_passes Catalog": lambda site, sat, t: vv.find_passes(vv.Catalog([sat]), [site], t[0],
+                                                               t[0] + 2 * u.h),
+}
+
+
+@pytest.mark.parametrize("call", sorted(_CALLS))
+def test_stale_element_set_warning_points_at_the_users_line(site, call):
+    """The StaleElementSetWarning of look() pointed into visviva (look.py: teme was called one
+    frame deeper than its fixed stacklevel assumed); find_passes' and Satellite.teme's were
+    right by luck of their depth. Every path now names the first frame outside visviva."""
+    sat = vv.Satellite.from_tle(*_ISS_2024, name="ISS")
+    t = Time("2024-06-01T00:00:00", scale="utc") + np.arange(3) * u.min  # 152 days out
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        _CALLS[call](site, sat, t)
+    stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+    assert len(stale) == 1 and "152" in str(stale[0].message)
+    assert stale[0].filename == __file__

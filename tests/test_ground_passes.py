@@ -400,3 +400,24 @@ def test_stale_element_set_warning_names_the_stalest_satellites(iss, sites):
     assert ("7 of 8 element set(s) lie more than 30 days from the window (up to 60 days: "
             "OLD3 (60 d), OLD1 (50 d), OLD5 (45 d), OLD6 (38 d), OLD0 (35 d) and 2 more)") in text
     assert "FRESH" not in text
+
+
+@pytest.mark.filterwarnings("ignore::erfa.ErfaWarning")  # 1900: ERFA's "dubious year"
+@pytest.mark.filterwarnings("ignore::UserWarning")  # Earth orientation before the IERS table
+@pytest.mark.filterwarnings("ignore::visviva.StaleElementSetWarning")
+def test_states_beyond_any_earth_orbit_give_no_passes_and_a_warning():
+    """The ISS's 2024 element set run back to 1900 gives SGP4 positions ~3e8 km away without an
+    error code (Satellite.teme refuses them): the pass search swept that point across the sky
+    and listed 18 passes a day, with only the stale-set warning. Now those states fail as
+    sgp4's errors do: no passes, and the RuntimeWarning naming the satellite."""
+    iss24 = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    site = vv.GroundStation(52.2 * u.deg, 0.12 * u.deg, name="CAM")
+    t0 = Time("1900-01-01", scale="utc")
+    with pytest.warns(RuntimeWarning, match=r"SGP4 failed inside the window for 1 satellite\(s\) "
+                      r"\('ISS' after 1900-01-01T00:00:00.000\).*left every Earth orbit"):
+        table = vv.find_passes(iss24, site, t0, t0 + 1 * u.day)
+    assert len(table) == 0
+    with pytest.raises(vv.SGP4Error, match="beyond any Earth orbit"):  # as look(iss24, t0)
+        site.look(vv.Catalog([iss24]), t0 + [0, 60] * u.s)

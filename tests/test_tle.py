@@ -652,3 +652,21 @@ def test_propagation_far_from_the_epoch_warns_once_and_refuses_no_orbit():
             iss.teme(Time("1900-01-01", scale="utc"))
     assert exc.value.reason == "position beyond any Earth orbit"
     assert exc.value.tsince_min == pytest.approx(-45290.5 * 1440.0)
+
+
+def test_the_subsurface_perigee_warning_of_a_file_points_at_the_callers_line(tmp_path):
+    # read through parse_tle_text / read_tle_file the warning pointed at catalog_files.py (a
+    # stacklevel fixed for Satellite.from_tle called by the user)
+    from visviva.satellites.catalog import parse_tle_text
+
+    line2 = _with_checksum("2 99999  51.5662   0.0000 3500000   0.0000   0.0000 10.00000000    00")
+    line1 = _with_checksum("1 99999U          21067.00000000  .00000000  00000-0  00000+0 0    00")
+    path = tmp_path / "low.txt"
+    path.write_text(f"{line1}\n{line2}\n")
+    for read in (lambda: parse_tle_text(f"{line1}\n{line2}\n"), lambda: vv.read_tle_file(path),
+                 lambda: vv.read_catalog_file(path), lambda: vv.Satellite.from_tle(line1, line2)):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            read()
+        ours = [x for x in w if issubclass(x.category, vv.errors.SubsurfacePerigeeWarning)]
+        assert len(ours) == 1 and ours[0].filename == __file__

@@ -22,13 +22,13 @@ holds UT1 - UTC at 0.033 s while the true Delta T falls away from the UTC of ERF
 
 from __future__ import annotations
 
-import contextlib
 import contextvars
 import warnings
 
 import numpy as np
 from astropy.utils import iers
 
+from ._callsite import outside_stacklevel
 from .errors import EarthOrientationWarning
 
 __all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1",
@@ -95,26 +95,7 @@ def _issue(key: str, message: str) -> None:
         if key in issued:
             return
         issued.add(key)
-    warnings.warn(message, EarthOrientationWarning, stacklevel=_caller()[0])
-
-
-def _caller():
-    """``(stacklevel, frame)`` of the first frame outside visviva, astropy, ERFA, numpy and the
-    standard library's contextlib: the user's line that asked for the conversion."""
-    import os
-    import sys
-
-    import astropy
-    import erfa
-
-    import visviva
-
-    inside = tuple(os.path.dirname(m.__file__) + os.sep for m in (visviva, astropy, erfa, np))
-    inside += (contextlib.__file__,)
-    frame, level = sys._getframe(2), 2  # _caller's caller is _issue: level 1 for warn
-    while frame is not None and frame.f_code.co_filename.startswith(inside):
-        frame, level = frame.f_back, level + 1
-    return level, frame
+    warnings.warn(message, EarthOrientationWarning, stacklevel=outside_stacklevel())
 
 
 class EarthOrientationTable(iers.IERS_Auto):

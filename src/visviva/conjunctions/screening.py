@@ -20,6 +20,7 @@ import numpy as np
 from .._units import require_usable_time, to_array
 from ..constants import DAY_S, GM_EARTH_KM3_S2
 from ..errors import InvalidInputError
+from ..satellites.tle_checks import warn_stale_window
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 
 __all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
@@ -279,8 +280,9 @@ def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> Non
                       for name, k in items[:5])
     warnings.warn(
         f"SGP4 failed inside the window for {len(items)} object(s) ({where}"
-        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets; they are not "
-        "screened from there on (close approaches after that time are not in the table).",
+        f"{', ...' if len(items) > 5 else ''}): decayed or invalid element sets, or sets run "
+        "so far from their epochs that SGP4 left every Earth orbit; they are not screened "
+        "from there on (close approaches after that time are not in the table).",
         RuntimeWarning, stacklevel=3)
 
 
@@ -362,6 +364,13 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         ``t1 <= t0``, non-positive threshold or step, or a step longer than 1/8 of the shortest
         orbital period.
 
+    Warns
+    -----
+    StaleElementSetWarning
+        Element sets more than 30 days from the window (as :func:`visviva.find_passes`).
+    RuntimeWarning
+        Objects whose SGP4 fails inside the window (not screened from there on).
+
     Notes
     -----
     Filters (Hoots, Crawford & Roehrich, Celest. Mech. 33 (1984) 143; Alarcon-Rodriguez et al.,
@@ -405,6 +414,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     check_same_kind(cat1, cat2)
     if not self_mode and cat1.keys() == cat2.keys():
         self_mode, cat2 = True, cat1  # the same objects twice: all against all, pairs once
+    for src in (cat1,) if self_mode else (cat1, cat2):
+        if isinstance(src, SgpSource):  # (a pass search warns the same way)
+            warn_stale_window(src.catalog, t0, t1, "these close approaches can be kilometres "
+                              "off, or missing")
     for which, src in (("primaries", cat1), ("secondaries", cat2)):
         if len(src) == 0:
             raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "

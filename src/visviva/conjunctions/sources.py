@@ -20,6 +20,7 @@ import numpy as np
 
 from ..constants import DAY_S
 from ..errors import InvalidInputError
+from ..satellites.tle_checks import flag_beyond_earth_orbit
 
 __all__ = ["SgpSource", "SampledSource", "as_source"]
 
@@ -42,9 +43,12 @@ class SgpSource:
         return self.catalog.names
 
     def sample(self, ts):
-        """Positions and velocities ``(N, T, 3)`` at ``ts`` (s from t0); NaN where SGP4 fails."""
+        """Positions and velocities ``(N, T, 3)`` at ``ts`` (s from t0); NaN where SGP4 fails
+        (an error code, or a position beyond any Earth orbit as :meth:`visviva.Satellite.teme`
+        refuses)."""
         jd = np.full(ts.size, self.jd0)
         e, r, v = self.catalog.satrec_array.sgp4(jd, self.fr0 + ts / DAY_S)
+        flag_beyond_earth_orbit(e, r)  # no Earth orbit (SGP4 far outside its span): failed
         bad = e != 0
         if bad.any():
             r[bad] = np.nan

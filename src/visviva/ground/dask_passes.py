@@ -76,7 +76,7 @@ def _chunk_passes(chunk, stations, t0, t1, min_elevation, standard_magnitude, re
         # stale element sets were warned about once, on the client (a warning raised on a
         # process worker never reaches the caller; on threads it came once per chunk)
         table = passes_of(chunk, stations, t0, t1, min_elevation, standard_magnitude,
-                          refraction, stale_stacklevel=None)
+                          refraction, warn_stale=False)
     return _table_to_wire(table)
 
 

@@ -99,13 +99,13 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     5
     """
     return passes_of(satellites, stations, t0, t1, min_elevation, standard_magnitude,
-                     refraction, stale_stacklevel=4)
+                     refraction, warn_stale=True)
 
 
 def passes_of(satellites, stations, t0, t1, min_elevation, standard_magnitude, refraction,
-              stale_stacklevel: int | None):
-    """:func:`find_passes`, stale element sets warned at ``stale_stacklevel``
-    (:func:`~visviva.ground.search.search_events`); None for a chunk of a catalogue whose
+              warn_stale: bool):
+    """:func:`find_passes`, stale element sets warned when ``warn_stale``
+    (:func:`~visviva.ground.search.search_events`); False for a chunk of a catalogue whose
     caller warned once, whole (:func:`~visviva.ground.dask_passes.find_passes_dask`)."""
     cat = as_catalog(satellites)
     sts = as_stations(stations)
@@ -115,7 +115,7 @@ def passes_of(satellites, stations, t0, t1, min_elevation, standard_magnitude, r
         from .visibility import standard_magnitudes
 
         standard_magnitude = standard_magnitudes(standard_magnitude, len(cat))
-    ev = search_events(cat, sts, t0, t1, el_min, refraction, stale_stacklevel=stale_stacklevel)
+    ev = search_events(cat, sts, t0, t1, el_min, refraction, warn_stale=warn_stale)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)
 
 

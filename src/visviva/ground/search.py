@@ -30,10 +30,11 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._callsite import outside_stacklevel
 from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
-from ..satellites.tle_checks import STALE_DAYS, warn_stale_sets
+from ..satellites.tle_checks import STALE_DAYS, flag_beyond_earth_orbit, warn_stale_window
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
 
@@ -106,20 +107,14 @@ def check_window(t0, t1):
     return t0, t1
 
 
-def warn_stale_element_sets(cat, t0, t1, stacklevel: int = 2) -> None:
+def warn_stale_element_sets(cat, t0, t1) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) when element sets of ``cat`` lie
     more than :data:`STALE_DAYS` before ``t0`` or after ``t1``: SGP4's along-track error grows
     by kilometres a day in low orbit, so rise and set times drift by minutes and passes appear
-    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word)."""
-    jd, fr = cat.epoch_days
-    days = []
-    for t in (t0, t1):
-        tj, tf = time_to_utc_days(t)
-        days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
-    away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
-    sats = cat.satellites
-    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window",
-                    "these passes can be minutes off, or missing", stacklevel=stacklevel + 1)
+    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word).
+    The warning points at the user's line
+    (:func:`~visviva.satellites.tle_checks.warn_stale_window`)."""
+    warn_stale_window(cat, t0, t1, "these passes can be minutes off, or missing")
 
 
 def min_elevation_rad(value) -> float:
@@ -214,7 +209,8 @@ class _Clock:
 
 
 def sgp4_teme(satrecs, sat_idx, clock, t_s):
-    """TEME states of ``satrecs[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 OK).
+    """TEME states of ``satrecs[sat_idx[k]]`` at ``t_ref + t_s[k]``; status per event (0 OK;
+    sgp4's codes, or :data:`~visviva.satellites.tle_checks.SGP4_BEYOND_EARTH_ORBIT`).
 
     One ``sgp4_array`` call per satellite with events (the sgp4 library takes per-satellite
     time lists no other way), on contiguous slices of the events sorted by satellite.
@@ -244,6 +240,7 @@ def sgp4_teme(satrecs, sat_idx, clock, t_s):
     r[order] = r_s
     v[order] = v_s
     err[order] = e_s
+    flag_beyond_earth_orbit(err, r)  # (as Satellite.teme: no Earth orbit is a failure)
     return r, v, err
 
 
@@ -288,6 +285,7 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
             v_sec = b.v.to_value(u.km / u.s)
             k3 = np.array([0, nodes // 2, nodes - 1])
             e3, r3, _ = sub.satrec_array.sgp4(jd[k3], fr[k3])
+            flag_beyond_earth_orbit(e3, r3)
             eps = np.linalg.norm(r3 - r_sec[:, k3], axis=-1).max(axis=1)
             good = (e3 == 0).all(axis=1) & (b.status == 0).all(axis=1) & (eps < 50.0)
         except Exception:  # noqa: BLE001 (an orbit outside the secular theory: use SGP4)
@@ -302,6 +300,7 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
     if je.size:
         sub = cat if je.size == len(cat) else Catalog([cat.satellites[int(i)] for i in idx[je]])
         ee, rr, vv = sub.satrec_array.sgp4(jd, fr)
+        flag_beyond_earth_orbit(ee, rr)  # no Earth orbit: a failed node, as sgp4's errors
         r[je], v[je], e[je] = rr, vv, ee
     return r, v, e, near, times_s
 
@@ -374,6 +373,7 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end):
     n = len(cat)
     jd, fr = clock.parts(np.array([0.0, span_s]))
     e, r, v = cat.satrec_array.sgp4(jd, fr)
+    flag_beyond_earth_orbit(e, r)
     if (t_end < span_s).any():  # decayed inside the window: its own end
         cut = np.flatnonzero(t_end < span_s)
         r2, v2, e2 = sgp4_teme(cat.__dict__["_pass_setup"][0], cut, clock, t_end[cut])
@@ -392,19 +392,20 @@ def _window_edges(cat, clock, earth, span_s, sites, ups, horizon, t_end):
 
 
 def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
-                  stale_stacklevel: int | None = 3) -> EventSet:
+                  warn_stale: bool = True) -> EventSet:
     """Rise, culmination and set of every satellite of ``cat`` at every station in [t0, t1].
 
     ``refraction`` (as :func:`visviva.ground.look.look`'s; False: geometric) puts the rise and
     the set where the apparent elevation crosses ``min_el_rad``
     (:class:`~visviva.ground.horizon.Horizon`); the events' ``el`` is then apparent too.
-    Stale element sets warn at ``stale_stacklevel`` (:func:`warn_stale_element_sets`); None:
-    the caller has warned already (a Dask chunk of a catalogue the client checked whole)."""
+    Stale element sets warn (:func:`warn_stale_element_sets`) unless ``warn_stale`` is False:
+    the caller has warned already (a Dask chunk of a catalogue the client checked whole).
+    Warnings point at the user's line, the first frame outside visviva."""
     from .horizon import Horizon
 
     horizon = Horizon(stations, min_el_rad, refraction)
-    if stale_stacklevel is not None:
-        warn_stale_element_sets(cat, t0, t1, stacklevel=stale_stacklevel)
+    if warn_stale:
+        warn_stale_element_sets(cat, t0, t1)
     setup = cat.__dict__.get("_pass_setup")  # per catalogue: satrecs and node spacings
     if setup is None:
         satrecs = [s.satrec for s in cat.satellites]
@@ -450,8 +451,9 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
                           for i, te in skipped[:5])
         warnings.warn(
             f"SGP4 failed inside the window for {len(skipped)} satellite(s) ({names}"
-            f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets; their "
-            "events stop there.", RuntimeWarning, stacklevel=3)
+            f"{', ...' if len(skipped) > 5 else ''}): decayed or invalid element sets, or sets "
+            "run so far from their epochs that SGP4 left every Earth orbit; their events stop "
+            "there.", RuntimeWarning, stacklevel=outside_stacklevel())
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon,
                   span_s, near_sat)
     ev.el = horizon.apparent_rad(ev.el, ev.station, ev.rng)

@@ -11,6 +11,9 @@
 * :func:`propagate_j2_batch`: SGP4 mean elements with the secular J2 drift of the node, perigee
   and mean anomaly (:mod:`visviva.satellites.secular`), one compiled loop over the N x T pairs
   (:mod:`visviva.satellites.secular_batch`).
+
+Their result, :class:`BatchStates`, and the checks of their shared arguments are in
+:mod:`visviva.satellites.batch_states` (imported here: ``visviva.satellites.catalog.BatchStates``).
 """
 
 from __future__ import annotations
@@ -18,12 +21,11 @@ from __future__ import annotations
 from functools import cached_property
 
 import numpy as np
-from astropy import units as u
 from astropy.time import Time
 
 from .._units import to_array, to_quantity, to_vector
-from ..constants import DAY_S
-from ..errors import InvalidInputError, ShapeError, UnitsError, raise_for_status
+from ..errors import InvalidInputError, ShapeError, raise_for_status
+from .batch_states import BatchStates, absolute_times, check_on_error, offsets_s
 from .catalog_files import (
     catalog_file_satellites,
     omm_file_satellites,
@@ -37,6 +39,7 @@ from .tle_checks import (
     MINUTES_PER_DAY,
     SGP4Error,
     check_tsince,
+    flag_beyond_earth_orbit,
     raise_for_sgp4_status,
     sgp4_times,
     warn_stale_sets,
@@ -56,83 +59,8 @@ __all__ = [
 ]
 
 
-class BatchStates:
-    """States of N objects at T times.
-
-    Attributes
-    ----------
-    r : Quantity, shape (N, T, 3)
-        Positions, km (NaN where ``status`` is non-zero and errors were not raised).
-    v : Quantity, shape (N, T, 3)
-        Velocities, km/s.
-    t : astropy Time, shape (T,)
-        The times.
-    status : ndarray of uint8, shape (N, T)
-        0 where the propagation succeeded; otherwise sgp4's error code (1-6) for SGP4 or a
-        :mod:`visviva.core.status` code for the Kepler and J2 propagators.
-    names : list of str
-        The N object names.
-    frame : str
-        ``"teme"``, ``"gcrs"`` or ``"itrs"``.
-    """
-
-    __slots__ = ("r", "v", "t", "status", "names", "frame")
-
-    def __init__(self, r, v, t, status, names, frame):
-        self.r, self.v, self.t, self.status, self.names, self.frame = r, v, t, status, names, frame
-
-    @property
-    def shape(self):
-        """(N, T): objects and times."""
-        return self.r.shape[:-1]
-
-    @property
-    def altitude(self):
-        """Height above the WGS-84 ellipsoid (Quantity, km, shape (N, T)).
-
-        From one rotation to ITRS per time shared by all objects (see :meth:`to_frame`), then
-        astropy's geodetic conversion; NaN where a state is NaN (``status`` non-zero).
-        """
-        from .frames import altitude_km
-
-        r = self.r.to_value(u.km)
-        v = self.v.to_value(u.km / u.s)
-        good = np.isfinite(r).all(-1) & np.isfinite(v).all(-1)
-        out = np.full(self.shape, np.nan)
-        if good.all():
-            out[...] = altitude_km(r, v, self.t, self.frame)
-        elif good.any():
-            rr, vv = np.where(good[..., None], r, 7000.0), np.where(good[..., None], v, 0.0)
-            out[good] = altitude_km(rr, vv, self.t, self.frame)[good]
-        return out << u.km
-
-    def to_frame(self, frame: str) -> BatchStates:
-        """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"``, with astropy's frames.
-
-        One 6 x 6 map per time from astropy's rotation matrices, shared by the N objects
-        (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every state
-        with astropy's frame graph to ~1e-11 km and ~1e-10 km/s.
-        """
-        from .frames import transform_batch
-
-        if frame == self.frame:
-            return self
-        known = ("teme", "gcrs", "itrs")
-        if frame not in known or frame == "teme":
-            raise InvalidInputError(
-                f"cannot convert {self.frame} to {frame!r}; choose 'gcrs' or 'itrs'."
-            )
-        r, v = transform_batch(self.r.to_value("km"), self.v.to_value("km/s"), self.t,
-                               self.frame, frame)
-        return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), self.t,
-                           self.status, self.names, frame)
-
-    def __repr__(self):
-        return f"BatchStates(frame={self.frame!r}, shape={self.shape})"
-
-
 class Catalog:
-    """A list of :class:`~visviva.Satellite` propagated together.
+    """A sequence of :class:`~visviva.Satellite` propagated together (fixed once built).
 
     Parameters
     ----------
@@ -148,13 +76,25 @@ class Catalog:
     """
 
     def __init__(self, satellites):
-        self.satellites = list(satellites)
-        for s in self.satellites:
+        sats = tuple(satellites)
+        for s in sats:
             if not isinstance(s, Satellite):
                 raise InvalidInputError(
                     f"a Catalog holds vv.Satellite objects, got {type(s).__name__}; build them "
                     "with vv.Satellite.from_tle or from_omm."
                 )
+        self._satellites = sats
+
+    @property
+    def satellites(self) -> tuple:
+        """The satellites, in order (a tuple).
+
+        A catalogue does not change once built: its SGP4 arrays, epochs and search setups are
+        computed once and kept, so a list changed in place (``cat.satellites[0] = other`` was
+        accepted) went on propagating the old element sets under the new names. Build a new
+        one instead: ``Catalog([*cat, sat])``, ``cat[1:]``, ``cat.latest()``.
+        """
+        return self._satellites
 
     def __reduce__(self):
         # sgp4's SatrecArray does not pickle, and rebuilding thousands of Satellites costs
@@ -284,7 +224,7 @@ def _catalog_from_payload(token: str, data: bytes) -> Catalog:
     cat = _UNPICKLED.pop(token, None)
     if cat is None:
         cat = Catalog.__new__(Catalog)
-        cat.satellites = pickle.loads(data)
+        cat._satellites = tuple(pickle.loads(data))
         cat.__dict__["_payload"] = (token, data)
     _UNPICKLED[token] = cat
     while len(_UNPICKLED) > _UNPICKLED_MAX:
@@ -424,50 +364,6 @@ def as_catalog(satellites) -> Catalog:
 
 
 
-def absolute_times(t, what: str) -> Time:
-    """``t`` checked as the absolute times of a batch: a scalar or 1-D astropy Time, as 1-D.
-
-    Parameters
-    ----------
-    t : astropy Time, scalar or shape (T,)
-        The times, shared by every object of the batch.
-    what : str
-        The caller, for the message.
-
-    Returns
-    -------
-    astropy Time, shape (T,)
-
-    Raises
-    ------
-    UnitsError
-        If ``t`` is not a Time (offsets need an epoch: ``epoch + dt``).
-    ShapeError
-        If ``t`` has more than one dimension.
-    """
-    if not isinstance(t, Time):
-        raise UnitsError(
-            f"{what} needs absolute times (an astropy Time), shared by every satellite; got "
-            f"{type(t).__name__}. For offsets from one epoch use epoch + dt, e.g. "
-            "Time('2024-01-01') + np.arange(0, 1440, 10) * u.min."
-        )
-    if t.ndim > 1:
-        raise ShapeError(f"t must be a scalar or 1-D Time of T times; got shape {t.shape}.")
-    return t.reshape(-1) if t.ndim == 0 else t
-
-
-def check_on_error(on_error) -> None:
-    """Refuse an ``on_error`` other than ``"raise"`` or ``"nan"`` (InvalidInputError).
-
-    Parameters
-    ----------
-    on_error : str
-        The batch functions' ``on_error`` argument.
-    """
-    if on_error not in ("raise", "nan"):
-        raise InvalidInputError(f"on_error must be 'raise' or 'nan', got {on_error!r}.")
-
-
 def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) -> BatchStates:
     """SGP4 for N satellites at T times in one call of sgp4's ``SatrecArray``.
 
@@ -481,8 +377,11 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         per call, naming the stalest).
     on_error : {"raise", "nan"}
         Raise the typed :class:`~visviva.satellites.tle.SGP4Error` of the first failure
-        (default), or return NaN in ``r`` and ``v`` wherever ``status`` (sgp4's code) is not
-        0 (sgp4 itself returns a state below the surface for a decayed object, code 6).
+        (default), or return NaN in ``r`` and ``v`` wherever ``status`` is not 0: sgp4's code
+        (1-6; sgp4 itself returns a state below the surface for a decayed object, code 6),
+        or :data:`~visviva.satellites.tle_checks.SGP4_BEYOND_EARTH_ORBIT` (100) where sgp4
+        returned, without a code, a position more than 1e6 km from the geocentre (no Earth
+        orbit: SGP4 far outside its span), the rule of :meth:`visviva.Satellite.teme`.
     out : (status, r, v), optional
         C-contiguous arrays of shapes (N, T) uint8, (N, T, 3) and (N, T, 3) float64 that sgp4
         writes into (e.g. slices of a larger result); the returned states wrap them.
@@ -494,15 +393,35 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
         ``Satellite.teme(t)`` of each satellite.
     """
     check_on_error(on_error)
-    cat = as_catalog(satellites)
-    t = absolute_times(t, "propagate_sgp4_batch")
+    return sgp4_grid(as_catalog(satellites), absolute_times(t, "propagate_sgp4_batch"),
+                     on_error, out)
+
+
+def warn_stale_times(cat: Catalog, jd, fr) -> None:
+    """Warn (:class:`~visviva.StaleElementSetWarning`, once, naming the stalest) when element
+    sets of ``cat`` are used more than 30 days from their epochs at the times ``jd + fr``
+    (UTC days, :func:`~visviva.satellites.tle_checks.sgp4_times`): the warning of
+    :func:`propagate_sgp4_batch`, also given once by ``propagate_dask`` before its blocks run."""
+    day = np.asarray(jd, dtype=np.float64) + np.asarray(fr, dtype=np.float64)
+    if day.size == 0:
+        return
+    ep_jd, ep_fr = cat.epoch_days
+    epoch = ep_jd + ep_fr  # (days: rounding far below the 30-day threshold)
+    away = np.maximum(np.abs(day.min() - epoch), np.abs(day.max() - epoch))
+    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum, away,
+                    "the requested times", "these positions can be far off")
+
+
+def sgp4_grid(cat: Catalog, t: Time, on_error: str, out=None,
+              warn_stale: bool = True) -> BatchStates:
+    """:func:`propagate_sgp4_batch` on a :class:`Catalog` and 1-D times already checked;
+    ``warn_stale=False`` for a block of a batch whose caller warned once, whole (Dask)."""
     jd, fr, _, _ = sgp4_times(t, 0.0, 0.0)
     ep_jd, ep_fr = cat.epoch_days
     tsince = ((jd[None, :] - ep_jd[:, None]) + (fr[None, :] - ep_fr[:, None])) * MINUTES_PER_DAY
     check_tsince(tsince, cat.names)
-    warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum,
-                    np.abs(tsince).max(axis=1, initial=0.0) / MINUTES_PER_DAY,
-                    "the requested times", "these positions can be far off", stacklevel=2)
+    if warn_stale:
+        warn_stale_times(cat, jd, fr)
     if out is None:
         e, r, v = cat.satrec_array.sgp4(jd, fr)
     else:
@@ -514,9 +433,9 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
             raise ShapeError(f"out arrays must be C-contiguous {shapes} of uint8, float64, "
                              f"float64; got {[(a.shape, str(a.dtype)) for a in out]}.")
         cat.satrec_array._sgp4(jd, fr, e, r, v)
-    if e.any():
+    if flag_beyond_earth_orbit(e, r) or e.any():  # (the far rule of Satellite.teme too)
         if on_error == "raise":
-            raise_for_sgp4_status(e, cat.names, tsince, t)
+            raise_for_sgp4_status(e, cat.names, tsince, t, r)
         # sgp4 fills some failed states with numbers (code 6, decayed: a point below the
         # surface) and others with NaN: no failed state leaves with numbers in it
         failed = e != 0
@@ -534,16 +453,6 @@ def propagate_sgp4_batch(satellites, t, *, on_error: str = "raise", out=None) ->
             satellite=cat.names[i], reason="non-finite state", tsince_min=float(tsince[i, j]),
         )
     return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), t, e, cat.names, "teme")
-
-
-def _offsets_s(epochs: Time, t: Time) -> np.ndarray:
-    """(N, T) seconds from each epoch to each time (TAI differences: leap seconds counted)."""
-    from .frames import offline_iers
-
-    with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
-        e = epochs.tai
-        tt = t.tai
-    return ((tt.jd1[None, :] - e.jd1[:, None]) + (tt.jd2[None, :] - e.jd2[:, None])) * DAY_S
 
 
 def _require_one_axis(r, v, gm, epoch) -> None:
@@ -573,7 +482,9 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
     t : astropy Time, shape (T,) or scalar
         Absolute times.
     on_error : {"raise", "nan"}
-        As in :func:`propagate_sgp4_batch`.
+        As in :func:`propagate_sgp4_batch`; with ``"nan"`` a satellite whose SGP4 fails at its
+        own epoch (it has no osculating state there) gives NaN and status
+        :data:`~visviva.core.status.NON_FINITE` at every time instead of the SGP4 error.
     backend : {"cpu", "cuda"}
         ``"cuda"``: the same solver compiled for an NVIDIA GPU from the same source
         (:mod:`visviva.core.cuda.twins`; extra ``visviva[gpu]``), one thread per pair; raises
@@ -605,7 +516,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         e = np.array([o[0] for o in out], dtype=np.uint8)
         r0 = np.array([o[1] for o in out], dtype=np.float64).reshape(-1, 3)
         v0 = np.array([o[2] for o in out], dtype=np.float64).reshape(-1, 3)
-        raise_for_sgp4_status(e[:, None], cat.names, 0.0)
+        if on_error == "raise":
+            raise_for_sgp4_status(e[:, None], cat.names, 0.0)
+        r0[e != 0] = np.nan  # no state at its epoch: NON_FINITE (4) at every time, NaN
+        v0[e != 0] = np.nan
         gm = np.array([s.satrec.mu for s in cat.satellites])
         names, frame = cat.names, "teme"
     else:
@@ -622,7 +536,7 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         names = [str(i) for i in range(r0.shape[0])]
         frame = require_kepler_frame(states, "propagate_kepler_batch")
     n, m = r0.shape[0], len(t)
-    dt = _offsets_s(ep, t)
+    dt = offsets_s(ep, t)
     dt = np.ascontiguousarray(np.broadcast_to(dt, (n, m))).reshape(-1)
     r0f = np.ascontiguousarray(np.broadcast_to(r0[:, None, :], (n, m, 3))).reshape(-1, 3)
     v0f = np.ascontiguousarray(np.broadcast_to(v0[:, None, :], (n, m, 3))).reshape(-1, 3)
@@ -665,6 +579,10 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     check_on_error(on_error)
     cat = as_catalog(satellites)
     t = absolute_times(t, "propagate_j2_batch")
+    if len(cat) == 0:  # as the SGP4 and Kepler batches (the setup reads a first element set)
+        return BatchStates(to_quantity(np.empty((0, len(t), 3)), "length"),
+                           to_quantity(np.empty((0, len(t), 3)), "speed"), t,
+                           np.empty((0, len(t)), dtype=np.uint8), [], "teme")
     setup = cat.__dict__.get("_j2_setup")  # per-catalogue: elements, rates, epochs (TAI)
     if setup is None:
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
@@ -682,7 +600,7 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
                   np.ascontiguousarray(tt.jd1, dtype=np.float64),
                   np.ascontiguousarray(tt.jd2, dtype=np.float64), gm, r, v, status)
     if on_error == "raise" and status.any():
-        raise_for_status(status, "secular J2 batch propagation", dt_s=_offsets_s(cat.epochs, t))
+        raise_for_status(status, "secular J2 batch propagation", dt_s=offsets_s(cat.epochs, t))
     return BatchStates(
         to_quantity(r, "length"), to_quantity(v, "speed"), t, status.astype(np.uint8),
         cat.names, "teme",

@@ -33,16 +33,17 @@ from .._dask import NUMBA_LOCK, close_local_cluster, get_client
 from .._dask import require_dask as _require_dask
 from .._units import advance_epoch, to_quantity
 from ..errors import InvalidInputError
+from .batch_states import BatchStates, absolute_times, check_on_error
 from .catalog import (
-    BatchStates,
     Catalog,
-    absolute_times,
     as_catalog,
-    check_on_error,
     propagate_j2_batch,
     propagate_kepler_batch,
     propagate_sgp4_batch,
+    sgp4_grid,
+    warn_stale_times,
 )
+from .tle_checks import sgp4_times
 
 __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "close_local_cluster"]
 
@@ -52,8 +53,8 @@ _COWELL_CHUNK = 256
 
 
 def _block(cat: Catalog, t: Time, method: str, on_error: str):
-    if method == "sgp4":
-        out = _METHODS[method](cat, t, on_error=on_error)
+    if method == "sgp4":  # stale element sets: warned once by propagate_dask, on the client
+        out = sgp4_grid(cat, t, on_error, warn_stale=False)
     else:
         with NUMBA_LOCK:
             out = _METHODS[method](cat, t, on_error=on_error)
@@ -83,7 +84,7 @@ def _block_into(key, a, b, c, d, method: str, on_error: str):
     cat, t = _slice(full_cat, a, b), full_t[c:d]
     if method == "sgp4" and c == 0 and d == r.shape[1]:
         # whole rows: contiguous slices, sgp4 writes its output in place
-        propagate_sgp4_batch(cat, t, on_error=on_error, out=(status[a:b], r[a:b], v[a:b]))
+        sgp4_grid(cat, t, on_error, out=(status[a:b], r[a:b], v[a:b]), warn_stale=False)
         return None
     rr, vv, ss = _block(cat, t, method, on_error)
     r[a:b, c:d] = rr
@@ -355,6 +356,8 @@ def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=
     check_on_error(on_error)
     cat = as_catalog(states)
     t = absolute_times(t, "propagate_dask")
+    if method == "sgp4":  # once here: on process workers a block's warning would be lost
+        warn_stale_times(cat, *sgp4_times(t, 0.0, 0.0)[:2])
     chunks = (1000, 1000) if chunks is None else chunks
     try:
         n_chunk, t_chunk = chunks

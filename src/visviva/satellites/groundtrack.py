@@ -102,7 +102,7 @@ def ground_track(sat, t):
     from .frames import itrs_to_geodetic
 
     if is_catalog(sat):
-        from .catalog import absolute_times
+        from .batch_states import absolute_times
 
         times = absolute_times(t, "ground_track of a Catalog")
         states = sat.propagate(times, frame="itrs")
@@ -151,7 +151,7 @@ def eclipse_fraction(sat, t) -> np.ndarray:
     from .ephemeris import sun_position
 
     if is_catalog(sat):
-        from .catalog import absolute_times
+        from .batch_states import absolute_times
 
         times = absolute_times(t, "eclipse_fraction of a Catalog")
         r = sat.propagate(times, frame="gcrs").r.to_value(u.km)  # (N, T, 3)

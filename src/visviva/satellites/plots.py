@@ -121,7 +121,7 @@ def plot_orbit_3d(sat, t, ax=None, frame: str = "gcrs", **line_kwargs):
     """
     fig, ax = (ax.figure, ax) if ax is not None else new_figure("3d", figsize=(6, 6))
     if is_catalog(sat):
-        from .catalog import absolute_times
+        from .batch_states import absolute_times
 
         states = sat.propagate(absolute_times(t, "plot_orbit_3d of a Catalog"), frame=frame)
         paths = list(zip(states.names, states.r.to_value(u.km), strict=True))

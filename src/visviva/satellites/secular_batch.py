@@ -120,7 +120,7 @@ def _secular_pairs(a, ecc, sq, kv, si, ci, raan0, argp0, M0, raan_dot, argp_dot,
     Going through E rather than the true anomaly saves an atan2 and two sin/cos per state.
     ``prange`` over the satellites (per-satellite constants stay in registers); each item is
     independent, so any chunking gives the same bits. dt = ((t1 - ep1) + (t2 - ep2)) * 86400 s
-    from two-part TAI Julian dates, as ``catalog._offsets_s`` computes them.
+    from two-part TAI Julian dates, as ``batch_states.offsets_s`` computes them.
     """
     n = a.shape[0]
     m = t1.shape[0]

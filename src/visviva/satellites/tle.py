@@ -40,10 +40,10 @@ from .tle_checks import (
     SGP4SemiLatusRectumError,
     TLEFormatError,
     check_element_ranges,
-    check_sgp4_radius,
     check_tle_epoch,
     check_tle_lines,
     check_tsince,
+    flag_beyond_earth_orbit,
     raise_for_sgp4_status,
     sgp4_times,
     warn_stale_tsince,
@@ -453,11 +453,11 @@ class Satellite:
         jd, fr, shape, times = sgp4_times(t, s.jdsatepoch, s.jdsatepochF)
         tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
         check_tsince(tsince, [self.name])
-        warn_stale_tsince(tsince, self.name, stacklevel=3)  # at the caller of teme/gcrs/...
+        warn_stale_tsince(tsince, self.name)  # (pointing at the user's line)
         e, r, v = s.sgp4_array(jd, fr)
-        if e.any():
+        if flag_beyond_earth_orbit(e, r) or e.any():
             when = times if times is not None else utc_days_to_time(jd, fr)
-            raise_for_sgp4_status(e, [self.name], tsince, when)
+            raise_for_sgp4_status(e, [self.name], tsince, when, r)
         if not (np.isfinite(r).all() and np.isfinite(v).all()):
             k = int(np.flatnonzero(~(np.isfinite(r).all(-1) & np.isfinite(v).all(-1)))[0])
             raise SGP4Error(
@@ -466,7 +466,6 @@ class Satellite:
                 "to times nearer the element-set epoch or check the element set.",
                 satellite=self.name, reason="non-finite state", tsince_min=float(tsince[k]),
             )
-        check_sgp4_radius(r, tsince, self.name)
         if times is None:
             times = utc_days_to_time(jd, fr).reshape(shape)
         return r.reshape(shape + (3,)), v.reshape(shape + (3,)), times

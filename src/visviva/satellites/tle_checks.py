@@ -15,6 +15,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._callsite import outside_stacklevel
 from .._units import to_array
 from ..constants import DAY_S
 from ..errors import (
@@ -43,7 +44,10 @@ __all__ = [
     "is_stale",
     "warn_stale_sets",
     "warn_stale_tsince",
-    "check_sgp4_radius",
+    "warn_stale_window",
+    "MAX_SGP4_RADIUS_KM",
+    "SGP4_BEYOND_EARTH_ORBIT",
+    "flag_beyond_earth_orbit",
 ]
 
 MINUTES_PER_DAY = 1440.0
@@ -56,6 +60,10 @@ STALE_DAYS = 30.0
 #: An SGP4 position further than this from the geocentre is no Earth orbit (km): two and a half
 #: times the Moon's distance, two thirds of the Earth's Hill radius (~1.5e6 km)
 MAX_SGP4_RADIUS_KM = 1.0e6
+#: visviva's status code for an SGP4 state that sgp4 returned without an error code but more
+#: than :data:`MAX_SGP4_RADIUS_KM` from the geocentre (:func:`flag_beyond_earth_orbit`): in
+#: ``BatchStates.status`` beside sgp4's own codes 1-6, clear of :mod:`visviva.core.status`'s
+SGP4_BEYOND_EARTH_ORBIT = 100
 #: a warning about stale element sets names this many of them, the stalest first
 STALE_NAMED = 5
 
@@ -69,12 +77,13 @@ class TLEFormatError(InvalidInputError):
 
 
 class SGP4Error(VisvivaError, ArithmeticError):
-    """SGP4 could not propagate a satellite (one of sgp4's error codes 1-6).
+    """SGP4 could not propagate a satellite (one of sgp4's error codes 1-6, or visviva's
+    :data:`SGP4_BEYOND_EARTH_ORBIT`: a position no Earth orbit reaches).
 
     Attributes
     ----------
     code : int
-        sgp4's error code.
+        sgp4's error code (or :data:`SGP4_BEYOND_EARTH_ORBIT`; 0 for a non-finite state).
     satellite : str
         Name (or catalogue number) of the satellite.
     reason : str
@@ -142,6 +151,12 @@ SGP4_ERROR_TYPES: dict[int, tuple[type[SGP4Error], str, str]] = {
         "the object has re-entered by this time; propagate to earlier times or use a newer "
         "element set",
     ),
+    SGP4_BEYOND_EARTH_ORBIT: (
+        SGP4Error,
+        "position beyond any Earth orbit",
+        "propagate to times near the element-set epoch (days to weeks) or use an element set "
+        "from near these times",
+    ),
 }
 
 
@@ -169,11 +184,12 @@ def warn_subsurface_perigee(satrec, where: str, fields: str) -> None:
         "the times below one Earth radius (error 6, decayed) and propagates the rest of the "
         f"orbit as if it flew. Check {fields} (a mistyped element set), or use a newer one if "
         "the object has re-entered.",
-        SubsurfacePerigeeWarning, stacklevel=3)
+        SubsurfacePerigeeWarning, stacklevel=outside_stacklevel())  # the user's line
 
 
-def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:
-    """Raise the typed :class:`SGP4Error` for the first non-zero sgp4 error code.
+def raise_for_sgp4_status(status, names, tsince_min, times=None, r=None) -> None:
+    """Raise the typed :class:`SGP4Error` for the first non-zero sgp4 error code (or
+    :data:`SGP4_BEYOND_EARTH_ORBIT`, set by :func:`flag_beyond_earth_orbit`).
 
     Parameters
     ----------
@@ -185,6 +201,8 @@ def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:
         Minutes since each element-set epoch.
     times : astropy Time, optional
         The requested times (length T), quoted in the message.
+    r : ndarray, shape status.shape + (3,), optional
+        The positions (km): the message of :data:`SGP4_BEYOND_EARTH_ORBIT` quotes the distance.
     """
     status = np.asarray(status)
     if not status.any():
@@ -207,8 +225,14 @@ def raise_for_sgp4_status(status, names, tsince_min, times=None) -> None:
         except (IndexError, ValueError):
             pass
     more = f" ({flat.size} of {status.size} propagations failed)" if status.size > 1 else ""
+    head = f"SGP4 error {code} for satellite {name!r} at {when}: {reason}"
+    if code == SGP4_BEYOND_EARTH_ORBIT:
+        far = "" if r is None else f" {float(np.linalg.norm(np.asarray(r)[index])):.4g} km"
+        head = (f"SGP4 returned a position{far} from the geocentre for satellite {name!r} at "
+                f"{when}, without an error code: {reason} (more than {MAX_SGP4_RADIUS_KM:.0e} "
+                f"km away, SGP4 run far outside its span; visviva status {code})")
     raise exc(
-        f"SGP4 error {code} for satellite {name!r} at {when}: {reason}{more}. To fix: {todo}.",
+        f"{head}{more}. To fix: {todo}.",
         code=code,
         satellite=name,
         reason=reason,
@@ -454,8 +478,7 @@ def is_stale(away_days):
     return np.asarray(away_days) > STALE_DAYS
 
 
-def warn_stale_sets(label, away_days, where: str, consequence: str,
-                    stacklevel: int = 2) -> None:
+def warn_stale_sets(label, away_days, where: str, consequence: str) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of N element sets
     are used more than :data:`STALE_DAYS` from their epochs, naming the stalest
     (:data:`STALE_NAMED` at most): the one message of the catalogue-wide uses (pass and event
@@ -471,8 +494,11 @@ def warn_stale_sets(label, away_days, where: str, consequence: str,
     where, consequence : str
         What the times are ("the window") and what the user risks ("these passes can be
         minutes off, or missing").
-    stacklevel : int
-        Of the warning, counted from the caller of this function.
+
+    Notes
+    -----
+    The warning points at the user's line, the first frame outside visviva
+    (:func:`visviva._callsite.outside_stacklevel`), whichever path led here.
     """
     away = np.asarray(away_days, dtype=np.float64)
     stale = np.flatnonzero(is_stale(away))
@@ -485,14 +511,41 @@ def warn_stale_sets(label, away_days, where: str, consequence: str,
         f"{stale.size} of {away.size} element set(s) lie more than {STALE_DAYS:g} days from "
         f"{where} (up to {away[stale].max():.0f} days: {named}{more}); SGP4's errors grow by "
         f"kilometres a day in low orbit, so {consequence}: use element sets from near "
-        f"{where}.", StaleElementSetWarning, stacklevel=stacklevel + 1)
+        f"{where}.", StaleElementSetWarning, stacklevel=outside_stacklevel())
 
 
-def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:
+def warn_stale_window(cat, t0, t1, consequence: str) -> None:
+    """Warn (:class:`~visviva.errors.StaleElementSetWarning`, :func:`warn_stale_sets`) when
+    element sets of the catalogue ``cat`` lie more than :data:`STALE_DAYS` before ``t0`` or
+    after ``t1``: the window of a pass search or a conjunction screening.
+
+    Parameters
+    ----------
+    cat : Catalog
+        The element sets (its ``epoch_days`` and ``satellites``).
+    t0, t1 : astropy Time, scalar
+        The window.
+    consequence : str
+        What the user risks ("these passes can be minutes off, or missing").
+    """
+    from .utc_days import time_to_utc_days
+
+    jd, fr = cat.epoch_days
+    days = []
+    for t in (t0, t1):
+        tj, tf = time_to_utc_days(t)
+        days.append((float(tj) - jd) + (float(tf) - fr))  # window minus epoch, days
+    away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
+    sats = cat.satellites
+    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window", consequence)
+
+
+def warn_stale_tsince(tsince_min, name) -> None:
     """Warn (:class:`~visviva.errors.StaleElementSetWarning`) once when some of the times
     ``tsince_min`` (minutes from the element-set epoch) lie more than :data:`STALE_DAYS` from
     it: SGP4's along-track error grows by kilometres a day in low orbit (audit leftfix4: the
-    ISS's 2024 TLE propagated to 1900 gave |r| = 3e8 km, with only ERFA's "dubious year")."""
+    ISS's 2024 TLE propagated to 1900 gave |r| = 3e8 km, with only ERFA's "dubious year").
+    The warning points at the user's line, as :func:`warn_stale_sets`'s."""
     days = np.abs(np.asarray(tsince_min, dtype=np.float64)) / MINUTES_PER_DAY
     stale = is_stale(days)
     if not stale.any():
@@ -504,29 +557,43 @@ def warn_stale_tsince(tsince_min, name, stacklevel: int = 2) -> None:
         f"{STALE_DAYS:g} days from the element-set epoch (up to {days.ravel()[k]:.0f} days "
         f"{side} it); SGP4's errors grow by kilometres a day in low orbit, so these positions "
         "can be far off: use an element set from near these times.", StaleElementSetWarning,
-        stacklevel=stacklevel + 1)
+        stacklevel=outside_stacklevel())
 
 
-def check_sgp4_radius(r, tsince_min, name) -> None:
-    """Raise :class:`SGP4Error` where SGP4 returned, without an error code, a position more than
-    :data:`MAX_SGP4_RADIUS_KM` from the geocentre (no Earth orbit: SGP4 run far outside its
-    span). A position below the surface is sgp4's own error 6, raised before this.
+def flag_beyond_earth_orbit(status, r) -> bool:
+    """Set :data:`SGP4_BEYOND_EARTH_ORBIT` in ``status`` (in place) wherever sgp4 reported no
+    error (0) but returned a position more than :data:`MAX_SGP4_RADIUS_KM` from the geocentre:
+    no Earth orbit, SGP4 run far outside its span (the ISS's 2024 TLE propagated to 1900 gave
+    |r| = 3e8 km). The one rule of :meth:`visviva.Satellite.teme`, the SGP4 batch
+    (:func:`~visviva.satellites.catalog.propagate_sgp4_batch`) and the pass search. A position
+    below the surface is sgp4's own error 6.
 
-    ``r``: positions (km), shape (T, 3); ``tsince_min``: minutes from the epoch, shape (T,)."""
-    rr = np.einsum("ij,ij->i", r, r)
-    far = ~(rr <= MAX_SGP4_RADIUS_KM**2)
+    Parameters
+    ----------
+    status : ndarray of integers, shape S
+        sgp4's error codes; changed in place.
+    r : ndarray, shape S + (3,)
+        The positions (km); NaN ones are left to the caller.
+
+    Returns
+    -------
+    bool
+        Whether any state was flagged.
+    """
+    r = np.asarray(r)
+    if r.size == 0:
+        return False
+    # fast path, two reductions without temporaries (NaN ignored): every component within
+    # MAX / sqrt(3) puts every |r| within MAX (a third of the cost of the norms)
+    bound = MAX_SGP4_RADIUS_KM / math.sqrt(3.0)
+    if np.fmax.reduce(r, axis=None) <= bound and np.fmin.reduce(r, axis=None) >= -bound:
+        return False
+    rr = np.einsum("...i,...i->...", r, r)
+    far = (rr > MAX_SGP4_RADIUS_KM**2) & (status == 0)
     if not far.any():
-        return
-    k = int(np.flatnonzero(far)[0])
-    raise SGP4Error(
-        f"SGP4 returned a position {math.sqrt(rr[k]):.4g} km from the geocentre for satellite "
-        f"{name!r} at {tsince_min[k] / MINUTES_PER_DAY:.6g} days from its epoch, without an "
-        f"error code: beyond {MAX_SGP4_RADIUS_KM:.0e} km no Earth orbit is left, SGP4 was run "
-        "far outside its span. To fix: propagate to times near the element-set epoch (days to "
-        "weeks) or use an element set from near these times.",
-        satellite=name, reason="position beyond any Earth orbit",
-        tsince_min=float(tsince_min[k]),
-    )
+        return False
+    status[far] = SGP4_BEYOND_EARTH_ORBIT
+    return True
 
 
 def sgp4_times(t, jd_epoch: float, fr_epoch: float):

@@ -18,7 +18,8 @@ from ..core import nbody_common as _nc
 from ..core import nbody_variational as _nv
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 
-__all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "refuse_packed"]
+__all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "refuse_packed",
+           "any_megno"]
 
 #: Integrators that integrate the tangent vector (the others refuse ``init_megno``).
 MEGNO_INTEGRATORS = ("ias15", "leapfrog")
@@ -66,15 +67,22 @@ def check_run(sim) -> None:
         _check_supported(sim, "integrate")
 
 
+def any_megno(members) -> bool:
+    """True when one of ``members`` has MEGNO switched on (an ensemble then advances its members
+    one by one, each as a lone :meth:`~visviva.Simulation.integrate`: the same bits)."""
+    return any(_state_code(s) == 1 for s in members)
+
+
 def refuse_packed(members) -> None:
-    """Raise when one of ``members`` (simulations integrated together by an ensemble) has MEGNO
-    switched on: the packed kernels do not carry the tangent vector."""
+    """Raise when one of ``members`` (simulations to integrate together in a packed kernel) has
+    MEGNO switched on: the packed kernels (CPU and GPU) do not carry the tangent vector."""
     for k, s in enumerate(members):
         if _state_code(s) == 1:
             raise InvalidInputError(
                 f"member {k} of the ensemble has MEGNO switched on (init_megno), which the "
-                "ensemble's packed kernels do not integrate; integrate such simulations one "
-                "by one with sim.integrate(t).")
+                "packed ensemble kernels do not integrate; use the ensemble's CPU backend "
+                "(members with MEGNO are then integrated one by one) or integrate them with "
+                "sim.integrate(t).")
 
 
 class ChaosIndicators:

@@ -29,6 +29,7 @@ from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
 from . import step_check as _step_check
 from . import tier as _tier
+from .chaos import any_megno, refuse_packed
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .forces import force_key
@@ -198,6 +199,12 @@ class Ensemble:
         """Masses, shape (M, N_max) (simulation units); entries past a member's N are NaN."""
         return self._padded("masses", ())
 
+    def megno(self) -> np.ndarray:
+        """MEGNO of each member, shape (M,) (:meth:`visviva.Simulation.megno`; switch it on
+        with each member's ``init_megno`` before integrating; the ensemble then advances its
+        members one by one on the CPU, with the same bits)."""
+        return np.array([s.megno() for s in self._members])
+
     def energy(self, include_offset: bool = True) -> np.ndarray:
         """Total energy of each member, shape (M,) (simulation units; see
         :meth:`visviva.Simulation.energy`)."""
@@ -338,7 +345,10 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None, owner=Non
     pack : Pack or None
         The pack to pass to the next call for these members (None: build it again).
     """
-    if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
+    if backend != "cpu":
+        refuse_packed(members)
+    elif any_megno(members) or _tier.ensemble_would_compile(members, _time(members[0], t)):
+        # (members with MEGNO: the packed kernels do not carry tangent vectors)
         if owner is not None:
             _step_check.check_members(owner, members, stacklevel=4, t=_time(members[0], t))
         return _advance_alone(members, t), None  # a fresh install's first small ensemble
@@ -412,6 +422,7 @@ def _run_group(members, times) -> np.ndarray:
 
     info = members[0].integrator_info
     n_buf = info.n_buf
+    refuse_packed(members)
     inputs = [s.kernel_inputs(parallel=False) for s in members]
     arrays = [s.state_arrays() for s in members]
     n = np.array([s.N for s in members], dtype=np.int64)

@@ -36,6 +36,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
+from .chaos import refuse_packed
 from .step_check import MIN_STEP_REL
 
 __all__ = ["Pack", "ensemble_kernel", "finish_member"]
@@ -76,6 +77,7 @@ class Pack:
     def __init__(self, members, n_buf: int):
         # the integrator's arrays allocated (a fresh start if they were not); the additional
         # forces' parameters as each lone run passes them, ``qoff`` their offsets
+        refuse_packed(members)
         params = [s.kernel_inputs(parallel=False)[1] for s in members]
         self.params = np.ascontiguousarray(np.concatenate(params))
         self.qoff = np.concatenate([[0], np.cumsum([len(p) for p in params])]).astype(np.int64)

@@ -29,7 +29,7 @@ _F_SLOTS = (_nc.F_MG_YS, _nc.F_MG_YSS, _nc.F_MG_N, _nc.F_MG_MEAN_T, _nc.F_MG_MEA
 
 
 def _state_code(sim) -> int:
-    return int(sim._state.istate[_nc.I_MEGNO])
+    return int(sim.state_arrays()["istate"][_nc.I_MEGNO])
 
 
 def extra_slots(sim) -> int:

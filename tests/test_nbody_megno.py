@@ -55,11 +55,12 @@ def _system(a2=REGULAR_A2, integrator="ias15", dt=None):
 
 def test_regular_megno_matches_rebound_and_is_two():
     """(a) quasi-periodic: <Y> -> 2; visviva and REBOUND (IAS15 both, the same tangent vector)
-    agree within 1 % after 500 orbits (measured: 1.9779 vs 1.9861)."""
+    agree within 0.2 % after 500 orbits (measured: 1.9589 vs 1.9590; converged value 1.9587,
+    from IAS15 at epsilon 1e-12 and leapfrog at dt = P/1600)."""
     sim, r = _rebound_pair(REGULAR_A2, _delta())
     sim.integrate(500 * ORBIT)
     r.integrate(500 * ORBIT)
-    assert sim.megno() == pytest.approx(r.megno(), rel=0.01)
+    assert sim.megno() == pytest.approx(r.megno(), rel=0.002)
     assert sim.megno() == pytest.approx(2.0, abs=0.05)
     assert abs(sim.lyapunov()) < 1e-3  # regular: no exponential growth (1 / Lyapunov time)
 
@@ -68,22 +69,22 @@ def test_chaotic_megno_and_lyapunov_match_rebound():
     """(b, c) chaotic (inside the Hill limit): <Y> far above 2 and within 10 % of REBOUND's at
     the same time; the Lyapunov exponent is twice REBOUND's ``lyapunov()`` (which returns the
     slope of <Y>, lambda / 2), of the order of the growth rate of REBOUND's own variational
-    particles, which the tangent vector follows (measured at t = 300: MEGNO 11.0 vs 11.3,
-    lambda 0.0468 vs 2 x 0.0241, growth 0.0715 vs REBOUND's 0.0715)."""
+    particles, which the tangent vector follows (measured at t = 300: MEGNO 8.7268 vs 8.7332,
+    lambda 0.04683 vs 2 x 0.023435, growth 0.07152 vs REBOUND's 0.07152)."""
     d = _delta()
     sim, r = _rebound_pair(CHAOTIC_A2, d)
     t = 300.0  # ~20 Lyapunov times; both integrators' trajectories still agree closely
     sim.integrate(t)
     r.integrate(t)
     assert sim.megno() > 5.0
-    assert sim.megno() == pytest.approx(r.megno(), rel=0.10)
-    assert sim.lyapunov() == pytest.approx(2.0 * r.lyapunov(), rel=0.10)
+    assert sim.megno() == pytest.approx(r.megno(), rel=0.02)
+    assert sim.lyapunov() == pytest.approx(2.0 * r.lyapunov(), rel=0.05)
     dr = np.array([[p.x, p.y, p.z, p.vx, p.vy, p.vz] for p in r.var_config[0].particles])
     growth = math.log(np.linalg.norm(dr) / np.linalg.norm(d)) / t
     assert 0.3 * growth < sim.lyapunov() < 1.2 * growth  # the fit lags while <Y> starts at 2
     # the tangent vector itself follows REBOUND's (both are linear maps of the same vector)
     mine = math.log(np.linalg.norm(sim.tangent_vector)) / t
-    assert mine == pytest.approx(growth, rel=0.02)
+    assert mine == pytest.approx(growth, rel=1e-3)
 
 
 def test_leapfrog_megno_regular_and_chaotic():
@@ -167,6 +168,7 @@ def test_rescaling_leaves_megno_unchanged():
     b.init_megno(seed=4)
     base = b.integrator_info.n_buf
     b._state.buf[base:base + 2] *= 1e110  # |delta|^2 = 1e220 > RESCALE_ABOVE
+    b._state.fstate[nc.F_MG_LN] = math.log(1e110)  # what ln(|delta| / |delta_0|) starts from
     a.integrate(50.0)
     b.integrate(50.0)
     assert np.all(np.isfinite(b.tangent_vector))

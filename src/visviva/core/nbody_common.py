@@ -82,6 +82,9 @@ F_MG_COV = 21  #: co-moment of (tau, <Y>) over the updates (Welford)
 F_MG_VAR = 22  #: second moment of tau over the updates
 F_MG_TAU = 23  #: tau of the last update
 F_MG_DT_PREV = 24  #: IAS15: the last step the tangent vector took (its predictor's scale)
+F_MG_LN = 25  #: ln(|delta| / |delta_0|) at the last update (rescalings included)
+F_MG_ILN = 26  #: int_0^tau ln(|delta| / |delta_0|) ds
+F_MG_LN_SHIFT = 27  #: ln of the factors the tangent vector was divided by (rescalings)
 N_FSTATE = 32
 
 I_NOUT = 0  #: outputs written in this run

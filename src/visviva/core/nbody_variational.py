@@ -23,13 +23,20 @@ start and ``f = (dx.dv + dv.J dx) / |delta|^2 = d ln|delta| / dt``::
 
     Y(tau) = (2 / tau) int_0^tau f(s) s ds,     <Y>(tau) = (1 / tau) int_0^tau Y(s) ds
 
-accumulated once per step (:func:`megno_update`: the first integral by the trapezoidal rule on
-IAS15's steps, the midpoint rule on leapfrog's; the second by ``Y(tau_n) h_n``, as REBOUND
-does). ``<Y> -> 2`` for quasi-periodic orbits, ``0`` for stable periodic (isochronous) ones and
+accumulated once per step of the integrator from ``L = ln(|delta| / |delta_0|)`` at the step
+ends (:func:`megno_update`): since ``f = dL/dt``, integrating by parts gives
+``int_0^tau s f(s) ds = tau L(tau) - int_0^tau L(s) ds``, and only the smooth ``L`` is integrated
+(trapezoidal rule) instead of the rapidly oscillating ``s f(s)``; ``<Y>`` then adds
+``Y(tau_n) h_n`` per step, as REBOUND does. (The trapezoidal rule on ``s f(s)`` itself was 0.43 %
+low after 500 orbits of the regular test system at IAS15's default steps; this form is within
+0.01 % of the converged value there.)
+
+``<Y> -> 2`` for quasi-periodic orbits, ``0`` for stable periodic (isochronous) ones and
 ``<Y> ~ lambda tau / 2`` for chaotic ones (lambda the maximal Lyapunov exponent); the slope of a
 least-squares line through ``(tau_n, <Y>_n)`` (the running moments in ``fstate``) estimates
 ``lambda / 2`` (Cincotta & Simo 2000, eq. 24). ``<Y>`` is invariant under a rescaling of
-``delta``, so the tangent vector is rescaled by ``RESCALE`` when ``|delta|^2`` exceeds
+``delta`` (``L`` shifts by a constant, which cancels in ``tau L - int L``), so the tangent vector
+is rescaled by ``RESCALE`` when ``|delta|^2`` exceeds
 ``RESCALE_ABOVE`` (an exponentially growing chaotic vector would otherwise overflow).
 
 The tangent state lives in ``N_TANGENT_SLOTS`` slots of ``buf`` after the integrator's own
@@ -56,6 +63,9 @@ from .nbody_common import (
     F_G,
     F_MG_COV,
     F_MG_DT_PREV,
+    F_MG_ILN,
+    F_MG_LN,
+    F_MG_LN_SHIFT,
     F_MG_MEAN_T,
     F_MG_MEAN_Y,
     F_MG_N,
@@ -130,10 +140,15 @@ def tangent_acceleration(x, dx, m, massive, G, soft2, out):
 
 
 @kernel
-def megno_update(fstate, tau, h, dys):
-    """Add one step of length ``h`` ending at ``tau`` (time since the start), over which
-    ``2 int s f(s) ds`` grew by ``dys``, to the MEGNO accumulators (module docstring)."""
-    ys = fstate[F_MG_YS] + dys
+def megno_update(fstate, tau, h, ln_delta):
+    """Add one step of length ``h`` ending at ``tau`` (time since the start), where
+    ``ln|delta| = ln_delta`` (before the rescalings, ``fstate[F_MG_LN_SHIFT]``), to the MEGNO
+    accumulators (module docstring: ``int_0^tau s f ds = tau L(tau) - int_0^tau L ds`` with
+    ``L = ln(|delta| / |delta_0|)``, the last integral by the trapezoidal rule)."""
+    ln1 = ln_delta + fstate[F_MG_LN_SHIFT]
+    fstate[F_MG_ILN] += 0.5 * h * (fstate[F_MG_LN] + ln1)
+    fstate[F_MG_LN] = ln1
+    ys = 2.0 * (tau * ln1 - fstate[F_MG_ILN])
     fstate[F_MG_YS] = ys
     if tau == 0.0:
         return
@@ -150,38 +165,30 @@ def megno_update(fstate, tau, h, dys):
 
 
 @kernel
-def _rescale(buf, base, with_b):
-    """Rescale the tangent vector (and IAS15's tangent ``b``, its predictor) when it is large."""
+def _ln_norm_rescaled(fstate, buf, base, with_b):
+    """``ln|delta|`` of the tangent vector; when ``|delta|^2`` exceeds :data:`RESCALE_ABOVE` the
+    vector (and IAS15's tangent ``b``, its predictor) is first multiplied by :data:`RESCALE` and
+    the factor remembered in ``fstate[F_MG_LN_SHIFT]``."""
     n = buf.shape[1]
     d2 = 0.0
     for i in range(n):
         for c in range(3):
             d2 += buf[base + DX, i, c] ** 2 + buf[base + DV, i, c] ** 2
-    if d2 <= RESCALE_ABOVE:
-        return
-    last = base + (_TB + 7 if with_b else DV + 1)
-    for s in range(base, last):
-        for i in range(n):
-            for c in range(3):
-                buf[s, i, c] *= RESCALE
-
-
-@kernel
-def _growth_rate(dx, dv, da):
-    """``f = (dx.dv + dv.da) / (|dx|^2 + |dv|^2)`` over flat arrays (0 for a zero vector)."""
-    num = 0.0
-    den = 0.0
-    for q in range(dx.shape[0]):
-        num += dx[q] * dv[q] + dv[q] * da[q]
-        den += dx[q] * dx[q] + dv[q] * dv[q]
-    return num / den if den > 0.0 else 0.0
+    if d2 > RESCALE_ABOVE:
+        last = base + (_TB + 7 if with_b else DV + 1)
+        for s in range(base, last):
+            for i in range(n):
+                for c in range(3):
+                    buf[s, i, c] *= RESCALE
+        fstate[F_MG_LN_SHIFT] -= math.log(RESCALE)
+        d2 *= RESCALE * RESCALE
+    return 0.5 * math.log(d2) if d2 > 0.0 else -math.inf
 
 
 @kernel
 def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, t, h):
     """Advance the tangent vector over the leapfrog step ``t -> t + h`` just taken (``xi, vi``:
-    the physical state after it) by the linearised drift-kick-drift map, and update MEGNO with
-    the mid-step growth rate (midpoint rule)."""
+    the physical state after it) by the linearised drift-kick-drift map, and update MEGNO."""
     n = xi.shape[0]
     dx = buf[base + DX]
     dv = buf[base + DV]
@@ -193,19 +200,11 @@ def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, t, h):
             xh[i, c] = xi[i, c] - vi[i, c] * half  # the mid-step positions of the kick
             dx[i, c] += dv[i, c] * half
     tangent_acceleration(xh, dx, m, massive, fstate[F_G], fstate[F_SOFT2], da)
-    num = 0.0
-    den = 0.0
     for i in range(n):
         for c in range(3):
-            vm = dv[i, c] + da[i, c] * half
-            num += dx[i, c] * vm + vm * da[i, c]
-            den += dx[i, c] * dx[i, c] + vm * vm
             dv[i, c] += da[i, c] * h
             dx[i, c] += dv[i, c] * half
-    f = num / den if den > 0.0 else 0.0
-    tau_mid = (t + half) - fstate[F_MG_T0]
-    megno_update(fstate, (t + h) - fstate[F_MG_T0], h, 2.0 * tau_mid * f * h)
-    _rescale(buf, base, False)
+    megno_update(fstate, (t + h) - fstate[F_MG_T0], h, _ln_norm_rescaled(fstate, buf, base, False))
 
 
 @kernel
@@ -233,7 +232,7 @@ def _velocity_change(bf, b, a0, q, dt):
 def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt):
     """Advance the tangent vector over the IAS15 step ``t -> t + dt`` just accepted (``xi, vi``:
     the physical state after it; ``buf[b_slot:b_slot+7]`` its converged b, ``buf[a0_slot]`` its
-    initial acceleration) by Gauss-Radau collocation, and update MEGNO (trapezoidal rule)."""
+    initial acceleration) by Gauss-Radau collocation, and update MEGNO."""
     n3 = 3 * xi.shape[0]
     bf = buf.reshape((buf.shape[0], n3))
     xf = xi.reshape(n3)
@@ -304,18 +303,9 @@ def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt)
         if it >= 2 and pc_err >= pc_last:
             break
         pc_last = pc_err
-    f0 = _growth_rate(dx, dv, da)
     for q in range(n3):
-        a1 = da[q]
-        for k in range(7):
-            a1 += bf[tb + k, q]
         ddx = _displacement(bf, tb, da, dv, q, 1.0, dt)
         dv[q] += _velocity_change(bf, tb, da, q, dt)
         dx[q] += ddx
-        da[q] = a1
-    f1 = _growth_rate(dx, dv, da)
-    tau0 = t - fstate[F_MG_T0]
-    tau1 = (t + dt) - fstate[F_MG_T0]
-    megno_update(fstate, tau1, dt, dt * (tau0 * f0 + tau1 * f1))
     fstate[F_MG_DT_PREV] = dt
-    _rescale(buf, base, True)
+    megno_update(fstate, (t + dt) - fstate[F_MG_T0], dt, _ln_norm_rescaled(fstate, buf, base, True))

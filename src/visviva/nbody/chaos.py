@@ -25,7 +25,8 @@ __all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "
 MEGNO_INTEGRATORS = ("ias15", "leapfrog")
 
 _F_SLOTS = (_nc.F_MG_YS, _nc.F_MG_YSS, _nc.F_MG_N, _nc.F_MG_MEAN_T, _nc.F_MG_MEAN_Y,
-            _nc.F_MG_COV, _nc.F_MG_VAR, _nc.F_MG_TAU, _nc.F_MG_DT_PREV)
+            _nc.F_MG_COV, _nc.F_MG_VAR, _nc.F_MG_TAU, _nc.F_MG_DT_PREV, _nc.F_MG_LN,
+            _nc.F_MG_ILN, _nc.F_MG_LN_SHIFT)
 
 
 def _state_code(sim) -> int:
@@ -183,8 +184,11 @@ class ChaosIndicators:
 
     @property
     def tangent_vector(self) -> np.ndarray:
-        """The tangent vector now, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy; rescaled
-        now and then by a constant, which MEGNO ignores)."""
+        """The tangent vector, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy), at the
+        integrator's last step: ``sim.t`` with ``exact_finish_time=False`` or on the leapfrog's
+        step grid, up to one step before it when an output time was reached by a copy (as
+        :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
+        scale-free)."""
         self._megno_state("tangent_vector")
         base = self._integrator.n_buf
         buf = self._state.buf

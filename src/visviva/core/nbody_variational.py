@@ -229,6 +229,34 @@ def _velocity_change(bf, b, a0, q, dt):
 
 
 @kernel
+def _reexpand(bf, b, n3, q1):
+    """Replace the b coefficients in slots ``b..b+6`` of the flat ``bf`` by those of the same
+    polynomial about the end of its step, for a step ``q1`` times as long (Everhart 1985,
+    eq. 2.10; ``q1 = 0`` zeroes them)."""
+    q2 = q1 * q1
+    q3 = q2 * q1
+    q4 = q2 * q2
+    q5 = q3 * q2
+    q6 = q3 * q3
+    q7 = q4 * q3
+    for q in range(n3):
+        b0 = bf[b, q]
+        b1 = bf[b + 1, q]
+        b2 = bf[b + 2, q]
+        b3 = bf[b + 3, q]
+        b4 = bf[b + 4, q]
+        b5 = bf[b + 5, q]
+        b6 = bf[b + 6, q]
+        bf[b, q] = q1 * (7.0 * b6 + 6.0 * b5 + 5.0 * b4 + 4.0 * b3 + 3.0 * b2 + 2.0 * b1 + b0)
+        bf[b + 1, q] = q2 * (21.0 * b6 + 15.0 * b5 + 10.0 * b4 + 6.0 * b3 + 3.0 * b2 + b1)
+        bf[b + 2, q] = q3 * (35.0 * b6 + 20.0 * b5 + 10.0 * b4 + 4.0 * b3 + b2)
+        bf[b + 3, q] = q4 * (35.0 * b6 + 15.0 * b5 + 5.0 * b4 + b3)
+        bf[b + 4, q] = q5 * (21.0 * b6 + 6.0 * b5 + b4)
+        bf[b + 5, q] = q6 * (7.0 * b6 + b5)
+        bf[b + 6, q] = q7 * b6
+
+
+@kernel
 def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt):
     """Advance the tangent vector over the IAS15 step ``t -> t + dt`` just accepted (``xi, vi``:
     the physical state after it; ``buf[b_slot:b_slot+7]`` its converged b, ``buf[a0_slot]`` its
@@ -256,15 +284,13 @@ def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt)
     for q in range(n3):
         x0[q] = xf[q] - _displacement(bf, b_slot, a0, v0, q, 1.0, dt)
     tangent_acceleration(buf[base + _X0], buf[base + DX], m, massive, G, soft2, buf[base + _DA])
-    # predictor: the last step's tangent b, scaled to this step's length
+    # predictor: the last step's tangent polynomial re-expanded about this step's start, for
+    # this step's length (Everhart 1985 eq. 2.10; no prediction after a change of direction)
     dtp = fstate[F_MG_DT_PREV]
     ratio = dt / dtp if dtp != 0.0 else 0.0
-    if not abs(ratio) <= 20.0:
+    if not (0.0 <= ratio <= 20.0):
         ratio = 0.0
-    for k in range(7):
-        rk = ratio ** (k + 1)
-        for q in range(n3):
-            bf[tb + k, q] *= rk
+    _reexpand(bf, tb, n3, ratio)
     for q in range(n3):
         for k in range(1, 8):
             g = 0.0

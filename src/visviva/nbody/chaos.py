@@ -111,8 +111,7 @@ class ChaosIndicators:
         internal state restarts here from the current positions and velocities (as after any
         change of them); from then on the physical trajectory is bit for bit that of a run
         without MEGNO: the tangent vector follows each accepted step and never steers one
-        (IAS15's step-size control sees the particles alone; REBOUND's IAS15 integrates the
-        variational particles with the others). With IAS15 the tangent vector is advanced on
+        (IAS15's step-size control sees the particles alone, as REBOUND's does). With IAS15 the tangent vector is advanced on
         the integrator's own steps: :meth:`megno` is the value at the last of them, not at an
         output time reached by a copy between steps. ``save``/``load``, ``copy`` and pickles
         carry the MEGNO state; adding or removing particles or changing the integrator drops

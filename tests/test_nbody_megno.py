@@ -254,3 +254,15 @@ def test_megno_slots_are_free():
     i_slots = [getattr(nc, k) for k in dir(nc) if k.startswith("I_")]
     assert len(f_slots) == len(set(f_slots)) and max(f_slots) < nc.N_FSTATE
     assert len(i_slots) == len(set(i_slots)) and max(i_slots) < nc.N_ISTATE
+
+
+def test_rebound_interop_says_megno_is_not_carried():
+    pytest.importorskip("rebound")
+    sim = _system()
+    sim.init_megno(seed=1)
+    with pytest.warns(UserWarning, match="MEGNO state"):
+        r = sim.to_rebound()
+    r.init_megno(seed=1)
+    with pytest.warns(UserWarning, match="variational particles"):
+        back = vv.Simulation.from_rebound(r)
+    assert back.N == 3

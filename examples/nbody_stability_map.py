@@ -11,7 +11,7 @@ map agrees with it away from the boundary and draws it (nbody_stability_map.png,
 
 Beside it, the chaos indicator MEGNO (``init_megno``; Cincotta & Simo 2000) of the same grid, with
 the leapfrog integrator (MEGNO needs IAS15 or leapfrog): about 2 for quasi-periodic systems,
-growing with time for chaotic ones. The ensemble advances members with MEGNO one by one.
+growing with time for chaotic ones (a second ensemble: each member carries its tangent vector).
 """
 
 from __future__ import annotations

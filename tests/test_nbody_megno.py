@@ -227,25 +227,45 @@ def test_megno_refusals_say_what_to_do():
         sim.integrate(2.0)
 
 
-def test_ensemble_megno_per_member_matches_lone_runs():
-    """Members with MEGNO are advanced one by one on the CPU (the same bits as lone runs); the
-    packed kernels (and so the CUDA backend) refuse them."""
+def test_ensemble_megno_per_member_matches_lone_runs(tmp_path):
+    """Members with MEGNO run in the packed CPU kernel (their buf holds the tangent slots) with
+    the bits of lone runs; a mix of members with and without MEGNO runs member by member; an
+    ensemble file carries the MEGNO state; the GPU backend refuses."""
     from visviva.nbody.ensemble import advance_members
+    from visviva.nbody.ensemble_pack import Pack
 
-    members = []
-    for a2 in (REGULAR_A2, CHAOTIC_A2):
-        s = _system(a2)
-        s.init_megno(seed=3)
-        members.append(s)
-    lone = [s.copy() for s in members]
-    ens = vv.Ensemble(members)
-    ens.integrate(100.0)
+    def members(megno=(True, True, True)):
+        out = []
+        for a2, on in zip((REGULAR_A2, CHAOTIC_A2, 1.4), megno, strict=True):
+            s = _system(a2)
+            if on:
+                s.init_megno(seed=3)
+            out.append(s)
+        return out
+
+    lone = members()
+    packed = members()
+    for s in lone + packed:
+        s.integrate(10.0)  # a first step for IAS15 (a pack needs every member's dt)
     for s in lone:
         s.integrate(100.0)
-    np.testing.assert_array_equal(ens.megno(), [s.megno() for s in lone])
-    assert ens.megno()[1] > ens.megno()[0]
+    pack = Pack.build(packed)
+    assert pack is not None and pack.advance(100.0) == []
+    np.testing.assert_array_equal([s.megno() for s in packed], [s.megno() for s in lone])
+    np.testing.assert_array_equal([s.lyapunov() for s in packed], [s.lyapunov() for s in lone])
+    assert Pack.build(members((True, False, True))) is None
+    mixed = vv.Ensemble(members((True, False, True)))
+    mixed.integrate(100.0)
+    assert mixed[0].megno() == lone[0].megno() and mixed[2].megno() == lone[2].megno()
+    ens = vv.Ensemble(members())
+    ens.integrate(50.0)
+    ens.save(tmp_path / "e.npz")
+    back = vv.Ensemble.load(tmp_path / "e.npz")
+    back.integrate(100.0)
+    np.testing.assert_array_equal(back.megno(), [s.megno() for s in lone])
+    assert back.megno()[1] > back.megno()[0]
     with pytest.raises(InvalidInputError, match="CPU backend"):
-        advance_members([s.copy() for s in lone], 200.0, backend="cuda")
+        advance_members(members(), 200.0, backend="cuda")
 
 
 def test_megno_slots_are_free():

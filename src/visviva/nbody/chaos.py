@@ -18,8 +18,7 @@ from ..core import nbody_common as _nc
 from ..core import nbody_variational as _nv
 from ..errors import InvalidInputError, InvalidStateError, ShapeError
 
-__all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "refuse_packed",
-           "any_megno"]
+__all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "refuse_packed"]
 
 #: Integrators that integrate the tangent vector (the others refuse ``init_megno``).
 MEGNO_INTEGRATORS = ("ias15", "leapfrog")
@@ -68,22 +67,16 @@ def check_run(sim) -> None:
         _check_supported(sim, "integrate")
 
 
-def any_megno(members) -> bool:
-    """True when one of ``members`` has MEGNO switched on (an ensemble then advances its members
-    one by one, each as a lone :meth:`~visviva.Simulation.integrate`: the same bits)."""
-    return any(_state_code(s) == 1 for s in members)
-
-
 def refuse_packed(members) -> None:
-    """Raise when one of ``members`` (simulations to integrate together in a packed kernel) has
-    MEGNO switched on: the packed kernels (CPU and GPU) do not carry the tangent vector."""
+    """Raise when one of ``members`` (simulations to integrate together in a packed kernel whose
+    ``buf`` has no tangent slots: the GPU's, or a CPU pack of members with and without MEGNO)
+    has MEGNO switched on."""
     for k, s in enumerate(members):
         if _state_code(s) == 1:
             raise InvalidInputError(
                 f"member {k} of the ensemble has MEGNO switched on (init_megno), which the "
-                "packed ensemble kernels do not integrate; use the ensemble's CPU backend "
-                "(members with MEGNO are then integrated one by one) or integrate them with "
-                "sim.integrate(t).")
+                "GPU ensemble kernels do not integrate; use the ensemble's CPU backend "
+                "(backend='cpu') or integrate the member with sim.integrate(t).")
 
 
 class ChaosIndicators:

@@ -29,7 +29,7 @@ from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
 from . import step_check as _step_check
 from . import tier as _tier
-from .chaos import any_megno, refuse_packed
+from .chaos import extra_slots, refuse_packed
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .forces import force_key
@@ -201,8 +201,8 @@ class Ensemble:
 
     def megno(self) -> np.ndarray:
         """MEGNO of each member, shape (M,) (:meth:`visviva.Simulation.megno`; switch it on
-        with each member's ``init_megno`` before integrating; the ensemble then advances its
-        members one by one on the CPU, with the same bits)."""
+        with each member's ``init_megno`` before integrating; CPU backend only; each member's
+        result equals its lone run bit for bit)."""
         return np.array([s.megno() for s in self._members])
 
     def energy(self, include_offset: bool = True) -> np.ndarray:
@@ -346,9 +346,8 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None, owner=Non
         The pack to pass to the next call for these members (None: build it again).
     """
     if backend != "cpu":
-        refuse_packed(members)
-    elif any_megno(members) or _tier.ensemble_would_compile(members, _time(members[0], t)):
-        # (members with MEGNO: the packed kernels do not carry tangent vectors)
+        refuse_packed(members)  # the GPU kernels do not carry tangent vectors
+    elif _tier.ensemble_would_compile(members, _time(members[0], t)):
         if owner is not None:
             _step_check.check_members(owner, members, stacklevel=4, t=_time(members[0], t))
         return _advance_alone(members, t), None  # a fresh install's first small ensemble
@@ -407,8 +406,8 @@ def _advance_each(members: list, t, backend: str) -> list:
         except Exception as exc:
             errors.append((k, exc))
             continue
-        groups.setdefault((force_key(sim), times.tobytes()), []).append(k)
-    for (_, times_bytes), ks in groups.items():
+        groups.setdefault((force_key(sim), times.tobytes(), extra_slots(sim)), []).append(k)
+    for (_, times_bytes, _), ks in groups.items():
         times = np.frombuffer(times_bytes, dtype=np.float64).copy()
         status = _run_group([members[k] for k in ks], times)
         for k, code in zip(ks, status.tolist(), strict=True):
@@ -421,8 +420,7 @@ def _run_group(members, times) -> np.ndarray:
     from ..core.gravity import GWORK_ROWS
 
     info = members[0].integrator_info
-    n_buf = info.n_buf
-    refuse_packed(members)
+    n_buf = info.n_buf + extra_slots(members[0])  # the same for every member of the group
     inputs = [s.kernel_inputs(parallel=False) for s in members]
     arrays = [s.state_arrays() for s in members]
     n = np.array([s.N for s in members], dtype=np.int64)

@@ -499,7 +499,7 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
         istate[I_STEPS] += 1
         if mode != 1 and megno_on(istate, buf, N_BUF):
             # the tangent vector over the step just taken (not over an output's copy: mode 1)
-            ias15_tangent(xi, vi, m, massive, fstate, buf, N_BUF, _B, _A0, t, dt)
+            ias15_tangent(xi, vi, m, massive, fstate, buf, N_BUF, _B, _A0, dt)
         # remember the converged b and its prediction e, then predict the next step
         for sl in range(7):
             for i in range(n):

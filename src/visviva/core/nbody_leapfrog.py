@@ -131,7 +131,7 @@ def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
                 break  # less than a step to go: the output comes from a copy
             _dkd(xi, vi, m, massive, fstate, gwork, force, params, acc, t_grid, h, parallel)
             if megno:  # the tangent vector, after (and apart from) the physical step
-                leapfrog_tangent(xi, vi, m, massive, fstate, buf, N_BUF, t_grid, h)
+                leapfrog_tangent(xi, vi, m, massive, fstate, buf, N_BUF, h)
             istate[I_K] += 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
             fstate[F_DT_LAST] = h

@@ -69,7 +69,6 @@ from .nbody_common import (
     F_MG_MEAN_T,
     F_MG_MEAN_Y,
     F_MG_N,
-    F_MG_T0,
     F_MG_TAU,
     F_MG_VAR,
     F_MG_YS,
@@ -140,11 +139,14 @@ def tangent_acceleration(x, dx, m, massive, G, soft2, out):
 
 
 @kernel
-def megno_update(fstate, tau, h, ln_delta):
-    """Add one step of length ``h`` ending at ``tau`` (time since the start), where
+def megno_update(fstate, h, ln_delta):
+    """Add one step of length ``h`` (``tau``, the time since the start, advances by ``h``: the
+    sum of the steps, so that assigning ``sim.t`` moves nothing), after which
     ``ln|delta| = ln_delta`` (before the rescalings, ``fstate[F_MG_LN_SHIFT]``), to the MEGNO
     accumulators (module docstring: ``int_0^tau s f ds = tau L(tau) - int_0^tau L ds`` with
     ``L = ln(|delta| / |delta_0|)``, the last integral by the trapezoidal rule)."""
+    tau = fstate[F_MG_TAU] + h
+    fstate[F_MG_TAU] = tau
     ln1 = ln_delta + fstate[F_MG_LN_SHIFT]
     fstate[F_MG_ILN] += 0.5 * h * (fstate[F_MG_LN] + ln1)
     fstate[F_MG_LN] = ln1
@@ -153,7 +155,6 @@ def megno_update(fstate, tau, h, ln_delta):
     if tau == 0.0:
         return
     fstate[F_MG_YSS] += ys / tau * h
-    fstate[F_MG_TAU] = tau
     mean_y = fstate[F_MG_YSS] / tau
     n = fstate[F_MG_N] + 1.0
     d_t = tau - fstate[F_MG_MEAN_T]
@@ -186,8 +187,8 @@ def _ln_norm_rescaled(fstate, buf, base, with_b):
 
 
 @kernel
-def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, t, h):
-    """Advance the tangent vector over the leapfrog step ``t -> t + h`` just taken (``xi, vi``:
+def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, h):
+    """Advance the tangent vector over the leapfrog step of length ``h`` just taken (``xi, vi``:
     the physical state after it) by the linearised drift-kick-drift map, and update MEGNO."""
     n = xi.shape[0]
     dx = buf[base + DX]
@@ -204,7 +205,7 @@ def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, t, h):
         for c in range(3):
             dv[i, c] += da[i, c] * h
             dx[i, c] += dv[i, c] * half
-    megno_update(fstate, (t + h) - fstate[F_MG_T0], h, _ln_norm_rescaled(fstate, buf, base, False))
+    megno_update(fstate, h, _ln_norm_rescaled(fstate, buf, base, False))
 
 
 @kernel
@@ -257,8 +258,8 @@ def _reexpand(bf, b, n3, q1):
 
 
 @kernel
-def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt):
-    """Advance the tangent vector over the IAS15 step ``t -> t + dt`` just accepted (``xi, vi``:
+def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, dt):
+    """Advance the tangent vector over the IAS15 step of length ``dt`` just accepted (``xi, vi``:
     the physical state after it; ``buf[b_slot:b_slot+7]`` its converged b, ``buf[a0_slot]`` its
     initial acceleration) by Gauss-Radau collocation, and update MEGNO."""
     n3 = 3 * xi.shape[0]
@@ -334,4 +335,4 @@ def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, t, dt)
         dv[q] += _velocity_change(bf, tb, da, q, dt)
         dx[q] += ddx
     fstate[F_MG_DT_PREV] = dt
-    megno_update(fstate, (t + dt) - fstate[F_MG_T0], dt, _ln_norm_rescaled(fstate, buf, base, True))
+    megno_update(fstate, dt, _ln_norm_rescaled(fstate, buf, base, True))

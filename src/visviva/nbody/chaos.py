@@ -99,8 +99,9 @@ class ChaosIndicators:
         -----
         Supported by IAS15 and leapfrog (:data:`MEGNO_INTEGRATORS`); WHFast and the others
         raise, as do additional forces (no Jacobian), ``collision="merge"``/``"bounce"`` and
-        the CUDA backend. MEGNO counts time from this call (``tau = t - t_start``; REBOUND
-        counts from ``t = 0``, the same for a simulation started at 0). The integrator's
+        the CUDA backend. MEGNO counts time from this call, as the sum of the steps taken
+        (assigning ``sim.t`` later moves nothing; REBOUND counts from ``t = 0``, the same for
+        a simulation started at 0 that keeps its clock). The integrator's
         internal state restarts here from the current positions and velocities (as after any
         change of them); from then on the physical trajectory is bit for bit that of a run
         without MEGNO: the tangent vector follows each accepted step and never steers one
@@ -163,7 +164,8 @@ class ChaosIndicators:
         """The maximal Lyapunov exponent, per unit of the simulation's time: twice the slope of a
         least-squares line through MEGNO ``<Y>`` against time over the steps since
         :meth:`init_megno` (``<Y> ~ lambda tau / 2``; Cincotta & Simo 2000, eq. 24). About 0
-        for a regular orbit; 0 before two steps.
+        for a regular orbit; 0 before two steps. Time runs from :meth:`init_megno` as the sum of
+        the steps taken (assigning ``sim.t`` changes nothing; backwards runs count ``|t|``).
 
         REBOUND's ``sim.lyapunov()`` returns the slope itself, half of this: for the chaotic
         system of docs/nbody.md its value is half the growth rate ``ln|delta(t)/delta(0)| / t``
@@ -172,7 +174,9 @@ class ChaosIndicators:
         """
         f = self._megno_state("lyapunov")
         var = f[_nc.F_MG_VAR]
-        return float(2.0 * f[_nc.F_MG_COV] / var) if var > 0.0 else 0.0
+        # against |tau|: a run backwards in time grows like one forwards
+        sign = -1.0 if f[_nc.F_MG_TAU] < 0.0 else 1.0
+        return float(2.0 * sign * f[_nc.F_MG_COV] / var) if var > 0.0 else 0.0
 
     @property
     def tangent_vector(self) -> np.ndarray:

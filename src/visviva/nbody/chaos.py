@@ -101,11 +101,11 @@ class ChaosIndicators:
         raise, as do additional forces (no Jacobian), ``collision="merge"``/``"bounce"`` and
         the CUDA backend. MEGNO counts time from this call, as the sum of the steps taken
         (assigning ``sim.t`` later moves nothing; REBOUND counts from ``t = 0``, the same for
-        a simulation started at 0 that keeps its clock). The integrator's
-        internal state restarts here from the current positions and velocities (as after any
-        change of them); from then on the physical trajectory is bit for bit that of a run
-        without MEGNO: the tangent vector follows each accepted step and never steers one
-        (IAS15's step-size control sees the particles alone, as REBOUND's does). With IAS15 the tangent vector is advanced on
+        a simulation started at 0 that keeps its clock). The integrator's internal state
+        restarts here from the current positions and velocities (as after any change of them);
+        from then on the physical trajectory is bit for bit that of a run without MEGNO: the
+        tangent vector follows each accepted step and never steers one (IAS15's step-size
+        control sees the particles alone, as REBOUND's does). The tangent vector is advanced on
         the integrator's own steps: :meth:`megno` is the value at the last of them, not at an
         output time reached by a copy between steps. ``save``/``load``, ``copy`` and pickles
         carry the MEGNO state; adding or removing particles or changing the integrator drops
@@ -167,10 +167,10 @@ class ChaosIndicators:
         for a regular orbit; 0 before two steps. Time runs from :meth:`init_megno` as the sum of
         the steps taken (assigning ``sim.t`` changes nothing; backwards runs count ``|t|``).
 
-        REBOUND's ``sim.lyapunov()`` returns the slope itself, half of this: for the chaotic
-        system of docs/nbody.md its value is half the growth rate ``ln|delta(t)/delta(0)| / t``
-        of its own variational particles, which this value matches. The Lyapunov time is
-        ``1 / sim.lyapunov()``.
+        REBOUND's ``sim.lyapunov()`` returns the slope itself, half of this (compare with
+        ``2 * rsim.lyapunov()``; docs/nbody.md). Like any such fit it lags behind the growth
+        rate ``ln|delta(t)/delta(0)| / t`` while ``<Y>`` leaves 2, and approaches it as the run
+        lengthens. The Lyapunov time is ``1 / sim.lyapunov()``.
         """
         f = self._megno_state("lyapunov")
         var = f[_nc.F_MG_VAR]

@@ -263,6 +263,7 @@ def test_ensemble_megno_per_member_matches_lone_runs(tmp_path):
     back = vv.Ensemble.load(tmp_path / "e.npz")
     back.integrate(100.0)
     np.testing.assert_array_equal(back.megno(), [s.megno() for s in lone])
+    np.testing.assert_array_equal(back.lyapunov(), [s.lyapunov() for s in lone])
     assert back.megno()[1] > back.megno()[0]
     with pytest.raises(InvalidInputError, match="CPU backend"):
         advance_members(members(), 200.0, backend="cuda")

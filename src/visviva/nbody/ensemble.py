@@ -205,6 +205,11 @@ class Ensemble:
         result equals its lone run bit for bit)."""
         return np.array([s.megno() for s in self._members])
 
+    def lyapunov(self) -> np.ndarray:
+        """The maximal Lyapunov exponent of each member, shape (M,) (per unit of the members'
+        time; :meth:`visviva.Simulation.lyapunov`)."""
+        return np.array([s.lyapunov() for s in self._members])
+
     def energy(self, include_offset: bool = True) -> np.ndarray:
         """Total energy of each member, shape (M,) (simulation units; see
         :meth:`visviva.Simulation.energy`)."""

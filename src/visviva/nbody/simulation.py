@@ -39,7 +39,7 @@ _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
 
 
 class Simulation(_chaos.ChaosIndicators):
-    """An N-body simulation.
+    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`).
 
     Parameters
     ----------
@@ -95,8 +95,6 @@ class Simulation(_chaos.ChaosIndicators):
         ``"cpu"`` (default) or ``"cuda"``: the direct summation on an NVIDIA GPU, for every
         integrator (:mod:`visviva.nbody.gpu`; raises :class:`visviva.errors.BackendUnavailableError`
         saying what is missing without a GPU or numba-cuda).
-
-    MEGNO and the Lyapunov exponent: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`.
 
     Examples
     --------

@@ -8,6 +8,10 @@ encounters), and systems whose outer planet leaves r = 10 are marked unstable. G
 Hill criterion, a2 - a1 > 2 sqrt(3) R_H with the mutual Hill radius
 R_H = ((m1 + m2) / 3)**(1/3) (a1 + a2) / 2, separates the two regions: the script checks that the
 map agrees with it away from the boundary and draws it (nbody_stability_map.png, or ``--plot``).
+
+Beside it, the chaos indicator MEGNO (``init_megno``; Cincotta & Simo 2000) of the same grid, with
+the leapfrog integrator (MEGNO needs IAS15 or leapfrog): about 2 for quasi-periodic systems,
+growing with time for chaotic ones (a second ensemble: each member carries its tangent vector).
 """
 
 from __future__ import annotations
@@ -22,13 +26,27 @@ import visviva as vv
 M1 = 1e-3
 
 
-def system(a2, m2):
-    sim = vv.Simulation("whfast", dt=2 * np.pi / 40, exit_max_distance=10.0)
+def system(a2, m2, integrator="whfast"):
+    sim = vv.Simulation(integrator, dt=2 * np.pi / 40, exit_max_distance=10.0)
     sim.add(1.0)
     sim.add(M1, a=1.0, primary=0)
     sim.add(m2, a=a2, mean_anomaly=np.pi, inc=0.01, primary=None)
     sim.move_to_com()
+    if integrator == "leapfrog":
+        sim.dt = 2 * np.pi / 100
+        sim.init_megno(seed=1)
     return sim
+
+
+def megno_map(A, Mm, t_end):
+    """MEGNO of every system at ``t_end`` (an escaped system: its value when it left)."""
+    ens = vv.Ensemble.from_simulations([system(a, m, "leapfrog")
+                                        for a, m in zip(A.ravel(), Mm.ravel(), strict=True)])
+    try:
+        ens.integrate(t_end)
+    except vv.Escape:  # the others reached t_end; the escaped ones keep their MEGNO
+        pass
+    return ens.megno().reshape(A.shape)
 
 
 def gladman_separation(a2, m2):
@@ -63,21 +81,33 @@ def main(argv=None):
     print(f"Hill unstable by > 30 %, chaotic here: {unstable[separation < 0.7].mean():.0%}")
     assert (~unstable[separation > 1.3]).mean() > 0.9
     assert unstable[separation < 0.7].mean() > 0.9
+    megno = megno_map(A, Mm, 300 * 2 * np.pi)
+    chaotic = megno > 3.0
+    print(f"MEGNO: Hill stable by > 30 %, <Y> < 3: {(~chaotic[separation > 1.3]).mean():.0%}; "
+          f"Hill unstable by > 30 %, <Y> > 3: {chaotic[separation < 0.7].mean():.0%}")
+    assert (~chaotic[separation > 1.3]).mean() > 0.9
+    assert chaotic[separation < 0.7].mean() > 0.9
     if args.plot:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6, 4))
-        mesh = ax.pcolormesh(a2, m2, np.log10(np.maximum(indicator, 1e-16)).T, shading="nearest",
-                             cmap="magma")
-        ax.contour(a2, m2, separation.T, levels=[1.0], colors="cyan")
-        ax.set_yscale("log")
-        ax.set_xlabel("a2 (a1 = 1)")
-        ax.set_ylabel("m2 (M_star)")
-        ax.set_title("log10 max |dE/E| (WHFast, 300 orbits); cyan: Gladman's Hill limit")
-        fig.colorbar(mesh, ax=ax)
+        fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+        panels = ((np.log10(np.maximum(indicator, 1e-16)), "magma", None,
+                   "log10 max |dE/E| (WHFast, 300 orbits)"),
+                  (np.clip(megno, 0.0, 10.0), "viridis", (0.0, 10.0),
+                   "MEGNO <Y> (leapfrog, 300 orbits; 2: regular)"))
+        for ax, (values, cmap, limits, title) in zip(axes, panels, strict=True):
+            mesh = ax.pcolormesh(a2, m2, values.T, shading="nearest", cmap=cmap,
+                                 vmin=None if limits is None else limits[0],
+                                 vmax=None if limits is None else limits[1])
+            ax.contour(a2, m2, separation.T, levels=[1.0], colors="cyan")
+            ax.set_yscale("log")
+            ax.set_xlabel("a2 (a1 = 1)")
+            ax.set_ylabel("m2 (M_star)")
+            ax.set_title(title + "; cyan: Gladman's Hill limit", fontsize=9)
+            fig.colorbar(mesh, ax=ax)
         fig.savefig(args.plot, dpi=110, bbox_inches="tight")
         print(f"figure: {args.plot}")
 

@@ -201,3 +201,18 @@ def test_runs_with_additional_forces_are_bit_identical_across_tiers(force_tier, 
         if mode == "interpreted":
             assert core_tier.spent["cpu_s"] > 0 and not core_tier.spent["off"]
     _assert_same(*results)
+
+
+@pytest.mark.parametrize("integrator", ["ias15", "leapfrog"])
+def test_runs_with_megno_are_bit_identical_across_tiers(force_tier, integrator):
+    """The tangent vector and the MEGNO sums (buf, fstate) too: interpreted = compiled."""
+    results = []
+    for mode in ("interpreted", "compiled"):
+        force_tier(mode)
+        sim = _system(integrator, {}, n=4, seed=5, test_particles=1)
+        sim.init_megno(seed=8)
+        results.append(_run(sim, np.array([0.7, 1.9, 3.1])) + (sim.megno(), sim.lyapunov()))
+        if mode == "interpreted":
+            assert core_tier.spent["cpu_s"] > 0
+    _assert_same(results[0][:6], results[1][:6])
+    assert results[0][6:] == results[1][6:]

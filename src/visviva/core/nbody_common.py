@@ -71,6 +71,20 @@ F_WH_H = 11  #: WHFast: the signed step its unsynchronised internal state was bu
 F_T_INT = 12  #: IAS15: time of the internal state (outputs are reached on copies)
 F_DT_FLOOR = 13  #: IAS15: the step floor that was hit (set with STEP_TOO_SMALL)
 F_DT_FAILED = 14  #: IAS15: the proposed step that fell below it
+# MEGNO (visviva.core.nbody_variational): accumulators over the time since init_megno, tau
+F_MG_T0 = 15  #: the simulation time at which MEGNO was started (for the record)
+F_MG_YS = 16  #: 2 int_0^tau s f(s) ds, f = delta'.delta / delta.delta (Y = F_MG_YS / tau)
+F_MG_YSS = 17  #: int_0^tau Y(s) ds (MEGNO <Y> = F_MG_YSS / tau)
+F_MG_N = 18  #: number of MEGNO updates (steps), as a float
+F_MG_MEAN_T = 19  #: running mean of tau over the updates
+F_MG_MEAN_Y = 20  #: running mean of <Y> over the updates
+F_MG_COV = 21  #: co-moment of (tau, <Y>) over the updates (Welford)
+F_MG_VAR = 22  #: second moment of tau over the updates
+F_MG_TAU = 23  #: tau, the time since the start: the sum of the steps taken since
+F_MG_DT_PREV = 24  #: IAS15: the last step the tangent vector took (its predictor's scale)
+F_MG_LN = 25  #: ln(|delta| / |delta_0|) at the last update (rescalings included)
+F_MG_ILN = 26  #: int_0^tau ln(|delta| / |delta_0|) ds
+F_MG_LN_SHIFT = 27  #: ln of the factors the tangent vector was divided by (rescalings)
 N_FSTATE = 32
 
 I_NOUT = 0  #: outputs written in this run
@@ -91,6 +105,7 @@ I_VELOCITY_DEPENDENT = 14  #: 1 when an additional force reads the velocities
 I_INT_VALID = 15  #: leapfrog/IAS15: 1 when buf holds the internal state (on its own step grid)
 I_ADAPTIVE_MODE = 16  #: IAS15 step-size control: 0 = Rein & Spiegel 2015 global, 1 = PRS23
 I_WH_COORDINATES = 17  #: WHFast splitting: 0 = Jacobi, 1 = democratic heliocentric
+I_MEGNO = 18  #: 1: integrate the tangent vector and MEGNO; 0: off; -1: dropped (particles changed)
 N_ISTATE = 32
 
 #: Returned (not an error) when a run paused at ``istate[I_STOP_AT_STEP]`` steps.

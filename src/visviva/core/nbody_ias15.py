@@ -88,6 +88,7 @@ from .nbody_common import (
     should_pause,
     write_output,
 )
+from .nbody_variational import ias15_tangent, megno_on
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
 __all__ = ["ias15_run", "ias15_run_few", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
@@ -496,6 +497,9 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
             continue
         fstate[F_T_INT] = target if (last and mode == 1) else t + dt
         istate[I_STEPS] += 1
+        if mode != 1 and megno_on(istate, buf, N_BUF):
+            # the tangent vector over the step just taken (not over an output's copy: mode 1)
+            ias15_tangent(xi, vi, m, massive, fstate, buf, N_BUF, _B, _A0, dt)
         # remember the converged b and its prediction e, then predict the next step
         for sl in range(7):
             for i in range(n):

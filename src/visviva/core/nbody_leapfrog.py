@@ -43,6 +43,7 @@ from .nbody_common import (
     should_pause,
     write_output,
 )
+from .nbody_variational import leapfrog_tangent, megno_on
 from .status import NON_FINITE, OK
 
 __all__ = ["leapfrog_run", "leapfrog_run_few", "N_BUF"]
@@ -108,6 +109,7 @@ def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
     h = math.copysign(adt, direction)
     events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
     valid = istate[I_INT_VALID] != 0 and istate[I_FRESH] == 0 and fstate[F_DT_REF] == adt
+    megno = megno_on(istate, buf, N_BUF)
     istate[I_FRESH] = 0
     if not valid:
         for i in range(n):
@@ -128,6 +130,8 @@ def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
             if exact and rem * direction < adt * (1.0 - 1e-9):
                 break  # less than a step to go: the output comes from a copy
             _dkd(xi, vi, m, massive, fstate, gwork, force, params, acc, t_grid, h, parallel)
+            if megno:  # the tangent vector, after (and apart from) the physical step
+                leapfrog_tangent(xi, vi, m, massive, fstate, buf, N_BUF, h)
             istate[I_K] += 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
             fstate[F_DT_LAST] = h

@@ -29,6 +29,7 @@ from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, ShapeError
 from . import step_check as _step_check
 from . import tier as _tier
+from .chaos import extra_slots, refuse_packed
 from .ensemble_file import load_ensemble, save_ensemble
 from .ensemble_pack import Pack, ensemble_kernel, finish_member
 from .forces import force_key
@@ -198,6 +199,17 @@ class Ensemble:
         """Masses, shape (M, N_max) (simulation units); entries past a member's N are NaN."""
         return self._padded("masses", ())
 
+    def megno(self) -> np.ndarray:
+        """MEGNO of each member, shape (M,) (:meth:`visviva.Simulation.megno`; switch it on
+        with each member's ``init_megno`` before integrating; CPU backend only; each member's
+        result equals its lone run bit for bit)."""
+        return np.array([s.megno() for s in self._members])
+
+    def lyapunov(self) -> np.ndarray:
+        """The maximal Lyapunov exponent of each member, shape (M,) (per unit of the members'
+        time; :meth:`visviva.Simulation.lyapunov`)."""
+        return np.array([s.lyapunov() for s in self._members])
+
     def energy(self, include_offset: bool = True) -> np.ndarray:
         """Total energy of each member, shape (M,) (simulation units; see
         :meth:`visviva.Simulation.energy`)."""
@@ -338,7 +350,9 @@ def advance_members(members: list, t, backend: str = "cpu", pack=None, owner=Non
     pack : Pack or None
         The pack to pass to the next call for these members (None: build it again).
     """
-    if backend == "cpu" and _tier.ensemble_would_compile(members, _time(members[0], t)):
+    if backend != "cpu":
+        refuse_packed(members)  # the GPU kernels do not carry tangent vectors
+    elif _tier.ensemble_would_compile(members, _time(members[0], t)):
         if owner is not None:
             _step_check.check_members(owner, members, stacklevel=4, t=_time(members[0], t))
         return _advance_alone(members, t), None  # a fresh install's first small ensemble
@@ -397,8 +411,8 @@ def _advance_each(members: list, t, backend: str) -> list:
         except Exception as exc:
             errors.append((k, exc))
             continue
-        groups.setdefault((force_key(sim), times.tobytes()), []).append(k)
-    for (_, times_bytes), ks in groups.items():
+        groups.setdefault((force_key(sim), times.tobytes(), extra_slots(sim)), []).append(k)
+    for (_, times_bytes, _), ks in groups.items():
         times = np.frombuffer(times_bytes, dtype=np.float64).copy()
         status = _run_group([members[k] for k in ks], times)
         for k, code in zip(ks, status.tolist(), strict=True):
@@ -411,7 +425,7 @@ def _run_group(members, times) -> np.ndarray:
     from ..core.gravity import GWORK_ROWS
 
     info = members[0].integrator_info
-    n_buf = info.n_buf
+    n_buf = info.n_buf + extra_slots(members[0])  # the same for every member of the group
     inputs = [s.kernel_inputs(parallel=False) for s in members]
     arrays = [s.state_arrays() for s in members]
     n = np.array([s.N for s in members], dtype=np.int64)

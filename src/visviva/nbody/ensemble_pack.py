@@ -36,6 +36,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
+from .chaos import extra_slots, refuse_packed
 from .step_check import MIN_STEP_REL
 
 __all__ = ["Pack", "ensemble_kernel", "finish_member"]
@@ -76,6 +77,8 @@ class Pack:
     def __init__(self, members, n_buf: int):
         # the integrator's arrays allocated (a fresh start if they were not); the additional
         # forces' parameters as each lone run passes them, ``qoff`` their offsets
+        if any(s.integrator_info.n_buf + extra_slots(s) != n_buf for s in members):
+            refuse_packed(members)  # (a pack of members with and without MEGNO, or the GPU's)
         params = [s.kernel_inputs(parallel=False)[1] for s in members]
         self.params = np.ascontiguousarray(np.concatenate(params))
         self.qoff = np.concatenate([[0], np.cumsum([len(p) for p in params])]).astype(np.int64)
@@ -111,11 +114,14 @@ class Pack:
     @classmethod
     def build(cls, members) -> Pack | None:
         """A pack of ``members`` (Simulations of one integrator), or None when some member has
-        additional forces or the members' units differ (the per-member path runs those)."""
+        additional forces, the members' units differ or MEGNO is on in some members only (the
+        per-member path runs those). With MEGNO on in every member, each member's ``buf`` holds
+        the tangent slots too (:mod:`visviva.core.nbody_variational`)."""
         first = members[0]
-        if any(s.forces or s.units != first.units for s in members):
+        if any(s.forces or s.units != first.units or extra_slots(s) != extra_slots(first)
+               for s in members):  # (MEGNO on in some members only: the per-member path)
             return None
-        pack = cls(members, first.integrator_info.n_buf)
+        pack = cls(members, first.integrator_info.n_buf + extra_slots(first))
         pack.collision_off = all(s.collision == "none" for s in members)
         return pack
 

@@ -16,9 +16,9 @@ counterpart and are refused). The integrator settings that both codes have trave
 keeps stepping), ``exact_finish_time``, ``softening``, ``encounter_distance`` <-> REBOUND's
 ``exit_min_distance`` and ``exit_max_distance``. ``collision="halt"``/``"merge"``/``"bounce"``
 become REBOUND's direct detection with the ``"halt"``/``"merge"``/``"hardsphere"`` resolver.
-What cannot travel is said, not dropped in silence: ``to_rebound`` warns about additional forces
-and inelastic bounces, ``from_rebound`` about REBOUND's collision detection (its resolver function
-cannot be read back) and its additional forces and timestep modifications (a callback or
+What cannot travel is said, not dropped in silence: ``to_rebound`` warns about additional forces,
+inelastic bounces and a MEGNO state, ``from_rebound`` about variational particles, about
+REBOUND's collision detection (its resolver function cannot be read back) and its additional forces and timestep modifications (a callback or
 REBOUNDx: the copy integrates gravity alone), and refuses massive test particles that pull
 (``testparticle_type = 1``) and ``gravity = "none"``.
 The particles' names (``sim.names``, as :func:`~visviva.nbody.solar_system` sets them) travel
@@ -35,6 +35,7 @@ import warnings
 
 import numpy as np
 
+from ..core.nbody_common import I_MEGNO
 from ..errors import InvalidInputError
 
 __all__ = ["to_rebound", "from_rebound"]
@@ -196,6 +197,11 @@ def _settings_to_rebound(sim, r):
     if lost:
         warnings.warn("to_rebound: the REBOUND copy does not carry " + " and ".join(lost)
                       + ", so it integrates different dynamics.", UserWarning, stacklevel=3)
+    if int(sim.state_arrays()["istate"][I_MEGNO]) == 1:
+        warnings.warn("to_rebound: the REBOUND copy does not carry the MEGNO state (tangent "
+                      "vector and sums): call init_megno() on it and set its variational "
+                      "particles (rsim.var_config[0].particles) to sim.tangent_vector to start "
+                      "it there.", UserWarning, stacklevel=3)
 
 
 def from_rebound(cls, rsim, integrator=None):
@@ -261,6 +267,12 @@ def _check_dynamics(rsim):
                                       ("pre-timestep modifications", "_pre_timestep_modifications"),
                                       ("post-timestep modifications", "_post_timestep_modifications"))
              if bool(getattr(rsim, field, None))]
+    if int(getattr(rsim, "N_var", 0)) > 0:
+        warnings.warn(
+            f"from_rebound: the REBOUND simulation's {int(rsim.N_var)} variational particles "
+            "(init_megno, add_variation) are not carried over, nor its MEGNO sums: call "
+            "sim.init_megno(delta=...) on the visviva copy (delta: the variational particles' "
+            "(x, y, z, vx, vy, vz) rows) to start MEGNO there.", UserWarning, stacklevel=4)
     if hooks:
         warnings.warn(
             "from_rebound: the REBOUND simulation has " + " and ".join(hooks) + " (a Python "

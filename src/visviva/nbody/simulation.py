@@ -19,6 +19,7 @@ from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core._jit import interpreted
 from ..errors import InvalidInputError, InvalidStateError, ShapeError, fmt_number
+from . import chaos as _chaos
 from . import events as _events
 from . import forces as _forces
 from . import settings as _s
@@ -37,8 +38,8 @@ __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
 _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
 
 
-class Simulation:
-    """An N-body simulation.
+class Simulation(_chaos.ChaosIndicators):
+    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`).
 
     Parameters
     ----------
@@ -471,6 +472,7 @@ class Simulation:
         if self.N == 0:
             raise InvalidInputError("the simulation has no particles: add some with sim.add(...).")
         _events.check_not_coincident(self._state, "integrate")
+        _chaos.check_run(self)
         steps = np.diff(np.concatenate([[self.t], times]))
         if not (np.all(steps >= 0) or np.all(steps <= 0)):
             raise InvalidInputError(
@@ -499,7 +501,7 @@ class Simulation:
         the indices of the massive particles (friend interface, see :meth:`begin_run`).
         ``parallel`` overrides the choice of gravity kernel (both give the same bits)."""
         st = self._state
-        st.ensure_buf(self._integrator.n_buf)
+        st.ensure_buf(self._integrator.n_buf + _chaos.extra_slots(self))
         fn, params = self._force_args()
         use_parallel = self._use_parallel() if parallel is None else parallel
         st.istate[_nc.I_PARALLEL] = 1 if use_parallel else 0
@@ -528,7 +530,6 @@ class Simulation:
             return False
         if status == _st.COLLISION and self.collision in ("merge", "bounce"):
             from .collisions import resolve
-
             i, j = int(st.istate[_nc.I_EVENT_A]), int(st.istate[_nc.I_EVENT_B])
             gone = resolve(self, i, j)
             st.mark_fresh()
@@ -568,7 +569,6 @@ class Simulation:
         """
         if self.backend == "cuda":
             from .gpu import integrate_simulation
-
             return integrate_simulation(self, t, progress=progress)
         scalar, st = np.ndim(t) == 0, self._state
         saved = st.copy()  # taken back when the run breaks (a few us; ~1 % of a call)
@@ -638,7 +638,6 @@ class Simulation:
         """A deep copy (same state, same integrator internals, copies of the forces: changing a
         copy's force parameters leaves this simulation's alone)."""
         import copy
-
         new = copy.copy(self)
         new._state = self._state.copy()
         new._forces = [f.copy() for f in self._forces]  # shared, a copy's change was everyone's

@@ -80,8 +80,12 @@ class SimulationState:
         self.istate[_nc.I_FRESH] = 1
 
     def particles_changed(self) -> None:
-        """Particles were added or removed: drop the integrator's arrays."""
+        """Particles were added or removed: drop the integrator's arrays (and with them a
+        tangent vector: MEGNO is marked dropped, ``istate[I_MEGNO] = -1``, so that asking for it
+        raises instead of answering with a stale value)."""
         self.buf = None
+        if self.istate[_nc.I_MEGNO] == 1:
+            self.istate[_nc.I_MEGNO] = -1
         self.mark_fresh()
 
     def append(self, r, v, m: float, radius: float) -> None:

@@ -38,7 +38,7 @@ def build(force):
     """Compile (lazily, on first launch) and return the kernel :func:`ensemble_ias15` whose
     members add the additional force ``force`` (a device function of the signature of
     :data:`visviva.core.nbody_common.FORCE_SIGNATURE`; the no-op force for gravity only)."""
-    from .. import gravity, gravity_split, nbody_common
+    from .. import gravity, gravity_split, nbody_common, nbody_variational
     from .. import nbody_ias15 as I
     from ..nbody_common import (
         F_ENCOUNTER,
@@ -68,8 +68,18 @@ def build(force):
         split_rows(x, xlo, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
         force(t, x, v, m, params, acc)
 
+    @cuda.jit(device=True)
+    def megno_off(istate, buf, base):
+        # the GPU backend refuses MEGNO (visviva.nbody.chaos): no tangent step is compiled
+        return False
+
+    @cuda.jit(device=True)
+    def no_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, dt):
+        return
+
     swaps = {nbody_common.accelerations: accelerations,
-             nbody_common.accelerations_split: accelerations_split}
+             nbody_common.accelerations_split: accelerations_split,
+             nbody_variational.megno_on: megno_off, nbody_variational.ias15_tangent: no_tangent}
     start = device_twin(I._start)
     to_output = device_twin(I._to_output, swaps)
     n_buf = I.N_BUF

@@ -551,6 +551,34 @@ def test_j2_and_kepler_batches_warn_of_stale_element_sets_at_the_users_line():
     assert len(stale) == 1 and stale[0].filename == __file__, [str(x.message) for x in stale]
 
 
+def test_a_name_shared_by_several_satellites_is_refused_with_what_to_do():
+    """cat["NAME"] returned the first of several satellites of that name, silently: in an
+    element-set history the oldest set (five days stale here), among debris of one breakup any
+    one object. It raises now, naming the positions and what to use; a unique name, positions
+    and slices are as before, and other index types are refused clearly."""
+    older = vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+    newer = vv.Satellite.from_omm(older.to_omm() | {"EPOCH": "2008-09-25T12:25:40.104192"})
+    debris = [vv.Satellite.from_omm(older.to_omm() | {"NORAD_CAT_ID": n,
+                                                      "OBJECT_NAME": "DEB"})
+              for n in (90001, 90002)]
+    cat = Catalog([older, newer, *debris])
+    with pytest.raises(vv.InvalidInputError, match=r"2 satellites of this catalogue are named "
+                       r"'ISS' \(positions 0, 1\); they are element sets of one object "
+                       r"\(25544\): cat\.latest\(\)\['ISS'\] picks the newest"):
+        cat["ISS"]
+    assert cat.latest()["ISS"] is newer
+    with pytest.raises(vv.InvalidInputError, match=r"positions 2, 3\); they are 2 objects "
+                       r"\(catalogue numbers 90001, 90002\)"):
+        cat["DEB"]
+    with pytest.raises(KeyError):
+        cat["NOT THERE"]
+    assert cat[1] is newer and cat[np.int64(-1)] is debris[1] and len(cat[1:]) == 3
+    assert Catalog([older, *debris])["ISS"] is older
+    for bad in ([0, 1], 1.0, True, np.array([0])):
+        with pytest.raises(vv.InvalidInputError, match="indexed by position"):
+            cat[bad]
+
+
 @pytest.mark.parametrize("method", ["sgp4", "j2", "kepler"])
 def test_an_empty_catalogue_propagates_to_empty_states(method):
     # the J2 batch raised a bare IndexError (its setup read the first element set); SGP4 and

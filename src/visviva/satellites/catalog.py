@@ -122,14 +122,49 @@ class Catalog:
         return iter(self.satellites)
 
     def __getitem__(self, index):
+        """``cat[k]``: the satellite at position ``k`` (an int, negative from the end);
+        ``cat[a:b]``: a :class:`Catalog`; ``cat["NAME"]``: the one satellite of that name.
+
+        Raises
+        ------
+        KeyError
+            No satellite has the name.
+        InvalidInputError
+            Several satellites have the name (debris of one breakup shares a name; an
+            element-set history repeats one object): the first was returned before, silently,
+            which could be the oldest set or another object. Or ``index`` is of another type.
+        """
         if isinstance(index, slice):
             return Catalog(self.satellites[index])
         if isinstance(index, str):
-            for s in self.satellites:
-                if s.name == index:
-                    return s
-            raise KeyError(index)
+            where = [k for k, s in enumerate(self.satellites) if s.name == index]
+            if len(where) == 1:
+                return self.satellites[where[0]]
+            if not where:
+                raise KeyError(index)
+            raise InvalidInputError(self._ambiguous_name(index, where))
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise InvalidInputError(
+                f"a Catalog is indexed by position (int), slice or name (str), got "
+                f"{type(index).__name__}; for several positions build Catalog([cat[k] for k "
+                "in ks])."
+            )
         return self.satellites[index]
+
+    def _ambiguous_name(self, name: str, where: list) -> str:
+        """The message of ``cat[name]`` when ``name`` names the satellites at ``where``."""
+        numbers = sorted({self.satellites[k].satnum for k in where})
+        shown = ", ".join(str(k) for k in where[:5]) + (", ..." if len(where) > 5 else "")
+        if len(numbers) == 1:
+            todo = (f"they are element sets of one object ({numbers[0]}): cat.latest()[{name!r}] "
+                    "picks the newest, or index by position")
+        else:
+            nums = ", ".join(str(x) for x in numbers[:5]) + (", ..." if len(numbers) > 5 else "")
+            todo = (f"they are {len(numbers)} objects (catalogue numbers {nums}): index by "
+                    "position, e.g. cat[int(np.flatnonzero(cat.satnums == NUMBER)[-1])] for "
+                    "the last set of one number")
+        return (f"{len(where)} satellites of this catalogue are named {name!r} (positions "
+                f"{shown}); {todo}.")
 
     def __repr__(self):
         return f"Catalog({len(self)} satellites)"

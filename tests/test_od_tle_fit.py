@@ -646,3 +646,32 @@ def test_a_first_guess_past_sgp4s_eccentricity_limit_starts_inside_it():
     r, v, t = _sgp4_states(truth, 0.5)
     with pytest.raises(vv.InvalidInputError, match=r"e = 0\.975.*e < 0\.99.*epoch="):
         fit_tle_arrays(r, v, t, "teme", 23333)
+
+
+def test_sgp4_positions_beyond_any_earth_orbit_are_no_fit():
+    """The fit took SGP4's states as they came: SGP4-VER 29141 (decayed at 0.3 days) comes
+    back without an error code 1.4e6 to 2.2e6 km away 2.0 to 2.1 days past its epoch, and its
+    element vector's states there were a residual like any other, where Satellite.teme and the
+    SGP4 batch refuse them (more than 1e6 km: no Earth orbit). sgp4_states now treats them as an
+    SGP4 failure, and states that far given to fit_tle_arrays are refused, saying why."""
+    from astropy.time import Time
+
+    from visviva.od.tle_elements import epoch_days, sgp4_states
+    from visviva.od.tle_fit import fit_tle_arrays
+
+    truth = _sgp4_ver(29141)
+    s = truth.satrec
+    jd = np.full(40, s.jdsatepoch)
+    fr = s.jdsatepochF + np.linspace(2.0, 2.1, 40)
+    err, r, v = s.sgp4_array(jd, fr)
+    assert not err.any() and np.linalg.norm(r, axis=1).min() > 1.4e6  # sgp4 itself: code 0
+    varpi, q = s.argpo + s.nodeo, math.tan(s.inclo / 2)  # the set's own element vector
+    p = np.array([s.no_kozai, s.ecco * math.cos(varpi), s.ecco * math.sin(varpi),
+                  q * math.cos(s.nodeo), q * math.sin(s.nodeo), s.mo + varpi, s.bstar])
+    days = epoch_days(truth.to_omm()["EPOCH"])
+    assert sgp4_states(p, days, 29141, jd[:1], np.array([s.jdsatepochF])) is not None
+    assert sgp4_states(p, days, 29141, jd, fr) is None
+    t = Time(jd, fr, format="jd", scale="utc")
+    with pytest.raises(vv.InvalidInputError, match=r"state 0 lies 1\.44e\+06 km from the "
+                       r"geocentre, beyond 1e\+06 km: no Earth orbit"):
+        fit_tle_arrays(r, v, t, "teme", 29141)

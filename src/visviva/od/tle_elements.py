@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from ..satellites.catalog_numbers import sgp4_number
+from ..satellites.tle_checks import flag_beyond_earth_orbit
 
 __all__ = ["classical", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
            "is_retrograde", "naive_fields"]
@@ -79,7 +80,10 @@ def epoch_days(epoch_str):
 
 def sgp4_states(p, days, satnum, jd, fr, retrograde=False):
     """TEME r, v (N, 3) of the element vector p (see :func:`classical`), or None if SGP4
-    fails."""
+    fails: one of sgp4's error codes, a non-finite state, or a position more than 1e6 km from
+    the geocentre (:func:`~visviva.satellites.tle_checks.flag_beyond_earth_orbit`, the rule of
+    ``Satellite.teme`` and the SGP4 batch: SGP4 run far outside its span, no Earth orbit a fit
+    may settle on)."""
     from sgp4.api import WGS72, Satrec
 
     n, ecc, argp, inc, node, mean, bstar = classical(p, retrograde)
@@ -90,7 +94,7 @@ def sgp4_states(p, days, satnum, jd, fr, retrograde=False):
                  argp % (2 * math.pi), inc, mean % (2 * math.pi), n,
                  node % (2 * math.pi))  # fmt: skip
     e, r, v = sat.sgp4_array(jd, fr)
-    if e.any() or not np.isfinite(r).all():
+    if e.any() or not np.isfinite(r).all() or flag_beyond_earth_orbit(e, r):
         return None
     return r, v
 

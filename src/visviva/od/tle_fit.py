@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ..satellites.catalog_numbers import CATALOGUE_MAX
+from ..satellites.tle_checks import MAX_SGP4_RADIUS_KM
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
 from .tle_correction import BSTAR_EFFECT_KM, BSTAR_STEP_MAX, staged_correct, warn_far_states
@@ -455,6 +456,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         raise InvalidInputError(
             f"satnum must be a catalogue number, an integer in 1..{CATALOGUE_MAX}; got "
             f"{satnum!r}.")
+    far = np.linalg.norm(r, axis=1) > MAX_SGP4_RADIUS_KM
+    if far.any():  # (SGP4's own positions that far are refused: tle_elements.sgp4_states)
+        k = int(np.flatnonzero(far)[0])
+        raise InvalidInputError(
+            f"state {k} lies {float(np.linalg.norm(r[k])):.4g} km from the geocentre, beyond "
+            f"{MAX_SGP4_RADIUS_KM:.0e} km: no Earth orbit, no element set SGP4 could fit. Check "
+            "the units (metres given as km?) and the centre (heliocentric states?).")
     if frame != "teme":
         m = transform_matrices(t, frame, "teme")
         y = np.einsum("nij,nj->ni", m, np.concatenate([r, v], axis=1))
@@ -497,7 +505,8 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         raise InvalidInputError(
             f"SGP4 cannot propagate the first guess (e = {math.hypot(p[1], p[2]):.4g}, "
             f"period {2 * math.pi / p[0]:.6g} min) over the given times: a decaying orbit, or "
-            "one beyond SGP4's range (e < 0.99); fit a shorter arc or give another epoch=."
+            "one beyond SGP4's range (e < 0.99, positions within 1e6 km); fit a shorter arc or "
+            "give another epoch=."
         )
     # the states a converged fit misses by far more than the rest (across SGP4's own jump at
     # i = 0.2 rad, or bad states) are refitted without (audit33; tle_correction)

@@ -543,3 +543,10 @@ def test_omm_covariance_is_rotated_from_a_local_frame_about_sgp4s_state():
         _ = other.covariance
     np.testing.assert_array_equal(vv.read_omm(_omm_with_covariance("TEME", "DSST")).covariance,
                                   written)
+    # writing one in a local frame (docs/ccsds.md): the TEME matrix comes back
+    from visviva.ccsds.covariance import values_from_matrix
+
+    fields = sat.to_omm() | {"COV_REF_FRAME": "TNW",
+                             **values_from_matrix(from_state_axes(cov, "TNW", r, v))}
+    text = vv.write_omm(fields, originator="TESTS")
+    np.testing.assert_allclose(vv.read_omm(text).covariance, cov, rtol=1e-12, atol=1e-18)

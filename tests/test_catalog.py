@@ -512,6 +512,73 @@ def test_stale_warning_of_catalogue_calls_points_at_the_users_line():
         assert len(stale) == 1 and stale[0].filename == __file__, stale[0].filename
 
 
+def test_j2_and_kepler_batches_warn_of_stale_element_sets_at_the_users_line():
+    """Catalog.propagate(method="j2"|"kepler"), propagate_j2_batch and propagate_kepler_batch
+    ran element sets any distance from their epochs without a word (the SGP4 batch warned),
+    though both start from SGP4 at each epoch: one warning per call now, at the caller's line.
+    A pass search, which runs the J2 batch inside and warns over its window, still warns once."""
+    import warnings
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", name="ISS")
+    cat = Catalog([iss])
+    near = iss.epoch + np.array([0.0, 10.0, 20.0]) * u.day
+    far = Time("2024-06-01T00:00:00", scale="utc") + np.arange(3) * u.min  # 152 days out
+    calls = (lambda t: cat.propagate(t, method="j2"), lambda t: cat.propagate(t, method="kepler"),
+             lambda t: propagate_j2_batch([iss], t), lambda t: propagate_kepler_batch(iss, t),
+             lambda t: cat.propagate(t, method="kepler", frame="gcrs"))
+    for call in calls:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", vv.StaleElementSetWarning)
+            call(near)  # within 30 days: quiet
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            call(far)
+        stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+        assert len(stale) == 1 and stale[0].filename == __file__, stale[0].filename
+        assert "1 of 1 element set(s) lie more than 30 days from the requested times (up to " \
+               "152 days: ISS (152 d))" in str(stale[0].message)
+    states = iss.teme(iss.epoch + [0, 60] * u.s)  # state vectors: no element set, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.StaleElementSetWarning)
+        propagate_kepler_batch(states, far)
+    station = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 0.0 * u.m)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        vv.find_passes(iss, station, far[0], far[0] + 6 * u.h)
+    stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+    assert len(stale) == 1 and stale[0].filename == __file__, [str(x.message) for x in stale]
+
+
+def test_a_name_shared_by_several_satellites_is_refused_with_what_to_do():
+    """cat["NAME"] returned the first of several satellites of that name, silently: in an
+    element-set history the oldest set (five days stale here), among debris of one breakup any
+    one object. It raises now, naming the positions and what to use; a unique name, positions
+    and slices are as before, and other index types are refused clearly."""
+    older = vv.Satellite.from_tle(ISS_1, ISS_2, name="ISS")
+    newer = vv.Satellite.from_omm(older.to_omm() | {"EPOCH": "2008-09-25T12:25:40.104192"})
+    debris = [vv.Satellite.from_omm(older.to_omm() | {"NORAD_CAT_ID": n,
+                                                      "OBJECT_NAME": "DEB"})
+              for n in (90001, 90002)]
+    cat = Catalog([older, newer, *debris])
+    with pytest.raises(vv.InvalidInputError, match=r"2 satellites of this catalogue are named "
+                       r"'ISS' \(positions 0, 1\); they are element sets of one object "
+                       r"\(25544\): cat\.latest\(\)\['ISS'\] picks the newest"):
+        cat["ISS"]
+    assert cat.latest()["ISS"] is newer
+    with pytest.raises(vv.InvalidInputError, match=r"positions 2, 3\); they are 2 objects "
+                       r"\(catalogue numbers 90001, 90002\)"):
+        cat["DEB"]
+    with pytest.raises(KeyError):
+        cat["NOT THERE"]
+    assert cat[1] is newer and cat[np.int64(-1)] is debris[1] and len(cat[1:]) == 3
+    assert Catalog([older, *debris])["ISS"] is older
+    for bad in ([0, 1], 1.0, True, np.array([0])):
+        with pytest.raises(vv.InvalidInputError, match="indexed by position"):
+            cat[bad]
+
+
 @pytest.mark.parametrize("method", ["sgp4", "j2", "kepler"])
 def test_an_empty_catalogue_propagates_to_empty_states(method):
     # the J2 batch raised a bare IndexError (its setup read the first element set); SGP4 and

@@ -488,3 +488,65 @@ def test_opm_from_satellite_states_writes_their_frame():
         OPM.from_state(sat.teme(sat.epoch), object_name="ISS", frame="GCRF")
     plain = sat.gcrs(sat.epoch).to_state_vectors()
     assert OPM.from_state(plain, object_name="ISS").frame == "GCRF"  # plain states: as before
+
+
+def _omm_with_covariance(cov_frame, theory="SGP4"):
+    """OMM_KVN with the OPM's covariance section (COV_REF_FRAME = cov_frame, or none)."""
+    cov = OPM_KVN[OPM_KVN.index("CX_X ="):]
+    head = "" if cov_frame is None else f"COV_REF_FRAME = {cov_frame}\n"
+    return (OMM_KVN.replace("MEAN_ELEMENT_THEORY = SGP4", f"MEAN_ELEMENT_THEORY = {theory}")
+            + head + cov[:cov.index("\n\n") + 1 if "\n\n" in cov else len(cov)])
+
+
+def test_omm_covariance_is_rotated_from_a_local_frame_about_sgp4s_state():
+    """An OMM's covariance was kept as written, never rotated: a COV_REF_FRAME = RTN matrix
+    was on the RTN axes of an unknown state while opm.covariance and seg.covariance(k) rotate
+    theirs. omm.covariance now gives it on the TEME axes of omm.state (SGP4 at EPOCH), as the
+    OPM does; TEME itself is kept, other frames and non-SGP4 elements are refused saying why."""
+    from visviva.ccsds.covariance import from_state_axes, matrix_from_values
+    from visviva.conjunctions.covariance import rtn_to_inertial
+
+    omm = vv.read_omm(_omm_with_covariance("RTN"))
+    written = matrix_from_values(omm)
+    state = omm.state
+    assert state.frame == "teme" and abs((state.epoch - Time("2024-01-01T12:00:00",
+                                                             scale="utc")).sec) < 1e-6
+    sat = vv.Satellite.from_omm(omm)
+    np.testing.assert_array_equal(state.r.to_value(u.km), sat.teme(0 * u.s).r.to_value(u.km))
+    r, v = state.r.to_value(u.km), state.v.to_value(u.km / u.s)
+    cov = omm.covariance
+    np.testing.assert_allclose(cov, rtn_to_inertial(written, r, v), rtol=0, atol=1e-15)
+    # the in-track variance is the variance along the in-track direction of the TEME state
+    s_hat = np.cross(np.cross(r, v), r)
+    s_hat /= np.linalg.norm(s_hat)
+    assert s_hat @ cov[:3, :3] @ s_hat == pytest.approx(written[1, 1], rel=1e-12)
+    for fmt in ("kvn", "xml"):  # kept through writing, rotated the same when read back
+        back = vv.read_omm(vv.write_omm(omm, format=fmt))
+        np.testing.assert_allclose(back.covariance, cov, rtol=0, atol=1e-15)
+    # a rotating frame: the inverse of the writer's rotation, with SGP4's WGS-72 GM
+    lvlh = vv.read_omm(_omm_with_covariance("LVLH_ROTATING"))
+    again = from_state_axes(lvlh.covariance, "LVLH_ROTATING", r, v, gm=398600.8)
+    np.testing.assert_allclose(again, written, rtol=1e-12, atol=1e-18)
+    for same in (None, "TEME"):  # the state's own axes: the matrix as written
+        np.testing.assert_array_equal(vv.read_omm(_omm_with_covariance(same)).covariance,
+                                      written)
+    assert vv.read_omm(OMM_KVN).covariance is None
+    with pytest.raises(vv.InvalidInputError, match=r"line 26: COV_REF_FRAME = EME2000 is "
+                       r"neither REF_FRAME = TEME nor a local orbital frame"):
+        _ = vv.read_omm(_omm_with_covariance("EME2000")).covariance
+    with pytest.raises(vv.InvalidInputError, match="NSW axes need the Sun.*not on REF_FRAME "
+                       "= TEME"):
+        _ = vv.read_omm(_omm_with_covariance("NSW_INERTIAL")).covariance
+    other = vv.read_omm(_omm_with_covariance("RTN", theory="DSST"))
+    with pytest.raises(vv.InvalidInputError, match=r"COV_REF_FRAME = RTN, a local orbital "
+                       r"frame, needs the state at EPOCH.*MEAN_ELEMENT_THEORY = DSST"):
+        _ = other.covariance
+    np.testing.assert_array_equal(vv.read_omm(_omm_with_covariance("TEME", "DSST")).covariance,
+                                  written)
+    # writing one in a local frame (docs/ccsds.md): the TEME matrix comes back
+    from visviva.ccsds.covariance import values_from_matrix
+
+    fields = sat.to_omm() | {"COV_REF_FRAME": "TNW",
+                             **values_from_matrix(from_state_axes(cov, "TNW", r, v))}
+    text = vv.write_omm(fields, originator="TESTS")
+    np.testing.assert_allclose(vv.read_omm(text).covariance, cov, rtol=1e-12, atol=1e-18)

@@ -125,6 +125,34 @@ def _graph_and_in_place(client, catalog, times, mem):
         np.testing.assert_array_equal(in_place.status, mem.status)
 
 
+@pytest.mark.parametrize("method", ["j2", "kepler"])
+def test_analytic_dask_warns_of_stale_sets_once_on_the_client(catalog, times, method):
+    """propagate_dask(method="j2"|"kepler") said nothing about element sets years from the
+    times (only "sgp4" warned): one warning when the batch is built, at the caller's line, in
+    the in-memory batch's words; the blocks stay quiet (an error filter would fail them)."""
+    import warnings
+
+    from distributed import Client, LocalCluster
+
+    from visviva.errors import StaleElementSetWarning
+
+    good = catalog[:6]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        lazy = propagate_dask(good, times, method=method, chunks=(4, 7))
+        mem = (propagate_j2_batch if method == "j2" else propagate_kepler_batch)(good, times)
+    stale = [x for x in w if issubclass(x.category, StaleElementSetWarning)]
+    assert len(stale) == 2 and all(x.filename == __file__ for x in stale)
+    assert str(stale[0].message) == str(stale[1].message)
+    assert "3 of 6 element set(s)" in str(stale[0].message)
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=2,
+                      dashboard_address=None) as cl, Client(cl, set_as_default=False) as client:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", StaleElementSetWarning)  # not again per block
+            out = lazy.compute(client=client)
+    np.testing.assert_array_equal(out.r.value, mem.r.value)
+
+
 def test_workers_are_processes_by_default(cluster):
     import inspect
     import os

@@ -7,8 +7,17 @@ CCSDS 502.0-B-3, section 4. :func:`read_omm` gives an :class:`OMM`, a ``dict`` o
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import InvalidInputError
-from .covariance import COVARIANCE_KEYWORDS, check_record_variances
+from .covariance import (
+    COVARIANCE_KEYWORDS,
+    check_record_variances,
+    local_frame,
+    matrix_from_values,
+    on_state_axes,
+    sun_from,
+)
 from .grammar import Keyword as K
 from .grammar import Record, Section
 from .layout import read_message
@@ -92,6 +101,86 @@ class OMM(dict):
             out.units.update({prefix + key: unit for key, unit in record.units.items()})
             out.attributes.update({prefix + key: dict(a) for key, a in record.attributes.items()})
         return out
+
+    def _satellite(self, why: str):
+        """The SGP4 satellite of these elements, refused (saying ``why`` it was needed) for
+        elements of another theory, frame or time system."""
+        from ..satellites.tle import Satellite
+
+        try:
+            return Satellite.from_omm(self)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{why} needs the state at EPOCH, which visviva gets from "
+                                    f"SGP4 elements only: {exc}") from None
+
+    @property
+    def state(self):
+        """The osculating TEME state at ``EPOCH`` of SGP4 mean elements (SGP4 itself at its
+        epoch, WGS-72 GM), as ``Satellite.from_omm(omm).teme(0 * u.s)``: the state the
+        covariance goes with, as :attr:`visviva.ccsds.OPM.state` is the OPM's.
+
+        Returns
+        -------
+        SatelliteStates
+            Scalar, ``frame == "teme"``.
+
+        Raises
+        ------
+        InvalidInputError
+            Elements that are not SGP4's (``MEAN_ELEMENT_THEORY``, ``REF_FRAME`` ...).
+        """
+        from astropy import units as u
+
+        return self._satellite("omm.state").teme(0.0 * u.s)
+
+    @property
+    def covariance(self) -> np.ndarray | None:
+        """The 6 x 6 covariance (km, km/s) on the axes of ``REF_FRAME`` (TEME for SGP4 mean
+        elements), or None when the message has none: as :attr:`visviva.ccsds.OPM.covariance`.
+
+        A ``COV_REF_FRAME`` naming an orbit-relative frame (``RTN``/``RSW``/``RIC``/``QSW``,
+        ``TNW``, ``NTW``, ``VNB``, SANA's ``*_INERTIAL`` and ``*_ROTATING``:
+        :mod:`visviva.ccsds.orbit_frames`) is rotated to the axes of ``REF_FRAME`` about
+        :attr:`state`, SGP4's osculating state at ``EPOCH`` (the rotating frames with SGP4's
+        WGS-72 GM), so that the matrix goes with ``omm.state``; none, or ``REF_FRAME`` itself,
+        is the matrix as written (the 21 ``CX_X`` ... ``CZ_DOT_Z_DOT`` keywords of the OMM).
+
+        Raises
+        ------
+        InvalidInputError
+            A ``COV_REF_FRAME`` that is another frame than ``REF_FRAME`` and no local frame
+            (``EME2000`` or ``GCRF`` about ``TEME``: visviva does not rotate a covariance
+            between them), a local frame of elements that are not SGP4's (no state at
+            ``EPOCH``), or one the state does not define (``NSW_*``: the Sun is known on ICRF
+            axes only, not TEME's; ``PQW_INERTIAL`` of a circular orbit).
+        """
+        if "CX_X" not in self:
+            return None
+        matrix = matrix_from_values(self)
+        frame, ref = self.get("COV_REF_FRAME"), self.get("REF_FRAME", "")
+        from .timeframes import visviva_frame
+
+        line = (getattr(self, "lines", None) or {}).get("COV_REF_FRAME")
+        where = (f"{getattr(self, 'source', '<mapping>')}"
+                 f"{f' line {line}' if line else ''}: COV_REF_FRAME = {frame}")
+        r = v = np.zeros(3)  # (read only when the frame is a local one)
+        gm = None
+        if frame is not None and str(frame).strip().upper() != str(ref).strip().upper():
+            try:
+                local = local_frame(str(frame).strip().upper()) is not None
+            except InvalidInputError:
+                local = False  # (on_state_axes names the frame and why)
+            if local:
+                sat = self._satellite(f"{where}, a local orbital frame,")
+                from astropy import units as u
+
+                state = sat.teme(0.0 * u.s)
+                r, v = state.r.to_value("km"), state.v.to_value("km/s")
+                gm = float(sat.satrec.mu)
+        return on_state_axes(matrix, frame, ref, visviva_frame(ref), r, v, where,
+                             "the OMM's CX_X ... CZ_DOT_Z_DOT", gm=gm,
+                             sun=sun_from(lambda: self.state.epoch, self.get("CENTER_NAME"),
+                                          ref))
 
 
 def read_omm(source) -> OMM:

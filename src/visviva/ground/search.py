@@ -264,7 +264,7 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
     states are off by more than 50 km, or whose SGP4 fails at a check node, and every
     deep-space satellite, take SGP4 at every node.
     """
-    from ..satellites.catalog import Catalog, propagate_j2_batch
+    from ..satellites.catalog import Catalog, j2_grid
 
     nodes = int(math.ceil((span_s + 2 * pad_s) / h)) + 1
     times_s = np.arange(nodes) * h - pad_s
@@ -280,7 +280,8 @@ def _nodes(cat, idx, h, clock, span_s, pad_s, secular, rho_min):
         whole = js.size == len(cat)  # the usual LEO catalogue: its cached secular setup
         sub = cat if whole else Catalog([cat.satellites[int(i)] for i in idx[js]])
         try:
-            b = propagate_j2_batch(sub, clock.t_ref + times_s * u.s, on_error="nan")
+            # (stale element sets: warned once by the search, over its window)
+            b = j2_grid(sub, clock.t_ref + times_s * u.s, "nan", warn_stale=False)
             r_sec = b.r.to_value(u.km)
             v_sec = b.v.to_value(u.km / u.s)
             k3 = np.array([0, nodes // 2, nodes - 1])

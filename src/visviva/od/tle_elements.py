@@ -11,9 +11,10 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from ..satellites.catalog_numbers import sgp4_number
+from ..satellites.tle_checks import flag_beyond_earth_orbit
 
 __all__ = ["classical", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
-           "is_retrograde", "naive_fields"]
+           "is_retrograde", "naive_fields", "propagable_start"]
 
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
 GM_WGS72 = 398600.8
@@ -79,7 +80,10 @@ def epoch_days(epoch_str):
 
 def sgp4_states(p, days, satnum, jd, fr, retrograde=False):
     """TEME r, v (N, 3) of the element vector p (see :func:`classical`), or None if SGP4
-    fails."""
+    fails: one of sgp4's error codes, a non-finite state, or a position more than 1e6 km from
+    the geocentre (:func:`~visviva.satellites.tle_checks.flag_beyond_earth_orbit`, the rule of
+    ``Satellite.teme`` and the SGP4 batch: SGP4 run far outside its span, no Earth orbit a fit
+    may settle on)."""
     from sgp4.api import WGS72, Satrec
 
     n, ecc, argp, inc, node, mean, bstar = classical(p, retrograde)
@@ -90,7 +94,7 @@ def sgp4_states(p, days, satnum, jd, fr, retrograde=False):
                  argp % (2 * math.pi), inc, mean % (2 * math.pi), n,
                  node % (2 * math.pi))  # fmt: skip
     e, r, v = sat.sgp4_array(jd, fr)
-    if e.any() or not np.isfinite(r).all():
+    if e.any() or not np.isfinite(r).all() or flag_beyond_earth_orbit(e, r):
         return None
     return r, v
 
@@ -129,6 +133,35 @@ def initial_elements(r, v, bstar, retrograde=False):
     ecc = min(ecc, ECC_START_MAX)
     return np.array([n_rad_min, ecc * math.cos(varpi), ecc * math.sin(varpi), t * math.cos(raan),
                      t * math.sin(raan), varpi + M, bstar])  # fmt: skip
+
+
+#: the eccentricities at which a first guess SGP4 cannot propagate is tried again, in turn
+ECC_RETRY = (0.95, 0.9, 0.8, 0.6)
+
+
+def propagable_start(p, resid):
+    """The first guess ``p`` and its residuals ``resid(p)``, or, where SGP4 cannot propagate
+    it (``resid`` gives None), the first of ``p`` with its eccentricity lowered to
+    :data:`ECC_RETRY` (the other elements kept) that SGP4 can; ``(p, None)`` when none can.
+
+    Over half a day of SGP4-VER 23333 (mean e = 0.973, a = 241,600 km, perigee 187 km up) the
+    start at e = 0.975 (0.96 too) stopped the fit: SDP4's lunisolar periodics in e, of order
+    1e-2, move the perigee by a * de, thousands of km, and SGP4 reported the start decayed
+    (error 6) at the state nearest perigee. From e = 0.95 the fit recovers the set to 4e-8 km
+    in 42 iterations.
+    """
+    z = resid(p)
+    e = math.hypot(p[1], p[2])
+    for e_try in ECC_RETRY:
+        if z is not None:
+            break
+        if e_try < e:
+            q = p.copy()
+            q[1:3] *= e_try / e
+            zq = resid(q)
+            if zq is not None:
+                return q, zq
+    return p, z
 
 
 def is_retrograde(r, v):

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, ShapeError
 from ..satellites.catalog_numbers import CATALOGUE_MAX
+from ..satellites.tle_checks import MAX_SGP4_RADIUS_KM
 from ..satellites.tle_export import epoch_text
 from ..satellites.utc_days import time_to_utc_days
 from .tle_correction import BSTAR_EFFECT_KM, BSTAR_STEP_MAX, staged_correct, warn_far_states
@@ -36,6 +37,7 @@ from .tle_elements import (
     epoch_days,
     initial_elements,
     is_retrograde,
+    propagable_start,
     sgp4_states,
 )
 
@@ -455,6 +457,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         raise InvalidInputError(
             f"satnum must be a catalogue number, an integer in 1..{CATALOGUE_MAX}; got "
             f"{satnum!r}.")
+    far = np.linalg.norm(r, axis=1) > MAX_SGP4_RADIUS_KM
+    if far.any():  # (SGP4's own positions that far are refused: tle_elements.sgp4_states)
+        k = int(np.flatnonzero(far)[0])
+        raise InvalidInputError(
+            f"state {k} lies {float(np.linalg.norm(r[k])):.4g} km from the geocentre, beyond "
+            f"{MAX_SGP4_RADIUS_KM:.0e} km: no Earth orbit, no element set SGP4 could fit. Check "
+            "the units (metres given as km?) and the centre (heliocentric states?).")
     if frame != "teme":
         m = transform_matrices(t, frame, "teme")
         y = np.einsum("nij,nj->ni", m, np.concatenate([r, v], axis=1))
@@ -492,12 +501,13 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             return None
         return target - np.concatenate([out[0], out[1] * w_v], axis=1).ravel()
 
-    z = resid(p)
+    p, z = propagable_start(p, resid)  # (else at a lower e: SGP4-VER 23333 over 12 h)
     if z is None:
         raise InvalidInputError(
             f"SGP4 cannot propagate the first guess (e = {math.hypot(p[1], p[2]):.4g}, "
-            f"period {2 * math.pi / p[0]:.6g} min) over the given times: a decaying orbit, or "
-            "one beyond SGP4's range (e < 0.99); fit a shorter arc or give another epoch=."
+            f"period {2 * math.pi / p[0]:.6g} min; nor at e = 0.95 ... 0.6) over the given "
+            "times: a decaying orbit, or one beyond SGP4's range (e < 0.99, positions within "
+            "1e6 km); fit a shorter arc or give another epoch=."
         )
     # the states a converged fit misses by far more than the rest (across SGP4's own jump at
     # i = 0.2 rad, or bad states) are refitted without (audit33; tle_correction)
@@ -586,8 +596,10 @@ def _advice(history, stalled, p, retro) -> str:
     are about as large as the inclination itself, nearby mean inclination vectors give nearly
     the same positions and the correction crawls along a curved valley (measured: a GEO at
     0.015 deg, 40 states over half a day: 58 iterations, 1 day 34, 2 days 19; at 0.005 or
-    0.05 deg 6-7). B* is not the cause there: unseen, it is held, and ``fit_bstar=False``
-    takes as many iterations.
+    0.05 deg 6-7; SGP4-VER 28626 at 0.0019 deg over 2 days: 175 in all, the last stage 90,
+    to 9e-8 km, where a grid of mean inclination vectors 1e-5 about the truth moves the
+    positions by 1 to 5 km, depending on the direction, not in proportion). B* is not the cause
+    there: unseen, it is held, and ``fit_bstar=False`` takes as many iterations.
     """
     rms = [h["rms_position_km"] for h in history]
     span = min(10, len(rms) - 1)
@@ -603,10 +615,10 @@ def _advice(history, stalled, p, retro) -> str:
     if 2 * math.pi / n >= 225.0 and min(inc, math.pi - inc) < NEAR_EQUATORIAL:
         text += (f" The orbit is near-equatorial (i = {math.degrees(inc):.3g} deg) and deep-"
                  "space (SDP4): where its lunisolar inclination periodics are about as large as "
-                 "the inclination, nearby mean elements give nearly the same positions and the "
-                 "fit converges slowly over a short arc; a longer arc (2 days) converges in "
-                 "about 20 iterations. B* is not the cause (held when the states do not see "
-                 "it; fit_bstar=False does not help).")
+                 "the inclination, the positions bend with the mean inclination vector and "
+                 "the fit crawls along a curved valley (SGP4-VER 28626 over 2 days: 175 "
+                 "iterations in all, max_iterations=200). B* is not the cause (held when the "
+                 "states do not see it; fit_bstar=False does not help).")
     return text
 
 

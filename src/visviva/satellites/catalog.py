@@ -122,14 +122,49 @@ class Catalog:
         return iter(self.satellites)
 
     def __getitem__(self, index):
+        """``cat[k]``: the satellite at position ``k`` (an int, negative from the end);
+        ``cat[a:b]``: a :class:`Catalog`; ``cat["NAME"]``: the one satellite of that name.
+
+        Raises
+        ------
+        KeyError
+            No satellite has the name.
+        InvalidInputError
+            Several satellites have the name (debris of one breakup shares a name; an
+            element-set history repeats one object): the first was returned before, silently,
+            which could be the oldest set or another object. Or ``index`` is of another type.
+        """
         if isinstance(index, slice):
             return Catalog(self.satellites[index])
         if isinstance(index, str):
-            for s in self.satellites:
-                if s.name == index:
-                    return s
-            raise KeyError(index)
+            where = [k for k, s in enumerate(self.satellites) if s.name == index]
+            if len(where) == 1:
+                return self.satellites[where[0]]
+            if not where:
+                raise KeyError(index)
+            raise InvalidInputError(self._ambiguous_name(index, where))
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise InvalidInputError(
+                f"a Catalog is indexed by position (int), slice or name (str), got "
+                f"{type(index).__name__}; for several positions build Catalog([cat[k] for k "
+                "in ks])."
+            )
         return self.satellites[index]
+
+    def _ambiguous_name(self, name: str, where: list) -> str:
+        """The message of ``cat[name]`` when ``name`` names the satellites at ``where``."""
+        numbers = sorted({self.satellites[k].satnum for k in where})
+        shown = ", ".join(str(k) for k in where[:5]) + (", ..." if len(where) > 5 else "")
+        if len(numbers) == 1:
+            todo = (f"they are element sets of one object ({numbers[0]}): cat.latest()[{name!r}] "
+                    "picks the newest, or index by position")
+        else:
+            nums = ", ".join(str(x) for x in numbers[:5]) + (", ..." if len(numbers) > 5 else "")
+            todo = (f"they are {len(numbers)} objects (catalogue numbers {nums}): index by "
+                    "position, e.g. cat[int(np.flatnonzero(cat.satnums == NUMBER)[-1])] for "
+                    "the last set of one number")
+        return (f"{len(where)} satellites of this catalogue are named {name!r} (positions "
+                f"{shown}); {todo}.")
 
     def __repr__(self):
         return f"Catalog({len(self)} satellites)"
@@ -190,7 +225,9 @@ class Catalog:
         Parameters
         ----------
         t : astropy Time, shape (T,) or scalar
-            Absolute times.
+            Absolute times. Element sets used more than 30 days from their epochs warn
+            (:class:`~visviva.StaleElementSetWarning`, once per call, naming the stalest),
+            whatever the method: the J2 and Kepler methods start from SGP4 at each epoch.
         method : {"sgp4", "j2", "kepler"}
             SGP4 (sgp4's SatrecArray); secular J2 drift of the SGP4 mean elements; two-body
             motion of the osculating TEME state at each epoch.
@@ -480,7 +517,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
         sgp4's WGS-72 GM; otherwise any object with ``.r``, ``.v`` Quantities (N, 3), ``.gm`` and
         ``.epoch`` (astropy Time, scalar or (N,)).
     t : astropy Time, shape (T,) or scalar
-        Absolute times.
+        Absolute times. Element sets used more than 30 days from their epochs warn
+        (:class:`~visviva.StaleElementSetWarning`, once per call, as
+        :func:`propagate_sgp4_batch`): the two-body motion starts from SGP4's state at each
+        epoch, whose error grows from there (state vectors do not warn).
     on_error : {"raise", "nan"}
         As in :func:`propagate_sgp4_batch`; with ``"nan"`` a satellite whose SGP4 fails at its
         own epoch (it has no osculating state there) gives NaN and status
@@ -500,16 +540,24 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
     Calls :func:`visviva.core.universal.propagate_many` once over the N*T pairs (Danby 1992,
     sec. 6.9; Vallado 2013, Algorithm 8).
     """
+    check_on_error(on_error)
+    return kepler_grid(states, absolute_times(t, "propagate_kepler_batch"), on_error, backend)
+
+
+def kepler_grid(states, t: Time, on_error: str, backend: str = "cpu",
+                warn_stale: bool = True) -> BatchStates:
+    """:func:`propagate_kepler_batch` on times already checked; ``warn_stale=False`` for a
+    caller that warned about stale element sets once itself (a Dask block)."""
     from .._backends import check_backend
 
     if check_backend(backend) == "cuda":
         from ..core.cuda.kernels import propagate_many
     else:
         from ..core.universal import propagate_many
-    check_on_error(on_error)
-    t = absolute_times(t, "propagate_kepler_batch")
     if isinstance(states, (Catalog, Satellite, list, tuple)):
         cat = as_catalog(states)
+        if warn_stale:  # the states start from SGP4 at each epoch: its errors grow from there
+            warn_stale_times(cat, *sgp4_times(t, 0.0, 0.0)[:2])
         ep = cat.epochs
         # each satellite at its own epoch (one sgp4 call per element set, not per step)
         out = [s.satrec.sgp4(s.satrec.jdsatepoch, s.satrec.jdsatepochF) for s in cat]
@@ -568,7 +616,9 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
     ----------
     satellites : Catalog or sequence of Satellite
     t : astropy Time, shape (T,) or scalar
-        Absolute times.
+        Absolute times. Element sets used more than 30 days from their epochs warn
+        (:class:`~visviva.StaleElementSetWarning`, once per call, as
+        :func:`propagate_sgp4_batch`): the mean elements are SGP4's at each epoch.
     on_error : {"raise", "nan"}
 
     Returns
@@ -577,8 +627,15 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
         TEME ``r`` (km), ``v`` (km/s), shape (N, T, 3).
     """
     check_on_error(on_error)
-    cat = as_catalog(satellites)
-    t = absolute_times(t, "propagate_j2_batch")
+    return j2_grid(as_catalog(satellites), absolute_times(t, "propagate_j2_batch"), on_error)
+
+
+def j2_grid(cat: Catalog, t: Time, on_error: str, warn_stale: bool = True) -> BatchStates:
+    """:func:`propagate_j2_batch` on a :class:`Catalog` and times already checked;
+    ``warn_stale=False`` for a caller that warned about stale element sets once itself (a pass
+    search over its window, a Dask block)."""
+    if warn_stale:  # the mean elements are SGP4's at each epoch: its errors grow from there
+        warn_stale_times(cat, *sgp4_times(t, 0.0, 0.0)[:2])
     if len(cat) == 0:  # as the SGP4 and Kepler batches (the setup reads a first element set)
         return BatchStates(to_quantity(np.empty((0, len(t), 3)), "length"),
                            to_quantity(np.empty((0, len(t), 3)), "speed"), t,

@@ -37,9 +37,8 @@ from .batch_states import BatchStates, absolute_times, check_on_error
 from .catalog import (
     Catalog,
     as_catalog,
-    propagate_j2_batch,
-    propagate_kepler_batch,
-    propagate_sgp4_batch,
+    j2_grid,
+    kepler_grid,
     sgp4_grid,
     warn_stale_times,
 )
@@ -47,7 +46,9 @@ from .tle_checks import sgp4_times
 
 __all__ = ["propagate_dask", "propagate_sgp4_dask", "DaskBatch", "get_client", "close_local_cluster"]
 
-_METHODS = {"sgp4": propagate_sgp4_batch, "j2": propagate_j2_batch, "kepler": propagate_kepler_batch}
+#: the in-memory batches (propagate_sgp4_batch, propagate_j2_batch, propagate_kepler_batch) on
+#: checked arguments; each block runs quiet, propagate_dask warns of stale element sets once
+_METHODS = {"sgp4": sgp4_grid, "j2": j2_grid, "kepler": kepler_grid}
 #: objects per Cowell block when ``chunks`` is not given: several blocks per worker
 _COWELL_CHUNK = 256
 
@@ -57,7 +58,7 @@ def _block(cat: Catalog, t: Time, method: str, on_error: str):
         out = sgp4_grid(cat, t, on_error, warn_stale=False)
     else:
         with NUMBA_LOCK:
-            out = _METHODS[method](cat, t, on_error=on_error)
+            out = _METHODS[method](cat, t, on_error, warn_stale=False)
     return out.r.value, out.v.value, out.status
 
 
@@ -303,10 +304,13 @@ def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=
         A catalogue for ``"sgp4"``, ``"j2"`` and ``"kepler"``; N state vectors sharing GM and
         epoch for ``"cowell"``.
     t : astropy Time, shape (T,), or Quantity (Cowell: offsets from the states' epoch)
-        Output times.
+        Output times. Catalogue methods warn once (:class:`~visviva.StaleElementSetWarning`)
+        when element sets lie more than 30 days from them.
     method : {"sgp4", "j2", "kepler", "cowell"}
-        The in-memory batch function each block calls (:func:`propagate_sgp4_batch`,
-        :func:`propagate_j2_batch`, :func:`propagate_kepler_batch`, or
+        The in-memory batch function each block calls
+        (:func:`~visviva.satellites.catalog.propagate_sgp4_batch`,
+        :func:`~visviva.satellites.catalog.propagate_j2_batch`,
+        :func:`~visviva.satellites.catalog.propagate_kepler_batch`, or
         :func:`visviva.propagate_cowell` on a slice of the states).
     perturbations : list of Perturbation
         Cowell only: e.g. ``[vv.J2(vv.EARTH), vv.AtmosphericDrag(...)]``.
@@ -356,8 +360,8 @@ def propagate_dask(states, t, *, method: str = "sgp4", perturbations=(), chunks=
     check_on_error(on_error)
     cat = as_catalog(states)
     t = absolute_times(t, "propagate_dask")
-    if method == "sgp4":  # once here: on process workers a block's warning would be lost
-        warn_stale_times(cat, *sgp4_times(t, 0.0, 0.0)[:2])
+    # once here, for every catalogue method: on process workers a block's warning would be lost
+    warn_stale_times(cat, *sgp4_times(t, 0.0, 0.0)[:2])
     chunks = (1000, 1000) if chunks is None else chunks
     try:
         n_chunk, t_chunk = chunks

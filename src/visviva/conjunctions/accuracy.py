@@ -44,10 +44,10 @@ def check_chan(lp_chan, xm, zm, sx, sz, hbr):
     where the integral is 4.9e-2, on case 9 0.98 for 0.29). The Foster kernel costs well under
     a millisecond, so every Chan value is checked against it.
     """
-    from .probability import _log_pc_2d
+    from .probability import log_pc_2d
 
     try:
-        lp_foster = _log_pc_2d(xm, zm, sx, sz, hbr, "foster")
+        lp_foster = log_pc_2d(xm, zm, sx, sz, hbr, "foster")
     except ArithmeticError:  # ConvergenceError: no reference to compare with
         return
     if (lp_chan == lp_foster or abs(lp_chan - lp_foster) <= _CHAN_LOG_TOL

@@ -33,6 +33,7 @@ __all__ = [
     "MonteCarloResult",
     "CovarianceRepairWarning",
     "METHODS",
+    "log_pc_2d",
 ]
 
 #: method name -> one-line description (the docs and tests iterate it)
@@ -146,7 +147,9 @@ def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
     return plane
 
 
-def _log_pc_2d(xm, zm, sx, sz, hbr, method):
+def log_pc_2d(xm, zm, sx, sz, hbr, method):
+    """``ln Pc`` of the encounter plane in its principal axes (miss ``xm, zm``, sigmas ``sx,
+    sz``, HBR, all m) by ``method`` ("foster": the integral to 1e-13; "chan": the series)."""
     from ..core import collision as kern
 
     if method == "chan":
@@ -294,7 +297,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     xm, zm = plane.principal_miss
     sx, sz = plane.sigma
-    lp = _log_pc_2d(xm, zm, sx, sz, hbr, method)
+    lp = log_pc_2d(xm, zm, sx, sz, hbr, method)
     if method == "chan":
         check_chan(lp, xm, zm, sx, sz, hbr)
     check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
@@ -436,7 +439,7 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
 
     def neg(logk):
         k = math.exp(logk)
-        return -_log_pc_2d(pm[0], pm[1], k * s0[0], k * s0[1], hbr, "foster")
+        return -log_pc_2d(pm[0], pm[1], k * s0[0], k * s0[1], hbr, "foster")
 
     # the optimum scale puts the sigmas near the miss distance: bracket generously around it
     centre = math.log(d / math.sqrt(s0[0] * s0[1]))
@@ -529,7 +532,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
         mean_p = np.array([m[0], m[2]]) - apy * (m[1] / ayy)
         cov_p = np.array([[a[0, 0], a[0, 2]], [a[2, 0], a[2, 2]]]) - np.outer(apy, apy) / ayy
         sigma, pm, _, _, _ = principal_axes(mean_p, cov_p, hbr)
-        lp2 = _log_pc_2d(pm[0], pm[1], sigma[0], sigma[1], hbr, "foster")
+        lp2 = log_pc_2d(pm[0], pm[1], sigma[0], sigma[1], hbr, "foster")
         log_py = -0.5 * m[1] ** 2 / ayy - 0.5 * math.log(2 * math.pi * ayy)
         return math.log(speed) + log_py + lp2
 

@@ -129,3 +129,32 @@ def test_error_estimate_against_the_measured_interpolation_error(step, true_m):
     assert measured * 1e3 == pytest.approx(true_m, rel=0.05)
     est = interpolation_error_km(tau, rs, vs, SPAN)
     assert est == pytest.approx(measured, rel=0.1)
+
+
+def test_oem_useable_span_must_cover_the_window(pair):
+    # USEABLE_START_TIME / USEABLE_STOP_TIME: the states outside serve the interpolation at
+    # the ends only (CCSDS 502.0-B-3); they were screened as the ephemeris without a word
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.errors import InvalidInputError
+
+    t0, r, v = pair
+    oems = []
+    for k in range(2):
+        eph = _ephemeris(t0, r[k:k + 1], v[k:k + 1], 30.0)
+        t = t0 + eph.t
+        seg = OEMSegment.from_states(t, eph.r.to_value(u.km), eph.v.to_value(u.km / u.s),
+                                     object_name=f"OBJ{k}", frame="GCRF")
+        text = vv.write_oem(seg)
+        start = (t0 + 600 * u.s).utc.isot
+        stop = (t0 + 7000 * u.s).utc.isot
+        lines = text.splitlines()
+        at = next(i for i, line in enumerate(lines) if line.startswith("START_TIME"))
+        lines[at + 1:at + 1] = [f"USEABLE_START_TIME = {start}", f"USEABLE_STOP_TIME = {stop}"]
+        oems.append(vv.read_oem("\n".join(lines) + "\n"))
+    with pytest.raises(InvalidInputError, match="useable from .* does not cover"):
+        vv.screen_conjunctions(oems[0], oems[1], t0, t0 + SPAN * u.s, threshold=50 * u.km)
+    # inside the useable span: screened as before (both approaches, exact two-body misses)
+    tab = vv.screen_conjunctions(oems[0], oems[1], t0 + 600 * u.s, t0 + 7000 * u.s,
+                                 threshold=50 * u.km)
+    assert len(tab) == 2
+    assert _worst_miss_error(tab, t0, r, v) < 1e-3

@@ -286,6 +286,7 @@ def _sampled(objs, t0, t1, name):
     frames = set()
     coarse = []  # (index, estimated interpolation error km, spacing s)
     for n, obj in enumerate(items):
+        _check_useable(obj, t0, span, f"{name}[{n}]")
         obj = _oem_states(obj, f"{name}[{n}]")
         frames.add(_frame(obj, f"{name}[{n}]"))
         for tau, r, v in _history(obj, t0, f"{name}[{n}]"):
@@ -332,6 +333,31 @@ def _oem_states(obj, name):
             f"{name}: the OEM has CENTER_NAME = {seg.center}, REF_FRAME = {seg.frame}; "
             "screening needs geocentric states in GCRF/EME2000/ICRF or TEME.")
     return seg.states
+
+
+def _check_useable(obj, t0, span, name):
+    """Refuse an OEM whose useable span (``USEABLE_START_TIME`` .. ``USEABLE_STOP_TIME``)
+    does not cover the window: the states outside it are there for the interpolation at the
+    span's ends only (CCSDS 502.0-B-3, 5.2.3), not to be used as the ephemeris."""
+    segs = getattr(obj, "segments", None)
+    if not segs or len(segs) != 1:
+        return  # not an OEM (or refused with its reason by _oem_states)
+    seg = segs[0]
+    meta = seg.metadata
+    if "USEABLE_START_TIME" not in meta and "USEABLE_STOP_TIME" not in meta:
+        return
+    from ..satellites.frames import offline_iers
+
+    with offline_iers():  # a UT1 file needs the installed IERS table, never a download
+        lo = float((seg.start.tai - t0.tai).to_value("s"))
+        hi = float((seg.stop.tai - t0.tai).to_value("s"))
+    if lo > 1e-6 or hi < span - 1e-6:
+        raise InvalidInputError(
+            f"{name}: the OEM is useable from {meta.get('USEABLE_START_TIME', seg.start)} to "
+            f"{meta.get('USEABLE_STOP_TIME', seg.stop)} ({lo:.3f} to {hi:.3f} s from t0), which "
+            f"does not cover the screening window (0 to {span:.3f} s): its states outside the "
+            "useable span serve the interpolation only. Screen a window inside the useable "
+            "span.")
 
 
 def _frame(obj, name):

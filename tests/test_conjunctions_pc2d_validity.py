@@ -57,6 +57,14 @@ def test_slow_encounter_chan_warns_too():
     assert len(record) == 1 and "method='chan'" in str(record[0].message)
 
 
+def test_slow_encounter_monte_carlo_warns_too():
+    # the plane it samples is the 2-D one: its estimate 0.0062 beside CARA's MC 0.0156
+    c = CASES[2]
+    pc, record = _pc_and_warnings(_args(c), method="monte_carlo", samples=100_000, seed=1)
+    assert pc == pytest.approx(c["cara_pc2d"], rel=0.15)
+    assert len(record) == 1 and "method='monte_carlo' samples" in str(record[0].message)
+
+
 @pytest.mark.parametrize("n", [2, 4])
 def test_position_only_covariances_are_compared_at_exact_velocities(n):
     # the 2-D values of these cases miss the velocity uncertainty that spreads the slow

@@ -226,8 +226,10 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
             or max(lp_2d, lp_hall) < _NEGLIGIBLE_LN_PC):
         return
     speed = float(np.linalg.norm(np.asarray(v1) - np.asarray(v2)))
+    what = (f"The 2-D encounter-plane Pc (method={method!r}) is" if method != "monte_carlo"
+            else "The encounter-plane Pc that method='monte_carlo' samples is")
     warnings.warn(
-        f"The 2-D encounter-plane Pc (method={method!r}) is {math.exp(lp_2d):.4g} "
+        f"{what} {math.exp(lp_2d):.4g} "
         f"(ln Pc = {lp_2d:.6g}) where Hall's 3D-Nc (method='pc3d_hall') of this conjunction "
         f"gives {math.exp(lp_hall):.4g} (ln Pc = {lp_hall:.6g}): the short-encounter "
         f"assumption fails (relative speed {speed:.4g} m/s; the straight-line encounter lasts "

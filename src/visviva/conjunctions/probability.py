@@ -221,7 +221,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         the same encounter plane (large aspect ratio or HBR beside the minor sigma); the
         message gives both.
     Pc2dAccuracyWarning
-        ``method="foster"`` or ``"chan"``: the encounter is not short (NASA CARA's
+        ``method="foster"``, ``"chan"`` or ``"monte_carlo"``: the encounter is not short (NASA CARA's
         usage-violation indicators, Coppola's straight-line encounter lasting more than 1 % of
         the shorter orbital period or lying that far from TCA: slow GEO pairs, formation
         flight) and the value is more than 10 % from Hall's 3D-Nc (``"pc3d_hall"``) of this
@@ -281,6 +281,10 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if method == "monte_carlo":
         res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, hbr, samples=samples, seed=seed)
+        if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
+            plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+            check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,
+                     r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
         return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
     if method == "3d":
         lp, half, gm_km = _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm)

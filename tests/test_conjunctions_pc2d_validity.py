@@ -49,6 +49,31 @@ def test_slow_encounter_2d_pc_warns_with_the_3d_nc_value(n):
     assert hall == pytest.approx(c["cara_pc_mc"], rel=2e-3)
 
 
+def test_cara_omitron_case_where_velocity_uncertainty_spreads_the_encounter():
+    # CARA's Pc3D_Hall_UnitTest Omitron case (tests/test_conjunctions_alfano.py): not slow
+    # (Extended 5.6e-4, Offset 4.7e-3), but the velocity covariance lowers the smallest squared
+    # Mahalanobis distance from 82 to 9.8; before: 2.27e-20 without a word, 3D-Nc 1.93e-5
+    from test_conjunctions_alfano import OM8, _lower
+    from visviva.conjunctions import rtn_to_inertial
+    from visviva.conjunctions.accuracy import velocity_spread
+
+    states, covs = [], []
+    for x, c in (("x1", "c1"), ("x2", "c2")):
+        s = np.array(OM8[x])
+        states.append((s[:3] * 1e3, s[3:] * 1e3))
+        covs.append(rtn_to_inertial(_lower(OM8[c]), s[:3], s[3:]))
+    args = (states[0][0], states[0][1], covs[0], states[1][0], states[1][1], covs[1], 20.0)
+    pc, record = _pc_and_warnings(args)
+    assert pc == pytest.approx(2.2660816e-20, rel=1e-5)
+    assert len(record) == 1
+    text = str(record[0].message)
+    hall = float(re.search(r"of this conjunction gives ([0-9.e+-]+)", text).group(1))
+    assert hall == pytest.approx(1.9271201e-05, rel=2e-3)  # CARA's Pc3D_Hall
+    ext, off, ta, tb = linear_encounter_bounds(*args, GM_M)
+    assert ext < 0.01 and off < 0.01
+    assert velocity_spread(*args, ta, tb) == pytest.approx(72.2, abs=0.5)
+
+
 def test_slow_encounter_chan_warns_too():
     c = CASES[2]
     with warnings.catch_warnings():

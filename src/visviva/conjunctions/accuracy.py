@@ -25,7 +25,7 @@ from ..errors import (
 )
 from .covariance import CLIP_FACTOR
 
-__all__ = ["check_chan", "check_3d", "check_2d", "linear_encounter_bounds"]
+__all__ = ["check_chan", "check_3d", "check_2d", "linear_encounter_bounds", "velocity_spread"]
 
 #: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)
 _CHAN_LOG_TOL = math.log(1.1)
@@ -181,15 +181,58 @@ def linear_encounter_bounds(r1, v1, c1, r2, v2, c2, hbr, gm_m):
     return min(1.0, 2.0 * dtau / p), min(1.0, max(abs(t_a), abs(t_b)) / p), t_a, t_b
 
 
+#: drop of the smallest squared Mahalanobis distance (see :func:`velocity_spread`) above which
+#: the 2-D value is checked against 3D-Nc: Pc could move by a factor e^0.5
+SPREAD_LIMIT = 1.0
+
+
+def velocity_spread(r1, v1, c1, r2, v2, c2, hbr, t_a, t_b, points=25):
+    """How much the velocity uncertainty lowers the smallest Mahalanobis distance of the
+    straight-line encounter over Coppola's bounds ``[t_a, t_b]`` (s from TCA).
+
+    The 2-D methods hold the relative position covariance ``A`` fixed at its TCA value; along
+    the straight line it is ``A(t) = A + t (C_rv + C_vr) + t^2 C_vv``. Returns ``min_t MD2(t;
+    A) - min_t [MD2(t; A(t)) + ln(det A(t) / det A)]`` (the second term is CARA's modified
+    Mahalanobis distance, the "Q function" of ``UsageViolationPc2D``), 0 for position-only
+    covariances. A large drop (CARA's Omitron case: 82 to 9.8, where the 2-D Pc 2.3e-20 is 15
+    orders below 3D-Nc's 1.9e-5) says the encounter-plane value cannot be trusted however
+    short the encounter is.
+    """
+    if c1.shape != (6, 6) or c2.shape != (6, 6):
+        return 0.0
+    c = c1 + c2
+    a = c[:3, :3]
+    b = c[:3, 3:] + c[3:, :3]
+    d = c[3:, 3:]
+    if not (b.any() or d.any()):
+        return 0.0
+    floor = max((CLIP_FACTOR * hbr) ** 2, 1e-300)
+    t = np.linspace(t_a, t_b, points)
+    x = (r2 - r1)[None, :] + t[:, None] * (v2 - v1)[None, :]
+    # A, then A(t) at every point; eigenvalues clipped at (1e-4 HBR)^2 as CARA does
+    a_t = np.concatenate([a[None], a[None] + t[:, None, None] * b[None]
+                          + (t * t)[:, None, None] * d[None]])
+    w, vec = np.linalg.eigh(a_t)
+    w = np.maximum(w, floor)
+    y0 = x @ vec[0]  # x in A's eigenvectors
+    y = np.einsum("tji,tj->ti", vec[1:], x)
+    fixed = np.sum(y0 * y0 / w[0], axis=1)
+    spread = np.sum(y * y / w[1:], axis=1) + np.sum(np.log(w[1:] / w[0]), axis=1)
+    return float(np.min(fixed) - np.min(spread))
+
+
 def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
     """Warn when a 2-D (encounter-plane) Pc is more than 10 % from Hall's 3D-Nc of this
-    conjunction, checked where CARA's usage-violation indicators flag the encounter.
+    conjunction, checked where CARA's usage-violation indicators flag the encounter or the
+    velocity uncertainty spreads it (:func:`velocity_spread` above :data:`SPREAD_LIMIT`).
 
     The 2-D methods assume a short, rectilinear encounter centred on TCA. Slow encounters (GEO
     pairs drifting past each other at centimetres per second, Alfano's (2009) cases 1, 2, 4,
     10) last hours, and there the 2-D value was silently 0.40x to 0.80x CARA's two-body Monte
-    Carlo. Where :func:`linear_encounter_bounds` gives ``extended`` or ``offset`` above CARA's
-    cutoffs, 3D-Nc (``"pc3d_hall"``, default window; 0.1-0.8 s) is computed and a
+    Carlo; on CARA's Omitron case (67 m/s) the velocity covariance brings the two objects'
+    densities together within seconds of TCA and the 2-D 2.3e-20 is 15 orders below 3D-Nc's
+    1.9e-5. Where :func:`linear_encounter_bounds` gives ``extended`` or ``offset`` above CARA's
+    cutoffs, or the spread is above its limit, 3D-Nc (``"pc3d_hall"``, default window; 0.1-0.8 s) is computed and a
     :class:`~visviva.errors.Pc2dAccuracyWarning` gives both values when they differ by more
     than 10 %. Fast encounters (LEO, km/s: ``extended`` ~ 1e-4) cost nothing more.
     """
@@ -199,7 +242,8 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
     if bounds is None:
         return
     extended, offset, t_a, t_b = bounds
-    if extended <= EXTENDED_LIMIT and offset <= OFFSET_LIMIT:
+    drop = velocity_spread(r1, v1, c1, r2, v2, c2, hbr, t_a, t_b)
+    if extended <= EXTENDED_LIMIT and offset <= OFFSET_LIMIT and drop <= SPREAD_LIMIT:
         return
     from .nc3d import log_pc3d_hall
 
@@ -231,9 +275,12 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
     warnings.warn(
         f"{what} {math.exp(lp_2d):.4g} "
         f"(ln Pc = {lp_2d:.6g}) where Hall's 3D-Nc (method='pc3d_hall') of this conjunction "
-        f"gives {math.exp(lp_hall):.4g} (ln Pc = {lp_hall:.6g}): the short-encounter "
-        f"assumption fails (relative speed {speed:.4g} m/s; the straight-line encounter lasts "
+        f"gives {math.exp(lp_hall):.4g} (ln Pc = {lp_hall:.6g}): the encounter-plane "
+        "assumptions (a straight-line encounter, short beside the orbit, with the position "
+        "covariance of TCA throughout) do not hold (relative speed "
+        f"{speed:.4g} m/s; the straight-line encounter lasts "
         f"{t_b - t_a:.4g} s, {t_a:.4g} to {t_b:.4g} s about TCA: NASA CARA's usage-violation "
-        f"indicators Extended = {extended:.3g}, Offset = {offset:.3g}, above their 0.01 "
-        "cutoffs). Use method='pc3d_hall'.",
+        f"indicators Extended = {extended:.3g}, Offset = {offset:.3g}, cutoffs 0.01; the "
+        "velocity uncertainty lowers the smallest squared Mahalanobis distance by "
+        f"{drop:.3g}, cutoff {SPREAD_LIMIT:g}). Use method='pc3d_hall'.",
         Pc2dAccuracyWarning, stacklevel=3)

@@ -596,10 +596,10 @@ def _gm_m(gm):
     """The attractor's ``gm`` (Quantity, Body or plain km^3/s^2; None: the Earth) in m^3/s^2."""
     from .._units import to_array
 
-    if gm is None:
-        from ..bodies import EARTH
+    if gm is None:  # the Earth's (vv.EARTH.gm), without a Quantity conversion per call
+        from ..constants import GM_EARTH_KM3_S2
 
-        gm = EARTH.gm
+        return GM_EARTH_KM3_S2 * 1e9
     return float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
 
 

@@ -166,3 +166,14 @@ def test_linear_bounds_against_a_brute_force_mahalanobis_scan(n):
 def test_zero_relative_velocity_has_no_bounds():
     c = CASES[12]
     assert linear_encounter_bounds(*_args(c), GM_M) is None
+
+
+def test_relative_states_at_the_origin_are_not_checked():
+    # the 2-D methods need only the relative state: object 1 at the origin at rest has no
+    # orbital period (before this guard the check divided by |r1| = 0)
+    cov = np.diag([1e4, 1e4, 1e4])
+    args = ([0, 0, 0], [0, 0, 0], cov, [100, 0, 0], [0, 0, 7500], cov, 10)
+    assert linear_encounter_bounds(*(np.asarray(a, float) for a in args[:-1]), 10.0,
+                                   GM_M) is None
+    pc, record = _pc_and_warnings(args)
+    assert 0 < pc < 1 and not record

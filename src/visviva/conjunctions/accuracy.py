@@ -148,7 +148,8 @@ def linear_encounter_bounds(r1, v1, c1, r2, v2, c2, hbr, gm_m):
         max(|t_a|, |t_b|) / P``, with ``P`` the shorter orbital period, and the bounds ``t_a,
         t_b = T -+ dtau`` (s from TCA), ``T`` the time of the smallest Mahalanobis distance
         along the straight relative motion and ``dtau = sqrt(2) erfcinv(1e-16) / sqrt(u^T
-        A^-1 u)``; None where the relative velocity is zero or no object is bound.
+        A^-1 u)``; None where the relative velocity is zero or no object is bound (or given
+        at the origin: relative states, whose orbit is unknown).
 
     Notes
     -----
@@ -170,6 +171,8 @@ def linear_encounter_bounds(r1, v1, c1, r2, v2, c2, hbr, gm_m):
     t_m = -float(r @ ainv @ u) / uau
     dtau = math.sqrt(2.0) * float(erfcinv(_GAMMA)) / math.sqrt(uau)
     periods = []
+    if not (np.any(r1) and np.any(r2)):
+        return None  # relative states (an object at the origin): no orbits to speak of
     for rr, vv in ((r1, v1), (r2, v2)):
         inv_a = 2.0 / float(np.linalg.norm(rr)) - float(vv @ vv) / gm_m
         if inv_a > 0:

@@ -47,6 +47,7 @@ _PUBLIC = {
     "SurfaceImpact": "visviva.errors",
     "EarthOrientationWarning": "visviva.errors",
     "ChanAccuracyWarning": "visviva.errors",
+    "Pc2dAccuracyWarning": "visviva.errors",
     "Pc3dAccuracyWarning": "visviva.errors",
     "Pc3dWindowWarning": "visviva.errors",
     "ImplausibleVelocityWarning": "visviva.errors",

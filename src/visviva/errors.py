@@ -34,6 +34,7 @@ __all__ = [
     "EarthOrientationWarning",
     "TrackingDataWarning",
     "ChanAccuracyWarning",
+    "Pc2dAccuracyWarning",
     "Pc3dAccuracyWarning",
     "Pc3dWindowWarning",
     "ImplausibleVelocityWarning",
@@ -250,6 +251,17 @@ class ChanAccuracyWarning(UserWarning):
     both values; use ``method="foster"``.
     """
 
+
+
+class Pc2dAccuracyWarning(UserWarning):
+    """``collision_probability(method="foster" or "chan")``: the encounter is not short (NASA
+    CARA's usage-violation indicators: it lasts more than 1 % of the orbital period, or lies
+    that far from TCA), and the 2-D encounter-plane value is more than 10 % from Hall's 3D-Nc
+    (``method="pc3d_hall"``, CARA's ``Pc3D_Hall``) of the same conjunction: slow encounters
+    (GEO pairs drifting past each other, formation flight) where the straight-line relative
+    motion of the 2-D methods does not hold. The message gives both values; use
+    ``method="pc3d_hall"``.
+    """
 
 
 class Pc3dAccuracyWarning(UserWarning):

@@ -82,7 +82,7 @@ def plot_pc_vs_hbr(r1, v1, cov1, r2, v2, cov2, radii, ax=None, methods=("foster"
     """
     import matplotlib.pyplot as plt
 
-    from ..errors import ChanAccuracyWarning, Pc3dAccuracyWarning
+    from ..errors import ChanAccuracyWarning, Pc2dAccuracyWarning, Pc3dAccuracyWarning
     from .probability import collision_probability, si_value
 
     radii = np.atleast_1d(si_value(radii, "m", "radii"))
@@ -92,6 +92,7 @@ def plot_pc_vs_hbr(r1, v1, cov1, r2, v2, cov2, radii, ax=None, methods=("foster"
         with warnings.catch_warnings():  # the plot itself shows how far the methods differ
             warnings.simplefilter("ignore", ChanAccuracyWarning)
             warnings.simplefilter("ignore", Pc3dAccuracyWarning)
+            warnings.simplefilter("ignore", Pc2dAccuracyWarning)
             pc = [collision_probability(r1, v1, cov1, r2, v2, cov2, float(h), method=m)
                   for h in radii]
         ax.loglog(radii, pc, label=m)

@@ -15,13 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._units import is_quantity
-from ..errors import (
-    ChanAccuracyWarning,
-    InvalidInputError,
-    Pc3dAccuracyWarning,
-    ShapeError,
-    VisvivaError,
-)
+from ..errors import InvalidInputError, ShapeError
+from .accuracy import check_2d, check_chan
+from .accuracy import check_3d as _check_3d
 from .covariance import (
     CLIP_FACTOR,
     as_covariance,
@@ -37,6 +33,7 @@ __all__ = [
     "MonteCarloResult",
     "CovarianceRepairWarning",
     "METHODS",
+    "log_pc_2d",
 ]
 
 #: method name -> one-line description (the docs and tests iterate it)
@@ -150,7 +147,9 @@ def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
     return plane
 
 
-def _log_pc_2d(xm, zm, sx, sz, hbr, method):
+def log_pc_2d(xm, zm, sx, sz, hbr, method):
+    """``ln Pc`` of the encounter plane in its principal axes (miss ``xm, zm``, sigmas ``sx,
+    sz``, HBR, all m) by ``method`` ("foster": the integral to 1e-13; "chan": the series)."""
     from ..core import collision as kern
 
     if method == "chan":
@@ -194,7 +193,8 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     seed : int, optional
         Seed of the Monte Carlo generator.
     gm : Quantity or Body, optional
-        Attractor for ``method="3d"`` and ``"pc3d_hall"`` (default: the Earth).
+        Attractor for ``method="3d"`` and ``"pc3d_hall"``, and for the orbital periods and
+        3D-Nc of the 2-D methods' check (default: the Earth).
     window : tuple of Quantity or float, optional
         ``(t_a, t_b)``, the time span relative to TCA (plain numbers: s) over which
         ``method="pc3d_hall"`` integrates the collision rate; every encounter in it counts.
@@ -220,6 +220,13 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         ``method="chan"`` only: Chan's value is more than 10 % from Foster's exact integral of
         the same encounter plane (large aspect ratio or HBR beside the minor sigma); the
         message gives both.
+    Pc2dAccuracyWarning
+        ``method="foster"``, ``"chan"`` or ``"monte_carlo"``: the encounter is not short (NASA CARA's
+        usage-violation indicators, Coppola's straight-line encounter lasting more than 1 % of
+        the shorter orbital period or lying that far from TCA: slow GEO pairs, formation
+        flight) and the value is more than 10 % from Hall's 3D-Nc (``"pc3d_hall"``) of this
+        conjunction (Alfano's (2009) cases 1, 2, 4, 10: 0.40x to 0.80x); the message gives
+        both. Only such flagged encounters pay for the 3D-Nc check (0.1-1 s).
     Pc3dAccuracyWarning
         ``method="3d"`` only: the flux integral is more than 10 % from Hall's 3D-Nc
         (``"pc3d_hall"``) over the same time span (a slow, curved encounter: Alfano's case 11
@@ -274,6 +281,10 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if method == "monte_carlo":
         res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, hbr, samples=samples, seed=seed)
+        if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
+            plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+            check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,
+                     r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
         return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
     if method == "3d":
         lp, half, gm_km = _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm)
@@ -290,97 +301,11 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
     xm, zm = plane.principal_miss
     sx, sz = plane.sigma
-    lp = _log_pc_2d(xm, zm, sx, sz, hbr, method)
+    lp = log_pc_2d(xm, zm, sx, sz, hbr, method)
     if method == "chan":
-        _check_chan(lp, xm, zm, sx, sz, hbr)
+        check_chan(lp, xm, zm, sx, sz, hbr)
+    check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
     return lp if log else math.exp(lp)
-
-
-#: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)
-_CHAN_LOG_TOL = math.log(1.1)
-#: Below this Pc (both values compared) the accuracy checks stay silent: 1e-30 is twenty
-#: orders under any manoeuvre threshold (1e-4 .. 1e-7), and there one method's log-space
-#: integral may underflow to 0 where the other still gives 1e-52 (a spurious warning on every
-#: fast, well-separated encounter).
-_NEGLIGIBLE_LN_PC = math.log(1e-30)
-
-
-def _check_chan(lp_chan, xm, zm, sx, sz, hbr):
-    """Warn when Chan's value is more than 10 % from Foster's exact integral of the same plane.
-
-    Chan's equivalent-area circle is exact only for a circular covariance; its error grows with
-    the aspect ratio ``sx / sz`` and with ``hbr / sz`` (on Alfano's (2009) case 4 it gives 8e-17
-    where the integral is 4.9e-2, on case 9 0.98 for 0.29). The Foster kernel costs well under
-    a millisecond, so every Chan value is checked against it.
-    """
-    try:
-        lp_foster = _log_pc_2d(xm, zm, sx, sz, hbr, "foster")
-    except ArithmeticError:  # ConvergenceError: no reference to compare with
-        return
-    if (lp_chan == lp_foster or abs(lp_chan - lp_foster) <= _CHAN_LOG_TOL
-            or max(lp_chan, lp_foster) < _NEGLIGIBLE_LN_PC):
-        return
-    warnings.warn(
-        f"Chan's approximation gives Pc = {math.exp(lp_chan):.4g} (ln Pc = {lp_chan:.6g}) where "
-        f"Foster's exact 2-D integral of the same encounter plane gives {math.exp(lp_foster):.4g} "
-        f"(ln Pc = {lp_foster:.6g}): the equivalent-area circle does not hold for this covariance "
-        f"(sigmas {sx:.4g} m and {sz:.4g} m, aspect ratio {sx / sz:.3g}, HBR {hbr:.4g} m). "
-        "Use method='foster' (or 'pc3d_hall').",
-        ChanAccuracyWarning, stacklevel=3)
-
-
-#: ``|ln Pc_3d - ln Pc_3d_hall|`` above which ``method="3d"`` warns (a factor 1.1)
-_3D_LOG_TOL = math.log(1.1)
-
-
-def _check_3d(lp_3d, r1, v1, c1, r2, v2, c2, hbr, gm_km, half):
-    """Warn when the flux integral is more than 10 % from Hall's 3D-Nc over the same time span.
-
-    The flux integral counts the crossings of the plane normal to the relative velocity with
-    Cartesian, linearly propagated covariances; on slow, curved encounters (relative speeds of
-    metres per second over a quarter orbit) neither holds and it is silently off by up to 57x
-    (Alfano's (2009) case 11: 0.14 where CARA's ``Pc3D_Hall`` gives 2.4e-3). Hall's 3D-Nc
-    (``"pc3d_hall"``) has no such assumption and costs less than the flux integral (on
-    Alfano's cases 1-11, 0.07-0.32 s, median 0.15 s, beside 0.31-1.23 s, median 0.47 s), so every "3d" value is checked
-    against it over ``[-half, half]``, the flux integral's own window. Where 3D-Nc cannot run (an
-    unbound orbit, a retrograde equatorial one) there is nothing to compare with.
-    """
-    if not 0 < half < math.inf or not 0 < hbr < math.inf:
-        return
-    from .nc3d import log_pc3d_hall
-
-    def full6(c):
-        # a position-only covariance: exact velocities, as the flux integral takes them, but
-        # 3D-Nc needs a regular 6x6; a velocity sigma that moves the position by 1e-3 of its
-        # smallest sigma over the window changes its Pc by ~1e-9 (Alfano's cases)
-        if c.shape == (6, 6):
-            return c
-        out = np.zeros((6, 6))
-        out[:3, :3] = c
-        w0 = float(np.linalg.eigvalsh(c)[0])
-        out[3:, 3:] = np.eye(3) * max(w0, 0.0) * (1e-3 / half) ** 2
-        return out
-
-    try:
-        with warnings.catch_warnings():  # the flux integral has given its own repair warning
-            warnings.simplefilter("ignore")
-            lp_hall = log_pc3d_hall(r1, v1, full6(c1), r2, v2, full6(c2), hbr, gm_km * 1e9,
-                                    (-half, half))
-    except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
-        return
-    if (lp_3d == lp_hall or abs(lp_3d - lp_hall) <= _3D_LOG_TOL
-            or max(lp_3d, lp_hall) < _NEGLIGIBLE_LN_PC):
-        return
-    speed = float(np.linalg.norm(np.asarray(v1) - np.asarray(v2)))
-    warnings.warn(
-        f"The 3-D flux integral (method='3d') gives Pc = {math.exp(lp_3d):.4g} "
-        f"(ln Pc = {lp_3d:.6g}) where Hall's 3D-Nc (method='pc3d_hall') over the same time span "
-        f"gives {math.exp(lp_hall):.4g} (ln Pc = {lp_hall:.6g}): the flux integral's "
-        "assumptions (crossings of the plane normal to the relative velocity, Cartesian "
-        "covariances propagated linearly) do not hold for this encounter (relative speed "
-        f"{speed:.4g} m/s at TCA, integrated over +-{half:.4g} s). Use method='pc3d_hall' "
-        f"(window=({-half:.6g}, {half:.6g}) for this same span).",
-        Pc3dAccuracyWarning, stacklevel=3)
 
 
 @dataclass(frozen=True)
@@ -518,7 +443,7 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
 
     def neg(logk):
         k = math.exp(logk)
-        return -_log_pc_2d(pm[0], pm[1], k * s0[0], k * s0[1], hbr, "foster")
+        return -log_pc_2d(pm[0], pm[1], k * s0[0], k * s0[1], hbr, "foster")
 
     # the optimum scale puts the sigmas near the miss distance: bracket generously around it
     centre = math.log(d / math.sqrt(s0[0] * s0[1]))
@@ -611,7 +536,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
         mean_p = np.array([m[0], m[2]]) - apy * (m[1] / ayy)
         cov_p = np.array([[a[0, 0], a[0, 2]], [a[2, 0], a[2, 2]]]) - np.outer(apy, apy) / ayy
         sigma, pm, _, _, _ = principal_axes(mean_p, cov_p, hbr)
-        lp2 = _log_pc_2d(pm[0], pm[1], sigma[0], sigma[1], hbr, "foster")
+        lp2 = log_pc_2d(pm[0], pm[1], sigma[0], sigma[1], hbr, "foster")
         log_py = -0.5 * m[1] ** 2 / ayy - 0.5 * math.log(2 * math.pi * ayy)
         return math.log(speed) + log_py + lp2
 
@@ -667,16 +592,22 @@ def _warn_repair_3d(npd_in, repairs, n_times, clip, stacklevel=4):
         CovarianceRepairWarning, stacklevel=stacklevel)
 
 
+def _gm_m(gm):
+    """The attractor's ``gm`` (Quantity, Body or plain km^3/s^2; None: the Earth) in m^3/s^2."""
+    from .._units import to_array
+
+    if gm is None:  # the Earth's (vv.EARTH.gm), without a Quantity conversion per call
+        from ..constants import GM_EARTH_KM3_S2
+
+        return GM_EARTH_KM3_S2 * 1e9
+    return float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
+
+
 def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     """Units and checks for :func:`visviva.conjunctions.nc3d.log_pc3d_hall`."""
-    from .._units import to_array
     from .nc3d import log_pc3d_hall
 
-    if gm is None:
-        from ..bodies import EARTH
-
-        gm = EARTH.gm
-    gm_m = float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
+    gm_m = _gm_m(gm)
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
     if _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True):

@@ -44,7 +44,7 @@ def check_chan(lp_chan, xm, zm, sx, sz, hbr):
     where the integral is 4.9e-2, on case 9 0.98 for 0.29). The Foster kernel costs well under
     a millisecond, so every Chan value is checked against it.
     """
-    from .probability import log_pc_2d
+    from .pc2d import log_pc_2d
 
     try:
         lp_foster = log_pc_2d(xm, zm, sx, sz, hbr, "foster")

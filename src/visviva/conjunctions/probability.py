@@ -25,6 +25,7 @@ from .covariance import (
     principal_axes,
     warn_km_as_metres,
 )
+from .pc2d import log_pc_2d
 
 __all__ = [
     "collision_probability",
@@ -50,8 +51,6 @@ METHODS = {
                  "about the peak overlap position, flux integrated over the hard-body sphere",
     "monte_carlo": "sampling of the relative position in the encounter plane",
 }
-
-_RTOL = 1e-13
 
 
 class CovarianceRepairWarning(UserWarning):
@@ -145,25 +144,6 @@ def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
         _warn_repair("the combined covariance" if not npd_in else "an input covariance",
                      stacklevel=4)
     return plane
-
-
-def log_pc_2d(xm, zm, sx, sz, hbr, method):
-    """``ln Pc`` of the encounter plane in its principal axes (miss ``xm, zm``, sigmas ``sx,
-    sz``, HBR, all m) by ``method`` ("foster": the integral to 1e-13; "chan": the series)."""
-    from ..core import collision as kern
-
-    if method == "chan":
-        return min(float(kern.log_pc_chan(xm, zm, sx, sz, hbr)), 0.0)
-    lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, _RTOL)
-    if status:
-        from ..errors import ConvergenceError
-
-        raise ConvergenceError(
-            f"the Foster integral did not reach {_RTOL:g} relative accuracy "
-            f"(miss {xm:g}, {zm:g} m, sigma {sx:g}, {sz:g} m, HBR {hbr:g} m); report this case."
-        )
-    # a probability: near 1 the integral's 1e-13 rounding could put it above
-    return min(float(lp), 0.0)
 
 
 def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,

@@ -492,10 +492,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     above it by less than ``_NEAR`` is a grazing pass: its rise and set are re-seeded from
     the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
 
-    A maximum's step is clipped to ``h / 20`` (``h`` its node spacing: 30 s in LEO, 240 s in
-    GEO); maxima still moving after two rounds (flat ones: a geostationary satellite's
-    elevation changes by 1e-6 deg in half an hour, and the scan's polynomial can put two
-    maxima there) take more parabola steps (:func:`_flat_maxima`), and two that meet are one.
+    Maxima still moving after two rounds (flat: a GEO's elevation changes 1e-6 deg in half an
+    hour) take more steps (:func:`_flat_maxima`, at most ``h / 20``); two that meet are one.
     """
     t = t_s.copy()
     t_seed = t_s.copy()  # the scan's order of the events, for the orphans (see below)
@@ -649,8 +647,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
 
 
 def _flat_maxima(todo, t, mi, k_c, ok_m, inside, clip_m, delta, span_s, geo) -> None:
-    """More parabola steps (up to 40) for the maxima ``todo`` (event indices) still moving
-    after two rounds; updates ``t``, and per maximum ``k_c``, ``ok_m``, ``inside`` in place."""
+    """Up to 40 more parabola steps for maxima ``todo``; ``t``, ``k_c``, ... in place."""
     satrecs, sat_i, sta_i, clock, earth, sites, ups, horizon = geo
     pos = np.searchsorted(mi, todo)  # (mi is sorted: flatnonzero)
     for _ in range(40):

@@ -21,6 +21,7 @@ from ..errors import InvalidInputError
 from .search import (
     WINDOW_END,
     WINDOW_START,
+    EventSet,
     as_catalog,
     check_window,
     min_elevation_rad,
@@ -158,8 +159,14 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
     sunlit = frac > 0.0
     dark = sun_el < DARK_SUN_ELEVATION_DEG
 
-    def masked_time(idx, ok):
-        t = times[idx].copy() if idx.size else Time([], format="jd", scale="utc")
+    visible, vis_first, vis_last = _seen_in_pass(cat, sts, ev, starts, top, last)
+
+    def masked_time(idx, ok, t_s=None):
+        if t_s is not None:  # times of their own (seconds after t_ref), not events'
+            t_s = np.where(ok, t_s, ev.t_s[idx])
+            at = EventSet(t_s=t_s, t_ref=ev.t_ref, clock=ev.clock).times()
+        t = (times[idx].copy() if t_s is None else at) if idx.size else Time(
+            [], format="jd", scale="utc")
         if idx.size and (~ok).any():
             t[~ok] = np.ma.masked
         return t
@@ -182,7 +189,9 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
         "sun_fraction": frac,
         "sun_elevation": sun_el * u.deg,
         "station_dark": dark,
-        "visible": _seen_in_pass(cat, sts, ev, starts, top, last),
+        "visible": visible,
+        "visible_start": masked_time(starts, visible, vis_first),
+        "visible_end": masked_time(starts, visible, vis_last),
     }
     if standard_magnitude is not None:
         m_std = standard_magnitude  # checked by find_passes
@@ -219,68 +228,123 @@ MAX_PASS_SAMPLES = 2000
 CHUNK_SAMPLES = 400_000
 
 
-def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
-    """Per pass: is the satellite sunlit while the station is dark at some time of it?
-
-    Tested first at the pass's first, highest and last events. In a pass shorter than
-    :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
-    most once, so an overlap missed there lies inside the pass only when the satellite is lit
-    at one of those events and the station dark at another: those passes, and long (MEO, HEO)
-    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark).
-    """
+def _lit_and_dark(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
+    """Per time: is satellite ``sat[k]`` sunlit (``sun_fraction > 0``) while station ``sta[k]``
+    is dark (Sun below -6 deg) at ``t_s[k]`` (s after ``ev.t_ref``)? SGP4 where it is dark."""
     from .search import sgp4_teme
-    from .visibility import (
-        DARK_SUN_ELEVATION_DEG,
-        sun_elevation_rad,
-        sun_fraction,
-        sun_itrs_km,
-    )
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_fraction, sun_itrs_km
 
-    npass = starts.size
-    if npass == 0:
-        return np.zeros(0, dtype=bool)
-    sites = np.array([s.itrs_km for s in sts])
-    ups = np.array([s.enu_matrix[2] for s in sts])
-
-    def lit_dark(sta, t_s, r_itrs):
-        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
-        el = np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
-        return sun_fraction(r_itrs, sun) > 0.0, el < DARK_SUN_ELEVATION_DEG, sun
-
-    idx = np.stack([starts, top, last])  # (3, npass)
-    lit, dark, _ = lit_dark(ev.station[idx], ev.t_s[idx], ev.r_itrs[idx])
-    out = np.any(lit & dark, axis=0)
-    long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
-    todo = np.flatnonzero(~out & ((np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass))
-    if todo.size == 0:
+    out = np.zeros(t_s.size, dtype=bool)
+    if t_s.size == 0:
         return out
-    satrecs = [s.satrec for s in cat.satellites]
-    t_a, t_b = ev.t_s[starts[todo]], ev.t_s[last[todo]]
-    # every 10 s, at most MAX_PASS_SAMPLES per pass (a geosynchronous pass of days: ~5 min)
+    sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+    k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+                       < DARK_SUN_ELEVATION_DEG)
+    if k.size:
+        r, _, err = sgp4_teme(satrecs, sat[k], ev.clock, t_s[k])
+        ok = err == 0
+        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
+        out[k] = ok & (sun_fraction(r_i, sun[k]) > 0.0)
+    return out
+
+
+def _pass_samples(t_a, t_b, t_top):
+    """Sample times of passes (every :data:`VISIBILITY_STEP_S` from ``t_a`` to ``t_b``, at most
+    :data:`MAX_PASS_SAMPLES`, and the highest point ``t_top``), in chunks of about
+    :data:`CHUNK_SAMPLES`: yields (pass numbers, sample times) sorted by pass, then time."""
     n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64),
                    MAX_PASS_SAMPLES - 1)
     n = np.maximum(n, 1) + 1
-    # in chunks of passes of ~CHUNK_SAMPLES samples, to bound the memory
     bounds = np.searchsorted(np.cumsum(n), np.arange(CHUNK_SAMPLES, n.sum(), CHUNK_SAMPLES))
-    for chunk in np.split(np.arange(todo.size), np.unique(bounds[bounds > 0])):
+    for chunk in np.split(np.arange(t_a.size), np.unique(bounds[bounds > 0])):
         if chunk.size == 0:
             continue
         nc = n[chunk]
         pid = np.repeat(chunk, nc)
         frac_k = (np.arange(pid.size) - np.repeat(np.cumsum(nc) - nc, nc)) / np.repeat(nc - 1, nc)
-        t_s = t_a[pid] + frac_k * (t_b - t_a)[pid]
-        sta = ev.station[starts[todo]][pid]
-        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
-        k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
-                           < DARK_SUN_ELEVATION_DEG)
-        if k.size == 0:
+        t_s = np.concatenate([t_a[pid] + frac_k * (t_b - t_a)[pid], t_top[chunk]])
+        pid = np.concatenate([pid, chunk])
+        order = np.lexsort((t_s, pid))
+        yield pid[order], t_s[order]
+
+
+def _seen_in_pass(cat, sts, ev, starts, top, last):
+    """Per pass: is the satellite sunlit while the station is dark at some time of it, and
+    the first and last such time (s after ``ev.t_ref``; NaN where never)?
+
+    Tested first at the pass's first, highest and last events. In a pass shorter than
+    :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
+    most once, so an overlap missed there lies inside the pass only when the satellite is lit
+    at one of those events and the station dark at another: those passes, and long (MEO, HEO)
+    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark). The
+    visible passes' first and last visible times are bisected between the samples to
+    :data:`VISIBLE_EDGE_TOL_S` (a segment shorter than the step, not at the highest point,
+    can be missed; in a long pass the satellite may be hidden between the two).
+    """
+    npass = starts.size
+    first = np.full(npass, np.nan)
+    final = np.full(npass, np.nan)
+    if npass == 0:
+        return np.zeros(0, dtype=bool), first, final
+    satrecs = [s.satrec for s in cat.satellites]
+    sites = np.array([s.itrs_km for s in sts])
+    ups = np.array([s.enu_matrix[2] for s in sts])
+    idx = np.stack([starts, top, last])  # (3, npass)
+    lit, dark = _lit_and_dark_events(ev, sites, ups, idx)
+    out = np.any(lit & dark, axis=0)
+    long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
+    todo = np.flatnonzero(out | (np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass)
+    t_a, t_b, t_top = ev.t_s[starts[todo]], ev.t_s[last[todo]], ev.t_s[top[todo]]
+    sat, sta = ev.sat[starts[todo]], ev.station[starts[todo]]
+    for pid, t_s in _pass_samples(t_a, t_b, t_top):
+        seen = _lit_and_dark(satrecs, ev, sites, ups, sat[pid], sta[pid], t_s)
+        hit = np.flatnonzero(seen)
+        if hit.size == 0:
             continue
-        r, _, err = sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
-        ok = err == 0
-        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
-        seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)
-        out[todo[np.unique(pid[k][seen])]] = True
-    return out
+        # first and last seen sample of each pass, and the sample before / after it
+        p_hit = pid[hit]
+        lo = hit[np.r_[True, p_hit[1:] != p_hit[:-1]]]
+        hi = hit[np.r_[p_hit[1:] != p_hit[:-1], True]]
+        ps = pid[lo]
+        out[todo[ps]] = True
+        edges = []
+        for k, step in ((lo, -1), (hi, 1)):
+            nb = k + step  # the neighbouring sample, unseen, when in the same pass
+            inner = (nb >= 0) & (nb < pid.size)
+            inner[inner] = pid[nb[inner]] == pid[k[inner]]
+            edges.append(_bisect_visible(satrecs, ev, sites, ups, sat[pid[k]], sta[pid[k]],
+                                         t_s[k], np.where(inner, t_s[np.clip(nb, 0,
+                                                                             pid.size - 1)],
+                                                          t_s[k])))
+        first[todo[ps]] = edges[0]
+        final[todo[ps]] = edges[1]
+    return out, first, final
+
+
+def _lit_and_dark_events(ev, sites, ups, idx):
+    """Sunlit and dark flags at the events ``idx`` (their stored Earth-fixed positions)."""
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_fraction, sun_itrs_km
+
+    sta = ev.station[idx]
+    sun = sun_itrs_km(ev.t_ref, ev.t_s[idx], ev.earth)
+    el = np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+    return sun_fraction(ev.r_itrs[idx], sun) > 0.0, el < DARK_SUN_ELEVATION_DEG
+
+
+#: the first and last visible times of a pass are bisected to this, s
+VISIBLE_EDGE_TOL_S = 0.01
+
+
+def _bisect_visible(satrecs, ev, sites, ups, sat, sta, t_in, t_out):
+    """The boundary between ``t_in`` (visible) and ``t_out`` (not; equal: no boundary, the
+    sample is the pass's edge) by bisection, to :data:`VISIBLE_EDGE_TOL_S`."""
+    t_in, t_out = t_in.copy(), t_out.copy()
+    while np.abs(t_out - t_in).max(initial=0.0) > VISIBLE_EDGE_TOL_S:
+        mid = 0.5 * (t_in + t_out)
+        seen = _lit_and_dark(satrecs, ev, sites, ups, sat, sta, mid)
+        t_in = np.where(seen, mid, t_in)
+        t_out = np.where(seen, t_out, mid)
+    return 0.5 * (t_in + t_out)
 
 
 def write_passes(table, path, format: str | None = None) -> None:

@@ -492,8 +492,8 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     above it by less than ``_NEAR`` is a grazing pass: its rise and set are re-seeded from
     the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
 
-    Maxima still moving after two rounds (flat: a GEO's elevation changes 1e-6 deg in half an
-    hour) take more steps (:func:`_flat_maxima`, at most ``h / 20``); two that meet are one.
+    Maxima still moving by 0.5 s after two rounds (flat: a GEO's elevation changes 1e-6 deg
+    in half an hour) take more steps (:func:`_flat_maxima`, at most ``h / 20``); two that meet are one.
     """
     t = t_s.copy()
     t_seed = t_s.copy()  # the scan's order of the events, for the orphans (see below)
@@ -549,7 +549,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
             inside = (moved > 0.0) & (moved < span_s)
             t[mi] = np.clip(moved, 0.0, span_s)
             if it == 1:
-                _flat_maxima(mi[np.abs(step_m) > 1e-3], t, mi, k_c, ok_m, inside, clip_m,
+                _flat_maxima(mi[np.abs(step_m) > 0.5], t, mi, k_c, ok_m, inside, clip_m,
                              delta, span_s, (satrecs, sat_i, sta_i, clock, earth, sites, ups,
                                              horizon))
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)

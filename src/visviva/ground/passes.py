@@ -226,6 +226,9 @@ LONG_PASS_S = 1800.0
 #: most samples of one pass (longer passes get a longer step) and of one chunk of passes
 MAX_PASS_SAMPLES = 2000
 CHUNK_SAMPLES = 400_000
+#: most samples of a long pass already seen visible at one of its events (for the edges of
+#: the visible part: every 9 s in a 30 min pass, 7 min in a day of a geosynchronous one)
+MAX_EDGE_SAMPLES = 200
 
 
 def _lit_and_dark(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
@@ -248,12 +251,11 @@ def _lit_and_dark(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
     return out
 
 
-def _pass_samples(t_a, t_b, t_top):
+def _pass_samples(t_a, t_b, t_top, most):
     """Sample times of passes (every :data:`VISIBILITY_STEP_S` from ``t_a`` to ``t_b``, at most
-    :data:`MAX_PASS_SAMPLES`, and the highest point ``t_top``), in chunks of about
+    ``most`` per pass, and the highest point ``t_top``), in chunks of about
     :data:`CHUNK_SAMPLES`: yields (pass numbers, sample times) sorted by pass, then time."""
-    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64),
-                   MAX_PASS_SAMPLES - 1)
+    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64), most - 1)
     n = np.maximum(n, 1) + 1
     bounds = np.searchsorted(np.cumsum(n), np.arange(CHUNK_SAMPLES, n.sum(), CHUNK_SAMPLES))
     for chunk in np.split(np.arange(t_a.size), np.unique(bounds[bounds > 0])):
@@ -274,12 +276,13 @@ def _seen_in_pass(cat, sts, ev, starts, top, last):
 
     Tested first at the pass's first, highest and last events. In a pass shorter than
     :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
-    most once, so an overlap missed there lies inside the pass only when the satellite is lit
-    at one of those events and the station dark at another: those passes, and long (MEO, HEO)
-    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark). The
-    visible passes' first and last visible times are bisected between the samples to
-    :data:`VISIBLE_EDGE_TOL_S` (a segment shorter than the step, not at the highest point,
-    can be missed; in a long pass the satellite may be hidden between the two).
+    most once, so the visible part is one interval: found at one of those events, its ends
+    are bisected between them; missed there, it lies inside the pass only when the satellite
+    is lit at one event and the station dark at another. Those passes, and long (MEO, HEO)
+    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark), and
+    the first and last visible samples' edges bisected. Edges to :data:`VISIBLE_EDGE_TOL_S`;
+    in a sampled pass a visible stretch shorter than the step can be missed, and in a long
+    pass the satellite may be hidden for a while between the first and last visible times.
     """
     npass = starts.size
     first = np.full(npass, np.nan)
@@ -289,35 +292,49 @@ def _seen_in_pass(cat, sts, ev, starts, top, last):
     satrecs = [s.satrec for s in cat.satellites]
     sites = np.array([s.itrs_km for s in sts])
     ups = np.array([s.enu_matrix[2] for s in sts])
-    idx = np.stack([starts, top, last])  # (3, npass)
+    idx = np.stack([starts, top, last])  # (3, npass), in time order
     lit, dark = _lit_and_dark_events(ev, sites, ups, idx)
-    out = np.any(lit & dark, axis=0)
+    seen3 = lit & dark
+    out = seen3.any(axis=0)
     long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
-    todo = np.flatnonzero(out | (np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass)
+    sampled = (~out & np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass
+    # brackets (pass, 0 first / 1 last, t seen, t not seen; equal: the pass's own edge)
+    brackets = []
+    short = np.flatnonzero(out & ~long_pass)
+    if short.size:
+        t3 = ev.t_s[idx[:, short]]
+        s3 = seen3[:, short]
+        k_first = np.argmax(s3, axis=0)
+        k_last = 2 - np.argmax(s3[::-1], axis=0)
+        cols = np.arange(short.size)
+        brackets += [(short, 0, t3[k_first, cols], t3[0]), (short, 1, t3[k_last, cols], t3[2])]
+    todo = np.flatnonzero(sampled)
     t_a, t_b, t_top = ev.t_s[starts[todo]], ev.t_s[last[todo]], ev.t_s[top[todo]]
     sat, sta = ev.sat[starts[todo]], ev.station[starts[todo]]
-    for pid, t_s in _pass_samples(t_a, t_b, t_top):
+    # a long pass seen at an event is sampled for its edges only: MAX_EDGE_SAMPLES
+    most = np.where(out[todo], MAX_EDGE_SAMPLES, MAX_PASS_SAMPLES)
+    for pid, t_s in _pass_samples(t_a, t_b, t_top, most):
         seen = _lit_and_dark(satrecs, ev, sites, ups, sat[pid], sta[pid], t_s)
         hit = np.flatnonzero(seen)
         if hit.size == 0:
             continue
-        # first and last seen sample of each pass, and the sample before / after it
         p_hit = pid[hit]
-        lo = hit[np.r_[True, p_hit[1:] != p_hit[:-1]]]
-        hi = hit[np.r_[p_hit[1:] != p_hit[:-1], True]]
-        ps = pid[lo]
-        out[todo[ps]] = True
-        edges = []
-        for k, step in ((lo, -1), (hi, 1)):
-            nb = k + step  # the neighbouring sample, unseen, when in the same pass
-            inner = (nb >= 0) & (nb < pid.size)
-            inner[inner] = pid[nb[inner]] == pid[k[inner]]
-            edges.append(_bisect_visible(satrecs, ev, sites, ups, sat[pid[k]], sta[pid[k]],
-                                         t_s[k], np.where(inner, t_s[np.clip(nb, 0,
-                                                                             pid.size - 1)],
-                                                          t_s[k])))
-        first[todo[ps]] = edges[0]
-        final[todo[ps]] = edges[1]
+        for which, k, step in ((0, hit[np.r_[True, p_hit[1:] != p_hit[:-1]]], -1),
+                               (1, hit[np.r_[p_hit[1:] != p_hit[:-1], True]], 1)):
+            nb = np.clip(k + step, 0, pid.size - 1)  # the unseen neighbour, in the same pass
+            nb = np.where(pid[nb] == pid[k], nb, k)
+            brackets.append((todo[pid[k]], which, t_s[k], t_s[nb]))
+    if not brackets:
+        return out, first, final
+    p = np.concatenate([b[0] for b in brackets])
+    which = np.concatenate([np.full(b[0].size, b[1]) for b in brackets])
+    t_in = np.concatenate([b[2] for b in brackets])
+    t_out = np.concatenate([b[3] for b in brackets])
+    edge = _bisect_visible(satrecs, ev, sites, ups, ev.sat[starts[p]], ev.station[starts[p]],
+                           t_in, t_out)
+    out[p] = True
+    first[p[which == 0]] = edge[which == 0]
+    final[p[which == 1]] = edge[which == 1]
     return out, first, final
 
 

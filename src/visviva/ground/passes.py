@@ -73,7 +73,9 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         ``station_dark`` (Sun below -6 deg at the station; all four at the highest point)
         and ``visible`` (the satellite is sunlit while the station is dark at some time of
         the pass, sampled every 10 s: an evening pass that enters the shadow before its
-        culmination is visible on its way up). ``max_elevation`` is apparent with
+        culmination is visible on its way up), ``visible_start`` and ``visible_end`` (UTC
+        Time: the first and last such time, to 0.01 s, masked when not visible; the penumbra
+        counts as sunlit). ``max_elevation`` is apparent with
         ``refraction`` (its column description and ``table.meta["elevation"]`` say which:
         ``"geometric"`` or ``"apparent (optical refraction)"`` / ``"apparent (radio
         refraction)"``); ``sun_elevation`` is always geometric.

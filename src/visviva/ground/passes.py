@@ -350,19 +350,66 @@ def _lit_and_dark_events(ev, sites, ups, idx):
     return sun_fraction(ev.r_itrs[idx], sun) > 0.0, el < DARK_SUN_ELEVATION_DEG
 
 
-#: the first and last visible times of a pass are bisected to this, s
+#: the first and last visible times of a pass are found to this, s
 VISIBLE_EDGE_TOL_S = 0.01
 
 
+def _visible_margin(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
+    """A continuous margin, > 0 exactly where :func:`_lit_and_dark` is True (rad): the smaller
+    of the shadow's (the apparent separation of the Earth's and the Sun's centres seen from
+    the satellite, less the radii's difference: ``sun_fraction > 0`` beyond it) and the
+    twilight's (-6 deg less the Sun's elevation)."""
+    from ..constants import R_EARTH_KM, R_SUN_KM
+    from .search import sgp4_teme
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_itrs_km
+
+    sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+    r, _, err = sgp4_teme(satrecs, sat, ev.clock, t_s)
+    r, _ = ev.earth.apply(np.where(err[:, None] == 0, r, 1e4), np.zeros_like(r), t_s)
+    d = sun - r
+    rn, dn = np.linalg.norm(r, axis=-1), np.linalg.norm(d, axis=-1)
+    c = np.arccos(np.clip(-np.sum(r * d, axis=-1) / (rn * dn), -1.0, 1.0))
+    shadow = c - (np.arcsin(np.minimum(1.0, R_EARTH_KM / rn))
+                  - np.arcsin(np.minimum(1.0, R_SUN_KM / dn)))
+    dark = np.radians(DARK_SUN_ELEVATION_DEG) - sun_elevation_rad(sites[sta], ups[sta], sun)
+    return np.where(err == 0, np.minimum(shadow, dark), -1.0)
+
+
 def _bisect_visible(satrecs, ev, sites, ups, sat, sta, t_in, t_out):
-    """The boundary between ``t_in`` (visible) and ``t_out`` (not; equal: no boundary, the
-    sample is the pass's edge) by bisection, to :data:`VISIBLE_EDGE_TOL_S`."""
+    """The edge of the visible part between ``t_in`` (visible) and ``t_out`` (not; equal: no
+    edge, the sample is the pass's own edge): regula falsi (Illinois) on
+    :func:`_visible_margin`, to :data:`VISIBLE_EDGE_TOL_S`; about five SGP4 rounds."""
     t_in, t_out = t_in.copy(), t_out.copy()
-    while np.abs(t_out - t_in).max(initial=0.0) > VISIBLE_EDGE_TOL_S:
-        mid = 0.5 * (t_in + t_out)
-        seen = _lit_and_dark(satrecs, ev, sites, ups, sat, sta, mid)
-        t_in = np.where(seen, mid, t_in)
-        t_out = np.where(seen, t_out, mid)
+    todo = np.flatnonzero(t_in != t_out)
+    if todo.size == 0:
+        return t_in
+
+    def margin(k, t):
+        return _visible_margin(satrecs, ev, sites, ups, sat[k], sta[k], t)
+
+    both = margin(np.r_[todo, todo], np.r_[t_in[todo], t_out[todo]])
+    g_in, g_out = both[:todo.size], np.minimum(both[todo.size:], 0.0)
+    g_in = np.maximum(g_in, 1e-15)  # (visible by the samples' test: > 0)
+    side = np.zeros(todo.size, dtype=np.int64)  # which end moved last: +1 in, -1 out
+    for _ in range(40):
+        wide = np.abs(t_out[todo] - t_in[todo]) > VISIBLE_EDGE_TOL_S
+        if not wide.any():
+            break
+        k = todo[wide]
+        a, b, ga, gb = t_in[k], t_out[k], g_in[wide], g_out[wide]
+        t = a + ga * (b - a) / (ga - gb)
+        # stay inside, and at least a tolerance from either end (a clear bracket shrink)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        t = np.clip(t, lo + 0.4 * VISIBLE_EDGE_TOL_S, hi - 0.4 * VISIBLE_EDGE_TOL_S)
+        g = margin(k, t)
+        seen = g > 0.0
+        sw = side[wide]
+        # Illinois: the end that stays twice in a row has its margin halved
+        g_in[wide] = np.where(seen, g, np.where(sw == -1, 0.5 * ga, ga))
+        g_out[wide] = np.where(seen, np.where(sw == 1, 0.5 * gb, gb), g)
+        t_in[k] = np.where(seen, t, a)
+        t_out[k] = np.where(seen, b, t)
+        side[wide] = np.where(seen, 1, -1)
     return 0.5 * (t_in + t_out)
 
 

@@ -55,7 +55,7 @@ def test_dask_pass_table_equals_in_memory():
             jb = np.asarray(getattr(cb, "unmasked", cb).jd, dtype=float)
             with np.errstate(invalid="ignore"):
                 seconds = np.where(mask, 0.0, (ja - jb) * 86400.0)
-            # the visible edges are bisected to 0.01 s from brackets (the events) that a chunk
+            # the visible edges are found to 0.01 s from brackets (the events) that a chunk
             # of other satellites moves by microseconds: they agree to that tolerance
             tol = VISIBLE_EDGE_TOL_S if name.startswith("visible_") else 1e-4
             assert np.all(np.abs(seconds) < tol), name

@@ -12,6 +12,7 @@ import visviva as vv
 pytest.importorskip("distributed")
 
 from visviva.ground import find_passes_dask  # noqa: E402
+from visviva.ground.passes import VISIBLE_EDGE_TOL_S  # noqa: E402
 from visviva.satellites.catalog import parse_tle_text  # noqa: E402
 
 
@@ -54,7 +55,10 @@ def test_dask_pass_table_equals_in_memory():
             jb = np.asarray(getattr(cb, "unmasked", cb).jd, dtype=float)
             with np.errstate(invalid="ignore"):
                 seconds = np.where(mask, 0.0, (ja - jb) * 86400.0)
-            assert np.all(np.abs(seconds) < 1e-4), name
+            # the visible edges are found to 0.01 s from brackets (the events) that a chunk
+            # of other satellites moves by microseconds: they agree to that tolerance
+            tol = VISIBLE_EDGE_TOL_S if name.startswith("visible_") else 1e-4
+            assert np.all(np.abs(seconds) < tol), name
         elif isinstance(ca, u.Quantity):
             va = np.ma.getdata(getattr(ca, "unmasked", ca).value)
             vb = np.ma.getdata(getattr(cb, "unmasked", cb).to_value(ca.unit))

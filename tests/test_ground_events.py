@@ -269,3 +269,24 @@ def test_culmination_near_the_window_edge_is_found_as_skyfield_does(key, lat, lo
                 np.testing.assert_allclose(cut["max_elevation"].to_value(u.deg), top,
                                            atol=2e-3)
                 assert bool(cut["culmination_time"].mask) != inside
+
+
+@pytest.mark.parametrize("key, per_pass", [
+    ("28626", 3),  # geostationary: one pass all window, a culmination a day
+    ("08195", 2),  # Molniya: a pass with two maxima (apogee and a near-perigee one)
+])
+def test_every_local_maximum_once_geo_and_heo(key, per_pass):
+    # audit37: the GEO's flat elevation (1e-6 deg over half an hour) gave two culminations
+    # 26 min either side of its one daily maximum: the scan's polynomial put two maxima
+    # there and the parabola steps (30 s, two rounds) could not bring them together
+    t0, _, times, kinds, (ts, es, topos) = _events_and_skyfield(key, 40.0, -75.0, 0.0, 0.2, 2)
+    grid = t0 + np.arange(0, 2 * 86400 + 1, 20) * u.s
+    alt = (es - topos).at(ts.tt_jd(grid.tt.jd1, grid.tt.jd2)).altaz()[0].degrees
+    d = np.diff(alt)
+    peak = np.flatnonzero((d[:-1] > 0) & (d[1:] <= 0)) + 1
+    peak = peak[alt[peak] > 0.0]
+    culm = times[kinds == 1]
+    assert culm.size == peak.size
+    # within a cell of the 20 s scan (the GEO's maximum is flat: 1e-8 deg lower 60 s away)
+    assert np.abs((culm - grid[peak]).to_value(u.s)).max() < 20.0
+    assert np.bincount(np.cumsum(kinds == 0)[kinds == 1]).max() == per_pass

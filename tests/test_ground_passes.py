@@ -421,3 +421,60 @@ def test_states_beyond_any_earth_orbit_give_no_passes_and_a_warning():
     assert len(table) == 0
     with pytest.raises(vv.SGP4Error, match="beyond any Earth orbit"):  # as look(iss24, t0)
         site.look(vv.Catalog([iss24]), t0 + [0, 60] * u.s)
+
+
+def test_visible_start_and_end_against_skyfield_geometry():
+    # audit37: the table said whether a pass was visible, not when: a pass entering the Earth's
+    # shadow mid-pass was listed from rise to set. visible_start / visible_end are the first
+    # and last times the satellite sees part of the Sun while the station's Sun is below
+    # -6 deg. Reference: Skyfield's positions (DE430 excerpt shipped with Skyfield, the
+    # satellite from its own SGP4) scanned every 0.05 s, with the shadow's outer edge
+    # (the Sun's disc just touching the Earth's limb, spherical Earth) and Skyfield's geometric
+    # Sun altitude. Skyfield's is_sunlit (the Sun's centre) ends inside the penumbra, seconds later.
+    import os
+
+    skyfield = pytest.importorskip("skyfield")
+    from skyfield.api import EarthSatellite, load, wgs84
+    from skyfield.jpllib import SpiceKernel
+
+    path = os.path.join(os.path.dirname(skyfield.__file__), "tests", "data",
+                        "de430-2015-03-02.bsp")
+    if not os.path.exists(path):
+        pytest.skip("skyfield's DE430 test excerpt is not installed")
+    eph, ts = SpiceKernel(path), load.timescale(builtin=True)
+    l1 = "1 25544U 98067A   15060.00000000  .00016717  00000-0  10270-3 0  9009"
+    l2 = "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.54815350 12346"
+    sat, es = vv.Satellite.from_tle(l1, l2, name="ISS"), EarthSatellite(l1, l2, "ISS", ts)
+    site = vv.GroundStation(-33.9 * u.deg, 18.4 * u.deg, name="CPT")
+    top = wgs84.latlon(-33.9, 18.4)
+    table = vv.find_passes(sat, site, Time("2015-02-28T12:00", scale="utc"),
+                           Time("2015-03-02T06:00", scale="utc"), 10 * u.deg)
+    assert table["visible_start"].mask.tolist() == (~table["visible"]).tolist()
+
+    def seen(t):  # sunlit (any of the Sun's disc) over a dark station, on Skyfield's geometry
+        tt = ts.tt_jd(t.tt.jd1, t.tt.jd2)
+        r = es.at(tt).position.km
+        s = (eph["sun"] - eph["earth"]).at(tt).position.km - r
+        ang = np.arccos(np.sum(-r * s, 0) / np.linalg.norm(r, axis=0) / np.linalg.norm(s, axis=0))
+        lit = ang > (np.arcsin(vv.constants.R_EARTH_KM / np.linalg.norm(r, axis=0))
+                     - np.arcsin(vv.constants.R_SUN_KM / np.linalg.norm(s, axis=0)))
+        sun_from_site = (eph["sun"] - eph["earth"] - top).at(tt)  # geometric, as ours
+        return lit & (sun_from_site.frame_latlon(top)[0].degrees < -6)
+
+    inner_edges = 0
+    for row in table[table["visible"]]:
+        rise, set_ = (Time(row[k].utc.jd1, row[k].utc.jd2, format="jd", scale="utc")
+                      for k in ("rise_time", "set_time"))
+        t = rise + np.r_[np.arange(0.0, (set_ - rise).to_value(u.s), 2.0),
+                         (set_ - rise).to_value(u.s)] * u.s
+        k = np.flatnonzero(seen(t))
+        for ours, a, edge, pick in ((row["visible_start"], k[0], k[0] == 0, 0),
+                                    (row["visible_end"], k[-1], k[-1] == t.size - 1, -1)):
+            if edge:  # the rise or set itself
+                assert abs((ours - t[a]).to_value(u.s)) < 1e-3
+                continue
+            fine = t[a] + np.arange(-2.0, 2.0, 0.02) * u.s  # the 2 s cell, every 0.02 s
+            ref = fine[np.flatnonzero(seen(fine))[pick]]
+            assert abs((ours - ref).to_value(u.s)) < 0.05
+            inner_edges += 1
+    assert inner_edges >= 3  # edges inside passes (the Earth's shadow, or twilight's end)

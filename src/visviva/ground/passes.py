@@ -21,6 +21,7 @@ from ..errors import InvalidInputError
 from .search import (
     WINDOW_END,
     WINDOW_START,
+    EventSet,
     as_catalog,
     check_window,
     min_elevation_rad,
@@ -72,7 +73,9 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         ``station_dark`` (Sun below -6 deg at the station; all four at the highest point)
         and ``visible`` (the satellite is sunlit while the station is dark at some time of
         the pass, sampled every 10 s: an evening pass that enters the shadow before its
-        culmination is visible on its way up). ``max_elevation`` is apparent with
+        culmination is visible on its way up), ``visible_start`` and ``visible_end`` (UTC
+        Time: the first and last such time, to 0.01 s, masked when not visible; the penumbra
+        counts as sunlit). ``max_elevation`` is apparent with
         ``refraction`` (its column description and ``table.meta["elevation"]`` say which:
         ``"geometric"`` or ``"apparent (optical refraction)"`` / ``"apparent (radio
         refraction)"``); ``sun_elevation`` is always geometric.
@@ -158,8 +161,14 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
     sunlit = frac > 0.0
     dark = sun_el < DARK_SUN_ELEVATION_DEG
 
-    def masked_time(idx, ok):
-        t = times[idx].copy() if idx.size else Time([], format="jd", scale="utc")
+    visible, vis_first, vis_last = _seen_in_pass(cat, sts, ev, starts, top, last)
+
+    def masked_time(idx, ok, t_s=None):
+        if t_s is not None:  # times of their own (seconds after t_ref), not events'
+            t_s = np.where(ok, t_s, ev.t_s[idx])
+            at = EventSet(t_s=t_s, t_ref=ev.t_ref, clock=ev.clock).times()
+        t = (times[idx].copy() if t_s is None else at) if idx.size else Time(
+            [], format="jd", scale="utc")
         if idx.size and (~ok).any():
             t[~ok] = np.ma.masked
         return t
@@ -182,7 +191,9 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
         "sun_fraction": frac,
         "sun_elevation": sun_el * u.deg,
         "station_dark": dark,
-        "visible": _seen_in_pass(cat, sts, ev, starts, top, last),
+        "visible": visible,
+        "visible_start": masked_time(starts, visible, vis_first),
+        "visible_end": masked_time(starts, visible, vis_last),
     }
     if standard_magnitude is not None:
         m_std = standard_magnitude  # checked by find_passes
@@ -217,70 +228,189 @@ LONG_PASS_S = 1800.0
 #: most samples of one pass (longer passes get a longer step) and of one chunk of passes
 MAX_PASS_SAMPLES = 2000
 CHUNK_SAMPLES = 400_000
+#: most samples of a long pass already seen visible at one of its events (for the edges of
+#: the visible part: every 9 s in a 30 min pass, 7 min in a day of a geosynchronous one)
+MAX_EDGE_SAMPLES = 200
 
 
-def _seen_in_pass(cat, sts, ev, starts, top, last) -> np.ndarray:
-    """Per pass: is the satellite sunlit while the station is dark at some time of it?
-
-    Tested first at the pass's first, highest and last events. In a pass shorter than
-    :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
-    most once, so an overlap missed there lies inside the pass only when the satellite is lit
-    at one of those events and the station dark at another: those passes, and long (MEO, HEO)
-    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark).
-    """
+def _lit_and_dark(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
+    """Per time: is satellite ``sat[k]`` sunlit (``sun_fraction > 0``) while station ``sta[k]``
+    is dark (Sun below -6 deg) at ``t_s[k]`` (s after ``ev.t_ref``)? SGP4 where it is dark."""
     from .search import sgp4_teme
-    from .visibility import (
-        DARK_SUN_ELEVATION_DEG,
-        sun_elevation_rad,
-        sun_fraction,
-        sun_itrs_km,
-    )
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_fraction, sun_itrs_km
 
-    npass = starts.size
-    if npass == 0:
-        return np.zeros(0, dtype=bool)
-    sites = np.array([s.itrs_km for s in sts])
-    ups = np.array([s.enu_matrix[2] for s in sts])
-
-    def lit_dark(sta, t_s, r_itrs):
-        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
-        el = np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
-        return sun_fraction(r_itrs, sun) > 0.0, el < DARK_SUN_ELEVATION_DEG, sun
-
-    idx = np.stack([starts, top, last])  # (3, npass)
-    lit, dark, _ = lit_dark(ev.station[idx], ev.t_s[idx], ev.r_itrs[idx])
-    out = np.any(lit & dark, axis=0)
-    long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
-    todo = np.flatnonzero(~out & ((np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass))
-    if todo.size == 0:
+    out = np.zeros(t_s.size, dtype=bool)
+    if t_s.size == 0:
         return out
-    satrecs = [s.satrec for s in cat.satellites]
-    t_a, t_b = ev.t_s[starts[todo]], ev.t_s[last[todo]]
-    # every 10 s, at most MAX_PASS_SAMPLES per pass (a geosynchronous pass of days: ~5 min)
-    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64),
-                   MAX_PASS_SAMPLES - 1)
+    sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+    k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+                       < DARK_SUN_ELEVATION_DEG)
+    if k.size:
+        r, _, err = sgp4_teme(satrecs, sat[k], ev.clock, t_s[k])
+        ok = err == 0
+        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
+        out[k] = ok & (sun_fraction(r_i, sun[k]) > 0.0)
+    return out
+
+
+def _pass_samples(t_a, t_b, t_top, most):
+    """Sample times of passes (every :data:`VISIBILITY_STEP_S` from ``t_a`` to ``t_b``, at most
+    ``most`` per pass, and the highest point ``t_top``), in chunks of about
+    :data:`CHUNK_SAMPLES`: yields (pass numbers, sample times) sorted by pass, then time."""
+    n = np.minimum(np.ceil((t_b - t_a) / VISIBILITY_STEP_S).astype(np.int64), most - 1)
     n = np.maximum(n, 1) + 1
-    # in chunks of passes of ~CHUNK_SAMPLES samples, to bound the memory
     bounds = np.searchsorted(np.cumsum(n), np.arange(CHUNK_SAMPLES, n.sum(), CHUNK_SAMPLES))
-    for chunk in np.split(np.arange(todo.size), np.unique(bounds[bounds > 0])):
+    for chunk in np.split(np.arange(t_a.size), np.unique(bounds[bounds > 0])):
         if chunk.size == 0:
             continue
         nc = n[chunk]
         pid = np.repeat(chunk, nc)
         frac_k = (np.arange(pid.size) - np.repeat(np.cumsum(nc) - nc, nc)) / np.repeat(nc - 1, nc)
-        t_s = t_a[pid] + frac_k * (t_b - t_a)[pid]
-        sta = ev.station[starts[todo]][pid]
-        sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
-        k = np.flatnonzero(np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
-                           < DARK_SUN_ELEVATION_DEG)
-        if k.size == 0:
+        t_s = np.concatenate([t_a[pid] + frac_k * (t_b - t_a)[pid], t_top[chunk]])
+        pid = np.concatenate([pid, chunk])
+        order = np.lexsort((t_s, pid))
+        yield pid[order], t_s[order]
+
+
+def _seen_in_pass(cat, sts, ev, starts, top, last):
+    """Per pass: is the satellite sunlit while the station is dark at some time of it, and
+    the first and last such time (s after ``ev.t_ref``; NaN where never)?
+
+    Tested first at the pass's first, highest and last events. In a pass shorter than
+    :data:`LONG_PASS_S` twilight moves one way and the satellite crosses the Earth's shadow at
+    most once, so the visible part is one interval: found at one of those events, its ends
+    are bisected between them; missed there, it lies inside the pass only when the satellite
+    is lit at one event and the station dark at another. Those passes, and long (MEO, HEO)
+    ones, are sampled every :data:`VISIBILITY_STEP_S` (SGP4 where the station is dark), and
+    the first and last visible samples' edges bisected. Edges to :data:`VISIBLE_EDGE_TOL_S`;
+    in a sampled pass a visible stretch shorter than the step can be missed, and in a long
+    pass the satellite may be hidden for a while between the first and last visible times.
+    """
+    npass = starts.size
+    first = np.full(npass, np.nan)
+    final = np.full(npass, np.nan)
+    if npass == 0:
+        return np.zeros(0, dtype=bool), first, final
+    satrecs = [s.satrec for s in cat.satellites]
+    sites = np.array([s.itrs_km for s in sts])
+    ups = np.array([s.enu_matrix[2] for s in sts])
+    idx = np.stack([starts, top, last])  # (3, npass), in time order
+    lit, dark = _lit_and_dark_events(ev, sites, ups, idx)
+    seen3 = lit & dark
+    out = seen3.any(axis=0)
+    long_pass = ev.t_s[last] - ev.t_s[starts] > LONG_PASS_S
+    sampled = (~out & np.any(lit, axis=0) & np.any(dark, axis=0)) | long_pass
+    # brackets (pass, 0 first / 1 last, t seen, t not seen; equal: the pass's own edge)
+    brackets = []
+    short = np.flatnonzero(out & ~long_pass)
+    if short.size:
+        t3 = ev.t_s[idx[:, short]]
+        s3 = seen3[:, short]
+        k_first = np.argmax(s3, axis=0)
+        k_last = 2 - np.argmax(s3[::-1], axis=0)
+        cols = np.arange(short.size)
+        brackets += [(short, 0, t3[k_first, cols], t3[0]), (short, 1, t3[k_last, cols], t3[2])]
+    todo = np.flatnonzero(sampled)
+    t_a, t_b, t_top = ev.t_s[starts[todo]], ev.t_s[last[todo]], ev.t_s[top[todo]]
+    sat, sta = ev.sat[starts[todo]], ev.station[starts[todo]]
+    # a long pass seen at an event is sampled for its edges only: MAX_EDGE_SAMPLES
+    most = np.where(out[todo], MAX_EDGE_SAMPLES, MAX_PASS_SAMPLES)
+    for pid, t_s in _pass_samples(t_a, t_b, t_top, most):
+        seen = _lit_and_dark(satrecs, ev, sites, ups, sat[pid], sta[pid], t_s)
+        hit = np.flatnonzero(seen)
+        if hit.size == 0:
             continue
-        r, _, err = sgp4_teme(satrecs, ev.sat[starts[todo]][pid[k]], ev.clock, t_s[k])
-        ok = err == 0
-        r_i, _ = ev.earth.apply(np.where(ok[:, None], r, 1e4), np.zeros_like(r), t_s[k])
-        seen = ok & (sun_fraction(r_i, sun[k]) > 0.0)
-        out[todo[np.unique(pid[k][seen])]] = True
-    return out
+        p_hit = pid[hit]
+        for which, k, step in ((0, hit[np.r_[True, p_hit[1:] != p_hit[:-1]]], -1),
+                               (1, hit[np.r_[p_hit[1:] != p_hit[:-1], True]], 1)):
+            nb = np.clip(k + step, 0, pid.size - 1)  # the unseen neighbour, in the same pass
+            nb = np.where(pid[nb] == pid[k], nb, k)
+            brackets.append((todo[pid[k]], which, t_s[k], t_s[nb]))
+    if not brackets:
+        return out, first, final
+    p = np.concatenate([b[0] for b in brackets])
+    which = np.concatenate([np.full(b[0].size, b[1]) for b in brackets])
+    t_in = np.concatenate([b[2] for b in brackets])
+    t_out = np.concatenate([b[3] for b in brackets])
+    edge = _bisect_visible(satrecs, ev, sites, ups, ev.sat[starts[p]], ev.station[starts[p]],
+                           t_in, t_out)
+    out[p] = True
+    first[p[which == 0]] = edge[which == 0]
+    final[p[which == 1]] = edge[which == 1]
+    return out, first, final
+
+
+def _lit_and_dark_events(ev, sites, ups, idx):
+    """Sunlit and dark flags at the events ``idx`` (their stored Earth-fixed positions)."""
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_fraction, sun_itrs_km
+
+    sta = ev.station[idx]
+    sun = sun_itrs_km(ev.t_ref, ev.t_s[idx], ev.earth)
+    el = np.degrees(sun_elevation_rad(sites[sta], ups[sta], sun))
+    return sun_fraction(ev.r_itrs[idx], sun) > 0.0, el < DARK_SUN_ELEVATION_DEG
+
+
+#: the first and last visible times of a pass are found to this, s
+VISIBLE_EDGE_TOL_S = 0.01
+
+
+def _visible_margin(satrecs, ev, sites, ups, sat, sta, t_s) -> np.ndarray:
+    """A continuous margin, > 0 exactly where :func:`_lit_and_dark` is True (rad): the smaller
+    of the shadow's (the apparent separation of the Earth's and the Sun's centres seen from
+    the satellite, less the radii's difference: ``sun_fraction > 0`` beyond it) and the
+    twilight's (-6 deg less the Sun's elevation)."""
+    from ..constants import R_EARTH_KM, R_SUN_KM
+    from .search import sgp4_teme
+    from .visibility import DARK_SUN_ELEVATION_DEG, sun_elevation_rad, sun_itrs_km
+
+    sun = sun_itrs_km(ev.t_ref, t_s, ev.earth)
+    r, _, err = sgp4_teme(satrecs, sat, ev.clock, t_s)
+    r, _ = ev.earth.apply(np.where(err[:, None] == 0, r, 1e4), np.zeros_like(r), t_s)
+    d = sun - r
+    rn, dn = np.linalg.norm(r, axis=-1), np.linalg.norm(d, axis=-1)
+    c = np.arccos(np.clip(-np.sum(r * d, axis=-1) / (rn * dn), -1.0, 1.0))
+    shadow = c - (np.arcsin(np.minimum(1.0, R_EARTH_KM / rn))
+                  - np.arcsin(np.minimum(1.0, R_SUN_KM / dn)))
+    dark = np.radians(DARK_SUN_ELEVATION_DEG) - sun_elevation_rad(sites[sta], ups[sta], sun)
+    return np.where(err == 0, np.minimum(shadow, dark), -1.0)
+
+
+def _bisect_visible(satrecs, ev, sites, ups, sat, sta, t_in, t_out):
+    """The edge of the visible part between ``t_in`` (visible) and ``t_out`` (not; equal: no
+    edge, the sample is the pass's own edge): regula falsi (Illinois) on
+    :func:`_visible_margin`, to :data:`VISIBLE_EDGE_TOL_S`; about five SGP4 rounds."""
+    t_in, t_out = t_in.copy(), t_out.copy()
+    todo = np.flatnonzero(t_in != t_out)
+    if todo.size == 0:
+        return t_in
+
+    def margin(k, t):
+        return _visible_margin(satrecs, ev, sites, ups, sat[k], sta[k], t)
+
+    both = margin(np.r_[todo, todo], np.r_[t_in[todo], t_out[todo]])
+    g_in, g_out = both[:todo.size], np.minimum(both[todo.size:], 0.0)
+    g_in = np.maximum(g_in, 1e-15)  # (visible by the samples' test: > 0)
+    side = np.zeros(todo.size, dtype=np.int64)  # which end moved last: +1 in, -1 out
+    for _ in range(40):
+        wide = np.abs(t_out[todo] - t_in[todo]) > VISIBLE_EDGE_TOL_S
+        if not wide.any():
+            break
+        k = todo[wide]
+        a, b, ga, gb = t_in[k], t_out[k], g_in[wide], g_out[wide]
+        t = a + ga * (b - a) / (ga - gb)
+        # stay inside, and at least a tolerance from either end (a clear bracket shrink)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        t = np.clip(t, lo + 0.4 * VISIBLE_EDGE_TOL_S, hi - 0.4 * VISIBLE_EDGE_TOL_S)
+        g = margin(k, t)
+        seen = g > 0.0
+        sw = side[wide]
+        # Illinois: the end that stays twice in a row has its margin halved
+        g_in[wide] = np.where(seen, g, np.where(sw == -1, 0.5 * ga, ga))
+        g_out[wide] = np.where(seen, np.where(sw == 1, 0.5 * gb, gb), g)
+        t_in[k] = np.where(seen, t, a)
+        t_out[k] = np.where(seen, b, t)
+        side[wide] = np.where(seen, 1, -1)
+    return 0.5 * (t_in + t_out)
 
 
 def write_passes(table, path, format: str | None = None) -> None:

@@ -456,7 +456,7 @@ def search_events(cat, stations, t0, t1, min_el_rad: float, refraction=False, *,
             "run so far from their epochs that SGP4 left every Earth orbit; their events stop "
             "there.", RuntimeWarning, stacklevel=outside_stacklevel())
     ev = _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon,
-                  span_s, near_sat)
+                  span_s, near_sat, steps)
     ev.el = horizon.apparent_rad(ev.el, ev.station, ev.rng)
     ev.elevation = horizon.label
     ev.earth = earth
@@ -475,7 +475,7 @@ def _evaluate(satrecs, sat_i, sta_i, t_s, clock, earth, sites, ups, horizon, geo
 
 
 def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, horizon, span_s,
-             near_sat):
+             near_sat, steps):
     """Correct every event on SGP4 itself; settle grazing passes; drop fakes.
 
     Three rounds, each one SGP4 evaluation of all events together:
@@ -491,6 +491,9 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     Then a maximum below the threshold on SGP4 is dropped (with its rise and set), and one
     above it by less than ``_NEAR`` is a grazing pass: its rise and set are re-seeded from
     the parabola, ``t_c -+ sqrt(2 f_c / k)`` with ``k = -f''``, and take three Newton steps.
+
+    Maxima still moving by 0.5 s after two rounds (flat: a GEO's elevation changes 1e-6 deg
+    in half an hour) take more steps (:func:`_flat_maxima`, at most ``h / 20``); two that meet are one.
     """
     t = t_s.copy()
     t_seed = t_s.copy()  # the scan's order of the events, for the orphans (see below)
@@ -507,6 +510,7 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     state_v = np.empty((t.size, 3))
     ok_m = np.ones(nm, dtype=bool)
     inside = np.ones(nm, dtype=bool)
+    clip_m = np.maximum(30.0, steps[sat_i[mi]] / 20.0)  # s
     for it in range(3):
         last = it == 2  # the last round needs f at the vertex only (k from the round before)
         idx = np.concatenate([mi, xi] + ([fixed] if last else []))
@@ -538,12 +542,16 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
             k_c = -curv / delta**2
             with np.errstate(divide="ignore", invalid="ignore"):
                 step_m = np.where(curv < 0, delta * (fm - fp) / (2.0 * curv), 0.0)
-            step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -30.0, 30.0), 0.0)
+            step_m = np.where(ok_m & np.isfinite(step_m), np.clip(step_m, -clip_m, clip_m), 0.0)
             moved = t[mi] + step_m
             # a vertex outside the window (after the last parabola) is no culmination in it: the
             # window's edge stands for it
             inside = (moved > 0.0) & (moved < span_s)
             t[mi] = np.clip(moved, 0.0, span_s)
+            if it == 1:
+                _flat_maxima(mi[np.abs(step_m) > 0.5], t, mi, k_c, ok_m, inside, clip_m,
+                             delta, span_s, (satrecs, sat_i, sta_i, clock, earth, sites, ups,
+                                             horizon))
         ok_x = (err[nm:nm + nx] == 0) & np.isfinite(step_x)
         step_x = np.where(ok_x, np.clip(step_x, -30.0, 30.0), 0.0)
         t[xi] = np.clip(t[xi] + step_x, 0.0, span_s)
@@ -617,6 +625,11 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
                          np.ascontiguousarray(state_v[out]), enu,
                          np.ascontiguousarray(sta_i[out], dtype=np.int64), rates)
         keep[out[np.where(kind[out] == _topo.RISE, rates[:, 5] < 0.0, rates[:, 5] > 0.0)]] = False
+    # maxima that met on their way to the same vertex (flat ones, above) are one
+    cm = np.flatnonzero(keep & (kind == _topo.CULMINATION))
+    cm = cm[np.lexsort((t[cm], sta_i[cm], sat_i[cm]))]
+    keep[cm[1:][(sat_i[cm[1:]] == sat_i[cm[:-1]]) & (sta_i[cm[1:]] == sta_i[cm[:-1]])
+                & (t[cm[1:]] - t[cm[:-1]] < 1.0)]] = False
     keep &= ~_orphans(sat_i, sta_i, t, kind, keep)
     keep &= ~_orphans(sat_i, sta_i, t_seed, kind, keep)
     keep &= (kind <= _topo.SET) | (kind == WINDOW_START) | (kind == WINDOW_END)
@@ -631,6 +644,34 @@ def _correct(satrecs, sat_i, sta_i, t_s, kind, clock, earth, sites, ups, enu, ho
     return EventSet(sat=sat_i[order], station=sta_i[order], kind=kind[order], t_s=t[order],
                     t_ref=clock.t_ref, rng=res[order, 0], az=res[order, 1], el=res[order, 2],
                     rng_rate=res[order, 3], r_itrs=ri[order])
+
+
+def _flat_maxima(todo, t, mi, k_c, ok_m, inside, clip_m, delta, span_s, geo) -> None:
+    """Up to 40 more parabola steps for maxima ``todo``; ``t``, ``k_c``, ... in place."""
+    satrecs, sat_i, sta_i, clock, earth, sites, ups, horizon = geo
+    pos = np.searchsorted(mi, todo)  # (mi is sorted: flatnonzero)
+    for _ in range(40):
+        pos = pos[ok_m[pos] & inside[pos]]
+        if pos.size == 0:
+            return
+        e = mi[pos]
+        tt = np.concatenate([t[e], t[e] - delta, t[e] + delta])
+        ii = np.concatenate([e, e, e])
+        geometric = np.ones(ii.size, dtype=bool) if horizon.refracted else None
+        fd, err = _evaluate(satrecs, sat_i[ii], sta_i[ii], tt, clock, earth, sites, ups,
+                            horizon, geometric)[3:]
+        f0, fm, fp = fd[:, 0].reshape(3, -1)
+        curv = fm - 2.0 * f0 + fp
+        ok_m[pos] &= (err.reshape(3, -1) == 0).all(axis=0)
+        ok = ok_m[pos] & (curv < 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(ok, delta * (fm - fp) / (2.0 * curv), 0.0)
+        step = np.clip(np.where(np.isfinite(step), step, 0.0), -clip_m[pos], clip_m[pos])
+        k_c[pos] = np.where(ok_m[pos], -curv / delta**2, k_c[pos])
+        moved = t[e] + step
+        inside[pos] = (moved > 0.0) & (moved < span_s)
+        t[e] = np.clip(moved, 0.0, span_s)
+        pos = pos[np.abs(step) > 1e-3]
 
 
 def _orphans(sat_i, sta_i, t, kind, keep) -> np.ndarray:

@@ -59,6 +59,7 @@ _DA = 4  # the tangent acceleration (inertial)
 _DAJ = 5  # ... in Jacobi coordinates
 _MX = 6  # the synchronised physical state at the last grid point, Jacobi coordinates
 _MV = 7
+_S = 8  # the universal anomaly of each body's last solve, columns 0/1: the first/second drift
 
 _TWO_PI = 2.0 * math.pi
 #: 1/(2k+4)! and 1/(2k+5)!, k = 0..13: Taylor coefficients of c4 and c5 in (-psi).
@@ -69,11 +70,14 @@ _C5 = tuple(1.0 / math.factorial(2 * k + 5) for k in range(14))
 @kernel
 def _c4c5(psi, c2, c3):
     """Stumpff ``c4, c5`` of ``psi`` (series for ``|psi| <= 4``, else ``c_{k+2} = (1/k! - c_k) /
-    psi`` from ``c2, c3``)."""
-    if abs(psi) <= SERIES_LIMIT:
-        c4 = _C4[13]
-        c5 = _C5[13]
-        for k in range(12, -1, -1):
+    psi`` from ``c2, c3``). The series stops where its next term is below 1e-19 of the sum
+    (6, 9 or 14 terms for ``|psi|`` up to 1/64, 1/2, 4)."""
+    a = abs(psi)
+    if a <= SERIES_LIMIT:
+        top = 5 if a <= 0.015625 else (8 if a <= 0.5 else 13)
+        c4 = _C4[top]
+        c5 = _C5[top]
+        for k in range(top - 1, -1, -1):
             c4 = c4 * (-psi) + _C4[k]
             c5 = c5 * (-psi) + _C5[k]
         return c4, c5
@@ -81,7 +85,7 @@ def _c4c5(psi, c2, c3):
 
 
 @kernel
-def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo):
+def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
     """The Kepler drift of one body over ``h`` and its tangent (state transition applied to one
     vector).
 
@@ -99,11 +103,15 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo):
         Receive the state after the drift (may be ``x0, v0`` themselves). Only the linearisation
         point of a next tangent step: the physical drift is
         :func:`visviva.core.universal.propagate_scalar`'s.
+    s_guess : float
+        A starting value of the universal anomaly (``s`` of a similar drift; NaN: none).
 
     Returns
     -------
-    int
+    status : int
         ``OK``, or ``ZERO_POSITION``/``NON_FINITE``/``NO_CONVERGENCE`` (nothing written).
+    s : float
+        The universal anomaly solved for (reduced by whole periods), a guess for the next call.
 
     Notes
     -----
@@ -113,9 +121,9 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo):
     """
     r0 = math.sqrt(x0[0] * x0[0] + x0[1] * x0[1] + x0[2] * x0[2])
     if not (math.isfinite(r0) and math.isfinite(v0[0] + v0[1] + v0[2]) and math.isfinite(h)):
-        return NON_FINITE
+        return NON_FINITE, math.nan
     if r0 == 0.0:
-        return ZERO_POSITION
+        return ZERO_POSITION, math.nan
     eta = x0[0] * v0[0] + x0[1] * v0[1] + x0[2] * v0[2]
     beta = 2.0 * gm / r0 - (v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2])
     tau = h
@@ -127,9 +135,9 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo):
             tau = h - turns * period
     sr = 0.0
     if tau != 0.0:
-        ok, sr, _g0, _g1, _g2 = _solve_universal(r0, eta, gm, beta, tau, math.nan)
+        ok, sr, _g0, _g1, _g2 = _solve_universal(r0, eta, gm, beta, tau, s_guess)
         if not ok:
-            return NO_CONVERGENCE
+            return NO_CONVERGENCE, math.nan
     psi = beta * sr * sr
     c0, c1, c2, c3 = stumpff_all(psi)
     c4, c5 = _c4c5(psi, c2, c3)
@@ -178,20 +186,24 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo):
         dv[c] = dfd * a + fd * ex + dgd * b + gd * ev
         xo[c] = f * a + g * b
         vo[c] = fd * a + gd * b
-    return OK
+    return OK, sr
 
 
 @kernel
-def _tangent_drift(xs, vs, tx, tv, eta, G, h, xo, vo):
+def _tangent_drift(xs, vs, tx, tv, eta, G, h, xo, vo, s, col):
     """Every Jacobi body's Kepler drift tangent over ``h`` from ``xs, vs`` (``tx, tv`` in place;
-    the drifted state into ``xo, vo``); the centre of mass (row 0) moves on a straight line."""
+    the drifted state into ``xo, vo``); the centre of mass (row 0) moves on a straight line.
+    ``s[:, col]``: the universal anomalies of the last such drift (a start for the solver; 0:
+    none), replaced by this drift's."""
     n = xs.shape[0]
     for c in range(3):
         tx[0, c] += tv[0, c] * h
         xo[0, c] = xs[0, c] + vs[0, c] * h
         vo[0, c] = vs[0, c]
     for i in range(1, n):
-        st = kepler_tangent(xs[i], vs[i], tx[i], tv[i], G * eta[i], h, xo[i], vo[i])
+        guess = s[i, col] if s[i, col] != 0.0 else math.nan
+        st, s[i, col] = kepler_tangent(xs[i], vs[i], tx[i], tv[i], G * eta[i], h, xo[i], vo[i],
+                                       guess)
         if st != OK:
             return st
     return OK
@@ -203,6 +215,7 @@ def whfast_tangent_start(x, v, m, eta, buf, base):
     afresh: the linearisation point of the next step's first half drift."""
     to_jacobi(x, m, eta, buf[base + _MX])
     to_jacobi(v, m, eta, buf[base + _MV])
+    buf[base + _S] = 0.0  # no solver start from an earlier run (maybe with another dt)
 
 
 @kernel
@@ -227,7 +240,8 @@ def whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
     to_jacobi(dx, m, eta, tx)
     to_jacobi(buf[base + DV], m, eta, tv)
     half = 0.5 * h
-    st = _tangent_drift(mx, mv, tx, tv, eta, G, half, mx, mv)
+    s = buf[base + _S]
+    st = _tangent_drift(mx, mv, tx, tv, eta, G, half, mx, mv, s, 0)
     if st != OK:
         return st
     # the kick: the inertial gravity gradient through the (linear) transforms, minus the
@@ -243,7 +257,7 @@ def whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
         p = 3.0 * (xj[i, 0] * tx[i, 0] + xj[i, 1] * tx[i, 1] + xj[i, 2] * tx[i, 2]) / r2
         for c in range(3):
             tv[i, c] += (daj[i, c] + k * (tx[i, c] - p * xj[i, c])) * h
-    st = _tangent_drift(xj, vj, tx, tv, eta, G, half, mx, mv)
+    st = _tangent_drift(xj, vj, tx, tv, eta, G, half, mx, mv, s, 1)
     if st != OK:
         return st
     from_jacobi(tx, m, eta, dx)

@@ -42,6 +42,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._jit import kernel
 from .nbody_common import F_G, F_SOFT2
 from .nbody_variational import DV, DX, _ln_norm_rescaled, megno_update, tangent_acceleration
@@ -62,26 +64,31 @@ _MV = 7
 _S = 8  # the universal anomaly of each body's last solve, columns 0/1: the first/second drift
 
 _TWO_PI = 2.0 * math.pi
-#: 1/(2k+4)! and 1/(2k+5)!, k = 0..13: Taylor coefficients of c4 and c5 in (-psi).
-_C4 = tuple(1.0 / math.factorial(2 * k + 4) for k in range(14))
-_C5 = tuple(1.0 / math.factorial(2 * k + 5) for k in range(14))
+#: 1/(2k+3)!, 1/(2k+4)!, 1/(2k+5)! (rows), k = 0..13: Taylor coefficients of c3, c4, c5 in
+#: (-psi) (a global array: numba compiles it in as a constant).
+_C345 = np.array([[1.0 / math.factorial(2 * k + j) for k in range(14)] for j in (3, 4, 5)])
 
 
 @kernel
-def _c4c5(psi, c2, c3):
-    """Stumpff ``c4, c5`` of ``psi`` (series for ``|psi| <= 4``, else ``c_{k+2} = (1/k! - c_k) /
-    psi`` from ``c2, c3``). The series stops where its next term is below 1e-19 of the sum
-    (6, 9 or 14 terms for ``|psi|`` up to 1/64, 1/2, 4)."""
+def _c345(psi):
+    """Stumpff ``c3, c4, c5`` of ``psi`` (series for ``|psi| <= 4``, stopped where the next
+    term is below 1e-19 of the sum: 6, 9 or 14 terms for ``|psi|`` up to 1/64, 1/2, 4; beyond,
+    the closed forms and ``c_{k+2} = (1/k! - c_k) / psi``). Plain Horner sums: the tangent map
+    needs accuracy, not the unbiased rounding of :mod:`visviva.core.stumpff`."""
     a = abs(psi)
     if a <= SERIES_LIMIT:
         top = 5 if a <= 0.015625 else (8 if a <= 0.5 else 13)
-        c4 = _C4[top]
-        c5 = _C5[top]
+        z = -psi
+        c3 = _C345[0, top]
+        c4 = _C345[1, top]
+        c5 = _C345[2, top]
         for k in range(top - 1, -1, -1):
-            c4 = c4 * (-psi) + _C4[k]
-            c5 = c5 * (-psi) + _C5[k]
-        return c4, c5
-    return (0.5 - c2) / psi, (1.0 / 6.0 - c3) / psi
+            c3 = c3 * z + _C345[0, k]
+            c4 = c4 * z + _C345[1, k]
+            c5 = c5 * z + _C345[2, k]
+        return c3, c4, c5
+    c0, c1, c2, c3 = stumpff_all(psi)
+    return c3, (0.5 - c2) / psi, (1.0 / 6.0 - c3) / psi
 
 
 @kernel
@@ -134,17 +141,15 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
             turns = float(math.trunc(h / period))
             tau = h - turns * period
     sr = 0.0
+    G0 = 1.0
+    G1 = 0.0
+    G2 = 0.0
     if tau != 0.0:
-        ok, sr, _g0, _g1, _g2 = _solve_universal(r0, eta, gm, beta, tau, s_guess)
+        ok, sr, G0, G1, G2 = _solve_universal(r0, eta, gm, beta, tau, s_guess)
         if not ok:
             return NO_CONVERGENCE, math.nan
-    psi = beta * sr * sr
-    c0, c1, c2, c3 = stumpff_all(psi)
-    c4, c5 = _c4c5(psi, c2, c3)
+    c3, c4, c5 = _c345(beta * sr * sr)
     s = sr
-    G0 = c0
-    G1 = sr * c1
-    G2 = sr * sr * c2
     if turns == 0.0:
         G3 = sr * sr * sr * c3
         G4 = sr * sr * sr * sr * c4

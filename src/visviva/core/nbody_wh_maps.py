@@ -30,8 +30,13 @@ __all__ = [
     "from_jacobi",
     "to_democratic_heliocentric",
     "from_democratic_heliocentric",
+    "to_internal",
+    "from_internal",
     "kepler_drift",
+    "jump",
+    "drift",
     "interaction_kick",
+    "dh_interaction_kick",
 ]
 
 
@@ -130,7 +135,7 @@ def from_democratic_heliocentric(q, m, eta, x, barycentric):
 
 
 @kernel
-def _to_internal(x, v, m, eta, xj, vj, dh):
+def to_internal(x, v, m, eta, xj, vj, dh):
     """Inertial ``x, v`` -> the internal coordinates (Jacobi, or democratic heliocentric)."""
     if dh:
         to_democratic_heliocentric(x, m, eta, xj, False)
@@ -141,7 +146,7 @@ def _to_internal(x, v, m, eta, xj, vj, dh):
 
 
 @kernel
-def _from_internal(xj, vj, m, eta, x, v, dh):
+def from_internal(xj, vj, m, eta, x, v, dh):
     """The internal coordinates -> inertial ``x, v``."""
     if dh:
         from_democratic_heliocentric(xj, m, eta, x, False)
@@ -152,7 +157,7 @@ def _from_internal(xj, vj, m, eta, x, v, dh):
 
 
 @kernel
-def _kepler_drift(xj, vj, eta, G, h, dh):
+def kepler_drift(xj, vj, eta, G, h, dh):
     """Every body on its Kepler orbit for ``h`` (GM = ``G eta_i``, or ``G m_0`` with ``dh``);
     the centre of mass (row 0) on a straight line."""
     n = xj.shape[0]
@@ -174,12 +179,8 @@ def _kepler_drift(xj, vj, eta, G, h, dh):
     return OK
 
 
-#: Public name of :func:`_kepler_drift` for step-by-step drivers (the GPU backend's WHFast).
-kepler_drift = _kepler_drift
-
-
 @kernel
-def _jump(q, vb, m, h):
+def jump(q, vb, m, h):
     """The democratic heliocentric jump: every ``Q_i += h sum_{j>=1} m_j V_j / m_0``."""
     n = q.shape[0]
     px = 0.0
@@ -197,21 +198,21 @@ def _jump(q, vb, m, h):
 
 
 @kernel
-def _drift(xj, vj, m, eta, G, h, jump_before, jump_after, dh):
+def drift(xj, vj, m, eta, G, h, jump_before, jump_after, dh):
     """The part of a step between kicks: Kepler drift ``h``, with ``dh`` between the jumps
     ``jump_before`` and ``jump_after`` (step lengths; 0 for none)."""
     if dh and jump_before != 0.0:
-        _jump(xj, vj, m, jump_before)
-    st = _kepler_drift(xj, vj, eta, G, h, dh)
+        jump(xj, vj, m, jump_before)
+    st = kepler_drift(xj, vj, eta, G, h, dh)
     if st != OK:
         return st
     if dh and jump_after != 0.0:
-        _jump(xj, vj, m, jump_after)
+        jump(xj, vj, m, jump_after)
     return OK
 
 
 @kernel
-def _interaction_kick(xj, vj, aj, eta, G, h):
+def interaction_kick(xj, vj, aj, eta, G, h):
     n = xj.shape[0]
     for c in range(3):
         vj[0, c] += aj[0, c] * h
@@ -222,12 +223,8 @@ def _interaction_kick(xj, vj, aj, eta, G, h):
             vj[i, c] += (aj[i, c] + k * xj[i, c]) * h
 
 
-#: Public name of :func:`_interaction_kick` for step-by-step drivers (the GPU backend's WHFast).
-interaction_kick = _interaction_kick
-
-
 @kernel
-def _dh_interaction_kick(vj, acc, fa, m, eta, h):
+def dh_interaction_kick(vj, acc, fa, m, eta, h):
     """Democratic heliocentric kick ``h``: ``V_i += (g_i + f_i - a_cm) h`` with ``g`` the gravity
     of the bodies other than the central one, ``f`` the additional force and ``a_cm`` its
     mass-weighted mean, which kicks the centre-of-mass velocity ``V_0`` (row 0)."""

@@ -46,11 +46,11 @@ import numpy as np
 
 from ._jit import kernel
 from .nbody_common import F_G, F_SOFT2
-from .nbody_variational import DV, DX, _ln_norm_rescaled, megno_update, tangent_acceleration
+from .nbody_variational import DV, DX, ln_norm_rescaled, megno_update, tangent_acceleration
 from .nbody_wh_maps import from_jacobi, to_jacobi
 from .status import NO_CONVERGENCE, NON_FINITE, OK, ZERO_POSITION
 from .stumpff import SERIES_LIMIT, stumpff_all
-from .universal import _solve_universal
+from .universal import solve_universal
 
 __all__ = ["kepler_tangent", "whfast_tangent", "whfast_tangent_start"]
 
@@ -145,7 +145,7 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
     G1 = 0.0
     G2 = 0.0
     if tau != 0.0:
-        ok, sr, G0, G1, G2 = _solve_universal(r0, eta, gm, beta, tau, s_guess)
+        ok, sr, G0, G1, G2 = solve_universal(r0, eta, gm, beta, tau, s_guess)
         if not ok:
             return NO_CONVERGENCE, math.nan
     c3, c4, c5 = _c345(beta * sr * sr)
@@ -267,5 +267,5 @@ def whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
         return st
     from_jacobi(tx, m, eta, dx)
     from_jacobi(tv, m, eta, buf[base + DV])
-    megno_update(fstate, h, _ln_norm_rescaled(fstate, buf, base, False))
+    megno_update(fstate, h, ln_norm_rescaled(fstate, buf, base, False))
     return OK

@@ -88,24 +88,32 @@ from .nbody_common import (
     write_output,
 )
 from .nbody_variational import megno_on
-from .nbody_wh_maps import (  # noqa: F401  (the private maps: also used as W._name by twins/tests)
-    _dh_interaction_kick,
-    _drift,
-    _from_internal,
-    _interaction_kick,
-    _jump,
-    _kepler_drift,
-    _to_internal,
+from .nbody_wh_maps import (
+    dh_interaction_kick,
+    drift,
     from_democratic_heliocentric,
+    from_internal,
     from_jacobi,
     interaction_kick,
+    jump,
     kepler_drift,
     to_democratic_heliocentric,
+    to_internal,
     to_jacobi,
 )
 from .nbody_wh_tangent import whfast_tangent, whfast_tangent_start
 from .status import OK
 from .wh_corrector import CORRECTOR_A, CORRECTOR_B
+
+# the step's maps under the names this module's run body (and its GPU twins and tests, as
+# ``nbody_whfast._name``) have always used
+_to_internal = to_internal
+_from_internal = from_internal
+_kepler_drift = kepler_drift
+_jump = jump
+_drift = drift
+_interaction_kick = interaction_kick
+_dh_interaction_kick = dh_interaction_kick
 
 __all__ = [
     "whfast_run",

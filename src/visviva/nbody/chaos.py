@@ -136,7 +136,8 @@ class ChaosIndicators:
         it (:meth:`megno` then raises).
 
         Costs one more O(N**2) Jacobian-vector product per force evaluation (IAS15: a second
-        predictor-corrector loop on the linear tangent equations; see docs/performance.md).
+        predictor-corrector loop on the linear tangent equations; WHFast: also two Kepler
+        tangent drifts per body and step; see docs/performance.md).
         """
         _check_supported(self, "init_megno")
         n = self.N
@@ -206,7 +207,7 @@ class ChaosIndicators:
     def tangent_vector(self) -> np.ndarray:
         """The tangent vector, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy), at the
         integrator's last step: ``sim.t`` with ``exact_finish_time=False`` or on the leapfrog's
-        step grid, up to one step before it when an output time was reached by a copy (as
+        or WHFast's step grid (synchronised: comparable with REBOUND's variational particles), up to one step before it when an output time was reached by a copy (as
         :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
         scale-free)."""
         self._megno_state("tangent_vector")

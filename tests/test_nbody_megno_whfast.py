@@ -78,9 +78,10 @@ def test_kepler_tangent_is_the_derivative_of_the_drift(x0, v0, h):
     x0 = np.array(x0)
     v0 = np.array(v0)
     d = np.random.default_rng(5).standard_normal(6)
-    dx, dv = d[:3].copy(), d[3:].copy()
-    xo, vo = np.zeros(3), np.zeros(3)
-    assert wt.kepler_tangent(x0, v0, dx, dv, 1.0, h, xo, vo, math.nan)[0] == OK
+    rows = np.zeros((6, 2, 3))  # row 1 of (2, 3) arrays: x0, v0, dx, dv, xo, vo
+    rows[:4, 1] = x0, v0, d[:3], d[3:]
+    assert wt.kepler_tangent(*rows[:4], 1, 1.0, h, *rows[4:], math.nan)[0] == OK
+    dx, dv, xo, vo = rows[2:, 1]
 
     def drift(x, v):
         r, w = np.zeros(3), np.zeros(3)

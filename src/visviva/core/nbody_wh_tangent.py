@@ -92,22 +92,26 @@ def _c345(psi):
 
 
 @kernel
-def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
-    """The Kepler drift of one body over ``h`` and its tangent (state transition applied to one
-    vector).
+def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo, s_guess):
+    """The Kepler drift of one body (row ``i``) over ``h`` and its tangent (state transition
+    applied to one vector).
 
     Parameters
     ----------
-    x0, v0 : ndarray, shape (3,)
-        The state before the drift (length, length / time).
-    dx, dv : ndarray, shape (3,)
-        A tangent vector at ``(x0, v0)``; replaced by its image after the drift (in place).
+    x0, v0 : ndarray, shape (N, 3)
+        The state before the drift, row ``i`` (length, length / time).
+    dx, dv : ndarray, shape (N, 3)
+        A tangent vector at ``(x0[i], v0[i])``, row ``i``; replaced by its image after the drift
+        (in place).
+    i : int
+        The row (rows, not row views, are passed: a view costs two reference-count updates,
+        which made the tangent step 2x slower).
     gm : float
         Gravitational parameter (length**3 / time**2), > 0.
     h : float
         The drift time (time), any sign.
-    xo, vo : ndarray, shape (3,)
-        Receive the state after the drift (may be ``x0, v0`` themselves). Only the linearisation
+    xo, vo : ndarray, shape (N, 3)
+        Row ``i`` receives the state after the drift (may be ``x0, v0`` themselves). Only the linearisation
         point of a next tangent step: the physical drift is
         :func:`visviva.core.universal.propagate_scalar`'s.
     s_guess : float
@@ -126,13 +130,14 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
     than a period is reduced by whole periods for the solver; ``G3..G5`` then carry the secular
     part, ``G_{k+2} = (s**k / k! - G_k) / beta``.
     """
-    r0 = math.sqrt(x0[0] * x0[0] + x0[1] * x0[1] + x0[2] * x0[2])
-    if not (math.isfinite(r0) and math.isfinite(v0[0] + v0[1] + v0[2]) and math.isfinite(h)):
+    r0 = math.sqrt(x0[i, 0] * x0[i, 0] + x0[i, 1] * x0[i, 1] + x0[i, 2] * x0[i, 2])
+    speeds = v0[i, 0] + v0[i, 1] + v0[i, 2]
+    if not (math.isfinite(r0) and math.isfinite(speeds) and math.isfinite(h)):
         return NON_FINITE, math.nan
     if r0 == 0.0:
         return ZERO_POSITION, math.nan
-    eta = x0[0] * v0[0] + x0[1] * v0[1] + x0[2] * v0[2]
-    beta = 2.0 * gm / r0 - (v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2])
+    eta = x0[i, 0] * v0[i, 0] + x0[i, 1] * v0[i, 1] + x0[i, 2] * v0[i, 2]
+    beta = 2.0 * gm / r0 - (v0[i, 0] * v0[i, 0] + v0[i, 1] * v0[i, 1] + v0[i, 2] * v0[i, 2])
     tau = h
     turns = 0.0
     if beta > 0.0:
@@ -165,10 +170,11 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
     fd = -gm * G1 / (r0 * r)
     gd = 1.0 - gm * G2 / r
     # the variations of r0, eta, beta, then of s (Kepler's equation at fixed h) and the G_k
-    dr0 = (x0[0] * dx[0] + x0[1] * dx[1] + x0[2] * dx[2]) / r0
-    deta = (dx[0] * v0[0] + dx[1] * v0[1] + dx[2] * v0[2]
-            + x0[0] * dv[0] + x0[1] * dv[1] + x0[2] * dv[2])
-    dbeta = -2.0 * gm * dr0 / (r0 * r0) - 2.0 * (v0[0] * dv[0] + v0[1] * dv[1] + v0[2] * dv[2])
+    dr0 = (x0[i, 0] * dx[i, 0] + x0[i, 1] * dx[i, 1] + x0[i, 2] * dx[i, 2]) / r0
+    deta = (dx[i, 0] * v0[i, 0] + dx[i, 1] * v0[i, 1] + dx[i, 2] * v0[i, 2]
+            + x0[i, 0] * dv[i, 0] + x0[i, 1] * dv[i, 1] + x0[i, 2] * dv[i, 2])
+    vdv = v0[i, 0] * dv[i, 0] + v0[i, 1] * dv[i, 1] + v0[i, 2] * dv[i, 2]
+    dbeta = -2.0 * gm * dr0 / (r0 * r0) - 2.0 * vdv
     b0 = -0.5 * s * G1
     b1 = 0.5 * (G3 - s * G2)
     b2 = 0.5 * (2.0 * G4 - s * G3)
@@ -183,14 +189,14 @@ def kepler_tangent(x0, v0, dx, dv, gm, h, xo, vo, s_guess):
     dfd = -gm * (dG1 - G1 * (dr0 / r0 + dr / r)) / (r0 * r)
     dgd = -gm * (dG2 - G2 * dr / r) / r
     for c in range(3):
-        a = x0[c]
-        b = v0[c]
-        ex = dx[c]
-        ev = dv[c]
-        dx[c] = df * a + f * ex + dg * b + g * ev
-        dv[c] = dfd * a + fd * ex + dgd * b + gd * ev
-        xo[c] = f * a + g * b
-        vo[c] = fd * a + gd * b
+        a = x0[i, c]
+        b = v0[i, c]
+        ex = dx[i, c]
+        ev = dv[i, c]
+        dx[i, c] = df * a + f * ex + dg * b + g * ev
+        dv[i, c] = dfd * a + fd * ex + dgd * b + gd * ev
+        xo[i, c] = f * a + g * b
+        vo[i, c] = fd * a + gd * b
     return OK, sr
 
 
@@ -207,8 +213,7 @@ def _tangent_drift(xs, vs, tx, tv, eta, G, h, xo, vo, s, col):
         vo[0, c] = vs[0, c]
     for i in range(1, n):
         guess = s[i, col] if s[i, col] != 0.0 else math.nan
-        st, s[i, col] = kepler_tangent(xs[i], vs[i], tx[i], tv[i], G * eta[i], h, xo[i], vo[i],
-                                       guess)
+        st, s[i, col] = kepler_tangent(xs, vs, tx, tv, i, G * eta[i], h, xo, vo, guess)
         if st != OK:
             return st
     return OK

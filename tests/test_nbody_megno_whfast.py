@@ -80,7 +80,7 @@ def test_kepler_tangent_is_the_derivative_of_the_drift(x0, v0, h):
     d = np.random.default_rng(5).standard_normal(6)
     rows = np.zeros((6, 2, 3))  # row 1 of (2, 3) arrays: x0, v0, dx, dv, xo, vo
     rows[:4, 1] = x0, v0, d[:3], d[3:]
-    assert wt.kepler_tangent(*rows[:4], 1, 1.0, h, *rows[4:], math.nan)[0] == OK
+    assert wt.kepler_tangent(*rows[:4], 1, 1.0, h, *rows[4:])[0] == OK
     dx, dv, xo, vo = rows[2:, 1]
 
     def drift(x, v):

@@ -61,7 +61,6 @@ _DA = 4  # the tangent acceleration (inertial)
 _DAJ = 5  # ... in Jacobi coordinates
 _MX = 6  # the synchronised physical state at the last grid point, Jacobi coordinates
 _MV = 7
-_S = 8  # the universal anomaly of each body's last solve, columns 0/1: the first/second drift
 
 _TWO_PI = 2.0 * math.pi
 #: 1/(2k+3)!, 1/(2k+4)!, 1/(2k+5)! (rows), k = 0..13: Taylor coefficients of c3, c4, c5 in
@@ -92,7 +91,7 @@ def _c345(psi):
 
 
 @kernel
-def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo, s_guess):
+def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo):
     """The Kepler drift of one body (row ``i``) over ``h`` and its tangent (state transition
     applied to one vector).
 
@@ -114,21 +113,23 @@ def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo, s_guess):
         Row ``i`` receives the state after the drift (may be ``x0, v0`` themselves). Only the linearisation
         point of a next tangent step: the physical drift is
         :func:`visviva.core.universal.propagate_scalar`'s.
-    s_guess : float
-        A starting value of the universal anomaly (``s`` of a similar drift; NaN: none).
 
     Returns
     -------
     status : int
         ``OK``, or ``ZERO_POSITION``/``NON_FINITE``/``NO_CONVERGENCE`` (nothing written).
     s : float
-        The universal anomaly solved for (reduced by whole periods), a guess for the next call.
+        The universal anomaly solved for (reduced by whole periods).
 
     Notes
     -----
-    The module docstring gives the equations (Danby 1992, sec. 6.9). An elliptic drift longer
-    than a period is reduced by whole periods for the solver; ``G3..G5`` then carry the secular
-    part, ``G_{k+2} = (s**k / k! - G_k) / beta``.
+    The module docstring gives the equations (Danby 1992, sec. 6.9). The solver starts from the
+    reversed series of Kepler's equation, ``t = r0 s + eta s**2 / 2 + (gm - beta r0) s**3 / 6
+    + ...``: ``s ~ t / r0 - (eta / 2) t**2 / r0**3 + (eta**2 / 2 - r0 (gm - beta r0) / 6) t**3 /
+    r0**5``, good to ``O((n t)**4)``, so that a WHFast half step (``n t`` of 0.3 or less) takes
+    one or two Laguerre iterations. An elliptic drift longer than a period is reduced by whole
+    periods for the solver; ``G3..G5`` then carry the secular part,
+    ``G_{k+2} = (s**k / k! - G_k) / beta``.
     """
     r0 = math.sqrt(x0[i, 0] * x0[i, 0] + x0[i, 1] * x0[i, 1] + x0[i, 2] * x0[i, 2])
     speeds = v0[i, 0] + v0[i, 1] + v0[i, 2]
@@ -150,6 +151,9 @@ def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo, s_guess):
     G1 = 0.0
     G2 = 0.0
     if tau != 0.0:
+        u = tau / r0
+        s_guess = u * (1.0 - 0.5 * eta * u / r0
+                       + (0.5 * eta * eta / r0 - (gm - beta * r0) / 6.0) * u * u / r0)
         ok, sr, G0, G1, G2 = solve_universal(r0, eta, gm, beta, tau, s_guess)
         if not ok:
             return NO_CONVERGENCE, math.nan
@@ -201,19 +205,16 @@ def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo, s_guess):
 
 
 @kernel
-def _tangent_drift(xs, vs, tx, tv, eta, G, h, xo, vo, s, col):
+def _tangent_drift(xs, vs, tx, tv, eta, G, h, xo, vo):
     """Every Jacobi body's Kepler drift tangent over ``h`` from ``xs, vs`` (``tx, tv`` in place;
-    the drifted state into ``xo, vo``); the centre of mass (row 0) moves on a straight line.
-    ``s[:, col]``: the universal anomalies of the last such drift (a start for the solver; 0:
-    none), replaced by this drift's."""
+    the drifted state into ``xo, vo``); the centre of mass (row 0) moves on a straight line."""
     n = xs.shape[0]
     for c in range(3):
         tx[0, c] += tv[0, c] * h
         xo[0, c] = xs[0, c] + vs[0, c] * h
         vo[0, c] = vs[0, c]
     for i in range(1, n):
-        guess = s[i, col] if s[i, col] != 0.0 else math.nan
-        st, s[i, col] = kepler_tangent(xs, vs, tx, tv, i, G * eta[i], h, xo, vo, guess)
+        st, _s = kepler_tangent(xs, vs, tx, tv, i, G * eta[i], h, xo, vo)
         if st != OK:
             return st
     return OK
@@ -225,7 +226,6 @@ def whfast_tangent_start(x, v, m, eta, buf, base):
     afresh: the linearisation point of the next step's first half drift."""
     to_jacobi(x, m, eta, buf[base + _MX])
     to_jacobi(v, m, eta, buf[base + _MV])
-    buf[base + _S] = 0.0  # no solver start from an earlier run (maybe with another dt)
 
 
 @kernel
@@ -250,8 +250,7 @@ def whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
     to_jacobi(dx, m, eta, tx)
     to_jacobi(buf[base + DV], m, eta, tv)
     half = 0.5 * h
-    s = buf[base + _S]
-    st = _tangent_drift(mx, mv, tx, tv, eta, G, half, mx, mv, s, 0)
+    st = _tangent_drift(mx, mv, tx, tv, eta, G, half, mx, mv)
     if st != OK:
         return st
     # the kick: the inertial gravity gradient through the (linear) transforms, minus the
@@ -267,7 +266,7 @@ def whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
         p = 3.0 * (xj[i, 0] * tx[i, 0] + xj[i, 1] * tx[i, 1] + xj[i, 2] * tx[i, 2]) / r2
         for c in range(3):
             tv[i, c] += (daj[i, c] + k * (tx[i, c] - p * xj[i, c])) * h
-    st = _tangent_drift(xj, vj, tx, tv, eta, G, half, mx, mv, s, 1)
+    st = _tangent_drift(xj, vj, tx, tv, eta, G, half, mx, mv)
     if st != OK:
         return st
     from_jacobi(tx, m, eta, dx)

@@ -110,9 +110,9 @@ def kepler_tangent(x0, v0, dx, dv, i, gm, h, xo, vo):
     h : float
         The drift time (time), any sign.
     xo, vo : ndarray, shape (N, 3)
-        Row ``i`` receives the state after the drift (may be ``x0, v0`` themselves). Only the linearisation
-        point of a next tangent step: the physical drift is
-        :func:`visviva.core.universal.propagate_scalar`'s.
+        Row ``i`` receives the state after the drift (may be ``x0, v0`` themselves): only the
+        linearisation point of a next tangent step (the physical drift is
+        :func:`visviva.core.universal.propagate_scalar`'s).
 
     Returns
     -------

@@ -6,9 +6,10 @@ integrated with the particles by the first-order variational equations and MEGNO
 step by step (the kernels and the definitions: :mod:`visviva.core.nbody_variational`).
 
 Supported integrators: :data:`MEGNO_INTEGRATORS` (IAS15, leapfrog, WHFast in Jacobi
-coordinates without corrector or event checks; :mod:`visviva.core.nbody_wh_tangent`). The physical trajectory is
-bit for bit that of a run without MEGNO: the tangent vector follows each step the integrator
-takes and never steers it (IAS15's step-size control sees the particles alone).
+coordinates without corrector or event checks; :mod:`visviva.core.nbody_wh_tangent`). The
+physical trajectory is bit for bit that of a run without MEGNO: the tangent vector follows each
+step the integrator takes and never steers it (IAS15's step-size control sees the particles
+alone).
 """
 
 from __future__ import annotations
@@ -122,8 +123,8 @@ class ChaosIndicators:
         -----
         Supported by IAS15, leapfrog and WHFast (:data:`MEGNO_INTEGRATORS`; WHFast in Jacobi
         coordinates, without corrector, collision checks, encounter distance or escape radius);
-        the others raise, as do additional forces (no Jacobian), ``collision="merge"``/
-        ``"bounce"`` and the CUDA backend. MEGNO counts time from this call, as the sum of the steps taken
+        additional forces (no Jacobian), ``collision="merge"``/``"bounce"`` and the CUDA
+        backend raise. MEGNO counts time from this call, as the sum of the steps taken
         (assigning ``sim.t`` later moves nothing; REBOUND counts from ``t = 0``, the same for
         a simulation started at 0 that keeps its clock). The integrator's internal state
         restarts here from the current positions and velocities (as after any change of them);
@@ -207,8 +208,8 @@ class ChaosIndicators:
     def tangent_vector(self) -> np.ndarray:
         """The tangent vector, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy), at the
         integrator's last step: ``sim.t`` with ``exact_finish_time=False`` or on the leapfrog's
-        or WHFast's step grid (synchronised: comparable with REBOUND's variational particles), up to one step before it when an output time was reached by a copy (as
-        :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
+        or WHFast's step grid (synchronised: comparable with REBOUND's variational particles),
+        up to one step before it when an output time was reached by a copy (as :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
         scale-free)."""
         self._megno_state("tangent_vector")
         base = self._integrator.n_buf

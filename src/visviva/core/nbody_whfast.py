@@ -336,8 +336,9 @@ def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, 
 #: The ``plain`` argument of the run body for the default case: Jacobi coordinates, no
 #: symplectic corrector, no MEGNO, no collisions, encounters or escape radius (a type, not a
 #: value: numba then drops the corrector, the MEGNO hooks, the democratic heliocentric step and
-#: the event path; see :func:`is_plain`). ``dh`` stays a run-time ``False`` for the callees: passing ``None`` there
-#: too dropped 3 s more of compiling but made the warm step loop 5-7 % slower.
+#: the event path; see :func:`is_plain`). ``dh`` stays a run-time ``False`` for the callees:
+#: passing ``None`` there too dropped 3 s more of compiling but made the warm step loop 5-7 %
+#: slower.
 PLAIN = None
 #: The ``plain`` argument for every other case (chosen at run time from ``istate``).
 ANY_CASE = True

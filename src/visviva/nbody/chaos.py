@@ -209,8 +209,8 @@ class ChaosIndicators:
         """The tangent vector, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy), at the
         integrator's last step: ``sim.t`` with ``exact_finish_time=False`` or on the leapfrog's
         or WHFast's step grid (synchronised: comparable with REBOUND's variational particles),
-        up to one step before it when an output time was reached by a copy (as :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
-        scale-free)."""
+        up to one step before it when an output time was reached by a copy (as :meth:`megno`).
+        Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is scale-free)."""
         self._megno_state("tangent_vector")
         base = self._integrator.n_buf
         buf = self._state.buf

@@ -197,6 +197,12 @@ def test_whfast_megno_in_a_packed_ensemble_matches_lone_runs():
     assert pack is not None and pack.advance(100.0) == []
     np.testing.assert_array_equal([s.megno() for s in packed], [s.megno() for s in lone])
     assert packed[1].megno() > packed[0].megno()
+    # a member's own setting without a tangent map is refused, not run without MEGNO
+    ens = vv.Ensemble(members())
+    ens.integrate(10.0)
+    ens._members[2].corrector = 3
+    with pytest.raises(InvalidInputError, match="corrector"):
+        ens.integrate(20.0)
 
 
 def test_whfast_megno_refuses_what_it_has_no_tangent_map_for():

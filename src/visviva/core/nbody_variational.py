@@ -78,7 +78,8 @@ from .nbody_common import (
 )
 
 __all__ = ["tangent_acceleration", "megno_update", "leapfrog_tangent", "ias15_tangent",
-           "megno_on", "N_TANGENT_SLOTS", "DX", "DV", "RESCALE_ABOVE", "RESCALE"]
+           "megno_on", "ln_norm_rescaled", "N_TANGENT_SLOTS", "DX", "DV", "RESCALE_ABOVE",
+           "RESCALE"]
 
 # slots after the integrator's own (offsets from base)
 DX = 0  #: tangent positions
@@ -166,7 +167,7 @@ def megno_update(fstate, h, ln_delta):
 
 
 @kernel
-def _ln_norm_rescaled(fstate, buf, base, with_b):
+def ln_norm_rescaled(fstate, buf, base, with_b):
     """``ln|delta|`` of the tangent vector; when ``|delta|^2`` exceeds :data:`RESCALE_ABOVE` the
     vector (and IAS15's tangent ``b``, its predictor) is first multiplied by :data:`RESCALE` and
     the factor remembered in ``fstate[F_MG_LN_SHIFT]``."""
@@ -205,7 +206,7 @@ def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, h):
         for c in range(3):
             dv[i, c] += da[i, c] * h
             dx[i, c] += dv[i, c] * half
-    megno_update(fstate, h, _ln_norm_rescaled(fstate, buf, base, False))
+    megno_update(fstate, h, ln_norm_rescaled(fstate, buf, base, False))
 
 
 @kernel
@@ -335,4 +336,4 @@ def ias15_tangent(xi, vi, m, massive, fstate, buf, base, b_slot, a0_slot, dt):
         dv[q] += _velocity_change(bf, tb, da, q, dt)
         dx[q] += ddx
     fstate[F_MG_DT_PREV] = dt
-    megno_update(fstate, dt, _ln_norm_rescaled(fstate, buf, base, True))
+    megno_update(fstate, dt, ln_norm_rescaled(fstate, buf, base, True))

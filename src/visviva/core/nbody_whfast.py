@@ -71,6 +71,7 @@ from .nbody_common import (
     I_EXACT_FINISH,
     I_FRESH,
     I_K,
+    I_MEGNO,
     I_NOUT,
     I_PARALLEL,
     I_STEPS,
@@ -86,9 +87,33 @@ from .nbody_common import (
     start_clock,
     write_output,
 )
+from .nbody_variational import megno_on
+from .nbody_wh_maps import (
+    dh_interaction_kick,
+    drift,
+    from_democratic_heliocentric,
+    from_internal,
+    from_jacobi,
+    interaction_kick,
+    jump,
+    kepler_drift,
+    to_democratic_heliocentric,
+    to_internal,
+    to_jacobi,
+)
+from .nbody_wh_tangent import whfast_tangent, whfast_tangent_start
 from .status import OK
-from .universal import propagate_scalar
 from .wh_corrector import CORRECTOR_A, CORRECTOR_B
+
+# the step's maps under the names this module's run body (and its GPU twins and tests, as
+# ``nbody_whfast._name``) have always used
+_to_internal = to_internal
+_from_internal = from_internal
+_kepler_drift = kepler_drift
+_jump = jump
+_drift = drift
+_interaction_kick = interaction_kick
+_dh_interaction_kick = dh_interaction_kick
 
 __all__ = [
     "whfast_run",
@@ -122,214 +147,6 @@ _XS = 5
 _VS = 6
 #: Number of (N, 3) slots in ``buf``.
 N_BUF = 7
-
-
-@kernel
-def to_jacobi(x, m, eta, xj):
-    """Inertial -> Jacobi (positions, velocities or accelerations alike); ``xj[0]`` = COM.
-
-    With ``X_0 = x_0``: ``x'_i = x_i - X_{i-1}``, ``X_i = X_{i-1} + (m_i / eta_i) x'_i``. The
-    inverse :func:`from_jacobi` undoes the same operations in reverse order, so the round trip is
-    free of a systematic scale error (two separately rounded factors ``eta_{i-1}/eta_i`` and
-    ``m_i/eta_i`` whose sum is not exactly 1 would shrink or stretch the relative motion every
-    step and make the energy drift).
-    """
-    n = x.shape[0]
-    Xx = x[0, 0]
-    Xy = x[0, 1]
-    Xz = x[0, 2]
-    for i in range(1, n):
-        dx = x[i, 0] - Xx
-        dy = x[i, 1] - Xy
-        dz = x[i, 2] - Xz
-        xj[i, 0] = dx
-        xj[i, 1] = dy
-        xj[i, 2] = dz
-        q = m[i] / eta[i]
-        Xx += q * dx
-        Xy += q * dy
-        Xz += q * dz
-    xj[0, 0] = Xx
-    xj[0, 1] = Xy
-    xj[0, 2] = Xz
-
-
-@kernel
-def from_jacobi(xj, m, eta, x):
-    """Jacobi -> inertial: ``X_{i-1} = X_i - (m_i / eta_i) x'_i``, ``x_i = X_{i-1} + x'_i``."""
-    n = x.shape[0]
-    Xx = xj[0, 0]
-    Xy = xj[0, 1]
-    Xz = xj[0, 2]
-    for i in range(n - 1, 0, -1):
-        q = m[i] / eta[i]
-        Xx -= q * xj[i, 0]
-        Xy -= q * xj[i, 1]
-        Xz -= q * xj[i, 2]
-        x[i, 0] = Xx + xj[i, 0]
-        x[i, 1] = Xy + xj[i, 1]
-        x[i, 2] = Xz + xj[i, 2]
-    x[0, 0] = Xx
-    x[0, 1] = Xy
-    x[0, 2] = Xz
-
-
-@kernel
-def to_democratic_heliocentric(x, m, eta, q, barycentric):
-    """Inertial -> democratic heliocentric, one array (positions or velocities).
-
-    ``q[0]`` = the centre of mass ``sum m_i x_i / M`` (``M = eta[-1]``); for ``i >= 1``
-    ``q_i = x_i - x_0`` (positions: heliocentric) or, with ``barycentric``, ``q_i = x_i - q_0``
-    (velocities: barycentric, i.e. the canonical momenta divided by the masses).
-    """
-    n = x.shape[0]
-    M = eta[n - 1]
-    for c in range(3):
-        s = 0.0
-        for i in range(n):
-            s += m[i] * x[i, c]
-        X = s / M
-        origin = X if barycentric else x[0, c]
-        for i in range(1, n):
-            q[i, c] = x[i, c] - origin
-        q[0, c] = X
-
-
-@kernel
-def from_democratic_heliocentric(q, m, eta, x, barycentric):
-    """Democratic heliocentric -> inertial, the inverse of :func:`to_democratic_heliocentric`.
-
-    Positions: ``x_0 = q_0 - sum_{i>=1} m_i q_i / M``, ``x_i = q_i + x_0``. Velocities
-    (``barycentric``): ``v_0 = q_0 - sum_{i>=1} m_i q_i / m_0``, ``v_i = q_i + q_0``.
-    """
-    n = x.shape[0]
-    M = eta[n - 1]
-    for c in range(3):
-        s = 0.0
-        for i in range(1, n):
-            s += m[i] * q[i, c]
-        if barycentric:
-            x[0, c] = q[0, c] - s / m[0]
-            origin = q[0, c]
-        else:
-            origin = q[0, c] - s / M
-            x[0, c] = origin
-        for i in range(1, n):
-            x[i, c] = q[i, c] + origin
-
-
-@kernel
-def _to_internal(x, v, m, eta, xj, vj, dh):
-    """Inertial ``x, v`` -> the internal coordinates (Jacobi, or democratic heliocentric)."""
-    if dh:
-        to_democratic_heliocentric(x, m, eta, xj, False)
-        to_democratic_heliocentric(v, m, eta, vj, True)
-    else:
-        to_jacobi(x, m, eta, xj)
-        to_jacobi(v, m, eta, vj)
-
-
-@kernel
-def _from_internal(xj, vj, m, eta, x, v, dh):
-    """The internal coordinates -> inertial ``x, v``."""
-    if dh:
-        from_democratic_heliocentric(xj, m, eta, x, False)
-        from_democratic_heliocentric(vj, m, eta, v, True)
-    else:
-        from_jacobi(xj, m, eta, x)
-        from_jacobi(vj, m, eta, v)
-
-
-@kernel
-def _kepler_drift(xj, vj, eta, G, h, dh):
-    """Every body on its Kepler orbit for ``h`` (GM = ``G eta_i``, or ``G m_0`` with ``dh``);
-    the centre of mass (row 0) on a straight line."""
-    n = xj.shape[0]
-    for c in range(3):
-        xj[0, c] += vj[0, c] * h
-    for i in range(1, n):
-        gm = G * eta[0] if dh else G * eta[i]
-        st, x, y, z, vx, vy, vz = propagate_scalar(
-            xj[i, 0], xj[i, 1], xj[i, 2], vj[i, 0], vj[i, 1], vj[i, 2], gm, h
-        )
-        if st != OK:
-            return st
-        xj[i, 0] = x
-        xj[i, 1] = y
-        xj[i, 2] = z
-        vj[i, 0] = vx
-        vj[i, 1] = vy
-        vj[i, 2] = vz
-    return OK
-
-
-#: Public name of :func:`_kepler_drift` for step-by-step drivers (the GPU backend's WHFast).
-kepler_drift = _kepler_drift
-
-
-@kernel
-def _jump(q, vb, m, h):
-    """The democratic heliocentric jump: every ``Q_i += h sum_{j>=1} m_j V_j / m_0``."""
-    n = q.shape[0]
-    px = 0.0
-    py = 0.0
-    pz = 0.0
-    for i in range(1, n):
-        px += m[i] * vb[i, 0]
-        py += m[i] * vb[i, 1]
-        pz += m[i] * vb[i, 2]
-    k = h / m[0]
-    for i in range(1, n):
-        q[i, 0] += k * px
-        q[i, 1] += k * py
-        q[i, 2] += k * pz
-
-
-@kernel
-def _drift(xj, vj, m, eta, G, h, jump_before, jump_after, dh):
-    """The part of a step between kicks: Kepler drift ``h``, with ``dh`` between the jumps
-    ``jump_before`` and ``jump_after`` (step lengths; 0 for none)."""
-    if dh and jump_before != 0.0:
-        _jump(xj, vj, m, jump_before)
-    st = _kepler_drift(xj, vj, eta, G, h, dh)
-    if st != OK:
-        return st
-    if dh and jump_after != 0.0:
-        _jump(xj, vj, m, jump_after)
-    return OK
-
-
-@kernel
-def _interaction_kick(xj, vj, aj, eta, G, h):
-    n = xj.shape[0]
-    for c in range(3):
-        vj[0, c] += aj[0, c] * h
-    for i in range(1, n):
-        r2 = xj[i, 0] * xj[i, 0] + xj[i, 1] * xj[i, 1] + xj[i, 2] * xj[i, 2]
-        k = G * eta[i] / (r2 * math.sqrt(r2))
-        for c in range(3):
-            vj[i, c] += (aj[i, c] + k * xj[i, c]) * h
-
-
-#: Public name of :func:`_interaction_kick` for step-by-step drivers (the GPU backend's WHFast).
-interaction_kick = _interaction_kick
-
-
-@kernel
-def _dh_interaction_kick(vj, acc, fa, m, eta, h):
-    """Democratic heliocentric kick ``h``: ``V_i += (g_i + f_i - a_cm) h`` with ``g`` the gravity
-    of the bodies other than the central one, ``f`` the additional force and ``a_cm`` its
-    mass-weighted mean, which kicks the centre-of-mass velocity ``V_0`` (row 0)."""
-    n = vj.shape[0]
-    M = eta[n - 1]
-    for c in range(3):
-        s = 0.0
-        for i in range(n):
-            s += m[i] * fa[i, c]
-        a_cm = s / M
-        vj[0, c] += a_cm * h
-        for i in range(1, n):
-            vj[i, c] += (acc[i, c] + (fa[i, c] - a_cm)) * h
 
 
 @kernel
@@ -481,6 +298,23 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
 
 
 @kernel
+def _tangent_start(mg, x, v, m, eta, buf):
+    """MEGNO (``mg`` true; ``None`` compiles nothing): remember the synchronised state where
+    the internal state is built afresh (:func:`.nbody_wh_tangent.whfast_tangent_start`)."""
+    if mg is not None and mg:
+        whfast_tangent_start(x, v, m, eta, buf, N_BUF)
+
+
+@kernel
+def _tangent_step(mg, xj, vj, x, m, massive, eta, fstate, buf, h):
+    """MEGNO (``mg`` true; ``None`` compiles nothing): the tangent vector over the Jacobi step
+    ``h`` just taken (:func:`.nbody_wh_tangent.whfast_tangent`); returns a status code."""
+    if mg is not None and mg:
+        return whfast_tangent(xj, vj, x, m, massive, eta, fstate, buf, N_BUF, h)
+    return OK
+
+
+@kernel
 def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
                out_t, out_x, out_v):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring and
@@ -500,10 +334,11 @@ def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, 
 
 
 #: The ``plain`` argument of the run body for the default case: Jacobi coordinates, no
-#: symplectic corrector, no collisions, encounters or escape radius (a type, not a value: numba
-#: then drops the corrector, the democratic heliocentric step and the event path; see
-#: :func:`is_plain`). ``dh`` stays a run-time ``False`` for the callees: passing ``None`` there
-#: too dropped 3 s more of compiling but made the warm step loop 5-7 % slower.
+#: symplectic corrector, no MEGNO, no collisions, encounters or escape radius (a type, not a
+#: value: numba then drops the corrector, the MEGNO hooks, the democratic heliocentric step and
+#: the event path; see :func:`is_plain`). ``dh`` stays a run-time ``False`` for the callees:
+#: passing ``None`` there too dropped 3 s more of compiling but made the warm step loop 5-7 %
+#: slower.
 PLAIN = None
 #: The ``plain`` argument for every other case (chosen at run time from ``istate``).
 ANY_CASE = True
@@ -511,11 +346,12 @@ ANY_CASE = True
 
 def is_plain(istate, fstate):
     """True when a run may use :func:`whfast_run_plain` (plain Python, not compiled): Jacobi
-    coordinates, no corrector, and none of collisions, encounters or an escape radius. On an
-    ensemble's stacked rows (2-D ``istate``/``fstate``) an array: the answer for each row."""
+    coordinates, no corrector, no MEGNO, and none of collisions, encounters or an escape
+    radius. On an ensemble's stacked rows (2-D ``istate``/``fstate``) an array: the answer for
+    each row."""
     return ((istate[..., I_WH_COORDINATES] == JACOBI) & (istate[..., I_CORRECTOR] == 0)
             & (istate[..., I_COLLISIONS] == 0) & (fstate[..., F_ENCOUNTER] <= 0.0)
-            & (fstate[..., F_EXIT] <= 0.0))
+            & (fstate[..., F_EXIT] <= 0.0) & (istate[..., I_MEGNO] != 1))
 
 
 @kernel
@@ -563,9 +399,12 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
     if plain is None:
         dh = False  # Jacobi (a bool: see PLAIN)
         order = plain  # None: the callees compile no corrector
+        mg = plain  # ... and no tangent vector
     else:
         dh = istate[I_WH_COORDINATES] == DEMOCRATIC_HELIOCENTRIC
         order = 0 if dh else istate[I_CORRECTOR]
+        # MEGNO: Jacobi coordinates without a corrector and without events (init_megno checks)
+        mg = megno_on(istate, buf, N_BUF) and not dh and order == 0
     dt = fstate[F_DT]
     adt = abs(dt)
     exact = istate[I_EXACT_FINISH] != 0
@@ -588,8 +427,12 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
             fstate[F_T0] = fstate[F_T]
             fstate[F_DT_REF] = adt
             istate[I_K] = 0
+            _tangent_start(mg, x, v, m, eta, buf)
             st = _first_half(x, v, m, eta, G, h, fstate[F_T], xj, vj, massive, fstate, istate,
                              gwork, force, params, acc, aj, order, dh, parallel)
+            if st != OK:
+                return st
+            st = _tangent_step(mg, xj, vj, x, m, massive, eta, fstate, buf, h)
             if st != OK:
                 return st
             # P now belongs to the grid point t0 + h: count that step
@@ -623,6 +466,9 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
                                       parallel)
                         to_jacobi(acc, m, eta, aj)
                         _interaction_kick(xj, vj, aj, eta, G, h)
+                        st = _tangent_step(mg, xj, vj, x, m, massive, eta, fstate, buf, h)
+                        if st != OK:
+                            return st
                     istate[I_K] += 1 if h > 0.0 else -1
                     istate[I_STEPS] += 1
                     fstate[F_DT_LAST] = h

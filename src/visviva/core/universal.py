@@ -86,6 +86,7 @@ __all__ = [
     "propagate_one",
     "propagate_many",
     "propagate_scalar",
+    "solve_universal",
     "MAX_ITERATIONS",
 ]
 
@@ -132,7 +133,7 @@ def _time_to_collision(r0, eta, beta, gm):
 
 
 @inline_kernel
-def _solve_universal(A, B, C, beta, tau, s_start):
+def solve_universal(A, B, C, beta, tau, s_start):
     """Solve ``A G1(s) + B G2(s) + C G3(s) = tau`` for s; returns ``(converged, s)``.
 
     With ``(A, B, C) = (r0, r0.v0, gm)`` this is the universal Kepler equation from the initial
@@ -397,7 +398,7 @@ def _propagate_unscaled(x, y, z, vx, vy, vz, gm, dt):
                 tau += period
             if tau == 0.0:
                 return OK, x, y, z, vx, vy, vz
-    converged, s, G0, G1, G2 = _solve_universal(r0, eta, gm, beta, tau, nan)
+    converged, s, G0, G1, G2 = solve_universal(r0, eta, gm, beta, tau, nan)
 
     # --- f and g (Danby's G-function form) -------------------------------------------------
     g = nan
@@ -481,9 +482,9 @@ def _from_periapsis(x, y, z, vx, vy, vz, gm, tau, r0, eta, beta, s_guess):
     c0, c1, c2, c3 = stumpff_all(beta * sigma0 * sigma0)
     T1 = q * sigma0 + mue * sigma0 * sigma0 * sigma0 * c3 + tau
     # t(sigma) = q G1 + gm G3 = q sigma + gm e G3: the universal equation from periapsis
-    converged, sigma, G0, G1, G2 = _solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)
+    converged, sigma, G0, G1, G2 = solve_universal(q, 0.0, gm, beta, T1, sigma0 + s_guess)
     if not converged:
-        converged, sigma, G0, G1, G2 = _solve_universal(q, 0.0, gm, beta, T1, nan)
+        converged, sigma, G0, G1, G2 = solve_universal(q, 0.0, gm, beta, T1, nan)
     if not converged or not math.isfinite(sigma):
         return NO_CONVERGENCE, nan, nan, nan, nan, nan, nan
     r = q + mue * G2

@@ -5,9 +5,11 @@ REBOUND's ``sim.init_megno()``, ``sim.megno()`` and ``sim.lyapunov()``, as metho
 integrated with the particles by the first-order variational equations and MEGNO is accumulated
 step by step (the kernels and the definitions: :mod:`visviva.core.nbody_variational`).
 
-Supported integrators: :data:`MEGNO_INTEGRATORS` (IAS15, leapfrog). The physical trajectory is
-bit for bit that of a run without MEGNO: the tangent vector follows each step the integrator
-takes and never steers it (IAS15's step-size control sees the particles alone).
+Supported integrators: :data:`MEGNO_INTEGRATORS` (IAS15, leapfrog, WHFast in Jacobi
+coordinates without corrector or event checks; :mod:`visviva.core.nbody_wh_tangent`). The
+physical trajectory is bit for bit that of a run without MEGNO: the tangent vector follows each
+step the integrator takes and never steers it (IAS15's step-size control sees the particles
+alone).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from ..errors import InvalidInputError, InvalidStateError, ShapeError
 __all__ = ["ChaosIndicators", "MEGNO_INTEGRATORS", "extra_slots", "check_run", "refuse_packed"]
 
 #: Integrators that integrate the tangent vector (the others refuse ``init_megno``).
-MEGNO_INTEGRATORS = ("ias15", "leapfrog")
+MEGNO_INTEGRATORS = ("ias15", "leapfrog", "whfast")
 
 _F_SLOTS = (_nc.F_MG_YS, _nc.F_MG_YSS, _nc.F_MG_N, _nc.F_MG_MEAN_T, _nc.F_MG_MEAN_Y,
             _nc.F_MG_COV, _nc.F_MG_VAR, _nc.F_MG_TAU, _nc.F_MG_DT_PREV, _nc.F_MG_LN,
@@ -41,8 +43,10 @@ def _check_supported(sim, what: str) -> None:
     if sim.integrator not in MEGNO_INTEGRATORS:
         raise InvalidInputError(
             f"{what}: MEGNO needs the tangent map of the integrator, which visviva has for "
-            f"{' and '.join(repr(k) for k in MEGNO_INTEGRATORS)} only, not "
-            f"{sim.integrator!r}; set sim.integrator = 'ias15' (or 'leapfrog') first.")
+            f"{', '.join(repr(k) for k in MEGNO_INTEGRATORS)} only, not "
+            f"{sim.integrator!r}; set sim.integrator = 'whfast' (or 'ias15') first.")
+    if sim.integrator == "whfast":
+        _check_whfast(sim, what)
     if sim.forces:
         names = ", ".join(f.name for f in sim.forces)
         raise InvalidInputError(
@@ -58,6 +62,26 @@ def _check_supported(sim, what: str) -> None:
         raise InvalidInputError(
             f"{what}: MEGNO runs on the CPU backend only; create the simulation with "
             "backend='cpu'.")
+
+
+def _check_whfast(sim, what: str) -> None:
+    """WHFast's tangent map covers Jacobi coordinates without a corrector and without events."""
+    if sim.coordinates != "jacobi":
+        raise InvalidInputError(
+            f"{what}: WHFast's tangent map is implemented for Jacobi coordinates only, not "
+            f"{sim.coordinates!r}; set sim.coordinates = 'jacobi' for MEGNO.")
+    if sim.corrector != 0:
+        raise InvalidInputError(
+            f"{what}: WHFast's symplectic corrector (corrector={sim.corrector}) has no tangent "
+            "map here, so MEGNO would follow a different map than the particles; set "
+            "sim.corrector = 0 for MEGNO.")
+    st = sim.state_arrays()
+    if (st["istate"][_nc.I_COLLISIONS] != 0 or st["fstate"][_nc.F_ENCOUNTER] > 0.0
+            or st["fstate"][_nc.F_EXIT] > 0.0):
+        raise InvalidInputError(
+            f"{what}: WHFast checks collisions, encounters and escapes on synchronised steps, "
+            "which do not carry the tangent vector; with MEGNO use collision='none', "
+            "encounter_distance=None and exit_max_distance=None (or integrator='ias15').")
 
 
 def check_run(sim) -> None:
@@ -97,9 +121,10 @@ class ChaosIndicators:
 
         Notes
         -----
-        Supported by IAS15 and leapfrog (:data:`MEGNO_INTEGRATORS`); WHFast and the others
-        raise, as do additional forces (no Jacobian), ``collision="merge"``/``"bounce"`` and
-        the CUDA backend. MEGNO counts time from this call, as the sum of the steps taken
+        Supported by IAS15, leapfrog and WHFast (:data:`MEGNO_INTEGRATORS`; WHFast in Jacobi
+        coordinates, without corrector, collision checks, encounter distance or escape radius);
+        additional forces (no Jacobian), ``collision="merge"``/``"bounce"`` and the CUDA
+        backend raise. MEGNO counts time from this call, as the sum of the steps taken
         (assigning ``sim.t`` later moves nothing; REBOUND counts from ``t = 0``, the same for
         a simulation started at 0 that keeps its clock). The integrator's internal state
         restarts here from the current positions and velocities (as after any change of them);
@@ -112,7 +137,8 @@ class ChaosIndicators:
         it (:meth:`megno` then raises).
 
         Costs one more O(N**2) Jacobian-vector product per force evaluation (IAS15: a second
-        predictor-corrector loop on the linear tangent equations; see docs/performance.md).
+        predictor-corrector loop on the linear tangent equations; WHFast: also two Kepler
+        tangent drifts per body and step; see docs/performance.md).
         """
         _check_supported(self, "init_megno")
         n = self.N
@@ -182,9 +208,9 @@ class ChaosIndicators:
     def tangent_vector(self) -> np.ndarray:
         """The tangent vector, shape (N, 6) ``(dx, dy, dz, dvx, dvy, dvz)`` (a copy), at the
         integrator's last step: ``sim.t`` with ``exact_finish_time=False`` or on the leapfrog's
-        step grid, up to one step before it when an output time was reached by a copy (as
-        :meth:`megno`). Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is
-        scale-free)."""
+        or WHFast's step grid (synchronised: comparable with REBOUND's variational particles),
+        up to one step before it when an output time was reached by a copy (as :meth:`megno`).
+        Multiplied by 1e-100 whenever ``|delta|^2`` passes 1e200 (MEGNO is scale-free)."""
         self._megno_state("tangent_vector")
         base = self._integrator.n_buf
         buf = self._state.buf

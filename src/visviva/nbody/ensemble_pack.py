@@ -36,7 +36,7 @@ import numpy as np
 from ..core import nbody_common as _nc
 from ..core import status as _st
 from ..core.gravity import GWORK_ROWS, PAIR_MIN_N, massive_indices
-from .chaos import extra_slots, refuse_packed
+from .chaos import check_run, extra_slots, refuse_packed
 from .step_check import MIN_STEP_REL
 
 __all__ = ["Pack", "ensemble_kernel", "finish_member"]
@@ -222,6 +222,14 @@ class Pack:
             target = float(first.begin_run(t)[0])  # converts t and checks member 0
         except Exception:
             return None  # the per-member path raises it, for the right member
+        if extra_slots(first):
+            # MEGNO's settings are each member's own (WHFast's coordinates, corrector, events):
+            # a member whose tangent map is missing must raise, not run without it
+            try:
+                for s in self.members[1:]:
+                    check_run(s)
+            except Exception:
+                return None
         info = first.integrator_info
         dt = self.fstate[:, _nc.F_DT]
         if (info.needs_dt or info.adaptive) and not np.all(dt != 0.0):

@@ -170,9 +170,12 @@ def general_swaps(force):
     """The helpers :func:`build_general` swaps in the CPU kernel's run body (a ``replace``
     mapping of :func:`.twins.device_twin`, the Kepler solver's twin marked never inlined):
     ``gravity.gravity`` and ``nbody_common.accelerations`` become the plain few-body rows (the
-    bits of the CPU's few-body kernels), the latter adding the device force ``force``."""
-    from .. import gravity, nbody_common, universal
+    bits of the CPU's few-body kernels), the latter adding the device force ``force``; the
+    MEGNO switch becomes a constant False and the tangent steps no-ops (the GPU backend refuses
+    MEGNO, :mod:`visviva.nbody.chaos`: no tangent code is compiled for the device)."""
+    from .. import gravity, nbody_common, nbody_variational, nbody_wh_tangent, universal
     from ..nbody_common import F_G, F_SOFT2
+    from ..status import OK
     from .twins import device_twin, never_inlined
 
     rows = device_twin(gravity._plain_rows)
@@ -188,7 +191,22 @@ def general_swaps(force):
         rows(x, m, fstate[F_G], fstate[F_SOFT2], massive, acc)
         force(t, x, v, m, params, acc)
 
-    replace = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations}
+    @cuda.jit(device=True)
+    def megno_off(istate, buf, base):
+        return False
+
+    @cuda.jit(device=True)
+    def no_tangent(xj, vj, x, m, massive, eta, fstate, buf, base, h):
+        return OK
+
+    @cuda.jit(device=True)
+    def no_tangent_start(x, v, m, eta, buf, base):
+        return
+
+    replace = {gravity.gravity: gravity_few, nbody_common.accelerations: accelerations,
+               nbody_variational.megno_on: megno_off,
+               nbody_wh_tangent.whfast_tangent: no_tangent,
+               nbody_wh_tangent.whfast_tangent_start: no_tangent_start}
     # one copy of the Kepler solver, called from the run body's 23 drift sites
     never_inlined(device_twin(universal.propagate_scalar, replace))
     return replace

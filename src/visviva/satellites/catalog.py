@@ -540,7 +540,10 @@ def propagate_kepler_batch(states, t, *, on_error: str = "raise",
     Calls :func:`visviva.core.universal.propagate_many` once over the N*T pairs (Danby 1992,
     sec. 6.9; Vallado 2013, Algorithm 8).
     """
+    from .._backends import check_backend
+
     check_on_error(on_error)
+    check_backend(backend)  # a missing GPU is said before anything about the inputs
     return kepler_grid(states, absolute_times(t, "propagate_kepler_batch"), on_error, backend)
 
 

@@ -36,6 +36,33 @@ _CHAN_LOG_TOL = math.log(1.1)
 _NEGLIGIBLE_LN_PC = math.log(1e-30)
 
 
+def as_6x6(c, half):
+    """A covariance as the regular 6x6 that 3D-Nc needs.
+
+    Parameters
+    ----------
+    c : ndarray, shape (6, 6) or (3, 3)
+        Covariance, m^2 (and m^2/s, m^2/s^2).
+    half : float
+        Half the encounter's time span, s.
+
+    Returns
+    -------
+    ndarray, shape (6, 6)
+        ``c`` itself when 6x6; for a position-only covariance (exact velocities, as the 2-D
+        methods and the flux integral take them) a velocity sigma that moves the position by
+        1e-3 of its smallest sigma over ``half``: that changes 3D-Nc's Pc by ~1e-9 on Alfano's
+        (2009) cases.
+    """
+    if c.shape == (6, 6):
+        return c
+    out = np.zeros((6, 6))
+    out[:3, :3] = c
+    w0 = float(np.linalg.eigvalsh(c)[0])
+    out[3:, 3:] = np.eye(3) * max(w0, 0.0) * (1e-3 / half) ** 2
+    return out
+
+
 def check_chan(lp_chan, xm, zm, sx, sz, hbr):
     """Warn when Chan's value is more than 10 % from Foster's exact integral of the same plane.
 
@@ -82,23 +109,11 @@ def check_3d(lp_3d, r1, v1, c1, r2, v2, c2, hbr, gm_km, half):
         return
     from .nc3d import log_pc3d_hall
 
-    def full6(c):
-        # a position-only covariance: exact velocities, as the flux integral takes them, but
-        # 3D-Nc needs a regular 6x6; a velocity sigma that moves the position by 1e-3 of its
-        # smallest sigma over the window changes its Pc by ~1e-9 (Alfano's cases)
-        if c.shape == (6, 6):
-            return c
-        out = np.zeros((6, 6))
-        out[:3, :3] = c
-        w0 = float(np.linalg.eigvalsh(c)[0])
-        out[3:, 3:] = np.eye(3) * max(w0, 0.0) * (1e-3 / half) ** 2
-        return out
-
     try:
         with warnings.catch_warnings():  # the flux integral has given its own repair warning
             warnings.simplefilter("ignore")
-            lp_hall = log_pc3d_hall(r1, v1, full6(c1), r2, v2, full6(c2), hbr, gm_km * 1e9,
-                                    (-half, half))
+            lp_hall = log_pc3d_hall(r1, v1, as_6x6(c1, half), r2, v2, as_6x6(c2, half), hbr,
+                                    gm_km * 1e9, (-half, half))
     except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
         return
     if (lp_3d == lp_hall or abs(lp_3d - lp_hall) <= _3D_LOG_TOL
@@ -252,21 +267,11 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
 
     half = max(abs(t_a), abs(t_b))
 
-    def full6(c):
-        # a position-only covariance: exact velocities (as the 2-D methods take them), a
-        # velocity sigma that moves the position by 1e-3 of its smallest sigma over the bounds
-        if c.shape == (6, 6):
-            return c
-        out = np.zeros((6, 6))
-        out[:3, :3] = c
-        w0 = float(np.linalg.eigvalsh(c)[0])
-        out[3:, 3:] = np.eye(3) * max(w0, 0.0) * (1e-3 / half) ** 2
-        return out
-
     try:
         with warnings.catch_warnings():  # repairs and windows: the 2-D value's own business
             warnings.simplefilter("ignore")
-            lp_hall = log_pc3d_hall(r1, v1, full6(c1), r2, v2, full6(c2), hbr, gm_m, None)
+            lp_hall = log_pc3d_hall(r1, v1, as_6x6(c1, half), r2, v2, as_6x6(c2, half), hbr,
+                                    gm_m, None)
     except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
         return
     if (lp_2d == lp_hall or abs(lp_2d - lp_hall) <= _2D_LOG_TOL

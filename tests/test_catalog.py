@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.resources
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -194,6 +195,28 @@ def test_j2_batch_refuses_a_decayed_satellite():
         sat = vv.Satellite.from_tle(line1, line2)
     with pytest.raises(vv.InvalidInputError, match="99999.*decayed"):
         propagate_j2_batch(Catalog([sat]), sat.epoch)
+
+
+def test_j2_batch_with_nan_keeps_the_catalogue_beside_a_decayed_satellite():
+    # on_error="nan" had refused the whole catalogue for one decayed member (and the pass
+    # search fell back to SGP4 for every satellite); now that member alone is NaN, status 9
+    from visviva.core.status import HITS_ATTRACTOR
+
+    line1 = "1 99999U          21067.00000000  .00000000  00000-0  00000+0 0    03"
+    line2 = "2 99999  51.5662   0.0000 0010000   0.0000   0.0000 17.60000000    07"
+    with pytest.warns(vv.errors.SubsurfacePerigeeWarning):
+        dead = vv.Satellite.from_tle(line1, line2)
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2)
+    t = iss.epoch + np.linspace(0, 3, 4) * u.hour
+    alone = propagate_j2_batch(Catalog([iss]), t)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", vv.StaleElementSetWarning)  # the 2021 set
+        both = propagate_j2_batch(Catalog([iss, dead]), t, on_error="nan")
+        with pytest.raises(vv.InvalidInputError, match="99999.*decayed.*on_error='nan'"):
+            propagate_j2_batch(Catalog([iss, dead]), t)
+    assert np.array_equal(both.r[0].value, alone.r[0].value)  # the ISS untouched, bit for bit
+    assert (both.status[0] == 0).all() and (both.status[1] == HITS_ATTRACTOR).all()
+    assert np.isnan(both.r[1].value).all() and np.isnan(both.v[1].value).all()
 
 
 def test_j2_batch_equals_the_secular_theory_of_visviva_satellites_secular(catalog):

@@ -623,6 +623,11 @@ def propagate_j2_batch(satellites, t, *, on_error: str = "raise") -> BatchStates
         (:class:`~visviva.StaleElementSetWarning`, once per call, as
         :func:`propagate_sgp4_batch`): the mean elements are SGP4's at each epoch.
     on_error : {"raise", "nan"}
+        ``"raise"``: InvalidInputError naming the first satellite whose mean orbit is unbound
+        or whose mean perigee is below the Earth's radius (decayed), before any propagation.
+        ``"nan"``: NaN rows for those satellites, with status
+        :data:`~visviva.core.status.BAD_ECCENTRICITY` (2, unbound) or
+        :data:`~visviva.core.status.HITS_ATTRACTOR` (9, decayed); the others propagate.
 
     Returns
     -------
@@ -647,7 +652,9 @@ def j2_grid(cat: Catalog, t: Time, on_error: str, warn_stale: bool = True) -> Ba
     if setup is None:
         setup = secular_setup([s.satrec for s in cat.satellites], cat.names, cat.epochs.tai)
         cat.__dict__["_j2_setup"] = setup
-    (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2 = setup
+    (a, ecc, inc, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2, refused = setup
+    if refused and on_error == "raise":  # an unbound or decayed mean orbit: named before any work
+        raise InvalidInputError(refused[min(refused)][1])
     from .frames import offline_iers
 
     with offline_iers():  # a time in UT1 needs the installed IERS table, never a download
@@ -659,6 +666,9 @@ def j2_grid(cat: Catalog, t: Time, on_error: str, warn_stale: bool = True) -> Ba
     secular_grid(a, ecc, inc, raan, argp, M, raan_dot, argp_dot, M_dot, ep1, ep2,
                   np.ascontiguousarray(tt.jd1, dtype=np.float64),
                   np.ascontiguousarray(tt.jd2, dtype=np.float64), gm, r, v, status)
+    for k, (code, _) in refused.items():  # on_error="nan": those satellites' rows NaN, coded
+        r[k] = v[k] = np.nan
+        status[k] = code
     if on_error == "raise" and status.any():
         raise_for_status(status, "secular J2 batch propagation", dt_s=offsets_s(cat.epochs, t))
     return BatchStates(

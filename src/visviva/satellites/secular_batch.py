@@ -17,7 +17,7 @@ from astropy import units as u
 from ..constants import DAY_S
 from ..core._jit import kernel, parallel_kernel, prange
 from ..core.kepler import eccentric_anomaly
-from ..errors import InvalidInputError
+from ..core.status import BAD_ECCENTRICITY, HITS_ATTRACTOR
 
 __all__ = ["secular_setup", "secular_grid"]
 
@@ -37,39 +37,45 @@ def secular_setup(satrecs, names, epochs_tai):
     Returns
     -------
     tuple
-        ``((a, e, i, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2)``: mean elements
-        (km, rad), secular rates (rad/s), WGS-72 GM (km3/s2) and the two-part TAI Julian epochs.
-
-    Raises
-    ------
-    InvalidInputError
-        If a mean orbit is not bound (a <= 0 or e outside [0, 1)).
+        ``((a, e, i, raan, argp, M), (raan_dot, argp_dot, M_dot), gm, ep1, ep2, refused)``: mean
+        elements (km, rad), secular rates (rad/s), WGS-72 GM (km3/s2), the two-part TAI Julian
+        epochs and ``refused``, a dict ``{index: (status code, message)}`` of the satellites the
+        theory cannot take: an unbound mean orbit (a <= 0 or e outside [0, 1),
+        :data:`~visviva.core.status.BAD_ECCENTRICITY`) or a mean perigee below the Earth's
+        radius (decayed, :data:`~visviva.core.status.HITS_ATTRACTOR`). Their elements are
+        replaced by a harmless circular orbit so the grid runs; the caller NaNs their rows.
     """
     from .secular import j2_secular_rates
 
     a, ecc, inc, raan, argp, M = _mean_elements(satrecs)
     body = _wgs72_body(satrecs[0])
+    refused = {}
     bad = (a <= 0) | ~((ecc >= 0) & (ecc < 1))
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise InvalidInputError(
+    for k in np.flatnonzero(bad):
+        refused[int(k)] = (BAD_ECCENTRICITY, (
             f"satellite {names[k]!r} has mean a = {a[k]:.6g} km, e = {ecc[k]:.6g}: the "
             "secular J2 theory needs a bound orbit (a > 0, 0 <= e < 1); use method='sgp4'."
-        )
-    under = a * (1 - ecc) < body.radius_km
-    if under.any():
-        k = int(np.flatnonzero(under)[0])
-        raise InvalidInputError(
+        ))
+    with np.errstate(invalid="ignore"):
+        under = ~bad & (a * (1 - ecc) < body.radius_km)
+    for k in np.flatnonzero(under):
+        refused[int(k)] = (HITS_ATTRACTOR, (
             f"satellite {names[k]!r} has its mean perigee a (1 - e) = {a[k] * (1 - ecc[k]):.6g} "
             f"km below the Earth's radius ({body.radius_km} km): it has decayed; drop it from the "
-            "catalog or use method='sgp4', which flags decayed satellites per time."
-        )
+            "catalog, use on_error='nan' (NaN states, status 9 for it), or use method='sgp4', "
+            "which flags decayed satellites per time."
+        ))
+    if refused:
+        k = np.array(sorted(refused))
+        a, ecc = a.copy(), ecc.copy()
+        a[k] = 2.0 * body.radius_km
+        ecc[k] = 0.0
     rates = tuple(
         q.to_value(u.rad / u.s) for q in j2_secular_rates(a * u.km, ecc, inc, body)
     )
     return ((a, ecc, inc, raan, argp, M), rates, body.gm_km3_s2,
             np.ascontiguousarray(epochs_tai.jd1, dtype=np.float64),
-            np.ascontiguousarray(epochs_tai.jd2, dtype=np.float64))
+            np.ascontiguousarray(epochs_tai.jd2, dtype=np.float64), refused)
 
 
 def _mean_elements(satrecs):

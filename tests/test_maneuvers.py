@@ -395,6 +395,35 @@ def test_a_plane_change_raises_the_inclination_at_either_node(u_deg, inc_deg):
     assert lowered.inclination.to_value(u.deg) < inc_deg
 
 
+@pytest.mark.parametrize(("inc_deg", "di_deg"), [(0.0, -10.0), (175.0, 10.0), (180.0, 10.0),
+                                                  (30.0, -40.0), (179.9, 0.2)])
+def test_a_plane_change_past_0_or_180_deg_is_refused(inc_deg, di_deg):
+    """audit38: -10 deg from an equatorial orbit gave an inclination of 10 deg (the node turned
+    by 180 deg), +10 deg from 175 deg gave 175 deg again, silently."""
+    from visviva import KeplerianElements
+
+    state = KeplerianElements(7000 * u.km, 0.001, inc_deg * u.deg, 20 * u.deg, 0.0, 0.0,
+                              vv.EARTH).to_state()
+    with pytest.raises(InvalidInputError, match=r"outside 0-180 deg.*positive delta_inc raises"):
+        Maneuver.plane_change(state, di_deg * u.deg)
+
+
+@pytest.mark.parametrize(("inc_deg", "di_deg"), [(0.0, 10.0), (180.0, -10.0), (175.0, 5.0),
+                                                  (10.0, -10.0), (90.0, 90.0)])
+def test_a_plane_change_up_to_0_or_180_deg_reaches_the_inclination_asked(inc_deg, di_deg):
+    from visviva import KeplerianElements
+
+    state = KeplerianElements(7000 * u.km, 0.001, inc_deg * u.deg, 20 * u.deg, 0.0, 0.0,
+                              vv.EARTH).to_state()
+    man = Maneuver.plane_change(state, di_deg * u.deg)
+    h = np.cross(*(x.to_value(unit) for x, unit in ((state.r, u.km), (man.apply(state).v, KMS))))
+    inc = np.rad2deg(np.arccos(h[2] / np.linalg.norm(h)))
+    assert inc == pytest.approx(inc_deg + di_deg, abs=1e-9)
+    speed = np.linalg.norm(state.v.to_value(KMS))  # at the node of a nearly circular orbit
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(
+        2 * speed * np.sin(np.deg2rad(abs(di_deg)) / 2), rel=1e-12)
+
+
 @pytest.mark.parametrize("inc_deg", [51.6, 98.0, 150.0])
 def test_lambert_rendezvous_turns_the_way_the_chaser_moves(inc_deg):
     # lambert's default (h_z > 0) sent a sun-synchronous chaser (i = 98 deg) the other way

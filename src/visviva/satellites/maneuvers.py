@@ -384,6 +384,14 @@ class Maneuver:
         r . n >= 0, n = z x h; also for equatorial orbits), about -r on the descending half.
         Away from the nodes the same rotation tilts the plane about r: the inclination changes
         by less and the node moves (at the highest latitude only the node moves).
+
+        Raises
+        ------
+        InvalidInputError
+            An inclination i + Δi below 0 or above 180 deg (e.g. -10 deg from an equatorial
+            orbit): the rotation would carry the plane through the equator and the result
+            would be |i + Δi| with the node turned by 180 deg, a raise asked as a fall
+            (-10 deg from 0 gave 10 deg; +10 deg from 175 gave 175 deg, the node turned).
         """
         r = to_vector(state.r, "length", "state.r")
         v = to_vector(state.v, "speed", "state.v")
@@ -398,6 +406,16 @@ class Maneuver:
         # lowers it, so there the rotation turns the other way (it lowered it silently: +10 deg
         # at the descending node of a 30 deg orbit gave 20 deg)
         h = np.cross(r, v)
+        inc = float(np.arccos(np.clip(h[2] / np.linalg.norm(h), -1.0, 1.0)))
+        if not -1e-12 <= inc + di <= np.pi + 1e-12:
+            flown = np.rad2deg(abs(inc + di) if inc + di < 0 else 2 * np.pi - (inc + di))
+            raise InvalidInputError(
+                f"Maneuver.plane_change: the orbit's inclination is {np.rad2deg(inc):.6g} deg, "
+                f"so a change of {np.rad2deg(di):.6g} deg would take it to "
+                f"{np.rad2deg(inc + di):.6g} deg, outside 0-180 deg (the plane would turn "
+                f"through the equator: {flown:.6g} deg with the node moved by 180 deg). A positive delta_inc raises the inclination, a negative one "
+                "lowers it; give the change that reaches the inclination wanted."
+            )
         node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
         th = -di if np.dot(k, node) < 0 else di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))

@@ -438,3 +438,27 @@ def test_lambert_rendezvous_turns_the_way_the_chaser_moves(inc_deg):
     there = target.to_state().propagate(2000 * u.s)
     assert np.abs((after.r - there.r).to_value(u.km)).max() < 1e-6
     assert np.abs((after.v - there.v).to_value(u.km / u.s)).max() < 1e-9
+
+
+@pytest.mark.parametrize("body", [vv.EARTH, vv.MARS, vv.MOON])
+def test_a_transfer_radius_inside_the_attractor_is_refused_as_an_altitude(body):
+    """audit38: Maneuver.hohmann(leo at 6678 km, 500 km) meant 500 km of altitude and planned
+    15.12 km/s into the Earth instead of 0.113 km/s, silently."""
+    r0 = body.radius_km + 300.0
+    state = vv.KeplerianElements.from_semi_major_axis(r0 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0,
+                                                      body).to_state()
+    for make in (lambda: Maneuver.hohmann(state, 500 * u.km),
+                 lambda: Maneuver.bielliptic(state, 5 * r0 * u.km, 500 * u.km),
+                 lambda: hohmann_delta_v(500 * u.km, r0 * u.km, body),
+                 lambda: hohmann_delta_v([r0, 200.0] * u.km, 2 * r0 * u.km, body.gm),
+                 lambda: bielliptic_delta_v(r0 * u.km, 9 * r0 * u.km, 500 * u.km, body)):
+        with pytest.raises(InvalidInputError, match=rf"(500|200) km is inside {body.name}"):
+            make()
+    # the radius meant is accepted, and GMs of no known body are not checked
+    h = body.radius_km + 500.0
+    assert Maneuver.hohmann(state, h * u.km).apply(state).to_elements().eccentricity < 1e-9
+    dv1, dv2, _ = hohmann_delta_v(1 * u.km, 11.94 * u.km, 1 * u.km**3 / u.s**2)
+    b = bielliptic_delta_v(1 * u.km, 1e9 * u.km, 11.94 * u.km, 1 * u.km**3 / u.s**2)
+    # the Hohmann / bi-elliptic (r_B -> infinity) break-even ratio, 11.94 (Curtis 2014, sec. 6.4)
+    assert abs(dv1 + dv2).to_value(KMS) == pytest.approx(sum(abs(x) for x in b[:3]).value,
+                                                         rel=2e-5)

@@ -69,6 +69,28 @@ def _inclination_change(delta_inc):
     return di
 
 
+def _refuse_below_surface(gm, mu, **radii_km):
+    """Refuse circle radii inside the attractor (an altitude given for a radius, 500 km for
+    6878 km), when ``gm`` is a Body or, to 0.1 %, a known body's GM (a one-value ``mu``)."""
+    from ..bodies import BODIES, Body
+
+    body = gm if isinstance(gm, Body) else None
+    if body is None and np.ndim(mu) == 0:
+        body = next((b for b in BODIES.values() if abs(float(mu) / b.gm_km3_s2 - 1.0) <= 1e-3),
+                    None)
+    if body is None:
+        return
+    for name, r in radii_km.items():
+        if np.any(r < body.radius_km):
+            low = float(np.min(r))
+            raise InvalidInputError(
+                f"{name} = {low:.6g} km is inside {body.name} (radius {body.radius_km:.6g} km): "
+                "the radii of a transfer are from the body's centre, not altitudes. For an "
+                f"altitude of {low:.6g} km give {body.radius_km + low:.6g} km "
+                f"({body.name}'s radius + altitude)."
+            )
+
+
 def _chaser_sense(chaser, target) -> bool:
     """lambert's ``prograde`` flag for the transfer that turns the way ``chaser`` moves.
 
@@ -93,14 +115,24 @@ def hohmann_delta_v(r1, r2, gm):
     Parameters
     ----------
     r1, r2 : Quantity, length
-        Radii of the initial and final circular orbits (> 0); broadcast together.
+        Radii of the initial and final circular orbits (> 0; from the centre, not altitudes:
+        radii inside a known attractor are refused); broadcast together.
     gm : Quantity (km^3/s^2) or Body
-        Gravitational parameter of the attractor (> 0).
+        Gravitational parameter of the attractor (> 0). A Body, or the GM of one of
+        :data:`visviva.bodies.BODIES` to 0.1 %, gives the radius below which r1 and r2 are
+        refused.
 
     Returns
     -------
     dv1, dv2 : Quantity, km/s
     tof : Quantity, s
+
+    Raises
+    ------
+    InvalidInputError
+        Non-positive radii or gm; a radius inside the attractor (an altitude given for a
+        radius: Maneuver.hohmann from 6678 km to "500 km" gave 15.12 km/s instead of
+        0.113 km/s to 6878 km, silently).
     """
     a = to_array(r1, "length", "r1")
     b = to_array(r2, "length", "r2")
@@ -108,6 +140,7 @@ def hohmann_delta_v(r1, r2, gm):
     if np.any(a <= 0) or np.any(b <= 0) or np.any(mu <= 0):
         raise InvalidInputError("r1, r2 and gm must be > 0.")
     broadcast_or_raise("hohmann_delta_v", r1=a, r2=b, gm=mu)
+    _refuse_below_surface(gm, mu, r1=a, r2=b)
     dv1 = np.sqrt(mu / a) * (np.sqrt(2 * b / (a + b)) - 1)
     dv2 = np.sqrt(mu / b) * (1 - np.sqrt(2 * a / (a + b)))
     tof = np.pi * np.sqrt((a + b) ** 3 / (8 * mu))
@@ -122,7 +155,9 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     Parameters
     ----------
     r1, rb, r2 : Quantity, length
-        Initial, intermediate and final radii (> 0, rb >= r1 and r2); broadcast together.
+        Initial, intermediate and final radii (> 0, rb >= r1 and r2; from the centre: radii
+        inside a known attractor are refused, as in :func:`hohmann_delta_v`); broadcast
+        together.
     gm : Quantity (km^3/s^2) or Body
         Gravitational parameter of the attractor (> 0).
 
@@ -140,6 +175,7 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     broadcast_or_raise("bielliptic_delta_v", r1=a, rb=m, r2=b, gm=mu)
     if np.any(m < np.maximum(a, b)):
         raise InvalidInputError("the intermediate radius rb must be >= r1 and r2.")
+    _refuse_below_surface(gm, mu, r1=a, r2=b)
     a1 = 0.5 * (a + m)
     a2 = 0.5 * (m + b)
     dv1 = np.sqrt(2 * mu / a - mu / a1) - np.sqrt(mu / a)

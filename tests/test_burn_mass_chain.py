@@ -13,7 +13,7 @@ import pytest
 from astropy import units as u
 
 import visviva as vv
-from visviva.errors import InvalidInputError
+from visviva.errors import InvalidInputError, UnitsError
 from visviva.satellites import FiniteBurn, ImpulsiveBurn, propagate_cowell
 from visviva.satellites.burns import STANDARD_GRAVITY_M_S2
 
@@ -86,3 +86,17 @@ def test_impulses_whose_masses_contradict_each_other_are_refused():
                            delta_mass=-10 * u.kg) for t in (100.0, 200.0)]
     with pytest.raises(InvalidInputError, match="left 990 kg"):
         propagate_cowell(free_space(), 300 * u.s, [], maneuvers=burns)
+
+
+def test_an_isp_given_as_an_exhaust_speed_says_how_to_convert_it():
+    """An effective exhaust speed (m/s) for isp was refused with 'Pass e.g. isp=90 * u.min'."""
+    with pytest.raises(UnitsError, match=r"specific impulse in seconds.*300\.001 s"):
+        FiniteBurn(0 * u.s, DT * u.s, [1, 0, 0], "VNB", thrust=F * u.N, mass=M0 * u.kg,
+                   isp=2942 * u.m / u.s)
+    # the conversion it names gives the rocket equation's speed back: c ln(m0 / m1)
+    c = 2942.0 * u.m / u.s
+    burn = FiniteBurn(0 * u.s, DT * u.s, [1, 0, 0], "VNB", thrust=F * u.N, mass=M0 * u.kg,
+                      isp=c / (G0 * u.m / u.s**2))
+    m1 = burn.final_mass.to_value(u.kg)
+    assert burn.ideal_delta_v.to_value(u.m / u.s) == pytest.approx(2942.0 * np.log(M0 / m1),
+                                                                   rel=1e-12)

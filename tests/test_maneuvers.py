@@ -462,3 +462,65 @@ def test_a_transfer_radius_inside_the_attractor_is_refused_as_an_altitude(body):
     # the Hohmann / bi-elliptic (r_B -> infinity) break-even ratio, 11.94 (Curtis 2014, sec. 6.4)
     assert abs(dv1 + dv2).to_value(KMS) == pytest.approx(sum(abs(x) for x in b[:3]).value,
                                                          rel=2e-5)
+
+
+def _ahead_deg(state, ref):
+    """Angle (deg) from ``ref``'s position to ``state``'s about their common orbit normal."""
+    a, b = ref.r.to_value(u.km), state.r.to_value(u.km)
+    n = np.cross(ref.r.to_value(u.km), ref.v.to_value(KMS))
+    return np.rad2deg(np.arctan2(np.dot(np.cross(a, b), n) / np.linalg.norm(n), np.dot(a, b)))
+
+
+@pytest.mark.parametrize(("phi_deg", "k"), [(30.0, 1), (-30.0, 1), (30.0, 3), (-200.0, 2),
+                                            (5.0, 1)])
+def test_phasing_moves_the_spacecraft_along_its_circle_by_the_angle_asked(phi_deg, k):
+    """The phasing manoeuvre (audit38: none existed; Lambert cannot do it, r1 = r2 there):
+    after k laps the spacecraft is back on its circle, phi ahead of where it would have been
+    (a Kepler propagation of the unburnt state), for the closed-form Δv 2 |v_ph - v_c|."""
+    r = 8000.0
+    state = circular_state(r, inc=0.9)
+    man = Maneuver.phasing(state, phi_deg * u.deg, revolutions=k)
+    after = man.apply(state)
+    ref = state.propagate(man.duration)
+    assert (_ahead_deg(after, ref) - phi_deg + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
+    el = after.to_elements()
+    assert el.eccentricity < 1e-9
+    assert el.semi_major_axis.to_value(u.km) == pytest.approx(r, rel=1e-12)
+    period = 2 * np.pi * np.sqrt(r**3 / MU)
+    t_ph = period * (1 - np.deg2rad(phi_deg) / (2 * np.pi * k))
+    a_ph = (MU * (t_ph / (2 * np.pi)) ** 2) ** (1 / 3)
+    assert man.duration.to_value(u.s) == pytest.approx(k * t_ph, rel=1e-12)
+    dv = 2 * abs(np.sqrt(MU * (2 / r - 1 / a_ph)) - np.sqrt(MU / r))
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(dv, rel=1e-12)
+    # catching up (phi > 0) dips below the circle first: the first burn brakes
+    first = man.impulses[0].dv.to_value(KMS)
+    assert np.sign(np.dot(first, state.v.to_value(KMS))) == -np.sign(phi_deg)
+
+
+def test_phasing_on_an_elliptic_orbit_shifts_its_mean_anomaly():
+    el = vv.KeplerianElements.from_semi_major_axis(9000 * u.km, 0.2, 0.5, 0.3, 0.2, 1.0, GM)
+    state = el.to_state()
+    man = Maneuver.phasing(state, 40 * u.deg, revolutions=2)
+    after = man.apply(state)
+    n = np.sqrt(MU / 9000.0**3)
+    expected = state.propagate(man.duration + np.deg2rad(40.0) / n * u.s)
+    assert np.linalg.norm((after.r - expected.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((after.v - expected.v).to_value(KMS)) < 1e-9
+
+
+@pytest.mark.parametrize(("phi", "k", "match"), [
+    (30 * u.deg, 0, "integer >= 1"), (30 * u.deg, -1, "integer >= 1"),
+    (30 * u.deg, 1.5, "integer >= 1"), (30 * u.deg, True, "integer >= 1"),
+    (400 * u.deg, 1, "more than 1 revolution"), (-360 * u.deg, 1, "more than 1 revolution"),
+    (30, 1, r"phase_angle = 30 is a plain number"),
+    (120 * u.deg, 3, r"periapsis 5\d{3}.* km from the centre, inside earth"),
+    (340 * u.deg, 1, "does not pass through the state"),
+])
+def test_phasing_that_cannot_be_flown_is_refused(phi, k, match):
+    state = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.0, 0.5, 0.0, 0.0, 0.0,
+                                                      vv.EARTH).to_state()
+    with pytest.raises(InvalidInputError, match=match):
+        Maneuver.phasing(state, phi, revolutions=k)
+    if match.startswith("periapsis"):  # more laps keep the phasing orbit above the Earth
+        man = Maneuver.phasing(state, phi, revolutions=6)
+        assert man.apply(state).to_elements().eccentricity < 1e-9

@@ -1,4 +1,4 @@
-"""Impulsive manoeuvres: Hohmann, bi-elliptic, plane change and Lambert transfers.
+"""Impulsive manoeuvres: Hohmann, bi-elliptic, plane change, phasing and Lambert transfers.
 
 A :class:`Maneuver` is a sequence of impulses (time after the start, Δv vector); ``apply``
 coasts on the two-body conic between impulses and returns the state just after the last one;
@@ -51,33 +51,40 @@ def _one_value(value, kind, name):
     return float(arr)
 
 
-def _inclination_change(delta_inc):
-    """``delta_inc`` in rad; a plain number beyond pi (60 for 60 deg) is refused.
+def _inclination_change(delta_inc, name="delta_inc", limit=np.pi):
+    """``delta_inc`` in rad; a plain number beyond ``limit`` (60 for 60 deg) is refused.
 
     No change of inclination exceeds pi, so a plain number above it is degrees typed without
     their unit: taken in radians it gave another Δv without a word (60 -> 14.8 km/s at 7.5 km/s
-    instead of 7.5 km/s). Quantities of any size are taken as given.
+    instead of 7.5 km/s). Quantities of any size are taken as given. (A phase angle: 2 pi.)
     """
-    di = to_array(delta_inc, "angle", "delta_inc")
-    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > np.pi):
-        big = float(di[np.abs(di) > np.pi].ravel()[0])
+    di = to_array(delta_inc, "angle", name)
+    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > limit):
+        big = float(di[np.abs(di) > limit].ravel()[0])
+        what = "pi, which no plane change exceeds" if limit == np.pi else f"{limit:.6g} rad"
         raise InvalidInputError(
-            f"delta_inc = {big:g} is a plain number, so it would be taken in radians: more than "
-            f"pi, which no plane change exceeds. Pass delta_inc={big:g} * u.deg if you meant "
-            "degrees (or a Quantity in rad)."
+            f"{name} = {big:g} is a plain number, so it would be taken in radians: more than "
+            f"{what}. Pass {name}={big:g} * u.deg if you meant degrees (or a Quantity in rad)."
         )
     return di
 
 
-def _refuse_below_surface(gm, mu, **radii_km):
-    """Refuse circle radii inside the attractor (an altitude given for a radius, 500 km for
-    6878 km), when ``gm`` is a Body or, to 0.1 %, a known body's GM (a one-value ``mu``)."""
+def _known_body(gm, mu):
+    """The attractor when ``gm`` is a Body or, to 0.1 %, a known body's GM (a one-value
+    ``mu``, km^3/s^2); else None."""
     from ..bodies import BODIES, Body
 
-    body = gm if isinstance(gm, Body) else None
-    if body is None and np.ndim(mu) == 0:
-        body = next((b for b in BODIES.values() if abs(float(mu) / b.gm_km3_s2 - 1.0) <= 1e-3),
-                    None)
+    if isinstance(gm, Body):
+        return gm
+    if np.ndim(mu) != 0:
+        return None
+    return next((b for b in BODIES.values() if abs(float(mu) / b.gm_km3_s2 - 1.0) <= 1e-3), None)
+
+
+def _refuse_below_surface(gm, mu, **radii_km):
+    """Refuse circle radii inside the attractor (an altitude given for a radius, 500 km for
+    6878 km), when it is a known body (:func:`_known_body`)."""
+    body = _known_body(gm, mu)
     if body is None:
         return
     for name, r in radii_km.items():
@@ -456,6 +463,83 @@ class Maneuver:
         th = -di if np.dot(k, node) < 0 else di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
         return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
+
+    @classmethod
+    def phasing(cls, state, phase_angle, revolutions=1):
+        """Move along the orbit by ``phase_angle`` in ``revolutions`` laps of a phasing orbit.
+
+        A burn along the velocity puts the spacecraft on a phasing orbit of period
+        T_ph = T (1 - Δφ / (2 π k)) through the same point; after k = ``revolutions`` laps it
+        is back there, and the opposite burn restores the original velocity. The spacecraft is
+        then on its old orbit Δφ ahead (in mean anomaly: the angle itself on a circle) of
+        where it would have been: a positive ``phase_angle`` catches up with a target ahead
+        (a lower, faster phasing orbit), a negative one falls back (Curtis 2014, sec. 6.6;
+        Vallado 2013, Algorithm 44).
+
+        Parameters
+        ----------
+        state : StateVectors
+            One bound state (shape (3,)); the first burn is at it.
+        phase_angle : Quantity or float
+            Δφ, angle (rad for plain floats, whose magnitude must not exceed 2 pi: a plain 30
+            is refused as degrees without their unit); |Δφ| < 2 π k.
+        revolutions : int
+            k >= 1, laps of the phasing orbit (more laps: a smaller Δv, a longer wait).
+
+        Returns
+        -------
+        Maneuver
+            Two impulses, Δv1 = v_ph - v along the velocity at 0 and -Δv1 at k T_ph.
+
+        Raises
+        ------
+        InvalidInputError
+            ``revolutions`` not an integer >= 1 (0 laps cannot change the phase); |Δφ| >= 2 π k
+            (no phasing period), or a phasing orbit that is unbound or whose periapsis lies
+            inside a known attractor (more revolutions lower the Δv and keep it higher).
+        """
+        r = to_vector(state.r, "length", "state.r")
+        v = to_vector(state.v, "speed", "state.v")
+        if r.shape != (3,) or v.shape != (3,):
+            raise InvalidInputError(
+                f"Maneuver.phasing takes one state (shape (3,)); got r {r.shape}.")
+        if (isinstance(revolutions, bool) or not isinstance(revolutions, int | np.integer)
+                or revolutions < 1):
+            raise InvalidInputError(
+                f"revolutions must be an integer >= 1 (laps of the phasing orbit); got "
+                f"{revolutions!r}. The phase changes only over whole laps of the phasing orbit.")
+        k = int(revolutions)
+        phi = _one_value(_inclination_change(phase_angle, "phase_angle", 2 * np.pi), "angle",
+                         "phase_angle")
+        mu = float(to_array(state.gm, "gm", "state.gm"))
+        rn, speed = float(np.linalg.norm(r)), float(np.linalg.norm(v))
+        energy = 0.5 * speed**2 - mu / rn
+        if not energy < 0:
+            raise InvalidStateError(
+                "Maneuver.phasing needs a bound orbit (specific energy < 0); this state's is "
+                f"{energy:.6g} km^2/s^2.")
+        period = 2 * np.pi * np.sqrt((-mu / (2 * energy)) ** 3 / mu)
+        if not abs(phi) < 2 * np.pi * k:
+            raise InvalidInputError(
+                f"a phase change of {np.rad2deg(phi):.6g} deg needs more than {k} "
+                "revolution(s): |phase_angle| < 360 deg x revolutions.")
+        t_ph = period * (1 - phi / (2 * np.pi * k))
+        a_ph = (mu * (t_ph / (2 * np.pi)) ** 2) ** (1 / 3)
+        v_ph2 = mu * (2 / rn - 1 / a_ph)
+        body = _known_body(state.gm, mu)
+        if v_ph2 > 0:
+            h = np.linalg.norm(np.cross(r, v)) / speed * np.sqrt(v_ph2)
+            periapsis = a_ph * (1 - np.sqrt(max(0.0, 1 - h * h / (mu * a_ph))))
+        if not v_ph2 > 0 or (body is not None and periapsis < body.radius_km):
+            where = ("does not pass through the state" if not v_ph2 > 0 else
+                     f"has its periapsis {periapsis:.6g} km from the centre, inside "
+                     f"{body.name} (radius {body.radius_km:.6g} km)")
+            raise InvalidInputError(
+                f"the phasing orbit for {np.rad2deg(phi):.6g} deg in {k} revolution(s) (a = "
+                f"{a_ph:.6g} km) {where}: give more revolutions.")
+        dv1 = (np.sqrt(v_ph2) - speed) * v / speed
+        kms = u.km / u.s
+        return cls([(0 * u.s, dv1 * kms), (k * t_ph * u.s, -dv1 * kms)])._planned_from(state)
 
     @classmethod
     def lambert(cls, state_from, state_to, tof, **lambert_kwargs):

@@ -125,6 +125,17 @@ def test_porkchop_earth_mars_2005(tmp_path):
     plt.close(fig)
 
 
+@pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),
+                                          ("sun", "mars"), ("earth", vv.SUN)])
+def test_porkchop_refuses_the_moon_and_the_sun(dep, arr):
+    """audit38: a heliocentric Lambert arc from the Earth to the Moon gave C3 = 0.0008
+    km^2/s^2 and 0.97 km/s, silently (an Earth-Moon transfer is geocentric, C3 about -2
+    km^2/s^2); the Sun failed with nine Lambert errors about a zero position."""
+    times = Time("2005-06-20", scale="tdb") + np.arange(0, 60, 20) * u.day
+    with pytest.raises(InvalidInputError, match=r"(moon|sun)' does not .*lambert about the Earth"):
+        porkchop(dep, arr, times, times + 5 * u.day)
+
+
 def test_maneuver_rejects_what_is_not_a_list_of_impulses():  # ROBUSTNESS_BUGS #14
     with pytest.raises(InvalidInputError, match="a Maneuver takes"):
         vv.Maneuver("x")

@@ -535,3 +535,27 @@ def test_phasing_that_cannot_be_flown_is_refused(phi, k, match):
     if match.startswith("periapsis"):  # more laps keep the phasing orbit above the Earth
         man = Maneuver.phasing(state, phi, revolutions=6)
         assert man.apply(state).to_elements().eccentricity < 1e-9
+
+
+def test_phasing_meets_a_target_ahead_on_the_same_ellipse():
+    """The phasing geometry of Curtis (2014), sec. 6.6: chaser at perigee of a 6800 x 13600 km
+    orbit, target 90 deg of true anomaly ahead; one lap of a phasing orbit whose period is the
+    target's time back to perigee (T - t_AB = 10252.1 - 1495.7 = 8756.3 s) meets it there."""
+    gm = 398600.0 * u.km**3 / u.s**2
+    a, e = 10200.0, 1.0 / 3.0
+    chaser = vv.KeplerianElements.from_semi_major_axis(a * u.km, e, 0.3, 0.2, 0.1, 0.0,
+                                                       gm).to_state()
+    target = vv.KeplerianElements.from_semi_major_axis(a * u.km, e, 0.3, 0.2, 0.1,
+                                                       np.pi / 2, gm).to_state()
+    ecc_anomaly = 2 * np.arctan(np.sqrt((1 - e) / (1 + e)))  # at 90 deg true anomaly
+    lead = ecc_anomaly - e * np.sin(ecc_anomaly)  # mean anomaly, rad
+    man = Maneuver.phasing(chaser, lead * u.rad, revolutions=1)
+    assert man.duration.to_value(u.s) == pytest.approx(8756.3, abs=0.05)
+    met = man.apply(chaser)
+    there = target.propagate(man.duration)
+    assert np.linalg.norm((met.r - there.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((met.v - there.v).to_value(KMS)) < 1e-9
+    # the chaser brakes at perigee onto the smaller orbit and accelerates back
+    dv = man.impulses[0].dv.to_value(KMS)
+    assert np.dot(dv, chaser.v.to_value(KMS)) < 0
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(2 * np.linalg.norm(dv), rel=1e-15)

@@ -559,3 +559,12 @@ def test_phasing_meets_a_target_ahead_on_the_same_ellipse():
     dv = man.impulses[0].dv.to_value(KMS)
     assert np.dot(dv, chaser.v.to_value(KMS)) < 0
     assert man.total_delta_v.to_value(KMS) == pytest.approx(2 * np.linalg.norm(dv), rel=1e-15)
+
+
+def test_phasing_refuses_an_unbound_state_and_arrays():
+    escaping = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 11.0, 0] * KMS, vv.EARTH)
+    with pytest.raises(InvalidStateError, match="bound orbit"):
+        Maneuver.phasing(escaping, 10 * u.deg)
+    two = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * KMS, vv.EARTH)
+    with pytest.raises(InvalidInputError, match="one state"):
+        Maneuver.phasing(two, 10 * u.deg)

@@ -125,6 +125,35 @@ def test_porkchop_earth_mars_2005(tmp_path):
     plt.close(fig)
 
 
+@pytest.mark.parametrize("branch", ["left", "right"])
+def test_a_multi_revolution_porkchop_equals_lambert_and_is_nan_below_the_minimum_tof(branch):
+    """audit38: porkchop had zero-revolution transfers only. With revolutions=M each grid point
+    is vv.lambert's M-revolution solution, NaN where the tof is below the M-revolution
+    minimum (there is none), and best() picks among the others."""
+    from visviva.satellites.ephemeris import planet_heliocentric
+
+    dep = Time("2005-06-20", scale="tdb") + np.arange(0, 60, 30) * u.day
+    arr = Time("2006-06-01", scale="tdb") + np.arange(0, 900, 60) * u.day
+    pc = porkchop("earth", "mars", dep, arr, revolutions=1, branch=branch)
+    r1, vp1 = planet_heliocentric("earth", dep)
+    r2, vp2 = planet_heliocentric("mars", arr)
+    tof = arr[None, :] - dep[:, None]
+    v1, v2 = vv.lambert(r1[:, None, :], r2[None, :, :], tof, vv.SUN.gm, revolutions=1,
+                        branch=branch, on_failure="mask")
+    none = np.any(v1.mask, axis=-1)
+    assert none.any() and not none.all()
+    c3 = np.sum((v1.unmasked - vp1[:, None, :]).to_value(KMS) ** 2, axis=-1)
+    np.testing.assert_allclose(pc.c3.to_value(u.km**2 / u.s**2)[~none], c3[~none], rtol=1e-12)
+    assert np.all(np.isnan(pc.c3.value[none])) and np.all(np.isnan(pc.delta_v.value[none]))
+    # one revolution takes more than the shortest tofs of the grid (346 days from the first
+    # departure): those have no transfer
+    assert none[0, 0]
+    d, a, dv = pc.best()
+    assert dv.to_value(KMS) == pytest.approx(np.nanmin(pc.delta_v.to_value(KMS)))
+    with pytest.raises(InvalidInputError, match="integer >= 0"):
+        porkchop("earth", "mars", dep, arr, revolutions=-1)
+
+
 @pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),
                                           ("sun", "mars"), ("earth", vv.SUN)])
 def test_porkchop_refuses_the_moon_and_the_sun(dep, arr):

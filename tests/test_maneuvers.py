@@ -597,3 +597,20 @@ def test_phasing_refuses_an_unbound_state_and_arrays():
     two = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * KMS, vv.EARTH)
     with pytest.raises(InvalidInputError, match="one state"):
         Maneuver.phasing(two, 10 * u.deg)
+
+
+def test_bielliptic_against_hohmann_crossovers_11_94_and_15_58():
+    """Curtis (2014), sec. 6.4 / Vallado (2013), Fig. 6-7: below r_C/r_A = 11.94 the Hohmann
+    transfer is cheapest for every intermediate radius; above 15.58 every bi-elliptic one
+    (r_B > r_C) is cheaper; in between, only those with r_B far enough out."""
+    mu = 1 * u.km**3 / u.s**2
+
+    def cheaper(ratio, factor):
+        h = sum(abs(x.value) for x in hohmann_delta_v(1 * u.km, ratio * u.km, mu)[:2])
+        b = bielliptic_delta_v(1 * u.km, factor * ratio * u.km, ratio * u.km, mu)[:3]
+        return sum(abs(x.value) for x in b) < h
+
+    assert not any(cheaper(11.9, f) for f in (1.01, 1.5, 10.0, 1e8))
+    assert cheaper(12.0, 1e8) and not cheaper(12.0, 1.5)
+    assert all(cheaper(15.6, f) for f in (1.01, 1.5, 10.0, 1e8))
+    assert not cheaper(15.5, 1.01) and cheaper(15.5, 1.5)

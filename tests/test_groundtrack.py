@@ -91,3 +91,28 @@ def test_ground_track_at_one_time_and_mismatched_eclipse_intervals(iss):
     t = iss.epoch + np.arange(5) * u.min
     with pytest.raises(InvalidInputError, match="same length"):
         eclipse_intervals(t[:3], np.ones(5))
+
+
+def test_a_polar_track_is_split_over_each_pole_and_at_the_antimeridian():
+    """audit38: a 90 deg orbit sampled each minute turns its longitude by 179.75 deg over a
+    pole, below the 180 deg of an antimeridian wrap, so segments() joined the two sides by a
+    line across the map (3 pieces in 200 min instead of 7 or 8)."""
+    from astropy.time import Time
+
+    from visviva.satellites.groundtrack import GroundTrack
+
+    t = Time("2024-01-01", scale="utc") + np.arange(0, 200.0) * u.min
+    u_arg = np.deg2rad(np.arange(200.0) * 360.0 / 94.7)  # argument of latitude, i = 90 deg
+    lat = np.rad2deg(np.arcsin(np.sin(u_arg)))
+    lon_i = np.where(np.cos(u_arg) >= 0, 0.0, 180.0) - 0.25 * np.arange(200.0)
+    lon = (lon_i + 180.0) % 360.0 - 180.0
+    track = GroundTrack(t, lat * u.deg, lon * u.deg, np.full(200, 500.0) * u.km)
+    pieces = track.segments()
+    # within each piece the longitude moves smoothly
+    for seg in pieces:
+        assert np.all(np.abs(np.diff(lon[seg])) < 2.0)
+    # every pole passage (cos u changes sign) starts a new piece
+    poles = np.flatnonzero(np.diff(np.sign(np.cos(u_arg))) != 0) + 1
+    starts = {seg.start for seg in pieces}
+    assert set(poles.tolist()) <= starts
+    assert len(pieces) >= len(poles) + 1

@@ -125,6 +125,46 @@ def test_porkchop_earth_mars_2005(tmp_path):
     plt.close(fig)
 
 
+@pytest.mark.parametrize("branch", ["left", "right"])
+def test_a_multi_revolution_porkchop_equals_lambert_and_is_nan_below_the_minimum_tof(branch):
+    """audit38: porkchop had zero-revolution transfers only. With revolutions=M each grid point
+    is vv.lambert's M-revolution solution, NaN where the tof is below the M-revolution
+    minimum (there is none), and best() picks among the others."""
+    from visviva.satellites.ephemeris import planet_heliocentric
+
+    dep = Time("2005-06-20", scale="tdb") + np.arange(0, 60, 30) * u.day
+    arr = Time("2006-06-01", scale="tdb") + np.arange(0, 900, 60) * u.day
+    pc = porkchop("earth", "mars", dep, arr, revolutions=1, branch=branch)
+    r1, vp1 = planet_heliocentric("earth", dep)
+    r2, vp2 = planet_heliocentric("mars", arr)
+    tof = arr[None, :] - dep[:, None]
+    v1, v2 = vv.lambert(r1[:, None, :], r2[None, :, :], tof, vv.SUN.gm, revolutions=1,
+                        branch=branch, on_failure="mask")
+    none = np.any(v1.mask, axis=-1)
+    assert none.any() and not none.all()
+    c3 = np.sum((v1.unmasked - vp1[:, None, :]).to_value(KMS) ** 2, axis=-1)
+    np.testing.assert_allclose(pc.c3.to_value(u.km**2 / u.s**2)[~none], c3[~none], rtol=1e-12)
+    assert np.all(np.isnan(pc.c3.value[none])) and np.all(np.isnan(pc.delta_v.value[none]))
+    # one revolution takes more than the shortest tofs of the grid (346 days from the first
+    # departure): those have no transfer
+    assert none[0, 0]
+    d, a, dv = pc.best()
+    assert dv.to_value(KMS) == pytest.approx(np.nanmin(pc.delta_v.to_value(KMS)))
+    with pytest.raises(InvalidInputError, match="integer >= 0"):
+        porkchop("earth", "mars", dep, arr, revolutions=-1)
+
+
+@pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),
+                                          ("sun", "mars"), ("earth", vv.SUN)])
+def test_porkchop_refuses_the_moon_and_the_sun(dep, arr):
+    """audit38: a heliocentric Lambert arc from the Earth to the Moon gave C3 = 0.0008
+    km^2/s^2 and 0.97 km/s, silently (an Earth-Moon transfer is geocentric, C3 about -2
+    km^2/s^2); the Sun failed with nine Lambert errors about a zero position."""
+    times = Time("2005-06-20", scale="tdb") + np.arange(0, 60, 20) * u.day
+    with pytest.raises(InvalidInputError, match=r"(moon|sun)' does not .*lambert about the Earth"):
+        porkchop(dep, arr, times, times + 5 * u.day)
+
+
 def test_maneuver_rejects_what_is_not_a_list_of_impulses():  # ROBUSTNESS_BUGS #14
     with pytest.raises(InvalidInputError, match="a Maneuver takes"):
         vv.Maneuver("x")
@@ -395,6 +435,35 @@ def test_a_plane_change_raises_the_inclination_at_either_node(u_deg, inc_deg):
     assert lowered.inclination.to_value(u.deg) < inc_deg
 
 
+@pytest.mark.parametrize(("inc_deg", "di_deg"), [(0.0, -10.0), (175.0, 10.0), (180.0, 10.0),
+                                                  (30.0, -40.0), (179.9, 0.2)])
+def test_a_plane_change_past_0_or_180_deg_is_refused(inc_deg, di_deg):
+    """audit38: -10 deg from an equatorial orbit gave an inclination of 10 deg (the node turned
+    by 180 deg), +10 deg from 175 deg gave 175 deg again, silently."""
+    from visviva import KeplerianElements
+
+    state = KeplerianElements(7000 * u.km, 0.001, inc_deg * u.deg, 20 * u.deg, 0.0, 0.0,
+                              vv.EARTH).to_state()
+    with pytest.raises(InvalidInputError, match=r"outside 0-180 deg.*positive delta_inc raises"):
+        Maneuver.plane_change(state, di_deg * u.deg)
+
+
+@pytest.mark.parametrize(("inc_deg", "di_deg"), [(0.0, 10.0), (180.0, -10.0), (175.0, 5.0),
+                                                  (10.0, -10.0), (90.0, 90.0)])
+def test_a_plane_change_up_to_0_or_180_deg_reaches_the_inclination_asked(inc_deg, di_deg):
+    from visviva import KeplerianElements
+
+    state = KeplerianElements(7000 * u.km, 0.001, inc_deg * u.deg, 20 * u.deg, 0.0, 0.0,
+                              vv.EARTH).to_state()
+    man = Maneuver.plane_change(state, di_deg * u.deg)
+    h = np.cross(*(x.to_value(unit) for x, unit in ((state.r, u.km), (man.apply(state).v, KMS))))
+    inc = np.rad2deg(np.arccos(h[2] / np.linalg.norm(h)))
+    assert inc == pytest.approx(inc_deg + di_deg, abs=1e-9)
+    speed = np.linalg.norm(state.v.to_value(KMS))  # at the node of a nearly circular orbit
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(
+        2 * speed * np.sin(np.deg2rad(abs(di_deg)) / 2), rel=1e-12)
+
+
 @pytest.mark.parametrize("inc_deg", [51.6, 98.0, 150.0])
 def test_lambert_rendezvous_turns_the_way_the_chaser_moves(inc_deg):
     # lambert's default (h_z > 0) sent a sun-synchronous chaser (i = 98 deg) the other way
@@ -409,3 +478,139 @@ def test_lambert_rendezvous_turns_the_way_the_chaser_moves(inc_deg):
     there = target.to_state().propagate(2000 * u.s)
     assert np.abs((after.r - there.r).to_value(u.km)).max() < 1e-6
     assert np.abs((after.v - there.v).to_value(u.km / u.s)).max() < 1e-9
+
+
+@pytest.mark.parametrize("body", [vv.EARTH, vv.MARS, vv.MOON])
+def test_a_transfer_radius_inside_the_attractor_is_refused_as_an_altitude(body):
+    """audit38: Maneuver.hohmann(leo at 6678 km, 500 km) meant 500 km of altitude and planned
+    15.12 km/s into the Earth instead of 0.113 km/s, silently."""
+    r0 = body.radius_km + 300.0
+    state = vv.KeplerianElements.from_semi_major_axis(r0 * u.km, 0.0, 0.0, 0.0, 0.0, 0.0,
+                                                      body).to_state()
+    for make in (lambda: Maneuver.hohmann(state, 500 * u.km),
+                 lambda: Maneuver.bielliptic(state, 5 * r0 * u.km, 500 * u.km),
+                 lambda: hohmann_delta_v(500 * u.km, r0 * u.km, body),
+                 lambda: hohmann_delta_v([r0, 200.0] * u.km, 2 * r0 * u.km, body.gm),
+                 lambda: bielliptic_delta_v(r0 * u.km, 9 * r0 * u.km, 500 * u.km, body)):
+        with pytest.raises(InvalidInputError, match=rf"(500|200) km is inside {body.name}"):
+            make()
+    # the radius meant is accepted, and GMs of no known body are not checked
+    h = body.radius_km + 500.0
+    assert Maneuver.hohmann(state, h * u.km).apply(state).to_elements().eccentricity < 1e-9
+    dv1, dv2, _ = hohmann_delta_v(1 * u.km, 11.94 * u.km, 1 * u.km**3 / u.s**2)
+    b = bielliptic_delta_v(1 * u.km, 1e9 * u.km, 11.94 * u.km, 1 * u.km**3 / u.s**2)
+    # the Hohmann / bi-elliptic (r_B -> infinity) break-even ratio, 11.94 (Curtis 2014, sec. 6.4)
+    assert abs(dv1 + dv2).to_value(KMS) == pytest.approx(sum(abs(x) for x in b[:3]).value,
+                                                         rel=2e-5)
+
+
+def _ahead_deg(state, ref):
+    """Angle (deg) from ``ref``'s position to ``state``'s about their common orbit normal."""
+    a, b = ref.r.to_value(u.km), state.r.to_value(u.km)
+    n = np.cross(ref.r.to_value(u.km), ref.v.to_value(KMS))
+    return np.rad2deg(np.arctan2(np.dot(np.cross(a, b), n) / np.linalg.norm(n), np.dot(a, b)))
+
+
+@pytest.mark.parametrize(("phi_deg", "k"), [(30.0, 1), (-30.0, 1), (30.0, 3), (-200.0, 2),
+                                            (5.0, 1)])
+def test_phasing_moves_the_spacecraft_along_its_circle_by_the_angle_asked(phi_deg, k):
+    """The phasing manoeuvre (audit38: none existed; Lambert cannot do it, r1 = r2 there):
+    after k laps the spacecraft is back on its circle, phi ahead of where it would have been
+    (a Kepler propagation of the unburnt state), for the closed-form Δv 2 |v_ph - v_c|."""
+    r = 8000.0
+    state = circular_state(r, inc=0.9)
+    man = Maneuver.phasing(state, phi_deg * u.deg, revolutions=k)
+    after = man.apply(state)
+    ref = state.propagate(man.duration)
+    assert (_ahead_deg(after, ref) - phi_deg + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
+    el = after.to_elements()
+    assert el.eccentricity < 1e-9
+    assert el.semi_major_axis.to_value(u.km) == pytest.approx(r, rel=1e-12)
+    period = 2 * np.pi * np.sqrt(r**3 / MU)
+    t_ph = period * (1 - np.deg2rad(phi_deg) / (2 * np.pi * k))
+    a_ph = (MU * (t_ph / (2 * np.pi)) ** 2) ** (1 / 3)
+    assert man.duration.to_value(u.s) == pytest.approx(k * t_ph, rel=1e-12)
+    dv = 2 * abs(np.sqrt(MU * (2 / r - 1 / a_ph)) - np.sqrt(MU / r))
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(dv, rel=1e-12)
+    # catching up (phi > 0) dips below the circle first: the first burn brakes
+    first = man.impulses[0].dv.to_value(KMS)
+    assert np.sign(np.dot(first, state.v.to_value(KMS))) == -np.sign(phi_deg)
+
+
+def test_phasing_on_an_elliptic_orbit_shifts_its_mean_anomaly():
+    el = vv.KeplerianElements.from_semi_major_axis(9000 * u.km, 0.2, 0.5, 0.3, 0.2, 1.0, GM)
+    state = el.to_state()
+    man = Maneuver.phasing(state, 40 * u.deg, revolutions=2)
+    after = man.apply(state)
+    n = np.sqrt(MU / 9000.0**3)
+    expected = state.propagate(man.duration + np.deg2rad(40.0) / n * u.s)
+    assert np.linalg.norm((after.r - expected.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((after.v - expected.v).to_value(KMS)) < 1e-9
+
+
+@pytest.mark.parametrize(("phi", "k", "match"), [
+    (30 * u.deg, 0, "integer >= 1"), (30 * u.deg, -1, "integer >= 1"),
+    (30 * u.deg, 1.5, "integer >= 1"), (30 * u.deg, True, "integer >= 1"),
+    (400 * u.deg, 1, "more than 1 revolution"), (-360 * u.deg, 1, "more than 1 revolution"),
+    (30, 1, r"phase_angle = 30 is a plain number"),
+    (120 * u.deg, 3, r"periapsis 5\d{3}.* km from the centre, inside earth"),
+    (340 * u.deg, 1, "does not pass through the state"),
+])
+def test_phasing_that_cannot_be_flown_is_refused(phi, k, match):
+    state = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0.0, 0.5, 0.0, 0.0, 0.0,
+                                                      vv.EARTH).to_state()
+    with pytest.raises(InvalidInputError, match=match):
+        Maneuver.phasing(state, phi, revolutions=k)
+    if match.startswith("periapsis"):  # more laps keep the phasing orbit above the Earth
+        man = Maneuver.phasing(state, phi, revolutions=6)
+        assert man.apply(state).to_elements().eccentricity < 1e-9
+
+
+def test_phasing_meets_a_target_ahead_on_the_same_ellipse():
+    """The phasing geometry of Curtis (2014), sec. 6.6: chaser at perigee of a 6800 x 13600 km
+    orbit, target 90 deg of true anomaly ahead; one lap of a phasing orbit whose period is the
+    target's time back to perigee (T - t_AB = 10252.1 - 1495.7 = 8756.3 s) meets it there."""
+    gm = 398600.0 * u.km**3 / u.s**2
+    a, e = 10200.0, 1.0 / 3.0
+    chaser = vv.KeplerianElements.from_semi_major_axis(a * u.km, e, 0.3, 0.2, 0.1, 0.0,
+                                                       gm).to_state()
+    target = vv.KeplerianElements.from_semi_major_axis(a * u.km, e, 0.3, 0.2, 0.1,
+                                                       np.pi / 2, gm).to_state()
+    ecc_anomaly = 2 * np.arctan(np.sqrt((1 - e) / (1 + e)))  # at 90 deg true anomaly
+    lead = ecc_anomaly - e * np.sin(ecc_anomaly)  # mean anomaly, rad
+    man = Maneuver.phasing(chaser, lead * u.rad, revolutions=1)
+    assert man.duration.to_value(u.s) == pytest.approx(8756.3, abs=0.05)
+    met = man.apply(chaser)
+    there = target.propagate(man.duration)
+    assert np.linalg.norm((met.r - there.r).to_value(u.km)) < 1e-6
+    assert np.linalg.norm((met.v - there.v).to_value(KMS)) < 1e-9
+    # the chaser brakes at perigee onto the smaller orbit and accelerates back
+    dv = man.impulses[0].dv.to_value(KMS)
+    assert np.dot(dv, chaser.v.to_value(KMS)) < 0
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(2 * np.linalg.norm(dv), rel=1e-15)
+
+
+def test_phasing_refuses_an_unbound_state_and_arrays():
+    escaping = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 11.0, 0] * KMS, vv.EARTH)
+    with pytest.raises(InvalidStateError, match="bound orbit"):
+        Maneuver.phasing(escaping, 10 * u.deg)
+    two = vv.StateVectors([[7000.0, 0, 0]] * 2 * u.km, [[0, 7.5, 0]] * 2 * KMS, vv.EARTH)
+    with pytest.raises(InvalidInputError, match="one state"):
+        Maneuver.phasing(two, 10 * u.deg)
+
+
+def test_bielliptic_against_hohmann_crossovers_11_94_and_15_58():
+    """Curtis (2014), sec. 6.4 / Vallado (2013), Fig. 6-7: below r_C/r_A = 11.94 the Hohmann
+    transfer is cheapest for every intermediate radius; above 15.58 every bi-elliptic one
+    (r_B > r_C) is cheaper; in between, only those with r_B far enough out."""
+    mu = 1 * u.km**3 / u.s**2
+
+    def cheaper(ratio, factor):
+        h = sum(abs(x.value) for x in hohmann_delta_v(1 * u.km, ratio * u.km, mu)[:2])
+        b = bielliptic_delta_v(1 * u.km, factor * ratio * u.km, ratio * u.km, mu)[:3]
+        return sum(abs(x.value) for x in b) < h
+
+    assert not any(cheaper(11.9, f) for f in (1.01, 1.5, 10.0, 1e8))
+    assert cheaper(12.0, 1e8) and not cheaper(12.0, 1.5)
+    assert all(cheaper(15.6, f) for f in (1.01, 1.5, 10.0, 1e8))
+    assert not cheaper(15.5, 1.01) and cheaper(15.5, 1.5)

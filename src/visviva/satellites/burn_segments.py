@@ -470,4 +470,7 @@ def burn_schedule(maneuvers, state, epoch):
                     f"{other!r} overlaps {m!r}; burns must not overlap (an impulse may sit at a "
                     "finite burn's start or end)."
                 )
+    from .burn_mass import check_chain
+
+    check_chain(items)
     return Schedule(items)

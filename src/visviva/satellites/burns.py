@@ -463,6 +463,14 @@ class FiniteBurn(_Burn):
             raise InvalidInputError("give isp or mass_flow, not both.")
         mdot = 0.0
         if isp is not None:
+            if isinstance(isp, u.Quantity) and isp.unit.is_equivalent(u.m / u.s):
+                from ..errors import UnitsError
+
+                raise UnitsError(
+                    f"isp is a specific impulse in seconds; got a speed, {isp}. For an "
+                    "effective exhaust speed c give isp=c / (9.80665 * u.m / u.s**2) (here "
+                    f"{(isp / (STANDARD_GRAVITY_M_S2 * u.m / u.s**2)).to(u.s):.6g}), or "
+                    "mass_flow=thrust / c.")
             isp_s = _one(isp, "time", "isp")
             require_positive(isp_s, "isp")
             mdot = float(f_n) / (float(isp_s) * STANDARD_GRAVITY_M_S2)

@@ -48,9 +48,19 @@ class GroundTrack:
     name: str = ""
 
     def segments(self):
-        """Index slices of the pieces between antimeridian crossings (for line plots)."""
+        """Index slices of the pieces between antimeridian crossings and passages over a pole
+        (for line plots).
+
+        A step whose longitude wraps (|Δλ| > 180 deg) crosses the antimeridian; one whose
+        longitude, unwrapped, still jumps by more than 90 deg passes over (or next to) a pole,
+        where the longitude turns by about 180 deg at once: a polar orbit's track was joined
+        there by a line across the whole map when the jump fell just below 180 deg (179.75 deg
+        for a 90 deg orbit sampled each minute).
+        """
         lon = np.atleast_1d(self.longitude.to_value(u.deg))
-        breaks = np.flatnonzero(np.abs(np.diff(lon)) > 180.0) + 1
+        step = np.diff(lon)
+        unwrapped = (step + 180.0) % 360.0 - 180.0
+        breaks = np.flatnonzero((np.abs(step) > 180.0) | (np.abs(unwrapped) > 90.0)) + 1
         edges = np.concatenate([[0], breaks, [lon.size]])
         return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 

@@ -1,4 +1,4 @@
-"""Impulsive manoeuvres: Hohmann, bi-elliptic, plane change and Lambert transfers.
+"""Impulsive manoeuvres: Hohmann, bi-elliptic, plane change, phasing and Lambert transfers.
 
 A :class:`Maneuver` is a sequence of impulses (time after the start, Δv vector); ``apply``
 coasts on the two-body conic between impulses and returns the state just after the last one;
@@ -51,22 +51,51 @@ def _one_value(value, kind, name):
     return float(arr)
 
 
-def _inclination_change(delta_inc):
-    """``delta_inc`` in rad; a plain number beyond pi (60 for 60 deg) is refused.
+def _inclination_change(delta_inc, name="delta_inc", limit=np.pi):
+    """``delta_inc`` in rad; a plain number beyond ``limit`` (60 for 60 deg) is refused.
 
     No change of inclination exceeds pi, so a plain number above it is degrees typed without
     their unit: taken in radians it gave another Δv without a word (60 -> 14.8 km/s at 7.5 km/s
-    instead of 7.5 km/s). Quantities of any size are taken as given.
+    instead of 7.5 km/s). Quantities of any size are taken as given. (A phase angle: 2 pi.)
     """
-    di = to_array(delta_inc, "angle", "delta_inc")
-    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > np.pi):
-        big = float(di[np.abs(di) > np.pi].ravel()[0])
+    di = to_array(delta_inc, "angle", name)
+    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > limit):
+        big = float(di[np.abs(di) > limit].ravel()[0])
+        what = "pi, which no plane change exceeds" if limit == np.pi else f"{limit:.6g} rad"
         raise InvalidInputError(
-            f"delta_inc = {big:g} is a plain number, so it would be taken in radians: more than "
-            f"pi, which no plane change exceeds. Pass delta_inc={big:g} * u.deg if you meant "
-            "degrees (or a Quantity in rad)."
+            f"{name} = {big:g} is a plain number, so it would be taken in radians: more than "
+            f"{what}. Pass {name}={big:g} * u.deg if you meant degrees (or a Quantity in rad)."
         )
     return di
+
+
+def _known_body(gm, mu):
+    """The attractor when ``gm`` is a Body or, to 0.1 %, a known body's GM (a one-value
+    ``mu``, km^3/s^2); else None."""
+    from ..bodies import BODIES, Body
+
+    if isinstance(gm, Body):
+        return gm
+    if np.ndim(mu) != 0:
+        return None
+    return next((b for b in BODIES.values() if abs(float(mu) / b.gm_km3_s2 - 1.0) <= 1e-3), None)
+
+
+def _refuse_below_surface(gm, mu, **radii_km):
+    """Refuse circle radii inside the attractor (an altitude given for a radius, 500 km for
+    6878 km), when it is a known body (:func:`_known_body`)."""
+    body = _known_body(gm, mu)
+    if body is None:
+        return
+    for name, r in radii_km.items():
+        if np.any(r < body.radius_km):
+            low = float(np.min(r))
+            raise InvalidInputError(
+                f"{name} = {low:.6g} km is inside {body.name} (radius {body.radius_km:.6g} km): "
+                "the radii of a transfer are from the body's centre, not altitudes. For an "
+                f"altitude of {low:.6g} km give {body.radius_km + low:.6g} km "
+                f"({body.name}'s radius + altitude)."
+            )
 
 
 def _chaser_sense(chaser, target) -> bool:
@@ -93,14 +122,24 @@ def hohmann_delta_v(r1, r2, gm):
     Parameters
     ----------
     r1, r2 : Quantity, length
-        Radii of the initial and final circular orbits (> 0); broadcast together.
+        Radii of the initial and final circular orbits (> 0; from the centre, not altitudes:
+        radii inside a known attractor are refused); broadcast together.
     gm : Quantity (km^3/s^2) or Body
-        Gravitational parameter of the attractor (> 0).
+        Gravitational parameter of the attractor (> 0). A Body, or the GM of one of
+        :data:`visviva.bodies.BODIES` to 0.1 %, gives the radius below which r1 and r2 are
+        refused.
 
     Returns
     -------
     dv1, dv2 : Quantity, km/s
     tof : Quantity, s
+
+    Raises
+    ------
+    InvalidInputError
+        Non-positive radii or gm; a radius inside the attractor (an altitude given for a
+        radius: Maneuver.hohmann from 6678 km to "500 km" gave 15.12 km/s instead of
+        0.113 km/s to 6878 km, silently).
     """
     a = to_array(r1, "length", "r1")
     b = to_array(r2, "length", "r2")
@@ -108,6 +147,7 @@ def hohmann_delta_v(r1, r2, gm):
     if np.any(a <= 0) or np.any(b <= 0) or np.any(mu <= 0):
         raise InvalidInputError("r1, r2 and gm must be > 0.")
     broadcast_or_raise("hohmann_delta_v", r1=a, r2=b, gm=mu)
+    _refuse_below_surface(gm, mu, r1=a, r2=b)
     dv1 = np.sqrt(mu / a) * (np.sqrt(2 * b / (a + b)) - 1)
     dv2 = np.sqrt(mu / b) * (1 - np.sqrt(2 * a / (a + b)))
     tof = np.pi * np.sqrt((a + b) ** 3 / (8 * mu))
@@ -122,7 +162,9 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     Parameters
     ----------
     r1, rb, r2 : Quantity, length
-        Initial, intermediate and final radii (> 0, rb >= r1 and r2); broadcast together.
+        Initial, intermediate and final radii (> 0, rb >= r1 and r2; from the centre: radii
+        inside a known attractor are refused, as in :func:`hohmann_delta_v`); broadcast
+        together.
     gm : Quantity (km^3/s^2) or Body
         Gravitational parameter of the attractor (> 0).
 
@@ -140,6 +182,7 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     broadcast_or_raise("bielliptic_delta_v", r1=a, rb=m, r2=b, gm=mu)
     if np.any(m < np.maximum(a, b)):
         raise InvalidInputError("the intermediate radius rb must be >= r1 and r2.")
+    _refuse_below_surface(gm, mu, r1=a, r2=b)
     a1 = 0.5 * (a + m)
     a2 = 0.5 * (m + b)
     dv1 = np.sqrt(2 * mu / a - mu / a1) - np.sqrt(mu / a)
@@ -384,6 +427,14 @@ class Maneuver:
         r . n >= 0, n = z x h; also for equatorial orbits), about -r on the descending half.
         Away from the nodes the same rotation tilts the plane about r: the inclination changes
         by less and the node moves (at the highest latitude only the node moves).
+
+        Raises
+        ------
+        InvalidInputError
+            An inclination i + Δi below 0 or above 180 deg (e.g. -10 deg from an equatorial
+            orbit): the rotation would carry the plane through the equator and the result
+            would be |i + Δi| with the node turned by 180 deg, a raise asked as a fall
+            (-10 deg from 0 gave 10 deg; +10 deg from 175 gave 175 deg, the node turned).
         """
         r = to_vector(state.r, "length", "state.r")
         v = to_vector(state.v, "speed", "state.v")
@@ -398,10 +449,97 @@ class Maneuver:
         # lowers it, so there the rotation turns the other way (it lowered it silently: +10 deg
         # at the descending node of a 30 deg orbit gave 20 deg)
         h = np.cross(r, v)
+        inc = float(np.arccos(np.clip(h[2] / np.linalg.norm(h), -1.0, 1.0)))
+        if not -1e-12 <= inc + di <= np.pi + 1e-12:
+            flown = np.rad2deg(abs(inc + di) if inc + di < 0 else 2 * np.pi - (inc + di))
+            raise InvalidInputError(
+                f"Maneuver.plane_change: the orbit's inclination is {np.rad2deg(inc):.6g} deg, "
+                f"so a change of {np.rad2deg(di):.6g} deg would take it to "
+                f"{np.rad2deg(inc + di):.6g} deg, outside 0-180 deg (the plane would turn "
+                f"through the equator: {flown:.6g} deg with the node moved by 180 deg). A positive delta_inc raises the inclination, a negative one "
+                "lowers it; give the change that reaches the inclination wanted."
+            )
         node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
         th = -di if np.dot(k, node) < 0 else di
         v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
         return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
+
+    @classmethod
+    def phasing(cls, state, phase_angle, revolutions=1):
+        """Move along the orbit by ``phase_angle`` in ``revolutions`` laps of a phasing orbit.
+
+        A burn along the velocity puts the spacecraft on a phasing orbit of period
+        T_ph = T (1 - Δφ / (2 π k)) through the same point; after k = ``revolutions`` laps it
+        is back there, and the opposite burn restores the original velocity. The spacecraft is
+        then on its old orbit Δφ ahead (in mean anomaly: the angle itself on a circle) of
+        where it would have been: a positive ``phase_angle`` catches up with a target ahead
+        (a lower, faster phasing orbit), a negative one falls back (Curtis 2014, sec. 6.6;
+        Vallado 2013, Algorithm 44).
+
+        Parameters
+        ----------
+        state : StateVectors
+            One bound state (shape (3,)); the first burn is at it.
+        phase_angle : Quantity or float
+            Δφ, angle (rad for plain floats, whose magnitude must not exceed 2 pi: a plain 30
+            is refused as degrees without their unit); |Δφ| < 2 π k.
+        revolutions : int
+            k >= 1, laps of the phasing orbit (more laps: a smaller Δv, a longer wait).
+
+        Returns
+        -------
+        Maneuver
+            Two impulses, Δv1 = v_ph - v along the velocity at 0 and -Δv1 at k T_ph.
+
+        Raises
+        ------
+        InvalidInputError
+            ``revolutions`` not an integer >= 1 (0 laps cannot change the phase); |Δφ| >= 2 π k
+            (no phasing period), or a phasing orbit that is unbound or whose periapsis lies
+            inside a known attractor (more revolutions lower the Δv and keep it higher).
+        """
+        r = to_vector(state.r, "length", "state.r")
+        v = to_vector(state.v, "speed", "state.v")
+        if r.shape != (3,) or v.shape != (3,):
+            raise InvalidInputError(
+                f"Maneuver.phasing takes one state (shape (3,)); got r {r.shape}.")
+        if (isinstance(revolutions, bool) or not isinstance(revolutions, int | np.integer)
+                or revolutions < 1):
+            raise InvalidInputError(
+                f"revolutions must be an integer >= 1 (laps of the phasing orbit); got "
+                f"{revolutions!r}. The phase changes only over whole laps of the phasing orbit.")
+        k = int(revolutions)
+        phi = _one_value(_inclination_change(phase_angle, "phase_angle", 2 * np.pi), "angle",
+                         "phase_angle")
+        mu = float(to_array(state.gm, "gm", "state.gm"))
+        rn, speed = float(np.linalg.norm(r)), float(np.linalg.norm(v))
+        energy = 0.5 * speed**2 - mu / rn
+        if not energy < 0:
+            raise InvalidStateError(
+                "Maneuver.phasing needs a bound orbit (specific energy < 0); this state's is "
+                f"{energy:.6g} km^2/s^2.")
+        period = 2 * np.pi * np.sqrt((-mu / (2 * energy)) ** 3 / mu)
+        if not abs(phi) < 2 * np.pi * k:
+            raise InvalidInputError(
+                f"a phase change of {np.rad2deg(phi):.6g} deg needs more than {k} "
+                "revolution(s): |phase_angle| < 360 deg x revolutions.")
+        t_ph = period * (1 - phi / (2 * np.pi * k))
+        a_ph = (mu * (t_ph / (2 * np.pi)) ** 2) ** (1 / 3)
+        v_ph2 = mu * (2 / rn - 1 / a_ph)
+        body = _known_body(state.gm, mu)
+        if v_ph2 > 0:
+            h = np.linalg.norm(np.cross(r, v)) / speed * np.sqrt(v_ph2)
+            periapsis = a_ph * (1 - np.sqrt(max(0.0, 1 - h * h / (mu * a_ph))))
+        if not v_ph2 > 0 or (body is not None and periapsis < body.radius_km):
+            where = ("does not pass through the state" if not v_ph2 > 0 else
+                     f"has its periapsis {periapsis:.6g} km from the centre, inside "
+                     f"{body.name} (radius {body.radius_km:.6g} km)")
+            raise InvalidInputError(
+                f"the phasing orbit for {np.rad2deg(phi):.6g} deg in {k} revolution(s) (a = "
+                f"{a_ph:.6g} km) {where}: give more revolutions.")
+        dv1 = (np.sqrt(v_ph2) - speed) * v / speed
+        kms = u.km / u.s
+        return cls([(0 * u.s, dv1 * kms), (k * t_ph * u.s, -dv1 * kms)])._planned_from(state)
 
     @classmethod
     def lambert(cls, state_from, state_to, tof, **lambert_kwargs):

@@ -148,11 +148,11 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         ts = np.arange(n_steps) * step_s
         r1, v1 = src1.sample(ts)
         r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
-        q1, Q1 = src1.shells()
-        q2, Q2 = (q1, Q1) if self_mode else src2.shells()
+        b1 = _bounds(src1, step_s, r1)
+        b2 = b1 if self_mode else _bounds(src2, step_s, r2)
         cache.clear()
-        cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
-                     path=_path(src1, src2, self_mode, (n_steps - 1) * step_s),
+        cache.update(key=key, eph=(r1, v1, b1[0], b1[1], r2, v2, b2[0], b2[1]),
+                     path=_path(b1, b2, self_mode, (n_steps - 1) * step_s),
                      speed=_speed_bound(v1, v2))
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
     el1, g1, el2, g2 = cache["path"]
@@ -203,15 +203,45 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
     return found
 
 
-def _path(src1, src2, self_mode, span_s):
-    """The orbit-path filter's arrays for both sides (same drift chunks)."""
+def _bounds(src, step_s=None, r=None):
+    """The apogee/perigee shells and the orbit-path elements of one side, widened by what its
+    samples ``r`` (positions every ``step_s``) show: ``(q, Q, elements, extra)``.
+
+    The shells of SGP4's mean elements at epoch miss what the secular drift leaves out: SGP4
+    lowers a dragged orbit (B* 0.01 at 400 km: 112 km in 15 days, within the staleness limit),
+    and a close approach below the epoch's perigee was dropped by both filters without a word.
+    So the shells also cover every sampled radius, and ``extra`` (km, per object) is how far the
+    samples stray from the drifting mean path beyond the half of :data:`FILTER_MARGIN_KM` that
+    each side's short-period terms are given (:func:`~visviva.core.orbit_path.sampled_path_bounds`).
+    Without samples, the mean-element values (``extra`` None).
+    """
+    from ..core.orbit_path import sampled_path_bounds
+
+    q, big = src.shells()
+    elements = src.path_elements()
+    if r is None or elements.shape[0] == 0:
+        return q, big, elements, None
+    out = np.zeros((len(src), 3))
+    sampled_path_bounds(elements, float(step_s), r, out)
+    extra = np.maximum(out[:, 0] - 0.5 * FILTER_MARGIN_KM, 0.0)
+    return np.minimum(q, out[:, 1]), np.maximum(big, out[:, 2]), elements, extra
+
+
+def _path(b1, b2, self_mode, span_s):
+    """The orbit-path filter's arrays for both sides (same drift chunks) from :func:`_bounds`:
+    perigee and apogee radii and the drift displacement widened by each object's ``extra``."""
     from ..core.orbit_path import path_geometry, path_rate
 
-    e1 = src1.path_elements()
-    e2 = e1 if self_mode else src2.path_elements()
-    rate = path_rate(e1, e2)
-    el1, g1 = path_geometry(e1, span_s, rate)
-    el2, g2 = (el1, g1) if self_mode else path_geometry(e2, span_s, rate)
+    rate = path_rate(b1[2], b2[2])
+    out = []
+    for _q, _big, elements, extra in (b1,) if self_mode else (b1, b2):
+        el, g = path_geometry(elements, span_s, rate)
+        if extra is not None and el.shape[0]:
+            el[:, 2] -= extra
+            el[:, 3] += extra
+            el[:, 4] += extra
+        out.append((el, g))
+    (el1, g1), (el2, g2) = (out[0], out[0]) if self_mode else out
     return el1, g1, el2, g2
 
 
@@ -235,9 +265,10 @@ def filter_statistics(src1, src2, span_s, threshold_km):
     from ..core.orbit_path import count_filter_survivors
 
     self_mode = src1 is src2
-    q1, Q1 = src1.shells()
-    q2, Q2 = src2.shells()
-    el1, g1, el2, g2 = _path(src1, src2, self_mode, span_s)
+    b1 = _bounds(src1)
+    b2 = b1 if self_mode else _bounds(src2)
+    q1, Q1, q2, Q2 = b1[0], b1[1], b2[0], b2[1]
+    el1, g1, el2, g2 = _path(b1, b2, self_mode, span_s)
     out = np.zeros((len(src1), 2), dtype=np.int64)
     count_filter_survivors(q1, Q1, q2, Q2, el1, g1, el2, g2, self_mode,
                            float(threshold_km) + FILTER_MARGIN_KM, out)
@@ -411,6 +442,10 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     cat1 = as_source(primaries, t0, t1, "primaries", jd0, fr0)
     self_mode = secondaries is None
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
+    for which, src in (("primaries", cat1), ("secondaries", cat2)):
+        if len(src) == 0:  # (before the kinds: an empty list is no kind at all)
+            raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
+                                    "catalogue or TLE file?); pass at least one object.")
     check_same_kind(cat1, cat2)
     if not self_mode and cat1.keys() == cat2.keys():
         self_mode, cat2 = True, cat1  # the same objects twice: all against all, pairs once
@@ -418,10 +453,6 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         if isinstance(src, SgpSource):  # (a pass search warns the same way)
             warn_stale_window(src.catalog, t0, t1, "these close approaches can be kilometres "
                               "off, or missing")
-    for which, src in (("primaries", cat1), ("secondaries", cat2)):
-        if len(src) == 0:
-            raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
-                                    "catalogue or TLE file?); pass at least one object.")
     _check_step(step_s, asked_s, cat1, cat2)
     n1 = len(cat1)
     _check_memory(n1 + (0 if self_mode else len(cat2)), n_steps, step_s)

@@ -210,9 +210,10 @@ def _bounds(src, step_s=None, r=None):
     The shells of SGP4's mean elements at epoch miss what the secular drift leaves out: SGP4
     lowers a dragged orbit (B* 0.01 at 400 km: 112 km in 15 days, within the staleness limit),
     and a close approach below the epoch's perigee was dropped by both filters without a word.
-    So the shells also cover every sampled radius, and ``extra`` (km, per object) is how far the
-    samples stray from the drifting mean path beyond the half of :data:`FILTER_MARGIN_KM` that
-    each side's short-period terms are given (:func:`~visviva.core.orbit_path.sampled_path_bounds`).
+    So the shells also come within half of :data:`FILTER_MARGIN_KM` (each side's share, for its
+    short-period terms) of every sampled radius, and ``extra`` (km, per object) is how far the
+    samples stray from the drifting mean path beyond that share
+    (:func:`~visviva.core.orbit_path.sampled_path_bounds`): ordinary orbits keep their filters.
     Without samples, the mean-element values (``extra`` None).
     """
     from ..core.orbit_path import sampled_path_bounds
@@ -223,8 +224,9 @@ def _bounds(src, step_s=None, r=None):
         return q, big, elements, None
     out = np.zeros((len(src), 3))
     sampled_path_bounds(elements, float(step_s), r, out)
-    extra = np.maximum(out[:, 0] - 0.5 * FILTER_MARGIN_KM, 0.0)
-    return np.minimum(q, out[:, 1]), np.maximum(big, out[:, 2]), elements, extra
+    share = 0.5 * FILTER_MARGIN_KM
+    extra = np.maximum(out[:, 0] - share, 0.0)
+    return np.minimum(q, out[:, 1] + share), np.maximum(big, out[:, 2] - share), elements, extra
 
 
 def _path(b1, b2, self_mode, span_s):

@@ -9,9 +9,11 @@ filter, one object's state at any time (for the TCA refinement) and the names.
 
 Ephemerides are interpolated with the Hermite polynomial of degree 7 through the positions and
 velocities of the four samples around each time (:data:`HERMITE_NODES`): its error grows as
-``h^8``. On a two-body LEO orbit it is 0.04 mm at 60 s, 0.17 m at 300 s and 39 m at 600 s (the
-cubic Hermite of the two samples around each time, used before the twentieth session: 0.35 m,
-220 m and 3.5 km), so an OEM or Cowell run with 300 s outputs is screened to the metre.
+``h^8``. On a two-body LEO orbit it is 0.1 mm at 120 s, 3.7 cm at 300 s and 8.6 m at 600 s (the
+cubic Hermite of the two samples around each time, used before the twentieth session: 5.6 m,
+220 m and 3.5 km), so an OEM or Cowell run with 300 s outputs is screened to the centimetre.
+Where the velocities are not the positions' derivatives (SGP4 histories) the cubic one may be
+better, and is chosen per ephemeris (:func:`interpolation_choice`).
 """
 
 from __future__ import annotations

@@ -140,3 +140,21 @@ def test_dask_client_gives_the_serial_table():
         assert list(a["object2"]) == list(b["object2"])
         assert np.all(a["miss_distance"] == b["miss_distance"])
         assert np.all((a["tca"] - b["tca"]).to_value(u.s) == 0.0)
+
+
+def test_a_long_window_from_the_epochs_is_stale_at_its_far_end():
+    # the staleness was measured from the window's nearer end: a 40-day window starting at the
+    # epochs was screened without a word, its last ten days 30-40 days from the element sets
+    import warnings
+
+    cat = synthetic_catalog(2, seed=1)
+    t0 = cat.epochs[0]
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        vv.screen_conjunctions(cat, None, t0, t0 + 40 * u.day, 5 * u.km)
+    stale = [x for x in w if issubclass(x.category, vv.StaleElementSetWarning)]
+    assert len(stale) == 1 and "2 of 2" in str(stale[0].message)
+    assert "(40 d)" in str(stale[0].message) and stale[0].filename == __file__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # within 30 days of the epochs: nothing to say
+        vv.screen_conjunctions(cat, None, t0, t0 + 2 * u.hour, 5 * u.km)

@@ -20,7 +20,7 @@ import numpy as np
 from .._units import require_usable_time, to_array
 from ..constants import DAY_S, GM_EARTH_KM3_S2
 from ..errors import InvalidInputError
-from ..satellites.tle_checks import warn_stale_window
+from ..satellites.tle_checks import warn_stale_sets
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 
 __all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
@@ -453,8 +453,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         self_mode, cat2 = True, cat1  # the same objects twice: all against all, pairs once
     for src in (cat1,) if self_mode else (cat1, cat2):
         if isinstance(src, SgpSource):  # (a pass search warns the same way)
-            warn_stale_window(src.catalog, t0, t1, "these close approaches can be kilometres "
-                              "off, or missing")
+            _warn_stale(src.catalog, t0, t1)
     _check_step(step_s, asked_s, cat1, cat2)
     n1 = len(cat1)
     _check_memory(n1 + (0 if self_mode else len(cat2)), n_steps, step_s)
@@ -512,6 +511,21 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     _warn_same_object(cat1, cat2, tab)
     _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
+
+
+def _warn_stale(cat, t0, t1) -> None:
+    """One StaleElementSetWarning for the element sets whose epochs lie more than 30 days from
+    some time of the window: from its farther end, so that a long window starting at the epochs
+    is not taken for a fresh one (a 60-day window from the epochs was screened without a word,
+    its last weeks with SGP4 errors of kilometres; audit39)."""
+    jd, fr = cat.epoch_days
+    away = []
+    for t in (t0, t1):
+        tj, tf = time_to_utc_days(t)
+        away.append(np.abs((float(tj) - jd) + (float(tf) - fr)))  # days
+    sats = cat.satellites
+    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, np.maximum(*away),
+                    "the window", "these close approaches can be kilometres off, or missing")
 
 
 def _once_per_pair(found, keys1, keys2):

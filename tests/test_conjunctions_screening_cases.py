@@ -158,3 +158,29 @@ def test_a_long_window_from_the_epochs_is_stale_at_its_far_end():
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # within 30 days of the epochs: nothing to say
         vv.screen_conjunctions(cat, None, t0, t0 + 2 * u.hour, 5 * u.km)
+
+
+def test_a_decaying_object_is_named_from_its_last_screened_sample():
+    # the screening of an object stops at its last sample before SGP4 fails (the interval that
+    # ends on the failed sample is not scanned); the warning named the failed sample's time
+    import importlib.resources
+    import re
+
+    from visviva.satellites.utc_days import time_to_utc_days
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] for ln in text.splitlines() if ln[:2] in ("1 ", "2 ")]
+    tles = {a[2:7]: (a, b) for a, b in zip(lines[::2], lines[1::2], strict=True)}
+    decaying = vv.Satellite.from_tle(*tles["28350"], name="DECAYING")
+    t0 = decaying.epoch + 0.3 * u.day
+    t1 = t0 + 2 * u.day
+    others = synthetic_catalog(2, seed=1, epoch=t0.isot)
+    with pytest.warns(RuntimeWarning, match="'DECAYING' from") as record:
+        vv.screen_conjunctions(vv.Catalog([decaying]), others, t0, t1)
+    named = Time(re.search(r"'DECAYING' from (\S+?)[,)]", str(record[0].message)).group(1))
+    n_steps = int(np.ceil((t1 - t0).to_value(u.s) / 60.0)) + 1
+    ts = np.arange(n_steps) * ((t1 - t0).to_value(u.s) / (n_steps - 1))
+    jd, fr = (float(x) for x in time_to_utc_days(t0))
+    err, _, _ = decaying.satrec.sgp4_array(np.full(ts.size, jd), fr + ts / 86400.0)
+    last_good = ts[np.flatnonzero(err != 0)[0] - 1]
+    assert abs((named - t0).to_value(u.s) - last_good) < 1.0

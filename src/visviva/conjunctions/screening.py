@@ -298,8 +298,10 @@ def _first_failures(cache, self_mode):
 
 def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> None:
     """One RuntimeWarning naming the objects whose SGP4 failed inside the window: the
-    screening of each stops there (nothing after it is screened, so a close approach there
-    would be missing from the table without it)."""
+    screening of each stops at its last sample before the failure (nothing after it is
+    screened, not even a minimum between that sample and the failure, so a close approach there
+    would be missing from the table without it; the time named was the failed sample's, one
+    step late, before audit39)."""
     from astropy import units as u
 
     sides = [(first1, names1)] if self_mode else [(first1, names1), (first2, names2)]
@@ -309,7 +311,7 @@ def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> Non
         return
     import warnings
 
-    where = ", ".join(f"{name!r} from {(t0 + max(k, 0) * step_s * u.s).utc.isot[:19]}"
+    where = ", ".join(f"{name!r} from {(t0 + max(k - 1, 0) * step_s * u.s).utc.isot[:19]}"
                       for name, k in items[:5])
     warnings.warn(
         f"SGP4 failed inside the window for {len(items)} object(s) ({where}"

@@ -184,3 +184,15 @@ def test_a_decaying_object_is_named_from_its_last_screened_sample():
     err, _, _ = decaying.satrec.sgp4_array(np.full(ts.size, jd), fr + ts / 86400.0)
     last_good = ts[np.flatnonzero(err != 0)[0] - 1]
     assert abs((named - t0).to_value(u.s) - last_good) < 1.0
+
+
+def test_array_windows_and_thresholds_are_refused_clearly():
+    # numpy's "only 0-dimensional arrays can be converted to Python scalars" before
+    cat = synthetic_catalog(2, seed=1)
+    t0 = cat.epochs[0]
+    with pytest.raises(vv.InvalidInputError, match="threshold must be one value"):
+        vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.hour, [5, 6] * u.km)
+    with pytest.raises(vv.InvalidInputError, match="step must be one value"):
+        vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.hour, step=[60, 30] * u.s)
+    with pytest.raises(vv.InvalidInputError, match="single times"):
+        vv.screen_conjunctions(cat, None, t0 + [0, 1] * u.s, t0 + 1 * u.hour)

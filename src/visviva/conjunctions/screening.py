@@ -426,14 +426,19 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    if not (t0.isscalar and t1.isscalar):
+        raise InvalidInputError(
+            f"t0 and t1 must be single times (the window's ends); got shapes {t0.shape} and "
+            f"{t1.shape}. Screen one window per call (and stack the tables).")
     require_usable_time(t0, "t0")
     require_usable_time(t1, "t1")
     from ..satellites.frames import offline_iers
 
     with offline_iers():  # a window in UT1 needs the installed IERS table, never a download
         t0, t1 = t0.tai, t1.tai
-    thr = 5.0 if threshold is None else float(to_array(threshold, "length", "threshold"))
-    step_s = 60.0 if step is None else float(to_array(step, "time", "step"))
+    thr = 5.0 if threshold is None else _scalar(to_array(threshold, "length", "threshold"),
+                                                 "threshold", "km")
+    step_s = 60.0 if step is None else _scalar(to_array(step, "time", "step"), "step", "s")
     if not thr > 0 or not step_s > 0:
         raise InvalidInputError("threshold and step must be positive.")
     span = float((t1 - t0).to_value(u.s))
@@ -513,6 +518,16 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     _warn_same_object(cat1, cat2, tab)
     _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
+
+
+def _scalar(value, name, unit) -> float:
+    """One number from a converted Quantity, or a clear refusal (arrays raised numpy's
+    "only 0-dimensional arrays can be converted" before audit39)."""
+    if np.ndim(value) != 0:
+        raise InvalidInputError(
+            f"{name} must be one value; got an array of shape {np.shape(value)}. One "
+            f"{name} per screening: e.g. {name}=5 * u.{unit}.")
+    return float(value)
 
 
 def _warn_stale(cat, t0, t1) -> None:

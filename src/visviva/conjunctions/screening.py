@@ -20,7 +20,7 @@ import numpy as np
 from .._units import require_usable_time, to_array
 from ..constants import DAY_S, GM_EARTH_KM3_S2
 from ..errors import InvalidInputError
-from ..satellites.tle_checks import warn_stale_window
+from ..satellites.tle_checks import warn_stale_sets
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 
 __all__ = ["screen_conjunctions", "screen_block", "SCREEN_COLUMNS"]
@@ -148,11 +148,11 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         ts = np.arange(n_steps) * step_s
         r1, v1 = src1.sample(ts)
         r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
-        q1, Q1 = src1.shells()
-        q2, Q2 = (q1, Q1) if self_mode else src2.shells()
+        b1 = _bounds(src1, step_s, r1)
+        b2 = b1 if self_mode else _bounds(src2, step_s, r2)
         cache.clear()
-        cache.update(key=key, eph=(r1, v1, q1, Q1, r2, v2, q2, Q2),
-                     path=_path(src1, src2, self_mode, (n_steps - 1) * step_s),
+        cache.update(key=key, eph=(r1, v1, b1[0], b1[1], r2, v2, b2[0], b2[1]),
+                     path=_path(b1, b2, self_mode, (n_steps - 1) * step_s),
                      speed=_speed_bound(v1, v2))
     r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
     el1, g1, el2, g2 = cache["path"]
@@ -203,15 +203,47 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
     return found
 
 
-def _path(src1, src2, self_mode, span_s):
-    """The orbit-path filter's arrays for both sides (same drift chunks)."""
+def _bounds(src, step_s=None, r=None):
+    """The apogee/perigee shells and the orbit-path elements of one side, widened by what its
+    samples ``r`` (positions every ``step_s``) show: ``(q, Q, elements, extra)``.
+
+    The shells of SGP4's mean elements at epoch miss what the secular drift leaves out: SGP4
+    lowers a dragged orbit (B* 0.01 at 400 km: 112 km in 15 days, within the staleness limit),
+    and a close approach below the epoch's perigee was dropped by both filters without a word.
+    So the shells also come within half of :data:`FILTER_MARGIN_KM` (each side's share, for its
+    short-period terms) of every sampled radius, and ``extra`` (km, per object) is how far the
+    samples stray from the drifting mean path beyond that share
+    (:func:`~visviva.core.orbit_path.sampled_path_bounds`): ordinary orbits keep their filters.
+    Without samples, the mean-element values (``extra`` None).
+    """
+    from ..core.orbit_path import sampled_path_bounds
+
+    q, big = src.shells()
+    elements = src.path_elements()
+    if r is None or elements.shape[0] == 0:
+        return q, big, elements, None
+    out = np.zeros((len(src), 3))
+    sampled_path_bounds(elements, float(step_s), r, out)
+    share = 0.5 * FILTER_MARGIN_KM
+    extra = np.maximum(out[:, 0] - share, 0.0)
+    return np.minimum(q, out[:, 1] + share), np.maximum(big, out[:, 2] - share), elements, extra
+
+
+def _path(b1, b2, self_mode, span_s):
+    """The orbit-path filter's arrays for both sides (same drift chunks) from :func:`_bounds`:
+    perigee and apogee radii and the drift displacement widened by each object's ``extra``."""
     from ..core.orbit_path import path_geometry, path_rate
 
-    e1 = src1.path_elements()
-    e2 = e1 if self_mode else src2.path_elements()
-    rate = path_rate(e1, e2)
-    el1, g1 = path_geometry(e1, span_s, rate)
-    el2, g2 = (el1, g1) if self_mode else path_geometry(e2, span_s, rate)
+    rate = path_rate(b1[2], b2[2])
+    out = []
+    for _q, _big, elements, extra in (b1,) if self_mode else (b1, b2):
+        el, g = path_geometry(elements, span_s, rate)
+        if extra is not None and el.shape[0]:
+            el[:, 2] -= extra
+            el[:, 3] += extra
+            el[:, 4] += extra
+        out.append((el, g))
+    (el1, g1), (el2, g2) = (out[0], out[0]) if self_mode else out
     return el1, g1, el2, g2
 
 
@@ -235,9 +267,10 @@ def filter_statistics(src1, src2, span_s, threshold_km):
     from ..core.orbit_path import count_filter_survivors
 
     self_mode = src1 is src2
-    q1, Q1 = src1.shells()
-    q2, Q2 = src2.shells()
-    el1, g1, el2, g2 = _path(src1, src2, self_mode, span_s)
+    b1 = _bounds(src1)
+    b2 = b1 if self_mode else _bounds(src2)
+    q1, Q1, q2, Q2 = b1[0], b1[1], b2[0], b2[1]
+    el1, g1, el2, g2 = _path(b1, b2, self_mode, span_s)
     out = np.zeros((len(src1), 2), dtype=np.int64)
     count_filter_survivors(q1, Q1, q2, Q2, el1, g1, el2, g2, self_mode,
                            float(threshold_km) + FILTER_MARGIN_KM, out)
@@ -265,8 +298,10 @@ def _first_failures(cache, self_mode):
 
 def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> None:
     """One RuntimeWarning naming the objects whose SGP4 failed inside the window: the
-    screening of each stops there (nothing after it is screened, so a close approach there
-    would be missing from the table without it)."""
+    screening of each stops at its last sample before the failure (nothing after it is
+    screened, not even a minimum between that sample and the failure, so a close approach there
+    would be missing from the table without it; the time named was the failed sample's, one
+    step late, before audit39)."""
     from astropy import units as u
 
     sides = [(first1, names1)] if self_mode else [(first1, names1), (first2, names2)]
@@ -276,7 +311,7 @@ def _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s) -> Non
         return
     import warnings
 
-    where = ", ".join(f"{name!r} from {(t0 + max(k, 0) * step_s * u.s).utc.isot[:19]}"
+    where = ", ".join(f"{name!r} from {(t0 + max(k - 1, 0) * step_s * u.s).utc.isot[:19]}"
                       for name, k in items[:5])
     warnings.warn(
         f"SGP4 failed inside the window for {len(items)} object(s) ({where}"
@@ -391,14 +426,19 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
 
     if not isinstance(t0, Time) or not isinstance(t1, Time):
         raise InvalidInputError("t0 and t1 must be astropy Time objects (the window).")
+    if not (t0.isscalar and t1.isscalar):
+        raise InvalidInputError(
+            f"t0 and t1 must be single times (the window's ends); got shapes {t0.shape} and "
+            f"{t1.shape}. Screen one window per call (and stack the tables).")
     require_usable_time(t0, "t0")
     require_usable_time(t1, "t1")
     from ..satellites.frames import offline_iers
 
     with offline_iers():  # a window in UT1 needs the installed IERS table, never a download
         t0, t1 = t0.tai, t1.tai
-    thr = 5.0 if threshold is None else float(to_array(threshold, "length", "threshold"))
-    step_s = 60.0 if step is None else float(to_array(step, "time", "step"))
+    thr = 5.0 if threshold is None else _scalar(to_array(threshold, "length", "threshold"),
+                                                 "threshold", "km")
+    step_s = 60.0 if step is None else _scalar(to_array(step, "time", "step"), "step", "s")
     if not thr > 0 or not step_s > 0:
         raise InvalidInputError("threshold and step must be positive.")
     span = float((t1 - t0).to_value(u.s))
@@ -411,17 +451,16 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     cat1 = as_source(primaries, t0, t1, "primaries", jd0, fr0)
     self_mode = secondaries is None
     cat2 = cat1 if self_mode else as_source(secondaries, t0, t1, "secondaries", jd0, fr0)
+    for which, src in (("primaries", cat1), ("secondaries", cat2)):
+        if len(src) == 0:  # (before the kinds: an empty list is no kind at all)
+            raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
+                                    "catalogue or TLE file?); pass at least one object.")
     check_same_kind(cat1, cat2)
     if not self_mode and cat1.keys() == cat2.keys():
         self_mode, cat2 = True, cat1  # the same objects twice: all against all, pairs once
     for src in (cat1,) if self_mode else (cat1, cat2):
         if isinstance(src, SgpSource):  # (a pass search warns the same way)
-            warn_stale_window(src.catalog, t0, t1, "these close approaches can be kilometres "
-                              "off, or missing")
-    for which, src in (("primaries", cat1), ("secondaries", cat2)):
-        if len(src) == 0:
-            raise InvalidInputError(f"the {which} hold no object: nothing to screen (an empty "
-                                    "catalogue or TLE file?); pass at least one object.")
+            _warn_stale(src.catalog, t0, t1)
     _check_step(step_s, asked_s, cat1, cat2)
     n1 = len(cat1)
     _check_memory(n1 + (0 if self_mode else len(cat2)), n_steps, step_s)
@@ -479,6 +518,31 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     _warn_same_object(cat1, cat2, tab)
     _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
+
+
+def _scalar(value, name, unit) -> float:
+    """One number from a converted Quantity, or a clear refusal (arrays raised numpy's
+    "only 0-dimensional arrays can be converted" before audit39)."""
+    if np.ndim(value) != 0:
+        raise InvalidInputError(
+            f"{name} must be one value; got an array of shape {np.shape(value)}. One "
+            f"{name} per screening: e.g. {name}=5 * u.{unit}.")
+    return float(value)
+
+
+def _warn_stale(cat, t0, t1) -> None:
+    """One StaleElementSetWarning for the element sets whose epochs lie more than 30 days from
+    some time of the window: from its farther end, so that a long window starting at the epochs
+    is not taken for a fresh one (a 60-day window from the epochs was screened without a word,
+    its last weeks with SGP4 errors of kilometres; audit39)."""
+    jd, fr = cat.epoch_days
+    away = []
+    for t in (t0, t1):
+        tj, tf = time_to_utc_days(t)
+        away.append(np.abs((float(tj) - jd) + (float(tf) - fr)))  # days
+    sats = cat.satellites
+    warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, np.maximum(*away),
+                    "the window", "these close approaches can be kilometres off, or missing")
 
 
 def _once_per_pair(found, keys1, keys2):

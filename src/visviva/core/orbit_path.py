@@ -24,7 +24,7 @@ import numpy as np
 from ._jit import inline_kernel, parallel_kernel, prange
 
 __all__ = ["orbit_paths_close", "count_filter_survivors", "path_geometry", "path_rate",
-           "path_schedule", "PATH_ELEMENTS"]
+           "path_schedule", "sampled_path_bounds", "PATH_ELEMENTS"]
 
 #: columns of the element array: semi-latus rectum (km), eccentricity, inclination, node and
 #: argument of perigee at the middle of the first chunk (rad), their secular rates (rad/s)
@@ -120,6 +120,72 @@ def count_filter_survivors(q1, Q1, q2, Q2, el1, g1, el2, g2, self_mode, reach, o
                 b += 1
         out[i, 0] = a
         out[i, 1] = b
+
+
+@parallel_kernel
+def sampled_path_bounds(elements, dt, r, out):
+    """Largest distance (km) of each object's sampled positions from its drifting mean path,
+    and its smallest and largest sampled radius (km).
+
+    Parameters
+    ----------
+    elements : ndarray, shape (N, 7)
+        :data:`PATH_ELEMENTS` at ``t = 0`` (km, rad, rad/s).
+    dt : float
+        Sampling step, s: sample ``k`` is at ``t = k dt``.
+    r : ndarray, shape (N, T, 3)
+        Sampled positions (km), in the frame of the elements; samples with NaN are skipped.
+    out : ndarray, shape (N, 3)
+        Written: the largest residual, the smallest and the largest radius of each object
+        (0, inf and -inf when it has no finite sample).
+
+    Notes
+    -----
+    At each sample the node and the argument of perigee drift to ``t``; the position's
+    argument of latitude ``u`` in the mean plane gives the true anomaly ``nu = u - argp``, and
+    the residual is the distance to the point of the mean conic at that ``u``:
+    ``sqrt((rho - p / (1 + e cos nu))^2 + z^2)`` with ``rho`` and ``z`` the in-plane and
+    out-of-plane parts of the position. It holds the short-period terms, and what the secular
+    drift leaves out: the decay of a dragged orbit (SGP4 lowers ``a`` with B*), the lunisolar
+    changes of a deep-space one.
+    """
+    n = r.shape[0]
+    nt = r.shape[1]
+    for i in prange(n):
+        p = elements[i, 0]
+        e = elements[i, 1]
+        si = math.sin(elements[i, 2])
+        ci = math.cos(elements[i, 2])
+        worst = 0.0
+        rmin = math.inf
+        rmax = -math.inf
+        for k in range(nt):
+            x = r[i, k, 0]
+            y = r[i, k, 1]
+            z = r[i, k, 2]
+            if not (x == x and y == y and z == z):
+                continue  # a failed propagation
+            rad = math.sqrt(x * x + y * y + z * z)
+            if rad < rmin:
+                rmin = rad
+            if rad > rmax:
+                rmax = rad
+            t = k * dt
+            node = elements[i, 3] + elements[i, 5] * t
+            cn = math.cos(node)
+            sn = math.sin(node)
+            # node vector P = (cn, sn, 0), Q = h x P = (-ci sn, ci cn, si), normal h
+            xp = x * cn + y * sn
+            yq = -x * ci * sn + y * ci * cn + z * si
+            zh = x * si * sn - y * si * cn + z * ci
+            nu = math.atan2(yq, xp) - (elements[i, 4] + elements[i, 6] * t)
+            dr = math.sqrt(xp * xp + yq * yq) - p / (1.0 + e * math.cos(nu))
+            res = math.sqrt(dr * dr + zh * zh)
+            if res > worst:
+                worst = res
+        out[i, 0] = worst
+        out[i, 1] = rmin
+        out[i, 2] = rmax
 
 
 def path_geometry(elements, span_s, rate_km_s, drift_km=20.0):

@@ -24,9 +24,9 @@ from .search import (
     EventSet,
     as_catalog,
     check_window,
-    min_elevation_rad,
-    search_events,
 )
+from .mask import station_thresholds
+from .masked_search import search_masked
 from .station import as_stations
 
 __all__ = ["find_passes", "write_passes"]
@@ -113,12 +113,12 @@ def passes_of(satellites, stations, t0, t1, min_elevation, standard_magnitude, r
     cat = as_catalog(satellites)
     sts = as_stations(stations)
     t0, t1 = check_window(t0, t1)
-    el_min = min_elevation_rad(min_elevation)
+    flat_rad, masks = station_thresholds(min_elevation, len(sts))
     if standard_magnitude is not None:
         from .visibility import standard_magnitudes
 
         standard_magnitude = standard_magnitudes(standard_magnitude, len(cat))
-    ev = search_events(cat, sts, t0, t1, el_min, refraction, warn_stale=warn_stale)
+    ev = search_masked(cat, sts, t0, t1, flat_rad, masks, refraction, warn_stale=warn_stale)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)
 
 

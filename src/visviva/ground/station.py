@@ -296,7 +296,9 @@ class GroundStation:
         """
         from ..core.topocentric import SET
         from ..satellites.tle import Satellite
-        from .search import as_catalog, check_window, min_elevation_rad, search_events
+        from .mask import station_thresholds
+        from .masked_search import search_masked
+        from .search import as_catalog, check_window
 
         if not isinstance(satellite, Satellite):
             raise InvalidInputError(
@@ -304,8 +306,8 @@ class GroundStation:
                 "catalogue use vv.find_passes(catalog, station, t0, t1)."
             )
         t0, t1 = check_window(t0, t1)
-        el = min_elevation_rad(min_elevation)
-        ev = search_events(as_catalog(satellite), [self], t0, t1, el, refraction)
+        flat_rad, masks = station_thresholds(min_elevation, 1)
+        ev = search_masked(as_catalog(satellite), [self], t0, t1, flat_rad, masks, refraction)
         real = ev.kind <= SET
         return ev.times(np.flatnonzero(real)), ev.kind[real].astype(np.int64)
 

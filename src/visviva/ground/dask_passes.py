@@ -15,8 +15,8 @@ import numpy as np
 from astropy import units as u
 
 from ..errors import InvalidInputError
-from .passes import describe_elevations, passes_of
 from .mask import station_thresholds
+from .passes import describe_elevations, passes_of
 from .search import as_catalog, check_window, warn_stale_element_sets
 from .station import as_stations
 

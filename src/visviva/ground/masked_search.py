@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from ..core import topocentric as _topo
-from .search import WINDOW_END, WINDOW_START, EventSet, search_events, sgp4_teme
+from .search import WINDOW_START, EventSet, search_events, sgp4_teme
 
 __all__ = ["search_masked", "apply_masks", "SKY_STEP_DEG", "MAX_STEP_S", "ROOT_TOL_S"]
 

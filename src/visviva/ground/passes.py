@@ -18,6 +18,8 @@ from astropy.time import Time
 from .._text import replace_text_file
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
+from .mask import station_thresholds
+from .masked_search import search_masked
 from .search import (
     WINDOW_END,
     WINDOW_START,
@@ -25,8 +27,6 @@ from .search import (
     as_catalog,
     check_window,
 )
-from .mask import station_thresholds
-from .masked_search import search_masked
 from .station import as_stations
 
 __all__ = ["find_passes", "write_passes"]

@@ -131,7 +131,8 @@ class ElevationMask:
         if not p.is_file():
             from ..errors import MissingFileError
 
-            raise MissingFileError(f"elevation mask file {str(p)!r} does not exist.")
+            raise MissingFileError(p, "check the path of the elevation mask file (two "
+                                      "columns: azimuth deg, elevation deg).")
         az, el, line_no = [], [], []
         with p.open(encoding="utf-8") as fh:
             for n, raw in enumerate(fh, start=1):

@@ -46,7 +46,9 @@ MAX_STEP_S = 30.0
 #: the crossings of the mask are found to this, s
 ROOT_TOL_S = 1e-6
 _MIN_STEP_S = 0.02
-_CHUNK = 400_000
+#: the coarse samples are this many fine steps apart
+_COARSE = 8
+_CHUNK = 50_000  # coarse samples per chunk (up to ~8x as many fine ones)
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
@@ -74,6 +76,7 @@ class _Geometry:
         self.horizon = Horizon(stations, flat_rad, refraction)
         self.flat_rad = flat_rad
         self.groups = []  # (mask, station indices) for each distinct mask
+        self.highest = np.array([m.highest.to_value("rad") for m in masks])
         for m in dict.fromkeys(masks, None):
             self.groups.append((m, np.array([k for k, x in enumerate(masks) if x == m])))
 
@@ -100,12 +103,18 @@ class _Geometry:
             out[k] = m.elevation_rad(az[k])
         return out
 
-    def f(self, sat, sta, t):
+    def f(self, sat, sta, t, rates=False):
+        """``f`` (M,); with ``rates`` also the elevation (rad) and the rate of motion on the
+        sky (rad/s)."""
         if t.size == 0:
-            return np.empty(0)
+            return (np.empty(0),) * 3 if rates else np.empty(0)
         res, _, err = self.look(sat, sta, t)
-        fv = np.sin(res[:, 2]) - np.sin(self.mask_rad(sta, res[:, 1]))
-        return np.where(err == 0, fv, -1.0)
+        fv = np.where(err == 0, np.sin(res[:, 2]) - np.sin(self.mask_rad(sta, res[:, 1])), -1.0)
+        if not rates:
+            return fv
+        rate = np.hypot(res[:, 5], np.cos(res[:, 2]) * res[:, 4])
+        return fv, np.where(err == 0, res[:, 2], -np.pi / 2), np.where(np.isfinite(rate), rate,
+                                                                       np.inf)
 
 
 def apply_masks(ev, cat, stations, flat_rad, masks, refraction) -> EventSet:
@@ -124,12 +133,12 @@ def apply_masks(ev, cat, stations, flat_rad, masks, refraction) -> EventSet:
     last = np.r_[starts[1:], n] - 1
     sat_p, sta_p = ev.sat[starts], ev.station[starts]
     t_a, t_b = ev.t_s[starts], ev.t_s[last]
-    # the step: SKY_STEP_DEG at the fastest sky rate of the pass's events
+    # the coarse step: _COARSE x SKY_STEP_DEG at the fastest sky rate of the pass's events
     res, _, _ = geo.look(ev.sat, ev.station, ev.t_s)
     rate = np.hypot(res[:, 5], np.cos(res[:, 2]) * res[:, 4])
     rate = np.maximum.reduceat(np.where(np.isfinite(rate), rate, 0.0), starts)
-    step = np.clip(math.radians(SKY_STEP_DEG) / np.maximum(rate, 1e-12), _MIN_STEP_S,
-                   MAX_STEP_S)
+    step = np.clip(_COARSE * math.radians(SKY_STEP_DEG) / np.maximum(rate, 1e-12), _MIN_STEP_S,
+                   _COARSE * MAX_STEP_S)
     # forced roots: a rise / set of the flat search where the mask is at the flat level
     az_ev = res[:, 1]
     at_flat = geo.mask_rad(ev.station, az_ev) == flat_rad
@@ -189,12 +198,34 @@ def _cut_passes(geo, chunk, counts, t_a, t_b, sat_p, sta_p, root_a, root_b, c_pi
     is_culm = np.r_[np.full(p.size, -1, dtype=np.int64), c_ev]  # event index, -1: a sample
     p = np.concatenate([p, c_pid])
     t = np.concatenate([t, c_t])
-    f = geo.f(sat_p[p], sta_p[p], t)
+    order = np.lexsort((t, p))
+    p, t, is_culm = p[order], t[order], is_culm[order]
+    f, el, rate = geo.f(sat_p[p], sta_p[p], t, rates=True)
+    # between coarse samples: every SKY_STEP_DEG (at the faster end's rate, x 1.5) where the
+    # satellite may come below the mask's highest point (|d el / dt| <= the sky rate)
+    k = np.flatnonzero(p[:-1] == p[1:])
+    dt = t[k + 1] - t[k]
+    fast = 1.5 * np.maximum(rate[k], rate[k + 1])
+    low = 0.5 * (el[k] + el[k + 1] - fast * dt)
+    k_f = np.flatnonzero(~(low > geo.highest[sta_p[p[k]]]))
+    n_f = np.clip(np.ceil(np.minimum(fast[k_f] * dt[k_f] / math.radians(SKY_STEP_DEG),
+                                     1e6)), 1, None).astype(np.int64)
+    n_f = np.maximum(n_f, np.ceil(dt[k_f] / MAX_STEP_S).astype(np.int64))
+    q = np.repeat(k_f, n_f - 1)
+    j = np.arange(q.size) - np.repeat(np.cumsum(n_f - 1) - (n_f - 1), n_f - 1) + 1
+    t_f = t[k[q]] + dt[q] * j / np.repeat(n_f, n_f - 1)
+    p_f = p[k[q]]
+    p = np.concatenate([p, p_f])
+    t = np.concatenate([t, t_f])
+    f = np.concatenate([f, geo.f(sat_p[p_f], sta_p[p_f], t_f)])
+    is_culm = np.concatenate([is_culm, np.full(t_f.size, -1, dtype=np.int64)])
     # dips under the mask (or peaks over it) between samples: their extremum, refined
     for _ in range(2):
         order = np.lexsort((t, p))
         p, t, f, is_culm = p[order], t[order], f[order], is_culm[order]
-        ext_t, ext_f, ext_p = _hidden_extrema(geo, sat_p, sta_p, p, t, f)
+        forced = ((np.r_[True, p[1:] != p[:-1]] & root_a[p])
+                  | (np.r_[p[1:] != p[:-1], True] & root_b[p]))
+        ext_t, ext_f, ext_p = _hidden_extrema(geo, sat_p, sta_p, p, t, f, forced)
         if ext_t.size == 0:
             break
         p = np.concatenate([p, ext_p])
@@ -223,27 +254,30 @@ def _cut_passes(geo, chunk, counts, t_a, t_b, sat_p, sta_p, root_a, root_b, c_pi
             np.where(up, _topo.RISE, _topo.SET))
 
 
-def _hidden_extrema(geo, sat_p, sta_p, p, t, f):
+def _hidden_extrema(geo, sat_p, sta_p, p, t, f, forced):
     """Refine the sampled local minima above the mask and maxima below it that lie within
-    twice the change to their neighbours of zero; returns those whose extremum is on the other
-    side (time, f, pass)."""
-    if p.size < 3:
-        return np.empty(0), np.empty(0), np.empty(0, dtype=np.int64)
-    mid = np.arange(1, p.size - 1)
-    same = (p[mid - 1] == p[mid]) & (p[mid + 1] == p[mid])
-    fl, fc, fr = f[mid - 1], f[mid], f[mid + 1]
+    twice the change to their neighbours of zero (a pass's first and last samples too, on
+    their one side, unless ``forced``: a flat rise or set on the mask); returns those whose
+    extremum is on the other side (time, f, pass)."""
+    none = np.empty(0), np.empty(0), np.empty(0, dtype=np.int64)
+    if p.size < 2:
+        return none
+    idx = np.arange(p.size)
+    prev = np.where(np.r_[False, p[1:] == p[:-1]], idx - 1, idx)
+    nxt = np.where(np.r_[p[:-1] == p[1:], False], idx + 1, idx)
+    fl, fc, fr = f[prev], f, f[nxt]
     reach = 2.0 * np.maximum(np.abs(fc - fl), np.abs(fr - fc))
     dip = (fc > 0.0) & (fc <= fl) & (fc <= fr) & (fc < reach)
     peak = (fc <= 0.0) & (fc >= fl) & (fc >= fr) & (-fc < reach)
-    c = mid[same & (dip | peak)]
+    c = np.flatnonzero((dip | peak) & (prev != nxt) & ~forced)
     if c.size == 0:
-        return np.empty(0), np.empty(0), np.empty(0, dtype=np.int64)
+        return none
     sign = np.where(f[c] > 0.0, 1.0, -1.0)  # minimise sign * f
-    lo, hi = t[c - 1].copy(), t[c + 1].copy()
+    lo, hi = t[prev[c]], t[nxt[c]]
     sat, sta = sat_p[p[c]], sta_p[p[c]]
     x1 = hi - _GOLDEN * (hi - lo)
     x2 = lo + _GOLDEN * (hi - lo)
-    g = sign * geo.f(np.r_[sat, sat], np.r_[sta, sta], np.r_[x1, x2])
+    g = np.r_[sign, sign] * geo.f(np.r_[sat, sat], np.r_[sta, sta], np.r_[x1, x2])
     g1, g2 = g[:c.size], g[c.size:]
     for _ in range(40):  # golden section, to 1e-3 s
         if (hi - lo).max() < 1e-3:

@@ -65,7 +65,7 @@ class ElevationMask:
     <Quantity [12.5,  2.5] deg>
     """
 
-    __slots__ = ("_az", "_el", "_xp", "_yp")
+    __slots__ = ("_az", "_el", "_xp", "_yp", "_max_slope", "_steps")
 
     def __init__(self, azimuth, elevation):
         az = _angles(azimuth, "azimuth")
@@ -106,6 +106,11 @@ class ElevationMask:
         # the table with its wrap-around: the last point 360 deg back, the first one ahead
         self._xp = np.concatenate([[az[-1] - _TWO_PI], az, [az[0] + _TWO_PI]])
         self._yp = np.concatenate([[el[-1]], el, [el[0]]])
+        dx, dy = np.diff(self._xp), np.diff(self._yp)
+        step = (dx == 0.0) & (dy != 0.0)
+        run = dx > 0.0
+        self._max_slope = float(np.abs(dy[run] / dx[run]).max()) if run.any() else 0.0
+        self._steps = np.unique(np.mod(self._xp[1:][step], _TWO_PI))
 
     @classmethod
     def from_file(cls, path) -> ElevationMask:
@@ -184,6 +189,17 @@ class ElevationMask:
     def lowest_rad(self) -> float:
         """The lowest elevation of the mask, rad."""
         return float(self._el.min())
+
+    @property
+    def max_slope(self) -> float:
+        """The steepest side of the mask, d(elevation)/d(azimuth) (rad/rad; its vertical
+        steps left out: :attr:`step_azimuths_rad`)."""
+        return self._max_slope
+
+    @property
+    def step_azimuths_rad(self) -> np.ndarray:
+        """Azimuths of the mask's vertical steps, rad in [0, 2 pi)."""
+        return self._steps
 
     @property
     def is_flat(self) -> bool:

@@ -8,13 +8,16 @@ With an :class:`~visviva.ground.mask.ElevationMask` the search runs in two stage
 2. **Mask crossings** (:func:`apply_masks`). Each of those passes is sampled on SGP4 every
    :data:`SKY_STEP_DEG` of the satellite's motion on the sky (the step from its fastest
    angular rate at the pass's events; at most :data:`MAX_STEP_S`), with its culminations as
-   samples, ``f = sin(el) - sin(E_mask(az))`` at each (``el`` apparent with ``refraction``).
-   A sampled local minimum above the mask, or maximum below it, within twice the change
-   between neighbouring samples of zero is bracketed and refined (golden section on SGP4):
-   a pass that dips under the mask between samples (a peak of the mask, a vertex) is split,
-   one that peeks over it found. Every sign change is refined by regula falsi (Illinois)
-   with a bisection every third step, so a corner or a vertical step of the mask (``f`` not
-   smooth, or not continuous) still converges, to :data:`ROOT_TOL_S`.
+   samples: ``f = sin(el) - sin(E_mask(az))`` (``el`` apparent with ``refraction``).
+   Between two samples on one side of the mask, ``|df/dt|`` is bounded by the elevation
+   and azimuth rates at the ends and the mask's steepest side (x 1.5), which bounds ``f``
+   there (and ``el`` by the rate of motion on the sky against the mask's top): an
+   interval where the satellite may cross the mask unseen, or that spans a vertical step
+   of the mask, is halved, again and again down to :data:`SPLIT_TOL_S` (a pass that dips
+   under a peak of the mask between samples, or peeks over a notch). Every sign change is
+   then refined by regula falsi (Illinois) with a bisection every third step, so a corner
+   or a vertical step of the mask (``f`` not smooth, or not continuous) still converges, to
+   :data:`ROOT_TOL_S`.
 
 A pass that dips under the mask in its middle (a mountain in front of the culmination)
 becomes two passes, as STK's access intervals do. The culmination of each piece is the
@@ -24,8 +27,9 @@ pass table, as when the window cuts a pass). A rise of the flat search where the
 its lowest (the same equation) is kept as it is: a flat mask gives the scalar search's
 events bit for bit.
 
-Features of the mask narrower than about :data:`SKY_STEP_DEG` along the track (a pole, a
-slot between two buildings) may be missed when no sample falls in them.
+Only a crossing pair closer together than :data:`SPLIT_TOL_S` (a peek over the mask, or a
+dip under it, shorter than 1 ms) can be missed, or one where the rates change by more than
+half between two samples (they are at most :data:`SKY_STEP_DEG` apart on the sky).
 """
 
 from __future__ import annotations
@@ -39,17 +43,16 @@ from .search import WINDOW_START, EventSet, search_events, sgp4_teme
 
 __all__ = ["search_masked", "apply_masks", "SKY_STEP_DEG", "MAX_STEP_S", "ROOT_TOL_S"]
 
-#: the samples along a pass are this far apart on the sky at most (at the fastest rate seen)
-SKY_STEP_DEG = 0.5
+#: the first samples along a pass are this far apart on the sky (at the fastest rate seen)
+SKY_STEP_DEG = 4.0
 #: and this far apart in time at most (slow, high orbits), s
-MAX_STEP_S = 30.0
+MAX_STEP_S = 240.0
 #: the crossings of the mask are found to this, s
 ROOT_TOL_S = 1e-6
 _MIN_STEP_S = 0.02
-#: the coarse samples are this many fine steps apart
-_COARSE = 8
-_CHUNK = 50_000  # coarse samples per chunk (up to ~8x as many fine ones)
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+_CHUNK = 100_000  # first samples per chunk
+#: intervals between samples are halved down to this where a crossing may hide, s
+SPLIT_TOL_S = 1e-3
 
 
 def search_masked(cat, stations, t0, t1, flat_rad, masks, refraction=False, *,
@@ -77,6 +80,7 @@ class _Geometry:
         self.flat_rad = flat_rad
         self.groups = []  # (mask, station indices) for each distinct mask
         self.highest = np.array([m.highest.to_value("rad") for m in masks])
+        self.slope = np.array([m.max_slope for m in masks])
         for m in dict.fromkeys(masks, None):
             self.groups.append((m, np.array([k for k, x in enumerate(masks) if x == m])))
 
@@ -103,18 +107,37 @@ class _Geometry:
             out[k] = m.elevation_rad(az[k])
         return out
 
-    def f(self, sat, sta, t, rates=False):
-        """``f`` (M,); with ``rates`` also the elevation (rad) and the rate of motion on the
-        sky (rad/s)."""
-        if t.size == 0:
-            return (np.empty(0),) * 3 if rates else np.empty(0)
+    def sample(self, sat, sta, t):
+        """``(f, el, el rate, az, az rate)`` at the given times: ``el`` apparent, rad; the
+        rates rad/s (geometric; infinite where SGP4 failed: never cleared)."""
         res, _, err = self.look(sat, sta, t)
-        fv = np.where(err == 0, np.sin(res[:, 2]) - np.sin(self.mask_rad(sta, res[:, 1])), -1.0)
-        if not rates:
-            return fv
-        rate = np.hypot(res[:, 5], np.cos(res[:, 2]) * res[:, 4])
-        return fv, np.where(err == 0, res[:, 2], -np.pi / 2), np.where(np.isfinite(rate), rate,
-                                                                       np.inf)
+        ok = err == 0
+        f = np.where(ok, np.sin(res[:, 2]) - np.sin(self.mask_rad(sta, res[:, 1])), -1.0)
+        el = np.where(ok, res[:, 2], -np.pi / 2)
+        er = np.where(ok & np.isfinite(res[:, 5]), res[:, 5], np.inf)
+        ar = np.where(ok & np.isfinite(res[:, 4]), res[:, 4], np.inf)
+        return f, el, er, res[:, 1], ar
+
+    def spans_step(self, sta, az_a, az_b):
+        """Does the shorter arc from ``az_a`` to ``az_b`` (rad) hold a vertical step of the
+        mask of station ``sta``?"""
+        out = np.zeros(az_a.size, dtype=bool)
+        for m, members in self.groups:
+            steps = m.step_azimuths_rad
+            if steps.size == 0:
+                continue
+            k = np.flatnonzero(np.isin(sta, members))
+            span = np.mod(az_b[k] - az_a[k], 2 * np.pi)
+            back = span > np.pi
+            start = np.where(back, az_b[k], az_a[k])
+            width = np.where(back, 2 * np.pi - span, span)
+            d = np.mod(steps[None, :] - start[:, None], 2 * np.pi)
+            out[k] = (d <= width[:, None]).any(axis=1)
+        return out
+
+    def f(self, sat, sta, t):
+        """``f`` (M,) at the given times."""
+        return self.sample(sat, sta, t)[0] if t.size else np.empty(0)
 
 
 def apply_masks(ev, cat, stations, flat_rad, masks, refraction) -> EventSet:
@@ -133,12 +156,12 @@ def apply_masks(ev, cat, stations, flat_rad, masks, refraction) -> EventSet:
     last = np.r_[starts[1:], n] - 1
     sat_p, sta_p = ev.sat[starts], ev.station[starts]
     t_a, t_b = ev.t_s[starts], ev.t_s[last]
-    # the coarse step: _COARSE x SKY_STEP_DEG at the fastest sky rate of the pass's events
+    # the step: SKY_STEP_DEG at the fastest sky rate of the pass's events
     res, _, _ = geo.look(ev.sat, ev.station, ev.t_s)
     rate = np.hypot(res[:, 5], np.cos(res[:, 2]) * res[:, 4])
     rate = np.maximum.reduceat(np.where(np.isfinite(rate), rate, 0.0), starts)
-    step = np.clip(_COARSE * math.radians(SKY_STEP_DEG) / np.maximum(rate, 1e-12), _MIN_STEP_S,
-                   _COARSE * MAX_STEP_S)
+    step = np.clip(math.radians(SKY_STEP_DEG) / np.maximum(rate, 1e-12), _MIN_STEP_S,
+                   MAX_STEP_S)
     # forced roots: a rise / set of the flat search where the mask is at the flat level
     az_ev = res[:, 1]
     at_flat = geo.mask_rad(ev.station, az_ev) == flat_rad
@@ -193,51 +216,23 @@ def _cut_passes(geo, chunk, counts, t_a, t_b, sat_p, sta_p, root_a, root_b, c_pi
     first = np.cumsum(counts) - counts
     frac = (np.arange(p.size) - np.repeat(first, counts)) / np.repeat(counts - 1, counts)
     t = t_a[p] + frac * (t_b - t_a)[p]
-    end = np.cumsum(counts) - 1
-    t[end] = t_b[chunk]  # (exactly: the flat search's set)
+    t[np.cumsum(counts) - 1] = t_b[chunk]  # (exactly: the flat search's set)
     is_culm = np.r_[np.full(p.size, -1, dtype=np.int64), c_ev]  # event index, -1: a sample
     p = np.concatenate([p, c_pid])
     t = np.concatenate([t, c_t])
     order = np.lexsort((t, p))
     p, t, is_culm = p[order], t[order], is_culm[order]
-    f, el, rate = geo.f(sat_p[p], sta_p[p], t, rates=True)
-    # between coarse samples: every SKY_STEP_DEG (at the faster end's rate, x 1.5) where the
-    # satellite may come below the mask's highest point (|d el / dt| <= the sky rate)
-    k = np.flatnonzero(p[:-1] == p[1:])
-    dt = t[k + 1] - t[k]
-    fast = 1.5 * np.maximum(rate[k], rate[k + 1])
-    low = 0.5 * (el[k] + el[k + 1] - fast * dt)
-    k_f = np.flatnonzero(~(low > geo.highest[sta_p[p[k]]]))
-    n_f = np.clip(np.ceil(np.minimum(fast[k_f] * dt[k_f] / math.radians(SKY_STEP_DEG),
-                                     1e6)), 1, None).astype(np.int64)
-    n_f = np.maximum(n_f, np.ceil(dt[k_f] / MAX_STEP_S).astype(np.int64))
-    q = np.repeat(k_f, n_f - 1)
-    j = np.arange(q.size) - np.repeat(np.cumsum(n_f - 1) - (n_f - 1), n_f - 1) + 1
-    t_f = t[k[q]] + dt[q] * j / np.repeat(n_f, n_f - 1)
-    p_f = p[k[q]]
-    p = np.concatenate([p, p_f])
-    t = np.concatenate([t, t_f])
-    f = np.concatenate([f, geo.f(sat_p[p_f], sta_p[p_f], t_f)])
-    is_culm = np.concatenate([is_culm, np.full(t_f.size, -1, dtype=np.int64)])
-    # dips under the mask (or peaks over it) between samples: their extremum, refined
-    for _ in range(2):
-        order = np.lexsort((t, p))
-        p, t, f, is_culm = p[order], t[order], f[order], is_culm[order]
-        forced = ((np.r_[True, p[1:] != p[:-1]] & root_a[p])
-                  | (np.r_[p[1:] != p[:-1], True] & root_b[p]))
-        ext_t, ext_f, ext_p = _hidden_extrema(geo, sat_p, sta_p, p, t, f, forced)
-        if ext_t.size == 0:
-            break
-        p = np.concatenate([p, ext_p])
-        t = np.concatenate([t, ext_t])
-        f = np.concatenate([f, ext_f])
-        is_culm = np.concatenate([is_culm, np.full(ext_t.size, -1, dtype=np.int64)])
-    order = np.lexsort((t, p))
-    p, t, f, is_culm = p[order], t[order], f[order], is_culm[order]
+    smp = geo.sample(sat_p[p], sta_p[p], t)
+    # a flat rise / set that is the mask's crossing: f = 0 there, its side its neighbour's
+    head = np.r_[True, p[1:] != p[:-1]]
+    tail = np.r_[p[1:] != p[:-1], True]
+    forced = (head & root_a[p]) | (tail & root_b[p])
+    smp[0][forced] = 0.0
+    p, t, is_culm, smp = _subdivide(geo, sat_p, sta_p, p, t, is_culm, smp, forced)
+    f = smp[0]
     head = np.r_[True, p[1:] != p[:-1]]
     tail = np.r_[p[1:] != p[:-1], True]
     above = f > 0.0
-    # a flat rise / set that is the mask's crossing: its side is its neighbour's
     fa = head & root_a[p]
     fb = tail & root_b[p]
     above[fa] = np.r_[above[1:], False][fa]
@@ -246,53 +241,66 @@ def _cut_passes(geo, chunk, counts, t_a, t_b, sat_p, sta_p, root_a, root_b, c_pi
     p_end = p[tail & above]
     keep_c = (is_culm >= 0) & above
     # the sign changes between neighbours of one pass
-    k = np.flatnonzero(~tail[:-1] & (above[:-1] != above[1:])) if p.size > 1 else np.empty(
-        0, dtype=np.int64)
+    k = np.flatnonzero(~tail[:-1] & (above[:-1] != above[1:]))
     up = ~above[k]
     roots = _refine(geo, sat_p[p[k]], sta_p[p[k]], t[k], t[k + 1], f[k], f[k + 1], up)
     return (p_begin, p_end, is_culm[keep_c], p[k], roots,
             np.where(up, _topo.RISE, _topo.SET))
 
 
-def _hidden_extrema(geo, sat_p, sta_p, p, t, f, forced):
-    """Refine the sampled local minima above the mask and maxima below it that lie within
-    twice the change to their neighbours of zero (a pass's first and last samples too, on
-    their one side, unless ``forced``: a flat rise or set on the mask); returns those whose
-    extremum is on the other side (time, f, pass)."""
-    none = np.empty(0), np.empty(0), np.empty(0, dtype=np.int64)
-    if p.size < 2:
-        return none
-    idx = np.arange(p.size)
-    prev = np.where(np.r_[False, p[1:] == p[:-1]], idx - 1, idx)
-    nxt = np.where(np.r_[p[:-1] == p[1:], False], idx + 1, idx)
-    fl, fc, fr = f[prev], f, f[nxt]
-    reach = 2.0 * np.maximum(np.abs(fc - fl), np.abs(fr - fc))
-    dip = (fc > 0.0) & (fc <= fl) & (fc <= fr) & (fc < reach)
-    peak = (fc <= 0.0) & (fc >= fl) & (fc >= fr) & (-fc < reach)
-    c = np.flatnonzero((dip | peak) & (prev != nxt) & ~forced)
-    if c.size == 0:
-        return none
-    sign = np.where(f[c] > 0.0, 1.0, -1.0)  # minimise sign * f
-    lo, hi = t[prev[c]], t[nxt[c]]
-    sat, sta = sat_p[p[c]], sta_p[p[c]]
-    x1 = hi - _GOLDEN * (hi - lo)
-    x2 = lo + _GOLDEN * (hi - lo)
-    g = np.r_[sign, sign] * geo.f(np.r_[sat, sat], np.r_[sta, sta], np.r_[x1, x2])
-    g1, g2 = g[:c.size], g[c.size:]
-    for _ in range(40):  # golden section, to 1e-3 s
-        if (hi - lo).max() < 1e-3:
+def _subdivide(geo, sat_p, sta_p, p, t, is_culm, smp, forced):
+    """Halve every interval between neighbouring samples (sorted by pass, then time) where
+    the satellite may cross the mask unseen, until :data:`SPLIT_TOL_S`; returns the samples
+    with the new ones, sorted.
+
+    Between samples ``a``, ``b`` with ``f`` of one sign, ``|df/dt| <= L = 1.5 max(|el'| +
+    S |az'|)`` at the two ends (``S`` the mask's steepest side, rad/rad), so
+    ``(f_a + f_b - L dt) / 2 <= f <= (f_a + f_b + L dt) / 2``; and ``f >= sin(el_low) -
+    sin(E_top)`` with ``el_low`` from the sky rate likewise. An interval whose bounds keep
+    ``f`` on its side is done; one that spans a vertical step of the mask is halved to the
+    end (``f`` jumps there); the others are halved."""
+    f, el, el_rate, az, az_rate = smp
+    parts = [(p, t, is_culm, f, el, el_rate, az, az_rate, forced)]
+    k = np.flatnonzero(p[:-1] == p[1:])  # intervals (k, k + 1)
+    lo = (p[k], t[k], f[k], el[k], el_rate[k], az[k], az_rate[k], forced[k])
+    hi = (p[k + 1], t[k + 1], f[k + 1], el[k + 1], el_rate[k + 1], az[k + 1], az_rate[k + 1],
+          forced[k + 1])
+    for _ in range(64):
+        if lo[0].size == 0:
             break
-        left = g1 < g2  # the minimum lies in [lo, x2]
-        hi = np.where(left, x2, hi)
-        lo = np.where(left, lo, x1)
-        xn = np.where(left, hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo))
-        gn = sign * geo.f(sat, sta, xn)
-        x1, x2 = np.where(left, xn, x2), np.where(left, x1, xn)
-        g1, g2 = np.where(left, gn, g2), np.where(left, g1, gn)
-    best = np.where(g1 < g2, x1, x2)
-    fb = geo.f(sat, sta, best)
-    flip = sign * fb <= 0.0
-    return best[flip], fb[flip], p[c][flip]
+        pp, ta, fa_, ela, era, aza, ara, fca = lo
+        tb, fb_, elb, erb, azb, arb, fcb = hi[1:]
+        sta = sta_p[pp]
+        dt = tb - ta
+        fast = 1.5 * np.maximum(np.abs(era) + geo.slope[sta] * np.abs(ara),
+                                np.abs(erb) + geo.slope[sta] * np.abs(arb))
+        sky = 1.5 * np.maximum(np.hypot(era, np.cos(ela) * ara), np.hypot(erb, np.cos(elb) * arb))
+        # a forced end (f = 0 on the mask) takes the side of the other end
+        pos_a = np.where(fca, fb_ > 0.0, fa_ > 0.0)
+        pos_b = np.where(fcb, fa_ > 0.0, fb_ > 0.0)
+        low = np.maximum(0.5 * (fa_ + fb_ - fast * dt),
+                         np.sin(np.clip(0.5 * (ela + elb - sky * dt), -np.pi / 2, np.pi / 2))
+                         - np.sin(geo.highest[sta]))
+        high = 0.5 * (fa_ + fb_ + fast * dt)
+        with np.errstate(invalid="ignore"):
+            clear = np.where(pos_a, low > 0.0, ~(high > 0.0))
+        split = (pos_a == pos_b) & (dt > SPLIT_TOL_S) & (~clear | geo.spans_step(sta, aza, azb))
+        if not split.any():
+            break
+        s_ = np.flatnonzero(split)
+        tm = 0.5 * (ta[s_] + tb[s_])
+        pm = pp[s_]
+        fm, elm, erm, azm, arm = geo.sample(sat_p[pm], sta_p[pm], tm)
+        no = np.zeros(s_.size, dtype=bool)
+        parts.append((pm, tm, np.full(s_.size, -1, dtype=np.int64), fm, elm, erm, azm, arm, no))
+        mid = (pm, tm, fm, elm, erm, azm, arm, no)
+        lo = tuple(np.concatenate([x[s_], y]) for x, y in zip(lo, mid, strict=True))
+        hi = tuple(np.concatenate([y, x[s_]]) for x, y in zip(hi, mid, strict=True))
+    p, t, is_culm, f, el, el_rate, az, az_rate, _ = (np.concatenate(c) for c in zip(*parts,
+                                                                                   strict=True))
+    order = np.lexsort((t, p))
+    return (p[order], t[order], is_culm[order],
+            tuple(x[order] for x in (f, el, el_rate, az, az_rate)))
 
 
 def _refine(geo, sat, sta, a, b, fa, fb, up):

@@ -92,8 +92,9 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     stations : GroundStation or list of GroundStation
     t0, t1 : astropy Time
         The window (scalars, ``t1 > t0``).
-    min_elevation : Quantity (angle)
-        In [-90, 90] deg (default 0 deg).
+    min_elevation : Quantity (angle), ElevationMask, or list of them
+        In [-90, 90] deg (default 0 deg); or elevation masks, as in
+        :func:`visviva.find_passes`.
     chunk_size : int
         Satellites per task (default 500), each against all stations.
     client : dask.distributed.Client, optional

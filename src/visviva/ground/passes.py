@@ -42,8 +42,13 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     stations : GroundStation or list of GroundStation
     t0, t1 : astropy Time
         The window (scalars, ``t1 > t0``).
-    min_elevation : Quantity (angle)
-        The elevation a pass must exceed, in [-90, 90] deg (default 0 deg).
+    min_elevation : Quantity (angle), ElevationMask, or list of them
+        The elevation a pass must exceed, in [-90, 90] deg (default 0 deg); an
+        :class:`~visviva.ground.mask.ElevationMask` (a terrain / elevation mask: the minimum
+        elevation per azimuth) for every station; or a list with one Quantity or mask per
+        station, in the stations' order. With a mask, passes rise and set where the
+        satellite crosses it, and a pass that dips under it in its middle is two passes
+        (:mod:`visviva.ground.masked_search`).
     standard_magnitude : float or array_like (mag), optional
         Standard visual magnitude (at 1000 km, 90 deg phase) of all satellites or of each; adds
         a ``magnitude`` column (estimate at culmination, masked when in the umbra).

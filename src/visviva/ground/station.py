@@ -274,8 +274,10 @@ class GroundStation:
             One satellite (for catalogues use :func:`visviva.find_passes`).
         t0, t1 : astropy Time
             The window, ``t1 > t0``.
-        min_elevation : Quantity (angle)
-            Elevation threshold in [-90, 90] deg (default 0 deg).
+        min_elevation : Quantity (angle) or ElevationMask
+            Elevation threshold in [-90, 90] deg (default 0 deg), or the station's terrain /
+            elevation mask (:class:`~visviva.ground.mask.ElevationMask`: rise and set where
+            the satellite crosses it; culminations only where it is above the mask).
         refraction : bool, {"optical", "radio"} or dict
             Rise and set where the apparent (refracted) elevation crosses the threshold, the
             station's air as :meth:`look` takes it (see :func:`visviva.find_passes`); False

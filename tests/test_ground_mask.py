@@ -317,3 +317,22 @@ def test_cli_mask(tmp_path, capsys):
     assert cli.main([*args, "--mask", str(path)]) == 2
     assert "line 2" in capsys.readouterr().err
     assert cli.main([*args, "--mask", str(path), "--min-elevation", "5"]) == 2
+
+
+def test_a_mask_below_the_refraction_models_is_refused(iss, site):
+    low = vv.ElevationMask([0, 180] * u.deg, [-5, 3] * u.deg)
+    with pytest.raises(InvalidInputError, match="elevation mask's lowest point .-5 deg."):
+        site.find_events(iss, T0, T0 + 1 * u.h, min_elevation=low, refraction=True)
+
+
+def test_a_sliver_of_sky_is_found(iss, site):
+    """A 90 deg wall with a 0.002 deg slot at north: the ISS is seen for ~1 ms as it crosses
+    north (the interval halving goes down to 1 ms wherever a crossing may hide)."""
+    wall = vv.ElevationMask([0, 0.001, 359.999] * u.deg, [0, 89, 89] * u.deg)
+    times, kinds = site.find_events(iss, T0, T0 + 10 * u.h, min_elevation=wall)
+    assert kinds.size >= 2 and (kinds != 1).all()
+    np.testing.assert_array_equal(kinds, np.tile([0, 2], kinds.size // 2))
+    gaps = (times[1::2] - times[::2]).to_value(u.s)
+    assert (gaps > 0).all() and (gaps < 0.01).all()
+    az = site.look(iss, times[::2] + (times[1::2] - times[::2]) * 0.5).azimuth.to_value(u.deg)
+    assert (np.minimum(az, 360 - az) < 0.001).all()

@@ -60,6 +60,17 @@ def search_masked(cat, stations, t0, t1, flat_rad, masks, refraction=False, *,
     """:func:`~visviva.ground.search.search_events` at ``flat_rad``, then the crossings of
     ``masks`` (one :class:`~visviva.ground.mask.ElevationMask` per station; None: the flat
     search alone)."""
+    if masks is not None and refraction is not False:
+        from ..errors import InvalidInputError
+        from .horizon import Horizon
+
+        try:
+            Horizon(stations, flat_rad, refraction)
+        except InvalidInputError as exc:
+            raise InvalidInputError(
+                f"the elevation mask's lowest point ({math.degrees(flat_rad):.6g} deg) is the "
+                f"threshold of the first search, and: {exc} (raise the mask's lowest points)."
+            ) from None
     ev = search_events(cat, stations, t0, t1, flat_rad, refraction, warn_stale=warn_stale)
     if masks is None:
         return ev

@@ -336,3 +336,24 @@ def test_a_sliver_of_sky_is_found(iss, site):
     assert (gaps > 0).all() and (gaps < 0.01).all()
     az = site.look(iss, times[::2] + (times[1::2] - times[::2]) * 0.5).azimuth.to_value(u.deg)
     assert (np.minimum(az, 360 - az) < 0.001).all()
+
+
+def test_dask_path_takes_masks(iss, site):
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    from visviva.ground import find_passes_dask
+
+    other = vv.GroundStation(45.0 * u.deg, -73.0 * u.deg, name="Montreal")
+    sats = [vv.Satellite.from_tle(ISS_1, ISS_2, name=f"ISS-{k}") for k in range(2)]
+    mask = vv.ElevationMask(*(np.array(c) * u.deg for c in HILL))
+    thresholds = [mask, 15 * u.deg]
+    mem = vv.find_passes(sats, [site, other], T0, T0 + 4 * u.h, min_elevation=thresholds)
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                      dashboard_address=None) as cl, Client(cl) as client:
+        out = find_passes_dask(sats, [site, other], T0, T0 + 4 * u.h, thresholds,
+                               chunk_size=1, client=client)
+    assert len(out) == len(mem) > 2
+    for tab in (mem, out):
+        tab.sort(["satellite", "station", "set_time"])
+    assert np.abs((out["set_time"] - mem["set_time"]).to_value(u.s)).max() < 1e-6

@@ -3,6 +3,7 @@ input) and passes over masked stations against a brute-force reference on Skyfie
 altitude and azimuth (sampled every second, crossings bisected to 1e-4 s)."""
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -178,6 +179,9 @@ def test_missing_file(tmp_path):
 def _check_against_brute(iss, site, sky, mask, mask_deg, hours=10.0, refraction=False):
     times, kinds = site.find_events(iss, T0, T0 + hours * u.h, min_elevation=mask,
                                     refraction=refraction)
+    # every culmination lies inside a piece: kinds read (rise, culmination*, set)*
+    text = "".join(map(str, kinds))
+    assert re.fullmatch(r"(1*2)?(01*2)*(01*)?", text), text
     got_t, got_k = _events_s(times, kinds)
     want_t, want_k = _brute(sky, mask_deg, hours)
     assert got_t.size == want_t.size, (got_t, want_t)
@@ -295,6 +299,11 @@ def test_per_station_thresholds(iss, site):
         assert len(mine) == len(alone)
         for col in ("rise_time", "set_time"):
             assert np.abs((mine[col] - alone[col]).to_value(u.s)).max() < 1e-4
+    per_station = vv.find_passes(iss, [site, other], T0, T0 + 10 * u.h,
+                                 min_elevation=[12, 15] * u.deg)
+    assert len(per_station) == len(
+        vv.find_passes(iss, [site, other], T0, T0 + 10 * u.h,
+                       min_elevation=[12 * u.deg, 15 * u.deg]))
     with pytest.raises(ShapeError, match="one threshold"):
         vv.find_passes(iss, [site, other], T0, T0 + 1 * u.h, min_elevation=[mask])
     with pytest.raises(vv.errors.UnitsError, match=r"min_elevation\[1\]"):

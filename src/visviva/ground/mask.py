@@ -277,7 +277,7 @@ def station_thresholds(min_elevation, n_stations: int):
 
     ``min_elevation`` is a scalar angle Quantity (``masks`` is None: the scalar search,
     unchanged), an :class:`ElevationMask` for every station, or a list with one entry (a
-    Quantity or a mask) per station. ``flat_rad`` is the scalar threshold of the first search:
+    Quantity or a mask) per station (or a 1-D angle Quantity, one value per station). ``flat_rad`` is the scalar threshold of the first search:
     the threshold itself, or the lowest elevation of all the masks (every mask crossing lies
     inside a pass above it); ``masks`` one :class:`ElevationMask` per station.
     """
@@ -287,6 +287,8 @@ def station_thresholds(min_elevation, n_stations: int):
         if min_elevation.is_flat:  # the scalar search, bit for bit
             return float(min_elevation._el[0]), None
         return min_elevation.lowest_rad, [min_elevation] * n_stations
+    if is_quantity(min_elevation) and np.ndim(min_elevation) == 1 and n_stations > 1:
+        min_elevation = list(min_elevation)  # one per station, checked below
     if is_quantity(min_elevation) or not isinstance(min_elevation, (list, tuple)):
         return min_elevation_rad(min_elevation), None
     if len(min_elevation) != n_stations:

@@ -366,3 +366,13 @@ def test_dask_path_takes_masks(iss, site):
     for tab in (mem, out):
         tab.sort(["satellite", "station", "set_time"])
     assert np.abs((out["set_time"] - mem["set_time"]).to_value(u.s)).max() < 1e-6
+
+
+def test_a_bumpy_mask_brute_force(iss, site, sky):
+    """36 points at random between 0 and 10 deg: low passes skim along it, crossing it again
+    and again (many intervals halved and refined together)."""
+    az = np.arange(0.0, 360.0, 10.0)
+    el = np.random.default_rng(3).uniform(0.0, 10.0, az.size)
+    mask = vv.ElevationMask(az * u.deg, el * u.deg)
+    got = _check_against_brute(iss, site, sky, mask, _interp_mask(az, el))
+    assert got.size >= 14

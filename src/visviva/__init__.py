@@ -144,6 +144,7 @@ _PUBLIC = {
     "TDM": "visviva.od.tracking_data",
     # ground stations and passes
     "GroundStation": "visviva.ground",
+    "ElevationMask": "visviva.ground",
     "find_passes": "visviva.ground",
 }
 

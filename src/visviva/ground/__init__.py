@@ -12,6 +12,7 @@ from .. import _lazy
 #: public name -> submodule of visviva.ground that defines it
 _EXPORTS = {
     "GroundStation": "station",
+    "ElevationMask": "mask",
     "find_passes": "passes",
     "write_passes": "passes",
     "visual_magnitude": "visibility",
@@ -28,7 +29,8 @@ __all__ = sorted(_EXPORTS)
 
 #: submodules reachable as attributes (``vv.ground.search``, ...)
 _SUBMODULES = {"station", "look", "doppler", "search", "passes", "visibility", "plots",
-               "earthfixed", "dask_passes", "cli", "air", "refraction"}
+               "earthfixed", "dask_passes", "cli", "air", "refraction", "mask",
+               "masked_search"}
 
 __getattr__, __dir__ = _lazy.lazy_attributes(globals(), _EXPORTS, _SUBMODULES,
                                              prefix="visviva.ground.")

@@ -9,7 +9,9 @@ Example::
         --min-elevation 10 --csv passes.csv
 
 prints one line per pass (rise, culmination, set in UTC, maximum elevation, azimuths, sunlit,
-station dark) sorted by rise time; ``--csv`` / ``--ecsv`` also write the full table.
+station dark) sorted by rise time; ``--mask FILE`` takes the site's horizon from a file of
+azimuth/elevation pairs (:meth:`visviva.ElevationMask.from_file`) instead of one
+``--min-elevation``; ``--csv`` / ``--ecsv`` also write the full table.
 """
 
 from __future__ import annotations
@@ -38,6 +40,10 @@ def add_parser(sub) -> None:
                    help="length of the window, hours (default 24)")
     p.add_argument("--min-elevation", type=float, default=0.0, metavar="DEG",
                    help="minimum elevation, degrees (default 0)")
+    p.add_argument("--mask", default=None, metavar="FILE",
+                   help="the site's terrain / elevation mask: a text file of 'azimuth "
+                   "elevation' lines in degrees ('#' comments), linear in azimuth, wrapping "
+                   "360 -> 0; replaces --min-elevation")
     p.add_argument("--refraction", choices=("optical", "radio"), default=None,
                    help="rise and set on the apparent (refracted) horizon, the standard air at "
                    "the site's height: 'optical' (light) or 'radio' (antennas); default: "
@@ -85,8 +91,9 @@ def run(args) -> int:
     from astropy import units as u
 
     from ..cli_window import check_outputs, window_from_args
-    from ..errors import VisvivaError
+    from ..errors import InvalidInputError, VisvivaError
     from ..satellites.catalog import read_catalog_file
+    from .mask import ElevationMask
     from .passes import find_passes, write_passes
     from .station import GroundStation
 
@@ -96,17 +103,23 @@ def run(args) -> int:
         cat = read_catalog_file(args.tle_file)
         site = GroundStation(args.lat * u.deg, args.lon * u.deg, args.height * u.m,
                              name=f"{args.lat:g}, {args.lon:g}")
-        table = find_passes(cat, site, t0, t1, args.min_elevation * u.deg,
-                            refraction=args.refraction or False)
+        if args.mask is not None and args.min_elevation != 0.0:
+            raise InvalidInputError("give --mask or --min-elevation, not both: the mask is "
+                                    "the minimum elevation at each azimuth.")
+        threshold = (args.min_elevation * u.deg if args.mask is None
+                     else ElevationMask.from_file(args.mask))
+        table = find_passes(cat, site, t0, t1, threshold, refraction=args.refraction or False)
     except (VisvivaError, OSError) as exc:  # bad arguments: the file, the site, the window
         print(f"visviva passes: {exc}", file=sys.stderr)
         return 2
     if args.visible:
         table = table[table["visible"]]
     print(format_table(table))
-    print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above "
-          f"{args.min_elevation:g} deg ({table.meta['elevation']}) between {t0.isot} and "
-          f"{t1.isot} UTC")
+    above = (f"{args.min_elevation:g} deg" if args.mask is None
+             else f"the mask of {args.mask} ({threshold.lowest.to_value(u.deg):g} to "
+             f"{threshold.highest.to_value(u.deg):g} deg)")
+    print(f"{len(table)} pass(es) of {len(cat)} satellite(s) above {above} "
+          f"({table.meta['elevation']}) between {t0.isot} and {t1.isot} UTC")
     for path, fmt in ((args.csv, "csv"), (args.ecsv, "ecsv")):
         if path:
             try:

@@ -15,8 +15,9 @@ import numpy as np
 from astropy import units as u
 
 from ..errors import InvalidInputError
+from .mask import station_thresholds
 from .passes import describe_elevations, passes_of
-from .search import as_catalog, check_window, min_elevation_rad, warn_stale_element_sets
+from .search import as_catalog, check_window, warn_stale_element_sets
 from .station import as_stations
 
 __all__ = ["find_passes_dask"]
@@ -91,8 +92,9 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     stations : GroundStation or list of GroundStation
     t0, t1 : astropy Time
         The window (scalars, ``t1 > t0``).
-    min_elevation : Quantity (angle)
-        In [-90, 90] deg (default 0 deg).
+    min_elevation : Quantity (angle), ElevationMask, or list of them
+        In [-90, 90] deg (default 0 deg); or elevation masks, as in
+        :func:`visviva.find_passes`.
     chunk_size : int
         Satellites per task (default 500), each against all stations.
     client : dask.distributed.Client, optional
@@ -120,7 +122,7 @@ def find_passes_dask(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     from .horizon import Horizon
 
     # bad input refused here, not on the workers
-    horizon = Horizon(sts, min_elevation_rad(min_elevation), refraction)
+    horizon = Horizon(sts, station_thresholds(min_elevation, len(sts))[0], refraction)
     if not (isinstance(chunk_size, (int, np.integer)) and chunk_size > 0):
         raise InvalidInputError(f"chunk_size must be a positive integer, got {chunk_size!r}.")
     mags = None

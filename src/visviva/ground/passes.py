@@ -18,14 +18,14 @@ from astropy.time import Time
 from .._text import replace_text_file
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
+from .mask import station_thresholds
+from .masked_search import search_masked
 from .search import (
     WINDOW_END,
     WINDOW_START,
     EventSet,
     as_catalog,
     check_window,
-    min_elevation_rad,
-    search_events,
 )
 from .station import as_stations
 
@@ -42,8 +42,13 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
     stations : GroundStation or list of GroundStation
     t0, t1 : astropy Time
         The window (scalars, ``t1 > t0``).
-    min_elevation : Quantity (angle)
-        The elevation a pass must exceed, in [-90, 90] deg (default 0 deg).
+    min_elevation : Quantity (angle), ElevationMask, or list of them
+        The elevation a pass must exceed, in [-90, 90] deg (default 0 deg); an
+        :class:`~visviva.ground.mask.ElevationMask` (a terrain / elevation mask: the minimum
+        elevation per azimuth) for every station; or a list with one Quantity or mask per
+        station, in the stations' order. With a mask, passes rise and set where the
+        satellite crosses it, and a pass that dips under it in its middle is two passes
+        (:mod:`visviva.ground.masked_search`).
     standard_magnitude : float or array_like (mag), optional
         Standard visual magnitude (at 1000 km, 90 deg phase) of all satellites or of each; adds
         a ``magnitude`` column (estimate at culmination, masked when in the umbra).
@@ -113,12 +118,12 @@ def passes_of(satellites, stations, t0, t1, min_elevation, standard_magnitude, r
     cat = as_catalog(satellites)
     sts = as_stations(stations)
     t0, t1 = check_window(t0, t1)
-    el_min = min_elevation_rad(min_elevation)
+    flat_rad, masks = station_thresholds(min_elevation, len(sts))
     if standard_magnitude is not None:
         from .visibility import standard_magnitudes
 
         standard_magnitude = standard_magnitudes(standard_magnitude, len(cat))
-    ev = search_events(cat, sts, t0, t1, el_min, refraction, warn_stale=warn_stale)
+    ev = search_masked(cat, sts, t0, t1, flat_rad, masks, refraction, warn_stale=warn_stale)
     return _pass_table(cat, sts, ev, t0, t1, standard_magnitude)
 
 

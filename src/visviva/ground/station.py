@@ -274,8 +274,10 @@ class GroundStation:
             One satellite (for catalogues use :func:`visviva.find_passes`).
         t0, t1 : astropy Time
             The window, ``t1 > t0``.
-        min_elevation : Quantity (angle)
-            Elevation threshold in [-90, 90] deg (default 0 deg).
+        min_elevation : Quantity (angle) or ElevationMask
+            Elevation threshold in [-90, 90] deg (default 0 deg), or the station's terrain /
+            elevation mask (:class:`~visviva.ground.mask.ElevationMask`: rise and set where
+            the satellite crosses it; culminations only where it is above the mask).
         refraction : bool, {"optical", "radio"} or dict
             Rise and set where the apparent (refracted) elevation crosses the threshold, the
             station's air as :meth:`look` takes it (see :func:`visviva.find_passes`); False
@@ -296,7 +298,9 @@ class GroundStation:
         """
         from ..core.topocentric import SET
         from ..satellites.tle import Satellite
-        from .search import as_catalog, check_window, min_elevation_rad, search_events
+        from .mask import station_thresholds
+        from .masked_search import search_masked
+        from .search import as_catalog, check_window
 
         if not isinstance(satellite, Satellite):
             raise InvalidInputError(
@@ -304,8 +308,8 @@ class GroundStation:
                 "catalogue use vv.find_passes(catalog, station, t0, t1)."
             )
         t0, t1 = check_window(t0, t1)
-        el = min_elevation_rad(min_elevation)
-        ev = search_events(as_catalog(satellite), [self], t0, t1, el, refraction)
+        flat_rad, masks = station_thresholds(min_elevation, 1)
+        ev = search_masked(as_catalog(satellite), [self], t0, t1, flat_rad, masks, refraction)
         real = ev.kind <= SET
         return ev.times(np.flatnonzero(real)), ev.kind[real].astype(np.int64)
 

@@ -154,6 +154,24 @@ def test_a_multi_revolution_porkchop_equals_lambert_and_is_nan_below_the_minimum
         porkchop("earth", "mars", dep, arr, revolutions=-1)
 
 
+def test_porkchop_cells_faster_than_light_are_nan_with_one_warning():
+    """audit (leftfix7): a cell 1e-6 day long (Earth to Mars, 1.2e8 km) came back with
+    v_inf = 1.7e9 km/s, and one 1e-3 day long with 1.6e6 km/s, silently; now they are NaN and
+    one warning per call counts them and gives the first one's reason."""
+    t0 = Time("2005-06-20", scale="tdb")
+    dep = t0 + np.array([0.0, 10.0, 20.0]) * u.day
+    arr = t0 + np.array([0.0, 10.0 + 1e-6, 20.0 + 1e-3]) * u.day
+    with pytest.warns(UserWarning, match=r"2 of 5 grid cells .* \(2 faster than light\); the "
+                      r"first, \(departure, arrival\) = \(1, 1\)") as record:
+        pc = porkchop("earth", "mars", dep, arr)
+    assert len(record) == 1
+    finite = np.isfinite(pc.c3.value)
+    np.testing.assert_array_equal(finite, [[False, True, True], [False, False, True],
+                                           [False, False, False]])
+    assert np.nanmax(np.sqrt(pc.c3.to_value(u.km**2 / u.s**2))) < 200.0
+    assert np.isnan(pc.tof[1, 1]) and np.isnan(pc.delta_v[2, 2])
+
+
 @pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),
                                           ("sun", "mars"), ("earth", vv.SUN)])
 def test_porkchop_refuses_the_moon_and_the_sun(dep, arr):

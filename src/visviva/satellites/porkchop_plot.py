@@ -128,7 +128,7 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
     """
     from astropy.time import Time
 
-    from .lambert_solvers import lambert
+    from .lambert_solvers import _solve
 
     for name, t in (("departure_times", departure_times), ("arrival_times", arrival_times)):
         if not isinstance(t, Time) or t.ndim != 1:
@@ -155,13 +155,14 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
     cross = np.linalg.norm(np.cross(R1, R2), axis=-1)
     bad = cross <= 1e-9 * np.linalg.norm(R1, axis=-1) * np.linalg.norm(R2, axis=-1)
     R2 = np.where(bad[..., None], R2 + np.array([0.0, 0.0, 1.0]), R2)
-    if revolutions:  # checked by lambert; cells under the M-revolution minimum tof: NaN
-        v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm, revolutions, branch=branch,
-                         on_failure="mask")
-        valid &= ~np.any(v1.mask, axis=-1)
-        v1, v2 = v1.unmasked, v2.unmasked
-    else:
-        v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm)
+    # one masked solve over the grid: a cell without a transfer is NaN, not an error for all
+    v1, v2, _, status, bad, problem = _solve(R1 * u.km, R2 * u.km, tof_safe, SUN.gm, revolutions,
+                                             True, branch, "izzo")
+    bad = bad.reshape(valid.shape)
+    _warn_failed_cells(status, bad & valid, problem, int(np.count_nonzero(valid)))
+    valid &= ~bad
+    v1 = v1.reshape(valid.shape + (3,)) * (u.km / u.s)
+    v2 = v2.reshape(valid.shape + (3,)) * (u.km / u.s)
     kms = u.km / u.s
     dv1 = np.linalg.norm(v1.to_value(kms) - v1p.to_value(kms)[:, None, :], axis=-1)
     dv2 = np.linalg.norm(v2.to_value(kms) - v2p.to_value(kms)[None, :, :], axis=-1)
@@ -176,3 +177,27 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
         (dv1 + dv2) * kms,
         (dname, aname),
     )
+
+
+def _warn_failed_cells(status, failed, problem, cells) -> None:
+    """One warning for the grid cells with tof > 0 but no transfer, by cause (those below the
+    M-revolution minimum tof are documented NaN and go unnamed); the first cell's reason."""
+    from .lambert_solvers import _CAUSES, _failures
+
+    if not failed.any():
+        return
+    found = [f for f in _failures(status, failed.ravel(), problem) if f[1] != "revolutions"]
+    if not found:
+        return
+    import warnings
+
+    counts = {}
+    for _, cause, _, _ in found:
+        counts[cause] = counts.get(cause, 0) + 1
+    k, _, reason, _ = found[0]
+    cell = tuple(int(i) for i in np.unravel_index(k, failed.shape))
+    causes = ", ".join(f"{counts[c]} {heading}" for c, heading in _CAUSES if c in counts)
+    warnings.warn(
+        f"porkchop: {len(found)} of {cells} grid cells with tof > 0 have no transfer and are NaN "
+        f"({causes}); the first, (departure, arrival) = {cell}: {reason}.", UserWarning,
+        stacklevel=3)

@@ -104,7 +104,9 @@ def lambert(
         a tof of 0.01 s between LEO points 90 deg apart asks for 9.9e5 km/s) (with
         ``on_failure="raise"``; ``"mask"`` masks them). The message lists every failing index, by
         cause, and the exception's ``failures`` attribute maps each failing index (a tuple
-        into the broadcast shape) to its reason.
+        into the broadcast shape) to its reason, ``causes`` to its cause ("tof <= 0",
+        "r1 and r2 collinear", "no M-revolution solution in that time", "tof too short to
+        resolve", "faster than light", "tof too long to resolve", "solver status").
 
     Notes
     -----
@@ -297,4 +299,6 @@ def _raise_failures(failures, shape) -> None:
             "follows, by cause; on_failure='mask' returns the others with these masked): "
             + " | ".join(parts) + ".")
     exc.failures = {where(k): reason for k, _, reason, _ in failures}
+    headings = dict(_CAUSES)
+    exc.causes = {where(k): headings[cause] for k, cause, _, _ in failures}
     raise exc

@@ -343,7 +343,8 @@ def test_a_finite_burn_cut_by_the_last_output_and_its_record():
 
 def test_a_terminal_event_during_a_finite_burn_cuts_it():
     state = circular(6378.137 + 130.0)
-    burn = FiniteBurn(60 * u.s, 2000 * u.s, [-1, 0, 0], "TNW", thrust=2 * u.kN, mass=100 * u.kg)
+    burn = FiniteBurn(60 * u.s, 2000 * u.s, [-1, 0, 0], "TNW", thrust=2 * u.kN, mass=100 * u.kg,
+                      mass_flow=0 * u.kg / u.s)
     t = np.linspace(0.0, 3000.0, 31) * u.s
     out = propagate_cowell(state, t, [], events=[ReEntry()], maneuvers=[burn])
     (entry,) = out.events_named("reentry")
@@ -1056,3 +1057,38 @@ def test_a_batch_with_drag_and_a_mass_spending_burn_equals_single_runs():
                                maneuvers=burns)
         assert np.abs((many.r[k] - one.r).to_value(u.km)).max() < 1e-9
     assert many.final_mass.to_value(u.kg) == pytest.approx(350.0)
+
+
+def test_a_finite_burn_without_isp_or_mass_flow_warns_that_its_mass_stays_constant():
+    # leftfix7: thrust and mass without isp kept the mass constant without a word (GMAT needs
+    # an Isp): 400 N on 1000 kg for 30 min flew 720 m/s where Isp 300 s gives 826 m/s (the
+    # rocket equation; 245 kg spent), 13 % short. Now a UserWarning gives both numbers;
+    # mass_flow=0 keeps the mass constant on purpose, silently
+    import warnings
+
+    state = circular(7000.0)
+    kw = {"thrust": 400 * u.N, "mass": 1000 * u.kg}
+    with pytest.warns(UserWarning, match=r"neither isp nor mass_flow: the mass stays 1000 kg "
+                      r"through the 1800 s burn, .* = 720 m/s; at Isp 300 s it would spend "
+                      r"244.7 kg and give 825.8 m/s, 15 % more\. Give isp=") as rec:
+        constant = FiniteBurn(0 * u.s, 1800 * u.s, [1, 0, 0], "TNW", **kw)
+    assert rec[0].filename == __file__  # at the user's line
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        chosen = FiniteBurn(0 * u.s, 1800 * u.s, [1, 0, 0], "TNW", mass_flow=0 * u.kg / u.s, **kw)
+        spent = FiniteBurn(0 * u.s, 1800 * u.s, [1, 0, 0], "TNW", isp=300 * u.s, **kw)
+    # the Δv each flies (the integral of the thrust acceleration)
+    t = np.linspace(0.0, 1800.0, 3) * u.s
+    flown = {}
+    for name, burn in (("constant", constant), ("chosen", chosen), ("spent", spent)):
+        (flown[name],) = propagate_cowell(state, t, [], maneuvers=[burn], rtol=1e-12).burns
+    ms = u.m / u.s
+    assert flown["constant"].delta_v.to_value(ms) == pytest.approx(720.0, rel=1e-9)
+    assert flown["chosen"].delta_v.to_value(ms) == pytest.approx(720.0, rel=1e-9)
+    c = 300.0 * STANDARD_GRAVITY_M_S2
+    m1 = 1000.0 - 400.0 / c * 1800.0
+    assert flown["spent"].mass_after.to_value(u.kg) == pytest.approx(m1, rel=1e-12)
+    assert flown["spent"].delta_v.to_value(ms) == pytest.approx(c * np.log(1000.0 / m1), rel=1e-9)
+    assert flown["constant"].mass_after.to_value(u.kg) == 1000.0
+    with pytest.warns(UserWarning, match="more than the whole 100 kg"):
+        FiniteBurn(0 * u.s, 2000 * u.s, [1, 0, 0], "TNW", thrust=2 * u.kN, mass=100 * u.kg)

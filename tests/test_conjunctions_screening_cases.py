@@ -74,6 +74,28 @@ def test_an_orbit_decayed_below_its_epoch_perigee_is_still_screened():
     assert len(both) == 7
 
 
+def test_filter_statistics_counts_the_pairs_the_screen_keeps():
+    # leftfix7: filter_statistics used the mean-element filters at epoch while the screen widens
+    # them per object from its samples (audit39): it counted the dragged pair, which the screen
+    # finds seven times, as pruned by both filters; now it samples and widens as the screen does
+    # (step_s=None still gives the unwidened mean-element counts)
+    from visviva.conjunctions.screening import filter_statistics
+    from visviva.conjunctions.sources import SgpSource
+    from visviva.satellites.utc_days import time_to_utc_days
+
+    a = vv.Satellite.from_tle(*DRAGGED, name="DRAGGED")
+    b = vv.Satellite.from_tle(*CROSSING, name="CROSSING")
+    t0 = Time("2024-01-16T00:00:00", scale="utc")
+    jd, fr = (float(x) for x in time_to_utc_days(t0))
+    src1, src2 = SgpSource(vv.Catalog([a]), jd, fr), SgpSource(vv.Catalog([b]), jd, fr)
+    assert filter_statistics(src1, src2, 6 * 3600.0, 5.0) == (1, 1)
+    assert filter_statistics(src1, src2, 6 * 3600.0, 5.0, step_s=None) == (0, 0)
+    both = SgpSource(vv.Catalog([a, b]), jd, fr)
+    assert filter_statistics(both, both, 6 * 3600.0, 5.0) == (1, 1)
+    with pytest.raises(vv.errors.InvalidInputError, match="step_s must be > 0"):
+        filter_statistics(both, both, 6 * 3600.0, 5.0, step_s=0.0)
+
+
 def test_filters_keep_what_the_samples_show_and_only_that():
     # the widening comes from the samples: ordinary LEO objects (short-period terms ~10 km)
     # keep their mean-element filters unchanged

@@ -185,15 +185,20 @@ def test_lambert_prograde_must_be_a_bool():
 @pytest.mark.parametrize("method", ["izzo", "universal"])
 @pytest.mark.parametrize("scale", [1e-200, 1e-30, 1e30, 1e200])
 def test_lambert_is_scale_free_at_extreme_magnitudes(method, scale):
-    # r -> s r, tof -> s^(3/2) tof  =>  v -> v / sqrt(s): the same transfer in other units
+    # r -> s r, tof -> s^(3/2) tof  =>  v -> v / sqrt(s): the same transfer in other units;
+    # below s = 1 also gm -> s gm (tof -> s tof, v unchanged) so that v stays below the speed
+    # of light (1e15 km/s at s = 1e-30 with the Earth's gm: refused as faster than light)
     r1 = np.array([5000.0, 10000.0, 2100.0])
     r2 = np.array([-14600.0, 2500.0, 7000.0])
+    g = 1.0 if scale > 1 else scale
     v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, 3600 * u.s, GM, method=method)
     w1, w2 = vv.lambert(
-        r1 * scale * u.km, r2 * scale * u.km, 3600 * scale**1.5 * u.s, GM, method=method
+        r1 * scale * u.km, r2 * scale * u.km, 3600 * scale**1.5 / np.sqrt(g) * u.s, GM * g,
+        method=method,
     )
-    np.testing.assert_allclose(w1.to_value(KMS) * np.sqrt(scale), v1.to_value(KMS), rtol=1e-9)
-    np.testing.assert_allclose(w2.to_value(KMS) * np.sqrt(scale), v2.to_value(KMS), rtol=1e-9)
+    ratio = np.sqrt(scale / g)
+    np.testing.assert_allclose(w1.to_value(KMS) * ratio, v1.to_value(KMS), rtol=1e-9)
+    np.testing.assert_allclose(w2.to_value(KMS) * ratio, v2.to_value(KMS), rtol=1e-9)
 
 
 @pytest.mark.parametrize("method", ["izzo", "universal"])
@@ -205,11 +210,20 @@ def test_lambert_extreme_inputs_get_the_right_message(method):
             vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
     else:
         # the universal solver's final bisection in y (audit34) resolves any short tof: the
-        # straight line at 7e9 km/s, gravity's 2e-9 km/s below its last digit
-        v1, v2 = vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
+        # straight line at 7e9 km/s, gravity's 2e-9 km/s below its last digit (the kernel;
+        # vv.lambert refuses a transfer faster than light)
+        from visviva.core.lambert import universal_many
+
+        v1, v2 = np.empty((1, 3)), np.empty((1, 3))
+        status = np.zeros(1, dtype=np.int64)
+        universal_many(r1.to_value(u.km)[None], r2.to_value(u.km)[None], np.array([1e-6]),
+                       np.array([MU_EARTH]), 0, True, False, v1, v2, status)
+        assert status[0] == 0
         line = (r2 - r1).to_value(u.km) / 1e-6
-        np.testing.assert_allclose(v1.to_value(KMS), line, rtol=1e-15, atol=0)
-        np.testing.assert_allclose(v2.to_value(KMS), line, rtol=1e-15, atol=0)
+        np.testing.assert_allclose(v1[0], line, rtol=1e-15, atol=0)
+        np.testing.assert_allclose(v2[0], line, rtol=1e-15, atol=0)
+        with pytest.raises(DomainError, match="faster than light"):
+            vv.lambert(r1, r2, 1e-6 * u.s, GM, method=method)
     with pytest.raises(DomainError, match="too short"):  # not "collinear"
         vv.lambert([1e200, 0, 0] * u.km, [0, 1e200, 0] * u.km, 3000 * u.s, GM, method=method)
     if method == "izzo":
@@ -218,12 +232,16 @@ def test_lambert_extreme_inputs_get_the_right_message(method):
                        method=method)  # fmt: skip
     else:
         # the universal solver's final bisection in 2 pi - sqrt(psi) (audit34) resolves the
-        # 2e306 time units: the limit of an infinitely long arc, 1e100 times that at 1 km
-        v1, _ = vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM,
-                           method=method)  # fmt: skip
+        # 2e306 time units: the limit of an infinitely long arc, that at 1 km (gm scaled by
+        # 1e-200 too: with the Earth's, 6e102 km/s, refused as faster than light)
+        v1, _ = vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3e103 * u.s,
+                           GM * 1e-200, method=method)  # fmt: skip
         w1, _ = vv.lambert([1.0, 0, 0] * u.km, [0, 1.0, 0] * u.km, 1e20 / np.sqrt(MU_EARTH) * u.s,
                            GM)  # fmt: skip
-        np.testing.assert_allclose(v1.to_value(KMS), 1e100 * w1.to_value(KMS), rtol=1e-12, atol=0)
+        np.testing.assert_allclose(v1.to_value(KMS), w1.to_value(KMS), rtol=1e-12, atol=0)
+        with pytest.raises(DomainError, match="faster than light"):
+            vv.lambert([1e-200, 0, 0] * u.km, [0, 1e-200, 0] * u.km, 3000 * u.s, GM,
+                       method=method)  # fmt: skip
 
 
 def test_lambert_long_zero_rev_transfer_agrees_between_methods():
@@ -391,3 +409,27 @@ def test_lambert_universal_right_branch_long_multi_rev_is_exact():
     v_izzo, v2_izzo = vv.lambert(r1 * u.km, r2 * u.km, 1e8 * u.s, GM, **kw)
     np.testing.assert_allclose(v_univ.to_value(KMS), v_izzo.to_value(KMS), rtol=1e-14, atol=0)
     np.testing.assert_allclose(v2_univ.to_value(KMS), v2_izzo.to_value(KMS), rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+def test_lambert_refuses_a_transfer_faster_than_light(method):
+    # audit (leftfix7): a 0.01 s transfer between LEO points 90 deg apart came back at 9.9e5 km/s
+    # (3.3 c) without a word; Newtonian mechanics means nothing there. 0.1 s (9.9e4 km/s, 0.33 c)
+    # is still solved; just above the light time of the chord is refused, by index, and masked
+    r1 = [7000.0, 0, 0] * u.km
+    r2 = [0, 7000.0, 0] * u.km
+    with pytest.raises(DomainError, match=r"faster than light.*give a longer tof") as err:
+        vv.lambert(r1, r2, 0.01 * u.s, GM, method=method)
+    assert "light itself takes |r2 - r1| / c = 0.0330212 s" in str(err.value)
+    v1, v2 = vv.lambert(r1, r2, 0.1 * u.s, GM, method=method)
+    assert 9.8e4 < np.linalg.norm(v1.to_value(KMS)) < vv.constants.C_KM_S
+    tof = np.array([0.1, 0.03, 3000.0]) * u.s
+    with pytest.raises(DomainError, match=r"^Lambert at index \(1,\): tof = 0.03 s") as err:
+        vv.lambert(r1, r2, tof, GM, method=method)
+    assert list(err.value.failures) == [(1,)]
+    w1, _ = vv.lambert(r1, r2, tof, GM, method=method, on_failure="mask")
+    np.testing.assert_array_equal(w1.mask[:, 0], [False, True, False])
+    chaser = vv.StateVectors(r1, [0, 7.5, 0] * KMS, GM)
+    target = vv.StateVectors(r2, [-7.5, 0, 0] * KMS, GM)
+    with pytest.raises(DomainError, match="faster than light"):
+        vv.Maneuver.lambert(chaser, target, 0.01 * u.s)

@@ -57,6 +57,29 @@ def test_hohmann_applied_to_a_state_arrives_on_the_target_circle(r2):
     assert el.eccentricity < 1e-9
 
 
+def test_hohmann_between_equal_circles_is_no_transfer():
+    # leftfix7: two zero impulses half a period apart, whose apply() carried the state half an
+    # orbit on (2,914 s at 7000 km) for a transfer that does nothing; now one impulse at t = 0,
+    # the speed trim to circular (zero here), of duration 0. The closed form keeps its zeros.
+    state = circular_state(7000.0)
+    man = Maneuver.hohmann(state, 7000.0 * u.km)
+    assert len(man.impulses) == 1 and man.duration.to_value(u.s) == 0.0
+    assert man.total_delta_v.to_value(KMS) == 0.0
+    final = man.apply(state)
+    np.testing.assert_array_equal(final.r.to_value(u.km), state.r.to_value(u.km))
+    np.testing.assert_array_equal(final.v.to_value(KMS), state.v.to_value(KMS))
+    dv1, dv2, tof = hohmann_delta_v(7000 * u.km, 7000 * u.km, GM)
+    assert dv1.value == 0.0 and dv2.value == 0.0 and tof.to_value(u.s) > 0
+    # a speed 1e-4 off circular: the trim alone, which leaves a circle at 7000 km
+    slow = vv.StateVectors(state.r, state.v * (1 - 1e-4), GM)
+    man = Maneuver.hohmann(slow, 7000.0 * u.km)
+    assert len(man.impulses) == 1 and man.duration.to_value(u.s) == 0.0
+    assert man.total_delta_v.to_value(KMS) == pytest.approx(1e-4 * np.sqrt(MU / 7000.0))
+    assert man.apply(slow).to_elements().eccentricity < 1e-12
+    # 1 m apart is a transfer
+    assert len(Maneuver.hohmann(state, 7000.001 * u.km).impulses) == 2
+
+
 def test_bielliptic_beats_hohmann_for_large_ratio():
     r1, r2, rb = 7000.0, 7000.0 * 20, 7000.0 * 60
     h = hohmann_delta_v(r1 * u.km, r2 * u.km, GM)
@@ -152,6 +175,24 @@ def test_a_multi_revolution_porkchop_equals_lambert_and_is_nan_below_the_minimum
     assert dv.to_value(KMS) == pytest.approx(np.nanmin(pc.delta_v.to_value(KMS)))
     with pytest.raises(InvalidInputError, match="integer >= 0"):
         porkchop("earth", "mars", dep, arr, revolutions=-1)
+
+
+def test_porkchop_cells_faster_than_light_are_nan_with_one_warning():
+    """audit (leftfix7): a cell 1e-6 day long (Earth to Mars, 1.2e8 km) came back with
+    v_inf = 1.7e9 km/s, and one 1e-3 day long with 1.6e6 km/s, silently; now they are NaN and
+    one warning per call counts them and gives the first one's reason."""
+    t0 = Time("2005-06-20", scale="tdb")
+    dep = t0 + np.array([0.0, 10.0, 20.0]) * u.day
+    arr = t0 + np.array([0.0, 10.0 + 1e-6, 20.0 + 1e-3]) * u.day
+    with pytest.warns(UserWarning, match=r"2 of 5 grid cells .* \(2 faster than light\); the "
+                      r"first, \(departure, arrival\) = \(1, 1\)") as record:
+        pc = porkchop("earth", "mars", dep, arr)
+    assert len(record) == 1
+    finite = np.isfinite(pc.c3.value)
+    np.testing.assert_array_equal(finite, [[False, True, True], [False, False, True],
+                                           [False, False, False]])
+    assert np.nanmax(np.sqrt(pc.c3.to_value(u.km**2 / u.s**2))) < 200.0
+    assert np.isnan(pc.tof[1, 1]) and np.isnan(pc.delta_v[2, 2])
 
 
 @pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),

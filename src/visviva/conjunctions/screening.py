@@ -247,7 +247,7 @@ def _path(b1, b2, self_mode, span_s):
     return el1, g1, el2, g2
 
 
-def filter_statistics(src1, src2, span_s, threshold_km):
+def filter_statistics(src1, src2, span_s, threshold_km, step_s=60.0):
     """Pairs passing the apogee/perigee filter and also the orbit-path filter (two ints).
 
     Parameters
@@ -258,6 +258,14 @@ def filter_statistics(src1, src2, span_s, threshold_km):
         Window length, s.
     threshold_km : float
         Screening distance, km.
+    step_s : float or None
+        Sampling step, s (default 60 s, the screen's default; as there, shortened so that
+        whole steps fill the window). The objects are sampled over the window and both filters
+        widened per object from the samples exactly as :func:`screen_conjunctions` widens them
+        (:func:`_bounds`), so the counts are the pairs the screen's filters keep. ``None``:
+        the filters of the mean elements at epoch alone, unwidened and without sampling; they
+        keep fewer pairs where SGP4 strays from the drifting mean path (a dragged orbit sunk
+        below its epoch's perigee: the pair the screen finds is counted as pruned).
 
     Returns
     -------
@@ -267,8 +275,18 @@ def filter_statistics(src1, src2, span_s, threshold_km):
     from ..core.orbit_path import count_filter_survivors
 
     self_mode = src1 is src2
-    b1 = _bounds(src1)
-    b2 = b1 if self_mode else _bounds(src2)
+    if step_s is None:
+        b1 = _bounds(src1)
+        b2 = b1 if self_mode else _bounds(src2)
+    else:
+        if not float(step_s) > 0:
+            raise InvalidInputError(f"step_s must be > 0 s (or None); got {step_s!r}.")
+        n_steps = int(math.ceil(span_s / float(step_s))) + 1
+        step = span_s / (n_steps - 1)
+        ts = np.arange(n_steps) * step
+        r1, _ = src1.sample(ts)
+        b1 = _bounds(src1, step, r1)
+        b2 = b1 if self_mode else _bounds(src2, step, src2.sample(ts)[0])
     q1, Q1, q2, Q2 = b1[0], b1[1], b2[0], b2[1]
     el1, g1, el2, g2 = _path(b1, b2, self_mode, span_s)
     out = np.zeros((len(src1), 2), dtype=np.int64)

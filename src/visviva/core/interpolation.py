@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["windows", "lagrange", "hermite"]
+__all__ = ["windows", "lagrange", "hermite", "hermite_windows"]
 
 
 def windows(t_nodes: np.ndarray, t_query: np.ndarray, n_points: int) -> np.ndarray:
@@ -148,7 +148,14 @@ def hermite(t_nodes, y_nodes, dy_nodes, t_query, degree: int, want_derivative: b
 
 
 def _hermite_block(t_query, t_nodes, y_nodes, dy_nodes, degree, want_derivative):
-    idx = windows(t_nodes, t_query, degree + 1)
+    return hermite_windows(windows(t_nodes, t_query, degree + 1), t_nodes, y_nodes, dy_nodes,
+                           t_query, want_derivative)
+
+
+def hermite_windows(idx, t_nodes, y_nodes, dy_nodes, t_query, want_derivative: bool = True):
+    """:func:`hermite` through given windows of nodes: ``idx`` (M, K) indices into the nodes,
+    one window per query time (e.g. a window that leaves out the node at the query, to test
+    the interpolation against it). Same units and returns as :func:`hermite`."""
     x_nodes, x, scale = _scaled(t_nodes, t_query, idx)
     value, deriv = _basis(x_nodes, x)
     # L_j'(x_j) = sum_{k != j} 1 / (x_j - x_k)

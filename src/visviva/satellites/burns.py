@@ -380,11 +380,38 @@ def _execution_covariance(dv, covariance, magnitude_sigma, pointing_sigma):
     return out
 
 
+#: Specific impulse (s) of a typical bipropellant engine, for the size of the warning's example
+_TYPICAL_ISP_S = 300.0
+
+
+def _warn_constant_mass(f_n, m0_kg, duration_s) -> None:
+    """One UserWarning for a burn with thrust and mass but neither isp nor mass_flow: its mass
+    stays m0, so its Δv is F T / m0, below what any engine spending propellant gives."""
+    import warnings
+
+    dv = f_n * duration_s / m0_kg
+    mdot = f_n / (_TYPICAL_ISP_S * STANDARD_GRAVITY_M_S2)
+    m1 = m0_kg - mdot * duration_s
+    if m1 > 0:
+        real = _TYPICAL_ISP_S * STANDARD_GRAVITY_M_S2 * math.log(m0_kg / m1)
+        size = (f"; at Isp {_TYPICAL_ISP_S:g} s it would spend {mdot * duration_s:.4g} kg and give "
+                f"{real:.4g} m/s, {100 * (real / dv - 1):.2g} % more")
+    else:
+        size = f"; at Isp {_TYPICAL_ISP_S:g} s it would spend more than the whole {m0_kg:g} kg"
+    warnings.warn(
+        f"FiniteBurn with thrust and mass but neither isp nor mass_flow: the mass stays "
+        f"{m0_kg:g} kg through the {duration_s:g} s burn, which gives Δv = F T / m0 = "
+        f"{dv:.4g} m/s{size}. Give isp=... (or mass_flow=...) to spend the propellant, or "
+        "mass_flow=0 * u.kg / u.s for a constant mass on purpose (no warning).",
+        UserWarning, stacklevel=3)
+
+
 class FiniteBurn(_Burn):
     """Thrust over an interval, along a direction fixed in an inertial or local frame.
 
     Give either ``thrust`` and ``mass`` (with ``isp`` or ``mass_flow`` for a mass that falls;
-    neither: the mass stays ``mass``), or a constant ``acceleration``.
+    neither: the mass stays ``mass``, with a ``UserWarning``; ``mass_flow=0 * u.kg / u.s`` keeps
+    it constant without one), or a constant ``acceleration``.
 
     Parameters
     ----------
@@ -405,7 +432,9 @@ class FiniteBurn(_Burn):
     isp : Quantity, optional
         Specific impulse (time, > 0): mass flow mdot = F / (Isp g0).
     mass_flow : Quantity, optional
-        Mass flow mdot (mass / time, >= 0), instead of ``isp``.
+        Mass flow mdot (mass / time, >= 0), instead of ``isp``. Without either the mass stays
+        constant and a ``UserWarning`` says so (400 N on 1000 kg for 30 min: 720 m/s against
+        826 m/s at Isp 300 s, 13 % short); give 0 to keep it constant on purpose.
     acceleration : Quantity, optional
         Constant acceleration magnitude (> 0), instead of thrust and mass.
 
@@ -462,6 +491,8 @@ class FiniteBurn(_Burn):
         if isp is not None and mass_flow is not None:
             raise InvalidInputError("give isp or mass_flow, not both.")
         mdot = 0.0
+        if isp is None and mass_flow is None:
+            _warn_constant_mass(float(f_n), float(m0), self.duration_s)
         if isp is not None:
             if isinstance(isp, u.Quantity) and isp.unit.is_equivalent(u.m / u.s):
                 from ..errors import UnitsError

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._units import require_flag, to_array, to_quantity, to_vector
+from ..constants import C_KM_S
 from ..core import status as st
 from ..core import tier
 from ..core.lambert import izzo_many, universal_many
@@ -82,7 +83,8 @@ def lambert(
         against 0.08 m; v1 within a few ulp of the 60-digit solution.
     on_failure : {"raise", "mask"}
         What a batch does with transfers that have no solution (tof <= 0, r1 and r2 collinear,
-        no M-revolution solution in that time, a tof too short or too long to resolve).
+        no M-revolution solution in that time, a tof too short or too long to resolve, a
+        transfer faster than light).
         ``"raise"`` (default): one error naming every failing index and why each failed.
         ``"mask"``: ``v1`` and ``v2`` come back as masked Quantities
         (``astropy.utils.masked.Masked``; ``v1.mask`` is True on all three components of each
@@ -96,10 +98,15 @@ def lambert(
     Raises
     ------
     DomainError
-        r1 and r2 collinear (transfer plane undefined), tof <= 0, or no M-revolution solution
-        in that time (with ``on_failure="raise"``). The message lists every failing index, by
+        r1 and r2 collinear (transfer plane undefined), tof <= 0, no M-revolution solution
+        in that time, a tof too short or too long to resolve, or a transfer faster than light
+        (a speed at r1 or r2 above c = 299792.458 km/s, where Newtonian mechanics is meaningless:
+        a tof of 0.01 s between LEO points 90 deg apart asks for 9.9e5 km/s) (with
+        ``on_failure="raise"``; ``"mask"`` masks them). The message lists every failing index, by
         cause, and the exception's ``failures`` attribute maps each failing index (a tuple
-        into the broadcast shape) to its reason.
+        into the broadcast shape) to its reason, ``causes`` to its cause ("tof <= 0",
+        "r1 and r2 collinear", "no M-revolution solution in that time", "tof too short to
+        resolve", "faster than light", "tof too long to resolve", "solver status").
 
     Notes
     -----
@@ -109,6 +116,27 @@ def lambert(
     v = gamma [(lambda y - x) - rho (lambda y + x)]/r1 r1_hat + gamma sigma (y + lambda x)/r1 t1_hat
     (eq. 23). Verified against Curtis (2014), Example 5.2 and the second method.
     """
+    if on_failure not in ("raise", "mask"):
+        raise InvalidInputError(f"on_failure must be 'raise' or 'mask'; got {on_failure!r}.")
+    v1, v2, shape, status, bad, problem = _solve(r1, r2, tof, gm, revolutions, prograde, branch,
+                                                 method)
+    if on_failure == "raise" and bad.any():
+        _raise_failures(_failures(status, bad, problem), shape)
+    v1 = to_quantity(v1.reshape(shape + (3,)), "speed")
+    v2 = to_quantity(v2.reshape(shape + (3,)), "speed")
+    if on_failure == "raise":
+        return v1, v2
+    from astropy.utils.masked import Masked
+
+    mask = np.broadcast_to(bad.reshape(shape)[..., None], shape + (3,))
+    v1[mask] = np.nan  # under the mask: never a plausible number
+    v2[mask] = np.nan
+    return Masked(v1, mask=mask.copy()), Masked(v2, mask=mask.copy())
+
+
+def _solve(r1, r2, tof, gm, revolutions, prograde, branch, method):
+    """Checked inputs, one kernel call: flat ``(v1, v2)`` (n, 3) km/s, the broadcast shape, the
+    kernel status, the failed transfers ``bad`` (n,) and what :func:`_failures` needs."""
     R1 = to_vector(r1, "length", "r1")
     R2 = to_vector(r2, "length", "r2")
     T = to_array(tof, "time", "tof")
@@ -124,8 +152,6 @@ def lambert(
         raise InvalidInputError(f"branch must be 'left' or 'right'; got {branch!r}.")
     if method not in LAMBERT_METHODS:
         raise InvalidInputError(f"method must be one of {sorted(LAMBERT_METHODS)}; got {method!r}.")
-    if on_failure not in ("raise", "mask"):
-        raise InvalidInputError(f"on_failure must be 'raise' or 'mask'; got {on_failure!r}.")
     if np.any(mu <= 0):
         raise InvalidInputError("gm must be > 0 (e.g. vv.SUN.gm).")
     try:
@@ -173,21 +199,15 @@ def lambert(
     v2 = np.where(rescale[:, None], v2 * speed[:, None], v2)
     # a solved transfer whose speeds overflowed (finite inputs): a failure like the others
     status = np.where((status == st.OK) & ~np.isfinite(v1 + v2).all(axis=1), st.OVERFLOW, status)
-    bad = (status != st.OK) | ~(tf > 0)
-    if on_failure == "raise" and bad.any():
-        problem = {"tof": tf, "tn": tn, "time_unit": time_unit, "length": length, "r1n": r1n,
-                   "r2n": r2n, "scaled": scaled, "revolutions": revolutions}
-        _raise_failures(_failures(status, bad, problem), shape)
-    v1 = to_quantity(v1.reshape(shape + (3,)), "speed")
-    v2 = to_quantity(v2.reshape(shape + (3,)), "speed")
-    if on_failure == "raise":
-        return v1, v2
-    from astropy.utils.masked import Masked
-
-    mask = np.broadcast_to(bad.reshape(shape)[..., None], shape + (3,))
-    v1[mask] = np.nan  # under the mask: never a plausible number
-    v2[mask] = np.nan
-    return Masked(v1, mask=mask.copy()), Masked(v2, mask=mask.copy())
+    # a Newtonian transfer faster than light is no transfer at all (audit: 1.7e9 km/s silently)
+    with np.errstate(invalid="ignore", over="ignore"):
+        fastest = np.maximum(np.linalg.norm(v1, axis=1), np.linalg.norm(v2, axis=1))
+    light = (status == st.OK) & (fastest > C_KM_S)
+    bad = (status != st.OK) | ~(tf > 0) | light
+    problem = {"tof": tf, "tn": tn, "time_unit": time_unit, "length": length, "r1n": r1n,
+               "r2n": r2n, "scaled": scaled, "revolutions": revolutions, "light": light,
+               "fastest": fastest}
+    return v1, v2, shape, status, bad, problem
 
 
 #: failure causes in the order the message lists them: (key, heading)
@@ -196,6 +216,7 @@ _CAUSES = (
     ("collinear", "r1 and r2 collinear"),
     ("revolutions", "no M-revolution solution in that time"),
     ("short", "tof too short to resolve"),
+    ("light", "faster than light"),
     ("long", "tof too long to resolve"),
     ("other", "solver status"),
 )
@@ -212,6 +233,12 @@ def _failures(status, bad, pb) -> list:
         if not tf[k] > 0 and np.isfinite(tf[k]):
             out.append((k, "tof", f"tof = {tf[k]:.6g} s: tof must be > 0; for a backward arc "
                         "swap r1 and r2", DomainError))
+        elif pb["light"][k]:
+            chord = np.linalg.norm(r2n[k] - r1n[k]) * length[k]
+            out.append((k, "light", (
+                f"tof = {tf[k]:.6g} s needs {pb['fastest'][k]:.6g} km/s, faster than light "
+                f"(c = {C_KM_S} km/s): Newtonian mechanics is meaningless there (light itself "
+                f"takes |r2 - r1| / c = {chord / C_KM_S:.6g} s); give a longer tof"), DomainError))
         elif code == st.NO_CONVERGENCE and pb["scaled"][k] and tn[k] < TOF_TOO_SHORT:
             out.append((k, "short", (
                 f"tof = {tf[k]} s is too short for this geometry: it is {tn[k]:.3g} times the "
@@ -272,4 +299,6 @@ def _raise_failures(failures, shape) -> None:
             "follows, by cause; on_failure='mask' returns the others with these masked): "
             + " | ".join(parts) + ".")
     exc.failures = {where(k): reason for k, _, reason, _ in failures}
+    headings = dict(_CAUSES)
+    exc.causes = {where(k): headings[cause] for k, cause, _, _ in failures}
     raise exc

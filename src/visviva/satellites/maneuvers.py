@@ -112,6 +112,10 @@ def _chaser_sense(chaser, target) -> bool:
     return short == bool(normal[2] >= 0)
 
 
+#: Relative difference of radii below which Maneuver.hohmann has nothing to transfer
+_SAME_RADIUS = 1e-9
+
+
 def hohmann_delta_v(r1, r2, gm):
     """Δv of the two burns and the transfer time of a Hohmann transfer between circles.
 
@@ -379,13 +383,21 @@ class Maneuver:
 
     @classmethod
     def hohmann(cls, state, r_final):
-        """Hohmann transfer from the circular orbit of ``state`` to radius ``r_final``."""
+        """Hohmann transfer from the circular orbit of ``state`` to radius ``r_final``.
+
+        Where ``r_final`` is the state's radius (to 1e-9, 7 um in LEO) there is nothing to
+        transfer: the manoeuvre is one impulse at t = 0 that sets the speed to the circular
+        one (zero for an exactly circular state), of duration 0, rather than two zero burns half
+        a period apart (whose ``apply`` carried the state half an orbit on for nothing).
+        """
         r, v, mu, r1 = cls._circular(state, "Maneuver.hohmann")
         r2 = _one_value(r_final, "length", "r_final")
         dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, mu * u.km**3 / u.s**2)
         v_hat = v / np.linalg.norm(v)
         # the first burn starts from the actual speed (exact for a nearly circular start)
         dv1 = (np.sqrt(mu / r1) + dv1.value - np.linalg.norm(v)) * (u.km / u.s)
+        if abs(r2 - r1) <= _SAME_RADIUS * r1:  # no transfer: the speed trim alone, at once
+            return cls([(0 * u.s, dv1.value * v_hat * (u.km / u.s))])._planned_from(state)
         # at the far apsis the velocity is antiparallel to the initial one
         return cls(
             [

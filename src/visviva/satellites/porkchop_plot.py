@@ -155,13 +155,14 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
     cross = np.linalg.norm(np.cross(R1, R2), axis=-1)
     bad = cross <= 1e-9 * np.linalg.norm(R1, axis=-1) * np.linalg.norm(R2, axis=-1)
     R2 = np.where(bad[..., None], R2 + np.array([0.0, 0.0, 1.0]), R2)
-    if revolutions:  # checked by lambert; cells under the M-revolution minimum tof: NaN
-        v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm, revolutions, branch=branch,
-                         on_failure="mask")
-        valid &= ~np.any(v1.mask, axis=-1)
-        v1, v2 = v1.unmasked, v2.unmasked
-    else:
-        v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm)
+    # one masked solve over the grid: a cell without a transfer is NaN, not an error for all
+    v1, v2 = lambert(R1 * u.km, R2 * u.km, tof_safe, SUN.gm, revolutions, branch=branch,
+                     on_failure="mask")
+    failed = np.any(v1.mask, axis=-1)
+    _warn_failed_cells(R1, R2, tof_safe, revolutions, branch, failed & valid,
+                       int(np.count_nonzero(valid)))
+    valid &= ~failed
+    v1, v2 = v1.unmasked, v2.unmasked
     kms = u.km / u.s
     dv1 = np.linalg.norm(v1.to_value(kms) - v1p.to_value(kms)[:, None, :], axis=-1)
     dv2 = np.linalg.norm(v2.to_value(kms) - v2p.to_value(kms)[None, :, :], axis=-1)
@@ -176,3 +177,36 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
         (dv1 + dv2) * kms,
         (dname, aname),
     )
+
+
+def _warn_failed_cells(R1, R2, tof, revolutions, branch, failed, cells) -> None:
+    """One warning for the grid cells with tof > 0 but no transfer, by cause (those below the
+    M-revolution minimum tof are documented NaN and go unnamed), with the first one's reason:
+    the failed cells alone solved again, for the causes their error names."""
+    if not failed.any():
+        return
+    from .lambert_solvers import lambert
+
+    where = np.argwhere(failed)
+    try:
+        lambert(R1[failed] * u.km, R2[failed] * u.km, tof[failed], SUN.gm, revolutions,
+                branch=branch)
+    except DomainError as exc:
+        found = [(int(k[0]), exc.causes[k], exc.failures[k]) for k in sorted(exc.causes)]
+    else:  # (cannot happen: the same transfers failed in the grid)
+        return
+    found = [f for f in found if f[1] != "no M-revolution solution in that time"]
+    if not found:
+        return
+    import warnings
+
+    counts = {}
+    for _, cause, _ in found:
+        counts[cause] = counts.get(cause, 0) + 1
+    k, _, reason = found[0]
+    cell = tuple(int(i) for i in where[k])
+    causes = ", ".join(f"{n} {c}" for c, n in counts.items())
+    warnings.warn(
+        f"porkchop: {len(found)} of {cells} grid cells with tof > 0 have no transfer and are NaN "
+        f"({causes}); the first, (departure, arrival) = {cell}: {reason}.", UserWarning,
+        stacklevel=3)

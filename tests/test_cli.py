@@ -383,6 +383,16 @@ def test_the_satellite_rooms_have_check_modules():
         assert runner.unmatched_only(term, runner.discover()) is None
 
 
+def test_only_a_whole_topic_name_selects_that_topic_alone():
+    # "od" is also a piece of "nbody": --only od ran the N-body module too (11 s more)
+    names = runner.discover()
+    assert [short_name(n) for n in runner.select_topics("od", names)] == ["od"]
+    assert [short_name(n) for n in runner.select_topics("OD, ground", names)] == ["ground", "od"]
+    assert [short_name(n) for n in runner.select_topics("body", names)] == ["nbody"]
+    assert [short_name(n) for n in runner.select_topics("s", ["a.checks_units", "a.checks_x"])
+            ] == ["units"]
+
+
 def test_cli_only_matching_nothing_exits_2_at_once():
     proc = subprocess.run(
         [sys.executable, "-m", "visviva.cli", "validate", "--only", "no_such_check_xyz",

@@ -160,6 +160,10 @@ def _events(ts) -> list[Check]:
             vs_cross = max(vs_cross, float(np.abs(-0.05 + 0.1 * a / (a - b)).max()))
         top = ~cross
         tm = times[top]
+        shown = table[~culm.mask]
+        if tm.size == 0 or len(shown) == 0:  # every case here has culminations
+            mismatched += 1
+            continue
         if name.startswith("GEO"):  # flat to 1e-7 arcsec over +-2 s: no time to match
             grid = np.linspace(-60.0, 60.0, 41)
             a_sky = np.stack([alt(tm + g * u.s) for g in grid]).max(axis=0)
@@ -170,7 +174,6 @@ def _events(ts) -> list[Check]:
             vs_max = max(vs_max, float(np.abs(0.5 * h_s * (am - ap) / curv).max()))
             a_sky = a0 - (am - ap) ** 2 / (8.0 * curv)
         # the table's highest elevation of each pass against Skyfield's altitude maximum
-        shown = table[~culm.mask]
         near = np.abs((shown["culmination_time"][:, None] - tm[None, :]).to_value(u.s))
         k = near.argmin(axis=1)
         mismatched += int(np.sum(near[np.arange(len(k)), k] > 1e-3))

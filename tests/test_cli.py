@@ -16,6 +16,7 @@ from visviva import cli
 from visviva.validation import runner
 from visviva.validation.base import Check
 from visviva.validation.report import markdown_escape, plot_specs
+from visviva.validation.results import short_name
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -371,6 +372,25 @@ def test_only_matching_nothing_is_refused_before_running(monkeypatch, capsys):
     # a term naming a real check (not a topic) is not refused: it is written in a module
     assert runner.unmatched_only("vs mpmath", runner.discover()) is None
     assert runner.unmatched_only("UNITS", runner.discover()) is None
+
+
+def test_the_satellite_rooms_have_check_modules():
+    # ground, conjunctions and od had no checks before the twentieth session: discovered by
+    # name, listed by --list, and reachable by --only topic or by a piece of a check name
+    topics = {short_name(n) for n in runner.discover()}
+    assert {"ground", "conjunctions", "od", "ccsds", "satellites"} <= topics
+    for term in ("ground", "conjunctions", "od", "find_events", "Pc3D_Hall", "Herrick-Gibbs"):
+        assert runner.unmatched_only(term, runner.discover()) is None
+
+
+def test_only_a_whole_topic_name_selects_that_topic_alone():
+    # "od" is also a piece of "nbody": --only od ran the N-body module too (11 s more)
+    names = runner.discover()
+    assert [short_name(n) for n in runner.select_topics("od", names)] == ["od"]
+    assert [short_name(n) for n in runner.select_topics("OD, ground", names)] == ["ground", "od"]
+    assert [short_name(n) for n in runner.select_topics("body", names)] == ["nbody"]
+    assert [short_name(n) for n in runner.select_topics("s", ["a.checks_units", "a.checks_x"])
+            ] == ["units"]
 
 
 def test_cli_only_matching_nothing_exits_2_at_once():

@@ -169,6 +169,21 @@ def _matches(text: str, only: str | None) -> bool:
     return any(t in text.lower() for t in terms)
 
 
+def select_topics(only: str | None, names: list[str]) -> list[str]:
+    """The modules whose topic ``only`` names: a term equal to a topic selects that topic
+    alone, any other term every topic it is a piece of (``od`` is the orbit-determination
+    module, not also ``nbody``; ``body`` is ``nbody``)."""
+    terms = [t.strip().lower() for t in (only or "").split(",") if t.strip()]
+    topics = [short_name(n).lower() for n in names]
+    chosen = []
+    for name, topic in zip(names, topics, strict=True):
+        for term in terms:
+            if (topic == term) if term in topics else (term in topic):
+                chosen.append(name)
+                break
+    return chosen
+
+
 def _module_source(module: str) -> str | None:
     """The source text of ``module`` without importing it (None when it cannot be read)."""
     try:
@@ -413,8 +428,10 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
     report_dir : path or None
         Folder for ``report.md`` and its plots; ``None`` writes no report.
     only : str, optional
-        Comma-separated, case-insensitive terms. Modules whose topic matches a term run whole;
-        when no topic matches, every module runs and only the checks whose name matches are kept.
+        Comma-separated, case-insensitive terms. Modules whose topic matches a term run whole
+        (a term equal to a topic selects that topic only, else every topic containing it: see
+        :func:`select_topics`); when no topic matches, every module runs and only the checks
+        whose name matches are kept.
         A term found in no topic and nowhere in the check modules' source (so in no check
         name) returns 2 at once, with a one-line message on stderr listing the topics.
     json_path : path, optional
@@ -451,7 +468,7 @@ def run(full: bool = False, report_dir: str | os.PathLike | None = "reference/re
         print(refusal, file=sys.stderr, flush=True)
         return 2
     if only:
-        by_topic = [n for n in names if _matches(short_name(n), only)]
+        by_topic = select_topics(only, names)
         if by_topic:
             names = by_topic
         else:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._skyfield import sky_time, timescale
 from .base import Check
 
 __all__ = ["checks"]
@@ -29,24 +30,6 @@ _WHY_UT1 = ("both sides use SGP4 in TEME, the IAU 2006/2000A precession-nutation
             "polar motion; what is left is UT1-UTC, interpolated from Skyfield's builtin "
             "finals table and from astropy-iers-data: up to 0.03 ms apart at these dates, "
             "which moves a station by up to 1.4 cm")
-
-
-def _timescale():
-    """Skyfield's builtin timescale with astropy's offline polar motion (as checks_satellites)."""
-    import astropy_iers_data
-    from skyfield.api import load
-    from skyfield.data import iers as sky_iers
-
-    ts = load.timescale(builtin=True)
-    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
-        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
-    return ts
-
-
-def _sky_time(ts, t):
-    """Skyfield Time from an astropy Time, both parts of the TT Julian date kept."""
-    tt = t.tt
-    return ts.tt_jd(tt.jd1, tt.jd2)
 
 
 def _ref() -> str:
@@ -70,7 +53,7 @@ def _look(ts) -> list[Check]:
         sat = vv.Satellite.from_tle(l1, l2)
         es = EarthSatellite(l1, l2, "x", ts)
         t = sat.epoch + np.arange(0.0, 86400.0, 300.0) * u.s
-        st = _sky_time(ts, t)
+        st = sky_time(ts, t)
         for lat, lon, h in SITES:
             la = vv.GroundStation(lat * u.deg, lon * u.deg, h * u.m).look(sat, t)
             topos = wgs84.latlon(lat, lon, h)
@@ -134,7 +117,7 @@ def _events(ts) -> list[Check]:
         es = EarthSatellite(l1, l2, "x", ts)
         topos = wgs84.latlon(lat, lon, h)
         diff = es - topos
-        t_sky, k_sky = es.find_events(topos, _sky_time(ts, t0), _sky_time(ts, t1),
+        t_sky, k_sky = es.find_events(topos, sky_time(ts, t0), sky_time(ts, t1),
                                       altitude_degrees=el_min)
         n_events += len(kinds)
         if len(kinds) != len(k_sky) or np.any(kinds != k_sky):
@@ -147,7 +130,7 @@ def _events(ts) -> list[Check]:
             mismatched += abs(int(np.sum(~table[col].mask)) - int(np.sum(kinds == kind)))
 
         def alt(t, diff=diff):
-            return diff.at(_sky_time(ts, t)).altaz()[0].degrees
+            return diff.at(sky_time(ts, t)).altaz()[0].degrees
 
         dt = ((times.tt.jd1 - t_sky.whole) + (times.tt.jd2 - t_sky.tt_fraction)) * 86400.0
         cross = kinds != 1
@@ -234,5 +217,5 @@ def _mask() -> list[Check]:
 
 def checks(full: bool = False) -> list[Check]:
     """Run the ground-station comparisons live (a few seconds)."""
-    ts = _timescale()
+    ts = timescale()
     return _look(ts) + _events(ts) + _mask()

@@ -85,16 +85,12 @@ def visible_times():
 
 @pytest.fixture(scope="session")
 def skyfield_ts():
-    """A Skyfield timescale with the polar motion of astropy's offline IERS-A file."""
-    import astropy_iers_data
-    from skyfield.api import load
-    from skyfield.data import iers as sky_iers
+    """A Skyfield timescale with the polar motion of astropy's offline IERS-A file (the one
+    the validation checks use)."""
+    pytest.importorskip("skyfield")
+    from visviva.validation._skyfield import timescale
 
-    ts = load.timescale(builtin=True)
-    # the same offline Earth-orientation file astropy uses, for Skyfield's polar motion
-    with open(astropy_iers_data.IERS_A_FILE, "rb") as f:
-        sky_iers.install_polar_motion_table(ts, sky_iers.parse_x_y_dut1_from_finals_all(f))
-    return ts
+    return timescale()
 
 
 @pytest.fixture

@@ -72,6 +72,31 @@ _COMMANDS: dict[str, str] = {
 }
 
 
+class _GivenOnce(argparse._StoreAction):
+    """An option with one value that refuses to be given twice: argparse keeps the last one
+    silently, so ``--hours 5 ... --hours 2`` ran a 2-hour window (audit40)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = getattr(self, "given", None)
+        if given is not None:
+            raise argparse.ArgumentError(
+                self, f"given twice ({given[0]} {given[1]!r}, then {option_string} {values!r}); "
+                "give it once")
+        self.given = (option_string, values)
+        super().__call__(parser, namespace, values, option_string)
+
+
+def _refuse_repeats(parser) -> None:
+    """Make every single-valued option of ``parser`` and its sub-commands a :class:`_GivenOnce`
+    (options that collect, ``action="append"``, stay repeatable)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _refuse_repeats(sub)
+        elif type(action) is argparse._StoreAction and action.option_strings:
+            action.__class__ = _GivenOnce
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """``warnings.showwarning`` while a command runs: one line per warning on stderr,
     ``visviva: warning: <message>`` (visviva's own: a category of visviva, or warned from its
@@ -122,6 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = {name: importlib.import_module(module) for name, module in _COMMANDS.items()}
     for module in commands.values():
         module.add_parser(sub)
+    _refuse_repeats(parser)
     args = parser.parse_args(argv)
     if args.command in commands:
         return _run_command(commands[args.command], args)

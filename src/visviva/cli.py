@@ -86,15 +86,15 @@ class _GivenOnce(argparse._StoreAction):
         super().__call__(parser, namespace, values, option_string)
 
 
-def _refuse_repeats(parser) -> None:
-    """Make every single-valued option of ``parser`` and its sub-commands a :class:`_GivenOnce`
-    (options that collect, ``action="append"``, stay repeatable)."""
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for sub in action.choices.values():
-                _refuse_repeats(sub)
-        elif type(action) is argparse._StoreAction and action.option_strings:
-            action.__class__ = _GivenOnce
+class _Parser(argparse.ArgumentParser):
+    """The parser of visviva and its commands: every option of one value is a
+    :class:`_GivenOnce` (argparse's public ``register``; options that collect,
+    ``action="append"``, stay repeatable)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _GivenOnce)
+        self.register("action", "store", _GivenOnce)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -134,20 +134,19 @@ def _run_command(module, args) -> int:
 def main(argv: list[str] | None = None) -> int:
     import importlib
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="visviva",
         description="visviva: orbital mechanics cross-validated against REBOUND, Skyfield, "
                     "astropy and sgp4. Run `visviva warmup` once after installing, "
                     "`visviva validate` for the cross-validation report.",
         epilog="Each command has its own help: visviva COMMAND --help.",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _validate_parser(sub)
     _bench_parser(sub)
     commands = {name: importlib.import_module(module) for name, module in _COMMANDS.items()}
     for module in commands.values():
         module.add_parser(sub)
-    _refuse_repeats(parser)
     args = parser.parse_args(argv)
     if args.command in commands:
         return _run_command(commands[args.command], args)

@@ -26,10 +26,22 @@ def _states():
     return vv.StateVectors(r, v, vv.EARTH)
 
 
+def _one_state():
+    from astropy import units as u
+
+    import visviva as vv
+
+    return vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+
+
 def _elements():
     elements = _states().to_elements()
     elements.mean_anomaly.to_value()
     elements.to_state()
+    # one item: its arrays are C-contiguous where a batch's broadcast GM is not, another
+    # signature (audit40: a first Maneuver.phasing after the warmup compiled coe_to_rv_array,
+    # scan_coe and propagate_many, 5 s, when the interpreter tier was off or spent)
+    _one_state().to_elements().to_state()
 
 
 def _anomalies():
@@ -48,6 +60,7 @@ def _propagation():
     from astropy import units as u
 
     _states().propagate([60.0, 3600.0, -600.0] * u.s)
+    _one_state().propagate(60.0 * u.s)
 
 
 def _lambert():

@@ -258,3 +258,20 @@ ens.integrate(3.0); ens.megno()
 """
     labels = ["N-body: MEGNO", "N-body: ensembles"]
     assert _nothing_compiles_after(tmp_path, labels, use, VISVIVA_INTERPRET="0") == "[]"
+
+
+def test_warmup_covers_element_sets_built_from_numbers_and_single_states():
+    # was: the warm-up never built a KeplerianElements from numbers (scan_coe, which checks
+    # them, stayed cold) and converted batches only: a single state's arrays are C-contiguous
+    # where a batch's broadcast GM is not, another signature, so a first Maneuver.phasing after
+    # the warmup compiled coe_to_rv_array, scan_coe and propagate_many (5 s) once the
+    # interpreter tier was off or spent (audit40)
+    from visviva.core import elements
+
+    chosen = [(label, fn) for label, fn in warmup.TASKS
+              if label.startswith(("states <-> elements", "two-body propagation"))]
+    assert len(chosen) == 2
+    results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None, None]
+    assert elements.scan_coe.signatures
+    assert len(elements.coe_to_rv_array.signatures) >= 2

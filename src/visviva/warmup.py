@@ -42,6 +42,16 @@ def _elements():
     # signature (audit40: a first Maneuver.phasing after the warmup compiled coe_to_rv_array,
     # scan_coe and propagate_many, 5 s, when the interpreter tier was off or spent)
     _one_state().to_elements().to_state()
+    # element sets built from the user's numbers are checked by scan_coe (one item and a batch)
+    from astropy import units as u
+
+    import visviva as vv
+
+    for a_km, ecc in ((7000.0, 0.1), ([7000.0, 8000.0, 9000.0], [0.0, 0.1, 0.2])):
+        # (states from elements carry one GM, broadcast: another layout than _states()'s)
+        vv.KeplerianElements.from_semi_major_axis(
+            a_km * u.km, ecc, 0.5 * u.rad, 0.0 * u.rad, 0.0 * u.rad, 1.0 * u.rad,
+            vv.EARTH).to_state().propagate(60.0 * u.s).to_elements()
 
 
 def _anomalies():

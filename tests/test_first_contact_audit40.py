@@ -52,3 +52,35 @@ def test_python_dash_m_visviva_runs_the_command_line():
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "--mask FILE" in out.stdout
+
+
+def test_a_command_shows_each_warning_once(capsys):
+    # was: `visviva passes ... --start 2030-01-01` printed 21 warning lines: ERFA's "dubious
+    # year" 15 times (one per ERFA function and count) and astropy's polar-motion warning 3 times
+    import types
+    import warnings
+
+    from erfa import ErfaWarning
+
+    def run(args):
+        with warnings.catch_warnings():
+            warnings.simplefilter("always")
+            for fn, n, note in (("dtf2d", 1, 6), ("utctai", 1, 3), ("taiutc", 5, 4)):
+                warnings.warn(f'ERFA function "{fn}" yielded {n} of "dubious year (Note {note})"',
+                              ErfaWarning, stacklevel=1)
+            for _ in range(3):
+                warnings.warn("Tried to get polar motions for times after IERS data is valid.",
+                              stacklevel=1)
+            warnings.warn('ERFA function "utcut1" yielded 1 of "other reason"', ErfaWarning,
+                          stacklevel=1)
+        return 0
+
+    module = types.SimpleNamespace(run=run)
+    assert cli._run_command(module, types.SimpleNamespace(command="passes")) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 3, err
+    assert sum("dubious year" in line for line in err) == 1
+    assert sum("polar motions" in line for line in err) == 1
+    # a second command shows them again
+    assert cli._run_command(module, types.SimpleNamespace(command="passes")) == 0
+    assert len(capsys.readouterr().err.splitlines()) == 3

@@ -109,7 +109,28 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
             or os.path.abspath(filename).startswith(package + os.sep))
     text = " ".join(str(message).split())  # (one line)
     kind = "" if ours else f"{category.__name__}: "
+    key = _warning_key(category, text)
+    if key in _SHOWN:
+        return
+    _SHOWN.add(key)
     print(f"visviva: warning: {kind}{text}", file=sys.stderr if file is None else file)
+
+
+#: The warnings a command has shown (:func:`_warning_key`): each is shown once per command.
+_SHOWN: set = set()
+
+
+def _warning_key(category, text: str) -> tuple:
+    """What makes two warnings the same for the one-line display: the text, and for ERFA's
+    the reason alone (audit40: a pass search in 2030 printed 15 ``"dubious year"`` lines, one
+    per ERFA function and count, and astropy's polar-motion warning three times)."""
+    import re
+
+    if category.__name__ == "ErfaWarning":
+        reason = re.search(r'of "([^"(]+)', text)
+        if reason:
+            return (category.__name__, reason.group(1).strip())
+    return (category.__name__, text)
 
 
 def _run_command(module, args) -> int:
@@ -121,6 +142,7 @@ def _run_command(module, args) -> int:
 
     saved = warnings.showwarning
     warnings.showwarning = _show_warning
+    _SHOWN.clear()
     try:
         return int(module.run(args))
     except KeyboardInterrupt:

@@ -170,6 +170,18 @@ def test_file_reader_names_the_line(tmp_path, text, words):
         vv.ElevationMask.from_file(path)
 
 
+def test_file_reader_takes_a_byte_order_mark_and_says_how_to_keep_a_header(tmp_path):
+    # was: a file saved as UTF-8 with a byte-order mark (Windows Notepad) was refused as
+    # "line 1: '\ufeff0 5' is not two numbers" (audit40)
+    path = tmp_path / "bom.txt"
+    path.write_bytes(b"\xef\xbb\xbf270 0\r\n0 5\r\n90 40\r\n180 5\r\n")
+    assert vv.ElevationMask.from_file(path) == vv.ElevationMask(
+        *(np.array(c) * u.deg for c in HILL))
+    path.write_text("azimuth elevation\n0 5\n")
+    with pytest.raises(InvalidInputError, match="line 1: .* start a header or note with '#'"):
+        vv.ElevationMask.from_file(path)
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="no such file.*elevation mask"):
         vv.ElevationMask.from_file(tmp_path / "none.txt")

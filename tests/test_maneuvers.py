@@ -195,6 +195,26 @@ def test_porkchop_cells_faster_than_light_are_nan_with_one_warning():
     assert np.isnan(pc.tof[1, 1]) and np.isnan(pc.delta_v[2, 2])
 
 
+def test_a_porkchop_without_a_single_transfer_is_refused():
+    """audit40: a grid with no transfer at all came back as NaN everywhere, silently: the
+    arrival and departure dates swapped (every tof < 0), or revolutions=1 over tofs all below
+    the one-revolution minimum (Earth-Mars: about 340 days and more). Each NaN point of a grid
+    with transfers stays documented; an empty axis is refused too."""
+    from visviva.errors import DomainError
+
+    dep = Time("2026-09-01", scale="tdb") + np.linspace(0, 60, 3) * u.day
+    arr = Time("2027-06-01", scale="tdb") + np.linspace(0, 120, 3) * u.day
+    with pytest.raises(InvalidInputError, match="departure dates first"):
+        porkchop("earth", "mars", arr, dep)
+    with pytest.raises(DomainError, match="below the minimum for 1 complete revolution"):
+        porkchop("earth", "mars", dep, dep + 200 * u.day, revolutions=1)
+    with pytest.raises(InvalidInputError, match="departure_times is empty"):
+        porkchop("earth", "mars", dep[:0], arr)
+    # a grid with some transfers still returns, NaN where tof <= 0
+    pc = porkchop("earth", "mars", dep, dep)
+    assert np.isnan(pc.c3.value[0, 0]) and np.isfinite(pc.c3.value[0, 2])
+
+
 @pytest.mark.parametrize(("dep", "arr"), [("earth", "moon"), (vv.MOON, "mars"),
                                           ("sun", "mars"), ("earth", vv.SUN)])
 def test_porkchop_refuses_the_moon_and_the_sun(dep, arr):

@@ -329,3 +329,31 @@ def test_a_long_chaotic_run_rescales_and_keeps_lyapunov():
     assert np.all(np.isfinite(sim.tangent_vector))
     assert sim.megno() > 50.0
     assert sim.lyapunov() == pytest.approx(f[nc.F_MG_LN] / f[nc.F_MG_TAU], rel=0.2)
+
+
+def test_init_megno_refuses_a_seed_that_is_not_a_non_negative_integer():
+    # was: numpy's "SeedSequence expects int or sequence of ints for entropy not 1.5" (a
+    # TypeError) and "expected non-negative integer" (audit40)
+    sim = vv.Simulation(integrator="ias15")
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    for seed in (1.5, -1, "a", True):
+        with pytest.raises(vv.InvalidInputError, match="seed must be an integer >= 0"):
+            sim.init_megno(seed=seed)
+    sim.init_megno(seed=np.int64(3))
+
+
+def test_ensemble_megno_names_the_members_without_it():
+    # was: "megno: MEGNO is off; call sim.init_megno() before integrating." for an ensemble
+    # with one member of three given MEGNO: no member named (audit40)
+    sims = []
+    for _ in range(3):
+        sim = vv.Simulation(integrator="whfast", dt=0.05)
+        sim.add(1.0)
+        sim.add(1e-3, a=1.0, primary=0)
+        sims.append(sim)
+    sims[1].init_megno(seed=1)
+    ens = vv.Ensemble.from_simulations(sims)
+    for what in ("megno", "lyapunov"):
+        with pytest.raises(vv.InvalidStateError, match=r"member\(s\) 0, 2 \(2 of 3\)"):
+            getattr(ens, what)()

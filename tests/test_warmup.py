@@ -222,3 +222,56 @@ filter_statistics(src, src, 7200.0, 50.0)
 """
     labels = ["Lambert", "conjunctions: two-body", "conjunctions: catalogue"]
     assert _nothing_compiles_after(tmp_path, labels, use, VISVIVA_INTERPRET="0") == "[]"
+
+
+def test_warmup_covers_the_ensemble_kernel_and_megno():
+    # was: `visviva warmup` left out the ensemble kernel (ensemble_run: a first packed ensemble
+    # after the warmup still compiled it, 2.9 s of CPU) and the scalar elements -> state
+    # kernels of sim.add(a=..., primary=0); MEGNO's tangent maps live in the few-body kernels
+    # (audit40: a first MEGNO run on an empty cache compiles for 11-44 s of CPU)
+    from visviva.core import nbody_ensemble, nbody_ias15, nbody_leapfrog, nbody_whfast
+
+    chosen = [(label, fn) for label, fn in warmup.TASKS
+              if label.startswith(("N-body: MEGNO", "N-body: ensembles"))]
+    assert len(chosen) == 2, sorted(dict(warmup.TASKS))
+    results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None, None]
+    for kernel in (nbody_ensemble.ensemble_run, nbody_ias15.ias15_run_few,
+                   nbody_leapfrog.leapfrog_run_few, nbody_whfast.whfast_run_few):
+        assert kernel.signatures, kernel.py_func.__name__
+
+
+@pytest.mark.slow
+def test_after_warmup_a_new_process_compiles_nothing_for_megno_and_ensembles(tmp_path):
+    use = """
+import gc
+import visviva as vv
+from visviva.core._jit import _Kernel
+sims = []
+for integrator, kw in (("ias15", {}), ("leapfrog", {"dt": 0.005}), ("whfast", {"dt": 0.02})):
+    sim = vv.Simulation(integrator=integrator, **kw)
+    sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.25, primary=0)
+    sim.move_to_com(); sim.init_megno(seed=3); sim.integrate(2.0); sim.megno(); sim.lyapunov()
+    sims.append(sim)
+ens = vv.Ensemble.from_simulations([sims[2], sims[2].copy()])
+ens.integrate(3.0); ens.megno()
+"""
+    labels = ["N-body: MEGNO", "N-body: ensembles"]
+    assert _nothing_compiles_after(tmp_path, labels, use, VISVIVA_INTERPRET="0") == "[]"
+
+
+def test_warmup_covers_element_sets_built_from_numbers_and_single_states():
+    # was: the warm-up never built a KeplerianElements from numbers (scan_coe, which checks
+    # them, stayed cold) and converted batches only: a single state's arrays are C-contiguous
+    # where a batch's broadcast GM is not, another signature, so a first Maneuver.phasing after
+    # the warmup compiled coe_to_rv_array, scan_coe and propagate_many (5 s) once the
+    # interpreter tier was off or spent (audit40)
+    from visviva.core import elements
+
+    chosen = [(label, fn) for label, fn in warmup.TASKS
+              if label.startswith(("states <-> elements", "two-body propagation"))]
+    assert len(chosen) == 2
+    results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
+    assert [r[2] for r in results] == [None, None]
+    assert elements.scan_coe.signatures
+    assert len(elements.coe_to_rv_array.signatures) >= 2

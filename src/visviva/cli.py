@@ -72,6 +72,31 @@ _COMMANDS: dict[str, str] = {
 }
 
 
+class _GivenOnce(argparse._StoreAction):
+    """An option with one value that refuses to be given twice: argparse keeps the last one
+    silently, so ``--hours 5 ... --hours 2`` ran a 2-hour window (audit40)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = getattr(self, "given", None)
+        if given is not None:
+            raise argparse.ArgumentError(
+                self, f"given twice ({given[0]} {given[1]!r}, then {option_string} {values!r}); "
+                "give it once")
+        self.given = (option_string, values)
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _Parser(argparse.ArgumentParser):
+    """The parser of visviva and its commands: every option of one value is a
+    :class:`_GivenOnce` (argparse's public ``register``; options that collect,
+    ``action="append"``, stay repeatable)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _GivenOnce)
+        self.register("action", "store", _GivenOnce)
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """``warnings.showwarning`` while a command runs: one line per warning on stderr,
     ``visviva: warning: <message>`` (visviva's own: a category of visviva, or warned from its
@@ -84,7 +109,28 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
             or os.path.abspath(filename).startswith(package + os.sep))
     text = " ".join(str(message).split())  # (one line)
     kind = "" if ours else f"{category.__name__}: "
+    key = _warning_key(category, text)
+    if key in _SHOWN:
+        return
+    _SHOWN.add(key)
     print(f"visviva: warning: {kind}{text}", file=sys.stderr if file is None else file)
+
+
+#: The warnings a command has shown (:func:`_warning_key`): each is shown once per command.
+_SHOWN: set = set()
+
+
+def _warning_key(category, text: str) -> tuple:
+    """What makes two warnings the same for the one-line display: the text, and for ERFA's
+    the reason alone (audit40: a pass search in 2030 printed 15 ``"dubious year"`` lines, one
+    per ERFA function and count, and astropy's polar-motion warning three times)."""
+    import re
+
+    if category.__name__ == "ErfaWarning":
+        reason = re.search(r'of "([^"(]+)', text)
+        if reason:
+            return (category.__name__, reason.group(1).strip())
+    return (category.__name__, text)
 
 
 def _run_command(module, args) -> int:
@@ -96,6 +142,7 @@ def _run_command(module, args) -> int:
 
     saved = warnings.showwarning
     warnings.showwarning = _show_warning
+    _SHOWN.clear()
     try:
         return int(module.run(args))
     except KeyboardInterrupt:
@@ -109,14 +156,14 @@ def _run_command(module, args) -> int:
 def main(argv: list[str] | None = None) -> int:
     import importlib
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="visviva",
         description="visviva: orbital mechanics cross-validated against REBOUND, Skyfield, "
                     "astropy and sgp4. Run `visviva warmup` once after installing, "
                     "`visviva validate` for the cross-validation report.",
         epilog="Each command has its own help: visviva COMMAND --help.",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _validate_parser(sub)
     _bench_parser(sub)
     commands = {name: importlib.import_module(module) for name, module in _COMMANDS.items()}

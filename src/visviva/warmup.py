@@ -26,10 +26,32 @@ def _states():
     return vv.StateVectors(r, v, vv.EARTH)
 
 
+def _one_state():
+    from astropy import units as u
+
+    import visviva as vv
+
+    return vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.5, 1.0] * u.km / u.s, vv.EARTH)
+
+
 def _elements():
     elements = _states().to_elements()
     elements.mean_anomaly.to_value()
     elements.to_state()
+    # one item: its arrays are C-contiguous where a batch's broadcast GM is not, another
+    # signature (audit40: a first Maneuver.phasing after the warmup compiled coe_to_rv_array,
+    # scan_coe and propagate_many, 5 s, when the interpreter tier was off or spent)
+    _one_state().to_elements().to_state()
+    # element sets built from the user's numbers are checked by scan_coe (one item and a batch)
+    from astropy import units as u
+
+    import visviva as vv
+
+    for a_km, ecc in ((7000.0, 0.1), ([7000.0, 8000.0, 9000.0], [0.0, 0.1, 0.2])):
+        # (states from elements carry one GM, broadcast: another layout than _states()'s)
+        vv.KeplerianElements.from_semi_major_axis(
+            a_km * u.km, ecc, 0.5 * u.rad, 0.0 * u.rad, 0.0 * u.rad, 1.0 * u.rad,
+            vv.EARTH).to_state().propagate(60.0 * u.s).to_elements()
 
 
 def _anomalies():
@@ -48,6 +70,7 @@ def _propagation():
     from astropy import units as u
 
     _states().propagate([60.0, 3600.0, -600.0] * u.s)
+    _one_state().propagate(60.0 * u.s)
 
 
 def _lambert():
@@ -112,6 +135,41 @@ def _nbody_all_paths():
 
     for info in INTEGRATORS.values():
         info.kernel()
+
+
+def _three_bodies(integrator, **kw):
+    import visviva as vv
+
+    sim = vv.Simulation(integrator=integrator, **kw)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(1e-3, a=1.6, primary=0)
+    return sim
+
+
+def _megno():
+    # MEGNO's tangent maps (IAS15's collocation, leapfrog's and WHFast's linearised steps) run
+    # in each integrator's few-body kernel, not in WHFast's plain one (on an empty cache a first
+    # MEGNO run compiles for 11-44 s of CPU): the tasks above compile them, this one keeps it
+    # so if a MEGNO variant is split off, and compiles the scalar elements -> state kernels of
+    # sim.add(a=..., primary=0) (audit40: left cold by the other tasks)
+    for integrator, kw in (("ias15", {}), ("leapfrog", {"dt": 0.01}), ("whfast", {"dt": 0.01})):
+        sim = _three_bodies(integrator, **kw)
+        sim.init_megno(seed=1)
+        sim.integrate(0.1)
+        sim.megno()
+
+
+def _ensemble():
+    # the ensemble kernel (threads over the members; each member runs its integrator's kernel
+    # through a function pointer), with and without MEGNO members
+    import visviva as vv
+
+    sims = [_three_bodies("whfast", dt=0.01) for _ in range(2)]
+    sims[1].init_megno(seed=1)
+    ens = vv.Ensemble.from_simulations(sims)
+    ens.integrate(0.1)
+    ens.energy()
 
 
 def _satellite():
@@ -221,6 +279,8 @@ TASKS = (
     ("N-body: WHFast, corrector and other coordinates", _simulation("whfast", dt=0.01, corrector=5)),
     ("N-body: leapfrog", _simulation("leapfrog", dt=0.01)),
     ("N-body: threaded and large-N kernels", _nbody_all_paths),
+    ("N-body: MEGNO (tangent maps)", _megno),
+    ("N-body: ensembles", _ensemble),
     ("satellites: SGP4 and frames", _satellite),
     ("conjunctions: Foster and 3D-Nc (pc3d_hall)", _conjunctions),
     ("conjunctions: two-body STM, Foster over arrays", _conjunction_kernels),

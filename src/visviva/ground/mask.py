@@ -139,7 +139,7 @@ class ElevationMask:
             raise MissingFileError(p, "check the path of the elevation mask file (two "
                                       "columns: azimuth deg, elevation deg).")
         az, el, line_no = [], [], []
-        with p.open(encoding="utf-8") as fh:
+        with p.open(encoding="utf-8-sig") as fh:  # (a byte-order mark, as Notepad saves)
             for n, raw in enumerate(fh, start=1):
                 text = raw.split("#", 1)[0].replace(",", " ").split()
                 if not text:
@@ -153,7 +153,7 @@ class ElevationMask:
                 except ValueError:
                     raise InvalidInputError(
                         f"{p}, line {n}: {raw.strip()!r} is not two numbers (azimuth deg, "
-                        "elevation deg).") from None
+                        "elevation deg); start a header or note with '#'.") from None
                 az.append(a)
                 el.append(e)
                 line_no.append(n)

@@ -145,6 +145,11 @@ class ChaosIndicators:
         if n == 0:
             raise InvalidInputError("init_megno: the simulation has no particles; add them first.")
         if delta is None:
+            if seed is not None and (isinstance(seed, (bool, np.bool_))
+                                     or not isinstance(seed, (int, np.integer)) or seed < 0):
+                raise InvalidInputError(
+                    f"init_megno: seed must be an integer >= 0 (or None for a fresh random "
+                    f"tangent vector), got {seed!r}; give delta=(N, 6) array for a given one.")
             d = np.random.default_rng(seed).standard_normal((n, 6))
         else:
             d = np.array(delta, dtype=np.float64)

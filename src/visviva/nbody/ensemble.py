@@ -26,7 +26,7 @@ import operator
 import numpy as np
 
 from ..core import nbody_common as _nc
-from ..errors import InvalidInputError, ShapeError
+from ..errors import InvalidInputError, InvalidStateError, ShapeError
 from . import step_check as _step_check
 from . import tier as _tier
 from .chaos import extra_slots, refuse_packed
@@ -203,11 +203,23 @@ class Ensemble:
         """MEGNO of each member, shape (M,) (:meth:`visviva.Simulation.megno`; switch it on
         with each member's ``init_megno`` before integrating; CPU backend only; each member's
         result equals its lone run bit for bit)."""
+        self._refuse_megno_off("megno")
         return np.array([s.megno() for s in self._members])
+
+    def _refuse_megno_off(self, what: str) -> None:
+        """Name the members without MEGNO (each lone Simulation's error named none)."""
+        off = [k for k, s in enumerate(self._members) if not extra_slots(s)]
+        if off:
+            shown = ", ".join(map(str, off[:10])) + (", ..." if len(off) > 10 else "")
+            raise InvalidStateError(
+                f"Ensemble.{what}: MEGNO is off for member(s) {shown} ({len(off)} of "
+                f"{len(self._members)}); call init_megno() on each Simulation before "
+                "Ensemble.from_simulations (and before integrating).")
 
     def lyapunov(self) -> np.ndarray:
         """The maximal Lyapunov exponent of each member, shape (M,) (per unit of the members'
         time; :meth:`visviva.Simulation.lyapunov`)."""
+        self._refuse_megno_off("lyapunov")
         return np.array([s.lyapunov() for s in self._members])
 
     def energy(self, include_offset: bool = True) -> np.ndarray:

@@ -144,6 +144,9 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
                 f"{name!r} does not ({not_heliocentric[name]}). For Earth-Moon transfers solve "
                 "vv.lambert about the Earth (gm=vv.EARTH) with the Moon's geocentric position."
             )
+    for name, t in (("departure_times", departure_times), ("arrival_times", arrival_times)):
+        if len(t) == 0:
+            raise InvalidInputError(f"{name} is empty: give at least one date per axis.")
     r1, v1p = planet_heliocentric(dname, departure_times)
     r2, v2p = planet_heliocentric(aname, arrival_times)
     tof = (arrival_times[None, :] - departure_times[:, None]).to(u.s)
@@ -163,6 +166,7 @@ def porkchop(departure_body, arrival_body, departure_times, arrival_times, revol
                        int(np.count_nonzero(valid)))
     valid &= ~failed
     v1, v2 = v1.unmasked, v2.unmasked
+    _refuse_empty_grid(valid, tof, revolutions)
     kms = u.km / u.s
     dv1 = np.linalg.norm(v1.to_value(kms) - v1p.to_value(kms)[:, None, :], axis=-1)
     dv2 = np.linalg.norm(v2.to_value(kms) - v2p.to_value(kms)[None, :, :], axis=-1)
@@ -210,3 +214,28 @@ def _warn_failed_cells(R1, R2, tof, revolutions, branch, failed, cells) -> None:
         f"porkchop: {len(found)} of {cells} grid cells with tof > 0 have no transfer and are NaN "
         f"({causes}); the first, (departure, arrival) = {cell}: {reason}.", UserWarning,
         stacklevel=3)
+
+
+def _refuse_empty_grid(valid, tof, revolutions) -> None:
+    """A grid without a single transfer is a mistake in the axes, not a porkchop: refuse it.
+
+    Each NaN point is documented (a time of flight <= 0, or below the M-revolution minimum);
+    a grid of NaN alone came back silently (audit40: arrival and departure dates swapped).
+    """
+    if valid.any():
+        return
+    days = tof.to_value(u.day)
+    if not (days > 0).any():
+        raise InvalidInputError(
+            "porkchop: every arrival time is at or before every departure time "
+            f"(longest time of flight {days.max():.1f} d), so no grid point has a transfer; "
+            "pass the departure dates first and the arrival dates second, with arrivals later.")
+    if not revolutions:  # every cell failed for its own reasons (named by the warning before)
+        raise DomainError(
+            "porkchop: no grid point has a transfer (the warning above names the causes, e.g. "
+            "times of flight too short for any speed below light's); widen the date axes.")
+    raise DomainError(
+        f"porkchop: no grid point has a transfer with revolutions={revolutions}: every time of "
+        f"flight (at most {days.max():.1f} d) is below the minimum for {revolutions} complete "
+        "revolution(s) about the Sun; lengthen the times of flight (later arrival dates) or "
+        "lower revolutions.")

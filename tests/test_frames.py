@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -17,6 +19,7 @@ from astropy.utils import iers
 
 import visviva as vv
 from visviva.satellites.frames import (
+    WGS84_A_KM,
     gcrs_to_itrs,
     itrs_to_gcrs,
     itrs_to_geodetic,
@@ -236,3 +239,21 @@ def test_catalog_gcrs_equals_each_satellite(sats):
     one = sats[0].gcrs(t)
     np.testing.assert_allclose(batch.r.value[1], one.r.value, rtol=0, atol=1e-9)
     np.testing.assert_allclose(batch.v.value[1], one.v.value, rtol=0, atol=1e-12)
+
+
+def test_geodetic_of_a_missing_position_is_nan_not_the_pole():
+    """ERFA's gc2gde answers NaN with the north pole at -6356.75 km (and inf with longitude 0):
+    the failed rows of a batch (``on_error="nan"``) read as a satellite at the pole inside the
+    Earth. Now NaN in every coordinate; finite rows unchanged (a Quantity with NaN is refused
+    by the unit conversion)."""
+    r = np.array([[np.nan, 0.0, 0.0], [7000.0, np.nan, 0.0], [0.0, 0.0, np.inf],
+                  [7000.0, 0.0, 0.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # and no RuntimeWarning from ERFA
+        lat, lon, h = itrs_to_geodetic(r)
+    for q in (lat, lon, h):
+        assert np.isnan(q[:3]).all()
+    assert lat[3].to_value(u.deg) == 0.0 and lon[3].to_value(u.deg) == 0.0
+    assert abs(h[3].to_value(u.km) - (7000.0 - WGS84_A_KM)) < 1e-9
+    lat0, lon0, h0 = itrs_to_geodetic(np.array([np.nan, 1.0, 2.0]))  # a scalar stays one
+    assert lat0.shape == () and np.isnan(lat0) and np.isnan(lon0) and np.isnan(h0)

@@ -394,7 +394,9 @@ def itrs_to_geodetic(r):
     Returns
     -------
     latitude, longitude, height : Quantity
-        Degrees, degrees in [-180, 180), km; shape ``r.shape[:-1]``.
+        Degrees, degrees in [-180, 180), km; shape ``r.shape[:-1]``. NaN for a position
+        with a NaN or infinite coordinate (e.g. the failed rows of a batch propagated with
+        ``on_error="nan"``).
 
     Notes
     -----
@@ -407,11 +409,15 @@ def itrs_to_geodetic(r):
     import erfa
 
     r_km = _raw(r, "length", "r")
-    lon_rad, lat_rad, height_km = erfa.gc2gde(WGS84_A_KM, WGS84_F, r_km)
-    lon_deg = np.rad2deg(lon_rad)
+    with np.errstate(invalid="ignore"):
+        lon_rad, lat_rad, height_km = erfa.gc2gde(WGS84_A_KM, WGS84_F, r_km)
+    # ERFA answers a NaN coordinate with the pole (90 deg, 0 deg, -6356.75 km) and an infinite
+    # one with longitude 0: no position, no coordinates (NaN rows of a batch, on_error="nan")
+    bad = ~np.isfinite(r_km).all(axis=-1)
+    lon_deg = np.where(bad, np.nan, np.rad2deg(lon_rad))
     lon_deg = np.where(lon_deg >= 180.0, lon_deg - 360.0, lon_deg)  # [-180, 180)
-    return (np.rad2deg(lat_rad) << u.deg, lon_deg << u.deg,
-            np.asarray(height_km, dtype=np.float64) << u.km)
+    return (np.where(bad, np.nan, np.rad2deg(lat_rad)) << u.deg, lon_deg << u.deg,
+            np.where(bad, np.nan, np.asarray(height_km, dtype=np.float64)) << u.km)
 
 
 def geodetic_to_itrs_km(lat_rad, lon_rad, height_km) -> np.ndarray:

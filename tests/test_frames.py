@@ -257,3 +257,32 @@ def test_geodetic_of_a_missing_position_is_nan_not_the_pole():
     assert abs(h[3].to_value(u.km) - (7000.0 - WGS84_A_KM)) < 1e-9
     lat0, lon0, h0 = itrs_to_geodetic(np.array([np.nan, 1.0, 2.0]))  # a scalar stays one
     assert lat0.shape == () and np.isnan(lat0) and np.isnan(lon0) and np.isnan(h0)
+
+
+def test_frame_names_any_case_and_refusals_that_say_what_to_pass(sats):
+    """"GCRS", "Teme", "ITRF", "GCRF" were refused ("cannot convert teme to 'GCRS'; choose
+    'gcrs' or 'itrs'", a GCRS batch could not go to TEME at all); other frames are refused
+    with what to pass instead (EME2000/J2000: the frame bias)."""
+    from visviva.satellites.frames import frame_name, transform_matrices
+
+    cat = vv.Catalog(sats[:1])  # (the Molniya set is 175 days from the ISS's epoch)
+    t = sats[0].epoch + np.arange(3) * u.min
+    ref = cat.propagate(t, frame="gcrs")
+    for name in ("GCRS", "Gcrs", " gcrf "):
+        got = cat.propagate(t, frame=name)
+        assert got.frame == "gcrs"
+        np.testing.assert_array_equal(got.r.value, ref.r.value)
+    assert cat.propagate(t, frame="ITRF").frame == "itrs"
+    back = ref.to_frame("TEME")  # GCRS -> TEME: the SGP4 states again
+    teme = cat.propagate(t, frame="teme")
+    assert back.frame == "teme"
+    assert np.abs(back.r.to_value(u.km) - teme.r.to_value(u.km)).max() < ONE_MM
+    np.testing.assert_array_equal(transform_matrices(t, "TEME", "ITRS"),
+                                  transform_matrices(t, "teme", "itrs"))
+    for name, words in (("EME2000", "frame bias"), ("J2000", "frame bias"), ("ICRS", "'gcrs'"),
+                        ("TOD", "equation of the equinoxes"), ("bogus", "'teme', 'gcrs'"),
+                        (None, "got None")):
+        with pytest.raises(vv.InvalidInputError, match=words):
+            frame_name(name)
+        with pytest.raises(vv.InvalidInputError, match=words):
+            cat.propagate(t, frame=name)

@@ -47,6 +47,8 @@ __all__ = [
     "altitude_km",
     "transform_matrices",
     "transform_batch",
+    "frame_name",
+    "FRAME_NAMES",
     "WGS84_A_KM",
     "WGS84_F",
 ]
@@ -54,6 +56,58 @@ __all__ = [
 #: WGS-84 equatorial radius (km) and flattening (NIMA TR8350.2).
 WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
+
+
+#: visviva's Earth frames (lower case); :func:`frame_name` reads any case
+FRAME_NAMES = ("teme", "gcrs", "itrs")
+#: other names a user may write for them: the same frame (its realisation, same axes)
+_SAME = {"gcrf": "gcrs", "itrf": "itrs"}
+#: frames that are not one of visviva's, with what to do instead
+_NOT_OURS = {
+    "eme2000": "EME2000 (J2000) differs from the GCRS by the 23 mas frame bias (0.8 m in LEO, "
+               "4.7 m at GEO), which visviva does not apply: pass 'gcrs' if that is "
+               "acceptable, or rotate by ERFA's bias matrix (erfa.bp06) first",
+    "icrs": "the ICRS is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
+    "icrf": "the ICRF is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
+    "tod": "true-of-date axes have no visviva rotation; 'teme' differs from them by the "
+           "equation of the equinoxes (up to ~17 arcsec of right ascension)",
+}
+_NOT_OURS["j2000"] = _NOT_OURS["eme2000"]
+
+
+def frame_name(frame, allowed=FRAME_NAMES, what: str = "frame") -> str:
+    """visviva's name (``"teme"``, ``"gcrs"``, ``"itrs"``) of the frame the user wrote.
+
+    Case does not matter, and ``"GCRF"`` and ``"ITRF"`` (the realisations of the GCRS and the
+    ITRS, same axes) are read as ``"gcrs"`` and ``"itrs"``.
+
+    Parameters
+    ----------
+    frame : str
+        The name given.
+    allowed : tuple of str
+        The frames the caller handles (lower case).
+    what : str
+        The argument's name, for the message.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InvalidInputError
+        Another frame (the message says what to pass: EME2000/J2000, ICRS, TOD ...).
+    """
+    key = frame.strip().lower() if isinstance(frame, str) else frame
+    key = _SAME.get(key, key)
+    if key in allowed:
+        return key
+    hint = _NOT_OURS.get(key)
+    raise InvalidInputError(
+        f"{what} must be one of {', '.join(repr(a) for a in allowed)} (any case); got "
+        f"{frame!r}"
+        + (f": {hint}." if hint else "."))
 
 
 def _raw(value, kind, name):
@@ -243,18 +297,15 @@ def transform_matrices(t, source: str, target: str) -> np.ndarray:
     t : astropy Time, any shape
         The times.
     source, target : {"teme", "gcrs", "itrs"}
-        The frames.
+        The frames (any case; "GCRF", "ITRF" read as "gcrs", "itrs": :func:`frame_name`).
 
     Returns
     -------
     ndarray, shape t.shape + (6, 6)
         ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
     """
-    for name, frame in (("source", source), ("target", target)):
-        if frame not in ("teme", "gcrs", "itrs"):
-            raise InvalidInputError(
-                f"{name} frame must be 'teme', 'gcrs' or 'itrs'; got {frame!r}."
-            )
+    source = frame_name(source, what="source frame")
+    target = frame_name(target, what="target frame")
     _need_time(t, source, target)
     if t.size == 0:
         return np.zeros(t.shape + (6, 6))

@@ -411,3 +411,21 @@ def test_from_1972_on_ut1_is_astropys_number_for_number():
         ours = table.ut1_utc(t.jd1, t.jd2)
     theirs = iers.IERS.ut1_utc(table, t.jd1, t.jd2)
     np.testing.assert_array_equal(ours, theirs)
+
+
+def test_the_mean_pole_warning_comes_once_per_call():
+    """A rotation with its velocity evaluates the pole at t and t +- 0.5 s: astropy's "polar
+    motions ... 50-yr mean" warning came three times per call (beside visviva's
+    EarthOrientationWarning); now once, pointing at the caller's line."""
+    from astropy.utils.exceptions import AstropyWarning
+
+    from visviva.satellites.frames import teme_to_itrs
+
+    t = Time("2029-06-01", scale="utc") + np.arange(5) * u.min
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        teme_to_itrs(np.array([7000.0, 0, 0]), np.array([0, 7.5, 0]), t)
+    pole = [w for w in caught if issubclass(w.category, AstropyWarning)
+            and "polar motions" in str(w.message)]
+    assert len(pole) == 1 and pole[0].filename == __file__
+    assert sum(issubclass(w.category, vv.EarthOrientationWarning) for w in caught) == 1

@@ -32,7 +32,7 @@ from ._callsite import outside_stacklevel
 from .errors import EarthOrientationWarning
 
 __all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1",
-           "is_insensitive"]
+           "is_insensitive", "issue_once"]
 
 #: a UT1 - UTC carried by a Time that differs from the table's by more than this (s) warns
 CARRIED_TOL_S = 0.1
@@ -87,7 +87,7 @@ def _isot(mjd: float) -> str:
         return Time(mjd, format="mjd", scale="utc").isot[:10]
 
 
-def _issue(key: str, message: str) -> None:
+def _issue(key: str, message: str, category=EarthOrientationWarning) -> None:
     if _QUIET.get():
         return
     issued = _ISSUED.get()
@@ -95,7 +95,13 @@ def _issue(key: str, message: str) -> None:
         if key in issued:
             return
         issued.add(key)
-    warnings.warn(message, EarthOrientationWarning, stacklevel=outside_stacklevel())
+    warnings.warn(message, category, stacklevel=outside_stacklevel())
+
+
+def issue_once(key: str, message: str, category) -> None:
+    """Warn ``message`` (``category``) once per visviva call (:class:`warning_scope`), and not
+    at all inside :class:`insensitive`; outside any call, every time."""
+    _issue(key, message, category)
 
 
 class EarthOrientationTable(iers.IERS_Auto):

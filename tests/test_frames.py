@@ -25,6 +25,7 @@ from visviva.satellites.frames import (
     itrs_to_geodetic,
     teme_to_gcrs,
     teme_to_itrs,
+    transform_matrices,
 )
 
 ONE_MM = 1e-6  # km
@@ -286,3 +287,20 @@ def test_frame_names_any_case_and_refusals_that_say_what_to_pass(sats):
             frame_name(name)
         with pytest.raises(vv.InvalidInputError, match=words):
             cat.propagate(t, frame=name)
+
+
+@pytest.mark.filterwarnings("ignore::erfa.ErfaWarning")
+def test_times_beyond_astropys_years_are_refused_clearly():
+    """Year -4986 raised ERFA's bare 'taiutc ... unacceptable date'; year 10,001 and JD 1e8
+    (year ~269,000) returned a rotation from polynomials far outside their fit, silently."""
+    r, v = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    for jd in (-100000.5, 5373884.5, 1e8):
+        t = Time(jd, format="jd", scale="tt")
+        for f in (teme_to_gcrs, teme_to_itrs, gcrs_to_itrs):
+            with pytest.raises(vv.DomainError, match="years -4712 to 9999"):
+                f(r, v, t)
+    t = Time([2451545.0, 1e8], format="jd", scale="tt")
+    with pytest.raises(vv.DomainError, match="JD 100000000.0"):
+        transform_matrices(t, "teme", "gcrs")
+    ri, _ = teme_to_itrs(r, v, Time(5373484.0, format="jd", scale="tt"))  # 9999: still served
+    assert np.isfinite(ri).all()

@@ -120,6 +120,10 @@ def _raw(value, kind, name):
     return arr
 
 
+#: Julian dates of -4712-01-01 12:00 and 9999-12-31 24:00, the range of astropy's calendar
+_FIRST_JD, _LAST_JD = 0.0, 5373484.5
+
+
 def _need_time(t, source, target):
     """Raise unless ``t`` is an astropy Time (a frame rotation depends on the date)."""
     from astropy.time import Time
@@ -130,6 +134,16 @@ def _need_time(t, source, target):
             f"(the rotation depends on the date); got {type(t).__name__}."
         )
     require_usable_time(t, "t")
+    jd = np.asarray(t.jd1, dtype=np.float64) + np.asarray(t.jd2, dtype=np.float64)
+    outside = (jd < _FIRST_JD) | (jd > _LAST_JD)
+    if np.any(outside):
+        first = t.ravel()[int(np.argmax(outside.ravel()))] if t.ndim else t
+        raise DomainError(
+            f"t = JD {float(first.jd1 + first.jd2):.1f} ({first.scale.upper()}) lies outside "
+            f"years -4712 to 9999, the range of astropy's time scales: a {source.upper()} -> "
+            f"{target.upper()} rotation there is not meaningful (ERFA raises, or evaluates its "
+            "precession-nutation polynomials millennia beyond their fit); use times within "
+            "that range.")
 
 
 def _states_at(r, v, t, source, target):

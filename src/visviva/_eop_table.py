@@ -145,9 +145,11 @@ class EarthOrientationTable(iers.IERS_Auto):
         """
         import erfa
 
+        mjd = np.atleast_1d(np.asarray(mjd, dtype=np.float64))
+        if not np.any(mjd <= _LAST_FRACTIONAL_STEP_MJD):  # (also for an empty array)
+            return out  # all from 1972-01-02 on: astropy's values
         if hasattr(jd1, "utc"):  # a Time (as astropy's mjd_utc accepts)
             jd1, jd2 = jd1.utc.jd1, jd1.utc.jd2
-        mjd = np.atleast_1d(np.asarray(mjd, dtype=np.float64))
         frac = np.atleast_1d(np.asarray(frac, dtype=np.float64))
         jd1, jd2 = (np.broadcast_to(np.asarray(x, dtype=np.float64), mjd.shape)
                     for x in (jd1, jd2))

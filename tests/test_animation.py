@@ -72,6 +72,13 @@ def test_satellite_animates_its_sgp4_track():
     ax = anim._fig.axes[0]
     assert "ISS" in ax.get_title() and ax.get_xlabel() == "x (km)"
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["Earth", "ISS"]
+    # the frame is a frame name, any case (it was read as an attribute: "GCRS" raised
+    # AttributeError, "epoch" or "to_omm" were called on t)
+    anim = vv.animate_orbit(sat, t, plane="xy", frame="GCRS")
+    np.testing.assert_allclose(_dot_xy(anim, 2), sat.gcrs(t).r.to_value(u.km)[2, :2], rtol=1e-12)
+    for bad in ("epoch", "to_omm"):
+        with pytest.raises(vv.InvalidInputError, match="'teme', 'gcrs', 'itrs'"):
+            vv.animate_orbit(sat, t, frame=bad)
 
 
 def test_simulation_animation_replays_the_integration(tmp_path):

@@ -342,3 +342,90 @@ def test_a_time_carrying_another_tables_ut1_says_so():
     delta_t = ((fresh.jd1 - ut1.jd1) + (fresh.jd2 - ut1.jd2)) * 86400.0
     np.testing.assert_allclose(delta_t, [PUBLISHED_DELTA_T[1966], PUBLISHED_DELTA_T[1969]],
                                atol=0.01)
+
+
+# The fractional UTC steps of the 1960s inside the EOP C04 rows (TAI - UTC jumped by these, s)
+UTC_STEPS = {"1963-11-01": 0.1, "1965-01-01": 0.1, "1968-02-01": -0.1, "1972-01-01": 0.107758}
+
+
+def _ut1_minus_tai_s(t):
+    with offline_iers():
+        ut1, tai = t.ut1, t.tai
+    return ((ut1.jd1 - tai.jd1) + (ut1.jd2 - tai.jd2)) * 86400.0
+
+
+@pytest.mark.parametrize("day", list(UTC_STEPS))
+def test_ut1_is_continuous_across_the_1960s_utc_steps(day):
+    """UT1 - TAI is smooth (the Earth's rotation has no steps: it changes by < 5 ms a day).
+    astropy interpolated UT1 - UTC across a 0.1 s step of UTC, so UT1 ran up to 0.1 s wrong
+    over the day before it (51 m in a LEO's ITRS position) and jumped back at 00:00 (before:
+    jumps of 0.096-0.108 s; after: < 0.05 ms per 15 min)."""
+    t0 = Time(day, scale="utc")
+    t = t0 + np.arange(-96, 97) * (15 * u.min)  # two days, every 15 min (t0 + 0 s included)
+    jumps = np.abs(np.diff(_ut1_minus_tai_s(t)))
+    assert jumps.max() < 1e-4  # 5 ms a day is 52 us per 15 min
+
+
+def _teme_to_itrs_from_c04_rows(r_km, t):
+    """Independent TEME -> ITRS: UT1 = TAI + (UT1 - TAI) interpolated linearly between the
+    EOP C04 (astropy IERS_B) rows, where UT1 - TAI = (UT1 - UTC) - (TAI - UTC at 0h)."""
+    b = iers.IERS_B.open()
+    mjd_rows = np.asarray(b["MJD"].to_value(u.d))
+    tai = t.tai
+    mjd_tai = (tai.jd1 - 2400000.5) + tai.jd2
+    k = np.nonzero((mjd_rows > mjd_tai - 3) & (mjd_rows < mjd_tai + 3))[0]
+    iy, im, iday, _ = erfa.jd2cal(2400000.5, mjd_rows[k])
+    ut1_tai = np.asarray(b["UT1_UTC"][k].to_value(u.s)) - erfa.dat(iy, im, iday, 0.0)
+    # the rows are at 0h UTC: their TAI is 0h + TAI - UTC (< 11 s, negligible here)
+    ut1_minus_tai = np.interp(mjd_tai, mjd_rows[k] + erfa.dat(iy, im, iday, 0.0) / 86400.0,
+                              ut1_tai)
+    gmst = erfa.gmst82(tai.jd1, tai.jd2 + ut1_minus_tai / 86400.0)
+    with offline_iers():
+        xp, yp = earth_rotation.polar_motion_rad(t)
+    m = erfa.c2tcio(np.eye(3), gmst, erfa.pom00(xp, yp, 0.0))
+    return m @ r_km
+
+
+@pytest.mark.parametrize("when", ["1964-12-31T23:59:00", "1965-01-01T00:00:00",
+                                  "1968-01-31T20:00:00", "1971-12-31T23:00:00",
+                                  "1966-06-15T21:00:00"])
+def test_itrs_on_a_1960s_utc_step_day_matches_the_c04_rows(when):
+    """TEME -> ITRS near the 1960s UTC steps against an independent UT1 from the C04 rows:
+    1964-12-31T23:59 was 50.9 m off (0.1 s of rotation at 7000 km), 00:00 reached as
+    ``t0 + 0 s`` (held by astropy as the end of the previous day) 50.9 m too; now < 1 cm."""
+    from visviva.satellites.frames import teme_to_itrs
+
+    r = np.array([7000.0, 100.0, 50.0])
+    t = Time(when, scale="utc")
+    for tk in (t, t + 0 * u.s):  # astropy holds the latter as the previous day's end at 00:00
+        ri, _ = teme_to_itrs(r, np.array([0.0, 7.5, 0.0]), tk)
+        np.testing.assert_allclose(ri, _teme_to_itrs_from_c04_rows(r, tk), rtol=0,
+                                   atol=1e-5)  # 1 cm
+
+
+def test_from_1972_on_ut1_is_astropys_number_for_number():
+    """The 1960s correction leaves the leap-second era alone: astropy's own interpolation."""
+    t = Time("1972-01-02", scale="utc") + np.linspace(0.0, 50 * 365.25, 401) * u.day
+    with offline_iers():
+        table = iers.earth_orientation_table.get()
+        ours = table.ut1_utc(t.jd1, t.jd2)
+    theirs = iers.IERS.ut1_utc(table, t.jd1, t.jd2)
+    np.testing.assert_array_equal(ours, theirs)
+
+
+def test_the_mean_pole_warning_comes_once_per_call():
+    """A rotation with its velocity evaluates the pole at t and t +- 0.5 s: astropy's "polar
+    motions ... 50-yr mean" warning came three times per call (beside visviva's
+    EarthOrientationWarning); now once, pointing at the caller's line."""
+    from astropy.utils.exceptions import AstropyWarning
+
+    from visviva.satellites.frames import teme_to_itrs
+
+    t = Time("2029-06-01", scale="utc") + np.arange(5) * u.min
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        teme_to_itrs(np.array([7000.0, 0, 0]), np.array([0, 7.5, 0]), t)
+    pole = [w for w in caught if issubclass(w.category, AstropyWarning)
+            and "polar motions" in str(w.message)]
+    assert len(pole) == 1 and pole[0].filename == __file__
+    assert sum(issubclass(w.category, vv.EarthOrientationWarning) for w in caught) == 1

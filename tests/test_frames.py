@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -17,11 +19,13 @@ from astropy.utils import iers
 
 import visviva as vv
 from visviva.satellites.frames import (
+    WGS84_A_KM,
     gcrs_to_itrs,
     itrs_to_gcrs,
     itrs_to_geodetic,
     teme_to_gcrs,
     teme_to_itrs,
+    transform_matrices,
 )
 
 ONE_MM = 1e-6  # km
@@ -236,3 +240,67 @@ def test_catalog_gcrs_equals_each_satellite(sats):
     one = sats[0].gcrs(t)
     np.testing.assert_allclose(batch.r.value[1], one.r.value, rtol=0, atol=1e-9)
     np.testing.assert_allclose(batch.v.value[1], one.v.value, rtol=0, atol=1e-12)
+
+
+def test_geodetic_of_a_missing_position_is_nan_not_the_pole():
+    """ERFA's gc2gde answers NaN with the north pole at -6356.75 km (and inf with longitude 0):
+    the failed rows of a batch (``on_error="nan"``) read as a satellite at the pole inside the
+    Earth. Now NaN in every coordinate; finite rows unchanged (a Quantity with NaN is refused
+    by the unit conversion)."""
+    r = np.array([[np.nan, 0.0, 0.0], [7000.0, np.nan, 0.0], [0.0, 0.0, np.inf],
+                  [7000.0, 0.0, 0.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # and no RuntimeWarning from ERFA
+        lat, lon, h = itrs_to_geodetic(r)
+    for q in (lat, lon, h):
+        assert np.isnan(q[:3]).all()
+    assert lat[3].to_value(u.deg) == 0.0 and lon[3].to_value(u.deg) == 0.0
+    assert abs(h[3].to_value(u.km) - (7000.0 - WGS84_A_KM)) < 1e-9
+    lat0, lon0, h0 = itrs_to_geodetic(np.array([np.nan, 1.0, 2.0]))  # a scalar stays one
+    assert lat0.shape == () and np.isnan(lat0) and np.isnan(lon0) and np.isnan(h0)
+
+
+def test_frame_names_any_case_and_refusals_that_say_what_to_pass(sats):
+    """"GCRS", "Teme", "ITRF", "GCRF" were refused ("cannot convert teme to 'GCRS'; choose
+    'gcrs' or 'itrs'", a GCRS batch could not go to TEME at all); other frames are refused
+    with what to pass instead (EME2000/J2000: the frame bias)."""
+    from visviva.satellites.frames import frame_name, transform_matrices
+
+    cat = vv.Catalog(sats[:1])  # (the Molniya set is 175 days from the ISS's epoch)
+    t = sats[0].epoch + np.arange(3) * u.min
+    ref = cat.propagate(t, frame="gcrs")
+    for name in ("GCRS", "Gcrs", " gcrf "):
+        got = cat.propagate(t, frame=name)
+        assert got.frame == "gcrs"
+        np.testing.assert_array_equal(got.r.value, ref.r.value)
+    assert cat.propagate(t, frame="ITRF").frame == "itrs"
+    back = ref.to_frame("TEME")  # GCRS -> TEME: the SGP4 states again
+    teme = cat.propagate(t, frame="teme")
+    assert back.frame == "teme"
+    assert np.abs(back.r.to_value(u.km) - teme.r.to_value(u.km)).max() < ONE_MM
+    np.testing.assert_array_equal(transform_matrices(t, "TEME", "ITRS"),
+                                  transform_matrices(t, "teme", "itrs"))
+    for name, words in (("EME2000", "frame bias"), ("J2000", "frame bias"), ("ICRS", "'gcrs'"),
+                        ("TOD", "equation of the equinoxes"), ("bogus", "'teme', 'gcrs'"),
+                        (None, "got None")):
+        with pytest.raises(vv.InvalidInputError, match=words):
+            frame_name(name)
+        with pytest.raises(vv.InvalidInputError, match=words):
+            cat.propagate(t, frame=name)
+
+
+@pytest.mark.filterwarnings("ignore::erfa.ErfaWarning")
+def test_times_beyond_astropys_years_are_refused_clearly():
+    """Year -4986 raised ERFA's bare 'taiutc ... unacceptable date'; year 10,001 and JD 1e8
+    (year ~269,000) returned a rotation from polynomials far outside their fit, silently."""
+    r, v = np.array([7000.0, 0.0, 0.0]), np.array([0.0, 7.5, 0.0])
+    for jd in (-100000.5, 5373884.5, 1e8):
+        t = Time(jd, format="jd", scale="tt")
+        for f in (teme_to_gcrs, teme_to_itrs, gcrs_to_itrs):
+            with pytest.raises(vv.DomainError, match="years -4712 to 9999"):
+                f(r, v, t)
+    t = Time([2451545.0, 1e8], format="jd", scale="tt")
+    with pytest.raises(vv.DomainError, match="JD 100000000.0"):
+        transform_matrices(t, "teme", "gcrs")
+    ri, _ = teme_to_itrs(r, v, Time(5373484.0, format="jd", scale="tt"))  # 9999: still served
+    assert np.isfinite(ri).all()

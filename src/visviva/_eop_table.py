@@ -32,7 +32,7 @@ from ._callsite import outside_stacklevel
 from .errors import EarthOrientationWarning
 
 __all__ = ["EarthOrientationTable", "warning_scope", "insensitive", "check_carried_ut1",
-           "is_insensitive"]
+           "is_insensitive", "issue_once"]
 
 #: a UT1 - UTC carried by a Time that differs from the table's by more than this (s) warns
 CARRIED_TOL_S = 0.1
@@ -87,7 +87,7 @@ def _isot(mjd: float) -> str:
         return Time(mjd, format="mjd", scale="utc").isot[:10]
 
 
-def _issue(key: str, message: str) -> None:
+def _issue(key: str, message: str, category=EarthOrientationWarning) -> None:
     if _QUIET.get():
         return
     issued = _ISSUED.get()
@@ -95,7 +95,13 @@ def _issue(key: str, message: str) -> None:
         if key in issued:
             return
         issued.add(key)
-    warnings.warn(message, EarthOrientationWarning, stacklevel=outside_stacklevel())
+    warnings.warn(message, category, stacklevel=outside_stacklevel())
+
+
+def issue_once(key: str, message: str, category) -> None:
+    """Warn ``message`` (``category``) once per visviva call (:class:`warning_scope`), and not
+    at all inside :class:`insensitive`; outside any call, every time."""
+    _issue(key, message, category)
 
 
 class EarthOrientationTable(iers.IERS_Auto):
@@ -104,6 +110,8 @@ class EarthOrientationTable(iers.IERS_Auto):
     def _interpolate(self, jd1, jd2, columns, source=None):
         out = super()._interpolate(jd1, jd2, columns, source)
         mjd, frac = self.mjd_utc(jd1, jd2)
+        if "UT1_UTC" in columns:
+            out = self._across_utc_steps(out, columns, source, jd1, jd2, mjd, frac)
         days = np.asarray(mjd, dtype=np.float64) + np.asarray(frac, dtype=np.float64)
         days = days[np.isfinite(days)]
         if days.size:
@@ -113,6 +121,66 @@ class EarthOrientationTable(iers.IERS_Auto):
             if days.min() < first:
                 self._warn_before(float(days.min()), first)
         return out
+
+    def _across_utc_steps(self, out, columns, source, jd1, jd2, mjd, frac):
+        """UT1 - UTC before 1972 interpolated as UT1 - TAI, in the form ERFA's ``utcut1`` takes.
+
+        Before 1972 UTC stepped by fractions of a second (0.1 s on 1963-11-01, 1964-04-01,
+        1964-09-01, 1965-01-01, 1965-03-01, 1965-07-01, 1965-09-01, -0.1 s on 1968-02-01 and
+        0.107758 s on 1972-01-01) and drifted from TAI by 1.296 ms (1962-1965) or 2.592 ms
+        (1966-1971) a day. astropy interpolates UT1 - UTC linearly between the daily rows and
+        removes only whole-second jumps (leap seconds), and ERFA's ``utcut1`` (UTC -> UT1)
+        applies the value as UT1 = TAI + (UT1 - UTC) - (TAI - UTC at 0h of the day). So, with
+        astropy's value: over the day before each step UT1 ran up to 0.1 s wrong and jumped back
+        at 00:00 (~46 m along the equator, ~51 m in a LEO's ITRS position); an instant at 00:00
+        that astropy holds as the end of the previous day (``t0 + dt``) got that day's 0h
+        TAI - UTC (0.1 s off after a step, a day of drift otherwise); and each day UT1 drifted
+        by up to 2.6 ms before it jumped back at 00:00.
+
+        UT1 - TAI is smooth: it is interpolated between the rows, and TAI - UTC at 0h of the
+        day ERFA places (``jd1``, ``jd2``) in is added back, so that ``utcut1`` gives UT1 = TAI
+        + (UT1 - TAI) exactly. The reverse conversion (a Time given in UT1, ERFA ``ut1utc``,
+        UTC = UT1 - value) is then off by the drift since 0h, at most 2.6 ms (it was exact on
+        days without a step). From 1972 on astropy's own value is kept, number for number.
+        """
+        import erfa
+
+        mjd = np.atleast_1d(np.asarray(mjd, dtype=np.float64))
+        if not np.any(mjd <= _LAST_FRACTIONAL_STEP_MJD):  # (also for an empty array)
+            return out  # all from 1972-01-02 on: astropy's values
+        if hasattr(jd1, "utc"):  # a Time (as astropy's mjd_utc accepts)
+            jd1, jd2 = jd1.utc.jd1, jd1.utc.jd2
+        frac = np.atleast_1d(np.asarray(frac, dtype=np.float64))
+        jd1, jd2 = (np.broadcast_to(np.asarray(x, dtype=np.float64), mjd.shape)
+                    for x in (jd1, jd2))
+        table_mjd = np.asarray(self["MJD"].to_value("d"), dtype=np.float64)
+        i = np.searchsorted(table_mjd, mjd, side="right")
+        i1 = np.clip(i, 1, len(table_mjd) - 1)
+        early = (table_mjd[i1] <= _LAST_FRACTIONAL_STEP_MJD) | (mjd <= _LAST_FRACTIONAL_STEP_MJD)
+        fix = (i > 0) & (i < len(table_mjd)) & early & np.isfinite(jd1 + jd2)
+        if not fix.any():
+            return out
+        i0, i1 = i1[fix] - 1, i1[fix]
+        mjd0, mjd1 = table_mjd[i0], table_mjd[i1]
+        dut = np.asarray(self["UT1_UTC"].to_value("s"), dtype=np.float64)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", erfa.ErfaWarning)
+            ut1_tai0 = dut[i0] - _tai_minus_utc_0h(2400000.5, mjd0)
+            ut1_tai1 = dut[i1] - _tai_minus_utc_0h(2400000.5, mjd1)
+            at_0h = _tai_minus_utc_0h(jd1[fix], jd2[fix])  # of ERFA's day, as utcut1 takes
+        f = (mjd[fix] - mjd0 + frac[fix]) / (mjd1 - mjd0)
+        k = columns.index("UT1_UTC")
+        many = source is not None or len(columns) > 1
+        old = out[k] if many else out
+        shape = np.shape(old)
+        val = np.array(np.broadcast_to(old.to_value("s"), mjd.shape), dtype=np.float64)
+        val[fix] = ut1_tai0 + f * (ut1_tai1 - ut1_tai0) + at_0h
+        new = (val.reshape(shape) if shape else val.reshape(-1)[0]) * old.unit
+        if many:
+            out = list(out)
+            out[k] = new
+            return out
+        return new
 
     def _mjd_range(self) -> tuple[float, float]:
         """(first, last) MJD of the table, computed once."""
@@ -149,6 +217,19 @@ class EarthOrientationTable(iers.IERS_Auto):
             "the equator), ~35 s in 1900; Earth-fixed (ITRS) positions, look angles and "
             "sidereal times are that far off. Set astropy.utils.iers.earth_orientation_table, "
             "or give the times' delta_ut1_utc, from a long-term Delta T model."))
+
+
+#: MJD of 1972-01-01, the last step of UTC by a fraction of a second (0.107758 s); whole-second
+#: leap seconds after it are removed by astropy's own interpolation
+_LAST_FRACTIONAL_STEP_MJD = 41317.0
+
+
+def _tai_minus_utc_0h(jd1, jd2):
+    """TAI - UTC (s) at 0h of the calendar day ERFA places the UTC date ``jd1 + jd2`` in."""
+    import erfa
+
+    iy, im, iday, _ = erfa.jd2cal(jd1, jd2)
+    return np.asarray(erfa.dat(iy, im, iday, 0.0), dtype=np.float64)
 
 
 def check_carried_ut1(t) -> None:

@@ -40,7 +40,10 @@ def _orbit_positions(target, t, frame: str):
     from .states import StateVectors
 
     if isinstance(target, Satellite):
-        states = getattr(target, frame)(t)
+        from .satellites.frames import frame_name
+
+        # (a name read as an attribute: "epoch" or "to_omm" were called, "GCRS" AttributeError)
+        states = getattr(target, frame_name(frame))(t)
         r = states.r.to_value(u.km).reshape(-1, 3)
         minutes = (states.t - states.t.ravel()[0]).to_value(u.min).ravel()
         return r, minutes, R_EARTH_KM, target.name

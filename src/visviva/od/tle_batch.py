@@ -174,8 +174,10 @@ def fit_tle_batch(histories, satnums=None, *, initials=None, client=None, chunks
         n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         size = chunks or max(1, -(-len(items) // (2 * n_workers)))
         frame = kwargs.pop("frame", None)
-        if frame not in (None, "gcrs", "teme"):
-            raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
+        if frame is not None:
+            from ..satellites.frames import frame_name
+
+            frame = frame_name(frame, ("gcrs", "teme"))
         parts = [_pack(items[i:i + size], frame, i) for i in range(0, len(items), size)]
         futures = client.map(_fit_packed, parts, [kwargs] * len(parts), pure=False)
         results = [r for part in client.gather(futures) for r in part]

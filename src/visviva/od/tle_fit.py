@@ -354,8 +354,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     counted from SGP4's mean argument of latitude. ``MEAN_MOTION_DDOT`` is 0, as in nearly
     every published set. Propagation does not depend on them.
     """
-    if frame not in (None, "gcrs", "teme"):
-        raise InvalidInputError(f"frame must be 'gcrs' or 'teme'; got {frame!r}.")
+    if frame is not None:
+        from ..satellites.frames import frame_name
+
+        frame = frame_name(frame, ("gcrs", "teme"))
     r, v, t, frame = states_and_times(states, times, frame)
     return fit_tle_arrays(r, v, t, frame, satnum, fit_bstar, bstar, epoch=epoch, name=name,
                           object_id=object_id, initial=initial, max_iterations=max_iterations,
@@ -414,10 +416,9 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     """
     from astropy.time import Time
 
-    from ..satellites.frames import transform_matrices
+    from ..satellites.frames import frame_name, transform_matrices
 
-    if frame not in ("gcrs", "teme", "itrs"):
-        raise InvalidInputError(f"frame must be 'gcrs', 'teme' or 'itrs'; got {frame!r}.")
+    frame = frame_name(frame)
     r = np.asarray(r_km, dtype=np.float64)
     v = np.asarray(v_km_s, dtype=np.float64)
     t = times

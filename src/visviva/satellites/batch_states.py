@@ -74,21 +74,18 @@ class BatchStates:
         return out << u.km
 
     def to_frame(self, frame: str) -> BatchStates:
-        """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"``, with astropy's frames.
+        """The same states in ``"teme"``, ``"gcrs"`` or ``"itrs"`` (any case), with astropy's
+        frames.
 
         One 6 x 6 map per time from astropy's rotation matrices, shared by the N objects
         (:func:`visviva.satellites.frames.transform_batch`), equal to transforming every state
         with astropy's frame graph to ~1e-11 km and ~1e-10 km/s.
         """
-        from .frames import transform_batch
+        from .frames import frame_name, transform_batch
 
+        frame = frame_name(frame)
         if frame == self.frame:
             return self
-        known = ("teme", "gcrs", "itrs")
-        if frame not in known or frame == "teme":
-            raise InvalidInputError(
-                f"cannot convert {self.frame} to {frame!r}; choose 'gcrs' or 'itrs'."
-            )
         r, v = transform_batch(self.r.to_value("km"), self.v.to_value("km/s"), self.t,
                                self.frame, frame)
         return BatchStates(to_quantity(r, "length"), to_quantity(v, "speed"), self.t,

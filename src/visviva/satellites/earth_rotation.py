@@ -67,22 +67,23 @@ def polar_motion_rad(t):
     from astropy.utils import iers
     from astropy.utils.exceptions import AstropyWarning
 
-    from .._eop_table import is_insensitive
+    from .._eop_table import issue_once
 
     xp, yp, status = iers.earth_orientation_table.get().pm_xy(t, return_status=True)
-    quiet = is_insensitive()  # a TEME <-> GCRS rotation: the pole cancels
     for code, when in ((iers.TIME_BEFORE_IERS_RANGE, "before"),
                        (iers.TIME_BEYOND_IERS_RANGE, "after")):
         outside = status == code
         if np.any(outside):
             xp[outside] = MEAN_POLE_ARCSEC[0] * u.arcsec
             yp[outside] = MEAN_POLE_ARCSEC[1] * u.arcsec
-            if quiet:
-                continue
-            warnings.warn(
+            # once per visviva call (a rotation with its velocity evaluates the pole at t and
+            # t +- 0.5 s: three identical warnings before); none for TEME <-> GCRS, where the
+            # pole cancels
+            issue_once(
+                f"pole-{when}",
                 f"Tried to get polar motions for times {when} IERS data is valid. Defaulting "
                 "to polar motion from the 50-yr mean for those. This may affect precision at "
-                "the arcsec level.", AstropyWarning, stacklevel=3)
+                "the arcsec level.", AstropyWarning)
     return xp.to_value(u.rad), yp.to_value(u.rad)
 
 

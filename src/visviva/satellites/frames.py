@@ -47,6 +47,8 @@ __all__ = [
     "altitude_km",
     "transform_matrices",
     "transform_batch",
+    "frame_name",
+    "FRAME_NAMES",
     "WGS84_A_KM",
     "WGS84_F",
 ]
@@ -54,6 +56,58 @@ __all__ = [
 #: WGS-84 equatorial radius (km) and flattening (NIMA TR8350.2).
 WGS84_A_KM = 6378.137
 WGS84_F = 1.0 / 298.257223563
+
+
+#: visviva's Earth frames (lower case); :func:`frame_name` reads any case
+FRAME_NAMES = ("teme", "gcrs", "itrs")
+#: other names a user may write for them: the same frame (its realisation, same axes)
+_SAME = {"gcrf": "gcrs", "itrf": "itrs"}
+#: frames that are not one of visviva's, with what to do instead
+_NOT_OURS = {
+    "eme2000": "EME2000 (J2000) differs from the GCRS by the 23 mas frame bias (0.8 m in LEO, "
+               "4.7 m at GEO), which visviva does not apply: pass 'gcrs' if that is "
+               "acceptable, or rotate by ERFA's bias matrix (erfa.bp06) first",
+    "icrs": "the ICRS is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
+    "icrf": "the ICRF is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
+    "tod": "true-of-date axes have no visviva rotation; 'teme' differs from them by the "
+           "equation of the equinoxes (up to ~17 arcsec of right ascension)",
+}
+_NOT_OURS["j2000"] = _NOT_OURS["eme2000"]
+
+
+def frame_name(frame, allowed=FRAME_NAMES, what: str = "frame") -> str:
+    """visviva's name (``"teme"``, ``"gcrs"``, ``"itrs"``) of the frame the user wrote.
+
+    Case does not matter, and ``"GCRF"`` and ``"ITRF"`` (the realisations of the GCRS and the
+    ITRS, same axes) are read as ``"gcrs"`` and ``"itrs"``.
+
+    Parameters
+    ----------
+    frame : str
+        The name given.
+    allowed : tuple of str
+        The frames the caller handles (lower case).
+    what : str
+        The argument's name, for the message.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InvalidInputError
+        Another frame (the message says what to pass: EME2000/J2000, ICRS, TOD ...).
+    """
+    key = frame.strip().lower() if isinstance(frame, str) else frame
+    key = _SAME.get(key, key)
+    if key in allowed:
+        return key
+    hint = _NOT_OURS.get(key)
+    raise InvalidInputError(
+        f"{what} must be one of {', '.join(repr(a) for a in allowed)} (any case); got "
+        f"{frame!r}"
+        + (f": {hint}." if hint else "."))
 
 
 def _raw(value, kind, name):
@@ -66,6 +120,10 @@ def _raw(value, kind, name):
     return arr
 
 
+#: Julian dates of -4712-01-01 12:00 and 9999-12-31 24:00, the range of astropy's calendar
+_FIRST_JD, _LAST_JD = 0.0, 5373484.5
+
+
 def _need_time(t, source, target):
     """Raise unless ``t`` is an astropy Time (a frame rotation depends on the date)."""
     from astropy.time import Time
@@ -76,6 +134,16 @@ def _need_time(t, source, target):
             f"(the rotation depends on the date); got {type(t).__name__}."
         )
     require_usable_time(t, "t")
+    jd = np.asarray(t.jd1, dtype=np.float64) + np.asarray(t.jd2, dtype=np.float64)
+    outside = (jd < _FIRST_JD) | (jd > _LAST_JD)
+    if np.any(outside):
+        first = t.ravel()[int(np.argmax(outside.ravel()))] if t.ndim else t
+        raise DomainError(
+            f"t = JD {float(first.jd1 + first.jd2):.1f} ({first.scale.upper()}) lies outside "
+            f"years -4712 to 9999, the range of astropy's time scales: a {source.upper()} -> "
+            f"{target.upper()} rotation there is not meaningful (ERFA raises, or evaluates its "
+            "precession-nutation polynomials millennia beyond their fit); use times within "
+            "that range.")
 
 
 def _states_at(r, v, t, source, target):
@@ -243,18 +311,15 @@ def transform_matrices(t, source: str, target: str) -> np.ndarray:
     t : astropy Time, any shape
         The times.
     source, target : {"teme", "gcrs", "itrs"}
-        The frames.
+        The frames (any case; "GCRF", "ITRF" read as "gcrs", "itrs": :func:`frame_name`).
 
     Returns
     -------
     ndarray, shape t.shape + (6, 6)
         ``y_target = M @ y_source`` with ``y = (x, y, z, vx, vy, vz)`` in km and km/s.
     """
-    for name, frame in (("source", source), ("target", target)):
-        if frame not in ("teme", "gcrs", "itrs"):
-            raise InvalidInputError(
-                f"{name} frame must be 'teme', 'gcrs' or 'itrs'; got {frame!r}."
-            )
+    source = frame_name(source, what="source frame")
+    target = frame_name(target, what="target frame")
     _need_time(t, source, target)
     if t.size == 0:
         return np.zeros(t.shape + (6, 6))
@@ -394,7 +459,9 @@ def itrs_to_geodetic(r):
     Returns
     -------
     latitude, longitude, height : Quantity
-        Degrees, degrees in [-180, 180), km; shape ``r.shape[:-1]``.
+        Degrees, degrees in [-180, 180), km; shape ``r.shape[:-1]``. NaN for a position
+        with a NaN or infinite coordinate (e.g. the failed rows of a batch propagated with
+        ``on_error="nan"``).
 
     Notes
     -----
@@ -407,11 +474,15 @@ def itrs_to_geodetic(r):
     import erfa
 
     r_km = _raw(r, "length", "r")
-    lon_rad, lat_rad, height_km = erfa.gc2gde(WGS84_A_KM, WGS84_F, r_km)
-    lon_deg = np.rad2deg(lon_rad)
+    with np.errstate(invalid="ignore"):
+        lon_rad, lat_rad, height_km = erfa.gc2gde(WGS84_A_KM, WGS84_F, r_km)
+    # ERFA answers a NaN coordinate with the pole (90 deg, 0 deg, -6356.75 km) and an infinite
+    # one with longitude 0: no position, no coordinates (NaN rows of a batch, on_error="nan")
+    bad = ~np.isfinite(r_km).all(axis=-1)
+    lon_deg = np.where(bad, np.nan, np.rad2deg(lon_rad))
     lon_deg = np.where(lon_deg >= 180.0, lon_deg - 360.0, lon_deg)  # [-180, 180)
-    return (np.rad2deg(lat_rad) << u.deg, lon_deg << u.deg,
-            np.asarray(height_km, dtype=np.float64) << u.km)
+    return (np.where(bad, np.nan, np.rad2deg(lat_rad)) << u.deg, lon_deg << u.deg,
+            np.where(bad, np.nan, np.asarray(height_km, dtype=np.float64)) << u.km)
 
 
 def geodetic_to_itrs_km(lat_rad, lon_rad, height_km) -> np.ndarray:

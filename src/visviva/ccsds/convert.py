@@ -165,8 +165,8 @@ def _sample_oem(sat, args):
     states = {"GCRF": sat.gcrs, "EME2000": sat.gcrs, "TEME": sat.teme, "ITRF": sat.itrs}[
         args.frame](t)
     omm = sat.to_omm()
-    seg = OEMSegment.from_states(
-        t, states.r.to_value(u.km), states.v.to_value(u.km / u.s), object_name=sat.name,
+    seg = OEMSegment.from_states(  # (the states: EME2000 is written with the frame bias)
+        states, object_name=sat.name,
         object_id=omm["OBJECT_ID"] or "UNKNOWN", frame=args.frame, interpolation="LAGRANGE",
         degree=min(7, n - 1))
     seg.data_comments.append(f"SGP4 states of NORAD {sat.satnum}, element set epoch "

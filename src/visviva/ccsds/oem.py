@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InvalidInputError
+from . import timeframes as tf
 from .grammar import Keyword as K
 from .grammar import Record, Section, version_keyword
 from .interpolation import check_degree, hermite, lagrange
@@ -148,10 +149,9 @@ class OEMSegment(FrameCenterMetadata):
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
             Default: the states' own frame when given states that know it (TEME states are
             written ``TEME``), else ``"GCRF"`` (``"ICRF"`` about another centre than the
-            Earth); a frame that contradicts the states' is refused. States (and their
-            covariance and accelerations) are on the GCRS/ICRF axes: ``"EME2000"`` writes them
-            rotated by the frame bias (:data:`~visviva.ccsds.timeframes.FRAME_BIAS`, 4.7 m at
-            GEO); arrays ``r_km``, ``v_km_s`` are written as given.
+            Earth); a frame that contradicts the states' is refused. States (their covariance,
+            accelerations) are on the GCRS/ICRF axes: ``"EME2000"`` writes them turned by the
+            frame bias (``timeframes.FRAME_BIAS``); arrays are written as given.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -174,26 +174,21 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
-        from .timeframes import center_of
+        from .._units import to_array
+        from .timeframes import center_of, ref_frame_of
 
         states = None
         if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
-            from .timeframes import from_gcrs_axes, ref_frame_of
-
             states = times
             if r_km is not None or v_km_s is not None or getattr(states, "epoch", None) is None:
                 raise InvalidInputError(
                     "from_states(states, ...) takes states with their epochs (and no r_km, "
                     "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
             frame = ref_frame_of(states, frame, center_of(states, center))
-            # (states are on the GCRS/ICRF axes: EME2000 is written with the frame bias)
-            times, r_km, v_km_s = states.epoch, states.r, states.v
-            r_km, v_km_s = from_gcrs_axes(frame, r_km.to_value("km"), v_km_s.to_value("km/s"))
-            if a_km_s2 is not None:
-                from .._units import to_array
-
-                a_km_s2 = from_gcrs_axes(frame, to_array(a_km_s2, "accel", "a_km_s2",
-                                                         allow_plain=True))[0]
+            times, r_km = states.epoch, states.r.to_value("km")  # (GCRS/ICRF axes: EME2000
+            r_km, v_km_s = tf.from_gcrs_axes(frame, r_km, states.v.to_value("km/s"))  # is biased)
+            a_km_s2 = None if a_km_s2 is None else tf.from_gcrs_axes(
+                frame, to_array(a_km_s2, "accel", "a_km_s2", allow_plain=True))[0]
         elif r_km is None or v_km_s is None:
             raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
                                     "their epochs).")
@@ -224,9 +219,7 @@ class OEMSegment(FrameCenterMetadata):
             for k, m in enumerate(c):
                 require_psd(m, f"covariance[{k}]")
             if states is not None and covariance_frame is None:  # (on the states' axes)
-                from .timeframes import from_gcrs_axes
-
-                c = from_gcrs_axes(frame, c)[0]
+                c = tf.from_gcrs_axes(frame, c)[0]
             cf = covariance_frame
             cf = "GCRF" if cf is not None and str(cf).upper() == "GCRS" else cf
             if cf is not None:
@@ -327,9 +320,7 @@ class OEMSegment(FrameCenterMetadata):
 
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             times = self.times.utc
-        from .timeframes import to_gcrs_axes
-
-        r, v = to_gcrs_axes(self.frame, self.r_km, self.v_km_s)  # (EME2000: the frame bias)
+        r, v = tf.to_gcrs_axes(self.frame, self.r_km, self.v_km_s)  # (EME2000: the frame bias)
         r, v = transform_batch(r[None], v[None], times, source, frame)
         return framed_states(r[0], v[0], self.gm_km3_s2, self.times, frame)
 
@@ -509,11 +500,10 @@ class OEMSegment(FrameCenterMetadata):
             of a circular orbit ...), or an epoch the states do not cover.
         """
         from .covariance import on_state_axes, sun_from
-        from .timeframes import to_gcrs_axes
 
         cov = self.covariances[k]
         if cov.frame is None:  # (EME2000: rotated by the frame bias, as :attr:`states` are)
-            return to_gcrs_axes(self.frame, cov.matrix)[0]
+            return tf.to_gcrs_axes(self.frame, cov.matrix)[0]
         if cov.epoch in self.epochs:
             i = self.epochs.index(cov.epoch)
             r, v = self.r_km[i], self.v_km_s[i]
@@ -526,7 +516,7 @@ class OEMSegment(FrameCenterMetadata):
                           sun=sun_from(lambda: epochs_to_time(
                               cov.epoch, self.time_system, mission_epoch=self.mission_epoch),
                               self.center, self.frame))
-        return to_gcrs_axes(self.frame, m)[0]
+        return tf.to_gcrs_axes(self.frame, m)[0]
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.

@@ -30,7 +30,8 @@ import numpy as np
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
-__all__ = ["FRAME_BIAS", "to_gcrs_axes", "from_gcrs_axes", "TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
+__all__ = ["FRAME_BIAS", "to_gcrs_axes", "from_gcrs_axes", "TIME_SCALES", "RELATIVE_TIME_SYSTEMS",
+           "epochs_to_time", "time_to_epochs",
            "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
            "ref_frame_of", "refuse_unused_mission_epoch"]
 

@@ -41,8 +41,8 @@ def add_parser(sub) -> None:
     p.add_argument("--hours", type=float, default=None, help="OEM span in hours (default 24)")
     p.add_argument("--step", type=float, default=None, help="OEM step in seconds (default 60)")
     p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default=None,
-                   help="OEM reference frame (default GCRF; EME2000 is written from the same "
-                        "GCRS states, which differ from it by the 23 mas frame bias)")
+                   help="OEM reference frame (default GCRF; EME2000 is written from the GCRS "
+                        "states turned by the 23 mas frame bias)")
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--originator", default="VISVIVA",

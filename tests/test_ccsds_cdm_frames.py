@@ -77,5 +77,15 @@ def test_states_refuse_frames_visviva_cannot_rotate():
         msg.states()
     with pytest.raises(vv.InvalidInputError, match="one inertial frame"):
         gcrf.states("ITRF")
-    # EME2000 beside GCRF: one set of axes, no rotation
-    assert np.array_equal(gcrf.states("EME2000")[0], gcrf.object1.r)
+    # EME2000: the GCRF states turned by the frame bias (23 mas; 0.8 m at 7000 km)
+    from visviva.ccsds.timeframes import FRAME_BIAS
+
+    r1, v1, c1, r2, *_ = gcrf.states("EME2000")
+    g1, _, g_c1, g2, *_ = gcrf.states("GCRF")
+    np.testing.assert_allclose(r1.to_value(u.km), FRAME_BIAS @ g1.to_value(u.km), rtol=0,
+                               atol=1e-12 * 7000)
+    assert 0.5 < np.linalg.norm((r1 - g1).to_value(u.m)) < 1.0
+    assert abs(np.linalg.norm((r1 - r2).to_value(u.m))
+               - np.linalg.norm((g1 - g2).to_value(u.m))) < 1e-6  # the miss is kept
+    b6 = np.kron(np.eye(2), FRAME_BIAS)
+    np.testing.assert_allclose(c1, b6 @ g_c1 @ b6.T, rtol=1e-9, atol=1e-12 * np.abs(c1).max())

@@ -32,7 +32,7 @@ def test_tle_to_omm_to_tle_is_the_same_text(tle_file, tmp_path, suffix):
     assert back.read_text().splitlines() == list(ISS)
 
 
-@pytest.mark.parametrize("frame", ["TEME", "GCRF"])
+@pytest.mark.parametrize("frame", ["TEME", "GCRF", "EME2000"])
 def test_tle_to_oem_samples_sgp4(tle_file, tmp_path, frame):
     out = tmp_path / "iss.oem"
     assert cli.main(["convert", str(tle_file), str(out), "--hours", "2", "--step", "60",
@@ -51,6 +51,12 @@ def test_tle_to_oem_samples_sgp4(tle_file, tmp_path, frame):
     t = seg.times[0] + np.arange(30, 7000, 97.0) * u.s
     sat = vv.Satellite.from_tle(*ISS[1:])
     ref = sat.teme(t) if frame == "TEME" else sat.gcrs(t)
+    if frame == "EME2000":  # written turned by the frame bias (GCRS numbers were written, 0.8 m)
+        from visviva.ccsds.timeframes import FRAME_BIAS
+
+        gcrs = sat.gcrs(seg.times).r.to_value(u.km)
+        np.testing.assert_allclose(seg.r_km, gcrs @ FRAME_BIAS.T, rtol=0, atol=1e-9)
+        assert np.linalg.norm(seg.r_km - gcrs, axis=1).min() > 4e-4  # km
     got = seg.interpolate(t)
     assert np.abs(got.r.to_value(u.km) - ref.r.to_value(u.km)).max() < 1e-3
 

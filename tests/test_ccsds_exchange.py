@@ -10,6 +10,7 @@ from astropy import units as u
 from astropy.time import Time
 
 import visviva as vv
+from visviva.ccsds.timeframes import FRAME_BIAS
 
 # a two-body arc sampled every minute (exact states: interpolation errors are the method's)
 _T0 = Time("2024-01-31T00:00:00", scale="utc")
@@ -48,8 +49,8 @@ def test_a_span_wider_than_the_states_is_not_extrapolated(start, stop, query):
     inside = Time("2024-01-31T00:05:30", scale="utc")
     truth = vv.StateVectors([7000.0, 0.0, 0.0] * u.km, [0.0, 7.546, 1.0] * u.km / u.s,
                             vv.EARTH).propagate((inside - _T0).to(u.s))
-    got = oem.interpolate(inside)
-    assert np.linalg.norm((got.r - truth.r).to_value(u.m)) < 1e-2
+    got = oem.interpolate(inside)  # (EME2000 numbers, read on the GCRS axes: B.T r)
+    assert np.linalg.norm(got.r.to_value(u.m) - FRAME_BIAS.T @ truth.r.to_value(u.m)) < 1e-2
 
 
 def test_the_segment_boundary_still_picks_the_later_segment_within_its_states():
@@ -391,7 +392,10 @@ def test_an_opm_covariance_in_rtn_goes_with_the_state():
         assert opm.sections["covariance"]["CX_X"] == local[0, 0]  # as written
     same = {**base.sections, "covariance": {"COV_REF_FRAME": "EME2000",
                                             **values_from_matrix(inertial)}}
-    assert np.array_equal(OPM(same).covariance, inertial)  # GCRF state, EME2000 axes
+    # GCRF state, EME2000 axes: rotated by the frame bias, B.T C B
+    b6 = np.kron(np.eye(2), FRAME_BIAS)
+    np.testing.assert_allclose(OPM(same).covariance, b6.T @ inertial @ b6, rtol=1e-12, atol=0)
+    assert not np.array_equal(OPM(same).covariance, inertial)
     other = {**base.sections, "covariance": {"COV_REF_FRAME": "ITRF",
                                              **values_from_matrix(inertial)}}
     with pytest.raises(vv.InvalidInputError, match="COV_REF_FRAME = ITRF is neither"):
@@ -499,16 +503,21 @@ def test_oem_covariance_on_the_state_axes_as_the_opm_gives_it():
     seg = vv.read_oem("\n".join(lines) + "\n").segments[0]
     # at a state epoch: that state's RTN axes
     want = from_local(rtn, seg.r_km[1], seg.v_km_s[1], FRAME_CODES["RTN"])
-    np.testing.assert_allclose(seg.covariance(0), want, rtol=1e-12, atol=0)
+    b6 = np.kron(np.eye(2), FRAME_BIAS)  # (EME2000 axes -> the GCRS axes of seg.states)
+    np.testing.assert_allclose(seg.covariance(0), b6.T @ want @ b6, rtol=1e-12, atol=0)
     assert not np.allclose(seg.covariance(0), rtn)  # the axes turned (7.4 deg)
     # between states: the interpolated state's axes
     t = Time("2024-01-31T00:01:00", scale="utc")
     s = seg.interpolate(t)
     want = from_local(rtn, s.r.to_value(u.km), s.v.to_value(u.km / u.s), FRAME_CODES["RTN"])
-    np.testing.assert_allclose(seg.covariance(1), want, rtol=1e-12, atol=0)
-    # REF_FRAME, or another name of its axes, as written; an Earth-fixed one refused
-    assert np.array_equal(seg.covariance(2), seg.covariances[2].matrix)
-    assert np.array_equal(seg.covariance(3), seg.covariances[3].matrix)
+    np.testing.assert_allclose(seg.covariance(1), want, rtol=1e-12,  # (rounding of the bias)
+                               atol=1e-15 * np.abs(want).max())
+    # on the GCRS axes of seg.states: EME2000 rotated by the frame bias, GCRF as written; an
+    # Earth-fixed one refused
+    np.testing.assert_allclose(seg.covariance(2), b6.T @ seg.covariances[2].matrix @ b6,
+                               rtol=1e-12, atol=0)
+    np.testing.assert_allclose(seg.covariance(3), seg.covariances[3].matrix, rtol=1e-12,
+                               atol=1e-15 * np.abs(seg.covariances[3].matrix).max())
     with pytest.raises(vv.InvalidInputError, match="neither REF_FRAME = EME2000"):
         seg.covariance(4)
 

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 import visviva as vv
 from visviva.ccsds.oem import Ephemeris, OEMSegment
+from visviva.ccsds.timeframes import FRAME_BIAS
 
 ONE_MM = 1e-6  # km
 
@@ -94,7 +95,11 @@ def test_read_kvn_example_every_field():
     assert abs((second.times[0] - Time("2024-02-01T00:03:00", scale="utc")).sec) < 1e-9
     states = first.states
     assert isinstance(states, vv.StateVectors) and states.shape == (4,)
-    np.testing.assert_array_equal(states.r[1].to_value(u.km), [6995.1, 449.9, 0.1])
+    np.testing.assert_array_equal(first.r_km[1], [6995.1, 449.9, 0.1])  # as written
+    # EME2000 numbers on the GCRS axes: B.T r (the 23 mas frame bias, 0.8 m here)
+    np.testing.assert_allclose(states.r[1].to_value(u.km),
+                               FRAME_BIAS.T @ [6995.1, 449.9, 0.1], rtol=1e-15, atol=0)
+    assert 0.5 < np.linalg.norm(states.r[1].to_value(u.m) - [6995.1e3, 449.9e3, 0.1e3]) < 1
     assert abs(states.gm[0].to_value(u.km**3 / u.s**2) - vv.EARTH.gm_km3_s2) == 0
     cov0, cov1 = first.covariances
     assert cov0.frame == "RTN" and cov1.frame is None and cov1.comments == [
@@ -173,7 +178,8 @@ def test_ephemeris_interpolates_across_segments_and_refuses_gaps():
     np.testing.assert_allclose(states.r[1].to_value(u.km),
                                oem.segments[1].interpolate(t[1]).r.to_value(u.km), rtol=0, atol=0)
     # the boundary belongs to the later segment: its first state
-    np.testing.assert_array_equal(states.v[2].to_value(u.km / u.s), oem.segments[1].v_km_s[0])
+    np.testing.assert_allclose(states.v[2].to_value(u.km / u.s),
+                               FRAME_BIAS.T @ oem.segments[1].v_km_s[0], rtol=1e-15, atol=0)
     with pytest.raises(vv.InvalidInputError, match="covered by no segment"):
         oem.interpolate(Time("2024-01-31T12:00:00", scale="utc"))
     with pytest.raises(vv.InvalidInputError, match="outside the segment"):
@@ -419,7 +425,7 @@ def test_segment_interface_used_by_the_ephemeris():
     r, v = seg.interpolate_arrays(t)
     assert r.shape == v.shape == (2, 3)
     states = seg.interpolate(t)
-    np.testing.assert_array_equal(states.r.to_value(u.km), r)
+    np.testing.assert_allclose(states.r.to_value(u.km), r @ FRAME_BIAS, rtol=1e-15, atol=0)
     assert seg.gm_km3_s2 == vv.EARTH.gm_km3_s2
 
 
@@ -536,7 +542,8 @@ def test_interpolation_does_not_depend_on_the_scale_of_the_query(system):
     for other in (t.utc, t.tdb, t.tt, t.tai):
         assert np.linalg.norm(oem.interpolate(other).r.to_value(u.km) - ref) < 1e-9  # 1 um
         assert np.linalg.norm(oem.segments[0].interpolate(other).r.to_value(u.km) - ref) < 1e-9
-    truth = state.propagate(1800.5 * u.s).r.to_value(u.km)
+    # (the arrays were written as EME2000 numbers: read back on the GCRS axes, B.T r)
+    truth = FRAME_BIAS.T @ state.propagate(1800.5 * u.s).r.to_value(u.km)
     assert np.linalg.norm(ref - truth) < 1e-6  # Hermite of degree 5 on 1-min nodes: < 1 mm
 
 

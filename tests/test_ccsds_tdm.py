@@ -314,6 +314,24 @@ def test_radec_frames(frame, ok):
         assert exc.value.line == line_of(text, "REFERENCE_FRAME")
 
 
+def test_radec_in_eme2000_is_turned_to_the_gcrs_axes_by_the_frame_bias():
+    """EME2000 RA/Dec were taken as GCRS ones: up to 23 mas off (4.7 m at GEO range)."""
+    from visviva.ccsds.timeframes import FRAME_BIAS
+
+    def unit(ra, dec):
+        return np.array([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)])
+
+    rows = "ANGLE_1 = 2024-02-14T10:00:00 359.9999999\nANGLE_2 = 2024-02-14T10:00:00 -5"
+    meta = AZEL.replace("AZEL", "RADEC") + "REFERENCE_FRAME = "
+    eme = read_obs(tdm_text(meta + "EME2000", rows)).values[0, :2]
+    gcrf = read_obs(tdm_text(meta + "GCRF", rows)).values[0, :2]
+    np.testing.assert_array_equal(gcrf, np.radians([359.9999999, -5.0]))
+    np.testing.assert_allclose(unit(*eme), FRAME_BIAS.T @ unit(*gcrf), rtol=0, atol=1e-15)
+    turned = np.degrees(np.arccos(np.clip(unit(*eme) @ unit(*gcrf), -1, 1))) * 3.6e6
+    assert 5 < turned < 23.1  # mas
+    assert abs(eme[0] - gcrf[0]) < 1e-6  # the right ascension keeps its branch (no 2 pi jump)
+
+
 @pytest.mark.parametrize("meta, match", [
     (AZEL.replace("AZEL", "XEYN"), "XEYN"),
     (AZEL.replace("ANGLE_TYPE = AZEL", ""), "ANGLE_TYPE")])

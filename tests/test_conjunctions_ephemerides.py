@@ -134,9 +134,8 @@ def test_oem_ephemerides_are_screened(tmp_path):
     a, b = cat[4], cat[5]
     oems = []
     for sat, frame in ((a, "GCRF"), (b, "EME2000")):
-        s = sat.gcrs(t)
-        seg = OEMSegment.from_states(t, s.r.to_value(u.km), s.v.to_value(u.km / u.s),
-                                     object_name=sat.name, frame=frame)
+        # (GCRS states: written in EME2000 with the frame bias, read back on the GCRS axes)
+        seg = OEMSegment.from_states(sat.gcrs(t), object_name=sat.name, frame=frame)
         oems.append(vv.read_oem(vv.write_oem(seg)))
     ref = vv.screen_conjunctions(a.gcrs(t), b.gcrs(t), t0, t0 + 2 * u.hour, threshold=20 * u.km)
     tab = vv.screen_conjunctions(oems[0], oems[1], t0, t0 + 2 * u.hour, threshold=20 * u.km)

@@ -234,7 +234,9 @@ class ConjunctionDataMessage:
         designators : (str, str)
             ``OBJECT_DESIGNATOR`` (catalogue numbers).
         frame : {"GCRF", "EME2000"}
-            ``REF_FRAME`` of the states (use ``sat.gcrs(tca)`` for SGP4 objects).
+            ``REF_FRAME`` of the states, written as given: GCRS numbers (``sat.gcrs(tca)`` for
+            SGP4 objects) are ``"GCRF"``; for ``"EME2000"`` give them rotated by the frame bias
+            (``visviva.ccsds.timeframes.from_gcrs_axes("EME2000", r, v, cov)``, 4.7 m at GEO).
         originator : str
             ``ORIGINATOR``.
         message_id : str, optional

@@ -17,8 +17,8 @@ from ..errors import InvalidInputError
 
 __all__ = ["states_on_one_frame", "COMMON_FRAMES", "check_states_against_summary"]
 
-#: the frame the two objects are put on, by its CCSDS names (all three name the GCRS's axes
-#: within visviva's 23 mas: docs/ccsds.md, "Frames")
+#: the frame the two objects are put on, by its CCSDS names (GCRF and ICRF name the GCRS's
+#: axes, EME2000 those turned by the frame bias: docs/ccsds.md, "Frames")
 COMMON_FRAMES = ("GCRF", "EME2000", "ICRF")
 
 
@@ -27,12 +27,12 @@ def _gcrs_state(obj, tca):
     from astropy import units as u
 
     from ..satellites.frames import itrs_to_gcrs, teme_to_gcrs
-    from .timeframes import visviva_frame
+    from .timeframes import to_gcrs_axes, visviva_frame
 
     kind = visviva_frame(obj.frame)
     r, v = obj.r.to_value(u.km), obj.v.to_value(u.km / u.s)
-    if kind == "gcrs":
-        return r, v
+    if kind == "gcrs":  # (EME2000: the frame bias)
+        return to_gcrs_axes(obj.frame, r, v)
     if kind == "itrs":
         return itrs_to_gcrs(r, v, tca)
     if kind == "teme":
@@ -51,7 +51,8 @@ def states_on_one_frame(msg, frame: str = "GCRF"):
     msg : ConjunctionDataMessage
         The message (each object with its own ``REF_FRAME``).
     frame : {"GCRF", "EME2000", "ICRF"}
-        The frame to put both on (one set of axes in visviva).
+        The frame to put both on (GCRF and ICRF: the GCRS axes; EME2000: those rotated by the
+        frame bias, :data:`~visviva.ccsds.timeframes.FRAME_BIAS`).
 
     Returns
     -------
@@ -73,8 +74,11 @@ def states_on_one_frame(msg, frame: str = "GCRF"):
                                 f"one of {', '.join(COMMON_FRAMES)}.")
     out = []
     tca = msg.tca
+    from .timeframes import from_gcrs_axes
+
     for obj in (msg.object1, msg.object2):
         r, v = (np.asarray(x, dtype=np.float64) for x in _gcrs_state(obj, tca))
+        r, v = from_gcrs_axes(frame, r, v)  # (EME2000: the frame bias; RTN is physical)
         out += [r * u.km, v * (u.km / u.s),
                 rtn_to_inertial(obj.covariance_rtn, r * u.km, v * (u.km / u.s))]
     return tuple(out)

@@ -41,8 +41,8 @@ def add_parser(sub) -> None:
     p.add_argument("--hours", type=float, default=None, help="OEM span in hours (default 24)")
     p.add_argument("--step", type=float, default=None, help="OEM step in seconds (default 60)")
     p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default=None,
-                   help="OEM reference frame (default GCRF; EME2000 is written from the same "
-                        "GCRS states, which differ from it by the 23 mas frame bias)")
+                   help="OEM reference frame (default GCRF; EME2000 is written from the GCRS "
+                        "states turned by the 23 mas frame bias)")
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--originator", default="VISVIVA",
@@ -165,8 +165,8 @@ def _sample_oem(sat, args):
     states = {"GCRF": sat.gcrs, "EME2000": sat.gcrs, "TEME": sat.teme, "ITRF": sat.itrs}[
         args.frame](t)
     omm = sat.to_omm()
-    seg = OEMSegment.from_states(
-        t, states.r.to_value(u.km), states.v.to_value(u.km / u.s), object_name=sat.name,
+    seg = OEMSegment.from_states(  # (the states: EME2000 is written with the frame bias)
+        states, object_name=sat.name,
         object_id=omm["OBJECT_ID"] or "UNKNOWN", frame=args.frame, interpolation="LAGRANGE",
         degree=min(7, n - 1))
     seg.data_comments.append(f"SGP4 states of NORAD {sat.satnum}, element set epoch "

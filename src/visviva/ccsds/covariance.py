@@ -226,7 +226,10 @@ def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw, g
         raise InvalidInputError(f"{where}: {exc}") from None
     if local is None:
         if visviva_frame(key) is not None and visviva_frame(key) == state_frame:
-            return matrix  # (EME2000 / GCRF / ICRF: one set of axes within 23 mas)
+            from .timeframes import from_gcrs_axes, to_gcrs_axes
+
+            # (EME2000 / GCRF / ICRF: the GCRS axes up to the frame bias, applied here)
+            return from_gcrs_axes(ref_frame, *to_gcrs_axes(key, matrix))[0]
         raise InvalidInputError(
             f"{where} is neither REF_FRAME = {ref_frame} nor a local orbital frame "
             f"({_local_names()}); rotate {raw} to the state's axes yourself.")

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InvalidInputError
+from . import timeframes as tf
 from .grammar import Keyword as K
 from .grammar import Record, Section, version_keyword
 from .interpolation import check_degree, hermite, lagrange
@@ -148,7 +149,9 @@ class OEMSegment(FrameCenterMetadata):
             ``REF_FRAME`` (CCSDS name: ``"GCRF"``, ``"EME2000"``, ``"TEME"``, ``"ITRF"``).
             Default: the states' own frame when given states that know it (TEME states are
             written ``TEME``), else ``"GCRF"`` (``"ICRF"`` about another centre than the
-            Earth); a frame that contradicts the states' is refused.
+            Earth); a frame that contradicts the states' is refused. States (their covariance,
+            accelerations) are on the GCRS/ICRF axes: ``"EME2000"`` writes them turned by the
+            frame bias (``timeframes.FRAME_BIAS``); arrays are written as given.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
         interpolation : {"HERMITE", "LAGRANGE"}
@@ -171,19 +174,21 @@ class OEMSegment(FrameCenterMetadata):
         -------
         OEMSegment
         """
-        from .timeframes import center_of
+        from .._units import to_array
+        from .timeframes import center_of, ref_frame_of
 
         states = None
         if hasattr(times, "r") and hasattr(times, "v"):  # states, with their epoch and frame
-            from .timeframes import ref_frame_of
-
             states = times
             if r_km is not None or v_km_s is not None or getattr(states, "epoch", None) is None:
                 raise InvalidInputError(
                     "from_states(states, ...) takes states with their epochs (and no r_km, "
                     "v_km_s); or pass from_states(times, r_km, v_km_s, ...).")
             frame = ref_frame_of(states, frame, center_of(states, center))
-            times, r_km, v_km_s = states.epoch, states.r, states.v
+            times, r_km = states.epoch, states.r.to_value("km")  # (GCRS/ICRF axes: EME2000
+            r_km, v_km_s = tf.from_gcrs_axes(frame, r_km, states.v.to_value("km/s"))  # is biased)
+            a_km_s2 = None if a_km_s2 is None else tf.from_gcrs_axes(
+                frame, to_array(a_km_s2, "accel", "a_km_s2", allow_plain=True))[0]
         elif r_km is None or v_km_s is None:
             raise InvalidInputError("from_states needs times, r_km and v_km_s (or states with "
                                     "their epochs).")
@@ -213,6 +218,8 @@ class OEMSegment(FrameCenterMetadata):
                     f"6); got {c.shape}.")
             for k, m in enumerate(c):
                 require_psd(m, f"covariance[{k}]")
+            if states is not None and covariance_frame is None:  # (on the states' axes)
+                c = tf.from_gcrs_axes(frame, c)[0]
             cf = covariance_frame
             cf = "GCRF" if cf is not None and str(cf).upper() == "GCRS" else cf
             if cf is not None:
@@ -288,7 +295,8 @@ class OEMSegment(FrameCenterMetadata):
         Notes
         -----
         The rotation is astropy's (:func:`visviva.satellites.frames.transform_batch`), with the
-        Earth-orientation data installed with astropy; EME2000/ICRF/GCRF are taken as the GCRS.
+        Earth-orientation data installed with astropy; ICRF/GCRF are the GCRS, EME2000 the GCRS
+        rotated by the frame bias (:func:`~visviva.ccsds.timeframes.to_gcrs_axes`).
         """
         from ..satellites.frames import transform_batch
         from ..satellites.satellite_states import framed_states
@@ -312,7 +320,8 @@ class OEMSegment(FrameCenterMetadata):
 
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             times = self.times.utc
-        r, v = transform_batch(self.r_km[None], self.v_km_s[None], times, source, frame)
+        r, v = tf.to_gcrs_axes(self.frame, self.r_km, self.v_km_s)  # (EME2000: the frame bias)
+        r, v = transform_batch(r[None], v[None], times, source, frame)
         return framed_states(r[0], v[0], self.gm_km3_s2, self.times, frame)
 
     @property
@@ -493,8 +502,8 @@ class OEMSegment(FrameCenterMetadata):
         from .covariance import on_state_axes, sun_from
 
         cov = self.covariances[k]
-        if cov.frame is None:
-            return cov.matrix
+        if cov.frame is None:  # (EME2000: rotated by the frame bias, as :attr:`states` are)
+            return tf.to_gcrs_axes(self.frame, cov.matrix)[0]
         if cov.epoch in self.epochs:
             i = self.epochs.index(cov.epoch)
             r, v = self.r_km[i], self.v_km_s[i]
@@ -502,11 +511,12 @@ class OEMSegment(FrameCenterMetadata):
             t = epochs_to_time(cov.epoch, self.time_system, mission_epoch=self.mission_epoch)
             r, v = (a[0] for a in self.interpolate_arrays(t))
         where = f"covariance {k} (EPOCH = {cov.epoch}): COV_REF_FRAME = {cov.frame}"
-        return on_state_axes(cov.matrix, cov.frame, self.frame, self.visviva_frame, r, v, where,
-                             f"seg.covariances[{k}].matrix", gm=lambda: self.gm_km3_s2,
-                             sun=sun_from(lambda: epochs_to_time(
-                                 cov.epoch, self.time_system, mission_epoch=self.mission_epoch),
-                                 self.center, self.frame))
+        m = on_state_axes(cov.matrix, cov.frame, self.frame, self.visviva_frame, r, v, where,
+                          f"seg.covariances[{k}].matrix", gm=lambda: self.gm_km3_s2,
+                          sun=sun_from(lambda: epochs_to_time(
+                              cov.epoch, self.time_system, mission_epoch=self.mission_epoch),
+                              self.center, self.frame))
+        return tf.to_gcrs_axes(self.frame, m)[0]
 
     def interpolate(self, t):
         """States at times ``t`` by the interpolation named in the segment's metadata.

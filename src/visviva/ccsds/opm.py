@@ -191,14 +191,14 @@ class OPM(FrameCenterMetadata):
         from astropy import units as u
 
         from .covariance import values_from_matrix
-        from .timeframes import center_of, ref_frame_of, time_to_epochs
+        from .timeframes import center_of, from_gcrs_axes, ref_frame_of, time_to_epochs
 
         if getattr(state, "shape", None) != () or state.epoch is None:
             raise InvalidInputError("from_state needs one state (shape ()) with an epoch")
         center = center_of(state, center)
         frame = ref_frame_of(state, frame, center)
-        r = state.r.to_value(u.km)
-        v = state.v.to_value(u.km / u.s)
+        # (the state is on the GCRS/ICRF axes: EME2000 is written with the frame bias)
+        r, v = from_gcrs_axes(frame, state.r.to_value(u.km), state.v.to_value(u.km / u.s))
         sections = {
             "header": {"CCSDS_OPM_VERS": "3.0", "ORIGINATOR": originator},
             "metadata": {"OBJECT_NAME": object_name, "OBJECT_ID": object_id,
@@ -223,6 +223,7 @@ class OPM(FrameCenterMetadata):
                     f"{np.shape(covariance)} (a fit's full_covariance also holds its Δvs and "
                     "coefficients: give fit.covariance).")
             covariance = as_covariance(covariance, "covariance", length_unit="km")
+            covariance = from_gcrs_axes(frame, covariance)[0]  # (on the state's axes)
             diag = np.diagonal(covariance)
             if not (diag >= 0).all():
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
@@ -339,9 +340,12 @@ class OPM(FrameCenterMetadata):
         r = [sv["X"], sv["Y"], sv["Z"]]
         v = [sv["X_DOT"], sv["Y_DOT"], sv["Z_DOT"]]
         where = f"{self.source} line {cov.line_of('COV_REF_FRAME')}: COV_REF_FRAME = {frame}"
-        return on_state_axes(matrix, frame, self.frame, self.visviva_frame, r, v, where,
-                             "opm.sections['covariance']", gm=lambda: self.gm,
-                             sun=sun_from(lambda: self.epoch, self.center, self.frame))
+        from .timeframes import to_gcrs_axes
+
+        m = on_state_axes(matrix, frame, self.frame, self.visviva_frame, r, v, where,
+                          "opm.sections['covariance']", gm=lambda: self.gm,
+                          sun=sun_from(lambda: self.epoch, self.center, self.frame))
+        return to_gcrs_axes(self.frame, m)[0]  # (EME2000: rotated as :attr:`state` is)
 
     @property
     def maneuvers(self) -> list[Maneuver]:

@@ -9,8 +9,10 @@
   YYYY Julian years + DDD days + the clock time elapsed (Orekit's reading). SCLK, GMST and the
   rest cannot be interpreted without a clock correlation or a rotation model: they are refused
   with a message saying what to do.
-* Frames: ``EME2000``, ``ICRF``, ``GCRF`` are inertial frames that differ from the GCRS by at
-  most the 23 mas frame bias (0.8 m in LEO, 4.7 m at GEO); visviva maps all three to ``"gcrs"``. ``TEME`` is
+* Frames: ``ICRF`` and ``GCRF`` are the GCRS axes; ``EME2000`` (mean equator and equinox of
+  J2000) differs from them by the constant frame bias :data:`FRAME_BIAS` (23 mas: 0.8 m in LEO,
+  4.7 m at GEO), which the readers and writers apply (:func:`to_gcrs_axes`,
+  :func:`from_gcrs_axes`); visviva maps all three to ``"gcrs"``. ``TEME`` is
   ``"teme"``, ``ITRF``/``ITRF2000``/``ITRF-93``/``ITRF-97``/``ITRF2008``/``ITRF2014``/``ITRF2020``
   are ``"itrs"``. Other CCSDS frames (``TOD``, ``RTN``, ...) are read and written, but have no
   visviva frame (None).
@@ -28,7 +30,8 @@ import numpy as np
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
-__all__ = ["TIME_SCALES", "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
+__all__ = ["FRAME_BIAS", "to_gcrs_axes", "from_gcrs_axes", "TIME_SCALES", "RELATIVE_TIME_SYSTEMS",
+           "epochs_to_time", "time_to_epochs",
            "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
            "ref_frame_of", "refuse_unused_mission_epoch"]
 
@@ -45,6 +48,80 @@ _FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
            "ITRF": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
            "ITRF93": "itrs", "ITRF97": "itrs", "ITRF2005": "itrs", "ITRF2008": "itrs",
            "ITRF2014": "itrs", "ITRF2020": "itrs"}
+
+
+def _frame_bias() -> np.ndarray:
+    import erfa  # (installed with astropy)
+
+    # ERFA bp06's rb: the IAU 2006 frame bias, dα0 = -14.6 mas, ξ0 = -16.617 mas,
+    # η0 = -6.819 mas; constant (the same at every date)
+    rb = np.array(erfa.bp06(2451545.0, 0.0)[0], dtype=np.float64)
+    rb.setflags(write=False)
+    return rb
+
+
+#: The frame-bias matrix B: GCRS (ICRF, GCRF) axes -> mean equator and equinox of J2000
+#: (EME2000) axes, ``r_eme2000 = B @ r_gcrs``. References: IERS Conventions (2010), TN 36,
+#: eq. 5.21 and 5.33; ERFA ``bp06`` (``rb``). Orekit, STK (J2000 vs ICRF) and GMAT
+#: (EarthMJ2000Eq vs EarthICRF) apply it: 0.8 m in LEO, 4.7 m at GEO.
+FRAME_BIAS = _frame_bias()
+#: the CCSDS frames on the mean J2000 axes (about any centre)
+_BIASED_FRAMES = ("EME2000",)
+
+
+def _bias(name):
+    return FRAME_BIAS if str(name).strip().upper() in _BIASED_FRAMES else None
+
+
+def to_gcrs_axes(name, *arrays):
+    """Vectors (``(..., 3)``) or covariances (``(..., 6, 6)``, km and km/s blocks) on the axes of
+    the CCSDS frame ``name``, rotated to the GCRS/ICRF axes (EME2000: ``B.T``
+    :data:`FRAME_BIAS`; other frames: unchanged).
+
+    Parameters
+    ----------
+    name : str
+        The CCSDS ``REF_FRAME``.
+    *arrays : array_like
+        Vectors (last axis 3) or 6x6 covariances (last two axes 6).
+
+    Returns
+    -------
+    tuple of ndarray
+        The arrays on the GCRS axes, in the order given.
+    """
+    b = _bias(name)
+    return tuple(_rotate(a, None if b is None else b.T) for a in arrays)
+
+
+def from_gcrs_axes(name, *arrays):
+    """The inverse of :func:`to_gcrs_axes`: GCRS/ICRF axes to those of ``name`` (EME2000: ``B``).
+
+    Parameters
+    ----------
+    name : str
+        The CCSDS ``REF_FRAME``.
+    *arrays : array_like
+        Vectors (last axis 3) or 6x6 covariances (last two axes 6).
+
+    Returns
+    -------
+    tuple of ndarray
+    """
+    return tuple(_rotate(a, _bias(name)) for a in arrays)
+
+
+def _rotate(a, m):
+    if m is None:
+        return a
+    a = np.asarray(a, dtype=np.float64)
+    if a.shape[-2:] == (6, 6):
+        m6 = np.zeros((6, 6))
+        m6[:3, :3] = m6[3:, 3:] = m
+        return m6 @ a @ m6.T
+    return a @ m.T
+
+
 #: visviva frame -> the CCSDS name writers use
 CCSDS_FRAME = {"gcrs": "GCRF", "teme": "TEME", "itrs": "ITRF"}
 
@@ -418,7 +495,8 @@ class FrameCenterMetadata:
 
     def wrap_states(self, r_km, v_km_s, gm_km3_s2, times):
         """States of this message, labelled with their visviva frame when Earth-centred (so
-        that TEME or ITRF data are not taken for GCRS downstream).
+        that TEME or ITRF data are not taken for GCRS downstream); EME2000 numbers (about any
+        centre) are rotated to the GCRS/ICRF axes by the frame bias (:func:`to_gcrs_axes`).
 
         Parameters
         ----------
@@ -440,6 +518,7 @@ class FrameCenterMetadata:
         from ..satellites.satellite_states import framed_states
 
         earth = str(self.center).strip().upper() == "EARTH"
+        r_km, v_km_s = to_gcrs_axes(self.frame, r_km, v_km_s)  # (EME2000: the frame bias)
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
                              self.visviva_frame if earth else None,
                              foreign=self.frame if earth else None)

@@ -30,7 +30,8 @@ standard leaves a choice), each applied or refused with a message saying what to
   it at the middle (``INTEGRATION_REF``).
 * **ANGLE_1/ANGLE_2** (deg) at one epoch make one row: ``ANGLE_TYPE = AZEL`` azimuth and
   elevation (``"azel"``), ``RADEC`` right ascension and declination (``"radec"``, with
-  ``REFERENCE_FRAME`` EME2000, GCRF or ICRF: the GCRS axes to the 23 mas frame bias); XEYN and
+  ``REFERENCE_FRAME`` GCRF or ICRF: the GCRS axes; EME2000: turned to them by the frame bias,
+  up to 23 mas); XEYN and
   XSYE are refused. A lone ANGLE_1 or ANGLE_2 is an error naming its line.
 * **Corrections.** ``CORRECTION_RANGE`` (in ``RANGE_UNITS``), ``CORRECTION_DOPPLER``,
   ``CORRECTION_ANGLE_1/2`` are what "has been added or should be added" to the data:
@@ -569,8 +570,27 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
             name = "elevation" if kind == "azel" else "declination"
             raise CCSDSFormatError(f"ANGLE_2 ({name}) = {float(values[i2])!r} deg is outside "
                                    "[-90, 90]", line=int(lines[i2]), source=src)
-        rows.append((i1, kind, np.radians([values[i1], values[i2]]), station))
+        angles = np.radians([values[i1], values[i2]])
+        if kind == "radec":
+            angles = _radec_on_gcrs_axes(meta.get("REFERENCE_FRAME"), angles)
+        rows.append((i1, kind, angles, station))
     return rows
+
+
+def _radec_on_gcrs_axes(frame, angles):
+    """Right ascension and declination (rad) on the axes of ``frame``, on the GCRS axes:
+    EME2000 turned by the frame bias (:func:`visviva.ccsds.timeframes.to_gcrs_axes`, up to
+    23 mas), GCRF/ICRF as given; the right ascension keeps its branch."""
+    from ..ccsds.timeframes import to_gcrs_axes
+
+    ra, dec = angles
+    u = np.array([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)])
+    (g,) = to_gcrs_axes(frame, u)
+    if g is u:
+        return angles
+    turn = np.arctan2(g[1], g[0]) - ra
+    return np.array([ra + (turn + np.pi) % (2 * np.pi) - np.pi,
+                     np.arcsin(np.clip(g[2], -1.0, 1.0))])
 
 
 def _table(parts, sigma, radec_reference, troposphere=False, media=None):

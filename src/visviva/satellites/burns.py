@@ -43,7 +43,8 @@ __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2",
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
 #: Inertial frame names a burn accepts: the GCRS and the CCSDS names visviva reads as GCRS
-#: (:mod:`visviva.ccsds.timeframes`; they differ by the 23 mas frame bias at most).
+#: (:mod:`visviva.ccsds.timeframes`); an EME2000 delta-v is taken on the GCRS axes, its 23 mas
+#: frame bias not applied (1e-7 of the delta-v; states and covariances do take it).
 INERTIAL_NAMES = ("GCRS", "GCRF", "EME2000", "ICRF")
 
 

@@ -65,8 +65,9 @@ _SAME = {"gcrf": "gcrs", "itrf": "itrs"}
 #: frames that are not one of visviva's, with what to do instead
 _NOT_OURS = {
     "eme2000": "EME2000 (J2000) differs from the GCRS by the 23 mas frame bias (0.8 m in LEO, "
-               "4.7 m at GEO), which visviva does not apply: pass 'gcrs' if that is "
-               "acceptable, or rotate by ERFA's bias matrix (erfa.bp06) first",
+               "4.7 m at GEO), which frame arguments do not apply: pass 'gcrs' if that is "
+               "acceptable, or turn EME2000 numbers to the GCRS axes first with "
+               "visviva.ccsds.timeframes.to_gcrs_axes('EME2000', r, v)",
     "icrs": "the ICRS is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
     "icrf": "the ICRF is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
     "tod": "true-of-date axes have no visviva rotation; 'teme' differs from them by the "

@@ -1,0 +1,105 @@
+"""EME2000 (mean equator and equinox of J2000) is the GCRS rotated by the constant frame bias.
+
+visviva took EME2000 numbers for GCRS ones (4.7 m at GEO, 0.8 m in LEO, silently) while Orekit,
+STK and GMAT apply the bias; now the readers rotate EME2000 states and covariances to the GCRS
+axes (``B.T``) and the writers rotate them back (``B``). References: IERS Conventions (2010),
+TN 36, eq. 5.21 (dα0 = -14.6 mas, ξ0 = -16.617 mas, η0 = -6.819 mas); ERFA ``bp06``.
+"""
+
+import erfa
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.ccsds.oem import Ephemeris, OEMSegment
+from visviva.ccsds.opm import OPM
+from visviva.ccsds.timeframes import FRAME_BIAS, from_gcrs_axes, to_gcrs_axes
+from visviva.satellites.satellite_states import framed_states
+
+MAS = np.pi / 180 / 3.6e6
+EPOCH = Time("2024-03-01T00:00:00", scale="utc")
+
+
+def _close(a, b):
+    """Vectors equal to 1e-12 of their length."""
+    a, b = np.asarray(a), np.asarray(b)
+    assert np.linalg.norm(a - b, axis=-1).max() <= 1e-12 * np.linalg.norm(b, axis=-1).max()
+
+
+def _geo():
+    r = 42164.0 * np.array([np.cos(0.3), np.sin(0.3), 0.0])
+    v = 3.0747 * np.array([-np.sin(0.3), np.cos(0.3), 0.0])
+    return framed_states(r, v, vv.EARTH.gm_km3_s2, EPOCH, "gcrs")
+
+
+def test_frame_bias_is_erfa_bp06_at_any_date_and_the_iers_angles():
+    for jd in (2451545.0, 2460371.5, 2400000.5):
+        np.testing.assert_allclose(FRAME_BIAS, erfa.bp06(jd, 0.0)[0], rtol=0, atol=1e-15)
+    # first order: B = 1 - [0, dα0, -ξ0; -dα0, 0, -η0; ξ0, η0, 0] (IERS 2010 eq. 5.24)
+    da, xi, eta = -14.6 * MAS, -16.617 * MAS, -6.819 * MAS
+    first = np.array([[1, da, -xi], [-da, 1, -eta], [xi, eta, 1]])
+    # (bp06's IAU 2006 bias and these IAU 2000 angles agree to 0.002 mas: 0.4 mm at GEO)
+    np.testing.assert_allclose(FRAME_BIAS, first, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(FRAME_BIAS @ FRAME_BIAS.T, np.eye(3), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_a_geo_state_written_in_eme2000_is_4_7_m_from_its_gcrs_numbers_and_round_trips(fmt):
+    state = _geo()
+    t = EPOCH + np.arange(5) * 60 * u.s
+    eph = state.propagate((t - EPOCH).to(u.s))
+    eph = framed_states(
+        eph.r.to_value(u.km), eph.v.to_value(u.km / u.s), vv.EARTH.gm_km3_s2, t, "gcrs")
+    seg = OEMSegment.from_states(eph, object_name="G", frame="EME2000")
+    text = vv.write_oem(Ephemeris([seg]), format=fmt)
+    back = vv.read_oem(text).segments[0]
+    written = back.r_km[0]
+    gcrs = eph.r[0].to_value(u.km)
+    assert 4.0 < np.linalg.norm(written - gcrs) * 1e3 < 4.8  # the 23 mas bias at GEO
+    _close(written, FRAME_BIAS @ gcrs)
+    got = back.states
+    assert got.frame == "gcrs"
+    _close(got.r.to_value(u.km), eph.r.to_value(u.km))  # 1e-12 relative
+    _close(got.v.to_value(u.km / u.s), eph.v.to_value(u.km / u.s))
+    # GCRF is the GCRS: written as they are
+    same = OEMSegment.from_states(eph, object_name="G", frame="GCRF")
+    np.testing.assert_array_equal(same.r_km, eph.r.to_value(u.km))
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_an_opm_state_and_covariance_in_eme2000_rotate_with_the_bias(fmt):
+    state = _geo()
+    cov = np.diag([1e-2, 4e-2, 9e-2, 1e-8, 4e-8, 9e-8])
+    cov[0, 1] = cov[1, 0] = 5e-3
+    opm = OPM.from_state(state, object_name="G", object_id="2024-001A", frame="EME2000",
+                         covariance=cov)
+    b6 = np.kron(np.eye(2), FRAME_BIAS)
+    written = np.array([opm.sections["state_vector"][k] for k in ("X", "Y", "Z")])
+    _close(written, FRAME_BIAS @ state.r.to_value(u.km))
+    back = vv.read_opm(vv.write_opm(opm, format=fmt))
+    _close(back.state.r.to_value(u.km), state.r.to_value(u.km))
+    np.testing.assert_allclose(back.covariance, cov, rtol=1e-12, atol=1e-15 * cov.max())
+    # the matrix written is B C B.T: a rotated covariance (off-diagonal terms appear)
+    from visviva.ccsds.covariance import matrix_from_values
+
+    raw = matrix_from_values(back.sections["covariance"].values)
+    np.testing.assert_allclose(raw, b6 @ cov @ b6.T, rtol=1e-9, atol=1e-9 * cov.max())
+    assert raw[0, 2] != 0.0
+
+
+def test_eme2000_about_another_centre_takes_the_same_axes():
+    r = np.array([[3000.0, 1000.0, 500.0], [3001.0, 1001.0, 501.0]])
+    v = np.array([[0.1, 1.5, 0.2], [0.1, 1.5, 0.2]])
+    t = EPOCH + [0, 1] * u.s
+    seg = OEMSegment.from_states(t, r, v, object_name="M", center="MARS", frame="EME2000")
+    _close(seg.states.r.to_value(u.km), r @ FRAME_BIAS)
+
+
+def test_helpers_leave_other_frames_alone_and_invert():
+    x = np.arange(6.0).reshape(2, 3)
+    for name in ("GCRF", "ICRF", "TEME", "ITRF", "TOD"):
+        assert to_gcrs_axes(name, x)[0] is x and from_gcrs_axes(name, x)[0] is x
+    np.testing.assert_allclose(from_gcrs_axes("eme2000", *to_gcrs_axes("EME2000", x))[0], x,
+                               rtol=1e-15, atol=1e-15)

@@ -73,10 +73,13 @@ def test_errors(tle_file, tmp_path, capsys):
     assert "visviva convert: " in (err := capsys.readouterr().err) and "holds 2 satellites" in err
     assert cli.main(["convert", str(tle_file), str(tmp_path / "x.dat")]) == 2
     assert "cannot tell the output kind" in capsys.readouterr().err
-    for bad_args, why in ((["--step", "0"], "must be positive"),
-                          (["--start", "2024-13-01"], "--start '2024-13-01' is not an ISO time")):
-        assert cli.main(["convert", str(tle_file), str(tmp_path / "x.oem"), *bad_args]) == 2
-        assert why in capsys.readouterr().err  # --start: a traceback before
+    assert cli.main(["convert", str(tle_file), str(tmp_path / "x.oem"),
+                     "--start", "2024-13-01"]) == 2
+    assert "--start '2024-13-01' is not an ISO time" in capsys.readouterr().err  # (a traceback)
+    with pytest.raises(SystemExit) as exc:  # refused as the arguments are read
+        cli.main(["convert", str(tle_file), str(tmp_path / "x.oem"), "--step", "0"])
+    assert exc.value.code == 2
+    assert "--step: '0' is not a positive number of seconds" in capsys.readouterr().err
     bad = tmp_path / "bad.omm"
     bad.write_text("CCSDS_OMM_VERS = 3.0\nCREATION_DATE = 2024\n")
     assert cli.main(["convert", str(bad), str(tmp_path / "x.tle")]) == 2

@@ -26,9 +26,9 @@ def _validate_parser(sub) -> None:
     p.add_argument("--json", default=None, metavar="PATH", dest="json_path",
                    help="also write the results as JSON ('-' for stdout)")
     p.add_argument("--strict", action="store_true", help="count skipped checks as failures")
-    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--timeout", type="seconds", default=None, metavar="SECONDS",
                    help="time budget per module (default 600 s; none with --full)")
-    p.add_argument("--jobs", "-j", type=int, default=None, metavar="N",
+    p.add_argument("--jobs", "-j", type="processes", default=None, metavar="N",
                    help="worker processes running check modules side by side "
                         "(default: the usable cores, at most 2; 1 runs everything in-process)")
     p.add_argument("--quiet", action="store_true", help="no progress display on stderr")
@@ -43,7 +43,7 @@ def _bench_parser(sub) -> None:
     p.add_argument("--output", default=None, metavar="PATH",
                    help="the page to write (default docs/performance.md)")
     p.add_argument("--no-write", action="store_true", help="print only")
-    p.add_argument("--threads", type=int, default=None, help="numba threads for the whole run")
+    p.add_argument("--threads", type="threads", default=None, help="numba threads for the whole run")
 
 
 def _import_benchmarks():
@@ -86,15 +86,118 @@ class _GivenOnce(argparse._StoreAction):
         super().__call__(parser, namespace, values, option_string)
 
 
+class _Number:
+    """The type of a numeric option: its value as a number of one unit, refused in one line that
+    names the unit and gives an example (argparse said ``invalid float value: '500km'``).
+
+    Parameters
+    ----------
+    what : str
+        What the value must be, with its unit (``"a number of metres"``).
+    example : str
+        A value to show (``"500"``).
+    whole : bool
+        A whole number, 0 or more (else a float).
+    positive : bool
+        Refuse zero and negative values (else only NaN and infinities are refused besides
+        non-numbers: ``--height nan`` reached the station as a NaN).
+    upper : int, optional
+        The largest value accepted.
+    option : str, optional
+        The option it belongs to, shown in the example (:meth:`bound`).
+    """
+
+    def __init__(self, what: str, example: str, *, whole: bool = False, positive: bool = False,
+                 upper: int | None = None, option: str | None = None):
+        self.what, self.example, self.whole = what, example, whole
+        self.positive, self.upper, self.option = positive, upper, option
+        self.__name__ = what  # (argparse names a type by its __name__)
+
+    def bound(self, option: str) -> _Number:
+        """The same type for ``option``, so that the example reads ``--height 500``."""
+        return _Number(self.what, self.example, whole=self.whole, positive=self.positive,
+                       upper=self.upper, option=option)
+
+    def __call__(self, text: str):
+        import math
+
+        try:
+            value = int(text) if self.whole else float(text)
+        except ValueError:
+            value = None
+        wrong = (value is None or not math.isfinite(value)
+                 or (self.positive and value <= 0)
+                 or (self.whole and value < 0)
+                 or (self.upper is not None and value > self.upper))
+        if wrong:
+            example = f"{self.option} {self.example}" if self.option else self.example
+            raise argparse.ArgumentTypeError(f"{text!r} is not {self.what}; give e.g. {example}")
+        return value
+
+
+#: The types of the numeric options, by name (``add_argument("--height", type="metres")``):
+#: one table, so that every command says the unit of a bad value the same way.
+_NUMBERS: dict[str, _Number] = {
+    "metres": _Number("a number of metres", "500"),
+    "degrees": _Number("a number of degrees", "10"),
+    "km": _Number("a positive number of km", "5", positive=True),
+    "hours": _Number("a positive number of hours", "24", positive=True),
+    "seconds": _Number("a positive number of seconds", "60", positive=True),
+    "per-earth-radius": _Number("a number of 1/earth radii", "1e-4"),
+    "processes": _Number("a whole number of processes, 1 or more", "2", whole=True,
+                         positive=True),
+    "threads": _Number("a whole number of threads, 1 or more", "4", whole=True, positive=True),
+    "satnum": _Number("a catalogue number (a whole number, 0 to 999999999)", "25544",
+                      whole=True, upper=999_999_999),
+}
+
+
 class _Parser(argparse.ArgumentParser):
-    """The parser of visviva and its commands: every option of one value is a
-    :class:`_GivenOnce` (argparse's public ``register``; options that collect,
-    ``action="append"``, stay repeatable)."""
+    """The parser of visviva and its commands.
+
+    * Every option of one value is a :class:`_GivenOnce` (argparse's public ``register``;
+      options that collect, ``action="append"``, stay repeatable).
+    * A numeric option names its type in :data:`_NUMBERS` (``type="metres"``): a bad value is
+      refused naming the unit, with an example for that option.
+    * An argument error is one line on standard error, ``visviva passes: error: ...``, and exit
+      code 2; argparse printed its usage block first (seven lines for ``passes``, 21 for
+      ``od``) and the error came last (audit40). ``--help`` is unchanged.
+    """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.register("action", None, _GivenOnce)
         self.register("action", "store", _GivenOnce)
+        for name, number in _NUMBERS.items():
+            self.register("type", name, number)
+
+    def add_argument(self, *args, **kwargs):
+        """``ArgumentParser.add_argument``, with a type of :data:`_NUMBERS` bound to the option
+        (the longest of its names) for the example of its error message."""
+        kind = kwargs.get("type")
+        if isinstance(kind, str) and kind in _NUMBERS:
+            kwargs["type"] = _NUMBERS[kind].bound(max(args, key=len) if args else kind)
+        return super().add_argument(*args, **kwargs)
+
+    def error(self, message):
+        """One line on standard error and exit code 2 (argparse's own printed the usage first).
+
+        An option without its value gets the way to give one that starts with ``-``: argparse
+        takes ``--bstar -1.2e-4`` for two options (a number in exponent form does not look
+        negative to it). A message that gives no advice of its own (a missing or unknown
+        argument) ends with where the usage is: ``see visviva passes --help``.
+        """
+        import re
+
+        text = " ".join(str(message).split())
+        lone = re.fullmatch(r"argument (\S+): expected one argument", text)
+        if lone:
+            option = max(lone.group(1).split("/"), key=len)
+            text += (f"; give its value after it, or write {option}=VALUE when the value starts "
+                     "with '-'")
+        if not any(advice in text for advice in ("give ", "choose from")):
+            text += f"; see {self.prog} --help"
+        self.exit(2, f"{self.prog}: error: {text}\n")
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -153,7 +256,9 @@ def _run_command(module, args) -> int:
         warnings.showwarning = saved
 
 
-def main(argv: list[str] | None = None) -> int:
+def _build_parser():
+    """The parser of the command line, the group of its commands' parsers (``.choices``: name ->
+    parser) and the modules of the commands of :data:`_COMMANDS` (name -> module)."""
     import importlib
 
     parser = _Parser(
@@ -169,7 +274,17 @@ def main(argv: list[str] | None = None) -> int:
     commands = {name: importlib.import_module(module) for name, module in _COMMANDS.items()}
     for module in commands.values():
         module.add_parser(sub)
-    args = parser.parse_args(argv)
+    return parser, sub, commands
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``visviva ARGV``; the exit code. A mistake in the arguments exits
+    (``SystemExit``) with code 2 after one line on standard error; ``--help`` with code 0."""
+    parser, sub, commands = _build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # (argparse blamed the top parser for a command's unknown argument)
+        sub.choices.get(args.command, parser).error(
+            f"unrecognized arguments: {' '.join(unknown)}")
     if args.command in commands:
         return _run_command(commands[args.command], args)
     if args.command == "validate":

@@ -34,12 +34,12 @@ def add_parser(sub) -> None:
                    help="output kind (default: from the output's suffix)")
     p.add_argument("--format", choices=("kvn", "xml"), default=None,
                    help="CCSDS encoding (default: xml for a .xml output, else kvn)")
-    p.add_argument("--satnum", type=int, default=None,
+    p.add_argument("--satnum", type="satnum", default=None,
                    help="catalogue number to take from a file with several satellites")
     p.add_argument("--start", default=None, metavar="ISO",
                    help="OEM start, UTC (default: the element set's epoch)")
-    p.add_argument("--hours", type=float, default=None, help="OEM span in hours (default 24)")
-    p.add_argument("--step", type=float, default=None, help="OEM step in seconds (default 60)")
+    p.add_argument("--hours", type="hours", default=None, help="OEM span in hours (default 24)")
+    p.add_argument("--step", type="seconds", default=None, help="OEM step in seconds (default 60)")
     p.add_argument("--frame", choices=("GCRF", "EME2000", "TEME", "ITRF"), default=None,
                    help="OEM reference frame (default GCRF; EME2000 is written from the GCRS "
                         "states turned by the 23 mas frame bias)")

@@ -16,11 +16,11 @@ def add_parser(sub) -> None:
     from ..cli_window import add_catalog_argument
 
     add_catalog_argument(p)
-    p.add_argument("--threshold", type=float, default=5.0, metavar="KM",
+    p.add_argument("--threshold", type="km", default=5.0, metavar="KM",
                    help="reporting distance in km (default 5)")
     p.add_argument("--start", required=True, metavar="ISO", help="start of the window (UTC)")
-    p.add_argument("--hours", type=float, required=True, metavar="H", help="window length")
-    p.add_argument("--step", type=float, default=60.0, metavar="S",
+    p.add_argument("--hours", type="hours", required=True, metavar="H", help="window length")
+    p.add_argument("--step", type="seconds", default=60.0, metavar="S",
                    help="sampling step of the filters in seconds (default 60; at most 1/8 of "
                         "the shortest orbital period)")
     p.add_argument("--primary", default=None, metavar="NAME",

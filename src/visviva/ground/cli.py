@@ -28,17 +28,17 @@ def add_parser(sub) -> None:
     from ..cli_window import add_catalog_argument
 
     add_catalog_argument(p)
-    p.add_argument("--lat", type=float, required=True, metavar="DEG",
+    p.add_argument("--lat", type="degrees", required=True, metavar="DEG",
                    help="geodetic latitude, degrees north")
-    p.add_argument("--lon", type=float, required=True, metavar="DEG",
+    p.add_argument("--lon", type="degrees", required=True, metavar="DEG",
                    help="longitude, degrees east")
-    p.add_argument("--height", type=float, default=0.0, metavar="M",
+    p.add_argument("--height", type="metres", default=0.0, metavar="M",
                    help="height above the WGS-84 ellipsoid, metres (default 0)")
     p.add_argument("--start", required=True, metavar="ISO",
                    help="start of the window, ISO time in UTC (e.g. 2024-05-01T18:00)")
-    p.add_argument("--hours", type=float, default=24.0, metavar="H",
+    p.add_argument("--hours", type="hours", default=24.0, metavar="H",
                    help="length of the window, hours (default 24)")
-    p.add_argument("--min-elevation", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--min-elevation", type="degrees", default=0.0, metavar="DEG",
                    help="minimum elevation, degrees (default 0)")
     p.add_argument("--mask", default=None, metavar="FILE",
                    help="the site's terrain / elevation mask: a text file of 'azimuth "

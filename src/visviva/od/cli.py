@@ -17,7 +17,7 @@ def add_parser(sub) -> None:
         "of a CCSDS OEM (KVN or XML; GCRF/EME2000/ICRF, TEME or ITRF) and write the TLE lines "
         "or an OMM. The fit's RMS and largest position difference go to standard error.")
     p.add_argument("ephemeris", help="OEM file (KVN or XML)")
-    p.add_argument("--satnum", type=int, default=99999,
+    p.add_argument("--satnum", type="satnum", default=99999,
                    help="catalogue number of the new element set, up to nine digits (default "
                    "99999, or the --initial set's)")
     p.add_argument("--initial", default=None, metavar="FILE",
@@ -30,7 +30,7 @@ def add_parser(sub) -> None:
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--no-bstar", action="store_true", help="hold B* fixed instead of fitting it")
-    p.add_argument("--bstar", type=float, default=0.0,
+    p.add_argument("--bstar", type="per-earth-radius", default=0.0,
                    help="B* (1/earth radii): held value, or first guess (default 0)")
     p.add_argument("--to", choices=("tle", "omm"), default="tle",
                    help="output: TLE lines (default) or an OMM in KVN")

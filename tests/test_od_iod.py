@@ -214,15 +214,7 @@ def test_gauss_curtis_example_5_11():
 #: middle time) is r2 = (6356.486034, 5290.532258, 6511.396979) km,
 #: v2 = (-4.172948, 4.776550, 1.720271) km/s; Gauss's first estimate alone (Vallado's anglesg)
 #: is about 75 km off it, (6313.378, 5247.506, 6467.707) km.
-VALLADO_7_2 = {
-    "t": ["2012-08-20T11:40:28", "2012-08-20T11:48:28", "2012-08-20T11:52:28"],
-    "ra_deg": [0.939913, 45.025748, 67.886655],
-    "dec_deg": [18.667717, 35.664741, 36.996583],
-    "sites_km": [[4054.881, 2748.195, 4074.237], [3956.224, 2888.232, 4074.364],
-                 [3905.073, 2956.935, 4074.430]],
-    "r2_km": [6356.486034, 5290.532258, 6511.396979],
-    "v2_km_s": [-4.172948, 4.776550, 1.720271],
-}
+from visviva.validation.checks_od import V7_2 as VALLADO_7_2  # noqa: E402 (one copy)
 
 
 def test_gauss_vallado_example_7_2():

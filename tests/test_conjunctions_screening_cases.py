@@ -218,3 +218,32 @@ def test_array_windows_and_thresholds_are_refused_clearly():
         vv.screen_conjunctions(cat, None, t0, t0 + 1 * u.hour, step=[60, 30] * u.s)
     with pytest.raises(vv.InvalidInputError, match="single times"):
         vv.screen_conjunctions(cat, None, t0 + [0, 1] * u.s, t0 + 1 * u.hour)
+
+
+def test_worker_blocks_in_threads_never_mix_two_screenings():
+    # A Dask worker runs blocks in several threads sharing one cache (in-process clusters share
+    # it across workers too): a block read the cache while another thread cleared it for another
+    # screening (KeyError 'eph' in the twentieth session's CI), and could read the other
+    # screening's samples. Blocks of two screenings interleaved in 8 threads must each give what
+    # the block gives alone.
+    from concurrent.futures import ThreadPoolExecutor
+
+    from visviva.conjunctions import screening as scr
+    from visviva.conjunctions.sources import as_source
+    from visviva.satellites.utc_days import time_to_utc_days
+
+    cat = synthetic_catalog(30, seed=4, crossing_pairs=3)
+    t0 = cat.epochs[0].tai
+    t1 = t0 + 2 * u.hour
+    jd0, fr0 = (float(x) for x in time_to_utc_days(t0))
+    a = as_source(cat, t0, t1, "primaries", jd0, fr0)
+    b = as_source(cat[:12], t0, t1, "primaries", jd0, fr0)
+    jobs = [(src, 121, np.arange(k, len(src), 3)) for src in (a, b) for k in range(3)]
+    alone = [scr.screen_block(s, s, True, 60.0, n, 20.0, rows) for s, n, rows in jobs]
+    scr._WORKER_CACHE.clear()
+    with ThreadPoolExecutor(8) as pool:
+        runs = list(pool.map(lambda job: scr._worker_block(job[0], job[0], True, 60.0, job[1],
+                                                            20.0, job[2])[0], jobs * 6))
+    assert sum(len(x) for x in alone) >= 3
+    for k, found in enumerate(runs):
+        assert found == alone[k % len(jobs)]

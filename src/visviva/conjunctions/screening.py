@@ -14,6 +14,7 @@ Blocks of primaries are independent, so the same function runs them on Dask proc
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -140,23 +141,11 @@ def screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows, cac
         ``(i, j, tca_s, miss_km, speed_km_s, radial, in_track, cross_track)`` per conjunction.
     """
     from ..core.screening import screen_rows
-    from .sources import speed_bound as _speed_bound
 
-    cache = {} if cache is None else cache
-    key = (id(src1), id(src2), step_s, n_steps)
-    if cache.get("key") != key:
-        ts = np.arange(n_steps) * step_s
-        r1, v1 = src1.sample(ts)
-        r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
-        b1 = _bounds(src1, step_s, r1)
-        b2 = b1 if self_mode else _bounds(src2, step_s, r2)
-        cache.clear()
-        cache.update(key=key, eph=(r1, v1, b1[0], b1[1], r2, v2, b2[0], b2[1]),
-                     path=_path(b1, b2, self_mode, (n_steps - 1) * step_s),
-                     speed=_speed_bound(v1, v2))
-    r1, v1, q1, Q1, r2, v2, q2, Q2 = cache["eph"]
-    el1, g1, el2, g2 = cache["path"]
-    speed_bound = cache["speed"]
+    entry = _sampled(src1, src2, self_mode, step_s, n_steps, {} if cache is None else cache)
+    r1, v1, q1, Q1, r2, v2, q2, Q2 = entry["eph"]
+    el1, g1, el2, g2 = entry["path"]
+    speed_bound = entry["speed"]
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     cap = 64
     while True:
@@ -296,19 +285,50 @@ def filter_statistics(src1, src2, span_s, threshold_km, step_s=60.0):
 
 
 _WORKER_CACHE: dict = {}
+_CACHE_LOCK = threading.Lock()
+
+
+def _sampled(src1, src2, self_mode, step_s, n_steps, cache):
+    """The sampled ephemerides, their bounds, path filters and speed bound of one screening,
+    as one dict kept in ``cache["entry"]`` and reused while the sources and grid are the same.
+
+    A Dask worker runs blocks in several threads that share its cache: the entry is built under
+    a lock and replaced whole (never cleared in place), and each block keeps the entry it got,
+    so no block reads another screening's samples (a block had read the cache while another
+    thread cleared it: KeyError, twentieth session).
+    """
+    from .sources import speed_bound
+
+    key = (id(src1), id(src2), step_s, n_steps)
+    with _CACHE_LOCK:
+        entry = cache.get("entry")
+        if entry is None or entry["key"] != key:
+            ts = np.arange(n_steps) * step_s
+            r1, v1 = src1.sample(ts)
+            r2, v2 = (r1, v1) if self_mode else src2.sample(ts)
+            b1 = _bounds(src1, step_s, r1)
+            b2 = b1 if self_mode else _bounds(src2, step_s, r2)
+            entry = {"key": key, "eph": (r1, v1, b1[0], b1[1], r2, v2, b2[0], b2[1]),
+                     "path": _path(b1, b2, self_mode, (n_steps - 1) * step_s),
+                     "speed": speed_bound(v1, v2)}
+            cache["entry"] = entry
+    return entry
 
 
 def _worker_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows):
+    entry = _sampled(src1, src2, self_mode, step_s, n_steps, _WORKER_CACHE)
     found = screen_block(src1, src2, self_mode, step_s, n_steps, threshold_km, rows,
-                         cache=_WORKER_CACHE)
-    return found, _first_failures(_WORKER_CACHE, self_mode)
+                         cache={"entry": entry})
+    return found, _first_failures(entry, self_mode)
 
 
-def _first_failures(cache, self_mode):
+def _first_failures(entry, self_mode):
     """Per object of each side, the first sample where it failed to propagate (SGP4 error:
-    NaN states), -1 where none did; from the sampled ephemerides in ``cache``."""
+    NaN states), -1 where none did; from the sampled ephemerides of ``entry``
+    (:func:`_sampled`)."""
     out = []
-    for r in (cache["eph"][0], cache["eph"][0] if self_mode else cache["eph"][4]):
+    eph = entry["eph"]
+    for r in (eph[0], eph[0] if self_mode else eph[4]):
         bad = ~np.isfinite(r[..., 0])
         out.append(np.where(bad.any(axis=1), bad.argmax(axis=1), -1))
     return out
@@ -498,7 +518,7 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
         for rows in it:
             found.extend(screen_block(cat1, cat2, self_mode, step_s, n_steps, thr, rows,
                                       cache=cache))
-        first1, first2 = _first_failures(cache, self_mode)
+        first1, first2 = _first_failures(cache["entry"], self_mode)
     else:
         c1 = client.scatter(cat1, broadcast=True)
         c2 = c1 if self_mode else client.scatter(cat2, broadcast=True)

@@ -244,7 +244,7 @@ def test_pc3d_hall_linear_case_equals_foster():
 # test2D3DDisagreementCase: DataFiles/SampleCDMs/OmitronTestCase_Test08_3DNc.cdm (EME2000, km,
 # km/s; RTN covariance lower triangle in m^2, m^2/s, m^2/s^2), HBR 20 m; CARA: 2-D 2.2660816e-20,
 # 3-D 1.9271201e-05, both asserted there to 1e-3 relative.
-from visviva.validation.checks_conjunctions import OM8  # noqa: E402 (one copy of the data)
+from visviva.validation.checks_conjunctions import om8_args  # noqa: E402 (one copy of the data)
 
 
 def _lower(values):
@@ -254,14 +254,7 @@ def _lower(values):
 
 
 def test_cara_omitron_3dnc_case_where_2d_is_15_orders_too_small():
-    from visviva.conjunctions import rtn_to_inertial
-
-    states, covs = [], []
-    for x, c in (("x1", "c1"), ("x2", "c2")):
-        s = np.array(OM8[x])
-        states.append((s[:3] * 1e3, s[3:] * 1e3))
-        covs.append(rtn_to_inertial(_lower(OM8[c]), s[:3], s[3:]))
-    args = (states[0][0], states[0][1], covs[0], states[1][0], states[1][1], covs[1], 20.0)
+    args = om8_args()
     assert collision_probability(*args) == pytest.approx(2.2660816e-20, rel=1e-5)
     pc3 = collision_probability(*args, method="pc3d_hall", gm=3.986004418e5)
     assert pc3 == pytest.approx(1.9271201e-05, rel=1e-3)  # measured 8e-4

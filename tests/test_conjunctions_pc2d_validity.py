@@ -53,16 +53,10 @@ def test_cara_omitron_case_where_velocity_uncertainty_spreads_the_encounter():
     # CARA's Pc3D_Hall_UnitTest Omitron case (tests/test_conjunctions_alfano.py): not slow
     # (Extended 5.6e-4, Offset 4.7e-3), but the velocity covariance lowers the smallest squared
     # Mahalanobis distance from 82 to 9.8; before: 2.27e-20 without a word, 3D-Nc 1.93e-5
-    from test_conjunctions_alfano import OM8, _lower
-    from visviva.conjunctions import rtn_to_inertial
     from visviva.conjunctions.accuracy import velocity_spread
+    from visviva.validation.checks_conjunctions import om8_args
 
-    states, covs = [], []
-    for x, c in (("x1", "c1"), ("x2", "c2")):
-        s = np.array(OM8[x])
-        states.append((s[:3] * 1e3, s[3:] * 1e3))
-        covs.append(rtn_to_inertial(_lower(OM8[c]), s[:3], s[3:]))
-    args = (states[0][0], states[0][1], covs[0], states[1][0], states[1][1], covs[1], 20.0)
+    args = om8_args()
     pc, record = _pc_and_warnings(args)
     assert pc == pytest.approx(2.2660816e-20, rel=1e-5)
     assert len(record) == 1

@@ -181,15 +181,23 @@ def _pc2d() -> list[Check]:
     ]
 
 
-def _pc3d() -> list[Check]:
-    from visviva.conjunctions import collision_probability, rtn_to_inertial
+def om8_args():
+    """CARA's Omitron Test08 case as ``collision_probability`` arguments: r1, v1, C1, r2, v2,
+    C2 (m, m/s; covariances rotated from RTN to the inertial axes) and the 20 m HBR."""
+    from visviva.conjunctions import rtn_to_inertial
 
     states, covs = [], []
     for x, c in (("x1", "c1"), ("x2", "c2")):
         s = np.array(OM8[x])
         states.append((s[:3] * 1e3, s[3:] * 1e3))
         covs.append(rtn_to_inertial(_lower(OM8[c]), s[:3], s[3:]))
-    args = (states[0][0], states[0][1], covs[0], states[1][0], states[1][1], covs[1], 20.0)
+    return (states[0][0], states[0][1], covs[0], states[1][0], states[1][1], covs[1], 20.0)
+
+
+def _pc3d() -> list[Check]:
+    from visviva.conjunctions import collision_probability
+
+    args = om8_args()
     with warnings.catch_warnings(record=True) as caught:  # the documented warning, expected
         warnings.simplefilter("always")
         pc2 = collision_probability(*args)

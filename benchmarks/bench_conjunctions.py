@@ -63,18 +63,9 @@ def _pc_row():
 
     import visviva as vv
     from visviva.core import collision as kern
+    from visviva.validation.checks_conjunctions import om1_args
 
-    r1 = np.array([378.39559, 4305.721887, 5752.767554]) * 1e3
-    v1 = np.array([2.360800244, 5.580331936, -4.322349039]) * 1e3
-    c1 = np.array([[44.5757544811362, 81.6751751052616, -67.8687662707124],
-                   [81.6751751052616, 158.453402956163, -128.616921644857],
-                   [-67.8687662707124, -128.616921644858, 105.490542562701]]) * 1e6
-    r2 = np.array([374.5180598, 4307.560983, 5751.130418]) * 1e3
-    v2 = np.array([-5.388125081, -3.946827739, 3.322820358]) * 1e3
-    c2 = np.array([[2.31067077720423, 1.69905293875632, -1.4170164577661],
-                   [1.69905293875632, 1.24957388457206, -1.04174164279599],
-                   [-1.4170164577661, -1.04174164279599, 0.869260558223714]]) * 1e6
-    hbr = 20.0
+    r1, v1, c1, r2, v2, c2, hbr = om1_args()  # CARA Omitron case 1
     first = time.perf_counter()
     vv.collision_probability(r1, v1, c1, r2, v2, c2, hbr)
     first = time.perf_counter() - first

@@ -113,19 +113,12 @@ def test_fast_leo_encounter_pays_nothing(monkeypatch):
         raise AssertionError("3D-Nc computed for a short encounter")
 
     monkeypatch.setattr(nc3d, "log_pc3d_hall", boom)
-    r1 = np.array([378.39559, 4305.721887, 5752.767554]) * 1e3
-    v1 = np.array([2.360800244, 5.580331936, -4.322349039]) * 1e3
-    c1 = np.array([[44.5757544811362, 81.6751751052616, -67.8687662707124],
-                   [81.6751751052616, 158.453402956163, -128.616921644857],
-                   [-67.8687662707124, -128.616921644858, 105.490542562701]]) * 1e6
-    r2 = np.array([374.5180598, 4307.560983, 5751.130418]) * 1e3
-    v2 = np.array([-5.388125081, -3.946827739, 3.322820358]) * 1e3
-    c2 = np.array([[2.31067077720423, 1.69905293875632, -1.4170164577661],
-                   [1.69905293875632, 1.24957388457206, -1.04174164279599],
-                   [-1.4170164577661, -1.04174164279599, 0.869260558223714]]) * 1e6
-    pc, record = _pc_and_warnings((r1, v1, c1, r2, v2, c2, 20.0))
+    from visviva.validation.checks_conjunctions import om1_args
+
+    args = om1_args()
+    pc, record = _pc_and_warnings(args)
     assert pc == pytest.approx(2.706023476569e-05, rel=1e-10) and not record
-    ext, off, _, _ = linear_encounter_bounds(r1, v1, c1, r2, v2, c2, 20.0, GM_M)
+    ext, off, _, _ = linear_encounter_bounds(*args, GM_M)
     assert ext < 1e-3 and off < 1e-3
 
 

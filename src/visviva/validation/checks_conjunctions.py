@@ -181,6 +181,13 @@ def _pc2d() -> list[Check]:
     ]
 
 
+def om1_args():
+    """CARA's Omitron case 1 (PcCircle_UnitTest) as ``collision_probability`` arguments: r1, v1,
+    C1, r2, v2, C2 in m, m/s, m^2 and the 20 m HBR; CARA's Pc :data:`OM1_PC`."""
+    r1, v1, c1, r2, v2, c2 = (np.asarray(x, dtype=float) for x in OM1)
+    return r1 * 1e3, v1 * 1e3, c1 * 1e6, r2 * 1e3, v2 * 1e3, c2 * 1e6, 20.0
+
+
 def om8_args():
     """CARA's Omitron Test08 case as ``collision_probability`` arguments: r1, v1, C1, r2, v2,
     C2 (m, m/s; covariances rotated from RTN to the inertial axes) and the 20 m HBR."""

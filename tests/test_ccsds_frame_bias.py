@@ -146,3 +146,27 @@ def test_eme2000_frame_arguments_of_burns_and_covariances_are_refused_naming_the
     for kw in ({"frame": "EME2000"}, {"output_frame": "J2000"}):
         with pytest.raises(vv.InvalidInputError, match="frame bias"):
             vv.propagate_covariance(state, cov, 60 * u.s, **kw)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_an_omm_covariance_in_eme2000_is_turned_to_the_gcrs_axes_and_round_trips(fmt):
+    # omm.covariance of REF_FRAME = EME2000 (non-SGP4 elements) was the matrix as written, while
+    # opm.covariance and seg.covariance(k) turn EME2000 by the bias (6e-9 km^2 apart here)
+    from test_ccsds_opm_omm import OMM_KVN
+
+    from visviva.ccsds.covariance import values_from_matrix
+
+    cov = np.diag([1e-2, 4e-2, 9e-2, 1e-8, 4e-8, 9e-8])
+    cov[0, 1] = cov[1, 0] = 5e-3
+    b6 = np.kron(np.eye(2), FRAME_BIAS)
+    lines = "\n".join(f"{k} = {v!r}" for k, v in values_from_matrix(cov).items())
+    for frame, theory, want in (("EME2000", "DSST", b6.T @ cov @ b6), ("GCRF", "BROUWER", cov),
+                                ("TEME", "SGP4", cov)):
+        text = (OMM_KVN.replace("REF_FRAME = TEME", f"REF_FRAME = {frame}")
+                .replace("THEORY = SGP4", f"THEORY = {theory}") + lines + "\n")
+        omm = vv.read_omm(vv.write_omm(vv.read_omm(text), format=fmt))
+        np.testing.assert_allclose(omm.covariance, want, rtol=0, atol=1e-18)
+        if frame == "EME2000":
+            assert np.abs(omm.covariance - cov).max() > 5e-9
+            with pytest.raises(vv.InvalidInputError, match="MEAN_ELEMENT_THEORY = DSST"):
+                omm.state  # noqa: B018  (no state of DSST elements: refused, naming the theory)

@@ -153,7 +153,6 @@ def test_an_omm_covariance_in_eme2000_is_turned_to_the_gcrs_axes_and_round_trips
     # omm.covariance of REF_FRAME = EME2000 (non-SGP4 elements) was the matrix as written, while
     # opm.covariance and seg.covariance(k) turn EME2000 by the bias (6e-9 km^2 apart here)
     from test_ccsds_opm_omm import OMM_KVN
-
     from visviva.ccsds.covariance import values_from_matrix
 
     cov = np.diag([1e-2, 4e-2, 9e-2, 1e-8, 4e-8, 9e-8])

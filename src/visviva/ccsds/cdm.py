@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
+from .cdm_checks import alt_covariance, check_frames, check_segment_elements
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
@@ -529,27 +530,7 @@ def _check_values(sections: dict, source: str) -> None:
                                        "element of the covariance is a squared sigma, >= 0)",
                                        line=line, source=source)
     _check_spans(sections["relative"], source)
-    _check_frames(sections, source)
-
-
-def _check_frames(sections: dict, source: str) -> None:
-    """Warn when the two objects' states are on different axes (508.0-B-1 lets each segment
-    name its REF_FRAME): ``collision_probability(o1.r, o1.v, o1.covariance, o2.r, ...)``
-    takes both in one frame, and EME2000 beside ITRF puts them thousands of km apart."""
-    import warnings
-
-    from .timeframes import visviva_frame
-
-    meta = [sections[k]["metadata"] for k in ("object1", "object2")]
-    names = [str(m["REF_FRAME"]).strip().upper() for m in meta]
-    kinds = [visviva_frame(n) or n for n in names]
-    if kinds[0] != kinds[1]:
-        warnings.warn(
-            f"{source}, line {meta[1].line_of('REF_FRAME')}: OBJECT2's state is in REF_FRAME = "
-            f"{names[1]}, OBJECT1's in {names[0]} (line {meta[0].line_of('REF_FRAME')}): "
-            "msg.states() and msg.probability(hbr) put both on GCRF; o1.r - o2.r, or "
-            "collision_probability(o1.r, ..., o2.r, ...) as written, mixes the two frames.",
-            UserWarning, stacklevel=4)
+    check_frames(sections, source)
 
 
 #: (start, stop) keyword pairs of the relative metadata whose span cannot run backwards
@@ -571,8 +552,6 @@ def _check_spans(record, source: str) -> None:
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS
-
-
 def _read_checked(cursor, section):
     """Read a section; an unknown keyword right after it is reported as such."""
     from .layout import check_mandatory
@@ -580,8 +559,8 @@ def _read_checked(cursor, section):
     record = read_kvn_section(cursor, section, check=False)
     line = cursor.peek()
     if line is not None and line.kind == "keyword" and not any(s.owns(line.key) for s in _ALL):
-        raise cursor.error(f"unexpected {line.key}: not a keyword of a CDM (check its spelling)",
-                           line=line.line)
+        raise cursor.error(alt_covariance(line.key) or f"unexpected {line.key}: not a keyword "
+                           "of a CDM (check its spelling)", line=line.line)
     if record is not None:
         check_mandatory(record, section, cursor.source)
     return record
@@ -618,6 +597,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
         raise CCSDSFormatError(f"a CDM has two <segment> elements, found {len(segments)}",
                                line=rel[0].line, source=name)
     for label, node in zip(("OBJECT1", "OBJECT2"), segments, strict=True):
+        check_segment_elements(node, SEGMENT_SECTIONS, name)
         seg = {}
         for section in SEGMENT_SECTIONS:
             nodes = node.path(section.xml_path)

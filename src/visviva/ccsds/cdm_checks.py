@@ -26,7 +26,7 @@ def check_segment_elements(segment, sections, name: str) -> None:
     """Refuse an element of a ``<segment>`` that no section reads (it was left out silently:
     a CDM 2.0 alternate covariance beside the RTN one, a misspelt ``<stateVektor>``),
     naming it and its line (``sections``: those of a segment)."""
-    from .layout import _check_xml_elements
+    from .layout import check_xml_elements
 
     def alt(node):
         for child in node.children:
@@ -36,7 +36,7 @@ def check_segment_elements(segment, sections, name: str) -> None:
             alt(child)
 
     alt(segment)
-    _check_xml_elements(segment, sections, name)
+    check_xml_elements(segment, sections, name)
 
 
 def check_frames(sections: dict, source: str) -> None:

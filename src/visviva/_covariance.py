@@ -200,7 +200,7 @@ def frame_code(frame: str, name: str = "frame") -> int:
     if key in ("GCRS", "GCRF", "ICRF", "INERTIAL"):
         return INERTIAL
     if key in ("EME2000", "J2000"):  # (the bias is not a local frame: the caller turns it)
-        from .satellites.frames import EME2000_NOTE
+        from .core.local_frames import EME2000_NOTE
 
         raise InvalidInputError(f"{name} = {frame!r}: {EME2000_NOTE}, and give 'GCRS'.")
     if key not in FRAME_CODES:

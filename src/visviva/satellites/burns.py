@@ -43,7 +43,7 @@ __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2",
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
 #: Inertial frame names a burn accepts: the GCRS and the CCSDS names of its axes. EME2000 (J2000)
-#: is refused (:data:`~visviva.satellites.frames.EME2000_NOTE`): it differs by the 23 mas frame
+#: is refused (:data:`~visviva.core.local_frames.EME2000_NOTE`): it differs by the 23 mas frame
 #: bias, which a burn does not apply (an OPM's ``MAN_REF_FRAME = EME2000`` is turned by
 #: :meth:`visviva.ccsds.opm.OPM.burns`).
 INERTIAL_NAMES = ("GCRS", "GCRF", "ICRF")
@@ -77,7 +77,7 @@ def frame_code(frame) -> int:
     if name in INERTIAL_NAMES:
         return INERTIAL
     if name in ("EME2000", "J2000"):
-        from .frames import EME2000_NOTE
+        from ..core.local_frames import EME2000_NOTE
 
         raise InvalidInputError(f"burn frame {frame!r}: {EME2000_NOTE}, and give frame='GCRS'.")
     raise InvalidInputError(

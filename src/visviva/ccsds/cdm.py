@@ -166,7 +166,8 @@ class CDMObject:
         ``v + omega x r`` (as NASA CARA's ``cdmobj_J2Kstatecov`` converts an ITRF state to J2000
         before rotating the RTN covariance): the Earth-fixed velocity would tilt the in-track and
         cross-track axes by ~3.5 deg in LEO. A ``REF_FRAME`` visviva does not know raises
-        :class:`~visviva.errors.InvalidInputError` (it cannot tell whether it rotates).
+        :class:`~visviva.errors.InvalidInputError` (it cannot tell whether it rotates), and so
+        does ITRF or TEME about another ``ORBIT_CENTER`` than the Earth.
         """
         from ..conjunctions.covariance import rtn_to_inertial
         from .timeframes import visviva_frame
@@ -178,6 +179,9 @@ class CDMObject:
                 "(EME2000, GCRF, ICRF, TEME or ITRF...): whether it rotates with the Earth sets "
                 "the RTN axes of the covariance. Rotate covariance_rtn (RTN, m, m/s) yourself "
                 "with visviva.conjunctions.rtn_to_inertial, or correct REF_FRAME.")
+        from .cdm_states import refuse_earth_frame_off_earth
+
+        refuse_earth_frame_off_earth(self, kind)  # (ITRF about the Moon: not the Earth's ω)
         v = self.v
         if kind == "itrs":
             from astropy import units as u

@@ -134,6 +134,10 @@ def test_an_opm_manoeuvre_in_eme2000_is_turned_to_the_gcrs_axes_and_burns_round_
             EPOCH, 60 * u.s, [1, 0, 0], "RTN", acceleration=1e-6 * u.km / u.s**2)])
     with pytest.raises(vv.InvalidInputError, match="Maneuver or a visviva.ImpulsiveBurn"):
         OPM.from_state(state, object_name="G", maneuvers=[(EPOCH, dv)])
+    j2000 = OPM.from_state(state, object_name="G", maneuvers=[Maneuver(
+        EPOCH, 0 * u.s, 0 * u.kg, "J2000", dv * u.km / u.s)])
+    with pytest.raises(vv.InvalidInputError, match="MAN_REF_FRAME = J2000 .* is EME2000"):
+        vv.read_opm(vv.write_opm(j2000)).burns()
 
 
 def test_eme2000_frame_arguments_of_burns_and_covariances_are_refused_naming_the_bias():

@@ -489,6 +489,9 @@ def _burns(opm) -> list:
         where = f"{opm.source} line {rec.line_of('MAN_REF_FRAME')}"
         dv = man.delta_v.to_value(u.km / u.s)
         frame = man.frame
+        if str(frame).strip().upper() == "J2000":
+            raise InvalidInputError(f"{where}: MAN_REF_FRAME = {frame} is not a CCSDS frame name; "
+                                    "the mean equator and equinox of J2000 is EME2000 (SANA).")
         if has_frame_bias(frame):  # EME2000: the Δv turned to the GCRS axes (the frame bias)
             dv, frame = to_gcrs_axes(frame, dv)[0], "GCRF"
             man = replace(man, frame=frame, delta_v=dv * (u.km / u.s))

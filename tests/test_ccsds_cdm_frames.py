@@ -95,7 +95,7 @@ def test_states_refuse_frames_visviva_cannot_rotate():
 
 def test_orbit_centres_that_cannot_be_combined_are_refused_naming_the_lines():
     # ORBIT_CENTER = MOON with REF_FRAME = ITRF was turned with the Earth's rotation (a state
-    # 3332 km from where the message put it, silently), and objects about the Moon and the
+    # 6598 km from the numbers as written, silently), and objects about the Moon and the
     # Earth were subtracted as if they had one origin
     lines = SAMPLE.read_text().splitlines()
     at = [k for k, line in enumerate(lines) if line.startswith("REF_FRAME")]

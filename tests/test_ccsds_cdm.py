@@ -254,3 +254,25 @@ def test_objects_in_different_frames_are_named_in_a_warning():
         warnings.simplefilter("error")
         read_cdm(text)  # one frame: no warning
         read_cdm(text.replace("EME2000", "GCRF", 1))  # (the same axes, within 23 mas)
+
+
+def test_a_cdm_2_alternate_covariance_is_refused_naming_its_line_never_left_out():
+    # XML: an element of <segment> that no section reads (ALT_COV_TYPE, an XYZ matrix, a
+    # misspelt block) was skipped silently; KVN said "not a keyword of a CDM (check its
+    # spelling)" of a CDM 2.0 keyword. Now both say what it is and that RTN is what is read.
+    msg = vv.read_cdm(SAMPLE)
+    kvn = SAMPLE.read_text().splitlines()
+    at = next(k for k, line in enumerate(kvn) if line.startswith("CR_R"))
+    text = "\n".join(kvn[:at] + ["ALT_COV_TYPE = XYZ", "ALT_COV_REF_FRAME = EME2000"] + kvn[at:])
+    with pytest.raises(vv.CCSDSFormatError, match=f"line {at + 1}: ALT_COV_TYPE belongs to the "
+                       "CDM 2.0 alternate covariance.*RTN"):
+        vv.read_cdm(text)
+    xml = vv.write_cdm(msg, format="xml")
+    i = xml.index("<covarianceMatrix>")
+    for extra, match in (("<ALT_COV_TYPE>XYZ</ALT_COV_TYPE>", "ALT_COV_TYPE belongs"),
+                         ("<XYZCovarianceMatrix><CX_X>1.0</CX_X></XYZCovarianceMatrix>",
+                          "CX_X belongs"),
+                         ("<stateVektor/>", "<stateVektor> does not belong in <data>")):
+        with pytest.raises(vv.CCSDSFormatError, match=f"line \\d+: {match}"):
+            vv.read_cdm(xml[:i] + extra + xml[i:])
+    assert vv.read_cdm(xml).object1.covariance.shape == (6, 6)  # (as written: read as before)

@@ -3,6 +3,7 @@ its own): ``msg.states()`` / ``msg.probability()`` put both on GCRF before combi
 Before, only a warning was given and ``o1.r - o2.r`` mixed GCRF with ITRF."""
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from visviva.conjunctions import rtn_to_inertial
 from visviva.satellites.frames import gcrs_to_itrs
 
 TCA = Time("2024-05-01T12:00:00", scale="utc")
+SAMPLE = Path(__file__).parent / "data" / "sample_cdm.kvn"
 KM, KMS = u.km, u.km / u.s
 
 
@@ -89,3 +91,33 @@ def test_states_refuse_frames_visviva_cannot_rotate():
                - np.linalg.norm((g1 - g2).to_value(u.m))) < 1e-6  # the miss is kept
     b6 = np.kron(np.eye(2), FRAME_BIAS)
     np.testing.assert_allclose(c1, b6 @ g_c1 @ b6.T, rtol=1e-9, atol=1e-12 * np.abs(c1).max())
+
+
+def test_orbit_centres_that_cannot_be_combined_are_refused_naming_the_lines():
+    # ORBIT_CENTER = MOON with REF_FRAME = ITRF was turned with the Earth's rotation (a state
+    # 6598 km from the numbers as written, silently), and objects about the Moon and the
+    # Earth were subtracted as if they had one origin
+    lines = SAMPLE.read_text().splitlines()
+    at = [k for k, line in enumerate(lines) if line.startswith("REF_FRAME")]
+
+    def variant(c1, c2, frame):
+        out = list(lines)
+        for k, c in zip(at[::-1], (c2, c1), strict=True):
+            out[k] = f"REF_FRAME = {frame}"
+            out.insert(k, f"ORBIT_CENTER = {c}")
+        return "\n".join(out)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (the states no longer match MISS_DISTANCE)
+        moon_itrf = vv.read_cdm(variant("MOON", "MOON", "ITRF"))
+        mixed = vv.read_cdm(variant("MOON", "EARTH", "EME2000"))
+        earth = vv.read_cdm(variant("EARTH", "EARTH", "ITRF"))
+        moon = vv.read_cdm(variant("MOON", "MOON", "EME2000"))
+    with pytest.raises(vv.InvalidInputError, match=f"line {at[0] + 1}: ORBIT_CENTER = MOON .*ITRF"):
+        moon_itrf.states()
+    with pytest.raises(vv.InvalidInputError, match="ORBIT_CENTER = MOON .*ITRF"):
+        moon_itrf.object1.covariance  # noqa: B018
+    with pytest.raises(vv.InvalidInputError, match=f"MOON \\(line {at[0] + 1}\\), OBJECT2's EARTH"):
+        mixed.probability(20 * u.m)
+    assert earth.states()[0].shape == (3,)  # Earth-centred ITRF: as before
+    assert moon.states()[0].shape == (3,)  # both about the Moon on inertial axes: combined

@@ -103,3 +103,73 @@ def test_helpers_leave_other_frames_alone_and_invert():
         assert to_gcrs_axes(name, x)[0] is x and from_gcrs_axes(name, x)[0] is x
     np.testing.assert_allclose(from_gcrs_axes("eme2000", *to_gcrs_axes("EME2000", x))[0], x,
                                rtol=1e-15, atol=1e-15)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_an_opm_manoeuvre_in_eme2000_is_turned_to_the_gcrs_axes_and_burns_round_trip(fmt):
+    # MAN_REF_FRAME = EME2000 was flown on the GCRS axes as written: 6.6e-8 of the Δv off
+    from visviva.ccsds.opm import Maneuver
+
+    state = _geo()
+    dv = np.array([0.1, 0.2, 0.3])
+    man = Maneuver(EPOCH + 600 * u.s, 0 * u.s, 0 * u.kg, "EME2000", dv * u.km / u.s)
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="G", frame="EME2000",
+                                                  maneuvers=[man]), format=fmt))
+    (burn,) = opm.burns()
+    assert burn.frame == "GCRF"
+    _close(burn.delta_v_km_s, FRAME_BIAS.T @ dv)
+    assert np.linalg.norm(burn.delta_v_km_s - dv) > 5e-8 * np.linalg.norm(dv)
+    np.testing.assert_array_equal(opm.maneuvers[0].delta_v.to_value(u.km / u.s), dv)  # as written
+    # the burn written back (an impulse on the GCRS axes) is EME2000 with the bias, and reads
+    # back as itself
+    again = OPM.from_state(state, object_name="G", frame="EME2000", maneuvers=[burn])
+    rec = again.sections["maneuvers"][0]
+    assert rec["MAN_REF_FRAME"] == "EME2000"
+    _close([rec[f"MAN_DV_{i}"] for i in (1, 2, 3)], dv)
+    (back,) = vv.read_opm(vv.write_opm(again, format=fmt)).burns()
+    _close(back.delta_v_km_s, burn.delta_v_km_s)
+    # a finite burn or another object is refused, saying what to give
+    with pytest.raises(vv.InvalidInputError, match="FiniteBurn"):
+        OPM.from_state(state, object_name="G", maneuvers=[vv.FiniteBurn(
+            EPOCH, 60 * u.s, [1, 0, 0], "RTN", acceleration=1e-6 * u.km / u.s**2)])
+    with pytest.raises(vv.InvalidInputError, match="Maneuver or a visviva.ImpulsiveBurn"):
+        OPM.from_state(state, object_name="G", maneuvers=[(EPOCH, dv)])
+    j2000 = OPM.from_state(state, object_name="G", maneuvers=[Maneuver(
+        EPOCH, 0 * u.s, 0 * u.kg, "J2000", dv * u.km / u.s)])
+    with pytest.raises(vv.InvalidInputError, match="MAN_REF_FRAME = J2000 .* is EME2000"):
+        vv.read_opm(vv.write_opm(j2000)).burns()
+
+
+def test_eme2000_frame_arguments_of_burns_and_covariances_are_refused_naming_the_bias():
+    # ImpulsiveBurn(..., "EME2000") and propagate_covariance(frame="EME2000") took EME2000
+    # numbers for GCRS ones (the 23 mas bias not applied); now refused, saying how to turn them
+    state = _geo()
+    with pytest.raises(vv.InvalidInputError, match="frame bias.*to_gcrs_axes"):
+        vv.ImpulsiveBurn(EPOCH, [0, 0, 1e-3] * u.km / u.s, "EME2000")
+    cov = np.diag([1e-2, 1e-2, 1e-2, 1e-8, 1e-8, 1e-8])
+    for kw in ({"frame": "EME2000"}, {"output_frame": "J2000"}):
+        with pytest.raises(vv.InvalidInputError, match="frame bias"):
+            vv.propagate_covariance(state, cov, 60 * u.s, **kw)
+
+
+@pytest.mark.parametrize("fmt", ["kvn", "xml"])
+def test_an_omm_covariance_in_eme2000_is_turned_to_the_gcrs_axes_and_round_trips(fmt):
+    # omm.covariance of REF_FRAME = EME2000 (non-SGP4 elements) was the matrix as written, while
+    # opm.covariance and seg.covariance(k) turn EME2000 by the bias (6e-9 km^2 apart here)
+    from test_ccsds_opm_omm import OMM_KVN
+    from visviva.ccsds.covariance import values_from_matrix
+
+    cov = np.diag([1e-2, 4e-2, 9e-2, 1e-8, 4e-8, 9e-8])
+    cov[0, 1] = cov[1, 0] = 5e-3
+    b6 = np.kron(np.eye(2), FRAME_BIAS)
+    lines = "\n".join(f"{k} = {v!r}" for k, v in values_from_matrix(cov).items())
+    for frame, theory, want in (("EME2000", "DSST", b6.T @ cov @ b6), ("GCRF", "BROUWER", cov),
+                                ("TEME", "SGP4", cov)):
+        text = (OMM_KVN.replace("REF_FRAME = TEME", f"REF_FRAME = {frame}")
+                .replace("THEORY = SGP4", f"THEORY = {theory}") + lines + "\n")
+        omm = vv.read_omm(vv.write_omm(vv.read_omm(text), format=fmt))
+        np.testing.assert_allclose(omm.covariance, want, rtol=0, atol=1e-18)
+        if frame == "EME2000":
+            assert np.abs(omm.covariance - cov).max() > 5e-9
+            with pytest.raises(vv.InvalidInputError, match="MEAN_ELEMENT_THEORY = DSST"):
+                omm.state  # noqa: B018  (no state of DSST elements: refused, naming the theory)

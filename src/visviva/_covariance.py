@@ -181,9 +181,12 @@ def frame_code(frame: str, name: str = "frame") -> int:
     Parameters
     ----------
     frame : str
-        ``"GCRS"`` (also ``"GCRF"``, ``"EME2000"``, ``"ICRF"``, ``"INERTIAL"``: the inertial
-        frame of the states) or a local frame: ``"RTN"`` (``"RSW"``, ``"RIC"``, ``"QSW"``),
-        ``"TNW"``, ``"VNB"``; case-insensitive.
+        ``"GCRS"`` (also ``"GCRF"``, ``"ICRF"``, ``"INERTIAL"``: the inertial frame of the
+        states) or a local frame: ``"RTN"`` (``"RSW"``, ``"RIC"``, ``"QSW"``), ``"TNW"``,
+        ``"VNB"``; case-insensitive. ``"EME2000"`` (``"J2000"``) is refused: its axes differ
+        from the GCRS by the 23 mas frame bias, which is applied where CCSDS messages are read
+        (``opm.covariance``, ``seg.covariance(k)``) or by
+        ``visviva.ccsds.timeframes.to_gcrs_axes("EME2000", cov)``.
     name : str
         The argument's name for messages.
 
@@ -193,9 +196,13 @@ def frame_code(frame: str, name: str = "frame") -> int:
     """
     from .core.local_frames import FRAME_CODES, INERTIAL
 
-    key = str(frame).upper()
-    if key in ("GCRS", "GCRF", "EME2000", "ICRF", "INERTIAL"):
+    key = str(frame).strip().upper()
+    if key in ("GCRS", "GCRF", "ICRF", "INERTIAL"):
         return INERTIAL
+    if key in ("EME2000", "J2000"):  # (the bias is not a local frame: the caller turns it)
+        from .core.local_frames import EME2000_NOTE
+
+        raise InvalidInputError(f"{name} = {frame!r}: {EME2000_NOTE}, and give 'GCRS'.")
     if key not in FRAME_CODES:
         raise InvalidInputError(
             f"{name} = {frame!r}: use 'GCRS' (inertial, the states' frame) or a local frame "

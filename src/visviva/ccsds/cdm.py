@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
+from .cdm_checks import alt_covariance, check_frames, check_segment_elements
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .kvn import KVNCursor, KVNWriter
@@ -165,7 +166,8 @@ class CDMObject:
         ``v + omega x r`` (as NASA CARA's ``cdmobj_J2Kstatecov`` converts an ITRF state to J2000
         before rotating the RTN covariance): the Earth-fixed velocity would tilt the in-track and
         cross-track axes by ~3.5 deg in LEO. A ``REF_FRAME`` visviva does not know raises
-        :class:`~visviva.errors.InvalidInputError` (it cannot tell whether it rotates).
+        :class:`~visviva.errors.InvalidInputError` (it cannot tell whether it rotates), and so
+        does ITRF or TEME about another ``ORBIT_CENTER`` than the Earth.
         """
         from ..conjunctions.covariance import rtn_to_inertial
         from .timeframes import visviva_frame
@@ -177,6 +179,9 @@ class CDMObject:
                 "(EME2000, GCRF, ICRF, TEME or ITRF...): whether it rotates with the Earth sets "
                 "the RTN axes of the covariance. Rotate covariance_rtn (RTN, m, m/s) yourself "
                 "with visviva.conjunctions.rtn_to_inertial, or correct REF_FRAME.")
+        from .cdm_states import refuse_earth_frame_off_earth
+
+        refuse_earth_frame_off_earth(self, kind)  # (ITRF about the Moon: not the Earth's ω)
         v = self.v
         if kind == "itrs":
             from astropy import units as u
@@ -529,27 +534,7 @@ def _check_values(sections: dict, source: str) -> None:
                                        "element of the covariance is a squared sigma, >= 0)",
                                        line=line, source=source)
     _check_spans(sections["relative"], source)
-    _check_frames(sections, source)
-
-
-def _check_frames(sections: dict, source: str) -> None:
-    """Warn when the two objects' states are on different axes (508.0-B-1 lets each segment
-    name its REF_FRAME): ``collision_probability(o1.r, o1.v, o1.covariance, o2.r, ...)``
-    takes both in one frame, and EME2000 beside ITRF puts them thousands of km apart."""
-    import warnings
-
-    from .timeframes import visviva_frame
-
-    meta = [sections[k]["metadata"] for k in ("object1", "object2")]
-    names = [str(m["REF_FRAME"]).strip().upper() for m in meta]
-    kinds = [visviva_frame(n) or n for n in names]
-    if kinds[0] != kinds[1]:
-        warnings.warn(
-            f"{source}, line {meta[1].line_of('REF_FRAME')}: OBJECT2's state is in REF_FRAME = "
-            f"{names[1]}, OBJECT1's in {names[0]} (line {meta[0].line_of('REF_FRAME')}): "
-            "msg.states() and msg.probability(hbr) put both on GCRF; o1.r - o2.r, or "
-            "collision_probability(o1.r, ..., o2.r, ...) as written, mixes the two frames.",
-            UserWarning, stacklevel=4)
+    check_frames(sections, source)
 
 
 #: (start, stop) keyword pairs of the relative metadata whose span cannot run backwards
@@ -571,8 +556,6 @@ def _check_spans(record, source: str) -> None:
 
 
 _ALL = (HEADER, RELATIVE) + SEGMENT_SECTIONS
-
-
 def _read_checked(cursor, section):
     """Read a section; an unknown keyword right after it is reported as such."""
     from .layout import check_mandatory
@@ -580,8 +563,8 @@ def _read_checked(cursor, section):
     record = read_kvn_section(cursor, section, check=False)
     line = cursor.peek()
     if line is not None and line.kind == "keyword" and not any(s.owns(line.key) for s in _ALL):
-        raise cursor.error(f"unexpected {line.key}: not a keyword of a CDM (check its spelling)",
-                           line=line.line)
+        raise cursor.error(alt_covariance(line.key) or f"unexpected {line.key}: not a keyword "
+                           "of a CDM (check its spelling)", line=line.line)
     if record is not None:
         check_mandatory(record, section, cursor.source)
     return record
@@ -618,6 +601,7 @@ def _read_xml(text: str, name: str) -> ConjunctionDataMessage:
         raise CCSDSFormatError(f"a CDM has two <segment> elements, found {len(segments)}",
                                line=rel[0].line, source=name)
     for label, node in zip(("OBJECT1", "OBJECT2"), segments, strict=True):
+        check_segment_elements(node, SEGMENT_SECTIONS, name)
         seg = {}
         for section in SEGMENT_SECTIONS:
             nodes = node.path(section.xml_path)

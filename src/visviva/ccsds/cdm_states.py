@@ -15,14 +15,15 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["states_on_one_frame", "COMMON_FRAMES", "check_states_against_summary"]
+__all__ = ["states_on_one_frame", "COMMON_FRAMES", "check_states_against_summary",
+           "refuse_earth_frame_off_earth"]
 
 #: the frame the two objects are put on, by its CCSDS names (GCRF and ICRF name the GCRS's
 #: axes, EME2000 those turned by the frame bias: docs/ccsds.md, "Frames")
 COMMON_FRAMES = ("GCRF", "EME2000", "ICRF")
 
 
-def _gcrs_state(obj, tca):
+def _gcrs_state(obj, tca, source="<text>"):
     """(r km, v km/s) of a CDMObject on GCRS axes, from its REF_FRAME."""
     from astropy import units as u
 
@@ -33,6 +34,7 @@ def _gcrs_state(obj, tca):
     r, v = obj.r.to_value(u.km), obj.v.to_value(u.km / u.s)
     if kind == "gcrs":  # (EME2000: the frame bias)
         return to_gcrs_axes(obj.frame, r, v)
+    refuse_earth_frame_off_earth(obj, kind, source)
     if kind == "itrs":
         return itrs_to_gcrs(r, v, tca)
     if kind == "teme":
@@ -41,6 +43,35 @@ def _gcrs_state(obj, tca):
         f"REF_FRAME = {obj.frame!r} of {obj.name!r} is not a frame visviva can rotate to GCRF "
         "(EME2000, GCRF, ICRF, TEME or ITRF...); rotate its state and covariance_rtn (RTN, m, "
         "m/s) yourself, or correct REF_FRAME.")
+
+
+def refuse_earth_frame_off_earth(obj, kind, source="<text>") -> None:
+    """Refuse a CDMObject on ITRF or TEME axes (``kind``: its visviva frame) about another
+    ``ORBIT_CENTER`` than the Earth: visviva turns those frames with the Earth."""
+    if kind in ("itrs", "teme") and _centre(obj) != "EARTH":
+        meta = obj.sections["metadata"]
+        raise InvalidInputError(
+            f"{source} line {meta.line_of('ORBIT_CENTER')}: ORBIT_CENTER = {_centre(obj)} of "
+            f"{obj.name!r} with REF_FRAME = {obj.frame}, an Earth-fixed or Earth-equator frame "
+            "that visviva rotates about the Earth only; give its state on inertial axes "
+            "(EME2000, GCRF, ICRF) or correct ORBIT_CENTER.")
+
+
+def _centre(obj) -> str:
+    """``ORBIT_CENTER`` of a CDMObject (upper case; absent: ``EARTH``)."""
+    return str(obj.sections["metadata"].get("ORBIT_CENTER") or "EARTH").strip().upper()
+
+
+def _same_centre(msg) -> None:
+    """Refuse two objects about different ``ORBIT_CENTER`` values: their states would be
+    subtracted as if they had one origin."""
+    c1, c2 = _centre(msg.object1), _centre(msg.object2)
+    if c1 != c2:
+        lines = [o.sections["metadata"].line_of("ORBIT_CENTER") for o in (msg.object1, msg.object2)]
+        raise InvalidInputError(
+            f"{msg.source}: OBJECT1's ORBIT_CENTER is {c1} (line {lines[0]}), OBJECT2's {c2} "
+            f"(line {lines[1]}): the two states have different origins, which visviva does not "
+            "translate; give both about one centre.")
 
 
 def states_on_one_frame(msg, frame: str = "GCRF"):
@@ -63,7 +94,9 @@ def states_on_one_frame(msg, frame: str = "GCRF"):
     Raises
     ------
     InvalidInputError
-        Another ``frame``, or a ``REF_FRAME`` visviva cannot rotate (e.g. ``EFG``).
+        Another ``frame``, a ``REF_FRAME`` visviva cannot rotate (e.g. ``EFG``), objects
+        about different ``ORBIT_CENTER`` values (absent: ``EARTH``), or ``ITRF``/``TEME`` about
+        another centre than the Earth.
     """
     from astropy import units as u
 
@@ -72,12 +105,13 @@ def states_on_one_frame(msg, frame: str = "GCRF"):
     if str(frame).strip().upper() not in COMMON_FRAMES:
         raise InvalidInputError(f"frame = {frame!r}: the objects are put on one inertial frame, "
                                 f"one of {', '.join(COMMON_FRAMES)}.")
+    _same_centre(msg)
     out = []
     tca = msg.tca
     from .timeframes import from_gcrs_axes
 
     for obj in (msg.object1, msg.object2):
-        r, v = (np.asarray(x, dtype=np.float64) for x in _gcrs_state(obj, tca))
+        r, v = (np.asarray(x, dtype=np.float64) for x in _gcrs_state(obj, tca, msg.source))
         r, v = from_gcrs_axes(frame, r, v)  # (EME2000: the frame bias; RTN is physical)
         out += [r * u.km, v * (u.km / u.s),
                 rtn_to_inertial(obj.covariance_rtn, r * u.km, v * (u.km / u.s))]
@@ -119,7 +153,10 @@ def check_states_against_summary(msg) -> None:
         # one frame: a rotation keeps the separation, and the relative velocity to ~0.1 m/s
         r1, v1, r2, v2 = msg.object1.r, msg.object1.v, msg.object2.r, msg.object2.v
     elif None not in kinds:
-        r1, v1, _, r2, v2, _ = states_on_one_frame(msg)
+        try:
+            r1, v1, _, r2, v2, _ = states_on_one_frame(msg)
+        except InvalidInputError:  # (centres it cannot combine: msg.states() says why)
+            return
     else:
         return
     miss = float(np.linalg.norm((r1 - r2).to_value(u.m)))

@@ -18,6 +18,7 @@ __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
     "write_kvn_section", "write_xml_section", "write_message", "xml_child", "read_text",
     "with_version", "read_kvn_header", "read_kvn_metadata_block", "article_of",
+    "check_xml_elements",
 ]
 
 
@@ -450,7 +451,7 @@ def read_message(source, sections: tuple, root_tag: str, version_key: str):
         inner = {t for sec in sections for t in sec.xml_path.split("/")[:-1]}
         root = message_root(parse(text, name), root_tag, name,
                             inner - {sec.xml_path.rsplit("/", 1)[-1] for sec in sections})
-        _check_xml_elements(root, sections, name)
+        check_xml_elements(root, sections, name)
         parsed = {}
         for section in sections:
             nodes = root.path(section.xml_path)
@@ -522,7 +523,7 @@ def _after_comments(cursor: KVNCursor):
     return cursor.lines[ahead] if ahead < len(cursor.lines) else None
 
 
-def _check_xml_elements(root: XMLNode, sections: tuple, source: str) -> None:
+def check_xml_elements(root: XMLNode, sections: tuple, source: str) -> None:
     """Raise on an element that no section of the message expects (naming its line)."""
     expected: dict[str, set] = {}
     for section in sections:

@@ -136,7 +136,9 @@ class OMM(dict):
     @property
     def covariance(self) -> np.ndarray | None:
         """The 6 x 6 covariance (km, km/s) on the axes of ``REF_FRAME`` (TEME for SGP4 mean
-        elements), or None when the message has none: as :attr:`visviva.ccsds.OPM.covariance`.
+        elements; ``EME2000`` turned to the GCRS axes by the frame bias,
+        :func:`~visviva.ccsds.timeframes.to_gcrs_axes`, as every reader does), or None when the
+        message has none: as :attr:`visviva.ccsds.OPM.covariance`.
 
         A ``COV_REF_FRAME`` naming an orbit-relative frame (``RTN``/``RSW``/``RIC``/``QSW``,
         ``TNW``, ``NTW``, ``VNB``, SANA's ``*_INERTIAL`` and ``*_ROTATING``:
@@ -158,7 +160,7 @@ class OMM(dict):
             return None
         matrix = matrix_from_values(self)
         frame, ref = self.get("COV_REF_FRAME"), self.get("REF_FRAME", "")
-        from .timeframes import visviva_frame
+        from .timeframes import to_gcrs_axes, visviva_frame
 
         line = (getattr(self, "lines", None) or {}).get("COV_REF_FRAME")
         where = (f"{getattr(self, 'source', '<mapping>')}"
@@ -177,10 +179,10 @@ class OMM(dict):
                 state = sat.teme(0.0 * u.s)
                 r, v = state.r.to_value("km"), state.v.to_value("km/s")
                 gm = float(sat.satrec.mu)
-        return on_state_axes(matrix, frame, ref, visviva_frame(ref), r, v, where,
-                             "the OMM's CX_X ... CZ_DOT_Z_DOT", gm=gm,
-                             sun=sun_from(lambda: self.state.epoch, self.get("CENTER_NAME"),
-                                          ref))
+        m = on_state_axes(matrix, frame, ref, visviva_frame(ref), r, v, where,
+                          "the OMM's CX_X ... CZ_DOT_Z_DOT", gm=gm,
+                          sun=sun_from(lambda: self.state.epoch, self.get("CENTER_NAME"), ref))
+        return to_gcrs_axes(ref, m)[0]  # (EME2000: the frame bias, as opm.covariance)
 
 
 def read_omm(source) -> OMM:

@@ -7,7 +7,7 @@ CCSDS 502.0-B-3, section 3. Read with :func:`read_opm` (KVN or XML), write with
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -164,9 +164,12 @@ class OPM(FrameCenterMetadata):
             contradicts the state's own is refused.
         time_system : str
             ``TIME_SYSTEM`` the epochs are written in.
-        maneuvers : iterable of Maneuver
+        maneuvers : iterable of Maneuver or ImpulsiveBurn
             Manoeuvres (``epoch`` a Time, ``duration`` s, ``delta_mass`` kg, ``frame``,
-            ``delta_v`` km/s Quantities).
+            ``delta_v`` km/s Quantities), written as given; or impulses
+            (:class:`visviva.ImpulsiveBurn` at an absolute epoch, what :meth:`burns` gives): a
+            local frame's Δv as given, an inertial one (GCRS axes) in ``frame`` when that is on
+            the GCRS axes or EME2000 (turned by the frame bias), else in GCRF.
         covariance : array_like or Quantity, shape (6, 6), optional
             Covariance of the state: plain numbers in km and km/s (what ``fit.covariance`` and
             ``propagate_covariance`` give), or an area Quantity (e.g. m^2: the whole matrix in
@@ -241,7 +244,7 @@ class OPM(FrameCenterMetadata):
         elif covariance_frame is not None:
             raise InvalidInputError("covariance_frame is the frame to write covariance in; "
                                     "give covariance= too.")
-        records = [_maneuver_record(k, m, time_system, mission_epoch)
+        records = [_maneuver_record(k, m, time_system, mission_epoch, frame)
                    for k, m in enumerate(maneuvers or ())]  # once: a generator is used up
         if records:
             sections["maneuvers"] = records
@@ -420,13 +423,30 @@ def _one(value, kind, name) -> float:
     return float(arr)
 
 
-def _maneuver_record(k, m, time_system, mission_epoch) -> dict:
+def _maneuver_record(k, m, time_system, mission_epoch, frame) -> dict:
     """The ``MAN_*`` keywords of the manoeuvre ``m`` (``maneuvers[k]`` of
-    :meth:`OPM.from_state`), checked."""
+    :meth:`OPM.from_state`, whose ``REF_FRAME`` is ``frame``), checked."""
+    from astropy import units as u
     from astropy.time import Time
 
     from .._units import to_vector
-    from .timeframes import time_to_epochs
+    from ..satellites.burns import INERTIAL, FiniteBurn, ImpulsiveBurn
+    from .timeframes import from_gcrs_axes, time_to_epochs, visviva_frame
+
+    if isinstance(m, FiniteBurn):
+        raise InvalidInputError(
+            f"maneuvers[{k}] is a FiniteBurn, whose thrust law an OPM manoeuvre does not hold; "
+            "give a visviva.ccsds.opm.Maneuver(epoch, duration, delta_mass, frame, delta_v).")
+    if isinstance(m, ImpulsiveBurn):  # its inertial Δv is on the GCRS axes
+        to = (str(frame).upper() if m.code == INERTIAL and visviva_frame(frame) == "gcrs"
+              else "GCRF" if m.code == INERTIAL else m.frame)
+        dv = from_gcrs_axes(to, m.delta_v_km_s)[0] if m.code == INERTIAL else m.delta_v_km_s
+        m = Maneuver(m.start, 0.0 * u.s, 0.0 * u.kg if m.delta_mass is None else m.delta_mass,
+                     to, dv * (u.km / u.s))
+    elif not isinstance(m, Maneuver):
+        raise InvalidInputError(
+            f"maneuvers[{k}] must be a visviva.ccsds.opm.Maneuver or a visviva.ImpulsiveBurn; "
+            f"got {type(m).__name__}.")
 
     if not isinstance(m.epoch, Time) or not m.epoch.isscalar:
         raise InvalidInputError(f"maneuvers[{k}]: epoch must be one astropy Time (the ignition); "
@@ -452,6 +472,7 @@ def _burns(opm) -> list:
     from astropy import units as u
 
     from ..satellites.burns import FiniteBurn, ImpulsiveBurn, frame_code
+    from .timeframes import has_frame_bias, to_gcrs_axes
 
     sc = opm.sections.get("spacecraft_parameters")
     mass = None if sc is None or sc.get("MASS") is None else float(sc["MASS"])
@@ -466,11 +487,19 @@ def _burns(opm) -> list:
     out = []
     for man, rec in records:
         where = f"{opm.source} line {rec.line_of('MAN_REF_FRAME')}"
-        try:
-            frame_code(man.frame)
-        except InvalidInputError as exc:
-            raise InvalidInputError(f"{where}: MAN_REF_FRAME = {man.frame}: {exc}") from None
         dv = man.delta_v.to_value(u.km / u.s)
+        frame = man.frame
+        if str(frame).strip().upper() == "J2000":
+            raise InvalidInputError(f"{where}: MAN_REF_FRAME = {frame} is not a CCSDS frame name; "
+                                    "the mean equator and equinox of J2000 is EME2000 (SANA).")
+        if has_frame_bias(frame):  # EME2000: the Δv turned to the GCRS axes (the frame bias)
+            dv, frame = to_gcrs_axes(frame, dv)[0], "GCRF"
+            man = replace(man, frame=frame, delta_v=dv * (u.km / u.s))
+        try:
+            frame_code(frame)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{where}: MAN_REF_FRAME = {rec['MAN_REF_FRAME']}: {exc}"
+                                    ) from None
         dt = float(man.duration.to_value(u.s))
         dm = float(man.delta_mass.to_value(u.kg))
         n = float(np.linalg.norm(dv))

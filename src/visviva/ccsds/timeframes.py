@@ -30,8 +30,8 @@ import numpy as np
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, impossible_date
 
-__all__ = ["FRAME_BIAS", "to_gcrs_axes", "from_gcrs_axes", "TIME_SCALES", "RELATIVE_TIME_SYSTEMS",
-           "epochs_to_time", "time_to_epochs",
+__all__ = ["FRAME_BIAS", "has_frame_bias", "to_gcrs_axes", "from_gcrs_axes", "TIME_SCALES",
+           "RELATIVE_TIME_SYSTEMS", "epochs_to_time", "time_to_epochs",
            "visviva_frame", "earth_fixed", "center_body", "center_of", "FrameCenterMetadata",
            "ref_frame_of", "refuse_unused_mission_epoch"]
 
@@ -71,6 +71,12 @@ _BIASED_FRAMES = ("EME2000",)
 
 def _bias(name):
     return FRAME_BIAS if str(name).strip().upper() in _BIASED_FRAMES else None
+
+
+def has_frame_bias(name) -> bool:
+    """Whether the CCSDS frame ``name`` is on the mean J2000 axes (EME2000), which
+    :func:`to_gcrs_axes` turns by :data:`FRAME_BIAS`."""
+    return _bias(name) is not None
 
 
 def to_gcrs_axes(name, *arrays):

@@ -29,8 +29,8 @@ import numpy as np
 
 from ._jit import kernel
 
-__all__ = ["INERTIAL", "RTN", "TNW", "VNB", "FRAME_CODES", "local_axes", "to_inertial",
-           "to_inertial_jacobian"]
+__all__ = ["INERTIAL", "RTN", "TNW", "VNB", "FRAME_CODES", "EME2000_NOTE", "local_axes",
+           "to_inertial", "to_inertial_jacobian"]
 
 #: Frame codes (the ``THRUST_FRAME`` slot of :mod:`visviva.core.force_block`).
 INERTIAL = 0
@@ -40,6 +40,12 @@ VNB = 3
 #: Frame name -> code, for the local frames (RSW, RIC and QSW are other names of RTN's axes:
 #: Vallado, NASA CARA, Orekit).
 FRAME_CODES = {"RTN": RTN, "TNW": TNW, "VNB": VNB, "RSW": RTN, "RIC": RTN, "QSW": RTN}
+#: why EME2000 (J2000) is refused as a frame argument (states, burns, covariances): the one text
+#: of the satellites layer's refusals (the bias itself: visviva.ccsds.timeframes.FRAME_BIAS)
+EME2000_NOTE = ("EME2000 (J2000) differs from the GCRS by the 23 mas frame bias (0.8 m in LEO, "
+                "4.7 m at GEO), which frame arguments do not apply: pass 'gcrs' if that is "
+                "acceptable, or turn EME2000 numbers to the GCRS axes first with "
+                "visviva.ccsds.timeframes.to_gcrs_axes('EME2000', ...)")
 
 
 def local_axes(r, v, frame: int) -> np.ndarray:

@@ -42,10 +42,11 @@ __all__ = ["ImpulsiveBurn", "FiniteBurn", "BurnRecord", "STANDARD_GRAVITY_M_S2",
 
 #: Standard gravity g0 (m/s^2) of the rocket equation's Isp (CGPM 1901).
 STANDARD_GRAVITY_M_S2 = 9.80665
-#: Inertial frame names a burn accepts: the GCRS and the CCSDS names visviva reads as GCRS
-#: (:mod:`visviva.ccsds.timeframes`); an EME2000 delta-v is taken on the GCRS axes, its 23 mas
-#: frame bias not applied (1e-7 of the delta-v; states and covariances do take it).
-INERTIAL_NAMES = ("GCRS", "GCRF", "EME2000", "ICRF")
+#: Inertial frame names a burn accepts: the GCRS and the CCSDS names of its axes. EME2000 (J2000)
+#: is refused (:data:`~visviva.core.local_frames.EME2000_NOTE`): it differs by the 23 mas frame
+#: bias, which a burn does not apply (an OPM's ``MAN_REF_FRAME = EME2000`` is turned by
+#: :meth:`visviva.ccsds.opm.OPM.burns`).
+INERTIAL_NAMES = ("GCRS", "GCRF", "ICRF")
 
 
 def frame_code(frame) -> int:
@@ -56,8 +57,10 @@ def frame_code(frame) -> int:
     frame : str
         ``"RTN"`` (also ``"RSW"``, ``"RIC"``, ``"QSW"``), ``"TNW"``, ``"VNB"`` (local,
         evaluated at the burn's state) or an inertial name: ``"GCRS"``, ``"GCRF"``,
-        ``"EME2000"``, ``"ICRF"`` (case-insensitive). Vallado's NTW and the LVLH frames, whose
-        axes differ between tools, are refused.
+        ``"ICRF"`` (case-insensitive). Vallado's NTW and the LVLH frames, whose axes differ
+        between tools, are refused, and so is ``"EME2000"`` (``"J2000"``): its axes differ from
+        the GCRS by the 23 mas frame bias (turn the Δv first:
+        ``visviva.ccsds.timeframes.to_gcrs_axes("EME2000", dv)``).
 
     Returns
     -------
@@ -73,6 +76,10 @@ def frame_code(frame) -> int:
         return FRAME_CODES[name]
     if name in INERTIAL_NAMES:
         return INERTIAL
+    if name in ("EME2000", "J2000"):
+        from ..core.local_frames import EME2000_NOTE
+
+        raise InvalidInputError(f"burn frame {frame!r}: {EME2000_NOTE}, and give frame='GCRS'.")
     raise InvalidInputError(
         f"burn frame {frame!r} is not supported; use one of {', '.join(FRAME_CODES)} (local, "
         f"at the burn's state) or {', '.join(INERTIAL_NAMES)} (inertial). Rotate a Δv given "
@@ -145,7 +152,8 @@ class ImpulsiveBurn(_Burn):
         ``"RTN"`` (radial, transverse, normal), ``"TNW"`` (along the velocity, in-plane normal
         N = W x T, orbit normal), ``"VNB"`` (velocity, orbit normal, binormal V x N), evaluated
         at the state just before the burn; or inertial: ``"GCRS"`` (default), ``"GCRF"``,
-        ``"EME2000"``, ``"ICRF"``. Axes: :mod:`visviva.core.local_frames`.
+        ``"ICRF"`` (``"EME2000"`` is refused: turn its Δv to the GCRS axes with
+        ``visviva.ccsds.timeframes.to_gcrs_axes``). Axes: :mod:`visviva.core.local_frames`.
     delta_mass : Quantity, optional
         Mass change (kg, <= 0) the burn costs, if known (an OPM's ``MAN_DELTA_MASS``).
     mass : Quantity, optional

@@ -33,6 +33,7 @@ from astropy import units as u
 
 from .._offline_iers import offline_iers
 from .._units import require_usable_time, to_quantity, to_vector
+from ..core.local_frames import EME2000_NOTE
 from ..errors import DomainError, InvalidInputError, ShapeError
 from .earth_rotation import cirs_to_itrs_mat, gcrs_to_cirs_mat, teme_to_itrs_mat
 
@@ -64,10 +65,7 @@ FRAME_NAMES = ("teme", "gcrs", "itrs")
 _SAME = {"gcrf": "gcrs", "itrf": "itrs"}
 #: frames that are not one of visviva's, with what to do instead
 _NOT_OURS = {
-    "eme2000": "EME2000 (J2000) differs from the GCRS by the 23 mas frame bias (0.8 m in LEO, "
-               "4.7 m at GEO), which frame arguments do not apply: pass 'gcrs' if that is "
-               "acceptable, or turn EME2000 numbers to the GCRS axes first with "
-               "visviva.ccsds.timeframes.to_gcrs_axes('EME2000', r, v)",
+    "eme2000": EME2000_NOTE,  # (core.local_frames: burns and covariances refuse it too)
     "icrs": "the ICRS is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
     "icrf": "the ICRF is barycentric; its axes about the Earth are the GCRS's: 'gcrs'",
     "tod": "true-of-date axes have no visviva rotation; 'teme' differs from them by the "

@@ -146,15 +146,16 @@ _SGP4_METADATA = {"TIME_SYSTEM": ("UTC",), "REF_FRAME": ("TEME",), "CENTER_NAME"
 
 
 def _check_sgp4_metadata(fields) -> None:
-    """Refuse an OMM whose metadata says its elements are not SGP4's (UTC, TEME, Earth)."""
-    for key, accepted in _SGP4_METADATA.items():
-        value = fields.get(key)
-        if value in (None, "") or str(value).strip().upper() in accepted:
-            continue
+    """Refuse an OMM whose metadata says its elements are not SGP4's (UTC, TEME, Earth),
+    naming every keyword that says so."""
+    wrong = [f"{key} = {fields[key]}" for key, accepted in _SGP4_METADATA.items()
+             if fields.get(key) not in (None, "")
+             and str(fields[key]).strip().upper() not in accepted]
+    if wrong:
         raise InvalidInputError(
-            f"OMM record {fields.get('OBJECT_NAME', '')!r} has {key} = {value}; SGP4 mean "
-            f"elements are {accepted[0]} (TIME_SYSTEM UTC, REF_FRAME TEME, CENTER_NAME EARTH, "
-            "MEAN_ELEMENT_THEORY SGP4). Propagating these with SGP4 would be wrong: convert "
+            f"OMM record {fields.get('OBJECT_NAME', '')!r} has {', '.join(wrong)}; SGP4 mean "
+            "elements are TIME_SYSTEM UTC, REF_FRAME TEME, CENTER_NAME EARTH, "
+            "MEAN_ELEMENT_THEORY SGP4. Propagating these with SGP4 would be wrong: convert "
             "the record, or use the mean-element theory it was made for."
         )
 

@@ -168,6 +168,30 @@ def require_symmetric(I, name: str) -> None:
         )
 
 
+def require_physical_inertia(moments, name: str, context: str) -> None:
+    """DomainError unless principal moments (ascending, last axis) are those of a real body.
+
+    A body's principal moments are >= 0 and obey the triangle inequality I3 <= I1 + I2
+    (equality for a plane lamina, zero moments for a rod or a point), both to 1e-12 of the
+    largest moment (Goldstein 3rd ed. sec. 5.3; Landau & Lifshitz, *Mechanics*, sec. 32).
+    """
+    moments = np.asarray(moments, dtype=float)
+    tol = 1e-12 * np.abs(moments[..., 2])
+    if np.any(moments[..., 0] < -tol):
+        raise DomainError(
+            f"{context}: {name} has a negative principal moment ({moments[..., 0].min():.6g}); "
+            "every moment of inertia sum m (r^2 - (r.n)^2) is >= 0. Check the signs of the "
+            "products of inertia (I_xy = -sum m x y) and of the moments."
+        )
+    excess = moments[..., 2] - moments[..., 0] - moments[..., 1]
+    if np.any(excess > tol):
+        raise DomainError(
+            f"{context}: the principal moments {moments} of {name} violate the triangle "
+            "inequality I3 <= I1 + I2 that every real body satisfies (equality for a flat "
+            "plate); check the inertia tensor."
+        )
+
+
 def square_matrix(value, name: str, ins: Inputs, unit: str) -> np.ndarray:
     """A finite square (n, n) matrix, symmetric to rounding, as float64."""
     arr = ins.get(value, unit, name)

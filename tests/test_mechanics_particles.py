@@ -271,3 +271,26 @@ def test_uniform_gravity_axis_outside_the_positions_is_a_shape_error():
         mech.uniform_gravity(2.0, 9.81, axis=5)(0.0, np.zeros(3), np.zeros(3))
     np.testing.assert_array_equal(mech.uniform_gravity(2.0, 9.81, axis=1)(0.0, np.zeros(3), None),
                                   [0.0, -19.62, 0.0])
+
+
+def test_radial_infall_collision_names_the_time():
+    # audit43: radial infall from rest at r0 = 1 (mu = 1) reaches r = 0 at the free-fall time
+    # pi/2 sqrt(r0^3 / 2 mu) = 1.1107; integrating past it failed with scipy's bare "Required
+    # step size is less than spacing between numbers", naming neither the time nor the cause
+    from visviva.errors import ConvergenceError
+
+    t_ff = np.pi / 2 * np.sqrt(0.5)
+    field = mech.InverseSquare(1.0)
+    t = np.linspace(0.0, 1.01 * t_ff, 41)
+    with pytest.raises(ConvergenceError, match="collision") as err:
+        mech.solve_particles(lambda t, r, v: field.force(r), 1.0, [1.0, 0, 0], [0, 0, 0], t)
+    reached = float(str(err.value).split("failed after t = ")[1].split(" ")[0])
+    assert t_ff - 2 * (t[1] - t[0]) < reached < t_ff
+    # up to the last sample before the collision the motion is the exact cycloid
+    # r = (1 + cos eta) / 2, t = (eta + sin eta) / sqrt(8)
+    from scipy.optimize import brentq
+
+    tr = mech.solve_particles(lambda t, r, v: field.force(r), 1.0, [1.0, 0, 0], [0, 0, 0],
+                              t[t <= reached])
+    eta = [brentq(lambda e, s=s: (e + np.sin(e)) / np.sqrt(8.0) - s, 0.0, np.pi) for s in tr.t]
+    np.testing.assert_allclose(tr.r[:, 0], (1.0 + np.cos(eta)) / 2.0, rtol=1e-7)

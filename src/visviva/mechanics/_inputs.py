@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._units import broadcast_or_raise, require_finite_result, to_si
-from ..errors import DomainError, InvalidInputError, ShapeError
+from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
 
 __all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value",
            "require_symmetric"]
@@ -254,6 +254,23 @@ def callable_result(
             "negative number) and its units."
         )
     return arr.reshape(shape)
+
+
+def ivp_failure(sol, context: str, t_end) -> ConvergenceError:
+    """The ConvergenceError for a failed :func:`scipy.integrate.solve_ivp` run, naming where.
+
+    scipy's own message ("Required step size is less than spacing between numbers") says
+    neither when nor why; the step collapses where the motion becomes singular.
+    """
+    reached = float(sol.t[-1]) if np.size(sol.t) else float("nan")
+    return ConvergenceError(
+        f"{context}: the integrator failed after t = {reached:.9g} (the last output time reached; "
+        f"the run was to t = {float(t_end):.9g}): {sol.message} The step size collapses where the "
+        "equations of motion become singular: a collision (a distance falling to 0 under an "
+        "attractive force, e.g. radial infall reaches r = 0 at the free-fall time "
+        "pi/2 sqrt(r0^3 / 2 mu)), a force growing without bound, or a very stiff system (try "
+        "method='Radau'). End the run before that time, or soften the force."
+    )
 
 
 IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")

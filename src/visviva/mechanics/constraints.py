@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import Inputs, callable_result, finite_rhs, ivp_failure
 from .particles import Trajectory, check_times, particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
@@ -294,7 +294,7 @@ def solve_constrained(
         finite_rhs(rhs, "solve_constrained"), (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
     )
     if sol.status == -1:
-        raise ConvergenceError(f"solve_constrained: the integrator failed: {sol.message}")
+        raise ivp_failure(sol, "solve_constrained", t[-1])
     X, V = sol.y[:n].T.copy(), sol.y[n:].T.copy()
     lams, forces, viol = [], [], []
     for i, ti in enumerate(sol.t):

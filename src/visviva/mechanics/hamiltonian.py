@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs, ivp_method, si_array, si_value
+from ..errors import DomainError, InvalidInputError, ShapeError
+from ._inputs import finite_rhs, ivp_failure, ivp_method, si_array, si_value
 
 __all__ = [
     "HamiltonianSystem",
@@ -334,7 +334,7 @@ class HamiltonianSystem:
         sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
                         t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
-            raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
+            raise ivp_failure(sol, "HamiltonianSystem.simulate", t[-1])
         n = self.dof
         return SymplecticTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy())
 
@@ -441,7 +441,7 @@ def poincare_section(
         finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
     )
     if sol.status == -1:
-        raise ConvergenceError(f"poincare_section: integration failed: {sol.message}")
+        raise ivp_failure(sol, "poincare_section", t_max)
     t_cross = sol.t_events[0]
     y_cross = sol.y_events[0].reshape(-1, y0.size)
     # the state at t = 0 may sit on the section: drop that spurious crossing

@@ -13,8 +13,16 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs, ivp_method, si_array, si_value
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import (
+    Inputs,
+    callable_result,
+    finite_rhs,
+    ivp_failure,
+    ivp_method,
+    si_array,
+    si_value,
+)
 
 __all__ = [
     "LagrangianSystem",
@@ -227,7 +235,7 @@ class LagrangianSystem:
             atol=atol,
         )
         if sol.status == -1:
-            raise ConvergenceError(f"LagrangianSystem.simulate failed: {sol.message}")
+            raise ivp_failure(sol, "LagrangianSystem.simulate", t[-1])
         n = self.dof
         return LagrangianTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(), self)
 

@@ -12,8 +12,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import Inputs, callable_result, ivp_failure
 
 __all__ = [
     "Trajectory",
@@ -213,7 +213,7 @@ def solve_particles(
         rhs, (t[0], t[-1]), y0, method=method, t_eval=t, rtol=rtol, atol=atol, events=wrapped
     )
     if sol.status == -1:
-        raise ConvergenceError(f"solve_particles: the integrator failed: {sol.message}")
+        raise ivp_failure(sol, "solve_particles", t[-1])
     Y = sol.y.T
     n = Y.shape[0]
     return Trajectory(

@@ -20,6 +20,7 @@ from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
 from ._inputs import (
     Inputs,
     callable_result,
+    ivp_failure,
     ivp_method,
     require_physical_inertia,
     require_symmetric,
@@ -359,9 +360,7 @@ def integrate_rigid_body(
     else:
         sol = solve_ivp(rhs, (t[0], t[-1]), y0, method=method, t_eval=t, rtol=rtol, atol=atol)
         if not sol.success:
-            from ..errors import ConvergenceError
-
-            raise ConvergenceError(f"integrate_rigid_body: solve_ivp failed: {sol.message}")
+            raise ivp_failure(sol, "integrate_rigid_body", t[-1])
         Y = sol.y
     quats = Y[:4].T / np.linalg.norm(Y[:4].T, axis=1, keepdims=True)
     return RigidBodyTrajectory(t=t, quaternions=quats, omega=Y[4:].T.copy(), inertia=Ib)

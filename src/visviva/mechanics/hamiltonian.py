@@ -357,6 +357,12 @@ def phase_portrait(H, q_range, p_range, n=201):
         Mesh and H values; ``plt.contour(Q, P, E, levels)`` draws the phase portrait, each
         contour being a trajectory (energy is conserved).
     """
+    if not (isinstance(H, HamiltonianSystem) or callable(H)):
+        raise InvalidInputError(
+            f"phase_portrait: H must be a callable H(q, p) vectorised over arrays or a 1-dof "
+            f"HamiltonianSystem; got {type(H).__name__}. Wrap a sympy expression in "
+            "q and p as HamiltonianSystem(H, [q], [p]) or sympy.lambdify((q, p), H, 'numpy')."
+        )
     nq, npts = (n, n) if np.isscalar(n) else n
     q = np.linspace(*q_range, _count(nq, "n", 2))
     p = np.linspace(*p_range, _count(npts, "n", 2))

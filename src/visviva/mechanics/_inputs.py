@@ -157,6 +157,38 @@ def si_value(value, name: str):
     return value
 
 
+def model_parameters(expr, parameters, what: str) -> dict:
+    """``{symbol: value}`` for a sympy model, keys matched by name to the symbols of ``expr``.
+
+    A key given as a string (``{"m": 1.0}``), or as a Symbol whose assumptions differ from the
+    model's (``Symbol("m")`` for ``Symbol("m", positive=True)``), is not equal to the model's
+    symbol, so sympy's ``subs`` skipped it and the model said "symbols without values: m".
+    Each key is replaced by the model's symbol of the same name; a string naming no symbol of
+    the model is an InvalidInputError (a typo would otherwise be ignored).
+    """
+    by_name = {}
+    for symbol in expr.free_symbols:
+        by_name.setdefault(str(symbol), []).append(symbol)
+    out = {}
+    for key, value in dict(parameters or {}).items():
+        if key in expr.free_symbols:
+            out[key] = si_value(value, str(key))
+            continue
+        matches = by_name.get(str(key), [])
+        if not matches and not isinstance(key, str):
+            out[key] = si_value(value, str(key))  # a symbol the model does not use: unused
+            continue
+        if len(matches) != 1:
+            known = ", ".join(sorted(by_name))
+            raise InvalidInputError(
+                f"parameter {str(key)!r} is not a symbol of {what}"
+                + (" (several symbols have that name)" if matches else "")
+                + f"; its symbols are: {known}."
+            )
+        out[matches[0]] = si_value(value, str(key))
+    return out
+
+
 def require_symmetric(I, name: str) -> None:
     """InvalidInputError unless the (3, 3) tensor I is symmetric to rounding (1e-12 relative)."""
     asym = np.max(np.abs(I - I.T))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs, ivp_failure, ivp_method, si_array, si_value
+from ._inputs import finite_rhs, ivp_failure, ivp_method, model_parameters, si_array
 
 __all__ = [
     "HamiltonianSystem",
@@ -256,7 +256,7 @@ class HamiltonianSystem:
         self.dof = len(self.coordinates)
         self._q = sp.symbols(f"q0:{self.dof}")
         H = sp.sympify(hamiltonian).subs(dict(zip(self.coordinates, self._q, strict=True)))
-        H = H.subs({key: si_value(val, str(key)) for key, val in dict(parameters or {}).items()})
+        H = H.subs(model_parameters(H, parameters, "H"))
         free = H.free_symbols - set(self._q) - set(self.momenta) - {self.time}
         if free:
             raise InvalidInputError(

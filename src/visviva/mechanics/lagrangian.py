@@ -20,8 +20,8 @@ from ._inputs import (
     finite_rhs,
     ivp_failure,
     ivp_method,
+    model_parameters,
     si_array,
-    si_value,
 )
 
 __all__ = [
@@ -119,9 +119,7 @@ class LagrangianSystem:
         self.coordinates = list(coordinates)
         if not self.coordinates:
             raise InvalidInputError("coordinates must list at least one generalised coordinate.")
-        self.parameters = {
-            key: si_value(value, str(key)) for key, value in dict(parameters or {}).items()
-        }
+        self.parameters = model_parameters(self.lagrangian, parameters, "the Lagrangian")
         self.forces = forces
         self.time = me.dynamicsymbols._t
         self.dof = len(self.coordinates)

@@ -349,6 +349,8 @@ def projectile(r0, v0, t, *, drag: str | None = None, k: float = 0.0, g: float =
     (``drag="linear"``) or - k ‖v‖ v (``drag="quadratic"``). Extra keywords go to
     :func:`solve_particles`. For linear drag the exact answer is :func:`projectile_linear_drag`;
     for quadratic drag from rest, v(t) = v_T tanh(g t / v_T) with v_T = sqrt(g / k).
+    ``r0`` and ``v0`` hold at ``t[0]``, where the integration starts (``projectile_linear_drag``
+    counts its times from launch: compare it at ``t - t[0]``).
     """
     if drag not in (None, "linear", "quadratic"):
         raise InvalidInputError(f"drag must be None, 'linear' or 'quadratic'; got {drag!r}.")

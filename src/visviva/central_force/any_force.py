@@ -314,7 +314,7 @@ def _raise_plunge(sol, u0, r0):
         return
     raise DomainError(
         f"orbit_equation: the orbit falls into the centre: u = 1/r grows without bound as theta "
-        f"approaches {theta_end:.6g} rad (r = {1.0 / u_end:.3g} there, r0 = {r0:.6g}). The "
+        f"approaches {theta_end:.9g} rad (r = {1.0 / u_end:.3g} there, r0 = {r0:.6g}). The "
         "attraction grows faster than h^2 / r^3 at small r (a force steeper than 1/r^3) and "
         "this angular momentum cannot stop the plunge, so r reaches 0 at a finite angle (no "
         "further apsis). Integrate to a smaller theta_max, or give more angular momentum h."

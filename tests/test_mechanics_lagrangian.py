@@ -207,3 +207,16 @@ def test_parameters_may_be_named_by_string():
     ham = mech.HamiltonianSystem(p**2 / 2 + w**2 * q**2 / 2, [q], [p], {"w": 2.0})
     np.testing.assert_allclose(ham.simulate([1.0], [0.0], [0.0, np.pi / 2]).q[-1], [-1.0],
                                atol=1e-10)
+
+
+def test_central_potential_names_a_numpy_potential():
+    # audit43: lambda r: -np.exp(-r) / r gave numpy's bare TypeError "loop of ufunc does not
+    # support argument 0 of type Mul which has no callable exp method"
+    with pytest.raises(InvalidInputError, match="sympy.exp"):
+        mech.central_potential(lambda r: -np.exp(-r) / r)
+    with pytest.raises(InvalidInputError, match="sympy expression"):
+        mech.central_potential(lambda r: "x")
+    yukawa = mech.central_potential(lambda r: -sp.exp(-r) / r)
+    tr = yukawa.simulate([1.0, 0.0], [0.0, 1.0], [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(tr.energy, tr.energy[0], atol=1e-11)
+    np.testing.assert_allclose(tr.q[:, 0] ** 2 * tr.qdot[:, 1], 1.0, rtol=1e-11)  # m r^2 phi'

@@ -238,6 +238,23 @@ class LagrangianSystem:
         return LagrangianTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(), self)
 
 
+def _symbolic_potential(potential, r, sp):
+    """``potential(r)`` for the sympy function r(t), checked to be a sympy expression."""
+    try:
+        V = sp.sympify(potential(r), strict=True)
+    except (TypeError, AttributeError, sp.SympifyError) as exc:
+        raise InvalidInputError(
+            f"central_potential: potential(r) failed on the sympy symbol r ({type(exc).__name__}: "
+            f"{exc}). It must build a sympy expression: use sympy functions (sympy.exp, "
+            "sympy.log), not numpy or math ones, e.g. lambda r: -sympy.exp(-r) / r."
+        ) from exc
+    if not isinstance(V, sp.Expr):
+        raise InvalidInputError(
+            f"central_potential: potential(r) must return a sympy expression; got {V!r}."
+        )
+    return V
+
+
 def _physical(value, unit: str, name: str, *, positive: bool = True) -> float:
     """A finite scalar parameter of a ready-made system, in SI (> 0, or >= 0 for g)."""
     arr = Inputs().get(value, unit, name, positive=positive, nonnegative=not positive)
@@ -309,7 +326,7 @@ def central_potential(potential=None, m=1.0, k=1.0) -> LagrangianSystem:
     sp, me = _sympy()
     r, ph = me.dynamicsymbols("r phi")
     M, K = sp.symbols("m k", positive=True)
-    V = -K / r if potential is None else potential(r)
+    V = -K / r if potential is None else _symbolic_potential(potential, r, sp)
     L = M * (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 - V
     k = Inputs().get(k, "energy_length", "k")  # any sign: attractive (> 0) or repulsive
     return LagrangianSystem(L, [r, ph], {M: _physical(m, "kg", "m"), K: float(k)})

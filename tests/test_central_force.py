@@ -205,6 +205,8 @@ def test_bad_input_gets_clear_errors():
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=2.0, theta_max=10.0)
     with pytest.raises(vv.InvalidInputError, match="h must be finite and > 0"):
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
+    with pytest.raises(vv.InvalidInputError, match="radial"):  # audit43: h = 0 is named
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
     with pytest.raises(vv.DomainError, match="n <= -3"):
         bertrand_apsidal_angle(-3.5)
 

@@ -387,7 +387,11 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", True)
     for name, val in (("r0", r0), ("h", h)):
         if not val > 0:
-            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.")
+            hint = (" With h = 0 the motion is radial (theta stays constant, so there is no orbit "
+                    "equation in theta): integrate r(t) instead, e.g. with "
+                    "visviva.mechanics.solve_particles; infall from rest at r0 reaches r = 0 at "
+                    "t = pi/2 sqrt(r0^3 / 2 mu).") if name == "h" and val == 0 else ""
+            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.{hint}")
     theta_max = float(to_array(theta_max, "angle", "theta_max", finite=False))
     if not (math.isfinite(theta_max) and theta_max > 0):
         raise InvalidInputError("theta_max must be finite and > 0 (rad).")

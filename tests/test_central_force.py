@@ -205,6 +205,8 @@ def test_bad_input_gets_clear_errors():
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=2.0, theta_max=10.0)
     with pytest.raises(vv.InvalidInputError, match="h must be finite and > 0"):
         orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
+    with pytest.raises(vv.InvalidInputError, match="radial"):  # audit43: h = 0 is named
+        orbit_equation(power_law_force(1.0, -2), r0=1.0, h=0.0)
     with pytest.raises(vv.DomainError, match="n <= -3"):
         bertrand_apsidal_angle(-3.5)
 
@@ -323,3 +325,27 @@ def test_orbit_equation_force_may_return_a_quantity():
         orbit_equation(lambda r: -vv.EARTH.gm / r**2, r0=7000 * KM, h=55000 * u.km**2 / u.s)
     with pytest.raises(vv.UnitsError, match="plain numbers"):
         orbit_equation(force_m, r0=7000.0, h=55000.0)
+
+
+def test_orbit_equation_plunge_into_the_centre_is_named():
+    # audit43: F = -r^-4 with h = 0.5 from an apsis at r0 = 1 falls into r = 0 at a finite polar
+    # angle; orbit_equation failed with scipy's "Required step size is less than spacing between
+    # numbers" (an InvalidInputError about the inputs). The angle of the plunge follows from the
+    # first integral of u'' + u = u^2 / h^2: u'^2 / 2 + u^2 / 2 - 4 u^3 / 3 = -5 / 6.
+    from scipy.integrate import quad
+
+    def dtheta(u_):
+        return 1.0 / np.sqrt(2.0 * (-5.0 / 6.0 - u_ * u_ / 2.0 + 4.0 * u_**3 / 3.0))
+
+    theta_plunge = quad(lambda s: 2.0 * s * dtheta(1.0 + s * s), 0.0, 1.0)[0]
+    theta_plunge += quad(dtheta, 2.0, np.inf)[0]  # 1.59624222
+    with pytest.raises(vv.DomainError, match="falls into the centre") as err:
+        orbit_equation(power_law_force(1.0, -4), 1.0, 0.5, theta_max=10 * np.pi)
+    reported = float(str(err.value).split("approaches ")[1].split(" rad")[0])
+    assert reported == pytest.approx(theta_plunge, rel=1e-7)
+    # before the plunge the orbit is returned, and r(theta) obeys the same first integral
+    orbit = orbit_equation(power_law_force(1.0, -4), 1.0, 0.5, theta_max=1.5, n_points=4)
+    u_s = 1.0 / orbit.r
+    theta_exact = [quad(lambda s: 2.0 * s * dtheta(1.0 + s * s), 0.0, np.sqrt(x - 1.0))[0]
+                   for x in u_s[1:]]
+    np.testing.assert_allclose(theta_exact, orbit.theta[1:], rtol=1e-8)

@@ -143,3 +143,60 @@ def test_pendulum_constraint_takes_one_particle_as_n_by_d():
     tr = mech.solve_constrained([1.0], [r0], [[0.0, 0.0, 0.0]], [0.0, period], f, jac,
                                 lambda t, r, v: np.array([[0.0, 0.0, -g]]))
     np.testing.assert_allclose(tr.r[-1, 0], r0, atol=1e-8)
+
+
+def _rotating_hoop(omega, radius):
+    """A sphere |r| = R and the vertical plane turning at omega: a hoop spun about z."""
+
+    def f(r, t):
+        x, y, z = r
+        return np.array([(x * x + y * y + z * z - radius**2) / (2 * radius),
+                         -np.sin(omega * t) * x + np.cos(omega * t) * y])
+
+    def jac(r, t):
+        return np.array([r / radius, [-np.sin(omega * t), np.cos(omega * t), 0.0]])
+
+    return f, jac
+
+
+def test_bead_on_rotating_hoop_needs_time_dependent():
+    # audit43: with the default time_dependent=False the df/dt terms were dropped silently: a
+    # bead started at rest relative to the hoop at its equilibrium cos(theta0) = g / (W^2 R)
+    # slid 1.16 rad away within 3 s while the reported violation stayed 1e-16
+    W, R, g = 5.0, 1.0, 9.81
+    th0 = np.arccos(g / (W**2 * R))
+    f, jac = _rotating_hoop(W, R)
+    grav = lambda t, r, v: np.array([0.0, 0.0, -g])  # noqa: E731
+    t = np.linspace(0.0, 3.0, 7)
+    r0 = [R * np.sin(th0), 0.0, -R * np.cos(th0)]
+    v0 = [0.0, W * R * np.sin(th0), 0.0]
+    with pytest.raises(InvalidInputError, match="time_dependent=True"):
+        mech.solve_constrained(1.0, r0, v0, t, f, jac, grav)
+    # a bead on the axis (where the plane's turning leaves f unchanged) is caught too
+    with pytest.raises(InvalidInputError, match="time_dependent=True"):
+        mech.solve_constrained(1.0, [0.0, 0.0, -R], [0.0, 0.0, 0.0], t, f, jac, grav)
+
+
+@pytest.mark.slow
+def test_bead_on_rotating_hoop_equilibrium_and_small_oscillations():
+    # time_dependent=True (slow: ~10 ms per step from the nested Ridders derivatives): the bead
+    # stays at its relative equilibrium, and oscillates about it at W sin(theta0) (Taylor,
+    # Classical Mechanics, 2005, ex. 7.6)
+    W, R, g = 5.0, 1.0, 9.81
+    th0 = np.arccos(g / (W**2 * R))
+    f, jac = _rotating_hoop(W, R)
+    grav = lambda t, r, v: np.array([0.0, 0.0, -g])  # noqa: E731
+    t = np.linspace(0.0, 0.3, 4)
+    tr = mech.solve_constrained(1.0, [R * np.sin(th0), 0.0, -R * np.cos(th0)],
+                                [0.0, W * R * np.sin(th0), 0.0], t, f, jac, grav,
+                                time_dependent=True)
+    theta = np.arctan2(np.hypot(tr.r[:, 0], tr.r[:, 1]), -tr.r[:, 2])
+    np.testing.assert_allclose(theta, th0, atol=1e-9)
+    np.testing.assert_allclose(np.arctan2(tr.r[:, 1], tr.r[:, 0]), W * t, atol=1e-9)
+    period = 2 * np.pi / (W * np.sin(th0))
+    d = 1e-4
+    tr = mech.solve_constrained(1.0, [R * np.sin(th0 + d), 0.0, -R * np.cos(th0 + d)],
+                                [0.0, W * R * np.sin(th0 + d), 0.0], [0.0, period / 2, period],
+                                f, jac, grav, time_dependent=True)
+    theta = np.arctan2(np.hypot(tr.r[:, 0], tr.r[:, 1]), -tr.r[:, 2])
+    np.testing.assert_allclose((theta - th0) / d, [1.0, -1.0, 1.0], atol=1e-3)

@@ -76,6 +76,11 @@ def test_phase_portrait_levels():
     two = mech.HamiltonianSystem(sp.Symbol("a") ** 2 + sp.Symbol("b") ** 2, ["x", "y"], ["a", "b"])
     with pytest.raises(ShapeError):
         mech.phase_portrait(two, (-1, 1), (-1, 1))
+    # audit43: a sympy expression (as legendre_transform returns) gave a bare TypeError
+    # "'Add' object is not callable"
+    q, p = sp.symbols("q p")
+    with pytest.raises(InvalidInputError, match="HamiltonianSystem"):
+        mech.phase_portrait(p**2 / 2 - sp.cos(q), (-1, 1), (-1, 1), 3)
 
 
 def test_poincare_section_integrable_and_henon_heiles():

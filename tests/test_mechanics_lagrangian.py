@@ -186,3 +186,37 @@ def test_simulate_converts_quantities_instead_of_stripping_them():
     np.testing.assert_allclose(in_deg.energy, in_rad.energy, rtol=1e-14)
     np.testing.assert_allclose(sys.energy([[30.0]] * u.deg, [[0.0]] / u.s),
                                -G * np.cos(np.radians(30.0)), rtol=1e-14)
+
+
+def test_parameters_may_be_named_by_string():
+    # audit43: {"m": 1.0, "k": 4.0} for symbols declared positive=True was skipped by sympy's
+    # subs (Symbol("m") != Symbol("m", positive=True)), and the error said "symbols without
+    # values: m" although m had been given; now keys match the model's symbols by name
+    x = dynamicsymbols("x")
+    m, k = sp.symbols("m k", positive=True)
+    osc = mech.LagrangianSystem(m * x.diff() ** 2 / 2 - k * x**2 / 2, [x], {"m": 1.0, "k": 4.0})
+    tr = osc.simulate([1.0], [0.0], [0.0, np.pi / 4, np.pi / 2])
+    np.testing.assert_allclose(tr.q[:, 0], np.cos(2.0 * tr.t), atol=1e-10)
+    plain = mech.LagrangianSystem(m * x.diff() ** 2 / 2 - k * x**2 / 2, [x],
+                                  {sp.Symbol("m"): 1.0, sp.Symbol("k"): 4.0})
+    assert plain.parameters == osc.parameters
+    with pytest.raises(InvalidInputError, match="'kk' is not a symbol"):
+        mech.LagrangianSystem(m * x.diff() ** 2 / 2 - k * x**2 / 2, [x], {"m": 1.0, "kk": 4.0})
+    q, p = sp.symbols("q p")
+    w = sp.symbols("w", positive=True)
+    ham = mech.HamiltonianSystem(p**2 / 2 + w**2 * q**2 / 2, [q], [p], {"w": 2.0})
+    np.testing.assert_allclose(ham.simulate([1.0], [0.0], [0.0, np.pi / 2]).q[-1], [-1.0],
+                               atol=1e-10)
+
+
+def test_central_potential_names_a_numpy_potential():
+    # audit43: lambda r: -np.exp(-r) / r gave numpy's bare TypeError "loop of ufunc does not
+    # support argument 0 of type Mul which has no callable exp method"
+    with pytest.raises(InvalidInputError, match="sympy.exp"):
+        mech.central_potential(lambda r: -np.exp(-r) / r)
+    with pytest.raises(InvalidInputError, match="sympy expression"):
+        mech.central_potential(lambda r: "x")
+    yukawa = mech.central_potential(lambda r: -sp.exp(-r) / r)
+    tr = yukawa.simulate([1.0, 0.0], [0.0, 1.0], [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(tr.energy, tr.energy[0], atol=1e-11)
+    np.testing.assert_allclose(tr.q[:, 0] ** 2 * tr.qdot[:, 1], 1.0, rtol=1e-11)  # m r^2 phi'

@@ -335,3 +335,32 @@ def test_non_symmetric_inertia_tensors_are_refused():
         mech.integrate_rigid_body(bad, [1.0, 0.0, 0.0], [0.0, 1.0])
     with pytest.raises(InvalidInputError, match="symmetric"):
         mech.principal_axes(bad)
+
+
+def test_unphysical_inertia_is_refused_everywhere():
+    # audit43: principal_axes and parallel_axis took a tensor with a negative moment or with
+    # I3 > I1 + I2 (returned moments [-1, 1, 1] / [1, 1, 5] as if of a body), and
+    # torque_free_precession_rate(1, 3, 1) gave a rate of 2 rad/s for a "symmetric body" with
+    # I3 = 3 I1, which no body has (I3 <= 2 I1: a flat disc is the limit)
+    negative, triangle = np.diag([-1.0, 1.0, 1.0]), np.diag([1.0, 1.0, 5.0])
+    for bad, match in ((negative, "negative principal moment"), (triangle, "triangle")):
+        with pytest.raises(DomainError, match=match):
+            mech.principal_axes(bad)
+        with pytest.raises(DomainError, match=match):
+            mech.parallel_axis(bad, 1.0, [1.0, 0.0, 0.0])
+        with pytest.raises(DomainError):  # refused before audit43 too
+            mech.euler_equations(bad, [1.0, 0.0, 0.0])
+    with pytest.raises(DomainError, match="triangle"):
+        mech.torque_free_precession_rate(1.0, 3.0, 1.0)
+    with pytest.raises(DomainError, match="triangle"):
+        mech.torque_free_precession_rate([1.0, 1.0], [1.5, 2.5], 1.0)
+    # the limits are real bodies: a thin rod (0, I, I), a flat plate (I1 + I2 = I3), a disc
+    rod = mech.inertia_thin_rod(3.0, 2.0)
+    np.testing.assert_allclose(mech.principal_axes(rod)[0], [0.0, 1.0, 1.0], atol=1e-15)
+    np.testing.assert_allclose(mech.parallel_axis(rod, 3.0, [0, 0, 1.0])[0, 0], 4.0)
+    plate = mech.inertia_box(12.0, 1.0, 2.0, 0.0)
+    rot = Rotation.from_euler("ZXZ", [0.3, 1.1, -0.4]).as_matrix()
+    np.testing.assert_allclose(mech.principal_axes(rot @ plate @ rot.T)[0], [1.0, 4.0, 5.0],
+                               rtol=1e-13)
+    disc = mech.inertia_solid_cylinder(2.0, 1.0, 0.0)  # I1 = m R^2 / 4, I3 = m R^2 / 2 = 2 I1
+    assert mech.torque_free_precession_rate(disc[0, 0], disc[2, 2], 3.0) == pytest.approx(3.0)

@@ -304,6 +304,23 @@ class BinetOrbit:
         return np.stack([self.r * np.cos(self.theta), self.r * np.sin(self.theta)], axis=-1)
 
 
+def _raise_plunge(sol, u0, r0):
+    """DomainError if a failed Binet integration stopped because u = 1/r blew up (r -> 0)."""
+    if sol.sol is None:
+        return
+    theta_end = float(sol.sol.t_max)
+    u_end = float(sol.sol(theta_end)[0])
+    if not (math.isfinite(u_end) and u_end > 1e3 * u0):
+        return
+    raise DomainError(
+        f"orbit_equation: the orbit falls into the centre: u = 1/r grows without bound as theta "
+        f"approaches {theta_end:.9g} rad (r = {1.0 / u_end:.3g} there, r0 = {r0:.6g}). The "
+        "attraction grows faster than h^2 / r^3 at small r (a force steeper than 1/r^3) and "
+        "this angular momentum cannot stop the plunge, so r reaches 0 at a finite angle (no "
+        "further apsis). Integrate to a smaller theta_max, or give more angular momentum h."
+    )
+
+
 def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points=2000, rtol=1e-12):
     """Integrate the orbit equation (Binet) :math:`u'' + u = -F(1/u) / (h^2 u^2)`, u = 1/r.
 
@@ -370,7 +387,11 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
         dr_dtheta0 = scalar(dr_dtheta0, "length", "dr_dtheta0", True)
     for name, val in (("r0", r0), ("h", h)):
         if not val > 0:
-            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.")
+            hint = (" With h = 0 the motion is radial (theta stays constant, so there is no orbit "
+                    "equation in theta): integrate r(t) instead, e.g. with "
+                    "visviva.mechanics.solve_particles; infall from rest at r0 reaches r = 0 at "
+                    "t = pi/2 sqrt(r0^3 / 2 mu).") if name == "h" and val == 0 else ""
+            raise InvalidInputError(f"{name} must be finite and > 0; got {fmt_number(val)}.{hint}")
     theta_max = float(to_array(theta_max, "angle", "theta_max", finite=False))
     if not (math.isfinite(theta_max) and theta_max > 0):
         raise InvalidInputError("theta_max must be finite and > 0 (rad).")
@@ -427,6 +448,7 @@ def orbit_equation(force, r0, h, dr_dtheta0=0.0, theta_max=4.0 * np.pi, n_points
     sol = solve_ivp(rhs, (0.0, theta_max), [u0, du0], method="DOP853", t_eval=theta,
                     events=(apsis, escaped), rtol=rtol, atol=atol, dense_output=True)
     if not sol.success:
+        _raise_plunge(sol, u0, r0)
         raise InvalidInputError(f"the orbit equation could not be integrated: {sol.message}")
     u_s = sol.y[0]
     if sol.t_events[1].size or np.any(u_s <= 0) or not np.all(np.isfinite(u_s)):

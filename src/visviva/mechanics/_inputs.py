@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._units import broadcast_or_raise, require_finite_result, to_si
-from ..errors import DomainError, InvalidInputError, ShapeError
+from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
 
 __all__ = ["Inputs", "SI", "callable_result", "finite_rhs", "si_array", "si_value",
            "require_symmetric"]
@@ -157,6 +157,38 @@ def si_value(value, name: str):
     return value
 
 
+def model_parameters(expr, parameters, what: str) -> dict:
+    """``{symbol: value}`` for a sympy model, keys matched by name to the symbols of ``expr``.
+
+    A key given as a string (``{"m": 1.0}``), or as a Symbol whose assumptions differ from the
+    model's (``Symbol("m")`` for ``Symbol("m", positive=True)``), is not equal to the model's
+    symbol, so sympy's ``subs`` skipped it and the model said "symbols without values: m".
+    Each key is replaced by the model's symbol of the same name; a string naming no symbol of
+    the model is an InvalidInputError (a typo would otherwise be ignored).
+    """
+    by_name = {}
+    for symbol in expr.free_symbols:
+        by_name.setdefault(str(symbol), []).append(symbol)
+    out = {}
+    for key, value in dict(parameters or {}).items():
+        if key in expr.free_symbols:
+            out[key] = si_value(value, str(key))
+            continue
+        matches = by_name.get(str(key), [])
+        if not matches and not isinstance(key, str):
+            out[key] = si_value(value, str(key))  # a symbol the model does not use: unused
+            continue
+        if len(matches) != 1:
+            known = ", ".join(sorted(by_name))
+            raise InvalidInputError(
+                f"parameter {str(key)!r} is not a symbol of {what}"
+                + (" (several symbols have that name)" if matches else "")
+                + f"; its symbols are: {known}."
+            )
+        out[matches[0]] = si_value(value, str(key))
+    return out
+
+
 def require_symmetric(I, name: str) -> None:
     """InvalidInputError unless the (3, 3) tensor I is symmetric to rounding (1e-12 relative)."""
     asym = np.max(np.abs(I - I.T))
@@ -165,6 +197,30 @@ def require_symmetric(I, name: str) -> None:
             f"{name} must be symmetric (an inertia tensor is); |{name} - {name}.T| reaches "
             f"{asym:.3g}. Pass (I + I.T) / 2 if this is rounding, or check the off-diagonal "
             "products of inertia."
+        )
+
+
+def require_physical_inertia(moments, name: str, context: str) -> None:
+    """DomainError unless principal moments (ascending, last axis) are those of a real body.
+
+    A body's principal moments are >= 0 and obey the triangle inequality I3 <= I1 + I2
+    (equality for a plane lamina, zero moments for a rod or a point), both to 1e-12 of the
+    largest moment (Goldstein 3rd ed. sec. 5.3; Landau & Lifshitz, *Mechanics*, sec. 32).
+    """
+    moments = np.asarray(moments, dtype=float)
+    tol = 1e-12 * np.abs(moments[..., 2])
+    if np.any(moments[..., 0] < -tol):
+        raise DomainError(
+            f"{context}: {name} has a negative principal moment ({moments[..., 0].min():.6g}); "
+            "every moment of inertia sum m (r^2 - (r.n)^2) is >= 0. Check the signs of the "
+            "products of inertia (I_xy = -sum m x y) and of the moments."
+        )
+    excess = moments[..., 2] - moments[..., 0] - moments[..., 1]
+    if np.any(excess > tol):
+        raise DomainError(
+            f"{context}: the principal moments {moments} of {name} violate the triangle "
+            "inequality I3 <= I1 + I2 that every real body satisfies (equality for a flat "
+            "plate); check the inertia tensor."
         )
 
 
@@ -230,6 +286,23 @@ def callable_result(
             "negative number) and its units."
         )
     return arr.reshape(shape)
+
+
+def ivp_failure(sol, context: str, t_end) -> ConvergenceError:
+    """The ConvergenceError for a failed :func:`scipy.integrate.solve_ivp` run, naming where.
+
+    scipy's own message ("Required step size is less than spacing between numbers") says
+    neither when nor why; the step collapses where the motion becomes singular.
+    """
+    reached = float(sol.t[-1]) if np.size(sol.t) else float("nan")
+    return ConvergenceError(
+        f"{context}: the integrator failed after t = {reached:.9g} (the last output time reached; "
+        f"the run was to t = {float(t_end):.9g}): {sol.message} The step size collapses where the "
+        "equations of motion become singular: a collision (a distance falling to 0 under an "
+        "attractive force, e.g. radial infall reaches r = 0 at the free-fall time "
+        "pi/2 sqrt(r0^3 / 2 mu)), a force growing without bound, or a very stiff system (try "
+        "method='Radau'). End the run before that time, or soften the force."
+    )
 
 
 IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import Inputs, callable_result, finite_rhs, ivp_failure
 from .particles import Trajectory, check_times, particle_inputs
 
 __all__ = ["ConstrainedTrajectory", "solve_constrained", "pendulum_constraint"]
@@ -148,6 +148,38 @@ class _Constraint:
             return (plus - 2 * f0 + minus) / (h * h)
 
         return ridders_extrapolate(second, h0)
+
+
+def _refuse_hidden_time_dependence(con, x0, t):
+    """InvalidInputError if f(r0, t) changes with t although time_dependent is False.
+
+    The partial derivatives of f with respect to t enter f' and f'' only for rheonomic
+    constraints; left out, the motion follows a constraint frozen at each instant (a bead on a
+    rotating hoop slides off its equilibrium) while f = 0 still holds to rounding.
+    """
+    J = con.jacobian(x0, t[0])
+    size = max(1.0, np.max(np.abs(x0)))
+    # the initial positions and a point next to them (a moving constraint can be still at r0,
+    # e.g. a hoop rotating about an axis through the bead)
+    for k, x in enumerate((x0, x0 + 1e-3 * size * np.sin(np.arange(1.0, x0.size + 1.0)))):
+        try:
+            values = [con.value(x, time) for time in np.linspace(t[0], t[-1], 9)]
+        except InvalidInputError:
+            if k == 0:
+                raise
+            return  # f is not defined off the constraint surface: the probe at r0 must do
+        f0 = values[0]
+        scale = max(np.max(np.abs(J)) * size, np.max(np.abs(f0)), np.finfo(float).tiny)
+        for time, value in zip(np.linspace(t[0], t[-1], 9)[1:], values[1:], strict=True):
+            change = np.max(np.abs(value - f0))
+            if change > 1e-12 * scale:
+                raise InvalidInputError(
+                    "solve_constrained: constraint(r, t) depends on t explicitly (at fixed "
+                    f"positions it changes by {change:.3g} between t = {t[0]:.9g} and "
+                    f"t = {time:.9g}), but time_dependent is False, which leaves out the terms in "
+                    "df/dt and the motion would be wrong with f = 0 still holding. Pass "
+                    "time_dependent=True for a moving constraint (a rotating hoop or wire)."
+                )
 
 
 def _solve_gram(A, b):
@@ -288,13 +320,15 @@ def solve_constrained(
         return x, v
 
     x0, u0 = r0.ravel(), v0.ravel()
+    if not time_dependent:
+        _refuse_hidden_time_dependence(con, x0, t)
     if project:
         x0, u0 = projected(x0, u0, t[0])
     sol = solve_ivp(
         finite_rhs(rhs, "solve_constrained"), (t[0], t[-1]), np.concatenate([x0, u0]), method=method, t_eval=t, rtol=rtol, atol=atol
     )
     if sol.status == -1:
-        raise ConvergenceError(f"solve_constrained: the integrator failed: {sol.message}")
+        raise ivp_failure(sol, "solve_constrained", t[-1])
     X, V = sol.y[:n].T.copy(), sol.y[n:].T.copy()
     lams, forces, viol = [], [], []
     for i, ti in enumerate(sol.t):

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from ._inputs import finite_rhs, ivp_method, si_array, si_value
+from ..errors import DomainError, InvalidInputError, ShapeError
+from ._inputs import finite_rhs, ivp_failure, ivp_method, model_parameters, si_array
 
 __all__ = [
     "HamiltonianSystem",
@@ -256,7 +256,7 @@ class HamiltonianSystem:
         self.dof = len(self.coordinates)
         self._q = sp.symbols(f"q0:{self.dof}")
         H = sp.sympify(hamiltonian).subs(dict(zip(self.coordinates, self._q, strict=True)))
-        H = H.subs({key: si_value(val, str(key)) for key, val in dict(parameters or {}).items()})
+        H = H.subs(model_parameters(H, parameters, "H"))
         free = H.free_symbols - set(self._q) - set(self.momenta) - {self.time}
         if free:
             raise InvalidInputError(
@@ -334,7 +334,7 @@ class HamiltonianSystem:
         sol = solve_ivp(finite_rhs(self.rhs, "HamiltonianSystem.simulate"), (t[0], t[-1]), y0,
                         t_eval=t, rtol=rtol, atol=atol, method=method)
         if sol.status == -1:
-            raise ConvergenceError(f"HamiltonianSystem.simulate failed: {sol.message}")
+            raise ivp_failure(sol, "HamiltonianSystem.simulate", t[-1])
         n = self.dof
         return SymplecticTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy())
 
@@ -357,6 +357,12 @@ def phase_portrait(H, q_range, p_range, n=201):
         Mesh and H values; ``plt.contour(Q, P, E, levels)`` draws the phase portrait, each
         contour being a trajectory (energy is conserved).
     """
+    if not (isinstance(H, HamiltonianSystem) or callable(H)):
+        raise InvalidInputError(
+            f"phase_portrait: H must be a callable H(q, p) vectorised over arrays or a 1-dof "
+            f"HamiltonianSystem; got {type(H).__name__}. Wrap a sympy expression in "
+            "q and p as HamiltonianSystem(H, [q], [p]) or sympy.lambdify((q, p), H, 'numpy')."
+        )
     nq, npts = (n, n) if np.isscalar(n) else n
     q = np.linspace(*q_range, _count(nq, "n", 2))
     p = np.linspace(*p_range, _count(npts, "n", 2))
@@ -441,7 +447,7 @@ def poincare_section(
         finite_rhs(fun, "poincare_section"), (0.0, float(t_max)), y0, events=event, rtol=rtol, atol=atol, method="DOP853"
     )
     if sol.status == -1:
-        raise ConvergenceError(f"poincare_section: integration failed: {sol.message}")
+        raise ivp_failure(sol, "poincare_section", t_max)
     t_cross = sol.t_events[0]
     y_cross = sol.y_events[0].reshape(-1, y0.size)
     # the state at t = 0 may sit on the section: drop that spurious crossing

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ShapeError
-from ._inputs import Inputs, require_symmetric
+from ._inputs import Inputs, require_physical_inertia, require_symmetric
 
 __all__ = [
     "inertia_tensor",
@@ -177,6 +177,7 @@ def parallel_axis(I_cm, mass, displacement):
     if I.shape != (3, 3):
         raise ShapeError(f"I_cm must have shape (3, 3); got {I.shape}.")
     require_symmetric(I, "I_cm")
+    require_physical_inertia(np.linalg.eigvalsh(0.5 * (I + I.T)), "I_cm", "parallel_axis")
     m = ins.get(mass, "kg", "mass", nonnegative=True)
     d = ins.vector(displacement, "m", "displacement")
     if d.shape != (3,) or m.ndim:
@@ -210,6 +211,7 @@ def principal_axes(I):
         raise ShapeError(f"I must have shape (3, 3); got {I.shape}.")
     require_symmetric(I, "I")
     moments, axes = np.linalg.eigh(0.5 * (I + I.T))
+    require_physical_inertia(moments, "I", "principal_axes")
     if np.linalg.det(axes) < 0:
         axes[:, 2] = -axes[:, 2]
     return ins.out(moments, "inertia"), axes

@@ -13,8 +13,16 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result, finite_rhs, ivp_method, si_array, si_value
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import (
+    Inputs,
+    callable_result,
+    finite_rhs,
+    ivp_failure,
+    ivp_method,
+    model_parameters,
+    si_array,
+)
 
 __all__ = [
     "LagrangianSystem",
@@ -111,9 +119,7 @@ class LagrangianSystem:
         self.coordinates = list(coordinates)
         if not self.coordinates:
             raise InvalidInputError("coordinates must list at least one generalised coordinate.")
-        self.parameters = {
-            key: si_value(value, str(key)) for key, value in dict(parameters or {}).items()
-        }
+        self.parameters = model_parameters(self.lagrangian, parameters, "the Lagrangian")
         self.forces = forces
         self.time = me.dynamicsymbols._t
         self.dof = len(self.coordinates)
@@ -227,9 +233,26 @@ class LagrangianSystem:
             atol=atol,
         )
         if sol.status == -1:
-            raise ConvergenceError(f"LagrangianSystem.simulate failed: {sol.message}")
+            raise ivp_failure(sol, "LagrangianSystem.simulate", t[-1])
         n = self.dof
         return LagrangianTrajectory(sol.t, sol.y[:n].T.copy(), sol.y[n:].T.copy(), self)
+
+
+def _symbolic_potential(potential, r, sp):
+    """``potential(r)`` for the sympy function r(t), checked to be a sympy expression."""
+    try:
+        V = sp.sympify(potential(r), strict=True)
+    except (TypeError, AttributeError, sp.SympifyError) as exc:
+        raise InvalidInputError(
+            f"central_potential: potential(r) failed on the sympy symbol r ({type(exc).__name__}: "
+            f"{exc}). It must build a sympy expression: use sympy functions (sympy.exp, "
+            "sympy.log), not numpy or math ones, e.g. lambda r: -sympy.exp(-r) / r."
+        ) from exc
+    if not isinstance(V, sp.Expr):
+        raise InvalidInputError(
+            f"central_potential: potential(r) must return a sympy expression; got {V!r}."
+        )
+    return V
 
 
 def _physical(value, unit: str, name: str, *, positive: bool = True) -> float:
@@ -303,7 +326,7 @@ def central_potential(potential=None, m=1.0, k=1.0) -> LagrangianSystem:
     sp, me = _sympy()
     r, ph = me.dynamicsymbols("r phi")
     M, K = sp.symbols("m k", positive=True)
-    V = -K / r if potential is None else potential(r)
+    V = -K / r if potential is None else _symbolic_potential(potential, r, sp)
     L = M * (r.diff() ** 2 + r**2 * ph.diff() ** 2) / 2 - V
     k = Inputs().get(k, "energy_length", "k")  # any sign: attractive (> 0) or repulsive
     return LagrangianSystem(L, [r, ph], {M: _physical(m, "kg", "m"), K: float(k)})

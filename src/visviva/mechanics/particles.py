@@ -12,8 +12,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInputError, ShapeError
-from ._inputs import Inputs, callable_result
+from ..errors import InvalidInputError, ShapeError
+from ._inputs import Inputs, callable_result, ivp_failure
 
 __all__ = [
     "Trajectory",
@@ -213,7 +213,7 @@ def solve_particles(
         rhs, (t[0], t[-1]), y0, method=method, t_eval=t, rtol=rtol, atol=atol, events=wrapped
     )
     if sol.status == -1:
-        raise ConvergenceError(f"solve_particles: the integrator failed: {sol.message}")
+        raise ivp_failure(sol, "solve_particles", t[-1])
     Y = sol.y.T
     n = Y.shape[0]
     return Trajectory(
@@ -349,6 +349,8 @@ def projectile(r0, v0, t, *, drag: str | None = None, k: float = 0.0, g: float =
     (``drag="linear"``) or - k ‖v‖ v (``drag="quadratic"``). Extra keywords go to
     :func:`solve_particles`. For linear drag the exact answer is :func:`projectile_linear_drag`;
     for quadratic drag from rest, v(t) = v_T tanh(g t / v_T) with v_T = sqrt(g / k).
+    ``r0`` and ``v0`` hold at ``t[0]``, where the integration starts (``projectile_linear_drag``
+    counts its times from launch: compare it at ``t - t[0]``).
     """
     if drag not in (None, "linear", "quadratic"):
         raise InvalidInputError(f"drag must be None, 'linear' or 'quadratic'; got {drag!r}.")

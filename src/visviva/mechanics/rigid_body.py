@@ -17,7 +17,14 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DomainError, InvalidInputError, ShapeError, fmt_number
-from ._inputs import Inputs, callable_result, ivp_method, require_symmetric
+from ._inputs import (
+    Inputs,
+    callable_result,
+    ivp_failure,
+    ivp_method,
+    require_physical_inertia,
+    require_symmetric,
+)
 
 __all__ = [
     "rotation_matrix_313",
@@ -185,11 +192,7 @@ def _body_inertia(I):
             "point has a zero moment and no rotational dynamics about that axis); got principal "
             f"moments {moments}."
         )
-    if moments[2] > moments[0] + moments[1] + 1e-12 * moments[2]:
-        raise DomainError(
-            f"principal moments {moments} violate the triangle inequality I3 <= I1 + I2 that "
-            "every real body satisfies; check the inertia tensor."
-        )
+    require_physical_inertia(moments, "I", "Euler's equations")
     return 0.5 * (I + I.T)
 
 
@@ -357,9 +360,7 @@ def integrate_rigid_body(
     else:
         sol = solve_ivp(rhs, (t[0], t[-1]), y0, method=method, t_eval=t, rtol=rtol, atol=atol)
         if not sol.success:
-            from ..errors import ConvergenceError
-
-            raise ConvergenceError(f"integrate_rigid_body: solve_ivp failed: {sol.message}")
+            raise ivp_failure(sol, "integrate_rigid_body", t[-1])
         Y = sol.y
     quats = Y[:4].T / np.linalg.norm(Y[:4].T, axis=1, keepdims=True)
     return RigidBodyTrajectory(t=t, quaternions=quats, omega=Y[4:].T.copy(), inertia=Ib)
@@ -389,6 +390,9 @@ def torque_free_precession_rate(I1, I3, omega3):
     I3 = ins.get(I3, "inertia", "I3", positive=True)
     w3 = ins.get(omega3, "angular_rate", "omega3")
     ins.broadcast("torque_free_precession_rate", I1=I1, I3=I3, omega3=w3)
+    I1b, I3b = np.broadcast_arrays(I1, I3)
+    require_physical_inertia(np.sort(np.stack([I1b, I1b, I3b], axis=-1), axis=-1),
+                             "(I1, I1, I3)", "torque_free_precession_rate")
     return ins.out((I3 - I1) * w3 / I1, "rate")
 
 

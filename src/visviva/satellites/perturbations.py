@@ -563,6 +563,7 @@ class SphericalHarmonics(Perturbation):
         return self.body
 
     PARAMETERS = ("HARMONICS_DEGREE", "FRAME_MATRIX")
+    uses_pole = True  # the field's axis follows the Earth's pole of date (precession-nutation)
 
     def pack(self, model) -> None:
         if model.epoch is None:
@@ -572,10 +573,18 @@ class SphericalHarmonics(Perturbation):
             )
         from .frames import gcrs_to_itrs
 
+        from ..core.geodetic import body_fixed_matrix
+
         basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), model.epoch)
         m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes
+        # the kernel's frame is A R3(w t) C(p(t)) (the pole p of the model's table): A = M0 C0^T
+        # makes it M0 at the epoch, and the precession-nutation of the pole moves it after
+        probe = model.force.copy()
+        probe[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = np.eye(3).ravel()
+        c0 = np.empty((3, 3))
+        body_fixed_matrix(0.0, probe, c0)
         model.force[fb.HARMONICS_DEGREE] = self.degree
-        model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = m0.ravel()
+        model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = (m0 @ c0.T).ravel()
         model.sh = self.scaled(model.gm_km3_s2, model.central_body.radius_km)
 
     def scaled(self, gm_km3_s2: float, radius_km: float) -> np.ndarray:

@@ -3,7 +3,7 @@ pole (precession-nutation) over long runs.
 
 Before audit42 the GCRS -> ITRS rotation was computed once at the state's epoch and the Earth
 then turned about that frozen ITRS z axis: the field's axis drifted from the Earth's by the
-precession and nutation since the epoch (about 4" after 30 days, 25" after half a year), which
+precession and nutation since the epoch (1.5" after 30 days, 11" after half a year), which
 moved a LEO orbit 176 m after 30 days against the same J2 field about the Earth's pole of date
 (``Zonal``), silently.
 """

@@ -515,9 +515,12 @@ class SphericalHarmonics(Perturbation):
     U = GM/r sum_n sum_m (R/r)^n P_nm(sin phi) (C_nm cos m lambda + S_nm sin m lambda),
     evaluated with the V_nm/W_nm recursions of Cunningham (1970) as in Montenbruck & Gill (2000),
     sec. 3.2.4-3.2.5, in the body-fixed frame. The GCRS -> ITRS rotation (precession, nutation,
-    Earth rotation, polar motion; astropy, offline IERS data) is computed once at the state's
-    epoch; during the run the Earth turns about the ITRS z axis at its nominal rate (precession
-    and nutation change by < 1 arcsec per day, negligible over a few days). Coefficients are
+    Earth rotation, polar motion; astropy, offline IERS data) is computed at the state's epoch;
+    during the run the Earth turns about its pole of date (the celestial intermediate pole of
+    :func:`earth_pole_table`, which precession and nutation move by about 50" a year) at its
+    nominal rate, and polar motion stays at the epoch's (it changes by ~0.1" a month;
+    :func:`visviva.core.geodetic.body_fixed_matrix`). Until audit42 the frame was frozen at
+    the epoch: its axis was 1.5" off the Earth's after 30 days, 22" after a year. Coefficients are
     rescaled to the state's GM and the body's radius, and degrees 0 and 1 are dropped.
     Do not combine with :class:`Zonal` (the zonal terms are included).
     """
@@ -571,9 +574,8 @@ class SphericalHarmonics(Perturbation):
                 "SphericalHarmonics needs the state's epoch (to orient the Earth): build the "
                 "state with epoch=Time(...)."
             )
-        from .frames import gcrs_to_itrs
-
         from ..core.geodetic import body_fixed_matrix
+        from .frames import gcrs_to_itrs
 
         basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), model.epoch)
         m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes

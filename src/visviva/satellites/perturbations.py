@@ -191,10 +191,11 @@ class AtmosphericDrag(Perturbation):
     ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
     space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
     ``ap``: daily Ap; never downloaded). The density is tabulated once at the state's epoch on a
-    grid of geodetic altitude (80-1000 km, 10 km), geodetic latitude (5 deg) and hour angle
-    from the Sun (15 deg), and interpolated in ln(rho) during the run by a tricubic B-spline (C2,
-    periodic in hour angle, continued over the poles, linear in ln(rho) beyond the altitude
-    grid; within 0.4 % of direct NRLMSIS calls in 150-900 km); the bulge
+    grid of geodetic altitude (0-1000 km, 10 km; from 80 km before audit42), geodetic latitude
+    (5 deg) and hour angle from the Sun (15 deg), and interpolated in ln(rho) during the run by
+    a tricubic B-spline (C2, periodic in hour angle, continued over the poles, linear in ln(rho)
+    above 1000 km; within 0.4 % of direct NRLMSIS calls in 150-900 km, 8 % near the
+    tropopause); the bulge
     follows the Sun, but the seasonal and space-weather variation over the run is ignored
     (valid for runs of days; split longer runs).
     """
@@ -303,7 +304,7 @@ class AtmosphericDrag(Perturbation):
         """
         from pymsis import msis
 
-        alts = np.arange(80.0, 1000.0 + 1e-9, 10.0)
+        alts = np.arange(0.0, 1000.0 + 1e-9, 10.0)  # from the ground (80 km before audit42)
         lats = np.arange(-90.0, 90.0 + 1e-9, 5.0)
         hours = np.arange(-180.0, 180.0 - 1e-9, 15.0)  # periodic: +180 is -180
         lons = np.mod(np.degrees(sun_longitude_rad) + hours + 180.0, 360.0) - 180.0

@@ -155,3 +155,15 @@ def test_gfc_norm_spellings(tmp_path):
     np.testing.assert_array_equal(fields["unnormalised"], fields["unnormalized"])
     assert fields["unnormalized"][0, 2, 0] == GFC_ROWS[1][2]  # read as it is
     assert fields["fully_normalized"][0, 2, 0] == pytest.approx(np.sqrt(5) * GFC_ROWS[1][2])
+
+
+def test_gfc_above_degree_80_asks_for_a_degree(tmp_path):
+    """audit42: a field beyond degree 80 read without degree= said 'got None'."""
+    from test_perturbations import GFC_HEADER
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    rows = [f"gfc {n} 0 1e-9 0 0 0" for n in range(2, 91)]
+    (tmp_path / "big.gfc").write_text(GFC_HEADER + "\n".join(rows) + "\n")
+    with pytest.raises(vv.InvalidInputError, match="goes to degree 90: give degree=N"):
+        SphericalHarmonics(tmp_path / "big.gfc")
+    assert SphericalHarmonics(tmp_path / "big.gfc", degree=80).degree == 80

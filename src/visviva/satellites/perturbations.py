@@ -536,9 +536,10 @@ class SphericalHarmonics(Perturbation):
         n_file = max(int(n) for n, _, _, _ in rows)
         n_max = n_file if degree is None else degree
         if not isinstance(n_max, int | np.integer) or not 2 <= n_max <= min(n_file, 80):
+            given = (f"the file goes to degree {n_file}: give degree=N to truncate it" if
+                     degree is None else f"got {fmt_number(degree)}")  # fmt: skip
             raise InvalidInputError(
-                f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; "
-                f"got {fmt_number(degree)}."
+                f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; {given}."
             )
         self.degree = int(n_max)
         self.gm_km3_s2 = gm * 1e-9

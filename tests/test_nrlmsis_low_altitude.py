@@ -47,3 +47,20 @@ def test_nrlmsis_drag_below_80_km_uses_nrlmsis_density(h_km):
     # these points; before audit42, extrapolated from 80 km: 16.5x, 8.3x, 4.4x, 1.8x, 1.1x)
     tol = 0.06 if h_km < 30.0 else 0.015
     assert rho_run / ref == pytest.approx(1.0, rel=tol), (rho_run, ref)
+
+
+def test_nrlmsis_runs_longer_than_ten_days_are_warned_about():
+    # audit42: the table is the epoch's; a 90-day run from the March equinox held March's
+    # densities to June (16-46 % higher at 400 km than NRLMSIS then), silently
+    pytest.importorskip("pymsis")
+    import warnings
+
+    drag = vv.AtmosphericDrag(0.02 * u.m**2 / u.kg, model="nrlmsis", f107=150.0, f107a=150.0,
+                              ap=4.0)  # fmt: skip
+    with pytest.warns(UserWarning, match="spans 11 days: the season"):
+        ForceModel(vv.EARTH.gm_km3_s2, [drag], epoch=EPOCH, span_s=(-86400.0, 10 * 86400.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ForceModel(vv.EARTH.gm_km3_s2, [drag], epoch=EPOCH, span_s=(0.0, 5 * 86400.0))
+        ForceModel(vv.EARTH.gm_km3_s2, [vv.AtmosphericDrag(0.02 * u.m**2 / u.kg)], epoch=EPOCH,
+                   span_s=(0.0, 30 * 86400.0))  # the exponential table has no season

@@ -285,6 +285,9 @@ class AtmosphericDrag(Perturbation):
         if self.needs_sun:
             from .ephemeris import sun_position
             from .frames import gcrs_to_itrs
+            from .msis_table import warn_long_run
+
+            warn_long_run(model.span_s)
 
             sun0 = sun_position(model.epoch).to_value(u.km)
             s_itrs, _ = gcrs_to_itrs(sun0, np.zeros(3), model.epoch)
@@ -303,6 +306,8 @@ class AtmosphericDrag(Perturbation):
         sizes for the slots ``DENSITY_GRID`` and ``DENSITY_GRID_SIZES`` of the force block.
         """
         from pymsis import msis
+
+        from .msis_table import spline_coefficients
 
         alts = np.arange(0.0, 1000.0 + 1e-9, 10.0)  # from the ground (80 km before audit42)
         lats = np.arange(-90.0, 90.0 + 1e-9, 5.0)
@@ -324,7 +329,7 @@ class AtmosphericDrag(Perturbation):
         rho = np.asarray(out[0, ..., 0], dtype=np.float64)  # (hours, lats, alts)
         if not np.all(np.isfinite(rho)) or np.any(rho <= 0):
             raise InvalidInputError("NRLMSIS returned invalid densities for these indices.")
-        table = _spline_coefficients(np.log(rho))
+        table = spline_coefficients(np.log(rho))
         meta = np.array(
             [alts[0], 10.0, np.radians(lats[0]), np.radians(5.0), np.radians(hours[0]),
              np.radians(15.0), len(alts), len(lats), len(hours)]
@@ -649,36 +654,3 @@ def ellipsoid_radius_of(body: Body) -> float:
     """Equatorial radius (km) of the ellipsoid of geodetic altitude: WGS-84's for the Earth
     (0.7 m longer than the gravity field's reference radius), the body's radius otherwise."""
     return c.EARTH_ELLIPSOID_RADIUS_KM if body.name == "earth" else body.radius_km
-
-
-def _spline_coefficients(values: np.ndarray, pad: int = 8) -> np.ndarray:
-    """Cubic B-spline coefficients of ``values`` (n_h, n_lat, n_alt) on a global grid: hour
-    angles periodic, latitudes -90..90 deg both poles included, altitudes uniform.
-
-    Across a pole the meridian continues at latitude 180 deg - phi on the opposite hour angle,
-    so the latitude axis is doubled into a full great circle (n_h even) and filtered as
-    periodic, like the hour angle: the spline is then smooth over the poles. The altitude axis
-    is padded with ``pad`` nodes continuing ln(rho) linearly (the end differences) before a
-    mirrored filter, so that the spline near the ends follows the exponential trend. Returns
-    the layout of :func:`visviva.core.perturbations.grid_log_density`.
-    """
-    from scipy.ndimage import spline_filter1d
-
-    n_h, n_l, n_a = values.shape
-    half = n_h // 2
-    # latitude node j of the great circle: j < n_l as given; beyond the pole, latitude node
-    # 2 (n_l - 1) - j on the hour angle half a turn away
-    back = values[(np.arange(n_h) + half) % n_h][:, n_l - 2:0:-1]
-    circle = np.concatenate([values, back], axis=1)
-    k = np.arange(1, pad + 1)[:, None, None]
-    low = circle[..., :1] - k[::-1].transpose(1, 2, 0) * (circle[..., 1:2] - circle[..., :1])
-    high = circle[..., -1:] + k.transpose(1, 2, 0) * (circle[..., -1:] - circle[..., -2:-1])
-    full = np.concatenate([low, circle, high], axis=2)
-    coef = spline_filter1d(full, 3, axis=0, mode="grid-wrap")
-    coef = spline_filter1d(coef, 3, axis=1, mode="grid-wrap")
-    coef = spline_filter1d(coef, 3, axis=2, mode="mirror")
-    coef = coef[np.arange(-1, n_h + 2) % n_h]
-    coef = coef[:, np.arange(-1, n_l + 1) % circle.shape[1]]
-    coef = coef[..., pad - 1 : pad + n_a + 1]
-    return np.ascontiguousarray(coef.reshape((n_h + 3) * (n_l + 2), n_a + 2))
-

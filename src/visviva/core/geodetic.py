@@ -4,7 +4,8 @@ The Earth's axis is not the z axis of the GCRS: the celestial intermediate pole 
 from it in 2024 (precession since J2000, growing by 0.014 deg a year). Every force and event
 that depends on the axis reads it here: the zonal field (:mod:`visviva.core.zonal`), the
 co-rotating atmosphere and the geodetic altitude of drag and of altitude events, the
-Lense-Thirring spin (:mod:`visviva.core.relativity`).
+Lense-Thirring spin (:mod:`visviva.core.relativity`), and the body-fixed frame of a full
+gravity field (:func:`body_fixed_matrix`, since audit42; frozen at the epoch before).
 
 The pole is tabulated once per run (``POLE`` slots of the force block,
 :mod:`visviva.core.force_block`): knots of its x, y components fixed in absolute time after the
@@ -27,7 +28,8 @@ import math
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 
-__all__ = ["body_fixed_matrix", "body_pole", "geodetic", "geodetic_altitude", "geodetic_altitudes", "pole_altitude"]
+__all__ = ["body_fixed_matrix", "body_pole", "geodetic", "geodetic_altitude", "geodetic_altitudes",
+           "pole_altitude"]
 
 
 @inline_kernel

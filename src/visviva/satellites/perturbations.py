@@ -246,7 +246,7 @@ class AtmosphericDrag(Perturbation):
                 "AtmosphericDrag needs ballistic_coefficient = Cd*A/m, e.g. "
                 "AtmosphericDrag(2.2 * 1.0 * u.m**2 / (100 * u.kg))."
             )
-        bc = to_array(self.ballistic_coefficient, "area_per_mass", "ballistic_coefficient")
+        bc = _area_per_mass(self.ballistic_coefficient, "ballistic_coefficient", "m / (Cd A)")
         if bc.ndim != 0:
             raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
         require_positive(bc, "ballistic_coefficient")
@@ -438,7 +438,7 @@ class SolarRadiationPressure(Perturbation):
                 "SolarRadiationPressure needs area_to_mass, e.g. "
                 "SolarRadiationPressure(0.02 * u.m**2 / u.kg)."
             )
-        am = to_array(self.area_to_mass, "area_per_mass", "area_to_mass")
+        am = _area_per_mass(self.area_to_mass, "area_to_mass", "m / A")
         cr = to_array(self.reflectivity, "dimensionless", "reflectivity")
         if am.ndim != 0 or cr.ndim != 0:  # (float() of an array raised a bare TypeError)
             raise InvalidInputError(
@@ -604,6 +604,19 @@ class SphericalHarmonics(Perturbation):
 
     def __repr__(self):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
+
+
+def _area_per_mass(value, name: str, inverse: str):
+    """``to_array(value, "area_per_mass", name)``; a mass over an area (``inverse``, e.g. the
+    ballistic coefficient m / (Cd A) of Vallado and of the US convention, in kg/m^2) is refused
+    with the reciprocal to give (audit42: astropy's 'cannot be converted' said nothing of it)."""
+    if isinstance(value, u.Quantity) and value.unit.is_equivalent(u.kg / u.m**2):
+        inv = np.atleast_1d((1.0 / value).to_value(u.m**2 / u.kg))
+        raise InvalidInputError(
+            f"{name} is an area over a mass (m^2/kg); got {value}, a mass over an area "
+            f"({inverse}): give its reciprocal, {name}={fmt_number(inv[0])} * u.m**2 / u.kg."
+        )
+    return to_array(value, "area_per_mass", name)
 
 
 def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):

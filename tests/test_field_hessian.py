@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 import visviva as vv
 from visviva.core import force_block as fb
 from visviva.core.force_partials import _add_harmonics_gradient
+from visviva.core.geodetic import body_fixed_matrix
 from visviva.core.perturbations import FORCE_SIZE, cunningham_vw
 
 
@@ -48,15 +49,8 @@ def _derive_old(axis, n, m, a, b, ks, cvs, cws):
 @numba.njit(cache=False)
 def _hessian_old(t, x, yy, z, force, sh, G):
     # the earlier kernel, term by term (visviva before the odspeed change)
-    th = force[fb.ROTATION_RATE] * t
-    c = np.cos(th)
-    s = np.sin(th)
-    m0 = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
-    M = np.empty((3, 3))
-    for j in range(3):
-        M[0, j] = c * m0[j] + s * m0[3 + j]
-        M[1, j] = -s * m0[j] + c * m0[3 + j]
-        M[2, j] = m0[6 + j]
+    M = np.empty((3, 3))  # the frame as the kernel has it (about the pole of date since audit42)
+    body_fixed_matrix(t, force, M)
     bx = M[0, 0] * x + M[0, 1] * yy + M[0, 2] * z
     by = M[1, 0] * x + M[1, 1] * yy + M[1, 2] * z
     bz = M[2, 0] * x + M[2, 1] * yy + M[2, 2] * z

@@ -110,6 +110,8 @@ def test_ensemble_file_with_inconsistent_content_is_refused(saved, tmp_path, key
     ("gfc 3 1 ", "trnd 3 1 ", "time-variable field"),
     ("gfc 3 1 ", "gcf 3 1 ", "'gcf' is not a data line"),
     ("gfc 3 1 ", "gfc 3 0 ", "degree 3, order 0 are given again .first on line"),
+    # audit42: any norm but 'unnormalized' was read as fully normalised
+    ("norm fully_normalized", "norm geodesy_4pi", "norm must be 'fully_normalized' or"),
 ])
 def test_gfc_file_error_names_the_line(tmp_path, old, new, match):
     from test_perturbations import GFC_HEADER, GFC_ROWS
@@ -135,3 +137,33 @@ def test_gfc_secular_rates_are_left_out(tmp_path):
     a = SphericalHarmonics(tmp_path / "a.gfc").coefficients
     np.testing.assert_array_equal(a, SphericalHarmonics(tmp_path / "b.gfc").coefficients)
     assert a[0, 2, 0] == pytest.approx(-vv.EARTH.jn(2), rel=1e-5)
+
+
+def test_gfc_norm_spellings(tmp_path):
+    """audit42: 'norm unnormalised' (British spelling) was read as fully normalised, every C_nm
+    and S_nm off by the normalisation factor (C20 sqrt(5) = 2.2 times too large, silently)."""
+    from test_perturbations import GFC_HEADER, GFC_ROWS
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    lines = "\n".join(f"gfc {n} {m} {c:.15e} {s:.15e} 0 0" for n, m, c, s in GFC_ROWS) + "\n"
+    fields = {}
+    for word in ("fully_normalized", "fully_normalised", "unnormalized", "unnormalised"):
+        (tmp_path / f"{word}.gfc").write_text(
+            GFC_HEADER.replace("norm fully_normalized", f"norm {word}") + lines)
+        fields[word] = SphericalHarmonics(tmp_path / f"{word}.gfc").coefficients
+    np.testing.assert_array_equal(fields["fully_normalised"], fields["fully_normalized"])
+    np.testing.assert_array_equal(fields["unnormalised"], fields["unnormalized"])
+    assert fields["unnormalized"][0, 2, 0] == GFC_ROWS[1][2]  # read as it is
+    assert fields["fully_normalized"][0, 2, 0] == pytest.approx(np.sqrt(5) * GFC_ROWS[1][2])
+
+
+def test_gfc_above_degree_80_asks_for_a_degree(tmp_path):
+    """audit42: a field beyond degree 80 read without degree= said 'got None'."""
+    from test_perturbations import GFC_HEADER
+    from visviva.satellites.perturbations import SphericalHarmonics
+
+    rows = [f"gfc {n} 0 1e-9 0 0 0" for n in range(2, 91)]
+    (tmp_path / "big.gfc").write_text(GFC_HEADER + "\n".join(rows) + "\n")
+    with pytest.raises(vv.InvalidInputError, match="goes to degree 90: give degree=N"):
+        SphericalHarmonics(tmp_path / "big.gfc")
+    assert SphericalHarmonics(tmp_path / "big.gfc", degree=80).degree == 80

@@ -542,12 +542,13 @@ def test_nrlmsis_spline_gradient_in_space_matches_differences_and_is_continuous_
 
 
 def test_nrlmsis_density_beyond_the_grid_continues_exponentially():
-    # above 1000 km and below 80 km ln(rho) continues linearly with the end slope
+    # above 1000 km and below the ground (the table starts at 0 km since audit42, 80 km
+    # before) ln(rho) continues linearly with the end slope
     pytest.importorskip("pymsis")
     from visviva.core.perturbations import grid_log_density
 
     force, table = _msis_spline(0.3)
-    for edge, beyond in ((1000.0, 1150.0), (80.0, 60.0)):
+    for edge, beyond in ((1000.0, 1150.0), (0.0, -5.0)):
         val, slope, _, _ = grid_log_density(edge, 0.2, 0.5, force, table)
         out = grid_log_density(beyond, 0.2, 0.5, force, table)
         assert slope < 0

@@ -90,8 +90,10 @@ EPH_STEP = 15
 EPH_N = 16
 #: Degree N of the full spherical-harmonic field (0: none).
 HARMONICS_DEGREE = 17
-#: First of 9 slots: the 3x3 matrix (row-major) from the propagation frame to the body-fixed
-#: frame at t = 0 (the body then turns about z at :data:`ROTATION_RATE`).
+#: First of 9 slots: the 3x3 matrix A (row-major) of the body-fixed frame at t = 0 after the
+#: pole's own motion: r_bf = A R3(w t) C(p(t)) r, C(p) taking the pole of :data:`POLE` to z
+#: (:func:`visviva.core.geodetic.body_fixed_matrix`; the body turns about its pole at
+#: :data:`ROTATION_RATE`).
 FRAME_MATRIX = 18
 #: Density model: 0 exponential table, 1 gridded log-density (NRLMSIS tabulated at the epoch).
 DENSITY_MODEL = 27
@@ -157,7 +159,7 @@ LAYOUT = (
     ("EPH_STEP", EPH_STEP, 1, "s", "ephemeris grid step"),
     ("EPH_N", EPH_N, 1, "", "number of ephemeris grid points"),
     ("HARMONICS_DEGREE", HARMONICS_DEGREE, 1, "", "degree of the spherical-harmonic field"),
-    ("FRAME_MATRIX", FRAME_MATRIX, 9, "", "propagation frame to body-fixed frame at t = 0"),
+    ("FRAME_MATRIX", FRAME_MATRIX, 9, "", "body-fixed frame at t = 0 about the pole of date"),
     ("DENSITY_MODEL", DENSITY_MODEL, 1, "", "0 exponential table, 1 NRLMSIS grid"),
     ("DENSITY_GRID", DENSITY_GRID, 6, "km, rad", "grid starts and steps (altitude, latitude, "
      "hour angle)"),
@@ -194,7 +196,7 @@ def with_time_origin(force, t0_s: float):
     ndarray (FORCE_SIZE,)
         The ephemeris grid's and the pole table's starts moved by ``-t0_s`` and the
         body-fixed frame matrix at t = 0 turned by the body's rotation over ``t0_s``
-        (r_bf = Rz(w (t' + t0)) M0 r = Rz(w t') [Rz(w t0) M0] r), the only slots that depend
+        (r_bf = A Rz(w (t' + t0)) C r = [A Rz(w t0)] Rz(w t') C r), the only slots that depend
         on the origin (:data:`TIME_DEPENDENT`).
     """
     import math
@@ -207,7 +209,7 @@ def with_time_origin(force, t0_s: float):
     c, s = math.cos(th), math.sin(th)
     rz = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     m = force[FRAME_MATRIX:FRAME_MATRIX + 9].reshape(3, 3)
-    out[FRAME_MATRIX:FRAME_MATRIX + 9] = (rz @ m).ravel()
+    out[FRAME_MATRIX:FRAME_MATRIX + 9] = (m @ rz).ravel()
     if force[POLE + 2] > 0.0:
         out[POLE] = force[POLE] - t0_s
     return out

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
-from .geodetic import body_pole, geodetic
+from .geodetic import body_fixed_matrix, body_pole, geodetic
 from .local_frames import to_inertial_jacobian
 from .perturbations import (
     accel_drag_rho,
@@ -320,15 +320,8 @@ def _add_harmonics_gradient(t, x, yy, z, force, sh, G):
     Montenbruck & Gill 2000, eqs. 3.33, 7.40); applied twice they give the Hessian. An order
     -1 is folded into order 1: V_N,-1 = -V_N,1 / (N (N + 1)), W_N,-1 = W_N,1 / (N (N + 1)).
     """
-    th = force[fb.ROTATION_RATE] * t
-    c = math.cos(th)
-    s = math.sin(th)
-    m0 = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
-    M = np.empty((3, 3))  # r_bf = M r, M = Rz(th) M0
-    for j in range(3):
-        M[0, j] = c * m0[j] + s * m0[3 + j]
-        M[1, j] = -s * m0[j] + c * m0[3 + j]
-        M[2, j] = m0[6 + j]
+    M = np.empty((3, 3))  # r_bf = M r
+    body_fixed_matrix(t, force, M)
     bx = M[0, 0] * x + M[0, 1] * yy + M[0, 2] * z
     by = M[1, 0] * x + M[1, 1] * yy + M[1, 2] * z
     bz = M[2, 0] * x + M[2, 1] * yy + M[2, 2] * z

@@ -4,7 +4,8 @@ The Earth's axis is not the z axis of the GCRS: the celestial intermediate pole 
 from it in 2024 (precession since J2000, growing by 0.014 deg a year). Every force and event
 that depends on the axis reads it here: the zonal field (:mod:`visviva.core.zonal`), the
 co-rotating atmosphere and the geodetic altitude of drag and of altitude events, the
-Lense-Thirring spin (:mod:`visviva.core.relativity`).
+Lense-Thirring spin (:mod:`visviva.core.relativity`), and the body-fixed frame of a full
+gravity field (:func:`body_fixed_matrix`, since audit42; frozen at the epoch before).
 
 The pole is tabulated once per run (``POLE`` slots of the force block,
 :mod:`visviva.core.force_block`): knots of its x, y components fixed in absolute time after the
@@ -27,7 +28,8 @@ import math
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 
-__all__ = ["body_pole", "geodetic", "geodetic_altitude", "geodetic_altitudes", "pole_altitude"]
+__all__ = ["body_fixed_matrix", "body_pole", "geodetic", "geodetic_altitude", "geodetic_altitudes",
+           "pole_altitude"]
 
 
 @inline_kernel
@@ -46,6 +48,40 @@ def body_pole(t, force):
     j = int(force[k + 3]) + 2 * i
     return (force[j] + w * (force[j + 2] - force[j]),
             force[j + 1] + w * (force[j + 3] - force[j + 1]))
+
+
+@inline_kernel
+def body_fixed_matrix(t, force, M):
+    """The rotation M (3, 3) from the propagation frame to the central body's body-fixed frame
+    at ``t`` s, written into ``M``: r_bf = M r.
+
+    M = A R3(w t) C(p(t)), with C(p) the rotation that takes the pole p(t) of
+    :func:`body_pole` (unit vector (X, Y, Z)) to the z axis without turning about it, the
+    GCRS -> CIRS matrix of IERS Conventions 2010, eq. 5.10 with s = 0,
+    C = [[1 - a X^2, -a X Y, -X], [-a X Y, 1 - a Y^2, -Y], [X, Y, 1 - a (X^2 + Y^2)]],
+    a = 1 / (1 + Z); R3(w t) the body's rotation about its pole at the block's
+    ``ROTATION_RATE``; A the block's ``FRAME_MATRIX`` (the rest of the rotation at t = 0:
+    the Earth rotation angle and polar motion, held). Without a pole table C = I.
+    """
+    px, py = body_pole(t, force)
+    pz = math.sqrt(1.0 - px * px - py * py)
+    a = 1.0 / (1.0 + pz)
+    c0x, c0y, c0z = 1.0 - a * px * px, -a * px * py, -px
+    c1x, c1y, c1z = -a * px * py, 1.0 - a * py * py, -py
+    c2x, c2y, c2z = px, py, 1.0 - a * (px * px + py * py)
+    th = force[fb.ROTATION_RATE] * t
+    c = math.cos(th)
+    s = math.sin(th)
+    r0x, r0y, r0z = c * c0x + s * c1x, c * c0y + s * c1y, c * c0z + s * c1z  # R3(th) C
+    r1x, r1y, r1z = -s * c0x + c * c1x, -s * c0y + c * c1y, -s * c0z + c * c1z
+    k = fb.FRAME_MATRIX
+    for i in range(3):
+        a0 = force[k + 3 * i]
+        a1 = force[k + 3 * i + 1]
+        a2 = force[k + 3 * i + 2]
+        M[i, 0] = a0 * r0x + a1 * r1x + a2 * c2x
+        M[i, 1] = a0 * r0y + a1 * r1y + a2 * c2y
+        M[i, 2] = a0 * r0z + a1 * r1z + a2 * c2z
 
 
 @inline_kernel

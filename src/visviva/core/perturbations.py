@@ -34,7 +34,7 @@ import numpy as np
 from . import force_block as fb
 from ._jit import inline_kernel, kernel
 from .force_block import FORCE_SIZE
-from .geodetic import body_pole, geodetic, geodetic_altitude
+from .geodetic import body_fixed_matrix, body_pole, geodetic, geodetic_altitude
 from .hermite import hermite_basis
 from .local_frames import to_inertial
 from .relativity import accel_relativity
@@ -195,26 +195,18 @@ def accel_harmonics(x, y, z, gm, radius, sh, n_max, out):
 
 @kernel
 def accel_harmonics_inertial(t, x, y, z, force, sh, out):
-    """Rotate r to the body frame at time t, add the harmonic acceleration rotated back."""
-    th = force[fb.ROTATION_RATE] * t
-    c = math.cos(th)
-    s = math.sin(th)
-    # r_bf = Rz(th) M0 r, with Rz the frame rotation [[c, s, 0], [-s, c, 0], [0, 0, 1]]
-    m = force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9]
-    px = m[0] * x + m[1] * y + m[2] * z
-    py = m[3] * x + m[4] * y + m[5] * z
-    pz = m[6] * x + m[7] * y + m[8] * z
-    bx = c * px + s * py
-    by = -s * px + c * py
+    """Rotate r to the body frame at time t (:func:`~visviva.core.geodetic.body_fixed_matrix`),
+    add the harmonic acceleration rotated back, a_in = M^T a_bf."""
+    M = np.empty((3, 3))
+    body_fixed_matrix(t, force, M)
+    bx = M[0, 0] * x + M[0, 1] * y + M[0, 2] * z
+    by = M[1, 0] * x + M[1, 1] * y + M[1, 2] * z
+    bz = M[2, 0] * x + M[2, 1] * y + M[2, 2] * z
     a = np.zeros(3)
-    accel_harmonics(bx, by, pz, force[fb.GM], force[fb.RADIUS], sh, int(force[fb.HARMONICS_DEGREE]), a)
-    # back: a_in = M0^T Rz(th)^T a
-    qx = c * a[0] - s * a[1]
-    qy = s * a[0] + c * a[1]
-    qz = a[2]
-    out[0] += m[0] * qx + m[3] * qy + m[6] * qz
-    out[1] += m[1] * qx + m[4] * qy + m[7] * qz
-    out[2] += m[2] * qx + m[5] * qy + m[8] * qz
+    accel_harmonics(bx, by, bz, force[fb.GM], force[fb.RADIUS], sh, int(force[fb.HARMONICS_DEGREE]), a)
+    out[0] += M[0, 0] * a[0] + M[1, 0] * a[1] + M[2, 0] * a[2]
+    out[1] += M[0, 1] * a[0] + M[1, 1] * a[1] + M[2, 1] * a[2]
+    out[2] += M[0, 2] * a[0] + M[1, 2] * a[1] + M[2, 2] * a[2]
 
 
 @kernel

@@ -16,6 +16,9 @@ from ..errors import InvalidInputError
 __all__ = ["read_gfc"]
 
 
+#: the ``norm`` header values (the ICGEM spellings and the British ones): normalised?
+_NORMS = {"fully_normalized": True, "fully_normalised": True, "unnormalized": False,
+          "unnormalised": False}
 #: data keys of time-variable ICGEM fields (format 2.0): reference values, trends, periodic terms
 _TIME_VARIABLE_KEYS = ("gfct", "trnd", "acos", "asin")
 
@@ -24,7 +27,8 @@ def read_gfc(path):
     """Parse an ICGEM .gfc file: (GM m^3/s^2, radius m, normalised?, [(n, m, C, S), ...]).
 
     Every error names the file and the line: a header number that does not parse or is not
-    positive, a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n or
+    positive, a ``norm`` other than ``fully_normalized`` or ``unnormalized`` (or their British
+    spellings), a ``gfc`` line without four numbers, a degree and order outside 0 <= m <= n or
     given twice, a coefficient that is NaN or infinite, a data line of a time-variable field
     (``gfct``, ``trnd``, ``acos``, ``asin``: its coefficients are not on ``gfc`` lines) or of
     no known kind. Secular rates (``dot`` lines of format 1.0) are left out: the field is the
@@ -66,7 +70,10 @@ def read_gfc(path):
                     raise bad(number, f"{key} must be positive")
                 gm, radius = (value, radius) if key == "earth_gravity_constant" else (gm, value)
             elif key == "norm" and len(parts) > 1:
-                norm = parts[1].lower() != "unnormalized"
+                word = parts[1].lower()
+                if word not in _NORMS:  # was: anything but 'unnormalized' read as normalised
+                    raise bad(number, "norm must be 'fully_normalized' or 'unnormalized'")
+                norm = _NORMS[word]
             continue
         if key in _TIME_VARIABLE_KEYS:
             raise bad(

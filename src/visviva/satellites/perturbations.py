@@ -191,10 +191,11 @@ class AtmosphericDrag(Perturbation):
     ``model="nrlmsis"`` uses NRLMSIS 2.1 (Emmert et al. 2021, via ``pymsis``) with the
     space-weather indices you give (``f107``: previous-day F10.7, ``f107a``: 81-day mean,
     ``ap``: daily Ap; never downloaded). The density is tabulated once at the state's epoch on a
-    grid of geodetic altitude (80-1000 km, 10 km), geodetic latitude (5 deg) and hour angle
-    from the Sun (15 deg), and interpolated in ln(rho) during the run by a tricubic B-spline (C2,
-    periodic in hour angle, continued over the poles, linear in ln(rho) beyond the altitude
-    grid; within 0.4 % of direct NRLMSIS calls in 150-900 km); the bulge
+    grid of geodetic altitude (0-1000 km, 10 km; from 80 km before audit42), geodetic latitude
+    (5 deg) and hour angle from the Sun (15 deg), and interpolated in ln(rho) during the run by
+    a tricubic B-spline (C2, periodic in hour angle, continued over the poles, linear in ln(rho)
+    above 1000 km; within 0.4 % of direct NRLMSIS calls in 150-900 km, 8 % near the
+    tropopause); the bulge
     follows the Sun, but the seasonal and space-weather variation over the run is ignored
     (valid for runs of days; split longer runs).
     """
@@ -245,7 +246,7 @@ class AtmosphericDrag(Perturbation):
                 "AtmosphericDrag needs ballistic_coefficient = Cd*A/m, e.g. "
                 "AtmosphericDrag(2.2 * 1.0 * u.m**2 / (100 * u.kg))."
             )
-        bc = to_array(self.ballistic_coefficient, "area_per_mass", "ballistic_coefficient")
+        bc = _area_per_mass(self.ballistic_coefficient, "ballistic_coefficient", "m / (Cd A)")
         if bc.ndim != 0:
             raise InvalidInputError("ballistic_coefficient must be a scalar Quantity (m^2/kg).")
         require_positive(bc, "ballistic_coefficient")
@@ -284,6 +285,9 @@ class AtmosphericDrag(Perturbation):
         if self.needs_sun:
             from .ephemeris import sun_position
             from .frames import gcrs_to_itrs
+            from .msis_table import warn_long_run
+
+            warn_long_run(model.span_s)
 
             sun0 = sun_position(model.epoch).to_value(u.km)
             s_itrs, _ = gcrs_to_itrs(sun0, np.zeros(3), model.epoch)
@@ -303,7 +307,9 @@ class AtmosphericDrag(Perturbation):
         """
         from pymsis import msis
 
-        alts = np.arange(80.0, 1000.0 + 1e-9, 10.0)
+        from .msis_table import spline_coefficients
+
+        alts = np.arange(0.0, 1000.0 + 1e-9, 10.0)  # from the ground (80 km before audit42)
         lats = np.arange(-90.0, 90.0 + 1e-9, 5.0)
         hours = np.arange(-180.0, 180.0 - 1e-9, 15.0)  # periodic: +180 is -180
         lons = np.mod(np.degrees(sun_longitude_rad) + hours + 180.0, 360.0) - 180.0
@@ -323,7 +329,7 @@ class AtmosphericDrag(Perturbation):
         rho = np.asarray(out[0, ..., 0], dtype=np.float64)  # (hours, lats, alts)
         if not np.all(np.isfinite(rho)) or np.any(rho <= 0):
             raise InvalidInputError("NRLMSIS returned invalid densities for these indices.")
-        table = _spline_coefficients(np.log(rho))
+        table = spline_coefficients(np.log(rho))
         meta = np.array(
             [alts[0], 10.0, np.radians(lats[0]), np.radians(5.0), np.radians(hours[0]),
              np.radians(15.0), len(alts), len(lats), len(hours)]
@@ -432,7 +438,7 @@ class SolarRadiationPressure(Perturbation):
                 "SolarRadiationPressure needs area_to_mass, e.g. "
                 "SolarRadiationPressure(0.02 * u.m**2 / u.kg)."
             )
-        am = to_array(self.area_to_mass, "area_per_mass", "area_to_mass")
+        am = _area_per_mass(self.area_to_mass, "area_to_mass", "m / A")
         cr = to_array(self.reflectivity, "dimensionless", "reflectivity")
         if am.ndim != 0 or cr.ndim != 0:  # (float() of an array raised a bare TypeError)
             raise InvalidInputError(
@@ -515,9 +521,12 @@ class SphericalHarmonics(Perturbation):
     U = GM/r sum_n sum_m (R/r)^n P_nm(sin phi) (C_nm cos m lambda + S_nm sin m lambda),
     evaluated with the V_nm/W_nm recursions of Cunningham (1970) as in Montenbruck & Gill (2000),
     sec. 3.2.4-3.2.5, in the body-fixed frame. The GCRS -> ITRS rotation (precession, nutation,
-    Earth rotation, polar motion; astropy, offline IERS data) is computed once at the state's
-    epoch; during the run the Earth turns about the ITRS z axis at its nominal rate (precession
-    and nutation change by < 1 arcsec per day, negligible over a few days). Coefficients are
+    Earth rotation, polar motion; astropy, offline IERS data) is computed at the state's epoch;
+    during the run the Earth turns about its pole of date (the celestial intermediate pole of
+    :func:`earth_pole_table`, which precession and nutation move by about 50" a year) at its
+    nominal rate, and polar motion stays at the epoch's (it changes by ~0.1" a month;
+    :func:`visviva.core.geodetic.body_fixed_matrix`). Until audit42 the frame was frozen at
+    the epoch: its axis was 1.5" off the Earth's after 30 days, 22" after a year. Coefficients are
     rescaled to the state's GM and the body's radius, and degrees 0 and 1 are dropped.
     Do not combine with :class:`Zonal` (the zonal terms are included).
     """
@@ -532,9 +541,10 @@ class SphericalHarmonics(Perturbation):
         n_file = max(int(n) for n, _, _, _ in rows)
         n_max = n_file if degree is None else degree
         if not isinstance(n_max, int | np.integer) or not 2 <= n_max <= min(n_file, 80):
+            given = (f"the file goes to degree {n_file}: give degree=N to truncate it" if
+                     degree is None else f"got {fmt_number(degree)}")  # fmt: skip
             raise InvalidInputError(
-                f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; "
-                f"got {fmt_number(degree)}."
+                f"degree must be an integer in 2..{min(n_file, 80)} for {self.path}; {given}."
             )
         self.degree = int(n_max)
         self.gm_km3_s2 = gm * 1e-9
@@ -563,6 +573,7 @@ class SphericalHarmonics(Perturbation):
         return self.body
 
     PARAMETERS = ("HARMONICS_DEGREE", "FRAME_MATRIX")
+    uses_pole = True  # the field's axis follows the Earth's pole of date (precession-nutation)
 
     def pack(self, model) -> None:
         if model.epoch is None:
@@ -570,12 +581,19 @@ class SphericalHarmonics(Perturbation):
                 "SphericalHarmonics needs the state's epoch (to orient the Earth): build the "
                 "state with epoch=Time(...)."
             )
+        from ..core.geodetic import body_fixed_matrix
         from .frames import gcrs_to_itrs
 
         basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), model.epoch)
         m0 = np.asarray(basis).T / 1e4  # columns: ITRS images of the GCRS axes
+        # the kernel's frame is A R3(w t) C(p(t)) (the pole p of the model's table): A = M0 C0^T
+        # makes it M0 at the epoch, and the precession-nutation of the pole moves it after
+        probe = model.force.copy()
+        probe[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = np.eye(3).ravel()
+        c0 = np.empty((3, 3))
+        body_fixed_matrix(0.0, probe, c0)
         model.force[fb.HARMONICS_DEGREE] = self.degree
-        model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = m0.ravel()
+        model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = (m0 @ c0.T).ravel()
         model.sh = self.scaled(model.gm_km3_s2, model.central_body.radius_km)
 
     def scaled(self, gm_km3_s2: float, radius_km: float) -> np.ndarray:
@@ -586,6 +604,19 @@ class SphericalHarmonics(Perturbation):
 
     def __repr__(self):
         return f"SphericalHarmonics({self.path!r}, degree={self.degree})"
+
+
+def _area_per_mass(value, name: str, inverse: str):
+    """``to_array(value, "area_per_mass", name)``; a mass over an area (``inverse``, e.g. the
+    ballistic coefficient m / (Cd A) of Vallado and of the US convention, in kg/m^2) is refused
+    with the reciprocal to give (audit42: astropy's 'cannot be converted' said nothing of it)."""
+    if isinstance(value, u.Quantity) and value.unit.is_equivalent(u.kg / u.m**2):
+        inv = np.atleast_1d((1.0 / value).to_value(u.m**2 / u.kg))
+        raise InvalidInputError(
+            f"{name} is an area over a mass (m^2/kg); got {value}, a mass over an area "
+            f"({inverse}): give its reciprocal, {name}={fmt_number(inv[0])} * u.m**2 / u.kg."
+        )
+    return to_array(value, "area_per_mass", name)
 
 
 def earth_pole_table(epoch, t_start_s: float = 0.0, t_end_s: float = 0.0):
@@ -636,36 +667,3 @@ def ellipsoid_radius_of(body: Body) -> float:
     """Equatorial radius (km) of the ellipsoid of geodetic altitude: WGS-84's for the Earth
     (0.7 m longer than the gravity field's reference radius), the body's radius otherwise."""
     return c.EARTH_ELLIPSOID_RADIUS_KM if body.name == "earth" else body.radius_km
-
-
-def _spline_coefficients(values: np.ndarray, pad: int = 8) -> np.ndarray:
-    """Cubic B-spline coefficients of ``values`` (n_h, n_lat, n_alt) on a global grid: hour
-    angles periodic, latitudes -90..90 deg both poles included, altitudes uniform.
-
-    Across a pole the meridian continues at latitude 180 deg - phi on the opposite hour angle,
-    so the latitude axis is doubled into a full great circle (n_h even) and filtered as
-    periodic, like the hour angle: the spline is then smooth over the poles. The altitude axis
-    is padded with ``pad`` nodes continuing ln(rho) linearly (the end differences) before a
-    mirrored filter, so that the spline near the ends follows the exponential trend. Returns
-    the layout of :func:`visviva.core.perturbations.grid_log_density`.
-    """
-    from scipy.ndimage import spline_filter1d
-
-    n_h, n_l, n_a = values.shape
-    half = n_h // 2
-    # latitude node j of the great circle: j < n_l as given; beyond the pole, latitude node
-    # 2 (n_l - 1) - j on the hour angle half a turn away
-    back = values[(np.arange(n_h) + half) % n_h][:, n_l - 2:0:-1]
-    circle = np.concatenate([values, back], axis=1)
-    k = np.arange(1, pad + 1)[:, None, None]
-    low = circle[..., :1] - k[::-1].transpose(1, 2, 0) * (circle[..., 1:2] - circle[..., :1])
-    high = circle[..., -1:] + k.transpose(1, 2, 0) * (circle[..., -1:] - circle[..., -2:-1])
-    full = np.concatenate([low, circle, high], axis=2)
-    coef = spline_filter1d(full, 3, axis=0, mode="grid-wrap")
-    coef = spline_filter1d(coef, 3, axis=1, mode="grid-wrap")
-    coef = spline_filter1d(coef, 3, axis=2, mode="mirror")
-    coef = coef[np.arange(-1, n_h + 2) % n_h]
-    coef = coef[:, np.arange(-1, n_l + 1) % circle.shape[1]]
-    coef = coef[..., pad - 1 : pad + n_a + 1]
-    return np.ascontiguousarray(coef.reshape((n_h + 3) * (n_l + 2), n_a + 2))
-

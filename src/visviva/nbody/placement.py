@@ -10,7 +10,32 @@ from ..core import kepler as _kepler
 from ..errors import InvalidInputError, fmt_number, raise_for_status
 from .settings import length, scalar
 
-__all__ = ["elements_to_state"]
+__all__ = ["particle_state", "elements_to_state"]
+
+_ELEMENT_NAMES = ("e", "inc", "raan", "argp", "nu", "mean_anomaly")
+
+
+def particle_state(sim, m, r, v, primary, **elements):
+    """The particle's position and velocity as given to :meth:`visviva.Simulation.add`: ``r``,
+    ``v`` as they are (zero when None), or from the orbital ``elements`` (``a`` or ``p`` with
+    ``e, inc, raan, argp, nu, mean_anomaly``, None when not given) about ``primary``."""
+    a, p = elements.pop("a"), elements.pop("p")
+    given = [k for k in _ELEMENT_NAMES if elements[k] is not None]
+    if a is None and p is None:
+        if given or primary is not None:
+            # they were ignored: the particle went to r (0 when not given) with v, in silence
+            what = ", ".join(given + (["primary"] if primary is not None else []))
+            raise InvalidInputError(
+                f"{what} given without a semi-major axis a (or semi-latus rectum p): give a "
+                "(or p) to place the particle by orbital elements about the primary, or r and v "
+                "alone for a Cartesian state (r, v are absolute: not relative to a primary).")
+        return (np.zeros(3) if r is None else r), (np.zeros(3) if v is None else v)
+    if r is not None or v is not None:
+        raise InvalidInputError("give either r, v or orbital elements, not both.")
+    el = {k: (0.0 if k in ("e", "inc", "raan", "argp") and val is None else val)
+          for k, val in elements.items()}
+    return elements_to_state(sim, m, primary, a, el["e"], el["inc"], el["raan"], el["argp"],
+                             el["nu"], el["mean_anomaly"], p)
 
 
 def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
@@ -53,9 +78,9 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
         if M is None:
             nu = 0.0
         else:
-            if e >= 1:
-                raise InvalidInputError("give nu (not mean_anomaly) for open orbits.")
-            M = _angle(M, "mean_anomaly")
+            if e == 1:  # the parabola's "mean anomaly" has more than one convention
+                raise InvalidInputError("give nu (not mean_anomaly) for a parabolic orbit (e = 1).")
+            M = _angle(M, "mean_anomaly")  # hyperbolic: M = e sinh F - F, as in REBOUND
             nu, status = _kepler.mean_to_true_anomaly(M, e)
             raise_for_status(np.array([status]), "mean to true anomaly", M=M, e=e)
     else:

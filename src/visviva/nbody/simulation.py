@@ -27,7 +27,7 @@ from . import step_check as _step_check
 from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
-from .placement import elements_to_state
+from .placement import particle_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
 from .trajectory import Recording, Trajectory
@@ -319,8 +319,8 @@ class Simulation(_chaos.ChaosIndicators):
         """Collision radii, shape (N,)."""
         return self._state.radius.copy()
 
-    def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=0.0, inc=0.0,
-            raan=0.0, argp=0.0, nu=None, mean_anomaly=None, p=None, M=None):
+    def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=None, inc=None,
+            raan=None, argp=None, nu=None, mean_anomaly=None, p=None, M=None):
         """Add a particle from a state, or from orbital elements about a primary.
 
         Parameters
@@ -335,9 +335,12 @@ class Simulation(_chaos.ChaosIndicators):
             With elements: the particle index to orbit, or ``"com"``/``None`` for the centre of
             mass of all particles added so far (Jacobi-like, the default).
         a, e, inc, raan, argp, nu, mean_anomaly, p : float
-            Semi-major axis (or semi-latus rectum ``p``), eccentricity, inclination, longitude of
-            the ascending node, argument of periapsis (radians) and the true anomaly ``nu`` or
-            ``mean_anomaly`` (radians; elliptic orbits). ``G (m_primary + m)`` is the two-body GM.
+            Semi-major axis (or semi-latus rectum ``p``; ``a < 0`` with ``e > 1`` for a
+            hyperbola, ``p`` for a parabola), eccentricity, inclination, longitude of the
+            ascending node, argument of periapsis (radians; each 0 when not given) and the true
+            anomaly ``nu`` or ``mean_anomaly`` (radians; hyperbolic: ``e sinh F - F``). ``G
+            (m_primary + m)`` is the two-body GM. Elements (or ``primary``) without ``a`` or
+            ``p`` raise :class:`~visviva.InvalidInputError`, as do elements beside ``r``/``v``.
         M : float, optional
             Deprecated alias of ``mean_anomaly`` (it differed from the mass ``m`` only by case);
             removed in the next release.
@@ -356,13 +359,8 @@ class Simulation(_chaos.ChaosIndicators):
                 raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
             mean_anomaly = M
         m_val = _s.mass(self, m)
-        if a is not None or p is not None:
-            if r is not None or v is not None:
-                raise InvalidInputError("give either r, v or orbital elements, not both.")
-            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
-                                       mean_anomaly, p)
-        else:
-            rr, vv = (np.zeros(3) if r is None else r), (np.zeros(3) if v is None else v)
+        rr, vv = particle_state(self, m_val, r, v, primary, a=a, e=e, inc=inc, raan=raan,
+                                argp=argp, nu=nu, mean_anomaly=mean_anomaly, p=p)
         rr, vv = _s.vector3(self, rr, "length", "r"), _s.vector3(self, vv, "speed", "v")
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
         if getattr(self, "names", None) is not None:  # solar_system's labels stay aligned: the

@@ -27,6 +27,7 @@ from . import step_check as _step_check
 from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
+from .orbits import OrbitReadback
 from .placement import particle_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
@@ -38,8 +39,9 @@ __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
 _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
 
 
-class Simulation(_chaos.ChaosIndicators):
-    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`).
+class Simulation(_chaos.ChaosIndicators, OrbitReadback):
+    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`;
+    osculating elements: :meth:`orbits`).
 
     Parameters
     ----------

@@ -89,3 +89,28 @@ def test_orbits_about_a_planet_and_refusals():
     radial.add(0.0, r=[1.0, 0.0, 0.0], v=[0.5, 0.0, 0.0])
     with pytest.raises(vv.InvalidStateError, match="radial.*particle=1"):
         radial.orbits()
+
+
+def test_particles_by_name_in_remove_set_particle_add_and_orbits():
+    # audit45: REBOUND removes and finds particles by name (sim.remove(hash="jupiter"),
+    # primary=sim.particles["earth"]); sim.remove("jupiter") raised "a particle index must be
+    # an integer" although sim.names held the name
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(3e-4, a=1.6, e=0.1, primary=0)
+    sim.names = ["sun", "jupiter", "saturn"]
+    sim.add(0.0, a=0.01, primary="jupiter")  # a moon, named "" (unnamed)
+    assert sim.orbits(primary="jupiter").a[-1] == pytest.approx(0.01, rel=1e-12)
+    np.testing.assert_array_equal(sim.orbits(primary="sun").a, sim.orbits(primary=0).a)
+    sim.set_particle("saturn", m=2e-4)
+    assert sim.masses[2] == 2e-4
+    with pytest.raises(vv.InvalidInputError, match="no particle is named 'uranus'"):
+        sim.remove("uranus")
+    with pytest.raises(vv.InvalidInputError, match="no particle is named ''"):
+        sim.remove("")
+    sim.remove("jupiter", merged_into="saturn")
+    assert sim.names == ["sun", "saturn", ""] and sim.masses.tolist() == [1.0, 2e-4, 0.0]
+    sim.names = ["sun", "saturn", "saturn"]
+    with pytest.raises(vv.InvalidInputError, match=r"2 particles are named 'saturn' \(indices"):
+        sim.remove("saturn")

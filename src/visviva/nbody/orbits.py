@@ -26,6 +26,7 @@ import numpy as np
 from ..core import elements as _elements
 from ..core import kepler_arrays as _ka
 from ..errors import InvalidInputError, raise_for_status
+from .settings import particle_index
 
 __all__ = ["Orbits", "OrbitReadback", "orbits"]
 
@@ -100,11 +101,13 @@ def orbits(sim, primary=None) -> Orbits:
             vp = np.where(cm[:, None] > 0, mv / cm[:, None], np.cumsum(v, 0)[:-1] / count)
         mp = cm
     else:
-        if isinstance(primary, bool) or not isinstance(primary, int | np.integer) or not (
+        if isinstance(primary, str):  # a particle's name (sim.names)
+            primary = particle_index(sim, primary)
+        elif isinstance(primary, bool) or not isinstance(primary, int | np.integer) or not (
                 -n <= primary < n):
             raise InvalidInputError(
-                f"primary must be a particle index (an integer in [{-n}, {n})) or None for "
-                f"Jacobi elements; got {primary!r}.")
+                f"primary must be a particle index (an integer in [{-n}, {n})) or name, or None "
+                f"for Jacobi elements; got {primary!r}.")
         primary = int(primary) % n
         index = np.delete(np.arange(n), primary)
         xp, vp, mp = x[primary], v[primary], m[primary]
@@ -139,11 +142,11 @@ class OrbitReadback:
 
         Parameters
         ----------
-        primary : int, optional
+        primary : int or str, optional
             None (default): Jacobi elements, particle ``i`` (1 .. N-1) about the centre of mass
             of particles ``0 .. i-1`` with ``GM = G (m_0 + ... + m_i)``, as REBOUND's
             ``sim.orbits()``. An index ``k``: every other particle about particle ``k`` with
-            ``GM = G (m_k + m_i)`` (``k = 0``: heliocentric elements).
+            ``GM = G (m_k + m_i)`` (``k = 0``: heliocentric elements), or a name in ``names``.
 
         Returns
         -------

@@ -8,7 +8,7 @@ from .. import _units
 from ..core import elements as _elements
 from ..core import kepler as _kepler
 from ..errors import InvalidInputError, fmt_number, raise_for_status
-from .settings import length, scalar
+from .settings import length, particle_index, scalar
 
 __all__ = ["particle_state", "elements_to_state"]
 
@@ -50,7 +50,8 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p):
         xp = (masses[:, None] * x).sum(0) / mp if mp > 0 else x.mean(0)
         vp = (masses[:, None] * v).sum(0) / mp if mp > 0 else v.mean(0)
     else:
-        i = _primary_index(primary, sim.N)
+        i = (particle_index(sim, primary) if isinstance(primary, str)  # a name
+             else _primary_index(primary, sim.N))
         mp, xp, vp = masses[i], x[i], v[i]
     gm = sim.G * (mp + m)
     if not gm > 0:

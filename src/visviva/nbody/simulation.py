@@ -333,8 +333,8 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
             Position and velocity (simulation units), default zero.
         radius : float or Quantity
             Collision radius.
-        primary : int or "com", optional
-            With elements: the particle index to orbit, or ``"com"``/``None`` for the centre of
+        primary : int, str or "com", optional
+            With elements: the particle index (or name in ``names``) to orbit, or ``"com"``/``None`` for the centre of
             mass of all particles added so far (Jacobi-like, the default).
         a, e, inc, raan, argp, nu, mean_anomaly, p : float
             Semi-major axis (or semi-latus rectum ``p``; ``a < 0`` with ``e > 1`` for a
@@ -370,8 +370,9 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
         return self.N - 1
 
     def remove(self, index: int, *, merged_into: int | None = None) -> None:
-        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down by
-        one (removing a primary raises unless ``merged_into``, numbered as now, gets it)."""
+        """Remove particle ``index`` (or the one of that name in ``names``): later indices, a
+        force's primary and ``names`` shift down by one (removing a primary raises unless
+        ``merged_into``, numbered as now, gets it)."""
         _forces.follow_removal(self._forces, *(k := _s.removal(self, index, merged_into)))
         self._state.remove(k := k[0])
         if getattr(self, "names", None) is not None:  # solar_system's labels (a new list:

@@ -93,7 +93,9 @@ def test_add_by_elements_mean_anomaly_energy_and_inclination():
 
 
 
-_REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "M"}
+_REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "M",
+                  "period": "P", "longitude_of_periapsis": "pomega", "mean_longitude": "l",
+                  "true_longitude": "theta", "time_of_periapsis": "T"}
 
 
 @pytest.mark.parametrize("elements", [
@@ -103,6 +105,15 @@ _REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "
     dict(a=-1.3, e=1.5, inc=0.3, raan=0.4, argp=0.5, nu=0.6),          # hyperbola
     dict(a=-1.3, e=1.5, inc=0.3, raan=0.4, argp=0.5, mean_anomaly=1.0),  # audit45: refused
     dict(a=-0.8, e=3.0, inc=1.0, mean_anomaly=-7.0),
+    # audit45: REBOUND's P, pomega, l, theta, T under long names (were unknown keywords),
+    # prograde and retrograde (the longitudes change sign), T on a hyperbola too
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, argp=0.5, mean_longitude=2.0) for inc in (0.3, 2.8)],
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, argp=0.5, true_longitude=2.0) for inc in (0.3, 2.8)],
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, longitude_of_periapsis=1.1, mean_longitude=-2.5)
+      for inc in (0.3, 2.8)],
+    dict(period=7.0, e=0.2, inc=0.3, raan=0.4, argp=0.5, nu=0.3),
+    dict(a=1.3, e=0.2, inc=2.8, raan=0.4, argp=0.5, time_of_periapsis=-1.7),
+    dict(a=-1.3, e=1.7, inc=0.3, raan=0.4, argp=0.5, time_of_periapsis=2.1),
 ])
 @pytest.mark.parametrize("primary", [None, 0])
 def test_add_by_elements_equals_rebound(elements, primary):
@@ -115,6 +126,7 @@ def test_add_by_elements_equals_rebound(elements, primary):
     sim.add(1e-3, r=[2.0, 0.1, 0.0], v=[0.0, 0.5, 0.1])
     ref.add(m=1.0)
     ref.add(m=1e-3, x=2.0, y=0.1, vy=0.5, vz=0.1)
+    sim.t = ref.t = 3.0  # time_of_periapsis counts from the simulation's time
     sim.add(1e-3, primary=primary, **elements)
     ref.add(m=1e-3, primary=None if primary is None else ref.particles[primary],
             **{_REBOUND_NAMES.get(k, k): val for k, val in elements.items()})
@@ -122,6 +134,23 @@ def test_add_by_elements_equals_rebound(elements, primary):
     np.testing.assert_allclose(sim.positions[2], p.xyz, rtol=0, atol=1e-14 * np.abs(p.xyz).max())
     np.testing.assert_allclose(sim.velocities[2], p.vxyz, rtol=0,
                                atol=1e-14 * np.abs(p.vxyz).max())
+
+
+def test_add_names_rebounds_keywords_and_refuses_two_of_a_kind():
+    # audit45: sim.add(m, a=1, Omega=0.3) was a bare TypeError; now it names visviva's keyword
+    sim = vv.Simulation()
+    sim.add(1.0)
+    with pytest.raises(vv.InvalidInputError, match=r"Omega \(visviva: raan\), l \(visviva: "
+                       r"mean_longitude\)"):
+        sim.add(0.0, a=1.0, Omega=0.3, l=0.2, primary=0)
+    for kwargs, what in ((dict(a=1.0, period=3.0), "size of the orbit, not a and period"),
+                         (dict(a=1.0, argp=0.1, longitude_of_periapsis=0.2), "argument of"),
+                         (dict(a=1.0, nu=0.1, true_longitude=0.2), "position on the orbit")):
+        with pytest.raises(vv.InvalidInputError, match=what):
+            sim.add(0.0, primary=0, **kwargs)
+    with pytest.raises(vv.InvalidInputError, match="closed orbit"):
+        sim.add(0.0, period=3.0, e=1.2, primary=0)
+    assert sim.N == 1
 
 
 @pytest.mark.parametrize("kwargs, named", [

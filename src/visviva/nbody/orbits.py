@@ -102,7 +102,7 @@ def orbits(sim, primary=None) -> Orbits:
         mp = cm
     else:
         if isinstance(primary, str):  # a particle's name (sim.names)
-            primary = particle_index(sim, primary)
+            primary = particle_index(sim, primary, "primary")
         elif isinstance(primary, bool) or not isinstance(primary, int | np.integer) or not (
                 -n <= primary < n):
             raise InvalidInputError(

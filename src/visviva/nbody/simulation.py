@@ -322,7 +322,7 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
         return self._state.radius.copy()
 
     def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=None, inc=None,
-            raan=None, argp=None, nu=None, mean_anomaly=None, p=None, M=None):
+            raan=None, argp=None, nu=None, mean_anomaly=None, p=None, M=None, **more):
         """Add a particle from a state, or from orbital elements about a primary.
 
         Parameters
@@ -343,6 +343,10 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
             anomaly ``nu`` or ``mean_anomaly`` (radians; hyperbolic: ``e sinh F - F``). ``G
             (m_primary + m)`` is the two-body GM. Elements (or ``primary``) without ``a`` or
             ``p`` raise :class:`~visviva.InvalidInputError`, as do elements beside ``r``/``v``.
+        **more
+            REBOUND's other elements under long names: ``period`` (for ``a``),
+            ``longitude_of_periapsis`` (for ``argp``), ``mean_longitude``, ``true_longitude``
+            or ``time_of_periapsis`` (for ``nu``); see :mod:`visviva.nbody.placement`.
         M : float, optional
             Deprecated alias of ``mean_anomaly`` (it differed from the mass ``m`` only by case);
             removed in the next release.
@@ -361,7 +365,7 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
                 raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
             mean_anomaly = M
         m_val = _s.mass(self, m)
-        rr, vv = particle_state(self, m_val, r, v, primary, a=a, e=e, inc=inc, raan=raan,
+        rr, vv = particle_state(self, m_val, r, v, primary, more, a=a, e=e, inc=inc, raan=raan,
                                 argp=argp, nu=nu, mean_anomaly=mean_anomaly, p=p)
         rr, vv = _s.vector3(self, rr, "length", "r"), _s.vector3(self, vv, "speed", "v")
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
@@ -449,19 +453,6 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
     def _use_parallel(self) -> bool:
         return bool(self.parallel) if self.parallel is not None else self.N >= _PARALLEL_AUTO_N
 
-    def _initial_dt(self) -> float:
-        """A first guess for IAS15 when no dt was given: 1e-3 of the shortest two-body time."""
-        x, m = self._state.x, self._state.m
-        mi = np.flatnonzero(m)
-        if len(mi) == 0:
-            return 0.0
-        d = np.linalg.norm(x[:300, None, :] - x[None, mi[:300], :], axis=-1)  # a sample: cheap
-        msum = m[:300, None] + m[None, mi[:300]]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tau = np.sqrt(d**3 / (self.G * msum))
-        tau = tau[np.isfinite(tau) & (tau > 0)]
-        return 1e-3 * float(tau.min()) if tau.size else 0.0
-
     def begin_run(self, t) -> np.ndarray:
         """Check a run to the time(s) ``t`` can start, set up what it needs once, and return the
         output times (float64 array, simulation units). Friend interface (docs/design.md): the
@@ -493,7 +484,7 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
         if info.needs_dt:  # a step too short for the run, or too long for the orbits
             _step_check.check_step(self, times)
         if info.adaptive and self.dt == 0.0:
-            self._state.fstate[_nc.F_DT] = self._initial_dt()
+            self._state.fstate[_nc.F_DT] = _step_check.initial_dt(self)
         self._state.istate[_nc.I_NOUT] = 0
         return times
 

@@ -39,7 +39,7 @@ from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step",
-           "check_members", "members_checked"]
+           "check_members", "members_checked", "initial_dt"]
 
 #: A WHFast step longer than this fraction of the shortest pericentre timescale is warned about.
 MAX_STEP_FRACTION = 0.2
@@ -133,6 +133,22 @@ _MEMBERS_CHECKED: contextvars.ContextVar = contextvars.ContextVar("members_check
 # per ensemble: the (N, dt, coordinates) of each member at its last check
 _CHECKED_ENSEMBLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
+
+
+def initial_dt(sim) -> float:
+    """A first guess for IAS15's step when no dt was given: 1e-3 of the shortest two-body time
+    ``sqrt(d^3 / G (m_i + m_j))`` over a sample of the pairs (0 without a massive particle)."""
+    arrays = sim.state_arrays()
+    x, m = arrays["x"], arrays["m"]
+    mi = np.flatnonzero(m)
+    if len(mi) == 0:
+        return 0.0
+    d = np.linalg.norm(x[:300, None, :] - x[None, mi[:300], :], axis=-1)  # a sample: cheap
+    msum = m[:300, None] + m[None, mi[:300]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = np.sqrt(d**3 / (sim.G * msum))
+    tau = tau[np.isfinite(tau) & (tau > 0)]
+    return 1e-3 * float(tau.min()) if tau.size else 0.0
 
 
 def check_step(sim, times) -> None:

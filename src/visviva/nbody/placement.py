@@ -108,6 +108,10 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p, more=Non
     argp = _angle(argp, "argp")
     anomaly = _one_of("position on the orbit", nu=nu, mean_anomaly=M,
                       **{k: more.get(k) for k in MORE_ELEMENTS[2:]})
+    if a is not None and p is not None:  # p used to win silently over a different a
+        raise InvalidInputError(
+            f"give the semi-major axis a or the semi-latus rectum p, not both (a = "
+            f"{fmt_number(a)}, p = {fmt_number(p)}; p = a (1 - e^2)).")
     size = _one_of("size of the orbit", a=a, p=p, period=more.get("period"))
     if e < 0:
         raise InvalidInputError(f"e must be >= 0; got {fmt_number(e)}.")

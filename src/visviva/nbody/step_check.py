@@ -54,8 +54,9 @@ ENCOUNTER_MASS_RATIO = 0.01
 #: about (the pair is integrated as by a leapfrog: a moon's error after 90 orbits, 0.77 %, 7 %
 #: and 75 % of its orbit at dt = 1e-3, 3e-3 and 1e-2 of its period).
 ENCOUNTER_STEP_FRACTION = 0.002
-#: Pair evaluations (systems x pairs) beyond which close encounters are not checked.
-ENCOUNTER_MAX_PAIRS = 4_000_000
+#: Pairs (massive x all) of one system beyond which its close encounters are not checked (a
+#: one-off ~0.05 s at this size; ensembles are checked in chunks of this many pair evaluations).
+ENCOUNTER_MAX_PAIRS = 100_000
 #: A fixed step below this fraction of a run's time scale is refused (IAS15's relative floor,
 #: :data:`visviva.core.nbody_ias15.DT_FLOOR_REL`).
 MIN_STEP_REL = 1e-15
@@ -116,7 +117,7 @@ def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None,
 def _pericentre_timescale(r, w, gm, direction):
     """``2 pi sqrt(q^3 / GM)`` and ``q`` of the two-body orbits of relative positions ``r`` and
     velocities ``w`` (B, K, 3) with ``gm`` (B, K); an open orbit receding along the run
-    (``direction`` (B,), or None) is timed at its present distance."""
+    (``direction`` (B,) or (B, K), or None) is timed at its present distance."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / np.linalg.norm(r, axis=-1)
         h = np.cross(r, w)
@@ -125,7 +126,8 @@ def _pericentre_timescale(r, w, gm, direction):
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
         closest = q
         if direction is not None:  # an open orbit receding along the run: q is behind it
-            receding = (e >= 1.0) & (direction[:, None] * np.einsum("bij,bij->bi", r, w) > 0)
+            sign = direction[:, None] if direction.ndim == 1 else direction  # (B,) or (B, K)
+            receding = (e >= 1.0) & (sign * np.einsum("bij,bij->bi", r, w) > 0)
             closest = np.where(receding, np.linalg.norm(r, axis=-1), q)
         return 2.0 * math.pi * np.sqrt(closest**3 / gm), closest
 
@@ -135,32 +137,48 @@ def _encounter_timescales(x, v, m, G, radius=None, collide=None, direction=None)
     bodies other than particle 0 (at least one massive) closer than :data:`ENCOUNTER_HILL`
     mutual Hill radii ``((m_i + m_j) / 3 m_0)^(1/3) (r_i + r_j) / 2``: a moon, a binary or a
     close encounter, whose motion about each other the splitting leaves to its interaction
-    kick. Returns (B,) timescales (``inf`` without such a pair, and when the pairs exceed
+    kick. Returns (B,) timescales (``inf`` without such a pair, and when a system's pairs exceed
     :data:`ENCOUNTER_MAX_PAIRS`: not checked) and (B, 2) the pair of each."""
     b, n = m.shape
     out, pair = np.full(b, math.inf), np.zeros((b, 2), dtype=np.int64)
     massive = np.flatnonzero((m[:, 1:] > 0).any(axis=0)) + 1
-    if n < 3 or len(massive) == 0 or b * len(massive) * (n - 1) > ENCOUNTER_MAX_PAIRS:
+    size = len(massive) * (n - 1)
+    if n < 3 or size == 0 or size > ENCOUNTER_MAX_PAIRS:
+        return out, pair
+    chunk = max(1, ENCOUNTER_MAX_PAIRS // size)  # members at a time: bounded memory
+    if b > chunk:
+        for k in range(0, b, chunk):
+            part = slice(k, k + chunk)
+            out[part], pair[part] = _encounter_timescales(
+                x[part], v[part], m[part], G[part], None if radius is None else radius[part],
+                None if collide is None else collide[part],
+                None if direction is None else direction[part])
         return out, pair
     i, j = (a.ravel() for a in np.meshgrid(massive, np.arange(1, n), indexing="ij"))
     i, j = i[i != j], j[i != j]  # both orders of a massive pair: the same timescale
-    r, w, mij = x[:, j] - x[:, i], v[:, j] - v[:, i], m[:, i] + m[:, j]
+    r = x[:, j] - x[:, i]
+    d, mij = np.sqrt(np.einsum("bij,bij->bi", r, r)), m[:, i] + m[:, j]
+    helio = np.linalg.norm(x - x[:, :1], axis=-1)  # (B, N): each body's distance to particle 0
     with np.errstate(divide="ignore", invalid="ignore"):
-        hill = np.cbrt(mij / (3.0 * m[:, :1])) * 0.5 * (
-            np.linalg.norm(x[:, i] - x[:, :1], axis=-1) + np.linalg.norm(x[:, j] - x[:, :1],
-                                                                         axis=-1))
-    gm = G[:, None] * mij
-    tau, closest = _pericentre_timescale(r, w, gm, direction)
+        hill = ENCOUNTER_HILL * np.cbrt(mij / (3.0 * m[:, :1])) * 0.5 * (helio[:, i] + helio[:, j])
+        near = (d < hill) & (mij > 0) & (mij < ENCOUNTER_MASS_RATIO * m[:, :1])
+    bb, kk = np.nonzero(near)  # the few pairs close enough: the rest is computed for them only
+    if len(bb) == 0:
+        return out, pair
+    ii, jj = i[kk], j[kk]
+    w, gm = v[bb, jj] - v[bb, ii], G[bb] * mij[bb, kk]
+    tau, closest = _pericentre_timescale(r[bb, kk][None], w[None], gm[None],
+                                         None if direction is None else direction[bb][None])
+    tau, closest = tau[0], closest[0]
     with np.errstate(invalid="ignore"):  # bound to each other, or coming within the radius
-        bound = 0.5 * np.einsum("bij,bij->bi", w, w) < gm / np.linalg.norm(r, axis=-1)
-        ok = ((np.linalg.norm(r, axis=-1) < ENCOUNTER_HILL * hill) & np.isfinite(tau)
-              & (gm > 0) & (mij < ENCOUNTER_MASS_RATIO * m[:, :1])
-              & (bound | (closest < ENCOUNTER_HILL * hill)))
+        bound = 0.5 * np.einsum("ij,ij->i", w, w) < gm / d[bb, kk]
+        ok = np.isfinite(tau) & (bound | (closest < hill[bb, kk]))
     if radius is not None:
-        ok &= ~(collide[:, None] & (closest <= radius[:, i] + radius[:, j]))
-    tau = np.where(ok, tau, math.inf)
-    k = tau.argmin(axis=1)
-    return tau[np.arange(b), k], np.stack([i[k], j[k]], axis=1)
+        ok &= ~(collide[bb] & (closest <= radius[bb, ii] + radius[bb, jj]))
+    order = np.argsort(np.where(ok, tau, math.inf))[::-1]  # the shortest last: it wins below
+    out[bb[order]] = np.where(ok, tau, math.inf)[order]
+    pair[bb[order]] = np.stack([ii, jj], axis=1)[order]
+    return out, pair
 
 
 def _too_close(dt: float, tau: float, pair) -> str:

@@ -23,6 +23,12 @@ present distance: the pericentre is behind it). Jacobi WHFast integrates two bod
 from three particles on. Only the state at the start of a call is checked: an orbit that turns
 eccentric during the run is not seen. Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
+
+Two bodies other than particle 0 within :data:`ENCOUNTER_HILL` mutual Hill radii (a moon, a
+binary, a close encounter) move about each other through the interaction kick, as in a
+leapfrog, in both splittings: a step beyond :data:`ENCOUNTER_STEP_FRACTION` of their own
+pericentre timescale is warned about too (two Jupiters 0.05 apart ran silently to |dE/E| = 3.5;
+Chambers 1999, MNRAS 304, 793, switches such pairs to another integrator at a few Hill radii).
 """
 
 from __future__ import annotations

@@ -114,3 +114,14 @@ def test_particles_by_name_in_remove_set_particle_add_and_orbits():
     sim.names = ["sun", "saturn", "saturn"]
     with pytest.raises(vv.InvalidInputError, match=r"2 particles are named 'saturn' \(indices"):
         sim.remove("saturn")
+
+
+def test_orbits_keep_a_node_near_zero():
+    # the Earth-Moon barycentre of vv.solar_system() has its node at 2.9e-6 rad in ICRF, where
+    # REBOUND's Omega (an arc cosine) is 1.1e-11 off; visviva's atan2 keeps it to the round-off of the state (2e-17 here)
+    sim = vv.Simulation()
+    sim.add(1.0)
+    sim.add(3e-6, a=1.0, e=0.0167, inc=0.409, raan=2.9e-6, argp=1.796, nu=-0.044, primary=0)
+    el = sim.orbits(primary=0)
+    assert abs(el.raan[0] - 2.9e-6) < 1e-15  # rad: the state's own round-off (REBOUND: 1.1e-11)
+    assert el.e[0] == pytest.approx(0.0167, rel=1e-13) and el.inc[0] == pytest.approx(0.409, rel=1e-15)

@@ -229,3 +229,33 @@ def test_an_ensemble_member_with_a_close_pair_is_named():
     with pytest.warns(UserWarning, match=r"1 of the 3 ensemble members have two bodies within "
                       r"3 mutual Hill radii \(1\); member 1: particles 1 and 2"):
         ens.integrate(0.5)
+
+
+def test_a_leapfrog_step_too_long_for_the_orbits_is_warned_about():
+    # audit45: the leapfrog had no check at all: two planets at dt = P/3 were 44 off IAS15
+    # after 100 time units (|dE/E| = 0.87), at P/5 3.7 off (0.45), and a test particle falling
+    # radially onto the star (dt = 0.01) came out with specific energy +593 (from -1)
+    P = 2 * math.pi
+    ref = two_planets("ias15")
+    ref.integrate(100.0)
+    sim = two_planets("leapfrog", dt=P / 3)
+    with pytest.warns(UserWarning, match=r"the leapfrog step dt = .* 0\.39 of the shortest"):
+        sim.integrate(100.0)
+    assert np.abs(sim.positions - ref.positions).max() > 1.0  # what the warning is about
+    plunge = vv.Simulation("leapfrog", dt=0.01)
+    plunge.add(1.0)
+    plunge.add(1e-3, a=1.6, primary=0)
+    plunge.add(0.0, r=[1.0, 0.0, 0.0], v=[0.0, 0.01, 0.0])
+    with pytest.warns(UserWarning, match="the leapfrog step"):
+        plunge.integrate(0.02)
+    members = [two_planets("leapfrog", dt=P / 40), two_planets("leapfrog", dt=P / 3)]
+    with pytest.warns(UserWarning, match=r"The leapfrog step is too long for the orbits of 1 "
+                      r"of the 2 ensemble members \(1\)"):
+        vv.Ensemble.from_simulations(members).integrate(0.5)
+    with warnings.catch_warnings():  # P/40, and a softened cluster: no warning
+        warnings.simplefilter("error")
+        two_planets("leapfrog", dt=P / 40).integrate(1.0)
+        soft = vv.Simulation("leapfrog", dt=0.5, softening=0.1)
+        soft.add(1.0)
+        soft.add(1.0, r=[1.0, 0.0, 0.0], v=[0.0, 0.5, 0.0])
+        soft.integrate(1.0)

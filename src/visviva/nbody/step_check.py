@@ -202,17 +202,23 @@ def _too_close(dt: float, tau: float, pair) -> str:
 
 
 def _too_long(dt: float, tau: float, coordinates: str) -> str:
-    """What is wrong with a WHFast step ``dt`` against the shortest timescale ``tau``."""
+    """What is wrong with a WHFast (or, ``coordinates="leapfrog"``, leapfrog) step ``dt``
+    against the shortest timescale ``tau``."""
     ratio = abs(dt) / tau if tau > 0 else math.inf  # tau = 0: a radial plunge
-    return (f"WHFast's step dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
+    whose = ("the leapfrog step" if coordinates == "leapfrog" else "WHFast's step")
+    orbits = ("the two-body orbits about particle 0 and of bodies within "
+              f"{ENCOUNTER_HILL:g} mutual Hill radii" if coordinates == "leapfrog"
+              else f"{coordinates} coordinates")
+    return (f"{whose} dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
             f"timescale, 2 pi sqrt(q^3 / GM) = {fmt_number(tau)} at a pericentre q "
-            f"({coordinates} coordinates; the period for a circular orbit; for an open orbit "
+            f"({orbits}; the period for a circular orbit; for an open orbit "
             "receding along the run, q is its present distance)")
 
 
 _ADVICE = (f"beyond {MAX_STEP_FRACTION:g} of it the positions are wrong by up to the orbits' "
            "size (a plunging orbit comes out of its pericentre unbound) while the energy error "
-           "can stay small. Use dt of about 1/20 of that timescale, or IAS15.")
+           "can stay small. Use dt of about 1/20 of that timescale (leapfrog: 1/100 or less; "
+           "its phase error grows like (dt / timescale)^2 per orbit), or IAS15.")
 
 
 # the (dt, N, coordinates) each simulation was last checked with; this module owns it (weak
@@ -247,7 +253,10 @@ def check_step(sim, times) -> None:
     run through ``times``: refuse one shorter than :data:`MIN_STEP_REL` of the larger of the
     run's time span and its largest |t| (the run would take over 10^15 steps: a typo such as
     ``integrate(1e300)`` hung without end in one uninterruptible compiled call), and warn when
-    a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale."""
+    a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale (or
+    :data:`ENCOUNTER_STEP_FRACTION` of a close pair's). A leapfrog step (every orbit in its
+    kicks) is checked against both timescales with :data:`MAX_STEP_FRACTION`, the orbits taken
+    about particle 0; a softened leapfrog (no point-mass orbits) is not checked."""
     t0 = sim.t
     t1 = float(times[-1]) if len(times) else t0  # times run monotonically from t0 to here
     scale = max(abs(t0), abs(t1), abs(t1 - t0))
@@ -257,9 +266,11 @@ def check_step(sim, times) -> None:
             f"time scale ({fmt_number(scale)}: from t = {fmt_number(t0)} to "
             f"{fmt_number(times[-1])}), so it would take over 10^15 steps and never finish; "
             "check the output times (and their units) or use a longer dt.")
-    if sim.integrator != "whfast" or _MEMBERS_CHECKED.get():
+    leapfrog = sim.integrator == "leapfrog"  # every orbit in its kicks: no Kepler part
+    if (sim.integrator not in ("whfast", "leapfrog") or _MEMBERS_CHECKED.get()
+            or (leapfrog and sim.softening > 0)):  # softened: not point-mass orbits
         return
-    jacobi = sim.coordinates == "jacobi"
+    jacobi = sim.coordinates == "jacobi" and not leapfrog
     direction = float(np.sign(t1 - t0))
     key = (sim.dt, sim.N, jacobi, direction)  # checked again when these or the particles change
     if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and _CHECKED.get(sim) == key:
@@ -270,14 +281,18 @@ def check_step(sim, times) -> None:
     radius = None if sim.collision == "none" else sim.radii
     tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,
                              radius, direction)
-    if abs(sim.dt) > MAX_STEP_FRACTION * tau:
-        warnings.warn(f"{_too_long(sim.dt, tau, sim.coordinates)}: {_ADVICE}", UserWarning,
-                      stacklevel=4)
-    tau, pair = _encounter_timescales(
+    close, pair = _encounter_timescales(
         sim.positions[None], sim.velocities[None], sim.masses[None], np.array([sim.G]),
         None if radius is None else radius[None], np.array([radius is not None]),
         np.array([direction]))
-    if abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau[0]:
+    if leapfrog:  # a close pair is one more orbit of its kicks
+        tau = min(tau, float(close[0]))
+    label = "leapfrog" if leapfrog else sim.coordinates
+    if abs(sim.dt) > MAX_STEP_FRACTION * tau:
+        warnings.warn(f"{_too_long(sim.dt, tau, label)}: {_ADVICE}", UserWarning,
+                      stacklevel=4)
+    tau = close
+    if not leapfrog and abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau[0]:
         warnings.warn(_too_close(sim.dt, float(tau[0]), pair[0]) + ".", UserWarning,
                       stacklevel=4)
 
@@ -295,7 +310,8 @@ def members_checked():
 
 
 def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> None:
-    """Warn once (one :class:`UserWarning` naming the members) when the WHFast step of any of
+    """Warn once (one :class:`UserWarning` naming the members) when the WHFast (or leapfrog)
+    step of any of
     an ensemble's ``members`` exceeds :data:`MAX_STEP_FRACTION` of its shortest pericentre
     timescale, as :func:`check_step` does for a lone simulation; run it before advancing them
     inside :func:`members_checked`. ``owner`` (the ensemble) keeps each member's ``(N, dt,
@@ -304,7 +320,8 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     whose members were all checked costs a few comparisons of length-M arrays. ``stacklevel``:
     as :func:`warnings.warn`'s, counted from the caller (the user's call, 3 levels up). ``t``:
     the time the members are advanced to (the direction of each run; None: unknown)."""
-    if members[0].integrator != "whfast":
+    leapfrog = members[0].integrator == "leapfrog"  # as in check_step
+    if members[0].integrator not in ("whfast", "leapfrog"):
         return
     if pack is not None:
         x, v, m, radius, fstate, istate, poff = (pack.x, pack.v, pack.m, pack.radius,
@@ -326,8 +343,10 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     else:
         todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2]) | (direction != last[3])
     _CHECKED_ENSEMBLES[owner] = (n, dt, coords, direction)
-    jacobi = coords == 0
+    jacobi = (coords == 0) & (not leapfrog)
     todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
+    if leapfrog:
+        todo &= fstate[:, _nc.F_SOFT2] == 0.0
     if not todo.any():
         return
     ks = np.flatnonzero(todo)
@@ -342,6 +361,8 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
                 more = (radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
                 tau[group] = _timescales(*args, jac, *more)
                 close[group], pairs[group] = _encounter_timescales(*args, *more)
+    if leapfrog:  # a close pair is one more orbit of the kicks
+        tau, close = np.minimum(tau, close), np.full(len(n), math.inf)
     with np.errstate(invalid="ignore"):
         bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
         near = np.flatnonzero(todo & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close))
@@ -358,9 +379,10 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     with np.errstate(divide="ignore"):
         worst = int(bad[np.argmax(np.abs(dt[bad]) / tau[bad])])
     listed = ", ".join(map(str, bad[:20].tolist())) + (", ..." if len(bad) > 20 else "")
-    name = "jacobi" if jacobi[worst] else "democratic_heliocentric"
+    name = "leapfrog" if leapfrog else "jacobi" if jacobi[worst] else "democratic_heliocentric"
+    whose = "The leapfrog step" if leapfrog else "WHFast's step"
     warnings.warn(
-        f"WHFast's step is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
+        f"{whose} is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
         f"members ({listed}); the worst, member {worst}: "
         f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
         UserWarning, stacklevel=stacklevel)

@@ -532,6 +532,26 @@ def test_G_and_units_together_are_refused():
     assert vv.Simulation(units=("au", "yr", "Msun")).G == pytest.approx(4 * math.pi**2, rel=1e-4)
 
 
+
+def test_rebound_unit_names_are_read_as_rebound_reads_them():
+    # audit45: units=("au", "myr", "Msun") was astropy's milliyear (G 1e-18 of REBOUND's, whose
+    # "myr" is a megayear), and REBOUND's "msun", "mjupiter", "yr2pi", ... were refused
+    with pytest.raises(vv.InvalidInputError, match="'myr' is a megayear in REBOUND but a "
+                       "milliyear in astropy"):
+        vv.Simulation(units=("au", "myr", "Msun"))
+    assert vv.Simulation(units=("au", "yr", "msun")).G == vv.Simulation(units=("au", "yr", "Msun")).G
+    rebound = pytest.importorskip("rebound")
+    for ours, theirs in ((("au", "Myr", "msun"), ("au", "myr", "msun")),
+                         (("aus", "days", "mjupiter"), ("aus", "days", "mjupiter")),
+                         (("au", "gyr", "mearth"), ("au", "gyr", "mearth"))):
+        ref = rebound.Simulation()
+        ref.units = theirs
+        # G from IAU 2015 GM_sun (and astropy's planet masses) against REBOUND's G and masses
+        assert vv.Simulation(units=ours).G == pytest.approx(ref.G, rel=1e-7), ours
+    gauss = vv.Simulation(units=("au", "yr2pi", "msun"))  # 1/k days: G = 1 (k Gauss's)
+    assert gauss.units.time_s == pytest.approx(rebound.units.times_SI["yr2pi"], rel=1e-15)
+    assert gauss.G == pytest.approx(1.0, rel=1e-9)
+
 def test_solar_system_epoch_keeps_the_two_part_julian_date():
     """The DE421 states were taken at one float64 JD (~20 us: up to 0.6 m of the Earth's
     motion); now at the epoch's two TDB parts, as jplephem's reference evaluation."""

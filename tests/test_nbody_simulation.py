@@ -195,6 +195,8 @@ def test_test_particles_feel_but_do_not_pull():
     sim.add(0.0, r=[1.0, 0, 0], v=[0, 1.0, 0])
     sim.add(0.0, r=[0, 2.0, 0], v=[-0.7, 0, 0])
     assert sim.N_active == 1
+    with pytest.raises(vv.InvalidInputError, match="m = 0"):  # audit45: a bare AttributeError
+        sim.N_active = 2
     sim.integrate(10.0)
     # the star never moves: nothing pulls on it
     assert np.all(sim.positions[0] == 0.0) and np.all(sim.velocities[0] == 0.0)

@@ -293,6 +293,12 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
         """Number of massive particles (the others are test particles)."""
         return int(np.count_nonzero(self._state.m))
 
+    @N_active.setter
+    def N_active(self, value) -> None:  # REBOUND's sim.N_active = k: a bare AttributeError here
+        raise InvalidInputError(
+            f"N_active = {value!r}: visviva's test particles are the particles with m = 0 (in any "
+            "order), so N_active is read-only: sim.set_particle(i, m=0.0) makes particle i one.")
+
     @property
     def positions(self) -> np.ndarray:
         """Positions, shape (N, 3), simulation units (a copy)."""

@@ -39,6 +39,14 @@ def test_ias15_tight_binary_over_long_span_raises_instead_of_1e18_steps():
 def test_ias15_min_dt_still_honoured_and_softening_avoids_the_floor():
     with pytest.raises(StepSizeError):
         _pair(1e-3, min_dt=1e-3).integrate(1.0)
+    # audit45: the floor set by min_dt is named with what to do; REBOUND's min_dt steps on at
+    # min_dt (an e = 0.999 binary with min_dt = 1e-3 runs to t = 20 there in 111 steps), so a
+    # from_rebound copy stopped with "Particles are probably (nearly) colliding"
+    binary = vv.Simulation(min_dt=1e-3)
+    binary.add(1.0)
+    binary.add(1e-3, a=1.0, e=0.999, primary=0)
+    with pytest.raises(StepSizeError, match=r"below min_dt = 0\.001.*REBOUND.*lower min_dt"):
+        binary.integrate(20.0)
     # (rs15: PRS23's criterion collapses when every acceleration passes through zero at once,
     # as in this symmetric head-on pass through a softened core)
     s = _pair(1e-12, softening=1e-3, adaptive_mode="rs15")

@@ -92,6 +92,88 @@ def test_add_by_elements_mean_anomaly_energy_and_inclination():
     assert math.acos(h[2] / np.linalg.norm(h)) == pytest.approx(0.4, rel=1e-13)
 
 
+
+_REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "M",
+                  "period": "P", "longitude_of_periapsis": "pomega", "mean_longitude": "l",
+                  "true_longitude": "theta", "time_of_periapsis": "T"}
+
+
+@pytest.mark.parametrize("elements", [
+    dict(a=1.3, e=0.2, inc=0.3, raan=0.4, argp=0.5, nu=0.6),
+    dict(a=1.3, e=0.2, inc=0.3, raan=0.4, argp=0.5, mean_anomaly=0.6),
+    dict(a=1.3, e=0.2, inc=np.pi - 0.1, raan=0.4, argp=0.5, nu=-2.0),  # retrograde
+    dict(a=-1.3, e=1.5, inc=0.3, raan=0.4, argp=0.5, nu=0.6),          # hyperbola
+    dict(a=-1.3, e=1.5, inc=0.3, raan=0.4, argp=0.5, mean_anomaly=1.0),  # audit45: refused
+    dict(a=-0.8, e=3.0, inc=1.0, mean_anomaly=-7.0),
+    # audit45: REBOUND's P, pomega, l, theta, T under long names (were unknown keywords),
+    # prograde and retrograde (the longitudes change sign), T on a hyperbola too
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, argp=0.5, mean_longitude=2.0) for inc in (0.3, 2.8)],
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, argp=0.5, true_longitude=2.0) for inc in (0.3, 2.8)],
+    *[dict(a=1.3, e=0.2, inc=inc, raan=0.4, longitude_of_periapsis=1.1, mean_longitude=-2.5)
+      for inc in (0.3, 2.8)],
+    dict(period=7.0, e=0.2, inc=0.3, raan=0.4, argp=0.5, nu=0.3),
+    dict(a=1.3, e=0.2, inc=2.8, raan=0.4, argp=0.5, time_of_periapsis=-1.7),
+    dict(a=-1.3, e=1.7, inc=0.3, raan=0.4, argp=0.5, time_of_periapsis=2.1),
+])
+@pytest.mark.parametrize("primary", [None, 0])
+def test_add_by_elements_equals_rebound(elements, primary):
+    # audit45: the same Cartesian state as REBOUND 5.2.2's sim.add(...) to 1e-14 (measured <= 2e-15), about the
+    # centre of mass of the particles before (REBOUND's default primary) or the star; a
+    # hyperbola's mean anomaly (e sinh F - F) raised "give nu (not mean_anomaly) for open orbits"
+    rebound = pytest.importorskip("rebound")
+    sim, ref = vv.Simulation(), rebound.Simulation()
+    sim.add(1.0)
+    sim.add(1e-3, r=[2.0, 0.1, 0.0], v=[0.0, 0.5, 0.1])
+    ref.add(m=1.0)
+    ref.add(m=1e-3, x=2.0, y=0.1, vy=0.5, vz=0.1)
+    sim.t = ref.t = 3.0  # time_of_periapsis counts from the simulation's time
+    sim.add(1e-3, primary=primary, **elements)
+    ref.add(m=1e-3, primary=None if primary is None else ref.particles[primary],
+            **{_REBOUND_NAMES.get(k, k): val for k, val in elements.items()})
+    p = ref.particles[2]
+    np.testing.assert_allclose(sim.positions[2], p.xyz, rtol=0, atol=1e-14 * np.abs(p.xyz).max())
+    np.testing.assert_allclose(sim.velocities[2], p.vxyz, rtol=0,
+                               atol=1e-14 * np.abs(p.vxyz).max())
+
+
+def test_add_names_rebounds_keywords_and_refuses_two_of_a_kind():
+    # audit45: sim.add(m, a=1, Omega=0.3) was a bare TypeError; now it names visviva's keyword
+    sim = vv.Simulation()
+    sim.add(1.0)
+    with pytest.raises(vv.InvalidInputError, match=r"Omega \(visviva: raan\), l \(visviva: "
+                       r"mean_longitude\)"):
+        sim.add(0.0, a=1.0, Omega=0.3, l=0.2, primary=0)
+    for kwargs, what in ((dict(a=1.0, period=3.0), "size of the orbit, not a and period"),
+                         (dict(a=1.0, argp=0.1, longitude_of_periapsis=0.2), "argument of"),
+                         (dict(a=1.0, nu=0.1, true_longitude=0.2), "position on the orbit")):
+        with pytest.raises(vv.InvalidInputError, match=what):
+            sim.add(0.0, primary=0, **kwargs)
+    with pytest.raises(vv.InvalidInputError, match="closed orbit"):
+        sim.add(0.0, period=3.0, e=1.2, primary=0)
+    assert sim.N == 1
+
+
+@pytest.mark.parametrize("kwargs, named", [
+    (dict(e=0.5, inc=0.1), "e, inc"),
+    (dict(r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0], nu=0.4), "nu"),
+    (dict(r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0], primary=0), "primary"),
+    (dict(inc=0.2, mean_anomaly=1.0, primary=0), "inc, mean_anomaly, primary"),
+])
+def test_add_refuses_elements_without_a_semi_major_axis(kwargs, named):
+    # audit45: elements without a (or p) were ignored in silence: sim.add(0, e=0.5, inc=0.1)
+    # put the particle on the star (r = 0, v = 0), and r, v with primary=0 stayed absolute,
+    # as REBOUND refuses ("You need to pass either a semimajor axis or orbital period")
+    sim = vv.Simulation()
+    sim.add(1.0, r=[0.5, 0.0, 0.0])
+    with pytest.raises(vv.InvalidInputError, match=f"^{named} given without a semi-major axis"):
+        sim.add(0.0, **kwargs)
+    assert sim.N == 1
+    with pytest.raises(vv.InvalidInputError, match="parabolic"):
+        sim.add(0.0, p=1.0, e=1.0, mean_anomaly=0.3, primary=0)
+    sim.add(0.0, p=1.0, e=1.0, nu=0.3, primary=0)  # a parabola by its true anomaly
+    r = np.linalg.norm(sim.positions[1] - sim.positions[0])
+    assert r == pytest.approx(1.0 / (1.0 + math.cos(0.3)), rel=1e-15)
+
 def test_centre_of_mass_and_momentum():
     sim, _ = figure_eight()
     sim.add(0.5, r=[3.0, 1.0, 0.2], v=[0.1, -0.2, 0.3])
@@ -113,6 +195,8 @@ def test_test_particles_feel_but_do_not_pull():
     sim.add(0.0, r=[1.0, 0, 0], v=[0, 1.0, 0])
     sim.add(0.0, r=[0, 2.0, 0], v=[-0.7, 0, 0])
     assert sim.N_active == 1
+    with pytest.raises(vv.InvalidInputError, match="m = 0"):  # audit45: a bare AttributeError
+        sim.N_active = 2
     sim.integrate(10.0)
     # the star never moves: nothing pulls on it
     assert np.all(sim.positions[0] == 0.0) and np.all(sim.velocities[0] == 0.0)
@@ -435,8 +519,11 @@ def test_add_by_elements_uses_the_elements_kernels():
     # a true anomaly beyond the asymptote of a hyperbola is refused (no body reaches it)
     with pytest.raises(InvalidElementsError, match="asymptote"):
         sim.add(0.0, p=1.0, e=3.0, nu=2.0, primary=0)
-    with pytest.raises(vv.InvalidInputError, match="nu"):
-        sim.add(0.0, p=1.0, e=1.5, mean_anomaly=0.3, primary=0)
+    # a hyperbola's mean anomaly M = e sinh F - F (refused before audit45)
+    sim.add(0.0, p=1.0, e=1.5, mean_anomaly=0.3, primary=0)
+    nu, status = mean_to_true_anomaly(0.3, 1.5)
+    *state, status = coe_to_rv(1.0, 1.5, 0.0, 0.0, 0.0, nu, 1.0)
+    np.testing.assert_array_equal(sim.positions[2] - sim.positions[0], state[:3])
 
 
 
@@ -446,6 +533,26 @@ def test_G_and_units_together_are_refused():
         vv.Simulation(G=2.0, units=("au", "yr", "Msun"))
     assert vv.Simulation(units=("au", "yr", "Msun")).G == pytest.approx(4 * math.pi**2, rel=1e-4)
 
+
+
+def test_rebound_unit_names_are_read_as_rebound_reads_them():
+    # audit45: units=("au", "myr", "Msun") was astropy's milliyear (G 1e-18 of REBOUND's, whose
+    # "myr" is a megayear), and REBOUND's "msun", "mjupiter", "yr2pi", ... were refused
+    with pytest.raises(vv.InvalidInputError, match="'myr' is a megayear in REBOUND but a "
+                       "milliyear in astropy"):
+        vv.Simulation(units=("au", "myr", "Msun"))
+    assert vv.Simulation(units=("au", "yr", "msun")).G == vv.Simulation(units=("au", "yr", "Msun")).G
+    rebound = pytest.importorskip("rebound")
+    for ours, theirs in ((("au", "Myr", "msun"), ("au", "myr", "msun")),
+                         (("aus", "days", "mjupiter"), ("aus", "days", "mjupiter")),
+                         (("au", "gyr", "mearth"), ("au", "gyr", "mearth"))):
+        ref = rebound.Simulation()
+        ref.units = theirs
+        # G from IAU 2015 GM_sun (and astropy's planet masses) against REBOUND's G and masses
+        assert vv.Simulation(units=ours).G == pytest.approx(ref.G, rel=1e-7), ours
+    gauss = vv.Simulation(units=("au", "yr2pi", "msun"))  # 1/k days: G = 1 (k Gauss's)
+    assert gauss.units.time_s == pytest.approx(rebound.units.times_SI["yr2pi"], rel=1e-15)
+    assert gauss.G == pytest.approx(1.0, rel=1e-9)
 
 def test_solar_system_epoch_keeps_the_two_part_julian_date():
     """The DE421 states were taken at one float64 JD (~20 us: up to 0.6 m of the Earth's

@@ -178,3 +178,84 @@ def test_an_open_orbit_receding_along_the_run_is_not_warned_about_its_past_peric
     assert len(messages) == 1 and "of the 2 ensemble members (1)" in messages[0]
     back = _user_warnings(lambda: vv.Ensemble.from_simulations([_flyby(2.0)]).integrate(-1.0))
     assert len(back) == 1
+
+
+def _coorbital_pair(dt, coordinates="jacobi"):
+    sim = vv.Simulation("whfast", dt=dt, coordinates=coordinates)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(1e-3, a=1.0, nu=0.05, inc=5e-4, primary=0)  # 0.05 away: 0.57 mutual Hill radii
+    return sim
+
+
+@pytest.mark.parametrize("coordinates", ["jacobi", "democratic_heliocentric"])
+def test_a_pair_within_a_few_hill_radii_is_warned_about(coordinates):
+    # audit45: two Jupiters 0.05 apart on one orbit (bound to each other, falling together to
+    # 1.4e-3) ran without a word at dt = 5e-4: |dE/E| up to 3.5 over 20 time units (0.25 at
+    # dt = 0.05, which the orbits' check did not see either: their Jacobi and heliocentric
+    # orbits are near circles)
+    sim = _coorbital_pair(5e-4, coordinates)
+    E0 = sim.energy()
+    with pytest.warns(UserWarning, match=r"particles 1 and 2 are within 3 mutual Hill radii"):
+        sim.integrate(2.0)
+    assert abs(sim.energy() / E0 - 1) > 1e-2  # what the warning is about
+    # a moon of a Jupiter about a star: warned at dt = P_moon / 100 (75 % of its orbit off
+    # after 90 orbits), not at P_moon / 1000 (0.8 %)
+    P = 2 * math.pi * math.sqrt(0.003**3 / 1e-3)
+    for fraction, warned in ((1e-2, True), (1e-3, False)):
+        moon = vv.Simulation("whfast", dt=fraction * P, coordinates=coordinates)
+        moon.add(1.0)
+        moon.add(1e-3, a=5.2, primary=0)
+        moon.add(0.0, a=0.003, e=0.01, primary=1)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            moon.integrate(3 * moon.dt)
+        assert any("mutual Hill radii" in str(w.message) for w in caught) is warned
+    # planets 0.6 apart (a = 1 and 1.6), and two stars of a hierarchical triple: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        two_planets(dt=2 * math.pi / 40, coordinates=coordinates).integrate(1.0)
+        triple = vv.Simulation("whfast", dt=0.05, coordinates=coordinates)
+        triple.add(1.0)
+        triple.add(0.5, a=0.3, primary=0)
+        triple.add(0.1, a=2.0)
+        triple.integrate(1.0)
+
+
+def test_an_ensemble_member_with_a_close_pair_is_named():
+    members = [two_planets(dt=2 * math.pi / 40), _coorbital_pair(2 * math.pi / 40),
+               two_planets(dt=2 * math.pi / 40)]
+    ens = vv.Ensemble.from_simulations(members)
+    with pytest.warns(UserWarning, match=r"1 of the 3 ensemble members have two bodies within "
+                      r"3 mutual Hill radii \(1\); member 1: particles 1 and 2"):
+        ens.integrate(0.5)
+
+
+def test_a_leapfrog_step_too_long_for_the_orbits_is_warned_about():
+    # audit45: the leapfrog had no check at all: two planets at dt = P/3 were 44 off IAS15
+    # after 100 time units (|dE/E| = 0.87), at P/5 3.7 off (0.45), and a test particle falling
+    # radially onto the star (dt = 0.01) came out with specific energy +593 (from -1)
+    P = 2 * math.pi
+    ref = two_planets("ias15")
+    ref.integrate(100.0)
+    sim = two_planets("leapfrog", dt=P / 3)
+    with pytest.warns(UserWarning, match=r"the leapfrog step dt = .* 0\.39 of the shortest"):
+        sim.integrate(100.0)
+    assert np.abs(sim.positions - ref.positions).max() > 1.0  # what the warning is about
+    plunge = vv.Simulation("leapfrog", dt=0.01)
+    plunge.add(1.0)
+    plunge.add(1e-3, a=1.6, primary=0)
+    plunge.add(0.0, r=[1.0, 0.0, 0.0], v=[0.0, 0.01, 0.0])
+    with pytest.warns(UserWarning, match="the leapfrog step"):
+        plunge.integrate(0.02)
+    members = [two_planets("leapfrog", dt=P / 40), two_planets("leapfrog", dt=P / 3)]
+    with pytest.warns(UserWarning, match=r"The leapfrog step is too long for the orbits of 1 "
+                      r"of the 2 ensemble members \(1\)"):
+        vv.Ensemble.from_simulations(members).integrate(0.5)
+    with warnings.catch_warnings():  # P/40, and a softened cluster: no warning
+        warnings.simplefilter("error")
+        two_planets("leapfrog", dt=P / 40).integrate(1.0)
+        soft = vv.Simulation("leapfrog", dt=0.5, softening=0.1)
+        soft.add(1.0)
+        soft.add(1.0, r=[1.0, 0.0, 0.0], v=[0.0, 0.5, 0.0])
+        soft.integrate(1.0)

@@ -65,6 +65,15 @@ def raise_event(state, status: int, integrator: str):
         floor = float(state.fstate[_nc.F_DT_FLOOR])
         failed = float(state.fstate[_nc.F_DT_FAILED])
         detail = (f" (proposed step {failed:.3g} < floor {floor:.3g})" if floor > 0 else "")
+        min_dt = float(state.fstate[_nc.F_MIN_DT])
+        if min_dt > 0 and floor == min_dt:  # the user's floor (REBOUND's min_dt goes on)
+            raise StepSizeError(
+                f"{integrator} integration stopped at t = {fmt_number(t)}: the adaptive step "
+                f"needed {failed:.3g}, below min_dt = {min_dt:.6g}. visviva refuses a step the "
+                "accuracy control rejects (REBOUND's min_dt takes such steps anyway, at an "
+                "accuracy nobody checks). To fix: lower min_dt (0: only the relative floor of "
+                "1e-15 of the time span), or, for a (nearly) colliding pair, give the particles "
+                "radii and collision='merge', 'bounce' or 'halt', or set softening > 0.")
         raise StepSizeError(
             f"{integrator} integration stopped at t = {fmt_number(t)}: the adaptive step fell "
             f"below its floor{detail}, the larger of min_dt and 1e-15 times max(|t|, time "

@@ -87,8 +87,19 @@ def radius(sim, value, name="radius") -> float:
     return rad
 
 
-def particle_index(sim, index) -> int:
-    """``index`` as the index of an existing particle of ``sim`` (negative counts from the end)."""
+def particle_index(sim, index, role: str = "") -> int:
+    """``index`` as the index of an existing particle of ``sim`` (negative counts from the end),
+    or a particle's name in ``sim.names`` (REBOUND's ``sim.remove(hash="jupiter")``); ``role``
+    (e.g. ``"primary"``) starts the message of a name not found."""
+    if isinstance(index, str):
+        names = getattr(sim, "names", None) or []
+        found = [k for k, name in enumerate(names) if name and name == index]
+        if len(found) != 1:
+            what = (f"{len(found)} particles are named {index!r} (indices {found})" if found
+                    else f"no particle is named {index!r}")
+            raise InvalidInputError(
+                f"{role + ': ' if role else ''}{what}; the names are {[n for n in names if n]}: give an index instead.")
+        return found[0]
     if isinstance(index, bool) or not isinstance(index, int | np.integer):
         raise InvalidInputError(
             f"a particle index must be an integer; got {index!r} (a {type(index).__name__}).")

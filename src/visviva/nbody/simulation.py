@@ -27,7 +27,8 @@ from . import step_check as _step_check
 from . import tier as _tier
 from .gpu import check_backend
 from .integrators import INTEGRATORS, few_bodies, get_integrator
-from .placement import elements_to_state
+from .orbits import OrbitReadback
+from .placement import particle_state
 from .settings import COLLISION_MODES, Setting
 from .state import SimulationState
 from .trajectory import Recording, Trajectory
@@ -38,8 +39,9 @@ __all__ = ["Simulation", "Trajectory", "COLLISION_MODES"]
 _PARALLEL_AUTO_N = _gravity.PARALLEL_MIN_N
 
 
-class Simulation(_chaos.ChaosIndicators):
-    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`).
+class Simulation(_chaos.ChaosIndicators, OrbitReadback):
+    """An N-body simulation (chaos indicators: :meth:`init_megno`, :meth:`megno`, :meth:`lyapunov`;
+    osculating elements: :meth:`orbits`).
 
     Parameters
     ----------
@@ -291,6 +293,12 @@ class Simulation(_chaos.ChaosIndicators):
         """Number of massive particles (the others are test particles)."""
         return int(np.count_nonzero(self._state.m))
 
+    @N_active.setter
+    def N_active(self, value) -> None:  # REBOUND's sim.N_active = k: a bare AttributeError here
+        raise InvalidInputError(
+            f"N_active = {value!r}: visviva's test particles are the particles with m = 0 (in any "
+            "order), so N_active is read-only: sim.set_particle(i, m=0.0) makes particle i one.")
+
     @property
     def positions(self) -> np.ndarray:
         """Positions, shape (N, 3), simulation units (a copy)."""
@@ -319,8 +327,8 @@ class Simulation(_chaos.ChaosIndicators):
         """Collision radii, shape (N,)."""
         return self._state.radius.copy()
 
-    def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=0.0, inc=0.0,
-            raan=0.0, argp=0.0, nu=None, mean_anomaly=None, p=None, M=None):
+    def add(self, m=0.0, r=None, v=None, *, radius=0.0, primary=None, a=None, e=None, inc=None,
+            raan=None, argp=None, nu=None, mean_anomaly=None, p=None, M=None, **more):
         """Add a particle from a state, or from orbital elements about a primary.
 
         Parameters
@@ -331,13 +339,20 @@ class Simulation(_chaos.ChaosIndicators):
             Position and velocity (simulation units), default zero.
         radius : float or Quantity
             Collision radius.
-        primary : int or "com", optional
-            With elements: the particle index to orbit, or ``"com"``/``None`` for the centre of
+        primary : int, str or "com", optional
+            With elements: the particle index (or name in ``names``) to orbit, or ``"com"``/``None`` for the centre of
             mass of all particles added so far (Jacobi-like, the default).
         a, e, inc, raan, argp, nu, mean_anomaly, p : float
-            Semi-major axis (or semi-latus rectum ``p``), eccentricity, inclination, longitude of
-            the ascending node, argument of periapsis (radians) and the true anomaly ``nu`` or
-            ``mean_anomaly`` (radians; elliptic orbits). ``G (m_primary + m)`` is the two-body GM.
+            Semi-major axis (or semi-latus rectum ``p``; ``a < 0`` with ``e > 1`` for a
+            hyperbola, ``p`` for a parabola), eccentricity, inclination, longitude of the
+            ascending node, argument of periapsis (radians; each 0 when not given) and the true
+            anomaly ``nu`` or ``mean_anomaly`` (radians; hyperbolic: ``e sinh F - F``). ``G
+            (m_primary + m)`` is the two-body GM. Elements (or ``primary``) without ``a`` or
+            ``p`` raise :class:`~visviva.InvalidInputError`, as do elements beside ``r``/``v``.
+        **more
+            REBOUND's other elements under long names: ``period`` (for ``a``),
+            ``longitude_of_periapsis`` (for ``argp``), ``mean_longitude``, ``true_longitude``
+            or ``time_of_periapsis`` (for ``nu``); see :mod:`visviva.nbody.placement`.
         M : float, optional
             Deprecated alias of ``mean_anomaly`` (it differed from the mass ``m`` only by case);
             removed in the next release.
@@ -356,13 +371,8 @@ class Simulation(_chaos.ChaosIndicators):
                 raise InvalidInputError("give mean_anomaly only (M is its deprecated alias).")
             mean_anomaly = M
         m_val = _s.mass(self, m)
-        if a is not None or p is not None:
-            if r is not None or v is not None:
-                raise InvalidInputError("give either r, v or orbital elements, not both.")
-            rr, vv = elements_to_state(self, m_val, primary, a, e, inc, raan, argp, nu,
-                                       mean_anomaly, p)
-        else:
-            rr, vv = (np.zeros(3) if r is None else r), (np.zeros(3) if v is None else v)
+        rr, vv = particle_state(self, m_val, r, v, primary, more, a=a, e=e, inc=inc, raan=raan,
+                                argp=argp, nu=nu, mean_anomaly=mean_anomaly, p=p)
         rr, vv = _s.vector3(self, rr, "length", "r"), _s.vector3(self, vv, "speed", "v")
         self._state.append(rr, vv, m_val, _s.radius(self, radius))
         if getattr(self, "names", None) is not None:  # solar_system's labels stay aligned: the
@@ -370,8 +380,9 @@ class Simulation(_chaos.ChaosIndicators):
         return self.N - 1
 
     def remove(self, index: int, *, merged_into: int | None = None) -> None:
-        """Remove particle ``index``: later indices, a force's primary and ``names`` shift down by
-        one (removing a primary raises unless ``merged_into``, numbered as now, gets it)."""
+        """Remove particle ``index`` (or the one of that name in ``names``): later indices, a
+        force's primary and ``names`` shift down by one (removing a primary raises unless
+        ``merged_into``, numbered as now, gets it)."""
         _forces.follow_removal(self._forces, *(k := _s.removal(self, index, merged_into)))
         self._state.remove(k := k[0])
         if getattr(self, "names", None) is not None:  # solar_system's labels (a new list:
@@ -448,19 +459,6 @@ class Simulation(_chaos.ChaosIndicators):
     def _use_parallel(self) -> bool:
         return bool(self.parallel) if self.parallel is not None else self.N >= _PARALLEL_AUTO_N
 
-    def _initial_dt(self) -> float:
-        """A first guess for IAS15 when no dt was given: 1e-3 of the shortest two-body time."""
-        x, m = self._state.x, self._state.m
-        mi = np.flatnonzero(m)
-        if len(mi) == 0:
-            return 0.0
-        d = np.linalg.norm(x[:300, None, :] - x[None, mi[:300], :], axis=-1)  # a sample: cheap
-        msum = m[:300, None] + m[None, mi[:300]]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tau = np.sqrt(d**3 / (self.G * msum))
-        tau = tau[np.isfinite(tau) & (tau > 0)]
-        return 1e-3 * float(tau.min()) if tau.size else 0.0
-
     def begin_run(self, t) -> np.ndarray:
         """Check a run to the time(s) ``t`` can start, set up what it needs once, and return the
         output times (float64 array, simulation units). Friend interface (docs/design.md): the
@@ -492,7 +490,7 @@ class Simulation(_chaos.ChaosIndicators):
         if info.needs_dt:  # a step too short for the run, or too long for the orbits
             _step_check.check_step(self, times)
         if info.adaptive and self.dt == 0.0:
-            self._state.fstate[_nc.F_DT] = self._initial_dt()
+            self._state.fstate[_nc.F_DT] = _step_check.initial_dt(self)
         self._state.istate[_nc.I_NOUT] = 0
         return times
 

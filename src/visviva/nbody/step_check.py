@@ -23,6 +23,12 @@ present distance: the pericentre is behind it). Jacobi WHFast integrates two bod
 from three particles on. Only the state at the start of a call is checked: an orbit that turns
 eccentric during the run is not seen. Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
+
+Two bodies other than particle 0 within :data:`ENCOUNTER_HILL` mutual Hill radii (a moon, a
+binary, a close encounter) move about each other through the interaction kick, as in a
+leapfrog, in both splittings: a step beyond :data:`ENCOUNTER_STEP_FRACTION` of their own
+pericentre timescale is warned about too (two Jupiters 0.05 apart ran silently to |dE/E| = 3.5;
+Chambers 1999, MNRAS 304, 793, switches such pairs to another integrator at a few Hill radii).
 """
 
 from __future__ import annotations
@@ -39,10 +45,24 @@ from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step",
-           "check_members", "members_checked"]
+           "check_members", "members_checked", "initial_dt", "ENCOUNTER_HILL",
+           "ENCOUNTER_STEP_FRACTION"]
 
 #: A WHFast step longer than this fraction of the shortest pericentre timescale is warned about.
 MAX_STEP_FRACTION = 0.2
+#: Two bodies (neither particle 0) closer than this many mutual Hill radii are checked as a
+#: close encounter, by the pericentre of their own two-body orbit.
+ENCOUNTER_HILL = 3.0
+#: ... when their masses are below this fraction of particle 0's (the Hill radius assumes a
+#: dominant central body; a hierarchical triple is what Jacobi coordinates are made for).
+ENCOUNTER_MASS_RATIO = 0.01
+#: A WHFast step longer than this fraction of such a pair's pericentre timescale is warned
+#: about (the pair is integrated as by a leapfrog: a moon's error after 90 orbits, 0.77 %, 7 %
+#: and 75 % of its orbit at dt = 1e-3, 3e-3 and 1e-2 of its period).
+ENCOUNTER_STEP_FRACTION = 0.002
+#: Pairs (massive x all) of one system beyond which its close encounters are not checked (a
+#: one-off ~0.05 s at this size; ensembles are checked in chunks of this many pair evaluations).
+ENCOUNTER_MAX_PAIRS = 100_000
 #: A fixed step below this fraction of a run's time scale is refused (IAS15's relative floor,
 #: :data:`visviva.core.nbody_ias15.DT_FLOOR_REL`).
 MIN_STEP_REL = 1e-15
@@ -93,6 +113,17 @@ def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None,
     else:
         r, w = x[:, 1:] - x[:, :1], v[:, 1:] - v[:, :1]
         gm = G[:, None] * (m[:, :1] + m[:, 1:])
+    tau, closest = _pericentre_timescale(r, w, gm, direction)
+    ok = np.isfinite(tau) & (gm > 0)
+    if radius is not None:  # (a receding orbit's distance only grows: it will not collide)
+        ok &= ~(collide[:, None] & (closest <= radius[:, 1:] + radius[:, :1]))
+    return np.where(ok, tau, math.inf).min(axis=1)
+
+
+def _pericentre_timescale(r, w, gm, direction):
+    """``2 pi sqrt(q^3 / GM)`` and ``q`` of the two-body orbits of relative positions ``r`` and
+    velocities ``w`` (B, K, 3) with ``gm`` (B, K); an open orbit receding along the run
+    (``direction`` (B,) or (B, K), or None) is timed at its present distance."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / np.linalg.norm(r, axis=-1)
         h = np.cross(r, w)
@@ -101,27 +132,93 @@ def _timescales(x, v, m, G, jacobi: bool, radius=None, collide=None,
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
         closest = q
         if direction is not None:  # an open orbit receding along the run: q is behind it
-            receding = (e >= 1.0) & (direction[:, None] * np.einsum("bij,bij->bi", r, w) > 0)
+            sign = direction[:, None] if direction.ndim == 1 else direction  # (B,) or (B, K)
+            receding = (e >= 1.0) & (sign * np.einsum("bij,bij->bi", r, w) > 0)
             closest = np.where(receding, np.linalg.norm(r, axis=-1), q)
-        tau = 2.0 * math.pi * np.sqrt(closest**3 / gm)
-    ok = np.isfinite(tau) & (gm > 0)
+        return 2.0 * math.pi * np.sqrt(closest**3 / gm), closest
+
+
+def _encounter_timescales(x, v, m, G, radius=None, collide=None, direction=None):
+    """The shortest pericentre timescale ``2 pi sqrt(q^3 / G (m_i + m_j))`` of the pairs of
+    bodies other than particle 0 (at least one massive) closer than :data:`ENCOUNTER_HILL`
+    mutual Hill radii ``((m_i + m_j) / 3 m_0)^(1/3) (r_i + r_j) / 2``: a moon, a binary or a
+    close encounter, whose motion about each other the splitting leaves to its interaction
+    kick. Returns (B,) timescales (``inf`` without such a pair, and when a system's pairs exceed
+    :data:`ENCOUNTER_MAX_PAIRS`: not checked) and (B, 2) the pair of each."""
+    b, n = m.shape
+    out, pair = np.full(b, math.inf), np.zeros((b, 2), dtype=np.int64)
+    massive = np.flatnonzero((m[:, 1:] > 0).any(axis=0)) + 1
+    size = len(massive) * (n - 1)
+    if n < 3 or size == 0 or size > ENCOUNTER_MAX_PAIRS:
+        return out, pair
+    chunk = max(1, ENCOUNTER_MAX_PAIRS // size)  # members at a time: bounded memory
+    if b > chunk:
+        for k in range(0, b, chunk):
+            part = slice(k, k + chunk)
+            out[part], pair[part] = _encounter_timescales(
+                x[part], v[part], m[part], G[part], None if radius is None else radius[part],
+                None if collide is None else collide[part],
+                None if direction is None else direction[part])
+        return out, pair
+    i, j = (a.ravel() for a in np.meshgrid(massive, np.arange(1, n), indexing="ij"))
+    i, j = i[i != j], j[i != j]  # both orders of a massive pair: the same timescale
+    r = x[:, j] - x[:, i]
+    d, mij = np.sqrt(np.einsum("bij,bij->bi", r, r)), m[:, i] + m[:, j]
+    helio = np.linalg.norm(x - x[:, :1], axis=-1)  # (B, N): each body's distance to particle 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hill = ENCOUNTER_HILL * np.cbrt(mij / (3.0 * m[:, :1])) * 0.5 * (helio[:, i] + helio[:, j])
+        near = (d < hill) & (mij > 0) & (mij < ENCOUNTER_MASS_RATIO * m[:, :1])
+    bb, kk = np.nonzero(near)  # the few pairs close enough: the rest is computed for them only
+    if len(bb) == 0:
+        return out, pair
+    ii, jj = i[kk], j[kk]
+    w, gm = v[bb, jj] - v[bb, ii], G[bb] * mij[bb, kk]
+    tau, closest = _pericentre_timescale(r[bb, kk][None], w[None], gm[None],
+                                         None if direction is None else direction[bb][None])
+    tau, closest = tau[0], closest[0]
+    with np.errstate(invalid="ignore"):  # bound to each other, or coming within the radius
+        bound = 0.5 * np.einsum("ij,ij->i", w, w) < gm / d[bb, kk]
+        ok = np.isfinite(tau) & (bound | (closest < hill[bb, kk]))
     if radius is not None:
-        ok &= ~(collide[:, None] & (q <= radius[:, 1:] + radius[:, :1]))
-    return np.where(ok, tau, math.inf).min(axis=1)
+        ok &= ~(collide[bb] & (closest <= radius[bb, ii] + radius[bb, jj]))
+    order = np.argsort(np.where(ok, tau, math.inf))[::-1]  # the shortest last: it wins below
+    out[bb[order]] = np.where(ok, tau, math.inf)[order]
+    pair[bb[order]] = np.stack([ii, jj], axis=1)[order]
+    return out, pair
+
+
+def _too_close(dt: float, tau: float, pair) -> str:
+    """What is wrong with a WHFast step ``dt`` for a pair within a few Hill radii."""
+    i, j = (int(k) for k in sorted(pair))
+    return (f"particles {i} and {j} are within {ENCOUNTER_HILL:g} mutual Hill radii (a moon, a "
+            "binary or a close encounter), whose motion about each other WHFast leaves to its "
+            "interaction kick, i.e. integrates as a leapfrog would, at dt = "
+            f"{fmt_number(dt)}, {abs(dt) / tau:.2g} of their timescale 2 pi sqrt(q^3 / G (m_i + "
+            f"m_j)) = {fmt_number(tau)} (q: their pericentre): its error grows like (dt / "
+            "timescale)^2 per orbit (a moon at dt = 1/100 of its period was 75 % of its orbit "
+            "off after 90 orbits; two planets in a close encounter came out with energy errors "
+            "of 0.03 to 1e3 at any step). Use IAS15, or dt below "
+            f"{ENCOUNTER_STEP_FRACTION:g} of that timescale for a moon")
 
 
 def _too_long(dt: float, tau: float, coordinates: str) -> str:
-    """What is wrong with a WHFast step ``dt`` against the shortest timescale ``tau``."""
+    """What is wrong with a WHFast (or, ``coordinates="leapfrog"``, leapfrog) step ``dt``
+    against the shortest timescale ``tau``."""
     ratio = abs(dt) / tau if tau > 0 else math.inf  # tau = 0: a radial plunge
-    return (f"WHFast's step dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
+    whose = ("the leapfrog step" if coordinates == "leapfrog" else "WHFast's step")
+    orbits = ("the two-body orbits about particle 0 and of bodies within "
+              f"{ENCOUNTER_HILL:g} mutual Hill radii" if coordinates == "leapfrog"
+              else f"{coordinates} coordinates")
+    return (f"{whose} dt = {fmt_number(dt)} is {ratio:.2g} of the shortest orbital "
             f"timescale, 2 pi sqrt(q^3 / GM) = {fmt_number(tau)} at a pericentre q "
-            f"({coordinates} coordinates; the period for a circular orbit; for an open orbit "
+            f"({orbits}; the period for a circular orbit; for an open orbit "
             "receding along the run, q is its present distance)")
 
 
 _ADVICE = (f"beyond {MAX_STEP_FRACTION:g} of it the positions are wrong by up to the orbits' "
            "size (a plunging orbit comes out of its pericentre unbound) while the energy error "
-           "can stay small. Use dt of about 1/20 of that timescale, or IAS15.")
+           "can stay small. Use dt of about 1/20 of that timescale (leapfrog: 1/100 or less; "
+           "its phase error grows like (dt / timescale)^2 per orbit), or IAS15.")
 
 
 # the (dt, N, coordinates) each simulation was last checked with; this module owns it (weak
@@ -135,12 +232,31 @@ _CHECKED_ENSEMBLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 
+def initial_dt(sim) -> float:
+    """A first guess for IAS15's step when no dt was given: 1e-3 of the shortest two-body time
+    ``sqrt(d^3 / G (m_i + m_j))`` over a sample of the pairs (0 without a massive particle)."""
+    arrays = sim.state_arrays()
+    x, m = arrays["x"], arrays["m"]
+    mi = np.flatnonzero(m)
+    if len(mi) == 0:
+        return 0.0
+    d = np.linalg.norm(x[:300, None, :] - x[None, mi[:300], :], axis=-1)  # a sample: cheap
+    msum = m[:300, None] + m[None, mi[:300]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = np.sqrt(d**3 / (sim.G * msum))
+    tau = tau[np.isfinite(tau) & (tau > 0)]
+    return 1e-3 * float(tau.min()) if tau.size else 0.0
+
+
 def check_step(sim, times) -> None:
     """Check the fixed step of ``sim`` (a leapfrog or WHFast :class:`~visviva.Simulation`) for a
     run through ``times``: refuse one shorter than :data:`MIN_STEP_REL` of the larger of the
     run's time span and its largest |t| (the run would take over 10^15 steps: a typo such as
     ``integrate(1e300)`` hung without end in one uninterruptible compiled call), and warn when
-    a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale."""
+    a WHFast step exceeds :data:`MAX_STEP_FRACTION` of the shortest pericentre timescale (or
+    :data:`ENCOUNTER_STEP_FRACTION` of a close pair's). A leapfrog step (every orbit in its
+    kicks) is checked against both timescales with :data:`MAX_STEP_FRACTION`, the orbits taken
+    about particle 0; a softened leapfrog (no point-mass orbits) is not checked."""
     t0 = sim.t
     t1 = float(times[-1]) if len(times) else t0  # times run monotonically from t0 to here
     scale = max(abs(t0), abs(t1), abs(t1 - t0))
@@ -150,9 +266,11 @@ def check_step(sim, times) -> None:
             f"time scale ({fmt_number(scale)}: from t = {fmt_number(t0)} to "
             f"{fmt_number(times[-1])}), so it would take over 10^15 steps and never finish; "
             "check the output times (and their units) or use a longer dt.")
-    if sim.integrator != "whfast" or _MEMBERS_CHECKED.get():
+    leapfrog = sim.integrator == "leapfrog"  # every orbit in its kicks: no Kepler part
+    if (sim.integrator not in ("whfast", "leapfrog") or _MEMBERS_CHECKED.get()
+            or (leapfrog and sim.softening > 0)):  # softened: not point-mass orbits
         return
-    jacobi = sim.coordinates == "jacobi"
+    jacobi = sim.coordinates == "jacobi" and not leapfrog
     direction = float(np.sign(t1 - t0))
     key = (sim.dt, sim.N, jacobi, direction)  # checked again when these or the particles change
     if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and _CHECKED.get(sim) == key:
@@ -160,10 +278,22 @@ def check_step(sim, times) -> None:
     _CHECKED[sim] = key
     if sim.N < (3 if jacobi else 2):
         return
+    radius = None if sim.collision == "none" else sim.radii
     tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,
-                             None if sim.collision == "none" else sim.radii, direction)
+                             radius, direction)
+    close, pair = _encounter_timescales(
+        sim.positions[None], sim.velocities[None], sim.masses[None], np.array([sim.G]),
+        None if radius is None else radius[None], np.array([radius is not None]),
+        np.array([direction]))
+    if leapfrog:  # a close pair is one more orbit of its kicks
+        tau = min(tau, float(close[0]))
+    label = "leapfrog" if leapfrog else sim.coordinates
     if abs(sim.dt) > MAX_STEP_FRACTION * tau:
-        warnings.warn(f"{_too_long(sim.dt, tau, sim.coordinates)}: {_ADVICE}", UserWarning,
+        warnings.warn(f"{_too_long(sim.dt, tau, label)}: {_ADVICE}", UserWarning,
+                      stacklevel=4)
+    tau = close
+    if not leapfrog and abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau[0]:
+        warnings.warn(_too_close(sim.dt, float(tau[0]), pair[0]) + ".", UserWarning,
                       stacklevel=4)
 
 
@@ -180,7 +310,8 @@ def members_checked():
 
 
 def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> None:
-    """Warn once (one :class:`UserWarning` naming the members) when the WHFast step of any of
+    """Warn once (one :class:`UserWarning` naming the members) when the WHFast (or leapfrog)
+    step of any of
     an ensemble's ``members`` exceeds :data:`MAX_STEP_FRACTION` of its shortest pericentre
     timescale, as :func:`check_step` does for a lone simulation; run it before advancing them
     inside :func:`members_checked`. ``owner`` (the ensemble) keeps each member's ``(N, dt,
@@ -189,7 +320,8 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     whose members were all checked costs a few comparisons of length-M arrays. ``stacklevel``:
     as :func:`warnings.warn`'s, counted from the caller (the user's call, 3 levels up). ``t``:
     the time the members are advanced to (the direction of each run; None: unknown)."""
-    if members[0].integrator != "whfast":
+    leapfrog = members[0].integrator == "leapfrog"  # as in check_step
+    if members[0].integrator not in ("whfast", "leapfrog"):
         return
     if pack is not None:
         x, v, m, radius, fstate, istate, poff = (pack.x, pack.v, pack.m, pack.radius,
@@ -211,30 +343,46 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     else:
         todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2]) | (direction != last[3])
     _CHECKED_ENSEMBLES[owner] = (n, dt, coords, direction)
-    jacobi = coords == 0
+    jacobi = (coords == 0) & (not leapfrog)
     todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
+    if leapfrog:
+        todo &= fstate[:, _nc.F_SOFT2] == 0.0
     if not todo.any():
         return
     ks = np.flatnonzero(todo)
-    tau = np.full(len(n), math.inf)
+    tau, close = np.full(len(n), math.inf), np.full(len(n), math.inf)
+    pairs = np.zeros((len(n), 2), dtype=np.int64)
     for size in np.unique(n[ks]).tolist():
         for jac in (True, False):
             group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
             if len(group):
                 idx = poff[group][:, None] + np.arange(size)
-                tau[group] = _timescales(x[idx], v[idx], m[idx], fstate[group, _nc.F_G], jac,
-                                         radius[idx], istate[group, _nc.I_COLLISIONS] != 0,
-                                         direction[group])
+                args = (x[idx], v[idx], m[idx], fstate[group, _nc.F_G])
+                more = (radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
+                tau[group] = _timescales(*args, jac, *more)
+                close[group], pairs[group] = _encounter_timescales(*args, *more)
+    if leapfrog:  # a close pair is one more orbit of the kicks
+        tau, close = np.minimum(tau, close), np.full(len(n), math.inf)
     with np.errstate(invalid="ignore"):
         bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
+        near = np.flatnonzero(todo & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close))
+    if len(near):
+        k = int(near[0])
+        warnings.warn(
+            f"WHFast: {len(near)} of the {len(n)} ensemble members have two bodies within "
+            f"{ENCOUNTER_HILL:g} mutual Hill radii ({', '.join(map(str, near[:20].tolist()))}"
+            f"{', ...' if len(near) > 20 else ''}); member {k}: "
+            f"{_too_close(float(dt[k]), float(close[k]), pairs[k])}.",
+            UserWarning, stacklevel=stacklevel)
     if not len(bad):
         return
     with np.errstate(divide="ignore"):
         worst = int(bad[np.argmax(np.abs(dt[bad]) / tau[bad])])
     listed = ", ".join(map(str, bad[:20].tolist())) + (", ..." if len(bad) > 20 else "")
-    name = "jacobi" if jacobi[worst] else "democratic_heliocentric"
+    name = "leapfrog" if leapfrog else "jacobi" if jacobi[worst] else "democratic_heliocentric"
+    whose = "The leapfrog step" if leapfrog else "WHFast's step"
     warnings.warn(
-        f"WHFast's step is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
+        f"{whose} is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
         f"members ({listed}); the worst, member {worst}: "
         f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
         UserWarning, stacklevel=stacklevel)

@@ -22,6 +22,17 @@ from ..errors import InvalidInputError
 
 __all__ = ["SimulationUnits"]
 
+#: The Gaussian gravitational constant k (rad/day; IAU 1938, 2012 B2): a year of 2 pi / k days.
+GAUSSIAN_K = 0.01720209895
+#: REBOUND's unit names (``rebound.units``) that astropy does not know, as astropy units.
+REBOUND_SPELLINGS = {"msun": "Msun", "solarmass": "Msun", "sunmass": "Msun", "msolar": "Msun",
+                     "mearth": "Mearth", "mjupiter": "Mjup", "gyr": "Gyr", "days": "day",
+                     "years": "yr", "yrs": "yr", "jyr": "yr", "aus": "au",
+                     "yr2pi": u.Unit(u.day / GAUSSIAN_K)}  # 1/k days: G = 1 (Gauss)
+#: Names REBOUND and astropy read differently: refused rather than guessed.
+AMBIGUOUS = {"myr": "a megayear in REBOUND but a milliyear in astropy (G would be 1e18 times "
+                    "REBOUND's); write 'Myr' for the megayear"}
+
 
 @dataclass(frozen=True)
 class SimulationUnits:
@@ -44,7 +55,9 @@ class SimulationUnits:
 
     @classmethod
     def parse(cls, units) -> SimulationUnits:
-        """Build from a tuple ``(length, time, mass)`` of unit names or astropy units."""
+        """Build from a tuple ``(length, time, mass)`` of unit names (astropy's, or REBOUND's:
+        ``"msun"``, ``"mjupiter"``, ``"yr2pi"``, ... see :data:`REBOUND_SPELLINGS`; ``"myr"``,
+        a megayear in REBOUND and a milliyear in astropy, is refused) or astropy units."""
         if isinstance(units, SimulationUnits):
             return units
         try:
@@ -56,8 +69,11 @@ class SimulationUnits:
         scales = []
         for value, kind, canon in ((length, "length", u.km), (time, "time", u.s),
                                    (mass, "mass", u.kg)):
+            if isinstance(value, str) and value in AMBIGUOUS:
+                raise InvalidInputError(f"units: {value!r} is {AMBIGUOUS[value]}.")
             try:
-                unit = u.Unit(value)
+                unit = u.Unit(REBOUND_SPELLINGS.get(value, value) if isinstance(value, str)
+                              else value)
                 scales.append(float((1.0 * unit).to_value(canon)))
             except (ValueError, u.UnitConversionError) as exc:
                 raise InvalidInputError(

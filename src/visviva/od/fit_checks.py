@@ -13,7 +13,8 @@ import warnings
 from ..errors import ConvergenceError
 
 __all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "STALL_CHANGE", "STALL_GAIN", "STALL_ITERATIONS", "STALL_STEP",
-           "failed", "stall_message", "stalled", "warn_misfit"]
+           "UNDETERMINED_CHI2", "UNDETERMINED_STEP", "failed", "stall_message", "stalled",
+           "undetermined", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
 #: are the noise the sigmas describe, the RMS is 1 +- 1/sqrt(2 dof))
@@ -39,6 +40,47 @@ STALL_STEP = 3.0
 #: a few % per iterate, never settling (a drag coefficient two stations barely see: 273
 #: iterations to leave its domain)
 STALL_GAIN = 0.1
+
+
+#: a Gauss-Newton (undamped) step shorter than UNDETERMINED_STEP of its own sigmas that makes
+#: chi^2 on the rows it was fitted to grow by more than UNDETERMINED_CHI2 shows measurements
+#: that are not linear in the state within its formal uncertainty: the data do not determine
+#: the orbit (audit44: one pass of range rate from one station, 16 rows, started at the truth,
+#: formal position sigma 2400 km, ran out of its 25 iterations with "start from a better initial
+#: state"; in a well-determined fit a sub-sigma step changes chi^2 by round-off)
+UNDETERMINED_STEP = 1.0
+UNDETERMINED_CHI2 = 1.0
+
+
+def undetermined(lm, rms, step, window, P, observations):
+    """The message of a fit whose data do not determine the orbit, or None.
+
+    ``lm`` is the fit's :class:`~visviva.od.damping.Marquardt` just after it rejected an
+    iterate of RMS ``rms`` (inf: not evaluated), ``step`` the Gauss-Newton correction that led
+    there (in its own sigmas), ``window`` whether an arc window is open, ``P`` the covariance
+    of the last accepted iterate (km, km/s first) and ``observations`` the table."""
+    import numpy as np
+
+    if (window or lm.used != 0.0 or not np.isfinite(rms) or lm.gain is None
+            or not np.isfinite(lm.gain) or not step < UNDETERMINED_STEP or P is None):
+        return None
+    grew = -lm.gain * lm.predicted  # chi^2 after the step minus before it, on the same rows
+    if not grew > UNDETERMINED_CHI2:
+        return None
+    sigma_km = float(np.sqrt(max(np.trace(P[:3, :3]), 0.0)))
+    kinds = observations.kinds
+    counts = ", ".join(f"{int(np.sum(kinds == k))} {k}" for k in dict.fromkeys(kinds))
+    sites = {id(s) for s in observations.stations if s is not None}
+    span = float(np.ptp(observations.offsets_s(observations.times[0])))
+    return (f"the observations do not determine the orbit: a Gauss-Newton step of {step:.2g} "
+            f"of its own sigmas made chi^2 grow by {grew:.3g}, so the measurements are not "
+            "linear in the state even within its formal uncertainty, "
+            f"{sigma_km:.3g} km in position ({100 * sigma_km / np.linalg.norm(lm.base[2][:3]):.2g} % of "
+            f"the radius) at the last accepted iterate. The data ({counts} rows from "
+            f"{len(sites)} station(s) over {span:.0f} s) leave the orbit open (one pass of range "
+            "or range rate from one station cannot fix it): add angles, another station or "
+            "pass, or an a priori state covariance (apriori_covariance=); a better first guess "
+            "does not help.")
 
 
 def stalled(history, gains=()):

@@ -472,7 +472,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         history.append({"iteration": it, "rms": rms, "n_rejected": int(rejected.sum()),
                         "correction": None, "damping": lm.used, "accepted": False,
                         "window": win.seconds})
-        if why_not := undetermined(lm, rms, last_step, win.active, P, observations):
+        if why_not := undetermined(lm, rms, last_step, win.active, P, observations, chosen,
+                                   [c.name for c in est]):
             raise failed(history, why_not)
         if lm.lam > 0 and win.open(last_step):  # far off: fit the rows near the epoch first
             p = lm.base[2]

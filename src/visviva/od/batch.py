@@ -337,7 +337,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     Raises
     ------
     ConvergenceError
-        The iteration diverged, stalled or did not settle within ``max_iterations``; the
+        The iteration diverged, stalled, did not settle within ``max_iterations``, or found the
+        data not determining the unknowns (:func:`visviva.od.fit_checks.undetermined`); the
         exception's ``history`` attribute holds the per-iteration report.
     InvalidInputError
         Fewer measurement components than the 6 unknowns, observations that do not determine
@@ -452,8 +453,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     rejected = np.zeros(len(observations), dtype=bool)
     history = []
     rms_prev = None
-    last_step = np.inf  # the previous correction in its own sigmas
-    P = None  # the covariance of the last accepted iterate
+    last_step, P = np.inf, None  # the previous correction in its own sigmas, its covariance
     editing = False
     readmitted = None  # the iteration that put the rejected rows back, once
     converged = False

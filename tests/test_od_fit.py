@@ -490,6 +490,10 @@ def test_simulate_tracking_takes_measurements_as_a_dict():
                        ({}, "empty")):
         with pytest.raises(vv.InvalidInputError, match=match):
             vv.od.simulate_tracking(TRUTH, STATIONS, times, measurements=bad)
+    # audit44: min_elevation=10 (degrees meant, radians read: 573 deg) said that no station
+    # sees the satellite
+    with pytest.raises(vv.DomainError, match="Plain numbers are radians"):
+        vv.od.simulate_tracking(TRUTH, STATIONS, times, min_elevation=10)
 
 
 def test_a_wild_iteration_raises_convergence_error_not_linalg_error():

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from ..errors import DomainError, InvalidInputError
 from .light_time import model
 from .observations import KINDS, Observations
 
@@ -170,10 +170,16 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     ------
     InvalidInputError
         No station sees the satellite at any of the times.
+    DomainError
+        A ``min_elevation`` beyond +-90 deg (degrees given as a plain number, read as radians).
     """
     from .._units import to_array
 
     el_min = float(to_array(min_elevation, "angle", "min_elevation"))
+    if not abs(el_min) <= np.pi / 2:  # (audit44: 10 read as 573 deg, "no station sees it")
+        raise DomainError(
+            f"min_elevation = {el_min:g} rad is outside [-pi/2, pi/2]. Plain numbers are "
+            "radians: pass degrees as a Quantity, e.g. min_elevation=10 * u.deg.")
     measurements = _measurement_pairs(measurements)
     # one set of media for the look (the mask) and the data: simulate_observations checks it
     media = {"troposphere": troposphere, "ionosphere": ionosphere, "frequency_hz": frequency_hz}

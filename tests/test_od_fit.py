@@ -599,3 +599,23 @@ def test_one_pass_of_range_or_range_rate_is_refused_as_undetermined(kinds):
                                                  "azel": 0.01 * u.deg})
     fit = vv.fit_orbit(both, TRUTH, None)
     assert fit.rms < 2 and np.linalg.norm(fit.sigma_position_km) < 1.0
+
+
+def test_simulating_a_truth_that_reaches_the_surface_is_refused():
+    # audit44: the simulator's variational integrator does not stop at the surface; a truth
+    # whose perigee is below it gave ranges from inside the Earth (11400 km, constant to 0.1 %
+    # for the rest of the day with drag) without a word. propagate_cowell raises SurfaceImpact.
+    low = vv.StateVectors([6700.0, 100.0, 300.0] * u.km, [-0.1, 4.9, 5.6] * KMS, vv.EARTH,
+                          epoch=EPOCH)
+    times = EPOCH + np.arange(0, 3 * 3600, 600) * u.s
+    forces = [vv.J2(vv.EARTH)]
+    with pytest.raises(vv.errors.SurfaceImpact):
+        vv.propagate_cowell(low, times, forces)
+    with pytest.raises(vv.errors.SurfaceImpact, match="below the surface of earth") as exc:
+        simulate_observations(low, times, "range", 0.01, STATIONS[0], forces, seed=False)
+    assert 0 < exc.value.t.to_value(u.s) < 3 * 3600
+    with pytest.raises(vv.errors.SurfaceImpact):
+        vv.od.simulate_tracking(low, STATIONS, times, forces, seed=0)
+    # before the impact, as before
+    obs = simulate_observations(low, times[:1], "range", 0.01, STATIONS[0], forces, seed=False)
+    assert obs.values[0, 0] > 0

@@ -154,7 +154,8 @@ def test_herrick_gibbs_refuses_times_in_another_unit():
     for scale in (1 / 60, 1 / 86400, 1000.0):   # minutes, days, milliseconds as seconds
         with pytest.raises(vv.DomainError, match="times do not fit the positions"):
             vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48 * scale, 153.04 * scale, gm)
-    with pytest.raises(vv.DomainError, match="times do not fit the positions"):  # metres as km
+    # metres as km: refused by their distance first (audit44; before, by the times' fit)
+    with pytest.raises(vv.DomainError, match="beyond any Earth orbit"):
         vv.herrick_gibbs(np.multiply(r1, 1e3), np.multiply(r2, 1e3), np.multiply(r3, 1e3),
                          0.0, 76.48, 153.04, gm)
 

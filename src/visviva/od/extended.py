@@ -25,7 +25,8 @@ from .light_time import model
 from .measurements import residuals
 from .square_root import covariance, noise_factor, predict_factor, psd_factor, update_factor
 
-__all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "NONLINEAR_SHIFT"]
+__all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "NONLINEAR_SHIFT",
+           "CURVATURE_GAP_S"]
 
 #: the extended filter warns when, across its predicted covariance, the curvature of a
 #: measurement shifts the measurement's mean by more than this many of its sigmas (what the
@@ -33,6 +34,10 @@ __all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "NONLINEAR_SHIFT"]
 #: 19 sigmas at the first epoch, ended 24 km off for a formal 0.8 km, silently; the docs'
 #: campaign from 3 km and 3 m/s shifts 1.7)
 NONLINEAR_SHIFT = 3.0
+#: ... checked at the first epoch and after each gap longer than this (s), where the predicted
+#: covariance has grown (within a pass it shrinks; 2.5 ms per check doubled the filter's time
+#: when made at every epoch)
+CURVATURE_GAP_S = 300.0
 
 
 def curvature_shift(observations, x, L, rows, gm):
@@ -156,9 +161,10 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
             if n > 6:  # the coefficients enter the measurements through the state only
                 Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
             HL = Hc @ L
-            bent = curvature_shift(observations, x, L, rows, gm)
-            if bent > NONLINEAR_SHIFT:
-                curved.append((bent, k))
+            if k == 0 or epochs[k] - epochs[k - 1] > CURVATURE_GAP_S:  # after the growth
+                bent = curvature_shift(observations, x, L, rows, gm)
+                if bent > NONLINEAR_SHIFT:
+                    curved.append((bent, k))
             use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
             if use.any():
                 x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])

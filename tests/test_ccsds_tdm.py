@@ -300,6 +300,19 @@ def test_elevation_beyond_90_deg_is_refused_naming_its_line():
     assert exc.value.line == line_of(text, "ANGLE_2")
 
 
+@pytest.mark.parametrize("kind", ["AZEL", "RADEC"])
+def test_azimuth_or_right_ascension_beyond_360_deg_is_refused_naming_its_line(kind):
+    # audit44: ANGLE_1 = 400 (deg) was refused by Observations as "6.98 rad ... plain numbers
+    # are radians: pass degrees as a Quantity", which the TDM's reader cannot do, and no line
+    meta = AZEL.replace("AZEL", kind) + ("REFERENCE_FRAME = EME2000" if kind == "RADEC" else "")
+    text = tdm_text(meta, "ANGLE_1 = 2024-02-14T10:00:00 400\nANGLE_2 = 2024-02-14T10:00:00 5")
+    with pytest.raises(CCSDSFormatError, match="ANGLE_1 .* outside") as exc:
+        read_obs(text)
+    assert exc.value.line == line_of(text, "ANGLE_1")
+    ok = tdm_text(meta, "ANGLE_1 = 2024-02-14T10:00:00 -10\nANGLE_2 = 2024-02-14T10:00:00 5")
+    assert read_obs(ok).values[0, 0] == pytest.approx(np.radians(-10), abs=1e-6)
+
+
 @pytest.mark.parametrize("frame, ok", [("EME2000", True), ("GCRF", True), ("ICRF", True),
                                        ("ITRF", False), ("TOD", False)])
 def test_radec_frames(frame, ok):

@@ -154,7 +154,8 @@ def test_herrick_gibbs_refuses_times_in_another_unit():
     for scale in (1 / 60, 1 / 86400, 1000.0):   # minutes, days, milliseconds as seconds
         with pytest.raises(vv.DomainError, match="times do not fit the positions"):
             vv.herrick_gibbs(r1, r2, r3, 0.0, 76.48 * scale, 153.04 * scale, gm)
-    with pytest.raises(vv.DomainError, match="times do not fit the positions"):  # metres as km
+    # metres as km: refused by their distance first (audit44; before, by the times' fit)
+    with pytest.raises(vv.DomainError, match="beyond any Earth orbit"):
         vv.herrick_gibbs(np.multiply(r1, 1e3), np.multiply(r2, 1e3), np.multiply(r3, 1e3),
                          0.0, 76.48, 153.04, gm)
 
@@ -557,3 +558,19 @@ def test_double_r_says_when_other_orbits_pass_through_the_lines_of_sight():
         s = double_r(*args)
     # what it returns is one of them
     assert min(np.linalg.norm(s.r.to_value(u.km) - e.r.to_value(u.km)) for e in every) < 1e-3
+
+
+def test_positions_in_metres_read_as_km_are_refused_about_the_earth():
+    # audit44: Curtis's Example 5.1 in metres, as plain numbers (read as km), gave v2 = 0.24
+    # km/s, an "Earth orbit" 7.4 million km out, without a word (Herrick-Gibbs caught it by
+    # its acceleration check, Gibbs knows no times)
+    r1 = np.array([-294.32, 4265.1, 5986.7]) * 1e3
+    r2 = np.array([-1365.5, 3637.6, 6346.8]) * 1e3
+    r3 = np.array([-2940.3, 2473.7, 6555.8]) * 1e3
+    for gm in (vv.EARTH, 398600 * u.km**3 / u.s**2, 398600.0):
+        with pytest.raises(vv.DomainError, match="beyond any Earth orbit"):
+            vv.gibbs(r1, r2, r3, gm)
+    # the same numbers as metres are Curtis's answer; about the Sun, millions of km are fine
+    v2 = vv.gibbs(r1 * u.m, r2 * u.m, r3 * u.m, 398600 * u.km**3 / u.s**2)
+    np.testing.assert_allclose(v2.to_value(u.km / u.s), [-6.2174, -4.0122, 1.599], atol=1e-4)
+    assert np.all(np.isfinite(vv.gibbs(r1, r2, r3, vv.SUN)))

@@ -18,7 +18,7 @@ from ..errors import ConvergenceError, InvalidInputError, VisvivaError
 from .burn_estimation import check_observable as check_burn_observable
 from .burn_estimation import check_separable, columns, considered_burns, estimated
 from .damping import WINDOW_FIT, WINDOW_SETTLE, Marquardt, Window, solve
-from .fit_checks import failed, stall_message, stalled, warn_misfit
+from .fit_checks import failed, stall_message, stalled, undetermined, warn_misfit
 from .initial_state import check_initial
 from .light_time import model
 from .measurements import residuals
@@ -337,7 +337,8 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     Raises
     ------
     ConvergenceError
-        The iteration diverged, stalled or did not settle within ``max_iterations``; the
+        The iteration diverged, stalled, did not settle within ``max_iterations``, or found the
+        data not determining the unknowns (:func:`visviva.od.fit_checks.undetermined`); the
         exception's ``history`` attribute holds the per-iteration report.
     InvalidInputError
         Fewer measurement components than the 6 unknowns, observations that do not determine
@@ -452,7 +453,7 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
     rejected = np.zeros(len(observations), dtype=bool)
     history = []
     rms_prev = None
-    last_step = np.inf  # the previous correction in its own sigmas
+    last_step, P = np.inf, None  # the previous correction in its own sigmas, its covariance
     editing = False
     readmitted = None  # the iteration that put the rejected rows back, once
     converged = False
@@ -471,6 +472,9 @@ def fit_orbit(observations, initial, perturbations=None, *, maneuvers=None,
         history.append({"iteration": it, "rms": rms, "n_rejected": int(rejected.sum()),
                         "correction": None, "damping": lm.used, "accepted": False,
                         "window": win.seconds})
+        if why_not := undetermined(lm, rms, last_step, win.active, P, observations, chosen,
+                                   [c.name for c in est]):
+            raise failed(history, why_not)
         if lm.lam > 0 and win.open(last_step):  # far off: fit the rows near the epoch first
             p = lm.base[2]
             restart()

@@ -13,7 +13,8 @@ import warnings
 from ..errors import ConvergenceError
 
 __all__ = ["MISFIT_REJECTED", "MISFIT_RMS", "STALL_CHANGE", "STALL_GAIN", "STALL_ITERATIONS", "STALL_STEP",
-           "failed", "stall_message", "stalled", "warn_misfit"]
+           "UNDETERMINED_CHI2", "UNDETERMINED_RADIUS", "UNDETERMINED_STEP", "failed", "stall_message", "stalled",
+           "undetermined", "warn_misfit"]
 
 #: a converged fit whose RMS of normalised residuals exceeds this warns (for residuals that
 #: are the noise the sigmas describe, the RMS is 1 +- 1/sqrt(2 dof))
@@ -39,6 +40,65 @@ STALL_STEP = 3.0
 #: a few % per iterate, never settling (a drag coefficient two stations barely see: 273
 #: iterations to leave its domain)
 STALL_GAIN = 0.1
+
+
+#: a Gauss-Newton (undamped) step shorter than UNDETERMINED_STEP of its own sigmas that makes
+#: chi^2 on the rows it was fitted to grow by more than UNDETERMINED_CHI2 shows measurements
+#: that are not linear in the state within its formal uncertainty: the data do not determine
+#: the orbit (audit44: one pass of range rate from one station, 16 rows, started at the truth,
+#: formal position sigma 2400 km, ran out of its 25 iterations with "start from a better initial
+#: state"; in a well-determined fit a sub-sigma step changes chi^2 by round-off)
+UNDETERMINED_STEP = 3.0
+UNDETERMINED_CHI2 = 1.0
+#: ... and the orbit, rather than the estimated burns or coefficients, is blamed when the
+#: formal position sigma exceeds this fraction of the radius
+UNDETERMINED_RADIUS = 0.01
+
+
+def undetermined(lm, rms, step, window, P, observations, burns=(), coefficients=()):
+    """The message of a fit whose data do not determine its unknowns, or None.
+
+    ``lm`` is the fit's :class:`~visviva.od.damping.Marquardt` just after it rejected an
+    iterate of RMS ``rms`` (inf: not evaluated), ``step`` the Gauss-Newton correction that led
+    there (in its own sigmas), ``window`` whether an arc window is open, ``P`` the covariance
+    of the last accepted iterate (the state in km, km/s, then 3 Δv components (km/s) per
+    index in ``burns``, then the estimated ``coefficients`` by name: drag's B in m^2/kg, Cr)
+    and ``observations`` the table."""
+    import numpy as np
+
+    if (window or lm.used != 0.0 or not np.isfinite(rms) or lm.gain is None
+            or not np.isfinite(lm.gain) or not step < UNDETERMINED_STEP or P is None):
+        return None
+    grew = -lm.gain * lm.predicted  # chi^2 after the step minus before it, on the same rows
+    if not grew > UNDETERMINED_CHI2:
+        return None
+    sigma_km = float(np.sqrt(max(np.trace(P[:3, :3]), 0.0)))
+    radius = float(np.linalg.norm(lm.base[2][:3]))
+    kinds = observations.kinds
+    counts = ", ".join(f"{int(np.sum(kinds == k))} {k}" for k in dict.fromkeys(kinds))
+    sites = {id(s) for s in observations.stations if s is not None}
+    span = float(np.ptp(observations.offsets_s(observations.times[0])))
+    head = (f"a Gauss-Newton step of {step:.2g} of its own sigmas made chi^2 grow by "
+            f"{grew:.3g}: the measurements are not linear in the unknowns even within their "
+            f"formal uncertainty at the last accepted iterate (position {sigma_km:.3g} km, "
+            f"{100 * sigma_km / radius:.2g} % of the radius")
+    sig = np.sqrt(np.maximum(np.diag(P), 0.0))
+    parts = [f"Δv of burn {i} (sigma {1e3 * np.linalg.norm(sig[6 + 3 * j:9 + 3 * j]):.3g} m/s)"
+             for j, i in enumerate(burns)]
+    first = 6 + 3 * len(burns)
+    parts += [f"{name} coefficient (sigma {sig[first + j]:.3g}"
+              + (" m^2/kg)" if name == "drag" else ")") for j, name in enumerate(coefficients)]
+    data = (f"The data ({counts} rows from {len(sites)} station(s) over {span:.0f} s)")
+    if (burns or coefficients) and sigma_km < UNDETERMINED_RADIUS * radius:
+        return (f"the observations do not determine the estimated {', '.join(parts)}: {head}). "
+                f"{data} hardly see them: fix them (leave them out of estimate= / "
+                "estimate_maneuvers=) or give them an a priori (parameter_sigma=, the burn's "
+                "execution covariance), or add data over a longer arc.")
+    return (f"the observations do not determine the orbit: {head}"
+            + "".join(f"; {p}" for p in parts) + f"). {data} leave it open (one pass of range "
+            "or range rate from one station cannot fix it): add angles, another station or "
+            "pass, or an a priori state covariance (apriori_covariance=); a better first guess "
+            "will not help.")
 
 
 def stalled(history, gains=()):

@@ -28,6 +28,10 @@ COPLANAR_TOL_RAD = math.radians(1.0)
 #: largest angle between successive positions that Herrick-Gibbs accepts by default, rad
 #: (its series is ~2e-5 of the speed off at 10 deg, 3e-3 at 36 deg)
 HERRICK_GIBBS_MAX_ARC_RAD = math.radians(10.0)
+#: farthest position from the Earth that Gibbs and Herrick-Gibbs take about the Earth's GM, km:
+#: two thirds of the Earth's Hill radius, where the Sun's tide is no longer a perturbation
+#: (audit44: Curtis's Example 5.1 in metres, read as km, gave an "orbit" 7.4 million km out)
+EARTH_ORBIT_MAX_KM = 1.0e6
 
 
 def gm_value(gm):
@@ -38,16 +42,24 @@ def gm_value(gm):
     return float(g)
 
 
-def _positions(r1, r2, r3):
+def _positions(r1, r2, r3, gm):
     arrs = [to_vector(r, "length", f"r{k}", allow_plain=True) for k, r in enumerate((r1, r2, r3), 1)]
     try:
         shape = np.broadcast_shapes(*(a.shape for a in arrs))
     except ValueError as exc:
         raise ShapeError(f"r1, r2, r3 do not broadcast: {[a.shape for a in arrs]}.") from exc
     arrs = [np.broadcast_to(a, shape) for a in arrs]
+    from ..constants import GM_EARTH_KM3_S2
+
     for k, a in enumerate(arrs, 1):
-        if np.any(np.linalg.norm(a, axis=-1) == 0):
+        norm = np.linalg.norm(a, axis=-1)
+        if np.any(norm == 0):
             raise InvalidInputError(f"r{k} has zero length; give positions from the attractor.")
+        if abs(gm / GM_EARTH_KM3_S2 - 1.0) < 1e-3 and np.any(norm > EARTH_ORBIT_MAX_KM):
+            raise DomainError(
+                f"r{k} is {float(np.max(norm)):.4g} km from the Earth, beyond any Earth orbit "
+                f"({EARTH_ORBIT_MAX_KM:.0e} km, two thirds of its Hill radius). Plain numbers are "
+                "km: positions in metres must be Quantities, e.g. r1=[...] * u.m.")
     return arrs, any(is_quantity(r) for r in (r1, r2, r3))
 
 
@@ -79,7 +91,8 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     Raises
     ------
     DomainError
-        The vectors are not coplanar within ``coplanar_tol``, or two are parallel.
+        The vectors are not coplanar within ``coplanar_tol``, or two are parallel; about the
+        Earth's GM, a position beyond ``EARTH_ORBIT_MAX_KM`` (1e6 km: metres read as km).
 
     Notes
     -----
@@ -94,7 +107,7 @@ def gibbs(r1, r2, r3, gm, *, coplanar_tol=COPLANAR_TOL_RAD):
     """
     g = gm_value(gm)
     coplanar_tol = _angle_limit(coplanar_tol, "coplanar_tol")
-    (a, b, c), quantity = _positions(r1, r2, r3)
+    (a, b, c), quantity = _positions(r1, r2, r3, g)
     ra, rb, rc = (np.linalg.norm(x, axis=-1, keepdims=True) for x in (a, b, c))
     c12, c23, c31 = np.cross(a, b), np.cross(b, c), np.cross(c, a)
     _check_coplanar(a, c23, ra, coplanar_tol)
@@ -220,7 +233,8 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
         The positions are not coplanar within ``coplanar_tol``, an arc is longer than
         ``max_arc``, or the times do not fit the positions: the acceleration their second
         difference implies is more than 100 times larger or smaller than the attractor's
-        gravity at r2 (times in another unit, e.g. minutes passed as plain seconds).
+        gravity at r2 (times in another unit, e.g. minutes passed as plain seconds); about
+        the Earth's GM, a position beyond ``EARTH_ORBIT_MAX_KM`` (1e6 km).
 
     Notes
     -----
@@ -236,7 +250,7 @@ def herrick_gibbs(r1, r2, r3, t1, t2, t3, gm, *, coplanar_tol=COPLANAR_TOL_RAD,
     g = gm_value(gm)
     coplanar_tol = _angle_limit(coplanar_tol, "coplanar_tol")
     max_arc = _angle_limit(max_arc, "max_arc")
-    (a, b, c), quantity = _positions(r1, r2, r3)
+    (a, b, c), quantity = _positions(r1, r2, r3, g)
     s1, s2, s3 = _offsets(t1, t2, t3)
     d21, d31, d32 = s2 - s1, s3 - s1, s3 - s2
     if not (d21 > 0 and d32 > 0):

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from ..errors import DomainError, InvalidInputError
 from .light_time import model
 from .observations import KINDS, Observations
 
@@ -75,6 +75,12 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
         ascension), with the same ``light_time``,
         ``radec_reference``, ``troposphere``, ``ionosphere`` and ``frequency_hz``.
 
+    Raises
+    ------
+    SurfaceImpact
+        With perturbations, the truth below its central body's surface at some of the times
+        (a decaying orbit; ``exc.t`` the first such time from the state's epoch).
+
     Notes
     -----
     The truth is integrated with the same variational integrator as the fit
@@ -94,6 +100,7 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     dyn = Dynamics(gm, perturbations, epoch, (offsets.min(), offsets.max()), 1e-13, 1e-13,
                    schedule=burn_schedule([] if maneuvers is None else maneuvers, state, epoch))
     y, _ = dyn.propagate(x, offsets)
+    _check_above_surface(y, gm, dyn.perturbations, x, exact.times, offsets)
     h, _ = model(exact, y, gm)
     if seed is False:
         noise = np.zeros_like(h)
@@ -112,6 +119,31 @@ def simulate_observations(state, times, kind, sigma, station=None, perturbations
     rows = [values[i, : exact.dims[i]] for i in range(len(exact))]
     return Observations(time=exact.times, kind=list(exact.kinds), value=rows,
                         sigma=list(exact.sigmas), station=exact.stations, **flags)  # fmt: skip
+
+
+def _check_above_surface(y, gm, perturbations, x, times, offsets_s):
+    """Refuse a truth that is below its central body's surface at some of ``times`` (states
+    ``y`` (N, 6), ``offsets_s`` from the truth's epoch), as :func:`~visviva.propagate_cowell` does: the variational integrator the
+    simulator shares with the fits does not stop there (audit44: a decaying LEO truth gave
+    ranges from inside the Earth for the rest of the day, without a word)."""
+    from ..satellites.surface import altitude_km, watched_body
+
+    body = watched_body(gm, perturbations, x[:3])
+    if body is None:
+        return
+    below = np.flatnonzero(altitude_km(y[:, :3], body) < 0.0)
+    if below.size:
+        from astropy import units as u
+
+        from ..errors import SurfaceImpact
+
+        first = times[int(below[0])]
+        raise SurfaceImpact(
+            f"the true orbit is below the surface of {body.name} at {below.size} of the "
+            f"{len(times)} times, the first at {first.utc.isot} UTC: it decays or passes through "
+            "the body, where the force model means nothing and no station tracks it. Simulate "
+            "times before the impact (vv.propagate_cowell finds it), or check the state.",
+            t=float(offsets_s[int(below[0])]) * u.s)
 
 
 def _placeholder(kind, n):
@@ -170,10 +202,18 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     ------
     InvalidInputError
         No station sees the satellite at any of the times.
+    SurfaceImpact
+        The truth is below the central body's surface at some of the times.
+    DomainError
+        A ``min_elevation`` beyond +-90 deg (degrees given as a plain number, read as radians).
     """
     from .._units import to_array
 
     el_min = float(to_array(min_elevation, "angle", "min_elevation"))
+    if not abs(el_min) <= np.pi / 2:  # (audit44: 10 read as 573 deg, "no station sees it")
+        raise DomainError(
+            f"min_elevation = {el_min:g} rad is outside [-pi/2, pi/2]. Plain numbers are "
+            "radians: pass degrees as a Quantity, e.g. min_elevation=10 * u.deg.")
     measurements = _measurement_pairs(measurements)
     # one set of media for the look (the mask) and the data: simulate_observations checks it
     media = {"troposphere": troposphere, "ionosphere": ionosphere, "frequency_hz": frequency_hz}

@@ -570,6 +570,10 @@ def _angle_rows(seg, keys, values, lines, station, use, src):
             name = "elevation" if kind == "azel" else "declination"
             raise CCSDSFormatError(f"ANGLE_2 ({name}) = {float(values[i2])!r} deg is outside "
                                    "[-90, 90]", line=int(lines[i2]), source=src)
+        if not -360.0 <= values[i1] <= 360.0:  # (audit44: blamed plain numbers as radians)
+            name = "azimuth" if kind == "azel" else "right ascension"
+            raise CCSDSFormatError(f"ANGLE_1 ({name}) = {float(values[i1])!r} deg is outside "
+                                   "[-360, 360]", line=int(lines[i1]), source=src)
         angles = np.radians([values[i1], values[i2]])
         if kind == "radec":
             angles = _radec_on_gcrs_axes(meta.get("REFERENCE_FRAME"), angles)

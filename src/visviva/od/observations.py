@@ -107,6 +107,26 @@ def _warn_repeated_rows(offsets_s, kinds, vals, stations, times):
         TrackingDataWarning, stacklevel=3)
 
 
+def _warn_per_component_reading(sigmas, kinds, n):
+    """TrackingDataWarning when N different sigmas for N rows of one kind with N components
+    each (3 position rows with an x, y, z sigma; 2 azel rows with an azimuth and an elevation
+    sigma) could be meant per component: they are read one per row (audit44's left item)."""
+    dim = KINDS[kinds[0]][0]
+    if n < 2 or dim != n or any(k != kinds[0] for k in kinds) or np.all(sigmas == sigmas[0]):
+        return
+    import warnings
+
+    from ..errors import TrackingDataWarning
+
+    warnings.warn(
+        f"sigma has {n} different entries for {n} {kinds[0]} rows of {dim} components each: "
+        "they are read as one sigma per row (each applying to every component of its row), "
+        "not one per component (visviva takes no per-component sigmas). If they were meant "
+        f"per component, give one value for all rows or split the kinds; to say 'per row' and "
+        f"silence this, pass them with shape ({n}, 1).",
+        TrackingDataWarning, stacklevel=4)
+
+
 def _height_km(station):
     """A station's height above the ellipsoid in km (0 when it gives none)."""
     h = getattr(station, "height", None)
@@ -131,6 +151,10 @@ class Observations:
     sigma : Quantity or float or sequence
         One standard deviation per row (or one for all), in the value's units; > 0. It applies
         to each component of the row (both angles of an azel row, each axis of a position).
+        There are no per-component sigmas: N different sigmas for N rows of N components each
+        (two azel rows, three position rows) are read one per row with a
+        ``TrackingDataWarning``, as they may have been meant per component; shape (N, 1)
+        says "per row" without it.
     station : GroundStation or sequence, optional
         The observing station of each row (one for all, or a list with None for position rows);
         needs ``gcrs_position_velocity(t)`` and, for azel, ``enu_matrix`` (ITRS).
@@ -317,13 +341,18 @@ class Observations:
             np.isscalar(sigma)
         ):
             items = [sigma] * n
+            explicit = True
         else:
-            items = list(sigma)
+            # an (N, 1) array says "one per row" explicitly (no ambiguity warning below)
+            explicit = isinstance(sigma, np.ndarray) and sigma.ndim == 2 and sigma.shape[1] == 1
+            items = [row[0] for row in sigma] if explicit else list(sigma)
         if len(items) != n:
             raise ShapeError(f"sigma has {len(items)} entries for {n} rows; give one per row.")
         out = np.empty(n)
         for i, (k, s) in enumerate(zip(kinds, items, strict=True)):
             out[i] = sigma_value(s, k, f"sigma[{i}]")
+        if not explicit:
+            _warn_per_component_reading(out, kinds, n)
         return out
 
     @staticmethod

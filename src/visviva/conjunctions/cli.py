@@ -103,4 +103,5 @@ def _primary(cat, which, path):
                        f"(catalogue numbers {numbers}): give --primary the catalogue number")
     shown = ", ".join(repr(n) for n in cat.names[:10])
     more = f" and {len(cat) - 10} more" if len(cat) > 10 else ""
-    raise KeyError(f"no object named or numbered {which!r} in {path} (it has {shown}{more})")
+    raise KeyError(f"no object named {which!r} in {path}, nor numbered so (it has "
+                   f"{shown}{more})")

@@ -115,6 +115,18 @@ def test_cli_screen_primary_by_number(catalogue, tmp_path, capsys):
     capsys.readouterr()
 
 
+@pytest.mark.filterwarnings("ignore:SGP4 failed inside the window:RuntimeWarning")
+def test_cli_passes_print_catalogue_numbers(catalogue, capsys):
+    """Two "ISS (ZARYA)" rows, 15 min apart, could not be told apart before audit46."""
+    path, _ = catalogue
+    assert main(["passes", str(path), "--lat", "-33.9249", "--lon", "18.4241", "--start",
+                 "2024-01-01T20:00", "--hours", "4", "--min-elevation", "10"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:3] == ["satellite", "number", "rise"]
+    iss = [line.split()[2] for line in out if line.startswith("ISS (ZARYA)")]
+    assert set(iss) == {"25544", "25545"}
+
+
 def test_passes_and_look_angles_against_skyfield(catalogue):
     pytest.importorskip("skyfield")
     from skyfield.api import EarthSatellite, load, wgs84

@@ -97,6 +97,15 @@ def test_screening_rows_name_their_catalogue_numbers(catalogue):
     assert len(empty) == 0 and "satnum1" in empty.colnames
 
 
+def test_screening_ephemerides_have_masked_catalogue_numbers(catalogue):
+    _, cat = catalogue
+    t = T0 + np.arange(0, 3601, 30) * u.s
+    eph = [cat[k].gcrs(t) for k in (0, 5)]
+    tab = vv.screen_conjunctions(eph, None, T0, T0 + 1 * u.hour, threshold=20 * u.km)
+    assert len(tab) >= 1 and tab["satnum1"].mask.all() and tab["satnum2"].mask.all()
+    assert abs(tab["miss_distance"][0] - 3.111 * u.km) < 1 * u.m
+
+
 @pytest.mark.filterwarnings("ignore:SGP4 failed inside the window:RuntimeWarning")
 def test_cli_screen_primary_by_number(catalogue, tmp_path, capsys):
     path, _ = catalogue

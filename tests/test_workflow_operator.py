@@ -119,7 +119,8 @@ def test_cli_screen_primary_by_number(catalogue, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "4 close approaches" in out and "25544" in out and "25546" in out
     head, first = csv.read_text().splitlines()[:2]
-    assert head.endswith("satnum1,satnum2") and first.endswith(",25544,25546")
+    assert head.endswith("index1,index2,satnum1,satnum2")
+    assert first.endswith(",0,5,25544,25546")  # index2: the position in the file
     assert main(["screen", str(path), *window, "--primary", "ISS CLOSE"]) == 0
     capsys.readouterr()
 

@@ -43,7 +43,7 @@ def run(args) -> int:
     from .._text import replace_text_file
     from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
-    from ..satellites.catalog import Catalog, read_catalog_file
+    from ..satellites.catalog import read_catalog_file
     from .screening import screen_conjunctions
 
     try:
@@ -52,8 +52,9 @@ def run(args) -> int:
         t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:
             prim = _primary(cat, args.primary, args.tle_file)
-            rest = Catalog([s for s in cat if s is not prim])
-            tab = screen_conjunctions(prim, rest, t0, t1, args.threshold * u.km,
+            # against the whole file (never paired with itself), so that index2 is the
+            # secondary's position in the file (it counted the file without the primary)
+            tab = screen_conjunctions(prim, cat, t0, t1, args.threshold * u.km,
                                       step=args.step * u.s, progress=not args.quiet)
         else:
             tab = screen_conjunctions(cat, None, t0, t1, args.threshold * u.km,

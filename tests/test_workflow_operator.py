@@ -137,6 +137,27 @@ def test_cli_passes_print_catalogue_numbers(catalogue, capsys):
     assert set(iss) == {"25544", "25545"}
 
 
+def test_passes_of_an_ephemeris_say_what_to_do(tmp_path, capsys):
+    """The OEM that `visviva od` writes is an operator's next pass search: the refusals now
+    say how (fit an element set), where they named the wrong type only (audit46)."""
+    from visviva.ccsds.oem import OEMSegment
+
+    iss = vv.Satellite.from_tle(L1, L2, name="ISS (ZARYA)")
+    t = T0 + np.arange(0, 3600, 60) * u.s
+    path = tmp_path / "iss.oem"
+    path.write_text(vv.write_oem(OEMSegment.from_states(iss.gcrs(t), object_name="ISS")))
+    eph = vv.read_oem(path)
+    cape = vv.GroundStation(-33.9249 * u.deg, 18.4241 * u.deg, name="Cape Town")
+    for call in (lambda: vv.find_passes(eph, cape, t[0], t[-1]),
+                 lambda: vv.find_passes(iss.gcrs(t), cape, t[0], t[-1]),
+                 lambda: cape.find_events(eph, t[0], t[-1])):
+        with pytest.raises(vv.errors.InvalidInputError, match=r"vv\.fit_tle\(states\)"):
+            call()
+    assert main(["passes", str(path), "--lat", "-33.9", "--lon", "18.4", "--start",
+                 "2024-01-01T12:00", "--hours", "1"]) == 2
+    assert f"visviva fit-tle {path}" in capsys.readouterr().err
+
+
 def test_passes_and_look_angles_against_skyfield(catalogue):
     pytest.importorskip("skyfield")
     from skyfield.api import EarthSatellite, load, wgs84

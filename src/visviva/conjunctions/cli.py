@@ -23,8 +23,9 @@ def add_parser(sub) -> None:
     p.add_argument("--step", type="seconds", default=60.0, metavar="S",
                    help="sampling step of the filters in seconds (default 60; at most 1/8 of "
                         "the shortest orbital period)")
-    p.add_argument("--primary", default=None, metavar="NAME",
-                   help="screen only this object against the rest")
+    p.add_argument("--primary", default=None, metavar="NAME|NUMBER",
+                   help="screen only this object (its name, or its catalogue number) "
+                        "against the rest")
     p.add_argument("--csv", default=None, metavar="PATH", help="also write the table as CSV")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     from ..cli_window import add_overwrite_argument
@@ -42,7 +43,7 @@ def run(args) -> int:
     from .._text import replace_text_file
     from ..cli_window import check_outputs, window_from_args
     from ..errors import VisvivaError
-    from ..satellites.catalog import Catalog, read_catalog_file
+    from ..satellites.catalog import read_catalog_file
     from .screening import screen_conjunctions
 
     try:
@@ -50,14 +51,10 @@ def run(args) -> int:
         cat = read_catalog_file(args.tle_file)
         t0, t1 = window_from_args(args.start, args.hours)
         if args.primary is not None:
-            if args.primary not in cat.names:
-                shown = ", ".join(repr(n) for n in cat.names[:10])
-                more = f" and {len(cat) - 10} more" if len(cat) > 10 else ""
-                raise KeyError(f"no object named {args.primary!r} in {args.tle_file} (it has "
-                               f"{shown}{more})")
-            prim = cat[args.primary]
-            rest = Catalog([s for s in cat if s is not prim])
-            tab = screen_conjunctions(prim, rest, t0, t1, args.threshold * u.km,
+            prim = _primary(cat, args.primary, args.tle_file)
+            # against the whole file (never paired with itself), so that index2 is the
+            # secondary's position in the file (it counted the file without the primary)
+            tab = screen_conjunctions(prim, cat, t0, t1, args.threshold * u.km,
                                       step=args.step * u.s, progress=not args.quiet)
         else:
             tab = screen_conjunctions(cat, None, t0, t1, args.threshold * u.km,
@@ -69,7 +66,8 @@ def run(args) -> int:
     print(f"{len(tab)} close approaches below {args.threshold:g} km between {t0.isot} and "
           f"{t1.isot} ({len(cat)} objects)")
     for row in tab:
-        print(f"{row['tca'].isot}  {row['object1']:>24s}  {row['object2']:>24s}  "
+        print(f"{row['tca'].isot}  {row['object1']:>24s} {row['satnum1']:>9d}  "
+              f"{row['object2']:>24s} {row['satnum2']:>9d}  "
               f"miss {row['miss_distance'].to_value(u.km):9.3f} km  "
               f"v_rel {row['relative_speed'].to_value(u.km / u.s):7.3f} km/s  "
               f"RTN ({row['radial'].to_value(u.km):8.3f}, {row['in_track'].to_value(u.km):8.3f}, "
@@ -83,3 +81,28 @@ def run(args) -> int:
             print(f"visviva screen: cannot write {args.csv}: {exc}", file=sys.stderr)
             return 2
     return 0
+
+
+def _primary(cat, which, path):
+    """The ``--primary`` object: by name, or by catalogue number where no object has that name
+    (names repeat: "FENGYUN 1C DEB"; before audit46 a repeated name could not be screened)."""
+    import numpy as np
+
+    if which in cat.names and cat.names.count(which) == 1:
+        return cat[which]
+    text = which.strip()
+    if text.isdigit():
+        rows = np.flatnonzero(cat.satnums == int(text))
+        if rows.size == 1:
+            return cat[int(rows[0])]
+        if rows.size > 1:
+            raise KeyError(f"{path} holds {rows.size} element sets numbered {text}: keep one "
+                           "set per object in the file")
+    if which in cat.names:
+        numbers = ", ".join(str(s.satnum) for s in cat if s.name == which)
+        raise KeyError(f"{cat.names.count(which)} objects of {path} are named {which!r} "
+                       f"(catalogue numbers {numbers}): give --primary the catalogue number")
+    shown = ", ".join(repr(n) for n in cat.names[:10])
+    more = f" and {len(cat) - 10} more" if len(cat) > 10 else ""
+    raise KeyError(f"no object named {which!r} in {path}, nor numbered so (it has "
+                   f"{shown}{more})")

@@ -38,6 +38,8 @@ SCREEN_COLUMNS = {
     "cross_track": "N component, km",
     "index1": "index of the primary in its catalogue",
     "index2": "index of the secondary in its catalogue",
+    "satnum1": "catalogue number of the primary (masked for ephemerides)",
+    "satnum2": "catalogue number of the secondary (masked for ephemerides)",
 }
 
 #: distance added to the apogee/perigee and sampling filters (km): covers the difference between
@@ -553,9 +555,24 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     tab["cross_track"] = arr[:, 5] * u.km
     tab["index1"] = np.array([f[0] for f in found], dtype=np.int64)
     tab["index2"] = np.array([f[1] for f in found], dtype=np.int64)
+    tab["satnum1"] = _satnums(cat1, tab["index1"])
+    tab["satnum2"] = _satnums(cat2, tab["index2"])
     _warn_same_object(cat1, cat2, tab)
     _warn_failures(first1, first2, names1, names2, self_mode, t0, step_s)
     return tab
+
+
+def _satnums(source, index):
+    """Catalogue numbers of the rows' objects: names alone are ambiguous (thousands of objects
+    are called "FENGYUN 1C DEB"; audit46). Ephemerides carry none: masked."""
+    from astropy.table import MaskedColumn
+
+    from .sources import SgpSource
+
+    index = np.asarray(index, dtype=np.int64)
+    if isinstance(source, SgpSource):
+        return np.asarray(source.catalog.satnums, dtype=np.int64)[index]
+    return MaskedColumn(np.zeros(index.size, dtype=np.int64), mask=np.ones(index.size, bool))
 
 
 def _scalar(value, name, unit) -> float:

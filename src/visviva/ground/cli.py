@@ -68,17 +68,19 @@ def _fmt_time(t) -> str:
 
 
 def format_table(table) -> str:
-    """The pass table as aligned text lines (a header and one line per pass)."""
+    """The pass table as aligned text lines (a header and one line per pass); the catalogue
+    number beside the name, as names repeat (audit46)."""
     import numpy as np
 
-    head = (f"{'satellite':<24} {'rise (UTC)':<19} {'culmination':<19} {'set':<19} "
+    head = (f"{'satellite':<24} {'number':>9} {'rise (UTC)':<19} {'culmination':<19} {'set':<19} "
             f"{'max el':>7} {'az rise':>7} {'az set':>7} {'sunlit':>6} {'dark':>5}")
     lines = [head, "-" * len(head)]
     for row in table:
         az_r = row["rise_azimuth"]
         az_s = row["set_azimuth"]
         lines.append(
-            f"{str(row['satellite'])[:24]:<24} {_fmt_time(row['rise_time']):<19} "
+            f"{str(row['satellite'])[:24]:<24} {int(row['satnum']):>9d} "
+            f"{_fmt_time(row['rise_time']):<19} "
             f"{_fmt_time(row['culmination_time']):<19} {_fmt_time(row['set_time']):<19} "
             f"{row['max_elevation'].to_value('deg'):7.1f} "
             f"{'--' if np.ma.is_masked(az_r.value) else format(az_r.to_value('deg'), '.1f'):>7} "

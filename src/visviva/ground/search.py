@@ -62,17 +62,19 @@ def as_catalog(satellites):
     if isinstance(satellites, Catalog):
         cat = satellites
     else:
+        from .station import ephemeris_hint
+
         try:
             items = list(satellites)
         except TypeError:
             raise InvalidInputError(
                 f"satellites must be a Satellite, a Catalog or a list of Satellite, got "
-                f"{type(satellites).__name__}."
+                f"{type(satellites).__name__}.{ephemeris_hint(satellites)}"
             ) from None
         for k, s in enumerate(items):
             if not isinstance(s, Satellite):
                 raise InvalidInputError(f"satellites[{k}] is a {type(s).__name__}, not a "
-                                        "Satellite.")
+                                        f"Satellite.{ephemeris_hint(s)}")
         cat = Catalog(items)
     if len(cat) == 0:
         raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")

@@ -306,6 +306,7 @@ class GroundStation:
             raise InvalidInputError(
                 f"find_events takes one Satellite, got {type(satellite).__name__}; for a "
                 "catalogue use vv.find_passes(catalog, station, t0, t1)."
+                + ephemeris_hint(satellite)
             )
         t0, t1 = check_window(t0, t1)
         flat_rad, masks = station_thresholds(min_elevation, 1)
@@ -354,3 +355,13 @@ def as_stations(stations) -> list[GroundStation]:
                 f"stations[{k}] is a {type(s).__name__}, not a GroundStation."
             )
     return out
+
+
+def ephemeris_hint(obj) -> str:
+    """What to do where states or an ephemeris (``.r`` and ``.v``, or ``.segments``) are given
+    to a pass search, which runs on SGP4 element sets; "" for anything else (audit46)."""
+    if not (hasattr(obj, "segments") or (hasattr(obj, "r") and hasattr(obj, "v"))):
+        return ""
+    return (" Passes are searched on SGP4 element sets: fit one to the states with "
+            "vv.fit_tle(states) (an OEM: vv.fit_tle(vv.read_oem(path)), or visviva fit-tle "
+            "FILE), or sample station.look(states) for their look angles.")

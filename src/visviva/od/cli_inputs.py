@@ -334,7 +334,7 @@ def read_tracking(paths, stations, sigmas, troposphere=False, media=None):
 def read_initial(path, first_time):
     """The first guess from ``--initial``: a dict with ``state``, ``covariance`` (km-based, or
     None), ``burns`` (for ``maneuvers=``, or None), ``maneuvers`` (the OPM's records, to write
-    back), ``name`` (or None).
+    back), ``name`` and ``object_id`` (or None).
 
     An OPM gives its state (epoch: the OPM's), covariance and manoeuvres; an OEM its state
     interpolated at ``first_time`` (the first observation); a TLE/OMM its SGP4 state there,
@@ -353,7 +353,8 @@ def read_initial(path, first_time):
         state = _gcrs(opm.state, path)
         return {"state": state, "covariance": _inertial_covariance(opm, state, path),
                 "burns": opm.burns() if opm.maneuvers else None, "maneuvers": opm.maneuvers,
-                "name": str(opm.metadata.get("OBJECT_NAME", "")) or None}
+                "name": str(opm.metadata.get("OBJECT_NAME", "")) or None,
+                "object_id": _object_id(opm.metadata)}
     if "CCSDS_OEM_VERS" in head or "<OEM" in head:
         from ..ccsds.oem_io import read_oem
 
@@ -364,7 +365,8 @@ def read_initial(path, first_time):
             raise InvalidInputError(f"--initial {path}: the ephemeris does not cover the first "
                                     f"observation ({first_time.utc.isot} UTC): {exc}") from None
         name = str(eph.segments[0].metadata.get("OBJECT_NAME", "")) or None
-        return {"state": _gcrs(state, path), "name": name}
+        return {"state": _gcrs(state, path), "name": name,
+                "object_id": _object_id(eph.segments[0].metadata)}
     from ..satellites.catalog import read_catalog_file
 
     cat = read_catalog_file(p)
@@ -372,7 +374,15 @@ def read_initial(path, first_time):
         raise InvalidInputError(f"--initial {path} holds {len(cat)} element sets; give a file "
                                 "with the one object tracked")
     sat = cat[0]
-    return {"state": sat.gcrs(first_time), "name": sat.name or None}
+    return {"state": sat.gcrs(first_time), "name": sat.name or None,
+            "object_id": sat.to_omm().get("OBJECT_ID") or None}
+
+
+def _object_id(metadata):
+    """``OBJECT_ID`` of the first guess's message, carried to the outputs (audit46: they said
+    UNKNOWN)."""
+    text = str(metadata.get("OBJECT_ID", "") or "").strip()
+    return text if text and text.upper() != "UNKNOWN" else None
 
 
 def _gcrs(state, path):

@@ -284,7 +284,7 @@ def _setup(args) -> dict:
             "opm_maneuvers": guess.get("maneuvers") or (),
             "forces": forces, "estimate": estimate, "parameter_sigma": parameter_sigma,
             "process_noise": noise, "parameter_noise": parameter_noise,
-            "name": args.name or name,
+            "name": args.name or name, "object_id": guess.get("object_id") or "UNKNOWN",
             "span": span, "step": step, "apriori": apriori,
             "note": "its covariance ignored: --no-apriori" if ignored else None}
 
@@ -445,8 +445,8 @@ def _opm_text(path, s, res) -> str:
     """The estimate as an OPM: the state and its covariance (km, km/s: the OPM's units)."""
     from ..ccsds.opm import OPM, write_opm
 
-    opm = OPM.from_state(res["state"], object_name=s["name"], frame="GCRF",
-                         covariance=res["covariance"], maneuvers=s["opm_maneuvers"])
+    opm = OPM.from_state(res["state"], object_name=s["name"], object_id=s["object_id"],
+                         frame="GCRF", covariance=res["covariance"], maneuvers=s["opm_maneuvers"])
     opm.sections["header"].comments.append(
         f"visviva od: {res['method']}, RMS {res['rms']:.3f}, {len(s['obs'])} observations")
     return write_opm(opm, format=_fmt(path))
@@ -467,7 +467,8 @@ def _oem_text(path, s, res) -> str:
                                    res["perturbations"], maneuvers=res["maneuvers"] or None)
     r = np.reshape(out.r.to_value("km"), (-1, 3))
     v = np.reshape(out.v.to_value("km/s"), (-1, 3))
-    seg = OEMSegment.from_states(times, r, v, object_name=s["name"], frame="GCRF",
+    seg = OEMSegment.from_states(times, r, v, object_name=s["name"], object_id=s["object_id"],
+                                 frame="GCRF",
                                  covariance=np.reshape(np.asarray(out.covariance), (-1, 6, 6)))
     return write_oem(seg, format=_fmt(path))
 

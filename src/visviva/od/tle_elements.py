@@ -6,6 +6,7 @@ of an element vector, and the OMM fields of the result.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -13,7 +14,7 @@ from ..errors import InvalidInputError
 from ..satellites.catalog_numbers import sgp4_number
 from ..satellites.tle_checks import flag_beyond_earth_orbit
 
-__all__ = ["classical", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
+__all__ = ["classical", "ephemeris_identity", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
            "is_retrograde", "naive_fields", "propagable_start"]
 
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
@@ -175,3 +176,21 @@ def naive_fields(r_teme, v_teme, epoch_str, satnum=99999, bstar=0.0):
     retro = is_retrograde(r, v)
     p = initial_elements(r, v, bstar, retro)
     return elements_to_fields(p, epoch_str, satnum, None, retrograde=retro)
+
+
+def ephemeris_identity(states, name, object_id, initial):
+    """``name`` and ``object_id`` defaulting to an OEM's ``OBJECT_NAME`` and ``OBJECT_ID`` (an
+    international designator ``YYYY-NNNP{PP}``; others, e.g. ``UNKNOWN``, are left out) where
+    neither they nor ``initial`` give them (before audit46 the set fitted to an ISS OEM was
+    named "FIT 99999" and had no designator; ``visviva fit-tle`` took the name only)."""
+    segments = getattr(states, "segments", None)
+    if not segments:
+        return name, object_id
+    meta = segments[0].metadata
+    if name is None and (initial is None or not initial.name):
+        name = str(meta.get("OBJECT_NAME", "") or "").strip() or None
+    if object_id is None and initial is None:
+        oid = str(meta.get("OBJECT_ID", "") or "").strip().upper()
+        if re.fullmatch(r"\d{4}-\d{3}[A-Z]{1,3}", oid):
+            object_id = oid
+    return name, object_id

@@ -34,6 +34,7 @@ from .tle_elements import (
     GM_WGS72,
     classical,
     elements_to_fields,
+    ephemeris_identity,
     epoch_days,
     initial_elements,
     is_retrograde,
@@ -289,9 +290,11 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         know it (satellite states), else GCRS. A frame that contradicts the states' own is
         refused.
     name : str, optional
-        Object name of the new element set.
+        Object name of the new element set (default: ``initial``'s, else an OEM's
+        ``OBJECT_NAME``).
     object_id : str, optional
-        International designator (``"1998-067A"``); blank in the TLE when not given.
+        International designator (``"1998-067A"``; default: ``initial``'s, else an OEM's
+        ``OBJECT_ID`` when it is one); blank in the TLE when not given.
     initial : Satellite, optional
         An earlier (or later) element set of the same object, e.g. the TLE or OMM the states
         were propagated from: the new set carries its revolution number forward (see Notes)
@@ -359,6 +362,7 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
 
         frame = frame_name(frame, ("gcrs", "teme"))
     r, v, t, frame = states_and_times(states, times, frame)
+    name, object_id = ephemeris_identity(states, name, object_id, initial)
     return fit_tle_arrays(r, v, t, frame, satnum, fit_bstar, bstar, epoch=epoch, name=name,
                           object_id=object_id, initial=initial, max_iterations=max_iterations,
                           tol=tol)

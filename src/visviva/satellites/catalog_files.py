@@ -329,6 +329,8 @@ def catalog_file_satellites(path) -> list:
             raise InvalidInputError(
                 f"{path}: a CCSDS {kind}, not element sets; visviva reads TLE, OMM JSON, CSV "
                 "or XML, and CCSDS OMM files."
+                + (f" For an ephemeris fit an element set first: visviva fit-tle {path} "
+                   "--output set.tle (vv.fit_tle(vv.read_oem(path)))." if kind == "OEM" else "")
             )
         fmt = "kvn"
     return _omm_text_satellites(_decode_utf8(raw, path), path, fmt)

@@ -62,7 +62,7 @@ def as_catalog(satellites):
     if isinstance(satellites, Catalog):
         cat = satellites
     else:
-        from .station import ephemeris_hint
+        from .pass_inputs import ephemeris_hint
 
         try:
             items = list(satellites)

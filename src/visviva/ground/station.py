@@ -300,6 +300,7 @@ class GroundStation:
         from ..satellites.tle import Satellite
         from .mask import station_thresholds
         from .masked_search import search_masked
+        from .pass_inputs import ephemeris_hint
         from .search import as_catalog, check_window
 
         if not isinstance(satellite, Satellite):
@@ -355,13 +356,3 @@ def as_stations(stations) -> list[GroundStation]:
                 f"stations[{k}] is a {type(s).__name__}, not a GroundStation."
             )
     return out
-
-
-def ephemeris_hint(obj) -> str:
-    """What to do where states or an ephemeris (``.r`` and ``.v``, or ``.segments``) are given
-    to a pass search, which runs on SGP4 element sets; "" for anything else (audit46)."""
-    if not (hasattr(obj, "segments") or (hasattr(obj, "r") and hasattr(obj, "v"))):
-        return ""
-    return (" Passes are searched on SGP4 element sets: fit one to the states with "
-            "vv.fit_tle(states) (an OEM: vv.fit_tle(vv.read_oem(path)), or visviva fit-tle "
-            "FILE), or sample station.look(states) for their look angles.")

@@ -89,7 +89,10 @@ class Integrator:
         same bits, and a fraction of the compile time on a fresh install. Given the run's
         ``istate`` and ``fstate``, an integrator whose module has ``is_plain`` (WHFast) takes
         ``<kernel_name>_plain`` when that says so: the few-body kernel for the default case
-        alone (no other coordinates, corrector or events compiled).
+        alone (no other coordinates, corrector or events compiled); one whose module has
+        ``is_megno`` takes ``<kernel_name>_megno`` for a MEGNO run it covers: the few-body
+        kernel with the tangent vector and without the paths MEGNO refuses (events, WHFast's
+        corrector and democratic heliocentric coordinates), the same bits.
         """
         name = self.variant(few, istate, fstate)
         return compiled_kernel(self.module, name)
@@ -99,6 +102,9 @@ class Integrator:
         plain = getattr(self.core, "is_plain", None)
         if few and istate is not None and plain is not None and plain(istate, fstate):
             return self.kernel_name + "_plain"
+        megno = getattr(self.core, "is_megno", None)
+        if few and istate is not None and megno is not None and megno(istate, fstate):
+            return self.kernel_name + "_megno"
         if few:
             return self.kernel_name + "_few"
         return self.kernel_name

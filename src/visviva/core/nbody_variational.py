@@ -57,7 +57,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import kernel, step_kernel
+from ._jit import kernel
 from .gauss_radau import BG, CB, RINV, H
 from .nbody_common import (
     F_G,
@@ -139,7 +139,7 @@ def tangent_acceleration(x, dx, m, massive, G, soft2, out):
         out[i, 2] = az
 
 
-@step_kernel
+@kernel
 def megno_update(fstate, h, ln_delta):
     """Add one step of length ``h`` (``tau``, the time since the start, advances by ``h``: the
     sum of the steps, so that assigning ``sim.t`` moves nothing), after which
@@ -166,7 +166,7 @@ def megno_update(fstate, h, ln_delta):
     fstate[F_MG_N] = n
 
 
-@step_kernel
+@kernel
 def ln_norm_rescaled(fstate, buf, base, with_b):
     """``ln|delta|`` of the tangent vector; when ``|delta|^2`` exceeds :data:`RESCALE_ABOVE` the
     vector (and IAS15's tangent ``b``, its predictor) is first multiplied by :data:`RESCALE` and
@@ -187,7 +187,7 @@ def ln_norm_rescaled(fstate, buf, base, with_b):
     return 0.5 * math.log(d2) if d2 > 0.0 else -math.inf
 
 
-@step_kernel
+@kernel
 def leapfrog_tangent(xi, vi, m, massive, fstate, buf, base, h):
     """Advance the tangent vector over the leapfrog step of length ``h`` just taken (``xi, vi``:
     the physical state after it) by the linearised drift-kick-drift map, and update MEGNO."""

@@ -299,7 +299,7 @@ def _dkd_step(x, v, m, eta, G, h, t, xj, vj, massive, fstate, istate, gwork, for
     return OK
 
 
-@step_kernel
+@kernel
 def _tangent_start(mg, x, v, m, eta, buf):
     """MEGNO (``mg`` true; ``None`` compiles nothing): remember the synchronised state where
     the internal state is built afresh (:func:`.nbody_wh_tangent.whfast_tangent_start`)."""
@@ -307,7 +307,7 @@ def _tangent_start(mg, x, v, m, eta, buf):
         whfast_tangent_start(x, v, m, eta, buf, N_BUF)
 
 
-@step_kernel
+@kernel
 def _tangent_step(mg, xj, vj, x, m, massive, eta, fstate, buf, h):
     """MEGNO (``mg`` true; ``None`` compiles nothing): the tangent vector over the Jacobi step
     ``h`` just taken (:func:`.nbody_wh_tangent.whfast_tangent`); returns a status code."""

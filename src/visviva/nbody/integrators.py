@@ -23,6 +23,8 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import InvalidInputError
 
 __all__ = ["Integrator", "INTEGRATORS", "get_integrator", "COORDINATES", "parse_coordinates",
@@ -108,6 +110,21 @@ class Integrator:
         if few:
             return self.kernel_name + "_few"
         return self.kernel_name
+
+    def pack_variant(self, few: bool, istate, fstate) -> str:
+        """The name of the kernel a packed ensemble call runs for members with the stacked
+        ``istate``/``fstate`` rows (shapes (M, N_ISTATE), (M, N_FSTATE)): the MEGNO kernel when
+        ``is_megno`` covers every member (the kernel their lone runs take, and the one
+        ``visviva warmup`` compiles), else :meth:`variant` without the state (a pack of plain
+        members keeps the few-body kernel)."""
+        megno = getattr(self.core, "is_megno", None)
+        if few and megno is not None and bool(np.all(megno(istate, fstate))):
+            return self.kernel_name + "_megno"
+        return self.variant(few)
+
+    def pack_kernel(self, few: bool, istate, fstate):
+        """The compiled kernel :meth:`pack_variant` names."""
+        return compiled_kernel(self.module, self.pack_variant(few, istate, fstate))
 
 
 def few_bodies(istate, massive) -> bool:

@@ -12,11 +12,11 @@ import visviva as vv
 CASES = [("whfast", 0.013), ("leapfrog", 0.005), ("ias15", None)]
 
 
-def _system(integrator, dt, **kw):
+def _system(integrator, dt, a2=1.25, **kw):
     sim = vv.Simulation(integrator=integrator, G=1.0, dt=dt, **kw)
     sim.add(1.0)
     sim.add(1e-3, a=1.0, primary=0)
-    sim.add(1e-3, a=1.25, e=0.05, primary=0)  # chaotic: the tangent vector grows
+    sim.add(1e-3, a=a2, e=0.05, primary=0)  # a2 = 1.25: chaotic, the tangent vector grows
     sim.move_to_com()
     return sim
 
@@ -65,3 +65,35 @@ def test_runs_the_megno_kernel_does_not_cover_take_the_others(integrator, dt):
     alone.init_megno(seed=1)
     alone.integrate(3.0)
     assert events.megno() == alone.megno()  # no collision: the same run
+
+
+def test_a_packed_megno_ensemble_runs_the_megno_kernel_with_the_lone_runs_bits():
+    # was: a packed CPU ensemble ran the general few-body kernel (whfast_run_few, 41 s of CPU
+    # to compile) although its members' lone runs and `visviva warmup` use the MEGNO kernel
+    from visviva.nbody.ensemble_pack import Pack
+
+    def members(megno=True):
+        out = []
+        for a2 in (1.25, 1.6):
+            s = _system("whfast", 0.013, a2)
+            if megno:
+                s.init_megno(seed=2)
+            out.append(s)
+        return out
+
+    info = members()[0].integrator_info
+
+    def rows(sims):
+        arrays = [s.state_arrays() for s in sims]
+        return (np.stack([a["istate"] for a in arrays]), np.stack([a["fstate"] for a in arrays]))
+
+    assert info.pack_variant(True, *rows(members())) == "whfast_run_megno"
+    assert info.pack_variant(True, *rows(members(False))) == "whfast_run_few"
+    assert info.pack_variant(False, *rows(members())) == "whfast_run"
+    packed, lone = members(), members()
+    pack = Pack.build(packed)
+    assert pack is not None and pack.advance(20.0) == []
+    for s in lone:
+        s.integrate(20.0)
+    for p, q in zip(packed, lone, strict=True):
+        assert p.megno() == q.megno() and np.array_equal(p.tangent_vector, q.tangent_vector)

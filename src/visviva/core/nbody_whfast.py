@@ -383,7 +383,8 @@ def whfast_run_megno(x, v, m, massive, radius, fstate, istate, buf, gwork, force
                      out_t, out_x, out_v):
     """:func:`whfast_run_plain` with the tangent vector (:func:`is_megno`): what a first MEGNO
     run compiles, without the corrector, the democratic heliocentric step and the event path of
-    :func:`whfast_run_few` (13-18 s of CPU on a fresh install, against 41 s for that kernel).
+    :func:`whfast_run_few` (24 s of CPU to compile on a fresh install, against 41 s for that
+    kernel; docs/performance.md).
     The same bits as :func:`whfast_run_few`."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
                    out_t, out_x, out_v, FEW, PLAIN, MEGNO_ON)
@@ -396,6 +397,8 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
 
     Particle 0 must have mass (the central body). ``istate[I_WH_COORDINATES]`` chooses Jacobi
     (0) or democratic heliocentric (1) coordinates; the corrector is used with Jacobi only.
+    ``plain`` (:data:`PLAIN` or :data:`ANY_CASE`) and ``megno`` (:data:`PLAIN` or
+    :data:`MEGNO_ON`, read only with ``plain = PLAIN``) choose, as types, what is compiled.
 
     Without event detection (the usual case) the half drifts of consecutive steps are fused:
     the internal state ``P`` (internal coordinates just after a kick, kept in ``buf``) advances

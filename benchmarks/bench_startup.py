@@ -16,6 +16,10 @@ numba's on-disk cache):
   EMPTY numba cache (a new ``NUMBA_CACHE_DIR`` per case; small calls run in the interpreter
   tier, :mod:`visviva.core.tier`), then compiling (``VISVIVA_INTERPRET=0``), then again warm.
   Budgets: 5 s cold, 1.5 s warm. Reported as CPU time (the machine may be shared), wall time in the notes.
+* ``cold start, whole process: ... + MEGNO`` (not with ``--quick``): the same for a first MEGNO
+  run of each integrator and of an ensemble (:data:`MEGNO_CASES`; too long for the interpreter
+  tier, so each compiles its integrator's MEGNO kernel). The same budgets, not met: the row
+  tracks the compile time (docs/performance.md).
 
 The budget rows have no reference library: the "reference" column holds the budget, so that
 ``ratio = time / budget`` and the row is met when the ratio is at most 1. ``import visviva``
@@ -155,6 +159,44 @@ vv.propagate_cowell(s, np.linspace(0, 86400, 145) * u.s, perturbations=[vv.J2(vv
 }
 
 
+#: First MEGNO runs (the nineteenth and twentieth sessions' feature), each a whole script
+MEGNO_CASES = {
+"whfast + MEGNO": """
+import visviva as vv
+sim = vv.Simulation(integrator="whfast", G=1.0, dt=0.01)
+sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.6, primary=0)
+sim.init_megno(seed=1)
+sim.integrate(100.0); sim.megno()
+""",
+"ias15 + MEGNO": """
+import visviva as vv
+sim = vv.Simulation(integrator="ias15")
+sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.25, primary=0)
+sim.move_to_com()
+sim.init_megno(seed=1)
+sim.integrate(300.0); sim.megno(), sim.lyapunov()
+""",
+"leapfrog + MEGNO": """
+import visviva as vv
+sim = vv.Simulation(integrator="leapfrog", G=1.0, dt=0.005)
+sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.6, primary=0)
+sim.init_megno(seed=1)
+sim.integrate(100.0); sim.megno()
+""",
+"ensemble + MEGNO": """
+import visviva as vv
+sims = []
+for a2 in (1.3, 1.6, 1.9):
+    sim = vv.Simulation("whfast", dt=0.01)
+    sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(3e-4, a=a2, primary=0)
+    sim.init_megno(seed=1)
+    sims.append(sim)
+ens = vv.Ensemble.from_simulations(sims)
+ens.integrate(100.0); ens.megno()
+""",
+}
+
+
 def whole_process_seconds(code: str, env: dict) -> tuple[float, float]:
     """Run ``code`` in a fresh interpreter; return (wall, CPU) seconds of the whole process.
 
@@ -268,6 +310,7 @@ def run(quick: bool = False) -> list[dict]:
                    f"function, first call in a fresh process) {floor * 1e3:.0f} ms; 1 thread")))
     if not quick:  # minutes of CPU: every kernel compiled from scratch once per case
         rows += cold_rows(runs)
+        rows += cold_rows(runs, MEGNO_CASES)
     return rows
 
 

@@ -227,8 +227,9 @@ filter_statistics(src, src, 7200.0, 50.0)
 def test_warmup_covers_the_ensemble_kernel_and_megno():
     # was: `visviva warmup` left out the ensemble kernel (ensemble_run: a first packed ensemble
     # after the warmup still compiled it, 2.9 s of CPU) and the scalar elements -> state
-    # kernels of sim.add(a=..., primary=0); MEGNO's tangent maps live in the few-body kernels
-    # (audit40: a first MEGNO run on an empty cache compiles for 11-44 s of CPU)
+    # kernels of sim.add(a=..., primary=0); MEGNO's tangent maps live in the integrators' MEGNO
+    # kernels (audit40: a first MEGNO run on an empty cache compiled for 11-44 s of CPU; 9-30 s
+    # since the MEGNO kernels were split off the few-body ones, megnocold)
     from visviva.core import nbody_ensemble, nbody_ias15, nbody_leapfrog, nbody_whfast
 
     chosen = [(label, fn) for label, fn in warmup.TASKS
@@ -236,8 +237,8 @@ def test_warmup_covers_the_ensemble_kernel_and_megno():
     assert len(chosen) == 2, sorted(dict(warmup.TASKS))
     results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
     assert [r[2] for r in results] == [None, None]
-    for kernel in (nbody_ensemble.ensemble_run, nbody_ias15.ias15_run_few,
-                   nbody_leapfrog.leapfrog_run_few, nbody_whfast.whfast_run_few):
+    for kernel in (nbody_ensemble.ensemble_run, nbody_ias15.ias15_run_megno,
+                   nbody_leapfrog.leapfrog_run_megno, nbody_whfast.whfast_run_megno):
         assert kernel.signatures, kernel.py_func.__name__
 
 

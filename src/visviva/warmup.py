@@ -149,10 +149,10 @@ def _three_bodies(integrator, **kw):
 
 def _megno():
     # MEGNO's tangent maps (IAS15's collocation, leapfrog's and WHFast's linearised steps) run
-    # in each integrator's few-body kernel, not in WHFast's plain one (on an empty cache a first
-    # MEGNO run compiles for 11-44 s of CPU): the tasks above compile them, this one keeps it
-    # so if a MEGNO variant is split off, and compiles the scalar elements -> state kernels of
-    # sim.add(a=..., primary=0) (audit40: left cold by the other tasks)
+    # in each integrator's MEGNO kernel (<name>_run_megno: the few-body kernel without event
+    # checks, WHFast's corrector and democratic heliocentric step; a first MEGNO run on an empty
+    # cache compiles it for 9-30 s of CPU), which the tasks above leave cold; this one also
+    # compiles the scalar elements -> state kernels of sim.add(a=..., primary=0) (audit40)
     for integrator, kw in (("ias15", {}), ("leapfrog", {"dt": 0.01}), ("whfast", {"dt": 0.01})):
         sim = _three_bodies(integrator, **kw)
         sim.init_megno(seed=1)

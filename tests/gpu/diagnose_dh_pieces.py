@@ -272,7 +272,7 @@ def k_body(x, v, m, massive, radius, fstate, istate, flat, params, t_out, out_t,
     T = t_out.shape[0]
     st[0] = body(x, v, m, massive, radius, fstate, istate, flat.reshape((NB, n, 3)), x, force,
                  params, t_out, out_t, out_x.reshape((T, n, 3)), out_v.reshape((T, n, 3)), 0,
-                 True)
+                 True, None)
 
 
 def run_body(sim, coordinates="democratic_heliocentric", t_end=0.0125):

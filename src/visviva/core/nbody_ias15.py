@@ -74,6 +74,7 @@ from .nbody_common import (
     I_FRESH,
     I_INT_VALID,
     I_ITERATIONS,
+    I_MEGNO,
     I_NOUT,
     I_PARALLEL,
     I_REJECTED,
@@ -91,7 +92,7 @@ from .nbody_common import (
 from .nbody_variational import ias15_tangent, megno_on
 from .status import NON_FINITE, OK, STEP_TOO_SMALL
 
-__all__ = ["ias15_run", "ias15_run_few", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
+__all__ = ["ias15_run", "ias15_run_few", "ias15_run_megno", "is_megno", "N_BUF", "H", "SAFETY", "MAX_ITERATIONS", "DT_FLOOR_REL"]
 
 SAFETY = 0.25
 #: A step evaluates gravity on two-part positions (hi + lo) when a pair is closer than
@@ -516,7 +517,7 @@ def _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force, para
             _predict(buf, n, ratio, _BL, _EL)
         fstate[F_DT_LAST] = dt
         fstate[F_DT] = dt_next
-        if events:
+        if events is not None and events:  # (None: the MEGNO kernel compiles no check)
             status = check_events(xi, vi, radius, fstate, istate)
             if status != OK:
                 return status
@@ -553,7 +554,7 @@ def ias15_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
     """Advance through every output time with IAS15 (see :func:`_ias15`); gravity by any
     kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
     return _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                  out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+                  out_t, out_x, out_v, istate[I_PARALLEL] != 0, ANY_CASE)
 
 
 @kernel
@@ -562,12 +563,34 @@ def ias15_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, p
     """:func:`ias15_run` with the serial few-body gravity alone (``FEW``; see
     :func:`visviva.core.nbody_whfast.whfast_run_few`)."""
     return _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                  out_t, out_x, out_v, FEW)
+                  out_t, out_x, out_v, FEW, ANY_CASE)
+
+
+#: The ``case`` argument of the run body: events chosen at run time (the general kernels) ...
+ANY_CASE = None
+#: ... or none compiled (:func:`ias15_run_megno`).
+MEGNO_ONLY = True
+
+
+def is_megno(istate, fstate):
+    """True when a run may use :func:`ias15_run_megno` (plain Python, not compiled): MEGNO on,
+    and none of collisions, encounters or an escape radius."""
+    return ((istate[..., I_MEGNO] == 1) & (istate[..., I_COLLISIONS] == 0)
+            & (fstate[..., F_ENCOUNTER] <= 0.0) & (fstate[..., F_EXIT] <= 0.0))
+
+
+@kernel
+def ias15_run_megno(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                    out_t, out_x, out_v):
+    """:func:`ias15_run_few` for a MEGNO run without events (:func:`is_megno`): the event
+    checks are not compiled. The same bits; what a first MEGNO run compiles."""
+    return _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                  out_t, out_x, out_v, FEW, MEGNO_ONLY)
 
 
 @step_kernel
 def _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-           out_t, out_x, out_v, parallel):
+           out_t, out_x, out_v, parallel, case):
     """Advance through every output time with IAS15 (see the module docstring).
 
     The integrator's own state (``buf``: positions, velocities, b and e arrays, compensated
@@ -582,10 +605,15 @@ def _ias15(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, 
     span = abs(t_out[t_out.shape[0] - 1] - fstate[F_T_INT]) if t_out.shape[0] > 0 else 0.0
     fsave = fstate.copy()
     isave = istate.copy()
-    events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
+    if case is None:
+        events = istate[I_COLLISIONS] != 0 or fstate[F_ENCOUNTER] > 0.0 or fstate[F_EXIT] > 0.0
+        quiet = False  # the copy that lands on an output time checks no events
+    else:
+        events = None  # the MEGNO kernel: no event checks compiled (is_megno)
+        quiet = None
     for k in range(istate[I_NOUT], t_out.shape[0]):
         status = _to_output(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
-                            t_out[k], direction, events, span, parallel, fsave, isave)
+                            t_out[k], direction, events, quiet, span, parallel, fsave, isave)
         if status != OK:
             return status
         write_output(k, fstate[F_T], x, v, out_t, out_x, out_v)
@@ -611,9 +639,11 @@ def _start(x, v, fstate, istate, buf):
 
 @step_kernel
 def _to_output(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, target,
-               direction, events, span, parallel, fsave, isave):
+               direction, events, quiet, span, parallel, fsave, isave):
     """One output time of :func:`_ias15` into ``x, v`` (``fsave, isave``: scratch of the shapes
-    of ``fstate, istate``); returns a status code."""
+    of ``fstate, istate``; ``quiet``: the ``events`` of the copy that lands on the output time,
+    False or, in the MEGNO kernel, None, of the type of ``events``: one compiled ``_advance``);
+    returns a status code."""
     xi = buf[_XI]
     vi = buf[_VI]
     exact = istate[I_EXACT_FINISH] != 0
@@ -635,7 +665,7 @@ def _to_output(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
             isave[q] = istate[q]
         istate[I_STOP_AT_STEP] = 0  # never pause inside the copy
         status = _advance(xi, vi, m, massive, radius, fstate, istate, buf, gwork, force,
-                          params, target, direction, 1, False, span, parallel)
+                          params, target, direction, 1, quiet, span, parallel)
         _expose(xi, vi, x, v)
         _backup(buf, True)
         for q in range(fstate.shape[0]):

@@ -33,6 +33,7 @@ from .nbody_common import (
     I_FRESH,
     I_INT_VALID,
     I_K,
+    I_MEGNO,
     I_NOUT,
     I_PARALLEL,
     I_STEPS,
@@ -46,7 +47,7 @@ from .nbody_common import (
 from .nbody_variational import leapfrog_tangent, megno_on
 from .status import NON_FINITE, OK
 
-__all__ = ["leapfrog_run", "leapfrog_run_few", "N_BUF"]
+__all__ = ["leapfrog_run", "leapfrog_run_few", "leapfrog_run_megno", "is_megno", "N_BUF"]
 
 # slots of buf: acceleration, internal positions and velocities (on the step grid)
 _ACC = 0
@@ -76,7 +77,7 @@ def leapfrog_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, pa
     """Advance through every output time with drift-kick-drift steps (see :func:`_leapfrog`);
     gravity by any kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
     return _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                     out_t, out_x, out_v, istate[I_PARALLEL] != 0)
+                     out_t, out_x, out_v, istate[I_PARALLEL] != 0, ANY_CASE)
 
 
 @kernel
@@ -85,12 +86,34 @@ def leapfrog_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force
     """:func:`leapfrog_run` with the serial few-body gravity alone (``FEW``; see
     :func:`visviva.core.nbody_whfast.whfast_run_few`)."""
     return _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                     out_t, out_x, out_v, FEW)
+                     out_t, out_x, out_v, FEW, ANY_CASE)
+
+
+#: The ``case`` argument of the run body: events chosen at run time (the general kernels) ...
+ANY_CASE = None
+#: ... or none compiled (:func:`leapfrog_run_megno`).
+MEGNO_ONLY = True
+
+
+def is_megno(istate, fstate):
+    """True when a run may use :func:`leapfrog_run_megno` (plain Python, not compiled): MEGNO
+    on, and none of collisions, encounters or an escape radius."""
+    return ((istate[..., I_MEGNO] == 1) & (istate[..., I_COLLISIONS] == 0)
+            & (fstate[..., F_ENCOUNTER] <= 0.0) & (fstate[..., F_EXIT] <= 0.0))
+
+
+@kernel
+def leapfrog_run_megno(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
+                       t_out, out_t, out_x, out_v):
+    """:func:`leapfrog_run_few` for a MEGNO run without events (:func:`is_megno`): the event
+    checks are not compiled. The same bits; what a first MEGNO run compiles."""
+    return _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v, FEW, MEGNO_ONLY)
 
 
 @step_kernel
 def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-              out_t, out_x, out_v, parallel):
+              out_t, out_x, out_v, parallel, case):
     """Advance through every output time with drift-kick-drift steps (see the module docstring).
 
     The integrator's own state (``buf``) advances on the grid ``t0 + k |dt|``; an output time
@@ -135,7 +158,7 @@ def _leapfrog(x, v, m, massive, radius, fstate, istate, buf, gwork, force, param
             istate[I_K] += 1 if h > 0.0 else -1
             istate[I_STEPS] += 1
             fstate[F_DT_LAST] = h
-            if events:
+            if case is None and events:  # (the MEGNO kernel compiles no event check)
                 status = check_events(xi, vi, radius, fstate, istate)
                 if status != OK:
                     for i in range(n):

@@ -119,7 +119,9 @@ __all__ = [
     "whfast_run",
     "whfast_run_few",
     "whfast_run_plain",
+    "whfast_run_megno",
     "is_plain",
+    "is_megno",
     "to_jacobi",
     "from_jacobi",
     "to_democratic_heliocentric",
@@ -320,7 +322,7 @@ def whfast_run(x, v, m, massive, radius, fstate, istate, buf, gwork, force, para
     """Advance through every output time with Wisdom-Holman steps (see the module docstring and
     :func:`_whfast`); gravity by any kernel, chosen at run time (``istate[I_PARALLEL]``, N)."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                   out_t, out_x, out_v, istate[I_PARALLEL] != 0, ANY_CASE)
+                   out_t, out_x, out_v, istate[I_PARALLEL] != 0, ANY_CASE, PLAIN)
 
 
 @kernel
@@ -330,7 +332,7 @@ def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, 
     thread and fewer than :data:`visviva.core.gravity.PAIR_MIN_N` massive particles, the same
     bits and a fraction of the compile time (no ``prange`` region, no large-N kernel)."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                   out_t, out_x, out_v, FEW, ANY_CASE)
+                   out_t, out_x, out_v, FEW, ANY_CASE, PLAIN)
 
 
 #: The ``plain`` argument of the run body for the default case: Jacobi coordinates, no
@@ -342,6 +344,10 @@ def whfast_run_few(x, v, m, massive, radius, fstate, istate, buf, gwork, force, 
 PLAIN = None
 #: The ``plain`` argument for every other case (chosen at run time from ``istate``).
 ANY_CASE = True
+#: The ``megno`` argument of the run body with ``plain = PLAIN``: the tangent vector's hooks
+#: compiled in (``PLAIN`` there: none); the general kernels choose at run time and pass
+#: ``PLAIN`` (unused).
+MEGNO_ON = True
 
 
 def is_plain(istate, fstate):
@@ -360,16 +366,39 @@ def whfast_run_plain(x, v, m, massive, radius, fstate, istate, buf, gwork, force
     """:func:`whfast_run_few` for the default case alone (:func:`is_plain`): Jacobi
     coordinates, no corrector, no events. The same bits; what a first WHFast run compiles."""
     return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-                   out_t, out_x, out_v, FEW, PLAIN)
+                   out_t, out_x, out_v, FEW, PLAIN, PLAIN)
+
+
+def is_megno(istate, fstate):
+    """True when a run may use :func:`whfast_run_megno` (plain Python, not compiled): the case
+    of :func:`is_plain` (Jacobi coordinates, no corrector, no events) with MEGNO on, the only
+    one ``init_megno`` accepts. On an ensemble's stacked rows an array, as :func:`is_plain`."""
+    return ((istate[..., I_WH_COORDINATES] == JACOBI) & (istate[..., I_CORRECTOR] == 0)
+            & (istate[..., I_COLLISIONS] == 0) & (fstate[..., F_ENCOUNTER] <= 0.0)
+            & (fstate[..., F_EXIT] <= 0.0) & (istate[..., I_MEGNO] == 1))
+
+
+@kernel
+def whfast_run_megno(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                     out_t, out_x, out_v):
+    """:func:`whfast_run_plain` with the tangent vector (:func:`is_megno`): what a first MEGNO
+    run compiles, without the corrector, the democratic heliocentric step and the event path of
+    :func:`whfast_run_few` (24 s of CPU to compile on a fresh install, against 41 s for that
+    kernel; docs/performance.md).
+    The same bits as :func:`whfast_run_few`."""
+    return _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
+                   out_t, out_x, out_v, FEW, PLAIN, MEGNO_ON)
 
 
 @step_kernel
 def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params, t_out,
-            out_t, out_x, out_v, parallel, plain):
+            out_t, out_x, out_v, parallel, plain, megno):
     """Advance through every output time with Wisdom-Holman steps (see the module docstring).
 
     Particle 0 must have mass (the central body). ``istate[I_WH_COORDINATES]`` chooses Jacobi
     (0) or democratic heliocentric (1) coordinates; the corrector is used with Jacobi only.
+    ``plain`` (:data:`PLAIN` or :data:`ANY_CASE`) and ``megno`` (:data:`PLAIN` or
+    :data:`MEGNO_ON`, read only with ``plain = PLAIN``) choose, as types, what is compiled.
 
     Without event detection (the usual case) the half drifts of consecutive steps are fused:
     the internal state ``P`` (internal coordinates just after a kick, kept in ``buf``) advances
@@ -399,7 +428,12 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
     if plain is None:
         dh = False  # Jacobi (a bool: see PLAIN)
         order = plain  # None: the callees compile no corrector
-        mg = plain  # ... and no tangent vector
+        # ... and the tangent vector only in the MEGNO kernel (megno_on: a run without MEGNO
+        # taken there by mistake leaves buf's tangent slots alone)
+        if megno is None:
+            mg = megno
+        else:
+            mg = megno_on(istate, buf, N_BUF)
     else:
         dh = istate[I_WH_COORDINATES] == DEMOCRATIC_HELIOCENTRIC
         order = 0 if dh else istate[I_CORRECTOR]

@@ -289,11 +289,13 @@ class Pack:
         params = np.zeros(M)
         qoff = np.arange(M + 1, dtype=np.int64)
         # members with few massive bodies run the few-body kernel a lone run takes (the same
-        # bits; visviva.nbody.integrators.few_bodies), the others the every-path kernel
+        # bits; visviva.nbody.integrators.few_bodies; with MEGNO, the MEGNO kernel when it
+        # covers them all), the others the every-path kernel
         few = int(np.diff(self.moff).max()) < PAIR_MIN_N
+        run = first.integrator_info.pack_kernel(few, self.istate, self.fstate)
         ensemble_kernel()(
-            first.integrator_info.kernel(few), self.n_buf, self.x, self.v, self.m, self.massive,
-            self.moff, self.radius, self.fstate, self.istate, self.buf,
+            run, self.n_buf, self.x, self.v, self.m, self.massive, self.moff, self.radius,
+            self.fstate, self.istate, self.buf,
             np.zeros(GWORK_ROWS * P), fn, params, qoff, times, out_t, out_x, out_v, self.poff,
             status,
         )

@@ -23,6 +23,8 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import InvalidInputError
 
 __all__ = ["Integrator", "INTEGRATORS", "get_integrator", "COORDINATES", "parse_coordinates",
@@ -89,7 +91,10 @@ class Integrator:
         same bits, and a fraction of the compile time on a fresh install. Given the run's
         ``istate`` and ``fstate``, an integrator whose module has ``is_plain`` (WHFast) takes
         ``<kernel_name>_plain`` when that says so: the few-body kernel for the default case
-        alone (no other coordinates, corrector or events compiled).
+        alone (no other coordinates, corrector or events compiled); one whose module has
+        ``is_megno`` takes ``<kernel_name>_megno`` for a MEGNO run it covers: the few-body
+        kernel with the tangent vector and without the paths MEGNO refuses (events, WHFast's
+        corrector and democratic heliocentric coordinates), the same bits.
         """
         name = self.variant(few, istate, fstate)
         return compiled_kernel(self.module, name)
@@ -99,9 +104,27 @@ class Integrator:
         plain = getattr(self.core, "is_plain", None)
         if few and istate is not None and plain is not None and plain(istate, fstate):
             return self.kernel_name + "_plain"
+        megno = getattr(self.core, "is_megno", None)
+        if few and istate is not None and megno is not None and megno(istate, fstate):
+            return self.kernel_name + "_megno"
         if few:
             return self.kernel_name + "_few"
         return self.kernel_name
+
+    def pack_variant(self, few: bool, istate, fstate) -> str:
+        """The name of the kernel a packed ensemble call runs for members with the stacked
+        ``istate``/``fstate`` rows (shapes (M, N_ISTATE), (M, N_FSTATE)): the MEGNO kernel when
+        ``is_megno`` covers every member (the kernel their lone runs take, and the one
+        ``visviva warmup`` compiles), else :meth:`variant` without the state (a pack of plain
+        members keeps the few-body kernel)."""
+        megno = getattr(self.core, "is_megno", None)
+        if few and megno is not None and bool(np.all(megno(istate, fstate))):
+            return self.kernel_name + "_megno"
+        return self.variant(few)
+
+    def pack_kernel(self, few: bool, istate, fstate):
+        """The compiled kernel :meth:`pack_variant` names."""
+        return compiled_kernel(self.module, self.pack_variant(few, istate, fstate))
 
 
 def few_bodies(istate, massive) -> bool:

@@ -113,6 +113,9 @@ def ensemble_would_compile(members, t: float) -> bool:
         return False
     info = members[0].integrator_info
     few = max(np.count_nonzero(s.state_arrays()["m"]) for s in members) < PAIR_MIN_N
-    member_kernel = getattr(importlib.import_module(info.module), info.variant(few))
+    rows = [s.state_arrays() for s in members]
+    name = info.pack_variant(few, np.stack([r["istate"] for r in rows]),
+                             np.stack([r["fstate"] for r in rows]))
+    member_kernel = getattr(importlib.import_module(info.module), name)
     return not all(_core_tier.in_memory(k) or k.load_cached(sig) for k, sig in (
         (ensemble_run, ENSEMBLE_SIGNATURE), (member_kernel, _nc.RUN_SIGNATURE)))

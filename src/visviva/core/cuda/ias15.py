@@ -95,7 +95,7 @@ def build(force):
         if istate[I_NOUT] >= 1:
             return OK
         status = to_output(x, v, m, massive, radius, fstate, istate, buf, buf, 0, params,
-                           target, direction, events, span, 0, fsave, isave)
+                           target, direction, events, False, span, 0, fsave, isave)
         if status == OK:
             istate[I_NOUT] = 1
         return status

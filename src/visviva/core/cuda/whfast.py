@@ -246,6 +246,6 @@ def build_general(force):
             istate[k], buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, force,
             params[qoff[k]:qoff[k + 1]], t_out, out_t[k],
             out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),
-            out_v[3 * T * lo:3 * T * hi].reshape((T, n, 3)), 0, True)
+            out_v[3 * T * lo:3 * T * hi].reshape((T, n, 3)), 0, True, None)
 
     return ensemble_whfast_general

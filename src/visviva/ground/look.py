@@ -14,6 +14,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from ..constants import GM_EARTH_KM3_S2
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
 from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift
@@ -179,6 +180,32 @@ def _target_states(target, t):
     return r_i, v_i, t, lead, rot_ig
 
 
+def _retarded(rho, r_i, v_i, site_km):
+    """The site-to-satellite vector from the satellite at emission ``t - tau`` to the site at
+    reception ``t``, and its rate in the Earth-fixed frame (ITRS axes at ``t``, km and km/s).
+
+    With ``V = v + omega x r`` and ``A = -GM r / |r|^3`` the satellite's inertial velocity and
+    acceleration: ``rho_lt = rho - V tau`` (``tau = |rho| / c``, first order) and
+    ``d rho_lt / dt = (V - A tau)(1 - tau_dot) - omega x (site + rho_lt)`` with
+    ``tau_dot = u . (V - A tau - omega x site) / (c + u . (V - A tau))``, ``u`` along
+    ``rho_lt``: the range rate is then ``d(c tau)/dt``, whose ``-f / c`` multiple is the
+    classical one-way Doppler shift. (Before this, the satellite's velocity at ``t`` was
+    projected on ``rho_lt``: 14-22 mm/s off for the ISS.)
+    """
+    omega = np.array([0.0, 0.0, GMST_RATE_RAD_S])
+    vel = v_i + np.cross(omega, r_i)  # inertial velocity, ITRS axes
+    tau = np.linalg.norm(rho, axis=-1, keepdims=True) / SPEED_OF_LIGHT_KM_S
+    rho = rho - vel * tau
+    r_norm = np.linalg.norm(r_i, axis=-1, keepdims=True)
+    v_emit = vel + GM_EARTH_KM3_S2 * r_i / r_norm**3 * tau  # V(t - tau) = V - A tau
+    unit = rho / np.linalg.norm(rho, axis=-1, keepdims=True)
+    v_site = np.cross(omega, site_km)
+    tau_dot = (np.sum(unit * (v_emit - v_site), axis=-1, keepdims=True)
+               / (SPEED_OF_LIGHT_KM_S + np.sum(unit * v_emit, axis=-1, keepdims=True)))
+    rate = v_emit * (1.0 - tau_dot) - v_site - np.cross(omega, rho)
+    return rho, rate
+
+
 def look(station, target, t=None, *, refraction=False, light_time: bool = False,
          frequency=None) -> LookAngles:
     """Azimuth, elevation, range, range rate, their rates and topocentric RA/Dec of a target.
@@ -209,7 +236,10 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
         station is refused.
     light_time : bool
         Use the satellite's position when the light received at ``t`` left it
-        (``r(t - range/c)``, to first order: under 30 m in LEO). Default: off.
+        (``r(t - range/c)``, to first order: under 30 m in LEO), and as ``range_rate`` the
+        rate of that range, ``d(c tau)/dt`` (the one-way Doppler's; it differs from the
+        instantaneous range rate by about ``-v^2 / c``, -0.19 m/s for the ISS). The angle
+        rates are those of the retarded direction. Default: off (geometric, instantaneous).
     frequency : Quantity (frequency), optional
         A transmitted frequency: the result's ``doppler`` holds the received shift
         (:func:`visviva.ground.doppler_shift`).
@@ -233,9 +263,7 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
         r_i, v_i, t, lead, rot_ig = _target_states(target, t)
     rho = r_i - station.itrs_km
     if light_time:
-        omega = np.array([0.0, 0.0, GMST_RATE_RAD_S])
-        tau = np.linalg.norm(rho, axis=-1, keepdims=True) / SPEED_OF_LIGHT_KM_S
-        rho = rho - (v_i + np.cross(omega, r_i)) * tau
+        rho, v_i = _retarded(rho, r_i, v_i, station.itrs_km)
     flat_rho = np.ascontiguousarray(rho.reshape(-1, 3))
     flat_v = np.ascontiguousarray(v_i.reshape(-1, 3))
     res = np.empty((flat_rho.shape[0], 6))

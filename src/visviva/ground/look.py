@@ -17,7 +17,7 @@ from astropy.time import Time
 from ..constants import GM_EARTH_KM3_S2
 from ..core import topocentric as _topo
 from ..errors import InvalidInputError
-from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift
+from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift, light_time_rate
 from .earthfixed import GMST_RATE_RAD_S
 from .refraction import bend, refraction_deg, refraction_slope, station_air
 
@@ -200,8 +200,7 @@ def _retarded(rho, r_i, v_i, site_km):
     v_emit = vel + GM_EARTH_KM3_S2 * r_i / r_norm**3 * tau  # V(t - tau) = V - A tau
     unit = rho / np.linalg.norm(rho, axis=-1, keepdims=True)
     v_site = np.cross(omega, site_km)
-    tau_dot = (np.sum(unit * (v_emit - v_site), axis=-1, keepdims=True)
-               / (SPEED_OF_LIGHT_KM_S + np.sum(unit * v_emit, axis=-1, keepdims=True)))
+    tau_dot = light_time_rate(unit, v_emit, v_site)[..., None]
     rate = v_emit * (1.0 - tau_dot) - v_site - np.cross(omega, rho)
     return rho, rate
 

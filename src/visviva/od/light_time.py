@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import C_KM_S, EARTH_ROTATION_RAD_S
+from ..ground.doppler import light_time_rate
 from . import ionosphere, troposphere
 from .measurements import angles, predict
 
@@ -137,8 +138,8 @@ def predict_light_time(kinds, y, site_r, site_v, enu, gm, earth_velocity=None, p
         Rt, Vt = _site_back(Rr, Vr, td + tau_u)
         u_d = (rb - Rr) / np.linalg.norm(rb - Rr, axis=-1)[:, None]
         u_u = (rb - Rt) / np.linalg.norm(rb - Rt, axis=-1)[:, None]
-        dtd = np.sum(u_d * (vb - Vr), axis=-1) / (C_KM_S + np.sum(u_d * vb, axis=-1))
-        dtu = np.sum(u_u * (vb - Vt), axis=-1) / (C_KM_S - np.sum(u_u * Vt, axis=-1))
+        dtd = light_time_rate(u_d, vb, Vr)  # down: satellite at t_b -> station at t_r
+        dtu = light_time_rate(-u_u, Vt, vb)  # up: station at t_t -> satellite at t_b
         rows = np.flatnonzero(two_way)
         k = kinds[rows]
         rng = 0.5 * C_KM_S * (td + tau_u)

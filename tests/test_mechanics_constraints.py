@@ -159,14 +159,18 @@ def _rotating_hoop(omega, radius):
     return f, jac
 
 
+def _hoop_case(W=5.0, R=1.0, g=9.81):
+    """The hoop spun at W (rad/s) of radius R (m) under gravity g (m/s^2): W, R, the bead's
+    relative equilibrium cos(theta0) = g / (W^2 R), the constraint, its Jacobian and gravity."""
+    f, jac = _rotating_hoop(W, R)
+    return W, R, np.arccos(g / (W**2 * R)), f, jac, lambda t, r, v: np.array([0.0, 0.0, -g])
+
+
 def test_bead_on_rotating_hoop_needs_time_dependent():
     # audit43: with the default time_dependent=False the df/dt terms were dropped silently: a
     # bead started at rest relative to the hoop at its equilibrium cos(theta0) = g / (W^2 R)
     # slid 1.16 rad away within 3 s while the reported violation stayed 1e-16
-    W, R, g = 5.0, 1.0, 9.81
-    th0 = np.arccos(g / (W**2 * R))
-    f, jac = _rotating_hoop(W, R)
-    grav = lambda t, r, v: np.array([0.0, 0.0, -g])  # noqa: E731
+    W, R, th0, f, jac, grav = _hoop_case()
     t = np.linspace(0.0, 3.0, 7)
     r0 = [R * np.sin(th0), 0.0, -R * np.cos(th0)]
     v0 = [0.0, W * R * np.sin(th0), 0.0]
@@ -182,10 +186,7 @@ def test_bead_on_rotating_hoop_equilibrium_and_small_oscillations():
     # time_dependent=True (slow: ~10 ms per step from the nested Ridders derivatives): the bead
     # stays at its relative equilibrium, and oscillates about it at W sin(theta0) (Taylor,
     # Classical Mechanics, 2005, ex. 7.6)
-    W, R, g = 5.0, 1.0, 9.81
-    th0 = np.arccos(g / (W**2 * R))
-    f, jac = _rotating_hoop(W, R)
-    grav = lambda t, r, v: np.array([0.0, 0.0, -g])  # noqa: E731
+    W, R, th0, f, jac, grav = _hoop_case()
     t = np.linspace(0.0, 0.3, 4)
     tr = mech.solve_constrained(1.0, [R * np.sin(th0), 0.0, -R * np.cos(th0)],
                                 [0.0, W * R * np.sin(th0), 0.0], t, f, jac, grav,

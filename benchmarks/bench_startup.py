@@ -159,15 +159,18 @@ vv.propagate_cowell(s, np.linspace(0, 86400, 145) * u.s, perturbations=[vv.J2(vv
 }
 
 
-#: First MEGNO runs (the nineteenth and twentieth sessions' feature), each a whole script
-MEGNO_CASES = {
-"whfast + MEGNO": """
+#: a fixed-step integrator's first MEGNO run: two planets at a = 1 and 1.6 to t = 100
+_FIXED_STEP_MEGNO = """
 import visviva as vv
-sim = vv.Simulation(integrator="whfast", G=1.0, dt=0.01)
+sim = vv.Simulation(integrator="{integrator}", G=1.0, dt={dt})
 sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.6, primary=0)
 sim.init_megno(seed=1)
 sim.integrate(100.0); sim.megno()
-""",
+"""
+
+#: First MEGNO runs (the nineteenth and twentieth sessions' feature), each a whole script
+MEGNO_CASES = {
+"whfast + MEGNO": _FIXED_STEP_MEGNO.format(integrator="whfast", dt=0.01),
 "ias15 + MEGNO": """
 import visviva as vv
 sim = vv.Simulation(integrator="ias15")
@@ -176,13 +179,7 @@ sim.move_to_com()
 sim.init_megno(seed=1)
 sim.integrate(300.0); sim.megno(), sim.lyapunov()
 """,
-"leapfrog + MEGNO": """
-import visviva as vv
-sim = vv.Simulation(integrator="leapfrog", G=1.0, dt=0.005)
-sim.add(1.0); sim.add(1e-3, a=1.0, primary=0); sim.add(1e-3, a=1.6, primary=0)
-sim.init_megno(seed=1)
-sim.integrate(100.0); sim.megno()
-""",
+"leapfrog + MEGNO": _FIXED_STEP_MEGNO.format(integrator="leapfrog", dt=0.005),
 "ensemble + MEGNO": """
 import visviva as vv
 sims = []

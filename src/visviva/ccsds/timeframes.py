@@ -101,19 +101,8 @@ def to_gcrs_axes(name, *arrays):
 
 
 def from_gcrs_axes(name, *arrays):
-    """The inverse of :func:`to_gcrs_axes`: GCRS/ICRF axes to those of ``name`` (EME2000: ``B``).
-
-    Parameters
-    ----------
-    name : str
-        The CCSDS ``REF_FRAME``.
-    *arrays : array_like
-        Vectors (last axis 3) or 6x6 covariances (last two axes 6).
-
-    Returns
-    -------
-    tuple of ndarray
-    """
+    """The inverse of :func:`to_gcrs_axes`: GCRS/ICRF axes to those of ``name`` (EME2000: ``B``);
+    the same parameters, and the arrays on ``name``'s axes in the order given."""
     return tuple(_rotate(a, _bias(name)) for a in arrays)
 
 

@@ -23,15 +23,16 @@ def add_parser(sub) -> None:
     p.add_argument("--initial", default=None, metavar="FILE",
                    help="an earlier element set of the object (TLE or OMM file; with several "
                    "objects, the one numbered --satnum): carries the revolution number forward "
-                   "and gives the catalogue number")
+                   "and gives the catalogue number and B*")
     p.add_argument("--name", default=None, help="object name (default: the OEM's OBJECT_NAME)")
     p.add_argument("--epoch", default=None, metavar="ISO",
                    help="epoch of the element set, UTC (default: the first state)")
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--no-bstar", action="store_true", help="hold B* fixed instead of fitting it")
-    p.add_argument("--bstar", type="per-earth-radius", default=0.0,
-                   help="B* (1/earth radii): held value, or first guess (default 0)")
+    p.add_argument("--bstar", type="per-earth-radius", default=None,
+                   help="B* (1/earth radii): held value, or first guess (default: the --initial "
+                   "set's, else 0)")
     p.add_argument("--to", choices=("tle", "omm"), default="tle",
                    help="output: TLE lines (default) or an OMM in KVN")
     p.add_argument("--output", "-o", default="-", help="file to write (default: standard output)")

@@ -80,7 +80,9 @@ def test_bstar_held_with_an_initial_set_is_that_sets_not_zero(iss, tmp_path, cap
     seg = OEMSegment.from_states(states.epoch, states.r.to_value(u.km),
                                  states.v.to_value(u.km / u.s), object_name="ISS (ZARYA)")
     vv.write_oem(Ephemeris([seg]), tmp_path / "iss.oem")
-    (tmp_path / "old.tle").write_text("\n".join(ISS) + "\n")
+    # a history of the object's sets (refused before without --satnum): the nearest is taken
+    older = vv.Satellite.from_omm({**iss.to_omm(), "EPOCH": "2023-12-20T00:00:00", "BSTAR": 5e-4})
+    (tmp_path / "old.tle").write_text("\n".join([*older.to_tle(), *ISS]) + "\n")
     assert main(["fit-tle", str(tmp_path / "iss.oem"), "--initial", str(tmp_path / "old.tle"),
                  "--no-bstar"]) == 0
     out = capsys.readouterr()

@@ -22,6 +22,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from ..errors import (
+    DecayedObjectWarning,
     InvalidElementsError,
     InvalidInputError,
     SubsurfacePerigeeWarning,
@@ -46,6 +47,7 @@ from .tle_checks import (
     flag_beyond_earth_orbit,
     raise_for_sgp4_status,
     sgp4_times,
+    warn_decayed,
     warn_stale_tsince,
     warn_subsurface_perigee,
 )
@@ -287,7 +289,7 @@ class Satellite:
             ``RA_OF_ASC_NODE``, ``ARG_OF_PERICENTER``, ``MEAN_ANOMALY`` (deg), ``NORAD_CAT_ID``,
             ``BSTAR`` (1/earth radii), optionally ``MEAN_MOTION_DOT``, ``MEAN_MOTION_DDOT``,
             ``OBJECT_NAME``, ``OBJECT_ID``, ``CLASSIFICATION_TYPE``, ``EPHEMERIS_TYPE``,
-            ``ELEMENT_SET_NO``, ``REV_AT_EPOCH``.
+            ``ELEMENT_SET_NO``, ``REV_AT_EPOCH``; a ``DECAY_DATE`` (Space-Track) warns.
 
         Raises
         ------
@@ -368,6 +370,9 @@ class Satellite:
         satrec.intldesg = tle_designator(clean.get("OBJECT_ID"))  # not sgp4's OBJECT_ID[2:]
         warn_subsurface_perigee(satrec, f"OMM record {fields.get('OBJECT_NAME', '')!r}",
                                 "ECCENTRICITY and MEAN_MOTION")
+        if str(clean.get("DECAY_DATE", "")).strip():  # (Space-Track's GP data: audit49)
+            warn_decayed([(fields.get("OBJECT_NAME") or str(number),
+                           str(clean["DECAY_DATE"]).strip())], "OMM record")
         return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
 
     # -- attributes --------------------------------------------------------------------------
@@ -566,6 +571,7 @@ def _rebuild_tle(line1, line2, name):
 def _rebuild_omm(fields, name):
     with warnings.catch_warnings():  # warned when it was first built
         warnings.simplefilter("ignore", SubsurfacePerigeeWarning)
+        warnings.simplefilter("ignore", DecayedObjectWarning)
         sat = Satellite.from_omm(fields)
     sat.name = name
     return sat

@@ -19,6 +19,7 @@ from .._callsite import outside_stacklevel
 from .._units import to_array
 from ..constants import DAY_S
 from ..errors import (
+    DecayedObjectWarning,
     DomainError,
     InvalidInputError,
     StaleElementSetWarning,
@@ -40,6 +41,7 @@ __all__ = [
     "sgp4_times",
     "raise_for_sgp4_status",
     "warn_subsurface_perigee",
+    "warn_decayed",
     "STALE_DAYS",
     "is_stale",
     "warn_stale_sets",
@@ -185,6 +187,28 @@ def warn_subsurface_perigee(satrec, where: str, fields: str) -> None:
         f"orbit as if it flew. Check {fields} (a mistyped element set), or use a newer one if "
         "the object has re-entered.",
         SubsurfacePerigeeWarning, stacklevel=outside_stacklevel())  # the user's line
+
+
+def warn_decayed(decayed, where: str) -> None:
+    """Warn (:class:`~visviva.errors.DecayedObjectWarning`) once for the element sets of
+    ``where`` whose objects have re-entered.
+
+    Parameters
+    ----------
+    decayed : list of (str, str)
+        Name (or catalogue number) and ``DECAY_DATE`` of each such set; nothing when empty.
+    where : str
+        The record or file, for the message.
+    """
+    if not decayed:
+        return
+    listed = ", ".join(f"{name} on {date}" for name, date in decayed[:5])
+    more = f" and {len(decayed) - 5} more" if len(decayed) > 5 else ""
+    warnings.warn(
+        f"{where}: {len(decayed)} element set(s) of objects that re-entered (DECAY_DATE): "
+        f"{listed}{more}. SGP4 still gives positions after that date, of no object: leave "
+        "them out (on Space-Track, ask for DECAY_DATE/null-val).",
+        DecayedObjectWarning, stacklevel=outside_stacklevel())
 
 
 def raise_for_sgp4_status(status, names, tsince_min, times=None, r=None) -> None:

@@ -231,7 +231,8 @@ class Satellite:
         name : str, optional
             Object name (e.g. line 0 of a three-line element set).
         verify_checksum : bool
-            Check each line's modulo-10 checksum (default).
+            Check each line's modulo-10 checksum (default); False also reads lines of 68
+            columns, without the checksum (refused before audit49).
         where : tuple of str, optional
             How error messages name the two lines (default ``("TLE line 1", "TLE line 2")``;
             a catalogue reader passes the file and line numbers).

@@ -328,7 +328,8 @@ def check_tle_lines(
     line1, line2 : str
         The two lines (a trailing newline or trailing blanks are ignored).
     verify_checksum : bool
-        Check column 69 against the modulo-10 checksum (default).
+        Check column 69 against the modulo-10 checksum (default); when False, a line of 68
+        columns (no checksum) is read too (before audit49 it was refused as truncated).
     where : (str, str), optional
         How to name the lines in messages, e.g. ``("line 7 of cat.txt", "line 8 of cat.txt")``.
 
@@ -343,11 +344,14 @@ def check_tle_lines(
         if not isinstance(line, str):
             raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
         line = line.rstrip("\r\n ")
+        if len(line) == 68 and not verify_checksum:  # no checksum column (as sgp4 reads it)
+            line += str(tle_checksum(line))
         if len(line) != 69:
             raise TLEFormatError(
                 f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
-                "Check that the line was not wrapped, truncated or padded."
-            )
+                "Check that the line was not wrapped, truncated or padded"
+                + (" (one without its checksum, column 69, is read with verify_checksum=False)."
+                   if len(line) == 68 else "."))
         if not line.isascii():
             bad = next(ch for ch in line if not ch.isascii())
             raise TLEFormatError(

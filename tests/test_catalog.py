@@ -649,3 +649,30 @@ def test_a_catalogue_cannot_be_changed_in_place_under_its_cached_arrays():
     again = pickle.loads(pickle.dumps(cat))
     assert isinstance(again.satellites, tuple)
     np.testing.assert_array_equal(again.propagate(t).r.value, before.r.value)
+
+
+def test_space_track_records_of_decayed_objects_are_warned_about(tmp_path):
+    # audit49: Space-Track's GP JSON keeps the last sets of re-entered objects, with their
+    # DECAY_DATE; they were read and propagated past that date without a word
+    import json
+    import pickle
+
+    from visviva.errors import DecayedObjectWarning
+    from visviva.satellites.catalog import read_catalog_file
+
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2, "ISS (ZARYA)").to_omm()
+    gone = {k: str(v) for k, v in iss.items()} | {"OBJECT_NAME": "GONE", "NORAD_CAT_ID": "25545",
+                                                   "DECAY_DATE": "2008-09-25"}
+    live = {k: str(v) for k, v in iss.items()} | {"DECAY_DATE": None}
+    path = tmp_path / "gp.json"
+    path.write_text(json.dumps([live, gone, gone | {"NORAD_CAT_ID": "25546"}]))
+    with pytest.warns(DecayedObjectWarning, match=r"2 element set\(s\) of objects that "
+                      r"re-entered \(DECAY_DATE\): GONE on 2008-09-25, GONE on") as got:
+        cat = read_catalog_file(path)
+    assert len(cat) == 3 and len([w for w in got if w.category is DecayedObjectWarning]) == 1
+    with pytest.warns(DecayedObjectWarning, match="GONE on 2008-09-25"):
+        sat = vv.Satellite.from_omm(gone)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pickle.loads(pickle.dumps(sat))  # warned once, when it was read
+        vv.Satellite.from_omm(live)

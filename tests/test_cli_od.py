@@ -8,6 +8,7 @@ and refuse bad input with one line and exit code 2 (1 for a fit that fails).
 from __future__ import annotations
 
 import csv
+import warnings
 
 import numpy as np
 import pytest
@@ -572,3 +573,29 @@ def test_troposphere_flag_fits_as_the_library_does(campaign, tmp_path, capsys):
     code, out, err = _run(capsys, campaign["tdm"], *STATION_ARGS, *SIGMA_ARG,
                           "--refraction", "radio")
     assert code == 2 and "add --troposphere" in err
+
+
+def test_initial_file_of_one_objects_history_starts_from_the_set_nearest_the_data(tmp_path):
+    # audit49: a space-track history file (several sets of the one object) was refused
+    # ("holds 3 element sets; give a file with the one object tracked"); the first guess is now
+    # the set nearest the first observation, and sets of two objects are still refused
+    from visviva.od.cli_inputs import read_initial
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 12340", "ISS")
+    sets = [vv.Satellite.from_omm({**iss.to_omm(), "EPOCH": f"2024-01-0{d}T12:00:00",
+                                   "OBJECT_ID": "1998-067A"}) for d in (1, 3, 5)]
+    path = tmp_path / "history.tle"
+    path.write_text("".join(f"ISS\n{a}\n{b}\n" for a, b in (s.to_tle() for s in sets)))
+    first = Time("2024-01-03T18:00:00", scale="utc")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (not "screening pairs such an object with itself")
+        guess = read_initial(path, first)
+    want = sets[1].gcrs(first).r.to_value(u.km)
+    assert np.abs(guess["state"].r.to_value(u.km) - want).max() < ONE_MM
+    assert guess["object_id"] == "1998-067A" and guess["name"] == "ISS"
+    other = vv.Satellite.from_omm({**sets[0].to_omm(), "NORAD_CAT_ID": 25545})
+    path.write_text("".join(f"X\n{a}\n{b}\n" for a, b in (s.to_tle() for s in (iss, other))))
+    with pytest.raises(vv.InvalidInputError, match="element sets of 2 objects"):
+        read_initial(path, first)

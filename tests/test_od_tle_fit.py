@@ -63,6 +63,32 @@ def test_fixed_bstar_is_held(iss):
     assert fit.fit.rms_position_km < 0.2
 
 
+def test_bstar_held_with_an_initial_set_is_that_sets_not_zero(iss, tmp_path, capsys):
+    # audit49: improving a set with new states while holding B* (fit_bstar=False, initial=old)
+    # held it at bstar's old default 0, not at the old set's 1.027e-4: a day of the set's own
+    # states came back 1.3 km RMS instead of under a millimetre, without a word
+    states = iss.gcrs((1 + np.linspace(0, 1, 40)) * u.day).to_state_vectors()
+    fit = vv.fit_tle(states, initial=iss, fit_bstar=False)
+    assert fit.satrec.bstar == iss.satrec.bstar
+    assert fit.fit.rms_position_km < ONE_METER and fit.fit.sigma_bstar is None
+    assert vv.fit_tle(states, fit_bstar=False).satrec.bstar == 0.0  # no initial: 0 as before
+    assert vv.fit_tle(states, initial=iss, fit_bstar=False, bstar=0.0).satrec.bstar == 0.0
+    # the command line: --initial with --no-bstar holds the initial set's B*
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    seg = OEMSegment.from_states(states.epoch, states.r.to_value(u.km),
+                                 states.v.to_value(u.km / u.s), object_name="ISS (ZARYA)")
+    vv.write_oem(Ephemeris([seg]), tmp_path / "iss.oem")
+    # a history of the object's sets (refused before without --satnum): the nearest is taken
+    older = vv.Satellite.from_omm({**iss.to_omm(), "EPOCH": "2023-12-20T00:00:00", "BSTAR": 5e-4})
+    (tmp_path / "old.tle").write_text("\n".join([*older.to_tle(), *ISS]) + "\n")
+    assert main(["fit-tle", str(tmp_path / "iss.oem"), "--initial", str(tmp_path / "old.tle"),
+                 "--no-bstar"]) == 0
+    out = capsys.readouterr()
+    assert out.out.splitlines()[1][53:61] == ISS[0][53:61] and "B* 1.02700e-04 (held)" in out.err
+
+
 def test_beats_the_naive_tle_on_a_cowell_ephemeris(iss):
     s0 = iss.gcrs(0 * u.s).to_state_vectors()
     s0 = vv.StateVectors(s0.r, s0.v, vv.EARTH, epoch=iss.epoch)

@@ -670,3 +670,20 @@ def test_the_subsurface_perigee_warning_of_a_file_points_at_the_callers_line(tmp
             read()
         ours = [x for x in w if issubclass(x.category, vv.errors.SubsurfacePerigeeWarning)]
         assert len(ours) == 1 and ours[0].filename == __file__
+
+
+def test_lines_without_their_checksum_column_are_read_when_it_is_not_verified():
+    # audit49: sgp4 reads 68-column lines (old files without the checksum); visviva refused them
+    # as "truncated" even with verify_checksum=False, the option its own message pointed to
+    from visviva.satellites.catalog import parse_tle_text
+
+    sat = vv.Satellite.from_tle(ISS_1[:68], ISS_2[:68], verify_checksum=False)
+    ref = Satrec.twoline2rv(ISS_1[:68], ISS_2[:68])
+    _, r, _ = ref.sgp4_tsince(90.0)
+    assert np.abs(sat.teme(90 * u.min).r.to_value(u.km) - r).max() == 0.0
+    assert sat.to_tle() == (ISS_1, ISS_2)
+    assert len(parse_tle_text(f"ISS\n{ISS_1[:68]}\n{ISS_2[:68]}\n", verify_checksum=False)) == 1
+    with pytest.raises(TLEFormatError, match="68 characters.*is read with verify_checksum=False"):
+        vv.Satellite.from_tle(ISS_1[:68], ISS_2[:68])
+    with pytest.raises(TLEFormatError, match="has 67 characters"):
+        vv.Satellite.from_tle(ISS_1[:67], ISS_2[:67], verify_checksum=False)

@@ -40,6 +40,7 @@ __all__ = [
     "ImplausibleVelocityWarning",
     "SubsurfacePerigeeWarning",
     "StaleElementSetWarning",
+    "DecayedObjectWarning",
     "raise_for_status",
     "raise_for_result",
     "require_finite_result",
@@ -300,6 +301,15 @@ class SubsurfacePerigeeWarning(UserWarning):
     sets of re-entering objects can be like this (the SGP4 verification set's 28872), so the
     set is kept; a mistyped one (an eccentricity or a mean motion in the wrong columns) is the
     other cause. The message names the element set's line, the perigee and what to check.
+    """
+
+
+class DecayedObjectWarning(UserWarning):
+    """An element set (an OMM record, as Space-Track's GP data has them) whose ``DECAY_DATE``
+    says that the object re-entered: SGP4 still gives positions after that date, of an object
+    that no longer exists (it flags only the times its own model has decayed). Space-Track's
+    ``gp`` class and its histories keep the last sets of decayed objects unless the query asks
+    for ``DECAY_DATE/null-val``. The message names the objects and their dates.
     """
 
 

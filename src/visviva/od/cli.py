@@ -23,15 +23,16 @@ def add_parser(sub) -> None:
     p.add_argument("--initial", default=None, metavar="FILE",
                    help="an earlier element set of the object (TLE or OMM file; with several "
                    "objects, the one numbered --satnum): carries the revolution number forward "
-                   "and gives the catalogue number")
+                   "and gives the catalogue number and B*")
     p.add_argument("--name", default=None, help="object name (default: the OEM's OBJECT_NAME)")
     p.add_argument("--epoch", default=None, metavar="ISO",
                    help="epoch of the element set, UTC (default: the first state)")
     p.add_argument("--mission-epoch", default=None, metavar="ISO",
                    help="UTC epoch that an OEM in TIME_SYSTEM MET (launch) or MRT counts from")
     p.add_argument("--no-bstar", action="store_true", help="hold B* fixed instead of fitting it")
-    p.add_argument("--bstar", type="per-earth-radius", default=0.0,
-                   help="B* (1/earth radii): held value, or first guess (default 0)")
+    p.add_argument("--bstar", type="per-earth-radius", default=None,
+                   help="B* (1/earth radii): held value, or first guess (default: the --initial "
+                   "set's, else 0)")
     p.add_argument("--to", choices=("tle", "omm"), default="tle",
                    help="output: TLE lines (default) or an OMM in KVN")
     p.add_argument("--output", "-o", default="-", help="file to write (default: standard output)")
@@ -63,8 +64,9 @@ def run(args) -> int:
         mission = (time_from_arg("--mission-epoch", args.mission_epoch) if args.mission_epoch
                    else None)
         eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
-        initial = _initial(args.initial, args.satnum) if args.initial else None
         epoch = time_from_arg("--epoch", args.epoch) if args.epoch else None
+        near = epoch if epoch is not None else eph.segments[0].times[0]
+        initial = _initial(args.initial, args.satnum, near) if args.initial else None
     except (VisvivaError, ValueError) as exc:  # the files, --mission-epoch or --epoch
         print(f"visviva fit-tle: {exc}", file=sys.stderr)
         return 2
@@ -98,18 +100,22 @@ def run(args) -> int:
     return write_output("fit-tle", args.output, text)
 
 
-def _initial(path: str, satnum: int):
-    """The element set of ``--initial``: the file's only one, or the one numbered ``satnum``."""
+def _initial(path: str, satnum: int, near):
+    """The element set of ``--initial``: of the file's one object (a history of its sets,
+    audit49: refused before without ``--satnum``) or the one numbered ``satnum``, the set whose
+    epoch is nearest ``near`` (the new set's epoch; the newest before audit49)."""
+    import warnings
+
     from ..errors import InvalidInputError
     from ..satellites.catalog import read_catalog_file
 
-    cat = read_catalog_file(path)
-    if len(cat) == 1:
-        return cat[0]
-    match = [s for s in cat if s.satnum == satnum]
+    with warnings.catch_warnings():  # (a history repeats its number: one set is taken)
+        warnings.filterwarnings("ignore", ".*appears more than once", UserWarning)
+        cat = read_catalog_file(path)
+    match = [s for s in cat if s.satnum == satnum or len(set(cat.satnums)) == 1]
     if not match:
         numbers = ", ".join(str(n) for n in cat.satnums[:10])
         raise InvalidInputError(f"{path} holds {len(cat)} element sets ({numbers}"
                                 f"{', ...' if len(cat) > 10 else ''}); pick the object with "
                                 "--satnum")
-    return max(match, key=lambda s: s.epoch.jd)  # the newest set of that object
+    return min(match, key=lambda s: abs((s.epoch - near).jd))

@@ -7,6 +7,8 @@ and an example, so that the command exits 2 with that line (never a traceback).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..errors import InvalidInputError
@@ -338,7 +340,7 @@ def read_initial(path, first_time):
 
     An OPM gives its state (epoch: the OPM's), covariance and manoeuvres; an OEM its state
     interpolated at ``first_time`` (the first observation); a TLE/OMM its SGP4 state there,
-    in the GCRS.
+    in the GCRS (from a file of several sets of the one object, the set nearest it).
     """
     from pathlib import Path
 
@@ -369,11 +371,13 @@ def read_initial(path, first_time):
                 "object_id": _object_id(eph.segments[0].metadata)}
     from ..satellites.catalog import read_catalog_file
 
-    cat = read_catalog_file(p)
-    if len(cat) != 1:
-        raise InvalidInputError(f"--initial {path} holds {len(cat)} element sets; give a file "
-                                "with the one object tracked")
-    sat = cat[0]
+    with warnings.catch_warnings():  # (a history repeats its number: the one set is taken)
+        warnings.filterwarnings("ignore", ".*appears more than once", UserWarning)
+        cat = read_catalog_file(p)
+    if len(set(cat.satnums)) != 1:  # (a history of one object's sets is read: audit49)
+        raise InvalidInputError(f"--initial {path} holds element sets of {len(set(cat.satnums))}"
+                                " objects; give a file with the one object tracked")
+    sat = min(cat, key=lambda s: abs((s.epoch - first_time).jd))  # the set nearest the data
     return {"state": sat.gcrs(first_time), "name": sat.name or None,
             "object_id": sat.to_omm().get("OBJECT_ID") or None}
 

@@ -15,7 +15,7 @@ from ..satellites.catalog_numbers import sgp4_number
 from ..satellites.tle_checks import flag_beyond_earth_orbit
 
 __all__ = ["classical", "ephemeris_identity", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
-           "is_retrograde", "naive_fields", "propagable_start"]
+           "initial_identity", "is_retrograde", "naive_fields", "propagable_start"]
 
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
 GM_WGS72 = 398600.8
@@ -194,3 +194,27 @@ def ephemeris_identity(states, name, object_id, initial):
         if re.fullmatch(r"\d{4}-\d{3}[A-Z]{1,3}", oid):
             object_id = oid
     return name, object_id
+
+
+def initial_identity(initial, satnum, name, object_id, bstar):
+    """``satnum``, ``name``, ``object_id`` and ``bstar`` with the defaults an initial element
+    set gives: its catalogue number (for the default 99999), name, designator and B* (for
+    ``bstar=None``; 0 without ``initial``). Before audit49 B* defaulted to 0 even with
+    ``initial``, so ``fit_tle(..., initial=old, fit_bstar=False)`` held B* at 0, not at the old
+    set's value: a day of ISS states propagated from its own set fitted to 1.3 km RMS instead
+    of 3e-9 km, without a word."""
+    if initial is None:
+        return satnum, name, object_id, 0.0 if bstar is None else bstar
+    from ..satellites.tle import Satellite
+
+    if not isinstance(initial, Satellite):
+        raise InvalidInputError(
+            f"initial must be a vv.Satellite (an element set of the same object, e.g. "
+            f"vv.Satellite.from_tle(...)); got {type(initial).__name__}.")
+    if satnum == 99999:
+        satnum = initial.satnum
+    if object_id is None:
+        object_id = initial.to_omm()["OBJECT_ID"] or None
+    if bstar is None:
+        bstar = float(initial.satrec.bstar)
+    return satnum, name or initial.name, object_id, bstar

@@ -37,6 +37,7 @@ from .tle_elements import (
     ephemeris_identity,
     epoch_days,
     initial_elements,
+    initial_identity,
     is_retrograde,
     propagable_start,
     sgp4_states,
@@ -223,23 +224,6 @@ def satellite_from_fields(fields):
     return sat
 
 
-def _from_initial(initial, satnum, name, object_id):
-    """``satnum``, ``name``, ``object_id`` with the defaults an initial element set gives."""
-    if initial is None:
-        return satnum, name, object_id
-    from ..satellites.tle import Satellite
-
-    if not isinstance(initial, Satellite):
-        raise InvalidInputError(
-            f"initial must be a vv.Satellite (an element set of the same object, e.g. "
-            f"vv.Satellite.from_tle(...)); got {type(initial).__name__}.")
-    if satnum == 99999:
-        satnum = initial.satnum
-    if object_id is None:
-        object_id = initial.to_omm()["OBJECT_ID"] or None
-    return satnum, name or initial.name, object_id
-
-
 def _fill_unused_fields(sat, fields, initial):
     """The fitted satellite with the fields SGP4 ignores filled in ``fields`` and rebuilt:
     ``MEAN_MOTION_DOT`` from its own mean motion, ``REV_AT_EPOCH`` carried from ``initial``."""
@@ -259,7 +243,7 @@ def _fill_unused_fields(sat, fields, initial):
     return satellite_from_fields(fields)
 
 
-def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoch=None,
+def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=None, *, epoch=None,
             frame=None, name=None, object_id=None, initial=None, max_iterations=50,
             tol=1e-8):  # fmt: skip
     """SGP4 mean elements (and B*) whose propagation best reproduces a state history.
@@ -280,8 +264,10 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
         ``initial`` and the default 99999: ``initial``'s number.
     fit_bstar : bool
         Fit the drag term B* too (default); otherwise it is held at ``bstar``.
-    bstar : float
-        B* in 1/earth radii: the held value, or the first guess when fitted.
+    bstar : float, optional
+        B* in 1/earth radii: the held value, or the first guess when fitted. Default:
+        ``initial``'s B*, else 0 (before audit49 always 0: ``initial=old, fit_bstar=False``
+        held B* at 0, not at the old set's value).
     epoch : astropy Time, optional
         Epoch of the element set (default: the first state's time), rounded to the
         microsecond as an OMM stores it.
@@ -298,8 +284,8 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
     initial : Satellite, optional
         An earlier (or later) element set of the same object, e.g. the TLE or OMM the states
         were propagated from: the new set carries its revolution number forward (see Notes)
-        and takes its catalogue number, name and designator where ``satnum``, ``name`` and
-        ``object_id`` are not given. Without it ``REV_AT_EPOCH`` is 0 (unknown).
+        and takes its catalogue number, name, designator and B* where ``satnum``, ``name``,
+        ``object_id`` and ``bstar`` are not given. Without it ``REV_AT_EPOCH`` is 0 (unknown).
     max_iterations : int
         Differential-correction iterations allowed.
     tol : float
@@ -368,7 +354,7 @@ def fit_tle(states, times=None, satnum=99999, fit_bstar=True, bstar=0.0, *, epoc
                           tol=tol)
 
 
-def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bstar=0.0, *,
+def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bstar=None, *,
                    epoch=None, name=None, object_id=None, initial=None, max_iterations=50,
                    tol=1e-8):  # fmt: skip
     """:func:`fit_tle` on plain arrays: what it calls once it has read its input.
@@ -390,8 +376,8 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         Catalogue number of the new element set.
     fit_bstar : bool
         Fit B* too.
-    bstar : float
-        B* in 1/earth radii (held, or the first guess).
+    bstar : float, optional
+        B* in 1/earth radii (held, or the first guess; default ``initial``'s, else 0).
     epoch : astropy Time, optional
         Epoch of the element set (default: the first time).
     name : str, optional
@@ -400,7 +386,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
         International designator.
     initial : Satellite, optional
         An element set of the same object (revolution number, and defaults for the number,
-        name and designator; see :func:`fit_tle`).
+        name, designator and B*; see :func:`fit_tle`).
     max_iterations : int
         Iterations allowed.
     tol : float
@@ -449,6 +435,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
             f"the state times must increase strictly; state {i} is not after state {i - 1}. Sort "
             "them and remove duplicates."
         )
+    satnum, name, object_id, bstar = initial_identity(initial, satnum, name, object_id, bstar)
     try:
         bstar_ok = math.isfinite(float(bstar))
     except (TypeError, ValueError):
@@ -456,7 +443,6 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     if not bstar_ok:
         raise InvalidInputError(
             f"bstar must be a finite number (1/earth radii, as in a TLE); got {bstar!r}.")
-    satnum, name, object_id = _from_initial(initial, satnum, name, object_id)
     if not (isinstance(satnum, int | np.integer) and not isinstance(satnum, bool)
             and 0 < satnum <= CATALOGUE_MAX):
         raise InvalidInputError(

@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import io
 import os
+import warnings
 
 from .._text import file_bytes, utf8_text
-from ..errors import InvalidInputError
+from ..errors import DecayedObjectWarning, InvalidInputError
 from .tle import Satellite, TLEFormatError
+from .tle_checks import warn_decayed
 
 __all__ = ["tle_text_satellites", "tle_file_satellites", "omm_file_satellites",
            "catalog_file_satellites", "decode_tle_bytes", "warn_duplicates"]
@@ -200,12 +202,17 @@ def _omm_text_satellites(text: str, path: str, fmt: str) -> list:
     sats = []
     for k, rec in enumerate(records, start=1):
         try:
-            sats.append(Satellite.from_omm(rec))
+            with warnings.catch_warnings():  # (one warning for the file, below)
+                warnings.simplefilter("ignore", DecayedObjectWarning)
+                sats.append(Satellite.from_omm(rec))
         except InvalidInputError as exc:
             line = f", line {where[k - 1]}" if where else ""
             if key_lines is not None:
                 line = _keyword_line(str(exc), key_lines[k - 1], where[k - 1])
             raise type(exc)(f"record {k} of {path}{line}: {exc}") from exc
+    warn_decayed([(s.name or str(s.satnum), str(r.get("DECAY_DATE")).strip())
+                  for s, r in zip(sats, records, strict=True)
+                  if str(r.get("DECAY_DATE") or "").strip()], str(path))
     warn_duplicates(sats, path)
     return sats
 

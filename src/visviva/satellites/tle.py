@@ -22,6 +22,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from ..errors import (
+    DecayedObjectWarning,
     InvalidElementsError,
     InvalidInputError,
     SubsurfacePerigeeWarning,
@@ -46,6 +47,7 @@ from .tle_checks import (
     flag_beyond_earth_orbit,
     raise_for_sgp4_status,
     sgp4_times,
+    warn_decayed,
     warn_stale_tsince,
     warn_subsurface_perigee,
 )
@@ -229,7 +231,8 @@ class Satellite:
         name : str, optional
             Object name (e.g. line 0 of a three-line element set).
         verify_checksum : bool
-            Check each line's modulo-10 checksum (default).
+            Check each line's modulo-10 checksum (default); False also reads lines of 68
+            columns, without the checksum (refused before audit49).
         where : tuple of str, optional
             How error messages name the two lines (default ``("TLE line 1", "TLE line 2")``;
             a catalogue reader passes the file and line numbers).
@@ -287,7 +290,7 @@ class Satellite:
             ``RA_OF_ASC_NODE``, ``ARG_OF_PERICENTER``, ``MEAN_ANOMALY`` (deg), ``NORAD_CAT_ID``,
             ``BSTAR`` (1/earth radii), optionally ``MEAN_MOTION_DOT``, ``MEAN_MOTION_DDOT``,
             ``OBJECT_NAME``, ``OBJECT_ID``, ``CLASSIFICATION_TYPE``, ``EPHEMERIS_TYPE``,
-            ``ELEMENT_SET_NO``, ``REV_AT_EPOCH``.
+            ``ELEMENT_SET_NO``, ``REV_AT_EPOCH``; a ``DECAY_DATE`` (Space-Track) warns.
 
         Raises
         ------
@@ -368,6 +371,9 @@ class Satellite:
         satrec.intldesg = tle_designator(clean.get("OBJECT_ID"))  # not sgp4's OBJECT_ID[2:]
         warn_subsurface_perigee(satrec, f"OMM record {fields.get('OBJECT_NAME', '')!r}",
                                 "ECCENTRICITY and MEAN_MOTION")
+        if str(clean.get("DECAY_DATE", "")).strip():  # (Space-Track's GP data: audit49)
+            warn_decayed([(fields.get("OBJECT_NAME") or str(number),
+                           str(clean["DECAY_DATE"]).strip())], "OMM record")
         return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
 
     # -- attributes --------------------------------------------------------------------------
@@ -566,6 +572,7 @@ def _rebuild_tle(line1, line2, name):
 def _rebuild_omm(fields, name):
     with warnings.catch_warnings():  # warned when it was first built
         warnings.simplefilter("ignore", SubsurfacePerigeeWarning)
+        warnings.simplefilter("ignore", DecayedObjectWarning)
         sat = Satellite.from_omm(fields)
     sat.name = name
     return sat

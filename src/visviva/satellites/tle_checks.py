@@ -19,6 +19,7 @@ from .._callsite import outside_stacklevel
 from .._units import to_array
 from ..constants import DAY_S
 from ..errors import (
+    DecayedObjectWarning,
     DomainError,
     InvalidInputError,
     StaleElementSetWarning,
@@ -40,6 +41,7 @@ __all__ = [
     "sgp4_times",
     "raise_for_sgp4_status",
     "warn_subsurface_perigee",
+    "warn_decayed",
     "STALE_DAYS",
     "is_stale",
     "warn_stale_sets",
@@ -187,6 +189,28 @@ def warn_subsurface_perigee(satrec, where: str, fields: str) -> None:
         SubsurfacePerigeeWarning, stacklevel=outside_stacklevel())  # the user's line
 
 
+def warn_decayed(decayed, where: str) -> None:
+    """Warn (:class:`~visviva.errors.DecayedObjectWarning`) once for the element sets of
+    ``where`` whose objects have re-entered.
+
+    Parameters
+    ----------
+    decayed : list of (str, str)
+        Name (or catalogue number) and ``DECAY_DATE`` of each such set; nothing when empty.
+    where : str
+        The record or file, for the message.
+    """
+    if not decayed:
+        return
+    listed = ", ".join(f"{name} on {date}" for name, date in decayed[:5])
+    more = f" and {len(decayed) - 5} more" if len(decayed) > 5 else ""
+    warnings.warn(
+        f"{where}: {len(decayed)} element set(s) of objects that re-entered (DECAY_DATE): "
+        f"{listed}{more}. SGP4 still gives positions after that date, of no object: leave "
+        "them out (on Space-Track, ask for DECAY_DATE/null-val).",
+        DecayedObjectWarning, stacklevel=outside_stacklevel())
+
+
 def raise_for_sgp4_status(status, names, tsince_min, times=None, r=None) -> None:
     """Raise the typed :class:`SGP4Error` for the first non-zero sgp4 error code (or
     :data:`SGP4_BEYOND_EARTH_ORBIT`, set by :func:`flag_beyond_earth_orbit`).
@@ -304,7 +328,8 @@ def check_tle_lines(
     line1, line2 : str
         The two lines (a trailing newline or trailing blanks are ignored).
     verify_checksum : bool
-        Check column 69 against the modulo-10 checksum (default).
+        Check column 69 against the modulo-10 checksum (default); when False, a line of 68
+        columns (no checksum) is read too (before audit49 it was refused as truncated).
     where : (str, str), optional
         How to name the lines in messages, e.g. ``("line 7 of cat.txt", "line 8 of cat.txt")``.
 
@@ -319,11 +344,14 @@ def check_tle_lines(
         if not isinstance(line, str):
             raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
         line = line.rstrip("\r\n ")
+        if len(line) == 68 and not verify_checksum:  # no checksum column (as sgp4 reads it)
+            line += str(tle_checksum(line))
         if len(line) != 69:
             raise TLEFormatError(
                 f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
-                "Check that the line was not wrapped, truncated or padded."
-            )
+                "Check that the line was not wrapped, truncated or padded"
+                + (" (one without its checksum, column 69, is read with verify_checksum=False)."
+                   if len(line) == 68 else "."))
         if not line.isascii():
             bad = next(ch for ch in line if not ch.isascii())
             raise TLEFormatError(

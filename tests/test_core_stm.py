@@ -107,3 +107,23 @@ def test_public_state_transition_matrix_of_a_flyby_and_a_fall():
     with pytest.raises(vv.InvalidStateError, match="collision"):
         state_transition_matrix([R_P, 0, 0] * u.km, [0.1, 0, 0] * u.km / u.s, 5000 * u.s,
                                 vv.EARTH)
+
+
+def test_a_span_of_tens_of_thousands_of_revolutions_is_refused_at_once():
+    """10 years of LEO (~58 000 revolutions, ~2e8 steps) is refused before stepping, with a
+    message saying why; 1000 revolutions (3.3e6 steps) still run."""
+    import time
+
+    import astropy.units as u
+
+    import visviva as vv
+    from visviva.conjunctions import state_transition_matrix
+
+    r0 = [R_P, 0, 0] * u.km
+    v0 = [0, 7.546, 0.1] * u.km / u.s
+    start = time.perf_counter()
+    with pytest.raises(vv.InvalidInputError, match="10\\^8 integration steps"):
+        state_transition_matrix(r0, v0, 3650 * u.day, vv.EARTH)
+    assert time.perf_counter() - start < 1.0
+    phi = np.empty((6, 6))
+    assert two_body_stm(r0.value, v0.value, MU, 1000 * 5828.5, phi)[2] == 0

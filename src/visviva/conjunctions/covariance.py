@@ -166,8 +166,8 @@ def state_transition_matrix(r, v, dt, gm):
         raise InvalidInputError(
             f"state_transition_matrix: dt = {dt_s:.6g} s spans more than 10^8 integration steps "
             "(tens of thousands of revolutions), where a two-body covariance is meaningless and "
-            "the integration would take minutes. To fix: propagate the covariance over a shorter "
-            "span.")
+            "the integration would take a minute or more. To fix: propagate the covariance over a "
+            "shorter span.")
     raise_for_status(status, "two-body STM")
     return phi, r1, v1
 

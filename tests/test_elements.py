@@ -494,3 +494,10 @@ def test_a_plain_true_longitude_beyond_two_pi_warns_as_keplerian_angles_do():
         warnings.simplefilter("error")
         vv.ModifiedEquinoctialElements(7000 * u.km, 0.1, 0, 0, 0, 400 * u.deg, vv.EARTH)
         vv.ModifiedEquinoctialElements(7000 * u.km, 0.1, 0, 0, 0, 6.0, vv.EARTH)
+
+
+def test_a_negative_zero_inclination_is_stored_as_plus_zero():
+    """-0.0 passed the [0, pi] check and came back as inclination -0.0 rad (audit47); the other
+    angles were already wrapped without negative zeros."""
+    el = vv.KeplerianElements(7000 * u.km, 0.1, [-0.0, 0.0] * u.deg, 0.0, 0.0, 0.0, vv.EARTH)
+    assert not np.signbit(el.inclination.value).any()

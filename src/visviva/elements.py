@@ -124,6 +124,7 @@ class KeplerianElements(TwoBodyContainer):
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
             inc = np.minimum(inc, math.pi)
+        inc = inc + 0.0  # -0.0 (e.g. -0.0 deg) stored as +0.0: no negative-zero inclination
         # docs/conventions.md: raan, argp in [0, 2 pi), nu in (-pi, pi], from any input
         for value, arr, name in ((raan_in, raan, "raan"), (argp_in, argp, "argp"), (nu_in, nu, "nu")):
             warn_if_degrees(value, arr, name)

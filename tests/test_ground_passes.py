@@ -480,3 +480,25 @@ def test_visible_start_and_end_against_skyfield_geometry():
             assert abs((ours - ref).to_value(u.s)) < 0.05
             inner_edges += 1
     assert inner_edges >= 3  # edges inside passes (the Earth's shadow, or twilight's end)
+
+
+def test_pass_table_over_a_leap_second():
+    """A window holding a leap second (2016-12-31T23:59:60) raised "Time object is read-only"
+    from find_passes and visviva passes (astropy's cached UTC times, masked in place where a
+    pass was not visible); now the table is made, its rises and sets are find_events' and
+    lie on the horizon (audit50)."""
+    from test_utc_days import L1, L2
+
+    sat = vv.Satellite.from_tle(L1, L2, name="ISS")
+    site = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 100 * u.m, name="PHL")
+    t0, t1 = Time("2016-12-31T18:00:00", scale="utc"), Time("2017-01-01T06:00:00", scale="utc")
+    table = vv.find_passes(sat, site, t0, t1)
+    times, kinds = site.find_events(sat, t0, t1)
+    rise = table["rise_time"][~table["rise_time"].mask]
+    assert len(rise) == (kinds == 0).sum() >= 4 and len(table) >= len(rise)
+    assert (~table["visible"]).any() and table["visible_start"].mask.any()
+    assert (rise > Time("2017-01-01", scale="utc")).any()
+    np.testing.assert_allclose((rise - times[kinds == 0]).to_value(u.s), 0, atol=1e-3)
+    el = site.look(sat, rise).elevation.to_value(u.deg)
+    np.testing.assert_allclose(el, 0.0, atol=1e-4)
+    times[0] = times[1]  # find_events' times are the user's to edit, as elsewhere

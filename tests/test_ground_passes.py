@@ -502,3 +502,44 @@ def test_pass_table_over_a_leap_second():
     el = site.look(sat, rise).elevation.to_value(u.deg)
     np.testing.assert_allclose(el, 0.0, atol=1e-4)
     times[0] = times[1]  # find_events' times are the user's to edit, as elsewhere
+
+
+def test_magnitude_in_the_penumbra_dims_with_the_sunlit_fraction_of_the_disc(iss):
+    """A pass culminating in the penumbra had the magnitude of a fully lit satellite: a
+    third of the Sun's disc gives a third of the light, 1.2 mag fainter, which the column
+    left out (audit50). The station sits under the ISS as it crosses the penumbra; the phase
+    angle comes from astropy's Sun here."""
+    from astropy.coordinates import ITRS, CartesianRepresentation, get_sun
+
+    from visviva.satellites import eclipse_fraction
+
+    t = T0 + np.arange(900, 1100, 1.0) * u.s  # the ISS enters the shadow near 12:16:36
+    frac = eclipse_fraction(iss, t)
+    tp = t[np.argmin(np.abs(frac - 0.3))]
+    below = ITRS(CartesianRepresentation(iss.itrs(tp).r.T), obstime=tp).earth_location
+    geo = below.to_geodetic("WGS84")
+    site = vv.GroundStation(float(geo.lat.deg) * u.deg, float(geo.lon.deg) * u.deg)
+    row = vv.find_passes(iss, site, tp - 15 * u.min, tp + 15 * u.min,
+                         standard_magnitude=-1.8)[0]
+    assert 0.2 < row["sun_fraction"] < 0.4 and row["max_elevation"] > 89 * u.deg
+    tc = row["culmination_time"]
+    sat = iss.gcrs(tc).r.to_value(u.km)
+    obs = site.gcrs_position_velocity(tc)[0]
+    sun = get_sun(tc).cartesian.xyz.to_value(u.km)
+    to_sun, to_obs = sun - sat, obs - sat
+    phase = np.arccos(to_sun @ to_obs / np.linalg.norm(to_sun) / np.linalg.norm(to_obs))
+    full = visual_magnitude(-1.8, np.linalg.norm(to_obs), phase)
+    expected = full - 2.5 * np.log10(row["sun_fraction"])
+    mag = float(row["magnitude"].unmasked.to_value(u.mag))
+    assert mag == pytest.approx(expected, abs=0.01) and mag - full > 1.0
+    assert np.isinf(visual_magnitude(-1.8, 1000.0, 1.0, sun_fraction=0.0))
+    with pytest.raises(vv.InvalidInputError, match="sun_fraction"):
+        visual_magnitude(-1.8, 1000.0, 1.0, sun_fraction=1.5)
+
+
+def test_twilight_refuses_nan():
+    """twilight(NaN) was 'day' (np.digitize puts NaN past the last bin; audit50)."""
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        twilight([-10.0, np.nan])
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        twilight(np.nan * u.deg)

@@ -504,6 +504,20 @@ def test_pass_table_over_a_leap_second():
     times[0] = times[1]  # find_events' times are the user's to edit, as elsewhere
 
 
+def test_command_line_over_a_leap_second(tmp_path, capsys):
+    """visviva passes over 2016-12-31T23:59:60 ended in a traceback (audit50)."""
+    from test_utc_days import L1, L2
+
+    tle = tmp_path / "iss.tle"
+    tle.write_text(f"ISS\n{L1}\n{L2}\n")
+    out_ecsv = tmp_path / "passes.ecsv"
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start",
+                 "2016-12-31T18:00", "--hours", "12", "--ecsv", str(out_ecsv)]) == 0
+    assert "2017-01-01 00:16:06" in capsys.readouterr().out
+    back = QTable.read(out_ecsv)
+    assert back["rise_time"].scale == "utc" and len(back) >= 5
+
+
 def test_magnitude_in_the_penumbra_dims_with_the_sunlit_fraction_of_the_disc(iss):
     """A pass culminating in the penumbra had the magnitude of a fully lit satellite: a
     third of the Sun's disc gives a third of the light, 1.2 mag fainter, which the column

@@ -95,3 +95,23 @@ def test_dask_passes_warn_about_stale_element_sets_once_on_the_client():
     assert "3 of 3 element set(s) lie more than 30 days" in text
     assert "ISS-0 (45 d), ISS-1 (45 d), ISS-2 (45 d)" in text
     assert ours[0].filename == __file__
+
+
+def test_wire_round_trip_keeps_times_as_find_passes_shows_them():
+    """find_passes_dask's times came back as Julian dates (format 'jd', printed as
+    2460311.05...), find_passes' as ISO to the millisecond: the table was not the same to
+    print (audit50). The wire keeps the format and precision, values and masks."""
+    from visviva.ground.dask_passes import _table_from_wire, _table_to_wire
+
+    iss = vv.Satellite.from_tle(
+        "1 25544U 98067A   08264.51782528 -.00002182  00000-0 -11606-4 0  2927",
+        "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.72125391563537")
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg)
+    t0 = Time("2008-09-20T12:00:00", scale="utc")
+    mem = vv.find_passes(iss, site, t0, t0 + 1 * u.day, 10 * u.deg)
+    back = _table_from_wire(_table_to_wire(mem))
+    for name in ("rise_time", "culmination_time", "set_time", "visible_start"):
+        assert back[name].format == mem[name].format == "isot"
+        assert back[name].precision == mem[name].precision == 3
+        np.testing.assert_array_equal(back[name].mask, mem[name].mask)
+        assert str(back[name][0]) == str(mem[name][0])

@@ -311,3 +311,21 @@ def test_light_time_range_rate_is_the_rate_of_the_light_time_range(iss, site, ti
     rate0 = np.sum(rho0 * (g0.v.to_value(u.km / u.s) - v), -1) / np.linalg.norm(rho0, axis=-1)
     np.testing.assert_allclose(site.look(iss, t).range_rate.to_value(u.km / u.s), rate0,
                                atol=1e-7)
+
+
+def test_catalogue_frequencies_are_one_per_satellite(iss, site, times):
+    """A catalogue's frequency per satellite, with as many times as satellites, was laid
+    along the times by numpy: each satellite's Doppler used the other's frequency, silently
+    (the 437.8 MHz satellite's shift off by kHz); with other counts it was refused (audit50)."""
+    cat = vv.Catalog([iss, iss])
+    f = [145.8, 437.8] * u.MHz
+    for t in (times[10:12], times[10:13]):  # as many times as satellites, and not
+        both = site.look(cat, t, frequency=f).doppler
+        for k in range(2):
+            one = site.look(iss, t, frequency=f[k]).doppler
+            np.testing.assert_allclose(both[k].to_value(u.Hz), one.to_value(u.Hz), rtol=1e-12)
+    assert abs(site.look(cat, times[10], frequency=f).doppler[1]) > 1 * u.kHz
+    per_time = site.look(cat, times[10:13], frequency=[1.0, 2.0, 3.0] * u.GHz).doppler
+    rr = site.look(iss, times[10:13]).range_rate
+    np.testing.assert_allclose(per_time[0].to_value(u.Hz),
+                               doppler_shift([1.0, 2.0, 3.0] * u.GHz, rr).to_value(u.Hz))

@@ -480,3 +480,80 @@ def test_visible_start_and_end_against_skyfield_geometry():
             assert abs((ours - ref).to_value(u.s)) < 0.05
             inner_edges += 1
     assert inner_edges >= 3  # edges inside passes (the Earth's shadow, or twilight's end)
+
+
+def test_pass_table_over_a_leap_second():
+    """A window holding a leap second (2016-12-31T23:59:60) raised "Time object is read-only"
+    from find_passes and visviva passes (astropy's cached UTC times, masked in place where a
+    pass was not visible); now the table is made, its rises and sets are find_events' and
+    lie on the horizon (audit50)."""
+    from test_utc_days import L1, L2
+
+    sat = vv.Satellite.from_tle(L1, L2, name="ISS")
+    site = vv.GroundStation(40.0 * u.deg, -75.0 * u.deg, 100 * u.m, name="PHL")
+    t0, t1 = Time("2016-12-31T18:00:00", scale="utc"), Time("2017-01-01T06:00:00", scale="utc")
+    table = vv.find_passes(sat, site, t0, t1)
+    times, kinds = site.find_events(sat, t0, t1)
+    rise = table["rise_time"][~table["rise_time"].mask]
+    assert len(rise) == (kinds == 0).sum() >= 4 and len(table) >= len(rise)
+    assert (~table["visible"]).any() and table["visible_start"].mask.any()
+    assert (rise > Time("2017-01-01", scale="utc")).any()
+    np.testing.assert_allclose((rise - times[kinds == 0]).to_value(u.s), 0, atol=1e-3)
+    el = site.look(sat, rise).elevation.to_value(u.deg)
+    np.testing.assert_allclose(el, 0.0, atol=1e-4)
+    times[0] = times[1]  # find_events' times are the user's to edit, as elsewhere
+
+
+def test_command_line_over_a_leap_second(tmp_path, capsys):
+    """visviva passes over 2016-12-31T23:59:60 ended in a traceback (audit50)."""
+    from test_utc_days import L1, L2
+
+    tle = tmp_path / "iss.tle"
+    tle.write_text(f"ISS\n{L1}\n{L2}\n")
+    out_ecsv = tmp_path / "passes.ecsv"
+    assert main(["passes", str(tle), "--lat", "40", "--lon", "-75", "--start",
+                 "2016-12-31T18:00", "--hours", "12", "--ecsv", str(out_ecsv)]) == 0
+    assert "2017-01-01 00:16:06" in capsys.readouterr().out
+    back = QTable.read(out_ecsv)
+    assert back["rise_time"].scale == "utc" and len(back) >= 5
+
+
+def test_magnitude_in_the_penumbra_dims_with_the_sunlit_fraction_of_the_disc(iss):
+    """A pass culminating in the penumbra had the magnitude of a fully lit satellite: a
+    third of the Sun's disc gives a third of the light, 1.2 mag fainter, which the column
+    left out (audit50). The station sits under the ISS as it crosses the penumbra; the phase
+    angle comes from astropy's Sun here."""
+    from astropy.coordinates import ITRS, CartesianRepresentation, get_sun
+
+    from visviva.satellites import eclipse_fraction
+
+    t = T0 + np.arange(900, 1100, 1.0) * u.s  # the ISS enters the shadow near 12:16:36
+    frac = eclipse_fraction(iss, t)
+    tp = t[np.argmin(np.abs(frac - 0.3))]
+    below = ITRS(CartesianRepresentation(iss.itrs(tp).r.T), obstime=tp).earth_location
+    geo = below.to_geodetic("WGS84")
+    site = vv.GroundStation(float(geo.lat.deg) * u.deg, float(geo.lon.deg) * u.deg)
+    row = vv.find_passes(iss, site, tp - 15 * u.min, tp + 15 * u.min,
+                         standard_magnitude=-1.8)[0]
+    assert 0.2 < row["sun_fraction"] < 0.4 and row["max_elevation"] > 89 * u.deg
+    tc = row["culmination_time"]
+    sat = iss.gcrs(tc).r.to_value(u.km)
+    obs = site.gcrs_position_velocity(tc)[0]
+    sun = get_sun(tc).cartesian.xyz.to_value(u.km)
+    to_sun, to_obs = sun - sat, obs - sat
+    phase = np.arccos(to_sun @ to_obs / np.linalg.norm(to_sun) / np.linalg.norm(to_obs))
+    full = visual_magnitude(-1.8, np.linalg.norm(to_obs), phase)
+    expected = full - 2.5 * np.log10(row["sun_fraction"])
+    mag = float(row["magnitude"].unmasked.to_value(u.mag))
+    assert mag == pytest.approx(expected, abs=0.01) and mag - full > 1.0
+    assert np.isinf(visual_magnitude(-1.8, 1000.0, 1.0, sun_fraction=0.0))
+    with pytest.raises(vv.InvalidInputError, match="sun_fraction"):
+        visual_magnitude(-1.8, 1000.0, 1.0, sun_fraction=1.5)
+
+
+def test_twilight_refuses_nan():
+    """twilight(NaN) was 'day' (np.digitize puts NaN past the last bin; audit50)."""
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        twilight([-10.0, np.nan])
+    with pytest.raises(vv.InvalidInputError, match="NaN"):
+        twilight(np.nan * u.deg)

@@ -422,3 +422,32 @@ def test_radio_refraction_at_a_station_above_the_atmosphere_says_so():
     assert given[1] == 500.0  # air the user gives is used as given
     with pytest.raises(vv.InvalidInputError, match="above the atmosphere.*relative_humidity=0"):
         refraction_deg(10.0, 0.01, -56.5, relative_humidity=0.5, model="radio")
+
+
+def test_a_station_below_the_standard_atmosphere_needs_its_air_given():
+    """A sea-floor station (-11 km) with refraction=True was refused with "pressure_hpa must
+    be a finite number in [0, 1500] hPa; got 3248.85", a pressure nobody gave (the standard
+    air extrapolated under the sea), and Observations(troposphere=True) took that air
+    silently: a zenith delay of 9.9 m against 2.4 m at sea level. Below ISO 2533's -2 km the
+    air must be given (audit50); the Dead Sea's shore keeps its standard air."""
+    iss = vv.Satellite.from_tle(ISS_1, ISS_2)
+    t = Time("2008-09-20T22:52:00", scale="utc") + np.arange(3) * u.s
+    deep = vv.GroundStation(-10 * u.deg, 150 * u.deg, -11 * u.km)
+    for refraction in (True, "radio", {"relative_humidity": 0.2}):
+        with pytest.raises(vv.InvalidInputError, match="below the standard atmosphere's lowest"):
+            deep.look(iss, t, refraction=refraction)
+    with pytest.raises(vv.InvalidInputError, match="under water or rock"):
+        vv.find_passes(iss, deep, t[0], t[0] + 1 * u.hour, refraction=True)
+    air = {"pressure_hpa": 1000.0, "temperature_c": 10.0}
+    geometric = deep.look(iss, t).elevation
+    assert np.all(deep.look(iss, t, refraction=air).elevation >= geometric)
+    dead_sea = vv.GroundStation(31.5 * u.deg, 35.5 * u.deg, -430 * u.m)
+    p, _ = standard_atmosphere(-430.0)
+    np.testing.assert_allclose(p, 1065.9, atol=0.5)  # ICAO at -430 m
+    assert np.isfinite(dead_sea.look(iss, t, refraction=True).elevation).all()
+    from visviva.od import simulate_observations
+
+    states = iss.gcrs(t)
+    truth = vv.StateVectors(states.r[0], states.v[0], vv.EARTH, epoch=t[0])
+    with pytest.raises(vv.InvalidInputError, match="troposphere=False in Observations"):
+        simulate_observations(truth, t, "range", 1e-3, deep, troposphere=True)

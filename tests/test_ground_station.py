@@ -80,6 +80,17 @@ def test_gcrs_scalar_time():
     assert np.linalg.norm(r) == pytest.approx(6378.137, abs=1e-6)
 
 
+def test_gcrs_position_velocity_refuses_masked_times():
+    """A masked time (a masked pass-table cell) gave the site's place at the hidden date
+    (audit50); look() already refused it."""
+    site = GroundStation(52.2 * u.deg, 0.12 * u.deg)
+    t = Time("2024-01-01T16:36:00", scale="utc") + np.arange(3) * 60 * u.s
+    t[1] = np.ma.masked
+    with pytest.raises(vv.InvalidInputError, match="masked"):
+        site.gcrs_position_velocity(t)
+    assert site.gcrs_position_velocity(t[[0, 2]])[0].shape == (2, 3)
+
+
 @pytest.mark.parametrize("kwargs, error", [
     ({"lat": 52.0, "lon": 0.0 * u.deg}, vv.UnitsError),
     ({"lat": 52.0 * u.deg, "lon": 0.0}, vv.UnitsError),

@@ -35,6 +35,11 @@ REFRACTION_MODELS = ("optical", "radio")
 #: Relative humidity of the standard air (a fraction).
 STANDARD_HUMIDITY = 0.5
 
+#: Lowest height of the standard atmosphere's tables, m (ISO 2533 starts at -2 km): below
+#: it the air of a station must be given (audit50: at -11 km the extrapolation gave
+#: 3249 hPa and 86.5 deg C, refused as a weather value the user never gave, and the
+#: troposphere's zenith delay of Observations took it silently).
+STANDARD_LOWEST_M = -2000.0
 #: Top of the standard atmosphere's troposphere (the tropopause), m, and its air there.
 _TROPOPAUSE_M = 11_000.0
 _P_TROPOPAUSE_HPA = 1013.25 * (1.0 - 2.2557e-5 * _TROPOPAUSE_M) ** 5.2568
@@ -176,6 +181,17 @@ class Weather:
             and humidity were given.
         """
         g = self.given or {}
+        if height_m < STANDARD_LOWEST_M and not {"pressure_hpa", "temperature_c"} <= set(g):
+            p_x, t_x = standard_atmosphere(height_m)
+            raise InvalidInputError(
+                f"the station is {-height_m / 1000:.3g} km below the ellipsoid, below the "
+                f"standard atmosphere's lowest level ({STANDARD_LOWEST_M / 1000:g} km, ISO "
+                "2533; the lowest dry land, the Dead Sea's shore, is at -0.43 km): a site "
+                "there is under water or rock, and the standard air extrapolated to it "
+                f"({p_x:.0f} hPa, {t_x:.0f} deg C) is no air to see a satellite through. "
+                "Give the site's pressure_hpa and temperature_c in a weather dict, leave "
+                "refraction off (refraction=False in look() and pass searches, "
+                "troposphere=False in Observations), or check the height's sign and unit.")
         p_std, t_std = standard_atmosphere(height_m)
         p, t_c = g.get("pressure_hpa", p_std), g.get("temperature_c", t_std)
         rh = g.get("relative_humidity", STANDARD_HUMIDITY)

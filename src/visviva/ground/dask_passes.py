@@ -36,7 +36,7 @@ def _table_to_wire(table) -> tuple:
         if isinstance(col, Time):
             plain = col.unmasked if hasattr(col, "unmasked") else col
             cols.append((name, "time", (np.array(plain.jd1), np.array(plain.jd2)), mask,
-                         plain.scale))
+                         (plain.scale, plain.format, plain.precision)))
         elif isinstance(col, u.Quantity):
             plain = col.unmasked if hasattr(col, "unmasked") else col
             cols.append((name, "quantity", np.array(plain.value), mask, plain.unit.to_string()))
@@ -55,7 +55,9 @@ def _table_from_wire(wire):
     table = QTable(meta=meta)
     for name, kind, data, mask, extra in cols:
         if kind == "time":
-            col = Time(data[0], data[1], format="jd", scale=extra)
+            scale, fmt, precision = extra  # (as find_passes shows them: ISO, to the ms)
+            col = Time(data[0], data[1], format="jd", scale=scale, precision=precision)
+            col.format = fmt
             if mask.any():
                 col = col.copy()
                 col[mask] = np.ma.masked

@@ -51,7 +51,8 @@ def find_passes(satellites, stations, t0, t1, min_elevation=0.0 * u.deg, *,
         (:mod:`visviva.ground.masked_search`).
     standard_magnitude : float or array_like (mag), optional
         Standard visual magnitude (at 1000 km, 90 deg phase) of all satellites or of each; adds
-        a ``magnitude`` column (estimate at culmination, masked when in the umbra).
+        a ``magnitude`` column (estimate at culmination, masked when in the umbra, dimmed in
+        the penumbra by the part of the Sun's disc the satellite sees).
     refraction : bool, {"optical", "radio"} or dict
         Rise and set on the APPARENT horizon: where the refracted elevation (as
         :func:`visviva.ground.look.look` gives it with the same ``refraction``: False, True or
@@ -208,7 +209,7 @@ def _pass_table(cat, sts, ev, t0, t1, standard_magnitude):
         cosphi = np.sum(to_sun * to_obs, -1) / (np.linalg.norm(to_sun, axis=-1)
                                                 * np.linalg.norm(to_obs, axis=-1))
         mag = visual_magnitude(m_std[ev.sat[top]], ev.rng[top],
-                               np.arccos(np.clip(cosphi, -1, 1)))
+                               np.arccos(np.clip(cosphi, -1, 1)), np.clip(frac, 0.0, 1.0))
         cols["magnitude"] = Masked(mag * u.mag, mask=~sunlit | ~np.isfinite(mag))
     table = QTable(cols)
     sort_key = np.argsort(ev.t_s[starts], kind="stable")

@@ -31,12 +31,11 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._callsite import outside_stacklevel
-from .._units import is_quantity, require_usable_time, to_array
 from ..core import topocentric as _topo
-from ..errors import DomainError, InvalidInputError
-from ..satellites.tle_checks import STALE_DAYS, flag_beyond_earth_orbit, warn_stale_window
+from ..satellites.tle_checks import STALE_DAYS, flag_beyond_earth_orbit
 from ..satellites.utc_days import time_to_utc_days, utc_days_to_time
 from .earthfixed import EarthFixedMap
+from .pass_inputs import as_catalog, check_window, min_elevation_rad, warn_stale_element_sets
 
 __all__ = ["EventSet", "search_events", "as_catalog", "check_window", "min_elevation_rad",
            "WINDOW_START", "WINDOW_END", "sgp4_teme", "warn_stale_element_sets", "STALE_DAYS"]
@@ -50,92 +49,6 @@ _NEAR = 5e-3
 #: pseudo-event kinds: the satellite is above the threshold at the window's start / end
 WINDOW_START = 3
 WINDOW_END = 4
-
-
-def as_catalog(satellites):
-    """The satellites as a non-empty Catalog (a Satellite, a Catalog or a list of Satellite)."""
-    from ..satellites.catalog import Catalog
-    from ..satellites.tle import Satellite
-
-    if isinstance(satellites, Satellite):
-        return Catalog([satellites])
-    if isinstance(satellites, Catalog):
-        cat = satellites
-    else:
-        from .pass_inputs import ephemeris_hint
-
-        try:
-            items = list(satellites)
-        except TypeError:
-            raise InvalidInputError(
-                f"satellites must be a Satellite, a Catalog or a list of Satellite, got "
-                f"{type(satellites).__name__}.{ephemeris_hint(satellites)}"
-            ) from None
-        for k, s in enumerate(items):
-            if not isinstance(s, Satellite):
-                raise InvalidInputError(f"satellites[{k}] is a {type(s).__name__}, not a "
-                                        f"Satellite.{ephemeris_hint(s)}")
-        cat = Catalog(items)
-    if len(cat) == 0:
-        raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
-    return cat
-
-
-def check_window(t0, t1):
-    """Validate the window: scalar astropy Times with ``t1 > t0``; returns them in TAI.
-
-    The conversion uses the IERS table installed with astropy (a window given in UT1 needs
-    it), never a download.
-    """
-    for name, t in (("t0", t0), ("t1", t1)):
-        if not isinstance(t, Time):
-            raise InvalidInputError(
-                f"{name} must be an astropy Time, got {type(t).__name__}; pass e.g. "
-                "Time('2024-05-01T18:00:00', scale='utc')."
-            )
-        if not t.isscalar:
-            raise InvalidInputError(f"{name} must be a scalar Time, got shape {t.shape}.")
-        require_usable_time(t, name)
-    from ..satellites.frames import offline_iers
-
-    with offline_iers():
-        t0, t1 = t0.tai, t1.tai
-    span = (t1 - t0).to_value(u.s)
-    if not span > 0:
-        raise InvalidInputError(
-            f"t1 must be later than t0 (got t1 - t0 = {span:.6g} s); swap them or widen the "
-            "window."
-        )
-    return t0, t1
-
-
-def warn_stale_element_sets(cat, t0, t1) -> None:
-    """Warn (:class:`~visviva.errors.StaleElementSetWarning`) when element sets of ``cat`` lie
-    more than :data:`STALE_DAYS` before ``t0`` or after ``t1``: SGP4's along-track error grows
-    by kilometres a day in low orbit, so rise and set times drift by minutes and passes appear
-    or vanish (audit24: the ISS's 2024 TLE gave 0 passes for a 2026 window, without a word).
-    The warning points at the user's line
-    (:func:`~visviva.satellites.tle_checks.warn_stale_window`)."""
-    warn_stale_window(cat, t0, t1, "these passes can be minutes off, or missing")
-
-
-def min_elevation_rad(value) -> float:
-    """The minimum elevation as float radians; a Quantity in [-90, 90] deg."""
-    from .. import errors
-
-    if not is_quantity(value):
-        raise errors.UnitsError(
-            f"min_elevation must be an angle Quantity such as 10 * u.deg, got a plain "
-            f"{type(value).__name__}."
-        )
-    el = to_array(value, "angle", "min_elevation")
-    if el.ndim != 0:
-        raise InvalidInputError(f"min_elevation must be a scalar, got shape {el.shape}.")
-    if abs(float(el)) > math.pi / 2:
-        raise DomainError(
-            f"min_elevation = {math.degrees(float(el)):.6g} deg is outside [-90, 90] deg."
-        )
-    return float(el)
 
 
 def node_step_s(satrecs) -> np.ndarray:
@@ -180,9 +93,10 @@ class EventSet:
         if clock is not None and clock.leap_free:
             jd1, jd2 = clock.parts(t)
             out = utc_days_to_time(jd1, jd2)
-            out.precision = 3
-            return out.copy(format="isot")
-        return (self.t_ref + t * u.s).utc
+        else:  # (astropy's cached .utc is read-only: the pass table masks cells of it)
+            out = (self.t_ref + t * u.s).utc
+        out.precision = 3
+        return out.copy(format="isot")
 
 
 class _Clock:

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from astropy import units as u
 
-from .._units import is_quantity, to_array
+from .._units import is_quantity, require_usable_time, to_array
 from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["GroundStation", "as_stations"]
@@ -240,6 +240,7 @@ class GroundStation:
                 f"t must be an astropy Time (the site's GCRS position depends on the date); got "
                 f"{type(t).__name__}. Pass e.g. Time('2024-01-01T00:00:00', scale='utc')."
             )
+        require_usable_time(t, "t")  # (a masked time gave the hidden date's place; audit50)
         if t.size == 0:
             return np.empty(t.shape + (3,)), np.empty(t.shape + (3,))
         with offline_iers():

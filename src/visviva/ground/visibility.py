@@ -70,14 +70,21 @@ def sun_elevation_rad(site_km, up, sun_km) -> np.ndarray:
 def twilight(sun_elevation_deg) -> np.ndarray:
     """``"day"``, ``"civil"``, ``"nautical"``, ``"astronomical"`` or ``"night"`` per value.
 
-    ``sun_elevation_deg``: plain numbers in degrees, or an angle Quantity (converted).
+    ``sun_elevation_deg``: plain numbers in degrees, or an angle Quantity (converted). NaN
+    is refused (``InvalidInputError``): it was labelled ``"day"`` (audit50).
     """
     from .._units import is_quantity, to_array
+    from ..errors import InvalidInputError
 
     if is_quantity(sun_elevation_deg):
-        e = np.degrees(to_array(sun_elevation_deg, "angle", "sun_elevation_deg"))
+        e = np.degrees(to_array(sun_elevation_deg, "angle", "sun_elevation_deg",
+                                finite=False))
     else:
         e = np.asarray(sun_elevation_deg, dtype=np.float64)
+    if np.isnan(e).any():
+        raise InvalidInputError(
+            f"sun_elevation_deg has {int(np.isnan(e).sum())} NaN value(s), which have no "
+            "twilight (NaN was labelled 'day'); remove or fill them before calling.")
     labels = np.array(["night", "astronomical", "nautical", "civil", "day"])
     return labels[np.digitize(e, [-18.0, -12.0, -6.0, -0.833])]
 
@@ -121,7 +128,8 @@ def standard_magnitudes(value, n: int) -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(m, (n,)))
 
 
-def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarray:
+def visual_magnitude(standard_magnitude, range_km, phase_angle_rad,
+                     sun_fraction=1.0) -> np.ndarray:
     """Estimated visual magnitude from a standard magnitude (1000 km, 90 deg phase).
 
     Parameters
@@ -133,11 +141,16 @@ def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarra
     phase_angle_rad : ndarray or Quantity
         Sun-satellite-observer angle: plain numbers in rad, or an angle Quantity (converted);
         0: fully lit as seen.
+    sun_fraction : float or ndarray
+        Fraction of the solar disc seen from the satellite, in [0, 1] (default 1: sunlit;
+        :func:`sun_fraction`): in the penumbra the sunlight, and the satellite's brightness,
+        falls with it, ``-2.5 log10(fraction)`` mag (a uniform disc; 2.5 mag at a tenth).
 
     Returns
     -------
     ndarray
-        Magnitude (larger is fainter); ``inf`` at phase 180 deg (unlit side).
+        Magnitude (larger is fainter); ``inf`` at phase 180 deg (unlit side) and in the
+        umbra (``sun_fraction`` 0).
     """
     from .._units import is_quantity, to_array
 
@@ -145,8 +158,15 @@ def visual_magnitude(standard_magnitude, range_km, phase_angle_rad) -> np.ndarra
     rng = to_array(range_km, "length", "range_km", allow_plain=True, finite=False)
     if is_quantity(standard_magnitude):
         standard_magnitude = standard_magnitude.value  # (mag)
+    lit = np.asarray(sun_fraction, dtype=np.float64)
+    if not np.all((lit >= 0.0) & (lit <= 1.0)):
+        from ..errors import InvalidInputError
+
+        raise InvalidInputError(
+            f"sun_fraction must be in [0, 1] (the part of the solar disc seen), got {lit!r}.")
     f = np.sin(phi) + (np.pi - phi) * np.cos(phi)
     with np.errstate(divide="ignore"):
         return (np.asarray(standard_magnitude, dtype=np.float64)
                 + 5.0 * np.log10(rng / 1000.0)
-                - 2.5 * np.log10(np.where(f > 1e-12, f, 0.0)))
+                - 2.5 * np.log10(np.where(f > 1e-12, f, 0.0))
+                - 2.5 * np.log10(lit))

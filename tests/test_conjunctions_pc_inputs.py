@@ -125,6 +125,10 @@ def test_monte_carlo_without_hits_warns_with_the_upper_bound():
     assert bound == pytest.approx(1 - 0.025 ** (1 / 10_000), rel=1e-2)
     assert bound > exact
     assert w.filename == __file__
+    # HBR 0: Pc = 0 exactly, nothing to say
+    pc, rec = _record(collision_probability, R1, V1, COV, r2, V2, COV, 0.0,
+                      method="monte_carlo", samples=1_000, seed=1)
+    assert pc == 0.0 and not rec
 
 
 def test_monte_carlo_with_few_hits_warns_and_with_many_does_not():
@@ -164,3 +168,19 @@ def test_max_probability_with_one_covariance_takes_its_shape_whatever_its_size()
             ref, rel=1e-4)
     both = max_collision_probability(R1, V1, r2, V2, 10.0, cov1=thin / 2, cov2=thin / 2)
     assert both == pytest.approx(ref, rel=1e-4)
+
+
+@pytest.mark.parametrize("args", [(100.0, 0.0, 100.0, 0.0, 20.0), (100.0, 0.0, 100.0, -5.0, 20.0),
+                                  (math.nan, 0.0, 100.0, 50.0, 20.0),
+                                  (100.0, 0.0, 100.0, 50.0, math.nan),
+                                  (100.0, 0.0, 100.0, 50.0, -1.0)])
+def test_log_pc_2d_refuses_a_plane_it_cannot_integrate(args):
+    # before: Chan's series gave NaN for a zero sigma (and looped for ever on a negative one);
+    # Foster's integral -inf for a negative sigma, NaN or -inf for the rest
+    from visviva.conjunctions.probability import log_pc_2d
+    from visviva.errors import InvalidInputError
+
+    for method in ("foster", "chan"):
+        with pytest.raises(InvalidInputError, match="must be"):
+            log_pc_2d(*args, method)
+    assert log_pc_2d(100.0, 0.0, 100.0, 50.0, 0.0, "chan") == -math.inf

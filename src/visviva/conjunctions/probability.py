@@ -270,7 +270,8 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if method == "monte_carlo":
         res = _monte_carlo(r1, v1, c1, r2, v2, c2, hbr, samples, seed, 0.95)
-        _warn_few_hits(res)
+        if hbr > 0:  # HBR 0: Pc = 0 exactly
+            _warn_few_hits(res)
         if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
             plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
             check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,

@@ -184,3 +184,19 @@ def test_log_pc_2d_refuses_a_plane_it_cannot_integrate(args):
         with pytest.raises(InvalidInputError, match="must be"):
             log_pc_2d(*args, method)
     assert log_pc_2d(100.0, 0.0, 100.0, 50.0, 0.0, "chan") == -math.inf
+
+
+def test_pc3d_hall_refuses_a_hard_body_not_small_beside_the_orbit():
+    # before: HBR 1,000 km in LEO gave Pc = 1.007 (> 1), 10,000 km inf with numpy overflows
+    from visviva.errors import InvalidInputError
+
+    c6 = np.zeros((6, 6))
+    c6[:3, :3] = COV
+    c6[3:, 3:] = np.eye(3) * 1e-4
+    for hbr in (1e6, 1e7):
+        with pytest.raises(InvalidInputError, match="small beside the orbits"):
+            collision_probability(R1, V1, c6, R2, V2, c6, hbr, method="pc3d_hall")
+    # 3 km (sigmas 0.14 and 1 km): the sphere holds the encounter, Pc equals Foster's < 1
+    pc = collision_probability(R1, V1, c6, R2, V2, c6, 3e3, method="pc3d_hall")
+    assert pc == pytest.approx(collision_probability(R1, V1, c6, R2, V2, c6, 3e3), rel=1e-6)
+    assert pc <= 1.0

@@ -226,7 +226,9 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     Raises
     ------
     InvalidInputError
-        NaN input, negative HBR, zero relative velocity (for the 2-D methods), unknown method.
+        NaN input, negative HBR, zero relative velocity (for the 2-D methods), unknown method;
+        for ``"pc3d_hall"`` an HBR above 1 % of the smaller distance from the attractor (a
+        sphere not small beside the orbit: 1,000 km in LEO gave Pc 1.007, 10,000 km inf).
 
     Notes
     -----
@@ -637,6 +639,11 @@ def _gm_m(gm):
     return float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
 
 
+#: largest HBR of ``method="pc3d_hall"`` as a fraction of the smaller geocentric distance (70 km
+#: in LEO, where a sphere holding the whole encounter gives Nc = 1 + 4e-5; 1 + 8e-6 at 30 km)
+_HBR_ORBIT_FRACTION = 0.01
+
+
 def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     """Units and checks for :func:`visviva.conjunctions.nc3d.log_pc3d_hall`."""
     from .nc3d import log_pc3d_hall
@@ -644,6 +651,15 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     gm_m = _gm_m(gm)
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
+    radius = min(float(np.linalg.norm(r1)), float(np.linalg.norm(r2)))
+    if 0 < hbr < math.inf and hbr > _HBR_ORBIT_FRACTION * radius:
+        # a sphere not small beside the orbit: Nc came out 1.007 at HBR 1,000 km in LEO, a
+        # ConvergenceError at 7,000 km and inf at 10,000 km (audit48)
+        raise InvalidInputError(
+            f"method='pc3d_hall' models a hard body small beside the orbits: HBR = {hbr:.6g} m "
+            f"is more than {_HBR_ORBIT_FRACTION:g} of the smaller distance from the attractor "
+            f"({radius:.6g} m). Check the HBR's unit (plain numbers are m); for the chance of "
+            "coming within a large distance use method='foster'.")
     if _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True):
         _warn_repair("an input covariance (position-velocity, 6x6)")
     if window is not None:

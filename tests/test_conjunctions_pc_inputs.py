@@ -145,14 +145,14 @@ def test_monte_carlo_with_few_hits_warns_and_with_many_does_not():
     assert not rec
 
 
-def _brute_max(r2, cov, hbr):
-    """The largest Pc over a fine grid of covariance scales (independent of the optimiser)."""
-    best = 0.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for k in np.exp(np.linspace(0.0, 16.0, 1601)):
-            best = max(best, collision_probability(R1, V1, cov * k * k, r2, V2, cov * 0, hbr))
-    return best
+def _brute_max(miss, s_major, s_minor, hbr):
+    """The largest Pc over a fine grid of scales ``k`` of the plane's sigmas (the miss along the
+    minor axis), independent of the optimiser and of the plane's construction."""
+    from visviva.conjunctions.probability import log_pc_2d
+
+    ks = np.exp(np.linspace(6.0, 14.0, 1601))
+    return math.exp(max(log_pc_2d(0.0, miss, k * s_major, k * s_minor, hbr, "foster")
+                        for k in ks))
 
 
 def test_max_probability_with_one_covariance_takes_its_shape_whatever_its_size():
@@ -160,7 +160,8 @@ def test_max_probability_with_one_covariance_takes_its_shape_whatever_its_size()
     # 7.5e-4 and the same one in other units (x 1e6) 1.3e-5
     r2 = R1 + np.array([200.0, 0.0, 0.0])
     thin = np.diag([0.01**2, 1.0**2, 0.01**2])
-    ref = _brute_max(r2, thin, 10.0)
+    # its plane: x radial (sigma 0.01 m, the miss), z along (0, 1, 1)/sqrt 2
+    ref = _brute_max(200.0, math.sqrt((1.0 + 1e-4) / 2), 0.01, 10.0)
     for c in (thin, thin * 1e6, thin * 1e-6):
         assert max_collision_probability(R1, V1, r2, V2, 10.0, cov1=c) == pytest.approx(
             ref, rel=1e-4)

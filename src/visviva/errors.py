@@ -255,7 +255,10 @@ class ChanAccuracyWarning(UserWarning):
 
 
 class Pc2dAccuracyWarning(UserWarning):
-    """``collision_probability(method="foster" or "chan")``: the encounter is not short (NASA
+    """``collision_probability(method="foster", "chan" or "monte_carlo")``: the states are not
+    at TCA (``r1 - r2`` has a component along the relative velocity) and the 2-D value with the
+    miss ``|r1 - r2|`` (CARA's convention) is more than 10 % from the value with the miss at the
+    straight-line TCA; give the states at TCA. Or the encounter is not short (NASA
     CARA's usage-violation indicators: it lasts more than 1 % of the orbital period, or lies
     that far from TCA), and the 2-D encounter-plane value is more than 10 % from Hall's 3D-Nc
     (``method="pc3d_hall"``, CARA's ``Pc3D_Hall``) of the same conjunction: slow encounters

@@ -7,7 +7,9 @@ and warns, with both values, where the two are more than 10 % apart:
 * :func:`check_3d`: the 3-D flux integral against Hall's 3D-Nc over the same time span;
 * :func:`check_2d`: the 2-D (encounter-plane) methods against Hall's 3D-Nc over this
   conjunction, where NASA CARA's usage-violation indicators say that the short-encounter
-  assumption may fail (an encounter long beside the orbital period, or far from TCA).
+  assumption may fail (an encounter long beside the orbital period, or far from TCA);
+* :func:`check_tca`: the 2-D methods' miss ``|r1 - r2|`` (states taken at TCA) against the miss
+  at the straight-line TCA, where the states given are not at TCA.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from ..errors import (
 )
 from .covariance import CLIP_FACTOR
 
-__all__ = ["check_chan", "check_3d", "check_2d", "linear_encounter_bounds", "velocity_spread"]
+__all__ = ["check_chan", "check_3d", "check_2d", "check_tca", "linear_encounter_bounds",
+           "velocity_spread"]
 
 #: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)
 _CHAN_LOG_TOL = math.log(1.1)
@@ -292,3 +295,76 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
         "velocity uncertainty lowers the smallest squared Mahalanobis distance by "
         f"{drop:.3g}, cutoff {SPREAD_LIMIT:g}). Use method='pc3d_hall'.",
         Pc2dAccuracyWarning, stacklevel=3)
+
+
+#: ``|ln Pc(|r|) - ln Pc(|r_perp|)|`` above which the 2-D methods warn that the states are not
+#: at TCA (a factor 1.1)
+_TCA_LOG_TOL = math.log(1.1)
+
+
+def check_tca(method, r1, v1, r2, v2, plane, hbr, stacklevel=3):
+    """Warn when the states are not at TCA and that moves the 2-D Pc by more than 10 %.
+
+    Parameters
+    ----------
+    method : {"foster", "chan", "monte_carlo"}
+        The 2-D method (``"monte_carlo"`` samples the plane that ``"foster"`` integrates).
+    r1, v1, r2, v2 : ndarray, shape (3,)
+        The states given, m and m/s.
+    plane : EncounterPlane
+        Their (repaired) encounter plane.
+    hbr : float
+        Combined hard-body radius, m.
+    stacklevel : int
+        Of the warning (3: the caller of the function that calls this one).
+
+    Notes
+    -----
+    The 2-D methods take the miss distance as ``|r1 - r2|`` (NASA CARA's ``PcCircle``
+    convention), which is the miss only at TCA, where ``r1 - r2`` is normal to the relative
+    velocity ``u``. States ``dt`` from TCA add ``u dt`` along the velocity: 0.1 s at 10.6 km/s
+    put 1.06 km into a 100 m miss, and Pc came out 7.7e-16 for 1.09e-3 without a word
+    (audit48). The miss at the straight-line TCA is the component of ``r1 - r2`` normal to
+    ``u`` (Foster's projection on the encounter plane); where the two misses give Pc more than
+    10 % apart, a :class:`~visviva.errors.Pc2dAccuracyWarning` gives both, the offset of the
+    straight-line TCA and what to do. States at TCA (a CDM's, a screening's refined TCA) have no
+    component along ``u`` beyond rounding: where the miss changes too little to move ``ln Pc``
+    by 0.01 (``|d ln Pc / d miss| <= (miss + hbr) / sigma_min^2``) nothing is recomputed.
+    """
+    from .pc2d import log_pc_2d
+
+    r = np.asarray(r1, dtype=np.float64) - np.asarray(r2, dtype=np.float64)
+    u = np.asarray(v1, dtype=np.float64) - np.asarray(v2, dtype=np.float64)
+    rn = float(np.linalg.norm(r))
+    along = float(r @ plane.basis[1])
+    if not (0 < hbr < math.inf) or rn == 0 or along == 0:
+        return
+    perp = float(np.linalg.norm(r - along * plane.basis[1]))
+    # |d ln Pc / d miss| <= (miss + hbr) / sigma_min^2: rounding of states at TCA moves nothing
+    if (rn - perp) * (rn + hbr) < 1e-2 * float(plane.sigma[1]) ** 2:
+        return
+    kind = "chan" if method == "chan" else "foster"
+    xm, zm = plane.principal_miss
+    sx, sz = plane.sigma
+    try:
+        lp_given = log_pc_2d(xm, zm, sx, sz, hbr, kind)
+        lp_tca = log_pc_2d(xm * perp / rn, zm * perp / rn, sx, sz, hbr, kind)
+    except ArithmeticError:  # ConvergenceError: nothing to compare with
+        return
+    if (lp_given == lp_tca or abs(lp_given - lp_tca) <= _TCA_LOG_TOL
+            or max(lp_given, lp_tca) < _NEGLIGIBLE_LN_PC):
+        return
+    speed = float(np.linalg.norm(u))
+    dt = -float(r @ u) / (speed * speed)
+    what = (f"method={method!r} gives" if method != "monte_carlo"
+            else "the encounter plane that method='monte_carlo' samples has")
+    warnings.warn(
+        f"The states are not at the time of closest approach: r1 - r2 has {along:.4g} m along "
+        f"the relative velocity ({speed:.4g} m/s), so the straight-line TCA is {dt:.4g} s "
+        f"from the states' time, with a miss of {perp:.4g} m there, not |r1 - r2| = {rn:.4g} m. "
+        f"The 2-D methods take |r1 - r2| as the miss (NASA CARA's PcCircle convention): "
+        f"{what} Pc = {math.exp(lp_given):.4g} (ln Pc = {lp_given:.6g}); with the miss at the "
+        f"straight-line TCA it is {math.exp(lp_tca):.4g} (ln Pc = {lp_tca:.6g}). Give both "
+        "states and covariances at TCA (propagate them there), or use method='pc3d_hall', "
+        "which follows the encounter in time.",
+        Pc2dAccuracyWarning, stacklevel=stacklevel)

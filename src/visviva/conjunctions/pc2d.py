@@ -35,6 +35,10 @@ def log_pc_2d(xm, zm, sx, sz, hbr, method):
 
     Raises
     ------
+    visviva.errors.InvalidInputError
+        A non-finite miss or sigma, a sigma <= 0 (clip it first, as NASA CARA does, at
+        ``(1e-4 hbr)^2`` in variance), a NaN or negative ``hbr``, an unknown method: Chan's series
+        returned NaN for a zero sigma and looped for ever on a negative one (audit48).
     visviva.errors.ConvergenceError
         Where Foster's integral does not reach :data:`FOSTER_RTOL`.
 
@@ -44,6 +48,7 @@ def log_pc_2d(xm, zm, sx, sz, hbr, method):
     """
     from ..core import collision as kern
 
+    _check_plane(xm, zm, sx, sz, hbr, method)
     if method == "chan":
         return min(float(kern.log_pc_chan(xm, zm, sx, sz, hbr)), 0.0)
     lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, FOSTER_RTOL)
@@ -56,3 +61,22 @@ def log_pc_2d(xm, zm, sx, sz, hbr, method):
         )
     # a probability: near 1 the integral's 1e-13 rounding could put it above
     return min(float(lp), 0.0)
+
+
+def _check_plane(xm, zm, sx, sz, hbr, method):
+    """Refuse what the kernels cannot integrate (see :func:`log_pc_2d`, Raises)."""
+    import math
+
+    from ..errors import InvalidInputError
+
+    if method not in ("foster", "chan"):
+        raise InvalidInputError(f"method must be 'foster' or 'chan', got {method!r}.")
+    if not (math.isfinite(xm) and math.isfinite(zm)):
+        raise InvalidInputError(f"the miss components must be finite, got {xm!r}, {zm!r} m.")
+    if not (sx > 0 and sz > 0 and math.isfinite(sx) and math.isfinite(sz)):
+        raise InvalidInputError(
+            f"the sigmas must be finite and > 0, got {sx!r}, {sz!r} m; clip a zero or "
+            "negative eigenvalue first (NASA CARA raises it to (1e-4 HBR)^2, as "
+            "visviva.conjunctions.encounter_plane does).")
+    if not hbr >= 0:
+        raise InvalidInputError(f"hbr must be >= 0, got {hbr!r} m.")

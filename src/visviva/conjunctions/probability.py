@@ -16,7 +16,7 @@ import numpy as np
 
 from .._units import is_quantity
 from ..errors import InvalidInputError, ShapeError
-from .accuracy import check_2d, check_chan
+from .accuracy import check_2d, check_chan, check_tca
 from .accuracy import check_3d as _check_3d
 from .covariance import (
     CLIP_FACTOR,
@@ -201,12 +201,18 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         the same encounter plane (large aspect ratio or HBR beside the minor sigma); the
         message gives both.
     Pc2dAccuracyWarning
-        ``method="foster"``, ``"chan"`` or ``"monte_carlo"``: the encounter is not short (NASA CARA's
+        ``method="foster"``, ``"chan"`` or ``"monte_carlo"``: the states are not at TCA
+        (``r1 - r2`` has a component along the relative velocity) and that moves Pc by more
+        than 10 % from its value with the miss at the straight-line TCA (0.1 s off at 10.6 km/s
+        gave 7.7e-16 for 1.09e-3); the message gives both. Or the encounter is not short (NASA CARA's
         usage-violation indicators, Coppola's straight-line encounter lasting more than 1 % of
         the shorter orbital period or lying that far from TCA: slow GEO pairs, formation
         flight) and the value is more than 10 % from Hall's 3D-Nc (``"pc3d_hall"``) of this
         conjunction (Alfano's (2009) cases 1, 2, 4, 10: 0.40x to 0.80x); the message gives
         both. Only such flagged encounters pay for the 3D-Nc check (0.1-1 s).
+    UserWarning
+        ``method="monte_carlo"`` with fewer than 10 hits: the message gives the Clopper-Pearson
+        interval (0 hits: an upper bound, not Pc = 0).
     Pc3dAccuracyWarning
         ``method="3d"`` only: the flux integral is more than 10 % from Hall's 3D-Nc
         (``"pc3d_hall"``) over the same time span (a slow, curved encounter: Alfano's case 11
@@ -220,7 +226,9 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     Raises
     ------
     InvalidInputError
-        NaN input, negative HBR, zero relative velocity (for the 2-D methods), unknown method.
+        NaN input, negative HBR, zero relative velocity (for the 2-D methods), unknown method;
+        for ``"pc3d_hall"`` an HBR above 1 % of the smaller distance from the attractor (a
+        sphere not small beside the orbit: 1,000 km in LEO gave Pc 1.007, 10,000 km inf).
 
     Notes
     -----
@@ -255,12 +263,17 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     time integral is adaptive (1e-6 relative); Alfano's (2009) twelve cases match CARA's values
     to 1e-3 (see ``docs/conjunctions.md``).
     ``"monte_carlo"``: the estimate of :func:`monte_carlo_probability`.
+    The 2-D methods (and ``"monte_carlo"``) take the miss as ``|r1 - r2|``, CARA's convention
+    for states at TCA; states off TCA are checked against the miss at the straight-line TCA
+    (the component of ``r1 - r2`` normal to the relative velocity).
     """
     if method not in METHODS:
         raise InvalidInputError(f"method must be one of {sorted(METHODS)}, got {method!r}.")
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if method == "monte_carlo":
-        res = monte_carlo_probability(r1, v1, c1, r2, v2, c2, hbr, samples=samples, seed=seed)
+        res = _monte_carlo(r1, v1, c1, r2, v2, c2, hbr, samples, seed, 0.95)
+        if hbr > 0:  # HBR 0: Pc = 0 exactly
+            _warn_few_hits(res)
         if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
             plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
             check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,
@@ -284,6 +297,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     lp = log_pc_2d(xm, zm, sx, sz, hbr, method)
     if method == "chan":
         check_chan(lp, xm, zm, sx, sz, hbr)
+    check_tca(method, r1, v1, r2, v2, plane, hbr)
     check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
     return lp if log else math.exp(lp)
 
@@ -343,9 +357,15 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     projection used by ``"foster"``) and counts the draws inside the HBR circle; the interval is
     the exact binomial (Clopper-Pearson) one.
     """
+    r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
+    return _monte_carlo(r1, v1, c1, r2, v2, c2, hbr, samples, seed, confidence)
+
+
+def _monte_carlo(r1, v1, c1, r2, v2, c2, hbr, samples, seed, confidence):
+    """:func:`monte_carlo_probability` of checked SI inputs (:func:`encounter_inputs`), for it
+    and for ``collision_probability(method="monte_carlo")``."""
     from scipy import stats
 
-    r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius)
     if not (isinstance(samples, (int, np.integer, float, np.floating))
             and math.isfinite(samples) and samples == int(samples) and samples >= 1):
         raise InvalidInputError(f"samples must be a whole number >= 1, got {samples!r}.")
@@ -355,6 +375,7 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
         raise InvalidInputError(f"confidence must be a level in (0, 1) such as 0.95, got "
                                 f"{confidence!r}.")
     plane = _repaired_plane(r1, v1, c1, r2, v2, c2, hbr)
+    check_tca("monte_carlo", r1, v1, r2, v2, plane, hbr, stacklevel=4)
     sx, sz = plane.sigma
     xm, zm = plane.principal_miss
     rng = np.random.default_rng(seed)
@@ -374,6 +395,31 @@ def monte_carlo_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *,
     return MonteCarloResult(hits / samples, low, high, hits, samples, confidence)
 
 
+#: fewer hits than this make ``method="monte_carlo"`` warn (relative standard error above 30 %)
+_FEW_HITS = 10
+
+
+def _warn_few_hits(res: MonteCarloResult) -> None:
+    """Warn where ``collision_probability(method="monte_carlo")`` returns an estimate from fewer
+    than :data:`_FEW_HITS` hits: 0 hits returned Pc = 0 for a conjunction whose Foster value is
+    2.2e-14 (audit48); the bare number hides the interval that :func:`monte_carlo_probability`
+    gives."""
+    if res.hits >= _FEW_HITS:
+        return
+    level = f"{100 * res.confidence:g} %"
+    if res.hits == 0:
+        what = (f"none of the {res.samples} samples hit the hard-body circle: Pc = 0 is not an "
+                f"estimate, only a bound, Pc < {res.high:.3g} ({level} Clopper-Pearson)")
+    else:
+        what = (f"only {res.hits} of the {res.samples} samples hit the hard-body circle: Pc = "
+                f"{res.pc:.3g} is uncertain by a factor {res.high / res.low:.3g} (between "
+                f"{res.low:.3g} and {res.high:.3g}, {level} Clopper-Pearson)")
+    warnings.warn(
+        f"method='monte_carlo': {what}. Use method='foster' (the exact integral of the plane "
+        f"sampled), or about {max(100.0 / max(res.high, 1e-300), 1.0):.3g} samples for 100 hits; "
+        "vv.monte_carlo_probability gives the interval.", UserWarning, stacklevel=3)
+
+
 def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=None, *,
                               log=False):
     """Alfano's maximum Pc over an unknown covariance size.
@@ -388,7 +434,8 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
         Combined radius (plain: m).
     cov1, cov2 : array_like, optional
         Covariances giving the shape (orientation and aspect ratio) of the combined covariance;
-        their size is the unknown. Without them the encounter-plane covariance is taken circular.
+        their size is the unknown. One alone gives the shape by itself; without them the
+        encounter-plane covariance is taken circular.
     log : bool
         Return ``ln Pc_max``.
 
@@ -406,13 +453,22 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
     """
     from scipy.optimize import minimize_scalar
 
-    eye = np.eye(3)
-    c1 = eye if cov1 is None else cov1
-    c2 = eye if cov2 is None else cov2
+    # one covariance alone gives the shape: the other adds nothing (it added 1 m^2, whose
+    # weight beside the given one depended on its units: 7.5e-4 for 1.3e-5; audit48)
+    zero, eye = np.zeros((3, 3)), np.eye(3)
+    c1 = (eye if cov2 is None else zero) if cov1 is None else cov1
+    c2 = (zero if cov1 is not None else eye) if cov2 is None else cov2
     r1, v1, c1, r2, v2, c2, hbr = encounter_inputs(r1, v1, c1, r2, v2, c2, hard_body_radius)
     if hbr == 0:
         return -math.inf if log else 0.0
-    plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    # the size is the unknown: scale the shape to the miss before CARA's clip at (1e-4 HBR)^2,
+    # which rounded a small covariance (sigmas 1e-5 m, 1e-3 m) to a circle (audit48)
+    trace = float(np.trace(c1[:3, :3] + c2[:3, :3]))
+    if trace > 0:
+        scale = max(float(np.linalg.norm(r1 - r2)), hbr) ** 2 / trace
+        c1, c2 = c1 * scale, c2 * scale
+    plane = (encounter_plane(r1, v1, c1, r2, v2, c2, hbr) if cov1 is None and cov2 is None
+             else _repaired_plane(r1, v1, c1, r2, v2, c2, hbr))
     if cov1 is None and cov2 is None:
         s0 = np.array([1.0, 1.0])
         pm = np.array([float(np.hypot(*plane.principal_miss)), 0.0])
@@ -583,6 +639,11 @@ def _gm_m(gm):
     return float(to_array(gm, "gm", "gm", allow_plain=True)) * 1e9  # km^3/s^2 -> m^3/s^2
 
 
+#: largest HBR of ``method="pc3d_hall"`` as a fraction of the smaller geocentric distance (70 km
+#: in LEO, where a sphere holding the whole encounter gives Nc = 1 + 4e-5; 1 + 8e-6 at 30 km)
+_HBR_ORBIT_FRACTION = 0.01
+
+
 def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     """Units and checks for :func:`visviva.conjunctions.nc3d.log_pc3d_hall`."""
     from .nc3d import log_pc3d_hall
@@ -590,6 +651,15 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     gm_m = _gm_m(gm)
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
+    radius = min(float(np.linalg.norm(r1)), float(np.linalg.norm(r2)))
+    if 0 < hbr < math.inf and hbr > _HBR_ORBIT_FRACTION * radius:
+        # a sphere not small beside the orbit: Nc came out 1.007 at HBR 1,000 km in LEO, a
+        # ConvergenceError at 7,000 km and inf at 10,000 km (audit48)
+        raise InvalidInputError(
+            f"method='pc3d_hall' models a hard body small beside the orbits: HBR = {hbr:.6g} m "
+            f"is more than {_HBR_ORBIT_FRACTION:g} of the smaller distance from the attractor "
+            f"({radius:.6g} m). Check the HBR's unit (plain numbers are m); for the chance of "
+            "coming within a large distance use method='foster'.")
     if _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True):
         _warn_repair("an input covariance (position-velocity, 6x6)")
     if window is not None:

@@ -201,3 +201,18 @@ def test_pc3d_hall_refuses_a_hard_body_not_small_beside_the_orbit():
     pc = collision_probability(R1, V1, c6, R2, V2, c6, 3e3, method="pc3d_hall")
     assert pc == pytest.approx(collision_probability(R1, V1, c6, R2, V2, c6, 3e3), rel=1e-6)
     assert pc <= 1.0
+
+
+def test_3d_method_takes_an_object_on_a_hyperbola():
+    # before: ValueError 'math domain error' (the window's quarter-period bound took the period
+    # of any orbit); a fast encounter, so the flux integral equals Foster's plane value
+    gm = 3.986004418e14
+    v1 = np.array([0.0, 1.2 * math.sqrt(2 * gm / 7000e3), 0.0])  # 1.2 x escape speed
+    c6 = np.zeros((6, 6))
+    c6[:3, :3] = COV
+    c6[3:, 3:] = np.eye(3) * 1e-4
+    foster = collision_probability(R1, v1, COV, R2, V2, COV, HBR)
+    pc = collision_probability(R1, v1, c6, R2, V2, c6, HBR, method="3d")
+    assert pc == pytest.approx(foster, rel=1e-6)
+    with pytest.raises(vv.errors.InvalidInputError, match="bound"):
+        collision_probability(R1, v1, c6, R2, V2, c6, HBR, method="pc3d_hall")

@@ -489,6 +489,15 @@ def max_collision_probability(r1, v1, r2, v2, hard_body_radius, cov1=None, cov2=
     return lp if log else math.exp(lp)
 
 
+def _period(r, v, gm):
+    """Orbital period (s) of the state ``r`` (km), ``v`` (km/s) about ``gm`` (km^3/s^2); inf
+    for an open (parabolic or hyperbolic) orbit."""
+    inv_a = 2.0 / float(np.linalg.norm(r)) - float(np.dot(v, v)) / gm
+    if not inv_a > 0:
+        return math.inf
+    return 2 * math.pi * math.sqrt(inv_a ** -3 / gm)
+
+
 def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     """The 3-D flux integral (see collision_probability); inputs in m, m/s.
 
@@ -521,8 +530,9 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
                                 "objects to move relative to each other; use "
                                 "method='pc3d_hall', which handles it.")
     r1k, v1k, r2k, v2k = r1 / 1e3, v1 / 1e3, r2 / 1e3, v2 / 1e3
-    period = 2 * math.pi * math.sqrt(
-        (1.0 / (2.0 / np.linalg.norm(r1k) - np.dot(v1k, v1k) / gm_km)) ** 3 / gm_km)
+    # the window stays within a quarter of the shorter bound orbit's period (an open orbit,
+    # hyperbolic or parabolic, sets no such bound)
+    period = min(_period(r1k, v1k, gm_km), _period(r2k, v2k, gm_km))
     half = min(10.0 * (math.sqrt(lam) + hbr + float(np.linalg.norm(r1 - r2))) / un,
                0.25 * period)
     # the rate is a spike of width ~ sigma_t = (sigma along u) / |u| about the crossing of the

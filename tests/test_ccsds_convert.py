@@ -70,7 +70,10 @@ def test_errors(tle_file, tmp_path, capsys):
     two.write_text("\n".join(ISS) + "\nOTHER\n" + "\n".join(other) + "\n")
     # bad input exits with code 2 and one line, like every command (these exited with 1)
     assert cli.main(["convert", str(two), str(tmp_path / "x.omm"), "--to", "omm"]) == 2
-    assert "visviva convert: " in (err := capsys.readouterr().err) and "holds 2 satellites" in err
+    assert "visviva convert: " in (err := capsys.readouterr().err) and "holds 2 element" in err
+    assert "KVN OMM holds one" in err and "--format xml" in err and "--satnum" in err
+    assert cli.main(["convert", str(two), str(tmp_path / "x.oem")]) == 2
+    assert "an OEM is sampled from one: pick one with --satnum" in capsys.readouterr().err
     assert cli.main(["convert", str(tle_file), str(tmp_path / "x.dat")]) == 2
     assert "cannot tell the output kind" in capsys.readouterr().err
     assert cli.main(["convert", str(tle_file), str(tmp_path / "x.oem"),
@@ -160,8 +163,10 @@ def test_convert_reads_gp_data(tmp_path, write_catalog_files, capsys):
         out = tmp_path / f"{kind}.tle"
         assert cli.main(["convert", str(path), str(out), "--satnum", "25544"]) == 0, kind
         assert out.read_text().splitlines() == list(ISS), kind
-        assert cli.main(["convert", str(path), str(out), "--overwrite"]) == 2
-        assert "holds 2 satellites" in capsys.readouterr().err
+        # without --satnum every element set, in the file's order (it was refused)
+        assert cli.main(["convert", str(path), str(out), "--overwrite"]) == 0
+        assert out.read_text().splitlines()[3:] == list(ISS), kind
+        assert out.read_text().splitlines()[0] == "B"
     omm = tmp_path / "iss.omm"
     assert cli.main(["convert", str(paths["ndm"]), str(omm), "--satnum", "25544"]) == 0
     assert vv.read_omm(omm)["NORAD_CAT_ID"] == 25544
@@ -201,3 +206,80 @@ def test_one_omm_picked_from_kvn_gp_data_keeps_the_whole_message(tmp_path, capsy
     bad = other.count("\n") + iss.count("\n")
     assert cli.main(["convert", str(gp), str(out), "--satnum", "25544", "--overwrite"]) == 2
     assert f"{gp}, line {bad}: " in capsys.readouterr().err
+
+
+def _verification_catalogue():
+    """The SGP4 verification element sets shipped with sgp4 (near-Earth and deep-space), the
+    first set of each object, without the two whose perigee is below the surface and one that
+    SGP4 cannot propagate (error 3 at its epoch); named."""
+    import importlib.resources
+
+    from visviva.satellites.catalog import parse_tle_text
+
+    text = (importlib.resources.files("sgp4") / "SGP4-VER.TLE").read_text()
+    lines = [ln[:69] if ln.startswith("2 ") else ln for ln in text.splitlines()]
+    with pytest.warns(vv.SubsurfacePerigeeWarning):
+        sats = parse_tle_text("\n".join(ln for ln in lines if not ln.startswith("#")),
+                              verify_checksum=False)
+    out, seen = [], set()
+    for s in sats:
+        if s.satnum not in seen and s.satnum not in (28872, 33333, 33334):
+            seen.add(s.satnum)
+            out.append(s)
+    return out
+
+
+def test_a_catalogue_converts_whole_to_omm_xml_and_to_tle(tmp_path, capsys):
+    # leftfix8: a file of several element sets was refused without --satnum; now TLE -> OMM
+    # writes an XML <ndm> of one <omm> each (as CelesTrak's GP XML) and TLE -> TLE all of them
+    sats = _verification_catalogue()
+    assert len(sats) == 29
+    tle = tmp_path / "cat.tle"
+    tle.write_text("".join(f"OBJECT {s.satnum}\n{s.to_tle()[0]}\n{s.to_tle()[1]}\n"
+                           for s in sats))
+    xml = tmp_path / "cat.xml"
+    assert cli.main(["convert", str(tle), str(xml), "--to", "omm"]) == 0
+    text = xml.read_text()
+    assert text.count("<omm ") == 29 and text.count("<ndm ") == 1
+    back = vv.read_catalog_file(xml)
+    assert [s.satnum for s in back] == [s.satnum for s in sats]
+    assert back.names == [f"OBJECT {s.satnum}" for s in sats]
+    worst = []
+    for a, b in zip(vv.read_catalog_file(tle), back, strict=True):  # the same SGP4 states
+        t = a.epoch + np.array([-30.0, 0.0, 10.0, 95.0]) * u.min
+        ra, rb = a.teme(t), b.teme(t)
+        worst.append(np.abs(ra.r.to_value(u.km) - rb.r.to_value(u.km)).max())
+        fa, fb = a.to_omm(), b.to_omm()
+        fa["OBJECT_ID"] = fa["OBJECT_ID"] or "UNKNOWN"  # (a blank designator is written so)
+        assert fa.keys() == fb.keys(), a.satnum  # every element, designator and name
+        for key, value in fa.items():
+            if isinstance(value, float):
+                assert value == pytest.approx(fb[key], rel=1e-15, abs=0), (a.satnum, key)
+            else:
+                assert value == fb[key], (a.satnum, key)
+    # not to the bit: sgp4 reads an OMM with other float steps than a TLE (the epoch as one
+    # float of days since 1949, ~1e-12 day off the TLE's day fraction; rev/day / 720 * pi
+    # against / (1440 / 2 pi)), as it does for one object: 7 objects of 29 give the same
+    # states, the others differ by at most 4.1 mm over 95 min (median 1.5e-7 m; measured)
+    assert max(worst) < 1e-5  # km: 1 cm
+    # and back to TLE: the same file, every object
+    again = tmp_path / "again.tle"
+    assert cli.main(["convert", str(xml), str(again)]) == 0
+    assert again.read_text() == tle.read_text()
+    # KVN has no container for several OMMs: refused with the way out
+    assert cli.main(["convert", str(tle), str(tmp_path / "cat.omm")]) == 2
+    assert "XML <ndm> of OMMs" in capsys.readouterr().err
+    # --satnum still picks one, as a bare OMM
+    one = tmp_path / "one.xml"
+    assert cli.main(["convert", str(tle), str(one), "--to", "omm", "--satnum", "11801"]) == 0
+    assert "<ndm" not in one.read_text() and vv.read_omm(one)["NORAD_CAT_ID"] == 11801
+
+
+def test_write_omm_ndm_names_a_bad_message():
+    from visviva.ccsds.omm import write_omm_ndm
+
+    good = vv.Satellite.from_tle(*ISS[1:], ISS[0]).to_omm()
+    with pytest.raises(vv.InvalidInputError, match="OMM 1: .*BOGUS is not an OMM keyword"):
+        write_omm_ndm([good, {**good, "BOGUS": 1}], originator="TEST")
+    with pytest.raises(vv.InvalidInputError, match="at least one"):
+        write_omm_ndm([])

@@ -92,3 +92,46 @@ def test_encounter_and_escape():
         sim.integrate(100.0)
     assert info.value.particles == (1,)
     assert np.linalg.norm(sim.positions[1]) > 10.0
+
+
+@pytest.mark.parametrize("integrator", ["ias15", "leapfrog", "whfast"])
+def test_trajectory_carries_the_masses_of_each_snapshot_through_a_merger(integrator):
+    # a third body keeps the potential energy non-trivial after the merger; the Trajectory used
+    # to keep the masses at the start only, so energy() raised after the merger and m v summed
+    # with those masses gave 2/3 of the merged body's momentum
+    sim = head_on("merge", integrator=integrator, G=0.1)
+    sim.add(0.5, r=[5.0, 0.0, 0.0], v=[0.0, 0.3, 0.0], radius=0.1)
+    E0, p0, L0 = sim.energy(), sim.momentum(), sim.angular_momentum()
+    traj = sim.integrate(np.linspace(0.5, 3.0, 6))
+    assert sim.N == 2 and traj.masses.shape == (6, 3)
+    before = ~np.isnan(traj.masses[:, 1])
+    assert before[0] and not before[-1]
+    np.testing.assert_array_equal(traj.masses[before], [[2.0, 1.0, 0.5]] * before.sum())
+    np.testing.assert_array_equal(traj.masses[~before][:, [0, 2]], [[3.0, 0.5]] * (~before).sum())
+    # the energy of the merged system, as the simulation gives it at the last output time
+    E = traj.energy()
+    assert E[-1] == pytest.approx(sim.energy(include_offset=False), rel=1e-14)
+    rtol = 1e-12 if integrator == "ias15" else 1e-5  # the fixed steps' energy error: ~1e-6
+    assert E[0] == pytest.approx(E0, rel=rtol) and abs(E[-1] - E0) > 0.1
+    # with the energy lost in the merger added back it stays what it was
+    np.testing.assert_allclose(traj.energy(include_offset=True), E0, rtol=rtol)
+    assert traj.energy(include_offset=True)[-1] == pytest.approx(sim.energy(), rel=1e-14)
+    assert traj.energy_offset[-1] == sim.energy_offset and traj.energy_offset[0] == 0.0
+    # momentum and angular momentum are conserved through the merger, snapshot by snapshot
+    np.testing.assert_allclose(traj.momentum(), np.tile(p0, (6, 1)), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(traj.momentum()[-1], sim.momentum(), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(traj.angular_momentum()[-1], sim.angular_momentum(), rtol=0,
+                               atol=1e-14)
+    assert np.isfinite(traj.angular_momentum()).all() and L0.shape == (3,)
+
+
+def test_trajectory_masses_given_once_are_repeated_and_checked():
+    from visviva.nbody.trajectory import Trajectory
+
+    x = np.zeros((4, 2, 3))
+    x[:, 1, 0] = 1.0
+    traj = Trajectory(np.arange(4.0), x, np.zeros_like(x), np.array([1.0, 2.0]))
+    assert traj.masses.shape == (4, 2) and traj.energy_offset.shape == (4,)
+    np.testing.assert_array_equal(traj.energy(), -2.0)
+    with pytest.raises(vv.InvalidInputError, match=r"must be \(T, N\) = \(4, 2\)"):
+        Trajectory(np.arange(4.0), x, np.zeros_like(x), np.ones(3))

@@ -215,7 +215,7 @@ def test_trajectory_energy_raises_on_coincident_or_merged_snapshots():
     x_merged = x.copy()
     x_merged[1, 1] = np.nan  # what a merger leaves behind
     merged = Trajectory(traj.t, x_merged, v, traj.masses)
-    with pytest.raises(InvalidStateError, match=r"\[1\] had been removed by a merger"):
+    with pytest.raises(InvalidStateError, match=r"\[1\] have a mass but NaN"):
         merged.energy()
 
 

@@ -4,7 +4,9 @@ Input kinds are recognised from the content (``CCSDS_OMM_VERS`` / ``<omm>``, ``C
 / ``<oem>``, else element sets of any kind :func:`visviva.read_catalog_file` reads: TLE lines,
 CelesTrak's GP data as OMM JSON, CSV or an XML ``<ndm>`` of many ``<omm>``); the output kind
 from ``--to`` or the output's suffix (``.tle``, ``.txt``, ``.omm``, ``.oem``); KVN or XML from
-``--format`` or a ``.xml`` suffix.
+``--format`` or a ``.xml`` suffix. A catalogue (several element sets) becomes a TLE file of
+them all, or an XML ``<ndm>`` of one ``<omm>`` per element set (KVN holds one OMM: refused);
+an OEM is sampled from one element set (``--satnum``).
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ def add_parser(sub) -> None:
     p.add_argument("--format", choices=("kvn", "xml"), default=None,
                    help="CCSDS encoding (default: xml for a .xml output, else kvn)")
     p.add_argument("--satnum", type="satnum", default=None,
-                   help="catalogue number to take from a file with several satellites")
+                   help="catalogue number to take from a file with several satellites "
+                        "(default: all of them, for a TLE or XML OMM output)")
     p.add_argument("--start", default=None, metavar="ISO",
                    help="OEM start, UTC (default: the element set's epoch)")
     p.add_argument("--hours", type="hours", default=None, help="OEM span in hours (default 24)")
@@ -84,7 +87,8 @@ def _format(args) -> str:
     return "xml" if args.output.lower().endswith(".xml") else "kvn"
 
 
-def _satellite(args, path, text: str, kind: str):
+def _satellites(args, path, text: str, kind: str) -> list:
+    """The element sets of the input (those of ``--satnum`` when given), in the file's order."""
     from ..satellites import Satellite
     from ..satellites.catalog import read_catalog_file
     from .omm import read_omm
@@ -100,11 +104,16 @@ def _satellite(args, path, text: str, kind: str):
             shown = ", ".join(str(n) for n in held[:10]) + (", ..." if len(held) > 10 else "")
             raise InvalidInputError(f"no satellite {args.satnum} in {args.input} (it holds "
                                     f"{shown})")
+    return sats
+
+
+def _one(args, sats, why: str):
+    """The one element set of ``sats``; several are refused (``why``: what needs one)."""
     if len(sats) != 1:
         numbers = ", ".join(str(s.satnum) for s in sats[:10])
-        raise InvalidInputError(f"{args.input} holds {len(sats)} satellites "
-                                f"({numbers}{', ...' if len(sats) > 10 else ''}); pick one with "
-                                "--satnum")
+        raise InvalidInputError(f"{args.input} holds {len(sats)} element sets "
+                                f"({numbers}{', ...' if len(sats) > 10 else ''}); {why}: pick "
+                                "one with --satnum")
     return sats[0]
 
 
@@ -290,13 +299,31 @@ def _convert(args, path, text, source, target, fmt) -> str:
                 raise CCSDSFormatError(str(exc).split(": ", 1)[1], exc.line,
                                        str(path)) from None
             return write_omm(omm, format=fmt, originator=args.originator)
-    sat = _satellite(args, path, text, source)
-    if target == "tle":
-        line1, line2 = sat.to_tle()
-        return f"{sat.name}\n{line1}\n{line2}\n"
+    sats = _satellites(args, path, text, source)
+    if target == "tle":  # every element set, one after another
+        return "".join(f"{sat.name}\n{line1}\n{line2}\n" for sat in sats
+                       for line1, line2 in [sat.to_tle()])
     if target == "omm":
-        fields = sat.to_omm()
-        if not fields["OBJECT_ID"]:
-            fields["OBJECT_ID"] = "UNKNOWN"
-        return write_omm(fields, format=fmt, originator=args.originator)
+        records = [_omm_fields(sat) for sat in sats]
+        if len(records) == 1:
+            return write_omm(records[0], format=fmt, originator=args.originator)
+        if fmt == "kvn":
+            raise InvalidInputError(
+                f"{args.input} holds {len(records)} element sets and a KVN OMM holds one (OMMs "
+                "one after another are not a CCSDS file): write them all as an XML <ndm> of "
+                "OMMs (--format xml or an output ending in .xml, as CelesTrak's GP data), or "
+                "pick one with --satnum")
+        from .omm import write_omm_ndm
+
+        return write_omm_ndm(records, originator=args.originator)
+    sat = _one(args, sats, "an OEM is sampled from one")
     return write_oem(_sample_oem(sat, args), format=fmt)
+
+
+def _omm_fields(sat) -> dict:
+    """The OMM keywords of an element set (an unknown international designator written as
+    UNKNOWN, as the OMM requires one)."""
+    fields = sat.to_omm()
+    if not fields["OBJECT_ID"]:
+        fields["OBJECT_ID"] = "UNKNOWN"
+    return fields

@@ -18,7 +18,7 @@ __all__ = [
     "read_kvn_section", "read_xml_section", "check_mandatory", "read_message",
     "write_kvn_section", "write_xml_section", "write_message", "xml_child", "read_text",
     "with_version", "read_kvn_header", "read_kvn_metadata_block", "article_of",
-    "check_xml_elements",
+    "check_xml_elements", "message_element",
 ]
 
 
@@ -616,6 +616,12 @@ def write_message(parsed: dict, sections: tuple, root_tag: str, version_key: str
                 write_kvn_section(writer, section, record)
                 writer.blank()
         return writer.text()
+    return to_text(message_element(parsed, sections, root_tag, version_key))
+
+
+def message_element(parsed: dict, sections: tuple, root_tag: str, version_key: str):
+    """The XML element of a flat message (:func:`write_message`'s XML, before serialising;
+    an ``<ndm>`` of several messages holds these)."""
     header = _as_record(parsed[sections[0].name])
     root = new_root(root_tag, version_key, header.values[version_key])
     for section in sections:
@@ -624,7 +630,7 @@ def write_message(parsed: dict, sections: tuple, root_tag: str, version_key: str
             for tag in section.xml_path.split("/")[:-1]:
                 parent = xml_child(parent, tag)
             write_xml_section(parent, section, record, skip=(version_key,))
-    return to_text(root)
+    return root
 
 
 def _records(parsed: dict, section: Section) -> list:

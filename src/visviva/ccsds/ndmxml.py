@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 from .._xmltree import XMLNode, parse_xml
 from .grammar import CCSDSFormatError
 
-__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "hoist_comments", "looks_like_xml", "new_root", "add_text",
+__all__ = ["XMLNode", "parse", "message_root", "check_attributes", "hoist_comments", "looks_like_xml", "new_root", "new_ndm", "add_text",
            "to_text"]
 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
@@ -265,6 +265,28 @@ def new_root(tag: str, version_key: str, version: str) -> ET.Element:
     """
     return ET.Element(tag, {"xmlns:xsi": _XSI, "xsi:noNamespaceSchemaLocation": _SCHEMA,
                             "id": version_key, "version": str(version)})
+
+
+def new_ndm(messages) -> ET.Element:
+    """An ``<ndm>`` combined instrument holding the message elements ``messages`` (each as
+    :func:`new_root` made it; the schema attributes move to the ``<ndm>``), as CelesTrak writes
+    its GP data: ``<ndm><omm id="CCSDS_OMM_VERS" version="3.0">...</omm><omm>...</ndm>``.
+
+    Parameters
+    ----------
+    messages : iterable of xml.etree.ElementTree.Element
+        The message elements.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+    """
+    root = ET.Element("ndm", {"xmlns:xsi": _XSI, "xsi:noNamespaceSchemaLocation": _SCHEMA})
+    for message in messages:
+        message.attrib.pop("xmlns:xsi", None)
+        message.attrib.pop("xsi:noNamespaceSchemaLocation", None)
+        root.append(message)
+    return root
 
 
 def add_text(parent: ET.Element, tag: str, text: str, units: str | None = None) -> ET.Element:

@@ -23,7 +23,7 @@ from .grammar import Record, Section
 from .layout import read_message
 from .opm import header_section, write_sections
 
-__all__ = ["OMM", "read_omm", "write_omm", "SECTIONS"]
+__all__ = ["OMM", "read_omm", "write_omm", "write_omm_ndm", "SECTIONS"]
 
 _DATA = "body/segment/data/"
 SECTIONS = (
@@ -253,6 +253,66 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
     InvalidInputError
         A keyword that is not an OMM keyword, or a mandatory one missing.
     """
+    parsed = _sections(omm, originator, version)
+    return write_sections(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS", path, format)
+
+
+def write_omm_ndm(omms, path=None, *, originator: str | None = None,
+                  version: str = "3.0") -> str:
+    """Write several OMMs as one XML ``<ndm>`` of ``<omm>`` elements (a catalogue, as
+    CelesTrak's GP data in XML; :func:`visviva.read_catalog_file` reads it back).
+
+    KVN has no container for several messages (one OMM after another is not a CCSDS file):
+    write them as XML this way, or one file per object with :func:`write_omm`.
+
+    Parameters
+    ----------
+    omms : iterable of OMM or dict
+        The messages' keywords, each as for :func:`write_omm`.
+    path : str or os.PathLike, optional
+        File to write; nothing is written when None.
+    originator : str, optional
+        ``ORIGINATOR`` for a mapping that lacks it.
+    version : str
+        ``CCSDS_OMM_VERS`` for a mapping that lacks it.
+
+    Returns
+    -------
+    str
+        The XML text.
+
+    Raises
+    ------
+    InvalidInputError
+        No message, or a message :func:`write_omm` refuses (naming its position).
+    """
+    from astropy.time import Time
+
+    from .layout import message_element
+    from .ndmxml import new_ndm, to_text
+
+    now = Time.now().utc.isot  # one CREATION_DATE for the messages that lack one
+    elements = []
+    for k, omm in enumerate(omms):
+        if hasattr(omm, "items") and "CREATION_DATE" not in omm:
+            omm = {**omm, "CREATION_DATE": now}
+        try:
+            parsed = _sections(omm, originator, version)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"OMM {k}: {exc}") from None
+        elements.append(message_element(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS"))
+    if not elements:
+        raise InvalidInputError("write_omm_ndm needs at least one OMM.")
+    text = to_text(new_ndm(elements))
+    if path is not None:
+        from .._text import replace_text_file
+
+        replace_text_file(path, text)  # whole or not at all: a failed write keeps the old file
+    return text
+
+
+def _sections(omm, originator, version) -> dict:
+    """The section records of an OMM from a mapping of its keywords (checked)."""
     from .layout import check_mandatory
 
     if not hasattr(omm, "items"):
@@ -300,7 +360,7 @@ def write_omm(omm, path=None, format: str | None = None, *, originator: str | No
         parsed[section.name] = record
     if "ORIGINATOR" not in header:
         raise InvalidInputError("the OMM has no ORIGINATOR; pass originator='...'")
-    return write_sections(parsed, SECTIONS, "omm", "CCSDS_OMM_VERS", path, format)
+    return parsed
 
 
 def _coerce(keyword, value):

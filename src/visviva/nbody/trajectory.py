@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
-from ..errors import InvalidStateError, fmt_number
+from ..errors import InvalidInputError, InvalidStateError, fmt_number
 
 __all__ = ["Trajectory", "Recording", "coincident_pairs"]
 
@@ -55,8 +55,18 @@ class Trajectory:
         Output times (simulation units).
     positions, velocities : ndarray, shape (T, N, 3)
         Snapshots (simulation units). Particles removed by a merger are NaN afterwards.
-    masses : ndarray, shape (N,)
-        Masses at the start of the run.
+    masses : ndarray, shape (T, N)
+        The mass of each particle at each snapshot (simulation units): after a merger the
+        survivor's column holds the merged mass and the removed particle's column is NaN.
+        Constructed from a shape (N,) array (masses that do not change), it is repeated for
+        every snapshot.
+    G : float
+        Gravitational constant (simulation units).
+    softening : float
+        Plummer softening length (simulation units).
+    energy_offset : ndarray, shape (T,)
+        The simulation's ``energy_offset`` at each snapshot: the energy removed by mergers and
+        inelastic bounces so far (simulation units); a scalar is repeated for every snapshot.
     """
 
     t: np.ndarray
@@ -65,44 +75,97 @@ class Trajectory:
     masses: np.ndarray
     G: float = 1.0
     softening: float = 0.0
+    energy_offset: np.ndarray | float = 0.0
 
-    def energy(self) -> np.ndarray:
-        """Total energy at each snapshot, shape (T,) (simulation units).
+    def __post_init__(self):
+        T, n = np.shape(self.positions)[:2]
+        m = np.asarray(self.masses, dtype=float)
+        if m.shape == (n,):
+            m = np.repeat(m[None, :], T, axis=0)
+        if m.shape != (T, n):
+            raise InvalidInputError(
+                f"Trajectory: masses has shape {m.shape}; it must be (T, N) = ({T}, {n}), one "
+                f"mass per particle and snapshot, or (N,) = ({n},) for masses that do not change.")
+        self.masses = m
+        off = np.asarray(self.energy_offset, dtype=float)
+        if off.shape not in ((), (T,)):
+            raise InvalidInputError(
+                f"Trajectory: energy_offset has shape {off.shape}; give a number or one value "
+                f"per snapshot, shape ({T},).")
+        self.energy_offset = np.array(np.broadcast_to(off, (T,)))
+
+    def _present(self) -> np.ndarray:
+        """Which particles exist at each snapshot, shape (T, N) (a removed one's mass is NaN)."""
+        return ~np.isnan(self.masses)
+
+    def energy(self, include_offset: bool = False) -> np.ndarray:
+        """Total energy (kinetic plus potential) of the particles present at each snapshot,
+        shape (T,) (simulation units).
+
+        After a merger this is the energy of the merged system, as
+        ``Simulation.energy(include_offset=False)`` gives it at that time. With
+        ``include_offset`` the energy removed by mergers and inelastic bounces up to each
+        snapshot (:attr:`energy_offset`) is added back, as :meth:`Simulation.energy` does by
+        default, so that the sum stays constant through a merger.
 
         Raises
         ------
         InvalidStateError
             A snapshot where the energy is not finite: two massive particles at the same
-            position without softening, or a particle removed by a merger.
+            position without softening, or a particle with a mass but NaN coordinates.
         """
-        out = np.empty(len(self.t))
-        _gravity.energy_history(
-            np.ascontiguousarray(self.positions),
-            np.ascontiguousarray(self.velocities),
-            self.masses,
-            float(self.G),
-            float(self.softening) ** 2,
-            out,
-        )
+        out = self._each_mass_set(lambda x, v, m, res: _gravity.energy_history(
+            x, v, m, float(self.G), float(self.softening) ** 2, res))
         bad = np.flatnonzero(~np.isfinite(out))
         if bad.size:
             k = int(bad[0])
             context = f"Trajectory.energy: at snapshot {k} (t = {fmt_number(self.t[k])})"
-            removed = np.flatnonzero(np.isnan(self.positions[k]).any(axis=1))
-            if removed.size:
+            present = self._present()[k]
+            lost = present & ~(np.isfinite(self.positions[k]).all(axis=1)
+                               & np.isfinite(self.velocities[k]).all(axis=1))
+            if lost.any():
                 raise InvalidStateError(
-                    f"{context} particle(s) {removed.tolist()} had been removed by a merger, so "
-                    "the total energy of the snapshot is undefined. Use Simulation.energy(), "
-                    "which tracks the energy lost in mergers (energy_offset), or sample the "
-                    "trajectory before the merger."
-                )
-            pairs = coincident_pairs(self.positions[k], self.masses, float(self.softening) ** 2)
+                    f"{context} particle(s) {np.flatnonzero(lost).tolist()} have a mass but NaN "
+                    "or infinite coordinates, so the total energy is undefined. A particle "
+                    "removed by a merger must have a NaN mass at that snapshot (masses of "
+                    "shape (T, N), as Simulation.integrate returns them).")
+            m = np.where(present, self.masses[k], 0.0)
+            pairs = coincident_pairs(self.positions[k], m, float(self.softening) ** 2)
             where = f"particles {pairs[0]} share a position" if pairs else "the energy overflows"
             raise InvalidStateError(
                 f"{context} {where}, so the potential energy is not finite ({bad.size} "
                 "snapshot(s) in all). To fix: run with softening > 0, or give the particles "
                 "radii with collision='merge'."
             )
+        return out + self.energy_offset if include_offset else out
+
+    def momentum(self) -> np.ndarray:
+        """Total linear momentum ``sum m v`` of the particles present at each snapshot, shape
+        (T, 3) (simulation units)."""
+        m = self.masses[..., None]
+        return np.where(self._present()[..., None], m * self.velocities, 0.0).sum(axis=1)
+
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum ``sum m r x v`` about the origin of the particles present at
+        each snapshot, shape (T, 3) (simulation units)."""
+        L = self.masses[..., None] * np.cross(self.positions, self.velocities)
+        return np.where(self._present()[..., None], L, 0.0).sum(axis=1)
+
+    def _each_mass_set(self, kernel) -> np.ndarray:
+        """``kernel(x, v, m, out)`` over each run of snapshots with the same masses (between two
+        mergers), on the particles present there; the results, shape (T,)."""
+        present = self._present()
+        key = np.where(present, self.masses, -1.0)  # masses are >= 0: -1 marks a removed one
+        T = len(self.t)
+        starts = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]).any(axis=1)]) if T else []
+        out = np.empty(T)
+        for a, b in zip(starts, [*starts[1:], T], strict=True):
+            cols = np.flatnonzero(present[a])
+            res = np.empty(b - a)
+            kernel(np.ascontiguousarray(self.positions[a:b][:, cols]),
+                   np.ascontiguousarray(self.velocities[a:b][:, cols]),
+                   np.ascontiguousarray(self.masses[a, cols]), res)
+            out[a:b] = res
         return out
 
 
@@ -132,7 +195,8 @@ class Recording:
         T, n = len(times), sim.N
         self.out_x = np.full((T, n, 3), np.nan)
         self.out_v = np.full((T, n, 3), np.nan)
-        self.masses = sim.masses
+        self.out_m = np.full((T, n), np.nan)  # masses per snapshot: NaN once removed
+        self.out_offset = np.full(T, np.nan)  # the simulation's energy_offset per snapshot
         self.alive = np.arange(n)  # original index of each current particle
         self._chunks(n)
         self.bar = None
@@ -173,6 +237,9 @@ class Recording:
         if done > done0:
             self.out_x[done0:done, self.alive] = self.chunk_x[done0:done]
             self.out_v[done0:done, self.alive] = self.chunk_v[done0:done]
+            # the masses and offset of the call: a merger changes them only between calls
+            self.out_m[done0:done, self.alive] = sim.masses
+            self.out_offset[done0:done] = sim.energy_offset
         if self.bar is not None:
             self.bar.n = abs(sim.t - self.t_start)
             self.bar.refresh()
@@ -185,5 +252,5 @@ class Recording:
 
     def trajectory(self) -> Trajectory:
         """The snapshots as a :class:`Trajectory`."""
-        return Trajectory(self.out_t, self.out_x, self.out_v, self.masses, self.sim.G,
-                          self.sim.softening)
+        return Trajectory(self.out_t, self.out_x, self.out_v, self.out_m, self.sim.G,
+                          self.sim.softening, self.out_offset)

@@ -9,7 +9,9 @@ rows kept by the editing, both by orthogonal triangularisation
 semi-definite by construction, also when nanometre measurements meet a kilometre prior. The
 prediction's noise N (process noise, the execution errors of burns, the coefficients'
 Gauss-Markov noise) is that of the covariance prediction started from zero: the prediction is
-affine in P, P- = Phi P Phi^T + N.
+affine in P, P- = Phi P Phi^T + N. Where the arc has a gap of days
+(:data:`UNSCENTED_GAP_S`), the gaps between passes are predicted by sigma points instead
+(:func:`unscented_gap`), Phi being then the prediction's statistical linearisation.
 """
 
 from __future__ import annotations
@@ -25,8 +27,8 @@ from .light_time import model
 from .measurements import residuals
 from .square_root import covariance, noise_factor, predict_factor, psd_factor, update_factor
 
-__all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "NONLINEAR_SHIFT",
-           "CURVATURE_GAP_S"]
+__all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "unscented_gap", "NONLINEAR_SHIFT",
+           "CURVATURE_GAP_S", "UNSCENTED_GAP_S"]
 
 #: the extended filter warns when, across its predicted covariance, the curvature of a
 #: measurement shifts the measurement's mean by more than this many of its sigmas (what the
@@ -38,6 +40,15 @@ NONLINEAR_SHIFT = 3.0
 #: covariance has grown (within a pass it shrinks; 2.5 ms per check doubled the filter's time
 #: when made at every epoch)
 CURVATURE_GAP_S = 300.0
+#: when two epochs are more than this apart (s), the extended filter predicts the mean and
+#: covariance over every gap longer than CURVATURE_GAP_S by the unscented transform instead
+#: of the STM: across days the flow is nonlinear across the covariance (two 3-hour arcs 3
+#: days apart from 100 m and 10 cm/s: its second-order term put the error 16 sigmas out along
+#: the covariance's thinnest direction, NEES 7.5 -> 281 over the gap), and the semi-major
+#: axis the second arc then fixes makes the smoother's linear maps across the first arc's
+#: gaps between passes fail as well; tracking without such a gap keeps the STM's prediction
+#: (and its results, bit for bit)
+UNSCENTED_GAP_S = 6 * 3600.0
 
 
 def curvature_shift(observations, x, L, rows, gm):
@@ -137,8 +148,18 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
         step_s = gauss.longest_step_s(q, step_s)
     zero = np.zeros((n, n))
     curved = []  # (shift in sigmas, epoch index) where the linearisation fails
+    # with a gap of days every gap between passes is flown by sigma points (UNSCENTED_GAP_S)
+    unscented_after = CURVATURE_GAP_S if np.any(np.diff(epochs) > UNSCENTED_GAP_S) else np.inf
     for k in range(n_t):
-        if k:
+        if k and not est and epochs[k] - epochs[k - 1] > unscented_after:
+            try:
+                x, phis[k], noises[k], L = unscented_gap(dyn, schedule, x, L, epochs[k - 1],
+                                                         epochs[k], q, code, step_s)
+            except VisvivaError as exc:
+                raise screen.diverged(k, f"the sigma points cannot be integrated ({exc})") from exc
+            Lp[k] = L
+            xp[k], Pp[k] = x, covariance(L)
+        elif k:
             grid = noise_substeps(epochs[k] - epochs[k - 1], q, step_s, gauss is not None)
             try:  # the prediction from P = 0 is its noise N
                 if est:  # the coefficients, constants or Gauss-Markov, through the burns
@@ -173,6 +194,26 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     if curved:
         _warn_curved(curved, observations, screen)
     return xs, Ps, xp, Pp, phis, (Ls, Lp, noises)
+
+
+def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s):
+    """The prediction over a long gap by the unscented transform (:mod:`visviva.od.unscented`):
+    the sigma points of (x, L L^T) at ``t_from`` flown to ``t_to`` (s from the epoch), on the
+    sub-steps and through the burns the unscented filter takes. Returns the predicted mean,
+    the statistical linearisation A of the flow (in place of the STM), the square root of the
+    residue (cov(x-) = A P A^T + residue; the smoother's noise) and the predicted square root.
+    """
+    from .unscented import predict_interval, unscented_weights
+
+    n = x.size
+    x, L, T = predict_interval(dyn, schedule, (), x, L, t_from, t_to, q, code, step_s,
+                               unscented_weights(None, n))
+    L11, L21 = T[:n, :n], T[n:, :n]
+    try:  # A = L21 L11^-1
+        A = np.linalg.solve(L11.T, L21.T).T
+    except np.linalg.LinAlgError:  # a component known exactly
+        A = np.linalg.lstsq(L11.T, L21.T, rcond=None)[0].T
+    return x, A, T[n:, n:].copy(), L
 
 
 def _warn_curved(curved, observations, screen):

@@ -286,7 +286,11 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     factor (Carlson's array update, Bierman 1977; Tapley et al., sec. 5.4; the smoother in
     its Joseph form, :mod:`visviva.od.square_root`): symmetric positive semi-definite by
     construction, also when nanometre data meet a kilometre prior, where the Joseph form
-    (I - K H) P^- (I - K H)^T + K R K^T lost definiteness to round-off.
+    (I - K H) P^- (I - K H)^T + K R K^T lost definiteness to round-off. When two epochs are
+    more than 6 h apart, the extended filter predicts over every gap longer than 5 min by the
+    unscented transform (below), Phi replaced by its statistical linearisation: across days
+    the flow is nonlinear across the covariance (without ``estimate=``;
+    :data:`visviva.od.extended.UNSCENTED_GAP_S`).
 
     With two-body dynamics, position observations and no process noise the problem is nearly
     linear, and the filter's final estimate equals the batch estimate

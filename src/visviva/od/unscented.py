@@ -65,7 +65,7 @@ from .measurements import residuals
 from .square_root import covariance, noise_factor, psd_factor, stacked_factor, update_rows
 
 __all__ = ["unscented_pass", "unscented_weights", "sigma_points", "through_impulses",
-           "array_update", "DEFAULT_SIGMA_POINTS"]
+           "array_update", "predict_interval", "DEFAULT_SIGMA_POINTS"]
 
 #: (alpha, beta, kappa): points sqrt(6) sigma out, mean weights 0 (centre) and 1/12 (none
 #: negative), beta = 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
@@ -305,6 +305,21 @@ def _substeps(t_from, t_to, q, step_s, schedule, cut=False):
     return [(float(p), float(n), float(n - p)) for p, n in zip(ts[:-1], ts[1:], strict=True)]
 
 
+def predict_interval(dyn, schedule, est, x, L, t_from, t_to, q, code, step_s, weights,
+                     gm=None):
+    """The unscented prediction of (x, L L^T) from ``t_from`` to ``t_to`` (s from the epoch),
+    on the noise sub-steps cut at the burns (:func:`_substeps`), fresh sigma points on each
+    (weights from :func:`unscented_weights`): the mean, its square root and the joint square
+    root of (x(t_from), x(t_to)) (:func:`_chain`, the smoother's); the extended filter's over
+    gaps of days too (:func:`visviva.od.extended.unscented_gap`)."""
+    T = None
+    for step in _substeps(t_from, t_to, q, step_s, schedule, gm is not None):
+        xn, F, rows = _predict(dyn, schedule, est, x, L, step, weights, q, code, gm)
+        T = _chain(T, L, F, rows)  # the joint factor of (x(t_from), x_b)
+        x, L = xn, _factor(F, rows)
+    return x, L, T
+
+
 def _update(observations, x, L, rows, k, screen, gm, weights):
     """The measurement update with the rows at epoch ``k``: (x+, L+)."""
     scale, wm, wc = weights
@@ -407,18 +422,11 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
     Lf[0] = Lp[0] = L
     for k in range(n_t):
         if k:
-            T = None
-            for step in _substeps(epochs[k - 1], epochs[k], q, step_s, schedule, gm is not None):
-                try:
-                    xn, F, rows = _predict(dyn, schedule, est, x, L, step, weights, q, code,
-                                           gm)  # fmt: skip
-                    # the joint factor of (x_k-1, x_b), the smoother's
-                    T = _chain(T, L, F, rows)
-                    Ln = _factor(F, rows)
-                except VisvivaError as exc:
-                    raise screen.diverged(
-                        k, f"the sigma points cannot be integrated ({exc})") from exc
-                x, L = xn, Ln
+            try:
+                x, L, T = predict_interval(dyn, schedule, est, x, L, epochs[k - 1], epochs[k],
+                                           q, code, step_s, weights, gm)  # fmt: skip
+            except VisvivaError as exc:
+                raise screen.diverged(k, f"the sigma points cannot be integrated ({exc})") from exc
             xp[k], Pp[k], Lp[k], joints[k] = x, covariance(L), L, T
         rows = screen.rows(k)
         if rows.size:

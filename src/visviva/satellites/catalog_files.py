@@ -33,11 +33,13 @@ def tle_text_satellites(text: str, *, source: str = "<text>", verify_checksum: b
     i = 0
     n = len(lines)
     while i < n:
-        line = lines[i].rstrip()
-        if not line.strip():
+        # element lines indented (pasted from a web page or an e-mail: audit51) are read
+        # without their leading blanks; their columns and checksums are checked as usual
+        line = lines[i].strip()
+        if not line:
             i += 1
             continue
-        nxt = lines[i + 1].rstrip() if i + 1 < n else ""
+        nxt = lines[i + 1].strip() if i + 1 < n else ""
         if line.startswith("1 ") and nxt.startswith("2 "):
             where = (f"line {i + 1} of {source}", f"line {i + 2} of {source}")
             sats.append(

@@ -344,11 +344,19 @@ def check_tle_lines(
         if not isinstance(line, str):
             raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
         line = line.rstrip("\r\n ")
+        indent = len(line) - len(line.lstrip(" \t"))
+        if indent and line[indent:].startswith(f"{number} "):
+            # pasted from a web page or an e-mail with an indent (audit51): the columns count
+            # from the line's first character, so read it without the leading blanks; the
+            # checks below (length, columns, checksum) still apply to what is left
+            line = line[indent:]
         if len(line) == 68 and not verify_checksum:  # no checksum column (as sgp4 reads it)
             line += str(tle_checksum(line))
         if len(line) != 69:
             raise TLEFormatError(
-                f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
+                f"{name} has {len(line)} characters"
+                + (f" (after its {indent} leading blanks)" if indent else "")
+                + f"; a TLE line has exactly 69: {line!r}. "
                 "Check that the line was not wrapped, truncated or padded"
                 + (" (one without its checksum, column 69, is read with verify_checksum=False)."
                    if len(line) == 68 else "."))
@@ -566,6 +574,9 @@ def warn_stale_window(cat, t0, t1, consequence: str) -> None:
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
     sats = cat.satellites
     warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window", consequence)
+    from .decay import warn_after_decay  # (re-entered objects in the window: audit51)
+
+    warn_after_decay(sats, float(np.add(*time_to_utc_days(t1))))
 
 
 def warn_stale_tsince(tsince_min, name) -> None:

@@ -118,6 +118,7 @@ def _decayed():
 def test_positions_after_the_decay_date_warn_once():
     # was: silent (the record warned when read, then SGP4 gave positions of no object)
     sat = _decayed()
+    assert sat.decay_date == "2008-09-22" and vv.Satellite.from_tle(ISS_1, ISS_2).decay_date is None
     before = sat.epoch + np.arange(0, 30, 5) * u.h  # up to 2008-09-21T13:25
     with warnings.catch_warnings():
         warnings.simplefilter("error", DecayedObjectWarning)

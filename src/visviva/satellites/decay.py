@@ -6,13 +6,14 @@ record with a ``DECAY_DATE`` warned when it was read (:func:`~.tle_checks.warn_d
 propagated past that date it went on silently (audit51). :meth:`visviva.Satellite.teme` (and
 ``gcrs``, ``itrs``, ``geodetic``) and the catalogue batches now warn
 (:class:`~visviva.errors.DecayedObjectWarning`) once per satellite when a requested time lies
-after 00:00 UTC of its decay date.
+after 00:00 UTC of its decay date (:attr:`visviva.Satellite.decay_date`).
 """
 
 from __future__ import annotations
 
 import re
 import warnings
+import weakref
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from .._callsite import outside_stacklevel
 from ..errors import DecayedObjectWarning
 
 __all__ = ["decay_day", "warn_after_decay"]
+
+#: the satellites already warned about (once each; a rebuilt copy, on a Dask worker, warns anew)
+_WARNED: weakref.WeakSet = weakref.WeakSet()
 
 _DATE = re.compile(r"\s*(\d{4})-(\d{2})-(\d{2})", re.ASCII)
 
@@ -52,7 +56,8 @@ def decay_day(text) -> float | None:
 
 def warn_after_decay(satellites, last_day: float) -> None:
     """Warn (:class:`~visviva.errors.DecayedObjectWarning`) once per satellite whose decay date
-    (``_decay_day``, from its OMM record's ``DECAY_DATE``) lies before ``last_day``.
+    (:attr:`~visviva.Satellite.decay_date`, from its OMM record's ``DECAY_DATE``) lies before
+    ``last_day``.
 
     Parameters
     ----------
@@ -61,15 +66,21 @@ def warn_after_decay(satellites, last_day: float) -> None:
     last_day : float
         The latest requested time, UTC Julian date (sgp4's days).
     """
-    late = [s for s in satellites
-            if getattr(s, "_decay_day", None) is not None and not s._decay_warned
-            and np.isfinite(last_day) and last_day > s._decay_day]
+    if not np.isfinite(last_day):
+        return
+    late = []
+    for s in satellites:
+        if s.decay_date is None or s in _WARNED:
+            continue
+        start = decay_day(s.decay_date)
+        if start is not None and last_day > start:
+            late.append((s, start))
     if not late:
         return
-    for s in late:
-        s._decay_warned = True
-    listed = ", ".join(f"{s.name!r} (DECAY_DATE {s._decay_text}, asked "
-                       f"{last_day - s._decay_day:.1f} days after its start)" for s in late[:5])
+    for s, _ in late:
+        _WARNED.add(s)
+    listed = ", ".join(f"{s.name!r} (DECAY_DATE {s.decay_date}, asked "
+                       f"{last_day - start:.1f} days after its start)" for s, start in late[:5])
     more = f" and {len(late) - 5} more" if len(late) > 5 else ""
     warnings.warn(
         f"positions asked for after the re-entry of {listed}{more}: SGP4 still gives numbers "

@@ -28,7 +28,7 @@ from ..errors import (
     SubsurfacePerigeeWarning,
 )
 from .catalog_numbers import catalogue_number, sgp4_number
-from .decay import decay_day, warn_after_decay
+from .decay import warn_after_decay
 from .satellite_states import SatelliteStates
 from .tle_checks import (
     MINUTES_PER_DAY,
@@ -226,11 +226,9 @@ class Satellite:
         else:
             self.name = satrec.satnum_str.strip() if self._satnum is None else str(self._satnum)
         self._source = source
-        # the DECAY_DATE of an OMM record (UTC Julian date of its 00:00, and as written):
-        # propagation past it warns once (visviva.satellites.decay, audit51)
-        self._decay_day = None
-        self._decay_text = ""
-        self._decay_warned = False
+        # the DECAY_DATE of an OMM record, as written: propagation past it warns once
+        # (visviva.satellites.decay, audit51)
+        self._decay_date = None
 
     # -- constructors ------------------------------------------------------------------------
     @classmethod
@@ -390,8 +388,7 @@ class Satellite:
             warn_decayed([(fields.get("OBJECT_NAME") or str(number),
                            str(clean["DECAY_DATE"]).strip())], "OMM record")
         sat = cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
-        sat._decay_text = str(clean.get("DECAY_DATE", "")).strip()
-        sat._decay_day = decay_day(sat._decay_text)
+        sat._decay_date = str(clean.get("DECAY_DATE", "")).strip() or None
         return sat
 
     # -- attributes --------------------------------------------------------------------------
@@ -408,6 +405,14 @@ class Satellite:
     def epoch(self) -> Time:
         """Epoch of the element set (astropy Time, UTC)."""
         return utc_days_to_time(self.satrec.jdsatepoch, self.satrec.jdsatepochF)
+
+    @property
+    def decay_date(self) -> str | None:
+        """The ``DECAY_DATE`` of the OMM record the satellite was read from (``YYYY-MM-DD``, as
+        written; Space-Track's GP data has it for objects that re-entered), else None.
+        Positions asked for after 00:00 UTC of that date warn
+        (:class:`~visviva.errors.DecayedObjectWarning`, once per satellite; audit51)."""
+        return self._decay_date
 
     @property
     def inclination(self):
@@ -479,7 +484,7 @@ class Satellite:
         tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
         check_tsince(tsince, [self.name])
         warn_stale_tsince(tsince, self.name)  # (pointing at the user's line)
-        if self._decay_day is not None and np.size(jd):
+        if self._decay_date is not None and np.size(jd):
             warn_after_decay([self], float(np.max(jd + fr)))
         e, r, v = s.sgp4_array(jd, fr)
         if flag_beyond_earth_orbit(e, r) or e.any():

@@ -175,3 +175,15 @@ def test_look_at_a_target_on_the_station_is_refused():
     up = vv.StateVectors((r + 0.01 * r / np.linalg.norm(r)) * u.km, v * u.km / u.s, vv.EARTH,
                          epoch=t)  # 10 m above: a target, read
     assert abs(site.look(up, t).elevation.to_value(u.deg) - 90.0) < 0.5
+
+
+# -- a whole text where a line or a path is expected -----------------------------------------
+def test_a_tle_text_given_as_one_line_or_as_a_path_says_so():
+    # was: "TLE line 1 has 139 characters" and "no such file" (the text taken for a file name)
+    text = f"ISS (ZARYA)\n{ISS_1}\n{ISS_2}\n"
+    with pytest.raises(TLEFormatError, match="holds 2 lines: pass the two lines"):
+        vv.Satellite.from_tle(ISS_1 + "\n" + ISS_2, ISS_2)
+    for reader in (vv.read_tle_file, vv.read_catalog_file, vv.read_omm_file):
+        with pytest.raises(InvalidInputError, match="got a text of 3 lines where the path"):
+            reader(text)
+    assert vv.Satellite.from_tle(*text.splitlines()[-2:]).satnum == 25544

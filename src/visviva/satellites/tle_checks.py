@@ -344,6 +344,11 @@ def check_tle_lines(
         if not isinstance(line, str):
             raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
         line = line.rstrip("\r\n ")
+        if "\n" in line or "\r" in line:  # (audit51: was "has 139 characters")
+            raise TLEFormatError(
+                f"{name} holds {line.count(chr(10)) + 1} lines: pass the two lines of the "
+                "element set separately (vv.Satellite.from_tle(*text.splitlines()[-2:])), or "
+                "a whole text to visviva.satellites.catalog.parse_tle_text(text).")
         indent = len(line) - len(line.lstrip(" \t"))
         if indent and line[indent:].startswith(f"{number} "):
             # pasted from a web page or an e-mail with an indent (audit51): the columns count

@@ -187,3 +187,36 @@ def test_a_tle_text_given_as_one_line_or_as_a_path_says_so():
         with pytest.raises(InvalidInputError, match="got a text of 3 lines where the path"):
             reader(text)
     assert vv.Satellite.from_tle(*text.splitlines()[-2:]).satnum == 25544
+
+
+# -- a Skyfield user's times -----------------------------------------------------------------
+def test_a_skyfield_time_or_a_datetime_is_refused_saying_how_to_convert_it():
+    # was: "t must be an astropy Time ..., got Time" (a Skyfield Time), "got datetime"
+    import datetime as dt
+
+    from skyfield.api import load
+
+    ts = load.timescale(builtin=True)
+    sat = vv.Satellite.from_tle(ISS_1, ISS_2, "ISS")
+    site = vv.GroundStation(40 * u.deg, -75 * u.deg)
+    t = ts.utc(2008, 9, 20, 12)
+    calls = [lambda t: sat.teme(t), lambda t: site.look(sat, t),
+             lambda t: vv.find_passes(sat, site, t, t),
+             lambda t: vv.StateVectors([7000, 0, 0] * u.km, [0, 7.5, 0] * u.km / u.s, vv.EARTH,
+                                       epoch=t)]
+    for call in calls:
+        with pytest.raises(vv.VisvivaError, match=r"skyfield\.timelib\.Time \(a Skyfield time: "
+                           r"pass t\.to_astropy\(\)\)"):
+            call(t)
+        with pytest.raises(vv.VisvivaError, match=r"datetime\.datetime \(pass astropy's "
+                           r"Time\(dt\); aware: it is converted to UTC\)"):
+            call(dt.datetime(2008, 9, 20, 12, tzinfo=dt.UTC))
+    # and the conversion said gives the same positions as skyfield's own SGP4
+    ours = sat.teme(t.to_astropy()).r.to_value(u.km)
+    from skyfield.api import EarthSatellite
+
+    theirs = EarthSatellite(ISS_1, ISS_2, "ISS", ts).at(t)
+    from skyfield.sgp4lib import TEME
+
+    r_teme = theirs.frame_xyz(TEME).km
+    assert np.max(np.abs(ours - r_teme)) < 1e-6  # km

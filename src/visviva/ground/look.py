@@ -14,6 +14,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._units import time_input_name
 from ..constants import GM_EARTH_KM3_S2
 from ..core import topocentric as _topo
 from ..errors import DomainError, InvalidInputError
@@ -125,7 +126,7 @@ def _target_states(target, t):
             raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
         if not isinstance(t, Time):
             raise InvalidInputError(
-                f"t must be an astropy Time for a satellite target, got {type(t).__name__}; "
+                f"t must be an astropy Time for a satellite target, got {time_input_name(t)}; "
                 "pass e.g. Time('2024-05-01T20:00:00') + np.arange(60) * u.s."
             )
         flat = t.ravel()

@@ -17,7 +17,7 @@ import numpy as np
 from astropy import units as u
 
 from .._callsite import outside_stacklevel
-from .._units import is_quantity, require_usable_time, to_array
+from .._units import is_quantity, require_usable_time, time_input_name, to_array
 from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["GroundStation", "as_stations"]
@@ -244,7 +244,7 @@ class GroundStation:
         if not isinstance(t, Time):
             raise InvalidInputError(
                 f"t must be an astropy Time (the site's GCRS position depends on the date); got "
-                f"{type(t).__name__}. Pass e.g. Time('2024-01-01T00:00:00', scale='utc')."
+                f"{time_input_name(t)}. Pass e.g. Time('2024-01-01T00:00:00', scale='utc')."
             )
         require_usable_time(t, "t")  # (a masked time gave the hidden date's place; audit50)
         if t.size == 0:

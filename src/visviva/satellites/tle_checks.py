@@ -16,7 +16,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._callsite import outside_stacklevel
-from .._units import to_array
+from .._units import time_input_name, to_array
 from ..constants import DAY_S
 from ..errors import (
     DecayedObjectWarning,
@@ -684,5 +684,5 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
         return jd, fr, dt_s.shape, None
     raise UnitsError(
         f"t must be an astropy Time (absolute UTC/TT/... times) or a time Quantity (offset from "
-        f"the element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {type(t).__name__}."
+        f"the element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {time_input_name(t)}."
     )

@@ -220,3 +220,14 @@ def test_a_skyfield_time_or_a_datetime_is_refused_saying_how_to_convert_it():
 
     r_teme = theirs.frame_xyz(TEME).km
     assert np.max(np.abs(ours - r_teme)) < 1e-6  # km
+
+
+def test_fit_tle_given_element_sets_says_what_it_is_for(tmp_path, capsys):
+    # was: only "line 1: an OEM starts with CCSDS_OEM_VERS = <version>"
+    from visviva import cli
+
+    path = tmp_path / "iss.tle"
+    path.write_text(f"ISS (ZARYA)\n{ISS_1}\n{ISS_2}\n")
+    assert cli.main(["fit-tle", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "holds element sets (TLE), not an ephemeris" in err and "visviva convert" in err

@@ -231,3 +231,13 @@ def test_fit_tle_given_element_sets_says_what_it_is_for(tmp_path, capsys):
     assert cli.main(["fit-tle", str(path)]) == 2
     err = capsys.readouterr().err
     assert "holds element sets (TLE), not an ephemeris" in err and "visviva convert" in err
+
+
+def test_tab_completion_offers_no_future_import():
+    # was: dir(vv) listed 'annotations' (the `from __future__ import annotations` binding)
+    import visviva.mechanics
+
+    for module in (vv, visviva.mechanics):
+        names = dir(module)
+        assert "annotations" not in names
+        assert {"Satellite", "GroundStation", "find_passes"} <= set(dir(vv))

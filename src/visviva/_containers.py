@@ -263,7 +263,7 @@ def validate_epoch(epoch, shape=None, what="the container"):
 
     if not isinstance(epoch, Time):
         raise InvalidInputError(
-            f"epoch must be an astropy.time.Time or None; got {type(epoch).__name__} "
+            f"epoch must be an astropy.time.Time or None; got {_units.time_input_name(epoch)} "
             f"{epoch!r}. Pass e.g. epoch=Time('2024-01-01T12:00:00', scale='utc')."
         )
     _units.require_usable_time(epoch, "epoch")

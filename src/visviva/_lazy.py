@@ -5,6 +5,7 @@ imports nothing beyond the tables of names.
 """
 
 from __future__ import annotations
+import __future__
 
 import importlib
 
@@ -46,6 +47,9 @@ def lazy_attributes(namespace: dict, public: dict, submodules=frozenset(), prefi
         raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
     def __dir__():
-        return sorted(set(namespace) | set(namespace["__all__"]) | set(submodules))
+        # without the `from __future__ import annotations` binding, which tab completion
+        # offered as vv.annotations, a name of no use (audit51)
+        names = {n for n, v in namespace.items() if v is not __future__.annotations}
+        return sorted(names | set(namespace["__all__"]) | set(submodules))
 
     return __getattr__, __dir__

@@ -47,6 +47,7 @@ __all__ = [
     "require_flag",
     "advance_epoch",
     "seconds_since",
+    "time_input_name",
 ]
 
 
@@ -299,6 +300,36 @@ def advance_epoch(epoch, dt_s):
 
     with offline_iers():  # a UT1 epoch needs the installed IERS table, never a download
         return getattr(epoch.tt + dt, epoch.scale)
+
+
+def time_input_name(t) -> str:
+    """How a refusal names a value given where an astropy ``Time`` is expected: its type, and
+    for the times of other libraries the conversion (audit51: a Skyfield ``Time`` was refused
+    as "must be an astropy Time, got Time").
+
+    Parameters
+    ----------
+    t : object
+        The value given.
+
+    Returns
+    -------
+    str
+        E.g. ``"skyfield.timelib.Time (a Skyfield time: pass t.to_astropy())"``.
+    """
+    kind = type(t)
+    module = kind.__module__ or ""
+    if module.startswith("skyfield"):
+        return f"{module}.{kind.__qualname__} (a Skyfield time: pass t.to_astropy())"
+    if module == "datetime" and kind.__name__ == "datetime":
+        zone = ("aware: it is converted to UTC" if t.tzinfo is not None and
+                t.utcoffset() is not None else "naive: it is taken as UTC")
+        return f"datetime.datetime (pass astropy's Time(dt); {zone})"
+    if module.startswith(("numpy", "pandas")) and "datetime64" in str(getattr(t, "dtype", kind)):
+        return f"{module}.{kind.__qualname__} of datetime64 (pass astropy's Time(values))"
+    if isinstance(t, str):
+        return f"str {t!r} (pass astropy's Time({t!r}, scale='utc'))"
+    return kind.__name__
 
 
 def require_usable_time(t, name: str) -> None:

@@ -47,6 +47,8 @@ _INT_RE = re.compile(r"^[+-]?[0-9]+$")
 #: CCSDS epoch: calendar (YYYY-MM-DD) or ordinal (YYYY-DDD) date, 'T', time, optional 'Z'
 EPOCH_PATTERN = r"[0-9]{4}-(?:[0-9]{2}-[0-9]{2}|[0-9]{3})T[0-9]{2}:[0-9]{2}:[0-9]{2}(?:\.[0-9]*)?Z?"
 _EPOCH_RE = re.compile(f"^{EPOCH_PATTERN}$")
+#: an epoch followed by an ISO 8601 UTC offset (``+00:00``, ``-0000``, ``+01``): CCSDS has none
+_OFFSET_RE = re.compile(r"^(.*[0-9])([+-][0-9]{2}(?::?[0-9]{2})?)$")
 
 #: value types a keyword may have
 TYPES = ("text", "float", "int", "epoch")
@@ -251,6 +253,17 @@ def parse_value(keyword: Keyword, text: str, unit: str | None, line, source: str
                 line=line, source=source)
         return text
     if keyword.type == "epoch":
+        offset = _OFFSET_RE.match(text)
+        if offset and _EPOCH_RE.match(offset.group(1)):
+            # an ISO 8601 UTC offset (written by datetime.isoformat and many web services:
+            # audit51): zero is the CCSDS 'Z' and reads as such; another would shift the time
+            if offset.group(2).strip("+-:0"):
+                raise CCSDSFormatError(
+                    f"{keyword.name} = {text!r} carries the UTC offset {offset.group(2)}; a "
+                    "CCSDS epoch has none (it is a time in the message's TIME_SYSTEM): "
+                    "subtract the offset from the time and write it without one",
+                    line=line, source=source)
+            text = offset.group(1) + "Z"
         if not _EPOCH_RE.match(text):
             raise CCSDSFormatError(
                 f"{keyword.name} = {text!r} is not a CCSDS epoch like 2024-01-31T12:00:00.000 "

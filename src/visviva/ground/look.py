@@ -14,9 +14,10 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
+from .._units import time_input_name
 from ..constants import GM_EARTH_KM3_S2
 from ..core import topocentric as _topo
-from ..errors import InvalidInputError
+from ..errors import DomainError, InvalidInputError
 from .doppler import SPEED_OF_LIGHT_KM_S, doppler_shift, light_time_rate
 from .earthfixed import GMST_RATE_RAD_S
 from .refraction import bend, refraction_deg, refraction_slope, station_air
@@ -125,7 +126,7 @@ def _target_states(target, t):
             raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
         if not isinstance(t, Time):
             raise InvalidInputError(
-                f"t must be an astropy Time for a satellite target, got {type(t).__name__}; "
+                f"t must be an astropy Time for a satellite target, got {time_input_name(t)}; "
                 "pass e.g. Time('2024-05-01T20:00:00') + np.arange(60) * u.s."
             )
         flat = t.ravel()
@@ -263,6 +264,7 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
     with offline_iers():  # one block: an Earth-orientation warning once per call
         r_i, v_i, t, lead, rot_ig = _target_states(target, t)
     rho = r_i - station.itrs_km
+    _refuse_at_station(rho, station)
     if light_time:
         rho, v_i = _retarded(rho, r_i, v_i, station.itrs_km)
     flat_rho = np.ascontiguousarray(rho.reshape(-1, 3))
@@ -295,6 +297,27 @@ def look(station, target, t=None, *, refraction=False, light_time: bool = False,
         doppler=None if frequency is None else doppler_shift(
             _per_satellite(frequency, lead, t.shape), range_rate),
     )
+
+
+#: closest target look() takes, km: nearer, the direction is round-off (at range 0 the angles
+#: are undefined; a target at the station's own place gave az 255 deg, el -29 deg, audit51)
+MIN_RANGE_KM = 1e-3
+
+
+def _refuse_at_station(rho, station) -> None:
+    """Refuse (:class:`~visviva.errors.DomainError`) targets within :data:`MIN_RANGE_KM` of
+    the station: their azimuth and elevation are undefined (NaN at range 0, round-off just
+    above it)."""
+    rng = np.linalg.norm(rho, axis=-1)
+    near = rng < MIN_RANGE_KM
+    if near.any():
+        k = int(np.flatnonzero(near.ravel())[0])
+        raise DomainError(
+            f"the target is {rng.ravel()[k] * 1e3:.3g} m from the station {station.name!r} "
+            f"(at {int(near.sum())} of {near.size} times; the first is element {k} of the "
+            "flattened times): azimuth and elevation are undefined at the station itself. "
+            "Check that the target is not the station's own position (e.g. "
+            "station.gcrs_position_velocity) and that its positions are in km.")
 
 
 def _per_satellite(frequency, lead, t_shape):

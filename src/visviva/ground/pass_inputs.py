@@ -14,7 +14,7 @@ import math
 from astropy import units as u
 from astropy.time import Time
 
-from .._units import is_quantity, require_usable_time, to_array
+from .._units import is_quantity, require_usable_time, time_input_name, to_array
 from ..errors import DomainError, InvalidInputError
 from ..satellites.tle_checks import warn_stale_window
 
@@ -68,7 +68,7 @@ def check_window(t0, t1):
     for name, t in (("t0", t0), ("t1", t1)):
         if not isinstance(t, Time):
             raise InvalidInputError(
-                f"{name} must be an astropy Time, got {type(t).__name__}; pass e.g. "
+                f"{name} must be an astropy Time, got {time_input_name(t)}; for example "
                 "Time('2024-05-01T18:00:00', scale='utc')."
             )
         if not t.isscalar:

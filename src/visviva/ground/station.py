@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 
 import numpy as np
 from astropy import units as u
 
-from .._units import is_quantity, require_usable_time, to_array
+from .._callsite import outside_stacklevel
+from .._units import is_quantity, require_usable_time, time_input_name, to_array
 from ..errors import DomainError, InvalidInputError, ShapeError
 
 __all__ = ["GroundStation", "as_stations"]
@@ -181,10 +183,14 @@ class GroundStation:
 
     @property
     def name(self) -> str:
-        """The label (``"lat, lon"`` in degrees when none was given)."""
+        """The label (when none was given: ``"lat, lon"`` in degrees, 4 decimals, followed by
+        the height in metres when it is not 0, e.g. ``"52.2000, 0.1200, 30 m"``: two sites
+        on one latitude and longitude got one name before audit51)."""
         if self._name is not None:
             return self._name
-        return f"{math.degrees(self._lat_rad):.4f}, {math.degrees(self._lon_rad):.4f}"
+        label = f"{math.degrees(self._lat_rad):.4f}, {math.degrees(self._lon_rad):.4f}"
+        height_m = round(self._height_km * 1000.0, 3)
+        return label + (f", {height_m:g} m" if height_m else "")
 
     @functools.cached_property
     def location(self):
@@ -238,7 +244,7 @@ class GroundStation:
         if not isinstance(t, Time):
             raise InvalidInputError(
                 f"t must be an astropy Time (the site's GCRS position depends on the date); got "
-                f"{type(t).__name__}. Pass e.g. Time('2024-01-01T00:00:00', scale='utc')."
+                f"{time_input_name(t)}. Pass e.g. Time('2024-01-01T00:00:00', scale='utc')."
             )
         require_usable_time(t, "t")  # (a masked time gave the hidden date's place; audit50)
         if t.size == 0:
@@ -356,4 +362,21 @@ def as_stations(stations) -> list[GroundStation]:
             raise InvalidInputError(
                 f"stations[{k}] is a {type(s).__name__}, not a GroundStation."
             )
+    _warn_shared_names(out)
     return out
+
+
+def _warn_shared_names(stations) -> None:
+    """Warn (``UserWarning``) when different sites carry one name: the ``station`` column of
+    a pass table could not tell their rows apart (audit51; default names give latitude and
+    longitude to 1e-4 deg, about 11 m)."""
+    first = {}
+    for k, s in enumerate(stations):
+        j = first.setdefault(s.name, k)
+        if j != k and stations[j] != s:
+            warnings.warn(
+                f"stations[{j}] and stations[{k}] are different sites with the same name "
+                f"{s.name!r}: their rows in a pass table cannot be told apart. Give each "
+                "station its own name (GroundStation(..., name='...')).",
+                UserWarning, stacklevel=outside_stacklevel())
+            return

@@ -63,7 +63,11 @@ def run(args) -> int:
         check_outputs([args.output], [args.ephemeris, args.initial], args.overwrite)
         mission = (time_from_arg("--mission-epoch", args.mission_epoch) if args.mission_epoch
                    else None)
-        eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
+        try:
+            eph = read_oem(Path(args.ephemeris), mission_epoch=mission)
+        except VisvivaError as exc:  # (a TLE or OMM given: say what fit-tle is for)
+            print(f"visviva fit-tle: {exc}{_element_set_hint(args.ephemeris)}", file=sys.stderr)
+            return 2
         epoch = time_from_arg("--epoch", args.epoch) if args.epoch else None
         near = epoch if epoch is not None else eph.segments[0].times[0]
         initial = _initial(args.initial, args.satnum, near) if args.initial else None
@@ -119,3 +123,24 @@ def _initial(path: str, satnum: int, near):
                                 f"{', ...' if len(cat) > 10 else ''}); pick the object with "
                                 "--satnum")
     return min(match, key=lambda s: abs((s.epoch - near).jd))
+
+
+def _element_set_hint(path) -> str:
+    """What to do when the ephemeris file holds element sets (a TLE, an OMM, GP data) instead
+    of an OEM (audit51: it said only "an OEM starts with CCSDS_OEM_VERS"); "" otherwise."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4000).decode("utf-8", "replace")
+    except OSError:
+        return ""
+    if "CCSDS_OEM_VERS" in head or "<oem" in head:
+        return ""
+    lines = [line.strip() for line in head.splitlines()]
+    tle = any(a.startswith("1 ") and b.startswith("2 ") for a, b in zip(lines[:-1], lines[1:], strict=True))
+    omm = "CCSDS_OMM_VERS" in head or "<omm" in head or "MEAN_MOTION" in head
+    if not (tle or omm):
+        return ""
+    return (f". {path} holds element sets ({'TLE' if tle else 'OMM'}), not an ephemeris: "
+            "fit-tle fits element sets TO an OEM ephemeris; the element sets are ready to use "
+            "as they are (to sample them into an OEM: visviva convert "
+            f"{path} out.oem)")

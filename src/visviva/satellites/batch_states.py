@@ -15,7 +15,7 @@ import numpy as np
 from astropy import units as u
 from astropy.time import Time
 
-from .._units import to_quantity
+from .._units import time_input_name, to_quantity
 from ..constants import DAY_S
 from ..errors import InvalidInputError, ShapeError, UnitsError
 
@@ -120,7 +120,7 @@ def absolute_times(t, what: str) -> Time:
     if not isinstance(t, Time):
         raise UnitsError(
             f"{what} needs absolute times (an astropy Time), shared by every satellite; got "
-            f"{type(t).__name__}. For offsets from one epoch use epoch + dt, e.g. "
+            f"{time_input_name(t)}. For offsets from one epoch use epoch + dt, e.g. "
             "Time('2024-01-01') + np.arange(0, 1440, 10) * u.min."
         )
     if t.ndim > 1:

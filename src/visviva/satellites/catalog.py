@@ -32,6 +32,7 @@ from .catalog_files import (
     tle_file_satellites,
     tle_text_satellites,
 )
+from .decay import warn_after_decay
 from .satellite_states import require_kepler_frame
 from .secular_batch import secular_grid, secular_setup
 from .tle import Satellite
@@ -447,6 +448,7 @@ def warn_stale_times(cat: Catalog, jd, fr) -> None:
     away = np.maximum(np.abs(day.min() - epoch), np.abs(day.max() - epoch))
     warn_stale_sets(lambda k: cat.satellites[k].name or cat.satellites[k].satnum, away,
                     "the requested times", "these positions can be far off")
+    warn_after_decay(cat.satellites, float(day.max()))  # (re-entered objects: audit51)
 
 
 def sgp4_grid(cat: Catalog, t: Time, on_error: str, out=None,

@@ -33,11 +33,13 @@ def tle_text_satellites(text: str, *, source: str = "<text>", verify_checksum: b
     i = 0
     n = len(lines)
     while i < n:
-        line = lines[i].rstrip()
-        if not line.strip():
+        # element lines indented (pasted from a web page or an e-mail: audit51) are read
+        # without their leading blanks; their columns and checksums are checked as usual
+        line = lines[i].strip()
+        if not line:
             i += 1
             continue
-        nxt = lines[i + 1].rstrip() if i + 1 < n else ""
+        nxt = lines[i + 1].strip() if i + 1 < n else ""
         if line.startswith("1 ") and nxt.startswith("2 "):
             where = (f"line {i + 1} of {source}", f"line {i + 2} of {source}")
             sats.append(
@@ -106,6 +108,12 @@ def _file_bytes(path, what: str) -> bytes:
     :class:`~visviva.errors.InvalidInputError` naming it: it is a failed download or save far
     more often than an empty catalogue, and an empty catalogue would pass on as 0 passes or 0
     conjunctions without a word."""
+    if isinstance(path, str) and "\n" in path.strip():  # (audit51: was "no such file")
+        raise InvalidInputError(
+            f"got a text of {path.strip().count(chr(10)) + 1} lines where the path of a file "
+            f"of {what} is expected: pass the file's path, or read TLE text with "
+            "visviva.satellites.catalog.parse_tle_text(text) (an OMM text: save it to a file "
+            "first).")
     raw = file_bytes(
         path, what, f"check the name, or download the {what} first (e.g. CelesTrak's GP data, "
         "https://celestrak.org/NORAD/elements/, in TLE, JSON, CSV or XML); visviva never "

@@ -28,6 +28,7 @@ from ..errors import (
     SubsurfacePerigeeWarning,
 )
 from .catalog_numbers import catalogue_number, sgp4_number
+from .decay import warn_after_decay
 from .satellite_states import SatelliteStates
 from .tle_checks import (
     MINUTES_PER_DAY,
@@ -102,7 +103,7 @@ _OMM_DEFAULTS = {
 
 
 _OMM_EPOCH = re.compile(r"(\d{4})-(?:(\d{2})-(\d{2})|(\d{3}))[T ](\d{2}):(\d{2}):(\d{2})"
-                        r"(\.\d*)?Z?", re.ASCII)
+                        r"(\.\d*)?(Z|[+-]\d{2}(?::?\d{2})?)?", re.ASCII)
 
 
 def _omm_epoch(text: str) -> str:
@@ -110,10 +111,19 @@ def _omm_epoch(text: str) -> str:
 
     CCSDS 502.0 epochs: calendar (``2024-01-31T12:00:00.123``) or day-of-year
     (``2024-031T12:00:00``) dates, any number of decimals (rounded to the microsecond sgp4
-    keeps), an optional ``Z``.
+    keeps), an optional ``Z`` or a UTC offset of zero (``+00:00``, ``-00:00``, ``+0000``,
+    ``+00``: ISO 8601 writers such as Python's ``datetime.isoformat`` add one; refused before
+    audit51). Another offset is refused: SGP4 epochs are UTC, and the offset would have to be
+    subtracted.
     """
     raw = str(text).strip()
     m = _OMM_EPOCH.fullmatch(raw)
+    offset = m.group(9) if m is not None else None
+    if offset not in (None, "Z") and any(c not in "+-:0" for c in offset):
+        raise InvalidInputError(
+            f"OMM EPOCH {raw!r} carries the UTC offset {offset}; an OMM epoch is UTC (offset "
+            "zero, 'Z' or '+00:00'): subtract the offset from the time and write it without "
+            "one.")
     try:
         if m is None:
             raise ValueError(raw)
@@ -216,6 +226,9 @@ class Satellite:
         else:
             self.name = satrec.satnum_str.strip() if self._satnum is None else str(self._satnum)
         self._source = source
+        # the DECAY_DATE of an OMM record, as written: propagation past it warns once
+        # (visviva.satellites.decay, audit51)
+        self._decay_date = None
 
     # -- constructors ------------------------------------------------------------------------
     @classmethod
@@ -374,7 +387,9 @@ class Satellite:
         if str(clean.get("DECAY_DATE", "")).strip():  # (Space-Track's GP data: audit49)
             warn_decayed([(fields.get("OBJECT_NAME") or str(number),
                            str(clean["DECAY_DATE"]).strip())], "OMM record")
-        return cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
+        sat = cls(satrec, fields.get("OBJECT_NAME"), ("omm", clean), satnum=number)
+        sat._decay_date = str(clean.get("DECAY_DATE", "")).strip() or None
+        return sat
 
     # -- attributes --------------------------------------------------------------------------
     @property
@@ -390,6 +405,14 @@ class Satellite:
     def epoch(self) -> Time:
         """Epoch of the element set (astropy Time, UTC)."""
         return utc_days_to_time(self.satrec.jdsatepoch, self.satrec.jdsatepochF)
+
+    @property
+    def decay_date(self) -> str | None:
+        """The ``DECAY_DATE`` of the OMM record the satellite was read from (``YYYY-MM-DD``, as
+        written; Space-Track's GP data has it for objects that re-entered), else None.
+        Positions asked for after 00:00 UTC of that date warn
+        (:class:`~visviva.errors.DecayedObjectWarning`, once per satellite; audit51)."""
+        return self._decay_date
 
     @property
     def inclination(self):
@@ -461,6 +484,8 @@ class Satellite:
         tsince = ((jd - s.jdsatepoch) + (fr - s.jdsatepochF)) * MINUTES_PER_DAY
         check_tsince(tsince, [self.name])
         warn_stale_tsince(tsince, self.name)  # (pointing at the user's line)
+        if self._decay_date is not None and np.size(jd):
+            warn_after_decay([self], float(np.max(jd + fr)))
         e, r, v = s.sgp4_array(jd, fr)
         if flag_beyond_earth_orbit(e, r) or e.any():
             when = times if times is not None else utc_days_to_time(jd, fr)

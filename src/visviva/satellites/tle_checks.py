@@ -16,7 +16,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._callsite import outside_stacklevel
-from .._units import to_array
+from .._units import time_input_name, to_array
 from ..constants import DAY_S
 from ..errors import (
     DecayedObjectWarning,
@@ -344,11 +344,24 @@ def check_tle_lines(
         if not isinstance(line, str):
             raise TLEFormatError(f"{name} must be a str, got {type(line).__name__}.")
         line = line.rstrip("\r\n ")
+        if "\n" in line or "\r" in line:  # (audit51: was "has 139 characters")
+            raise TLEFormatError(
+                f"{name} holds {line.count(chr(10)) + 1} lines: pass the two lines of the "
+                "element set separately (vv.Satellite.from_tle(*text.splitlines()[-2:])), or "
+                "a whole text to visviva.satellites.catalog.parse_tle_text(text).")
+        indent = len(line) - len(line.lstrip(" \t"))
+        if indent and line[indent:].startswith(f"{number} "):
+            # pasted from a web page or an e-mail with an indent (audit51): the columns count
+            # from the line's first character, so read it without the leading blanks; the
+            # checks below (length, columns, checksum) still apply to what is left
+            line = line[indent:]
         if len(line) == 68 and not verify_checksum:  # no checksum column (as sgp4 reads it)
             line += str(tle_checksum(line))
         if len(line) != 69:
             raise TLEFormatError(
-                f"{name} has {len(line)} characters; a TLE line has exactly 69: {line!r}. "
+                f"{name} has {len(line)} characters"
+                + (f" (after its {indent} leading blanks)" if indent else "")
+                + f"; a TLE line has exactly 69: {line!r}. "
                 "Check that the line was not wrapped, truncated or padded"
                 + (" (one without its checksum, column 69, is read with verify_checksum=False)."
                    if len(line) == 68 else "."))
@@ -566,6 +579,9 @@ def warn_stale_window(cat, t0, t1, consequence: str) -> None:
     away = np.maximum(np.maximum(days[0], -days[1]), 0.0)
     sats = cat.satellites
     warn_stale_sets(lambda k: sats[k].name or sats[k].satnum, away, "the window", consequence)
+    from .decay import warn_after_decay  # (re-entered objects in the window: audit51)
+
+    warn_after_decay(sats, float(np.add(*time_to_utc_days(t1))))
 
 
 def warn_stale_tsince(tsince_min, name) -> None:
@@ -668,5 +684,5 @@ def sgp4_times(t, jd_epoch: float, fr_epoch: float):
         return jd, fr, dt_s.shape, None
     raise UnitsError(
         f"t must be an astropy Time (absolute UTC/TT/... times) or a time Quantity (offset from "
-        f"the element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {type(t).__name__}."
+        f"the element-set epoch, e.g. np.arange(0, 90, 10) * u.min); got {time_input_name(t)}."
     )

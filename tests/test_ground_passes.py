@@ -117,6 +117,16 @@ def test_catalogue_and_multiple_stations_equal_single_runs(iss, sites):
     np.testing.assert_allclose(sub["rise_time"].jd, one["rise_time"].jd, atol=1e-12)
 
 
+def test_a_satellite_given_twice_in_a_list_warns(iss, sites):
+    # before: every pass listed twice without a word (audit51's left item)
+    one = vv.find_passes([iss], sites[0], T0, T0 + 1 * u.day)
+    with pytest.warns(UserWarning, match=r"satellites\[1\] repeats satellites\[0\].*25544") as rec:
+        twice = vv.find_passes([iss, vv.Satellite.from_tle(ISS_1, ISS_2)], sites[0], T0,
+                               T0 + 1 * u.day)
+    assert rec[0].filename == __file__
+    assert len(twice) == 2 * len(one) > 0
+
+
 def test_visual_magnitude_and_twilight():
     assert visual_magnitude(-1.8, 1000.0, np.pi / 2) == pytest.approx(-1.8)
     assert visual_magnitude(-1.8, 2000.0, np.pi / 2) == pytest.approx(-1.8 + 5 * np.log10(2))

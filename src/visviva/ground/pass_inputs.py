@@ -53,10 +53,37 @@ def as_catalog(satellites):
             if not isinstance(s, Satellite):
                 raise InvalidInputError(f"satellites[{k}] is a {type(s).__name__}, not a "
                                         f"Satellite.{ephemeris_hint(s)}")
+        _warn_repeated(items)
         cat = Catalog(items)
     if len(cat) == 0:
         raise InvalidInputError("the catalogue is empty; pass at least one Satellite.")
     return cat
+
+
+def _warn_repeated(items) -> None:
+    """Warn (``UserWarning``) when a list of satellites holds one element set more than once
+    (the same object, or the same catalogue number and epoch): each of its passes would be
+    listed once per copy. (Files get :func:`visviva.satellites.catalog_files.warn_duplicates`,
+    which also counts older sets of one object.)"""
+    seen: dict = {}
+    repeated = []
+    for k, s in enumerate(items):
+        key = (s.satnum, s.satrec.jdsatepoch, s.satrec.jdsatepochF)
+        if key in seen:
+            repeated.append(f"satellites[{k}] repeats satellites[{seen[key]}] ({s.name!r}, "
+                            f"catalogue number {s.satnum})")
+        else:
+            seen[key] = k
+    if repeated:
+        import warnings
+
+        from .._callsite import outside_stacklevel
+
+        more = f" and {len(repeated) - 3} more" if len(repeated) > 3 else ""
+        warnings.warn(
+            f"{'; '.join(repeated[:3])}{more}: the same element set is given more than once, so "
+            "each of its passes is listed once per copy. Pass each satellite once.",
+            UserWarning, stacklevel=outside_stacklevel())
 
 
 def check_window(t0, t1):

@@ -22,6 +22,7 @@ from .covariance import (
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .layout import read_message, write_message
+from .opm_checks import check_gm, check_keplerian
 from .timeframes import (
     FrameCenterMetadata,
     center_body,
@@ -564,6 +565,8 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
                                    "spends mass, so the change is <= 0 (write it negative)",
                                    line=man.line_of("MAN_DELTA_MASS"), source=name)
     _check_values(sections, name)
+    check_gm(sections, name)  # (opm.state orbits with the message's GM)
+    check_keplerian(sections, name)
     opm = OPM(sections, name, mission_epoch)
     refuse_unused_mission_epoch(mission_epoch, [opm.metadata["TIME_SYSTEM"]], name,
                                 opm.metadata.line_of("TIME_SYSTEM"))

@@ -164,11 +164,11 @@ class OEMSegment(FrameCenterMetadata):
             The epoch MET/MRT count from, for those time systems.
         covariance : array_like or Quantity, shape (N, 6, 6), optional
             A covariance at each epoch (km^2, km^2/s, km^2/s^2 when plain, or an area Quantity),
-            e.g. ``.covariance`` of :func:`visviva.propagate_covariance`; written as the
-            segment's covariance blocks.
+            e.g. ``.covariance`` of :func:`visviva.propagate_covariance` (in its frame, RTN with
+            ``output_frame="RTN"``); written as the segment's covariance blocks.
         covariance_frame : str, optional
             ``COV_REF_FRAME`` of those blocks (``"RTN"``, ``"TNW"``, ...; ``"GCRS"`` is written
-            ``"GCRF"``); None: the covariances are on the axes of ``frame`` (no keyword).
+            ``"GCRF"``); None: a propagated covariance's own frame, else the axes of ``frame``.
 
         Returns
         -------
@@ -209,8 +209,10 @@ class OEMSegment(FrameCenterMetadata):
                 "INTERPOLATION_DEGREE": int(degree)}
         covs = ()
         if covariance is not None:
-            from .._covariance import as_covariance, require_psd
+            from .._covariance import as_covariance, local_axes_of, require_psd
 
+            covariance_frame = local_axes_of(covariance, covariance_frame, "OEMSegment."
+                                             "from_states") or covariance_frame  # (its RTN)
             c = as_covariance(covariance, "covariance", length_unit="km")
             if c.shape != (len(epochs), 6, 6):
                 raise InvalidInputError(
@@ -434,10 +436,8 @@ class OEMSegment(FrameCenterMetadata):
             Which segment, for the message.
         """
         n = len(self.epochs)
-        arrays = [("r_km", self.r_km), ("v_km_s", self.v_km_s)]
-        if self.a_km_s2 is not None:
-            arrays.append(("a_km_s2", self.a_km_s2))
-        for name, arr in arrays:
+        arrays = [("r_km", self.r_km), ("v_km_s", self.v_km_s), ("a_km_s2", self.a_km_s2)]
+        for name, arr in arrays[:2] if self.a_km_s2 is None else arrays:
             if arr.shape != (n, 3):
                 raise InvalidInputError(f"{where}: {name} has shape {arr.shape}, expected ({n}, 3)")
             if not np.isfinite(arr).all():

@@ -79,7 +79,7 @@ class CovarianceResult(CowellResult):
 
     def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):
         self.__dict__.update(base.__dict__)
-        self.covariance = km_covariance(covariance)
+        self.covariance = km_covariance(covariance, frame)  # (marked with its local axes)
         self.stm = stm
         self.frame = frame
         self.process_noise = process_noise

@@ -132,6 +132,11 @@ def test_rtn_output_is_the_gcrs_output_rotated_and_input_frames_agree():
     from visviva._covariance import local_axes_of  # (what the CCSDS writers read)
 
     assert local_axes_of(r.covariance[1]) == "RTN" and local_axes_of(g.covariance[1]) is None
+    # fed back in, the RTN matrix at t = 0 was read as a GCRS one (frame= left out), silently
+    with pytest.raises(vv.InvalidInputError, match="on the RTN axes .* pass frame='RTN'"):
+        vv.propagate_covariance(leo(), r.covariance[1], t, f)
+    again = vv.propagate_covariance(leo(), r.covariance[1], t, f, frame="RTN")
+    assert rel(again.covariance, r.covariance).max() < 1e-12
     want = inertial_to_rtn(g.covariance, g.r, g.v)
     assert rel(r.covariance, want).max() < 1e-14
     # a covariance given in RTN is the GCRS one rotated at the epoch

@@ -672,3 +672,18 @@ def test_accelerations_that_do_not_give_the_velocities_change_are_warned_about(e
         assert np.linalg.norm(seg.interpolate_arrays(tq)[1][0] - want) > 5e-3  # 5.5 m/s
     seg.a_km_s2 = None  # the remedy the warning names
     assert np.linalg.norm(seg.interpolate_arrays(tq)[1][0] - want) < 1e-9
+
+
+def test_segments_of_different_objects_are_not_stitched_by_interpolate():
+    """An OEM gives one object's states; a file holding two (OBJECT_ID 2024-999A, 2020-001B)
+    over the same hour was interpolated with the later segment's object, silently (a state of
+    another satellite). Refused like different frames; each segment still interpolates."""
+    oem = vv.read_oem(OEM_KVN)
+    other = OEMSegment(dict(oem.segments[1].metadata.values, OBJECT_ID="2020-001B"),
+                       oem.segments[1].epochs, oem.segments[1].r_km, oem.segments[1].v_km_s)
+    two = vv.read_oem(vv.write_oem(Ephemeris([oem.segments[0], other])))
+    t = Time("2024-02-01T00:04:00", scale="utc")
+    with pytest.raises(vv.InvalidInputError, match=r"differ in OBJECT_ID \(\['2020-001B', "
+                       r"'2024-999A'\]\)"):
+        two.interpolate(t)
+    np.testing.assert_array_equal(two.segments[1].interpolate(t).r, oem.interpolate(t).r)

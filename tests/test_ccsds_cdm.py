@@ -276,3 +276,24 @@ def test_a_cdm_2_alternate_covariance_is_refused_naming_its_line_never_left_out(
         with pytest.raises(vv.CCSDSFormatError, match=f"line \\d+: {match}"):
             vv.read_cdm(xml[:i] + extra + xml[i:])
     assert vv.read_cdm(xml).object1.covariance.shape == (6, 6)  # (as written: read as before)
+
+
+def test_an_rtn_covariance_from_propagate_covariance_is_refused_by_the_cdm_builder_and_pc():
+    """propagate_covariance(..., output_frame="RTN") matrices passed where the covariances go
+    with inertial r, v were rotated to RTN a second time by the CDM builder (and taken as
+    inertial by collision_probability): a wrong CDM and Pc, silently. Refused, saying why."""
+    from astropy.time import Time
+
+    from visviva._covariance import km_covariance
+
+    tca = Time("2024-03-01T00:00:00", scale="utc")
+    r1, v1 = np.array([7000e3, 0.0, 0.0]), np.array([0.0, 7.5e3, 0.0])
+    r2, v2 = np.array([7000e3, 100.0, 0.0]), np.array([0.0, 0.0, 7.5e3])
+    rtn = km_covariance(np.diag([0.1, 2.0, 0.05, 1e-6, 1e-5, 1e-6]) ** 2, "RTN")  # km, km/s
+    inertial = km_covariance(np.asarray(rtn))  # (the same numbers, unmarked: accepted)
+    with pytest.raises(vv.InvalidInputError, match="cov1 is on the RTN axes"):
+        vv.ConjunctionDataMessage.from_states(tca, r1, v1, rtn, r2, v2, inertial,
+                                              names=("A", "B"))
+    with pytest.raises(vv.InvalidInputError, match="cov2 is on the RTN axes"):
+        vv.collision_probability(r1, v1, inertial, r2, v2, rtn[None][0], 20.0)
+    assert vv.collision_probability(r1, v1, inertial, r2, v2, inertial, 20.0) > 0

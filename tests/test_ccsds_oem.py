@@ -74,9 +74,9 @@ STOP_TIME = 2024-032T00:05:00
 INTERPOLATION = LAGRANGE
 INTERPOLATION_DEGREE = 2
 META_STOP
-2024-032T00:03:00 6956.0 1345.0 0.3 -0.489 7.54 0.003 -0.0080 -0.0015 0.0
-2024-032T00:04:00 6921.8 1796.9 0.4 -0.652 7.51 0.004 -0.0079 -0.0020 0.0
-2024-032T00:05:00 6878.0 2246.2 0.5 -0.815 7.47 0.005 -0.0078 -0.0025 0.0
+2024-032T00:03:00 6956.0 1345.0 0.3 -0.489 7.54 0.003 -0.0027 -0.0005 0.0
+2024-032T00:04:00 6921.8 1796.9 0.4 -0.652 7.51 0.004 -0.0028 -0.00058 0.0
+2024-032T00:05:00 6878.0 2246.2 0.5 -0.815 7.47 0.005 -0.0026 -0.00067 0.0
 """
 
 
@@ -90,7 +90,7 @@ def test_read_kvn_example_every_field():
     assert first.data_comments == ["states in km and km/s"]
     assert first.interpolation == ("HERMITE", 1) and second.interpolation == ("LAGRANGE", 2)
     assert len(first) == 4 and len(second) == 3 and first.a_km_s2 is None
-    np.testing.assert_array_equal(second.a_km_s2[:, 0], [-0.0080, -0.0079, -0.0078])
+    np.testing.assert_array_equal(second.a_km_s2[:, 0], [-0.0027, -0.0028, -0.0026])
     assert first.times.scale == "utc"
     assert abs((second.times[0] - Time("2024-02-01T00:03:00", scale="utc")).sec) < 1e-9
     states = first.states
@@ -638,3 +638,52 @@ def test_states_in_refuses_a_centre_other_than_the_earth():
     earth = OEMSegment.from_states(t, r * 4, v * 4.6, object_name="X", frame="EME2000",
                                    degree=2)
     assert earth.states_in("gcrs").frame == "gcrs"
+
+
+@pytest.mark.parametrize("edit, off", [(lambda a: 0 * a, "100%"), (lambda a: a * 1e3, "998"),
+                                       (lambda a: -a, "200%")])
+def test_accelerations_that_do_not_give_the_velocities_change_are_warned_about(edit, off):
+    """Zeros written for want of accelerations (or m/s**2, or the wrong sign) were read
+    silently, and HERMITE interpolated the velocities with them: zeros put a LEO velocity
+    5.5 m/s off between 60 s states (1e-11 m/s with the true accelerations)."""
+    t = Time("2024-01-31T00:00:00", scale="utc") + np.arange(20) * 60 * u.s
+    n = np.sqrt(vv.EARTH.gm_km3_s2 / 7000.0**3)
+    th = n * np.arange(20) * 60.0
+    c, s_ = np.cos(th), np.sin(th)
+    r = 7000.0 * np.stack([c, s_, 0 * c], 1)
+    v = 7000.0 * n * np.stack([-s_, c, 0 * c], 1)
+    a = -n**2 * r
+    good = vv.write_oem(OEMSegment.from_states(t, r, v, a_km_s2=a, object_name="X", degree=3,
+                                               frame="GCRF"))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exact = vv.read_oem(good).segments[0]  # consistent: no warning
+    bad = vv.write_oem(OEMSegment.from_states(t, r, v, a_km_s2=edit(a), object_name="X",
+                                              degree=3, frame="GCRF"))
+    first = next(k for k, s in enumerate(bad.splitlines(), 1) if s.startswith("2024-01-31T"))
+    with pytest.warns(UserWarning, match=rf"line {first}: the accelerations .*\(off by {off}"):
+        seg = vv.read_oem(bad).segments[0]
+    tq = t[5] + 30 * u.s
+    want = 7000.0 * n * np.array([-np.sin(n * 330.0), np.cos(n * 330.0), 0.0])
+    assert np.linalg.norm(exact.interpolate_arrays(tq)[1][0] - want) < 1e-12  # km/s
+    if off == "100%":
+        assert np.linalg.norm(seg.interpolate_arrays(tq)[1][0] - want) > 5e-3  # 5.5 m/s
+    seg.a_km_s2 = None  # the remedy the warning names
+    assert np.linalg.norm(seg.interpolate_arrays(tq)[1][0] - want) < 1e-9
+
+
+def test_segments_of_different_objects_are_not_stitched_by_interpolate():
+    """An OEM gives one object's states; a file holding two (OBJECT_ID 2024-999A, 2020-001B)
+    over the same hour was interpolated with the later segment's object, silently (a state of
+    another satellite). Refused like different frames; each segment still interpolates."""
+    oem = vv.read_oem(OEM_KVN)
+    other = OEMSegment(dict(oem.segments[1].metadata.values, OBJECT_ID="2020-001B"),
+                       oem.segments[1].epochs, oem.segments[1].r_km, oem.segments[1].v_km_s)
+    two = vv.read_oem(vv.write_oem(Ephemeris([oem.segments[0], other])))
+    t = Time("2024-02-01T00:04:00", scale="utc")
+    with pytest.raises(vv.InvalidInputError, match=r"differ in OBJECT_ID \(\['2020-001B', "
+                       r"'2024-999A'\]\)"):
+        two.interpolate(t)
+    np.testing.assert_array_equal(two.segments[1].interpolate(t).r, oem.interpolate(t).r)

@@ -33,12 +33,12 @@ X_DOT = -0.873160 [km/s]
 Y_DOT = 8.740420 [km/s]
 Z_DOT = -4.191076 [km/s]
 
-SEMI_MAJOR_AXIS = 7800.0 [km]
-ECCENTRICITY = 0.1
-INCLINATION = 30.0 [deg]
-RA_OF_ASC_NODE = 10.0 [deg]
-ARG_OF_PERICENTER = 20.0 [deg]
-TRUE_ANOMALY = 40.0 [deg]
+SEMI_MAJOR_AXIS = 15951.2370 [km]
+ECCENTRICITY = 0.5914452
+INCLINATION = 25.720971 [deg]
+RA_OF_ASC_NODE = 177.790676 [deg]
+ARG_OF_PERICENTER = 174.842602 [deg]
+TRUE_ANOMALY = 19.531881 [deg]
 GM = 398600.4415 [km**3/s**2]
 
 MASS = 3000.0 [kg]
@@ -161,7 +161,8 @@ def test_opm_round_trip_every_field(fmt, tmp_path):
 @pytest.mark.parametrize("edit, marker, words", [
     (("X_DOT = -0.873160 [km/s]", "X_DOT = -0.873160 [m/s]"), "X_DOT", r"X_DOT must be in \[km/s\]"),
     (("Z = -717.490000 [km]\n", ""), "EPOCH =", "lacks the mandatory keyword Z"),
-    (("TRUE_ANOMALY = 40.0 [deg]", "MEAN_ANOMALY = 40.0 [deg]\nTRUE_ANOMALY = 40.0 [deg]"),
+    (("TRUE_ANOMALY = 19.531881 [deg]",
+      "MEAN_ANOMALY = 4.102193 [deg]\nTRUE_ANOMALY = 19.531881 [deg]"),
      "SEMI_MAJOR", "exactly one of TRUE_ANOMALY and MEAN_ANOMALY"),
     (("MAN_DV_2 = 0.0 [km/s]\n", ""), "MAN_EPOCH_IGNITION = 2024-03-02",
      "lacks the mandatory keyword MAN_DV_2"),
@@ -181,12 +182,13 @@ def test_opm_round_trip_every_field(fmt, tmp_path):
     (("MAN_EPOCH_IGNITION = 2024-03-02T09:00:34.1", "MAN_EPOCH_IGNITION = 2024-03-02T25:00:34.1"),
      "MAN_EPOCH_IGNITION = 2024-03-02", "is not a date that exists .time 25:00:34.1"),
     # impossible values were read silently
-    (("ECCENTRICITY = 0.1", "ECCENTRICITY = -0.1"), "ECCENTRICITY", "ECCENTRICITY = -0.1"),
+    (("ECCENTRICITY = 0.5914452", "ECCENTRICITY = -0.5914452"), "ECCENTRICITY",
+     "ECCENTRICITY = -0.5914452"),
     (("GM = 398600.4415", "GM = -398600.4415"), "GM =", "GM = -398600.4415"),
     (("MASS = 3000.0", "MASS = -3000.0"), "MASS =", "MASS = -3000.0"),
     (("DRAG_AREA = 18.77", "DRAG_AREA = -18.77"), "DRAG_AREA", "DRAG_AREA = -18.77"),
-    (("SEMI_MAJOR_AXIS = 7800.0", "SEMI_MAJOR_AXIS = -7800.0"), "SEMI_MAJOR_AXIS",
-     "SEMI_MAJOR_AXIS = -7800.0 .* ECCENTRICITY = 0.1"),
+    (("SEMI_MAJOR_AXIS = 15951.2370", "SEMI_MAJOR_AXIS = -15951.2370"), "SEMI_MAJOR_AXIS",
+     "SEMI_MAJOR_AXIS = -15951.237 .* ECCENTRICITY = 0.5914452"),
     (("CREATION_DATE = 2024-03-01T10:00:00", "CREATION_DATE = 2024-02-30T10:00:00"),
      "CREATION_DATE", "not a date that exists .day 30 of a month of 29 days"),
 ])
@@ -550,3 +552,46 @@ def test_omm_covariance_is_rotated_from_a_local_frame_about_sgp4s_state():
                              **values_from_matrix(from_state_axes(cov, "TNW", r, v))}
     text = vv.write_omm(fields, originator="TESTS")
     np.testing.assert_allclose(vv.read_omm(text).covariance, cov, rtol=1e-12, atol=1e-18)
+
+
+def test_opm_gm_in_m3_s2_is_refused_naming_its_line():
+    """GM = 3.986e14 (m**3/s**2, the unit left out) was read silently and became the GM of
+    opm.state: 1e9 times the Earth's, so every propagation of it was wrong."""
+    text = OPM_KVN.replace("GM = 398600.4415 [km**3/s**2]", "GM = 3.986004415E14")
+    line = next(k for k, s in enumerate(text.splitlines(), 1) if s.startswith("GM ="))
+    with pytest.raises(vv.CCSDSFormatError, match=r"1e\+09 times the GM of CENTER_NAME = EARTH") \
+            as info:
+        vv.read_opm(text)
+    assert info.value.line == line
+    # a GM of another convention (EGM-96, WGS-84, DE440) is the same body's: read as written
+    for gm in ("398600.4418", "398600.435507"):
+        opm = vv.read_opm(OPM_KVN.replace("398600.4415", gm))
+        assert opm.state.gm.to_value(u.km**3 / u.s**2) == float(gm)
+
+
+def test_opm_keplerian_elements_are_checked_against_the_state_vector():
+    """Elements that describe another orbit than the state vector (a = 7800 km, e = 0.1 for a
+    state of a = 15951 km, e = 0.591) were read without a word; opm.state is the state
+    vector's, while a user of the elements (Orekit's generateKeplerianOrbit) flies another."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.read_opm(OPM_KVN)  # consistent to the digits written: no warning
+        # the same state, its anomaly given as the mean anomaly
+        vv.read_opm(OPM_KVN.replace("TRUE_ANOMALY = 19.531881", "MEAN_ANOMALY = 4.1021931"))
+    wrong = OPM_KVN.replace("SEMI_MAJOR_AXIS = 15951.2370", "SEMI_MAJOR_AXIS = 7800.0")
+    line = next(k for k, s in enumerate(wrong.splitlines(), 1) if s.startswith("SEMI_MAJOR"))
+    with pytest.warns(UserWarning, match=rf"line {line}: the osculating Keplerian elements .* place "
+                      r"the object \d+\.?\d* km .* from the state vector") as record:
+        opm = vv.read_opm(wrong)
+    assert "units (km, deg)" in str(record[0].message)
+    assert opm.sections["keplerian_elements"]["SEMI_MAJOR_AXIS"] == 7800.0  # kept as written
+    # the true anomaly written as MEAN_ANOMALY: 15.4 deg off along the orbit; the hint says so
+    swapped = OPM_KVN.replace("TRUE_ANOMALY = 19.531881", "MEAN_ANOMALY = 19.531881")
+    with pytest.warns(UserWarning, match="read as TRUE_ANOMALY, the MEAN_ANOMALY would agree"):
+        vv.read_opm(swapped)
+    # radians where degrees are due
+    radians = OPM_KVN.replace("INCLINATION = 25.720971", "INCLINATION = 0.448920")
+    with pytest.warns(UserWarning, match="do not describe the state vector's orbit"):
+        vv.read_opm(radians)

@@ -347,3 +347,34 @@ def test_an_oem_writer_refuses_the_ambiguous_lvlh():
         OEMSegment.from_states(state.epoch.reshape(1), state.r.to_value(u.km)[None],
                                state.v.to_value(u.km / u.s)[None], covariance=cov[None],
                                covariance_frame="lvlh", degree=1, object_name="SAT")
+
+
+@pytest.mark.parametrize("given_frame", [None, "RTN"])
+def test_a_propagated_rtn_covariance_is_written_in_rtn_by_the_opm_and_oem_writers(given_frame):
+    """propagate_covariance(..., output_frame="RTN") gives RTN matrices (marked as such). The OPM
+    writer took them for matrices on the state's axes and rotated them again (covariance_frame=
+    "RTN") or wrote them without COV_REF_FRAME (none); the OEM writer, without
+    covariance_frame, wrote them as on REF_FRAME's axes: wrong covariances read back, silently
+    (RTN sigmas 0.01, 0.1, 0.005 km read back as 0.044, 0.045, 0.078 km, here). Now they are
+    written in RTN and read back to the state-axes matrix."""
+    from visviva._covariance import km_covariance, local_axes_of, to_local
+    from visviva.ccsds.oem import Ephemeris, OEMSegment
+    from visviva.ccsds.opm import OPM
+
+    state, cov = _state(), _gcrs_covariance()
+    r, v = state.r.to_value(u.km), state.v.to_value(u.km / u.s)
+    rtn = km_covariance(to_local(cov[None], r[None], v[None], RTN), "RTN")  # what it returns
+    assert local_axes_of(rtn[0]) == "RTN" and local_axes_of(rtn[0] * 2) is None  # kept by index
+    opm = vv.read_opm(vv.write_opm(OPM.from_state(state, object_name="SAT", covariance=rtn[0],
+                                                  covariance_frame=given_frame)))
+    assert opm.sections["covariance"]["COV_REF_FRAME"] == "RTN"
+    assert _close(opm.covariance, cov)
+    seg = OEMSegment.from_states(state.epoch.reshape(1), r[None], v[None], covariance=rtn,
+                                 covariance_frame=given_frame, degree=1, object_name="SAT")
+    back = vv.read_oem(vv.write_oem(Ephemeris([seg]))).segments[0]
+    assert back.covariances[0].frame == "RTN" and _close(back.covariance(0), cov)
+    with pytest.raises(vv.InvalidInputError, match="on the RTN axes .* covariance_frame = 'TNW'"):
+        OPM.from_state(state, object_name="SAT", covariance=rtn[0], covariance_frame="TNW")
+    with pytest.raises(vv.InvalidInputError, match="OEMSegment.from_states: .* RTN axes"):
+        OEMSegment.from_states(state.epoch.reshape(1), r[None], v[None], covariance=rtn,
+                               covariance_frame="TNW", degree=1, object_name="SAT")

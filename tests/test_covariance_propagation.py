@@ -129,6 +129,14 @@ def test_rtn_output_is_the_gcrs_output_rotated_and_input_frames_agree():
     g = vv.propagate_covariance(leo(), P0, t, f)
     r = vv.propagate_covariance(leo(), P0, t, f, output_frame="RTN")
     assert r.frame == "RTN"
+    from visviva._covariance import local_axes_of  # (what the CCSDS writers read)
+
+    assert local_axes_of(r.covariance[1]) == "RTN" and local_axes_of(g.covariance[1]) is None
+    # fed back in, the RTN matrix at t = 0 was read as a GCRS one (frame= left out), silently
+    with pytest.raises(vv.InvalidInputError, match="on the RTN axes .* pass frame='RTN'"):
+        vv.propagate_covariance(leo(), r.covariance[1], t, f)
+    again = vv.propagate_covariance(leo(), r.covariance[1], t, f, frame="RTN")
+    assert rel(again.covariance, r.covariance).max() < 1e-12
     want = inertial_to_rtn(g.covariance, g.r, g.v)
     assert rel(r.covariance, want).max() < 1e-14
     # a covariance given in RTN is the GCRS one rotated at the epoch
@@ -381,6 +389,14 @@ def test_oem_segment_carries_propagated_covariances():
     eph = vv.read_oem(vv.write_oem(seg))
     covs = eph.segments[0].covariances
     assert len(covs) == 4 and covs[0].frame == "RTN"
+    # the matrices know their RTN axes: without covariance_frame= the OEM writer wrote them
+    # as on REF_FRAME's axes (and OPM.from_state rotated them as such), silently
+    from visviva._covariance import local_axes_of
+
+    assert local_axes_of(out.covariance[2]) == "RTN"
+    plain = OEMSegment.from_states(out.times, out.r.to_value(u.km), out.v.to_value(KMS),
+                                   object_name="SAT", covariance=out.covariance)
+    assert [c.frame for c in plain.covariances] == ["RTN"] * 4
     got = np.array([c.matrix for c in covs])
     assert rel(got, out.covariance).max() < 1e-15
     with pytest.raises(vv.InvalidInputError, match="one 6x6 matrix per epoch"):

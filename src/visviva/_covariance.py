@@ -15,7 +15,8 @@ import numpy as np
 from .errors import InvalidInputError, ShapeError
 
 __all__ = ["as_covariance", "require_psd", "block_rotation", "to_local",
-           "from_local", "frame_code", "KilometreCovariance", "km_covariance", "in_frame"]
+           "from_local", "frame_code", "KilometreCovariance", "km_covariance", "local_axes_of",
+           "in_frame"]
 
 
 class KilometreCovariance(np.ndarray):
@@ -32,6 +33,13 @@ class KilometreCovariance(np.ndarray):
     """
 
     covariance_length_unit = "km"
+    #: the local orbital frame whose axes the matrices are on (``"RTN"``, ``"TNW"`` ... from
+    #: ``propagate_covariance(..., output_frame=...)``), None on the inertial axes of the state;
+    #: kept by indexing, so that a CCSDS writer never takes an RTN matrix for an inertial one
+    covariance_axes = None
+
+    def __array_finalize__(self, obj):
+        self.covariance_axes = getattr(obj, "covariance_axes", None)
 
     def __array_wrap__(self, array, context=None, return_scalar=False):
         plain = np.asarray(array).view(np.ndarray)
@@ -44,9 +52,28 @@ class KilometreCovariance(np.ndarray):
         return str(self.view(np.ndarray))
 
 
-def km_covariance(arr) -> KilometreCovariance:
-    """``arr`` (km, km/s) marked as a :class:`KilometreCovariance`."""
-    return np.asarray(arr, dtype=np.float64).view(KilometreCovariance)
+def km_covariance(arr, axes: str | None = None) -> KilometreCovariance:
+    """``arr`` (km, km/s) marked as a :class:`KilometreCovariance` (on the axes of the local
+    frame ``axes``, ``"RTN"`` ..., or None: the state's inertial axes, ``"GCRS"``)."""
+    out = np.asarray(arr, dtype=np.float64).view(KilometreCovariance)
+    out.covariance_axes = None if axes is None or str(axes).upper() == "GCRS" else str(axes)
+    return out
+
+
+def local_axes_of(cov, covariance_frame=None, where: str = "") -> str | None:
+    """The local frame a covariance from visviva is on (``"RTN"`` ...), None when inertial or
+    not marked (:class:`KilometreCovariance`); a ``covariance_frame`` that names another frame
+    is refused (``where``: the function, for the message), as the matrix is not on its axes."""
+    axes = getattr(cov, "covariance_axes", None)
+    if axes is not None and covariance_frame is not None \
+            and str(covariance_frame).strip().upper() != axes.upper():
+        raise InvalidInputError(
+            f"{where}: this covariance is on the {axes} axes (propagate_covariance(..., "
+            f"output_frame={axes!r}) or fit.propagate(..., output_frame={axes!r})), but "
+            f"covariance_frame = {covariance_frame!r}; pass covariance_frame={axes!r} (it is "
+            f"written as COV_REF_FRAME = {axes}), or propagate with output_frame="
+            f"{str(covariance_frame).upper()!r}.")
+    return axes
 
 
 def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
@@ -270,7 +297,7 @@ def in_frame(out, p, out_name):
     code = frame_code(out_name, "output_frame")
     r = np.atleast_2d(out.r.to_value("km"))
     v = np.atleast_2d(out.v.to_value("km/s"))
-    out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
-                                   .reshape(p.shape))
     out.frame = "GCRS" if code == 0 else str(out_name).upper()
+    out.covariance = km_covariance(to_local(np.reshape(p, (-1, 6, 6)), r, v, code)
+                                   .reshape(p.shape), out.frame)
     return out

@@ -164,11 +164,11 @@ class OEMSegment(FrameCenterMetadata):
             The epoch MET/MRT count from, for those time systems.
         covariance : array_like or Quantity, shape (N, 6, 6), optional
             A covariance at each epoch (km^2, km^2/s, km^2/s^2 when plain, or an area Quantity),
-            e.g. ``.covariance`` of :func:`visviva.propagate_covariance`; written as the
-            segment's covariance blocks.
+            e.g. ``.covariance`` of :func:`visviva.propagate_covariance` (in its frame, RTN with
+            ``output_frame="RTN"``); written as the segment's covariance blocks.
         covariance_frame : str, optional
             ``COV_REF_FRAME`` of those blocks (``"RTN"``, ``"TNW"``, ...; ``"GCRS"`` is written
-            ``"GCRF"``); None: the covariances are on the axes of ``frame`` (no keyword).
+            ``"GCRF"``); None: a propagated covariance's own frame, else the axes of ``frame``.
 
         Returns
         -------
@@ -209,8 +209,10 @@ class OEMSegment(FrameCenterMetadata):
                 "INTERPOLATION_DEGREE": int(degree)}
         covs = ()
         if covariance is not None:
-            from .._covariance import as_covariance, require_psd
+            from .._covariance import as_covariance, local_axes_of, require_psd
 
+            covariance_frame = local_axes_of(covariance, covariance_frame, "OEMSegment."
+                                             "from_states") or covariance_frame  # (its RTN)
             c = as_covariance(covariance, "covariance", length_unit="km")
             if c.shape != (len(epochs), 6, 6):
                 raise InvalidInputError(
@@ -413,8 +415,7 @@ class OEMSegment(FrameCenterMetadata):
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             first = (times[0] - t0).to_value("s")
             last = (times[-1] - t0).to_value("s")
-            lo = (self.start - t0).to_value("s")
-            hi = (self.stop - t0).to_value("s")
+            lo, hi = ((x - t0).to_value("s") for x in (self.start, self.stop))
         return max(float(lo), float(first)), min(float(hi), float(last))
 
     def __len__(self) -> int:
@@ -434,10 +435,8 @@ class OEMSegment(FrameCenterMetadata):
             Which segment, for the message.
         """
         n = len(self.epochs)
-        arrays = [("r_km", self.r_km), ("v_km_s", self.v_km_s)]
-        if self.a_km_s2 is not None:
-            arrays.append(("a_km_s2", self.a_km_s2))
-        for name, arr in arrays:
+        arrays = [("r_km", self.r_km), ("v_km_s", self.v_km_s), ("a_km_s2", self.a_km_s2)]
+        for name, arr in arrays[:2] if self.a_km_s2 is None else arrays:
             if arr.shape != (n, 3):
                 raise InvalidInputError(f"{where}: {name} has shape {arr.shape}, expected ({n}, 3)")
             if not np.isfinite(arr).all():
@@ -638,8 +637,9 @@ class Ephemeris:
         """The ``CENTER_NAME`` shared by the segments (raises when they differ)."""
         return self._shared("center")
 
-    def _shared(self, attr):
-        values = {getattr(s, attr) for s in self.segments}
+    def _shared(self, attr):  # (upper case: a keyword; an OEM gives one object's states)
+        values = {str(s.metadata.get(attr)).strip() if attr.isupper() else getattr(s, attr)
+                  for s in self.segments}
         if len(values) > 1:
             raise InvalidInputError(f"the segments differ in {attr} ({sorted(values)}); use "
                                     "the segments one by one")
@@ -648,7 +648,8 @@ class Ephemeris:
     def interpolate(self, t):
         """States at times ``t``, each from the segment that covers it.
 
-        Where two segments meet (a manoeuvre), a time on the boundary takes the later segment.
+        Where two segments meet (a manoeuvre), a time on the boundary takes the later segment;
+        segments of different frames, centres or objects (``OBJECT_ID``) are refused.
 
         Parameters
         ----------
@@ -666,7 +667,7 @@ class Ephemeris:
             raise InvalidInputError(f"t must be an astropy Time, got {type(t).__name__}")
         from ..satellites.frames import offline_iers
 
-        frame, center = self.frame, self.center  # noqa: F841  (checks they agree)
+        frame, center, _ = self.frame, self.center, self._shared("OBJECT_ID")  # noqa: F841
         flat = t.reshape(-1) if t.ndim else t.reshape(1)
         which = np.full(flat.shape, -1)
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
@@ -685,6 +686,5 @@ class Ephemeris:
         for k in np.unique(which):
             sel = which == k
             r[sel], v[sel] = self.segments[k].interpolate_arrays(flat[sel])
-        first = self.segments[0]
-        return first.wrap_states(r.reshape(t.shape + (3,)), v.reshape(t.shape + (3,)),
-                             first.gm_km3_s2, t)
+        return self.segments[0].wrap_states(r.reshape(t.shape + (3,)),
+                                            v.reshape(t.shape + (3,)), self.segments[0].gm_km3_s2, t)

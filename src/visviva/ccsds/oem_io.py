@@ -252,6 +252,7 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise CCSDSFormatError(f"the epochs must increase: {seg.epochs[k]} follows "
                                f"{seg.epochs[k - 1]}", line=lines[k], source=name)
+    _check_accelerations(seg, sec, lines, name)
     problem = seg.span_problem(name)
     if problem is not None:
         where, message = problem
@@ -266,6 +267,31 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
         raise CCSDSFormatError(f"INTERPOLATION_DEGREE = {degree}: the degree of an interpolating "
                                "polynomial is at least 1", line=meta.line_of("INTERPOLATION_DEGREE"),
                                source=name)
+
+
+def _check_accelerations(seg: OEMSegment, sec, lines, name):
+    """Warn when a segment's accelerations do not give the change of its velocities: over each
+    step the mean of the two accelerations (trapezoid; its error is ~ (n dt)^2 / 12 of an orbit
+    of mean motion n) against (v[k+1] - v[k]) / dt, off by more than half of it in the median
+    step. Zeros written for want of accelerations, m/s**2 for km/s**2, or the wrong sign, which
+    HERMITE uses for the velocities (zeros: 5.5 m/s off in LEO, 60 s steps)."""
+    a = seg.a_km_s2
+    if a is None or len(sec) < 2:
+        return
+    mean = np.diff(seg.v_km_s, axis=0) / np.diff(sec)[:, None]
+    scale = np.linalg.norm(mean, axis=1)
+    off = float(np.median(np.linalg.norm(0.5 * (a[1:] + a[:-1]) - mean, axis=1)
+                          / np.where(scale > 0, scale, np.inf)))
+    if off > 0.5:
+        import warnings
+
+        warnings.warn(
+            f"{name}, line {lines[0]}: the accelerations of this segment do not give the change "
+            f"of its velocities (off by {off:.0%} of it between states, in the median step): "
+            "zeros in place of accelerations, another unit than km/s**2, or the wrong sign? "
+            "INTERPOLATION = HERMITE interpolates the velocities with them; set "
+            "seg.a_km_s2 = None to interpolate from the positions and velocities alone.",
+            UserWarning, stacklevel=5)
 
 
 # ---- XML ---------------------------------------------------------------------------------

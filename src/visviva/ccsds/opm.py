@@ -22,6 +22,7 @@ from .covariance import (
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
 from .layout import read_message, write_message
+from .opm_checks import check_gm, check_keplerian
 from .timeframes import (
     FrameCenterMetadata,
     center_body,
@@ -217,8 +218,12 @@ class OPM(FrameCenterMetadata):
                 raise InvalidInputError(f"mass must be > 0 kg; got {mass}.")
             sections["spacecraft_parameters"] = {"MASS": m_kg}
         if covariance is not None:
-            from .._covariance import as_covariance
+            from .._covariance import as_covariance, local_axes_of
 
+            # an RTN (TNW ...) matrix of propagate_covariance(output_frame=...) is written as it
+            # is, in its frame: taken for one on the state's axes, it was rotated a second time
+            axes = local_axes_of(covariance, covariance_frame, "OPM.from_state")
+            covariance_frame = axes or covariance_frame
             # an area Quantity (a CDM's m^2) is converted: its numbers were written as km^2
             if np.shape(covariance) != (6, 6):
                 raise ShapeError(
@@ -226,13 +231,20 @@ class OPM(FrameCenterMetadata):
                     f"{np.shape(covariance)} (a fit's full_covariance also holds its Δvs and "
                     "coefficients: give fit.covariance).")
             covariance = as_covariance(covariance, "covariance", length_unit="km")
-            covariance = from_gcrs_axes(frame, covariance)[0]  # (on the state's axes)
+            if axes is None:
+                covariance = from_gcrs_axes(frame, covariance)[0]  # (on the state's axes)
             diag = np.diagonal(covariance)
             if not (diag >= 0).all():
                 raise InvalidInputError("covariance must be finite with variances >= 0 on its "
                                         f"diagonal; got diagonal {diag}.")
             if covariance_frame is None:
                 sections["covariance"] = values_from_matrix(covariance)
+            elif axes is not None:
+                from .covariance import local_frame
+
+                local_frame(axes)  # (a name the reader takes)
+                sections["covariance"] = {"COV_REF_FRAME": axes.upper(),
+                                          **values_from_matrix(covariance)}
             else:
                 from .covariance import from_state_axes
 
@@ -564,6 +576,8 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
                                    "spends mass, so the change is <= 0 (write it negative)",
                                    line=man.line_of("MAN_DELTA_MASS"), source=name)
     _check_values(sections, name)
+    check_gm(sections, name)  # (opm.state orbits with the message's GM)
+    check_keplerian(sections, name)
     opm = OPM(sections, name, mission_epoch)
     refuse_unused_mission_epoch(mission_epoch, [opm.metadata["TIME_SYSTEM"]], name,
                                 opm.metadata.line_of("TIME_SYSTEM"))

@@ -93,6 +93,14 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
         vecs.append(arr)
     if not any(is_quantity(x) for x in (r1, v1, r2, v2)):
         warn_km_as_metres(*vecs)
+    from .._covariance import local_axes_of
+
+    for c, name in ((cov1, "cov1"), (cov2, "cov2")):  # (RTN taken for inertial: a wrong Pc)
+        if local_axes_of(c) is not None:
+            raise InvalidInputError(
+                f"{name} is on the {local_axes_of(c)} axes (propagate_covariance(..., output_"
+                f"frame={local_axes_of(c)!r})), but the covariances go with r and v on inertial "
+                "axes: propagate with output_frame='GCRS' (the default), or rotate it back.")
     # a km covariance returned by visviva (fit_orbit, propagate_covariance) is converted
     c1 = as_covariance(cov1, "cov1", convert_marked=True)
     c2 = as_covariance(cov2, "cov2", convert_marked=True)

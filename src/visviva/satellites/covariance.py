@@ -33,6 +33,7 @@ from .._covariance import (
     frame_code,
     from_local,
     km_covariance,
+    local_axes_of,
     require_psd,
     to_local,
 )
@@ -79,7 +80,7 @@ class CovarianceResult(CowellResult):
 
     def __init__(self, base, covariance, stm, frame, process_noise, noise_frame):
         self.__dict__.update(base.__dict__)
-        self.covariance = km_covariance(covariance)
+        self.covariance = km_covariance(covariance, frame)  # (marked with its local axes)
         self.stm = stm
         self.frame = frame
         self.process_noise = process_noise
@@ -294,7 +295,8 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
         The covariance of (x, y, z, vx, vy, vz) at the state's epoch: plain numbers in km^2,
         km^2/s, km^2/s^2 (what ``fit.covariance`` holds), or an area Quantity (the whole matrix
         read in its length unit and seconds, e.g. a CDM's covariance in m^2). Symmetric,
-        positive semi-definite and finite, else refused.
+        positive semi-definite and finite, else refused; on the axes of ``frame`` (a matrix of
+        an ``output_frame="RTN"`` result knows it is RTN: another ``frame`` is refused).
     t : Quantity or astropy Time
         Output times: offsets from the epoch (scalar or 1-D, strictly increasing, any sign:
         negative times give the covariance at earlier times) or absolute Times.
@@ -424,9 +426,14 @@ def propagate_covariance(state, covariance, t, perturbations=(), *, maneuvers=No
     epoch = getattr(state, "epoch", None)
     if epoch is not None and not epoch.isscalar:
         epoch = epoch.ravel()[0]
+    in_code = frame_code(frame, "frame")
+    marked = local_axes_of(covariance)  # (an RTN output fed back in: on RTN axes, not GCRS)
+    if marked is not None and frame_code(marked) != in_code:
+        raise InvalidInputError(
+            f"covariance is on the {marked} axes (an output_frame={marked!r} result), but "
+            f"frame = {frame!r}; pass frame={marked!r}.")
     P0 = as_covariance(covariance, "covariance", length_unit="km")
     check_shape(P0, "covariance")
-    in_code = frame_code(frame, "frame")
     out_name = frame if output_frame is None else output_frame
     out_code = frame_code(out_name, "output_frame")
     P0 = from_local(P0, r0, v0, in_code)

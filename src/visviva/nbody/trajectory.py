@@ -16,6 +16,7 @@ import numpy as np
 from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, fmt_number
+from . import step_check as _step_check
 
 __all__ = ["Trajectory", "Recording", "coincident_pairs"]
 
@@ -240,6 +241,9 @@ class Recording:
             # the masses and offset of the call: a merger changes them only between calls
             self.out_m[done0:done, self.alive] = sim.masses
             self.out_offset[done0:done] = sim.energy_offset
+            # the states the run reached: a close encounter met on the way (step_check.py)
+            _step_check.check_run(sim, self.t_start, self.out_t[done0:done],
+                                  self.chunk_x[done0:done], self.chunk_v[done0:done])
         if self.bar is not None:
             self.bar.n = abs(sim.t - self.t_start)
             self.bar.refresh()

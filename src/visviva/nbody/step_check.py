@@ -136,16 +136,20 @@ def _pericentre_timescale(r, w, gm, direction):
     velocities ``w`` (B, K, 3) with ``gm`` (B, K); an open orbit receding along the run
     (``direction`` (B,) or (B, K), or None) is timed at its present distance."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / np.linalg.norm(r, axis=-1)
-        h = np.cross(r, w)
-        p = np.einsum("bij,bij->bi", h, h) / gm  # semi-latus rectum
+        dist = np.sqrt(np.einsum("bij,bij->bi", r, r))
+        energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / dist
+        # |r x w|^2 by components (np.cross costs ~5x more on these small arrays)
+        h2 = ((r[..., 1] * w[..., 2] - r[..., 2] * w[..., 1]) ** 2
+              + (r[..., 2] * w[..., 0] - r[..., 0] * w[..., 2]) ** 2
+              + (r[..., 0] * w[..., 1] - r[..., 1] * w[..., 0]) ** 2)
+        p = h2 / gm  # semi-latus rectum
         e = np.sqrt(np.maximum(1.0 + 2.0 * energy * p / gm, 0.0))
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
         closest = q
         if direction is not None:  # an open orbit receding along the run: q is behind it
             sign = direction[:, None] if direction.ndim == 1 else direction  # (B,) or (B, K)
             receding = (e >= 1.0) & (sign * np.einsum("bij,bij->bi", r, w) > 0)
-            closest = np.where(receding, np.linalg.norm(r, axis=-1), q)
+            closest = np.where(receding, dist, q)
         return 2.0 * math.pi * np.sqrt(closest**3 / gm), closest
 
 

@@ -308,6 +308,14 @@ def test_a_close_encounter_at_the_end_of_a_run_without_outputs_is_warned_about()
     caught = _user_warnings(lambda: sim.integrate(traj.t[k]))
     assert len(caught) == 1 and "particles 1 and 2" in caught[0], caught
     assert f"at t = {vv.errors.fmt_number(traj.t[k])}" in caught[0]
+    # an ensemble checks its members' final states alike, in one warning naming them
+    ens = vv.Ensemble.from_simulations([_crossing(dt=P / 100), two_planets(dt=P / 100),
+                                        _crossing(dt=P / 100)])
+    caught = _user_warnings(lambda: ens.integrate(traj.t[k]))
+    assert len(caught) == 1, caught
+    assert re.match(r"during the run: 2 of the 3 ensemble members .* \(0, 2; .*member 0, at "
+                    r"t = .*particles 1 and 2", caught[0]), caught
+    assert _user_warnings(lambda: ens.integrate(traj.t[k] + 15 * P)) == []  # once each
 
 
 def test_a_leapfrog_orbit_made_eccentric_during_the_run_is_warned_about():
@@ -339,3 +347,7 @@ def test_long_runs_of_well_resolved_systems_are_not_warned_about():
         triple.integrate(400.0)
         for integrator in ("whfast", "leapfrog"):
             two_planets(integrator, dt=2 * math.pi / 40).integrate(300.0)
+            ens = vv.Ensemble.from_simulations(
+                [two_planets(integrator, dt=2 * math.pi / 40) for _ in range(3)])
+            for t in (100.0, 200.0, 300.0):
+                ens.integrate(t)

@@ -411,15 +411,7 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     leapfrog = members[0].integrator == "leapfrog"  # as in check_step
     if members[0].integrator not in ("whfast", "leapfrog"):
         return
-    if pack is not None:
-        x, v, m, radius, fstate, istate, poff = (pack.x, pack.v, pack.m, pack.radius,
-                                                 pack.fstate, pack.istate, pack.poff)
-    else:
-        states = [s.state_arrays() for s in members]
-        x, v, m, radius = (np.concatenate([st[k] for st in states])
-                           for k in ("x", "v", "m", "radius"))
-        fstate, istate = (np.stack([st[k] for st in states]) for k in ("fstate", "istate"))
-        poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
+    x, v, m, radius, fstate, istate, poff = _member_arrays(members, pack)
     n, dt = np.diff(poff), fstate[:, _nc.F_DT].copy()
     coords = istate[:, _nc.I_WH_COORDINATES].copy()
     direction = (np.zeros(len(n)) if t is None
@@ -431,27 +423,22 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     else:
         todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2]) | (direction != last[3])
     _CHECKED_ENSEMBLES[owner] = (n, dt, coords, direction)
+    run = _RUN_ENSEMBLES.get(owner)  # check_members_run counts from each member's check
+    if run is None or len(run[0]) != len(n):
+        run = _RUN_ENSEMBLES[owner] = [fstate[:, _nc.F_T].copy(), np.zeros(len(n), dtype=bool)]
+    run[0][todo], run[1][todo] = fstate[todo, _nc.F_T], False
     jacobi = (coords == 0) & (not leapfrog)
     todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
     if leapfrog:
         todo &= fstate[:, _nc.F_SOFT2] == 0.0
     if not todo.any():
         return
-    ks = np.flatnonzero(todo)
-    tau, close = np.full(len(n), math.inf), np.full(len(n), math.inf)
-    pairs = np.zeros((len(n), 2), dtype=np.int64)
-    for size in np.unique(n[ks]).tolist():
-        for jac in (True, False):
-            group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
-            if len(group):
-                idx = poff[group][:, None] + np.arange(size)
-                args = (x[idx], v[idx], m[idx], fstate[group, _nc.F_G])
-                more = (radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
-                tau[group], close[group], pairs[group] = _criteria(*args[:4], jac, leapfrog,
-                                                                   *more)
+    tau, close, pairs = _member_criteria(todo, leapfrog, jacobi, direction, x, v, m, radius,
+                                         fstate, istate, poff)
     with np.errstate(invalid="ignore"):
         bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
         near = np.flatnonzero(todo & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close))
+    run[1][bad], run[1][near] = True, True  # check_members_run: warned already
     if len(near):
         k = int(near[0])
         warnings.warn(
@@ -472,3 +459,81 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
         f"members ({listed}); the worst, member {worst}: "
         f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
         UserWarning, stacklevel=stacklevel)
+
+
+# per ensemble: [the time of each member's last checked state, whether it was warned]
+_RUN_ENSEMBLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _member_arrays(members, pack=None) -> tuple:
+    """``x, v, m, radius, fstate, istate, poff`` of an ensemble's members: the pack's arrays,
+    or their states concatenated."""
+    if pack is not None:
+        return (pack.x, pack.v, pack.m, pack.radius, pack.fstate, pack.istate, pack.poff)
+    states = [s.state_arrays() for s in members]
+    x, v, m, radius = (np.concatenate([st[k] for st in states])
+                       for k in ("x", "v", "m", "radius"))
+    fstate, istate = (np.stack([st[k] for st in states]) for k in ("fstate", "istate"))
+    poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
+    return x, v, m, radius, fstate, istate, poff
+
+
+def _member_criteria(todo, leapfrog, jacobi, direction, x, v, m, radius, fstate, istate, poff):
+    """:func:`_criteria` of the members ``todo`` (M,) (``inf`` for the others), grouped by
+    size and splitting."""
+    n, ks = np.diff(poff), np.flatnonzero(todo)
+    tau, close = np.full(len(n), math.inf), np.full(len(n), math.inf)
+    pairs = np.zeros((len(n), 2), dtype=np.int64)
+    for size in np.unique(n[ks]).tolist():
+        for jac in (True, False):
+            group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
+            if len(group):
+                idx = poff[group][:, None] + np.arange(size)
+                tau[group], close[group], pairs[group] = _criteria(
+                    x[idx], v[idx], m[idx], fstate[group, _nc.F_G], jac, leapfrog,
+                    radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
+    return tau, close, pairs
+
+
+def check_members_run(owner, members, pack=None, stacklevel: int = 3) -> None:
+    """:func:`check_run` for an ensemble's ``members`` after :meth:`Ensemble.integrate`
+    advanced them (their final states; :func:`check_members` saw their start): one warning
+    naming the members whose state is found wrong, each member warned once (until
+    :func:`check_members` checks it afresh), and checked when :data:`RUN_CHECK_STEPS` of its
+    steps have passed since its last checked state."""
+    run = _RUN_ENSEMBLES.get(owner)
+    leapfrog = members[0].integrator == "leapfrog"
+    if run is None or members[0].integrator not in ("whfast", "leapfrog"):
+        return
+    x, v, m, radius, fstate, istate, poff = _member_arrays(members, pack)
+    n, t_now, dt = np.diff(poff), fstate[:, _nc.F_T], fstate[:, _nc.F_DT]
+    if len(run[0]) != len(n):
+        return
+    jacobi = (istate[:, _nc.I_WH_COORDINATES] == 0) & (not leapfrog)
+    with np.errstate(invalid="ignore"):
+        due = (~run[1] & (np.abs(t_now - run[0]) >= RUN_CHECK_STEPS * np.abs(dt))
+               & (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0))
+    if leapfrog:
+        due &= fstate[:, _nc.F_SOFT2] == 0.0
+    if not due.any():
+        return
+    tau, close, pairs = _member_criteria(due, leapfrog, jacobi, np.sign(t_now - run[0]), x, v,
+                                         m, radius, fstate, istate, poff)
+    run[0][due] = t_now[due]
+    with np.errstate(invalid="ignore"):
+        near = due & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close)
+        bad = near | (due & (np.abs(dt) > MAX_STEP_FRACTION * tau))
+    if not bad.any():
+        return
+    run[1][bad] = True
+    listed = np.flatnonzero(bad)
+    k = int(listed[0])
+    name = "leapfrog" if leapfrog else "jacobi" if jacobi[k] else "democratic_heliocentric"
+    what = (_too_close(float(dt[k]), float(close[k]), pairs[k]) + "." if near[k]
+            else f"{_too_long(float(dt[k]), float(tau[k]), name)}: {_ADVICE}")
+    warnings.warn(
+        f"during the run: {len(listed)} of the {len(n)} ensemble members reached a state their "
+        f"step is wrong for ({', '.join(map(str, listed[:20].tolist()))}"
+        f"{', ...' if len(listed) > 20 else ''}; the start of the call was fine, the states "
+        f"after are not to be trusted); member {k}, at t = {fmt_number(float(t_now[k]))}: "
+        f"{what}", UserWarning, stacklevel=stacklevel)

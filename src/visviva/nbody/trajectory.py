@@ -230,9 +230,10 @@ class Recording:
         return int(istate[_nc.I_NOUT])
 
     def after_call(self, status: int, done0: int) -> bool:
-        """Copy the snapshots the call wrote (outputs ``done0`` on), update the bar, and act on
-        the status (:meth:`visviva.Simulation.after_kernel`): True when the run is done, False
-        to call the kernel again; events raise."""
+        """Copy the snapshots the call wrote (outputs ``done0`` on), check their states
+        (:func:`visviva.nbody.step_check.check_run`), update the bar, and act on the status
+        (:meth:`visviva.Simulation.after_kernel`): True when the run is done, False to call
+        the kernel again; events raise."""
         sim = self.sim
         done = int(sim.state_arrays()["istate"][_nc.I_NOUT])
         if done > done0:

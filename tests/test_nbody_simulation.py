@@ -95,7 +95,8 @@ def test_add_by_elements_mean_anomaly_energy_and_inclination():
 
 _REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "M",
                   "period": "P", "longitude_of_periapsis": "pomega", "mean_longitude": "l",
-                  "true_longitude": "theta", "time_of_periapsis": "T"}
+                  "true_longitude": "theta", "time_of_periapsis": "T",
+                  "eccentric_anomaly": "E"}
 
 
 @pytest.mark.parametrize("elements", [
@@ -114,6 +115,13 @@ _REBOUND_NAMES = {"raan": "Omega", "argp": "omega", "nu": "f", "mean_anomaly": "
     dict(period=7.0, e=0.2, inc=0.3, raan=0.4, argp=0.5, nu=0.3),
     dict(a=1.3, e=0.2, inc=2.8, raan=0.4, argp=0.5, time_of_periapsis=-1.7),
     dict(a=-1.3, e=1.7, inc=0.3, raan=0.4, argp=0.5, time_of_periapsis=2.1),
+    # nbodyleft: REBOUND's E (eccentric anomaly; the hyperbolic F when e > 1) under its long
+    # name (was an unknown keyword), retrograde, several revolutions, hyperbolas both ways
+    dict(a=1.3, e=0.2, inc=0.3, raan=0.4, argp=0.5, eccentric_anomaly=0.7),
+    dict(a=1.3, e=0.95, inc=2.8, raan=0.4, argp=0.5, eccentric_anomaly=-2.9),
+    dict(a=1.3, e=0.0, inc=0.3, raan=0.4, argp=0.5, eccentric_anomaly=13.0),
+    dict(a=-1.3, e=1.5, inc=0.3, raan=0.4, argp=0.5, eccentric_anomaly=0.7),
+    dict(a=-0.8, e=3.0, inc=2.5, eccentric_anomaly=-1.9),
 ])
 @pytest.mark.parametrize("primary", [None, 0])
 def test_add_by_elements_equals_rebound(elements, primary):
@@ -145,11 +153,18 @@ def test_add_names_rebounds_keywords_and_refuses_two_of_a_kind():
         sim.add(0.0, a=1.0, Omega=0.3, l=0.2, primary=0)
     for kwargs, what in ((dict(a=1.0, period=3.0), "size of the orbit, not a and period"),
                          (dict(a=1.0, argp=0.1, longitude_of_periapsis=0.2), "argument of"),
-                         (dict(a=1.0, nu=0.1, true_longitude=0.2), "position on the orbit")):
+                         (dict(a=1.0, nu=0.1, true_longitude=0.2), "position on the orbit"),
+                         *[(dict(a=1.0, eccentric_anomaly=0.1, **{k: 0.2}), "position on the orbit")
+                           for k in ("nu", "mean_anomaly", "mean_longitude", "true_longitude",
+                                     "time_of_periapsis")]):
         with pytest.raises(vv.InvalidInputError, match=what):
             sim.add(0.0, primary=0, **kwargs)
     with pytest.raises(vv.InvalidInputError, match="closed orbit"):
         sim.add(0.0, period=3.0, e=1.2, primary=0)
+    with pytest.raises(vv.InvalidInputError, match=r"E \(visviva: eccentric_anomaly\)"):
+        sim.add(0.0, a=1.0, E=0.3, primary=0)  # nbodyleft: the hint said "nu or mean_anomaly"
+    with pytest.raises(vv.InvalidInputError, match="parabolic"):
+        sim.add(0.0, p=1.0, e=1.0, eccentric_anomaly=0.3, primary=0)
     assert sim.N == 1
 
 

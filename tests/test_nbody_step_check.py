@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -259,3 +260,94 @@ def test_a_leapfrog_step_too_long_for_the_orbits_is_warned_about():
         soft.add(1.0)
         soft.add(1.0, r=[1.0, 0.0, 0.0], v=[0.0, 0.5, 0.0])
         soft.integrate(1.0)
+
+
+def _crossing(integrator="whfast", dt=None):
+    # two Jupiters on crossing orbits (a = 1, e = 0; a = 1.3, e = 0.3): 17 mutual Hill radii
+    # apart at the start, they first meet (within 3) after two orbits
+    sim = vv.Simulation(integrator, dt=dt) if dt else vv.Simulation(integrator)
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(1e-3, a=1.3, e=0.3, argp=2.0, nu=3.0, inc=0.01, primary=0)
+    sim.move_to_com()
+    return sim
+
+
+def test_a_close_encounter_met_during_the_run_is_warned_about_once():
+    # nbodyleft: the check saw the start of a call only; two Jupiters on crossing orbits that
+    # meet after two orbits ran in silence with WHFast at dt = P/40 (|dE/E| 4e-8 before their
+    # encounters, 0.054 after 100 orbits); now one warning names the time and the pair
+    P = 2 * math.pi
+    sim = _crossing(dt=P / 40)
+    E0 = sim.energy()
+    caught = _user_warnings(lambda: sim.integrate(np.linspace(0.0, 100 * P, 2001)[1:]))
+    assert len(caught) == 1
+    assert re.match(r"during the run, at t = 1[234]\.\d+ \(the start of the call, t = 0\.0, "
+                    r"was fine.*particles 1 and 2 are within 3 mutual Hill radii", caught[0])
+    assert abs(sim.energy() / E0 - 1) > 1e-2  # what the warning is about
+    assert _user_warnings(lambda: sim.integrate(110 * P)) == []  # once: not at every call
+
+
+def test_a_close_encounter_at_the_end_of_a_run_without_outputs_is_warned_about():
+    # nbodyleft: integrate(t) to a time the pair is close, 1,200 steps on (checked from 1,000)
+    from visviva.nbody import step_check as sc
+
+    P = 2 * math.pi
+    probe = _crossing(dt=P / 100)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        traj = probe.integrate(np.arange(1, 3001) * P / 100)
+    B = len(traj.t)
+    _, close, _ = sc._criteria(traj.positions, traj.velocities,
+                               np.repeat(probe.masses[None], B, axis=0), np.ones(B), True,
+                               False, None, None, np.ones(B))
+    bad = (P / 100 > sc.ENCOUNTER_STEP_FRACTION * close)
+    inside = np.flatnonzero(bad[1:-1] & bad[:-2] & bad[2:]) + 1  # amid a close passage
+    k = int(inside[inside >= sc.RUN_CHECK_STEPS + 200][0])
+    sim = _crossing(dt=P / 100)
+    caught = _user_warnings(lambda: sim.integrate(traj.t[k]))
+    assert len(caught) == 1 and "particles 1 and 2" in caught[0], caught
+    assert f"at t = {vv.errors.fmt_number(traj.t[k])}" in caught[0]
+    # an ensemble checks its members' final states alike, in one warning naming them
+    ens = vv.Ensemble.from_simulations([_crossing(dt=P / 100), two_planets(dt=P / 100),
+                                        _crossing(dt=P / 100)])
+    caught = _user_warnings(lambda: ens.integrate(traj.t[k]))
+    assert len(caught) == 1, caught
+    assert re.match(r"during the run: 2 of the 3 ensemble members .* \(0, 2; .*member 0, at "
+                    r"t = .*particles 1 and 2", caught[0]), caught
+    assert _user_warnings(lambda: ens.integrate(traj.t[k] + 15 * P)) == []  # once each
+
+
+def test_a_leapfrog_orbit_made_eccentric_during_the_run_is_warned_about():
+    # nbodyleft: a snapshot where a test particle's orbit has turned plunging (q = 1e-3)
+    from visviva.nbody import step_check as sc
+
+    sim = two_planets("leapfrog", dt=2 * math.pi / 100)
+    sim.add(0.0, a=1.3, primary=0)
+    x, v = sim.positions[None].repeat(2, axis=0), sim.velocities[None].repeat(2, axis=0)
+    v[1, 3] = [0.0, 0.03, 0.0]  # at r = 1.3 nearly at rest: falls to q ~ 1e-3
+    t = np.array([500.0, 1000.0]) * sim.dt
+    caught = _user_warnings(lambda: sc.check_run(sim, 0.0, t, x, v, stacklevel=3))
+    assert len(caught) == 1 and re.match(r"during the run, at t = 62\.83.*the leapfrog step",
+                                         caught[0]), caught
+
+
+def test_long_runs_of_well_resolved_systems_are_not_warned_about():
+    # nbodyleft: the run's check raises no false alarm: the solar system over 1,000 yr (default
+    # dt), a hierarchical triple and the two planets at P/40, with outputs and without
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sun = vv.nbody.solar_system()
+        sun.integrate(np.linspace(0.0, 1000.0, 501)[1:])
+        triple = vv.Simulation("whfast", dt=0.05)
+        triple.add(1.0)
+        triple.add(0.5, a=0.3, e=0.1, primary=0)
+        triple.add(0.1, a=2.0, e=0.2, inc=0.3)
+        triple.integrate(np.linspace(0.0, 200.0, 400)[1:])
+        triple.integrate(400.0)
+        for integrator in ("whfast", "leapfrog"):
+            two_planets(integrator, dt=2 * math.pi / 40).integrate(300.0)
+            ens = vv.Ensemble.from_simulations(
+                [two_planets(integrator, dt=2 * math.pi / 40) for _ in range(3)])
+            for t in (100.0, 200.0, 300.0):
+                ens.integrate(t)

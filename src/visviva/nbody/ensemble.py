@@ -268,6 +268,8 @@ class Ensemble:
             else:
                 errors, self._pack = advance_members(self._members, t, self.backend, self._pack,
                                                      owner=self)
+            # the states they reached: a close encounter met on the way (step_check.py)
+            _step_check.check_members_run(self, self._members, self._pack)
         _raise_first(errors)
 
     # ---- files -----------------------------------------------------------------------------------

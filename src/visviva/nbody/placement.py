@@ -10,7 +10,11 @@ names (REBOUND's in brackets), with REBOUND's conventions (Murray & Dermott 1999
 * ``mean_longitude`` (``l``): ``raan + argp + M`` or ``raan - argp - M``;
 * ``true_longitude`` (``theta``): ``raan + argp + nu`` or ``raan - argp - nu``;
 * ``time_of_periapsis`` (``T``): ``M = n (t - T)``, ``n = sqrt(GM / |a|^3)``, ``t`` the
-  simulation's time (elliptic and hyperbolic orbits).
+  simulation's time (elliptic and hyperbolic orbits);
+* ``eccentric_anomaly`` (``E``): ``tan(nu / 2) = sqrt((1 + e) / (1 - e)) tan(E / 2)``, and on a
+  hyperbola (e > 1) the hyperbolic anomaly ``F``: ``tan(nu / 2) = sqrt((e + 1) / (e - 1))
+  tanh(F / 2)``, as REBOUND 5.2.2's ``E_to_f`` takes ``E`` (Murray & Dermott 1999, eqs. 2.46;
+  Battin 1999, sec. 4.4); refused on a parabola.
 """
 
 from __future__ import annotations
@@ -30,10 +34,10 @@ __all__ = ["particle_state", "elements_to_state", "MORE_ELEMENTS"]
 _ELEMENT_NAMES = ("e", "inc", "raan", "argp", "nu", "mean_anomaly")
 #: The keywords of :meth:`visviva.Simulation.add` beyond its named ones (module docstring).
 MORE_ELEMENTS = ("period", "longitude_of_periapsis", "mean_longitude", "true_longitude",
-                 "time_of_periapsis")
+                 "time_of_periapsis", "eccentric_anomaly")
 _REBOUND_NAMES = {"Omega": "raan", "omega": "argp", "f": "nu", "P": "period",
                   "pomega": "longitude_of_periapsis", "l": "mean_longitude",
-                  "theta": "true_longitude", "T": "time_of_periapsis", "E": "nu or mean_anomaly",
+                  "theta": "true_longitude", "T": "time_of_periapsis", "E": "eccentric_anomaly",
                   "x": "r", "y": "r", "z": "r", "vx": "v", "vy": "v", "vz": "v", "r": "radius"}
 
 
@@ -49,7 +53,8 @@ def particle_state(sim, m, r, v, primary, more, **elements):
             f"Simulation.add got unknown keyword(s) {', '.join(unknown)}"
             + (f"; REBOUND's names: {', '.join(hints)}" if hints else "")
             + ". Its elements are a or p or period, e, inc, raan, argp or longitude_of_periapsis, "
-            "nu or mean_anomaly or mean_longitude or true_longitude or time_of_periapsis.")
+            "nu or mean_anomaly or mean_longitude or true_longitude or time_of_periapsis or "
+            "eccentric_anomaly.")
     a, p = elements.pop("a"), elements.pop("p")
     given = [k for k in _ELEMENT_NAMES if elements[k] is not None] + list(more)
     if a is None and p is None and "period" not in more:
@@ -140,6 +145,13 @@ def elements_to_state(sim, m, primary, a, e, inc, raan, argp, nu, M, p, more=Non
             raise InvalidInputError("give nu (not time_of_periapsis) for a parabolic orbit (e = 1).")
         T = sim.time_value(more[anomaly], anomaly)
         M = math.sqrt(gm / abs(p / (1.0 - e * e)) ** 3) * (sim.t - T)
+    elif anomaly == "eccentric_anomaly":  # E, or on a hyperbola F (REBOUND's E_to_f)
+        if e == 1.0:
+            raise InvalidInputError("give nu (not eccentric_anomaly) for a parabolic orbit (e = 1).")
+        E = _angle(more[anomaly], anomaly)
+        nu, status = (_kepler.true_from_eccentric(E, e) if e < 1.0
+                      else _kepler.true_from_hyperbolic(E, e))
+        raise_for_status(np.array([status]), "eccentric to true anomaly", E=E, e=e)
     if nu is None:
         if M is None:
             nu = 0.0

@@ -351,8 +351,9 @@ class Simulation(_chaos.ChaosIndicators, OrbitReadback):
             ``p`` raise :class:`~visviva.InvalidInputError`, as do elements beside ``r``/``v``.
         **more
             REBOUND's other elements under long names: ``period`` (for ``a``),
-            ``longitude_of_periapsis`` (for ``argp``), ``mean_longitude``, ``true_longitude``
-            or ``time_of_periapsis`` (for ``nu``); see :mod:`visviva.nbody.placement`.
+            ``longitude_of_periapsis`` (for ``argp``), ``mean_longitude``, ``true_longitude``,
+            ``time_of_periapsis`` or ``eccentric_anomaly`` (for ``nu``; hyperbolic: ``F``);
+            see :mod:`visviva.nbody.placement`.
         M : float, optional
             Deprecated alias of ``mean_anomaly`` (it differed from the mass ``m`` only by case);
             removed in the next release.

@@ -20,8 +20,11 @@ democratic heliocentric coordinates each body about particle 0. The integrator g
 may want it), with a :class:`UserWarning` once the step exceeds :data:`MAX_STEP_FRACTION` of the
 shortest timescale (an open orbit receding from its pericentre along the run is timed at its
 present distance: the pericentre is behind it). Jacobi WHFast integrates two bodies exactly at any step, so it is checked
-from three particles on. Only the state at the start of a call is checked: an orbit that turns
-eccentric during the run is not seen. Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
+from three particles on. The state at the start of a call is checked, and the run's later states
+by :func:`check_run` (the output snapshots, or the final state, every
+:data:`RUN_CHECK_STEPS` steps or more): an orbit that turns eccentric or a close encounter met
+during the run is warned about once, naming the time (one that begins and ends between two
+checked snapshots is not seen). Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
 
 Two bodies other than particle 0 within :data:`ENCOUNTER_HILL` mutual Hill radii (a moon, a
@@ -46,7 +49,7 @@ from ..errors import InvalidInputError, fmt_number
 
 __all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step",
            "check_members", "members_checked", "initial_dt", "ENCOUNTER_HILL",
-           "ENCOUNTER_STEP_FRACTION"]
+           "ENCOUNTER_STEP_FRACTION", "check_run", "RUN_CHECK_STEPS"]
 
 #: A WHFast step longer than this fraction of the shortest pericentre timescale is warned about.
 MAX_STEP_FRACTION = 0.2
@@ -63,6 +66,14 @@ ENCOUNTER_STEP_FRACTION = 0.002
 #: Pairs (massive x all) of one system beyond which its close encounters are not checked (a
 #: one-off ~0.05 s at this size; ensembles are checked in chunks of this many pair evaluations).
 ENCOUNTER_MAX_PAIRS = 100_000
+#: Steps of a run between two checks of its state by :func:`check_run` (a check of one state
+#: costs about as much as a 1-step call, 0.1-0.3 ms: a loop of short calls is checked once per
+#: this many steps, a long call at its end).
+RUN_CHECK_STEPS = 1000
+#: Steps between two snapshots of one call that :func:`check_run` checks (at most
+#: :data:`RUN_MAX_SNAPSHOTS` of them, ~5 us each).
+RUN_SNAPSHOT_STEPS = 10
+RUN_MAX_SNAPSHOTS = 512
 #: A fixed step below this fraction of a run's time scale is refused (IAS15's relative floor,
 #: :data:`visviva.core.nbody_ias15.DT_FLOOR_REL`).
 MIN_STEP_REL = 1e-15
@@ -125,16 +136,20 @@ def _pericentre_timescale(r, w, gm, direction):
     velocities ``w`` (B, K, 3) with ``gm`` (B, K); an open orbit receding along the run
     (``direction`` (B,) or (B, K), or None) is timed at its present distance."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / np.linalg.norm(r, axis=-1)
-        h = np.cross(r, w)
-        p = np.einsum("bij,bij->bi", h, h) / gm  # semi-latus rectum
+        dist = np.sqrt(np.einsum("bij,bij->bi", r, r))
+        energy = 0.5 * np.einsum("bij,bij->bi", w, w) - gm / dist
+        # |r x w|^2 by components (np.cross costs ~5x more on these small arrays)
+        h2 = ((r[..., 1] * w[..., 2] - r[..., 2] * w[..., 1]) ** 2
+              + (r[..., 2] * w[..., 0] - r[..., 0] * w[..., 2]) ** 2
+              + (r[..., 0] * w[..., 1] - r[..., 1] * w[..., 0]) ** 2)
+        p = h2 / gm  # semi-latus rectum
         e = np.sqrt(np.maximum(1.0 + 2.0 * energy * p / gm, 0.0))
         q = p / (1.0 + e)  # pericentre distance, also of open orbits
         closest = q
         if direction is not None:  # an open orbit receding along the run: q is behind it
             sign = direction[:, None] if direction.ndim == 1 else direction  # (B,) or (B, K)
             receding = (e >= 1.0) & (sign * np.einsum("bij,bij->bi", r, w) > 0)
-            closest = np.where(receding, np.linalg.norm(r, axis=-1), q)
+            closest = np.where(receding, dist, q)
         return 2.0 * math.pi * np.sqrt(closest**3 / gm), closest
 
 
@@ -185,6 +200,18 @@ def _encounter_timescales(x, v, m, G, radius=None, collide=None, direction=None)
     out[bb[order]] = np.where(ok, tau, math.inf)[order]
     pair[bb[order]] = np.stack([ii, jj], axis=1)[order]
     return out, pair
+
+
+def _criteria(x, v, m, G, jacobi, leapfrog: bool, radius=None, collide=None, direction=None):
+    """The timescales the step is checked against, for B states (arguments as
+    :func:`_timescales`'s): the orbits' (B,) (against :data:`MAX_STEP_FRACTION`; a leapfrog's
+    close pairs included), the close pairs' (B,) (against :data:`ENCOUNTER_STEP_FRACTION`;
+    ``inf`` for a leapfrog) and the pair of each (B, 2)."""
+    tau = _timescales(x, v, m, G, jacobi, radius, collide, direction)
+    close, pair = _encounter_timescales(x, v, m, G, radius, collide, direction)
+    if leapfrog:  # a close pair is one more orbit of the kicks
+        tau, close = np.minimum(tau, close), np.full(len(tau), math.inf)
+    return tau, close, pair
 
 
 def _too_close(dt: float, tau: float, pair) -> str:
@@ -276,25 +303,86 @@ def check_step(sim, times) -> None:
     if sim.state_arrays()["istate"][_nc.I_FRESH] == 0 and _CHECKED.get(sim) == key:
         return
     _CHECKED[sim] = key
+    _RUNS[sim] = [_run_key(sim), t0, False]  # check_run: from here, not warned yet
     if sim.N < (3 if jacobi else 2):
         return
     radius = None if sim.collision == "none" else sim.radii
-    tau = shortest_timescale(sim.positions, sim.velocities, sim.masses, sim.G, jacobi,
-                             radius, direction)
-    close, pair = _encounter_timescales(
-        sim.positions[None], sim.velocities[None], sim.masses[None], np.array([sim.G]),
-        None if radius is None else radius[None], np.array([radius is not None]),
+    tau, close, pair = _criteria(
+        sim.positions[None], sim.velocities[None], sim.masses[None], np.array([sim.G]), jacobi,
+        leapfrog, None if radius is None else radius[None], np.array([radius is not None]),
         np.array([direction]))
-    if leapfrog:  # a close pair is one more orbit of its kicks
-        tau = min(tau, float(close[0]))
     label = "leapfrog" if leapfrog else sim.coordinates
-    if abs(sim.dt) > MAX_STEP_FRACTION * tau:
-        warnings.warn(f"{_too_long(sim.dt, tau, label)}: {_ADVICE}", UserWarning,
+    if abs(sim.dt) > MAX_STEP_FRACTION * tau[0]:
+        _RUNS[sim][2] = True
+        warnings.warn(f"{_too_long(sim.dt, float(tau[0]), label)}: {_ADVICE}", UserWarning,
                       stacklevel=4)
-    tau = close
-    if not leapfrog and abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau[0]:
-        warnings.warn(_too_close(sim.dt, float(tau[0]), pair[0]) + ".", UserWarning,
+    if abs(sim.dt) > ENCOUNTER_STEP_FRACTION * close[0]:
+        _RUNS[sim][2] = True
+        warnings.warn(_too_close(sim.dt, float(close[0]), pair[0]) + ".", UserWarning,
                       stacklevel=4)
+
+
+def _run_key(sim) -> tuple:
+    """What a run's check depends on beside the particles: its step, size and splitting."""
+    return (sim.dt, sim.N, sim.coordinates, sim.integrator)
+
+
+# per simulation: [its _run_key, the time of its last checked state, whether it was warned]
+_RUNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
+    """Check the states a lone leapfrog or WHFast run reached (``x, v`` (K, N, 3) at the times
+    ``t`` (K,), the snapshots one kernel call wrote, the last its final state; ``t0``: where
+    the run began) by the criteria of :func:`check_step`, which sees the start of a call only:
+    warn once, naming the time and the pair, when a close encounter or an orbit that turned
+    eccentric makes the step too long (two Jupiters on crossing orbits, WHFast at dt = P/40:
+    |dE/E| 4e-8 -> 0.054 at their encounters, in silence).
+
+    The cost stays small: a state is checked only when :data:`RUN_CHECK_STEPS` steps have passed
+    since the last checked one (over calls), the snapshots between at most every
+    :data:`RUN_SNAPSHOT_STEPS` steps (:data:`RUN_MAX_SNAPSHOTS` per call). Once warned, a
+    simulation is not checked again until its step, particles or splitting change (as
+    :func:`check_step` decides)."""
+    leapfrog = sim.integrator == "leapfrog"
+    if (sim.integrator not in ("whfast", "leapfrog") or _MEMBERS_CHECKED.get() or len(t) == 0
+            or (leapfrog and sim.softening > 0) or sim.dt == 0.0):
+        return
+    jacobi = sim.coordinates == "jacobi" and not leapfrog
+    key, memo = _run_key(sim), _RUNS.get(sim)
+    if memo is None or memo[0] != key:  # a merger changed N: counted from the call's start
+        memo = _RUNS[sim] = [key, float(t0), False]
+    if memo[2] or sim.N < (3 if jacobi else 2):
+        return
+    steps = np.abs(np.asarray(t, dtype=float) - memo[1]) / abs(sim.dt)
+    if not steps[-1] >= RUN_CHECK_STEPS:
+        return
+    bins = np.floor(steps / RUN_SNAPSHOT_STEPS)  # the last snapshot of each bin, the final one
+    pick = np.flatnonzero(np.r_[bins[1:] != bins[:-1], True])
+    if len(pick) > RUN_MAX_SNAPSHOTS:
+        pick = pick[np.linspace(0, len(pick) - 1, RUN_MAX_SNAPSHOTS).round().astype(np.int64)]
+    memo[1] = float(t[-1])
+    b = len(pick)
+    radius = None if sim.collision == "none" else np.repeat(sim.radii[None], b, axis=0)
+    tau, close, pair = _criteria(
+        x[pick], v[pick], np.repeat(sim.masses[None], b, axis=0), np.full(b, sim.G), jacobi,
+        leapfrog, radius, np.full(b, radius is not None),
+        np.full(b, float(np.sign(t[-1] - t0))))
+    dt = abs(sim.dt)
+    with np.errstate(invalid="ignore"):
+        bad = (dt > MAX_STEP_FRACTION * tau) | (dt > ENCOUNTER_STEP_FRACTION * close)
+    if not bad.any():
+        return
+    k = int(np.flatnonzero(bad)[0])
+    memo[2] = True
+    label = "leapfrog" if leapfrog else sim.coordinates
+    what = (_too_close(sim.dt, float(close[k]), pair[k]) + "."
+            if dt > ENCOUNTER_STEP_FRACTION * close[k]
+            else f"{_too_long(sim.dt, float(tau[k]), label)}: {_ADVICE}")
+    warnings.warn(
+        f"during the run, at t = {fmt_number(float(t[pick[k]]))} (the start of the call, t = "
+        f"{fmt_number(float(t0))}, was fine; the states after it are not to be trusted): "
+        f"{what}", UserWarning, stacklevel=stacklevel)
 
 
 @contextlib.contextmanager
@@ -323,15 +411,7 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     leapfrog = members[0].integrator == "leapfrog"  # as in check_step
     if members[0].integrator not in ("whfast", "leapfrog"):
         return
-    if pack is not None:
-        x, v, m, radius, fstate, istate, poff = (pack.x, pack.v, pack.m, pack.radius,
-                                                 pack.fstate, pack.istate, pack.poff)
-    else:
-        states = [s.state_arrays() for s in members]
-        x, v, m, radius = (np.concatenate([st[k] for st in states])
-                           for k in ("x", "v", "m", "radius"))
-        fstate, istate = (np.stack([st[k] for st in states]) for k in ("fstate", "istate"))
-        poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
+    x, v, m, radius, fstate, istate, poff = _member_arrays(members, pack)
     n, dt = np.diff(poff), fstate[:, _nc.F_DT].copy()
     coords = istate[:, _nc.I_WH_COORDINATES].copy()
     direction = (np.zeros(len(n)) if t is None
@@ -343,29 +423,22 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
     else:
         todo |= (n != last[0]) | (dt != last[1]) | (coords != last[2]) | (direction != last[3])
     _CHECKED_ENSEMBLES[owner] = (n, dt, coords, direction)
+    run = _RUN_ENSEMBLES.get(owner)  # check_members_run counts from each member's check
+    if run is None or len(run[0]) != len(n):
+        run = _RUN_ENSEMBLES[owner] = [fstate[:, _nc.F_T].copy(), np.zeros(len(n), dtype=bool)]
+    run[0][todo], run[1][todo] = fstate[todo, _nc.F_T], False
     jacobi = (coords == 0) & (not leapfrog)
     todo &= (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0)
     if leapfrog:
         todo &= fstate[:, _nc.F_SOFT2] == 0.0
     if not todo.any():
         return
-    ks = np.flatnonzero(todo)
-    tau, close = np.full(len(n), math.inf), np.full(len(n), math.inf)
-    pairs = np.zeros((len(n), 2), dtype=np.int64)
-    for size in np.unique(n[ks]).tolist():
-        for jac in (True, False):
-            group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
-            if len(group):
-                idx = poff[group][:, None] + np.arange(size)
-                args = (x[idx], v[idx], m[idx], fstate[group, _nc.F_G])
-                more = (radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
-                tau[group] = _timescales(*args, jac, *more)
-                close[group], pairs[group] = _encounter_timescales(*args, *more)
-    if leapfrog:  # a close pair is one more orbit of the kicks
-        tau, close = np.minimum(tau, close), np.full(len(n), math.inf)
+    tau, close, pairs = _member_criteria(todo, leapfrog, jacobi, direction, x, v, m, radius,
+                                         fstate, istate, poff)
     with np.errstate(invalid="ignore"):
         bad = np.flatnonzero(todo & (np.abs(dt) > MAX_STEP_FRACTION * tau))
         near = np.flatnonzero(todo & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close))
+    run[1][bad], run[1][near] = True, True  # check_members_run: warned already
     if len(near):
         k = int(near[0])
         warnings.warn(
@@ -386,3 +459,81 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
         f"members ({listed}); the worst, member {worst}: "
         f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
         UserWarning, stacklevel=stacklevel)
+
+
+# per ensemble: [the time of each member's last checked state, whether it was warned]
+_RUN_ENSEMBLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _member_arrays(members, pack=None) -> tuple:
+    """``x, v, m, radius, fstate, istate, poff`` of an ensemble's members: the pack's arrays,
+    or their states concatenated."""
+    if pack is not None:
+        return (pack.x, pack.v, pack.m, pack.radius, pack.fstate, pack.istate, pack.poff)
+    states = [s.state_arrays() for s in members]
+    x, v, m, radius = (np.concatenate([st[k] for st in states])
+                       for k in ("x", "v", "m", "radius"))
+    fstate, istate = (np.stack([st[k] for st in states]) for k in ("fstate", "istate"))
+    poff = np.concatenate([[0], np.cumsum([s.N for s in members])]).astype(np.int64)
+    return x, v, m, radius, fstate, istate, poff
+
+
+def _member_criteria(todo, leapfrog, jacobi, direction, x, v, m, radius, fstate, istate, poff):
+    """:func:`_criteria` of the members ``todo`` (M,) (``inf`` for the others), grouped by
+    size and splitting."""
+    n, ks = np.diff(poff), np.flatnonzero(todo)
+    tau, close = np.full(len(n), math.inf), np.full(len(n), math.inf)
+    pairs = np.zeros((len(n), 2), dtype=np.int64)
+    for size in np.unique(n[ks]).tolist():
+        for jac in (True, False):
+            group = ks[(n[ks] == size) & (jacobi[ks] == jac)]
+            if len(group):
+                idx = poff[group][:, None] + np.arange(size)
+                tau[group], close[group], pairs[group] = _criteria(
+                    x[idx], v[idx], m[idx], fstate[group, _nc.F_G], jac, leapfrog,
+                    radius[idx], istate[group, _nc.I_COLLISIONS] != 0, direction[group])
+    return tau, close, pairs
+
+
+def check_members_run(owner, members, pack=None, stacklevel: int = 3) -> None:
+    """:func:`check_run` for an ensemble's ``members`` after :meth:`Ensemble.integrate`
+    advanced them (their final states; :func:`check_members` saw their start): one warning
+    naming the members whose state is found wrong, each member warned once (until
+    :func:`check_members` checks it afresh), and checked when :data:`RUN_CHECK_STEPS` of its
+    steps have passed since its last checked state."""
+    run = _RUN_ENSEMBLES.get(owner)
+    leapfrog = members[0].integrator == "leapfrog"
+    if run is None or members[0].integrator not in ("whfast", "leapfrog"):
+        return
+    x, v, m, radius, fstate, istate, poff = _member_arrays(members, pack)
+    n, t_now, dt = np.diff(poff), fstate[:, _nc.F_T], fstate[:, _nc.F_DT]
+    if len(run[0]) != len(n):
+        return
+    jacobi = (istate[:, _nc.I_WH_COORDINATES] == 0) & (not leapfrog)
+    with np.errstate(invalid="ignore"):
+        due = (~run[1] & (np.abs(t_now - run[0]) >= RUN_CHECK_STEPS * np.abs(dt))
+               & (n >= np.where(jacobi, 3, 2)) & (dt != 0.0) & (m[poff[:-1]] > 0.0))
+    if leapfrog:
+        due &= fstate[:, _nc.F_SOFT2] == 0.0
+    if not due.any():
+        return
+    tau, close, pairs = _member_criteria(due, leapfrog, jacobi, np.sign(t_now - run[0]), x, v,
+                                         m, radius, fstate, istate, poff)
+    run[0][due] = t_now[due]
+    with np.errstate(invalid="ignore"):
+        near = due & (np.abs(dt) > ENCOUNTER_STEP_FRACTION * close)
+        bad = near | (due & (np.abs(dt) > MAX_STEP_FRACTION * tau))
+    if not bad.any():
+        return
+    run[1][bad] = True
+    listed = np.flatnonzero(bad)
+    k = int(listed[0])
+    name = "leapfrog" if leapfrog else "jacobi" if jacobi[k] else "democratic_heliocentric"
+    what = (_too_close(float(dt[k]), float(close[k]), pairs[k]) + "." if near[k]
+            else f"{_too_long(float(dt[k]), float(tau[k]), name)}: {_ADVICE}")
+    warnings.warn(
+        f"during the run: {len(listed)} of the {len(n)} ensemble members reached a state their "
+        f"step is wrong for ({', '.join(map(str, listed[:20].tolist()))}"
+        f"{', ...' if len(listed) > 20 else ''}; the start of the call was fine, the states "
+        f"after are not to be trusted); member {k}, at t = {fmt_number(float(t_now[k]))}: "
+        f"{what}", UserWarning, stacklevel=stacklevel)

@@ -16,6 +16,7 @@ import numpy as np
 from ..core import gravity as _gravity
 from ..core import nbody_common as _nc
 from ..errors import InvalidInputError, InvalidStateError, fmt_number
+from . import step_check as _step_check
 
 __all__ = ["Trajectory", "Recording", "coincident_pairs"]
 
@@ -229,9 +230,10 @@ class Recording:
         return int(istate[_nc.I_NOUT])
 
     def after_call(self, status: int, done0: int) -> bool:
-        """Copy the snapshots the call wrote (outputs ``done0`` on), update the bar, and act on
-        the status (:meth:`visviva.Simulation.after_kernel`): True when the run is done, False
-        to call the kernel again; events raise."""
+        """Copy the snapshots the call wrote (outputs ``done0`` on), check their states
+        (:func:`visviva.nbody.step_check.check_run`), update the bar, and act on the status
+        (:meth:`visviva.Simulation.after_kernel`): True when the run is done, False to call
+        the kernel again; events raise."""
         sim = self.sim
         done = int(sim.state_arrays()["istate"][_nc.I_NOUT])
         if done > done0:
@@ -240,6 +242,9 @@ class Recording:
             # the masses and offset of the call: a merger changes them only between calls
             self.out_m[done0:done, self.alive] = sim.masses
             self.out_offset[done0:done] = sim.energy_offset
+            # the states the run reached: a close encounter met on the way (step_check.py)
+            _step_check.check_run(sim, self.t_start, self.out_t[done0:done],
+                                  self.chunk_x[done0:done], self.chunk_v[done0:done])
         if self.bar is not None:
             self.bar.n = abs(sim.t - self.t_start)
             self.bar.refresh()

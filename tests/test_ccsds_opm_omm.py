@@ -606,7 +606,7 @@ def test_non_positive_definite_covariances_warn_when_read_and_are_kept():
     import warnings
 
     from test_ccsds_oem import OEM_KVN
-    from visviva.conjunctions.probability import _check_psd
+    from visviva._covariance import not_psd
 
     # 5e-3 / sqrt(1e-3 * 4e-3) = 2.5, in the first of the two matrices
     oem_text = OEM_KVN.replace(" 2.0E-5  4.0E-3", " 5.0E-3  4.0E-3", 1)
@@ -630,7 +630,7 @@ def test_non_positive_definite_covariances_warn_when_read_and_are_kept():
         vv.read_omm(omm_text)
     m = np.diag([1.0, 1.0, 1e-3, 1e-7, 1e-7, 1e-7])
     m[0, 1] = m[1, 0] = 1.0 + 1e-18  # smallest eigenvalue -1e-18 of the largest
-    assert not _check_psd(m, "c", full=True)
+    assert not not_psd(m, full=True)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         vv.read_oem(OEM_KVN)

@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 
-from .._covariance import _symmetric
+from .._covariance import _symmetric, not_psd
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Keyword
 from .orbit_frames import READ_NAMES, FrameSpec, frame_spec, inverse_jacobian, jacobian
@@ -176,7 +176,8 @@ def check_record_variances(record, source: str) -> None:
 def warn_not_positive_definite(blocks, source: str, stacklevel: int = 4) -> None:
     """Warn (once) when a covariance as read is not positive semi-definite; keep it as written.
 
-    The test is the one :func:`visviva.conjunctions.collision_probability` applies before
+    The test (:func:`visviva._covariance.not_psd`) is the one
+    :func:`visviva.conjunctions.collision_probability` applies before
     repairing a covariance (the position block's eigenvalues down to -1e-10 of the largest, the
     correlation matrix's down to -1e-3), so rounding-level negatives of tabulated values stay
     silent, and a matrix that ``propagate_covariance`` would refuse, or the Pc code repair, is
@@ -191,9 +192,7 @@ def warn_not_positive_definite(blocks, source: str, stacklevel: int = 4) -> None
     stacklevel : int
         Passed to :func:`warnings.warn` (the default points at the caller of ``read_oem``).
     """
-    from ..conjunctions.probability import _check_psd
-
-    bad = [(m, line) for m, line in blocks if _check_psd(m, "covariance", full=True)]
+    bad = [(m, line) for m, line in blocks if not_psd(m, full=True)]
     if not bad:
         return
     m, line = bad[0]

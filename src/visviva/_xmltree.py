@@ -11,10 +11,11 @@ The CCSDS NDM/XML reader (:mod:`visviva.ccsds.ndmxml`) and the OMM XML catalogue
 from __future__ import annotations
 
 import gc
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from xml.parsers import expat
 
-__all__ = ["XMLNode", "parse_xml"]
+__all__ = ["XMLNode", "parse_xml", "cyclic_gc_paused"]
 
 
 def _local(name: str) -> str:
@@ -72,6 +73,21 @@ class XMLNode:
         for tag in path.split("/"):
             nodes = [c for n in nodes for c in n.findall(tag)]
         return nodes
+
+
+@contextmanager
+def cyclic_gc_paused():
+    """Pause Python's cyclic garbage collector (reference counting goes on) while a tree of
+    :class:`XMLNode` objects is built and read: the tree holds no reference cycles, and the
+    collector, triggered again and again by the allocations, would walk the whole growing tree
+    each time (~1e6 nodes for 1e5 OEM states: seconds). Restored as it was on exit."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if collecting:
+            gc.enable()
 
 
 def parse_xml(text: str, error) -> XMLNode:
@@ -136,10 +152,12 @@ def parse_xml(text: str, error) -> XMLNode:
     # an entity declared SYSTEM "file-or-url" and used in the text is refused, not fetched,
     # nor silently left out of the value it stands in (an external DTD is not read either)
     parser.ExternalEntityRefHandler = external
-    # the tree holds no reference cycles: the cyclic collector, run again and again over the
-    # growing tree while it is built (~1e6 nodes for 1e5 OEM states), only costs time
-    collecting = gc.isenabled()
-    gc.disable()
+    with cyclic_gc_paused():
+        _run(parser, text, error)
+    return top.children[0]
+
+
+def _run(parser, text, error):
     try:
         # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
         # XML declaration names (a declared 'latin-1' or an unknown name would otherwise
@@ -148,7 +166,3 @@ def parse_xml(text: str, error) -> XMLNode:
     except expat.ExpatError as exc:
         raise error(exc.lineno, f"the XML is not well formed: {expat.ErrorString(exc.code)} "
                                 f"(column {exc.offset + 1})") from None
-    finally:
-        if collecting:
-            gc.enable()
-    return top.children[0]

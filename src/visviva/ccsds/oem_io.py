@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 
+from .._xmltree import cyclic_gc_paused
 from ..errors import InvalidInputError
 from .covariance import (
     COVARIANCE_KEYWORDS,
@@ -104,7 +105,8 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
 
     text, name = read_text(source)
     if looks_like_xml(text):
-        eph = _read_xml(text, name, mission_epoch)
+        with cyclic_gc_paused():  # (the element tree is freed on return, before the collector)
+            eph = _read_xml(text, name, mission_epoch)
     else:
         eph = _read_kvn(text, name, mission_epoch)
     segs = eph.segments

@@ -595,3 +595,44 @@ def test_opm_keplerian_elements_are_checked_against_the_state_vector():
     radians = OPM_KVN.replace("INCLINATION = 25.720971", "INCLINATION = 0.448920")
     with pytest.warns(UserWarning, match="do not describe the state vector's orbit"):
         vv.read_opm(radians)
+
+
+def test_non_positive_definite_covariances_warn_when_read_and_are_kept():
+    """A covariance with a correlation of 2.5 (CY_X = 2.5 sigma_x sigma_y) was read without a
+    word; propagate_covariance later refused it and collision_probability repaired it. Reading
+    an OEM (KVN, XML), OPM or OMM holding one now warns once per file, naming the first such
+    block's line and its largest correlation, and keeps the numbers as written; the files as
+    published, and rounding-level negatives (a -1e-18 relative eigenvalue), stay silent."""
+    import warnings
+
+    from test_ccsds_oem import OEM_KVN
+    from visviva._covariance import not_psd
+
+    # 5e-3 / sqrt(1e-3 * 4e-3) = 2.5, in the first of the two matrices
+    oem_text = OEM_KVN.replace(" 2.0E-5  4.0E-3", " 5.0E-3  4.0E-3", 1)
+    line = oem_text.splitlines().index("EPOCH = 2024-01-31T00:00:00") + 1
+    with pytest.warns(UserWarning, match=rf"covariance at line {line} is not positive "
+                      r"semi-definite.*largest correlation \|CY_X\|.* = 2\.5") as rec:
+        eph = vv.read_oem(oem_text)
+    assert sum("positive semi-definite" in str(w.message) for w in rec) == 1
+    assert eph.segments[0].covariances[0].matrix[1, 0] == 5.0e-3  # kept as written
+    xml = vv.write_oem(eph, format="xml")
+    with pytest.warns(UserWarning, match=r"covariance at line \d+ is not positive semi-def"):
+        assert vv.read_oem(xml).segments[0].covariances[0].matrix[1, 0] == 5.0e-3
+    # OPM and OMM: CY_X = 2.5 sigma_x sigma_y
+    sx, sy = math.sqrt(3.331349476038534e-04), math.sqrt(6.782421679971363e-04)
+    cy_x = f"CY_X = {2.5 * sx * sy!r} [km**2]"
+    opm_text = OPM_KVN.replace("CY_X = 4.618927349220216e-04 [km**2]", cy_x)
+    with pytest.warns(UserWarning, match=r"not positive semi-definite.*\|CY_X\|.* = 2\.5"):
+        vv.read_opm(opm_text)
+    omm_text = _omm_with_covariance("RTN").replace("CY_X = 4.618927349220216e-04 [km**2]", cy_x)
+    with pytest.warns(UserWarning, match=r"not positive semi-definite.*\|CY_X\|.* = 2\.5"):
+        vv.read_omm(omm_text)
+    m = np.diag([1.0, 1.0, 1e-3, 1e-7, 1e-7, 1e-7])
+    m[0, 1] = m[1, 0] = 1.0 + 1e-18  # smallest eigenvalue -1e-18 of the largest
+    assert not not_psd(m, full=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.read_oem(OEM_KVN)
+        vv.read_opm(OPM_KVN)
+        vv.read_omm(_omm_with_covariance("RTN"))

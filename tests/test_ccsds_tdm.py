@@ -647,8 +647,11 @@ def test_two_angle_rows_at_one_epoch_round_trip(fmt):
         obs = vv.od.simulate_observations(TRUTH, times, kind, np.radians(1e-3), STATIONS[0],
                                           seed=4)
         text = vv.write_tdm(obs, format=fmt)
-        assert len(vv.read_tdm(text).segments) == 3
-        back = vv.read_tdm(text).to_observations({"Colorado": STATIONS[0]}, SIGMA)
+        # (two observations at one epoch: the reader says so, and keeps both)
+        with pytest.warns(UserWarning, match="conflicting .* duplicate observation"):
+            tdm = vv.read_tdm(text)
+        assert len(tdm.segments) == 3
+        back = tdm.to_observations({"Colorado": STATIONS[0]}, SIGMA)
         assert np.abs((back.times.tt - obs.times.tt).sec).max() < 1e-9
         got = sorted(map(tuple, back.values))
         np.testing.assert_allclose(got, sorted(map(tuple, obs.values)), rtol=4e-16, atol=0)
@@ -751,3 +754,36 @@ def test_a_tdm_of_uncorrected_data_says_which_media_they_hold(troposphere):
     assert f"troposphere={troposphere!r}" in note
     plain = vv.od.simulate_observations(TRUTH, times, "range", 1e-3, STATIONS[0], seed=3)
     assert not vv.read_tdm(vv.write_tdm(plain)).segments[0].metadata.comments
+
+
+def test_duplicate_observations_at_one_epoch_warn_naming_both_lines():
+    """Two RANGE lines at the same epoch for the same participants (25 km apart) were read
+    silently as two observations, and a fit counted both. Reading now warns once, naming both
+    lines and whether they conflict or repeat each other; the data are kept as written. The
+    same epoch written another way (day-of-year) is the same epoch; another keyword, another
+    epoch or another path is no duplicate."""
+    data = ("RANGE = 2024-02-14T10:00:00 1201.25\nRANGE = 2024-02-14T10:00:10 1176.26\n"
+            "RANGE = 2024-045T10:00:00.000 1226.25\nDOPPLER_INSTANTANEOUS = "
+            "2024-02-14T10:00:00 -2.5")
+    text = tdm_text(TWO_WAY, data)
+    lines = text.splitlines()
+    l1, l3 = (lines.index(x) + 1 for x in ("RANGE = 2024-02-14T10:00:00 1201.25",
+                                          "RANGE = 2024-045T10:00:00.000 1226.25"))
+    with pytest.warns(UserWarning, match=rf"1 conflicting \(first: RANGE = 1201.25 at line "
+                      rf"{l1} and RANGE = 1226.25 at line {l3}") as rec:
+        tdm = vv.read_tdm(text)
+    assert sum("duplicate" in str(w.message) for w in rec) == 1
+    assert tdm.segments[0].values.tolist() == [1201.25, 1176.26, 1226.25, -2.5]
+    same = tdm_text(TWO_WAY, data.replace("1226.25", "1201.25"))
+    with pytest.warns(UserWarning, match=r"1 identical \(first: RANGE = 1201.25 at line"):
+        vv.read_tdm(same)
+    # two segments with the same participants count too; another path does not
+    second = tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1201.26")
+    two = tdm_text(TWO_WAY, "RANGE = 2024-02-14T10:00:00 1201.25") + "\n" + \
+        second[second.index("META_START"):]
+    with pytest.warns(UserWarning, match=r"1 conflicting"):
+        vv.read_tdm(two)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.read_tdm(two.replace("PATH = 1,2,1", "PATH = 2,1,2", 1))
+        vv.read_tdm(tdm_text(TWO_WAY, data.replace("2024-045T10:00:00.000", "2024-045T10:00:20")))

@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import InvalidInputError, ShapeError
 
-__all__ = ["as_covariance", "require_psd", "block_rotation", "to_local",
+__all__ = ["as_covariance", "require_psd", "not_psd", "block_rotation", "to_local",
            "from_local", "frame_code", "KilometreCovariance", "km_covariance", "local_axes_of",
            "in_frame"]
 
@@ -154,6 +154,22 @@ def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
             "(symmetrise it with (C + C.T) / 2 if the asymmetry is round-off)."
         )
     return 0.5 * (arr + np.swapaxes(arr, -1, -2))
+
+
+def not_psd(c, full=False) -> bool:
+    """True when ``c`` is not positive semi-definite: its position block, or (``full``, for
+    the methods that use the velocities too) also the whole matrix, tested on its correlation
+    matrix so that m^2 beside m^2/s^2 hides no negative eigenvalue, down to -1e-3: the
+    rounding of tabulated covariances leaves a few 1e-5 (CARA's Alfano case 6, symmetrised),
+    a CDM's four or five digits up to ~1e-3, and the flux integrals clip at each time anyway."""
+    w = np.linalg.eigvalsh(c[:3, :3])
+    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
+        return True
+    if full and c.shape[-1] == 6:
+        d = np.sqrt(np.abs(np.diag(c)))
+        d = np.where(d > 0, d, 1.0)
+        return bool(np.linalg.eigvalsh(c / np.outer(d, d))[0] < -1e-3)
+    return False
 
 
 def require_psd(cov: np.ndarray, name: str = "cov", tol: float = 1e-10) -> None:

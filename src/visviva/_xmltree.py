@@ -10,10 +10,12 @@ The CCSDS NDM/XML reader (:mod:`visviva.ccsds.ndmxml`) and the OMM XML catalogue
 
 from __future__ import annotations
 
+import gc
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from xml.parsers import expat
 
-__all__ = ["XMLNode", "parse_xml"]
+__all__ = ["XMLNode", "parse_xml", "cyclic_gc_paused"]
 
 
 def _local(name: str) -> str:
@@ -73,6 +75,21 @@ class XMLNode:
         return nodes
 
 
+@contextmanager
+def cyclic_gc_paused():
+    """Pause Python's cyclic garbage collector (reference counting goes on) while a tree of
+    :class:`XMLNode` objects is built and read: the tree holds no reference cycles, and the
+    collector, triggered again and again by the allocations, would walk the whole growing tree
+    each time (~1e6 nodes for 1e5 OEM states: seconds). Restored as it was on exit."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if collecting:
+            gc.enable()
+
+
 def parse_xml(text: str, error) -> XMLNode:
     """Parse XML text into :class:`XMLNode` objects; the root node is returned.
 
@@ -90,34 +107,41 @@ def parse_xml(text: str, error) -> XMLNode:
     """
     parser = expat.ParserCreate()
     parser.buffer_text = True
-    stack: list[XMLNode] = []
-    root: list[XMLNode] = []
+    parser.buffer_size = 1 << 16  # fewer splits of long text (joined by buffer_text anyway)
+    top = XMLNode("", {}, 0, "", [])  # holds the root element
+    stack: list[XMLNode] = []  # the ancestors of ``current``
+    current = top
     names: dict[str, str] = {}
+    plain: set[str] = set()  # attribute names kept as they are (no prefix, no xmlns)
 
-    def local(name):
-        out = names.get(name)
-        if out is None:
-            out = names[name] = _local(name)
-        return out
+    def attributes(attrs):
+        # namespace declarations (xmlns, xmlns:xsi) are not attributes of the element
+        return {_local(k): v for k, v in attrs.items()
+                if k != "xmlns" and not k.startswith("xmlns:")}
 
     def start(name, attrs):
-        # namespace declarations (xmlns, xmlns:xsi) are not attributes of the element
-        node = XMLNode(local(name), {local(k): v for k, v in attrs.items()
-                                     if k != "xmlns" and not k.startswith("xmlns:")}
-                       if attrs else {}, parser.CurrentLineNumber)
-        if stack:
-            stack[-1].children.append(node)
-        else:
-            root.append(node)
-        stack.append(node)
+        nonlocal current
+        tag = names.get(name)
+        if tag is None:
+            tag = names[name] = _local(name)
+        if attrs and not plain.issuperset(attrs):
+            kept = attributes(attrs)
+            if kept.keys() == attrs.keys():
+                plain.update(attrs)
+            attrs = kept
+        # (expat gives each element a dict of its own: it is the node's)
+        node = XMLNode(tag, attrs, parser.CurrentLineNumber, "", [])
+        current.children.append(node)
+        stack.append(current)
+        current = node
 
     def end(name):
-        node = stack.pop()
-        node.text = node.text.strip()
+        nonlocal current
+        current.text = current.text.strip()
+        current = stack.pop()
 
     def chars(data):
-        if stack:
-            stack[-1].text += data
+        current.text += data
 
     def external(context, base, system_id, public_id):
         return 0  # not fetched: expat then stops with "error in processing external entity"
@@ -128,6 +152,12 @@ def parse_xml(text: str, error) -> XMLNode:
     # an entity declared SYSTEM "file-or-url" and used in the text is refused, not fetched,
     # nor silently left out of the value it stands in (an external DTD is not read either)
     parser.ExternalEntityRefHandler = external
+    with cyclic_gc_paused():
+        _run(parser, text, error)
+    return top.children[0]
+
+
+def _run(parser, text, error):
     try:
         # text, not bytes: expat then reads it as the Unicode it is and ignores the encoding an
         # XML declaration names (a declared 'latin-1' or an unknown name would otherwise
@@ -136,4 +166,3 @@ def parse_xml(text: str, error) -> XMLNode:
     except expat.ExpatError as exc:
         raise error(exc.lineno, f"the XML is not well formed: {expat.ErrorString(exc.code)} "
                                 f"(column {exc.offset + 1})") from None
-    return root[0]

@@ -7,15 +7,18 @@ Keyword ``C<row>_<column>`` over (X, Y, Z, X_DOT, Y_DOT, Z_DOT), e.g. ``CX_X``, 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from .._covariance import _symmetric
+from .._covariance import _symmetric, not_psd
 from ..errors import InvalidInputError
 from .grammar import CCSDSFormatError, Keyword
 from .orbit_frames import READ_NAMES, FrameSpec, frame_spec, inverse_jacobian, jacobian
 
 __all__ = ["AXES", "COVARIANCE_KEYWORDS", "matrix_from_values", "values_from_matrix",
-           "matrix_from_rows", "check_variance", "check_record_variances", "on_state_axes",
+           "matrix_from_rows", "check_variance", "check_record_variances", "warn_not_positive_definite",
+           "on_state_axes",
            "ORBIT_RELATIVE_FRAMES", "local_frame", "from_state_axes", "sun_from"]
 
 AXES = ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT")
@@ -168,6 +171,46 @@ def check_record_variances(record, source: str) -> None:
         key = f"C{a}_{a}"
         if key in record:
             check_variance(record[key], axis, record.line_of(key), source)
+
+
+def warn_not_positive_definite(blocks, source: str, stacklevel: int = 4) -> None:
+    """Warn (once) when a covariance as read is not positive semi-definite; keep it as written.
+
+    The test (:func:`visviva._covariance.not_psd`) is the one
+    :func:`visviva.conjunctions.collision_probability` applies before
+    repairing a covariance (the position block's eigenvalues down to -1e-10 of the largest, the
+    correlation matrix's down to -1e-3), so rounding-level negatives of tabulated values stay
+    silent, and a matrix that ``propagate_covariance`` would refuse, or the Pc code repair, is
+    flagged when the file is read.
+
+    Parameters
+    ----------
+    blocks : iterable of (ndarray (6, 6), int or None)
+        Each covariance (km, km/s based units) with the line its block starts on.
+    source : str
+        File name, for the message.
+    stacklevel : int
+        Passed to :func:`warnings.warn` (the default points at the caller of ``read_oem``).
+    """
+    bad = [(m, line) for m, line in blocks if not_psd(m, full=True)]
+    if not bad:
+        return
+    m, line = bad[0]
+    d = np.sqrt(np.abs(np.diag(m)))
+    d = np.where(d > 0, d, 1.0)
+    corr = m / np.outer(d, d)
+    off = np.abs(corr - np.diag(np.diag(corr)))
+    i, j = sorted(np.unravel_index(int(np.argmax(off)), off.shape), reverse=True)
+    where = f"line {line}" if line is not None else "a block"
+    more = f" ({len(bad) - 1} more such block{'s' if len(bad) > 2 else ''} in the file)" \
+        if len(bad) > 1 else ""
+    warnings.warn(
+        f"{source}: the covariance at {where} is not positive semi-definite{more}: its "
+        f"correlation matrix has smallest eigenvalue {np.linalg.eigvalsh(corr)[0]:.3g} and "
+        f"largest correlation |C{AXES[i]}_{AXES[j]}| / (sigma sigma) = {off[i, j]:.3g} (a "
+        "correlation lies in [-1, 1]). Kept as written; propagate_covariance refuses it and "
+        "collision_probability repairs it: check the covariance source (a wrong row order or "
+        "unit?).", UserWarning, stacklevel=stacklevel)
 
 
 def on_state_axes(matrix, cov_frame, ref_frame, state_frame, r, v, where, raw, gm=None,

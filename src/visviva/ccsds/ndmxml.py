@@ -169,6 +169,7 @@ def hoist_comments(node: XMLNode, containers: set, source: str) -> None:
 
 _SCHEMA_ATTRIBUTES = frozenset({"noNamespaceSchemaLocation", "schemaLocation"})
 _ROOT_ATTRIBUTES = _SCHEMA_ATTRIBUTES | {"id", "version"}
+_UNITS = frozenset({"units"})  # compared with an attribute dict's keys
 
 
 def check_attributes(root: XMLNode, message: XMLNode, source: str, data_lines=()) -> None:
@@ -234,7 +235,11 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str, data_lines=()
                 "belongs in a keyword element (or a <COMMENT>)", line=node.line, source=source)
         # (the other children of an <ndm> are named by message_root's warning)
         wrapper = node is root and root is not message
-        stack.extend([(message, node)] if wrapper else [(c, node) for c in reversed(node.children)])
+        if wrapper:
+            stack.append((message, node))
+        else:  # (a leaf with no attribute but units has nothing to check: not stacked)
+            stack.extend([(c, node) for c in reversed(node.children)
+                          if c.children or (c.attrib and c.attrib.keys() != _UNITS)])
     if dropped:
         import warnings
 

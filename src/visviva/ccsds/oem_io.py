@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 
+from .._xmltree import cyclic_gc_paused
 from ..errors import InvalidInputError
 from .covariance import (
     COVARIANCE_KEYWORDS,
@@ -14,6 +15,7 @@ from .covariance import (
     matrix_from_rows,
     matrix_from_values,
     values_from_matrix,
+    warn_not_positive_definite,
 )
 from .grammar import EPOCH_PATTERN, CCSDSFormatError, Record, Section, format_float, parse_float
 from .grammar import Keyword as K
@@ -103,7 +105,8 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
 
     text, name = read_text(source)
     if looks_like_xml(text):
-        eph = _read_xml(text, name, mission_epoch)
+        with cyclic_gc_paused():  # (the element tree is freed on return, before the collector)
+            eph = _read_xml(text, name, mission_epoch)
     else:
         eph = _read_kvn(text, name, mission_epoch)
     segs = eph.segments
@@ -116,7 +119,7 @@ def read_oem(source, *, mission_epoch=None) -> Ephemeris:
 def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
     cursor = KVNCursor(text, name)
     header = read_kvn_header(cursor, HEADER, "OEM")
-    segments = []
+    segments, cov_lines = [], []
     while not cursor.at_end():
         block = read_kvn_metadata_block(
             cursor, METADATA, "OEM", not segments,
@@ -132,7 +135,7 @@ def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
         epochs, numbers = _state_lines(rows, name)
         covariances = []
         if cursor.at_block("COVARIANCE"):
-            covariances = _kvn_covariances(cursor)
+            covariances = _kvn_covariances(cursor, cov_lines)
             if not cursor.at_end() and all(line.kind == "comment"
                                            for line in cursor.lines[cursor.pos:]):
                 # comments after the last block of the file: kept with the segment's last
@@ -145,6 +148,9 @@ def _read_kvn(text: str, name: str, mission_epoch=None) -> Ephemeris:
         segments.append(seg)
     if not segments:
         raise cursor.error("the OEM has no segment (META_START ... META_STOP and state lines)")
+    warn_not_positive_definite(
+        zip([c.matrix for seg in segments for c in seg.covariances], cov_lines, strict=True),
+        name)
     return Ephemeris(segments, header)
 
 
@@ -201,7 +207,8 @@ def _state_lines_checked(rows, name):
     return epochs, numbers
 
 
-def _kvn_covariances(cursor: KVNCursor) -> list:
+def _kvn_covariances(cursor: KVNCursor, lines: list) -> list:
+    """The segment's covariances; appends the line each starts on (its EPOCH) to ``lines``."""
     cursor.expect_block("COVARIANCE")
     out = []
     while not cursor.at_block("COVARIANCE", "stop"):
@@ -212,6 +219,7 @@ def _kvn_covariances(cursor: KVNCursor) -> list:
             line = cursor.peek()
             what = line.key if line.kind == "keyword" else f"'{line.value[:40]}'"
             raise cursor.error(f"expected EPOCH = ... to start a covariance matrix, found {what}")
+        lines.append(meta.line_of("EPOCH"))
         lower = []
         for i in range(6):
             line = cursor.peek()
@@ -303,7 +311,7 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
         raise CCSDSFormatError("<oem> needs a version attribute and a <header>",
                                line=root.line, source=name)
     header = read_xml_section(with_version(header_node, "CCSDS_OEM_VERS", root), HEADER, name)
-    segments = []
+    segments, cov_lines = [], []
     for node in root.path("body/segment"):
         meta_node, data_node = node.find("metadata"), node.find("data")
         if meta_node is None or data_node is None:
@@ -328,6 +336,7 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
             elif child.tag == "covarianceMatrix":
                 rec = read_xml_section(child, COVARIANCE_XML, name)
                 check_record_variances(rec, name)
+                cov_lines.append(child.line)
                 covariances.append(OEMCovariance(rec["EPOCH"], matrix_from_values(rec.values),
                                                  rec.get("COV_REF_FRAME"), rec.comments))
             else:
@@ -346,6 +355,9 @@ def _read_xml(text: str, name: str, mission_epoch=None) -> Ephemeris:
         segments.append(seg)
     if not segments:
         raise CCSDSFormatError("the OEM has no <segment>", line=root.line, source=name)
+    warn_not_positive_definite(
+        zip([c.matrix for seg in segments for c in seg.covariances], cov_lines, strict=True),
+        name)
     return Ephemeris(segments, header)
 
 

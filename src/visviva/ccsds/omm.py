@@ -17,6 +17,7 @@ from .covariance import (
     matrix_from_values,
     on_state_axes,
     sun_from,
+    warn_not_positive_definite,
 )
 from .grammar import Keyword as K
 from .grammar import Record, Section
@@ -214,6 +215,8 @@ def read_omm(source) -> OMM:
                                "MEAN_MOTION", line=mean.line, source=name)
     if sections.get("covariance") is not None:
         check_record_variances(sections["covariance"], name)
+        cov = sections["covariance"]
+        warn_not_positive_definite([(matrix_from_values(cov.values), cov.line)], name, 3)
     tle = sections.get("tle_parameters")
     if tle is not None and "NORAD_CAT_ID" in tle:
         from ..satellites.catalog_numbers import catalogue_number

@@ -18,6 +18,7 @@ from .covariance import (
     matrix_from_values,
     on_state_axes,
     sun_from,
+    warn_not_positive_definite,
 )
 from .grammar import CCSDSFormatError, Record, Section, version_keyword
 from .grammar import Keyword as K
@@ -566,6 +567,8 @@ def read_opm(source, *, mission_epoch=None) -> OPM:
                                "MEAN_ANOMALY", line=kep.line, source=name)
     if sections.get("covariance") is not None:
         check_record_variances(sections["covariance"], name)
+        cov = sections["covariance"]
+        warn_not_positive_definite([(matrix_from_values(cov.values), cov.line)], name, 3)
     for man in sections.get("maneuvers", []):
         if man["MAN_DURATION"] < 0:
             raise CCSDSFormatError(f"MAN_DURATION = {man['MAN_DURATION']!r} s: a burn lasts >= 0 s "

@@ -21,6 +21,7 @@ are those of the other CCSDS messages (:mod:`visviva.ccsds.layout`): every malfo
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 
@@ -302,7 +303,42 @@ def read_tdm(source, *, mission_epoch=None, cls=None) -> TDM:
     segs = tdm.segments
     refuse_unused_mission_epoch(mission_epoch, [seg.time_system for seg in segs], name,
                                 segs[0].metadata.line_of("TIME_SYSTEM") if segs else None)
+    _warn_duplicates(segs, name)
     return tdm if cls is None else cls(tdm.header, tdm.segments, tdm.fmt)
+
+
+def _warn_duplicates(segs, name: str) -> None:
+    """Warn (once per file) when two data lines give the same keyword at the same epoch (to
+    1 ns) for the same metadata (participants, path, bands ...; START/STOP_TIME aside): a
+    second RANGE 25 km from the first is two observations to a fit, one of them wrong."""
+    if not any(len(seg) for seg in segs):
+        return
+    t0 = next(seg.times[0] for seg in segs if len(seg))
+    seen, identical, conflicting = {}, [], []
+    for n, seg in enumerate(segs):
+        if not len(seg):
+            continue
+        meta = tuple(sorted((k, str(v)) for k, v in seg.metadata.values.items()
+                            if k not in ("START_TIME", "STOP_TIME")))
+        ns = np.round((seg.times - t0).to_value("s") * 1e9).astype(np.int64)
+        for k, (key, t, value, line) in enumerate(zip(seg.keywords, ns.tolist(),
+                                                      seg.values.tolist(), seg.lines,
+                                                      strict=True)):
+            first = seen.setdefault((meta, key, t), (value, line, (n, k)))
+            if first[2] != (n, k):
+                (identical if first[0] == value else conflicting).append(
+                    (key, first[:2], value, line))
+    if not identical and not conflicting:
+        return
+    parts = []
+    for kind, found in (("conflicting", conflicting), ("identical", identical)):
+        if found:
+            key, (v1, l1), v2, l2 = found[0]
+            parts.append(f"{len(found)} {kind} (first: {key} = {v1!r} at line {l1} and "
+                         f"{key} = {v2!r} at line {l2}, same epoch and participants)")
+    warnings.warn(
+        f"{name}: {' and '.join(parts)} duplicate observation line(s); each line is kept and would count as its own observation in a fit: remove the wrong "
+        "or repeated lines.", UserWarning, stacklevel=3)
 
 
 def _check_metadata(meta: Record, name: str, units: dict) -> None:

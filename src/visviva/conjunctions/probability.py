@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._covariance import not_psd
 from .._units import is_quantity
 from ..errors import InvalidInputError, ShapeError
 from .accuracy import check_2d, check_chan, check_tca
@@ -121,22 +122,6 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
     return vecs[0], vecs[1], c1, vecs[2], vecs[3], c2, hbr
 
 
-def _check_psd(c, name, full=False):
-    """True when ``c`` is not positive semi-definite: its position block, or (``full``, for
-    the methods that use the velocities too) also the whole matrix, tested on its correlation
-    matrix so that m^2 beside m^2/s^2 hides no negative eigenvalue, down to -1e-3: the
-    rounding of tabulated covariances leaves a few 1e-5 (CARA's Alfano case 6, symmetrised),
-    a CDM's four or five digits up to ~1e-3, and the flux integrals clip at each time anyway."""
-    w = np.linalg.eigvalsh(c[:3, :3])
-    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
-        return True
-    if full and c.shape[-1] == 6:
-        d = np.sqrt(np.abs(np.diag(c)))
-        d = np.where(d > 0, d, 1.0)
-        return bool(np.linalg.eigvalsh(c / np.outer(d, d))[0] < -1e-3)
-    return False
-
-
 def _warn_repair(what, stacklevel=3):
     warnings.warn(
         f"{what} is not positive semi-definite; repaired as NASA CARA does (eigenvalues of the "
@@ -146,7 +131,7 @@ def _warn_repair(what, stacklevel=3):
 
 def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
     """The encounter plane with CARA's eigenvalue clip, warning when a covariance needed it."""
-    npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
+    npd_in = not_psd(c1) or not_psd(c2)
     plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
     if npd_in or plane.non_positive_definite:
         _warn_repair("the combined covariance" if not npd_in else "an input covariance",
@@ -526,7 +511,7 @@ def _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm):
     if math.isinf(hbr):
         return 0.0, 0.0, gm_km
     # the flux integral propagates the velocity block too: test the whole 6x6
-    npd_in = _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True)
+    npd_in = not_psd(c1, full=True) or not_psd(c2, full=True)
     clip = (CLIP_FACTOR * hbr) ** 2
     repairs = []  # (smallest eigenvalue, largest) of each non-PSD relative covariance
     a0 = c1[:3, :3] + c2[:3, :3]
@@ -678,7 +663,7 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
             f"is more than {_HBR_ORBIT_FRACTION:g} of the smaller distance from the attractor "
             f"({radius:.6g} m). Check the HBR's unit (plain numbers are m); for the chance of "
             "coming within a large distance use method='foster'.")
-    if _check_psd(c1, "cov1", full=True) or _check_psd(c2, "cov2", full=True):
+    if not_psd(c1, full=True) or not_psd(c2, full=True):
         _warn_repair("an input covariance (position-velocity, 6x6)")
     if window is not None:
         try:

@@ -22,6 +22,7 @@ from .covariance import (
     CLIP_FACTOR,
     as_covariance,
     encounter_plane,
+    npd_position,
     principal_axes,
     warn_km_as_metres,
 )
@@ -57,9 +58,10 @@ class CovarianceRepairWarning(UserWarning):
     """A covariance was not positive semi-definite and was repaired by eigenvalue clipping."""
 
 
-def si_value(value, unit: str, name: str) -> np.ndarray:
+def si_value(value, unit: str, name: str, check_finite: bool = True) -> np.ndarray:
     """``value`` as a float64 array in ``unit`` (a Quantity is converted, a plain number is taken
-    as ``unit``); a clear error naming ``name`` for wrong units or non-finite values."""
+    as ``unit``); a clear error naming ``name`` for wrong units or (``check_finite``) non-finite
+    values."""
     if is_quantity(value):
         from astropy import units as u
 
@@ -76,7 +78,7 @@ def si_value(value, unit: str, name: str) -> np.ndarray:
         arr = np.array(arr, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f"{name} must be numeric, got {value!r}.") from exc
-    if not np.all(np.isfinite(arr)):
+    if check_finite and not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} contains NaN or infinite values: {arr}.")
     return arr
 
@@ -119,8 +121,7 @@ def _check_psd(c, name, full=False):
     matrix so that m^2 beside m^2/s^2 hides no negative eigenvalue, down to -1e-3: the
     rounding of tabulated covariances leaves a few 1e-5 (CARA's Alfano case 6, symmetrised),
     a CDM's four or five digits up to ~1e-3, and the flux integrals clip at each time anyway."""
-    w = np.linalg.eigvalsh(c[:3, :3])
-    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
+    if npd_position(c):
         return True
     if full and c.shape[-1] == 6:
         d = np.sqrt(np.abs(np.diag(c)))
@@ -140,10 +141,16 @@ def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
     """The encounter plane with CARA's eigenvalue clip, warning when a covariance needed it."""
     npd_in = _check_psd(c1, "cov1") or _check_psd(c2, "cov2")
     plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    warn_plane_repair(npd_in, plane, stacklevel=5)
+    return plane
+
+
+def warn_plane_repair(npd_in, plane, stacklevel):
+    """The CovarianceRepairWarning of the 2-D methods, where an input covariance (``npd_in``)
+    or the projected one (``plane``) was not positive semi-definite."""
     if npd_in or plane.non_positive_definite:
         _warn_repair("the combined covariance" if not npd_in else "an input covariance",
-                     stacklevel=4)
-    return plane
+                     stacklevel=stacklevel)
 
 
 def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,

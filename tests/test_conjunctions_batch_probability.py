@@ -14,6 +14,8 @@ import warnings
 import numpy as np
 import pytest
 from astropy import units as u
+
+import visviva as vv
 from test_conjunctions_alfano import CASES
 from test_conjunctions_probability import (
     NPD_CASE,
@@ -25,8 +27,6 @@ from test_conjunctions_probability import (
     OM_V1,
     OM_V2,
 )
-
-import visviva as vv
 from visviva.conjunctions import CovarianceRepairWarning, collision_probabilities
 from visviva.errors import ChanAccuracyWarning, InvalidInputError, Pc2dAccuracyWarning, ShapeError
 from visviva.validation.checks_conjunctions import om8_args
@@ -42,9 +42,10 @@ def _random(k, seed=1, at_tca=True, six=False):
     rel = v1 - v2
     if at_tca:  # r1 - r2 normal to the relative velocity
         d -= (np.sum(d * rel, 1) / np.sum(rel * rel, 1))[:, None] * rel
-    n = 6 if six else 3
-    a = rng.normal(0.0, 1.0, (2, k, n, n)) * np.array([100.0] * 3 + [0.1] * 3)[:n]
-    covs = a @ np.swapaxes(a, -1, -2) + np.eye(n) * 1e-2
+    a = rng.normal(0.0, 100.0, (2, k, 3, 3))
+    covs = a @ np.swapaxes(a, -1, -2) + np.eye(3) * 1e-2
+    if six:  # 6x6 with exact velocities (a velocity spread would call 3D-Nc, 0.1-60 s a row)
+        covs = np.pad(covs, ((0, 0), (0, 0), (0, 3), (0, 3)))
     hbr = rng.uniform(5.0, 50.0, k)
     return r1, v1, covs[0], r1 - d, v2, covs[1], hbr
 

@@ -188,7 +188,7 @@ def collision_probabilities(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *, met
     >>> cov = np.diag([200.0, 200.0, 200.0]) ** 2
     >>> pc = collision_probabilities(r1, v1, cov, r2, v2, cov, 20.0)
     >>> [f"{p:.4g}" for p in pc]
-    ['0.004844', '2.158e-07']
+    ['0.002346', '1.59e-05']
     """
     if method not in BATCH_METHODS:
         raise InvalidInputError(

@@ -26,8 +26,8 @@ from .covariance import (
     plane_of_frame,
     warn_km_as_metres,
 )
-from .pc2d import FOSTER_RTOL, _check_plane
-from .probability import _gm_m, si_value, warn_plane_repair
+from .pc2d import FOSTER_RTOL, check_plane
+from .probability import gm_m3_s2, si_value, warn_plane_repair
 
 __all__ = ["collision_probabilities", "BATCH_METHODS"]
 
@@ -203,7 +203,7 @@ def collision_probabilities(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *, met
     k = _common_length({"r1": r1, "v1": v1, "r2": r2, "v2": v2, "cov1": c1, "cov2": c2,
                         "hard_body_radius": hbr})
     plain = not any(is_quantity(x) for x in (r1q, v1q, r2q, v2q))
-    gm_m = _gm_m(gm)
+    gm_m = gm_m3_s2(gm)
     hbr = np.broadcast_to(hbr, (k,))
     lp = np.full(k, -math.inf)  # HBR 0: Pc = 0 (the scalar function computes no plane)
     lp[np.isinf(hbr)] = 0.0
@@ -233,7 +233,7 @@ def collision_probabilities(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *, met
                           np.array([planes[i].sigma[0] for i in todo]),
                           np.array([planes[i].sigma[1] for i in todo]))
         for j, i in enumerate(todo):
-            _check_plane(xm[j], zm[j], sx[j], sz[j], hbr[i], method)
+            check_plane(xm[j], zm[j], sx[j], sz[j], hbr[i], method)
         lp[todo] = _integrals(xm, zm, sx, sz, np.ascontiguousarray(hbr[todo]), method, todo)
         for i in range(k) if plain else todo:  # the scalar path's checks
             start = len(caught)

@@ -36,6 +36,7 @@ __all__ = [
     "CovarianceRepairWarning",
     "METHODS",
     "log_pc_2d",
+    "gm_m3_s2",
 ]
 
 #: method name -> one-line description (the docs and tests iterate it)
@@ -284,7 +285,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
             plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
             check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,
-                     r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
+                     r1, v1, c1, r2, v2, c2, hbr, gm_m3_s2(gm))
         return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
     if method == "3d":
         lp, half, gm_km = _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm)
@@ -305,7 +306,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     if method == "chan":
         check_chan(lp, xm, zm, sx, sz, hbr)
     check_tca(method, r1, v1, r2, v2, plane, hbr)
-    check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
+    check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, gm_m3_s2(gm))
     return lp if log else math.exp(lp)
 
 
@@ -645,7 +646,7 @@ def _warn_repair_3d(npd_in, repairs, n_times, clip, stacklevel=4):
         CovarianceRepairWarning, stacklevel=stacklevel)
 
 
-def _gm_m(gm):
+def gm_m3_s2(gm):
     """The attractor's ``gm`` (Quantity, Body or plain km^3/s^2; None: the Earth) in m^3/s^2."""
     from .._units import to_array
 
@@ -665,7 +666,7 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     """Units and checks for :func:`visviva.conjunctions.nc3d.log_pc3d_hall`."""
     from .nc3d import log_pc3d_hall
 
-    gm_m = _gm_m(gm)
+    gm_m = gm_m3_s2(gm)
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
     radius = min(float(np.linalg.norm(r1)), float(np.linalg.norm(r2)))

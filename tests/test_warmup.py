@@ -172,7 +172,8 @@ def test_warmup_covers_lambert_universal_the_stm_foster_many_and_the_path_filter
     results = warmup.warmup(tuple(chosen), progress=False, stream=io.StringIO())
     assert [r[2] for r in results] == [None, None, None]
     for kernel in (lambert.izzo_many, lambert.universal_many, stm.two_body_stm,
-                   collision.log_pc_many, orbit_path.count_filter_survivors):
+                   collision.log_pc_many, collision.log_pc_chan_many,
+                   orbit_path.count_filter_survivors):
         assert kernel.signatures, kernel.py_func.__name__
 
 

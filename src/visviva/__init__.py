@@ -118,6 +118,7 @@ _PUBLIC = {
     # conjunctions
     "screen_conjunctions": "visviva.conjunctions",
     "collision_probability": "visviva.conjunctions",
+    "collision_probabilities": "visviva.conjunctions",
     "max_collision_probability": "visviva.conjunctions",
     "monte_carlo_probability": "visviva.conjunctions",
     # orbit determination

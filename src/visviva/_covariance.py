@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import InvalidInputError, ShapeError
 
-__all__ = ["as_covariance", "require_psd", "not_psd", "block_rotation", "to_local",
+__all__ = ["as_covariance", "require_psd", "not_psd", "npd_position", "block_rotation", "to_local",
            "from_local", "frame_code", "KilometreCovariance", "km_covariance", "local_axes_of",
            "in_frame"]
 
@@ -156,14 +156,20 @@ def as_covariance(cov, name: str = "cov", *, length_unit: str = "m",
     return 0.5 * (arr + np.swapaxes(arr, -1, -2))
 
 
+def npd_position(c):
+    """Whether the position block of each covariance ``c`` (..., n, n) is not positive
+    semi-definite beyond round-off (its smallest eigenvalue below -1e-10 of its largest)."""
+    w = np.linalg.eigvalsh(c[..., :3, :3])
+    return w[..., 0] < -1e-10 * np.maximum(np.abs(w[..., -1]), 1e-300)
+
+
 def not_psd(c, full=False) -> bool:
     """True when ``c`` is not positive semi-definite: its position block, or (``full``, for
     the methods that use the velocities too) also the whole matrix, tested on its correlation
     matrix so that m^2 beside m^2/s^2 hides no negative eigenvalue, down to -1e-3: the
     rounding of tabulated covariances leaves a few 1e-5 (CARA's Alfano case 6, symmetrised),
     a CDM's four or five digits up to ~1e-3, and the flux integrals clip at each time anyway."""
-    w = np.linalg.eigvalsh(c[:3, :3])
-    if w[0] < -1e-10 * max(abs(w[-1]), 1e-300):
+    if npd_position(c):
         return True
     if full and c.shape[-1] == 6:
         d = np.sqrt(np.abs(np.diag(c)))

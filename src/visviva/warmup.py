@@ -227,6 +227,8 @@ def _conjunction_kernels():
     out, status = np.empty(2), np.empty(2, dtype=np.int64)
     kern.log_pc_many(x, x, np.array([100.0, 400.0]), np.array([50.0, 80.0]),
                      np.array([5.0, 20.0]), kern.GAUSS_LO, kern.GAUSS_HI, 1e-13, out, status)
+    kern.log_pc_chan_many(x, x, np.array([100.0, 400.0]), np.array([50.0, 80.0]),
+                          np.array([5.0, 20.0]), out)
 
 
 def _passes():

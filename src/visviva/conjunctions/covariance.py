@@ -296,32 +296,67 @@ def encounter_plane(r1, v1, cov1, r2, v2, cov2, hard_body_radius=0.0) -> Encount
     r = np.asarray(r1, dtype=np.float64) - np.asarray(r2, dtype=np.float64)
     v = np.asarray(v1, dtype=np.float64) - np.asarray(v2, dtype=np.float64)
     a = combined_covariance(cov1, cov2)
-    vn = float(np.linalg.norm(v))
-    if not vn > 0:
-        raise InvalidInputError(
-            "the relative velocity is zero: there is no encounter plane and the short-encounter "
-            "probability is undefined; use method='pc3d_hall' (Hall's 3D-Nc, which follows the "
-            "objects in time; it needs 6x6 position-velocity covariances)."
-        )
-    y = v / vn
-    h = np.cross(r, v)
-    hn = float(np.linalg.norm(h))
-    if hn <= 1e-12 * max(float(np.linalg.norm(r)), 1e-300) * vn:
-        # r = 0 or r parallel to v: any unit vector normal to y
-        trial = np.eye(3)[int(np.argmin(np.abs(y)))]
-        h = np.cross(y, trial)
-        hn = float(np.linalg.norm(h))
-    z = h / hn
-    x = np.cross(y, z)
-    basis = np.stack([x, y, z])
-    full = basis @ a @ basis.T
-    cp = np.array([[full[0, 0], full[0, 2]], [full[2, 0], full[2, 2]]])
-    rm = float(np.linalg.norm(r))
+    basis, cp, rm, vn = encounter_frames(r[None], v[None], a[None])
+    if not vn[0] > 0:
+        raise InvalidInputError(ZERO_SPEED)
+    return plane_of_frame(basis[0], cp[0], float(rm[0]), float(vn[0]), hard_body_radius)
+
+
+#: the refusal of a conjunction without relative velocity (no encounter plane)
+ZERO_SPEED = ("the relative velocity is zero: there is no encounter plane and the short-encounter "
+              "probability is undefined; use method='pc3d_hall' (Hall's 3D-Nc, which follows the "
+              "objects in time; it needs 6x6 position-velocity covariances).")
+
+
+def plane_of_frame(basis, cp, rm, vn, hard_body_radius) -> EncounterPlane:
+    """The :class:`EncounterPlane` of one row of :func:`encounter_frames` (``basis``, ``cp``,
+    ``rm``, ``vn``), with the CARA clip of :func:`principal_axes` at ``(1e-4 HBR)^2``."""
     miss = np.array([rm, 0.0])
     sigma, principal, angle, repaired, npd = principal_axes(miss, cp, hard_body_radius)
     return EncounterPlane(basis=basis, miss=miss, covariance=cp,
                           sigma=sigma, principal_miss=principal, angle=angle,
                           relative_speed=vn, repaired=repaired, non_positive_definite=npd)
+
+
+def encounter_frames(r, v, a):
+    """The encounter frames of K conjunctions (the geometry of :func:`encounter_plane`).
+
+    Parameters
+    ----------
+    r, v : ndarray, shape (K, 3)
+        Relative positions ``r1 - r2`` and velocities ``v1 - v2`` (one unit system).
+    a : ndarray, shape (K, 3, 3)
+        Combined position covariances (that length unit, squared).
+
+    Returns
+    -------
+    basis : ndarray, shape (K, 3, 3)
+        Rows ``x, y, z`` per conjunction (see :class:`EncounterPlane`); NaN where ``|v| = 0``.
+    covariance : ndarray, shape (K, 2, 2)
+        ``a`` projected on the plane (``x, z``).
+    miss : ndarray, shape (K,)
+        ``|r|``.
+    relative_speed : ndarray, shape (K,)
+        ``|v|`` (the caller refuses 0: no encounter plane).
+    """
+    vn = np.sqrt(np.sum(v * v, axis=-1))
+    rn = np.sqrt(np.sum(r * r, axis=-1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        y = v / vn[:, None]
+        h = np.cross(r, v)
+        hn = np.sqrt(np.sum(h * h, axis=-1))
+        # r = 0 or r parallel to v: any unit vector normal to y
+        flat = hn <= 1e-12 * np.maximum(rn, 1e-300) * vn
+        if flat.any():
+            trial = np.eye(3)[np.argmin(np.abs(np.nan_to_num(y[flat])), axis=-1)]
+            h[flat] = np.cross(y[flat], trial)
+            hn[flat] = np.sqrt(np.sum(h[flat] * h[flat], axis=-1))
+        z = h / hn[:, None]
+    x = np.cross(y, z)
+    basis = np.stack([x, y, z], axis=1)
+    full = basis @ a @ np.swapaxes(basis, -1, -2)
+    cp = full[:, ::2, ::2].copy()
+    return basis, cp, rn, vn
 
 
 def principal_axes(miss, cov2, hard_body_radius):

@@ -7,7 +7,7 @@ Foster's); the kernels are :mod:`visviva.core.collision`.
 
 from __future__ import annotations
 
-__all__ = ["log_pc_2d", "FOSTER_RTOL"]
+__all__ = ["log_pc_2d", "check_plane", "FOSTER_RTOL"]
 
 #: relative accuracy of the Foster integral (Gauss-Legendre panels, :mod:`visviva.core.collision`)
 FOSTER_RTOL = 1e-13
@@ -48,7 +48,7 @@ def log_pc_2d(xm, zm, sx, sz, hbr, method):
     """
     from ..core import collision as kern
 
-    _check_plane(xm, zm, sx, sz, hbr, method)
+    check_plane(xm, zm, sx, sz, hbr, method)
     if method == "chan":
         return min(float(kern.log_pc_chan(xm, zm, sx, sz, hbr)), 0.0)
     lp, status = kern.log_pc_circle(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, FOSTER_RTOL)
@@ -63,7 +63,7 @@ def log_pc_2d(xm, zm, sx, sz, hbr, method):
     return min(float(lp), 0.0)
 
 
-def _check_plane(xm, zm, sx, sz, hbr, method):
+def check_plane(xm, zm, sx, sz, hbr, method):
     """Refuse what the kernels cannot integrate (see :func:`log_pc_2d`, Raises)."""
     import math
 

@@ -36,6 +36,7 @@ __all__ = [
     "CovarianceRepairWarning",
     "METHODS",
     "log_pc_2d",
+    "gm_m3_s2",
 ]
 
 #: method name -> one-line description (the docs and tests iterate it)
@@ -58,9 +59,10 @@ class CovarianceRepairWarning(UserWarning):
     """A covariance was not positive semi-definite and was repaired by eigenvalue clipping."""
 
 
-def si_value(value, unit: str, name: str) -> np.ndarray:
+def si_value(value, unit: str, name: str, check_finite: bool = True) -> np.ndarray:
     """``value`` as a float64 array in ``unit`` (a Quantity is converted, a plain number is taken
-    as ``unit``); a clear error naming ``name`` for wrong units or non-finite values."""
+    as ``unit``); a clear error naming ``name`` for wrong units or (``check_finite``) non-finite
+    values."""
     if is_quantity(value):
         from astropy import units as u
 
@@ -77,9 +79,22 @@ def si_value(value, unit: str, name: str) -> np.ndarray:
         arr = np.array(arr, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f"{name} must be numeric, got {value!r}.") from exc
-    if not np.all(np.isfinite(arr)):
+    if check_finite and not np.all(np.isfinite(arr)):
         raise InvalidInputError(f"{name} contains NaN or infinite values: {arr}.")
     return arr
+
+
+def refuse_local_axes(cov, name: str) -> None:
+    """Refuse a covariance labelled as on local (RTN...) axes: the methods take it on the
+    inertial axes of r and v (an RTN matrix taken for inertial gives a wrong Pc)."""
+    from .._covariance import local_axes_of
+
+    axes = local_axes_of(cov)
+    if axes is not None:
+        raise InvalidInputError(
+            f"{name} is on the {axes} axes (propagate_covariance(..., output_frame={axes!r})), "
+            "but the covariances go with r and v on inertial axes: propagate with "
+            "output_frame='GCRS' (the default), or rotate it back.")
 
 
 def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
@@ -94,14 +109,8 @@ def encounter_inputs(r1, v1, cov1, r2, v2, cov2, hard_body_radius):
         vecs.append(arr)
     if not any(is_quantity(x) for x in (r1, v1, r2, v2)):
         warn_km_as_metres(*vecs)
-    from .._covariance import local_axes_of
-
-    for c, name in ((cov1, "cov1"), (cov2, "cov2")):  # (RTN taken for inertial: a wrong Pc)
-        if local_axes_of(c) is not None:
-            raise InvalidInputError(
-                f"{name} is on the {local_axes_of(c)} axes (propagate_covariance(..., output_"
-                f"frame={local_axes_of(c)!r})), but the covariances go with r and v on inertial "
-                "axes: propagate with output_frame='GCRS' (the default), or rotate it back.")
+    for c, name in ((cov1, "cov1"), (cov2, "cov2")):
+        refuse_local_axes(c, name)
     # a km covariance returned by visviva (fit_orbit, propagate_covariance) is converted
     c1 = as_covariance(cov1, "cov1", convert_marked=True)
     c2 = as_covariance(cov2, "cov2", convert_marked=True)
@@ -133,10 +142,16 @@ def _repaired_plane(r1, v1, c1, r2, v2, c2, hbr):
     """The encounter plane with CARA's eigenvalue clip, warning when a covariance needed it."""
     npd_in = not_psd(c1) or not_psd(c2)
     plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
+    warn_plane_repair(npd_in, plane, stacklevel=5)
+    return plane
+
+
+def warn_plane_repair(npd_in, plane, stacklevel):
+    """The CovarianceRepairWarning of the 2-D methods, where an input covariance (``npd_in``)
+    or the projected one (``plane``) was not positive semi-definite."""
     if npd_in or plane.non_positive_definite:
         _warn_repair("the combined covariance" if not npd_in else "an input covariance",
-                     stacklevel=4)
-    return plane
+                     stacklevel=stacklevel)
 
 
 def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="foster", *,
@@ -270,7 +285,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
         if 0 < hbr < math.inf:  # the sampled plane's exact value, against 3D-Nc
             plane = encounter_plane(r1, v1, c1, r2, v2, c2, hbr)
             check_2d(log_pc_2d(*plane.principal_miss, *plane.sigma, hbr, "foster"), method,
-                     r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
+                     r1, v1, c1, r2, v2, c2, hbr, gm_m3_s2(gm))
         return math.log(res.pc) if log and res.pc > 0 else (-math.inf if log else res.pc)
     if method == "3d":
         lp, half, gm_km = _log_pc_3d(r1, v1, c1, r2, v2, c2, hbr, gm)
@@ -291,7 +306,7 @@ def collision_probability(r1, v1, cov1, r2, v2, cov2, hard_body_radius, method="
     if method == "chan":
         check_chan(lp, xm, zm, sx, sz, hbr)
     check_tca(method, r1, v1, r2, v2, plane, hbr)
-    check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, _gm_m(gm))
+    check_2d(lp, method, r1, v1, c1, r2, v2, c2, hbr, gm_m3_s2(gm))
     return lp if log else math.exp(lp)
 
 
@@ -631,7 +646,7 @@ def _warn_repair_3d(npd_in, repairs, n_times, clip, stacklevel=4):
         CovarianceRepairWarning, stacklevel=stacklevel)
 
 
-def _gm_m(gm):
+def gm_m3_s2(gm):
     """The attractor's ``gm`` (Quantity, Body or plain km^3/s^2; None: the Earth) in m^3/s^2."""
     from .._units import to_array
 
@@ -651,7 +666,7 @@ def _log_pc3d_hall(r1, v1, c1, r2, v2, c2, hbr, gm, window):
     """Units and checks for :func:`visviva.conjunctions.nc3d.log_pc3d_hall`."""
     from .nc3d import log_pc3d_hall
 
-    gm_m = _gm_m(gm)
+    gm_m = gm_m3_s2(gm)
     if c1.shape != (6, 6) or c2.shape != (6, 6):
         raise ShapeError("method='pc3d_hall' needs 6x6 position-velocity covariances.")
     radius = min(float(np.linalg.norm(r1)), float(np.linalg.norm(r2)))

@@ -10,6 +10,7 @@ from scipy import stats
 
 import visviva as vv
 import visviva.od.extended as extended
+from test_od_filter import _nees, _noisy
 from visviva.od.dynamics import Dynamics
 
 EPOCH = Time("2024-03-01T00:00:00", scale="utc")
@@ -24,17 +25,6 @@ P_WIDE = np.diag([0.1**2] * 3 + [1e-4**2] * 3)
 
 def _state(y):
     return vv.StateVectors(y[:3] * u.km, y[3:] * u.km / u.s, vv.EARTH, epoch=EPOCH)
-
-
-def _nees(e, P):
-    return np.einsum("ti,ti->t", e, np.linalg.solve(P, e[..., None])[..., 0])
-
-
-def _noisy(exact, rng):
-    noise = rng.standard_normal((len(exact), 3)) * exact.sigmas[:, None]
-    vals = [exact.values[i, :exact.dims[i]] + noise[i, :exact.dims[i]] for i in range(len(exact))]
-    return vv.Observations(time=exact.times, kind=list(exact.kinds), value=vals,
-                           sigma=list(exact.sigmas), station=exact.stations)
 
 
 @pytest.fixture(scope="module")

@@ -340,14 +340,20 @@ def test_read_omm_on_many_messages_points_to_the_catalogue_reader():
         vv.read_omm(one + _omm_text(123456789, "kvn"))
 
 
-def test_convert_picks_one_object_of_a_many_omm_kvn_file(tmp_path, capsys):
+def test_convert_of_a_many_omm_kvn_file_writes_all_or_the_one_picked(tmp_path, capsys):
     from visviva.cli import main
 
     path = tmp_path / "gp.kvn"
     path.write_text(_omm_text(25544, "kvn") + _omm_text(123456789, "kvn"))
+    # a whole catalogue is converted since leftfix8: a TLE file cannot hold the nine-digit
+    # number, and a KVN OMM holds one message (an XML <ndm> holds both)
     assert main(["convert", str(path), str(tmp_path / "x.tle")]) == 2
-    assert ("holds 2 satellites (25544, 123456789); pick one with --satnum"
-            in capsys.readouterr().err)
+    assert "123456789 cannot be written in a TLE" in capsys.readouterr().err
+    assert main(["convert", str(path), str(tmp_path / "x.omm")]) == 2
+    err = capsys.readouterr().err
+    assert "holds 2 element sets and a KVN OMM holds one" in err and "--satnum" in err
+    assert main(["convert", str(path), str(tmp_path / "all.xml"), "--to", "omm"]) == 0
+    assert list(vv.read_catalog_file(tmp_path / "all.xml").satnums) == [25544, 123456789]
     out = tmp_path / "big.omm"
     assert main(["convert", str(path), str(out), "--satnum", "123456789"]) == 0
     assert vv.read_omm(out)["NORAD_CAT_ID"] == 123456789

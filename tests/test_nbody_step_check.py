@@ -351,3 +351,12 @@ def test_long_runs_of_well_resolved_systems_are_not_warned_about():
                 [two_planets(integrator, dt=2 * math.pi / 40) for _ in range(3)])
             for t in (100.0, 200.0, 300.0):
                 ens.integrate(t)
+
+
+def test_step_warnings_have_their_own_class_to_filter_or_record():
+    # a stability map expects them for its unstable members: the class lets it record or
+    # filter them without silencing every UserWarning (they were plain UserWarnings)
+    sim = two_planets(dt=2 * math.pi / 3)
+    with pytest.warns(vv.errors.StepSizeWarning, match="of the shortest orbital timescale"):
+        sim.integrate(10.0)
+    assert issubclass(vv.errors.StepSizeWarning, UserWarning)

@@ -29,6 +29,7 @@ __all__ = [
     "Encounter",
     "Escape",
     "StepSizeError",
+    "StepSizeWarning",
     "BackendUnavailableError",
     "SurfaceImpact",
     "EarthOrientationWarning",
@@ -304,6 +305,17 @@ class SubsurfacePerigeeWarning(UserWarning):
     sets of re-entering objects can be like this (the SGP4 verification set's 28872), so the
     set is kept; a mistyped one (an eccentricity or a mean motion in the wrong columns) is the
     other cause. The message names the element set's line, the perigee and what to check.
+    """
+
+
+class StepSizeWarning(UserWarning):
+    """A fixed-step N-body integrator (WHFast, leapfrog) whose step is too long for the orbits it
+    follows: the step beyond a fraction of the shortest pericentre timescale, or two bodies
+    within a few mutual Hill radii (a moon, a binary, a close encounter) that WHFast leaves to
+    its interaction kick. Raised at the start of a call and, once per run, when a state written
+    during the run meets the same criteria (members named in ensembles). The states after it
+    are not to be trusted; the message says which step would do, or to use IAS15. A stability
+    map expects some (its unstable members): filter or record this class there.
     """
 
 

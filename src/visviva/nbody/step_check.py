@@ -17,8 +17,8 @@ So the timescale of each orbit is that of a circular orbit at its pericentre dis
 orbits too), for the osculating two-body orbits of the splitting: in Jacobi coordinates each
 body about the centre of mass of the bodies before it (the mass inside it plus its own); in
 democratic heliocentric coordinates each body about particle 0. The integrator goes on (a user
-may want it), with a :class:`UserWarning` once the step exceeds :data:`MAX_STEP_FRACTION` of the
-shortest timescale (an open orbit receding from its pericentre along the run is timed at its
+may want it), with a :class:`~visviva.errors.StepSizeWarning` (a ``UserWarning``) once the
+step exceeds :data:`MAX_STEP_FRACTION` of the shortest timescale (an open orbit receding from its pericentre along the run is timed at its
 present distance: the pericentre is behind it). Jacobi WHFast integrates two bodies exactly at any step, so it is checked
 from three particles on. The state at the start of a call is checked, and the run's later states
 by :func:`check_run` (the output snapshots, or the final state, every
@@ -45,7 +45,7 @@ import weakref
 import numpy as np
 
 from ..core import nbody_common as _nc
-from ..errors import InvalidInputError, fmt_number
+from ..errors import InvalidInputError, StepSizeWarning, fmt_number
 
 __all__ = ["MAX_STEP_FRACTION", "MIN_STEP_REL", "shortest_timescale", "check_step",
            "check_members", "members_checked", "initial_dt", "ENCOUNTER_HILL",
@@ -314,11 +314,11 @@ def check_step(sim, times) -> None:
     label = "leapfrog" if leapfrog else sim.coordinates
     if abs(sim.dt) > MAX_STEP_FRACTION * tau[0]:
         _RUNS[sim][2] = True
-        warnings.warn(f"{_too_long(sim.dt, float(tau[0]), label)}: {_ADVICE}", UserWarning,
+        warnings.warn(f"{_too_long(sim.dt, float(tau[0]), label)}: {_ADVICE}", StepSizeWarning,
                       stacklevel=4)
     if abs(sim.dt) > ENCOUNTER_STEP_FRACTION * close[0]:
         _RUNS[sim][2] = True
-        warnings.warn(_too_close(sim.dt, float(close[0]), pair[0]) + ".", UserWarning,
+        warnings.warn(_too_close(sim.dt, float(close[0]), pair[0]) + ".", StepSizeWarning,
                       stacklevel=4)
 
 
@@ -382,7 +382,7 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     warnings.warn(
         f"during the run, at t = {fmt_number(float(t[pick[k]]))} (the start of the call, t = "
         f"{fmt_number(float(t0))}, was fine; the states after it are not to be trusted): "
-        f"{what}", UserWarning, stacklevel=stacklevel)
+        f"{what}", StepSizeWarning, stacklevel=stacklevel)
 
 
 @contextlib.contextmanager
@@ -398,11 +398,10 @@ def members_checked():
 
 
 def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> None:
-    """Warn once (one :class:`UserWarning` naming the members) when the WHFast (or leapfrog)
-    step of any of
-    an ensemble's ``members`` exceeds :data:`MAX_STEP_FRACTION` of its shortest pericentre
-    timescale, as :func:`check_step` does for a lone simulation; run it before advancing them
-    inside :func:`members_checked`. ``owner`` (the ensemble) keeps each member's ``(N, dt,
+    """Warn once (one :class:`~visviva.errors.StepSizeWarning` naming the members) when the
+    WHFast (or leapfrog) step of any of an ensemble's ``members`` exceeds
+    :data:`MAX_STEP_FRACTION` of its shortest pericentre timescale, as :func:`check_step`
+    does for a lone simulation; run it before advancing them inside :func:`members_checked`. ``owner`` (the ensemble) keeps each member's ``(N, dt,
     coordinates)``: a member is checked again when those change or its integrator restarts.
     Works on whole arrays (``pack``: the members' packed arrays, when there is one): a call
     whose members were all checked costs a few comparisons of length-M arrays. ``stacklevel``:
@@ -446,7 +445,7 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
             f"{ENCOUNTER_HILL:g} mutual Hill radii ({', '.join(map(str, near[:20].tolist()))}"
             f"{', ...' if len(near) > 20 else ''}); member {k}: "
             f"{_too_close(float(dt[k]), float(close[k]), pairs[k])}.",
-            UserWarning, stacklevel=stacklevel)
+            StepSizeWarning, stacklevel=stacklevel)
     if not len(bad):
         return
     with np.errstate(divide="ignore"):
@@ -458,7 +457,7 @@ def check_members(owner, members, pack=None, stacklevel: int = 3, t=None) -> Non
         f"{whose} is too long for the orbits of {len(bad)} of the {len(n)} ensemble "
         f"members ({listed}); the worst, member {worst}: "
         f"{_too_long(float(dt[worst]), float(tau[worst]), name)}: {_ADVICE}",
-        UserWarning, stacklevel=stacklevel)
+        StepSizeWarning, stacklevel=stacklevel)
 
 
 # per ensemble: [the time of each member's last checked state, whether it was warned]
@@ -536,4 +535,4 @@ def check_members_run(owner, members, pack=None, stacklevel: int = 3) -> None:
         f"step is wrong for ({', '.join(map(str, listed[:20].tolist()))}"
         f"{', ...' if len(listed) > 20 else ''}; the start of the call was fine, the states "
         f"after are not to be trusted); member {k}, at t = {fmt_number(float(t_now[k]))}: "
-        f"{what}", UserWarning, stacklevel=stacklevel)
+        f"{what}", StepSizeWarning, stacklevel=stacklevel)

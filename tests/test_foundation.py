@@ -112,3 +112,12 @@ def test_complex_input_is_refused_not_truncated():
         _units.to_vector(np.array([7000 + 1j, 0, 0]) * u.km, "length", "r")
     with pytest.raises(vv.InvalidInputError, match="complex"):
         _units.to_array(0.5 + 0j, "angle", "inc")
+
+
+def test_fmt_first_names_the_first_few_and_counts_the_rest():
+    from visviva.errors import fmt_first
+
+    assert fmt_first(["a", "b"]) == "a, b"
+    assert fmt_first(list("abcdefg")) == "a, b, c, d, e and 2 more"
+    assert fmt_first(list("abcd"), 3, "; ") == "a; b; c and 1 more"
+    assert fmt_first([]) == ""

@@ -46,6 +46,7 @@ __all__ = [
     "raise_for_result",
     "require_finite_result",
     "fmt_number",
+    "fmt_first",
 ]
 
 
@@ -76,6 +77,28 @@ def fmt_number(x) -> str:
         return repr(arr.item())
     return repr(arr.tolist()) if arr.size <= 6 else np.array2string(arr, separator=", ",
                                                                       threshold=6)
+
+
+def fmt_first(items, k: int = 5, sep: str = ", ") -> str:
+    """The first ``k`` of ``items`` (strings) joined by ``sep``, then ``" and N more"`` when
+    there are more, for messages that name what is wrong without listing thousands.
+
+    Parameters
+    ----------
+    items : sequence of str
+        What to name, in order.
+    k : int
+        How many to show.
+    sep : str
+        The separator.
+
+    Returns
+    -------
+    str
+    """
+    items = list(items)
+    more = f" and {len(items) - k} more" if len(items) > k else ""
+    return sep.join(items[:k]) + more
 
 
 class VisvivaError(Exception):

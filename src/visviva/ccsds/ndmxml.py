@@ -15,6 +15,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 from .._xmltree import XMLNode, parse_xml
+from ..errors import fmt_first
 from .grammar import CCSDSFormatError
 
 __all__ = ["XMLNode", "parse", "message_root", "check_attributes", "hoist_comments", "looks_like_xml", "new_root", "new_ndm", "add_text",
@@ -104,10 +105,9 @@ def message_root(root: XMLNode, tag: str, source: str, containers=(),
         if others:  # (the combined instantiation may hold other messages, a MESSAGE_ID, ...)
             import warnings
 
-            shown = ", ".join(f"<{c.tag}> (line {c.line})" for c in others[:5])
-            more = f" and {len(others) - 5} more" if len(others) > 5 else ""
+            shown = fmt_first([f"<{c.tag}> (line {c.line})" for c in others])
             warnings.warn(
-                f"{source}: the <ndm> also holds {shown}{more}, which this reader does not "
+                f"{source}: the <ndm> also holds {shown}, which this reader does not "
                 f"keep: it reads the <{tag}> only (read another message with its own reader, "
                 "e.g. vv.read_oem, after taking it out of the <ndm>)", UserWarning,
                 stacklevel=3)
@@ -243,8 +243,7 @@ def check_attributes(root: XMLNode, message: XMLNode, source: str, data_lines=()
     if dropped:
         import warnings
 
-        shown = "; ".join(dropped[:5]) + (f"; and {len(dropped) - 5} more" if len(dropped) > 5
-                                           else "")
+        shown = fmt_first(dropped, 5, "; ")
         warnings.warn(f"{source}: XML attributes that CCSDS NDM/XML does not define are not kept "
                       f"and are dropped on write (writing this message back, as XML or KVN, "
                       f"leaves them out): {shown}. Only the schema's attributes have a place "

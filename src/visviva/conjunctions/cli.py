@@ -88,6 +88,8 @@ def _primary(cat, which, path):
     (names repeat: "FENGYUN 1C DEB"; before audit46 a repeated name could not be screened)."""
     import numpy as np
 
+    from ..errors import fmt_first
+
     if which in cat.names and cat.names.count(which) == 1:
         return cat[which]
     text = which.strip()
@@ -102,7 +104,5 @@ def _primary(cat, which, path):
         numbers = ", ".join(str(s.satnum) for s in cat if s.name == which)
         raise KeyError(f"{cat.names.count(which)} objects of {path} are named {which!r} "
                        f"(catalogue numbers {numbers}): give --primary the catalogue number")
-    shown = ", ".join(repr(n) for n in cat.names[:10])
-    more = f" and {len(cat) - 10} more" if len(cat) > 10 else ""
     raise KeyError(f"no object named {which!r} in {path}, nor numbered so (it has "
-                   f"{shown}{more})")
+                   f"{fmt_first([repr(n) for n in cat.names], 10)})")

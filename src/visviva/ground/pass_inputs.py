@@ -15,7 +15,7 @@ from astropy import units as u
 from astropy.time import Time
 
 from .._units import is_quantity, require_usable_time, time_input_name, to_array
-from ..errors import DomainError, InvalidInputError
+from ..errors import DomainError, InvalidInputError, fmt_first
 from ..satellites.tle_checks import warn_stale_window
 
 __all__ = ["as_catalog", "check_window", "ephemeris_hint", "min_elevation_rad",
@@ -79,9 +79,8 @@ def _warn_repeated(items) -> None:
 
         from .._callsite import outside_stacklevel
 
-        more = f" and {len(repeated) - 3} more" if len(repeated) > 3 else ""
         warnings.warn(
-            f"{'; '.join(repeated[:3])}{more}: the same element set is given more than once, so "
+            f"{fmt_first(repeated, 3, '; ')}: the same element set is given more than once, so "
             "each of its passes is listed once per copy. Pass each satellite once.",
             UserWarning, stacklevel=outside_stacklevel())
 

@@ -15,7 +15,7 @@ import os
 import warnings
 
 from .._text import file_bytes, utf8_text
-from ..errors import DecayedObjectWarning, InvalidInputError
+from ..errors import DecayedObjectWarning, InvalidInputError, fmt_first
 from .tle import Satellite, TLEFormatError
 from .tle_checks import warn_decayed
 
@@ -80,10 +80,9 @@ def warn_duplicates(sats, source: str) -> None:
     twice = [(n, c) for n, c in counts.items() if c > 1]
     if not twice:
         return
-    listed = ", ".join(f"{n} ({c} element sets)" for n, c in twice[:5])
-    more = f" and {len(twice) - 5} more" if len(twice) > 5 else ""
+    listed = fmt_first([f"{n} ({c} element sets)" for n, c in twice])
     warnings.warn(
-        f"{source}: catalogue number {listed}{more} appears more than once. The catalogue "
+        f"{source}: catalogue number {listed} appears more than once. The catalogue "
         "keeps every element set, so screening pairs such an object with itself and passes are "
         "listed once per set: keep the newest set of each object (catalog.latest()), or remove "
         "the older sets from the file.",

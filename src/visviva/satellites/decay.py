@@ -18,7 +18,7 @@ import weakref
 import numpy as np
 
 from .._callsite import outside_stacklevel
-from ..errors import DecayedObjectWarning
+from ..errors import DecayedObjectWarning, fmt_first
 
 __all__ = ["decay_day", "warn_after_decay"]
 
@@ -79,10 +79,9 @@ def warn_after_decay(satellites, last_day: float) -> None:
         return
     for s, _ in late:
         _WARNED.add(s)
-    listed = ", ".join(f"{s.name!r} (DECAY_DATE {s.decay_date}, asked "
-                       f"{last_day - start:.1f} days after its start)" for s, start in late[:5])
-    more = f" and {len(late) - 5} more" if len(late) > 5 else ""
+    listed = fmt_first([f"{s.name!r} (DECAY_DATE {s.decay_date}, asked "
+                        f"{last_day - start:.1f} days after its start)" for s, start in late])
     warnings.warn(
-        f"positions asked for after the re-entry of {listed}{more}: SGP4 still gives numbers "
+        f"positions asked for after the re-entry of {listed}: SGP4 still gives numbers "
         "there, of no object. Leave these satellites out, or ask only for times before their "
         "decay dates.", DecayedObjectWarning, stacklevel=outside_stacklevel())

@@ -26,6 +26,7 @@ from ..errors import (
     SubsurfacePerigeeWarning,
     UnitsError,
     VisvivaError,
+    fmt_first,
 )
 
 __all__ = [
@@ -202,11 +203,10 @@ def warn_decayed(decayed, where: str) -> None:
     """
     if not decayed:
         return
-    listed = ", ".join(f"{name} on {date}" for name, date in decayed[:5])
-    more = f" and {len(decayed) - 5} more" if len(decayed) > 5 else ""
+    listed = fmt_first([f"{name} on {date}" for name, date in decayed])
     warnings.warn(
         f"{where}: {len(decayed)} element set(s) of objects that re-entered (DECAY_DATE): "
-        f"{listed}{more}. SGP4 still gives positions after that date, of no object: leave "
+        f"{listed}. SGP4 still gives positions after that date, of no object: leave "
         "them out (on Space-Track, ask for DECAY_DATE/null-val).",
         DecayedObjectWarning, stacklevel=outside_stacklevel())
 

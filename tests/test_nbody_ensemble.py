@@ -202,13 +202,9 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
     path = tmp_path / "e.npz"
     vv.Ensemble.from_simulations([planets("ias15"), crowd]).save(path)
     assert vv.Ensemble.load(path, backend="cuda").backend == "cuda"
-    # WHFast ensembles: on a real GPU any setting in Jacobi coordinates (correctors, event
-    # checks, position-dependent forces); democratic heliocentric members run under the
-    # simulator (tests/test_nbody_gpu_whfast.py) and, on a real GPU, only with the debugging
-    # switch (the kernel is wrong for them on H200s: gpu_ensemble_whfast.refuse_general)
-    from visviva.errors import BackendUnavailableError
-    from visviva.nbody.gpu_ensemble_whfast import DEBUG_GENERAL
-
+    # WHFast ensembles: any setting (correctors, event checks, position-dependent forces,
+    # democratic heliocentric coordinates: refused on real GPUs until the general kernel's
+    # fault was found on an H200, 2026-11-28)
     plain = vv.Ensemble.from_simulations([planets("whfast"), planets("whfast")], backend="cuda")
     assert plain.backend == "cuda"
     forced = planets("whfast")
@@ -218,11 +214,7 @@ def test_cuda_backend_refuses_what_it_does_not_run_yet(monkeypatch, tmp_path):
         assert vv.Ensemble.from_simulations(members, backend="cuda").backend == "cuda"
     for name in ("democraticheliocentric", "democratic_heliocentric"):
         members = [planets("whfast", coordinates=name), forced]
-        with pytest.raises(BackendUnavailableError, match="democratic heliocentric"):
-            vv.Ensemble.from_simulations(members, backend="cuda")
-        monkeypatch.setenv(DEBUG_GENERAL, "1")
         assert vv.Ensemble.from_simulations(members, backend="cuda").backend == "cuda"
-        monkeypatch.delenv(DEBUG_GENERAL)
     # (one leapfrog simulation with forces or events runs on the GPU: tests/test_nbody_gpu.py)
     # (an array of output times runs on the GPU: tests/test_nbody_gpu.py)
 

@@ -40,9 +40,6 @@ def forced(k):
 
 
 def main():
-    # on a real GPU the general WHFast ensemble kernel is switched off (wrong numbers on an
-    # H200, 2026-11-26; visviva.nbody.gpu_ensemble_whfast.refuse_general): run it anyway
-    os.environ.setdefault("VISVIVA_GPU_WHFAST_GENERAL", "1")
     members = [forced(k) for k in range(7)]
     alone = [s.copy() for s in members]
     bare = [member(k, coordinates=s.coordinates, corrector=s.corrector)

@@ -79,9 +79,6 @@ def continue_on(ens, ref, backend, t, key):
 
 
 def main():
-    # on a real GPU the general WHFast ensemble kernel is switched off (wrong numbers on an
-    # H200, 2026-11-26; visviva.nbody.gpu_ensemble_whfast.refuse_general): run it anyway
-    os.environ.setdefault("VISVIVA_GPU_WHFAST_GENERAL", "1")
     # forwards off the grid, on it, backwards (the internal state is built again)
     times = (0.123, 0.198, 0.15)
     dh = [member(k, coordinates="democratic_heliocentric") for k in range(5)]

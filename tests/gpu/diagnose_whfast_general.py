@@ -97,7 +97,6 @@ def without_optimisation():
 
 
 def main():
-    os.environ["VISVIVA_GPU_WHFAST_GENERAL"] = "1"
     if "--inline" in sys.argv:
         from visviva.core.cuda import twins
 

@@ -130,11 +130,6 @@ def check_ensemble(members) -> None:
             _check_supported(sim, ensemble=True)
         except InvalidInputError as exc:
             raise InvalidInputError(f"ensemble member {k}: {exc}") from None
-    if members and members[0].integrator == "whfast":
-        from .gpu_ensemble_whfast import refuse_general, refused_member
-
-        if any(refused_member(sim) for sim in members):
-            refuse_general()
 
 
 def _finish(sim, state, n, h, t_final) -> None:
@@ -258,11 +253,6 @@ def _packed_each(members, t) -> list:
     from .forces import force_key
     from .gpu_ensemble_ias15 import runs_alone
 
-    if members[0].integrator == "whfast":
-        from .gpu_ensemble_whfast import refuse_general, refused_member
-
-        if any(refused_member(sim) for sim in members):
-            refuse_general()  # before any member moves
     run = _pack_runner(members[0].integrator)
     errors, groups = [], {}
     for k, sim in enumerate(members):

@@ -20,11 +20,15 @@ check fired are finished by :meth:`visviva.nbody.ensemble_pack.Pack.finish` as i
 ensemble. Either way the step grid, the time origin and the saved internal state are the CPU
 kernel's: a GPU run can be saved and continued on the CPU, and agrees with the CPU ensemble to
 round-off (bit for bit under the simulator).
+
+Democratic heliocentric members were refused on real GPUs from 2026-11-26 to 2026-11-28: the
+general kernel sliced the members' (P, 3) positions and velocities as ``x[lo:hi]`` and gave
+wrong numbers for them on an NVIDIA H200 (0.67 relative after one step) while right for Jacobi
+members; it now takes them flat, as it takes ``buf`` (:func:`visviva.core.cuda.whfast.build_general`),
+and agrees with the CPU ensemble to 4e-17 there (``tests/gpu/check_whfast_general.py``).
 """
 
 from __future__ import annotations
-
-import os
 
 import numpy as np
 
@@ -34,48 +38,9 @@ from ..core import status as _st
 from .gpu_forces import kernel_for, launch
 from .gpu_plan import count_steps, put
 
-__all__ = ["plan", "account", "run", "run_general", "refused_member", "refuse_general",
-           "DEBUG_GENERAL"]
+__all__ = ["plan", "account", "run", "run_general"]
 
 _KERNEL: list = []
-
-#: The environment variable that lets :func:`run_general` run on a real GPU anyway ("1"), to
-#: debug it: see :func:`refuse_general`.
-DEBUG_GENERAL = "VISVIVA_GPU_WHFAST_GENERAL"
-
-
-def refused_member(sim) -> bool:
-    """True when the WHFast simulation ``sim`` uses democratic heliocentric coordinates: the
-    general kernel's results for such members are wrong on a real GPU (:func:`refuse_general`)."""
-    return sim.coordinates != "jacobi"
-
-
-def refuse_general() -> None:
-    """Raise :class:`~visviva.errors.BackendUnavailableError` on a real GPU, before anything
-    moves, for members in democratic heliocentric coordinates (:func:`refused_member`).
-
-    On NVIDIA H200s the general kernel (:func:`run_general`) gave wrong numbers for democratic
-    heliocentric members, 0.4-130 % (relative, positions) after one step, the same for a member
-    alone in its launch, compiled without NVVM's optimisations or with a 64 kB stack
-    (2026-11-27, ``tests/gpu/diagnose_whfast_general.py``), while every democratic heliocentric
-    piece alone agreed with the CPU to 7e-19 (``tests/gpu/diagnose_dh_pieces.py``); its Jacobi
-    members agreed with the CPU ensemble to 5e-17: symplectic correctors, the event-checking
-    path (every step synchronised), J2 and a user's force, packed and alone, and so run. The
-    cause is not found yet. Under numba's CUDA simulator the kernel equals the CPU ensemble bit
-    for bit, so it runs there (CI tests it); ``VISVIVA_GPU_WHFAST_GENERAL=1`` runs it on a GPU
-    anyway, to debug it."""
-    from ..core.cuda import simulator
-    from ..errors import BackendUnavailableError
-
-    if simulator() or os.environ.get(DEBUG_GENERAL) == "1":
-        return
-    raise BackendUnavailableError(
-        "WHFast ensembles on the GPU do not run democratic heliocentric coordinates: their "
-        "kernel gave wrong numbers for them on a real GPU and they are switched off until "
-        "fixed. Run this ensemble with backend='cpu' (the same settings), with "
-        "coordinates='jacobi' on the GPU (correctors, checks and forces run there), or each "
-        "member as its own Simulation(backend='cuda') (checked on a real GPU)."
-    )
 
 
 def plan(fstate, istate, target: float):
@@ -138,8 +103,6 @@ def run(pack, target: float, t) -> list:
     from ..core.cuda import whfast as W
 
     if pack.members[0].forces or not _wh.is_plain(pack.istate, pack.fstate).all():
-        if np.any(pack.istate[:, _nc.I_WH_COORDINATES] != _wh.JACOBI):
-            refuse_general()
         return run_general(pack, target, t)
     fs, ist = pack.fstate, pack.istate
     mode, n, h, rem, t_final = plan(fs, ist, target)
@@ -203,9 +166,10 @@ def run_general(pack, target: float, t) -> list:
     first = pack.members[0]
     kernel = kernel_for("whfast", first, W.build_general)
     M, P = len(pack.members), len(pack.x)
-    state = pack.to_device(("x", "v", "fstate", "istate", "buf"))  # in and out
+    state = pack.to_device(("fstate", "istate", "buf"))  # in and out
+    flat = {k: cuda.to_device(getattr(pack, k).reshape(-1)) for k in ("x", "v")}  # (3P,)
     d = {**pack.to_device(("m", "massive", "moff", "radius", "poff", "params", "qoff")),
-         **state}
+         **state, **flat}
     status = cuda.device_array(M, dtype=np.int64)
     out_x, out_v = cuda.device_array(3 * P), cuda.device_array(3 * P)  # the output snapshot
     launch(kernel, first, K.blocks(M), K.THREADS,
@@ -213,4 +177,6 @@ def run_general(pack, target: float, t) -> list:
                             "istate", "buf", "params", "qoff")),
            cuda.to_device(np.array([target])), cuda.device_array((M, 1)), out_x, out_v, status)
     pack.from_device(state)
+    for k, arr in flat.items():
+        getattr(pack, k)[:] = arr.copy_to_host().reshape(-1, 3)
     return pack.finish(status.copy_to_host(), t)

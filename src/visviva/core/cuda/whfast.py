@@ -29,8 +29,9 @@ Kepler solver is kept out of line (:func:`.twins.never_inlined`): one copy calle
 body's 23 drift sites (the corrector's maps and the solver's retry in power-of-two units each
 go through one call site), 1.4 MB of PTX instead of 6.4 MB inlined; the first launch in a
 process compiles for about 50 s on an H200 (NVVM 28 s, ptxas 22 s; once per set of force
-functions; the plain kernel: 2 MB, 10 s). On real GPUs this kernel is refused for now
-(:func:`visviva.nbody.gpu_ensemble_whfast.refuse_general`: wrong numbers on an H200).
+functions; the plain kernel: 2 MB, 10 s). Its members' positions and velocities come flat
+(see :func:`build_general`: sliced as (P, 3) arrays they gave wrong numbers for democratic
+heliocentric members on an H200).
 
 Every piece of arithmetic is a CPU kernel compiled for the device from its own source
 (:func:`.twins.device_twin`): the Jacobi transforms, the Kepler drift (the universal-variable
@@ -229,9 +230,15 @@ def build_general(force):
                                 params, qoff, t_out, out_t, out_x, out_v, status):
         """Member ``k`` (one thread) through the output times ``t_out``; ``status[k]`` its code.
 
-        The arrays of :func:`visviva.core.nbody_ensemble.ensemble_run` (``buf`` and ``out_x``,
-        ``out_v`` flat, member after member; ``out_t`` one row per member; ``params`` the
-        force's parameters of every member, ``qoff`` their offsets).
+        The arrays of :func:`visviva.core.nbody_ensemble.ensemble_run` (``x``, ``v``, ``buf``
+        and ``out_x``, ``out_v`` flat, member after member; ``out_t`` one row per member;
+        ``params`` the force's parameters of every member, ``qoff`` their offsets). The
+        positions and velocities come flat and each member's are a 1-D slice reshaped to
+        (n, 3): with (P, 3) arrays sliced as ``x[lo:hi]`` this kernel gave wrong numbers for
+        democratic heliocentric members on an NVIDIA H200 (0.67 relative in positions after
+        one step, 2026-11-28, ``tests/gpu/diagnose_dh_wrapper.py``: the same body on the same
+        member's arrays, unsliced or flat-sliced, agreed with the CPU to 4e-18), while Jacobi
+        members were right either way.
         """
         k = cuda.grid(1)
         if k >= fstate.shape[0]:
@@ -240,9 +247,9 @@ def build_general(force):
         hi = poff[k + 1]
         n = hi - lo
         T = t_out.shape[0]
-        X = x[lo:hi]
+        X = x[3 * lo:3 * hi].reshape((n, 3))
         status[k] = run(
-            X, v[lo:hi], m[lo:hi], massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k],
+            X, v[3 * lo:3 * hi].reshape((n, 3)), m[lo:hi], massive[moff[k]:moff[k + 1]], radius[lo:hi], fstate[k],
             istate[k], buf[3 * n_buf * lo:3 * n_buf * hi].reshape((n_buf, n, 3)), X, force,
             params[qoff[k]:qoff[k + 1]], t_out, out_t[k],
             out_x[3 * T * lo:3 * T * hi].reshape((T, n, 3)),

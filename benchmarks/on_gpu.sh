@@ -19,9 +19,10 @@
 # with the start; BENCH_S=0 measures nothing), SECTIONS (bench_gpu sections, comma-separated;
 # gpu-ensemble first: its rows with the resident kernels, VISVIVA_GPU_RESIDENT=1 for those rows
 # only, are the ones awaited), CHECKS (which scripts of tests/gpu/ to run, globs without .py;
-# default "check_* diagnose_*"). A short first call of a lease, to find a fault before the
-# full run (the democratic heliocentric WHFast ensembles' fault: docs/nbody.md):
-#   CHECKS="diagnose_dh_pieces" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
+# default "check_*"; the diagnose_* scripts found the democratic heliocentric WHFast ensembles'
+# fault, fixed 2026-11-28: docs/nbody.md). The next lease's first call: every check once, after
+# the changes not yet run on a GPU (megnocold's run bodies, nbodyleft's mid-run step checks):
+#   CHECKS="check_*" BENCH_S=0 bash benchmarks/on_gpu.sh .whl
 set -u
 # the files are written in a work folder and bundled into $OUT/gpu-out.tgz every 30 s and at the
 # end (a lent machine sends back a few files only, and what a cut-off call left); rows.jsonl
@@ -56,7 +57,7 @@ SECONDS=0
 # tests/gpu/diagnose_whfast_general.py; `--inline` by hand for the inlined Kepler solver;
 # tests/gpu/diagnose_dh_pieces.py: each democratic heliocentric piece alone, device vs CPU)
 SCRIPTS=""
-for pattern in ${CHECKS:-check_* diagnose_*}; do
+for pattern in ${CHECKS:-check_*}; do
     SCRIPTS="$SCRIPTS $(ls tests/gpu/$pattern.py 2>/dev/null)"
 done
 PIDS=""

@@ -727,3 +727,32 @@ def test_sgp4_positions_beyond_any_earth_orbit_are_no_fit():
     with pytest.raises(vv.InvalidInputError, match=r"state 0 lies 1\.44e\+06 km from the "
                        r"geocentre, beyond 1e\+06 km: no Earth orbit"):
         fit_tle_arrays(r, v, t, "teme", 29141)
+
+
+def test_an_initial_set_of_another_object_is_warned(iss, recwarn):
+    # the new set takes initial's catalogue number, name, designator and B*; with another
+    # object's set (a Molniya set for ISS states) only the revolution number's disagreement was
+    # mentioned, the ISS fit came out named and numbered as the Molniya satellite
+    import warnings
+
+    states = iss.gcrs(np.linspace(0, 1, 40) * u.day).to_state_vectors()
+    molniya = vv.Satellite.from_tle(*MOLNIYA, "MOLNIYA 1-29")
+    with pytest.warns(RuntimeWarning, match=r"initial \(MOLNIYA 1-29, catalogue number 8195\) "
+                      r"looks like another object.*inclination 64\.159 vs 51\.6"):
+        fit = vv.fit_tle(states, initial=molniya, fit_bstar=False)
+    assert fit.fit.rms_position_km < 0.1  # the fit itself is still ISS's
+    # the same object's set a month older: no warning of that kind
+    older = vv.Satellite.from_omm({**iss.to_omm(), "EPOCH": "2023-12-01T00:00:00"})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        vv.fit_tle(states, initial=older, fit_bstar=False)
+    assert not [w for w in caught if "another object" in str(w.message)]
+    # an OEM of another designator than initial's
+    from visviva.ccsds.oem import OEMSegment
+    from visviva.ccsds.oem_io import Ephemeris
+
+    seg = OEMSegment.from_states(states.epoch, states.r.to_value(u.km),
+                                 states.v.to_value(u.km / u.s), object_name="ISS (ZARYA)",
+                                 object_id="1998-067A")
+    with pytest.warns(RuntimeWarning, match="OBJECT_ID 1998-067A but initial is 1975-081A"):
+        vv.fit_tle(Ephemeris([seg]), initial=molniya, fit_bstar=False)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 
 import numpy as np
 
@@ -15,7 +16,14 @@ from ..satellites.catalog_numbers import sgp4_number
 from ..satellites.tle_checks import flag_beyond_earth_orbit
 
 __all__ = ["classical", "ephemeris_identity", "elements_to_fields", "epoch_days", "sgp4_states", "initial_elements",
-           "initial_identity", "is_retrograde", "naive_fields", "propagable_start"]
+           "initial_identity", "is_retrograde", "naive_fields", "propagable_start",
+           "warn_other_object"]
+
+#: beyond these the fitted set and ``initial=`` are taken for different objects (a warning):
+#: inclination (deg; an uncontrolled geostationary orbit drifts about 0.9 deg a year) and
+#: relative mean motion (a year of drag moves a low orbit's by a few per cent)
+OTHER_OBJECT_INC_DEG = 5.0
+OTHER_OBJECT_MEAN_MOTION = 0.2
 
 #: WGS-72 GM (km^3/s^2), the constant SGP4 uses
 GM_WGS72 = 398600.8
@@ -189,10 +197,19 @@ def ephemeris_identity(states, name, object_id, initial):
     meta = segments[0].metadata
     if name is None and (initial is None or not initial.name):
         name = str(meta.get("OBJECT_NAME", "") or "").strip() or None
-    if object_id is None and initial is None:
-        oid = str(meta.get("OBJECT_ID", "") or "").strip().upper()
-        if re.fullmatch(r"\d{4}-\d{3}[A-Z]{1,3}", oid):
-            object_id = oid
+    oid = str(meta.get("OBJECT_ID", "") or "").strip().upper()
+    if not re.fullmatch(r"\d{4}-\d{3}[A-Z]{1,3}", oid):
+        oid = ""
+    if object_id is None and initial is None and oid:
+        object_id = oid
+    if initial is not None and oid:
+        theirs = str(initial.to_omm()["OBJECT_ID"] or "").strip().upper()
+        if theirs and theirs != oid:
+            warnings.warn(
+                f"the ephemeris is of OBJECT_ID {oid} but initial is {theirs} "
+                f"({initial.name or 'unnamed'}, catalogue number {initial.satnum}): the new set "
+                "takes initial's number, name, designator and B*. Pass that object's element set "
+                "as initial (or none).", RuntimeWarning, stacklevel=3)
     return name, object_id
 
 
@@ -218,3 +235,26 @@ def initial_identity(initial, satnum, name, object_id, bstar):
     if bstar is None:
         bstar = float(initial.satrec.bstar)
     return satnum, name or initial.name, object_id, bstar
+
+
+def warn_other_object(initial, sat) -> None:
+    """Warn when the fitted set ``sat`` and ``initial`` look like different objects (their
+    inclinations more than :data:`OTHER_OBJECT_INC_DEG` apart, or mean motions more than
+    :data:`OTHER_OBJECT_MEAN_MOTION` relative): the new set took ``initial``'s catalogue number,
+    name, designator and B*, which then belong to another object (before this check only the
+    revolution number's disagreement was mentioned)."""
+    if initial is None:
+        return
+    di = math.degrees(abs(sat.satrec.inclo - initial.satrec.inclo))
+    n0, n1 = initial.satrec.no_kozai, sat.satrec.no_kozai
+    dn = abs(n1 / n0 - 1.0) if n0 > 0.0 else math.inf
+    if di <= OTHER_OBJECT_INC_DEG and dn <= OTHER_OBJECT_MEAN_MOTION:
+        return
+    per_day = 1440.0 / (2.0 * math.pi)
+    warnings.warn(
+        f"initial ({initial.name or 'unnamed'}, catalogue number {initial.satnum}) looks like "
+        f"another object than these states: inclination {math.degrees(initial.satrec.inclo):.3f}"
+        f" vs {math.degrees(sat.satrec.inclo):.3f} deg, mean motion {n0 * per_day:.5f} vs "
+        f"{n1 * per_day:.5f} rev/day. The new set took its catalogue number, name, designator "
+        "and B*: pass the same object's element set as initial, or none (and satnum=, name=).",
+        RuntimeWarning, stacklevel=4)

@@ -41,6 +41,7 @@ from .tle_elements import (
     is_retrograde,
     propagable_start,
     sgp4_states,
+    warn_other_object,
 )
 
 __all__ = ["fit_tle", "fit_tle_arrays", "states_and_times", "TLEFit"]
@@ -547,6 +548,7 @@ def fit_tle_arrays(r_km, v_km_s, times, frame, satnum=99999, fit_bstar=True, bst
     if not object_id:
         fields["OBJECT_ID"] = ""
     sat = _fill_unused_fields(satellite_from_fields(fields), fields, initial)
+    warn_other_object(initial, sat)
     dr = z.reshape(n, 6)[:, :3]
     dv = z.reshape(n, 6)[:, 3:] / w_v
     sat.fit = TLEFit(

@@ -268,6 +268,7 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         days, secs = _elapsed(items, time_system.upper(), line, source)
         t = mission_epoch + TimeDelta(days, secs / 86400.0, format="jd", scale="tai")
         return t[0] if scalar else t
+    _warn_zulu(items, time_system, line, source)
     iso = [_iso(t) for t in items]
     with warnings.catch_warnings():  # a second 60 that is no leap second: refused below
         warnings.filterwarnings("ignore", message=".*after end of day")
@@ -276,6 +277,28 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
     if time_system.upper() == "GPS":
         t = t - _GPS_MINUS_TAI_S * u.s
     return t[0] if scalar else t
+
+
+def _warn_zulu(items, time_system, line, source):
+    """Warn, naming the first such epoch's line, when epochs end with ``Z`` (or carried a zero
+    UTC offset, which the grammar reads as ``Z``) in a message whose ``TIME_SYSTEM`` is not UTC.
+
+    CCSDS 502.0-B-3 (7.5.10) makes ``Z`` an optional terminator of the epoch, which is in the
+    ``TIME_SYSTEM``, so the epochs are read in it; but ``Z`` (ISO 8601) and ``+00:00`` say UTC
+    to most writers, and a UTC time read as TT is 69.184 s late, as GPS 18 s early.
+    """
+    if time_system.strip().upper() == "UTC":
+        return
+    k = next((k for k, text in enumerate(items) if text.rstrip().endswith("Z")), None)
+    if k is None:
+        return
+    where = f"{source}" + (f", line {_line_at(line, k)}" if _line_at(line, k) is not None else "")
+    warnings.warn(
+        f"{where}: the epoch {items[k]!r} ends with 'Z' (or a zero UTC offset), which ISO 8601 "
+        f"reads as UTC, but TIME_SYSTEM = {time_system.strip()}; it is read in "
+        f"{time_system.strip()} (CCSDS 502.0-B-3: 'Z' only ends the epoch). If the epochs are "
+        "UTC, write TIME_SYSTEM = UTC; if they are in the TIME_SYSTEM, drop the 'Z'.",
+        UserWarning, stacklevel=3)
 
 
 def _parse(iso, items, scale, line, source):

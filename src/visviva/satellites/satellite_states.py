@@ -91,6 +91,14 @@ def with_frame(obj, frame):
     return new
 
 
+#: J2000 is no CCSDS REF_FRAME (SANA lists EME2000) and means either of two frames 23 mas apart
+_J2000_HINT = (
+    " (J2000 is no CCSDS REF_FRAME, and tools mean two frames by it: if it is the mean equator "
+    "and equinox of J2000, as in STK, GMAT and Orekit, write REF_FRAME = EME2000, which visviva "
+    "turns to the GCRS by the 23 mas frame bias; if it is SPICE's J2000, which SPICE takes for "
+    "the ICRF, write ICRF).")
+
+
 def require_gcrs(states, what: str) -> None:
     """Refuse satellite states that say they are not in the GCRS (``what`` works there).
 
@@ -102,7 +110,8 @@ def require_gcrs(states, what: str) -> None:
         raise InvalidInputError(
             f"{what} works in the GCRS, but these states are Earth-centred in REF_FRAME = "
             f"{foreign}, which visviva cannot rotate to the GCRS (it reads EME2000, GCRF, ICRF, "
-            "TEME, ITRF): convert them to one of those first."
+            "TEME, ITRF): convert them to one of those first"
+            + (_J2000_HINT if str(foreign).strip().upper() == "J2000" else ".")
         )
     frame = getattr(states, "frame", None)
     if frame is not None and frame != "gcrs":

@@ -1,0 +1,109 @@
+"""CCSDS time systems and frames, third audit (audit55): a 'Z' or zero UTC offset in a message
+whose TIME_SYSTEM is not UTC, an OMM's GM, REF_FRAME = J2000."""
+
+import warnings
+
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time
+
+import visviva as vv
+from visviva.errors import InvalidInputError
+from visviva.satellites.satellite_states import require_gcrs
+
+from test_ccsds_opm_omm import OMM_KVN, OPM_KVN
+
+_EPOCH = "EPOCH = 2024-03-01T00:00:00.000"
+
+
+def _opm(system, suffix=""):
+    return OPM_KVN.replace("TIME_SYSTEM = UTC", f"TIME_SYSTEM = {system}").replace(
+        _EPOCH, _EPOCH + suffix)
+
+
+# -- 'Z' and '+00:00' in a message whose TIME_SYSTEM is not UTC ---------------------------------
+@pytest.mark.parametrize("system, scale", [("TT", "tt"), ("TDB", "tdb"), ("TAI", "tai"),
+                                           ("GPS", None)])
+@pytest.mark.parametrize("suffix", ["Z", "+00:00"])
+def test_a_utc_designator_under_another_time_system_warns_naming_the_line(system, scale, suffix):
+    # was: read in the TIME_SYSTEM without a word, a UTC time written by an ISO 8601 writer
+    # ('Z', datetime.isoformat's '+00:00') 69.184 s off in TT, 19 s in GPS
+    plain = vv.read_opm(_opm(system)).epoch
+    with pytest.warns(UserWarning, match=f"line 14: the epoch .*'Z'.*TIME_SYSTEM = {system}; "
+                                         f"it is read in {system}"):
+        marked = vv.read_opm(_opm(system, suffix)).epoch
+    # CCSDS 502.0-B-3: 'Z' ends the epoch, which is in the TIME_SYSTEM: read as without it
+    assert abs((marked - plain).sec) < 1e-9
+    if scale is not None:
+        assert abs((marked - Time("2024-03-01T00:00:00", scale=scale)).sec) < 1e-9
+    else:  # GPS = TAI - 19 s
+        assert abs((marked - Time("2024-03-01T00:00:19", scale="tai")).sec) < 1e-9
+
+
+@pytest.mark.parametrize("suffix", ["", "Z", "+00:00"])
+def test_a_utc_designator_in_utc_and_plain_epochs_do_not_warn(suffix):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.read_opm(_opm("UTC", suffix))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vv.read_opm(_opm("TT"))
+
+
+def test_oem_data_lines_with_z_in_tdb_warn_naming_the_first_such_line():
+    text = """CCSDS_OEM_VERS = 2.0
+CREATION_DATE = 2024-03-01T00:00:00
+ORIGINATOR = VISVIVA TESTS
+META_START
+OBJECT_NAME = SAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = GCRF
+TIME_SYSTEM = TDB
+START_TIME = 2024-03-01T00:00:00
+STOP_TIME = 2024-03-01T00:02:00
+META_STOP
+2024-03-01T00:00:00 7000.0 0.0 0.0 0.0 7.546 0.0
+2024-03-01T00:01:00Z 6998.0 452.7 0.0 -0.49 7.53 0.0
+2024-03-01T00:02:00Z 6992.0 905.0 0.0 -0.98 7.48 0.0
+"""
+    with pytest.warns(UserWarning, match="line 14: the epoch '2024-03-01T00:01:00Z'.*TDB"):
+        t = vv.read_oem(text).segments[0].times
+    assert abs((t[1] - Time("2024-03-01T00:01:00", scale="tdb")).sec) < 1e-9
+
+
+# -- an OMM's GM ------------------------------------------------------------------------------
+def _omm(gm):
+    return OMM_KVN.replace("MEAN_ANOMALY = 325.0288 [deg]",
+                           f"MEAN_ANOMALY = 325.0288 [deg]\nGM = {gm} [km**3/s**2]")
+
+
+def test_an_omm_gm_1e9_times_the_earths_warns_naming_its_line():
+    # was: read without a word (SGP4 does not use GM; an OPM's is refused)
+    with pytest.warns(UserWarning, match=r"line 18: GM = 398600441800000\.0 km\*\*3/s\*\*2 is "
+                                         r"1e\+09 times the GM of CENTER_NAME = EARTH"):
+        omm = vv.read_omm(_omm("398600441800000.0"))
+    assert omm["GM"] == 398600441800000.0  # kept as written; SGP4's satellite unchanged
+    assert vv.Satellite.from_omm(omm).epoch == vv.Satellite.from_omm(vv.read_omm(OMM_KVN)).epoch
+
+
+@pytest.mark.parametrize("gm", ["398600.8", "398600.4418", "398600.4415"])
+def test_an_omm_with_a_published_earth_gm_reads_quietly(gm):
+    with warnings.catch_warnings():  # WGS-72, WGS-84, EGM-96
+        warnings.simplefilter("error")
+        assert vv.read_omm(_omm(gm))["GM"] == float(gm)
+
+
+# -- REF_FRAME = J2000 ------------------------------------------------------------------------
+def test_j2000_states_refused_by_gcrs_users_say_which_name_to_write():
+    base = OPM_KVN.split("SEMI_MAJOR_AXIS")[0]
+    opm = vv.read_opm(base.replace("REF_FRAME = GCRF", "REF_FRAME = J2000"))
+    assert opm.frame == "J2000" and opm.visviva_frame is None
+    assert "REF_FRAME            = J2000" in vv.write_opm(opm)  # written back by its name
+    np.testing.assert_array_equal(opm.state.r.to_value(u.km), [6503.514, 1239.647, -717.49])
+    with pytest.raises(InvalidInputError, match="REF_FRAME = EME2000.*SPICE's J2000.*ICRF"):
+        require_gcrs(opm.state, "propagate_cowell")
+    tod = vv.read_opm(base.replace("REF_FRAME = GCRF", "REF_FRAME = TOD"))
+    with pytest.raises(InvalidInputError, match="convert them to one of those first.$"):
+        require_gcrs(tod.state, "propagate_cowell")

@@ -107,3 +107,62 @@ def test_j2000_states_refused_by_gcrs_users_say_which_name_to_write():
     tod = vv.read_opm(base.replace("REF_FRAME = GCRF", "REF_FRAME = TOD"))
     with pytest.raises(InvalidInputError, match="convert them to one of those first.$"):
         require_gcrs(tod.state, "propagate_cowell")
+
+
+# -- REF_FRAME = TEME with a REF_FRAME_EPOCH: TEME of that epoch, not of date -----------------
+def _teme_of_epoch_oem(ref_epoch="2024-03-01T00:00:00"):
+    from visviva.satellites.frames import transform_matrices
+
+    t0 = Time("2024-03-01T00:00:00", scale="utc")
+    t = t0 + np.array([0.0, 1.0, 3.0]) * u.day
+    r_g = np.array([[42164.0, 0.0, 0.0]] * 3)  # GEO, GCRS
+    v_g = np.array([[0.0, 3.0747, 0.0]] * 3)
+    m0 = transform_matrices(t0, "teme", "gcrs")[:3, :3]  # (TEME of t0 -> GCRS)
+    r_e, v_e = r_g @ m0, v_g @ m0  # (m0.T applied to each row)
+    rows = "\n".join(f"{ti.isot} " + " ".join(f"{x:.10f}" for x in (*r, *v))
+                     for ti, r, v in zip(t, r_e, v_e, strict=True))
+    ref = "" if ref_epoch is None else f"REF_FRAME_EPOCH = {ref_epoch}\n"
+    text = f"""CCSDS_OEM_VERS = 2.0
+CREATION_DATE = 2024-03-01T00:00:00
+ORIGINATOR = VISVIVA TESTS
+META_START
+OBJECT_NAME = SAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+REF_FRAME = TEME
+{ref}TIME_SYSTEM = UTC
+START_TIME = {t[0].isot}
+STOP_TIME = {t[-1].isot}
+META_STOP
+{rows}
+"""
+    return text, t, r_g, v_g
+
+
+def test_teme_states_of_a_ref_frame_epoch_are_turned_to_teme_of_date():
+    # was: REF_FRAME_EPOCH ignored, TEME of epoch read as TEME of date: a GEO state 28 m off
+    # after a day, 86 m after three (precession and nutation of the axes), silently
+    from visviva.satellites.frames import teme_to_gcrs
+
+    for ref, worst_m in ((None, 80.0), ("2024-03-01T00:00:00", 1e-3)):
+        text, t, r_g, v_g = _teme_of_epoch_oem(ref)
+        states = vv.read_oem(text).segments[0].states
+        assert states.frame == "teme"
+        r, v = teme_to_gcrs(states.r.to_value(u.km), states.v.to_value(u.km / u.s), t)
+        err_m = np.linalg.norm(r - r_g, axis=-1) * 1e3
+        if ref is None:  # (the file without REF_FRAME_EPOCH: what the old reader computed)
+            assert err_m[0] < 1e-3 and 25.0 < err_m[1] < 32.0 and err_m[2] > worst_m
+        else:
+            assert err_m.max() < worst_m
+            assert np.linalg.norm(v - v_g, axis=-1).max() < 1e-9  # km/s
+
+
+def test_an_omm_whose_ref_frame_epoch_is_not_its_epoch_is_refused_by_sgp4():
+    omm = vv.read_omm(OMM_KVN.replace("TIME_SYSTEM = UTC",
+                                      "REF_FRAME_EPOCH = 2024-01-01T12:00:00\nTIME_SYSTEM = UTC"))
+    vv.Satellite.from_omm(omm)  # (the epoch itself: TEME of date)
+    other = vv.read_omm(OMM_KVN.replace("TIME_SYSTEM = UTC",
+                                        "REF_FRAME_EPOCH = 2000-01-01T12:00:00Z\nTIME_SYSTEM = UTC"))
+    with pytest.raises(InvalidInputError, match="REF_FRAME_EPOCH = 2000-01-01T12:00:00Z .*TEME "
+                                                "axes of that epoch"):
+        vv.Satellite.from_omm(other)

@@ -155,6 +155,8 @@ def test_teme_states_of_a_ref_frame_epoch_are_turned_to_teme_of_date():
         else:
             assert err_m.max() < worst_m
             assert np.linalg.norm(v - v_g, axis=-1).max() < 1e-9  # km/s
+            gcrs = vv.read_oem(text).segments[0].states_in("gcrs")  # (its own rotation path)
+            assert np.linalg.norm(gcrs.r.to_value(u.km) - r_g, axis=-1).max() < 1e-6
 
 
 def test_an_omm_whose_ref_frame_epoch_is_not_its_epoch_is_refused_by_sgp4():

@@ -511,6 +511,21 @@ class FrameCenterMetadata:
         """``CENTER_NAME`` as written."""
         return self.metadata["CENTER_NAME"]
 
+    def visviva_axes(self, r_km, v_km_s, times):
+        """Numbers on the axes of ``REF_FRAME`` turned to those of its visviva frame: EME2000
+        by the frame bias (:func:`to_gcrs_axes`), TEME of ``REF_FRAME_EPOCH`` to the TEME of
+        each state's date (``times``); others unchanged. Returns ``(r_km, v_km_s)``."""
+        r_km, v_km_s = to_gcrs_axes(self.frame, r_km, v_km_s)
+        meta = self.metadata
+        if self.visviva_frame != "teme" or meta.get("REF_FRAME_EPOCH") in (None, ""):
+            return r_km, v_km_s
+        from ..satellites.frames import teme_of_epoch_to_teme
+
+        line = meta.line_of("REF_FRAME_EPOCH") if hasattr(meta, "line_of") else None
+        t0 = epochs_to_time(meta["REF_FRAME_EPOCH"], meta["TIME_SYSTEM"], line,
+                            getattr(self, "source", "<text>"), getattr(self, "mission_epoch", None))
+        return teme_of_epoch_to_teme(r_km, v_km_s, t0, times)
+
     def wrap_states(self, r_km, v_km_s, gm_km3_s2, times):
         """States of this message, labelled with their visviva frame when Earth-centred (so
         that TEME or ITRF data are not taken for GCRS downstream); EME2000 numbers (about any
@@ -537,17 +552,7 @@ class FrameCenterMetadata:
         from ..satellites.satellite_states import framed_states
 
         earth = str(self.center).strip().upper() == "EARTH"
-        r_km, v_km_s = to_gcrs_axes(self.frame, r_km, v_km_s)  # (EME2000: the frame bias)
-        meta = self.metadata
-        if self.visviva_frame == "teme" and meta.get("REF_FRAME_EPOCH") not in (None, ""):
-            # TEME of REF_FRAME_EPOCH, not of date: turned to the TEME of each state's date
-            from ..satellites.frames import teme_of_epoch_to_teme
-
-            line = meta.line_of("REF_FRAME_EPOCH") if hasattr(meta, "line_of") else None
-            t0 = epochs_to_time(meta["REF_FRAME_EPOCH"], meta["TIME_SYSTEM"], line,
-                                getattr(self, "source", "<text>"),
-                                getattr(self, "mission_epoch", None))
-            r_km, v_km_s = teme_of_epoch_to_teme(r_km, v_km_s, t0, times)
+        r_km, v_km_s = self.visviva_axes(r_km, v_km_s, times)
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
                              self.visviva_frame if earth else None,
                              foreign=self.frame if earth else None)

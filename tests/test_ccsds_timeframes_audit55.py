@@ -168,3 +168,26 @@ def test_an_omm_whose_ref_frame_epoch_is_not_its_epoch_is_refused_by_sgp4():
     with pytest.raises(InvalidInputError, match="REF_FRAME_EPOCH = 2000-01-01T12:00:00Z .*TEME "
                                                 "axes of that epoch"):
         vv.Satellite.from_omm(other)
+
+
+# -- Earth-fixed REF_FRAMEs visviva cannot rotate: no two-body motion, no elements -------------
+@pytest.mark.parametrize("frame", ["GTOD", "PEF", "GRC", "TDR", "ECEF", "ITRF-2014"])
+def test_states_on_earth_fixed_axes_are_refused_by_two_body_users(frame):
+    # was: taken as inertial: the elements of the sample state on GTOD axes had a = 15,951 km,
+    # its inertial velocity (v + w x r) gives 24,443 km; propagate() moved it as if inertial
+    base = OPM_KVN.split("SEMI_MAJOR_AXIS")[0]
+    state = vv.read_opm(base.replace("REF_FRAME = GCRF", f"REF_FRAME = {frame}")).state
+    match = f"REF_FRAME = {frame}, whose axes turn with the Earth"
+    for call in (lambda: state.propagate(600 * u.s), state.to_elements, state.to_equinoctial):
+        with pytest.raises(InvalidInputError, match=match):
+            call()
+
+
+def test_itrs_and_gcrs_written_as_ref_frame_are_visvivas_frames():
+    base = OPM_KVN.split("SEMI_MAJOR_AXIS")[0]
+    for name, frame in (("ITRS", "itrs"), ("GCRS", "gcrs")):
+        opm = vv.read_opm(base.replace("REF_FRAME = GCRF", f"REF_FRAME = {name}"))
+        assert opm.visviva_frame == frame and opm.state.frame == frame
+        assert f"REF_FRAME            = {name}" in vv.write_opm(opm)
+    tod = vv.read_opm(base.replace("REF_FRAME = GCRF", "REF_FRAME = TOD")).state
+    assert tod.to_elements().semi_major_axis.to_value(u.km) == pytest.approx(15951.237, abs=1e-2)

@@ -44,8 +44,8 @@ RELATIVE_TIME_SYSTEMS = {"MET": "the launch epoch", "MRT": "the mission's refere
 _JULIAN_YEAR_S = 365.25 * 86400.0
 _ELAPSED = re.compile(r"^(\d{4})-(\d{3})T(\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)Z?$", re.ASCII)
 
-_FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
-           "ITRF": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
+_FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "GCRS": "gcrs", "TEME": "teme",
+           "ITRF": "itrs", "ITRS": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
            "ITRF93": "itrs", "ITRF97": "itrs", "ITRF2005": "itrs", "ITRF2008": "itrs",
            "ITRF2014": "itrs", "ITRF2020": "itrs"}
 
@@ -402,15 +402,10 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     return list(np.atleast_1d(out.value))
 
 
-#: REF_FRAMEs that rotate with the Earth but are not the ITRS (no polar motion, or other
-#: names of Earth-fixed axes): SANA's GRC (Greenwich rotating) and TDR (true of date rotating),
-#: GTOD, PEF, and the EFG / ECF / ECEF of other tools
-_EARTH_FIXED = frozenset({"GRC", "TDR", "GTOD", "PEF", "EFG", "ECF", "ECEF"})
-
-
 def earth_fixed(name: str) -> bool:
-    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, GRC,
-    TDR, GTOD, PEF, EFG, ECF, ECEF): a velocity on its axes is not the inertial velocity.
+    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, ITRS, GRC,
+    TDR, GTOD, PEF, EFG, ECF, ECEF, ECR: :data:`visviva._containers.EARTH_FIXED_NAMES`): a
+    velocity on its axes is not the inertial velocity.
 
     Parameters
     ----------
@@ -421,8 +416,9 @@ def earth_fixed(name: str) -> bool:
     -------
     bool
     """
-    key = str(name).strip().upper()
-    return visviva_frame(key) == "itrs" or key.startswith("ITRF") or key in _EARTH_FIXED
+    from .._containers import earth_fixed_name
+
+    return visviva_frame(str(name)) == "itrs" or earth_fixed_name(name)
 
 
 def visviva_frame(name: str) -> str | None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
-from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks, refuse_pending
+from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks, refuse_pending, refuse_rotating
 from ..elements import KeplerianElements
 from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
@@ -173,6 +173,7 @@ def require_kepler_frame(states, what: str) -> str:
             "sat.gcrs(t) or sat.teme(t) instead."
         )
     refuse_pending(states, what)
+    refuse_rotating(states, what)
     return (frame or "gcrs").lower()
 
 

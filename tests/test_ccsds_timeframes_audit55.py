@@ -168,6 +168,8 @@ def test_an_omm_whose_ref_frame_epoch_is_not_its_epoch_is_refused_by_sgp4():
     with pytest.raises(InvalidInputError, match="REF_FRAME_EPOCH = 2000-01-01T12:00:00Z .*TEME "
                                                 "axes of that epoch"):
         vv.Satellite.from_omm(other)
+    with pytest.raises(InvalidInputError, match="OMM REF_FRAME_EPOCH 'yesterday' is not a UTC"):
+        vv.Satellite.from_omm({**omm, "REF_FRAME_EPOCH": "yesterday"})
 
 
 # -- Earth-fixed REF_FRAMEs visviva cannot rotate: no two-body motion, no elements -------------

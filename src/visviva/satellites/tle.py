@@ -179,8 +179,11 @@ def _check_frame_epoch(clean, fields) -> None:
     ref = clean.get("REF_FRAME_EPOCH")
     if ref is None:
         return
-    gap = (datetime.fromisoformat(_omm_epoch(ref))
-           - datetime.fromisoformat(clean["EPOCH"])).total_seconds()
+    try:
+        at = _omm_epoch(ref)
+    except InvalidInputError as exc:  # (its message says EPOCH)
+        raise InvalidInputError(str(exc).replace("OMM EPOCH", "OMM REF_FRAME_EPOCH", 1)) from None
+    gap = (datetime.fromisoformat(at) - datetime.fromisoformat(clean["EPOCH"])).total_seconds()
     if abs(gap) > 1.0:
         raise InvalidInputError(
             f"OMM record {fields.get('OBJECT_NAME', '')!r} has REF_FRAME_EPOCH = {ref} "

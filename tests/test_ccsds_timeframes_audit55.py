@@ -193,3 +193,38 @@ def test_itrs_and_gcrs_written_as_ref_frame_are_visvivas_frames():
         assert f"REF_FRAME            = {name}" in vv.write_opm(opm)
     tod = vv.read_opm(base.replace("REF_FRAME = GCRF", "REF_FRAME = TOD")).state
     assert tod.to_elements().semi_major_axis.to_value(u.km) == pytest.approx(15951.237, abs=1e-2)
+
+
+# -- sat.teme(t).to_state_vectors() keeps TEME -------------------------------------------------
+ISS = ("1 25544U 98067A   24001.50000000  .00016717  00000-0  10270-3 0  9009",
+       "2 25544  51.6416 247.4627 0006703 130.5360 325.0288 15.49815350 10001")
+
+
+def test_plain_states_of_teme_states_stay_teme():
+    # was: plain states, taken for GCRS: propagate_cowell ran TEME numbers as GCRS ones, and
+    # vv.fit_tle fitted them as GCRS (a TLE 35.5 km from the satellite over half a day)
+    from visviva.ccsds.oem import OEMSegment
+
+    iss = vv.Satellite.from_tle(*ISS)
+    t = np.linspace(0.0, 0.25, 13) * u.day
+    plain = iss.teme(t).to_state_vectors()
+    assert type(plain) is vv.StateVectors
+    with pytest.raises(InvalidInputError, match="in TEME .*teme_to_gcrs"):
+        vv.propagate_cowell(plain[0], 60 * u.s)
+    fitted = vv.fit_tle(plain)
+    err = np.linalg.norm(fitted.teme(t).r.to_value(u.km) - plain.r.to_value(u.km), axis=-1)
+    assert err.max() < 1e-6  # km
+    seg = OEMSegment.from_states(plain, object_name="ISS")
+    assert seg.frame == "TEME"
+    with pytest.raises(InvalidInputError, match="in TEME"):
+        OEMSegment.from_states(plain, object_name="ISS", frame="GCRF")
+    gcrs = iss.gcrs(t).to_state_vectors()  # (GCRS ones stay plain and unmarked)
+    assert getattr(gcrs, "_foreign_frame", None) is None
+
+
+def test_fit_tle_refuses_plain_states_of_a_frame_it_cannot_rotate():
+    # was: TOD states (an OEM's seg.states) fitted as GCRS
+    text, *_ = _teme_of_epoch_oem(None)
+    states = vv.read_oem(text.replace("REF_FRAME = TEME", "REF_FRAME = TOD")).segments[0].states
+    with pytest.raises(InvalidInputError, match="REF_FRAME = TOD .*cannot rotate"):
+        vv.fit_tle(states)

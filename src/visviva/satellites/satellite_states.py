@@ -106,6 +106,11 @@ def require_gcrs(states, what: str) -> None:
     unless they were read as Earth-centred in a frame visviva cannot rotate (``REF_FRAME = TOD``).
     """
     foreign = getattr(states, FOREIGN_FRAME_ATTRIBUTE, None)
+    if foreign is not None and str(foreign) in FRAMES:  # (sat.teme(t).to_state_vectors())
+        raise InvalidInputError(
+            f"{what} works in the GCRS, but these states are in {str(foreign).upper()} (they "
+            "came from sat.teme(t).to_state_vectors()): use sat.gcrs(t), or rotate them with "
+            "visviva.satellites.frames.teme_to_gcrs first.")
     if foreign is not None:
         raise InvalidInputError(
             f"{what} works in the GCRS, but these states are Earth-centred in REF_FRAME = "
@@ -304,14 +309,23 @@ class SatelliteStates(_Framed, StateVectors):
         return altitude_km(self._r, self._v, self.epoch, self.frame) << u.km
 
     def to_state_vectors(self) -> StateVectors:
-        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
+        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only).
+
+        Plain states are taken as GCRS; TEME ones keep their frame as a mark (:func:`frame_of`
+        gives ``"teme"``), so that what works in the GCRS refuses them (:func:`require_gcrs`)
+        and ``vv.fit_tle`` and the CCSDS writers take them as TEME (they were taken for GCRS
+        before audit55: the TEME axes are 0.34 deg from the GCRS's in 2024, 40 km in LEO).
+        """
         if self.frame == "itrs":
             raise InvalidInputError(
                 "ITRS rotates with the Earth, so its velocities are not inertial; convert "
                 "sat.gcrs(t) or sat.teme(t) instead."
             )
-        return carry_marks(self, StateVectors._from_canonical(self._r, self._v, self._gm,
-                                                              self.epoch))
+        plain = carry_marks(self, StateVectors._from_canonical(self._r, self._v, self._gm,
+                                                               self.epoch))
+        if self.frame != "gcrs":
+            setattr(plain, FOREIGN_FRAME_ATTRIBUTE, self.frame)
+        return plain
 
     def __repr__(self):
         return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"

@@ -1,5 +1,6 @@
 """CCSDS time systems and frames, third audit (audit55): a 'Z' or zero UTC offset in a message
-whose TIME_SYSTEM is not UTC, an OMM's GM, REF_FRAME = J2000."""
+whose TIME_SYSTEM is not UTC, an OMM's GM, REF_FRAME = J2000, TEME with a REF_FRAME_EPOCH,
+Earth-fixed frames visviva cannot rotate, and sat.teme(t).to_state_vectors()."""
 
 import warnings
 
@@ -9,10 +10,9 @@ from astropy import units as u
 from astropy.time import Time
 
 import visviva as vv
+from test_ccsds_opm_omm import OMM_KVN, OPM_KVN
 from visviva.errors import InvalidInputError
 from visviva.satellites.satellite_states import require_gcrs
-
-from test_ccsds_opm_omm import OMM_KVN, OPM_KVN
 
 _EPOCH = "EPOCH = 2024-03-01T00:00:00.000"
 

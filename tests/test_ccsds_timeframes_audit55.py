@@ -228,3 +228,24 @@ def test_fit_tle_refuses_plain_states_of_a_frame_it_cannot_rotate():
     states = vv.read_oem(text.replace("REF_FRAME = TEME", "REF_FRAME = TOD")).segments[0].states
     with pytest.raises(InvalidInputError, match="REF_FRAME = TOD .*cannot rotate"):
         vv.fit_tle(states)
+
+
+def test_look_angles_of_plain_teme_states_and_of_tod_states():
+    # was: plain states taken for GCRS: TEME ones (to_state_vectors) 27.7 km in range and
+    # 0.73 deg in elevation off over a fifth of a day at this site; TOD ones likewise
+    iss = vv.Satellite.from_tle(*ISS)
+    site = vv.GroundStation(40.4 * u.deg, -4.25 * u.deg, 0.8 * u.km)
+    t = iss.epoch + np.linspace(0.0, 0.2, 40) * u.day
+    framed = iss.teme(t)
+    a, b = site.look(framed), site.look(framed.to_state_vectors())
+    np.testing.assert_array_equal(a.range.to_value(u.km), b.range.to_value(u.km))
+    np.testing.assert_array_equal(a.elevation.to_value(u.deg), b.elevation.to_value(u.deg))
+    text, *_ = _teme_of_epoch_oem(None)
+    tod = vv.read_oem(text.replace("REF_FRAME = TEME", "REF_FRAME = TOD")).segments[0].states
+    with pytest.raises(InvalidInputError, match="REF_FRAME = TOD, which visviva cannot rotate"):
+        site.look(tod)
+    from visviva.conjunctions.sources import _frame
+
+    assert _frame(framed.to_state_vectors(), "primary") == "TEME"
+    with pytest.raises(InvalidInputError, match=r"primary\[0\] is in REF_FRAME = TOD"):
+        _frame(tod, "primary[0]")

@@ -15,7 +15,8 @@ from . import _units
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
 __all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
-           "carry_marks", "carry_frame_mark", "refuse_pending", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
+           "carry_marks", "carry_frame_mark", "refuse_pending", "EARTH_FIXED_NAMES",
+           "earth_fixed_name", "refuse_rotating", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
            "canonical_arrays", "flat_elements", "warn_implausible_velocity", "warn_if_degrees"]
 
 
@@ -78,6 +79,54 @@ def carry_frame_mark(source, result):
     if value is not None:
         setattr(result, FOREIGN_FRAME_ATTRIBUTE, value)
     return result
+
+
+#: foreign frame names (a CCSDS ``REF_FRAME`` as written) of axes that turn with the Earth, besides
+#: ``ITRF*`` (its realisations): SANA's GRC (Greenwich rotating) and TDR (true of date
+#: rotating), GTOD, PEF, and the EFG / ECF / ECEF / ECR of other tools
+EARTH_FIXED_NAMES = frozenset({"GRC", "TDR", "GTOD", "PEF", "EFG", "ECF", "ECEF", "ECR"})
+
+
+def earth_fixed_name(name) -> bool:
+    """Whether a frame name (``ITRF``, ``ITRF2014``, ``ITRS``, ``GTOD``, ``ECEF`` ...) is of axes
+    that turn with the Earth, on which a velocity is not the inertial velocity.
+
+    Parameters
+    ----------
+    name : str
+        The name as written (any case).
+
+    Returns
+    -------
+    bool
+    """
+    key = str(name).strip().upper()
+    return key.startswith(("ITRF", "ITRS")) or key in EARTH_FIXED_NAMES
+
+
+def refuse_rotating(state, what: str) -> None:
+    """Refuse states marked with a foreign frame that turns with the Earth (an OEM's or OPM's
+    ``REF_FRAME = GTOD``, ``PEF``, ``GRC`` ...) where ``what`` takes their axes as inertial.
+
+    Parameters
+    ----------
+    state : TwoBodyContainer
+        The states.
+    what : str
+        The function that needs inertial axes, for the message.
+
+    Raises
+    ------
+    InvalidInputError
+        When the states say so.
+    """
+    foreign = getattr(state, FOREIGN_FRAME_ATTRIBUTE, None)
+    if foreign is not None and earth_fixed_name(foreign):
+        raise InvalidInputError(
+            f"{what}: these states are in REF_FRAME = {foreign}, whose axes turn with the Earth "
+            "(the velocity is relative to them), so Kepler motion does not hold in it and "
+            "osculating elements mean nothing; rotate them to an inertial frame (GCRF, EME2000, "
+            "TEME) first.")
 
 
 def refuse_pending(state, what: str, remedy: str = "Propagate it with opm.propagate(t, "

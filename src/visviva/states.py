@@ -22,6 +22,7 @@ from ._containers import (
     index_epoch,
     normalise_key,
     refuse_pending,
+    refuse_rotating,
     validate_epoch,
     warn_implausible_velocity,
 )
@@ -311,6 +312,7 @@ class StateVectors(TwoBodyContainer):
         from .core.elements import empty_elements, rv_to_coe_array
         from .elements import KeplerianElements
 
+        refuse_rotating(self, "state vectors -> elements")
         *elements, status = out = empty_elements(self.size)
         tier.call(rv_to_coe_array, *self._flat_inputs(), *out, small=self.size <= tier.SMALL_ITEMS)
         elements = self._checked_results(
@@ -347,6 +349,7 @@ class StateVectors(TwoBodyContainer):
         from .equinoctial import ModifiedEquinoctialElements
 
         retrograde = _units.require_flag(retrograde, "retrograde")
+        refuse_rotating(self, "state vectors -> equinoctial elements")
         retro = -1.0 if retrograde else 1.0
         *elements, status = out = empty_elements(self.size)
         rv_to_mee_array(*self._flat_inputs(), retro, *out)
@@ -381,6 +384,7 @@ class StateVectors(TwoBodyContainer):
         from .propagation import propagate_canonical
 
         refuse_pending(self, "two-body propagation")
+        refuse_rotating(self, "two-body propagation")
         r, v, gm, dt_s, shape = propagate_canonical(self._r, self._v, self._gm, self._shape, dt)
         epoch = self.epoch
         if epoch is not None:

@@ -322,7 +322,7 @@ class OEMSegment(FrameCenterMetadata):
 
         with offline_iers():  # a UT1 file needs the installed IERS table, never a download
             times = self.times.utc
-        r, v = tf.to_gcrs_axes(self.frame, self.r_km, self.v_km_s)  # (EME2000: the frame bias)
+        r, v = self.visviva_axes(self.r_km, self.v_km_s, self.times)  # (EME2000: frame bias)
         r, v = transform_batch(r[None], v[None], times, source, frame)
         return framed_states(r[0], v[0], self.gm_km3_s2, self.times, frame)
 

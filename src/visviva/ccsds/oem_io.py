@@ -248,12 +248,9 @@ def _check_segment(seg: OEMSegment, lines, meta_line, name):
     from .timeframes import epochs_to_time
 
     meta = seg.metadata
-    try:
-        t = seg.times
-    except CCSDSFormatError:  # name the state line of the bad epoch, not TIME_SYSTEM's
-        epochs_to_time(seg.epochs, seg.time_system, list(lines), name, seg.mission_epoch,
-                       system_line=meta.line_of("TIME_SYSTEM"))
-        raise
+    # (errors and warnings name the state line of the epoch; an unsupported system, its line)
+    t = seg._times = epochs_to_time(seg.epochs, seg.time_system, list(lines), name,
+                                    seg.mission_epoch, system_line=meta.line_of("TIME_SYSTEM"))
     sec = (t - t[0]).to_value("s")
     steps = np.diff(sec)
     if (steps <= 0).any():

@@ -207,6 +207,7 @@ def read_omm(source) -> OMM:
         at most nine); the message names the line.
     """
     from .grammar import CCSDSFormatError
+    from .opm_checks import warn_omm_gm
 
     sections, _, name = read_message(source, SECTIONS, "omm", "CCSDS_OMM_VERS")
     mean = sections["mean_elements"]
@@ -217,6 +218,7 @@ def read_omm(source) -> OMM:
         check_record_variances(sections["covariance"], name)
         cov = sections["covariance"]
         warn_not_positive_definite([(matrix_from_values(cov.values), cov.line)], name, 3)
+    warn_omm_gm(sections, name)
     tle = sections.get("tle_parameters")
     if tle is not None and "NORAD_CAT_ID" in tle:
         from ..satellites.catalog_numbers import catalogue_number

@@ -1,5 +1,5 @@
-"""Checks of an OPM as read that compare its sections: the Keplerian ``GM`` against the centre's,
-and the osculating Keplerian elements against the state vector (CCSDS 502.0-B-3, 3.2.4: the
+"""Checks of an OPM as read that compare its sections: the Keplerian ``GM`` against the centre's
+(an OMM's mean-element ``GM`` too, which warns: SGP4 does not use it), and the osculating Keplerian elements against the state vector (CCSDS 502.0-B-3, 3.2.4: the
 elements are an optional second description of the same state, about the same ``REF_FRAME``).
 """
 
@@ -9,7 +9,7 @@ import math
 
 from .grammar import CCSDSFormatError
 
-__all__ = ["check_gm", "check_keplerian"]
+__all__ = ["gm_misfit", "check_gm", "warn_omm_gm", "check_keplerian"]
 
 #: relative difference above which an OPM's GM is not the centre's (the published values of a
 #: body's GM differ by < 1e-6: Earth 398600.4415 (EGM-96) / 398600.4418 (WGS-84); a GM in
@@ -20,25 +20,46 @@ GM_TOLERANCE = 1e-2
 KEPLERIAN_TOLERANCE = 1e-3
 
 
+def gm_misfit(record, center) -> str:
+    """Why the ``GM`` of ``record`` is not that of ``center`` (more than 1 % from the GM of the
+    body ``CENTER_NAME`` names, when visviva knows it), or ``""``."""
+    from .timeframes import center_body
+
+    if record is None or "GM" not in record:
+        return ""
+    body = center_body(str(center))
+    if body is None:
+        return ""
+    gm, known = float(record["GM"]), body.gm_km3_s2
+    if abs(gm / known - 1.0) <= GM_TOLERANCE:
+        return ""
+    return (f"GM = {record['GM']!r} km**3/s**2 is {gm / known:.6g} times the GM of CENTER_NAME = "
+            f"{str(center).strip()} ({known!r} km**3/s**2); GM is in km**3/s**2 (a value in "
+            "m**3/s**2 is 1e9 times too large)")
+
+
 def check_gm(sections, name: str) -> None:
     """Refuse a Keplerian ``GM`` more than 1 % from that of ``CENTER_NAME`` (when visviva
     knows the body), naming its line: ``opm.gm`` and ``opm.state`` use the message's GM."""
-    from .timeframes import center_body
-
     kep = sections.get("keplerian_elements")
-    if kep is None or "GM" not in kep:
-        return
-    center = str(sections["metadata"]["CENTER_NAME"])
-    body = center_body(center)
-    if body is None:
-        return
-    gm, known = float(kep["GM"]), body.gm_km3_s2
-    if abs(gm / known - 1.0) > GM_TOLERANCE:
-        raise CCSDSFormatError(
-            f"GM = {kep['GM']!r} km**3/s**2 is {gm / known:.6g} times the GM of CENTER_NAME = "
-            f"{center.strip()} ({known!r} km**3/s**2), and opm.state would orbit with it; GM is "
-            "in km**3/s**2 (a value in m**3/s**2 is 1e9 times too large): correct it",
-            line=kep.line_of("GM"), source=name)
+    why = gm_misfit(kep, sections["metadata"]["CENTER_NAME"])
+    if why:
+        raise CCSDSFormatError(f"{why}, and opm.state would orbit with it: correct it",
+                               line=kep.line_of("GM"), source=name)
+
+
+def warn_omm_gm(sections, name: str) -> None:
+    """Warn, naming its line, when an OMM's ``GM`` is more than 1 % from that of ``CENTER_NAME``:
+    SGP4 does not use it (its WGS-72 GM is built in), but a GM 1e9 times the Earth's says the
+    message was written in other units than it states, its other values too, perhaps."""
+    import warnings
+
+    mean = sections.get("mean_elements")
+    why = gm_misfit(mean, sections["metadata"]["CENTER_NAME"])
+    if why:
+        warnings.warn(f"{name}, line {mean.line_of('GM')}: {why}. SGP4 does not use it "
+                      "(omm['GM'] is kept as written), but check the message's units and correct "
+                      "GM.", UserWarning, stacklevel=3)
 
 
 def _kepler_state(a, e, inc, raan, argp, anomaly, mean, gm):

@@ -44,8 +44,8 @@ RELATIVE_TIME_SYSTEMS = {"MET": "the launch epoch", "MRT": "the mission's refere
 _JULIAN_YEAR_S = 365.25 * 86400.0
 _ELAPSED = re.compile(r"^(\d{4})-(\d{3})T(\d{2}):(\d{2}):(\d{2}(?:\.\d*)?)Z?$", re.ASCII)
 
-_FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "TEME": "teme",
-           "ITRF": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
+_FRAMES = {"EME2000": "gcrs", "ICRF": "gcrs", "GCRF": "gcrs", "GCRS": "gcrs", "TEME": "teme",
+           "ITRF": "itrs", "ITRS": "itrs", "ITRF2000": "itrs", "ITRF-93": "itrs", "ITRF-97": "itrs",
            "ITRF93": "itrs", "ITRF97": "itrs", "ITRF2005": "itrs", "ITRF2008": "itrs",
            "ITRF2014": "itrs", "ITRF2020": "itrs"}
 
@@ -268,6 +268,7 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
         days, secs = _elapsed(items, time_system.upper(), line, source)
         t = mission_epoch + TimeDelta(days, secs / 86400.0, format="jd", scale="tai")
         return t[0] if scalar else t
+    _warn_zulu(items, time_system, line, source)
     iso = [_iso(t) for t in items]
     with warnings.catch_warnings():  # a second 60 that is no leap second: refused below
         warnings.filterwarnings("ignore", message=".*after end of day")
@@ -276,6 +277,28 @@ def epochs_to_time(texts, time_system: str, line=None, source: str = "<text>",
     if time_system.upper() == "GPS":
         t = t - _GPS_MINUS_TAI_S * u.s
     return t[0] if scalar else t
+
+
+def _warn_zulu(items, time_system, line, source):
+    """Warn, naming the first such epoch's line, when epochs end with ``Z`` (or carried a zero
+    UTC offset, which the grammar reads as ``Z``) in a message whose ``TIME_SYSTEM`` is not UTC.
+
+    CCSDS 502.0-B-3 (7.5.10) makes ``Z`` an optional terminator of the epoch, which is in the
+    ``TIME_SYSTEM``, so the epochs are read in it; but ``Z`` (ISO 8601) and ``+00:00`` say UTC
+    to most writers, and a UTC time read as TT is 69.184 s late, as GPS 18 s early.
+    """
+    if time_system.strip().upper() == "UTC":
+        return
+    k = next((k for k, text in enumerate(items) if text.rstrip().endswith("Z")), None)
+    if k is None:
+        return
+    where = f"{source}" + (f", line {_line_at(line, k)}" if _line_at(line, k) is not None else "")
+    warnings.warn(
+        f"{where}: the epoch {items[k]!r} ends with 'Z' (or a zero UTC offset), which ISO 8601 "
+        f"reads as UTC, but TIME_SYSTEM = {time_system.strip()}; it is read in "
+        f"{time_system.strip()} (CCSDS 502.0-B-3: 'Z' only ends the epoch). If the epochs are "
+        "UTC, write TIME_SYSTEM = UTC; if they are in the TIME_SYSTEM, drop the 'Z'.",
+        UserWarning, stacklevel=3)
 
 
 def _parse(iso, items, scale, line, source):
@@ -379,15 +402,10 @@ def time_to_epochs(t, time_system: str, mission_epoch=None) -> list[str]:
     return list(np.atleast_1d(out.value))
 
 
-#: REF_FRAMEs that rotate with the Earth but are not the ITRS (no polar motion, or other
-#: names of Earth-fixed axes): SANA's GRC (Greenwich rotating) and TDR (true of date rotating),
-#: GTOD, PEF, and the EFG / ECF / ECEF of other tools
-_EARTH_FIXED = frozenset({"GRC", "TDR", "GTOD", "PEF", "EFG", "ECF", "ECEF"})
-
-
 def earth_fixed(name: str) -> bool:
-    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, GRC,
-    TDR, GTOD, PEF, EFG, ECF, ECEF): a velocity on its axes is not the inertial velocity.
+    """Whether a CCSDS ``REF_FRAME`` rotates with the Earth (ITRF and its realisations, ITRS, GRC,
+    TDR, GTOD, PEF, EFG, ECF, ECEF, ECR: :data:`visviva._containers.EARTH_FIXED_NAMES`): a
+    velocity on its axes is not the inertial velocity.
 
     Parameters
     ----------
@@ -398,8 +416,9 @@ def earth_fixed(name: str) -> bool:
     -------
     bool
     """
-    key = str(name).strip().upper()
-    return visviva_frame(key) == "itrs" or key.startswith("ITRF") or key in _EARTH_FIXED
+    from .._containers import earth_fixed_name
+
+    return visviva_frame(str(name)) == "itrs" or earth_fixed_name(name)
 
 
 def visviva_frame(name: str) -> str | None:
@@ -488,10 +507,26 @@ class FrameCenterMetadata:
         """``CENTER_NAME`` as written."""
         return self.metadata["CENTER_NAME"]
 
+    def visviva_axes(self, r_km, v_km_s, times):
+        """Numbers on the axes of ``REF_FRAME`` turned to those of its visviva frame: EME2000
+        by the frame bias (:func:`to_gcrs_axes`), TEME of ``REF_FRAME_EPOCH`` to the TEME of
+        each state's date (``times``); others unchanged. Returns ``(r_km, v_km_s)``."""
+        r_km, v_km_s = to_gcrs_axes(self.frame, r_km, v_km_s)
+        meta = self.metadata
+        if self.visviva_frame != "teme" or meta.get("REF_FRAME_EPOCH") in (None, ""):
+            return r_km, v_km_s
+        from ..satellites.frames import teme_of_epoch_to_teme
+
+        line = meta.line_of("REF_FRAME_EPOCH") if hasattr(meta, "line_of") else None
+        t0 = epochs_to_time(meta["REF_FRAME_EPOCH"], meta["TIME_SYSTEM"], line,
+                            getattr(self, "source", "<text>"), getattr(self, "mission_epoch", None))
+        return teme_of_epoch_to_teme(r_km, v_km_s, t0, times)
+
     def wrap_states(self, r_km, v_km_s, gm_km3_s2, times):
         """States of this message, labelled with their visviva frame when Earth-centred (so
         that TEME or ITRF data are not taken for GCRS downstream); EME2000 numbers (about any
-        centre) are rotated to the GCRS/ICRF axes by the frame bias (:func:`to_gcrs_axes`).
+        centre) are rotated to the GCRS/ICRF axes by the frame bias (:func:`to_gcrs_axes`),
+        TEME ones with a ``REF_FRAME_EPOCH`` (TEME of that epoch) to the TEME of their dates.
 
         Parameters
         ----------
@@ -513,7 +548,7 @@ class FrameCenterMetadata:
         from ..satellites.satellite_states import framed_states
 
         earth = str(self.center).strip().upper() == "EARTH"
-        r_km, v_km_s = to_gcrs_axes(self.frame, r_km, v_km_s)  # (EME2000: the frame bias)
+        r_km, v_km_s = self.visviva_axes(r_km, v_km_s, times)
         return framed_states(r_km, v_km_s, gm_km3_s2, times,
                              self.visviva_frame if earth else None,
                              foreign=self.frame if earth else None)

@@ -451,8 +451,16 @@ def _check_useable(obj, t0, span, name):
 
 def _frame(obj, name):
     """The frame of one ephemeris: satellite states say theirs (TEME, GCRS); the rest are
-    taken as GCRS. The rotating ITRS is refused (its velocities would tilt the RTN axes)."""
-    frame = str(getattr(obj, "frame", None) or "gcrs").upper()
+    taken as GCRS. The rotating ITRS is refused (its velocities would tilt the RTN axes), and
+    so are states marked with a frame visviva cannot rotate (an OEM's ``TOD`` states)."""
+    from ..satellites.satellite_states import FRAMES, frame_of
+
+    own = frame_of(obj)  # (plain states may carry a mark: TEME, or a REF_FRAME such as TOD)
+    if own is not None and own not in FRAMES:
+        raise InvalidInputError(
+            f"{name} is in REF_FRAME = {own}, which visviva cannot rotate: screen states in "
+            "GCRF/EME2000/ICRF or TEME (their positions could not be compared with others').")
+    frame = str(own or "gcrs").upper()
     if frame == "ITRS":
         raise InvalidInputError(
             f"{name} is in the ITRS, which rotates with the Earth (its velocities would tilt the "

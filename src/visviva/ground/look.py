@@ -149,7 +149,13 @@ def _target_states(target, t):
                 "(astropy Time)."
             )
         _check_geocentric(target)
-        source = getattr(target, "frame", "gcrs")
+        from ..satellites.satellite_states import FRAMES, frame_of
+
+        source = frame_of(target) or "gcrs"  # (plain states may carry one: TEME, TOD ...)
+        if source not in FRAMES:
+            raise InvalidInputError(
+                f"these states are in REF_FRAME = {source}, which visviva cannot rotate to the "
+                "ITRS: pass GCRS or TEME states (sat.gcrs(t)).")
         if source == "itrs":
             raise InvalidInputError("pass GCRS or TEME states (sat.gcrs(t)), not ITRS ones.")
         try:

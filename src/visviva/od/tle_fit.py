@@ -87,7 +87,13 @@ class TLEFit:
 
 def _frame_of(states, frame):
     """The frame of a state history: its own (``sat.teme(t)`` knows it) or ``frame``."""
-    own = getattr(states, "frame", None)
+    from ..satellites.satellite_states import FRAMES, frame_of
+
+    own = frame_of(states)  # (plain states may carry one: TEME, or a REF_FRAME such as TOD)
+    if own is not None and own not in FRAMES:
+        raise InvalidInputError(
+            f"the states are in REF_FRAME = {own} (they say so), a frame visviva cannot rotate "
+            "to TEME; give the states in GCRF/EME2000/ICRF, TEME or ITRF.")
     if own is None:
         return "gcrs" if frame is None else frame
     if frame is not None and frame != own:

@@ -361,6 +361,35 @@ def transform_batch(r, v, t, source: str, target: str):
     return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3:])
 
 
+def teme_of_epoch_to_teme(r_km, v_km_s, t0, t):
+    """States on the TEME axes of one epoch ``t0`` (CCSDS ``REF_FRAME = TEME`` with
+    ``REF_FRAME_EPOCH``) rotated to the TEME of their own dates ``t`` (SGP4's, visviva's).
+
+    Parameters
+    ----------
+    r_km, v_km_s : ndarray (..., 3)
+        Positions (km) and velocities (km/s) on the axes of TEME at ``t0``.
+    t0 : astropy Time
+        The frame's epoch (scalar).
+    t : astropy Time
+        The states' times, shape ``r_km.shape[:-1]``.
+
+    Returns
+    -------
+    r, v : ndarray (..., 3)
+
+    Notes
+    -----
+    The axes of epoch do not turn: ``(r, v)_GCRS = (R0 r, R0 v)`` with ``R0`` the TEME -> GCRS
+    rotation at ``t0``; then GCRS -> TEME of date by :func:`transform_matrices` at ``t`` (whose
+    axes turn by precession and nutation, ~1e-11 rad/s: metres a day in LEO, tens at GEO).
+    """
+    r0 = transform_matrices(t0, "teme", "gcrs")[..., :3, :3]
+    r_g = np.einsum("ij,...j->...i", r0, r_km)
+    v_g = np.einsum("ij,...j->...i", r0, v_km_s)
+    return apply_matrices(transform_matrices(t, "gcrs", "teme"), r_g, v_g)
+
+
 def _convert(r, v, t, source, target):
     """Frame change of states broadcast against ``t`` through :func:`transform_matrices`."""
     r_km, v_km_s, shape = _states_at(r, v, t, source, target)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from astropy import units as u
 
-from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks, refuse_pending
+from .._containers import FOREIGN_FRAME_ATTRIBUTE, carry_marks, refuse_pending, refuse_rotating
 from ..elements import KeplerianElements
 from ..equinoctial import ModifiedEquinoctialElements
 from ..errors import (
@@ -91,6 +91,14 @@ def with_frame(obj, frame):
     return new
 
 
+#: J2000 is no CCSDS REF_FRAME (SANA lists EME2000) and means either of two frames 23 mas apart
+_J2000_HINT = (
+    " (J2000 is no CCSDS REF_FRAME, and tools mean two frames by it: if it is the mean equator "
+    "and equinox of J2000, as in STK, GMAT and Orekit, write REF_FRAME = EME2000, which visviva "
+    "turns to the GCRS by the 23 mas frame bias; if it is SPICE's J2000, which SPICE takes for "
+    "the ICRF, write ICRF).")
+
+
 def require_gcrs(states, what: str) -> None:
     """Refuse satellite states that say they are not in the GCRS (``what`` works there).
 
@@ -98,11 +106,17 @@ def require_gcrs(states, what: str) -> None:
     unless they were read as Earth-centred in a frame visviva cannot rotate (``REF_FRAME = TOD``).
     """
     foreign = getattr(states, FOREIGN_FRAME_ATTRIBUTE, None)
+    if foreign is not None and str(foreign) in FRAMES:  # (sat.teme(t).to_state_vectors())
+        raise InvalidInputError(
+            f"{what} works in the GCRS, but these states are in {str(foreign).upper()} (they "
+            "came from sat.teme(t).to_state_vectors()): use sat.gcrs(t), or rotate them with "
+            "visviva.satellites.frames.teme_to_gcrs first.")
     if foreign is not None:
         raise InvalidInputError(
             f"{what} works in the GCRS, but these states are Earth-centred in REF_FRAME = "
             f"{foreign}, which visviva cannot rotate to the GCRS (it reads EME2000, GCRF, ICRF, "
-            "TEME, ITRF): convert them to one of those first."
+            "TEME, ITRF): convert them to one of those first"
+            + (_J2000_HINT if str(foreign).strip().upper() == "J2000" else ".")
         )
     frame = getattr(states, "frame", None)
     if frame is not None and frame != "gcrs":
@@ -164,6 +178,7 @@ def require_kepler_frame(states, what: str) -> str:
             "sat.gcrs(t) or sat.teme(t) instead."
         )
     refuse_pending(states, what)
+    refuse_rotating(states, what)
     return (frame or "gcrs").lower()
 
 
@@ -294,14 +309,23 @@ class SatelliteStates(_Framed, StateVectors):
         return altitude_km(self._r, self._v, self.epoch, self.frame) << u.km
 
     def to_state_vectors(self) -> StateVectors:
-        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only)."""
+        """These states as a plain :class:`visviva.StateVectors` (TEME or GCRS only).
+
+        Plain states are taken as GCRS; TEME ones keep their frame as a mark (:func:`frame_of`
+        gives ``"teme"``), so that what works in the GCRS refuses them (:func:`require_gcrs`)
+        and ``vv.fit_tle`` and the CCSDS writers take them as TEME (they were taken for GCRS
+        before audit55: the TEME axes are 0.34 deg from the GCRS's in 2024, 40 km in LEO).
+        """
         if self.frame == "itrs":
             raise InvalidInputError(
                 "ITRS rotates with the Earth, so its velocities are not inertial; convert "
                 "sat.gcrs(t) or sat.teme(t) instead."
             )
-        return carry_marks(self, StateVectors._from_canonical(self._r, self._v, self._gm,
-                                                              self.epoch))
+        plain = carry_marks(self, StateVectors._from_canonical(self._r, self._v, self._gm,
+                                                               self.epoch))
+        if self.frame != "gcrs":
+            setattr(plain, FOREIGN_FRAME_ATTRIBUTE, self.frame)
+        return plain
 
     def __repr__(self):
         return f"<SatelliteStates frame={self.frame!r} shape={self.shape}>"

@@ -172,6 +172,27 @@ def _check_sgp4_metadata(fields) -> None:
         )
 
 
+def _check_frame_epoch(clean, fields) -> None:
+    """Refuse a ``REF_FRAME_EPOCH`` more than 1 s from ``EPOCH``: the elements would be on the
+    TEME axes of that epoch, and SGP4's are those of ``EPOCH`` (TEME of date), which turn by
+    precession and nutation (~0.14 arcsec a day: 27 m at GEO after a day)."""
+    ref = clean.get("REF_FRAME_EPOCH")
+    if ref is None:
+        return
+    try:
+        at = _omm_epoch(ref)
+    except InvalidInputError as exc:  # (its message says EPOCH)
+        raise InvalidInputError(str(exc).replace("OMM EPOCH", "OMM REF_FRAME_EPOCH", 1)) from None
+    gap = (datetime.fromisoformat(at) - datetime.fromisoformat(clean["EPOCH"])).total_seconds()
+    if abs(gap) > 1.0:
+        raise InvalidInputError(
+            f"OMM record {fields.get('OBJECT_NAME', '')!r} has REF_FRAME_EPOCH = {ref} "
+            f"({gap / 86400.0:.6g} days from EPOCH = {fields['EPOCH']}): its elements are on "
+            "the TEME axes of that epoch, but SGP4 elements are on those of EPOCH (TEME of "
+            "date). Propagating these with SGP4 would be wrong: drop REF_FRAME_EPOCH if the "
+            "elements are SGP4's, or ask for the object's SGP4 element set.")
+
+
 #: ephemeris types of element sets that are not SGP4's: 4 is SGP4-XP at Space-Track (SGP8 in
 #: Spacetrack Report #3, as 1 is SGP and 5 SDP8); 0 (today's), 2 and 3 (SGP4, SDP4) are SGP4's
 _NOT_SGP4_TYPES = {1: "SGP", 4: "SGP4-XP (SGP8 in Spacetrack Report #3)", 5: "SDP8"}
@@ -341,6 +362,7 @@ class Satellite:
         clean = dict(_OMM_DEFAULTS)
         clean.update({k: v for k, v in fields.items() if v not in (None, "")})
         clean["EPOCH"] = _omm_epoch(clean["EPOCH"])
+        _check_frame_epoch(clean, fields)
         try:
             clean["NORAD_CAT_ID"] = catalogue_number(clean["NORAD_CAT_ID"])
             for k in ("MEAN_MOTION", "ECCENTRICITY", "INCLINATION", "RA_OF_ASC_NODE",

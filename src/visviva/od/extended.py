@@ -151,10 +151,11 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     # with a gap of days every gap between passes is flown by sigma points (UNSCENTED_GAP_S)
     unscented_after = CURVATURE_GAP_S if np.any(np.diff(epochs) > UNSCENTED_GAP_S) else np.inf
     for k in range(n_t):
-        if k and not est and epochs[k] - epochs[k - 1] > unscented_after:
+        if k and epochs[k] - epochs[k - 1] > unscented_after:
             try:
                 x, phis[k], noises[k], L = unscented_gap(dyn, schedule, x, L, epochs[k - 1],
-                                                         epochs[k], q, code, step_s)
+                                                         epochs[k], q, code, step_s, est,
+                                                         gauss)  # fmt: skip
             except VisvivaError as exc:
                 raise screen.diverged(k, f"the sigma points cannot be integrated ({exc})") from exc
             Lp[k] = L
@@ -196,18 +197,23 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     return xs, Ps, xp, Pp, phis, (Ls, Lp, noises)
 
 
-def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s):
+def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s, est=(), gauss=None):
     """The prediction over a long gap by the unscented transform (:mod:`visviva.od.unscented`):
     the sigma points of (x, L L^T) at ``t_from`` flown to ``t_to`` (s from the epoch), on the
-    sub-steps and through the burns the unscented filter takes. Returns the predicted mean,
-    the statistical linearisation A of the flow (in place of the STM), the square root of the
-    residue (cov(x-) = A P A^T + residue; the smoother's noise) and the predicted square root.
+    sub-steps and through the burns the unscented filter takes; with ``est`` the state is
+    (x, p) (6 + k) and each point flies its own coefficients p, which with ``gauss``
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) decay and take their noise at each
+    sub-step's end. Returns the predicted mean, the statistical linearisation A of the flow
+    (in place of the STM), the square root of the residue (cov(x-) = A P A^T + residue; the
+    smoother's noise) and the predicted square root.
     """
     from .unscented import predict_interval, unscented_weights
 
     n = x.size
-    x, L, T = predict_interval(dyn, schedule, (), x, L, t_from, t_to, q, code, step_s,
-                               unscented_weights(None, n))
+    for c in est:  # the block flies unit coefficients, each point scaling them by its own p
+        c.write(dyn, 1.0)  # (the STM's predictions write the estimate again before each flight)
+    x, L, T = predict_interval(dyn, schedule, est, x, L, t_from, t_to, q, code, step_s,
+                               unscented_weights(None, n), gauss)
     L11, L21 = T[:n, :n], T[n:, :n]
     try:  # A = L21 L11^-1
         A = np.linalg.solve(L11.T, L21.T).T

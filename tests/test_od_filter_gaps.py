@@ -2,6 +2,8 @@
 gaps by the unscented transform (visviva.od.extended.UNSCENTED_GAP_S), against the truth (NEES)
 and against the STM's prediction where no gap is that long (bit for bit)."""
 
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -133,7 +135,7 @@ def test_the_ekf_estimating_drag_stays_consistent_across_a_gap_of_days(drag_arcs
     # odgap: with estimate= the EKF still mapped the 3-day gap with the STM (Phi_z = [[Phi, S],
     # [0, 1]]): this draw's (x, B) NEES averaged 1.3e4 over the epochs (2.6e4 after the gap,
     # 6.7 for the state alone: the state-B correlation was wrong) and other draws diverged in
-    # the second arc (2 of 5); with (x, B) flown by sigma points 6.6 (the UKF's 6.7)
+    # the second arc (2 of 5); with (x, B) flown by sigma points 6.7 (the UKF's 6.7)
     nees, zb, _ = _run_drag(*drag_arcs, seed=0)
     assert nees.mean() < 15 and np.abs(zb).max() < 3
     monkeypatch.setattr(extended, "UNSCENTED_GAP_S", np.inf)  # the old prediction
@@ -163,3 +165,44 @@ def test_with_estimate_the_gap_switch_switches_and_short_tracking_keeps_the_stm(
         # and the sigma points agree with the STM where the flow is linear across P
         B = a.parameters["drag"].to_value(M2KG)
         assert np.allclose(b.parameters["drag"].to_value(M2KG), B, atol=0.05 * SIGMA_B)
+
+
+def test_the_ekf_updates_by_sigma_points_where_a_gap_of_days_bends_the_measurements(
+        drag_arcs, monkeypatch):
+    # odgap: with Gauss-Markov drag (Cd 0.3, tau 1 day) the 3 days leave 9 km along track, and
+    # the linearised update at the first epoch after the gap failed (a curvature shift of 3.4+
+    # sigmas, warned): this draw's (x, B) NEES 262 there, 39.9 on average; updated by the
+    # sigma points where the check fails (after the sigma-point prediction) 11.6 and 9.2, the
+    # UKF's own numbers (as on draws 0-4: mean 74.8 -> 8.44, the UKF's 8.44)
+    exact, truth = drag_arcs
+    first = int(np.searchsorted(np.unique(exact.offsets_s(EPOCH)), 3 * 86400)) + 1
+    noise = {"drag": (SIGMA_B * M2KG, 1 * u.day)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # nothing to warn about now
+        nees, zb, _ = _run_drag(exact, truth, seed=1, parameter_noise=noise)
+    assert nees[first] < 25 and nees.mean() < 15 and np.abs(zb).max() < 3
+    monkeypatch.setattr(extended, "_sigma_point_update", lambda *a: extended._update(*a))
+    with warnings.catch_warnings():  # (the linearised update warned here)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        old, _, _ = _run_drag(exact, truth, seed=1, parameter_noise=noise)
+    assert old[first] > 100
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("tau", [None, 1 * u.day], ids=["constant", "gauss-markov"])
+def test_the_ekf_estimating_drag_matches_the_ukf_over_five_draws(drag_arcs, tau):
+    # measured (draws 0-4, (x, B) NEES averaged over the epochs): B constant, the STM's
+    # prediction 2 draws diverged, the other 3 1.3e4-9.6e5 -> 8.1 (the UKF 8.1); Gauss-Markov
+    # (Cd 0.3, tau 1 day) 146 (1 diverged) -> 74.8 (sigma-point prediction, linear update)
+    # -> 8.44 (the UKF 8.44); the smoothed B within 3 sigma of the truth throughout
+    noise = None if tau is None else {"drag": (SIGMA_B * M2KG, tau)}
+    runs = 5
+    out = {}
+    for method in ("ekf", "ukf"):
+        res = [_run_drag(*drag_arcs, seed=s, parameter_noise=noise, method=method)
+               for s in range(runs)]
+        out[method] = np.array([r[0].mean() for r in res])
+        assert max(np.abs(r[1]).max() for r in res) < 3
+    lo, hi = stats.chi2.ppf([0.001, 0.999], 7 * runs) / runs
+    assert lo < out["ekf"].mean() < hi, out
+    assert np.allclose(out["ekf"], out["ukf"], rtol=0.1), out

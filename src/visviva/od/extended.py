@@ -143,7 +143,6 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     phis[0] = np.eye(n)
     L = Lp[0] = psd_factor(P)
     gm = dyn.gm
-    kinds = observations.kinds
     if gauss is not None:
         step_s = gauss.longest_step_s(q, step_s)
     zero = np.zeros((n, n))
@@ -176,25 +175,43 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
             xp[k], Pp[k] = x, covariance(L)
         rows = screen.rows(k)
         if rows.size:
-            h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
-            z = residuals(kinds[rows], observations.values[rows], h)
-            comp, zc, Rd = screen.prefit(rows, z)
-            Hc = H[comp]  # (m, 6) components in use, row-major
-            if n > 6:  # the coefficients enter the measurements through the state only
-                Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
-            HL = Hc @ L
+            bent = 0.0
             if k == 0 or epochs[k] - epochs[k - 1] > CURVATURE_GAP_S:  # after the growth
                 bent = curvature_shift(observations, x, L, rows, gm)
+            if bent > NONLINEAR_SHIFT and np.isfinite(unscented_after):
+                x, L = _sigma_point_update(observations, x, L, rows, k, screen, gm)
+            else:
                 if bent > NONLINEAR_SHIFT:
                     curved.append((bent, k))
-            use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
-            if use.any():
-                x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])
-            screen.finite(k, x, L)
+                x, L = _update(observations, x, L, rows, k, screen, gm)
         xs[k], Ps[k], Ls[k] = x, covariance(L), L
     if curved:
         _warn_curved(curved, observations, screen)
     return xs, Ps, xp, Pp, phis, (Ls, Lp, noises)
+
+
+def _update(observations, x, L, rows, k, screen, gm):
+    """The linearised update of (x, L L^T) with the rows at epoch ``k``: (x+, L+)."""
+    h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
+    z = residuals(observations.kinds[rows], observations.values[rows], h)
+    comp, zc, Rd = screen.prefit(rows, z)
+    Hc = H[comp]  # (m, 6) components in use, row-major
+    if x.size > 6:  # the coefficients enter the measurements through the state only
+        Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], x.size - 6))], axis=1)
+    HL = Hc @ L
+    use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
+    if use.any():
+        x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])
+    screen.finite(k, x, L)
+    return x, L
+
+
+def _sigma_point_update(observations, x, L, rows, k, screen, gm):
+    """The update by sigma points (:func:`visviva.od.unscented.sigma_point_update`)."""
+    from .unscented import sigma_point_update, unscented_weights
+
+    return sigma_point_update(observations, x, L, rows, k, screen, gm,
+                              unscented_weights(None, x.size))
 
 
 def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s, est=(), gauss=None):

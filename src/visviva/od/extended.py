@@ -11,7 +11,11 @@ prediction's noise N (process noise, the execution errors of burns, the coeffici
 Gauss-Markov noise) is that of the covariance prediction started from zero: the prediction is
 affine in P, P- = Phi P Phi^T + N. Where the arc has a gap of days
 (:data:`UNSCENTED_GAP_S`), the gaps between passes are predicted by sigma points instead
-(:func:`unscented_gap`), Phi being then the prediction's statistical linearisation.
+(:func:`unscented_gap`; with ``estimate=`` the points carry the coefficients too, each flying
+its own, Gauss-Markov decay and noise included), Phi being then the prediction's statistical
+linearisation, and an epoch whose measurements bend across the predicted covariance
+(:data:`NONLINEAR_SHIFT`) is updated by the sigma points as well
+(:func:`visviva.od.unscented.sigma_point_update`) instead of warning.
 """
 
 from __future__ import annotations
@@ -30,11 +34,11 @@ from .square_root import covariance, noise_factor, predict_factor, psd_factor, u
 __all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "unscented_gap", "NONLINEAR_SHIFT",
            "CURVATURE_GAP_S", "UNSCENTED_GAP_S"]
 
-#: the extended filter warns when, across its predicted covariance, the curvature of a
-#: measurement shifts the measurement's mean by more than this many of its sigmas (what the
-#: linearised update leaves out; audit44: range rates from a 10 km, 100 m/s prior, a shift of
-#: 19 sigmas at the first epoch, ended 24 km off for a formal 0.8 km, silently; the docs'
-#: campaign from 3 km and 3 m/s shifts 1.7)
+#: the extended filter warns (after a gap of days: updates by sigma points instead) when,
+#: across its predicted covariance, the curvature of a measurement shifts the measurement's
+#: mean by more than this many of its sigmas (what the linearised update leaves out; audit44:
+#: range rates from a 10 km, 100 m/s prior, a shift of 19 sigmas at the first epoch, ended
+#: 24 km off for a formal 0.8 km, silently; the docs' campaign from 3 km and 3 m/s shifts 1.7)
 NONLINEAR_SHIFT = 3.0
 #: ... checked at the first epoch and after each gap longer than this (s), where the predicted
 #: covariance has grown (within a pass it shrinks; 2.5 ms per check doubled the filter's time
@@ -46,8 +50,12 @@ CURVATURE_GAP_S = 300.0
 #: days apart from 100 m and 10 cm/s: its second-order term put the error 16 sigmas out along
 #: the covariance's thinnest direction, NEES 7.5 -> 281 over the gap), and the semi-major
 #: axis the second arc then fixes makes the smoother's linear maps across the first arc's
-#: gaps between passes fail as well; tracking without such a gap keeps the STM's prediction
-#: (and its results, bit for bit)
+#: gaps between passes fail as well. With ``estimate=`` too (odgap: drag estimated across
+#: those 3 days from a 422 km orbit, the STM's (x, B) NEES 1.3e4 to 9.6e5 or a divergence,
+#: the sigma points' 8.1, the UKF's). In this mode an epoch that fails the curvature check is
+#: updated by the sigma points instead of warning (Gauss-Markov drag left 9 km along track
+#: after the gap: (x, B) NEES 262 -> 11.6 there). Tracking without such a gap keeps the STM's
+#: prediction and the linearised update (and its results, bit for bit).
 UNSCENTED_GAP_S = 6 * 3600.0
 
 
@@ -127,7 +135,9 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     and predicted square roots and the predictions' noise square roots (None: none) that the
     smoother takes;
     with ``est`` the state carries those coefficients too (6 + k), with ``gauss``
-    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes."""
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes. With a gap of
+    over :data:`UNSCENTED_GAP_S` the gaps between passes are flown by sigma points
+    (:func:`unscented_gap`) and the epochs whose curvature check fails are updated by them."""
     n_t = len(epochs)
     n = 6 + len(est)
     xs = np.empty((n_t, n))

@@ -1,6 +1,8 @@
 """The extended Kalman filter over gaps of days between tracking arcs: its prediction over the
-gaps by the unscented transform (visviva.od.extended.UNSCENTED_GAP_S), against the truth (NEES)
-and against the STM's prediction where no gap is that long (bit for bit)."""
+gaps by the unscented transform (visviva.od.extended.UNSCENTED_GAP_S), of the state and, with
+estimate=, of the coefficients (constant or Gauss-Markov), and its sigma-point update where the
+curvature check fails after such a gap, against the truth (NEES) and the unscented filter, and
+against the STM's prediction where no gap is that long (bit for bit)."""
 
 import warnings
 

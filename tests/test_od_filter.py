@@ -15,7 +15,7 @@ from visviva.od.dynamics import Dynamics
 EPOCH = Time("2024-03-01T00:00:00", scale="utc")
 KMS = u.km / u.s
 GM = vv.EARTH.gm_km3_s2
-Y_ECC = np.r_[6800.0, 100.0, 300.0, -0.1, 5.0, 5.7]  # the od tests' orbit (perigee ~ 400 km)
+Y_ECC = np.r_[6800.0, 100.0, 300.0, -0.1, 5.0, 5.7]  # the od tests' orbit (perigee 77 km, apogee 541 km: no drag)
 Y_LEO = np.r_[6778.0, 0.0, 0.0, 0.0, 4.7645, 6.0102]  # near-circular, 400 km, 51.6 deg
 STATIONS = [vv.GroundStation(40 * u.deg, -105 * u.deg, 1.6 * u.km, name="GOLD"),
             vv.GroundStation(-30 * u.deg, 20 * u.deg, 0.3 * u.km, name="HART")]

@@ -11,7 +11,11 @@ prediction's noise N (process noise, the execution errors of burns, the coeffici
 Gauss-Markov noise) is that of the covariance prediction started from zero: the prediction is
 affine in P, P- = Phi P Phi^T + N. Where the arc has a gap of days
 (:data:`UNSCENTED_GAP_S`), the gaps between passes are predicted by sigma points instead
-(:func:`unscented_gap`), Phi being then the prediction's statistical linearisation.
+(:func:`unscented_gap`; with ``estimate=`` the points carry the coefficients too, each flying
+its own, Gauss-Markov decay and noise included), Phi being then the prediction's statistical
+linearisation, and an epoch whose measurements bend across the predicted covariance
+(:data:`NONLINEAR_SHIFT`) is updated by the sigma points as well
+(:func:`visviva.od.unscented.sigma_point_update`) instead of warning.
 """
 
 from __future__ import annotations
@@ -30,11 +34,11 @@ from .square_root import covariance, noise_factor, predict_factor, psd_factor, u
 __all__ = ["ekf_pass", "initial_impulses", "curvature_shift", "unscented_gap", "NONLINEAR_SHIFT",
            "CURVATURE_GAP_S", "UNSCENTED_GAP_S"]
 
-#: the extended filter warns when, across its predicted covariance, the curvature of a
-#: measurement shifts the measurement's mean by more than this many of its sigmas (what the
-#: linearised update leaves out; audit44: range rates from a 10 km, 100 m/s prior, a shift of
-#: 19 sigmas at the first epoch, ended 24 km off for a formal 0.8 km, silently; the docs'
-#: campaign from 3 km and 3 m/s shifts 1.7)
+#: the extended filter warns (after a gap of days: updates by sigma points instead) when,
+#: across its predicted covariance, the curvature of a measurement shifts the measurement's
+#: mean by more than this many of its sigmas (what the linearised update leaves out; audit44:
+#: range rates from a 10 km, 100 m/s prior, a shift of 19 sigmas at the first epoch, ended
+#: 24 km off for a formal 0.8 km, silently; the docs' campaign from 3 km and 3 m/s shifts 1.7)
 NONLINEAR_SHIFT = 3.0
 #: ... checked at the first epoch and after each gap longer than this (s), where the predicted
 #: covariance has grown (within a pass it shrinks; 2.5 ms per check doubled the filter's time
@@ -46,8 +50,12 @@ CURVATURE_GAP_S = 300.0
 #: days apart from 100 m and 10 cm/s: its second-order term put the error 16 sigmas out along
 #: the covariance's thinnest direction, NEES 7.5 -> 281 over the gap), and the semi-major
 #: axis the second arc then fixes makes the smoother's linear maps across the first arc's
-#: gaps between passes fail as well; tracking without such a gap keeps the STM's prediction
-#: (and its results, bit for bit)
+#: gaps between passes fail as well. With ``estimate=`` too (odgap: drag estimated across
+#: those 3 days from a 422 km orbit, the STM's (x, B) NEES 1.3e4 to 9.6e5 or a divergence,
+#: the sigma points' 8.1, the UKF's). In this mode an epoch that fails the curvature check is
+#: updated by the sigma points instead of warning (Gauss-Markov drag left 9 km along track
+#: after the gap: (x, B) NEES 262 -> 11.6 there). Tracking without such a gap keeps the STM's
+#: prediction and the linearised update (and its results, bit for bit).
 UNSCENTED_GAP_S = 6 * 3600.0
 
 
@@ -127,7 +135,9 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     and predicted square roots and the predictions' noise square roots (None: none) that the
     smoother takes;
     with ``est`` the state carries those coefficients too (6 + k), with ``gauss``
-    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes."""
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) as Gauss-Markov processes. With a gap of
+    over :data:`UNSCENTED_GAP_S` the gaps between passes are flown by sigma points
+    (:func:`unscented_gap`) and the epochs whose curvature check fails are updated by them."""
     n_t = len(epochs)
     n = 6 + len(est)
     xs = np.empty((n_t, n))
@@ -143,7 +153,6 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     phis[0] = np.eye(n)
     L = Lp[0] = psd_factor(P)
     gm = dyn.gm
-    kinds = observations.kinds
     if gauss is not None:
         step_s = gauss.longest_step_s(q, step_s)
     zero = np.zeros((n, n))
@@ -151,10 +160,11 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
     # with a gap of days every gap between passes is flown by sigma points (UNSCENTED_GAP_S)
     unscented_after = CURVATURE_GAP_S if np.any(np.diff(epochs) > UNSCENTED_GAP_S) else np.inf
     for k in range(n_t):
-        if k and not est and epochs[k] - epochs[k - 1] > unscented_after:
+        if k and epochs[k] - epochs[k - 1] > unscented_after:
             try:
                 x, phis[k], noises[k], L = unscented_gap(dyn, schedule, x, L, epochs[k - 1],
-                                                         epochs[k], q, code, step_s)
+                                                         epochs[k], q, code, step_s, est,
+                                                         gauss)  # fmt: skip
             except VisvivaError as exc:
                 raise screen.diverged(k, f"the sigma points cannot be integrated ({exc})") from exc
             Lp[k] = L
@@ -175,39 +185,62 @@ def ekf_pass(dyn, schedule, observations, x, P, epochs, screen, q, code, step_s,
             xp[k], Pp[k] = x, covariance(L)
         rows = screen.rows(k)
         if rows.size:
-            h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
-            z = residuals(kinds[rows], observations.values[rows], h)
-            comp, zc, Rd = screen.prefit(rows, z)
-            Hc = H[comp]  # (m, 6) components in use, row-major
-            if n > 6:  # the coefficients enter the measurements through the state only
-                Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], n - 6))], axis=1)
-            HL = Hc @ L
+            bent = 0.0
             if k == 0 or epochs[k] - epochs[k - 1] > CURVATURE_GAP_S:  # after the growth
                 bent = curvature_shift(observations, x, L, rows, gm)
+            if bent > NONLINEAR_SHIFT and np.isfinite(unscented_after):
+                x, L = _sigma_point_update(observations, x, L, rows, k, screen, gm)
+            else:
                 if bent > NONLINEAR_SHIFT:
                     curved.append((bent, k))
-            use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
-            if use.any():
-                x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])
-            screen.finite(k, x, L)
+                x, L = _update(observations, x, L, rows, k, screen, gm)
         xs[k], Ps[k], Ls[k] = x, covariance(L), L
     if curved:
         _warn_curved(curved, observations, screen)
     return xs, Ps, xp, Pp, phis, (Ls, Lp, noises)
 
 
-def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s):
+def _update(observations, x, L, rows, k, screen, gm):
+    """The linearised update of (x, L L^T) with the rows at epoch ``k``: (x+, L+)."""
+    h, H = model(observations, np.repeat(x[None, :6], rows.size, axis=0), gm, rows)
+    z = residuals(observations.kinds[rows], observations.values[rows], h)
+    comp, zc, Rd = screen.prefit(rows, z)
+    Hc = H[comp]  # (m, 6) components in use, row-major
+    if x.size > 6:  # the coefficients enter the measurements through the state only
+        Hc = np.concatenate([Hc, np.zeros((Hc.shape[0], x.size - 6))], axis=1)
+    HL = Hc @ L
+    use = screen.check(k, rows, zc, HL @ HL.T + np.diag(Rd))
+    if use.any():
+        x, L = update_factor(x, L, Hc[use], Rd[use], zc[use])
+    screen.finite(k, x, L)
+    return x, L
+
+
+def _sigma_point_update(observations, x, L, rows, k, screen, gm):
+    """The update by sigma points (:func:`visviva.od.unscented.sigma_point_update`)."""
+    from .unscented import sigma_point_update, unscented_weights
+
+    return sigma_point_update(observations, x, L, rows, k, screen, gm,
+                              unscented_weights(None, x.size))
+
+
+def unscented_gap(dyn, schedule, x, L, t_from, t_to, q, code, step_s, est=(), gauss=None):
     """The prediction over a long gap by the unscented transform (:mod:`visviva.od.unscented`):
     the sigma points of (x, L L^T) at ``t_from`` flown to ``t_to`` (s from the epoch), on the
-    sub-steps and through the burns the unscented filter takes. Returns the predicted mean,
-    the statistical linearisation A of the flow (in place of the STM), the square root of the
-    residue (cov(x-) = A P A^T + residue; the smoother's noise) and the predicted square root.
+    sub-steps and through the burns the unscented filter takes; with ``est`` the state is
+    (x, p) (6 + k) and each point flies its own coefficients p, which with ``gauss``
+    (:class:`visviva.od.gauss_markov.GaussMarkov`) decay and take their noise at each
+    sub-step's end. Returns the predicted mean, the statistical linearisation A of the flow
+    (in place of the STM), the square root of the residue (cov(x-) = A P A^T + residue; the
+    smoother's noise) and the predicted square root.
     """
     from .unscented import predict_interval, unscented_weights
 
     n = x.size
-    x, L, T = predict_interval(dyn, schedule, (), x, L, t_from, t_to, q, code, step_s,
-                               unscented_weights(None, n))
+    for c in est:  # the block flies unit coefficients, each point scaling them by its own p
+        c.write(dyn, 1.0)  # (the STM's predictions write the estimate again before each flight)
+    x, L, T = predict_interval(dyn, schedule, est, x, L, t_from, t_to, q, code, step_s,
+                               unscented_weights(None, n), gauss)
     L11, L21 = T[:n, :n], T[n:, :n]
     try:  # A = L21 L11^-1
         A = np.linalg.solve(L11.T, L21.T).T

@@ -288,9 +288,11 @@ def filter_orbit(observations, initial, covariance, perturbations=None, *, maneu
     construction, also when nanometre data meet a kilometre prior, where the Joseph form
     (I - K H) P^- (I - K H)^T + K R K^T lost definiteness to round-off. When two epochs are
     more than 6 h apart, the extended filter predicts over every gap longer than 5 min by the
-    unscented transform (below), Phi replaced by its statistical linearisation: across days
-    the flow is nonlinear across the covariance (without ``estimate=``;
-    :data:`visviva.od.extended.UNSCENTED_GAP_S`).
+    unscented transform (below; with ``estimate=`` the coefficients ride the sigma points),
+    Phi replaced by its statistical linearisation: across days the flow is nonlinear across
+    the covariance (:data:`visviva.od.extended.UNSCENTED_GAP_S`); and where the measurements
+    then bend across the predicted covariance (the curvature check, more than 3 sigmas) the
+    update is the unscented filter's too.
 
     With two-body dynamics, position observations and no process noise the problem is nearly
     linear, and the filter's final estimate equals the batch estimate

@@ -65,7 +65,7 @@ from .measurements import residuals
 from .square_root import covariance, noise_factor, psd_factor, stacked_factor, update_rows
 
 __all__ = ["unscented_pass", "unscented_weights", "sigma_points", "through_impulses",
-           "array_update", "predict_interval", "DEFAULT_SIGMA_POINTS"]
+           "array_update", "predict_interval", "sigma_point_update", "DEFAULT_SIGMA_POINTS"]
 
 #: (alpha, beta, kappa): points sqrt(6) sigma out, mean weights 0 (centre) and 1/12 (none
 #: negative), beta = 2 optimal for a Gaussian prior (Wan & van der Merwe 2000).
@@ -320,8 +320,11 @@ def predict_interval(dyn, schedule, est, x, L, t_from, t_to, q, code, step_s, we
     return x, L, T
 
 
-def _update(observations, x, L, rows, k, screen, gm, weights):
-    """The measurement update with the rows at epoch ``k``: (x+, L+)."""
+def sigma_point_update(observations, x, L, rows, k, screen, gm, weights):
+    """The measurement update of (x, L L^T) with the rows at epoch ``k`` by the sigma points
+    (the pre-fit residuals, editing and NIS through ``screen``): (x+, L+); the extended
+    filter's too where its linearisation fails after a gap of days
+    (:func:`visviva.od.extended.ekf_pass`)."""
     scale, wm, wc = weights
     X = _points(x, L, scale)
     m, n_pts = rows.size, X.shape[0]
@@ -430,6 +433,6 @@ def unscented_pass(dyn, observations, x, P, epochs, screen, q, code, step_s, par
             xp[k], Pp[k], Lp[k], joints[k] = x, covariance(L), L, T
         rows = screen.rows(k)
         if rows.size:
-            x, L = _update(observations, x, L, rows, k, screen, dyn.gm, weights)
+            x, L = sigma_point_update(observations, x, L, rows, k, screen, dyn.gm, weights)
         xs[k], Ps[k], Lf[k] = x, covariance(L), L
     return xs, Ps, xp, Pp, (Lf, Lp, joints)

@@ -247,3 +247,14 @@ def test_worker_blocks_in_threads_never_mix_two_screenings():
     assert sum(len(x) for x in alone) >= 3
     for k, found in enumerate(runs):
         assert found == alone[k % len(jobs)]
+
+
+def test_synthetic_crossing_pairs_near_a_mean_anomaly_of_zero_are_built():
+    # audit54: the second object of a crossing pair took mo + U(-4e-4, 4e-4) rad unwrapped, and
+    # sgp4's TLE exporter refused 6.2832 rad ("Mean Anomaly must be between 0 and 2 pi"):
+    # synthetic_catalog(2000, seed=5, crossing_pairs=15, ...) raised ValueError; so did seed
+    # 12545's fourth pair (mean anomaly 6.28307 rad + 3.5e-4 rad)
+    cat = synthetic_catalog(0, seed=12545, crossing_pairs=4)
+    assert len(cat) == 8
+    mo = np.array([s.satrec.mo for s in cat])
+    assert np.all((mo >= 0.0) & (mo < 2 * np.pi))

@@ -3,7 +3,8 @@
 :func:`~visviva.conjunctions.collision_probabilities` gives, row for row, the warnings of
 :func:`~visviva.conjunctions.collision_probability`. The scalar checks cost ~0.3 ms a row in
 numpy calls on 3-vectors and 3x3 matrices (:func:`~.accuracy.check_2d`'s Coppola bounds and
-velocity spread, :func:`~.accuracy.check_tca`, :func:`~.covariance.warn_km_as_metres`), while
+velocity spread, :func:`~.accuracy.check_tca`, :func:`~.covariance.warn_km_as_metres`,
+:func:`~.accuracy.check_chan`'s Foster integral), while
 almost every row passes them silently. The functions here compute the same quantities on the
 stacked arrays and keep the rows that are not clearly silent: those (and only those) run the
 scalar check itself, so the warnings are those of the scalar function, decided by its own
@@ -21,7 +22,7 @@ import numpy as np
 from .accuracy import EXTENDED_LIMIT, OFFSET_LIMIT, SPREAD_LIMIT
 from .covariance import CLIP_FACTOR
 
-__all__ = ["short_encounter_rows", "off_tca_rows", "km_as_metres_rows", "GATE_MARGIN"]
+__all__ = ["short_encounter_rows", "off_tca_rows", "km_as_metres_rows", "chan_rows", "GATE_MARGIN"]
 
 #: relative margin beside each cutoff within which a row goes to the scalar check
 GATE_MARGIN = 1e-6
@@ -141,3 +142,26 @@ def km_as_metres_rows(r1, v1, r2, v2):
         n = np.linalg.norm(x, axis=1)
         out &= ~((n < a * lo) | (n > b * hi))  # NaN stays True
     return out
+
+
+def chan_rows(lp_chan, xm, zm, sx, sz, hbr):
+    """Rows where :func:`~.accuracy.check_chan` may warn: Chan's ``ln Pc`` not clearly within
+    a factor 1.1 of Foster's integral of the same plane (computed here for all rows in one
+    kernel call, the one :func:`~.pc2d.log_pc_2d` runs per row), unless both are negligible.
+    Rows whose integral did not converge go to the scalar check (it stays silent there)."""
+    from ..core import collision as kern
+    from .accuracy import _CHAN_LOG_TOL, _NEGLIGIBLE_LN_PC
+    from .pc2d import FOSTER_RTOL
+
+    lp_foster = np.empty(len(xm))
+    status = np.zeros(len(xm), dtype=np.int64)
+    kern.log_pc_many(xm, zm, sx, sz, hbr, kern.GAUSS_LO, kern.GAUSS_HI, FOSTER_RTOL,
+                     lp_foster, status)
+    lp_foster = np.minimum(lp_foster, 0.0)
+    with np.errstate(invalid="ignore"):
+        silent = ((lp_chan == lp_foster)
+                  | (np.abs(lp_chan - lp_foster)
+                     < _CHAN_LOG_TOL - GATE_MARGIN * (1.0 + np.abs(lp_chan)))
+                  | (np.maximum(lp_chan, lp_foster)
+                     < _NEGLIGIBLE_LN_PC * (1.0 + GATE_MARGIN)))
+    return ~silent | (status != 0)

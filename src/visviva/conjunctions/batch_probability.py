@@ -237,14 +237,19 @@ def collision_probabilities(r1, v1, cov1, r2, v2, cov2, hard_body_radius, *, met
         lp[todo] = _integrals(xm, zm, sx, sz, np.ascontiguousarray(hbr[todo]), method, todo)
         units, tca, short = _suspects(r1, v1, c1, r2, v2, c2, hbr, gm_m, k, todo, planes,
                                       plain)
-        for i in np.nonzero(units | tca | short | (method == "chan"))[0]:  # scalar checks
+        chan = np.zeros(k, dtype=bool)
+        if method == "chan" and len(todo):
+            from .batch_checks import chan_rows
+
+            chan[todo] = chan_rows(lp[todo], xm, zm, sx, sz, np.ascontiguousarray(hbr[todo]))
+        for i in np.nonzero(units | tca | short | chan)[0]:  # the scalar path's checks
             start = len(caught)
             args = (_row(r1, i), _row(v1, i), _row(c1, i), _row(r2, i), _row(v2, i),
                     _row(c2, i), float(hbr[i]))
             if units[i]:
                 warn_km_as_metres(args[0], args[1], args[3], args[4])
             if i in planes and math.isfinite(hbr[i]):
-                if method == "chan":
+                if chan[i]:
                     check_chan(float(lp[i]), *planes[i].principal_miss, *planes[i].sigma,
                                args[6])
                 if tca[i]:

@@ -150,7 +150,7 @@ def chan_rows(lp_chan, xm, zm, sx, sz, hbr):
     kernel call, the one :func:`~.pc2d.log_pc_2d` runs per row), unless both are negligible.
     Rows whose integral did not converge go to the scalar check (it stays silent there)."""
     from ..core import collision as kern
-    from .accuracy import _CHAN_LOG_TOL, _NEGLIGIBLE_LN_PC
+    from .accuracy import CHAN_LOG_TOL, NEGLIGIBLE_LN_PC
     from .pc2d import FOSTER_RTOL
 
     lp_foster = np.empty(len(xm))
@@ -161,7 +161,7 @@ def chan_rows(lp_chan, xm, zm, sx, sz, hbr):
     with np.errstate(invalid="ignore"):
         silent = ((lp_chan == lp_foster)
                   | (np.abs(lp_chan - lp_foster)
-                     < _CHAN_LOG_TOL - GATE_MARGIN * (1.0 + np.abs(lp_chan)))
+                     < CHAN_LOG_TOL - GATE_MARGIN * (1.0 + np.abs(lp_chan)))
                   | (np.maximum(lp_chan, lp_foster)
-                     < _NEGLIGIBLE_LN_PC * (1.0 + GATE_MARGIN)))
+                     < NEGLIGIBLE_LN_PC * (1.0 + GATE_MARGIN)))
     return ~silent | (status != 0)

@@ -164,3 +164,28 @@ def test_tca_of_ephemerides_across_a_leap_second():
         assert abs(t - t_dense) < 0.01
         after += row["tca"] > Time("2016-12-31T23:59:60", scale="utc")
     assert after >= 1  # some approaches come after the leap second
+
+
+def test_an_oem_against_a_tle_catalogue_is_refused_with_the_recipe_that_works(tmp_path):
+    # audit54: an operator's OEM against a TLE catalogue (the usual owner/operator screening)
+    # was refused as "different frames" naming no way to do it; the message now gives the
+    # recipe (sample the SGP4 objects in the ephemeris frame), and the recipe finds the
+    # approach the SGP4 screen finds (TCA to 10 ms, miss to 1 m)
+    from visviva.ccsds.oem import OEMSegment
+
+    cat = synthetic_catalog(4, seed=2, crossing_pairs=1)
+    t0 = cat.epochs[0]
+    t = t0 + np.arange(0, 7201, 30) * u.s
+    a = cat[4]
+    oem = vv.read_oem(vv.write_oem(OEMSegment.from_states(a.gcrs(t), object_name=a.name)))
+    others = vv.Catalog([s for k, s in enumerate(cat) if k != 4])
+    with pytest.raises(InvalidInputError, match=r"sample them.*\[sat\.gcrs\(t\) for sat in"):
+        vv.screen_conjunctions(oem, others, t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    with pytest.raises(InvalidInputError, match=r"as the primaries"):
+        vv.screen_conjunctions(others, oem, t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    ref = vv.screen_conjunctions(a, others, t0, t0 + 2 * u.hour, threshold=20 * u.km)
+    tab = vv.screen_conjunctions(oem, [sat.gcrs(t) for sat in others], t0, t0 + 2 * u.hour,
+                                 threshold=20 * u.km)
+    assert len(tab) == len(ref) == 1
+    assert abs(tab["tca"][0] - ref["tca"][0]) < 0.01 * u.s
+    assert abs(tab["miss_distance"][0] - ref["miss_distance"][0]) < 1 * u.m

@@ -200,6 +200,14 @@ def test_screen_threshold_and_step_need_units():
         vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, 5 * u.km, step=60)
     with pytest.raises(vv.UnitsError, match="threshold"):
         vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, threshold=5 * u.s)
+    # audit54: one message for both ("threshold and step must be positive.") named neither
+    # the value nor which of the two
+    with pytest.raises(vv.errors.InvalidInputError, match=r"threshold must be positive; got 0 km"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, threshold=0 * u.m)
+    with pytest.raises(vv.errors.InvalidInputError, match=r"threshold .* got -0\.005 km"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, threshold=-5 * u.m)
+    with pytest.raises(vv.errors.InvalidInputError, match=r"step must be positive; got -60 s"):
+        vv.screen_conjunctions(sat, sat, t0, t0 + 1 * u.h, 5 * u.km, step=-1 * u.min)
 
 
 # --- covariance tools ------------------------------------------------------------------------

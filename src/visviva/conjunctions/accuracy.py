@@ -28,15 +28,15 @@ from ..errors import (
 from .covariance import CLIP_FACTOR
 
 __all__ = ["check_chan", "check_3d", "check_2d", "check_tca", "linear_encounter_bounds",
-           "velocity_spread"]
+           "velocity_spread", "CHAN_LOG_TOL", "NEGLIGIBLE_LN_PC"]
 
 #: ``|ln Pc_chan - ln Pc_foster|`` above which ``method="chan"`` warns (a factor 1.1)
-_CHAN_LOG_TOL = math.log(1.1)
+CHAN_LOG_TOL = math.log(1.1)
 #: Below this Pc (both values compared) the accuracy checks stay silent: 1e-30 is twenty
 #: orders under any manoeuvre threshold (1e-4 .. 1e-7), and there one method's log-space
 #: integral may underflow to 0 where the other still gives 1e-52 (a spurious warning on every
 #: fast, well-separated encounter).
-_NEGLIGIBLE_LN_PC = math.log(1e-30)
+NEGLIGIBLE_LN_PC = math.log(1e-30)
 
 
 def as_6x6(c, half):
@@ -80,8 +80,8 @@ def check_chan(lp_chan, xm, zm, sx, sz, hbr):
         lp_foster = log_pc_2d(xm, zm, sx, sz, hbr, "foster")
     except ArithmeticError:  # ConvergenceError: no reference to compare with
         return
-    if (lp_chan == lp_foster or abs(lp_chan - lp_foster) <= _CHAN_LOG_TOL
-            or max(lp_chan, lp_foster) < _NEGLIGIBLE_LN_PC):
+    if (lp_chan == lp_foster or abs(lp_chan - lp_foster) <= CHAN_LOG_TOL
+            or max(lp_chan, lp_foster) < NEGLIGIBLE_LN_PC):
         return
     warnings.warn(
         f"Chan's approximation gives Pc = {math.exp(lp_chan):.4g} (ln Pc = {lp_chan:.6g}) where "
@@ -120,7 +120,7 @@ def check_3d(lp_3d, r1, v1, c1, r2, v2, c2, hbr, gm_km, half):
     except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
         return
     if (lp_3d == lp_hall or abs(lp_3d - lp_hall) <= _3D_LOG_TOL
-            or max(lp_3d, lp_hall) < _NEGLIGIBLE_LN_PC):
+            or max(lp_3d, lp_hall) < NEGLIGIBLE_LN_PC):
         return
     speed = float(np.linalg.norm(np.asarray(v1) - np.asarray(v2)))
     warnings.warn(
@@ -278,7 +278,7 @@ def check_2d(lp_2d, method, r1, v1, c1, r2, v2, c2, hbr, gm_m):
     except (VisvivaError, ArithmeticError, np.linalg.LinAlgError):
         return
     if (lp_2d == lp_hall or abs(lp_2d - lp_hall) <= _2D_LOG_TOL
-            or max(lp_2d, lp_hall) < _NEGLIGIBLE_LN_PC):
+            or max(lp_2d, lp_hall) < NEGLIGIBLE_LN_PC):
         return
     speed = float(np.linalg.norm(np.asarray(v1) - np.asarray(v2)))
     what = (f"The 2-D encounter-plane Pc (method={method!r}) is" if method != "monte_carlo"
@@ -352,7 +352,7 @@ def check_tca(method, r1, v1, r2, v2, plane, hbr, stacklevel=3):
     except ArithmeticError:  # ConvergenceError: nothing to compare with
         return
     if (lp_given == lp_tca or abs(lp_given - lp_tca) <= _TCA_LOG_TOL
-            or max(lp_given, lp_tca) < _NEGLIGIBLE_LN_PC):
+            or max(lp_given, lp_tca) < NEGLIGIBLE_LN_PC):
         return
     speed = float(np.linalg.norm(u))
     dt = -float(r @ u) / (speed * speed)

@@ -479,8 +479,11 @@ def screen_conjunctions(primaries, secondaries=None, t0=None, t1=None, threshold
     thr = 5.0 if threshold is None else _scalar(to_array(threshold, "length", "threshold"),
                                                  "threshold", "km")
     step_s = 60.0 if step is None else _scalar(to_array(step, "time", "step"), "step", "s")
-    if not thr > 0 or not step_s > 0:
-        raise InvalidInputError("threshold and step must be positive.")
+    for name, value, unit in (("threshold", thr, "km"), ("step", step_s, "s")):
+        if not value > 0:  # (one message for both, naming neither, before audit54)
+            raise InvalidInputError(
+                f"{name} must be positive; got {value:g} {unit}. E.g. threshold=5 * u.km (the "
+                "reporting distance), step=60 * u.s (the sampling step of the filters).")
     span = float((t1 - t0).to_value(u.s))
     if not span > 0:
         raise InvalidInputError(f"t1 must be after t0; got a window of {span} s.")

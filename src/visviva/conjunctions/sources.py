@@ -488,11 +488,25 @@ def as_source(objs, t0, t1, name, jd0, fr0):
 
 
 def check_same_kind(src1, src2):
+    """Refuse two sides in different frames, saying how to screen SGP4 objects against
+    ephemerides (an operator's OEM against a TLE catalogue): sample them in the
+    ephemerides' frame (the message named no way before audit54)."""
     if src1.frame != src2.frame:
+        how = ""
+        kinds = {type(src1).__name__, type(src2).__name__}
+        if kinds == {"SgpSource", "SampledSource"}:
+            eph = src1 if isinstance(src1, SampledSource) else src2
+            frame = eph.frame.split()[0].lower()
+            if frame in ("gcrs", "teme"):
+                side = "secondaries" if eph is src1 else "primaries"
+                how = (f" To screen SGP4 objects against ephemerides, sample them in the "
+                       f"ephemerides' frame over the window and pass those states as the {side}: "
+                       f"t = t0 + np.arange(0, window_s + 1, 30) * u.s; "
+                       f"[sat.{frame}(t) for sat in catalog].")
         raise InvalidInputError(
             f"the primaries are {src1.frame}, the secondaries {src2.frame}: give both as SGP4 "
             "objects (TEME) or both as ephemerides in one inertial frame; positions in different "
-            "frames cannot be compared.")
+            f"frames cannot be compared.{how}")
 
 
 def speed_bound(v1, v2):

@@ -71,6 +71,7 @@ def synthetic_catalog(n, *, seed=0, epoch="2024-01-01T00:00:00", crossing_pairs=
         node = rng.uniform(0, 2 * math.pi)
         mo = rng.uniform(0, 2 * math.pi)
         sats.append(make(60000 + 2 * p, 0.0005, 0.0, math.radians(53), mo, alt, node))
+        # (wrapped: sgp4's exporter refuses a mean anomaly outside [0, 2 pi), audit54)
         sats.append(make(60001 + 2 * p, 0.0005, 0.0, math.radians(97),
-                         mo + rng.uniform(-4e-4, 4e-4), alt, node))
+                         (mo + rng.uniform(-4e-4, 4e-4)) % (2 * math.pi), alt, node))
     return Catalog(sats)

@@ -79,8 +79,6 @@ def test_round_trip_arrives_within_1_mm(name, method):
     # the universal-variable method divides by g ~ sqrt(1 + cos dnu), which vanishes at 180 deg
     # (Vallado 2013, sec. 7.6); written without cancellation it keeps 1 mm there too
     tol = ONE_MM
-    if method == "universal" and name == "near 360 deg":
-        tol = 1.0  # km: t(psi) is singular at psi = 4 pi^2, the known weakness of the method
     assert np.linalg.norm(r - np.array(r2)) < tol
     assert np.linalg.norm(v - v2.to_value(KMS)) < 1e3 * tol / tof
     h = np.cross(r1, v1.to_value(KMS))
@@ -291,6 +289,29 @@ def test_izzo_within_nanoradians_of_360_deg_arrives_at_r2(offset):
         r, v = arrive(r1, v1.to_value(KMS), 4536.0)
         assert np.linalg.norm(r - r2) < ONE_MM / 100
         assert np.linalg.norm(v - v2.to_value(KMS)) < ONE_MM / 4536.0
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+@pytest.mark.parametrize(
+    ("offset", "tof", "M", "branch"),
+    [(-1e-4, 5000.0, 0, "left"), (-1e-6, 5000.0, 0, "left"), (-1e-8, 3000.0, 0, "left"),
+     (-1e-6, 11000.0, 1, "left"), (1e-6, 11000.0, 1, "right"), (1e-8, 11000.0, 1, "right")],
+)
+def test_lambert_equal_radii_near_0_and_360_deg_arrives_at_r2(method, offset, tof, M, branch):
+    # audit53: between equal radii y = r1 + r2 - 2 sqrt(r1 r2) cos(dnu/2) cos(w/2) -> 0 on the
+    # long way near 360 deg (and on the right branch's short way near 0 deg), and the universal
+    # method formed it by cancellation: it missed r2 by 44 km 1e-6 rad short of 360 deg, 121 km
+    # with one revolution, 497 km on the right branch 1e-6 rad past 0 deg (silently), and
+    # refused 1e-8 rad. Izzo's arrival is the reference (a propagation check for both).
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = 7000.0 * np.array([np.cos(offset), np.sin(offset), 0.0])
+    v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM, M, branch=branch, method=method)
+    r, v = arrive(r1, v1.to_value(KMS), tof)
+    # Izzo's T(x) carries 1 - lambda^2 = c/s (|lambda| -> 1) to eps/(c/s): 1.2e-6 km at 1e-6 rad
+    # from 360 deg, 6e-5 km at 1e-8 rad (the universal method: ~1e-11 km throughout)
+    tol = ONE_MM if method == "universal" or abs(offset) >= 1e-4 else 100 * ONE_MM
+    assert np.linalg.norm(r - r2) < tol
+    assert np.linalg.norm(v - v2.to_value(KMS)) < 10 * tol / tof * 1e3
 
 
 def _mixed_batch():

@@ -364,19 +364,32 @@ def _uv_tof_of_y(y, r1n, r2n, A, gm):
 
 
 @inline_kernel
-def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm):
+def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm, vers_half):
     """t and y at psi = (end + sgn w)^2 from w = |sqrt(psi) - end| itself.
 
     ``end`` is 2 pi (M + 1) (``sgn = -1``: long, nearly parabolic arcs) or 2 pi M
     (``sgn = +1``: the right branch's low end), where t(psi) is singular. There psi cannot
     carry w to better than ulp(psi)/end, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w:
     sin^2(x/2) = sin^2(w/2), sin x = sgn sin w and (psi c3 - 1)/sqrt(c2) = -sgn sqrt(2) cos(w/2).
+
+    With A = +-sqrt(2 r1 r2) cos(dnu/2), y = r1 + r2 -+ 2 sqrt(r1 r2) cos(dnu/2) cos(w/2); where
+    sgn A > 0 (the long way near 360 deg, the right branch's short way near 0 deg) that is a
+    difference of nearly equal terms when r1 ~ r2, and y -> 0: it is summed from positive terms,
+    (sqrt r1 - sqrt r2)^2 + 2 sqrt(r1 r2) [(1 - cos(dnu/2)) + cos(dnu/2) 2 sin^2(w/4)], with
+    ``vers_half`` = 1 - cos(dnu/2) from |r1_hat - r2_hat| (y had an absolute error eps (r1 + r2),
+    and v1 missed r2 by 44 km 1e-6 rad short of 360 deg in LEO).
     """
     x = end + sgn * w
     sw = math.sin(0.5 * w)
     c2 = 2.0 * sw * sw / (x * x)
     c3 = (x - sgn * math.sin(w)) / (x * x * x)
-    y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
+    if sgn * A > 0.0:
+        cos_half = 1.0 - vers_half
+        s4 = math.sin(0.25 * w)
+        d = (r1n - r2n) / (math.sqrt(r1n) + math.sqrt(r2n))
+        y = d * d + 2.0 * math.sqrt(r1n * r2n) * (vers_half + cos_half * 2.0 * s4 * s4)
+    else:
+        y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
     if y < 0.0:
         return -math.inf, y
     chi = math.sqrt(y / c2)
@@ -408,6 +421,13 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # vectors: 1 + cos dnu by a dot product loses every digit within ~1e-7 rad of 180 deg
     cos_half = _half_sum_norm(ir1, ir2)
     A = tm * math.sqrt(2.0 * r1n * r2n) * cos_half
+    # 1 - cos(dnu/2) = sin^2(dnu/2) / (1 + cos(dnu/2)), sin(dnu/2) = |r1_hat - r2_hat| / 2:
+    # without cancellation near 0 and 360 deg (for y near the ends of psi)
+    dx = ir1[0] - ir2[0]
+    dy = ir1[1] - ir2[1]
+    dz = ir1[2] - ir2[2]
+    sin_half2 = 0.25 * (dx * dx + dy * dy + dz * dz)
+    vers_half = sin_half2 / (1.0 + cos_half)
     if A == 0.0:
         return st.DOMAIN
     two_pi2 = 4.0 * _PI * _PI
@@ -491,17 +511,18 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         # finish by bisection in w = |sqrt(psi) - end|, t decreasing in w from t(0) = inf
         wlo = 0.0
         whi = 1.0
-        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm)[0] < tof:
+        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm, vers_half)[0] < tof:
             for _ in range(2000):
                 wm = 0.5 * (wlo + whi)
                 if wm <= wlo or wm >= whi:
                     break
-                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm)[0] < tof:
+                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm, vers_half)[0] < tof:
                     whi = wm
                 else:
                     wlo = wm
             w_final = 0.5 * (wlo + whi)
-            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm)
+            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm,
+                                            vers_half)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and

@@ -72,6 +72,7 @@ _EXPORTS = {
     "hohmann_delta_v": "maneuvers",
     "bielliptic_delta_v": "maneuvers",
     "plane_change_delta_v": "maneuvers",
+    "hohmann_plane_change_delta_v": "combined_maneuvers",
     "porkchop": "porkchop_plot",
     "Porkchop": "porkchop_plot",
     "j2_secular_rates": "secular",

@@ -12,7 +12,7 @@ from astropy import units as u
 from .._units import to_array
 from ..errors import InvalidInputError
 
-__all__ = ["inclination_change", "known_body", "refuse_below_surface"]
+__all__ = ["inclination_change", "known_body", "refuse_below_surface", "arc_min_radius"]
 
 
 def inclination_change(delta_inc, name="delta_inc", limit=np.pi):
@@ -60,3 +60,25 @@ def refuse_below_surface(gm, mu, **radii_km):
                 f"altitude of {low:.6g} km give {body.radius_km + low:.6g} km "
                 f"({body.name}'s radius + altitude)."
             )
+
+
+def arc_min_radius(r1, v1, r2, v2, mu, revolutions) -> float:
+    """The least distance from the centre (km) along the conic arc from (r1, v1) to r2.
+
+    The arc passes the periapsis (radius p / (1 + e)) when it has whole revolutions or when the
+    true anomaly at r1 plus the transfer angle, in the direction of motion, reaches 2 pi;
+    otherwise its nearest point is an end. r km, v km/s, mu km^3/s^2 (plain arrays (3,)).
+    """
+    h = np.cross(r1, v1)
+    hn = float(np.linalg.norm(h))
+    n1, n2 = float(np.linalg.norm(r1)), float(np.linalg.norm(r2))
+    e_vec = np.cross(v1, h) / mu - r1 / n1
+    e = float(np.linalg.norm(e_vec))
+    rp = hn * hn / mu / (1.0 + e)
+    if revolutions >= 1:
+        return min(rp, n1, n2)
+    k = h / hn
+    two_pi = 2.0 * np.pi
+    nu1 = np.arctan2(np.dot(np.cross(e_vec, r1), k), np.dot(e_vec, r1)) % two_pi
+    dnu = np.arctan2(np.dot(np.cross(r1, r2), k), np.dot(r1, r2)) % two_pi
+    return min(rp, n1, n2) if nu1 + dnu >= two_pi else min(n1, n2)

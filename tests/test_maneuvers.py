@@ -720,3 +720,14 @@ def test_lambert_rendezvous_through_the_attractor_is_refused():
     c = vv.StateVectors(chaser.r, chaser.v * np.sqrt(1e5 / vv.EARTH.gm_km3_s2), gm)
     t = vv.StateVectors(target.r, target.v * np.sqrt(1e5 / vv.EARTH.gm_km3_s2), gm)
     assert Maneuver.lambert(c, t, 3000 * u.s).total_delta_v.value > 0
+
+
+def test_porkchop_plot_of_a_single_date_says_why():
+    """audit53: a grid with one departure date raised matplotlib's "Input z must be at least a
+    (2, 2) shaped array" from plot()."""
+    dep = Time("2005-08-10", scale="tdb") + np.arange(0, 1) * u.day
+    arr = Time("2006-02-01", scale="tdb") + np.arange(0, 60, 20) * u.day
+    pc = porkchop("earth", "mars", dep, arr)
+    assert np.all(np.isfinite(pc.c3))
+    with pytest.raises(InvalidInputError, match="at least 2 departure and 2 arrival"):
+        pc.plot()

@@ -80,6 +80,7 @@ _EXPORTS = {
     "sun_synchronous_inclination": "secular",
     "sun_synchronous_semi_major_axis": "secular",
     "frozen_eccentricity": "secular",
+    "repeat_ground_track_semi_major_axis": "secular",
 }
 
 __all__ = sorted(_EXPORTS)

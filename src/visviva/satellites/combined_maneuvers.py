@@ -56,7 +56,7 @@ def hohmann_plane_change_delta_v(r1, r2, delta_inc, gm):
     |Δv1| + |Δv2| (a grid over [0, Δi], then bisection of the derivative around the best
     point; the ends, the whole turn at one burn, included): Vallado (2013), Fundamentals of
     Astrodynamics and Applications, 4th ed., ch. 6, "minimum combined plane change";
-    Curtis (2014), sec. 6.11.
+    Curtis (2014), ch. 6 (plane change maneuvers).
 
     Parameters
     ----------

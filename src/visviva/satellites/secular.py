@@ -336,7 +336,7 @@ def repeat_ground_track_semi_major_axis(revolutions, days, inc, ecc=0.0, body=EA
 
     The track repeats when R nodal periods equal D turns of the body under the node:
     D (dM/dt + domega/dt) = R (omega_body - dOmega/dt), with the rates of
-    :func:`j2_secular_rates` (Vallado 2013, sec. 11.4.4, "repeat ground tracks"). Solved by
+    :func:`j2_secular_rates` (Vallado 2013, ch. 11, repeat-groundtrack orbits). Solved by
     bisection in a (the left side falls with a faster than the right).
 
     Parameters

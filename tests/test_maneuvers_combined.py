@@ -107,3 +107,26 @@ def test_hohmann_with_delta_inc_refuses_a_state_off_the_nodes_and_through_the_eq
     a = Maneuver.hohmann(node_state(28.5, 10.0), 42164 * u.km)
     b = Maneuver.hohmann(node_state(28.5, 10.0), 42164 * u.km, delta_inc=0.0)
     assert [i.dv.value.tolist() for i in a.impulses] == [i.dv.value.tolist() for i in b.impulses]
+
+
+def test_then_chains_a_phasing_and_a_hohmann_transfer():
+    """audit53: a sequence (phasing into the slot, then a transfer) had to be assembled by hand,
+    with the second plan's times shifted by the first's duration."""
+    leo = node_state(51.6, 0.0, r=6878.0)
+    phase = Maneuver.phasing(leo, 20 * u.deg, revolutions=2)
+    after = phase.apply(leo)
+    for coast in (0.0, 1234.5):
+        transfer = Maneuver.hohmann(after.propagate(coast * u.s), 7200 * u.km)
+        both = phase.then(transfer, coast * u.s)
+        want = transfer.apply(after.propagate(coast * u.s))
+        got = both.apply(leo)
+        assert np.abs((got.r - want.r).to_value(u.km)).max() < 1e-6
+        assert np.abs((got.v - want.v).to_value(KMS)).max() < 1e-9
+        assert both.total_delta_v.to_value(KMS) == pytest.approx(
+            (phase.total_delta_v + transfer.total_delta_v).to_value(KMS), rel=1e-14)
+        assert both.duration.to_value(u.s) == pytest.approx(
+            (phase.duration + transfer.duration).to_value(u.s) + coast, rel=1e-14)
+    with pytest.raises(InvalidInputError, match=">= 0"):
+        phase.then(transfer, -1 * u.s)
+    with pytest.raises(InvalidInputError, match="takes a Maneuver"):
+        phase.then([(0 * u.s, [0, 0, 0.1] * KMS)])

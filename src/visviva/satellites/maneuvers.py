@@ -347,6 +347,29 @@ class Maneuver:
             )
         return [ImpulsiveBurn(t * u.s, to_quantity(dv, "speed"), "GCRS") for t, dv in self._items]
 
+    def then(self, other, coast=0.0 * u.s):
+        """This manoeuvre followed by ``other``: a sequence (phasing, then a transfer ...).
+
+        ``other`` is planned from the state this one leaves, ``self.apply(state)``, carried on
+        by ``coast`` (>= 0); its impulse times are shifted by this one's last impulse time plus
+        ``coast``, so ``a.then(b, coast).apply(state)`` equals ``b.apply(a.apply(state)
+        .propagate(coast))``. Plans made from states of different frames are refused.
+        """
+        if not isinstance(other, Maneuver):
+            raise InvalidInputError(f"Maneuver.then takes a Maneuver; got {type(other).__name__}.")
+        wait = _one_value(coast, "time", "coast")
+        if not wait >= 0:
+            raise InvalidInputError(f"coast must be >= 0 s; got {wait:g} s.")
+        if None not in (self.frame, other.frame) and self.frame != other.frame:
+            raise InvalidInputError(
+                f"Maneuver.then: this plan is in {self.frame.upper()}, the next in "
+                f"{other.frame.upper()}; plan both from states of one frame.")
+        start = self._items[-1][0] + wait
+        out = Maneuver([(t * u.s, dv * (u.km / u.s)) for t, dv in self._items]
+                       + [((start + t) * u.s, dv * (u.km / u.s)) for t, dv in other._items])
+        out.frame = self.frame if self.frame is not None else other.frame
+        return out
+
     def __repr__(self):
         return (
             f"Maneuver({len(self._items)} impulses, {self.total_delta_v:.6f}, {self.duration:.1f})"

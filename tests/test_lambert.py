@@ -79,8 +79,6 @@ def test_round_trip_arrives_within_1_mm(name, method):
     # the universal-variable method divides by g ~ sqrt(1 + cos dnu), which vanishes at 180 deg
     # (Vallado 2013, sec. 7.6); written without cancellation it keeps 1 mm there too
     tol = ONE_MM
-    if method == "universal" and name == "near 360 deg":
-        tol = 1.0  # km: t(psi) is singular at psi = 4 pi^2, the known weakness of the method
     assert np.linalg.norm(r - np.array(r2)) < tol
     assert np.linalg.norm(v - v2.to_value(KMS)) < 1e3 * tol / tof
     h = np.cross(r1, v1.to_value(KMS))
@@ -291,6 +289,53 @@ def test_izzo_within_nanoradians_of_360_deg_arrives_at_r2(offset):
         r, v = arrive(r1, v1.to_value(KMS), 4536.0)
         assert np.linalg.norm(r - r2) < ONE_MM / 100
         assert np.linalg.norm(v - v2.to_value(KMS)) < ONE_MM / 4536.0
+
+
+@pytest.mark.parametrize("method", ["izzo", "universal"])
+@pytest.mark.parametrize(
+    ("offset", "tof", "M", "branch"),
+    [(-1e-4, 5000.0, 0, "left"), (-1e-6, 5000.0, 0, "left"), (-1e-8, 3000.0, 0, "left"),
+     (-1e-6, 11000.0, 1, "left"), (1e-6, 11000.0, 1, "right"), (1e-8, 11000.0, 1, "right")],
+)
+def test_lambert_equal_radii_near_0_and_360_deg_arrives_at_r2(method, offset, tof, M, branch):
+    # audit53: between equal radii y = r1 + r2 - 2 sqrt(r1 r2) cos(dnu/2) cos(w/2) -> 0 on the
+    # long way near 360 deg (and on the right branch's short way near 0 deg), and the universal
+    # method formed it by cancellation: it missed r2 by 44 km 1e-6 rad short of 360 deg, 121 km
+    # with one revolution, 497 km on the right branch 1e-6 rad past 0 deg (silently), and
+    # refused 1e-8 rad. Izzo's arrival is the reference (a propagation check for both).
+    r1 = np.array([7000.0, 0.0, 0.0])
+    r2 = 7000.0 * np.array([np.cos(offset), np.sin(offset), 0.0])
+    v1, v2 = vv.lambert(r1 * u.km, r2 * u.km, tof * u.s, GM, M, branch=branch, method=method)
+    r, v = arrive(r1, v1.to_value(KMS), tof)
+    # Izzo's T(x) took acos(g) with g -> -1 (1 + g ~ dnu'^2): 1.2e-6 km at 1e-6 rad from 360
+    # deg, 6.3e-5 km at 1e-8 rad; 1 + g from positive terms, now ~1e-11 km as the universal one
+    tol = ONE_MM
+    assert np.linalg.norm(r - r2) < tol
+    assert np.linalg.norm(v - v2.to_value(KMS)) < 10 * tol / tof * 1e3
+
+
+def test_izzo_time_of_flight_is_accurate_where_acos_is_ill_conditioned():
+    # audit53: T(x) of the elliptic Lancaster form against a 40-digit evaluation, over the whole
+    # domain and near |lambda| = 1 (0 and 360 deg), where 1 +- g -> 0
+    import mpmath as mp
+
+    from visviva.core.lambert import _izzo_tof
+
+    mp.mp.dps = 40
+    rng = np.random.default_rng(53)
+    lams = np.concatenate([rng.uniform(-1, 1, 300), -1 + 10 ** rng.uniform(-17, -3, 100),
+                           1 - 10 ** rng.uniform(-17, -3, 100)])
+    for lam in lams:
+        x = float(rng.choice([-1, 1])) * float(rng.uniform(0.0, 0.79))
+        M = int(rng.integers(0, 3))
+        lm, xm = mp.mpf(float(lam)), mp.mpf(x)
+        om = (1 - lm) * (1 + lm)
+        z = mp.sqrt(om + lm * lm * xm * xm)
+        e = xm * xm - 1
+        g = xm * z - lm * e
+        t = (xm - lm * z - (M * mp.pi + mp.acos(g)) / mp.sqrt(-e)) / e
+        # (T itself is a difference of O(1) terms where it is tiny: short, fast arcs)
+        assert abs(_izzo_tof(x, float(lam), M, float(om)) - float(t)) < 1e-13 * max(1.0, abs(t))
 
 
 def _mixed_batch():

@@ -107,10 +107,12 @@ def test_plane_change_cost_and_effect():
 
 def test_lambert_rendezvous():
     chaser = circular_state(7000.0)
+    # arriving ~170 deg on (audit53: 1.0 rad ahead in 2500 s took an arc through the Earth,
+    # periapsis 5656 km, now refused)
     target = vv.KeplerianElements.from_semi_major_axis(
-        7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.0, GM
+        7500 * u.km, 0.01, 0.1, 0.0, 0.0, 0.16, GM
     ).to_state()
-    tof = 2500 * u.s
+    tof = 2900 * u.s
     man = Maneuver.lambert(chaser, target, tof)
     final = man.apply(chaser)
     target_then = target.propagate(tof)
@@ -341,13 +343,13 @@ def test_lambert_rendezvous_with_a_target_at_another_epoch_or_attractor():
     chaser = vv.KeplerianElements.from_semi_major_axis(
         7000 * u.km, 0.0, 0.1, 0.0, 0.0, 0.0, GM, epoch=epoch
     ).to_state()
-    target_elements = (7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.0, GM)
+    target_elements = (7500 * u.km, 0.01, 0.1, 0.0, 0.0, 1.13, GM)
     later = vv.KeplerianElements.from_semi_major_axis(
         *target_elements, epoch=epoch + 1000 * u.s
     ).to_state()
     # the target's epoch was ignored: its state 1000 s later was taken as its state now, and the
     # rendezvous missed it by thousands of km, silently
-    tof = 2500 * u.s
+    tof = 2900 * u.s
     final = Maneuver.lambert(chaser, later, tof).apply(chaser)
     target_then = later.propagate(tof - 1000 * u.s)
     assert np.linalg.norm((final.r - target_then.r).to_value(u.km)) < 1e-6
@@ -675,3 +677,57 @@ def test_bielliptic_against_hohmann_crossovers_11_94_and_15_58():
     assert cheaper(12.0, 1e8) and not cheaper(12.0, 1.5)
     assert all(cheaper(15.6, f) for f in (1.01, 1.5, 10.0, 1e8))
     assert not cheaper(15.5, 1.01) and cheaper(15.5, 1.5)
+
+
+def test_lambert_rendezvous_through_the_attractor_is_refused():
+    """audit53: from 7000 km to a target 150 deg ahead on the same circle in 3000 s the arc's
+    periapsis is 2909 km, inside the Earth, and Maneuver.lambert planned its 3.92 km/s silently
+    (600 s: 41.3 km/s, periapsis 1680 km). The least radius on the arc is checked against a
+    sampled propagation; vv.lambert itself (the bare conic) still answers."""
+    from visviva.errors import DomainError
+    from visviva.satellites.maneuver_checks import arc_min_radius
+
+    chaser = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0, 0.5, 0, 0, 0,
+                                                       vv.EARTH).to_state()
+    target = vv.KeplerianElements.from_semi_major_axis(7000 * u.km, 0, 0.5, 0, 0,
+                                                       150 * u.deg, vv.EARTH).to_state()
+    for tof in (600.0, 3000.0):
+        with pytest.raises(DomainError, match="inside it"):
+            Maneuver.lambert(chaser, target, tof * u.s)
+        there = target.propagate(tof * u.s)
+        v1, v2 = vv.lambert(chaser.r, there.r, tof * u.s, vv.EARTH)
+        arc = vv.StateVectors(chaser.r, v1, vv.EARTH).propagate(np.linspace(0, tof, 2001) * u.s)
+        sampled = np.linalg.norm(arc.r.to_value(u.km), axis=-1).min()
+        low = arc_min_radius(chaser.r.to_value(u.km), v1.to_value(KMS), there.r.to_value(u.km),
+                             v2.to_value(KMS), vv.EARTH.gm_km3_s2, 0)
+        assert low == pytest.approx(sampled, abs=0.5) and low < 3000.0
+    # an arc that stays outside is planned (its least radius is an end, or the periapsis)
+    assert Maneuver.lambert(chaser, target, 4000 * u.s).total_delta_v.to_value(KMS) > 0
+    for nu1, dnu, M in ((0.3, 2.5, 0), (5.0, 2.0, 0), (1.0, 1.0, 1)):
+        el = vv.KeplerianElements.from_semi_major_axis(9000 * u.km, 0.2, 0.3, 0, 0.4, nu1,
+                                                       vv.EARTH)
+        a = el.to_state()
+        period = el.period.to_value(u.s)
+        t = (M * period + (vv.true_to_mean(nu1 + dnu, 0.2) - vv.true_to_mean(nu1, 0.2))
+             % (2 * np.pi) / (2 * np.pi) * period)
+        b = a.propagate(t * u.s)
+        passes = nu1 + dnu >= 2 * np.pi or M >= 1
+        expect = 9000 * 0.8 if passes else min(np.linalg.norm(a.r.value), np.linalg.norm(b.r.value))
+        got = arc_min_radius(a.r.value, a.v.value, b.r.value, b.v.value, vv.EARTH.gm_km3_s2, M)
+        assert got == pytest.approx(expect, rel=1e-12)
+    # an attractor visviva does not know: no radius to check
+    gm = 1e5 * u.km**3 / u.s**2
+    c = vv.StateVectors(chaser.r, chaser.v * np.sqrt(1e5 / vv.EARTH.gm_km3_s2), gm)
+    t = vv.StateVectors(target.r, target.v * np.sqrt(1e5 / vv.EARTH.gm_km3_s2), gm)
+    assert Maneuver.lambert(c, t, 3000 * u.s).total_delta_v.value > 0
+
+
+def test_porkchop_plot_of_a_single_date_says_why():
+    """audit53: a grid with one departure date raised matplotlib's "Input z must be at least a
+    (2, 2) shaped array" from plot()."""
+    dep = Time("2005-08-10", scale="tdb") + np.arange(0, 1) * u.day
+    arr = Time("2006-02-01", scale="tdb") + np.arange(0, 60, 20) * u.day
+    pc = porkchop("earth", "mars", dep, arr)
+    assert np.all(np.isfinite(pc.c3))
+    with pytest.raises(InvalidInputError, match="at least 2 departure and 2 arrival"):
+        pc.plot()

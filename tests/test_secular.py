@@ -265,3 +265,30 @@ def test_secular_node_drift_is_about_the_earths_pole_for_gcrs_elements():
     later = propagate_j2_secular(el, [1.0, 5.0, 10.0] * u.day)
     assert np.abs(tilt(later) - tilt(el)).max() < 1e-9  # rad (was 1.9e-3 after 10 days)
     assert later.semi_major_axis.to_value(u.km) == pytest.approx(6878.0, rel=1e-12)
+
+
+def test_repeat_ground_track_semi_major_axis_matches_landsat_and_sentinel_2():
+    """audit53: the room had no repeat-ground-track helper. Published: Landsat 8, 233 orbits
+    in 16 days at 98.2 deg, 705 km nominal, 98.9 min; Sentinel-2, 143 in 10 days at 98.62 deg,
+    786 km."""
+    from visviva.satellites import j2_secular_rates, repeat_ground_track_semi_major_axis
+
+    r_eq = vv.EARTH.radius_km
+    a = repeat_ground_track_semi_major_axis(233, 16, 98.2 * u.deg)
+    assert a.to_value(u.km) - r_eq == pytest.approx(705.0, abs=6.0)
+    raan_rate, argp_rate, m_rate = (x.to_value(u.rad / u.s) for x in
+                                    j2_secular_rates(a, 0.0, 98.2 * u.deg))
+    nodal = 2 * np.pi / (m_rate + argp_rate)
+    assert nodal / 60 == pytest.approx(98.9, abs=0.05)
+    # the definition: 233 nodal periods = 16 turns of the Earth under the node
+    w = vv.EARTH.rotation_rate.to_value(u.rad / u.s)
+    assert 233 * nodal == pytest.approx(16 * 2 * np.pi / (w - raan_rate), rel=1e-12)
+    s2 = repeat_ground_track_semi_major_axis(143, 10, 98.62 * u.deg)
+    assert s2.to_value(u.km) - r_eq == pytest.approx(786.0, abs=2.0)
+    # broadcasts; more revolutions a day: lower
+    many = repeat_ground_track_semi_major_axis([14, 15], 1, [[0.5], [1.5]])
+    assert many.shape == (2, 2) and np.all(many[:, 0] > many[:, 1])
+    with pytest.raises(DomainError, match="more revolutions"):
+        repeat_ground_track_semi_major_axis(17, 1, 0.5)
+    with pytest.raises(DomainError, match="integers"):
+        repeat_ground_track_semi_major_axis(14.5, 1, 0.5)

@@ -51,6 +51,16 @@ def _hyp2f1b(z):
 @kernel
 def izzo_tof(x, lam, M):
     """Non-dimensional time of flight T(x) of Izzo (2015), eqs. 18-20 and Battin's series."""
+    return _izzo_tof(x, lam, M, 1.0 - lam * lam)
+
+
+@kernel
+def _izzo_tof(x, lam, M, om):
+    """:func:`izzo_tof` with ``om`` = 1 - lambda^2 = c/s given without cancellation (|lambda| -> 1
+    near 0 and 360 deg): z = sqrt(om + lambda^2 x^2), and on the elliptic Lancaster form
+    1 + g (or 1 - g), where acos(g) is ill-conditioned, from positive terms (audit53: T(x) had a
+    relative error eps / (dnu')^2 there, and between equal radii 1e-8 rad short of 360 deg the
+    arrival missed r2 by 6e-5 km)."""
     dist = abs(x - 1.0)
     if 0.01 < dist < 0.2:
         # Lagrange's form
@@ -70,7 +80,7 @@ def izzo_tof(x, lam, M):
     K = lam * lam
     E = x * x - 1.0
     rho = abs(E)
-    z = math.sqrt(1.0 + K * E)
+    z = math.sqrt(om + K * x * x)
     if dist < 0.01:
         # Battin's series
         eta = z - lam * x
@@ -81,7 +91,17 @@ def izzo_tof(x, lam, M):
     y = math.sqrt(rho)
     g = x * z - lam * E
     if E < 0.0:
-        d = M * _PI + math.acos(max(-1.0, min(1.0, g)))
+        al = abs(lam)
+        ax = abs(x)
+        if lam < 0.0 and x < 0.0:  # g -> -1: 1 + g = (1 - |l|) om (1 - x^2) / ((z + |x|)(|l x| + z))
+            one_p_g = om / (1.0 + al) * om * (-E) / ((z + ax) * (al * ax + z))
+            acg = _PI - 2.0 * math.asin(min(1.0, math.sqrt(0.5 * one_p_g)))
+        elif lam > 0.0 and x > 0.0:  # g -> +1: 1 - g = (1 - l) om (1 - x^2) / ((z + x)(z + l x))
+            one_m_g = om / (1.0 + al) * om * (-E) / ((z + ax) * (z + al * ax))
+            acg = 2.0 * math.asin(min(1.0, math.sqrt(0.5 * one_m_g)))
+        else:
+            acg = math.acos(max(-1.0, min(1.0, g)))
+        d = M * _PI + acg
     else:
         f = y * (z - lam * x)
         d = math.log(f + g)
@@ -104,11 +124,11 @@ def _dtdx(x, T, lam):
 
 
 @kernel
-def _householder(T, x0, lam, M):
+def _householder(T, x0, lam, M, om):
     """Solve T(x) = T by Householder's 3rd-order iteration; returns (x, converged)."""
     x = x0
     for _ in range(60):
-        tof = izzo_tof(x, lam, M)
+        tof = _izzo_tof(x, lam, M, om)
         d1, d2, d3 = _dtdx(x, tof, lam)
         delta = tof - T
         d1sq = d1 * d1
@@ -125,13 +145,13 @@ def _householder(T, x0, lam, M):
         x = xn
         if err < 1e-14 * max(1.0, abs(x)):
             # tiny steps also happen when the iteration is pinned against x = -1: check T(x)
-            return x, abs(izzo_tof(x, lam, M) - T) <= 1e-9 * max(1.0, T)
-    tof = izzo_tof(x, lam, M)
+            return x, abs(_izzo_tof(x, lam, M, om) - T) <= 1e-9 * max(1.0, T)
+    tof = _izzo_tof(x, lam, M, om)
     return x, abs(tof - T) <= 1e-11 * max(1.0, T)
 
 
 @kernel
-def _bisect_zero_rev(T, lam):
+def _bisect_zero_rev(T, lam, om):
     """Solve T(x) = T for M = 0 by bisection (T decreases from inf at x = -1 to 0 at inf).
 
     The fallback when Householder's iteration fails, which happens for very long times of
@@ -140,7 +160,7 @@ def _bisect_zero_rev(T, lam):
     lo = -1.0
     hi = 0.0
     for _ in range(2100):
-        if izzo_tof(hi, lam, 0) <= T:
+        if _izzo_tof(hi, lam, 0, om) <= T:
             break
         hi = 2.0 * hi + 1.0
     x = 0.5 * (lo + hi)
@@ -148,11 +168,11 @@ def _bisect_zero_rev(T, lam):
         x = 0.5 * (lo + hi)
         if x <= lo or x >= hi:
             break
-        if izzo_tof(x, lam, 0) > T:
+        if _izzo_tof(x, lam, 0, om) > T:
             lo = x
         else:
             hi = x
-    tof = izzo_tof(x, lam, 0)
+    tof = _izzo_tof(x, lam, 0, om)
     # near x = -1 the spacing of doubles limits T(x) ~ (1 + x)^(-3/2) to a relative precision
     # of ~1.5 eps / (1 + x); the velocities stay accurate (they are smooth in x there)
     if not (x > -1.0 and math.isfinite(tof)):
@@ -241,6 +261,7 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # lambda^2 = 1 - c/s = r1 r2 cos^2(dnu/2) / s^2, with 2 |cos(dnu/2)| = |r1_hat + r2_hat|:
     # 1 - c/s cancels to nothing within ~1e-8 rad of 180 deg, the sum of unit vectors does not
     lam = min(1.0, math.sqrt(R1 * R2) * _half_sum_norm(ir1, ir2) / s)
+    om = c / s  # 1 - lambda^2, exact where |lambda| -> 1 (0 and 360 deg)
     # tangential unit vectors, in the direction of motion
     sign = 1.0
     # the same test as universal_one, on the raw cross product: h_z = 0 (a transfer plane
@@ -281,10 +302,10 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
                 x_new = x_old - d1 * d2 / (d2 * d2 - d1 * d3 / 2.0)
                 if abs(x_new - x_old) < 1e-13:
                     x_old = x_new
-                    T_min = izzo_tof(x_new, lam, M)
+                    T_min = _izzo_tof(x_new, lam, M, om)
                     break
                 x_old = x_new
-                T_min = izzo_tof(x_new, lam, M)
+                T_min = _izzo_tof(x_new, lam, M, om)
             if T_min > T:
                 return st.DOMAIN
         if right:
@@ -299,9 +320,9 @@ def izzo_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
             x0 = T1 * (T1 - T) / (2.0 / 5.0 * (1.0 - lam2 * lam3) * T) + 1.0
         else:
             x0 = (T / T00) ** (0.69314718055994529 / math.log(T1 / T00)) - 1.0
-    x, ok = _householder(T, x0, lam, M)
+    x, ok = _householder(T, x0, lam, M, om)
     if not ok and M == 0:
-        x, ok = _bisect_zero_rev(T, lam)
+        x, ok = _bisect_zero_rev(T, lam, om)
     if not ok:
         return st.NO_CONVERGENCE
 
@@ -364,19 +385,32 @@ def _uv_tof_of_y(y, r1n, r2n, A, gm):
 
 
 @inline_kernel
-def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm):
+def _uv_tof_near_end(w, end, sgn, r1n, r2n, A, gm, vers_half):
     """t and y at psi = (end + sgn w)^2 from w = |sqrt(psi) - end| itself.
 
     ``end`` is 2 pi (M + 1) (``sgn = -1``: long, nearly parabolic arcs) or 2 pi M
     (``sgn = +1``: the right branch's low end), where t(psi) is singular. There psi cannot
     carry w to better than ulp(psi)/end, and 1 - cos sqrt(psi) and psi c3 - 1 cancel; from w:
     sin^2(x/2) = sin^2(w/2), sin x = sgn sin w and (psi c3 - 1)/sqrt(c2) = -sgn sqrt(2) cos(w/2).
+
+    With A = +-sqrt(2 r1 r2) cos(dnu/2), y = r1 + r2 -+ 2 sqrt(r1 r2) cos(dnu/2) cos(w/2); where
+    sgn A > 0 (the long way near 360 deg, the right branch's short way near 0 deg) that is a
+    difference of nearly equal terms when r1 ~ r2, and y -> 0: it is summed from positive terms,
+    (sqrt r1 - sqrt r2)^2 + 2 sqrt(r1 r2) [(1 - cos(dnu/2)) + cos(dnu/2) 2 sin^2(w/4)], with
+    ``vers_half`` = 1 - cos(dnu/2) from |r1_hat - r2_hat| (y had an absolute error eps (r1 + r2),
+    and v1 missed r2 by 44 km 1e-6 rad short of 360 deg in LEO).
     """
     x = end + sgn * w
     sw = math.sin(0.5 * w)
     c2 = 2.0 * sw * sw / (x * x)
     c3 = (x - sgn * math.sin(w)) / (x * x * x)
-    y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
+    if sgn * A > 0.0:
+        cos_half = 1.0 - vers_half
+        s4 = math.sin(0.25 * w)
+        d = (r1n - r2n) / (math.sqrt(r1n) + math.sqrt(r2n))
+        y = d * d + 2.0 * math.sqrt(r1n * r2n) * (vers_half + cos_half * 2.0 * s4 * s4)
+    else:
+        y = r1n + r2n - sgn * math.sqrt(2.0) * A * math.cos(0.5 * w)
     if y < 0.0:
         return -math.inf, y
     chi = math.sqrt(y / c2)
@@ -408,6 +442,13 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
     # vectors: 1 + cos dnu by a dot product loses every digit within ~1e-7 rad of 180 deg
     cos_half = _half_sum_norm(ir1, ir2)
     A = tm * math.sqrt(2.0 * r1n * r2n) * cos_half
+    # 1 - cos(dnu/2) = sin^2(dnu/2) / (1 + cos(dnu/2)), sin(dnu/2) = |r1_hat - r2_hat| / 2:
+    # without cancellation near 0 and 360 deg (for y near the ends of psi)
+    dx = ir1[0] - ir2[0]
+    dy = ir1[1] - ir2[1]
+    dz = ir1[2] - ir2[2]
+    sin_half2 = 0.25 * (dx * dx + dy * dy + dz * dz)
+    vers_half = sin_half2 / (1.0 + cos_half)
     if A == 0.0:
         return st.DOMAIN
     two_pi2 = 4.0 * _PI * _PI
@@ -491,17 +532,18 @@ def universal_one(r1, r2, tof, gm, M, prograde, right, v1, v2):
         # finish by bisection in w = |sqrt(psi) - end|, t decreasing in w from t(0) = inf
         wlo = 0.0
         whi = 1.0
-        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm)[0] < tof:
+        if _uv_tof_near_end(whi, end, sgn, r1n, r2n, A, gm, vers_half)[0] < tof:
             for _ in range(2000):
                 wm = 0.5 * (wlo + whi)
                 if wm <= wlo or wm >= whi:
                     break
-                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm)[0] < tof:
+                if _uv_tof_near_end(wm, end, sgn, r1n, r2n, A, gm, vers_half)[0] < tof:
                     whi = wm
                 else:
                     wlo = wm
             w_final = 0.5 * (wlo + whi)
-            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm)
+            t, y = _uv_tof_near_end(w_final, end, sgn, r1n, r2n, A, gm,
+                                            vers_half)
     if not (y > 0.0) or abs(t - tof) > 1e-8 * tof:
         return st.NO_CONVERGENCE
     # v1 = (r2 - f r1)/g, v2 = (gdot r2 - r1)/g with f = 1 - y/r1, gdot = 1 - y/r2 and

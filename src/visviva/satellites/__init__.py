@@ -72,6 +72,7 @@ _EXPORTS = {
     "hohmann_delta_v": "maneuvers",
     "bielliptic_delta_v": "maneuvers",
     "plane_change_delta_v": "maneuvers",
+    "hohmann_plane_change_delta_v": "combined_maneuvers",
     "porkchop": "porkchop_plot",
     "Porkchop": "porkchop_plot",
     "j2_secular_rates": "secular",
@@ -79,6 +80,7 @@ _EXPORTS = {
     "sun_synchronous_inclination": "secular",
     "sun_synchronous_semi_major_axis": "secular",
     "frozen_eccentricity": "secular",
+    "repeat_ground_track_semi_major_axis": "secular",
 }
 
 __all__ = sorted(_EXPORTS)

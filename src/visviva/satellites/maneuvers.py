@@ -28,7 +28,13 @@ from .._units import (
     to_quantity,
     to_vector,
 )
-from ..errors import InvalidInputError, InvalidStateError
+from ..errors import DomainError, InvalidInputError, InvalidStateError
+from .maneuver_checks import (
+    arc_min_radius,
+    inclination_change,
+    known_body,
+    refuse_below_surface,
+)
 
 __all__ = [
     "Impulse",
@@ -51,53 +57,6 @@ def _one_value(value, kind, name):
     return float(arr)
 
 
-def _inclination_change(delta_inc, name="delta_inc", limit=np.pi):
-    """``delta_inc`` in rad; a plain number beyond ``limit`` (60 for 60 deg) is refused.
-
-    No change of inclination exceeds pi, so a plain number above it is degrees typed without
-    their unit: taken in radians it gave another Δv without a word (60 -> 14.8 km/s at 7.5 km/s
-    instead of 7.5 km/s). Quantities of any size are taken as given. (A phase angle: 2 pi.)
-    """
-    di = to_array(delta_inc, "angle", name)
-    if not isinstance(delta_inc, u.Quantity) and np.any(np.abs(di) > limit):
-        big = float(di[np.abs(di) > limit].ravel()[0])
-        what = "pi, which no plane change exceeds" if limit == np.pi else f"{limit:.6g} rad"
-        raise InvalidInputError(
-            f"{name} = {big:g} is a plain number, so it would be taken in radians: more than "
-            f"{what}. Pass {name}={big:g} * u.deg if you meant degrees (or a Quantity in rad)."
-        )
-    return di
-
-
-def _known_body(gm, mu):
-    """The attractor when ``gm`` is a Body or, to 0.1 %, a known body's GM (a one-value
-    ``mu``, km^3/s^2); else None."""
-    from ..bodies import BODIES, Body
-
-    if isinstance(gm, Body):
-        return gm
-    if np.ndim(mu) != 0:
-        return None
-    return next((b for b in BODIES.values() if abs(float(mu) / b.gm_km3_s2 - 1.0) <= 1e-3), None)
-
-
-def _refuse_below_surface(gm, mu, **radii_km):
-    """Refuse circle radii inside the attractor (an altitude given for a radius, 500 km for
-    6878 km), when it is a known body (:func:`_known_body`)."""
-    body = _known_body(gm, mu)
-    if body is None:
-        return
-    for name, r in radii_km.items():
-        if np.any(r < body.radius_km):
-            low = float(np.min(r))
-            raise InvalidInputError(
-                f"{name} = {low:.6g} km is inside {body.name} (radius {body.radius_km:.6g} km): "
-                "the radii of a transfer are from the body's centre, not altitudes. For an "
-                f"altitude of {low:.6g} km give {body.radius_km + low:.6g} km "
-                f"({body.name}'s radius + altitude)."
-            )
-
-
 def _chaser_sense(chaser, target) -> bool:
     """lambert's ``prograde`` flag for the transfer that turns the way ``chaser`` moves.
 
@@ -110,6 +69,38 @@ def _chaser_sense(chaser, target) -> bool:
     normal = np.cross(r1, r2)
     short = bool(np.dot(normal, np.cross(r1, to_vector(chaser.v, "speed", "state_from.v"))) >= 0)
     return short == bool(normal[2] >= 0)
+
+
+def _check_inclination(r, v, di, what):
+    """Refuse a change ``di`` (rad) that takes the inclination of (r, v) outside 0-180 deg."""
+    h = np.cross(r, v)
+    inc = float(np.arccos(np.clip(h[2] / np.linalg.norm(h), -1.0, 1.0)))
+    if not -1e-12 <= inc + di <= np.pi + 1e-12:
+        flown = np.rad2deg(abs(inc + di) if inc + di < 0 else 2 * np.pi - (inc + di))
+        raise InvalidInputError(
+            f"{what}: the orbit's inclination is {np.rad2deg(inc):.6g} deg, so a change of "
+            f"{np.rad2deg(di):.6g} deg would take it to {np.rad2deg(inc + di):.6g} deg, outside "
+            f"0-180 deg (the plane would turn through the equator: {flown:.6g} deg with the node "
+            "moved by 180 deg). A positive delta_inc raises the inclination, a negative one "
+            "lowers it; give the change that reaches the inclination wanted."
+        )
+    return inc
+
+
+def _turned(r, v, di):
+    """``v`` turned about ``r`` so that, at a node, the inclination changes by ``di`` (rad).
+
+    Rodrigues' rotation of v about r_hat by di turns h = r x v about r_hat by di too: at the
+    ascending node a positive di raises the inclination, at the descending node it lowers it,
+    so there the rotation turns the other way (it lowered it silently: +10 deg at the
+    descending node of a 30 deg orbit gave 20 deg). The half of the orbit is told by the node
+    line's projection r . n (n = z x h; >= 0 also for equatorial orbits).
+    """
+    k = r / np.linalg.norm(r)
+    h = np.cross(r, v)
+    node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
+    th = -di if np.dot(k, node) < 0 else di
+    return v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
 
 
 #: Relative difference of radii below which Maneuver.hohmann has nothing to transfer
@@ -151,7 +142,7 @@ def hohmann_delta_v(r1, r2, gm):
     if np.any(a <= 0) or np.any(b <= 0) or np.any(mu <= 0):
         raise InvalidInputError("r1, r2 and gm must be > 0.")
     broadcast_or_raise("hohmann_delta_v", r1=a, r2=b, gm=mu)
-    _refuse_below_surface(gm, mu, r1=a, r2=b)
+    refuse_below_surface(gm, mu, r1=a, r2=b)
     dv1 = np.sqrt(mu / a) * (np.sqrt(2 * b / (a + b)) - 1)
     dv2 = np.sqrt(mu / b) * (1 - np.sqrt(2 * a / (a + b)))
     tof = np.pi * np.sqrt((a + b) ** 3 / (8 * mu))
@@ -186,7 +177,7 @@ def bielliptic_delta_v(r1, rb, r2, gm):
     broadcast_or_raise("bielliptic_delta_v", r1=a, rb=m, r2=b, gm=mu)
     if np.any(m < np.maximum(a, b)):
         raise InvalidInputError("the intermediate radius rb must be >= r1 and r2.")
-    _refuse_below_surface(gm, mu, r1=a, r2=b)
+    refuse_below_surface(gm, mu, r1=a, r2=b)
     a1 = 0.5 * (a + m)
     a2 = 0.5 * (m + b)
     dv1 = np.sqrt(2 * mu / a - mu / a1) - np.sqrt(mu / a)
@@ -214,7 +205,7 @@ def plane_change_delta_v(speed, delta_inc):
         The Δv magnitude.
     """
     v = to_array(speed, "speed", "speed")
-    di = _inclination_change(delta_inc)
+    di = inclination_change(delta_inc)
     require_positive(v, "speed", strict=False)
     broadcast_or_raise("plane_change_delta_v", speed=v, delta_inc=di)
     return to_quantity(2 * v * np.abs(np.sin(di / 2)), "speed")
@@ -356,6 +347,29 @@ class Maneuver:
             )
         return [ImpulsiveBurn(t * u.s, to_quantity(dv, "speed"), "GCRS") for t, dv in self._items]
 
+    def then(self, other, coast=0.0 * u.s):
+        """This manoeuvre followed by ``other``: a sequence (phasing, then a transfer ...).
+
+        ``other`` is planned from the state this one leaves, ``self.apply(state)``, carried on
+        by ``coast`` (>= 0); its impulse times are shifted by this one's last impulse time plus
+        ``coast``, so ``a.then(b, coast).apply(state)`` equals ``b.apply(a.apply(state)
+        .propagate(coast))``. Plans made from states of different frames are refused.
+        """
+        if not isinstance(other, Maneuver):
+            raise InvalidInputError(f"Maneuver.then takes a Maneuver; got {type(other).__name__}.")
+        wait = _one_value(coast, "time", "coast")
+        if not wait >= 0:
+            raise InvalidInputError(f"coast must be >= 0 s; got {wait:g} s.")
+        if None not in (self.frame, other.frame) and self.frame != other.frame:
+            raise InvalidInputError(
+                f"Maneuver.then: this plan is in {self.frame.upper()}, the next in "
+                f"{other.frame.upper()}; plan both from states of one frame.")
+        start = self._items[-1][0] + wait
+        out = Maneuver([(t * u.s, dv * (u.km / u.s)) for t, dv in self._items]
+                       + [((start + t) * u.s, dv * (u.km / u.s)) for t, dv in other._items])
+        out.frame = self.frame if self.frame is not None else other.frame
+        return out
+
     def __repr__(self):
         return (
             f"Maneuver({len(self._items)} impulses, {self.total_delta_v:.6f}, {self.duration:.1f})"
@@ -382,29 +396,75 @@ class Maneuver:
         return r, v, mu, rn
 
     @classmethod
-    def hohmann(cls, state, r_final):
+    def hohmann(cls, state, r_final, delta_inc=0.0):
         """Hohmann transfer from the circular orbit of ``state`` to radius ``r_final``.
 
         Where ``r_final`` is the state's radius (to 1e-9, 7 um in LEO) there is nothing to
         transfer: the manoeuvre is one impulse at t = 0 that sets the speed to the circular
         one (zero for an exactly circular state), of duration 0, rather than two zero burns half
         a period apart (whose ``apply`` carried the state half an orbit on for nothing).
+
+        With ``delta_inc`` (angle; rad for plain floats; positive raises the inclination) the
+        inclination changes too, split between the two burns at the cheapest ratio
+        (:func:`~visviva.satellites.combined_maneuvers.hohmann_plane_change_delta_v`: LEO to
+        GEO with -28.5 deg turns 2.2 deg at the first burn, 4.2314 km/s in all against 4.2560
+        km/s with the whole turn at the second). The burns are on the line of nodes, so the
+        state must be at a node (|sin u| <= 1e-6 for the argument of latitude u; any point of
+        an equatorial orbit); elsewhere it is refused, since the turn would change the
+        inclination by less and move the node (propagate to the node first, e.g. with the
+        ``AscendingNode`` event).
         """
         r, v, mu, r1 = cls._circular(state, "Maneuver.hohmann")
         r2 = _one_value(r_final, "length", "r_final")
+        di = _one_value(inclination_change(delta_inc), "angle", "delta_inc")
         dv1, dv2, tof = hohmann_delta_v(r1 * u.km, r2 * u.km, mu * u.km**3 / u.s**2)
         v_hat = v / np.linalg.norm(v)
+        kms = u.km / u.s
+        if di != 0.0:
+            return cls._hohmann_turning(state, r, v, mu, r1, r2, di)._planned_from(state)
         # the first burn starts from the actual speed (exact for a nearly circular start)
-        dv1 = (np.sqrt(mu / r1) + dv1.value - np.linalg.norm(v)) * (u.km / u.s)
+        dv1 = (np.sqrt(mu / r1) + dv1.value - np.linalg.norm(v)) * kms
         if abs(r2 - r1) <= _SAME_RADIUS * r1:  # no transfer: the speed trim alone, at once
-            return cls([(0 * u.s, dv1.value * v_hat * (u.km / u.s))])._planned_from(state)
+            return cls([(0 * u.s, dv1.value * v_hat * kms)])._planned_from(state)
         # at the far apsis the velocity is antiparallel to the initial one
         return cls(
             [
-                (0 * u.s, dv1.value * v_hat * (u.km / u.s)),
-                (tof, -dv2.value * v_hat * (u.km / u.s)),
+                (0 * u.s, dv1.value * v_hat * kms),
+                (tof, -dv2.value * v_hat * kms),
             ]
         )._planned_from(state)
+
+    @classmethod
+    def _hohmann_turning(cls, state, r, v, mu, r1, r2, di):
+        """The two burns of a Hohmann transfer that also turns the plane by ``di`` (rad)."""
+        from .combined_maneuvers import hohmann_plane_change_delta_v
+
+        h = np.cross(r, v)
+        sin_inc = np.hypot(h[0], h[1]) / np.linalg.norm(h)
+        if abs(r[2]) > 1e-6 * r1 * sin_inc:
+            raise InvalidStateError(
+                "Maneuver.hohmann with delta_inc burns on the line of nodes, but this state is "
+                f"{np.rad2deg(np.arcsin(min(1.0, abs(r[2]) / (r1 * sin_inc)))):.6g} deg of "
+                "argument of latitude from a node: the turn would change the inclination by "
+                "less and move the node. Propagate the state to a node first (e.g. "
+                "propagate_cowell with the AscendingNode event), or plan the plane change "
+                "apart (Maneuver.plane_change).")
+        _check_inclination(r, v, di, "Maneuver.hohmann")
+        kms = u.km / u.s
+        v_hat = v / np.linalg.norm(v)
+        if abs(r2 - r1) <= _SAME_RADIUS * r1:  # no transfer: trim and turn at once
+            return cls([(0 * u.s, (_turned(r, np.sqrt(mu / r1) * v_hat, di) - v) * kms)])
+        gm = mu * u.km**3 / u.s**2
+        _, _, di1, di2, tof = hohmann_plane_change_delta_v(r1 * u.km, r2 * u.km, di, gm)
+        di1, di2 = float(di1.to_value(u.rad)), float(di2.to_value(u.rad))
+        a_t = 0.5 * (r1 + r2)
+        # first burn: from the actual velocity onto the transfer ellipse, turned by di1
+        v_t1 = _turned(r, np.sqrt(mu * (2 / r1 - 1 / a_t)) * v_hat, di1)
+        # second burn, half an ellipse later at the opposite node: circular, turned by di2
+        r_b = -r2 * r / r1
+        v_t2 = -np.sqrt(mu * (2 / r2 - 1 / a_t)) * v_t1 / np.linalg.norm(v_t1)
+        v_c2 = _turned(r_b, np.sqrt(mu / r2) * v_t2 / np.linalg.norm(v_t2), di2)
+        return cls([(0 * u.s, (v_t1 - v) * kms), (tof, (v_c2 - v_t2) * kms)])
 
     @classmethod
     def bielliptic(cls, state, r_intermediate, r_final):
@@ -454,26 +514,9 @@ class Maneuver:
             raise InvalidInputError(
                 f"Maneuver.plane_change takes one state (shape (3,)); got r {r.shape}."
             )
-        di = _one_value(_inclination_change(delta_inc), "angle", "delta_inc")
-        k = r / np.linalg.norm(r)
-        # Rodrigues' rotation of v about r_hat by di turns h = r x v about r_hat by di too: at
-        # the ascending node a positive di raises the inclination, at the descending node it
-        # lowers it, so there the rotation turns the other way (it lowered it silently: +10 deg
-        # at the descending node of a 30 deg orbit gave 20 deg)
-        h = np.cross(r, v)
-        inc = float(np.arccos(np.clip(h[2] / np.linalg.norm(h), -1.0, 1.0)))
-        if not -1e-12 <= inc + di <= np.pi + 1e-12:
-            flown = np.rad2deg(abs(inc + di) if inc + di < 0 else 2 * np.pi - (inc + di))
-            raise InvalidInputError(
-                f"Maneuver.plane_change: the orbit's inclination is {np.rad2deg(inc):.6g} deg, "
-                f"so a change of {np.rad2deg(di):.6g} deg would take it to "
-                f"{np.rad2deg(inc + di):.6g} deg, outside 0-180 deg (the plane would turn "
-                f"through the equator: {flown:.6g} deg with the node moved by 180 deg). A positive delta_inc raises the inclination, a negative one "
-                "lowers it; give the change that reaches the inclination wanted."
-            )
-        node = np.array([-h[1], h[0], 0.0])  # z x h, towards the ascending node
-        th = -di if np.dot(k, node) < 0 else di
-        v_new = v * np.cos(th) + np.cross(k, v) * np.sin(th) + k * np.dot(k, v) * (1 - np.cos(th))
+        di = _one_value(inclination_change(delta_inc), "angle", "delta_inc")
+        _check_inclination(r, v, di, "Maneuver.plane_change")
+        v_new = _turned(r, v, di)
         return cls([(0 * u.s, (v_new - v) * (u.km / u.s))])._planned_from(state)
 
     @classmethod
@@ -521,7 +564,7 @@ class Maneuver:
                 f"revolutions must be an integer >= 1 (laps of the phasing orbit); got "
                 f"{revolutions!r}. The phase changes only over whole laps of the phasing orbit.")
         k = int(revolutions)
-        phi = _one_value(_inclination_change(phase_angle, "phase_angle", 2 * np.pi), "angle",
+        phi = _one_value(inclination_change(phase_angle, "phase_angle", 2 * np.pi), "angle",
                          "phase_angle")
         mu = float(to_array(state.gm, "gm", "state.gm"))
         rn, speed = float(np.linalg.norm(r)), float(np.linalg.norm(v))
@@ -538,7 +581,7 @@ class Maneuver:
         t_ph = period * (1 - phi / (2 * np.pi * k))
         a_ph = (mu * (t_ph / (2 * np.pi)) ** 2) ** (1 / 3)
         v_ph2 = mu * (2 / rn - 1 / a_ph)
-        body = _known_body(state.gm, mu)
+        body = known_body(state.gm, mu)
         if v_ph2 > 0:
             h = np.linalg.norm(np.cross(r, v)) / speed * np.sqrt(v_ph2)
             periapsis = a_ph * (1 - np.sqrt(max(0.0, 1 - h * h / (mu * a_ph))))
@@ -596,5 +639,26 @@ class Maneuver:
         if "prograde" not in lambert_kwargs and np.shape(state_from.r) == (3,):
             lambert_kwargs["prograde"] = _chaser_sense(state_from, target)
         v1, v2 = lambert(state_from.r, target.r, tof, state_from.gm, **lambert_kwargs)
+        _refuse_arc_inside(state_from, target, v1, v2, tof, lambert_kwargs.get("revolutions", 0))
         return cls([(0 * u.s, v1 - state_from.v), (tof, target.v - v2)])._planned_from(
             state_from, state_to)
+
+
+def _refuse_arc_inside(state_from, target, v1, v2, tof, revolutions) -> None:
+    """Refuse a Lambert arc that passes inside a known attractor (:func:`known_body`): the
+    conic is exact, but nothing flies it (audit53: 7000 km to 7000 km 150 deg ahead in 3000 s
+    planned 3.92 km/s on an arc through the Earth, periapsis 2909 km, silently)."""
+    mu = float(to_array(state_from.gm, "gm", "state_from.gm"))
+    body = known_body(state_from.gm, mu)
+    if body is None or np.shape(v1) != (3,):
+        return
+    r1 = to_vector(state_from.r, "length", "state_from.r")
+    r2 = to_vector(target.r, "length", "target r")
+    low = arc_min_radius(r1, to_vector(v1, "speed", "v1"), r2, to_vector(v2, "speed", "v2"), mu,
+                         int(revolutions))
+    if low < body.radius_km:
+        raise DomainError(
+            f"Maneuver.lambert: the transfer arc in tof = {float(to_array(tof, 'time', 'tof')):g}"
+            f" s passes {low:.6g} km from the centre of {body.name}, inside it (radius "
+            f"{body.radius_km:.6g} km): nothing can fly it. Give a longer tof, the other way "
+            "round (prograde=...), or revolutions=..., or go by an intermediate point.")

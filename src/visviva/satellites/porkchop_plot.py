@@ -66,7 +66,19 @@ class Porkchop:
         """Contour plot of C3 (filled) and the time of flight (lines); returns the Figure.
 
         Uses the Agg backend unless a figure already exists; ``path`` saves it to a file.
+        Cells without a transfer (NaN) are left blank, not filled.
+
+        Raises
+        ------
+        InvalidInputError
+            A grid with fewer than 2 departure or arrival dates (no contour can be drawn:
+            matplotlib's own error was about a "z" array).
         """
+        if min(self.c3.shape) < 2:
+            raise InvalidInputError(
+                f"Porkchop.plot draws contours, which need at least 2 departure and 2 arrival "
+                f"dates; this grid is {self.c3.shape[0]} x {self.c3.shape[1]}. Widen the axis "
+                "with one date, or read the numbers (pc.c3, pc.delta_v, pc.best()) instead.")
         import matplotlib
 
         if ax is None:

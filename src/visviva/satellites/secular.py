@@ -30,6 +30,7 @@ __all__ = [
     "sun_synchronous_inclination",
     "sun_synchronous_semi_major_axis",
     "frozen_eccentricity",
+    "repeat_ground_track_semi_major_axis",
     "CRITICAL_INCLINATION",
     "SUN_SYNCHRONOUS_RATE",
 ]
@@ -327,3 +328,84 @@ def frozen_eccentricity(a, inc, body=EARTH):
         ) from exc
     _check_above_surface(a_km, body, body.radius_km, "frozen_eccentricity")
     return -(j3 / (2 * j2)) * (body.radius_km / a_km) * np.sin(i)
+
+
+def repeat_ground_track_semi_major_axis(revolutions, days, inc, ecc=0.0, body=EARTH):
+    """Mean semi-major axis of an orbit whose ground track repeats after ``revolutions`` nodal
+    revolutions in ``days`` turns of the body relative to the orbit's node (J2 secular theory).
+
+    The track repeats when R nodal periods equal D turns of the body under the node:
+    D (dM/dt + domega/dt) = R (omega_body - dOmega/dt), with the rates of
+    :func:`j2_secular_rates` (Vallado 2013, ch. 11, repeat-groundtrack orbits). Solved by
+    bisection in a (the left side falls with a faster than the right).
+
+    Parameters
+    ----------
+    revolutions, days : int or array_like of int
+        R >= 1 revolutions in D >= 1 days (e.g. Landsat 8: 233 in 16, Sentinel-2: 143 in
+        10); broadcast together and against ``inc`` and ``ecc``. R and D without a common factor
+        give a cycle of exactly D days.
+    inc : Quantity or float
+        Mean inclination in [0, 180 deg] (rad for plain floats).
+    ecc : float or array_like
+        Mean eccentricity, 0 <= e < 1.
+    body : Body
+        Central body with J2 and a rotation rate (default Earth, 7.292115e-5 rad/s).
+
+    Returns
+    -------
+    Quantity, km
+        The mean semi-major axis.
+
+    Raises
+    ------
+    DomainError
+        No such orbit above the surface (too many revolutions per day: 16 a day is near the
+        Earth's limit), or non-integer or non-positive R, D.
+
+    Notes
+    -----
+    Landsat 8 (233 / 16, 98.2 deg): a = 7077.7 km, 699.6 km above the equatorial radius
+    (published: "705 km", nominal), nodal period 98.88 min (published: 98.9 min; USGS, Landsat 8
+    Data Users Handbook). Sentinel-2 (143 / 10, 98.62 deg): 786.2 km (published: 786 km).
+    """
+    rev = np.asarray(revolutions)
+    day = np.asarray(days)
+    for arr, name in ((rev, "revolutions"), (day, "days")):
+        if arr.dtype.kind not in "iu" or np.any(arr < 1):
+            raise DomainError(f"{name} must be integers >= 1; got {arr!r}.")
+    i = to_array(inc, "angle", "inc")
+    e = to_array(ecc, "dimensionless", "ecc")
+    _check_ecc(e)
+    _check_inc(i)
+    shape = broadcast_or_raise("repeat_ground_track_semi_major_axis", revolutions=rev, days=day,
+                               inc=i, ecc=e)
+    gm, R, _ = _body_consts(body)
+    spin = body.rotation_rate
+    if spin is None:
+        raise InvalidInputError(f"{body.name} has no rotation rate; a ground track needs one.")
+    w = float(spin.to_value(u.rad / u.s))
+    rev, day, i, e = (np.broadcast_to(x, shape).astype(np.float64) for x in (rev, day, i, e))
+
+    def excess(a):  # D (Mdot + wdot) - R (w - Omegadot): > 0 below the root
+        raan_rate, argp_rate, m_rate = (x.value for x in j2_secular_rates(a * u.km, e, i, body))
+        return day * (m_rate + argp_rate) - rev * (w - raan_rate)
+
+    lo = R / (1 - e)  # the periapsis at the surface
+    if np.any(excess(lo) <= 0):
+        k = np.argwhere(np.broadcast_to(excess(lo) <= 0, shape))[0] if shape else ()
+        raise DomainError(
+            f"no orbit above the surface of {body.name} repeats its ground track after "
+            f"{rev[tuple(k)]:g} revolutions in {day[tuple(k)]:g} days: that is more revolutions "
+            "per day than an orbit grazing the surface makes. Give fewer revolutions or more "
+            "days.")
+    hi = np.broadcast_to((gm / (rev * w / day) ** 2) ** (1 / 3) * 2.0, shape).copy()
+    lo = np.broadcast_to(lo, shape).copy()
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        below = excess(mid) > 0
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+        if np.all(hi - lo <= 1e-12 * hi):
+            break
+    return to_quantity(0.5 * (lo + hi), "length")

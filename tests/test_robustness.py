@@ -186,7 +186,8 @@ def test_propagate_edge_cases():
     empty = vv.StateVectors(np.zeros((0, 3)) * KM, np.zeros((0, 3)) * KMS, vv.EARTH)
     assert empty.propagate(1 * u.s).r.shape == (0, 3)
     assert empty.to_elements().eccentricity.shape == (0,)
-    assert_finite(s.propagate(1e20 * u.s).r)
+    with pytest.warns(vv.PhaseRoundingWarning):  # 1.8e16 revolutions: the phase is noise
+        assert_finite(s.propagate(1e20 * u.s).r)
 
 
 @SETTINGS

@@ -349,3 +349,20 @@ def test_orbit_equation_plunge_into_the_centre_is_named():
     theta_exact = [quad(lambda s: 2.0 * s * dtheta(1.0 + s * s), 0.0, np.sqrt(x - 1.0))[0]
                    for x in u_s[1:]]
     np.testing.assert_allclose(theta_exact, orbit.theta[1:], rtol=1e-8)
+
+
+# --- audit57: h^2 / (2 r^2) under/overflowed alone in scaled units --------------------------------
+@pytest.mark.parametrize("s", [1e-160, 1e-170, 1e-200, 1e160, 1e200])
+def test_turning_points_of_a_scaled_kepler_orbit(s):
+    """Kepler ellipse a = s, e = 0.5, mu = s (speeds ~1): apsides at 0.5 s and 1.5 s.
+
+    Before: h^2 and r^2 were formed separately, so for s = 1e-160 (h^2 subnormal) r_p came out
+    0.50024 s (4.9e-4 off) and for s = 1e-170, 1e-200, 1e160 no turning point at all.
+    """
+    from visviva.central_force import effective_potential, turning_points
+
+    h = s * math.sqrt(0.75)
+    r = np.asarray(turning_points(-0.5, h, lambda r: -s / r, 0.1 * s, 10 * s))
+    np.testing.assert_allclose(r / s, [0.5, 1.5], rtol=1e-12)
+    # V_eff at the minimum r = h^2/mu = 0.75 s is -mu^2/(2 h^2) = -2/3
+    assert effective_potential(0.75 * s, h, lambda r: -s / r) == pytest.approx(-2 / 3, rel=1e-14)

@@ -366,3 +366,24 @@ def test_turning_points_of_a_scaled_kepler_orbit(s):
     np.testing.assert_allclose(r / s, [0.5, 1.5], rtol=1e-12)
     # V_eff at the minimum r = h^2/mu = 0.75 s is -mu^2/(2 h^2) = -2/3
     assert effective_potential(0.75 * s, h, lambda r: -s / r) == pytest.approx(-2 / 3, rel=1e-14)
+
+
+def test_speeds_do_not_underflow_or_overflow_through_gm_over_r():
+    """audit57: gm / r was formed alone: circular_speed(1e300 km, 1e-300 km3/s2) gave 0 km/s
+    (true 1e-300), vis_viva(1e200, -1e200, 1e-300) gave 0 (true sqrt(3) 1e-250) and
+    escape_speed(1e-300 km, 1e10 km3/s2) raised an overflow (true sqrt(2) 1e155 km/s)."""
+    from visviva.central_force import circular_speed, escape_speed, vis_viva
+
+    GM = u.km**3 / u.s**2
+    kms = u.km / u.s
+    assert circular_speed(1e300 * u.km, 1e-300 * GM).to_value(kms) == pytest.approx(1e-300, rel=1e-15)
+    assert vis_viva(1e200 * u.km, -1e200 * u.km, 1e-300 * GM).to_value(kms) == pytest.approx(
+        math.sqrt(3) * 1e-250, rel=1e-15)
+    assert escape_speed(1e-300 * u.km, 1e10 * GM).to_value(kms) == pytest.approx(
+        math.sqrt(2) * 1e155, rel=1e-15)
+    # ordinary values unchanged to rounding: LEO circular speed, vis-viva at perigee of a GTO
+    assert circular_speed(6778 * u.km, vv.EARTH).to_value(kms) == pytest.approx(
+        math.sqrt(vv.EARTH.gm.to_value(GM) / 6778), rel=2e-16)
+    a, rp = 24396.0, 6578.0
+    assert vis_viva(rp * u.km, a * u.km, vv.EARTH).to_value(kms) == pytest.approx(
+        math.sqrt(vv.EARTH.gm.to_value(GM) * (2 / rp - 1 / a)), rel=4e-16)

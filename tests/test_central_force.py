@@ -349,3 +349,41 @@ def test_orbit_equation_plunge_into_the_centre_is_named():
     theta_exact = [quad(lambda s: 2.0 * s * dtheta(1.0 + s * s), 0.0, np.sqrt(x - 1.0))[0]
                    for x in u_s[1:]]
     np.testing.assert_allclose(theta_exact, orbit.theta[1:], rtol=1e-8)
+
+
+# --- audit57: h^2 / (2 r^2) under/overflowed alone in scaled units --------------------------------
+@pytest.mark.parametrize("s", [1e-160, 1e-170, 1e-200, 1e160, 1e200])
+def test_turning_points_of_a_scaled_kepler_orbit(s):
+    """Kepler ellipse a = s, e = 0.5, mu = s (speeds ~1): apsides at 0.5 s and 1.5 s.
+
+    Before: h^2 and r^2 were formed separately, so for s = 1e-160 (h^2 subnormal) r_p came out
+    0.50024 s (4.9e-4 off) and for s = 1e-170, 1e-200, 1e160 no turning point at all.
+    """
+    from visviva.central_force import effective_potential, turning_points
+
+    h = s * math.sqrt(0.75)
+    r = np.asarray(turning_points(-0.5, h, lambda r: -s / r, 0.1 * s, 10 * s))
+    np.testing.assert_allclose(r / s, [0.5, 1.5], rtol=1e-12)
+    # V_eff at the minimum r = h^2/mu = 0.75 s is -mu^2/(2 h^2) = -2/3
+    assert effective_potential(0.75 * s, h, lambda r: -s / r) == pytest.approx(-2 / 3, rel=1e-14)
+
+
+def test_speeds_do_not_underflow_or_overflow_through_gm_over_r():
+    """audit57: gm / r was formed alone: circular_speed(1e300 km, 1e-300 km3/s2) gave 0 km/s
+    (true 1e-300), vis_viva(1e200, -1e200, 1e-300) gave 0 (true sqrt(3) 1e-250) and
+    escape_speed(1e-300 km, 1e10 km3/s2) raised an overflow (true sqrt(2) 1e155 km/s)."""
+    from visviva.central_force import circular_speed, escape_speed, vis_viva
+
+    GM = u.km**3 / u.s**2
+    kms = u.km / u.s
+    assert circular_speed(1e300 * u.km, 1e-300 * GM).to_value(kms) == pytest.approx(1e-300, rel=1e-15)
+    assert vis_viva(1e200 * u.km, -1e200 * u.km, 1e-300 * GM).to_value(kms) == pytest.approx(
+        math.sqrt(3) * 1e-250, rel=1e-15)
+    assert escape_speed(1e-300 * u.km, 1e10 * GM).to_value(kms) == pytest.approx(
+        math.sqrt(2) * 1e155, rel=1e-15)
+    # ordinary values unchanged to rounding: LEO circular speed, vis-viva at perigee of a GTO
+    assert circular_speed(6778 * u.km, vv.EARTH).to_value(kms) == pytest.approx(
+        math.sqrt(vv.EARTH.gm.to_value(GM) / 6778), rel=2e-16)
+    a, rp = 24396.0, 6578.0
+    assert vis_viva(rp * u.km, a * u.km, vv.EARTH).to_value(kms) == pytest.approx(
+        math.sqrt(vv.EARTH.gm.to_value(GM) * (2 / rp - 1 / a)), rel=4e-16)

@@ -501,3 +501,49 @@ def test_a_negative_zero_inclination_is_stored_as_plus_zero():
     angles were already wrapped without negative zeros."""
     el = vv.KeplerianElements(7000 * u.km, 0.1, [-0.0, 0.0] * u.deg, 0.0, 0.0, 0.0, vv.EARTH)
     assert not np.signbit(el.inclination.value).any()
+
+
+# --- audit57: absurd scales refused or warned, legitimate extremes untouched ----------------------
+def test_subnormal_gm_refused_instead_of_zero_velocity():
+    # before: gm = 1e-320 gave v = [0, 0, 0] km/s exactly (gm/p underflowed)
+    with pytest.raises(vv.InvalidElementsError, match="float64"):
+        vv.KeplerianElements(7000 * KM, 0.1, 0, 0, 0, 0, 1e-320 * GM_UNIT)
+
+
+def test_superluminal_periapsis_speed_warns():
+    # before: e = 1e160 gave a speed of 7.5e160 km/s with no word
+    with pytest.warns(vv.ImplausibleVelocityWarning, match="speed of light"):
+        el = vv.KeplerianElements(7000 * KM, 1e160, 0, 0, 0, 0, MU)
+    assert el.eccentricity == 1e160  # kept as given
+
+
+def test_period_underflow_raises_not_inf():
+    # before: p = 1e300 km gave period = inf s (and only a numpy overflow warning)
+    el = vv.KeplerianElements(1e300 * KM, 0.1, 0, 0, 0, 0, MU)
+    with pytest.raises(vv.DomainError, match="underflows"):
+        _ = el.period
+    with pytest.raises(vv.DomainError, match="underflows"):
+        _ = el.mean_motion
+
+
+@pytest.mark.parametrize("p_km", [1e-3, 1.0, 1e12])
+@pytest.mark.parametrize("gm", [1e-10, 1.0, 1e20])
+@pytest.mark.parametrize("ecc", [0.0, 0.5, 1.0, 3.0])
+def test_legitimate_extremes_need_no_warning(p_km, gm, ecc):
+    import warnings
+
+    fast = math.sqrt(gm / p_km) * (1 + ecc) > 299_792.458
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        if fast:  # e.g. gm = 1e20 km3/s2 at p = 1 km: inside the Schwarzschild radius
+            with pytest.warns(vv.ImplausibleVelocityWarning):
+                el = vv.KeplerianElements(p_km * KM, ecc, 0.1, 0, 0, 0.2, gm * GM_UNIT)
+        else:
+            el = vv.KeplerianElements(p_km * KM, ecc, 0.1, 0, 0, 0.2, gm * GM_UNIT)
+        n = el.mean_motion.to_value(u.rad / u.s)
+    # mean motion vs a log-space evaluation (no under/overflow possible there)
+    a = p_km if ecc == 1.0 else abs(p_km / (1 - ecc * ecc))
+    ref = 2 * math.sqrt(gm / p_km**3) if ecc == 1.0 else math.exp(0.5 * (math.log(gm) - 3 * math.log(a)))
+    assert n == pytest.approx(ref, rel=1e-14)
+    v = np.linalg.norm(el.to_state().v.to_value(KMS))
+    assert v > 0 and np.isfinite(v)

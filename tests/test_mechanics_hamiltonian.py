@@ -249,3 +249,21 @@ def test_energy_of_nan_states_raises():
     with pytest.raises(InvalidInputError, match="qdot contains NaN"):
         mech.pendulum().energy([[0.1]], [[np.nan]])
     assert osc.energy([[1.0]], [[1.0]])[0] == 1.0
+
+
+def test_legendre_transform_keeps_the_real_branch():
+    """audit57: L = cosh(q') - q^2/2 is strictly convex (p = sinh q' inverts uniquely over the
+    reals), but sympy returns a complex branch too and the transform was refused ("found 2").
+    H = p asinh(p) - sqrt(1 + p^2) + q^2/2 (the real branch)."""
+    import math
+
+    q = dynamicsymbols("q")
+    H, (p,) = mech.legendre_transform(sp.cosh(q.diff()) - q**2 / 2, [q])
+    for pv, qv in ((0.7, 0.3), (-1.9, 1.1)):
+        got = complex(H.subs({q: qv, p: pv}).evalf())
+        want = pv * math.asinh(pv) - math.sqrt(1 + pv * pv) + qv * qv / 2
+        assert abs(got.imag) < 1e-14 and got.real == pytest.approx(want, rel=1e-13)
+    # not convex: p = q'^2 has two real inverses; q'^4/4: the real inverse is piecewise
+    for L in (q.diff() ** 3 / 3, q.diff() ** 4 / 4 - q**2 / 2):
+        with pytest.raises(InvalidInputError, match="strictly convex"):
+            mech.legendre_transform(L, [q])

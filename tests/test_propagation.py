@@ -225,3 +225,23 @@ def test_out_of_range_magnitudes_say_so(r_km, v_kms):
     s = vv.StateVectors([r_km, 0, 0] * KM, [0, v_kms, 0.1 * v_kms] * KMS, gm)
     with pytest.raises(vv.errors.DomainError, match="out of float64's range"):
         s.propagate(1000.0 * u.s)
+
+
+# --- audit57: a propagation whose phase is rounding noise warns ----------------------------------
+def test_phase_rounding_warning_beyond_1e12_revolutions():
+    import warnings
+
+    s = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 7.2, 1.1] * u.km / u.s, vv.EARTH)
+    period = s.to_elements().period.to_value(u.s)
+    # 1e9 revolutions: error ~6 m (60-digit check, docs/propagation): no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.PhaseRoundingWarning)
+        s.propagate(1e9 * period * u.s)
+    # before: 1e13 revolutions (error ~58 km vs 60 digits) returned with no word
+    with pytest.warns(vv.PhaseRoundingWarning, match="revolutions"):
+        s.propagate(1e13 * period * u.s)
+    # only the offending item is counted; hyperbolas are exempt however long dt
+    hyp = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 12.0, 0] * u.km / u.s, vv.EARTH)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", vv.PhaseRoundingWarning)
+        hyp.propagate(1e18 * u.s)

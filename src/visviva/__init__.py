@@ -51,6 +51,7 @@ _PUBLIC = {
     "Pc3dAccuracyWarning": "visviva.errors",
     "Pc3dWindowWarning": "visviva.errors",
     "ImplausibleVelocityWarning": "visviva.errors",
+    "PhaseRoundingWarning": "visviva.errors",
     "SubsurfacePerigeeWarning": "visviva.errors",
     "StaleElementSetWarning": "visviva.errors",
     # two-body core

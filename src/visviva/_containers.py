@@ -12,12 +12,14 @@ from functools import cached_property
 import numpy as np
 
 from . import _units
+from .constants import C_KM_S as _C_KM_S
 from .errors import InvalidElementsError, InvalidInputError, ShapeError, fmt_number
 
 __all__ = ["TwoBodyContainer", "FOREIGN_FRAME_ATTRIBUTE", "PENDING_MANEUVERS_ATTRIBUTE", "MARKS",
            "carry_marks", "carry_frame_mark", "refuse_pending", "EARTH_FIXED_NAMES",
            "earth_fixed_name", "refuse_rotating", "broadcast_shape", "gm_positive", "validate_epoch", "flat", "normalise_key", "index_epoch",
-           "canonical_arrays", "flat_elements", "warn_implausible_velocity", "warn_if_degrees"]
+           "canonical_arrays", "flat_elements", "warn_implausible_velocity", "warn_if_degrees",
+           "check_element_scales"]
 
 
 #: Earth-centred states read in a frame visviva cannot rotate (a CCSDS ``REF_FRAME = TOD``)
@@ -491,3 +493,75 @@ def flat_elements(elements) -> list:
     """
     shape = elements.shape
     return [flat(x, shape) for x in (*elements.stored_arrays(), elements.gm_km3_s2)]
+
+
+_TINY = float(np.finfo(np.float64).tiny)
+
+
+def check_element_scales(p_km, ecc, gm, shape, what: str = "KeplerianElements",
+                         stacklevel: int = 3) -> None:
+    """Refuse elements whose speeds leave float64; warn when the periapsis speed exceeds c.
+
+    Parameters
+    ----------
+    p_km, ecc, gm : ndarray
+        Semi-latus rectum (km), eccentricity and GM (km3/s2), already finite, p > 0, e >= 0,
+        gm > 0, broadcasting to ``shape``.
+    shape : tuple
+        Broadcast shape of the elements.
+    what : str
+        Name used in the messages.
+    stacklevel : int
+        Passed to :func:`warnings.warn`.
+
+    Raises
+    ------
+    InvalidElementsError
+        ``gm``, ``gm/p`` (square of the circular speed at r = p, km2/s2) or ``gm p`` (h^2,
+        km4/s2) is subnormal (below 2.2e-308: speeds underflow to 0) or overflows, or the
+        periapsis speed ``sqrt(gm/p) (1 + e)`` overflows.
+
+    Notes
+    -----
+    Every speed on the conic is ``sqrt(gm/p) |e sin nu|, sqrt(gm/p)(1 + e cos nu)`` and the
+    largest is the periapsis speed, so the three checks bound every state these elements make.
+    Legitimate extremes (p 1e-3 to 1e12 km, gm 1e-10 to 1e20 km3/s2) pass with hundreds of
+    decades to spare. A periapsis speed above the speed of light (299,792.458 km/s) is kept
+    with an :class:`~visviva.errors.ImplausibleVelocityWarning`: Newtonian two-body motion does
+    not describe it, and the usual cause is a unit or eccentricity mistake.
+    """
+    with np.errstate(all="ignore"):
+        g = np.broadcast_to(gm, shape)
+        q = g / np.broadcast_to(p_km, shape)
+        h2 = g * np.broadcast_to(p_km, shape)
+        vp = np.sqrt(q) * (1.0 + np.broadcast_to(ecc, shape))
+    bad = ~((g >= _TINY) & (q >= _TINY) & (h2 >= _TINY) & np.isfinite(q) & np.isfinite(h2)
+            & np.isfinite(vp))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad.ravel())[0])
+        p0 = float(np.broadcast_to(p_km, shape).ravel()[i])
+        e0 = float(np.broadcast_to(ecc, shape).ravel()[i])
+        g0 = float(g.ravel()[i])
+        raise InvalidElementsError(
+            f"{what}{_first_bad(bad)}: p = {p0:.6g} km, ecc = {e0:.6g}, gm = {g0:.6g} km3/s2 "
+            "give speeds outside float64's range (gm, gm/p and gm p must lie between 2.2e-308 "
+            "and 1.8e308, and the periapsis speed sqrt(gm/p) (1 + e) must be finite): the "
+            "velocities would underflow to exactly 0 or overflow. Check the units of p and gm "
+            "(km and km3/s2) and the eccentricity."
+        )
+    fast = vp > _C_KM_S
+    if np.any(fast):
+        import warnings
+
+        from .errors import ImplausibleVelocityWarning
+
+        i = int(np.flatnonzero(fast.ravel())[0])
+        warnings.warn(
+            f"{what}{_first_bad(fast)}: the periapsis speed sqrt(gm/p) (1 + e) = "
+            f"{float(vp.ravel()[i]):.6g} km/s exceeds the speed of light (299,792.458 km/s) "
+            f"(p = {float(np.broadcast_to(p_km, shape).ravel()[i]):.6g} km, ecc = "
+            f"{float(np.broadcast_to(ecc, shape).ravel()[i]):.6g}, gm = {float(g.ravel()[i]):.6g} "
+            "km3/s2): Newtonian two-body motion does not describe this orbit. Check the units of "
+            "p and gm and the eccentricity. (Kept as given.)",
+            ImplausibleVelocityWarning, stacklevel=stacklevel,
+        )

@@ -29,6 +29,7 @@ from ._containers import (
     broadcast_shape,
     canonical_arrays,
     carry_marks,
+    check_element_scales,
     flat,
     flat_elements,
     gm_positive,
@@ -39,6 +40,8 @@ from .errors import InvalidElementsError, InvalidInputError, fmt_number, raise_f
 from .states import states_from_kernel
 
 __all__ = ["KeplerianElements"]
+
+_TINY_NORMAL = float(np.finfo(np.float64).tiny)
 
 class KeplerianElements(TwoBodyContainer):
     """Classical orbital elements of one or many two-body orbits.
@@ -122,6 +125,7 @@ class KeplerianElements(TwoBodyContainer):
             small=math.prod(shape) <= tier.SMALL_ITEMS)
         if first >= 0:
             self._raise_invalid(p_km, ecc, inc, raan, argp, nu, gm, shape)
+        check_element_scales(p_km, ecc, gm, shape)
         if np.any(inc > math.pi):  # rounding above pi (e.g. 180 deg -> rad): exactly pi
             inc = np.minimum(inc, math.pi)
         inc = inc + 0.0  # -0.0 (e.g. -0.0 deg) stored as +0.0: no negative-zero inclination
@@ -374,9 +378,24 @@ class KeplerianElements(TwoBodyContainer):
     @cached_property
     def _n_rad_s(self):
         gm = np.broadcast_to(self._gm, self._shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(all="ignore"):  # the branch np.where discards may overflow
             a = np.abs(self._a_km)
-            n = np.where(self._ecc == 1.0, 2.0 * np.sqrt(gm / self._p**3), np.sqrt(gm / a) / a)
+            p = self._p
+            n = np.where(self._ecc == 1.0, 2.0 * (np.sqrt(gm / p) / p), np.sqrt(gm / a) / a)
+        bad = ~(n >= _TINY_NORMAL)  # underflow to 0 (or a subnormal): period inf
+        if np.any(bad):
+            from .errors import DomainError
+
+            i = int(np.flatnonzero(bad.ravel())[0])
+            a_i = float(np.broadcast_to(np.where(self._ecc == 1.0, p, a), self._shape).ravel()[i])
+            g_i = float(gm.ravel()[i])
+            log_n = 0.5 * (math.log10(g_i) - 3.0 * math.log10(a_i))
+            raise DomainError(
+                f"mean motion{_first_bad(bad)}: sqrt(gm/|a|^3) ~ 1e{log_n:.1f} rad/s (|a| = "
+                f"{a_i:.6g} km, gm = {g_i:.6g} km3/s2) underflows float64, so the mean motion "
+                f"would read 0 and the period (~1e{math.log10(_TWO_PI) - log_n:.1f} s) inf. Such "
+                "an orbit does not move in any representable time; check the units of p and gm."
+            )
         return n
 
     @cached_property

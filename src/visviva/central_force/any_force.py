@@ -127,7 +127,7 @@ def effective_potential(r, h, potential):
                      "potential(r)")
         broadcast_or_raise("effective_potential", r=r_km, h=h_c, V=V)
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            out = h_c**2 / (2.0 * r_km**2) + V
+            out = 0.5 * (h_c / r_km) ** 2 + V  # (h/r)^2: h^2 and r^2 may underflow
         return to_quantity(_finite_result(out, "effective_potential"), "spec_energy")
     r = _positive(to_array(r, "length", "r", allow_plain=True), "r")
     h = to_array(h, "length", "h", allow_plain=True)
@@ -142,7 +142,7 @@ def effective_potential(r, h, potential):
     V = to_array(V, "length", "potential(r)", allow_plain=True)
     broadcast_or_raise("effective_potential", r=r, h=h, V=V)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        out = h**2 / (2.0 * r**2) + V
+        out = 0.5 * (h / r) ** 2 + V  # (h/r)^2: h^2 and r^2 may under/overflow alone
     _finite_result(out, "effective_potential")
     return out if out.ndim else float(out)
 

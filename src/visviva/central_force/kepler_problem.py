@@ -64,14 +64,16 @@ def vis_viva(r, a, gm):
         raise InvalidInputError("a = 0 is not an orbit; a is inf for a parabola, < 0 for hyperbolas.")
     gm = _gm_broadcast("vis_viva", gm, r=r, a=a)
     with np.errstate(over="ignore", divide="ignore"):
-        v2_over_gm = 2.0 / r - 1.0 / a
-    if np.any(v2_over_gm < 0):
+        shape_factor = 2.0 - r / a  # r v^2 / gm, dimensionless (r / inf = 0 on the parabola)
+    if np.any(shape_factor < 0):
         raise DomainError(
             "r lies beyond the apoapsis 2a of this ellipse (2/r < 1/a), where the orbit never "
             "goes; check that r <= a (1 + e) <= 2a."
         )
     with np.errstate(over="ignore", invalid="ignore"):
-        v = np.sqrt(gm * v2_over_gm)
+        # sqrt(gm) / sqrt(r): gm / r alone underflows (gm = 1e-300, r = 1e300 km gave 0 km/s
+        # for 1e-300) or overflows (r = 1e-320 km) where the speed itself is representable
+        v = np.sqrt(gm) / np.sqrt(r) * np.sqrt(shape_factor)
     return to_quantity(_finite_result(v, "vis_viva"), "speed")
 
 
@@ -88,7 +90,7 @@ def circular_speed(r, gm):
     r = _positive_array(r, "length", "r")
     gm = _gm_broadcast("circular_speed", gm, r=r)
     with np.errstate(over="ignore"):
-        v = np.sqrt(gm / r)
+        v = np.sqrt(gm) / np.sqrt(r)  # gm / r alone may under/overflow (see vis_viva)
     return to_quantity(_finite_result(v, "circular_speed"), "speed")
 
 
@@ -112,7 +114,7 @@ def escape_speed(r, gm):
     r = _positive_array(r, "length", "r")
     gm = _gm_broadcast("escape_speed", gm, r=r)
     with np.errstate(over="ignore"):
-        v = np.sqrt(2.0 * gm / r)
+        v = np.sqrt(2.0 * gm) / np.sqrt(r)  # gm / r alone may under/overflow (see vis_viva)
     return to_quantity(_finite_result(v, "escape_speed"), "speed")
 
 

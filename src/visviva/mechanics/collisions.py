@@ -69,6 +69,10 @@ def inelastic_collision_1d(m1, v1, m2, v2, restitution, *, explosive: bool = Fal
     v1' = v_cm - e m2 u / M,  v2' = v_cm + e m1 u / M, so that v1' - v2' = -e u and
     m1 v1' + m2 v2' = M v_cm. Kinetic energy lost: (1 - e^2) mu u^2 / 2 with mu = m1 m2 / M
     (Taylor, *Classical Mechanics*, 2005, sec. 14.x; Goldstein 3rd ed. sec. 3.10).
+    No positions are given, so whether the bodies approach cannot be checked: the law is
+    applied to any velocities (with body 1 on the left they meet only if v1 > v2). Use
+    :func:`collision_impulse`, which takes the positions and leaves separating bodies alone,
+    when that is not known.
     """
     ins = Inputs()
     m1, m2 = _masses(m1, m2, ins)

@@ -176,6 +176,46 @@ def _count(value, name: str, minimum: int) -> int:
     return int(value)
 
 
+def _real_branches(solutions, qs, momenta, t, L, vs) -> list:
+    """The candidate inverses q'(p) that are real and solve p = dL/dq' at sampled real points.
+
+    ``sympy.solve`` returns every complex root (three for p = q'^3, two for p = sinh q'); the
+    physical inverse is the one that is real for every real p. Six points with coordinates,
+    parameters (positive) and momenta (both signs) drawn from a fixed seed decide it.
+    """
+    import sympy as sp
+
+    rng = np.random.default_rng(20261128)
+    kept = []
+    for cand in solutions:
+        good = True
+        for _ in range(6):
+            point = {q: float(rng.uniform(0.3, 1.7)) for q in qs}
+            point.update({p: float(rng.choice([-1.0, 1.0]) * rng.uniform(0.3, 2.0))
+                          for p in momenta})
+            point[t] = float(rng.uniform(0.0, 1.0))
+            exprs = [sp.sympify(cand[v]) for v in vs]
+            others = set().union(*(e.free_symbols for e in exprs)) | L.free_symbols
+            for sym in others - set(point) - set(vs):
+                point[sym] = float(rng.uniform(0.5, 2.0))
+            try:
+                vals = [complex(e.subs(point).evalf()) for e in exprs]
+                vel = dict(zip(vs, vals, strict=True))
+                resid = [complex(sp.sympify(L.diff(v)).subs(point).subs(vel).evalf()) - point[p]
+                         for p, v in zip(momenta, vs, strict=True)]
+            except (TypeError, ValueError, ZeroDivisionError):
+                good = False
+                break
+            scale = 1.0 + max(abs(x) for x in vals)
+            if any(abs(x.imag) > 1e-9 * scale for x in vals) or any(
+                    abs(r) > 1e-8 * (1.0 + abs(point[p])) for r, p in zip(resid, momenta, strict=True)):
+                good = False
+                break
+        if good:
+            kept.append(cand)
+    return kept
+
+
 def legendre_transform(lagrangian, coordinates):
     """Hamiltonian H(q, p) = sum p q' - L of a Lagrangian, with p = dL/dq'.
 
@@ -202,7 +242,9 @@ def legendre_transform(lagrangian, coordinates):
     Notes
     -----
     Goldstein 3rd ed. sec. 8.1. The velocities are found with ``sympy.solve`` from the linear
-    system p = dL/dq' (L quadratic in q' for natural systems).
+    system p = dL/dq' (L quadratic in q' for natural systems). Where sympy returns several
+    roots (a non-quadratic kinetic term such as cosh q'), the one that is real and solves
+    p = dL/dq' at six sampled real points is kept; none or several such roots are refused.
     """
     import sympy as sp
     from sympy.physics.mechanics import dynamicsymbols
@@ -215,10 +257,16 @@ def legendre_transform(lagrangian, coordinates):
     L = sp.sympify(lagrangian).subs(dict(zip(speeds, vs, strict=True)))
     eqs = [sp.Eq(p, L.diff(v)) for p, v in zip(momenta, vs, strict=True)]
     sol = sp.solve(eqs, vs, dict=True)
+    if len(sol) > 1:  # sympy also returns complex branches: keep the real inverse, if unique
+        sol = _real_branches(sol, qs, momenta, t, L, vs)
     if len(sol) != 1:
         raise InvalidInputError(
-            "the Legendre transform needs p = dL/dq' to be invertible for q' (a unique "
-            f"solution); sympy found {len(sol)}. Check that L is non-degenerate in the velocities."
+            "the Legendre transform needs p = dL/dq' to have exactly one real solution q'(p) "
+            f"in closed form; {len(sol)} were found. L must be strictly convex in the velocities "
+            "(q'^3/3 is not: p = q'^2 has two real roots), and sympy must write the inverse as "
+            "one expression (q'^4/4 is convex, but its real inverse sign(p)|p|^(1/3) comes out "
+            "branch by branch). Integrate the Euler-Lagrange equations with LagrangianSystem "
+            "instead, or write H(q, p) yourself for HamiltonianSystem."
         )
     sol = sol[0]
     H = sum(p * sol[v] for p, v in zip(momenta, vs, strict=True)) - L.subs(sol)

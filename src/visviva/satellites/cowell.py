@@ -46,6 +46,7 @@ from .perturbations import (
     ellipsoid_radius_of,
     flattening_of,
 )
+from .lunar_shadow import warn_earth_shadow
 from .relativity import Relativity
 from .satellite_states import require_gcrs
 from .surface import batch_impact, check_single, watched_body, with_surface
@@ -583,6 +584,7 @@ def propagate_cowell(
         )
     schedule = burn_schedule(maneuvers, state, epoch)
     model = ForceModel(gm, perturbations, events, epoch, span)
+    warn_earth_shadow(model, events, r0, v0)  # about the Moon, the Earth's shadow is left out
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
         y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))

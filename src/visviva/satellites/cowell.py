@@ -247,6 +247,12 @@ class ForceModel:
             self.force[fb.EPH_N] = 2
             self.eph_r = np.zeros((0, 2, 3))
             self.eph_v = np.zeros((0, 2, 3))
+        if any(getattr(e, "equator", "frame") == "of date" for e in events) and (
+                epoch is None or central.name != "earth"):
+            raise InvalidInputError(
+                "node events on the equator 'of date' need an Earth-centred state with an epoch "
+                "(the Earth's pole of date); use equator='frame' (the state's xy plane)."
+            )
         if epoch is not None and central.name == "earth" and any(
             getattr(p, "uses_pole", False) for p in (*perturbations, *events)
         ):  # one table of the Earth's pole for every force and event that turns with it

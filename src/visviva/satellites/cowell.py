@@ -35,6 +35,7 @@ from .burn_segments import burn_schedule
 from .cowell_batch import propagate_batch, raise_budget
 from .dop853 import dop853_tableau, integration_tolerances
 from .events import Event, EventRecord, event_capacity
+from .lunar_shadow import warn_earth_shadow
 from .perturbations import (
     AtmosphericDrag,
     Perturbation,
@@ -46,7 +47,6 @@ from .perturbations import (
     ellipsoid_radius_of,
     flattening_of,
 )
-from .lunar_shadow import warn_earth_shadow
 from .relativity import Relativity
 from .satellite_states import require_gcrs
 from .surface import batch_impact, check_single, watched_body, with_surface

@@ -593,9 +593,6 @@ class SphericalHarmonics(Perturbation):
         probe[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = np.eye(3).ravel()
         c0 = np.empty((3, 3))
         body_fixed_matrix(0.0, probe, c0)
-        # the field turns with the Earth rotation angle: WGS-84's rounded 7.292115e-5 rad/s
-        # turned it 0.62" short of astropy's ITRS in 30 days, 5.5" in 180 (audit56)
-        model.force[fb.ROTATION_RATE] = c.EARTH_ROTATION_ANGLE_RATE_RAD_S
         model.force[fb.HARMONICS_DEGREE] = self.degree
         model.force[fb.FRAME_MATRIX:fb.FRAME_MATRIX + 9] = (m0 @ c0.T).ravel()
         model.sh = self.scaled(model.gm_km3_s2, model.central_body.radius_km)

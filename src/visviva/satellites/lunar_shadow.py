@@ -112,7 +112,7 @@ def warn_earth_shadow(model, events, r0, v0) -> None:
 
     if model.central_body.name != "moon" or model.epoch is None:
         return
-    srp = model.force[fb.SRP_ON] != 0.0
+    srp = model.force[fb.SRP_ON] != 0.0 and model.force[fb.SHADOW_MODEL] != 0.0  # None: no shadow
     eclipses = any(getattr(e, "name", "") == "eclipse" for e in events)
     if not (srp or eclipses):
         return

@@ -293,3 +293,41 @@ def test_event_switches_take_booleans_only():
         AltitudeCrossing(100 * u.km, direction=True)
     assert not Eclipse("conical", umbra=np.False_).umbra
     assert AltitudeCrossing(100 * u.km, -1, terminal=np.True_).terminal is True
+
+
+def test_nodes_on_the_equator_of_date_match_erfa_pole():
+    """audit56: AscendingNode/DescendingNode(equator="of date") cross the Earth's true equator
+    (normal to ERFA's CIP), 2.66 s from the GCRS node at 51.6 deg in 2024; before, only the
+    frame's xy plane was offered."""
+    import erfa
+    from scipy.optimize import brentq
+
+    state = vv.KeplerianElements.from_semi_major_axis(
+        7000 * u.km, 0.001, 51.6 * u.deg, 0.3, 0.2, 0.1, vv.EARTH, epoch=EPOCH).to_state()
+    forces = [vv.J2(vv.EARTH)]
+    run = propagate_cowell(state, 3.5 * u.hour, forces,
+                           events=[AscendingNode("of date"), AscendingNode(),
+                                   DescendingNode("of date"), DescendingNode()])
+
+    def across_equator_of_date(t_s):  # r . p, p the CIP from ERFA's series at each time
+        r = propagate_cowell(state, t_s * u.s, forces).r.to_value(u.km)
+        tt = (EPOCH + t_s * u.s).tt
+        x, y, _ = erfa.xys06a(tt.jd1, tt.jd2)
+        return float(r @ np.array([x, y, np.sqrt(1.0 - x * x - y * y)]))
+
+    for name in ("ascending node", "descending node"):
+        times = [e.t.to_value(u.s) for e in run.events if e.name == name]
+        assert len(times) == 4  # two orbits in 3.5 h, each of date and the frame's, 2.66 s apart
+        of_date, frame = times[0::2], times[1::2]
+        assert np.allclose(np.abs(np.subtract(frame, of_date)), 2.66, atol=0.02)
+        for t in of_date:
+            ref = brentq(across_equator_of_date, t - 60.0, t + 60.0, xtol=1e-8)
+            assert abs(t - ref) < 1e-4
+
+
+def test_nodes_of_date_need_an_earth_state_with_an_epoch():
+    bare = vv.StateVectors([7000.0, 0, 0] * u.km, [0, 5.0, 5.8] * u.km / u.s, vv.EARTH)
+    with pytest.raises(InvalidInputError, match="equator 'of date'"):
+        propagate_cowell(bare, 1 * u.hour, [], events=[AscendingNode("of date")])
+    with pytest.raises(InvalidInputError, match="'frame'"):
+        AscendingNode("J2000")

@@ -82,3 +82,26 @@ def test_harmonics_c20_month_matches_zonal_about_the_pole_of_date(c20_field):
     zonal = vv.propagate_cowell(state, t, [vv.Zonal(vv.EARTH, 2)])
     d_m = np.linalg.norm((field.r[-1] - zonal.r[-1]).to_value(u.m))
     assert d_m < 10.0, d_m
+
+
+@pytest.mark.parametrize(("days", "before", "bound"), [(30.0, 0.62, 0.25), (180.0, 5.47, 1.0)])
+def test_harmonics_field_turns_with_the_earth_rotation_angle(tmp_path, days, before, bound):
+    """audit56: the field turned at WGS-84's rounded 7.292115e-5 rad/s, 1.47e-12 rad/s slower
+    than the Earth rotation angle (IERS 2010, eq. 5.15): its longitudes fell behind astropy's
+    ITRS by 0.024" a day (0.62" after 30 days, 5.47" after 180), silently. Now what is left is
+    UT1 - TT's drift (the length of day), 0.17" and 0.77", held at the epoch's like polar motion."""
+    from visviva.core.geodetic import body_fixed_matrix
+    from visviva.satellites.frames import gcrs_to_itrs
+
+    path = tmp_path / "c22.gfc"  # a C22/S22 field: its longitudes matter
+    path.write_text(HEADER + "gfc 0 0 1.0 0.0 0 0\n"
+                    "gfc 2 2 2.43938357328313e-06 -1.40027370385934e-06 0 0\n")
+    t_s = days * 86400.0
+    model = ForceModel(vv.EARTH.gm_km3_s2, [SphericalHarmonics(path)], epoch=EPOCH,
+                       span_s=(0.0, t_s))
+    m = np.empty((3, 3))
+    body_fixed_matrix(t_s, model.force, m)
+    basis, _ = gcrs_to_itrs(np.eye(3) * 1e4, np.zeros((3, 3)), EPOCH + t_s * u.s)
+    d = m @ (np.asarray(basis) / 1e4)  # the model's ITRS against astropy's: a small rotation
+    about_z_arcsec = np.degrees(abs(d[0, 1] - d[1, 0]) / 2.0) * 3600.0
+    assert about_z_arcsec < bound < before, about_z_arcsec

@@ -57,6 +57,10 @@ EARTH_J6 = 5.406665762838132e-7
 
 #: Earth's rotation rate in rad/s (IERS 2010 nominal mean angular velocity).
 EARTH_ROTATION_RAD_S = 7.292115e-5
+#: Rate of the Earth rotation angle, rad per UT1 second: 2 pi x 1.00273781191135448 / 86400
+#: (IERS Conventions 2010, eq. 5.15), the rotation of the ITRS about the celestial intermediate
+#: pole; the nominal 7.292115e-5 above is 1.47e-12 rad/s less (0.024" a day).
+EARTH_ROTATION_ANGLE_RATE_RAD_S = 2.0 * 3.141592653589793 * 1.00273781191135448 / 86400.0
 #: WGS-84 flattening of the Earth.
 EARTH_FLATTENING = 1.0 / 298.257223563
 #: WGS-84 semi-major axis (equatorial radius of the ellipsoid of geodetic heights), km; the

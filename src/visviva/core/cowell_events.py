@@ -34,7 +34,7 @@ import numpy as np
 
 from . import force_block as fb
 from ._jit import inline_kernel, kernel, step_kernel
-from .geodetic import pole_altitude
+from .geodetic import body_pole, pole_altitude
 from .perturbations import hermite_position
 
 __all__ = ["event_function", "event_value", "dense_eval", "locate_zero", "SHADOW_SAMPLES", "BOUNDARY_RTOL",
@@ -51,8 +51,11 @@ def event_function(kind, param, t, y, force, eph_r, eph_v):
     z = y[2]
     if kind == 0:
         return pole_altitude(t, x, yy, z, force) - param
-    if kind == 4:
-        return z
+    if kind == 4:  # param 1: the Earth's equator of date (r . pole), else the frame's xy plane
+        if param == 0.0:
+            return z
+        px, py = body_pole(t, force)
+        return px * x + py * yy + math.sqrt(1.0 - px * px - py * py) * z
     if kind == 5:
         return x * y[3] + yy * y[4] + z * y[5]
     # shadow events need the Sun

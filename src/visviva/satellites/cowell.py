@@ -35,6 +35,7 @@ from .burn_segments import burn_schedule
 from .cowell_batch import propagate_batch, raise_budget
 from .dop853 import dop853_tableau, integration_tolerances
 from .events import Event, EventRecord, event_capacity
+from .lunar_shadow import warn_earth_shadow
 from .perturbations import (
     AtmosphericDrag,
     Perturbation,
@@ -204,6 +205,10 @@ class ForceModel:
         self.force[fb.ELLIPSOID_RADIUS] = ellipsoid_radius_of(central)
         rot = central.rotation_rate
         self.force[fb.ROTATION_RATE] = 0.0 if rot is None else float(rot.to_value(u.rad / u.s))
+        if central.name == "earth" and any(isinstance(p, SphericalHarmonics) for p in perturbations):
+            # a full field turns with the Earth rotation angle: WGS-84's rounded 7.292115e-5
+            # rad/s left it 0.62" behind astropy's ITRS in 30 days, 5.5" in 180 (audit56)
+            self.force[fb.ROTATION_RATE] = c.EARTH_ROTATION_ANGLE_RATE_RAD_S
         self.force[fb.SUN_RADIUS] = SUN.radius_km
         self.force[fb.AU] = c.AU_KM
         _check_combination(perturbations, central)
@@ -246,6 +251,12 @@ class ForceModel:
             self.force[fb.EPH_N] = 2
             self.eph_r = np.zeros((0, 2, 3))
             self.eph_v = np.zeros((0, 2, 3))
+        if any(getattr(e, "equator", "frame") == "of date" for e in events) and (
+                epoch is None or central.name != "earth"):
+            raise InvalidInputError(
+                "node events on the equator 'of date' need an Earth-centred state with an epoch "
+                "(the Earth's pole of date); use equator='frame' (the state's xy plane)."
+            )
         if epoch is not None and central.name == "earth" and any(
             getattr(p, "uses_pole", False) for p in (*perturbations, *events)
         ):  # one table of the Earth's pole for every force and event that turns with it
@@ -583,6 +594,7 @@ def propagate_cowell(
         )
     schedule = burn_schedule(maneuvers, state, epoch)
     model = ForceModel(gm, perturbations, events, epoch, span)
+    warn_earth_shadow(model, events, r0, v0)  # about the Moon, the Earth's shadow is left out
     body = watched_body(gm, perturbations, r0)  # the surface bounds a perturbed run
     if batch:
         y0 = np.ascontiguousarray(np.concatenate([r0, v0], axis=1))

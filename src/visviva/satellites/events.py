@@ -176,38 +176,59 @@ class Eclipse(Event):
         return f"Eclipse({self.model!r}, umbra={self.umbra})"
 
 
+_EQUATORS = {"frame": 0.0, "of date": 1.0}
+
+
 class AscendingNode(Event):
-    """Crossing of the equatorial (xy) plane from south to north (z rises through 0).
+    """Crossing of the equatorial plane from south to north.
+
+    Parameters
+    ----------
+    equator : {"frame", "of date"}
+        ``"frame"`` (default): the xy plane of the state's frame (z rises through 0), as the
+        node detectors of GMAT and Orekit in an inertial frame (EarthMJ2000Eq, EME2000), and
+        the node of the state's Keplerian elements: for a GCRS state the GCRS equator.
+        ``"of date"``: the Earth's true equator of date, normal to the celestial intermediate
+        pole (IAU 2006/2000A, the pole of the zonal field; r . p rises through 0), the plane of
+        GMAT's and STK's nodes in a true-of-date or Earth-fixed frame (TOD, ITRF: the node of
+        a ground track). Needs an Earth-centred state with an epoch.
 
     Notes
     -----
-    The xy plane of the state's frame, as the node detectors of GMAT and Orekit in an inertial
-    frame (EarthMJ2000Eq, EME2000), and the node of the state's Keplerian elements: for a GCRS
-    state the GCRS equator, not the Earth's equator of date, which is tilted 0.134 deg from it
-    in 2024 (precession since J2000). The two nodes are up to 0.134 deg / sin(i) of the orbit
-    apart: measured for a 7000 km orbit in 2024, 24 s at i = 5 deg, 2.7 s at 51.6 deg, 2.1 s
-    at 98 deg (audit42). For the Earth's equator, propagate the states and find where r . p
-    changes sign, p the pole of :func:`visviva.satellites.perturbations.earth_pole_table`.
+    The GCRS equator is tilted 0.134 deg from the equator of date in 2024 (precession since
+    J2000), so the two nodes are up to 0.134 deg / sin(i) of the orbit apart: measured for a
+    7000 km orbit in 2024, 24 s at i = 5 deg, 2.7 s at 51.6 deg, 2.1 s at 98 deg (audit42;
+    ``equator="of date"`` since audit56).
     """
 
     kind = 4
     direction = 1
     name = "ascending node"
+    uses_pole = False
+
+    def __init__(self, equator: str = "frame"):
+        if equator not in _EQUATORS:
+            raise InvalidInputError(
+                f"equator must be 'frame' (the state's xy plane, e.g. the GCRS equator) or "
+                f"'of date' (the Earth's true equator of date); got {equator!r}."
+            )
+        self.equator = equator
+        self.param = _EQUATORS[equator]
+        self.uses_pole = equator == "of date"
 
     def label(self, sign):
-        return "ascending node"
+        return self.name
+
+    def __repr__(self):
+        return f"{type(self).__name__}(equator={self.equator!r})"
 
 
-class DescendingNode(Event):
-    """Crossing of the equatorial (xy) plane from north to south (the plane of
-    :class:`AscendingNode`: the state's frame's, the GCRS equator for GCRS states)."""
+class DescendingNode(AscendingNode):
+    """Crossing of the equatorial plane from north to south (the plane of
+    :class:`AscendingNode`, ``equator="frame"`` or ``"of date"``)."""
 
-    kind = 4
     direction = -1
     name = "descending node"
-
-    def label(self, sign):
-        return "descending node"
 
 
 class Apsides(Event):

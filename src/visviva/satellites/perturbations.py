@@ -524,7 +524,8 @@ class SphericalHarmonics(Perturbation):
     Earth rotation, polar motion; astropy, offline IERS data) is computed at the state's epoch;
     during the run the Earth turns about its pole of date (the celestial intermediate pole of
     :func:`earth_pole_table`, which precession and nutation move by about 50" a year) at its
-    nominal rate, and polar motion stays at the epoch's (it changes by ~0.1" a month;
+    the rate of the Earth rotation angle (IERS 2010, eq. 5.15; UT1 - TT's drift, the length
+    of day, left out), and polar motion stays at the epoch's (it changes by ~0.1" a month;
     :func:`visviva.core.geodetic.body_fixed_matrix`). Until audit42 the frame was frozen at
     the epoch: its axis was 1.5" off the Earth's after 30 days, 22" after a year. Coefficients are
     rescaled to the state's GM and the body's radius, and degrees 0 and 1 are dropped.

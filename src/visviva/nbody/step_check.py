@@ -66,6 +66,11 @@ ENCOUNTER_STEP_FRACTION = 0.002
 #: Pairs (massive x all) of one system beyond which its close encounters are not checked (a
 #: one-off ~0.05 s at this size; ensembles are checked in chunks of this many pair evaluations).
 ENCOUNTER_MAX_PAIRS = 100_000
+#: A Jacobi WHFast run whose bodies' interaction acceleration reached this times
+#: ``(m_max / m_0)^(1/3)`` of the central one's (``3^(2/3) / ENCOUNTER_HILL^2``: the perturber
+#: within ENCOUNTER_HILL mutual Hill radii) between two checked states is judged by
+#: :func:`check_run` as a close pair (the kernel keeps the peak at every step).
+WATCH_RHO = 3.0 ** (2.0 / 3.0) / ENCOUNTER_HILL**2
 #: Steps of a run between two checks of its state by :func:`check_run` (a check of one state
 #: costs about as much as a 1-step call, 0.1-0.3 ms: a loop of short calls is checked once per
 #: this many steps, a long call at its end).
@@ -352,7 +357,14 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     key, memo = _run_key(sim), _RUNS.get(sim)
     if memo is None or memo[0] != key:  # a merger changed N: counted from the call's start
         memo = _RUNS[sim] = [key, float(t0), False]
+    watch = _watched_encounter(sim, jacobi)  # read at every call: it sees every step
     if memo[2] or sim.N < (3 if jacobi else 2):
+        return
+    if watch is not None:
+        memo[2] = True
+        warnings.warn(f"during the run, near t = {watch[0]} (the start of the call, t = "
+                      f"{fmt_number(float(t0))}, was fine; the states after it are not to be "
+                      f"trusted): {watch[1]}", StepSizeWarning, stacklevel=stacklevel)
         return
     steps = np.abs(np.asarray(t, dtype=float) - memo[1]) / abs(sim.dt)
     if not steps[-1] >= RUN_CHECK_STEPS:
@@ -383,6 +395,43 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
         f"during the run, at t = {fmt_number(float(t[pick[k]]))} (the start of the call, t = "
         f"{fmt_number(float(t0))}, was fine; the states after it are not to be trusted): "
         f"{what}", StepSizeWarning, stacklevel=stacklevel)
+
+
+def _watched_encounter(sim, jacobi: bool):
+    """The close encounter a Jacobi WHFast kernel saw between two checked states, from the peak
+    it kept of a body's interaction acceleration ``A`` relative to its Kepler one, ``rho = A r^2
+    / G eta`` (``fstate[F_WATCH_*]``, cleared here): ``(time, message)``, or None.
+
+    From the perturber alone (mass ``m_j <= m_max``, the largest but particle 0's), ``A ~ G m_j /
+    d^2`` at a distance ``d``: ``rho`` beyond :data:`WATCH_RHO` ``(m_max / m_0)^(1/3)`` puts it
+    within :data:`ENCOUNTER_HILL` mutual Hill radii, and the pair's timescale ``2 pi sqrt(d^3 /
+    G (m_i + m_j))`` is at most ``2 pi (2 G m_max)^(1/4) / A^(3/4)``: a step beyond
+    :data:`ENCOUNTER_STEP_FRACTION` of that is beyond it of theirs (the criterion of
+    :func:`check_step`, from below). Systems with a body of :data:`ENCOUNTER_MASS_RATIO` of
+    particle 0 or more are not judged (as there)."""
+    fstate = sim.state_arrays()["fstate"]
+    peak, a2 = float(fstate[_nc.F_WATCH_RHO2]), float(fstate[_nc.F_WATCH_A2])
+    when, body = float(fstate[_nc.F_WATCH_T]), int(fstate[_nc.F_WATCH_BODY])
+    fstate[[_nc.F_WATCH_RHO2, _nc.F_WATCH_A2, _nc.F_WATCH_T, _nc.F_WATCH_BODY]] = 0.0
+    m = sim.masses
+    if not (jacobi and sim.integrator == "whfast" and peak > 0.0 and len(m) >= 3):
+        return None
+    m_max = float(m[1:].max())
+    if not 0.0 < m_max < ENCOUNTER_MASS_RATIO * m[0]:
+        return None
+    rho = math.sqrt(peak)
+    if not rho > WATCH_RHO * math.cbrt(m_max / m[0]):
+        return None
+    tau = 2.0 * math.pi * (2.0 * sim.G * m_max) ** 0.25 / math.sqrt(a2) ** 0.75
+    if not abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau:
+        return None
+    return fmt_number(when), (
+        f"particle {body} passed within {ENCOUNTER_HILL:g} mutual Hill radii of another body "
+        f"(its acceleration by the others reached {rho:.2g} of the central one's) between two "
+        "checked states, a close encounter that WHFast integrates as a leapfrog would: dt = "
+        f"{fmt_number(sim.dt)} is at least {abs(sim.dt) / tau:.2g} of the pair's timescale 2 pi "
+        "sqrt(d^3 / G (m_i + m_j)) there (a flyby within 0.1 Hill radii at dt = P/40 "
+        "changed the energy by 8 %). Use IAS15, or outputs often enough to see the encounter")
 
 
 @contextlib.contextmanager

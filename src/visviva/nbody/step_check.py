@@ -360,15 +360,23 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     watch = _watched_encounter(sim, jacobi)  # read at every call: it sees every step
     if memo[2] or sim.N < (3 if jacobi else 2):
         return
-    if watch is not None:
+    found = _check_snapshots(sim, memo, t0, t, x, v, leapfrog, jacobi)
+    if found is None and watch is not None:  # a snapshot names the pair: preferred
+        found = (f"near t = {watch[0]}", watch[1])
+    if found is not None:
         memo[2] = True
-        warnings.warn(f"during the run, near t = {watch[0]} (the start of the call, t = "
-                      f"{fmt_number(float(t0))}, was fine; the states after it are not to be "
-                      f"trusted): {watch[1]}", StepSizeWarning, stacklevel=stacklevel)
-        return
+        warnings.warn(
+            f"during the run, {found[0]} (the start of the call, t = {fmt_number(float(t0))}, "
+            f"was fine; the states after it are not to be trusted): {found[1]}",
+            StepSizeWarning, stacklevel=stacklevel)
+
+
+def _check_snapshots(sim, memo, t0, t, x, v, leapfrog: bool, jacobi: bool):
+    """:func:`check_run`'s check of the snapshots (when their turn has come): ``(where,
+    message)`` of the first wrong one, or None."""
     steps = np.abs(np.asarray(t, dtype=float) - memo[1]) / abs(sim.dt)
     if not steps[-1] >= RUN_CHECK_STEPS:
-        return
+        return None
     bins = np.floor(steps / RUN_SNAPSHOT_STEPS)  # the last snapshot of each bin, the final one
     pick = np.flatnonzero(np.r_[bins[1:] != bins[:-1], True])
     if len(pick) > RUN_MAX_SNAPSHOTS:
@@ -384,17 +392,13 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     with np.errstate(invalid="ignore"):
         bad = (dt > MAX_STEP_FRACTION * tau) | (dt > ENCOUNTER_STEP_FRACTION * close)
     if not bad.any():
-        return
+        return None
     k = int(np.flatnonzero(bad)[0])
-    memo[2] = True
     label = "leapfrog" if leapfrog else sim.coordinates
     what = (_too_close(sim.dt, float(close[k]), pair[k]) + "."
             if dt > ENCOUNTER_STEP_FRACTION * close[k]
             else f"{_too_long(sim.dt, float(tau[k]), label)}: {_ADVICE}")
-    warnings.warn(
-        f"during the run, at t = {fmt_number(float(t[pick[k]]))} (the start of the call, t = "
-        f"{fmt_number(float(t0))}, was fine; the states after it are not to be trusted): "
-        f"{what}", StepSizeWarning, stacklevel=stacklevel)
+    return f"at t = {fmt_number(float(t[pick[k]]))}", what
 
 
 def _watched_encounter(sim, jacobi: bool):

@@ -413,12 +413,16 @@ def _watched_encounter(sim, jacobi: bool):
     :data:`ENCOUNTER_STEP_FRACTION` of that is beyond it of theirs (the criterion of
     :func:`check_step`, from below). Systems with a body of :data:`ENCOUNTER_MASS_RATIO` of
     particle 0 or more are not judged (as there)."""
-    fstate = sim.state_arrays()["fstate"]
-    peak, a2 = float(fstate[_nc.F_WATCH_RHO2]), float(fstate[_nc.F_WATCH_A2])
-    when, body = float(fstate[_nc.F_WATCH_T]), int(fstate[_nc.F_WATCH_BODY])
-    fstate[[_nc.F_WATCH_RHO2, _nc.F_WATCH_A2, _nc.F_WATCH_T, _nc.F_WATCH_BODY]] = 0.0
-    m = sim.masses
-    if not (jacobi and sim.integrator == "whfast" and peak > 0.0 and len(m) >= 3):
+    arrays = sim.state_arrays()
+    fstate = arrays["fstate"]
+    peak = float(fstate[_nc.F_WATCH_RHO2])
+    if not peak > 0.0:
+        return None
+    a2, when = float(fstate[_nc.F_WATCH_A2]), float(fstate[_nc.F_WATCH_T])
+    body = int(fstate[_nc.F_WATCH_BODY])
+    fstate[_nc.F_WATCH_RHO2] = fstate[_nc.F_WATCH_A2] = 0.0
+    m = arrays["m"]
+    if not (jacobi and sim.integrator == "whfast" and len(m) >= 3):
         return None
     m_max = float(m[1:].max())
     if not 0.0 < m_max < ENCOUNTER_MASS_RATIO * m[0]:

@@ -362,7 +362,7 @@ def test_step_warnings_have_their_own_class_to_filter_or_record():
     assert issubclass(vv.errors.StepSizeWarning, UserWarning)
 
 
-def _flyby(dt, T=1.0):
+def _planet_flyby(dt, T=1.0):
     # two Jupiters: an inclined flyby 0.01 apart (0.12 mutual Hill radii) at t = 0; at t = -T
     # they are 4.9 Hill radii apart, at +T 9: neither end of the run shows it
     ref = vv.Simulation("ias15")
@@ -385,7 +385,7 @@ def test_a_flyby_between_two_checked_states_is_warned_about():
     # bodies' interaction acceleration at every step
     P = 2 * math.pi
     for dt in (P / 40, P / 100):
-        sim = _flyby(dt)
+        sim = _planet_flyby(dt)
         E0 = sim.energy()
         caught = _user_warnings(lambda: sim.integrate(1.0))
         assert abs(sim.energy() / E0 - 1) > 1e-2  # what the warning is about
@@ -395,7 +395,7 @@ def test_a_flyby_between_two_checked_states_is_warned_about():
         assert m and abs(float(m.group(1))) < dt, caught  # the encounter's time, to a step
         assert _user_warnings(lambda: sim.integrate(2.0)) == []  # once
     # in calls of a few steps each (fewer than 1,000 steps: no state was checked)
-    sim = _flyby(P / 40)
+    sim = _planet_flyby(P / 40)
     caught = _user_warnings(lambda: [sim.integrate(t) for t in np.linspace(-0.8, 1.0, 10)])
     assert len(caught) == 1 and "passed within 3 mutual Hill radii" in caught[0], caught
 

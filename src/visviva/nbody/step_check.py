@@ -23,8 +23,9 @@ present distance: the pericentre is behind it). Jacobi WHFast integrates two bod
 from three particles on. The state at the start of a call is checked, and the run's later states
 by :func:`check_run` (the output snapshots, or the final state, every
 :data:`RUN_CHECK_STEPS` steps or more): an orbit that turns eccentric or a close encounter met
-during the run is warned about once, naming the time (one that begins and ends between two
-checked snapshots is not seen). Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
+during the run is warned about once, naming the time; one that begins and ends between two
+checked snapshots is seen in Jacobi WHFast by the peak of the bodies' interaction acceleration
+the kernel keeps at every step (``fstate[F_WATCH_*]``, :func:`_watched_encounter`). Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
 
 Two bodies other than particle 0 within :data:`ENCOUNTER_HILL` mutual Hill radii (a moon, a

@@ -372,7 +372,7 @@ def _planet_flyby(dt, T=1.0):
     ref.move_to_com()
     ref.integrate(-T)
     sim = vv.Simulation("whfast", dt=dt)
-    for m, r, v in zip(ref.masses, ref.positions, ref.velocities):
+    for m, r, v in zip(ref.masses, ref.positions, ref.velocities, strict=True):
         sim.add(m, r=r, v=v)
     sim.t = -T
     return sim
@@ -387,13 +387,13 @@ def test_a_flyby_between_two_checked_states_is_warned_about():
     for dt in (P / 40, P / 100):
         sim = _planet_flyby(dt)
         E0 = sim.energy()
-        caught = _user_warnings(lambda: sim.integrate(1.0))
+        caught = _user_warnings(lambda s=sim: s.integrate(1.0))
         assert abs(sim.energy() / E0 - 1) > 1e-2  # what the warning is about
         assert len(caught) == 1, caught
         m = re.match(r"during the run, near t = (\S+) \(the start of the call, t = -1\.0, was "
                      r"fine.*particle [12] passed within 3 mutual Hill radii", caught[0])
         assert m and abs(float(m.group(1))) < dt, caught  # the encounter's time, to a step
-        assert _user_warnings(lambda: sim.integrate(2.0)) == []  # once
+        assert _user_warnings(lambda s=sim: s.integrate(2.0)) == []  # once
     # in calls of a few steps each (fewer than 1,000 steps: no state was checked)
     sim = _planet_flyby(P / 40)
     caught = _user_warnings(lambda: [sim.integrate(t) for t in np.linspace(-0.8, 1.0, 10)])
@@ -406,9 +406,10 @@ def test_the_encounter_watch_is_quiet_for_planets_that_do_not_meet():
     P = 2 * math.pi
     for dt in (P / 40, P / 10):
         sim = two_planets(dt=dt)
-        assert _user_warnings(lambda: sim.integrate(100 * P)) == []
+        assert _user_warnings(lambda s=sim: s.integrate(100 * P)) == []
         sim = two_planets(dt=dt)
-        assert _user_warnings(lambda: [sim.integrate(k * 5 * dt) for k in range(1, 301)]) == []
+        assert _user_warnings(
+            lambda s=sim, h=dt: [s.integrate(k * 5 * h) for k in range(1, 301)]) == []
     sim = vv.Simulation("whfast", dt=P / 40)
     sim.add(1.0)
     sim.add(0.5, a=1.0, e=0.2, primary=0)

@@ -421,7 +421,10 @@ def _watched_encounter(sim, jacobi: bool):
         return None
     a2, when = float(fstate[_nc.F_WATCH_A2]), float(fstate[_nc.F_WATCH_T])
     body = int(fstate[_nc.F_WATCH_BODY])
+    # all four cleared: the state after a call does not depend on how it was cut into kernel
+    # calls (the interpreter tier's chunks)
     fstate[_nc.F_WATCH_RHO2] = fstate[_nc.F_WATCH_A2] = 0.0
+    fstate[_nc.F_WATCH_T] = fstate[_nc.F_WATCH_BODY] = 0.0
     m = arrays["m"]
     if not (jacobi and sim.integrator == "whfast" and len(m) >= 3):
         return None

@@ -442,8 +442,8 @@ def _watched_encounter(sim, jacobi: bool):
         f"(its acceleration by the others reached {rho:.2g} of the central one's) between two "
         "checked states, a close encounter that WHFast integrates as a leapfrog would: dt = "
         f"{fmt_number(sim.dt)} is at least {abs(sim.dt) / tau:.2g} of the pair's timescale 2 pi "
-        "sqrt(d^3 / G (m_i + m_j)) there (a flyby within 0.1 Hill radii at dt = P/40 "
-        "changed the energy by 8 %). Use IAS15, or outputs often enough to see the encounter")
+        "sqrt(d^3 / G (m_i + m_j)) there (a flyby 0.12 Hill radii apart at dt = P/40 "
+        "changed the energy by 7.6 %). Use IAS15, or outputs often enough to see the encounter")
 
 
 @contextlib.contextmanager

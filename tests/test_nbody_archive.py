@@ -254,3 +254,56 @@ def test_record_without_exact_finish_time_samples_as_a_trajectory_does(sign, tmp
     assert archive.times[1] == archive.times[2] and (np.diff(archive.times) * sign >= 0).all()
     for k in range(20):
         np.testing.assert_array_equal(archive[k + 1].positions, traj.positions[k])
+
+
+def test_a_simulation_taken_from_an_archive_does_not_change_the_archive(tmp_path):
+    # audit58: archive[k] shared its arrays with the archive's snapshot, so integrating it
+    # changed what archive[k] returned afterwards (t = 15 -> 40, other positions) in silence
+    sim = vv.Simulation("ias15")
+    sim.add(1.0)
+    sim.add(1e-3, a=1.0, primary=0)
+    sim.add(1e-3, a=1.6, primary=0)
+    archive = vv.nbody.Archive.record(sim, tmp_path / "a.npz", 5.0, 20.0)
+    x3 = archive[3].positions.copy()
+    first = archive[3]
+    first.integrate(40.0)
+    assert archive[3].t == 15.0
+    np.testing.assert_array_equal(archive[3].positions, x3)
+    again = archive[3]
+    again.integrate(40.0)  # continues from the snapshot: the same bits as the first copy
+    np.testing.assert_array_equal(again.positions, first.positions)
+
+
+def _merging(integrator):
+    sim = vv.Simulation(integrator, collision="merge",
+                        dt=None if integrator == "ias15" else 0.01)
+    sim.add(1.0, radius=0.005)
+    sim.add(1e-3, a=1.0, primary=0, radius=0.01)
+    sim.add(1e-3, a=1.0, nu=0.3, e=0.05, inc=1e-3, primary=0, radius=0.01)  # they collide
+    sim.add(1e-5, a=2.0, primary=0, radius=1e-4)
+    return sim
+
+
+@pytest.mark.parametrize("integrator", ["ias15", "whfast"])
+def test_continuing_from_an_archive_after_a_merger_and_a_removal_is_bit_for_bit(integrator,
+                                                                                 tmp_path):
+    sim = _merging(integrator)
+    archive = vv.nbody.Archive.record(sim, tmp_path / "m.npz", 5.0, 60.0)
+    n = [archive[k].N for k in range(len(archive))]
+    assert n[0] == 4 and sim.N == 3  # merged during the recording
+    k = n.index(3) + 1  # a snapshot after the merger
+    again = archive[k]
+    again.integrate(60.0)
+    np.testing.assert_array_equal(again.positions, sim.positions)
+    np.testing.assert_array_equal(again.velocities, sim.velocities)
+    # particles removed, then recorded: continuing from a snapshot of that run is the same
+    plain, recorded = archive[k], archive[k]
+    plain.remove(plain.N - 1)
+    recorded.remove(recorded.N - 1)
+    t_end = plain.t + 20.0
+    plain.integrate(t_end)
+    second = vv.nbody.Archive.record(recorded, tmp_path / "r.npz", 5.0, t_end)
+    np.testing.assert_array_equal(recorded.positions, plain.positions)
+    mid = second[len(second) // 2]
+    mid.integrate(t_end)
+    np.testing.assert_array_equal(mid.positions, plain.positions)

@@ -360,3 +360,58 @@ def test_step_warnings_have_their_own_class_to_filter_or_record():
     with pytest.warns(vv.errors.StepSizeWarning, match="of the shortest orbital timescale"):
         sim.integrate(10.0)
     assert issubclass(vv.errors.StepSizeWarning, UserWarning)
+
+
+def _planet_flyby(dt, T=1.0):
+    # two Jupiters: an inclined flyby 0.01 apart (0.12 mutual Hill radii) at t = 0; at t = -T
+    # they are 4.9 Hill radii apart, at +T 9: neither end of the run shows it
+    ref = vv.Simulation("ias15")
+    ref.add(1.0)
+    ref.add(1e-3, r=[1.0, 0.0, 0.0], v=[0.0, 1.0, 0.0])
+    ref.add(1e-3, r=[0.99, 0.0, 0.0], v=[0.0, 0.7, 0.7])
+    ref.move_to_com()
+    ref.integrate(-T)
+    sim = vv.Simulation("whfast", dt=dt)
+    for m, r, v in zip(ref.masses, ref.positions, ref.velocities, strict=True):
+        sim.add(m, r=r, v=v)
+    sim.t = -T
+    return sim
+
+
+def test_a_flyby_between_two_checked_states_is_warned_about():
+    # audit58: a flyby that begins and ends within one call (or between two checked states)
+    # was not seen: WHFast at dt = P/40 changed the energy by 7.6e-2 (REBOUND 5.2.2's WHFast
+    # alike, to all digits), P/100 by 5.3e-2, in silence; the kernel now keeps the peak of the
+    # bodies' interaction acceleration at every step
+    P = 2 * math.pi
+    for dt in (P / 40, P / 100):
+        sim = _planet_flyby(dt)
+        E0 = sim.energy()
+        caught = _user_warnings(lambda s=sim: s.integrate(1.0))
+        assert abs(sim.energy() / E0 - 1) > 1e-2  # what the warning is about
+        assert len(caught) == 1, caught
+        m = re.match(r"during the run, near t = (\S+) \(the start of the call, t = -1\.0, was "
+                     r"fine.*particle [12] passed within 3 mutual Hill radii", caught[0])
+        assert m and abs(float(m.group(1))) < dt, caught  # the encounter's time, to a step
+        assert _user_warnings(lambda s=sim: s.integrate(2.0)) == []  # once
+    # in calls of a few steps each (fewer than 1,000 steps: no state was checked)
+    sim = _planet_flyby(P / 40)
+    caught = _user_warnings(lambda: [sim.integrate(t) for t in np.linspace(-0.8, 1.0, 10)])
+    assert len(caught) == 1 and "passed within 3 mutual Hill radii" in caught[0], caught
+
+
+def test_the_encounter_watch_is_quiet_for_planets_that_do_not_meet():
+    # the planets at a = 1 and 1.6 (5 mutual Hill radii at their closest) at dt = P/40 and
+    # P/10, in one call and in 300 calls of 5 steps; a hierarchical triple
+    P = 2 * math.pi
+    for dt in (P / 40, P / 10):
+        sim = two_planets(dt=dt)
+        assert _user_warnings(lambda s=sim: s.integrate(100 * P)) == []
+        sim = two_planets(dt=dt)
+        assert _user_warnings(
+            lambda s=sim, h=dt: [s.integrate(k * 5 * h) for k in range(1, 301)]) == []
+    sim = vv.Simulation("whfast", dt=P / 40)
+    sim.add(1.0)
+    sim.add(0.5, a=1.0, e=0.2, primary=0)
+    sim.add(1e-3, a=8.0, e=0.1, inc=0.3)
+    assert _user_warnings(lambda: sim.integrate(50 * P)) == []

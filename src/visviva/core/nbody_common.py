@@ -85,6 +85,14 @@ F_MG_DT_PREV = 24  #: IAS15: the last step the tangent vector took (its predicto
 F_MG_LN = 25  #: ln(|delta| / |delta_0|) at the last update (rescalings included)
 F_MG_ILN = 26  #: int_0^tau ln(|delta| / |delta_0|) ds
 F_MG_LN_SHIFT = 27  #: ln of the factors the tangent vector was divided by (rescalings)
+#: WHFast (Jacobi, between outputs): the largest squared ratio |a_int| r^2 / (G eta_i) of a
+#: body's interaction acceleration to its Kepler one over the steps since the last read
+#: (``visviva.nbody.step_check.check_run`` reads and clears it: a close encounter between two
+#: checked states), the squared interaction acceleration, the time and the body at that peak
+F_WATCH_RHO2 = 28
+F_WATCH_A2 = 29
+F_WATCH_T = 30
+F_WATCH_BODY = 31
 N_FSTATE = 32
 
 I_NOUT = 0  #: outputs written in this run

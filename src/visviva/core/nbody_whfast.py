@@ -65,6 +65,10 @@ from .nbody_common import (
     F_SOFT2,
     F_T,
     F_T0,
+    F_WATCH_A2,
+    F_WATCH_BODY,
+    F_WATCH_RHO2,
+    F_WATCH_T,
     F_WH_H,
     I_COLLISIONS,
     I_CORRECTOR,
@@ -192,6 +196,38 @@ def _dh_step(tk, xj, vj, m, eta, G, h, x, v, massive, fstate, istate, gwork, for
     force(tk, x, v, m, params, fa)
     _dh_interaction_kick(vj, acc, fa, m, eta, h)
     return OK
+
+
+@step_kernel
+def _watched_kick(xj, vj, aj, eta, G, h, fstate, t):
+    """:func:`.nbody_wh_maps.interaction_kick` (the same bits) that also keeps the peak, over
+    the steps, of each body's interaction acceleration relative to its Kepler one,
+    ``rho = |a_i| r_i^2 / (G eta_i)`` (squared, in ``fstate[F_WATCH_RHO2]``), with its squared
+    acceleration, the time ``t`` and the body (``F_WATCH_A2``, ``F_WATCH_T``,
+    ``F_WATCH_BODY``): a close encounter that begins and ends between two checked states
+    leaves its peak there (:func:`visviva.nbody.step_check.check_run`). A few multiplications
+    per body and step, no division but at a new peak."""
+    n = xj.shape[0]
+    for c in range(3):
+        vj[0, c] += aj[0, c] * h
+    peak = fstate[F_WATCH_RHO2]
+    for i in range(1, n):
+        r2 = xj[i, 0] * xj[i, 0] + xj[i, 1] * xj[i, 1] + xj[i, 2] * xj[i, 2]
+        gm = G * eta[i]
+        k = gm / (r2 * math.sqrt(r2))
+        ax = aj[i, 0] + k * xj[i, 0]
+        ay = aj[i, 1] + k * xj[i, 1]
+        az = aj[i, 2] + k * xj[i, 2]
+        vj[i, 0] += ax * h
+        vj[i, 1] += ay * h
+        vj[i, 2] += az * h
+        a2 = ax * ax + ay * ay + az * az
+        if a2 * (r2 * r2) > peak * (gm * gm):
+            peak = a2 * (r2 * r2) / (gm * gm)
+            fstate[F_WATCH_RHO2] = peak
+            fstate[F_WATCH_A2] = a2
+            fstate[F_WATCH_T] = t
+            fstate[F_WATCH_BODY] = i
 
 
 @kernel
@@ -499,7 +535,7 @@ def _whfast(x, v, m, massive, radius, fstate, istate, buf, gwork, force, params,
                         accelerations(tk, x, v, m, massive, fstate, gwork, force, params, acc,
                                       parallel)
                         to_jacobi(acc, m, eta, aj)
-                        _interaction_kick(xj, vj, aj, eta, G, h)
+                        _watched_kick(xj, vj, aj, eta, G, h, fstate, tk)
                         st = _tangent_step(mg, xj, vj, x, m, massive, eta, fstate, buf, h)
                         if st != OK:
                             return st

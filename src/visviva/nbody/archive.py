@@ -194,7 +194,9 @@ class Archive:
     def __getitem__(self, k):
         if isinstance(k, slice):
             return [self[i] for i in range(*k.indices(len(self)))]
-        snap = self._snapshots[k]
+        # a copy: the simulation's arrays are its live state (audit58: integrating archive[3]
+        # changed what archive[3] returned afterwards, t = 15 -> 40, in silence)
+        snap = {key: np.array(value, copy=True) for key, value in self._snapshots[k].items()}
         with warnings.catch_warnings():
             return build_simulation(Simulation, snap.get, path=f"{self.path} (snapshot {k})")
 

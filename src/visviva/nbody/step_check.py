@@ -23,8 +23,9 @@ present distance: the pericentre is behind it). Jacobi WHFast integrates two bod
 from three particles on. The state at the start of a call is checked, and the run's later states
 by :func:`check_run` (the output snapshots, or the final state, every
 :data:`RUN_CHECK_STEPS` steps or more): an orbit that turns eccentric or a close encounter met
-during the run is warned about once, naming the time (one that begins and ends between two
-checked snapshots is not seen). Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
+during the run is warned about once, naming the time; one that begins and ends between two
+checked snapshots is seen in Jacobi WHFast by the peak of the bodies' interaction acceleration
+the kernel keeps at every step (``fstate[F_WATCH_*]``, :func:`_watched_encounter`). Reference: Wisdom & Holman (1991); Rein & Tamayo (2015),
 MNRAS 452, 376; Wisdom (2015), AJ 150, 127 (resolving the pericentre).
 
 Two bodies other than particle 0 within :data:`ENCOUNTER_HILL` mutual Hill radii (a moon, a
@@ -66,6 +67,11 @@ ENCOUNTER_STEP_FRACTION = 0.002
 #: Pairs (massive x all) of one system beyond which its close encounters are not checked (a
 #: one-off ~0.05 s at this size; ensembles are checked in chunks of this many pair evaluations).
 ENCOUNTER_MAX_PAIRS = 100_000
+#: A Jacobi WHFast run whose bodies' interaction acceleration reached this times
+#: ``(m_max / m_0)^(1/3)`` of the central one's (``3^(2/3) / ENCOUNTER_HILL^2``: the perturber
+#: within ENCOUNTER_HILL mutual Hill radii) between two checked states is judged by
+#: :func:`check_run` as a close pair (the kernel keeps the peak at every step).
+WATCH_RHO = 3.0 ** (2.0 / 3.0) / ENCOUNTER_HILL**2
 #: Steps of a run between two checks of its state by :func:`check_run` (a check of one state
 #: costs about as much as a 1-step call, 0.1-0.3 ms: a loop of short calls is checked once per
 #: this many steps, a long call at its end).
@@ -352,11 +358,26 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     key, memo = _run_key(sim), _RUNS.get(sim)
     if memo is None or memo[0] != key:  # a merger changed N: counted from the call's start
         memo = _RUNS[sim] = [key, float(t0), False]
+    watch = _watched_encounter(sim, jacobi)  # read at every call: it sees every step
     if memo[2] or sim.N < (3 if jacobi else 2):
         return
+    found = _check_snapshots(sim, memo, t0, t, x, v, leapfrog, jacobi)
+    if found is None and watch is not None:  # a snapshot names the pair: preferred
+        found = (f"near t = {watch[0]}", watch[1])
+    if found is not None:
+        memo[2] = True
+        warnings.warn(
+            f"during the run, {found[0]} (the start of the call, t = {fmt_number(float(t0))}, "
+            f"was fine; the states after it are not to be trusted): {found[1]}",
+            StepSizeWarning, stacklevel=stacklevel)
+
+
+def _check_snapshots(sim, memo, t0, t, x, v, leapfrog: bool, jacobi: bool):
+    """:func:`check_run`'s check of the snapshots (when their turn has come): ``(where,
+    message)`` of the first wrong one, or None."""
     steps = np.abs(np.asarray(t, dtype=float) - memo[1]) / abs(sim.dt)
     if not steps[-1] >= RUN_CHECK_STEPS:
-        return
+        return None
     bins = np.floor(steps / RUN_SNAPSHOT_STEPS)  # the last snapshot of each bin, the final one
     pick = np.flatnonzero(np.r_[bins[1:] != bins[:-1], True])
     if len(pick) > RUN_MAX_SNAPSHOTS:
@@ -372,17 +393,57 @@ def check_run(sim, t0: float, t, x, v, stacklevel: int = 4) -> None:
     with np.errstate(invalid="ignore"):
         bad = (dt > MAX_STEP_FRACTION * tau) | (dt > ENCOUNTER_STEP_FRACTION * close)
     if not bad.any():
-        return
+        return None
     k = int(np.flatnonzero(bad)[0])
-    memo[2] = True
     label = "leapfrog" if leapfrog else sim.coordinates
     what = (_too_close(sim.dt, float(close[k]), pair[k]) + "."
             if dt > ENCOUNTER_STEP_FRACTION * close[k]
             else f"{_too_long(sim.dt, float(tau[k]), label)}: {_ADVICE}")
-    warnings.warn(
-        f"during the run, at t = {fmt_number(float(t[pick[k]]))} (the start of the call, t = "
-        f"{fmt_number(float(t0))}, was fine; the states after it are not to be trusted): "
-        f"{what}", StepSizeWarning, stacklevel=stacklevel)
+    return f"at t = {fmt_number(float(t[pick[k]]))}", what
+
+
+def _watched_encounter(sim, jacobi: bool):
+    """The close encounter a Jacobi WHFast kernel saw between two checked states, from the peak
+    it kept of a body's interaction acceleration ``A`` relative to its Kepler one, ``rho = A r^2
+    / G eta`` (``fstate[F_WATCH_*]``, cleared here): ``(time, message)``, or None.
+
+    From the perturber alone (mass ``m_j <= m_max``, the largest but particle 0's), ``A ~ G m_j /
+    d^2`` at a distance ``d``: ``rho`` beyond :data:`WATCH_RHO` ``(m_max / m_0)^(1/3)`` puts it
+    within :data:`ENCOUNTER_HILL` mutual Hill radii, and the pair's timescale ``2 pi sqrt(d^3 /
+    G (m_i + m_j))`` is at most ``2 pi (2 G m_max)^(1/4) / A^(3/4)``: a step beyond
+    :data:`ENCOUNTER_STEP_FRACTION` of that is beyond it of theirs (the criterion of
+    :func:`check_step`, from below). Systems with a body of :data:`ENCOUNTER_MASS_RATIO` of
+    particle 0 or more are not judged (as there)."""
+    arrays = sim.state_arrays()
+    fstate = arrays["fstate"]
+    peak = float(fstate[_nc.F_WATCH_RHO2])
+    if not peak > 0.0:
+        return None
+    a2, when = float(fstate[_nc.F_WATCH_A2]), float(fstate[_nc.F_WATCH_T])
+    body = int(fstate[_nc.F_WATCH_BODY])
+    # all four cleared: the state after a call does not depend on how it was cut into kernel
+    # calls (the interpreter tier's chunks)
+    fstate[_nc.F_WATCH_RHO2] = fstate[_nc.F_WATCH_A2] = 0.0
+    fstate[_nc.F_WATCH_T] = fstate[_nc.F_WATCH_BODY] = 0.0
+    m = arrays["m"]
+    if not (jacobi and sim.integrator == "whfast" and len(m) >= 3):
+        return None
+    m_max = float(m[1:].max())
+    if not 0.0 < m_max < ENCOUNTER_MASS_RATIO * m[0]:
+        return None
+    rho = math.sqrt(peak)
+    if not rho > WATCH_RHO * math.cbrt(m_max / m[0]):
+        return None
+    tau = 2.0 * math.pi * (2.0 * sim.G * m_max) ** 0.25 / math.sqrt(a2) ** 0.75
+    if not abs(sim.dt) > ENCOUNTER_STEP_FRACTION * tau:
+        return None
+    return fmt_number(when), (
+        f"particle {body} passed within {ENCOUNTER_HILL:g} mutual Hill radii of another body "
+        f"(its acceleration by the others reached {rho:.2g} of the central one's) between two "
+        "checked states, a close encounter that WHFast integrates as a leapfrog would: dt = "
+        f"{fmt_number(sim.dt)} is at least {abs(sim.dt) / tau:.2g} of the pair's timescale 2 pi "
+        "sqrt(d^3 / G (m_i + m_j)) there (a flyby 0.12 Hill radii apart at dt = P/40 "
+        "changed the energy by 7.6 %). Use IAS15, or outputs often enough to see the encounter")
 
 
 @contextlib.contextmanager

@@ -1,5 +1,8 @@
 """Initial orbit determination: textbook examples, round trips from known orbits, bad input."""
 
+import math
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -574,3 +577,28 @@ def test_positions_in_metres_read_as_km_are_refused_about_the_earth():
     v2 = vv.gibbs(r1 * u.m, r2 * u.m, r3 * u.m, 398600 * u.km**3 / u.s**2)
     np.testing.assert_allclose(v2.to_value(u.km / u.s), [-6.2174, -4.0122, 1.599], atol=1e-4)
     assert np.all(np.isfinite(vv.gibbs(r1, r2, r3, vv.SUN)))
+
+
+def test_gibbs_warns_on_positions_too_close_for_it():
+    # audit59: Gibbs on positions 0.01 deg apart (1.2 km at 7000 km) with 1 m of noise
+    # returned a velocity 6.7 km/s off without a word (0.1 deg: 210 m/s; 1 deg: 2.2 m/s), where
+    # Herrick-Gibbs on the same points is off by 1e-12 m/s noise-free; Gibbs now warns below
+    # 1 deg and names the method for such arcs
+    r2 = np.array([7000.0, 0.0, 0.0])
+    v2 = np.array([0.0, 6.79, 3.71])
+    dt = np.radians(0.01) / math.sqrt(GM / 7000.0**3)
+    r1, _ = _prop(r2, v2, -dt)
+    r3, _ = _prop(r2, v2, dt)
+    noise = np.random.default_rng(0).normal(0.0, 1e-3, (3, 3))  # 1 m
+    with pytest.warns(RuntimeWarning, match=r"only 0\.01\d* deg apart.*herrick_gibbs"):
+        got = vv.gibbs(r1 + noise[0], r2 + noise[1], r3 + noise[2], GM)
+    assert np.linalg.norm(got - v2) > 1.0  # km/s: what the warning is about
+    hg = vv.herrick_gibbs(r1, r2, r3, -dt, 0.0, dt, GM)
+    np.testing.assert_allclose(hg, v2, atol=1e-9)
+    # arcs of a few degrees stay silent (noise-free and 1 m noisy: 0.09 m/s at 5 deg)
+    dt5 = np.radians(5.0) / math.sqrt(GM / 7000.0**3)
+    r1, _ = _prop(r2, v2, -dt5)
+    r3, _ = _prop(r2, v2, dt5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(vv.gibbs(r1, r2, r3, GM), v2, atol=1e-9)

@@ -21,7 +21,7 @@ import numpy as np
 
 from .._units import to_array, to_vector
 from ..errors import ConvergenceError, DomainError, InvalidInputError, ShapeError
-from .iod import gibbs, gm_value
+from .iod import gibbs_velocity, gm_value
 
 __all__ = ["gauss_angles", "double_r", "state_at"]
 
@@ -526,7 +526,7 @@ def _double_r_orbit(x, los, taus, sites, gm):
     r3v = sites[2] + rho3 * los[2]
     r1, r2, r3 = (float(np.linalg.norm(v)) for v in (r1v, r2v, r3v))
     try:
-        v2v = gibbs(r1v, r2v, r3v, gm, coplanar_tol=math.pi)
+        v2v = gibbs_velocity(r1v, r2v, r3v, gm, math.pi)
     except DomainError:
         return None
     # times of flight along the Gibbs orbit from r2 to r1 and r3

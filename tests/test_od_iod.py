@@ -602,3 +602,31 @@ def test_gibbs_warns_on_positions_too_close_for_it():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         np.testing.assert_allclose(vv.gibbs(r1, r2, r3, GM), v2, atol=1e-9)
+
+
+def test_gauss_angles_with_light_time_solves_at_the_emission_times():
+    # audit59: directions of light received at t (simulated or real tracking, light_time=True)
+    # were solved as the satellite's directions at t: noise-free, a MEO seen at ~22,000 km came
+    # back 430 m off (0.06 m/s), a LEO pass 20 m; initial_orbit did the same on such tables.
+    # light_time=True solves through the lines of sight at t - rho / c: ~2e-6 m
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    stn = vv.GroundStation(20 * u.deg, 0 * u.deg, 0.5 * u.km)
+    truth = vv.StateVectors([26560.0, 0, 0] * u.km, [0, 1.937, 3.355] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.array([0, 1800, 3600]) * u.s
+    obs = vv.od.simulate_observations(truth, t, "radec", 1e-6, stn, seed=False)
+    sites, _ = stn.gcrs_position_velocity(t)
+    true_r = vv.propagate_cowell(truth, t[1], []).r.to_value(u.km)
+    got = vv.gauss_angles(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH,
+                          light_time=True)
+    assert np.linalg.norm(got.r.to_value(u.km) - true_r) < ONE_METER
+    plain = vv.gauss_angles(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH)
+    assert 0.3 < np.linalg.norm(plain.r.to_value(u.km) - true_r) < 0.6  # km: v rho / c
+    # initial_orbit reads the table's light_time: a LEO pass, three rows a minute apart
+    leo = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                          epoch=epoch)
+    t = epoch + (np.array([0, 60, 120]) + 49170) * u.s  # 19-22 deg up at the station
+    obs = vv.od.simulate_observations(leo, t, "radec", 1e-6, stn, seed=False)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_r = vv.propagate_cowell(leo, t[1], []).r.to_value(u.km)
+    assert np.linalg.norm(first.r.to_value(u.km) - true_r) < ONE_METER  # was 20 m

@@ -149,6 +149,34 @@ def _gauss_solution(los, taus, sites, gm, r2_guess, max_iter, tol):
     return None
 
 
+#: emission-time iterations of gauss_angles(light_time=True) (each gains a factor v/c ~ 1e-5)
+LIGHT_TIME_ITERATIONS = 3
+
+
+def _retarded(r2, v2, gm, los, taus, sites):
+    """(r2, v2) at the middle reception time of the orbit whose positions at the emission
+    times t_i - rho_i / c lie on the lines of sight received at t_i (the emission-time correction of e.g. Escobal 1965)."""
+    from ..constants import C_KM_S
+
+    shifted = taus
+    for _ in range(LIGHT_TIME_ITERATIONS):
+        rho = np.empty(3)
+        for k in range(3):
+            res = _propagate(r2, v2, gm, shifted[k]) if shifted[k] != 0.0 else (r2, v2)
+            if res is None:
+                return r2, v2
+            rho[k] = np.linalg.norm(res[0] - sites[k])
+        shifted = taus - rho / C_KM_S
+        better = _newton_angles(r2, v2, gm, los, shifted, sites)
+        if better is None:
+            raise ConvergenceError(
+                "gauss_angles(light_time=True): no orbit passes through the lines of sight at "
+                "the emission times of the light (t - rho / c) near the orbit found without "
+                "light time. Check the data, or pass light_time=False.")
+        r2, v2 = better
+    return r2, v2
+
+
 def _perpendiculars(los):
     """Two unit vectors perpendicular to each line of sight, (3, 2, 3)."""
     out = np.empty((3, 2, 3))
@@ -163,7 +191,7 @@ def _sight_offsets(x, gm, taus, sites, perp):
     """Offsets (km) of the orbit (r2, v2) = x from the three lines of sight, (6,) or None."""
     out = np.empty(6)
     for k in range(3):
-        res = _propagate(x[:3], x[3:], gm, taus[k]) if k != 1 else (x[:3], x[3:])
+        res = _propagate(x[:3], x[3:], gm, taus[k]) if taus[k] != 0.0 else (x[:3], x[3:])
         if res is None:
             return None
         out[2 * k: 2 * k + 2] = perp[k] @ (res[0] - sites[k])
@@ -216,7 +244,7 @@ def _los_residual(r2, v2, gm, los, taus, sites):
     """Largest angle (rad) between the observed lines of sight and those of the orbit."""
     worst = 0.0
     for k in range(3):
-        res = _propagate(r2, v2, gm, taus[k]) if k != 1 else (r2, v2)
+        res = _propagate(r2, v2, gm, taus[k]) if taus[k] != 0.0 else (r2, v2)
         if res is None:
             return math.inf
         d = res[0] - sites[k]
@@ -232,7 +260,7 @@ def state_at(r2, v2, gm, epoch):
 
 
 def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
-                 return_all=False):  # fmt: skip
+                 return_all=False, light_time=False):  # fmt: skip
     """Orbit from three angles-only observations (Gauss's method with iterative refinement).
 
     Parameters
@@ -252,6 +280,13 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
     return_all : bool
         False (default): one orbit. True: every distinct orbit found through the three lines
         of sight, a list, the returned one first.
+    light_time : bool
+        False (default; the textbooks' examples): each direction is the satellite's at its
+        time. True: the directions are those of light received at ``t`` (real data; what
+        :class:`~visviva.Observations` models with ``light_time=True``), which left the
+        satellite rho / c earlier: the orbit is solved again through the lines of sight at
+        those emission times (without it a MEO seen at 22,000 km came back 0.3 km off on
+        noise-free data, a LEO 20-30 m: the satellite's motion during the flight).
 
     Returns
     -------
@@ -344,6 +379,8 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
     for c in candidates:
         if all(np.linalg.norm(c[2] - d[2]) > 1e-4 * np.linalg.norm(d[2]) for d in distinct):
             distinct.append(c)
+    if light_time:
+        distinct = [(c[0], c[1], *_retarded(c[2], c[3], g, los, taus, sites)) for c in distinct]
     states = [state_at(c[2], c[3], g, epoch) for c in distinct]
     if return_all:
         return states

@@ -103,7 +103,8 @@ def initial_orbit(observations, gm):
         if group.size >= 3:
             pick = [group[0], group[len(group) // 2], group[-1]]
             ra, dec = _gcrs_angles(kinds[pick], vals[pick], enu[pick])
-            return gauss_angles(ra, dec, observations.times[pick], site_r[pick], g)
+            return gauss_angles(ra, dec, observations.times[pick], site_r[pick], g,
+                                light_time=observations.light_time)
     raise InvalidInputError(
         "cannot find a first orbit in these observations: give three positions, az/el or RA/Dec "
         "rows each with a range from the same station at the same time, or three RA/Dec or "

@@ -622,6 +622,9 @@ def test_gauss_angles_with_light_time_solves_at_the_emission_times():
     assert np.linalg.norm(got.r.to_value(u.km) - true_r) < ONE_METER
     plain = vv.gauss_angles(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH)
     assert 0.3 < np.linalg.norm(plain.r.to_value(u.km) - true_r) < 0.6  # km: v rho / c
+    dr = double_r(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH, 27000.0, 27000.0,
+                  light_time=True)
+    assert np.linalg.norm(dr.r.to_value(u.km) - true_r) < ONE_METER
     # initial_orbit reads the table's light_time: a LEO pass, three rows a minute apart
     leo = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
                           epoch=epoch)

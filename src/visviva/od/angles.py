@@ -406,7 +406,7 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
 
 
 def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, max_iter=50,
-             tol=1e-9):  # fmt: skip
+             tol=1e-9, light_time=False):  # fmt: skip
     """Orbit from three angles-only observations by the double-r iteration (Escobal 1965).
 
     Parameters
@@ -426,6 +426,10 @@ def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, ma
         Largest number of Newton iterations.
     tol : float
         Relative change of (r1, r2) that ends the iteration.
+    light_time : bool
+        True: the directions are of light received at ``t``, which left the satellite rho / c
+        earlier (as for :func:`gauss_angles`); the orbit is solved again at those emission
+        times. False (default): the satellite's directions at ``t``.
 
     Returns
     -------
@@ -503,7 +507,9 @@ def double_r(ra, dec, t, site_positions, gm, r1_guess=None, r2_guess=None, *, ma
                 resid_d = _los_residual(r2v, v2v, g, los, taus, sites)
                 if resid_p <= resid_d:
                     r2v, v2v = polished[0], polished[1]
-            _warn_other_orbits(r2v, (ra, dec, t, site_positions, gm))
+            if light_time:
+                r2v, v2v = _retarded(r2v, v2v, g, los, taus, sites)
+            _warn_other_orbits(r2v, (ra, dec, t, site_positions, gm, light_time))
             return state_at(r2v, v2v, g, epoch)
     raise ConvergenceError(
         f"double-r iteration did not converge from r1, r2 = {x} km; give better distance guesses "
@@ -519,7 +525,7 @@ def _warn_other_orbits(r2v, args):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            every = gauss_angles(*args, return_all=True)
+            every = gauss_angles(*args[:5], return_all=True, light_time=args[5])
     except (ConvergenceError, DomainError):
         return
     g = gm_value(args[4])

@@ -633,3 +633,20 @@ def test_gauss_angles_with_light_time_solves_at_the_emission_times():
     first = vv.od.initial_orbit(obs, vv.EARTH)
     true_r = vv.propagate_cowell(leo, t[1], []).r.to_value(u.km)
     assert np.linalg.norm(first.r.to_value(u.km) - true_r) < ONE_METER  # was 20 m
+
+
+def test_initial_orbit_places_range_and_angle_fixes_at_their_emission_times():
+    # audit59: a fix from a two-way range and an az/el (light time on) is where the satellite
+    # was when the light left it, rho / c before the tag; placed at the tag, a noise-free MEO
+    # pass gave a first orbit 416 m off (LEO 27 m). Now 14 m (the two-way range's up leg
+    # starts from where the station was a round trip earlier); LEO 1.2 m
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    stn = vv.GroundStation(20 * u.deg, 0 * u.deg, 0.5 * u.km)
+    truth = vv.StateVectors([26560.0, 0, 0] * u.km, [0, 1.937, 3.355] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.array([0, 0, 120, 120, 240, 240]) * u.s
+    obs = vv.od.simulate_observations(truth, t, ["range", "azel"] * 3, [1e-6, 1e-9] * 3, stn,
+                                      seed=False)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_r = vv.propagate_cowell(truth, first.epoch, []).r.to_value(u.km)
+    assert np.linalg.norm(first.r.to_value(u.km) - true_r) < 0.03  # km (was 0.416)

@@ -612,10 +612,10 @@ def test_star_reduced_radec_is_fitted_as_such_with_radec_reference(tmp_path, cap
                             vv.EARTH, epoch=epoch)
     stations = _stations()
     grid = epoch + np.arange(0, 6 * 3600, 60) * u.s
-    seen = vv.od.simulate_tracking(truth, list(stations.values()), grid,
-                                   measurements={"azel": 1.0 * u.arcsec}, seed=False)
-    obs = vv.od.simulate_observations(truth, seen.times, "radec", 2.0 * u.arcsec,
-                                      list(seen.stations), radec_reference="stars", seed=3)
+    obs = vv.od.simulate_tracking(truth, list(stations.values()), grid,
+                                  measurements={"radec": 2.0 * u.arcsec}, seed=3,
+                                  radec_reference="stars")
+    assert obs.radec_reference == "stars"
     tdm = tmp_path / "optical.tdm"
     vv.write_tdm(obs, tdm, participant="SAT-1")
     argv = [str(tdm), *STATION_ARGS, "--sigma", "angle=2arcsec", "--opm"]

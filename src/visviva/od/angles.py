@@ -326,7 +326,8 @@ def gauss_angles(ra, dec, t, site_positions, gm, *, max_iter=100, tol=1e-12,
     passes seen from the ground, about one case in ten for GEO-like arcs): candidates through
     the lines of sight (within 1e-8 rad) are ranked bound before unbound, then by how far they
     moved from their root, and a warning lists the bound ones when there are several. The
-    result is exact for noise-free two-body data.
+    result is exact for noise-free two-body data (with ``light_time=True`` where the data
+    carry the light's flight time: without it the orbit is off by about v rho / c).
     """
     g = gm_value(gm)
     los, taus, sites, epoch = _angles_inputs(ra, dec, t, site_positions)

@@ -599,3 +599,39 @@ def test_initial_file_of_one_objects_history_starts_from_the_set_nearest_the_dat
     path.write_text("".join(f"X\n{a}\n{b}\n" for a, b in (s.to_tle() for s in (iss, other))))
     with pytest.raises(vv.InvalidInputError, match="element sets of 2 objects"):
         read_initial(path, first)
+
+
+def test_star_reduced_radec_is_fitted_as_such_with_radec_reference(tmp_path, capsys):
+    # audit59: visviva od had no way to read a TDM's RADEC as astrometry reduced against
+    # catalogue stars (radec_reference="stars"): such 2-arcsec LEO data were fitted as the
+    # natural GCRS direction, ~80 m from the truth at a formal 4 m, without a word. Now
+    # --radec-reference stars fits them as read_tdm(...).to_observations(radec_reference=
+    # "stars") does, and RADEC data without the option get a warning naming it
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    truth = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.05, 5.75] * u.km / u.s,
+                            vv.EARTH, epoch=epoch)
+    stations = _stations()
+    grid = epoch + np.arange(0, 6 * 3600, 60) * u.s
+    obs = vv.od.simulate_tracking(truth, list(stations.values()), grid,
+                                  measurements={"radec": 2.0 * u.arcsec}, seed=3,
+                                  radec_reference="stars")
+    assert obs.radec_reference == "stars"
+    tdm = tmp_path / "optical.tdm"
+    vv.write_tdm(obs, tdm, participant="SAT-1")
+    argv = [str(tdm), *STATION_ARGS, "--sigma", "angle=2arcsec", "--opm"]
+    code, _, err = _run(capsys, *argv, str(tmp_path / "gcrs.opm"))
+    assert code == 0 and "--radec-reference stars" in err
+    code, _, err = _run(capsys, *argv, str(tmp_path / "stars.opm"), "--radec-reference", "stars")
+    assert code == 0 and "radec-reference" not in err
+    errors = {}
+    for name in ("gcrs", "stars"):
+        opm = vv.read_opm(tmp_path / f"{name}.opm")
+        true_r = vv.propagate_cowell(truth, opm.state.epoch, []).r.to_value(u.km).reshape(3)
+        errors[name] = np.linalg.norm(opm.state.r.to_value(u.km) - true_r)
+    assert errors["gcrs"] > 0.03  # km: the 20 arcsec the natural direction leaves out
+    assert errors["stars"] < 0.015  # km: a few formal sigmas (4 m)
+    want = vv.fit_orbit(vv.read_tdm(tdm).to_observations(
+        stations, {"radec": 2.0 * u.arcsec}, radec_reference="stars"),
+        vv.read_opm(tmp_path / "stars.opm").state)
+    assert np.linalg.norm((want.state.r - vv.read_opm(tmp_path / "stars.opm").state.r)
+                          .to_value(u.km)) < 1e-3

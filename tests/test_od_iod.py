@@ -1,5 +1,8 @@
 """Initial orbit determination: textbook examples, round trips from known orbits, bad input."""
 
+import math
+import warnings
+
 import numpy as np
 import pytest
 from astropy import units as u
@@ -574,3 +577,76 @@ def test_positions_in_metres_read_as_km_are_refused_about_the_earth():
     v2 = vv.gibbs(r1 * u.m, r2 * u.m, r3 * u.m, 398600 * u.km**3 / u.s**2)
     np.testing.assert_allclose(v2.to_value(u.km / u.s), [-6.2174, -4.0122, 1.599], atol=1e-4)
     assert np.all(np.isfinite(vv.gibbs(r1, r2, r3, vv.SUN)))
+
+
+def test_gibbs_warns_on_positions_too_close_for_it():
+    # audit59: Gibbs on positions 0.01 deg apart (1.2 km at 7000 km) with 1 m of noise
+    # returned a velocity 6.7 km/s off without a word (0.1 deg: 210 m/s; 1 deg: 2.2 m/s), where
+    # Herrick-Gibbs on the same points is off by 1e-12 m/s noise-free; Gibbs now warns below
+    # 1 deg and names the method for such arcs
+    r2 = np.array([7000.0, 0.0, 0.0])
+    v2 = np.array([0.0, 6.79, 3.71])
+    dt = np.radians(0.01) / math.sqrt(GM / 7000.0**3)
+    r1, _ = _prop(r2, v2, -dt)
+    r3, _ = _prop(r2, v2, dt)
+    noise = np.random.default_rng(0).normal(0.0, 1e-3, (3, 3))  # 1 m
+    with pytest.warns(RuntimeWarning, match=r"only 0\.01\d* deg apart.*herrick_gibbs"):
+        got = vv.gibbs(r1 + noise[0], r2 + noise[1], r3 + noise[2], GM)
+    assert np.linalg.norm(got - v2) > 1.0  # km/s: what the warning is about
+    hg = vv.herrick_gibbs(r1, r2, r3, -dt, 0.0, dt, GM)
+    np.testing.assert_allclose(hg, v2, atol=1e-9)
+    # arcs of a few degrees stay silent (noise-free and 1 m noisy: 0.09 m/s at 5 deg)
+    dt5 = np.radians(5.0) / math.sqrt(GM / 7000.0**3)
+    r1, _ = _prop(r2, v2, -dt5)
+    r3, _ = _prop(r2, v2, dt5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(vv.gibbs(r1, r2, r3, GM), v2, atol=1e-9)
+
+
+def test_gauss_angles_with_light_time_solves_at_the_emission_times():
+    # audit59: directions of light received at t (simulated or real tracking, light_time=True)
+    # were solved as the satellite's directions at t: noise-free, a MEO seen at ~22,000 km came
+    # back 430 m off (0.06 m/s), a LEO pass 20 m; initial_orbit did the same on such tables.
+    # light_time=True solves through the lines of sight at t - rho / c: ~2e-6 m
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    stn = vv.GroundStation(20 * u.deg, 0 * u.deg, 0.5 * u.km)
+    truth = vv.StateVectors([26560.0, 0, 0] * u.km, [0, 1.937, 3.355] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.array([0, 1800, 3600]) * u.s
+    obs = vv.od.simulate_observations(truth, t, "radec", 1e-6, stn, seed=False)
+    sites, _ = stn.gcrs_position_velocity(t)
+    true_r = vv.propagate_cowell(truth, t[1], []).r.to_value(u.km)
+    got = vv.gauss_angles(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH,
+                          light_time=True)
+    assert np.linalg.norm(got.r.to_value(u.km) - true_r) < ONE_METER
+    plain = vv.gauss_angles(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH)
+    assert 0.3 < np.linalg.norm(plain.r.to_value(u.km) - true_r) < 0.6  # km: v rho / c
+    dr = double_r(obs.values[:, 0], obs.values[:, 1], t, sites, vv.EARTH, 27000.0, 27000.0,
+                  light_time=True)
+    assert np.linalg.norm(dr.r.to_value(u.km) - true_r) < ONE_METER
+    # initial_orbit reads the table's light_time: a LEO pass, three rows a minute apart
+    leo = vv.StateVectors([6800.0, 100.0, 300.0] * u.km, [-0.1, 5.0, 5.7] * KMS, vv.EARTH,
+                          epoch=epoch)
+    t = epoch + (np.array([0, 60, 120]) + 49170) * u.s  # 19-22 deg up at the station
+    obs = vv.od.simulate_observations(leo, t, "radec", 1e-6, stn, seed=False)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_r = vv.propagate_cowell(leo, t[1], []).r.to_value(u.km)
+    assert np.linalg.norm(first.r.to_value(u.km) - true_r) < ONE_METER  # was 20 m
+
+
+def test_initial_orbit_places_range_and_angle_fixes_at_their_emission_times():
+    # audit59: a fix from a two-way range and an az/el (light time on) is where the satellite
+    # was when the light left it, rho / c before the tag; placed at the tag, a noise-free MEO
+    # pass gave a first orbit 416 m off (LEO 27 m). Now 14 m (the two-way range's up leg
+    # starts from where the station was a round trip earlier); LEO 1.2 m
+    epoch = Time("2024-03-01T00:00:00", scale="utc")
+    stn = vv.GroundStation(20 * u.deg, 0 * u.deg, 0.5 * u.km)
+    truth = vv.StateVectors([26560.0, 0, 0] * u.km, [0, 1.937, 3.355] * KMS, vv.EARTH,
+                            epoch=epoch)
+    t = epoch + np.array([0, 0, 120, 120, 240, 240]) * u.s
+    obs = vv.od.simulate_observations(truth, t, ["range", "azel"] * 3, [1e-6, 1e-9] * 3, stn,
+                                      seed=False)
+    first = vv.od.initial_orbit(obs, vv.EARTH)
+    true_r = vv.propagate_cowell(truth, first.epoch, []).r.to_value(u.km)
+    assert np.linalg.norm(first.r.to_value(u.km) - true_r) < 0.03  # km (was 0.416)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ..constants import C_KM_S
 from ..errors import InvalidInputError
 from .angles import gauss_angles, state_at
 from .iod import gibbs, gm_value, herrick_gibbs
@@ -59,6 +60,7 @@ def initial_orbit(observations, gm):
     secs = observations.offsets_s(observations.times[0])
     site_r, _, enu = observations.sites()
     fixes = {}
+    delays = {}  # s: how long before its time tag a fix's light left the satellite (audit59)
     for i in np.flatnonzero(kinds == "position"):
         fixes.setdefault(i, vals[i, :3])
     ranges = {(round(secs[i], 6), id(observations.stations[i])): vals[i, 0]
@@ -73,6 +75,8 @@ def initial_orbit(observations, gm):
         else:
             los = np.array([np.cos(b) * np.cos(a), np.cos(b) * np.sin(a), np.sin(b)])
         fixes.setdefault(i, site_r[i] + rho * los)
+        if observations.light_time:  # the direction (and range) of light that left rho/c ago
+            delays[i] = rho / C_KM_S
     order = np.array(sorted(fixes, key=lambda i: secs[i]), dtype=np.int64)
     if order.size >= 3:
         group = _first_group(order, secs)
@@ -86,16 +90,23 @@ def initial_orbit(observations, gm):
         if within.size < 3:
             within = group[:3]
         i1, i2, i3 = within[0], within[len(within) // 2], within[-1]
-        if secs[i1] < secs[i2] < secs[i3]:
+        t1, t2, t3 = (secs[i] - delays.get(i, 0.0) for i in (i1, i2, i3))
+        if t1 < t2 < t3:
             r1, r2, r3 = fixes[i1], fixes[i2], fixes[i3]
             arc = max(_angle(r1, r2), _angle(r2, r3))
             if arc > math.radians(5.0):
                 v2 = gibbs(r1, r2, r3, g, coplanar_tol=math.radians(5.0))
             else:
-                v2 = herrick_gibbs(r1, r2, r3, secs[i1], secs[i2], secs[i3], g)
+                v2 = herrick_gibbs(r1, r2, r3, t1, t2, t3, g)
             v2 = np.asarray(v2)
-            _check_on_time(r1, r2, r3, v2, secs[i1] - secs[i2], secs[i3] - secs[i2], g,
-                           observations.times[[i1, i3]])
+            _check_on_time(r1, r2, r3, v2, t1 - t2, t3 - t2, g, observations.times[[i1, i3]])
+            if secs[i2] != t2:  # from the middle fix's emission time to its time tag
+                from ..core.universal import propagate_scalar
+
+                out = propagate_scalar(*(float(x) for x in r2), *(float(x) for x in v2), g,
+                                       float(secs[i2] - t2))
+                if out[0] == 0:
+                    r2, v2 = np.array(out[1:4]), np.array(out[4:7])
             return state_at(r2, v2, g, observations.times[i2])
     sights = np.flatnonzero((kinds == "radec") | (kinds == "azel"))
     if sights.size >= 3:
@@ -103,7 +114,8 @@ def initial_orbit(observations, gm):
         if group.size >= 3:
             pick = [group[0], group[len(group) // 2], group[-1]]
             ra, dec = _gcrs_angles(kinds[pick], vals[pick], enu[pick])
-            return gauss_angles(ra, dec, observations.times[pick], site_r[pick], g)
+            return gauss_angles(ra, dec, observations.times[pick], site_r[pick], g,
+                                light_time=observations.light_time)
     raise InvalidInputError(
         "cannot find a first orbit in these observations: give three positions, az/el or RA/Dec "
         "rows each with a range from the same station at the same time, or three RA/Dec or "
@@ -113,8 +125,8 @@ def initial_orbit(observations, gm):
 
 def _gcrs_angles(kinds, vals, enu):
     """GCRS right ascension and declination (rad) of RA/Dec and az/el rows (an az/el's
-    direction turned from the station's east-north-up axes; refraction and light time, which a
-    first orbit can ignore, left in)."""
+    direction turned from the station's east-north-up axes; refraction, which a first orbit
+    can ignore, left in; the light time is gauss_angles's)."""
     a, b = vals[:, 0], vals[:, 1]
     up = np.stack([np.cos(b) * np.sin(a), np.cos(b) * np.cos(a), np.sin(b)], axis=-1)
     los = np.einsum("nji,nj->ni", enu, up)  # ENU -> GCRS: the rows' transpose

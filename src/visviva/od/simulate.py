@@ -156,7 +156,7 @@ def _placeholder(kind, n):
 def simulate_tracking(state, stations, times, perturbations=None, *, measurements=DEFAULT_TRACKING,
                       min_elevation=MIN_ELEVATION_RAD, seed=None, light_time=True,
                       maneuvers=None, troposphere=False, ionosphere=None,
-                      frequency_hz=None):  # fmt: skip
+                      frequency_hz=None, radec_reference="gcrs"):  # fmt: skip
     """A tracking campaign: every station measures whenever the satellite is high enough.
 
     Parameters
@@ -190,6 +190,9 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
         :func:`simulate_observations`); needs ``frequency_hz``.
     frequency_hz : float or Quantity, optional
         The signal's frequency, Hz (one for every row).
+    radec_reference : {"gcrs", "stars"}
+        What RA/Dec rows are (see :class:`~visviva.Observations`): ``"stars"`` for optical
+        astrometry reduced against catalogue stars.
 
     Returns
     -------
@@ -232,7 +235,8 @@ def simulate_tracking(state, stations, times, perturbations=None, *, measurement
     idx, _, kinds, sigmas, sites = zip(*rows, strict=True)
     return simulate_observations(state, times[list(idx)], list(kinds), list(sigmas), list(sites),
                                  perturbations, seed=seed, light_time=light_time,
-                                 maneuvers=maneuvers, **media)  # fmt: skip
+                                 maneuvers=maneuvers, radec_reference=radec_reference,
+                                 **media)  # fmt: skip
 
 
 def _measurement_pairs(measurements):

@@ -22,6 +22,23 @@ def _opm(system, suffix=""):
         _EPOCH, _EPOCH + suffix)
 
 
+def _oem(frame_and_time, start, stop, rows):
+    """A one-segment OEM (KVN) whose metadata says ``frame_and_time`` (REF_FRAME, TIME_SYSTEM and
+    any keyword between them), from ``start`` to ``stop``, with the data lines ``rows``."""
+    return f"""CCSDS_OEM_VERS = 2.0
+CREATION_DATE = 2024-03-01T00:00:00
+ORIGINATOR = VISVIVA TESTS
+META_START
+OBJECT_NAME = SAT
+OBJECT_ID = 2024-999A
+CENTER_NAME = EARTH
+{frame_and_time}
+START_TIME = {start}
+STOP_TIME = {stop}
+META_STOP
+{rows}"""
+
+
 # -- 'Z' and '+00:00' in a message whose TIME_SYSTEM is not UTC ---------------------------------
 @pytest.mark.parametrize("system, scale", [("TT", "tt"), ("TDB", "tdb"), ("TAI", "tai"),
                                            ("GPS", None)])
@@ -52,22 +69,11 @@ def test_a_utc_designator_in_utc_and_plain_epochs_do_not_warn(suffix):
 
 
 def test_oem_data_lines_with_z_in_tdb_warn_naming_the_first_such_line():
-    text = """CCSDS_OEM_VERS = 2.0
-CREATION_DATE = 2024-03-01T00:00:00
-ORIGINATOR = VISVIVA TESTS
-META_START
-OBJECT_NAME = SAT
-OBJECT_ID = 2024-999A
-CENTER_NAME = EARTH
-REF_FRAME = GCRF
-TIME_SYSTEM = TDB
-START_TIME = 2024-03-01T00:00:00
-STOP_TIME = 2024-03-01T00:02:00
-META_STOP
-2024-03-01T00:00:00 7000.0 0.0 0.0 0.0 7.546 0.0
+    text = _oem("REF_FRAME = GCRF\nTIME_SYSTEM = TDB", "2024-03-01T00:00:00",
+                "2024-03-01T00:02:00", """2024-03-01T00:00:00 7000.0 0.0 0.0 0.0 7.546 0.0
 2024-03-01T00:01:00Z 6998.0 452.7 0.0 -0.49 7.53 0.0
 2024-03-01T00:02:00Z 6992.0 905.0 0.0 -0.98 7.48 0.0
-"""
+""")
     with pytest.warns(UserWarning, match="line 14: the epoch '2024-03-01T00:01:00Z'.*TDB"):
         t = vv.read_oem(text).segments[0].times
     assert abs((t[1] - Time("2024-03-01T00:01:00", scale="tdb")).sec) < 1e-9
@@ -122,20 +128,7 @@ def _teme_of_epoch_oem(ref_epoch="2024-03-01T00:00:00"):
     rows = "\n".join(f"{ti.isot} " + " ".join(f"{x:.10f}" for x in (*r, *v))
                      for ti, r, v in zip(t, r_e, v_e, strict=True))
     ref = "" if ref_epoch is None else f"REF_FRAME_EPOCH = {ref_epoch}\n"
-    text = f"""CCSDS_OEM_VERS = 2.0
-CREATION_DATE = 2024-03-01T00:00:00
-ORIGINATOR = VISVIVA TESTS
-META_START
-OBJECT_NAME = SAT
-OBJECT_ID = 2024-999A
-CENTER_NAME = EARTH
-REF_FRAME = TEME
-{ref}TIME_SYSTEM = UTC
-START_TIME = {t[0].isot}
-STOP_TIME = {t[-1].isot}
-META_STOP
-{rows}
-"""
+    text = _oem(f"REF_FRAME = TEME\n{ref}TIME_SYSTEM = UTC", t[0].isot, t[-1].isot, rows + "\n")
     return text, t, r_g, v_g
 
 
